@@ -1,0 +1,3 @@
+from rcsgen.cli import main
+
+main()

@@ -1,0 +1,181 @@
+"""Command line: `rcsgen validate`, `rcsgen build`, `rcsgen run`.
+
+Exit codes follow Click: 0 clean, 1 the specs (or generated/) have a problem, 2 misuse.
+Diagnostics go to stderr as `file:line:col: error[CODE]: message`, sorted by position.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from . import emit
+from .diagnostics import Diagnostic, Diagnostics
+from .frontend import compile_paths
+
+
+def _source_line(diag: Diagnostic) -> str | None:
+    try:
+        lines = Path(diag.span.file).read_text(encoding="utf-8").splitlines()
+        return lines[diag.span.line - 1] if 0 < diag.span.line <= len(lines) else None
+    except (OSError, UnicodeDecodeError):
+        return None
+
+
+def report(diags: Diagnostics, strict: bool = False) -> bool:
+    """Print every diagnostic; True when the run must fail."""
+    shown = list(diags)  # sorted, each distinct diagnostic once
+    for diag in shown:
+        click.echo(diag.render(_source_line(diag)), err=True)
+    errors = sum(d.severity == "error" for d in shown)
+    warnings = len(shown) - errors
+    if errors or warnings:
+        click.echo(f"{errors} error(s), {warnings} warning(s)", err=True)
+    return bool(errors or (strict and warnings))
+
+
+SPEC_PATHS = click.argument(
+    "paths", nargs=-1, type=click.Path(path_type=Path, exists=False), metavar="[SPECS]..."
+)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="rcsgen")
+def main() -> None:
+    """Generate NIST RCS controllers (QQ1-style Python) from declared state tables."""
+
+
+@main.command()
+@SPEC_PATHS
+@click.option("--strict", is_flag=True, help="Fail on warnings too.")
+def validate(paths: tuple[Path, ...], strict: bool) -> None:
+    """Check specs (schema and semantics) and report every problem found."""
+    front = compile_paths(list(paths) or [Path("specs")])
+    if report(front.diagnostics, strict):
+        sys.exit(1)
+    names = ", ".join(s.name for s in front.systems)
+    click.echo(f"ok: {names}")
+
+
+@main.command()
+@SPEC_PATHS
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("generated"),
+    show_default=True,
+    help="Output directory; each system gets <output>/<system>/.",
+)
+@click.option("--check", is_flag=True, help="Write nothing; print a diff and exit 1 if stale.")
+@click.option("--strict", is_flag=True, help="Fail on warnings too.")
+def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool) -> None:
+    """Generate the Python packages of the systems found in SPECS (default: specs/)."""
+    front = compile_paths(list(paths) or [Path("specs")])
+    if report(front.diagnostics, strict):
+        click.echo("build failed: nothing was written", err=True)
+        sys.exit(1)
+    files = emit.render_all(front.systems)
+    diags = Diagnostics()
+    plan = emit.plan_outputs(files, output, [s.name for s in front.systems], diags)
+    if report(diags):
+        click.echo("build failed: nothing was written", err=True)
+        sys.exit(1)
+    if check:
+        if plan.stale:
+            click.echo(emit.unified_diff(plan, output), nl=False)
+            click.echo(
+                f"{output} is stale: {len(plan.write)} file(s) to write, "
+                f"{len(plan.delete)} to delete; run `rcsgen build` to update it",
+                err=True,
+            )
+            sys.exit(1)
+        click.echo(f"{output} is current ({plan.unchanged} files)")
+        return
+    emit.apply(plan)
+    click.echo(
+        f"built {', '.join(s.name for s in front.systems)} into {output}: "
+        f"{len(plan.write)} written, {len(plan.delete)} deleted, {plan.unchanged} unchanged"
+    )
+
+
+@main.command()
+@click.argument("scenario", type=click.Path(path_type=Path, dir_okay=False))
+@click.option(
+    "--generated",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("generated"),
+    show_default=True,
+    help="Where `rcsgen build` put the system packages.",
+)
+@click.option(
+    "--trace",
+    "trace_path",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="Trace file to write [default: traces/<scenario>.jsonl].",
+)
+@click.option(
+    "--record",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="Re-record this golden trace file (review the diff before committing it).",
+)
+def run(scenario: Path, generated: Path, trace_path: Path | None, record: Path | None) -> None:
+    """Run a scenario on the generated system and summarise it."""
+    from . import scenario as scenarios
+    from .diagnostics import SpecError
+    from .harness import Harness
+
+    try:
+        spec = scenarios.load_scenario(scenario)
+    except SpecError as error:
+        report(error.diagnostics)
+        sys.exit(1)
+    system_name = _system_name(spec.system_dir)
+    package = generated / system_name
+    if not (package / "__init__.py").is_file():
+        click.echo(f"error: no generated package at {package}; run `rcsgen build` first", err=True)
+        sys.exit(1)
+    harness = Harness.load(package, spec.system_dir, spec.process, send_init=True)
+
+    def progress(h: Harness) -> None:
+        if h.cycles % 1000 == 0:
+            phases = " ".join(f"{m}:{h.sent(m).command}/{h.status(m).state}" for m in h.modules)
+            click.echo(f"  cycle {h.cycles:>7}  {phases}", err=True)
+
+    result = scenarios.run(spec, harness, progress)
+    trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
+    scenarios.write_trace(trace_path, result.trace)
+    if record is not None:
+        scenarios.write_trace(record, result.trace)
+    _summarise(result, trace_path, record)
+    if spec.stop_when_done and result.final.get("status") != "DONE":
+        sys.exit(1)
+
+
+def _system_name(system_dir: Path) -> str:
+    from .loader import load_file
+
+    data = load_file(system_dir / "system.yaml", "system.yaml")
+    return str(data["system"]) if isinstance(data, dict) else system_dir.name
+
+
+def _summarise(result, trace_path: Path, record: Path | None) -> None:
+    spec = result.scenario
+    click.echo(f"scenario  {spec.name}: {spec.title}")
+    if spec.stop_when_done:
+        final = result.final
+        click.echo(f"result    {spec.stop_when_done} {final['status']} (state {final['state']})")
+    click.echo(f"cycles    {result.cycles}")
+    if result.state_cycles:
+        click.echo(f"phases    cycles per {spec.stop_when_done} command and state:")
+        for phase, count in result.state_cycles.items():
+            click.echo(f"          {phase:<28} {count:>6}")
+    slowest = ", ".join(f"{m} {ns / 1000:.1f}" for m, ns in result.max_cycle_ns.items())
+    click.echo(f"max cycle time per module (us): {slowest}")
+    click.echo(f"trace     {trace_path} ({len(result.trace)} lines)")
+    if record is not None:
+        click.echo(f"recorded  {record}: review `git diff {record}` before committing")

@@ -1,0 +1,102 @@
+"""Diagnostics: source spans and located error messages shared by every stage.
+
+Every stage reports problems as `Diagnostic` values collected in a `Diagnostics`
+bag instead of raising on the first one, so a user sees all of them at once.
+A stage that cannot go on raises `SpecError` carrying the bag.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True, order=True)
+class Span:
+    """A position in a spec file: display path, 1-based line and column."""
+
+    file: str
+    line: int = 1
+    col: int = 1
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.col}"
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    """One located problem: `file:line:col: severity[CODE]: message`, then a hint."""
+
+    span: Span
+    code: str
+    message: str
+    hint: str = ""
+    severity: str = "error"
+
+    def sort_key(self) -> tuple:
+        return (self.span, self.code, self.message)
+
+    def render(self, source_line: str | None = None) -> str:
+        text = f"{self.span}: {self.severity}[{self.code}]: {self.message}"
+        if source_line is not None:
+            caret = " " * (max(self.span.col, 1) - 1) + "^"
+            text += f"\n  | {source_line.rstrip()}\n  | {caret}"
+        if self.hint:
+            text += f"\n  = hint: {self.hint}"
+        return text
+
+
+@dataclass
+class Diagnostics:
+    """An ordered bag of diagnostics; `errors` tells whether a stage failed."""
+
+    items: list[Diagnostic] = field(default_factory=list)
+
+    def error(self, span: Span, code: str, message: str, hint: str = "") -> None:
+        self.items.append(Diagnostic(span, code, message, hint))
+
+    def warning(self, span: Span, code: str, message: str, hint: str = "") -> None:
+        self.items.append(Diagnostic(span, code, message, hint, "warning"))
+
+    def extend(self, other: Iterable[Diagnostic]) -> None:
+        self.items.extend(other)
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.items if d.severity == "error"]
+
+    def __iter__(self) -> Iterator[Diagnostic]:
+        return iter(sorted(set(self.items), key=Diagnostic.sort_key))
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+
+class SpecError(Exception):
+    """Raised by a stage whose input has errors; carries every diagnostic found."""
+
+    def __init__(self, diagnostics: Diagnostics | Iterable[Diagnostic]):
+        if not isinstance(diagnostics, Diagnostics):
+            diagnostics = Diagnostics(list(diagnostics))
+        self.diagnostics = diagnostics
+        super().__init__("\n".join(d.render() for d in diagnostics))
+
+
+def did_you_mean(name: str, candidates: Iterable[str]) -> str:
+    """A 'did you mean `X`?' hint for a misspelled name, or '' when nothing is close."""
+    close = difflib.get_close_matches(name, sorted(set(candidates)), n=1, cutoff=0.6)
+    return f"did you mean `{close[0]}`?" if close else ""
+
+
+def known_names_hint(kind: str, candidates: Iterable[str], name: str = "") -> str:
+    """A hint naming the close match, else the declared names of that kind."""
+    names = sorted(set(candidates))
+    near = did_you_mean(name, names) if name else ""
+    if near:
+        return near
+    if not names:
+        return f"no {kind} is declared"
+    shown = ", ".join(f"`{n}`" for n in names[:8])
+    more = f" and {len(names) - 8} more" if len(names) > 8 else ""
+    return f"declared {kind}: {shown}{more}"

@@ -1,0 +1,473 @@
+"""Expressions: guard, argument and assignment text -> typed expression tree -> Python source.
+
+A spec's expression text never reaches generated code. It is parsed with `ast` and every
+node is checked against an allowlist (literals, `and`/`or`/`not`, comparisons, arithmetic,
+declared names, `world.<field>`, `<sub>.status`, `<sub>.command`, calls of declared
+predicates and of `abs`/`min`/`max`); anything else is a located error. Names are resolved
+against a `Scope` and typed, and the Python text is printed back from the typed tree.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+from .diagnostics import Diagnostics, Span, known_names_hint
+
+BOOL, INT, FLOAT, STATUS = "bool", "int", "float", "status"
+NUMERIC = (INT, FLOAT)
+STATUS_NAMES = ("NOT_READY", "EXECUTING", "DONE", "ERROR")
+BUILTINS = ("abs", "min", "max")
+
+
+def command_type(sub: str) -> str:
+    """The type of `<sub>.command` and of `<sub>`'s command names."""
+    return f"command of {sub}"
+
+
+# ---------------------------------------------------------------- typed tree
+
+
+@dataclass(frozen=True)
+class Expr:
+    """A typed expression node; `type` is one of the type names above."""
+
+    type: str
+
+
+@dataclass(frozen=True)
+class Const(Expr):
+    value: bool | int | float
+
+
+@dataclass(frozen=True)
+class Ref(Expr):
+    """A resolved name. kind: world, param, local, const, status, sub_status, sub_command,
+    sub_command_name (`owner` is the subordinate for the sub_* kinds)."""
+
+    kind: str
+    name: str
+    owner: str = ""
+
+
+@dataclass(frozen=True)
+class Call(Expr):
+    """A call of a declared predicate (kind "predicate") or a builtin (kind "builtin")."""
+
+    kind: str
+    name: str
+    args: tuple[Expr, ...] = ()
+
+
+@dataclass(frozen=True)
+class Unary(Expr):
+    op: str  # "not", "-", "+"
+    operand: Expr
+
+
+@dataclass(frozen=True)
+class Binary(Expr):
+    op: str  # + - * / // %
+    left: Expr
+    right: Expr
+
+
+@dataclass(frozen=True)
+class BoolOp(Expr):
+    op: str  # "and", "or"
+    values: tuple[Expr, ...]
+
+
+@dataclass(frozen=True)
+class Compare(Expr):
+    left: Expr
+    ops: tuple[str, ...]
+    comparators: tuple[Expr, ...]
+
+
+# ---------------------------------------------------------------- scope
+
+
+@dataclass
+class Scope:
+    """What an expression may name: everything declared for one controller and command."""
+
+    world: Mapping[str, str] = field(default_factory=dict)  # every world field -> type
+    world_access: frozenset[str] = frozenset()  # fields the controller reads or writes
+    params: Mapping[str, str] = field(default_factory=dict)
+    locals: Mapping[str, str] = field(default_factory=dict)
+    constants: Mapping[str, bool | int | float] = field(default_factory=dict)
+    predicates: frozenset[str] = frozenset()
+    subordinates: Mapping[str, frozenset[str]] = field(default_factory=dict)  # sub -> commands
+    used_predicates: set[str] = field(default_factory=set)
+
+    def bare_names(self) -> list[str]:
+        return [*self.params, *self.locals, *self.constants, *STATUS_NAMES]
+
+
+_BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv: "//"}
+_BINOPS[ast.Mod] = "%"
+_CMPOPS = {ast.Eq: "==", ast.NotEq: "!=", ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">="}
+_UNARY = {ast.Not: "not", ast.USub: "-", ast.UAdd: "+"}
+_NODE_WORDS = {
+    ast.Subscript: "subscripts",
+    ast.Lambda: "lambdas",
+    ast.ListComp: "comprehensions",
+    ast.SetComp: "comprehensions",
+    ast.DictComp: "comprehensions",
+    ast.GeneratorExp: "comprehensions",
+    ast.JoinedStr: "f-strings",
+    ast.NamedExpr: "assignment expressions (:=)",
+    ast.Starred: "starred expressions",
+    ast.IfExp: "conditional expressions",
+    ast.Await: "await",
+    ast.Yield: "yield",
+}
+
+
+class _Fail(Exception):
+    """Internal: stop resolving one expression after its first error."""
+
+
+class _Resolver:
+    def __init__(self, scope: Scope, span: Span, diags: Diagnostics, text: str):
+        self.scope, self.span, self.diags, self.text = scope, span, diags, text
+
+    def at(self, node: ast.AST) -> Span:
+        return offset_span(self.span, getattr(node, "lineno", 1), getattr(node, "col_offset", 0))
+
+    def fail(self, node: ast.AST, code: str, message: str, hint: str = "") -> _Fail:
+        self.diags.error(self.at(node), code, message, hint)
+        return _Fail()
+
+    def expr(self, node: ast.AST) -> Expr:
+        method: Callable[[ast.AST], Expr] | None = getattr(self, "_" + type(node).__name__, None)
+        if method is None:
+            what = _NODE_WORDS.get(type(node), f"`{type(node).__name__}` expressions")
+            raise self.fail(
+                node,
+                "E102",
+                f"{what} are not allowed in a spec expression",
+                "expressions may use literals, and/or/not, comparisons, arithmetic, declared "
+                "names, world.<field>, <sub>.status, <sub>.command and predicate calls",
+            )
+        return method(node)
+
+    def _Constant(self, node: ast.Constant) -> Expr:
+        value = node.value
+        if isinstance(value, bool):
+            return Const(BOOL, value)
+        if isinstance(value, int):
+            return Const(INT, value)
+        if isinstance(value, float) and math.isfinite(value):
+            return Const(FLOAT, value)
+        raise self.fail(node, "E102", f"the literal {value!r} is not allowed", "use a number")
+
+    def _Name(self, node: ast.Name) -> Expr:
+        name, scope = node.id, self.scope
+        if name in ("True", "False"):  # only reachable on very old parsers
+            return Const(BOOL, name == "True")
+        if name in scope.params:
+            return Ref(scope.params[name], "param", name)
+        if name in scope.locals:
+            return Ref(scope.locals[name], "local", name)
+        if name in scope.constants:
+            return Ref(_type_of_value(scope.constants[name]), "const", name)
+        if name in STATUS_NAMES:
+            return Ref(STATUS, "status", name)
+        if name.startswith("__"):
+            raise self.fail(node, "E102", f"dunder name `{name}` is not allowed")
+        if name in scope.predicates:
+            raise self.fail(node, "E107", f"predicate `{name}` must be called", f"write `{name}()`")
+        if name == "world" or name in scope.subordinates:
+            raise self.fail(node, "E108", f"`{name}` needs a field: `{name}.<field>`")
+        raise self.fail(
+            node,
+            "E103",
+            f"unknown name `{name}`",
+            known_names_hint("names", scope.bare_names(), name),
+        )
+
+    def _Attribute(self, node: ast.Attribute) -> Expr:
+        base, attr, scope = node.value, node.attr, self.scope
+        if attr.startswith("__"):
+            raise self.fail(node, "E102", f"dunder attribute `{attr}` is not allowed")
+        if not isinstance(base, ast.Name):
+            raise self.fail(node, "E102", "attributes are allowed only on `world` and subordinates")
+        if base.id == "world":
+            if attr not in scope.world:
+                raise self.fail(
+                    node,
+                    "E104",
+                    f"undeclared world field `{attr}`",
+                    known_names_hint("world fields", scope.world, attr),
+                )
+            if attr not in scope.world_access:
+                raise self.fail(
+                    node,
+                    "E105",
+                    f"world field `{attr}` is not in this controller's world.reads or world.writes",
+                    f"add `{attr}` to `world: reads:`",
+                )
+            return Ref(scope.world[attr], "world", attr)
+        if base.id in scope.subordinates:
+            if attr == "status":
+                return Ref(STATUS, "sub_status", attr, base.id)
+            if attr == "command":
+                return Ref(command_type(base.id), "sub_command", attr, base.id)
+            raise self.fail(
+                node,
+                "E108",
+                f"`{base.id}.{attr}`: a subordinate has only `status` and `command`",
+                did_you_mean_attr(attr),
+            )
+        raise self.fail(
+            node,
+            "E108",
+            f"`{base.id}` is neither `world` nor a subordinate of this controller",
+            known_names_hint("subordinates", scope.subordinates, base.id),
+        )
+
+    def _Call(self, node: ast.Call) -> Expr:
+        if node.keywords or not isinstance(node.func, ast.Name):
+            raise self.fail(node, "E102", "only predicates and abs/min/max can be called")
+        name = node.func.id
+        if name in self.scope.predicates:
+            if node.args:
+                raise self.fail(node, "E107", f"predicate `{name}` takes no arguments")
+            self.scope.used_predicates.add(name)
+            return Call(BOOL, "predicate", name)
+        if name in BUILTINS:
+            args = tuple(self.numeric(a) for a in node.args)
+            if (name == "abs") != (len(args) == 1) or not args:
+                raise self.fail(node, "E107", f"wrong number of arguments to `{name}`")
+            kind = FLOAT if any(a.type == FLOAT for a in args) else INT
+            return Call(kind, "builtin", name, args)
+        raise self.fail(
+            node,
+            "E106",
+            f"`{name}` is not a declared predicate",
+            known_names_hint("predicates", self.scope.predicates, name),
+        )
+
+    def _UnaryOp(self, node: ast.UnaryOp) -> Expr:
+        op = _UNARY.get(type(node.op))
+        if op is None:
+            raise self.fail(node, "E102", "bitwise operators are not allowed")
+        if op == "not":
+            return Unary(BOOL, op, self.boolean(node.operand))
+        operand = self.numeric(node.operand)
+        return Unary(operand.type, op, operand)
+
+    def _BinOp(self, node: ast.BinOp) -> Expr:
+        op = _BINOPS.get(type(node.op))
+        if op is None:
+            raise self.fail(node, "E102", "only + - * / // % are allowed")
+        left, right = self.numeric(node.left), self.numeric(node.right)
+        both_int = left.type == INT and right.type == INT
+        return Binary(INT if both_int and op != "/" else FLOAT, op, left, right)
+
+    def _BoolOp(self, node: ast.BoolOp) -> Expr:
+        op = "and" if isinstance(node.op, ast.And) else "or"
+        return BoolOp(BOOL, op, tuple(self.boolean(v) for v in node.values))
+
+    def _Compare(self, node: ast.Compare) -> Expr:
+        ops = []
+        for op in node.ops:
+            if type(op) not in _CMPOPS:
+                raise self.fail(node, "E102", "only == != < <= > >= comparisons are allowed")
+            ops.append(_CMPOPS[type(op)])
+        operands = [node.left, *node.comparators]
+        # A subordinate's command compares with that subordinate's command names.
+        sub = next((a.value.id for a in operands if _is_sub_command(a, self.scope)), None)
+        typed = [self.command_name(a, sub) if sub else self.expr(a) for a in operands]
+        for left, right, op, raw in zip(typed, typed[1:], ops, operands[1:], strict=False):
+            self.comparable(left, right, op, raw)
+        return Compare(BOOL, typed[0], tuple(ops), tuple(typed[1:]))
+
+    def command_name(self, node: ast.AST, sub: str) -> Expr:
+        if _is_sub_command(node, self.scope):
+            return self.expr(node)
+        if isinstance(node, ast.Name):
+            commands = self.scope.subordinates[sub]
+            if node.id in commands:
+                return Ref(command_type(sub), "sub_command_name", node.id, sub)
+            raise self.fail(
+                node,
+                "E109",
+                f"`{sub}` has no command `{node.id}`",
+                known_names_hint(f"commands of {sub}", commands, node.id),
+            )
+        raise self.fail(node, "E107", f"`{sub}.command` compares only with a command name")
+
+    def comparable(self, left: Expr, right: Expr, op: str, node: ast.AST) -> None:
+        kinds = {left.type, right.type}
+        if kinds <= set(NUMERIC):
+            return
+        if len(kinds) == 1 and op in ("==", "!="):
+            return
+        raise self.fail(node, "E107", f"cannot compare {left.type} with {right.type} using `{op}`")
+
+    def typed(self, node: ast.AST, wanted: tuple[str, ...], words: str) -> Expr:
+        result = self.expr(node)
+        if result.type not in wanted:
+            raise self.fail(node, "E107", f"expected {words}, got {result.type}")
+        return result
+
+    def boolean(self, node: ast.AST) -> Expr:
+        return self.typed(node, (BOOL,), "a boolean")
+
+    def numeric(self, node: ast.AST) -> Expr:
+        return self.typed(node, NUMERIC, "a number")
+
+
+def _is_sub_command(node: ast.AST, scope: Scope) -> bool:
+    return (
+        isinstance(node, ast.Attribute)
+        and node.attr == "command"
+        and isinstance(node.value, ast.Name)
+        and node.value.id in scope.subordinates
+    )
+
+
+def did_you_mean_attr(attr: str) -> str:
+    return known_names_hint("fields", ("status", "command"), attr)
+
+
+def _type_of_value(value: object) -> str:
+    if isinstance(value, bool):
+        return BOOL
+    return INT if isinstance(value, int) else FLOAT
+
+
+def offset_span(base: Span, lineno: int, col_offset: int) -> Span:
+    """The span of a node `col_offset` into line `lineno` of an expression found at `base`."""
+    if lineno <= 1:
+        return Span(base.file, base.line, base.col + col_offset)
+    return Span(base.file, base.line + lineno - 1, col_offset + 1)
+
+
+def compile_expr(
+    source: object, span: Span, scope: Scope, diags: Diagnostics, expect: str | None = None
+) -> Expr | None:
+    """Parse, check and type `source` (expression text, or a YAML number/boolean).
+
+    `expect` is BOOL for guards or a world/param/local type for values; None accepts any.
+    Returns None after reporting the first problem of this expression.
+    """
+    if isinstance(source, bool | int | float) and not isinstance(source, str):
+        if isinstance(source, float) and not math.isfinite(source):
+            diags.error(span, "E102", "NaN and infinity are not allowed")
+            return None
+        result: Expr = Const(_type_of_value(source), source)
+    else:
+        text = str(source)
+        if "\n" in text.strip() or "\r" in text:
+            text = " ".join(text.split())
+        try:
+            tree = ast.parse(text.strip(), mode="eval")
+        except SyntaxError as exc:
+            where = offset_span(span, exc.lineno or 1, max((exc.offset or 1) - 1, 0))
+            diags.error(where, "E101", f"invalid expression: {exc.msg}", f"in `{text.strip()}`")
+            return None
+        resolver = _Resolver(scope, span, diags, text)
+        try:
+            result = resolver.expr(tree.body)
+        except _Fail:
+            return None
+        except RecursionError:
+            diags.error(span, "E102", "expression is nested too deeply")
+            return None
+    if expect is not None and not assignable(expect, result.type):
+        diags.error(span, "E107", f"expected {_words(expect)}, got {_words(result.type)}")
+        return None
+    return result
+
+
+def assignable(target: str, source: str) -> bool:
+    """Whether a value of type `source` may be stored where `target` is expected."""
+    return target == source or (target == FLOAT and source == INT)
+
+
+def _words(kind: str) -> str:
+    return {BOOL: "a boolean", INT: "an integer", FLOAT: "a number"}.get(kind, kind)
+
+
+# ---------------------------------------------------------------- printing
+
+_PRECEDENCE = {"or": 1, "and": 2, "not": 3, "cmp": 4, "+": 5, "-": 5}
+_PRECEDENCE.update({"*": 6, "/": 6, "//": 6, "%": 6, "neg": 7, "atom": 9})
+
+
+def to_python(expr: Expr, name_of: Callable[[Ref], str]) -> str:
+    """Python source for a typed tree; `name_of` maps each resolved name to its target text."""
+    return _Printer(name_of).text(expr)[0]
+
+
+def to_python_conjunct(expr: Expr, name_of: Callable[[Ref], str]) -> str:
+    """Python source for `expr` as one operand of `and` (parenthesised only if it needs it)."""
+    return _Printer(name_of).wrap(expr, _PRECEDENCE["and"])
+
+
+class _Printer:
+    def __init__(self, name_of: Callable[[Ref], str]):
+        self.name_of = name_of
+
+    def wrap(self, expr: Expr, minimum: int) -> str:
+        text, level = self.text(expr)
+        return f"({text})" if level < minimum else text
+
+    def text(self, expr: Expr) -> tuple[str, int]:
+        atom = _PRECEDENCE["atom"]
+        if isinstance(expr, Const):
+            return repr(expr.value), atom
+        if isinstance(expr, Ref):
+            return self.name_of(expr), atom
+        if isinstance(expr, Call):
+            args = ", ".join(self.wrap(a, 0) for a in expr.args)
+            callee = expr.name
+            if expr.kind == "predicate":
+                callee = self.name_of(Ref(BOOL, "predicate", expr.name))
+            return f"{callee}({args})", atom
+        if isinstance(expr, Unary):
+            if expr.op == "not":
+                return f"not {self.wrap(expr.operand, _PRECEDENCE['not'])}", _PRECEDENCE["not"]
+            return f"{expr.op}{self.wrap(expr.operand, _PRECEDENCE['neg'])}", _PRECEDENCE["neg"]
+        if isinstance(expr, Binary):
+            level = _PRECEDENCE[expr.op]
+            left = self.wrap(expr.left, level)
+            right = self.wrap(expr.right, level + 1)  # left-associative
+            return f"{left} {expr.op} {right}", level
+        if isinstance(expr, BoolOp):
+            level = _PRECEDENCE[expr.op]
+            return f" {expr.op} ".join(self.wrap(v, level + 1) for v in expr.values), level
+        if isinstance(expr, Compare):
+            level = _PRECEDENCE["cmp"]
+            parts = [self.wrap(expr.left, level + 1)]
+            for op, right in zip(expr.ops, expr.comparators, strict=True):
+                parts += [op, self.wrap(right, level + 1)]
+            return " ".join(parts), level
+        raise TypeError(f"unknown expression node {expr!r}")
+
+
+def refs(expr: Expr) -> list[Ref]:
+    """Every resolved name in `expr`, in reading order."""
+    found: list[Ref] = []
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, Ref):
+            found.append(node)
+        elif isinstance(node, Call):
+            stack.extend(reversed(node.args))
+        elif isinstance(node, Unary):
+            stack.append(node.operand)
+        elif isinstance(node, Binary):
+            stack.extend((node.right, node.left))
+        elif isinstance(node, BoolOp):
+            stack.extend(reversed(node.values))
+        elif isinstance(node, Compare):
+            stack.extend(reversed((node.left, *node.comparators)))
+    return found

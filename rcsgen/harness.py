@@ -1,0 +1,230 @@
+"""Runtime harness: a generated system, in-process, driven cycle by cycle from a test.
+
+`Harness.build(spec_dir)` generates the system into a scratch directory and imports it;
+`Harness.load(package_dir)` imports an already generated package. Either way a test can
+write a controller's command and its subordinates' status, set world fields, run one
+module or one whole cycle, and read back what each module sent and reports:
+
+    with Harness.build("specs/miner") as h:
+        h.command("co", "SUMP_SHEAR_CUSP")
+        h.step("co")                      # co alone: its subordinates do not run
+        assert h.sent("cc").command == "SUMP"
+        h.reply("cc", "DONE")             # cc echoes its command number with DONE
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import itertools
+import shutil
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from . import emit
+from .diagnostics import SpecError
+from .frontend import compile_paths
+
+_unique = itertools.count(1)
+
+
+@dataclass(frozen=True)
+class Sent:
+    """A module's command buffer: what its supervisor (or the harness) last sent it."""
+
+    command: str
+    number: int
+    args: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Status:
+    """A module's status buffer and state."""
+
+    status: str
+    number: int
+    state: str
+    error_num: int
+
+
+def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleType:
+    """Import a generated package from `package_dir` under a unique name (no sys.path edits
+    for the package itself); `hooks_dir` is put on sys.path for the user's hook modules."""
+    if hooks_dir is not None and str(hooks_dir) not in sys.path:
+        sys.path.insert(0, str(hooks_dir))
+    name = f"_rcsgen_{next(_unique)}_{package_dir.name}"
+    spec = importlib.util.spec_from_file_location(
+        name, package_dir / "__init__.py", submodule_search_locations=[str(package_dir)]
+    )
+    if spec is None or spec.loader is None:
+        raise ImportError(f"no generated package in {package_dir}")
+    package = importlib.util.module_from_spec(spec)
+    sys.modules[name] = package
+    spec.loader.exec_module(package)
+    return package
+
+
+class Harness:
+    """One process of a generated system running on a private in-process block."""
+
+    def __init__(
+        self,
+        package: ModuleType,
+        process: str | None = None,
+        send_init: bool = False,
+        scratch: Path | None = None,
+    ) -> None:
+        self.package = package
+        self.layout = importlib.import_module(f"{package.__name__}.layout")
+        self.process_name = process or package.PROCESSES[0]
+        main = importlib.import_module(f"{package.__name__}.main_{self.process_name}")
+        self.main_module = main
+        rcs = importlib.import_module(f"{package.__name__}.rcs")
+        self.block = rcs.Block(self.layout.SIZE)
+        self.buf = self.block.buf
+        self.layout.initialise(self.buf)
+        self.process = next(
+            value
+            for key, value in vars(main).items()
+            if key.endswith("Process") and isinstance(value, type)
+        )(self.block)
+        if send_init:
+            self.process.send_init()
+        self._scratch = scratch
+
+    # ------------------------------------------------------------ construction
+
+    @classmethod
+    def build(cls, spec_dir: str | Path, process: str | None = None, **options: Any) -> Harness:
+        """Generate the system in `spec_dir` into a scratch directory and load it."""
+        spec_dir = Path(spec_dir)
+        front = compile_paths([spec_dir])
+        if front.diagnostics.errors or len(front.systems) != 1:
+            raise SpecError(front.diagnostics)
+        system = front.systems[0]
+        scratch = Path(tempfile.mkdtemp(prefix="rcsgen-harness-"))
+        for rel, text in emit.render_all([system]).items():
+            path = scratch / rel
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text, encoding="utf-8")
+        package = import_package(scratch / system.name, spec_dir.resolve())
+        return cls(package, process, scratch=scratch, **options)
+
+    @classmethod
+    def load(
+        cls,
+        package_dir: str | Path,
+        hooks_dir: str | Path | None = None,
+        process: str | None = None,
+        **options: Any,
+    ) -> Harness:
+        """Load an already generated package (e.g. `generated/miner`)."""
+        hooks = Path(hooks_dir).resolve() if hooks_dir is not None else None
+        return cls(import_package(Path(package_dir).resolve(), hooks), process, **options)
+
+    def close(self) -> None:
+        if self._scratch is not None:
+            shutil.rmtree(self._scratch, ignore_errors=True)
+            self._scratch = None
+
+    def __enter__(self) -> Harness:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------ running
+
+    @property
+    def modules(self) -> tuple[str, ...]:
+        return tuple(self.main_module.MODULES)
+
+    def controller(self, module: str) -> Any:
+        """The generated controller object of `module` (its local buffers are attributes)."""
+        return getattr(self.process, module)
+
+    def step(self, module: str) -> None:
+        """Run one module for one cycle; nothing else runs."""
+        self.controller(module).run_cycle()
+
+    def cycle(self, count: int = 1) -> None:
+        """Run whole process cycles: every module once, in the declared order."""
+        for _ in range(count):
+            self.process.run_cycle()
+
+    @property
+    def cycles(self) -> int:
+        return self.process.cycle
+
+    # ------------------------------------------------------------ buffers
+
+    def command(self, module: str, command: str, **args: Any) -> int:
+        """Write a new command to `module` (as its supervisor would); returns its number."""
+        record = self.layout.COMMAND_IN[module]
+        names = self.layout.COMMAND_NAMES[module]
+        if command not in names[1:]:
+            raise ValueError(f"{module} has no command {command!r}; it has {names[1:]}")
+        unknown = set(args) - {f.removeprefix("arg_") for f in record.fields if f.startswith("arg_")}
+        if unknown:
+            raise ValueError(f"{module} has no parameter(s) {sorted(unknown)}")
+        number = record.read(self.buf)["command_num"] + 1
+        values = {f"arg_{k}": v for k, v in args.items()}
+        record.write(self.buf, command_num=number, command=names.index(command), **values)
+        return number
+
+    def sent(self, module: str) -> Sent:
+        """What is in `module`'s command buffer: the last command its supervisor sent."""
+        values = self.layout.COMMAND_IN[module].read(self.buf)
+        args = {k.removeprefix("arg_"): v for k, v in values.items() if k.startswith("arg_")}
+        name = self.layout.COMMAND_NAMES[module][values["command"]]
+        return Sent(name, values["command_num"], args)
+
+    def reply(self, module: str, status: str, number: int | None = None) -> None:
+        """Write `module`'s status as if it had run: by default echoing its command number."""
+        echoed = self.sent(module).number if number is None else number
+        code = self.layout.STATUS_NAMES.index(status)
+        self.layout.STATUS_OUT[module].write(self.buf, status_num=echoed, status=code)
+
+    def status(self, module: str) -> Status:
+        values = self.layout.STATUS_OUT[module].read(self.buf)
+        return Status(
+            self.layout.STATUS_NAMES[values["status"]],
+            values["status_num"],
+            self.layout.STATE_NAMES[module][values["state"]],
+            values["error_num"],
+        )
+
+    def set_mode(self, module: str, **mode: Any) -> None:
+        """Set dont_run, single_step, simulate or single_step_num in `module`'s mode buffer."""
+        self.layout.MODE_IN[module].write(self.buf, **mode)
+
+    def performance(self, module: str) -> dict[str, int]:
+        return self.layout.PERFORMANCE[module].read(self.buf)
+
+    @property
+    def world(self) -> World:
+        return World(self.layout, self.buf)
+
+
+class World:
+    """The world model in the block, as a mapping: `h.world["loose_coal"] = 5.0`."""
+
+    def __init__(self, layout: ModuleType, buf: memoryview) -> None:
+        self._layout, self._buf = layout, buf
+
+    def __getitem__(self, name: str) -> Any:
+        return self._layout.WORLD[name].read(self._buf)[name]
+
+    def __setitem__(self, name: str, value: Any) -> None:
+        self._layout.WORLD[name].write(self._buf, **{name: value})
+
+    def update(self, values: dict[str, Any]) -> None:
+        for name, value in values.items():
+            self[name] = value
+
+    def snapshot(self, names: list[str] | None = None) -> dict[str, Any]:
+        return {n: self[n] for n in (names if names is not None else self._layout.WORLD)}

@@ -1,0 +1,264 @@
+"""IR: the emit-ready form of a checked system, and its shared-memory layout.
+
+Every name is resolved, every order and numeric code is fixed and every expression is
+already printed as Python from its typed tree, so templates only place text. The layout
+gives each module's command, status, mode and performance buffer and each world field a
+fixed offset in one little-endian block (`struct` formats, no implicit padding).
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass, field
+
+STATUS_CODES = {"NOT_READY": 0, "EXECUTING": 1, "DONE": 2, "ERROR": 3}
+NO_COMMAND = 0  # a command buffer that never received a command
+NOP = 0  # the state of a module with no command to work on
+BUILTIN_COMMANDS = ("INIT", "HALT")
+FORMAT_OF_TYPE = {"bool": "?", "int": "q", "float": "d"}
+PY_TYPE = {"bool": "bool", "int": "int", "float": "float"}
+
+
+# ---------------------------------------------------------------- layout
+
+
+@dataclass(frozen=True)
+class Slot:
+    """One field of a buffer: name, struct code, offset in the whole block."""
+
+    name: str
+    code: str
+    offset: int
+
+
+@dataclass(frozen=True)
+class Buffer:
+    """A contiguous record in the block, read and written with one `struct.Struct`."""
+
+    const: str  # the layout module's name for it, e.g. CO_COMMAND
+    offset: int
+    slots: tuple[Slot, ...]
+    doc: str
+
+    @property
+    def format(self) -> str:
+        return "<" + "".join(slot.code for slot in self.slots)
+
+    @property
+    def size(self) -> int:
+        return struct.calcsize(self.format)
+
+
+def _buffer(const: str, offset: int, fields: list[tuple[str, str]], doc: str) -> Buffer:
+    slots, at = [], offset
+    for name, code in fields:
+        slots.append(Slot(name, code, at))
+        at += struct.calcsize("<" + code)
+    return Buffer(const, offset, tuple(slots), doc)
+
+
+def _align(offset: int, to: int = 8) -> int:
+    return -(-offset // to) * to
+
+
+@dataclass
+class ModuleBuffers:
+    command: Buffer
+    status: Buffer
+    mode: Buffer
+    perf: Buffer
+
+
+@dataclass
+class Layout:
+    modules: dict[str, ModuleBuffers]
+    world: list[Buffer]
+    size: int
+
+    def all_buffers(self) -> list[Buffer]:
+        found = [b for m in self.modules.values() for b in (m.command, m.status, m.mode, m.perf)]
+        return sorted([*found, *self.world], key=lambda b: b.offset)
+
+
+# Buffers every module has in the same shape (QQ1.h): (field, struct code).
+COMMAND_HEAD_FIELDS = (("command_num", "Q"), ("command", "I"))
+STATUS_FIELDS = (("status_num", "Q"), ("status", "I"), ("error_num", "I"), ("state", "i"))
+MODE_FIELDS = (
+    ("dont_run", "?"),
+    ("single_step", "?"),
+    ("simulate", "?"),
+    ("pad", "x"),
+    ("single_step_num", "I"),
+)
+PERF_FIELDS = (
+    ("last_cycle_ns", "Q"),
+    ("min_cycle_ns", "Q"),
+    ("max_cycle_ns", "Q"),
+    ("cycles", "Q"),
+    ("single_step_num", "I"),
+)
+
+
+def plan_layout(controllers: list[IRController], world: list[IRWorldField]) -> Layout:
+    """Place every module's buffers, then the world fields, each buffer on 8 bytes."""
+    at, modules = 0, {}
+    for c in controllers:
+        prefix = c.name.upper()
+        params = [(f"arg_{p.name}", FORMAT_OF_TYPE[p.type]) for p in c.params]
+        parts = {
+            "command": ([*COMMAND_HEAD_FIELDS, *params], "command in"),
+            "status": (list(STATUS_FIELDS), "status out"),
+            "mode": (list(MODE_FIELDS), "execution mode"),
+            "perf": (list(PERF_FIELDS), "performance"),
+        }
+        made = {}
+        for part, (fields, doc) in parts.items():
+            made[part] = _buffer(f"{prefix}_{part.upper()}", at, fields, f"{c.name} {doc}")
+            at = _align(at + made[part].size)
+        modules[c.name] = ModuleBuffers(**made)
+    world_buffers = []
+    for f in world:
+        code = FORMAT_OF_TYPE[f.type]
+        at = _align(at, struct.calcsize(code))
+        world_buffers.append(_buffer(f"WORLD_{f.name.upper()}", at, [(f.name, code)], f.doc))
+        at += struct.calcsize(code)
+    return Layout(modules, world_buffers, _align(at))
+
+
+# ---------------------------------------------------------------- system IR
+
+
+@dataclass
+class IRWorldField:
+    name: str
+    type: str
+    initial: bool | int | float
+    doc: str
+
+
+@dataclass
+class IRParam:
+    name: str
+    type: str
+    doc: str = ""
+
+
+@dataclass
+class IRLocal:
+    name: str
+    type: str
+    initial: bool | int | float
+    doc: str
+
+
+@dataclass
+class IRSend:
+    sub: str
+    command_const: str  # e.g. CR_SUMP
+    args: list[tuple[str, str]]  # (attribute, python expression)
+    kind: str = "send"
+
+
+@dataclass
+class IRSet:
+    assignments: list[tuple[str, str]]  # (attribute, python expression)
+    kind: str = "set"
+
+
+@dataclass
+class IRReport:
+    status: str  # DONE or ERROR
+    kind: str = "report"
+
+
+@dataclass
+class IRCall:
+    hook: str
+    args: list[str]
+    targets: list[str]  # attributes assigned from the hook's result
+    kind: str = "call"
+
+
+IRAction = IRSend | IRSet | IRReport | IRCall
+
+
+@dataclass
+class IRRule:
+    doc: str
+    guard: str | None  # None: always fires
+    guard_operand: str | None  # the guard as an operand of `and`: `state == S1 and <guard>`
+    actions: list[IRAction]
+    next_state: str | None  # None: stay (NOP after a report)
+
+
+@dataclass
+class IRState:
+    name: str
+    rules: list[IRRule]
+
+
+@dataclass
+class IRCommand:
+    name: str
+    code: int
+    doc: str
+    method: str  # the state-table method, e.g. sump_shear_cusp
+    params: list[IRParam]
+    states: list[IRState]
+    generated: bool
+
+
+@dataclass
+class IRSub:
+    """A subordinate as its supervisor sees it: its command codes and parameter slots."""
+
+    name: str
+    commands: list[tuple[str, int]]  # (constant, code), e.g. ("CC_SUMP", 3)
+    params: list[IRParam]
+
+
+@dataclass
+class IRController:
+    name: str
+    title: str
+    doc: str
+    source: str  # spec path relative to the specs root
+    supervisor: str | None
+    simulator: bool
+    subordinates: list[IRSub]
+    commands: list[IRCommand]
+    params: list[IRParam]  # every command's parameters, one slot per name
+    locals: list[IRLocal]
+    constants: list[tuple[str, str]]  # (name, python literal)
+    predicates: list[tuple[str, str, str]]  # (name, python expression, spec text)
+    hooks_module: str | None
+    hooks: list[str]
+    world_reads: list[IRWorldField]  # copied in by pre_process
+    world_writes: list[IRWorldField]  # copied out by post_process
+    states: list[str] = field(default_factory=list)  # state names; code = index + 1
+
+
+@dataclass
+class IRProcess:
+    name: str
+    doc: str
+    modules: list[str]
+    roots: list[str]  # modules of this process with no supervisor: INIT is sent to them
+
+
+@dataclass
+class IRSystem:
+    name: str
+    title: str
+    doc: str
+    source: str
+    cycle_period: float
+    world: list[IRWorldField]
+    controllers: list[IRController]
+    processes: list[IRProcess]
+    layout: Layout
+    hook_modules: list[str]
+    sources: list[str]  # every spec file the system was built from
+
+    def controller(self, name: str) -> IRController:
+        return next(c for c in self.controllers if c.name == name)

@@ -1,0 +1,287 @@
+"""Load: YAML text -> plain Python data whose containers remember the source span
+of every key and value.
+
+Why not `yaml.safe_load`: PyYAML silently keeps the last of two duplicate keys,
+and its YAML 1.1 resolver turns `on`/`off`/`yes`/`no` into booleans, so a state
+named `on` would become `True`. This stage reads PyYAML's event stream instead:
+no constructor ever runs (so no tag can build a Python object), plain scalars
+are typed by the strict YAML 1.2 core schema, and tags, anchors, aliases, merge
+keys, duplicate or non-string keys, NaN/Inf, extra documents, oversized files and
+excessive nesting are all reported as located diagnostics in one pass.
+"""
+
+from __future__ import annotations
+
+import math
+import pathlib
+import re
+from dataclasses import dataclass
+
+import yaml
+
+from rcsgen.diagnostics import Diagnostics, Span, SpecError
+
+MAX_BYTES = 1_000_000
+MAX_DEPTH = 64
+
+_DECIMAL = re.compile(r"[-+]?[0-9]+")
+_HEX_OR_OCTAL = re.compile(r"0x[0-9a-fA-F]+|0o[0-7]+")
+_FLOAT = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
+_NON_FINITE = re.compile(r"[-+]?\.inf|\.nan", re.IGNORECASE)
+_NO_SHARING = "anchors, aliases and merge keys are not allowed"
+_NO_SHARING_HINT = "write the value out in full; a spec never shares nodes"
+_TOO_LARGE = f"file is larger than {MAX_BYTES:,} bytes"
+_TOO_LARGE_HINT = "a spec is far smaller than this; is this the right file?"
+
+
+class LocStr(str):
+    """A string scalar (value or key) that remembers where it starts."""
+
+    span: Span
+
+    def __new__(cls, value: str, span: Span) -> LocStr:
+        self = super().__new__(cls, value)
+        self.span = span
+        return self
+
+    def __getnewargs__(self) -> tuple[str, Span]:  # keeps copy/pickle working
+        return (str(self), self.span)
+
+
+class LocDict(dict):
+    """A mapping with str keys, its start span and the span of each key and value."""
+
+    span: Span
+    key_spans: dict[str, Span]
+    value_spans: dict[str, Span]
+
+    def __init__(self, span: Span) -> None:
+        super().__init__()
+        self.span = span
+        self.key_spans = {}
+        self.value_spans = {}
+
+
+class LocList(list):
+    """A sequence with its start span and the span of each item."""
+
+    span: Span
+    item_spans: list[Span]
+
+    def __init__(self, span: Span) -> None:
+        super().__init__()
+        self.span = span
+        self.item_spans = []
+
+
+def span_of(container: LocDict | LocList, key_or_index: str | int) -> Span:
+    """The span of the value at `key_or_index` inside a loaded mapping or sequence."""
+    if isinstance(container, LocDict):
+        return container.value_spans[key_or_index]
+    if isinstance(container, LocList):
+        return container.item_spans[key_or_index]
+    raise TypeError(f"not a loaded container: {type(container).__name__}")
+
+
+def _plain_value(text: str) -> object:
+    """Type a plain scalar by the YAML 1.2 core schema; NaN/Inf come back non-finite."""
+    if text in ("true", "True", "TRUE"):
+        return True
+    if text in ("false", "False", "FALSE"):
+        return False
+    if text in ("", "~", "null", "Null", "NULL"):
+        return None
+    try:
+        if _DECIMAL.fullmatch(text):
+            return int(text)  # "010" is 10: YAML 1.2 has no leading-zero octal
+        if _HEX_OR_OCTAL.fullmatch(text):
+            return int(text, 0)
+    except ValueError:  # beyond Python's int digit limit: treat as overflow
+        return math.inf
+    if _FLOAT.fullmatch(text):
+        return float(text)  # may overflow to inf, which is then rejected
+    if _NON_FINITE.fullmatch(text):
+        return math.nan
+    return text
+
+
+@dataclass
+class _Frame:
+    """A mapping or sequence being built; mappings alternate key and value nodes."""
+
+    container: LocDict | LocList
+    reported: bool  # the node itself already has an E005 (tag or anchor)
+    key: LocStr | None = None  # None: the pending key was rejected, drop its value
+    has_key: bool = False
+
+    def at_key(self) -> bool:
+        return isinstance(self.container, LocDict) and not self.has_key
+
+
+class _Builder:
+    """Builds located values from parser events, collecting diagnostics."""
+
+    def __init__(self, path: str, diags: Diagnostics) -> None:
+        self.path = path
+        self.diags = diags
+        self.stack: list[_Frame] = []
+        self.result: object = None
+        self.documents = 0
+        self.stopped = False  # set when the rest of the stream must not be read
+
+    def span(self, mark: yaml.Mark) -> Span:
+        return Span(self.path, mark.line + 1, mark.column + 1)
+
+    def feed(self, event: yaml.Event) -> None:
+        span = self.span(event.start_mark)
+        if isinstance(event, yaml.DocumentStartEvent):
+            self.documents += 1
+            if self.documents > 1:
+                hint = "a spec is a single document; remove this `---` and what follows"
+                self.diags.error(span, "E009", "more than one YAML document in a file", hint)
+                self.stopped = True
+        elif isinstance(event, yaml.AliasEvent):
+            self.diags.error(span, "E005", _NO_SHARING, _NO_SHARING_HINT)
+            self.attach(None, span, reported=True)
+        elif isinstance(event, yaml.ScalarEvent):
+            self.scalar(event, span, self.check_node(event, span))
+        elif isinstance(event, yaml.CollectionStartEvent):
+            if len(self.stack) >= MAX_DEPTH:
+                hint = f"at most {MAX_DEPTH} nested mappings and sequences are allowed"
+                self.diags.error(span, "E007", "nesting is too deep", hint)
+                self.stopped = True
+                return
+            mapping = isinstance(event, yaml.MappingStartEvent)
+            container = LocDict(span) if mapping else LocList(span)
+            self.stack.append(_Frame(container, self.check_node(event, span)))
+        elif isinstance(event, yaml.CollectionEndEvent):
+            frame = self.stack.pop()
+            self.attach(frame.container, frame.container.span, frame.reported)
+
+    def check_node(self, event: yaml.NodeEvent, span: Span) -> bool:
+        """Report a tag or an anchor on a node; True when something was reported."""
+        if event.tag is not None:
+            tag = event.tag.replace("tag:yaml.org,2002:", "!!", 1)
+            hint = f"remove `{tag}`; a spec is plain data and no tag is ever constructed"
+            self.diags.error(span, "E005", "tags are not allowed", hint)
+        if event.anchor is not None:
+            self.diags.error(span, "E005", _NO_SHARING, _NO_SHARING_HINT)
+        return event.tag is not None or event.anchor is not None
+
+    def scalar(self, event: yaml.ScalarEvent, span: Span, reported: bool) -> None:
+        text = event.value
+        plain = event.style is None  # any quoted or block scalar is a string
+        value = _plain_value(text) if plain else text
+        at_key = not reported and bool(self.stack) and self.stack[-1].at_key()
+        if at_key and plain and text == "<<":
+            self.diags.error(span, "E005", _NO_SHARING, _NO_SHARING_HINT)
+            reported = True
+        elif at_key and not isinstance(value, str):
+            hint = f'quote the key if it is meant as a name: "{text}"'
+            self.diags.error(span, "E003", f"mapping key `{text}` is not a string", hint)
+            reported = True
+        elif isinstance(value, float) and not math.isfinite(value):
+            shown = text if len(text) <= 40 else text[:37] + "..."
+            hint = f"numbers must be finite; `{shown}` is not (quote it to mean a string)"
+            self.diags.error(span, "E004", "NaN and infinity are not allowed", hint)
+        self.attach(LocStr(value, span) if isinstance(value, str) else value, span, reported)
+
+    def attach(self, value: object, span: Span, reported: bool) -> None:
+        """Put a finished node into its parent, or make it the document's value."""
+        if not self.stack:
+            self.result = value
+            return
+        frame = self.stack[-1]
+        parent = frame.container
+        if isinstance(parent, LocList):
+            parent.append(value)
+            parent.item_spans.append(span)
+        elif frame.has_key:
+            frame.has_key = False
+            if frame.key is not None:
+                parent[frame.key] = value
+                parent.key_spans[frame.key] = frame.key.span
+                parent.value_spans[frame.key] = span
+        else:
+            frame.has_key = True
+            frame.key = None
+            if reported:
+                return
+            if not isinstance(value, LocStr):
+                kind = "mapping" if isinstance(value, dict) else "sequence"
+                hint = "use a plain or quoted string as the key"
+                self.diags.error(span, "E003", f"mapping key is a {kind}, not a string", hint)
+            elif value in parent.key_spans:
+                first = parent.key_spans[value].line
+                hint = f"first defined at line {first}; PyYAML would silently keep the last one"
+                self.diags.error(span, "E002", f"duplicate key `{value}`", hint)
+            else:
+                frame.key = value
+
+
+def _line_col(data: str | bytes, index: int) -> tuple[int, int]:
+    """1-based line and column of `index` (in characters for str, bytes for bytes)."""
+    newline = "\n" if isinstance(data, str) else b"\n"
+    return data.count(newline, 0, index) + 1, index - data.rfind(newline, 0, index)
+
+
+def _syntax_error(exc: yaml.YAMLError, text: str, path: str) -> tuple[Span, str, str]:
+    """Span, message and hint for a PyYAML error, without its traceback text."""
+    if isinstance(exc, yaml.reader.ReaderError):
+        message = f"unacceptable character #x{exc.character:04x}: {exc.reason}"
+        return Span(path, *_line_col(text, exc.position)), message, "remove it"
+    if isinstance(exc, yaml.MarkedYAMLError):
+        mark = exc.problem_mark or exc.context_mark
+        span = Span(path, mark.line + 1, mark.column + 1) if mark else Span(path)
+        hint = "check the indentation (spaces, not tabs), quotes and brackets here"
+        if exc.context and exc.context_mark:
+            hint = f"{exc.context} that starts at line {exc.context_mark.line + 1}"
+        return span, exc.problem or exc.context or "invalid YAML", hint
+    return Span(path), str(exc), ""
+
+
+def _fail(span: Span, code: str, message: str, hint: str) -> SpecError:
+    """A SpecError for a problem that stops loading before any YAML is parsed."""
+    diags = Diagnostics()
+    diags.error(span, code, message, hint)
+    return SpecError(diags)
+
+
+def load_text(text: str, display_path: str) -> object:
+    """Load one YAML document into located values; raise SpecError with every problem."""
+    if len(text.encode("utf-8", "surrogatepass")) > MAX_BYTES:
+        raise _fail(Span(display_path), "E006", _TOO_LARGE, _TOO_LARGE_HINT)
+    text = text.removeprefix("\ufeff")
+    diags = Diagnostics()
+    builder = _Builder(display_path, diags)
+    try:
+        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+            builder.feed(event)
+            if builder.stopped:
+                break
+    except yaml.YAMLError as exc:
+        span, message, hint = _syntax_error(exc, text, display_path)
+        diags.error(span, "E001", message, hint)
+    if diags.errors:
+        raise SpecError(diags)
+    return builder.result
+
+
+def load_file(path: pathlib.Path, display_path: str) -> object:
+    """Read and load a spec file; unreadable, oversized or non-UTF-8 files are errors."""
+    try:
+        with path.open("rb") as stream:
+            data = stream.read(MAX_BYTES + 1)
+    except OSError as exc:
+        message = f"cannot read file: {exc.strerror or exc}"
+        hint = "check the path and its permissions"
+        raise _fail(Span(display_path), "E010", message, hint) from None
+    if len(data) > MAX_BYTES:
+        raise _fail(Span(display_path), "E006", _TOO_LARGE, _TOO_LARGE_HINT)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        span = Span(display_path, *_line_col(data, exc.start))
+        message = f"file is not valid UTF-8: byte 0x{data[exc.start]:02x} ({exc.reason})"
+        raise _fail(span, "E008", message, "save the file as UTF-8") from None
+    return load_text(text, display_path)

@@ -1,0 +1,249 @@
+"""Schema: loaded spec data -> structural diagnostics (JSON Schema Draft 2020-12).
+
+The schemas in `rcsgen/schema/` are the single source of truth for the shape of a spec file;
+editors use the same files. This stage maps each jsonschema error to one located diagnostic:
+S001 missing required key, S002 unknown key, S003 wrong type, S004 invalid name or pattern,
+S005 invalid value (enum, minimum, ...), S006 malformed action or rule.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Iterable, Sequence
+from functools import cache
+from importlib.resources import files
+
+from jsonschema import Draft202012Validator, validators
+from jsonschema.exceptions import ValidationError, best_match
+from jsonschema.protocols import Validator
+
+from .diagnostics import Diagnostic, Span, did_you_mean
+
+KINDS = ("system", "controller")
+
+# YAML tells 3 from 3.0, so an `int` must be written as an integer, unlike JSON Schema's default.
+_TYPES = Draft202012Validator.TYPE_CHECKER.redefine(
+    "integer", lambda _checker, value: isinstance(value, int) and not isinstance(value, bool)
+)
+_Validator = validators.extend(Draft202012Validator, type_checker=_TYPES)
+
+_EXPECTED = {"object": "a mapping", "array": "a list", "string": "a string", "null": "nothing"}
+_EXPECTED |= {"number": "a number", "integer": "an integer", "boolean": "a boolean"}
+_KEYLIKE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)?")
+_NAME_RULES = {
+    "^[a-z][a-z0-9_]*$": "{}s are lower_case identifiers",
+    "^[A-Z][A-Z0-9_]*$": "{}s are UPPER_CASE identifiers",
+    r"^[a-z_][a-z0-9_]*(\.[a-z_][a-z0-9_]*)*$": "{}s are dotted lower_case Python names",
+    r"^(world\.)?[a-z][a-z0-9_]*$": "expected `world.<field>` or a local name",
+    r"^[a-z][a-z0-9_]*\.[A-Z][A-Z0-9_]*$": "expected `<subordinate>.<COMMAND>`",
+}
+
+
+@cache
+def schema_for(kind: str) -> dict:
+    """The JSON schema of a `system` or `controller` file (cached: do not mutate)."""
+    if kind not in KINDS:
+        raise ValueError(f"unknown spec kind {kind!r}; expected one of {KINDS}")
+    path = files("rcsgen") / "schema" / f"{kind}.schema.json"
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+@cache
+def _validator(kind: str) -> Validator:
+    return _Validator(schema_for(kind))
+
+
+def check_document(data: object, kind: str, display_path: str) -> list[Diagnostic]:
+    """Every structural problem of one loaded spec document, in source order."""
+    found: dict[Diagnostic, None] = {}
+    for error in _validator(kind).iter_errors(data):
+        found.update(dict.fromkeys(_diagnose(error, data, display_path)))
+    return sorted(found, key=Diagnostic.sort_key)
+
+
+def _locate(data: object, path: Iterable[str | int], file: str) -> Span:
+    """The span of the value at `path`, else of its nearest located ancestor."""
+    node, span = data, getattr(data, "span", None) or Span(file)
+    for step in path:
+        spans = getattr(node, "value_spans" if isinstance(node, dict) else "item_spans", None)
+        node = node[step]  # type: ignore[index]
+        if isinstance(spans, dict) and step in spans:
+            span = spans[step]
+        elif isinstance(spans, list) and isinstance(step, int) and step < len(spans):
+            span = spans[step]
+        else:
+            span = getattr(node, "span", span)
+    return span
+
+
+def _walk(data: object, path: Iterable[str | int]) -> object:
+    for step in path:
+        data = data[step]  # type: ignore[index]
+    return data
+
+
+def _key_span(mapping: object, key: object, fallback: Span) -> Span:
+    return getattr(mapping, "key_spans", {}).get(key, fallback)
+
+
+def _where(path: Sequence[str | int]) -> str:
+    """`key`: or item N of `key`: naming the value at `path`, for message prefixes."""
+    if not path:
+        return ""
+    owner = next((s for s in reversed(path) if isinstance(s, str)), None)
+    if isinstance(path[-1], int):
+        return f"item {path[-1] + 1} of `{owner}`: " if owner else f"item {path[-1] + 1}: "
+    return f"`{path[-1]}`: "
+
+
+def _got(value: object) -> str:
+    """Plain words for the YAML type of `value`, showing short scalars."""
+    if value is None:
+        return "nothing"
+    if isinstance(value, dict | list):
+        return "a mapping" if isinstance(value, dict) else "a list"
+    if isinstance(value, bool):
+        kind, shown = "a boolean", str(value).lower()
+    else:
+        kind = "a string" if isinstance(value, str) else "an integer"
+        kind, shown = ("a float" if isinstance(value, float) else kind), str(value)
+    return f"{kind} `{shown if len(shown) <= 30 else shown[:27] + '...'}`"
+
+
+def _words(names: Sequence[object], last: str = "or") -> str:
+    quoted = [f"`{n}`" for n in names]
+    return quoted[0] if len(quoted) == 1 else f"{', '.join(quoted[:-1])} {last} {quoted[-1]}"
+
+
+def _comma_hint(mapping: object, key: object) -> str:
+    """A hint for a key with no value that looks like text cut off at a comma."""
+    odd = isinstance(key, str) and not _KEYLIKE.fullmatch(key)
+    if odd and isinstance(mapping, dict) and mapping.get(key) is None:
+        return "a comma inside `{...}` separates entries: quote the value or use block style"
+    return ""
+
+
+def _diagnose(error: ValidationError, data: object, file: str) -> list[Diagnostic]:
+    """The diagnostics of one jsonschema error (several for a missing/unknown-keys error)."""
+    kw, schema, inst, path = error.validator, error.schema, error.instance, error.absolute_path
+    span, where = _locate(data, path, file), _where(list(path))
+    hint = schema.get("description", "") if isinstance(schema, dict) else ""
+    title = (schema.get("title") or "value") if isinstance(schema, dict) else "value"
+    if kw in ("oneOf", "anyOf"):
+        return _composite(error, data, file, span)
+    if "propertyNames" in error.absolute_schema_path:  # a bad key: point at the key itself
+        mapping = _walk(data, path)
+        span, where = _key_span(mapping, inst, span), ""
+        hint = _comma_hint(mapping, inst) or hint
+    if kw == "required":
+        props = schema.get("properties", {})
+        return [
+            Diagnostic(
+                span,
+                "S001",
+                f"missing required key `{key}`",
+                props.get(key, schema).get("description", ""),
+            )
+            for key in error.validator_value
+            if isinstance(inst, dict) and key not in inst
+        ]
+    if kw == "additionalProperties":
+        allowed, patterns = list(schema.get("properties", {})), schema.get("patternProperties", {})
+        extras = [
+            k for k in inst if k not in allowed and not any(re.search(p, k) for p in patterns)
+        ]
+        return [
+            Diagnostic(
+                _key_span(inst, key, span),
+                "S002",
+                f"unknown key `{key}`",
+                did_you_mean(key, allowed)
+                or _comma_hint(inst, key)
+                or f"allowed keys here: {_words(allowed, 'and')}",
+            )
+            for key in extras
+        ]
+    if kw == "type":
+        wanted = (
+            [error.validator_value]
+            if isinstance(error.validator_value, str)
+            else error.validator_value
+        )
+        expected = _words([_EXPECTED[t] for t in wanted]).replace("`", "")
+        if inst is None and path:
+            hint = _comma_hint(_walk(data, list(path)[:-1]), path[-1]) or hint
+        if "string" in wanted and isinstance(inst, bool | int | float):
+            text = str(inst).lower() if isinstance(inst, bool) else inst
+            hint = f'{hint} Quote the value to make it a string: "{text}"'.strip()
+        return [Diagnostic(span, "S003", f"{where}expected {expected}, got {_got(inst)}", hint)]
+    if kw == "pattern":
+        rule = _NAME_RULES.get(error.validator_value, "does not match `{}`")
+        rule = rule.format(title if "{}s" in rule else error.validator_value)
+        return [Diagnostic(span, "S004", f"`{inst}` is not a valid {title}: {rule}", hint)]
+    if kw in ("enum", "const"):
+        choices = error.validator_value if kw == "enum" else [error.validator_value]
+        near = did_you_mean(str(inst), [str(c) for c in choices])
+        message = f"`{inst}` is not a valid {title}: expected {_words(choices)}"
+        return [Diagnostic(span, "S005", message, near or hint)]
+    if kw in ("exclusiveMinimum", "minimum"):
+        bound = "greater than" if kw == "exclusiveMinimum" else "at least"
+        message = f"{where}must be {bound} {error.validator_value}, got {inst}"
+        return [Diagnostic(span, "S005", message, hint)]
+    if kw in ("minItems", "minProperties"):
+        what = "item" if kw == "minItems" else "entry"
+        message = f"{where}needs at least {error.validator_value} {what}, got {len(inst) or 'none'}"
+        return [Diagnostic(span, "S005", message.replace("at least 1 ", "at least one "), hint)]
+    if kw == "uniqueItems":
+        seen: list[object] = []
+        for index, item in enumerate(inst):
+            if item in seen:
+                spans = getattr(inst, "item_spans", [])
+                at = spans[index] if index < len(spans) else span
+                return [Diagnostic(at, "S005", f"{where}duplicate item `{item}`", "remove it")]
+            seen.append(item)
+    return [Diagnostic(span, "S005", f"{where}{error.message}", hint)]
+
+
+def _composite(error: ValidationError, data: object, file: str, span: Span) -> list[Diagnostic]:
+    """One clear message for a oneOf/anyOf failure instead of one per alternative."""
+    inst, schema = error.instance, error.schema
+    title = schema.get("title", "value")
+    article = "an" if title[:1] in "aeiou" else "a"
+    branches = schema.get(error.validator, [])
+    forms = [b["required"][0] for b in branches if len(b.get("required", [])) == 1]
+    if len(forms) != len(branches) or not forms:
+        best = best_match(error.context)
+        return _diagnose(best, data, file) if best else [Diagnostic(span, "S006", error.message)]
+    if error.validator == "anyOf":
+        return [
+            Diagnostic(
+                span,
+                "S006",
+                f"{article} {title} needs at least one of {_words(forms)}",
+                schema.get("description", ""),
+            )
+        ]
+    usage = f"{article} {title} is a mapping with exactly one of {_words(forms)}"
+    if not isinstance(inst, dict):
+        first, _, rest = str(inst).partition(" ")
+        hint = f"write `{first}: {rest}`" if first in forms and rest else usage
+        return [
+            Diagnostic(
+                span, "S006", f"malformed {title}: expected a mapping, got {_got(inst)}", hint
+            )
+        ]
+    present = [k for k in inst if k in forms]
+    if len(present) > 1:
+        at = _key_span(inst, present[1], span)
+        message = f"malformed {title}: it has both `{present[0]}` and `{present[1]}`"
+        return [Diagnostic(at, "S006", message, f"{usage}; use one list item per {title}")]
+    if not present:
+        unknown = [k for k in inst if k not in forms]
+        key = unknown[0] if unknown else ""
+        at = _key_span(inst, key, span)
+        message = f"malformed {title}: no {_words(forms)}" + (f" (found `{key}`)" if key else "")
+        return [Diagnostic(at, "S006", message, did_you_mean(key, forms) or usage)]
+    index = forms.index(present[0])
+    chosen = [e for e in error.context if e.relative_schema_path[0] == index]
+    return [d for e in chosen for d in _diagnose(e, data, file)]

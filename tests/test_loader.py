@@ -1,0 +1,372 @@
+"""Tests for the Load stage: typing, spans and every loader diagnostic."""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+import pathlib
+
+import jsonschema
+import pytest
+
+from rcsgen.diagnostics import Diagnostic, Span, SpecError
+from rcsgen.loader import (
+    MAX_BYTES,
+    MAX_DEPTH,
+    LocDict,
+    LocList,
+    LocStr,
+    load_file,
+    load_text,
+    span_of,
+)
+
+PATH = "specs/demo.yaml"
+
+
+def diagnostics(text: str, path: str = PATH) -> list[Diagnostic]:
+    """The sorted diagnostics of a text that must fail to load."""
+    with pytest.raises(SpecError) as info:
+        load_text(text, path)
+    return list(info.value.diagnostics)
+
+
+def located(diags: list[Diagnostic]) -> list[tuple[str, int, int]]:
+    return [(d.code, d.span.line, d.span.col) for d in diags]
+
+
+def file_diagnostics(path: pathlib.Path, display: str = PATH) -> list[Diagnostic]:
+    with pytest.raises(SpecError) as info:
+        load_file(path, display)
+    return list(info.value.diagnostics)
+
+
+# --- scalar typing ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("scalar", "expected"),
+    [
+        ("on", "on"),
+        ("off", "off"),
+        ("yes", "yes"),
+        ("no", "no"),
+        ("y", "y"),
+        ("n", "n"),
+        ("True", True),
+        ("true", True),
+        ("TRUE", True),
+        ("false", False),
+        ("FALSE", False),
+        ("tRUE", "tRUE"),
+        ("010", 10),
+        ("-12", -12),
+        ("+7", 7),
+        ("0x1F", 31),
+        ("0o17", 15),
+        ("1_000", "1_000"),
+        ("1:20", "1:20"),
+        ("2001-12-14", "2001-12-14"),
+        ("'true'", "true"),
+        ('"010"', "010"),
+        ("1.5e3", 1500.0),
+        ("1e3", 1000.0),
+        (".5", 0.5),
+        ("-2.", -2.0),
+        ("~", None),
+        ("null", None),
+        ("NULL", None),
+        ("", None),
+        ("'~'", "~"),
+        ("|\n  on\n", "on\n"),
+        ("stop now", "stop now"),
+    ],
+)
+def test_plain_scalars_follow_the_strict_yaml_1_2_core_schema(scalar: str, expected: object):
+    value = load_text(f"v: {scalar}\n", PATH)["v"]
+    assert value == expected
+    assert type(value) is (LocStr if isinstance(expected, str) else type(expected))
+
+
+def test_strings_are_locstr_and_numbers_bools_and_null_are_plain_values():
+    data = load_text("s: go\nq: 'x'\ni: 3\nf: 2.5\nb: false\nz: null\n", PATH)
+    assert isinstance(data["s"], LocStr) and data["s"].span == Span(PATH, 1, 4)
+    assert isinstance(data["q"], LocStr) and data["q"].span == Span(PATH, 2, 4)
+    assert [type(data[k]) for k in "ifbz"] == [int, float, bool, type(None)]
+    assert span_of(data, "z") == Span(PATH, 6, 4)
+
+
+def test_located_containers_behave_like_plain_containers():
+    data = load_text("name: pump\nstates: [on, off]\nlimits: {max: 3}\n", PATH)
+    plain = {"name": "pump", "states": ["on", "off"], "limits": {"max": 3}}
+    assert data == plain
+    assert isinstance(data, LocDict) and isinstance(data["states"], LocList)
+    assert hash(LocStr("a", Span(PATH))) == hash("a") and LocStr("a", Span(PATH)) == "a"
+    assert all(isinstance(key, LocStr) for key in data)
+    assert json.loads(json.dumps(data)) == plain
+    schema = {
+        "type": "object",
+        "properties": {"states": {"type": "array", "items": {"type": "string"}}},
+        "required": ["name"],
+    }
+    jsonschema.validate(data, schema)
+    clone = copy.deepcopy(data)
+    assert clone == plain and clone["states"][1].span == Span(PATH, 2, 14)
+
+
+# --- spans --------------------------------------------------------------------------------------
+
+NESTED = """\
+controller:
+  name: sump
+  states:
+    - idle
+    - {name: run, next: idle}
+  limits:
+      depth: 12
+"""
+
+
+def test_spans_of_nested_keys_values_and_items():
+    data = load_text(NESTED, PATH)
+    assert data.span == Span(PATH, 1, 1)
+    assert data.key_spans == {"controller": Span(PATH, 1, 1)}
+    ctrl = data["controller"]
+    assert span_of(data, "controller") == ctrl.span == Span(PATH, 2, 3)
+    assert ctrl.key_spans == {
+        "name": Span(PATH, 2, 3),
+        "states": Span(PATH, 3, 3),
+        "limits": Span(PATH, 6, 3),
+    }
+    assert ctrl.value_spans["name"] == ctrl["name"].span == Span(PATH, 2, 9)
+    states = ctrl["states"]
+    assert states.span == span_of(ctrl, "states") == Span(PATH, 4, 5)
+    assert states.item_spans == [Span(PATH, 4, 7), Span(PATH, 5, 7)]
+    assert span_of(states, 1) == states[1].span == Span(PATH, 5, 7)
+    assert states[1].key_spans["next"] == Span(PATH, 5, 19)
+    assert span_of(states[1], "next") == states[1]["next"].span == Span(PATH, 5, 25)
+    assert span_of(ctrl["limits"], "depth") == Span(PATH, 7, 14)
+    assert [key.span for key in ctrl] == list(ctrl.key_spans.values())
+
+
+def test_bom_and_crlf_do_not_shift_spans():
+    data = load_text("\ufeffa: 1\r\nb:\r\n  - x\r\n", PATH)
+    assert data == {"a": 1, "b": ["x"]}
+    assert data.key_spans["a"] == Span(PATH, 1, 1)
+    assert data["b"].item_spans == [Span(PATH, 3, 5)]
+
+
+def test_top_level_scalar_and_empty_documents():
+    top = load_text("hello\n", PATH)
+    assert top == "hello" and top.span == Span(PATH, 1, 1)
+    for empty in ("", "\n", "# only a comment\n", "---\n", "~\n", "--- \n...\n"):
+        assert load_text(empty, PATH) is None
+
+
+def test_span_of_rejects_plain_containers():
+    with pytest.raises(TypeError):
+        span_of({"a": 1}, "a")
+
+
+# --- duplicate and non-string keys --------------------------------------------------------------
+
+
+def test_duplicate_key_is_reported_at_the_second_occurrence():
+    [diag] = diagnostics("a: 1\nb: 2\nmode:\n  x: 1\n  'x': 2\n")
+    assert (diag.code, diag.span) == ("E002", Span(PATH, 5, 3))
+    assert diag.message == "duplicate key `x`"
+    assert "first defined at line 4" in diag.hint and "PyYAML" in diag.hint
+
+
+def test_every_duplicate_is_reported_in_one_pass():
+    diags = diagnostics("a: 1\nb: 2\na: 3\nb: 4\na: 5\n")
+    assert located(diags) == [("E002", 3, 1), ("E002", 4, 1), ("E002", 5, 1)]
+    assert [d.hint.split(";")[0] for d in diags] == [
+        "first defined at line 1",
+        "first defined at line 2",
+        "first defined at line 1",
+    ]
+
+
+def test_all_kinds_of_errors_are_collected_in_one_pass():
+    text = "a: 1\na: 2\n1: x\nv: !!str y\nw: *q\nn: .nan\nl: [1, {m: 1, m: 2}]\n"
+    assert located(diagnostics(text)) == [
+        ("E002", 2, 1),
+        ("E003", 3, 1),
+        ("E005", 4, 4),
+        ("E005", 5, 4),
+        ("E004", 6, 4),
+        ("E002", 7, 15),
+    ]
+
+
+def test_same_key_in_different_mappings_is_fine():
+    assert load_text("a: {x: 1}\nb: {x: 2}\n", PATH) == {"a": {"x": 1}, "b": {"x": 2}}
+
+
+@pytest.mark.parametrize(
+    ("key", "col"),
+    [("1", 1), ("true", 1), ("null", 1), ("~", 1), ("1.5", 1), ("0x10", 1), (".inf", 1)]
+    + [("[a]", 1), ("{a: 1}", 1), ("? [a, b]\n", 3)],
+)
+def test_non_string_keys_are_rejected(key: str, col: int):
+    [diag] = diagnostics(f"ok: 1\n{key}: x\n")
+    assert (diag.code, diag.span) == ("E003", Span(PATH, 2, col))
+    assert "key" in diag.hint
+
+
+def test_quoted_and_word_keys_are_strings():
+    data = load_text("'1': a\n\"true\": b\non: c\nno: d\n", PATH)
+    assert data == {"1": "a", "true": "b", "on": "c", "no": "d"}
+
+
+# --- tags, anchors, aliases, merge keys ---------------------------------------------------------
+
+
+def test_python_object_tag_is_rejected_and_never_executed(tmp_path, monkeypatch):
+    calls: list[str] = []
+    monkeypatch.setattr(os, "system", calls.append)
+    marker = tmp_path / "pwned"
+    text = f'run: !!python/object/apply:os.system ["touch {marker}"]\n'
+    [diag] = diagnostics(text)
+    assert (diag.code, diag.span, diag.message) == (
+        "E005",
+        Span(PATH, 1, 6),
+        "tags are not allowed",
+    )
+    assert "!!python/object/apply:os.system" in diag.hint
+    assert calls == [] and not marker.exists()
+
+
+@pytest.mark.parametrize("tagged", ["!foo x", "!!str x", "!!binary aGk=", "! x", "!!map {a: 1}"])
+def test_every_explicit_tag_is_rejected(tagged: str):
+    assert located(diagnostics(f"v: {tagged}\n")) == [("E005", 1, 4)]
+
+
+def test_anchors_aliases_and_merge_keys_are_rejected():
+    text = "base: &b {x: 1}\ncopy: *b\nmerged:\n  <<: {y: 2}\nquoted:\n  '<<': fine\n*b : 3\n"
+    diags = diagnostics(text)  # an alias used as a key is not also reported as E003
+    assert located(diags) == [("E005", 1, 7), ("E005", 2, 7), ("E005", 4, 3), ("E005", 7, 1)]
+    assert all(d.message == "anchors, aliases and merge keys are not allowed" for d in diags)
+
+
+# --- numbers ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("number", [".nan", ".NaN", ".inf", "-.inf", "+.Inf", ".INF", "1e999"])
+def test_nan_and_infinity_are_rejected(number: str):
+    [diag] = diagnostics(f"limits:\n  - 1\n  - {number}\n")
+    assert (diag.code, diag.span) == ("E004", Span(PATH, 3, 5))
+    assert diag.message == "NaN and infinity are not allowed"
+    assert f"`{number}`" in diag.hint
+
+
+def test_quoted_nan_is_a_string():
+    assert load_text("v: '.nan'\n", PATH) == {"v": ".nan"}
+
+
+# --- limits -------------------------------------------------------------------------------------
+
+
+def test_size_limit_counts_utf8_bytes():
+    assert load_text("#" * MAX_BYTES, PATH) is None
+    assert located(diagnostics("#" * (MAX_BYTES + 1))) == [("E006", 1, 1)]
+    assert located(diagnostics("# " + "é" * (MAX_BYTES // 2))) == [("E006", 1, 1)]
+
+
+def test_size_limit_in_load_file(tmp_path):
+    big = tmp_path / "big.yaml"
+    big.write_bytes(b"a: " + b"x" * MAX_BYTES)
+    assert located(file_diagnostics(big)) == [("E006", 1, 1)]
+
+
+def test_nesting_up_to_max_depth_is_fine_and_one_more_is_e007():
+    assert load_text("[" * MAX_DEPTH + "]" * MAX_DEPTH, PATH) is not None
+    too_deep = "[" * (MAX_DEPTH + 1) + "]" * (MAX_DEPTH + 1)
+    assert located(diagnostics(too_deep)) == [("E007", 1, MAX_DEPTH + 1)]
+
+
+def test_deep_block_nesting_is_reported_at_the_first_too_deep_mapping():
+    text = "".join(f"{'  ' * i}k{i}:\n" for i in range(MAX_DEPTH + 5))
+    assert located(diagnostics(text)) == [("E007", MAX_DEPTH + 1, 2 * MAX_DEPTH + 1)]
+
+
+@pytest.mark.parametrize("opener", ["[", "{", "- ", "a: [", "{a: "])
+def test_pathological_nesting_never_escapes_as_another_exception(opener: str):
+    diags = diagnostics(opener * 100_000)
+    assert diags and {d.code for d in diags} <= {"E001", "E007"}
+
+
+# --- documents, syntax, encoding, files ---------------------------------------------------------
+
+
+@pytest.mark.parametrize(("text", "line"), [("a: 1\n---\nb: 2\n", 2), ("--- a\n--- b\n", 2)])
+def test_more_than_one_document_is_rejected(text: str, line: int):
+    assert located(diagnostics(text)) == [("E009", line, 1)]
+
+
+def test_explicit_single_document_is_fine():
+    assert load_text("---\na: 1\n...\n", PATH) == {"a": 1}
+
+
+def test_syntax_error_has_the_problem_line_and_no_pyyaml_dump():
+    [diag] = diagnostics("a: 1\nb: [1, 2\nc: 3\n")
+    assert (diag.code, diag.span) == ("E001", Span(PATH, 3, 2))
+    assert diag.message == "expected ',' or ']', but got ':'"
+    assert "line 2" in diag.hint
+    assert "unicode string" not in diag.render() and "Traceback" not in diag.render()
+
+
+def test_syntax_error_keeps_the_errors_found_before_it():
+    assert located(diagnostics("a: 1\na: 2\nb: 'open\n")) == [("E002", 2, 1), ("E001", 4, 1)]
+
+
+def test_control_character_is_a_syntax_error_at_its_position():
+    [diag] = diagnostics("a: 1\nb: x\x00y\n")
+    assert (diag.code, diag.span) == ("E001", Span(PATH, 2, 5))
+    assert "#x0000" in diag.message
+
+
+def test_invalid_utf8_is_reported_at_the_first_bad_byte(tmp_path):
+    spec = tmp_path / "bad.yaml"
+    spec.write_bytes(b"a: 1\nb: \xc3\xa9t\xff\n")
+    [diag] = file_diagnostics(spec)
+    assert (diag.code, diag.span) == ("E008", Span(PATH, 2, 7))
+    assert "0xff" in diag.message
+
+
+def test_load_file_reads_utf8_with_bom_and_crlf(tmp_path):
+    spec = tmp_path / "ok.yaml"
+    spec.write_bytes(b"\xef\xbb\xbfname: caf\xc3\xa9\r\nstate: on\r\n")
+    data = load_file(spec, PATH)
+    assert data == {"name": "café", "state": "on"}
+    assert span_of(data, "state") == Span(PATH, 2, 8)
+
+
+def test_unreadable_file_is_e010(tmp_path):
+    [diag] = file_diagnostics(tmp_path)
+    assert (diag.code, diag.span) == ("E010", Span(PATH, 1, 1))
+    assert diag.message.startswith("cannot read file: ")
+    [missing] = file_diagnostics(tmp_path / "missing.yaml")
+    assert "No such file" in missing.message
+
+
+@pytest.mark.parametrize(
+    "content",
+    [
+        b"a: 1\na: 2\n1: x\nv: !!str y\nw: *q\nn: .nan\n",
+        b"a: [\n",
+        b"\xff",
+        b"a: 1\n---\nb: 2\n",
+        b"[" * 10_000,
+        b"#" * (MAX_BYTES + 1),
+    ],
+)
+def test_every_diagnostic_names_the_display_path(tmp_path, content: bytes):
+    spec = tmp_path / "real-name.yaml"
+    spec.write_bytes(content)
+    display = "specs/miner/shown.yaml"
+    diags = file_diagnostics(spec, display)
+    assert diags and all(d.span.file == display for d in diags)
+    assert all(d.severity == "error" for d in diags)

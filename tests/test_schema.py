@@ -1,0 +1,332 @@
+"""Schema stage: the JSON schemas accept the examples and each error maps to one located S0xx."""
+
+from __future__ import annotations
+
+import pathlib
+import textwrap
+
+import pytest
+import yaml
+from jsonschema import Draft202012Validator
+
+from rcsgen.diagnostics import Span
+from rcsgen.loader import load_text
+from rcsgen.schema import check_document, schema_for
+
+MINER = pathlib.Path(__file__).resolve().parent.parent / "specs" / "miner"
+EXAMPLES = sorted(MINER.glob("*.yaml"))
+
+
+def kind_of(path: pathlib.Path) -> str:
+    return "system" if path.name == "system.yaml" else "controller"
+
+
+def check(text: str, kind: str = "controller") -> list:
+    return check_document(load_text(textwrap.dedent(text), "x.yaml"), kind, "x.yaml")
+
+
+def only(diags: list, code: str):
+    """The single diagnostic of `code`, failing with the whole list otherwise."""
+    found = [d for d in diags if d.code == code]
+    assert len(found) == 1, diags
+    return found[0]
+
+
+CONTROLLER = """\
+controller: co
+title: T
+subordinates: [cr]
+commands:
+  GO:
+    states:
+      S0:
+        - do:
+            - {action}
+"""
+
+
+def action(text: str) -> list:
+    return check(CONTROLLER.format(action=text))
+
+
+# ---------------------------------------------------------------- the schemas themselves
+
+
+@pytest.mark.parametrize("kind", ["system", "controller"])
+def test_schema_is_valid_draft_2020_12(kind):
+    schema = schema_for(kind)
+    Draft202012Validator.check_schema(schema)
+    assert schema["$schema"] == "https://json-schema.org/draft/2020-12/schema"
+    assert schema["$id"] == f"https://rcsgen.dev/schema/v1/{kind}.schema.json"
+
+
+@pytest.mark.parametrize("kind", ["system", "controller"])
+def test_every_property_and_definition_has_a_description(kind):
+    missing = []
+
+    def walk(node, where):
+        if isinstance(node, dict):
+            for name, sub in node.get("properties", {}).items():
+                if "description" not in sub and not where.endswith("/if"):
+                    missing.append(f"{where}/{name}")
+            for key, sub in node.items():
+                walk(sub, f"{where}/{key}")
+        elif isinstance(node, list):
+            for index, sub in enumerate(node):
+                walk(sub, f"{where}/{index}")
+
+    schema = schema_for(kind)
+    walk(schema, "#")
+    missing += [f"#/$defs/{n}" for n, d in schema["$defs"].items() if "description" not in d]
+    assert missing == []
+
+
+def test_schema_for_is_cached_and_rejects_unknown_kinds():
+    assert schema_for("controller") is schema_for("controller")
+    with pytest.raises(ValueError):
+        schema_for("scenario")
+
+
+# ---------------------------------------------------------------- the examples
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.name)
+def test_example_specs_pass_their_schema(path):
+    text = path.read_text(encoding="utf-8")
+    assert check_document(yaml.safe_load(text), kind_of(path), path.name) == []
+    assert check_document(load_text(text, path.name), kind_of(path), path.name) == []
+
+
+def test_a_comma_in_a_flow_mapping_gets_a_hint():
+    diags = check("""\
+        controller: vg
+        title: T
+        commands:
+          GO:
+            params:
+              x: {type: float, doc: Goal, metres.}
+            states: {S0: [{next: S0}]}
+        """)
+    d = only(diags, "S002")
+    assert d.message == "unknown key `metres.`"
+    assert d.span == Span("x.yaml", 6, 35)
+    assert "comma inside `{...}`" in d.hint
+
+
+# ---------------------------------------------------------------- S001 missing key
+
+
+def test_s001_missing_top_level_key_points_at_the_mapping():
+    d = only(check("controller: co\ncommands: {}\n"), "S001")
+    assert d.message == "missing required key `title`"
+    assert d.span == Span("x.yaml", 1, 1)
+    assert "One-line" in d.hint
+
+
+def test_s001_missing_nested_key_and_entry_state():
+    diags = check("""\
+        controller: co
+        title: T
+        commands:
+          GO:
+            doc: no states
+          STOP:
+            states:
+              S1: [{next: S1}]
+        """)
+    messages = {(d.message, d.span.line, d.span.col) for d in diags if d.code == "S001"}
+    assert messages == {
+        ("missing required key `states`", 5, 5),
+        ("missing required key `S0`", 8, 7),
+    }
+
+
+def test_s001_system_file():
+    diags = check("system: miner\ntitle: T\nprocesses: {p: {modules: [co]}}\n", "system")
+    assert [d.message for d in diags] == ["missing required key `cycle_period`"]
+
+
+# ---------------------------------------------------------------- S002 unknown key
+
+
+def test_s002_unknown_key_points_at_the_key_with_a_suggestion():
+    d = only(check("controller: co\ntitle: T\ncommands: {}\nsubordinate: [cr]\n"), "S002")
+    assert d.message == "unknown key `subordinate`"
+    assert d.span == Span("x.yaml", 4, 1)
+    assert d.hint == "did you mean `subordinates`?"
+
+
+def test_s002_unknown_key_without_a_near_name_lists_the_allowed_keys():
+    d = only(
+        check(
+            "system: m\ntitle: T\ncycle_period: 1\nprocesses: {p: {modules: [a], x: 1}}\n", "system"
+        ),
+        "S002",
+    )
+    assert d.message == "unknown key `x`"
+    assert d.span == Span("x.yaml", 4, 31)
+    assert d.hint == "allowed keys here: `modules` and `doc`"
+
+
+def test_s002_inside_an_action():
+    d = only(action("{send: cr.GO, wiht: {x: 1}}"), "S002")
+    assert d.message == "unknown key `wiht`"
+    assert d.span == Span("x.yaml", 9, 29)
+    assert d.hint == "did you mean `with`?"
+
+
+# ---------------------------------------------------------------- S003 wrong type
+
+
+def test_s003_wrong_type_names_key_and_both_types():
+    d = only(
+        check(
+            "system: m\ntitle: T\ncycle_period: fast\nprocesses: {p: {modules: [a]}}\n", "system"
+        ),
+        "S003",
+    )
+    assert d.message == "`cycle_period`: expected a number, got a string `fast`"
+    assert d.span == Span("x.yaml", 3, 15)
+
+
+def test_s003_initial_value_must_match_the_declared_type():
+    diags = check("""\
+        controller: co
+        title: T
+        locals:
+          n: {type: int, initial: 1.5}
+          b: {type: bool, initial: 0}
+          f: {type: float, initial: 2}
+        commands: {}
+        """)
+    got = sorted((d.span.line, d.message) for d in diags)
+    assert got == [
+        (4, "`initial`: expected an integer, got a float `1.5`"),
+        (5, "`initial`: expected a boolean, got an integer `0`"),
+    ]
+
+
+def test_s003_list_item_and_empty_document():
+    d = only(check("controller: co\ntitle: T\nsubordinates: [cr, 7]\ncommands: {}\n"), "S003")
+    assert d.message == "item 2 of `subordinates`: expected a string, got an integer `7`"
+    assert d.span == Span("x.yaml", 3, 20)
+    assert 'Quote the value to make it a string: "7"' in d.hint
+    [empty] = check_document(None, "system", "empty.yaml")
+    assert (empty.code, empty.message, empty.span) == (
+        "S003",
+        "expected a mapping, got nothing",
+        Span("empty.yaml", 1, 1),
+    )
+
+
+# ---------------------------------------------------------------- S004 invalid name
+
+
+def test_s004_bad_state_name_points_at_the_key():
+    diags = check("""\
+        controller: co
+        title: T
+        commands:
+          GO:
+            states:
+              S0: [{next: Sx-1}]
+              Sx-1: [{next: S0}]
+        """)
+    got = sorted((d.span.line, d.span.col, d.message) for d in diags)
+    message = "`Sx-1` is not a valid state name: state names are UPPER_CASE identifiers"
+    assert got == [(6, 19, message), (7, 7, message)]
+    assert all(d.code == "S004" for d in diags)
+
+
+def test_s004_other_patterns():
+    assert only(action("{send: cr.go}"), "S004").message == (
+        "`cr.go` is not a valid command to send: expected `<subordinate>.<COMMAND>`"
+    )
+    d = only(action("{set: {World.x: 1}}"), "S004")
+    assert d.message.startswith("`World.x` is not a valid assignment target")
+    assert d.span == Span("x.yaml", 9, 22)
+    d = only(check("controller: Co\ntitle: T\ncommands: {}\n"), "S004")
+    assert d.message == (
+        "`Co` is not a valid controller mnemonic: controller mnemonics are lower_case identifiers"
+    )
+
+
+# ---------------------------------------------------------------- S005 invalid value
+
+
+def test_s005_enum_with_suggestion():
+    d = only(
+        check("controller: co\ntitle: T\nlocals: {n: {type: flaot, initial: 0}}\ncommands: {}\n"),
+        "S005",
+    )
+    assert d.message == "`flaot` is not a valid type: expected `bool`, `int` or `float`"
+    assert d.span == Span("x.yaml", 3, 20)
+    assert d.hint == "did you mean `float`?"
+    d = only(action("{report: FINISHED}"), "S005")
+    assert d.message == "`FINISHED` is not a valid report status: expected `DONE` or `ERROR`"
+
+
+def test_s005_minimum_empty_and_duplicates():
+    diags = check(
+        "system: m\ntitle: T\ncycle_period: 0\nprocesses: {}\nsimulators: [a, b, a]\n", "system"
+    )
+    got = sorted((d.code, d.span.line, d.span.col, d.message) for d in diags)
+    assert got == [
+        ("S005", 3, 15, "`cycle_period`: must be greater than 0, got 0"),
+        ("S005", 4, 12, "`processes`: needs at least one entry, got none"),
+        ("S005", 5, 20, "`simulators`: duplicate item `a`"),
+    ]
+
+
+# ---------------------------------------------------------------- S006 malformed rule or action
+
+
+def test_s006_rule_needs_when_do_or_next():
+    diags = check("""\
+        controller: co
+        title: T
+        commands:
+          GO:
+            states:
+              S0:
+                - doc: nothing here
+        """)
+    d = only(diags, "S006")
+    assert d.message == "a rule needs at least one of `when`, `do` or `next`"
+    assert d.span == Span("x.yaml", 7, 11)
+    assert len(diags) == 1
+
+
+def test_s006_action_with_two_forms_points_at_the_second():
+    d = only(action("{send: cr.GO, report: DONE}"), "S006")
+    assert d.message == "malformed action: it has both `send` and `report`"
+    assert d.span == Span("x.yaml", 9, 29)
+    assert len(action("{send: cr.GO, report: DONE}")) == 1
+
+
+def test_s006_unknown_action_and_missing_colon():
+    d = only(action("{sned: cr.GO}"), "S006")
+    assert d.message == "malformed action: no `send`, `set`, `report` or `call` (found `sned`)"
+    assert (d.span, d.hint) == (Span("x.yaml", 9, 16), "did you mean `send`?")
+    d = only(action("report DONE"), "S006")
+    assert d.message == "malformed action: expected a mapping, got a string `report DONE`"
+    assert (d.span, d.hint) == (Span("x.yaml", 9, 15), "write `report: DONE`")
+
+
+def test_a_valid_action_branch_reports_only_its_own_problem():
+    diags = action("{call: 3}")
+    assert [(d.code, d.message) for d in diags] == [
+        ("S003", "`call`: expected a string, got an integer `3`")
+    ]
+
+
+# ---------------------------------------------------------------- plain data (no spans)
+
+
+def test_plain_data_falls_back_to_the_file_start():
+    data = {"controller": "co", "title": "T", "commands": {"go": {"states": {"S0": [{}]}}}}
+    diags = check_document(data, "controller", "plain.yaml")
+    assert sorted((d.code, d.span) for d in diags) == [
+        ("S004", Span("plain.yaml", 1, 1)),
+        ("S006", Span("plain.yaml", 1, 1)),
+    ]
