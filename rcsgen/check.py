@@ -426,6 +426,7 @@ class _Lowering:
                     state_names.append(state)
             commands.append(self.lower_command(command, code))
         predicates = self.lower_predicates()
+        self.check_module_names()
         hooks_module = spec.hooks_module.value if spec.hooks_module else None
         world = {f.name: f for f in self.system.world.values()}
         reads = _unique(a.value for a in [*spec.world_reads, *spec.world_writes])
@@ -448,6 +449,45 @@ class _Lowering:
             world_writes=[_world_ir(world[a.value]) for a in spec.world_writes],
             states=state_names,
         )
+
+    def check_module_names(self) -> None:
+        """Every module-level name of the generated controller module must be unique."""
+        spec = self.spec
+        taken: dict[str, str] = {n: "a status or runtime name" for n in naming.RUNTIME_NAMES}
+        for sub in self.subs:
+            up = sub.upper()
+            for suffix in ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT"):
+                taken[up + suffix] = "a layout name"
+            for command in self._with_defaults(self.by_name[sub]):
+                taken[naming.sub_command_const(sub, command)] = f"the code of {sub}'s {command}"
+        up = spec.name.upper()
+        for suffix in ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT"):
+            taken[up + suffix] = "a layout name"
+        for field_name in self.system.world:
+            taken[f"WORLD_{field_name.upper()}"] = "a layout name"
+            taken[f"WORLD_{field_name.upper()}_AT"] = "a layout name"
+        named: list[tuple[str, str, Span]] = [
+            (c.name, "command", c.span) for c in self.commands.values() if not c.generated
+        ]
+        named += [(n, "constant", c.span) for n, c in spec.constants.items()]
+        for command in self.commands.values():
+            named += [(s.name, "state", s.span) for s in command.states.values()]
+        for name in ir.BUILTIN_COMMANDS:
+            taken.setdefault(name, "a command")
+        states_seen: set[str] = set()
+        for name, kind, span in named:
+            if kind == "state":
+                if name in states_seen:
+                    continue  # the same state name in several tables is one constant
+                states_seen.add(name)
+            if name in taken and not (kind == "command" and name in ir.BUILTIN_COMMANDS):
+                self.diags.error(
+                    span,
+                    "E228",
+                    f"{kind} `{name}` collides with {taken[name]} in the generated module",
+                    "rename it",
+                )
+            taken.setdefault(name, f"a {kind}")
 
     def lower_sub(self, sub: str) -> ir.IRSub:
         commands = self._with_defaults(self.by_name[sub])
@@ -656,7 +696,7 @@ class _Lowering:
             param = command.params.get(name)
             if param is None:
                 self.diags.error(
-                    value.span,
+                    send.arg_spans.get(name, value.span),
                     "E218",
                     f"`{send.sub}.{send.command}` has no parameter `{name}`",
                     known_names_hint("parameters", command.params, name),

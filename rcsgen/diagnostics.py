@@ -83,9 +83,31 @@ class SpecError(Exception):
         super().__init__("\n".join(d.render() for d in diagnostics))
 
 
+def _edit_distance(a: str, b: str) -> int:
+    """Levenshtein distance (insertions, deletions, substitutions)."""
+    previous = list(range(len(b) + 1))
+    for i, char_a in enumerate(a, start=1):
+        current = [i]
+        for j, char_b in enumerate(b, start=1):
+            current.append(
+                min(previous[j] + 1, current[j - 1] + 1, previous[j - 1] + (char_a != char_b))
+            )
+        previous = current
+    return previous[-1]
+
+
 def did_you_mean(name: str, candidates: Iterable[str]) -> str:
-    """A 'did you mean `X`?' hint for a misspelled name, or '' when nothing is close."""
-    close = difflib.get_close_matches(name, sorted(set(candidates)), n=1, cutoff=0.6)
+    """A 'did you mean `X`?' hint for a misspelled name, or '' when nothing is close.
+
+    Short names (RCS mnemonics are two letters) are too short for a similarity ratio,
+    so a single-edit typo (`cx` for `cc`) counts as close too.
+    """
+    names = sorted(set(candidates))
+    close = difflib.get_close_matches(name, names, n=1, cutoff=0.6)
+    if not close:
+        close = [
+            n for n in names if len(name) > 1 and _edit_distance(name.lower(), n.lower()) == 1
+        ][:1]
     return f"did you mean `{close[0]}`?" if close else ""
 
 

@@ -169,14 +169,14 @@ class _Resolver:
         name, scope = node.id, self.scope
         if name in ("True", "False"):  # only reachable on very old parsers
             return Const(BOOL, name == "True")
+        if name in STATUS_NAMES:  # reserved: a param or constant cannot shadow a status
+            return Ref(STATUS, "status", name)
         if name in scope.params:
             return Ref(scope.params[name], "param", name)
         if name in scope.locals:
             return Ref(scope.locals[name], "local", name)
         if name in scope.constants:
             return Ref(_type_of_value(scope.constants[name]), "const", name)
-        if name in STATUS_NAMES:
-            return Ref(STATUS, "status", name)
         if name.startswith("__"):
             raise self.fail(node, "E102", f"dunder name `{name}` is not allowed")
         if name in scope.predicates:

@@ -54,8 +54,8 @@ class Status:
 def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleType:
     """Import a generated package from `package_dir` under a unique name (no sys.path edits
     for the package itself); `hooks_dir` is put on sys.path for the user's hook modules."""
-    if hooks_dir is not None and str(hooks_dir) not in sys.path:
-        sys.path.insert(0, str(hooks_dir))
+    if hooks_dir is not None:
+        _use_hooks_from(hooks_dir)
     name = f"_rcsgen_{next(_unique)}_{package_dir.name}"
     spec = importlib.util.spec_from_file_location(
         name, package_dir / "__init__.py", submodule_search_locations=[str(package_dir)]
@@ -66,6 +66,21 @@ def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleTy
     sys.modules[name] = package
     spec.loader.exec_module(package)
     return package
+
+
+def _use_hooks_from(hooks_dir: Path) -> None:
+    """Put `hooks_dir` first on sys.path and forget same-named hook modules imported from
+    elsewhere (two copies of a spec directory must not share the first one's hooks)."""
+    if str(hooks_dir) in sys.path:
+        sys.path.remove(str(hooks_dir))
+    sys.path.insert(0, str(hooks_dir))
+    tops = {p.stem for p in hooks_dir.glob("*.py")} | {
+        p.parent.name for p in hooks_dir.glob("*/__init__.py")
+    }
+    for name in [m for m in sys.modules if m.split(".")[0] in tops]:
+        origin = getattr(sys.modules[name], "__file__", None) or ""
+        if not Path(origin).resolve().is_relative_to(hooks_dir.resolve()):
+            del sys.modules[name]
 
 
 class Harness:
@@ -168,7 +183,9 @@ class Harness:
         names = self.layout.COMMAND_NAMES[module]
         if command not in names[1:]:
             raise ValueError(f"{module} has no command {command!r}; it has {names[1:]}")
-        unknown = set(args) - {f.removeprefix("arg_") for f in record.fields if f.startswith("arg_")}
+        unknown = set(args) - {
+            f.removeprefix("arg_") for f in record.fields if f.startswith("arg_")
+        }
         if unknown:
             raise ValueError(f"{module} has no parameter(s) {sorted(unknown)}")
         number = record.read(self.buf)["command_num"] + 1

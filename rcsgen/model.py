@@ -99,8 +99,9 @@ class Hook:
 class Send:
     sub: str
     command: str
-    args: dict[str, At]
+    args: dict[str, At]  # parameter -> value expression (span of the value)
     span: Span
+    arg_spans: dict[str, Span] = field(default_factory=dict)  # span of each parameter name
 
 
 @dataclass
@@ -229,7 +230,8 @@ def _action(raw: Any, span: Span) -> Action:
     if "send" in raw:
         sub, _, command = str(raw["send"]).partition(".")
         args = raw.get("with") or {}
-        return Send(sub, command, {k: At(v, span_at(args, k, span)) for k, v in args.items()}, span)
+        values = {k: At(v, span_at(args, k, span)) for k, v in args.items()}
+        return Send(sub, command, values, span, {k: key_span(args, k, span) for k in args})
     if "set" in raw:
         values = raw["set"]
         assignments = [

@@ -1,0 +1,59 @@
+"""Shared fixtures for the CLI tests: a scratch copy of specs/miner, its build, a runner."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner, Result
+
+from rcsgen.cli import main
+
+REPO = Path(__file__).resolve().parent.parent
+MINER = REPO / "specs" / "miner"
+
+
+def rcsgen(*args: str | Path) -> Result:
+    """Run the `rcsgen` command line in-process (in the current directory)."""
+    result = CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+    assert "Traceback" not in result.output, result.output
+    return result
+
+
+def edit(path: Path, old: str, new: str) -> str:
+    """Replace the first `old` in a file by `new`; fails when `old` is not there."""
+    text = path.read_text(encoding="utf-8")
+    assert old in text, f"{path.name} no longer contains {old!r}"
+    text = text.replace(old, new, 1)
+    path.write_text(text, encoding="utf-8")
+    return text
+
+
+def snapshot(root: Path) -> dict[str, bytes]:
+    """Every file under `root` (symlinks followed), by relative path."""
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+
+
+@pytest.fixture(scope="session")
+def pristine(tmp_path_factory: pytest.TempPathFactory) -> dict[str, bytes]:
+    """The files `rcsgen build` makes from an unmodified copy of specs/miner."""
+    base = tmp_path_factory.mktemp("pristine")
+    shutil.copytree(MINER, base / "specs" / "miner")
+    result = rcsgen("build", base / "specs", "-o", base / "generated")
+    assert result.exit_code == 0, result.output
+    files = snapshot(base / "generated")
+    assert "miner/co.py" in files
+    return files
+
+
+@pytest.fixture
+def work(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, pristine: dict[str, bytes]) -> Path:
+    """A scratch project: specs/miner (a copy) and its generated/ tree; the cwd is its root."""
+    shutil.copytree(MINER, tmp_path / "specs" / "miner")
+    for rel, data in pristine.items():
+        path = tmp_path / "generated" / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
