@@ -118,11 +118,10 @@ def plan_layout(controllers: list[IRController], world: list[IRWorldField]) -> L
         modules[c.name] = ModuleBuffers(**made)
     world_buffers = []
     for f in world:
-        code = FORMAT_OF_TYPE[f.type]
-        at = _align(at, struct.calcsize(code))
-        world_buffers.append(_buffer(f"WORLD_{f.name.upper()}", at, [(f.name, code)], f.doc))
-        at += struct.calcsize(code)
-    return Layout(modules, world_buffers, _align(at))
+        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, FORMAT_OF_TYPE[f.type])], f.doc)
+        world_buffers.append(buffer)
+        at = _align(at + buffer.size)
+    return Layout(modules, world_buffers, at)
 
 
 # ---------------------------------------------------------------- system IR

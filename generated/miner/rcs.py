@@ -6,6 +6,7 @@ Emitted into the package so it runs where rcsgen is not installed; standard libr
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable
 from multiprocessing import resource_tracker, shared_memory
@@ -28,10 +29,10 @@ class Block:
         if name is None:
             self.buf = memoryview(bytearray(size))
             return
-        self.shm = shared_memory.SharedMemory(name=name, create=create, size=size if create else 0)
-        if not create:
-            # Only the creator owns the segment: an attaching process must not unlink it on exit.
-            resource_tracker.unregister(self.shm._name, "shared_memory")
+        if create:
+            self.shm = shared_memory.SharedMemory(name=name, create=True, size=size)
+        else:
+            self.shm = _attach(name)
         if self.shm.size < size:
             raise ValueError(f"shared block {name!r} has {self.shm.size} bytes, {size} needed")
         self.buf = self.shm.buf
@@ -43,6 +44,24 @@ class Block:
             self.shm.close()
             if self.owner:
                 self.shm.unlink()
+
+
+def _attach(name: str) -> shared_memory.SharedMemory:
+    """Attach to a segment without registering it with the resource tracker.
+
+    Only the creator owns the segment; an attaching process must neither unlink it when it
+    exits nor cancel the creator's registration (which unregistering afterwards would do
+    when both share a tracker). Python 3.13 has `track=False`; before it, registration is
+    suppressed for the duration of the call.
+    """
+    if sys.version_info >= (3, 13):
+        return shared_memory.SharedMemory(name=name, track=False)
+    register = resource_tracker.register
+    resource_tracker.register = lambda *args, **kwargs: None
+    try:
+        return shared_memory.SharedMemory(name=name)
+    finally:
+        resource_tracker.register = register
 
 
 class Pacer:
@@ -63,7 +82,7 @@ class Pacer:
         if self.period <= 0:
             return
         now = self.clock()
-        if now < self.deadline:
+        if now <= self.deadline:
             self.sleep(self.deadline - now)
             self.deadline += self.period
         else:
