@@ -36,9 +36,11 @@ def check_system(
 ) -> ir.IRSystem | None:
     """Check a system and its controllers; the IR, or None when there were errors."""
     by_name = _index_controllers(controllers, diags)
-    _check_processes(system, by_name, diags)
+    stand_ins = {k: a.value for k, a in system.stand_ins.items()}
+    _check_processes(system, by_name, set(stand_ins.values()), diags)
     supervisors = _check_hierarchy(by_name, diags)
     simulators = _check_simulators(system, by_name, diags)
+    _check_stand_ins(system, by_name, diags)
     world = {name: f.type for name, f in system.world.items()}
     for spec in by_name.values():
         _check_world_access(spec, world, diags)
@@ -51,23 +53,33 @@ def check_system(
         ir.IRWorldField(f.name, f.type, f.initial, f.doc) for f in system.world.values()
     ]
     order = [m for p in system.processes for m in (a.value for a in p.modules)]
-    lowered = [
-        _Lowering(
-            by_name[name], by_name, system, supervisors.get(name), name in simulators, diags
-        ).lower()
-        for name in order
-    ]
+    replaced_by = {stand_in: name for name, stand_in in stand_ins.items()}
+    lowered = []
+    for name in [*order, *(replaced_by[s] for s in sorted(replaced_by))]:
+        stand_in = name in replaced_by and name not in order
+        spec_name = name
+        buffers = replaced_by.get(name, name) if stand_in else name
+        lowering = _Lowering(
+            by_name[spec_name],
+            by_name,
+            system,
+            supervisors.get(buffers),
+            name in simulators or stand_in,
+            diags,
+        )
+        lowered.append(lowering.lower(buffers))
     if len(diags.errors) > before:
         return None
-    processes = [
-        ir.IRProcess(
-            p.name,
-            p.doc,
-            [a.value for a in p.modules],
-            [a.value for a in p.modules if a.value not in supervisors],
-        )
-        for p in system.processes
-    ]
+    processes = []
+    for p in system.processes:
+        modules = [a.value for a in p.modules]
+        replaces = {
+            name: (stand_in, [m for m in modules if m in _subtree(name, by_name)])
+            for name, stand_in in sorted(stand_ins.items())
+            if name in modules
+        }
+        roots = [m for m in modules if m not in supervisors]
+        processes.append(ir.IRProcess(p.name, p.doc, modules, roots, replaces))
     return ir.IRSystem(
         name=system.name,
         title=system.title,
@@ -112,12 +124,19 @@ def _index_controllers(
 
 
 def _check_processes(
-    system: SystemSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics
+    system: SystemSpec, by_name: dict[str, ControllerSpec], stand_ins: set[str], diags: Diagnostics
 ) -> dict[str, str]:
     placement: dict[str, str] = {}
     for process in system.processes:
         for module in process.modules:
-            if module.value not in by_name:
+            if module.value in stand_ins:
+                diags.error(
+                    module.span,
+                    "E233",
+                    f"stand-in `{module.value}` cannot be listed in a process",
+                    "a stand-in runs in its controller's place when a run simulates it",
+                )
+            elif module.value not in by_name:
                 diags.error(
                     module.span,
                     "E211",
@@ -135,7 +154,7 @@ def _check_processes(
             else:
                 placement[module.value] = process.name
     for name, spec in sorted(by_name.items()):
-        if name not in placement:
+        if name not in placement and name not in stand_ins:
             diags.error(
                 spec.name_span,
                 "E209",
@@ -193,6 +212,69 @@ def _check_simulators(
                 known_names_hint("controllers", by_name, sim.value),
             )
     return {s.value for s in system.simulators}
+
+
+def _subtree(name: str, by_name: dict[str, ControllerSpec]) -> set[str]:
+    """A controller and everything below it in the hierarchy."""
+    found, todo = set(), [name]
+    while todo:
+        at = todo.pop()
+        if at in found or at not in by_name:
+            continue
+        found.add(at)
+        todo.extend(s.value for s in by_name[at].subordinates)
+    return found
+
+
+def _command_signature(spec: ControllerSpec) -> dict[str, dict[str, str]]:
+    return {n: {p: t.type for p, t in c.params.items()} for n, c in spec.commands.items()}
+
+
+def _check_stand_ins(
+    system: SystemSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics
+) -> None:
+    """A stand-in replaces a controller and its subtree: same commands, no subordinates."""
+    for name, stand_in in system.stand_ins.items():
+        if name not in by_name:
+            diags.error(
+                stand_in.span,
+                "E234",
+                f"`{name}` has a stand-in but no controller spec",
+                known_names_hint("controllers", by_name, name),
+            )
+            continue
+        sim = by_name.get(stand_in.value)
+        if sim is None:
+            diags.error(
+                stand_in.span,
+                "E234",
+                f"stand-in `{stand_in.value}` has no controller spec",
+                known_names_hint("controllers", by_name, stand_in.value),
+            )
+            continue
+        if sim.subordinates:
+            diags.error(
+                sim.subordinates[0].span,
+                "E235",
+                f"stand-in `{sim.name}` has subordinates",
+                f"it replaces `{name}` and everything below it, so it commands nobody",
+            )
+        wanted, got = _command_signature(by_name[name]), _command_signature(sim)
+        for command in sorted(set(wanted) ^ set(got)):
+            diags.error(
+                sim.name_span,
+                "E236",
+                f"stand-in `{sim.name}` and `{name}` differ in command {command}",
+                "a stand-in accepts exactly its controller's commands and parameters",
+            )
+        for command in sorted(set(wanted) & set(got)):
+            if wanted[command] != got[command]:
+                diags.error(
+                    sim.commands[command].span,
+                    "E236",
+                    f"{command} of stand-in `{sim.name}` has other parameters than `{name}`'s",
+                    f"`{name}` takes {wanted[command] or 'no parameters'}",
+                )
 
 
 def _check_world_access(spec: ControllerSpec, world: dict[str, str], diags: Diagnostics) -> None:
@@ -269,10 +351,10 @@ def _hook_module_file(directory: Path, module: str) -> Path | None:
 
 def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostics) -> None:
     """Each declared hook exists in the user's module with a fitting signature (by reading it)."""
-    if not spec.hooks:
+    if not spec.hooks and spec.hooks_state is None:
         return
     if spec.hooks_module is None:
-        first = next(iter(spec.hooks.values()))
+        first = next(iter(spec.hooks.values()), spec.hooks_state)
         diags.error(
             first.span,
             "E215",
@@ -302,6 +384,16 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
         for node in tree.body
         if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
     }
+    stateful = spec.hooks_state is not None
+    if stateful:
+        factory = functions.get(spec.hooks_state.value)
+        if factory is None:
+            diags.error(
+                spec.hooks_state.span,
+                "E213",
+                f"hook-state factory `{spec.hooks_state.value}` is not defined in `{module}`",
+                f"add `def {spec.hooks_state.value}(settings): ...` to {path.name}",
+            )
     for hook in spec.hooks.values():
         node = functions.get(hook.name)
         if node is None:
@@ -315,14 +407,14 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
             continue
         positional = [*node.args.posonlyargs, *node.args.args]
         required = len(positional) - len(node.args.defaults)
-        fits = required <= len(hook.args) and (
-            node.args.vararg is not None or len(hook.args) <= len(positional)
-        )
+        given = len(hook.args) + stateful  # the hook state comes first
+        fits = required <= given and (node.args.vararg is not None or given <= len(positional))
         if not fits:
             diags.error(
                 hook.span,
                 "E214",
-                f"hook `{hook.name}` is called with {len(hook.args)} argument(s) but "
+                f"hook `{hook.name}` is called with {given} argument(s)"
+                f"{' (the hook state, then its args)' if stateful else ''} but "
                 f"`{module}.{hook.name}` takes {len(positional)}",
                 "make `args:` match the function's parameters",
             )
@@ -416,7 +508,7 @@ class _Lowering:
 
     # ------------------------------------------------------------ tables
 
-    def lower(self) -> ir.IRController:
+    def lower(self, buffers: str) -> ir.IRController:
         spec = self.spec
         state_names: list[str] = [ENTRY_STATE]
         commands = []
@@ -448,7 +540,26 @@ class _Lowering:
             world_reads=[_world_ir(world[n]) for n in reads],
             world_writes=[_world_ir(world[a.value]) for a in spec.world_writes],
             states=state_names,
+            every_cycle=self.lower_every_cycle(),
+            hooks_state=spec.hooks_state.value if spec.hooks_state else None,
+            buffers=buffers,
         )
+
+    def lower_every_cycle(self) -> list[ir.IRRule]:
+        scope = self.scope_for(None)
+        rules = []
+        for index, rule in enumerate(self.spec.every_cycle):
+            if rule.next is not None:
+                self.diags.error(
+                    rule.next.span,
+                    "E232",
+                    "an every_cycle rule cannot change state",
+                    "every_cycle rules run whatever the command; move `next` into a table",
+                )
+            if index and self.spec.every_cycle[index - 1].when is None:
+                self.diags.warning(rule.span, "W301", "this every_cycle rule never fires")
+            rules.append(self.lower_rule_body(rule, scope))
+        return _live(rules)
 
     def check_module_names(self) -> None:
         """Every module-level name of the generated controller module must be unique."""
@@ -588,6 +699,10 @@ class _Lowering:
                 f"this rule of {command.name} {state.name} never fires",
                 "the rule before it has no `when`, so it always fires first",
             )
+        return self.lower_rule_body(rule, scope)
+
+    def lower_rule_body(self, rule: Rule, scope: X.Scope) -> ir.IRRule:
+        """A rule's guard, actions and next state, checked and printed."""
         guard = operand = None
         if rule.when is not None and rule.when.value is not True:
             tree = X.compile_expr(rule.when.value, rule.when.span, scope, self.diags, X.BOOL)
@@ -631,7 +746,8 @@ class _Lowering:
                     known_names_hint("hooks", self.spec.hooks, action.hook),
                 )
                 return None
-            args = [self.compile(a, scope, None) for a in hook.args]
+            args = ["self.hook_state"] if self.spec.hooks_state else []
+            args += [self.compile(a, scope, None) for a in hook.args]
             targets = [
                 naming.target_attribute(t.value)
                 for t in hook.returns

@@ -96,7 +96,7 @@ def _fmt(fields: tuple[tuple[str, str], ...]) -> str:
 
 
 def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, object]:
-    up = c.name.upper()
+    up = c.buffers.upper()  # a stand-in uses the buffers of the controller it replaces
     command_targets = [
         "self.command_num",
         "self.command",
@@ -117,6 +117,8 @@ def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, ob
         for s in c.subordinates
     }
     slots = ["buf", "cycle_start", *command_targets, *status_targets, *mode_targets, *perf_targets]
+    if c.hooks_state:
+        slots.append("hook_state")
     for s in c.subordinates:
         slots += [*sub_targets[s.name], f"self.{s.name}_status_num", f"self.{s.name}_status"]
     slots += [f"world_{f.name}" for f in c.world_reads]
@@ -132,15 +134,13 @@ def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, ob
     rcs_imports = {"EXECUTING", *_STATUS_WORDS.findall(used_text)}
     if c.subordinates:
         rcs_imports.add("NOT_READY")
-    uses_hooks = any(
-        a.kind == "call"
-        for cmd in c.commands
-        for st in cmd.states
-        for r in st.rules
-        for a in r.actions
+    rules = [r for cmd in c.commands for st in cmd.states for r in st.rules]
+    uses_hooks = bool(c.hooks_state) or any(
+        a.kind == "call" for r in [*rules, *c.every_cycle] for a in r.actions
     )
     return {
         "c": c if uses_hooks else _without_hooks(c),
+        "own": up,
         "system": system,
         "class_name": naming.class_name(c.name),
         "imports": sorted(imports),
@@ -166,20 +166,19 @@ def _without_hooks(c: ir.IRController) -> ir.IRController:
 def _texts(c: ir.IRController) -> list[str]:
     """Every printed expression and status name a controller's methods contain."""
     out = [text for _, text, _ in c.predicates]
-    for command in c.commands:
-        for state in command.states:
-            for rule in state.rules:
-                out.append(rule.guard or "")
-                out.append("NOP" if rule.next_state == "NOP" else "")
-                for action in rule.actions:
-                    if isinstance(action, ir.IRReport):
-                        out.append(action.status)
-                    elif isinstance(action, ir.IRSet):
-                        out += [v for _, v in action.assignments]
-                    elif isinstance(action, ir.IRSend):
-                        out += [v for _, v in action.args]
-                    elif isinstance(action, ir.IRCall):
-                        out += action.args
+    rules = [r for command in c.commands for state in command.states for r in state.rules]
+    for rule in [*rules, *c.every_cycle]:
+        out.append(rule.guard or "")
+        out.append("NOP" if rule.next_state == "NOP" else "")
+        for action in rule.actions:
+            if isinstance(action, ir.IRReport):
+                out.append(action.status)
+            elif isinstance(action, ir.IRSet):
+                out += [v for _, v in action.assignments]
+            elif isinstance(action, ir.IRSend):
+                out += [v for _, v in action.args]
+            elif isinstance(action, ir.IRCall):
+                out += action.args
     return out
 
 
@@ -196,6 +195,7 @@ def render_system(system: ir.IRSystem, env: jinja2.Environment | None = None) ->
         f"{root}/layout.py": env.get_template("layout.py.j2").render(
             system=system,
             layout=layout,
+            owners=[c for c in system.controllers if c.buffers == c.name],
             status_format=_fmt(ir.STATUS_FIELDS),
             status_head_format=_fmt(ir.STATUS_FIELDS[:2]),
             mode_format=_fmt(ir.MODE_FIELDS),
@@ -210,12 +210,18 @@ def render_system(system: ir.IRSystem, env: jinja2.Environment | None = None) ->
         files[f"{root}/{naming.process_module(p.name)}.py"] = process_template.render(
             system=system,
             p=p,
-            imports=sorted([*((n, class_names[n]) for n in p.modules), ("rcs", "Block, Pacer")]),
-            slots=sorted(["block", "cycle", *p.modules]),
-            class_names=class_names,
+            imports=sorted(
+                [*((n, class_names[n]) for n in _process_classes(p)), ("rcs", "Block, Pacer")]
+            ),
+            classes=[(n, class_names[n]) for n in _process_classes(p)],
             process_class=naming.class_name(p.name).removesuffix("Controller") + "Process",
         )
     return files
+
+
+def _process_classes(p: ir.IRProcess) -> list[str]:
+    """The controllers a process may instantiate: its modules and their stand-ins."""
+    return [*p.modules, *(stand_in for stand_in, _ in p.stand_ins.values())]
 
 
 def ruff_binary() -> str:

@@ -92,6 +92,8 @@ class Harness:
         process: str | None = None,
         send_init: bool = False,
         scratch: Path | None = None,
+        settings: dict[str, str] | None = None,
+        simulate: tuple[str, ...] = (),
     ) -> None:
         self.package = package
         self.layout = importlib.import_module(f"{package.__name__}.layout")
@@ -102,11 +104,16 @@ class Harness:
         self.block = rcs.Block(self.layout.SIZE)
         self.buf = self.block.buf
         self.layout.initialise(self.buf)
-        self.process = next(
+        process_class = next(
             value
             for key, value in vars(main).items()
             if key.endswith("Process") and isinstance(value, type)
-        )(self.block)
+        )
+        self.process = process_class(self.block, settings, simulate)
+        # Whose state names a module's status uses: a stand-in's, while it runs in its place.
+        self._states_of = {name: main.STAND_INS[name][0] for name in self.process.simulated}
+        for name in self.process.simulated:
+            self.set_mode(name, simulate=True)
         if send_init:
             self.process.send_init()
         self._scratch = scratch
@@ -156,11 +163,12 @@ class Harness:
 
     @property
     def modules(self) -> tuple[str, ...]:
-        return tuple(self.main_module.MODULES)
+        """The modules this run executes, in order (a stand-in runs under its controller's name)."""
+        return tuple(self.process.modules)
 
     def controller(self, module: str) -> Any:
         """The generated controller object of `module` (its local buffers are attributes)."""
-        return getattr(self.process, module)
+        return self.process.modules[module]
 
     def step(self, module: str) -> None:
         """Run one module for one cycle; nothing else runs."""
@@ -211,7 +219,7 @@ class Harness:
         return Status(
             self.layout.STATUS_NAMES[values["status"]],
             values["status_num"],
-            self.layout.STATE_NAMES[module][values["state"]],
+            self.layout.STATE_NAMES[self._states_of.get(module, module)][values["state"]],
             values["error_num"],
         )
 

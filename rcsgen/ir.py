@@ -100,9 +100,14 @@ PERF_FIELDS = (
 
 
 def plan_layout(controllers: list[IRController], world: list[IRWorldField]) -> Layout:
-    """Place every module's buffers, then the world fields, each buffer on 8 bytes."""
+    """Place every module's buffers, then the world fields, each buffer on 8 bytes.
+
+    A stand-in (controller simulator) has no buffers of its own: it uses its controller's.
+    """
     at, modules = 0, {}
     for c in controllers:
+        if c.buffers != c.name:
+            continue
         prefix = c.name.upper()
         params = [(f"arg_{p.name}", FORMAT_OF_TYPE[p.type]) for p in c.params]
         parts = {
@@ -235,6 +240,9 @@ class IRController:
     world_reads: list[IRWorldField]  # copied in by pre_process
     world_writes: list[IRWorldField]  # copied out by post_process
     states: list[str] = field(default_factory=list)  # state names; code = index + 1
+    every_cycle: list[IRRule] = field(default_factory=list)  # tried first, every cycle
+    hooks_state: str | None = None  # hook-module factory of the state hooks receive first
+    buffers: str = ""  # whose command/status buffers it uses: itself, or the replaced one
 
 
 @dataclass
@@ -243,6 +251,8 @@ class IRProcess:
     doc: str
     modules: list[str]
     roots: list[str]  # modules of this process with no supervisor: INIT is sent to them
+    # controller -> (its stand-in, the modules of this process it replaces: itself + subtree)
+    stand_ins: dict[str, tuple[str, list[str]]] = field(default_factory=dict)
 
 
 @dataclass

@@ -67,6 +67,7 @@ class SystemSpec:
     world: dict[str, WorldField]
     processes: list[Process]
     simulators: list[At]
+    stand_ins: dict[str, At]  # controller -> the controller simulator that can replace it
     directory: Path
     display: str  # the file's path as shown in diagnostics and headers
     span: Span
@@ -176,6 +177,8 @@ class ControllerSpec:
     display: str
     span: Span
     name_span: Span = field(default_factory=lambda: Span("?"))
+    every_cycle: list[Rule] = field(default_factory=list)  # tried every cycle, any command
+    hooks_state: At | None = None  # factory of the state every hook call receives first
 
 
 # ---------------------------------------------------------------- builders
@@ -216,6 +219,10 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
         world=world,
         processes=processes,
         simulators=_items(data, "simulators", top),
+        stand_ins={
+            k: At(v, span_at(data["stand_ins"], k, top))
+            for k, v in (data.get("stand_ins") or {}).items()
+        },
         directory=directory,
         display=display,
         span=top,
@@ -312,4 +319,11 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
         display=display,
         span=top,
         name_span=span_at(data, "controller", top),
+        every_cycle=[
+            _rule(r, span_at(data["every_cycle"], i, top))
+            for i, r in enumerate(data.get("every_cycle") or [])
+        ],
+        hooks_state=At(data["hooks_state"], span_at(data, "hooks_state", top))
+        if "hooks_state" in data
+        else None,
     )

@@ -58,7 +58,7 @@ class CcController:
         "var_ticks",
     )
 
-    def __init__(self, buf: memoryview) -> None:
+    def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.

@@ -59,7 +59,7 @@ class CrController:
         "world_tail_in_position",
     )
 
-    def __init__(self, buf: memoryview) -> None:
+    def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 from . import layout
 from .cc import CcController
@@ -21,34 +21,47 @@ MODULES = (
 )
 # Modules of this process with no supervisor: INIT is sent to them at start-up.
 ROOTS = ("co",)
+# The controller-simulation switch: a run may replace a controller by its stand-in, which
+# then runs in the controller's place while the modules below it are skipped.
+STAND_INS: dict[str, tuple[str, tuple[str, ...]]] = {}
+CLASSES = {
+    "co": CoController,
+    "cr": CrController,
+    "vg": VgController,
+    "cc": CcController,
+}
 
 
 class Pc1Process:
     """Process pc1: its modules, called in the declared execution order."""
 
-    __slots__ = (
-        "block",
-        "cc",
-        "co",
-        "cr",
-        "cycle",
-        "vg",
-    )
+    __slots__ = ("block", "cycle", "modules", "simulated", "steps")
 
-    def __init__(self, block: Block) -> None:
+    def __init__(
+        self,
+        block: Block,
+        settings: dict[str, str] | None = None,
+        simulate: Iterable[str] = (),
+    ) -> None:
         self.block = block
         self.cycle = 0
-        self.co = CoController(block.buf)
-        self.cr = CrController(block.buf)
-        self.vg = VgController(block.buf)
-        self.cc = CcController(block.buf)
+        self.simulated = tuple(simulate)
+        unknown = sorted(set(self.simulated) - set(STAND_INS))
+        if unknown:
+            raise ValueError(f"no stand-in for {unknown}; these have one: {sorted(STAND_INS)}")
+        skipped = {name for sim in self.simulated for name in STAND_INS[sim][1]}
+        self.modules = {}
+        for name in MODULES:
+            if name in self.simulated:
+                self.modules[name] = CLASSES[STAND_INS[name][0]](block.buf, settings)
+            elif name not in skipped:
+                self.modules[name] = CLASSES[name](block.buf, settings)
+        self.steps = tuple(module.run_cycle for module in self.modules.values())
 
     def run_cycle(self) -> None:
         """Run every module once, in the declared order."""
-        self.co.run_cycle()
-        self.cr.run_cycle()
-        self.vg.run_cycle()
-        self.cc.run_cycle()
+        for step in self.steps:
+            step()
         self.cycle += 1
 
     def send_init(self) -> None:
@@ -62,12 +75,19 @@ class Pc1Process:
             )
 
 
-def start(shm_name: str | None = None, create: bool = True) -> Pc1Process:
+def start(
+    shm_name: str | None = None,
+    create: bool = True,
+    settings: dict[str, str] | None = None,
+    simulate: Iterable[str] = (),
+) -> Pc1Process:
     """Allocate (or attach to) the block, initialise the world if we made it, send INIT."""
     block = Block(layout.SIZE, shm_name, create)
     if create:
         layout.initialise(block.buf)
-    process = Pc1Process(block)
+    process = Pc1Process(block, settings, simulate)
+    for name in process.simulated:
+        layout.MODE_IN[name].write(block.buf, simulate=True)
     process.send_init()
     return process
 
@@ -78,12 +98,14 @@ def run(
     shm_name: str | None = None,
     create: bool = True,
     on_cycle: Callable[[Pc1Process], bool | None] | None = None,
+    settings: dict[str, str] | None = None,
+    simulate: Iterable[str] = (),
 ) -> Pc1Process:
     """Start the process and run it: `cycles` times (forever if None), paced or flat out.
 
     `on_cycle` is called after every cycle; returning True stops the loop.
     """
-    process = start(shm_name, create)
+    process = start(shm_name, create, settings, simulate)
     pacer = Pacer(CYCLE_PERIOD if pace else 0.0)
     while cycles is None or process.cycle < cycles:
         process.run_cycle()

@@ -60,7 +60,7 @@ class VgController:
         "world_pose_y",
     )
 
-    def __init__(self, buf: memoryview) -> None:
+    def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
