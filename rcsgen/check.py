@@ -35,6 +35,7 @@ def check_system(
     system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
 ) -> ir.IRSystem | None:
     """Check a system and its controllers; the IR, or None when there were errors."""
+    naming.check_spec(system, controllers, diags)  # identifier and text policy (E228, E6xx)
     by_name = _index_controllers(controllers, diags)
     stand_ins = {k: a.value for k, a in system.stand_ins.items()}
     _check_processes(system, by_name, set(stand_ins.values()), diags)
@@ -55,16 +56,14 @@ def check_system(
     order = [m for p in system.processes for m in (a.value for a in p.modules)]
     replaced_by = {stand_in: name for name, stand_in in stand_ins.items()}
     lowered = []
-    for name in [*order, *(replaced_by[s] for s in sorted(replaced_by))]:
-        stand_in = name in replaced_by and name not in order
-        spec_name = name
-        buffers = replaced_by.get(name, name) if stand_in else name
+    for name in [*order, *sorted(replaced_by)]:
+        buffers = replaced_by.get(name, name)  # a stand-in runs in its controller's buffers
         lowering = _Lowering(
-            by_name[spec_name],
+            by_name[name],
             by_name,
             system,
             supervisors.get(buffers),
-            name in simulators or stand_in,
+            name in simulators or name in replaced_by,
             diags,
         )
         lowered.append(lowering.lower(buffers))
@@ -853,3 +852,13 @@ def _world_ir(f: object) -> ir.IRWorldField:
 
 def _unique(items: Iterable[str]) -> list[str]:
     return list(dict.fromkeys(items))
+
+
+def command_scope(
+    system: SystemSpec, controllers: list[ControllerSpec], name: str, command: Command | None
+) -> X.Scope:
+    """The scope the checker types controller `name`'s expressions in: those of `command`'s
+    table, or its predicates when `command` is None (for analyses of a checked system)."""
+    by_name = {c.name: c for c in controllers}
+    lowering = _Lowering(by_name[name], by_name, system, None, False, Diagnostics())
+    return lowering.scope_for(command)

@@ -1,18 +1,21 @@
 """Command line: `rcsgen validate`, `rcsgen build`, `rcsgen run`.
 
 Exit codes follow Click: 0 clean, 1 the specs (or generated/) have a problem, 2 misuse.
-Diagnostics go to stderr as `file:line:col: error[CODE]: message`, sorted by position.
+Diagnostics go to stderr as `file:line:col: error[CODE]: message`, sorted by position; with
+`--format json`, `validate` and `build` print them instead as one JSON array on stdout (every
+other message then goes to stderr), for editors and CI.
 """
 
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 import click
 
 from . import emit
-from .diagnostics import Diagnostic, Diagnostics
+from .diagnostics import Diagnostic, Diagnostics, to_json
 from .frontend import compile_paths
 
 
@@ -24,9 +27,12 @@ def _source_line(diag: Diagnostic) -> str | None:
         return None
 
 
-def report(diags: Diagnostics, strict: bool = False) -> bool:
-    """Print every diagnostic; True when the run must fail."""
+def report(diags: Diagnostics, strict: bool = False, fmt: str = "text") -> bool:
+    """Print every diagnostic (text on stderr, or a JSON array on stdout); True to fail."""
     shown = list(diags)  # sorted, each distinct diagnostic once
+    if fmt == "json":
+        click.echo(to_json(shown))
+        return _fails(shown, strict)
     for diag in shown:
         click.echo(diag.render(_source_line(diag)), err=True)
     errors = sum(d.severity == "error" for d in shown)
@@ -36,8 +42,20 @@ def report(diags: Diagnostics, strict: bool = False) -> bool:
     return bool(errors or (strict and warnings))
 
 
+def _fails(diags: Iterable[Diagnostic], strict: bool) -> bool:
+    return any(d.severity == "error" or strict for d in diags)
+
+
 SPEC_PATHS = click.argument(
     "paths", nargs=-1, type=click.Path(path_type=Path, exists=False), metavar="[SPECS]..."
+)
+FORMAT = click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["text", "json"]),
+    default="text",
+    show_default=True,
+    help="Diagnostics as text on stderr, or as one JSON array on stdout (editors, CI).",
 )
 
 
@@ -50,13 +68,14 @@ def main() -> None:
 @main.command()
 @SPEC_PATHS
 @click.option("--strict", is_flag=True, help="Fail on warnings too.")
-def validate(paths: tuple[Path, ...], strict: bool) -> None:
+@FORMAT
+def validate(paths: tuple[Path, ...], strict: bool, fmt: str) -> None:
     """Check specs (schema and semantics) and report every problem found."""
     front = compile_paths(list(paths) or [Path("specs")])
-    if report(front.diagnostics, strict):
+    if report(front.diagnostics, strict, fmt):
         sys.exit(1)
     names = ", ".join(s.name for s in front.systems)
-    click.echo(f"ok: {names}")
+    click.echo(f"ok: {names}", err=fmt == "json")
 
 
 @main.command()
@@ -71,33 +90,38 @@ def validate(paths: tuple[Path, ...], strict: bool) -> None:
 )
 @click.option("--check", is_flag=True, help="Write nothing; print a diff and exit 1 if stale.")
 @click.option("--strict", is_flag=True, help="Fail on warnings too.")
-def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool) -> None:
+@FORMAT
+def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt: str) -> None:
     """Generate the Python packages of the systems found in SPECS (default: specs/)."""
     front = compile_paths(list(paths) or [Path("specs")])
-    if report(front.diagnostics, strict):
+    quiet = fmt == "json"  # stdout holds one JSON array; every other message goes to stderr
+    if (report if not quiet else _fails)(front.diagnostics, strict):
+        if quiet:
+            report(front.diagnostics, strict, fmt)
         click.echo("build failed: nothing was written", err=True)
         sys.exit(1)
     files = emit.render_all(front.systems)
-    diags = Diagnostics()
+    diags = Diagnostics(list(front.diagnostics.items) if quiet else [])
     plan = emit.plan_outputs(files, output, [s.name for s in front.systems], diags)
-    if report(diags):
+    if report(diags, fmt=fmt):
         click.echo("build failed: nothing was written", err=True)
         sys.exit(1)
     if check:
         if plan.stale:
-            click.echo(emit.unified_diff(plan, output), nl=False)
+            click.echo(emit.unified_diff(plan, output), nl=False, err=quiet)
             click.echo(
                 f"{output} is stale: {len(plan.write)} file(s) to write, "
                 f"{len(plan.delete)} to delete; run `rcsgen build` to update it",
                 err=True,
             )
             sys.exit(1)
-        click.echo(f"{output} is current ({plan.unchanged} files)")
+        click.echo(f"{output} is current ({plan.unchanged} files)", err=quiet)
         return
     emit.apply(plan)
     click.echo(
         f"built {', '.join(s.name for s in front.systems)} into {output}: "
-        f"{len(plan.write)} written, {len(plan.delete)} deleted, {plan.unchanged} unchanged"
+        f"{len(plan.write)} written, {len(plan.delete)} deleted, {plan.unchanged} unchanged",
+        err=quiet,
     )
 
 
@@ -139,12 +163,13 @@ def run(scenario: Path, generated: Path, trace_path: Path | None, record: Path |
     if not (package / "__init__.py").is_file():
         click.echo(f"error: no generated package at {package}; run `rcsgen build` first", err=True)
         sys.exit(1)
-    harness = Harness.load(package, spec.system_dir, spec.process, send_init=True)
+    harness = scenarios.open_harness(spec, package)
 
     def progress(h: Harness) -> None:
-        if h.cycles % 1000 == 0:
-            phases = " ".join(f"{m}:{h.sent(m).command}/{h.status(m).state}" for m in h.modules)
-            click.echo(f"  cycle {h.cycles:>7}  {phases}", err=True)
+        if h.cycles % 100 == 0:
+            busy = [m for m in h.modules if h.status(m).status == "EXECUTING"]
+            phases = "  ".join(f"{m} {h.sent(m).command}/{h.status(m).state}" for m in busy)
+            click.echo(f"  cycle {h.cycles:>6}  {phases}", err=True)
 
     result = scenarios.run(spec, harness, progress)
     trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
@@ -170,12 +195,18 @@ def _summarise(result, trace_path: Path, record: Path | None) -> None:
         final = result.final
         click.echo(f"result    {spec.stop_when_done} {final['status']} (state {final['state']})")
     click.echo(f"cycles    {result.cycles}")
-    if result.state_cycles:
-        click.echo(f"phases    cycles per {spec.stop_when_done} command and state:")
-        for phase, count in result.state_cycles.items():
-            click.echo(f"          {phase:<28} {count:>6}")
-    slowest = ", ".join(f"{m} {ns / 1000:.1f}" for m, ns in result.max_cycle_ns.items())
-    click.echo(f"max cycle time per module (us): {slowest}")
+    if result.phase_cycles:
+        click.echo(f"phases    cycles per {spec.phases_of} command:")
+        for phase, count in result.phase_cycles.items():
+            click.echo(f"            {phase:<26} {count:>6}")
+    for name, value in result.figures.items():
+        shown = f"{value:.3f}" if isinstance(value, float) else str(value)
+        click.echo(f"{name.replace('_', ' '):<9} {shown}")
+    slowest = sorted(result.max_cycle_ns.items(), key=lambda item: -item[1])
+    click.echo("max cycle time per module (us):")
+    for row in range(0, len(slowest), 6):
+        cells = "  ".join(f"{m} {ns / 1000:.1f}" for m, ns in slowest[row : row + 6])
+        click.echo(f"            {cells}")
     click.echo(f"trace     {trace_path} ({len(result.trace)} lines)")
     if record is not None:
         click.echo(f"recorded  {record}: review `git diff {record}` before committing")

@@ -8,6 +8,7 @@ A stage that cannot go on raises `SpecError` carrying the bag.
 from __future__ import annotations
 
 import difflib
+import json
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 
@@ -36,6 +37,18 @@ class Diagnostic:
 
     def sort_key(self) -> tuple:
         return (self.span, self.code, self.message)
+
+    def as_dict(self) -> dict[str, object]:
+        """The JSON form (`--format json`): file, line, col, severity, code, message, hint."""
+        return {
+            "file": self.span.file,
+            "line": self.span.line,
+            "col": self.span.col,
+            "severity": self.severity,
+            "code": self.code,
+            "message": self.message,
+            "hint": self.hint,
+        }
 
     def render(self, source_line: str | None = None) -> str:
         text = f"{self.span}: {self.severity}[{self.code}]: {self.message}"
@@ -71,6 +84,12 @@ class Diagnostics:
 
     def __len__(self) -> int:
         return len(self.items)
+
+
+def to_json(diagnostics: Iterable[Diagnostic]) -> str:
+    """A JSON array of diagnostics sorted by position, each distinct one once (ASCII only)."""
+    unique = sorted(set(diagnostics), key=Diagnostic.sort_key)
+    return json.dumps([d.as_dict() for d in unique], indent=2)
 
 
 class SpecError(Exception):

@@ -57,6 +57,13 @@ def docstring(text: str, indent: int = 0) -> str:
     return f'"""{lines[0]}\n{rest}\n{pad}"""'
 
 
+def pytuple(items: object) -> str:
+    """A tuple literal of validated names, with no trailing comma for the formatter to
+    explode one item per line: ("a", "b"), ("a",), ()."""
+    names = [f'"{item}"' for item in items]  # type: ignore[attr-defined]
+    return f"({names[0]},)" if len(names) == 1 else f"({', '.join(names)})"
+
+
 def pyliteral(value: object, kind: str) -> str:
     if kind == "bool":
         return "True" if value else "False"
@@ -83,7 +90,11 @@ def environment() -> jinja2.Environment:
         autoescape=False,
     )
     env.filters.update(
-        docstring=docstring, comment=comment, comment_text=_one_line, pyliteral=pyliteral
+        docstring=docstring,
+        comment=comment,
+        comment_text=_one_line,
+        pyliteral=pyliteral,
+        pytuple=pytuple,
     )
     return env
 
@@ -182,9 +193,42 @@ def _texts(c: ir.IRController) -> list[str]:
     return out
 
 
+def safe_source(path: str) -> str:
+    """A spec path as the generated header comment and `SOURCES` string show it.
+
+    The path holds the spec directory's name, which no check validates (a directory may be
+    named `x"\nimport os`), so every character but printable ASCII, quotes and backslashes
+    becomes `?`: the text is then safe on one comment line and inside a "..." literal.
+    """
+    return "".join(ch if " " <= ch <= "~" and ch not in "\"'\\" else "?" for ch in path)
+
+
+# A generated file's path: derived only from validated identifiers (naming.LOWER).
+_OUTPUT_PATH = re.compile(r"[a-z][a-z0-9_]*/(__init__|__main__|[a-z][a-z0-9_]*)\.py", re.ASCII)
+
+
+def _with_safe_sources(system: ir.IRSystem) -> ir.IRSystem:
+    from dataclasses import replace
+
+    controllers = [replace(c, source=safe_source(c.source)) for c in system.controllers]
+    return replace(
+        system,
+        source=safe_source(system.source),
+        sources=[safe_source(s) for s in system.sources],
+        controllers=controllers,
+    )
+
+
 def render_system(system: ir.IRSystem, env: jinja2.Environment | None = None) -> dict[str, str]:
     """Every file of one system's package, keyed by path relative to the output root."""
-    env = env or environment()
+    files = _render_system(_with_safe_sources(system), env or environment())
+    for rel in files:  # the checker validated every name a path is made of; make sure
+        if not _OUTPUT_PATH.fullmatch(rel):
+            raise ValueError(f"internal error: unsafe output path {rel!r}")
+    return files
+
+
+def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, str]:
     root = system.name
     layout = system.layout
     class_names = {c.name: naming.class_name(c.name) for c in system.controllers}

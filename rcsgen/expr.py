@@ -20,6 +20,7 @@ BOOL, INT, FLOAT, STATUS = "bool", "int", "float", "status"
 NUMERIC = (INT, FLOAT)
 STATUS_NAMES = ("NOT_READY", "EXECUTING", "DONE", "ERROR")
 BUILTINS = ("abs", "min", "max")
+MAX_DEPTH = 100  # nesting levels of an expression tree (each operator, call, name, ...)
 
 
 def command_type(sub: str) -> str:
@@ -366,11 +367,33 @@ def compile_expr(
         text = str(source)
         if "\n" in text.strip() or "\r" in text:
             text = " ".join(text.split())
+        odd = next((i for i, ch in enumerate(text.strip()) if not _ascii_text(ch)), None)
+        if odd is not None:  # Python would accept (and NFKC-fold) non-ASCII identifiers
+            char = text.strip()[odd]
+            diags.error(
+                offset_span(span, 1, odd),
+                "E101",
+                f"invalid expression: character {char!r} (U+{ord(char):04X}) is not allowed",
+                "expressions are ASCII: names, numbers, operators and parentheses",
+            )
+            return None
         try:
             tree = ast.parse(text.strip(), mode="eval")
         except SyntaxError as exc:
             where = offset_span(span, exc.lineno or 1, max((exc.offset or 1) - 1, 0))
-            diags.error(where, "E101", f"invalid expression: {exc.msg}", f"in `{text.strip()}`")
+            shown = text.strip() if len(text.strip()) <= 80 else text.strip()[:77] + "..."
+            diags.error(where, "E101", f"invalid expression: {exc.msg}", f"in `{shown}`")
+            return None
+        except (RecursionError, MemoryError, ValueError):  # the parser's own limits
+            diags.error(span, "E102", "expression is nested too deeply")
+            return None
+        if _depth(tree.body) > MAX_DEPTH:
+            diags.error(
+                span,
+                "E102",
+                "expression is nested too deeply",
+                f"at most {MAX_DEPTH} levels; split it into predicates",
+            )
             return None
         resolver = _Resolver(scope, span, diags, text)
         try:
@@ -384,6 +407,21 @@ def compile_expr(
         diags.error(span, "E107", f"expected {_words(expect)}, got {_words(result.type)}")
         return None
     return result
+
+
+def _ascii_text(char: str) -> bool:
+    """Printable ASCII or a tab: everything an expression is written with."""
+    return " " <= char <= "~" or char == "\t"
+
+
+def _depth(node: ast.AST) -> int:
+    """How deeply `node` nests (counted without recursion, so any depth is safe)."""
+    deepest, todo = 0, [(node, 1)]
+    while todo:
+        at, level = todo.pop()
+        deepest = max(deepest, level)
+        todo.extend((child, level + 1) for child in ast.iter_child_nodes(at))
+    return deepest
 
 
 def assignable(target: str, source: str) -> bool:

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import model
+from .analysis import analyse_system
 from .check import check_system
 from .diagnostics import Diagnostics, Span, SpecError
 from .ir import IRSystem
@@ -115,6 +116,9 @@ def load_system(directory: Path, diags: Diagnostics) -> IRSystem | None:
         return None
     result = check_system(system, controllers, diags)
     if result is not None:
+        analyse_system(system, controllers, diags)  # E5xx/W5xx, with counter-examples
+        if len(diags.errors) > start:
+            return None
         sources = {
             c.display: source_path(directory / Path(c.display).name, directory) for c in controllers
         }

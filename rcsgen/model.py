@@ -158,6 +158,7 @@ class Command:
     states: dict[str, State]
     span: Span
     generated: bool = False  # a default INIT/HALT table rcsgen supplies
+    first_match: list[At] = field(default_factory=list)  # states whose rules may overlap
 
 
 @dataclass
@@ -280,6 +281,7 @@ def _command(name: str, raw: Any, span: Span) -> Command:
             for s, rules in states.items()
         },
         span=span,
+        first_match=_items(raw, "first_match", span),
     )
 
 

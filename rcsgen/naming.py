@@ -1,13 +1,40 @@
 """Naming policy: how spec names become Python names, and which names are reserved.
 
 Kept in one place so a collision is found before emission, never by a failing import.
+
+Identifier policy (`check_spec`, run by `check.check_system` before anything else):
+
+- every name is a plain ASCII identifier that matches its pattern in full (E601). The JSON
+  Schema patterns (`^[a-z][a-z0-9_]*$`) are searched with Python's `re`, where `$` also
+  matches before a final line break, so a quoted `"S1\\n"` passes the schema; it fails here;
+- a name that becomes a Python name may not be a keyword or shadow a standard-library
+  module or an expression builtin, and no two spec names may become the same Python name
+  in one namespace of the generated package: the layout module, a controller class, the
+  package's files (E228, the code `check` uses for the collisions it finds itself);
+- one-line text (titles, rule docs) may not contain a line break (E602). Every other text
+  reaches generated code only through `emit`'s `docstring` and `comment` filters.
+
+Spec names never become bare local or module-level lower-case names of generated code:
+lower-case names are printed as attributes (`self.var_x`, `self.world_x`, `self.cc_status`,
+`self.<predicate>()`, `hooks.<hook>`), upper-case names as module constants. So `abs`,
+`min`, `max`, `self`, `hooks`, `buf`, `state` or `command` cannot be shadowed as variables;
+they are reserved here only where they would collide with an attribute or method.
 """
 
 from __future__ import annotations
 
 import keyword
+import re
+import sys
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
-from .expr import Ref
+from .diagnostics import Diagnostics, Span
+from .expr import BUILTINS, Ref
+
+if TYPE_CHECKING:
+    from .model import ControllerSpec, SystemSpec
 
 # Methods every generated controller class has (QQ1 shape).
 FIXED_METHODS = frozenset(
@@ -22,10 +49,83 @@ RUNTIME_NAMES = frozenset(
 # Prefixes of the attributes generated from spec names (world fields, params, locals).
 ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_")
 
+# Attributes and methods of every generated controller class that no spec name produces.
+CLASS_NAMES = frozenset(
+    {
+        *FIXED_METHODS,
+        "__init__",
+        "__slots__",
+        "every_cycle",  # method of the `every_cycle` rules
+        "buf",
+        "cycle_start",
+        "hook_state",
+        "command_num",
+        "command",
+        "status_num",
+        "status",
+        "error_num",
+        "state",
+        "dont_run",
+        "single_step",
+        "simulate",
+        "single_step_num",
+        "last_cycle_ns",
+        "min_cycle_ns",
+        "max_cycle_ns",
+        "cycles",
+        "perf_single_step_num",
+    }
+)
+# Module-level names of the generated layout module that no spec name produces.
+LAYOUT_NAMES = frozenset(
+    {
+        "annotations",
+        "Struct",
+        "NamedTuple",
+        "SIZE",
+        "STATUS",
+        "STATUS_HEAD",
+        "MODE",
+        "PERF",
+        "Record",
+        "MODULES",
+        "COMMAND_IN",
+        "STATUS_OUT",
+        "MODE_IN",
+        "PERFORMANCE",
+        "WORLD",
+        "WORLD_INITIAL",
+        "COMMAND_NAMES",
+        "STATE_NAMES",
+        "STATUS_NAMES",
+        "SIMULATORS",
+        "initialise",
+    }
+)
+# Suffixes of the layout names of each controller's buffers: CO_COMMAND, CO_COMMAND_AT, ...
+BUFFER_SUFFIXES = ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT")
+
+# The full-match patterns of the spec's names (the schema's, anchored with \Z in effect).
+LOWER = re.compile(r"[a-z][a-z0-9_]*", re.ASCII)
+UPPER = re.compile(r"[A-Z][A-Z0-9_]*", re.ASCII)
+DOTTED = re.compile(r"[a-z_][a-z0-9_]*(\.[a-z_][a-z0-9_]*)*", re.ASCII)
+TARGET = re.compile(r"(world\.)?[a-z][a-z0-9_]*", re.ASCII)
+_PATTERN_WORDS = {
+    LOWER: "a lower_case identifier (a-z, then a-z, 0-9, _)",
+    UPPER: "an UPPER_CASE identifier (A-Z, then A-Z, 0-9, _)",
+    DOTTED: "a dotted lower_case Python module name",
+    TARGET: "`world.<field>` or a lower_case local name",
+}
+# Every character `str.splitlines` breaks a line at (Python's tokenizer knows \n and \r;
+# editors and other tools also break at the rest).
+LINE_BREAKS = frozenset("\n\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029")
+
 
 def command_method(command: str) -> str:
-    """The state-table method of a command: SUMP_SHEAR_CUSP -> sump_shear_cusp."""
-    return command.lower()
+    """The state-table method of a command: SUMP_SHEAR_CUSP -> sump_shear_cusp, RAISE ->
+    raise_ (a keyword gets a trailing underscore, so every command name can be used)."""
+    method = command.lower()
+    return f"{method}_" if keyword.iskeyword(method) else method
 
 
 def sub_command_const(sub: str, command: str) -> str:
@@ -72,3 +172,327 @@ def target_attribute(target: str) -> str:
 
 def is_keyword(name: str) -> bool:
     return keyword.iskeyword(name) or keyword.issoftkeyword(name)
+
+
+def is_identifier(name: object, pattern: re.Pattern[str] = LOWER) -> bool:
+    """Whether `name` is a string matching `pattern` in full (ASCII only, no line break)."""
+    return isinstance(name, str) and pattern.fullmatch(name) is not None
+
+
+def shown(text: object, limit: int = 40) -> str:
+    """Text for a message: control characters escaped, cut to `limit` characters."""
+    flat = repr(str(text))[1:-1]
+    return flat if len(flat) <= limit else flat[: limit - 3] + "..."
+
+
+def line_break(text: object) -> str | None:
+    """The first line-break character in `text`, or None."""
+    return next((ch for ch in str(text) if ch in LINE_BREAKS), None)
+
+
+# ---------------------------------------------------------------- the policy check
+
+
+def span_of(value: object, fallback: Span) -> Span:
+    """Where the loader found a string (its keys and values remember it), else `fallback`."""
+    span = getattr(value, "span", None)
+    return span if isinstance(span, Span) else fallback
+
+
+@dataclass(frozen=True)
+class _Claim:
+    what: str  # words for the message: "local `x`", "a generated attribute"
+    span: Span | None  # None: a name the generated code always has
+    origin: object  # the same origin claiming a name twice is no collision
+
+
+class _Namespace:
+    """One namespace of the generated code: reports the second spec name of a Python name."""
+
+    def __init__(self, where: str, diags: Diagnostics, fold: bool = False) -> None:
+        self.where, self.diags, self.fold = where, diags, fold
+        self.names: dict[str, _Claim] = {}
+        self.reported: set[tuple[object, object]] = set()  # one error per pair of claims
+
+    def fixed(self, names: Iterable[str], what: str) -> None:
+        for name in names:
+            self.names.setdefault(name, _Claim(what, None, ("fixed", name)))
+
+    def claim(self, name: str, what: str, span: Span, origin: object = None) -> None:
+        key = name.casefold() if self.fold else name
+        first = self.names.get(key)
+        origin = origin if origin is not None else (what, span)
+        if first is None:
+            self.names[key] = _Claim(what, span, origin)
+        elif first.origin != origin and (first.origin, origin) not in self.reported:
+            self.reported.add((first.origin, origin))
+            where = f" ({first.span})" if first.span is not None else ""
+            self.diags.error(
+                span,
+                "E228",
+                f"{what} becomes `{name}` {self.where}, which is already {first.what}{where}",
+                "rename one of them",
+            )
+
+
+def check_spec(system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics) -> None:
+    """Report every name or text of the specs that generated code could not hold safely."""
+    bad = Diagnostics()
+    _check_identifiers(system, controllers, bad)
+    _check_texts(system, controllers, bad)
+    diags.extend(bad.items)
+    if bad.errors:
+        return  # collisions of malformed names would only repeat the problem
+    by_name = {c.name: c for c in controllers}
+    _check_package(system, controllers, diags)
+    _check_layout(system, controllers, diags)
+    for spec in controllers:
+        _check_controller(spec, by_name, diags)
+
+
+def _names(system: SystemSpec, controllers: list[ControllerSpec]) -> Iterator[tuple]:
+    """(name, pattern, kind, span) of every name written in the specs."""
+    top = system.span
+    yield system.name, LOWER, "system name", span_of(system.name, top)
+    for field_name, f in system.world.items():
+        yield field_name, LOWER, "world field name", span_of(field_name, f.span)
+    for process in system.processes:
+        yield process.name, LOWER, "process name", span_of(process.name, process.span)
+        for module in process.modules:
+            yield module.value, LOWER, "controller mnemonic", module.span
+    for sim in system.simulators:
+        yield sim.value, LOWER, "controller mnemonic", sim.span
+    for name, stand_in in (getattr(system, "stand_ins", None) or {}).items():
+        yield name, LOWER, "controller mnemonic", span_of(name, stand_in.span)
+        yield stand_in.value, LOWER, "controller mnemonic", stand_in.span
+    for spec in controllers:
+        yield from _controller_names(spec)
+
+
+def _controller_names(spec: ControllerSpec) -> Iterator[tuple]:
+    top = spec.span
+    yield spec.name, LOWER, "controller mnemonic", spec.name_span
+    for sub in spec.subordinates:
+        yield sub.value, LOWER, "controller mnemonic", sub.span
+    if spec.hooks_module is not None:
+        yield spec.hooks_module.value, DOTTED, "module name", spec.hooks_module.span
+    hooks_state = getattr(spec, "hooks_state", None)
+    if hooks_state is not None:
+        yield hooks_state.value, LOWER, "hook name", hooks_state.span
+    for item in [*spec.world_reads, *spec.world_writes]:
+        yield item.value, LOWER, "world field name", item.span
+    for name, item in spec.constants.items():
+        yield name, UPPER, "constant name", item.span
+    for name, local in spec.locals.items():
+        yield name, LOWER, "local name", local.span
+    for name, item in spec.predicates.items():
+        yield name, LOWER, "predicate name", span_of(name, item.span)
+    for name, hook in spec.hooks.items():
+        yield name, LOWER, "hook name", hook.span
+        for target in hook.returns:
+            yield target.value, TARGET, "assignment target", target.span
+    rules = list(getattr(spec, "every_cycle", None) or [])
+    for name, command in spec.commands.items():
+        yield name, UPPER, "command name", command.span
+        for param_name, param in command.params.items():
+            yield param_name, LOWER, "parameter name", param.span
+        for state_name, state in command.states.items():
+            yield state_name, UPPER, "state name", state.span
+            rules += state.rules
+        for item in getattr(command, "first_match", None) or []:
+            yield item.value, UPPER, "state name", item.span
+    for rule in rules:
+        if rule.next is not None:
+            yield rule.next.value, UPPER, "state name", rule.next.span
+        for action in rule.actions:
+            yield from _action_names(action, top)
+
+
+def _action_names(action: Any, top: Span) -> Iterator[tuple]:
+    kind = type(action).__name__
+    if kind == "Send":
+        yield action.sub, LOWER, "controller mnemonic", action.span
+        yield action.command, UPPER, "command name", action.span
+        for name in action.args:
+            yield name, LOWER, "parameter name", action.arg_spans.get(name, action.span)
+    elif kind == "SetWorld":
+        for assign in action.assignments:
+            yield assign.target.value, TARGET, "assignment target", assign.target.span
+    elif kind == "CallHook":
+        yield action.hook, LOWER, "hook name", action.span
+
+
+def _check_identifiers(
+    system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
+) -> None:
+    for name, pattern, kind, span in _names(system, controllers):
+        if not is_identifier(name, pattern):
+            diags.error(
+                span,
+                "E601",
+                f"`{shown(name)}` is not a valid {kind}: expected {_PATTERN_WORDS[pattern]}",
+                "names are plain ASCII identifiers; remove the line break or other character",
+            )
+
+
+def _check_texts(system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics) -> None:
+    """Titles and rule docs are one line: a line break in them is an error, located."""
+    texts = [("title", system.title, system.span)]
+    for spec in controllers:
+        texts.append(("title", spec.title, spec.span))
+        rules = list(getattr(spec, "every_cycle", None) or [])
+        for command in spec.commands.values():
+            for state in command.states.values():
+                rules += state.rules
+        texts += [("rule doc", rule.doc, rule.span) for rule in rules if rule.doc]
+    for kind, text, fallback in texts:
+        found = line_break(text)
+        if found is not None:
+            diags.error(
+                span_of(text, fallback),
+                "E602",
+                f"a {kind} is one line, but this one has a line break ({found!r})",
+                f"write the {kind} on one line; a `doc:` of a command or controller may have "
+                "several",
+            )
+
+
+def _check_package(
+    system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
+) -> None:
+    """The package, its files and the controller classes: one Python name each."""
+    name_span = span_of(system.name, system.span)
+    if keyword.iskeyword(system.name):
+        diags.error(name_span, "E228", f"system name `{system.name}` is a Python keyword")
+    elif system.name in sys.stdlib_module_names:
+        diags.error(
+            name_span,
+            "E228",
+            f"system name `{system.name}` shadows the standard-library module `{system.name}`",
+            "the system is a top-level package: give it a name of its own",
+        )
+    files = _Namespace("as a file of the generated package", diags, fold=True)
+    files.fixed((f"{m}.py" for m in FIXED_MODULES), "a generated module")
+    for spec in controllers:
+        if not is_keyword(spec.name) and spec.name not in FIXED_MODULES:  # else check's E228
+            what = f"controller `{spec.name}`"
+            files.claim(f"{spec.name}.py", what, spec.name_span, ("controller", spec.name))
+    for process in system.processes:
+        span = span_of(process.name, process.span)
+        files.claim(f"{process_module(process.name)}.py", f"process `{process.name}`", span)
+    classes = _Namespace("as a class name", diags)
+    for spec in controllers:
+        what = f"controller `{spec.name}`"
+        classes.claim(class_name(spec.name), what, spec.name_span, ("controller", spec.name))
+    for spec in controllers:
+        module = spec.hooks_module
+        if module is None:
+            continue
+        parts = str(module.value).split(".")
+        if any(keyword.iskeyword(p) for p in parts):
+            word = next(p for p in parts if keyword.iskeyword(p))
+            diags.error(
+                module.span,
+                "E228",
+                f"hooks module `{module.value}`: `{word}` is a Python keyword",
+                "the generated code imports this module: rename it",
+            )
+        elif parts[0] in sys.stdlib_module_names or parts[0] == system.name:
+            what = "a standard-library module" if parts[0] != system.name else "the system"
+            diags.error(
+                module.span,
+                "E228",
+                f"hooks package `{parts[0]}` has the name of {what}",
+                "name the hooks package after the system, e.g. `<system>_hooks`",
+            )
+
+
+def _check_layout(
+    system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
+) -> None:
+    """The module-level names of the generated layout module."""
+    names = _Namespace("in the generated layout module", diags)
+    names.fixed(LAYOUT_NAMES, "a name the layout module always has")
+    for spec in controllers:
+        up = spec.name.upper()
+        for suffix in BUFFER_SUFFIXES:
+            names.claim(up + suffix, f"controller `{spec.name}`", spec.name_span, spec.name)
+    for field_name, f in system.world.items():
+        span = span_of(field_name, f.span)
+        up = f"WORLD_{field_name.upper()}"
+        for name in (up, up + "_AT"):
+            names.claim(name, f"world field `{field_name}`", span, ("world", field_name))
+
+
+def _check_controller(
+    spec: ControllerSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics
+) -> None:
+    """The attributes and methods of one generated controller class."""
+    names = _Namespace(f"in the generated class of `{spec.name}`", diags)
+    names.fixed(CLASS_NAMES, "an attribute or method every controller has")
+    subs = {s.value for s in spec.subordinates}
+    for sub in spec.subordinates:
+        origin = ("sub", sub.value)
+        what = f"subordinate `{sub.value}`"
+        for suffix in ("_command_num", "_command", "_status_num", "_status"):
+            names.claim(sub.value + suffix, what, sub.span, origin)
+        other = by_name.get(sub.value)
+        for command in other.commands.values() if other else ():
+            for param in command.params:
+                names.claim(f"{sub.value}_arg_{param}", what, sub.span, origin)
+    for item in [*spec.world_reads, *spec.world_writes]:
+        field_name = item.value
+        names.claim(f"world_{field_name}", f"world field `{field_name}`", item.span, field_name)
+    for name, local in spec.locals.items():
+        names.claim(f"var_{name}", f"local `{name}`", local.span, ("local", name))
+    for command in spec.commands.values():
+        for name, param in command.params.items():
+            names.claim(f"arg_{name}", f"parameter `{name}`", param.span, ("param", name))
+    _check_constants(spec, diags)
+    methods = {command_method(c) for c in spec.commands} | {"init", "halt"}
+    for name, item in spec.predicates.items():
+        span = span_of(name, item.span)
+        if name in BUILTINS:
+            diags.error(
+                span,
+                "E228",
+                f"predicate `{name}` would hide the expression builtin `{name}()`",
+                "rename the predicate",
+            )
+        elif not _reported_by_check(name, methods, subs):
+            names.claim(name, f"predicate `{name}`", span)
+    for name, command in spec.commands.items():
+        method = command_method(name)
+        if method not in FIXED_METHODS:  # those are check's E228
+            names.claim(method, f"command `{name}`", command.span)
+
+
+def _check_constants(spec: ControllerSpec, diags: Diagnostics) -> None:
+    """A constant may not have the name of a command or state: all are module constants.
+
+    Reported at the constant (the lowering's own check would point at the first table with
+    that state, which may be a default INIT/HALT table the user never wrote)."""
+    states = {"S0", "S1"} if spec.subordinates else {"S0"}  # the default INIT/HALT tables
+    for command in spec.commands.values():
+        states.update(command.states)
+    for name, item in spec.constants.items():
+        kind = "command" if name in spec.commands or name in ("INIT", "HALT") else None
+        kind = kind or ("state" if name in states else None)
+        if kind is not None:
+            diags.error(
+                span_of(name, item.span),
+                "E228",
+                f"constant `{name}` has the name of a {kind}: both become module constants",
+                "rename the constant",
+            )
+
+
+def _reported_by_check(name: str, methods: set[str], subs: set[str]) -> bool:
+    """Whether `check._check_names` already reports predicate `name` (no second error)."""
+    return (
+        is_keyword(name)
+        or name in FIXED_METHODS
+        or name in methods
+        or name.startswith(ATTRIBUTE_PREFIXES)
+        or any(name.startswith(f"{sub}_") for sub in subs)
+    )

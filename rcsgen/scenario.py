@@ -23,7 +23,7 @@ from .loader import load_file
 from .model import span_at, span_of
 
 SCENARIO_KEYS = {"scenario", "title", "doc", "process", "max_cycles", "stop_when_done", "trace"}
-SCENARIO_KEYS |= {"events"}
+SCENARIO_KEYS |= {"events", "settings", "simulate", "report"}
 EVENT_KEYS = {"cycle", "doc", "command", "with", "set", "mode"}
 
 
@@ -50,6 +50,10 @@ class Scenario:
     stop_when_done: str | None
     trace_world: list[str]
     events: list[Event]
+    settings: dict[str, str] = field(default_factory=dict)  # for the hook-state factories
+    simulate: tuple[str, ...] = ()  # controllers replaced by their stand-ins
+    phases_of: str | None = None  # the module whose commands are the run's phases
+    figures: list[str] = field(default_factory=list)  # world fields the summary reports
 
 
 def find_system_dir(path: Path) -> Path | None:
@@ -95,6 +99,7 @@ def load_scenario(path: Path) -> Scenario:
             )
         )
     trace = data.get("trace") or {}
+    report = data.get("report") or {}
     if diags.errors:
         raise SpecError(diags)
     return Scenario(
@@ -107,6 +112,22 @@ def load_scenario(path: Path) -> Scenario:
         stop_when_done=data.get("stop_when_done"),
         trace_world=[str(w) for w in trace.get("world") or []],
         events=sorted(events, key=lambda e: e.cycle),
+        settings={str(k): str(v) for k, v in (data.get("settings") or {}).items()},
+        simulate=tuple(str(m) for m in data.get("simulate") or ()),
+        phases_of=report.get("phases"),
+        figures=[str(f) for f in report.get("figures") or []],
+    )
+
+
+def open_harness(scenario: Scenario, package_dir: Path) -> Harness:
+    """The harness a scenario runs on: its process, settings and stand-ins, INIT sent."""
+    return Harness.load(
+        package_dir,
+        scenario.system_dir,
+        scenario.process,
+        send_init=True,
+        settings=scenario.settings,
+        simulate=scenario.simulate,
     )
 
 
@@ -125,8 +146,9 @@ class RunResult:
     trace: list[str]
     cycles: int
     final: dict[str, Any]  # the stop module's last status
-    state_cycles: Counter[str]
+    phase_cycles: Counter[str]  # cycles per command of the `phases` module
     max_cycle_ns: dict[str, int]
+    figures: dict[str, Any]  # the summary's world fields at the end
 
 
 def trace_line(harness: Harness, world: list[str]) -> str:
@@ -162,22 +184,25 @@ def run(
     """Run a scenario to its stop condition (or `max_cycles`) and collect its trace."""
     pending = list(scenario.events)
     stop = scenario.stop_when_done
-    trace, states = [], Counter()
+    trace: list[str] = []
+    phases: Counter[str] = Counter()
     while harness.cycles < scenario.max_cycles:
         while pending and pending[0].cycle <= harness.cycles + 1:
             _apply(harness, pending.pop(0), scenario)
         harness.cycle()
         trace.append(trace_line(harness, scenario.trace_world))
-        if stop is not None:
-            status = harness.status(stop)
-            states[f"{harness.sent(stop).command} {status.state}"] += 1
+        if scenario.phases_of is not None:
+            module = scenario.phases_of
+            busy = harness.status(module).status == "EXECUTING"
+            phases[harness.sent(module).command if busy else "idle"] += 1
         if on_cycle is not None:
             on_cycle(harness)
         if stop is not None and not pending and _finished(harness, stop):
             break
     final = harness.status(stop).__dict__ if stop else {}
     max_ns = {m: harness.performance(m)["max_cycle_ns"] for m in harness.modules}
-    return RunResult(scenario, trace, harness.cycles, final, states, max_ns)
+    figures = harness.world.snapshot(scenario.figures)
+    return RunResult(scenario, trace, harness.cycles, final, phases, max_ns, figures)
 
 
 def _finished(harness: Harness, module: str) -> bool:

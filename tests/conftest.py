@@ -1,4 +1,4 @@
-"""Shared fixtures for the CLI tests: a scratch copy of specs/miner, its build, a runner."""
+"""Shared fixtures for the CLI tests: a scratch copy of the foundation miner, its build."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ from click.testing import CliRunner, Result
 from rcsgen.cli import main
 
 REPO = Path(__file__).resolve().parent.parent
-MINER = REPO / "specs" / "miner"
+# The foundation issue's small miner, frozen as a fixture: the CLI tests mutate it.
+MINER = REPO / "tests" / "fixtures" / "foundation" / "miner"
 
 
 def rcsgen(*args: str | Path) -> Result:

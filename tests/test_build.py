@@ -313,7 +313,7 @@ def test_check_on_a_current_tree(work: Path) -> None:
     stamps = mtimes(work / "generated")
     result = rcsgen("build", "--check")
     assert result.exit_code == 0, result.output
-    assert result.output == "generated is current (9 files)\n"
+    assert result.stdout == "generated is current (9 files)\n"
     assert mtimes(work / "generated") == stamps
 
 

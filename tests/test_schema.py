@@ -6,7 +6,6 @@ import pathlib
 import textwrap
 
 import pytest
-import yaml
 from jsonschema import Draft202012Validator
 
 from rcsgen.diagnostics import Span
@@ -93,7 +92,7 @@ def test_schema_for_is_cached_and_rejects_unknown_kinds():
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.name)
 def test_example_specs_pass_their_schema(path):
     text = path.read_text(encoding="utf-8")
-    assert check_document(yaml.safe_load(text), kind_of(path), path.name) == []
+    # Only rcsgen's loader: PyYAML's YAML 1.1 would turn the cutter drum's ON/OFF into booleans.
     assert check_document(load_text(text, path.name), kind_of(path), path.name) == []
 
 

@@ -24,7 +24,7 @@ from rcsgen.harness import Harness
 from rcsgen.scenario import trace_line
 
 ROOT = Path(__file__).resolve().parent.parent
-MINER = ROOT / "specs" / "miner"
+MINER = ROOT / "tests" / "fixtures" / "foundation" / "miner"  # the small foundation miner
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "semantics"
 CHAIN = FIXTURES / "chain"
 PACKED = FIXTURES / "packed"

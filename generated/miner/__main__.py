@@ -9,19 +9,39 @@ import importlib
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m miner", description=__doc__)
-    parser.add_argument(
-        "process",
-        choices=[
-            "pc1",
-        ],
-    )
+    parser.add_argument("process", choices=("pc1",))
     parser.add_argument("--cycles", type=int, default=None, help="stop after this many cycles")
     parser.add_argument("--fast", action="store_true", help="do not pace to the cycle period")
     parser.add_argument("--shm", default=None, help="name of the shared-memory block")
     parser.add_argument("--attach", action="store_true", help="attach to an existing block")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a run setting for the hook-state factories (repeatable)",
+    )
+    parser.add_argument(
+        "--simulate",
+        action="append",
+        default=[],
+        metavar="MODULE",
+        help="run this controller's stand-in in its place (repeatable)",
+    )
     args = parser.parse_args(argv)
+    settings = dict(item.partition("=")[::2] for item in args.set)
     process = importlib.import_module(f"{__package__}.main_{args.process}")
-    ran = process.run(args.cycles, not args.fast, args.shm, not args.attach)
+    unknown = sorted(set(args.simulate) - set(process.STAND_INS))
+    if unknown:
+        parser.error(f"no stand-in for {unknown}; these have one: {sorted(process.STAND_INS)}")
+    ran = process.run(
+        args.cycles,
+        not args.fast,
+        args.shm,
+        not args.attach,
+        settings=settings,
+        simulate=args.simulate,
+    )
     print(f"{args.process}: {ran.cycle} cycles")
     ran.block.close()
     return 0

@@ -24,6 +24,8 @@ from .layout import (
     VG_COMMAND,
     VG_COMMAND_AT,
     VG_STATUS_AT,
+    WORLD_CUTTER_CURRENT,
+    WORLD_CUTTER_CURRENT_AT,
     WORLD_GOAL_X,
     WORLD_GOAL_X_AT,
     WORLD_GOAL_Y,
@@ -39,12 +41,14 @@ from .layout import (
     WORLD_POSE_Y,
     WORLD_POSE_Y_AT,
 )
-from .rcs import DONE, EXECUTING, NOP, NOT_READY
+from .rcs import DONE, ERROR, EXECUTING, NOP, NOT_READY
 
 # Commands co accepts (the code written to its command buffer).
 INIT = 1
 HALT = 2
-SUMP_SHEAR_CUSP = 3
+INITIAL_APPROACH_FACE = 3
+APPROACH_FACE = 4
+SUMP_SHEAR_CUSP = 5
 
 # Commands co sends to cr.
 CR_INIT = 1
@@ -61,20 +65,26 @@ VG_TRAM_TO_XY = 3
 # Commands co sends to cc.
 CC_INIT = 1
 CC_HALT = 2
-CC_SUMP = 3
-CC_SHEAR = 4
-CC_SHEAR_CORRECT = 5
-CC_CUSP = 6
+CC_RAISE_DRUM = 3
+CC_SUMP = 4
+CC_SHEAR = 5
+CC_SHEAR_CORRECT = 6
+CC_CUSP = 7
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 S2 = 3
 S3 = 4
-S4 = 5
+FAILED = 5
+S4 = 6
 
 # Constants.
 LOOSE_COAL_LIMIT = 4.0
+CUTTER_THRESHOLD = 60.0
+HEADING_LIMIT = 0.05
+MAX_APPROACH = 5.0
+APPROACH_DISTANCE = 0.5
 
 
 class CoController:
@@ -106,12 +116,14 @@ class CoController:
         "state",
         "status",
         "status_num",
+        "var_distance",
         "vg_arg_x",
         "vg_arg_y",
         "vg_command",
         "vg_command_num",
         "vg_status",
         "vg_status_num",
+        "world_cutter_current",
         "world_goal_x",
         "world_goal_y",
         "world_heading",
@@ -157,8 +169,12 @@ class CoController:
         (self.world_pose_x,) = WORLD_POSE_X.unpack_from(buf, WORLD_POSE_X_AT)
         (self.world_pose_y,) = WORLD_POSE_Y.unpack_from(buf, WORLD_POSE_Y_AT)
         (self.world_heading,) = WORLD_HEADING.unpack_from(buf, WORLD_HEADING_AT)
+        (self.world_cutter_current,) = WORLD_CUTTER_CURRENT.unpack_from(
+            buf, WORLD_CUTTER_CURRENT_AT
+        )
         (self.world_goal_x,) = WORLD_GOAL_X.unpack_from(buf, WORLD_GOAL_X_AT)
         (self.world_goal_y,) = WORLD_GOAL_Y.unpack_from(buf, WORLD_GOAL_Y_AT)
+        self.var_distance: float = 0.0
 
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
@@ -194,6 +210,9 @@ class CoController:
         (self.world_pose_x,) = WORLD_POSE_X.unpack_from(buf, WORLD_POSE_X_AT)
         (self.world_pose_y,) = WORLD_POSE_Y.unpack_from(buf, WORLD_POSE_Y_AT)
         (self.world_heading,) = WORLD_HEADING.unpack_from(buf, WORLD_HEADING_AT)
+        (self.world_cutter_current,) = WORLD_CUTTER_CURRENT.unpack_from(
+            buf, WORLD_CUTTER_CURRENT_AT
+        )
         (self.world_goal_x,) = WORLD_GOAL_X.unpack_from(buf, WORLD_GOAL_X_AT)
         (self.world_goal_y,) = WORLD_GOAL_Y.unpack_from(buf, WORLD_GOAL_Y_AT)
 
@@ -217,6 +236,10 @@ class CoController:
             self.init()
         elif command == HALT:
             self.halt()
+        elif command == INITIAL_APPROACH_FACE:
+            self.initial_approach_face()
+        elif command == APPROACH_FACE:
+            self.approach_face()
         elif command == SUMP_SHEAR_CUSP:
             self.sump_shear_cusp()
 
@@ -297,6 +320,88 @@ class CoController:
             # every subordinate is done
             self.state = NOP
             self.status = DONE
+
+    def initial_approach_face(self) -> None:
+        """INITIAL_APPROACH_FACE: Drum raised to the roof and on, tram forward until the cutter current says the drum is at the face; watch the machine's orientation on the way."""
+        state = self.state
+        if state == S0:
+            self.state = S1
+            self.cc_command = CC_RAISE_DRUM
+            self.cc_command_num += 1
+
+        elif state == S1:
+            if self.cc_status == DONE:
+                self.state = S2
+                self.var_distance = MAX_APPROACH
+                self.world_goal_x, self.world_goal_y = hooks.co_goal_ahead(
+                    self.world_pose_x, self.world_pose_y, self.world_heading, self.var_distance
+                )
+                self.vg_arg_x = self.world_goal_x
+                self.vg_arg_y = self.world_goal_y
+                self.vg_command = VG_TRAM_TO_XY
+                self.vg_command_num += 1
+
+            elif self.cc_status == ERROR:
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == S2:
+            if self.world_cutter_current > CUTTER_THRESHOLD:
+                # the cutter current rose, the drum is at the face
+                self.state = S3
+                self.vg_command = VG_HALT
+                self.vg_command_num += 1
+
+            elif self.world_cutter_current <= CUTTER_THRESHOLD and (
+                abs(self.world_heading) > HEADING_LIMIT
+                or self.vg_status == ERROR
+                or self.vg_status == DONE
+            ):
+                # skewed, or no face within reach
+                self.state = FAILED
+                self.vg_command = VG_HALT
+                self.vg_command_num += 1
+
+        elif state == S3 and self.vg_status == DONE:
+            self.state = NOP
+            self.status = DONE
+
+        elif state == FAILED and (self.vg_status == DONE or self.vg_status == ERROR):
+            self.state = NOP
+            self.status = ERROR
+
+    def approach_face(self) -> None:
+        """APPROACH_FACE: Raise the boom and tram a known distance back to the face: after a cusp its position is known, so no current monitoring is needed."""
+        state = self.state
+        if state == S0:
+            self.state = S1
+            self.cc_command = CC_RAISE_DRUM
+            self.cc_command_num += 1
+
+        elif state == S1:
+            if self.cc_status == DONE:
+                self.state = S2
+                self.var_distance = APPROACH_DISTANCE
+                self.world_goal_x, self.world_goal_y = hooks.co_goal_ahead(
+                    self.world_pose_x, self.world_pose_y, self.world_heading, self.var_distance
+                )
+                self.vg_arg_x = self.world_goal_x
+                self.vg_arg_y = self.world_goal_y
+                self.vg_command = VG_TRAM_TO_XY
+                self.vg_command_num += 1
+
+            elif self.cc_status == ERROR:
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == S2:
+            if self.vg_status == DONE:
+                self.state = NOP
+                self.status = DONE
+
+            elif self.vg_status == ERROR:
+                self.state = NOP
+                self.status = ERROR
 
     def sump_shear_cusp(self) -> None:
         """SUMP_SHEAR_CUSP: Sump into the face, shear down to the floor, then clear the cusp."""

@@ -4,34 +4,134 @@
 Every module owns a command buffer (written by its supervisor), a status buffer and a
 performance buffer (written by the module) and a mode buffer (written by an operator).
 World-model fields follow. All values are little-endian `struct` fields with no implicit
-padding; each buffer starts on an 8-byte boundary. The block is 432 bytes.
+padding; each buffer starts on an 8-byte boundary. The block is 2320 bytes.
 
 | offset | size | buffer | fields |
 |-------:|-----:|--------|--------|
-| 0 | 12 | CO_COMMAND | command_num, command |
-| 16 | 20 | CO_STATUS | status_num, status, error_num, state |
-| 40 | 8 | CO_MODE | dont_run, single_step, simulate, single_step_num |
-| 48 | 36 | CO_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 88 | 12 | CR_COMMAND | command_num, command |
-| 104 | 20 | CR_STATUS | status_num, status, error_num, state |
-| 128 | 8 | CR_MODE | dont_run, single_step, simulate, single_step_num |
-| 136 | 36 | CR_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 176 | 28 | VG_COMMAND | command_num, command, arg_x, arg_y |
-| 208 | 20 | VG_STATUS | status_num, status, error_num, state |
-| 232 | 8 | VG_MODE | dont_run, single_step, simulate, single_step_num |
-| 240 | 36 | VG_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 280 | 12 | CC_COMMAND | command_num, command |
-| 296 | 20 | CC_STATUS | status_num, status, error_num, state |
-| 320 | 8 | CC_MODE | dont_run, single_step, simulate, single_step_num |
-| 328 | 36 | CC_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 368 | 1 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 376 | 8 | WORLD_LOOSE_COAL | loose_coal |
-| 384 | 1 | WORLD_TAIL_IN_POSITION | tail_in_position |
-| 392 | 8 | WORLD_POSE_X | pose_x |
-| 400 | 8 | WORLD_POSE_Y | pose_y |
-| 408 | 8 | WORLD_HEADING | heading |
-| 416 | 8 | WORLD_GOAL_X | goal_x |
-| 424 | 8 | WORLD_GOAL_Y | goal_y |
+| 0 | 20 | SB_COMMAND | command_num, command, arg_depth |
+| 24 | 20 | SB_STATUS | status_num, status, error_num, state |
+| 48 | 8 | SB_MODE | dont_run, single_step, simulate, single_step_num |
+| 56 | 36 | SB_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 96 | 12 | CO_COMMAND | command_num, command |
+| 112 | 20 | CO_STATUS | status_num, status, error_num, state |
+| 136 | 8 | CO_MODE | dont_run, single_step, simulate, single_step_num |
+| 144 | 36 | CO_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 184 | 12 | CC_COMMAND | command_num, command |
+| 200 | 20 | CC_STATUS | status_num, status, error_num, state |
+| 224 | 8 | CC_MODE | dont_run, single_step, simulate, single_step_num |
+| 232 | 36 | CC_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 272 | 12 | BM_COMMAND | command_num, command |
+| 288 | 20 | BM_STATUS | status_num, status, error_num, state |
+| 312 | 8 | BM_MODE | dont_run, single_step, simulate, single_step_num |
+| 320 | 36 | BM_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 360 | 12 | CD_COMMAND | command_num, command |
+| 376 | 20 | CD_STATUS | status_num, status, error_num, state |
+| 400 | 8 | CD_MODE | dont_run, single_step, simulate, single_step_num |
+| 408 | 36 | CD_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 448 | 12 | SJ_COMMAND | command_num, command |
+| 464 | 20 | SJ_STATUS | status_num, status, error_num, state |
+| 488 | 8 | SJ_MODE | dont_run, single_step, simulate, single_step_num |
+| 496 | 36 | SJ_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 536 | 12 | CR_COMMAND | command_num, command |
+| 552 | 20 | CR_STATUS | status_num, status, error_num, state |
+| 576 | 8 | CR_MODE | dont_run, single_step, simulate, single_step_num |
+| 584 | 36 | CR_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 624 | 12 | GH_COMMAND | command_num, command |
+| 640 | 20 | GH_STATUS | status_num, status, error_num, state |
+| 664 | 8 | GH_MODE | dont_run, single_step, simulate, single_step_num |
+| 672 | 36 | GH_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 712 | 12 | CV_COMMAND | command_num, command |
+| 728 | 20 | CV_STATUS | status_num, status, error_num, state |
+| 752 | 8 | CV_MODE | dont_run, single_step, simulate, single_step_num |
+| 760 | 36 | CV_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 800 | 12 | CT_COMMAND | command_num, command |
+| 816 | 20 | CT_STATUS | status_num, status, error_num, state |
+| 840 | 8 | CT_MODE | dont_run, single_step, simulate, single_step_num |
+| 848 | 36 | CT_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 888 | 28 | VG_COMMAND | command_num, command, arg_x, arg_y |
+| 920 | 20 | VG_STATUS | status_num, status, error_num, state |
+| 944 | 8 | VG_MODE | dont_run, single_step, simulate, single_step_num |
+| 952 | 36 | VG_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 992 | 28 | PP_COMMAND | command_num, command, arg_x, arg_y |
+| 1024 | 20 | PP_STATUS | status_num, status, error_num, state |
+| 1048 | 8 | PP_MODE | dont_run, single_step, simulate, single_step_num |
+| 1056 | 36 | PP_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1096 | 12 | TC_COMMAND | command_num, command |
+| 1112 | 20 | TC_STATUS | status_num, status, error_num, state |
+| 1136 | 8 | TC_MODE | dont_run, single_step, simulate, single_step_num |
+| 1144 | 36 | TC_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1184 | 12 | OI_COMMAND | command_num, command |
+| 1200 | 20 | OI_STATUS | status_num, status, error_num, state |
+| 1224 | 8 | OI_MODE | dont_run, single_step, simulate, single_step_num |
+| 1232 | 36 | OI_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1272 | 12 | BAS_COMMAND | command_num, command |
+| 1288 | 20 | BAS_STATUS | status_num, status, error_num, state |
+| 1312 | 8 | BAS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1320 | 36 | BAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1360 | 12 | JAS_COMMAND | command_num, command |
+| 1376 | 20 | JAS_STATUS | status_num, status, error_num, state |
+| 1400 | 8 | JAS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1408 | 36 | JAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1448 | 12 | TAS_COMMAND | command_num, command |
+| 1464 | 20 | TAS_STATUS | status_num, status, error_num, state |
+| 1488 | 8 | TAS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1496 | 36 | TAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1536 | 12 | MINE_COMMAND | command_num, command |
+| 1552 | 20 | MINE_STATUS | status_num, status, error_num, state |
+| 1576 | 8 | MINE_MODE | dont_run, single_step, simulate, single_step_num |
+| 1584 | 36 | MINE_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1624 | 12 | DAS_COMMAND | command_num, command |
+| 1640 | 20 | DAS_STATUS | status_num, status, error_num, state |
+| 1664 | 8 | DAS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1672 | 36 | DAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1712 | 12 | GAS_COMMAND | command_num, command |
+| 1728 | 20 | GAS_STATUS | status_num, status, error_num, state |
+| 1752 | 8 | GAS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1760 | 36 | GAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1800 | 12 | BSS_COMMAND | command_num, command |
+| 1816 | 20 | BSS_STATUS | status_num, status, error_num, state |
+| 1840 | 8 | BSS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1848 | 36 | BSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1888 | 12 | PSS_COMMAND | command_num, command |
+| 1904 | 20 | PSS_STATUS | status_num, status, error_num, state |
+| 1928 | 8 | PSS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1936 | 36 | PSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1976 | 12 | CSS_COMMAND | command_num, command |
+| 1992 | 20 | CSS_STATUS | status_num, status, error_num, state |
+| 2016 | 8 | CSS_MODE | dont_run, single_step, simulate, single_step_num |
+| 2024 | 36 | CSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 2064 | 1 | WORLD_TAIL_REQUEST | tail_request |
+| 2072 | 1 | WORLD_TAIL_IN_POSITION | tail_in_position |
+| 2080 | 8 | WORLD_OPERATOR_DELAY | operator_delay |
+| 2088 | 8 | WORLD_GOAL_X | goal_x |
+| 2096 | 8 | WORLD_GOAL_Y | goal_y |
+| 2104 | 8 | WORLD_TRAM_DIR | tram_dir |
+| 2112 | 8 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 2120 | 1 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 2128 | 1 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 2136 | 8 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 2144 | 8 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 2152 | 1 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 2160 | 1 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 2168 | 1 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 2176 | 8 | WORLD_TRUE_X | true_x |
+| 2184 | 8 | WORLD_TRUE_Y | true_y |
+| 2192 | 8 | WORLD_TRUE_HEADING | true_heading |
+| 2200 | 8 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 2208 | 8 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 2216 | 1 | WORLD_JACK_DOWN | jack_down |
+| 2224 | 1 | WORLD_TREAD_STALLED | tread_stalled |
+| 2232 | 8 | WORLD_POSE_X | pose_x |
+| 2240 | 8 | WORLD_POSE_Y | pose_y |
+| 2248 | 8 | WORLD_HEADING | heading |
+| 2256 | 8 | WORLD_BOOM_ANGLE | boom_angle |
+| 2264 | 8 | WORLD_CUTTER_CURRENT | cutter_current |
+| 2272 | 1 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 2280 | 1 | WORLD_IN_COAL | in_coal |
+| 2288 | 8 | WORLD_FACE_X | face_x |
+| 2296 | 8 | WORLD_DEPTH_CUT | depth_cut |
+| 2304 | 8 | WORLD_LOOSE_COAL | loose_coal |
+| 2312 | 8 | WORLD_COAL_MINED | coal_mined |
 """
 
 from __future__ import annotations
@@ -39,7 +139,7 @@ from __future__ import annotations
 from struct import Struct
 from typing import NamedTuple
 
-SIZE = 432
+SIZE = 2320
 
 # Buffers every module has in the same shape.
 STATUS = Struct("<QIIi")  # status_num, status, error_num, state
@@ -47,51 +147,232 @@ STATUS_HEAD = Struct("<QI")  # status_num, status: what a supervisor reads
 MODE = Struct("<???xI")  # dont_run, single_step, simulate, single_step_num
 PERF = Struct("<QQQQI")  # last, min, max cycle time (ns), cycles, single_step_num
 
+# sb: Shift boss
+SB_COMMAND = Struct("<QId")  # command_num, command, arg_depth
+SB_COMMAND_AT = 0
+SB_STATUS_AT = 24
+SB_MODE_AT = 48
+SB_PERF_AT = 56
+
 # co: Continuous miner operation coordinator
 CO_COMMAND = Struct("<QI")  # command_num, command
-CO_COMMAND_AT = 0
-CO_STATUS_AT = 16
-CO_MODE_AT = 40
-CO_PERF_AT = 48
+CO_COMMAND_AT = 96
+CO_STATUS_AT = 112
+CO_MODE_AT = 136
+CO_PERF_AT = 144
 
-# cr: Coal removal (simulated)
-CR_COMMAND = Struct("<QI")  # command_num, command
-CR_COMMAND_AT = 88
-CR_STATUS_AT = 104
-CR_MODE_AT = 128
-CR_PERF_AT = 136
-
-# vg: Vehicle guidance (simulated)
-VG_COMMAND = Struct("<QIdd")  # command_num, command, arg_x, arg_y
-VG_COMMAND_AT = 176
-VG_STATUS_AT = 208
-VG_MODE_AT = 232
-VG_PERF_AT = 240
-
-# cc: Coal cutting (simulated)
+# cc: Coal cutting
 CC_COMMAND = Struct("<QI")  # command_num, command
-CC_COMMAND_AT = 280
-CC_STATUS_AT = 296
-CC_MODE_AT = 320
-CC_PERF_AT = 328
+CC_COMMAND_AT = 184
+CC_STATUS_AT = 200
+CC_MODE_AT = 224
+CC_PERF_AT = 232
+
+# bm: Boom
+BM_COMMAND = Struct("<QI")  # command_num, command
+BM_COMMAND_AT = 272
+BM_STATUS_AT = 288
+BM_MODE_AT = 312
+BM_PERF_AT = 320
+
+# cd: Cutter drum
+CD_COMMAND = Struct("<QI")  # command_num, command
+CD_COMMAND_AT = 360
+CD_STATUS_AT = 376
+CD_MODE_AT = 400
+CD_PERF_AT = 408
+
+# sj: Stabilization jack
+SJ_COMMAND = Struct("<QI")  # command_num, command
+SJ_COMMAND_AT = 448
+SJ_STATUS_AT = 464
+SJ_MODE_AT = 488
+SJ_PERF_AT = 496
+
+# cr: Coal removal
+CR_COMMAND = Struct("<QI")  # command_num, command
+CR_COMMAND_AT = 536
+CR_STATUS_AT = 552
+CR_MODE_AT = 576
+CR_PERF_AT = 584
+
+# gh: Gathering head
+GH_COMMAND = Struct("<QI")  # command_num, command
+GH_COMMAND_AT = 624
+GH_STATUS_AT = 640
+GH_MODE_AT = 664
+GH_PERF_AT = 672
+
+# cv: Conveyor
+CV_COMMAND = Struct("<QI")  # command_num, command
+CV_COMMAND_AT = 712
+CV_STATUS_AT = 728
+CV_MODE_AT = 752
+CV_PERF_AT = 760
+
+# ct: Conveyor tail (operator)
+CT_COMMAND = Struct("<QI")  # command_num, command
+CT_COMMAND_AT = 800
+CT_STATUS_AT = 816
+CT_MODE_AT = 840
+CT_PERF_AT = 848
+
+# vg: Vehicle guidance
+VG_COMMAND = Struct("<QIdd")  # command_num, command, arg_x, arg_y
+VG_COMMAND_AT = 888
+VG_STATUS_AT = 920
+VG_MODE_AT = 944
+VG_PERF_AT = 952
+
+# pp: Path planner
+PP_COMMAND = Struct("<QIdd")  # command_num, command, arg_x, arg_y
+PP_COMMAND_AT = 992
+PP_STATUS_AT = 1024
+PP_MODE_AT = 1048
+PP_PERF_AT = 1056
+
+# tc: Tram
+TC_COMMAND = Struct("<QI")  # command_num, command
+TC_COMMAND_AT = 1096
+TC_STATUS_AT = 1112
+TC_MODE_AT = 1136
+TC_PERF_AT = 1144
+
+# oi: Operator interface (scripted operator)
+OI_COMMAND = Struct("<QI")  # command_num, command
+OI_COMMAND_AT = 1184
+OI_STATUS_AT = 1200
+OI_MODE_AT = 1224
+OI_PERF_AT = 1232
+
+# bas: Boom actuator (simulated)
+BAS_COMMAND = Struct("<QI")  # command_num, command
+BAS_COMMAND_AT = 1272
+BAS_STATUS_AT = 1288
+BAS_MODE_AT = 1312
+BAS_PERF_AT = 1320
+
+# jas: Stabilization jack actuator (simulated)
+JAS_COMMAND = Struct("<QI")  # command_num, command
+JAS_COMMAND_AT = 1360
+JAS_STATUS_AT = 1376
+JAS_MODE_AT = 1400
+JAS_PERF_AT = 1408
+
+# tas: Tread actuators (simulated)
+TAS_COMMAND = Struct("<QI")  # command_num, command
+TAS_COMMAND_AT = 1448
+TAS_STATUS_AT = 1464
+TAS_MODE_AT = 1488
+TAS_PERF_AT = 1496
+
+# mine: Mine (simulated environment)
+MINE_COMMAND = Struct("<QI")  # command_num, command
+MINE_COMMAND_AT = 1536
+MINE_STATUS_AT = 1552
+MINE_MODE_AT = 1576
+MINE_PERF_AT = 1584
+
+# das: Cutter drum motor (simulated)
+DAS_COMMAND = Struct("<QI")  # command_num, command
+DAS_COMMAND_AT = 1624
+DAS_STATUS_AT = 1640
+DAS_MODE_AT = 1664
+DAS_PERF_AT = 1672
+
+# gas: Gathering head and conveyor (simulated)
+GAS_COMMAND = Struct("<QI")  # command_num, command
+GAS_COMMAND_AT = 1712
+GAS_STATUS_AT = 1728
+GAS_MODE_AT = 1752
+GAS_PERF_AT = 1760
+
+# bss: Boom angle sensor (simulated)
+BSS_COMMAND = Struct("<QI")  # command_num, command
+BSS_COMMAND_AT = 1800
+BSS_STATUS_AT = 1816
+BSS_MODE_AT = 1840
+BSS_PERF_AT = 1848
+
+# pss: Pose sensor (simulated)
+PSS_COMMAND = Struct("<QI")  # command_num, command
+PSS_COMMAND_AT = 1888
+PSS_STATUS_AT = 1904
+PSS_MODE_AT = 1928
+PSS_PERF_AT = 1936
+
+# css: Cutter current sensor (simulated)
+CSS_COMMAND = Struct("<QI")  # command_num, command
+CSS_COMMAND_AT = 1976
+CSS_STATUS_AT = 1992
+CSS_MODE_AT = 2016
+CSS_PERF_AT = 2024
 
 # World model.
-WORLD_POPPED_OUT_OF_SHEAR = Struct("<?")  # popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 368
-WORLD_LOOSE_COAL = Struct("<d")  # loose_coal
-WORLD_LOOSE_COAL_AT = 376
+WORLD_TAIL_REQUEST = Struct("<?")  # tail_request
+WORLD_TAIL_REQUEST_AT = 2064
 WORLD_TAIL_IN_POSITION = Struct("<?")  # tail_in_position
-WORLD_TAIL_IN_POSITION_AT = 384
-WORLD_POSE_X = Struct("<d")  # pose_x
-WORLD_POSE_X_AT = 392
-WORLD_POSE_Y = Struct("<d")  # pose_y
-WORLD_POSE_Y_AT = 400
-WORLD_HEADING = Struct("<d")  # heading
-WORLD_HEADING_AT = 408
+WORLD_TAIL_IN_POSITION_AT = 2072
+WORLD_OPERATOR_DELAY = Struct("<q")  # operator_delay
+WORLD_OPERATOR_DELAY_AT = 2080
 WORLD_GOAL_X = Struct("<d")  # goal_x
-WORLD_GOAL_X_AT = 416
+WORLD_GOAL_X_AT = 2088
 WORLD_GOAL_Y = Struct("<d")  # goal_y
-WORLD_GOAL_Y_AT = 424
+WORLD_GOAL_Y_AT = 2096
+WORLD_TRAM_DIR = Struct("<q")  # tram_dir
+WORLD_TRAM_DIR_AT = 2104
+WORLD_BOOM_RATE_CMD = Struct("<d")  # boom_rate_cmd
+WORLD_BOOM_RATE_CMD_AT = 2112
+WORLD_DRUM_ON_CMD = Struct("<?")  # drum_on_cmd
+WORLD_DRUM_ON_CMD_AT = 2120
+WORLD_JACK_DOWN_CMD = Struct("<?")  # jack_down_cmd
+WORLD_JACK_DOWN_CMD_AT = 2128
+WORLD_LEFT_TREAD_CMD = Struct("<q")  # left_tread_cmd
+WORLD_LEFT_TREAD_CMD_AT = 2136
+WORLD_RIGHT_TREAD_CMD = Struct("<q")  # right_tread_cmd
+WORLD_RIGHT_TREAD_CMD_AT = 2144
+WORLD_PAN_FLOAT_CMD = Struct("<?")  # pan_float_cmd
+WORLD_PAN_FLOAT_CMD_AT = 2152
+WORLD_GATHER_ON_CMD = Struct("<?")  # gather_on_cmd
+WORLD_GATHER_ON_CMD_AT = 2160
+WORLD_CONVEYOR_ON_CMD = Struct("<?")  # conveyor_on_cmd
+WORLD_CONVEYOR_ON_CMD_AT = 2168
+WORLD_TRUE_X = Struct("<d")  # true_x
+WORLD_TRUE_X_AT = 2176
+WORLD_TRUE_Y = Struct("<d")  # true_y
+WORLD_TRUE_Y_AT = 2184
+WORLD_TRUE_HEADING = Struct("<d")  # true_heading
+WORLD_TRUE_HEADING_AT = 2192
+WORLD_BOOM_ANGLE_TRUE = Struct("<d")  # boom_angle_true
+WORLD_BOOM_ANGLE_TRUE_AT = 2200
+WORLD_DRUM_CURRENT_TRUE = Struct("<d")  # drum_current_true
+WORLD_DRUM_CURRENT_TRUE_AT = 2208
+WORLD_JACK_DOWN = Struct("<?")  # jack_down
+WORLD_JACK_DOWN_AT = 2216
+WORLD_TREAD_STALLED = Struct("<?")  # tread_stalled
+WORLD_TREAD_STALLED_AT = 2224
+WORLD_POSE_X = Struct("<d")  # pose_x
+WORLD_POSE_X_AT = 2232
+WORLD_POSE_Y = Struct("<d")  # pose_y
+WORLD_POSE_Y_AT = 2240
+WORLD_HEADING = Struct("<d")  # heading
+WORLD_HEADING_AT = 2248
+WORLD_BOOM_ANGLE = Struct("<d")  # boom_angle
+WORLD_BOOM_ANGLE_AT = 2256
+WORLD_CUTTER_CURRENT = Struct("<d")  # cutter_current
+WORLD_CUTTER_CURRENT_AT = 2264
+WORLD_POPPED_OUT_OF_SHEAR = Struct("<?")  # popped_out_of_shear
+WORLD_POPPED_OUT_OF_SHEAR_AT = 2272
+WORLD_IN_COAL = Struct("<?")  # in_coal
+WORLD_IN_COAL_AT = 2280
+WORLD_FACE_X = Struct("<d")  # face_x
+WORLD_FACE_X_AT = 2288
+WORLD_DEPTH_CUT = Struct("<d")  # depth_cut
+WORLD_DEPTH_CUT_AT = 2296
+WORLD_LOOSE_COAL = Struct("<d")  # loose_coal
+WORLD_LOOSE_COAL_AT = 2304
+WORLD_COAL_MINED = Struct("<d")  # coal_mined
+WORLD_COAL_MINED_AT = 2312
 
 
 class Record(NamedTuple):
@@ -111,73 +392,114 @@ class Record(NamedTuple):
 
 
 MODULES = (
+    "sb",
     "co",
-    "cr",
-    "vg",
     "cc",
+    "bm",
+    "cd",
+    "sj",
+    "cr",
+    "gh",
+    "cv",
+    "ct",
+    "vg",
+    "pp",
+    "tc",
+    "oi",
+    "bas",
+    "jas",
+    "tas",
+    "mine",
+    "das",
+    "gas",
+    "bss",
+    "pss",
+    "css",
 )
 COMMAND_IN = {
-    "co": Record(
-        CO_COMMAND,
-        CO_COMMAND_AT,
-        (
-            "command_num",
-            "command",
-        ),
-    ),
-    "cr": Record(
-        CR_COMMAND,
-        CR_COMMAND_AT,
-        (
-            "command_num",
-            "command",
-        ),
-    ),
-    "vg": Record(
-        VG_COMMAND,
-        VG_COMMAND_AT,
-        (
-            "command_num",
-            "command",
-            "arg_x",
-            "arg_y",
-        ),
-    ),
-    "cc": Record(
-        CC_COMMAND,
-        CC_COMMAND_AT,
-        (
-            "command_num",
-            "command",
-        ),
-    ),
+    "sb": Record(SB_COMMAND, SB_COMMAND_AT, ("command_num", "command", "arg_depth")),
+    "co": Record(CO_COMMAND, CO_COMMAND_AT, ("command_num", "command")),
+    "cc": Record(CC_COMMAND, CC_COMMAND_AT, ("command_num", "command")),
+    "bm": Record(BM_COMMAND, BM_COMMAND_AT, ("command_num", "command")),
+    "cd": Record(CD_COMMAND, CD_COMMAND_AT, ("command_num", "command")),
+    "sj": Record(SJ_COMMAND, SJ_COMMAND_AT, ("command_num", "command")),
+    "cr": Record(CR_COMMAND, CR_COMMAND_AT, ("command_num", "command")),
+    "gh": Record(GH_COMMAND, GH_COMMAND_AT, ("command_num", "command")),
+    "cv": Record(CV_COMMAND, CV_COMMAND_AT, ("command_num", "command")),
+    "ct": Record(CT_COMMAND, CT_COMMAND_AT, ("command_num", "command")),
+    "vg": Record(VG_COMMAND, VG_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
+    "pp": Record(PP_COMMAND, PP_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
+    "tc": Record(TC_COMMAND, TC_COMMAND_AT, ("command_num", "command")),
+    "oi": Record(OI_COMMAND, OI_COMMAND_AT, ("command_num", "command")),
+    "bas": Record(BAS_COMMAND, BAS_COMMAND_AT, ("command_num", "command")),
+    "jas": Record(JAS_COMMAND, JAS_COMMAND_AT, ("command_num", "command")),
+    "tas": Record(TAS_COMMAND, TAS_COMMAND_AT, ("command_num", "command")),
+    "mine": Record(MINE_COMMAND, MINE_COMMAND_AT, ("command_num", "command")),
+    "das": Record(DAS_COMMAND, DAS_COMMAND_AT, ("command_num", "command")),
+    "gas": Record(GAS_COMMAND, GAS_COMMAND_AT, ("command_num", "command")),
+    "bss": Record(BSS_COMMAND, BSS_COMMAND_AT, ("command_num", "command")),
+    "pss": Record(PSS_COMMAND, PSS_COMMAND_AT, ("command_num", "command")),
+    "css": Record(CSS_COMMAND, CSS_COMMAND_AT, ("command_num", "command")),
 }
 STATUS_OUT = {
+    "sb": Record(STATUS, SB_STATUS_AT, ("status_num", "status", "error_num", "state")),
     "co": Record(STATUS, CO_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "cr": Record(STATUS, CR_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "vg": Record(STATUS, VG_STATUS_AT, ("status_num", "status", "error_num", "state")),
     "cc": Record(STATUS, CC_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "bm": Record(STATUS, BM_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "cd": Record(STATUS, CD_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "sj": Record(STATUS, SJ_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "cr": Record(STATUS, CR_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "gh": Record(STATUS, GH_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "cv": Record(STATUS, CV_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "ct": Record(STATUS, CT_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "vg": Record(STATUS, VG_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "pp": Record(STATUS, PP_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "tc": Record(STATUS, TC_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "oi": Record(STATUS, OI_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "bas": Record(STATUS, BAS_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "jas": Record(STATUS, JAS_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "tas": Record(STATUS, TAS_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "mine": Record(STATUS, MINE_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "das": Record(STATUS, DAS_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "gas": Record(STATUS, GAS_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "bss": Record(STATUS, BSS_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "pss": Record(STATUS, PSS_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "css": Record(STATUS, CSS_STATUS_AT, ("status_num", "status", "error_num", "state")),
 }
 MODE_IN = {
+    "sb": Record(MODE, SB_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
     "co": Record(MODE, CO_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "cr": Record(MODE, CR_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "vg": Record(MODE, VG_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
     "cc": Record(MODE, CC_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "bm": Record(MODE, BM_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "cd": Record(MODE, CD_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "sj": Record(MODE, SJ_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "cr": Record(MODE, CR_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "gh": Record(MODE, GH_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "cv": Record(MODE, CV_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "ct": Record(MODE, CT_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "vg": Record(MODE, VG_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "pp": Record(MODE, PP_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "tc": Record(MODE, TC_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "oi": Record(MODE, OI_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "bas": Record(MODE, BAS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "jas": Record(MODE, JAS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "tas": Record(MODE, TAS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "mine": Record(MODE, MINE_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "das": Record(MODE, DAS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "gas": Record(MODE, GAS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "bss": Record(MODE, BSS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "pss": Record(MODE, PSS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "css": Record(MODE, CSS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
 }
 PERFORMANCE = {
+    "sb": Record(
+        PERF,
+        SB_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
     "co": Record(
         PERF,
         CO_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "cr": Record(
-        PERF,
-        CR_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "vg": Record(
-        PERF,
-        VG_PERF_AT,
         ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
     ),
     "cc": Record(
@@ -185,94 +507,256 @@ PERFORMANCE = {
         CC_PERF_AT,
         ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
     ),
+    "bm": Record(
+        PERF,
+        BM_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "cd": Record(
+        PERF,
+        CD_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "sj": Record(
+        PERF,
+        SJ_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "cr": Record(
+        PERF,
+        CR_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "gh": Record(
+        PERF,
+        GH_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "cv": Record(
+        PERF,
+        CV_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "ct": Record(
+        PERF,
+        CT_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "vg": Record(
+        PERF,
+        VG_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "pp": Record(
+        PERF,
+        PP_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "tc": Record(
+        PERF,
+        TC_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "oi": Record(
+        PERF,
+        OI_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "bas": Record(
+        PERF,
+        BAS_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "jas": Record(
+        PERF,
+        JAS_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "tas": Record(
+        PERF,
+        TAS_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "mine": Record(
+        PERF,
+        MINE_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "das": Record(
+        PERF,
+        DAS_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "gas": Record(
+        PERF,
+        GAS_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "bss": Record(
+        PERF,
+        BSS_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "pss": Record(
+        PERF,
+        PSS_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
+    "css": Record(
+        PERF,
+        CSS_PERF_AT,
+        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
+    ),
 }
 WORLD = {
-    "popped_out_of_shear": Record(
-        WORLD_POPPED_OUT_OF_SHEAR, WORLD_POPPED_OUT_OF_SHEAR_AT, ("popped_out_of_shear",)
-    ),
-    "loose_coal": Record(WORLD_LOOSE_COAL, WORLD_LOOSE_COAL_AT, ("loose_coal",)),
+    "tail_request": Record(WORLD_TAIL_REQUEST, WORLD_TAIL_REQUEST_AT, ("tail_request",)),
     "tail_in_position": Record(
         WORLD_TAIL_IN_POSITION, WORLD_TAIL_IN_POSITION_AT, ("tail_in_position",)
     ),
+    "operator_delay": Record(WORLD_OPERATOR_DELAY, WORLD_OPERATOR_DELAY_AT, ("operator_delay",)),
+    "goal_x": Record(WORLD_GOAL_X, WORLD_GOAL_X_AT, ("goal_x",)),
+    "goal_y": Record(WORLD_GOAL_Y, WORLD_GOAL_Y_AT, ("goal_y",)),
+    "tram_dir": Record(WORLD_TRAM_DIR, WORLD_TRAM_DIR_AT, ("tram_dir",)),
+    "boom_rate_cmd": Record(WORLD_BOOM_RATE_CMD, WORLD_BOOM_RATE_CMD_AT, ("boom_rate_cmd",)),
+    "drum_on_cmd": Record(WORLD_DRUM_ON_CMD, WORLD_DRUM_ON_CMD_AT, ("drum_on_cmd",)),
+    "jack_down_cmd": Record(WORLD_JACK_DOWN_CMD, WORLD_JACK_DOWN_CMD_AT, ("jack_down_cmd",)),
+    "left_tread_cmd": Record(WORLD_LEFT_TREAD_CMD, WORLD_LEFT_TREAD_CMD_AT, ("left_tread_cmd",)),
+    "right_tread_cmd": Record(
+        WORLD_RIGHT_TREAD_CMD, WORLD_RIGHT_TREAD_CMD_AT, ("right_tread_cmd",)
+    ),
+    "pan_float_cmd": Record(WORLD_PAN_FLOAT_CMD, WORLD_PAN_FLOAT_CMD_AT, ("pan_float_cmd",)),
+    "gather_on_cmd": Record(WORLD_GATHER_ON_CMD, WORLD_GATHER_ON_CMD_AT, ("gather_on_cmd",)),
+    "conveyor_on_cmd": Record(
+        WORLD_CONVEYOR_ON_CMD, WORLD_CONVEYOR_ON_CMD_AT, ("conveyor_on_cmd",)
+    ),
+    "true_x": Record(WORLD_TRUE_X, WORLD_TRUE_X_AT, ("true_x",)),
+    "true_y": Record(WORLD_TRUE_Y, WORLD_TRUE_Y_AT, ("true_y",)),
+    "true_heading": Record(WORLD_TRUE_HEADING, WORLD_TRUE_HEADING_AT, ("true_heading",)),
+    "boom_angle_true": Record(
+        WORLD_BOOM_ANGLE_TRUE, WORLD_BOOM_ANGLE_TRUE_AT, ("boom_angle_true",)
+    ),
+    "drum_current_true": Record(
+        WORLD_DRUM_CURRENT_TRUE, WORLD_DRUM_CURRENT_TRUE_AT, ("drum_current_true",)
+    ),
+    "jack_down": Record(WORLD_JACK_DOWN, WORLD_JACK_DOWN_AT, ("jack_down",)),
+    "tread_stalled": Record(WORLD_TREAD_STALLED, WORLD_TREAD_STALLED_AT, ("tread_stalled",)),
     "pose_x": Record(WORLD_POSE_X, WORLD_POSE_X_AT, ("pose_x",)),
     "pose_y": Record(WORLD_POSE_Y, WORLD_POSE_Y_AT, ("pose_y",)),
     "heading": Record(WORLD_HEADING, WORLD_HEADING_AT, ("heading",)),
-    "goal_x": Record(WORLD_GOAL_X, WORLD_GOAL_X_AT, ("goal_x",)),
-    "goal_y": Record(WORLD_GOAL_Y, WORLD_GOAL_Y_AT, ("goal_y",)),
+    "boom_angle": Record(WORLD_BOOM_ANGLE, WORLD_BOOM_ANGLE_AT, ("boom_angle",)),
+    "cutter_current": Record(WORLD_CUTTER_CURRENT, WORLD_CUTTER_CURRENT_AT, ("cutter_current",)),
+    "popped_out_of_shear": Record(
+        WORLD_POPPED_OUT_OF_SHEAR, WORLD_POPPED_OUT_OF_SHEAR_AT, ("popped_out_of_shear",)
+    ),
+    "in_coal": Record(WORLD_IN_COAL, WORLD_IN_COAL_AT, ("in_coal",)),
+    "face_x": Record(WORLD_FACE_X, WORLD_FACE_X_AT, ("face_x",)),
+    "depth_cut": Record(WORLD_DEPTH_CUT, WORLD_DEPTH_CUT_AT, ("depth_cut",)),
+    "loose_coal": Record(WORLD_LOOSE_COAL, WORLD_LOOSE_COAL_AT, ("loose_coal",)),
+    "coal_mined": Record(WORLD_COAL_MINED, WORLD_COAL_MINED_AT, ("coal_mined",)),
 }
 WORLD_INITIAL: dict[str, object] = {
-    "popped_out_of_shear": False,
-    "loose_coal": 0.0,
+    "tail_request": False,
     "tail_in_position": False,
+    "operator_delay": 3,
+    "goal_x": 0.0,
+    "goal_y": 0.0,
+    "tram_dir": 0,
+    "boom_rate_cmd": 0.0,
+    "drum_on_cmd": False,
+    "jack_down_cmd": False,
+    "left_tread_cmd": 0,
+    "right_tread_cmd": 0,
+    "pan_float_cmd": False,
+    "gather_on_cmd": False,
+    "conveyor_on_cmd": False,
+    "true_x": 0.0,
+    "true_y": 0.0,
+    "true_heading": 0.0,
+    "boom_angle_true": 0.0,
+    "drum_current_true": 0.0,
+    "jack_down": False,
+    "tread_stalled": False,
     "pose_x": 0.0,
     "pose_y": 0.0,
     "heading": 0.0,
-    "goal_x": 0.0,
-    "goal_y": 0.0,
+    "boom_angle": 0.0,
+    "cutter_current": 0.0,
+    "popped_out_of_shear": False,
+    "in_coal": False,
+    "face_x": 0.0,
+    "depth_cut": 0.0,
+    "loose_coal": 0.0,
+    "coal_mined": 0.0,
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
-    "co": (
+    "sb": ("NONE", "INIT", "HALT", "BOX_CUT"),
+    "co": ("NONE", "INIT", "HALT", "INITIAL_APPROACH_FACE", "APPROACH_FACE", "SUMP_SHEAR_CUSP"),
+    "cc": ("NONE", "INIT", "HALT", "RAISE_DRUM", "SUMP", "SHEAR", "SHEAR_CORRECT", "CUSP"),
+    "bm": ("NONE", "INIT", "HALT", "RAISE", "LOWER"),
+    "cd": ("NONE", "INIT", "HALT", "ON", "OFF"),
+    "sj": ("NONE", "INIT", "HALT", "LOWER", "RAISE"),
+    "cr": ("NONE", "INIT", "HALT", "SUMP", "SHEAR", "CUSP"),
+    "gh": ("NONE", "INIT", "HALT", "FLOAT", "ON"),
+    "cv": ("NONE", "INIT", "HALT", "ON"),
+    "ct": ("NONE", "INIT", "HALT", "POSITION_TAIL"),
+    "vg": ("NONE", "INIT", "HALT", "TRAM_TO_XY"),
+    "pp": ("NONE", "INIT", "HALT", "PLAN"),
+    "tc": (
         "NONE",
         "INIT",
         "HALT",
-        "SUMP_SHEAR_CUSP",
+        "SLOW_FORWARD",
+        "FAST_FORWARD",
+        "SLOW_REVERSE",
+        "FAST_REVERSE",
+        "PIVOT_LEFT",
+        "PIVOT_RIGHT",
+        "TURN_LEFT_FORWARD",
+        "TURN_RIGHT_FORWARD",
+        "TURN_LEFT_REVERSE",
+        "TURN_RIGHT_REVERSE",
+        "STOP",
     ),
-    "cr": (
-        "NONE",
-        "INIT",
-        "HALT",
-        "SUMP",
-        "SHEAR",
-        "CUSP",
-    ),
-    "vg": (
-        "NONE",
-        "INIT",
-        "HALT",
-        "TRAM_TO_XY",
-    ),
-    "cc": (
-        "NONE",
-        "INIT",
-        "HALT",
-        "SUMP",
-        "SHEAR",
-        "SHEAR_CORRECT",
-        "CUSP",
-    ),
+    "oi": ("NONE", "INIT", "HALT"),
+    "bas": ("NONE", "INIT", "HALT"),
+    "jas": ("NONE", "INIT", "HALT"),
+    "tas": ("NONE", "INIT", "HALT"),
+    "mine": ("NONE", "INIT", "HALT"),
+    "das": ("NONE", "INIT", "HALT"),
+    "gas": ("NONE", "INIT", "HALT"),
+    "bss": ("NONE", "INIT", "HALT"),
+    "pss": ("NONE", "INIT", "HALT"),
+    "css": ("NONE", "INIT", "HALT"),
 }
 STATE_NAMES = {
-    "co": (
-        "NOP",
-        "S0",
-        "S1",
-        "S2",
-        "S3",
-        "S4",
-    ),
-    "cr": (
-        "NOP",
-        "S0",
-        "S1",
-    ),
-    "vg": (
-        "NOP",
-        "S0",
-        "S1",
-    ),
-    "cc": (
-        "NOP",
-        "S0",
-        "S1",
-    ),
+    "sb": ("NOP", "S0", "S1", "S2", "S3", "HALTING"),
+    "co": ("NOP", "S0", "S1", "S2", "S3", "FAILED", "S4"),
+    "cc": ("NOP", "S0", "S1", "S2"),
+    "bm": ("NOP", "S0", "S1"),
+    "cd": ("NOP", "S0"),
+    "sj": ("NOP", "S0", "S1"),
+    "cr": ("NOP", "S0", "S1", "S2"),
+    "gh": ("NOP", "S0"),
+    "cv": ("NOP", "S0"),
+    "ct": ("NOP", "S0", "S1"),
+    "vg": ("NOP", "S0", "S1", "INBY", "OUTBY", "STOPPING"),
+    "pp": ("NOP", "S0"),
+    "tc": ("NOP", "S0", "MOVING"),
+    "oi": ("NOP", "S0"),
+    "bas": ("NOP", "S0"),
+    "jas": ("NOP", "S0"),
+    "tas": ("NOP", "S0"),
+    "mine": ("NOP", "S0"),
+    "das": ("NOP", "S0"),
+    "gas": ("NOP", "S0"),
+    "bss": ("NOP", "S0"),
+    "pss": ("NOP", "S0"),
+    "css": ("NOP", "S0"),
+    "cr_sim": ("NOP", "S0"),
 }
 STATUS_NAMES = ("NOT_READY", "EXECUTING", "DONE", "ERROR")
-SIMULATORS = (
-    "cr",
-    "vg",
-    "cc",
-)
+SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css")
 
 
 def initialise(buf: memoryview) -> None:

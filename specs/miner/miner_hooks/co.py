@@ -17,3 +17,10 @@ def co_position_for_sump(pose_x: float, pose_y: float, heading: float) -> tuple[
 def co_position_for_cusp(pose_x: float, pose_y: float, heading: float) -> tuple[float, float]:
     """Goal point a short reverse tram behind the machine, to clear the cusp."""
     return pose_x - CUSP_BACKOFF * math.cos(heading), pose_y - CUSP_BACKOFF * math.sin(heading)
+
+
+def co_goal_ahead(
+    pose_x: float, pose_y: float, heading: float, distance: float
+) -> tuple[float, float]:
+    """Goal point `distance` metres ahead of the machine, along its heading."""
+    return pose_x + distance * math.cos(heading), pose_y + distance * math.sin(heading)

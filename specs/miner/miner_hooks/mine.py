@@ -1,0 +1,88 @@
+"""The mine: a 2-D coal/no-coal map cut by the drum (the environment simulator's hooks).
+
+A map file has one character per 0.25 m square cell: rows run across the entry, columns
+run inby along it; `#` is coal, `.` open. Each coal cell keeps how much of the seam height
+is still standing (1.0 = the full seam, 0.0 = cut to the floor). The turning drum cuts
+every cell it overlaps down to the drum's bottom edge; the coal cut becomes loose coal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+CELL = 0.25  # metres
+DRUM_RADIUS = 0.5  # metres: the drum reaches this far either side of its centre
+DRUM_HALF_WIDTH = 1.6  # metres: the drum spans the entry
+DRUM_HEIGHT = 0.4  # fraction of the seam the drum covers
+ROOF_ANGLE, FLOOR_ANGLE = 30.0, -10.0  # degrees: drum top at the roof, bottom on the floor
+TONNES_PER_CELL = CELL * CELL * 2.0 * 1.3  # cell area x 2 m seam x 1.3 t/m3
+SYSTEM_DIR = Path(__file__).resolve().parent.parent
+DEFAULT_MAP = "maps/box_cut.map"
+
+
+@dataclass
+class Mine:
+    """The map's cells (standing seam fraction per coal cell) and where the face started."""
+
+    x0: float
+    y0: float
+    seam: dict[tuple[int, int], float] = field(default_factory=dict)  # (row, col) -> height
+    first_face: float = 0.0
+
+
+def load_map(path: Path) -> Mine:
+    """Read a map file; the first line `origin X Y` places column 0 and row 0."""
+    lines = [line.rstrip("\n") for line in path.read_text(encoding="utf-8").splitlines()]
+    rows = [line for line in lines if line and not line.startswith(("#!", "origin"))]
+    origin = next((line.split() for line in lines if line.startswith("origin")), None)
+    x0, y0 = (float(origin[1]), float(origin[2])) if origin else (0.0, 0.0)
+    mine = Mine(x0, y0)
+    for r, row in enumerate(rows):
+        for c, char in enumerate(row):
+            if char == "#":
+                mine.seam[(r, c)] = 1.0
+    mine.first_face = face(mine, 0.0)
+    return mine
+
+
+def new_mine(settings: dict[str, str]) -> Mine:
+    """The mine of the run's `map` setting (relative to the system directory)."""
+    return load_map(SYSTEM_DIR / settings.get("map", DEFAULT_MAP))
+
+
+def _covered(mine: Mine, x: float, y: float) -> list[tuple[int, int]]:
+    return [
+        (r, c)
+        for (r, c) in mine.seam
+        if abs(mine.x0 + (c + 0.5) * CELL - x) <= DRUM_RADIUS
+        and abs(mine.y0 + (r + 0.5) * CELL - y) <= DRUM_HALF_WIDTH
+    ]
+
+
+def face(mine: Mine, y: float) -> float:
+    """The inby distance of the first standing coal in the drum's band across the entry."""
+    columns = [
+        c
+        for (r, c), height in mine.seam.items()
+        if height > 0.0 and abs(mine.y0 + (r + 0.5) * CELL - y) <= DRUM_HALF_WIDTH
+    ]
+    return mine.x0 + min(columns) * CELL if columns else float("inf")
+
+
+def cut_coal(
+    mine: Mine, x: float, y: float, boom_angle: float, drum_on: bool
+) -> tuple[bool, float, float, float]:
+    """Cut what the drum overlaps: (in contact, face position, depth cut, tonnes cut)."""
+    height = (boom_angle - FLOOR_ANGLE) / (ROOF_ANGLE - FLOOR_ANGLE)
+    bottom = max(0.0, min(1.0, height) * (1.0 - DRUM_HEIGHT))
+    contact, tonnes = False, 0.0
+    for cell in _covered(mine, x, y):
+        standing = mine.seam[cell]
+        if standing > bottom:
+            contact = True
+            if drum_on:
+                tonnes += (standing - bottom) * TONNES_PER_CELL
+                mine.seam[cell] = bottom
+    now = face(mine, y)
+    return contact, round(now, 6), round(now - mine.first_face, 6), round(tonnes, 6)

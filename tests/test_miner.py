@@ -1,0 +1,141 @@
+"""The miner's scenarios, asserted directly: each one's defining behaviour, so a wrong
+golden file cannot hide a wrong machine (the golden comparison is in test_golden.py)."""
+
+from __future__ import annotations
+
+import json
+from functools import cache
+from pathlib import Path
+
+from rcsgen.scenario import load_scenario, open_harness, run
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENARIOS = ROOT / "specs" / "miner" / "scenarios"
+
+
+@cache
+def played(name: str) -> tuple[dict, list[dict]]:
+    """Run a scenario on the committed generated package: (final status, trace lines)."""
+    scenario = load_scenario(SCENARIOS / f"{name}.yaml")
+    result = run(scenario, open_harness(scenario, ROOT / "generated" / "miner"))
+    return result.final, [json.loads(line) for line in result.trace]
+
+
+def commands_sent(lines: list[dict], module: str) -> list[str]:
+    """Each new command `module` received, in order (one entry per command number)."""
+    seen, out = 0, []
+    for line in lines:
+        entry = line["modules"][module]
+        if entry["command_num"] != seen:
+            seen = entry["command_num"]
+            out.append(entry["command"])
+    return out
+
+
+def test_nominal_box_cut_three_slices_to_depth():
+    final, lines = played("box_cut")
+    assert final["status"] == "DONE"
+    co = commands_sent(lines, "co")
+    assert co == [
+        "INIT",
+        "INITIAL_APPROACH_FACE",
+        "SUMP_SHEAR_CUSP",
+        "APPROACH_FACE",
+        "SUMP_SHEAR_CUSP",
+        "APPROACH_FACE",
+        "SUMP_SHEAR_CUSP",
+    ]
+    world = lines[-1]["world"]
+    assert world["depth_cut"] >= 1.45, "the operator's depth is reached"
+    assert world["coal_mined"] > 10.0 and world["loose_coal"] == 0.0
+
+
+def test_one_slice_is_one_sump_shear_cusp():
+    final, lines = played("sump_shear_cusp")
+    assert final["status"] == "DONE"
+    assert commands_sent(lines, "co").count("SUMP_SHEAR_CUSP") == 1
+    assert commands_sent(lines, "cc") == [
+        "INIT", "RAISE_DRUM", "SUMP", "SHEAR", "CUSP"
+    ]  # fmt: skip
+
+
+def test_pop_out_is_corrected_and_the_cut_completes():
+    final, lines = played("pop_out")
+    assert final["status"] == "DONE"
+    cc = commands_sent(lines, "cc")
+    first = cc.index("SHEAR")
+    assert cc[first : first + 3] == ["SHEAR", "SHEAR_CORRECT", "SHEAR"], "corrected, sheared again"
+    popped = next(line["cycle"] for line in lines if line["world"]["popped_out_of_shear"])
+    assert lines[popped - 1]["modules"]["co"]["state"] == "S1", "co went back to S1 at once"
+    assert lines[-1]["world"]["depth_cut"] >= 1.45
+
+
+def test_late_tail_halts_the_shear_until_the_tail_is_in_position():
+    final, lines = played("late_tail")
+    assert final["status"] == "DONE"
+    halts = [line for line in lines if line["modules"]["cc"]["command"] == "HALT"]
+    assert halts, "too much loose coal halted the shear"
+    assert all(line["world"]["loose_coal"] > 4.0 for line in halts[:-1]), "halted for coal"
+    assert not halts[0]["world"]["tail_in_position"], "the tail was not there when it halted"
+    placed = next(line["cycle"] for line in lines if line["world"]["tail_in_position"])
+    assert halts[0]["cycle"] < placed <= halts[-1]["cycle"], "halted until after the tail came"
+    numbers = {line["modules"]["cc"]["command_num"] for line in halts}
+    assert len(numbers) > 1, "Appendix C re-sends HALT while there is too much coal"
+    resumed = next(
+        line
+        for line in lines
+        if line["cycle"] > halts[-1]["cycle"] and line["modules"]["cc"]["command"] == "SHEAR"
+    )
+    assert resumed["world"]["tail_in_position"], "the shear resumed once the tail was placed"
+    assert lines[-1]["world"]["depth_cut"] >= 1.45
+
+
+def test_stalled_tread_times_out_and_error_reaches_the_shift_boss():
+    final, lines = played("stalled_tread")
+    assert final["status"] == "ERROR"
+    first_error = {}
+    for line in lines:
+        for module in ("tc", "vg", "co", "sb"):
+            if line["modules"][module]["status"] == "ERROR":
+                first_error.setdefault(module, line["cycle"])
+    assert list(first_error) == ["tc", "vg", "co", "sb"], "ERROR climbs the thread in order"
+    assert first_error["vg"] - first_error["tc"] == 1, "one level per cycle, command-first"
+    stalled = next(line["cycle"] for line in lines if line["world"]["tread_stalled"])
+    assert first_error["tc"] - stalled >= 60, "the safety time-out, not an early failure"
+    end = lines[-1]
+    assert (end["world"]["left_tread_cmd"], end["world"]["right_tread_cmd"]) == (0, 0)
+    assert end["modules"]["co"]["command"] == "HALT", "the shift boss stopped the machine"
+
+
+def test_operator_halt_reaches_every_controller_in_one_cycle_then_restarts():
+    final, lines = played("operator_halt")
+    by_cycle = {line["cycle"]: line for line in lines}
+    halt_cycle = next(
+        c for c, line in by_cycle.items() if line["modules"]["sb"]["command"] == "HALT"
+    )
+    controllers = ["sb", "co", "cc", "bm", "cd", "sj", "cr", "gh", "cv", "ct", "vg", "pp", "tc"]
+    halted = by_cycle[halt_cycle]["modules"]
+    assert all(halted[m]["command"] == "HALT" for m in controllers), "HALT reached the bottom"
+    assert all(halted[m]["status_num"] == halted[m]["command_num"] for m in controllers)
+    assert by_cycle[halt_cycle - 1]["modules"]["co"]["command"] == "SUMP_SHEAR_CUSP"
+    assert by_cycle[halt_cycle]["world"]["boom_rate_cmd"] == 0.0, "the boom stopped"
+    restart = next(
+        c for c in sorted(by_cycle) if c > halt_cycle and halted_then(by_cycle[c], "BOX_CUT")
+    )
+    assert by_cycle[restart]["modules"]["co"]["command"] == "INITIAL_APPROACH_FACE"
+    assert final["status"] == "DONE" and lines[-1]["world"]["depth_cut"] >= 1.45
+
+
+def halted_then(line: dict, command: str) -> bool:
+    return line["modules"]["sb"]["command"] == command
+
+
+def test_simulated_coal_removal_section_still_completes_the_box_cut():
+    final, lines = played("cr_simulated")
+    assert final["status"] == "DONE"
+    modules = set(lines[0]["modules"])
+    assert {"gh", "cv", "ct"}.isdisjoint(modules), "cr's subtree is skipped"
+    assert "cr" in modules and "oi" in modules
+    assert not any(line["world"]["tail_request"] for line in lines), "nobody asked the operator"
+    assert lines[-1]["world"]["depth_cut"] >= 1.45
+    assert lines[-1]["world"]["coal_mined"] > 10.0, "the stand-in hauled the coal away"
