@@ -576,6 +576,8 @@ class _Lowering:
         for field_name in self.system.world:
             taken[f"WORLD_{field_name.upper()}"] = "a layout name"
             taken[f"WORLD_{field_name.upper()}_AT"] = "a layout name"
+        for index in range(1, len(spec.world_writes) + 1):
+            taken[f"WORLD_OUT_{index}"] = taken[f"WORLD_OUT_{index}_AT"] = "a generated name"
         named: list[tuple[str, str, Span]] = [
             (c.name, "command", c.span) for c in self.commands.values() if not c.generated
         ]

@@ -12,6 +12,7 @@ from __future__ import annotations
 import difflib
 import os
 import re
+import struct
 import subprocess
 import sys
 import tempfile
@@ -106,6 +107,65 @@ def _fmt(fields: tuple[tuple[str, str], ...]) -> str:
     return "<" + "".join(code for _, code in fields)
 
 
+@dataclass(frozen=True)
+class Gathered:
+    """Several buffer fields read or written with one `Struct`: format, offset, targets."""
+
+    format: str
+    offset: int
+    targets: list[str]
+
+    @property
+    def names(self) -> str:
+        return ", ".join(t.removeprefix("self.") for t in self.targets)
+
+
+def _gather(fields: list[tuple[int, str, str]]) -> Gathered:
+    """One struct over (offset, code, target) fields, the bytes between them skipped."""
+    fields = sorted(fields)
+    start = at = fields[0][0]
+    fmt, targets = "<", []
+    for offset, code, target in fields:
+        if offset > at:
+            fmt += f"{offset - at}x"
+        fmt += code
+        at = offset + struct.calcsize("<" + code)
+        targets.append(target)
+    return Gathered(fmt, start, targets)
+
+
+def _inputs(c: ir.IRController, layout: ir.Layout) -> Gathered:
+    """Everything pre_process copies in: command, mode, subordinates' status, world fields."""
+    own = layout.modules[c.buffers]
+    fields = [(s.offset, s.code, f"self.{s.name}") for s in own.command.slots]
+    fields += [(s.offset, s.code, f"self.{s.name}") for s in own.mode.slots if s.name != "pad"]
+    for sub in c.subordinates:
+        head = layout.modules[sub.name].status.slots[:2]  # status_num, status
+        fields += [(s.offset, s.code, f"self.{sub.name}_{s.name}") for s in head]
+    by_name = {b.slots[0].name: b for b in layout.world}
+    for f in c.world_reads:
+        slot = by_name[f.name].slots[0]
+        fields.append((slot.offset, slot.code, f"self.world_{f.name}"))
+    return _gather(fields)
+
+
+def _world_outputs(c: ir.IRController, layout: ir.Layout) -> list[Gathered]:
+    """The world fields post_process writes, one struct per run of adjacent fields (only
+    alignment padding lies between them, so packing never touches anyone else's field)."""
+    by_name = {b.slots[0].name: b for b in layout.world}
+    buffers = sorted((by_name[f.name] for f in c.world_writes), key=lambda b: b.offset)
+    runs: list[list[ir.Buffer]] = []
+    for buffer in buffers:
+        if runs and buffer.offset == ir.align(runs[-1][-1].offset + runs[-1][-1].size):
+            runs[-1].append(buffer)
+        else:
+            runs.append([buffer])
+    return [
+        _gather([(b.offset, b.slots[0].code, f"self.world_{b.slots[0].name}") for b in run])
+        for run in runs
+    ]
+
+
 def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, object]:
     up = c.buffers.upper()  # a stand-in uses the buffers of the controller it replaces
     command_targets = [
@@ -134,17 +194,12 @@ def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, ob
         slots += [*sub_targets[s.name], f"self.{s.name}_status_num", f"self.{s.name}_status"]
     slots += [f"world_{f.name}" for f in c.world_reads]
     slots += [f"var_{v.name}" for v in c.locals]
-    imports = {f"{up}_COMMAND", f"{up}_COMMAND_AT", f"{up}_STATUS_AT", f"{up}_MODE_AT"}
-    imports |= {f"{up}_PERF_AT", "STATUS", "MODE", "PERF"}
+    imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT", "STATUS", "PERF"}
     for s in c.subordinates:
         imports |= {f"{s.name.upper()}_COMMAND", f"{s.name.upper()}_COMMAND_AT"}
-        imports |= {f"{s.name.upper()}_STATUS_AT", "STATUS_HEAD"}
-    for f in c.world_reads:
-        imports |= {f"WORLD_{f.name.upper()}", f"WORLD_{f.name.upper()}_AT"}
+
     used_text = " ".join(_texts(c))
     rcs_imports = {"EXECUTING", *_STATUS_WORDS.findall(used_text)}
-    if c.subordinates:
-        rcs_imports.add("NOT_READY")
     rules = [r for cmd in c.commands for st in cmd.states for r in st.rules]
     uses_hooks = bool(c.hooks_state) or any(
         a.kind == "call" for r in [*rules, *c.every_cycle] for a in r.actions
@@ -152,6 +207,8 @@ def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, ob
     return {
         "c": c if uses_hooks else _without_hooks(c),
         "own": up,
+        "inputs": _inputs(c, system.layout),
+        "world_outputs": _world_outputs(c, system.layout),
         "system": system,
         "class_name": naming.class_name(c.name),
         "imports": sorted(imports),

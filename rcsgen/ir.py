@@ -57,7 +57,8 @@ def _buffer(const: str, offset: int, fields: list[tuple[str, str]], doc: str) ->
     return Buffer(const, offset, tuple(slots), doc)
 
 
-def _align(offset: int, to: int = 8) -> int:
+def align(offset: int, to: int = 8) -> int:
+    """`offset` rounded up to a multiple of `to`."""
     return -(-offset // to) * to
 
 
@@ -119,13 +120,13 @@ def plan_layout(controllers: list[IRController], world: list[IRWorldField]) -> L
         made = {}
         for part, (fields, doc) in parts.items():
             made[part] = _buffer(f"{prefix}_{part.upper()}", at, fields, f"{c.name} {doc}")
-            at = _align(at + made[part].size)
+            at = align(at + made[part].size)
         modules[c.name] = ModuleBuffers(**made)
     world_buffers = []
     for f in world:
         buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, FORMAT_OF_TYPE[f.type])], f.doc)
         world_buffers.append(buffer)
-        at = _align(at + buffer.size)
+        at = align(at + buffer.size)
     return Layout(modules, world_buffers, at)
 
 

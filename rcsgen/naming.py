@@ -45,6 +45,7 @@ FIXED_MODULES = frozenset({"layout", "rcs", "__init__", "__main__", "hooks"})
 # Module-level names every generated controller module imports from the runtime and layout.
 RUNTIME_NAMES = frozenset(
     {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "STATUS", "STATUS_HEAD", "MODE", "PERF"}
+    | {"INPUTS", "INPUTS_AT", "Struct"}
 )
 # Prefixes of the attributes generated from spec names (world fields, params, locals).
 ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_")
