@@ -8,6 +8,7 @@ every cell it overlaps down to the drum's bottom edge; the coal cut becomes loos
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,6 +30,7 @@ class Mine:
     y0: float
     seam: dict[tuple[int, int], float] = field(default_factory=dict)  # (row, col) -> height
     first_face: float = 0.0
+    columns: int = 0
 
 
 def load_map(path: Path) -> Mine:
@@ -42,6 +44,7 @@ def load_map(path: Path) -> Mine:
         for c, char in enumerate(row):
             if char == "#":
                 mine.seam[(r, c)] = 1.0
+    mine.columns = max((c for _, c in mine.seam), default=-1) + 1
     mine.first_face = face(mine, 0.0)
     return mine
 
@@ -51,23 +54,27 @@ def new_mine(settings: dict[str, str]) -> Mine:
     return load_map(SYSTEM_DIR / settings.get("map", DEFAULT_MAP))
 
 
+def _span(low: float, high: float, origin: float) -> range:
+    """The cells whose centres lie in [low, high] along one axis."""
+    first = math.ceil((low - origin) / CELL - 0.5)
+    last = math.floor((high - origin) / CELL - 0.5)
+    return range(first, last + 1)
+
+
 def _covered(mine: Mine, x: float, y: float) -> list[tuple[int, int]]:
-    return [
-        (r, c)
-        for (r, c) in mine.seam
-        if abs(mine.x0 + (c + 0.5) * CELL - x) <= DRUM_RADIUS
-        and abs(mine.y0 + (r + 0.5) * CELL - y) <= DRUM_HALF_WIDTH
-    ]
+    """The coal cells under the drum, row by row (the map's own order)."""
+    rows = _span(y - DRUM_HALF_WIDTH, y + DRUM_HALF_WIDTH, mine.y0)
+    columns = _span(x - DRUM_RADIUS, x + DRUM_RADIUS, mine.x0)
+    return [(r, c) for r in rows for c in columns if (r, c) in mine.seam]
 
 
 def face(mine: Mine, y: float) -> float:
     """The inby distance of the first standing coal in the drum's band across the entry."""
-    columns = [
-        c
-        for (r, c), height in mine.seam.items()
-        if height > 0.0 and abs(mine.y0 + (r + 0.5) * CELL - y) <= DRUM_HALF_WIDTH
-    ]
-    return mine.x0 + min(columns) * CELL if columns else float("inf")
+    rows = _span(y - DRUM_HALF_WIDTH, y + DRUM_HALF_WIDTH, mine.y0)
+    for c in range(mine.columns):
+        if any(mine.seam.get((r, c), 0.0) > 0.0 for r in rows):
+            return mine.x0 + c * CELL
+    return float("inf")
 
 
 def cut_coal(
