@@ -36,7 +36,7 @@ from typing import Any
 
 from . import expr as X
 from . import ir
-from .check import ENTRY_STATE, command_scope, default_table
+from .check import ENTRY_STATE, Scopes, default_table
 from .diagnostics import Diagnostics, Span, known_names_hint
 from .model import Command, ControllerSpec, Report, Rule, Send, SystemSpec
 
@@ -578,22 +578,16 @@ def analyse_system(
     system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
 ) -> None:
     """Analyse every state table of a checked system; findings go to `diags`."""
-    by_name = {c.name: c for c in controllers}
+    scopes = Scopes(system, controllers)
     for spec in controllers:
-        _Controller(system, controllers, by_name, spec, diags).run()
+        _Controller(scopes, spec, diags).run()
 
 
 class _Controller:
-    def __init__(
-        self,
-        system: SystemSpec,
-        controllers: list[ControllerSpec],
-        by_name: dict[str, ControllerSpec],
-        spec: ControllerSpec,
-        diags: Diagnostics,
-    ):
-        self.system, self.controllers, self.spec, self.diags = system, controllers, spec, diags
-        scope = command_scope(system, controllers, spec.name, None)
+    def __init__(self, scopes: Scopes, spec: ControllerSpec, diags: Diagnostics):
+        self.scopes, self.spec, self.diags = scopes, spec, diags
+        by_name = scopes.by_name
+        scope = scopes.scope(spec.name, None)
         quiet = Diagnostics()
         predicates = {
             name: X.compile_expr(item.value, item.span, scope, quiet, X.BOOL)
@@ -639,7 +633,7 @@ class _Controller:
 
     def table(self, command: Command) -> dict[str, list[_Rule]]:
         """The rules that can be tried: none after one without a guard (W301)."""
-        scope = command_scope(self.system, self.controllers, self.spec.name, command)
+        scope = self.scopes.scope(self.spec.name, command)
         table: dict[str, list[_Rule]] = {}
         for name, state in command.states.items():
             rules = table[name] = []

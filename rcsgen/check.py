@@ -479,7 +479,7 @@ class _Lowering:
         self.writable = {w.value for w in spec.world_writes}
         sub_commands = {sub: frozenset(self._with_defaults(by_name[sub])) for sub in self.subs}
         self.base_scope = X.Scope(
-            world={n: f.type for n, f in system.world.items()},
+            world=system.world_types,
             world_access=frozenset(a.value for a in [*spec.world_reads, *spec.world_writes]),
             locals={n: v.type for n, v in spec.locals.items()},
             constants={n: c.value for n, c in spec.constants.items()},
@@ -856,11 +856,19 @@ def _unique(items: Iterable[str]) -> list[str]:
     return list(dict.fromkeys(items))
 
 
-def command_scope(
-    system: SystemSpec, controllers: list[ControllerSpec], name: str, command: Command | None
-) -> X.Scope:
-    """The scope the checker types controller `name`'s expressions in: those of `command`'s
-    table, or its predicates when `command` is None (for analyses of a checked system)."""
-    by_name = {c.name: c for c in controllers}
-    lowering = _Lowering(by_name[name], by_name, system, None, False, Diagnostics())
-    return lowering.scope_for(command)
+class Scopes:
+    """The scopes the checker types a checked system's expressions in, for analyses: one
+    controller's predicates (`command` None) or one command's table. Built once each."""
+
+    def __init__(self, system: SystemSpec, controllers: list[ControllerSpec]):
+        self.system = system
+        self.by_name = {c.name: c for c in controllers}
+        self._lowerings: dict[str, _Lowering] = {}
+
+    def scope(self, name: str, command: Command | None) -> X.Scope:
+        lowering = self._lowerings.get(name)
+        if lowering is None:
+            spec = self.by_name[name]
+            lowering = _Lowering(spec, self.by_name, self.system, None, False, Diagnostics())
+            self._lowerings[name] = lowering
+        return lowering.scope_for(command)

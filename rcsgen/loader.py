@@ -170,7 +170,7 @@ class _Builder:
 
     def scalar(self, event: yaml.ScalarEvent, span: Span, reported: bool) -> None:
         text = event.value
-        plain = event.style is None  # any quoted or block scalar is a string
+        plain = not event.style  # any quoted or block scalar is a string (libyaml says "")
         value = _plain_value(text) if plain else text
         at_key = not reported and bool(self.stack) and self.stack[-1].at_key()
         if at_key and plain and text == "<<":
@@ -252,19 +252,34 @@ def load_text(text: str, display_path: str) -> object:
     if len(text.encode("utf-8", "surrogatepass")) > MAX_BYTES:
         raise _fail(Span(display_path), "E006", _TOO_LARGE, _TOO_LARGE_HINT)
     text = text.removeprefix("\ufeff")
+    if _FAST_PARSER is not None:  # libyaml for speed; its events carry the same marks
+        diags, result = _build(text, display_path, _FAST_PARSER)
+        if not diags.errors:
+            return result
+    # The pure-Python parser's problem messages are the ones diagnostics are written for.
+    diags, result = _build(text, display_path, yaml.SafeLoader)
+    if diags.errors:
+        raise SpecError(diags)
+    return result
+
+
+# A large system has thousands of spec files: the C parser loads them several times faster.
+_FAST_PARSER = getattr(yaml, "CSafeLoader", None)
+
+
+def _build(text: str, display_path: str, loader: type) -> tuple[Diagnostics, object]:
+    """Feed one parser's events to a builder: the diagnostics and the loaded value."""
     diags = Diagnostics()
     builder = _Builder(display_path, diags)
     try:
-        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        for event in yaml.parse(text, Loader=loader):
             builder.feed(event)
             if builder.stopped:
                 break
     except yaml.YAMLError as exc:
         span, message, hint = _syntax_error(exc, text, display_path)
         diags.error(span, "E001", message, hint)
-    if diags.errors:
-        raise SpecError(diags)
-    return builder.result
+    return diags, builder.result
 
 
 def load_file(path: pathlib.Path, display_path: str) -> object:

@@ -7,6 +7,7 @@ problems where the user wrote them. Nothing is resolved here; `check` does that.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -71,6 +72,11 @@ class SystemSpec:
     directory: Path
     display: str  # the file's path as shown in diagnostics and headers
     span: Span
+
+    @cached_property
+    def world_types(self) -> dict[str, str]:
+        """Each world field's type, by name (every controller's scope shares it)."""
+        return {name: f.type for name, f in self.world.items()}
 
 
 # ---------------------------------------------------------------- controller

@@ -23,7 +23,7 @@ from conftest import REPO, rcsgen
 
 from rcsgen import analysis
 from rcsgen import expr as X
-from rcsgen.check import command_scope
+from rcsgen.check import Scopes
 from rcsgen.diagnostics import Diagnostic, Diagnostics, Span
 from rcsgen.frontend import compile_paths
 from rcsgen.loader import load_file
@@ -176,7 +176,7 @@ class Evaluator:
             s.value: ("INIT", "HALT", *next(c for c in controllers if c.name == s.value).commands)
             for s in self.spec.subordinates
         }
-        scope = command_scope(system, controllers, controller, None)
+        scope = Scopes(system, controllers).scope(controller, None)
         self.predicates = {
             n: X.compile_expr(p.value, p.span, scope, Diagnostics(), X.BOOL)
             for n, p in self.spec.predicates.items()
@@ -185,7 +185,7 @@ class Evaluator:
     def guard(self, command: str, state: str, number: int) -> X.Expr:
         cmd = self.spec.commands[command]
         rule = cmd.states[state].rules[number - 1]
-        scope = command_scope(self.system, self.controllers, self.spec.name, cmd)
+        scope = Scopes(self.system, self.controllers).scope(self.spec.name, cmd)
         tree = X.compile_expr(rule.when.value, rule.when.span, scope, Diagnostics(), X.BOOL)
         assert tree is not None
         return tree
