@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 from collections.abc import Iterable
+from functools import lru_cache
 from pathlib import Path
 
 from . import expr as X
@@ -573,9 +574,7 @@ class _Lowering:
         up = spec.name.upper()
         for suffix in ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT"):
             taken[up + suffix] = "a layout name"
-        for field_name in self.system.world:
-            taken[f"WORLD_{field_name.upper()}"] = "a layout name"
-            taken[f"WORLD_{field_name.upper()}_AT"] = "a layout name"
+        taken.update(_world_layout_names(tuple(self.system.world)))
         for index in range(1, len(spec.world_writes) + 1):
             taken[f"WORLD_OUT_{index}"] = taken[f"WORLD_OUT_{index}_AT"] = "a generated name"
         named: list[tuple[str, str, Span]] = [
@@ -829,6 +828,15 @@ class _Lowering:
                 "give them under `with:`",
             )
         return ir.IRSend(send.sub, naming.sub_command_const(send.sub, send.command), args)
+
+
+@lru_cache(maxsize=8)
+def _world_layout_names(fields: tuple[str, ...]) -> dict[str, str]:
+    """The layout's names of the world fields: the same for every controller, made once."""
+    names = {}
+    for name in fields:
+        names[f"WORLD_{name.upper()}"] = names[f"WORLD_{name.upper()}_AT"] = "a layout name"
+    return names
 
 
 def _live(rules: list[ir.IRRule]) -> list[ir.IRRule]:

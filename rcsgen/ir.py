@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass, field
+from functools import cached_property
 
 STATUS_CODES = {"NOT_READY": 0, "EXECUTING": 1, "DONE": 2, "ERROR": 3}
 NO_COMMAND = 0  # a command buffer that never received a command
@@ -40,11 +41,11 @@ class Buffer:
     slots: tuple[Slot, ...]
     doc: str
 
-    @property
+    @cached_property
     def format(self) -> str:
         return "<" + "".join(slot.code for slot in self.slots)
 
-    @property
+    @cached_property
     def size(self) -> int:
         return struct.calcsize(self.format)
 

@@ -9,7 +9,10 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable
-from multiprocessing import resource_tracker, shared_memory
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # imported when a named block is used: it costs ~10 ms of start-up
+    from multiprocessing import shared_memory
 
 # Status a module reports to its supervisor (QQ1.h `qq1_responses`).
 NOT_READY = 0
@@ -29,6 +32,8 @@ class Block:
         if name is None:
             self.buf = memoryview(bytearray(size))
             return
+        from multiprocessing import shared_memory
+
         if create:
             self.shm = shared_memory.SharedMemory(name=name, create=True, size=size)
         else:
@@ -54,6 +59,8 @@ def _attach(name: str) -> shared_memory.SharedMemory:
     when both share a tracker). Python 3.13 has `track=False`; before it, registration is
     suppressed for the duration of the call.
     """
+    from multiprocessing import resource_tracker, shared_memory
+
     if sys.version_info >= (3, 13):
         return shared_memory.SharedMemory(name=name, track=False)
     register = resource_tracker.register
