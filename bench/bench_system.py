@@ -1,0 +1,217 @@
+"""Part 2: the whole miner system, in one process: ns per system cycle and per module.
+
+The generated package (generated/miner) runs the nominal scenario (a scenario file of
+specs/miner/scenarios, as `rcsgen run` would, INIT sent at start-up) again and again,
+each time on a fresh block and fresh controllers from the same imported package, until
+the scenario's stop module reports DONE (or max_cycles). Every system cycle is timed on
+its own (the clock costs ~0.1 % of a cycle); the scenario's events and the stop check run
+between cycles, untimed. One round is `--cycles` system cycles; rounds are repeated and
+the median reported. A second, instrumented pass times each module's run_cycle, less the
+cost of reading the clock, and each call of a hand-written hook function, to show where a
+system cycle goes: generated code or hooks.
+
+Multi-process runs over named shared memory are not measured here (a later runtime issue).
+
+    python bench/bench_system.py [--scenario PATH] [--cycles N] [--rounds R] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import sys
+import time
+import types
+from pathlib import Path
+
+from common import ROOT, summary, write_json
+
+from rcsgen import scenario as scenarios
+from rcsgen.harness import Harness
+
+SCENARIO = ROOT / "specs" / "miner" / "scenarios" / "sump_shear_cusp.yaml"
+PACKAGE = ROOT / "generated" / "miner"
+CYCLES = 20_000
+ROUNDS = 5
+
+
+class Repeater:
+    """Runs a scenario over and over on fresh harnesses of one imported package."""
+
+    def __init__(self, path: Path, package_dir: Path) -> None:
+        self.scenario = scenarios.load_scenario(path)
+        self.first = self._open(package_dir)
+
+    def _open(self, package_dir: Path) -> Harness:
+        if hasattr(scenarios, "open_harness"):
+            return scenarios.open_harness(self.scenario, package_dir)
+        return Harness.load(
+            package_dir, self.scenario.system_dir, self.scenario.process, send_init=True
+        )
+
+    def fresh(self) -> Harness:
+        """A new block and new controllers, INIT sent, from the already imported package."""
+        options = {}
+        for name in ("settings", "simulate"):
+            if getattr(self.scenario, name, None):
+                options[name] = getattr(self.scenario, name)
+        return Harness(self.first.package, self.scenario.process, send_init=True, **options)
+
+    def finished(self, harness: Harness) -> bool:
+        stop = self.scenario.stop_when_done
+        if stop is None:
+            return False
+        status = harness.status(stop)
+        return status.number == harness.sent(stop).number and status.status in ("DONE", "ERROR")
+
+    def apply(self, harness: Harness, event: scenarios.Event) -> None:
+        harness.world.update(event.world)
+        for module, mode in event.mode.items():
+            harness.set_mode(module, **mode)
+        if event.command is not None:
+            module, name = event.command
+            harness.command(module, name, **event.args)
+
+    def run(self, cycles: int, cycle_of=None) -> tuple[int, int, int]:
+        """Run `cycles` system cycles of repeated scenarios; returns (ns, cycles, runs).
+
+        `cycle_of(harness)` gives the function that runs one system cycle (default: the
+        process's own run_cycle)."""
+        clock = time.perf_counter_ns
+        total = done = runs = 0
+        gc.collect()
+        while done < cycles:
+            harness, runs = self.fresh(), runs + 1
+            step = cycle_of(harness) if cycle_of else harness.process.run_cycle
+            pending = list(self.scenario.events)
+            for cycle in range(1, self.scenario.max_cycles + 1):
+                while pending and pending[0].cycle <= cycle:
+                    self.apply(harness, pending.pop(0))
+                start = clock()
+                step()
+                total += clock() - start
+                done += 1
+                if done == cycles or (not pending and self.finished(harness)):
+                    break
+        return total, done, runs
+
+
+def controllers(harness: Harness) -> list[tuple[str, object]]:
+    """The controllers a process runs, in its order."""
+    modules = getattr(harness.process, "modules", None)
+    if isinstance(modules, dict):
+        return list(modules.items())
+    return [(name, harness.controller(name)) for name in harness.modules]
+
+
+class TimedHooks:
+    """Stands in for a hook module in a generated controller module (its `hooks` global):
+    each function the controller calls through it is timed. Calls inside the hook module
+    do not pass through here, so only what the controllers call is timed, once."""
+
+    def __init__(self, module: types.ModuleType, totals: dict[str, int], active: list[bool]):
+        self._module, self._totals, self._active = module, totals, active
+
+    def __getattr__(self, name: str):
+        function = getattr(self._module, name)
+        if not callable(function):
+            return function
+        key = f"{self._module.__name__}.{name}"
+        totals, active, clock = self._totals, self._active, time.perf_counter_ns
+
+        def timed(*args, **kwargs):
+            if not active[0]:  # outside a cycle (e.g. a hook-state factory)
+                return function(*args, **kwargs)
+            start = clock()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                totals[key] = totals.get(key, 0) + clock() - start
+
+        setattr(self, name, timed)  # resolve once
+        return timed
+
+
+def per_module(repeater: Repeater, cycles: int) -> tuple[dict[str, float], dict[str, float]]:
+    """ns per cycle of each module and of each hook function the modules call, from an
+    instrumented pass (the cost of reading the clock subtracted from the modules)."""
+    clock = time.perf_counter_ns
+    overhead = min(-clock() + clock() for _ in range(10_000))
+    totals: dict[str, int] = {}
+    counts: dict[str, int] = {}
+    hook_totals: dict[str, int] = {}
+    active = [False]
+    patched: dict[types.ModuleType, object] = {}
+
+    def instrumented(harness: Harness):
+        steps = [(name, controller.run_cycle) for name, controller in controllers(harness)]
+        for _, controller in controllers(harness):
+            module = sys.modules[type(controller).__module__]
+            hooks = getattr(module, "hooks", None)
+            if isinstance(hooks, types.ModuleType):
+                patched[module] = hooks
+                module.hooks = TimedHooks(hooks, hook_totals, active)
+        for name, _ in steps:
+            totals.setdefault(name, 0)
+            counts.setdefault(name, 0)
+
+        def cycle() -> None:
+            active[0] = True
+            for name, step in steps:
+                start = clock()
+                step()
+                totals[name] += clock() - start - overhead
+                counts[name] += 1
+            active[0] = False
+
+        return cycle
+
+    try:
+        _, done, _ = repeater.run(cycles, instrumented)
+    finally:
+        for module, hooks in patched.items():
+            module.hooks = hooks
+    modules = {name: totals[name] / counts[name] for name in totals}
+    return modules, {key: total / done for key, total in hook_totals.items()}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--scenario", type=Path, default=SCENARIO)
+    parser.add_argument("--package", type=Path, default=PACKAGE)
+    parser.add_argument("--cycles", type=int, default=CYCLES)
+    parser.add_argument("--rounds", type=int, default=ROUNDS)
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args()
+    started = time.perf_counter()
+
+    repeater = Repeater(args.scenario, args.package)
+    modules = [name for name, _ in controllers(repeater.first)]
+    repeater.run(min(2_000, args.cycles))  # warm-up
+    per_cycle, runs = [], 0
+    for _ in range(args.rounds):
+        total, done, runs = repeater.run(args.cycles)
+        per_cycle.append(total / done)
+    costs, hooks = per_module(repeater, args.cycles)
+    write_json(
+        args.json,
+        {
+            "scenario": str(args.scenario.relative_to(ROOT)),
+            "process": repeater.first.process_name,
+            "modules": modules,
+            "cycles_per_round": args.cycles,
+            "scenario_runs_per_round": runs,
+            "rounds": args.rounds,
+            "ns_per_cycle": summary(per_cycle),
+            "rounds_ns": per_cycle,
+            "ns_per_module": summary([value / len(modules) for value in per_cycle]),
+            "module_ns": costs,
+            "hook_ns": hooks,
+            "seconds": time.perf_counter() - started,
+        },
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

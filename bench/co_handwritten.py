@@ -1,0 +1,324 @@
+"""co written by hand, the QQ1 way: the baseline the generated controller is measured against.
+
+This is what a careful engineer writes from the paper's QQ1.c template and Appendix C
+without a generator: local copies of the buffers, four steps per cycle (pre_process,
+check_if_new_command, decision_process, post_process), the command-number handshake,
+dont_run and single-step modes, and the performance buffer. It shares the block with the
+generated controllers (offsets and buffer structs from the generated layout) and reads
+what can be read together in one call: its command and mode, and the five world fields
+it reads. It behaves exactly as docs/semantics.md describes, so its trace is the
+generated controller's.
+"""
+
+from __future__ import annotations
+
+from time import perf_counter_ns
+
+import miner_hooks.co as hooks
+from co_layout import (
+    CC_CUSP,
+    CC_SHEAR,
+    CC_SHEAR_CORRECT,
+    CC_SUMP,
+    CR_CUSP,
+    CR_SHEAR,
+    CR_SUMP,
+    DONE,
+    EXECUTING,
+    HALT,
+    INIT,
+    LOOSE_COAL_LIMIT,
+    NOP,
+    NOT_READY,
+    S0,
+    S1,
+    S2,
+    S3,
+    S4,
+    SUMP_SHEAR_CUSP,
+    VG_TRAM_TO_XY,
+    WORLD_READS,
+    gather,
+)
+from miner.layout import (
+    CC_COMMAND,
+    CC_COMMAND_AT,
+    CC_STATUS_AT,
+    CO_COMMAND,
+    CO_COMMAND_AT,
+    CO_MODE_AT,
+    CO_PERF_AT,
+    CO_STATUS_AT,
+    CR_COMMAND,
+    CR_COMMAND_AT,
+    CR_STATUS_AT,
+    MODE,
+    PERF,
+    STATUS,
+    STATUS_HEAD,
+    VG_COMMAND,
+    VG_COMMAND_AT,
+    VG_STATUS_AT,
+    WORLD,
+)
+
+# co's command and mode buffers in one read; the world fields co reads in another.
+COMMAND_MODE, COMMAND_MODE_AT = gather((CO_COMMAND_AT, CO_COMMAND), (CO_MODE_AT, MODE))
+WORLD_IN, WORLD_IN_AT = gather(*((WORLD[name].offset, WORLD[name].struct) for name in WORLD_READS))
+GOAL, GOAL_AT = gather(*((WORLD[name].offset, WORLD[name].struct) for name in ("goal_x", "goal_y")))
+
+
+class HandwrittenCo:
+    """co's buffers as local copies, and its QQ1 cycle."""
+
+    __slots__ = (
+        "buf",
+        "cycle_start",
+        # the command in, the status out, the mode and performance (QQ1_BUFFER)
+        "command_num",
+        "command",
+        "status_num",
+        "status",
+        "error_num",
+        "state",
+        "dont_run",
+        "single_step",
+        "simulate",
+        "single_step_num",
+        "last_cycle_ns",
+        "min_cycle_ns",
+        "max_cycle_ns",
+        "cycles",
+        "perf_single_step_num",
+        # the command out to and status in from each subordinate (qq2_co, qq2_si)
+        "cr_command_num",
+        "cr_command",
+        "cr_status_num",
+        "cr_status",
+        "vg_command_num",
+        "vg_command",
+        "vg_x",
+        "vg_y",
+        "vg_status_num",
+        "vg_status",
+        "cc_command_num",
+        "cc_command",
+        "cc_status_num",
+        "cc_status",
+        # the world model, as co sees it this cycle
+        "popped_out_of_shear",
+        "loose_coal",
+        "pose_x",
+        "pose_y",
+        "heading",
+        "goal_x",
+        "goal_y",
+    )
+
+    def __init__(self, buf: memoryview) -> None:
+        self.buf = buf
+        self.cycle_start = 0
+        # Start from what the block holds, so a restarted co keeps its handshakes.
+        (
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+        ) = COMMAND_MODE.unpack_from(buf, COMMAND_MODE_AT)
+        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+            buf, CO_STATUS_AT
+        )
+        (
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+        ) = PERF.unpack_from(buf, CO_PERF_AT)
+        self.cr_command_num, self.cr_command = CR_COMMAND.unpack_from(buf, CR_COMMAND_AT)
+        self.vg_command_num, self.vg_command, self.vg_x, self.vg_y = VG_COMMAND.unpack_from(
+            buf, VG_COMMAND_AT
+        )
+        self.cc_command_num, self.cc_command = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)
+        self.cr_status_num = self.vg_status_num = self.cc_status_num = 0
+        self.cr_status = self.vg_status = self.cc_status = NOT_READY
+        self.popped_out_of_shear, self.loose_coal, self.pose_x, self.pose_y, self.heading = (
+            WORLD_IN.unpack_from(buf, WORLD_IN_AT)
+        )
+        self.goal_x, self.goal_y = GOAL.unpack_from(buf, GOAL_AT)
+
+    def run_cycle(self) -> None:
+        self.pre_process()
+        self.check_if_new_command()
+        self.decision_process()
+        self.post_process()
+
+    def pre_process(self) -> None:
+        """Read the command, the mode, the subordinates' status and the world."""
+        self.cycle_start = perf_counter_ns()
+        buf = self.buf
+        (
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+        ) = COMMAND_MODE.unpack_from(buf, COMMAND_MODE_AT)
+        # A subordinate is executing until it echoes the number of the last command sent.
+        self.cr_status_num, self.cr_status = STATUS_HEAD.unpack_from(buf, CR_STATUS_AT)
+        if self.cr_status_num != self.cr_command_num:
+            self.cr_status = EXECUTING
+        self.vg_status_num, self.vg_status = STATUS_HEAD.unpack_from(buf, VG_STATUS_AT)
+        if self.vg_status_num != self.vg_command_num:
+            self.vg_status = EXECUTING
+        self.cc_status_num, self.cc_status = STATUS_HEAD.unpack_from(buf, CC_STATUS_AT)
+        if self.cc_status_num != self.cc_command_num:
+            self.cc_status = EXECUTING
+        self.popped_out_of_shear, self.loose_coal, self.pose_x, self.pose_y, self.heading = (
+            WORLD_IN.unpack_from(buf, WORLD_IN_AT)
+        )
+
+    def check_if_new_command(self) -> None:
+        if self.command_num != self.status_num:
+            self.status_num = self.command_num
+            self.state = S0
+            self.status = EXECUTING
+
+    def decision_process(self) -> None:
+        if self.dont_run:
+            return
+        if self.single_step:
+            if self.single_step_num == self.perf_single_step_num:
+                return
+            self.perf_single_step_num = self.single_step_num
+        command = self.command
+        if command == SUMP_SHEAR_CUSP:
+            self.sump_shear_cusp()
+        elif command == INIT:
+            self.init()
+        elif command == HALT:
+            self.halt()
+
+    def post_process(self) -> None:
+        """Write the status, the subordinates' commands, the goal and the cycle time."""
+        buf = self.buf
+        STATUS.pack_into(
+            buf, CO_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+        )
+        CR_COMMAND.pack_into(buf, CR_COMMAND_AT, self.cr_command_num, self.cr_command)
+        VG_COMMAND.pack_into(
+            buf, VG_COMMAND_AT, self.vg_command_num, self.vg_command, self.vg_x, self.vg_y
+        )
+        CC_COMMAND.pack_into(buf, CC_COMMAND_AT, self.cc_command_num, self.cc_command)
+        GOAL.pack_into(buf, GOAL_AT, self.goal_x, self.goal_y)
+        last = perf_counter_ns() - self.cycle_start
+        self.last_cycle_ns = last
+        if last > self.max_cycle_ns:
+            self.max_cycle_ns = last
+        if last < self.min_cycle_ns or not self.min_cycle_ns:
+            self.min_cycle_ns = last
+        self.cycles += 1
+        PERF.pack_into(
+            buf,
+            CO_PERF_AT,
+            last,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+        )
+
+    # ------------------------------------------------------------ sending
+
+    def send_all(self, code: int) -> None:
+        self.cr_command = code
+        self.cr_command_num += 1
+        self.vg_command = code
+        self.vg_command_num += 1
+        self.cc_command = code
+        self.cc_command_num += 1
+
+    def all_done(self) -> bool:
+        return self.cr_status == DONE and self.vg_status == DONE and self.cc_status == DONE
+
+    # ------------------------------------------------------------ state tables
+
+    def init(self) -> None:
+        state = self.state
+        if state == S0:
+            self.state = S1
+            self.send_all(INIT)
+        elif state == S1 and self.all_done():
+            self.state = NOP
+            self.status = DONE
+
+    def halt(self) -> None:
+        state = self.state
+        if state == S0:
+            self.state = S1
+            self.send_all(HALT)
+        elif state == S1 and self.all_done():
+            self.state = NOP
+            self.status = DONE
+
+    def sump_shear_cusp(self) -> None:
+        """Appendix C, co_sump_shear_cusp, branch for branch."""
+        state = self.state
+        if state == S0:  # do a sump operation
+            self.state = S1
+            self.goal_x, self.goal_y = hooks.co_position_for_sump(
+                self.pose_x, self.pose_y, self.heading
+            )
+            self.cr_command = CR_SUMP
+            self.cr_command_num += 1
+            self.vg_x, self.vg_y = self.goal_x, self.goal_y
+            self.vg_command = VG_TRAM_TO_XY
+            self.vg_command_num += 1
+            self.cc_command = CC_SUMP
+            self.cc_command_num += 1
+        elif state == S1:
+            if self.vg_status == DONE and self.cc_status == DONE:  # do a shear operation
+                self.state = S2
+                self.cr_command = CR_SHEAR
+                self.cr_command_num += 1
+                self.vg_command = HALT
+                self.vg_command_num += 1
+                self.cc_command = CC_SHEAR
+                self.cc_command_num += 1
+        elif state == S2:
+            too_much_loose_coal = self.loose_coal > LOOSE_COAL_LIMIT
+            if self.popped_out_of_shear:  # the drum popped out of the shear
+                self.state = S1
+                self.goal_x, self.goal_y = hooks.co_position_for_sump(
+                    self.pose_x, self.pose_y, self.heading
+                )
+                self.cc_command = CC_SHEAR_CORRECT
+                self.cc_command_num += 1
+            elif too_much_loose_coal:  # pause the shear
+                self.cc_command = HALT
+                self.cc_command_num += 1
+            elif self.cc_command == HALT:  # continue with the shear
+                self.cc_command = CC_SHEAR
+                self.cc_command_num += 1
+            elif self.all_done():  # do a cusp operation (not popped out: tested above)
+                self.state = S3
+                self.cr_command = CR_CUSP
+                self.cr_command_num += 1
+                self.cc_command = CC_CUSP
+                self.cc_command_num += 1
+        elif state == S3:
+            if self.all_done():
+                self.state = S4
+                self.goal_x, self.goal_y = hooks.co_position_for_cusp(
+                    self.pose_x, self.pose_y, self.heading
+                )
+                self.vg_x, self.vg_y = self.goal_x, self.goal_y
+                self.vg_command = VG_TRAM_TO_XY
+                self.vg_command_num += 1
+        elif state == S4:
+            if self.all_done():
+                self.state = NOP
+                self.status = DONE

@@ -1,0 +1,167 @@
+"""co as one function with no redundant copies: the floor for any Python version of co.
+
+Same block, same behaviour, same duties as the QQ1 controllers (status echo, dont_run and
+single-step, the performance buffer), but nothing kept between cycles: one `unpack_from`
+reads every input of a cycle (co's own buffers, the commands it last sent, the
+subordinates' status, the world) into locals, the table runs on the locals, and only what
+changed is written back: a subordinate's command buffer when co sends to it, the goal when
+a hook computes one, the status when it changed, and the performance buffer (every cycle).
+
+It is not a design to copy: it skips what QQ1 does on purpose (rewriting every output
+buffer every cycle) and keeps no local state, so nothing here survives a layout change
+without editing. It shows how much of a cycle is the interpreter's floor.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from time import perf_counter_ns
+
+import miner_hooks.co as hooks
+from co_layout import (
+    CC_CUSP,
+    CC_SHEAR,
+    CC_SHEAR_CORRECT,
+    CC_SUMP,
+    CR_CUSP,
+    CR_SHEAR,
+    CR_SUMP,
+    DONE,
+    EXECUTING,
+    HALT,
+    INIT,
+    LOOSE_COAL_LIMIT,
+    NOP,
+    S0,
+    S1,
+    S2,
+    S3,
+    S4,
+    SUMP_SHEAR_CUSP,
+    VG_TRAM_TO_XY,
+    WORLD_READS,
+    gather,
+)
+from miner.layout import (
+    CC_COMMAND,
+    CC_COMMAND_AT,
+    CC_STATUS_AT,
+    CO_COMMAND,
+    CO_COMMAND_AT,
+    CO_MODE_AT,
+    CO_PERF_AT,
+    CO_STATUS_AT,
+    CR_COMMAND,
+    CR_COMMAND_AT,
+    CR_STATUS_AT,
+    MODE,
+    PERF,
+    STATUS,
+    STATUS_HEAD,
+    VG_COMMAND,
+    VG_COMMAND_AT,
+    VG_STATUS_AT,
+    WORLD,
+)
+
+# Every input of a cycle in one read, in block order.
+INPUTS, INPUTS_AT = gather(
+    (CO_COMMAND_AT, CO_COMMAND),
+    (CO_STATUS_AT, STATUS),
+    (CO_MODE_AT, MODE),
+    (CO_PERF_AT, PERF),
+    (CR_COMMAND_AT, CR_COMMAND),
+    (CR_STATUS_AT, STATUS_HEAD),
+    (VG_COMMAND_AT, VG_COMMAND),
+    (VG_STATUS_AT, STATUS_HEAD),
+    (CC_COMMAND_AT, CC_COMMAND),
+    (CC_STATUS_AT, STATUS_HEAD),
+    *((WORLD[name].offset, WORLD[name].struct) for name in WORLD_READS),
+)
+GOAL, GOAL_AT = gather(*((WORLD[name].offset, WORLD[name].struct) for name in ("goal_x", "goal_y")))
+
+
+def minimal_co(buf: memoryview) -> Callable[[], None]:
+    """co's cycle on `buf`, as a function of no arguments."""
+
+    def run_cycle() -> None:
+        start = perf_counter_ns()
+        (
+            command_num, command, status_num, status, error_num, state,
+            dont_run, single_step, _, single_step_num,
+            _, min_ns, max_ns, cycles, stepped_num,
+            cr_num, cr_command, cr_echo, cr_status,
+            vg_num, vg_command, vg_x, vg_y, vg_echo, vg_status,
+            cc_num, cc_command, cc_echo, cc_status,
+            popped_out_of_shear, loose_coal, pose_x, pose_y, heading,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)  # fmt: skip
+        before = (status_num, status, state)
+        if command_num != status_num:  # a new command
+            status_num, status, state = command_num, EXECUTING, S0
+        if dont_run or (single_step and single_step_num == stepped_num):
+            command = 0  # held: no table runs
+        elif single_step:
+            stepped_num = single_step_num
+        if command and state != NOP:
+            # A subordinate is done when it echoes the last number sent with DONE.
+            cr_done = cr_echo == cr_num and cr_status == DONE
+            vg_done = vg_echo == vg_num and vg_status == DONE
+            cc_done = cc_echo == cc_num and cc_status == DONE
+            if command == SUMP_SHEAR_CUSP:
+                if state == S0:
+                    state = S1
+                    x, y = hooks.co_position_for_sump(pose_x, pose_y, heading)
+                    GOAL.pack_into(buf, GOAL_AT, x, y)
+                    CR_COMMAND.pack_into(buf, CR_COMMAND_AT, cr_num + 1, CR_SUMP)
+                    VG_COMMAND.pack_into(buf, VG_COMMAND_AT, vg_num + 1, VG_TRAM_TO_XY, x, y)
+                    CC_COMMAND.pack_into(buf, CC_COMMAND_AT, cc_num + 1, CC_SUMP)
+                elif state == S1:
+                    if vg_done and cc_done:
+                        state = S2
+                        CR_COMMAND.pack_into(buf, CR_COMMAND_AT, cr_num + 1, CR_SHEAR)
+                        VG_COMMAND.pack_into(buf, VG_COMMAND_AT, vg_num + 1, HALT, vg_x, vg_y)
+                        CC_COMMAND.pack_into(buf, CC_COMMAND_AT, cc_num + 1, CC_SHEAR)
+                elif state == S2:
+                    if popped_out_of_shear:
+                        state = S1
+                        x, y = hooks.co_position_for_sump(pose_x, pose_y, heading)
+                        GOAL.pack_into(buf, GOAL_AT, x, y)
+                        CC_COMMAND.pack_into(buf, CC_COMMAND_AT, cc_num + 1, CC_SHEAR_CORRECT)
+                    elif loose_coal > LOOSE_COAL_LIMIT:
+                        CC_COMMAND.pack_into(buf, CC_COMMAND_AT, cc_num + 1, HALT)
+                    elif cc_command == HALT:
+                        CC_COMMAND.pack_into(buf, CC_COMMAND_AT, cc_num + 1, CC_SHEAR)
+                    elif cr_done and vg_done and cc_done:
+                        state = S3
+                        CR_COMMAND.pack_into(buf, CR_COMMAND_AT, cr_num + 1, CR_CUSP)
+                        CC_COMMAND.pack_into(buf, CC_COMMAND_AT, cc_num + 1, CC_CUSP)
+                elif cr_done and vg_done and cc_done:
+                    if state == S3:
+                        state = S4
+                        x, y = hooks.co_position_for_cusp(pose_x, pose_y, heading)
+                        GOAL.pack_into(buf, GOAL_AT, x, y)
+                        VG_COMMAND.pack_into(buf, VG_COMMAND_AT, vg_num + 1, VG_TRAM_TO_XY, x, y)
+                    else:  # S4
+                        state, status = NOP, DONE
+            elif command == INIT or command == HALT:
+                if state == S0:
+                    state = S1
+                    CR_COMMAND.pack_into(buf, CR_COMMAND_AT, cr_num + 1, command)
+                    VG_COMMAND.pack_into(buf, VG_COMMAND_AT, vg_num + 1, command, vg_x, vg_y)
+                    CC_COMMAND.pack_into(buf, CC_COMMAND_AT, cc_num + 1, command)
+                elif state == S1 and cr_done and vg_done and cc_done:
+                    state, status = NOP, DONE
+        if (status_num, status, state) != before:
+            STATUS.pack_into(buf, CO_STATUS_AT, status_num, status, error_num, state)
+        last = perf_counter_ns() - start
+        PERF.pack_into(
+            buf,
+            CO_PERF_AT,
+            last,
+            last if last < min_ns or not min_ns else min_ns,
+            last if last > max_ns else max_ns,
+            cycles + 1,
+            stepped_num,
+        )
+
+    return run_cycle

@@ -1,0 +1,19 @@
+"""Hooks of the operation coordinator (co): geometry the state table should not spell out."""
+
+from __future__ import annotations
+
+import math
+
+DRUM_DIAMETER = 1.0  # metres
+CUSP_BACKOFF = 0.5  # metres trammed in reverse to clear the cusp
+
+
+def co_position_for_sump(pose_x: float, pose_y: float, heading: float) -> tuple[float, float]:
+    """Goal point half a drum diameter ahead of the machine, along its heading."""
+    step = DRUM_DIAMETER / 2
+    return pose_x + step * math.cos(heading), pose_y + step * math.sin(heading)
+
+
+def co_position_for_cusp(pose_x: float, pose_y: float, heading: float) -> tuple[float, float]:
+    """Goal point a short reverse tram behind the machine, to clear the cusp."""
+    return pose_x - CUSP_BACKOFF * math.cos(heading), pose_y - CUSP_BACKOFF * math.sin(heading)
