@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint check build clean
+.PHONY: run test lint check build clean fuzz bench
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -14,10 +14,17 @@ $(STAMP): pyproject.toml
 
 run: $(STAMP)
 	$(VENV)/bin/rcsgen build specs/
-	$(VENV)/bin/rcsgen run specs/miner/scenarios/sump_shear_cusp.yaml
+	$(VENV)/bin/rcsgen run specs/miner/scenarios/box_cut.yaml
 
 test: $(STAMP)
 	$(PY) -m pytest -q
+
+# Longer fuzzing than `make test` does: 5,000 mutated specs through the front end (and every
+# 10th through `rcsgen build`), 200 random state tables run against the reference
+# interpreter, with fresh randomness each time; prints a summary of each.
+fuzz: $(STAMP)
+	FUZZ_EXAMPLES=5000 DIFF_EXAMPLES=200 FUZZ_RANDOM=1 \
+		$(PY) -m pytest -q -s tests/test_fuzz.py tests/test_differential.py
 
 lint: $(STAMP)
 	$(PY) -m ruff check rcsgen tests
@@ -32,3 +39,17 @@ check: lint test
 
 clean:
 	rm -rf $(VENV) build dist *.egg-info
+
+# Benchmarks (not part of `make test`): generated code against hand-written code and the
+# state-machine libraries, in their own venv; writes bench/RESULTS.md (see bench/README.md).
+BENCH_VENV := bench/.venv
+BENCH_STAMP := $(BENCH_VENV)/.installed
+
+$(BENCH_STAMP): pyproject.toml bench/requirements.txt
+	$(PYTHON) -m venv $(BENCH_VENV)
+	$(BENCH_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(BENCH_VENV)/bin/python -m pip install --quiet -e . -r bench/requirements.txt
+	touch $(BENCH_STAMP)
+
+bench: $(BENCH_STAMP)
+	$(BENCH_VENV)/bin/python bench/run.py

@@ -374,9 +374,18 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
         return
     try:
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-    except (SyntaxError, UnicodeDecodeError, OSError) as exc:
+    except (
+        SyntaxError,
+        ValueError,
+        UnicodeDecodeError,
+        OSError,
+        RecursionError,
+        MemoryError,
+    ) as exc:
         diags.error(
-            spec.hooks_module.span, "E212", f"hooks module `{module}` cannot be read: {exc}"
+            spec.hooks_module.span,
+            "E212",
+            f"hooks module `{module}` cannot be read: {str(exc) or type(exc).__name__}",
         )
         return
     functions = {

@@ -556,3 +556,12 @@ def test_strict_fails_on_warning(shadowed_rule: Path, before: dict[str, bytes]) 
     assert result.exit_code == 1
     assert "warning[W301]" in result.output
     assert snapshot(shadowed_rule / "generated") == before
+
+
+def test_a_pathological_hooks_module_is_a_located_error(work: Path) -> None:
+    """A hooks file the Python parser cannot even hold (deep unary nesting: MemoryError or
+    RecursionError inside `ast.parse`) is E212 at `hooks_module`, never a traceback."""
+    (work / "specs/miner/miner_hooks/co.py").write_text("x = " + "-" * 200_000 + "1\n")
+    result = rcsgen("validate")
+    assert result.exit_code == 1
+    assert "error[E212]: hooks module `miner_hooks.co` cannot be read" in result.output

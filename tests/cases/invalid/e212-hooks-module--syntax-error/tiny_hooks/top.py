@@ -1,0 +1,1 @@
+def nudge(n:

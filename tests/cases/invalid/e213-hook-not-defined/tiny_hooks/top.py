@@ -1,0 +1,2 @@
+def nudged(n):
+    return n

@@ -1,0 +1,254 @@
+"""A reference interpreter of one controller's documented semantics (docs/semantics.md).
+
+Written from the documentation, independently of the generator: it reads the spec as plain
+YAML data (`yaml.safe_load`), evaluates guards and values with its own small evaluator over
+Python's `ast`, and never calls rcsgen. tests/test_differential.py runs it side by side with
+the generated code and compares every cycle.
+
+It lives in tests/, not in the package: it is a test oracle. Shipping a second implementation
+of the semantics would invite using it, and the oracle must stay free to be simple and slow.
+
+Covered: the command-number handshake (a new number starts the table at S0 with EXECUTING),
+subordinate status (EXECUTING until the echo of the last number sent), the first rule whose
+guard holds fires (`next` then actions in order), `report` ends the command (state NOP),
+sends number each command, world fields copied in at the start and written out at the end
+of a cycle, locals, parameters, constants, predicates, default INIT/HALT tables.
+Not covered: modes, every_cycle rules, hooks.
+"""
+
+from __future__ import annotations
+
+import ast
+import operator
+from dataclasses import dataclass, field
+from typing import Any
+
+STATUSES = ("NOT_READY", "EXECUTING", "DONE", "ERROR")
+_BINARY = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.FloorDiv: operator.floordiv,
+    ast.Mod: operator.mod,
+}
+_COMPARE = {
+    ast.Eq: operator.eq,
+    ast.NotEq: operator.ne,
+    ast.Lt: operator.lt,
+    ast.LtE: operator.le,
+    ast.Gt: operator.gt,
+    ast.GtE: operator.ge,
+}
+
+
+def default_table(command: str, subordinates: list[str]) -> dict[str, list[dict]]:
+    """docs/semantics.md section 5, written out as a state table."""
+    if not subordinates:
+        return {"S0": [{"do": [{"report": "DONE"}]}]}
+    return {
+        "S0": [{"do": [{"send": f"{sub}.{command}"} for sub in subordinates], "next": "S1"}],
+        "S1": [
+            {
+                "when": " and ".join(f"{sub}.status == DONE" for sub in subordinates),
+                "do": [{"report": "DONE"}],
+            }
+        ],
+    }
+
+
+@dataclass
+class Block:
+    """What the reference and the test share: the buffers the controller reads and writes."""
+
+    command_num: int = 0
+    command: str = "NONE"
+    args: dict[str, Any] = field(default_factory=dict)
+    sub_status: dict[str, tuple[int, str]] = field(default_factory=dict)  # sub -> (num, status)
+    world: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class SubCommand:
+    command: str = "NONE"
+    number: int = 0
+    args: dict[str, Any] = field(default_factory=dict)
+
+
+class Controller:
+    """One controller, cycle by cycle."""
+
+    def __init__(self, spec: dict, subs: dict[str, dict], world: dict[str, dict]) -> None:
+        self.spec = spec
+        self.subs = list(spec.get("subordinates") or [])
+        self.sub_specs = subs
+        access = spec.get("world") or {}
+        self.reads = list(
+            dict.fromkeys([*(access.get("reads") or []), *(access.get("writes") or [])])
+        )
+        self.writes = list(access.get("writes") or [])
+        self.constants = dict(spec.get("constants") or {})
+        self.predicates = dict(spec.get("predicates") or {})
+        self.locals = {n: v["initial"] for n, v in (spec.get("locals") or {}).items()}
+        self.tables = {
+            "INIT": default_table("INIT", self.subs),
+            "HALT": default_table("HALT", self.subs),
+        }
+        for name, command in (spec.get("commands") or {}).items():
+            self.tables[name] = command["states"]
+        self.params = self._param_types()
+        # status buffer and local copies
+        self.status_num, self.status, self.state = 0, "NOT_READY", "NOP"
+        self.command_num, self.command, self.args = 0, "NONE", {}
+        self.sent = {sub: SubCommand(args=self._slots(subs[sub])) for sub in self.subs}
+        self.sub_view = {sub: "NOT_READY" for sub in self.subs}
+        self.world: dict[str, Any] = {}
+        del world  # initial values live in the block
+
+    @staticmethod
+    def _slots(spec: dict) -> dict[str, Any]:
+        """A subordinate's parameter slots in its command buffer, all zero at first."""
+        slots = {}
+        for command in (spec.get("commands") or {}).values():
+            for name, param in (command.get("params") or {}).items():
+                slots.setdefault(name, _zero(param["type"]))
+        return slots
+
+    def _param_types(self) -> dict[str, str]:
+        types = {}
+        for command in (self.spec.get("commands") or {}).values():
+            for name, param in (command.get("params") or {}).items():
+                types[name] = param["type"]
+        return types
+
+    # ------------------------------------------------------------ one cycle
+
+    def run_cycle(self, block: Block) -> None:
+        # pre_process: command, subordinate statuses, world
+        self.command_num, self.command = block.command_num, block.command
+        self.args = {p: block.args.get(p, _zero(t)) for p, t in self.params.items()}
+        for sub in self.subs:
+            number, status = block.sub_status.get(sub, (0, "NOT_READY"))
+            self.sub_view[sub] = status if number == self.sent[sub].number else "EXECUTING"
+        self.world = {name: block.world[name] for name in self.reads}
+        # check_if_new_command
+        if self.command_num != self.status_num:
+            self.status_num, self.state, self.status = self.command_num, "S0", "EXECUTING"
+        # decision_process
+        table = self.tables.get(self.command)
+        if table is not None and self.state in table:
+            for rule in table[self.state]:
+                if "when" not in rule or self.holds(rule["when"]):
+                    self.fire(rule)
+                    break
+        # post_process: world out
+        for name in self.writes:
+            block.world[name] = self.world[name]
+
+    def fire(self, rule: dict) -> None:
+        if "next" in rule:
+            self.state = rule["next"]
+        for action in rule.get("do") or []:
+            if "send" in action:
+                sub, _, command = action["send"].partition(".")
+                values = {k: self.value(v) for k, v in (action.get("with") or {}).items()}
+                previous = self.sent[sub]
+                args = {**previous.args, **values}
+                self.sent[sub] = SubCommand(command, previous.number + 1, args)
+            elif "set" in action:
+                for target, text in action["set"].items():
+                    value = self.value(text)
+                    if target.startswith("world."):
+                        self.world[target.removeprefix("world.")] = value
+                    else:
+                        self.locals[target] = value
+            elif "report" in action:
+                self.status, self.state = action["report"], "NOP"
+
+    # ------------------------------------------------------------ expressions
+
+    def holds(self, guard: object) -> bool:
+        return bool(self.value(guard))
+
+    def value(self, source: object) -> Any:
+        if isinstance(source, bool | int | float):
+            return source
+        tree = ast.parse(" ".join(str(source).split()), mode="eval")
+        return self.eval(tree.body)
+
+    def eval(self, node: ast.AST, sub_commands: str | None = None) -> Any:
+        if isinstance(node, ast.Constant):
+            return node.value
+        if isinstance(node, ast.BoolOp):
+            values = [self.eval(v) for v in node.values]
+            return all(values) if isinstance(node.op, ast.And) else any(values)
+        if isinstance(node, ast.UnaryOp):
+            operand = self.eval(node.operand)
+            if isinstance(node.op, ast.Not):
+                return not operand
+            return -operand if isinstance(node.op, ast.USub) else +operand
+        if isinstance(node, ast.BinOp):
+            return _BINARY[type(node.op)](self.eval(node.left), self.eval(node.right))
+        if isinstance(node, ast.Compare):
+            operands = [node.left, *node.comparators]
+            sub = next(
+                (_sub_command(o, self.subs) for o in operands if _sub_command(o, self.subs)), None
+            )
+            values = [self.eval(o, sub) for o in operands]
+            return all(
+                _COMPARE[type(op)](a, b)
+                for op, a, b in zip(node.ops, values, values[1:], strict=False)
+            )
+        if isinstance(node, ast.Name):
+            return self.name(node.id, sub_commands)
+        if isinstance(node, ast.Attribute):
+            base = node.value.id  # type: ignore[attr-defined]
+            if base == "world":
+                return self.world[node.attr]
+            return self.sub_view[base] if node.attr == "status" else self.sent[base].command
+        if isinstance(node, ast.Call):
+            name = node.func.id  # type: ignore[attr-defined]
+            if name in self.predicates:
+                return self.holds(self.predicates[name])
+            args = [self.eval(a) for a in node.args]
+            return {"abs": abs, "min": min, "max": max}[name](*args)
+        raise ValueError(f"not in the expression language: {ast.dump(node)}")
+
+    def name(self, name: str, sub_commands: str | None) -> Any:
+        if sub_commands is not None:
+            return name  # compared with <sub>.command: a command name
+        if name in STATUSES:
+            return name
+        if name in self.args:
+            return self.args[name]
+        if name in self.locals:
+            return self.locals[name]
+        return self.constants[name]
+
+    # ------------------------------------------------------------ what a trace shows
+
+    def trace(self) -> dict[str, Any]:
+        return {
+            "state": self.state,
+            "status": self.status,
+            "status_num": self.status_num,
+            "sent": {
+                s: (c.command, c.number, dict(sorted(c.args.items()))) for s, c in self.sent.items()
+            },
+            "locals": dict(self.locals),
+        }
+
+
+def _sub_command(node: ast.AST, subs: list[str]) -> str | None:
+    if (
+        isinstance(node, ast.Attribute)
+        and node.attr == "command"
+        and isinstance(node.value, ast.Name)
+        and node.value.id in subs
+    ):
+        return node.value.id
+    return None
+
+
+def _zero(kind: str) -> Any:
+    return {"bool": False, "int": 0, "float": 0.0}[kind]

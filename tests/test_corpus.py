@@ -1,0 +1,206 @@
+"""The corpus of bad specs: every mistake is reported with its code, where it was made.
+
+`tests/cases/invalid/<kind>--<variant>/` is one whole system (system.yaml, controllers,
+sometimes a hooks package) with one mistake. Each offending line carries its expectation as
+a YAML comment: `# expect: E204` means a diagnostic E204 on that line, `# expect: E204@31`
+also pins the column, `# expect: E221 E222` expects two codes there. The test runs the front
+end on the case directory and asserts the reported (file, line, code) set equals the expected
+set: an extra diagnostic fails the case as surely as a missing one, so each case is kept
+minimal. Nothing may raise.
+
+Warnings of the static analysis (W5xx) are compared only in cases that expect one: they
+judge tables, not mistakes, and a case is about its one mistake.
+`tests/cases/valid/` holds systems that must validate without a single diagnostic.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner, Result
+
+from rcsgen.cli import main
+from rcsgen.diagnostics import Diagnostic
+from rcsgen.frontend import compile_paths
+
+CASES = Path(__file__).resolve().parent / "cases"
+INVALID = sorted(p for p in (CASES / "invalid").iterdir() if p.is_dir())
+VALID = sorted(p for p in (CASES / "valid").iterdir() if p.is_dir())
+EXPECT = re.compile(r"#\s*expect:\s*(.*)$")
+TOKEN = re.compile(r"([ESW]\d{3})(?:@(\d+))?")
+ANALYSIS_WARNING = re.compile(r"W5\d\d")
+
+
+@dataclass(frozen=True)
+class Expected:
+    file: str  # relative to the case directory, as the front end shows it from there
+    line: int
+    code: str
+    col: int | None = None
+
+
+def expectations(case: Path) -> list[Expected]:
+    """Every `# expect:` comment of the case's YAML files."""
+    found = []
+    for path in sorted(case.rglob("*.yaml")):
+        rel = path.relative_to(case).as_posix()
+        text = path.read_bytes().decode("utf-8", errors="replace")  # E008 cases are not UTF-8
+        for number, line in enumerate(text.split("\n"), start=1):
+            match = EXPECT.search(line)
+            if match is None:
+                continue
+            tokens = match.group(1).split()
+            assert tokens, f"{rel}:{number}: `# expect:` without a code"
+            for token in tokens:
+                parsed = TOKEN.fullmatch(token)
+                assert parsed, f"{rel}:{number}: bad expectation {token!r}"
+                col = int(parsed.group(2)) if parsed.group(2) else None
+                found.append(Expected(rel, number, parsed.group(1), col))
+    return found
+
+
+def run_front_end(case: Path, monkeypatch: pytest.MonkeyPatch) -> list[Diagnostic]:
+    monkeypatch.chdir(case)  # diagnostics then name files relative to the case
+    return list(compile_paths([Path(".")]).diagnostics)
+
+
+def test_corpus_size() -> None:
+    """At least 100 bad specs, covering at least 40 kinds of mistake."""
+    kinds = {case.name.split("--")[0] for case in INVALID}
+    assert len(INVALID) >= 100, len(INVALID)
+    assert len(kinds) >= 40, sorted(kinds)
+
+
+@pytest.mark.parametrize("case", INVALID, ids=[c.name for c in INVALID])
+def test_invalid_case(case: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    want = expectations(case)
+    assert want, f"{case.name} expects nothing: add `# expect: CODE` to the offending line"
+    diags = run_front_end(case, monkeypatch)
+    expects_analysis = any(ANALYSIS_WARNING.fullmatch(e.code) for e in want)
+    compared = [d for d in diags if expects_analysis or not ANALYSIS_WARNING.fullmatch(d.code)]
+    got = {(d.span.file, d.span.line, d.code) for d in compared}
+    assert got == {(e.file, e.line, e.code) for e in want}, "\n".join(d.render() for d in diags)
+    for e in want:
+        if e.col is not None:
+            at = (e.file, e.line, e.code)
+            cols = [d.span.col for d in diags if (d.span.file, d.span.line, d.code) == at]
+            assert e.col in cols, f"{e}: reported at columns {cols}"
+    for d in diags:  # every diagnostic is located in a file of the case
+        assert (case / d.span.file).is_file(), d.render()
+        assert d.span.line >= 1 and d.span.col >= 1, d.render()
+        assert d.message and "Traceback" not in d.message
+
+
+@pytest.mark.parametrize("case", VALID, ids=[c.name for c in VALID])
+def test_valid_case(case: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The systems the invalid cases are made from are themselves clean."""
+    diags = run_front_end(case, monkeypatch)
+    assert not [d for d in diags if not ANALYSIS_WARNING.fullmatch(d.code)], diags
+
+
+def test_corpus_shows_did_you_mean(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Misspelled names get a `did you mean` hint naming the declared one."""
+    hints = {}
+    for name in (
+        "e103-unknown-name--local-typo",
+        "e103-unknown-name--constant-typo",
+        "e104-undeclared-world-field--guard",
+        "e106-unknown-predicate--typo",
+        "e201-unknown-subordinate--typo",
+        "e204-undeclared-command--typo",
+        "e206-undefined-state--typo",
+        "e211-unknown-module--typo",
+        "s002-unknown-key--typo-title",
+        "s005-invalid-value--type-typo",
+    ):
+        diags = run_front_end(CASES / "invalid" / name, monkeypatch)
+        hints[name] = [d.hint for d in diags if "did you mean" in d.hint]
+    assert all(hints.values()), hints
+    assert hints["e103-unknown-name--local-typo"] == ["did you mean `n`?"]
+    assert hints["e204-undeclared-command--typo"] == ["did you mean `MOVE`?"]
+    assert hints["s005-invalid-value--type-typo"] == ["did you mean `float`?"]
+
+
+CODE = re.compile(r"""["']([ESW]\d{3})["']""")
+DOC_ENTRY = re.compile(r"^### ([ESW]\d{3})\b", re.MULTILINE)
+
+
+def test_docs_list_every_code() -> None:
+    """docs/diagnostics.md has one entry per code the code base can emit, and no other.
+
+    Codes are found by grepping rcsgen/ for string literals like "E204": whoever adds a code
+    (a checker, the analysis, scenarios) documents it in the same change.
+    """
+    package = Path(__file__).resolve().parent.parent / "rcsgen"
+    in_code = {c for p in package.rglob("*.py") for c in CODE.findall(p.read_text("utf-8"))}
+    doc = (package.parent / "docs" / "diagnostics.md").read_text(encoding="utf-8")
+    entries = DOC_ENTRY.findall(doc)
+    assert len(entries) == len(set(entries)), "a code is documented twice"
+    assert sorted(in_code - set(entries)) == [], "emitted but not documented"
+    assert sorted(set(entries) - in_code) == [], "documented but never emitted"
+
+
+def test_corpus_cases_are_named_after_documented_codes() -> None:
+    doc = (CASES.parent.parent / "docs" / "diagnostics.md").read_text(encoding="utf-8")
+    documented = {c.lower() for c in DOC_ENTRY.findall(doc)}
+    assert {case.name[:4] for case in INVALID} <= documented
+
+
+# ---------------------------------------------------------------- --format json
+
+
+def _cli(*args: str) -> Result:
+    result = CliRunner().invoke(main, list(args), catch_exceptions=False)
+    assert "Traceback" not in result.output
+    return result
+
+
+def test_validate_json_lists_every_diagnostic_sorted(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`--format json`: one array on stdout, sorted by position, all fields; exit 1."""
+    monkeypatch.chdir(CASES / "invalid" / "e206-undefined-state--typo")
+    result = _cli("validate", ".", "--format", "json")
+    assert result.exit_code == 1
+    found = json.loads(result.stdout)
+    assert [(d["file"], d["line"], d["code"]) for d in found] == [
+        ("top.yaml", 30, "E206"),
+        ("top.yaml", 31, "E207"),
+    ]
+    assert set(found[0]) == {"file", "line", "col", "severity", "code", "message", "hint"}
+    assert found[0]["severity"] == "error" and found[0]["col"] == 17
+    assert found[0]["hint"].startswith("did you mean")
+    text = _cli("validate", ".")
+    assert text.exit_code == 1 and text.stdout == ""  # text goes to stderr
+    assert "top.yaml:30:17: error[E206]" in text.stderr
+
+
+def test_json_of_many_files_is_sorted_by_position(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(CASES / "invalid" / "e203-cycle--mutual")
+    found = json.loads(_cli("validate", ".", "--format", "json").stdout)
+    keys = [(d["file"], d["line"], d["col"]) for d in found]
+    assert keys == sorted(keys) and len(keys) == 2
+
+
+def test_build_json_keeps_stdout_for_the_array(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A clean build prints `[...]` (warnings included) on stdout and its summary on stderr;
+    a failed one prints the errors, exits 1 and writes nothing."""
+    monkeypatch.chdir(tmp_path)
+    shutil.copytree(CASES / "valid" / "tiny", tmp_path / "specs" / "tiny")
+    result = _cli("build", "specs", "-o", "out", "--format", "json")
+    assert result.exit_code == 0, result.output
+    assert all(d["severity"] == "warning" for d in json.loads(result.stdout))
+    assert "built tiny into out" in result.stderr
+    assert (tmp_path / "out" / "tiny" / "top.py").is_file()
+    checked = _cli("build", "specs", "-o", "out", "--check", "--format", "json")
+    assert checked.exit_code == 0 and isinstance(json.loads(checked.stdout), list)
+    shutil.copytree(CASES / "invalid" / "e204-undeclared-command--typo", tmp_path / "bad")
+    failed = _cli("build", "bad", "-o", "out2", "--format", "json")
+    assert failed.exit_code == 1
+    assert [d["code"] for d in json.loads(failed.stdout)] == ["E204"]
+    assert "nothing was written" in failed.stderr and not (tmp_path / "out2").exists()

@@ -1,0 +1,296 @@
+"""Differential test: generated code against a reference interpreter of the semantics.
+
+Hypothesis generates small random systems: a controller `top` with 1-3 subordinates (each
+with a few commands, some with a parameter), world bools and ints, locals, a predicate, and
+1-2 commands of 2-5 states whose rules have guards from a small grammar over subordinate
+statuses and commands, world fields, locals, parameters and the predicate, and actions that
+send, set and report, with `next` transitions. Each system is built (Harness.build) and run
+for CYCLES cycles; the test plays the subordinates (seeded random replies: echo with DONE,
+ERROR or EXECUTING, a stale number, or nothing), changes the world and issues new commands.
+The same inputs drive tests/reference_interpreter.py, written from docs/semantics.md
+without rcsgen. Every cycle the two must agree on state, status, status number, each
+subordinate's command, number and arguments, the locals and the world.
+
+DIFF_EXAMPLES (default 25) examples run in the tests; `make fuzz` runs more.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+from pathlib import Path
+from typing import Any
+
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from reference_interpreter import Block, Controller
+
+from rcsgen.harness import Harness
+
+EXAMPLES = int(os.environ.get("DIFF_EXAMPLES", "25"))
+DERANDOMIZE = os.environ.get("FUZZ_RANDOM", "") == ""
+CYCLES = 200
+REPLIES = ("DONE", "DONE", "ERROR", "EXECUTING")
+
+
+class Draw:
+    """Random choices drawn from Hypothesis, so a failing system shrinks."""
+
+    def __init__(self, data: st.DataObject) -> None:
+        self.data = data
+
+    def int(self, low: int, high: int) -> int:
+        return self.data.draw(st.integers(low, high))
+
+    def choice(self, items: list[Any]) -> Any:
+        return self.data.draw(st.sampled_from(items))
+
+    def chance(self, percent: int) -> bool:
+        return self.int(1, 100) <= percent
+
+
+def sub_spec(name: str, d: Draw) -> dict:
+    commands = {}
+    for command in ("A", "B", "C")[: d.int(1, 3)]:
+        spec: dict = {"states": {"S0": [{"do": [{"report": "DONE"}]}]}}
+        if d.chance(40):
+            spec["params"] = {"k": {"type": "int"}}
+        commands[command] = spec
+    return {"controller": name, "title": f"Subordinate {name}", "commands": commands}
+
+
+class Grammar:
+    """Guards and values over what `top` can see."""
+
+    def __init__(self, d: Draw, subs: dict[str, dict], sent: list[str]) -> None:
+        self.d, self.subs, self.sent = d, subs, sent
+
+    def atom(self) -> str:
+        d = self.d
+        kinds = ["world_bool", "world_int", "local_int", "local_bool", "param", "predicate"]
+        kinds += ["status", "status", "command"] if self.sent else []
+        kind = d.choice(kinds)
+        if kind == "status":
+            sub = d.choice(self.sent)
+            return (
+                f"{sub}.status {d.choice(['==', '!='])} {d.choice(['DONE', 'ERROR', 'EXECUTING'])}"
+            )
+        if kind == "command":
+            sub = d.choice(self.sent)
+            names = ["INIT", "HALT", *self.subs[sub]["commands"]]
+            return f"{sub}.command {d.choice(['==', '!='])} {d.choice(names)}"
+        if kind == "world_bool":
+            return d.choice(["world.b0", "not world.b0", "world.b1"])
+        if kind == "local_bool":
+            return d.choice(["flag", "not flag"])
+        if kind == "predicate":
+            return d.choice(["busy()", "not busy()"])
+        compare = d.choice(["<", "<=", ">", ">=", "==", "!="])
+        return f"{self.number()} {compare} {d.int(-2, 6)}"
+
+    def number(self) -> str:
+        d = self.d
+        base = d.choice(["world.i0", "world.i1", "n", "g"])  # a variable: the guard can hold
+        shape = d.int(0, 5)
+        if shape == 1:
+            return f"{base} + {d.choice(['n', 'world.i0', 'LIMIT'])}"
+        if shape == 2:
+            return f"{base} % {d.int(2, 4)}"
+        if shape == 3:
+            return f"abs({base} - {d.int(0, 5)})"
+        if shape == 4:
+            return f"{d.choice(['min', 'max'])}({base}, {d.choice(['n', 'g', '2'])})"
+        if shape == 5:
+            return f"-{base} // {d.int(1, 3)}"
+        return base
+
+    def guard(self) -> str:
+        d = self.d
+        first = self.atom()
+        if d.chance(40):
+            return f"{first} {d.choice(['and', 'or'])} {self.atom()}"
+        if d.chance(10):
+            return f"not ({first} and {self.atom()})"
+        return first
+
+
+def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
+    names = list(subs)
+    commands, count = {}, d.int(1, 2)
+    for command in ("GO", "RUN")[:count]:
+        states = [f"S{i}" for i in range(d.int(2, 5))]
+        sent = sorted({d.choice(names) for _ in range(d.int(1, len(names)))})
+        grammar = Grammar(d, subs, sent)
+        table: dict[str, list] = {}
+        for index, state in enumerate(states):
+            rules = []
+            following = states[index + 1] if index + 1 < len(states) else None
+            for _ in range(d.int(1, 3)):
+                rules.append(random_rule(d, grammar, states, sent, subs))
+            # every state is reachable and the last one can report
+            # (first, with a guard that can hold, so the analysis can see it fire)
+            anchor = {"when": grammar.atom()} if d.chance(70) else {}
+            if following is not None:
+                anchor["next"] = following
+                if index == 0:  # the table commands what its guards test
+                    anchor["do"] = [send(d, sub, subs) for sub in sent]
+            else:
+                anchor["do"] = [{"report": d.choice(["DONE", "DONE", "ERROR"])}]
+            rules.insert(0, anchor)
+            table[state] = rules
+        commands[command] = {
+            "params": {"g": {"type": "int"}},
+            "states": table,
+            "first_match": states,  # overlapping guards are meant: the first match wins
+        }
+    return {
+        "controller": "top",
+        "title": "Top",
+        "subordinates": names,
+        "world": {"reads": ["b0", "i0"], "writes": ["b1", "i1"]},
+        "locals": {
+            "n": {"type": "int", "initial": d.int(-1, 2)},
+            "flag": {"type": "bool", "initial": d.chance(50)},
+        },
+        "constants": {"LIMIT": d.int(0, 4)},
+        "predicates": {"busy": "world.b0 and n > LIMIT"},
+        "commands": commands,
+    }
+
+
+def send(d: Draw, sub: str, subs: dict[str, dict]) -> dict:
+    command = d.choice(["INIT", "HALT", *subs[sub]["commands"]])
+    action: dict = {"send": f"{sub}.{command}"}
+    if "params" in subs[sub]["commands"].get(command, {}):
+        action["with"] = {"k": d.choice(["n", "g + 1", "world.i0", "3"])}
+    return action
+
+
+def random_rule(d: Draw, grammar: Grammar, states: list[str], sent: list[str], subs) -> dict:
+    rule: dict = {}
+    if d.chance(85):
+        rule["when"] = grammar.guard()
+    actions = []
+    for _ in range(d.int(0, 3)):
+        kind = d.choice(["send", "set_n", "set_flag", "set_world", "report"])
+        if kind == "send":
+            actions.append(send(d, d.choice(sent), subs))
+        elif kind == "set_n":
+            actions.append({"set": {"n": d.choice(["n + 1", "n - 1", "0", "g", "world.i0 % 5"])}})
+        elif kind == "set_flag":
+            actions.append({"set": {"flag": d.choice(["not flag", "world.b0", "n > 2"])}})
+        elif kind == "set_world":
+            target = d.choice(["world.b1", "world.i1"])
+            value = "not world.b1" if target == "world.b1" else d.choice(["n", "world.i1 + 1"])
+            actions.append({"set": {target: value}})
+        elif not any("report" in a for a in actions):
+            actions.append({"report": d.choice(["DONE", "ERROR"])})
+    if actions:
+        rule["do"] = actions
+    if not any("report" in a for a in actions) and (d.chance(50) or not rule):
+        rule["next"] = d.choice(states)
+    return rule
+
+
+def system_files(d: Draw) -> dict[str, dict]:
+    subs = {f"s{i}": sub_spec(f"s{i}", d) for i in range(d.int(1, 3))}
+    system = {
+        "system": "diff",
+        "title": "Differential",
+        "cycle_period": 0.01,
+        "world": {
+            "b0": {"type": "bool", "initial": d.chance(50)},
+            "b1": {"type": "bool", "initial": False},
+            "i0": {"type": "int", "initial": d.int(-3, 3)},
+            "i1": {"type": "int", "initial": 0},
+        },
+        "processes": {"p": {"modules": ["top", *subs]}},
+    }
+    return {"system": system, "top": top_spec(d, subs), **subs}
+
+
+def write_system(directory: Path, files: dict[str, dict]) -> None:
+    directory.mkdir(parents=True)
+    for name, data in files.items():
+        text = yaml.safe_dump(data, sort_keys=False, width=1000)
+        (directory / f"{name}.yaml").write_text(text, encoding="utf-8")
+
+
+def generated_trace(h: Harness, subs: list[str]) -> dict[str, Any]:
+    status = h.status("top")
+    top = h.controller("top")
+    return {
+        "state": status.state,
+        "status": status.status,
+        "status_num": status.number,
+        "sent": {
+            s: (h.sent(s).command, h.sent(s).number, dict(sorted(h.sent(s).args.items())))
+            for s in subs
+        },
+        "locals": {"n": top.var_n, "flag": top.var_flag},
+    }
+
+
+def drive(h: Harness, files: dict[str, dict], rnd: random.Random) -> int:
+    """Run both for CYCLES cycles on the same inputs; the number of commands given."""
+    subs = [n for n in files if n not in ("system", "top")]
+    reference = Controller(files["top"], {s: files[s] for s in subs}, files["system"]["world"])
+    block = Block(world={n: f["initial"] for n, f in files["system"]["world"].items()})
+    commands = ["INIT", "HALT", *files["top"]["commands"]]
+    given = 0
+    for cycle in range(CYCLES):
+        if cycle == 0 or rnd.random() < 0.06:  # the operator gives a new command
+            command, g = rnd.choice(commands), rnd.randint(-2, 5)
+            args = {"g": g} if command not in ("INIT", "HALT") else {}
+            block.command_num = h.command("top", command, **args)
+            block.command = command
+            block.args.update(args)
+            given += 1
+        for sub in subs:  # the subordinates answer, or not
+            roll = rnd.random()
+            sent = reference.sent[sub].number
+            if roll < 0.45:
+                status = rnd.choice(REPLIES)
+                number = sent if rnd.random() < 0.9 else max(sent - 1, 0)
+                h.reply(sub, status, number)
+                block.sub_status[sub] = (number, status)
+        for name, kind in (("b0", "bool"), ("i0", "int"), ("b1", "bool"), ("i1", "int")):
+            if rnd.random() < 0.1:  # the world changes
+                value = rnd.random() < 0.5 if kind == "bool" else rnd.randint(-4, 6)
+                h.world[name] = value
+                block.world[name] = value
+        h.step("top")
+        reference.run_cycle(block)
+        want = {**reference.trace(), "world": dict(block.world)}
+        got = {**generated_trace(h, subs), "world": h.world.snapshot()}
+        assert got == want, f"cycle {cycle + 1}: generated {got} != reference {want}"
+    return given
+
+
+def test_generated_code_matches_the_reference(tmp_path_factory) -> None:
+    runs = {"examples": 0, "cycles": 0, "commands": 0}
+
+    @settings(
+        max_examples=EXAMPLES,
+        deadline=None,
+        derandomize=DERANDOMIZE,
+        database=None,
+        suppress_health_check=list(HealthCheck),
+    )
+    @given(data=st.data(), seed=st.integers(0, 2**32))
+    def one(data: st.DataObject, seed: int) -> None:
+        files = system_files(Draw(data))
+        directory = tmp_path_factory.mktemp("diff") / "diff"
+        write_system(directory, files)
+        with Harness.build(directory) as h:
+            runs["commands"] += drive(h, files, random.Random(seed))
+        runs["examples"] += 1
+        runs["cycles"] += CYCLES
+
+    one()
+    assert runs["examples"] >= EXAMPLES
+    print(
+        f"\ndifferential: {runs['examples']} systems, {runs['cycles']} cycles, "
+        f"{runs['commands']} commands, 0 differences"
+    )
