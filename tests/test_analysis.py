@@ -1084,6 +1084,8 @@ MINER_FINDINGS = [
         "rule fires then",
     ),
     ("vg.yaml", "W503", "TRAM_TO_XY STOPPING waits when tc.status=EXECUTING: no rule fires then"),
+    ("co.yaml", "W503", "TRAM_TO_GOAL S1 waits when vg.status=EXECUTING: no rule fires then"),
+    ("sb.yaml", "W503", "TRAM_TO_GOAL S1 waits when co.status=EXECUTING: no rule fires then"),
 ]
 
 

@@ -139,3 +139,12 @@ def test_simulated_coal_removal_section_still_completes_the_box_cut():
     assert not any(line["world"]["tail_request"] for line in lines), "nobody asked the operator"
     assert lines[-1]["world"]["depth_cut"] >= 1.45
     assert lines[-1]["world"]["coal_mined"] > 10.0, "the stand-in hauled the coal away"
+
+
+def test_operator_goal_entry_trams_the_machine_there():
+    final, lines = played("operator_goal")
+    assert final["status"] == "DONE"
+    entered = next(line for line in lines if line["modules"]["oi"]["command"] == "ENTER_GOAL")
+    assert entered["world"]["operator_goal_x"] == -1.5, "the console entry reached the world"
+    assert commands_sent(lines, "co")[-1] == "TRAM_TO_GOAL"
+    assert abs(lines[-1]["world"]["pose_x"] - -1.5) < 0.05, "the machine is at the goal"

@@ -20,11 +20,11 @@ LOWER = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI1792xd136xd")
+INPUTS = Struct("<QI28x???1xI1824xd136xd")
 INPUTS_AT = 272
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<d")
-WORLD_OUT_1_AT = 2112
+WORLD_OUT_1_AT = 2144
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

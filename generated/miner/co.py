@@ -24,8 +24,9 @@ from .rcs import DONE, ERROR, EXECUTING, NOP
 INIT = 1
 HALT = 2
 INITIAL_APPROACH_FACE = 3
-APPROACH_FACE = 4
-SUMP_SHEAR_CUSP = 5
+TRAM_TO_GOAL = 4
+APPROACH_FACE = 5
+SUMP_SHEAR_CUSP = 6
 
 # Commands co sends to cr.
 CR_INIT = 1
@@ -50,11 +51,11 @@ CC_CUSP = 7
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI56xQI340xQI356xQI1156xdd128xddd8xd?31xd")
+INPUTS = Struct("<QI28x???1xI56xQI340xQI356xQI1172xdddd128xddd8xd?31xd")
 INPUTS_AT = 96
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<dd")
-WORLD_OUT_1_AT = 2088
+WORLD_OUT_1_AT = 2120
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -113,6 +114,8 @@ class CoController:
         "world_goal_y",
         "world_heading",
         "world_loose_coal",
+        "world_operator_goal_x",
+        "world_operator_goal_y",
         "world_popped_out_of_shear",
         "world_pose_x",
         "world_pose_y",
@@ -164,6 +167,8 @@ class CoController:
             self.cr_status,
             self.vg_status_num,
             self.vg_status,
+            self.world_operator_goal_x,
+            self.world_operator_goal_y,
             self.world_goal_x,
             self.world_goal_y,
             self.world_pose_x,
@@ -202,6 +207,8 @@ class CoController:
             self.halt()
         elif command == INITIAL_APPROACH_FACE:
             self.initial_approach_face()
+        elif command == TRAM_TO_GOAL:
+            self.tram_to_goal()
         elif command == APPROACH_FACE:
             self.approach_face()
         elif command == SUMP_SHEAR_CUSP:
@@ -336,6 +343,25 @@ class CoController:
         elif state == FAILED and (self.vg_status == DONE or self.vg_status == ERROR):
             self.state = NOP
             self.status = ERROR
+
+    def tram_to_goal(self) -> None:
+        """TRAM_TO_GOAL: Tram in free space to the goal point the operator entered."""
+        state = self.state
+        if state == S0:
+            self.state = S1
+            self.vg_arg_x = self.world_operator_goal_x
+            self.vg_arg_y = self.world_operator_goal_y
+            self.vg_command = VG_TRAM_TO_XY
+            self.vg_command_num += 1
+
+        elif state == S1:
+            if self.vg_status == DONE:
+                self.state = NOP
+                self.status = DONE
+
+            elif self.vg_status == ERROR:
+                self.state = NOP
+                self.status = ERROR
 
     def approach_face(self) -> None:
         """APPROACH_FACE: Raise the boom and tram a known distance back to the face: after a cusp its position is known, so no current monitoring is needed."""

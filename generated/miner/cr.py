@@ -43,7 +43,7 @@ CT_POSITION_TAIL = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI56xQI76xQI76xQI1244x?231xd")
+INPUTS = Struct("<QI28x???1xI56xQI76xQI76xQI1260x?247xd")
 INPUTS_AT = 536
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -20,11 +20,11 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI184xd48xd")
-INPUTS_AT = 1976
+INPUTS = Struct("<QI28x???1xI200xd48xd")
+INPUTS_AT = 1992
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<d")
-WORLD_OUT_1_AT = 2264
+WORLD_OUT_1_AT = 2296
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

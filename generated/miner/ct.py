@@ -19,11 +19,11 @@ POSITION_TAIL = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI1216x?7x?")
+INPUTS = Struct("<QI28x???1xI1232x?7x?")
 INPUTS_AT = 800
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<?")
-WORLD_OUT_1_AT = 2064
+WORLD_OUT_1_AT = 2080
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -19,11 +19,11 @@ ON = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI1408x?")
+INPUTS = Struct("<QI28x???1xI1440x?")
 INPUTS_AT = 712
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<?")
-WORLD_OUT_1_AT = 2168
+WORLD_OUT_1_AT = 2200
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

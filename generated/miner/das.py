@@ -18,11 +18,11 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI448x?87xd64x?")
-INPUTS_AT = 1624
+INPUTS = Struct("<QI28x???1xI464x?87xd64x?")
+INPUTS_AT = 1640
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<d")
-WORLD_OUT_1_AT = 2208
+WORLD_OUT_1_AT = 2240
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

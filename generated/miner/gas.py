@@ -18,11 +18,11 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI312x?87x?7x?135xdd")
-INPUTS_AT = 1712
+INPUTS = Struct("<QI28x???1xI312x?103x?7x?135xdd")
+INPUTS_AT = 1728
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<dd")
-WORLD_OUT_1_AT = 2304
+WORLD_OUT_1_AT = 2336
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

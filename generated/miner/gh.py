@@ -20,11 +20,11 @@ ON = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI1480x?7x?")
+INPUTS = Struct("<QI28x???1xI1512x?7x?")
 INPUTS_AT = 624
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<?7x?")
-WORLD_OUT_1_AT = 2152
+WORLD_OUT_1_AT = 2184
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

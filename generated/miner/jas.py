@@ -18,11 +18,11 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI720x?87x?")
-INPUTS_AT = 1360
+INPUTS = Struct("<QI28x???1xI736x?87x?")
+INPUTS_AT = 1376
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<?")
-WORLD_OUT_1_AT = 2216
+WORLD_OUT_1_AT = 2248
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

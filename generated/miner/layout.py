@@ -4,7 +4,7 @@
 Every module owns a command buffer (written by its supervisor), a status buffer and a
 performance buffer (written by the module) and a mode buffer (written by an operator).
 World-model fields follow. All values are little-endian `struct` fields with no implicit
-padding; each buffer starts on an 8-byte boundary. The block is 2320 bytes.
+padding; each buffer starts on an 8-byte boundary. The block is 2352 bytes.
 
 | offset | size | buffer | fields |
 |-------:|-----:|--------|--------|
@@ -60,78 +60,80 @@ padding; each buffer starts on an 8-byte boundary. The block is 2320 bytes.
 | 1112 | 20 | TC_STATUS | status_num, status, error_num, state |
 | 1136 | 8 | TC_MODE | dont_run, single_step, simulate, single_step_num |
 | 1144 | 36 | TC_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 1184 | 12 | OI_COMMAND | command_num, command |
-| 1200 | 20 | OI_STATUS | status_num, status, error_num, state |
-| 1224 | 8 | OI_MODE | dont_run, single_step, simulate, single_step_num |
-| 1232 | 36 | OI_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 1272 | 12 | BAS_COMMAND | command_num, command |
-| 1288 | 20 | BAS_STATUS | status_num, status, error_num, state |
-| 1312 | 8 | BAS_MODE | dont_run, single_step, simulate, single_step_num |
-| 1320 | 36 | BAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 1360 | 12 | JAS_COMMAND | command_num, command |
-| 1376 | 20 | JAS_STATUS | status_num, status, error_num, state |
-| 1400 | 8 | JAS_MODE | dont_run, single_step, simulate, single_step_num |
-| 1408 | 36 | JAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 1448 | 12 | TAS_COMMAND | command_num, command |
-| 1464 | 20 | TAS_STATUS | status_num, status, error_num, state |
-| 1488 | 8 | TAS_MODE | dont_run, single_step, simulate, single_step_num |
-| 1496 | 36 | TAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 1536 | 12 | MINE_COMMAND | command_num, command |
-| 1552 | 20 | MINE_STATUS | status_num, status, error_num, state |
-| 1576 | 8 | MINE_MODE | dont_run, single_step, simulate, single_step_num |
-| 1584 | 36 | MINE_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 1624 | 12 | DAS_COMMAND | command_num, command |
-| 1640 | 20 | DAS_STATUS | status_num, status, error_num, state |
-| 1664 | 8 | DAS_MODE | dont_run, single_step, simulate, single_step_num |
-| 1672 | 36 | DAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 1712 | 12 | GAS_COMMAND | command_num, command |
-| 1728 | 20 | GAS_STATUS | status_num, status, error_num, state |
-| 1752 | 8 | GAS_MODE | dont_run, single_step, simulate, single_step_num |
-| 1760 | 36 | GAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 1800 | 12 | BSS_COMMAND | command_num, command |
-| 1816 | 20 | BSS_STATUS | status_num, status, error_num, state |
-| 1840 | 8 | BSS_MODE | dont_run, single_step, simulate, single_step_num |
-| 1848 | 36 | BSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 1888 | 12 | PSS_COMMAND | command_num, command |
-| 1904 | 20 | PSS_STATUS | status_num, status, error_num, state |
-| 1928 | 8 | PSS_MODE | dont_run, single_step, simulate, single_step_num |
-| 1936 | 36 | PSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 1976 | 12 | CSS_COMMAND | command_num, command |
-| 1992 | 20 | CSS_STATUS | status_num, status, error_num, state |
-| 2016 | 8 | CSS_MODE | dont_run, single_step, simulate, single_step_num |
-| 2024 | 36 | CSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
-| 2064 | 1 | WORLD_TAIL_REQUEST | tail_request |
-| 2072 | 1 | WORLD_TAIL_IN_POSITION | tail_in_position |
-| 2080 | 8 | WORLD_OPERATOR_DELAY | operator_delay |
-| 2088 | 8 | WORLD_GOAL_X | goal_x |
-| 2096 | 8 | WORLD_GOAL_Y | goal_y |
-| 2104 | 8 | WORLD_TRAM_DIR | tram_dir |
-| 2112 | 8 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
-| 2120 | 1 | WORLD_DRUM_ON_CMD | drum_on_cmd |
-| 2128 | 1 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
-| 2136 | 8 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
-| 2144 | 8 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
-| 2152 | 1 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
-| 2160 | 1 | WORLD_GATHER_ON_CMD | gather_on_cmd |
-| 2168 | 1 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
-| 2176 | 8 | WORLD_TRUE_X | true_x |
-| 2184 | 8 | WORLD_TRUE_Y | true_y |
-| 2192 | 8 | WORLD_TRUE_HEADING | true_heading |
-| 2200 | 8 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
-| 2208 | 8 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
-| 2216 | 1 | WORLD_JACK_DOWN | jack_down |
-| 2224 | 1 | WORLD_TREAD_STALLED | tread_stalled |
-| 2232 | 8 | WORLD_POSE_X | pose_x |
-| 2240 | 8 | WORLD_POSE_Y | pose_y |
-| 2248 | 8 | WORLD_HEADING | heading |
-| 2256 | 8 | WORLD_BOOM_ANGLE | boom_angle |
-| 2264 | 8 | WORLD_CUTTER_CURRENT | cutter_current |
-| 2272 | 1 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 2280 | 1 | WORLD_IN_COAL | in_coal |
-| 2288 | 8 | WORLD_FACE_X | face_x |
-| 2296 | 8 | WORLD_DEPTH_CUT | depth_cut |
-| 2304 | 8 | WORLD_LOOSE_COAL | loose_coal |
-| 2312 | 8 | WORLD_COAL_MINED | coal_mined |
+| 1184 | 28 | OI_COMMAND | command_num, command, arg_x, arg_y |
+| 1216 | 20 | OI_STATUS | status_num, status, error_num, state |
+| 1240 | 8 | OI_MODE | dont_run, single_step, simulate, single_step_num |
+| 1248 | 36 | OI_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1288 | 12 | BAS_COMMAND | command_num, command |
+| 1304 | 20 | BAS_STATUS | status_num, status, error_num, state |
+| 1328 | 8 | BAS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1336 | 36 | BAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1376 | 12 | JAS_COMMAND | command_num, command |
+| 1392 | 20 | JAS_STATUS | status_num, status, error_num, state |
+| 1416 | 8 | JAS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1424 | 36 | JAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1464 | 12 | TAS_COMMAND | command_num, command |
+| 1480 | 20 | TAS_STATUS | status_num, status, error_num, state |
+| 1504 | 8 | TAS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1512 | 36 | TAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1552 | 12 | MINE_COMMAND | command_num, command |
+| 1568 | 20 | MINE_STATUS | status_num, status, error_num, state |
+| 1592 | 8 | MINE_MODE | dont_run, single_step, simulate, single_step_num |
+| 1600 | 36 | MINE_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1640 | 12 | DAS_COMMAND | command_num, command |
+| 1656 | 20 | DAS_STATUS | status_num, status, error_num, state |
+| 1680 | 8 | DAS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1688 | 36 | DAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1728 | 12 | GAS_COMMAND | command_num, command |
+| 1744 | 20 | GAS_STATUS | status_num, status, error_num, state |
+| 1768 | 8 | GAS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1776 | 36 | GAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1816 | 12 | BSS_COMMAND | command_num, command |
+| 1832 | 20 | BSS_STATUS | status_num, status, error_num, state |
+| 1856 | 8 | BSS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1864 | 36 | BSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1904 | 12 | PSS_COMMAND | command_num, command |
+| 1920 | 20 | PSS_STATUS | status_num, status, error_num, state |
+| 1944 | 8 | PSS_MODE | dont_run, single_step, simulate, single_step_num |
+| 1952 | 36 | PSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 1992 | 12 | CSS_COMMAND | command_num, command |
+| 2008 | 20 | CSS_STATUS | status_num, status, error_num, state |
+| 2032 | 8 | CSS_MODE | dont_run, single_step, simulate, single_step_num |
+| 2040 | 36 | CSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
+| 2080 | 1 | WORLD_TAIL_REQUEST | tail_request |
+| 2088 | 1 | WORLD_TAIL_IN_POSITION | tail_in_position |
+| 2096 | 8 | WORLD_OPERATOR_DELAY | operator_delay |
+| 2104 | 8 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
+| 2112 | 8 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
+| 2120 | 8 | WORLD_GOAL_X | goal_x |
+| 2128 | 8 | WORLD_GOAL_Y | goal_y |
+| 2136 | 8 | WORLD_TRAM_DIR | tram_dir |
+| 2144 | 8 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 2152 | 1 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 2160 | 1 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 2168 | 8 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 2176 | 8 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 2184 | 1 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 2192 | 1 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 2200 | 1 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 2208 | 8 | WORLD_TRUE_X | true_x |
+| 2216 | 8 | WORLD_TRUE_Y | true_y |
+| 2224 | 8 | WORLD_TRUE_HEADING | true_heading |
+| 2232 | 8 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 2240 | 8 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 2248 | 1 | WORLD_JACK_DOWN | jack_down |
+| 2256 | 1 | WORLD_TREAD_STALLED | tread_stalled |
+| 2264 | 8 | WORLD_POSE_X | pose_x |
+| 2272 | 8 | WORLD_POSE_Y | pose_y |
+| 2280 | 8 | WORLD_HEADING | heading |
+| 2288 | 8 | WORLD_BOOM_ANGLE | boom_angle |
+| 2296 | 8 | WORLD_CUTTER_CURRENT | cutter_current |
+| 2304 | 1 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 2312 | 1 | WORLD_IN_COAL | in_coal |
+| 2320 | 8 | WORLD_FACE_X | face_x |
+| 2328 | 8 | WORLD_DEPTH_CUT | depth_cut |
+| 2336 | 8 | WORLD_LOOSE_COAL | loose_coal |
+| 2344 | 8 | WORLD_COAL_MINED | coal_mined |
 """
 
 from __future__ import annotations
@@ -139,7 +141,7 @@ from __future__ import annotations
 from struct import Struct
 from typing import NamedTuple
 
-SIZE = 2320
+SIZE = 2352
 
 # Buffers every module has in the same shape.
 STATUS = Struct("<QIIi")  # status_num, status, error_num, state
@@ -239,140 +241,144 @@ TC_MODE_AT = 1136
 TC_PERF_AT = 1144
 
 # oi: Operator interface (scripted operator)
-OI_COMMAND = Struct("<QI")  # command_num, command
+OI_COMMAND = Struct("<QIdd")  # command_num, command, arg_x, arg_y
 OI_COMMAND_AT = 1184
-OI_STATUS_AT = 1200
-OI_MODE_AT = 1224
-OI_PERF_AT = 1232
+OI_STATUS_AT = 1216
+OI_MODE_AT = 1240
+OI_PERF_AT = 1248
 
 # bas: Boom actuator (simulated)
 BAS_COMMAND = Struct("<QI")  # command_num, command
-BAS_COMMAND_AT = 1272
-BAS_STATUS_AT = 1288
-BAS_MODE_AT = 1312
-BAS_PERF_AT = 1320
+BAS_COMMAND_AT = 1288
+BAS_STATUS_AT = 1304
+BAS_MODE_AT = 1328
+BAS_PERF_AT = 1336
 
 # jas: Stabilization jack actuator (simulated)
 JAS_COMMAND = Struct("<QI")  # command_num, command
-JAS_COMMAND_AT = 1360
-JAS_STATUS_AT = 1376
-JAS_MODE_AT = 1400
-JAS_PERF_AT = 1408
+JAS_COMMAND_AT = 1376
+JAS_STATUS_AT = 1392
+JAS_MODE_AT = 1416
+JAS_PERF_AT = 1424
 
 # tas: Tread actuators (simulated)
 TAS_COMMAND = Struct("<QI")  # command_num, command
-TAS_COMMAND_AT = 1448
-TAS_STATUS_AT = 1464
-TAS_MODE_AT = 1488
-TAS_PERF_AT = 1496
+TAS_COMMAND_AT = 1464
+TAS_STATUS_AT = 1480
+TAS_MODE_AT = 1504
+TAS_PERF_AT = 1512
 
 # mine: Mine (simulated environment)
 MINE_COMMAND = Struct("<QI")  # command_num, command
-MINE_COMMAND_AT = 1536
-MINE_STATUS_AT = 1552
-MINE_MODE_AT = 1576
-MINE_PERF_AT = 1584
+MINE_COMMAND_AT = 1552
+MINE_STATUS_AT = 1568
+MINE_MODE_AT = 1592
+MINE_PERF_AT = 1600
 
 # das: Cutter drum motor (simulated)
 DAS_COMMAND = Struct("<QI")  # command_num, command
-DAS_COMMAND_AT = 1624
-DAS_STATUS_AT = 1640
-DAS_MODE_AT = 1664
-DAS_PERF_AT = 1672
+DAS_COMMAND_AT = 1640
+DAS_STATUS_AT = 1656
+DAS_MODE_AT = 1680
+DAS_PERF_AT = 1688
 
 # gas: Gathering head and conveyor (simulated)
 GAS_COMMAND = Struct("<QI")  # command_num, command
-GAS_COMMAND_AT = 1712
-GAS_STATUS_AT = 1728
-GAS_MODE_AT = 1752
-GAS_PERF_AT = 1760
+GAS_COMMAND_AT = 1728
+GAS_STATUS_AT = 1744
+GAS_MODE_AT = 1768
+GAS_PERF_AT = 1776
 
 # bss: Boom angle sensor (simulated)
 BSS_COMMAND = Struct("<QI")  # command_num, command
-BSS_COMMAND_AT = 1800
-BSS_STATUS_AT = 1816
-BSS_MODE_AT = 1840
-BSS_PERF_AT = 1848
+BSS_COMMAND_AT = 1816
+BSS_STATUS_AT = 1832
+BSS_MODE_AT = 1856
+BSS_PERF_AT = 1864
 
 # pss: Pose sensor (simulated)
 PSS_COMMAND = Struct("<QI")  # command_num, command
-PSS_COMMAND_AT = 1888
-PSS_STATUS_AT = 1904
-PSS_MODE_AT = 1928
-PSS_PERF_AT = 1936
+PSS_COMMAND_AT = 1904
+PSS_STATUS_AT = 1920
+PSS_MODE_AT = 1944
+PSS_PERF_AT = 1952
 
 # css: Cutter current sensor (simulated)
 CSS_COMMAND = Struct("<QI")  # command_num, command
-CSS_COMMAND_AT = 1976
-CSS_STATUS_AT = 1992
-CSS_MODE_AT = 2016
-CSS_PERF_AT = 2024
+CSS_COMMAND_AT = 1992
+CSS_STATUS_AT = 2008
+CSS_MODE_AT = 2032
+CSS_PERF_AT = 2040
 
 # World model.
 WORLD_TAIL_REQUEST = Struct("<?")  # tail_request
-WORLD_TAIL_REQUEST_AT = 2064
+WORLD_TAIL_REQUEST_AT = 2080
 WORLD_TAIL_IN_POSITION = Struct("<?")  # tail_in_position
-WORLD_TAIL_IN_POSITION_AT = 2072
+WORLD_TAIL_IN_POSITION_AT = 2088
 WORLD_OPERATOR_DELAY = Struct("<q")  # operator_delay
-WORLD_OPERATOR_DELAY_AT = 2080
+WORLD_OPERATOR_DELAY_AT = 2096
+WORLD_OPERATOR_GOAL_X = Struct("<d")  # operator_goal_x
+WORLD_OPERATOR_GOAL_X_AT = 2104
+WORLD_OPERATOR_GOAL_Y = Struct("<d")  # operator_goal_y
+WORLD_OPERATOR_GOAL_Y_AT = 2112
 WORLD_GOAL_X = Struct("<d")  # goal_x
-WORLD_GOAL_X_AT = 2088
+WORLD_GOAL_X_AT = 2120
 WORLD_GOAL_Y = Struct("<d")  # goal_y
-WORLD_GOAL_Y_AT = 2096
+WORLD_GOAL_Y_AT = 2128
 WORLD_TRAM_DIR = Struct("<q")  # tram_dir
-WORLD_TRAM_DIR_AT = 2104
+WORLD_TRAM_DIR_AT = 2136
 WORLD_BOOM_RATE_CMD = Struct("<d")  # boom_rate_cmd
-WORLD_BOOM_RATE_CMD_AT = 2112
+WORLD_BOOM_RATE_CMD_AT = 2144
 WORLD_DRUM_ON_CMD = Struct("<?")  # drum_on_cmd
-WORLD_DRUM_ON_CMD_AT = 2120
+WORLD_DRUM_ON_CMD_AT = 2152
 WORLD_JACK_DOWN_CMD = Struct("<?")  # jack_down_cmd
-WORLD_JACK_DOWN_CMD_AT = 2128
+WORLD_JACK_DOWN_CMD_AT = 2160
 WORLD_LEFT_TREAD_CMD = Struct("<q")  # left_tread_cmd
-WORLD_LEFT_TREAD_CMD_AT = 2136
+WORLD_LEFT_TREAD_CMD_AT = 2168
 WORLD_RIGHT_TREAD_CMD = Struct("<q")  # right_tread_cmd
-WORLD_RIGHT_TREAD_CMD_AT = 2144
+WORLD_RIGHT_TREAD_CMD_AT = 2176
 WORLD_PAN_FLOAT_CMD = Struct("<?")  # pan_float_cmd
-WORLD_PAN_FLOAT_CMD_AT = 2152
+WORLD_PAN_FLOAT_CMD_AT = 2184
 WORLD_GATHER_ON_CMD = Struct("<?")  # gather_on_cmd
-WORLD_GATHER_ON_CMD_AT = 2160
+WORLD_GATHER_ON_CMD_AT = 2192
 WORLD_CONVEYOR_ON_CMD = Struct("<?")  # conveyor_on_cmd
-WORLD_CONVEYOR_ON_CMD_AT = 2168
+WORLD_CONVEYOR_ON_CMD_AT = 2200
 WORLD_TRUE_X = Struct("<d")  # true_x
-WORLD_TRUE_X_AT = 2176
+WORLD_TRUE_X_AT = 2208
 WORLD_TRUE_Y = Struct("<d")  # true_y
-WORLD_TRUE_Y_AT = 2184
+WORLD_TRUE_Y_AT = 2216
 WORLD_TRUE_HEADING = Struct("<d")  # true_heading
-WORLD_TRUE_HEADING_AT = 2192
+WORLD_TRUE_HEADING_AT = 2224
 WORLD_BOOM_ANGLE_TRUE = Struct("<d")  # boom_angle_true
-WORLD_BOOM_ANGLE_TRUE_AT = 2200
+WORLD_BOOM_ANGLE_TRUE_AT = 2232
 WORLD_DRUM_CURRENT_TRUE = Struct("<d")  # drum_current_true
-WORLD_DRUM_CURRENT_TRUE_AT = 2208
+WORLD_DRUM_CURRENT_TRUE_AT = 2240
 WORLD_JACK_DOWN = Struct("<?")  # jack_down
-WORLD_JACK_DOWN_AT = 2216
+WORLD_JACK_DOWN_AT = 2248
 WORLD_TREAD_STALLED = Struct("<?")  # tread_stalled
-WORLD_TREAD_STALLED_AT = 2224
+WORLD_TREAD_STALLED_AT = 2256
 WORLD_POSE_X = Struct("<d")  # pose_x
-WORLD_POSE_X_AT = 2232
+WORLD_POSE_X_AT = 2264
 WORLD_POSE_Y = Struct("<d")  # pose_y
-WORLD_POSE_Y_AT = 2240
+WORLD_POSE_Y_AT = 2272
 WORLD_HEADING = Struct("<d")  # heading
-WORLD_HEADING_AT = 2248
+WORLD_HEADING_AT = 2280
 WORLD_BOOM_ANGLE = Struct("<d")  # boom_angle
-WORLD_BOOM_ANGLE_AT = 2256
+WORLD_BOOM_ANGLE_AT = 2288
 WORLD_CUTTER_CURRENT = Struct("<d")  # cutter_current
-WORLD_CUTTER_CURRENT_AT = 2264
+WORLD_CUTTER_CURRENT_AT = 2296
 WORLD_POPPED_OUT_OF_SHEAR = Struct("<?")  # popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 2272
+WORLD_POPPED_OUT_OF_SHEAR_AT = 2304
 WORLD_IN_COAL = Struct("<?")  # in_coal
-WORLD_IN_COAL_AT = 2280
+WORLD_IN_COAL_AT = 2312
 WORLD_FACE_X = Struct("<d")  # face_x
-WORLD_FACE_X_AT = 2288
+WORLD_FACE_X_AT = 2320
 WORLD_DEPTH_CUT = Struct("<d")  # depth_cut
-WORLD_DEPTH_CUT_AT = 2296
+WORLD_DEPTH_CUT_AT = 2328
 WORLD_LOOSE_COAL = Struct("<d")  # loose_coal
-WORLD_LOOSE_COAL_AT = 2304
+WORLD_LOOSE_COAL_AT = 2336
 WORLD_COAL_MINED = Struct("<d")  # coal_mined
-WORLD_COAL_MINED_AT = 2312
+WORLD_COAL_MINED_AT = 2344
 
 
 class Record(NamedTuple):
@@ -430,7 +436,7 @@ COMMAND_IN = {
     "vg": Record(VG_COMMAND, VG_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
     "pp": Record(PP_COMMAND, PP_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
     "tc": Record(TC_COMMAND, TC_COMMAND_AT, ("command_num", "command")),
-    "oi": Record(OI_COMMAND, OI_COMMAND_AT, ("command_num", "command")),
+    "oi": Record(OI_COMMAND, OI_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
     "bas": Record(BAS_COMMAND, BAS_COMMAND_AT, ("command_num", "command")),
     "jas": Record(JAS_COMMAND, JAS_COMMAND_AT, ("command_num", "command")),
     "tas": Record(TAS_COMMAND, TAS_COMMAND_AT, ("command_num", "command")),
@@ -614,6 +620,12 @@ WORLD = {
         WORLD_TAIL_IN_POSITION, WORLD_TAIL_IN_POSITION_AT, ("tail_in_position",)
     ),
     "operator_delay": Record(WORLD_OPERATOR_DELAY, WORLD_OPERATOR_DELAY_AT, ("operator_delay",)),
+    "operator_goal_x": Record(
+        WORLD_OPERATOR_GOAL_X, WORLD_OPERATOR_GOAL_X_AT, ("operator_goal_x",)
+    ),
+    "operator_goal_y": Record(
+        WORLD_OPERATOR_GOAL_Y, WORLD_OPERATOR_GOAL_Y_AT, ("operator_goal_y",)
+    ),
     "goal_x": Record(WORLD_GOAL_X, WORLD_GOAL_X_AT, ("goal_x",)),
     "goal_y": Record(WORLD_GOAL_Y, WORLD_GOAL_Y_AT, ("goal_y",)),
     "tram_dir": Record(WORLD_TRAM_DIR, WORLD_TRAM_DIR_AT, ("tram_dir",)),
@@ -658,6 +670,8 @@ WORLD_INITIAL: dict[str, object] = {
     "tail_request": False,
     "tail_in_position": False,
     "operator_delay": 3,
+    "operator_goal_x": 0.0,
+    "operator_goal_y": 0.0,
     "goal_x": 0.0,
     "goal_y": 0.0,
     "tram_dir": 0,
@@ -690,8 +704,16 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
-    "sb": ("NONE", "INIT", "HALT", "BOX_CUT"),
-    "co": ("NONE", "INIT", "HALT", "INITIAL_APPROACH_FACE", "APPROACH_FACE", "SUMP_SHEAR_CUSP"),
+    "sb": ("NONE", "INIT", "HALT", "TRAM_TO_GOAL", "BOX_CUT"),
+    "co": (
+        "NONE",
+        "INIT",
+        "HALT",
+        "INITIAL_APPROACH_FACE",
+        "TRAM_TO_GOAL",
+        "APPROACH_FACE",
+        "SUMP_SHEAR_CUSP",
+    ),
     "cc": ("NONE", "INIT", "HALT", "RAISE_DRUM", "SUMP", "SHEAR", "SHEAR_CORRECT", "CUSP"),
     "bm": ("NONE", "INIT", "HALT", "RAISE", "LOWER"),
     "cd": ("NONE", "INIT", "HALT", "ON", "OFF"),
@@ -718,7 +740,7 @@ COMMAND_NAMES = {
         "TURN_RIGHT_REVERSE",
         "STOP",
     ),
-    "oi": ("NONE", "INIT", "HALT"),
+    "oi": ("NONE", "INIT", "HALT", "ENTER_GOAL"),
     "bas": ("NONE", "INIT", "HALT"),
     "jas": ("NONE", "INIT", "HALT"),
     "tas": ("NONE", "INIT", "HALT"),

@@ -20,11 +20,11 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI536x?55xdd8xd72x?7xddd")
-INPUTS_AT = 1536
+INPUTS = Struct("<QI28x???1xI552x?55xdd8xd72x?7xddd")
+INPUTS_AT = 1552
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<?7xddd")
-WORLD_OUT_1_AT = 2280
+WORLD_OUT_1_AT = 2312
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -15,14 +15,18 @@ from .rcs import DONE, EXECUTING, NOP
 # Commands oi accepts (the code written to its command buffer).
 INIT = 1
 HALT = 2
+ENTER_GOAL = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI832x?7x?7xq")
+INPUTS = Struct("<QIdd28x???1xI832x?7x?7xqdd")
 INPUTS_AT = 1184
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<?")
-WORLD_OUT_1_AT = 2072
+WORLD_OUT_1_AT = 2088
+# Adjacent world fields post_process writes back with one write.
+WORLD_OUT_2 = Struct("<dd")
+WORLD_OUT_2_AT = 2104
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -32,6 +36,8 @@ class OiController:
     """The oi controller: its local buffers and the QQ1 cycle."""
 
     __slots__ = (
+        "arg_x",
+        "arg_y",
         "buf",
         "command",
         "command_num",
@@ -51,6 +57,8 @@ class OiController:
         "status_num",
         "var_waited",
         "world_operator_delay",
+        "world_operator_goal_x",
+        "world_operator_goal_y",
         "world_tail_in_position",
         "world_tail_request",
     )
@@ -86,6 +94,8 @@ class OiController:
         (
             self.command_num,
             self.command,
+            self.arg_x,
+            self.arg_y,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -93,6 +103,8 @@ class OiController:
             self.world_tail_request,
             self.world_tail_in_position,
             self.world_operator_delay,
+            self.world_operator_goal_x,
+            self.world_operator_goal_y,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def check_if_new_command(self) -> None:
@@ -116,6 +128,8 @@ class OiController:
             self.init()
         elif command == HALT:
             self.halt()
+        elif command == ENTER_GOAL:
+            self.enter_goal()
 
     def post_process(self) -> None:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
@@ -124,6 +138,9 @@ class OiController:
             buf, OI_STATUS_AT, self.status_num, self.status, self.error_num, self.state
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_tail_in_position)
+        WORLD_OUT_2.pack_into(
+            buf, WORLD_OUT_2_AT, self.world_operator_goal_x, self.world_operator_goal_y
+        )
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -167,5 +184,14 @@ class OiController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.state = NOP
+            self.status = DONE
+
+    def enter_goal(self) -> None:
+        """ENTER_GOAL: The operator enters a goal point for the machine (free-space tramming)."""
+        state = self.state
+        if state == S0:
+            self.world_operator_goal_x = self.arg_x
+            self.world_operator_goal_y = self.arg_y
             self.state = NOP
             self.status = DONE

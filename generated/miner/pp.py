@@ -19,11 +19,11 @@ PLAN = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd28x???1xI1048xq120xd")
+INPUTS = Struct("<QIdd28x???1xI1080xq120xd")
 INPUTS_AT = 992
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<q")
-WORLD_OUT_1_AT = 2104
+WORLD_OUT_1_AT = 2136
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

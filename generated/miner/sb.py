@@ -17,18 +17,20 @@ from .rcs import DONE, ERROR, EXECUTING, NOP
 # Commands sb accepts (the code written to its command buffer).
 INIT = 1
 HALT = 2
-BOX_CUT = 3
+TRAM_TO_GOAL = 3
+BOX_CUT = 4
 
 # Commands sb sends to co.
 CO_INIT = 1
 CO_HALT = 2
 CO_INITIAL_APPROACH_FACE = 3
-CO_APPROACH_FACE = 4
-CO_SUMP_SHEAR_CUSP = 5
+CO_TRAM_TO_GOAL = 4
+CO_APPROACH_FACE = 5
+CO_SUMP_SHEAR_CUSP = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QId28x???1xI56xQI2172xd")
+INPUTS = Struct("<QId28x???1xI56xQI2204xd")
 INPUTS_AT = 0
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -134,6 +136,8 @@ class SbController:
             self.init()
         elif command == HALT:
             self.halt()
+        elif command == TRAM_TO_GOAL:
+            self.tram_to_goal()
         elif command == BOX_CUT:
             self.box_cut()
 
@@ -190,6 +194,23 @@ class SbController:
             # every subordinate is done
             self.state = NOP
             self.status = DONE
+
+    def tram_to_goal(self) -> None:
+        """TRAM_TO_GOAL: Tram the machine in free space to the goal point the operator entered."""
+        state = self.state
+        if state == S0:
+            self.state = S1
+            self.co_command = CO_TRAM_TO_GOAL
+            self.co_command_num += 1
+
+        elif state == S1:
+            if self.co_status == DONE:
+                self.state = NOP
+                self.status = DONE
+
+            elif self.co_status == ERROR:
+                self.state = NOP
+                self.status = ERROR
 
     def box_cut(self) -> None:
         """BOX_CUT: Approach the face, then sump-shear-cusp, approach the face again and repeat until the face has been cut back by `depth`."""

@@ -20,11 +20,11 @@ RAISE = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI1632x?87x?")
+INPUTS = Struct("<QI28x???1xI1664x?87x?")
 INPUTS_AT = 448
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<?")
-WORLD_OUT_1_AT = 2128
+WORLD_OUT_1_AT = 2160
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -20,11 +20,11 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI640xqq24xddd24x?")
-INPUTS_AT = 1448
+INPUTS = Struct("<QI28x???1xI656xqq24xddd24x?")
+INPUTS_AT = 1464
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<ddd")
-WORLD_OUT_1_AT = 2176
+WORLD_OUT_1_AT = 2208
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -29,11 +29,11 @@ STOP = 13
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI992xqq")
+INPUTS = Struct("<QI28x???1xI1024xqq")
 INPUTS_AT = 1096
 # Adjacent world fields post_process writes back with one write.
 WORLD_OUT_1 = Struct("<qq")
-WORLD_OUT_1_AT = 2136
+WORLD_OUT_1_AT = 2168
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -43,7 +43,7 @@ TC_STOP = 13
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd28x???1xI72xQI76xQI980xq120xd")
+INPUTS = Struct("<QIdd28x???1xI72xQI76xQI1012xq120xd")
 INPUTS_AT = 888
 
 # States of the state tables (NOP = 0: no command to work on).
