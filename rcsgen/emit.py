@@ -175,10 +175,7 @@ def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, ob
     ]
     status_targets = [f"self.{n}" for n, _ in ir.STATUS_FIELDS]
     mode_targets = [f"self.{n}" for n, _ in ir.MODE_FIELDS if n != "pad"]
-    perf_targets = [
-        "self.perf_single_step_num" if n == "single_step_num" else f"self.{n}"
-        for n, _ in ir.PERF_FIELDS
-    ]
+    perf_targets = [f"self.{ir.attribute_of(n, ir.PERF_FIELDS)}" for n, _ in ir.PERF_FIELDS]
     sub_targets = {
         s.name: [
             f"self.{s.name}_command_num",

@@ -101,6 +101,25 @@ PERF_FIELDS = (
 )
 
 
+def attribute_of(field: str, buffer_fields: tuple[tuple[str, str], ...]) -> str:
+    """The controller attribute a buffer field is copied to (the performance buffer's
+    single_step_num is kept apart from the mode buffer's)."""
+    return (
+        "perf_single_step_num"
+        if buffer_fields is PERF_FIELDS and field == "single_step_num"
+        else field
+    )
+
+
+# Every attribute a generated controller keeps its own buffers in.
+BUFFER_ATTRIBUTES = tuple(
+    attribute_of(name, fields)
+    for fields in (COMMAND_HEAD_FIELDS, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS)
+    for name, _ in fields
+    if name != "pad"
+)
+
+
 def plan_layout(controllers: list[IRController], world: list[IRWorldField]) -> Layout:
     """Place every module's buffers, then the world fields, each buffer on 8 bytes.
 

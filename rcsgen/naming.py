@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 from .diagnostics import Diagnostics, Span
 from .expr import BUILTINS, Ref
+from .ir import BUFFER_ATTRIBUTES
 
 if TYPE_CHECKING:
     from .model import ControllerSpec, SystemSpec
@@ -60,21 +61,7 @@ CLASS_NAMES = frozenset(
         "buf",
         "cycle_start",
         "hook_state",
-        "command_num",
-        "command",
-        "status_num",
-        "status",
-        "error_num",
-        "state",
-        "dont_run",
-        "single_step",
-        "simulate",
-        "single_step_num",
-        "last_cycle_ns",
-        "min_cycle_ns",
-        "max_cycle_ns",
-        "cycles",
-        "perf_single_step_num",
+        *BUFFER_ATTRIBUTES,
     }
 )
 # Module-level names of the generated layout module that no spec name produces.
