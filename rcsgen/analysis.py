@@ -59,6 +59,7 @@ CODES = {
 
 LIMIT = 4096  # the most valuations one question may enumerate
 STATUS_DOMAIN = ("EXECUTING", "DONE", "ERROR")
+FINISHED = ("DONE", "ERROR")  # the statuses of a subordinate that has finished
 BOOL_DOMAIN = (False, True)
 
 Key = tuple[str, str]  # (world|local|param|status|command|form|opaque, name or text)
@@ -437,8 +438,13 @@ Part = tuple[Guard | None, bool]  # a guard (None: no `when`, always true) that 
 _MINIMISE = 8  # the most candidate counter-examples minimised per question
 
 
-def solve(parts: list[Part], fixed: dict[Key, Any] | None = None) -> Answer:
-    """Search a valuation under which every guard of `parts` has the wanted truth value."""
+def solve(
+    parts: list[Part],
+    fixed: dict[Key, Any] | None = None,
+    allowed: dict[Key, tuple[Any, ...]] | None = None,
+) -> Answer:
+    """Search a valuation under which every guard of `parts` has the wanted truth value;
+    `fixed` pins atoms to one value, `allowed` narrows them to some values."""
     if any(g is None and not wanted for g, wanted in parts):
         return Answer("no")
     guards = [(g, wanted) for g, wanted in parts if g is not None]
@@ -463,6 +469,9 @@ def solve(parts: list[Part], fixed: dict[Key, Any] | None = None) -> Answer:
     for key, value in (fixed or {}).items():
         if key in domains:
             domains[key] = (value,)
+    for key, values in (allowed or {}).items():
+        if key in domains:
+            domains[key] = tuple(v for v in domains[key] if v in values)
     size = math.prod(len(d) for d in domains.values()) * 2 ** len(opaque)
     if size > LIMIT:
         return Answer("unknown", size=size)
@@ -610,6 +619,7 @@ class _Controller:
             every.append(self.guard(rule, scope))
             if _unconditional(rule):
                 break
+        self.every_guards = every
         self.every_tested = {sub for g in every if g for sub in g.subs_tested()}
         self.every_handles = {sub for sub in self.every_tested if _fires_on_error(every, sub)}
 
@@ -769,7 +779,14 @@ class _Table:
     # ------------------------------------------------------------ completeness
 
     def completeness(self, state: str, rules: list[_Rule]) -> None:
-        answer = solve([(r.guard, False) for r in rules])
+        # Waiting while a subordinate is still EXECUTING is the command-number handshake,
+        # chosen by sending it a command and testing its status: only a wait that remains
+        # once every subordinate this state tests has finished (DONE or ERROR) is reported.
+        # An every_cycle rule that fires acts in this state too, so it is not a wait.
+        subs = {*self.tested[state], *self.owner.every_tested}
+        finished = {("status", sub): FINISHED for sub in subs}
+        quiet = [(r.guard, False) for r in rules] + [(g, False) for g in self.owner.every_guards]
+        answer = solve(quiet, allowed=finished)
         if answer.kind == "yes":
             self.diags.warning(
                 self.states[state].span,
