@@ -952,11 +952,6 @@ MINER_FINDINGS = [
     (
         "co.yaml",
         "W503",
-        ("INITIAL_APPROACH_FACE S3 waits when vg.status=ERROR: no rule fires then"),
-    ),
-    (
-        "co.yaml",
-        "W503",
         "SUMP_SHEAR_CUSP S1 waits when cc.status=ERROR: no rule fires then",
     ),
     (
@@ -977,14 +972,6 @@ MINER_FINDINGS = [
         "co.yaml",
         "W503",
         "SUMP_SHEAR_CUSP S4 waits when cc.status=ERROR: no rule fires then",
-    ),
-    (
-        "co.yaml",
-        "W506",
-        (
-            "INITIAL_APPROACH_FACE S3 waits on vg but never handles vg.status == "
-            "ERROR: an ERROR from vg leaves co waiting in S3 forever"
-        ),
     ),
     (
         "co.yaml",

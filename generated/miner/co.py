@@ -336,9 +336,14 @@ class CoController:
                 self.vg_command = VG_HALT
                 self.vg_command_num += 1
 
-        elif state == S3 and self.vg_status == DONE:
-            self.state = NOP
-            self.status = DONE
+        elif state == S3:
+            if self.vg_status == DONE:
+                self.state = NOP
+                self.status = DONE
+
+            elif self.vg_status == ERROR:
+                self.state = NOP
+                self.status = ERROR
 
         elif state == FAILED and (self.vg_status == DONE or self.vg_status == ERROR):
             self.state = NOP
