@@ -316,7 +316,7 @@ def _check_names(
                 diags.error(span, "E228", f"predicate name `{name}` collides with a generated name")
             elif naming.is_keyword(name):
                 diags.error(span, "E228", f"hook name `{name}` is a Python keyword")
-    for name, local in spec.locals.items():
+    for name in spec.locals:
         for command in spec.commands.values():
             if name in command.params:
                 diags.error(
@@ -325,7 +325,6 @@ def _check_names(
                     f"parameter `{name}` of {command.name} has the name of a local",
                     "rename one of them",
                 )
-        del local
     param_types: dict[str, tuple[str, str]] = {}
     for command in spec.commands.values():
         for param in command.params.values():
@@ -434,28 +433,25 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
 
 def default_table(command: str, subordinates: list[str], span: Span) -> Command:
     """QQ1's INIT/HALT table: pass the command to every subordinate, wait for all DONE."""
-    from .model import Rule as MRule
-    from .model import Send as MSend
-
     if not subordinates:
         states = {
             ENTRY_STATE: State(
-                ENTRY_STATE, [MRule("", None, [Report("DONE", span)], None, span)], span
+                ENTRY_STATE, [Rule("", None, [Report("DONE", span)], None, span)], span
             )
         }
     else:
-        sends = [MSend(sub, command, {}, span) for sub in subordinates]
+        sends = [Send(sub, command, {}, span) for sub in subordinates]
         wait = " and ".join(f"{sub}.status == DONE" for sub in subordinates)
         states = {
             ENTRY_STATE: State(
                 ENTRY_STATE,
-                [MRule(f"send {command} to every subordinate", None, sends, At("S1", span), span)],
+                [Rule(f"send {command} to every subordinate", None, sends, At("S1", span), span)],
                 span,
             ),
             "S1": State(
                 "S1",
                 [
-                    MRule(
+                    Rule(
                         "every subordinate is done",
                         At(wait, span),
                         [Report("DONE", span)],

@@ -16,7 +16,7 @@ import struct
 import subprocess
 import sys
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
 
@@ -114,10 +114,6 @@ class Gathered:
     format: str
     offset: int
     targets: list[str]
-
-    @property
-    def names(self) -> str:
-        return ", ".join(t.removeprefix("self.") for t in self.targets)
 
 
 def _gather(fields: list[tuple[int, str, str]]) -> Gathered:
@@ -223,8 +219,6 @@ def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, ob
 
 def _without_hooks(c: ir.IRController) -> ir.IRController:
     """The controller as emitted when no rule calls a hook: no unused hooks import."""
-    from dataclasses import replace
-
     return replace(c, hooks_module=None)
 
 
@@ -262,8 +256,6 @@ _OUTPUT_PATH = re.compile(r"[a-z][a-z0-9_]*/(__init__|__main__|[a-z][a-z0-9_]*)\
 
 
 def _with_safe_sources(system: ir.IRSystem) -> ir.IRSystem:
-    from dataclasses import replace
-
     controllers = [replace(c, source=safe_source(c.source)) for c in system.controllers]
     return replace(
         system,

@@ -133,8 +133,8 @@ class _Fail(Exception):
 
 
 class _Resolver:
-    def __init__(self, scope: Scope, span: Span, diags: Diagnostics, text: str):
-        self.scope, self.span, self.diags, self.text = scope, span, diags, text
+    def __init__(self, scope: Scope, span: Span, diags: Diagnostics):
+        self.scope, self.span, self.diags = scope, span, diags
 
     def at(self, node: ast.AST) -> Span:
         return offset_span(self.span, getattr(node, "lineno", 1), getattr(node, "col_offset", 0))
@@ -395,7 +395,7 @@ def compile_expr(
                 f"at most {MAX_DEPTH} levels; split it into predicates",
             )
             return None
-        resolver = _Resolver(scope, span, diags, text)
+        resolver = _Resolver(scope, span, diags)
         try:
             result = resolver.expr(tree.body)
         except _Fail:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .diagnostics import Diagnostics, Span, SpecError
+from .diagnostics import Diagnostic, Diagnostics, Span, SpecError
 from .frontend import SYSTEM_FILE, display_path
 from .harness import Harness
 from .loader import load_file
@@ -70,7 +70,7 @@ def load_scenario(path: Path) -> Scenario:
     diags = Diagnostics()
     top = span_of(data, Span(shown))
     if not isinstance(data, dict) or "scenario" not in data:
-        raise SpecError([_diag(top, "E401", "not a scenario file (no `scenario:` key)")])
+        raise SpecError([Diagnostic(top, "E401", "not a scenario file (no `scenario:` key)")])
     for key in sorted(set(data) - SCENARIO_KEYS):
         diags.error(data.key_spans.get(key, top), "E402", f"unknown scenario key `{key}`")
     system_dir = find_system_dir(path)
@@ -131,12 +131,6 @@ def open_harness(scenario: Scenario, package_dir: Path) -> Harness:
     )
 
 
-def _diag(span: Span, code: str, message: str):
-    from .diagnostics import Diagnostic
-
-    return Diagnostic(span, code, message)
-
-
 # ---------------------------------------------------------------- running
 
 
@@ -167,7 +161,7 @@ def trace_line(harness: Harness, world: list[str]) -> str:
     return json.dumps(line, sort_keys=True, separators=(",", ":"))
 
 
-def _apply(harness: Harness, event: Event, scenario: Scenario) -> None:
+def _apply(harness: Harness, event: Event) -> None:
     harness.world.update(event.world)
     for module, mode in event.mode.items():
         harness.set_mode(module, **mode)
@@ -188,7 +182,7 @@ def run(
     phases: Counter[str] = Counter()
     while harness.cycles < scenario.max_cycles:
         while pending and pending[0].cycle <= harness.cycles + 1:
-            _apply(harness, pending.pop(0), scenario)
+            _apply(harness, pending.pop(0))
         harness.cycle()
         trace.append(trace_line(harness, scenario.trace_world))
         if scenario.phases_of is not None:
