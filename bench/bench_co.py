@@ -52,8 +52,8 @@ class Version:
 
 def build_package(out: Path) -> Path:
     """Generate the frozen co system into `out` and make `miner` and its hooks importable."""
-    from rcsgen import emit
-    from rcsgen.frontend import compile_paths
+    from rcsgen.compiler import emit
+    from rcsgen.compiler.frontend import compile_paths
 
     front = compile_paths([SPEC])
     if front.diagnostics.errors:

@@ -128,7 +128,7 @@ def main() -> int:
                 for name, _, cumulative in rows["miner"]
                 if name.strip()
                 in (
-                    "miner.rcs",
+                    "miner.rcs.loop",
                     "miner.layout",
                     "multiprocessing.shared_memory",
                     "typing",

@@ -26,8 +26,8 @@ from pathlib import Path
 
 from common import ROOT, summary, write_json
 
-from rcsgen import scenario as scenarios
-from rcsgen.harness import Harness
+from rcsgen.tools import scenario as scenarios
+from rcsgen.tools.harness import Harness
 
 SCENARIO = ROOT / "specs" / "miner" / "scenarios" / "sump_shear_cusp.yaml"
 PACKAGE = ROOT / "generated" / "miner"

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import click
 
-from . import emit
-from .diagnostics import Diagnostic, Diagnostics, to_json
-from .frontend import compile_paths
+from .compiler import emit
+from .compiler.diagnostics import Diagnostic, Diagnostics, to_json
+from .compiler.frontend import compile_paths
 
 
 def _source_line(diag: Diagnostic) -> str | None:
@@ -149,9 +149,9 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt:
 )
 def run(scenario: Path, generated: Path, trace_path: Path | None, record: Path | None) -> None:
     """Run a scenario on the generated system and summarise it."""
-    from . import scenario as scenarios
-    from .diagnostics import SpecError
-    from .harness import Harness
+    from .compiler.diagnostics import SpecError
+    from .tools import scenario as scenarios
+    from .tools.harness import Harness
 
     try:
         spec = scenarios.load_scenario(scenario)
@@ -182,7 +182,7 @@ def run(scenario: Path, generated: Path, trace_path: Path | None, record: Path |
 
 
 def _system_name(system_dir: Path) -> str:
-    from .loader import load_file
+    from .compiler.loader import load_file
 
     data = load_file(system_dir / "system.yaml", "system.yaml")
     return str(data["system"]) if isinstance(data, dict) else system_dir.name

@@ -1,4 +1,4 @@
-"""The static analysis of state tables (rcsgen/analysis.py): codes, spans, counter-examples.
+"""The static analysis of state tables (compiler/analysis.py): codes, spans, counter-examples.
 
 Each case writes a small system into a scratch directory: a supervisor `top` with two leaf
 subordinates `a` and `b`, and the state table under test. Counter-examples are checked by
@@ -21,13 +21,13 @@ from typing import Any
 import pytest
 from conftest import REPO, rcsgen
 
-from rcsgen import analysis
-from rcsgen import expr as X
-from rcsgen.check import Scopes
-from rcsgen.diagnostics import Diagnostic, Diagnostics, Span
-from rcsgen.frontend import compile_paths
-from rcsgen.loader import load_file
-from rcsgen.model import ControllerSpec, SystemSpec, build_controller, build_system
+from rcsgen.compiler import analysis
+from rcsgen.compiler import expr as X
+from rcsgen.compiler.check import Scopes
+from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.loader import load_file
+from rcsgen.compiler.model import ControllerSpec, SystemSpec, build_controller, build_system
 
 SYSTEM = """\
 system: t

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from rcsgen.harness import Harness
+from rcsgen.tools.harness import Harness
 
 MINER = Path(__file__).resolve().parent.parent / "specs" / "miner"
 SUBS = ("cr", "vg", "cc")

@@ -25,8 +25,8 @@ import pytest
 from click.testing import CliRunner, Result
 
 from rcsgen.cli import main
-from rcsgen.diagnostics import Diagnostic
-from rcsgen.frontend import compile_paths
+from rcsgen.compiler.diagnostics import Diagnostic
+from rcsgen.compiler.frontend import compile_paths
 
 CASES = Path(__file__).resolve().parent / "cases"
 INVALID = sorted(p for p in (CASES / "invalid").iterdir() if p.is_dir())

@@ -26,7 +26,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from reference_interpreter import Block, Controller
 
-from rcsgen.harness import Harness
+from rcsgen.tools.harness import Harness
 
 EXAMPLES = int(os.environ.get("DIFF_EXAMPLES", "25"))
 DERANDOMIZE = os.environ.get("FUZZ_RANDOM", "") == ""

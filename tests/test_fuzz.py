@@ -34,9 +34,9 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from rcsgen import emit
 from rcsgen.cli import main
-from rcsgen.frontend import compile_paths
+from rcsgen.compiler import emit
+from rcsgen.compiler.frontend import compile_paths
 
 REPO = Path(__file__).resolve().parent.parent
 TINY = REPO / "tests" / "cases" / "valid" / "tiny"

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from rcsgen.harness import Harness
-from rcsgen.scenario import first_difference, load_scenario, open_harness, read_trace, run
+from rcsgen.tools.harness import Harness
+from rcsgen.tools.scenario import first_difference, load_scenario, open_harness, read_trace, run
 
 ROOT = Path(__file__).resolve().parent.parent
 MINER = ROOT / "specs" / "miner"

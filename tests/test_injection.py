@@ -21,11 +21,11 @@ from pathlib import Path
 
 import pytest
 
-from rcsgen import emit
-from rcsgen.diagnostics import Diagnostic
-from rcsgen.frontend import compile_paths
-from rcsgen.harness import Harness
-from rcsgen.naming import LINE_BREAKS
+from rcsgen.compiler import emit
+from rcsgen.compiler.diagnostics import Diagnostic
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.naming import LINE_BREAKS
+from rcsgen.tools.harness import Harness
 
 CANARY = "CANARY"
 BREAKOUT = f"import os; os.system('touch {CANARY}')"

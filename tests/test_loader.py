@@ -10,8 +10,8 @@ import pathlib
 import jsonschema
 import pytest
 
-from rcsgen.diagnostics import Diagnostic, Span, SpecError
-from rcsgen.loader import (
+from rcsgen.compiler.diagnostics import Diagnostic, Span, SpecError
+from rcsgen.compiler.loader import (
     MAX_BYTES,
     MAX_DEPTH,
     LocDict,

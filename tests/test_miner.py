@@ -7,7 +7,7 @@ import json
 from functools import cache
 from pathlib import Path
 
-from rcsgen.scenario import load_scenario, open_harness, run
+from rcsgen.tools.scenario import load_scenario, open_harness, run
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIOS = ROOT / "specs" / "miner" / "scenarios"

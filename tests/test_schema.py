@@ -8,9 +8,9 @@ import textwrap
 import pytest
 from jsonschema import Draft202012Validator
 
-from rcsgen.diagnostics import Span
-from rcsgen.loader import load_text
-from rcsgen.schema import check_document, schema_for
+from rcsgen.compiler.diagnostics import Span
+from rcsgen.compiler.loader import load_text
+from rcsgen.compiler.schema import check_document, schema_for
 
 MINER = pathlib.Path(__file__).resolve().parent.parent / "specs" / "miner"
 EXAMPLES = sorted(MINER.glob("*.yaml"))

@@ -20,8 +20,8 @@ from types import ModuleType
 
 import pytest
 
-from rcsgen.harness import Harness
-from rcsgen.scenario import trace_line
+from rcsgen.tools.harness import Harness
+from rcsgen.tools.scenario import trace_line
 
 ROOT = Path(__file__).resolve().parent.parent
 MINER = ROOT / "tests" / "fixtures" / "foundation" / "miner"  # the small foundation miner
@@ -77,7 +77,7 @@ def packed():
 
 def codes(h: Harness) -> ModuleType:
     """The generated package's runtime constants (EXECUTING, DONE, ...)."""
-    return importlib.import_module(f"{h.package.__name__}.rcs")
+    return importlib.import_module(f"{h.package.__name__}.rcs.contract")
 
 
 def sent(h: Harness) -> dict[str, tuple[str, int]]:
@@ -514,7 +514,7 @@ def test_a_restarted_controller_resumes_its_handshake_from_the_block(h):
     """A controller built on a used block reads its numbers back: no spurious new command."""
     h.command("co", "INIT")
     h.cycle(2)
-    process = type(h.process)(h.block)  # a restart on the same block
+    process = type(h.process)(h.process.plan, h.layout, h.block)  # a restart on the same block
     process.run_cycle()
     assert snapshot(h, "co") == {"co": ("DONE", 1, "NOP")}, "INIT #1 is not new again"
     h.command("co", "HALT")
@@ -529,14 +529,15 @@ def test_run_starts_sends_init_to_the_roots_and_counts_cycles(miner):
     """Main loop: run(cycles=5, pace=False) starts, sends INIT to the roots, runs 5 cycles."""
     main = importlib.import_module(f"{miner.__name__}.main_pc1")
     layout = importlib.import_module(f"{miner.__name__}.layout")
-    assert main.ROOTS == ("co",)
+    contract = importlib.import_module(f"{miner.__name__}.rcs.contract")
+    assert main.PLAN.roots == ("co",)
     process = main.run(cycles=5, pace=False)
     assert process.cycle == 5
     buf = process.block.buf
     assert layout.COMMAND_IN["co"].read(buf) == {"command_num": 1, "command": 1}  # INIT
-    for module in main.MODULES:
+    for module in main.PLAN.modules:
         status = layout.STATUS_OUT[module].read(buf)
-        assert (status["status_num"], layout.STATUS_NAMES[status["status"]]) == (1, "DONE")
+        assert (status["status_num"], contract.STATUS_NAMES[status["status"]]) == (1, "DONE")
         assert layout.PERFORMANCE[module].read(buf)["cycles"] == 5
     stopped = main.run(cycles=None, pace=False, on_cycle=lambda p: p.cycle >= 3)
     assert stopped.cycle == 3, "on_cycle returning True stops an unbounded run"
@@ -544,7 +545,7 @@ def test_run_starts_sends_init_to_the_roots_and_counts_cycles(miner):
 
 def test_pacer_sleeps_the_rest_of_each_period_and_counts_overruns(miner):
     """Pacer: sleeps to each period boundary; an overrun is counted and restarts the schedule."""
-    rcs = importlib.import_module(f"{miner.__name__}.rcs")
+    rcs = importlib.import_module(f"{miner.__name__}.rcs.loop")
     times = iter([100.0, 100.03, 100.25, 100.30, 100.44])
     slept: list[float] = []
     pacer = rcs.Pacer(0.1, clock=lambda: next(times), sleep=slept.append)
@@ -645,7 +646,7 @@ def attach_in_child(package_dir: Path, script: str, *args: str) -> subprocess.Co
         "import importlib, json, sys\n"
         f"sys.path.insert(0, {str(package_dir.parent)!r})\n"
         f"layout = importlib.import_module('{package_dir.name}.layout')\n"
-        f"rcs = importlib.import_module('{package_dir.name}.rcs')\n"
+        f"rcs = importlib.import_module('{package_dir.name}.rcs.block')\n"
     )
     return subprocess.run(
         [sys.executable, "-c", prelude + script, *args],
@@ -660,7 +661,8 @@ def test_block_on_named_shared_memory_is_seen_by_an_attached_block(miner):
     """Shared memory: another process attaches by name and reads the same co status."""
     main = importlib.import_module(f"{miner.__name__}.main_pc1")
     layout = importlib.import_module(f"{miner.__name__}.layout")
-    rcs = importlib.import_module(f"{miner.__name__}.rcs")
+    rcs = importlib.import_module(f"{miner.__name__}.rcs.block")
+    contract = importlib.import_module(f"{miner.__name__}.rcs.contract")
     name = f"rcsgen_sem_{os.getpid()}_{time.monotonic_ns() % 10**9}"
     process = main.start(name, create=True)
     try:
@@ -677,7 +679,7 @@ def test_block_on_named_shared_memory_is_seen_by_an_attached_block(miner):
         assert child.stderr == ""
         theirs = json.loads(child.stdout)
         assert theirs == layout.STATUS_OUT["co"].read(process.block.buf)
-        assert (theirs["status_num"], layout.STATUS_NAMES[theirs["status"]]) == (1, "DONE")
+        assert (theirs["status_num"], contract.STATUS_NAMES[theirs["status"]]) == (1, "DONE")
         # The attacher's close did not remove the segment: it still opens by name.
         shared_memory.SharedMemory(name=name).close()
     finally:

@@ -31,9 +31,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     settings = dict(item.partition("=")[::2] for item in args.set)
     process = importlib.import_module(f"{__package__}.main_{args.process}")
-    unknown = sorted(set(args.simulate) - set(process.STAND_INS))
+    unknown = sorted(set(args.simulate) - set(process.PLAN.stand_ins))
     if unknown:
-        parser.error(f"no stand-in for {unknown}; these have one: {sorted(process.STAND_INS)}")
+        parser.error(f"no stand-in for {unknown}; these have one: {sorted(process.PLAN.stand_ins)}")
     ran = process.run(
         args.cycles,
         not args.fast,

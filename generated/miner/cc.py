@@ -11,12 +11,10 @@ from .layout import (
     CC_STATUS_AT,
     CD_COMMAND,
     CD_COMMAND_AT,
-    PERF,
     SJ_COMMAND,
     SJ_COMMAND_AT,
-    STATUS,
 )
-from .rcs import DONE, ERROR, EXECUTING, NOP
+from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
 
 # Commands cc accepts (the code written to its command buffer).
 INIT = 1

@@ -7,10 +7,8 @@ from time import perf_counter_ns
 from .layout import (
     CD_PERF_AT,
     CD_STATUS_AT,
-    PERF,
-    STATUS,
 )
-from .rcs import DONE, EXECUTING, NOP
+from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
 
 # Commands cd accepts (the code written to its command buffer).
 INIT = 1

@@ -13,12 +13,10 @@ from .layout import (
     CO_STATUS_AT,
     CR_COMMAND,
     CR_COMMAND_AT,
-    PERF,
-    STATUS,
     VG_COMMAND,
     VG_COMMAND_AT,
 )
-from .rcs import DONE, ERROR, EXECUTING, NOP
+from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
 
 # Commands co accepts (the code written to its command buffer).
 INIT = 1

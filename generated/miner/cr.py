@@ -13,10 +13,8 @@ from .layout import (
     CV_COMMAND_AT,
     GH_COMMAND,
     GH_COMMAND_AT,
-    PERF,
-    STATUS,
 )
-from .rcs import DONE, ERROR, EXECUTING, NOP
+from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
 
 # Commands cr accepts (the code written to its command buffer).
 INIT = 1

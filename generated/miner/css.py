@@ -9,10 +9,8 @@ import miner_hooks.sim as hooks
 from .layout import (
     CSS_PERF_AT,
     CSS_STATUS_AT,
-    PERF,
-    STATUS,
 )
-from .rcs import DONE, EXECUTING, NOP
+from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
 
 # Commands css accepts (the code written to its command buffer).
 INIT = 1

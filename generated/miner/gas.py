@@ -7,10 +7,8 @@ from time import perf_counter_ns
 from .layout import (
     GAS_PERF_AT,
     GAS_STATUS_AT,
-    PERF,
-    STATUS,
 )
-from .rcs import DONE, EXECUTING, NOP
+from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
 
 # Commands gas accepts (the code written to its command buffer).
 INIT = 1

@@ -139,15 +139,20 @@ padding; each buffer starts on an 8-byte boundary. The block is 2352 bytes.
 from __future__ import annotations
 
 from struct import Struct
-from typing import NamedTuple
+
+from .rcs.contract import (
+    MODE,
+    MODE_FIELDS,
+    NO_COMMAND_NAME,
+    PERF,
+    PERF_FIELDS,
+    STATUS,
+    STATUS_FIELDS,
+    Record,
+    field_names,
+)
 
 SIZE = 2352
-
-# Buffers every module has in the same shape.
-STATUS = Struct("<QIIi")  # status_num, status, error_num, state
-STATUS_HEAD = Struct("<QI")  # status_num, status: what a supervisor reads
-MODE = Struct("<???xI")  # dont_run, single_step, simulate, single_step_num
-PERF = Struct("<QQQQI")  # last, min, max cycle time (ns), cycles, single_step_num
 
 # sb: Shift boss
 SB_COMMAND = Struct("<QId")  # command_num, command, arg_depth
@@ -381,22 +386,6 @@ WORLD_COAL_MINED = Struct("<d")  # coal_mined
 WORLD_COAL_MINED_AT = 2344
 
 
-class Record(NamedTuple):
-    """A buffer for tools (harness, traces, operator interfaces): its struct, offset, fields."""
-
-    struct: Struct
-    offset: int
-    fields: tuple[str, ...]
-
-    def read(self, buf: memoryview) -> dict[str, object]:
-        return dict(zip(self.fields, self.struct.unpack_from(buf, self.offset), strict=True))
-
-    def write(self, buf: memoryview, **values: object) -> None:
-        current = self.read(buf)
-        current.update(values)
-        self.struct.pack_into(buf, self.offset, *current.values())
-
-
 MODULES = (
     "sb",
     "co",
@@ -448,171 +437,79 @@ COMMAND_IN = {
     "css": Record(CSS_COMMAND, CSS_COMMAND_AT, ("command_num", "command")),
 }
 STATUS_OUT = {
-    "sb": Record(STATUS, SB_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "co": Record(STATUS, CO_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "cc": Record(STATUS, CC_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "bm": Record(STATUS, BM_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "cd": Record(STATUS, CD_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "sj": Record(STATUS, SJ_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "cr": Record(STATUS, CR_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "gh": Record(STATUS, GH_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "cv": Record(STATUS, CV_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "ct": Record(STATUS, CT_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "vg": Record(STATUS, VG_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "pp": Record(STATUS, PP_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "tc": Record(STATUS, TC_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "oi": Record(STATUS, OI_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "bas": Record(STATUS, BAS_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "jas": Record(STATUS, JAS_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "tas": Record(STATUS, TAS_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "mine": Record(STATUS, MINE_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "das": Record(STATUS, DAS_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "gas": Record(STATUS, GAS_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "bss": Record(STATUS, BSS_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "pss": Record(STATUS, PSS_STATUS_AT, ("status_num", "status", "error_num", "state")),
-    "css": Record(STATUS, CSS_STATUS_AT, ("status_num", "status", "error_num", "state")),
+    "sb": Record(STATUS, SB_STATUS_AT, field_names(STATUS_FIELDS)),
+    "co": Record(STATUS, CO_STATUS_AT, field_names(STATUS_FIELDS)),
+    "cc": Record(STATUS, CC_STATUS_AT, field_names(STATUS_FIELDS)),
+    "bm": Record(STATUS, BM_STATUS_AT, field_names(STATUS_FIELDS)),
+    "cd": Record(STATUS, CD_STATUS_AT, field_names(STATUS_FIELDS)),
+    "sj": Record(STATUS, SJ_STATUS_AT, field_names(STATUS_FIELDS)),
+    "cr": Record(STATUS, CR_STATUS_AT, field_names(STATUS_FIELDS)),
+    "gh": Record(STATUS, GH_STATUS_AT, field_names(STATUS_FIELDS)),
+    "cv": Record(STATUS, CV_STATUS_AT, field_names(STATUS_FIELDS)),
+    "ct": Record(STATUS, CT_STATUS_AT, field_names(STATUS_FIELDS)),
+    "vg": Record(STATUS, VG_STATUS_AT, field_names(STATUS_FIELDS)),
+    "pp": Record(STATUS, PP_STATUS_AT, field_names(STATUS_FIELDS)),
+    "tc": Record(STATUS, TC_STATUS_AT, field_names(STATUS_FIELDS)),
+    "oi": Record(STATUS, OI_STATUS_AT, field_names(STATUS_FIELDS)),
+    "bas": Record(STATUS, BAS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "jas": Record(STATUS, JAS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "tas": Record(STATUS, TAS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "mine": Record(STATUS, MINE_STATUS_AT, field_names(STATUS_FIELDS)),
+    "das": Record(STATUS, DAS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "gas": Record(STATUS, GAS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "bss": Record(STATUS, BSS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "pss": Record(STATUS, PSS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "css": Record(STATUS, CSS_STATUS_AT, field_names(STATUS_FIELDS)),
 }
 MODE_IN = {
-    "sb": Record(MODE, SB_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "co": Record(MODE, CO_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "cc": Record(MODE, CC_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "bm": Record(MODE, BM_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "cd": Record(MODE, CD_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "sj": Record(MODE, SJ_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "cr": Record(MODE, CR_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "gh": Record(MODE, GH_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "cv": Record(MODE, CV_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "ct": Record(MODE, CT_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "vg": Record(MODE, VG_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "pp": Record(MODE, PP_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "tc": Record(MODE, TC_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "oi": Record(MODE, OI_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "bas": Record(MODE, BAS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "jas": Record(MODE, JAS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "tas": Record(MODE, TAS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "mine": Record(MODE, MINE_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "das": Record(MODE, DAS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "gas": Record(MODE, GAS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "bss": Record(MODE, BSS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "pss": Record(MODE, PSS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
-    "css": Record(MODE, CSS_MODE_AT, ("dont_run", "single_step", "simulate", "single_step_num")),
+    "sb": Record(MODE, SB_MODE_AT, field_names(MODE_FIELDS)),
+    "co": Record(MODE, CO_MODE_AT, field_names(MODE_FIELDS)),
+    "cc": Record(MODE, CC_MODE_AT, field_names(MODE_FIELDS)),
+    "bm": Record(MODE, BM_MODE_AT, field_names(MODE_FIELDS)),
+    "cd": Record(MODE, CD_MODE_AT, field_names(MODE_FIELDS)),
+    "sj": Record(MODE, SJ_MODE_AT, field_names(MODE_FIELDS)),
+    "cr": Record(MODE, CR_MODE_AT, field_names(MODE_FIELDS)),
+    "gh": Record(MODE, GH_MODE_AT, field_names(MODE_FIELDS)),
+    "cv": Record(MODE, CV_MODE_AT, field_names(MODE_FIELDS)),
+    "ct": Record(MODE, CT_MODE_AT, field_names(MODE_FIELDS)),
+    "vg": Record(MODE, VG_MODE_AT, field_names(MODE_FIELDS)),
+    "pp": Record(MODE, PP_MODE_AT, field_names(MODE_FIELDS)),
+    "tc": Record(MODE, TC_MODE_AT, field_names(MODE_FIELDS)),
+    "oi": Record(MODE, OI_MODE_AT, field_names(MODE_FIELDS)),
+    "bas": Record(MODE, BAS_MODE_AT, field_names(MODE_FIELDS)),
+    "jas": Record(MODE, JAS_MODE_AT, field_names(MODE_FIELDS)),
+    "tas": Record(MODE, TAS_MODE_AT, field_names(MODE_FIELDS)),
+    "mine": Record(MODE, MINE_MODE_AT, field_names(MODE_FIELDS)),
+    "das": Record(MODE, DAS_MODE_AT, field_names(MODE_FIELDS)),
+    "gas": Record(MODE, GAS_MODE_AT, field_names(MODE_FIELDS)),
+    "bss": Record(MODE, BSS_MODE_AT, field_names(MODE_FIELDS)),
+    "pss": Record(MODE, PSS_MODE_AT, field_names(MODE_FIELDS)),
+    "css": Record(MODE, CSS_MODE_AT, field_names(MODE_FIELDS)),
 }
 PERFORMANCE = {
-    "sb": Record(
-        PERF,
-        SB_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "co": Record(
-        PERF,
-        CO_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "cc": Record(
-        PERF,
-        CC_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "bm": Record(
-        PERF,
-        BM_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "cd": Record(
-        PERF,
-        CD_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "sj": Record(
-        PERF,
-        SJ_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "cr": Record(
-        PERF,
-        CR_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "gh": Record(
-        PERF,
-        GH_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "cv": Record(
-        PERF,
-        CV_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "ct": Record(
-        PERF,
-        CT_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "vg": Record(
-        PERF,
-        VG_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "pp": Record(
-        PERF,
-        PP_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "tc": Record(
-        PERF,
-        TC_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "oi": Record(
-        PERF,
-        OI_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "bas": Record(
-        PERF,
-        BAS_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "jas": Record(
-        PERF,
-        JAS_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "tas": Record(
-        PERF,
-        TAS_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "mine": Record(
-        PERF,
-        MINE_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "das": Record(
-        PERF,
-        DAS_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "gas": Record(
-        PERF,
-        GAS_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "bss": Record(
-        PERF,
-        BSS_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "pss": Record(
-        PERF,
-        PSS_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
-    "css": Record(
-        PERF,
-        CSS_PERF_AT,
-        ("last_cycle_ns", "min_cycle_ns", "max_cycle_ns", "cycles", "single_step_num"),
-    ),
+    "sb": Record(PERF, SB_PERF_AT, field_names(PERF_FIELDS)),
+    "co": Record(PERF, CO_PERF_AT, field_names(PERF_FIELDS)),
+    "cc": Record(PERF, CC_PERF_AT, field_names(PERF_FIELDS)),
+    "bm": Record(PERF, BM_PERF_AT, field_names(PERF_FIELDS)),
+    "cd": Record(PERF, CD_PERF_AT, field_names(PERF_FIELDS)),
+    "sj": Record(PERF, SJ_PERF_AT, field_names(PERF_FIELDS)),
+    "cr": Record(PERF, CR_PERF_AT, field_names(PERF_FIELDS)),
+    "gh": Record(PERF, GH_PERF_AT, field_names(PERF_FIELDS)),
+    "cv": Record(PERF, CV_PERF_AT, field_names(PERF_FIELDS)),
+    "ct": Record(PERF, CT_PERF_AT, field_names(PERF_FIELDS)),
+    "vg": Record(PERF, VG_PERF_AT, field_names(PERF_FIELDS)),
+    "pp": Record(PERF, PP_PERF_AT, field_names(PERF_FIELDS)),
+    "tc": Record(PERF, TC_PERF_AT, field_names(PERF_FIELDS)),
+    "oi": Record(PERF, OI_PERF_AT, field_names(PERF_FIELDS)),
+    "bas": Record(PERF, BAS_PERF_AT, field_names(PERF_FIELDS)),
+    "jas": Record(PERF, JAS_PERF_AT, field_names(PERF_FIELDS)),
+    "tas": Record(PERF, TAS_PERF_AT, field_names(PERF_FIELDS)),
+    "mine": Record(PERF, MINE_PERF_AT, field_names(PERF_FIELDS)),
+    "das": Record(PERF, DAS_PERF_AT, field_names(PERF_FIELDS)),
+    "gas": Record(PERF, GAS_PERF_AT, field_names(PERF_FIELDS)),
+    "bss": Record(PERF, BSS_PERF_AT, field_names(PERF_FIELDS)),
+    "pss": Record(PERF, PSS_PERF_AT, field_names(PERF_FIELDS)),
+    "css": Record(PERF, CSS_PERF_AT, field_names(PERF_FIELDS)),
 }
 WORLD = {
     "tail_request": Record(WORLD_TAIL_REQUEST, WORLD_TAIL_REQUEST_AT, ("tail_request",)),
@@ -704,52 +601,59 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
-    "sb": ("NONE", "INIT", "HALT", "TRAM_TO_GOAL", "BOX_CUT"),
+    "sb": (NO_COMMAND_NAME, *("INIT", "HALT", "TRAM_TO_GOAL", "BOX_CUT")),
     "co": (
-        "NONE",
-        "INIT",
-        "HALT",
-        "INITIAL_APPROACH_FACE",
-        "TRAM_TO_GOAL",
-        "APPROACH_FACE",
-        "SUMP_SHEAR_CUSP",
+        NO_COMMAND_NAME,
+        *(
+            "INIT",
+            "HALT",
+            "INITIAL_APPROACH_FACE",
+            "TRAM_TO_GOAL",
+            "APPROACH_FACE",
+            "SUMP_SHEAR_CUSP",
+        ),
     ),
-    "cc": ("NONE", "INIT", "HALT", "RAISE_DRUM", "SUMP", "SHEAR", "SHEAR_CORRECT", "CUSP"),
-    "bm": ("NONE", "INIT", "HALT", "RAISE", "LOWER"),
-    "cd": ("NONE", "INIT", "HALT", "ON", "OFF"),
-    "sj": ("NONE", "INIT", "HALT", "LOWER", "RAISE"),
-    "cr": ("NONE", "INIT", "HALT", "SUMP", "SHEAR", "CUSP"),
-    "gh": ("NONE", "INIT", "HALT", "FLOAT", "ON"),
-    "cv": ("NONE", "INIT", "HALT", "ON"),
-    "ct": ("NONE", "INIT", "HALT", "POSITION_TAIL"),
-    "vg": ("NONE", "INIT", "HALT", "TRAM_TO_XY"),
-    "pp": ("NONE", "INIT", "HALT", "PLAN"),
+    "cc": (
+        NO_COMMAND_NAME,
+        *("INIT", "HALT", "RAISE_DRUM", "SUMP", "SHEAR", "SHEAR_CORRECT", "CUSP"),
+    ),
+    "bm": (NO_COMMAND_NAME, *("INIT", "HALT", "RAISE", "LOWER")),
+    "cd": (NO_COMMAND_NAME, *("INIT", "HALT", "ON", "OFF")),
+    "sj": (NO_COMMAND_NAME, *("INIT", "HALT", "LOWER", "RAISE")),
+    "cr": (NO_COMMAND_NAME, *("INIT", "HALT", "SUMP", "SHEAR", "CUSP")),
+    "gh": (NO_COMMAND_NAME, *("INIT", "HALT", "FLOAT", "ON")),
+    "cv": (NO_COMMAND_NAME, *("INIT", "HALT", "ON")),
+    "ct": (NO_COMMAND_NAME, *("INIT", "HALT", "POSITION_TAIL")),
+    "vg": (NO_COMMAND_NAME, *("INIT", "HALT", "TRAM_TO_XY")),
+    "pp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN")),
     "tc": (
-        "NONE",
-        "INIT",
-        "HALT",
-        "SLOW_FORWARD",
-        "FAST_FORWARD",
-        "SLOW_REVERSE",
-        "FAST_REVERSE",
-        "PIVOT_LEFT",
-        "PIVOT_RIGHT",
-        "TURN_LEFT_FORWARD",
-        "TURN_RIGHT_FORWARD",
-        "TURN_LEFT_REVERSE",
-        "TURN_RIGHT_REVERSE",
-        "STOP",
+        NO_COMMAND_NAME,
+        *(
+            "INIT",
+            "HALT",
+            "SLOW_FORWARD",
+            "FAST_FORWARD",
+            "SLOW_REVERSE",
+            "FAST_REVERSE",
+            "PIVOT_LEFT",
+            "PIVOT_RIGHT",
+            "TURN_LEFT_FORWARD",
+            "TURN_RIGHT_FORWARD",
+            "TURN_LEFT_REVERSE",
+            "TURN_RIGHT_REVERSE",
+            "STOP",
+        ),
     ),
-    "oi": ("NONE", "INIT", "HALT", "ENTER_GOAL"),
-    "bas": ("NONE", "INIT", "HALT"),
-    "jas": ("NONE", "INIT", "HALT"),
-    "tas": ("NONE", "INIT", "HALT"),
-    "mine": ("NONE", "INIT", "HALT"),
-    "das": ("NONE", "INIT", "HALT"),
-    "gas": ("NONE", "INIT", "HALT"),
-    "bss": ("NONE", "INIT", "HALT"),
-    "pss": ("NONE", "INIT", "HALT"),
-    "css": ("NONE", "INIT", "HALT"),
+    "oi": (NO_COMMAND_NAME, *("INIT", "HALT", "ENTER_GOAL")),
+    "bas": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "jas": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "tas": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "mine": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "das": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "gas": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "bss": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "pss": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "css": (NO_COMMAND_NAME, *("INIT", "HALT")),
 }
 STATE_NAMES = {
     "sb": ("NOP", "S0", "S1", "S2", "S3", "HALTING"),
@@ -777,7 +681,6 @@ STATE_NAMES = {
     "css": ("NOP", "S0"),
     "cr_sim": ("NOP", "S0"),
 }
-STATUS_NAMES = ("NOT_READY", "EXECUTING", "DONE", "ERROR")
 SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css")
 
 

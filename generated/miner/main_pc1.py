@@ -25,115 +25,75 @@ from .mine import MineController
 from .oi import OiController
 from .pp import PpController
 from .pss import PssController
-from .rcs import Block, Pacer
+from .rcs import loop
+from .rcs.loop import Process, ProcessPlan
 from .sb import SbController
 from .sj import SjController
 from .tas import TasController
 from .tc import TcController
 from .vg import VgController
 
-CYCLE_PERIOD = 0.1
-MODULES = (
-    "sb",
-    "co",
-    "cc",
-    "bm",
-    "cd",
-    "sj",
-    "cr",
-    "gh",
-    "cv",
-    "ct",
-    "vg",
-    "pp",
-    "tc",
-    "oi",
-    "bas",
-    "jas",
-    "tas",
-    "mine",
-    "das",
-    "gas",
-    "bss",
-    "pss",
-    "css",
+PLAN = ProcessPlan(
+    name="pc1",
+    cycle_period=0.1,
+    modules=(
+        "sb",
+        "co",
+        "cc",
+        "bm",
+        "cd",
+        "sj",
+        "cr",
+        "gh",
+        "cv",
+        "ct",
+        "vg",
+        "pp",
+        "tc",
+        "oi",
+        "bas",
+        "jas",
+        "tas",
+        "mine",
+        "das",
+        "gas",
+        "bss",
+        "pss",
+        "css",
+    ),
+    # Modules of this process with no supervisor: INIT is sent to them at start-up.
+    roots=("sb", "oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css"),
+    # The controller-simulation switch: controller -> (its stand-in, the modules it replaces).
+    stand_ins={
+        "cr": ("cr_sim", ("cr", "gh", "cv", "ct")),
+    },
+    classes={
+        "bas": BasController,
+        "bm": BmController,
+        "bss": BssController,
+        "cc": CcController,
+        "cd": CdController,
+        "co": CoController,
+        "cr": CrController,
+        "cr_sim": CrSimController,
+        "css": CssController,
+        "ct": CtController,
+        "cv": CvController,
+        "das": DasController,
+        "gas": GasController,
+        "gh": GhController,
+        "jas": JasController,
+        "mine": MineController,
+        "oi": OiController,
+        "pp": PpController,
+        "pss": PssController,
+        "sb": SbController,
+        "sj": SjController,
+        "tas": TasController,
+        "tc": TcController,
+        "vg": VgController,
+    },
 )
-# Modules of this process with no supervisor: INIT is sent to them at start-up.
-ROOTS = ("sb", "oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css")
-# The controller-simulation switch: a run may replace a controller by its stand-in, which
-# then runs in the controller's place while the modules below it are skipped.
-STAND_INS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "cr": ("cr_sim", ("cr", "gh", "cv", "ct")),
-}
-CLASSES = {
-    "sb": SbController,
-    "co": CoController,
-    "cc": CcController,
-    "bm": BmController,
-    "cd": CdController,
-    "sj": SjController,
-    "cr": CrController,
-    "gh": GhController,
-    "cv": CvController,
-    "ct": CtController,
-    "vg": VgController,
-    "pp": PpController,
-    "tc": TcController,
-    "oi": OiController,
-    "bas": BasController,
-    "jas": JasController,
-    "tas": TasController,
-    "mine": MineController,
-    "das": DasController,
-    "gas": GasController,
-    "bss": BssController,
-    "pss": PssController,
-    "css": CssController,
-    "cr_sim": CrSimController,
-}
-
-
-class Pc1Process:
-    """Process pc1: its modules, called in the declared execution order."""
-
-    __slots__ = ("block", "cycle", "modules", "simulated", "steps")
-
-    def __init__(
-        self,
-        block: Block,
-        settings: dict[str, str] | None = None,
-        simulate: Iterable[str] = (),
-    ) -> None:
-        self.block = block
-        self.cycle = 0
-        self.simulated = tuple(simulate)
-        unknown = sorted(set(self.simulated) - set(STAND_INS))
-        if unknown:
-            raise ValueError(f"no stand-in for {unknown}; these have one: {sorted(STAND_INS)}")
-        skipped = {name for sim in self.simulated for name in STAND_INS[sim][1]}
-        self.modules = {}
-        for name in MODULES:
-            if name in self.simulated:
-                self.modules[name] = CLASSES[STAND_INS[name][0]](block.buf, settings)
-            elif name not in skipped:
-                self.modules[name] = CLASSES[name](block.buf, settings)
-        self.steps = tuple(module.run_cycle for module in self.modules.values())
-
-    def run_cycle(self) -> None:
-        """Run every module once, in the declared order."""
-        for step in self.steps:
-            step()
-        self.cycle += 1
-
-    def send_init(self) -> None:
-        """Send INIT to the root modules; the state tables ripple it down the hierarchy."""
-        buf = self.block.buf
-        for name in ROOTS:
-            record = layout.COMMAND_IN[name]
-            number = record.read(buf)["command_num"]
-            record.write(
-                buf, command_num=number + 1, command=layout.COMMAND_NAMES[name].index("INIT")
-            )
 
 
 def start(
@@ -141,16 +101,9 @@ def start(
     create: bool = True,
     settings: dict[str, str] | None = None,
     simulate: Iterable[str] = (),
-) -> Pc1Process:
+) -> Process:
     """Allocate (or attach to) the block, initialise the world if we made it, send INIT."""
-    block = Block(layout.SIZE, shm_name, create)
-    if create:
-        layout.initialise(block.buf)
-    process = Pc1Process(block, settings, simulate)
-    for name in process.simulated:
-        layout.MODE_IN[name].write(block.buf, simulate=True)
-    process.send_init()
-    return process
+    return loop.start(PLAN, layout, shm_name, create, settings, simulate)
 
 
 def run(
@@ -158,19 +111,12 @@ def run(
     pace: bool = True,
     shm_name: str | None = None,
     create: bool = True,
-    on_cycle: Callable[[Pc1Process], bool | None] | None = None,
+    on_cycle: Callable[[Process], bool | None] | None = None,
     settings: dict[str, str] | None = None,
     simulate: Iterable[str] = (),
-) -> Pc1Process:
+) -> Process:
     """Start the process and run it: `cycles` times (forever if None), paced or flat out.
 
     `on_cycle` is called after every cycle; returning True stops the loop.
     """
-    process = start(shm_name, create, settings, simulate)
-    pacer = Pacer(CYCLE_PERIOD if pace else 0.0)
-    while cycles is None or process.cycle < cycles:
-        process.run_cycle()
-        if on_cycle is not None and on_cycle(process):
-            break
-        pacer.wait()
-    return process
+    return loop.run(PLAN, layout, cycles, pace, shm_name, create, on_cycle, settings, simulate)

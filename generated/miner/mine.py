@@ -9,10 +9,8 @@ import miner_hooks.mine as hooks
 from .layout import (
     MINE_PERF_AT,
     MINE_STATUS_AT,
-    PERF,
-    STATUS,
 )
-from .rcs import DONE, EXECUTING, NOP
+from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
 
 # Commands mine accepts (the code written to its command buffer).
 INIT = 1

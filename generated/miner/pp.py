@@ -5,12 +5,10 @@ from struct import Struct
 from time import perf_counter_ns
 
 from .layout import (
-    PERF,
     PP_PERF_AT,
     PP_STATUS_AT,
-    STATUS,
 )
-from .rcs import DONE, EXECUTING, NOP
+from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
 
 # Commands pp accepts (the code written to its command buffer).
 INIT = 1

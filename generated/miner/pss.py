@@ -7,12 +7,10 @@ from time import perf_counter_ns
 import miner_hooks.sim as hooks
 
 from .layout import (
-    PERF,
     PSS_PERF_AT,
     PSS_STATUS_AT,
-    STATUS,
 )
-from .rcs import DONE, EXECUTING, NOP
+from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
 
 # Commands pss accepts (the code written to its command buffer).
 INIT = 1

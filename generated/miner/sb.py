@@ -7,12 +7,10 @@ from time import perf_counter_ns
 from .layout import (
     CO_COMMAND,
     CO_COMMAND_AT,
-    PERF,
     SB_PERF_AT,
     SB_STATUS_AT,
-    STATUS,
 )
-from .rcs import DONE, ERROR, EXECUTING, NOP
+from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
 
 # Commands sb accepts (the code written to its command buffer).
 INIT = 1

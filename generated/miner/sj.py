@@ -5,12 +5,10 @@ from struct import Struct
 from time import perf_counter_ns
 
 from .layout import (
-    PERF,
     SJ_PERF_AT,
     SJ_STATUS_AT,
-    STATUS,
 )
-from .rcs import DONE, EXECUTING, NOP
+from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
 
 # Commands sj accepts (the code written to its command buffer).
 INIT = 1

@@ -7,12 +7,10 @@ from time import perf_counter_ns
 import miner_hooks.sim as hooks
 
 from .layout import (
-    PERF,
-    STATUS,
     TAS_PERF_AT,
     TAS_STATUS_AT,
 )
-from .rcs import DONE, EXECUTING, NOP
+from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
 
 # Commands tas accepts (the code written to its command buffer).
 INIT = 1

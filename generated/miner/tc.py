@@ -5,12 +5,10 @@ from struct import Struct
 from time import perf_counter_ns
 
 from .layout import (
-    PERF,
-    STATUS,
     TC_PERF_AT,
     TC_STATUS_AT,
 )
-from .rcs import DONE, ERROR, EXECUTING, NOP
+from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
 
 # Commands tc accepts (the code written to its command buffer).
 INIT = 1

@@ -5,16 +5,14 @@ from struct import Struct
 from time import perf_counter_ns
 
 from .layout import (
-    PERF,
     PP_COMMAND,
     PP_COMMAND_AT,
-    STATUS,
     TC_COMMAND,
     TC_COMMAND_AT,
     VG_PERF_AT,
     VG_STATUS_AT,
 )
-from .rcs import DONE, ERROR, EXECUTING, NOP
+from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
 
 # Commands vg accepts (the code written to its command buffer).
 INIT = 1

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import yaml
 
-from rcsgen.diagnostics import Diagnostics, Span, SpecError
+from .diagnostics import Diagnostics, Span, SpecError
 
 MAX_BYTES = 1_000_000
 MAX_DEPTH = 64

@@ -16,11 +16,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .diagnostics import Diagnostic, Diagnostics, Span, SpecError
-from .frontend import SYSTEM_FILE, display_path
+from ..compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
+from ..compiler.frontend import SYSTEM_FILE, display_path
+from ..compiler.loader import load_file
+from ..compiler.model import span_at, span_of
 from .harness import Harness
-from .loader import load_file
-from .model import span_at, span_of
 
 SCENARIO_KEYS = {"scenario", "title", "doc", "process", "max_cycles", "stop_when_done", "trace"}
 SCENARIO_KEYS |= {"events", "settings", "simulate", "report"}

@@ -1,9 +1,9 @@
 """Schema: loaded spec data -> structural diagnostics (JSON Schema Draft 2020-12).
 
-The schemas in `rcsgen/schema/` are the single source of truth for the shape of a spec file;
-editors use the same files. This stage maps each jsonschema error to one located diagnostic:
-S001 missing required key, S002 unknown key, S003 wrong type, S004 invalid name or pattern,
-S005 invalid value (enum, minimum, ...), S006 malformed action or rule.
+The schemas in `rcsgen/compiler/schemas/` are the single source of truth for the shape of a
+spec file; editors use the same files. This stage maps each jsonschema error to one located
+diagnostic: S001 missing required key, S002 unknown key, S003 wrong type, S004 invalid name
+or pattern, S005 invalid value (enum, minimum, ...), S006 malformed action or rule.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ def schema_for(kind: str) -> dict:
     """The JSON schema of a `system` or `controller` file (cached: do not mutate)."""
     if kind not in KINDS:
         raise ValueError(f"unknown spec kind {kind!r}; expected one of {KINDS}")
-    path = files("rcsgen") / "schema" / f"{kind}.schema.json"
+    path = files("rcsgen.compiler") / "schemas" / f"{kind}.schema.json"
     return json.loads(path.read_text(encoding="utf-8"))
 
 

@@ -34,8 +34,8 @@ from fractions import Fraction
 from itertools import pairwise, product
 from typing import Any
 
+from ..runtime import contract
 from . import expr as X
-from . import ir
 from .check import ENTRY_STATE, Scopes, default_table
 from .diagnostics import Diagnostics, Span, known_names_hint
 from .model import Command, ControllerSpec, Report, Rule, Send, SystemSpec
@@ -573,7 +573,7 @@ def _commands(spec: ControllerSpec) -> dict[str, Command]:
     subs = [s.value for s in spec.subordinates]
     commands = {
         name: spec.commands.get(name) or default_table(name, subs, spec.span)
-        for name in ir.BUILTIN_COMMANDS
+        for name in contract.BUILTIN_COMMANDS
     }
     commands.update((n, c) for n, c in spec.commands.items() if n not in commands)
     return commands

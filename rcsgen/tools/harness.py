@@ -25,9 +25,9 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from . import emit
-from .diagnostics import SpecError
-from .frontend import compile_paths
+from ..compiler import emit
+from ..compiler.diagnostics import SpecError
+from ..compiler.frontend import compile_paths
 
 _unique = itertools.count(1)
 
@@ -100,18 +100,15 @@ class Harness:
         self.process_name = process or package.PROCESSES[0]
         main = importlib.import_module(f"{package.__name__}.main_{self.process_name}")
         self.main_module = main
-        rcs = importlib.import_module(f"{package.__name__}.rcs")
-        self.block = rcs.Block(self.layout.SIZE)
+        runtime = f"{package.__name__}.rcs"
+        self.contract = importlib.import_module(f"{runtime}.contract")
+        self.block = importlib.import_module(f"{runtime}.block").Block(self.layout.SIZE)
         self.buf = self.block.buf
         self.layout.initialise(self.buf)
-        process_class = next(
-            value
-            for key, value in vars(main).items()
-            if key.endswith("Process") and isinstance(value, type)
-        )
-        self.process = process_class(self.block, settings, simulate)
+        loop = importlib.import_module(f"{runtime}.loop")
+        self.process = loop.Process(main.PLAN, self.layout, self.block, settings, simulate)
         # Whose state names a module's status uses: a stand-in's, while it runs in its place.
-        self._states_of = {name: main.STAND_INS[name][0] for name in self.process.simulated}
+        self._states_of = {name: main.PLAN.stand_ins[name][0] for name in self.process.simulated}
         for name in self.process.simulated:
             self.set_mode(name, simulate=True)
         if send_init:
@@ -211,13 +208,13 @@ class Harness:
     def reply(self, module: str, status: str, number: int | None = None) -> None:
         """Write `module`'s status as if it had run: by default echoing its command number."""
         echoed = self.sent(module).number if number is None else number
-        code = self.layout.STATUS_NAMES.index(status)
+        code = self.contract.STATUS_NAMES.index(status)
         self.layout.STATUS_OUT[module].write(self.buf, status_num=echoed, status=code)
 
     def status(self, module: str) -> Status:
         values = self.layout.STATUS_OUT[module].read(self.buf)
         return Status(
-            self.layout.STATUS_NAMES[values["status"]],
+            self.contract.STATUS_NAMES[values["status"]],
             values["status_num"],
             self.layout.STATE_NAMES[self._states_of.get(module, module)][values["state"]],
             values["error_num"],

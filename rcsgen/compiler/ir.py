@@ -12,11 +12,14 @@ import struct
 from dataclasses import dataclass, field
 from functools import cached_property
 
-STATUS_CODES = {"NOT_READY": 0, "EXECUTING": 1, "DONE": 2, "ERROR": 3}
-NO_COMMAND = 0  # a command buffer that never received a command
-NOP = 0  # the state of a module with no command to work on
-BUILTIN_COMMANDS = ("INIT", "HALT")
-FORMAT_OF_TYPE = {"bool": "?", "int": "q", "float": "d"}
+from ..runtime.contract import (
+    COMMAND_HEAD_FIELDS,
+    FORMAT_OF_TYPE,
+    MODE_FIELDS,
+    PERF_FIELDS,
+    STATUS_FIELDS,
+)
+
 PY_TYPE = {"bool": "bool", "int": "int", "float": "float"}
 
 
@@ -80,25 +83,6 @@ class Layout:
     def all_buffers(self) -> list[Buffer]:
         found = [b for m in self.modules.values() for b in (m.command, m.status, m.mode, m.perf)]
         return sorted([*found, *self.world], key=lambda b: b.offset)
-
-
-# Buffers every module has in the same shape (QQ1.h): (field, struct code).
-COMMAND_HEAD_FIELDS = (("command_num", "Q"), ("command", "I"))
-STATUS_FIELDS = (("status_num", "Q"), ("status", "I"), ("error_num", "I"), ("state", "i"))
-MODE_FIELDS = (
-    ("dont_run", "?"),
-    ("single_step", "?"),
-    ("simulate", "?"),
-    ("pad", "x"),
-    ("single_step_num", "I"),
-)
-PERF_FIELDS = (
-    ("last_cycle_ns", "Q"),
-    ("min_cycle_ns", "Q"),
-    ("max_cycle_ns", "Q"),
-    ("cycles", "Q"),
-    ("single_step_num", "I"),
-)
 
 
 def attribute_of(field: str, buffer_fields: tuple[tuple[str, str], ...]) -> str:

@@ -1,27 +1,16 @@
-{% import "_macros.j2" as m %}
-{{ m.header(system.source) }}
-"""Runtime support of the generated {{ system.name }} package: status codes, the shared block, pacing.
+"""Block: the memory all modules of a system exchange their buffers through.
 
-Emitted into the package so it runs where rcsgen is not installed; standard library only.
+A private in-process buffer, or a named `multiprocessing.shared_memory` segment that several
+processes attach to. Standard library only: copied verbatim into every generated package.
 """
 
 from __future__ import annotations
 
 import sys
-import time
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # imported when a named block is used: it costs ~10 ms of start-up
     from multiprocessing import shared_memory
-
-# Status a module reports to its supervisor (QQ1.h `qq1_responses`).
-NOT_READY = 0
-EXECUTING = 1
-DONE = 2
-ERROR = 3
-# The state of a module with no command to work on.
-NOP = 0
 
 
 class Block:
@@ -30,6 +19,7 @@ class Block:
     def __init__(self, size: int, name: str | None = None, create: bool = True) -> None:
         self.shm: shared_memory.SharedMemory | None = None
         self.owner = create and name is not None
+        self.buf: memoryview
         if name is None:
             self.buf = memoryview(bytearray(size))
             return
@@ -63,36 +53,10 @@ def _attach(name: str) -> shared_memory.SharedMemory:
     from multiprocessing import resource_tracker, shared_memory
 
     if sys.version_info >= (3, 13):
-        return shared_memory.SharedMemory(name=name, track=False)
+        return shared_memory.SharedMemory(name=name, track=False)  # type: ignore[call-arg,unused-ignore]
     register = resource_tracker.register
-    resource_tracker.register = lambda *args, **kwargs: None
+    resource_tracker.register = lambda *args, **kwargs: None  # type: ignore[assignment]
     try:
         return shared_memory.SharedMemory(name=name)
     finally:
-        resource_tracker.register = register
-
-
-class Pacer:
-    """Holds each cycle to the period on a monotonic clock; `period=0` runs as fast as possible."""
-
-    def __init__(
-        self,
-        period: float,
-        clock: Callable[[], float] = time.monotonic,
-        sleep: Callable[[float], None] = time.sleep,
-    ) -> None:
-        self.period, self.clock, self.sleep = period, clock, sleep
-        self.deadline = clock() + period
-        self.overruns = 0
-
-    def wait(self) -> None:
-        """Sleep until the next cycle boundary; count a cycle that ran past it."""
-        if self.period <= 0:
-            return
-        now = self.clock()
-        if now <= self.deadline:
-            self.sleep(self.deadline - now)
-            self.deadline += self.period
-        else:
-            self.overruns += 1
-            self.deadline = now + self.period
+        resource_tracker.register = register  # type: ignore[assignment]

@@ -13,6 +13,7 @@ from collections.abc import Iterable
 from functools import lru_cache
 from pathlib import Path
 
+from ..runtime import contract
 from . import expr as X
 from . import ir, naming
 from .diagnostics import Diagnostics, Span, known_names_hint
@@ -497,7 +498,7 @@ class _Lowering:
         subs = [s.value for s in spec.subordinates]
         commands = {
             name: spec.commands.get(name) or default_table(name, subs, spec.span)
-            for name in ir.BUILTIN_COMMANDS
+            for name in contract.BUILTIN_COMMANDS
         }
         commands.update((n, c) for n, c in spec.commands.items() if n not in commands)
         return commands
@@ -588,7 +589,7 @@ class _Lowering:
         named += [(n, "constant", c.span) for n, c in spec.constants.items()]
         for command in self.commands.values():
             named += [(s.name, "state", s.span) for s in command.states.values()]
-        for name in ir.BUILTIN_COMMANDS:
+        for name in contract.BUILTIN_COMMANDS:
             taken.setdefault(name, "a command")
         states_seen: set[str] = set()
         for name, kind, span in named:
@@ -596,7 +597,7 @@ class _Lowering:
                 if name in states_seen:
                     continue  # the same state name in several tables is one constant
                 states_seen.add(name)
-            if name in taken and not (kind == "command" and name in ir.BUILTIN_COMMANDS):
+            if name in taken and not (kind == "command" and name in contract.BUILTIN_COMMANDS):
                 self.diags.error(
                     span,
                     "E228",
