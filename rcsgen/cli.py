@@ -14,7 +14,7 @@ from pathlib import Path
 
 import click
 
-from .compiler import emit
+from .compiler import emit, write
 from .compiler.diagnostics import Diagnostic, Diagnostics, to_json
 from .compiler.frontend import compile_paths
 
@@ -102,13 +102,13 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt:
         sys.exit(1)
     files = emit.render_all(front.systems)
     diags = Diagnostics(list(front.diagnostics.items) if quiet else [])
-    plan = emit.plan_outputs(files, output, [s.name for s in front.systems], diags)
+    plan = write.plan_outputs(files, output, [s.name for s in front.systems], diags)
     if report(diags, fmt=fmt):
         click.echo("build failed: nothing was written", err=True)
         sys.exit(1)
     if check:
         if plan.stale:
-            click.echo(emit.unified_diff(plan, output), nl=False, err=quiet)
+            click.echo(write.unified_diff(plan, output), nl=False, err=quiet)
             click.echo(
                 f"{output} is stale: {len(plan.write)} file(s) to write, "
                 f"{len(plan.delete)} to delete; run `rcsgen build` to update it",
@@ -117,7 +117,7 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt:
             sys.exit(1)
         click.echo(f"{output} is current ({plan.unchanged} files)", err=quiet)
         return
-    emit.apply(plan)
+    write.apply(plan)
     click.echo(
         f"built {', '.join(s.name for s in front.systems)} into {output}: "
         f"{len(plan.write)} written, {len(plan.delete)} deleted, {plan.unchanged} unchanged",

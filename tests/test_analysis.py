@@ -21,9 +21,9 @@ from typing import Any
 import pytest
 from conftest import REPO, rcsgen
 
-from rcsgen.compiler import analysis
+from rcsgen.compiler import analysis, solver
 from rcsgen.compiler import expr as X
-from rcsgen.compiler.check import Scopes
+from rcsgen.compiler.check import check_system
 from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.loader import load_file
@@ -170,25 +170,20 @@ class Evaluator:
 
     def __init__(self, directory: Path, controller: str):
         system, controllers = models(directory)
-        self.system, self.controllers = system, controllers
-        self.spec = next(c for c in controllers if c.name == controller)
+        checked = check_system(system, controllers, Diagnostics())
+        assert checked is not None
+        self.checked = checked.controllers[controller]
+        self.spec = self.checked.spec
         self.commands = {
-            s.value: ("INIT", "HALT", *next(c for c in controllers if c.name == s.value).commands)
+            s.value: tuple(next(c for c in controllers if c.name == s.value).commands)
             for s in self.spec.subordinates
         }
-        scope = Scopes(system, controllers).scope(controller, None)
-        self.predicates = {
-            n: X.compile_expr(p.value, p.span, scope, Diagnostics(), X.BOOL)
-            for n, p in self.spec.predicates.items()
-        }
+        self.predicates = {n: p.tree for n, p in self.checked.predicates.items()}
 
     def guard(self, command: str, state: str, number: int) -> X.Expr:
-        cmd = self.spec.commands[command]
-        rule = cmd.states[state].rules[number - 1]
-        scope = Scopes(self.system, self.controllers).scope(self.spec.name, cmd)
-        tree = X.compile_expr(rule.when.value, rule.when.span, scope, Diagnostics(), X.BOOL)
-        assert tree is not None
-        return tree
+        rule = self.checked.commands[command].states[state].rules[number - 1]
+        assert rule.guard is not None
+        return rule.guard
 
     def names(self, tree: X.Expr) -> dict[str, str]:
         """Every name the guard reads (predicates followed) -> its type."""
@@ -558,7 +553,7 @@ def test_too_many_valuations_cannot_be_proven_and_do_not_hang(spec) -> None:
             at("      - |when: b0\n"),
             "W502",
             "cannot prove rules 1 and 2 of GO S0 exclusive: their guards have 8192 "
-            f"valuations, more than {analysis.LIMIT}",
+            f"valuations, more than {solver.LIMIT}",
         )
     ]
 
@@ -884,9 +879,9 @@ def test_every_code_is_listed_with_its_meaning() -> None:
 def test_samples_cover_every_region_once() -> None:
     from fractions import Fraction
 
-    assert analysis.samples(X.INT, [Fraction(3), Fraction(4)]) == (3, 4, 2, 5)  # none between
-    assert analysis.samples(X.INT, [Fraction(5, 2)]) == (2, 3)
-    assert analysis.samples(X.FLOAT, [Fraction(0), Fraction(1)]) == (
+    assert solver.samples(X.INT, [Fraction(3), Fraction(4)]) == (3, 4, 2, 5)  # none between
+    assert solver.samples(X.INT, [Fraction(5, 2)]) == (2, 3)
+    assert solver.samples(X.FLOAT, [Fraction(0), Fraction(1)]) == (
         0,
         1,
         -1,
@@ -1200,14 +1195,14 @@ def test_decisions_agree_with_brute_force() -> None:
         constants={"LIMIT": 4.0},
         subordinates={"a": frozenset({"INIT", "HALT", "GO"})},
     )
-    compiler = analysis.Compiler({"LIMIT": 4.0}, {}, {"a": ("INIT", "HALT", "GO")})
+    compiler = analysis.GuardBuilder({"LIMIT": 4.0}, {}, {"a": ("INIT", "HALT", "GO")})
     rnd = random.Random(20260501)
     kinds: Counter[str] = Counter()
     for _ in range(500):
         texts = [_random_guard(rnd) for _ in range(rnd.randint(1, 4))]
         wanted = [rnd.random() < 0.6 for _ in texts]
         trees = [X.compile_expr(t, Span("t"), scope, Diagnostics(), X.BOOL) for t in texts]
-        answer = analysis.solve(
+        answer = solver.solve(
             [(compiler.guard(tree), w) for tree, w in zip(trees, wanted, strict=True)]
         )
         kinds[answer.kind] += 1

@@ -19,10 +19,11 @@ from rcsgen.compiler.loader import (
     LocStr,
     load_file,
     load_text,
-    span_of,
+    value_span,
 )
 
 PATH = "specs/demo.yaml"
+NOWHERE = Span("nowhere")
 
 
 def diagnostics(text: str, path: str = PATH) -> list[Diagnostic]:
@@ -94,7 +95,7 @@ def test_strings_are_locstr_and_numbers_bools_and_null_are_plain_values():
     assert isinstance(data["s"], LocStr) and data["s"].span == Span(PATH, 1, 4)
     assert isinstance(data["q"], LocStr) and data["q"].span == Span(PATH, 2, 4)
     assert [type(data[k]) for k in "ifbz"] == [int, float, bool, type(None)]
-    assert span_of(data, "z") == Span(PATH, 6, 4)
+    assert value_span(data, "z", NOWHERE) == Span(PATH, 6, 4)
 
 
 def test_located_containers_behave_like_plain_containers():
@@ -133,7 +134,7 @@ def test_spans_of_nested_keys_values_and_items():
     assert data.span == Span(PATH, 1, 1)
     assert data.key_spans == {"controller": Span(PATH, 1, 1)}
     ctrl = data["controller"]
-    assert span_of(data, "controller") == ctrl.span == Span(PATH, 2, 3)
+    assert value_span(data, "controller", NOWHERE) == ctrl.span == Span(PATH, 2, 3)
     assert ctrl.key_spans == {
         "name": Span(PATH, 2, 3),
         "states": Span(PATH, 3, 3),
@@ -141,12 +142,12 @@ def test_spans_of_nested_keys_values_and_items():
     }
     assert ctrl.value_spans["name"] == ctrl["name"].span == Span(PATH, 2, 9)
     states = ctrl["states"]
-    assert states.span == span_of(ctrl, "states") == Span(PATH, 4, 5)
+    assert states.span == value_span(ctrl, "states", NOWHERE) == Span(PATH, 4, 5)
     assert states.item_spans == [Span(PATH, 4, 7), Span(PATH, 5, 7)]
-    assert span_of(states, 1) == states[1].span == Span(PATH, 5, 7)
+    assert value_span(states, 1, NOWHERE) == states[1].span == Span(PATH, 5, 7)
     assert states[1].key_spans["next"] == Span(PATH, 5, 19)
-    assert span_of(states[1], "next") == states[1]["next"].span == Span(PATH, 5, 25)
-    assert span_of(ctrl["limits"], "depth") == Span(PATH, 7, 14)
+    assert value_span(states[1], "next", NOWHERE) == states[1]["next"].span == Span(PATH, 5, 25)
+    assert value_span(ctrl["limits"], "depth", NOWHERE) == Span(PATH, 7, 14)
     assert [key.span for key in ctrl] == list(ctrl.key_spans.values())
 
 
@@ -164,9 +165,9 @@ def test_top_level_scalar_and_empty_documents():
         assert load_text(empty, PATH) is None
 
 
-def test_span_of_rejects_plain_containers():
-    with pytest.raises(TypeError):
-        span_of({"a": 1}, "a")
+def test_value_span_falls_back_for_plain_containers():
+    assert value_span({"a": 1}, "a", NOWHERE) == NOWHERE
+    assert value_span([1], 0, NOWHERE) == NOWHERE
 
 
 # --- duplicate and non-string keys --------------------------------------------------------------
@@ -341,7 +342,7 @@ def test_load_file_reads_utf8_with_bom_and_crlf(tmp_path):
     spec.write_bytes(b"\xef\xbb\xbfname: caf\xc3\xa9\r\nstate: on\r\n")
     data = load_file(spec, PATH)
     assert data == {"name": "café", "state": "on"}
-    assert span_of(data, "state") == Span(PATH, 2, 8)
+    assert value_span(data, "state", NOWHERE) == Span(PATH, 2, 8)
 
 
 def test_unreadable_file_is_e010(tmp_path):

@@ -1,9 +1,9 @@
 """Analysis: static checks of checked state tables, each finding shown with a counter-example.
 
-Runs after `check` accepted a system. Every guard is typed again (`expr`, with the scope the
-checker used), predicates are inlined, and each question - can two rules of a state both
-hold? can none hold? can this rule fire at all? - is decided by enumerating the valuations
-of the atoms the guards mention:
+Runs on the checked system `check` accepted: each typed guard becomes a solver `Guard`
+(`GuardBuilder`, predicates inlined, constants folded), and each question - can two rules
+of a state both hold? can none hold? can this rule fire at all? - is decided by the solver
+(`solver.py`), enumerating the valuations of the atoms the guards mention:
 
 - `<sub>.status`: EXECUTING, DONE, ERROR (NOT_READY is not observable once the table has
   commanded the subordinate, and testing one it never commands is E507);
@@ -26,19 +26,39 @@ subordinate's DONE by design (the QQ1 template): W503 and W506 are not reported 
 
 from __future__ import annotations
 
-import math
 import operator
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
-from itertools import pairwise, product
+from itertools import pairwise
 from typing import Any
 
-from ..runtime import contract
-from . import expr as X
-from .check import ENTRY_STATE, Scopes, default_table
+from ..runtime.contract import FINISHED
+from . import expr
 from .diagnostics import Diagnostics, Span, known_names_hint
-from .model import Command, ControllerSpec, Report, Rule, Send, SystemSpec
+from .solver import (
+    BOOL_DOMAIN,
+    LIMIT,
+    Guard,
+    Key,
+    Linear,
+    Part,
+    Valuation,
+    kleene_and,
+    kleene_not,
+    kleene_or,
+    merge_atoms,
+    solve,
+)
+from .tables import (
+    ENTRY_STATE,
+    CheckedCommand,
+    CheckedController,
+    CheckedRule,
+    CheckedSystem,
+    Send,
+    reachable,
+)
 
 # Every code this module reports, with its meaning (docs/diagnostics.md documents them).
 CODES = {
@@ -57,12 +77,9 @@ CODES = {
     "W511": "`first_match` on a state whose rules never overlap",
 }
 
-LIMIT = 4096  # the most valuations one question may enumerate
-STATUS_DOMAIN = ("EXECUTING", "DONE", "ERROR")
-FINISHED = ("DONE", "ERROR")  # the statuses of a subordinate that has finished
-BOOL_DOMAIN = (False, True)
-
-Key = tuple[str, str]  # (world|local|param|status|command|form|opaque, name or text)
+# The statuses a tested subordinate can show (NOT_READY is not observable once the table
+# has commanded it). Atom keys are (world|local|param|status|command|form|opaque, name).
+STATUS_DOMAIN = ("EXECUTING", *FINISHED)
 
 _COMPARE: dict[str, Callable[[Any, Any], bool]] = {
     "==": operator.eq,
@@ -85,28 +102,6 @@ _VARIABLES = ("world", "local", "param")
 
 
 # ---------------------------------------------------------------- guards
-
-
-@dataclass
-class Guard:
-    """A guard ready to evaluate on a valuation, with the atoms it reads in reading order.
-
-    A numeric atom is a variable or a linear form of several (`("form", "x - world.pose_x")`)
-    compared with constants; `numeric` holds its type and those constants, `forms` the
-    coefficients of each form. `opaque` atoms are comparisons no interval reasoning decides.
-    """
-
-    fn: Callable[[dict[Key, Any]], Any]
-    domains: dict[Key, tuple[Any, ...]] = field(default_factory=dict)  # discrete atoms
-    numeric: dict[Key, tuple[str, set[Fraction]]] = field(default_factory=dict)
-    forms: dict[Key, dict[Key, Fraction]] = field(default_factory=dict)
-    types: dict[Key, str] = field(default_factory=dict)  # numeric variable -> int or float
-    opaque: dict[Key, None] = field(default_factory=dict)
-    order: dict[Key, None] = field(default_factory=dict)
-
-    def subs_tested(self) -> list[str]:
-        """The subordinates whose status this guard tests."""
-        return [name for kind, name in self.order if kind == "status"]
 
 
 def show_key(key: Key) -> str:
@@ -138,7 +133,7 @@ def show_valuation(shown: Iterable[tuple[Key, Any]]) -> str:
     return ", ".join(f"{show_key(k)}={show_value(v)}" for k, v in shown)
 
 
-def _spec_name(ref: X.Ref) -> str:
+def _spec_name(ref: expr.Ref) -> str:
     if ref.kind == "world":
         return f"world.{ref.name}"
     if ref.kind in ("sub_status", "sub_command"):
@@ -149,38 +144,18 @@ def _spec_name(ref: X.Ref) -> str:
 _FLIP = {"==": "==", "!=": "!=", "<": ">", "<=": ">=", ">": "<", ">=": "<="}
 
 
-@dataclass
-class _Linear:
-    """sum(coefficient * variable) + constant, exactly."""
-
-    coefficients: dict[Key, Fraction]
-    constant: Fraction
-
-    def minus(self, other: _Linear) -> _Linear:
-        out = dict(self.coefficients)
-        for key, c in other.coefficients.items():
-            out[key] = out.get(key, Fraction(0)) - c
-        return _Linear({k: c for k, c in out.items() if c}, self.constant - other.constant)
-
-    def scaled(self, factor: Fraction) -> _Linear:
-        return _Linear(
-            {k: c * factor for k, c in self.coefficients.items() if c * factor},
-            self.constant * factor,
-        )
-
-
-class Compiler:
-    """Typed trees of one controller -> `Guard`s (predicates inlined, constants folded)."""
+class GuardBuilder:
+    """Typed trees of one controller -> solver `Guard`s (predicates inlined, constants folded)."""
 
     def __init__(
         self,
         constants: dict[str, Any],
-        predicates: dict[str, X.Expr],
+        predicates: dict[str, expr.Expr],
         sub_commands: dict[str, tuple[str, ...]],
     ):
         self.constants, self.predicates, self.sub_commands = constants, predicates, sub_commands
 
-    def guard(self, tree: X.Expr) -> Guard:
+    def guard(self, tree: expr.Expr) -> Guard:
         guard = Guard(lambda val: True)
         guard.fn = self._fn(tree, guard)
         return guard
@@ -190,35 +165,35 @@ class Compiler:
         if domain is not None:
             guard.domains[key] = domain
 
-    def _fn(self, e: X.Expr, g: Guard) -> Callable[[dict[Key, Any]], Any]:
-        if isinstance(e, X.Const):
+    def _fn(self, e: expr.Expr, g: Guard) -> Callable[[Valuation], Any]:
+        if isinstance(e, expr.Const):
             value = e.value
             return lambda val: value
-        if isinstance(e, X.Ref):
+        if isinstance(e, expr.Ref):
             return self._ref(e, g)
-        if isinstance(e, X.Call) and e.kind == "predicate":
+        if isinstance(e, expr.Call) and e.kind == "predicate":
             return self._fn(self.predicates[e.name], g)
-        if isinstance(e, X.Unary) and e.op == "not":
+        if isinstance(e, expr.Unary) and e.op == "not":
             inner = self._fn(e.operand, g)
-            return lambda val: _not(inner(val))
-        if isinstance(e, X.BoolOp):
+            return lambda val: kleene_not(inner(val))
+        if isinstance(e, expr.BoolOp):
             parts = [self._fn(v, g) for v in e.values]
-            return _and(parts) if e.op == "and" else _or(parts)
-        if isinstance(e, X.Compare):
+            return kleene_and(parts) if e.op == "and" else kleene_or(parts)
+        if isinstance(e, expr.Compare):
             scratch = Guard(g.fn)  # the atoms of this comparison, kept only if it is decidable
             pairs = [self._pair(a, op, b, scratch) for a, op, b in _pairs(e)]
             if any(p is None for p in pairs):  # beyond interval reasoning: a free boolean
-                key: Key = ("opaque", X.to_python(e, _spec_name))
+                key: Key = ("opaque", expr.to_python(e, _spec_name))
                 g.opaque.setdefault(key, None)
                 g.order.setdefault(key, None)
                 return lambda val: val.get(key)
-            _merge(g, scratch)
+            merge_atoms(g, scratch)
             if len(pairs) == 1:
                 return pairs[0]  # type: ignore[return-value]
-            return _and(pairs)  # type: ignore[arg-type]
+            return kleene_and(pairs)  # type: ignore[arg-type]
         raise TypeError(f"not a boolean expression node: {e!r}")
 
-    def _ref(self, e: X.Ref, g: Guard) -> Callable[[dict[Key, Any]], Any]:
+    def _ref(self, e: expr.Ref, g: Guard) -> Callable[[Valuation], Any]:
         if e.kind == "const":
             value = self.constants[e.name]
             return lambda val: value
@@ -237,14 +212,14 @@ class Compiler:
         return lambda val: val.get(key)
 
     def _pair(
-        self, a: X.Expr, op: str, b: X.Expr, g: Guard
-    ) -> Callable[[dict[Key, Any]], Any] | None:
+        self, a: expr.Expr, op: str, b: expr.Expr, g: Guard
+    ) -> Callable[[Valuation], Any] | None:
         """One comparison `a op b`; None when it is not decidable by interval reasoning."""
         compare = _COMPARE[op]
-        if a.type not in X.NUMERIC:  # statuses, commands, booleans: evaluated as they are
+        if a.type not in expr.NUMERIC:  # statuses, commands, booleans: evaluated as they are
             left, right = self._fn(a, g), self._fn(b, g)
 
-            def pair(val: dict[Key, Any]) -> bool | None:
+            def pair(val: Valuation) -> bool | None:
                 lv, rv = left(val), right(val)
                 return None if lv is None or rv is None else compare(lv, rv)
 
@@ -267,29 +242,29 @@ class Compiler:
             key, kind = keys[0], types[keys[0]]
         else:
             key = ("form", _form_text(norm.coefficients, keys))
-            kind = X.FLOAT
+            kind = expr.FLOAT
             g.forms[key] = norm.coefficients
         g.types.update(types)
         self._atom(g, key)
         g.numeric.setdefault(key, (kind, set()))[1].add(bound)
         return lambda val: None if (v := val.get(key)) is None else compare(v, bound)
 
-    def _linear(self, e: X.Expr, types: dict[Key, str]) -> _Linear | None:
+    def _linear(self, e: expr.Expr, types: dict[Key, str]) -> Linear | None:
         """`e` as a linear form over numeric variables with exact coefficients, else None."""
-        if isinstance(e, X.Const):
-            return _Linear({}, Fraction(e.value))
-        if isinstance(e, X.Ref):
+        if isinstance(e, expr.Const):
+            return Linear({}, Fraction(e.value))
+        if isinstance(e, expr.Ref):
             if e.kind == "const":
-                return _Linear({}, Fraction(self.constants[e.name]))
+                return Linear({}, Fraction(self.constants[e.name]))
             if e.kind in _VARIABLES:
                 key = (e.kind, e.name)
                 types[key] = e.type
-                return _Linear({key: Fraction(1)}, Fraction(0))
+                return Linear({key: Fraction(1)}, Fraction(0))
             return None
-        if isinstance(e, X.Unary):
+        if isinstance(e, expr.Unary):
             inner = self._linear(e.operand, types)
             return inner.scaled(Fraction(-1 if e.op == "-" else 1)) if inner else None
-        if isinstance(e, X.Binary):
+        if isinstance(e, expr.Binary):
             left, right = self._linear(e.left, types), self._linear(e.right, types)
             if left is None or right is None:
                 return None
@@ -305,63 +280,16 @@ class Compiler:
                 return left.scaled(1 / right.constant)
             if e.op in ("//", "%") and not left.coefficients and not right.coefficients:
                 if right.constant:
-                    return _Linear({}, Fraction(_ARITH[e.op](left.constant, right.constant)))
+                    return Linear({}, Fraction(_ARITH[e.op](left.constant, right.constant)))
             return None
-        if isinstance(e, X.Call) and e.kind == "builtin":
+        if isinstance(e, expr.Call) and e.kind == "builtin":
             args = [self._linear(a, types) for a in e.args]
             if all(a is not None and not a.coefficients for a in args):
-                return _Linear({}, Fraction(_BUILTIN[e.name](*(a.constant for a in args))))
+                return Linear({}, Fraction(_BUILTIN[e.name](*(a.constant for a in args))))
         return None
 
 
-# Guards are evaluated in Kleene's three-valued logic: an atom missing from a partial
-# valuation is None (unknown), and so is everything that depends on it.
-
-
-def _not(value: Any) -> Any:
-    return None if value is None else not value
-
-
-def _and(parts: list[Callable[[dict[Key, Any]], Any]]) -> Callable[[dict[Key, Any]], Any]:
-    def conjunction(val: dict[Key, Any]) -> bool | None:
-        unknown = False
-        for part in parts:
-            value = part(val)
-            if value is None:
-                unknown = True
-            elif not value:
-                return False
-        return None if unknown else True
-
-    return conjunction
-
-
-def _or(parts: list[Callable[[dict[Key, Any]], Any]]) -> Callable[[dict[Key, Any]], Any]:
-    def disjunction(val: dict[Key, Any]) -> bool | None:
-        unknown = False
-        for part in parts:
-            value = part(val)
-            if value is None:
-                unknown = True
-            elif value:
-                return True
-        return None if unknown else False
-
-    return disjunction
-
-
-def _merge(into: Guard, atoms: Guard) -> None:
-    """Add the atoms `atoms` read to `into`, keeping reading order."""
-    into.order.update(atoms.order)
-    into.domains.update(atoms.domains)
-    into.forms.update(atoms.forms)
-    into.types.update(atoms.types)
-    into.opaque.update(atoms.opaque)
-    for key, (kind, constants) in atoms.numeric.items():
-        into.numeric.setdefault(key, (kind, set()))[1].update(constants)
-
-
-def _pairs(e: X.Compare) -> list[tuple[X.Expr, str, X.Expr]]:
+def _pairs(e: expr.Compare) -> list[tuple[expr.Expr, str, expr.Expr]]:
     operands = [e.left, *e.comparators]
     return [(a, op, b) for (a, b), op in zip(pairwise(operands), e.ops, strict=True)]
 
@@ -380,299 +308,86 @@ def _form_text(coefficients: dict[Key, Fraction], keys: list[Key]) -> str:
     return text
 
 
-def samples(kind: str, constants: Iterable[Fraction]) -> tuple[Any, ...]:
-    """One value per region the constants cut the number line into: the constants first."""
-    cs = sorted(set(constants))
-    if kind == X.INT:
-        points = [int(c) for c in cs if c.denominator == 1]
-        between = [math.ceil(cs[0]) - 1]
-        for index, c in enumerate(cs):
-            above = math.floor(c) + 1
-            if index + 1 == len(cs) or above < cs[index + 1]:
-                between.append(above)
-        return tuple(dict.fromkeys([*points, *between]))
-    between = [cs[0] - 1, *((a + b) / 2 for a, b in pairwise(cs)), cs[-1] + 1]
-    return tuple(dict.fromkeys([*cs, *between]))
-
-
-def _independent(vectors: list[dict[Key, Fraction]]) -> bool:
-    """Whether the vectors are linearly independent (exact Gaussian elimination)."""
-    rows = [dict(v) for v in vectors]
-    for index, row in enumerate(rows):
-        if not row:
-            return False
-        pivot = min(row)
-        for other in rows[index + 1 :]:
-            if pivot in other:
-                factor = other[pivot] / row[pivot]
-                for key, c in row.items():
-                    value = other.get(key, Fraction(0)) - factor * c
-                    if value:
-                        other[key] = value
-                    else:
-                        other.pop(key, None)
-    return True
-
-
-# ---------------------------------------------------------------- deciding
-
-
-@dataclass
-class Answer:
-    """Whether a conjunction of guards (each wanted true or false) can hold.
-
-    kind: "yes" (a valuation that can happen makes it hold, whatever the opaque atoms),
-    "maybe" (it holds only for values rcsgen cannot show possible: opaque atoms, or linear
-    forms of integers or of related variables), "no", or "unknown" (more than LIMIT
-    valuations). `shown` is the counter-example without the atoms whose value does not
-    matter; `undecided` names the atoms a "maybe" depends on.
-    """
-
-    kind: str
-    shown: list[tuple[Key, Any]] = field(default_factory=list)
-    size: int = 0
-    undecided: list[Key] = field(default_factory=list)
-
-
-Part = tuple[Guard | None, bool]  # a guard (None: no `when`, always true) that must be so
-_MINIMISE = 8  # the most candidate counter-examples minimised per question
-
-
-def solve(
-    parts: list[Part],
-    fixed: dict[Key, Any] | None = None,
-    allowed: dict[Key, tuple[Any, ...]] | None = None,
-) -> Answer:
-    """Search a valuation under which every guard of `parts` has the wanted truth value;
-    `fixed` pins atoms to one value, `allowed` narrows them to some values."""
-    if any(g is None and not wanted for g, wanted in parts):
-        return Answer("no")
-    guards = [(g, wanted) for g, wanted in parts if g is not None]
-    domains: dict[Key, tuple[Any, ...]] = {}
-    numeric: dict[Key, tuple[str, set[Fraction]]] = {}
-    forms: dict[Key, dict[Key, Fraction]] = {}
-    types: dict[Key, str] = {}
-    opaque: dict[Key, None] = {}
-    for g, _ in guards:
-        for key in g.order:
-            if key in g.opaque:
-                opaque.setdefault(key, None)
-            else:
-                domains.setdefault(key, ())
-        domains.update(g.domains)
-        forms.update(g.forms)
-        types.update(g.types)
-        for key, (kind, constants) in g.numeric.items():
-            numeric.setdefault(key, (kind, set()))[1].update(constants)
-    for key, (kind, constants) in numeric.items():
-        domains[key] = samples(kind, constants)
-    for key, value in (fixed or {}).items():
-        if key in domains:
-            domains[key] = (value,)
-    for key, values in (allowed or {}).items():
-        if key in domains:
-            domains[key] = tuple(v for v in domains[key] if v in values)
-    size = math.prod(len(d) for d in domains.values()) * 2 ** len(opaque)
-    if size > LIMIT:
-        return Answer("unknown", size=size)
-    keys, okeys = list(domains), list(opaque)
-
-    def truth(val: dict[Key, Any]) -> bool | None:
-        """Whether every guard has its wanted value: True, False or None (not known yet)."""
-        unknown = False
-        for g, wanted in guards:
-            value = g.fn(val)
-            if value is None:
-                unknown = True
-            elif bool(value) != wanted:
-                return False
-        return None if unknown else True
-
-    def always(val: dict[Key, Any], free: list[Key]) -> bool:
-        """Holds for every value of the `free` atoms and of the opaque atoms."""
-        rest = {k: v for k, v in val.items() if k not in free}
-        known = truth(rest)
-        if known is not None:
-            return known
-        for values in product(*(domains[k] for k in free)):
-            at = {**rest, **dict(zip(free, values, strict=True))}
-            for ov in product(BOOL_DOMAIN, repeat=len(okeys)):
-                if not truth({**at, **dict(zip(okeys, ov, strict=True))}):
-                    return False
-        return True
-
-    def uncertain(shown: Iterable[Key]) -> list[Key]:
-        """The forms that keep these numeric atoms from being set independently, if any."""
-        numeric_keys = [k for k in shown if k in numeric]
-        used = [k for k in numeric_keys if k in forms]
-        if not used:
-            return []
-        vectors = [forms.get(k, {k: Fraction(1)}) for k in numeric_keys]
-        integer = any(types.get(v) == X.INT for k in used for v in forms[k])
-        return used if integer or not _independent(vectors) else []
-
-    maybe: list[Answer] = []
-    tries = 0
-
-    def search(index: int, val: dict[Key, Any]) -> Answer | None:
-        """Depth first over the atoms in reading order, pruning as soon as a guard is known."""
-        nonlocal tries
-        known = truth(val)
-        if known is False:
-            return None
-        if known is True:  # holds for every value of the atoms not set yet
-            if tries >= _MINIMISE:
-                return None
-            tries += 1
-            free: list[Key] = []
-            for key in reversed([k for k in keys if k in val]):  # keep the first mentioned
-                if always(val, [key, *free]):
-                    free.insert(0, key)
-            shown = [(k, val[k]) for k in keys if k in val and k not in free]
-            unsure = uncertain(k for k, _ in shown)
-            if not unsure:
-                return Answer("yes", shown, size)
-            maybe.append(Answer("maybe", shown, size, unsure))
-            return None
-        if index == len(keys):  # only opaque atoms are left undecided
-            for ov in product(BOOL_DOMAIN, repeat=len(okeys)):
-                at = {**val, **dict(zip(okeys, ov, strict=True))}
-                if truth(at):
-                    shown = [(k, at[k]) for k in [*keys, *okeys]]
-                    maybe.append(Answer("maybe", shown, size, okeys))
-                    break
-            return None
-        key = keys[index]
-        for value in domains[key]:
-            val[key] = value
-            answer = search(index + 1, val)
-            del val[key]
-            if answer is not None:
-                return answer
-        return None
-
-    return search(0, {}) or (maybe[0] if maybe else Answer("no", size=size))
-
-
 # ---------------------------------------------------------------- tables
 
 
 @dataclass
 class _Rule:
     number: int  # 1-based position in its state
-    rule: Rule
+    rule: CheckedRule
     guard: Guard | None  # None: always true
     reports: bool
     target: str | None  # the next state; None: stays (or the command ends, if it reports)
-    sends: list[Send]
+    sends: tuple[Send, ...]
     fires: bool = True  # can fire: its guard can hold while every earlier one is false
 
 
-def _commands(spec: ControllerSpec) -> dict[str, Command]:
-    """The controller's commands, with the default INIT/HALT tables (as the checker has them)."""
-    subs = [s.value for s in spec.subordinates]
-    commands = {
-        name: spec.commands.get(name) or default_table(name, subs, spec.span)
-        for name in contract.BUILTIN_COMMANDS
-    }
-    commands.update((n, c) for n, c in spec.commands.items() if n not in commands)
-    return commands
-
-
-def _unconditional(rule: Rule) -> bool:
-    return rule.when is None or rule.when.value is True
-
-
-def analyse_system(
-    system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
-) -> None:
+def analyse_system(system: CheckedSystem, diags: Diagnostics) -> None:
     """Analyse every state table of a checked system; findings go to `diags`."""
-    scopes = Scopes(system, controllers)
-    for spec in controllers:
-        _Controller(scopes, spec, diags).run()
+    for controller in system.controllers.values():
+        _Controller(controller, diags).run()
+
+
+def subs_tested(guard: Guard) -> list[str]:
+    """The subordinates whose status a guard tests."""
+    return [name for kind, name in guard.order if kind == "status"]
 
 
 class _Controller:
-    def __init__(self, scopes: Scopes, spec: ControllerSpec, diags: Diagnostics):
-        self.scopes, self.spec, self.diags = scopes, spec, diags
-        by_name = scopes.by_name
-        scope = scopes.scope(spec.name, None)
-        quiet = Diagnostics()
-        predicates = {
-            name: X.compile_expr(item.value, item.span, scope, quiet, X.BOOL)
-            for name, item in spec.predicates.items()
-        }
-        sub_commands = {s.value: tuple(_commands(by_name[s.value])) for s in spec.subordinates}
-        self.compiler = Compiler(
-            {n: c.value for n, c in spec.constants.items()},
-            {n: t for n, t in predicates.items() if t is not None},
-            sub_commands,
+    def __init__(self, checked: CheckedController, diags: Diagnostics):
+        self.checked, self.diags = checked, diags
+        self.builder = GuardBuilder(
+            {n: c.value for n, c in checked.spec.constants.items()},
+            {n: p.tree for n, p in checked.predicates.items()},
+            dict(checked.sub_commands),
         )
-        self.ok = not quiet.errors
         # every_cycle rules run whatever the state: what they send or test counts everywhere
-        self.every_sent = {
-            a.sub for r in spec.every_cycle for a in r.actions if isinstance(a, Send)
+        every = checked.every_cycle
+        self.every_sent = {send.sub for r in every for send in r.sends}
+        self.every_reports = any(r.reports for r in every)
+        self.every_guards = [self.guard(rule) for rule in every]
+        self.every_tested = {sub for g in self.every_guards if g for sub in subs_tested(g)}
+        self.every_handles = {
+            sub for sub in self.every_tested if _fires_on_error(self.every_guards, sub)
         }
-        self.every_reports = any(isinstance(a, Report) for r in spec.every_cycle for a in r.actions)
-        every: list[Guard | None] = []
-        for rule in spec.every_cycle:
-            every.append(self.guard(rule, scope))
-            if _unconditional(rule):
-                break
-        self.every_guards = every
-        self.every_tested = {sub for g in every if g for sub in g.subs_tested()}
-        self.every_handles = {sub for sub in self.every_tested if _fires_on_error(every, sub)}
 
-    def guard(self, rule: Rule, scope: X.Scope) -> Guard | None:
-        if _unconditional(rule):
+    def guard(self, rule: CheckedRule) -> Guard | None:
+        if rule.unconditional or rule.guard is None:
             return None
-        quiet = Diagnostics()
-        tree = X.compile_expr(rule.when.value, rule.when.span, scope, quiet, X.BOOL)
-        if tree is None:
-            self.ok = False
-            return None
-        return self.compiler.guard(tree)
+        return self.builder.guard(rule.guard)
 
     def run(self) -> None:
-        if not self.ok:
-            return
-        for command in _commands(self.spec).values():
-            table = self.table(command)
-            if self.ok:
-                _Table(self, command, table).run()
+        for command in self.checked.commands.values():
+            _Table(self, command, self.table(command)).run()
 
-    def table(self, command: Command) -> dict[str, list[_Rule]]:
-        """The rules that can be tried: none after one without a guard (W301)."""
-        scope = self.scopes.scope(self.spec.name, command)
-        table: dict[str, list[_Rule]] = {}
-        for name, state in command.states.items():
-            rules = table[name] = []
-            for number, rule in enumerate(state.rules, start=1):
-                rules.append(
-                    _Rule(
-                        number,
-                        rule,
-                        self.guard(rule, scope),
-                        any(isinstance(a, Report) for a in rule.actions),
-                        rule.next.value if rule.next is not None else None,
-                        [a for a in rule.actions if isinstance(a, Send)],
-                    )
+    def table(self, command: CheckedCommand) -> dict[str, list[_Rule]]:
+        """The rules that can be tried (the checked states hold only those)."""
+        return {
+            name: [
+                _Rule(
+                    rule.id.index,
+                    rule,
+                    self.guard(rule),
+                    rule.reports is not None,
+                    None if rule.reports else rule.next_state,
+                    rule.sends,
                 )
-                if _unconditional(rule):
-                    break
-        return table
+                for rule in state.rules
+            ]
+            for name, state in command.states.items()
+        }
 
 
 class _Table:
     """The checks of one command's state table."""
 
-    def __init__(self, owner: _Controller, command: Command, table: dict[str, list[_Rule]]):
+    def __init__(self, owner: _Controller, command: CheckedCommand, table: dict[str, list[_Rule]]):
         self.owner, self.command, self.table = owner, command, table
         self.diags = owner.diags
         self.name = command.name
         self.states = command.states
         self.tested = {
-            state: list(dict.fromkeys(s for r in rules if r.guard for s in r.guard.subs_tested()))
+            state: list(dict.fromkeys(s for r in rules if r.guard for s in subs_tested(r.guard)))
             for state, rules in table.items()
         }
 
@@ -700,7 +415,7 @@ class _Table:
                     span,
                     "W509",
                     f"{self.name} {state} has no way out: no rule leaves it or reports, so "
-                    f"`{self.owner.spec.name}` stays in {state} until a new command arrives",
+                    f"`{self.owner.checked.name}` stays in {state} until a new command arrives",
                     "add a rule with `next: <another state>` or `report: DONE` / `report: ERROR`",
                 )
             if not generated:  # the default INIT/HALT tables wait for every DONE by design
@@ -714,7 +429,7 @@ class _Table:
 
     def first_match(self) -> dict[str, Span]:
         declared: dict[str, Span] = {}
-        for item in self.command.first_match:
+        for item in self.command.source.first_match:
             if item.value in self.states:
                 declared[item.value] = item.span
             else:
@@ -797,7 +512,7 @@ class _Table:
             )
 
     def errors_handled(self, state: str, rules: list[_Rule]) -> None:
-        controller = self.owner.spec.name
+        controller = self.owner.checked.name
         for sub in self.tested[state]:
             guards = [r.guard for r in rules]
             if sub not in self.owner.every_handles and not _fires_on_error(guards, sub):
@@ -814,13 +529,10 @@ class _Table:
 
     def reach(self, start: str) -> set[str]:
         """The states the table can get to from `start` (included), by rules that can fire."""
-        reached, todo = {start}, [start]
-        while todo:
-            for rule in self.table[todo.pop()]:
-                if rule.fires and rule.target is not None and rule.target not in reached:
-                    reached.add(rule.target)
-                    todo.append(rule.target)
-        return reached
+        return reachable(
+            start,
+            lambda state: [r.target for r in self.table[state] if r.fires and r.target is not None],
+        )
 
     def finishes(self) -> None:
         reached = self.reach(ENTRY_STATE)
@@ -828,7 +540,7 @@ class _Table:
             return  # an every_cycle rule can end any command
         if not any(r.fires and r.reports for s in reached for r in self.table[s]):
             self.diags.error(
-                self.command.span,
+                self.command.source.span,
                 "E504",
                 f"{self.name} can never finish: no rule reachable from S0 reports DONE or ERROR",
                 "a command ends only with `report: DONE` or `report: ERROR`; add a rule that "
@@ -840,7 +552,7 @@ class _Table:
         sent |= self.owner.every_sent
         for state, rules in self.table.items():
             for rule in rules:
-                for sub in rule.guard.subs_tested() if rule.guard else []:
+                for sub in subs_tested(rule.guard) if rule.guard else []:
                     if sub not in sent:
                         self.diags.error(
                             rule.rule.span,
@@ -880,7 +592,7 @@ class _Table:
 def _fires_on_error(guards: list[Guard | None], sub: str) -> bool:
     """Whether a rule that tests `sub`'s status can fire (first match) when it is ERROR."""
     for index, guard in enumerate(guards):
-        if guard is None or sub not in guard.subs_tested():
+        if guard is None or sub not in subs_tested(guard):
             continue
         earlier: list[Part] = [(g, False) for g in guards[:index]]
         if solve([(guard, True), *earlier], {("status", sub): "ERROR"}).kind != "no":

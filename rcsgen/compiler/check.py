@@ -1,42 +1,47 @@
-"""Check: the input model -> semantic diagnostics and, when clean, the emit-ready IR.
+"""Check: the input model -> semantic diagnostics and, when clean, the checked system.
 
 Resolves every name (subordinates, commands, states, world fields, params, locals,
 predicates, hooks), checks the hierarchy (one supervisor each, no cycles, every module
 in exactly one process) and each state table (S0 present, targets defined, every state
-reachable), and types every expression. All problems are collected before failing.
+reachable), and types every expression, keeping the typed trees and scopes for the later
+stages (`tables` holds the checked system's types). All problems are collected first.
 """
 
 from __future__ import annotations
 
 import ast
-from collections.abc import Iterable
-from functools import lru_cache
+from dataclasses import replace
 from pathlib import Path
 
-from ..runtime import contract
-from . import expr as X
-from . import ir, naming
-from .diagnostics import Diagnostics, Span, known_names_hint
-from .model import (
-    At,
+from . import expr, model, naming
+from .diagnostics import Diagnostics, known_names_hint
+from .model import Command, ControllerSpec, Located, Rule, SystemSpec
+from .tables import (
+    ENTRY_STATE,
+    Action,
+    Assign,
     CallHook,
-    Command,
-    ControllerSpec,
+    CheckedCommand,
+    CheckedController,
+    CheckedPredicate,
+    CheckedProcess,
+    CheckedRule,
+    CheckedState,
+    CheckedSystem,
     Report,
-    Rule,
+    RuleId,
     Send,
-    SetWorld,
-    State,
-    SystemSpec,
+    Target,
+    live,
+    one_line,
+    reachable,
 )
-
-ENTRY_STATE = "S0"
 
 
 def check_system(
     system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
-) -> ir.IRSystem | None:
-    """Check a system and its controllers; the IR, or None when there were errors."""
+) -> CheckedSystem | None:
+    """Check a system and its controllers; the checked system, or None after errors."""
     naming.check_spec(system, controllers, diags)  # identifier and text policy (E228, E6xx)
     by_name = _index_controllers(controllers, diags)
     stand_ins = {k: a.value for k, a in system.stand_ins.items()}
@@ -47,53 +52,34 @@ def check_system(
     world = {name: f.type for name, f in system.world.items()}
     for spec in by_name.values():
         _check_world_access(spec, world, diags)
-        _check_names(spec, by_name, diags)
+        naming.check_controller_names(spec, diags)
         _check_hooks_module(spec, system.directory, diags)
     before = len(diags.errors)
     if before:  # names must resolve before tables can be checked meaningfully
         return None
-    world_fields = [
-        ir.IRWorldField(f.name, f.type, f.initial, f.doc) for f in system.world.values()
-    ]
     order = [m for p in system.processes for m in (a.value for a in p.modules)]
     replaced_by = {stand_in: name for name, stand_in in stand_ins.items()}
-    lowered = []
+    checked: dict[str, CheckedController] = {}
     for name in [*order, *sorted(replaced_by)]:
         buffers = replaced_by.get(name, name)  # a stand-in runs in its controller's buffers
-        lowering = _Lowering(
-            by_name[name],
-            by_name,
-            system,
-            supervisors.get(buffers),
-            name in simulators or name in replaced_by,
-            diags,
+        checker = _ControllerChecker(by_name[name], by_name, system, diags)
+        checked[name] = checker.check(
+            supervisors.get(buffers), name in simulators or name in replaced_by, buffers
         )
-        lowered.append(lowering.lower(buffers))
+        naming.check_module_names(by_name[name], by_name, system, diags)
     if len(diags.errors) > before:
         return None
     processes = []
     for p in system.processes:
-        modules = [a.value for a in p.modules]
+        modules = tuple(a.value for a in p.modules)
         replaces = {
-            name: (stand_in, [m for m in modules if m in _subtree(name, by_name)])
+            name: (stand_in, tuple(m for m in modules if m in _subtree(name, by_name)))
             for name, stand_in in sorted(stand_ins.items())
             if name in modules
         }
-        roots = [m for m in modules if m not in supervisors]
-        processes.append(ir.IRProcess(p.name, p.doc, modules, roots, replaces))
-    return ir.IRSystem(
-        name=system.name,
-        title=system.title,
-        doc=system.doc,
-        source=system.display,
-        cycle_period=system.cycle_period,
-        world=world_fields,
-        controllers=lowered,
-        processes=processes,
-        layout=ir.plan_layout(lowered, world_fields),
-        hook_modules=sorted({c.hooks_module for c in lowered if c.hooks_module}),
-        sources=sorted([system.display, *(c.display for c in controllers)]),
-    )
+        roots = tuple(m for m in modules if m not in supervisors)
+        processes.append(CheckedProcess(p.name, p.doc, modules, roots, replaces))
+    return CheckedSystem(system, checked, tuple(processes))
 
 
 # ---------------------------------------------------------------- system-wide checks
@@ -289,58 +275,6 @@ def _check_world_access(spec: ControllerSpec, world: dict[str, str], diags: Diag
             )
 
 
-def _check_names(
-    spec: ControllerSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics
-) -> None:
-    """Names that would collide in the generated module or class."""
-    if naming.is_keyword(spec.name) or spec.name in naming.FIXED_MODULES:
-        diags.error(spec.name_span, "E228", f"`{spec.name}` cannot name a controller module")
-    methods = {naming.command_method(c): c for c in spec.commands}
-    methods.update({m: m for m in ("init", "halt")})
-    for command in spec.commands.values():
-        if naming.command_method(command.name) in naming.FIXED_METHODS:
-            diags.error(
-                command.span, "E228", f"command `{command.name}` collides with a QQ1 method"
-            )
-    taken_attrs = {s.value for s in spec.subordinates}
-    for kind, names in (("predicate", spec.predicates), ("hook", spec.hooks)):
-        for name, item in names.items():
-            span = item.span
-            clash = (
-                naming.is_keyword(name)
-                or name in naming.FIXED_METHODS
-                or name in methods
-                or name.startswith(naming.ATTRIBUTE_PREFIXES)
-                or any(name.startswith(f"{sub}_") for sub in taken_attrs)
-            )
-            if clash and kind == "predicate":
-                diags.error(span, "E228", f"predicate name `{name}` collides with a generated name")
-            elif naming.is_keyword(name):
-                diags.error(span, "E228", f"hook name `{name}` is a Python keyword")
-    for name in spec.locals:
-        for command in spec.commands.values():
-            if name in command.params:
-                diags.error(
-                    command.params[name].span,
-                    "E228",
-                    f"parameter `{name}` of {command.name} has the name of a local",
-                    "rename one of them",
-                )
-    param_types: dict[str, tuple[str, str]] = {}
-    for command in spec.commands.values():
-        for param in command.params.values():
-            if param.name in param_types and param_types[param.name][0] != param.type:
-                first_type, first_command = param_types[param.name]
-                diags.error(
-                    param.span,
-                    "E230",
-                    f"parameter `{param.name}` is {param.type} here but {first_type} in "
-                    f"{first_command}",
-                    "commands of one controller share a parameter slot per name: use one type",
-                )
-            param_types.setdefault(param.name, (param.type, command.name))
-
-
 def _hook_module_file(directory: Path, module: str) -> Path | None:
     base = directory.joinpath(*module.split("."))
     for candidate in (base.with_suffix(".py"), base / "__init__.py"):
@@ -429,132 +363,61 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
             )
 
 
-# ---------------------------------------------------------------- per-controller lowering
+# ---------------------------------------------------------------- one controller
 
 
-def default_table(command: str, subordinates: list[str], span: Span) -> Command:
-    """QQ1's INIT/HALT table: pass the command to every subordinate, wait for all DONE."""
-    if not subordinates:
-        states = {
-            ENTRY_STATE: State(
-                ENTRY_STATE, [Rule("", None, [Report("DONE", span)], None, span)], span
-            )
-        }
-    else:
-        sends = [Send(sub, command, {}, span) for sub in subordinates]
-        wait = " and ".join(f"{sub}.status == DONE" for sub in subordinates)
-        states = {
-            ENTRY_STATE: State(
-                ENTRY_STATE,
-                [Rule(f"send {command} to every subordinate", None, sends, At("S1", span), span)],
-                span,
-            ),
-            "S1": State(
-                "S1",
-                [
-                    Rule(
-                        "every subordinate is done",
-                        At(wait, span),
-                        [Report("DONE", span)],
-                        None,
-                        span,
-                    )
-                ],
-                span,
-            ),
-        }
-    doc = {"INIT": "Initialise this controller and its subordinates.", "HALT": "Halt all actions."}
-    return Command(command, doc[command], {}, states, span, generated=True)
-
-
-class _Lowering:
-    """Checks one controller's tables and expressions and builds its IR."""
+class _ControllerChecker:
+    """Checks one controller's tables and expressions and builds its checked form."""
 
     def __init__(
         self,
         spec: ControllerSpec,
         by_name: dict[str, ControllerSpec],
         system: SystemSpec,
-        supervisor: str | None,
-        simulator: bool,
         diags: Diagnostics,
     ):
         self.spec, self.by_name, self.system, self.diags = spec, by_name, system, diags
-        self.supervisor, self.simulator = supervisor, simulator
         self.subs = [s.value for s in spec.subordinates]
-        self.commands = self._with_defaults(spec)
         self.writable = {w.value for w in spec.world_writes}
-        sub_commands = {sub: frozenset(self._with_defaults(by_name[sub])) for sub in self.subs}
-        self.base_scope = X.Scope(
+        self.base_scope = expr.Scope(
             world=system.world_types,
             world_access=frozenset(a.value for a in [*spec.world_reads, *spec.world_writes]),
             locals={n: v.type for n, v in spec.locals.items()},
             constants={n: c.value for n, c in spec.constants.items()},
             predicates=frozenset(spec.predicates),
-            subordinates=sub_commands,
+            subordinates={sub: frozenset(by_name[sub].commands) for sub in self.subs},
         )
 
-    def _with_defaults(self, spec: ControllerSpec) -> dict[str, Command]:
-        subs = [s.value for s in spec.subordinates]
-        commands = {
-            name: spec.commands.get(name) or default_table(name, subs, spec.span)
-            for name in contract.BUILTIN_COMMANDS
-        }
-        commands.update((n, c) for n, c in spec.commands.items() if n not in commands)
-        return commands
-
-    def scope_for(self, command: Command | None) -> X.Scope:
+    def scope_for(self, command: Command | None) -> expr.Scope:
+        """The names a guard or value of `command` (None: a predicate, every_cycle) may use."""
         params = {p.name: p.type for p in command.params.values()} if command else {}
-        scope = X.Scope(**{**self.base_scope.__dict__, "params": params, "used_predicates": set()})
-        return scope
+        return replace(self.base_scope, params=params, used_predicates=set())
 
-    def compile(self, item: At, scope: X.Scope, expect: str | None) -> str:
-        tree = X.compile_expr(item.value, item.span, scope, self.diags, expect)
-        return X.to_python(tree, naming.attribute) if tree is not None else "..."
+    def typed(self, item: Located, scope: expr.Scope, expect: str | None) -> expr.Expr | None:
+        return expr.compile_expr(item.value, item.span, scope, self.diags, expect)
 
-    # ------------------------------------------------------------ tables
-
-    def lower(self, buffers: str) -> ir.IRController:
+    def check(self, supervisor: str | None, simulator: bool, buffers: str) -> CheckedController:
         spec = self.spec
-        state_names: list[str] = [ENTRY_STATE]
-        commands = []
-        for code, command in enumerate(self.commands.values(), start=1):
-            for state in command.states:
-                if state not in state_names:
-                    state_names.append(state)
-            commands.append(self.lower_command(command, code))
-        predicates = self.lower_predicates()
-        self.check_module_names()
-        hooks_module = spec.hooks_module.value if spec.hooks_module else None
-        world = {f.name: f for f in self.system.world.values()}
-        reads = _unique(a.value for a in [*spec.world_reads, *spec.world_writes])
-        return ir.IRController(
-            name=spec.name,
-            title=spec.title,
-            doc=spec.doc,
-            source=spec.display,
-            supervisor=self.supervisor,
-            simulator=self.simulator,
-            subordinates=[self.lower_sub(sub) for sub in self.subs],
-            commands=commands,
-            params=_params(self.commands.values()),
-            locals=[ir.IRLocal(v.name, v.type, v.initial, v.doc) for v in spec.locals.values()],
-            constants=[(n, repr(c.value)) for n, c in spec.constants.items()],
-            predicates=predicates,
-            hooks_module=hooks_module,
-            hooks=sorted(spec.hooks),
-            world_reads=[_world_ir(world[n]) for n in reads],
-            world_writes=[_world_ir(world[a.value]) for a in spec.world_writes],
-            states=state_names,
-            every_cycle=self.lower_every_cycle(),
-            hooks_state=spec.hooks_state.value if spec.hooks_state else None,
+        commands = {
+            command.name: self.check_command(command, code)
+            for code, command in enumerate(spec.commands.values(), start=1)
+        }
+        return CheckedController(
+            spec=spec,
+            supervisor=supervisor,
+            simulator=simulator,
             buffers=buffers,
+            commands=commands,
+            predicates=self.check_predicates(),
+            every_cycle=self.check_every_cycle(),
+            sub_commands={sub: tuple(self.by_name[sub].commands) for sub in self.subs},
+            scope=self.scope_for(None),
         )
 
-    def lower_every_cycle(self) -> list[ir.IRRule]:
+    def check_every_cycle(self) -> tuple[CheckedRule, ...]:
         scope = self.scope_for(None)
         rules = []
-        for index, rule in enumerate(self.spec.every_cycle):
+        for index, rule in enumerate(self.spec.every_cycle, start=1):
             if rule.next is not None:
                 self.diags.error(
                     rule.next.span,
@@ -562,98 +425,49 @@ class _Lowering:
                     "an every_cycle rule cannot change state",
                     "every_cycle rules run whatever the command; move `next` into a table",
                 )
-            if index and self.spec.every_cycle[index - 1].when is None:
-                self.diags.warning(rule.span, "W301", "this every_cycle rule never fires")
-            rules.append(self.lower_rule_body(rule, scope))
-        return _live(rules)
+            rules.append(self.check_rule(RuleId(None, None, index), rule, scope))
+        tried, shadowed = live(rules)
+        for rule in shadowed:
+            self.diags.warning(rule.span, "W301", "this every_cycle rule never fires")
+        return tuple(tried)
 
-    def check_module_names(self) -> None:
-        """Every module-level name of the generated controller module must be unique."""
-        spec = self.spec
-        taken: dict[str, str] = {n: "a status or runtime name" for n in naming.RUNTIME_NAMES}
-        for sub in self.subs:
-            up = sub.upper()
-            for suffix in ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT"):
-                taken[up + suffix] = "a layout name"
-            for command in self._with_defaults(self.by_name[sub]):
-                taken[naming.sub_command_const(sub, command)] = f"the code of {sub}'s {command}"
-        up = spec.name.upper()
-        for suffix in ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT"):
-            taken[up + suffix] = "a layout name"
-        taken.update(_world_layout_names(tuple(self.system.world)))
-        for index in range(1, len(spec.world_writes) + 1):
-            taken[f"WORLD_OUT_{index}"] = taken[f"WORLD_OUT_{index}_AT"] = "a generated name"
-        named: list[tuple[str, str, Span]] = [
-            (c.name, "command", c.span) for c in self.commands.values() if not c.generated
-        ]
-        named += [(n, "constant", c.span) for n, c in spec.constants.items()]
-        for command in self.commands.values():
-            named += [(s.name, "state", s.span) for s in command.states.values()]
-        for name in contract.BUILTIN_COMMANDS:
-            taken.setdefault(name, "a command")
-        states_seen: set[str] = set()
-        for name, kind, span in named:
-            if kind == "state":
-                if name in states_seen:
-                    continue  # the same state name in several tables is one constant
-                states_seen.add(name)
-            if name in taken and not (kind == "command" and name in contract.BUILTIN_COMMANDS):
-                self.diags.error(
-                    span,
-                    "E228",
-                    f"{kind} `{name}` collides with {taken[name]} in the generated module",
-                    "rename it",
-                )
-            taken.setdefault(name, f"a {kind}")
-
-    def lower_sub(self, sub: str) -> ir.IRSub:
-        commands = self._with_defaults(self.by_name[sub])
-        return ir.IRSub(
-            sub,
-            [(naming.sub_command_const(sub, n), code) for code, n in enumerate(commands, start=1)],
-            _params(commands.values()),
-        )
-
-    def lower_predicates(self) -> list[tuple[str, str, str]]:
-        lowered, calls = [], {}
+    def check_predicates(self) -> dict[str, CheckedPredicate]:
+        checked, calls = {}, {}
         for name, item in self.spec.predicates.items():
             scope = self.scope_for(None)
-            lowered.append(
-                (name, self.compile(item, scope, X.BOOL), " ".join(str(item.value).split()))
-            )
+            tree = self.typed(item, scope, expr.BOOL)
+            if tree is not None:
+                checked[name] = CheckedPredicate(name, tree, one_line(item.value), item.span)
             calls[name] = set(scope.used_predicates)
         for name in calls:  # a predicate that reaches itself would recurse forever at run time
-            seen, todo = set(), list(calls[name])
-            while todo:
-                at = todo.pop()
-                if at == name:
-                    self.diags.error(
-                        self.spec.predicates[name].span, "E229", f"predicate `{name}` calls itself"
-                    )
-                    break
-                if at not in seen:
-                    seen.add(at)
-                    todo.extend(calls.get(at, ()))
-        return lowered
+            callees = calls[name]
+            if any(name in reachable(callee, lambda at: calls.get(at, ())) for callee in callees):
+                self.diags.error(
+                    self.spec.predicates[name].span, "E229", f"predicate `{name}` calls itself"
+                )
+        return checked
 
-    def lower_command(self, command: Command, code: int) -> ir.IRCommand:
+    def check_command(self, command: Command, code: int) -> CheckedCommand:
         scope = self.scope_for(command)
         self.check_states(command)
-        states = [
-            ir.IRState(
-                state.name, _live([self.lower_rule(command, state, r, scope) for r in state.rules])
-            )
-            for state in command.states.values()
-        ]
-        return ir.IRCommand(
-            name=command.name,
-            code=code,
-            doc=command.doc,
-            method=naming.command_method(command.name),
-            params=[ir.IRParam(p.name, p.type, p.doc) for p in command.params.values()],
-            states=states,
-            generated=command.generated,
-        )
+        states = {}
+        for state in command.states.values():
+            rules = [
+                self.check_rule(RuleId(command.name, state.name, index), rule, scope)
+                for index, rule in enumerate(state.rules, start=1)
+            ]
+            tried, shadowed = live(rules)
+            if not command.generated:
+                for rule in shadowed:
+                    self.diags.warning(
+                        rule.span,
+                        "W301",
+                        f"this rule of {command.name} {state.name} never fires",
+                        "the rule before it always fires first (it has no `when`, or its "
+                        "guard is always true)",
+                    )
+            states[state.name] = CheckedState(state.name, state.span, tuple(tried), tuple(shadowed))
+        return CheckedCommand(command.name, code, command, states, scope)
 
     def check_states(self, command: Command) -> None:
         states = command.states
@@ -681,12 +495,7 @@ class _Lowering:
                     )
                 else:
                     edges[state.name].append(rule.next.value)
-        reached, todo = {ENTRY_STATE}, [ENTRY_STATE]
-        while todo:
-            for target in edges[todo.pop()]:
-                if target not in reached:
-                    reached.add(target)
-                    todo.append(target)
+        reached = reachable(ENTRY_STATE, edges.__getitem__)
         for name, state in states.items():
             if name not in reached:
                 self.diags.error(
@@ -696,27 +505,13 @@ class _Lowering:
                     "add a rule with `next: " + name + "` or remove the state",
                 )
 
-    def lower_rule(self, command: Command, state: State, rule: Rule, scope: X.Scope) -> ir.IRRule:
-        index = state.rules.index(rule)
-        if index and state.rules[index - 1].when is None and not command.generated:
-            self.diags.warning(
-                rule.span,
-                "W301",
-                f"this rule of {command.name} {state.name} never fires",
-                "the rule before it has no `when`, so it always fires first",
-            )
-        return self.lower_rule_body(rule, scope)
-
-    def lower_rule_body(self, rule: Rule, scope: X.Scope) -> ir.IRRule:
-        """A rule's guard, actions and next state, checked and printed."""
-        guard = operand = None
-        if rule.when is not None and rule.when.value is not True:
-            tree = X.compile_expr(rule.when.value, rule.when.span, scope, self.diags, X.BOOL)
-            if tree is not None:
-                guard = X.to_python(tree, naming.attribute)
-                operand = X.to_python_conjunct(tree, naming.attribute)
-        actions = [self.lower_action(a, scope) for a in rule.actions]
-        reports = [a for a in rule.actions if isinstance(a, Report)]
+    def check_rule(self, rule_id: RuleId, rule: Rule, scope: expr.Scope) -> CheckedRule:
+        """A rule's guard, actions and next state, checked and typed."""
+        guard = None
+        if rule.when is not None:
+            guard = self.typed(rule.when, scope, expr.BOOL)
+        actions = [self.check_action(a, scope) for a in rule.actions]
+        reports = [a for a in rule.actions if isinstance(a, model.Report)]
         if reports and rule.next is not None:
             self.diags.error(
                 rule.next.span,
@@ -725,45 +520,43 @@ class _Lowering:
                 "reporting ends the command: the state becomes NOP",
             )
         next_state = "NOP" if reports else (rule.next.value if rule.next else None)
-        return ir.IRRule(
-            rule.doc, guard, operand, [a for a in actions if a is not None], next_state
+        return CheckedRule(
+            rule_id, rule, guard, tuple(a for a in actions if a is not None), next_state
         )
 
-    def lower_action(self, action: object, scope: X.Scope) -> ir.IRAction | None:
-        if isinstance(action, Send):
-            return self.lower_send(action, scope)
-        if isinstance(action, SetWorld):
+    def check_action(self, action: model.Action, scope: expr.Scope) -> Action | None:
+        if isinstance(action, model.Send):
+            return self.check_send(action, scope)
+        if isinstance(action, model.SetWorld):
             pairs = []
             for assign in action.assignments:
-                target_type = self.target_type(assign.target)
-                if target_type is not None:
-                    value = self.compile(assign.value, scope, target_type)
-                    pairs.append((naming.target_attribute(assign.target.value), value))
-            return ir.IRSet(pairs)
-        if isinstance(action, Report):
-            return ir.IRReport(action.status)
-        if isinstance(action, CallHook):
-            hook = self.spec.hooks.get(action.hook)
-            if hook is None:
-                self.diags.error(
-                    action.span,
-                    "E208",
-                    f"call of undeclared hook `{action.hook}`",
-                    known_names_hint("hooks", self.spec.hooks, action.hook),
-                )
-                return None
-            args = ["self.hook_state"] if self.spec.hooks_state else []
-            args += [self.compile(a, scope, None) for a in hook.args]
-            targets = [
-                naming.target_attribute(t.value)
-                for t in hook.returns
-                if self.target_type(t) is not None
-            ]
-            return ir.IRCall(hook.name, args, targets)
-        raise TypeError(action)
+                target = self.target(assign.target)
+                value = self.typed(assign.value, scope, target.type) if target else None
+                if target is not None and value is not None:
+                    pairs.append((target, value))
+            return Assign(tuple(pairs), action)
+        if isinstance(action, model.Report):
+            return Report(action.status, action.span)
+        hook = self.spec.hooks.get(action.hook)
+        if hook is None:
+            self.diags.error(
+                action.span,
+                "E208",
+                f"call of undeclared hook `{action.hook}`",
+                known_names_hint("hooks", self.spec.hooks, action.hook),
+            )
+            return None
+        args = [self.typed(a, scope, None) for a in hook.args]
+        targets = [self.target(t) for t in hook.returns]
+        return CallHook(
+            hook,
+            tuple(a for a in args if a is not None),
+            tuple(t for t in targets if t is not None),
+            action.span,
+        )
 
-    def target_type(self, target: At) -> str | None:
-        """The type of an assignable name (`world.<field>` or a local), or None after an error."""
+    def target(self, target: Located) -> Target | None:
+        """An assignable name (`world.<field>` or a local), or None after an error."""
         text = str(target.value)
         if text.startswith("world."):
             name = text.removeprefix("world.")
@@ -783,9 +576,9 @@ class _Lowering:
                     f"add `{name}` to `world: writes:`",
                 )
                 return None
-            return self.system.world[name].type
+            return Target("world", name, self.system.world[name].type)
         if text in self.spec.locals:
-            return self.spec.locals[text].type
+            return Target("local", text, self.spec.locals[text].type)
         self.diags.error(
             target.span,
             "E220",
@@ -794,7 +587,7 @@ class _Lowering:
         )
         return None
 
-    def lower_send(self, send: Send, scope: X.Scope) -> ir.IRSend | None:
+    def check_send(self, send: model.Send, scope: expr.Scope) -> Send | None:
         if send.sub not in self.subs:
             self.diags.error(
                 send.span,
@@ -803,7 +596,7 @@ class _Lowering:
                 known_names_hint("subordinates", self.subs, send.sub),
             )
             return None
-        commands = self._with_defaults(self.by_name[send.sub])
+        commands = self.by_name[send.sub].commands
         command = commands.get(send.command)
         if command is None:
             self.diags.error(
@@ -824,7 +617,9 @@ class _Lowering:
                     known_names_hint("parameters", command.params, name),
                 )
                 continue
-            args.append((f"self.{send.sub}_arg_{name}", self.compile(value, scope, param.type)))
+            tree = self.typed(value, scope, param.type)
+            if tree is not None:
+                args.append((name, tree))
         missing = [p for p in command.params if p not in send.args]
         if missing:
             self.diags.error(
@@ -833,56 +628,4 @@ class _Lowering:
                 f"`{send.sub}.{send.command}` needs parameter(s) {', '.join(missing)}",
                 "give them under `with:`",
             )
-        return ir.IRSend(send.sub, naming.sub_command_const(send.sub, send.command), args)
-
-
-@lru_cache(maxsize=8)
-def _world_layout_names(fields: tuple[str, ...]) -> dict[str, str]:
-    """The layout's names of the world fields: the same for every controller, made once."""
-    names = {}
-    for name in fields:
-        names[f"WORLD_{name.upper()}"] = names[f"WORLD_{name.upper()}_AT"] = "a layout name"
-    return names
-
-
-def _live(rules: list[ir.IRRule]) -> list[ir.IRRule]:
-    """The rules that can fire: none after one without a guard (W301 reported them)."""
-    for index, rule in enumerate(rules):
-        if rule.guard is None:
-            return rules[: index + 1]
-    return rules
-
-
-def _params(commands: Iterable[Command]) -> list[ir.IRParam]:
-    """One slot per parameter name across a controller's commands, in declaration order."""
-    slots: dict[str, ir.IRParam] = {}
-    for command in commands:
-        for p in command.params.values():
-            slots.setdefault(p.name, ir.IRParam(p.name, p.type, p.doc))
-    return list(slots.values())
-
-
-def _world_ir(f: object) -> ir.IRWorldField:
-    return ir.IRWorldField(f.name, f.type, f.initial, f.doc)  # type: ignore[attr-defined]
-
-
-def _unique(items: Iterable[str]) -> list[str]:
-    return list(dict.fromkeys(items))
-
-
-class Scopes:
-    """The scopes the checker types a checked system's expressions in, for analyses: one
-    controller's predicates (`command` None) or one command's table. Built once each."""
-
-    def __init__(self, system: SystemSpec, controllers: list[ControllerSpec]):
-        self.system = system
-        self.by_name = {c.name: c for c in controllers}
-        self._lowerings: dict[str, _Lowering] = {}
-
-    def scope(self, name: str, command: Command | None) -> X.Scope:
-        lowering = self._lowerings.get(name)
-        if lowering is None:
-            spec = self.by_name[name]
-            lowering = _Lowering(spec, self.by_name, self.system, None, False, Diagnostics())
-            self._lowerings[name] = lowering
-        return lowering.scope_for(command)
+        return Send(send.sub, send.command, tuple(args), send)

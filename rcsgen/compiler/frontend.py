@@ -1,4 +1,4 @@
-"""Front end: spec paths -> checked systems (IR), running load, schema, model and check.
+"""Front end: spec paths -> IR systems, running load, schema, model, check, analysis, lower.
 
 A system is a directory holding one `system.yaml`; every other `*.yaml` file beside it is
 one controller. Sub-directories (scenarios, hook packages) are not read here.
@@ -16,6 +16,7 @@ from .check import check_system
 from .diagnostics import Diagnostics, Span, SpecError
 from .ir import IRSystem
 from .loader import load_file
+from .lower import lower_system
 from .schema import check_document
 
 SYSTEM_FILE = "system.yaml"
@@ -114,19 +115,17 @@ def load_system(directory: Path, diags: Diagnostics) -> IRSystem | None:
             controllers.append(model.build_controller(data, shown))
     if system is None or len(diags.errors) > start:
         return None
-    result = check_system(system, controllers, diags)
-    if result is not None:
-        analyse_system(system, controllers, diags)  # E5xx/W5xx, with counter-examples
-        if len(diags.errors) > start:
-            return None
-        sources = {
-            c.display: source_path(directory / Path(c.display).name, directory) for c in controllers
-        }
-        result.source = source_path(system_path, directory)
-        for controller in result.controllers:
-            controller.source = sources[controller.source]
-        result.sources = sorted([result.source, *sources.values()])
-    return result
+    checked = check_system(system, controllers, diags)
+    if checked is None:
+        return None
+    analyse_system(checked, diags)  # E5xx/W5xx, with counter-examples
+    if len(diags.errors) > start:
+        return None
+    sources = {
+        c.display: source_path(directory / Path(c.display).name, directory) for c in controllers
+    }
+    sources[system.display] = source_path(system_path, directory)
+    return lower_system(checked, sources)
 
 
 def compile_paths(paths: list[Path]) -> Frontend:

@@ -1,9 +1,10 @@
-"""IR: the emit-ready form of a checked system, and its shared-memory layout.
+"""IR: the frozen, emit-ready form of a checked system, and its shared-memory layout.
 
-Every name is resolved, every order and numeric code is fixed and every expression is
-already printed as Python from its typed tree, so templates only place text. The layout
-gives each module's command, status, mode and performance buffer and each world field a
-fixed offset in one little-endian block (`struct` formats, no implicit padding).
+Every name is resolved, every order and numeric code is fixed. Each expression carries its
+typed tree, its spec text and its Python text; each rule its stable id and source span, so
+templates only place text, and tools (diagrams, monitors, coverage) read rules without
+re-deriving them. The layout gives each module's command, status, mode and performance
+buffer and each world field a fixed offset in one little-endian block.
 """
 
 from __future__ import annotations
@@ -12,13 +13,9 @@ import struct
 from dataclasses import dataclass, field
 from functools import cached_property
 
-from ..runtime.contract import (
-    COMMAND_HEAD_FIELDS,
-    FORMAT_OF_TYPE,
-    MODE_FIELDS,
-    PERF_FIELDS,
-    STATUS_FIELDS,
-)
+from . import expr
+from .diagnostics import Span
+from .tables import RuleId
 
 PY_TYPE = {"bool": "bool", "int": "int", "float": "float"}
 
@@ -53,20 +50,7 @@ class Buffer:
         return struct.calcsize(self.format)
 
 
-def _buffer(const: str, offset: int, fields: list[tuple[str, str]], doc: str) -> Buffer:
-    slots, at = [], offset
-    for name, code in fields:
-        slots.append(Slot(name, code, at))
-        at += struct.calcsize("<" + code)
-    return Buffer(const, offset, tuple(slots), doc)
-
-
-def align(offset: int, to: int = 8) -> int:
-    """`offset` rounded up to a multiple of `to`."""
-    return -(-offset // to) * to
-
-
-@dataclass
+@dataclass(frozen=True)
 class ModuleBuffers:
     command: Buffer
     status: Buffer
@@ -74,10 +58,10 @@ class ModuleBuffers:
     perf: Buffer
 
 
-@dataclass
+@dataclass(frozen=True)
 class Layout:
     modules: dict[str, ModuleBuffers]
-    world: list[Buffer]
+    world: tuple[Buffer, ...]
     size: int
 
     def all_buffers(self) -> list[Buffer]:
@@ -85,59 +69,19 @@ class Layout:
         return sorted([*found, *self.world], key=lambda b: b.offset)
 
 
-def attribute_of(field: str, buffer_fields: tuple[tuple[str, str], ...]) -> str:
-    """The controller attribute a buffer field is copied to (the performance buffer's
-    single_step_num is kept apart from the mode buffer's)."""
-    return (
-        "perf_single_step_num"
-        if buffer_fields is PERF_FIELDS and field == "single_step_num"
-        else field
-    )
-
-
-# Every attribute a generated controller keeps its own buffers in.
-BUFFER_ATTRIBUTES = tuple(
-    attribute_of(name, fields)
-    for fields in (COMMAND_HEAD_FIELDS, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS)
-    for name, _ in fields
-    if name != "pad"
-)
-
-
-def plan_layout(controllers: list[IRController], world: list[IRWorldField]) -> Layout:
-    """Place every module's buffers, then the world fields, each buffer on 8 bytes.
-
-    A stand-in (controller simulator) has no buffers of its own: it uses its controller's.
-    """
-    at, modules = 0, {}
-    for c in controllers:
-        if c.buffers != c.name:
-            continue
-        prefix = c.name.upper()
-        params = [(f"arg_{p.name}", FORMAT_OF_TYPE[p.type]) for p in c.params]
-        parts = {
-            "command": ([*COMMAND_HEAD_FIELDS, *params], "command in"),
-            "status": (list(STATUS_FIELDS), "status out"),
-            "mode": (list(MODE_FIELDS), "execution mode"),
-            "perf": (list(PERF_FIELDS), "performance"),
-        }
-        made = {}
-        for part, (fields, doc) in parts.items():
-            made[part] = _buffer(f"{prefix}_{part.upper()}", at, fields, f"{c.name} {doc}")
-            at = align(at + made[part].size)
-        modules[c.name] = ModuleBuffers(**made)
-    world_buffers = []
-    for f in world:
-        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, FORMAT_OF_TYPE[f.type])], f.doc)
-        world_buffers.append(buffer)
-        at = align(at + buffer.size)
-    return Layout(modules, world_buffers, at)
-
-
 # ---------------------------------------------------------------- system IR
 
 
-@dataclass
+@dataclass(frozen=True)
+class IRExpr:
+    """An expression three ways: its typed tree, as the spec writes it, as Python."""
+
+    tree: expr.Expr
+    text: str
+    python: str
+
+
+@dataclass(frozen=True)
 class IRWorldField:
     name: str
     type: str
@@ -145,14 +89,14 @@ class IRWorldField:
     doc: str
 
 
-@dataclass
+@dataclass(frozen=True)
 class IRParam:
     name: str
     type: str
     doc: str = ""
 
 
-@dataclass
+@dataclass(frozen=True)
 class IRLocal:
     name: str
     type: str
@@ -160,73 +104,101 @@ class IRLocal:
     doc: str
 
 
-@dataclass
+@dataclass(frozen=True)
+class IRArg:
+    """A parameter of a command sent: `self.<sub>_arg_<param> = <value>`."""
+
+    param: str
+    attribute: str
+    value: IRExpr
+
+
+@dataclass(frozen=True)
 class IRSend:
     sub: str
+    command: str
     command_const: str  # e.g. CR_SUMP
-    args: list[tuple[str, str]]  # (attribute, python expression)
+    args: tuple[IRArg, ...]
     kind: str = "send"
 
 
-@dataclass
+@dataclass(frozen=True)
+class IRAssign:
+    target: str  # as the spec writes it: world.goal_x, ticks
+    attribute: str  # self.world_goal_x, self.var_ticks
+    value: IRExpr
+
+
+@dataclass(frozen=True)
 class IRSet:
-    assignments: list[tuple[str, str]]  # (attribute, python expression)
+    assignments: tuple[IRAssign, ...]
     kind: str = "set"
 
 
-@dataclass
+@dataclass(frozen=True)
 class IRReport:
     status: str  # DONE or ERROR
     kind: str = "report"
 
 
-@dataclass
+@dataclass(frozen=True)
 class IRCall:
     hook: str
-    args: list[str]
-    targets: list[str]  # attributes assigned from the hook's result
+    args: tuple[str, ...]  # Python text of each argument (the hook state first, if any)
+    targets: tuple[str, ...]  # attributes assigned from the hook's result
     kind: str = "call"
 
 
 IRAction = IRSend | IRSet | IRReport | IRCall
 
 
-@dataclass
+@dataclass(frozen=True)
 class IRRule:
+    id: RuleId
+    span: Span
     doc: str
-    guard: str | None  # None: always fires
+    guard: IRExpr | None  # None: always fires
     guard_operand: str | None  # the guard as an operand of `and`: `state == S1 and <guard>`
-    actions: list[IRAction]
+    actions: tuple[IRAction, ...]
     next_state: str | None  # None: stay (NOP after a report)
 
 
-@dataclass
+@dataclass(frozen=True)
 class IRState:
     name: str
-    rules: list[IRRule]
+    span: Span
+    rules: tuple[IRRule, ...]
 
 
-@dataclass
+@dataclass(frozen=True)
 class IRCommand:
     name: str
     code: int
     doc: str
     method: str  # the state-table method, e.g. sump_shear_cusp
-    params: list[IRParam]
-    states: list[IRState]
+    params: tuple[IRParam, ...]
+    states: tuple[IRState, ...]
     generated: bool
+    span: Span
+    first_match: tuple[str, ...] = ()  # states whose rules may overlap: the earlier wins
 
 
-@dataclass
+@dataclass(frozen=True)
 class IRSub:
     """A subordinate as its supervisor sees it: its command codes and parameter slots."""
 
     name: str
-    commands: list[tuple[str, int]]  # (constant, code), e.g. ("CC_SUMP", 3)
-    params: list[IRParam]
+    commands: tuple[tuple[str, int], ...]  # (constant, code), e.g. ("CC_SUMP", 3)
+    params: tuple[IRParam, ...]
 
 
-@dataclass
+@dataclass(frozen=True)
+class IRPredicate:
+    name: str
+    expr: IRExpr
+
+
+@dataclass(frozen=True)
 class IRController:
     name: str
     title: str
@@ -234,45 +206,53 @@ class IRController:
     source: str  # spec path relative to the specs root
     supervisor: str | None
     simulator: bool
-    subordinates: list[IRSub]
-    commands: list[IRCommand]
-    params: list[IRParam]  # every command's parameters, one slot per name
-    locals: list[IRLocal]
-    constants: list[tuple[str, str]]  # (name, python literal)
-    predicates: list[tuple[str, str, str]]  # (name, python expression, spec text)
-    hooks_module: str | None
-    hooks: list[str]
-    world_reads: list[IRWorldField]  # copied in by pre_process
-    world_writes: list[IRWorldField]  # copied out by post_process
-    states: list[str] = field(default_factory=list)  # state names; code = index + 1
-    every_cycle: list[IRRule] = field(default_factory=list)  # tried first, every cycle
-    hooks_state: str | None = None  # hook-module factory of the state hooks receive first
-    buffers: str = ""  # whose command/status buffers it uses: itself, or the replaced one
+    subordinates: tuple[IRSub, ...]
+    commands: tuple[IRCommand, ...]
+    params: tuple[IRParam, ...]  # every command's parameters, one slot per name
+    locals: tuple[IRLocal, ...]
+    constants: tuple[tuple[str, str], ...]  # (name, python literal)
+    predicates: tuple[IRPredicate, ...]
+    hooks_module: str | None  # imported only when a rule calls a hook or hook state is kept
+    hooks: tuple[str, ...]
+    world_reads: tuple[IRWorldField, ...]  # copied in by pre_process
+    world_writes: tuple[IRWorldField, ...]  # copied out by post_process
+    states: tuple[str, ...]  # state names; code = index + 1
+    every_cycle: tuple[IRRule, ...]  # tried first, every cycle
+    hooks_state: str | None  # hook-module factory of the state hooks receive first
+    buffers: str  # whose command/status buffers it uses: itself, or the replaced one
+    runtime_names: tuple[str, ...]  # what the module imports from the runtime contract
+
+    def rules(self) -> list[IRRule]:
+        """Every rule: every_cycle first, then each table's, state by state."""
+        found = list(self.every_cycle)
+        for command in self.commands:
+            for state in command.states:
+                found += state.rules
+        return found
 
 
-@dataclass
+@dataclass(frozen=True)
 class IRProcess:
     name: str
     doc: str
-    modules: list[str]
-    roots: list[str]  # modules of this process with no supervisor: INIT is sent to them
+    modules: tuple[str, ...]
+    roots: tuple[str, ...]  # modules of this process with no supervisor: INIT is sent to them
     # controller -> (its stand-in, the modules of this process it replaces: itself + subtree)
-    stand_ins: dict[str, tuple[str, list[str]]] = field(default_factory=dict)
+    stand_ins: dict[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
 
 
-@dataclass
+@dataclass(frozen=True)
 class IRSystem:
     name: str
     title: str
     doc: str
     source: str
     cycle_period: float
-    world: list[IRWorldField]
-    controllers: list[IRController]
-    processes: list[IRProcess]
+    world: tuple[IRWorldField, ...]
+    controllers: tuple[IRController, ...]
+    processes: tuple[IRProcess, ...]
     layout: Layout
-    hook_modules: list[str]
-    sources: list[str]  # every spec file the system was built from
+    sources: tuple[str, ...]  # every spec file the system was built from
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

@@ -74,13 +74,25 @@ class LocList(list):
         self.item_spans = []
 
 
-def span_of(container: LocDict | LocList, key_or_index: str | int) -> Span:
-    """The span of the value at `key_or_index` inside a loaded mapping or sequence."""
-    if isinstance(container, LocDict):
-        return container.value_spans[key_or_index]
-    if isinstance(container, LocList):
-        return container.item_spans[key_or_index]
-    raise TypeError(f"not a loaded container: {type(container).__name__}")
+def span_of(node: object, fallback: Span) -> Span:
+    """Where the loader found `node` (a string, mapping or list it made), else `fallback`."""
+    span = getattr(node, "span", None)
+    return span if isinstance(span, Span) else fallback
+
+
+def value_span(container: object, key: str | int, fallback: Span) -> Span:
+    """Where the value at `key` (or the item at an index) of a loaded container starts."""
+    spans = getattr(container, "item_spans" if isinstance(key, int) else "value_spans", None)
+    try:
+        return spans[key] if spans is not None else fallback  # type: ignore[no-any-return]
+    except (KeyError, IndexError, TypeError):
+        return fallback
+
+
+def key_span(container: object, key: str, fallback: Span) -> Span:
+    """Where `key` is written in a loaded mapping."""
+    spans = getattr(container, "key_spans", None)
+    return spans.get(key, fallback) if isinstance(spans, dict) else fallback
 
 
 def _plain_value(text: str) -> object:

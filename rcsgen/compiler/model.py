@@ -1,7 +1,9 @@
 """Model: schema-valid spec data -> the input model, dataclasses that mirror the YAML.
 
 Every name and value keeps the span it was written at, so later stages can report
-problems where the user wrote them. Nothing is resolved here; `check` does that.
+problems where the user wrote them. Nothing is resolved here; `check` does that. The one
+thing added to what the YAML says: every controller gets QQ1's default INIT and HALT tables
+where it declares none (`default_table`), so every later stage sees the same commands.
 """
 
 from __future__ import annotations
@@ -11,32 +13,16 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, NamedTuple
 
+from ..runtime.contract import BUILTIN_COMMANDS
 from .diagnostics import Span
+from .loader import key_span, span_of, value_span
 
 
-class At(NamedTuple):
+class Located(NamedTuple):
     """A value as written in a spec, with its span."""
 
     value: Any
     span: Span
-
-
-def span_at(container: Any, key: str | int, fallback: Span) -> Span:
-    """Span of `container[key]` (a loader LocDict/LocList), else `fallback`."""
-    spans = getattr(container, "item_spans" if isinstance(key, int) else "value_spans", None)
-    try:
-        return spans[key] if spans is not None else fallback
-    except (KeyError, IndexError):
-        return fallback
-
-
-def key_span(container: Any, key: str, fallback: Span) -> Span:
-    spans = getattr(container, "key_spans", None)
-    return spans.get(key, fallback) if spans else fallback
-
-
-def span_of(data: Any, fallback: Span) -> Span:
-    return getattr(data, "span", fallback)
 
 
 # ---------------------------------------------------------------- system
@@ -54,7 +40,7 @@ class WorldField:
 @dataclass
 class Process:
     name: str
-    modules: list[At]
+    modules: list[Located]
     doc: str
     span: Span
 
@@ -67,8 +53,8 @@ class SystemSpec:
     cycle_period: float
     world: dict[str, WorldField]
     processes: list[Process]
-    simulators: list[At]
-    stand_ins: dict[str, At]  # controller -> the controller simulator that can replace it
+    simulators: list[Located]
+    stand_ins: dict[str, Located]  # controller -> the controller simulator that can replace it
     directory: Path
     display: str  # the file's path as shown in diagnostics and headers
     span: Span
@@ -97,8 +83,8 @@ class Typed:
 class Hook:
     name: str
     doc: str
-    args: list[At]
-    returns: list[At]
+    args: list[Located]
+    returns: list[Located]
     span: Span
 
 
@@ -106,15 +92,15 @@ class Hook:
 class Send:
     sub: str
     command: str
-    args: dict[str, At]  # parameter -> value expression (span of the value)
+    args: dict[str, Located]  # parameter -> value expression (span of the value)
     span: Span
     arg_spans: dict[str, Span] = field(default_factory=dict)  # span of each parameter name
 
 
 @dataclass
 class Assign:
-    target: At
-    value: At
+    target: Located
+    value: Located
 
 
 @dataclass
@@ -143,9 +129,9 @@ Action = Send | SetWorld | Report | CallHook
 @dataclass
 class Rule:
     doc: str
-    when: At | None
+    when: Located | None
     actions: list[Action]
-    next: At | None
+    next: Located | None
     span: Span
 
 
@@ -164,7 +150,7 @@ class Command:
     states: dict[str, State]
     span: Span
     generated: bool = False  # a default INIT/HALT table rcsgen supplies
-    first_match: list[At] = field(default_factory=list)  # states whose rules may overlap
+    first_match: list[Located] = field(default_factory=list)  # states whose rules may overlap
 
 
 @dataclass
@@ -172,28 +158,28 @@ class ControllerSpec:
     name: str
     title: str
     doc: str
-    subordinates: list[At]
-    hooks_module: At | None
-    world_reads: list[At]
-    world_writes: list[At]
-    constants: dict[str, At]
+    subordinates: list[Located]
+    hooks_module: Located | None
+    world_reads: list[Located]
+    world_writes: list[Located]
+    constants: dict[str, Located]
     locals: dict[str, Typed]
-    predicates: dict[str, At]
+    predicates: dict[str, Located]
     hooks: dict[str, Hook]
     commands: dict[str, Command]
     display: str
     span: Span
     name_span: Span = field(default_factory=lambda: Span("?"))
     every_cycle: list[Rule] = field(default_factory=list)  # tried every cycle, any command
-    hooks_state: At | None = None  # factory of the state every hook call receives first
+    hooks_state: Located | None = None  # factory of the state every hook call receives first
 
 
 # ---------------------------------------------------------------- builders
 
 
-def _items(data: Any, key: str, span: Span) -> list[At]:
+def _items(data: Any, key: str, span: Span) -> list[Located]:
     values = data.get(key) or []
-    return [At(v, span_at(values, i, span)) for i, v in enumerate(values)]
+    return [Located(v, value_span(values, i, span)) for i, v in enumerate(values)]
 
 
 def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
@@ -227,7 +213,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
         processes=processes,
         simulators=_items(data, "simulators", top),
         stand_ins={
-            k: At(v, span_at(data["stand_ins"], k, top))
+            k: Located(v, value_span(data["stand_ins"], k, top))
             for k, v in (data.get("stand_ins") or {}).items()
         },
         directory=directory,
@@ -244,28 +230,28 @@ def _action(raw: Any, span: Span) -> Action:
     if "send" in raw:
         sub, _, command = str(raw["send"]).partition(".")
         args = raw.get("with") or {}
-        values = {k: At(v, span_at(args, k, span)) for k, v in args.items()}
+        values = {k: Located(v, value_span(args, k, span)) for k, v in args.items()}
         return Send(sub, command, values, span, {k: key_span(args, k, span) for k in args})
     if "set" in raw:
         values = raw["set"]
         assignments = [
-            Assign(At(k, key_span(values, k, span)), At(v, span_at(values, k, span)))
+            Assign(Located(k, key_span(values, k, span)), Located(v, value_span(values, k, span)))
             for k, v in values.items()
         ]
         return SetWorld(assignments, span)
     if "report" in raw:
-        return Report(raw["report"], span_at(raw, "report", span))
-    return CallHook(raw["call"], span_at(raw, "call", span))
+        return Report(raw["report"], value_span(raw, "report", span))
+    return CallHook(raw["call"], value_span(raw, "call", span))
 
 
 def _rule(raw: Any, span: Span) -> Rule:
     actions = raw.get("do") or []
-    when = At(raw["when"], span_at(raw, "when", span)) if "when" in raw else None
-    nxt = At(raw["next"], span_at(raw, "next", span)) if "next" in raw else None
+    when = Located(raw["when"], value_span(raw, "when", span)) if "when" in raw else None
+    nxt = Located(raw["next"], value_span(raw, "next", span)) if "next" in raw else None
     return Rule(
         doc=raw.get("doc", ""),
         when=when,
-        actions=[_action(a, span_at(actions, i, span)) for i, a in enumerate(actions)],
+        actions=[_action(a, value_span(actions, i, span)) for i, a in enumerate(actions)],
         next=nxt,
         span=span,
     )
@@ -281,7 +267,7 @@ def _command(name: str, raw: Any, span: Span) -> Command:
         states={
             s: State(
                 s,
-                [_rule(r, span_at(rules, i, span)) for i, r in enumerate(rules)],
+                [_rule(r, value_span(rules, i, span)) for i, r in enumerate(rules)],
                 key_span(states, s, span),
             )
             for s, rules in states.items()
@@ -305,14 +291,14 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
         title=data["title"],
         doc=data.get("doc", ""),
         subordinates=_items(data, "subordinates", top),
-        hooks_module=At(data["hooks_module"], span_at(data, "hooks_module", top))
+        hooks_module=Located(data["hooks_module"], value_span(data, "hooks_module", top))
         if "hooks_module" in data
         else None,
         world_reads=_items(world, "reads", top),
         world_writes=_items(world, "writes", top),
-        constants={k: At(v, key_span(constants, k, top)) for k, v in constants.items()},
+        constants={k: Located(v, key_span(constants, k, top)) for k, v in constants.items()},
         locals={k: _typed(k, v, key_span(local_specs, k, top)) for k, v in local_specs.items()},
-        predicates={k: At(v, span_at(predicates, k, top)) for k, v in predicates.items()},
+        predicates={k: Located(v, value_span(predicates, k, top)) for k, v in predicates.items()},
         hooks={
             k: Hook(
                 k,
@@ -323,15 +309,58 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
             )
             for k, v in hooks.items()
         },
-        commands={k: _command(k, v, key_span(commands, k, top)) for k, v in commands.items()},
+        commands=with_default_tables(
+            {k: _command(k, v, key_span(commands, k, top)) for k, v in commands.items()},
+            [str(s) for s in data.get("subordinates") or []],
+            top,
+        ),
         display=display,
         span=top,
-        name_span=span_at(data, "controller", top),
+        name_span=value_span(data, "controller", top),
         every_cycle=[
-            _rule(r, span_at(data["every_cycle"], i, top))
+            _rule(r, value_span(data["every_cycle"], i, top))
             for i, r in enumerate(data.get("every_cycle") or [])
         ],
-        hooks_state=At(data["hooks_state"], span_at(data, "hooks_state", top))
+        hooks_state=Located(data["hooks_state"], value_span(data, "hooks_state", top))
         if "hooks_state" in data
         else None,
     )
+
+
+# ---------------------------------------------------------------- QQ1's default tables
+
+ENTRY_STATE = "S0"  # where every new command starts
+
+
+def with_default_tables(
+    declared: dict[str, Command], subordinates: list[str], span: Span
+) -> dict[str, Command]:
+    """INIT and HALT first (the declared table, or QQ1's default), then the other commands."""
+    commands = {
+        name: declared.get(name) or default_table(name, subordinates, span)
+        for name in BUILTIN_COMMANDS
+    }
+    commands.update((name, c) for name, c in declared.items() if name not in commands)
+    return commands
+
+
+def default_table(command: str, subordinates: list[str], span: Span) -> Command:
+    """QQ1's INIT/HALT table: pass the command to every subordinate, wait for all DONE."""
+    done = Rule("", None, [Report("DONE", span)], None, span)
+    if not subordinates:
+        states = {ENTRY_STATE: State(ENTRY_STATE, [done], span)}
+    else:
+        sends: list[Action] = [Send(sub, command, {}, span) for sub in subordinates]
+        wait = " and ".join(f"{sub}.status == DONE" for sub in subordinates)
+        send_all = Rule(
+            f"send {command} to every subordinate", None, sends, Located("S1", span), span
+        )
+        all_done = Rule(
+            "every subordinate is done", Located(wait, span), [Report("DONE", span)], None, span
+        )
+        states = {
+            ENTRY_STATE: State(ENTRY_STATE, [send_all], span),
+            "S1": State("S1", [all_done], span),
+        }
+    doc = {"INIT": "Initialise this controller and its subordinates.", "HALT": "Halt all actions."}
+    return Command(command, doc[command], {}, states, span, generated=True)

@@ -28,14 +28,21 @@ import re
 import sys
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from functools import lru_cache
+from typing import Any
 
+from ..runtime.contract import (
+    BUILTIN_COMMANDS,
+    COMMAND_HEAD_FIELDS,
+    MODE_FIELDS,
+    PERF_FIELDS,
+    STATUS_FIELDS,
+    field_names,
+)
 from .diagnostics import Diagnostics, Span
 from .expr import BUILTINS, Ref
-from .ir import BUFFER_ATTRIBUTES
-
-if TYPE_CHECKING:
-    from .model import ControllerSpec, SystemSpec
+from .loader import span_of
+from .model import Command, ControllerSpec, SystemSpec
 
 # Methods every generated controller class has (QQ1 shape).
 FIXED_METHODS = frozenset(
@@ -50,6 +57,22 @@ RUNTIME_NAMES = frozenset(
 )
 # Prefixes of the attributes generated from spec names (world fields, params, locals).
 ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_")
+
+
+def attribute_of(field: str, buffer_fields: tuple[tuple[str, str], ...]) -> str:
+    """The controller attribute a buffer field is copied to (the performance buffer's
+    single_step_num is kept apart from the mode buffer's)."""
+    if buffer_fields is PERF_FIELDS and field == "single_step_num":
+        return "perf_single_step_num"
+    return field
+
+
+# Every attribute a generated controller keeps its own buffers in.
+BUFFER_ATTRIBUTES = tuple(
+    attribute_of(name, fields)
+    for fields in (COMMAND_HEAD_FIELDS, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS)
+    for name in field_names(fields)
+)
 
 # Attributes and methods of every generated controller class that no spec name produces.
 CLASS_NAMES = frozenset(
@@ -181,12 +204,6 @@ def line_break(text: object) -> str | None:
 # ---------------------------------------------------------------- the policy check
 
 
-def span_of(value: object, fallback: Span) -> Span:
-    """Where the loader found a string (its keys and values remember it), else `fallback`."""
-    span = getattr(value, "span", None)
-    return span if isinstance(span, Span) else fallback
-
-
 @dataclass(frozen=True)
 class _Claim:
     what: str  # words for the message: "local `x`", "a generated attribute"
@@ -250,7 +267,7 @@ def _names(system: SystemSpec, controllers: list[ControllerSpec]) -> Iterator[tu
             yield module.value, LOWER, "controller mnemonic", module.span
     for sim in system.simulators:
         yield sim.value, LOWER, "controller mnemonic", sim.span
-    for name, stand_in in (getattr(system, "stand_ins", None) or {}).items():
+    for name, stand_in in system.stand_ins.items():
         yield name, LOWER, "controller mnemonic", span_of(name, stand_in.span)
         yield stand_in.value, LOWER, "controller mnemonic", stand_in.span
     for spec in controllers:
@@ -264,7 +281,7 @@ def _controller_names(spec: ControllerSpec) -> Iterator[tuple]:
         yield sub.value, LOWER, "controller mnemonic", sub.span
     if spec.hooks_module is not None:
         yield spec.hooks_module.value, DOTTED, "module name", spec.hooks_module.span
-    hooks_state = getattr(spec, "hooks_state", None)
+    hooks_state = spec.hooks_state
     if hooks_state is not None:
         yield hooks_state.value, LOWER, "hook name", hooks_state.span
     for item in [*spec.world_reads, *spec.world_writes]:
@@ -279,21 +296,26 @@ def _controller_names(spec: ControllerSpec) -> Iterator[tuple]:
         yield name, LOWER, "hook name", hook.span
         for target in hook.returns:
             yield target.value, TARGET, "assignment target", target.span
-    rules = list(getattr(spec, "every_cycle", None) or [])
-    for name, command in spec.commands.items():
+    rules = list(spec.every_cycle)
+    for name, command in _written(spec):
         yield name, UPPER, "command name", command.span
         for param_name, param in command.params.items():
             yield param_name, LOWER, "parameter name", param.span
         for state_name, state in command.states.items():
             yield state_name, UPPER, "state name", state.span
             rules += state.rules
-        for item in getattr(command, "first_match", None) or []:
+        for item in command.first_match:
             yield item.value, UPPER, "state name", item.span
     for rule in rules:
         if rule.next is not None:
             yield rule.next.value, UPPER, "state name", rule.next.span
         for action in rule.actions:
             yield from _action_names(action, top)
+
+
+def _written(spec: ControllerSpec) -> list[tuple[str, Command]]:
+    """The commands a spec writes out (not the default INIT/HALT tables rcsgen supplies)."""
+    return [(name, c) for name, c in spec.commands.items() if not c.generated]
 
 
 def _action_names(action: Any, top: Span) -> Iterator[tuple]:
@@ -328,8 +350,8 @@ def _check_texts(system: SystemSpec, controllers: list[ControllerSpec], diags: D
     texts = [("title", system.title, system.span)]
     for spec in controllers:
         texts.append(("title", spec.title, spec.span))
-        rules = list(getattr(spec, "every_cycle", None) or [])
-        for command in spec.commands.values():
+        rules = list(spec.every_cycle)
+        for _, command in _written(spec):
             for state in command.states.values():
                 rules += state.rules
         texts += [("rule doc", rule.doc, rule.span) for rule in rules if rule.doc]
@@ -460,11 +482,9 @@ def _check_constants(spec: ControllerSpec, diags: Diagnostics) -> None:
 
     Reported at the constant (the lowering's own check would point at the first table with
     that state, which may be a default INIT/HALT table the user never wrote)."""
-    states = {"S0", "S1"} if spec.subordinates else {"S0"}  # the default INIT/HALT tables
-    for command in spec.commands.values():
-        states.update(command.states)
+    states = {state for command in spec.commands.values() for state in command.states}
     for name, item in spec.constants.items():
-        kind = "command" if name in spec.commands or name in ("INIT", "HALT") else None
+        kind = "command" if name in spec.commands else None
         kind = kind or ("state" if name in states else None)
         if kind is not None:
             diags.error(
@@ -484,3 +504,107 @@ def _reported_by_check(name: str, methods: set[str], subs: set[str]) -> bool:
         or name.startswith(ATTRIBUTE_PREFIXES)
         or any(name.startswith(f"{sub}_") for sub in subs)
     )
+
+
+def check_controller_names(spec: ControllerSpec, diags: Diagnostics) -> None:
+    """A controller's names that would collide in its generated module or class."""
+    if is_keyword(spec.name) or spec.name in FIXED_MODULES:
+        diags.error(spec.name_span, "E228", f"`{spec.name}` cannot name a controller module")
+    methods = {command_method(c): c for c in spec.commands}
+    for command in spec.commands.values():
+        if command_method(command.name) in FIXED_METHODS:
+            diags.error(
+                command.span, "E228", f"command `{command.name}` collides with a QQ1 method"
+            )
+    taken_attrs = {s.value for s in spec.subordinates}
+    for kind, names in (("predicate", spec.predicates), ("hook", spec.hooks)):
+        for name, item in names.items():
+            span = item.span
+            clash = (
+                is_keyword(name)
+                or name in FIXED_METHODS
+                or name in methods
+                or name.startswith(ATTRIBUTE_PREFIXES)
+                or any(name.startswith(f"{sub}_") for sub in taken_attrs)
+            )
+            if clash and kind == "predicate":
+                diags.error(span, "E228", f"predicate name `{name}` collides with a generated name")
+            elif is_keyword(name):
+                diags.error(span, "E228", f"hook name `{name}` is a Python keyword")
+    for name in spec.locals:
+        for command in spec.commands.values():
+            if name in command.params:
+                diags.error(
+                    command.params[name].span,
+                    "E228",
+                    f"parameter `{name}` of {command.name} has the name of a local",
+                    "rename one of them",
+                )
+    param_types: dict[str, tuple[str, str]] = {}
+    for command in spec.commands.values():
+        for param in command.params.values():
+            if param.name in param_types and param_types[param.name][0] != param.type:
+                first_type, first_command = param_types[param.name]
+                diags.error(
+                    param.span,
+                    "E230",
+                    f"parameter `{param.name}` is {param.type} here but {first_type} in "
+                    f"{first_command}",
+                    "commands of one controller share a parameter slot per name: use one type",
+                )
+            param_types.setdefault(param.name, (param.type, command.name))
+
+
+def check_module_names(
+    spec: ControllerSpec,
+    by_name: dict[str, ControllerSpec],
+    system: SystemSpec,
+    diags: Diagnostics,
+) -> None:
+    """Every module-level name of a generated controller module must be unique."""
+    taken: dict[str, str] = {n: "a status or runtime name" for n in RUNTIME_NAMES}
+    for sub in (s.value for s in spec.subordinates):
+        for suffix in _MODULE_BUFFER_SUFFIXES:
+            taken[sub.upper() + suffix] = "a layout name"
+        for command in by_name[sub].commands:
+            taken[sub_command_const(sub, command)] = f"the code of {sub}'s {command}"
+    for suffix in _MODULE_BUFFER_SUFFIXES:
+        taken[spec.name.upper() + suffix] = "a layout name"
+    taken.update(_world_layout_names(tuple(system.world)))
+    for index in range(1, len(spec.world_writes) + 1):
+        taken[f"WORLD_OUT_{index}"] = taken[f"WORLD_OUT_{index}_AT"] = "a generated name"
+    named: list[tuple[str, str, Span]] = [
+        (c.name, "command", c.span) for c in spec.commands.values() if not c.generated
+    ]
+    named += [(n, "constant", c.span) for n, c in spec.constants.items()]
+    for command in spec.commands.values():
+        named += [(s.name, "state", s.span) for s in command.states.values()]
+    for name in BUILTIN_COMMANDS:
+        taken.setdefault(name, "a command")
+    states_seen: set[str] = set()
+    for name, kind, span in named:
+        if kind == "state":
+            if name in states_seen:
+                continue  # the same state name in several tables is one constant
+            states_seen.add(name)
+        if name in taken and not (kind == "command" and name in BUILTIN_COMMANDS):
+            diags.error(
+                span,
+                "E228",
+                f"{kind} `{name}` collides with {taken[name]} in the generated module",
+                "rename it",
+            )
+        taken.setdefault(name, f"a {kind}")
+
+
+# Suffixes of the layout names a controller module imports for itself and its subordinates.
+_MODULE_BUFFER_SUFFIXES = ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT")
+
+
+@lru_cache(maxsize=8)
+def _world_layout_names(fields: tuple[str, ...]) -> dict[str, str]:
+    """The layout's names of the world fields: the same for every controller, made once."""
+    names = {}
+    for name in fields:
+        names[f"WORLD_{name.upper()}"] = names[f"WORLD_{name.upper()}_AT"] = "a layout name"
+    return names

@@ -18,8 +18,7 @@ from typing import Any
 
 from ..compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
 from ..compiler.frontend import SYSTEM_FILE, display_path
-from ..compiler.loader import load_file
-from ..compiler.model import span_at, span_of
+from ..compiler.loader import load_file, span_of, value_span
 from .harness import Harness
 
 SCENARIO_KEYS = {"scenario", "title", "doc", "process", "max_cycles", "stop_when_done", "trace"}
@@ -78,7 +77,7 @@ def load_scenario(path: Path) -> Scenario:
         diags.error(top, "E403", f"no {SYSTEM_FILE} above `{shown}`")
     events = []
     for index, raw in enumerate(data.get("events") or []):
-        where = span_at(data["events"], index, top)
+        where = value_span(data["events"], index, top)
         if not isinstance(raw, dict) or not isinstance(raw.get("cycle"), int):
             diags.error(where, "E404", "an event needs `cycle: <number>`")
             continue

@@ -1,0 +1,275 @@
+"""Lower: checked system -> frozen IR (names printed as Python, codes fixed, layout planned).
+
+Reads the typed trees `check` kept; nothing here reports a diagnostic. Every expression
+becomes an `IRExpr` (tree, spec text, Python text); what a controller module imports from
+the runtime contract is computed from the references its rules make, not from its text.
+The layout places every module's buffers, then the world fields, each on 8 bytes.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Iterable, Mapping
+
+from ..runtime.contract import (
+    COMMAND_HEAD_FIELDS,
+    FORMAT_OF_TYPE,
+    MODE_FIELDS,
+    PERF_FIELDS,
+    STATUS_FIELDS,
+)
+from . import expr, ir, naming
+from .model import ENTRY_STATE, Command, WorldField
+from .tables import (
+    Action,
+    Assign,
+    CallHook,
+    CheckedCommand,
+    CheckedController,
+    CheckedPredicate,
+    CheckedRule,
+    CheckedSystem,
+    Report,
+    Send,
+    Target,
+)
+
+# What every controller module imports from the runtime contract, whatever its tables say.
+ALWAYS_IMPORTED = ("EXECUTING", "PERF", "STATUS")
+
+
+def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSystem:
+    """The IR of a checked system; `sources` maps each spec's display path to the path the
+    generated headers name it by (relative to the specs root)."""
+    spec = checked.spec
+    world = tuple(_world_field(f) for f in spec.world.values())
+    controllers = tuple(
+        _ControllerLowering(c, checked, sources[c.spec.display]).lower()
+        for c in checked.controllers.values()
+    )
+    processes = tuple(
+        ir.IRProcess(p.name, p.doc, p.modules, p.roots, dict(p.stand_ins))
+        for p in checked.processes
+    )
+    source = sources[spec.display]
+    return ir.IRSystem(
+        name=spec.name,
+        title=spec.title,
+        doc=spec.doc,
+        source=source,
+        cycle_period=spec.cycle_period,
+        world=world,
+        controllers=controllers,
+        processes=processes,
+        layout=plan_layout(controllers, world),
+        sources=tuple(sorted({source, *(c.source for c in controllers)})),
+    )
+
+
+class _ControllerLowering:
+    def __init__(self, checked: CheckedController, system: CheckedSystem, source: str):
+        self.checked, self.system, self.source = checked, system, source
+        self.spec = checked.spec
+
+    def lower(self) -> ir.IRController:
+        c, spec = self.checked, self.spec
+        states = [ENTRY_STATE]
+        for command in c.commands.values():
+            states += [s for s in command.states if s not in states]
+        commands = tuple(self.command(command) for command in c.commands.values())
+        every_cycle = tuple(self.rule(rule) for rule in c.every_cycle)
+        predicates = tuple(
+            ir.IRPredicate(p.name, self.expression(p.tree, p.text)) for p in c.predicates.values()
+        )
+        rules = c.rules()
+        uses_hooks = spec.hooks_state is not None or any(
+            isinstance(a, CallHook) for r in rules for a in r.actions
+        )
+        world = self.system.spec.world
+        reads = dict.fromkeys(a.value for a in [*spec.world_reads, *spec.world_writes])
+        return ir.IRController(
+            name=spec.name,
+            title=spec.title,
+            doc=spec.doc,
+            source=self.source,
+            supervisor=c.supervisor,
+            simulator=c.simulator,
+            subordinates=tuple(self.sub(sub) for sub in c.subordinates),
+            commands=commands,
+            params=_param_slots(command.source for command in c.commands.values()),
+            locals=tuple(
+                ir.IRLocal(v.name, v.type, v.initial, v.doc) for v in spec.locals.values()
+            ),
+            constants=tuple((n, repr(item.value)) for n, item in spec.constants.items()),
+            predicates=predicates,
+            hooks_module=spec.hooks_module.value if spec.hooks_module and uses_hooks else None,
+            hooks=tuple(sorted(spec.hooks)),
+            world_reads=tuple(_world_field(world[n]) for n in reads),
+            world_writes=tuple(_world_field(world[a.value]) for a in spec.world_writes),
+            states=tuple(states),
+            every_cycle=every_cycle,
+            hooks_state=spec.hooks_state.value if spec.hooks_state else None,
+            buffers=c.buffers,
+            runtime_names=_runtime_names(rules, c.predicates.values()),
+        )
+
+    def sub(self, sub: str) -> ir.IRSub:
+        commands = self.checked.sub_commands[sub]
+        consts = tuple(
+            (naming.sub_command_const(sub, name), code)
+            for code, name in enumerate(commands, start=1)
+        )
+        params = _param_slots(self.system.controllers[sub].spec.commands.values())
+        return ir.IRSub(sub, consts, params)
+
+    def command(self, command: CheckedCommand) -> ir.IRCommand:
+        source = command.source
+        return ir.IRCommand(
+            name=command.name,
+            code=command.code,
+            doc=source.doc,
+            method=naming.command_method(command.name),
+            params=tuple(ir.IRParam(p.name, p.type, p.doc) for p in source.params.values()),
+            states=tuple(
+                ir.IRState(s.name, s.span, tuple(self.rule(r) for r in s.rules))
+                for s in command.states.values()
+            ),
+            generated=command.generated,
+            span=source.span,
+            first_match=tuple(item.value for item in source.first_match),
+        )
+
+    def rule(self, rule: CheckedRule) -> ir.IRRule:
+        guard = operand = None
+        if not rule.unconditional and rule.guard is not None:
+            text = rule.guard_text or ""
+            guard = self.expression(rule.guard, text)
+            operand = expr.to_python_conjunct(rule.guard, naming.attribute)
+        return ir.IRRule(
+            id=rule.id,
+            span=rule.span,
+            doc=rule.source.doc,
+            guard=guard,
+            guard_operand=operand,
+            actions=tuple(self.action(a) for a in rule.actions),
+            next_state=rule.next_state,
+        )
+
+    def action(self, action: Action) -> ir.IRAction:
+        if isinstance(action, Send):
+            args = tuple(
+                ir.IRArg(
+                    param,
+                    f"self.{action.sub}_arg_{param}",
+                    self.expression(tree, action.text(param)),
+                )
+                for param, tree in action.args
+            )
+            const = naming.sub_command_const(action.sub, action.command)
+            return ir.IRSend(action.sub, action.command, const, args)
+        if isinstance(action, Assign):
+            return ir.IRSet(
+                tuple(
+                    ir.IRAssign(
+                        target.text, _attribute(target), self.expression(tree, action.text(target))
+                    )
+                    for target, tree in action.assignments
+                )
+            )
+        if isinstance(action, Report):
+            return ir.IRReport(action.status)
+        args = ("self.hook_state",) if self.spec.hooks_state else ()
+        args += tuple(expr.to_python(a, naming.attribute) for a in action.args)
+        return ir.IRCall(action.hook.name, args, tuple(_attribute(t) for t in action.targets))
+
+    def expression(self, tree: expr.Expr, text: str) -> ir.IRExpr:
+        return ir.IRExpr(tree, text, expr.to_python(tree, naming.attribute))
+
+
+def _attribute(target: Target) -> str:
+    return naming.target_attribute(target.text)
+
+
+def _runtime_names(
+    rules: Iterable[CheckedRule], predicates: Iterable[CheckedPredicate]
+) -> tuple[str, ...]:
+    """The contract's names a controller module uses: its status comparisons, reports and
+    NOP (a report ends the command), besides those every module needs."""
+    used = set(ALWAYS_IMPORTED)
+    trees: list[expr.Expr] = [p.tree for p in predicates]
+    for rule in rules:
+        if rule.guard is not None:
+            trees.append(rule.guard)
+        for action in rule.actions:
+            if isinstance(action, Report):
+                used |= {action.status, "NOP"}
+            elif isinstance(action, Send):
+                trees += [tree for _, tree in action.args]
+            elif isinstance(action, Assign):
+                trees += [tree for _, tree in action.assignments]
+            elif isinstance(action, CallHook):
+                trees += list(action.args)
+    for tree in trees:
+        used |= {ref.name for ref in expr.refs(tree) if ref.kind == "status"}
+    return tuple(sorted(used))
+
+
+def _param_slots(commands: Iterable[Command]) -> tuple[ir.IRParam, ...]:
+    """One slot per parameter name across a controller's commands, in declaration order."""
+    slots: dict[str, ir.IRParam] = {}
+    for command in commands:
+        for p in command.params.values():
+            slots.setdefault(p.name, ir.IRParam(p.name, p.type, p.doc))
+    return tuple(slots.values())
+
+
+def _world_field(f: WorldField) -> ir.IRWorldField:
+    return ir.IRWorldField(f.name, f.type, f.initial, f.doc)
+
+
+# ---------------------------------------------------------------- layout
+
+
+def _buffer(const: str, offset: int, fields: Iterable[tuple[str, str]], doc: str) -> ir.Buffer:
+    slots, at = [], offset
+    for name, code in fields:
+        slots.append(ir.Slot(name, code, at))
+        at += struct.calcsize("<" + code)
+    return ir.Buffer(const, offset, tuple(slots), doc)
+
+
+def align(offset: int, to: int = 8) -> int:
+    """`offset` rounded up to a multiple of `to`."""
+    return -(-offset // to) * to
+
+
+def plan_layout(
+    controllers: Iterable[ir.IRController], world: Iterable[ir.IRWorldField]
+) -> ir.Layout:
+    """Place every module's buffers, then the world fields, each buffer on 8 bytes.
+
+    A stand-in (controller simulator) has no buffers of its own: it uses its controller's.
+    """
+    at, modules = 0, {}
+    for c in controllers:
+        if c.buffers != c.name:
+            continue
+        prefix = c.name.upper()
+        params = [(f"arg_{p.name}", FORMAT_OF_TYPE[p.type]) for p in c.params]
+        parts = {
+            "command": ([*COMMAND_HEAD_FIELDS, *params], "command in"),
+            "status": (list(STATUS_FIELDS), "status out"),
+            "mode": (list(MODE_FIELDS), "execution mode"),
+            "perf": (list(PERF_FIELDS), "performance"),
+        }
+        made = {}
+        for part, (fields, doc) in parts.items():
+            made[part] = _buffer(f"{prefix}_{part.upper()}", at, fields, f"{c.name} {doc}")
+            at = align(at + made[part].size)
+        modules[c.name] = ir.ModuleBuffers(**made)
+    world_buffers = []
+    for f in world:
+        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, FORMAT_OF_TYPE[f.type])], f.doc)
+        world_buffers.append(buffer)
+        at = align(at + buffer.size)
+    return ir.Layout(modules, tuple(world_buffers), at)

@@ -1,0 +1,238 @@
+"""Tables: the checked system's types, and the rule semantics every later stage shares.
+
+`check` builds these from the model: every name resolved, every expression typed, each
+controller's scopes kept. `analysis`, `lower` and the tools read them and never type an
+expression again. What a rule *means* is decided here once - whether it is unconditional,
+which rules of a state can never be tried (shadowed), which states a table can reach - so
+the checker's W301, the analysis and the emitted code cannot disagree.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+
+from . import expr, model
+from .diagnostics import Span
+from .model import ENTRY_STATE, Command, ControllerSpec, Hook, Rule, SystemSpec
+
+__all__ = ["ENTRY_STATE"]
+
+
+@dataclass(frozen=True, order=True)
+class RuleId:
+    """A rule's stable identity: its command and state (None for an every_cycle rule) and
+    its 1-based position there. Printed `SUMP_SHEAR_CUSP/S2/3` or `every_cycle/1`."""
+
+    command: str | None
+    state: str | None
+    index: int
+
+    def __str__(self) -> str:
+        if self.command is None:
+            return f"every_cycle/{self.index}"
+        return f"{self.command}/{self.state}/{self.index}"
+
+
+@dataclass(frozen=True)
+class Target:
+    """An assignable name: a world field or a local."""
+
+    kind: str  # "world" or "local"
+    name: str
+    type: str
+
+    @property
+    def text(self) -> str:
+        """As the spec writes it: `world.goal_x`, `ticks`."""
+        return f"world.{self.name}" if self.kind == "world" else self.name
+
+
+@dataclass(frozen=True)
+class Send:
+    sub: str
+    command: str
+    args: tuple[tuple[str, expr.Expr], ...]  # (parameter, typed value) in the spec's order
+    source: model.Send
+
+    @property
+    def span(self) -> Span:
+        return self.source.span
+
+    def text(self, param: str) -> str:
+        """The spec text of a parameter's value."""
+        return one_line(self.source.args[param].value)
+
+
+@dataclass(frozen=True)
+class Assign:
+    assignments: tuple[tuple[Target, expr.Expr], ...]
+    source: model.SetWorld
+
+    def text(self, target: Target) -> str:
+        """The spec text of the value assigned to `target`."""
+        found = (a.value.value for a in self.source.assignments if a.target.value == target.text)
+        return one_line(next(found, ""))
+
+
+@dataclass(frozen=True)
+class Report:
+    status: str  # DONE or ERROR
+    span: Span
+
+
+@dataclass(frozen=True)
+class CallHook:
+    hook: Hook
+    args: tuple[expr.Expr, ...]
+    targets: tuple[Target, ...]
+    span: Span
+
+
+Action = Send | Assign | Report | CallHook
+
+
+@dataclass(frozen=True)
+class CheckedRule:
+    id: RuleId
+    source: Rule  # the rule as written: span, doc, guard text
+    guard: expr.Expr | None  # None: the rule has no `when` (or its guard did not check)
+    actions: tuple[Action, ...]
+    next_state: str | None  # None: stay; NOP after a report
+
+    @property
+    def span(self) -> Span:
+        return self.source.span
+
+    @property
+    def unconditional(self) -> bool:
+        """Fires whenever it is tried: no `when`, or a guard that is the constant true."""
+        if self.source.when is None:
+            return True
+        return isinstance(self.guard, expr.Const) and self.guard.value is True
+
+    @property
+    def reports(self) -> str | None:
+        return next((a.status for a in self.actions if isinstance(a, Report)), None)
+
+    @property
+    def sends(self) -> tuple[Send, ...]:
+        return tuple(a for a in self.actions if isinstance(a, Send))
+
+    @property
+    def guard_text(self) -> str | None:
+        """The guard as the spec writes it, on one line; None when it has none."""
+        when = self.source.when
+        return None if when is None else one_line(when.value)
+
+
+def one_line(value: object) -> str:
+    """Spec text (an expression, a YAML number or boolean) as one line."""
+    if value is True or value is False:
+        return "true" if value else "false"
+    return " ".join(str(value).split())
+
+
+def live(rules: Iterable[CheckedRule]) -> tuple[list[CheckedRule], list[CheckedRule]]:
+    """The rules that can be tried, and those shadowed by an earlier unconditional rule.
+
+    One rule fires per cycle, the first whose guard holds: nothing after an unconditional
+    rule is ever tried (the checker's W301; not emitted, not analysed)."""
+    tried: list[CheckedRule] = []
+    rules = list(rules)
+    for index, rule in enumerate(rules):
+        tried.append(rule)
+        if rule.unconditional:
+            return tried, rules[index + 1 :]
+    return tried, []
+
+
+def reachable(start: str, successors: Callable[[str], Iterable[str]]) -> set[str]:
+    """The states reachable from `start` (included) following `successors`."""
+    reached, todo = {start}, [start]
+    while todo:
+        for target in successors(todo.pop()):
+            if target not in reached:
+                reached.add(target)
+                todo.append(target)
+    return reached
+
+
+@dataclass(frozen=True)
+class CheckedState:
+    name: str
+    span: Span
+    rules: tuple[CheckedRule, ...]  # the live rules, in order
+    shadowed: tuple[CheckedRule, ...] = ()  # never tried (W301)
+
+
+@dataclass(frozen=True)
+class CheckedCommand:
+    name: str
+    code: int  # INIT = 1, HALT = 2, then the declared commands in order
+    source: Command
+    states: Mapping[str, CheckedState]
+    scope: expr.Scope  # what its guards and values may name
+
+    @property
+    def generated(self) -> bool:
+        """A default INIT/HALT table rcsgen supplies."""
+        return self.source.generated
+
+
+@dataclass(frozen=True)
+class CheckedPredicate:
+    name: str
+    tree: expr.Expr
+    text: str  # the spec text, on one line
+    span: Span
+
+
+@dataclass(frozen=True)
+class CheckedController:
+    spec: ControllerSpec
+    supervisor: str | None
+    simulator: bool  # a simulator or stand-in (flagged SIMU in its mode buffer)
+    buffers: str  # whose command/status buffers it uses: itself, or the controller it replaces
+    commands: Mapping[str, CheckedCommand]  # INIT, HALT, then the declared ones
+    predicates: Mapping[str, CheckedPredicate]
+    every_cycle: tuple[CheckedRule, ...]  # the live every_cycle rules
+    sub_commands: Mapping[str, tuple[str, ...]]  # each subordinate's commands, in code order
+    scope: expr.Scope  # the controller-wide scope (predicates, every_cycle)
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def subordinates(self) -> list[str]:
+        return [s.value for s in self.spec.subordinates]
+
+    def rules(self) -> list[CheckedRule]:
+        """Every live rule: every_cycle first, then each table's, state by state."""
+        found = list(self.every_cycle)
+        for command in self.commands.values():
+            for state in command.states.values():
+                found += state.rules
+        return found
+
+
+@dataclass(frozen=True)
+class CheckedProcess:
+    name: str
+    doc: str
+    modules: tuple[str, ...]  # in execution order
+    roots: tuple[str, ...]  # modules with no supervisor
+    # controller -> (its stand-in, the modules of this process it replaces: itself + subtree)
+    stand_ins: Mapping[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class CheckedSystem:
+    spec: SystemSpec
+    controllers: Mapping[str, CheckedController]  # process order, then the stand-ins
+    processes: tuple[CheckedProcess, ...]
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
