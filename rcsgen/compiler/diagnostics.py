@@ -1,4 +1,4 @@
-"""Diagnostics: source spans and located error messages shared by every stage.
+"""Diagnostics: a problem and its span -> a located message; shared by every stage.
 
 Every stage reports problems as `Diagnostic` values collected in a `Diagnostics`
 bag instead of raising on the first one, so a user sees all of them at once.

@@ -1,5 +1,4 @@
-"""Load: YAML text -> plain Python data whose containers remember the source span
-of every key and value.
+"""Load: YAML text -> plain data whose containers remember the span of every key and value.
 
 Why not `yaml.safe_load`: PyYAML silently keeps the last of two duplicate keys,
 and its YAML 1.1 resolver turns `on`/`off`/`yes`/`no` into booleans, so a state

@@ -19,7 +19,7 @@ from ..runtime.contract import (
     STATUS_FIELDS,
 )
 from . import expr, ir, naming
-from .model import ENTRY_STATE, Command, WorldField
+from .model import ENTRY_STATE, Command, Typed
 from .tables import (
     Action,
     Assign,
@@ -223,7 +223,7 @@ def _param_slots(commands: Iterable[Command]) -> tuple[ir.IRParam, ...]:
     return tuple(slots.values())
 
 
-def _world_field(f: WorldField) -> ir.IRWorldField:
+def _world_field(f: Typed) -> ir.IRWorldField:
     return ir.IRWorldField(f.name, f.type, f.initial, f.doc)
 
 

@@ -29,7 +29,9 @@ class Located(NamedTuple):
 
 
 @dataclass
-class WorldField:
+class Typed:
+    """A world field, param or local: name, type, initial value (not of params) and doc."""
+
     name: str
     type: str
     initial: bool | int | float
@@ -51,7 +53,7 @@ class SystemSpec:
     title: str
     doc: str
     cycle_period: float
-    world: dict[str, WorldField]
+    world: dict[str, Typed]
     processes: list[Process]
     simulators: list[Located]
     stand_ins: dict[str, Located]  # controller -> the controller simulator that can replace it
@@ -66,17 +68,6 @@ class SystemSpec:
 
 
 # ---------------------------------------------------------------- controller
-
-
-@dataclass
-class Typed:
-    """A param or local: name, type, initial value (locals only) and doc."""
-
-    name: str
-    type: str
-    initial: bool | int | float
-    doc: str
-    span: Span
 
 
 @dataclass
@@ -186,7 +177,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
     """The system model from a schema-valid system document."""
     top = span_of(data, Span(display))
     world = {
-        name: WorldField(
+        name: Typed(
             name,
             spec["type"],
             spec["initial"],

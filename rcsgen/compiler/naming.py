@@ -1,4 +1,4 @@
-"""Naming policy: how spec names become Python names, and which names are reserved.
+"""Naming: spec names -> their Python names, and every name-collision diagnostic (E228, E6xx).
 
 Kept in one place so a collision is found before emission, never by a failing import.
 

@@ -72,31 +72,27 @@ def kleene_not(value: Any) -> Any:
 
 
 def kleene_and(parts: list[Callable[[Valuation], Any]]) -> Callable[[Valuation], Any]:
-    def conjunction(val: dict[Key, Any]) -> bool | None:
-        unknown = False
-        for part in parts:
-            value = part(val)
-            if value is None:
-                unknown = True
-            elif not value:
-                return False
-        return None if unknown else True
-
-    return conjunction
+    return _kleene(parts, False)
 
 
 def kleene_or(parts: list[Callable[[Valuation], Any]]) -> Callable[[Valuation], Any]:
-    def disjunction(val: dict[Key, Any]) -> bool | None:
+    return _kleene(parts, True)
+
+
+def _kleene(parts: list[Callable[[Valuation], Any]], decides: bool) -> Callable[[Valuation], Any]:
+    """A conjunction (`decides` False: one false part decides) or a disjunction (True)."""
+
+    def combined(val: Valuation) -> bool | None:
         unknown = False
         for part in parts:
             value = part(val)
             if value is None:
                 unknown = True
-            elif value:
-                return True
-        return None if unknown else False
+            elif bool(value) is decides:
+                return decides
+        return None if unknown else not decides
 
-    return disjunction
+    return combined
 
 
 def merge_atoms(into: Guard, atoms: Guard) -> None:

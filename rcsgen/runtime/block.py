@@ -1,4 +1,4 @@
-"""Block: the memory all modules of a system exchange their buffers through.
+"""Block: a size (and a segment name) -> the memory the modules exchange their buffers through.
 
 A private in-process buffer, or a named `multiprocessing.shared_memory` segment that several
 processes attach to. Standard library only: copied verbatim into every generated package.

@@ -1,4 +1,4 @@
-"""Runtime contract: the codes and buffer shapes generated code, tools and the compiler share.
+"""Contract: the codes and buffer shapes generated code, tools and the compiler all read.
 
 The one place the status and mode codes, the built-in commands and the fields of the
 buffers every module has (QQ1.h) are spelled. Standard library only: this file is copied

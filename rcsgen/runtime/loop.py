@@ -1,4 +1,4 @@
-"""Loop: a process's modules run cyclically in their declared order, paced to the period.
+"""Loop: a process plan and a block -> its modules run cyclically, in order, paced.
 
 A generated `main_<process>.py` declares its `ProcessPlan` (modules in execution order,
 roots, stand-ins, controller classes); `Process` instantiates it over a block, `start`

@@ -1,4 +1,4 @@
-"""Runtime harness: a generated system, in-process, driven cycle by cycle from a test.
+"""Harness: a generated package -> one process of it, driven cycle by cycle from a test.
 
 `Harness.build(spec_dir)` generates the system into a scratch directory and imports it;
 `Harness.load(package_dir)` imports an already generated package. Either way a test can
