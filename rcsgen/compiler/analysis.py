@@ -284,8 +284,9 @@ class GuardBuilder:
             return None
         if isinstance(e, expr.Call) and e.kind == "builtin":
             args = [self._linear(a, types) for a in e.args]
-            if all(a is not None and not a.coefficients for a in args):
-                return Linear({}, Fraction(_BUILTIN[e.name](*(a.constant for a in args))))
+            constants = [a.constant for a in args if a is not None and not a.coefficients]
+            if len(constants) == len(args):
+                return Linear({}, Fraction(_BUILTIN[e.name](*constants)))
         return None
 
 

@@ -288,9 +288,11 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
     if not spec.hooks and spec.hooks_state is None:
         return
     if spec.hooks_module is None:
-        first = next(iter(spec.hooks.values()), spec.hooks_state)
+        first = next((hook.span for hook in spec.hooks.values()), spec.span)
+        if spec.hooks_state is not None and not spec.hooks:
+            first = spec.hooks_state.span
         diags.error(
-            first.span,
+            first,
             "E215",
             f"`{spec.name}` declares hooks but no `hooks_module`",
             "add `hooks_module: <package>.<module>`, a Python module in the system directory",
@@ -328,15 +330,13 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
         if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
     }
     stateful = spec.hooks_state is not None
-    if stateful:
-        factory = functions.get(spec.hooks_state.value)
-        if factory is None:
-            diags.error(
-                spec.hooks_state.span,
-                "E213",
-                f"hook-state factory `{spec.hooks_state.value}` is not defined in `{module}`",
-                f"add `def {spec.hooks_state.value}(settings): ...` to {path.name}",
-            )
+    if spec.hooks_state is not None and functions.get(spec.hooks_state.value) is None:
+        diags.error(
+            spec.hooks_state.span,
+            "E213",
+            f"hook-state factory `{spec.hooks_state.value}` is not defined in `{module}`",
+            f"add `def {spec.hooks_state.value}(settings): ...` to {path.name}",
+        )
     for hook in spec.hooks.values():
         node = functions.get(hook.name)
         if node is None:
@@ -417,15 +417,15 @@ class _ControllerChecker:
     def check_every_cycle(self) -> tuple[CheckedRule, ...]:
         scope = self.scope_for(None)
         rules = []
-        for index, rule in enumerate(self.spec.every_cycle, start=1):
-            if rule.next is not None:
+        for index, written in enumerate(self.spec.every_cycle, start=1):
+            if written.next is not None:
                 self.diags.error(
-                    rule.next.span,
+                    written.next.span,
                     "E232",
                     "an every_cycle rule cannot change state",
                     "every_cycle rules run whatever the command; move `next` into a table",
                 )
-            rules.append(self.check_rule(RuleId(None, None, index), rule, scope))
+            rules.append(self.check_rule(RuleId(None, None, index), written, scope))
         tried, shadowed = live(rules)
         for rule in shadowed:
             self.diags.warning(rule.span, "W301", "this every_cycle rule never fires")

@@ -303,7 +303,7 @@ def _process_classes(p: ir.IRProcess) -> list[str]:
 def ruff_binary() -> str:
     """The pinned ruff executable installed with rcsgen."""
     try:
-        from ruff.__main__ import find_ruff_bin
+        from ruff.__main__ import find_ruff_bin  # type: ignore[import-untyped]
 
         return os.fsdecode(find_ruff_bin())
     except (ImportError, FileNotFoundError):

@@ -178,9 +178,9 @@ class _ControllerLowering:
             )
         if isinstance(action, Report):
             return ir.IRReport(action.status)
-        args = ("self.hook_state",) if self.spec.hooks_state else ()
-        args += tuple(expr.to_python(a, naming.attribute) for a in action.args)
-        return ir.IRCall(action.hook.name, args, tuple(_attribute(t) for t in action.targets))
+        state = ("self.hook_state",) if self.spec.hooks_state else ()
+        values = state + tuple(expr.to_python(a, naming.attribute) for a in action.args)
+        return ir.IRCall(action.hook.name, values, tuple(_attribute(t) for t in action.targets))
 
     def expression(self, tree: expr.Expr, text: str) -> ir.IRExpr:
         return ir.IRExpr(tree, text, expr.to_python(tree, naming.attribute))

@@ -255,7 +255,10 @@ def check_spec(system: SystemSpec, controllers: list[ControllerSpec], diags: Dia
         _check_controller(spec, by_name, diags)
 
 
-def _names(system: SystemSpec, controllers: list[ControllerSpec]) -> Iterator[tuple]:
+NameUse = tuple[object, re.Pattern[str], str, Span]  # (name, pattern, kind, where written)
+
+
+def _names(system: SystemSpec, controllers: list[ControllerSpec]) -> Iterator[NameUse]:
     """(name, pattern, kind, span) of every name written in the specs."""
     top = system.span
     yield system.name, LOWER, "system name", span_of(system.name, top)
@@ -274,7 +277,7 @@ def _names(system: SystemSpec, controllers: list[ControllerSpec]) -> Iterator[tu
         yield from _controller_names(spec)
 
 
-def _controller_names(spec: ControllerSpec) -> Iterator[tuple]:
+def _controller_names(spec: ControllerSpec) -> Iterator[NameUse]:
     top = spec.span
     yield spec.name, LOWER, "controller mnemonic", spec.name_span
     for sub in spec.subordinates:
@@ -318,7 +321,7 @@ def _written(spec: ControllerSpec) -> list[tuple[str, Command]]:
     return [(name, c) for name, c in spec.commands.items() if not c.generated]
 
 
-def _action_names(action: Any, top: Span) -> Iterator[tuple]:
+def _action_names(action: Any, top: Span) -> Iterator[NameUse]:
     kind = type(action).__name__
     if kind == "Send":
         yield action.sub, LOWER, "controller mnemonic", action.span
@@ -453,11 +456,13 @@ def _check_controller(
     for item in [*spec.world_reads, *spec.world_writes]:
         field_name = item.value
         names.claim(f"world_{field_name}", f"world field `{field_name}`", item.span, field_name)
-    for name, local in spec.locals.items():
-        names.claim(f"var_{name}", f"local `{name}`", local.span, ("local", name))
+    for local_name, local in spec.locals.items():
+        names.claim(f"var_{local_name}", f"local `{local_name}`", local.span, ("local", local_name))
     for command in spec.commands.values():
-        for name, param in command.params.items():
-            names.claim(f"arg_{name}", f"parameter `{name}`", param.span, ("param", name))
+        for param_name, typed in command.params.items():
+            names.claim(
+                f"arg_{param_name}", f"parameter `{param_name}`", typed.span, ("param", param_name)
+            )
     _check_constants(spec, diags)
     methods = {command_method(c) for c in spec.commands} | {"init", "halt"}
     for name, item in spec.predicates.items():
@@ -566,8 +571,8 @@ def check_module_names(
     for sub in (s.value for s in spec.subordinates):
         for suffix in _MODULE_BUFFER_SUFFIXES:
             taken[sub.upper() + suffix] = "a layout name"
-        for command in by_name[sub].commands:
-            taken[sub_command_const(sub, command)] = f"the code of {sub}'s {command}"
+        for sent in by_name[sub].commands:
+            taken[sub_command_const(sub, sent)] = f"the code of {sub}'s {sent}"
     for suffix in _MODULE_BUFFER_SUFFIXES:
         taken[spec.name.upper() + suffix] = "a layout name"
     taken.update(_world_layout_names(tuple(system.world)))
@@ -579,8 +584,8 @@ def check_module_names(
     named += [(n, "constant", c.span) for n, c in spec.constants.items()]
     for command in spec.commands.values():
         named += [(s.name, "state", s.span) for s in command.states.values()]
-    for name in BUILTIN_COMMANDS:
-        taken.setdefault(name, "a command")
+    for builtin in BUILTIN_COMMANDS:
+        taken.setdefault(builtin, "a command")
     states_seen: set[str] = set()
     for name, kind, span in named:
         if kind == "state":

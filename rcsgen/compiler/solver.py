@@ -117,8 +117,8 @@ def samples(kind: str, constants: Iterable[Fraction]) -> tuple[Any, ...]:
             if index + 1 == len(cs) or above < cs[index + 1]:
                 between.append(above)
         return tuple(dict.fromkeys([*points, *between]))
-    between = [cs[0] - 1, *((a + b) / 2 for a, b in pairwise(cs)), cs[-1] + 1]
-    return tuple(dict.fromkeys([*cs, *between]))
+    middles: list[Fraction] = [cs[0] - 1, *((a + b) / 2 for a, b in pairwise(cs)), cs[-1] + 1]
+    return tuple(dict.fromkeys([*cs, *middles]))
 
 
 def independent(vectors: list[dict[Key, Fraction]]) -> bool:

@@ -110,7 +110,7 @@ def apply(plan: Plan) -> None:
 
 def unified_diff(plan: Plan, out_dir: Path) -> str:
     """The diff `--check` prints: what a build would change, relative to the output dir."""
-    chunks = []
+    chunks: list[str] = []
     for path, text in sorted(plan.write.items()):
         old = path.read_text(encoding="utf-8", errors="replace") if path.is_file() else ""
         name = path.relative_to(out_dir).as_posix()
