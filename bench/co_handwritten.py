@@ -52,15 +52,12 @@ from miner.layout import (
     CR_COMMAND,
     CR_COMMAND_AT,
     CR_STATUS_AT,
-    MODE,
-    PERF,
-    STATUS,
-    STATUS_HEAD,
     VG_COMMAND,
     VG_COMMAND_AT,
     VG_STATUS_AT,
     WORLD,
 )
+from miner.rcs.contract import MODE, PERF, STATUS, STATUS_HEAD
 
 # co's command and mode buffers in one read; the world fields co reads in another.
 COMMAND_MODE, COMMAND_MODE_AT = gather((CO_COMMAND_AT, CO_COMMAND), (CO_MODE_AT, MODE))

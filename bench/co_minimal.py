@@ -54,15 +54,12 @@ from miner.layout import (
     CR_COMMAND,
     CR_COMMAND_AT,
     CR_STATUS_AT,
-    MODE,
-    PERF,
-    STATUS,
-    STATUS_HEAD,
     VG_COMMAND,
     VG_COMMAND_AT,
     VG_STATUS_AT,
     WORLD,
 )
+from miner.rcs.contract import MODE, PERF, STATUS, STATUS_HEAD
 
 # Every input of a cycle in one read, in block order.
 INPUTS, INPUTS_AT = gather(

@@ -26,6 +26,7 @@ the timing runs replay exactly those inputs without the plant's own cost (bench_
 
 from __future__ import annotations
 
+import importlib
 import math
 import random
 from struct import Struct
@@ -74,6 +75,8 @@ class Plant:
 
     def __init__(self, layout: ModuleType, seed: int) -> None:
         self.layout = layout
+        # The status head a supervisor reads lives in the package's runtime contract.
+        self.status_head = importlib.import_module(f"{layout.__package__}.rcs.contract").STATUS_HEAD
         self.rng = random.Random(seed)
         self.frames: list[tuple[tuple[slice, bytes], ...]] | None = None
         self.frame: list[tuple[slice, bytes]] = []
@@ -126,7 +129,7 @@ class Plant:
             status = DONE if now >= sub.done_at else EXECUTING
             if sub.shown != (sub.number, status):
                 sub.shown = (sub.number, status)
-                self._write(buf, self.layout.STATUS_HEAD, sub.status_at, sub.number, status)
+                self._write(buf, self.status_head, sub.status_at, sub.number, status)
             if status == DONE and sub.code == sub.tram and self.pose != sub.args:
                 self.pose = sub.args
                 self._write(buf, FLOAT, self.world["pose_x"], sub.args[0])

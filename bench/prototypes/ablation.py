@@ -88,7 +88,7 @@ def fuse(source: str) -> str | None:
 def variants(generated: str) -> list[tuple[str, str, str | None]]:
     """(key, description, source or None if the edit no longer applies), cumulative."""
     source = generated.replace("from .layout import", "from miner.layout import")
-    source = source.replace("from .rcs import", "from miner.rcs import")
+    source = source.replace("from .rcs.", "from miner.rcs.")
     out = [("generated", "as generated today", source)]
     for key, description, edits in STEPS:
         if edits == "fuse":

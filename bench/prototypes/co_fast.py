@@ -21,12 +21,10 @@ from miner.layout import (
     CO_STATUS_AT,
     CR_COMMAND,
     CR_COMMAND_AT,
-    PERF,
-    STATUS,
     VG_COMMAND,
     VG_COMMAND_AT,
 )
-from miner.rcs import DONE, EXECUTING, NOP
+from miner.rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
 
 # Commands co accepts (the code written to its command buffer).
 INIT = 1
