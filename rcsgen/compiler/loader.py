@@ -16,6 +16,7 @@ import math
 import pathlib
 import re
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import yaml
 
@@ -34,6 +35,13 @@ _TOO_LARGE = f"file is larger than {MAX_BYTES:,} bytes"
 _TOO_LARGE_HINT = "a spec is far smaller than this; is this the right file?"
 
 
+class _Mark(Protocol):
+    """Where an event starts: the pure-Python and the libyaml parsers' marks both have these."""
+
+    line: int
+    column: int
+
+
 class LocStr(str):
     """A string scalar (value or key) that remembers where it starts."""
 
@@ -44,12 +52,16 @@ class LocStr(str):
         self.span = span
         return self
 
-    def __getnewargs__(self) -> tuple[str, Span]:  # keeps copy/pickle working
+    # Keeps copy/pickle working; str's own takes no span, so the signature differs on purpose.
+    def __getnewargs__(self) -> tuple[str, Span]:  # type: ignore[override]
         return (str(self), self.span)
 
 
-class LocDict(dict):
-    """A mapping with str keys, its start span and the span of each key and value."""
+class LocDict(dict[str, Any]):
+    """A mapping with str keys, its start span and the span of each key and value.
+
+    Values are `Any`: loaded data is untyped until the schema and the model have checked it.
+    """
 
     span: Span
     key_spans: dict[str, Span]
@@ -62,7 +74,7 @@ class LocDict(dict):
         self.value_spans = {}
 
 
-class LocList(list):
+class LocList(list[Any]):
     """A sequence with its start span and the span of each item."""
 
     span: Span
@@ -77,9 +89,13 @@ class LocList(list):
 def span_of(container: LocDict | LocList, key_or_index: str | int) -> Span:
     """The span of the value at `key_or_index` inside a loaded mapping or sequence."""
     if isinstance(container, LocDict):
-        return container.value_spans[key_or_index]
+        if isinstance(key_or_index, str):
+            return container.value_spans[key_or_index]
+        raise KeyError(key_or_index)  # a mapping's keys are strings
     if isinstance(container, LocList):
-        return container.item_spans[key_or_index]
+        if isinstance(key_or_index, int):
+            return container.item_spans[key_or_index]
+        raise TypeError(f"a sequence is indexed by position, not {key_or_index!r}")
     raise TypeError(f"not a loaded container: {type(container).__name__}")
 
 
@@ -129,7 +145,9 @@ class _Builder:
         self.documents = 0
         self.stopped = False  # set when the rest of the stream must not be read
 
-    def span(self, mark: yaml.Mark) -> Span:
+    def span(self, mark: _Mark | None) -> Span:
+        if mark is None:  # every event a parser emits has a mark
+            return Span(self.path)
         return Span(self.path, mark.line + 1, mark.column + 1)
 
     def feed(self, event: yaml.Event) -> None:
@@ -158,7 +176,7 @@ class _Builder:
             frame = self.stack.pop()
             self.attach(frame.container, frame.container.span, frame.reported)
 
-    def check_node(self, event: yaml.NodeEvent, span: Span) -> bool:
+    def check_node(self, event: yaml.ScalarEvent | yaml.CollectionStartEvent, span: Span) -> bool:
         """Report a tag or an anchor on a node; True when something was reported."""
         if event.tag is not None:
             tag = event.tag.replace("tag:yaml.org,2002:", "!!", 1)
@@ -221,8 +239,9 @@ class _Builder:
 
 def _line_col(data: str | bytes, index: int) -> tuple[int, int]:
     """1-based line and column of `index` (in characters for str, bytes for bytes)."""
-    newline = "\n" if isinstance(data, str) else b"\n"
-    return data.count(newline, 0, index) + 1, index - data.rfind(newline, 0, index)
+    if isinstance(data, str):
+        return data.count("\n", 0, index) + 1, index - data.rfind("\n", 0, index)
+    return data.count(b"\n", 0, index) + 1, index - data.rfind(b"\n", 0, index)
 
 
 def _syntax_error(exc: yaml.YAMLError, text: str, path: str) -> tuple[Span, str, str]:
