@@ -11,12 +11,16 @@ from __future__ import annotations
 import sys
 from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from .compiler import emit
 from .compiler.diagnostics import Diagnostic, Diagnostics, to_json
 from .compiler.frontend import compile_paths
+
+if TYPE_CHECKING:
+    from .tools.scenario import RunResult
 
 
 def _source_line(diag: Diagnostic) -> str | None:
@@ -188,7 +192,7 @@ def _system_name(system_dir: Path) -> str:
     return str(data["system"]) if isinstance(data, dict) else system_dir.name
 
 
-def _summarise(result, trace_path: Path, record: Path | None) -> None:
+def _summarise(result: RunResult, trace_path: Path, record: Path | None) -> None:
     spec = result.scenario
     click.echo(f"scenario  {spec.name}: {spec.title}")
     if spec.stop_when_done:

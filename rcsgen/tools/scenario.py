@@ -18,7 +18,7 @@ from typing import Any
 
 from ..compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
 from ..compiler.frontend import SYSTEM_FILE, display_path
-from ..compiler.loader import load_file
+from ..compiler.loader import LocDict, load_file
 from ..compiler.model import span_at, span_of
 from .harness import Harness
 
@@ -69,7 +69,7 @@ def load_scenario(path: Path) -> Scenario:
     data = load_file(path, shown)
     diags = Diagnostics()
     top = span_of(data, Span(shown))
-    if not isinstance(data, dict) or "scenario" not in data:
+    if not isinstance(data, LocDict) or "scenario" not in data:
         raise SpecError([Diagnostic(top, "E401", "not a scenario file (no `scenario:` key)")])
     for key in sorted(set(data) - SCENARIO_KEYS):
         diags.error(data.key_spans.get(key, top), "E402", f"unknown scenario key `{key}`")
@@ -79,7 +79,7 @@ def load_scenario(path: Path) -> Scenario:
     events = []
     for index, raw in enumerate(data.get("events") or []):
         where = span_at(data["events"], index, top)
-        if not isinstance(raw, dict) or not isinstance(raw.get("cycle"), int):
+        if not isinstance(raw, LocDict) or not isinstance(raw.get("cycle"), int):
             diags.error(where, "E404", "an event needs `cycle: <number>`")
             continue
         for key in sorted(set(raw) - EVENT_KEYS):
