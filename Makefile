@@ -30,8 +30,8 @@ lint: $(STAMP)
 	$(PY) -m ruff check rcsgen tests
 	$(PY) -m ruff format --check rcsgen tests
 
-# Strict for rcsgen.compiler and rcsgen.runtime, plain for tools and cli; generated/ is not
-# checked (configuration: [tool.mypy] in pyproject.toml).
+# Strict for rcsgen.compiler, rcsgen.runtime and the public API, plain for tools and cli;
+# generated/ is not checked (configuration: [tool.mypy] in pyproject.toml).
 typecheck: $(STAMP)
 	$(PY) -m mypy
 

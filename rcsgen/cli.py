@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from .api import plan_build
 from .compiler import emit
 from .compiler.diagnostics import Diagnostic, Diagnostics, to_json
 from .compiler.frontend import compile_paths
@@ -104,9 +105,9 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt:
             report(front.diagnostics, strict, fmt)
         click.echo("build failed: nothing was written", err=True)
         sys.exit(1)
-    files = emit.render_all(front.systems)
-    diags = Diagnostics(list(front.diagnostics.items) if quiet else [])
-    plan = emit.plan_outputs(files, output, [s.name for s in front.systems], diags)
+    plan, problems = plan_build(front.systems, output)
+    # In JSON, one array holds them all; as text, the front end's were printed above.
+    diags = Diagnostics([*front.diagnostics.items, *problems.items] if quiet else problems.items)
     if report(diags, fmt=fmt):
         click.echo("build failed: nothing was written", err=True)
         sys.exit(1)
