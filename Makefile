@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint check build clean fuzz bench
+.PHONY: run test lint typecheck check build clean fuzz bench
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,11 +30,16 @@ lint: $(STAMP)
 	$(PY) -m ruff check rcsgen tests
 	$(PY) -m ruff format --check rcsgen tests
 
+# Strict for rcsgen.compiler, rcsgen.runtime and the public API, plain for tools and cli;
+# generated/ is not checked (configuration: [tool.mypy] in pyproject.toml).
+typecheck: $(STAMP)
+	$(PY) -m mypy
+
 build: $(STAMP)
 	$(VENV)/bin/rcsgen build specs/
 
-# What CI runs, plus lint and the generated-code-is-current check.
-check: lint test
+# What CI runs, plus lint, the type check and the generated-code-is-current check.
+check: lint typecheck test
 	$(VENV)/bin/rcsgen build specs/ --check
 
 clean:

@@ -11,12 +11,16 @@ from __future__ import annotations
 import sys
 from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
-from .compiler import emit, write
+from .compiler import write
 from .compiler.diagnostics import Diagnostic, Diagnostics, to_json
 from .compiler.frontend import compile_paths
+
+if TYPE_CHECKING:
+    from .tools.scenario import RunResult
 
 
 def _source_line(diag: Diagnostic) -> str | None:
@@ -100,9 +104,9 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt:
             report(front.diagnostics, strict, fmt)
         click.echo("build failed: nothing was written", err=True)
         sys.exit(1)
-    files = emit.render_all(front.systems)
-    diags = Diagnostics(list(front.diagnostics.items) if quiet else [])
-    plan = write.plan_outputs(files, output, [s.name for s in front.systems], diags)
+    plan, problems = write.plan_build(front.systems, output)
+    # In JSON, one array holds them all; as text, the front end's were printed above.
+    diags = Diagnostics([*front.diagnostics.items, *problems.items] if quiet else problems.items)
     if report(diags, fmt=fmt):
         click.echo("build failed: nothing was written", err=True)
         sys.exit(1)
@@ -188,7 +192,7 @@ def _system_name(system_dir: Path) -> str:
     return str(data["system"]) if isinstance(data, dict) else system_dir.name
 
 
-def _summarise(result, trace_path: Path, record: Path | None) -> None:
+def _summarise(result: RunResult, trace_path: Path, record: Path | None) -> None:
     spec = result.scenario
     click.echo(f"scenario  {spec.name}: {spec.title}")
     if spec.stop_when_done:

@@ -35,7 +35,7 @@ class Diagnostic:
     hint: str = ""
     severity: str = "error"
 
-    def sort_key(self) -> tuple:
+    def sort_key(self) -> tuple[Span, str, str]:
         return (self.span, self.code, self.message)
 
     def as_dict(self) -> dict[str, object]:

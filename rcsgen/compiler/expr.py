@@ -276,13 +276,14 @@ class _Resolver:
 
     def _Compare(self, node: ast.Compare) -> Expr:
         ops = []
-        for op in node.ops:
-            if type(op) not in _CMPOPS:
+        for cmpop in node.ops:
+            if type(cmpop) not in _CMPOPS:
                 raise self.fail(node, "E102", "only == != < <= > >= comparisons are allowed")
-            ops.append(_CMPOPS[type(op)])
+            ops.append(_CMPOPS[type(cmpop)])
         operands = [node.left, *node.comparators]
         # A subordinate's command compares with that subordinate's command names.
-        sub = next((a.value.id for a in operands if _is_sub_command(a, self.scope)), None)
+        commanded = [_sub_commanded(a, self.scope) for a in operands]
+        sub = next((s for s in commanded if s is not None), None)
         typed = [self.command_name(a, sub) if sub else self.expr(a) for a in operands]
         for left, right, op, raw in zip(typed, typed[1:], ops, operands[1:], strict=False):
             self.comparable(left, right, op, raw)
@@ -325,12 +326,19 @@ class _Resolver:
 
 
 def _is_sub_command(node: ast.AST, scope: Scope) -> bool:
-    return (
+    return _sub_commanded(node, scope) is not None
+
+
+def _sub_commanded(node: ast.AST, scope: Scope) -> str | None:
+    """The subordinate `node` reads the command of (`<sub>.command`), else None."""
+    if (
         isinstance(node, ast.Attribute)
         and node.attr == "command"
         and isinstance(node.value, ast.Name)
         and node.value.id in scope.subordinates
-    )
+    ):
+        return node.value.id
+    return None
 
 
 def did_you_mean_attr(attr: str) -> str:
@@ -484,8 +492,8 @@ class _Printer:
         if isinstance(expr, Compare):
             level = _PRECEDENCE["cmp"]
             parts = [self.wrap(expr.left, level + 1)]
-            for op, right in zip(expr.ops, expr.comparators, strict=True):
-                parts += [op, self.wrap(right, level + 1)]
+            for op, comparator in zip(expr.ops, expr.comparators, strict=True):
+                parts += [op, self.wrap(comparator, level + 1)]
             return " ".join(parts), level
         raise TypeError(f"unknown expression node {expr!r}")
 

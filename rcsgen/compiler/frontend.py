@@ -15,7 +15,7 @@ from .analysis import analyse_system
 from .check import check_system
 from .diagnostics import Diagnostics, Span, SpecError
 from .ir import IRSystem
-from .loader import load_file
+from .loader import LocDict, load_file
 from .lower import lower_system
 from .schema import check_document
 
@@ -157,5 +157,6 @@ def _system_name_span(path: Path) -> Span:
         data = load_file(path, shown)
     except SpecError:
         return Span(shown)
-    spans = getattr(data, "value_spans", {})
-    return spans.get("system", Span(shown))
+    if not isinstance(data, LocDict):
+        return Span(shown)
+    return data.value_spans.get("system", Span(shown))

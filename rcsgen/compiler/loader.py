@@ -15,6 +15,7 @@ import math
 import pathlib
 import re
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import yaml
 
@@ -33,6 +34,13 @@ _TOO_LARGE = f"file is larger than {MAX_BYTES:,} bytes"
 _TOO_LARGE_HINT = "a spec is far smaller than this; is this the right file?"
 
 
+class _Mark(Protocol):
+    """Where an event starts: the pure-Python and the libyaml parsers' marks both have these."""
+
+    line: int
+    column: int
+
+
 class LocStr(str):
     """A string scalar (value or key) that remembers where it starts."""
 
@@ -43,12 +51,16 @@ class LocStr(str):
         self.span = span
         return self
 
-    def __getnewargs__(self) -> tuple[str, Span]:  # keeps copy/pickle working
+    # Keeps copy/pickle working; str's own takes no span, so the signature differs on purpose.
+    def __getnewargs__(self) -> tuple[str, Span]:  # type: ignore[override]
         return (str(self), self.span)
 
 
-class LocDict(dict):
-    """A mapping with str keys, its start span and the span of each key and value."""
+class LocDict(dict[str, Any]):
+    """A mapping with str keys, its start span and the span of each key and value.
+
+    Values are `Any`: loaded data is untyped until the schema and the model have checked it.
+    """
 
     span: Span
     key_spans: dict[str, Span]
@@ -61,7 +73,7 @@ class LocDict(dict):
         self.value_spans = {}
 
 
-class LocList(list):
+class LocList(list[Any]):
     """A sequence with its start span and the span of each item."""
 
     span: Span
@@ -83,7 +95,7 @@ def value_span(container: object, key: str | int, fallback: Span) -> Span:
     """Where the value at `key` (or the item at an index) of a loaded container starts."""
     spans = getattr(container, "item_spans" if isinstance(key, int) else "value_spans", None)
     try:
-        return spans[key] if spans is not None else fallback  # type: ignore[no-any-return]
+        return spans[key] if spans is not None else fallback
     except (KeyError, IndexError, TypeError):
         return fallback
 
@@ -140,7 +152,9 @@ class _Builder:
         self.documents = 0
         self.stopped = False  # set when the rest of the stream must not be read
 
-    def span(self, mark: yaml.Mark) -> Span:
+    def span(self, mark: _Mark | None) -> Span:
+        if mark is None:  # every event a parser emits has a mark
+            return Span(self.path)
         return Span(self.path, mark.line + 1, mark.column + 1)
 
     def feed(self, event: yaml.Event) -> None:
@@ -169,7 +183,7 @@ class _Builder:
             frame = self.stack.pop()
             self.attach(frame.container, frame.container.span, frame.reported)
 
-    def check_node(self, event: yaml.NodeEvent, span: Span) -> bool:
+    def check_node(self, event: yaml.ScalarEvent | yaml.CollectionStartEvent, span: Span) -> bool:
         """Report a tag or an anchor on a node; True when something was reported."""
         if event.tag is not None:
             tag = event.tag.replace("tag:yaml.org,2002:", "!!", 1)
@@ -232,8 +246,9 @@ class _Builder:
 
 def _line_col(data: str | bytes, index: int) -> tuple[int, int]:
     """1-based line and column of `index` (in characters for str, bytes for bytes)."""
-    newline = "\n" if isinstance(data, str) else b"\n"
-    return data.count(newline, 0, index) + 1, index - data.rfind(newline, 0, index)
+    if isinstance(data, str):
+        return data.count("\n", 0, index) + 1, index - data.rfind("\n", 0, index)
+    return data.count(b"\n", 0, index) + 1, index - data.rfind(b"\n", 0, index)
 
 
 def _syntax_error(exc: yaml.YAMLError, text: str, path: str) -> tuple[Span, str, str]:

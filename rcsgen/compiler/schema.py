@@ -10,9 +10,10 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from functools import cache
 from importlib.resources import files
+from typing import Any, cast
 
 from jsonschema import Draft202012Validator, validators
 from jsonschema.exceptions import ValidationError, best_match
@@ -26,7 +27,10 @@ KINDS = ("system", "controller")
 _TYPES = Draft202012Validator.TYPE_CHECKER.redefine(
     "integer", lambda _checker, value: isinstance(value, int) and not isinstance(value, bool)
 )
-_Validator = validators.extend(Draft202012Validator, type_checker=_TYPES)
+# (`extend` is untyped in the jsonschema stubs.)
+_Validator: type[Validator] = validators.extend(  # type: ignore[no-untyped-call]
+    Draft202012Validator, type_checker=_TYPES
+)
 
 _EXPECTED = {"object": "a mapping", "array": "a list", "string": "a string", "null": "nothing"}
 _EXPECTED |= {"number": "a number", "integer": "an integer", "boolean": "a boolean"}
@@ -41,12 +45,13 @@ _NAME_RULES = {
 
 
 @cache
-def schema_for(kind: str) -> dict:
+def schema_for(kind: str) -> dict[str, Any]:
     """The JSON schema of a `system` or `controller` file (cached: do not mutate)."""
     if kind not in KINDS:
         raise ValueError(f"unknown spec kind {kind!r}; expected one of {KINDS}")
     path = files("rcsgen.compiler") / "schemas" / f"{kind}.schema.json"
-    return json.loads(path.read_text(encoding="utf-8"))
+    schema: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+    return schema
 
 
 @cache
@@ -57,7 +62,7 @@ def _validator(kind: str) -> Validator:
 def check_document(data: object, kind: str, display_path: str) -> list[Diagnostic]:
     """Every structural problem of one loaded spec document, in source order."""
     found: dict[Diagnostic, None] = {}
-    for error in _validator(kind).iter_errors(data):
+    for error in _validator(kind).iter_errors(cast(Any, data)):  # loaded YAML: JSON-shaped
         found.update(dict.fromkeys(_diagnose(error, data, display_path)))
     return sorted(found, key=Diagnostic.sort_key)
 
@@ -84,7 +89,8 @@ def _walk(data: object, path: Iterable[str | int]) -> object:
 
 
 def _key_span(mapping: object, key: object, fallback: Span) -> Span:
-    return getattr(mapping, "key_spans", {}).get(key, fallback)
+    spans: Mapping[object, Span] = getattr(mapping, "key_spans", {})
+    return spans.get(key, fallback)
 
 
 def _where(path: Sequence[str | int]) -> str:
@@ -124,12 +130,20 @@ def _comma_hint(mapping: object, key: object) -> str:
     return ""
 
 
+def _schema_of(error: ValidationError) -> Mapping[str, Any]:
+    """The schema an error failed, or {} for a boolean one."""
+    return error.schema if isinstance(error.schema, Mapping) else {}
+
+
 def _diagnose(error: ValidationError, data: object, file: str) -> list[Diagnostic]:
     """The diagnostics of one jsonschema error (several for a missing/unknown-keys error)."""
-    kw, schema, inst, path = error.validator, error.schema, error.instance, error.absolute_path
+    kw, schema, path = error.validator, _schema_of(error), error.absolute_path
+    # Set on every error iter_errors yields (the stubs allow Unset); JSON-shaped values.
+    inst: Any = error.instance
+    value: Any = error.validator_value
     span, where = _locate(data, path, file), _where(list(path))
-    hint = schema.get("description", "") if isinstance(schema, dict) else ""
-    title = (schema.get("title") or "value") if isinstance(schema, dict) else "value"
+    hint = schema.get("description", "")
+    title = schema.get("title") or "value"
     if kw in ("oneOf", "anyOf"):
         return _composite(error, data, file, span)
     if "propertyNames" in error.absolute_schema_path:  # a bad key: point at the key itself
@@ -145,7 +159,7 @@ def _diagnose(error: ValidationError, data: object, file: str) -> list[Diagnosti
                 f"missing required key `{key}`",
                 props.get(key, schema).get("description", ""),
             )
-            for key in error.validator_value
+            for key in value
             if isinstance(inst, dict) and key not in inst
         ]
     if kw == "additionalProperties":
@@ -165,11 +179,7 @@ def _diagnose(error: ValidationError, data: object, file: str) -> list[Diagnosti
             for key in extras
         ]
     if kw == "type":
-        wanted = (
-            [error.validator_value]
-            if isinstance(error.validator_value, str)
-            else error.validator_value
-        )
+        wanted = [value] if isinstance(value, str) else value
         expected = _words([_EXPECTED[t] for t in wanted]).replace("`", "")
         if inst is None and path:
             hint = _comma_hint(_walk(data, list(path)[:-1]), path[-1]) or hint
@@ -178,21 +188,21 @@ def _diagnose(error: ValidationError, data: object, file: str) -> list[Diagnosti
             hint = f'{hint} Quote the value to make it a string: "{text}"'.strip()
         return [Diagnostic(span, "S003", f"{where}expected {expected}, got {_got(inst)}", hint)]
     if kw == "pattern":
-        rule = _NAME_RULES.get(error.validator_value, "does not match `{}`")
-        rule = rule.format(title if "{}s" in rule else error.validator_value)
+        rule = _NAME_RULES.get(value, "does not match `{}`")
+        rule = rule.format(title if "{}s" in rule else value)
         return [Diagnostic(span, "S004", f"`{inst}` is not a valid {title}: {rule}", hint)]
     if kw in ("enum", "const"):
-        choices = error.validator_value if kw == "enum" else [error.validator_value]
+        choices = value if kw == "enum" else [value]
         near = did_you_mean(str(inst), [str(c) for c in choices])
         message = f"`{inst}` is not a valid {title}: expected {_words(choices)}"
         return [Diagnostic(span, "S005", message, near or hint)]
     if kw in ("exclusiveMinimum", "minimum"):
         bound = "greater than" if kw == "exclusiveMinimum" else "at least"
-        message = f"{where}must be {bound} {error.validator_value}, got {inst}"
+        message = f"{where}must be {bound} {value}, got {inst}"
         return [Diagnostic(span, "S005", message, hint)]
     if kw in ("minItems", "minProperties"):
         what = "item" if kw == "minItems" else "entry"
-        message = f"{where}needs at least {error.validator_value} {what}, got {len(inst) or 'none'}"
+        message = f"{where}needs at least {value} {what}, got {len(inst) or 'none'}"
         return [Diagnostic(span, "S005", message.replace("at least 1 ", "at least one "), hint)]
     if kw == "uniqueItems":
         seen: list[object] = []
@@ -207,10 +217,11 @@ def _diagnose(error: ValidationError, data: object, file: str) -> list[Diagnosti
 
 def _composite(error: ValidationError, data: object, file: str, span: Span) -> list[Diagnostic]:
     """One clear message for a oneOf/anyOf failure instead of one per alternative."""
-    inst, schema = error.instance, error.schema
+    inst: Any = error.instance
+    schema = _schema_of(error)
     title = schema.get("title", "value")
     article = "an" if title[:1] in "aeiou" else "a"
-    branches = schema.get(error.validator, [])
+    branches = schema.get(str(error.validator), [])
     forms = [b["required"][0] for b in branches if len(b.get("required", [])) == 1]
     if len(forms) != len(branches) or not forms:
         best = best_match(error.context)

@@ -14,7 +14,18 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .diagnostics import Diagnostics, Span
-from .emit import MARKER
+from .emit import MARKER, render_all
+from .ir import IRSystem
+
+
+def plan_build(systems: list[IRSystem], output: Path) -> tuple[Plan, Diagnostics]:
+    """Render every file of `systems` and compare them with `output`: what a build writes and
+    deletes, and the errors that stop it (symlinks, paths leaving `output`, files in the way
+    that rcsgen did not generate). Nothing is written."""
+    files = render_all(systems)
+    problems = Diagnostics()
+    plan = plan_outputs(files, output, [s.name for s in systems], problems)
+    return plan, problems
 
 
 @dataclass

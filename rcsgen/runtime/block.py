@@ -31,6 +31,7 @@ class Block:
             self.shm = _attach(name)
         if self.shm.size < size:
             raise ValueError(f"shared block {name!r} has {self.shm.size} bytes, {size} needed")
+        assert self.shm.buf is not None  # None only once closed
         self.buf = self.shm.buf
 
     def close(self) -> None:
@@ -55,8 +56,8 @@ def _attach(name: str) -> shared_memory.SharedMemory:
     if sys.version_info >= (3, 13):
         return shared_memory.SharedMemory(name=name, track=False)  # type: ignore[call-arg,unused-ignore]
     register = resource_tracker.register
-    resource_tracker.register = lambda *args, **kwargs: None  # type: ignore[assignment]
+    resource_tracker.register = lambda *args, **kwargs: None
     try:
         return shared_memory.SharedMemory(name=name)
     finally:
-        resource_tracker.register = register  # type: ignore[assignment]
+        resource_tracker.register = register

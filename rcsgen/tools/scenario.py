@@ -18,7 +18,7 @@ from typing import Any
 
 from ..compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
 from ..compiler.frontend import SYSTEM_FILE, display_path
-from ..compiler.loader import load_file, span_of, value_span
+from ..compiler.loader import LocDict, load_file, span_of, value_span
 from .harness import Harness
 
 SCENARIO_KEYS = {"scenario", "title", "doc", "process", "max_cycles", "stop_when_done", "trace"}
@@ -68,7 +68,7 @@ def load_scenario(path: Path) -> Scenario:
     data = load_file(path, shown)
     diags = Diagnostics()
     top = span_of(data, Span(shown))
-    if not isinstance(data, dict) or "scenario" not in data:
+    if not isinstance(data, LocDict) or "scenario" not in data:
         raise SpecError([Diagnostic(top, "E401", "not a scenario file (no `scenario:` key)")])
     for key in sorted(set(data) - SCENARIO_KEYS):
         diags.error(data.key_spans.get(key, top), "E402", f"unknown scenario key `{key}`")
@@ -78,7 +78,7 @@ def load_scenario(path: Path) -> Scenario:
     events = []
     for index, raw in enumerate(data.get("events") or []):
         where = value_span(data["events"], index, top)
-        if not isinstance(raw, dict) or not isinstance(raw.get("cycle"), int):
+        if not isinstance(raw, LocDict) or not isinstance(raw.get("cycle"), int):
             diags.error(where, "E404", "an event needs `cycle: <number>`")
             continue
         for key in sorted(set(raw) - EVENT_KEYS):

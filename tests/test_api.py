@@ -1,0 +1,126 @@
+"""The Python API: `rcsgen.check`, `rcsgen.build` and the names `rcsgen` exports."""
+
+from __future__ import annotations
+
+import importlib.metadata
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import MINER, snapshot
+
+import rcsgen
+
+
+def broken_copy(tmp_path: Path) -> Path:
+    """A copy of the foundation miner whose co.yaml has an unknown key."""
+    miner = tmp_path / "specs" / "miner"
+    shutil.copytree(MINER, miner)
+    with (miner / "co.yaml").open("a", encoding="utf-8") as handle:
+        handle.write("bogus_key: 1\n")
+    return miner
+
+
+def test_check_returns_systems_and_diagnostics() -> None:
+    result = rcsgen.check(MINER)
+    assert [s.name for s in result.systems] == ["miner"]
+    assert not result.diagnostics.errors
+    assert all(isinstance(d, rcsgen.Diagnostic) for d in result.diagnostics)
+    assert rcsgen.check([MINER]).diagnostics.items == result.diagnostics.items
+    assert [s.name for s in rcsgen.check([str(MINER)]).systems] == ["miner"]
+
+
+def test_check_reports_a_broken_spec_without_raising(tmp_path: Path) -> None:
+    result = rcsgen.check([broken_copy(tmp_path)])
+    assert result.systems == []
+    [error] = result.diagnostics.errors
+    assert (error.code, error.message) == ("S002", "unknown key `bogus_key`")
+    assert error.span.file.endswith("co.yaml")
+
+
+def test_build_writes_what_the_command_line_writes(
+    tmp_path: Path, pristine: dict[str, bytes]
+) -> None:
+    out = tmp_path / "out"
+    built = rcsgen.build([MINER], out)
+    assert built.systems == ("miner",)
+    assert built.output == out
+    assert snapshot(out) == pristine
+    assert sorted(p.relative_to(out).as_posix() for p in built.written) == sorted(pristine)
+    assert (built.deleted, built.unchanged) == ((), 0)
+    assert not built.diagnostics.errors and len(built.diagnostics)  # the miner's warnings
+
+    again = rcsgen.build(MINER, str(out))
+    assert (again.written, again.deleted, again.unchanged) == ((), (), len(pristine))
+
+
+def test_build_deletes_what_it_no_longer_generates(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    rcsgen.build([MINER], out)
+    stale = out / "miner" / "stale.py"
+    shutil.copy(out / "miner" / "co.py", stale)  # generated earlier, by its first line
+    built = rcsgen.build([MINER], out)
+    assert built.deleted == (stale,) and not stale.exists()
+
+
+def test_build_with_an_error_raises_and_writes_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    with pytest.raises(rcsgen.SpecError) as caught:
+        rcsgen.build([broken_copy(tmp_path)], out)
+    assert isinstance(caught.value.diagnostics, rcsgen.Diagnostics)
+    assert [d.code for d in caught.value.diagnostics.errors] == ["S002"]
+    assert not out.exists()
+
+
+def test_build_refuses_to_overwrite_a_users_file(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    (out / "miner").mkdir(parents=True)
+    (out / "miner" / "co.py").write_text("# mine\n", encoding="utf-8")
+    with pytest.raises(rcsgen.SpecError) as caught:
+        rcsgen.build([MINER], out)
+    assert [d.code for d in caught.value.diagnostics.errors] == ["E304"]
+    assert sorted(p.name for p in (out / "miner").iterdir()) == ["co.py"]
+
+
+def test_strict_build_fails_on_warnings(tmp_path: Path) -> None:
+    with pytest.raises(rcsgen.SpecError) as caught:
+        rcsgen.build([MINER], tmp_path / "out", strict=True)
+    diagnostics = caught.value.diagnostics
+    assert len(diagnostics) and not diagnostics.errors
+    assert not (tmp_path / "out").exists()
+
+
+def test_every_exported_name_resolves() -> None:
+    assert sorted(rcsgen.__all__) == sorted(
+        ["check", "build", "Harness", "Diagnostic", "Diagnostics", "SpecError", "__version__"]
+    )
+    for name in rcsgen.__all__:
+        assert getattr(rcsgen, name) is not None, name
+    assert set(rcsgen.__all__) <= set(dir(rcsgen))
+    namespace: dict[str, object] = {}
+    exec("from rcsgen import *", namespace)
+    assert set(rcsgen.__all__) <= set(namespace)
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        rcsgen.nope  # noqa: B018
+
+
+def test_version_is_the_distributions() -> None:
+    assert rcsgen.__version__ == importlib.metadata.version("rcsgen")
+
+
+def test_import_rcsgen_loads_nothing_else() -> None:
+    """`import rcsgen` stays cheap: no compiler, no yaml, jinja2, jsonschema or click."""
+    code = "import sys, rcsgen; print(' '.join(sorted(sys.modules)))"
+    loaded = set(
+        subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True
+        ).stdout.split()
+    )
+    assert sorted(m for m in loaded if m.startswith("rcsgen")) == ["rcsgen"]
+    assert not loaded & {"yaml", "jinja2", "jsonschema", "click", "typing"}
+
+
+def test_the_package_is_marked_typed() -> None:
+    assert (Path(rcsgen.__file__).parent / "py.typed").is_file()
