@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import gc
 import importlib
+import struct
 import sys
 import tempfile
 import time
@@ -105,12 +106,20 @@ def fresh_block() -> memoryview:
 
 
 def outputs(buf: memoryview) -> bytes:
-    """co's outputs in the block: its status, the three command buffers, the goal."""
-    from miner import layout
+    """co's outputs in the block: its status, the three command buffers, the goal.
 
-    records = [layout.STATUS_OUT["co"], *(layout.COMMAND_IN[s] for s in ("cr", "vg", "cc"))]
+    The status's `rule` field (which table rule fired) is left out: only the generated
+    code records it; the other versions write NO_RULE (so they do a little less work)."""
+    from miner import layout
+    from miner.rcs.contract import STATUS_FIELDS, struct_format
+
+    before_rule = struct.calcsize(struct_format(STATUS_FIELDS[:-1]))
+    status = layout.STATUS_OUT["co"]
+    parts = [bytes(buf[status.offset : status.offset + before_rule])]
+    records = [*(layout.COMMAND_IN[s] for s in ("cr", "vg", "cc"))]
     records += [layout.WORLD["goal_x"], layout.WORLD["goal_y"]]
-    return b"".join(bytes(buf[r.offset : r.offset + r.struct.size]) for r in records)
+    parts += [bytes(buf[r.offset : r.offset + r.struct.size]) for r in records]
+    return b"".join(parts)
 
 
 def closed_loop(version: Version, cycles: int, record: bool = False):

@@ -57,7 +57,7 @@ from miner.layout import (
     VG_STATUS_AT,
     WORLD,
 )
-from miner.rcs.contract import MODE, PERF, STATUS, STATUS_HEAD
+from miner.rcs.contract import MODE, NO_RULE, PERF, STATUS, STATUS_HEAD
 
 # co's command and mode buffers in one read; the world fields co reads in another.
 COMMAND_MODE, COMMAND_MODE_AT = gather((CO_COMMAND_AT, CO_COMMAND), (CO_MODE_AT, MODE))
@@ -124,7 +124,7 @@ class HandwrittenCo:
             self.simulate,
             self.single_step_num,
         ) = COMMAND_MODE.unpack_from(buf, COMMAND_MODE_AT)
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, _ = STATUS.unpack_from(
             buf, CO_STATUS_AT
         )
         (
@@ -203,7 +203,7 @@ class HandwrittenCo:
         """Write the status, the subordinates' commands, the goal and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, CO_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, CO_STATUS_AT, self.status_num, self.status, self.error_num, self.state, NO_RULE
         )
         CR_COMMAND.pack_into(buf, CR_COMMAND_AT, self.cr_command_num, self.cr_command)
         VG_COMMAND.pack_into(

@@ -59,7 +59,7 @@ from miner.layout import (
     VG_STATUS_AT,
     WORLD,
 )
-from miner.rcs.contract import MODE, PERF, STATUS, STATUS_HEAD
+from miner.rcs.contract import MODE, NO_RULE, PERF, STATUS, STATUS_HEAD
 
 # Every input of a cycle in one read, in block order.
 INPUTS, INPUTS_AT = gather(
@@ -84,7 +84,7 @@ def minimal_co(buf: memoryview) -> Callable[[], None]:
     def run_cycle() -> None:
         start = perf_counter_ns()
         (
-            command_num, command, status_num, status, error_num, state,
+            command_num, command, status_num, status, error_num, state, _,
             dont_run, single_step, _, single_step_num,
             _, min_ns, max_ns, cycles, stepped_num,
             cr_num, cr_command, cr_echo, cr_status,
@@ -149,7 +149,7 @@ def minimal_co(buf: memoryview) -> Callable[[], None]:
                 elif state == S1 and cr_done and vg_done and cc_done:
                     state, status = NOP, DONE
         if (status_num, status, state) != before:
-            STATUS.pack_into(buf, CO_STATUS_AT, status_num, status, error_num, state)
+            STATUS.pack_into(buf, CO_STATUS_AT, status_num, status, error_num, state, NO_RULE)
         last = perf_counter_ns() - start
         PERF.pack_into(
             buf,

@@ -144,7 +144,7 @@ class Plant:
     def after(self, buf: memoryview) -> tuple:
         """Read co's outputs, react to them and return this cycle's trace row."""
         rng, now = self.rng, self.cycle
-        status_num, status, _, state = self.co_status.struct.unpack_from(buf, self.co_status.offset)
+        status_num, status, _, state, _ = self.co_status.struct.unpack_from(buf, self.co_status.offset)
         row = [status_num, status, state]
         for sub in self.subs:
             number, code, *args = sub.command.unpack_from(buf, sub.command_at)

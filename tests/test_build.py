@@ -139,7 +139,13 @@ def test_generated_package_runs_without_rcsgen(tmp_path: Path, pristine: dict[st
     assert done.returncode == 0, done.stderr
     report = json.loads(done.stdout)
     DONE = 2
-    assert report["init"] == {"status_num": 1, "status": DONE, "error_num": 0, "state": 0}
+    assert report["init"] == {
+        "status_num": 1,
+        "status": DONE,
+        "error_num": 0,
+        "state": 0,
+        "rule": 0,
+    }
     assert report["done"]["status_num"] == 2 and report["done"]["status"] == DONE
     assert max(report["poses"]) == pytest.approx(0.5)  # trammed to the sump goal (hook output)
     assert report["poses"][-1] == pytest.approx(0.0)  # and back out of the cusp
@@ -195,6 +201,45 @@ def test_output_passes_ruff(tmp_path: Path, pristine: dict[str, bytes]) -> None:
     for command in checks:
         done = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, check=False)
         assert done.returncode == 0, f"{command}:\n{done.stdout}{done.stderr}"
+
+
+def test_imports_are_sorted_as_ruff_sorts_them(tmp_path: Path) -> None:
+    """Names that differ by an underscore (`B_COMMAND`, `BB_COMMAND`; `NO_RULE`, `NOP`) are
+    imported in ruff's case-insensitive order, so the output stays lint-clean."""
+    specs = tmp_path / "specs" / "pair"
+    specs.mkdir(parents=True)
+    (specs / "system.yaml").write_text(
+        "system: pair\ntitle: Two similar names\ncycle_period: 0.1\n"
+        "processes:\n  p:\n    modules: [top, b, bb]\n",
+        encoding="utf-8",
+    )
+    for leaf in ("b", "bb"):
+        (specs / f"{leaf}.yaml").write_text(
+            f"controller: {leaf}\ntitle: Leaf\ncommands:\n  GO:\n    states:\n"
+            "      S0:\n        - do:\n            - report: DONE\n",
+            encoding="utf-8",
+        )
+    (specs / "top.yaml").write_text(
+        "controller: top\ntitle: Top\nsubordinates: [b, bb]\ncommands:\n  GO:\n"
+        "    states:\n      S0:\n        - do:\n            - send: b.GO\n"
+        "            - send: bb.GO\n          next: S1\n      S1:\n"
+        "        - when: b.status == DONE and bb.status == DONE\n"
+        "          do:\n            - report: DONE\n",
+        encoding="utf-8",
+    )
+    result = rcsgen("build", tmp_path / "specs", "-o", tmp_path / "out")
+    assert result.exit_code == 0, result.output
+    top = (tmp_path / "out" / "pair" / "top.py").read_text(encoding="utf-8")
+    assert top.index("    B_COMMAND,") < top.index("    BB_COMMAND,")
+    assert "NO_RULE, NOP" in top
+    done = subprocess.run(
+        [ruff_binary(), "check", "--isolated", "--select", "I", "."],
+        cwd=tmp_path / "out",
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stdout
 
 
 HEADER = re.compile(

@@ -306,6 +306,27 @@ def test_dont_run_echoes_a_new_command_but_runs_no_table(h):
     assert sent(h) == {sub: ("INIT", 1) for sub in SUBS}
 
 
+def test_the_status_names_the_table_rule_that_fired_this_cycle(h):
+    """Status `rule`: the rule that fired in the module's last cycle, None when none did
+    (waiting, held by dont_run); every_cycle rules are not recorded."""
+    h.command("co", "INIT")
+    h.step("co")
+    assert h.status("co").rule == "INIT/S0/1", "S0 sends INIT to every subordinate"
+    h.step("co")
+    assert h.status("co").rule is None, "S1 waits for every subordinate's DONE"
+    for sub in SUBS:
+        h.reply(sub, "DONE")
+    h.step("co")
+    assert (h.status("co").rule, h.status("co").status) == ("INIT/S1/1", "DONE")
+    h.set_mode("co", dont_run=True)
+    h.command("co", "HALT")
+    h.step("co")
+    assert h.status("co").rule is None, "no table runs under dont_run"
+    h.set_mode("co", dont_run=False)
+    h.step("co")
+    assert h.status("co").rule == "HALT/S0/1"
+
+
 def test_single_step_runs_the_table_once_per_change_of_single_step_num(h):
     """single_step: the table runs one cycle each time single_step_num changes, else it holds."""
     h.set_mode("cc", single_step=True)
@@ -381,7 +402,14 @@ def test_performance_buffer_counts_cycles_and_times_them(h):
     assert h.performance("co")["cycles"] == 7
     # Wall time never enters a trace: a trace line carries no performance field.
     line = json.loads(trace_line(h, []))
-    assert set(line["modules"]["co"]) == {"command", "command_num", "status", "status_num", "state"}
+    assert set(line["modules"]["co"]) == {
+        "command",
+        "command_num",
+        "status",
+        "status_num",
+        "state",
+        "rule",
+    }
     assert "cycle_ns" not in json.dumps(line)
 
 

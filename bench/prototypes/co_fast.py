@@ -24,7 +24,7 @@ from miner.layout import (
     VG_COMMAND,
     VG_COMMAND_AT,
 )
-from miner.rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from miner.rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands co accepts (the code written to its command buffer).
 INIT = 1
@@ -118,7 +118,7 @@ class CoController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, _ = STATUS.unpack_from(
             buf, CO_STATUS_AT
         )
         (
@@ -190,7 +190,7 @@ class CoController:
 
         # post_process: write the status, the subordinates' commands, the world, the time.
         STATUS.pack_into(
-            buf, CO_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, CO_STATUS_AT, self.status_num, self.status, self.error_num, self.state, NO_RULE
         )
         CR_COMMAND.pack_into(buf, CR_COMMAND_AT, self.cr_command_num, self.cr_command)
         VG_COMMAND.pack_into(

@@ -8,7 +8,7 @@ from .layout import (
     BAS_PERF_AT,
     BAS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands bas accepts (the code written to its command buffer).
 INIT = 1
@@ -45,6 +45,7 @@ class BasController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -59,7 +60,7 @@ class BasController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, BAS_STATUS_AT
         )
         (
@@ -102,6 +103,7 @@ class BasController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -119,7 +121,7 @@ class BasController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, BAS_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, BAS_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_boom_angle_true)
         last = perf_counter_ns() - self.cycle_start
@@ -152,6 +154,7 @@ class BasController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -159,5 +162,6 @@ class BasController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE

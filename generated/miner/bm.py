@@ -8,7 +8,7 @@ from .layout import (
     BM_PERF_AT,
     BM_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands bm accepts (the code written to its command buffer).
 INIT = 1
@@ -50,6 +50,7 @@ class BmController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -64,7 +65,7 @@ class BmController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, BM_STATUS_AT
         )
         (
@@ -107,6 +108,7 @@ class BmController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -127,7 +129,7 @@ class BmController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, BM_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, BM_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_boom_rate_cmd)
         last = perf_counter_ns() - self.cycle_start
@@ -153,6 +155,7 @@ class BmController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -160,6 +163,7 @@ class BmController:
         """HALT: Stop the boom where it is."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.world_boom_rate_cmd = 0.0
             self.state = NOP
             self.status = DONE
@@ -168,10 +172,12 @@ class BmController:
         """RAISE: Boom up until the drum is at the roof."""
         state = self.state
         if state == S0:
+            self.rule = 3  # RAISE/S0/1
             self.state = S1
             self.world_boom_rate_cmd = BOOM_RATE
 
         elif state == S1 and self.world_boom_angle >= ROOF_ANGLE - ANGLE_TOLERANCE:
+            self.rule = 4  # RAISE/S1/1
             self.world_boom_rate_cmd = 0.0
             self.state = NOP
             self.status = DONE
@@ -180,10 +186,12 @@ class BmController:
         """LOWER: Boom down until the drum is on the floor."""
         state = self.state
         if state == S0:
+            self.rule = 5  # LOWER/S0/1
             self.state = S1
             self.world_boom_rate_cmd = -BOOM_RATE
 
         elif state == S1 and self.world_boom_angle <= FLOOR_ANGLE + ANGLE_TOLERANCE:
+            self.rule = 6  # LOWER/S1/1
             self.world_boom_rate_cmd = 0.0
             self.state = NOP
             self.status = DONE

@@ -10,7 +10,7 @@ from .layout import (
     BSS_PERF_AT,
     BSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands bss accepts (the code written to its command buffer).
 INIT = 1
@@ -48,6 +48,7 @@ class BssController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -64,7 +65,7 @@ class BssController:
         self.cycle_start = 0
         self.hook_state = hooks.new_noise(settings or {})
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, BSS_STATUS_AT
         )
         (
@@ -108,6 +109,7 @@ class BssController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -125,7 +127,7 @@ class BssController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, BSS_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, BSS_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_boom_angle)
         last = perf_counter_ns() - self.cycle_start
@@ -158,6 +160,7 @@ class BssController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -165,5 +168,6 @@ class BssController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE

@@ -14,7 +14,7 @@ from .layout import (
     SJ_COMMAND,
     SJ_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands cc accepts (the code written to its command buffer).
 INIT = 1
@@ -77,6 +77,7 @@ class CcController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -93,7 +94,7 @@ class CcController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, CC_STATUS_AT
         )
         (
@@ -149,6 +150,7 @@ class CcController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -175,7 +177,7 @@ class CcController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, CC_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, CC_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         BM_COMMAND.pack_into(buf, BM_COMMAND_AT, self.bm_command_num, self.bm_command)
         CD_COMMAND.pack_into(buf, CD_COMMAND_AT, self.cd_command_num, self.cd_command)
@@ -204,6 +206,7 @@ class CcController:
         state = self.state
         if state == S0:
             # send INIT to every subordinate
+            self.rule = 1  # INIT/S0/1
             self.state = S1
             self.bm_command = BM_INIT
             self.bm_command_num += 1
@@ -219,6 +222,7 @@ class CcController:
             and self.sj_status == DONE
         ):
             # every subordinate is done
+            self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -227,6 +231,7 @@ class CcController:
         state = self.state
         if state == S0:
             # send HALT to every subordinate
+            self.rule = 3  # HALT/S0/1
             self.state = S1
             self.bm_command = BM_HALT
             self.bm_command_num += 1
@@ -242,6 +247,7 @@ class CcController:
             and self.sj_status == DONE
         ):
             # every subordinate is done
+            self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -249,6 +255,7 @@ class CcController:
         """RAISE_DRUM: Cutter drum on and the boom up at the roof, ready to approach the face."""
         state = self.state
         if state == S0:
+            self.rule = 5  # RAISE_DRUM/S0/1
             self.state = S1
             self.cd_command = CD_ON
             self.cd_command_num += 1
@@ -259,10 +266,12 @@ class CcController:
 
         elif state == S1:
             if self.bm_status == DONE and self.cd_status == DONE and self.sj_status == DONE:
+                self.rule = 6  # RAISE_DRUM/S1/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.bm_status == ERROR or self.cd_status == ERROR or self.sj_status == ERROR:
+                self.rule = 7  # RAISE_DRUM/S1/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -270,6 +279,7 @@ class CcController:
         """SUMP: The drum stays on at the roof while the machine trams into the face."""
         state = self.state
         if state == S0:
+            self.rule = 8  # SUMP/S0/1
             self.state = S1
             self.cd_command = CD_ON
             self.cd_command_num += 1
@@ -278,10 +288,12 @@ class CcController:
 
         elif state == S1:
             if self.bm_status == DONE and self.cd_status == DONE:
+                self.rule = 9  # SUMP/S1/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.bm_status == ERROR or self.cd_status == ERROR:
+                self.rule = 10  # SUMP/S1/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -289,26 +301,31 @@ class CcController:
         """SHEAR: Jack down, then lower the turning drum through the seam to the floor."""
         state = self.state
         if state == S0:
+            self.rule = 11  # SHEAR/S0/1
             self.state = S1
             self.sj_command = SJ_LOWER
             self.sj_command_num += 1
 
         elif state == S1:
             if self.sj_status == DONE:
+                self.rule = 12  # SHEAR/S1/1
                 self.state = S2
                 self.bm_command = BM_LOWER
                 self.bm_command_num += 1
 
             elif self.sj_status == ERROR:
+                self.rule = 13  # SHEAR/S1/2
                 self.state = NOP
                 self.status = ERROR
 
         elif state == S2:
             if self.bm_status == DONE:
+                self.rule = 14  # SHEAR/S2/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.bm_status == ERROR:
+                self.rule = 15  # SHEAR/S2/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -316,16 +333,19 @@ class CcController:
         """SHEAR_CORRECT: The drum popped out of the cut; raise the boom back to the roof."""
         state = self.state
         if state == S0:
+            self.rule = 16  # SHEAR_CORRECT/S0/1
             self.state = S1
             self.bm_command = BM_RAISE
             self.bm_command_num += 1
 
         elif state == S1:
             if self.bm_status == DONE:
+                self.rule = 17  # SHEAR_CORRECT/S1/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.bm_status == ERROR:
+                self.rule = 18  # SHEAR_CORRECT/S1/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -333,15 +353,18 @@ class CcController:
         """CUSP: Raise the jack so the machine can tram back with the drum on, taking the cusp."""
         state = self.state
         if state == S0:
+            self.rule = 19  # CUSP/S0/1
             self.state = S1
             self.sj_command = SJ_RAISE
             self.sj_command_num += 1
 
         elif state == S1:
             if self.sj_status == DONE:
+                self.rule = 20  # CUSP/S1/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.sj_status == ERROR:
+                self.rule = 21  # CUSP/S1/2
                 self.state = NOP
                 self.status = ERROR

@@ -8,7 +8,7 @@ from .layout import (
     CD_PERF_AT,
     CD_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands cd accepts (the code written to its command buffer).
 INIT = 1
@@ -43,6 +43,7 @@ class CdController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -56,7 +57,7 @@ class CdController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, CD_STATUS_AT
         )
         (
@@ -98,6 +99,7 @@ class CdController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -118,7 +120,7 @@ class CdController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, CD_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, CD_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_drum_on_cmd)
         last = perf_counter_ns() - self.cycle_start
@@ -144,6 +146,7 @@ class CdController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -151,6 +154,7 @@ class CdController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -158,6 +162,7 @@ class CdController:
         """ON: Drum motor on."""
         state = self.state
         if state == S0:
+            self.rule = 3  # ON/S0/1
             self.world_drum_on_cmd = True
             self.state = NOP
             self.status = DONE
@@ -166,6 +171,7 @@ class CdController:
         """OFF: Drum motor off."""
         state = self.state
         if state == S0:
+            self.rule = 4  # OFF/S0/1
             self.world_drum_on_cmd = False
             self.state = NOP
             self.status = DONE

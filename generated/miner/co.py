@@ -16,7 +16,7 @@ from .layout import (
     VG_COMMAND,
     VG_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands co accepts (the code written to its command buffer).
 INIT = 1
@@ -94,6 +94,7 @@ class CoController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -123,7 +124,7 @@ class CoController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, CO_STATUS_AT
         )
         (
@@ -192,6 +193,7 @@ class CoController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -216,7 +218,7 @@ class CoController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, CO_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, CO_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         CR_COMMAND.pack_into(buf, CR_COMMAND_AT, self.cr_command_num, self.cr_command)
         VG_COMMAND.pack_into(
@@ -252,6 +254,7 @@ class CoController:
         state = self.state
         if state == S0:
             # send INIT to every subordinate
+            self.rule = 1  # INIT/S0/1
             self.state = S1
             self.cr_command = CR_INIT
             self.cr_command_num += 1
@@ -267,6 +270,7 @@ class CoController:
             and self.cc_status == DONE
         ):
             # every subordinate is done
+            self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -275,6 +279,7 @@ class CoController:
         state = self.state
         if state == S0:
             # send HALT to every subordinate
+            self.rule = 3  # HALT/S0/1
             self.state = S1
             self.cr_command = CR_HALT
             self.cr_command_num += 1
@@ -290,6 +295,7 @@ class CoController:
             and self.cc_status == DONE
         ):
             # every subordinate is done
+            self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -297,12 +303,14 @@ class CoController:
         """INITIAL_APPROACH_FACE: Drum raised to the roof and on, tram forward until the cutter current says the drum is at the face; watch the machine's orientation on the way."""
         state = self.state
         if state == S0:
+            self.rule = 5  # INITIAL_APPROACH_FACE/S0/1
             self.state = S1
             self.cc_command = CC_RAISE_DRUM
             self.cc_command_num += 1
 
         elif state == S1:
             if self.cc_status == DONE:
+                self.rule = 6  # INITIAL_APPROACH_FACE/S1/1
                 self.state = S2
                 self.var_distance = MAX_APPROACH
                 self.world_goal_x, self.world_goal_y = hooks.co_goal_ahead(
@@ -314,12 +322,14 @@ class CoController:
                 self.vg_command_num += 1
 
             elif self.cc_status == ERROR:
+                self.rule = 7  # INITIAL_APPROACH_FACE/S1/2
                 self.state = NOP
                 self.status = ERROR
 
         elif state == S2:
             if self.world_cutter_current > CUTTER_THRESHOLD:
                 # the cutter current rose, the drum is at the face
+                self.rule = 8  # INITIAL_APPROACH_FACE/S2/1
                 self.state = S3
                 self.vg_command = VG_HALT
                 self.vg_command_num += 1
@@ -330,20 +340,24 @@ class CoController:
                 or self.vg_status == DONE
             ):
                 # skewed, or no face within reach
+                self.rule = 9  # INITIAL_APPROACH_FACE/S2/2
                 self.state = FAILED
                 self.vg_command = VG_HALT
                 self.vg_command_num += 1
 
         elif state == S3:
             if self.vg_status == DONE:
+                self.rule = 10  # INITIAL_APPROACH_FACE/S3/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.vg_status == ERROR:
+                self.rule = 11  # INITIAL_APPROACH_FACE/S3/2
                 self.state = NOP
                 self.status = ERROR
 
         elif state == FAILED and (self.vg_status == DONE or self.vg_status == ERROR):
+            self.rule = 12  # INITIAL_APPROACH_FACE/FAILED/1
             self.state = NOP
             self.status = ERROR
 
@@ -351,6 +365,7 @@ class CoController:
         """TRAM_TO_GOAL: Tram in free space to the goal point the operator entered."""
         state = self.state
         if state == S0:
+            self.rule = 13  # TRAM_TO_GOAL/S0/1
             self.state = S1
             self.vg_arg_x = self.world_operator_goal_x
             self.vg_arg_y = self.world_operator_goal_y
@@ -359,10 +374,12 @@ class CoController:
 
         elif state == S1:
             if self.vg_status == DONE:
+                self.rule = 14  # TRAM_TO_GOAL/S1/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.vg_status == ERROR:
+                self.rule = 15  # TRAM_TO_GOAL/S1/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -370,12 +387,14 @@ class CoController:
         """APPROACH_FACE: Raise the boom and tram a known distance back to the face: after a cusp its position is known, so no current monitoring is needed."""
         state = self.state
         if state == S0:
+            self.rule = 16  # APPROACH_FACE/S0/1
             self.state = S1
             self.cc_command = CC_RAISE_DRUM
             self.cc_command_num += 1
 
         elif state == S1:
             if self.cc_status == DONE:
+                self.rule = 17  # APPROACH_FACE/S1/1
                 self.state = S2
                 self.var_distance = APPROACH_DISTANCE
                 self.world_goal_x, self.world_goal_y = hooks.co_goal_ahead(
@@ -387,15 +406,18 @@ class CoController:
                 self.vg_command_num += 1
 
             elif self.cc_status == ERROR:
+                self.rule = 18  # APPROACH_FACE/S1/2
                 self.state = NOP
                 self.status = ERROR
 
         elif state == S2:
             if self.vg_status == DONE:
+                self.rule = 19  # APPROACH_FACE/S2/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.vg_status == ERROR:
+                self.rule = 20  # APPROACH_FACE/S2/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -404,6 +426,7 @@ class CoController:
         state = self.state
         if state == S0:
             # do a sump operation
+            self.rule = 21  # SUMP_SHEAR_CUSP/S0/1
             self.state = S1
             self.world_goal_x, self.world_goal_y = hooks.co_position_for_sump(
                 self.world_pose_x, self.world_pose_y, self.world_heading
@@ -419,6 +442,7 @@ class CoController:
 
         elif state == S1 and self.vg_status == DONE and self.cc_status == DONE:
             # do a shear operation
+            self.rule = 22  # SUMP_SHEAR_CUSP/S1/1
             self.state = S2
             self.cr_command = CR_SHEAR
             self.cr_command_num += 1
@@ -430,6 +454,7 @@ class CoController:
         elif state == S2:
             if self.world_popped_out_of_shear:
                 # the drum popped out of the shear
+                self.rule = 23  # SUMP_SHEAR_CUSP/S2/1
                 self.state = S1
                 self.world_goal_x, self.world_goal_y = hooks.co_position_for_sump(
                     self.world_pose_x, self.world_pose_y, self.world_heading
@@ -439,11 +464,13 @@ class CoController:
 
             elif self.too_much_loose_coal():
                 # too much loose coal (conveyor tail not in position) pauses the shear
+                self.rule = 24  # SUMP_SHEAR_CUSP/S2/2
                 self.cc_command = CC_HALT
                 self.cc_command_num += 1
 
             elif not self.too_much_loose_coal() and self.cc_command == CC_HALT:
                 # continue with the shear
+                self.rule = 25  # SUMP_SHEAR_CUSP/S2/3
                 self.cc_command = CC_SHEAR
                 self.cc_command_num += 1
 
@@ -454,6 +481,7 @@ class CoController:
                 and not self.world_popped_out_of_shear
             ):
                 # do a cusp operation
+                self.rule = 26  # SUMP_SHEAR_CUSP/S2/4
                 self.state = S3
                 self.cr_command = CR_CUSP
                 self.cr_command_num += 1
@@ -466,6 +494,7 @@ class CoController:
             and self.vg_status == DONE
             and self.cc_status == DONE
         ):
+            self.rule = 27  # SUMP_SHEAR_CUSP/S3/1
             self.state = S4
             self.world_goal_x, self.world_goal_y = hooks.co_position_for_cusp(
                 self.world_pose_x, self.world_pose_y, self.world_heading
@@ -481,5 +510,6 @@ class CoController:
             and self.vg_status == DONE
             and self.cc_status == DONE
         ):
+            self.rule = 28  # SUMP_SHEAR_CUSP/S4/1
             self.state = NOP
             self.status = DONE

@@ -14,7 +14,7 @@ from .layout import (
     GH_COMMAND,
     GH_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands cr accepts (the code written to its command buffer).
 INIT = 1
@@ -81,6 +81,7 @@ class CrController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -95,7 +96,7 @@ class CrController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, CR_STATUS_AT
         )
         (
@@ -153,6 +154,7 @@ class CrController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -175,7 +177,7 @@ class CrController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, CR_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, CR_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         GH_COMMAND.pack_into(buf, GH_COMMAND_AT, self.gh_command_num, self.gh_command)
         CV_COMMAND.pack_into(buf, CV_COMMAND_AT, self.cv_command_num, self.cv_command)
@@ -204,6 +206,7 @@ class CrController:
         state = self.state
         if state == S0:
             # send INIT to every subordinate
+            self.rule = 1  # INIT/S0/1
             self.state = S1
             self.gh_command = GH_INIT
             self.gh_command_num += 1
@@ -219,6 +222,7 @@ class CrController:
             and self.ct_status == DONE
         ):
             # every subordinate is done
+            self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -227,6 +231,7 @@ class CrController:
         state = self.state
         if state == S0:
             # send HALT to every subordinate
+            self.rule = 3  # HALT/S0/1
             self.state = S1
             self.gh_command = GH_HALT
             self.gh_command_num += 1
@@ -242,6 +247,7 @@ class CrController:
             and self.ct_status == DONE
         ):
             # every subordinate is done
+            self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -249,6 +255,7 @@ class CrController:
         """SUMP: Gathering pan to float; ask the operator to position the conveyor tail."""
         state = self.state
         if state == S0:
+            self.rule = 5  # SUMP/S0/1
             self.state = S1
             self.gh_command = GH_FLOAT
             self.gh_command_num += 1
@@ -257,10 +264,12 @@ class CrController:
 
         elif state == S1:
             if self.gh_status == DONE:
+                self.rule = 6  # SUMP/S1/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.gh_status == ERROR:
+                self.rule = 7  # SUMP/S1/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -268,6 +277,7 @@ class CrController:
         """SHEAR: Gathering head and conveyor on only when enough coal has piled up and the operator reported the tail in position; done when the loose coal is cleared."""
         state = self.state
         if state == S0:
+            self.rule = 8  # SHEAR/S0/1
             self.state = S1
 
         elif (
@@ -276,6 +286,7 @@ class CrController:
             and self.world_tail_in_position
         ):
             # enough coal to convey (or conveyance still running from before a re-shear)
+            self.rule = 9  # SHEAR/S1/1
             self.state = S2
             self.gh_command = GH_ON
             self.gh_command_num += 1
@@ -288,10 +299,12 @@ class CrController:
                 and self.cv_status == DONE
                 and self.world_loose_coal <= CLEARED
             ):
+                self.rule = 10  # SHEAR/S2/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.gh_status == ERROR or self.cv_status == ERROR:
+                self.rule = 11  # SHEAR/S2/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -299,6 +312,7 @@ class CrController:
         """CUSP: Keep gathering while the cusp is taken; once the floor is clear, gathering head and conveyor off until the next shear has piled up enough coal."""
         state = self.state
         if state == S0:
+            self.rule = 12  # CUSP/S0/1
             self.state = S1
             self.gh_command = GH_ON
             self.gh_command_num += 1
@@ -311,6 +325,7 @@ class CrController:
                 and self.cv_status == DONE
                 and self.world_loose_coal <= CLEARED
             ):
+                self.rule = 13  # CUSP/S1/1
                 self.state = S2
                 self.gh_command = GH_HALT
                 self.gh_command_num += 1
@@ -318,14 +333,17 @@ class CrController:
                 self.cv_command_num += 1
 
             elif self.gh_status == ERROR or self.cv_status == ERROR:
+                self.rule = 14  # CUSP/S1/2
                 self.state = NOP
                 self.status = ERROR
 
         elif state == S2:
             if self.gh_status == DONE and self.cv_status == DONE:
+                self.rule = 15  # CUSP/S2/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.gh_status == ERROR or self.cv_status == ERROR:
+                self.rule = 16  # CUSP/S2/2
                 self.state = NOP
                 self.status = ERROR

@@ -8,7 +8,7 @@ from .layout import (
     CR_PERF_AT,
     CR_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands cr_sim accepts (the code written to its command buffer).
 INIT = 1
@@ -48,6 +48,7 @@ class CrSimController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -62,7 +63,7 @@ class CrSimController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, CR_STATUS_AT
         )
         (
@@ -105,6 +106,7 @@ class CrSimController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -128,7 +130,7 @@ class CrSimController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, CR_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, CR_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_loose_coal, self.world_coal_mined)
         last = perf_counter_ns() - self.cycle_start
@@ -161,6 +163,7 @@ class CrSimController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -168,6 +171,7 @@ class CrSimController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -175,6 +179,7 @@ class CrSimController:
         """SUMP: Nothing to prepare."""
         state = self.state
         if state == S0:
+            self.rule = 3  # SUMP/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -182,6 +187,7 @@ class CrSimController:
         """SHEAR: Done when the loose coal is cleared."""
         state = self.state
         if state == S0 and self.world_loose_coal <= CLEARED:
+            self.rule = 4  # SHEAR/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -189,5 +195,6 @@ class CrSimController:
         """CUSP: Done when the loose coal is cleared."""
         state = self.state
         if state == S0 and self.world_loose_coal <= CLEARED:
+            self.rule = 5  # CUSP/S0/1
             self.state = NOP
             self.status = DONE

@@ -10,7 +10,7 @@ from .layout import (
     CSS_PERF_AT,
     CSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands css accepts (the code written to its command buffer).
 INIT = 1
@@ -47,6 +47,7 @@ class CssController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -62,7 +63,7 @@ class CssController:
         self.cycle_start = 0
         self.hook_state = hooks.new_noise(settings or {})
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, CSS_STATUS_AT
         )
         (
@@ -105,6 +106,7 @@ class CssController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -122,7 +124,7 @@ class CssController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, CSS_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, CSS_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_cutter_current)
         last = perf_counter_ns() - self.cycle_start
@@ -154,6 +156,7 @@ class CssController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -161,5 +164,6 @@ class CssController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE

@@ -8,7 +8,7 @@ from .layout import (
     CT_PERF_AT,
     CT_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands ct accepts (the code written to its command buffer).
 INIT = 1
@@ -43,6 +43,7 @@ class CtController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -57,7 +58,7 @@ class CtController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, CT_STATUS_AT
         )
         (
@@ -100,6 +101,7 @@ class CtController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -118,7 +120,7 @@ class CtController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, CT_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, CT_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_tail_request)
         last = perf_counter_ns() - self.cycle_start
@@ -144,6 +146,7 @@ class CtController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -151,6 +154,7 @@ class CtController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -158,10 +162,12 @@ class CtController:
         """POSITION_TAIL: Ask the operator to put the conveyor tail over the haulage; done when reported."""
         state = self.state
         if state == S0:
+            self.rule = 3  # POSITION_TAIL/S0/1
             self.state = S1
             self.world_tail_request = True
 
         elif state == S1 and self.world_tail_in_position:
+            self.rule = 4  # POSITION_TAIL/S1/1
             self.world_tail_request = False
             self.state = NOP
             self.status = DONE

@@ -8,7 +8,7 @@ from .layout import (
     CV_PERF_AT,
     CV_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands cv accepts (the code written to its command buffer).
 INIT = 1
@@ -42,6 +42,7 @@ class CvController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -55,7 +56,7 @@ class CvController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, CV_STATUS_AT
         )
         (
@@ -97,6 +98,7 @@ class CvController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -115,7 +117,7 @@ class CvController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, CV_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, CV_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_conveyor_on_cmd)
         last = perf_counter_ns() - self.cycle_start
@@ -141,6 +143,7 @@ class CvController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -148,6 +151,7 @@ class CvController:
         """HALT: Conveyor off."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.world_conveyor_on_cmd = False
             self.state = NOP
             self.status = DONE
@@ -156,6 +160,7 @@ class CvController:
         """ON: Conveyor on."""
         state = self.state
         if state == S0:
+            self.rule = 3  # ON/S0/1
             self.world_conveyor_on_cmd = True
             self.state = NOP
             self.status = DONE

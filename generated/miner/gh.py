@@ -8,7 +8,7 @@ from .layout import (
     GH_PERF_AT,
     GH_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands gh accepts (the code written to its command buffer).
 INIT = 1
@@ -43,6 +43,7 @@ class GhController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -57,7 +58,7 @@ class GhController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, GH_STATUS_AT
         )
         (
@@ -100,6 +101,7 @@ class GhController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -120,7 +122,7 @@ class GhController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, GH_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, GH_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(
             buf, WORLD_OUT_1_AT, self.world_pan_float_cmd, self.world_gather_on_cmd
@@ -148,6 +150,7 @@ class GhController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -155,6 +158,7 @@ class GhController:
         """HALT: Gathering head off."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.world_gather_on_cmd = False
             self.state = NOP
             self.status = DONE
@@ -163,6 +167,7 @@ class GhController:
         """FLOAT: Gathering pan to float on the floor."""
         state = self.state
         if state == S0:
+            self.rule = 3  # FLOAT/S0/1
             self.world_pan_float_cmd = True
             self.state = NOP
             self.status = DONE
@@ -171,6 +176,7 @@ class GhController:
         """ON: Gathering head on."""
         state = self.state
         if state == S0:
+            self.rule = 4  # ON/S0/1
             self.world_gather_on_cmd = True
             self.state = NOP
             self.status = DONE

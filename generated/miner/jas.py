@@ -8,7 +8,7 @@ from .layout import (
     JAS_PERF_AT,
     JAS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands jas accepts (the code written to its command buffer).
 INIT = 1
@@ -44,6 +44,7 @@ class JasController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -59,7 +60,7 @@ class JasController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, JAS_STATUS_AT
         )
         (
@@ -103,6 +104,7 @@ class JasController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -120,7 +122,7 @@ class JasController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, JAS_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, JAS_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_jack_down)
         last = perf_counter_ns() - self.cycle_start
@@ -155,6 +157,7 @@ class JasController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -162,5 +165,6 @@ class JasController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE

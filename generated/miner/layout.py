@@ -9,95 +9,95 @@ padding; each buffer starts on an 8-byte boundary. The block is 2352 bytes.
 | offset | size | buffer | fields |
 |-------:|-----:|--------|--------|
 | 0 | 20 | SB_COMMAND | command_num, command, arg_depth |
-| 24 | 20 | SB_STATUS | status_num, status, error_num, state |
+| 24 | 24 | SB_STATUS | status_num, status, error_num, state, rule |
 | 48 | 8 | SB_MODE | dont_run, single_step, simulate, single_step_num |
 | 56 | 36 | SB_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 96 | 12 | CO_COMMAND | command_num, command |
-| 112 | 20 | CO_STATUS | status_num, status, error_num, state |
+| 112 | 24 | CO_STATUS | status_num, status, error_num, state, rule |
 | 136 | 8 | CO_MODE | dont_run, single_step, simulate, single_step_num |
 | 144 | 36 | CO_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 184 | 12 | CC_COMMAND | command_num, command |
-| 200 | 20 | CC_STATUS | status_num, status, error_num, state |
+| 200 | 24 | CC_STATUS | status_num, status, error_num, state, rule |
 | 224 | 8 | CC_MODE | dont_run, single_step, simulate, single_step_num |
 | 232 | 36 | CC_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 272 | 12 | BM_COMMAND | command_num, command |
-| 288 | 20 | BM_STATUS | status_num, status, error_num, state |
+| 288 | 24 | BM_STATUS | status_num, status, error_num, state, rule |
 | 312 | 8 | BM_MODE | dont_run, single_step, simulate, single_step_num |
 | 320 | 36 | BM_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 360 | 12 | CD_COMMAND | command_num, command |
-| 376 | 20 | CD_STATUS | status_num, status, error_num, state |
+| 376 | 24 | CD_STATUS | status_num, status, error_num, state, rule |
 | 400 | 8 | CD_MODE | dont_run, single_step, simulate, single_step_num |
 | 408 | 36 | CD_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 448 | 12 | SJ_COMMAND | command_num, command |
-| 464 | 20 | SJ_STATUS | status_num, status, error_num, state |
+| 464 | 24 | SJ_STATUS | status_num, status, error_num, state, rule |
 | 488 | 8 | SJ_MODE | dont_run, single_step, simulate, single_step_num |
 | 496 | 36 | SJ_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 536 | 12 | CR_COMMAND | command_num, command |
-| 552 | 20 | CR_STATUS | status_num, status, error_num, state |
+| 552 | 24 | CR_STATUS | status_num, status, error_num, state, rule |
 | 576 | 8 | CR_MODE | dont_run, single_step, simulate, single_step_num |
 | 584 | 36 | CR_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 624 | 12 | GH_COMMAND | command_num, command |
-| 640 | 20 | GH_STATUS | status_num, status, error_num, state |
+| 640 | 24 | GH_STATUS | status_num, status, error_num, state, rule |
 | 664 | 8 | GH_MODE | dont_run, single_step, simulate, single_step_num |
 | 672 | 36 | GH_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 712 | 12 | CV_COMMAND | command_num, command |
-| 728 | 20 | CV_STATUS | status_num, status, error_num, state |
+| 728 | 24 | CV_STATUS | status_num, status, error_num, state, rule |
 | 752 | 8 | CV_MODE | dont_run, single_step, simulate, single_step_num |
 | 760 | 36 | CV_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 800 | 12 | CT_COMMAND | command_num, command |
-| 816 | 20 | CT_STATUS | status_num, status, error_num, state |
+| 816 | 24 | CT_STATUS | status_num, status, error_num, state, rule |
 | 840 | 8 | CT_MODE | dont_run, single_step, simulate, single_step_num |
 | 848 | 36 | CT_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 888 | 28 | VG_COMMAND | command_num, command, arg_x, arg_y |
-| 920 | 20 | VG_STATUS | status_num, status, error_num, state |
+| 920 | 24 | VG_STATUS | status_num, status, error_num, state, rule |
 | 944 | 8 | VG_MODE | dont_run, single_step, simulate, single_step_num |
 | 952 | 36 | VG_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 992 | 28 | PP_COMMAND | command_num, command, arg_x, arg_y |
-| 1024 | 20 | PP_STATUS | status_num, status, error_num, state |
+| 1024 | 24 | PP_STATUS | status_num, status, error_num, state, rule |
 | 1048 | 8 | PP_MODE | dont_run, single_step, simulate, single_step_num |
 | 1056 | 36 | PP_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1096 | 12 | TC_COMMAND | command_num, command |
-| 1112 | 20 | TC_STATUS | status_num, status, error_num, state |
+| 1112 | 24 | TC_STATUS | status_num, status, error_num, state, rule |
 | 1136 | 8 | TC_MODE | dont_run, single_step, simulate, single_step_num |
 | 1144 | 36 | TC_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1184 | 28 | OI_COMMAND | command_num, command, arg_x, arg_y |
-| 1216 | 20 | OI_STATUS | status_num, status, error_num, state |
+| 1216 | 24 | OI_STATUS | status_num, status, error_num, state, rule |
 | 1240 | 8 | OI_MODE | dont_run, single_step, simulate, single_step_num |
 | 1248 | 36 | OI_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1288 | 12 | BAS_COMMAND | command_num, command |
-| 1304 | 20 | BAS_STATUS | status_num, status, error_num, state |
+| 1304 | 24 | BAS_STATUS | status_num, status, error_num, state, rule |
 | 1328 | 8 | BAS_MODE | dont_run, single_step, simulate, single_step_num |
 | 1336 | 36 | BAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1376 | 12 | JAS_COMMAND | command_num, command |
-| 1392 | 20 | JAS_STATUS | status_num, status, error_num, state |
+| 1392 | 24 | JAS_STATUS | status_num, status, error_num, state, rule |
 | 1416 | 8 | JAS_MODE | dont_run, single_step, simulate, single_step_num |
 | 1424 | 36 | JAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1464 | 12 | TAS_COMMAND | command_num, command |
-| 1480 | 20 | TAS_STATUS | status_num, status, error_num, state |
+| 1480 | 24 | TAS_STATUS | status_num, status, error_num, state, rule |
 | 1504 | 8 | TAS_MODE | dont_run, single_step, simulate, single_step_num |
 | 1512 | 36 | TAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1552 | 12 | MINE_COMMAND | command_num, command |
-| 1568 | 20 | MINE_STATUS | status_num, status, error_num, state |
+| 1568 | 24 | MINE_STATUS | status_num, status, error_num, state, rule |
 | 1592 | 8 | MINE_MODE | dont_run, single_step, simulate, single_step_num |
 | 1600 | 36 | MINE_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1640 | 12 | DAS_COMMAND | command_num, command |
-| 1656 | 20 | DAS_STATUS | status_num, status, error_num, state |
+| 1656 | 24 | DAS_STATUS | status_num, status, error_num, state, rule |
 | 1680 | 8 | DAS_MODE | dont_run, single_step, simulate, single_step_num |
 | 1688 | 36 | DAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1728 | 12 | GAS_COMMAND | command_num, command |
-| 1744 | 20 | GAS_STATUS | status_num, status, error_num, state |
+| 1744 | 24 | GAS_STATUS | status_num, status, error_num, state, rule |
 | 1768 | 8 | GAS_MODE | dont_run, single_step, simulate, single_step_num |
 | 1776 | 36 | GAS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1816 | 12 | BSS_COMMAND | command_num, command |
-| 1832 | 20 | BSS_STATUS | status_num, status, error_num, state |
+| 1832 | 24 | BSS_STATUS | status_num, status, error_num, state, rule |
 | 1856 | 8 | BSS_MODE | dont_run, single_step, simulate, single_step_num |
 | 1864 | 36 | BSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1904 | 12 | PSS_COMMAND | command_num, command |
-| 1920 | 20 | PSS_STATUS | status_num, status, error_num, state |
+| 1920 | 24 | PSS_STATUS | status_num, status, error_num, state, rule |
 | 1944 | 8 | PSS_MODE | dont_run, single_step, simulate, single_step_num |
 | 1952 | 36 | PSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 1992 | 12 | CSS_COMMAND | command_num, command |
-| 2008 | 20 | CSS_STATUS | status_num, status, error_num, state |
+| 2008 | 24 | CSS_STATUS | status_num, status, error_num, state, rule |
 | 2032 | 8 | CSS_MODE | dont_run, single_step, simulate, single_step_num |
 | 2040 | 36 | CSS_PERF | last_cycle_ns, min_cycle_ns, max_cycle_ns, cycles, single_step_num |
 | 2080 | 1 | WORLD_TAIL_REQUEST | tail_request |
@@ -680,6 +680,174 @@ STATE_NAMES = {
     "pss": ("NOP", "S0"),
     "css": ("NOP", "S0"),
     "cr_sim": ("NOP", "S0"),
+}
+# The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
+RULES = {
+    "sb": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "TRAM_TO_GOAL/S0/1",
+        "TRAM_TO_GOAL/S1/1",
+        "TRAM_TO_GOAL/S1/2",
+        "BOX_CUT/S0/1",
+        "BOX_CUT/S1/1",
+        "BOX_CUT/S1/2",
+        "BOX_CUT/S2/1",
+        "BOX_CUT/S2/2",
+        "BOX_CUT/S2/3",
+        "BOX_CUT/S3/1",
+        "BOX_CUT/S3/2",
+        "BOX_CUT/HALTING/1",
+    ),
+    "co": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "INITIAL_APPROACH_FACE/S0/1",
+        "INITIAL_APPROACH_FACE/S1/1",
+        "INITIAL_APPROACH_FACE/S1/2",
+        "INITIAL_APPROACH_FACE/S2/1",
+        "INITIAL_APPROACH_FACE/S2/2",
+        "INITIAL_APPROACH_FACE/S3/1",
+        "INITIAL_APPROACH_FACE/S3/2",
+        "INITIAL_APPROACH_FACE/FAILED/1",
+        "TRAM_TO_GOAL/S0/1",
+        "TRAM_TO_GOAL/S1/1",
+        "TRAM_TO_GOAL/S1/2",
+        "APPROACH_FACE/S0/1",
+        "APPROACH_FACE/S1/1",
+        "APPROACH_FACE/S1/2",
+        "APPROACH_FACE/S2/1",
+        "APPROACH_FACE/S2/2",
+        "SUMP_SHEAR_CUSP/S0/1",
+        "SUMP_SHEAR_CUSP/S1/1",
+        "SUMP_SHEAR_CUSP/S2/1",
+        "SUMP_SHEAR_CUSP/S2/2",
+        "SUMP_SHEAR_CUSP/S2/3",
+        "SUMP_SHEAR_CUSP/S2/4",
+        "SUMP_SHEAR_CUSP/S3/1",
+        "SUMP_SHEAR_CUSP/S4/1",
+    ),
+    "cc": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "RAISE_DRUM/S0/1",
+        "RAISE_DRUM/S1/1",
+        "RAISE_DRUM/S1/2",
+        "SUMP/S0/1",
+        "SUMP/S1/1",
+        "SUMP/S1/2",
+        "SHEAR/S0/1",
+        "SHEAR/S1/1",
+        "SHEAR/S1/2",
+        "SHEAR/S2/1",
+        "SHEAR/S2/2",
+        "SHEAR_CORRECT/S0/1",
+        "SHEAR_CORRECT/S1/1",
+        "SHEAR_CORRECT/S1/2",
+        "CUSP/S0/1",
+        "CUSP/S1/1",
+        "CUSP/S1/2",
+    ),
+    "bm": ("", "INIT/S0/1", "HALT/S0/1", "RAISE/S0/1", "RAISE/S1/1", "LOWER/S0/1", "LOWER/S1/1"),
+    "cd": ("", "INIT/S0/1", "HALT/S0/1", "ON/S0/1", "OFF/S0/1"),
+    "sj": ("", "INIT/S0/1", "HALT/S0/1", "LOWER/S0/1", "LOWER/S1/1", "RAISE/S0/1", "RAISE/S1/1"),
+    "cr": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "SUMP/S0/1",
+        "SUMP/S1/1",
+        "SUMP/S1/2",
+        "SHEAR/S0/1",
+        "SHEAR/S1/1",
+        "SHEAR/S2/1",
+        "SHEAR/S2/2",
+        "CUSP/S0/1",
+        "CUSP/S1/1",
+        "CUSP/S1/2",
+        "CUSP/S2/1",
+        "CUSP/S2/2",
+    ),
+    "gh": ("", "INIT/S0/1", "HALT/S0/1", "FLOAT/S0/1", "ON/S0/1"),
+    "cv": ("", "INIT/S0/1", "HALT/S0/1", "ON/S0/1"),
+    "ct": ("", "INIT/S0/1", "HALT/S0/1", "POSITION_TAIL/S0/1", "POSITION_TAIL/S1/1"),
+    "vg": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "TRAM_TO_XY/S0/1",
+        "TRAM_TO_XY/S1/1",
+        "TRAM_TO_XY/S1/2",
+        "TRAM_TO_XY/S1/3",
+        "TRAM_TO_XY/S1/4",
+        "TRAM_TO_XY/INBY/1",
+        "TRAM_TO_XY/INBY/2",
+        "TRAM_TO_XY/OUTBY/1",
+        "TRAM_TO_XY/OUTBY/2",
+        "TRAM_TO_XY/STOPPING/1",
+        "TRAM_TO_XY/STOPPING/2",
+    ),
+    "pp": ("", "INIT/S0/1", "HALT/S0/1", "PLAN/S0/1", "PLAN/S0/2", "PLAN/S0/3"),
+    "tc": (
+        "",
+        "INIT/S0/1",
+        "HALT/S0/1",
+        "SLOW_FORWARD/S0/1",
+        "SLOW_FORWARD/MOVING/1",
+        "SLOW_FORWARD/MOVING/2",
+        "FAST_FORWARD/S0/1",
+        "FAST_FORWARD/MOVING/1",
+        "FAST_FORWARD/MOVING/2",
+        "SLOW_REVERSE/S0/1",
+        "SLOW_REVERSE/MOVING/1",
+        "SLOW_REVERSE/MOVING/2",
+        "FAST_REVERSE/S0/1",
+        "FAST_REVERSE/MOVING/1",
+        "FAST_REVERSE/MOVING/2",
+        "PIVOT_LEFT/S0/1",
+        "PIVOT_LEFT/MOVING/1",
+        "PIVOT_LEFT/MOVING/2",
+        "PIVOT_RIGHT/S0/1",
+        "PIVOT_RIGHT/MOVING/1",
+        "PIVOT_RIGHT/MOVING/2",
+        "TURN_LEFT_FORWARD/S0/1",
+        "TURN_LEFT_FORWARD/MOVING/1",
+        "TURN_LEFT_FORWARD/MOVING/2",
+        "TURN_RIGHT_FORWARD/S0/1",
+        "TURN_RIGHT_FORWARD/MOVING/1",
+        "TURN_RIGHT_FORWARD/MOVING/2",
+        "TURN_LEFT_REVERSE/S0/1",
+        "TURN_LEFT_REVERSE/MOVING/1",
+        "TURN_LEFT_REVERSE/MOVING/2",
+        "TURN_RIGHT_REVERSE/S0/1",
+        "TURN_RIGHT_REVERSE/MOVING/1",
+        "TURN_RIGHT_REVERSE/MOVING/2",
+        "STOP/S0/1",
+    ),
+    "oi": ("", "INIT/S0/1", "HALT/S0/1", "ENTER_GOAL/S0/1"),
+    "bas": ("", "INIT/S0/1", "HALT/S0/1"),
+    "jas": ("", "INIT/S0/1", "HALT/S0/1"),
+    "tas": ("", "INIT/S0/1", "HALT/S0/1"),
+    "mine": ("", "INIT/S0/1", "HALT/S0/1"),
+    "das": ("", "INIT/S0/1", "HALT/S0/1"),
+    "gas": ("", "INIT/S0/1", "HALT/S0/1"),
+    "bss": ("", "INIT/S0/1", "HALT/S0/1"),
+    "pss": ("", "INIT/S0/1", "HALT/S0/1"),
+    "css": ("", "INIT/S0/1", "HALT/S0/1"),
+    "cr_sim": ("", "INIT/S0/1", "HALT/S0/1", "SUMP/S0/1", "SHEAR/S0/1", "CUSP/S0/1"),
 }
 SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css")
 

@@ -10,7 +10,7 @@ from .layout import (
     MINE_PERF_AT,
     MINE_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands mine accepts (the code written to its command buffer).
 INIT = 1
@@ -44,6 +44,7 @@ class MineController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -66,7 +67,7 @@ class MineController:
         self.cycle_start = 0
         self.hook_state = hooks.new_mine(settings or {})
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, MINE_STATUS_AT
         )
         (
@@ -116,6 +117,7 @@ class MineController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -133,7 +135,7 @@ class MineController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, MINE_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, MINE_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(
             buf,
@@ -177,6 +179,7 @@ class MineController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -184,5 +187,6 @@ class MineController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE

@@ -8,7 +8,7 @@ from .layout import (
     OI_PERF_AT,
     OI_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands oi accepts (the code written to its command buffer).
 INIT = 1
@@ -47,6 +47,7 @@ class OiController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -65,7 +66,7 @@ class OiController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, OI_STATUS_AT
         )
         (
@@ -114,6 +115,7 @@ class OiController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -133,7 +135,7 @@ class OiController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, OI_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, OI_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_tail_in_position)
         WORLD_OUT_2.pack_into(
@@ -175,6 +177,7 @@ class OiController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -182,6 +185,7 @@ class OiController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -189,6 +193,7 @@ class OiController:
         """ENTER_GOAL: The operator enters a goal point for the machine (free-space tramming)."""
         state = self.state
         if state == S0:
+            self.rule = 3  # ENTER_GOAL/S0/1
             self.world_operator_goal_x = self.arg_x
             self.world_operator_goal_y = self.arg_y
             self.state = NOP

@@ -8,7 +8,7 @@ from .layout import (
     PP_PERF_AT,
     PP_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands pp accepts (the code written to its command buffer).
 INIT = 1
@@ -47,6 +47,7 @@ class PpController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -61,7 +62,7 @@ class PpController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, PP_STATUS_AT
         )
         (
@@ -106,6 +107,7 @@ class PpController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -124,7 +126,7 @@ class PpController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, PP_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, PP_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_tram_dir)
         last = perf_counter_ns() - self.cycle_start
@@ -150,6 +152,7 @@ class PpController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -157,6 +160,7 @@ class PpController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -165,11 +169,13 @@ class PpController:
         state = self.state
         if state == S0:
             if self.arg_x > self.world_pose_x + ARRIVED:
+                self.rule = 3  # PLAN/S0/1
                 self.world_tram_dir = 1
                 self.state = NOP
                 self.status = DONE
 
             elif self.arg_x < self.world_pose_x - ARRIVED:
+                self.rule = 4  # PLAN/S0/2
                 self.world_tram_dir = -1
                 self.state = NOP
                 self.status = DONE
@@ -178,6 +184,7 @@ class PpController:
                 self.arg_x >= self.world_pose_x - ARRIVED
                 and self.arg_x <= self.world_pose_x + ARRIVED
             ):
+                self.rule = 5  # PLAN/S0/3
                 self.world_tram_dir = 0
                 self.state = NOP
                 self.status = DONE

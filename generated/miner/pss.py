@@ -10,7 +10,7 @@ from .layout import (
     PSS_PERF_AT,
     PSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands pss accepts (the code written to its command buffer).
 INIT = 1
@@ -48,6 +48,7 @@ class PssController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -67,7 +68,7 @@ class PssController:
         self.cycle_start = 0
         self.hook_state = hooks.new_noise(settings or {})
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, PSS_STATUS_AT
         )
         (
@@ -114,6 +115,7 @@ class PssController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -131,7 +133,7 @@ class PssController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, PSS_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, PSS_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(
             buf, WORLD_OUT_1_AT, self.world_pose_x, self.world_pose_y, self.world_heading
@@ -170,6 +172,7 @@ class PssController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -177,5 +180,6 @@ class PssController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE

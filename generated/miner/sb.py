@@ -10,7 +10,7 @@ from .layout import (
     SB_PERF_AT,
     SB_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands sb accepts (the code written to its command buffer).
 INIT = 1
@@ -62,6 +62,7 @@ class SbController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -75,7 +76,7 @@ class SbController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, SB_STATUS_AT
         )
         (
@@ -123,6 +124,7 @@ class SbController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -143,7 +145,7 @@ class SbController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, SB_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, SB_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         CO_COMMAND.pack_into(buf, CO_COMMAND_AT, self.co_command_num, self.co_command)
         last = perf_counter_ns() - self.cycle_start
@@ -170,12 +172,14 @@ class SbController:
         state = self.state
         if state == S0:
             # send INIT to every subordinate
+            self.rule = 1  # INIT/S0/1
             self.state = S1
             self.co_command = CO_INIT
             self.co_command_num += 1
 
         elif state == S1 and self.co_status == DONE:
             # every subordinate is done
+            self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -184,12 +188,14 @@ class SbController:
         state = self.state
         if state == S0:
             # send HALT to every subordinate
+            self.rule = 3  # HALT/S0/1
             self.state = S1
             self.co_command = CO_HALT
             self.co_command_num += 1
 
         elif state == S1 and self.co_status == DONE:
             # every subordinate is done
+            self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -197,16 +203,19 @@ class SbController:
         """TRAM_TO_GOAL: Tram the machine in free space to the goal point the operator entered."""
         state = self.state
         if state == S0:
+            self.rule = 5  # TRAM_TO_GOAL/S0/1
             self.state = S1
             self.co_command = CO_TRAM_TO_GOAL
             self.co_command_num += 1
 
         elif state == S1:
             if self.co_status == DONE:
+                self.rule = 6  # TRAM_TO_GOAL/S1/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.co_status == ERROR:
+                self.rule = 7  # TRAM_TO_GOAL/S1/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -214,6 +223,7 @@ class SbController:
         """BOX_CUT: Approach the face, then sump-shear-cusp, approach the face again and repeat until the face has been cut back by `depth`."""
         state = self.state
         if state == S0:
+            self.rule = 8  # BOX_CUT/S0/1
             self.state = S1
             self.co_command = CO_INITIAL_APPROACH_FACE
             self.co_command_num += 1
@@ -221,11 +231,13 @@ class SbController:
         elif state == S1:
             if self.co_status == DONE:
                 # at the face; cut the first slice
+                self.rule = 9  # BOX_CUT/S1/1
                 self.state = S2
                 self.co_command = CO_SUMP_SHEAR_CUSP
                 self.co_command_num += 1
 
             elif self.co_status == ERROR:
+                self.rule = 10  # BOX_CUT/S1/2
                 self.state = HALTING
                 self.co_command = CO_HALT
                 self.co_command_num += 1
@@ -233,32 +245,38 @@ class SbController:
         elif state == S2:
             if self.co_status == DONE and self.world_depth_cut >= self.arg_depth - DEPTH_TOLERANCE:
                 # the depth is reached
+                self.rule = 11  # BOX_CUT/S2/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.co_status == DONE and self.world_depth_cut < self.arg_depth - DEPTH_TOLERANCE:
                 # not deep enough yet; back to the face
+                self.rule = 12  # BOX_CUT/S2/2
                 self.state = S3
                 self.co_command = CO_APPROACH_FACE
                 self.co_command_num += 1
 
             elif self.co_status == ERROR:
+                self.rule = 13  # BOX_CUT/S2/3
                 self.state = HALTING
                 self.co_command = CO_HALT
                 self.co_command_num += 1
 
         elif state == S3:
             if self.co_status == DONE:
+                self.rule = 14  # BOX_CUT/S3/1
                 self.state = S2
                 self.co_command = CO_SUMP_SHEAR_CUSP
                 self.co_command_num += 1
 
             elif self.co_status == ERROR:
+                self.rule = 15  # BOX_CUT/S3/2
                 self.state = HALTING
                 self.co_command = CO_HALT
                 self.co_command_num += 1
 
         elif state == HALTING and (self.co_status == DONE or self.co_status == ERROR):
             # the machine is stopped; tell the operator the box cut failed
+            self.rule = 16  # BOX_CUT/HALTING/1
             self.state = NOP
             self.status = ERROR

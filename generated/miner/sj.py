@@ -8,7 +8,7 @@ from .layout import (
     SJ_PERF_AT,
     SJ_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands sj accepts (the code written to its command buffer).
 INIT = 1
@@ -44,6 +44,7 @@ class SjController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -58,7 +59,7 @@ class SjController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, SJ_STATUS_AT
         )
         (
@@ -101,6 +102,7 @@ class SjController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -121,7 +123,7 @@ class SjController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, SJ_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, SJ_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_jack_down_cmd)
         last = perf_counter_ns() - self.cycle_start
@@ -147,6 +149,7 @@ class SjController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -154,6 +157,7 @@ class SjController:
         """HALT: Halt all actions."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -161,10 +165,12 @@ class SjController:
         """LOWER: Jack down against the floor."""
         state = self.state
         if state == S0:
+            self.rule = 3  # LOWER/S0/1
             self.state = S1
             self.world_jack_down_cmd = True
 
         elif state == S1 and self.world_jack_down:
+            self.rule = 4  # LOWER/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -172,9 +178,11 @@ class SjController:
         """RAISE: Jack up."""
         state = self.state
         if state == S0:
+            self.rule = 5  # RAISE/S0/1
             self.state = S1
             self.world_jack_down_cmd = False
 
         elif state == S1 and not self.world_jack_down:
+            self.rule = 6  # RAISE/S1/1
             self.state = NOP
             self.status = DONE

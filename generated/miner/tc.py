@@ -8,7 +8,7 @@ from .layout import (
     TC_PERF_AT,
     TC_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands tc accepts (the code written to its command buffer).
 INIT = 1
@@ -56,6 +56,7 @@ class TcController:
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_single_step_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -71,7 +72,7 @@ class TcController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, TC_STATUS_AT
         )
         (
@@ -115,6 +116,7 @@ class TcController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -153,7 +155,7 @@ class TcController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, TC_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, TC_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         WORLD_OUT_1.pack_into(
             buf, WORLD_OUT_1_AT, self.world_left_tread_cmd, self.world_right_tread_cmd
@@ -181,6 +183,7 @@ class TcController:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            self.rule = 1  # INIT/S0/1
             self.state = NOP
             self.status = DONE
 
@@ -188,6 +191,7 @@ class TcController:
         """HALT: Stop both treads."""
         state = self.state
         if state == S0:
+            self.rule = 2  # HALT/S0/1
             self.world_left_tread_cmd = 0
             self.world_right_tread_cmd = 0
             self.state = NOP
@@ -197,6 +201,7 @@ class TcController:
         """SLOW_FORWARD: Both treads slow forward."""
         state = self.state
         if state == S0:
+            self.rule = 3  # SLOW_FORWARD/S0/1
             self.state = MOVING
             self.world_left_tread_cmd = 1
             self.world_right_tread_cmd = 1
@@ -205,18 +210,21 @@ class TcController:
         elif state == MOVING:
             if self.var_ticks >= TRAM_TIMEOUT:
                 # safety time-out
+                self.rule = 4  # SLOW_FORWARD/MOVING/1
                 self.world_left_tread_cmd = 0
                 self.world_right_tread_cmd = 0
                 self.state = NOP
                 self.status = ERROR
 
             elif self.var_ticks < TRAM_TIMEOUT:
+                self.rule = 5  # SLOW_FORWARD/MOVING/2
                 self.var_ticks = self.var_ticks + 1
 
     def fast_forward(self) -> None:
         """FAST_FORWARD: Both treads fast forward."""
         state = self.state
         if state == S0:
+            self.rule = 6  # FAST_FORWARD/S0/1
             self.state = MOVING
             self.world_left_tread_cmd = 3
             self.world_right_tread_cmd = 3
@@ -225,18 +233,21 @@ class TcController:
         elif state == MOVING:
             if self.var_ticks >= TRAM_TIMEOUT:
                 # safety time-out
+                self.rule = 7  # FAST_FORWARD/MOVING/1
                 self.world_left_tread_cmd = 0
                 self.world_right_tread_cmd = 0
                 self.state = NOP
                 self.status = ERROR
 
             elif self.var_ticks < TRAM_TIMEOUT:
+                self.rule = 8  # FAST_FORWARD/MOVING/2
                 self.var_ticks = self.var_ticks + 1
 
     def slow_reverse(self) -> None:
         """SLOW_REVERSE: Both treads slow in reverse."""
         state = self.state
         if state == S0:
+            self.rule = 9  # SLOW_REVERSE/S0/1
             self.state = MOVING
             self.world_left_tread_cmd = -1
             self.world_right_tread_cmd = -1
@@ -245,18 +256,21 @@ class TcController:
         elif state == MOVING:
             if self.var_ticks >= TRAM_TIMEOUT:
                 # safety time-out
+                self.rule = 10  # SLOW_REVERSE/MOVING/1
                 self.world_left_tread_cmd = 0
                 self.world_right_tread_cmd = 0
                 self.state = NOP
                 self.status = ERROR
 
             elif self.var_ticks < TRAM_TIMEOUT:
+                self.rule = 11  # SLOW_REVERSE/MOVING/2
                 self.var_ticks = self.var_ticks + 1
 
     def fast_reverse(self) -> None:
         """FAST_REVERSE: Both treads fast in reverse."""
         state = self.state
         if state == S0:
+            self.rule = 12  # FAST_REVERSE/S0/1
             self.state = MOVING
             self.world_left_tread_cmd = -3
             self.world_right_tread_cmd = -3
@@ -265,18 +279,21 @@ class TcController:
         elif state == MOVING:
             if self.var_ticks >= TRAM_TIMEOUT:
                 # safety time-out
+                self.rule = 13  # FAST_REVERSE/MOVING/1
                 self.world_left_tread_cmd = 0
                 self.world_right_tread_cmd = 0
                 self.state = NOP
                 self.status = ERROR
 
             elif self.var_ticks < TRAM_TIMEOUT:
+                self.rule = 14  # FAST_REVERSE/MOVING/2
                 self.var_ticks = self.var_ticks + 1
 
     def pivot_left(self) -> None:
         """PIVOT_LEFT: Treads in opposite directions, turning left on the spot."""
         state = self.state
         if state == S0:
+            self.rule = 15  # PIVOT_LEFT/S0/1
             self.state = MOVING
             self.world_left_tread_cmd = -1
             self.world_right_tread_cmd = 1
@@ -285,18 +302,21 @@ class TcController:
         elif state == MOVING:
             if self.var_ticks >= TRAM_TIMEOUT:
                 # safety time-out
+                self.rule = 16  # PIVOT_LEFT/MOVING/1
                 self.world_left_tread_cmd = 0
                 self.world_right_tread_cmd = 0
                 self.state = NOP
                 self.status = ERROR
 
             elif self.var_ticks < TRAM_TIMEOUT:
+                self.rule = 17  # PIVOT_LEFT/MOVING/2
                 self.var_ticks = self.var_ticks + 1
 
     def pivot_right(self) -> None:
         """PIVOT_RIGHT: Treads in opposite directions, turning right on the spot."""
         state = self.state
         if state == S0:
+            self.rule = 18  # PIVOT_RIGHT/S0/1
             self.state = MOVING
             self.world_left_tread_cmd = 1
             self.world_right_tread_cmd = -1
@@ -305,18 +325,21 @@ class TcController:
         elif state == MOVING:
             if self.var_ticks >= TRAM_TIMEOUT:
                 # safety time-out
+                self.rule = 19  # PIVOT_RIGHT/MOVING/1
                 self.world_left_tread_cmd = 0
                 self.world_right_tread_cmd = 0
                 self.state = NOP
                 self.status = ERROR
 
             elif self.var_ticks < TRAM_TIMEOUT:
+                self.rule = 20  # PIVOT_RIGHT/MOVING/2
                 self.var_ticks = self.var_ticks + 1
 
     def turn_left_forward(self) -> None:
         """TURN_LEFT_FORWARD: Right tread forward only."""
         state = self.state
         if state == S0:
+            self.rule = 21  # TURN_LEFT_FORWARD/S0/1
             self.state = MOVING
             self.world_left_tread_cmd = 0
             self.world_right_tread_cmd = 1
@@ -325,18 +348,21 @@ class TcController:
         elif state == MOVING:
             if self.var_ticks >= TRAM_TIMEOUT:
                 # safety time-out
+                self.rule = 22  # TURN_LEFT_FORWARD/MOVING/1
                 self.world_left_tread_cmd = 0
                 self.world_right_tread_cmd = 0
                 self.state = NOP
                 self.status = ERROR
 
             elif self.var_ticks < TRAM_TIMEOUT:
+                self.rule = 23  # TURN_LEFT_FORWARD/MOVING/2
                 self.var_ticks = self.var_ticks + 1
 
     def turn_right_forward(self) -> None:
         """TURN_RIGHT_FORWARD: Left tread forward only."""
         state = self.state
         if state == S0:
+            self.rule = 24  # TURN_RIGHT_FORWARD/S0/1
             self.state = MOVING
             self.world_left_tread_cmd = 1
             self.world_right_tread_cmd = 0
@@ -345,18 +371,21 @@ class TcController:
         elif state == MOVING:
             if self.var_ticks >= TRAM_TIMEOUT:
                 # safety time-out
+                self.rule = 25  # TURN_RIGHT_FORWARD/MOVING/1
                 self.world_left_tread_cmd = 0
                 self.world_right_tread_cmd = 0
                 self.state = NOP
                 self.status = ERROR
 
             elif self.var_ticks < TRAM_TIMEOUT:
+                self.rule = 26  # TURN_RIGHT_FORWARD/MOVING/2
                 self.var_ticks = self.var_ticks + 1
 
     def turn_left_reverse(self) -> None:
         """TURN_LEFT_REVERSE: Right tread in reverse only."""
         state = self.state
         if state == S0:
+            self.rule = 27  # TURN_LEFT_REVERSE/S0/1
             self.state = MOVING
             self.world_left_tread_cmd = 0
             self.world_right_tread_cmd = -1
@@ -365,18 +394,21 @@ class TcController:
         elif state == MOVING:
             if self.var_ticks >= TRAM_TIMEOUT:
                 # safety time-out
+                self.rule = 28  # TURN_LEFT_REVERSE/MOVING/1
                 self.world_left_tread_cmd = 0
                 self.world_right_tread_cmd = 0
                 self.state = NOP
                 self.status = ERROR
 
             elif self.var_ticks < TRAM_TIMEOUT:
+                self.rule = 29  # TURN_LEFT_REVERSE/MOVING/2
                 self.var_ticks = self.var_ticks + 1
 
     def turn_right_reverse(self) -> None:
         """TURN_RIGHT_REVERSE: Left tread in reverse only."""
         state = self.state
         if state == S0:
+            self.rule = 30  # TURN_RIGHT_REVERSE/S0/1
             self.state = MOVING
             self.world_left_tread_cmd = -1
             self.world_right_tread_cmd = 0
@@ -385,18 +417,21 @@ class TcController:
         elif state == MOVING:
             if self.var_ticks >= TRAM_TIMEOUT:
                 # safety time-out
+                self.rule = 31  # TURN_RIGHT_REVERSE/MOVING/1
                 self.world_left_tread_cmd = 0
                 self.world_right_tread_cmd = 0
                 self.state = NOP
                 self.status = ERROR
 
             elif self.var_ticks < TRAM_TIMEOUT:
+                self.rule = 32  # TURN_RIGHT_REVERSE/MOVING/2
                 self.var_ticks = self.var_ticks + 1
 
     def stop(self) -> None:
         """STOP: Stop both treads."""
         state = self.state
         if state == S0:
+            self.rule = 33  # STOP/S0/1
             self.world_left_tread_cmd = 0
             self.world_right_tread_cmd = 0
             self.state = NOP

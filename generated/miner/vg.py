@@ -12,7 +12,7 @@ from .layout import (
     VG_PERF_AT,
     VG_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
 
 # Commands vg accepts (the code written to its command buffer).
 INIT = 1
@@ -78,6 +78,7 @@ class VgController:
         "pp_command_num",
         "pp_status",
         "pp_status_num",
+        "rule",
         "simulate",
         "single_step",
         "single_step_num",
@@ -96,7 +97,7 @@ class VgController:
         self.buf = buf
         self.cycle_start = 0
         # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state = STATUS.unpack_from(
+        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, VG_STATUS_AT
         )
         (
@@ -153,6 +154,7 @@ class VgController:
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
+        self.rule = NO_RULE
         if self.dont_run:
             return
         if self.single_step:
@@ -171,7 +173,7 @@ class VgController:
         """Write the status, the subordinates' commands, the world out and the cycle time."""
         buf = self.buf
         STATUS.pack_into(
-            buf, VG_STATUS_AT, self.status_num, self.status, self.error_num, self.state
+            buf, VG_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
         )
         PP_COMMAND.pack_into(
             buf, PP_COMMAND_AT, self.pp_command_num, self.pp_command, self.pp_arg_x, self.pp_arg_y
@@ -201,6 +203,7 @@ class VgController:
         state = self.state
         if state == S0:
             # send INIT to every subordinate
+            self.rule = 1  # INIT/S0/1
             self.state = S1
             self.pp_command = PP_INIT
             self.pp_command_num += 1
@@ -209,6 +212,7 @@ class VgController:
 
         elif state == S1 and self.pp_status == DONE and self.tc_status == DONE:
             # every subordinate is done
+            self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -217,6 +221,7 @@ class VgController:
         state = self.state
         if state == S0:
             # send HALT to every subordinate
+            self.rule = 3  # HALT/S0/1
             self.state = S1
             self.pp_command = PP_HALT
             self.pp_command_num += 1
@@ -225,6 +230,7 @@ class VgController:
 
         elif state == S1 and self.pp_status == DONE and self.tc_status == DONE:
             # every subordinate is done
+            self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -232,6 +238,7 @@ class VgController:
         """TRAM_TO_XY: Tram the machine to the goal point (x, y)."""
         state = self.state
         if state == S0:
+            self.rule = 5  # TRAM_TO_XY/S0/1
             self.state = S1
             self.pp_arg_x = self.arg_x
             self.pp_arg_y = self.arg_y
@@ -240,48 +247,58 @@ class VgController:
 
         elif state == S1:
             if self.pp_status == DONE and self.world_tram_dir > 0:
+                self.rule = 6  # TRAM_TO_XY/S1/1
                 self.state = INBY
                 self.tc_command = TC_SLOW_FORWARD
                 self.tc_command_num += 1
 
             elif self.pp_status == DONE and self.world_tram_dir < 0:
+                self.rule = 7  # TRAM_TO_XY/S1/2
                 self.state = OUTBY
                 self.tc_command = TC_SLOW_REVERSE
                 self.tc_command_num += 1
 
             elif self.pp_status == DONE and self.world_tram_dir == 0:
+                self.rule = 8  # TRAM_TO_XY/S1/3
                 self.state = NOP
                 self.status = DONE
 
             elif self.pp_status == ERROR:
+                self.rule = 9  # TRAM_TO_XY/S1/4
                 self.state = NOP
                 self.status = ERROR
 
         elif state == INBY:
             if self.tc_status == EXECUTING and self.world_pose_x >= self.arg_x - ARRIVED:
+                self.rule = 10  # TRAM_TO_XY/INBY/1
                 self.state = STOPPING
                 self.tc_command = TC_STOP
                 self.tc_command_num += 1
 
             elif self.tc_status == ERROR:
+                self.rule = 11  # TRAM_TO_XY/INBY/2
                 self.state = NOP
                 self.status = ERROR
 
         elif state == OUTBY:
             if self.tc_status == EXECUTING and self.world_pose_x <= self.arg_x + ARRIVED:
+                self.rule = 12  # TRAM_TO_XY/OUTBY/1
                 self.state = STOPPING
                 self.tc_command = TC_STOP
                 self.tc_command_num += 1
 
             elif self.tc_status == ERROR:
+                self.rule = 13  # TRAM_TO_XY/OUTBY/2
                 self.state = NOP
                 self.status = ERROR
 
         elif state == STOPPING:
             if self.tc_status == DONE:
+                self.rule = 14  # TRAM_TO_XY/STOPPING/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.tc_status == ERROR:
+                self.rule = 15  # TRAM_TO_XY/STOPPING/2
                 self.state = NOP
                 self.status = ERROR

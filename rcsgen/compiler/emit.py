@@ -201,7 +201,7 @@ def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, ob
         "world_outputs": _world_outputs(c, system.layout),
         "system": system,
         "class_name": naming.class_name(c.name),
-        "imports": sorted(imports),
+        "imports": sorted(imports, key=naming.import_order),
         "rcs_imports": c.runtime_names,
         "slots": sorted(s.removeprefix("self.") for s in slots),
         "command_targets": command_targets,

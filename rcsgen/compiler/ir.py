@@ -161,6 +161,7 @@ class IRRule:
     guard_operand: str | None  # the guard as an operand of `and`: `state == S1 and <guard>`
     actions: tuple[IRAction, ...]
     next_state: str | None  # None: stay (NOP after a report)
+    code: int = 0  # what the status buffer's `rule` shows when it fires; 0: not recorded
 
 
 @dataclass(frozen=True)
@@ -222,13 +223,15 @@ class IRController:
     buffers: str  # whose command/status buffers it uses: itself, or the replaced one
     runtime_names: tuple[str, ...]  # what the module imports from the runtime contract
 
+    def table_rules(self) -> list[IRRule]:
+        """Every rule of the state tables, in code order (code = index + 1)."""
+        return [
+            rule for command in self.commands for state in command.states for rule in state.rules
+        ]
+
     def rules(self) -> list[IRRule]:
         """Every rule: every_cycle first, then each table's, state by state."""
-        found = list(self.every_cycle)
-        for command in self.commands:
-            for state in command.states:
-                found += state.rules
-        return found
+        return [*self.every_cycle, *self.table_rules()]
 
 
 @dataclass(frozen=True)

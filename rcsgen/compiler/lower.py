@@ -35,7 +35,7 @@ from .tables import (
 )
 
 # What every controller module imports from the runtime contract, whatever its tables say.
-ALWAYS_IMPORTED = ("EXECUTING", "PERF", "STATUS")
+ALWAYS_IMPORTED = ("EXECUTING", "NO_RULE", "PERF", "STATUS")
 
 
 def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSystem:
@@ -76,6 +76,7 @@ class _ControllerLowering:
         states = [ENTRY_STATE]
         for command in c.commands.values():
             states += [s for s in command.states if s not in states]
+        self.next_code = 1  # table rules are numbered in order, from 1
         commands = tuple(self.command(command) for command in c.commands.values())
         every_cycle = tuple(self.rule(rule) for rule in c.every_cycle)
         predicates = tuple(
@@ -131,7 +132,7 @@ class _ControllerLowering:
             method=naming.command_method(command.name),
             params=tuple(ir.IRParam(p.name, p.type, p.doc) for p in source.params.values()),
             states=tuple(
-                ir.IRState(s.name, s.span, tuple(self.rule(r) for r in s.rules))
+                ir.IRState(s.name, s.span, tuple(self.rule(r, self.code()) for r in s.rules))
                 for s in command.states.values()
             ),
             generated=command.generated,
@@ -139,7 +140,11 @@ class _ControllerLowering:
             first_match=tuple(item.value for item in source.first_match),
         )
 
-    def rule(self, rule: CheckedRule) -> ir.IRRule:
+    def code(self) -> int:
+        self.next_code += 1
+        return self.next_code - 1
+
+    def rule(self, rule: CheckedRule, code: int = 0) -> ir.IRRule:
         guard = operand = None
         if not rule.unconditional and rule.guard is not None:
             text = rule.guard_text or ""
@@ -153,6 +158,7 @@ class _ControllerLowering:
             guard_operand=operand,
             actions=tuple(self.action(a) for a in rule.actions),
             next_state=rule.next_state,
+            code=code,
         )
 
     def action(self, action: Action) -> ir.IRAction:
@@ -211,7 +217,7 @@ def _runtime_names(
                 trees += list(action.args)
     for tree in trees:
         used |= {ref.name for ref in expr.refs(tree) if ref.kind == "status"}
-    return tuple(sorted(used))
+    return tuple(sorted(used, key=naming.import_order))
 
 
 def _param_slots(commands: Iterable[Command]) -> tuple[ir.IRParam, ...]:

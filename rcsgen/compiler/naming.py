@@ -110,6 +110,7 @@ LAYOUT_NAMES = frozenset(
         "STATE_NAMES",
         "STATUS_NAMES",
         "SIMULATORS",
+        "RULES",
         "initialise",
     }
 )
@@ -179,6 +180,11 @@ def target_attribute(target: str) -> str:
     if target.startswith("world."):
         return f"self.world_{target.removeprefix('world.')}"
     return f"self.var_{target}"
+
+
+def import_order(name: str) -> str:
+    """The key ruff's isort sorts imported names by (case-insensitively: `C_AT` < `CC_AT`)."""
+    return name.lower()
 
 
 def is_keyword(name: str) -> bool:

@@ -49,6 +49,7 @@ class Status:
     number: int
     state: str
     error_num: int
+    rule: str | None = None  # the table rule that fired in the module's last cycle
 
 
 def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleType:
@@ -213,11 +214,13 @@ class Harness:
 
     def status(self, module: str) -> Status:
         values = self.layout.STATUS_OUT[module].read(self.buf)
+        runs = self._states_of.get(module, module)  # a stand-in's names, while it runs
         return Status(
             self.contract.STATUS_NAMES[values["status"]],
             values["status_num"],
-            self.layout.STATE_NAMES[self._states_of.get(module, module)][values["state"]],
+            self.layout.STATE_NAMES[runs][values["state"]],
             values["error_num"],
+            self.layout.RULES[runs][values["rule"]] or None,
         )
 
     def set_mode(self, module: str, **mode: Any) -> None:

@@ -155,6 +155,7 @@ def trace_line(harness: Harness, world: list[str]) -> str:
             "status": status.status,
             "status_num": status.number,
             "state": status.state,
+            "rule": status.rule,
         }
     line = {"cycle": harness.cycles, "modules": modules, "world": harness.world.snapshot(world)}
     return json.dumps(line, sort_keys=True, separators=(",", ":"))

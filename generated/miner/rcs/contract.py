@@ -30,7 +30,16 @@ BUILTIN_COMMANDS = ("INIT", "HALT")
 # Buffers every module has, in the same shape: (field, struct code). A command buffer is
 # its head followed by one `arg_<name>` field per parameter of the module's commands.
 COMMAND_HEAD_FIELDS = (("command_num", "Q"), ("command", "I"))
-STATUS_FIELDS = (("status_num", "Q"), ("status", "I"), ("error_num", "I"), ("state", "i"))
+# `rule` is the code of the table rule that fired in the module's last cycle (0: none); the
+# layout's RULES names each code (`SUMP_SHEAR_CUSP/S2/3`), for monitors, traces and coverage.
+STATUS_FIELDS = (
+    ("status_num", "Q"),
+    ("status", "I"),
+    ("error_num", "I"),
+    ("state", "i"),
+    ("rule", "i"),
+)
+NO_RULE = 0
 MODE_FIELDS = (
     ("dont_run", "?"),
     ("single_step", "?"),
