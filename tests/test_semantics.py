@@ -528,14 +528,20 @@ def test_overridden_halt_adds_its_cycle_to_the_chain(chain_command_first):
 # ---------------------------------------------------------------- deliberate differences from C
 
 
-def test_subordinate_commands_are_kept_locally_by_the_supervisor(h):
-    """The supervisor is a command buffer's only writer: another write is overwritten next cycle."""
+def test_the_supervisor_writes_a_command_buffer_when_it_sends(h):
+    """A supervisor writes its subordinate's command buffer when it sends; an outside write
+    (an operator's) stays until then, and the supervisor's next command is numbered after it,
+    so the subordinate sees it as new."""
     h.command("co", "INIT")
     h.step("co")
-    h.command("cc", "SUMP")  # an outside write: number 2
-    assert (h.sent("cc").command, h.sent("cc").number) == ("SUMP", 2)
-    h.step("co")
     assert (h.sent("cc").command, h.sent("cc").number) == ("INIT", 1)
+    h.command("cc", "SUMP")  # an outside write: number 2
+    h.step("co")  # co waits for INIT's DONE: it sends nothing
+    assert (h.sent("cc").command, h.sent("cc").number) == ("SUMP", 2)
+    h.command("co", "HALT")
+    h.step("co")  # HALT S0 sends HALT to every subordinate
+    assert (h.sent("cc").command, h.sent("cc").number) == ("HALT", 3)
+    assert h.controller("co").cc_command_num == 3
 
 
 def test_a_restarted_controller_resumes_its_handshake_from_the_block(h):
@@ -602,18 +608,24 @@ def records(layout: ModuleType) -> dict[str, object]:
             found[f"{module.upper()}_{kind}"] = record
     for name, record in layout.WORLD.items():
         found[f"WORLD_{name.upper()}"] = record
+    for name, record in layout.PROCESSES.items():
+        found[f"PROCESS_{name.upper()}"] = record
     return found
 
 
 @pytest.mark.parametrize("system", ["miner", "packed"])
 def test_layout_docstring_table_is_the_layout(request, system):
     """Layout: the table in layout.py's docstring gives every buffer's true offset and size."""
-    layout = importlib.import_module(f"{request.getfixturevalue(system).__name__}.layout")
+    package = request.getfixturevalue(system).__name__
+    layout = importlib.import_module(f"{package}.layout")
+    contract = importlib.import_module(f"{package}.rcs.contract")
     rows = {}
     for line in layout.__doc__.splitlines():
         cells = [cell.strip() for cell in line.strip().strip("|").split("|")]
         if len(cells) == 4 and cells[0].isdigit():
-            rows[cells[2]] = (int(cells[0]), int(cells[1]), tuple(cells[3].split(", ")))
+            shape = getattr(contract, cells[3], None)  # STATUS_FIELDS: a buffer of that shape
+            fields = contract.field_names(shape) if shape else tuple(cells[3].split(", "))
+            rows[cells[2]] = (int(cells[0]), int(cells[1]), fields)
     actual = {
         name: (r.offset, r.struct.size, tuple(r.fields)) for name, r in records(layout).items()
     }
@@ -628,15 +640,19 @@ def test_layout_is_little_endian_at_fixed_offsets(h):
     """Layout: each field sits at its buffer's fixed offset, little-endian, packed in order."""
     at = h.layout.CO_COMMAND_AT
     h.layout.COMMAND_IN["co"].write(h.buf, command_num=0x0102030405060708, command=3)
-    assert bytes(h.buf[at : at + 12]) == bytes.fromhex("080706050403020103000000")
+    # The sequence word first: written odd, then even (one write since initialise: 2).
+    assert bytes(h.buf[at : at + 20]) == bytes.fromhex("0200000000000000080706050403020103000000")
     at = h.layout.WORLD_LOOSE_COAL_AT
     h.world["loose_coal"] = 1.0
-    assert bytes(h.buf[at : at + 8]) == bytes.fromhex("000000000000f03f")
+    assert bytes(h.buf[at + 8 : at + 16]) == bytes.fromhex("000000000000f03f")
+    assert int.from_bytes(h.buf[at : at + 8], "little") % 2 == 0
     h.command("cc", "INIT")
     h.step("cc")
-    # cc's status: status_num 1, DONE (2), error_num 0, state NOP (0).
+    # cc's status: status_num 1, DONE (2), error_num 0, state NOP (0), rule 1 (INIT/S0/1).
     at = h.layout.CC_STATUS_AT
-    assert bytes(h.buf[at : at + 20]) == bytes.fromhex("0100000000000000020000000000000000000000")
+    assert bytes(h.buf[at + 8 : at + 32]) == bytes.fromhex(
+        "010000000000000002000000000000000000000001000000"
+    )
 
 
 def test_initialise_sets_the_world_and_flags_the_simulators(packed, miner):

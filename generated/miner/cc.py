@@ -14,7 +14,7 @@ from .layout import (
     SJ_COMMAND,
     SJ_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
 # Commands cc accepts (the code written to its command buffer).
 INIT = 1
@@ -45,8 +45,8 @@ SJ_RAISE = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI56xQI76xQI76xQI")
-INPUTS_AT = 184
+INPUTS = Struct("<QI44x???1xI80xQI108xQI108xQI")
+INPUTS_AT = 424
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -62,11 +62,13 @@ class CcController:
         "bm_command_num",
         "bm_status",
         "bm_status_num",
+        "bm_written",
         "buf",
         "cd_command",
         "cd_command_num",
         "cd_status",
         "cd_status_num",
+        "cd_written",
         "command",
         "command_num",
         "cycle_start",
@@ -76,6 +78,7 @@ class CcController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "perf_seq",
         "perf_single_step_num",
         "rule",
         "simulate",
@@ -85,29 +88,46 @@ class CcController:
         "sj_command_num",
         "sj_status",
         "sj_status_num",
+        "sj_written",
+        "stale_reads",
         "state",
         "status",
+        "status_dirty",
         "status_num",
+        "status_seq",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
-            buf, CC_STATUS_AT
+        self.resume()
+        self.pre_process()  # the command, the mode, subordinates' status, the world
+
+    def resume(self) -> None:
+        """Take up the buffers this module writes from the block: a restarted module keeps
+        its command-number handshake, and its sequence words go on from the block's."""
+        buf = self.buf
+        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
+            STATUS.unpack_from(buf, CC_STATUS_AT)
         )
         (
+            self.perf_seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         ) = PERF.unpack_from(buf, CC_PERF_AT)
-        self.bm_command_num, self.bm_command = BM_COMMAND.unpack_from(buf, BM_COMMAND_AT)
-        self.cd_command_num, self.cd_command = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)
-        self.sj_command_num, self.sj_command = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
+        self.perf_seq += self.perf_seq & 1
+        self.status_dirty = False
+        _, self.bm_command_num, self.bm_command = BM_COMMAND.unpack_from(buf, BM_COMMAND_AT)
+        self.bm_written = self.bm_command_num
+        _, self.cd_command_num, self.cd_command = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)
+        self.cd_written = self.cd_command_num
+        _, self.sj_command_num, self.sj_command = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)
+        self.sj_written = self.sj_command_num
 
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
@@ -147,10 +167,13 @@ class CcController:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
+            self.status_dirty = True
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
-        self.rule = NO_RULE
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
         if self.dont_run:
             return
         if self.single_step:
@@ -174,14 +197,45 @@ class CcController:
             self.cusp()
 
     def post_process(self) -> None:
-        """Write the status, the subordinates' commands, the world out and the cycle time."""
+        """Write what changed (the status, the subordinates' commands, the world out), each
+        buffer odd while it is written, and the cycle time."""
         buf = self.buf
-        STATUS.pack_into(
-            buf, CC_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
-        )
-        BM_COMMAND.pack_into(buf, BM_COMMAND_AT, self.bm_command_num, self.bm_command)
-        CD_COMMAND.pack_into(buf, CD_COMMAND_AT, self.cd_command_num, self.cd_command)
-        SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, self.sj_command_num, self.sj_command)
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            STATUS.pack_into(
+                buf,
+                CC_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, CC_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        if self.bm_command_num != self.bm_written:  # a command was sent
+            seq, number = BM_COMMAND.unpack_from(buf, BM_COMMAND_AT)[:2]
+            if number != self.bm_written:  # an operator's command came meanwhile:
+                self.bm_command_num = number + 1  # number ours after it
+            BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq | 1, self.bm_command_num, self.bm_command)
+            SEQ.pack_into(buf, BM_COMMAND_AT, (seq | 1) + 1)
+            self.bm_written = self.bm_command_num
+        if self.cd_command_num != self.cd_written:  # a command was sent
+            seq, number = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)[:2]
+            if number != self.cd_written:  # an operator's command came meanwhile:
+                self.cd_command_num = number + 1  # number ours after it
+            CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq | 1, self.cd_command_num, self.cd_command)
+            SEQ.pack_into(buf, CD_COMMAND_AT, (seq | 1) + 1)
+            self.cd_written = self.cd_command_num
+        if self.sj_command_num != self.sj_written:  # a command was sent
+            seq, number = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)[:2]
+            if number != self.sj_written:  # an operator's command came meanwhile:
+                self.sj_command_num = number + 1  # number ours after it
+            SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq | 1, self.sj_command_num, self.sj_command)
+            SEQ.pack_into(buf, SJ_COMMAND_AT, (seq | 1) + 1)
+            self.sj_written = self.sj_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -191,15 +245,20 @@ class CcController:
         elif last < self.min_cycle_ns:
             self.min_cycle_ns = last
         self.cycles += 1
+        seq = self.perf_seq + 1
         PERF.pack_into(
             buf,
             CC_PERF_AT,
+            seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         )
+        SEQ.pack_into(buf, CC_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -16,7 +16,7 @@ from .layout import (
     VG_COMMAND,
     VG_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
 # Commands co accepts (the code written to its command buffer).
 INIT = 1
@@ -49,11 +49,13 @@ CC_CUSP = 7
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI56xQI340xQI356xQI1172xdddd128xddd8xd?31xd")
-INPUTS_AT = 96
-# Adjacent world fields post_process writes back with one write.
-WORLD_OUT_1 = Struct("<dd")
-WORLD_OUT_1_AT = 2120
+INPUTS = Struct("<QI44x???1xI80xQI468xQI484xQI1604xd8xd8xd8xd264xd8xd8xd24xd8x?63xd")
+INPUTS_AT = 304
+# Adjacent world fields post_process writes back (each with its sequence word: written odd,
+# then again even), and their sequence words alone.
+WORLD_OUT_1 = Struct("<QdQd")
+WORLD_SEQS_1 = Struct("<Q8xQ")
+WORLD_OUT_1_AT = 3064
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -80,12 +82,14 @@ class CoController:
         "cc_command_num",
         "cc_status",
         "cc_status_num",
+        "cc_written",
         "command",
         "command_num",
         "cr_command",
         "cr_command_num",
         "cr_status",
         "cr_status_num",
+        "cr_written",
         "cycle_start",
         "cycles",
         "dont_run",
@@ -93,14 +97,18 @@ class CoController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "perf_seq",
         "perf_single_step_num",
         "rule",
         "simulate",
         "single_step",
         "single_step_num",
+        "stale_reads",
         "state",
         "status",
+        "status_dirty",
         "status_num",
+        "status_seq",
         "var_distance",
         "vg_arg_x",
         "vg_arg_y",
@@ -108,6 +116,7 @@ class CoController:
         "vg_command_num",
         "vg_status",
         "vg_status_num",
+        "vg_written",
         "world_cutter_current",
         "world_goal_x",
         "world_goal_y",
@@ -118,29 +127,44 @@ class CoController:
         "world_popped_out_of_shear",
         "world_pose_x",
         "world_pose_y",
+        "written_world_1",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
-            buf, CO_STATUS_AT
+        self.var_distance: float = 0.0
+        self.resume()
+        self.pre_process()  # the command, the mode, subordinates' status, the world
+
+    def resume(self) -> None:
+        """Take up the buffers this module writes from the block: a restarted module keeps
+        its command-number handshake, and its sequence words go on from the block's."""
+        buf = self.buf
+        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
+            STATUS.unpack_from(buf, CO_STATUS_AT)
         )
         (
+            self.perf_seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         ) = PERF.unpack_from(buf, CO_PERF_AT)
-        self.cr_command_num, self.cr_command = CR_COMMAND.unpack_from(buf, CR_COMMAND_AT)
-        self.vg_command_num, self.vg_command, self.vg_arg_x, self.vg_arg_y = VG_COMMAND.unpack_from(
-            buf, VG_COMMAND_AT
+        self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
+        self.perf_seq += self.perf_seq & 1
+        self.status_dirty = False
+        _, self.cr_command_num, self.cr_command = CR_COMMAND.unpack_from(buf, CR_COMMAND_AT)
+        self.cr_written = self.cr_command_num
+        _, self.vg_command_num, self.vg_command, self.vg_arg_x, self.vg_arg_y = (
+            VG_COMMAND.unpack_from(buf, VG_COMMAND_AT)
         )
-        self.cc_command_num, self.cc_command = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)
-        self.var_distance: float = 0.0
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.vg_written = self.vg_command_num
+        _, self.cc_command_num, self.cc_command = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)
+        self.cc_written = self.cc_command_num
+        self.written_world_1 = None  # written at the end of the first cycle
 
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
@@ -190,10 +214,13 @@ class CoController:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
+            self.status_dirty = True
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
-        self.rule = NO_RULE
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
         if self.dont_run:
             return
         if self.single_step:
@@ -215,17 +242,60 @@ class CoController:
             self.sump_shear_cusp()
 
     def post_process(self) -> None:
-        """Write the status, the subordinates' commands, the world out and the cycle time."""
+        """Write what changed (the status, the subordinates' commands, the world out), each
+        buffer odd while it is written, and the cycle time."""
         buf = self.buf
-        STATUS.pack_into(
-            buf, CO_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
-        )
-        CR_COMMAND.pack_into(buf, CR_COMMAND_AT, self.cr_command_num, self.cr_command)
-        VG_COMMAND.pack_into(
-            buf, VG_COMMAND_AT, self.vg_command_num, self.vg_command, self.vg_arg_x, self.vg_arg_y
-        )
-        CC_COMMAND.pack_into(buf, CC_COMMAND_AT, self.cc_command_num, self.cc_command)
-        WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_goal_x, self.world_goal_y)
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            STATUS.pack_into(
+                buf,
+                CO_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, CO_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        if self.cr_command_num != self.cr_written:  # a command was sent
+            seq, number = CR_COMMAND.unpack_from(buf, CR_COMMAND_AT)[:2]
+            if number != self.cr_written:  # an operator's command came meanwhile:
+                self.cr_command_num = number + 1  # number ours after it
+            CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq | 1, self.cr_command_num, self.cr_command)
+            SEQ.pack_into(buf, CR_COMMAND_AT, (seq | 1) + 1)
+            self.cr_written = self.cr_command_num
+        if self.vg_command_num != self.vg_written:  # a command was sent
+            seq, number = VG_COMMAND.unpack_from(buf, VG_COMMAND_AT)[:2]
+            if number != self.vg_written:  # an operator's command came meanwhile:
+                self.vg_command_num = number + 1  # number ours after it
+            VG_COMMAND.pack_into(
+                buf,
+                VG_COMMAND_AT,
+                seq | 1,
+                self.vg_command_num,
+                self.vg_command,
+                self.vg_arg_x,
+                self.vg_arg_y,
+            )
+            SEQ.pack_into(buf, VG_COMMAND_AT, (seq | 1) + 1)
+            self.vg_written = self.vg_command_num
+        if self.cc_command_num != self.cc_written:  # a command was sent
+            seq, number = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)[:2]
+            if number != self.cc_written:  # an operator's command came meanwhile:
+                self.cc_command_num = number + 1  # number ours after it
+            CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq | 1, self.cc_command_num, self.cc_command)
+            SEQ.pack_into(buf, CC_COMMAND_AT, (seq | 1) + 1)
+            self.cc_written = self.cc_command_num
+        out = (self.world_goal_x, self.world_goal_y)
+        s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if (s, out) != self.written_world_1:  # changed here, or written elsewhere
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+            s = ((s[0] | 1) + 1, (s[1] | 1) + 1)
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0], out[0], s[1], out[1])
+            self.written_world_1 = (s, out)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -235,15 +305,20 @@ class CoController:
         elif last < self.min_cycle_ns:
             self.min_cycle_ns = last
         self.cycles += 1
+        seq = self.perf_seq + 1
         PERF.pack_into(
             buf,
             CO_PERF_AT,
+            seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         )
+        SEQ.pack_into(buf, CO_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def too_much_loose_coal(self) -> bool:
         """Predicate: world.loose_coal > LOOSE_COAL_LIMIT"""
@@ -300,7 +375,9 @@ class CoController:
             self.status = DONE
 
     def initial_approach_face(self) -> None:
-        """INITIAL_APPROACH_FACE: Drum raised to the roof and on, tram forward until the cutter current says the drum is at the face; watch the machine's orientation on the way."""
+        """INITIAL_APPROACH_FACE: Drum raised to the roof and on, tram forward until the cutter
+        current says the drum is at the face; watch the machine's orientation on the way.
+        """
         state = self.state
         if state == S0:
             self.rule = 5  # INITIAL_APPROACH_FACE/S0/1
@@ -384,7 +461,9 @@ class CoController:
                 self.status = ERROR
 
     def approach_face(self) -> None:
-        """APPROACH_FACE: Raise the boom and tram a known distance back to the face: after a cusp its position is known, so no current monitoring is needed."""
+        """APPROACH_FACE: Raise the boom and tram a known distance back to the face: after a cusp
+        its position is known, so no current monitoring is needed.
+        """
         state = self.state
         if state == S0:
             self.rule = 16  # APPROACH_FACE/S0/1

@@ -14,7 +14,7 @@ from .layout import (
     GH_COMMAND,
     GH_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
 # Commands cr accepts (the code written to its command buffer).
 INIT = 1
@@ -41,8 +41,8 @@ CT_POSITION_TAIL = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI56xQI76xQI76xQI1260x?247xd")
-INPUTS_AT = 536
+INPUTS = Struct("<QI44x???1xI80xQI108xQI108xQI1708x?495xd")
+INPUTS_AT = 904
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -65,10 +65,12 @@ class CrController:
         "ct_command_num",
         "ct_status",
         "ct_status_num",
+        "ct_written",
         "cv_command",
         "cv_command_num",
         "cv_status",
         "cv_status_num",
+        "cv_written",
         "cycle_start",
         "cycles",
         "dont_run",
@@ -77,17 +79,22 @@ class CrController:
         "gh_command_num",
         "gh_status",
         "gh_status_num",
+        "gh_written",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "perf_seq",
         "perf_single_step_num",
         "rule",
         "simulate",
         "single_step",
         "single_step_num",
+        "stale_reads",
         "state",
         "status",
+        "status_dirty",
         "status_num",
+        "status_seq",
         "world_loose_coal",
         "world_tail_in_position",
     )
@@ -95,21 +102,34 @@ class CrController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
-            buf, CR_STATUS_AT
+        self.resume()
+        self.pre_process()  # the command, the mode, subordinates' status, the world
+
+    def resume(self) -> None:
+        """Take up the buffers this module writes from the block: a restarted module keeps
+        its command-number handshake, and its sequence words go on from the block's."""
+        buf = self.buf
+        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
+            STATUS.unpack_from(buf, CR_STATUS_AT)
         )
         (
+            self.perf_seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         ) = PERF.unpack_from(buf, CR_PERF_AT)
-        self.gh_command_num, self.gh_command = GH_COMMAND.unpack_from(buf, GH_COMMAND_AT)
-        self.cv_command_num, self.cv_command = CV_COMMAND.unpack_from(buf, CV_COMMAND_AT)
-        self.ct_command_num, self.ct_command = CT_COMMAND.unpack_from(buf, CT_COMMAND_AT)
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
+        self.perf_seq += self.perf_seq & 1
+        self.status_dirty = False
+        _, self.gh_command_num, self.gh_command = GH_COMMAND.unpack_from(buf, GH_COMMAND_AT)
+        self.gh_written = self.gh_command_num
+        _, self.cv_command_num, self.cv_command = CV_COMMAND.unpack_from(buf, CV_COMMAND_AT)
+        self.cv_written = self.cv_command_num
+        _, self.ct_command_num, self.ct_command = CT_COMMAND.unpack_from(buf, CT_COMMAND_AT)
+        self.ct_written = self.ct_command_num
 
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
@@ -151,10 +171,13 @@ class CrController:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
+            self.status_dirty = True
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
-        self.rule = NO_RULE
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
         if self.dont_run:
             return
         if self.single_step:
@@ -174,14 +197,45 @@ class CrController:
             self.cusp()
 
     def post_process(self) -> None:
-        """Write the status, the subordinates' commands, the world out and the cycle time."""
+        """Write what changed (the status, the subordinates' commands, the world out), each
+        buffer odd while it is written, and the cycle time."""
         buf = self.buf
-        STATUS.pack_into(
-            buf, CR_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
-        )
-        GH_COMMAND.pack_into(buf, GH_COMMAND_AT, self.gh_command_num, self.gh_command)
-        CV_COMMAND.pack_into(buf, CV_COMMAND_AT, self.cv_command_num, self.cv_command)
-        CT_COMMAND.pack_into(buf, CT_COMMAND_AT, self.ct_command_num, self.ct_command)
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            STATUS.pack_into(
+                buf,
+                CR_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, CR_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        if self.gh_command_num != self.gh_written:  # a command was sent
+            seq, number = GH_COMMAND.unpack_from(buf, GH_COMMAND_AT)[:2]
+            if number != self.gh_written:  # an operator's command came meanwhile:
+                self.gh_command_num = number + 1  # number ours after it
+            GH_COMMAND.pack_into(buf, GH_COMMAND_AT, seq | 1, self.gh_command_num, self.gh_command)
+            SEQ.pack_into(buf, GH_COMMAND_AT, (seq | 1) + 1)
+            self.gh_written = self.gh_command_num
+        if self.cv_command_num != self.cv_written:  # a command was sent
+            seq, number = CV_COMMAND.unpack_from(buf, CV_COMMAND_AT)[:2]
+            if number != self.cv_written:  # an operator's command came meanwhile:
+                self.cv_command_num = number + 1  # number ours after it
+            CV_COMMAND.pack_into(buf, CV_COMMAND_AT, seq | 1, self.cv_command_num, self.cv_command)
+            SEQ.pack_into(buf, CV_COMMAND_AT, (seq | 1) + 1)
+            self.cv_written = self.cv_command_num
+        if self.ct_command_num != self.ct_written:  # a command was sent
+            seq, number = CT_COMMAND.unpack_from(buf, CT_COMMAND_AT)[:2]
+            if number != self.ct_written:  # an operator's command came meanwhile:
+                self.ct_command_num = number + 1  # number ours after it
+            CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq | 1, self.ct_command_num, self.ct_command)
+            SEQ.pack_into(buf, CT_COMMAND_AT, (seq | 1) + 1)
+            self.ct_written = self.ct_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -191,15 +245,20 @@ class CrController:
         elif last < self.min_cycle_ns:
             self.min_cycle_ns = last
         self.cycles += 1
+        seq = self.perf_seq + 1
         PERF.pack_into(
             buf,
             CR_PERF_AT,
+            seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         )
+        SEQ.pack_into(buf, CR_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -274,7 +333,9 @@ class CrController:
                 self.status = ERROR
 
     def shear(self) -> None:
-        """SHEAR: Gathering head and conveyor on only when enough coal has piled up and the operator reported the tail in position; done when the loose coal is cleared."""
+        """SHEAR: Gathering head and conveyor on only when enough coal has piled up and the operator
+        reported the tail in position; done when the loose coal is cleared.
+        """
         state = self.state
         if state == S0:
             self.rule = 8  # SHEAR/S0/1
@@ -309,7 +370,9 @@ class CrController:
                 self.status = ERROR
 
     def cusp(self) -> None:
-        """CUSP: Keep gathering while the cusp is taken; once the floor is clear, gathering head and conveyor off until the next shear has piled up enough coal."""
+        """CUSP: Keep gathering while the cusp is taken; once the floor is clear, gathering head and
+        conveyor off until the next shear has piled up enough coal.
+        """
         state = self.state
         if state == S0:
             self.rule = 12  # CUSP/S0/1

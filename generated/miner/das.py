@@ -8,7 +8,7 @@ from .layout import (
     DAS_PERF_AT,
     DAS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
 # Commands das accepts (the code written to its command buffer).
 INIT = 1
@@ -16,11 +16,13 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI28x???1xI464x?87xd64x?")
-INPUTS_AT = 1640
-# Adjacent world fields post_process writes back with one write.
-WORLD_OUT_1 = Struct("<d")
-WORLD_OUT_1_AT = 2240
+INPUTS = Struct("<QI44x???1xI680x?175xd136x?")
+INPUTS_AT = 2392
+# Adjacent world fields post_process writes back (each with its sequence word: written odd,
+# then again even), and their sequence words alone.
+WORLD_OUT_1 = Struct("<Qd")
+WORLD_SEQS_1 = Struct("<Q")
+WORLD_OUT_1_AT = 3304
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -45,34 +47,50 @@ class DasController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "perf_seq",
         "perf_single_step_num",
         "rule",
         "simulate",
         "single_step",
         "single_step_num",
+        "stale_reads",
         "state",
         "status",
+        "status_dirty",
         "status_num",
+        "status_seq",
         "world_drum_current_true",
         "world_drum_on_cmd",
         "world_in_coal",
+        "written_world_1",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
-            buf, DAS_STATUS_AT
+        self.resume()
+        self.pre_process()  # the command, the mode, subordinates' status, the world
+
+    def resume(self) -> None:
+        """Take up the buffers this module writes from the block: a restarted module keeps
+        its command-number handshake, and its sequence words go on from the block's."""
+        buf = self.buf
+        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
+            STATUS.unpack_from(buf, DAS_STATUS_AT)
         )
         (
+            self.perf_seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         ) = PERF.unpack_from(buf, DAS_PERF_AT)
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
+        self.perf_seq += self.perf_seq & 1
+        self.status_dirty = False
+        self.written_world_1 = None  # written at the end of the first cycle
 
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
@@ -103,10 +121,13 @@ class DasController:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
+            self.status_dirty = True
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
-        self.rule = NO_RULE
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
         if self.dont_run:
             return
         if self.single_step:
@@ -121,12 +142,31 @@ class DasController:
             self.halt()
 
     def post_process(self) -> None:
-        """Write the status, the subordinates' commands, the world out and the cycle time."""
+        """Write what changed (the status, the subordinates' commands, the world out), each
+        buffer odd while it is written, and the cycle time."""
         buf = self.buf
-        STATUS.pack_into(
-            buf, DAS_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
-        )
-        WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, self.world_drum_current_true)
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            STATUS.pack_into(
+                buf,
+                DAS_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, DAS_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        out = (self.world_drum_current_true,)
+        s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if (s, out) != self.written_world_1:  # changed here, or written elsewhere
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+            s = ((s[0] | 1) + 1,)
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0], out[0])
+            self.written_world_1 = (s, out)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -136,15 +176,20 @@ class DasController:
         elif last < self.min_cycle_ns:
             self.min_cycle_ns = last
         self.cycles += 1
+        seq = self.perf_seq + 1
         PERF.pack_into(
             buf,
             DAS_PERF_AT,
+            seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         )
+        SEQ.pack_into(buf, DAS_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""

@@ -10,7 +10,7 @@ from .layout import (
     SB_PERF_AT,
     SB_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
 # Commands sb accepts (the code written to its command buffer).
 INIT = 1
@@ -28,8 +28,8 @@ CO_SUMP_SHEAR_CUSP = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QId28x???1xI56xQI2204xd")
-INPUTS_AT = 0
+INPUTS = Struct("<QId44x???1xI80xQI3148xd")
+INPUTS_AT = 176
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -52,6 +52,7 @@ class SbController:
         "co_command_num",
         "co_status",
         "co_status_num",
+        "co_written",
         "command",
         "command_num",
         "cycle_start",
@@ -61,33 +62,48 @@ class SbController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "perf_seq",
         "perf_single_step_num",
         "rule",
         "simulate",
         "single_step",
         "single_step_num",
+        "stale_reads",
         "state",
         "status",
+        "status_dirty",
         "status_num",
+        "status_seq",
         "world_depth_cut",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
-            buf, SB_STATUS_AT
+        self.resume()
+        self.pre_process()  # the command, the mode, subordinates' status, the world
+
+    def resume(self) -> None:
+        """Take up the buffers this module writes from the block: a restarted module keeps
+        its command-number handshake, and its sequence words go on from the block's."""
+        buf = self.buf
+        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
+            STATUS.unpack_from(buf, SB_STATUS_AT)
         )
         (
+            self.perf_seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         ) = PERF.unpack_from(buf, SB_PERF_AT)
-        self.co_command_num, self.co_command = CO_COMMAND.unpack_from(buf, CO_COMMAND_AT)
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
+        self.perf_seq += self.perf_seq & 1
+        self.status_dirty = False
+        _, self.co_command_num, self.co_command = CO_COMMAND.unpack_from(buf, CO_COMMAND_AT)
+        self.co_written = self.co_command_num
 
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
@@ -121,10 +137,13 @@ class SbController:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
+            self.status_dirty = True
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
-        self.rule = NO_RULE
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
         if self.dont_run:
             return
         if self.single_step:
@@ -142,12 +161,31 @@ class SbController:
             self.box_cut()
 
     def post_process(self) -> None:
-        """Write the status, the subordinates' commands, the world out and the cycle time."""
+        """Write what changed (the status, the subordinates' commands, the world out), each
+        buffer odd while it is written, and the cycle time."""
         buf = self.buf
-        STATUS.pack_into(
-            buf, SB_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
-        )
-        CO_COMMAND.pack_into(buf, CO_COMMAND_AT, self.co_command_num, self.co_command)
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            STATUS.pack_into(
+                buf,
+                SB_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, SB_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        if self.co_command_num != self.co_written:  # a command was sent
+            seq, number = CO_COMMAND.unpack_from(buf, CO_COMMAND_AT)[:2]
+            if number != self.co_written:  # an operator's command came meanwhile:
+                self.co_command_num = number + 1  # number ours after it
+            CO_COMMAND.pack_into(buf, CO_COMMAND_AT, seq | 1, self.co_command_num, self.co_command)
+            SEQ.pack_into(buf, CO_COMMAND_AT, (seq | 1) + 1)
+            self.co_written = self.co_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -157,15 +195,20 @@ class SbController:
         elif last < self.min_cycle_ns:
             self.min_cycle_ns = last
         self.cycles += 1
+        seq = self.perf_seq + 1
         PERF.pack_into(
             buf,
             SB_PERF_AT,
+            seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         )
+        SEQ.pack_into(buf, SB_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -220,7 +263,9 @@ class SbController:
                 self.status = ERROR
 
     def box_cut(self) -> None:
-        """BOX_CUT: Approach the face, then sump-shear-cusp, approach the face again and repeat until the face has been cut back by `depth`."""
+        """BOX_CUT: Approach the face, then sump-shear-cusp, approach the face again and repeat
+        until the face has been cut back by `depth`.
+        """
         state = self.state
         if state == S0:
             self.rule = 8  # BOX_CUT/S0/1

@@ -12,7 +12,7 @@ from .layout import (
     VG_PERF_AT,
     VG_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
 # Commands vg accepts (the code written to its command buffer).
 INIT = 1
@@ -41,8 +41,8 @@ TC_STOP = 13
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd28x???1xI72xQI76xQI1012xq120xd")
-INPUTS_AT = 888
+INPUTS = Struct("<QIdd44x???1xI96xQI108xQI1412xq248xd")
+INPUTS_AT = 1384
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -71,6 +71,7 @@ class VgController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "perf_seq",
         "perf_single_step_num",
         "pp_arg_x",
         "pp_arg_y",
@@ -78,17 +79,22 @@ class VgController:
         "pp_command_num",
         "pp_status",
         "pp_status_num",
+        "pp_written",
         "rule",
         "simulate",
         "single_step",
         "single_step_num",
+        "stale_reads",
         "state",
         "status",
+        "status_dirty",
         "status_num",
+        "status_seq",
         "tc_command",
         "tc_command_num",
         "tc_status",
         "tc_status_num",
+        "tc_written",
         "world_pose_x",
         "world_tram_dir",
     )
@@ -96,22 +102,34 @@ class VgController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        # Resume from the block, so a restarted module keeps its command-number handshake.
-        self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
-            buf, VG_STATUS_AT
+        self.resume()
+        self.pre_process()  # the command, the mode, subordinates' status, the world
+
+    def resume(self) -> None:
+        """Take up the buffers this module writes from the block: a restarted module keeps
+        its command-number handshake, and its sequence words go on from the block's."""
+        buf = self.buf
+        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
+            STATUS.unpack_from(buf, VG_STATUS_AT)
         )
         (
+            self.perf_seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         ) = PERF.unpack_from(buf, VG_PERF_AT)
-        self.pp_command_num, self.pp_command, self.pp_arg_x, self.pp_arg_y = PP_COMMAND.unpack_from(
-            buf, PP_COMMAND_AT
+        self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
+        self.perf_seq += self.perf_seq & 1
+        self.status_dirty = False
+        _, self.pp_command_num, self.pp_command, self.pp_arg_x, self.pp_arg_y = (
+            PP_COMMAND.unpack_from(buf, PP_COMMAND_AT)
         )
-        self.tc_command_num, self.tc_command = TC_COMMAND.unpack_from(buf, TC_COMMAND_AT)
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.pp_written = self.pp_command_num
+        _, self.tc_command_num, self.tc_command = TC_COMMAND.unpack_from(buf, TC_COMMAND_AT)
+        self.tc_written = self.tc_command_num
 
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
@@ -151,10 +169,13 @@ class VgController:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
+            self.status_dirty = True
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
-        self.rule = NO_RULE
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
         if self.dont_run:
             return
         if self.single_step:
@@ -170,15 +191,46 @@ class VgController:
             self.tram_to_xy()
 
     def post_process(self) -> None:
-        """Write the status, the subordinates' commands, the world out and the cycle time."""
+        """Write what changed (the status, the subordinates' commands, the world out), each
+        buffer odd while it is written, and the cycle time."""
         buf = self.buf
-        STATUS.pack_into(
-            buf, VG_STATUS_AT, self.status_num, self.status, self.error_num, self.state, self.rule
-        )
-        PP_COMMAND.pack_into(
-            buf, PP_COMMAND_AT, self.pp_command_num, self.pp_command, self.pp_arg_x, self.pp_arg_y
-        )
-        TC_COMMAND.pack_into(buf, TC_COMMAND_AT, self.tc_command_num, self.tc_command)
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            STATUS.pack_into(
+                buf,
+                VG_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, VG_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        if self.pp_command_num != self.pp_written:  # a command was sent
+            seq, number = PP_COMMAND.unpack_from(buf, PP_COMMAND_AT)[:2]
+            if number != self.pp_written:  # an operator's command came meanwhile:
+                self.pp_command_num = number + 1  # number ours after it
+            PP_COMMAND.pack_into(
+                buf,
+                PP_COMMAND_AT,
+                seq | 1,
+                self.pp_command_num,
+                self.pp_command,
+                self.pp_arg_x,
+                self.pp_arg_y,
+            )
+            SEQ.pack_into(buf, PP_COMMAND_AT, (seq | 1) + 1)
+            self.pp_written = self.pp_command_num
+        if self.tc_command_num != self.tc_written:  # a command was sent
+            seq, number = TC_COMMAND.unpack_from(buf, TC_COMMAND_AT)[:2]
+            if number != self.tc_written:  # an operator's command came meanwhile:
+                self.tc_command_num = number + 1  # number ours after it
+            TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq | 1, self.tc_command_num, self.tc_command)
+            SEQ.pack_into(buf, TC_COMMAND_AT, (seq | 1) + 1)
+            self.tc_written = self.tc_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -188,15 +240,20 @@ class VgController:
         elif last < self.min_cycle_ns:
             self.min_cycle_ns = last
         self.cycles += 1
+        seq = self.perf_seq + 1
         PERF.pack_into(
             buf,
             VG_PERF_AT,
+            seq,
             self.last_cycle_ns,
             self.min_cycle_ns,
             self.max_cycle_ns,
             self.cycles,
             self.perf_single_step_num,
+            self.stale_reads,
         )
+        SEQ.pack_into(buf, VG_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -14,6 +14,7 @@ import struct
 import subprocess
 import sys
 import tempfile
+import textwrap
 from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
@@ -44,9 +45,16 @@ def comment(text: str) -> str:
     return "# " + _one_line(text)
 
 
+LINE_LENGTH = 100  # of generated code (the formatter's setting, RUFF_FORMAT_ARGS)
+
+
 def docstring(text: str, indent: int = 0) -> str:
-    """A docstring literal for user text: triple-quoted when plainly safe, else `repr`."""
-    lines = [line.rstrip() for line in str(text).strip().splitlines()]
+    """A docstring literal for user text: triple-quoted when plainly safe, else `repr`; lines
+    longer than the generated code's line length are wrapped at spaces."""
+    width = LINE_LENGTH - indent - 3  # room for the quotes
+    lines = []
+    for line in str(text).strip().splitlines():
+        lines += textwrap.wrap(line.rstrip(), width, break_long_words=False) or [""]
     body = "\n".join(lines)
     plain = all(ch.isprintable() or ch == "\n" for ch in body)
     if not plain or '"""' in body or "\\" in body or body.endswith('"') or not body:
@@ -103,22 +111,34 @@ def environment() -> jinja2.Environment:
 # ---------------------------------------------------------------- rendering
 
 
-def _fmt(fields: tuple[tuple[str, str], ...]) -> str:
-    return "<" + "".join(code for _, code in fields)
-
-
 @dataclass(frozen=True)
 class Gathered:
-    """Several buffer fields read or written with one `Struct`: format, offset, targets."""
+    """Several buffer fields read or written with one `Struct`, the bytes between them
+    skipped: format, offset, the target of each value ("_" for a sequence word), and the
+    struct of the sequence words alone (for the second read of a seqlock), if any."""
 
     format: str
     offset: int
     targets: list[str]
+    seq_indices: list[int]
+    seq_format: str
+    seq_offset: int
 
 
-def _gather(fields: list[tuple[int, str, str]]) -> Gathered:
-    """One struct over (offset, code, target) fields, the bytes between them skipped."""
-    fields = sorted(fields)
+Field = tuple[int, str, str | None]  # (offset, struct code, target; None: a sequence word)
+
+
+def _gather(fields: list[Field]) -> Gathered:
+    """One struct over the fields, in block order, the bytes between them skipped."""
+    fields = sorted(fields, key=lambda f: f[0])
+    fmt, targets, start = _format(fields)
+    seqs = [f for f in fields if f[2] is None]
+    seq_fmt, _, seq_start = _format(seqs) if seqs else ("", [], 0)
+    indices = [i for i, (_, _, target) in enumerate(fields) if target is None]
+    return Gathered(fmt, start, targets, indices, seq_fmt, seq_start)
+
+
+def _format(fields: list[Field]) -> tuple[str, list[str], int]:
     start = at = fields[0][0]
     fmt, targets = "<", []
     for offset, code, target in fields:
@@ -126,29 +146,61 @@ def _gather(fields: list[tuple[int, str, str]]) -> Gathered:
             fmt += f"{offset - at}x"
         fmt += code
         at = offset + struct.calcsize("<" + code)
-        targets.append(target)
-    return Gathered(fmt, start, targets)
+        targets.append(target or "_")
+    return fmt, targets, start
 
 
-def _inputs(c: ir.IRController, layout: ir.Layout) -> Gathered:
-    """Everything pre_process copies in: command, mode, subordinates' status, world fields."""
+@dataclass(frozen=True)
+class Placement:
+    """Which process runs each module and writes each world field: a buffer written in
+    another process than its reader's is read under its seqlock."""
+
+    process_of: dict[str, str]
+    world_writers: dict[str, set[str]]  # world field -> the processes whose modules write it
+
+    @classmethod
+    def of(cls, system: ir.IRSystem) -> Placement:
+        process_of = {m: p.name for p in system.processes for m in p.modules}
+        for c in system.controllers:  # a stand-in runs in its controller's process
+            process_of.setdefault(c.name, process_of.get(c.buffers, ""))
+        writers: dict[str, set[str]] = {}
+        for c in system.controllers:
+            for f in c.world_writes:
+                writers.setdefault(f.name, set()).add(process_of[c.name])
+        return cls(process_of, writers)
+
+
+def _inputs(c: ir.IRController, system: ir.IRSystem, placement: Placement) -> Gathered:
+    """Everything pre_process copies in: command, mode, subordinates' status, world fields,
+    with the sequence word of each buffer another process writes."""
+    layout = system.layout
+    here = placement.process_of[c.name]
     own = layout.modules[c.buffers]
-    fields = [(s.offset, s.code, f"self.{s.name}") for s in own.command.slots]
-    fields += [(s.offset, s.code, f"self.{s.name}") for s in own.mode.slots if s.name != "pad"]
+    fields: list[Field] = [(s.offset, s.code, f"self.{s.name}") for s in own.command.fields]
+    if c.supervisor is not None and placement.process_of[c.supervisor] != here:
+        fields.append((own.command.offset, "Q", None))
+    fields += [(s.offset, s.code, f"self.{s.name}") for s in own.mode.fields if s.name != "pad"]
     for sub in c.subordinates:
-        head = layout.modules[sub.name].status.slots[:2]  # status_num, status
+        status = layout.modules[sub.name].status
+        head = status.fields[:2]  # status_num, status
         fields += [(s.offset, s.code, f"self.{sub.name}_{s.name}") for s in head]
-    by_name = {b.slots[0].name: b for b in layout.world}
+        if placement.process_of[sub.name] != here:
+            fields.append((status.offset, "Q", None))
+    by_name = {b.fields[0].name: b for b in layout.world}
     for f in c.world_reads:
-        slot = by_name[f.name].slots[0]
+        buffer = by_name[f.name]
+        slot = buffer.fields[0]
         fields.append((slot.offset, slot.code, f"self.world_{f.name}"))
+        if placement.world_writers.get(f.name, set()) - {here}:
+            fields.append((buffer.offset, "Q", None))
     return _gather(fields)
 
 
 def _world_outputs(c: ir.IRController, layout: ir.Layout) -> list[Gathered]:
-    """The world fields post_process writes, one struct per run of adjacent fields (only
-    alignment padding lies between them, so packing never touches anyone else's field)."""
-    by_name = {b.slots[0].name: b for b in layout.world}
+    """The world fields post_process writes, one struct per run of adjacent field buffers
+    (each its sequence word and value; only alignment padding lies between them, so packing
+    never touches anyone else's field)."""
+    by_name = {b.fields[0].name: b for b in layout.world}
     buffers = sorted((by_name[f.name] for f in c.world_writes), key=lambda b: b.offset)
     runs: list[list[ir.Buffer]] = []
     for buffer in buffers:
@@ -156,13 +208,22 @@ def _world_outputs(c: ir.IRController, layout: ir.Layout) -> list[Gathered]:
             runs[-1].append(buffer)
         else:
             runs.append([buffer])
-    return [
-        _gather([(b.offset, b.slots[0].code, f"self.world_{b.slots[0].name}") for b in run])
-        for run in runs
-    ]
+    gathered = []
+    for run in runs:
+        fields: list[Field] = []
+        for b in run:
+            value = b.fields[0]
+            fields += [
+                (b.offset, "Q", None),
+                (value.offset, value.code, f"self.world_{value.name}"),
+            ]
+        gathered.append(_gather(fields))
+    return gathered
 
 
-def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, object]:
+def _controller_context(
+    c: ir.IRController, system: ir.IRSystem, placement: Placement
+) -> dict[str, object]:
     up = c.buffers.upper()  # a stand-in uses the buffers of the controller it replaces
     command_targets = [
         "self.command_num",
@@ -183,26 +244,34 @@ def _controller_context(c: ir.IRController, system: ir.IRSystem) -> dict[str, ob
         ]
         for s in c.subordinates
     }
+    world_outputs = _world_outputs(c, system.layout)
     slots = ["buf", "cycle_start", *command_targets, *status_targets, *mode_targets, *perf_targets]
+    slots += ["status_seq", "status_dirty", "perf_seq"]
+    slots += [f"written_world_{index}" for index in range(1, len(world_outputs) + 1)]
     if c.hooks_state:
         slots.append("hook_state")
     for s in c.subordinates:
         slots += [*sub_targets[s.name], f"self.{s.name}_status_num", f"self.{s.name}_status"]
+        slots.append(f"{s.name}_written")
     slots += [f"world_{f.name}" for f in c.world_reads]
     slots += [f"var_{v.name}" for v in c.locals]
     imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT"}
     for s in c.subordinates:
         imports |= {f"{s.name.upper()}_COMMAND", f"{s.name.upper()}_COMMAND_AT"}
+    inputs = _inputs(c, system, placement)
+    runtime_names = {*c.runtime_names, "SEQ"}
+    if inputs.seq_indices:
+        runtime_names.add("READ_TRIES")
 
     return {
         "c": c,
         "own": up,
-        "inputs": _inputs(c, system.layout),
-        "world_outputs": _world_outputs(c, system.layout),
+        "inputs": inputs,
+        "world_outputs": world_outputs,
         "system": system,
         "class_name": naming.class_name(c.name),
         "imports": sorted(imports, key=naming.import_order),
-        "rcs_imports": c.runtime_names,
+        "rcs_imports": sorted(runtime_names, key=naming.import_order),
         "slots": sorted(s.removeprefix("self.") for s in slots),
         "command_targets": command_targets,
         "status_targets": status_targets,
@@ -260,12 +329,15 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
             system=system,
             layout=layout,
             owners=[c for c in system.controllers if c.buffers == c.name],
+            table=_layout_table(layout),
         ),
     }
     files.update(runtime_files(root))
     template = env.get_template("controller.py.j2")
+    placement = Placement.of(system)
     for c in system.controllers:
-        files[f"{root}/{c.name}.py"] = template.render(**_controller_context(c, system))
+        context = _controller_context(c, system, placement)
+        files[f"{root}/{c.name}.py"] = template.render(**context)
     process_template = env.get_template("process.py.j2")
     for p in system.processes:
         files[f"{root}/{naming.process_module(p.name)}.py"] = process_template.render(
@@ -281,6 +353,18 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
             ),
         )
     return files
+
+
+def _layout_table(layout: ir.Layout) -> list[tuple[int, int, str, str]]:
+    """The layout docstring's rows: offset, size, buffer, and its fields (or its shape)."""
+    shapes = {id(b): "PROCESS_FIELDS" for b in layout.processes.values()}
+    for m in layout.modules.values():
+        shapes.update({id(m.status): "STATUS_FIELDS", id(m.mode): "MODE_FIELDS"})
+        shapes[id(m.perf)] = "PERF_FIELDS"
+    return [
+        (b.offset, b.size, b.const, shapes.get(id(b)) or ", ".join(f.name for f in b.fields))
+        for b in layout.all_buffers()
+    ]
 
 
 def runtime_files(root: str) -> dict[str, str]:

@@ -45,6 +45,11 @@ class Buffer:
     def format(self) -> str:
         return "<" + "".join(slot.code for slot in self.slots)
 
+    @property
+    def fields(self) -> tuple[Slot, ...]:
+        """The buffer's fields after its sequence word."""
+        return self.slots[1:]
+
     @cached_property
     def size(self) -> int:
         return struct.calcsize(self.format)
@@ -60,13 +65,18 @@ class ModuleBuffers:
 
 @dataclass(frozen=True)
 class Layout:
+    """The block: the header at 0, each process's control record, each module's buffers, the
+    world fields. `hash` identifies it (a process refuses to attach to another layout)."""
+
+    processes: dict[str, Buffer]
     modules: dict[str, ModuleBuffers]
     world: tuple[Buffer, ...]
     size: int
+    hash: str
 
     def all_buffers(self) -> list[Buffer]:
         found = [b for m in self.modules.values() for b in (m.command, m.status, m.mode, m.perf)]
-        return sorted([*found, *self.world], key=lambda b: b.offset)
+        return sorted([*self.processes.values(), *found, *self.world], key=lambda b: b.offset)
 
 
 # ---------------------------------------------------------------- system IR

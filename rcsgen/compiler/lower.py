@@ -8,14 +8,18 @@ The layout places every module's buffers, then the world fields, each on 8 bytes
 
 from __future__ import annotations
 
+import hashlib
 import struct
 from collections.abc import Iterable, Mapping
+from dataclasses import replace
 
 from ..runtime.contract import (
     COMMAND_HEAD_FIELDS,
     FORMAT_OF_TYPE,
+    HEADER,
     MODE_FIELDS,
     PERF_FIELDS,
+    PROCESS_FIELDS,
     STATUS_FIELDS,
 )
 from . import expr, ir, naming
@@ -61,7 +65,7 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         world=world,
         controllers=controllers,
         processes=processes,
-        layout=plan_layout(controllers, world),
+        layout=plan_layout(spec.name, (p.name for p in processes), controllers, world),
         sources=tuple(sorted({source, *(c.source for c in controllers)})),
     )
 
@@ -237,8 +241,9 @@ def _world_field(f: Typed) -> ir.IRWorldField:
 
 
 def _buffer(const: str, offset: int, fields: Iterable[tuple[str, str]], doc: str) -> ir.Buffer:
+    """A buffer at `offset`: its sequence word, then `fields`."""
     slots, at = [], offset
-    for name, code in fields:
+    for name, code in [("seq", "Q"), *fields]:
         slots.append(ir.Slot(name, code, at))
         at += struct.calcsize("<" + code)
     return ir.Buffer(const, offset, tuple(slots), doc)
@@ -250,13 +255,23 @@ def align(offset: int, to: int = 8) -> int:
 
 
 def plan_layout(
-    controllers: Iterable[ir.IRController], world: Iterable[ir.IRWorldField]
+    system: str,
+    processes: Iterable[str],
+    controllers: Iterable[ir.IRController],
+    world: Iterable[ir.IRWorldField],
 ) -> ir.Layout:
-    """Place every module's buffers, then the world fields, each buffer on 8 bytes.
+    """Place the header, each process's control record, every module's buffers, then the
+    world fields, each buffer on 8 bytes, and hash the result.
 
     A stand-in (controller simulator) has no buffers of its own: it uses its controller's.
     """
-    at, modules = 0, {}
+    at = align(HEADER.size)
+    process_records = {}
+    for name in processes:
+        buffer = _buffer(f"PROCESS_{name.upper()}", at, PROCESS_FIELDS, f"process {name}")
+        process_records[name] = buffer
+        at = align(at + buffer.size)
+    modules = {}
     for c in controllers:
         if c.buffers != c.name:
             continue
@@ -278,4 +293,15 @@ def plan_layout(
         buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, FORMAT_OF_TYPE[f.type])], f.doc)
         world_buffers.append(buffer)
         at = align(at + buffer.size)
-    return ir.Layout(modules, tuple(world_buffers), at)
+    layout = ir.Layout(process_records, modules, tuple(world_buffers), at, "")
+    return replace(layout, hash=layout_hash(system, layout))
+
+
+def layout_hash(system: str, layout: ir.Layout) -> str:
+    """The layout's identity: every buffer, field, type and offset, and the system's name."""
+    text = [f"rcsgen block v1 system={system} size={layout.size}"]
+    for buffer in layout.all_buffers():
+        fields = " ".join(f"{s.name}:{s.code}@{s.offset}" for s in buffer.slots)
+        text.append(f"{buffer.const} {fields}")
+    digest = hashlib.sha256("\n".join(text).encode("ascii")).hexdigest()
+    return digest[:32]

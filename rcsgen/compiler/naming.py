@@ -52,8 +52,8 @@ FIXED_METHODS = frozenset(
 FIXED_MODULES = frozenset({"layout", "rcs", "__init__", "__main__", "hooks"})
 # Module-level names every generated controller module imports from the runtime and layout.
 RUNTIME_NAMES = frozenset(
-    {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "STATUS", "STATUS_HEAD", "MODE", "PERF"}
-    | {"INPUTS", "INPUTS_AT", "Struct"}
+    {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "NO_RULE", "STATUS", "MODE", "PERF"}
+    | {"INPUTS", "INPUTS_AT", "SEQS", "SEQS_AT", "SEQ", "READ_TRIES", "Struct"}
 )
 # Prefixes of the attributes generated from spec names (world fields, params, locals).
 ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_")
@@ -81,6 +81,10 @@ CLASS_NAMES = frozenset(
         "__init__",
         "__slots__",
         "every_cycle",  # method of the `every_cycle` rules
+        "resume",
+        "status_seq",
+        "status_dirty",
+        "perf_seq",
         "buf",
         "cycle_start",
         "hook_state",
@@ -95,7 +99,6 @@ LAYOUT_NAMES = frozenset(
         "NamedTuple",
         "SIZE",
         "STATUS",
-        "STATUS_HEAD",
         "MODE",
         "PERF",
         "Record",
@@ -112,6 +115,19 @@ LAYOUT_NAMES = frozenset(
         "SIMULATORS",
         "RULES",
         "initialise",
+        "HEADER",
+        "MAGIC",
+        "PROCESS",
+        "PROCESS_FIELDS",
+        "MODE_FIELDS",
+        "PERF_FIELDS",
+        "STATUS_FIELDS",
+        "NO_COMMAND_NAME",
+        "field_names",
+        "SYSTEM",
+        "LAYOUT_HASH",
+        "PROCESSES",
+        "PLACEMENT",
     }
 )
 # Suffixes of the layout names of each controller's buffers: CO_COMMAND, CO_COMMAND_AT, ...
@@ -436,6 +452,9 @@ def _check_layout(
         up = spec.name.upper()
         for suffix in BUFFER_SUFFIXES:
             names.claim(up + suffix, f"controller `{spec.name}`", spec.name_span, spec.name)
+    for process in system.processes:
+        name = f"PROCESS_{process.name.upper()}_AT"
+        names.claim(name, f"process `{process.name}`", span_of(process.name, process.span))
     for field_name, f in system.world.items():
         span = span_of(field_name, f.span)
         up = f"WORLD_{field_name.upper()}"
@@ -453,7 +472,7 @@ def _check_controller(
     for sub in spec.subordinates:
         origin = ("sub", sub.value)
         what = f"subordinate `{sub.value}`"
-        for suffix in ("_command_num", "_command", "_status_num", "_status"):
+        for suffix in ("_command_num", "_command", "_status_num", "_status", "_written"):
             names.claim(sub.value + suffix, what, sub.span, origin)
         other = by_name.get(sub.value)
         for command in other.commands.values() if other else ():
@@ -462,6 +481,8 @@ def _check_controller(
     for item in [*spec.world_reads, *spec.world_writes]:
         field_name = item.value
         names.claim(f"world_{field_name}", f"world field `{field_name}`", item.span, field_name)
+    for index in range(1, len(spec.world_writes) + 1):  # post_process's last world writes
+        names.fixed([f"written_world_{index}"], "an attribute every controller has")
     for local_name, local in spec.locals.items():
         names.claim(f"var_{local_name}", f"local `{local_name}`", local.span, ("local", local_name))
     for command in spec.commands.values():
@@ -583,7 +604,8 @@ def check_module_names(
         taken[spec.name.upper() + suffix] = "a layout name"
     taken.update(_world_layout_names(tuple(system.world)))
     for index in range(1, len(spec.world_writes) + 1):
-        taken[f"WORLD_OUT_{index}"] = taken[f"WORLD_OUT_{index}_AT"] = "a generated name"
+        for name in (f"WORLD_OUT_{index}", f"WORLD_OUT_{index}_AT", f"WORLD_SEQS_{index}"):
+            taken[name] = "a generated name"
     named: list[tuple[str, str, Span]] = [
         (c.name, "command", c.span) for c in spec.commands.values() if not c.generated
     ]

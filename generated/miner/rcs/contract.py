@@ -53,9 +53,50 @@ PERF_FIELDS = (
     ("max_cycle_ns", "Q"),
     ("cycles", "Q"),
     ("single_step_num", "I"),
+    ("stale_reads", "I"),  # cycles whose inputs from another process could not be read whole
 )
+# The block's header, at offset 0: what a process checks before it attaches. The layout hash
+# covers every buffer, field, type and offset and the system's name.
+MAGIC = b"RCSBLK01"
+HEADER = Struct("<8s32s32sQ")  # magic, layout hash (hex), system name, block size
+HEADER_FIELDS = ("magic", "layout_hash", "system", "size")
+
+# Each process's control record: written by the process every cycle (its heartbeat), read by
+# the launcher, the other processes (liveness) and operator tools.
+PROCESS_FIELDS = (
+    ("pid", "Q"),
+    ("state", "I"),  # PROCESS_STATES
+    ("watchdog_trips", "I"),
+    ("heartbeat", "Q"),  # cycles run (the heartbeat)
+    ("beat_ns", "Q"),  # when the last cycle ended: time.monotonic_ns() (host-wide clock)
+    ("overruns", "Q"),  # cycles that ran past their period
+    ("late_wakeups", "Q"),  # sleeps that ended later than the period's boundary
+    ("load_warnings", "Q"),  # cycles that used more than the warning share of the period
+    ("last_cycle_ns", "Q"),
+    ("max_cycle_ns", "Q"),
+    ("lost", "Q"),  # bit i: process i (layout order) is reported dead
+)
+PROCESS_STATES = ("ABSENT", "STARTING", "RUNNING", "STOPPED", "DEAD")
+ABSENT, STARTING, RUNNING, STOPPED, DEAD = range(5)
+
 # The struct code of each spec type (world fields, parameters).
 FORMAT_OF_TYPE = {"bool": "?", "int": "q", "float": "d"}
+
+
+# Every buffer starts with a sequence word (a seqlock): its one writer makes it odd, writes
+# the fields, then makes it even again; a reader in another process accepts what it read
+# only if the word was even and unchanged around the read, retrying `READ_TRIES` times at
+# most before calling the buffer stale for this cycle (a controller never waits). This
+# relies on the stores of one `struct.pack_into` and the loads of one `unpack_from`
+# reaching memory in address order, which x86-64 guarantees (see docs/semantics.md).
+SEQ = Struct("<Q")
+READ_TRIES = 3
+
+
+def next_odd(seq: int) -> int:
+    """The odd word a writer marks a buffer with while it writes, when the buffer held `seq`
+    (odd already if a writer died mid-write); the write ends with `next_odd(seq) + 1`."""
+    return seq | 1
 
 
 def field_names(fields: tuple[tuple[str, str], ...]) -> tuple[str, ...]:
@@ -64,32 +105,56 @@ def field_names(fields: tuple[tuple[str, str], ...]) -> tuple[str, ...]:
 
 
 def struct_format(fields: tuple[tuple[str, str], ...]) -> str:
-    """The little-endian `struct` format of a buffer's fields, with no implicit padding."""
-    return "<" + "".join(code for _, code in fields)
+    """The little-endian `struct` format of a buffer: its sequence word, then its fields, with
+    no implicit padding."""
+    return "<Q" + "".join(code for _, code in fields)
 
 
 STATUS = Struct(struct_format(STATUS_FIELDS))
-STATUS_HEAD = Struct(
-    struct_format(STATUS_FIELDS[:2])
-)  # status_num, status: what a supervisor reads
 MODE = Struct(struct_format(MODE_FIELDS))
 PERF = Struct(struct_format(PERF_FIELDS))
+PROCESS = Struct(struct_format(PROCESS_FIELDS))
+
+
+class StaleRead(Exception):
+    """A buffer could not be read whole: its writer kept writing (or died while writing)."""
 
 
 class Record(NamedTuple):
-    """A buffer for tools (harness, traces, operator interfaces): its struct, offset, fields."""
+    """A buffer for tools (harness, traces, operator consoles): its struct, offset, fields.
+
+    Reads are consistent (the seqlock); writes mark the buffer odd while they write. A tool
+    writes only where no module of a running process writes the same buffer (an operator's
+    command to a root, a mode, a world input), or while the processes are stopped."""
 
     struct: Struct
     offset: int
     fields: tuple[str, ...]
 
     def read(self, buf: memoryview) -> dict[str, object]:
-        return dict(zip(self.fields, self.struct.unpack_from(buf, self.offset), strict=True))
+        """The buffer's fields; raises StaleRead when it cannot be read whole."""
+        for _ in range(READ_TRIES):
+            seq, *values = self.struct.unpack_from(buf, self.offset)
+            if seq % 2 == 0 and SEQ.unpack_from(buf, self.offset)[0] == seq:
+                return dict(zip(self.fields, values, strict=True))
+        raise StaleRead(f"buffer at {self.offset} is being written (or its writer died)")
+
+    def seq(self, buf: memoryview) -> int:
+        """The buffer's sequence word: it changes with every write."""
+        value: int = SEQ.unpack_from(buf, self.offset)[0]
+        return value
 
     def write(self, buf: memoryview, **values: object) -> None:
+        """Change some fields, keeping the others."""
         unknown = set(values) - set(self.fields)
         if unknown:
             raise KeyError(f"no field(s) {sorted(unknown)} in a buffer of {self.fields}")
-        current = self.read(buf)
+        try:
+            current = self.read(buf)
+        except StaleRead:  # a writer died mid-write: the fields named here are rewritten
+            values_now = self.struct.unpack_from(buf, self.offset)[1:]
+            current = dict(zip(self.fields, values_now, strict=True))
         current.update(values)
-        self.struct.pack_into(buf, self.offset, *current.values())
+        seq = next_odd(self.seq(buf))
+        self.struct.pack_into(buf, self.offset, seq, *current.values())
+        SEQ.pack_into(buf, self.offset, seq + 1)
