@@ -31,6 +31,7 @@ EXPECTED_FILES = {
     "miner/rcs/__init__.py",
     "miner/rcs/block.py",
     "miner/rcs/contract.py",
+    "miner/rcs/launcher.py",
     "miner/rcs/loop.py",
     "miner/layout.py",
     "miner/main_pc1.py",
@@ -165,7 +166,14 @@ def test_generated_package_has_a_main(tmp_path: Path, pristine: dict[str, bytes]
         timeout=60,
         check=False,
     )
-    assert (done.returncode, done.stdout) == (0, "pc1: 5 cycles\n"), done.stderr
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[:2] == [
+        "pc1: 5 cycles",
+        "pc1: stopped, 5 cycles, 0 overruns, 0 late wake-ups, 0 watchdog trips, 0 load warnings",
+    ], done.stdout
+    assert lines[2].startswith("  max cycle time per module (us): co ")
+    assert not list(Path("/dev/shm").glob("rcs_miner_*")), "the segment is removed at exit"
 
 
 def test_output_is_byte_identical_wherever_it_is_built(
@@ -299,7 +307,7 @@ def test_rebuild_changes_only_what_changed(work: Path) -> None:
     edit(work / "specs/miner/co.yaml", "LOOSE_COAL_LIMIT: 4.0", "LOOSE_COAL_LIMIT: 5.0")
     result = rcsgen("build")
     assert result.exit_code == 0, result.output
-    assert "1 written, 0 deleted, 11 unchanged" in result.output
+    assert "1 written, 0 deleted, 12 unchanged" in result.output
     after = mtimes(work / "generated", files_only=True)
     assert {rel for rel in after if after[rel] != stamps[rel]} == {"miner/co.py"}
     assert "LOOSE_COAL_LIMIT = 5.0" in (work / "generated/miner/co.py").read_text()
@@ -381,7 +389,7 @@ def test_check_on_a_current_tree(work: Path) -> None:
     stamps = mtimes(work / "generated")
     result = rcsgen("build", "--check")
     assert result.exit_code == 0, result.output
-    assert result.stdout == "generated is current (12 files)\n"
+    assert result.stdout == "generated is current (13 files)\n"
     assert mtimes(work / "generated") == stamps
 
 

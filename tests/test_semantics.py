@@ -578,18 +578,22 @@ def test_run_starts_sends_init_to_the_roots_and_counts_cycles(miner):
 
 
 def test_pacer_sleeps_the_rest_of_each_period_and_counts_overruns(miner):
-    """Pacer: sleeps to each period boundary; an overrun is counted and restarts the schedule."""
+    """Pacer: sleeps to each period boundary; an overrun is counted and restarts the schedule;
+    a sleep that ends more than a tenth of a period late is a late wake-up."""
     rcs = importlib.import_module(f"{miner.__name__}.rcs.loop")
-    times = iter([100.0, 100.03, 100.25, 100.30, 100.44])
+    # start; then each wait reads the clock, and after a sleep reads it again
+    times = iter([100.0, 100.03, 100.101, 100.25, 100.30, 100.37, 100.44, 100.45])
     slept: list[float] = []
     pacer = rcs.Pacer(0.1, clock=lambda: next(times), sleep=slept.append)
     assert pacer.deadline == pytest.approx(100.1)
-    pacer.wait()  # 100.03: 0.07 left
+    pacer.wait()  # 100.03: 0.07 left; woke at 100.101, on time
     pacer.wait()  # 100.25: past 100.2, an overrun; the next boundary is 100.35
-    pacer.wait()  # 100.30: 0.05 left
-    pacer.wait()  # 100.44: 0.01 left
+    assert (pacer.overruns, pacer.consecutive) == (1, 1)
+    pacer.wait()  # 100.30: 0.05 left; woke at 100.37, 0.02 late: a late wake-up
+    assert pacer.consecutive == 0
+    pacer.wait()  # 100.44: 0.01 left (the boundary is 100.45); woke on time
     assert slept == pytest.approx([0.07, 0.05, 0.01])
-    assert pacer.overruns == 1
+    assert (pacer.overruns, pacer.late) == (1, 1)
     flat = rcs.Pacer(0.0, clock=lambda: 0.0, sleep=slept.append)
     flat.wait()
     assert len(slept) == 3 and flat.overruns == 0, "period 0 never sleeps"
@@ -673,21 +677,10 @@ def test_every_buffer_starts_on_an_8_byte_boundary(packed):
     assert {name: at for name, at in offsets.items() if at % 8} == {}
 
 
-def unlink_if_present(name: str) -> bool:
-    """Remove the named segment if it exists; True if it did."""
-    try:
-        segment = shared_memory.SharedMemory(name=name)
-    except FileNotFoundError:
-        return False
-    segment.close()
-    segment.unlink()
-    return True
-
-
 def attach_in_child(package_dir: Path, script: str, *args: str) -> subprocess.CompletedProcess:
     """Run `script` in a fresh Python process with the package's `layout` and `rcs` imported."""
     prelude = (
-        "import importlib, json, sys\n"
+        "import importlib, json, os, sys\n"
         f"sys.path.insert(0, {str(package_dir.parent)!r})\n"
         f"layout = importlib.import_module('{package_dir.name}.layout')\n"
         f"rcs = importlib.import_module('{package_dir.name}.rcs.block')\n"
@@ -714,7 +707,7 @@ def test_block_on_named_shared_memory_is_seen_by_an_attached_block(miner):
         process.run_cycle()
         child = attach_in_child(
             Path(miner.__file__).parent,
-            "block = rcs.Block(layout.SIZE, sys.argv[1], create=False)\n"
+            "block = rcs.Block(layout, sys.argv[1], create=False)\n"
             "print(json.dumps(layout.STATUS_OUT['co'].read(block.buf)))\n"
             "block.close()\n",
             name,
@@ -728,24 +721,29 @@ def test_block_on_named_shared_memory_is_seen_by_an_attached_block(miner):
         shared_memory.SharedMemory(name=name).close()
     finally:
         process.block.close()
-    with pytest.raises(FileNotFoundError):
-        rcs.Block(layout.SIZE, name, create=False)  # the creator unlinked it
+    with pytest.raises(rcs.BlockError, match="no shared-memory segment"):
+        rcs.Block(layout, name, create=False)  # the creator unlinked it
 
 
-class SegmentLeaked(Exception):
-    """A shared-memory segment outlived the process that created it."""
-
-
-def test_attaching_in_the_creators_process_keeps_the_creators_leak_protection(miner):
-    """Shared memory: an attach + close in the creator's process must not leak the segment."""
-    name = f"rcsgen_sem_leak_{os.getpid()}_{time.monotonic_ns() % 10**9}"
+def test_a_segment_outlives_the_death_of_its_creator(miner):
+    """Lifecycle: no process's death removes the segment under the others (Python's resource
+    tracker is kept out of it): the creator dies without closing, the segment stays for
+    the processes still attached, and whoever cleans up removes it."""
+    name = f"rcsgen_sem_dies_{os.getpid()}_{time.monotonic_ns() % 10**9}"
     child = attach_in_child(
         Path(miner.__file__).parent,
-        "owner = rcs.Block(layout.SIZE, sys.argv[1], create=True)\n"
-        "rcs.Block(layout.SIZE, sys.argv[1], create=False).close()\n"
-        "# the creator exits without close(): its resource tracker should unlink the segment\n",
+        "owner = rcs.Block(layout, sys.argv[1], create=True)\n"
+        "rcs.Block(layout, sys.argv[1], create=False).close()\n"
+        "os._exit(0)  # dies without closing\n",
         name,
     )
     assert child.returncode == 0, child.stderr
-    if unlink_if_present(name):
-        raise SegmentLeaked(f"segment {name!r} outlived its dead creator")
+    assert "leaked" not in child.stderr, child.stderr
+    rcs = importlib.import_module(f"{miner.__name__}.rcs.block")
+    layout = importlib.import_module(f"{miner.__name__}.layout")
+    try:
+        survivor = rcs.Block(layout, name, create=False)  # still there, still this layout
+        survivor.close()
+    finally:
+        assert rcs.unlink(name), "the segment was still there to remove"
+    assert not rcs.exists(name)

@@ -129,6 +129,19 @@ class CcController:
         _, self.sj_command_num, self.sj_command = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)
         self.sj_written = self.sj_command_num
 
+    def safe_state(self, reason: int) -> None:
+        """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
+        self.bm_command = BM_HALT
+        self.bm_command_num += 1
+        self.cd_command = CD_HALT
+        self.cd_command_num += 1
+        self.sj_command = SJ_HALT
+        self.sj_command_num += 1
+        self.state = NOP
+        self.status = ERROR
+        self.error_num = reason
+        self.status_dirty = True
+
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
         self.pre_process()

@@ -166,6 +166,19 @@ class CoController:
         self.cc_written = self.cc_command_num
         self.written_world_1 = None  # written at the end of the first cycle
 
+    def safe_state(self, reason: int) -> None:
+        """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
+        self.cr_command = CR_HALT
+        self.cr_command_num += 1
+        self.vg_command = VG_HALT
+        self.vg_command_num += 1
+        self.cc_command = CC_HALT
+        self.cc_command_num += 1
+        self.state = NOP
+        self.status = ERROR
+        self.error_num = reason
+        self.status_dirty = True
+
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
         self.pre_process()

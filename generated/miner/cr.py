@@ -131,6 +131,19 @@ class CrController:
         _, self.ct_command_num, self.ct_command = CT_COMMAND.unpack_from(buf, CT_COMMAND_AT)
         self.ct_written = self.ct_command_num
 
+    def safe_state(self, reason: int) -> None:
+        """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
+        self.gh_command = GH_HALT
+        self.gh_command_num += 1
+        self.cv_command = CV_HALT
+        self.cv_command_num += 1
+        self.ct_command = CT_HALT
+        self.ct_command_num += 1
+        self.state = NOP
+        self.status = ERROR
+        self.error_num = reason
+        self.status_dirty = True
+
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
         self.pre_process()

@@ -164,6 +164,7 @@ from .rcs.contract import (
 )
 
 SYSTEM = "miner"
+SOURCE = "miner/system.yaml"
 SIZE = 3528
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
 LAYOUT_HASH = "2fa2e80764548325779d8c83a05004d1"
@@ -429,6 +430,35 @@ PLACEMENT = {
     "bss": "pc1",
     "pss": "pc1",
     "css": "pc1",
+}
+# Seconds without a heartbeat after which a process is reported dead.
+HEARTBEAT_TIMEOUT = 1.0
+# Each controller's subordinates (the hierarchy), for liveness and operator tools.
+SUBORDINATES = {
+    "sb": ("co",),
+    "co": ("cr", "vg", "cc"),
+    "cc": ("bm", "cd", "sj"),
+    "bm": (),
+    "cd": (),
+    "sj": (),
+    "cr": ("gh", "cv", "ct"),
+    "gh": (),
+    "cv": (),
+    "ct": (),
+    "vg": ("pp", "tc"),
+    "pp": (),
+    "tc": (),
+    "oi": (),
+    "bas": (),
+    "jas": (),
+    "tas": (),
+    "mine": (),
+    "das": (),
+    "gas": (),
+    "bss": (),
+    "pss": (),
+    "css": (),
+    "cr_sim": (),
 }
 MODULES = (
     "sb",

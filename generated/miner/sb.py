@@ -105,6 +105,15 @@ class SbController:
         _, self.co_command_num, self.co_command = CO_COMMAND.unpack_from(buf, CO_COMMAND_AT)
         self.co_written = self.co_command_num
 
+    def safe_state(self, reason: int) -> None:
+        """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
+        self.co_command = CO_HALT
+        self.co_command_num += 1
+        self.state = NOP
+        self.status = ERROR
+        self.error_num = reason
+        self.status_dirty = True
+
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
         self.pre_process()

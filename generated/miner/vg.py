@@ -131,6 +131,17 @@ class VgController:
         _, self.tc_command_num, self.tc_command = TC_COMMAND.unpack_from(buf, TC_COMMAND_AT)
         self.tc_written = self.tc_command_num
 
+    def safe_state(self, reason: int) -> None:
+        """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
+        self.pp_command = PP_HALT
+        self.pp_command_num += 1
+        self.tc_command = TC_HALT
+        self.tc_command_num += 1
+        self.state = NOP
+        self.status = ERROR
+        self.error_num = reason
+        self.status_dirty = True
+
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs."""
         self.pre_process()

@@ -78,7 +78,8 @@ def check_system(
             if name in modules
         }
         roots = tuple(m for m in modules if m not in supervisors)
-        processes.append(CheckedProcess(p.name, p.doc, modules, roots, replaces))
+        period = p.cycle_period or system.cycle_period
+        processes.append(CheckedProcess(p.name, period, p.doc, modules, roots, replaces))
     return CheckedSystem(system, checked, tuple(processes))
 
 

@@ -262,6 +262,8 @@ def _controller_context(
     runtime_names = {*c.runtime_names, "SEQ"}
     if inputs.seq_indices:
         runtime_names.add("READ_TRIES")
+    if c.subordinates:  # safe_state halts them and reports ERROR
+        runtime_names |= {"ERROR", "NOP"}
 
     return {
         "c": c,

@@ -247,6 +247,7 @@ class IRController:
 @dataclass(frozen=True)
 class IRProcess:
     name: str
+    cycle_period: float
     doc: str
     modules: tuple[str, ...]
     roots: tuple[str, ...]  # modules of this process with no supervisor: INIT is sent to them
@@ -261,6 +262,7 @@ class IRSystem:
     doc: str
     source: str
     cycle_period: float
+    heartbeat_timeout: float  # seconds without a heartbeat before a process is reported dead
     world: tuple[IRWorldField, ...]
     controllers: tuple[IRController, ...]
     processes: tuple[IRProcess, ...]

@@ -52,7 +52,7 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         for c in checked.controllers.values()
     )
     processes = tuple(
-        ir.IRProcess(p.name, p.doc, p.modules, p.roots, dict(p.stand_ins))
+        ir.IRProcess(p.name, p.cycle_period, p.doc, p.modules, p.roots, dict(p.stand_ins))
         for p in checked.processes
     )
     source = sources[spec.display]
@@ -62,12 +62,18 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         doc=spec.doc,
         source=source,
         cycle_period=spec.cycle_period,
+        heartbeat_timeout=spec.heartbeat_timeout or default_heartbeat_timeout(processes),
         world=world,
         controllers=controllers,
         processes=processes,
         layout=plan_layout(spec.name, (p.name for p in processes), controllers, world),
         sources=tuple(sorted({source, *(c.source for c in controllers)})),
     )
+
+
+def default_heartbeat_timeout(processes: Iterable[ir.IRProcess]) -> float:
+    """Ten of the longest cycle periods, at least half a second."""
+    return max(0.5, 10 * max(p.cycle_period for p in processes))
 
 
 class _ControllerLowering:

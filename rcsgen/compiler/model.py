@@ -45,6 +45,7 @@ class Process:
     modules: list[Located]
     doc: str
     span: Span
+    cycle_period: float | None = None  # its own period, if not the system's
 
 
 @dataclass
@@ -53,6 +54,7 @@ class SystemSpec:
     title: str
     doc: str
     cycle_period: float
+    heartbeat_timeout: float | None
     world: dict[str, Typed]
     processes: list[Process]
     simulators: list[Located]
@@ -192,6 +194,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
             _items(spec, "modules", top),
             spec.get("doc", ""),
             key_span(data["processes"], name, top),
+            float(spec["cycle_period"]) if "cycle_period" in spec else None,
         )
         for name, spec in data["processes"].items()
     ]
@@ -200,6 +203,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
         title=data["title"],
         doc=data.get("doc", ""),
         cycle_period=float(data["cycle_period"]),
+        heartbeat_timeout=float(data["heartbeat_timeout"]) if "heartbeat_timeout" in data else None,
         world=world,
         processes=processes,
         simulators=_items(data, "simulators", top),

@@ -82,6 +82,7 @@ CLASS_NAMES = frozenset(
         "__slots__",
         "every_cycle",  # method of the `every_cycle` rules
         "resume",
+        "safe_state",
         "status_seq",
         "status_dirty",
         "perf_seq",
@@ -125,6 +126,9 @@ LAYOUT_NAMES = frozenset(
         "NO_COMMAND_NAME",
         "field_names",
         "SYSTEM",
+        "SOURCE",
+        "HEARTBEAT_TIMEOUT",
+        "SUBORDINATES",
         "LAYOUT_HASH",
         "PROCESSES",
         "PLACEMENT",

@@ -220,6 +220,7 @@ class CheckedController:
 @dataclass(frozen=True)
 class CheckedProcess:
     name: str
+    cycle_period: float
     doc: str
     modules: tuple[str, ...]  # in execution order
     roots: tuple[str, ...]  # modules with no supervisor

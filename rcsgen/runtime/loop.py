@@ -1,28 +1,49 @@
 """Loop: a process plan and a block -> its modules run cyclically, in order, paced.
 
 A generated `main_<process>.py` declares its `ProcessPlan` (modules in execution order,
-roots, stand-ins, controller classes); `Process` instantiates it over a block, `start`
-prepares a block and sends INIT, `run` cycles it. The clock and sleep are parameters of
-the `Pacer`, so tests drive it with a fake clock. Standard library only: copied verbatim
-into every generated package.
+roots, stand-ins, controller classes); `Process` instantiates it over a block and runs one
+cycle at a time, writing the process's control record (its heartbeat) after each. `run`
+paces it (free-running: a `Pacer` holds the period; a watchdog halts the roots on repeated
+overruns; supervisors of modules in a process that stopped beating go to their safe state).
+`serve` runs it in lockstep for a coordinator instead (see `launcher.py`). The clock and
+sleep are parameters, so tests drive the loop with a fake clock. Standard library only:
+copied verbatim into every generated package.
 """
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from struct import Struct
 from types import ModuleType
 from typing import Protocol
 
 from .block import Block
-from .contract import Record
+from .contract import (
+    DEAD,
+    MODE_FIELDS,
+    PROCESS,
+    PROCESS_FIELDS,
+    RUNNING,
+    SEQ,
+    STARTING,
+    STOPPED,
+    field_names,
+    struct_format,
+)
+
+_BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))  # seq, pid .. beat_ns
+LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
 
 
 class Module(Protocol):
     """What the loop needs of a generated controller."""
 
     def run_cycle(self) -> None: ...
+
+    def resume(self) -> None: ...
 
 
 ModuleClass = Callable[[memoryview, "dict[str, str] | None"], Module]
@@ -36,17 +57,24 @@ class ProcessPlan:
     cycle_period: float
     modules: tuple[str, ...]  # in execution order
     roots: tuple[str, ...]  # modules with no supervisor: INIT is sent to them at start-up
-    # The controller-simulation switch: a run may replace a controller by its stand-in,
-    # which then runs in the controller's place while the modules below it are skipped.
+    # The controller-simulation switch: a controller can be replaced by its stand-in, which
+    # then runs in the controller's place while the modules below it are skipped.
     # controller -> (its stand-in, the modules of this process it replaces)
     stand_ins: Mapping[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
     classes: Mapping[str, ModuleClass] = field(default_factory=dict)
 
 
+@dataclass
+class Watchdog:
+    """When a paced process trips its watchdog, and when it warns of load."""
+
+    overruns: int = 5  # this many consecutive overruns trip it
+    period_factor: float = 3.0  # so does one cycle longer than this many periods
+    load_warning: float = 0.8  # a cycle longer than this share of the period is counted
+
+
 class Process:
     """A process's modules over one block, called in the declared execution order."""
-
-    __slots__ = ("block", "cycle", "layout", "modules", "plan", "simulated", "steps")
 
     def __init__(
         self,
@@ -58,35 +86,164 @@ class Process:
     ) -> None:
         self.plan, self.layout, self.block = plan, layout, block
         self.cycle = 0
-        self.simulated = tuple(simulate)
-        unknown = sorted(set(self.simulated) - set(plan.stand_ins))
+        unknown = sorted(set(simulate) - set(plan.stand_ins))
         if unknown:
             raise ValueError(f"no stand-in for {unknown}; these have one: {sorted(plan.stand_ins)}")
-        skipped = {name for sim in self.simulated for name in plan.stand_ins[sim][1]}
+        buf = block.buf
+        for name in simulate:
+            layout.MODE_IN[name].write(buf, simulate=True)
+        # Every module and stand-in is built once; the simulate flags choose who runs.
+        self.instances: dict[str, Module] = {
+            name: plan.classes[name](buf, settings) for name in plan.modules
+        }
+        self.stand_ins: dict[str, Module] = {
+            name: plan.classes[stand_in](buf, settings)
+            for name, (stand_in, _) in plan.stand_ins.items()
+        }
+        at = struct_format(MODE_FIELDS[: [n for n, _ in MODE_FIELDS].index("simulate")])
+        offset = Struct(at).size
+        self._switch_at = {name: layout.MODE_IN[name].offset + offset for name in plan.stand_ins}
+        self.simulated: tuple[str, ...] = ()
         self.modules: dict[str, Module] = {}
-        for name in plan.modules:
-            if name in self.simulated:
-                stand_in = plan.stand_ins[name][0]
-                self.modules[name] = plan.classes[stand_in](block.buf, settings)
+        self.steps: tuple[Callable[[], None], ...] = ()
+        self._choose(self._simulate_flags())
+        # The control record: this process is its only writer (the launcher marks it dead).
+        self.record = layout.PROCESSES[plan.name]
+        self.record_seq = self.record.seq(buf)
+        self.record_seq += self.record_seq & 1
+        self.counters = dict.fromkeys(field_names(PROCESS_FIELDS), 0)
+        self.counters.update(pid=os.getpid(), state=STARTING)
+        self.lost: set[str] = set()
+        self.beat()
+
+    # ------------------------------------------------------------ the simulation switch
+
+    def _simulate_flags(self) -> tuple[str, ...]:
+        buf = self.block.buf
+        return tuple(name for name, at in self._switch_at.items() if buf[at])
+
+    def _choose(self, simulated: tuple[str, ...]) -> None:
+        """Run each switchable controller, or its stand-in in its place (skipping the modules
+        below it); a module taking over resumes from the block."""
+        skipped = {name for sim in simulated for name in self.plan.stand_ins[sim][1]}
+        modules = {}
+        for name in self.plan.modules:
+            if name in simulated:
+                modules[name] = self.stand_ins[name]
             elif name not in skipped:
-                self.modules[name] = plan.classes[name](block.buf, settings)
-        self.steps = tuple(module.run_cycle for module in self.modules.values())
+                modules[name] = self.instances[name]
+        for name, module in modules.items():
+            if self.modules and self.modules.get(name) is not module:
+                module.resume()
+        self.simulated, self.modules = simulated, modules
+        self.steps = tuple(module.run_cycle for module in modules.values())
+
+    # ------------------------------------------------------------ running
 
     def run_cycle(self) -> None:
-        """Run every module once, in the declared order."""
+        """Run every module once, in the declared order, then beat."""
+        if self._switch_at:
+            flags = self._simulate_flags()
+            if flags != self.simulated:
+                self._choose(flags)
         for step in self.steps:
             step()
         self.cycle += 1
+        self.beat()
 
-    def send_init(self) -> None:
-        """Send INIT to the root modules; the state tables ripple it down the hierarchy."""
+    def run_modules(self, first: int, last: int) -> None:
+        """Run the plan's modules `first` to `last` (indices into plan.modules, inclusive)
+        that are running: one segment of a lockstep cycle."""
+        if first == 0 and self._switch_at:
+            flags = self._simulate_flags()
+            if flags != self.simulated:
+                self._choose(flags)
+        for name in self.plan.modules[first : last + 1]:
+            module = self.modules.get(name)
+            if module is not None:
+                module.run_cycle()
+
+    def beat(self, state: int = RUNNING, now_ns: int | None = None) -> None:
+        """Write the control record: the heartbeat, the counters, the state."""
+        counters = self.counters
+        counters.update(
+            state=state,
+            heartbeat=self.cycle,
+            beat_ns=time.monotonic_ns() if now_ns is None else now_ns,
+            lost=self._lost_mask(),
+        )
+        seq = self.record_seq + 1
+        buf, at = self.block.buf, self.record.offset
+        PROCESS.pack_into(buf, at, seq, *counters.values())
+        SEQ.pack_into(buf, at, seq + 1)
+        self.record_seq = seq + 1
+
+    def _lost_mask(self) -> int:
+        names = list(self.layout.PROCESSES)
+        return sum(1 << names.index(name) for name in self.lost)
+
+    def send_init(self, only_idle: bool = False) -> None:
+        """Send INIT to the root modules; the state tables ripple it down the hierarchy.
+
+        With `only_idle`, a root that has had a command is left alone: a restarted process
+        must not drop the mission a running root is in the middle of."""
         buf = self.block.buf
         for name in self.plan.roots:
-            record: Record = self.layout.COMMAND_IN[name]
+            record = self.layout.COMMAND_IN[name]
             number = record.read(buf)["command_num"]
             assert isinstance(number, int)
+            if only_idle and number:
+                continue
             init = self.layout.COMMAND_NAMES[name].index("INIT")
             record.write(buf, command_num=number + 1, command=init)
+
+    def halt_roots(self) -> None:
+        """Send HALT to the root modules (the watchdog's safe stop)."""
+        buf = self.block.buf
+        for name in self.plan.roots:
+            record = self.layout.COMMAND_IN[name]
+            number = record.read(buf)["command_num"]
+            assert isinstance(number, int)
+            halt = self.layout.COMMAND_NAMES[name].index("HALT")
+            record.write(buf, command_num=number + 1, command=halt)
+
+    # ------------------------------------------------------------ liveness
+
+    def watched(self) -> dict[str, list[str]]:
+        """The other processes this one depends on -> the modules of this process that
+        supervise a module there (they go to their safe state if it is lost)."""
+        placement, subordinates = self.layout.PLACEMENT, self.layout.SUBORDINATES
+        watched: dict[str, list[str]] = {}
+        for name in self.plan.modules:
+            for sub in subordinates.get(name, ()):
+                elsewhere = placement[sub]
+                if elsewhere != self.plan.name:
+                    watched.setdefault(elsewhere, [])
+                    if name not in watched[elsewhere]:
+                        watched[elsewhere].append(name)
+        return watched
+
+    def check_liveness(self, timeout_ns: int, now_ns: int, watched: dict[str, list[str]]) -> None:
+        """Report a watched process lost when its heartbeat is older than `timeout_ns` (or it
+        is marked dead), putting the supervisors of its modules in their safe state; a
+        process that beats again is no longer lost."""
+        buf = self.block.buf
+        for name, supervisors in watched.items():
+            record = self.layout.PROCESSES[name]
+            _, _, state, _, _, beat_ns = _BEAT.unpack_from(buf, record.offset)
+            if state in (STOPPED, DEAD):
+                silent = True
+            else:  # not started yet (no beat): not lost
+                silent = beat_ns > 0 and now_ns - beat_ns > timeout_ns
+            if silent and name not in self.lost:
+                self.lost.add(name)
+                for supervisor in supervisors:
+                    module = self.modules.get(supervisor)
+                    safe_state = getattr(module, "safe_state", None)
+                    if safe_state is not None:
+                        safe_state(LOST_SUBORDINATE)
+            elif not silent and name in self.lost:
+                self.lost.discard(name)
 
 
 def start(
@@ -97,15 +254,27 @@ def start(
     settings: dict[str, str] | None = None,
     simulate: Iterable[str] = (),
 ) -> Process:
-    """Allocate (or attach to) the block, initialise the world if we made it, send INIT."""
-    block = Block(layout.SIZE, shm_name, create)
-    if create:
-        layout.initialise(block.buf)
-    process = Process(plan, layout, block, settings, simulate)
-    for name in process.simulated:
-        layout.MODE_IN[name].write(block.buf, simulate=True)
-    process.send_init()
+    """Allocate (or attach to) the block and send INIT to the roots that have had no
+    command yet (all of them in a new block; a restarted process resumes the others)."""
+    block = Block(layout, shm_name, create)
+    try:
+        process = Process(plan, layout, block, settings, simulate)
+        process.send_init(only_idle=not create)
+    except BaseException:
+        block.close()
+        raise
     return process
+
+
+class Stop:
+    """A flag a signal handler sets to end `run` after the current cycle."""
+
+    def __init__(self) -> None:
+        self.requested = False
+        self.orphaned = False  # the launcher went away (a child then removes the segment)
+
+    def __call__(self, *args: object) -> None:
+        self.requested = True
 
 
 def run(
@@ -118,33 +287,71 @@ def run(
     on_cycle: Callable[[Process], bool | None] | None = None,
     settings: dict[str, str] | None = None,
     simulate: Iterable[str] = (),
+    stop: Stop | None = None,
+    watchdog: Watchdog | None = None,
+    heartbeat_timeout: float | None = None,
 ) -> Process:
-    """Start the process and run it: `cycles` times (forever if None), paced or flat out.
+    """Start the process and run it: `cycles` times (forever if None), paced or flat out,
+    until `on_cycle` returns True or `stop` is requested. The caller closes its block.
 
-    `on_cycle` is called after every cycle; returning True stops the loop.
+    Paced, the watchdog halts the roots after `watchdog.overruns` consecutive overruns or
+    one cycle longer than `watchdog.period_factor` periods, and supervisors of modules in
+    another process go to their safe state when its heartbeat is older than
+    `heartbeat_timeout` seconds (`layout.HEARTBEAT_TIMEOUT` by default).
     """
     process = start(plan, layout, shm_name, create, settings, simulate)
-    pacer = Pacer(plan.cycle_period if pace else 0.0)
-    while cycles is None or process.cycle < cycles:
-        process.run_cycle()
-        if on_cycle is not None and on_cycle(process):
-            break
-        pacer.wait()
+    period = plan.cycle_period if pace else 0.0
+    pacer = Pacer(period)
+    dog = watchdog or Watchdog()
+    timeout = heartbeat_timeout if heartbeat_timeout is not None else layout.HEARTBEAT_TIMEOUT
+    timeout_ns = int(timeout * 1e9)
+    watched = process.watched()
+    counters = process.counters
+    try:
+        while cycles is None or process.cycle < cycles:
+            began = time.perf_counter_ns()
+            process.run_cycle()
+            took = time.perf_counter_ns() - began
+            counters["last_cycle_ns"] = took
+            counters["max_cycle_ns"] = max(counters["max_cycle_ns"], took)
+            if watched:
+                process.check_liveness(timeout_ns, time.monotonic_ns(), watched)
+            if on_cycle is not None and on_cycle(process):
+                break
+            if stop is not None and stop.requested:
+                break
+            if period > 0:
+                if took > dog.load_warning * period * 1e9:
+                    counters["load_warnings"] += 1
+                pacer.wait()
+                counters["overruns"], counters["late_wakeups"] = pacer.overruns, pacer.late
+                if pacer.consecutive >= dog.overruns or took > dog.period_factor * period * 1e9:
+                    counters["watchdog_trips"] += 1
+                    pacer.consecutive = 0
+                    process.halt_roots()
+    finally:
+        process.beat(STOPPED)
     return process
 
 
 class Pacer:
-    """Holds each cycle to the period on a monotonic clock; `period=0` runs as fast as possible."""
+    """Holds each cycle to the period on a monotonic clock; `period=0` runs as fast as possible.
+
+    Counts overruns (a cycle that ran past its boundary: the schedule restarts from now),
+    consecutive overruns, and late wake-ups (a sleep that ended more than `late_after` of a
+    period past its boundary)."""
 
     def __init__(
         self,
         period: float,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
+        late_after: float = 0.1,
     ) -> None:
         self.period, self.clock, self.sleep = period, clock, sleep
         self.deadline = clock() + period
-        self.overruns = 0
+        self.overruns = self.consecutive = self.late = 0
+        self.late_after = late_after * period
 
     def wait(self) -> None:
         """Sleep until the next cycle boundary; count a cycle that ran past it."""
@@ -153,7 +360,48 @@ class Pacer:
         now = self.clock()
         if now <= self.deadline:
             self.sleep(self.deadline - now)
+            if self.clock() - self.deadline > self.late_after:
+                self.late += 1
             self.deadline += self.period
+            self.consecutive = 0
         else:
             self.overruns += 1
+            self.consecutive += 1
             self.deadline = now + self.period
+
+
+# ---------------------------------------------------------------- lockstep
+
+# A coordinator steps a process through a pipe: each request is one segment of a system
+# cycle (the plan's modules `first`..`last`), and `end` says whether the process's cycle
+# ends with it; the process answers when it has run them.
+STEP = Struct("<cHH?")  # b"s", first, last, end; b"q" asks the process to stop
+DONE_REPLY = b"d"
+
+
+def serve(process: Process, requests: int, replies: int) -> None:
+    """Run `process` in lockstep: one segment per request read from the file descriptor
+    `requests`, an answer written to `replies`, until b"q" or the coordinator goes away."""
+    while True:
+        message = _read_exactly(requests, STEP.size)
+        if message is None:
+            break
+        op, first, last, end = STEP.unpack(message)
+        if op != b"s":
+            break
+        process.run_modules(first, last)
+        if end:
+            process.cycle += 1
+            process.beat()
+        os.write(replies, DONE_REPLY)
+    process.beat(STOPPED)
+
+
+def _read_exactly(fd: int, size: int) -> bytes | None:
+    data = b""
+    while len(data) < size:
+        chunk = os.read(fd, size - len(data))
+        if not chunk:
+            return None
+        data += chunk
+    return data

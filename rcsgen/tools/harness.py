@@ -84,104 +84,27 @@ def _use_hooks_from(hooks_dir: Path) -> None:
             del sys.modules[name]
 
 
-class Harness:
-    """One process of a generated system running on a private in-process block."""
+def generate(spec_dir: Path) -> tuple[Path, str]:
+    """Generate the one system in `spec_dir` into a new scratch directory: (it, the name)."""
+    front = compile_paths([spec_dir])
+    if front.diagnostics.errors or len(front.systems) != 1:
+        raise SpecError(front.diagnostics)
+    system = front.systems[0]
+    scratch = Path(tempfile.mkdtemp(prefix="rcsgen-harness-"))
+    for rel, text in emit.render_all([system]).items():
+        path = scratch / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+    return scratch, system.name
 
-    def __init__(
-        self,
-        package: ModuleType,
-        process: str | None = None,
-        send_init: bool = False,
-        scratch: Path | None = None,
-        settings: dict[str, str] | None = None,
-        simulate: tuple[str, ...] = (),
-    ) -> None:
-        self.package = package
-        self.layout = importlib.import_module(f"{package.__name__}.layout")
-        self.process_name = process or package.PROCESSES[0]
-        main = importlib.import_module(f"{package.__name__}.main_{self.process_name}")
-        self.main_module = main
-        runtime = f"{package.__name__}.rcs"
-        self.contract = importlib.import_module(f"{runtime}.contract")
-        self.block = importlib.import_module(f"{runtime}.block").Block(self.layout.SIZE)
-        self.buf = self.block.buf
-        self.layout.initialise(self.buf)
-        loop = importlib.import_module(f"{runtime}.loop")
-        self.process = loop.Process(main.PLAN, self.layout, self.block, settings, simulate)
-        # Whose state names a module's status uses: a stand-in's, while it runs in its place.
-        self._states_of = {name: main.PLAN.stand_ins[name][0] for name in self.process.simulated}
-        for name in self.process.simulated:
-            self.set_mode(name, simulate=True)
-        if send_init:
-            self.process.send_init()
-        self._scratch = scratch
 
-    # ------------------------------------------------------------ construction
+class BlockView:
+    """A generated system's block, read and written through its layout's records, by name."""
 
-    @classmethod
-    def build(cls, spec_dir: str | Path, process: str | None = None, **options: Any) -> Harness:
-        """Generate the system in `spec_dir` into a scratch directory and load it."""
-        spec_dir = Path(spec_dir)
-        front = compile_paths([spec_dir])
-        if front.diagnostics.errors or len(front.systems) != 1:
-            raise SpecError(front.diagnostics)
-        system = front.systems[0]
-        scratch = Path(tempfile.mkdtemp(prefix="rcsgen-harness-"))
-        for rel, text in emit.render_all([system]).items():
-            path = scratch / rel
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text, encoding="utf-8")
-        package = import_package(scratch / system.name, spec_dir.resolve())
-        return cls(package, process, scratch=scratch, **options)
-
-    @classmethod
-    def load(
-        cls,
-        package_dir: str | Path,
-        hooks_dir: str | Path | None = None,
-        process: str | None = None,
-        **options: Any,
-    ) -> Harness:
-        """Load an already generated package (e.g. `generated/miner`)."""
-        hooks = Path(hooks_dir).resolve() if hooks_dir is not None else None
-        return cls(import_package(Path(package_dir).resolve(), hooks), process, **options)
-
-    def close(self) -> None:
-        if self._scratch is not None:
-            shutil.rmtree(self._scratch, ignore_errors=True)
-            self._scratch = None
-
-    def __enter__(self) -> Harness:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    # ------------------------------------------------------------ running
-
-    @property
-    def modules(self) -> tuple[str, ...]:
-        """The modules this run executes, in order (a stand-in runs under its controller's name)."""
-        return tuple(self.process.modules)
-
-    def controller(self, module: str) -> Any:
-        """The generated controller object of `module` (its local buffers are attributes)."""
-        return self.process.modules[module]
-
-    def step(self, module: str) -> None:
-        """Run one module for one cycle; nothing else runs."""
-        self.controller(module).run_cycle()
-
-    def cycle(self, count: int = 1) -> None:
-        """Run whole process cycles: every module once, in the declared order."""
-        for _ in range(count):
-            self.process.run_cycle()
-
-    @property
-    def cycles(self) -> int:
-        return self.process.cycle
-
-    # ------------------------------------------------------------ buffers
+    layout: ModuleType
+    contract: ModuleType
+    buf: memoryview
+    _states_of: dict[str, str]
 
     def command(self, module: str, command: str, **args: Any) -> int:
         """Write a new command to `module` (as its supervisor would); returns its number."""
@@ -197,7 +120,7 @@ class Harness:
         number = record.read(self.buf)["command_num"] + 1
         values = {f"arg_{k}": v for k, v in args.items()}
         record.write(self.buf, command_num=number, command=names.index(command), **values)
-        return number
+        return int(number)
 
     def sent(self, module: str) -> Sent:
         """What is in `module`'s command buffer: the last command its supervisor sent."""
@@ -228,11 +151,130 @@ class Harness:
         self.layout.MODE_IN[module].write(self.buf, **mode)
 
     def performance(self, module: str) -> dict[str, int]:
-        return self.layout.PERFORMANCE[module].read(self.buf)
+        return dict(self.layout.PERFORMANCE[module].read(self.buf))
+
+    def process_record(self, process: str) -> dict[str, int]:
+        """A process's control record: heartbeat, counters, state."""
+        return dict(self.layout.PROCESSES[process].read(self.buf))
 
     @property
     def world(self) -> World:
         return World(self.layout, self.buf)
+
+
+class Harness(BlockView):
+    """A generated system on a private in-process block: one process of it, or all of them
+    (`process=None`: every process's modules, process by process, the lockstep order)."""
+
+    def __init__(
+        self,
+        package: ModuleType,
+        process: str | None = None,
+        send_init: bool = False,
+        scratch: Path | None = None,
+        settings: dict[str, str] | None = None,
+        simulate: tuple[str, ...] = (),
+    ) -> None:
+        self.package = package
+        self.layout = importlib.import_module(f"{package.__name__}.layout")
+        runtime = f"{package.__name__}.rcs"
+        self.contract = importlib.import_module(f"{runtime}.contract")
+        loop = importlib.import_module(f"{runtime}.loop")
+        names = [process] if process is not None else list(self.layout.PROCESSES)
+        plans = {
+            name: importlib.import_module(f"{package.__name__}.main_{name}").PLAN for name in names
+        }
+        unknown = sorted(set(simulate) - {m for plan in plans.values() for m in plan.stand_ins})
+        if unknown:
+            raise ValueError(f"no stand-in for {unknown}")
+        self.block = importlib.import_module(f"{runtime}.block").Block(self.layout)
+        self.buf = self.block.buf
+        self.processes = {
+            name: loop.Process(
+                plan,
+                self.layout,
+                self.block,
+                settings,
+                [m for m in simulate if m in plan.stand_ins],
+            )
+            for name, plan in plans.items()
+        }
+        self.process = next(iter(self.processes.values()))
+        self.process_name = next(iter(self.processes))
+        if send_init:
+            for each in self.processes.values():
+                each.send_init()
+        self._scratch = scratch
+
+    @property
+    def _states_of(self) -> dict[str, str]:  # type: ignore[override]
+        """Whose state names a module's status uses: a stand-in's, while it runs in its place."""
+        return {
+            name: each.plan.stand_ins[name][0]
+            for each in self.processes.values()
+            for name in each.simulated
+        }
+
+    # ------------------------------------------------------------ construction
+
+    @classmethod
+    def build(cls, spec_dir: str | Path, process: str | None = None, **options: Any) -> Harness:
+        """Generate the system in `spec_dir` into a scratch directory and load it."""
+        spec_dir = Path(spec_dir)
+        scratch, name = generate(spec_dir)
+        package = import_package(scratch / name, spec_dir.resolve())
+        return cls(package, process, scratch=scratch, **options)
+
+    @classmethod
+    def load(
+        cls,
+        package_dir: str | Path,
+        hooks_dir: str | Path | None = None,
+        process: str | None = None,
+        **options: Any,
+    ) -> Harness:
+        """Load an already generated package (e.g. `generated/miner`)."""
+        hooks = Path(hooks_dir).resolve() if hooks_dir is not None else None
+        return cls(import_package(Path(package_dir).resolve(), hooks), process, **options)
+
+    def close(self) -> None:
+        if self._scratch is not None:
+            shutil.rmtree(self._scratch, ignore_errors=True)
+            self._scratch = None
+
+    def __enter__(self) -> Harness:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------ running
+
+    @property
+    def modules(self) -> tuple[str, ...]:
+        """The modules this run executes, in order (a stand-in runs under its controller's name)."""
+        return tuple(m for each in self.processes.values() for m in each.modules)
+
+    def controller(self, module: str) -> Any:
+        """The generated controller object of `module` (its local buffers are attributes)."""
+        for each in self.processes.values():
+            if module in each.modules:
+                return each.modules[module]
+        raise KeyError(f"{module} does not run in this harness")
+
+    def step(self, module: str) -> None:
+        """Run one module for one cycle; nothing else runs."""
+        self.controller(module).run_cycle()
+
+    def cycle(self, count: int = 1) -> None:
+        """Run whole system cycles: every module once, in the declared order."""
+        for _ in range(count):
+            for each in self.processes.values():
+                each.run_cycle()
+
+    @property
+    def cycles(self) -> int:
+        return int(self.process.cycle)
 
 
 class World:

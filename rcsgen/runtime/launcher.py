@@ -1,0 +1,431 @@
+"""Launcher: a generated package -> its processes as OS processes over one segment, and a summary.
+
+`python -m <system>` runs every process of the system: the launcher creates (and owns) the
+shared-memory segment, starts one OS process per `processes:` entry, watches them (a
+process that dies is marked DEAD in its control record, so the supervisors of its modules
+go to their safe state; with `--restart` it is started again and resumes), and on Ctrl-C
+or SIGTERM stops them all, prints a summary per process and removes the segment. In
+lockstep (`--lockstep`, or `Launcher(lockstep=True)` from a test harness) a `Coordinator`
+steps the processes through pipes, one segment of the system's execution order at a time,
+so a multi-process run leaves the same trace as a one-process run. `python -m <system>
+PROCESS` runs one process (as the launcher's child, or by hand). Standard library only:
+copied verbatim into every generated package.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from types import ModuleType
+from typing import Self
+
+from .block import Block, BlockError
+from .contract import DEAD, PROCESS_STATES, STOPPED, StaleRead
+from .loop import DONE_REPLY, STEP, ProcessPlan, Stop, run, serve, start
+
+STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
+
+
+@dataclass(frozen=True)
+class System:
+    """A generated package as the launcher sees it: its layout and each process's plan."""
+
+    package: str
+    layout: ModuleType
+    plans: dict[str, ProcessPlan]
+
+    @classmethod
+    def load(cls, package: str) -> System:
+        layout = importlib.import_module(f"{package}.layout")
+        plans = {
+            name: importlib.import_module(f"{package}.main_{name}").PLAN
+            for name in layout.PROCESSES
+        }
+        return cls(package, layout, plans)
+
+    @property
+    def default_segment(self) -> str:
+        return f"rcs_{self.layout.SYSTEM}_{self.layout.LAYOUT_HASH[:8]}"
+
+    def segments(self) -> list[tuple[str, int, int, bool]]:
+        """The system's execution order as lockstep segments: (process, first, last, end)
+        with `first`..`last` indices into that process's plan; `end` on the last segment of
+        each process in a cycle. The order is the processes' modules, process by process."""
+        found = []
+        for name, plan in self.plans.items():
+            found.append((name, 0, len(plan.modules) - 1, True))
+        return found
+
+
+# ---------------------------------------------------------------- one process
+
+
+def run_process(system: System, args: argparse.Namespace) -> int:
+    """`python -m <system> PROCESS ...`: one process, as the launcher's child or by hand."""
+    plan = system.plans[args.process]
+    stop = Stop()
+    settings = dict(item.partition("=")[::2] for item in args.set)
+    if args.child:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the launcher decides when to stop
+    signal.signal(signal.SIGTERM, stop)
+    if args.lockstep:
+        try:
+            process = start(plan, system.layout, args.shm, not args.attach, settings, args.simulate)
+        except BlockError as error:
+            print(f"{args.process}: {error}", file=sys.stderr)
+            return 1
+        try:
+            serve(process, sys.stdin.fileno(), sys.stdout.fileno())
+        finally:
+            process.block.close()
+        return 0
+    if not args.child:
+        signal.signal(signal.SIGINT, stop)
+    else:  # the launcher's end (even a crash) closes our stdin: stop then
+        threading.Thread(target=_stop_on_eof, args=(stop,), daemon=True).start()
+    try:
+        process = run(
+            plan,
+            system.layout,
+            args.cycles,
+            not args.fast,
+            args.shm,
+            not args.attach,
+            settings=settings,
+            simulate=args.simulate,
+            stop=stop,
+        )
+    except BlockError as error:
+        print(f"{args.process}: {error}", file=sys.stderr)
+        return 1
+    if not args.child:
+        print(f"{args.process}: {process.cycle} cycles")
+        for line in summary(system, process.block.buf, [args.process]):
+            print(line)
+    if args.child and stop.orphaned:
+        process.block.owner = True  # the launcher is gone: the last one out removes it
+    process.block.close()
+    return 0
+
+
+def _stop_on_eof(stop: Stop) -> None:
+    try:
+        while os.read(0, 1):
+            pass
+    except OSError:
+        pass
+    stop.orphaned = True
+    stop()
+
+
+# ---------------------------------------------------------------- the launcher
+
+
+@dataclass
+class Child:
+    name: str
+    popen: subprocess.Popen[bytes]
+    restarts: int = 0
+
+
+class Launcher:
+    """Every process of a system as an OS process over one segment the launcher owns."""
+
+    def __init__(
+        self,
+        system: System,
+        segment: str | None = None,
+        *,
+        lockstep: bool = False,
+        pace: bool = True,
+        cycles: int | None = None,
+        settings: Sequence[str] = (),
+        simulate: Sequence[str] = (),
+        restart: bool = False,
+        python: str = sys.executable,
+    ) -> None:
+        self.system = system
+        self.segment = segment or system.default_segment
+        self.lockstep, self.pace, self.cycles = lockstep, pace, cycles
+        self.settings, self.simulate = list(settings), list(simulate)
+        self.restart, self.python = restart, python
+        self.block: Block | None = None
+        self.children: dict[str, Child] = {}
+        self.events: list[str] = []  # what happened, for the summary
+        self.final: list[str] = []  # the summary, taken when the processes have stopped
+
+    # ------------------------------------------------------------ lifecycle
+
+    def start(self) -> None:
+        """Create the segment (refusing one that exists) and start every process."""
+        self.block = Block(self.system.layout, self.segment, create=True)
+        try:
+            for name in self.system.plans:
+                self.children[name] = Child(name, self._spawn(name, attach=True))
+        except BaseException:
+            self.stop()
+            raise
+
+    def _spawn(self, name: str, attach: bool) -> subprocess.Popen[bytes]:
+        command = [self.python, "-m", self.system.package, name, "--shm", self.segment, "--child"]
+        command += ["--attach"] if attach else []
+        command += ["--lockstep"] if self.lockstep else []
+        command += [] if self.pace else ["--fast"]
+        command += ["--cycles", str(self.cycles)] if self.cycles is not None else []
+        for item in self.settings:
+            command += ["--set", item]
+        simulate = [m for m in self.simulate if m in self.system.plans[name].stand_ins]
+        for module in simulate:
+            command += ["--simulate", module]
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
+        return subprocess.Popen(
+            command,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE if self.lockstep else None,
+            env=env,
+        )
+
+    def poll(self) -> list[str]:
+        """Check the children: each one that ended is reported (and marked DEAD in its
+        control record if it did not stop on its own); with `restart`, started again."""
+        assert self.block is not None
+        ended = []
+        for name, child in list(self.children.items()):
+            code = child.popen.poll()
+            if code is None:
+                continue
+            ended.append(name)
+            record = self.system.layout.PROCESSES[name]
+            state = _read(record, self.block.buf).get("state")
+            if code != 0 or state != STOPPED:
+                record.write(self.block.buf, state=DEAD)
+                self.events.append(f"{name} died (exit {code})")
+                if self.restart and not self.lockstep:
+                    child.popen = self._spawn(name, attach=True)
+                    child.restarts += 1
+                    self.events.append(f"{name} restarted")
+                    continue
+            _close(child.popen)
+            del self.children[name]
+        return ended
+
+    def wait(self, stop: Stop, interval: float = 0.05) -> None:
+        """Watch the children until they have all ended or `stop` is requested."""
+        while self.children and not stop.requested:
+            self.poll()
+            time.sleep(interval)
+
+    def stop(self) -> None:
+        """Stop every process (closing its pipe, then SIGTERM, then SIGKILL after a grace
+        period) and remove the segment."""
+        for child in self.children.values():
+            _close_stdin(child.popen)
+            if child.popen.poll() is None:
+                child.popen.terminate()
+        deadline = time.monotonic() + STOP_GRACE
+        for child in self.children.values():
+            try:
+                child.popen.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                child.popen.kill()
+                child.popen.wait()
+                self.events.append(f"{child.name} did not stop: killed")
+            _close(child.popen)
+        self.children.clear()
+        if self.block is not None:
+            self.final = [
+                *self.events,
+                *summary(self.system, self.block.buf, list(self.system.plans)),
+            ]
+            self.block.close()
+            self.block = None
+
+    def __enter__(self) -> Self:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+class Coordinator:
+    """Steps a launched system in lockstep: every segment of the execution order, in turn."""
+
+    def __init__(self, launcher: Launcher) -> None:
+        self.launcher = launcher
+        self.segments = launcher.system.segments()
+        self.cycle = 0
+
+    def step(self, cycles: int = 1) -> None:
+        """Run `cycles` whole system cycles; raises ProcessLost if a process is gone."""
+        for _ in range(cycles):
+            for name, first, last, end in self.segments:
+                child = self.launcher.children.get(name)
+                if child is None or child.popen.stdin is None or child.popen.stdout is None:
+                    raise ProcessLost(f"process {name} is not running")
+                try:
+                    child.popen.stdin.write(STEP.pack(b"s", first, last, end))
+                    child.popen.stdin.flush()
+                    reply = child.popen.stdout.read(len(DONE_REPLY))
+                except (BrokenPipeError, OSError):
+                    reply = b""
+                if reply != DONE_REPLY:
+                    raise ProcessLost(f"process {name} stopped answering (it died?)")
+            self.cycle += 1
+
+
+class ProcessLost(Exception):
+    """A process of a lockstep run is gone."""
+
+
+def _close_stdin(popen: subprocess.Popen[bytes]) -> None:
+    try:
+        if popen.stdin is not None:
+            popen.stdin.close()
+    except OSError:
+        pass
+
+
+def _close(popen: subprocess.Popen[bytes]) -> None:
+    _close_stdin(popen)
+    if popen.stdout is not None:
+        popen.stdout.close()
+
+
+def _read(record: object, buf: memoryview) -> dict[str, object]:
+    try:
+        return record.read(buf)  # type: ignore[attr-defined, no-any-return]
+    except StaleRead:
+        return {}
+
+
+# ---------------------------------------------------------------- summary
+
+
+def summary(system: System, buf: memoryview, processes: list[str]) -> Iterator[str]:
+    """Per process: its state, cycles, overruns, late wake-ups, watchdog trips, load
+    warnings, stale reads, and the longest cycle of each of its modules."""
+    layout = system.layout
+    for name in processes:
+        record = _read(layout.PROCESSES[name], buf)
+        if not record:
+            yield f"{name}: control record unreadable"
+            continue
+        state = PROCESS_STATES[int(record["state"])]  # type: ignore[call-overload]
+        yield (
+            f"{name}: {state.lower()}, {record['heartbeat']} cycles, {record['overruns']} "
+            f"overruns, {record['late_wakeups']} late wake-ups, {record['watchdog_trips']} "
+            f"watchdog trips, {record['load_warnings']} load warnings"
+        )
+        modules = system.plans[name].modules
+        cells, stale = [], 0
+        for module in modules:
+            perf = _read(layout.PERFORMANCE[module], buf)
+            if perf:
+                cells.append(f"{module} {int(perf['max_cycle_ns']) / 1000:.1f}")  # type: ignore[call-overload]
+                stale += int(perf["stale_reads"])  # type: ignore[call-overload]
+        yield f"  max cycle time per module (us): {'  '.join(cells)}"
+        if stale:
+            yield f"  stale reads: {stale}"
+
+
+# ---------------------------------------------------------------- command line
+
+
+def main(package: str, argv: list[str] | None = None) -> int:
+    """`python -m <system> [PROCESS] [options]`."""
+    system = System.load(package)
+    parser = argparse.ArgumentParser(
+        prog=f"python -m {package}",
+        description=f"Run the {system.layout.SYSTEM} system: every process (the default), "
+        "or one PROCESS.",
+    )
+    parser.add_argument("process", nargs="?", choices=list(system.plans), help="run only this")
+    parser.add_argument("--cycles", type=int, default=None, help="stop after this many cycles")
+    parser.add_argument("--fast", action="store_true", help="do not pace to the cycle period")
+    parser.add_argument(
+        "--shm", default=None, help=f"shared-memory segment [default: {system.default_segment}]"
+    )
+    parser.add_argument("--attach", action="store_true", help="attach to a running segment")
+    parser.add_argument("--restart", action="store_true", help="restart a process that dies")
+    parser.add_argument(
+        "--lockstep", action="store_true", help="step the processes in lockstep (no pacing)"
+    )
+    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a run setting for the hook-state factories (repeatable)",
+    )
+    parser.add_argument(
+        "--simulate",
+        action="append",
+        default=[],
+        metavar="MODULE",
+        help="run this controller's stand-in in its place (repeatable)",
+    )
+    args = parser.parse_args(argv)
+    if args.cycles is not None and args.cycles < 0:
+        parser.error("--cycles must be 0 or more")
+    switchable = {m for plan in system.plans.values() for m in plan.stand_ins}
+    unknown = sorted(set(args.simulate) - switchable)
+    if unknown:
+        parser.error(f"no stand-in for {unknown}; these have one: {sorted(switchable)}")
+    if args.process is not None:
+        args.shm = args.shm or system.default_segment
+        return run_process(system, args)
+    return launch(system, args)
+
+
+def launch(system: System, args: argparse.Namespace) -> int:
+    """Every process: until Ctrl-C / SIGTERM (or `--cycles`), then a summary."""
+    stop = Stop()
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
+    launcher = Launcher(
+        system,
+        args.shm,
+        lockstep=args.lockstep,
+        pace=not args.fast,
+        cycles=None if args.lockstep else args.cycles,
+        settings=args.set,
+        simulate=args.simulate,
+        restart=args.restart,
+    )
+    try:
+        launcher.start()
+    except BlockError as error:
+        print(f"{system.layout.SYSTEM}: {error}", file=sys.stderr)
+        return 1
+    code = 0
+    try:
+        print(
+            f"{system.layout.SYSTEM}: {len(system.plans)} process(es) on segment "
+            f"{launcher.segment}; Ctrl-C stops",
+            file=sys.stderr,
+        )
+        if args.lockstep:
+            coordinator = Coordinator(launcher)
+            while not stop.requested and (args.cycles is None or coordinator.cycle < args.cycles):
+                coordinator.step()
+        else:
+            launcher.wait(stop)
+    except ProcessLost as error:
+        print(f"{system.layout.SYSTEM}: {error}", file=sys.stderr)
+        code = 1
+    finally:
+        launcher.stop()
+    for line in launcher.final:
+        print(line)
+    return code
