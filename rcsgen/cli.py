@@ -151,11 +151,22 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt:
     default=None,
     help="Re-record this golden trace file (review the diff before committing it).",
 )
-def run(scenario: Path, generated: Path, trace_path: Path | None, record: Path | None) -> None:
+@click.option(
+    "--processes",
+    is_flag=True,
+    help="Run every process as its own OS process, in lockstep (the same trace).",
+)
+def run(
+    scenario: Path,
+    generated: Path,
+    trace_path: Path | None,
+    record: Path | None,
+    processes: bool,
+) -> None:
     """Run a scenario on the generated system and summarise it."""
     from .compiler.diagnostics import SpecError
     from .tools import scenario as scenarios
-    from .tools.harness import Harness
+    from .tools.harness import AnyHarness
 
     try:
         spec = scenarios.load_scenario(scenario)
@@ -167,15 +178,18 @@ def run(scenario: Path, generated: Path, trace_path: Path | None, record: Path |
     if not (package / "__init__.py").is_file():
         click.echo(f"error: no generated package at {package}; run `rcsgen build` first", err=True)
         sys.exit(1)
-    harness = scenarios.open_harness(spec, package)
+    harness = scenarios.open_harness(spec, package, processes)
 
-    def progress(h: Harness) -> None:
+    def progress(h: AnyHarness) -> None:
         if h.cycles % 100 == 0:
             busy = [m for m in h.modules if h.status(m).status == "EXECUTING"]
             phases = "  ".join(f"{m} {h.sent(m).command}/{h.status(m).state}" for m in busy)
             click.echo(f"  cycle {h.cycles:>6}  {phases}", err=True)
 
-    result = scenarios.run(spec, harness, progress)
+    try:
+        result = scenarios.run(spec, harness, progress)
+    finally:
+        harness.close()
     trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
     scenarios.write_trace(trace_path, result.trace)
     if record is not None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 
@@ -58,3 +59,37 @@ def work(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, pristine: dict[str, by
         path.write_bytes(data)
     monkeypatch.chdir(tmp_path)
     return tmp_path
+
+
+def _our_segments() -> set[str]:
+    """Shared-memory segments the suite's runs create (rcsgen_* in tests, rcs_* by default)."""
+    shm = Path("/dev/shm")
+    return {p.name for p in shm.glob("rcs*")} if shm.is_dir() else set()
+
+
+def _children() -> list[str]:
+    """Processes whose parent is this test process (read from /proc), with their commands."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[1]) == os.getpid():
+            try:
+                found.append((stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode())
+            except OSError:
+                continue
+    return [command for command in found if command]
+
+
+@pytest.fixture(scope="session", autouse=True)
+def nothing_left_behind():
+    """After the whole suite: no shared-memory segment of ours is left in /dev/shm, and no
+    child process of the test run survives (every launched system was stopped)."""
+    before = _our_segments()
+    yield
+    left = _our_segments() - before
+    assert not left, f"the suite left shared-memory segments behind: {sorted(left)}"
+    survivors = [c for c in _children() if "resource_tracker" not in c]
+    assert not survivors, f"child processes survived the suite: {survivors}"

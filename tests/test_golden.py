@@ -19,15 +19,22 @@ GOLDEN = ROOT / "tests" / "golden"
 SCENARIOS = sorted((MINER / "scenarios").glob("*.yaml"))
 
 
-def run_scenario(path: Path, package: Path = ROOT / "generated" / "miner"):
+def run_scenario(path: Path, package: Path = ROOT / "generated" / "miner", processes: bool = False):
     scenario = load_scenario(path)
-    return run(scenario, open_harness(scenario, package))
+    harness = open_harness(scenario, package, processes)
+    try:
+        return run(scenario, harness)
+    finally:
+        harness.close()
 
 
+@pytest.mark.parametrize("processes", [False, True], ids=["one-process", "processes"])
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
-def test_scenario_matches_its_golden_trace(path):
+def test_scenario_matches_its_golden_trace(path, processes):
+    """In one process, and as the spec's processes (two OS processes in lockstep: the path
+    planner on its own, Figure 7), every scenario leaves its golden trace."""
     golden = GOLDEN / f"{path.stem}.jsonl"
-    result = run_scenario(path)
+    result = run_scenario(path, processes=processes)
     mismatch = first_difference(read_trace(golden), result.trace)
     rel = path.relative_to(ROOT)
     assert mismatch is None, (

@@ -3,7 +3,7 @@
 
 SYSTEM = "miner"
 CYCLE_PERIOD = 0.1
-PROCESSES = ("pc1",)
+PROCESSES = ("pc1", "pc2")
 # The spec files this package was generated from, relative to the specs directory.
 SOURCES = (
     "miner/bas.yaml",

@@ -18,13 +18,13 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI800x?111xd8xd24xd152x?15xd8xd8xd")
-INPUTS_AT = 2272
+INPUTS = Struct("<QI44x???1xI936x?111xd8xd24xd152x?15xd8xd8xd")
+INPUTS_AT = 2224
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<Q?7xQdQdQd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 3448
+WORLD_OUT_1_AT = 3536
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -8,7 +8,7 @@ from .layout import (
     PP_PERF_AT,
     PP_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
 
 # Commands pp accepts (the code written to its command buffer).
 INIT = 1
@@ -17,13 +17,17 @@ PLAN = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI1504xq248xd")
-INPUTS_AT = 1520
+INPUTS = Struct("<QQIdd44x???1xI168xq240xQd")
+INPUTS_AT = 2936
+# The sequence words of the inputs another process writes, read again after INPUTS: the
+# read is whole only if none was odd (being written) and none changed.
+SEQS = Struct("<Q496xQ")
+SEQS_AT = 2936
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<Qq")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3096
+WORLD_OUT_1_AT = 3184
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -103,18 +107,30 @@ class PpController:
         """Copy the command in, the mode, each subordinate's status and the world in."""
         self.cycle_start = perf_counter_ns()
         buf = self.buf
-        (
-            self.command_num,
-            self.command,
-            self.arg_x,
-            self.arg_y,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.world_tram_dir,
-            self.world_pose_x,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        for _ in range(READ_TRIES):
+            values = INPUTS.unpack_from(buf, INPUTS_AT)
+            seqs = (
+                values[0],
+                values[10],
+            )
+            if not (seqs[0] | seqs[1]) & 1 and SEQS.unpack_from(buf, SEQS_AT) == seqs:
+                (
+                    _,
+                    self.command_num,
+                    self.command,
+                    self.arg_x,
+                    self.arg_y,
+                    self.dont_run,
+                    self.single_step,
+                    self.simulate,
+                    self.single_step_num,
+                    self.world_tram_dir,
+                    _,
+                    self.world_pose_x,
+                ) = values
+                break
+        else:  # another process kept writing: keep the inputs of the last whole read
+            self.stale_reads += 1
 
     def check_if_new_command(self) -> None:
         """A command number that differs from the echoed status number is a new command."""

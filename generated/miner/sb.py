@@ -29,7 +29,7 @@ CO_SUMP_SHEAR_CUSP = 6
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId44x???1xI80xQI3148xd")
-INPUTS_AT = 176
+INPUTS_AT = 264
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

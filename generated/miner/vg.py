@@ -12,7 +12,7 @@ from .layout import (
     VG_PERF_AT,
     VG_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
 
 # Commands vg accepts (the code written to its command buffer).
 INIT = 1
@@ -41,8 +41,12 @@ TC_STOP = 13
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI96xQI108xQI1412xq248xd")
-INPUTS_AT = 1384
+INPUTS = Struct("<QIdd44x???1xI80xQI1332xQQI188xQq248xd")
+INPUTS_AT = 1472
+# The sequence words of the inputs another process writes, read again after INPUTS: the
+# read is whole only if none was odd (being written) and none changed.
+SEQS = Struct("<Q200xQ")
+SEQS_AT = 2976
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -153,22 +157,34 @@ class VgController:
         """Copy the command in, the mode, each subordinate's status and the world in."""
         self.cycle_start = perf_counter_ns()
         buf = self.buf
-        (
-            self.command_num,
-            self.command,
-            self.arg_x,
-            self.arg_y,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.pp_status_num,
-            self.pp_status,
-            self.tc_status_num,
-            self.tc_status,
-            self.world_tram_dir,
-            self.world_pose_x,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        for _ in range(READ_TRIES):
+            values = INPUTS.unpack_from(buf, INPUTS_AT)
+            seqs = (
+                values[10],
+                values[13],
+            )
+            if not (seqs[0] | seqs[1]) & 1 and SEQS.unpack_from(buf, SEQS_AT) == seqs:
+                (
+                    self.command_num,
+                    self.command,
+                    self.arg_x,
+                    self.arg_y,
+                    self.dont_run,
+                    self.single_step,
+                    self.simulate,
+                    self.single_step_num,
+                    self.tc_status_num,
+                    self.tc_status,
+                    _,
+                    self.pp_status_num,
+                    self.pp_status,
+                    _,
+                    self.world_tram_dir,
+                    self.world_pose_x,
+                ) = values
+                break
+        else:  # another process kept writing: keep the inputs of the last whole read
+            self.stale_reads += 1
         if self.pp_status_num != self.pp_command_num:
             self.pp_status = EXECUTING  # until it echoes the last number sent
         if self.tc_status_num != self.tc_command_num:

@@ -29,7 +29,7 @@ from typing import Self
 
 from .block import Block, BlockError
 from .contract import DEAD, PROCESS_STATES, STOPPED, StaleRead
-from .loop import DONE_REPLY, STEP, ProcessPlan, Stop, run, serve, start
+from .loop import DONE_REPLY, READY, STEP, ProcessPlan, Stop, run, serve, start
 
 STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
 
@@ -41,6 +41,7 @@ class System:
     package: str
     layout: ModuleType
     plans: dict[str, ProcessPlan]
+    path: tuple[str, ...] = ()  # where the processes find the package and its hooks
 
     @classmethod
     def load(cls, package: str) -> System:
@@ -186,7 +187,7 @@ class Launcher:
         for module in simulate:
             command += ["--simulate", module]
         env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (*self.system.path, *sys.path) if p)
         return subprocess.Popen(
             command,
             stdin=subprocess.PIPE,
@@ -264,6 +265,9 @@ class Coordinator:
         self.launcher = launcher
         self.segments = launcher.system.segments()
         self.cycle = 0
+        for child in launcher.children.values():  # each has started and sent its INITs
+            if child.popen.stdout is None or child.popen.stdout.read(len(READY)) != READY:
+                raise ProcessLost(f"process {child.name} did not start")
 
     def step(self, cycles: int = 1) -> None:
         """Run `cycles` whole system cycles; raises ProcessLost if a process is gone."""

@@ -377,11 +377,13 @@ class Pacer:
 # ends with it; the process answers when it has run them.
 STEP = Struct("<cHH?")  # b"s", first, last, end; b"q" asks the process to stop
 DONE_REPLY = b"d"
+READY = b"r"  # a process says so once it has started (and sent INIT to its idle roots)
 
 
 def serve(process: Process, requests: int, replies: int) -> None:
     """Run `process` in lockstep: one segment per request read from the file descriptor
     `requests`, an answer written to `replies`, until b"q" or the coordinator goes away."""
+    os.write(replies, READY)
     while True:
         message = _read_exactly(requests, STEP.size)
         if message is None:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import itertools
+import os
 import shutil
 import sys
 import tempfile
@@ -275,6 +276,100 @@ class Harness(BlockView):
     @property
     def cycles(self) -> int:
         return int(self.process.cycle)
+
+
+class LaunchedHarness(BlockView):
+    """A generated system run as its processes, one OS process each over a shared segment,
+    stepped in lockstep: a whole system cycle at a time, in the order `Harness` runs them,
+    so a scenario leaves the same trace either way. INIT reaches the roots as in `Harness`
+    with `send_init`. Use as a context manager: closing stops the processes and removes
+    the segment."""
+
+    _segments = itertools.count(1)
+
+    def __init__(
+        self,
+        package_dir: str | Path,
+        hooks_dir: str | Path | None = None,
+        settings: dict[str, str] | None = None,
+        simulate: tuple[str, ...] = (),
+    ) -> None:
+        package_dir = Path(package_dir).resolve()
+        hooks = Path(hooks_dir).resolve() if hooks_dir is not None else None
+        package = import_package(package_dir, hooks)
+        self.package = package
+        self.layout = importlib.import_module(f"{package.__name__}.layout")
+        self.contract = importlib.import_module(f"{package.__name__}.rcs.contract")
+        launcher = importlib.import_module(f"{package.__name__}.rcs.launcher")
+        plans = {
+            name: importlib.import_module(f"{package.__name__}.main_{name}").PLAN
+            for name in self.layout.PROCESSES
+        }
+        unknown = sorted(set(simulate) - {m for plan in plans.values() for m in plan.stand_ins})
+        if unknown:
+            raise ValueError(f"no stand-in for {unknown}")
+        path = (str(package_dir.parent), *([str(hooks)] if hooks else []))
+        system = launcher.System(package_dir.name, self.layout, plans, path)
+        segment = f"rcsgen_run_{os.getpid()}_{next(self._segments)}"
+        settings_args = [f"{key}={value}" for key, value in (settings or {}).items()]
+        self.launcher = launcher.Launcher(
+            system, segment, lockstep=True, settings=settings_args, simulate=list(simulate)
+        )
+        self.launcher.start()
+        try:
+            self.coordinator = launcher.Coordinator(self.launcher)
+        except BaseException:
+            self.launcher.stop()
+            raise
+        self.block = self.launcher.block
+        self.buf = self.block.buf
+        self._states_of = {m: stand_in_of(plans, m) for m in simulate}
+        skipped = {
+            n
+            for plan in plans.values()
+            for m in simulate
+            if m in plan.stand_ins
+            for n in plan.stand_ins[m][1]
+            if n != m
+        }
+        self._modules = tuple(
+            m for plan in plans.values() for m in plan.modules if m not in skipped
+        )
+
+    @property
+    def modules(self) -> tuple[str, ...]:
+        return self._modules
+
+    def cycle(self, count: int = 1) -> None:
+        """Run whole system cycles, every process in turn."""
+        self.coordinator.step(count)
+
+    @property
+    def cycles(self) -> int:
+        return int(self.coordinator.cycle)
+
+    def summary(self) -> list[str]:
+        """The launcher's summary, once closed."""
+        return list(self.launcher.final)
+
+    def close(self) -> None:
+        self.launcher.stop()
+
+    def __enter__(self) -> LaunchedHarness:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def stand_in_of(plans: dict[str, Any], module: str) -> str:
+    """The stand-in that runs in `module`'s place."""
+    return str(
+        next(plan.stand_ins[module][0] for plan in plans.values() if module in plan.stand_ins)
+    )
+
+
+AnyHarness = Harness | LaunchedHarness
 
 
 class World:

@@ -19,7 +19,7 @@ from typing import Any
 from ..compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
 from ..compiler.frontend import SYSTEM_FILE, display_path
 from ..compiler.loader import LocDict, load_file, span_of, value_span
-from .harness import Harness
+from .harness import AnyHarness, Harness, LaunchedHarness
 
 SCENARIO_KEYS = {"scenario", "title", "doc", "process", "max_cycles", "stop_when_done", "trace"}
 SCENARIO_KEYS |= {"events", "settings", "simulate", "report"}
@@ -118,8 +118,14 @@ def load_scenario(path: Path) -> Scenario:
     )
 
 
-def open_harness(scenario: Scenario, package_dir: Path) -> Harness:
-    """The harness a scenario runs on: its process, settings and stand-ins, INIT sent."""
+def open_harness(scenario: Scenario, package_dir: Path, processes: bool = False) -> AnyHarness:
+    """The harness a scenario runs on: its process (or every process), settings and
+    stand-ins, INIT sent. With `processes`, every process runs as its own OS process, in
+    lockstep (close the harness to stop them)."""
+    if processes:
+        return LaunchedHarness(
+            package_dir, scenario.system_dir, scenario.settings, scenario.simulate
+        )
     return Harness.load(
         package_dir,
         scenario.system_dir,
@@ -144,7 +150,7 @@ class RunResult:
     figures: dict[str, Any]  # the summary's world fields at the end
 
 
-def trace_line(harness: Harness, world: list[str]) -> str:
+def trace_line(harness: AnyHarness, world: list[str]) -> str:
     """One canonical JSON line for the state of the system after the current cycle."""
     modules = {}
     for name in harness.modules:
@@ -161,7 +167,7 @@ def trace_line(harness: Harness, world: list[str]) -> str:
     return json.dumps(line, sort_keys=True, separators=(",", ":"))
 
 
-def _apply(harness: Harness, event: Event) -> None:
+def _apply(harness: AnyHarness, event: Event) -> None:
     harness.world.update(event.world)
     for module, mode in event.mode.items():
         harness.set_mode(module, **mode)
@@ -172,8 +178,8 @@ def _apply(harness: Harness, event: Event) -> None:
 
 def run(
     scenario: Scenario,
-    harness: Harness,
-    on_cycle: Callable[[Harness], None] | None = None,
+    harness: AnyHarness,
+    on_cycle: Callable[[AnyHarness], None] | None = None,
 ) -> RunResult:
     """Run a scenario to its stop condition (or `max_cycles`) and collect its trace."""
     pending = list(scenario.events)
@@ -199,7 +205,7 @@ def run(
     return RunResult(scenario, trace, harness.cycles, final, phases, max_ns, figures)
 
 
-def _finished(harness: Harness, module: str) -> bool:
+def _finished(harness: AnyHarness, module: str) -> bool:
     status = harness.status(module)
     return status.number == harness.sent(module).number and status.status in ("DONE", "ERROR")
 
