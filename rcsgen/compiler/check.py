@@ -14,7 +14,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from . import expr, model, naming
-from .diagnostics import Diagnostics, known_names_hint
+from .diagnostics import Diagnostics, Span, known_names_hint
 from .model import Command, ControllerSpec, Located, Rule, SystemSpec
 from .tables import (
     ENTRY_STATE,
@@ -49,8 +49,10 @@ def check_system(
     supervisors = _check_hierarchy(by_name, diags)
     simulators = _check_simulators(system, by_name, diags)
     _check_stand_ins(system, by_name, diags)
+    _check_world_writers(system, by_name, diags)
     world = {name: f.type for name, f in system.world.items()}
     for spec in by_name.values():
+        _check_echo_timeouts(spec, diags)
         _check_world_access(spec, world, diags)
         naming.check_controller_names(spec, diags)
         _check_hooks_module(spec, system.directory, diags)
@@ -262,6 +264,44 @@ def _check_stand_ins(
                     "E236",
                     f"{command} of stand-in `{sim.name}` has other parameters than `{name}`'s",
                     f"`{name}` takes {wanted[command] or 'no parameters'}",
+                )
+
+
+def _check_echo_timeouts(spec: ControllerSpec, diags: Diagnostics) -> None:
+    subordinates = [s.value for s in spec.subordinates]
+    for name, duration in spec.echo_timeouts.items():
+        if name not in subordinates:
+            diags.error(
+                duration.span,
+                "E238",
+                f"`echo_timeouts` names `{name}`, which is not a subordinate of `{spec.name}`",
+                known_names_hint("subordinates", subordinates, name),
+            )
+
+
+def _check_world_writers(
+    system: SystemSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics
+) -> None:
+    """A world field is written in one process at most: its buffer has one writer."""
+    process_of = {m.value: p.name for p in system.processes for m in p.modules}
+    for name, stand_in in system.stand_ins.items():  # a stand-in runs in its place
+        if name in process_of:
+            process_of.setdefault(stand_in.value, process_of[name])
+    writers: dict[str, list[tuple[str, str, Span]]] = {}
+    for spec in by_name.values():
+        process = process_of.get(spec.name)
+        for item in spec.world_writes if process is not None else ():
+            writers.setdefault(item.value, []).append((process, spec.name, item.span))
+    for field, found in sorted(writers.items()):
+        for process, module, span in found:
+            other = next(((p, m, s) for p, m, s in found if p != process), None)
+            if other is not None:
+                diags.error(
+                    span,
+                    "E237",
+                    f"world field `{field}` is written by `{module}` in process `{process}` "
+                    f"and by `{other[1]}` in process `{other[0]}` ({other[2]})",
+                    "a buffer has one writer: let one process own the field",
                 )
 
 

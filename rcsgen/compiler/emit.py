@@ -253,6 +253,8 @@ def _controller_context(
     for s in c.subordinates:
         slots += [*sub_targets[s.name], f"self.{s.name}_status_num", f"self.{s.name}_status"]
         slots.append(f"{s.name}_written")
+        if s.echo_cycles:
+            slots.append(f"{s.name}_sent_at")
     slots += [f"world_{f.name}" for f in c.world_reads]
     slots += [f"var_{v.name}" for v in c.locals]
     imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT"}

@@ -201,6 +201,7 @@ class IRSub:
     name: str
     commands: tuple[tuple[str, int], ...]  # (constant, code), e.g. ("CC_SUMP", 3)
     params: tuple[IRParam, ...]
+    echo_cycles: int | None = None  # cycles it may take to echo a command: then ERROR
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from ..runtime.contract import (
     STATUS_FIELDS,
 )
 from . import expr, ir, naming
-from .model import ENTRY_STATE, Command, Typed
+from .model import ENTRY_STATE, Command, Typed, duration_in_cycles
 from .tables import (
     Action,
     Assign,
@@ -80,6 +80,11 @@ class _ControllerLowering:
     def __init__(self, checked: CheckedController, system: CheckedSystem, source: str):
         self.checked, self.system, self.source = checked, system, source
         self.spec = checked.spec
+        runs_in = checked.buffers  # a stand-in runs in its controller's process
+        self.period = next(
+            (p.cycle_period for p in system.processes if runs_in in p.modules),
+            system.spec.cycle_period,
+        )
 
     def lower(self) -> ir.IRController:
         c, spec = self.checked, self.spec
@@ -131,7 +136,9 @@ class _ControllerLowering:
             for code, name in enumerate(commands, start=1)
         )
         params = _param_slots(self.system.controllers[sub].spec.commands.values())
-        return ir.IRSub(sub, consts, params)
+        timeout = self.spec.echo_timeouts.get(sub)
+        echo = None if timeout is None else duration_in_cycles(timeout.value, self.period)
+        return ir.IRSub(sub, consts, params, echo)
 
     def command(self, command: CheckedCommand) -> ir.IRCommand:
         source = command.source

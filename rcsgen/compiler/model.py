@@ -8,6 +8,8 @@ where it declares none (`default_table`), so every later stage sees the same com
 
 from __future__ import annotations
 
+import math
+import re
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -164,6 +166,7 @@ class ControllerSpec:
     span: Span
     name_span: Span = field(default_factory=lambda: Span("?"))
     every_cycle: list[Rule] = field(default_factory=list)  # tried every cycle, any command
+    echo_timeouts: dict[str, Located] = field(default_factory=dict)  # subordinate -> duration
     hooks_state: Located | None = None  # factory of the state every hook call receives first
 
 
@@ -319,6 +322,10 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
         hooks_state=Located(data["hooks_state"], value_span(data, "hooks_state", top))
         if "hooks_state" in data
         else None,
+        echo_timeouts={
+            k: Located(v, value_span(data["echo_timeouts"], k, top))
+            for k, v in (data.get("echo_timeouts") or {}).items()
+        },
     )
 
 
@@ -359,3 +366,19 @@ def default_table(command: str, subordinates: list[str], span: Span) -> Command:
         }
     doc = {"INIT": "Initialise this controller and its subordinates.", "HALT": "Halt all actions."}
     return Command(command, doc[command], {}, states, span, generated=True)
+
+
+def duration_in_cycles(value: object, period: float) -> int:
+    """A schema-valid duration (seconds, `2 s`, `500 ms`, `20 cycles`) as whole cycles of
+    `period` seconds, rounded up: a limit is never shorter than asked."""
+    if isinstance(value, int | float):
+        seconds = float(value)
+    else:
+        number, unit = _DURATION.fullmatch(str(value).strip()).groups()  # type: ignore[union-attr]
+        if unit.startswith("cycle"):
+            return int(float(number))
+        seconds = float(number) / (1000 if unit == "ms" else 1)
+    return max(1, math.ceil(seconds / period - 1e-9))
+
+
+_DURATION = re.compile(r"([0-9]+(?:\.[0-9]+)?)\s*(s|ms|cycles?)")

@@ -476,7 +476,7 @@ def _check_controller(
     for sub in spec.subordinates:
         origin = ("sub", sub.value)
         what = f"subordinate `{sub.value}`"
-        for suffix in ("_command_num", "_command", "_status_num", "_status", "_written"):
+        for suffix in ("_command_num", "_command", "_status_num", "_status", "_written", "_sent_at"):
             names.claim(sub.value + suffix, what, sub.span, origin)
         other = by_name.get(sub.value)
         for command in other.commands.values() if other else ():
@@ -604,6 +604,7 @@ def check_module_names(
             taken[sub.upper() + suffix] = "a layout name"
         for sent in by_name[sub].commands:
             taken[sub_command_const(sub, sent)] = f"the code of {sub}'s {sent}"
+        taken[f"{sub.upper()}_ECHO_CYCLES"] = f"{sub}'s echo timeout"
     for suffix in _MODULE_BUFFER_SUFFIXES:
         taken[spec.name.upper() + suffix] = "a layout name"
     taken.update(_world_layout_names(tuple(system.world)))
