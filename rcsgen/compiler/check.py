@@ -290,7 +290,9 @@ def _check_world_writers(
     writers: dict[str, list[tuple[str, str, Span]]] = {}
     for spec in by_name.values():
         process = process_of.get(spec.name)
-        for item in spec.world_writes if process is not None else ():
+        if process is None:
+            continue
+        for item in spec.world_writes:
             writers.setdefault(item.value, []).append((process, spec.name, item.span))
     for field, found in sorted(writers.items()):
         for process, module, span in found:

@@ -134,6 +134,8 @@ LAYOUT_NAMES = frozenset(
         "PLACEMENT",
     }
 )
+# Suffixes of the attributes a controller keeps for each subordinate (`cc_status`, ...).
+SUB_SUFFIXES = ("_command_num", "_command", "_status_num", "_status", "_written", "_sent_at")
 # Suffixes of the layout names of each controller's buffers: CO_COMMAND, CO_COMMAND_AT, ...
 BUFFER_SUFFIXES = ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT")
 
@@ -476,7 +478,7 @@ def _check_controller(
     for sub in spec.subordinates:
         origin = ("sub", sub.value)
         what = f"subordinate `{sub.value}`"
-        for suffix in ("_command_num", "_command", "_status_num", "_status", "_written", "_sent_at"):
+        for suffix in SUB_SUFFIXES:
             names.claim(sub.value + suffix, what, sub.span, origin)
         other = by_name.get(sub.value)
         for command in other.commands.values() if other else ():
