@@ -212,6 +212,7 @@ class Launcher:
                 record.write(self.block.buf, state=DEAD)
                 self.events.append(f"{name} died (exit {code})")
                 if self.restart and not self.lockstep:
+                    _close(child.popen)
                     child.popen = self._spawn(name, attach=True)
                     child.restarts += 1
                     self.events.append(f"{name} restarted")

@@ -1,0 +1,363 @@
+"""The multi-process runtime: consistent reads, liveness, faults, the launcher (docs/semantics.md).
+
+Most tests run `tests/fixtures/runtime/duo`: a supervisor `top` in process p1 commanding an
+`arm` in process p2, as real OS processes over a shared segment, and inject the faults the
+runtime must contain: a writer killed mid-write, a process killed, a cycle that overruns, a
+second launch, a segment of another layout. Waiting for a paced system to react is bounded
+by generous deadlines; nothing here asserts how fast anything is (`make bench` measures).
+"""
+
+from __future__ import annotations
+
+import importlib
+import itertools
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from rcsgen.tools.harness import Harness, generate, import_package
+
+DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
+DEADLINE = 20.0  # seconds a paced system gets to react before a test gives up
+_names = itertools.count(1)
+
+
+def segment_name() -> str:
+    return f"rcsgen_rt_{os.getpid()}_{next(_names)}"
+
+
+def wait_for(condition: Callable[[], object], what: str, deadline: float = DEADLINE) -> object:
+    """Poll `condition` until it is true; fail naming `what` after `deadline` seconds."""
+    end = time.monotonic() + deadline
+    while time.monotonic() < end:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.01)
+    raise AssertionError(f"gave up waiting: {what}")
+
+
+@pytest.fixture(scope="module")
+def duo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """The duo system generated into a scratch directory: the package's directory."""
+    scratch, name = generate(DUO)
+    yield scratch / name
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def package(duo: Path) -> ModuleType:
+    return import_package(duo, DUO)
+
+
+def runtime(package: ModuleType, name: str) -> ModuleType:
+    return importlib.import_module(f"{package.__name__}.{name}")
+
+
+@pytest.fixture
+def launched(duo: Path, package: ModuleType) -> Iterator[Callable[..., object]]:
+    """Start the duo system paced, as two OS processes; stopped at the end of the test."""
+    launcher_module = runtime(package, "rcs.launcher")
+    made = []
+
+    def launch(**options: object) -> object:
+        system = launcher_module.System(
+            duo.name,
+            runtime(package, "layout"),
+            {p: runtime(package, f"main_{p}").PLAN for p in ("p1", "p2")},
+            (str(duo.parent), str(DUO)),
+        )
+        launcher = launcher_module.Launcher(system, segment_name(), **options)
+        made.append(launcher)
+        launcher.start()
+        layout = system.layout
+        wait_for(
+            lambda: all(
+                layout.PROCESSES[p].read(launcher.block.buf)["heartbeat"] > 2 for p in ("p1", "p2")
+            ),
+            "both processes running",
+        )
+        return launcher
+
+    yield launch
+    for launcher in made:
+        launcher.stop()
+
+
+def status(layout: ModuleType, buf: memoryview, module: str) -> dict[str, object]:
+    return layout.STATUS_OUT[module].read(buf)
+
+
+def command_to(layout: ModuleType, buf: memoryview, module: str, command: str) -> None:
+    """Write a command to a root, as an operator does."""
+    record = layout.COMMAND_IN[module]
+    number = record.read(buf)["command_num"] + 1
+    record.write(buf, command_num=number, command=layout.COMMAND_NAMES[module].index(command))
+
+
+# ---------------------------------------------------------------- consistent reads
+
+
+WRITER = """
+import importlib, sys, time
+sys.path[:0] = [sys.argv[1], sys.argv[2]]
+layout = importlib.import_module(sys.argv[3] + ".layout")
+block = importlib.import_module(sys.argv[3] + ".rcs.block").Block(layout, sys.argv[4], create=False)
+record = layout.COMMAND_IN["arm"]
+end = time.monotonic() + float(sys.argv[5])
+k = 0
+while time.monotonic() < end:
+    k += 1
+    # every field of one write tells the same number
+    record.write(block.buf, command_num=k, command=k % 1000, arg_level=float(k))
+block.close()
+print(k)
+"""
+
+
+def test_a_reader_never_accepts_a_torn_record(duo: Path, package: ModuleType) -> None:
+    """Stress, two processes: a writer rewrites a record as fast as it can; every read the
+    reader accepts is whole (its fields tell the same number), and the reader did retry."""
+    layout, contract = runtime(package, "layout"), runtime(package, "rcs.contract")
+    block = runtime(package, "rcs.block").Block(layout, segment_name(), create=True)
+    try:
+        writer = subprocess.Popen(
+            [sys.executable, "-c", WRITER, str(duo.parent), str(DUO), duo.name, block.name, "1.5"],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        record = layout.COMMAND_IN["arm"]
+        accepted = stale = torn = 0
+        while writer.poll() is None:
+            try:
+                values = record.read(block.buf)
+            except contract.StaleRead:
+                stale += 1
+                continue
+            number = values["command_num"]
+            accepted += 1
+            if values["command"] != number % 1000 or values["arg_level"] != float(number):
+                torn += 1
+        writes = int(writer.communicate(timeout=30)[0])
+    finally:
+        block.close()
+    assert writer.returncode == 0
+    assert writes > 1000 and accepted > 1000, (writes, accepted)
+    assert torn == 0, f"{torn} torn records accepted of {accepted}"
+
+
+def test_a_writer_killed_mid_write_leaves_its_readers_stale_not_torn(package: ModuleType) -> None:
+    """A buffer left odd (its writer died mid-write) is never read: the reader keeps its last
+    whole inputs and counts a stale read each cycle; a new write makes it readable again."""
+    layout, contract = runtime(package, "layout"), runtime(package, "rcs.contract")
+    h = Harness(package, "p1")  # top alone: arm's status comes from another process
+    h.command("top", "MOVE")
+    h.cycle()
+    h.reply("arm", "DONE", 1)  # arm echoes, whole
+    h.cycle()
+    assert h.status("top").status == "DONE"
+    buf, at = h.buf, layout.STATUS_OUT["arm"].offset
+    h.command("top", "MOVE")
+    h.cycle()  # top sends POWER #2 and waits
+    seq = contract.SEQ.unpack_from(buf, at)[0]
+    contract.SEQ.pack_into(buf, at, seq + 1)  # the writer marks the buffer odd ...
+    contract.STATUS.pack_into(buf, at, seq + 1, 2, 2, 0, 0, 0)  # ... writes, and dies
+    with pytest.raises(contract.StaleRead):
+        layout.STATUS_OUT["arm"].read(buf)
+    before = h.performance("top")["stale_reads"]
+    h.cycle(3)
+    top = h.controller("top")
+    assert h.performance("top")["stale_reads"] == before + 3
+    assert (top.arm_status_num, h.status("top").status) == (1, "EXECUTING"), "not the torn DONE"
+    h.reply("arm", "DONE", 2)  # a restarted writer writes it whole
+    h.cycle()
+    assert h.status("top").status == "DONE"
+    assert h.performance("top")["stale_reads"] == before + 3
+
+
+# ---------------------------------------------------------------- timeouts and liveness
+
+
+def test_a_subordinate_that_does_not_echo_in_time_is_an_error(package: ModuleType) -> None:
+    """echo_timeouts: arm may take 5 cycles to echo; it never runs here, so top's table sees
+    arm.status == ERROR after them and reports ERROR (not before)."""
+    h = Harness(package, "p1")
+    h.command("top", "MOVE")
+    h.cycle(5)
+    assert h.status("top").status == "EXECUTING"
+    h.cycle(2)
+    assert h.status("top").status == "ERROR"
+
+
+def test_a_killed_process_puts_the_supervisors_of_its_modules_in_their_safe_state(
+    launched: Callable[..., object], package: ModuleType
+) -> None:
+    """Kill p2 (the arm) mid-command: p1 stops hearing its heartbeat, and top, arm's
+    supervisor, sends arm HALT and reports ERROR (reason 1: subordinate lost)."""
+    launcher = launched()
+    layout, buf = runtime(package, "layout"), launcher.block.buf
+    command_to(layout, buf, "top", "RUN")
+    wait_for(lambda: status(layout, buf, "arm")["state"] == 2, "arm holding (RUN S1)")
+    launcher.children["p2"].popen.send_signal(signal.SIGKILL)
+    wait_for(lambda: status(layout, buf, "top")["status"] == 3, "top reports ERROR")
+    assert status(layout, buf, "top")["error_num"] == 1
+    sent = layout.COMMAND_IN["arm"].read(buf)
+    assert layout.COMMAND_NAMES["arm"][sent["command"]] == "HALT"
+    record = layout.PROCESSES["p1"].read(buf)
+    assert record["lost"] == 0b10, "p1 reports p2 (index 1) lost"
+    launcher.poll()
+    assert any(e.startswith("p2 died") for e in launcher.events)
+    assert layout.PROCESSES["p2"].read(buf)["state"] == 4  # DEAD
+
+
+def test_a_restarted_process_resumes_without_sending_init_again(
+    launched: Callable[..., object], package: ModuleType
+) -> None:
+    """With --restart, a killed process is started again: it attaches, and the root that
+    is in the middle of a command keeps it (no INIT re-sent); a restarted subordinate
+    resumes its state from the block."""
+    launcher = launched(restart=True)
+    layout, buf = runtime(package, "layout"), launcher.block.buf
+    command_to(layout, buf, "top", "RUN")
+    wait_for(lambda: status(layout, buf, "arm")["state"] == 2, "arm holding (RUN S1)")
+    sent_before = layout.COMMAND_IN["top"].read(buf)
+    first = launcher.children["p1"].popen.pid
+    launcher.children["p1"].popen.send_signal(signal.SIGKILL)
+    wait_for(lambda: launcher.poll() or launcher.children["p1"].restarts, "p1 restarted")
+    assert launcher.children["p1"].popen.pid != first
+    wait_for(lambda: layout.PROCESSES["p1"].read(buf)["state"] == 2, "the restarted p1 running")
+    time.sleep(0.2)  # ten periods of the restarted p1
+    assert layout.COMMAND_IN["top"].read(buf) == sent_before, "no INIT re-sent to top"
+    top = status(layout, buf, "top")
+    assert (top["status"], layout.STATE_NAMES["top"][top["state"]]) == (1, "S1"), top
+    assert status(layout, buf, "arm")["state"] == 2, "the arm still holds"
+
+
+def test_the_watchdog_halts_the_roots_after_a_cycle_far_too_long(
+    launched: Callable[..., object], package: ModuleType
+) -> None:
+    """A cycle longer than three periods trips p1's watchdog: HALT goes to its root."""
+    launcher = launched()
+    layout, buf = runtime(package, "layout"), launcher.block.buf
+    command_to(layout, buf, "top", "RUN")
+    wait_for(lambda: status(layout, buf, "arm")["state"] == 2, "arm holding")
+    layout.WORLD["slow"].write(buf, slow=True)  # top's hook now naps 0.15 s (7.5 periods)
+    wait_for(lambda: layout.PROCESSES["p1"].read(buf)["watchdog_trips"] > 0, "the watchdog trips")
+    layout.WORLD["slow"].write(buf, slow=False)
+    sent = layout.COMMAND_IN["top"].read(buf)
+    assert layout.COMMAND_NAMES["top"][sent["command"]] == "HALT"
+    wait_for(lambda: layout.WORLD["arm_power"].read(buf)["arm_power"] == 0.0, "arm halted")
+    assert layout.PROCESSES["p1"].read(buf)["load_warnings"] > 0
+
+
+# ---------------------------------------------------------------- the simulation switch
+
+
+def test_setting_simulate_switches_a_controller_to_its_stand_in_and_back(
+    package: ModuleType,
+) -> None:
+    """The simulate flag, set while running, replaces arm by arm_sim from the next cycle
+    (its commands reach the stand-in); cleared, arm runs again and resumes from the block."""
+    h = Harness(package, send_init=True)
+    h.cycle(3)
+    h.set_mode("arm", simulate=True)
+    h.command("top", "MOVE")
+    h.cycle(4)
+    assert h.status("top").status == "DONE"
+    assert (h.world["sim_power"], h.world["arm_power"]) == (1.0, 0.0)
+    h.set_mode("arm", simulate=False)
+    h.command("top", "MOVE")
+    h.cycle(4)
+    assert h.status("top").status == "DONE"
+    assert h.world["arm_power"] == 1.0
+
+
+# ---------------------------------------------------------------- identity and lifecycle
+
+
+def test_a_second_launch_on_the_same_segment_refuses(
+    launched: Callable[..., object], package: ModuleType
+) -> None:
+    launcher = launched()
+    block = runtime(package, "rcs.block")
+    with pytest.raises(block.BlockError, match="already exists: another run of duo"):
+        block.Block(runtime(package, "layout"), launcher.segment, create=True)
+
+
+def test_attaching_with_another_layout_refuses_naming_both(
+    tmp_path: Path, package: ModuleType
+) -> None:
+    """Two world fields swapped: the same size, another layout. Attaching refuses, naming
+    both hashes."""
+    spec = tmp_path / "duo"
+    shutil.copytree(DUO, spec)
+    text = (spec / "system.yaml").read_text(encoding="utf-8")
+    first, second = text.index("  arm_power:"), text.index("  sim_power:")
+    third = text.index("  slow:")
+    swapped = text[:first] + text[second:third] + text[first:second] + text[third:]
+    (spec / "system.yaml").write_text(swapped, encoding="utf-8")
+    scratch, name = generate(spec)
+    try:
+        other = import_package(scratch / name, spec)
+        ours, theirs = runtime(package, "layout"), runtime(other, "layout")
+        assert ours.SIZE == theirs.SIZE and ours.LAYOUT_HASH != theirs.LAYOUT_HASH
+        block = runtime(package, "rcs.block")
+        created = block.Block(ours, segment_name(), create=True)
+        try:
+            with pytest.raises(runtime(other, "rcs.block").BlockError) as error:
+                runtime(other, "rcs.block").Block(theirs, created.name, create=False)
+        finally:
+            created.close()
+        message = str(error.value)
+        assert ours.LAYOUT_HASH in message and theirs.LAYOUT_HASH in message
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+def test_ctrl_c_stops_every_process_prints_a_summary_and_removes_the_segment(
+    duo: Path,
+) -> None:
+    """`python -m duo`: both processes run paced; SIGINT ends the run without a traceback,
+    with a summary per process, no process left and nothing left in /dev/shm."""
+    segment = segment_name()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(duo.parent), str(DUO)])}
+    run = subprocess.Popen(
+        [sys.executable, "-m", duo.name, "--shm", segment],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    shm = Path("/dev/shm") / segment
+    wait_for(shm.exists, "the segment")
+    time.sleep(0.5)  # 25 cycles
+    run.send_signal(signal.SIGINT)
+    out, err = run.communicate(timeout=30)
+    assert run.returncode == 0, err
+    assert "Traceback" not in out + err
+    lines = out.splitlines()
+    assert lines[0].startswith("p1: stopped, ") and "cycles" in lines[0], out
+    assert any(line.startswith("p2: stopped, ") for line in lines), out
+    assert not shm.exists()
+
+
+def test_lockstep_from_the_command_line_runs_every_process_to_the_end(duo: Path) -> None:
+    """`python -m duo --lockstep --cycles 10` runs both processes in lockstep to the end."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(duo.parent), str(DUO)])}
+    done = subprocess.run(
+        [sys.executable, "-m", duo.name, "--lockstep", "--cycles", "10", "--shm", segment_name()],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "p1: stopped, 10 cycles" in done.stdout and "p2: stopped, 10 cycles" in done.stdout
