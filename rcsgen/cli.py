@@ -1,4 +1,4 @@
-"""Command line: `rcsgen validate`, `rcsgen build`, `rcsgen run`.
+"""Command line: `rcsgen validate`, `build`, `run`, `graph`, `doc` and `trace`.
 
 Exit codes follow Click: 0 clean, 1 the specs (or generated/) have a problem, 2 misuse.
 Diagnostics go to stderr as `file:line:col: error[CODE]: message`, sorted by position; with
@@ -11,13 +11,14 @@ from __future__ import annotations
 import sys
 from collections.abc import Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
 
 import click
 
 from .compiler import write
 from .compiler.diagnostics import Diagnostic, Diagnostics, to_json
 from .compiler.frontend import compile_paths
+from .compiler.ir import IRSystem
 
 if TYPE_CHECKING:
     from .tools.scenario import RunResult
@@ -214,3 +215,80 @@ def _summarise(result: RunResult, trace_path: Path, record: Path | None) -> None
     click.echo(f"trace     {trace_path} ({len(result.trace)} lines)")
     if record is not None:
         click.echo(f"recorded  {record}: review `git diff {record}` before committing")
+
+
+# ---------------------------------------------------------------- pictures and the reference
+
+
+def fail(message: str, code: int = 1) -> NoReturn:
+    """One line on stderr, `error: ...`, and the exit code (1 bad input, 2 misuse)."""
+    click.echo(f"error: {message}", err=True)
+    sys.exit(code)
+
+
+def _systems(paths: tuple[Path, ...]) -> list[IRSystem]:
+    """The systems in SPECS (default specs/); on an error in the specs, its diagnostics and
+    exit 1. Warnings are `validate`'s business: pictures and pages do not repeat them."""
+    front = compile_paths(list(paths) or [Path("specs")])
+    if report(Diagnostics(front.diagnostics.errors)):
+        sys.exit(1)
+    return front.systems
+
+
+def _one_system(paths: tuple[Path, ...]) -> IRSystem:
+    """The one system in SPECS (default specs/), or a one-line error and exit."""
+    systems = _systems(paths)
+    if len(systems) != 1:
+        names = ", ".join(s.name for s in systems)
+        fail(f"SPECS hold {len(systems)} systems ({names}): name one system directory", 2)
+    return systems[0]
+
+
+def _write_or_print(text: str, output: Path | None) -> None:
+    if output is None:
+        click.echo(text, nl=False)
+        return
+    try:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        output.write_text(text, encoding="utf-8")
+    except OSError as error:
+        fail(f"cannot write {output}: {error.strerror or error}")
+    click.echo(f"wrote {output} ({len(text.encode('utf-8')):,} bytes)", err=True)
+
+
+@main.command("graph")
+@SPEC_PATHS
+@click.option(
+    "-p",
+    "--picture",
+    default="hierarchy",
+    show_default=True,
+    help="hierarchy; order or order:<module> (a command's round trip down to that module, "
+    "cycle by cycle); a controller (co: all its state graphs) or one command "
+    "(co.SUMP_SHEAR_CUSP).",
+)
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["mermaid", "dot", "svg"]),
+    default="mermaid",
+    show_default=True,
+    help="Mermaid and DOT are text; SVG is drawn by Graphviz's dot.",
+)
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="Write to this file [default: stdout].",
+)
+def graph_command(paths: tuple[Path, ...], picture: str, fmt: str, output: Path | None) -> None:
+    """Draw the hierarchy, a state graph or the execution order of the system in SPECS."""
+    from .tools import graph
+
+    system = _one_system(paths)
+    try:
+        text = graph.render(graph.picture(system, picture), fmt)
+    except graph.GraphError as error:
+        fail(str(error), 2 if str(error).startswith("unknown") else 1)
+    _write_or_print(text, output)
