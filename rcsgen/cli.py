@@ -292,3 +292,42 @@ def graph_command(paths: tuple[Path, ...], picture: str, fmt: str, output: Path 
     except graph.GraphError as error:
         fail(str(error), 2 if str(error).startswith("unknown") else 1)
     _write_or_print(text, output)
+
+
+@main.command("doc")
+@SPEC_PATHS
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("docs/reference"),
+    show_default=True,
+    help="Output directory; each system gets <output>/<system>/.",
+)
+@click.option("--check", is_flag=True, help="Write nothing; print a diff and exit 1 if stale.")
+def doc_command(paths: tuple[Path, ...], output: Path, check: bool) -> None:
+    """Write the Markdown reference of the systems in SPECS: one page per controller."""
+    from .tools import reference
+
+    systems = _systems(paths)
+    plan, problems = reference.plan(systems, output)
+    if report(problems):
+        click.echo("doc failed: nothing was written", err=True)
+        sys.exit(1)
+    if check:
+        if plan.stale:
+            click.echo(write.unified_diff(plan, output), nl=False)
+            shown = " ".join(str(p) for p in paths) or "specs/"
+            click.echo(
+                f"{output} is stale: {len(plan.write)} page(s) to write, {len(plan.delete)} to "
+                f"delete; run `rcsgen doc {shown} -o {output}` to update it",
+                err=True,
+            )
+            sys.exit(1)
+        click.echo(f"{output} is current ({plan.unchanged} pages)")
+        return
+    write.apply(plan)
+    click.echo(
+        f"wrote the reference of {', '.join(s.name for s in systems)} into {output}: "
+        f"{len(plan.write)} written, {len(plan.delete)} deleted, {plan.unchanged} unchanged"
+    )
