@@ -22,6 +22,7 @@ from .compiler.ir import IRSystem
 
 if TYPE_CHECKING:
     from .tools.scenario import RunResult
+    from .tools.traces import Trace
 
 
 def _source_line(diag: Diagnostic) -> str | None:
@@ -331,3 +332,128 @@ def doc_command(paths: tuple[Path, ...], output: Path, check: bool) -> None:
         f"wrote the reference of {', '.join(s.name for s in systems)} into {output}: "
         f"{len(plan.write)} written, {len(plan.delete)} deleted, {plan.unchanged} unchanged"
     )
+
+
+# ---------------------------------------------------------------- traces
+
+
+@main.group("trace")
+def trace_group() -> None:
+    """Look at traces: the changes only, rule coverage."""
+
+
+TRACE_ARG = click.argument("trace_path", metavar="TRACE", type=click.Path(path_type=Path))
+SPECS_OPTION = click.option(
+    "--specs",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="The specs the trace was recorded from [default: specs/, when it is there].",
+)
+
+
+def _load_trace(path: Path) -> Trace:
+    from .tools import traces
+
+    try:
+        return traces.load(path)
+    except traces.TraceError as error:
+        fail(str(error))
+
+
+def _trace_system(specs: Path | None, found: list[Trace], required: bool) -> IRSystem | None:
+    """The system that recorded the traces, from --specs (or specs/ when it is there): its
+    execution order, levels, titles and rules. None when no specs are at hand and they are
+    not `required`; a one-line error when the traces do not fit them."""
+    from .tools import traces
+
+    if specs is None and not Path("specs").is_dir():
+        if required:
+            fail("no specs/ here: name the specs the trace was recorded from with --specs", 2)
+        return None
+    systems = _systems((specs,) if specs is not None else ())
+    problems = []
+    for system in systems:
+        try:
+            for one in found:
+                traces.check_against(system, one)
+            return system
+        except traces.TraceError as error:
+            problems.append(str(error))
+    if specs is None and not required:
+        return None  # a trace of other specs: shown without them
+    fail(problems[0] if len(problems) == 1 else f"no system in {specs or 'specs'} ran the trace")
+
+
+@trace_group.command("changes")
+@TRACE_ARG
+@click.option(
+    "-m",
+    "--module",
+    "modules",
+    multiple=True,
+    help="Only these modules (repeat, or separate with commas).",
+)
+@click.option(
+    "--world",
+    type=click.Choice(["discrete", "all", "none"]),
+    default="discrete",
+    show_default=True,
+    help="World fields: bool and int ones, every one (floats drift every cycle), or none.",
+)
+@click.option("--from", "first", type=int, default=None, help="First cycle shown.")
+@click.option("--to", "last", type=int, default=None, help="Last cycle shown.")
+@click.option(
+    "--every-cycle", is_flag=True, help="Do not fold cycles that change alike into one entry."
+)
+@SPECS_OPTION
+def trace_changes(
+    trace_path: Path,
+    modules: tuple[str, ...],
+    world: str,
+    first: int | None,
+    last: int | None,
+    every_cycle: bool,
+    specs: Path | None,
+) -> None:
+    """Print only what changed, cycle by cycle: commands, statuses, states, rules fired."""
+    from .tools import changes, traces
+
+    found = _load_trace(trace_path)
+    try:
+        chosen = traces.select(found, list(modules))
+    except traces.TraceError as error:
+        fail(str(error), 2)
+    system = _trace_system(specs, [found], required=False)
+    lanes = traces.lanes(found, system)
+    colour = {"ERROR": "red", "DONE": "green", "EXECUTING": "blue"}
+    for line in changes.timeline(found, lanes, chosen, world, first, last, not every_cycle):
+        if line.startswith("cycle "):
+            click.secho(line, bold=True)
+            continue
+        for status, fg in colour.items():
+            line = line.replace(f"-> {status} ", f"-> {click.style(status, fg=fg)} ")
+        click.echo(line)
+
+
+@trace_group.command("coverage")
+@click.argument(
+    "trace_paths", metavar="TRACES...", nargs=-1, required=True, type=click.Path(path_type=Path)
+)
+@SPECS_OPTION
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["text", "json"]),
+    default="text",
+    show_default=True,
+    help="A summary and the rules that never fired, or one JSON object.",
+)
+def trace_coverage(trace_paths: tuple[Path, ...], specs: Path | None, fmt: str) -> None:
+    """Which rules of which state tables fired in TRACES, and which never did."""
+    from .tools import coverage
+
+    found = [_load_trace(path) for path in trace_paths]
+    system = _trace_system(specs, found, required=True)
+    assert system is not None
+    result = coverage.measure(system, found)
+    click.echo(coverage.to_json(result) if fmt == "json" else coverage.to_text(result), nl=False)
