@@ -339,7 +339,7 @@ def doc_command(paths: tuple[Path, ...], output: Path, check: bool) -> None:
 
 @main.group("trace")
 def trace_group() -> None:
-    """Look at traces: the changes only, rule coverage."""
+    """Look at traces: an HTML timeline, the changes only, rule coverage, the mine."""
 
 
 TRACE_ARG = click.argument("trace_path", metavar="TRACE", type=click.Path(path_type=Path))
@@ -457,3 +457,26 @@ def trace_coverage(trace_paths: tuple[Path, ...], specs: Path | None, fmt: str) 
     assert system is not None
     result = coverage.measure(system, found)
     click.echo(coverage.to_json(result) if fmt == "json" else coverage.to_text(result), nl=False)
+
+
+@trace_group.command("show")
+@TRACE_ARG
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="The page to write [default: the trace's path with .html].",
+)
+@SPECS_OPTION
+def trace_show(trace_path: Path, output: Path | None, specs: Path | None) -> None:
+    """Write TRACE as one self-contained HTML page: swim-lanes, world plots, a cursor."""
+    from .tools import trace_view, traces
+
+    found = _load_trace(trace_path)
+    system = _trace_system(specs, [found], required=False)
+    lanes = traces.lanes(found, system)
+    page = trace_view.render(
+        found, lanes, system.name if system else None, system.cycle_period if system else None
+    )
+    _write_or_print(page, output or trace_path.with_suffix(".html"))

@@ -213,6 +213,7 @@ def test_cli_changes_and_coverage(monkeypatch):
         (["changes", "README.md"], 1, "error: README.md:1: not a trace line: Expecting value"),
         (["changes", "tests/golden/pop_out.jsonl", "-m", "cx"], 2, "error: unknown module `cx`"),
         (["coverage", "missing.jsonl"], 1, "error: no trace file at missing.jsonl"),
+        (["show", "README.md"], 1, "error: README.md:1: not a trace line"),
     ],
 )
 def test_cli_bad_input_is_one_line(monkeypatch, args, code, message):
