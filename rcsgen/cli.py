@@ -480,3 +480,65 @@ def trace_show(trace_path: Path, output: Path | None, specs: Path | None) -> Non
         found, lanes, system.name if system else None, system.cycle_period if system else None
     )
     _write_or_print(page, output or trace_path.with_suffix(".html"))
+
+
+@trace_group.command("mine")
+@TRACE_ARG
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="The page to write [default: the trace's path with .mine.html].",
+)
+@SPECS_OPTION
+@click.option(
+    "--scenario",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="The scenario that recorded TRACE, for its map setting [default: the system's "
+    "scenarios/<trace name>.yaml, as `rcsgen run` names traces].",
+)
+def trace_mine(
+    trace_path: Path, output: Path | None, specs: Path | None, scenario: Path | None
+) -> None:
+    """Write a miner TRACE as an HTML replay of the machine in the mine (coal map, cut, pose)."""
+    from .compiler.diagnostics import SpecError
+    from .compiler.frontend import find_system_dirs
+    from .tools import mine_view, traces
+    from .tools.scenario import load_scenario
+
+    found = _load_trace(trace_path)
+    system = _trace_system(specs, [found], required=True)
+    assert system is not None
+    where = [specs] if specs is not None else [Path("specs")]
+    system_dir = next(
+        d for d in find_system_dirs(where, Diagnostics()) if d.name == system.source.split("/")[0]
+    )
+    if scenario is None:
+        guess = system_dir / "scenarios" / f"{trace_path.name.split('.')[0]}.yaml"
+        scenario = guess if guess.is_file() else None
+    settings: dict[str, str] = {}
+    if scenario is not None:
+        try:
+            settings = load_scenario(scenario).settings
+        except SpecError as error:
+            report(error.diagnostics)
+            sys.exit(1)
+    try:
+        page, result = mine_view.render(
+            found,
+            traces.lanes(found, system),
+            system,
+            system_dir,
+            settings,
+            scenario.stem if scenario is not None else "",
+        )
+    except mine_view.MineError as error:
+        fail(str(error))
+    if result.mismatch:
+        click.echo(
+            f"warning: the replayed cut differs from the trace at {result.mismatch}", err=True
+        )
+    name = trace_path.name.split(".")[0] + ".mine.html"
+    _write_or_print(page, output or trace_path.with_name(name))

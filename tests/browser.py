@@ -42,7 +42,7 @@ FLAGS = (
 class Page:
     dom: str
     console: list[str]  # every console message the page logged (errors included)
-    screenshot: Path
+    screenshot: Path | None
 
     def body(self) -> dict[str, str]:
         """The attributes of <body>: the pages report their state there."""
@@ -51,13 +51,22 @@ class Page:
         return dict(re.findall(r'([\w-]+)="([^"]*)"', tag.group(1)))
 
 
-def load(url: str, artifacts: Path, name: str, size: tuple[int, int] = (1400, 900)) -> Page:
+def load(
+    url: str,
+    artifacts: Path,
+    name: str,
+    size: tuple[int, int] = (1400, 900),
+    budget_ms: int = 3000,
+    screenshot: bool = True,
+) -> Page:
+    """The page after `budget_ms` of virtual time: its DOM, console, and a screenshot saved
+    as `<artifacts>/<name>.png`."""
     assert CHROMIUM is not None
     common = [
         CHROMIUM,
         *FLAGS,
         f"--user-data-dir={artifacts / 'chromium-profile'}",
-        "--virtual-time-budget=4000",
+        f"--virtual-time-budget={budget_ms}",
         f"--window-size={size[0]},{size[1]}",
     ]
     dumped = subprocess.run(
@@ -69,6 +78,8 @@ def load(url: str, artifacts: Path, name: str, size: tuple[int, int] = (1400, 90
     )
     assert dumped.returncode == 0, dumped.stderr[-2000:]
     console = [line for line in dumped.stderr.splitlines() if ":CONSOLE" in line]
+    if not screenshot:
+        return Page(dumped.stdout, console, None)
     shot = artifacts / f"{name}.png"
     taken = subprocess.run(
         [*common, f"--screenshot={shot}", url],

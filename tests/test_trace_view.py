@@ -37,7 +37,7 @@ def data_of(page: str) -> dict:
 
 
 def test_runs_are_run_length_encoded_with_numbers():
-    table = trace_view._Table()
+    table = trace_view.StringTable()
     flat = trace_view.runs(["INIT", "INIT", "HALT", "HALT", "HALT"], [1, 1, 2, 3, 3], table)
     assert flat == [0, 0, 1, 2, 1, 2, 3, 1, 3]  # start, string, number: HALT #2 then HALT #3
     assert table.values == ["INIT", "HALT"]
@@ -110,4 +110,4 @@ def test_page_in_a_browser_draws_lanes_markers_and_the_cursor(tmp_path, late_tai
     # the cursor's panel: cc was sent HALT #5 by co's loose-coal rule in cycle 76
     row = re.search(r'<tr data-module="cc">(.*?)</tr>', shown.dom)
     assert row is not None and "HALT #5" in row.group(1) and 'class="changed"' in row.group(1)
-    assert shown.screenshot.stat().st_size > 20_000
+    assert shown.screenshot is not None and shown.screenshot.stat().st_size > 20_000

@@ -20,7 +20,7 @@ from .traces import Lane, Trace
 TEMPLATE = "trace_view.html"
 
 
-class _Table:
+class StringTable:
     """One string table for the whole page: every value is an index into it."""
 
     def __init__(self) -> None:
@@ -34,7 +34,7 @@ class _Table:
         return self.index[value]
 
 
-def runs(values: list[Any], numbers: list[int] | None, table: _Table) -> list[int]:
+def runs(values: list[Any], numbers: list[int] | None, table: StringTable) -> list[int]:
     """Run-length encoding, flat: start index, string index (and number) of each run."""
     out: list[int] = []
     previous: tuple[Any, int | None] | None = None
@@ -48,7 +48,7 @@ def runs(values: list[Any], numbers: list[int] | None, table: _Table) -> list[in
     return out
 
 
-def _number(value: Any) -> float | None:
+def number(value: Any) -> float | None:
     """A plotted value: NaN, infinities and anything not a number are gaps."""
     if isinstance(value, int | float) and math.isfinite(value):
         return float(value)
@@ -57,7 +57,7 @@ def _number(value: Any) -> float | None:
 
 def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float | None) -> str:
     """The JSON the page draws, canonical (sorted keys), safe inside a <script> element."""
-    table = _Table()
+    table = StringTable()
     consecutive = all(b == a + 1 for a, b in zip(trace.cycles, trace.cycles[1:], strict=False))
     lane_data = []
     for lane in lanes:
@@ -84,7 +84,7 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
         elif all(isinstance(v, int) and not isinstance(v, bool) for v in series):
             kind, values = "int", list(series)
         else:
-            kind, values = "float", [_number(v) for v in series]
+            kind, values = "float", [number(v) for v in series]
         world.append({"name": name, "type": kind, "values": values})
     data = {
         "source": trace.name,
