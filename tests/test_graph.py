@@ -184,3 +184,16 @@ def test_cli_bad_specs_fail_with_their_diagnostics(tmp_path):
     result = rcsgen("graph", tmp_path / "nowhere")
     assert result.exit_code == 1
     assert "error[E010]" in result.output
+
+
+@pytest.mark.parametrize(
+    ("picture", "command"),
+    [
+        ("hierarchy", "rcsgen graph specs/miner"),
+        ("co.SUMP_SHEAR_CUSP", "rcsgen graph specs/miner -p co.SUMP_SHEAR_CUSP"),
+    ],
+)
+def test_readme_embeds_the_current_pictures(system, picture, command):
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    block = "```mermaid\n" + graph.to_mermaid(graph.picture(system, picture)) + "```"
+    assert block in readme, f"README.md's {picture} is stale: paste the output of `{command}`"

@@ -234,3 +234,15 @@ def test_cli_coverage_needs_specs(tmp_path, monkeypatch):
     )
     again = rcsgen("trace", "coverage", GOLDEN / "box_cut.jsonl", "--specs", MINER)
     assert again.exit_code == 0, again.output
+
+
+def test_docs_report_the_current_coverage_of_the_scenarios(system):
+    found = [traces.load(p) for p in sorted(GOLDEN.glob("*.jsonl"))]
+    result = coverage.measure(system, found)
+    total = len(result.rules)
+    line = f"**{result.fired} of {total} table rules fired ({100 * result.fired / total:.1f}%)**"
+    miner = (REPO / "docs" / "miner.md").read_text(encoding="utf-8")
+    assert line in miner, (
+        "docs/miner.md's coverage section is stale: update it from\n"
+        "  rcsgen trace coverage tests/golden/*.jsonl"
+    )
