@@ -516,7 +516,7 @@ def trace_mine(
         d for d in find_system_dirs(where, Diagnostics()) if d.name == system.source.split("/")[0]
     )
     if scenario is None:
-        guess = system_dir / "scenarios" / f"{trace_path.name.split('.')[0]}.yaml"
+        guess = system_dir / "scenarios" / f"{trace_path.stem}.yaml"
         scenario = guess if guess.is_file() else None
     settings: dict[str, str] = {}
     if scenario is not None:
@@ -540,5 +540,4 @@ def trace_mine(
         click.echo(
             f"warning: the replayed cut differs from the trace at {result.mismatch}", err=True
         )
-    name = trace_path.name.split(".")[0] + ".mine.html"
-    _write_or_print(page, output or trace_path.with_name(name))
+    _write_or_print(page, output or trace_path.with_suffix(".mine.html"))

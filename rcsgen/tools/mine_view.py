@@ -109,14 +109,16 @@ def replay(trace: Trace, hooks: ModuleType, factory: str, settings: dict[str, st
     mismatch = None
     w = trace.world
     traced_depth = w.get("depth_cut")
+    previous: tuple[Any, ...] | None = None
+    depth = 0.0
     for i in range(len(trace)):
-        recorder.written = {}
-        _, _, depth, _ = hooks.cut_coal(
-            mine, w["true_x"][i], w["true_y"][i], w["boom_angle_true"][i], w["drum_on_cmd"][i]
-        )
-        cuts += [
-            (i, r * columns + c, round(h, 4)) for (r, c), h in sorted(recorder.written.items())
-        ]
+        drum = (w["true_x"][i], w["true_y"][i], w["boom_angle_true"][i], w["drum_on_cmd"][i])
+        if drum != previous:  # the same drum in the same place cuts nothing more: skip it
+            recorder.written = {}
+            _, _, depth, _ = hooks.cut_coal(mine, *drum)
+            written = sorted(recorder.written.items())
+            cuts += [(i, r * columns + c, round(h, 4)) for (r, c), h in written]
+            previous = drum
         if traced_depth is not None and mismatch is None and traced_depth[i] != depth:
             mismatch = (
                 f"cycle {trace.cycles[i]}: the replayed depth of cut is {depth} m, the trace's "
