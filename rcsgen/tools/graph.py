@@ -423,6 +423,12 @@ MERMAID_SHAPES = {
 }
 MERMAID_ARROWS = {"then": "-->", "rule": "-->", "command": "-->", "stand_in": "-.->"}
 MERMAID_ARROWS |= {"layout": "~~~"}
+MERMAID_LINKS = {  # as the DOT renderer colours them
+    "then": "stroke:#888888",
+    "command": "stroke:#1f6feb,stroke-width:1.5px",
+    "status": "stroke:#2da44e,stroke-width:2px",
+    "stand_in": "stroke:#888888",
+}
 MERMAID_ARROWS |= {"status": "==>"}
 
 
@@ -454,13 +460,12 @@ def to_mermaid(graph: Graph, title: bool = True) -> str:
     out.extend(node_line(n, "  ") for n in graph.nodes if n.cluster is None)
     for cluster in children.get(None, []):
         emit(cluster, 1)
-    styles: list[int] = []
+    styles: dict[str, list[int]] = {}  # edge kind -> link indices (invisible links count)
     for index, edge in enumerate(graph.edges):
         arrow = MERMAID_ARROWS.get(edge.kind, "-->")
         label = f"|{_mermaid_label(edge.label)}|" if edge.label else ""
         out.append(f"  {edge.source} {arrow}{label} {edge.target}")
-        if edge.kind in ("command", "status") and graph.name.endswith("_order"):
-            styles.append(index)
+        styles.setdefault(edge.kind, []).append(index)
     classes: dict[str, list[str]] = {}
     for node in graph.nodes:
         key = f"level{node.level}" if node.kind in ("controller", "step") else node.kind
@@ -470,9 +475,9 @@ def to_mermaid(graph: Graph, title: bool = True) -> str:
         dash = ",stroke-dasharray:4 3" if node.kind in ("simulator", "stand_in") else ""
         out.append(f"  classDef {key} fill:{_fill(node)},stroke:#555,color:#111{dash}")
         out.append(f"  class {','.join(ids)} {key}")
-    for index in styles:
-        colour = "#1f6feb" if graph.edges[index].kind == "command" else "#2da44e"
-        out.append(f"  linkStyle {index} stroke:{colour},stroke-width:2px")
+    for kind, indices in sorted(styles.items()):
+        if kind in MERMAID_LINKS:
+            out.append(f"  linkStyle {','.join(map(str, indices))} {MERMAID_LINKS[kind]}")
     return "\n".join(out) + "\n"
 
 
