@@ -38,10 +38,13 @@ typecheck: $(STAMP)
 
 build: $(STAMP)
 	$(VENV)/bin/rcsgen build specs/
+	$(VENV)/bin/rcsgen doc specs/
 
-# What CI runs, plus lint, the type check and the generated-code-is-current check.
+# What CI runs, plus lint, the type check and the checks that generated/ and the generated
+# reference (docs/reference/) are current.
 check: lint typecheck test
 	$(VENV)/bin/rcsgen build specs/ --check
+	$(VENV)/bin/rcsgen doc specs/ --check
 
 clean:
 	rm -rf $(VENV) build dist *.egg-info

@@ -1,4 +1,4 @@
-"""Command line: `rcsgen validate`, `rcsgen build`, `rcsgen run`.
+"""Command line: `rcsgen validate`, `build`, `run`, `graph`, `doc` and `trace`.
 
 Exit codes follow Click: 0 clean, 1 the specs (or generated/) have a problem, 2 misuse.
 Diagnostics go to stderr as `file:line:col: error[CODE]: message`, sorted by position; with
@@ -11,16 +11,18 @@ from __future__ import annotations
 import sys
 from collections.abc import Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
 
 import click
 
 from .compiler import write
 from .compiler.diagnostics import Diagnostic, Diagnostics, to_json
 from .compiler.frontend import compile_paths
+from .compiler.ir import IRSystem
 
 if TYPE_CHECKING:
     from .tools.scenario import RunResult
+    from .tools.traces import Trace
 
 
 def _source_line(diag: Diagnostic) -> str | None:
@@ -228,3 +230,328 @@ def _summarise(result: RunResult, trace_path: Path, record: Path | None) -> None
     click.echo(f"trace     {trace_path} ({len(result.trace)} lines)")
     if record is not None:
         click.echo(f"recorded  {record}: review `git diff {record}` before committing")
+
+
+# ---------------------------------------------------------------- pictures and the reference
+
+
+def fail(message: str, code: int = 1) -> NoReturn:
+    """One line on stderr, `error: ...`, and the exit code (1 bad input, 2 misuse)."""
+    click.echo(f"error: {message}", err=True)
+    sys.exit(code)
+
+
+def _systems(paths: tuple[Path, ...]) -> list[IRSystem]:
+    """The systems in SPECS (default specs/); on an error in the specs, its diagnostics and
+    exit 1. Warnings are `validate`'s business: pictures and pages do not repeat them."""
+    front = compile_paths(list(paths) or [Path("specs")])
+    if report(Diagnostics(front.diagnostics.errors)):
+        sys.exit(1)
+    return front.systems
+
+
+def _one_system(paths: tuple[Path, ...]) -> IRSystem:
+    """The one system in SPECS (default specs/), or a one-line error and exit."""
+    systems = _systems(paths)
+    if len(systems) != 1:
+        names = ", ".join(s.name for s in systems)
+        fail(f"SPECS hold {len(systems)} systems ({names}): name one system directory", 2)
+    return systems[0]
+
+
+def _write_or_print(text: str, output: Path | None) -> None:
+    if output is None:
+        click.echo(text, nl=False)
+        return
+    try:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        output.write_text(text, encoding="utf-8")
+    except OSError as error:
+        fail(f"cannot write {output}: {error.strerror or error}")
+    click.echo(f"wrote {output} ({len(text.encode('utf-8')):,} bytes)", err=True)
+
+
+@main.command("graph")
+@SPEC_PATHS
+@click.option(
+    "-p",
+    "--picture",
+    default="hierarchy",
+    show_default=True,
+    help="hierarchy; order or order:<module> (a command's round trip down to that module, "
+    "cycle by cycle); a controller (co: all its state graphs) or one command "
+    "(co.SUMP_SHEAR_CUSP).",
+)
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["mermaid", "dot", "svg"]),
+    default="mermaid",
+    show_default=True,
+    help="Mermaid and DOT are text; SVG is drawn by Graphviz's dot.",
+)
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="Write to this file [default: stdout].",
+)
+def graph_command(paths: tuple[Path, ...], picture: str, fmt: str, output: Path | None) -> None:
+    """Draw the hierarchy, a state graph or the execution order of the system in SPECS."""
+    from .tools import graph
+
+    system = _one_system(paths)
+    try:
+        text = graph.render(graph.picture(system, picture), fmt)
+    except graph.GraphError as error:
+        fail(str(error), 2 if str(error).startswith("unknown") else 1)
+    _write_or_print(text, output)
+
+
+@main.command("doc")
+@SPEC_PATHS
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("docs/reference"),
+    show_default=True,
+    help="Output directory; each system gets <output>/<system>/.",
+)
+@click.option("--check", is_flag=True, help="Write nothing; print a diff and exit 1 if stale.")
+def doc_command(paths: tuple[Path, ...], output: Path, check: bool) -> None:
+    """Write the Markdown reference of the systems in SPECS: one page per controller."""
+    from .tools import reference
+
+    systems = _systems(paths)
+    plan, problems = reference.plan(systems, output)
+    if report(problems):
+        click.echo("doc failed: nothing was written", err=True)
+        sys.exit(1)
+    if check:
+        if plan.stale:
+            click.echo(write.unified_diff(plan, output), nl=False)
+            shown = " ".join(str(p) for p in paths) or "specs/"
+            click.echo(
+                f"{output} is stale: {len(plan.write)} page(s) to write, {len(plan.delete)} to "
+                f"delete; run `rcsgen doc {shown} -o {output}` to update it",
+                err=True,
+            )
+            sys.exit(1)
+        click.echo(f"{output} is current ({plan.unchanged} pages)")
+        return
+    write.apply(plan)
+    click.echo(
+        f"wrote the reference of {', '.join(s.name for s in systems)} into {output}: "
+        f"{len(plan.write)} written, {len(plan.delete)} deleted, {plan.unchanged} unchanged"
+    )
+
+
+# ---------------------------------------------------------------- traces
+
+
+@main.group("trace")
+def trace_group() -> None:
+    """Look at traces: an HTML timeline, the changes only, rule coverage, the mine."""
+
+
+TRACE_ARG = click.argument("trace_path", metavar="TRACE", type=click.Path(path_type=Path))
+SPECS_OPTION = click.option(
+    "--specs",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="The specs the trace was recorded from [default: specs/, when it is there].",
+)
+
+
+def _load_trace(path: Path) -> Trace:
+    from .tools import traces
+
+    try:
+        return traces.load(path)
+    except traces.TraceError as error:
+        fail(str(error))
+
+
+def _trace_system(specs: Path | None, found: list[Trace], required: bool) -> IRSystem | None:
+    """The system that recorded the traces, from --specs (or specs/ when it is there): its
+    execution order, levels, titles and rules. None when no specs are at hand and they are
+    not `required`; a one-line error when the traces do not fit them."""
+    from .tools import traces
+
+    if specs is None and not Path("specs").is_dir():
+        if required:
+            fail("no specs/ here: name the specs the trace was recorded from with --specs", 2)
+        return None
+    systems = _systems((specs,) if specs is not None else ())
+    problems = []
+    for system in systems:
+        try:
+            for one in found:
+                traces.check_against(system, one)
+            return system
+        except traces.TraceError as error:
+            problems.append(str(error))
+    if specs is None and not required:
+        return None  # a trace of other specs: shown without them
+    fail(problems[0] if len(problems) == 1 else f"no system in {specs or 'specs'} ran the trace")
+
+
+@trace_group.command("changes")
+@TRACE_ARG
+@click.option(
+    "-m",
+    "--module",
+    "modules",
+    multiple=True,
+    help="Only these modules (repeat, or separate with commas).",
+)
+@click.option(
+    "--world",
+    type=click.Choice(["discrete", "all", "none"]),
+    default="discrete",
+    show_default=True,
+    help="World fields: bool and int ones, every one (floats drift every cycle), or none.",
+)
+@click.option("--from", "first", type=int, default=None, help="First cycle shown.")
+@click.option("--to", "last", type=int, default=None, help="Last cycle shown.")
+@click.option(
+    "--every-cycle", is_flag=True, help="Do not fold cycles that change alike into one entry."
+)
+@SPECS_OPTION
+def trace_changes(
+    trace_path: Path,
+    modules: tuple[str, ...],
+    world: str,
+    first: int | None,
+    last: int | None,
+    every_cycle: bool,
+    specs: Path | None,
+) -> None:
+    """Print only what changed, cycle by cycle: commands, statuses, states, rules fired."""
+    from .tools import changes, traces
+
+    found = _load_trace(trace_path)
+    try:
+        chosen = traces.select(found, list(modules))
+    except traces.TraceError as error:
+        fail(str(error), 2)
+    system = _trace_system(specs, [found], required=False)
+    lanes = traces.lanes(found, system)
+    colour = {"ERROR": "red", "DONE": "green", "EXECUTING": "blue"}
+    for line in changes.timeline(found, lanes, chosen, world, first, last, not every_cycle):
+        if line.startswith("cycle "):
+            click.secho(line, bold=True)
+            continue
+        for status, fg in colour.items():
+            line = line.replace(f"-> {status} ", f"-> {click.style(status, fg=fg)} ")
+        click.echo(line)
+
+
+@trace_group.command("coverage")
+@click.argument(
+    "trace_paths", metavar="TRACES...", nargs=-1, required=True, type=click.Path(path_type=Path)
+)
+@SPECS_OPTION
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["text", "json"]),
+    default="text",
+    show_default=True,
+    help="A summary and the rules that never fired, or one JSON object.",
+)
+def trace_coverage(trace_paths: tuple[Path, ...], specs: Path | None, fmt: str) -> None:
+    """Which rules of which state tables fired in TRACES, and which never did."""
+    from .tools import coverage
+
+    found = [_load_trace(path) for path in trace_paths]
+    system = _trace_system(specs, found, required=True)
+    assert system is not None
+    result = coverage.measure(system, found)
+    click.echo(coverage.to_json(result) if fmt == "json" else coverage.to_text(result), nl=False)
+
+
+@trace_group.command("show")
+@TRACE_ARG
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="The page to write [default: the trace's path with .html].",
+)
+@SPECS_OPTION
+def trace_show(trace_path: Path, output: Path | None, specs: Path | None) -> None:
+    """Write TRACE as one self-contained HTML page: swim-lanes, world plots, a cursor."""
+    from .tools import trace_view, traces
+
+    found = _load_trace(trace_path)
+    system = _trace_system(specs, [found], required=False)
+    lanes = traces.lanes(found, system)
+    page = trace_view.render(
+        found, lanes, system.name if system else None, system.cycle_period if system else None
+    )
+    _write_or_print(page, output or trace_path.with_suffix(".html"))
+
+
+@trace_group.command("mine")
+@TRACE_ARG
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="The page to write [default: the trace's path with .mine.html].",
+)
+@SPECS_OPTION
+@click.option(
+    "--scenario",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="The scenario that recorded TRACE, for its map setting [default: the system's "
+    "scenarios/<trace name>.yaml, as `rcsgen run` names traces].",
+)
+def trace_mine(
+    trace_path: Path, output: Path | None, specs: Path | None, scenario: Path | None
+) -> None:
+    """Write a miner TRACE as an HTML replay of the machine in the mine (coal map, cut, pose)."""
+    from .compiler.diagnostics import SpecError
+    from .compiler.frontend import find_system_dirs
+    from .tools import mine_view, traces
+    from .tools.scenario import load_scenario
+
+    found = _load_trace(trace_path)
+    system = _trace_system(specs, [found], required=True)
+    assert system is not None
+    where = [specs] if specs is not None else [Path("specs")]
+    system_dir = next(
+        d for d in find_system_dirs(where, Diagnostics()) if d.name == system.source.split("/")[0]
+    )
+    if scenario is None:
+        guess = system_dir / "scenarios" / f"{trace_path.stem}.yaml"
+        scenario = guess if guess.is_file() else None
+    settings: dict[str, str] = {}
+    if scenario is not None:
+        try:
+            settings = load_scenario(scenario).settings
+        except SpecError as error:
+            report(error.diagnostics)
+            sys.exit(1)
+    try:
+        page, result = mine_view.render(
+            found,
+            traces.lanes(found, system),
+            system,
+            system_dir,
+            settings,
+            scenario.stem if scenario is not None else "",
+        )
+    except mine_view.MineError as error:
+        fail(str(error))
+    if result.mismatch:
+        click.echo(
+            f"warning: the replayed cut differs from the trace at {result.mismatch}", err=True
+        )
+    _write_or_print(page, output or trace_path.with_suffix(".mine.html"))

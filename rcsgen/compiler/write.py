@@ -41,18 +41,28 @@ class Plan:
         return bool(self.write or self.delete)
 
 
+# The first line of every file rcsgen writes starts with one of these: Python's comment,
+# and the HTML comment that opens a generated Markdown page (`rcsgen doc`).
+MARKERS = (MARKER, "<!-- " + MARKER.removeprefix("# "))
+
+
 def is_generated(path: Path) -> bool:
     try:
         with path.open(encoding="utf-8") as handle:
-            return handle.readline().startswith(MARKER)
+            return handle.readline().startswith(MARKERS)
     except (OSError, UnicodeDecodeError):
         return False
 
 
 def plan_outputs(
-    files: dict[str, str], out_dir: Path, systems: list[str], diags: Diagnostics
+    files: dict[str, str],
+    out_dir: Path,
+    systems: list[str],
+    diags: Diagnostics,
+    pattern: str = "*.py",
 ) -> Plan:
-    """Compare rendered files with the output directory; refuses symlinks and escapes."""
+    """Compare rendered files with the output directory; refuses symlinks and escapes.
+    Stale files are generated files matching `pattern` under a system's directory."""
     root = out_dir.resolve() if out_dir.exists() else out_dir.absolute()
     write: dict[Path, str] = {}
     unchanged = 0
@@ -88,7 +98,7 @@ def plan_outputs(
     for system in systems:
         folder = out_dir / system
         if folder.is_dir() and not folder.is_symlink():
-            for path in sorted(folder.rglob("*.py")):
+            for path in sorted(folder.rglob(pattern)):
                 if path not in produced and not path.is_symlink() and is_generated(path):
                     delete.append(path)
     return Plan(write, delete, unchanged)

@@ -1,0 +1,192 @@
+"""Traces: a trace file (JSON Lines, one line per cycle) -> checked columns per module and world.
+
+`load` reads what `rcsgen run` writes and checks every line, so the viewers can trust it:
+a problem is a `TraceError` whose message is one line naming the file and line. `lanes`
+orders the modules as a system runs them (execution order, level, simulators, stand-ins)
+when the specs are at hand, and alphabetically otherwise.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..compiler.ir import IRProcess, IRSystem
+from .graph import levels
+
+FIELDS = ("command", "command_num", "status", "status_num", "state", "rule")
+
+
+class TraceError(Exception):
+    """A file that is not a readable trace, or one that does not fit the specs; one line."""
+
+
+@dataclass
+class Trace:
+    name: str  # the path as given
+    cycles: list[int]
+    modules: list[str]  # sorted, as every line holds them
+    columns: dict[str, dict[str, list[Any]]]  # module -> field -> one value per cycle
+    world: dict[str, list[Any]] = field(default_factory=dict)  # field -> one value per cycle
+
+    def __len__(self) -> int:
+        return len(self.cycles)
+
+
+def load(path: Path) -> Trace:
+    """Read and check a trace file; TraceError with a one-line message if it is not one."""
+    shown = str(path)
+    if not path.exists():
+        raise TraceError(f"no trace file at {shown}")
+    if not path.is_file():
+        raise TraceError(f"{shown} is not a file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        raise TraceError(
+            f"{shown} is not a trace: cannot read it as UTF-8 text ({error})"
+        ) from None
+    return parse(text, shown)
+
+
+def parse(text: str, shown: str = "<trace>") -> Trace:
+    lines = text.splitlines()
+    if not any(line.strip() for line in lines):
+        raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
+    cycles: list[int] = []
+    columns: dict[str, dict[str, list[Any]]] = {}
+    world: dict[str, list[Any]] = {}
+    modules: list[str] = []
+    for number, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        where = f"{shown}:{number}"
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError as error:
+            raise TraceError(f"{where}: not a trace line: {error.msg}") from None
+        if not isinstance(record, dict) or not isinstance(record.get("cycle"), int):
+            raise TraceError(f"{where}: not a trace line (no `cycle` number)")
+        found = record.get("modules")
+        if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
+            raise TraceError(f"{where}: not a trace line (no `modules` object)")
+        if cycles and record["cycle"] <= cycles[-1]:
+            raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
+        if not cycles:
+            modules = sorted(found)
+            columns = {m: {f: [] for f in FIELDS} for m in modules}
+            world = {name: [] for name in sorted(record.get("world") or {})}
+        elif sorted(found) != modules:
+            extra = sorted(set(found) ^ set(modules))
+            raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
+        for module in modules:
+            values = found[module]
+            missing = [f for f in FIELDS if f not in values]
+            if missing:
+                raise TraceError(f"{where}: module {module} has no `{missing[0]}`")
+            for name in FIELDS:
+                columns[module][name].append(values[name])
+        fields = record.get("world") or {}
+        if not isinstance(fields, dict) or sorted(fields) != list(world):
+            raise TraceError(f"{where}: world fields differ from the first line's")
+        for name, series in world.items():
+            series.append(fields[name])
+        cycles.append(record["cycle"])
+    return Trace(shown, cycles, modules, columns, world)
+
+
+# ---------------------------------------------------------------- a trace beside its specs
+
+
+@dataclass(frozen=True)
+class Lane:
+    """A module as the viewers show it: in execution order, with its level and title."""
+
+    module: str
+    title: str = ""
+    level: int = 0  # 0: a simulator, or no specs at hand
+    simulator: bool = False
+    runs_as: str = ""  # the controller whose table it runs: itself, or its stand-in
+
+
+def process_of(system: IRSystem, trace: Trace) -> IRProcess | None:
+    """The process that ran the trace: every module of the trace is in it."""
+    for process in system.processes:
+        if set(trace.modules) <= set(process.modules):
+            return process
+    return None
+
+
+def runs_as(process: IRProcess, trace: Trace) -> dict[str, str]:
+    """Which controller's table each module of the trace ran: a controller whose subtree is
+    missing from the trace ran as its stand-in (`simulate:` in the scenario)."""
+    out = {m: m for m in trace.modules}
+    for replaced, (stand_in, subtree) in process.stand_ins.items():
+        others = [m for m in subtree if m != replaced]
+        if replaced in out and others and not any(m in out for m in others):
+            out[replaced] = stand_in
+    return out
+
+
+def check_against(system: IRSystem, trace: Trace) -> IRProcess:
+    """The trace's process; TraceError when a module or a rule is not in the specs."""
+    names = {c.name for c in system.controllers}
+    unknown = [m for m in trace.modules if m not in names]
+    if unknown:
+        raise TraceError(
+            f"{trace.name}: module `{unknown[0]}` is not in system {system.name}: "
+            "was the trace recorded from other specs?"
+        )
+    process = process_of(system, trace)
+    if process is None:
+        raise TraceError(f"{trace.name}: no process of system {system.name} runs its modules")
+    for module, controller in runs_as(process, trace).items():
+        known = {str(rule.id) for rule in system.controller(controller).table_rules()}
+        fired = {r for r in trace.columns[module]["rule"] if r is not None}
+        stale = sorted(fired - known)
+        if stale:
+            raise TraceError(
+                f"{trace.name}: {module} fired rule `{stale[0]}`, which {controller}'s tables "
+                f"do not have: the specs changed since the trace was recorded; run the "
+                "scenario again"
+            )
+    return process
+
+
+def lanes(trace: Trace, system: IRSystem | None) -> list[Lane]:
+    """The trace's modules in execution order with titles and levels, when `system` ran it;
+    alphabetical and bare otherwise."""
+    if system is None:
+        return [Lane(m) for m in trace.modules]
+    process = check_against(system, trace)
+    level = levels(system)
+    ran = runs_as(process, trace)
+    out = []
+    for module in process.modules:
+        if module in ran:
+            controller = system.controller(ran[module])
+            out.append(
+                Lane(
+                    module,
+                    controller.title,
+                    0 if controller.simulator and module == ran[module] else level[module],
+                    controller.simulator,
+                    ran[module],
+                )
+            )
+    return out
+
+
+def select(trace: Trace, wanted: list[str]) -> list[str]:
+    """The modules named (comma-separated lists allowed), checked; all when none."""
+    names = [n.strip() for item in wanted for n in item.split(",") if n.strip()]
+    for name in names:
+        if name not in trace.modules:
+            import difflib
+
+            close = difflib.get_close_matches(name, trace.modules, n=1)
+            hint = f"; did you mean `{close[0]}`?" if close else ""
+            raise TraceError(f"unknown module `{name}`: {trace.name} has no such module{hint}")
+    return names or list(trace.modules)

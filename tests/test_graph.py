@@ -1,0 +1,199 @@
+"""`rcsgen graph`: the hierarchy, state graphs and execution order, read from the IR.
+
+The pictures are checked as graphs (nodes, edges, labels), their Mermaid and DOT text for
+what a reader needs, SVG through Graphviz where it is installed, and every bad input as a
+one-line error.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from conftest import rcsgen
+
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.tools import graph
+
+REPO = Path(__file__).resolve().parent.parent
+MINER = REPO / "specs" / "miner"
+needs_dot = pytest.mark.skipif(
+    shutil.which("dot") is None, reason="Graphviz is not installed: apt-get install graphviz"
+)
+
+
+@pytest.fixture(scope="module")
+def system():
+    front = compile_paths([MINER])
+    assert not front.diagnostics.errors
+    return front.systems[0]
+
+
+def test_hierarchy_has_every_module_by_level_with_simulators_and_stand_ins(system):
+    picture = graph.hierarchy(system)
+    nodes = {n.id.removeprefix("m_"): n for n in picture.nodes}
+    assert set(nodes) == {c.name for c in system.controllers}
+    assert (nodes["sb"].level, nodes["co"].level, nodes["cc"].level, nodes["bm"].level) == (
+        1,
+        2,
+        3,
+        4,
+    )
+    assert nodes["mine"].kind == "simulator" and nodes["mine"].cluster == "p_pc1_sim"
+    assert nodes["cr_sim"].kind == "stand_in"
+    commands = {(e.source, e.target) for e in picture.edges if e.kind == "command"}
+    assert ("m_co", "m_cc") in commands and ("m_vg", "m_tc") in commands
+    assert ("m_cr_sim", "m_cr") in {(e.source, e.target) for e in picture.edges}
+    assert [c.id for c in picture.clusters] == ["p_pc1", "p_pc1_sim"]
+
+
+def test_hierarchy_mermaid_colours_levels_and_marks_simulators(system):
+    text = graph.to_mermaid(graph.hierarchy(system))
+    assert text.startswith('---\ntitle: "miner: Continuous mining machine"\n---\nflowchart TB\n')
+    assert 'subgraph p_pc1["pc1: Command-first order' in text
+    assert "  m_sb --> m_co\n" in text
+    assert 'm_mine(["mine<br/>Mine (simulated environment)"])' in text
+    assert "m_cr_sim -.->" in text
+    assert re.search(r"classDef level1 fill:#ffd6a5", text)
+    assert re.search(r"class m_sb level1\n", text)
+    assert "stroke-dasharray" in text.split("classDef simulator", 1)[1].splitlines()[0]
+
+
+def test_state_graph_is_figure_4_guards_actions_and_priorities(system):
+    co = system.controller("co")
+    picture = graph.states(co, "SUMP_SHEAR_CUSP")
+    command = next(k for k in co.commands if k.name == "SUMP_SHEAR_CUSP")
+    rules = [r for s in command.states for r in s.rules]
+    assert len([e for e in picture.edges if e.kind == "rule"]) == len(rules)
+    by_label = {e.label[0]: e for e in picture.edges if e.kind == "rule"}
+    halt = by_label["[2] too_much_loose_coal()"]
+    assert halt.source == halt.target == "s_SUMP_SHEAR_CUSP_S2"  # stays in S2
+    assert halt.label[1:] == ("/ send cc.HALT",)
+    pop = by_label["[1] world.popped_out_of_shear"]
+    assert pop.target == "s_SUMP_SHEAR_CUSP_S1"
+    done = next(e for e in picture.edges if e.target.endswith("__DONE"))
+    assert done.source == "s_SUMP_SHEAR_CUSP_S4" and done.label[-1] == "/ report DONE"
+    states = {n.id: n.label[0] for n in picture.nodes if n.kind == "state"}
+    assert states["s_SUMP_SHEAR_CUSP_S2"] == "S2 (first match)"
+    first = next(e for e in picture.edges if e.source.endswith("__start"))
+    assert first.target == "s_SUMP_SHEAR_CUSP_S0"
+
+
+def test_a_controllers_picture_holds_init_and_halt_and_every_cycle_rules(system):
+    picture = graph.states(system.controller("co"))
+    assert [c.label for c in picture.clusters][:2] == ["INIT", "HALT"]
+    oi = graph.states(system.controller("oi"))
+    assert oi.clusters[0].id == "s_every_cycle"
+    assert any("world.tail_request" in " ".join(e.label) for e in oi.edges)
+    assert oi.clusters[-1].label == "ENTER_GOAL(x: float, y: float)"
+
+
+def test_labels_are_escaped_for_mermaid_and_dot(system):
+    co = system.controller("co")
+    mermaid = graph.to_mermaid(graph.states(co, "INITIAL_APPROACH_FACE"))
+    assert "world.cutter_current #gt; CUTTER_THRESHOLD" in mermaid
+    assert "world.cutter_current > " not in mermaid
+    dot = graph.to_dot(graph.states(co, "INITIAL_APPROACH_FACE"))
+    assert "world.cutter_current > CUTTER_THRESHOLD\\l" in dot
+    assert graph._mermaid_text('a "b" | c # d') == "a #quot;b#quot; #124; c #35; d"
+    assert graph._dot_text('say "hi" \\') == 'say \\"hi\\" \\\\'
+
+
+def test_round_trip_command_first_takes_one_cycle_down_and_a_cycle_per_level_up(system):
+    process = system.processes[0]
+    chain = graph.thread(system, process, None)
+    assert chain == ["sb", "co", "cc", "bm"]  # the deepest thread, first in execution order
+    assert graph.round_trip(process, chain) == [
+        ("command", "sb", "co", 1, 1),
+        ("command", "co", "cc", 1, 1),
+        ("command", "cc", "bm", 1, 1),
+        ("status", "bm", "cc", 1, 2),
+        ("status", "cc", "co", 2, 3),
+        ("status", "co", "sb", 3, 4),
+    ]
+    # Status-first order (the paper's alternative): the command needs a cycle per level.
+    upside_down = replace(process, modules=tuple(reversed(process.modules)))
+    hops = graph.round_trip(upside_down, chain)
+    assert [h[4] for h in hops] == [2, 3, 4, 4, 4, 4]
+    assert graph.thread(system, process, "tc") == ["sb", "co", "vg", "tc"]
+
+
+def test_order_picture_has_a_cluster_per_cycle_and_message_edges(system):
+    picture = graph.picture(system, "order")
+    assert [c.label for c in picture.clusters] == ["cycle 1", "cycle 2", "cycle 3", "cycle 4"]
+    kinds = [(e.kind, e.source, e.target) for e in picture.edges if e.kind != "then"]
+    assert ("status", "x1_bm", "x2_cc") in kinds and ("status", "x3_co", "x4_sb") in kinds
+    assert picture.nodes[-1].id == "x4_sb"  # the round trip ends when sb reads the status
+    assert "sb co cc bm cd sj" in " ".join(picture.nodes[0].label)
+
+
+def test_same_specs_give_the_same_bytes(system):
+    again = compile_paths([MINER]).systems[0]
+    for name in ("hierarchy", "co", "order:tc"):
+        for render in (graph.to_mermaid, graph.to_dot):
+            assert render(graph.picture(system, name)) == render(graph.picture(again, name))
+
+
+@needs_dot
+def test_svg_is_drawn_by_graphviz(system):
+    svg = graph.to_svg(graph.picture(system, "co.SUMP_SHEAR_CUSP"))
+    assert svg.lstrip().startswith("<?xml") and "<svg" in svg
+    assert "too_much_loose_coal()" in svg and "S2 (first match)" in svg
+
+
+def test_cli_prints_mermaid_of_the_hierarchy():
+    result = rcsgen("graph", MINER)
+    assert result.exit_code == 0, result.output
+    assert "flowchart TB" in result.stdout and "m_sb --> m_co" in result.stdout
+    assert "warning" not in result.output  # warnings are validate's business
+
+
+def test_cli_writes_dot_to_a_file(tmp_path):
+    out = tmp_path / "co.dot"
+    result = rcsgen("graph", MINER, "-p", "co.SUMP_SHEAR_CUSP", "--format", "dot", "-o", out)
+    assert result.exit_code == 0, result.output
+    assert out.read_text(encoding="utf-8").startswith('digraph "co_SUMP_SHEAR_CUSP" {')
+
+
+@pytest.mark.parametrize(
+    ("picture", "message"),
+    [
+        ("hierachy", "error: unknown picture `hierachy` for system miner"),
+        ("co.SUMP", "error: unknown picture `co.SUMP`: co has the commands INIT, HALT,"),
+        ("order:nobody", "error: unknown picture `order:nobody`"),
+    ],
+)
+def test_cli_unknown_picture_is_one_line_exit_2(picture, message):
+    result = rcsgen("graph", MINER, "-p", picture)
+    assert result.exit_code == 2
+    assert result.output.startswith(message) and result.output.count("\n") == 1
+
+
+def test_cli_svg_without_graphviz_names_the_package(monkeypatch):
+    monkeypatch.setattr(graph.shutil, "which", lambda name: None)
+    result = rcsgen("graph", MINER, "--format", "svg")
+    assert result.exit_code == 1
+    assert result.output.count("\n") == 1
+    assert "install the `graphviz` package" in result.output
+
+
+def test_cli_bad_specs_fail_with_their_diagnostics(tmp_path):
+    result = rcsgen("graph", tmp_path / "nowhere")
+    assert result.exit_code == 1
+    assert "error[E010]" in result.output
+
+
+@pytest.mark.parametrize(
+    ("picture", "command"),
+    [
+        ("hierarchy", "rcsgen graph specs/miner"),
+        ("co.SUMP_SHEAR_CUSP", "rcsgen graph specs/miner -p co.SUMP_SHEAR_CUSP"),
+    ],
+)
+def test_readme_embeds_the_current_pictures(system, picture, command):
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    block = "```mermaid\n" + graph.to_mermaid(graph.picture(system, picture)) + "```"
+    assert block in readme, f"README.md's {picture} is stale: paste the output of `{command}`"

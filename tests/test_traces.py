@@ -1,0 +1,248 @@
+"""Reading traces, the terminal changes timeline and rule coverage (`rcsgen trace ...`).
+
+The golden traces of the miner's scenarios are the realistic input; broken traces are made
+by editing copies. Every bad input is one line and an exit code, never a traceback.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from conftest import rcsgen
+
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.tools import changes, coverage, traces
+
+REPO = Path(__file__).resolve().parent.parent
+MINER = REPO / "specs" / "miner"
+GOLDEN = REPO / "tests" / "golden"
+
+
+@pytest.fixture(scope="module")
+def system():
+    return compile_paths([MINER]).systems[0]
+
+
+@pytest.fixture(scope="module")
+def pop_out():
+    return traces.load(GOLDEN / "pop_out.jsonl")
+
+
+def lines_of(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines()]
+
+
+def write_lines(path: Path, records: list[dict]) -> Path:
+    path.write_text("".join(json.dumps(r) + "\n" for r in records), encoding="utf-8")
+    return path
+
+
+# ---------------------------------------------------------------- reading
+
+
+def test_load_gives_columns_per_module_and_world(pop_out):
+    assert len(pop_out) == 285 and pop_out.cycles[:3] == [1, 2, 3]
+    assert "co" in pop_out.modules and pop_out.modules == sorted(pop_out.modules)
+    co = pop_out.columns["co"]
+    i = pop_out.cycles.index(78)
+    assert (co["command"][i], co["state"][i], co["rule"][i]) == (
+        "SUMP_SHEAR_CUSP",
+        "S1",
+        "SUMP_SHEAR_CUSP/S2/1",
+    )
+    assert pop_out.world["popped_out_of_shear"][i] is True
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("", "is empty: a trace has one JSON line per cycle"),
+        ("not json\n", ":1: not a trace line: Expecting value"),
+        ('{"a": 1}\n', ":1: not a trace line (no `cycle` number)"),
+        ('{"cycle": 1}\n', ":1: not a trace line (no `modules` object)"),
+        (
+            '{"cycle": 1, "modules": {"co": {"command": "INIT"}}}\n',
+            "module co has no `command_num`",
+        ),
+    ],
+)
+def test_not_a_trace_is_one_line(tmp_path, text, message):
+    path = tmp_path / "bad.jsonl"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(traces.TraceError) as caught:
+        traces.load(path)
+    assert message in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_cycles_must_increase_and_modules_stay(tmp_path):
+    records = lines_of(GOLDEN / "sump_shear_cusp.jsonl")[:3]
+    with pytest.raises(traces.TraceError, match=r":2: cycle 1 after cycle 1"):
+        traces.load(write_lines(tmp_path / "a.jsonl", [records[0], records[0]]))
+    del records[1]["modules"]["co"]
+    with pytest.raises(traces.TraceError, match=r":2: modules differ from the first line's \(co\)"):
+        traces.load(write_lines(tmp_path / "b.jsonl", records))
+    with pytest.raises(traces.TraceError, match="no trace file at"):
+        traces.load(tmp_path / "missing.jsonl")
+
+
+def test_lanes_follow_the_execution_order_with_levels(system, pop_out):
+    lanes = traces.lanes(pop_out, system)
+    assert [lane.module for lane in lanes] == list(system.processes[0].modules)
+    by_name = {lane.module: lane for lane in lanes}
+    assert (by_name["sb"].level, by_name["cc"].level, by_name["bm"].level) == (1, 3, 4)
+    assert by_name["mine"].simulator and by_name["mine"].level == 0
+    assert [lane.module for lane in traces.lanes(pop_out, None)] == pop_out.modules
+
+
+def test_a_stand_in_run_is_shown_and_counted_as_the_stand_in(system):
+    trace = traces.load(GOLDEN / "cr_simulated.jsonl")
+    lanes = {lane.module: lane for lane in traces.lanes(trace, system)}
+    assert lanes["cr"].runs_as == "cr_sim" and lanes["cr"].simulator
+    assert "gh" not in lanes
+
+
+def test_a_trace_of_other_specs_is_refused(tmp_path, system):
+    records = lines_of(GOLDEN / "sump_shear_cusp.jsonl")[:2]
+    for record in records:
+        record["modules"]["zz"] = record["modules"].pop("css")
+    odd = traces.load(write_lines(tmp_path / "odd.jsonl", records))
+    with pytest.raises(traces.TraceError, match="module `zz` is not in system miner"):
+        traces.check_against(system, odd)
+    records = lines_of(GOLDEN / "sump_shear_cusp.jsonl")[:2]
+    records[0]["modules"]["co"]["rule"] = "SUMP_SHEAR_CUSP/S9/1"
+    stale = traces.load(write_lines(tmp_path / "stale.jsonl", records))
+    with pytest.raises(traces.TraceError, match=r"co fired rule `SUMP_SHEAR_CUSP/S9/1`"):
+        traces.check_against(system, stale)
+
+
+# ---------------------------------------------------------------- changes
+
+
+def test_changes_show_what_changed_and_fold_repeats(system, pop_out):
+    lanes = traces.lanes(pop_out, system)
+    text = list(changes.timeline(pop_out, lanes, ["co", "cc"], first=76, last=80))
+    assert text == [
+        "cycle 78",
+        "  co     state S2 -> S1  fired SUMP_SHEAR_CUSP/S2/1",
+        "  cc     command SHEAR #4 -> SHEAR_CORRECT #5  status EXECUTING #4 -> EXECUTING #5  "
+        "state S2 -> S1  fired SHEAR_CORRECT/S0/1",
+        "  world  popped_out_of_shear false -> true",
+        "cycle 79",
+        "  world  popped_out_of_shear true -> false",
+    ]
+    first = list(changes.timeline(pop_out, lanes, ["sb"], world="none", last=1))
+    assert first == [
+        "cycle 1",
+        "  sb  command INIT #1  status EXECUTING #1  state S1  fired INIT/S0/1",
+    ]
+
+
+def test_changes_fold_cycles_that_change_alike(system):
+    trace = traces.load(GOLDEN / "late_tail.jsonl")
+    lanes = traces.lanes(trace, system)
+    folded = list(changes.timeline(trace, lanes, ["tc"], world="none", first=19, last=50))
+    assert folded == [
+        "cycle 19",
+        "  tc  fired SLOW_FORWARD/MOVING/2",
+        "  ... the same each cycle through cycle 50 (32 cycles)",
+    ]
+    every = list(changes.timeline(trace, lanes, ["tc"], "none", 19, 50, merge=False))
+    assert len(every) == 64
+    halts = list(changes.timeline(trace, lanes, ["bm"], "none", 77, 113))
+    assert halts[-1] == "  ... the same each cycle through cycle 113 (37 cycles)"
+    assert (
+        halts[1] == "  bm  command HALT #5 -> HALT #6  status DONE #5 -> DONE #6  fired HALT/S0/1"
+    )
+
+
+def test_changes_world_fields(pop_out):
+    discrete = changes.world_fields(pop_out, "discrete")
+    assert "popped_out_of_shear" in discrete and "drum_on_cmd" in discrete
+    assert "true_x" not in discrete and "loose_coal" not in discrete
+    assert "boom_angle" in changes.world_fields(pop_out, "all")
+    assert changes.world_fields(pop_out, "none") == []
+
+
+# ---------------------------------------------------------------- coverage
+
+
+def test_coverage_counts_every_table_rule_of_the_miner(system):
+    found = [traces.load(p) for p in sorted(GOLDEN.glob("*.jsonl"))]
+    result = coverage.measure(system, found)
+    assert len(result.rules) == sum(len(c.table_rules()) for c in system.controllers)
+    rules = {(r.module, r.rule): r for r in result.rules}
+    pop = rules[("co", "SUMP_SHEAR_CUSP/S2/1")]
+    assert pop.cycles == 1 and pop.traces == [str(GOLDEN / "pop_out.jsonl")]
+    assert pop.where.endswith("specs/miner/co.yaml:154")
+    assert rules[("co", "SUMP_SHEAR_CUSP/S2/2")].traces == [str(GOLDEN / "late_tail.jsonl")]
+    assert rules[("tc", "FAST_FORWARD/S0/1")].cycles == 0
+    assert rules[("cr_sim", "SUMP/S0/1")].traces == [str(GOLDEN / "cr_simulated.jsonl")]
+    assert result.ran["cr"] == [
+        str(p) for p in sorted(GOLDEN.glob("*.jsonl")) if "cr_sim" not in p.name
+    ]
+    text = coverage.to_text(result)
+    assert text.startswith(f"rule coverage of miner over 8 trace(s): {result.fired} of ")
+    assert "  co\n    INITIAL_APPROACH_FACE/S1/2      " in text
+    data = json.loads(coverage.to_json(result))
+    assert data["fired"] == result.fired and data["rules"] == len(result.rules)
+    co = next(m for m in data["modules"] if m["module"] == "co")
+    assert {"rule", "where", "guard", "doc", "cycles", "traces"} == set(co["rules"][0])
+
+
+# ---------------------------------------------------------------- command line
+
+
+def test_cli_changes_and_coverage(monkeypatch):
+    monkeypatch.chdir(REPO)
+    shown = rcsgen("trace", "changes", "tests/golden/pop_out.jsonl", "-m", "co", "--to", "5")
+    assert shown.exit_code == 0, shown.output
+    assert shown.output.splitlines()[:2] == [
+        "cycle 1",
+        "  co     command INIT #1  status EXECUTING #1  state S1  fired INIT/S0/1",
+    ]
+    report = rcsgen("trace", "coverage", *sorted(str(p) for p in GOLDEN.glob("*.jsonl")))
+    assert report.exit_code == 0 and "never fired:" in report.output
+    as_json = rcsgen("trace", "coverage", "tests/golden/box_cut.jsonl", "--format", "json")
+    assert json.loads(as_json.output)["traces"] == ["tests/golden/box_cut.jsonl"]
+
+
+@pytest.mark.parametrize(
+    ("args", "code", "message"),
+    [
+        (["changes", "missing.jsonl"], 1, "error: no trace file at missing.jsonl"),
+        (["changes", "README.md"], 1, "error: README.md:1: not a trace line: Expecting value"),
+        (["changes", "tests/golden/pop_out.jsonl", "-m", "cx"], 2, "error: unknown module `cx`"),
+        (["coverage", "missing.jsonl"], 1, "error: no trace file at missing.jsonl"),
+        (["show", "README.md"], 1, "error: README.md:1: not a trace line"),
+    ],
+)
+def test_cli_bad_input_is_one_line(monkeypatch, args, code, message):
+    monkeypatch.chdir(REPO)
+    result = rcsgen("trace", *args)
+    assert result.exit_code == code
+    assert result.output.startswith(message) and result.output.count("\n") == 1
+
+
+def test_cli_coverage_needs_specs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    result = rcsgen("trace", "coverage", GOLDEN / "box_cut.jsonl")
+    assert result.exit_code == 2
+    assert result.output == (
+        "error: no specs/ here: name the specs the trace was recorded from with --specs\n"
+    )
+    again = rcsgen("trace", "coverage", GOLDEN / "box_cut.jsonl", "--specs", MINER)
+    assert again.exit_code == 0, again.output
+
+
+def test_docs_report_the_current_coverage_of_the_scenarios(system):
+    found = [traces.load(p) for p in sorted(GOLDEN.glob("*.jsonl"))]
+    result = coverage.measure(system, found)
+    total = len(result.rules)
+    line = f"**{result.fired} of {total} table rules fired ({100 * result.fired / total:.1f}%)**"
+    miner = (REPO / "docs" / "miner.md").read_text(encoding="utf-8")
+    assert line in miner, (
+        "docs/miner.md's coverage section is stale: update it from\n"
+        "  rcsgen trace coverage tests/golden/*.jsonl"
+    )
