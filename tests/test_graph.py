@@ -47,7 +47,7 @@ def test_hierarchy_has_every_module_by_level_with_simulators_and_stand_ins(syste
     commands = {(e.source, e.target) for e in picture.edges if e.kind == "command"}
     assert ("m_co", "m_cc") in commands and ("m_vg", "m_tc") in commands
     assert ("m_cr_sim", "m_cr") in {(e.source, e.target) for e in picture.edges}
-    assert [c.id for c in picture.clusters] == ["p_pc1", "p_pc1_sim"]
+    assert [c.id for c in picture.clusters] == ["p_pc1", "p_pc1_sim", "p_pc2"]
 
 
 def test_hierarchy_mermaid_colours_levels_and_marks_simulators(system):

@@ -112,11 +112,26 @@ class Lane:
 
 
 def process_of(system: IRSystem, trace: Trace) -> IRProcess | None:
-    """The process that ran the trace: every module of the trace is in it."""
+    """What ran the trace: the one process whose modules it holds, else the whole system
+    (every process's modules, process by process: a scenario runs them all)."""
     for process in system.processes:
         if set(trace.modules) <= set(process.modules):
             return process
-    return None
+    whole = whole_system(system)
+    return whole if set(trace.modules) <= set(whole.modules) else None
+
+
+def whole_system(system: IRSystem) -> IRProcess:
+    """Every process of `system` as one: modules in the order a whole-system run takes."""
+    first = system.processes[0]
+    return IRProcess(
+        name=system.name,
+        cycle_period=first.cycle_period,
+        doc=f"every process of {system.name}",
+        modules=tuple(m for p in system.processes for m in p.modules),
+        roots=tuple(m for p in system.processes for m in p.roots),
+        stand_ins={k: v for p in system.processes for k, v in p.stand_ins.items()},
+    )
 
 
 def runs_as(process: IRProcess, trace: Trace) -> dict[str, str]:
