@@ -241,6 +241,30 @@ def test_a_restarted_process_resumes_without_sending_init_again(
     assert status(layout, buf, "arm")["state"] == 2, "the arm still holds"
 
 
+def test_a_process_whose_module_keeps_hook_state_is_not_restarted(
+    launched: Callable[..., object], package: ModuleType
+) -> None:
+    """arm keeps hook state outside the block (hooks_state_on_restart: refuse, the
+    default): a restart of p2 would lose it, so p2 refuses, and the launcher gives up on it
+    rather than restarting it again and again; its supervisor goes to its safe state."""
+    launcher = launched(restart=True)
+    layout, buf = runtime(package, "layout"), launcher.block.buf
+    command_to(layout, buf, "top", "RUN")
+    wait_for(lambda: status(layout, buf, "arm")["state"] == 2, "arm holding")
+    launcher.children["p2"].popen.send_signal(signal.SIGKILL)
+    wait_for(
+        lambda: launcher.poll() is not None and "p2" not in launcher.children,
+        "p2 refusing to restart",
+    )
+    assert [e for e in launcher.events if e.startswith("p2")] == [
+        "p2 died (exit -9)",
+        "p2 restarted",
+        "p2 refused to restart: see its error above",
+    ]
+    assert "p2" not in launcher.children
+    wait_for(lambda: status(layout, buf, "top")["status"] == 3, "top reports ERROR")
+
+
 def test_the_watchdog_halts_the_roots_after_a_cycle_far_too_long(
     launched: Callable[..., object], package: ModuleType
 ) -> None:

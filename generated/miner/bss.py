@@ -37,6 +37,9 @@ NOISE = 0.1
 class BssController:
     """The bss controller: its local buffers and the QQ1 cycle."""
 
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
+
     __slots__ = (
         "buf",
         "command",

@@ -36,6 +36,9 @@ NOISE = 1.0
 class CssController:
     """The css controller: its local buffers and the QQ1 cycle."""
 
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
+
     __slots__ = (
         "buf",
         "command",

@@ -37,6 +37,9 @@ HEADING_NOISE = 0.0005
 class PssController:
     """The pss controller: its local buffers and the QQ1 cycle."""
 
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
+
     __slots__ = (
         "buf",
         "command",

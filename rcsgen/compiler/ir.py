@@ -231,6 +231,7 @@ class IRController:
     states: tuple[str, ...]  # state names; code = index + 1
     every_cycle: tuple[IRRule, ...]  # tried first, every cycle
     hooks_state: str | None  # hook-module factory of the state hooks receive first
+    hooks_state_on_restart: str  # "refuse" or "reset"
     buffers: str  # whose command/status buffers it uses: itself, or the replaced one
     runtime_names: tuple[str, ...]  # what the module imports from the runtime contract
 

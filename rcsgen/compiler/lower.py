@@ -125,6 +125,7 @@ class _ControllerLowering:
             states=tuple(states),
             every_cycle=every_cycle,
             hooks_state=spec.hooks_state.value if spec.hooks_state else None,
+            hooks_state_on_restart=spec.hooks_state_on_restart,
             buffers=c.buffers,
             runtime_names=_runtime_names(rules, c.predicates.values()),
         )

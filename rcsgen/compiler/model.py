@@ -167,6 +167,7 @@ class ControllerSpec:
     name_span: Span = field(default_factory=lambda: Span("?"))
     every_cycle: list[Rule] = field(default_factory=list)  # tried every cycle, any command
     echo_timeouts: dict[str, Located] = field(default_factory=dict)  # subordinate -> duration
+    hooks_state_on_restart: str = "refuse"  # or "reset": what a restart does with hook state
     hooks_state: Located | None = None  # factory of the state every hook call receives first
 
 
@@ -322,6 +323,7 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
         hooks_state=Located(data["hooks_state"], value_span(data, "hooks_state", top))
         if "hooks_state" in data
         else None,
+        hooks_state_on_restart=str(data.get("hooks_state_on_restart", "refuse")),
         echo_timeouts={
             k: Located(v, value_span(data["echo_timeouts"], k, top))
             for k, v in (data.get("echo_timeouts") or {}).items()

@@ -82,6 +82,7 @@ CLASS_NAMES = frozenset(
         "__slots__",
         "every_cycle",  # method of the `every_cycle` rules
         "resume",
+        "HOOK_STATE_ON_RESTART",
         "safe_state",
         "status_seq",
         "status_dirty",

@@ -30,9 +30,20 @@ from typing import Self
 
 from .block import Block, BlockError
 from .contract import DEAD, PROCESS_STATES, STOPPED, StaleRead
-from .loop import DONE_REPLY, READY, STEP, ProcessPlan, Stop, run, serve, start
+from .loop import (
+    DONE_REPLY,
+    READY,
+    STEP,
+    ProcessPlan,
+    RestartRefused,
+    Stop,
+    run,
+    serve,
+    start,
+)
 
 STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
+REFUSED = 3  # the exit code of a process that refused to restart (the launcher gives up)
 
 
 @dataclass(frozen=True)
@@ -81,7 +92,7 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     if args.lockstep:
         try:
             process = start(plan, system.layout, args.shm, not args.attach, settings, args.simulate)
-        except BlockError as error:
+        except (BlockError, RestartRefused) as error:
             print(f"{args.process}: {error}", file=sys.stderr)
             return 1
         try:
@@ -105,9 +116,9 @@ def run_process(system: System, args: argparse.Namespace) -> int:
             simulate=args.simulate,
             stop=stop,
         )
-    except BlockError as error:
+    except (BlockError, RestartRefused) as error:
         print(f"{args.process}: {error}", file=sys.stderr)
-        return 1
+        return REFUSED if isinstance(error, RestartRefused) else 1
     if not args.child:
         print(f"{args.process}: {process.cycle} cycles")
         for line in summary(system, process.block.buf, [args.process]):
@@ -210,8 +221,13 @@ class Launcher:
             state = _read(record, self.block.buf).get("state")
             if code != 0 or state != STOPPED:
                 record.write(self.block.buf, state=DEAD)
-                self.events.append(f"{name} died (exit {code})")
-                if self.restart and not self.lockstep:
+                refused = code == REFUSED and child.restarts > 0
+                self.events.append(
+                    f"{name} refused to restart: see its error above"
+                    if refused
+                    else f"{name} died (exit {code})"
+                )
+                if self.restart and not self.lockstep and not refused:
                     _close(child.popen)
                     child.popen = self._spawn(name, attach=True)
                     child.restarts += 1

@@ -39,6 +39,10 @@ _BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))  # seq, p
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
 
 
+class RestartRefused(Exception):
+    """A process cannot be restarted: a module of it keeps hook state a restart would lose."""
+
+
 class Module(Protocol):
     """What the loop needs of a generated controller."""
 
@@ -84,8 +88,11 @@ class Process:
         block: Block,
         settings: dict[str, str] | None = None,
         simulate: Iterable[str] = (),
+        restarting: bool = False,
     ) -> None:
         self.plan, self.layout, self.block = plan, layout, block
+        if restarting:
+            self._refuse_lost_hook_state()
         self.cycle = 0
         unknown = sorted(set(simulate) - set(plan.stand_ins))
         if unknown:
@@ -116,6 +123,22 @@ class Process:
         self.counters.update(pid=os.getpid(), state=STARTING)
         self.lost: set[str] = set()
         self.beat()
+
+    def _refuse_lost_hook_state(self) -> None:
+        """A module that ran before and keeps hook state outside the block (a simulator's
+        mine) cannot be restarted unless its spec says the state may start again."""
+        buf = self.block.buf
+        for name in self.plan.modules:
+            cls = self.plan.classes[name]
+            if getattr(cls, "HOOK_STATE_ON_RESTART", "reset") != "refuse":
+                continue
+            if self.layout.PERFORMANCE[name].read(buf)["cycles"]:
+                raise RestartRefused(
+                    f"{name} keeps hook state outside the block, which a restart of process "
+                    f"{self.plan.name} would lose (it would simulate again what it already "
+                    "did); restart the whole system, or declare `hooks_state_on_restart: "
+                    f"reset` in {name}'s spec if starting that state again is harmless"
+                )
 
     # ------------------------------------------------------------ the simulation switch
 
@@ -259,7 +282,7 @@ def start(
     command yet (all of them in a new block; a restarted process resumes the others)."""
     block = Block(layout, shm_name, create)
     try:
-        process = Process(plan, layout, block, settings, simulate)
+        process = Process(plan, layout, block, settings, simulate, restarting=not create)
         process.send_init(only_idle=not create)
     except BaseException:
         block.close()
