@@ -8,6 +8,7 @@ other message then goes to stderr), for editors and CI.
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -199,6 +200,35 @@ def run(
     _summarise(result, trace_path, record)
     if spec.stop_when_done and result.final.get("status") != "DONE":
         sys.exit(1)
+
+
+@main.command(context_settings={"ignore_unknown_options": True})
+@click.argument("system_dir", type=click.Path(path_type=Path, file_okay=False))
+@click.option(
+    "--generated",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("generated"),
+    show_default=True,
+    help="Where `rcsgen build` put the system packages.",
+)
+@click.argument("options", nargs=-1, type=click.UNPROCESSED)
+def up(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
+    """Start a built system: every process as its own OS process, paced, until Ctrl-C.
+
+    OPTIONS go to `python -m <system>` (e.g. `--cycles 100`, `--restart`, `--shm NAME`,
+    one PROCESS, `--help`).
+    """
+    if not (system_dir / "system.yaml").is_file():
+        click.echo(f"error: no system.yaml in {system_dir}", err=True)
+        sys.exit(2)
+    name = _system_name(system_dir)
+    package = generated / name
+    if not (package / "__main__.py").is_file():
+        click.echo(f"error: no generated package at {package}; run `rcsgen build` first", err=True)
+        sys.exit(1)
+    path = [str(generated.resolve()), str(system_dir.resolve())]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([*path, *sys.path])}
+    os.execve(sys.executable, [sys.executable, "-m", name, *options], env)
 
 
 def _system_name(system_dir: Path) -> str:

@@ -385,3 +385,57 @@ def test_lockstep_from_the_command_line_runs_every_process_to_the_end(duo: Path)
     )
     assert done.returncode == 0, done.stderr
     assert "p1: stopped, 10 cycles" in done.stdout and "p2: stopped, 10 cycles" in done.stdout
+
+
+# ---------------------------------------------------------------- the miner as processes
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def python_m_miner(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(REPO / "generated"), str(REPO / "specs" / "miner")]),
+    }
+    return subprocess.run(
+        [sys.executable, "-m", "miner", "--shm", segment_name(), *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def test_the_miner_as_two_free_running_processes_completes_the_box_cut() -> None:
+    """`python -m miner`: pc1 and pc2 (the path planner) as two OS processes, not in
+    lockstep and not paced (each as fast as it can); the operator's BOX_CUT is sent once
+    sb has finished INIT, and the box cut ends DONE at the depth of the one-process run."""
+    done = python_m_miner(
+        "--fast",
+        "--set", "map=maps/box_cut.map",
+        "--set", "seed=7",
+        "--send", "sb.BOX_CUT:depth=1.5",
+        "--until-done",
+        "--report", "depth_cut,coal_mined",
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0] == "sb DONE #2", done.stdout
+    assert lines[1] == "depth_cut = 1.75"
+    assert float(lines[2].split(" = ")[1]) == pytest.approx(14.7875)
+    assert any(line.startswith("pc2: stopped, ") for line in lines)
+
+
+@pytest.mark.parametrize(
+    ("send", "message"),
+    [
+        ("xx.BOX_CUT", "no module 'xx'"),
+        ("sb.BOX_CUTT", "sb has no command 'BOX_CUTT'"),
+        ("sb.BOX_CUT:deep=1", "sb has no parameter 'deep'"),
+        ("sb.BOX_CUT:depth=deep", "'deep' is not a number"),
+    ],
+)
+def test_a_bad_send_is_one_line_and_exit_2(send: str, message: str) -> None:
+    done = python_m_miner("--send", send, timeout=60)
+    assert done.returncode == 2
+    assert message in done.stderr and "Traceback" not in done.stderr

@@ -384,6 +384,23 @@ def main(package: str, argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument(
+        "--send",
+        default=None,
+        metavar="MODULE.COMMAND[:NAME=VALUE,...]",
+        help="once MODULE has finished INIT, send it this command (e.g. sb.BOX_CUT:depth=1.5)",
+    )
+    parser.add_argument(
+        "--report",
+        default="",
+        metavar="FIELD,...",
+        help="world fields to print at the end of a run",
+    )
+    parser.add_argument(
+        "--until-done",
+        action="store_true",
+        help="with --send: stop when the module reports DONE (exit 0) or ERROR (exit 1)",
+    )
+    parser.add_argument(
         "--set",
         action="append",
         default=[],
@@ -404,10 +421,91 @@ def main(package: str, argv: list[str] | None = None) -> int:
     unknown = sorted(set(args.simulate) - switchable)
     if unknown:
         parser.error(f"no stand-in for {unknown}; these have one: {sorted(switchable)}")
+    if args.until_done and args.send is None:
+        parser.error("--until-done goes with --send")
+    args.report = [f for f in args.report.split(",") if f]
+    unknown_fields = [f for f in args.report if f not in system.layout.WORLD]
+    if unknown_fields:
+        parser.error(f"--report: no world field(s) {unknown_fields}")
+    if args.send is not None:
+        try:
+            args.send = parse_send(system.layout, args.send)
+        except ValueError as error:
+            parser.error(str(error))
+        if args.process is not None or args.lockstep:
+            parser.error("--send goes with a launch of every process, not PROCESS or --lockstep")
     if args.process is not None:
         args.shm = args.shm or system.default_segment
         return run_process(system, args)
     return launch(system, args)
+
+
+@dataclass(frozen=True)
+class Send:
+    """A command an operator gives a module: `sb.BOX_CUT:depth=1.5`."""
+
+    module: str
+    command: str
+    args: dict[str, object]
+
+
+def parse_send(layout: ModuleType, text: str) -> Send:
+    """Parse and check `MODULE.COMMAND[:NAME=VALUE,...]` against the layout."""
+    head, _, rest = text.partition(":")
+    module, _, command = head.partition(".")
+    if module not in layout.COMMAND_IN:
+        raise ValueError(f"--send: no module {module!r}; modules: {', '.join(layout.MODULES)}")
+    commands = layout.COMMAND_NAMES[module][1:]
+    if command not in commands:
+        raise ValueError(
+            f"--send: {module} has no command {command!r}; it has {', '.join(commands)}"
+        )
+    record = layout.COMMAND_IN[module]
+    slots = {f.removeprefix("arg_"): f for f in record.fields if f.startswith("arg_")}
+    values: dict[str, object] = {}
+    for item in filter(None, rest.split(",")):
+        name, _, raw = item.partition("=")
+        if name not in slots:
+            raise ValueError(f"--send: {module} has no parameter {name!r}; it has {sorted(slots)}")
+        values[name] = _typed(raw, record.struct.format, list(record.fields).index(slots[name]))
+    return Send(module, command, values)
+
+
+def _typed(raw: str, fmt: str | bytes, index: int) -> object:
+    code = str(fmt).lstrip("<")[index + 1]  # after the sequence word
+    try:
+        if code == "?":
+            if raw not in ("true", "false"):
+                raise ValueError
+            return raw == "true"
+        return int(raw) if code == "q" else float(raw)
+    except ValueError:
+        kind = {"?": "true or false", "q": "an integer"}.get(code, "a number")
+        raise ValueError(f"--send: {raw!r} is not {kind}") from None
+
+
+def give(send: Send, layout: ModuleType, buf: memoryview) -> int | None:
+    """Write `send` once its module has finished its last command; its number, or None."""
+    status = _read(layout.STATUS_OUT[send.module], buf)
+    record = layout.COMMAND_IN[send.module]
+    current = _read(record, buf)
+    if not status or not current or status["status_num"] != current["command_num"]:
+        return None
+    if status["status"] not in (2, 3):  # DONE, ERROR
+        return None
+    number: int = int(current["command_num"]) + 1  # type: ignore[call-overload]
+    code = layout.COMMAND_NAMES[send.module].index(send.command)
+    args = {f"arg_{k}": v for k, v in send.args.items()}
+    record.write(buf, command_num=number, command=code, **args)
+    return number
+
+
+def finished(send: Send, number: int, layout: ModuleType, buf: memoryview) -> str | None:
+    """DONE or ERROR once the module reported on command `number`; else None."""
+    status = _read(layout.STATUS_OUT[send.module], buf)
+    if status and status["status_num"] == number and status["status"] in (2, 3):
+        return "DONE" if status["status"] == 2 else "ERROR"
+    return None
 
 
 def launch(system: System, args: argparse.Namespace) -> int:
@@ -441,13 +539,41 @@ def launch(system: System, args: argparse.Namespace) -> int:
             coordinator = Coordinator(launcher)
             while not stop.requested and (args.cycles is None or coordinator.cycle < args.cycles):
                 coordinator.step()
+        elif args.send is not None:
+            code = operate(launcher, args.send, args.until_done, stop)
         else:
             launcher.wait(stop)
     except ProcessLost as error:
         print(f"{system.layout.SYSTEM}: {error}", file=sys.stderr)
         code = 1
     finally:
+        if launcher.block is not None:
+            for field in args.report:
+                value = _read(system.layout.WORLD[field], launcher.block.buf).get(field)
+                print(f"{field} = {value}")
         launcher.stop()
     for line in launcher.final:
         print(line)
     return code
+
+
+def operate(launcher: Launcher, send: Send, until_done: bool, stop: Stop) -> int:
+    """Give `send` once its module is ready, watch the processes, and with `until_done`
+    stop when it reports: 0 for DONE, 1 for ERROR (or when every process ended first)."""
+    layout = launcher.system.layout
+    assert launcher.block is not None
+    buf = launcher.block.buf
+    number = None
+    while launcher.children and not stop.requested:
+        launcher.poll()
+        if number is None:
+            number = give(send, layout, buf)
+            if number is not None:
+                print(f"sent {send.module}.{send.command} #{number}", file=sys.stderr)
+        elif until_done:
+            result = finished(send, number, layout, buf)
+            if result is not None:
+                print(f"{send.module} {result} #{number}")
+                return 0 if result == "DONE" else 1
+        time.sleep(0.01)
+    return 1 if until_done else 0
