@@ -28,6 +28,7 @@ MINER = ROOT / "tests" / "fixtures" / "foundation" / "miner"  # the small founda
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "semantics"
 CHAIN = FIXTURES / "chain"
 PACKED = FIXTURES / "packed"
+TICKER = FIXTURES / "ticker"
 SUBS = ("cr", "vg", "cc")
 
 
@@ -73,6 +74,19 @@ def packed():
     """One controller and world fields bool, bool, float, int (tests/fixtures/semantics/packed)."""
     with Harness.build(PACKED) as built:
         yield built.package
+
+
+@pytest.fixture(scope="module")
+def ticker():
+    """One controller `tk`: an every_cycle rule counting world.ticks, COPY copying it to
+    world.seen, EITHER with one guarded rule per state (tests/fixtures/semantics/ticker)."""
+    with Harness.build(TICKER) as built:
+        yield built.package
+
+
+@pytest.fixture
+def tk(ticker):
+    return Harness(ticker)
 
 
 def codes(h: Harness) -> ModuleType:
@@ -355,6 +369,29 @@ def test_a_step_number_changed_while_running_freely_is_one_step_when_single_step
     for _ in range(3):
         h.step("cc")
     assert h.controller("cc").var_ticks == 3
+
+
+def test_a_single_rule_guard_holds_only_in_its_own_state(tk):
+    """A state with one guarded rule: `when: world.a or world.b` in S1 fires only in S1,
+    however its guard is joined with the state test (b alone neither fires it in S0 nor
+    after the command is DONE)."""
+    tk.command("tk", "EITHER")
+    tk.world["b"] = True
+    for _ in range(3):
+        tk.step("tk")
+    assert snapshot(tk, "tk") == {"tk": ("EXECUTING", 1, "S0")}, "S0 waits for a"
+    assert tk.world["hits"] == 0
+    tk.world["a"] = True
+    tk.step("tk")
+    assert snapshot(tk, "tk") == {"tk": ("EXECUTING", 1, "S1")}
+    tk.world["a"] = False
+    tk.step("tk")
+    assert snapshot(tk, "tk") == {"tk": ("DONE", 1, "NOP")}, "b alone fires S1's rule"
+    assert tk.world["hits"] == 1
+    for _ in range(3):
+        tk.step("tk")
+    assert snapshot(tk, "tk") == {"tk": ("DONE", 1, "NOP")}
+    assert tk.world["hits"] == 1, "no state: no rule fires"
 
 
 def test_a_command_code_without_a_table_is_echoed_and_stays_executing(h):
