@@ -371,6 +371,41 @@ def test_a_step_number_changed_while_running_freely_is_one_step_when_single_step
     assert h.controller("cc").var_ticks == 3
 
 
+def test_every_cycle_rules_run_after_the_mode_checks_and_before_the_table(tk):
+    """every_cycle: held by dont_run and single_step like the table; when the module runs, the
+    rules run first, so the table sees their writes in the same cycle."""
+    tk.command("tk", "COPY")
+    tk.step("tk")
+    assert tk.world.snapshot(["ticks", "seen"]) == {"ticks": 1, "seen": 1}, "before the table"
+    tk.step("tk")
+    assert tk.world.snapshot(["ticks", "seen"]) == {"ticks": 2, "seen": 2}
+    tk.set_mode("tk", dont_run=True)
+    tk.step("tk")
+    tk.step("tk")
+    assert tk.world.snapshot(["ticks", "seen"]) == {"ticks": 2, "seen": 2}, "dont_run holds it"
+    tk.set_mode("tk", dont_run=False, single_step=True)
+    tk.step("tk")
+    assert tk.world.snapshot(["ticks", "seen"]) == {"ticks": 2, "seen": 2}, "single_step holds it"
+    tk.set_mode("tk", single_step_num=1)
+    tk.step("tk")
+    tk.step("tk")
+    assert tk.world.snapshot(["ticks", "seen"]) == {"ticks": 3, "seen": 3}, "one step"
+    assert tk.status("tk").status == "EXECUTING"
+
+
+def test_every_cycle_rules_run_whatever_the_command(tk):
+    """every_cycle runs with no command at all, and after the command has finished."""
+    tk.step("tk")
+    assert tk.world["ticks"] == 1 and tk.status("tk").state == "NOP"
+    tk.command("tk", "EITHER")
+    tk.world["a"] = True
+    tk.step("tk")
+    tk.step("tk")
+    assert tk.status("tk").status == "DONE"
+    tk.step("tk")
+    assert tk.world["ticks"] == 4
+
+
 def test_a_single_rule_guard_holds_only_in_its_own_state(tk):
     """A state with one guarded rule: `when: world.a or world.b` in S1 fires only in S1,
     however its guard is joined with the state test (b alone neither fires it in S0 nor
