@@ -760,6 +760,39 @@ def test_block_on_named_shared_memory_is_seen_by_an_attached_block(miner):
         rcs.Block(layout.SIZE, name, create=False)  # the creator unlinked it
 
 
+def test_attaching_to_a_named_block_leaves_it_as_it_was(miner):
+    """start(create=False) neither zeroes the block nor resets the world: everything but the
+    roots' command buffers (INIT, with the next number) is as the creator left it, and the
+    attaching process's controllers resume from it."""
+    main = importlib.import_module(f"{miner.__name__}.main_pc1")
+    layout = importlib.import_module(f"{miner.__name__}.layout")
+    name = f"rcsgen_sem_attach_{os.getpid()}_{time.monotonic_ns() % 10**9}"
+    creator = main.start(name, create=True)
+    try:
+        for _ in range(3):
+            creator.run_cycle()
+        layout.WORLD["loose_coal"].write(creator.block.buf, loose_coal=4.5)  # initial: 0.0
+        expected = bytearray(creator.block.buf[: layout.SIZE])
+        assert main.PLAN.roots == ("co",)
+        number = layout.COMMAND_IN["co"].read(creator.block.buf)["command_num"]
+        assert number == 1
+        init = layout.COMMAND_NAMES["co"].index("INIT")
+        layout.COMMAND_IN["co"].write(memoryview(expected), command_num=2, command=init)
+        attached = main.start(name, create=False)
+        try:
+            found = bytes(attached.block.buf[: layout.SIZE])  # no view left: close() can work
+            co = attached.modules["co"]
+            resumed = (co.status_num, co.world_loose_coal)
+        finally:
+            attached.block.close()
+        changed = [n for n, r in records(layout).items() if r.read(found) != r.read(expected)]
+        assert changed == [], "the attacher rewrote these buffers"
+        assert found == bytes(expected)
+        assert resumed == (1, 4.5)
+    finally:
+        creator.block.close()
+
+
 class SegmentLeaked(Exception):
     """A shared-memory segment outlived the process that created it."""
 
