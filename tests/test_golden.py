@@ -1,7 +1,10 @@
 """Golden traces: the committed generated system runs each scenario exactly as recorded.
 
-A mismatch names the first differing cycle and field and the command that re-records the
-golden file; re-record only after reading the diff, and say why in the commit message.
+The trace is written as `rcsgen run` writes it and compared with the golden file byte for
+byte, so the trace format (key order, separators, final newline) is pinned as well as the
+values. A mismatch names the first differing cycle and field (or, when the values agree, the
+first differing line and column) and the command that re-records the golden file;
+re-record only after reading the diff, and say why in the commit message.
 """
 
 from __future__ import annotations
@@ -11,7 +14,14 @@ from pathlib import Path
 import pytest
 
 from rcsgen.tools.harness import Harness
-from rcsgen.tools.scenario import first_difference, load_scenario, open_harness, read_trace, run
+from rcsgen.tools.scenario import (
+    first_difference,
+    load_scenario,
+    open_harness,
+    read_trace,
+    run,
+    write_trace,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 MINER = ROOT / "specs" / "miner"
@@ -28,17 +38,40 @@ def run_scenario(path: Path, package: Path = ROOT / "generated" / "miner", proce
         harness.close()
 
 
+def first_byte_difference(expected: bytes, actual: bytes) -> str | None:
+    """Where two trace files first differ as bytes: line, column and both lines."""
+    if expected == actual:
+        return None
+    want, got = expected.splitlines(keepends=True), actual.splitlines(keepends=True)
+    for number, (a, b) in enumerate(zip(want, got, strict=False), start=1):
+        if a != b:
+            col = next((i for i, (x, y) in enumerate(zip(a, b, strict=False)) if x != y), None)
+            col = min(len(a), len(b)) if col is None else col
+            start = max(col - 30, 0)
+            return (
+                f"line {number}, column {col + 1}: expected {a[start : col + 30]!r}, "
+                f"got {b[start : col + 30]!r}"
+            )
+    return f"expected {len(want)} lines, got {len(got)}"
+
+
 @pytest.mark.parametrize("processes", [False, True], ids=["one-process", "processes"])
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
-def test_scenario_matches_its_golden_trace(path, processes):
+def test_scenario_matches_its_golden_trace(path, processes, tmp_path):
     """In one process, and as the spec's processes (two OS processes in lockstep: the path
-    planner on its own, Figure 7), every scenario leaves its golden trace."""
+    planner on its own, Figure 7), every scenario leaves its golden trace, byte for byte."""
     golden = GOLDEN / f"{path.stem}.jsonl"
     result = run_scenario(path, processes=processes)
+    written = tmp_path / golden.name
+    write_trace(written, result.trace)  # as `rcsgen run` writes it
+    expected, actual = golden.read_bytes(), written.read_bytes()
+    if actual == expected:
+        return
     mismatch = first_difference(read_trace(golden), result.trace)
+    where = mismatch or f"same values, other bytes: {first_byte_difference(expected, actual)}"
     rel = path.relative_to(ROOT)
-    assert mismatch is None, (
-        f"{path.stem}: {mismatch}\nif the change is intended, re-record with\n"
+    pytest.fail(
+        f"{path.stem}: {where}\nif the change is intended, re-record with\n"
         f"  rcsgen run {rel} --record tests/golden/{golden.name}\nand review the diff"
     )
 
@@ -64,6 +97,19 @@ def test_first_difference_names_cycle_and_field():
     assert str(mismatch) == "cycle 2: `modules.co.state` expected 'S2', got 'S3'"
     assert first_difference(a, a) is None
     assert first_difference(a, a[:1]).field == "length"
+
+
+def test_first_byte_difference_names_line_and_column():
+    a = b'{"a":1,"b":2}\n{"a":3,"b":4}\n'
+    assert first_byte_difference(a, a) is None
+    assert first_byte_difference(a, a.replace(b'"a":3,"b"', b'"a": 3, "b"')) == (
+        'line 2, column 6: expected b\'{"a":3,"b":4}\\n\', got b\'{"a": 3, "b":4}\\n\''
+    )
+    assert (
+        first_byte_difference(a, a[:-1])
+        == 'line 2, column 14: expected b\'{"a":3,"b":4}\\n\', got b\'{"a":3,"b":4}\''
+    )
+    assert first_byte_difference(a, a + a) == "expected 2 lines, got 4"
 
 
 def test_editing_a_guard_is_caught_with_the_first_differing_cycle(tmp_path):

@@ -1,0 +1,518 @@
+"""Expressions (compiler/expr.py): print, re-parse and evaluate random typed trees.
+
+Hypothesis generates typed trees over the whole expression grammar - literals, `and`/`or`/
+`not`, comparisons (chains included) of numbers, booleans, statuses and subordinate
+commands, `+ - * / // %`, unary `-`/`+`, `abs`/`min`/`max`, predicate calls, and names of
+every kind (world fields, parameters, locals, constants, status names, `<sub>.status`,
+`<sub>.command`, a subordinate's command names) - each typed by the rules written here.
+Every tree is printed with `to_python`, and:
+
+- re-parsing the spec form with `compile_expr` gives the same tree back, types included
+  (a printer that drops parentheses, or a parser that types `int / int` as int, fails);
+- the printed Python (the form generated code uses, `naming.attribute`) evaluates to what
+  `evaluate` below - an evaluator of the tree written here - gives, ZeroDivisionError
+  included, and to a value of the type the compiler claims;
+- `to_python_conjunct` is one operand of `and`, as the single-rule fast path uses it.
+
+EXPR_EXAMPLES (default 400) trees per property, the same ones every run; `make fuzz` runs
+more, freshly random (FUZZ_RANDOM=1).
+"""
+
+from __future__ import annotations
+
+import operator
+import os
+from collections.abc import Callable
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
+
+from rcsgen.compiler import naming
+from rcsgen.compiler.diagnostics import Diagnostics, Span
+from rcsgen.compiler.expr import (
+    BOOL,
+    FLOAT,
+    INT,
+    Binary,
+    BoolOp,
+    Call,
+    Compare,
+    Const,
+    Expr,
+    Ref,
+    Scope,
+    Unary,
+    compile_expr,
+    to_python,
+    to_python_conjunct,
+)
+
+EXAMPLES = int(os.environ.get("EXPR_EXAMPLES", "400"))
+DERANDOMIZE = os.environ.get("FUZZ_RANDOM", "") == ""
+SPAN = Span("expr.yaml", 1, 1)
+
+STATUSES = ("NOT_READY", "EXECUTING", "DONE", "ERROR")
+SUB_COMMANDS = {"s1": ("INIT", "HALT", "MOVE"), "s2": ("INIT", "HALT", "STOP", "PARK")}
+CONSTANTS: dict[str, Any] = {"CB": True, "CI": 3, "CF": 2.5}
+PREDICATES = ("ready", "busy")
+
+
+def scope() -> Scope:
+    return Scope(
+        world={"wb": BOOL, "wi": INT, "wf": FLOAT, "unread": INT},
+        world_access=frozenset({"wb", "wi", "wf"}),
+        params={"pb": BOOL, "pi": INT, "pf": FLOAT},
+        locals={"lb": BOOL, "li": INT, "lf": FLOAT},
+        constants=CONSTANTS,
+        predicates=frozenset(PREDICATES),
+        subordinates={sub: frozenset(names) for sub, names in SUB_COMMANDS.items()},
+    )
+
+
+# Every name an expression can use, by type (the tree nodes `compile_expr` resolves them to).
+NAMES: dict[str, list[Ref]] = {
+    kind: [
+        Ref(kind, "world", f"w{kind[0]}"),
+        Ref(kind, "param", f"p{kind[0]}"),
+        Ref(kind, "local", f"l{kind[0]}"),
+        Ref(kind, "const", f"C{kind[0].upper()}"),
+    ]
+    for kind in (BOOL, INT, FLOAT)
+}
+STATUS_TYPE = "status"
+
+
+def command_type(sub: str) -> str:
+    return f"command of {sub}"
+
+
+# ---------------------------------------------------------------- typing rules (written here)
+
+
+def binary_type(op: str, left: str, right: str) -> str:
+    """`int op int` is an int except for `/`; anything with a float (or `/`) is a float."""
+    return INT if (left, right) == (INT, INT) and op != "/" else FLOAT
+
+
+def call_type(args: tuple[Expr, ...]) -> str:
+    return FLOAT if any(a.type == FLOAT for a in args) else INT
+
+
+# ---------------------------------------------------------------- random typed trees
+
+NUMERIC = (INT, FLOAT)
+ARITHMETIC = ("+", "-", "*", "/", "//", "%")
+ORDERINGS = ("<", "<=", ">", ">=", "==", "!=")
+EQUALITIES = ("==", "!=")
+
+# Literals as the parser sees them: never negative (`-1` is unary minus applied to 1).
+SMALL_INTS = st.integers(0, 3)
+LITERALS = {
+    BOOL: st.booleans(),
+    INT: st.one_of(SMALL_INTS, SMALL_INTS, st.integers(0, 2**40)),
+    FLOAT: st.one_of(
+        st.sampled_from([0.0, 0.5, 1.0, 2.0, 2.5, 3.0]),
+        st.floats(0.0, 1e6, allow_nan=False, allow_infinity=False),
+    ),
+}
+LEAF_NAMES = {
+    BOOL: st.sampled_from([*NAMES[BOOL], *(Call(BOOL, "predicate", p) for p in PREDICATES)]),
+    INT: st.sampled_from(NAMES[INT]),
+    FLOAT: st.sampled_from(NAMES[FLOAT]),
+}
+STATUS_OPERANDS = st.sampled_from(
+    [Ref(STATUS_TYPE, "sub_status", "status", s) for s in SUB_COMMANDS]
+    + [Ref(STATUS_TYPE, "status", name) for name in STATUSES]
+)
+COMMAND_OPERANDS = {
+    sub: st.sampled_from(
+        [Ref(command_type(sub), "sub_command", "command", sub)]
+        + [Ref(command_type(sub), "sub_command_name", n, sub) for n in names]
+    )
+    for sub, names in SUB_COMMANDS.items()
+}
+BOOL_SHAPES = st.sampled_from(["not", "and", "or", "numbers", "booleans", "status", "command"])
+NUMBER_SHAPES = st.sampled_from(["unary", "binary", "binary", "abs", "minmax"])
+MIXED = st.sampled_from([(INT, FLOAT), (FLOAT, INT), (FLOAT, FLOAT)])
+SIGNS = st.sampled_from(["-", "+"])
+TYPES = st.sampled_from([BOOL, INT, FLOAT])
+STOP = st.integers(0, 2)
+COUNT = {n: st.integers(2, n) for n in (3, 4)}
+POSITION = {n: st.integers(0, n) for n in range(4)}
+COIN = st.booleans()
+NUMBER_TYPES = st.sampled_from(NUMERIC)
+SUBS = st.sampled_from(sorted(SUB_COMMANDS))
+ORDER_OPS = st.sampled_from(ORDERINGS)
+EQUALITY_OPS = st.sampled_from(EQUALITIES)
+INT_OPS = st.sampled_from([o for o in ARITHMETIC if o != "/"])
+FLOAT_OPS = st.sampled_from([*ARITHMETIC, "/", "/"])  # `/` of ints is a float
+MIN_MAX = st.sampled_from(["min", "max"])
+
+
+def build(draw: st.DrawFn, kind: str, depth: int) -> Expr:
+    """A random tree of type `kind` (BOOL, INT or FLOAT), at most `depth` operators deep.
+
+    Draws only from the strategies above (built once): a tree costs one draw per choice."""
+    if depth <= 0 or draw(STOP) == 0:
+        if draw(COIN):
+            return Const(kind, draw(LITERALS[kind]))
+        return draw(LEAF_NAMES[kind])
+    below = depth - 1
+
+    def number() -> Expr:
+        return build(draw, draw(NUMBER_TYPES), below)
+
+    if kind == BOOL:
+        shape = draw(BOOL_SHAPES)
+        if shape == "not":
+            return Unary(BOOL, "not", build(draw, BOOL, below))
+        if shape in ("and", "or"):
+            values = [build(draw, BOOL, below) for _ in range(draw(COUNT[3]))]
+            return BoolOp(BOOL, shape, tuple(values))
+        if shape == "numbers":
+            operands = [number() for _ in range(draw(COUNT[4]))]
+            ops = [draw(ORDER_OPS) for _ in operands[1:]]
+            return Compare(BOOL, operands[0], tuple(ops), tuple(operands[1:]))
+        if shape == "booleans":
+            operands = [build(draw, BOOL, below) for _ in range(draw(COUNT[3]))]
+        elif shape == "status":
+            operands = [draw(STATUS_OPERANDS) for _ in range(draw(COUNT[3]))]
+        else:  # a subordinate's command, its command names (or itself), at least one itself
+            sub = draw(SUBS)
+            operands = [draw(COMMAND_OPERANDS[sub]) for _ in range(draw(COUNT[3]) - 1)]
+            mine = Ref(command_type(sub), "sub_command", "command", sub)
+            operands.insert(draw(POSITION[len(operands)]), mine)
+        ops = [draw(EQUALITY_OPS) for _ in operands[1:]]
+        return Compare(BOOL, operands[0], tuple(ops), tuple(operands[1:]))
+    shape = draw(NUMBER_SHAPES)
+    if shape == "unary":
+        return Unary(kind, draw(SIGNS), build(draw, kind, below))
+    if shape == "binary":
+        if kind == INT:
+            op = draw(INT_OPS)
+            types = (INT, INT)
+        else:
+            op = draw(FLOAT_OPS)
+            types = draw(MIXED)
+            if op == "/" and draw(COIN):
+                types = (INT, INT)
+        left, right = build(draw, types[0], below), build(draw, types[1], below)
+        assert binary_type(op, left.type, right.type) == kind
+        return Binary(kind, op, left, right)
+    if shape == "abs":
+        return Call(kind, "builtin", "abs", (build(draw, kind, below),))
+    count = draw(COUNT[3])
+    args = [build(draw, INT, below) if kind == INT else number() for _ in range(count)]
+    if call_type(tuple(args)) != kind:
+        args[draw(POSITION[count - 1])] = build(draw, kind, below)
+    return Call(kind, "builtin", draw(MIN_MAX), tuple(args))
+
+
+@st.composite
+def trees(draw: st.DrawFn, kind: str | None = None, depth: int = 4) -> Expr:
+    return build(draw, kind or draw(TYPES), depth)
+
+
+def comparison(draw: st.DrawFn) -> Expr:
+    """A chain comparing small numeric trees: operands are often equal, so that `<` and `<=`
+    (or `>` and `>=`) differ in value, not only in text."""
+    operands = [build(draw, draw(NUMBER_TYPES), 1) for _ in range(draw(COUNT[3]))]
+    ops = [draw(ORDER_OPS) for _ in operands[1:]]
+    return Compare(BOOL, operands[0], tuple(ops), tuple(operands[1:]))
+
+
+@st.composite
+def any_trees(draw: st.DrawFn) -> Expr:
+    """Trees of any type; one in six a comparison chain of small trees."""
+    if draw(STOP) == 0 and draw(COIN):
+        return comparison(draw)
+    return build(draw, draw(TYPES), 4)
+
+
+@st.composite
+def guards(draw: st.DrawFn) -> Expr:
+    """Boolean trees, half with `or` at the top: the operand `and` must parenthesise."""
+    if draw(COIN):
+        return BoolOp(BOOL, "or", tuple(build(draw, BOOL, 3) for _ in range(draw(COUNT[3]))))
+    return build(draw, BOOL, 4)
+
+
+# ---------------------------------------------------------------- valuations and evaluation
+
+Key = tuple[str, str, str]  # (kind, name, owner) of a Ref
+
+
+def key(ref: Ref) -> Key:
+    return (ref.kind, ref.name, ref.owner)
+
+
+# Values chosen so that operands are often equal (an `<` printed as `<=` shows) and
+# divisors often zero (ZeroDivisionError must agree too).
+int_values = st.integers(-1, 3)
+float_values = st.sampled_from([-1.0, 0.0, 0.5, 1.0, 2.0, 2.5])
+status_values = st.sampled_from(STATUSES)
+command_values = {sub: st.sampled_from(names) for sub, names in SUB_COMMANDS.items()}
+
+
+@st.composite
+def valuations(draw: st.DrawFn) -> dict[Key, Any]:
+    """A value for every variable name: world fields, parameters, locals, predicates,
+    subordinates' statuses and last commands (statuses and commands by name)."""
+    values: dict[Key, Any] = {}
+    for kind, refs in NAMES.items():
+        strategy = {BOOL: COIN, INT: int_values, FLOAT: float_values}[kind]
+        for ref in refs:
+            if ref.kind != "const":
+                values[key(ref)] = draw(strategy)
+    for name in PREDICATES:
+        values[("predicate", name, "")] = draw(COIN)
+    for sub in SUB_COMMANDS:
+        values[("sub_status", "status", sub)] = draw(status_values)
+        values[("sub_command", "command", sub)] = draw(command_values[sub])
+    return values
+
+
+_ARITH: dict[str, Callable[[Any, Any], Any]] = {
+    "+": operator.add,
+    "-": operator.sub,
+    "*": operator.mul,
+    "/": operator.truediv,
+    "//": operator.floordiv,
+    "%": operator.mod,
+}
+_COMPARE: dict[str, Callable[[Any, Any], bool]] = {
+    "==": operator.eq,
+    "!=": operator.ne,
+    "<": operator.lt,
+    "<=": operator.le,
+    ">": operator.gt,
+    ">=": operator.ge,
+}
+
+
+def evaluate(e: Expr, values: dict[Key, Any]) -> Any:
+    """The value of a tree, as Python's evaluation order defines it: `and`, `or` and
+    comparison chains stop at the first operand that decides them; a zero divisor raises."""
+    if isinstance(e, Const):
+        return e.value
+    if isinstance(e, Ref):
+        if e.kind == "const":
+            return CONSTANTS[e.name]
+        if e.kind in ("status", "sub_command_name"):
+            return e.name  # a status or command name stands for itself
+        return values[key(e)]
+    if isinstance(e, Call):
+        if e.kind == "predicate":
+            return values[("predicate", e.name, "")]
+        args = [evaluate(a, values) for a in e.args]
+        return {"abs": abs, "min": min, "max": max}[e.name](*args)
+    if isinstance(e, Unary):
+        value = evaluate(e.operand, values)
+        return {"not": operator.not_, "-": operator.neg, "+": operator.pos}[e.op](value)
+    if isinstance(e, Binary):
+        left, right = evaluate(e.left, values), evaluate(e.right, values)
+        if e.op in ("/", "//", "%") and right == 0:
+            raise ZeroDivisionError(e.op)
+        return _ARITH[e.op](left, right)
+    if isinstance(e, BoolOp):
+        for value in e.values:
+            if evaluate(value, values) != (e.op == "and"):
+                return e.op == "or"
+        return e.op == "and"
+    if isinstance(e, Compare):
+        left = evaluate(e.left, values)
+        for op, operand in zip(e.ops, e.comparators, strict=True):
+            right = evaluate(operand, values)
+            if not _COMPARE[op](left, right):
+                return False
+            left = right
+        return True
+    raise TypeError(e)
+
+
+def outcome(compute: Callable[[], Any]) -> tuple[str, Any]:
+    try:
+        return ("value", compute())
+    except ZeroDivisionError:
+        return ("raises", "ZeroDivisionError")
+
+
+def spec_name(ref: Ref) -> str:
+    """How a spec writes a resolved name."""
+    if ref.kind == "world":
+        return f"world.{ref.name}"
+    if ref.kind in ("sub_status", "sub_command"):
+        return f"{ref.owner}.{ref.name}"
+    return ref.name
+
+
+def controller(values: dict[Key, Any]) -> tuple[dict[str, Any], SimpleNamespace]:
+    """The names generated code evaluates a guard with: module globals and `self`."""
+    module: dict[str, Any] = {"__builtins__": {}, "abs": abs, "min": min, "max": max}
+    module.update(CONSTANTS)
+    module.update({name: code for code, name in enumerate(STATUSES)})
+    me = SimpleNamespace()
+    for sub, names in SUB_COMMANDS.items():
+        for code, name in enumerate(names, start=1):
+            module[naming.sub_command_const(sub, name)] = code
+        status = values[("sub_status", "status", sub)]
+        setattr(me, f"{sub}_status", STATUSES.index(status))
+        setattr(me, f"{sub}_command", names.index(values[("sub_command", "command", sub)]) + 1)
+    for (kind, name, owner), value in values.items():
+        if kind in ("world", "param", "local"):
+            attr = naming.attribute(Ref("", kind, name, owner))
+            setattr(me, attr.removeprefix("self."), value)
+        elif kind == "predicate":
+            attr = naming.attribute(Ref(BOOL, "predicate", name))
+            setattr(me, attr.removeprefix("self."), lambda value=value: value)
+    module["self"] = me
+    return module, me
+
+
+def has_claimed_type(value: Any, kind: str) -> bool:
+    if kind == BOOL:
+        return type(value) is bool
+    if kind == INT:
+        return type(value) is int
+    return type(value) in (int, float)  # min(1, 2.5) is the int 1: still a number
+
+
+# ---------------------------------------------------------------- the properties
+
+PROPERTY = settings(max_examples=EXAMPLES, derandomize=DERANDOMIZE, database=None, deadline=None)
+
+WI, LI, PI = NAMES[INT][0], NAMES[INT][2], NAMES[INT][1]
+WF, LB, WB = NAMES[FLOAT][0], NAMES[BOOL][2], NAMES[BOOL][0]
+READY = Call(BOOL, "predicate", "ready")
+DEFAULTS: dict[Key, Any] = {
+    **{
+        key(ref): {BOOL: False, INT: 0, FLOAT: 0.0}[kind]
+        for kind, refs in NAMES.items()
+        for ref in refs
+        if ref.kind != "const"
+    },
+    **{("predicate", name, ""): False for name in PREDICATES},
+    **{("sub_status", "status", sub): "DONE" for sub in SUB_COMMANDS},
+    **{("sub_command", "command", sub): "INIT" for sub in SUB_COMMANDS},
+}
+
+
+def given_values(changes: dict[Key, Any]) -> dict[Key, Any]:
+    return {**DEFAULTS, **changes}
+
+
+EQUAL = given_values({("world", "wi", ""): 2, ("local", "li", ""): 2, ("param", "pi", ""): 2})
+
+
+@PROPERTY
+@given(tree=any_trees())
+# `wi - (li - pi)`: the right operand keeps its parentheses.
+@example(tree=Binary(INT, "-", WI, Binary(INT, "-", LI, PI)))
+@example(tree=Binary(FLOAT, "/", WI, Binary(FLOAT, "*", LI, WF)))
+@example(tree=Binary(FLOAT, "/", WI, LI))  # `int / int` is a float
+@example(tree=Compare(BOOL, WI, ("<",), (LI,)))  # `<` is not `<=`
+def test_printed_tree_parses_back_to_itself(tree: Expr) -> None:
+    """to_python, then compile_expr, gives the same typed tree; nothing is reported."""
+    text = to_python(tree, spec_name)
+    diags = Diagnostics()
+    back = compile_expr(text, SPAN, scope(), diags)
+    assert [d.render() for d in diags] == [], text
+    assert back == tree, f"`{text}` parsed back as\n  {back}\nnot\n  {tree}"
+
+
+@PROPERTY
+@given(tree=any_trees(), values=valuations())
+@example(tree=Binary(INT, "-", WI, Binary(INT, "-", LI, PI)), values=EQUAL)
+@example(tree=Compare(BOOL, WI, ("<",), (LI,)), values=EQUAL)
+@example(tree=Compare(BOOL, WI, ("<", "<="), (LI, PI)), values=EQUAL)
+@example(tree=Binary(FLOAT, "/", WI, LI), values={**EQUAL, ("world", "wi", ""): 3})
+def test_printed_python_evaluates_like_the_tree(tree: Expr, values: dict[Key, Any]) -> None:
+    """Generated code's form of the tree computes what the tree means, of the claimed type."""
+    text = to_python(tree, naming.attribute)
+    module, _ = controller(values)
+    code = compile(text, "<guard>", "eval")
+    got = outcome(lambda: eval(code, module))
+    want = outcome(lambda: evaluate(tree, values))
+    assert got == want, f"`{text}`"
+    claimed = compile_expr(to_python(tree, spec_name), SPAN, scope(), Diagnostics())
+    assert claimed is not None
+    if got[0] == "value":
+        assert has_claimed_type(got[1], claimed.type), f"`{text}` is {got[1]!r}, not {claimed.type}"
+
+
+@PROPERTY
+@given(tree=guards(), values=valuations(), gate=COIN)
+@example(
+    tree=BoolOp(BOOL, "or", (READY, LB)),
+    values=given_values({("predicate", "ready", ""): True}),
+    gate=False,
+)
+@example(
+    tree=BoolOp(BOOL, "or", (WB, LB)), values=given_values({("local", "lb", ""): True}), gate=False
+)
+def test_conjunct_is_one_operand_of_and(tree: Expr, values: dict[Key, Any], gate: bool) -> None:
+    """`gate and <conjunct>` is `gate and (tree)`: the single-rule fast path's guard form."""
+    conjunct = to_python_conjunct(tree, naming.attribute)
+    module, me = controller(values)
+    me.gate = gate
+    code = compile(f"self.gate and {conjunct}", "<guard>", "eval")
+    got = outcome(lambda: eval(code, module))
+    want = outcome(lambda: gate and evaluate(tree, values))
+    assert got == want, f"`self.gate and {conjunct}`"
+
+
+# ---------------------------------------------------------------- the printer's text
+
+
+@pytest.mark.parametrize(
+    "source",
+    [
+        "world.wi - (li - pi)",
+        "world.wi - li - pi",
+        "world.wi / (li * pi)",
+        "-(world.wi + li)",
+        "-world.wi * li",
+        "not (world.wb and lb)",
+        "(world.wb or lb) and pb",
+        "world.wb == (lb == pb)",
+        "(li < pi) == world.wb",
+        "li < pi <= world.wi",
+        "s1.command == MOVE",
+        "abs(li - 2) > min(pi, world.wf, 2.5)",
+    ],
+)
+def test_canonical_source_prints_as_written(source: str) -> None:
+    """Text already in the printer's form comes back unchanged (only needed parentheses)."""
+    tree = compile_expr(source, SPAN, scope(), Diagnostics())
+    assert tree is not None
+    assert to_python(tree, spec_name) == source
+
+
+@pytest.mark.parametrize(
+    ("source", "kind"),
+    [
+        ("li / pi", FLOAT),
+        ("li // pi", INT),
+        ("li % pi", INT),
+        ("li * pi", INT),
+        ("li + world.wf", FLOAT),
+        ("li // world.wf", FLOAT),
+        ("abs(li)", INT),
+        ("max(li, 2.0)", FLOAT),
+        ("-li", INT),
+    ],
+)
+def test_arithmetic_types(source: str, kind: str) -> None:
+    tree = compile_expr(source, SPAN, scope(), Diagnostics())
+    assert tree is not None and tree.type == kind
+
+
+def test_an_integer_division_cannot_be_stored_in_an_integer() -> None:
+    """`int / int` is a float: assigning it to an int is a type error, not a run-time crash."""
+    diags = Diagnostics()
+    assert compile_expr("li / pi", SPAN, scope(), diags, INT) is None
+    assert [(d.code, d.message) for d in diags] == [("E107", "expected an integer, got a number")]
+    assert compile_expr("li // pi", SPAN, scope(), Diagnostics(), INT) is not None
