@@ -8,7 +8,7 @@ from .layout import (
     DAS_PERF_AT,
     DAS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
 
 # Commands das accepts (the code written to its command buffer).
 INIT = 1
@@ -16,8 +16,12 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI816x?175xd136x?")
-INPUTS_AT = 2344
+INPUTS = Struct("<QQI44x???1xI816x?175xd136x?")
+INPUTS_AT = 2336
+# The sequence words of the inputs another process writes, read again after INPUTS: the
+# read is whole only if none was odd (being written) and none changed.
+SEQS = Struct("<Q")
+SEQS_AT = 2336
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<Qd")
@@ -103,17 +107,25 @@ class DasController:
         """Copy the command in, the mode, each subordinate's status and the world in."""
         self.cycle_start = perf_counter_ns()
         buf = self.buf
-        (
-            self.command_num,
-            self.command,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.world_drum_on_cmd,
-            self.world_drum_current_true,
-            self.world_in_coal,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        for _ in range(READ_TRIES):
+            values = INPUTS.unpack_from(buf, INPUTS_AT)
+            seqs = (values[0],)
+            if not seqs[0] & 1 and SEQS.unpack_from(buf, SEQS_AT) == seqs:
+                (
+                    _,
+                    self.command_num,
+                    self.command,
+                    self.dont_run,
+                    self.single_step,
+                    self.simulate,
+                    self.single_step_num,
+                    self.world_drum_on_cmd,
+                    self.world_drum_current_true,
+                    self.world_in_coal,
+                ) = values
+                break
+        else:  # another process kept writing: keep the inputs of the last whole read
+            self.stale_reads += 1
 
     def check_if_new_command(self) -> None:
         """A command number that differs from the echoed status number is a new command."""

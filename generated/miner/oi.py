@@ -8,7 +8,7 @@ from .layout import (
     OI_PERF_AT,
     OI_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
 
 # Commands oi accepts (the code written to its command buffer).
 INIT = 1
@@ -17,8 +17,12 @@ ENTER_GOAL = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI1272x?15x?15xq8xd8xd")
-INPUTS_AT = 1728
+INPUTS = Struct("<QQIdd44x???1xI1272x?15x?15xq8xd8xd")
+INPUTS_AT = 1720
+# The sequence words of the inputs another process writes, read again after INPUTS: the
+# read is whole only if none was odd (being written) and none changed.
+SEQS = Struct("<Q")
+SEQS_AT = 1720
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
@@ -112,21 +116,29 @@ class OiController:
         """Copy the command in, the mode, each subordinate's status and the world in."""
         self.cycle_start = perf_counter_ns()
         buf = self.buf
-        (
-            self.command_num,
-            self.command,
-            self.arg_x,
-            self.arg_y,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.world_tail_request,
-            self.world_tail_in_position,
-            self.world_operator_delay,
-            self.world_operator_goal_x,
-            self.world_operator_goal_y,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        for _ in range(READ_TRIES):
+            values = INPUTS.unpack_from(buf, INPUTS_AT)
+            seqs = (values[0],)
+            if not seqs[0] & 1 and SEQS.unpack_from(buf, SEQS_AT) == seqs:
+                (
+                    _,
+                    self.command_num,
+                    self.command,
+                    self.arg_x,
+                    self.arg_y,
+                    self.dont_run,
+                    self.single_step,
+                    self.simulate,
+                    self.single_step_num,
+                    self.world_tail_request,
+                    self.world_tail_in_position,
+                    self.world_operator_delay,
+                    self.world_operator_goal_x,
+                    self.world_operator_goal_y,
+                ) = values
+                break
+        else:  # another process kept writing: keep the inputs of the last whole read
+            self.stale_reads += 1
 
     def check_if_new_command(self) -> None:
         """A command number that differs from the echoed status number is a new command."""

@@ -10,7 +10,17 @@ from .layout import (
     SB_PERF_AT,
     SB_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+)
 
 # Commands sb accepts (the code written to its command buffer).
 INIT = 1
@@ -28,8 +38,12 @@ CO_SUMP_SHEAR_CUSP = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QId44x???1xI80xQI3148xd")
-INPUTS_AT = 264
+INPUTS = Struct("<QQId44x???1xI80xQI3148xd")
+INPUTS_AT = 256
+# The sequence words of the inputs another process writes, read again after INPUTS: the
+# read is whole only if none was odd (being written) and none changed.
+SEQS = Struct("<Q")
+SEQS_AT = 256
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -125,18 +139,26 @@ class SbController:
         """Copy the command in, the mode, each subordinate's status and the world in."""
         self.cycle_start = perf_counter_ns()
         buf = self.buf
-        (
-            self.command_num,
-            self.command,
-            self.arg_depth,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.co_status_num,
-            self.co_status,
-            self.world_depth_cut,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        for _ in range(READ_TRIES):
+            values = INPUTS.unpack_from(buf, INPUTS_AT)
+            seqs = (values[0],)
+            if not seqs[0] & 1 and SEQS.unpack_from(buf, SEQS_AT) == seqs:
+                (
+                    _,
+                    self.command_num,
+                    self.command,
+                    self.arg_depth,
+                    self.dont_run,
+                    self.single_step,
+                    self.simulate,
+                    self.single_step_num,
+                    self.co_status_num,
+                    self.co_status,
+                    self.world_depth_cut,
+                ) = values
+                break
+        else:  # another process kept writing: keep the inputs of the last whole read
+            self.stale_reads += 1
         if self.co_status_num != self.co_command_num:
             self.co_status = EXECUTING  # until it echoes the last number sent
 

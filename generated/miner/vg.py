@@ -12,7 +12,17 @@ from .layout import (
     VG_PERF_AT,
     VG_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+)
 
 # Commands vg accepts (the code written to its command buffer).
 INIT = 1

@@ -177,7 +177,8 @@ def _inputs(c: ir.IRController, system: ir.IRSystem, placement: Placement) -> Ga
     here = placement.process_of[c.name]
     own = layout.modules[c.buffers]
     fields: list[Field] = [(s.offset, s.code, f"self.{s.name}") for s in own.command.fields]
-    if c.supervisor is not None and placement.process_of[c.supervisor] != here:
+    # A root's commands come from an operator's tool (another OS process): check them too.
+    if c.supervisor is None or placement.process_of[c.supervisor] != here:
         fields.append((own.command.offset, "Q", None))
     fields += [(s.offset, s.code, f"self.{s.name}") for s in own.mode.fields if s.name != "pad"]
     for sub in c.subordinates:
