@@ -62,9 +62,15 @@ def work(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, pristine: dict[str, by
 
 
 def _our_segments() -> set[str]:
-    """Shared-memory segments the suite's runs create (rcsgen_* in tests, rcs_* by default)."""
+    """Shared-memory segments this test run creates: named after its pid, or the default
+    segments of the systems it launches (`rcs_<system>_<layout hash>`)."""
     shm = Path("/dev/shm")
-    return {p.name for p in shm.glob("rcs*")} if shm.is_dir() else set()
+    if not shm.is_dir():
+        return set()
+    found = set(shm.glob(f"rcsgen_*{os.getpid()}*"))
+    for system in ("miner", "duo", "pair"):
+        found |= set(shm.glob(f"rcs_{system}_*"))
+    return {p.name for p in found}
 
 
 def _children() -> list[str]:
