@@ -8,6 +8,7 @@ other message then goes to stderr), for editors and CI.
 
 from __future__ import annotations
 
+import functools
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -16,19 +17,28 @@ from typing import TYPE_CHECKING
 import click
 
 from .compiler import write
-from .compiler.diagnostics import Diagnostic, Diagnostics, to_json
+from .compiler.diagnostics import Diagnostic, Diagnostics, SpecError, to_json
 from .compiler.frontend import compile_paths
+from .compiler.loader import decode, read_bytes
 
 if TYPE_CHECKING:
     from .tools.scenario import RunResult
 
 
-def _source_line(diag: Diagnostic) -> str | None:
+@functools.cache
+def _source_lines(file: str) -> list[str] | None:
+    """The lines of a file a diagnostic names (read safely: it may be a FIFO or a device)."""
     try:
-        lines = Path(diag.span.file).read_text(encoding="utf-8").splitlines()
-        return lines[diag.span.line - 1] if 0 < diag.span.line <= len(lines) else None
-    except (OSError, UnicodeDecodeError):
+        return decode(read_bytes(Path(file), file), file).splitlines()
+    except SpecError:
         return None
+
+
+def _source_line(diag: Diagnostic) -> str | None:
+    lines = _source_lines(diag.span.file)
+    if lines is None or not 0 < diag.span.line <= len(lines):
+        return None
+    return lines[diag.span.line - 1]
 
 
 def report(diags: Diagnostics, strict: bool = False, fmt: str = "text") -> bool:
@@ -51,7 +61,11 @@ def _fails(diags: Iterable[Diagnostic], strict: bool) -> bool:
 
 
 SPEC_PATHS = click.argument(
-    "paths", nargs=-1, type=click.Path(path_type=Path, exists=False), metavar="[SPECS]..."
+    "paths",
+    nargs=-1,
+    # Existence and readability are checked by the front end, as located diagnostics.
+    type=click.Path(path_type=Path, exists=False, readable=False),
+    metavar="[SPECS]...",
 )
 FORMAT = click.option(
     "--format",
@@ -153,7 +167,6 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt:
 )
 def run(scenario: Path, generated: Path, trace_path: Path | None, record: Path | None) -> None:
     """Run a scenario on the generated system and summarise it."""
-    from .compiler.diagnostics import SpecError
     from .tools import scenario as scenarios
     from .tools.harness import Harness
 

@@ -10,11 +10,12 @@ stages (`tables` holds the checked system's types). All problems are collected f
 from __future__ import annotations
 
 import ast
+import os
 from dataclasses import replace
 from pathlib import Path
 
-from . import expr, model, naming
-from .diagnostics import Diagnostics, known_names_hint
+from . import expr, loader, model, naming
+from .diagnostics import Diagnostics, SpecError, known_names_hint
 from .model import Command, ControllerSpec, Located, Rule, SystemSpec
 from .tables import (
     ENTRY_STATE,
@@ -278,7 +279,7 @@ def _check_world_access(spec: ControllerSpec, world: dict[str, str], diags: Diag
 def _hook_module_file(directory: Path, module: str) -> Path | None:
     base = directory.joinpath(*module.split("."))
     for candidate in (base.with_suffix(".py"), base / "__init__.py"):
-        if candidate.is_file():
+        if os.path.lexists(candidate):  # whatever it is: reading it says what is wrong
             return candidate
     return None
 
@@ -309,15 +310,17 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
         )
         return
     try:
-        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-    except (
-        SyntaxError,
-        ValueError,
-        UnicodeDecodeError,
-        OSError,
-        RecursionError,
-        MemoryError,
-    ) as exc:
+        source = loader.read_bytes(path, str(path), loader.MAX_BYTES)
+        tree = ast.parse(loader.decode(source, str(path)), filename=str(path))
+    except SpecError as error:
+        reason = next(iter(error.diagnostics)).message
+        diags.error(
+            spec.hooks_module.span,
+            "E212",
+            f"hooks module `{module}` cannot be read ({path.name}): {reason}",
+        )
+        return
+    except (SyntaxError, ValueError, RecursionError, MemoryError) as exc:
         diags.error(
             spec.hooks_module.span,
             "E212",
