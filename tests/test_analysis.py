@@ -443,8 +443,15 @@ def test_exclusive_guards_are_not_reported(spec) -> None:
     """Complementary numeric atoms, distinct statuses, an int gap, linear forms, a predicate."""
     diags = spec(EXCLUSIVE)
     # Each state has a rule for every valuation, but for S2 waiting while `a` executes
-    # (the handshake, not reported).
-    assert found(diags) == []
+    # (the handshake, not reported). S8's first guard is the constant false: the checker
+    # says so (W302) and the rule is not analysed.
+    assert found(diags) == [
+        (
+            at('when: |"False"'),
+            "W302",
+            "this rule of GO S8 never fires: its guard is always false",
+        )
+    ]
 
 
 def test_comparisons_beyond_interval_reasoning_cannot_be_proven(spec) -> None:
@@ -640,7 +647,37 @@ def test_a_command_that_can_never_report_is_an_error(spec) -> None:
             "GO can never finish: no rule reachable from S0 reports DONE or ERROR",
         )
     ]
-    assert codes(diags) == {"E504"}  # S2's reporting rule can never fire
+    assert found(diags, "W512") == [  # S2's reporting rule can never fire
+        (
+            at("      - |when: world.level > 5.0 and world.level < 3.0"),
+            "W512",
+            "rule 1 of GO S2 never fires: its guard can never hold",
+        )
+    ]
+    assert codes(diags) == {"E504", "W512"}
+
+
+def test_a_rule_that_an_earlier_rule_always_beats_is_a_warning(spec) -> None:
+    diags = spec(
+        """
+        GO:
+          first_match: [S0]
+          states:
+            S0:
+              - when: world.hot or world.cold
+                do: [report: DONE]
+              - when: world.hot
+                do: [report: ERROR]
+        """
+    )
+    assert found(diags, "W512") == [
+        (
+            at("      - |when: world.hot\n"),
+            "W512",
+            "rule 2 of GO S0 never fires: whenever its guard holds, an earlier rule (1) "
+            "fires first",
+        )
+    ]
 
 
 def test_a_command_sent_and_never_awaited_is_a_warning(spec) -> None:

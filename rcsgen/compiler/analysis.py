@@ -75,6 +75,8 @@ CODES = {
     "W509": "a state with no way out: no rule leaves it or reports",
     "E510": "`first_match` names a state the command does not have",
     "W511": "`first_match` on a state whose rules never overlap",
+    "W512": "a rule that can never fire: its guard never holds, or only when an earlier "
+    "rule's does",
 }
 
 # The statuses a tested subordinate can show (NOT_READY is not observable once the table
@@ -410,6 +412,8 @@ class _Table:
                     "its guards can never be true: check their constants and comparisons",
                 )
                 continue
+            if not generated:
+                self.never_fires(state, rules)
             leaves = any(r.fires and (r.reports or r.target not in (None, state)) for r in rules)
             if not leaves and not self.owner.every_reports:
                 self.diags.warning(
@@ -425,6 +429,24 @@ class _Table:
         self.finishes()
         self.commanded()
         self.awaited()
+
+    def never_fires(self, state: str, rules: list[_Rule]) -> None:
+        """W512 for each rule of a live state that can never fire."""
+        for index, rule in enumerate(rules):
+            if rule.fires:
+                continue
+            if solve([(rule.guard, True)]).kind == "no":
+                why = "its guard can never hold"
+            else:
+                earlier = [r.number for r in rules[:index]]
+                shown = ", ".join(str(n) for n in earlier)
+                why = f"whenever its guard holds, an earlier rule ({shown}) fires first"
+            self.diags.warning(
+                rule.rule.span,
+                "W512",
+                f"rule {rule.number} of {self.name} {state} never fires: {why}",
+                "check its comparisons and constants, reorder the rules, or delete it",
+            )
 
     # ------------------------------------------------------------ first_match
 

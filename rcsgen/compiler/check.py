@@ -15,7 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from . import expr, loader, model, naming
-from .diagnostics import Diagnostics, SpecError, known_names_hint
+from .diagnostics import Diagnostics, Span, SpecError, known_names_hint
 from .model import Command, ControllerSpec, Located, Rule, SystemSpec
 from .tables import (
     ENTRY_STATE,
@@ -51,6 +51,7 @@ def check_system(
     simulators = _check_simulators(system, by_name, diags)
     _check_stand_ins(system, by_name, diags)
     world = {name: f.type for name, f in system.world.items()}
+    _check_numbers(system, controllers, diags)
     for spec in by_name.values():
         _check_world_access(spec, world, diags)
         naming.check_controller_names(spec, diags)
@@ -265,6 +266,28 @@ def _check_stand_ins(
                 )
 
 
+def _check_numbers(
+    system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
+) -> None:
+    """Every integer constant and initial value fits in 64 bits (E110); an int given for a
+    float fits in a float."""
+    values: list[tuple[str, object, Span]] = [
+        (f.type, f.initial, f.initial_span or f.span) for f in system.world.values()
+    ]
+    for spec in controllers:
+        values += [(v.type, v.initial, v.initial_span or v.span) for v in spec.locals.values()]
+        values += [("const", c.value, c.span) for c in spec.constants.values()]
+    for kind, value, span in values:
+        problem = expr.int_range_problem(value) if kind in ("int", "const") else ""
+        if not problem and kind == "float" and isinstance(value, int):
+            try:
+                float(value)
+            except OverflowError:
+                problem = f"integer {str(value)[:27]}... is too large for a float"
+        if problem:
+            diags.error(span, "E110", problem, expr.INT_RANGE_HINT)
+
+
 def _check_world_access(spec: ControllerSpec, world: dict[str, str], diags: Diagnostics) -> None:
     for item in [*spec.world_reads, *spec.world_writes]:
         if item.value not in world:
@@ -368,6 +391,11 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
 
 # ---------------------------------------------------------------- one controller
 
+_ALWAYS_FALSE_HINT = (
+    "it reads only literals and constants, and they make it false: check the constants, "
+    "or delete the rule"
+)
+
 
 class _ControllerChecker:
     """Checks one controller's tables and expressions and builds its checked form."""
@@ -381,6 +409,7 @@ class _ControllerChecker:
     ):
         self.spec, self.by_name, self.system, self.diags = spec, by_name, system, diags
         self.subs = [s.value for s in spec.subordinates]
+        self.predicate_trees: dict[str, expr.Expr] = {}  # for folding guards (set by check)
         self.writable = {w.value for w in spec.world_writes}
         self.base_scope = expr.Scope(
             world=system.world_types,
@@ -401,6 +430,8 @@ class _ControllerChecker:
 
     def check(self, supervisor: str | None, simulator: bool, buffers: str) -> CheckedController:
         spec = self.spec
+        predicates = self.check_predicates()
+        self.predicate_trees = {name: p.tree for name, p in predicates.items()}
         commands = {
             command.name: self.check_command(command, code)
             for code, command in enumerate(spec.commands.values(), start=1)
@@ -411,7 +442,7 @@ class _ControllerChecker:
             simulator=simulator,
             buffers=buffers,
             commands=commands,
-            predicates=self.check_predicates(),
+            predicates=predicates,
             every_cycle=self.check_every_cycle(),
             sub_commands={sub: tuple(self.by_name[sub].commands) for sub in self.subs},
             scope=self.scope_for(None),
@@ -431,7 +462,15 @@ class _ControllerChecker:
             rules.append(self.check_rule(RuleId(None, None, index), written, scope))
         tried, shadowed = live(rules)
         for rule in shadowed:
-            self.diags.warning(rule.span, "W301", "this every_cycle rule never fires")
+            if rule.never:
+                self.diags.warning(
+                    rule.source.when.span if rule.source.when else rule.span,
+                    "W302",
+                    "this every_cycle rule never fires: its guard is always false",
+                    _ALWAYS_FALSE_HINT,
+                )
+            else:
+                self.diags.warning(rule.span, "W301", "this every_cycle rule never fires")
         return tuple(tried)
 
     def check_predicates(self) -> dict[str, CheckedPredicate]:
@@ -462,6 +501,15 @@ class _ControllerChecker:
             tried, shadowed = live(rules)
             if not command.generated:
                 for rule in shadowed:
+                    if rule.never:
+                        self.diags.warning(
+                            rule.source.when.span if rule.source.when else rule.span,
+                            "W302",
+                            f"this rule of {command.name} {state.name} never fires: "
+                            "its guard is always false",
+                            _ALWAYS_FALSE_HINT,
+                        )
+                        continue
                     self.diags.warning(
                         rule.span,
                         "W301",
@@ -523,8 +571,12 @@ class _ControllerChecker:
                 "reporting ends the command: the state becomes NOP",
             )
         next_state = "NOP" if reports else (rule.next.value if rule.next else None)
+        always = None
+        if guard is not None:
+            folded = expr.fold(guard, scope.constants, self.predicate_trees)
+            always = folded if isinstance(folded, bool) else None
         return CheckedRule(
-            rule_id, rule, guard, tuple(a for a in actions if a is not None), next_state
+            rule_id, rule, guard, tuple(a for a in actions if a is not None), next_state, always
         )
 
     def check_action(self, action: model.Action, scope: expr.Scope) -> Action | None:

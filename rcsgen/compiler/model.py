@@ -37,6 +37,7 @@ class Typed:
     initial: bool | int | float
     doc: str
     span: Span
+    initial_span: Span | None = None  # where `initial:` gives the value (not for params)
 
 
 @dataclass
@@ -183,6 +184,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
             spec["initial"],
             spec.get("doc", ""),
             key_span(data["world"], name, top),
+            value_span(spec, "initial", top),
         )
         for name, spec in (data.get("world") or {}).items()
     }
@@ -214,7 +216,8 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
 
 
 def _typed(name: str, spec: Any, span: Span) -> Typed:
-    return Typed(name, spec["type"], spec.get("initial", False), spec.get("doc", ""), span)
+    initial = value_span(spec, "initial", span) if "initial" in spec else None
+    return Typed(name, spec["type"], spec.get("initial", False), spec.get("doc", ""), span, initial)
 
 
 def _action(raw: Any, span: Span) -> Action:
