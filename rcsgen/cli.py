@@ -41,16 +41,22 @@ def _source_line(diag: Diagnostic) -> str | None:
     return lines[diag.span.line - 1]
 
 
-def report(diags: Diagnostics, strict: bool = False, fmt: str = "text") -> bool:
-    """Print every diagnostic (text on stderr, or a JSON array on stdout); True to fail."""
-    shown = list(diags)  # sorted, each distinct diagnostic once
+def report(
+    diags: Diagnostics, strict: bool = False, fmt: str = "text", acknowledged: bool = False
+) -> bool:
+    """Print every diagnostic (text on stderr, or a JSON array on stdout); True to fail.
+    With `acknowledged`, the warnings the specs acknowledge are shown too (they never fail)."""
+    active = list(diags)  # sorted, each distinct diagnostic once
+    shown = active
+    if acknowledged:
+        shown = sorted({*active, *diags.acknowledged}, key=Diagnostic.sort_key)
     if fmt == "json":
         click.echo(to_json(shown))
-        return _fails(shown, strict)
+        return _fails(active, strict)
     for diag in shown:
         click.echo(diag.render(_source_line(diag)), err=True)
-    errors = sum(d.severity == "error" for d in shown)
-    warnings = len(shown) - errors
+    errors = sum(d.severity == "error" for d in active)
+    warnings = len(active) - errors
     if errors or warnings:
         click.echo(f"{errors} error(s), {warnings} warning(s)", err=True)
     return bool(errors or (strict and warnings))
@@ -83,14 +89,22 @@ def main() -> None:
     """Generate NIST RCS controllers (QQ1-style Python) from declared state tables."""
 
 
+SHOW_ACKNOWLEDGED = click.option(
+    "--show-acknowledged",
+    is_flag=True,
+    help="Also show the warnings the specs acknowledge (allow:, first_match), with reasons.",
+)
+
+
 @main.command()
 @SPEC_PATHS
 @click.option("--strict", is_flag=True, help="Fail on warnings too.")
 @FORMAT
-def validate(paths: tuple[Path, ...], strict: bool, fmt: str) -> None:
+@SHOW_ACKNOWLEDGED
+def validate(paths: tuple[Path, ...], strict: bool, fmt: str, show_acknowledged: bool) -> None:
     """Check specs (schema and semantics) and report every problem found."""
     front = compile_paths(list(paths) or [Path("specs")])
-    if report(front.diagnostics, strict, fmt):
+    if report(front.diagnostics, strict, fmt, show_acknowledged):
         sys.exit(1)
     names = ", ".join(s.name for s in front.systems)
     click.echo(f"ok: {names}", err=fmt == "json")

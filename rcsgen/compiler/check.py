@@ -14,8 +14,8 @@ import os
 from dataclasses import replace
 from pathlib import Path
 
-from . import expr, loader, model, naming
-from .diagnostics import Diagnostics, Span, SpecError, known_names_hint
+from . import acknowledge, expr, loader, model, naming
+from .diagnostics import Diagnostics, Span, SpecError, Subject, known_names_hint
 from .model import Command, ControllerSpec, Located, Rule, SystemSpec
 from .tables import (
     ENTRY_STATE,
@@ -52,6 +52,7 @@ def check_system(
     _check_stand_ins(system, by_name, diags)
     world = {name: f.type for name, f in system.world.items()}
     _check_numbers(system, controllers, diags)
+    acknowledge.check_allows(controllers, diags)  # E237-E239
     for spec in by_name.values():
         _check_world_access(spec, world, diags)
         naming.check_controller_names(spec, diags)
@@ -420,6 +421,10 @@ class _ControllerChecker:
             subordinates={sub: frozenset(by_name[sub].commands) for sub in self.subs},
         )
 
+    def subject(self, rule: CheckedRule) -> Subject:
+        """What a finding about `rule` is about, for acknowledgements."""
+        return Subject(self.spec.name, rule.id.command, rule.id.state, rule.id.index)
+
     def scope_for(self, command: Command | None) -> expr.Scope:
         """The names a guard or value of `command` (None: a predicate, every_cycle) may use."""
         params = {p.name: p.type for p in command.params.values()} if command else {}
@@ -468,9 +473,15 @@ class _ControllerChecker:
                     "W302",
                     "this every_cycle rule never fires: its guard is always false",
                     _ALWAYS_FALSE_HINT,
+                    self.subject(rule),
                 )
             else:
-                self.diags.warning(rule.span, "W301", "this every_cycle rule never fires")
+                self.diags.warning(
+                    rule.span,
+                    "W301",
+                    "this every_cycle rule never fires",
+                    subject=self.subject(rule),
+                )
         return tuple(tried)
 
     def check_predicates(self) -> dict[str, CheckedPredicate]:
@@ -508,6 +519,7 @@ class _ControllerChecker:
                             f"this rule of {command.name} {state.name} never fires: "
                             "its guard is always false",
                             _ALWAYS_FALSE_HINT,
+                            self.subject(rule),
                         )
                         continue
                     self.diags.warning(
@@ -516,6 +528,7 @@ class _ControllerChecker:
                         f"this rule of {command.name} {state.name} never fires",
                         "the rule before it always fires first (it has no `when`, or its "
                         "guard is always true)",
+                        self.subject(rule),
                     )
             states[state.name] = CheckedState(state.name, state.span, tuple(tried), tuple(shadowed))
         return CheckedCommand(command.name, code, command, states, scope)

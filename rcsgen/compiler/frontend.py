@@ -10,7 +10,7 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import model
+from . import acknowledge, model
 from .analysis import analyse_system
 from .check import check_system
 from .diagnostics import Diagnostics, Span, SpecError
@@ -159,7 +159,7 @@ def _empty(path: Path, what: str, diags: Diagnostics) -> None:
 
 def load_system(directory: Path, diags: Diagnostics) -> IRSystem | None:
     """Load, schema-check, model and check one system directory."""
-    start = len(diags.errors)
+    start, first = len(diags.errors), len(diags.items)
     system_path = directory / SYSTEM_FILE
     loaded = len(diags.errors)
     data = _load(system_path, diags)
@@ -197,11 +197,14 @@ def load_system(directory: Path, diags: Diagnostics) -> IRSystem | None:
         if not any(p.severity == "error" for p in problems):
             controllers.append(model.build_controller(data, shown))
     if system is None or len(diags.errors) > start:
+        acknowledge.apply(controllers, diags, first, complete=False)
         return None
     checked = check_system(system, controllers, diags)
     if checked is None:
+        acknowledge.apply(controllers, diags, first, complete=False)
         return None
     analyse_system(checked, diags)  # E5xx/W5xx, with counter-examples
+    acknowledge.apply(controllers, diags, first, complete=True)  # allow: and first_match
     if len(diags.errors) > start:
         return None
     sources = {

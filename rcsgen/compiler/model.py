@@ -119,12 +119,23 @@ Action = Send | SetWorld | Report | CallHook
 
 
 @dataclass
+class Allow:
+    """An acknowledgement: a warning that is intended here, and why (`allow:`)."""
+
+    code: Located
+    reason: Located
+    states: list[Located]  # of a command-level acknowledgement; empty: every state
+    span: Span
+
+
+@dataclass
 class Rule:
     doc: str
     when: Located | None
     actions: list[Action]
     next: Located | None
     span: Span
+    allow: list[Allow] = field(default_factory=list)
 
 
 @dataclass
@@ -143,6 +154,7 @@ class Command:
     span: Span
     generated: bool = False  # a default INIT/HALT table rcsgen supplies
     first_match: list[Located] = field(default_factory=list)  # states whose rules may overlap
+    allow: list[Allow] = field(default_factory=list)  # warnings of its table that are intended
 
 
 @dataclass
@@ -238,6 +250,22 @@ def _action(raw: Any, span: Span) -> Action:
     return CallHook(raw["call"], value_span(raw, "call", span))
 
 
+def _allow(raw: Any, span: Span) -> list[Allow]:
+    items = raw.get("allow") or []
+    found = []
+    for index, item in enumerate(items):
+        at = value_span(items, index, span)
+        found.append(
+            Allow(
+                Located(item["code"], value_span(item, "code", at)),
+                Located(item["reason"], value_span(item, "reason", at)),
+                _items(item, "states", at),
+                at,
+            )
+        )
+    return found
+
+
 def _rule(raw: Any, span: Span) -> Rule:
     actions = raw.get("do") or []
     when = Located(raw["when"], value_span(raw, "when", span)) if "when" in raw else None
@@ -248,6 +276,7 @@ def _rule(raw: Any, span: Span) -> Rule:
         actions=[_action(a, value_span(actions, i, span)) for i, a in enumerate(actions)],
         next=nxt,
         span=span,
+        allow=_allow(raw, span),
     )
 
 
@@ -268,6 +297,7 @@ def _command(name: str, raw: Any, span: Span) -> Command:
         },
         span=span,
         first_match=_items(raw, "first_match", span),
+        allow=_allow(raw, span),
     )
 
 
