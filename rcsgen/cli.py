@@ -9,17 +9,34 @@ other message then goes to stderr), for editors and CI.
 from __future__ import annotations
 
 import functools
+import os
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
 
 from .compiler import write
-from .compiler.diagnostics import Diagnostic, Diagnostics, SpecError, to_json
+from .compiler.diagnostics import Diagnostic, Diagnostics, SpecError
 from .compiler.frontend import compile_paths
 from .compiler.loader import decode, read_bytes
+from .tools import config
+from .tools.config import Config, ConfigError
+from .tools.report import (
+    FORMATS,
+    Options,
+    Outcome,
+    code_prefix_problem,
+    outcome,
+    render_text,
+    shown,
+    statistics,
+    summary,
+    to_github,
+    to_json,
+    to_sarif,
+)
 
 if TYPE_CHECKING:
     from .tools.scenario import RunResult
@@ -41,29 +58,47 @@ def _source_line(diag: Diagnostic) -> str | None:
     return lines[diag.span.line - 1]
 
 
-def report(
-    diags: Diagnostics, strict: bool = False, fmt: str = "text", acknowledged: bool = False
-) -> bool:
-    """Print every diagnostic (text on stderr, or a JSON array on stdout); True to fail.
-    With `acknowledged`, the warnings the specs acknowledge are shown too (they never fail)."""
-    active = list(diags)  # sorted, each distinct diagnostic once
-    shown = active
-    if acknowledged:
-        shown = sorted({*active, *diags.acknowledged}, key=Diagnostic.sort_key)
-    if fmt == "json":
-        click.echo(to_json(shown))
-        return _fails(active, strict)
-    for diag in shown:
-        click.echo(diag.render(_source_line(diag)), err=True)
-    errors = sum(d.severity == "error" for d in active)
-    warnings = len(active) - errors
-    if errors or warnings:
-        click.echo(f"{errors} error(s), {warnings} warning(s)", err=True)
-    return bool(errors or (strict and warnings))
+def report(diags: Diagnostics, opts: Options) -> Outcome:
+    """Print the diagnostics the options select, in their format; what was found.
+
+    Text goes to stderr (a summary line after it, unless quiet); JSON, SARIF and GitHub
+    annotations go to stdout, where CI reads them."""
+    active, acknowledged = shown(diags, opts)
+    result = outcome(diags, opts)
+    every = sorted({*active, *acknowledged}, key=Diagnostic.sort_key)
+    if opts.fmt == "json":
+        click.echo(to_json(every))
+    elif opts.fmt == "sarif":
+        click.echo(to_sarif(every, _version()))
+    elif opts.fmt == "github":
+        if every:
+            click.echo(to_github(every))
+    elif opts.statistics:
+        for line in statistics(every):
+            click.echo(line, err=True)
+    else:
+        style = click.style if opts.color else None
+        for diag in every:
+            click.echo(render_text(diag, _source_line(diag), style), err=True, color=opts.color)
+    if opts.fmt == "text" and not opts.quiet and summary(result):
+        click.echo(summary(result), err=True)
+    return result
 
 
-def _fails(diags: Iterable[Diagnostic], strict: bool) -> bool:
-    return any(d.severity == "error" or strict for d in diags)
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("rcsgen")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def _note(opts: Options, message: str) -> None:
+    """A line for the user, unless quiet: on stdout, or stderr when stdout holds the
+    diagnostics (JSON, SARIF, GitHub)."""
+    if not opts.quiet:
+        click.echo(message, err=opts.fmt != "text")
 
 
 SPEC_PATHS = click.argument(
@@ -73,14 +108,106 @@ SPEC_PATHS = click.argument(
     type=click.Path(path_type=Path, exists=False, readable=False),
     metavar="[SPECS]...",
 )
-FORMAT = click.option(
-    "--format",
-    "fmt",
-    type=click.Choice(["text", "json"]),
-    default="text",
-    show_default=True,
-    help="Diagnostics as text on stderr, or as one JSON array on stdout (editors, CI).",
-)
+
+
+def _codes(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) -> tuple[str, ...]:
+    """Comma-separated warning codes or prefixes, each of them valid."""
+    codes = tuple(c.strip().upper() for v in values for c in v.split(",") if c.strip())
+    for code in codes:
+        problem = code_prefix_problem(code)
+        if problem:
+            raise click.BadParameter(problem, ctx=ctx, param=param)
+    return codes
+
+
+def reporting(command: Callable[..., None]) -> Callable[..., None]:
+    """The options every command reports diagnostics with; the command receives `opts`."""
+
+    @functools.wraps(command)
+    def run(
+        *args: object,
+        select: tuple[str, ...],
+        ignore: tuple[str, ...],
+        strict: bool | None,
+        fmt: str,
+        quiet: bool,
+        statistics: bool,
+        show_acknowledged: bool,
+        color: str,
+        isolated: bool,
+        **kwargs: object,
+    ) -> None:
+        try:
+            found = Config() if isolated else config.load(Path.cwd())
+        except ConfigError as error:
+            raise click.UsageError(str(error)) from None
+        if statistics and fmt != "text":
+            raise click.UsageError("--statistics prints text; it cannot be combined with --format")
+        opts = Options(
+            select=select or found.select,
+            ignore=(*found.ignore, *ignore),
+            strict=bool(found.strict) if strict is None else strict,
+            fmt=fmt,
+            quiet=quiet,
+            statistics=statistics,
+            show_acknowledged=show_acknowledged,
+            color=_colour(color),
+        )
+        command(*args, opts=opts, **kwargs)
+
+    options = [
+        click.option(
+            "--select",
+            multiple=True,
+            callback=_codes,
+            metavar="CODES",
+            help="Show only these warnings (codes or prefixes: W503,W5). Errors always show.",
+        ),
+        click.option(
+            "--ignore",
+            multiple=True,
+            callback=_codes,
+            metavar="CODES",
+            help="Do not show these warnings (codes or prefixes, comma-separated).",
+        ),
+        click.option("--strict/--no-strict", default=None, help="Fail on warnings too."),
+        click.option(
+            "--format",
+            "fmt",
+            type=click.Choice(FORMATS),
+            default="text",
+            show_default=True,
+            help="Text on stderr; JSON, SARIF 2.1.0 or GitHub annotations on stdout.",
+        ),
+        click.option("-q", "--quiet", is_flag=True, help="Print diagnostics only."),
+        click.option("--statistics", is_flag=True, help="Count diagnostics per code instead."),
+        click.option(
+            "--show-acknowledged",
+            is_flag=True,
+            help="Also show the warnings the specs acknowledge (allow:, first_match).",
+        ),
+        click.option(
+            "--color",
+            type=click.Choice(["auto", "always", "never"]),
+            default="auto",
+            show_default=True,
+            help="Colour the text (auto: on a terminal, unless NO_COLOR is set).",
+        ),
+        click.option("--isolated", is_flag=True, help="Ignore [tool.rcsgen] in pyproject.toml."),
+    ]
+    for option in reversed(options):
+        run = option(run)
+    return run
+
+
+def _colour(choice: str) -> bool:
+    if choice != "auto":
+        return choice == "always"
+    if os.environ.get("NO_COLOR"):
+        return False
+    if os.environ.get("FORCE_COLOR"):
+        return True
+    return sys.stderr.isatty() and os.environ.get("TERM") != "dumb"
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -89,25 +216,15 @@ def main() -> None:
     """Generate NIST RCS controllers (QQ1-style Python) from declared state tables."""
 
 
-SHOW_ACKNOWLEDGED = click.option(
-    "--show-acknowledged",
-    is_flag=True,
-    help="Also show the warnings the specs acknowledge (allow:, first_match), with reasons.",
-)
-
-
 @main.command()
 @SPEC_PATHS
-@click.option("--strict", is_flag=True, help="Fail on warnings too.")
-@FORMAT
-@SHOW_ACKNOWLEDGED
-def validate(paths: tuple[Path, ...], strict: bool, fmt: str, show_acknowledged: bool) -> None:
+@reporting
+def validate(paths: tuple[Path, ...], opts: Options) -> None:
     """Check specs (schema and semantics) and report every problem found."""
     front = compile_paths(list(paths) or [Path("specs")])
-    if report(front.diagnostics, strict, fmt, show_acknowledged):
+    if report(front.diagnostics, opts).fails:
         sys.exit(1)
-    names = ", ".join(s.name for s in front.systems)
-    click.echo(f"ok: {names}", err=fmt == "json")
+    _note(opts, f"ok: {', '.join(s.name for s in front.systems)}")
 
 
 @main.command()
@@ -115,45 +232,40 @@ def validate(paths: tuple[Path, ...], strict: bool, fmt: str, show_acknowledged:
 @click.option(
     "-o",
     "--output",
-    type=click.Path(path_type=Path, file_okay=False),
+    type=click.Path(path_type=Path),
     default=Path("generated"),
     show_default=True,
     help="Output directory; each system gets <output>/<system>/.",
 )
 @click.option("--check", is_flag=True, help="Write nothing; print a diff and exit 1 if stale.")
-@click.option("--strict", is_flag=True, help="Fail on warnings too.")
-@FORMAT
-def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt: str) -> None:
+@reporting
+def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> None:
     """Generate the Python packages of the systems found in SPECS (default: specs/)."""
     front = compile_paths(list(paths) or [Path("specs")])
-    quiet = fmt == "json"  # stdout holds one JSON array; every other message goes to stderr
-    if (report if not quiet else _fails)(front.diagnostics, strict):
-        if quiet:
-            report(front.diagnostics, strict, fmt)
+    diags = front.diagnostics
+    if not outcome(diags, opts).fails:
+        plan, problems = write.plan_build(front.systems, output)
+        diags = Diagnostics([*diags.items, *problems.items], diags.acknowledged)
+    if report(diags, opts).fails:
         click.echo("build failed: nothing was written", err=True)
         sys.exit(1)
-    plan, problems = write.plan_build(front.systems, output)
-    # In JSON, one array holds them all; as text, the front end's were printed above.
-    diags = Diagnostics([*front.diagnostics.items, *problems.items] if quiet else problems.items)
-    if report(diags, fmt=fmt):
-        click.echo("build failed: nothing was written", err=True)
-        sys.exit(1)
+    machine = opts.fmt != "text"  # stdout holds the diagnostics; everything else: stderr
     if check:
         if plan.stale:
-            click.echo(write.unified_diff(plan, output), nl=False, err=quiet)
+            click.echo(write.unified_diff(plan, output), nl=False, err=machine)
             click.echo(
                 f"{output} is stale: {len(plan.write)} file(s) to write, "
                 f"{len(plan.delete)} to delete; run `rcsgen build` to update it",
                 err=True,
             )
             sys.exit(1)
-        click.echo(f"{output} is current ({plan.unchanged} files)", err=quiet)
+        _note(opts, f"{output} is current ({plan.unchanged} files)")
         return
     write.apply(plan)
-    click.echo(
+    _note(
+        opts,
         f"built {', '.join(s.name for s in front.systems)} into {output}: "
         f"{len(plan.write)} written, {len(plan.delete)} deleted, {plan.unchanged} unchanged",
-        err=quiet,
     )
 
 
@@ -179,7 +291,14 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt:
     default=None,
     help="Re-record this golden trace file (review the diff before committing it).",
 )
-def run(scenario: Path, generated: Path, trace_path: Path | None, record: Path | None) -> None:
+@reporting
+def run(
+    scenario: Path,
+    generated: Path,
+    trace_path: Path | None,
+    record: Path | None,
+    opts: Options,
+) -> None:
     """Run a scenario on the generated system and summarise it."""
     from .tools import scenario as scenarios
     from .tools.harness import Harness
@@ -187,7 +306,7 @@ def run(scenario: Path, generated: Path, trace_path: Path | None, record: Path |
     try:
         spec = scenarios.load_scenario(scenario)
     except SpecError as error:
-        report(error.diagnostics)
+        report(error.diagnostics, opts)
         sys.exit(1)
     system_name = _system_name(spec.system_dir)
     package = generated / system_name

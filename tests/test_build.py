@@ -416,7 +416,7 @@ def test_symlinked_system_directory_is_refused(work: Path) -> None:
     result = rcsgen("build")
     assert result.exit_code == 1
     assert "generated/miner:1:1: error[E301]: refusing to write through symlink" in result.output
-    assert "1 error(s), 0 warning(s)" in result.output  # one problem, counted once
+    assert "\n1 error(s), " in result.output  # one problem, counted once
     assert snapshot(real) == before
     assert mtimes(real) == stamps
 

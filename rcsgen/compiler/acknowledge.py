@@ -32,6 +32,8 @@ ACKNOWLEDGEABLE = {
     "W511": "a state",
     "W512": "a rule",
 }
+# Every warning rcsgen reports (what --select and --ignore can name).
+WARNING_CODES = frozenset({*ACKNOWLEDGEABLE, "W303", "W501"})
 
 
 @dataclass
