@@ -261,7 +261,12 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> 
             sys.exit(1)
         _note(opts, f"{output} is current ({plan.unchanged} files)")
         return
-    write.apply(plan)
+    try:
+        write.apply(plan)
+    except SpecError as error:  # the disk refused: everything was undone
+        report(error.diagnostics, opts)
+        click.echo("build failed: nothing was written", err=True)
+        sys.exit(1)
     _note(
         opts,
         f"built {', '.join(s.name for s in front.systems)} into {output}: "

@@ -16,6 +16,7 @@ judge tables, not mistakes, and a case is about its one mistake.
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 from dataclasses import dataclass
@@ -25,6 +26,7 @@ import pytest
 from click.testing import CliRunner, Result
 
 from rcsgen.cli import main
+from rcsgen.compiler import write
 from rcsgen.compiler.diagnostics import Diagnostic
 from rcsgen.compiler.frontend import compile_paths
 
@@ -45,9 +47,11 @@ class Expected:
 
 
 def expectations(case: Path) -> list[Expected]:
-    """Every `# expect:` comment of the case's YAML files."""
+    """Every `# expect:` comment of the case's files (YAML, hooks, files in `out`)."""
     found = []
-    for path in sorted(case.rglob("*.yaml")):
+    for path in sorted(p for p in case.rglob("*") if p.is_file()):
+        if "__pycache__" in path.parts:
+            continue
         rel = path.relative_to(case).as_posix()
         text = path.read_bytes().decode("utf-8", errors="replace")  # E008 cases are not UTF-8
         for number, line in enumerate(text.split("\n"), start=1):
@@ -65,8 +69,15 @@ def expectations(case: Path) -> list[Expected]:
 
 
 def run_front_end(case: Path, monkeypatch: pytest.MonkeyPatch) -> list[Diagnostic]:
+    """What `rcsgen validate .` reports in the case directory; with an `out` entry (a case
+    about the output directory), also what `rcsgen build . -o out` would report."""
     monkeypatch.chdir(case)  # diagnostics then name files relative to the case
-    return list(compile_paths([Path(".")]).diagnostics)
+    front = compile_paths([Path(".")])
+    found = list(front.diagnostics)
+    if os.path.lexists(case / "out") and not front.diagnostics.errors:
+        _, problems = write.plan_build(front.systems, Path("out"))  # plans; writes nothing
+        found += list(problems)
+    return found
 
 
 def test_corpus_size() -> None:

@@ -221,3 +221,131 @@ def test_unreadable_directory_met_while_searching_is_e010(system: Path) -> None:
     inner.mkdir(parents=True)
     shutil.move(system, inner / "sys")
     assert_unreadable(system.parent, "all", inner, "all/inner", "directory")
+
+
+# ---------------------------------------------------------------- the output directory
+
+
+def built(system: Path) -> Path:
+    """tmp_path/out holding a build of the tiny system; returns tmp_path/out."""
+    result = rcsgen("build", "sys", "-o", "out")
+    assert result.exit_code == 0, result.output
+    return system.parent / "out"
+
+
+def tree(root: Path) -> dict[str, tuple[int, bytes | None]]:
+    """Every entry under `root`: its mode and, for a regular file, its bytes."""
+    found = {}
+    for path in sorted(root.rglob("*")):
+        info = path.lstat()
+        data = path.read_bytes() if path.is_file() and not path.is_symlink() else None
+        found[path.relative_to(root).as_posix()] = (info.st_mode, data)
+    return found
+
+
+@pytest.mark.parametrize(
+    "make, words",
+    [
+        (lambda p: p.write_text("notes\n"), "`out` is a file, not a directory"),
+        (lambda p: os.mkfifo(p), "`out` is a named pipe (FIFO), not a regular file"),
+        (lambda p: p.symlink_to("nowhere"), "`out` is a dangling symbolic link"),
+    ],
+    ids=["file", "fifo", "dangling-link"],
+)
+def test_output_path_that_is_not_a_directory_is_e305(
+    system: Path, make: Callable[[Path], None], words: str
+) -> None:
+    out = system.parent / "out"
+    make(out)
+    line = one_error(["build", "sys", "-o", "out"], "out", "E305", words)
+    assert line.startswith("out:1:1: error[E305]: output directory `out`: ")
+
+
+def test_output_path_through_a_file_is_e305(system: Path) -> None:
+    (system.parent / "notes.txt").write_text("notes\n")
+    line = one_error(["build", "sys", "-o", "notes.txt/out"], "notes.txt/out", "E305", "")
+    assert "runs through `notes.txt`: `notes.txt` is a file, not a directory" in line
+    assert (system.parent / "notes.txt").read_text() == "notes\n"
+
+
+def test_special_file_where_a_module_goes_is_e303_without_opening_it(system: Path) -> None:
+    out = built(system)
+    (out / "tiny" / "top.py").unlink()
+    os.mkfifo(out / "tiny" / "top.py")
+    one_error(["build", "sys", "-o", "out"], "out/tiny/top.py", "E303", "is not a file")
+
+
+def test_a_fifo_in_an_old_output_directory_is_never_opened(system: Path) -> None:
+    """Without a manifest (an older rcsgen's output), stale files are found by their header:
+    a FIFO among them must not be opened (it would hang) nor deleted."""
+    out = built(system)
+    (out / "tiny" / ".rcsgen-manifest").unlink()
+    os.mkfifo(out / "tiny" / "old.py")
+    result = rcsgen("build", "sys", "-o", "out")
+    assert result.exit_code == 0, result.output
+    assert (out / "tiny" / "old.py").exists()
+
+
+def test_a_failed_write_is_undone(system: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The disk refuses the third rename of a rebuild (as a full disk or a yanked drive
+    would): every file already renamed into place is restored, nothing else is left."""
+    out = built(system)
+    (system / "top.yaml").write_text((system / "top.yaml").read_text().replace("2.5", "3.5"))
+    (system / "sub.yaml").write_text(
+        (system / "sub.yaml").read_text().replace("Sub controller", "Sub controller, renamed")
+    )
+    (system / "extra.yaml").write_text("controller: extra\ntitle: Extra\ncommands: {}\n")
+    system.joinpath("system.yaml").write_text(
+        (system / "system.yaml").read_text().replace("[top, sub]", "[top, sub, extra]")
+    )
+    before = tree(out)
+    real = os.replace
+    calls = []
+
+    def failing(src: object, dst: object) -> None:
+        calls.append(dst)
+        if len(calls) == 3:
+            raise OSError(28, "No space left on device")
+        real(src, dst)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(os, "replace", failing)
+    result = rcsgen("build", "sys", "-o", "out")
+    monkeypatch.setattr(os, "replace", real)
+    assert result.exit_code == 1
+    assert len(calls) >= 3
+    assert "error[E306]: cannot write `out/tiny/" in result.output
+    assert "no space left on device; nothing was changed" in result.output
+    assert "build failed: nothing was written" in result.output
+    assert tree(out) == before
+
+
+def test_read_only_output_directory_is_e306(system: Path) -> None:
+    out = built(system)
+    (system / "top.yaml").write_text((system / "top.yaml").read_text().replace("2.5", "3.5"))
+    before = tree(out)
+    (out / "tiny").chmod(0o555)
+    try:
+        done = unprivileged("build", "sys", "-o", "out", cwd=system.parent)
+    finally:
+        (out / "tiny").chmod(0o755)
+    assert done.returncode == 1, done.stderr
+    assert "Traceback" not in done.stderr
+    assert errors(done.stderr) == [
+        "out/tiny:1:1: error[E306]: cannot write in `out/tiny`: permission denied (read-only?)"
+    ]
+    assert tree(out) == before
+
+
+def test_unwritable_parent_of_a_new_output_directory_is_e306(system: Path) -> None:
+    parent = system.parent / "locked"
+    parent.mkdir()
+    parent.chmod(0o555)
+    try:
+        done = unprivileged("build", "sys", "-o", "locked/out", cwd=system.parent)
+    finally:
+        parent.chmod(0o755)
+    assert done.returncode == 1, done.stderr
+    assert errors(done.stderr) == [
+        "locked:1:1: error[E306]: cannot write in `locked`: permission denied (read-only?)"
+    ]
+    assert list(parent.iterdir()) == []
