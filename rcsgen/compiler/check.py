@@ -14,7 +14,7 @@ import os
 from dataclasses import replace
 from pathlib import Path
 
-from . import acknowledge, expr, loader, model, naming
+from . import acknowledge, expr, hooks, loader, model, naming
 from .diagnostics import Diagnostics, Span, SpecError, Subject, known_names_hint
 from .model import Command, ControllerSpec, Located, Rule, SystemSpec
 from .tables import (
@@ -51,12 +51,13 @@ def check_system(
     simulators = _check_simulators(system, by_name, diags)
     _check_stand_ins(system, by_name, diags)
     world = {name: f.type for name, f in system.world.items()}
+    contracts: dict[str, HookContracts] = {}
     _check_numbers(system, controllers, diags)
     acknowledge.check_allows(controllers, diags)  # E237-E239
     for spec in by_name.values():
         _check_world_access(spec, world, diags)
         naming.check_controller_names(spec, diags)
-        _check_hooks_module(spec, system.directory, diags)
+        contracts[spec.name] = _check_hooks_module(spec, system.directory, world, diags)
     before = len(diags.errors)
     if before:  # names must resolve before tables can be checked meaningfully
         return None
@@ -65,7 +66,7 @@ def check_system(
     checked: dict[str, CheckedController] = {}
     for name in [*order, *sorted(replaced_by)]:
         buffers = replaced_by.get(name, name)  # a stand-in runs in its controller's buffers
-        checker = _ControllerChecker(by_name[name], by_name, system, diags)
+        checker = _ControllerChecker(by_name[name], by_name, system, diags, contracts[name])
         checked[name] = checker.check(
             supervisors.get(buffers), name in simulators or name in replaced_by, buffers
         )
@@ -308,10 +309,18 @@ def _hook_module_file(directory: Path, module: str) -> Path | None:
     return None
 
 
-def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostics) -> None:
-    """Each declared hook exists in the user's module with a fitting signature (by reading it)."""
+HookContracts = dict[str, tuple[list[str | None], str]]  # hook -> (param types, file:line)
+
+
+def _check_hooks_module(
+    spec: ControllerSpec, directory: Path, world: dict[str, str], diags: Diagnostics
+) -> HookContracts:
+    """Each declared hook exists in the user's module as a plain function that fits its
+    declaration (read, never imported): arity (E214), kind (E240), results (E241). Returns
+    each hook's parameter annotations, for the checker to compare with its argument types."""
+    contracts: HookContracts = {}
     if not spec.hooks and spec.hooks_state is None:
-        return
+        return contracts
     if spec.hooks_module is None:
         first = next((hook.span for hook in spec.hooks.values()), spec.span)
         if spec.hooks_state is not None and not spec.hooks:
@@ -322,7 +331,7 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
             f"`{spec.name}` declares hooks but no `hooks_module`",
             "add `hooks_module: <package>.<module>`, a Python module in the system directory",
         )
-        return
+        return contracts
     module = spec.hooks_module.value
     path = _hook_module_file(directory, module)
     if path is None:
@@ -332,7 +341,7 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
             f"hooks module `{module}` not found",
             f"create {Path(*module.split('.')).with_suffix('.py')} next to system.yaml",
         )
-        return
+        return contracts
     try:
         source = loader.read_bytes(path, str(path), loader.MAX_BYTES)
         tree = ast.parse(loader.decode(source, str(path)), filename=str(path))
@@ -343,27 +352,46 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
             "E212",
             f"hooks module `{module}` cannot be read ({path.name}): {reason}",
         )
-        return
+        return contracts
     except (SyntaxError, ValueError, RecursionError, MemoryError) as exc:
         diags.error(
             spec.hooks_module.span,
             "E212",
             f"hooks module `{module}` cannot be read: {str(exc) or type(exc).__name__}",
         )
-        return
+        return contracts
     functions = {
         node.name: node
         for node in tree.body
         if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
     }
     stateful = spec.hooks_state is not None
-    if spec.hooks_state is not None and functions.get(spec.hooks_state.value) is None:
-        diags.error(
-            spec.hooks_state.span,
-            "E213",
-            f"hook-state factory `{spec.hooks_state.value}` is not defined in `{module}`",
-            f"add `def {spec.hooks_state.value}(settings): ...` to {path.name}",
-        )
+    where = f"{path.name}"
+    if spec.hooks_state is not None:
+        factory = spec.hooks_state
+        node = functions.get(factory.value)
+        if node is None:
+            diags.error(
+                factory.span,
+                "E213",
+                f"hook-state factory `{factory.value}` is not defined in `{module}`",
+                f"add `def {factory.value}(settings): ...` to {path.name}",
+            )
+        elif hooks.kind_problem(node):
+            diags.error(
+                factory.span,
+                "E240",
+                f"hook-state factory `{factory.value}` is {hooks.kind_problem(node)}",
+                f"make it a plain `def {factory.value}(settings):` ({where}:{node.lineno})",
+            )
+        elif not _takes(node, 1):
+            diags.error(
+                factory.span,
+                "E214",
+                f"hook-state factory `{factory.value}` is called with one argument (the run's "
+                f"settings) but `{module}.{factory.value}` takes {_positional(node)}",
+                f"define it as `def {factory.value}(settings):` ({where}:{node.lineno})",
+            )
     for hook in spec.hooks.values():
         node = functions.get(hook.name)
         if node is None:
@@ -375,19 +403,110 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
                 f"add `def {hook.name}({args}): ...` to {path.name}",
             )
             continue
-        positional = [*node.args.posonlyargs, *node.args.args]
-        required = len(positional) - len(node.args.defaults)
+        if hooks.kind_problem(node):
+            diags.error(
+                hook.span,
+                "E240",
+                f"hook `{hook.name}` is {hooks.kind_problem(node)}",
+                f"make it a plain `def {hook.name}(...)` ({where}:{node.lineno})",
+            )
+            continue
         given = len(hook.args) + stateful  # the hook state comes first
-        fits = required <= given and (node.args.vararg is not None or given <= len(positional))
-        if not fits:
+        if not _takes(node, given):
             diags.error(
                 hook.span,
                 "E214",
                 f"hook `{hook.name}` is called with {given} argument(s)"
                 f"{' (the hook state, then its args)' if stateful else ''} but "
-                f"`{module}.{hook.name}` takes {len(positional)}",
+                f"`{module}.{hook.name}` takes {_positional(node)}",
                 "make `args:` match the function's parameters",
             )
+            continue
+        targets = [_target_type(t.value, spec, world) for t in hook.returns]
+        for problem in _return_problems(hook.name, node, targets, [t.value for t in hook.returns]):
+            diags.error(hook.span, "E241", problem, f"see {where}:{node.lineno}")
+        params = hooks.param_types(node)[stateful:]
+        contracts[hook.name] = (params, f"{where}:{node.lineno}")
+    return contracts
+
+
+def _positional(node: hooks.Function) -> int:
+    return len([*node.args.posonlyargs, *node.args.args])
+
+
+def _takes(node: hooks.Function, given: int) -> bool:
+    """Whether the function can be called with `given` positional arguments."""
+    positional = _positional(node)
+    required = positional - len(node.args.defaults)
+    return required <= given and (node.args.vararg is not None or given <= positional)
+
+
+def _target_type(target: str, spec: ControllerSpec, world: dict[str, str]) -> str | None:
+    if target.startswith("world."):
+        return world.get(target.removeprefix("world."))
+    local = spec.locals.get(target)
+    return local.type if local else None
+
+
+def _ordinal(n: int) -> str:
+    return {1: "1st", 2: "2nd", 3: "3rd"}.get(n, f"{n}th")
+
+
+def _return_problems(
+    name: str, node: hooks.Function, types: list[str | None], targets: list[str]
+) -> list[str]:
+    """How the function's return annotation and literal returns contradict `returns:`."""
+    want = len(targets)
+    if want == 0:
+        return []  # the result is ignored
+    named = "one target" if want == 1 else f"{want} targets"
+    found = []
+    promised = hooks.returns(node)
+    if promised is not None:
+        if promised.count == 0:
+            found.append(f"hook `{name}` is annotated `-> None`, but `returns:` names {named}")
+        elif want == 1 and not promised.scalar:
+            found.append(
+                f"hook `{name}` is annotated to return a tuple, but `returns:` names one "
+                f"target, `{targets[0]}`, which would be assigned the whole tuple"
+            )
+        elif want > 1 and promised.scalar:
+            found.append(
+                f"hook `{name}` is annotated to return one value, but `returns:` names {named}"
+            )
+        elif promised.count is not None and want > 1 and promised.count != want:
+            found.append(
+                f"hook `{name}` is annotated to return {promised.count} values, but "
+                f"`returns:` names {named}"
+            )
+        elif not found:
+            every = promised.types * want if promised.count is None else promised.types
+            for index, (value, target) in enumerate(zip(every, types, strict=False), start=1):
+                if value is not None and target is not None and not hooks.assignable(target, value):
+                    found.append(
+                        f"hook `{name}` returns {_a(value)} as its {_ordinal(index)} value "
+                        f"(by its annotation), but `{targets[index - 1]}` is {_a(target)}"
+                    )
+    counts = hooks.literal_return_counts(node)
+    if not counts:
+        found.append(f"hook `{name}` never returns a value, but `returns:` names {named}")
+    for line, count in counts:
+        if count == 0:
+            found.append(f"hook `{name}` returns nothing at line {line}; `returns:` names {named}")
+        elif count is not None and want > 1 and count != want:
+            found.append(
+                f"hook `{name}` returns {count} value(s) at line {line}; `returns:` names {named}"
+            )
+        elif count is not None and want == 1 and count > 1:
+            found.append(
+                f"hook `{name}` returns a tuple of {count} at line {line}; `returns:` names one "
+                "target"
+            )
+    return found
+
+
+def _a(kind: str) -> str:
+    return {"int": "an int", "float": "a float", "bool": "a bool"}.get(kind, kind)
 
 
 # ---------------------------------------------------------------- one controller
@@ -407,8 +526,11 @@ class _ControllerChecker:
         by_name: dict[str, ControllerSpec],
         system: SystemSpec,
         diags: Diagnostics,
+        contracts: HookContracts | None = None,
     ):
         self.spec, self.by_name, self.system, self.diags = spec, by_name, system, diags
+        self.contracts = contracts or {}  # hook -> its parameters' annotated types
+        self.checked_calls: set[str] = set()  # hooks whose arguments were compared
         self.subs = [s.value for s in spec.subordinates]
         self.predicate_trees: dict[str, expr.Expr] = {}  # for folding guards (set by check)
         self.writable = {w.value for w in spec.world_writes}
@@ -615,6 +737,7 @@ class _ControllerChecker:
             )
             return None
         args = [self.typed(a, scope, None) for a in hook.args]
+        self.check_hook_arguments(hook, args)
         targets = [self.target(t) for t in hook.returns]
         return CallHook(
             hook,
@@ -622,6 +745,23 @@ class _ControllerChecker:
             tuple(t for t in targets if t is not None),
             action.span,
         )
+
+    def check_hook_arguments(self, hook: model.Hook, args: list[expr.Expr | None]) -> None:
+        """E242 once per hook: an argument whose type its parameter's annotation excludes."""
+        if hook.name in self.checked_calls or hook.name not in self.contracts:
+            return
+        self.checked_calls.add(hook.name)
+        params, where = self.contracts[hook.name]
+        for index, (arg, param) in enumerate(zip(args, params, strict=False)):
+            if arg is None or param is None or hooks.assignable(param, arg.type):
+                continue
+            self.diags.error(
+                hook.args[index].span,
+                "E242",
+                f"argument {index + 1} of hook `{hook.name}` is {_a(arg.type)}, but the "
+                f"function's parameter is annotated `{param}`",
+                f"convert it in the spec, or change the annotation ({where})",
+            )
 
     def target(self, target: Located) -> Target | None:
         """An assignable name (`world.<field>` or a local), or None after an error."""
