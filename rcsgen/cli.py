@@ -13,15 +13,16 @@ import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
 
 import click
 
 from .compiler import write
 from .compiler.diagnostics import Diagnostic, Diagnostics, SpecError
 from .compiler.frontend import compile_paths
+from .compiler.ir import IRSystem
 from .compiler.loader import decode, read_bytes
-from .tools import config
+from .tools import config, runs
 from .tools.config import Config, ConfigError
 from .tools.report import (
     FORMATS,
@@ -124,7 +125,7 @@ def reporting(command: Callable[..., None]) -> Callable[..., None]:
     """The options every command reports diagnostics with; the command receives `opts`."""
 
     @functools.wraps(command)
-    def run(
+    def with_options(
         *args: object,
         select: tuple[str, ...],
         ignore: tuple[str, ...],
@@ -196,8 +197,8 @@ def reporting(command: Callable[..., None]) -> Callable[..., None]:
         click.option("--isolated", is_flag=True, help="Ignore [tool.rcsgen] in pyproject.toml."),
     ]
     for option in reversed(options):
-        run = option(run)
-    return run
+        with_options = option(with_options)
+    return with_options
 
 
 def _colour(choice: str) -> bool:
@@ -296,12 +297,14 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> 
     default=None,
     help="Re-record this golden trace file (review the diff before committing it).",
 )
+@click.option("-v", "--verbose", is_flag=True, help="Show a failing hook's Python traceback.")
 @reporting
 def run(
     scenario: Path,
     generated: Path,
     trace_path: Path | None,
     record: Path | None,
+    verbose: bool,
     opts: Options,
 ) -> None:
     """Run a scenario on the generated system and summarise it."""
@@ -318,7 +321,12 @@ def run(
     if not (package / "__init__.py").is_file():
         click.echo(f"error: no generated package at {package}; run `rcsgen build` first", err=True)
         sys.exit(1)
-    harness = scenarios.open_harness(spec, package)
+    front = compile_paths([spec.system_dir])  # the IR: where each rule and hook call is
+    system = front.systems[0] if front.systems else None
+    try:
+        harness = scenarios.open_harness(spec, package)
+    except Exception as error:  # a hook-state factory, or a module that cannot be made
+        _run_failed(error, system, 0, package, opts, verbose)
 
     def progress(h: Harness) -> None:
         if h.cycles % 100 == 0:
@@ -326,7 +334,10 @@ def run(
             phases = "  ".join(f"{m} {h.sent(m).command}/{h.status(m).state}" for m in busy)
             click.echo(f"  cycle {h.cycles:>6}  {phases}", err=True)
 
-    result = scenarios.run(spec, harness, progress)
+    try:
+        result = scenarios.run(spec, harness, progress)
+    except Exception as error:  # a hook, or a module's own code, in the cycle being run
+        _run_failed(error, system, harness.cycles + 1, package, opts, verbose)
     trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
     scenarios.write_trace(trace_path, result.trace)
     if record is not None:
@@ -334,6 +345,22 @@ def run(
     _summarise(result, trace_path, record)
     if spec.stop_when_done and result.final.get("status") != "DONE":
         sys.exit(1)
+
+
+def _run_failed(
+    error: Exception,
+    system: IRSystem | None,
+    cycle: int,
+    package: Path,
+    opts: Options,
+    verbose: bool,
+) -> NoReturn:
+    """Report what stopped a run as one diagnostic (and the traceback with -v); exit 1."""
+    diagnostic = runs.run_error(error, system, cycle, package.resolve())
+    report(Diagnostics([diagnostic]), opts)
+    if verbose and runs.details(error):
+        click.echo(runs.details(error).rstrip("\n"), err=True)
+    sys.exit(1)
 
 
 def _system_name(system_dir: Path) -> str:

@@ -10,7 +10,7 @@ from .layout import (
     BSS_PERF_AT,
     BSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, NUMBER, PERF, STATUS, HookError
 
 # Commands bss accepts (the code written to its command buffer).
 INIT = 1
@@ -63,7 +63,10 @@ class BssController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.hook_state = hooks.new_noise(settings or {})
+        try:
+            self.hook_state = hooks.new_noise(settings or {})
+        except Exception as error:
+            raise HookError("bss", "new_noise", "hooks_state", 0) from error
         # Resume from the block, so a restarted module keeps its command-number handshake.
         self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, BSS_STATUS_AT
@@ -154,7 +157,13 @@ class BssController:
         self.var_filtered = self.var_filtered + LAG * (
             self.world_boom_angle_true - self.var_filtered
         )
-        self.world_boom_angle = hooks.noisy(self.hook_state, self.var_filtered, NOISE)
+        try:
+            returned = hooks.noisy(self.hook_state, self.var_filtered, NOISE)
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("bss", "noisy", "every_cycle/1", self.cycles) from error
+        if type(returned) not in NUMBER:
+            raise HookError("bss", "noisy", "every_cycle/1", self.cycles, returned, "f")
+        self.world_boom_angle = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -10,7 +10,7 @@ from .layout import (
     CSS_PERF_AT,
     CSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, NUMBER, PERF, STATUS, HookError
 
 # Commands css accepts (the code written to its command buffer).
 INIT = 1
@@ -61,7 +61,10 @@ class CssController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.hook_state = hooks.new_noise(settings or {})
+        try:
+            self.hook_state = hooks.new_noise(settings or {})
+        except Exception as error:
+            raise HookError("css", "new_noise", "hooks_state", 0) from error
         # Resume from the block, so a restarted module keeps its command-number handshake.
         self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, CSS_STATUS_AT
@@ -148,9 +151,13 @@ class CssController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        self.world_cutter_current = hooks.noisy(
-            self.hook_state, self.world_drum_current_true, NOISE
-        )
+        try:
+            returned = hooks.noisy(self.hook_state, self.world_drum_current_true, NOISE)
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("css", "noisy", "every_cycle/1", self.cycles) from error
+        if type(returned) not in NUMBER:
+            raise HookError("css", "noisy", "every_cycle/1", self.cycles, returned, "f")
+        self.world_cutter_current = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -10,7 +10,7 @@ from .layout import (
     PSS_PERF_AT,
     PSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, NUMBER, PERF, STATUS, HookError
 
 # Commands pss accepts (the code written to its command buffer).
 INIT = 1
@@ -66,7 +66,10 @@ class PssController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.hook_state = hooks.new_noise(settings or {})
+        try:
+            self.hook_state = hooks.new_noise(settings or {})
+        except Exception as error:
+            raise HookError("pss", "new_noise", "hooks_state", 0) from error
         # Resume from the block, so a restarted module keeps its command-number handshake.
         self.status_num, self.status, self.error_num, self.state, self.rule = STATUS.unpack_from(
             buf, PSS_STATUS_AT
@@ -159,14 +162,26 @@ class PssController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        self.world_pose_x, self.world_pose_y, self.world_heading = hooks.noisy_pose(
-            self.hook_state,
-            self.world_true_x,
-            self.world_true_y,
-            self.world_true_heading,
-            NOISE,
-            HEADING_NOISE,
-        )
+        try:
+            returned = hooks.noisy_pose(
+                self.hook_state,
+                self.world_true_x,
+                self.world_true_y,
+                self.world_true_heading,
+                NOISE,
+                HEADING_NOISE,
+            )
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("pss", "noisy_pose", "every_cycle/1", self.cycles) from error
+        if (
+            type(returned) is not tuple
+            or len(returned) != 3
+            or type(returned[0]) not in NUMBER
+            or type(returned[1]) not in NUMBER
+            or type(returned[2]) not in NUMBER
+        ):
+            raise HookError("pss", "noisy_pose", "every_cycle/1", self.cycles, returned, "fff")
+        self.world_pose_x, self.world_pose_y, self.world_heading = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -147,6 +147,10 @@ class IRCall:
     args: tuple[str, ...]  # Python text of each argument (the hook state first, if any)
     targets: tuple[str, ...]  # attributes assigned from the hook's result
     kind: str = "call"
+    kinds: str = ""  # each target's type, one letter: f(loat), i(nt), b(ool)
+    # Python condition true when `returned` does not fit the targets (cheap: type and len)
+    mismatch: str = ""
+    span: Span | None = None  # where the spec calls it
 
 
 IRAction = IRSend | IRSet | IRReport | IRCall

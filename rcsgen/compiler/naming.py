@@ -182,9 +182,11 @@ def target_attribute(target: str) -> str:
     return f"self.var_{target}"
 
 
-def import_order(name: str) -> str:
-    """The key ruff's isort sorts imported names by (case-insensitively: `C_AT` < `CC_AT`)."""
-    return name.lower()
+def import_order(name: str) -> tuple[int, str]:
+    """The key ruff's isort sorts imported names by: constants, then classes, then the rest
+    (`order-by-type`), each case-insensitively (`C_AT` < `CC_AT`)."""
+    kind = 0 if name.isupper() else 1 if name[:1].isupper() else 2
+    return kind, name.lower()
 
 
 def is_keyword(name: str) -> bool:

@@ -93,3 +93,63 @@ class Record(NamedTuple):
         current = self.read(buf)
         current.update(values)
         self.struct.pack_into(buf, self.offset, *current.values())
+
+
+# ---------------------------------------------------------------- hook calls
+
+# What generated code accepts from a hook for a target of each type: an int for a float
+# target (as in spec expressions), exactly a bool for a bool, and an int within int64.
+NUMBER = (float, int)
+INT_MIN, INT_MAX = -(2**63), 2**63 - 1
+_KIND_NAMES = {"f": "float", "i": "int", "b": "bool"}
+_NOTHING = object()
+
+
+class HookError(Exception):
+    """A hook call that failed at run time, raised by generated code: the hook raised (the
+    exception is the `__cause__`), or its result does not fit its `returns:`.
+
+    Names the module, the hook, the table rule that called it (`SUMP_SHEAR_CUSP/S0/1`,
+    `every_cycle/2`, or `hooks_state` for the factory) and the module's cycle (1-based;
+    0 while the module is made)."""
+
+    def __init__(
+        self,
+        module: str,
+        hook: str,
+        rule: str,
+        cycles: int,
+        result: object = _NOTHING,
+        kinds: str = "",
+    ) -> None:
+        self.module, self.hook, self.rule = module, hook, rule
+        self.cycle = cycles + 1 if rule != "hooks_state" else 0
+        self.result, self.kinds = result, kinds
+        super().__init__(self.problem())
+
+    @property
+    def raised(self) -> bool:
+        """The hook raised (rather than returning a wrong result)."""
+        return self.result is _NOTHING
+
+    def expected(self) -> str:
+        """What `returns:` asks for: `a float`, `a tuple of 2 values (float, int)`."""
+        names = [_KIND_NAMES[k] for k in self.kinds]
+        if len(names) == 1:
+            return f"a{'n' if names[0] == 'int' else ''} {names[0]}"
+        return f"a tuple of {len(names)} values ({', '.join(names)})"
+
+    def problem(self) -> str:
+        who = f"hook `{self.hook}` of `{self.module}`"
+        if self.raised:
+            cause = self.__cause__
+            what = f"{type(cause).__name__}: {cause}" if cause is not None else "an exception"
+            return f"{who} raised {what}"
+        shown = repr(self.result)
+        shown = shown if len(shown) <= 60 else shown[:57] + "..."
+        return f"{who} returned {shown}; its `returns:` needs {self.expected()}"
+
+    def __str__(self) -> str:
+        # Computed again: `__cause__` is set only after __init__ (`raise ... from error`).
+        where = "while made" if self.rule == "hooks_state" else f"rule {self.rule}"
+        return f"{self.problem()} ({where}, cycle {self.cycle})"

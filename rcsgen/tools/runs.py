@@ -1,0 +1,108 @@
+"""Runs: what goes wrong while a generated system runs -> one located diagnostic.
+
+A hook that raises or returns values that do not fit its `returns:` makes the generated code
+raise `HookError` (`rcs.contract`), naming the module, the hook and the rule that called
+it; here it becomes one diagnostic at the spec's `call:` line with the cycle (E420, E421).
+Anything else a module raises (an int overflowing its 64 bits, a division by a variable
+that was 0) is E422 at the module's spec. The Python traceback is kept for `-v`.
+"""
+
+from __future__ import annotations
+
+import traceback
+from pathlib import Path
+from types import TracebackType
+
+from ..compiler.diagnostics import Diagnostic, Span
+from ..compiler.ir import IRCall, IRController, IRSystem
+
+
+def _controller(system: IRSystem | None, name: str) -> IRController | None:
+    if system is None:
+        return None
+    return next((c for c in system.controllers if c.name == name), None)
+
+
+def _spec_span(controller: IRController | None, fallback: Span) -> Span:
+    """Where the controller's spec starts (its commands' tables are located in it)."""
+    if controller is None or not controller.commands:
+        return fallback
+    span = controller.commands[0].span
+    return Span(span.file)
+
+
+def _call_span(controller: IRController | None, rule: str, hook: str) -> Span | None:
+    """The `call:` of `hook` in the rule `rule` (a RuleId as text, or `hooks_state`)."""
+    if controller is None:
+        return None
+    for ir_rule in controller.rules():
+        if str(ir_rule.id) != rule:
+            continue
+        for action in ir_rule.actions:
+            if isinstance(action, IRCall) and action.hook == hook and action.span is not None:
+                return action.span
+        return ir_rule.span
+    return None
+
+
+def _generated_module(error: BaseException, package: Path | None) -> str | None:
+    """The generated controller module the innermost frame of the package belongs to."""
+    if package is None:
+        return None
+    found = None
+    tb: TracebackType | None = error.__traceback__
+    while tb is not None:
+        path = Path(tb.tb_frame.f_code.co_filename)
+        if path.parent == package and path.stem not in ("__init__", "__main__", "layout"):
+            found = path.stem
+        tb = tb.tb_next
+    return found
+
+
+def run_error(
+    error: BaseException,
+    system: IRSystem | None,
+    cycle: int,
+    package: Path | None = None,
+    fallback: Span | None = None,
+) -> Diagnostic:
+    """One diagnostic for an exception raised while cycle `cycle` ran (0: at start-up)."""
+    where = fallback or Span("<run>")
+    when = f"cycle {cycle}" if cycle else "start-up"
+    if type(error).__name__ == "HookError":  # the generated package's own contract class
+        module, hook, rule = error.module, error.hook, error.rule  # type: ignore[attr-defined]
+        controller = _controller(system, module)
+        span = _call_span(controller, rule, hook) or _spec_span(controller, where)
+        problem = error.problem()  # type: ignore[attr-defined]
+        called = "made by `hooks_state`" if rule == "hooks_state" else f"rule {rule}"
+        if error.raised:  # type: ignore[attr-defined]
+            return Diagnostic(
+                span,
+                "E420",
+                f"{problem} ({called}, {when})",
+                "the hook's own traceback: run again with -v",
+            )
+        return Diagnostic(
+            span,
+            "E421",
+            f"{problem} ({called}, {when})",
+            "make the function return what `returns:` names, in that order and of those types",
+        )
+    module = _generated_module(error, package)
+    controller = _controller(system, module) if module else None
+    text = f"{type(error).__name__}: {error}" if str(error) else type(error).__name__
+    subject = f"module `{module}`" if module else "the run"
+    return Diagnostic(
+        _spec_span(controller, where),
+        "E422",
+        f"{subject} failed in {when}: {text}",
+        "run again with -v for the Python traceback",
+    )
+
+
+def details(error: BaseException) -> str:
+    """The traceback `-v` shows: for a hook, the hook's own (where it raised)."""
+    cause = error.__cause__ if type(error).__name__ == "HookError" else error
+    if cause is None:
+        return ""
+    return "".join(traceback.format_exception(type(cause), cause, cause.__traceback__))
