@@ -8,18 +8,20 @@ other message then goes to stderr), for editors and CI.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import sys
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 import click
 
-from .compiler import write
-from .compiler.diagnostics import Diagnostic, Diagnostics, SpecError
-from .compiler.frontend import compile_paths
+from .compiler import emit, write
+from .compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
+from .compiler.frontend import compile_paths, display_path
 from .compiler.ir import IRSystem
 from .compiler.loader import decode, read_bytes
 from .tools import config, runs
@@ -38,6 +40,7 @@ from .tools.report import (
     to_json,
     to_sarif,
 )
+from .tools.scenario_check import check_scenario, check_system_scenarios
 
 if TYPE_CHECKING:
     from .tools.scenario import RunResult
@@ -56,10 +59,13 @@ def _source_line(diag: Diagnostic) -> str | None:
     lines = _source_lines(diag.span.file)
     if lines is None or not 0 < diag.span.line <= len(lines):
         return None
-    return lines[diag.span.line - 1]
+    line = lines[diag.span.line - 1]
+    if len(line) > 120 and diag.span.col <= 100:  # a trace line: the start is enough
+        return line[:100] + " ..."
+    return line if len(line) <= 120 else None
 
 
-def report(diags: Diagnostics, opts: Options) -> Outcome:
+def report(diags: Diagnostics, opts: Options, text_summary: bool = True) -> Outcome:
     """Print the diagnostics the options select, in their format; what was found.
 
     Text goes to stderr (a summary line after it, unless quiet); JSON, SARIF and GitHub
@@ -81,9 +87,43 @@ def report(diags: Diagnostics, opts: Options) -> Outcome:
         style = click.style if opts.color else None
         for diag in every:
             click.echo(render_text(diag, _source_line(diag), style), err=True, color=opts.color)
-    if opts.fmt == "text" and not opts.quiet and summary(result):
+    if opts.fmt == "text" and text_summary and not opts.quiet and summary(result):
         click.echo(summary(result), err=True)
     return result
+
+
+class _Session:
+    """The diagnostics of a run: printed as they come as text (the user sees the specs'
+    warnings before the run), reported once at the end in the machine formats."""
+
+    def __init__(self, opts: Options) -> None:
+        self.opts = opts
+        self.diags = Diagnostics()
+
+    def add(self, diags: Diagnostics | list[Diagnostic]) -> None:
+        found = diags if isinstance(diags, Diagnostics) else Diagnostics(list(diags))
+        self.diags.items += found.items
+        self.diags.acknowledged += found.acknowledged
+        if self.opts.fmt == "text" and not self.opts.statistics:
+            report(found, self.opts, text_summary=False)
+
+    @property
+    def fails(self) -> bool:
+        return outcome(self.diags, self.opts).fails
+
+    def finish(self, failure: str = "") -> None:
+        """Report the end (the summary, or every diagnostic in a machine format); exit 1
+        when something failed."""
+        if self.opts.fmt != "text" or self.opts.statistics:
+            result = report(self.diags, self.opts)
+        else:
+            result = outcome(self.diags, self.opts)
+            if not self.opts.quiet and summary(result):
+                click.echo(summary(result), err=True)
+        if result.fails:
+            if failure:
+                click.echo(failure, err=True)
+            sys.exit(1)
 
 
 def _version() -> str:
@@ -221,9 +261,13 @@ def main() -> None:
 @SPEC_PATHS
 @reporting
 def validate(paths: tuple[Path, ...], opts: Options) -> None:
-    """Check specs (schema and semantics) and report every problem found."""
+    """Check specs (schema and semantics) and their scenarios; report every problem found."""
     front = compile_paths(list(paths) or [Path("specs")])
-    if report(front.diagnostics, opts).fails:
+    diags = front.diagnostics
+    for system in front.systems:  # the scenarios of each system that builds
+        found = check_system_scenarios(front.directories[system.name], system)
+        diags = Diagnostics([*diags.items, *found.items], diags.acknowledged)
+    if report(diags, opts).fails:
         sys.exit(1)
     _note(opts, f"ok: {', '.join(s.name for s in front.systems)}")
 
@@ -279,10 +323,10 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> 
 @click.argument("scenario", type=click.Path(path_type=Path, dir_okay=False))
 @click.option(
     "--generated",
-    type=click.Path(path_type=Path, file_okay=False),
-    default=Path("generated"),
-    show_default=True,
-    help="Where `rcsgen build` put the system packages.",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Run the package `rcsgen build` put here, after checking it is current (by "
+    "default the system is built in memory from its specs).",
 )
 @click.option(
     "--trace",
@@ -297,54 +341,97 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> 
     default=None,
     help="Re-record this golden trace file (review the diff before committing it).",
 )
+@click.option(
+    "--golden",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="Compare the trace with this golden trace; exit 1 at the first differing cycle.",
+)
 @click.option("-v", "--verbose", is_flag=True, help="Show a failing hook's Python traceback.")
 @reporting
 def run(
     scenario: Path,
-    generated: Path,
+    generated: Path | None,
     trace_path: Path | None,
     record: Path | None,
+    golden: Path | None,
     verbose: bool,
     opts: Options,
 ) -> None:
-    """Run a scenario on the generated system and summarise it."""
+    """Run a scenario on its system (built from the specs) and check its outcome."""
     from .tools import scenario as scenarios
     from .tools.harness import Harness
 
-    try:
-        spec = scenarios.load_scenario(scenario)
-    except SpecError as error:
-        report(error.diagnostics, opts)
-        sys.exit(1)
-    system_name = _system_name(spec.system_dir)
-    package = generated / system_name
-    if not (package / "__init__.py").is_file():
-        click.echo(f"error: no generated package at {package}; run `rcsgen build` first", err=True)
-        sys.exit(1)
-    front = compile_paths([spec.system_dir])  # the IR: where each rule and hook call is
-    system = front.systems[0] if front.systems else None
-    try:
-        harness = scenarios.open_harness(spec, package)
-    except Exception as error:  # a hook-state factory, or a module that cannot be made
-        _run_failed(error, system, 0, package, opts, verbose)
+    session = _Session(opts)
+    system_dir = scenarios.find_system_dir(scenario)
+    system = None
+    if system_dir is not None:  # else the scenario check reports E403
+        front = compile_paths([system_dir])
+        session.add(front.diagnostics)
+        system = front.systems[0] if front.systems and not front.diagnostics.errors else None
+    spec = None
+    if system is not None or system_dir is None:
+        spec, found = check_scenario(scenario, system)
+        session.add(found)
+    if session.fails or spec is None or system is None:
+        session.finish("run failed: nothing was run")
+        sys.exit(1)  # (a system that does not build always has an error)
 
     def progress(h: Harness) -> None:
-        if h.cycles % 100 == 0:
+        if not opts.quiet and h.cycles % 100 == 0:
             busy = [m for m in h.modules if h.status(m).status == "EXECUTING"]
             phases = "  ".join(f"{m} {h.sent(m).command}/{h.status(m).state}" for m in busy)
-            click.echo(f"  cycle {h.cycles:>6}  {phases}", err=True)
+            click.echo(f"  cycle {h.cycles:>6}  {phases or 'every module idle'}", err=True)
 
-    try:
-        result = scenarios.run(spec, harness, progress)
-    except Exception as error:  # a hook, or a module's own code, in the cycle being run
-        _run_failed(error, system, harness.cycles + 1, package, opts, verbose)
+    failed: tuple[Exception, int] | None = None
+    # With a machine format, stdout holds only the diagnostics: what hooks print goes to stderr.
+    hooks_out = sys.stderr if opts.fmt != "text" else sys.stdout
+    with tempfile.TemporaryDirectory(prefix="rcsgen-run-") as scratch:
+        package = _package(system, generated, Path(scratch), session)
+        with contextlib.redirect_stdout(hooks_out):
+            try:
+                harness = scenarios.open_harness(spec, package)
+            except Exception as error:  # a hook-state factory, or a module that cannot be made
+                failed = (error, 0)
+            else:
+                try:
+                    result = scenarios.run(spec, harness, progress)
+                except Exception as error:  # a hook, or a module's own code, in this cycle
+                    failed = (error, harness.cycles + 1)
+    if failed is not None:
+        _run_failed(failed[0], system, failed[1], package, session, verbose)
     trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
-    scenarios.write_trace(trace_path, result.trace)
-    if record is not None:
-        scenarios.write_trace(record, result.trace)
-    _summarise(result, trace_path, record)
-    if spec.stop_when_done and result.final.get("status") != "DONE":
-        sys.exit(1)
+    problems = Diagnostics()
+    for path in [trace_path, *([record] if record is not None else [])]:
+        try:
+            scenarios.write_trace(path, result.trace)
+        except OSError as exc:
+            where = Span(display_path(path))
+            problems.error(where, "E419", f"cannot write trace `{path}`: {exc.strerror or exc}")
+    if not opts.quiet:
+        _summarise(result, trace_path, record, machine=opts.fmt != "text")
+    problems.extend(runs.unmet_expectations(spec, result))
+    if golden is not None:
+        problems.extend(runs.golden_differences(golden, result.trace, spec.name))
+    session.add(problems)
+    session.finish()
+
+
+def _package(system: IRSystem, generated: Path | None, scratch: Path, session: _Session) -> Path:
+    """The package to run: the system rendered now into `scratch`, or the one in
+    `generated`, refused (E418) unless it is exactly what the specs make."""
+    if generated is None:
+        for rel, text in emit.render_all([system]).items():
+            path = scratch / rel
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text, encoding="utf-8")
+        return scratch / system.name
+    plan, problems = write.plan_build([system], generated)
+    stale = runs.stale_package(plan, generated, system.name)
+    if problems.errors or stale is not None:
+        session.add([*problems.items, *([stale] if stale else [])])
+        session.finish("run failed: nothing was run")
+    return generated / system.name
 
 
 def _run_failed(
@@ -352,43 +439,43 @@ def _run_failed(
     system: IRSystem | None,
     cycle: int,
     package: Path,
-    opts: Options,
+    session: _Session,
     verbose: bool,
 ) -> NoReturn:
     """Report what stopped a run as one diagnostic (and the traceback with -v); exit 1."""
-    diagnostic = runs.run_error(error, system, cycle, package.resolve())
-    report(Diagnostics([diagnostic]), opts)
+    session.add([runs.run_error(error, system, cycle, package.resolve())])
     if verbose and runs.details(error):
         click.echo(runs.details(error).rstrip("\n"), err=True)
+    session.finish()
     sys.exit(1)
 
 
-def _system_name(system_dir: Path) -> str:
-    from .compiler.loader import load_file
-
-    data = load_file(system_dir / "system.yaml", "system.yaml")
-    return str(data["system"]) if isinstance(data, dict) else system_dir.name
-
-
-def _summarise(result: RunResult, trace_path: Path, record: Path | None) -> None:
+def _summarise(
+    result: RunResult, trace_path: Path, record: Path | None, machine: bool = False
+) -> None:
+    """The run's summary: on stdout, or stderr when stdout holds the diagnostics."""
     spec = result.scenario
-    click.echo(f"scenario  {spec.name}: {spec.title}")
+
+    def echo(text: str) -> None:
+        click.echo(text, err=machine)
+
+    echo(f"scenario  {spec.name}: {spec.title}")
     if spec.stop_when_done:
         final = result.final
-        click.echo(f"result    {spec.stop_when_done} {final['status']} (state {final['state']})")
-    click.echo(f"cycles    {result.cycles}")
+        echo(f"result    {spec.stop_when_done} {final['status']} (state {final['state']})")
+    echo(f"cycles    {result.cycles}")
     if result.phase_cycles:
-        click.echo(f"phases    cycles per {spec.phases_of} command:")
+        echo(f"phases    cycles per {spec.phases_of} command:")
         for phase, count in result.phase_cycles.items():
-            click.echo(f"            {phase:<26} {count:>6}")
+            echo(f"            {phase:<26} {count:>6}")
     for name, value in result.figures.items():
         shown = f"{value:.3f}" if isinstance(value, float) else str(value)
-        click.echo(f"{name.replace('_', ' '):<9} {shown}")
+        echo(f"{name.replace('_', ' '):<9} {shown}")
     slowest = sorted(result.max_cycle_ns.items(), key=lambda item: -item[1])
-    click.echo("max cycle time per module (us):")
+    echo("max cycle time per module (us):")
     for row in range(0, len(slowest), 6):
         cells = "  ".join(f"{m} {ns / 1000:.1f}" for m, ns in slowest[row : row + 6])
-        click.echo(f"            {cells}")
-    click.echo(f"trace     {trace_path} ({len(result.trace)} lines)")
+        echo(f"            {cells}")
+    echo(f"trace     {trace_path} ({len(result.trace)} lines)")
     if record is not None:
-        click.echo(f"recorded  {record}: review `git diff {record}` before committing")
+        echo(f"recorded  {record}: review `git diff {record}` before committing")

@@ -28,6 +28,7 @@ class Frontend:
 
     systems: list[IRSystem] = field(default_factory=list)
     diagnostics: Diagnostics = field(default_factory=Diagnostics)
+    directories: dict[str, Path] = field(default_factory=dict)  # system name -> its directory
 
 
 def real_path(path: Path) -> Path:
@@ -223,6 +224,7 @@ def compile_paths(paths: list[Path]) -> Frontend:
         if system is None:
             continue
         out.systems.append(system)
+        out.directories.setdefault(system.name, directory)
         span = _system_name_span(directory / SYSTEM_FILE)
         if system.name in names:
             out.diagnostics.error(

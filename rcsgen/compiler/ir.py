@@ -226,6 +226,7 @@ class IRController:
     hooks_state: str | None  # hook-module factory of the state hooks receive first
     buffers: str  # whose command/status buffers it uses: itself, or the replaced one
     runtime_names: tuple[str, ...]  # what the module imports from the runtime contract
+    hooks_state_span: Span | None = None  # where `hooks_state` names the factory
 
     def table_rules(self) -> list[IRRule]:
         """Every rule of the state tables, in code order (code = index + 1)."""

@@ -114,6 +114,7 @@ class _ControllerLowering:
             runtime_names=_runtime_names(
                 rules, c.predicates.values(), spec.hooks_state is not None
             ),
+            hooks_state_span=spec.hooks_state.span if spec.hooks_state else None,
         )
 
     def sub(self, sub: str) -> ir.IRSub:

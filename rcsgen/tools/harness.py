@@ -199,6 +199,15 @@ class Harness:
         record.write(self.buf, command_num=number, command=names.index(command), **values)
         return number
 
+    def adopt(self, supervisor: str, module: str) -> None:
+        """Make `supervisor` keep `module`'s current command as the last one it sent, so that
+        its post_process writes the same command back instead of overwriting it (a
+        scenario's `overrides: true`)."""
+        controller = self.controller(supervisor)
+        values = self.layout.COMMAND_IN[module].read(self.buf)
+        for name, value in values.items():  # command_num, command, arg_<param>
+            setattr(controller, f"{module}_{name}", value)
+
     def sent(self, module: str) -> Sent:
         """What is in `module`'s command buffer: the last command its supervisor sent."""
         values = self.layout.COMMAND_IN[module].read(self.buf)

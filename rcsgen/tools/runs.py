@@ -1,10 +1,13 @@
-"""Runs: what goes wrong while a generated system runs -> one located diagnostic.
+"""Runs: what goes wrong while a generated system runs -> one located diagnostic each.
 
 A hook that raises or returns values that do not fit its `returns:` makes the generated code
 raise `HookError` (`rcs.contract`), naming the module, the hook and the rule that called
 it; here it becomes one diagnostic at the spec's `call:` line with the cycle (E420, E421).
 Anything else a module raises (an int overflowing its 64 bits, a division by a variable
 that was 0) is E422 at the module's spec. The Python traceback is kept for `-v`.
+After the run: an expectation not met (E416), a difference from a golden trace (E417), a
+trace that cannot be read or written (E419), and a `--generated` package that is not what
+the specs make (E418).
 """
 
 from __future__ import annotations
@@ -12,9 +15,13 @@ from __future__ import annotations
 import traceback
 from pathlib import Path
 from types import TracebackType
+from typing import Any
 
-from ..compiler.diagnostics import Diagnostic, Span
+from ..compiler.diagnostics import Diagnostic, Span, SpecError
+from ..compiler.frontend import display_path
 from ..compiler.ir import IRCall, IRController, IRSystem
+from ..compiler.write import Plan
+from .scenario import RunResult, Scenario, first_difference, read_trace
 
 
 def _controller(system: IRSystem | None, name: str) -> IRController | None:
@@ -35,6 +42,8 @@ def _call_span(controller: IRController | None, rule: str, hook: str) -> Span | 
     """The `call:` of `hook` in the rule `rule` (a RuleId as text, or `hooks_state`)."""
     if controller is None:
         return None
+    if rule == "hooks_state":
+        return controller.hooks_state_span
     for ir_rule in controller.rules():
         if str(ir_rule.id) != rule:
             continue
@@ -106,3 +115,98 @@ def details(error: BaseException) -> str:
     if cause is None:
         return ""
     return "".join(traceback.format_exception(type(cause), cause, cause.__traceback__))
+
+
+# ---------------------------------------------------------------- after the run
+
+
+def unmet_expectations(scenario: Scenario, result: RunResult) -> list[Diagnostic]:
+    """E416 for each expectation of the scenario the run did not meet, at its line."""
+    found = []
+    for expected in scenario.expect:
+        if expected.what == "status":
+            final = result.final
+            actual: Any = final.get("status")
+            if expected.met(actual):
+                continue
+            stop = scenario.stop_when_done
+            if actual == "EXECUTING":
+                got = f"it was still executing after {result.cycles} cycles (max_cycles)"
+            else:
+                got = f"it finished {actual} (state {final.get('state')}) in cycle {result.cycles}"
+            message = f"expected `{stop}` to finish {expected.wanted()}; {got}"
+        elif expected.what == "cycles":
+            if expected.met(result.cycles):
+                continue
+            message = (
+                f"expected the run to take {expected.wanted()} cycles; it took {result.cycles}"
+            )
+        else:
+            actual = result.final_world.get(expected.what)
+            if expected.met(actual):
+                continue
+            shown = str(actual).lower() if isinstance(actual, bool) else f"{actual:g}"
+            message = f"expected `{expected.what}` {expected.wanted()} at the end; it was {shown}"
+        found.append(
+            Diagnostic(
+                expected.span,
+                "E416",
+                message,
+                "if the scenario is meant to end this way, change its `expect:`",
+            )
+        )
+    return found
+
+
+def golden_differences(golden: Path, trace: list[str], name: str) -> list[Diagnostic]:
+    """E417 at the golden file's line of the first differing cycle (E419: unreadable)."""
+    shown = display_path(golden)
+    try:
+        expected = read_trace(golden)
+    except SpecError as error:
+        return [
+            Diagnostic(d.span, "E419", f"cannot read golden trace: {d.message}", d.hint)
+            for d in error.diagnostics
+        ]
+    try:
+        mismatch = first_difference(expected, trace)
+    except (ValueError, TypeError) as exc:  # not JSON lines
+        return [Diagnostic(Span(shown), "E419", f"golden trace is not a trace: {exc}")]
+    if mismatch is None:
+        return []
+    line = next(
+        (
+            number
+            for number, text in enumerate(expected, start=1)
+            if f'"cycle":{mismatch.cycle},' in text
+        ),
+        min(len(expected), len(trace)) + 1,
+    )
+    return [
+        Diagnostic(
+            Span(shown, line),
+            "E417",
+            f"the run differs from the golden trace: {mismatch}",
+            f"review the difference; to accept it: rcsgen run <scenario> --record {shown}",
+        )
+    ]
+
+
+def stale_package(plan: Plan, generated: Path, system: str) -> Diagnostic | None:
+    """E418 naming the files of `generated/<system>` that differ from what the specs make."""
+    root = generated / system
+    changed = sorted(
+        p.relative_to(root).as_posix()
+        for p in [*plan.write, *plan.delete]
+        if p.is_relative_to(root)
+    )
+    if not changed:
+        return None
+    shown = ", ".join(changed[:6]) + (f" and {len(changed) - 6} more" if len(changed) > 6 else "")
+    return Diagnostic(
+        Span(display_path(root)),
+        "E418",
+        f"`{display_path(root)}` is stale: {shown} "
+        f"{'differs' if len(changed) == 1 else 'differ'} from what the specs make",
+        f"run `rcsgen build -o {display_path(generated)}`, or drop --generated to build in memory",
+    )
