@@ -22,10 +22,12 @@ test: $(STAMP)
 
 # Longer fuzzing than `make test` does: 5,000 mutated specs through the front end (and every
 # 10th through `rcsgen build`), 200 random state tables run against the reference
-# interpreter, with fresh randomness each time; prints a summary of each.
+# interpreter, 2,000 random scenario files checked and run, with fresh randomness each
+# time; prints a summary of each.
 fuzz: $(STAMP)
-	FUZZ_EXAMPLES=5000 DIFF_EXAMPLES=200 FUZZ_RANDOM=1 \
-		$(PY) -m pytest -q -s tests/test_fuzz.py tests/test_differential.py
+	FUZZ_EXAMPLES=5000 DIFF_EXAMPLES=200 SCENARIO_FUZZ_EXAMPLES=2000 FUZZ_RANDOM=1 \
+		$(PY) -m pytest -q -s tests/test_fuzz.py tests/test_differential.py \
+		tests/test_scenario_fuzz.py
 
 lint: $(STAMP)
 	$(PY) -m ruff check rcsgen tests
