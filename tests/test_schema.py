@@ -336,3 +336,34 @@ def test_plain_data_falls_back_to_the_file_start():
         ("S004", Span("plain.yaml", 1, 1)),
         ("S006", Span("plain.yaml", 1, 1)),
     ]
+
+
+# ---------------------------------------------------------------- editors and pre-commit
+
+
+def test_every_shipped_spec_and_scenario_names_its_schema_for_editors():
+    """yaml-language-server reads the modeline on the first line; its path must resolve."""
+    for path in sorted(MINER.rglob("*.yaml")):
+        first = path.read_text(encoding="utf-8").splitlines()[0]
+        kind = "scenario" if path.parent.name == "scenarios" else kind_of(path)
+        assert first.startswith("# yaml-language-server: $schema="), path
+        target = (path.parent / first.split("$schema=", 1)[1]).resolve()
+        assert target.name == f"{kind}.schema.json" and target.is_file(), path
+
+
+def test_pre_commit_hooks_run_existing_commands():
+    hooks = load_text(
+        (MINER.parent.parent / ".pre-commit-hooks.yaml").read_text(encoding="utf-8"), "hooks"
+    )
+    assert [h["id"] for h in hooks] == ["rcsgen-validate", "rcsgen-check"]
+    from click.testing import CliRunner
+
+    from rcsgen.cli import main
+
+    for hook in hooks:
+        assert {"id", "name", "entry", "language"} <= set(hook)
+        assert hook["language"] == "python" and hook["pass_filenames"] is False
+        program, *args = hook["entry"].split()
+        assert program == "rcsgen"
+        result = CliRunner().invoke(main, [*args, "--help"])
+        assert result.exit_code == 0, result.output
