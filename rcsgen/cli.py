@@ -11,15 +11,19 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import shutil
 import sys
 import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, NoReturn, TextIO
 
 import click
+from click.shell_completion import CompletionItem
 
 from .compiler import emit, write
+from .compiler.acknowledge import WARNING_CODES
 from .compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
 from .compiler.frontend import compile_paths, display_path
 from .compiler.ir import IRSystem
@@ -92,6 +96,51 @@ def report(diags: Diagnostics, opts: Options, text_summary: bool = True) -> Outc
     return result
 
 
+class Progress:
+    """A progress line for long builds and runs, on stderr.
+
+    On a terminal: one line, rewritten in place at most ten times a second and erased when
+    done. Elsewhere (a CI log): nothing for the first seconds, then a line every few seconds,
+    so a short run prints none. Never with -q or a machine format; never an empty line."""
+
+    def __init__(
+        self,
+        opts: Options,
+        stream: TextIO | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        after: float = 2.0,
+    ) -> None:
+        self.stream = stream or sys.stderr
+        self.enabled = not opts.quiet and opts.fmt == "text" and not opts.statistics
+        self.tty = self.enabled and self.stream.isatty()
+        self.clock, self.after = clock, after
+        self.start = self.last = clock()
+        self.shown = False
+
+    def __call__(self, text: str) -> None:
+        text = " ".join(text.split())
+        if not self.enabled or not text:
+            return
+        now = self.clock()
+        if self.tty:
+            if now - self.last >= 0.1 or not self.shown:
+                width = shutil.get_terminal_size((80, 24)).columns - 1
+                self.stream.write("\r\x1b[K" + text[:width])
+                self.stream.flush()
+                self.shown, self.last = True, now
+        elif now - self.start >= self.after and now - self.last >= self.after:
+            self.stream.write(f"  {text}\n")
+            self.stream.flush()
+            self.last = now
+
+    def done(self) -> None:
+        """Erase the line (on a terminal)."""
+        if self.shown:
+            self.stream.write("\r\x1b[K")
+            self.stream.flush()
+            self.shown = False
+
+
 class _Session:
     """The diagnostics of a run: printed as they come as text (the user sees the specs'
     warnings before the run), reported once at the end in the machine formats."""
@@ -161,6 +210,19 @@ def _codes(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) 
     return codes
 
 
+def _complete_codes(
+    ctx: click.Context, param: click.Parameter, incomplete: str
+) -> list[CompletionItem]:
+    """Shell completion of --select/--ignore: the warning codes (after the last comma)."""
+    done, _, last = incomplete.rpartition(",")
+    prefix = f"{done}," if done else ""
+    return [
+        CompletionItem(prefix + code)
+        for code in sorted(WARNING_CODES)
+        if code.startswith(last.upper())
+    ]
+
+
 def reporting(command: Callable[..., None]) -> Callable[..., None]:
     """The options every command reports diagnostics with; the command receives `opts`."""
 
@@ -201,6 +263,7 @@ def reporting(command: Callable[..., None]) -> Callable[..., None]:
             "--select",
             multiple=True,
             callback=_codes,
+            shell_complete=_complete_codes,
             metavar="CODES",
             help="Show only these warnings (codes or prefixes: W503,W5). Errors always show.",
         ),
@@ -208,6 +271,7 @@ def reporting(command: Callable[..., None]) -> Callable[..., None]:
             "--ignore",
             multiple=True,
             callback=_codes,
+            shell_complete=_complete_codes,
             metavar="CODES",
             help="Do not show these warnings (codes or prefixes, comma-separated).",
         ),
@@ -262,7 +326,9 @@ def main() -> None:
 @reporting
 def validate(paths: tuple[Path, ...], opts: Options) -> None:
     """Check specs (schema and semantics) and their scenarios; report every problem found."""
-    front = compile_paths(list(paths) or [Path("specs")])
+    progress = Progress(opts)
+    front = compile_paths(list(paths) or [Path("specs")], progress)
+    progress.done()
     diags = front.diagnostics
     for system in front.systems:  # the scenarios of each system that builds
         found = check_system_scenarios(front.directories[system.name], system)
@@ -286,11 +352,13 @@ def validate(paths: tuple[Path, ...], opts: Options) -> None:
 @reporting
 def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> None:
     """Generate the Python packages of the systems found in SPECS (default: specs/)."""
-    front = compile_paths(list(paths) or [Path("specs")])
+    progress = Progress(opts)
+    front = compile_paths(list(paths) or [Path("specs")], progress)
     diags = front.diagnostics
     if not outcome(diags, opts).fails:
-        plan, problems = write.plan_build(front.systems, output)
+        plan, problems = write.plan_build(front.systems, output, progress)
         diags = Diagnostics([*diags.items, *problems.items], diags.acknowledged)
+    progress.done()
     if report(diags, opts).fails:
         click.echo("build failed: nothing was written", err=True)
         sys.exit(1)
@@ -307,7 +375,9 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> 
         _note(opts, f"{output} is current ({plan.unchanged} files)")
         return
     try:
+        progress(f"writing {len(plan.write)} files, deleting {len(plan.delete)}")
         write.apply(plan)
+        progress.done()
     except SpecError as error:  # the disk refused: everything was undone
         report(error.diagnostics, opts)
         click.echo("build failed: nothing was written", err=True)
@@ -377,11 +447,13 @@ def run(
         session.finish("run failed: nothing was run")
         sys.exit(1)  # (a system that does not build always has an error)
 
+    line = Progress(opts)
+
     def progress(h: Harness) -> None:
-        if not opts.quiet and h.cycles % 100 == 0:
+        if line.enabled and h.cycles % 10 == 0:
             busy = [m for m in h.modules if h.status(m).status == "EXECUTING"]
             phases = "  ".join(f"{m} {h.sent(m).command}/{h.status(m).state}" for m in busy)
-            click.echo(f"  cycle {h.cycles:>6}  {phases or 'every module idle'}", err=True)
+            line(f"cycle {h.cycles}/{spec.max_cycles}  {phases or 'every module idle'}")
 
     failed: tuple[Exception, int] | None = None
     # With a machine format, stdout holds only the diagnostics: what hooks print goes to stderr.
@@ -398,6 +470,7 @@ def run(
                     result = scenarios.run(spec, harness, progress)
                 except Exception as error:  # a hook, or a module's own code, in this cycle
                     failed = (error, harness.cycles + 1)
+    line.done()
     if failed is not None:
         _run_failed(failed[0], system, failed[1], package, session, verbose)
     trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"

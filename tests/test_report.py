@@ -3,6 +3,7 @@ colour, --statistics, JSON, SARIF 2.1.0, GitHub annotations) and whether they fa
 
 from __future__ import annotations
 
+import io
 import json
 import re
 import shutil
@@ -10,10 +11,12 @@ from pathlib import Path
 
 import jsonschema
 import pytest
+from click.testing import CliRunner
 from conftest import REPO, rcsgen
 
+from rcsgen.cli import Progress, main
 from rcsgen.compiler.diagnostics import Diagnostic, Span
-from rcsgen.tools.report import to_github
+from rcsgen.tools.report import Options, to_github
 
 TINY = REPO / "tests" / "cases" / "valid" / "tiny"
 # tiny's top waits on sub: one W503 and one W506 at top.yaml line 31.
@@ -310,3 +313,70 @@ def test_github_escapes_what_would_end_a_command() -> None:
         line
         == "::error file=a%2Cb%3Ac.yaml,line=3,col=4,title=rcsgen E204::50%25 of%0Ait%0Ahint, here"
     )
+
+
+# ---------------------------------------------------------------- progress and completion
+
+
+class FakeTerminal(io.StringIO):
+    def __init__(self, tty: bool) -> None:
+        super().__init__()
+        self.tty = tty
+
+    def isatty(self) -> bool:
+        return self.tty
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_progress_on_a_terminal_is_one_line_rewritten_then_erased() -> None:
+    out, clock = FakeTerminal(tty=True), Clock()
+    progress = Progress(Options(), out, clock)
+    progress("checking miner: 23 controllers")
+    clock.now = 0.05
+    progress("too soon: not shown")
+    clock.now = 0.5
+    progress("analysing   the state tables")
+    progress.done()
+    assert out.getvalue() == (
+        "\r\x1b[Kchecking miner: 23 controllers\r\x1b[Kanalysing the state tables\r\x1b[K"
+    )
+
+
+def test_progress_in_a_log_says_something_only_for_long_work() -> None:
+    out, clock = FakeTerminal(tty=False), Clock()
+    progress = Progress(Options(), out, clock, after=2.0)
+    progress("cycle 10/2000")
+    clock.now = 1.0
+    progress("cycle 100/2000")
+    clock.now = 2.5
+    progress("cycle 500/2000  sb BOX_CUT/S2")
+    progress("")  # never an empty line
+    clock.now = 3.0
+    progress("cycle 600/2000")  # within the interval
+    progress.done()
+    assert out.getvalue() == "  cycle 500/2000 sb BOX_CUT/S2\n"
+
+
+@pytest.mark.parametrize("options", [Options(quiet=True), Options(fmt="json")])
+def test_no_progress_when_quiet_or_for_machines(options: Options) -> None:
+    out = FakeTerminal(tty=True)
+    progress = Progress(options, out)
+    progress("checking")
+    progress.done()
+    assert out.getvalue() == ""
+
+
+def test_shell_completion_of_warning_codes(tiny: Path, monkeypatch) -> None:
+    monkeypatch.setenv("_RCSGEN_COMPLETE", "bash_complete")
+    monkeypatch.setenv("COMP_WORDS", "rcsgen validate --ignore W503,W50")
+    monkeypatch.setenv("COMP_CWORD", "3")
+    result = CliRunner().invoke(main, [], prog_name="rcsgen")
+    assert "plain,W503,W505" in result.output.splitlines()
+    assert all(line.startswith("plain,W503,W50") for line in result.output.splitlines())

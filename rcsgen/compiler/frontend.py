@@ -7,6 +7,7 @@ one controller. Sub-directories (scenarios, hook packages) are not read here.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -158,8 +159,18 @@ def _empty(path: Path, what: str, diags: Diagnostics) -> None:
     )
 
 
-def load_system(directory: Path, diags: Diagnostics) -> IRSystem | None:
+Progress = Callable[[str], None]  # told what a long stage is doing, for a progress line
+
+
+def _quiet(_: str) -> None:
+    pass
+
+
+def load_system(
+    directory: Path, diags: Diagnostics, progress: Progress = _quiet
+) -> IRSystem | None:
     """Load, schema-check, model and check one system directory."""
+    progress(f"loading {display_path(directory)}")
     start, first = len(diags.errors), len(diags.items)
     system_path = directory / SYSTEM_FILE
     loaded = len(diags.errors)
@@ -200,10 +211,12 @@ def load_system(directory: Path, diags: Diagnostics) -> IRSystem | None:
     if system is None or len(diags.errors) > start:
         acknowledge.apply(controllers, diags, first, complete=False)
         return None
+    progress(f"checking {system.name}: {len(controllers)} controllers")
     checked = check_system(system, controllers, diags)
     if checked is None:
         acknowledge.apply(controllers, diags, first, complete=False)
         return None
+    progress(f"analysing the state tables of {system.name}")
     analyse_system(checked, diags)  # E5xx/W5xx, with counter-examples
     acknowledge.apply(controllers, diags, first, complete=True)  # allow: and first_match
     if len(diags.errors) > start:
@@ -215,12 +228,13 @@ def load_system(directory: Path, diags: Diagnostics) -> IRSystem | None:
     return lower_system(checked, sources)
 
 
-def compile_paths(paths: list[Path]) -> Frontend:
-    """Run the front end over every system found in `paths`; never raises on bad input."""
+def compile_paths(paths: list[Path], progress: Progress = _quiet) -> Frontend:
+    """Run the front end over every system found in `paths`; never raises on bad input.
+    `progress` is told what each long stage is doing."""
     out = Frontend()
     names: dict[str, Span] = {}
     for directory in find_system_dirs(paths, out.diagnostics):
-        system = load_system(directory, out.diagnostics)
+        system = load_system(directory, out.diagnostics, progress)
         if system is None:
             continue
         out.systems.append(system)

@@ -17,6 +17,7 @@ import errno
 import os
 import stat
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,11 +31,18 @@ _MANIFEST_HEAD = f"{MARKER}: the files it wrote in this directory; it overwrites
 _MANIFEST_HEAD += "# no others. Do not edit.\n"
 
 
-def plan_build(systems: list[IRSystem], output: Path) -> tuple[Plan, Diagnostics]:
+def plan_build(
+    systems: list[IRSystem], output: Path, progress: Callable[[str], None] | None = None
+) -> tuple[Plan, Diagnostics]:
     """Render every file of `systems` and compare them with `output`: what a build writes and
     deletes, and the errors that stop it (symlinks, paths leaving `output`, files in the way
     that rcsgen did not write, an output path that is a file). Nothing is written."""
+    if progress is not None:
+        modules = sum(len(s.controllers) for s in systems)
+        progress(f"rendering and formatting {modules} controller modules")
     files = with_manifests(render_all(systems))
+    if progress is not None:
+        progress(f"comparing {len(files)} files with {output}")
     problems = Diagnostics()
     plan = plan_outputs(files, output, [s.name for s in systems], problems)
     return plan, problems
