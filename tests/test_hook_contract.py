@@ -150,9 +150,23 @@ def test_a_wrong_result_names_the_call_and_what_returns_needs(hooked: Path) -> N
     )
 
 
-def test_the_generated_code_checks_with_type_and_len_only() -> None:
-    """The check stays cheap: no call of a checking function, just type() and len()."""
+def test_the_generated_code_checks_with_type_and_len_first() -> None:
+    """The check stays cheap: type() and len(); a checking function is called only for a
+    value whose type is not float or int (short-circuit)."""
     text = (REPO / "generated" / "miner" / "co.py").read_text()
     assert text.startswith(MARKER)
     assert "or len(returned) != 2" in text
-    assert "or type(returned[0]) not in NUMBER" in text
+    assert "or (type(returned[0]) not in NUMBER and not is_real(returned[0]))" in text
+
+
+def test_other_numeric_types_that_are_numbers_are_accepted(hooked: Path) -> None:
+    """A Fraction (like a numpy float) is a real number: fine for a float target; a bool is
+    not a number there, and not an int either."""
+    hooks_with(hooked, "    if not flag:\n        return 0.0\n", "")
+    hooks_with(hooked, "    return n * state[0]\n", "    return Fraction(n) * 2\n")
+    hooks_with(
+        hooked,
+        "from __future__ import annotations\n",
+        "from __future__ import annotations\n\nfrom fractions import Fraction\n",
+    )
+    run_go(hooked)

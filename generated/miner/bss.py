@@ -10,7 +10,17 @@ from .layout import (
     BSS_PERF_AT,
     BSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, NUMBER, PERF, STATUS, HookError
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands bss accepts (the code written to its command buffer).
 INIT = 1
@@ -161,7 +171,7 @@ class BssController:
             returned = hooks.noisy(self.hook_state, self.var_filtered, NOISE)
         except Exception as error:  # one error naming the module, hook, rule and cycle
             raise HookError("bss", "noisy", "every_cycle/1", self.cycles) from error
-        if type(returned) not in NUMBER:
+        if type(returned) not in NUMBER and not is_real(returned):
             raise HookError("bss", "noisy", "every_cycle/1", self.cycles, returned, "f")
         self.world_boom_angle = returned
 

@@ -26,6 +26,7 @@ from .rcs.contract import (
     PERF,
     STATUS,
     HookError,
+    is_real,
 )
 
 # Commands co accepts (the code written to its command buffer).
@@ -334,8 +335,8 @@ class CoController:
                 if (
                     type(returned) is not tuple
                     or len(returned) != 2
-                    or type(returned[0]) not in NUMBER
-                    or type(returned[1]) not in NUMBER
+                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
                 ):
                     raise HookError(
                         "co",
@@ -438,8 +439,8 @@ class CoController:
                 if (
                     type(returned) is not tuple
                     or len(returned) != 2
-                    or type(returned[0]) not in NUMBER
-                    or type(returned[1]) not in NUMBER
+                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
                 ):
                     raise HookError(
                         "co", "co_goal_ahead", "APPROACH_FACE/S1/1", self.cycles, returned, "ff"
@@ -484,8 +485,8 @@ class CoController:
             if (
                 type(returned) is not tuple
                 or len(returned) != 2
-                or type(returned[0]) not in NUMBER
-                or type(returned[1]) not in NUMBER
+                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
             ):
                 raise HookError(
                     "co",
@@ -532,8 +533,8 @@ class CoController:
                 if (
                     type(returned) is not tuple
                     or len(returned) != 2
-                    or type(returned[0]) not in NUMBER
-                    or type(returned[1]) not in NUMBER
+                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
                 ):
                     raise HookError(
                         "co",
@@ -592,8 +593,8 @@ class CoController:
             if (
                 type(returned) is not tuple
                 or len(returned) != 2
-                or type(returned[0]) not in NUMBER
-                or type(returned[1]) not in NUMBER
+                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
             ):
                 raise HookError(
                     "co",

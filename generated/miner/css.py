@@ -10,7 +10,17 @@ from .layout import (
     CSS_PERF_AT,
     CSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, NUMBER, PERF, STATUS, HookError
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands css accepts (the code written to its command buffer).
 INIT = 1
@@ -155,7 +165,7 @@ class CssController:
             returned = hooks.noisy(self.hook_state, self.world_drum_current_true, NOISE)
         except Exception as error:  # one error naming the module, hook, rule and cycle
             raise HookError("css", "noisy", "every_cycle/1", self.cycles) from error
-        if type(returned) not in NUMBER:
+        if type(returned) not in NUMBER and not is_real(returned):
             raise HookError("css", "noisy", "every_cycle/1", self.cycles, returned, "f")
         self.world_cutter_current = returned
 

@@ -10,7 +10,17 @@ from .layout import (
     MINE_PERF_AT,
     MINE_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, NUMBER, PERF, STATUS, HookError
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands mine accepts (the code written to its command buffer).
 INIT = 1
@@ -183,9 +193,9 @@ class MineController:
             type(returned) is not tuple
             or len(returned) != 4
             or type(returned[0]) is not bool
-            or type(returned[1]) not in NUMBER
-            or type(returned[2]) not in NUMBER
-            or type(returned[3]) not in NUMBER
+            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+            or (type(returned[3]) not in NUMBER and not is_real(returned[3]))
         ):
             raise HookError("mine", "cut_coal", "every_cycle/1", self.cycles, returned, "bfff")
         self.world_in_coal, self.world_face_x, self.world_depth_cut, self.var_cut = returned

@@ -10,7 +10,17 @@ from .layout import (
     PSS_PERF_AT,
     PSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, NUMBER, PERF, STATUS, HookError
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands pss accepts (the code written to its command buffer).
 INIT = 1
@@ -176,9 +186,9 @@ class PssController:
         if (
             type(returned) is not tuple
             or len(returned) != 3
-            or type(returned[0]) not in NUMBER
-            or type(returned[1]) not in NUMBER
-            or type(returned[2]) not in NUMBER
+            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
         ):
             raise HookError("pss", "noisy_pose", "every_cycle/1", self.cycles, returned, "fff")
         self.world_pose_x, self.world_pose_y, self.world_heading = returned

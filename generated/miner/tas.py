@@ -10,7 +10,17 @@ from .layout import (
     TAS_PERF_AT,
     TAS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, NUMBER, PERF, STATUS, HookError
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands tas accepts (the code written to its command buffer).
 INIT = 1
@@ -169,9 +179,9 @@ class TasController:
             if (
                 type(returned) is not tuple
                 or len(returned) != 3
-                or type(returned[0]) not in NUMBER
-                or type(returned[1]) not in NUMBER
-                or type(returned[2]) not in NUMBER
+                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
             ):
                 raise HookError("tas", "advance", "every_cycle/1", self.cycles, returned, "fff")
             self.world_true_x, self.world_true_y, self.world_true_heading = returned

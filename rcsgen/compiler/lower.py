@@ -209,20 +209,25 @@ _KIND_LETTER = {"float": "f", "int": "i", "bool": "b"}
 def _value_mismatch(value: str, kind: str) -> str:
     """A condition true when `value` cannot go into a target of this kind (see contract)."""
     if kind == "f":
-        return f"type({value}) not in NUMBER"
+        return f"type({value}) not in NUMBER and not is_real({value})"
     if kind == "i":
-        return f"type({value}) is not int or not INT_MIN <= {value} <= INT_MAX"
+        return (
+            f"(type({value}) is not int and not is_integer({value})) "
+            f"or not INT_MIN <= {value} <= INT_MAX"
+        )
     return f"type({value}) is not bool"
 
 
 def result_mismatch(kinds: str, name: str = "returned") -> str:
     """The Python condition that a hook's result `name` does not fit targets of `kinds`:
     one value of its kind, or a tuple of exactly that many values of theirs."""
+    if not kinds:
+        return ""  # no targets: the result is ignored
     if len(kinds) == 1:
         return _value_mismatch(name, kinds)
     parts = [f"type({name}) is not tuple", f"len({name}) != {len(kinds)}"]
     parts += [f"{_value_mismatch(f'{name}[{i}]', k)}" for i, k in enumerate(kinds)]
-    return " or ".join(f"({p})" if " or " in p else p for p in parts) if kinds else ""
+    return " or ".join(f"({p})" if " or " in p or " and " in p else p for p in parts)
 
 
 def _attribute(target: Target) -> str:
@@ -251,8 +256,8 @@ def _runtime_names(
                 trees += list(action.args)
                 used.add("HookError")
                 kinds = {t.type for t in action.targets}
-                used |= {"NUMBER"} if "float" in kinds else set()
-                used |= {"INT_MIN", "INT_MAX"} if "int" in kinds else set()
+                used |= {"NUMBER", "is_real"} if "float" in kinds else set()
+                used |= {"INT_MIN", "INT_MAX", "is_integer"} if "int" in kinds else set()
     for tree in trees:
         used |= {ref.name for ref in expr.refs(tree) if ref.kind == "status"}
     return tuple(sorted(used, key=naming.import_order))

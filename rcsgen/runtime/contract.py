@@ -7,6 +7,7 @@ verbatim into every generated package (as `<system>/rcs/contract.py`).
 
 from __future__ import annotations
 
+import numbers
 from struct import Struct
 from typing import NamedTuple
 
@@ -96,10 +97,24 @@ class Record(NamedTuple):
 
 # ---------------------------------------------------------------- hook calls
 
-# What generated code accepts from a hook for a target of each type: an int for a float
-# target (as in spec expressions), exactly a bool for a bool, and an int within int64.
+# What generated code accepts from a hook for a target of each type: any real number but a
+# bool for a float (an int, as in spec expressions; a numpy float), any integer but a bool
+# within int64 for an int, exactly True or False for a bool. `type(x) in NUMBER` is the
+# fast path the generated check takes first; the functions below only when it fails.
 NUMBER = (float, int)
 INT_MIN, INT_MAX = -(2**63), 2**63 - 1
+
+
+def is_real(value: object) -> bool:
+    """A real number that is not a bool (numpy's and Fraction too)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def is_integer(value: object) -> bool:
+    """An integer that is not a bool (numpy's too)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
 _KIND_NAMES = {"f": "float", "i": "int", "b": "bool"}
 _NOTHING = object()
 
