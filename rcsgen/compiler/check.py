@@ -345,6 +345,7 @@ def _check_hooks_module(
     try:
         source = loader.read_bytes(path, str(path), loader.MAX_BYTES)
         tree = ast.parse(loader.decode(source, str(path)), filename=str(path))
+        compile(tree, str(path), "exec", dont_inherit=True)  # what only compiling finds
     except SpecError as error:
         reason = next(iter(error.diagnostics)).message
         diags.error(
