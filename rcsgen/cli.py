@@ -481,9 +481,10 @@ def run(
         except OSError as exc:
             where = Span(display_path(path))
             problems.error(where, "E419", f"cannot write trace `{path}`: {exc.strerror or exc}")
+    unmet = runs.unmet_expectations(spec, result)
     if not opts.quiet:
-        _summarise(result, trace_path, record, machine=opts.fmt != "text")
-    problems.extend(runs.unmet_expectations(spec, result))
+        _summarise(result, trace_path, record, machine=opts.fmt != "text", unmet=len(unmet))
+    problems.extend(unmet)
     if golden is not None:
         problems.extend(runs.golden_differences(golden, result.trace, spec.name))
     session.add(problems)
@@ -524,7 +525,11 @@ def _run_failed(
 
 
 def _summarise(
-    result: RunResult, trace_path: Path, record: Path | None, machine: bool = False
+    result: RunResult,
+    trace_path: Path,
+    record: Path | None,
+    machine: bool = False,
+    unmet: int = 0,
 ) -> None:
     """The run's summary: on stdout, or stderr when stdout holds the diagnostics."""
     spec = result.scenario
@@ -549,6 +554,10 @@ def _summarise(
     for row in range(0, len(slowest), 6):
         cells = "  ".join(f"{m} {ns / 1000:.1f}" for m, ns in slowest[row : row + 6])
         echo(f"            {cells}")
+    if spec.expect:
+        wanted = "; ".join(f"{e.what} {e.wanted()}" for e in spec.expect)
+        verdict = "met" if not unmet else f"{unmet} of {len(spec.expect)} not met"
+        echo(f"expected  {wanted}: {verdict}")
     echo(f"trace     {trace_path} ({len(result.trace)} lines)")
     if record is not None:
         echo(f"recorded  {record}: review `git diff {record}` before committing")
