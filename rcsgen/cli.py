@@ -481,7 +481,7 @@ def run(
         except OSError as exc:
             where = Span(display_path(path))
             problems.error(where, "E419", f"cannot write trace `{path}`: {exc.strerror or exc}")
-    unmet = runs.unmet_expectations(spec, result)
+    unmet = runs.unmet_expectations(spec, result, harness.world.snapshot())
     if not opts.quiet:
         _summarise(result, trace_path, record, machine=opts.fmt != "text", unmet=len(unmet))
     problems.extend(unmet)

@@ -120,8 +120,11 @@ def details(error: BaseException) -> str:
 # ---------------------------------------------------------------- after the run
 
 
-def unmet_expectations(scenario: Scenario, result: RunResult) -> list[Diagnostic]:
-    """E416 for each expectation of the scenario the run did not meet, at its line."""
+def unmet_expectations(
+    scenario: Scenario, result: RunResult, world: dict[str, Any]
+) -> list[Diagnostic]:
+    """E416 for each expectation of the scenario the run did not meet, at its line; `world`
+    holds the world fields at the end of the run."""
     found = []
     for expected in scenario.expect:
         if expected.what == "status":
@@ -142,7 +145,7 @@ def unmet_expectations(scenario: Scenario, result: RunResult) -> list[Diagnostic
                 f"expected the run to take {expected.wanted()} cycles; it took {result.cycles}"
             )
         else:
-            actual = result.final_world.get(expected.what)
+            actual = world.get(expected.what)
             if expected.met(actual):
                 continue
             shown = str(actual).lower() if isinstance(actual, bool) else f"{actual:g}"

@@ -128,7 +128,6 @@ class RunResult:
     phase_cycles: Counter[str]  # cycles per command of the `phases` module
     max_cycle_ns: dict[str, int]
     figures: dict[str, Any]  # the summary's world fields at the end
-    final_world: dict[str, Any] = field(default_factory=dict)  # every world field at the end
 
 
 def trace_line(harness: Harness, world: list[str]) -> str:
@@ -185,8 +184,7 @@ def run(
     final = harness.status(stop).__dict__ if stop else {}
     max_ns = {m: harness.performance(m)["max_cycle_ns"] for m in harness.modules}
     figures = harness.world.snapshot(scenario.figures)
-    world = harness.world.snapshot()
-    return RunResult(scenario, trace, harness.cycles, final, phases, max_ns, figures, world)
+    return RunResult(scenario, trace, harness.cycles, final, phases, max_ns, figures)
 
 
 def _finished(harness: Harness, module: str) -> bool:
