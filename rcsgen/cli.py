@@ -1,9 +1,11 @@
 """Command line: `rcsgen validate`, `rcsgen build`, `rcsgen run`.
 
-Exit codes follow Click: 0 clean, 1 the specs (or generated/) have a problem, 2 misuse.
-Diagnostics go to stderr as `file:line:col: error[CODE]: message`, sorted by position; with
-`--format json`, `validate` and `build` print them instead as one JSON array on stdout (every
-other message then goes to stderr), for editors and CI.
+Exit codes follow Click: 0 clean, 1 the specs, scenarios or output have a problem (or a run
+did not end as expected), 2 misuse. Diagnostics go to stderr as
+`file:line:col: error[CODE]: message`, sorted by position, after the user's selection
+(`--select`, `--ignore`, `[tool.rcsgen]`: see tools/report.py and tools/config.py); with
+`--format json|sarif|github` they go to stdout instead, as one document, and every other
+message to stderr, for editors and CI.
 """
 
 from __future__ import annotations
@@ -240,6 +242,7 @@ def reporting(command: Callable[..., None]) -> Callable[..., None]:
         isolated: bool,
         **kwargs: object,
     ) -> None:
+        _source_lines.cache_clear()  # files may have changed since a previous command
         try:
             found = Config() if isolated else config.load(Path.cwd())
         except ConfigError as error:
@@ -352,18 +355,20 @@ def validate(paths: tuple[Path, ...], opts: Options) -> None:
 @reporting
 def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> None:
     """Generate the Python packages of the systems found in SPECS (default: specs/)."""
+    session = _Session(opts)
     progress = Progress(opts)
     front = compile_paths(list(paths) or [Path("specs")], progress)
-    diags = front.diagnostics
-    if not outcome(diags, opts).fails:
+    session.add(front.diagnostics)
+    if not session.fails:
         plan, problems = write.plan_build(front.systems, output, progress)
-        diags = Diagnostics([*diags.items, *problems.items], diags.acknowledged)
+        session.add(problems)
     progress.done()
-    if report(diags, opts).fails:
-        click.echo("build failed: nothing was written", err=True)
-        sys.exit(1)
+    failed = "build failed: nothing was written"
+    if session.fails:
+        session.finish(failed)
     machine = opts.fmt != "text"  # stdout holds the diagnostics; everything else: stderr
     if check:
+        session.finish()
         if plan.stale:
             click.echo(write.unified_diff(plan, output), nl=False, err=machine)
             click.echo(
@@ -377,11 +382,10 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> 
     try:
         progress(f"writing {len(plan.write)} files, deleting {len(plan.delete)}")
         write.apply(plan)
-        progress.done()
     except SpecError as error:  # the disk refused: everything was undone
-        report(error.diagnostics, opts)
-        click.echo("build failed: nothing was written", err=True)
-        sys.exit(1)
+        session.add(error.diagnostics)
+    progress.done()
+    session.finish(failed)
     _note(
         opts,
         f"built {', '.join(s.name for s in front.systems)} into {output}: "
