@@ -1,7 +1,8 @@
 """Command line: `rcsgen validate`, `rcsgen build`, `rcsgen run`.
 
 Exit codes follow Click: 0 clean, 1 the specs, scenarios or output have a problem (or a run
-did not end as expected), 2 misuse. Diagnostics go to stderr as
+did not end as expected), 2 misuse, 3 a bug in rcsgen (one line; RCSGEN_TRACEBACK=1 shows
+the traceback). Diagnostics go to stderr as
 `file:line:col: error[CODE]: message`, sorted by position, after the user's selection
 (`--select`, `--ignore`, `[tool.rcsgen]`: see tools/report.py and tools/config.py); with
 `--format json|sarif|github` they go to stdout instead, as one document, and every other
@@ -259,7 +260,25 @@ def reporting(command: Callable[..., None]) -> Callable[..., None]:
             show_acknowledged=show_acknowledged,
             color=_colour(color),
         )
-        command(*args, opts=opts, **kwargs)
+        try:
+            command(*args, opts=opts, **kwargs)
+        except (click.exceptions.Exit, click.ClickException, KeyboardInterrupt):
+            raise
+        except OSError as error:  # the machine refused (a full /tmp, a vanished directory)
+            where = f": `{error.filename}`" if error.filename else ""
+            reason = error.strerror or str(error)
+            click.echo(f"error: {reason}{where}", err=True)
+            sys.exit(1)
+        except Exception as error:  # a bug in rcsgen: say so in one line, exit 3
+            if os.environ.get("RCSGEN_TRACEBACK"):
+                raise
+            click.echo(
+                f"internal error (a bug in rcsgen; please report it): "
+                f"{type(error).__name__}: {error}\n"
+                "set RCSGEN_TRACEBACK=1 to see where it happened",
+                err=True,
+            )
+            sys.exit(3)
 
     options = [
         click.option(

@@ -380,3 +380,25 @@ def test_shell_completion_of_warning_codes(tiny: Path, monkeypatch) -> None:
     result = CliRunner().invoke(main, [], prog_name="rcsgen")
     assert "plain,W503,W505" in result.output.splitlines()
     assert all(line.startswith("plain,W503,W50") for line in result.output.splitlines())
+
+
+def test_a_bug_is_one_line_and_exit_3(tiny: Path, monkeypatch) -> None:
+    """An exception rcsgen did not foresee is not a traceback: one line, exit 3."""
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise KeyError("surprise")
+
+    monkeypatch.setattr("rcsgen.cli.compile_paths", broken)
+    result = CliRunner().invoke(main, ["validate", "sys"])
+    assert result.exit_code == 3
+    assert result.output == (
+        "internal error (a bug in rcsgen; please report it): KeyError: 'surprise'\n"
+        "set RCSGEN_TRACEBACK=1 to see where it happened\n"
+    )
+
+    def disk_full(*args: object, **kwargs: object) -> None:
+        raise OSError(28, "No space left on device", "/tmp/x")
+
+    monkeypatch.setattr("rcsgen.cli.compile_paths", disk_full)
+    full = CliRunner().invoke(main, ["validate", "sys"])
+    assert (full.exit_code, full.output) == (1, "error: No space left on device: `/tmp/x`\n")
