@@ -1,69 +1,341 @@
 """Command line: `rcsgen validate`, `build`, `run`, `graph`, `doc` and `trace`.
 
-Exit codes follow Click: 0 clean, 1 the specs (or generated/) have a problem, 2 misuse.
-Diagnostics go to stderr as `file:line:col: error[CODE]: message`, sorted by position; with
-`--format json`, `validate` and `build` print them instead as one JSON array on stdout (every
-other message then goes to stderr), for editors and CI.
+Exit codes follow Click: 0 clean, 1 the specs, scenarios or output have a problem (or a run
+did not end as expected), 2 misuse, 3 a bug in rcsgen (one line; RCSGEN_TRACEBACK=1 shows
+the traceback). Diagnostics go to stderr as
+`file:line:col: error[CODE]: message`, sorted by position, after the user's selection
+(`--select`, `--ignore`, `[tool.rcsgen]`: see tools/report.py and tools/config.py); with
+`--format json|sarif|github` they go to stdout instead, as one document, and every other
+message to stderr, for editors and CI.
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import os
+import shutil
 import sys
-from collections.abc import Iterable
+import tempfile
+import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, NoReturn, TextIO
 
 import click
+from click.shell_completion import CompletionItem
 
-from .compiler import write
-from .compiler.diagnostics import Diagnostic, Diagnostics, to_json
-from .compiler.frontend import compile_paths
+from .compiler import emit, write
+from .compiler.acknowledge import WARNING_CODES
+from .compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
+from .compiler.frontend import compile_paths, display_path
 from .compiler.ir import IRSystem
+from .compiler.loader import decode, read_bytes
+from .tools import config, runs
+from .tools.config import Config, ConfigError
+from .tools.report import (
+    FORMATS,
+    Options,
+    Outcome,
+    code_prefix_problem,
+    outcome,
+    render_text,
+    shown,
+    statistics,
+    summary,
+    to_github,
+    to_json,
+    to_sarif,
+)
+from .tools.scenario_check import check_scenario, check_system_scenarios
 
 if TYPE_CHECKING:
     from .tools.scenario import RunResult
     from .tools.traces import Trace
 
 
-def _source_line(diag: Diagnostic) -> str | None:
+@functools.cache
+def _source_lines(file: str) -> list[str] | None:
+    """The lines of a file a diagnostic names (read safely: it may be a FIFO or a device)."""
     try:
-        lines = Path(diag.span.file).read_text(encoding="utf-8").splitlines()
-        return lines[diag.span.line - 1] if 0 < diag.span.line <= len(lines) else None
-    except (OSError, UnicodeDecodeError):
+        return decode(read_bytes(Path(file), file), file).splitlines()
+    except SpecError:
         return None
 
 
-def report(diags: Diagnostics, strict: bool = False, fmt: str = "text") -> bool:
-    """Print every diagnostic (text on stderr, or a JSON array on stdout); True to fail."""
-    shown = list(diags)  # sorted, each distinct diagnostic once
-    if fmt == "json":
-        click.echo(to_json(shown))
-        return _fails(shown, strict)
-    for diag in shown:
-        click.echo(diag.render(_source_line(diag)), err=True)
-    errors = sum(d.severity == "error" for d in shown)
-    warnings = len(shown) - errors
-    if errors or warnings:
-        click.echo(f"{errors} error(s), {warnings} warning(s)", err=True)
-    return bool(errors or (strict and warnings))
+def _source_line(diag: Diagnostic) -> str | None:
+    lines = _source_lines(diag.span.file)
+    if lines is None or not 0 < diag.span.line <= len(lines):
+        return None
+    line = lines[diag.span.line - 1]
+    if len(line) > 120 and diag.span.col <= 100:  # a trace line: the start is enough
+        return line[:100] + " ..."
+    return line if len(line) <= 120 else None
 
 
-def _fails(diags: Iterable[Diagnostic], strict: bool) -> bool:
-    return any(d.severity == "error" or strict for d in diags)
+def report(diags: Diagnostics, opts: Options, text_summary: bool = True) -> Outcome:
+    """Print the diagnostics the options select, in their format; what was found.
+
+    Text goes to stderr (a summary line after it, unless quiet); JSON, SARIF and GitHub
+    annotations go to stdout, where CI reads them."""
+    active, acknowledged = shown(diags, opts)
+    result = outcome(diags, opts)
+    every = sorted({*active, *acknowledged}, key=Diagnostic.sort_key)
+    if opts.fmt == "json":
+        click.echo(to_json(every))
+    elif opts.fmt == "sarif":
+        click.echo(to_sarif(every, _version()))
+    elif opts.fmt == "github":
+        if every:
+            click.echo(to_github(every))
+    elif opts.statistics:
+        for line in statistics(every):
+            click.echo(line, err=True)
+    else:
+        style = click.style if opts.color else None
+        for diag in every:
+            click.echo(render_text(diag, _source_line(diag), style), err=True, color=opts.color)
+    if opts.fmt == "text" and text_summary and not opts.quiet and summary(result):
+        click.echo(summary(result), err=True)
+    return result
+
+
+class Progress:
+    """A progress line for long builds and runs, on stderr.
+
+    On a terminal: one line, rewritten in place at most ten times a second and erased when
+    done. Elsewhere (a CI log): nothing for the first seconds, then a line every few seconds,
+    so a short run prints none. Never with -q or a machine format; never an empty line."""
+
+    def __init__(
+        self,
+        opts: Options,
+        stream: TextIO | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        after: float = 2.0,
+    ) -> None:
+        self.stream = stream or sys.stderr
+        self.enabled = not opts.quiet and opts.fmt == "text" and not opts.statistics
+        self.tty = self.enabled and self.stream.isatty()
+        self.clock, self.after = clock, after
+        self.start = self.last = clock()
+        self.shown = False
+
+    def __call__(self, text: str) -> None:
+        text = " ".join(text.split())
+        if not self.enabled or not text:
+            return
+        now = self.clock()
+        if self.tty:
+            if now - self.last >= 0.1 or not self.shown:
+                width = shutil.get_terminal_size((80, 24)).columns - 1
+                self.stream.write("\r\x1b[K" + text[:width])
+                self.stream.flush()
+                self.shown, self.last = True, now
+        elif now - self.start >= self.after and now - self.last >= self.after:
+            self.stream.write(f"  {text}\n")
+            self.stream.flush()
+            self.last = now
+
+    def done(self) -> None:
+        """Erase the line (on a terminal)."""
+        if self.shown:
+            self.stream.write("\r\x1b[K")
+            self.stream.flush()
+            self.shown = False
+
+
+class _Session:
+    """The diagnostics of a run: printed as they come as text (the user sees the specs'
+    warnings before the run), reported once at the end in the machine formats."""
+
+    def __init__(self, opts: Options) -> None:
+        self.opts = opts
+        self.diags = Diagnostics()
+
+    def add(self, diags: Diagnostics | list[Diagnostic]) -> None:
+        found = diags if isinstance(diags, Diagnostics) else Diagnostics(list(diags))
+        self.diags.items += found.items
+        self.diags.acknowledged += found.acknowledged
+        if self.opts.fmt == "text" and not self.opts.statistics:
+            report(found, self.opts, text_summary=False)
+
+    @property
+    def fails(self) -> bool:
+        return outcome(self.diags, self.opts).fails
+
+    def finish(self, failure: str = "") -> None:
+        """Report the end (the summary, or every diagnostic in a machine format); exit 1
+        when something failed."""
+        if self.opts.fmt != "text" or self.opts.statistics:
+            result = report(self.diags, self.opts)
+        else:
+            result = outcome(self.diags, self.opts)
+            if not self.opts.quiet and summary(result):
+                click.echo(summary(result), err=True)
+        if result.fails:
+            if failure:
+                click.echo(failure, err=True)
+            sys.exit(1)
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("rcsgen")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def _note(opts: Options, message: str) -> None:
+    """A line for the user, unless quiet: on stdout, or stderr when stdout holds the
+    diagnostics (JSON, SARIF, GitHub)."""
+    if not opts.quiet:
+        click.echo(message, err=opts.fmt != "text")
 
 
 SPEC_PATHS = click.argument(
-    "paths", nargs=-1, type=click.Path(path_type=Path, exists=False), metavar="[SPECS]..."
+    "paths",
+    nargs=-1,
+    # Existence and readability are checked by the front end, as located diagnostics.
+    type=click.Path(path_type=Path, exists=False, readable=False),
+    metavar="[SPECS]...",
 )
-FORMAT = click.option(
-    "--format",
-    "fmt",
-    type=click.Choice(["text", "json"]),
-    default="text",
-    show_default=True,
-    help="Diagnostics as text on stderr, or as one JSON array on stdout (editors, CI).",
-)
+
+
+def _codes(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) -> tuple[str, ...]:
+    """Comma-separated warning codes or prefixes, each of them valid."""
+    codes = tuple(c.strip().upper() for v in values for c in v.split(",") if c.strip())
+    for code in codes:
+        problem = code_prefix_problem(code)
+        if problem:
+            raise click.BadParameter(problem, ctx=ctx, param=param)
+    return codes
+
+
+def _complete_codes(
+    ctx: click.Context, param: click.Parameter, incomplete: str
+) -> list[CompletionItem]:
+    """Shell completion of --select/--ignore: the warning codes (after the last comma)."""
+    done, _, last = incomplete.rpartition(",")
+    prefix = f"{done}," if done else ""
+    return [
+        CompletionItem(prefix + code)
+        for code in sorted(WARNING_CODES)
+        if code.startswith(last.upper())
+    ]
+
+
+def reporting(command: Callable[..., None]) -> Callable[..., None]:
+    """The options every command reports diagnostics with; the command receives `opts`."""
+
+    @functools.wraps(command)
+    def with_options(
+        *args: object,
+        select: tuple[str, ...],
+        ignore: tuple[str, ...],
+        strict: bool | None,
+        fmt: str,
+        quiet: bool,
+        statistics: bool,
+        show_acknowledged: bool,
+        color: str,
+        isolated: bool,
+        **kwargs: object,
+    ) -> None:
+        _source_lines.cache_clear()  # files may have changed since a previous command
+        try:
+            found = Config() if isolated else config.load(Path.cwd())
+        except ConfigError as error:
+            raise click.UsageError(str(error)) from None
+        if statistics and fmt != "text":
+            raise click.UsageError("--statistics prints text; it cannot be combined with --format")
+        opts = Options(
+            select=select or found.select,
+            ignore=(*found.ignore, *ignore),
+            strict=bool(found.strict) if strict is None else strict,
+            fmt=fmt,
+            quiet=quiet,
+            statistics=statistics,
+            show_acknowledged=show_acknowledged,
+            color=_colour(color),
+        )
+        try:
+            command(*args, opts=opts, **kwargs)
+        except (click.exceptions.Exit, click.ClickException, KeyboardInterrupt):
+            raise
+        except OSError as error:  # the machine refused (a full /tmp, a vanished directory)
+            where = f": `{error.filename}`" if error.filename else ""
+            reason = error.strerror or str(error)
+            click.echo(f"error: {reason}{where}", err=True)
+            sys.exit(1)
+        except Exception as error:  # a bug in rcsgen: say so in one line, exit 3
+            if os.environ.get("RCSGEN_TRACEBACK"):
+                raise
+            click.echo(
+                f"internal error (a bug in rcsgen; please report it): "
+                f"{type(error).__name__}: {error}\n"
+                "set RCSGEN_TRACEBACK=1 to see where it happened",
+                err=True,
+            )
+            sys.exit(3)
+
+    options = [
+        click.option(
+            "--select",
+            multiple=True,
+            callback=_codes,
+            shell_complete=_complete_codes,
+            metavar="CODES",
+            help="Show only these warnings (codes or prefixes: W503,W5). Errors always show.",
+        ),
+        click.option(
+            "--ignore",
+            multiple=True,
+            callback=_codes,
+            shell_complete=_complete_codes,
+            metavar="CODES",
+            help="Do not show these warnings (codes or prefixes, comma-separated).",
+        ),
+        click.option("--strict/--no-strict", default=None, help="Fail on warnings too."),
+        click.option(
+            "--format",
+            "fmt",
+            type=click.Choice(FORMATS),
+            default="text",
+            show_default=True,
+            help="Text on stderr; JSON, SARIF 2.1.0 or GitHub annotations on stdout.",
+        ),
+        click.option("-q", "--quiet", is_flag=True, help="Print diagnostics only."),
+        click.option("--statistics", is_flag=True, help="Count diagnostics per code instead."),
+        click.option(
+            "--show-acknowledged",
+            is_flag=True,
+            help="Also show the warnings the specs acknowledge (allow:, first_match).",
+        ),
+        click.option(
+            "--color",
+            type=click.Choice(["auto", "always", "never"]),
+            default="auto",
+            show_default=True,
+            help="Colour the text (auto: on a terminal, unless NO_COLOR is set).",
+        ),
+        click.option("--isolated", is_flag=True, help="Ignore [tool.rcsgen] in pyproject.toml."),
+    ]
+    for option in reversed(options):
+        with_options = option(with_options)
+    return with_options
+
+
+def _colour(choice: str) -> bool:
+    if choice != "auto":
+        return choice == "always"
+    if os.environ.get("NO_COLOR"):
+        return False
+    if os.environ.get("FORCE_COLOR"):
+        return True
+    return sys.stderr.isatty() and os.environ.get("TERM") != "dumb"
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -74,15 +346,19 @@ def main() -> None:
 
 @main.command()
 @SPEC_PATHS
-@click.option("--strict", is_flag=True, help="Fail on warnings too.")
-@FORMAT
-def validate(paths: tuple[Path, ...], strict: bool, fmt: str) -> None:
-    """Check specs (schema and semantics) and report every problem found."""
-    front = compile_paths(list(paths) or [Path("specs")])
-    if report(front.diagnostics, strict, fmt):
+@reporting
+def validate(paths: tuple[Path, ...], opts: Options) -> None:
+    """Check specs (schema and semantics) and their scenarios; report every problem found."""
+    progress = Progress(opts)
+    front = compile_paths(list(paths) or [Path("specs")], progress)
+    progress.done()
+    diags = front.diagnostics
+    for system in front.systems:  # the scenarios of each system that builds
+        found = check_system_scenarios(front.directories[system.name], system)
+        diags = Diagnostics([*diags.items, *found.items], diags.acknowledged)
+    if report(diags, opts).fails:
         sys.exit(1)
-    names = ", ".join(s.name for s in front.systems)
-    click.echo(f"ok: {names}", err=fmt == "json")
+    _note(opts, f"ok: {', '.join(s.name for s in front.systems)}")
 
 
 @main.command()
@@ -90,45 +366,50 @@ def validate(paths: tuple[Path, ...], strict: bool, fmt: str) -> None:
 @click.option(
     "-o",
     "--output",
-    type=click.Path(path_type=Path, file_okay=False),
+    type=click.Path(path_type=Path),
     default=Path("generated"),
     show_default=True,
     help="Output directory; each system gets <output>/<system>/.",
 )
 @click.option("--check", is_flag=True, help="Write nothing; print a diff and exit 1 if stale.")
-@click.option("--strict", is_flag=True, help="Fail on warnings too.")
-@FORMAT
-def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt: str) -> None:
+@reporting
+def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> None:
     """Generate the Python packages of the systems found in SPECS (default: specs/)."""
-    front = compile_paths(list(paths) or [Path("specs")])
-    quiet = fmt == "json"  # stdout holds one JSON array; every other message goes to stderr
-    if (report if not quiet else _fails)(front.diagnostics, strict):
-        if quiet:
-            report(front.diagnostics, strict, fmt)
-        click.echo("build failed: nothing was written", err=True)
-        sys.exit(1)
-    plan, problems = write.plan_build(front.systems, output)
-    # In JSON, one array holds them all; as text, the front end's were printed above.
-    diags = Diagnostics([*front.diagnostics.items, *problems.items] if quiet else problems.items)
-    if report(diags, fmt=fmt):
-        click.echo("build failed: nothing was written", err=True)
-        sys.exit(1)
+    session = _Session(opts)
+    progress = Progress(opts)
+    front = compile_paths(list(paths) or [Path("specs")], progress)
+    session.add(front.diagnostics)
+    if not session.fails:
+        plan, problems = write.plan_build(front.systems, output, progress)
+        session.add(problems)
+    progress.done()
+    failed = "build failed: nothing was written"
+    if session.fails:
+        session.finish(failed)
+    machine = opts.fmt != "text"  # stdout holds the diagnostics; everything else: stderr
     if check:
+        session.finish()
         if plan.stale:
-            click.echo(write.unified_diff(plan, output), nl=False, err=quiet)
+            click.echo(write.unified_diff(plan, output), nl=False, err=machine)
             click.echo(
                 f"{output} is stale: {len(plan.write)} file(s) to write, "
                 f"{len(plan.delete)} to delete; run `rcsgen build` to update it",
                 err=True,
             )
             sys.exit(1)
-        click.echo(f"{output} is current ({plan.unchanged} files)", err=quiet)
+        _note(opts, f"{output} is current ({plan.unchanged} files)")
         return
-    write.apply(plan)
-    click.echo(
+    try:
+        progress(f"writing {len(plan.write)} files, deleting {len(plan.delete)}")
+        write.apply(plan)
+    except SpecError as error:  # the disk refused: everything was undone
+        session.add(error.diagnostics)
+    progress.done()
+    session.finish(failed)
+    _note(
+        opts,
         f"built {', '.join(s.name for s in front.systems)} into {output}: "
         f"{len(plan.write)} written, {len(plan.delete)} deleted, {plan.unchanged} unchanged",
-        err=quiet,
     )
 
 
@@ -136,10 +417,10 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt:
 @click.argument("scenario", type=click.Path(path_type=Path, dir_okay=False))
 @click.option(
     "--generated",
-    type=click.Path(path_type=Path, file_okay=False),
-    default=Path("generated"),
-    show_default=True,
-    help="Where `rcsgen build` put the system packages.",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Run the package `rcsgen build` put here, after checking it is current (by "
+    "default the system is built in memory from its specs).",
 )
 @click.option(
     "--trace",
@@ -155,51 +436,92 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, strict: bool, fmt:
     help="Re-record this golden trace file (review the diff before committing it).",
 )
 @click.option(
+    "--golden",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="Compare the trace with this golden trace; exit 1 at the first differing cycle.",
+)
+@click.option(
     "--processes",
     is_flag=True,
     help="Run every process as its own OS process, in lockstep (the same trace).",
 )
+@click.option("-v", "--verbose", is_flag=True, help="Show a failing hook's Python traceback.")
+@reporting
 def run(
     scenario: Path,
-    generated: Path,
+    generated: Path | None,
     trace_path: Path | None,
     record: Path | None,
+    golden: Path | None,
     processes: bool,
+    verbose: bool,
+    opts: Options,
 ) -> None:
-    """Run a scenario on the generated system and summarise it."""
-    from .compiler.diagnostics import SpecError
+    """Run a scenario on its system (built from the specs) and check its outcome."""
     from .tools import scenario as scenarios
     from .tools.harness import AnyHarness
 
-    try:
-        spec = scenarios.load_scenario(scenario)
-    except SpecError as error:
-        report(error.diagnostics)
-        sys.exit(1)
-    system_name = _system_name(spec.system_dir)
-    package = generated / system_name
-    if not (package / "__init__.py").is_file():
-        click.echo(f"error: no generated package at {package}; run `rcsgen build` first", err=True)
-        sys.exit(1)
-    harness = scenarios.open_harness(spec, package, processes)
+    session = _Session(opts)
+    system_dir = scenarios.find_system_dir(scenario)
+    system = None
+    if system_dir is not None:  # else the scenario check reports E403
+        front = compile_paths([system_dir])
+        session.add(front.diagnostics)
+        system = front.systems[0] if front.systems and not front.diagnostics.errors else None
+    spec = None
+    if system is not None or system_dir is None:
+        spec, found = check_scenario(scenario, system)
+        session.add(found)
+    if session.fails or spec is None or system is None:
+        session.finish("run failed: nothing was run")
+        sys.exit(1)  # (a system that does not build always has an error)
+
+    line = Progress(opts)
 
     def progress(h: AnyHarness) -> None:
-        if h.cycles % 100 == 0:
+        if line.enabled and h.cycles % 10 == 0:
             busy = [m for m in h.modules if h.status(m).status == "EXECUTING"]
             phases = "  ".join(f"{m} {h.sent(m).command}/{h.status(m).state}" for m in busy)
-            click.echo(f"  cycle {h.cycles:>6}  {phases}", err=True)
+            line(f"cycle {h.cycles}/{spec.max_cycles}  {phases or 'every module idle'}")
 
-    try:
-        result = scenarios.run(spec, harness, progress)
-    finally:
-        harness.close()
+    failed: tuple[Exception, int] | None = None
+    # With a machine format, stdout holds only the diagnostics: what hooks print goes to stderr.
+    hooks_out = sys.stderr if opts.fmt != "text" else sys.stdout
+    with tempfile.TemporaryDirectory(prefix="rcsgen-run-") as scratch:
+        package = _package(system, generated, Path(scratch), session)
+        with contextlib.redirect_stdout(hooks_out):
+            try:
+                harness = scenarios.open_harness(spec, package, processes)
+            except Exception as error:  # a hook-state factory, or a module that cannot be made
+                failed = (error, 0)
+            else:
+                try:
+                    result = scenarios.run(spec, harness, progress)
+                    final_world = harness.world.snapshot()
+                except Exception as error:  # a hook, or a module's own code, in this cycle
+                    failed = (error, harness.cycles + 1)
+                finally:
+                    harness.close()
+    line.done()
+    if failed is not None:
+        _run_failed(failed[0], system, failed[1], package, session, verbose)
     trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
-    scenarios.write_trace(trace_path, result.trace)
-    if record is not None:
-        scenarios.write_trace(record, result.trace)
-    _summarise(result, trace_path, record)
-    if spec.stop_when_done and result.final.get("status") != "DONE":
-        sys.exit(1)
+    problems = Diagnostics()
+    for path in [trace_path, *([record] if record is not None else [])]:
+        try:
+            scenarios.write_trace(path, result.trace)
+        except OSError as exc:
+            where = Span(display_path(path))
+            problems.error(where, "E419", f"cannot write trace `{path}`: {exc.strerror or exc}")
+    unmet = runs.unmet_expectations(spec, result, final_world)
+    if not opts.quiet:
+        _summarise(result, trace_path, record, machine=opts.fmt != "text", unmet=len(unmet))
+    problems.extend(unmet)
+    if golden is not None:
+        problems.extend(runs.golden_differences(golden, result.trace, spec.name))
+    session.add(problems)
+    session.finish()
 
 
 @main.command(context_settings={"ignore_unknown_options": True})
@@ -238,28 +560,76 @@ def _system_name(system_dir: Path) -> str:
     return str(data["system"]) if isinstance(data, dict) else system_dir.name
 
 
-def _summarise(result: RunResult, trace_path: Path, record: Path | None) -> None:
+def _package(system: IRSystem, generated: Path | None, scratch: Path, session: _Session) -> Path:
+    """The package to run: the system rendered now into `scratch`, or the one in
+    `generated`, refused (E418) unless it is exactly what the specs make."""
+    if generated is None:
+        for rel, text in emit.render_all([system]).items():
+            path = scratch / rel
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text, encoding="utf-8")
+        return scratch / system.name
+    plan, problems = write.plan_build([system], generated)
+    stale = runs.stale_package(plan, generated, system.name)
+    if problems.errors or stale is not None:
+        session.add([*problems.items, *([stale] if stale else [])])
+        session.finish("run failed: nothing was run")
+    return generated / system.name
+
+
+def _run_failed(
+    error: Exception,
+    system: IRSystem | None,
+    cycle: int,
+    package: Path,
+    session: _Session,
+    verbose: bool,
+) -> NoReturn:
+    """Report what stopped a run as one diagnostic (and the traceback with -v); exit 1."""
+    session.add([runs.run_error(error, system, cycle, package.resolve())])
+    if verbose and runs.details(error):
+        click.echo(runs.details(error).rstrip("\n"), err=True)
+    session.finish()
+    sys.exit(1)
+
+
+def _summarise(
+    result: RunResult,
+    trace_path: Path,
+    record: Path | None,
+    machine: bool = False,
+    unmet: int = 0,
+) -> None:
+    """The run's summary: on stdout, or stderr when stdout holds the diagnostics."""
     spec = result.scenario
-    click.echo(f"scenario  {spec.name}: {spec.title}")
+
+    def echo(text: str) -> None:
+        click.echo(text, err=machine)
+
+    echo(f"scenario  {spec.name}: {spec.title}")
     if spec.stop_when_done:
         final = result.final
-        click.echo(f"result    {spec.stop_when_done} {final['status']} (state {final['state']})")
-    click.echo(f"cycles    {result.cycles}")
+        echo(f"result    {spec.stop_when_done} {final['status']} (state {final['state']})")
+    echo(f"cycles    {result.cycles}")
     if result.phase_cycles:
-        click.echo(f"phases    cycles per {spec.phases_of} command:")
+        echo(f"phases    cycles per {spec.phases_of} command:")
         for phase, count in result.phase_cycles.items():
-            click.echo(f"            {phase:<26} {count:>6}")
+            echo(f"            {phase:<26} {count:>6}")
     for name, value in result.figures.items():
         shown = f"{value:.3f}" if isinstance(value, float) else str(value)
-        click.echo(f"{name.replace('_', ' '):<9} {shown}")
+        echo(f"{name.replace('_', ' '):<9} {shown}")
     slowest = sorted(result.max_cycle_ns.items(), key=lambda item: -item[1])
-    click.echo("max cycle time per module (us):")
+    echo("max cycle time per module (us):")
     for row in range(0, len(slowest), 6):
         cells = "  ".join(f"{m} {ns / 1000:.1f}" for m, ns in slowest[row : row + 6])
-        click.echo(f"            {cells}")
-    click.echo(f"trace     {trace_path} ({len(result.trace)} lines)")
+        echo(f"            {cells}")
+    if spec.expect:
+        wanted = "; ".join(f"{e.what} {e.wanted()}" for e in spec.expect)
+        verdict = "met" if not unmet else f"{unmet} of {len(spec.expect)} not met"
+        echo(f"expected  {wanted}: {verdict}")
+    echo(f"trace     {trace_path} ({len(result.trace)} lines)")
     if record is not None:
-        click.echo(f"recorded  {record}: review `git diff {record}` before committing")
+        echo(f"recorded  {record}: review `git diff {record}` before committing")
 
 
 # ---------------------------------------------------------------- pictures and the reference
@@ -275,7 +645,7 @@ def _systems(paths: tuple[Path, ...]) -> list[IRSystem]:
     """The systems in SPECS (default specs/); on an error in the specs, its diagnostics and
     exit 1. Warnings are `validate`'s business: pictures and pages do not repeat them."""
     front = compile_paths(list(paths) or [Path("specs")])
-    if report(Diagnostics(front.diagnostics.errors)):
+    if report(Diagnostics(front.diagnostics.errors), Options()).fails:
         sys.exit(1)
     return front.systems
 
@@ -356,7 +726,7 @@ def doc_command(paths: tuple[Path, ...], output: Path, check: bool) -> None:
 
     systems = _systems(paths)
     plan, problems = reference.plan(systems, output)
-    if report(problems):
+    if report(problems, Options()).fails:
         click.echo("doc failed: nothing was written", err=True)
         sys.exit(1)
     if check:
@@ -567,7 +937,7 @@ def trace_mine(
         try:
             settings = load_scenario(scenario).settings
         except SpecError as error:
-            report(error.diagnostics)
+            report(error.diagnostics, Options())
             sys.exit(1)
     try:
         page, result = mine_view.render(

@@ -92,8 +92,9 @@ def spec(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     monkeypatch.chdir(tmp_path)
 
     def run(commands: str, locals_: str = "", top_level: str = "") -> list[Diagnostic]:
+        """Every diagnostic, the acknowledged ones included (their `acknowledged` is set)."""
         front = compile_paths([make(tmp_path, commands, locals_, top_level)])
-        return list(front.diagnostics)
+        return [*front.diagnostics, *front.diagnostics.acknowledged]
 
     return run
 
@@ -347,7 +348,9 @@ def test_an_error_fails_validate_and_build(spec, tmp_path: Path) -> None:
     assert not (tmp_path / "out").exists()
 
 
-def test_first_match_turns_the_overlap_into_a_warning(spec) -> None:
+def test_first_match_acknowledges_the_overlap(spec) -> None:
+    """The overlap is still found (and shown with --show-acknowledged), but first_match is its
+    acknowledgement: nothing is reported and --strict passes."""
     diags = spec(OVERLAP.replace("GO:\n  states:", "GO:\n  first_match: [S1]\n  states:"))
     assert found(diags, "E501", "W501", "W502", "W511") == [
         (
@@ -357,10 +360,15 @@ def test_first_match_turns_the_overlap_into_a_warning(spec) -> None:
             "world.cold=false; rule 1 wins (first_match)",
         )
     ]
-    assert_fires_both(Path("sys"), "top", found(diags, "W501")[0][2])
+    [w501] = [d for d in diags if d.code == "W501"]
+    assert w501.acknowledged == "`first_match: [S1]` on GO: the earlier rule wins"
+    assert_fires_both(Path("sys"), "top", w501.message)
     assert not [d for d in diags if d.severity == "error"]
-    assert rcsgen("validate", "sys").exit_code == 0
-    assert rcsgen("validate", "--strict", "sys").exit_code == 1
+    plain = rcsgen("validate", "sys")
+    assert plain.exit_code == 0 and "W501" not in plain.output  # (the table has a W503, W506)
+    shown = rcsgen("validate", "--show-acknowledged", "sys")
+    assert "sys/top.yaml:24:11: acknowledged[W501]: rules 1 and 2 of GO S1" in shown.output
+    assert "= reason: `first_match: [S1]` on GO: the earlier rule wins" in shown.output
 
 
 def test_a_rule_without_when_overlaps_the_rules_before_it(spec) -> None:
@@ -442,8 +450,15 @@ def test_exclusive_guards_are_not_reported(spec) -> None:
     """Complementary numeric atoms, distinct statuses, an int gap, linear forms, a predicate."""
     diags = spec(EXCLUSIVE)
     # Each state has a rule for every valuation, but for S2 waiting while `a` executes
-    # (the handshake, not reported).
-    assert found(diags) == []
+    # (the handshake, not reported). S8's first guard is the constant false: the checker
+    # says so (W302) and the rule is not analysed.
+    assert found(diags) == [
+        (
+            at('when: |"False"'),
+            "W302",
+            "this rule of GO S8 never fires: its guard is always false",
+        )
+    ]
 
 
 def test_comparisons_beyond_interval_reasoning_cannot_be_proven(spec) -> None:
@@ -622,8 +637,8 @@ def test_a_state_that_waits_is_a_warning_naming_the_valuation(spec) -> None:
         (at("    |S1:"), "GO S1 waits when a.status=ERROR, b.status=DONE: no rule fires then")
     ]
     assert w503[0].hint == (
-        "waiting is normal in RCS; make sure this state should wait here "
-        "(warnings fail only a --strict build)"
+        "waiting is normal in RCS; if this wait is intended, acknowledge it on GO: "
+        "`allow: [{code: W503, states: [S1], reason: ...}]`"
     )
     evaluator = Evaluator(Path("sys"), "top")
     guards = [evaluator.guard("GO", "S1", n) for n in (1, 2)]
@@ -659,7 +674,37 @@ def test_a_command_that_can_never_report_is_an_error(spec) -> None:
             "GO can never finish: no rule reachable from S0 reports DONE or ERROR",
         )
     ]
-    assert codes(diags) == {"E504"}  # S2's reporting rule can never fire
+    assert found(diags, "W512") == [  # S2's reporting rule can never fire
+        (
+            at("      - |when: world.level > 5.0 and world.level < 3.0"),
+            "W512",
+            "rule 1 of GO S2 never fires: its guard can never hold",
+        )
+    ]
+    assert codes(diags) == {"E504", "W512"}
+
+
+def test_a_rule_that_an_earlier_rule_always_beats_is_a_warning(spec) -> None:
+    diags = spec(
+        """
+        GO:
+          first_match: [S0]
+          states:
+            S0:
+              - when: world.hot or world.cold
+                do: [report: DONE]
+              - when: world.hot
+                do: [report: ERROR]
+        """
+    )
+    assert found(diags, "W512") == [
+        (
+            at("      - |when: world.hot\n"),
+            "W512",
+            "rule 2 of GO S0 never fires: whenever its guard holds, an earlier rule (1) "
+            "fires first",
+        )
+    ]
 
 
 def test_a_command_sent_and_never_awaited_is_a_warning(spec) -> None:
@@ -1132,10 +1177,13 @@ MINER_FINDINGS = [
 ]
 
 
-def test_the_miner_has_no_errors_and_exactly_these_warnings() -> None:
+def test_the_miner_has_no_findings_but_these_acknowledged_ones() -> None:
+    """Every finding on the miner is intended and acknowledged in its spec with a reason
+    (`allow:`, or `first_match` for the overlaps of co's Appendix C table)."""
     front = compile_paths([MINER])
-    diags = list(front.diagnostics)
-    assert [d for d in diags if d.severity == "error"] == []
+    assert list(front.diagnostics) == []
+    diags = front.diagnostics.acknowledged
+    assert all(d.acknowledged for d in diags)
     assert sorted((Path(d.span.file).name, d.code, d.message) for d in diags) == sorted(
         MINER_FINDINGS
     )

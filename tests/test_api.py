@@ -60,9 +60,21 @@ def test_build_deletes_what_it_no_longer_generates(tmp_path: Path) -> None:
     out = tmp_path / "out"
     rcsgen.build([MINER], out)
     stale = out / "miner" / "stale.py"
-    shutil.copy(out / "miner" / "co.py", stale)  # generated earlier, by its first line
+    shutil.copy(out / "miner" / "co.py", stale)  # as if an earlier build had written it:
+    with (out / "miner" / ".rcsgen-manifest").open("a") as manifest:
+        manifest.write("stale.py\n")  # its manifest lists it
     built = rcsgen.build([MINER], out)
     assert built.deleted == (stale,) and not stale.exists()
+
+
+def test_build_never_deletes_a_file_it_did_not_write(tmp_path: Path) -> None:
+    """A file with rcsgen's header that rcsgen did not write there (a copied module) stays."""
+    out = tmp_path / "out"
+    rcsgen.build([MINER], out)
+    copied = out / "miner" / "my_copy_of_co.py"
+    shutil.copy(out / "miner" / "co.py", copied)
+    built = rcsgen.build([MINER], out)
+    assert built.deleted == () and copied.read_bytes() == (out / "miner" / "co.py").read_bytes()
 
 
 def test_build_with_an_error_raises_and_writes_nothing(tmp_path: Path) -> None:

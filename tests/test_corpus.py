@@ -16,6 +16,7 @@ judge tables, not mistakes, and a case is about its one mistake.
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 from dataclasses import dataclass
@@ -25,8 +26,10 @@ import pytest
 from click.testing import CliRunner, Result
 
 from rcsgen.cli import main
-from rcsgen.compiler.diagnostics import Diagnostic
+from rcsgen.compiler import write
+from rcsgen.compiler.diagnostics import Diagnostic, Span
 from rcsgen.compiler.frontend import compile_paths
+from rcsgen.tools.scenario_check import check_system_scenarios
 
 CASES = Path(__file__).resolve().parent / "cases"
 INVALID = sorted(p for p in (CASES / "invalid").iterdir() if p.is_dir())
@@ -45,9 +48,11 @@ class Expected:
 
 
 def expectations(case: Path) -> list[Expected]:
-    """Every `# expect:` comment of the case's YAML files."""
+    """Every `# expect:` comment of the case's files (YAML, hooks, files in `out`)."""
     found = []
-    for path in sorted(case.rglob("*.yaml")):
+    for path in sorted(p for p in case.rglob("*") if p.is_file()):
+        if "__pycache__" in path.parts:
+            continue
         rel = path.relative_to(case).as_posix()
         text = path.read_bytes().decode("utf-8", errors="replace")  # E008 cases are not UTF-8
         for number, line in enumerate(text.split("\n"), start=1):
@@ -64,9 +69,37 @@ def expectations(case: Path) -> list[Expected]:
     return found
 
 
-def run_front_end(case: Path, monkeypatch: pytest.MonkeyPatch) -> list[Diagnostic]:
+# Codes only a run finds: a case expecting one also runs each of its scenarios.
+RUN_CODES = {"E416", "E417", "E420", "E421", "E422"}
+
+
+def run_front_end(
+    case: Path, monkeypatch: pytest.MonkeyPatch, run: bool = False
+) -> list[Diagnostic]:
+    """What `rcsgen validate .` reports in the case directory (the specs and the scenarios
+    of each system); with an `out` entry (a case about the output directory), also what
+    `rcsgen build . -o out` would report; with `run`, what `rcsgen run` reports for each
+    scenario."""
     monkeypatch.chdir(case)  # diagnostics then name files relative to the case
-    return list(compile_paths([Path(".")]).diagnostics)
+    front = compile_paths([Path(".")])
+    found = list(front.diagnostics)
+    for system in front.systems:
+        found += list(check_system_scenarios(front.directories[system.name], system))
+    if os.path.lexists(case / "out") and not front.diagnostics.errors:
+        _, problems = write.plan_build(front.systems, Path("out"))  # plans; writes nothing
+        found += list(problems)
+    if run:
+        for scenario in sorted(case.rglob("scenarios/*.yaml")):
+            args = ["run", str(scenario.relative_to(case)), "--format", "json", "-q"]
+            args += ["--trace", os.devnull]
+            result = CliRunner().invoke(main, args, catch_exceptions=False)
+            assert result.exit_code in (0, 1) and "Traceback" not in result.output
+            found += [
+                Diagnostic(Span(d["file"], d["line"], d["col"]), d["code"], d["message"])
+                for d in json.loads(result.stdout)
+                if d["code"] in RUN_CODES
+            ]
+    return found
 
 
 def test_corpus_size() -> None:
@@ -80,7 +113,7 @@ def test_corpus_size() -> None:
 def test_invalid_case(case: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     want = expectations(case)
     assert want, f"{case.name} expects nothing: add `# expect: CODE` to the offending line"
-    diags = run_front_end(case, monkeypatch)
+    diags = run_front_end(case, monkeypatch, run=any(e.code in RUN_CODES for e in want))
     expects_analysis = any(ANALYSIS_WARNING.fullmatch(e.code) for e in want)
     compared = [d for d in diags if expects_analysis or not ANALYSIS_WARNING.fullmatch(d.code)]
     got = {(d.span.file, d.span.line, d.code) for d in compared}

@@ -345,12 +345,13 @@ def test_load_file_reads_utf8_with_bom_and_crlf(tmp_path):
     assert value_span(data, "state", NOWHERE) == Span(PATH, 2, 8)
 
 
-def test_unreadable_file_is_e010(tmp_path):
+def test_a_directory_or_a_missing_file_is_located_not_raised(tmp_path):
     [diag] = file_diagnostics(tmp_path)
-    assert (diag.code, diag.span) == ("E010", Span(PATH, 1, 1))
-    assert diag.message.startswith("cannot read file: ")
+    assert (diag.code, diag.span) == ("E011", Span(PATH, 1, 1))
+    assert diag.message == f"`{tmp_path.name}` is a directory, not a file"
     [missing] = file_diagnostics(tmp_path / "missing.yaml")
-    assert "No such file" in missing.message
+    assert missing.code == "E010"
+    assert missing.message == "cannot read file: no such file or directory"
 
 
 @pytest.mark.parametrize(

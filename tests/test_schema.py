@@ -14,6 +14,7 @@ from rcsgen.compiler.schema import check_document, schema_for
 
 MINER = pathlib.Path(__file__).resolve().parent.parent / "specs" / "miner"
 EXAMPLES = sorted(MINER.glob("*.yaml"))
+SCENARIOS = sorted(MINER.glob("scenarios/*.yaml"))
 
 
 def kind_of(path: pathlib.Path) -> str:
@@ -51,7 +52,7 @@ def action(text: str) -> list:
 # ---------------------------------------------------------------- the schemas themselves
 
 
-@pytest.mark.parametrize("kind", ["system", "controller"])
+@pytest.mark.parametrize("kind", ["system", "controller", "scenario"])
 def test_schema_is_valid_draft_2020_12(kind):
     schema = schema_for(kind)
     Draft202012Validator.check_schema(schema)
@@ -59,7 +60,7 @@ def test_schema_is_valid_draft_2020_12(kind):
     assert schema["$id"] == f"https://rcsgen.dev/schema/v1/{kind}.schema.json"
 
 
-@pytest.mark.parametrize("kind", ["system", "controller"])
+@pytest.mark.parametrize("kind", ["system", "controller", "scenario"])
 def test_every_property_and_definition_has_a_description(kind):
     missing = []
 
@@ -83,7 +84,7 @@ def test_every_property_and_definition_has_a_description(kind):
 def test_schema_for_is_cached_and_rejects_unknown_kinds():
     assert schema_for("controller") is schema_for("controller")
     with pytest.raises(ValueError):
-        schema_for("scenario")
+        schema_for("trace")
 
 
 # ---------------------------------------------------------------- the examples
@@ -94,6 +95,12 @@ def test_example_specs_pass_their_schema(path):
     text = path.read_text(encoding="utf-8")
     # Only rcsgen's loader: PyYAML's YAML 1.1 would turn the cutter drum's ON/OFF into booleans.
     assert check_document(load_text(text, path.name), kind_of(path), path.name) == []
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.name)
+def test_example_scenarios_pass_their_schema(path):
+    text = path.read_text(encoding="utf-8")
+    assert check_document(load_text(text, path.name), "scenario", path.name) == []
 
 
 def test_a_comma_in_a_flow_mapping_gets_a_hint():
@@ -329,3 +336,34 @@ def test_plain_data_falls_back_to_the_file_start():
         ("S004", Span("plain.yaml", 1, 1)),
         ("S006", Span("plain.yaml", 1, 1)),
     ]
+
+
+# ---------------------------------------------------------------- editors and pre-commit
+
+
+def test_every_shipped_spec_and_scenario_names_its_schema_for_editors():
+    """yaml-language-server reads the modeline on the first line; its path must resolve."""
+    for path in sorted(MINER.rglob("*.yaml")):
+        first = path.read_text(encoding="utf-8").splitlines()[0]
+        kind = "scenario" if path.parent.name == "scenarios" else kind_of(path)
+        assert first.startswith("# yaml-language-server: $schema="), path
+        target = (path.parent / first.split("$schema=", 1)[1]).resolve()
+        assert target.name == f"{kind}.schema.json" and target.is_file(), path
+
+
+def test_pre_commit_hooks_run_existing_commands():
+    hooks = load_text(
+        (MINER.parent.parent / ".pre-commit-hooks.yaml").read_text(encoding="utf-8"), "hooks"
+    )
+    assert [h["id"] for h in hooks] == ["rcsgen-validate", "rcsgen-check"]
+    from click.testing import CliRunner
+
+    from rcsgen.cli import main
+
+    for hook in hooks:
+        assert {"id", "name", "entry", "language"} <= set(hook)
+        assert hook["language"] == "python" and hook["pass_filenames"] is False
+        program, *args = hook["entry"].split()
+        assert program == "rcsgen"
+        result = CliRunner().invoke(main, [*args, "--help"])
+        assert result.exit_code == 0, result.output

@@ -175,7 +175,7 @@ def test_coverage_counts_every_table_rule_of_the_miner(system):
     rules = {(r.module, r.rule): r for r in result.rules}
     pop = rules[("co", "SUMP_SHEAR_CUSP/S2/1")]
     assert pop.cycles == 1 and pop.traces == [str(GOLDEN / "pop_out.jsonl")]
-    assert pop.where.endswith("specs/miner/co.yaml:154")
+    assert pop.where.endswith("specs/miner/co.yaml:167")
     assert rules[("co", "SUMP_SHEAR_CUSP/S2/2")].traces == [str(GOLDEN / "late_tail.jsonl")]
     assert rules[("tc", "FAST_FORWARD/S0/1")].cycles == 0
     assert rules[("cr_sim", "SUMP/S0/1")].traces == [str(GOLDEN / "cr_simulated.jsonl")]

@@ -10,7 +10,19 @@ from .layout import (
     BSS_PERF_AT,
     BSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands bss accepts (the code written to its command buffer).
 INIT = 1
@@ -77,7 +89,10 @@ class BssController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.hook_state = hooks.new_noise(settings or {})
+        try:
+            self.hook_state = hooks.new_noise(settings or {})
+        except Exception as error:
+            raise HookError("bss", "new_noise", "hooks_state", 0) from error
         self.var_filtered: float = 0.0
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
@@ -214,7 +229,13 @@ class BssController:
         self.var_filtered = self.var_filtered + LAG * (
             self.world_boom_angle_true - self.var_filtered
         )
-        self.world_boom_angle = hooks.noisy(self.hook_state, self.var_filtered, NOISE)
+        try:
+            returned = hooks.noisy(self.hook_state, self.var_filtered, NOISE)
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("bss", "noisy", "every_cycle/1", self.cycles) from error
+        if type(returned) not in NUMBER and not is_real(returned):
+            raise HookError("bss", "noisy", "every_cycle/1", self.cycles, returned, "f")
+        self.world_boom_angle = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -16,7 +16,19 @@ from .layout import (
     VG_COMMAND,
     VG_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    SEQ,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands co accepts (the code written to its command buffer).
 INIT = 1
@@ -403,9 +415,29 @@ class CoController:
                 self.rule = 6  # INITIAL_APPROACH_FACE/S1/1
                 self.state = S2
                 self.var_distance = MAX_APPROACH
-                self.world_goal_x, self.world_goal_y = hooks.co_goal_ahead(
-                    self.world_pose_x, self.world_pose_y, self.world_heading, self.var_distance
-                )
+                try:
+                    returned = hooks.co_goal_ahead(
+                        self.world_pose_x, self.world_pose_y, self.world_heading, self.var_distance
+                    )
+                except Exception as error:  # one error naming the module, hook, rule and cycle
+                    raise HookError(
+                        "co", "co_goal_ahead", "INITIAL_APPROACH_FACE/S1/1", self.cycles
+                    ) from error
+                if (
+                    type(returned) is not tuple
+                    or len(returned) != 2
+                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                ):
+                    raise HookError(
+                        "co",
+                        "co_goal_ahead",
+                        "INITIAL_APPROACH_FACE/S1/1",
+                        self.cycles,
+                        returned,
+                        "ff",
+                    )
+                self.world_goal_x, self.world_goal_y = returned
                 self.vg_arg_x = self.world_goal_x
                 self.vg_arg_y = self.world_goal_y
                 self.vg_command = VG_TRAM_TO_XY
@@ -489,9 +521,24 @@ class CoController:
                 self.rule = 17  # APPROACH_FACE/S1/1
                 self.state = S2
                 self.var_distance = APPROACH_DISTANCE
-                self.world_goal_x, self.world_goal_y = hooks.co_goal_ahead(
-                    self.world_pose_x, self.world_pose_y, self.world_heading, self.var_distance
-                )
+                try:
+                    returned = hooks.co_goal_ahead(
+                        self.world_pose_x, self.world_pose_y, self.world_heading, self.var_distance
+                    )
+                except Exception as error:  # one error naming the module, hook, rule and cycle
+                    raise HookError(
+                        "co", "co_goal_ahead", "APPROACH_FACE/S1/1", self.cycles
+                    ) from error
+                if (
+                    type(returned) is not tuple
+                    or len(returned) != 2
+                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                ):
+                    raise HookError(
+                        "co", "co_goal_ahead", "APPROACH_FACE/S1/1", self.cycles, returned, "ff"
+                    )
+                self.world_goal_x, self.world_goal_y = returned
                 self.vg_arg_x = self.world_goal_x
                 self.vg_arg_y = self.world_goal_y
                 self.vg_command = VG_TRAM_TO_XY
@@ -520,9 +567,29 @@ class CoController:
             # do a sump operation
             self.rule = 21  # SUMP_SHEAR_CUSP/S0/1
             self.state = S1
-            self.world_goal_x, self.world_goal_y = hooks.co_position_for_sump(
-                self.world_pose_x, self.world_pose_y, self.world_heading
-            )
+            try:
+                returned = hooks.co_position_for_sump(
+                    self.world_pose_x, self.world_pose_y, self.world_heading
+                )
+            except Exception as error:  # one error naming the module, hook, rule and cycle
+                raise HookError(
+                    "co", "co_position_for_sump", "SUMP_SHEAR_CUSP/S0/1", self.cycles
+                ) from error
+            if (
+                type(returned) is not tuple
+                or len(returned) != 2
+                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            ):
+                raise HookError(
+                    "co",
+                    "co_position_for_sump",
+                    "SUMP_SHEAR_CUSP/S0/1",
+                    self.cycles,
+                    returned,
+                    "ff",
+                )
+            self.world_goal_x, self.world_goal_y = returned
             self.cr_command = CR_SUMP
             self.cr_command_num += 1
             self.vg_arg_x = self.world_goal_x
@@ -548,9 +615,29 @@ class CoController:
                 # the drum popped out of the shear
                 self.rule = 23  # SUMP_SHEAR_CUSP/S2/1
                 self.state = S1
-                self.world_goal_x, self.world_goal_y = hooks.co_position_for_sump(
-                    self.world_pose_x, self.world_pose_y, self.world_heading
-                )
+                try:
+                    returned = hooks.co_position_for_sump(
+                        self.world_pose_x, self.world_pose_y, self.world_heading
+                    )
+                except Exception as error:  # one error naming the module, hook, rule and cycle
+                    raise HookError(
+                        "co", "co_position_for_sump", "SUMP_SHEAR_CUSP/S2/1", self.cycles
+                    ) from error
+                if (
+                    type(returned) is not tuple
+                    or len(returned) != 2
+                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                ):
+                    raise HookError(
+                        "co",
+                        "co_position_for_sump",
+                        "SUMP_SHEAR_CUSP/S2/1",
+                        self.cycles,
+                        returned,
+                        "ff",
+                    )
+                self.world_goal_x, self.world_goal_y = returned
                 self.cc_command = CC_SHEAR_CORRECT
                 self.cc_command_num += 1
 
@@ -588,9 +675,29 @@ class CoController:
         ):
             self.rule = 27  # SUMP_SHEAR_CUSP/S3/1
             self.state = S4
-            self.world_goal_x, self.world_goal_y = hooks.co_position_for_cusp(
-                self.world_pose_x, self.world_pose_y, self.world_heading
-            )
+            try:
+                returned = hooks.co_position_for_cusp(
+                    self.world_pose_x, self.world_pose_y, self.world_heading
+                )
+            except Exception as error:  # one error naming the module, hook, rule and cycle
+                raise HookError(
+                    "co", "co_position_for_cusp", "SUMP_SHEAR_CUSP/S3/1", self.cycles
+                ) from error
+            if (
+                type(returned) is not tuple
+                or len(returned) != 2
+                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            ):
+                raise HookError(
+                    "co",
+                    "co_position_for_cusp",
+                    "SUMP_SHEAR_CUSP/S3/1",
+                    self.cycles,
+                    returned,
+                    "ff",
+                )
+            self.world_goal_x, self.world_goal_y = returned
             self.vg_arg_x = self.world_goal_x
             self.vg_arg_y = self.world_goal_y
             self.vg_command = VG_TRAM_TO_XY

@@ -10,7 +10,19 @@ from .layout import (
     CSS_PERF_AT,
     CSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands css accepts (the code written to its command buffer).
 INIT = 1
@@ -75,7 +87,10 @@ class CssController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.hook_state = hooks.new_noise(settings or {})
+        try:
+            self.hook_state = hooks.new_noise(settings or {})
+        except Exception as error:
+            raise HookError("css", "new_noise", "hooks_state", 0) from error
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -208,9 +223,13 @@ class CssController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        self.world_cutter_current = hooks.noisy(
-            self.hook_state, self.world_drum_current_true, NOISE
-        )
+        try:
+            returned = hooks.noisy(self.hook_state, self.world_drum_current_true, NOISE)
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("css", "noisy", "every_cycle/1", self.cycles) from error
+        if type(returned) not in NUMBER and not is_real(returned):
+            raise HookError("css", "noisy", "every_cycle/1", self.cycles, returned, "f")
+        self.world_cutter_current = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

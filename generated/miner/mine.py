@@ -10,7 +10,19 @@ from .layout import (
     MINE_PERF_AT,
     MINE_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands mine accepts (the code written to its command buffer).
 INIT = 1
@@ -79,7 +91,10 @@ class MineController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.hook_state = hooks.new_mine(settings or {})
+        try:
+            self.hook_state = hooks.new_mine(settings or {})
+        except Exception as error:
+            raise HookError("mine", "new_mine", "hooks_state", 0) from error
         self.var_cut: float = 0.0
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
@@ -232,13 +247,26 @@ class MineController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        self.world_in_coal, self.world_face_x, self.world_depth_cut, self.var_cut = hooks.cut_coal(
-            self.hook_state,
-            self.world_true_x,
-            self.world_true_y,
-            self.world_boom_angle_true,
-            self.world_drum_on_cmd,
-        )
+        try:
+            returned = hooks.cut_coal(
+                self.hook_state,
+                self.world_true_x,
+                self.world_true_y,
+                self.world_boom_angle_true,
+                self.world_drum_on_cmd,
+            )
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("mine", "cut_coal", "every_cycle/1", self.cycles) from error
+        if (
+            type(returned) is not tuple
+            or len(returned) != 4
+            or type(returned[0]) is not bool
+            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+            or (type(returned[3]) not in NUMBER and not is_real(returned[3]))
+        ):
+            raise HookError("mine", "cut_coal", "every_cycle/1", self.cycles, returned, "bfff")
+        self.world_in_coal, self.world_face_x, self.world_depth_cut, self.var_cut = returned
         self.world_loose_coal = self.world_loose_coal + self.var_cut
 
     def init(self) -> None:

@@ -10,7 +10,19 @@ from .layout import (
     PSS_PERF_AT,
     PSS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands pss accepts (the code written to its command buffer).
 INIT = 1
@@ -80,7 +92,10 @@ class PssController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.hook_state = hooks.new_noise(settings or {})
+        try:
+            self.hook_state = hooks.new_noise(settings or {})
+        except Exception as error:
+            raise HookError("pss", "new_noise", "hooks_state", 0) from error
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -219,14 +234,26 @@ class PssController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        self.world_pose_x, self.world_pose_y, self.world_heading = hooks.noisy_pose(
-            self.hook_state,
-            self.world_true_x,
-            self.world_true_y,
-            self.world_true_heading,
-            NOISE,
-            HEADING_NOISE,
-        )
+        try:
+            returned = hooks.noisy_pose(
+                self.hook_state,
+                self.world_true_x,
+                self.world_true_y,
+                self.world_true_heading,
+                NOISE,
+                HEADING_NOISE,
+            )
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("pss", "noisy_pose", "every_cycle/1", self.cycles) from error
+        if (
+            type(returned) is not tuple
+            or len(returned) != 3
+            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+        ):
+            raise HookError("pss", "noisy_pose", "every_cycle/1", self.cycles, returned, "fff")
+        self.world_pose_x, self.world_pose_y, self.world_heading = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

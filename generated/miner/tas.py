@@ -10,7 +10,19 @@ from .layout import (
     TAS_PERF_AT,
     TAS_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands tas accepts (the code written to its command buffer).
 INIT = 1
@@ -213,13 +225,25 @@ class TasController:
         if not self.world_tread_stalled and (
             self.world_left_tread_cmd != 0 or self.world_right_tread_cmd != 0
         ):
-            self.world_true_x, self.world_true_y, self.world_true_heading = hooks.advance(
-                self.world_true_x,
-                self.world_true_y,
-                self.world_true_heading,
-                self.world_left_tread_cmd,
-                self.world_right_tread_cmd,
-            )
+            try:
+                returned = hooks.advance(
+                    self.world_true_x,
+                    self.world_true_y,
+                    self.world_true_heading,
+                    self.world_left_tread_cmd,
+                    self.world_right_tread_cmd,
+                )
+            except Exception as error:  # one error naming the module, hook, rule and cycle
+                raise HookError("tas", "advance", "every_cycle/1", self.cycles) from error
+            if (
+                type(returned) is not tuple
+                or len(returned) != 3
+                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+            ):
+                raise HookError("tas", "advance", "every_cycle/1", self.cycles, returned, "fff")
+            self.world_true_x, self.world_true_y, self.world_true_heading = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -35,7 +35,7 @@ from typing import Any
 
 from ..runtime.contract import FINISHED
 from . import expr
-from .diagnostics import Diagnostics, Span, known_names_hint
+from .diagnostics import Diagnostic, Diagnostics, Span, Subject, known_names_hint
 from .solver import (
     BOOL_DOMAIN,
     LIMIT,
@@ -75,6 +75,8 @@ CODES = {
     "W509": "a state with no way out: no rule leaves it or reports",
     "E510": "`first_match` names a state the command does not have",
     "W511": "`first_match` on a state whose rules never overlap",
+    "W512": "a rule that can never fire: its guard never holds, or only when an earlier "
+    "rule's does",
 }
 
 # The statuses a tested subordinate can show (NOT_READY is not observable once the table
@@ -392,6 +394,10 @@ class _Table:
             for state, rules in table.items()
         }
 
+    def about(self, state: str, rule: int | None = None) -> Subject:
+        """What a finding about `state` (or one of its rules) is about, for acknowledgements."""
+        return Subject(self.owner.checked.name, self.name, state, rule)
+
     def run(self) -> None:
         first_match = self.first_match()
         for state, rules in self.table.items():
@@ -408,8 +414,11 @@ class _Table:
                     "W508",
                     f"{self.name} {state} is dead: none of its rules can ever fire",
                     "its guards can never be true: check their constants and comparisons",
+                    self.about(state),
                 )
                 continue
+            if not generated:
+                self.never_fires(state, rules)
             leaves = any(r.fires and (r.reports or r.target not in (None, state)) for r in rules)
             if not leaves and not self.owner.every_reports:
                 self.diags.warning(
@@ -418,6 +427,7 @@ class _Table:
                     f"{self.name} {state} has no way out: no rule leaves it or reports, so "
                     f"`{self.owner.checked.name}` stays in {state} until a new command arrives",
                     "add a rule with `next: <another state>` or `report: DONE` / `report: ERROR`",
+                    self.about(state),
                 )
             if not generated:  # the default INIT/HALT tables wait for every DONE by design
                 self.completeness(state, rules)
@@ -425,6 +435,25 @@ class _Table:
         self.finishes()
         self.commanded()
         self.awaited()
+
+    def never_fires(self, state: str, rules: list[_Rule]) -> None:
+        """W512 for each rule of a live state that can never fire."""
+        for index, rule in enumerate(rules):
+            if rule.fires:
+                continue
+            if solve([(rule.guard, True)]).kind == "no":
+                why = "its guard can never hold"
+            else:
+                earlier = [r.number for r in rules[:index]]
+                shown = ", ".join(str(n) for n in earlier)
+                why = f"whenever its guard holds, an earlier rule ({shown}) fires first"
+            self.diags.warning(
+                rule.rule.span,
+                "W512",
+                f"rule {rule.number} of {self.name} {state} never fires: {why}",
+                "check its comparisons and constants, reorder the rules, or delete it",
+                self.about(state, rule.number),
+            )
 
     # ------------------------------------------------------------ first_match
 
@@ -455,11 +484,16 @@ class _Table:
                 overlap = True
                 pair = f"rules {earlier.number} and {later.number} of {self.name} {state}"
                 when = _when(answer.shown)
-                if answer.kind == "yes" and ordered:
-                    self.diags.warning(
+                if answer.kind == "yes" and ordered:  # first_match acknowledges the overlap
+                    finding = Diagnostic(
                         later.rule.span,
                         "W501",
                         f"{pair} both hold {when}; rule {earlier.number} wins (first_match)",
+                        severity="warning",
+                        subject=self.about(state, later.number),
+                    )
+                    self.diags.acknowledge(
+                        finding, f"`first_match: [{state}]` on {self.name}: the earlier rule wins"
                     )
                 elif answer.kind == "yes":
                     self.diags.error(
@@ -483,6 +517,7 @@ class _Table:
                         f"compare a variable with a constant where you can, or declare "
                         f"`first_match: [{state}]` on {self.name} if rule {earlier.number} "
                         "should win",
+                        self.about(state, later.number),
                     )
         if ordered and not overlap:
             self.diags.warning(
@@ -490,6 +525,7 @@ class _Table:
                 "W511",
                 f"`first_match` on {self.name} {state} is not needed: its rules never overlap",
                 "remove it, so that an overlap added later is reported as an error",
+                self.about(state),
             )
 
     # ------------------------------------------------------------ completeness
@@ -508,8 +544,9 @@ class _Table:
                 self.states[state].span,
                 "W503",
                 f"{self.name} {state} waits when {_valuation(answer.shown)}: no rule fires then",
-                "waiting is normal in RCS; make sure this state should wait here "
-                "(warnings fail only a --strict build)",
+                "waiting is normal in RCS; if this wait is intended, acknowledge it on "
+                f"{self.name}: `allow: [{{code: W503, states: [{state}], reason: ...}}]`",
+                self.about(state),
             )
 
     def errors_handled(self, state: str, rules: list[_Rule]) -> None:
@@ -524,6 +561,7 @@ class _Table:
                     f"{sub}.status == ERROR: an ERROR from {sub} leaves {controller} "
                     f"waiting in {state} forever",
                     f"add a rule such as `when: {sub}.status == ERROR` with `do: [report: ERROR]`",
+                    self.about(state),
                 )
 
     # ------------------------------------------------------------ RCS rules
@@ -587,6 +625,7 @@ class _Table:
                         f"for it: {why}",
                         f"wait with `when: {send.sub}.status == DONE` in a later state, "
                         "or do not send it",
+                        self.about(state, rule.number),
                     )
 
 

@@ -10,11 +10,12 @@ stages (`tables` holds the checked system's types). All problems are collected f
 from __future__ import annotations
 
 import ast
+import os
 from dataclasses import replace
 from pathlib import Path
 
-from . import expr, model, naming
-from .diagnostics import Diagnostics, Span, known_names_hint
+from . import acknowledge, expr, hooks, loader, model, naming
+from .diagnostics import Diagnostics, Span, SpecError, Subject, known_names_hint
 from .model import Command, ControllerSpec, Located, Rule, SystemSpec
 from .tables import (
     ENTRY_STATE,
@@ -51,11 +52,14 @@ def check_system(
     _check_stand_ins(system, by_name, diags)
     _check_world_writers(system, by_name, diags)
     world = {name: f.type for name, f in system.world.items()}
+    contracts: dict[str, HookContracts] = {}
+    _check_numbers(system, controllers, diags)
+    acknowledge.check_allows(controllers, diags)  # E237-E239
     for spec in by_name.values():
         _check_echo_timeouts(spec, diags)
         _check_world_access(spec, world, diags)
         naming.check_controller_names(spec, diags)
-        _check_hooks_module(spec, system.directory, diags)
+        contracts[spec.name] = _check_hooks_module(spec, system.directory, world, diags)
     before = len(diags.errors)
     if before:  # names must resolve before tables can be checked meaningfully
         return None
@@ -64,7 +68,7 @@ def check_system(
     checked: dict[str, CheckedController] = {}
     for name in [*order, *sorted(replaced_by)]:
         buffers = replaced_by.get(name, name)  # a stand-in runs in its controller's buffers
-        checker = _ControllerChecker(by_name[name], by_name, system, diags)
+        checker = _ControllerChecker(by_name[name], by_name, system, diags, contracts[name])
         checked[name] = checker.check(
             supervisors.get(buffers), name in simulators or name in replaced_by, buffers
         )
@@ -273,7 +277,7 @@ def _check_echo_timeouts(spec: ControllerSpec, diags: Diagnostics) -> None:
         if name not in subordinates:
             diags.error(
                 duration.span,
-                "E238",
+                "E244",
                 f"`echo_timeouts` names `{name}`, which is not a subordinate of `{spec.name}`",
                 known_names_hint("subordinates", subordinates, name),
             )
@@ -300,11 +304,33 @@ def _check_world_writers(
             if other is not None:
                 diags.error(
                     span,
-                    "E237",
+                    "E243",
                     f"world field `{field}` is written by `{module}` in process `{process}` "
                     f"and by `{other[1]}` in process `{other[0]}` ({other[2]})",
                     "a buffer has one writer: let one process own the field",
                 )
+
+
+def _check_numbers(
+    system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
+) -> None:
+    """Every integer constant and initial value fits in 64 bits (E110); an int given for a
+    float fits in a float."""
+    values: list[tuple[str, object, Span]] = [
+        (f.type, f.initial, f.initial_span or f.span) for f in system.world.values()
+    ]
+    for spec in controllers:
+        values += [(v.type, v.initial, v.initial_span or v.span) for v in spec.locals.values()]
+        values += [("const", c.value, c.span) for c in spec.constants.values()]
+    for kind, value, span in values:
+        problem = expr.int_range_problem(value) if kind in ("int", "const") else ""
+        if not problem and kind == "float" and isinstance(value, int):
+            try:
+                float(value)
+            except OverflowError:
+                problem = f"integer {str(value)[:27]}... is too large for a float"
+        if problem:
+            diags.error(span, "E110", problem, expr.INT_RANGE_HINT)
 
 
 def _check_world_access(spec: ControllerSpec, world: dict[str, str], diags: Diagnostics) -> None:
@@ -321,15 +347,23 @@ def _check_world_access(spec: ControllerSpec, world: dict[str, str], diags: Diag
 def _hook_module_file(directory: Path, module: str) -> Path | None:
     base = directory.joinpath(*module.split("."))
     for candidate in (base.with_suffix(".py"), base / "__init__.py"):
-        if candidate.is_file():
+        if os.path.lexists(candidate):  # whatever it is: reading it says what is wrong
             return candidate
     return None
 
 
-def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostics) -> None:
-    """Each declared hook exists in the user's module with a fitting signature (by reading it)."""
+HookContracts = dict[str, tuple[list[str | None], str]]  # hook -> (param types, file:line)
+
+
+def _check_hooks_module(
+    spec: ControllerSpec, directory: Path, world: dict[str, str], diags: Diagnostics
+) -> HookContracts:
+    """Each declared hook exists in the user's module as a plain function that fits its
+    declaration (read, never imported): arity (E214), kind (E240), results (E241). Returns
+    each hook's parameter annotations, for the checker to compare with its argument types."""
+    contracts: HookContracts = {}
     if not spec.hooks and spec.hooks_state is None:
-        return
+        return contracts
     if spec.hooks_module is None:
         first = next((hook.span for hook in spec.hooks.values()), spec.span)
         if spec.hooks_state is not None and not spec.hooks:
@@ -340,7 +374,7 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
             f"`{spec.name}` declares hooks but no `hooks_module`",
             "add `hooks_module: <package>.<module>`, a Python module in the system directory",
         )
-        return
+        return contracts
     module = spec.hooks_module.value
     path = _hook_module_file(directory, module)
     if path is None:
@@ -350,36 +384,58 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
             f"hooks module `{module}` not found",
             f"create {Path(*module.split('.')).with_suffix('.py')} next to system.yaml",
         )
-        return
+        return contracts
     try:
-        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-    except (
-        SyntaxError,
-        ValueError,
-        UnicodeDecodeError,
-        OSError,
-        RecursionError,
-        MemoryError,
-    ) as exc:
+        source = loader.read_bytes(path, str(path), loader.MAX_BYTES)
+        tree = ast.parse(loader.decode(source, str(path)), filename=str(path))
+        compile(tree, str(path), "exec", dont_inherit=True)  # what only compiling finds
+    except SpecError as error:
+        reason = next(iter(error.diagnostics)).message
+        diags.error(
+            spec.hooks_module.span,
+            "E212",
+            f"hooks module `{module}` cannot be read ({path.name}): {reason}",
+        )
+        return contracts
+    except (SyntaxError, ValueError, RecursionError, MemoryError) as exc:
         diags.error(
             spec.hooks_module.span,
             "E212",
             f"hooks module `{module}` cannot be read: {str(exc) or type(exc).__name__}",
         )
-        return
+        return contracts
     functions = {
         node.name: node
         for node in tree.body
         if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
     }
     stateful = spec.hooks_state is not None
-    if spec.hooks_state is not None and functions.get(spec.hooks_state.value) is None:
-        diags.error(
-            spec.hooks_state.span,
-            "E213",
-            f"hook-state factory `{spec.hooks_state.value}` is not defined in `{module}`",
-            f"add `def {spec.hooks_state.value}(settings): ...` to {path.name}",
-        )
+    where = f"{path.name}"
+    if spec.hooks_state is not None:
+        factory = spec.hooks_state
+        node = functions.get(factory.value)
+        if node is None:
+            diags.error(
+                factory.span,
+                "E213",
+                f"hook-state factory `{factory.value}` is not defined in `{module}`",
+                f"add `def {factory.value}(settings): ...` to {path.name}",
+            )
+        elif hooks.kind_problem(node):
+            diags.error(
+                factory.span,
+                "E240",
+                f"hook-state factory `{factory.value}` is {hooks.kind_problem(node)}",
+                f"make it a plain `def {factory.value}(settings):` ({where}:{node.lineno})",
+            )
+        elif not _takes(node, 1):
+            diags.error(
+                factory.span,
+                "E214",
+                f"hook-state factory `{factory.value}` is called with one argument (the run's "
+                f"settings) but `{module}.{factory.value}` takes {_positional(node)}",
+                f"define it as `def {factory.value}(settings):` ({where}:{node.lineno})",
+            )
     for hook in spec.hooks.values():
         node = functions.get(hook.name)
         if node is None:
@@ -391,22 +447,118 @@ def _check_hooks_module(spec: ControllerSpec, directory: Path, diags: Diagnostic
                 f"add `def {hook.name}({args}): ...` to {path.name}",
             )
             continue
-        positional = [*node.args.posonlyargs, *node.args.args]
-        required = len(positional) - len(node.args.defaults)
+        if hooks.kind_problem(node):
+            diags.error(
+                hook.span,
+                "E240",
+                f"hook `{hook.name}` is {hooks.kind_problem(node)}",
+                f"make it a plain `def {hook.name}(...)` ({where}:{node.lineno})",
+            )
+            continue
         given = len(hook.args) + stateful  # the hook state comes first
-        fits = required <= given and (node.args.vararg is not None or given <= len(positional))
-        if not fits:
+        if not _takes(node, given):
             diags.error(
                 hook.span,
                 "E214",
                 f"hook `{hook.name}` is called with {given} argument(s)"
                 f"{' (the hook state, then its args)' if stateful else ''} but "
-                f"`{module}.{hook.name}` takes {len(positional)}",
+                f"`{module}.{hook.name}` takes {_positional(node)}",
                 "make `args:` match the function's parameters",
             )
+            continue
+        targets = [_target_type(t.value, spec, world) for t in hook.returns]
+        for problem in _return_problems(hook.name, node, targets, [t.value for t in hook.returns]):
+            diags.error(hook.span, "E241", problem, f"see {where}:{node.lineno}")
+        params = hooks.param_types(node)[stateful:]
+        contracts[hook.name] = (params, f"{where}:{node.lineno}")
+    return contracts
+
+
+def _positional(node: hooks.Function) -> int:
+    return len([*node.args.posonlyargs, *node.args.args])
+
+
+def _takes(node: hooks.Function, given: int) -> bool:
+    """Whether the function can be called with `given` positional arguments."""
+    positional = _positional(node)
+    required = positional - len(node.args.defaults)
+    return required <= given and (node.args.vararg is not None or given <= positional)
+
+
+def _target_type(target: str, spec: ControllerSpec, world: dict[str, str]) -> str | None:
+    if target.startswith("world."):
+        return world.get(target.removeprefix("world."))
+    local = spec.locals.get(target)
+    return local.type if local else None
+
+
+def _ordinal(n: int) -> str:
+    return {1: "1st", 2: "2nd", 3: "3rd"}.get(n, f"{n}th")
+
+
+def _return_problems(
+    name: str, node: hooks.Function, types: list[str | None], targets: list[str]
+) -> list[str]:
+    """How the function's return annotation and literal returns contradict `returns:`."""
+    want = len(targets)
+    if want == 0:
+        return []  # the result is ignored
+    named = "one target" if want == 1 else f"{want} targets"
+    found = []
+    promised = hooks.returns(node)
+    if promised is not None:
+        if promised.count == 0:
+            found.append(f"hook `{name}` is annotated `-> None`, but `returns:` names {named}")
+        elif want == 1 and not promised.scalar:
+            found.append(
+                f"hook `{name}` is annotated to return a tuple, but `returns:` names one "
+                f"target, `{targets[0]}`, which would be assigned the whole tuple"
+            )
+        elif want > 1 and promised.scalar:
+            found.append(
+                f"hook `{name}` is annotated to return one value, but `returns:` names {named}"
+            )
+        elif promised.count is not None and want > 1 and promised.count != want:
+            found.append(
+                f"hook `{name}` is annotated to return {promised.count} values, but "
+                f"`returns:` names {named}"
+            )
+        elif not found:
+            every = promised.types * want if promised.count is None else promised.types
+            for index, (value, target) in enumerate(zip(every, types, strict=False), start=1):
+                if value is not None and target is not None and not hooks.assignable(target, value):
+                    found.append(
+                        f"hook `{name}` returns {_a(value)} as its {_ordinal(index)} value "
+                        f"(by its annotation), but `{targets[index - 1]}` is {_a(target)}"
+                    )
+    counts = hooks.literal_return_counts(node)
+    if not counts:
+        found.append(f"hook `{name}` never returns a value, but `returns:` names {named}")
+    for line, count in counts:
+        if count == 0:
+            found.append(f"hook `{name}` returns nothing at line {line}; `returns:` names {named}")
+        elif count is not None and want > 1 and count != want:
+            found.append(
+                f"hook `{name}` returns {count} value(s) at line {line}; `returns:` names {named}"
+            )
+        elif count is not None and want == 1 and count > 1:
+            found.append(
+                f"hook `{name}` returns a tuple of {count} at line {line}; `returns:` names one "
+                "target"
+            )
+    return found
+
+
+def _a(kind: str) -> str:
+    return {"int": "an int", "float": "a float", "bool": "a bool"}.get(kind, kind)
 
 
 # ---------------------------------------------------------------- one controller
+
+_ALWAYS_FALSE_HINT = (
+    "it reads only literals and constants, and they make it false: check the constants, "
+    "or delete the rule"
+)
 
 
 class _ControllerChecker:
@@ -418,9 +570,13 @@ class _ControllerChecker:
         by_name: dict[str, ControllerSpec],
         system: SystemSpec,
         diags: Diagnostics,
+        contracts: HookContracts | None = None,
     ):
         self.spec, self.by_name, self.system, self.diags = spec, by_name, system, diags
+        self.contracts = contracts or {}  # hook -> its parameters' annotated types
+        self.checked_calls: set[str] = set()  # hooks whose arguments were compared
         self.subs = [s.value for s in spec.subordinates]
+        self.predicate_trees: dict[str, expr.Expr] = {}  # for folding guards (set by check)
         self.writable = {w.value for w in spec.world_writes}
         self.base_scope = expr.Scope(
             world=system.world_types,
@@ -430,6 +586,10 @@ class _ControllerChecker:
             predicates=frozenset(spec.predicates),
             subordinates={sub: frozenset(by_name[sub].commands) for sub in self.subs},
         )
+
+    def subject(self, rule: CheckedRule) -> Subject:
+        """What a finding about `rule` is about, for acknowledgements."""
+        return Subject(self.spec.name, rule.id.command, rule.id.state, rule.id.index)
 
     def scope_for(self, command: Command | None) -> expr.Scope:
         """The names a guard or value of `command` (None: a predicate, every_cycle) may use."""
@@ -441,6 +601,8 @@ class _ControllerChecker:
 
     def check(self, supervisor: str | None, simulator: bool, buffers: str) -> CheckedController:
         spec = self.spec
+        predicates = self.check_predicates()
+        self.predicate_trees = {name: p.tree for name, p in predicates.items()}
         commands = {
             command.name: self.check_command(command, code)
             for code, command in enumerate(spec.commands.values(), start=1)
@@ -451,7 +613,7 @@ class _ControllerChecker:
             simulator=simulator,
             buffers=buffers,
             commands=commands,
-            predicates=self.check_predicates(),
+            predicates=predicates,
             every_cycle=self.check_every_cycle(),
             sub_commands={sub: tuple(self.by_name[sub].commands) for sub in self.subs},
             scope=self.scope_for(None),
@@ -471,7 +633,21 @@ class _ControllerChecker:
             rules.append(self.check_rule(RuleId(None, None, index), written, scope))
         tried, shadowed = live(rules)
         for rule in shadowed:
-            self.diags.warning(rule.span, "W301", "this every_cycle rule never fires")
+            if rule.never:
+                self.diags.warning(
+                    rule.source.when.span if rule.source.when else rule.span,
+                    "W302",
+                    "this every_cycle rule never fires: its guard is always false",
+                    _ALWAYS_FALSE_HINT,
+                    self.subject(rule),
+                )
+            else:
+                self.diags.warning(
+                    rule.span,
+                    "W301",
+                    "this every_cycle rule never fires",
+                    subject=self.subject(rule),
+                )
         return tuple(tried)
 
     def check_predicates(self) -> dict[str, CheckedPredicate]:
@@ -502,12 +678,23 @@ class _ControllerChecker:
             tried, shadowed = live(rules)
             if not command.generated:
                 for rule in shadowed:
+                    if rule.never:
+                        self.diags.warning(
+                            rule.source.when.span if rule.source.when else rule.span,
+                            "W302",
+                            f"this rule of {command.name} {state.name} never fires: "
+                            "its guard is always false",
+                            _ALWAYS_FALSE_HINT,
+                            self.subject(rule),
+                        )
+                        continue
                     self.diags.warning(
                         rule.span,
                         "W301",
                         f"this rule of {command.name} {state.name} never fires",
                         "the rule before it always fires first (it has no `when`, or its "
                         "guard is always true)",
+                        self.subject(rule),
                     )
             states[state.name] = CheckedState(state.name, state.span, tuple(tried), tuple(shadowed))
         return CheckedCommand(command.name, code, command, states, scope)
@@ -563,8 +750,12 @@ class _ControllerChecker:
                 "reporting ends the command: the state becomes NOP",
             )
         next_state = "NOP" if reports else (rule.next.value if rule.next else None)
+        always = None
+        if guard is not None:
+            folded = expr.fold(guard, scope.constants, self.predicate_trees)
+            always = folded if isinstance(folded, bool) else None
         return CheckedRule(
-            rule_id, rule, guard, tuple(a for a in actions if a is not None), next_state
+            rule_id, rule, guard, tuple(a for a in actions if a is not None), next_state, always
         )
 
     def check_action(self, action: model.Action, scope: expr.Scope) -> Action | None:
@@ -590,6 +781,7 @@ class _ControllerChecker:
             )
             return None
         args = [self.typed(a, scope, None) for a in hook.args]
+        self.check_hook_arguments(hook, args)
         targets = [self.target(t) for t in hook.returns]
         return CallHook(
             hook,
@@ -597,6 +789,23 @@ class _ControllerChecker:
             tuple(t for t in targets if t is not None),
             action.span,
         )
+
+    def check_hook_arguments(self, hook: model.Hook, args: list[expr.Expr | None]) -> None:
+        """E242 once per hook: an argument whose type its parameter's annotation excludes."""
+        if hook.name in self.checked_calls or hook.name not in self.contracts:
+            return
+        self.checked_calls.add(hook.name)
+        params, where = self.contracts[hook.name]
+        for index, (arg, param) in enumerate(zip(args, params, strict=False)):
+            if arg is None or param is None or hooks.assignable(param, arg.type):
+                continue
+            self.diags.error(
+                hook.args[index].span,
+                "E242",
+                f"argument {index + 1} of hook `{hook.name}` is {_a(arg.type)}, but the "
+                f"function's parameter is annotated `{param}`",
+                f"convert it in the spec, or change the annotation ({where})",
+            )
 
     def target(self, target: Located) -> Target | None:
         """An assignable name (`world.<field>` or a local), or None after an error."""

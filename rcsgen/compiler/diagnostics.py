@@ -10,7 +10,7 @@ from __future__ import annotations
 import difflib
 import json
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 
 @dataclass(frozen=True, order=True)
@@ -25,6 +25,18 @@ class Span:
         return f"{self.file}:{self.line}:{self.col}"
 
 
+@dataclass(frozen=True, order=True)
+class Subject:
+    """What a finding is about, to match acknowledgements (`allow:`) against: a controller and,
+    as far as they apply, a command (None: the controller's every_cycle rules), a state and a
+    rule (1-based, as in `RuleId`)."""
+
+    controller: str
+    command: str | None = None
+    state: str | None = None
+    rule: int | None = None
+
+
 @dataclass(frozen=True)
 class Diagnostic:
     """One located problem: `file:line:col: severity[CODE]: message`, then a hint."""
@@ -34,13 +46,17 @@ class Diagnostic:
     message: str
     hint: str = ""
     severity: str = "error"
+    # What a warning is about (None: not acknowledgeable), and the reason it was acknowledged.
+    subject: Subject | None = field(default=None, compare=False, repr=False)
+    acknowledged: str = ""
 
     def sort_key(self) -> tuple[Span, str, str]:
         return (self.span, self.code, self.message)
 
     def as_dict(self) -> dict[str, object]:
-        """The JSON form (`--format json`): file, line, col, severity, code, message, hint."""
-        return {
+        """The JSON form (`--format json`): file, line, col, severity, code, message, hint
+        (and `acknowledged`, the reason, for an acknowledged warning)."""
+        found: dict[str, object] = {
             "file": self.span.file,
             "line": self.span.line,
             "col": self.span.col,
@@ -49,28 +65,44 @@ class Diagnostic:
             "message": self.message,
             "hint": self.hint,
         }
+        if self.acknowledged:
+            found["acknowledged"] = self.acknowledged
+        return found
 
     def render(self, source_line: str | None = None) -> str:
-        text = f"{self.span}: {self.severity}[{self.code}]: {self.message}"
+        severity = "acknowledged" if self.acknowledged else self.severity
+        text = f"{self.span}: {severity}[{self.code}]: {self.message}"
         if source_line is not None:
             caret = " " * (max(self.span.col, 1) - 1) + "^"
             text += f"\n  | {source_line.rstrip()}\n  | {caret}"
-        if self.hint:
+        if self.acknowledged:
+            text += f"\n  = reason: {self.acknowledged}"
+        elif self.hint:
             text += f"\n  = hint: {self.hint}"
         return text
 
 
 @dataclass
 class Diagnostics:
-    """An ordered bag of diagnostics; `errors` tells whether a stage failed."""
+    """An ordered bag of diagnostics; `errors` tells whether a stage failed.
+
+    Warnings a spec acknowledges (`allow:`, `first_match`) are kept apart in `acknowledged`:
+    they are not reported, fail nothing, and are shown only on request."""
 
     items: list[Diagnostic] = field(default_factory=list)
+    acknowledged: list[Diagnostic] = field(default_factory=list)
 
     def error(self, span: Span, code: str, message: str, hint: str = "") -> None:
         self.items.append(Diagnostic(span, code, message, hint))
 
-    def warning(self, span: Span, code: str, message: str, hint: str = "") -> None:
-        self.items.append(Diagnostic(span, code, message, hint, "warning"))
+    def warning(
+        self, span: Span, code: str, message: str, hint: str = "", subject: Subject | None = None
+    ) -> None:
+        self.items.append(Diagnostic(span, code, message, hint, "warning", subject))
+
+    def acknowledge(self, diagnostic: Diagnostic, reason: str) -> None:
+        """Keep a warning as acknowledged, with the spec's reason."""
+        self.acknowledged.append(replace(diagnostic, acknowledged=reason))
 
     def extend(self, other: Iterable[Diagnostic]) -> None:
         self.items.extend(other)

@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import ast
 import math
+import operator
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 from .diagnostics import Diagnostics, Span, known_names_hint
 
@@ -21,6 +23,18 @@ NUMERIC = (INT, FLOAT)
 STATUS_NAMES = ("NOT_READY", "EXECUTING", "DONE", "ERROR")
 BUILTINS = ("abs", "min", "max")
 MAX_DEPTH = 100  # nesting levels of an expression tree (each operator, call, name, ...)
+INT_MIN, INT_MAX = -(2**63), 2**63 - 1  # an int is stored in 8 bytes (struct code `q`)
+
+
+def int_range_problem(value: object) -> str:
+    """'' when `value` is not an int beyond int64, else the message of E110."""
+    if isinstance(value, bool) or not isinstance(value, int) or INT_MIN <= value <= INT_MAX:
+        return ""
+    shown = str(value) if len(str(value)) <= 30 else f"{str(value)[:27]}..."
+    return f"integer {shown} is out of range: an int is 64-bit ({INT_MIN} to {INT_MAX})"
+
+
+INT_RANGE_HINT = "use a smaller number, or a float if the value is not a count"
 
 
 def command_type(sub: str) -> str:
@@ -161,6 +175,8 @@ class _Resolver:
         if isinstance(value, bool):
             return Const(BOOL, value)
         if isinstance(value, int):
+            if int_range_problem(value):
+                raise self.fail(node, "E110", int_range_problem(value), INT_RANGE_HINT)
             return Const(INT, value)
         if isinstance(value, float) and math.isfinite(value):
             return Const(FLOAT, value)
@@ -268,7 +284,19 @@ class _Resolver:
             raise self.fail(node, "E102", "only + - * / // % are allowed")
         left, right = self.numeric(node.left), self.numeric(node.right)
         both_int = left.type == INT and right.type == INT
-        return Binary(INT if both_int and op != "/" else FLOAT, op, left, right)
+        if op in ("/", "//", "%") and fold(right, self.scope.constants) == 0:
+            raise self.fail(
+                node.right,
+                "E111",
+                f"{'modulo' if op == '%' else 'division'} by zero: "
+                f"the right operand of `{op}` is always 0",
+                "divide by a value that cannot be 0, or guard the rule so it never divides by 0",
+            )
+        result = Binary(INT if both_int and op != "/" else FLOAT, op, left, right)
+        problem = int_range_problem(fold(result, self.scope.constants))
+        if problem:
+            raise self.fail(node, "E110", f"this expression is always an {problem}", INT_RANGE_HINT)
+        return result
 
     def _BoolOp(self, node: ast.BoolOp) -> Expr:
         op = "and" if isinstance(node.op, ast.And) else "or"
@@ -370,6 +398,9 @@ def compile_expr(
         if isinstance(source, float) and not math.isfinite(source):
             diags.error(span, "E102", "NaN and infinity are not allowed")
             return None
+        if int_range_problem(source):
+            diags.error(span, "E110", int_range_problem(source), INT_RANGE_HINT)
+            return None
         result: Expr = Const(_type_of_value(source), source)
     else:
         text = str(source)
@@ -439,6 +470,84 @@ def assignable(target: str, source: str) -> bool:
 
 def _words(kind: str) -> str:
     return {BOOL: "a boolean", INT: "an integer", FLOAT: "a number"}.get(kind, kind)
+
+
+# ---------------------------------------------------------------- constant folding
+
+_FOLD_BINARY: dict[str, Callable[[Any, Any], Any]] = {
+    "+": operator.add,
+    "-": operator.sub,
+    "*": operator.mul,
+    "/": operator.truediv,
+    "//": operator.floordiv,
+    "%": operator.mod,
+}
+_FOLD_COMPARE: dict[str, Callable[[Any, Any], bool]] = {
+    "==": operator.eq,
+    "!=": operator.ne,
+    "<": operator.lt,
+    "<=": operator.le,
+    ">": operator.gt,
+    ">=": operator.ge,
+}
+_FOLD_BUILTIN: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}
+
+
+def fold(
+    tree: Expr,
+    constants: Mapping[str, bool | int | float],
+    predicates: Mapping[str, Expr] | None = None,
+) -> bool | int | float | None:
+    """The value of an expression that reads only literals and constants (and predicates
+    that do, when given), else None. Never raises: a division by 0 or an overflow is None."""
+    try:
+        value: bool | int | float | None = _fold(tree, constants, predicates or {}, 0)
+        return value
+    except (ArithmeticError, ValueError, RecursionError):
+        return None
+
+
+def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr], depth: int) -> Any:
+    if depth > 2 * MAX_DEPTH:  # a predicate chain folded in: bounded like the parser
+        return None
+    if isinstance(e, Const):
+        return e.value
+    if isinstance(e, Ref):
+        return constants.get(e.name) if e.kind == "const" else None
+    if isinstance(e, Call):
+        if e.kind == "predicate":
+            body = predicates.get(e.name)
+            return None if body is None else _fold(body, constants, predicates, depth + 1)
+        args = [_fold(a, constants, predicates, depth + 1) for a in e.args]
+        return None if None in args else _FOLD_BUILTIN[e.name](*args)
+    if isinstance(e, Unary):
+        value = _fold(e.operand, constants, predicates, depth + 1)
+        if value is None:
+            return None
+        return (not value) if e.op == "not" else (-value if e.op == "-" else value)
+    if isinstance(e, Binary):
+        left = _fold(e.left, constants, predicates, depth + 1)
+        right = _fold(e.right, constants, predicates, depth + 1)
+        if left is None or right is None:
+            return None
+        return _FOLD_BINARY[e.op](left, right)
+    if isinstance(e, BoolOp):  # and/or short-circuit on a decided operand
+        decided = e.op == "or"
+        unknown = False
+        for part in e.values:
+            value = _fold(part, constants, predicates, depth + 1)
+            if value is None:
+                unknown = True
+            elif bool(value) == decided:
+                return decided
+        return None if unknown else not decided
+    if isinstance(e, Compare):
+        operands = [_fold(x, constants, predicates, depth + 1) for x in (e.left, *e.comparators)]
+        if None in operands:
+            return None
+        pairs = zip(operands, operands[1:], e.ops, strict=False)
+        return all(_FOLD_COMPARE[op](a, b) for a, b, op in pairs)
+    return None
 
 
 # ---------------------------------------------------------------- printing

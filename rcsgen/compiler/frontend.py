@@ -7,15 +7,16 @@ one controller. Sub-directories (scenarios, hook packages) are not read here.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import model
+from . import acknowledge, model
 from .analysis import analyse_system
 from .check import check_system
 from .diagnostics import Diagnostics, Span, SpecError
 from .ir import IRSystem
-from .loader import LocDict, load_file
+from .loader import LocDict, PathProblem, load_file, path_problem
 from .lower import lower_system
 from .schema import check_document
 
@@ -28,50 +29,117 @@ class Frontend:
 
     systems: list[IRSystem] = field(default_factory=list)
     diagnostics: Diagnostics = field(default_factory=Diagnostics)
+    directories: dict[str, Path] = field(default_factory=dict)  # system name -> its directory
+
+
+def real_path(path: Path) -> Path:
+    """`path` absolute with its symbolic links resolved as far as they go (a link loop or a
+    dangling link is left as it is: reading it reports the problem)."""
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError):  # RuntimeError: a symlink loop (Python 3.11)
+        return path.absolute()
 
 
 def display_path(path: Path) -> str:
     """A path as diagnostics show it: relative to the working directory when inside it."""
+    # The file's own name as given (a symlink's problems are the link's), its directory real.
+    shown = real_path(path.parent) / path.name if path.name else real_path(path)
     try:
-        return Path(os.path.relpath(path.resolve(), Path.cwd())).as_posix()
+        return Path(os.path.relpath(shown, Path.cwd())).as_posix()
     except ValueError:  # another drive
         return path.as_posix()
 
 
 def source_path(path: Path, system_dir: Path) -> str:
     """A spec's path as generated headers name it: `<system dir>/<file>`, on any machine."""
-    return (
-        f"{system_dir.resolve().name}/{path.resolve().relative_to(system_dir.resolve()).as_posix()}"
-    )
+    root = real_path(system_dir)
+    return f"{root.name}/{real_path(path).relative_to(root).as_posix()}"
+
+
+# Directories deeper than this below a path given on the command line are not searched.
+MAX_DIR_DEPTH = 32
+
+
+def _entries(directory: Path, diags: Diagnostics) -> list[os.DirEntry[str]]:
+    """The entries of a directory by name; an unreadable one is an error (E010)."""
+    try:
+        with os.scandir(directory) as found:
+            return sorted(found, key=lambda entry: entry.name)
+    except OSError as exc:
+        problem = path_problem(directory, "dir") or _unreadable(exc)
+        diags.error(Span(display_path(directory)), problem.code, problem.message, problem.hint)
+        return []
+
+
+def _unreadable(exc: OSError) -> PathProblem:
+    reason = "permission denied" if isinstance(exc, PermissionError) else exc.strerror
+    return PathProblem("E010", f"cannot read directory: {reason or exc}", "check its permissions")
+
+
+def _systems_under(root: Path, diags: Diagnostics) -> list[Path]:
+    """Every directory holding a system.yaml at or below `root` (symlinked directories are not
+    followed, as `rglob` does not); unreadable directories are errors, depth is bounded."""
+    found, todo = [], [(root, 0)]
+    while todo:
+        directory, depth = todo.pop()
+        subdirectories = []
+        for entry in _entries(directory, diags):
+            if entry.name == SYSTEM_FILE:
+                found.append(directory)
+            elif _is_real_dir(entry):
+                subdirectories.append(Path(entry.path))
+        if subdirectories and depth >= MAX_DIR_DEPTH:
+            diags.error(
+                Span(display_path(directory)),
+                "E014",
+                f"directories nest more than {MAX_DIR_DEPTH} levels below "
+                f"`{display_path(root)}`; not searched further",
+                "point rcsgen at the system directory itself",
+            )
+            continue
+        todo.extend((sub, depth + 1) for sub in reversed(subdirectories))
+    return sorted(set(found))
+
+
+def _is_real_dir(entry: os.DirEntry[str]) -> bool:
+    try:
+        return entry.is_dir(follow_symlinks=False)
+    except OSError:
+        return False
 
 
 def find_system_dirs(paths: list[Path], diags: Diagnostics) -> list[Path]:
     """The system directories named by `paths` (directories are searched recursively)."""
     found: list[Path] = []
     for path in paths:
-        if path.is_dir():
-            dirs = sorted({p.parent for p in path.rglob(SYSTEM_FILE)})
-            if not dirs:
+        shown = display_path(path)
+        problem = path_problem(path, "any")
+        if problem is not None and problem.message.endswith("no such file or directory"):
+            diags.error(Span(shown), "E010", f"`{shown}` does not exist")
+        elif problem is not None:
+            diags.error(Span(shown), problem.code, f"`{shown}`: {problem.message}", problem.hint)
+        elif path.is_dir():
+            before = len(diags.errors)
+            dirs = _systems_under(path, diags)
+            if not dirs and len(diags.errors) == before:  # else: an unreadable directory
                 diags.error(
-                    Span(display_path(path)),
+                    Span(shown),
                     "E224",
-                    f"no {SYSTEM_FILE} found under `{display_path(path)}`",
+                    f"no {SYSTEM_FILE} found under `{shown}`",
                     "a system directory holds system.yaml and one <mnemonic>.yaml per controller",
                 )
             found.extend(dirs)
-        elif path.is_file():
-            if (path.parent / SYSTEM_FILE).is_file():
-                found.append(path.parent)
-            else:
-                diags.error(
-                    Span(display_path(path)),
-                    "E224",
-                    f"`{display_path(path)}` is not in a system directory",
-                    f"put it beside a {SYSTEM_FILE}",
-                )
+        elif (path.parent / SYSTEM_FILE).is_file():
+            found.append(path.parent)
         else:
-            diags.error(Span(display_path(path)), "E010", f"`{display_path(path)}` does not exist")
-    return list(dict.fromkeys(d.resolve() for d in found))
+            diags.error(
+                Span(shown),
+                "E224",
+                f"`{shown}` is not in a system directory",
+                f"put it beside a {SYSTEM_FILE}",
+            )
+    return list(dict.fromkeys(real_path(d) for d in found))
 
 
 def _load(path: Path, diags: Diagnostics) -> object:
@@ -82,43 +150,75 @@ def _load(path: Path, diags: Diagnostics) -> object:
         return None
 
 
-def load_system(directory: Path, diags: Diagnostics) -> IRSystem | None:
+def _empty(path: Path, what: str, diags: Diagnostics) -> None:
+    diags.error(
+        Span(display_path(path)),
+        "E013",
+        f"`{path.name}` is empty: it holds no YAML, only blank lines or comments",
+        f"write the {what} here, or delete the file",
+    )
+
+
+Progress = Callable[[str], None]  # told what a long stage is doing, for a progress line
+
+
+def _quiet(_: str) -> None:
+    pass
+
+
+def load_system(
+    directory: Path, diags: Diagnostics, progress: Progress = _quiet
+) -> IRSystem | None:
     """Load, schema-check, model and check one system directory."""
-    start = len(diags.errors)
+    progress(f"loading {display_path(directory)}")
+    start, first = len(diags.errors), len(diags.items)
     system_path = directory / SYSTEM_FILE
+    loaded = len(diags.errors)
     data = _load(system_path, diags)
     system: model.SystemSpec | None = None
-    if data is not None:
+    if data is None and len(diags.errors) == loaded:
+        _empty(system_path, "system spec", diags)
+    elif data is not None:
         shown = display_path(system_path)
         problems = check_document(data, "system", shown)
         diags.extend(problems)
         if not any(p.severity == "error" for p in problems):
             system = model.build_system(data, directory, shown)
     controllers = []
-    for path in sorted(directory.glob("*.yaml")):
-        if path.name == SYSTEM_FILE:
+    for entry in _entries(directory, diags):
+        path = Path(entry.path)
+        if not entry.name.endswith(".yaml") or entry.name == SYSTEM_FILE:
             continue
+        loaded = len(diags.errors)
         data = _load(path, diags)
         shown = display_path(path)
+        if data is None:
+            if len(diags.errors) == loaded:
+                _empty(path, "controller spec", diags)
+            continue
         if not isinstance(data, dict) or "controller" not in data:
-            if data is not None or path.stat().st_size == 0:
-                diags.error(
-                    getattr(data, "span", Span(shown)),
-                    "E225",
-                    f"`{path.name}` is not a controller spec (no `controller:` key)",
-                    "only system.yaml and controller files belong in a system directory",
-                )
+            diags.error(
+                getattr(data, "span", Span(shown)),
+                "E225",
+                f"`{path.name}` is not a controller spec (no `controller:` key)",
+                "only system.yaml and controller files belong in a system directory",
+            )
             continue
         problems = check_document(data, "controller", shown)
         diags.extend(problems)
         if not any(p.severity == "error" for p in problems):
             controllers.append(model.build_controller(data, shown))
     if system is None or len(diags.errors) > start:
+        acknowledge.apply(controllers, diags, first, complete=False)
         return None
+    progress(f"checking {system.name}: {len(controllers)} controllers")
     checked = check_system(system, controllers, diags)
     if checked is None:
+        acknowledge.apply(controllers, diags, first, complete=False)
         return None
+    progress(f"analysing the state tables of {system.name}")
     analyse_system(checked, diags)  # E5xx/W5xx, with counter-examples
+    acknowledge.apply(controllers, diags, first, complete=True)  # allow: and first_match
     if len(diags.errors) > start:
         return None
     sources = {
@@ -128,15 +228,17 @@ def load_system(directory: Path, diags: Diagnostics) -> IRSystem | None:
     return lower_system(checked, sources)
 
 
-def compile_paths(paths: list[Path]) -> Frontend:
-    """Run the front end over every system found in `paths`; never raises on bad input."""
+def compile_paths(paths: list[Path], progress: Progress = _quiet) -> Frontend:
+    """Run the front end over every system found in `paths`; never raises on bad input.
+    `progress` is told what each long stage is doing."""
     out = Frontend()
     names: dict[str, Span] = {}
     for directory in find_system_dirs(paths, out.diagnostics):
-        system = load_system(directory, out.diagnostics)
+        system = load_system(directory, out.diagnostics, progress)
         if system is None:
             continue
         out.systems.append(system)
+        out.directories.setdefault(system.name, directory)
         span = _system_name_span(directory / SYSTEM_FILE)
         if system.name in names:
             out.diagnostics.error(

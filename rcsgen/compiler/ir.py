@@ -157,6 +157,10 @@ class IRCall:
     args: tuple[str, ...]  # Python text of each argument (the hook state first, if any)
     targets: tuple[str, ...]  # attributes assigned from the hook's result
     kind: str = "call"
+    kinds: str = ""  # each target's type, one letter: f(loat), i(nt), b(ool)
+    # Python condition true when `returned` does not fit the targets (cheap: type and len)
+    mismatch: str = ""
+    span: Span | None = None  # where the spec calls it
 
 
 IRAction = IRSend | IRSet | IRReport | IRCall
@@ -234,6 +238,7 @@ class IRController:
     hooks_state_on_restart: str  # "refuse" or "reset"
     buffers: str  # whose command/status buffers it uses: itself, or the replaced one
     runtime_names: tuple[str, ...]  # what the module imports from the runtime contract
+    hooks_state_span: Span | None = None  # where `hooks_state` names the factory
 
     def table_rules(self) -> list[IRRule]:
         """Every rule of the state tables, in code order (code = index + 1)."""

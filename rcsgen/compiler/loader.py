@@ -11,9 +11,12 @@ excessive nesting are all reported as located diagnostics in one pass.
 
 from __future__ import annotations
 
+import errno
 import math
+import os
 import pathlib
 import re
+import stat
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -308,21 +311,132 @@ def _build(text: str, display_path: str, loader: type) -> tuple[Diagnostics, obj
     return diags, builder.result
 
 
-def load_file(path: pathlib.Path, display_path: str) -> object:
-    """Read and load a spec file; unreadable, oversized or non-UTF-8 files are errors."""
+# ---------------------------------------------------------------- reading files safely
+
+_KINDS = {
+    stat.S_IFDIR: "a directory",
+    stat.S_IFIFO: "a named pipe (FIFO)",
+    stat.S_IFCHR: "a character device",
+    stat.S_IFBLK: "a block device",
+    stat.S_IFSOCK: "a socket",
+}
+
+
+@dataclass(frozen=True)
+class PathProblem:
+    """Why a path cannot be read as a file: a code, a message and a hint."""
+
+    code: str
+    message: str
+    hint: str = ""
+
+    def error(self, span: Span) -> SpecError:
+        return _fail(span, self.code, self.message, self.hint)
+
+
+def _os_problem(exc: OSError, what: str) -> PathProblem:
+    """E010 (or E012 for a symlink loop) for an OSError met reading `what`."""
+    if exc.errno == errno.ELOOP:
+        return PathProblem("E012", "symbolic link loop (too many levels of links)", _LINK_HINT)
+    reason = {
+        errno.ENOENT: "no such file or directory",
+        errno.EACCES: "permission denied",
+        errno.EPERM: "permission denied",
+        errno.ENAMETOOLONG: "file name too long",
+        errno.ENOTDIR: "a parent of this path is not a directory",
+    }.get(exc.errno or 0, (exc.strerror or str(exc)).lower())
+    hint = "check the path and its permissions"
+    if exc.errno == errno.ENAMETOOLONG:
+        hint = "shorten the path: a name is limited to 255 bytes on most file systems"
+    return PathProblem("E010", f"cannot read {what}: {reason}", hint)
+
+
+_LINK_HINT = "fix or remove the symbolic link"
+_REGULAR_HINT = "rcsgen reads only regular files"
+_NONBLOCK = getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
+
+
+def path_problem(path: pathlib.Path, want: str = "file") -> PathProblem | None:
+    """None when `path` is a `want` ("file": a regular file, "dir": a directory, "any": either)
+    that exists, else why not: missing, a dangling symlink or a symlink loop, a special file
+    (a FIFO would hang a reader, a device would be read until memory runs out)."""
+    what = "directory" if want == "dir" else "file"
+    name = f"`{path.name or path}`"
     try:
-        with path.open("rb") as stream:
-            data = stream.read(MAX_BYTES + 1)
+        link = stat.S_ISLNK(os.lstat(path).st_mode)
     except OSError as exc:
-        message = f"cannot read file: {exc.strerror or exc}"
-        hint = "check the path and its permissions"
-        raise _fail(Span(display_path), "E010", message, hint) from None
-    if len(data) > MAX_BYTES:
-        raise _fail(Span(display_path), "E006", _TOO_LARGE, _TOO_LARGE_HINT)
+        return _os_problem(exc, what)
     try:
-        text = data.decode("utf-8")
+        mode = os.stat(path).st_mode
+    except OSError as exc:
+        if link and exc.errno == errno.ENOENT:
+            try:
+                target = os.readlink(path)
+            except OSError:
+                target = "?"
+            message = f"{name} is a dangling symbolic link to `{target}`"
+            return PathProblem("E012", message, _LINK_HINT)
+        return _os_problem(exc, what)
+    if stat.S_ISREG(mode):
+        if want == "dir":
+            return PathProblem("E011", f"{name} is a file, not a directory", "give a directory")
+        return None
+    if stat.S_ISDIR(mode):
+        if want == "file":
+            return PathProblem("E011", f"{name} is a directory, not a file", "give a file here")
+        return None
+    kind = _KINDS.get(stat.S_IFMT(mode), "a special file")
+    return PathProblem("E011", f"{name} is {kind}, not a regular file", _REGULAR_HINT)
+
+
+def read_bytes(path: pathlib.Path, display_path: str, limit: int = MAX_BYTES) -> bytes:
+    """The bytes of a regular file, at most `limit`; raises SpecError (E006, E010-E012) for
+    anything else. Never blocks on a FIFO nor reads a device."""
+    span = Span(display_path)
+    problem = path_problem(path)
+    if problem is not None:
+        raise problem.error(span)
+    try:
+        # O_NONBLOCK: should the path become a FIFO after the check, opening it cannot hang.
+        fd = os.open(path, os.O_RDONLY | _NONBLOCK)
+    except OSError as exc:
+        raise _os_problem(exc, "file").error(span) from None
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            message = f"`{path.name}` is not a regular file"
+            raise PathProblem("E011", message, _REGULAR_HINT).error(span)
+        chunks, size = [], 0
+        while size <= limit:
+            chunk = os.read(fd, min(1 << 20, limit + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    except OSError as exc:
+        raise _os_problem(exc, "file").error(span) from None
+    finally:
+        os.close(fd)
+    data = b"".join(chunks)
+    if len(data) > limit:
+        raise _fail(span, "E006", f"file is larger than {limit:,} bytes", _TOO_LARGE_HINT)
+    return data
+
+
+def decode(data: bytes, display_path: str) -> str:
+    """UTF-8 text of a file's bytes; E008 located at the first bad byte otherwise."""
+    try:
+        return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         span = Span(display_path, *_line_col(data, exc.start))
         message = f"file is not valid UTF-8: byte 0x{data[exc.start]:02x} ({exc.reason})"
-        raise _fail(span, "E008", message, "save the file as UTF-8") from None
-    return load_text(text, display_path)
+        hint = "save the file as UTF-8"
+        if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+            hint = "the file is UTF-16 (it starts with a UTF-16 byte-order mark); save it as UTF-8"
+        raise _fail(span, "E008", message, hint) from None
+
+
+def load_file(path: pathlib.Path, display_path: str) -> object:
+    """Read and load a spec file; unreadable, special, oversized or non-UTF-8 files are errors.
+
+    An empty file (or one with only comments) loads as None, as does `~`."""
+    return load_text(decode(read_bytes(path, display_path), display_path), display_path)

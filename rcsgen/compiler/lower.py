@@ -127,7 +127,10 @@ class _ControllerLowering:
             hooks_state=spec.hooks_state.value if spec.hooks_state else None,
             hooks_state_on_restart=spec.hooks_state_on_restart,
             buffers=c.buffers,
-            runtime_names=_runtime_names(rules, c.predicates.values()),
+            runtime_names=_runtime_names(
+                rules, c.predicates.values(), spec.hooks_state is not None
+            ),
+            hooks_state_span=spec.hooks_state.span if spec.hooks_state else None,
         )
 
     def sub(self, sub: str) -> ir.IRSub:
@@ -204,10 +207,45 @@ class _ControllerLowering:
             return ir.IRReport(action.status)
         state = ("self.hook_state",) if self.spec.hooks_state else ()
         values = state + tuple(expr.to_python(a, naming.attribute) for a in action.args)
-        return ir.IRCall(action.hook.name, values, tuple(_attribute(t) for t in action.targets))
+        kinds = "".join(_KIND_LETTER[t.type] for t in action.targets)
+        return ir.IRCall(
+            action.hook.name,
+            values,
+            tuple(_attribute(t) for t in action.targets),
+            kinds=kinds,
+            mismatch=result_mismatch(kinds),
+            span=action.span,
+        )
 
     def expression(self, tree: expr.Expr, text: str) -> ir.IRExpr:
         return ir.IRExpr(tree, text, expr.to_python(tree, naming.attribute))
+
+
+_KIND_LETTER = {"float": "f", "int": "i", "bool": "b"}
+
+
+def _value_mismatch(value: str, kind: str) -> str:
+    """A condition true when `value` cannot go into a target of this kind (see contract)."""
+    if kind == "f":
+        return f"type({value}) not in NUMBER and not is_real({value})"
+    if kind == "i":
+        return (
+            f"(type({value}) is not int and not is_integer({value})) "
+            f"or not INT_MIN <= {value} <= INT_MAX"
+        )
+    return f"type({value}) is not bool"
+
+
+def result_mismatch(kinds: str, name: str = "returned") -> str:
+    """The Python condition that a hook's result `name` does not fit targets of `kinds`:
+    one value of its kind, or a tuple of exactly that many values of theirs."""
+    if not kinds:
+        return ""  # no targets: the result is ignored
+    if len(kinds) == 1:
+        return _value_mismatch(name, kinds)
+    parts = [f"type({name}) is not tuple", f"len({name}) != {len(kinds)}"]
+    parts += [f"{_value_mismatch(f'{name}[{i}]', k)}" for i, k in enumerate(kinds)]
+    return " or ".join(f"({p})" if " or " in p or " and " in p else p for p in parts)
 
 
 def _attribute(target: Target) -> str:
@@ -215,11 +253,12 @@ def _attribute(target: Target) -> str:
 
 
 def _runtime_names(
-    rules: Iterable[CheckedRule], predicates: Iterable[CheckedPredicate]
+    rules: Iterable[CheckedRule], predicates: Iterable[CheckedPredicate], factory: bool = False
 ) -> tuple[str, ...]:
     """The contract's names a controller module uses: its status comparisons, reports and
-    NOP (a report ends the command), besides those every module needs."""
-    used = set(ALWAYS_IMPORTED)
+    NOP (a report ends the command), the hook-call checks, besides those every module
+    needs."""
+    used = set(ALWAYS_IMPORTED) | ({"HookError"} if factory else set())
     trees: list[expr.Expr] = [p.tree for p in predicates]
     for rule in rules:
         if rule.guard is not None:
@@ -233,6 +272,10 @@ def _runtime_names(
                 trees += [tree for _, tree in action.assignments]
             elif isinstance(action, CallHook):
                 trees += list(action.args)
+                used.add("HookError")
+                kinds = {t.type for t in action.targets}
+                used |= {"NUMBER", "is_real"} if "float" in kinds else set()
+                used |= {"INT_MIN", "INT_MAX", "is_integer"} if "int" in kinds else set()
     for tree in trees:
         used |= {ref.name for ref in expr.refs(tree) if ref.kind == "status"}
     return tuple(sorted(used, key=naming.import_order))

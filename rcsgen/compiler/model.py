@@ -39,6 +39,7 @@ class Typed:
     initial: bool | int | float
     doc: str
     span: Span
+    initial_span: Span | None = None  # where `initial:` gives the value (not for params)
 
 
 @dataclass
@@ -122,12 +123,23 @@ Action = Send | SetWorld | Report | CallHook
 
 
 @dataclass
+class Allow:
+    """An acknowledgement: a warning that is intended here, and why (`allow:`)."""
+
+    code: Located
+    reason: Located
+    states: list[Located]  # of a command-level acknowledgement; empty: every state
+    span: Span
+
+
+@dataclass
 class Rule:
     doc: str
     when: Located | None
     actions: list[Action]
     next: Located | None
     span: Span
+    allow: list[Allow] = field(default_factory=list)
 
 
 @dataclass
@@ -146,6 +158,7 @@ class Command:
     span: Span
     generated: bool = False  # a default INIT/HALT table rcsgen supplies
     first_match: list[Located] = field(default_factory=list)  # states whose rules may overlap
+    allow: list[Allow] = field(default_factory=list)  # warnings of its table that are intended
 
 
 @dataclass
@@ -189,6 +202,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
             spec["initial"],
             spec.get("doc", ""),
             key_span(data["world"], name, top),
+            value_span(spec, "initial", top),
         )
         for name, spec in (data.get("world") or {}).items()
     }
@@ -222,7 +236,8 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
 
 
 def _typed(name: str, spec: Any, span: Span) -> Typed:
-    return Typed(name, spec["type"], spec.get("initial", False), spec.get("doc", ""), span)
+    initial = value_span(spec, "initial", span) if "initial" in spec else None
+    return Typed(name, spec["type"], spec.get("initial", False), spec.get("doc", ""), span, initial)
 
 
 def _action(raw: Any, span: Span) -> Action:
@@ -243,6 +258,22 @@ def _action(raw: Any, span: Span) -> Action:
     return CallHook(raw["call"], value_span(raw, "call", span))
 
 
+def _allow(raw: Any, span: Span) -> list[Allow]:
+    items = raw.get("allow") or []
+    found = []
+    for index, item in enumerate(items):
+        at = value_span(items, index, span)
+        found.append(
+            Allow(
+                Located(item["code"], value_span(item, "code", at)),
+                Located(item["reason"], value_span(item, "reason", at)),
+                _items(item, "states", at),
+                at,
+            )
+        )
+    return found
+
+
 def _rule(raw: Any, span: Span) -> Rule:
     actions = raw.get("do") or []
     when = Located(raw["when"], value_span(raw, "when", span)) if "when" in raw else None
@@ -253,6 +284,7 @@ def _rule(raw: Any, span: Span) -> Rule:
         actions=[_action(a, value_span(actions, i, span)) for i, a in enumerate(actions)],
         next=nxt,
         span=span,
+        allow=_allow(raw, span),
     )
 
 
@@ -273,6 +305,7 @@ def _command(name: str, raw: Any, span: Span) -> Command:
         },
         span=span,
         first_match=_items(raw, "first_match", span),
+        allow=_allow(raw, span),
     )
 
 

@@ -205,9 +205,11 @@ def target_attribute(target: str) -> str:
     return f"self.var_{target}"
 
 
-def import_order(name: str) -> str:
-    """The key ruff's isort sorts imported names by (case-insensitively: `C_AT` < `CC_AT`)."""
-    return name.lower()
+def import_order(name: str) -> tuple[int, str]:
+    """The key ruff's isort sorts imported names by: constants, then classes, then the rest
+    (`order-by-type`), each case-insensitively (`C_AT` < `CC_AT`)."""
+    kind = 0 if name.isupper() else 1 if name[:1].isupper() else 2
+    return kind, name.lower()
 
 
 def is_keyword(name: str) -> bool:
@@ -364,6 +366,11 @@ def _action_names(action: Any, top: Span) -> Iterator[NameUse]:
         yield action.hook, LOWER, "hook name", action.span
 
 
+# The longest name (each part of a dotted one): it becomes part of file names such as
+# `main_<process>.py` and `<mnemonic>.yaml`, which most file systems limit to 255 bytes.
+MAX_NAME = 100
+
+
 def _check_identifiers(
     system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
 ) -> None:
@@ -374,6 +381,15 @@ def _check_identifiers(
                 "E601",
                 f"`{shown(name)}` is not a valid {kind}: expected {_PATTERN_WORDS[pattern]}",
                 "names are plain ASCII identifiers; remove the line break or other character",
+            )
+        elif any(len(part) > MAX_NAME for part in str(name).split(".")):
+            diags.error(
+                span,
+                "E601",
+                f"`{shown(name)}` is too long for a {kind}: {len(str(name))} characters, "
+                f"at most {MAX_NAME}",
+                "names become file and Python names (a file name is limited to 255 bytes); "
+                "shorten it",
             )
 
 

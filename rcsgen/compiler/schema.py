@@ -21,7 +21,7 @@ from jsonschema.protocols import Validator
 
 from .diagnostics import Diagnostic, Span, did_you_mean
 
-KINDS = ("system", "controller")
+KINDS = ("system", "controller", "scenario")
 
 # YAML tells 3 from 3.0, so an `int` must be written as an integer, unlike JSON Schema's default.
 _TYPES = Draft202012Validator.TYPE_CHECKER.redefine(
@@ -34,6 +34,7 @@ _Validator: type[Validator] = validators.extend(  # type: ignore[no-untyped-call
 
 _EXPECTED = {"object": "a mapping", "array": "a list", "string": "a string", "null": "nothing"}
 _EXPECTED |= {"number": "a number", "integer": "an integer", "boolean": "a boolean"}
+_YAML_11_BOOLS = ("yes", "no", "on", "off", "y", "n")
 _KEYLIKE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)?")
 _NAME_RULES = {
     "^[a-z][a-z0-9_]*$": "{}s are lower_case identifiers",
@@ -162,6 +163,17 @@ def _diagnose(error: ValidationError, data: object, file: str) -> list[Diagnosti
             for key in value
             if isinstance(inst, dict) and key not in inst
         ]
+    if kw == "dependentRequired":
+        return [
+            Diagnostic(
+                _key_span(inst, key, span),
+                "S001",
+                f"`{key}` needs {_words(needed, 'and')}",
+                schema.get("properties", {}).get(key, {}).get("description", ""),
+            )
+            for key, needed in value.items()
+            if isinstance(inst, dict) and key in inst and any(n not in inst for n in needed)
+        ]
     if kw == "additionalProperties":
         allowed, patterns = list(schema.get("properties", {})), schema.get("patternProperties", {})
         extras = [
@@ -186,6 +198,8 @@ def _diagnose(error: ValidationError, data: object, file: str) -> list[Diagnosti
         if "string" in wanted and isinstance(inst, bool | int | float):
             text = str(inst).lower() if isinstance(inst, bool) else inst
             hint = f'{hint} Quote the value to make it a string: "{text}"'.strip()
+        if "boolean" in wanted and isinstance(inst, str) and inst.lower() in _YAML_11_BOOLS:
+            hint = f"`{inst}` is a string in YAML 1.2 (not a boolean): write true or false"
         return [Diagnostic(span, "S003", f"{where}expected {expected}, got {_got(inst)}", hint)]
     if kw == "pattern":
         rule = _NAME_RULES.get(value, "does not match `{}`")

@@ -99,6 +99,9 @@ class CheckedRule:
     guard: expr.Expr | None  # None: the rule has no `when` (or its guard did not check)
     actions: tuple[Action, ...]
     next_state: str | None  # None: stay; NOP after a report
+    # The guard's value when it reads only literals, constants and such predicates (folded
+    # by the checker), else None: it depends on the inputs.
+    always: bool | None = None
 
     @property
     def span(self) -> Span:
@@ -106,10 +109,17 @@ class CheckedRule:
 
     @property
     def unconditional(self) -> bool:
-        """Fires whenever it is tried: no `when`, or a guard that is the constant true."""
+        """Fires whenever it is tried: no `when`, or a guard that is always true."""
         if self.source.when is None:
             return True
+        if self.always is not None:
+            return self.always
         return isinstance(self.guard, expr.Const) and self.guard.value is True
+
+    @property
+    def never(self) -> bool:
+        """Never fires: its guard is always false (the checker's W302)."""
+        return self.source.when is not None and self.always is False
 
     @property
     def reports(self) -> str | None:
@@ -134,17 +144,22 @@ def one_line(value: object) -> str:
 
 
 def live(rules: Iterable[CheckedRule]) -> tuple[list[CheckedRule], list[CheckedRule]]:
-    """The rules that can be tried, and those shadowed by an earlier unconditional rule.
+    """The rules that can fire, and those that never do: shadowed by an earlier unconditional
+    rule (the checker's W301) or with a guard that is always false (W302).
 
     One rule fires per cycle, the first whose guard holds: nothing after an unconditional
-    rule is ever tried (the checker's W301; not emitted, not analysed)."""
+    rule is ever tried. Rules that never fire are not emitted and not analysed."""
     tried: list[CheckedRule] = []
+    dropped: list[CheckedRule] = []
     rules = list(rules)
     for index, rule in enumerate(rules):
+        if rule.never:
+            dropped.append(rule)
+            continue
         tried.append(rule)
         if rule.unconditional:
-            return tried, rules[index + 1 :]
-    return tried, []
+            return tried, dropped + rules[index + 1 :]
+    return tried, dropped
 
 
 def reachable(start: str, successors: Callable[[str], Iterable[str]]) -> set[str]:
@@ -163,7 +178,7 @@ class CheckedState:
     name: str
     span: Span
     rules: tuple[CheckedRule, ...]  # the live rules, in order
-    shadowed: tuple[CheckedRule, ...] = ()  # never tried (W301)
+    shadowed: tuple[CheckedRule, ...] = ()  # never fire (W301, W302), in order
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,7 @@ verbatim into every generated package (as `<system>/rcs/contract.py`).
 
 from __future__ import annotations
 
+import numbers
 from struct import Struct
 from typing import NamedTuple
 
@@ -157,3 +158,77 @@ class Record(NamedTuple):
         seq = next_odd(self.seq(buf))
         self.struct.pack_into(buf, self.offset, seq, *current.values())
         SEQ.pack_into(buf, self.offset, seq + 1)
+
+
+# ---------------------------------------------------------------- hook calls
+
+# What generated code accepts from a hook for a target of each type: any real number but a
+# bool for a float (an int, as in spec expressions; a numpy float), any integer but a bool
+# within int64 for an int, exactly True or False for a bool. `type(x) in NUMBER` is the
+# fast path the generated check takes first; the functions below only when it fails.
+NUMBER = (float, int)
+INT_MIN, INT_MAX = -(2**63), 2**63 - 1
+
+
+def is_real(value: object) -> bool:
+    """A real number that is not a bool (numpy's and Fraction too)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def is_integer(value: object) -> bool:
+    """An integer that is not a bool (numpy's too)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+_KIND_NAMES = {"f": "float", "i": "int", "b": "bool"}
+_NOTHING = object()
+
+
+class HookError(Exception):
+    """A hook call that failed at run time, raised by generated code: the hook raised (the
+    exception is the `__cause__`), or its result does not fit its `returns:`.
+
+    Names the module, the hook, the table rule that called it (`SUMP_SHEAR_CUSP/S0/1`,
+    `every_cycle/2`, or `hooks_state` for the factory) and the module's cycle (1-based;
+    0 while the module is made)."""
+
+    def __init__(
+        self,
+        module: str,
+        hook: str,
+        rule: str,
+        cycles: int,
+        result: object = _NOTHING,
+        kinds: str = "",
+    ) -> None:
+        self.module, self.hook, self.rule = module, hook, rule
+        self.cycle = cycles + 1 if rule != "hooks_state" else 0
+        self.result, self.kinds = result, kinds
+        super().__init__(self.problem())
+
+    @property
+    def raised(self) -> bool:
+        """The hook raised (rather than returning a wrong result)."""
+        return self.result is _NOTHING
+
+    def expected(self) -> str:
+        """What `returns:` asks for: `a float`, `a tuple of 2 values (float, int)`."""
+        names = [_KIND_NAMES[k] for k in self.kinds]
+        if len(names) == 1:
+            return f"a{'n' if names[0] == 'int' else ''} {names[0]}"
+        return f"a tuple of {len(names)} values ({', '.join(names)})"
+
+    def problem(self) -> str:
+        who = f"hook `{self.hook}` of `{self.module}`"
+        if self.raised:
+            cause = self.__cause__
+            what = f"{type(cause).__name__}: {cause}" if cause is not None else "an exception"
+            return f"{who} raised {what}"
+        shown = repr(self.result)
+        shown = shown if len(shown) <= 60 else shown[:57] + "..."
+        return f"{who} returned {shown}; its `returns:` needs {self.expected()}"
+
+    def __str__(self) -> str:
+        # Computed again: `__cause__` is set only after __init__ (`raise ... from error`).
+        where = "while made" if self.rule == "hooks_state" else f"rule {self.rule}"
+        return f"{self.problem()} ({where}, cycle {self.cycle})"

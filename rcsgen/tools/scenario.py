@@ -16,14 +16,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
-from ..compiler.frontend import SYSTEM_FILE, display_path
-from ..compiler.loader import LocDict, load_file, span_of, value_span
+from ..compiler.diagnostics import Span, SpecError
+from ..compiler.frontend import SYSTEM_FILE, display_path, real_path
+from ..compiler.loader import decode, read_bytes
 from .harness import AnyHarness, Harness, LaunchedHarness
-
-SCENARIO_KEYS = {"scenario", "title", "doc", "process", "max_cycles", "stop_when_done", "trace"}
-SCENARIO_KEYS |= {"events", "settings", "simulate", "report"}
-EVENT_KEYS = {"cycle", "doc", "command", "with", "set", "mode"}
 
 
 @dataclass
@@ -36,6 +32,39 @@ class Event:
     world: dict[str, Any] = field(default_factory=dict)
     mode: dict[str, dict[str, Any]] = field(default_factory=dict)
     doc: str = ""
+    overrides: str | None = None  # the supervisor whose place the command takes (`overrides`)
+
+
+@dataclass(frozen=True)
+class Expected:
+    """One expected outcome (`expect:`): a final value, or bounds; where it is written."""
+
+    what: str  # "status", "cycles" or a world field
+    span: Span
+    value: Any = None  # an exact value (status name, number, bool), or None
+    low: float | None = None
+    high: float | None = None
+
+    def met(self, actual: Any) -> bool:
+        if self.value is not None:
+            if isinstance(self.value, bool) or isinstance(actual, bool):
+                return isinstance(actual, bool) and actual is bool(self.value)
+            if isinstance(self.value, str):
+                return str(actual) == str(self.value)
+            return isinstance(actual, int | float) and actual == self.value
+        if isinstance(actual, bool) or not isinstance(actual, int | float):
+            return False
+        return (self.low is None or actual >= self.low) and (
+            self.high is None or actual <= self.high
+        )
+
+    def wanted(self) -> str:
+        if self.value is not None:
+            shown = str(self.value).lower() if isinstance(self.value, bool) else self.value
+            return f"{shown}"
+        if self.low is not None and self.high is not None:
+            return f"between {self.low:g} and {self.high:g}"
+        return f"at least {self.low:g}" if self.low is not None else f"at most {self.high:g}"
 
 
 @dataclass
@@ -53,69 +82,26 @@ class Scenario:
     simulate: tuple[str, ...] = ()  # controllers replaced by their stand-ins
     phases_of: str | None = None  # the module whose commands are the run's phases
     figures: list[str] = field(default_factory=list)  # world fields the summary reports
+    expect: list[Expected] = field(default_factory=list)  # empty: stop module DONE, if any
 
 
 def find_system_dir(path: Path) -> Path | None:
-    for parent in path.resolve().parents:
+    """The nearest directory above a scenario file that holds a system.yaml."""
+    for parent in real_path(path).parents:
         if (parent / SYSTEM_FILE).is_file():
             return parent
     return None
 
 
 def load_scenario(path: Path) -> Scenario:
-    """Read and check a scenario file; raises SpecError with located diagnostics."""
-    shown = display_path(path)
-    data = load_file(path, shown)
-    diags = Diagnostics()
-    top = span_of(data, Span(shown))
-    if not isinstance(data, LocDict) or "scenario" not in data:
-        raise SpecError([Diagnostic(top, "E401", "not a scenario file (no `scenario:` key)")])
-    for key in sorted(set(data) - SCENARIO_KEYS):
-        diags.error(data.key_spans.get(key, top), "E402", f"unknown scenario key `{key}`")
-    system_dir = find_system_dir(path)
-    if system_dir is None:
-        diags.error(top, "E403", f"no {SYSTEM_FILE} above `{shown}`")
-    events = []
-    for index, raw in enumerate(data.get("events") or []):
-        where = value_span(data["events"], index, top)
-        if not isinstance(raw, LocDict) or not isinstance(raw.get("cycle"), int):
-            diags.error(where, "E404", "an event needs `cycle: <number>`")
-            continue
-        for key in sorted(set(raw) - EVENT_KEYS):
-            diags.error(raw.key_spans.get(key, where), "E402", f"unknown event key `{key}`")
-        command = None
-        if "command" in raw:
-            module, _, name = str(raw["command"]).partition(".")
-            command = (module, name)
-        events.append(
-            Event(
-                cycle=raw["cycle"],
-                command=command,
-                args=dict(raw.get("with") or {}),
-                world=dict(raw.get("set") or {}),
-                mode={k: dict(v) for k, v in (raw.get("mode") or {}).items()},
-                doc=str(raw.get("doc", "")),
-            )
-        )
-    trace = data.get("trace") or {}
-    report = data.get("report") or {}
-    if diags.errors:
+    """Read and check a scenario file against its system (the specs above it): raises
+    SpecError with located diagnostics (the checks are in `scenario_check`)."""
+    from .scenario_check import check_scenario  # it builds the Scenario defined here
+
+    scenario, diags = check_scenario(path)
+    if scenario is None or diags.errors:
         raise SpecError(diags)
-    return Scenario(
-        name=str(data["scenario"]),
-        title=str(data.get("title", "")),
-        path=path,
-        system_dir=system_dir or path.parent,
-        process=data.get("process"),
-        max_cycles=int(data.get("max_cycles", 1000)),
-        stop_when_done=data.get("stop_when_done"),
-        trace_world=[str(w) for w in trace.get("world") or []],
-        events=sorted(events, key=lambda e: e.cycle),
-        settings={str(k): str(v) for k, v in (data.get("settings") or {}).items()},
-        simulate=tuple(str(m) for m in data.get("simulate") or ()),
-        phases_of=report.get("phases"),
-        figures=[str(f) for f in report.get("figures") or []],
-    )
+    return scenario
 
 
 def open_harness(scenario: Scenario, package_dir: Path, processes: bool = False) -> AnyHarness:
@@ -174,6 +160,8 @@ def _apply(harness: AnyHarness, event: Event) -> None:
     if event.command is not None:
         module, name = event.command
         harness.command(module, name, **event.args)
+        if event.overrides is not None:  # the supervisor keeps it as the last command it sent
+            harness.adopt(event.overrides, module)
 
 
 def run(
@@ -251,7 +239,8 @@ def first_difference(expected: list[str], actual: list[str]) -> Mismatch | None:
 
 
 def read_trace(path: Path) -> list[str]:
-    return path.read_text(encoding="utf-8").splitlines()
+    shown = display_path(path)
+    return decode(read_bytes(path, shown, 1 << 30), shown).splitlines()
 
 
 def write_trace(path: Path, lines: list[str]) -> None:

@@ -1,0 +1,389 @@
+"""Scenario check: a scenario file -> located diagnostics and, when clean, the `Scenario`.
+
+Scenario files get the spec's front end: the same located loader (strict YAML 1.2: `no` is
+a string, never false), a JSON Schema (`compiler/schemas/scenario.schema.json`, the file
+editors use: S001-S006), then checks against the system the scenario runs, before cycle 0:
+every module, command, parameter (all of them, each of its type, ints within 64 bits),
+world field, process, stand-in, trace field, report figure and stop module exists and runs
+in that process; bool fields take only true/false; cycles are within max_cycles and in
+order; a command to a module whose supervisor runs is an error unless the event says it
+`overrides` the supervisor; expectations name what the run can show. Every problem has a
+code (E401-E415) and, for names, a did-you-mean.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..compiler.diagnostics import Diagnostics, Span, SpecError, known_names_hint
+from ..compiler.expr import int_range_problem
+from ..compiler.frontend import SYSTEM_FILE, compile_paths, display_path
+from ..compiler.ir import IRController, IRProcess, IRSystem
+from ..compiler.loader import LocDict, key_span, load_file, span_of, value_span
+from ..compiler.schema import check_document
+from .scenario import Event, Expected, Scenario, find_system_dir
+from .traces import whole_system
+
+DEFAULT_MAX_CYCLES = 1000
+_TYPE_WORDS = {"bool": "a bool (true or false)", "int": "an int", "float": "a float"}
+
+
+def check_scenario(
+    path: Path, system: IRSystem | None = None
+) -> tuple[Scenario | None, Diagnostics]:
+    """Load and check a scenario file. `system` is the system it runs (compiled from the
+    specs above the file when not given). The Scenario is None when it has errors."""
+    diags = Diagnostics()
+    shown = display_path(path)
+    try:
+        data = load_file(path, shown)
+    except SpecError as error:
+        return None, error.diagnostics
+    top = span_of(data, Span(shown))
+    if data is None:
+        hint = "write the scenario here (at least `scenario: <name>`), or delete the file"
+        diags.error(top, "E013", f"`{path.name}` is empty: it holds no YAML", hint)
+        return None, diags
+    if not isinstance(data, LocDict) or "scenario" not in data:
+        hint = "a scenario starts with `scenario: <name>`; see docs/spec.md section 10"
+        diags.error(top, "E401", "not a scenario file (no `scenario:` key)", hint)
+        return None, diags
+    system_dir = find_system_dir(path)
+    if system_dir is None:
+        hint = "keep scenarios in the system's scenarios/ directory"
+        diags.error(top, "E403", f"no {SYSTEM_FILE} above `{shown}`", hint)
+    diags.extend(check_document(data, "scenario", shown))
+    if diags.errors or system_dir is None:
+        return None, diags
+    if system is None:
+        front = compile_paths([system_dir])
+        if not front.systems:  # the specs have errors: `rcsgen validate` shows them
+            hint = f"run `rcsgen validate {display_path(system_dir)}`"
+            diags.error(top, "E403", "the system this scenario runs does not build", hint)
+            return None, diags
+        system = front.systems[0]
+    checker = _Checker(data, system, diags, top)
+    scenario = checker.check(path, system_dir)
+    return (None if diags.errors else scenario), diags
+
+
+def check_system_scenarios(directory: Path, system: IRSystem) -> Diagnostics:
+    """Every scenario in `<system dir>/scenarios/` (what `rcsgen validate` checks)."""
+    diags = Diagnostics()
+    folder = directory / "scenarios"
+    if not folder.is_dir():
+        return diags
+    for path in sorted(folder.glob("*.yaml")):
+        _, found = check_scenario(path, system)
+        diags.extend(found.items)
+    return diags
+
+
+# ---------------------------------------------------------------- the checks
+
+
+@dataclass
+class _Run:
+    """The process a scenario runs, with stand-ins applied."""
+
+    process: IRProcess
+    running: list[str]  # the modules that run (a stand-in under its controller's name)
+    skipped: dict[str, str]  # module -> the simulated controller whose stand-in replaces it
+
+
+class _Checker:
+    def __init__(self, data: LocDict, system: IRSystem, diags: Diagnostics, top: Span):
+        self.data, self.system, self.diags, self.top = data, system, diags, top
+        self.controllers = {c.name: c for c in system.controllers if c.buffers == c.name}
+        self.world = {f.name: f.type for f in system.world}
+
+    def error(self, span: Span, code: str, message: str, hint: str = "") -> None:
+        self.diags.error(span, code, message, hint)
+
+    def span(self, container: object, key: str | int) -> Span:
+        return value_span(container, key, span_of(container, self.top))
+
+    # ------------------------------------------------------------ names
+
+    def module(self, name: str, span: Span, run: _Run | None, what: str) -> IRController | None:
+        """A controller the scenario names; E405 unknown, E414 not run in this scenario."""
+        controller = self.controllers.get(name)
+        if controller is None:
+            self.error(
+                span,
+                "E405",
+                f"{what} `{name}` is not a controller of `{self.system.name}`",
+                known_names_hint("controllers", self.controllers, name),
+            )
+            return None
+        if run is not None and name not in run.running:
+            if name in run.skipped:
+                why = f"`{run.skipped[name]}` is simulated, so its stand-in replaces `{name}`"
+            else:
+                why = f"process `{run.process.name}` does not run it"
+            self.error(
+                span,
+                "E414",
+                f"{what} `{name}` does not run in this scenario: {why}",
+                f"modules that run: {', '.join(run.running)}",
+            )
+            return None
+        return controller
+
+    def field(self, name: str, span: Span, what: str) -> str | None:
+        """A world field's type; E409 when there is no such field."""
+        kind = self.world.get(name)
+        if kind is None:
+            self.error(
+                span,
+                "E409",
+                f"{what} `{name}` is not a world field of `{self.system.name}`",
+                known_names_hint("world fields", self.world, name),
+            )
+        return kind
+
+    def value(self, value: Any, kind: str, span: Span, what: str) -> bool:
+        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit)."""
+        problem = ""
+        if kind == "bool" and not isinstance(value, bool):
+            problem = f"{what} is a bool: give true or false, not `{_shown(value)}`"
+        elif kind == "int" and (isinstance(value, bool) or not isinstance(value, int)):
+            problem = f"{what} is an int: give a whole number, not `{_shown(value)}`"
+        elif kind == "float" and (isinstance(value, bool) or not isinstance(value, int | float)):
+            problem = f"{what} is a float: give a number, not `{_shown(value)}`"
+        elif kind == "int" and int_range_problem(value):
+            problem = f"{what}: {int_range_problem(value)}"
+        if problem:
+            hint = ""
+            if isinstance(value, str) and value.lower() in ("yes", "no", "on", "off"):
+                hint = f"`{value}` is a string in YAML 1.2; write true or false"
+            self.error(span, "E408", problem, hint)
+        return not problem
+
+    # ------------------------------------------------------------ the file
+
+    def check(self, path: Path, system_dir: Path) -> Scenario:
+        data = self.data
+        run = self.process()
+        max_cycles = data.get("max_cycles", DEFAULT_MAX_CYCLES)
+        stop = data.get("stop_when_done")
+        if stop is not None:
+            self.module(stop, self.span(data, "stop_when_done"), run, "stop_when_done module")
+        trace = data.get("trace") or {}
+        for index, name in enumerate(trace.get("world") or []):
+            self.field(name, self.span(trace["world"], index), "trace field")
+        report = data.get("report") or {}
+        if "phases" in report:
+            self.module(report["phases"], self.span(report, "phases"), run, "phases module")
+        for index, name in enumerate(report.get("figures") or []):
+            self.field(name, self.span(report["figures"], index), "report figure")
+        expected = self.expectations(stop)
+        events = self.events(run, max_cycles)
+        settings = {
+            str(k): (str(v).lower() if isinstance(v, bool) else str(v))
+            for k, v in (data.get("settings") or {}).items()
+        }
+        return Scenario(
+            name=str(data["scenario"]),
+            title=str(data.get("title", "")),
+            path=path,
+            system_dir=system_dir,
+            process=run.process.name if run and "process" in self.data else None,
+            max_cycles=max_cycles,
+            stop_when_done=stop,
+            trace_world=[str(w) for w in trace.get("world") or []],
+            events=events,
+            settings=settings,
+            simulate=tuple(str(m) for m in data.get("simulate") or ()),
+            phases_of=report.get("phases"),
+            figures=[str(f) for f in report.get("figures") or []],
+            expect=expected,
+        )
+
+    def process(self) -> _Run | None:
+        """The process the scenario runs and the stand-ins it uses (E410, E411)."""
+        processes = {p.name: p for p in self.system.processes}
+        name = self.data.get("process")
+        if name is None:  # every process, as one run: process by process
+            process = whole_system(self.system)
+        elif name in processes:
+            process = processes[name]
+        else:
+            self.error(
+                self.span(self.data, "process"),
+                "E410",
+                f"`{self.system.name}` has no process `{name}`",
+                known_names_hint("processes", processes, name),
+            )
+            return None
+        skipped: dict[str, str] = {}
+        simulate = self.data.get("simulate") or []
+        for index, module in enumerate(simulate):
+            span = self.span(simulate, index)
+            stand_in = process.stand_ins.get(module)
+            if module not in self.controllers:
+                self.module(module, span, None, "simulated controller")
+            elif stand_in is None:
+                others = {n for p in self.system.processes for n in p.stand_ins}
+                why = (
+                    f"process `{process.name}` does not run it"
+                    if module in others
+                    else "system.yaml declares no stand-in for it"
+                )
+                self.error(
+                    span,
+                    "E411",
+                    f"`{module}` cannot be simulated in this scenario: {why}",
+                    known_names_hint("controllers with a stand-in here", process.stand_ins),
+                )
+            else:
+                skipped.update((m, module) for m in stand_in[1] if m != module)
+        running = [m for m in process.modules if m not in skipped]
+        return _Run(process, running, skipped)
+
+    def expectations(self, stop: str | None) -> list[Expected]:
+        """What `expect:` asks of the run (E415 for what no run can show)."""
+        expect = self.data.get("expect")
+        if expect is None:  # a run that stops on a module expects it to finish DONE
+            if stop is None:
+                return []
+            return [Expected("status", self.span(self.data, "stop_when_done"), value="DONE")]
+        found = []
+        if "status" in expect:
+            span = self.span(expect, "status")
+            if stop is None:
+                self.error(
+                    span,
+                    "E415",
+                    "`expect: status` needs `stop_when_done`: the status is the stop module's",
+                    "add `stop_when_done: <module>`",
+                )
+            found.append(Expected("status", span, value=expect["status"]))
+        if "cycles" in expect:
+            found.append(self.bounds("cycles", expect["cycles"], self.span(expect, "cycles")))
+        figures = expect.get("figures") or {}
+        for name, wanted in figures.items():
+            span = key_span(figures, name, self.span(expect, "figures"))
+            kind = self.field(name, span, "expected figure")
+            if kind is None:
+                continue
+            if isinstance(wanted, dict):
+                if kind == "bool":
+                    self.error(
+                        span,
+                        "E415",
+                        f"`{name}` is a bool: expect true or false, not a range",
+                    )
+                    continue
+                found.append(self.bounds(name, wanted, span))
+            elif self.value(wanted, kind, self.span(figures, name), f"expected `{name}`"):
+                found.append(Expected(name, span, value=wanted))
+        return found
+
+    def bounds(self, what: str, bounds: dict[str, Any], span: Span) -> Expected:
+        low, high = bounds.get("min"), bounds.get("max")
+        if low is not None and high is not None and low > high:
+            self.error(span, "E415", f"`{what}`: min {low} is greater than max {high}")
+        return Expected(what, span, low=low, high=high)
+
+    def events(self, run: _Run | None, max_cycles: int) -> list[Event]:
+        events = []
+        raw_events = self.data.get("events") or []
+        last = 0
+        for index, raw in enumerate(raw_events):
+            where = self.span(raw_events, index)
+            cycle = raw["cycle"]
+            cycle_span = self.span(raw, "cycle")
+            if cycle > max_cycles:
+                self.error(
+                    cycle_span,
+                    "E412",
+                    f"an event at cycle {cycle} never happens: the run stops after "
+                    f"max_cycles {max_cycles}",
+                    "raise max_cycles, or move the event earlier",
+                )
+            elif cycle < last:
+                self.error(
+                    cycle_span,
+                    "E412",
+                    f"events are out of order: cycle {cycle} comes after cycle {last}",
+                    "write the events in the order of their cycles",
+                )
+            last = max(last, cycle)
+            event = Event(cycle=cycle, doc=str(raw.get("doc", "")))
+            if "command" in raw:
+                self.command(raw, event, run, where)
+            world = raw.get("set") or {}
+            for name, value in world.items():
+                span = key_span(world, name, where)
+                kind = self.field(name, span, "field")
+                if kind is not None:
+                    self.value(value, kind, self.span(world, name), f"world field `{name}`")
+                event.world[name] = value
+            modes = raw.get("mode") or {}
+            for module, mode in modes.items():
+                self.module(module, key_span(modes, module, where), run, "mode of module")
+                event.mode[module] = dict(mode)
+            events.append(event)
+        return sorted(events, key=lambda e: e.cycle)
+
+    def command(self, raw: LocDict, event: Event, run: _Run | None, where: Span) -> None:
+        """A command event: module, command, every parameter of its type, supervisor."""
+        span = self.span(raw, "command")
+        module, _, name = str(raw["command"]).partition(".")
+        event.command = (module, name)
+        args = raw.get("with") or {}
+        event.args = dict(args)
+        controller = self.module(module, span, run, "command to module")
+        if controller is None:
+            return
+        commands = {c.name: c for c in controller.commands}
+        command = commands.get(name)
+        if command is None:
+            self.error(
+                span,
+                "E406",
+                f"`{module}` has no command `{name}`",
+                known_names_hint(f"commands of {module}", commands, name),
+            )
+            return
+        params = {p.name: p.type for p in command.params}
+        for param, value in args.items():
+            if param not in params:
+                self.error(
+                    key_span(args, param, span),
+                    "E407",
+                    f"`{module}.{name}` has no parameter `{param}`",
+                    known_names_hint("parameters", params, param),
+                )
+            else:
+                self.value(value, params[param], self.span(args, param), f"parameter `{param}`")
+        missing = [p for p in params if p not in args]
+        if missing:
+            given = ", ".join(f"{p}: ..." for p in missing)
+            self.error(
+                span,
+                "E407",
+                f"`{module}.{name}` needs parameter(s) {', '.join(missing)}",
+                f"give every parameter under `with: {{{given}}}`: a missing one would be 0",
+            )
+        supervisor = controller.supervisor
+        if supervisor is not None and run is not None and supervisor in run.running:
+            if raw.get("overrides") is True:
+                event.overrides = supervisor
+            else:
+                self.error(
+                    span,
+                    "E413",
+                    f"`{module}` is commanded by `{supervisor}`, which runs in this scenario "
+                    "and would overwrite this command",
+                    f"command `{supervisor}` instead, or add `overrides: true` to command "
+                    f"`{module}` in `{supervisor}`'s place",
+                )
+
+
+def _shown(value: Any) -> str:
+    text = str(value).lower() if isinstance(value, bool) else str(value)
+    return text if len(text) <= 30 else text[:27] + "..."

@@ -1,0 +1,6 @@
+def new_state():
+    return {}
+
+
+def nudge(state, n: int, flag: bool) -> float:
+    return n * 2.5 if flag else 0.0

@@ -1,0 +1,3 @@
+def nudge(n, flag):
+    while True:
+        yield n * 2.5

@@ -1,0 +1,2 @@
+def nudge(n: int, flag: bool) -> None:
+    print(n, flag)

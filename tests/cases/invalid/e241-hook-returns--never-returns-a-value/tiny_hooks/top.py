@@ -1,0 +1,2 @@
+def nudge(n, flag):
+    n = n * 2.5

@@ -1,0 +1,2 @@
+# My own top controller, written by hand.  # expect: E304
+X = 1

@@ -1,0 +1,150 @@
+"""Acknowledgements (`allow:`): a finding that is intended is not reported, with its reason.
+
+Uses test_analysis's small system (`top` over leaves `a` and `b`): each test writes top's
+commands, runs the front end and looks at what is reported and what is acknowledged.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from conftest import rcsgen
+from test_analysis import make
+
+from rcsgen.compiler.diagnostics import Diagnostics
+from rcsgen.compiler.frontend import compile_paths
+
+WAITS = """
+GO:
+{allow}
+  states:
+    S0:
+      - do: [send: a.GO]
+        next: S1
+    S1:
+      - when: a.status == DONE and world.hot
+        next: S2
+      - when: a.status == ERROR
+        do: [report: ERROR]
+    S2:
+      - when: world.cold
+        do: [report: DONE]
+"""
+
+
+@pytest.fixture
+def check(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
+    monkeypatch.chdir(tmp_path)
+
+    def run(commands: str, **fields: str) -> Diagnostics:
+        text = commands.format(**fields) if fields else commands
+        return compile_paths([make(tmp_path, text)]).diagnostics
+
+    return run
+
+
+def codes(diags: Diagnostics) -> list[tuple[str, str | None]]:
+    """(code, state) of each reported warning, by the state its subject names."""
+    return sorted((d.code, d.subject.state if d.subject else None) for d in diags)
+
+
+def test_without_acknowledgement_the_waits_are_reported(check) -> None:
+    diags = check(WAITS, allow="")
+    assert ("W503", "S1") in codes(diags) and ("W503", "S2") in codes(diags)
+    assert diags.acknowledged == []
+
+
+def test_a_command_acknowledgement_covers_only_its_states(check) -> None:
+    allow = "  allow:\n    - {code: W503, states: [S1], reason: waits for the heater}"
+    diags = check(WAITS, allow=allow)
+    assert ("W503", "S1") not in codes(diags)
+    assert ("W503", "S2") in codes(diags)  # not acknowledged: still reported
+    [done] = diags.acknowledged
+    assert (done.code, done.subject and done.subject.state) == ("W503", "S1")
+    assert done.acknowledged == "waits for the heater"
+
+
+def test_a_command_acknowledgement_without_states_covers_every_state(check) -> None:
+    # A folded reason over two lines: shown on one.
+    allow = "  allow:\n    - code: W503\n      reason: >-\n        every wait of GO\n"
+    allow += "        is for a sensor"
+    diags = check(WAITS, allow=allow)
+    assert [c for c in codes(diags) if c[0] == "W503"] == []
+    assert {d.acknowledged for d in diags.acknowledged} == {"every wait of GO is for a sensor"}
+
+
+def test_a_rule_acknowledgement_covers_that_rule_only(check) -> None:
+    diags = check(
+        """
+        GO:
+          first_match: [S0]
+          states:
+            S0:
+              - when: world.hot
+                do: [report: DONE]
+              - when: world.hot and world.cold
+                do: [report: ERROR]
+                allow: [{code: W512, reason: kept to document the cold case}]
+              - when: world.hot and world.level > 2.0
+                do: [report: ERROR]
+              - do: [report: DONE]
+        """
+    )
+    reported = [(d.code, d.subject.rule if d.subject else None) for d in diags]
+    assert reported == [("W512", 3)]
+    assert [(d.code, d.subject.rule) for d in diags.acknowledged if d.code == "W512"] == [
+        ("W512", 2)
+    ]
+
+
+def test_checker_warnings_and_every_cycle_rules_can_be_acknowledged(check) -> None:
+    diags = check(
+        """
+        GO:
+          states:
+            S0:
+              - do: [report: DONE]
+              - do: [report: ERROR]
+                allow: [{code: W301, reason: "the old ending, kept for the review"}]
+        """
+    )
+    assert list(diags) == []
+    [done] = diags.acknowledged
+    assert done.code == "W301" and done.acknowledged == "the old ending, kept for the review"
+
+
+def test_acknowledged_warnings_do_not_fail_strict_and_show_on_request(check) -> None:
+    allow = (
+        "  allow:\n    - {code: W503, states: [S1], reason: waits for the heater}\n"
+        "    - {code: W503, states: [S2], reason: waits for the cooler}"
+    )
+    diags = check(WAITS, allow=allow)
+    assert list(diags) == []
+    assert rcsgen("validate", "--strict", "sys").exit_code == 0
+    shown = rcsgen("validate", "--format", "json", "--show-acknowledged", "sys")
+    found = json.loads(shown.stdout)
+    assert [(d["code"], d["acknowledged"]) for d in found] == [
+        ("W503", "waits for the heater"),
+        ("W503", "waits for the cooler"),
+    ]
+    assert all(d["acknowledged"] for d in found)
+    assert json.loads(rcsgen("validate", "--format", "json", "sys").stdout) == []
+
+
+def test_an_acknowledgement_that_matches_nothing_is_w303(check) -> None:
+    allow = "  allow:\n    - {code: W505, states: [S2], reason: never waited for on purpose}"
+    diags = check(WAITS, allow=allow)
+    [w303] = [d for d in diags if d.code == "W303"]
+    assert w303.message == "the acknowledgement of W505 in GO S2 matches no finding"
+    assert rcsgen("validate", "--strict", "sys").exit_code == 1
+
+
+def test_errors_cannot_be_acknowledged(check) -> None:
+    diags = check(WAITS, allow="  allow:\n    - {code: E501, reason: order}")
+    [e237] = diags.errors
+    assert (e237.code, e237.message) == (
+        "E237",
+        "`E501` cannot be acknowledged: it is an error: fix it",
+    )

@@ -1,0 +1,351 @@
+"""Files and paths that cannot live in git: each is built in tmp_path by the test itself.
+
+FIFOs, devices, sockets, symbolic-link loops and dangling links, unreadable files and
+directories, over-long names, oversized files and very deep trees. Every one must end in
+one located error and exit 1 (2 only for command-line misuse): no hang, no traceback.
+
+Unreadable files need a process that file permissions apply to: as root, the command runs
+in a child without CAP_DAC_OVERRIDE (`setpriv`), so the test is real, not simulated.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+from conftest import REPO, rcsgen
+
+TINY = REPO / "tests" / "cases" / "valid" / "tiny"
+SETPRIV = shutil.which("setpriv")
+
+
+@pytest.fixture(autouse=True)
+def no_hang() -> Iterator[None]:
+    """A FIFO that is opened blocks forever: turn a hang into a failure."""
+
+    def hung(signum: int, frame: object) -> None:
+        raise AssertionError("rcsgen hung (a FIFO or a device was opened)")
+
+    previous = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(20)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, previous)
+
+
+@pytest.fixture
+def system(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A copy of the tiny system in tmp_path/sys; the working directory is tmp_path."""
+    shutil.copytree(TINY, tmp_path / "sys")
+    monkeypatch.chdir(tmp_path)
+    return tmp_path / "sys"
+
+
+def errors(output: str) -> list[str]:
+    return [line for line in output.splitlines() if ": error[" in line]
+
+
+def one_error(args: list[str], where: str, code: str, words: str) -> str:
+    """Run rcsgen in-process: exit 1, exactly one located error, no traceback."""
+    result = rcsgen(*args)
+    assert result.exit_code == 1, result.output
+    found = errors(result.output)
+    assert len(found) == 1, result.output
+    at = where if where.count(":") == 2 else f"{where}:1:1"
+    assert found[0].startswith(f"{at}: error[{code}]: "), found
+    assert words in found[0], found
+    return found[0]
+
+
+# ---------------------------------------------------------------- special files
+
+
+def _bound(path: Path) -> None:
+    with socket.socket(socket.AF_UNIX) as sock:
+        sock.bind(str(path))  # the socket file stays after the socket is closed
+
+
+SPECIAL: dict[str, tuple[Callable[[Path], None], str, str]] = {
+    "fifo": (lambda p: os.mkfifo(p), "E011", "is a named pipe (FIFO), not a regular file"),
+    "device": (lambda p: p.symlink_to("/dev/zero"), "E011", "is a character device"),
+    "socket": (
+        lambda p: _bound(p),
+        "E011",
+        "is a socket, not a regular file",
+    ),
+    "directory": (lambda p: p.mkdir(), "E011", "is a directory, not a file"),
+    "dangling-link": (
+        lambda p: p.symlink_to("gone.yaml"),
+        "E012",
+        "is a dangling symbolic link to `gone.yaml`",
+    ),
+    "link-loop": (lambda p: p.symlink_to(p.name), "E012", "symbolic link loop"),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(SPECIAL))
+@pytest.mark.parametrize("name", ["system.yaml", "extra.yaml"])
+def test_special_file_in_a_system_is_one_located_error(system: Path, kind: str, name: str) -> None:
+    make, code, words = SPECIAL[kind]
+    target = system / name
+    target.unlink(missing_ok=True)
+    make(target)
+    one_error(["validate", "sys"], f"sys/{name}", code, words)
+
+
+@pytest.mark.parametrize("kind", sorted(set(SPECIAL) - {"directory"}))  # a directory is fine
+def test_special_path_on_the_command_line(system: Path, kind: str) -> None:
+    make, code, words = SPECIAL[kind]
+    make(system.parent / "odd")
+    one_error(["validate", "odd"], "odd", code, words)
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "dangling-link"])
+def test_special_hooks_module_is_a_located_error(system: Path, kind: str) -> None:
+    make, _, words = SPECIAL[kind]
+    top = system / "top.yaml"
+    top.write_text(
+        top.read_text().replace(
+            "commands:", "hooks_module: tiny_hooks.top\nhooks:\n  nudge: {}\ncommands:", 1
+        )
+    )
+    (system / "tiny_hooks").mkdir()
+    make(system / "tiny_hooks" / "top.py")
+    line = one_error(["validate", "sys"], "sys/top.yaml:20:15", "E212", words)
+    assert "hooks module `tiny_hooks.top` cannot be read (top.py)" in line
+
+
+def test_special_scenario_is_a_located_error(system: Path) -> None:
+    (system / "scenarios").mkdir()
+    os.mkfifo(system / "scenarios" / "go.yaml")
+    result = rcsgen("run", "sys/scenarios/go.yaml")
+    assert result.exit_code == 1, result.output
+    assert "sys/scenarios/go.yaml:1:1: error[E011]: `go.yaml` is a named pipe" in result.output
+
+
+# ---------------------------------------------------------------- empty, encodings, sizes
+
+
+@pytest.mark.parametrize("text", ["", "\n\n", "# a comment only\n", "~\n"])
+@pytest.mark.parametrize("name", ["system.yaml", "top.yaml"])
+def test_empty_spec_file_is_e013_not_skipped(system: Path, name: str, text: str) -> None:
+    (system / name).write_text(text)
+    line = one_error(["validate", "sys"], f"sys/{name}", "E013", "is empty")
+    assert f"`{name}` is empty" in line
+
+
+def test_utf16_file_is_e008_with_a_hint(system: Path) -> None:
+    top = system / "top.yaml"
+    top.write_bytes(top.read_text().encode("utf-16"))
+    result = rcsgen("validate", "sys")
+    assert result.exit_code == 1
+    assert "sys/top.yaml:1:1: error[E008]: file is not valid UTF-8: byte 0xff" in result.output
+    assert "the file is UTF-16" in result.output
+
+
+def test_oversized_file_is_e006_and_is_not_read_whole(system: Path) -> None:
+    with (system / "huge.yaml").open("wb") as handle:
+        handle.truncate(50_000_000)  # sparse: 50 MB of zeros on disk costs nothing
+    one_error(["validate", "sys"], "sys/huge.yaml", "E006", "larger than 1,000,000 bytes")
+
+
+def test_over_long_name_is_e010(system: Path) -> None:
+    name = "x" * 300
+    one_error(["validate", name], name, "E010", "file name too long")
+
+
+def test_path_through_a_file_is_e010(system: Path) -> None:
+    one_error(["validate", "sys/top.yaml/more"], "sys/top.yaml/more", "E010", "not a directory")
+
+
+def test_very_deep_tree_is_searched_to_a_bound(system: Path) -> None:
+    deep = system.parent / "deep"
+    path = deep.joinpath(*["d"] * 40)
+    path.mkdir(parents=True)
+    result = rcsgen("validate", "deep")
+    assert result.exit_code == 1
+    assert [line.split(": ")[1] for line in errors(result.output)] == ["error[E014]"]
+    assert "directories nest more than 32 levels below `deep`" in result.output
+
+
+def test_symlinked_directory_loop_is_not_followed(system: Path) -> None:
+    (system / "again").symlink_to(".", target_is_directory=True)
+    result = rcsgen("validate", "sys")
+    assert result.exit_code == 0, result.output
+
+
+# ---------------------------------------------------------------- permissions
+
+
+def unprivileged(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    """`rcsgen ARGS` in a child that file permissions apply to (root drops its DAC override)."""
+    command = [sys.executable, "-m", "rcsgen", *args]
+    if os.geteuid() == 0:
+        if SETPRIV is None:
+            pytest.skip("running as root without setpriv: permissions would not apply")
+        command = [SETPRIV, "--bounding-set", "-dac_override,-dac_read_search", *command]
+    return subprocess.run(command, cwd=cwd, capture_output=True, text=True, timeout=60)
+
+
+def assert_unreadable(root: Path, target: str, locked: Path, where: str, what: str) -> None:
+    locked.chmod(0)
+    try:
+        done = unprivileged("validate", target, cwd=root)
+    finally:
+        locked.chmod(0o755)
+    assert done.returncode == 1, done.stderr
+    assert "Traceback" not in done.stderr
+    found = errors(done.stderr)
+    assert found == [f"{where}:1:1: error[E010]: cannot read {what}: permission denied"], (
+        done.stderr
+    )
+
+
+def test_unreadable_spec_file_is_e010(system: Path) -> None:
+    assert_unreadable(system.parent, "sys", system / "top.yaml", "sys/top.yaml", "file")
+
+
+def test_unreadable_system_directory_is_e010(system: Path) -> None:
+    assert_unreadable(system.parent, "sys", system, "sys", "directory")
+
+
+def test_unreadable_directory_met_while_searching_is_e010(system: Path) -> None:
+    inner = system.parent / "all" / "inner"
+    inner.mkdir(parents=True)
+    shutil.move(system, inner / "sys")
+    assert_unreadable(system.parent, "all", inner, "all/inner", "directory")
+
+
+# ---------------------------------------------------------------- the output directory
+
+
+def built(system: Path) -> Path:
+    """tmp_path/out holding a build of the tiny system; returns tmp_path/out."""
+    result = rcsgen("build", "sys", "-o", "out")
+    assert result.exit_code == 0, result.output
+    return system.parent / "out"
+
+
+def tree(root: Path) -> dict[str, tuple[int, bytes | None]]:
+    """Every entry under `root`: its mode and, for a regular file, its bytes."""
+    found = {}
+    for path in sorted(root.rglob("*")):
+        info = path.lstat()
+        data = path.read_bytes() if path.is_file() and not path.is_symlink() else None
+        found[path.relative_to(root).as_posix()] = (info.st_mode, data)
+    return found
+
+
+@pytest.mark.parametrize(
+    "make, words",
+    [
+        (lambda p: p.write_text("notes\n"), "`out` is a file, not a directory"),
+        (lambda p: os.mkfifo(p), "`out` is a named pipe (FIFO), not a regular file"),
+        (lambda p: p.symlink_to("nowhere"), "`out` is a dangling symbolic link"),
+    ],
+    ids=["file", "fifo", "dangling-link"],
+)
+def test_output_path_that_is_not_a_directory_is_e305(
+    system: Path, make: Callable[[Path], None], words: str
+) -> None:
+    out = system.parent / "out"
+    make(out)
+    line = one_error(["build", "sys", "-o", "out"], "out", "E305", words)
+    assert line.startswith("out:1:1: error[E305]: output directory `out`: ")
+
+
+def test_output_path_through_a_file_is_e305(system: Path) -> None:
+    (system.parent / "notes.txt").write_text("notes\n")
+    line = one_error(["build", "sys", "-o", "notes.txt/out"], "notes.txt/out", "E305", "")
+    assert "runs through `notes.txt`: `notes.txt` is a file, not a directory" in line
+    assert (system.parent / "notes.txt").read_text() == "notes\n"
+
+
+def test_special_file_where_a_module_goes_is_e303_without_opening_it(system: Path) -> None:
+    out = built(system)
+    (out / "tiny" / "top.py").unlink()
+    os.mkfifo(out / "tiny" / "top.py")
+    one_error(["build", "sys", "-o", "out"], "out/tiny/top.py", "E303", "is not a file")
+
+
+def test_a_fifo_in_an_old_output_directory_is_never_opened(system: Path) -> None:
+    """Without a manifest (an older rcsgen's output), stale files are found by their header:
+    a FIFO among them must not be opened (it would hang) nor deleted."""
+    out = built(system)
+    (out / "tiny" / ".rcsgen-manifest").unlink()
+    os.mkfifo(out / "tiny" / "old.py")
+    result = rcsgen("build", "sys", "-o", "out")
+    assert result.exit_code == 0, result.output
+    assert (out / "tiny" / "old.py").exists()
+
+
+def test_a_failed_write_is_undone(system: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The disk refuses the third rename of a rebuild (as a full disk or a yanked drive
+    would): every file already renamed into place is restored, nothing else is left."""
+    out = built(system)
+    (system / "top.yaml").write_text((system / "top.yaml").read_text().replace("2.5", "3.5"))
+    (system / "sub.yaml").write_text(
+        (system / "sub.yaml").read_text().replace("Sub controller", "Sub controller, renamed")
+    )
+    (system / "extra.yaml").write_text("controller: extra\ntitle: Extra\ncommands: {}\n")
+    system.joinpath("system.yaml").write_text(
+        (system / "system.yaml").read_text().replace("[top, sub]", "[top, sub, extra]")
+    )
+    before = tree(out)
+    real = os.replace
+    calls = []
+
+    def failing(src: object, dst: object) -> None:
+        calls.append(dst)
+        if len(calls) == 3:
+            raise OSError(28, "No space left on device")
+        real(src, dst)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(os, "replace", failing)
+    result = rcsgen("build", "sys", "-o", "out")
+    monkeypatch.setattr(os, "replace", real)
+    assert result.exit_code == 1
+    assert len(calls) >= 3
+    assert "error[E306]: cannot write `out/tiny/" in result.output
+    assert "no space left on device; nothing was changed" in result.output
+    assert "build failed: nothing was written" in result.output
+    assert tree(out) == before
+
+
+def test_read_only_output_directory_is_e306(system: Path) -> None:
+    out = built(system)
+    (system / "top.yaml").write_text((system / "top.yaml").read_text().replace("2.5", "3.5"))
+    before = tree(out)
+    (out / "tiny").chmod(0o555)
+    try:
+        done = unprivileged("build", "sys", "-o", "out", cwd=system.parent)
+    finally:
+        (out / "tiny").chmod(0o755)
+    assert done.returncode == 1, done.stderr
+    assert "Traceback" not in done.stderr
+    assert errors(done.stderr) == [
+        "out/tiny:1:1: error[E306]: cannot write in `out/tiny`: permission denied (read-only?)"
+    ]
+    assert tree(out) == before
+
+
+def test_unwritable_parent_of_a_new_output_directory_is_e306(system: Path) -> None:
+    parent = system.parent / "locked"
+    parent.mkdir()
+    parent.chmod(0o555)
+    try:
+        done = unprivileged("build", "sys", "-o", "locked/out", cwd=system.parent)
+    finally:
+        parent.chmod(0o755)
+    assert done.returncode == 1, done.stderr
+    assert errors(done.stderr) == [
+        "locked:1:1: error[E306]: cannot write in `locked`: permission denied (read-only?)"
+    ]
+    assert list(parent.iterdir()) == []

@@ -1,0 +1,172 @@
+"""Hooks at run time: every call's result is checked, and a hook that raises or returns the
+wrong values is one error naming the module, the hook, the spec line and the cycle.
+
+Uses tests/cases/valid/hooked: top's GO calls `nudge` (returns world.level, a float) and
+`split` (returns n, an int, and world.level) in S0, with a hook-state factory.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+from conftest import REPO, rcsgen
+
+from rcsgen.cli import main
+from rcsgen.compiler.emit import MARKER
+from rcsgen.tools.harness import Harness
+
+HOOKED = REPO / "tests" / "cases" / "valid" / "hooked"
+SCENARIO = """\
+scenario: go
+title: GO once
+max_cycles: 20
+stop_when_done: top
+events:
+  - cycle: 2
+    command: top.GO
+"""
+
+
+@pytest.fixture
+def hooked(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    shutil.copytree(HOOKED, tmp_path / "sys", ignore=shutil.ignore_patterns("__pycache__"))
+    (tmp_path / "sys" / "scenarios").mkdir()
+    (tmp_path / "sys" / "scenarios" / "go.yaml").write_text(SCENARIO)
+    monkeypatch.chdir(tmp_path)
+    return tmp_path / "sys"
+
+
+def hooks_with(directory: Path, old: str, new: str) -> None:
+    path = directory / "tiny_hooks" / "top.py"
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new))
+
+
+def run_go(directory: Path) -> None:
+    with Harness.build(directory, send_init=True) as h:
+        h.cycle()
+        h.command("top", "GO")
+        h.cycle(3)
+
+
+def test_the_hooked_system_runs(hooked: Path) -> None:
+    run_go(hooked)
+
+
+@pytest.mark.parametrize(
+    "old, new, problem",
+    [
+        (
+            "return whole, level - whole",
+            "return level - whole, whole",
+            "hook `split` of `top` returned (0.0, 1); its `returns:` needs a tuple of 2 values "
+            "(int, float)",
+        ),
+        (
+            "return whole, level - whole",
+            "values = whole, level - whole, 0  # (a literal tuple of 3 fails validation)\n"
+            "    return values",
+            "hook `split` of `top` returned (1, 0.0, 0); its `returns:` needs a tuple of 2 "
+            "values (int, float)",
+        ),
+        (
+            "return whole, level - whole",
+            "return [whole, level - whole]",
+            "hook `split` of `top` returned [1, 0.0]; its `returns:` needs a tuple of 2 values",
+        ),
+        (
+            "return whole, level - whole",
+            "return 2**70, 0.0",
+            "returned (1180591620717411303424, 0.0)",
+        ),
+        (
+            "    return n * state[0]",
+            "    return True",
+            "returned True; its `returns:` needs a float",
+        ),
+    ],
+    ids=["order", "arity", "list", "int-overflow", "bool-for-float"],
+)
+def test_a_result_that_does_not_fit_is_a_hook_error(
+    hooked: Path, old: str, new: str, problem: str
+) -> None:
+    hooks_with(hooked, old, new)
+    hooks_with(hooked, "    if not flag:\n        return 0.0\n", "")
+    with pytest.raises(Exception) as caught:
+        run_go(hooked)
+    assert type(caught.value).__name__ == "HookError"
+    assert problem in str(caught.value)
+    assert "(rule GO/S0/1, cycle 2)" in str(caught.value)
+
+
+def test_an_int_for_a_float_target_is_accepted(hooked: Path) -> None:
+    hooks_with(
+        hooked, "    if not flag:\n        return 0.0\n", "    if not flag:\n        return 0\n"
+    )
+    run_go(hooked)
+
+
+def test_a_hook_that_raises_is_one_error_at_the_call(hooked: Path) -> None:
+    hooks_with(hooked, "    whole = int(level)\n", "    whole = int(level) // 0\n")
+    result = rcsgen("build", "sys", "-o", "gen")
+    assert result.exit_code == 0, result.output
+    ran = rcsgen("run", "sys/scenarios/go.yaml", "--generated", "gen")
+    assert ran.exit_code == 1
+    errors = [line for line in ran.output.splitlines() if "error[" in line]
+    assert errors == [
+        "sys/top.yaml:42:21: error[E420]: hook `split` of `top` raised ZeroDivisionError: "
+        "integer division or modulo by zero (rule GO/S0/1, cycle 2)"
+    ]
+    assert "Traceback" not in ran.output
+    verbose = CliRunner().invoke(main, ["run", "sys/scenarios/go.yaml", "--generated", "gen", "-v"])
+    assert verbose.exit_code == 1
+    assert "Traceback (most recent call last)" in verbose.output
+    assert 'tiny_hooks/top.py", line 17, in split' in verbose.output
+
+
+def test_a_factory_that_raises_is_reported_at_start_up(hooked: Path) -> None:
+    hooks_with(hooked, 'float(settings.get("scale", "1"))', 'float(settings["scale"])')
+    assert rcsgen("build", "sys", "-o", "gen").exit_code == 0
+    ran = rcsgen("run", "sys/scenarios/go.yaml", "--generated", "gen")
+    assert ran.exit_code == 1
+    assert (
+        "error[E420]: hook `new_state` of `top` raised KeyError: 'scale' "
+        "(made by `hooks_state`, start-up)" in ran.output
+    )
+
+
+def test_a_wrong_result_names_the_call_and_what_returns_needs(hooked: Path) -> None:
+    hooks_with(hooked, "return whole, level - whole", "return level")
+    assert rcsgen("build", "sys", "-o", "gen").exit_code == 0
+    ran = rcsgen("run", "sys/scenarios/go.yaml", "--generated", "gen")
+    assert ran.exit_code == 1
+    assert (
+        "sys/top.yaml:42:21: error[E421]: hook `split` of `top` returned 0.0; its `returns:` "
+        "needs a tuple of 2 values (int, float) (rule GO/S0/1, cycle 2)" in ran.output
+    )
+
+
+def test_the_generated_code_checks_with_type_and_len_first() -> None:
+    """The check stays cheap: type() and len(); a checking function is called only for a
+    value whose type is not float or int (short-circuit)."""
+    text = (REPO / "generated" / "miner" / "co.py").read_text()
+    assert text.startswith(MARKER)
+    assert "or len(returned) != 2" in text
+    assert "or (type(returned[0]) not in NUMBER and not is_real(returned[0]))" in text
+
+
+def test_other_numeric_types_that_are_numbers_are_accepted(hooked: Path) -> None:
+    """A Fraction (like a numpy float) is a real number: fine for a float target; a bool is
+    not a number there, and not an int either."""
+    hooks_with(hooked, "    if not flag:\n        return 0.0\n", "")
+    hooks_with(hooked, "    return n * state[0]\n", "    return Fraction(n) * 2\n")
+    hooks_with(
+        hooked,
+        "from __future__ import annotations\n",
+        "from __future__ import annotations\n\nfrom fractions import Fraction\n",
+    )
+    run_go(hooked)

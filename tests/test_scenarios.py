@@ -1,0 +1,177 @@
+"""`rcsgen run` and scenario files: checked before cycle 0, built from the specs (never
+stale), expected outcomes, golden traces, commands in a supervisor's place.
+
+The corpus (tests/cases/invalid/e4*, s00*-scenario-*) holds one case per scenario mistake;
+these tests are about the run around them."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+from conftest import REPO, rcsgen
+
+from rcsgen.tools.scenario import load_scenario, open_harness, run
+
+TINY = REPO / "tests" / "cases" / "valid" / "tiny"
+MINER = REPO / "specs" / "miner"
+MOVE = """\
+scenario: move
+title: Move the subordinate, in its supervisor's place
+max_cycles: 20
+stop_when_done: sub
+report:
+  figures: [level]
+events:
+  - cycle: 2
+    command: sub.MOVE
+    overrides: true
+    with: {x: 1.0}
+"""
+
+
+@pytest.fixture
+def tiny(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    shutil.copytree(TINY, tmp_path / "sys")
+    (tmp_path / "sys" / "scenarios").mkdir()
+    (tmp_path / "sys" / "scenarios" / "move.yaml").write_text(MOVE)
+    monkeypatch.chdir(tmp_path)
+    return tmp_path / "sys"
+
+
+@pytest.fixture
+def miner(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    shutil.copytree(MINER, tmp_path / "miner", ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.chdir(tmp_path)
+    return tmp_path / "miner"
+
+
+def edit(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert old in text, old
+    path.write_text(text.replace(old, new, 1))
+
+
+def test_a_command_in_the_supervisors_place_is_kept(tiny: Path) -> None:
+    """With `overrides: true` the supervisor adopts the command instead of overwriting it:
+    sub runs MOVE to DONE and top sees the echo of the number it now holds."""
+    scenario = load_scenario(tiny / "scenarios" / "move.yaml")
+    assert scenario.events[0].overrides == "top"
+    result = rcsgen("run", "sys/scenarios/move.yaml")
+    assert result.exit_code == 0, result.output
+    assert "result    sub DONE (state NOP)" in result.stdout
+    h = open_harness(scenario, _built(tiny))
+    outcome = run(scenario, h)
+    assert outcome.final["status"] == "DONE"
+    top = h.controller("top")
+    assert (top.sub_command_num, top.sub_arg_x) == (h.sent("sub").number, 1.0)
+
+
+def _built(system: Path) -> Path:
+    assert rcsgen("build", str(system), "-o", "gen").exit_code == 0
+    return Path("gen") / "tiny"
+
+
+def test_without_overrides_the_command_is_refused_before_cycle_0(tiny: Path) -> None:
+    edit(tiny / "scenarios" / "move.yaml", "    overrides: true\n", "")
+    result = rcsgen("run", "sys/scenarios/move.yaml")
+    assert result.exit_code == 1
+    assert "sys/scenarios/move.yaml:9:14: error[E413]" in result.output
+    assert "run failed: nothing was run" in result.output
+    assert "scenario  move" not in result.output  # no cycle ran
+
+
+def test_a_late_mistake_is_found_before_the_run_starts(miner: Path) -> None:
+    """A misspelt module in an event at cycle 400 used to fail after 399 cycles."""
+    path = miner / "scenarios" / "box_cut.yaml"
+    edit(path, "max_cycles: 2000", "max_cycles: 2000\n")
+    text = path.read_text() + "  - cycle: 400\n    set: {tread_staled: true}\n"
+    path.write_text(text)
+    result = rcsgen("run", "miner/scenarios/box_cut.yaml")
+    assert result.exit_code == 1
+    assert "error[E409]: field `tread_staled` is not a world field of `miner`" in result.output
+    assert "did you mean `tread_stalled`?" in result.output
+    assert "cycle    100" not in result.output
+
+
+def test_run_builds_from_the_specs_so_it_never_runs_stale_code(tiny: Path) -> None:
+    """A constant changed in a spec, no `rcsgen build`: the run uses the new value."""
+    assert rcsgen("build", "sys", "-o", "gen").exit_code == 0
+    edit(tiny / "scenarios" / "move.yaml", "stop_when_done: sub\n", "")
+    text = (tiny / "scenarios" / "move.yaml").read_text()
+    text = text.replace(
+        "    command: sub.MOVE\n    overrides: true\n    with: {x: 1.0}\n", "    command: top.GO\n"
+    )
+    (tiny / "scenarios" / "move.yaml").write_text(text + "  - cycle: 1\n    set: {flag: true}\n")
+    text = (tiny / "scenarios" / "move.yaml").read_text()
+    text = text.replace(
+        "  - cycle: 2\n    command: top.GO\n  - cycle: 1\n    set: {flag: true}\n",
+        "  - cycle: 1\n    set: {flag: true}\n  - cycle: 2\n    command: top.GO\n",
+    )
+    (tiny / "scenarios" / "move.yaml").write_text(text)
+    edit(tiny / "top.yaml", "LIMIT: 3", "LIMIT: 1")  # now ready() holds once n reaches 1
+    fresh = rcsgen("run", "sys/scenarios/move.yaml")
+    assert fresh.exit_code == 0, fresh.output
+    assert "level     2.500" in fresh.stdout  # GO finished: it sets world.level
+    stale = rcsgen("run", "sys/scenarios/move.yaml", "--generated", "gen")
+    assert stale.exit_code == 1
+    assert (
+        "gen/tiny:1:1: error[E418]: `gen/tiny` is stale: top.py differs from what the specs "
+        "make" in stale.output
+    )
+    assert rcsgen("build", "sys", "-o", "gen").exit_code == 0
+    assert rcsgen("run", "sys/scenarios/move.yaml", "--generated", "gen").exit_code == 0
+
+
+def test_a_scenario_designed_to_end_in_error_passes(miner: Path) -> None:
+    path = miner / "scenarios" / "stalled_tread.yaml"
+    assert rcsgen("run", "miner/scenarios/stalled_tread.yaml", "-q").exit_code == 0
+    edit(path, "  status: ERROR", "  status: DONE")
+    result = rcsgen("run", "miner/scenarios/stalled_tread.yaml", "-q")
+    assert result.exit_code == 1
+    assert (
+        "error[E416]: expected `sb` to finish DONE; it finished ERROR (state NOP) in cycle 188"
+        in result.output
+    )
+
+
+def test_golden_comparison_from_the_command_line(miner: Path) -> None:
+    golden = REPO / "tests" / "golden" / "sump_shear_cusp.jsonl"
+    same = rcsgen("run", "miner/scenarios/sump_shear_cusp.yaml", "--golden", golden, "-q")
+    assert same.exit_code == 0, same.output
+    edit(miner / "co.yaml", "LOOSE_COAL_LIMIT: 4.0", "LOOSE_COAL_LIMIT: 0.1")
+    other = rcsgen("run", "miner/scenarios/sump_shear_cusp.yaml", "--golden", golden, "-q")
+    assert other.exit_code == 1
+    [line] = [x for x in other.output.splitlines() if "error[E417]" in x]
+    cycle = int(line.split("differs from the golden trace: cycle ")[1].split(":")[0])
+    shown = os.path.relpath(golden, Path.cwd())
+    assert line.startswith(f"{shown}:{cycle}:1: error[E417]")
+
+
+def test_json_output_stays_valid_when_a_hook_prints(tiny: Path) -> None:
+    """Machine formats own stdout: what a run prints goes to stderr."""
+    result = rcsgen("run", "sys/scenarios/move.yaml", "--format", "json", "--ignore", "W5")
+    assert result.exit_code == 0
+    assert json.loads(result.stdout) == []
+    assert "scenario  move" in result.stderr
+
+
+def test_quiet_run_prints_only_problems(tiny: Path) -> None:
+    result = rcsgen("run", "sys/scenarios/move.yaml", "-q", "--ignore", "W503,W506")
+    assert result.exit_code == 0 and result.output == ""
+
+
+def test_validate_checks_every_scenario_of_a_system(tiny: Path) -> None:
+    edit(tiny / "scenarios" / "move.yaml", "command: sub.MOVE", "command: sub.MOVEE")
+    (tiny / "scenarios" / "other.yaml").write_text("scenario: other\nmax_cycles: 0\n")
+    result = rcsgen("validate", "sys")
+    assert result.exit_code == 1
+    assert "sys/scenarios/move.yaml:9:14: error[E406]" in result.output
+    assert "sys/scenarios/other.yaml:2:13: error[S005]" in result.output
+
+
+def test_the_miners_scenarios_validate_and_meet_their_expectations() -> None:
+    assert rcsgen("validate", MINER, "--strict").exit_code == 0
