@@ -218,6 +218,30 @@ def up(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     OPTIONS go to `python -m <system>` (e.g. `--cycles 100`, `--restart`, `--shm NAME`,
     one PROCESS, `--help`).
     """
+    _exec_package(system_dir, generated, list(options))
+
+
+@main.command(context_settings={"ignore_unknown_options": True})
+@click.argument("system_dir", type=click.Path(path_type=Path, file_okay=False))
+@click.option(
+    "--generated",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("generated"),
+    show_default=True,
+    help="Where `rcsgen build` put the system packages.",
+)
+@click.argument("options", nargs=-1, type=click.UNPROCESSED)
+def ctl(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
+    """Operate a running system: status, stop/run, step, simulate, slow, send, wait.
+
+    OPTIONS go to `python -m <system> ctl` (e.g. `status --watch`, `send sb BOX_CUT
+    depth=1.5`, `step co 5`, `--help`): the console the generated package carries.
+    """
+    _exec_package(system_dir, generated, ["ctl", *options])
+
+
+def _exec_package(system_dir: Path, generated: Path, argv: list[str]) -> NoReturn:
+    """Replace this process by `python -m <system> ARGV`, the package and hooks on its path."""
     if not (system_dir / "system.yaml").is_file():
         click.echo(f"error: no system.yaml in {system_dir}", err=True)
         sys.exit(2)
@@ -228,7 +252,7 @@ def up(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
         sys.exit(1)
     path = [str(generated.resolve()), str(system_dir.resolve())]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([*path, *sys.path])}
-    os.execve(sys.executable, [sys.executable, "-m", name, *options], env)
+    os.execve(sys.executable, [sys.executable, "-m", name, *argv], env)
 
 
 def _system_name(system_dir: Path) -> str:
