@@ -9,6 +9,7 @@ other message then goes to stderr), for editors and CI.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -181,7 +182,12 @@ def run(
     if not (package / "__init__.py").is_file():
         click.echo(f"error: no generated package at {package}; run `rcsgen build` first", err=True)
         sys.exit(1)
-    harness = scenarios.open_harness(spec, package, processes)
+    signal.signal(signal.SIGTERM, _interrupt)  # stops like Ctrl-C: processes and segment
+    try:
+        harness = scenarios.open_harness(spec, package, processes)
+    except KeyboardInterrupt:  # what had started is stopped and removed already
+        click.echo("interrupted while starting: no trace written", err=True)
+        sys.exit(130)
 
     def progress(h: AnyHarness) -> None:
         if h.cycles % 100 == 0:
@@ -189,10 +195,22 @@ def run(
             phases = "  ".join(f"{m} {h.sent(m).command}/{h.status(m).state}" for m in busy)
             click.echo(f"  cycle {h.cycles:>6}  {phases}", err=True)
 
+    interrupted = False
     try:
         result = scenarios.run(spec, harness, progress)
-    finally:
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:  # a second signal must not cut the stop short (the segment would be left)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
         harness.close()
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if interrupted:
+        click.echo(f"interrupted at cycle {harness.cycles}: no trace written", err=True)
+        for line in getattr(harness, "summary", list)():
+            click.echo(line)
+        sys.exit(130)
     trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
     scenarios.write_trace(trace_path, result.trace)
     if record is not None:
@@ -253,6 +271,10 @@ def _exec_package(system_dir: Path, generated: Path, argv: list[str]) -> NoRetur
     path = [str(generated.resolve()), str(system_dir.resolve())]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([*path, *sys.path])}
     os.execve(sys.executable, [sys.executable, "-m", name, *argv], env)
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 def _system_name(system_dir: Path) -> str:

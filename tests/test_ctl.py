@@ -309,3 +309,51 @@ def test_the_miner_walk_through_from_the_readme() -> None:
     finally:
         out = system.stop()
     assert "pc1: stopped" in out and "pc2: stopped" in out
+
+
+# ---------------------------------------------------------------- a clean stop
+
+
+def test_sigterm_stops_rcsgen_run_with_a_summary_and_no_segment_left() -> None:
+    """`rcsgen run --processes` on SIGTERM (as on Ctrl-C): no traceback, the processes'
+    summary, exit 130, and the segment it made removed."""
+    run = subprocess.Popen(
+        [sys.executable, "-m", "rcsgen", "run", "specs/miner/scenarios/late_tail.yaml"]
+        + ["--processes", "--trace", os.devnull],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    shm = Path("/dev/shm")
+    segments = wait_for(lambda: list(shm.glob(f"rcsgen_run_{run.pid}_*")), "the run's segment")
+    time.sleep(0.3)
+    run.terminate()
+    out, err = run.communicate(timeout=60)
+    if run.returncode == 0:  # it finished first: nothing to interrupt
+        pytest.skip("the scenario ended before the signal")
+    assert run.returncode == 130, err
+    assert "Traceback" not in out + err
+    if "interrupted while starting" not in err:  # the signal came once the run had begun
+        assert "interrupted at cycle" in err
+        assert any(line.startswith("pc1: stopped, ") for line in out.splitlines()), out
+    assert not any(path.exists() for path in segments)  # type: ignore[attr-defined]
+
+
+def test_a_killed_lockstep_launcher_leaves_no_segment(duo: Path) -> None:
+    """The launcher of a lockstep run killed outright: its processes see their pipe close,
+    and the last one out removes the segment."""
+    segment = segment_name()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(duo.parent), str(DUO)])}
+    run = subprocess.Popen(
+        [sys.executable, "-m", duo.name, "--lockstep", "--shm", segment],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    shm = Path("/dev/shm") / segment
+    wait_for(shm.exists, "the segment")
+    time.sleep(0.3)
+    run.kill()
+    run.wait(timeout=30)
+    wait_for(lambda: not shm.exists(), "the segment removed by the last process out")

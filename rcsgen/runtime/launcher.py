@@ -97,8 +97,15 @@ def run_process(system: System, args: argparse.Namespace) -> int:
             return 1
         try:
             serve(process, sys.stdin.fileno(), sys.stdout.fileno())
-        finally:
+        except OSError:  # the coordinator's end of the pipe is gone (BrokenPipeError)
+            pass
+        except BaseException:
             process.block.close()
+            raise
+        # The coordinator closed the pipe (it stops us) or is gone (killed): as when free-
+        # running, the last one out removes the segment, which a living launcher does too.
+        process.block.owner = process.block.owner or args.child
+        process.block.close()
         return 0
     if not args.child:
         signal.signal(signal.SIGINT, stop)
