@@ -258,6 +258,46 @@ def ctl(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     _exec_package(system_dir, generated, ["ctl", *options])
 
 
+@main.command()
+@click.argument("system_dir", type=click.Path(path_type=Path, file_okay=False))
+@click.option(
+    "--generated",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("generated"),
+    show_default=True,
+    help="Where `rcsgen build` put the system packages.",
+)
+@click.option("--shm", default=None, help="The segment [default: the launcher's].")
+def monitor(system_dir: Path, generated: Path, shm: str | None) -> None:
+    """Watch and operate a running system in a live terminal screen (rcsgen[monitor]).
+
+    Keys act on the selected module: s stop, r run, n single-step, i simulate on/off,
+    + / - slow down / speed up every process, c send a command, q quit.
+    """
+    import importlib
+
+    try:
+        from .tools.monitor import Monitor
+    except ImportError:
+        fail("the monitor needs textual: pip install 'rcsgen[monitor]'")
+    from .runtime.block import BlockError
+    from .tools.harness import import_package
+
+    if not (system_dir / "system.yaml").is_file():
+        fail(f"no system.yaml in {system_dir}", 2)
+    name = _system_name(system_dir)
+    package_dir = generated / name
+    if not (package_dir / "layout.py").is_file():
+        fail(f"no generated package at {package_dir}; run `rcsgen build` first")
+    layout = importlib.import_module(f"{import_package(package_dir.resolve()).__name__}.layout")
+    segment = shm or f"rcs_{layout.SYSTEM}_{layout.LAYOUT_HASH[:8]}"
+    try:
+        app = Monitor(layout, segment)
+    except BlockError as error:
+        fail(str(error))
+    app.run()
+
+
 def _exec_package(system_dir: Path, generated: Path, argv: list[str]) -> NoReturn:
     """Replace this process by `python -m <system> ARGV`, the package and hooks on its path."""
     if not (system_dir / "system.yaml").is_file():
