@@ -15,6 +15,7 @@ import contextlib
 import functools
 import os
 import shutil
+import signal
 import sys
 import tempfile
 import time
@@ -486,24 +487,40 @@ def run(
             line(f"cycle {h.cycles}/{spec.max_cycles}  {phases or 'every module idle'}")
 
     failed: tuple[Exception, int] | None = None
+    interrupted = False
     # With a machine format, stdout holds only the diagnostics: what hooks print goes to stderr.
     hooks_out = sys.stderr if opts.fmt != "text" else sys.stdout
+    signal.signal(signal.SIGTERM, _interrupt)  # stops like Ctrl-C: processes and segment
     with tempfile.TemporaryDirectory(prefix="rcsgen-run-") as scratch:
         package = _package(system, generated, Path(scratch), session)
         with contextlib.redirect_stdout(hooks_out):
             try:
                 harness = scenarios.open_harness(spec, package, processes)
+            except KeyboardInterrupt:  # what had started is stopped and removed already
+                click.echo("interrupted while starting: no trace written", err=True)
+                sys.exit(130)
             except Exception as error:  # a hook-state factory, or a module that cannot be made
                 failed = (error, 0)
             else:
                 try:
                     result = scenarios.run(spec, harness, progress)
                     final_world = harness.world.snapshot()
+                except KeyboardInterrupt:
+                    interrupted = True
                 except Exception as error:  # a hook, or a module's own code, in this cycle
                     failed = (error, harness.cycles + 1)
-                finally:
+                finally:  # a second signal must not cut the stop short (the segment stays)
+                    signal.signal(signal.SIGINT, signal.SIG_IGN)
+                    signal.signal(signal.SIGTERM, signal.SIG_IGN)
                     harness.close()
+                    signal.signal(signal.SIGINT, signal.default_int_handler)
+                    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     line.done()
+    if interrupted:
+        click.echo(f"interrupted at cycle {harness.cycles}: no trace written", err=True)
+        for summary_line in getattr(harness, "summary", list)():
+            click.echo(summary_line)
+        sys.exit(130)
     if failed is not None:
         _run_failed(failed[0], system, failed[1], package, session, verbose)
     trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
@@ -540,6 +557,70 @@ def up(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     OPTIONS go to `python -m <system>` (e.g. `--cycles 100`, `--restart`, `--shm NAME`,
     one PROCESS, `--help`).
     """
+    _exec_package(system_dir, generated, list(options))
+
+
+@main.command(context_settings={"ignore_unknown_options": True})
+@click.argument("system_dir", type=click.Path(path_type=Path, file_okay=False))
+@click.option(
+    "--generated",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("generated"),
+    show_default=True,
+    help="Where `rcsgen build` put the system packages.",
+)
+@click.argument("options", nargs=-1, type=click.UNPROCESSED)
+def ctl(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
+    """Operate a running system: status, stop/run, step, simulate, slow, send, wait.
+
+    OPTIONS go to `python -m <system> ctl` (e.g. `status --watch`, `send sb BOX_CUT
+    depth=1.5`, `step co 5`, `--help`): the console the generated package carries.
+    """
+    _exec_package(system_dir, generated, ["ctl", *options])
+
+
+@main.command()
+@click.argument("system_dir", type=click.Path(path_type=Path, file_okay=False))
+@click.option(
+    "--generated",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("generated"),
+    show_default=True,
+    help="Where `rcsgen build` put the system packages.",
+)
+@click.option("--shm", default=None, help="The segment [default: the launcher's].")
+def monitor(system_dir: Path, generated: Path, shm: str | None) -> None:
+    """Watch and operate a running system in a live terminal screen (rcsgen[monitor]).
+
+    Keys act on the selected module: s stop, r run, n single-step, i simulate on/off,
+    + / - slow down / speed up every process, c send a command, q quit.
+    """
+    import importlib
+
+    try:
+        from .tools.monitor import Monitor
+    except ImportError:
+        fail("the monitor needs textual: pip install 'rcsgen[monitor]'")
+    from .runtime.block import BlockError
+    from .tools.harness import import_package
+
+    if not (system_dir / "system.yaml").is_file():
+        fail(f"no system.yaml in {system_dir}", 2)
+    name = _system_name(system_dir)
+    package_dir = generated / name
+    if not (package_dir / "layout.py").is_file():
+        fail(f"no generated package at {package_dir}; run `rcsgen build` first")
+    layout = importlib.import_module(f"{import_package(package_dir.resolve()).__name__}.layout")
+    segment = shm or f"rcs_{layout.SYSTEM}_{layout.LAYOUT_HASH[:8]}"
+    try:
+        app = Monitor(layout, segment)
+    except BlockError as error:
+        fail(str(error))
+    app.run()
+
+
+def _exec_package(system_dir: Path, generated: Path, argv: list[str]) -> NoReturn:
+    """Replace this process by `python -m <system> ARGV`, the package and hooks on its path."""
     if not (system_dir / "system.yaml").is_file():
         click.echo(f"error: no system.yaml in {system_dir}", err=True)
         sys.exit(2)
@@ -550,7 +631,11 @@ def up(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
         sys.exit(1)
     path = [str(generated.resolve()), str(system_dir.resolve())]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([*path, *sys.path])}
-    os.execve(sys.executable, [sys.executable, "-m", name, *options], env)
+    os.execve(sys.executable, [sys.executable, "-m", name, *argv], env)
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 def _system_name(system_dir: Path) -> str:

@@ -32,7 +32,11 @@ COMPILER_DEPENDENCIES = frozenset({"yaml", "jinja2", "jsonschema", "ruff"})
 ALLOWED: dict[str, tuple[frozenset[str], frozenset[str]]] = {
     "runtime": (frozenset({"runtime"}), frozenset()),
     "compiler": (frozenset({"compiler", "runtime"}), COMPILER_DEPENDENCIES),
-    "tools": (frozenset({"compiler", "runtime", "tools"}), COMPILER_DEPENDENCIES),
+    # textual (and rich, which it is built on): the optional monitor extra, tools/monitor.py
+    "tools": (
+        frozenset({"compiler", "runtime", "tools"}),
+        COMPILER_DEPENDENCIES | {"textual", "rich"},
+    ),
     "api": (frozenset({"api", "compiler", "runtime", "tools"}), frozenset()),
     "cli": (
         frozenset({"api", "compiler", "runtime", "tools", "cli"}),

@@ -714,6 +714,8 @@ def records(layout: ModuleType) -> dict[str, object]:
         found[f"WORLD_{name.upper()}"] = record
     for name, record in layout.PROCESSES.items():
         found[f"PROCESS_{name.upper()}"] = record
+    for name, record in layout.PACING.items():
+        found[f"PACE_{name.upper()}"] = record
     return found
 
 

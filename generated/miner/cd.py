@@ -19,12 +19,12 @@ OFF = 4
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI2408x?")
-INPUTS_AT = 752
+INPUTS_AT = 784
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3216
+WORLD_OUT_1_AT = 3248
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

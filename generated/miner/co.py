@@ -62,12 +62,12 @@ CC_CUSP = 7
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI80xQI468xQI484xQI1604xd8xd8xd8xd264xd8xd8xd24xd8x?63xd")
-INPUTS_AT = 392
+INPUTS_AT = 424
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3152
+WORLD_OUT_1_AT = 3184
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -20,12 +20,12 @@ CUSP = 5
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI2536xd8xd")
-INPUTS_AT = 992
+INPUTS_AT = 1024
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3584
+WORLD_OUT_1_AT = 3616
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

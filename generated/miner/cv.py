@@ -18,12 +18,12 @@ ON = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI2024x?")
-INPUTS_AT = 1232
+INPUTS_AT = 1264
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3312
+WORLD_OUT_1_AT = 3344
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

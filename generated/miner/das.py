@@ -17,16 +17,16 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI816x?175xd136x?")
-INPUTS_AT = 2336
+INPUTS_AT = 2368
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2336
+SEQS_AT = 2368
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3392
+WORLD_OUT_1_AT = 3424
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -19,12 +19,12 @@ ON = 4
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI2112x?15x?")
-INPUTS_AT = 1112
+INPUTS_AT = 1144
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<Q?7xQ?")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3280
+WORLD_OUT_1_AT = 3312
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -2,146 +2,150 @@
 """Shared-memory layout of the miner system: one block, fixed offsets.
 
 The header comes first (the layout's hash: a process refuses to attach to another layout),
-then each process's control record (its heartbeat and counters). Every module owns a command
+then each process's control record (its heartbeat and counters) and pacing record (its
+slow-down, written by an operator). Every module owns a command
 buffer (written by its supervisor), a status buffer and a performance buffer (written by
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 3616 bytes.
+The block is 3648 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
-control record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS); command buffers and world fields:
+control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
+command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
 | 80 | 88 | PROCESS_PC1 | PROCESS_FIELDS |
-| 168 | 88 | PROCESS_PC2 | PROCESS_FIELDS |
-| 256 | 28 | SB_COMMAND | command_num, command, arg_depth |
-| 288 | 32 | SB_STATUS | STATUS_FIELDS |
-| 320 | 16 | SB_MODE | MODE_FIELDS |
-| 336 | 48 | SB_PERF | PERF_FIELDS |
-| 384 | 20 | CO_COMMAND | command_num, command |
-| 408 | 32 | CO_STATUS | STATUS_FIELDS |
-| 440 | 16 | CO_MODE | MODE_FIELDS |
-| 456 | 48 | CO_PERF | PERF_FIELDS |
-| 504 | 20 | CC_COMMAND | command_num, command |
-| 528 | 32 | CC_STATUS | STATUS_FIELDS |
-| 560 | 16 | CC_MODE | MODE_FIELDS |
-| 576 | 48 | CC_PERF | PERF_FIELDS |
-| 624 | 20 | BM_COMMAND | command_num, command |
-| 648 | 32 | BM_STATUS | STATUS_FIELDS |
-| 680 | 16 | BM_MODE | MODE_FIELDS |
-| 696 | 48 | BM_PERF | PERF_FIELDS |
-| 744 | 20 | CD_COMMAND | command_num, command |
-| 768 | 32 | CD_STATUS | STATUS_FIELDS |
-| 800 | 16 | CD_MODE | MODE_FIELDS |
-| 816 | 48 | CD_PERF | PERF_FIELDS |
-| 864 | 20 | SJ_COMMAND | command_num, command |
-| 888 | 32 | SJ_STATUS | STATUS_FIELDS |
-| 920 | 16 | SJ_MODE | MODE_FIELDS |
-| 936 | 48 | SJ_PERF | PERF_FIELDS |
-| 984 | 20 | CR_COMMAND | command_num, command |
-| 1008 | 32 | CR_STATUS | STATUS_FIELDS |
-| 1040 | 16 | CR_MODE | MODE_FIELDS |
-| 1056 | 48 | CR_PERF | PERF_FIELDS |
-| 1104 | 20 | GH_COMMAND | command_num, command |
-| 1128 | 32 | GH_STATUS | STATUS_FIELDS |
-| 1160 | 16 | GH_MODE | MODE_FIELDS |
-| 1176 | 48 | GH_PERF | PERF_FIELDS |
-| 1224 | 20 | CV_COMMAND | command_num, command |
-| 1248 | 32 | CV_STATUS | STATUS_FIELDS |
-| 1280 | 16 | CV_MODE | MODE_FIELDS |
-| 1296 | 48 | CV_PERF | PERF_FIELDS |
-| 1344 | 20 | CT_COMMAND | command_num, command |
-| 1368 | 32 | CT_STATUS | STATUS_FIELDS |
-| 1400 | 16 | CT_MODE | MODE_FIELDS |
-| 1416 | 48 | CT_PERF | PERF_FIELDS |
-| 1464 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
-| 1504 | 32 | VG_STATUS | STATUS_FIELDS |
-| 1536 | 16 | VG_MODE | MODE_FIELDS |
-| 1552 | 48 | VG_PERF | PERF_FIELDS |
-| 1600 | 20 | TC_COMMAND | command_num, command |
-| 1624 | 32 | TC_STATUS | STATUS_FIELDS |
-| 1656 | 16 | TC_MODE | MODE_FIELDS |
-| 1672 | 48 | TC_PERF | PERF_FIELDS |
-| 1720 | 36 | OI_COMMAND | command_num, command, arg_x, arg_y |
-| 1760 | 32 | OI_STATUS | STATUS_FIELDS |
-| 1792 | 16 | OI_MODE | MODE_FIELDS |
-| 1808 | 48 | OI_PERF | PERF_FIELDS |
-| 1856 | 20 | BAS_COMMAND | command_num, command |
-| 1880 | 32 | BAS_STATUS | STATUS_FIELDS |
-| 1912 | 16 | BAS_MODE | MODE_FIELDS |
-| 1928 | 48 | BAS_PERF | PERF_FIELDS |
-| 1976 | 20 | JAS_COMMAND | command_num, command |
-| 2000 | 32 | JAS_STATUS | STATUS_FIELDS |
-| 2032 | 16 | JAS_MODE | MODE_FIELDS |
-| 2048 | 48 | JAS_PERF | PERF_FIELDS |
-| 2096 | 20 | TAS_COMMAND | command_num, command |
-| 2120 | 32 | TAS_STATUS | STATUS_FIELDS |
-| 2152 | 16 | TAS_MODE | MODE_FIELDS |
-| 2168 | 48 | TAS_PERF | PERF_FIELDS |
-| 2216 | 20 | MINE_COMMAND | command_num, command |
-| 2240 | 32 | MINE_STATUS | STATUS_FIELDS |
-| 2272 | 16 | MINE_MODE | MODE_FIELDS |
-| 2288 | 48 | MINE_PERF | PERF_FIELDS |
-| 2336 | 20 | DAS_COMMAND | command_num, command |
-| 2360 | 32 | DAS_STATUS | STATUS_FIELDS |
-| 2392 | 16 | DAS_MODE | MODE_FIELDS |
-| 2408 | 48 | DAS_PERF | PERF_FIELDS |
-| 2456 | 20 | GAS_COMMAND | command_num, command |
-| 2480 | 32 | GAS_STATUS | STATUS_FIELDS |
-| 2512 | 16 | GAS_MODE | MODE_FIELDS |
-| 2528 | 48 | GAS_PERF | PERF_FIELDS |
-| 2576 | 20 | BSS_COMMAND | command_num, command |
-| 2600 | 32 | BSS_STATUS | STATUS_FIELDS |
-| 2632 | 16 | BSS_MODE | MODE_FIELDS |
-| 2648 | 48 | BSS_PERF | PERF_FIELDS |
-| 2696 | 20 | PSS_COMMAND | command_num, command |
-| 2720 | 32 | PSS_STATUS | STATUS_FIELDS |
-| 2752 | 16 | PSS_MODE | MODE_FIELDS |
-| 2768 | 48 | PSS_PERF | PERF_FIELDS |
-| 2816 | 20 | CSS_COMMAND | command_num, command |
-| 2840 | 32 | CSS_STATUS | STATUS_FIELDS |
-| 2872 | 16 | CSS_MODE | MODE_FIELDS |
-| 2888 | 48 | CSS_PERF | PERF_FIELDS |
-| 2936 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
-| 2976 | 32 | PP_STATUS | STATUS_FIELDS |
-| 3008 | 16 | PP_MODE | MODE_FIELDS |
-| 3024 | 48 | PP_PERF | PERF_FIELDS |
-| 3072 | 9 | WORLD_TAIL_REQUEST | tail_request |
-| 3088 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
-| 3104 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 3120 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
-| 3136 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
-| 3152 | 16 | WORLD_GOAL_X | goal_x |
-| 3168 | 16 | WORLD_GOAL_Y | goal_y |
-| 3184 | 16 | WORLD_TRAM_DIR | tram_dir |
-| 3200 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
-| 3216 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
-| 3232 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
-| 3248 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
-| 3264 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
-| 3280 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
-| 3296 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
-| 3312 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
-| 3328 | 16 | WORLD_TRUE_X | true_x |
-| 3344 | 16 | WORLD_TRUE_Y | true_y |
-| 3360 | 16 | WORLD_TRUE_HEADING | true_heading |
-| 3376 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
-| 3392 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
-| 3408 | 9 | WORLD_JACK_DOWN | jack_down |
-| 3424 | 9 | WORLD_TREAD_STALLED | tread_stalled |
-| 3440 | 16 | WORLD_POSE_X | pose_x |
-| 3456 | 16 | WORLD_POSE_Y | pose_y |
-| 3472 | 16 | WORLD_HEADING | heading |
-| 3488 | 16 | WORLD_BOOM_ANGLE | boom_angle |
-| 3504 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
-| 3520 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 3536 | 9 | WORLD_IN_COAL | in_coal |
-| 3552 | 16 | WORLD_FACE_X | face_x |
-| 3568 | 16 | WORLD_DEPTH_CUT | depth_cut |
-| 3584 | 16 | WORLD_LOOSE_COAL | loose_coal |
-| 3600 | 16 | WORLD_COAL_MINED | coal_mined |
+| 168 | 16 | PACE_PC1 | PACE_FIELDS |
+| 184 | 88 | PROCESS_PC2 | PROCESS_FIELDS |
+| 272 | 16 | PACE_PC2 | PACE_FIELDS |
+| 288 | 28 | SB_COMMAND | command_num, command, arg_depth |
+| 320 | 32 | SB_STATUS | STATUS_FIELDS |
+| 352 | 16 | SB_MODE | MODE_FIELDS |
+| 368 | 48 | SB_PERF | PERF_FIELDS |
+| 416 | 20 | CO_COMMAND | command_num, command |
+| 440 | 32 | CO_STATUS | STATUS_FIELDS |
+| 472 | 16 | CO_MODE | MODE_FIELDS |
+| 488 | 48 | CO_PERF | PERF_FIELDS |
+| 536 | 20 | CC_COMMAND | command_num, command |
+| 560 | 32 | CC_STATUS | STATUS_FIELDS |
+| 592 | 16 | CC_MODE | MODE_FIELDS |
+| 608 | 48 | CC_PERF | PERF_FIELDS |
+| 656 | 20 | BM_COMMAND | command_num, command |
+| 680 | 32 | BM_STATUS | STATUS_FIELDS |
+| 712 | 16 | BM_MODE | MODE_FIELDS |
+| 728 | 48 | BM_PERF | PERF_FIELDS |
+| 776 | 20 | CD_COMMAND | command_num, command |
+| 800 | 32 | CD_STATUS | STATUS_FIELDS |
+| 832 | 16 | CD_MODE | MODE_FIELDS |
+| 848 | 48 | CD_PERF | PERF_FIELDS |
+| 896 | 20 | SJ_COMMAND | command_num, command |
+| 920 | 32 | SJ_STATUS | STATUS_FIELDS |
+| 952 | 16 | SJ_MODE | MODE_FIELDS |
+| 968 | 48 | SJ_PERF | PERF_FIELDS |
+| 1016 | 20 | CR_COMMAND | command_num, command |
+| 1040 | 32 | CR_STATUS | STATUS_FIELDS |
+| 1072 | 16 | CR_MODE | MODE_FIELDS |
+| 1088 | 48 | CR_PERF | PERF_FIELDS |
+| 1136 | 20 | GH_COMMAND | command_num, command |
+| 1160 | 32 | GH_STATUS | STATUS_FIELDS |
+| 1192 | 16 | GH_MODE | MODE_FIELDS |
+| 1208 | 48 | GH_PERF | PERF_FIELDS |
+| 1256 | 20 | CV_COMMAND | command_num, command |
+| 1280 | 32 | CV_STATUS | STATUS_FIELDS |
+| 1312 | 16 | CV_MODE | MODE_FIELDS |
+| 1328 | 48 | CV_PERF | PERF_FIELDS |
+| 1376 | 20 | CT_COMMAND | command_num, command |
+| 1400 | 32 | CT_STATUS | STATUS_FIELDS |
+| 1432 | 16 | CT_MODE | MODE_FIELDS |
+| 1448 | 48 | CT_PERF | PERF_FIELDS |
+| 1496 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
+| 1536 | 32 | VG_STATUS | STATUS_FIELDS |
+| 1568 | 16 | VG_MODE | MODE_FIELDS |
+| 1584 | 48 | VG_PERF | PERF_FIELDS |
+| 1632 | 20 | TC_COMMAND | command_num, command |
+| 1656 | 32 | TC_STATUS | STATUS_FIELDS |
+| 1688 | 16 | TC_MODE | MODE_FIELDS |
+| 1704 | 48 | TC_PERF | PERF_FIELDS |
+| 1752 | 36 | OI_COMMAND | command_num, command, arg_x, arg_y |
+| 1792 | 32 | OI_STATUS | STATUS_FIELDS |
+| 1824 | 16 | OI_MODE | MODE_FIELDS |
+| 1840 | 48 | OI_PERF | PERF_FIELDS |
+| 1888 | 20 | BAS_COMMAND | command_num, command |
+| 1912 | 32 | BAS_STATUS | STATUS_FIELDS |
+| 1944 | 16 | BAS_MODE | MODE_FIELDS |
+| 1960 | 48 | BAS_PERF | PERF_FIELDS |
+| 2008 | 20 | JAS_COMMAND | command_num, command |
+| 2032 | 32 | JAS_STATUS | STATUS_FIELDS |
+| 2064 | 16 | JAS_MODE | MODE_FIELDS |
+| 2080 | 48 | JAS_PERF | PERF_FIELDS |
+| 2128 | 20 | TAS_COMMAND | command_num, command |
+| 2152 | 32 | TAS_STATUS | STATUS_FIELDS |
+| 2184 | 16 | TAS_MODE | MODE_FIELDS |
+| 2200 | 48 | TAS_PERF | PERF_FIELDS |
+| 2248 | 20 | MINE_COMMAND | command_num, command |
+| 2272 | 32 | MINE_STATUS | STATUS_FIELDS |
+| 2304 | 16 | MINE_MODE | MODE_FIELDS |
+| 2320 | 48 | MINE_PERF | PERF_FIELDS |
+| 2368 | 20 | DAS_COMMAND | command_num, command |
+| 2392 | 32 | DAS_STATUS | STATUS_FIELDS |
+| 2424 | 16 | DAS_MODE | MODE_FIELDS |
+| 2440 | 48 | DAS_PERF | PERF_FIELDS |
+| 2488 | 20 | GAS_COMMAND | command_num, command |
+| 2512 | 32 | GAS_STATUS | STATUS_FIELDS |
+| 2544 | 16 | GAS_MODE | MODE_FIELDS |
+| 2560 | 48 | GAS_PERF | PERF_FIELDS |
+| 2608 | 20 | BSS_COMMAND | command_num, command |
+| 2632 | 32 | BSS_STATUS | STATUS_FIELDS |
+| 2664 | 16 | BSS_MODE | MODE_FIELDS |
+| 2680 | 48 | BSS_PERF | PERF_FIELDS |
+| 2728 | 20 | PSS_COMMAND | command_num, command |
+| 2752 | 32 | PSS_STATUS | STATUS_FIELDS |
+| 2784 | 16 | PSS_MODE | MODE_FIELDS |
+| 2800 | 48 | PSS_PERF | PERF_FIELDS |
+| 2848 | 20 | CSS_COMMAND | command_num, command |
+| 2872 | 32 | CSS_STATUS | STATUS_FIELDS |
+| 2904 | 16 | CSS_MODE | MODE_FIELDS |
+| 2920 | 48 | CSS_PERF | PERF_FIELDS |
+| 2968 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
+| 3008 | 32 | PP_STATUS | STATUS_FIELDS |
+| 3040 | 16 | PP_MODE | MODE_FIELDS |
+| 3056 | 48 | PP_PERF | PERF_FIELDS |
+| 3104 | 9 | WORLD_TAIL_REQUEST | tail_request |
+| 3120 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
+| 3136 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 3152 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
+| 3168 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
+| 3184 | 16 | WORLD_GOAL_X | goal_x |
+| 3200 | 16 | WORLD_GOAL_Y | goal_y |
+| 3216 | 16 | WORLD_TRAM_DIR | tram_dir |
+| 3232 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 3248 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 3264 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 3280 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 3296 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 3312 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 3328 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 3344 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 3360 | 16 | WORLD_TRUE_X | true_x |
+| 3376 | 16 | WORLD_TRUE_Y | true_y |
+| 3392 | 16 | WORLD_TRUE_HEADING | true_heading |
+| 3408 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 3424 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 3440 | 9 | WORLD_JACK_DOWN | jack_down |
+| 3456 | 9 | WORLD_TREAD_STALLED | tread_stalled |
+| 3472 | 16 | WORLD_POSE_X | pose_x |
+| 3488 | 16 | WORLD_POSE_Y | pose_y |
+| 3504 | 16 | WORLD_HEADING | heading |
+| 3520 | 16 | WORLD_BOOM_ANGLE | boom_angle |
+| 3536 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
+| 3552 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 3568 | 9 | WORLD_IN_COAL | in_coal |
+| 3584 | 16 | WORLD_FACE_X | face_x |
+| 3600 | 16 | WORLD_DEPTH_CUT | depth_cut |
+| 3616 | 16 | WORLD_LOOSE_COAL | loose_coal |
+| 3632 | 16 | WORLD_COAL_MINED | coal_mined |
 """
 
 from __future__ import annotations
@@ -154,6 +158,8 @@ from .rcs.contract import (
     MODE,
     MODE_FIELDS,
     NO_COMMAND_NAME,
+    PACE,
+    PACE_FIELDS,
     PERF,
     PERF_FIELDS,
     PROCESS,
@@ -166,247 +172,254 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 3616
+SIZE = 3648
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "f9559b80ce610e68df2cd9705f823263"
+LAYOUT_HASH = "cdd58e1a7624c82462d5aa2e0384b9be"
 PROCESS_PC1_AT = 80
-PROCESS_PC2_AT = 168
+PACE_PC1_AT = 168
+PROCESS_PC2_AT = 184
+PACE_PC2_AT = 272
 
 # sb: Shift boss
 SB_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_depth
-SB_COMMAND_AT = 256
-SB_STATUS_AT = 288
-SB_MODE_AT = 320
-SB_PERF_AT = 336
+SB_COMMAND_AT = 288
+SB_STATUS_AT = 320
+SB_MODE_AT = 352
+SB_PERF_AT = 368
 
 # co: Continuous miner operation coordinator
 CO_COMMAND = Struct("<QQI")  # seq, command_num, command
-CO_COMMAND_AT = 384
-CO_STATUS_AT = 408
-CO_MODE_AT = 440
-CO_PERF_AT = 456
+CO_COMMAND_AT = 416
+CO_STATUS_AT = 440
+CO_MODE_AT = 472
+CO_PERF_AT = 488
 
 # cc: Coal cutting
 CC_COMMAND = Struct("<QQI")  # seq, command_num, command
-CC_COMMAND_AT = 504
-CC_STATUS_AT = 528
-CC_MODE_AT = 560
-CC_PERF_AT = 576
+CC_COMMAND_AT = 536
+CC_STATUS_AT = 560
+CC_MODE_AT = 592
+CC_PERF_AT = 608
 
 # bm: Boom
 BM_COMMAND = Struct("<QQI")  # seq, command_num, command
-BM_COMMAND_AT = 624
-BM_STATUS_AT = 648
-BM_MODE_AT = 680
-BM_PERF_AT = 696
+BM_COMMAND_AT = 656
+BM_STATUS_AT = 680
+BM_MODE_AT = 712
+BM_PERF_AT = 728
 
 # cd: Cutter drum
 CD_COMMAND = Struct("<QQI")  # seq, command_num, command
-CD_COMMAND_AT = 744
-CD_STATUS_AT = 768
-CD_MODE_AT = 800
-CD_PERF_AT = 816
+CD_COMMAND_AT = 776
+CD_STATUS_AT = 800
+CD_MODE_AT = 832
+CD_PERF_AT = 848
 
 # sj: Stabilization jack
 SJ_COMMAND = Struct("<QQI")  # seq, command_num, command
-SJ_COMMAND_AT = 864
-SJ_STATUS_AT = 888
-SJ_MODE_AT = 920
-SJ_PERF_AT = 936
+SJ_COMMAND_AT = 896
+SJ_STATUS_AT = 920
+SJ_MODE_AT = 952
+SJ_PERF_AT = 968
 
 # cr: Coal removal
 CR_COMMAND = Struct("<QQI")  # seq, command_num, command
-CR_COMMAND_AT = 984
-CR_STATUS_AT = 1008
-CR_MODE_AT = 1040
-CR_PERF_AT = 1056
+CR_COMMAND_AT = 1016
+CR_STATUS_AT = 1040
+CR_MODE_AT = 1072
+CR_PERF_AT = 1088
 
 # gh: Gathering head
 GH_COMMAND = Struct("<QQI")  # seq, command_num, command
-GH_COMMAND_AT = 1104
-GH_STATUS_AT = 1128
-GH_MODE_AT = 1160
-GH_PERF_AT = 1176
+GH_COMMAND_AT = 1136
+GH_STATUS_AT = 1160
+GH_MODE_AT = 1192
+GH_PERF_AT = 1208
 
 # cv: Conveyor
 CV_COMMAND = Struct("<QQI")  # seq, command_num, command
-CV_COMMAND_AT = 1224
-CV_STATUS_AT = 1248
-CV_MODE_AT = 1280
-CV_PERF_AT = 1296
+CV_COMMAND_AT = 1256
+CV_STATUS_AT = 1280
+CV_MODE_AT = 1312
+CV_PERF_AT = 1328
 
 # ct: Conveyor tail (operator)
 CT_COMMAND = Struct("<QQI")  # seq, command_num, command
-CT_COMMAND_AT = 1344
-CT_STATUS_AT = 1368
-CT_MODE_AT = 1400
-CT_PERF_AT = 1416
+CT_COMMAND_AT = 1376
+CT_STATUS_AT = 1400
+CT_MODE_AT = 1432
+CT_PERF_AT = 1448
 
 # vg: Vehicle guidance
 VG_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-VG_COMMAND_AT = 1464
-VG_STATUS_AT = 1504
-VG_MODE_AT = 1536
-VG_PERF_AT = 1552
+VG_COMMAND_AT = 1496
+VG_STATUS_AT = 1536
+VG_MODE_AT = 1568
+VG_PERF_AT = 1584
 
 # tc: Tram
 TC_COMMAND = Struct("<QQI")  # seq, command_num, command
-TC_COMMAND_AT = 1600
-TC_STATUS_AT = 1624
-TC_MODE_AT = 1656
-TC_PERF_AT = 1672
+TC_COMMAND_AT = 1632
+TC_STATUS_AT = 1656
+TC_MODE_AT = 1688
+TC_PERF_AT = 1704
 
 # oi: Operator interface (scripted operator)
 OI_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-OI_COMMAND_AT = 1720
-OI_STATUS_AT = 1760
-OI_MODE_AT = 1792
-OI_PERF_AT = 1808
+OI_COMMAND_AT = 1752
+OI_STATUS_AT = 1792
+OI_MODE_AT = 1824
+OI_PERF_AT = 1840
 
 # bas: Boom actuator (simulated)
 BAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-BAS_COMMAND_AT = 1856
-BAS_STATUS_AT = 1880
-BAS_MODE_AT = 1912
-BAS_PERF_AT = 1928
+BAS_COMMAND_AT = 1888
+BAS_STATUS_AT = 1912
+BAS_MODE_AT = 1944
+BAS_PERF_AT = 1960
 
 # jas: Stabilization jack actuator (simulated)
 JAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-JAS_COMMAND_AT = 1976
-JAS_STATUS_AT = 2000
-JAS_MODE_AT = 2032
-JAS_PERF_AT = 2048
+JAS_COMMAND_AT = 2008
+JAS_STATUS_AT = 2032
+JAS_MODE_AT = 2064
+JAS_PERF_AT = 2080
 
 # tas: Tread actuators (simulated)
 TAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-TAS_COMMAND_AT = 2096
-TAS_STATUS_AT = 2120
-TAS_MODE_AT = 2152
-TAS_PERF_AT = 2168
+TAS_COMMAND_AT = 2128
+TAS_STATUS_AT = 2152
+TAS_MODE_AT = 2184
+TAS_PERF_AT = 2200
 
 # mine: Mine (simulated environment)
 MINE_COMMAND = Struct("<QQI")  # seq, command_num, command
-MINE_COMMAND_AT = 2216
-MINE_STATUS_AT = 2240
-MINE_MODE_AT = 2272
-MINE_PERF_AT = 2288
+MINE_COMMAND_AT = 2248
+MINE_STATUS_AT = 2272
+MINE_MODE_AT = 2304
+MINE_PERF_AT = 2320
 
 # das: Cutter drum motor (simulated)
 DAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-DAS_COMMAND_AT = 2336
-DAS_STATUS_AT = 2360
-DAS_MODE_AT = 2392
-DAS_PERF_AT = 2408
+DAS_COMMAND_AT = 2368
+DAS_STATUS_AT = 2392
+DAS_MODE_AT = 2424
+DAS_PERF_AT = 2440
 
 # gas: Gathering head and conveyor (simulated)
 GAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-GAS_COMMAND_AT = 2456
-GAS_STATUS_AT = 2480
-GAS_MODE_AT = 2512
-GAS_PERF_AT = 2528
+GAS_COMMAND_AT = 2488
+GAS_STATUS_AT = 2512
+GAS_MODE_AT = 2544
+GAS_PERF_AT = 2560
 
 # bss: Boom angle sensor (simulated)
 BSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-BSS_COMMAND_AT = 2576
-BSS_STATUS_AT = 2600
-BSS_MODE_AT = 2632
-BSS_PERF_AT = 2648
+BSS_COMMAND_AT = 2608
+BSS_STATUS_AT = 2632
+BSS_MODE_AT = 2664
+BSS_PERF_AT = 2680
 
 # pss: Pose sensor (simulated)
 PSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-PSS_COMMAND_AT = 2696
-PSS_STATUS_AT = 2720
-PSS_MODE_AT = 2752
-PSS_PERF_AT = 2768
+PSS_COMMAND_AT = 2728
+PSS_STATUS_AT = 2752
+PSS_MODE_AT = 2784
+PSS_PERF_AT = 2800
 
 # css: Cutter current sensor (simulated)
 CSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-CSS_COMMAND_AT = 2816
-CSS_STATUS_AT = 2840
-CSS_MODE_AT = 2872
-CSS_PERF_AT = 2888
+CSS_COMMAND_AT = 2848
+CSS_STATUS_AT = 2872
+CSS_MODE_AT = 2904
+CSS_PERF_AT = 2920
 
 # pp: Path planner
 PP_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-PP_COMMAND_AT = 2936
-PP_STATUS_AT = 2976
-PP_MODE_AT = 3008
-PP_PERF_AT = 3024
+PP_COMMAND_AT = 2968
+PP_STATUS_AT = 3008
+PP_MODE_AT = 3040
+PP_PERF_AT = 3056
 
 # World model.
 WORLD_TAIL_REQUEST = Struct("<Q?")  # seq, tail_request
-WORLD_TAIL_REQUEST_AT = 3072
+WORLD_TAIL_REQUEST_AT = 3104
 WORLD_TAIL_IN_POSITION = Struct("<Q?")  # seq, tail_in_position
-WORLD_TAIL_IN_POSITION_AT = 3088
+WORLD_TAIL_IN_POSITION_AT = 3120
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 3104
+WORLD_OPERATOR_DELAY_AT = 3136
 WORLD_OPERATOR_GOAL_X = Struct("<Qd")  # seq, operator_goal_x
-WORLD_OPERATOR_GOAL_X_AT = 3120
+WORLD_OPERATOR_GOAL_X_AT = 3152
 WORLD_OPERATOR_GOAL_Y = Struct("<Qd")  # seq, operator_goal_y
-WORLD_OPERATOR_GOAL_Y_AT = 3136
+WORLD_OPERATOR_GOAL_Y_AT = 3168
 WORLD_GOAL_X = Struct("<Qd")  # seq, goal_x
-WORLD_GOAL_X_AT = 3152
+WORLD_GOAL_X_AT = 3184
 WORLD_GOAL_Y = Struct("<Qd")  # seq, goal_y
-WORLD_GOAL_Y_AT = 3168
+WORLD_GOAL_Y_AT = 3200
 WORLD_TRAM_DIR = Struct("<Qq")  # seq, tram_dir
-WORLD_TRAM_DIR_AT = 3184
+WORLD_TRAM_DIR_AT = 3216
 WORLD_BOOM_RATE_CMD = Struct("<Qd")  # seq, boom_rate_cmd
-WORLD_BOOM_RATE_CMD_AT = 3200
+WORLD_BOOM_RATE_CMD_AT = 3232
 WORLD_DRUM_ON_CMD = Struct("<Q?")  # seq, drum_on_cmd
-WORLD_DRUM_ON_CMD_AT = 3216
+WORLD_DRUM_ON_CMD_AT = 3248
 WORLD_JACK_DOWN_CMD = Struct("<Q?")  # seq, jack_down_cmd
-WORLD_JACK_DOWN_CMD_AT = 3232
+WORLD_JACK_DOWN_CMD_AT = 3264
 WORLD_LEFT_TREAD_CMD = Struct("<Qq")  # seq, left_tread_cmd
-WORLD_LEFT_TREAD_CMD_AT = 3248
+WORLD_LEFT_TREAD_CMD_AT = 3280
 WORLD_RIGHT_TREAD_CMD = Struct("<Qq")  # seq, right_tread_cmd
-WORLD_RIGHT_TREAD_CMD_AT = 3264
+WORLD_RIGHT_TREAD_CMD_AT = 3296
 WORLD_PAN_FLOAT_CMD = Struct("<Q?")  # seq, pan_float_cmd
-WORLD_PAN_FLOAT_CMD_AT = 3280
+WORLD_PAN_FLOAT_CMD_AT = 3312
 WORLD_GATHER_ON_CMD = Struct("<Q?")  # seq, gather_on_cmd
-WORLD_GATHER_ON_CMD_AT = 3296
+WORLD_GATHER_ON_CMD_AT = 3328
 WORLD_CONVEYOR_ON_CMD = Struct("<Q?")  # seq, conveyor_on_cmd
-WORLD_CONVEYOR_ON_CMD_AT = 3312
+WORLD_CONVEYOR_ON_CMD_AT = 3344
 WORLD_TRUE_X = Struct("<Qd")  # seq, true_x
-WORLD_TRUE_X_AT = 3328
+WORLD_TRUE_X_AT = 3360
 WORLD_TRUE_Y = Struct("<Qd")  # seq, true_y
-WORLD_TRUE_Y_AT = 3344
+WORLD_TRUE_Y_AT = 3376
 WORLD_TRUE_HEADING = Struct("<Qd")  # seq, true_heading
-WORLD_TRUE_HEADING_AT = 3360
+WORLD_TRUE_HEADING_AT = 3392
 WORLD_BOOM_ANGLE_TRUE = Struct("<Qd")  # seq, boom_angle_true
-WORLD_BOOM_ANGLE_TRUE_AT = 3376
+WORLD_BOOM_ANGLE_TRUE_AT = 3408
 WORLD_DRUM_CURRENT_TRUE = Struct("<Qd")  # seq, drum_current_true
-WORLD_DRUM_CURRENT_TRUE_AT = 3392
+WORLD_DRUM_CURRENT_TRUE_AT = 3424
 WORLD_JACK_DOWN = Struct("<Q?")  # seq, jack_down
-WORLD_JACK_DOWN_AT = 3408
+WORLD_JACK_DOWN_AT = 3440
 WORLD_TREAD_STALLED = Struct("<Q?")  # seq, tread_stalled
-WORLD_TREAD_STALLED_AT = 3424
+WORLD_TREAD_STALLED_AT = 3456
 WORLD_POSE_X = Struct("<Qd")  # seq, pose_x
-WORLD_POSE_X_AT = 3440
+WORLD_POSE_X_AT = 3472
 WORLD_POSE_Y = Struct("<Qd")  # seq, pose_y
-WORLD_POSE_Y_AT = 3456
+WORLD_POSE_Y_AT = 3488
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 3472
+WORLD_HEADING_AT = 3504
 WORLD_BOOM_ANGLE = Struct("<Qd")  # seq, boom_angle
-WORLD_BOOM_ANGLE_AT = 3488
+WORLD_BOOM_ANGLE_AT = 3520
 WORLD_CUTTER_CURRENT = Struct("<Qd")  # seq, cutter_current
-WORLD_CUTTER_CURRENT_AT = 3504
+WORLD_CUTTER_CURRENT_AT = 3536
 WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 3520
+WORLD_POPPED_OUT_OF_SHEAR_AT = 3552
 WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
-WORLD_IN_COAL_AT = 3536
+WORLD_IN_COAL_AT = 3568
 WORLD_FACE_X = Struct("<Qd")  # seq, face_x
-WORLD_FACE_X_AT = 3552
+WORLD_FACE_X_AT = 3584
 WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
-WORLD_DEPTH_CUT_AT = 3568
+WORLD_DEPTH_CUT_AT = 3600
 WORLD_LOOSE_COAL = Struct("<Qd")  # seq, loose_coal
-WORLD_LOOSE_COAL_AT = 3584
+WORLD_LOOSE_COAL_AT = 3616
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
-WORLD_COAL_MINED_AT = 3600
+WORLD_COAL_MINED_AT = 3632
 
 
 PROCESSES = {
     "pc1": Record(PROCESS, PROCESS_PC1_AT, field_names(PROCESS_FIELDS)),
     "pc2": Record(PROCESS, PROCESS_PC2_AT, field_names(PROCESS_FIELDS)),
+}
+# Each process's pacing record: its slow-down factor, set by an operator (`ctl slow`).
+PACING = {
+    "pc1": Record(PACE, PACE_PC1_AT, field_names(PACE_FIELDS)),
+    "pc2": Record(PACE, PACE_PC2_AT, field_names(PACE_FIELDS)),
 }
 # The process each module runs in (a stand-in runs in its controller's).
 PLACEMENT = {
@@ -462,6 +475,10 @@ SUBORDINATES = {
     "css": (),
     "pp": (),
     "cr_sim": (),
+}
+# Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
+STAND_INS = {
+    "cr": "cr_sim",
 }
 MODULES = (
     "sb",

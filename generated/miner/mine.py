@@ -31,16 +31,16 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI936x?111xd8xd24xd152x?15xd8xd8xd")
-INPUTS_AT = 2216
+INPUTS_AT = 2248
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2216
+SEQS_AT = 2248
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<Q?7xQdQdQd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 3536
+WORLD_OUT_1_AT = 3568
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

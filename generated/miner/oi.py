@@ -18,21 +18,21 @@ ENTER_GOAL = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQIdd44x???1xI1272x?15x?15xq8xd8xd")
-INPUTS_AT = 1720
+INPUTS_AT = 1752
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1720
+SEQS_AT = 1752
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3088
+WORLD_OUT_1_AT = 3120
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_2 = Struct("<QdQd")
 WORLD_SEQS_2 = Struct("<Q8xQ")
-WORLD_OUT_2_AT = 3120
+WORLD_OUT_2_AT = 3152
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

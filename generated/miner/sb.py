@@ -39,11 +39,11 @@ CO_SUMP_SHEAR_CUSP = 6
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQId44x???1xI80xQI3148xd")
-INPUTS_AT = 256
+INPUTS_AT = 288
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 256
+SEQS_AT = 288
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -28,12 +28,12 @@ STOP = 13
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI1584xq8xq")
-INPUTS_AT = 1608
+INPUTS_AT = 1640
 # Adjacent world fields post_process writes back (each with its sequence word: written odd,
 # then again even), and their sequence words alone.
 WORLD_OUT_1 = Struct("<QqQq")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3248
+WORLD_OUT_1_AT = 3280
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

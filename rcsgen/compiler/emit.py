@@ -363,6 +363,7 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
 def _layout_table(layout: ir.Layout) -> list[tuple[int, int, str, str]]:
     """The layout docstring's rows: offset, size, buffer, and its fields (or its shape)."""
     shapes = {id(b): "PROCESS_FIELDS" for b in layout.processes.values()}
+    shapes.update({id(b): "PACE_FIELDS" for b in layout.pacing.values()})
     for m in layout.modules.values():
         shapes.update({id(m.status): "STATUS_FIELDS", id(m.mode): "MODE_FIELDS"})
         shapes[id(m.perf)] = "PERF_FIELDS"

@@ -73,10 +73,12 @@ class Layout:
     world: tuple[Buffer, ...]
     size: int
     hash: str
+    pacing: dict[str, Buffer] = field(default_factory=dict)  # each process's pacing record
 
     def all_buffers(self) -> list[Buffer]:
         found = [b for m in self.modules.values() for b in (m.command, m.status, m.mode, m.perf)]
-        return sorted([*self.processes.values(), *found, *self.world], key=lambda b: b.offset)
+        every = [*self.processes.values(), *self.pacing.values(), *found, *self.world]
+        return sorted(every, key=lambda b: b.offset)
 
 
 # ---------------------------------------------------------------- system IR

@@ -18,6 +18,7 @@ from ..runtime.contract import (
     FORMAT_OF_TYPE,
     HEADER,
     MODE_FIELDS,
+    PACE_FIELDS,
     PERF_FIELDS,
     PROCESS_FIELDS,
     STATUS_FIELDS,
@@ -323,11 +324,14 @@ def plan_layout(
     A stand-in (controller simulator) has no buffers of its own: it uses its controller's.
     """
     at = align(HEADER.size)
-    process_records = {}
+    process_records, pacing = {}, {}
     for name in processes:
         buffer = _buffer(f"PROCESS_{name.upper()}", at, PROCESS_FIELDS, f"process {name}")
         process_records[name] = buffer
         at = align(at + buffer.size)
+        pace = _buffer(f"PACE_{name.upper()}", at, PACE_FIELDS, f"process {name} pacing")
+        pacing[name] = pace
+        at = align(at + pace.size)
     modules = {}
     for c in controllers:
         if c.buffers != c.name:
@@ -350,7 +354,7 @@ def plan_layout(
         buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, FORMAT_OF_TYPE[f.type])], f.doc)
         world_buffers.append(buffer)
         at = align(at + buffer.size)
-    layout = ir.Layout(process_records, modules, tuple(world_buffers), at, "")
+    layout = ir.Layout(process_records, modules, tuple(world_buffers), at, "", pacing)
     return replace(layout, hash=layout_hash(system, layout))
 
 

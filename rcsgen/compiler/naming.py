@@ -133,6 +133,10 @@ LAYOUT_NAMES = frozenset(
         "LAYOUT_HASH",
         "PROCESSES",
         "PLACEMENT",
+        "PACE",
+        "PACE_FIELDS",
+        "PACING",
+        "STAND_INS",
     }
 )
 # Suffixes of the attributes a controller keeps for each subordinate (`cc_status`, ...).

@@ -76,6 +76,10 @@ PROCESS_FIELDS = (
     ("max_cycle_ns", "Q"),
     ("lost", "Q"),  # bit i: process i (layout order) is reported dead
 )
+# Each process's pacing record: written by operator tools (`ctl slow`), read by the paced loop
+# every cycle. `slow` stretches the process's cycle period by that factor (the slow-down of
+# the mining paper's debug screen, 4.1.1.1); 0 (a new block) or 1 runs at the declared period.
+PACE_FIELDS = (("slow", "d"),)
 PROCESS_STATES = ("ABSENT", "STARTING", "RUNNING", "STOPPED", "DEAD")
 ABSENT, STARTING, RUNNING, STOPPED, DEAD = range(5)
 
@@ -114,6 +118,7 @@ STATUS = Struct(struct_format(STATUS_FIELDS))
 MODE = Struct(struct_format(MODE_FIELDS))
 PERF = Struct(struct_format(PERF_FIELDS))
 PROCESS = Struct(struct_format(PROCESS_FIELDS))
+PACE = Struct(struct_format(PACE_FIELDS))
 
 
 class StaleRead(Exception):

@@ -30,6 +30,7 @@ from typing import Self
 
 from .block import Block, BlockError
 from .contract import DEAD, PROCESS_STATES, STOPPED, StaleRead
+from .ctl import parse_command
 from .loop import (
     DONE_REPLY,
     READY,
@@ -97,8 +98,15 @@ def run_process(system: System, args: argparse.Namespace) -> int:
             return 1
         try:
             serve(process, sys.stdin.fileno(), sys.stdout.fileno())
-        finally:
+        except OSError:  # the coordinator's end of the pipe is gone (BrokenPipeError)
+            pass
+        except BaseException:
             process.block.close()
+            raise
+        # The coordinator closed the pipe (it stops us) or is gone (killed): as when free-
+        # running, the last one out removes the segment, which a living launcher does too.
+        process.block.owner = process.block.owner or args.child
+        process.block.close()
         return 0
     if not args.child:
         signal.signal(signal.SIGINT, stop)
@@ -364,7 +372,12 @@ def summary(system: System, buf: memoryview, processes: list[str]) -> Iterator[s
 
 
 def main(package: str, argv: list[str] | None = None) -> int:
-    """`python -m <system> [PROCESS] [options]`."""
+    """`python -m <system> [PROCESS] [options]`, or `python -m <system> ctl VERB ...`."""
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["ctl"]:  # the operator's console needs only the layout
+        from .ctl import main as ctl
+
+        return ctl(package, argv[1:])
     system = System.load(package)
     parser = argparse.ArgumentParser(
         prog=f"python -m {package}",
@@ -453,35 +466,11 @@ def parse_send(layout: ModuleType, text: str) -> Send:
     """Parse and check `MODULE.COMMAND[:NAME=VALUE,...]` against the layout."""
     head, _, rest = text.partition(":")
     module, _, command = head.partition(".")
-    if module not in layout.COMMAND_IN:
-        raise ValueError(f"--send: no module {module!r}; modules: {', '.join(layout.MODULES)}")
-    commands = layout.COMMAND_NAMES[module][1:]
-    if command not in commands:
-        raise ValueError(
-            f"--send: {module} has no command {command!r}; it has {', '.join(commands)}"
-        )
-    record = layout.COMMAND_IN[module]
-    slots = {f.removeprefix("arg_"): f for f in record.fields if f.startswith("arg_")}
-    values: dict[str, object] = {}
-    for item in filter(None, rest.split(",")):
-        name, _, raw = item.partition("=")
-        if name not in slots:
-            raise ValueError(f"--send: {module} has no parameter {name!r}; it has {sorted(slots)}")
-        values[name] = _typed(raw, record.struct.format, list(record.fields).index(slots[name]))
-    return Send(module, command, values)
-
-
-def _typed(raw: str, fmt: str | bytes, index: int) -> object:
-    code = str(fmt).lstrip("<")[index + 1]  # after the sequence word
     try:
-        if code == "?":
-            if raw not in ("true", "false"):
-                raise ValueError
-            return raw == "true"
-        return int(raw) if code == "q" else float(raw)
-    except ValueError:
-        kind = {"?": "true or false", "q": "an integer"}.get(code, "a number")
-        raise ValueError(f"--send: {raw!r} is not {kind}") from None
+        found = parse_command(layout, module, command, [i for i in rest.split(",") if i])
+    except ValueError as error:
+        raise ValueError(f"--send: {error}") from None
+    return Send(found.module, found.command, found.args)
 
 
 def give(send: Send, layout: ModuleType, buf: memoryview) -> int | None:

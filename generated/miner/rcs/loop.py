@@ -25,6 +25,7 @@ from .block import Block
 from .contract import (
     DEAD,
     MODE_FIELDS,
+    PACE,
     PROCESS,
     PROCESS_FIELDS,
     RUNNING,
@@ -318,10 +319,11 @@ def run(
     """Start the process and run it: `cycles` times (forever if None), paced or flat out,
     until `on_cycle` returns True or `stop` is requested. The caller closes its block.
 
-    Paced, the watchdog halts the roots after `watchdog.overruns` consecutive overruns or
-    one cycle longer than `watchdog.period_factor` periods, and supervisors of modules in
-    another process go to their safe state when its heartbeat is older than
-    `heartbeat_timeout` seconds (`layout.HEARTBEAT_TIMEOUT` by default).
+    Paced, the period is stretched by the process's `slow` factor (its pacing record, set by
+    an operator) each cycle; the watchdog halts the roots after `watchdog.overruns`
+    consecutive overruns or one cycle longer than `watchdog.period_factor` periods, and
+    supervisors of modules in another process go to their safe state when its heartbeat is
+    older than `heartbeat_timeout` seconds (`layout.HEARTBEAT_TIMEOUT` by default).
     """
     process = start(plan, layout, shm_name, create, settings, simulate)
     period = plan.cycle_period if pace else 0.0
@@ -331,6 +333,7 @@ def run(
     timeout_ns = int(timeout * 1e9)
     watched = process.watched()
     counters = process.counters
+    pacing = getattr(layout, "PACING", {}).get(plan.name)  # the operator's slow-down
     try:
         while cycles is None or process.cycle < cycles:
             began = time.perf_counter_ns()
@@ -345,6 +348,10 @@ def run(
             if stop is not None and stop.requested:
                 break
             if period > 0:
+                if pacing is not None:  # one float, written whole: read without the seqlock
+                    pacer.period = period * max(
+                        1.0, PACE.unpack_from(process.block.buf, pacing.offset)[1]
+                    )
                 if took > dog.load_warning * period * 1e9:
                     counters["load_warnings"] += 1
                 pacer.wait()

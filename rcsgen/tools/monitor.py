@@ -1,0 +1,249 @@
+"""Monitor: a running system's segment -> a live terminal screen of its hierarchy (textual).
+
+The debug screen of the mining paper and the RCS diagnostics tools' hierarchy view in one:
+every module as a row of a tree (supervisor above subordinate), with its command and
+number, status and number, state, the last rule that fired, RUN/STOP SINGLE/AUTO SIMU/REAL,
+cycle times and its process's heartbeat, coloured by status (done green, executing yellow,
+error red, a dead or silent process grey). Keys act on the selected module through the
+runtime's console (`rcsgen.runtime.ctl.Console`): it reads with consistent reads and writes
+only mode, pacing and command buffers, so it never blocks a controller. textual is an
+optional extra (`pip install rcsgen[monitor]`), imported only here.
+"""
+
+from __future__ import annotations
+
+from types import ModuleType
+from typing import Any
+
+from rich.text import Text
+from textual.app import App, ComposeResult
+from textual.binding import Binding
+from textual.widgets import DataTable, Footer, Input, Static
+
+from ..runtime.ctl import Command, Console, CtlError, parse_command
+
+COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
+COLUMNS = (
+    ("module", "module"),
+    ("command", "command"),
+    ("cnum", "#"),
+    ("status", "status"),
+    ("snum", "#"),
+    ("state", "state"),
+    ("rule", "last rule fired"),
+    ("mode", "mode"),
+    ("cycle", "cycle us last/min/max"),
+    ("beat", "beat"),
+)
+
+
+def tree_order(layout: ModuleType) -> list[tuple[str, str]]:
+    """Every module with its tree prefix, depth first from the roots, in layout order."""
+    subordinates = {
+        m: [s for s in layout.SUBORDINATES.get(m, ()) if s in layout.COMMAND_IN]
+        for m in layout.MODULES
+    }
+    below = {s for subs in subordinates.values() for s in subs}
+    rows: list[tuple[str, str]] = []
+
+    def visit(module: str, prefix: str, last: bool, root: bool) -> None:
+        rows.append((module, "" if root else prefix + ("└─ " if last else "├─ ")))
+        inner = "" if root else prefix + ("   " if last else "│  ")
+        subs = subordinates[module]
+        for i, sub in enumerate(subs):
+            visit(sub, inner, i == len(subs) - 1, False)
+
+    for module in layout.MODULES:
+        if module not in below:
+            visit(module, "", True, True)
+    return rows
+
+
+class Monitor(App[None]):
+    """The live screen over `Console(layout, segment)`."""
+
+    TITLE = "rcsgen monitor"
+    CSS = """
+    DataTable { height: 1fr; }
+    #processes { height: auto; color: $text-muted; }
+    #message { height: auto; }
+    #send { display: none; }
+    #send.open { display: block; }
+    """
+    BINDINGS = [
+        Binding("s", "stop", "stop"),
+        Binding("r", "run", "run"),
+        Binding("n", "step", "step"),
+        Binding("i", "simulate", "simulate"),
+        Binding("plus,equals_sign", "slower", "slower"),
+        Binding("minus", "faster", "faster"),
+        Binding("c", "send", "send command"),
+        Binding("escape", "close_send", "close form", show=False),
+        Binding("q", "quit", "quit"),
+    ]
+
+    def __init__(self, layout: ModuleType, segment: str, interval: float = 0.25) -> None:
+        super().__init__()
+        self.layout, self.segment, self.interval = layout, segment, interval
+        self.ctl = Console(layout, segment)  # BlockError: the caller reports it
+        self.rows = tree_order(layout)
+        self.last_rule: dict[str, str] = {}
+
+    def compose(self) -> ComposeResult:
+        yield DataTable(id="modules", cursor_type="row", zebra_stripes=False)
+        yield Static(id="processes")
+        yield Static(id="message")
+        yield Input(id="send", placeholder="COMMAND name=value ... [--override]")
+        yield Footer()
+
+    def on_mount(self) -> None:
+        self.sub_title = f"{self.layout.SYSTEM} on {self.segment}"
+        table = self.query_one(DataTable)
+        for key, label in COLUMNS:
+            table.add_column(label, key=key)
+        for module, prefix in self.rows:
+            table.add_row(*([prefix + module] + [""] * (len(COLUMNS) - 1)), key=module)
+        self.refresh_rows()
+        self.set_interval(self.interval, self.refresh_rows)
+
+    def on_unmount(self) -> None:
+        self.ctl.close()
+
+    # ------------------------------------------------------------ the screen
+
+    def refresh_rows(self) -> None:
+        snapshot = self.ctl.snapshot()
+        table = self.query_one(DataTable)
+        for module, prefix in self.rows:
+            row = snapshot["modules"][module]
+            for key, value in self.cells(module, prefix, row).items():
+                table.update_cell(module, key, value)
+        lines = []
+        for name, proc in snapshot["processes"].items():
+            age = proc.get("heartbeat_age_s")
+            lines.append(
+                f"{name}: {str(proc.get('state', '?')).lower()}, {proc.get('heartbeat')} cycles, "
+                f"beat {'-' if age is None else f'{age:.2f}s'} ago, {proc.get('overruns')} "
+                f"overruns, slow x{proc.get('slow', 1.0):g}"
+            )
+        self.query_one("#processes", Static).update("   ".join(lines))
+
+    def cells(self, module: str, prefix: str, row: dict[str, Any]) -> dict[str, Text]:
+        rule = row.get("rule")
+        if rule:
+            self.last_rule[module] = rule
+        if not row.get("alive"):
+            style = "grey50"
+        else:
+            style = COLOURS.get(str(row.get("status")), "")
+        times = "/".join(str(row.get(f"{k}_cycle_us", "?")) for k in ("last", "min", "max"))
+        age = row.get("heartbeat_age_s")
+        values = {
+            "module": prefix + module,
+            "command": str(row.get("command", "?")),
+            "cnum": str(row.get("command_num", "?")),
+            "status": str(row.get("status", "?")),
+            "snum": str(row.get("status_num", "?")),
+            "state": str(row.get("state", "?")),
+            "rule": self.last_rule.get(module, "-"),
+            "mode": f"{row.get('run', '?')} {row.get('step', '?')} {row.get('sim', '?')}",
+            "cycle": times,
+            "beat": "dead" if not row.get("alive") else f"{age:.2f}s",
+        }
+        return {key: Text(value, style=style) for key, value in values.items()}
+
+    def selected(self) -> str:
+        table = self.query_one(DataTable)
+        key = table.coordinate_to_cell_key(table.cursor_coordinate).row_key.value
+        return str(key)
+
+    def say(self, text: str, error: bool = False) -> None:
+        self.query_one("#message", Static).update(Text(text, style="bold red" if error else ""))
+
+    def act(self, what: str, action: Any) -> None:
+        try:
+            action()
+        except CtlError as error:
+            self.say(str(error), error=True)
+            return
+        self.say(what)
+        self.refresh_rows()
+
+    # ------------------------------------------------------------ keys
+
+    def action_stop(self) -> None:
+        module = self.selected()
+        self.act(f"{module}: STOP", lambda: self.ctl.set_mode(module, dont_run=True))
+
+    def action_run(self) -> None:
+        module = self.selected()
+        self.act(
+            f"{module}: RUN AUTO",
+            lambda: self.ctl.set_mode(module, dont_run=False, single_step=False),
+        )
+
+    def action_step(self) -> None:
+        module = self.selected()
+        self.act(f"{module}: stepped one cycle (SINGLE)", lambda: self.ctl.step(module, 1))
+
+    def action_simulate(self) -> None:
+        module = self.selected()
+        on = self.ctl.modules()[module].get("sim") != "SIMU"
+        self.act(f"{module}: {'SIMU' if on else 'REAL'}", lambda: self.ctl.simulate(module, on))
+
+    def _slow(self, factor: float) -> None:
+        now = max([p.get("slow", 1.0) for p in self.ctl.processes().values()] or [1.0])
+        target = max(1.0, now * factor)
+        self.act(f"slow x{target:g}", lambda: self.ctl.slow(target))
+
+    def action_slower(self) -> None:
+        self._slow(2.0)
+
+    def action_faster(self) -> None:
+        self._slow(0.5)
+
+    def action_send(self) -> None:
+        module = self.selected()
+        form = self.query_one("#send", Input)
+        form.add_class("open")
+        record = self.layout.COMMAND_IN[module]
+        params = [f.removeprefix("arg_") for f in record.fields if f.startswith("arg_")]
+        commands = ", ".join(self.layout.COMMAND_NAMES[module][1:])
+        form.placeholder = (
+            f"{module}: COMMAND [{' '.join(p + '=' for p in params)}] [--override]  "
+            f"commands: {commands}"
+        )
+        form.value = ""
+        form.focus()
+        self.sending = module
+
+    def action_close_send(self) -> None:
+        form = self.query_one("#send", Input)
+        form.remove_class("open")
+        self.query_one(DataTable).focus()
+
+    def on_input_submitted(self, event: Input.Submitted) -> None:
+        module = getattr(self, "sending", self.selected())
+        words = event.value.split()
+        override = "--override" in words
+        words = [w for w in words if w != "--override"]
+        self.action_close_send()
+        if not words:
+            self.say("no command given", error=True)
+            return
+        try:
+            command: Command = parse_command(self.layout, module, words[0], words[1:])
+        except ValueError as error:
+            self.say(str(error), error=True)
+            return
+
+        def send() -> None:
+            number, notes = self.ctl.send(command, override)
+            self.say("; ".join([*notes, f"sent {command} #{number}"]))
+
+        try:
+            send()
+        except CtlError as error:
+            self.say(str(error), error=True)
+            return
+        self.refresh_rows()

@@ -1,0 +1,359 @@
+"""The operator's console, `python -m <system> ctl` (rcsgen/runtime/ctl.py), against running
+systems: the duo fixture (a supervisor `top` in process p1 commanding an `arm` in p2) and the
+miner, each launched paced as real OS processes; every verb is run as a command line, and
+bad input must be one line on stderr with exit 2 (usage) or 1, never a traceback.
+"""
+
+from __future__ import annotations
+
+import importlib
+import itertools
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+from conftest import rcsgen
+
+from rcsgen.tools.harness import generate, import_package
+
+DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
+REPO = Path(__file__).resolve().parent.parent
+DEADLINE = 20.0
+_names = itertools.count(1)
+
+
+def segment_name() -> str:
+    return f"rcsgen_ctl_{os.getpid()}_{next(_names)}"
+
+
+def wait_for(condition: Callable[[], object], what: str, deadline: float = DEADLINE) -> object:
+    end = time.monotonic() + deadline
+    while time.monotonic() < end:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.01)
+    raise AssertionError(f"gave up waiting: {what}")
+
+
+@pytest.fixture(scope="module")
+def duo() -> Iterator[Path]:
+    scratch, name = generate(DUO)
+    yield scratch / name
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def package(duo: Path) -> ModuleType:
+    return import_package(duo, DUO)
+
+
+class Running:
+    """A system launched as `python -m <system> --shm SEGMENT`, and its console."""
+
+    def __init__(self, package_dir: Path, hooks: Path, layout: ModuleType) -> None:
+        self.name, self.layout = package_dir.name, layout
+        self.segment = segment_name()
+        self.env = {
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join([str(package_dir.parent), str(hooks)]),
+        }
+        self.popen = subprocess.Popen(
+            [sys.executable, "-m", self.name, "--shm", self.segment],
+            env=self.env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            wait_for(lambda: self.json()["processes"], "the system running", 60)
+            wait_for(
+                lambda: all(p.get("heartbeat", 0) > 2 for p in self.json()["processes"].values()),
+                "every process beating",
+            )
+        except BaseException:
+            self.stop()
+            raise
+
+    def ctl(self, *args: str, shm: str | None = None) -> subprocess.CompletedProcess[str]:
+        done = subprocess.run(
+            [sys.executable, "-m", self.name, "ctl", "--shm", shm or self.segment, *args],
+            env=self.env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert "Traceback" not in done.stdout + done.stderr, done.stderr
+        return done
+
+    def json(self) -> dict[str, object]:
+        done = self.ctl("status", "--format", "json")
+        return json.loads(done.stdout) if done.returncode == 0 else {"processes": {}}
+
+    def module(self, name: str) -> dict[str, object]:
+        return self.json()["modules"][name]  # type: ignore[index, no-any-return]
+
+    def stop(self) -> str:
+        self.popen.terminate()
+        out, err = self.popen.communicate(timeout=30)
+        assert "Traceback" not in out + err, err
+        return out
+
+
+@pytest.fixture
+def running(duo: Path, package: ModuleType) -> Iterator[Running]:
+    system = Running(duo, DUO, importlib.import_module(f"{package.__name__}.layout"))
+    yield system
+    system.stop()
+
+
+def test_status_shows_every_module_and_process_as_text_and_json(running: Running) -> None:
+    text = running.ctl("status")
+    assert text.returncode == 0, text.stderr
+    lines = text.stdout.splitlines()
+    assert lines[0] == f"duo on {running.segment}"
+    assert lines[1].split()[:4] == ["module", "command", "#", "status"]
+    top = next(line for line in lines if line.startswith("top "))
+    assert top.split()[1:5] == ["INIT", "1", "DONE", "1"], top
+    assert "RUN AUTO REAL" in top
+    assert any(line.startswith("process p2: running") for line in lines)
+    snapshot = running.json()
+    assert set(snapshot["modules"]) == {"top", "arm"}  # type: ignore[arg-type]
+    arm = snapshot["modules"]["arm"]  # type: ignore[index]
+    assert arm["process"] == "p2" and arm["supervisor"] == "top" and arm["alive"]
+    assert 0 < arm["min_cycle_us"] <= arm["max_cycle_us"]
+    assert snapshot["processes"]["p1"]["heartbeat_age_s"] < 5  # type: ignore[index]
+
+
+def test_send_to_a_root_then_wait_for_done(running: Running) -> None:
+    sent = running.ctl("send", "top", "MOVE", "--seen")
+    assert sent.returncode == 0, sent.stderr
+    assert sent.stdout.splitlines()[0] == "sent top.MOVE #2"
+    assert "top saw #2 after" in sent.stdout
+    done = running.ctl("wait", "top", "DONE", "--timeout", "20")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "top DONE MOVE #2"
+    assert running.ctl("wait", "top", "ERROR", "--timeout", "5").returncode == 1
+
+
+def test_a_command_to_a_module_with_a_supervisor_needs_override(running: Running) -> None:
+    refused = running.ctl("send", "arm", "POWER", "level=0.5")
+    assert refused.returncode == 1
+    assert "arm is commanded by top" in refused.stderr and "--override" in refused.stderr
+    assert len(refused.stderr.splitlines()) == 1
+    given = running.ctl("send", "arm", "POWER", "level=0.5", "--override")
+    assert given.returncode == 0, given.stderr
+    assert "top is in manual override (STOP)" in given.stdout
+    assert running.module("top")["run"] == "STOP"
+    wait_for(
+        lambda: (m := running.module("arm"))["command"] == "POWER" and m["status"] == "DONE",
+        "arm DONE with the operator's POWER",
+    )
+    assert running.module("arm")["args"] == {"level": 0.5}
+    assert running.ctl("run", "top").stdout.strip() == "top: RUN AUTO"
+    # the supervisor's next command is numbered after the operator's: the arm sees it
+    assert running.ctl("send", "top", "MOVE").returncode == 0
+    assert running.ctl("wait", "top", "DONE", "--timeout", "20").returncode == 0
+    assert running.module("arm")["args"] == {"level": 1.0}
+
+
+def test_stop_step_and_run_a_module(running: Running) -> None:
+    assert running.ctl("stop", "arm").returncode == 0
+    assert running.module("arm")["run"] == "STOP"
+    stepped = running.ctl("step", "arm", "3")
+    assert stepped.returncode == 0, stepped.stderr
+    assert stepped.stdout.startswith("arm: stepped 3 cycle(s), SINGLE")
+    arm = running.module("arm")
+    assert (arm["run"], arm["step"]) == ("RUN", "SINGLE")
+    cycles = arm["cycles"]
+    time.sleep(0.3)  # 15 periods: the arm's table is held, its cycles still counted
+    assert running.ctl("run", "arm").returncode == 0
+    arm = running.module("arm")
+    assert (arm["run"], arm["step"]) == ("RUN", "AUTO") and arm["cycles"] > cycles
+
+
+def test_simulate_switches_to_the_stand_in_and_back(running: Running) -> None:
+    assert running.ctl("simulate", "arm", "on").stdout.strip() == "arm: SIMU"
+    wait_for(lambda: running.module("arm")["runs"] == "arm_sim", "the stand-in running")
+    assert running.module("arm")["sim"] == "SIMU"
+    assert running.ctl("simulate", "arm", "off").returncode == 0
+    assert running.module("arm")["runs"] == "arm"
+    refused = running.ctl("simulate", "top", "on")
+    assert refused.returncode == 2 and "top has no stand-in; these do: arm" in refused.stderr
+
+
+def test_slow_stretches_the_period_of_every_process(running: Running) -> None:
+    assert running.ctl("slow", "5").stdout.strip() == "slow x5: p1, p2"
+    assert running.json()["processes"]["p1"]["slow"] == 5.0  # type: ignore[index]
+    time.sleep(0.3)  # the current sleep ends
+    before = running.json()["processes"]["p1"]["heartbeat"]  # type: ignore[index]
+    time.sleep(1.0)  # 50 cycles at full speed, 10 slowed (fewer still on a loaded host)
+    after = running.json()["processes"]["p1"]["heartbeat"]  # type: ignore[index]
+    assert after - before <= 20
+    assert running.ctl("slow", "1", "--process", "p1").stdout.strip() == "slow x1: p1"
+
+
+@pytest.mark.parametrize(
+    ("args", "code", "message"),
+    [
+        (["send", "tap", "MOVE"], 2, "no module 'tap' (did you mean 'top'?); modules: top, arm"),
+        (["send", "top", "MOV"], 2, "top has no command 'MOV' (did you mean 'MOVE'?)"),
+        (["send", "arm", "POWER", "levl=1"], 2, "arm has no parameter 'levl' (did you mean"),
+        (["send", "arm", "POWER", "level=high"], 2, "'high' is not a number (level)"),
+        (["send", "arm", "POWER", "level"], 2, "'level' is not NAME=VALUE"),
+        (["stop", "nobody"], 2, "no module 'nobody'"),
+        (["step", "arm", "0"], 2, "N must be 1 or more"),
+        (["slow", "0.5"], 2, "FACTOR must be 1"),
+        (["slow", "2", "--process", "p3"], 2, "no process 'p3'"),
+        (["frobnicate"], 2, "invalid choice: 'frobnicate'"),
+        (["wait", "top", "DONE", "--timeout", "0.2"], 1, "top did not finish within 0.2 s"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2_or_1(
+    running: Running, args: list[str], code: int, message: str
+) -> None:
+    if args[0] == "wait":  # a command that never ends: top holds the arm
+        running.ctl("send", "top", "RUN")
+    done = running.ctl(*args)
+    assert done.returncode == code, done.stderr
+    assert message in done.stderr
+    assert len(done.stderr.splitlines()) == 1 and done.stderr.startswith("ctl: error: ")
+
+
+def test_no_such_segment_is_one_line_and_exit_1(duo: Path) -> None:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(duo.parent), str(DUO)])}
+    done = subprocess.run(
+        [sys.executable, "-m", duo.name, "ctl", "--shm", segment_name(), "status"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 1
+    assert done.stderr.startswith("ctl: error: no shared-memory segment")
+    assert len(done.stderr.splitlines()) == 1
+
+
+def test_a_segment_of_another_layout_is_refused(duo: Path, package: ModuleType) -> None:
+    """The miner's console pointed at the duo's segment refuses, naming both layouts."""
+    block = importlib.import_module(f"{package.__name__}.rcs.block")
+    layout = importlib.import_module(f"{package.__name__}.layout")
+    theirs = block.Block(layout, segment_name(), create=True)
+    try:
+        env = {
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join([str(REPO / "generated"), str(REPO / "specs" / "miner")]),
+        }
+        done = subprocess.run(
+            [sys.executable, "-m", "miner", "ctl", "--shm", theirs.name, "status"],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    finally:
+        theirs.close()
+    assert done.returncode == 1
+    assert "holds layout" in done.stderr and "system 'duo'" in done.stderr
+    assert len(done.stderr.splitlines()) == 1
+
+
+def test_rcsgen_ctl_runs_the_console_of_a_built_system(
+    running: Running, duo: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`rcsgen ctl SYSTEM_DIR ...` execs `python -m <system> ctl ...` (like `rcsgen up`)."""
+    calls: list[list[str]] = []
+
+    def execve(path: str, argv: list[str], env: dict[str, str]) -> None:
+        calls.append(argv)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(os, "execve", execve)
+    result = rcsgen("ctl", DUO, "--generated", duo.parent, "--shm", running.segment, "status")
+    assert result.exit_code == 0, result.output
+    assert calls[0][1:] == ["-m", "duo", "ctl", "--shm", running.segment, "status"]
+
+
+# ---------------------------------------------------------------- the miner
+
+
+def test_the_miner_walk_through_from_the_readme() -> None:
+    """Start the miner, send sb BOX_CUT depth=1.5, single-step co five cycles, switch cr to
+    simulation and back, stop it: every step a command line, the system paced."""
+    miner = REPO / "generated" / "miner"
+    layout = importlib.import_module(
+        f"{import_package(miner, REPO / 'specs' / 'miner').__name__}.layout"
+    )
+    system = Running(miner, REPO / "specs" / "miner", layout)
+    try:
+        sent = system.ctl("send", "sb", "BOX_CUT", "depth=1.5", "--seen")
+        assert sent.returncode == 0, sent.stderr
+        assert sent.stdout.startswith("sent sb.BOX_CUT depth=1.5 #2")
+        wait_for(lambda: system.module("co")["status"] == "EXECUTING", "co working")
+        stepped = system.ctl("step", "co", "5")
+        assert stepped.returncode == 0, stepped.stderr
+        assert system.module("co")["step"] == "SINGLE"
+        assert system.ctl("run", "co").returncode == 0
+        assert system.ctl("simulate", "cr", "on").returncode == 0
+        wait_for(lambda: system.module("cr")["runs"] == "cr_sim", "cr's stand-in")
+        assert system.ctl("simulate", "cr", "off").returncode == 0
+        wait_for(lambda: system.module("cr")["runs"] == "cr", "cr again")
+        assert system.module("sb")["command"] == "BOX_CUT"
+    finally:
+        out = system.stop()
+    assert "pc1: stopped" in out and "pc2: stopped" in out
+
+
+# ---------------------------------------------------------------- a clean stop
+
+
+def test_sigterm_stops_rcsgen_run_with_a_summary_and_no_segment_left() -> None:
+    """`rcsgen run --processes` on SIGTERM (as on Ctrl-C): no traceback, the processes'
+    summary, exit 130, and the segment it made removed."""
+    run = subprocess.Popen(
+        [sys.executable, "-m", "rcsgen", "run", "specs/miner/scenarios/late_tail.yaml"]
+        + ["--processes", "--trace", os.devnull],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    shm = Path("/dev/shm")
+    segments = wait_for(lambda: list(shm.glob(f"rcsgen_run_{run.pid}_*")), "the run's segment")
+    time.sleep(0.3)
+    run.terminate()
+    out, err = run.communicate(timeout=60)
+    if run.returncode == 0:  # it finished first: nothing to interrupt
+        pytest.skip("the scenario ended before the signal")
+    assert run.returncode == 130, err
+    assert "Traceback" not in out + err
+    if "interrupted while starting" not in err:  # the signal came once the run had begun
+        assert "interrupted at cycle" in err
+        assert any(line.startswith("pc1: stopped, ") for line in out.splitlines()), out
+    assert not any(path.exists() for path in segments)  # type: ignore[attr-defined]
+
+
+def test_a_killed_lockstep_launcher_leaves_no_segment(duo: Path) -> None:
+    """The launcher of a lockstep run killed outright: its processes see their pipe close,
+    and the last one out removes the segment."""
+    segment = segment_name()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(duo.parent), str(DUO)])}
+    run = subprocess.Popen(
+        [sys.executable, "-m", duo.name, "--lockstep", "--shm", segment],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    shm = Path("/dev/shm") / segment
+    wait_for(shm.exists, "the segment")
+    time.sleep(0.3)
+    run.kill()
+    run.wait(timeout=30)
+    wait_for(lambda: not shm.exists(), "the segment removed by the last process out")

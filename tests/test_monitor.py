@@ -1,0 +1,129 @@
+"""The live monitor (rcsgen/tools/monitor.py) driven through textual's test pilot (simulated
+keys on a headless terminal) against the duo system running as real OS processes: the tree,
+the colours, stop/run/step/simulate/slow keys and the send form act on the running system.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import importlib
+from collections.abc import Iterator
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+pytest.importorskip("textual")
+
+from test_ctl import DUO, Running, wait_for  # noqa: E402
+
+from rcsgen.tools.harness import generate, import_package  # noqa: E402
+from rcsgen.tools.monitor import Monitor, tree_order  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def duo() -> Iterator[Path]:
+    import shutil
+
+    scratch, name = generate(DUO)
+    yield scratch / name
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def layout(duo: Path) -> ModuleType:
+    return importlib.import_module(f"{import_package(duo, DUO).__name__}.layout")
+
+
+@pytest.fixture
+def running(duo: Path, layout: ModuleType) -> Iterator[Running]:
+    system = Running(duo, DUO, layout)
+    yield system
+    system.stop()
+
+
+def test_the_tree_puts_each_subordinate_under_its_supervisor() -> None:
+    layout = importlib.import_module(
+        f"{import_package(Path('generated/miner').resolve(), None).__name__}.layout"
+    )
+    rows = dict(tree_order(layout))
+    assert list(rows)[:3] == ["sb", "co", "cr"]
+    assert rows["sb"] == "" and rows["co"] == "└─ " and rows["cr"] == "   ├─ "
+    assert rows["pp"].endswith("├─ ") and rows["oi"] == ""
+
+
+def screen_text(app: Monitor) -> str:
+    """What the terminal shows, as plain text: the SVG screenshot's text runs, each put at
+    its column (x over the width of one character, from the runs' textLength)."""
+    import html
+    import re
+
+    svg = app.export_screenshot()
+    pattern = r'<text[^>]*x="([\d.]+)" y="([\d.]+)" textLength="([\d.]+)"[^>]*>([^<]*)</text>'
+    runs = [
+        (float(x), float(y), float(length), html.unescape(t).replace("\xa0", " "))
+        for x, y, length, t in re.findall(pattern, svg)
+    ]
+    width = max((length / len(text) for _, _, length, text in runs if text), default=1.0)
+    lines: dict[float, str] = {}
+    for x, y, _, text in sorted(runs, key=lambda r: (r[1], r[0])):
+        lines[y] = lines.get(y, "").ljust(round(x / width)) + text
+    return "\n".join(line.rstrip() for _, line in sorted(lines.items()))
+
+
+def test_keys_and_the_send_form_operate_the_running_system(
+    running: Running, layout: ModuleType
+) -> None:
+    async def drive() -> str:
+        app = Monitor(layout, running.segment, interval=0.1)
+        async with app.run_test(size=(150, 20)) as pilot:
+            await pilot.pause(0.3)
+            table = app.query_one("#modules")
+            assert table.row_count == 2
+            assert app.selected() == "top"
+            # the send form: MOVE to the root
+            await pilot.press("c")
+            await pilot.press(*"MOVE", "enter")
+            await pilot.pause(0.1)
+            assert "sent top.MOVE #2" in str(app.query_one("#message").render())
+            wait_for(lambda: running.module("top")["status"] == "DONE", "top DONE")
+            # keys on the arm: stop, step, run, simulate
+            await pilot.press("down")
+            assert app.selected() == "arm"
+            await pilot.press("s")
+            assert running.module("arm")["run"] == "STOP"
+            await pilot.press("n")
+            assert running.module("arm")["step"] == "SINGLE"
+            await pilot.press("r")
+            assert (running.module("arm")["run"], running.module("arm")["step"]) == (
+                "RUN",
+                "AUTO",
+            )
+            await pilot.press("i")
+            wait_for(lambda: running.module("arm")["runs"] == "arm_sim", "the stand-in")
+            await pilot.press("i")
+            wait_for(lambda: running.module("arm")["runs"] == "arm", "the arm again")
+            # a command to the arm needs the override: refused, then given
+            await pilot.press("c")
+            await pilot.press(*"POWER level=0.5", "enter")
+            await pilot.pause(0.1)
+            assert "arm is commanded by top" in str(app.query_one("#message").render())
+            await pilot.press("c")
+            await pilot.press(*"POWER levl=0.5", "enter")
+            await pilot.pause(0.1)
+            assert "did you mean 'level'" in str(app.query_one("#message").render())
+            await pilot.press("c")
+            await pilot.press(*"POWER level=0.5 --override", "enter")
+            await pilot.pause(0.1)
+            assert "top is in manual override" in str(app.query_one("#message").render())
+            # slow-down
+            await pilot.press("plus")
+            assert running.json()["processes"]["p1"]["slow"] == 2.0  # type: ignore[index]
+            await pilot.press("minus")
+            assert running.json()["processes"]["p1"]["slow"] == 1.0  # type: ignore[index]
+            await pilot.pause(0.3)
+            return screen_text(app)
+
+    text = asyncio.run(drive())
+    assert "top" in text and "└─ arm" in text and "POWER" in text
+    assert "p1: running" in text
