@@ -114,8 +114,9 @@ def environment() -> jinja2.Environment:
 @dataclass(frozen=True)
 class Gathered:
     """Several buffer fields read or written with one `Struct`, the bytes between them
-    skipped: format, offset, the target of each value ("_" for a sequence word), and the
-    struct of the sequence words alone (for the second read of a seqlock), if any."""
+    skipped: format, offset, the target of each value ("_" for a sequence word), the struct
+    of the sequence words alone (for the second read of a seqlock), if any, and the struct
+    of the values alone at the same offset (the sequence words skipped)."""
 
     format: str
     offset: int
@@ -123,6 +124,7 @@ class Gathered:
     seq_indices: list[int]
     seq_format: str
     seq_offset: int
+    values_format: str
 
 
 Field = tuple[int, str, str | None]  # (offset, struct code, target; None: a sequence word)
@@ -135,7 +137,11 @@ def _gather(fields: list[Field]) -> Gathered:
     seqs = [f for f in fields if f[2] is None]
     seq_fmt, _, seq_start = _format(seqs) if seqs else ("", [], 0)
     indices = [i for i, (_, _, target) in enumerate(fields) if target is None]
-    return Gathered(fmt, start, targets, indices, seq_fmt, seq_start)
+    values = [f for f in fields if f[2] is not None]
+    values_fmt, _, values_start = _format(values) if values else ("<", [], start)
+    if values_start > start:  # from the same offset as the whole
+        values_fmt = f"<{values_start - start}x{values_fmt[1:]}"
+    return Gathered(fmt, start, targets, indices, seq_fmt, seq_start, values_fmt)
 
 
 def _format(fields: list[Field]) -> tuple[str, list[str], int]:
@@ -247,7 +253,6 @@ def _controller_context(
     world_outputs = _world_outputs(c, system.layout)
     slots = ["buf", "cycle_start", *command_targets, *status_targets, *mode_targets, *perf_targets]
     slots += ["status_seq", "status_dirty", "perf_seq"]
-    slots += [f"written_world_{index}" for index in range(1, len(world_outputs) + 1)]
     if c.hooks_state:
         slots.append("hook_state")
     for s in c.subordinates:
