@@ -695,8 +695,8 @@ def test_layout_is_little_endian_at_fixed_offsets(h):
     """Layout: each field sits at its buffer's fixed offset, little-endian, packed in order."""
     at = h.layout.CO_COMMAND_AT
     h.layout.COMMAND_IN["co"].write(h.buf, command_num=0x0102030405060708, command=3)
-    # The sequence word first: written odd, then even (one write since initialise: 2).
-    assert bytes(h.buf[at : at + 20]) == bytes.fromhex("0200000000000000080706050403020103000000")
+    # The sequence word first: initialise leaves it at 2 (whole), one write odd then even: 4.
+    assert bytes(h.buf[at : at + 20]) == bytes.fromhex("0400000000000000080706050403020103000000")
     at = h.layout.WORLD_LOOSE_COAL_AT
     h.world["loose_coal"] = 1.0
     assert bytes(h.buf[at + 8 : at + 16]) == bytes.fromhex("000000000000f03f")

@@ -7,6 +7,7 @@ from time import perf_counter_ns
 from .layout import (
     BAS_PERF_AT,
     BAS_STATUS_AT,
+    WORLD_BOOM_ANGLE_TRUE_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -19,7 +20,8 @@ HALT = 2
 INPUTS = Struct("<QI44x???1xI1280xd168xd")
 INPUTS_AT = 1864
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
@@ -135,6 +137,7 @@ class BasController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, BAS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 BAS_STATUS_AT,
@@ -151,8 +154,9 @@ class BasController:
         out = (self.world_boom_angle_true,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_BOOM_ANGLE_TRUE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_BOOM_ANGLE_TRUE_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -163,6 +167,7 @@ class BasController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, BAS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             BAS_PERF_AT,
@@ -224,6 +229,7 @@ class BasController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, BAS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 BAS_STATUS_AT,
@@ -240,8 +246,9 @@ class BasController:
         out = (self.world_boom_angle_true,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_BOOM_ANGLE_TRUE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_BOOM_ANGLE_TRUE_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -252,6 +259,7 @@ class BasController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, BAS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             BAS_PERF_AT,

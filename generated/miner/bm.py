@@ -7,6 +7,7 @@ from time import perf_counter_ns
 from .layout import (
     BM_PERF_AT,
     BM_STATUS_AT,
+    WORLD_BOOM_RATE_CMD_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -21,7 +22,8 @@ LOWER = 4
 INPUTS = Struct("<QI44x???1xI2512xd280xd")
 INPUTS_AT = 632
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
@@ -143,6 +145,7 @@ class BmController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, BM_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 BM_STATUS_AT,
@@ -159,8 +162,9 @@ class BmController:
         out = (self.world_boom_rate_cmd,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_BOOM_RATE_CMD_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_BOOM_RATE_CMD_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -171,6 +175,7 @@ class BmController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, BM_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             BM_PERF_AT,
@@ -235,6 +240,7 @@ class BmController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, BM_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 BM_STATUS_AT,
@@ -251,8 +257,9 @@ class BmController:
         out = (self.world_boom_rate_cmd,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_BOOM_RATE_CMD_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_BOOM_RATE_CMD_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -263,6 +270,7 @@ class BmController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, BM_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             BM_PERF_AT,

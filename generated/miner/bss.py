@@ -9,6 +9,7 @@ import miner_hooks.sim as hooks
 from .layout import (
     BSS_PERF_AT,
     BSS_STATUS_AT,
+    WORLD_BOOM_ANGLE_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -21,7 +22,8 @@ HALT = 2
 INPUTS = Struct("<QI44x???1xI736xd104xd")
 INPUTS_AT = 2584
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
@@ -141,6 +143,7 @@ class BssController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, BSS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 BSS_STATUS_AT,
@@ -157,8 +160,9 @@ class BssController:
         out = (self.world_boom_angle,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_BOOM_ANGLE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_BOOM_ANGLE_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -169,6 +173,7 @@ class BssController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, BSS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             BSS_PERF_AT,
@@ -230,6 +235,7 @@ class BssController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, BSS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 BSS_STATUS_AT,
@@ -246,8 +252,9 @@ class BssController:
         out = (self.world_boom_angle,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_BOOM_ANGLE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_BOOM_ANGLE_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -258,6 +265,7 @@ class BssController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, BSS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             BSS_PERF_AT,

@@ -207,6 +207,7 @@ class CcController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CC_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CC_STATUS_AT,
@@ -224,22 +225,28 @@ class CcController:
             seq, number = BM_COMMAND.unpack_from(buf, BM_COMMAND_AT)[:2]
             if number != self.bm_written:  # an operator's command came meanwhile:
                 self.bm_command_num = number + 1  # number ours after it
-            BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq | 1, self.bm_command_num, self.bm_command)
-            SEQ.pack_into(buf, BM_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, BM_COMMAND_AT, seq)
+            BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq, self.bm_command_num, self.bm_command)
+            SEQ.pack_into(buf, BM_COMMAND_AT, seq + 1)
             self.bm_written = self.bm_command_num
         if self.cd_command_num != self.cd_written:  # a command was sent
             seq, number = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)[:2]
             if number != self.cd_written:  # an operator's command came meanwhile:
                 self.cd_command_num = number + 1  # number ours after it
-            CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq | 1, self.cd_command_num, self.cd_command)
-            SEQ.pack_into(buf, CD_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CD_COMMAND_AT, seq)
+            CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq, self.cd_command_num, self.cd_command)
+            SEQ.pack_into(buf, CD_COMMAND_AT, seq + 1)
             self.cd_written = self.cd_command_num
         if self.sj_command_num != self.sj_written:  # a command was sent
             seq, number = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)[:2]
             if number != self.sj_written:  # an operator's command came meanwhile:
                 self.sj_command_num = number + 1  # number ours after it
-            SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq | 1, self.sj_command_num, self.sj_command)
-            SEQ.pack_into(buf, SJ_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, SJ_COMMAND_AT, seq)
+            SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq, self.sj_command_num, self.sj_command)
+            SEQ.pack_into(buf, SJ_COMMAND_AT, seq + 1)
             self.sj_written = self.sj_command_num
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -251,6 +258,7 @@ class CcController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CC_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CC_PERF_AT,
@@ -331,6 +339,7 @@ class CcController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CC_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CC_STATUS_AT,
@@ -348,22 +357,28 @@ class CcController:
             seq, number = BM_COMMAND.unpack_from(buf, BM_COMMAND_AT)[:2]
             if number != self.bm_written:  # an operator's command came meanwhile:
                 self.bm_command_num = number + 1  # number ours after it
-            BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq | 1, self.bm_command_num, self.bm_command)
-            SEQ.pack_into(buf, BM_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, BM_COMMAND_AT, seq)
+            BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq, self.bm_command_num, self.bm_command)
+            SEQ.pack_into(buf, BM_COMMAND_AT, seq + 1)
             self.bm_written = self.bm_command_num
         if self.cd_command_num != self.cd_written:  # a command was sent
             seq, number = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)[:2]
             if number != self.cd_written:  # an operator's command came meanwhile:
                 self.cd_command_num = number + 1  # number ours after it
-            CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq | 1, self.cd_command_num, self.cd_command)
-            SEQ.pack_into(buf, CD_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CD_COMMAND_AT, seq)
+            CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq, self.cd_command_num, self.cd_command)
+            SEQ.pack_into(buf, CD_COMMAND_AT, seq + 1)
             self.cd_written = self.cd_command_num
         if self.sj_command_num != self.sj_written:  # a command was sent
             seq, number = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)[:2]
             if number != self.sj_written:  # an operator's command came meanwhile:
                 self.sj_command_num = number + 1  # number ours after it
-            SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq | 1, self.sj_command_num, self.sj_command)
-            SEQ.pack_into(buf, SJ_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, SJ_COMMAND_AT, seq)
+            SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq, self.sj_command_num, self.sj_command)
+            SEQ.pack_into(buf, SJ_COMMAND_AT, seq + 1)
             self.sj_written = self.sj_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -375,6 +390,7 @@ class CcController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CC_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CC_PERF_AT,

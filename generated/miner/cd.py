@@ -7,6 +7,7 @@ from time import perf_counter_ns
 from .layout import (
     CD_PERF_AT,
     CD_STATUS_AT,
+    WORLD_DRUM_ON_CMD_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -21,7 +22,8 @@ OFF = 4
 INPUTS = Struct("<QI44x???1xI2408x?")
 INPUTS_AT = 752
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
@@ -134,6 +136,7 @@ class CdController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CD_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CD_STATUS_AT,
@@ -150,8 +153,9 @@ class CdController:
         out = (self.world_drum_on_cmd,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_DRUM_ON_CMD_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_DRUM_ON_CMD_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -162,6 +166,7 @@ class CdController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CD_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CD_PERF_AT,
@@ -225,6 +230,7 @@ class CdController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CD_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CD_STATUS_AT,
@@ -241,8 +247,9 @@ class CdController:
         out = (self.world_drum_on_cmd,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_DRUM_ON_CMD_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_DRUM_ON_CMD_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -253,6 +260,7 @@ class CdController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CD_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CD_PERF_AT,

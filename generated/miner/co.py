@@ -15,6 +15,8 @@ from .layout import (
     CR_COMMAND_AT,
     VG_COMMAND,
     VG_COMMAND_AT,
+    WORLD_GOAL_X_AT,
+    WORLD_GOAL_Y_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -52,7 +54,8 @@ CC_CUSP = 7
 INPUTS = Struct("<QI44x???1xI80xQI468xQI484xQI1604xd8xd8xd8xd264xd8xd8xd24xd8x?63xd")
 INPUTS_AT = 392
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
@@ -251,6 +254,7 @@ class CoController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CO_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CO_STATUS_AT,
@@ -268,38 +272,45 @@ class CoController:
             seq, number = CR_COMMAND.unpack_from(buf, CR_COMMAND_AT)[:2]
             if number != self.cr_written:  # an operator's command came meanwhile:
                 self.cr_command_num = number + 1  # number ours after it
-            CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq | 1, self.cr_command_num, self.cr_command)
-            SEQ.pack_into(buf, CR_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CR_COMMAND_AT, seq)
+            CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq, self.cr_command_num, self.cr_command)
+            SEQ.pack_into(buf, CR_COMMAND_AT, seq + 1)
             self.cr_written = self.cr_command_num
         if self.vg_command_num != self.vg_written:  # a command was sent
             seq, number = VG_COMMAND.unpack_from(buf, VG_COMMAND_AT)[:2]
             if number != self.vg_written:  # an operator's command came meanwhile:
                 self.vg_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, VG_COMMAND_AT, seq)
             VG_COMMAND.pack_into(
                 buf,
                 VG_COMMAND_AT,
-                seq | 1,
+                seq,
                 self.vg_command_num,
                 self.vg_command,
                 self.vg_arg_x,
                 self.vg_arg_y,
             )
-            SEQ.pack_into(buf, VG_COMMAND_AT, (seq | 1) + 1)
+            SEQ.pack_into(buf, VG_COMMAND_AT, seq + 1)
             self.vg_written = self.vg_command_num
         if self.cc_command_num != self.cc_written:  # a command was sent
             seq, number = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)[:2]
             if number != self.cc_written:  # an operator's command came meanwhile:
                 self.cc_command_num = number + 1  # number ours after it
-            CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq | 1, self.cc_command_num, self.cc_command)
-            SEQ.pack_into(buf, CC_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CC_COMMAND_AT, seq)
+            CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq, self.cc_command_num, self.cc_command)
+            SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
             self.cc_written = self.cc_command_num
         out = (self.world_goal_x, self.world_goal_y)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_GOAL_X_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -310,6 +321,7 @@ class CoController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CO_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CO_PERF_AT,
@@ -398,6 +410,7 @@ class CoController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CO_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CO_STATUS_AT,
@@ -415,38 +428,45 @@ class CoController:
             seq, number = CR_COMMAND.unpack_from(buf, CR_COMMAND_AT)[:2]
             if number != self.cr_written:  # an operator's command came meanwhile:
                 self.cr_command_num = number + 1  # number ours after it
-            CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq | 1, self.cr_command_num, self.cr_command)
-            SEQ.pack_into(buf, CR_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CR_COMMAND_AT, seq)
+            CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq, self.cr_command_num, self.cr_command)
+            SEQ.pack_into(buf, CR_COMMAND_AT, seq + 1)
             self.cr_written = self.cr_command_num
         if self.vg_command_num != self.vg_written:  # a command was sent
             seq, number = VG_COMMAND.unpack_from(buf, VG_COMMAND_AT)[:2]
             if number != self.vg_written:  # an operator's command came meanwhile:
                 self.vg_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, VG_COMMAND_AT, seq)
             VG_COMMAND.pack_into(
                 buf,
                 VG_COMMAND_AT,
-                seq | 1,
+                seq,
                 self.vg_command_num,
                 self.vg_command,
                 self.vg_arg_x,
                 self.vg_arg_y,
             )
-            SEQ.pack_into(buf, VG_COMMAND_AT, (seq | 1) + 1)
+            SEQ.pack_into(buf, VG_COMMAND_AT, seq + 1)
             self.vg_written = self.vg_command_num
         if self.cc_command_num != self.cc_written:  # a command was sent
             seq, number = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)[:2]
             if number != self.cc_written:  # an operator's command came meanwhile:
                 self.cc_command_num = number + 1  # number ours after it
-            CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq | 1, self.cc_command_num, self.cc_command)
-            SEQ.pack_into(buf, CC_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CC_COMMAND_AT, seq)
+            CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq, self.cc_command_num, self.cc_command)
+            SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
             self.cc_written = self.cc_command_num
         out = (self.world_goal_x, self.world_goal_y)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_GOAL_X_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -457,6 +477,7 @@ class CoController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CO_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CO_PERF_AT,

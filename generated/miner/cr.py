@@ -207,6 +207,7 @@ class CrController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CR_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CR_STATUS_AT,
@@ -224,22 +225,28 @@ class CrController:
             seq, number = GH_COMMAND.unpack_from(buf, GH_COMMAND_AT)[:2]
             if number != self.gh_written:  # an operator's command came meanwhile:
                 self.gh_command_num = number + 1  # number ours after it
-            GH_COMMAND.pack_into(buf, GH_COMMAND_AT, seq | 1, self.gh_command_num, self.gh_command)
-            SEQ.pack_into(buf, GH_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, GH_COMMAND_AT, seq)
+            GH_COMMAND.pack_into(buf, GH_COMMAND_AT, seq, self.gh_command_num, self.gh_command)
+            SEQ.pack_into(buf, GH_COMMAND_AT, seq + 1)
             self.gh_written = self.gh_command_num
         if self.cv_command_num != self.cv_written:  # a command was sent
             seq, number = CV_COMMAND.unpack_from(buf, CV_COMMAND_AT)[:2]
             if number != self.cv_written:  # an operator's command came meanwhile:
                 self.cv_command_num = number + 1  # number ours after it
-            CV_COMMAND.pack_into(buf, CV_COMMAND_AT, seq | 1, self.cv_command_num, self.cv_command)
-            SEQ.pack_into(buf, CV_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CV_COMMAND_AT, seq)
+            CV_COMMAND.pack_into(buf, CV_COMMAND_AT, seq, self.cv_command_num, self.cv_command)
+            SEQ.pack_into(buf, CV_COMMAND_AT, seq + 1)
             self.cv_written = self.cv_command_num
         if self.ct_command_num != self.ct_written:  # a command was sent
             seq, number = CT_COMMAND.unpack_from(buf, CT_COMMAND_AT)[:2]
             if number != self.ct_written:  # an operator's command came meanwhile:
                 self.ct_command_num = number + 1  # number ours after it
-            CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq | 1, self.ct_command_num, self.ct_command)
-            SEQ.pack_into(buf, CT_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CT_COMMAND_AT, seq)
+            CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq, self.ct_command_num, self.ct_command)
+            SEQ.pack_into(buf, CT_COMMAND_AT, seq + 1)
             self.ct_written = self.ct_command_num
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -251,6 +258,7 @@ class CrController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CR_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CR_PERF_AT,
@@ -329,6 +337,7 @@ class CrController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CR_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CR_STATUS_AT,
@@ -346,22 +355,28 @@ class CrController:
             seq, number = GH_COMMAND.unpack_from(buf, GH_COMMAND_AT)[:2]
             if number != self.gh_written:  # an operator's command came meanwhile:
                 self.gh_command_num = number + 1  # number ours after it
-            GH_COMMAND.pack_into(buf, GH_COMMAND_AT, seq | 1, self.gh_command_num, self.gh_command)
-            SEQ.pack_into(buf, GH_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, GH_COMMAND_AT, seq)
+            GH_COMMAND.pack_into(buf, GH_COMMAND_AT, seq, self.gh_command_num, self.gh_command)
+            SEQ.pack_into(buf, GH_COMMAND_AT, seq + 1)
             self.gh_written = self.gh_command_num
         if self.cv_command_num != self.cv_written:  # a command was sent
             seq, number = CV_COMMAND.unpack_from(buf, CV_COMMAND_AT)[:2]
             if number != self.cv_written:  # an operator's command came meanwhile:
                 self.cv_command_num = number + 1  # number ours after it
-            CV_COMMAND.pack_into(buf, CV_COMMAND_AT, seq | 1, self.cv_command_num, self.cv_command)
-            SEQ.pack_into(buf, CV_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CV_COMMAND_AT, seq)
+            CV_COMMAND.pack_into(buf, CV_COMMAND_AT, seq, self.cv_command_num, self.cv_command)
+            SEQ.pack_into(buf, CV_COMMAND_AT, seq + 1)
             self.cv_written = self.cv_command_num
         if self.ct_command_num != self.ct_written:  # a command was sent
             seq, number = CT_COMMAND.unpack_from(buf, CT_COMMAND_AT)[:2]
             if number != self.ct_written:  # an operator's command came meanwhile:
                 self.ct_command_num = number + 1  # number ours after it
-            CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq | 1, self.ct_command_num, self.ct_command)
-            SEQ.pack_into(buf, CT_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CT_COMMAND_AT, seq)
+            CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq, self.ct_command_num, self.ct_command)
+            SEQ.pack_into(buf, CT_COMMAND_AT, seq + 1)
             self.ct_written = self.ct_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -373,6 +388,7 @@ class CrController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CR_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CR_PERF_AT,

@@ -7,6 +7,8 @@ from time import perf_counter_ns
 from .layout import (
     CR_PERF_AT,
     CR_STATUS_AT,
+    WORLD_COAL_MINED_AT,
+    WORLD_LOOSE_COAL_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -22,7 +24,8 @@ CUSP = 5
 INPUTS = Struct("<QI44x???1xI2536xd8xd")
 INPUTS_AT = 992
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
@@ -144,6 +147,7 @@ class CrSimController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CR_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CR_STATUS_AT,
@@ -160,10 +164,11 @@ class CrSimController:
         out = (self.world_loose_coal, self.world_coal_mined)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -174,6 +179,7 @@ class CrSimController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CR_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CR_PERF_AT,
@@ -241,6 +247,7 @@ class CrSimController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CR_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CR_STATUS_AT,
@@ -257,10 +264,11 @@ class CrSimController:
         out = (self.world_loose_coal, self.world_coal_mined)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -271,6 +279,7 @@ class CrSimController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CR_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CR_PERF_AT,

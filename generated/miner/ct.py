@@ -7,6 +7,7 @@ from time import perf_counter_ns
 from .layout import (
     CT_PERF_AT,
     CT_STATUS_AT,
+    WORLD_TAIL_REQUEST_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -20,7 +21,8 @@ POSITION_TAIL = 3
 INPUTS = Struct("<QI44x???1xI1664x?15x?")
 INPUTS_AT = 1352
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
@@ -134,6 +136,7 @@ class CtController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CT_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CT_STATUS_AT,
@@ -150,8 +153,9 @@ class CtController:
         out = (self.world_tail_request,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_TAIL_REQUEST_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_TAIL_REQUEST_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -162,6 +166,7 @@ class CtController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CT_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CT_PERF_AT,
@@ -224,6 +229,7 @@ class CtController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CT_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CT_STATUS_AT,
@@ -240,8 +246,9 @@ class CtController:
         out = (self.world_tail_request,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_TAIL_REQUEST_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_TAIL_REQUEST_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -252,6 +259,7 @@ class CtController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CT_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CT_PERF_AT,

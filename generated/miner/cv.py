@@ -7,6 +7,7 @@ from time import perf_counter_ns
 from .layout import (
     CV_PERF_AT,
     CV_STATUS_AT,
+    WORLD_CONVEYOR_ON_CMD_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -20,7 +21,8 @@ ON = 3
 INPUTS = Struct("<QI44x???1xI2024x?")
 INPUTS_AT = 1232
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
@@ -131,6 +133,7 @@ class CvController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CV_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CV_STATUS_AT,
@@ -147,8 +150,9 @@ class CvController:
         out = (self.world_conveyor_on_cmd,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_CONVEYOR_ON_CMD_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_CONVEYOR_ON_CMD_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -159,6 +163,7 @@ class CvController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CV_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CV_PERF_AT,
@@ -220,6 +225,7 @@ class CvController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CV_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CV_STATUS_AT,
@@ -236,8 +242,9 @@ class CvController:
         out = (self.world_conveyor_on_cmd,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_CONVEYOR_ON_CMD_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_CONVEYOR_ON_CMD_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -248,6 +255,7 @@ class CvController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CV_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CV_PERF_AT,

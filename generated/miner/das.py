@@ -7,6 +7,7 @@ from time import perf_counter_ns
 from .layout import (
     DAS_PERF_AT,
     DAS_STATUS_AT,
+    WORLD_DRUM_CURRENT_TRUE_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -19,7 +20,8 @@ HALT = 2
 INPUTS = Struct("<QI44x???1xI816x?175xd136x?")
 INPUTS_AT = 2344
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
@@ -138,6 +140,7 @@ class DasController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, DAS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 DAS_STATUS_AT,
@@ -154,8 +157,9 @@ class DasController:
         out = (self.world_drum_current_true,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_DRUM_CURRENT_TRUE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_DRUM_CURRENT_TRUE_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -166,6 +170,7 @@ class DasController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, DAS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             DAS_PERF_AT,
@@ -228,6 +233,7 @@ class DasController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, DAS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 DAS_STATUS_AT,
@@ -244,8 +250,9 @@ class DasController:
         out = (self.world_drum_current_true,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_DRUM_CURRENT_TRUE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_DRUM_CURRENT_TRUE_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -256,6 +263,7 @@ class DasController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, DAS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             DAS_PERF_AT,

@@ -7,6 +7,8 @@ from time import perf_counter_ns
 from .layout import (
     GAS_PERF_AT,
     GAS_STATUS_AT,
+    WORLD_COAL_MINED_AT,
+    WORLD_LOOSE_COAL_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -19,7 +21,8 @@ HALT = 2
 INPUTS = Struct("<QI44x???1xI568x?207x?15x?271xd8xd")
 INPUTS_AT = 2464
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
@@ -140,6 +143,7 @@ class GasController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, GAS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 GAS_STATUS_AT,
@@ -156,10 +160,11 @@ class GasController:
         out = (self.world_loose_coal, self.world_coal_mined)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -170,6 +175,7 @@ class GasController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, GAS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             GAS_PERF_AT,
@@ -234,6 +240,7 @@ class GasController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, GAS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 GAS_STATUS_AT,
@@ -250,10 +257,11 @@ class GasController:
         out = (self.world_loose_coal, self.world_coal_mined)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -264,6 +272,7 @@ class GasController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, GAS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             GAS_PERF_AT,

@@ -7,6 +7,8 @@ from time import perf_counter_ns
 from .layout import (
     GH_PERF_AT,
     GH_STATUS_AT,
+    WORLD_GATHER_ON_CMD_AT,
+    WORLD_PAN_FLOAT_CMD_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -21,7 +23,8 @@ ON = 4
 INPUTS = Struct("<QI44x???1xI2112x?15x?")
 INPUTS_AT = 1112
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Q?7xQ?")
 WORLD_VALUES_1 = Struct("<8x?15x?")
 WORLD_SEQS_1 = Struct("<Q8xQ")
@@ -136,6 +139,7 @@ class GhController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, GH_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 GH_STATUS_AT,
@@ -152,10 +156,11 @@ class GhController:
         out = (self.world_pan_float_cmd, self.world_gather_on_cmd)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_PAN_FLOAT_CMD_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_GATHER_ON_CMD_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_PAN_FLOAT_CMD_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_GATHER_ON_CMD_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -166,6 +171,7 @@ class GhController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, GH_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             GH_PERF_AT,
@@ -230,6 +236,7 @@ class GhController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, GH_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 GH_STATUS_AT,
@@ -246,10 +253,11 @@ class GhController:
         out = (self.world_pan_float_cmd, self.world_gather_on_cmd)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_PAN_FLOAT_CMD_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_GATHER_ON_CMD_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_PAN_FLOAT_CMD_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_GATHER_ON_CMD_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -260,6 +268,7 @@ class GhController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, GH_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             GH_PERF_AT,

@@ -7,6 +7,7 @@ from time import perf_counter_ns
 from .layout import (
     JAS_PERF_AT,
     JAS_STATUS_AT,
+    WORLD_JACK_DOWN_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -19,7 +20,8 @@ HALT = 2
 INPUTS = Struct("<QI44x???1xI1192x?175x?")
 INPUTS_AT = 1984
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
@@ -136,6 +138,7 @@ class JasController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, JAS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 JAS_STATUS_AT,
@@ -152,8 +155,9 @@ class JasController:
         out = (self.world_jack_down,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_JACK_DOWN_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_JACK_DOWN_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -164,6 +168,7 @@ class JasController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, JAS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             JAS_PERF_AT,
@@ -225,6 +230,7 @@ class JasController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, JAS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 JAS_STATUS_AT,
@@ -241,8 +247,9 @@ class JasController:
         out = (self.world_jack_down,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_JACK_DOWN_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_JACK_DOWN_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -253,6 +260,7 @@ class JasController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, JAS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             JAS_PERF_AT,

@@ -9,6 +9,10 @@ import miner_hooks.mine as hooks
 from .layout import (
     MINE_PERF_AT,
     MINE_STATUS_AT,
+    WORLD_DEPTH_CUT_AT,
+    WORLD_FACE_X_AT,
+    WORLD_IN_COAL_AT,
+    WORLD_LOOSE_COAL_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -21,7 +25,8 @@ HALT = 2
 INPUTS = Struct("<QI44x???1xI936x?111xd8xd24xd152x?15xd8xd8xd")
 INPUTS_AT = 2224
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Q?7xQdQdQd")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
@@ -149,6 +154,7 @@ class MineController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, MINE_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 MINE_STATUS_AT,
@@ -165,6 +171,10 @@ class MineController:
         out = (self.world_in_coal, self.world_face_x, self.world_depth_cut, self.world_loose_coal)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_IN_COAL_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_FACE_X_AT, s[1] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_DEPTH_CUT_AT, s[2] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[3] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(
                 buf,
                 WORLD_OUT_1_AT,
@@ -177,18 +187,10 @@ class MineController:
                 s[3] | 1,
                 out[3],
             )
-            WORLD_OUT_1.pack_into(
-                buf,
-                WORLD_OUT_1_AT,
-                (s[0] | 1) + 1,
-                out[0],
-                (s[1] | 1) + 1,
-                out[1],
-                (s[2] | 1) + 1,
-                out[2],
-                (s[3] | 1) + 1,
-                out[3],
-            )
+            SEQ.pack_into(buf, WORLD_IN_COAL_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_FACE_X_AT, (s[1] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_DEPTH_CUT_AT, (s[2] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[3] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -199,6 +201,7 @@ class MineController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, MINE_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             MINE_PERF_AT,
@@ -266,6 +269,7 @@ class MineController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, MINE_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 MINE_STATUS_AT,
@@ -282,6 +286,10 @@ class MineController:
         out = (self.world_in_coal, self.world_face_x, self.world_depth_cut, self.world_loose_coal)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_IN_COAL_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_FACE_X_AT, s[1] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_DEPTH_CUT_AT, s[2] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[3] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(
                 buf,
                 WORLD_OUT_1_AT,
@@ -294,18 +302,10 @@ class MineController:
                 s[3] | 1,
                 out[3],
             )
-            WORLD_OUT_1.pack_into(
-                buf,
-                WORLD_OUT_1_AT,
-                (s[0] | 1) + 1,
-                out[0],
-                (s[1] | 1) + 1,
-                out[1],
-                (s[2] | 1) + 1,
-                out[2],
-                (s[3] | 1) + 1,
-                out[3],
-            )
+            SEQ.pack_into(buf, WORLD_IN_COAL_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_FACE_X_AT, (s[1] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_DEPTH_CUT_AT, (s[2] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[3] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -316,6 +316,7 @@ class MineController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, MINE_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             MINE_PERF_AT,

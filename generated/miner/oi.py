@@ -7,6 +7,9 @@ from time import perf_counter_ns
 from .layout import (
     OI_PERF_AT,
     OI_STATUS_AT,
+    WORLD_OPERATOR_GOAL_X_AT,
+    WORLD_OPERATOR_GOAL_Y_AT,
+    WORLD_TAIL_IN_POSITION_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -20,13 +23,15 @@ ENTER_GOAL = 3
 INPUTS = Struct("<QIdd44x???1xI1272x?15x?15xq8xd8xd")
 INPUTS_AT = 1728
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 3088
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_2 = Struct("<QdQd")
 WORLD_VALUES_2 = Struct("<8xd8xd")
 WORLD_SEQS_2 = Struct("<Q8xQ")
@@ -152,6 +157,7 @@ class OiController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, OI_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 OI_STATUS_AT,
@@ -168,15 +174,17 @@ class OiController:
         out = (self.world_tail_in_position,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_TAIL_IN_POSITION_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_TAIL_IN_POSITION_AT, (s[0] | 1) + 1)
         out = (self.world_operator_goal_x, self.world_operator_goal_y)
         if WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT) != out:  # set this cycle
             s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
+            SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_X_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_2.pack_into(
-                buf, WORLD_OUT_2_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_X_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_Y_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -187,6 +195,7 @@ class OiController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, OI_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             OI_PERF_AT,
@@ -255,6 +264,7 @@ class OiController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, OI_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 OI_STATUS_AT,
@@ -271,15 +281,17 @@ class OiController:
         out = (self.world_tail_in_position,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_TAIL_IN_POSITION_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_TAIL_IN_POSITION_AT, (s[0] | 1) + 1)
         out = (self.world_operator_goal_x, self.world_operator_goal_y)
         if WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT) != out:  # set this cycle
             s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
+            SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_X_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_2.pack_into(
-                buf, WORLD_OUT_2_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_X_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_Y_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -290,6 +302,7 @@ class OiController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, OI_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             OI_PERF_AT,

@@ -7,6 +7,7 @@ from time import perf_counter_ns
 from .layout import (
     PP_PERF_AT,
     PP_STATUS_AT,
+    WORLD_TRAM_DIR_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
 
@@ -24,7 +25,8 @@ INPUTS_AT = 2936
 SEQS = Struct("<Q496xQ")
 SEQS_AT = 2936
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Qq")
 WORLD_VALUES_1 = Struct("<8xq")
 WORLD_SEQS_1 = Struct("<Q")
@@ -109,7 +111,12 @@ class PpController:
                 values[0],
                 values[10],
             )
-            if not (seqs[0] | seqs[1]) & 1 and SEQS.unpack_from(buf, SEQS_AT) == seqs:
+            if (
+                not (seqs[0] | seqs[1]) & 1
+                and seqs[0]
+                and seqs[1]
+                and SEQS.unpack_from(buf, SEQS_AT) == seqs
+            ):
                 (
                     _,
                     self.command_num,
@@ -156,6 +163,7 @@ class PpController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, PP_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 PP_STATUS_AT,
@@ -172,8 +180,9 @@ class PpController:
         out = (self.world_tram_dir,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_TRAM_DIR_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_TRAM_DIR_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -184,6 +193,7 @@ class PpController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, PP_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             PP_PERF_AT,
@@ -208,7 +218,12 @@ class PpController:
                 values[0],
                 values[10],
             )
-            if not (seqs[0] | seqs[1]) & 1 and SEQS.unpack_from(buf, SEQS_AT) == seqs:
+            if (
+                not (seqs[0] | seqs[1]) & 1
+                and seqs[0]
+                and seqs[1]
+                and SEQS.unpack_from(buf, SEQS_AT) == seqs
+            ):
                 (
                     _,
                     self.command_num,
@@ -260,6 +275,7 @@ class PpController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, PP_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 PP_STATUS_AT,
@@ -276,8 +292,9 @@ class PpController:
         out = (self.world_tram_dir,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_TRAM_DIR_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_TRAM_DIR_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -288,6 +305,7 @@ class PpController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, PP_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             PP_PERF_AT,

@@ -9,6 +9,9 @@ import miner_hooks.sim as hooks
 from .layout import (
     PSS_PERF_AT,
     PSS_STATUS_AT,
+    WORLD_HEADING_AT,
+    WORLD_POSE_X_AT,
+    WORLD_POSE_Y_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -21,7 +24,8 @@ HALT = 2
 INPUTS = Struct("<QI44x???1xI568xd8xd8xd72xd8xd8xd")
 INPUTS_AT = 2704
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
@@ -147,6 +151,7 @@ class PssController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, PSS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 PSS_STATUS_AT,
@@ -163,19 +168,15 @@ class PssController:
         out = (self.world_pose_x, self.world_pose_y, self.world_heading)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_POSE_X_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_POSE_Y_AT, s[1] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_HEADING_AT, s[2] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(
                 buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
             )
-            WORLD_OUT_1.pack_into(
-                buf,
-                WORLD_OUT_1_AT,
-                (s[0] | 1) + 1,
-                out[0],
-                (s[1] | 1) + 1,
-                out[1],
-                (s[2] | 1) + 1,
-                out[2],
-            )
+            SEQ.pack_into(buf, WORLD_POSE_X_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_POSE_Y_AT, (s[1] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_HEADING_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -186,6 +187,7 @@ class PssController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, PSS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             PSS_PERF_AT,
@@ -251,6 +253,7 @@ class PssController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, PSS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 PSS_STATUS_AT,
@@ -267,19 +270,15 @@ class PssController:
         out = (self.world_pose_x, self.world_pose_y, self.world_heading)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_POSE_X_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_POSE_Y_AT, s[1] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_HEADING_AT, s[2] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(
                 buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
             )
-            WORLD_OUT_1.pack_into(
-                buf,
-                WORLD_OUT_1_AT,
-                (s[0] | 1) + 1,
-                out[0],
-                (s[1] | 1) + 1,
-                out[1],
-                (s[2] | 1) + 1,
-                out[2],
-            )
+            SEQ.pack_into(buf, WORLD_POSE_X_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_POSE_Y_AT, (s[1] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_HEADING_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -290,6 +289,7 @@ class PssController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, PSS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             PSS_PERF_AT,

@@ -167,6 +167,7 @@ class SbController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, SB_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 SB_STATUS_AT,
@@ -184,8 +185,10 @@ class SbController:
             seq, number = CO_COMMAND.unpack_from(buf, CO_COMMAND_AT)[:2]
             if number != self.co_written:  # an operator's command came meanwhile:
                 self.co_command_num = number + 1  # number ours after it
-            CO_COMMAND.pack_into(buf, CO_COMMAND_AT, seq | 1, self.co_command_num, self.co_command)
-            SEQ.pack_into(buf, CO_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CO_COMMAND_AT, seq)
+            CO_COMMAND.pack_into(buf, CO_COMMAND_AT, seq, self.co_command_num, self.co_command)
+            SEQ.pack_into(buf, CO_COMMAND_AT, seq + 1)
             self.co_written = self.co_command_num
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -197,6 +200,7 @@ class SbController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, SB_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             SB_PERF_AT,
@@ -265,6 +269,7 @@ class SbController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, SB_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 SB_STATUS_AT,
@@ -282,8 +287,10 @@ class SbController:
             seq, number = CO_COMMAND.unpack_from(buf, CO_COMMAND_AT)[:2]
             if number != self.co_written:  # an operator's command came meanwhile:
                 self.co_command_num = number + 1  # number ours after it
-            CO_COMMAND.pack_into(buf, CO_COMMAND_AT, seq | 1, self.co_command_num, self.co_command)
-            SEQ.pack_into(buf, CO_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CO_COMMAND_AT, seq)
+            CO_COMMAND.pack_into(buf, CO_COMMAND_AT, seq, self.co_command_num, self.co_command)
+            SEQ.pack_into(buf, CO_COMMAND_AT, seq + 1)
             self.co_written = self.co_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -295,6 +302,7 @@ class SbController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, SB_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             SB_PERF_AT,

@@ -7,6 +7,7 @@ from time import perf_counter_ns
 from .layout import (
     SJ_PERF_AT,
     SJ_STATUS_AT,
+    WORLD_JACK_DOWN_CMD_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -21,7 +22,8 @@ RAISE = 4
 INPUTS = Struct("<QI44x???1xI2304x?175x?")
 INPUTS_AT = 872
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
@@ -137,6 +139,7 @@ class SjController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, SJ_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 SJ_STATUS_AT,
@@ -153,8 +156,9 @@ class SjController:
         out = (self.world_jack_down_cmd,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_JACK_DOWN_CMD_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_JACK_DOWN_CMD_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -165,6 +169,7 @@ class SjController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, SJ_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             SJ_PERF_AT,
@@ -229,6 +234,7 @@ class SjController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, SJ_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 SJ_STATUS_AT,
@@ -245,8 +251,9 @@ class SjController:
         out = (self.world_jack_down_cmd,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_JACK_DOWN_CMD_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0])
+            SEQ.pack_into(buf, WORLD_JACK_DOWN_CMD_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -257,6 +264,7 @@ class SjController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, SJ_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             SJ_PERF_AT,

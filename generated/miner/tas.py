@@ -9,6 +9,9 @@ import miner_hooks.sim as hooks
 from .layout import (
     TAS_PERF_AT,
     TAS_STATUS_AT,
+    WORLD_TRUE_HEADING_AT,
+    WORLD_TRUE_X_AT,
+    WORLD_TRUE_Y_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -21,7 +24,8 @@ HALT = 2
 INPUTS = Struct("<QI44x???1xI1088xq8xq56xd8xd8xd56x?")
 INPUTS_AT = 2104
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
@@ -141,6 +145,7 @@ class TasController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, TAS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 TAS_STATUS_AT,
@@ -157,19 +162,15 @@ class TasController:
         out = (self.world_true_x, self.world_true_y, self.world_true_heading)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_TRUE_X_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_TRUE_Y_AT, s[1] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_TRUE_HEADING_AT, s[2] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(
                 buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
             )
-            WORLD_OUT_1.pack_into(
-                buf,
-                WORLD_OUT_1_AT,
-                (s[0] | 1) + 1,
-                out[0],
-                (s[1] | 1) + 1,
-                out[1],
-                (s[2] | 1) + 1,
-                out[2],
-            )
+            SEQ.pack_into(buf, WORLD_TRUE_X_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_TRUE_Y_AT, (s[1] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_TRUE_HEADING_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -180,6 +181,7 @@ class TasController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, TAS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             TAS_PERF_AT,
@@ -245,6 +247,7 @@ class TasController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, TAS_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 TAS_STATUS_AT,
@@ -261,19 +264,15 @@ class TasController:
         out = (self.world_true_x, self.world_true_y, self.world_true_heading)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_TRUE_X_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_TRUE_Y_AT, s[1] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_TRUE_HEADING_AT, s[2] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(
                 buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
             )
-            WORLD_OUT_1.pack_into(
-                buf,
-                WORLD_OUT_1_AT,
-                (s[0] | 1) + 1,
-                out[0],
-                (s[1] | 1) + 1,
-                out[1],
-                (s[2] | 1) + 1,
-                out[2],
-            )
+            SEQ.pack_into(buf, WORLD_TRUE_X_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_TRUE_Y_AT, (s[1] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_TRUE_HEADING_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -284,6 +283,7 @@ class TasController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, TAS_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             TAS_PERF_AT,

@@ -7,6 +7,8 @@ from time import perf_counter_ns
 from .layout import (
     TC_PERF_AT,
     TC_STATUS_AT,
+    WORLD_LEFT_TREAD_CMD_AT,
+    WORLD_RIGHT_TREAD_CMD_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -30,7 +32,8 @@ STOP = 13
 INPUTS = Struct("<QI44x???1xI1584xq8xq")
 INPUTS_AT = 1608
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word: written odd, then again even), their values alone, and their sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<QqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ")
@@ -169,6 +172,7 @@ class TcController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, TC_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 TC_STATUS_AT,
@@ -185,10 +189,11 @@ class TcController:
         out = (self.world_left_tread_cmd, self.world_right_tread_cmd)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_LEFT_TREAD_CMD_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_RIGHT_TREAD_CMD_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_LEFT_TREAD_CMD_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_RIGHT_TREAD_CMD_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -199,6 +204,7 @@ class TcController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, TC_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             TC_PERF_AT,
@@ -281,6 +287,7 @@ class TcController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, TC_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 TC_STATUS_AT,
@@ -297,10 +304,11 @@ class TcController:
         out = (self.world_left_tread_cmd, self.world_right_tread_cmd)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_LEFT_TREAD_CMD_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_RIGHT_TREAD_CMD_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-            )
+            SEQ.pack_into(buf, WORLD_LEFT_TREAD_CMD_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_RIGHT_TREAD_CMD_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -311,6 +319,7 @@ class TcController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, TC_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             TC_PERF_AT,

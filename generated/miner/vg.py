@@ -160,7 +160,12 @@ class VgController:
                 values[10],
                 values[13],
             )
-            if not (seqs[0] | seqs[1]) & 1 and SEQS.unpack_from(buf, SEQS_AT) == seqs:
+            if (
+                not (seqs[0] | seqs[1]) & 1
+                and seqs[0]
+                and seqs[1]
+                and SEQS.unpack_from(buf, SEQS_AT) == seqs
+            ):
                 (
                     self.command_num,
                     self.command,
@@ -215,6 +220,7 @@ class VgController:
         # post_process
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, VG_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 VG_STATUS_AT,
@@ -232,23 +238,27 @@ class VgController:
             seq, number = PP_COMMAND.unpack_from(buf, PP_COMMAND_AT)[:2]
             if number != self.pp_written:  # an operator's command came meanwhile:
                 self.pp_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, PP_COMMAND_AT, seq)
             PP_COMMAND.pack_into(
                 buf,
                 PP_COMMAND_AT,
-                seq | 1,
+                seq,
                 self.pp_command_num,
                 self.pp_command,
                 self.pp_arg_x,
                 self.pp_arg_y,
             )
-            SEQ.pack_into(buf, PP_COMMAND_AT, (seq | 1) + 1)
+            SEQ.pack_into(buf, PP_COMMAND_AT, seq + 1)
             self.pp_written = self.pp_command_num
         if self.tc_command_num != self.tc_written:  # a command was sent
             seq, number = TC_COMMAND.unpack_from(buf, TC_COMMAND_AT)[:2]
             if number != self.tc_written:  # an operator's command came meanwhile:
                 self.tc_command_num = number + 1  # number ours after it
-            TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq | 1, self.tc_command_num, self.tc_command)
-            SEQ.pack_into(buf, TC_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, TC_COMMAND_AT, seq)
+            TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq, self.tc_command_num, self.tc_command)
+            SEQ.pack_into(buf, TC_COMMAND_AT, seq + 1)
             self.tc_written = self.tc_command_num
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -260,6 +270,7 @@ class VgController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, VG_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             VG_PERF_AT,
@@ -284,7 +295,12 @@ class VgController:
                 values[10],
                 values[13],
             )
-            if not (seqs[0] | seqs[1]) & 1 and SEQS.unpack_from(buf, SEQS_AT) == seqs:
+            if (
+                not (seqs[0] | seqs[1]) & 1
+                and seqs[0]
+                and seqs[1]
+                and SEQS.unpack_from(buf, SEQS_AT) == seqs
+            ):
                 (
                     self.command_num,
                     self.command,
@@ -344,6 +360,7 @@ class VgController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, VG_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 VG_STATUS_AT,
@@ -361,23 +378,27 @@ class VgController:
             seq, number = PP_COMMAND.unpack_from(buf, PP_COMMAND_AT)[:2]
             if number != self.pp_written:  # an operator's command came meanwhile:
                 self.pp_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, PP_COMMAND_AT, seq)
             PP_COMMAND.pack_into(
                 buf,
                 PP_COMMAND_AT,
-                seq | 1,
+                seq,
                 self.pp_command_num,
                 self.pp_command,
                 self.pp_arg_x,
                 self.pp_arg_y,
             )
-            SEQ.pack_into(buf, PP_COMMAND_AT, (seq | 1) + 1)
+            SEQ.pack_into(buf, PP_COMMAND_AT, seq + 1)
             self.pp_written = self.pp_command_num
         if self.tc_command_num != self.tc_written:  # a command was sent
             seq, number = TC_COMMAND.unpack_from(buf, TC_COMMAND_AT)[:2]
             if number != self.tc_written:  # an operator's command came meanwhile:
                 self.tc_command_num = number + 1  # number ours after it
-            TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq | 1, self.tc_command_num, self.tc_command)
-            SEQ.pack_into(buf, TC_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, TC_COMMAND_AT, seq)
+            TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq, self.tc_command_num, self.tc_command)
+            SEQ.pack_into(buf, TC_COMMAND_AT, seq + 1)
             self.tc_written = self.tc_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -389,6 +410,7 @@ class VgController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, VG_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             VG_PERF_AT,

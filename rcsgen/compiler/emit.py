@@ -202,10 +202,11 @@ def _inputs(c: ir.IRController, system: ir.IRSystem, placement: Placement) -> Ga
     return _gather(fields)
 
 
-def _world_outputs(c: ir.IRController, layout: ir.Layout) -> list[Gathered]:
+def _world_outputs(c: ir.IRController, layout: ir.Layout) -> list[tuple[Gathered, list[str]]]:
     """The world fields post_process writes, one struct per run of adjacent field buffers
     (each its sequence word and value; only alignment padding lies between them, so packing
-    never touches anyone else's field)."""
+    never touches anyone else's field), with the layout's names of their buffers' offsets
+    (where each sequence word is stored on its own)."""
     by_name = {b.fields[0].name: b for b in layout.world}
     buffers = sorted((by_name[f.name] for f in c.world_writes), key=lambda b: b.offset)
     runs: list[list[ir.Buffer]] = []
@@ -223,7 +224,7 @@ def _world_outputs(c: ir.IRController, layout: ir.Layout) -> list[Gathered]:
                 (b.offset, "Q", None),
                 (value.offset, value.code, f"self.world_{value.name}"),
             ]
-        gathered.append(_gather(fields))
+        gathered.append((_gather(fields), [f"{b.const}_AT" for b in run]))
     return gathered
 
 
@@ -250,7 +251,9 @@ def _controller_context(
         ]
         for s in c.subordinates
     }
-    world_outputs = _world_outputs(c, system.layout)
+    world_runs = _world_outputs(c, system.layout)
+    world_outputs = [gathered for gathered, _ in world_runs]
+    world_seq_at = [names for _, names in world_runs]
     slots = ["buf", "cycle_start", *command_targets, *status_targets, *mode_targets, *perf_targets]
     slots += ["status_seq", "status_dirty", "perf_seq"]
     if c.hooks_state:
@@ -262,7 +265,7 @@ def _controller_context(
             slots.append(f"{s.name}_sent_at")
     slots += [f"world_{f.name}" for f in c.world_reads]
     slots += [f"var_{v.name}" for v in c.locals]
-    imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT"}
+    imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT", *(n for names in world_seq_at for n in names)}
     for s in c.subordinates:
         imports |= {f"{s.name.upper()}_COMMAND", f"{s.name.upper()}_COMMAND_AT"}
     inputs = _inputs(c, system, placement)
@@ -277,6 +280,7 @@ def _controller_context(
         "own": up,
         "inputs": inputs,
         "world_outputs": world_outputs,
+        "world_seq_at": world_seq_at,
         "system": system,
         "class_name": naming.class_name(c.name),
         "imports": sorted(imports, key=naming.import_order),

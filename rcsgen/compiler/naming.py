@@ -120,6 +120,8 @@ LAYOUT_NAMES = frozenset(
         "MAGIC",
         "PROCESS",
         "PROCESS_FIELDS",
+        "SEQ",
+        "FIRST_SEQ",
         "MODE_FIELDS",
         "PERF_FIELDS",
         "STATUS_FIELDS",
