@@ -9,8 +9,9 @@ what can be read together in one call: its command and mode, and the five world 
 it reads. It behaves exactly as docs/semantics.md describes, so its trace is the
 generated controller's.
 
-It follows the block's protocol as the generated code does (docs/semantics.md): every
-buffer it writes is marked odd (its sequence word) while it is written, then even; it
+It follows the block's protocol as the generated code does (rcs/contract.py): every
+buffer it writes has its sequence word stored odd on its own first, then the buffer
+written, then the word even; it
 writes its status only when a new command arrives or a rule changes it, a subordinate's
 command buffer only when it sends one (reading the number back from the block, in case an
 operator wrote one meanwhile), the goal only when a hook computed a new one, and its
@@ -77,7 +78,8 @@ WORLD_IN, WORLD_IN_AT = gather(*((WORLD[name].offset, WORLD[name].struct) for na
 # The sequence words of the goal's two buffers (adjacent), and the two buffers whole.
 GOAL_SEQS, GOAL_AT = Struct("<Q8xQ"), WORLD["goal_x"].offset
 GOAL = Struct("<QdQd")
-if WORLD["goal_y"].offset != GOAL_AT + GOAL.size // 2:
+GOAL_X_AT, GOAL_Y_AT = GOAL_AT, WORLD["goal_y"].offset
+if GOAL_Y_AT != GOAL_AT + GOAL.size // 2:
     raise ValueError("goal_x and goal_y are not adjacent buffers")
 STATUS_HEAD_AT = SEQ.size  # a status head after its sequence word
 COMMAND_HEAD = Struct("<QQ")  # a command buffer's sequence word and command number
@@ -250,6 +252,7 @@ class HandwrittenCo:
         buf = self.buf
         if self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CO_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf, CO_STATUS_AT, seq, self.status_num, self.status, self.error_num, self.state,
                 NO_RULE,
@@ -262,6 +265,7 @@ class HandwrittenCo:
             if number != self.cr_written:  # an operator's command came meanwhile
                 self.cr_command_num = number + 1
             seq |= 1
+            SEQ.pack_into(buf, CR_COMMAND_AT, seq)
             CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq, self.cr_command_num, self.cr_command)
             SEQ.pack_into(buf, CR_COMMAND_AT, seq + 1)
             self.cr_written = self.cr_command_num
@@ -270,6 +274,7 @@ class HandwrittenCo:
             if number != self.vg_written:
                 self.vg_command_num = number + 1
             seq |= 1
+            SEQ.pack_into(buf, VG_COMMAND_AT, seq)
             VG_COMMAND.pack_into(
                 buf, VG_COMMAND_AT, seq, self.vg_command_num, self.vg_command, self.vg_x, self.vg_y
             )
@@ -280,6 +285,7 @@ class HandwrittenCo:
             if number != self.cc_written:
                 self.cc_command_num = number + 1
             seq |= 1
+            SEQ.pack_into(buf, CC_COMMAND_AT, seq)
             CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq, self.cc_command_num, self.cc_command)
             SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
             self.cc_written = self.cc_command_num
@@ -287,8 +293,11 @@ class HandwrittenCo:
             x_seq, y_seq = GOAL_SEQS.unpack_from(buf, GOAL_AT)
             x_seq |= 1
             y_seq |= 1
+            SEQ.pack_into(buf, GOAL_X_AT, x_seq)
+            SEQ.pack_into(buf, GOAL_Y_AT, y_seq)
             GOAL.pack_into(buf, GOAL_AT, x_seq, self.goal_x, y_seq, self.goal_y)
-            GOAL.pack_into(buf, GOAL_AT, x_seq + 1, self.goal_x, y_seq + 1, self.goal_y)
+            SEQ.pack_into(buf, GOAL_X_AT, x_seq + 1)
+            SEQ.pack_into(buf, GOAL_Y_AT, y_seq + 1)
             self.goal_dirty = False
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -298,6 +307,7 @@ class HandwrittenCo:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CO_PERF_AT, seq)
         PERF.pack_into(
             buf, CO_PERF_AT, seq, last, self.min_cycle_ns, self.max_cycle_ns, self.cycles,
             self.perf_single_step_num, self.stale_reads,

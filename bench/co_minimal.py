@@ -1,8 +1,8 @@
 """co as one function with no redundant copies: the floor for any Python version of co.
 
 Same block, same behaviour, same duties as the QQ1 controllers (status echo, dont_run and
-single-step, the performance buffer) and the same protocol (every buffer it writes is
-odd while it is written, then even; its inputs, all written in this process, are read
+single-step, the performance buffer) and the same protocol (every buffer it writes has its
+sequence word stored odd on its own, then the buffer written, then the word even; its inputs, all written in this process, are read
 without checking their sequence words), but nothing kept between cycles: one
 `unpack_from` reads every input of a cycle (co's own buffers, the commands it last sent
 and the sequence words of what it writes, the subordinates' status, the world) into
@@ -85,13 +85,15 @@ INPUTS, INPUTS_AT = gather(
 GOAL_AT = WORLD["goal_x"].offset
 GOAL = Struct("<QdQd")  # goal_x's and goal_y's buffers, adjacent: each its word and value
 GOAL_SEQS = Struct("<Q8xQ")
-if WORLD["goal_y"].offset != GOAL_AT + GOAL.size // 2:
+GOAL_Y_AT = WORLD["goal_y"].offset
+if GOAL_Y_AT != GOAL_AT + GOAL.size // 2:
     raise ValueError("goal_x and goal_y are not adjacent buffers")
 
 
 def write(buf: memoryview, struct: Struct, at: int, *values: object) -> None:
     """Write a buffer whole, its sequence word odd meanwhile, then even."""
     seq = SEQ.unpack_from(buf, at)[0] | 1
+    SEQ.pack_into(buf, at, seq)  # odd before any field changes
     struct.pack_into(buf, at, seq, *values)
     SEQ.pack_into(buf, at, seq + 1)
 
@@ -100,8 +102,11 @@ def write_goal(buf: memoryview, x: float, y: float) -> None:
     x_seq, y_seq = GOAL_SEQS.unpack_from(buf, GOAL_AT)
     x_seq |= 1
     y_seq |= 1
+    SEQ.pack_into(buf, GOAL_AT, x_seq)
+    SEQ.pack_into(buf, GOAL_Y_AT, y_seq)
     GOAL.pack_into(buf, GOAL_AT, x_seq, x, y_seq, y)
-    GOAL.pack_into(buf, GOAL_AT, x_seq + 1, x, y_seq + 1, y)
+    SEQ.pack_into(buf, GOAL_AT, x_seq + 1)
+    SEQ.pack_into(buf, GOAL_Y_AT, y_seq + 1)
 
 
 def minimal_co(buf: memoryview) -> Callable[[], None]:
@@ -177,12 +182,14 @@ def minimal_co(buf: memoryview) -> Callable[[], None]:
                     state, status = NOP, DONE
         if (status_num, status, state) != before:
             status_seq = SEQ.unpack_from(buf, CO_STATUS_AT)[0] | 1
+            SEQ.pack_into(buf, CO_STATUS_AT, status_seq)  # odd before any field changes
             STATUS.pack_into(
                 buf, CO_STATUS_AT, status_seq, status_num, status, error_num, state, NO_RULE
             )
             SEQ.pack_into(buf, CO_STATUS_AT, status_seq + 1)
         last = perf_counter_ns() - start
         perf_seq |= 1
+        SEQ.pack_into(buf, CO_PERF_AT, perf_seq)
         PERF.pack_into(
             buf,
             CO_PERF_AT,
