@@ -231,9 +231,7 @@ def step_costs(frames: list, make: Callable[[memoryview], object]) -> dict[str, 
             counted += 1
             for index, value in enumerate(took):
                 totals[index] += value
-    return {
-        name: total / counted - overhead for name, total in zip(STEPS, totals, strict=True)
-    }
+    return {name: total / counted - overhead for name, total in zip(STEPS, totals, strict=True)}
 
 
 STEPS = ("pre_process", "check_if_new_command", "decision_process", "post_process")

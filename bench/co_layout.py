@@ -57,4 +57,3 @@ def gather(*parts: tuple[int, Struct] | tuple[int, Struct, bool]) -> tuple[Struc
         fmt += body
         at = offset + struct.size
     return Struct(fmt), start
-

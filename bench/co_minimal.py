@@ -2,16 +2,16 @@
 
 Same block, same behaviour, same duties as the QQ1 controllers (status echo, dont_run and
 single-step, the performance buffer) and the same protocol (every buffer it writes has its
-sequence word stored odd on its own, then the buffer written, then the word even; its inputs, all written in this process, are read
-without checking their sequence words), but nothing kept between cycles: one
-`unpack_from` reads every input of a cycle (co's own buffers, the commands it last sent
-and the sequence words of what it writes, the subordinates' status, the world) into
-locals, the table runs on the locals, and only what changed is written back: a
-subordinate's command buffer when co sends to it, the goal when a hook computes one, the
-status when it changed, and the performance buffer (every cycle).
+sequence word stored odd on its own, then the buffer written, then the word even; its
+inputs, all written in this process, are read without checking their sequence words), but
+nothing kept between cycles: one `unpack_from` reads every input of a cycle (co's own
+buffers, the commands it last sent, the subordinates' status, the world, and the sequence
+word of the performance buffer) into locals, the table runs on the locals, and only what
+changed is written back (the sequence words of the buffers it writes now and then read
+when it writes them): a subordinate's command buffer when co sends to it, the goal when a
+hook computes one, the status when it changed, and the performance buffer (every cycle).
 
-It is not a design to copy: it skips what QQ1 does on purpose (rewriting every output
-buffer every cycle) and keeps no local state, so nothing here survives a layout change
+It is not a design to copy: it keeps no local state, so nothing here survives a layout change
 without editing. It shows how much of a cycle is the interpreter's floor.
 """
 

@@ -1,16 +1,18 @@
 """What each proposed template change buys: the generated co, changed one step at a time.
 
 Each step is a text edit of the generated co.py (as a template change would make it),
-applied on top of the previous ones. Every variant must leave the generated controller's
-trace (checked over the first 20,000 cycles of the closed loop); then all variants are
-timed on the same recorded inputs, interleaved, as in bench_co.py. An edit whose text is
-no longer in the generated code (the template changed) is reported as not applicable.
-The hand-written baseline and the minimal floor run in the same rounds, for the ratios.
+applied on top of the previous ones; a step whose key starts with R undoes an adopted
+change instead (applied to the generated code alone), to show what that change buys.
+Every variant must leave the generated controller's trace (checked over the first 20,000
+cycles of the closed loop); then all variants are timed on the same recorded inputs,
+interleaved, as in bench_co.py. An edit whose text is no longer in the generated code (the
+template changed) is reported as not applicable. The hand-written baseline and the minimal
+floor run in the same rounds, for the ratios.
 
-Proposals adopted in the templates are no longer listed here: one read for all inputs, one
-write for adjacent world fields, comparisons instead of max()/min() (148c872); run_cycle
-holding the four steps itself (formerly P2), and world outputs compared with the block's
-values instead of with what was last written (both with the seqlock's protocol).
+Proposals adopted in the templates are no longer listed as proposals: one read for all
+inputs, one write for adjacent world fields, comparisons instead of max()/min() (148c872);
+run_cycle holding the four steps itself (formerly P2; R1 undoes it), and world outputs
+compared with the block's values instead of with what was last written (44fa027).
 
     python bench/prototypes/ablation.py [--cycles N] [--rounds R] [--json PATH]
 """
@@ -30,14 +32,35 @@ from common import summary, write_json  # noqa: E402
 
 PEERS = ["handwritten", "minimal"]  # timed in the same rounds, for the ratios
 
-# (key, what the template would do, [(old text, new text), ...])
+# (key, what the template would do, [(old text, new text), ...] or a function of the source)
+# Keys starting with R undo an adopted change, to show what it buys; they apply to the
+# generated code alone, and the proposals (P) go on from the generated code.
 STEPS = [
+    ("R1", "run_cycle calls the four step methods (the template before 44fa027)", "unfuse"),
     (
         "P1",
         "predicates inlined into the guards that use them (no method call per use)",
         [("self.too_much_loose_coal()", "(self.world_loose_coal > LOOSE_COAL_LIMIT)")],
     ),
 ]
+FOUR_CALLS = """\
+    def run_cycle(self) -> None:
+        \"\"\"One cycle: the four steps, one call each.\"\"\"
+        self.pre_process()
+        self.check_if_new_command()
+        self.decision_process()
+        self.post_process()
+
+"""
+
+
+def unfuse(source: str) -> str | None:
+    """run_cycle as four calls of the step methods (which the template still emits)."""
+    start = source.find("    def run_cycle(self) -> None:\n")
+    end = source.find("    def pre_process(self) -> None:\n")
+    if start < 0 or end < start or "self.pre_process()\n        self.check" in source:
+        return None
+    return source[:start] + FOUR_CALLS + source[end:]
 
 
 def variants(generated: str) -> list[tuple[str, str, str | None]]:
@@ -47,10 +70,14 @@ def variants(generated: str) -> list[tuple[str, str, str | None]]:
     out = [("generated", "as generated today", source)]
     for key, description, edits in STEPS:
         changed: str | None = source
-        for old, new in edits:
-            changed = changed.replace(old, new) if changed and old in changed else None
+        if edits == "unfuse":
+            changed = unfuse(source)
+        else:
+            for old, new in edits:
+                changed = changed.replace(old, new) if changed and old in changed else None
         out.append((key, description, changed))
-        source = changed or source
+        if not key.startswith("R"):
+            source = changed or source
     return out
 
 
