@@ -84,7 +84,7 @@ class Duo:
         try:
             buf, processes = launcher.block.buf, self.layout.PROCESSES
             wait_for(
-                lambda: all(processes[p].read(buf)["heartbeat"] > 2 for p in ("p1", "p2")),
+                lambda: all(self.read(processes[p], buf)["heartbeat"] > 2 for p in ("p1", "p2")),
                 "both processes running",
             )
         except BaseException:
@@ -92,17 +92,27 @@ class Duo:
             raise
         return launcher
 
+    def read(self, record, buf) -> dict:
+        """A buffer the running processes write, read whole: Record.read gives up (StaleRead)
+        when its writer is writing, or was descheduled mid-write, so try again."""
+        stale = self.module("rcs.contract").StaleRead
+        end = time.monotonic() + DEADLINE
+        while True:
+            try:
+                return record.read(buf)
+            except stale:
+                if time.monotonic() > end:
+                    raise
+                time.sleep(POLL)
+
     def command(self, buf, module: str, command: str) -> None:
         record = self.layout.COMMAND_IN[module]
-        number = record.read(buf)["command_num"] + 1
+        number = self.read(record, buf)["command_num"] + 1
         names = self.layout.COMMAND_NAMES[module]
         record.write(buf, command_num=number, command=names.index(command))
 
     def status(self, buf, module: str) -> dict:
-        try:
-            return self.layout.STATUS_OUT[module].read(buf)
-        except self.module("rcs.contract").StaleRead:
-            return {}
+        return self.read(self.layout.STATUS_OUT[module], buf)
 
     def close(self) -> None:
         shutil.rmtree(self.scratch, ignore_errors=True)
@@ -141,8 +151,8 @@ def heartbeat_loss(duo: Duo, runs: int, watched: bool) -> list[dict[str, float]]
                 time.sleep(POLL)
             seen = time.perf_counter()
             top = duo.status(buf, "top")
-            sent = layout.COMMAND_IN["arm"].read(buf)
-            record = layout.PROCESSES["p1"].read(buf)
+            sent = duo.read(layout.COMMAND_IN["arm"], buf)
+            record = duo.read(layout.PROCESSES["p1"], buf)
             results.append(
                 {
                     "seconds": seen - killed,
@@ -188,21 +198,21 @@ def echo_stopped(duo: Duo, runs: int) -> list[dict[str, float]]:
             buf = launcher.block.buf
             p2.send_signal(signal.SIGSTOP)
             time.sleep(0.05)
-            before = layout.COMMAND_IN["arm"].read(buf)["command_num"]
+            before = duo.read(layout.COMMAND_IN["arm"], buf)["command_num"]
             duo.command(buf, "top", "MOVE")
             end = time.monotonic() + DEADLINE
-            while layout.COMMAND_IN["arm"].read(buf)["command_num"] == before:
+            while duo.read(layout.COMMAND_IN["arm"], buf)["command_num"] == before:
                 if time.monotonic() > end:
                     raise SystemExit("top never sent MOVE's POWER")
                 time.sleep(POLL)
             sent = time.perf_counter()
-            beat_at_send = layout.PROCESSES["p1"].read(buf)["heartbeat"]
+            beat_at_send = duo.read(layout.PROCESSES["p1"], buf)["heartbeat"]
             while duo.status(buf, "top").get("status") != ERROR:
                 if time.monotonic() > end:
                     raise SystemExit("top never reported ERROR with arm silent")
                 time.sleep(POLL)
             seen = time.perf_counter()
-            beat_at_error = layout.PROCESSES["p1"].read(buf)["heartbeat"]
+            beat_at_error = duo.read(layout.PROCESSES["p1"], buf)["heartbeat"]
             top = duo.status(buf, "top")
             results.append(
                 {
