@@ -28,7 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from common import BENCH, summary, write_json
+from common import BENCH, PREEMPTED_NS, clock_overhead, cpu_ns, summary, wall_ns, write_json
 
 SPEC = BENCH / "co_spec" / "miner"
 SEED = 20240501
@@ -75,7 +75,6 @@ def versions(cycles: int, slow_cycles: int) -> list[Version]:
     from co_statemachine import StatemachineCo
     from co_transitions import TransitionsCo
     from miner.co import CoController
-    from prototypes.co_fast import CoController as PrototypeCo
 
     rows = [
         ("generated", "generated (rcsgen)", "generated from co_spec/", cycle_of(CoController)),
@@ -84,7 +83,6 @@ def versions(cycles: int, slow_cycles: int) -> list[Version]:
         ("statemachine", "python-statemachine", "co_statemachine.py", cycle_of(StatemachineCo)),
         ("sismic", "sismic", "co_sismic.py, co_statechart.yaml", cycle_of(SismicCo)),
         ("minimal", "minimal hand-written (floor)", "co_minimal.py", minimal_co),
-        ("prototype", "prototype (not a peer)", "prototypes/co_fast.py", cycle_of(PrototypeCo)),
     ]  # fmt: skip
     return [
         Version(key, title, where, make, slow_cycles if key == "sismic" else cycles)
@@ -159,13 +157,13 @@ def first_difference(reference: list[tuple], trace: list[tuple]) -> str | None:
 
 
 def replay(frames: list, run: Callable[[], None], buf: memoryview) -> int:
-    """Write each cycle's recorded inputs and run one cycle; return the time in ns."""
-    start = time.perf_counter_ns()
+    """Write each cycle's recorded inputs and run one cycle; return the CPU time in ns."""
+    start = cpu_ns()
     for frame in frames:
         for where, data in frame:
             buf[where] = data
         run()
-    return time.perf_counter_ns() - start
+    return cpu_ns() - start
 
 
 def idle() -> None:
@@ -209,15 +207,18 @@ def interleaved(
 
 def step_costs(frames: list, make: Callable[[memoryview], object]) -> dict[str, float] | None:
     """Where a generated controller's cycle goes: ns per call of each QQ1 step, timed one by
-    one over the recorded inputs, less the cost of reading the clock."""
+    one over the recorded inputs on the wall clock, less the cost of reading it; cycles in
+    which the process was descheduled (a step took PREEMPTED_NS) are left out."""
     buf = fresh_block()
     controller = make(buf)
     if not all(hasattr(controller, name) for name in STEPS):
         return None  # the template no longer has the four step methods
     steps = [getattr(controller, name) for name in STEPS]
     totals = [0] * len(steps)
-    clock = time.perf_counter_ns
-    overhead = min(-clock() + clock() for _ in range(10_000))
+    took = [0] * len(steps)
+    counted = 0
+    clock = wall_ns
+    overhead = clock_overhead(clock)
     gc.collect()
     for frame in frames:
         for where, data in frame:
@@ -225,8 +226,12 @@ def step_costs(frames: list, make: Callable[[memoryview], object]) -> dict[str, 
         for index, step in enumerate(steps):
             start = clock()
             step()
-            totals[index] += clock() - start
-    return {name: total / len(frames) - overhead for name, total in zip(STEPS, totals, strict=True)}
+            took[index] = clock() - start
+        if max(took) < PREEMPTED_NS:
+            counted += 1
+            for index, value in enumerate(took):
+                totals[index] += value
+    return {name: total / counted - overhead for name, total in zip(STEPS, totals, strict=True)}
 
 
 STEPS = ("pre_process", "check_if_new_command", "decision_process", "post_process")

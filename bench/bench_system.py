@@ -3,14 +3,15 @@
 The generated package (generated/miner) runs the nominal scenario (a scenario file of
 specs/miner/scenarios, as `rcsgen run` would, INIT sent at start-up) again and again,
 each time on a fresh block and fresh controllers from the same imported package, until
-the scenario's stop module reports DONE (or max_cycles). Every system cycle is timed on
-its own (the clock costs ~0.1 % of a cycle); the scenario's events and the stop check run
-between cycles, untimed. One round is `--cycles` system cycles; rounds are repeated and
-the median reported. A second, instrumented pass times each module's run_cycle, less the
-cost of reading the clock, and each call of a hand-written hook function, to show where a
-system cycle goes: generated code or hooks.
+the scenario's stop module reports DONE (or max_cycles). Every process of the system runs
+in this one process, in the system's order (as `rcsgen run` does). Every system cycle is
+timed on its own, in CPU time (common.cpu_ns, less the cost of reading the clock); the
+scenario's events and the stop check run between cycles, untimed. One round is `--cycles`
+system cycles; rounds are repeated and the median reported. A second, instrumented pass
+times each module's run_cycle and each call of a hand-written hook function, to show
+where a system cycle goes: generated code or hooks.
 
-Multi-process runs over named shared memory are not measured here (a later runtime issue).
+The same system as several OS processes is measured by bench_lockstep.py.
 
     python bench/bench_system.py [--scenario PATH] [--cycles N] [--rounds R] [--json PATH]
 """
@@ -19,12 +20,13 @@ from __future__ import annotations
 
 import argparse
 import gc
+import statistics
 import sys
 import time
 import types
 from pathlib import Path
 
-from common import ROOT, summary, write_json
+from common import PREEMPTED_NS, ROOT, clock_overhead, cpu_ns, summary, wall_ns, write_json
 
 from rcsgen.tools import scenario as scenarios
 from rcsgen.tools.harness import Harness
@@ -77,70 +79,118 @@ class Repeater:
 
         `cycle_of(harness)` gives the function that runs one system cycle (default: the
         process's own run_cycle)."""
-        clock = time.perf_counter_ns
+        clock, overhead = cpu_ns, clock_overhead()
         total = done = runs = 0
         gc.collect()
         while done < cycles:
             harness, runs = self.fresh(), runs + 1
-            step = cycle_of(harness) if cycle_of else harness.process.run_cycle
+            step = cycle_of(harness) if cycle_of else system_cycle(harness)
             pending = list(self.scenario.events)
             for cycle in range(1, self.scenario.max_cycles + 1):
                 while pending and pending[0].cycle <= cycle:
                     self.apply(harness, pending.pop(0))
                 start = clock()
                 step()
-                total += clock() - start
+                total += clock() - start - overhead
                 done += 1
                 if done == cycles or (not pending and self.finished(harness)):
                     break
         return total, done, runs
 
 
+def system_cycle(harness: Harness):
+    """One system cycle: every process's run_cycle, in the declared order (what
+    `harness.cycle()` does, without its loop over a count)."""
+    steps = tuple(process.run_cycle for process in harness.processes.values())
+    if len(steps) == 1:
+        return steps[0]
+
+    def cycle() -> None:
+        for step in steps:
+            step()
+
+    return cycle
+
+
 def controllers(harness: Harness) -> list[tuple[str, object]]:
-    """The controllers a process runs, in its order."""
-    modules = getattr(harness.process, "modules", None)
-    if isinstance(modules, dict):
-        return list(modules.items())
+    """The controllers the harness runs, every process's, in the system's order."""
     return [(name, harness.controller(name)) for name in harness.modules]
 
 
 class TimedHooks:
     """Stands in for a hook module in a generated controller module (its `hooks` global):
-    each function the controller calls through it is timed. Calls inside the hook module
-    do not pass through here, so only what the controllers call is timed, once."""
+    each function the controller calls through it is timed (into `cycle.hooks`, the
+    current system cycle's). Calls inside the hook module do not pass through here, so
+    only what the controllers call is timed, once."""
 
-    def __init__(self, module: types.ModuleType, totals: dict[str, int], active: list[bool]):
-        self._module, self._totals, self._active = module, totals, active
+    def __init__(self, module: types.ModuleType, cycle: CycleTimes) -> None:
+        self._module, self._cycle = module, cycle
 
     def __getattr__(self, name: str):
         function = getattr(self._module, name)
         if not callable(function):
             return function
         key = f"{self._module.__name__}.{name}"
-        totals, active, clock = self._totals, self._active, time.perf_counter_ns
+        cycle, clock = self._cycle, wall_ns
 
         def timed(*args, **kwargs):
-            if not active[0]:  # outside a cycle (e.g. a hook-state factory)
+            if not cycle.active:  # outside a cycle (e.g. a hook-state factory)
                 return function(*args, **kwargs)
+            cycle.calls += 1
             start = clock()
             try:
                 return function(*args, **kwargs)
             finally:
-                totals[key] = totals.get(key, 0) + clock() - start
+                took = clock() - start
+                cycle.hooks[key] = cycle.hooks.get(key, 0) + took
 
         setattr(self, name, timed)  # resolve once
         return timed
 
 
-def per_module(repeater: Repeater, cycles: int) -> tuple[dict[str, float], dict[str, float]]:
+class CycleTimes:
+    """What the instrumented pass measured in the current system cycle."""
+
+    def __init__(self) -> None:
+        self.active = False
+        self.calls = 0  # hook calls timed so far
+        self.hooks: dict[str, int] = {}
+
+
+def hook_timing_cost(samples: int = 20_000) -> int:
+    """What timing one hook call adds to the cycle of the module that makes it: the wrapper
+    and its two readings of the clock (median of `samples`, less a plain call's)."""
+    probe = types.ModuleType("probe")
+    probe.nothing = lambda: None
+    cycle = CycleTimes()
+    cycle.active = True
+    timed = TimedHooks(probe, cycle).nothing
+    clock = wall_ns
+
+    def typical(function) -> float:
+        took = []
+        for _ in range(samples):
+            start = clock()
+            function()
+            took.append(clock() - start)
+        return statistics.median(took)
+
+    return max(0, round(typical(timed) - typical(probe.nothing)))
+
+
+def per_module(repeater: Repeater, cycles: int) -> tuple[dict[str, float], dict[str, float], int]:
     """ns per cycle of each module and of each hook function the modules call, from an
-    instrumented pass (the cost of reading the clock subtracted from the modules)."""
-    clock = time.perf_counter_ns
-    overhead = min(-clock() + clock() for _ in range(10_000))
+    instrumented pass on the wall clock (the cost of reading it subtracted, and what timing
+    a hook call adds subtracted from the module that calls it), leaving out the system
+    cycles in which the process was descheduled (a module took PREEMPTED_NS); and how many
+    cycles were left out."""
+    clock = wall_ns
+    overhead = clock_overhead(clock)
+    per_hook_call = hook_timing_cost()
     totals: dict[str, int] = {}
-    counts: dict[str, int] = {}
     hook_totals: dict[str, int] = {}
-    active = [False]
+    counted = dropped = 0
+    cycle_times = CycleTimes()
     patched: dict[types.ModuleType, object] = {}
 
     def instrumented(harness: Harness):
@@ -150,29 +200,38 @@ def per_module(repeater: Repeater, cycles: int) -> tuple[dict[str, float], dict[
             hooks = getattr(module, "hooks", None)
             if isinstance(hooks, types.ModuleType):
                 patched[module] = hooks
-                module.hooks = TimedHooks(hooks, hook_totals, active)
+                module.hooks = TimedHooks(hooks, cycle_times)
         for name, _ in steps:
             totals.setdefault(name, 0)
-            counts.setdefault(name, 0)
+        took = dict.fromkeys(totals, 0)
 
         def cycle() -> None:
-            active[0] = True
+            nonlocal counted, dropped
+            cycle_times.active, cycle_times.hooks = True, {}
             for name, step in steps:
+                calls = cycle_times.calls
                 start = clock()
                 step()
-                totals[name] += clock() - start - overhead
-                counts[name] += 1
-            active[0] = False
+                took[name] = clock() - start - (cycle_times.calls - calls) * per_hook_call
+            cycle_times.active = False
+            if max(took.values()) >= PREEMPTED_NS:
+                dropped += 1
+                return
+            counted += 1
+            for name, value in took.items():
+                totals[name] += value - overhead
+            for key, value in cycle_times.hooks.items():
+                hook_totals[key] = hook_totals.get(key, 0) + value - overhead
 
         return cycle
 
     try:
-        _, done, _ = repeater.run(cycles, instrumented)
+        repeater.run(cycles, instrumented)
     finally:
         for module, hooks in patched.items():
             module.hooks = hooks
-    modules = {name: totals[name] / counts[name] for name in totals}
-    return modules, {key: total / done for key, total in hook_totals.items()}
+    modules = {name: total / counted for name, total in totals.items()}
+    return modules, {key: total / counted for key, total in hook_totals.items()}, dropped
 
 
 def main() -> int:
@@ -192,12 +251,12 @@ def main() -> int:
     for _ in range(args.rounds):
         total, done, runs = repeater.run(args.cycles)
         per_cycle.append(total / done)
-    costs, hooks = per_module(repeater, args.cycles)
+    costs, hooks, dropped = per_module(repeater, args.cycles)
     write_json(
         args.json,
         {
             "scenario": str(args.scenario.relative_to(ROOT)),
-            "process": repeater.first.process_name,
+            "processes": list(repeater.first.processes),
             "modules": modules,
             "cycles_per_round": args.cycles,
             "scenario_runs_per_round": runs,
@@ -207,6 +266,7 @@ def main() -> int:
             "ns_per_module": summary([value / len(modules) for value in per_cycle]),
             "module_ns": costs,
             "hook_ns": hooks,
+            "instrumented_cycles_dropped": dropped,
             "seconds": time.perf_counter() - started,
         },
     )

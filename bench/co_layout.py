@@ -28,16 +28,32 @@ LOOSE_COAL_LIMIT = 4.0
 WORLD_READS = ("popped_out_of_shear", "loose_coal", "pose_x", "pose_y", "heading")
 
 
-def gather(*parts: tuple[int, Struct]) -> tuple[Struct, int]:
+# A status buffer's head: what a supervisor reads of it (and the plant writes).
+STATUS_HEAD = Struct("<QQI")  # seq, status_num, status
+SEQ_SIZE = 8  # every buffer starts with its 64-bit sequence word (the seqlock)
+
+
+def gather(*parts: tuple[int, Struct] | tuple[int, Struct, bool]) -> tuple[Struct, int]:
     """One Struct that reads several buffers (offset, struct), given in block order, in one
-    call, skipping the bytes between them; returns it with the offset to read it at."""
+    call, skipping the bytes between them; returns it with the offset to read it at.
+
+    Each struct is a whole buffer, its sequence word first. The word is skipped (inputs
+    written in the same process need no check) unless the part says (offset, struct, True):
+    then it is read too, a value before the buffer's fields (a writer needs the words of
+    the buffers it writes)."""
     start = at = parts[0][0]
     fmt = "<"
-    for offset, struct in parts:
+    for offset, struct, *with_seq in parts:
+        seqs = bool(with_seq and with_seq[0])
         if offset < at:
             raise ValueError(f"buffers out of order or overlapping at offset {offset}")
         if offset > at:
             fmt += f"{offset - at}x"
-        fmt += struct.format.lstrip("<")
+        body = struct.format.lstrip("<")
+        if not seqs:
+            if not body.startswith("Q"):
+                raise ValueError(f"no sequence word at the start of {struct.format!r}")
+            body = f"{SEQ_SIZE}x" + body[1:]
+        fmt += body
         at = offset + struct.size
     return Struct(fmt), start

@@ -62,6 +62,7 @@ class LibraryCo(HandwrittenCo):
             self.status_num = self.command_num
             self.status = EXECUTING
             self.restart()
+            self.status_dirty = True
 
     def decision_process(self) -> None:
         if self.dont_run:
@@ -72,7 +73,10 @@ class LibraryCo(HandwrittenCo):
             self.perf_single_step_num = self.single_step_num
         event = EVENTS.get(self.command)
         if event is not None:
+            before = (self.state, self.status)
             self.fire(event)
+            if (self.state, self.status) != before:  # the status is written when it changed
+                self.status_dirty = True
 
     # ------------------------------------------------------------ guards
 
@@ -105,6 +109,7 @@ class LibraryCo(HandwrittenCo):
         self.goal_x, self.goal_y = hooks.co_position_for_sump(
             self.pose_x, self.pose_y, self.heading
         )
+        self.goal_dirty = True
         self.cr_command = CR_SUMP
         self.cr_command_num += 1
         self.vg_x, self.vg_y = self.goal_x, self.goal_y
@@ -125,6 +130,7 @@ class LibraryCo(HandwrittenCo):
         self.goal_x, self.goal_y = hooks.co_position_for_sump(
             self.pose_x, self.pose_y, self.heading
         )
+        self.goal_dirty = True
         self.cc_command = CC_SHEAR_CORRECT
         self.cc_command_num += 1
 
@@ -146,6 +152,7 @@ class LibraryCo(HandwrittenCo):
         self.goal_x, self.goal_y = hooks.co_position_for_cusp(
             self.pose_x, self.pose_y, self.heading
         )
+        self.goal_dirty = True
         self.vg_x, self.vg_y = self.goal_x, self.goal_y
         self.vg_command = VG_TRAM_TO_XY
         self.vg_command_num += 1

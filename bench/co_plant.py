@@ -26,11 +26,12 @@ the timing runs replay exactly those inputs without the plant's own cost (bench_
 
 from __future__ import annotations
 
-import importlib
 import math
 import random
 from struct import Struct
 from types import ModuleType
+
+from co_layout import STATUS_HEAD
 
 SUBORDINATES = ("cr", "vg", "cc")
 WORK_DELAY = (1, 15)  # cycles from echo to DONE for a work command
@@ -46,8 +47,9 @@ P_HEADING = 0.002
 P_HOLD, HOLD_CYCLES = 0.001, (1, 20)
 
 EXECUTING, DONE = 1, 2
-BOOL = Struct("<?")
-FLOAT = Struct("<d")
+BOOL = Struct("<Q?")  # a world field's buffer: its sequence word, its value
+FLOAT = Struct("<Qd")
+SEQ = Struct("<Q")
 
 
 class Subordinate:
@@ -75,8 +77,6 @@ class Plant:
 
     def __init__(self, layout: ModuleType, seed: int) -> None:
         self.layout = layout
-        # The status head a supervisor reads lives in the package's runtime contract.
-        self.status_head = importlib.import_module(f"{layout.__package__}.rcs.contract").STATUS_HEAD
         self.rng = random.Random(seed)
         self.frames: list[tuple[tuple[slice, bytes], ...]] | None = None
         self.frame: list[tuple[slice, bytes]] = []
@@ -110,7 +110,10 @@ class Plant:
     # ------------------------------------------------------------ writing
 
     def _write(self, buf: memoryview, struct: Struct, at: int, *values: object) -> None:
-        struct.pack_into(buf, at, *values)
+        """Write a buffer's leading fields whole: its sequence word goes to the next even
+        value (nothing reads while the plant writes, so one write does)."""
+        seq = SEQ.unpack_from(buf, at)[0]
+        struct.pack_into(buf, at, (seq | 1) + 1, *values)
         if self.frames is not None:
             self.frame.append((slice(at, at + struct.size), bytes(buf[at : at + struct.size])))
 
@@ -129,7 +132,7 @@ class Plant:
             status = DONE if now >= sub.done_at else EXECUTING
             if sub.shown != (sub.number, status):
                 sub.shown = (sub.number, status)
-                self._write(buf, self.status_head, sub.status_at, sub.number, status)
+                self._write(buf, STATUS_HEAD, sub.status_at, sub.number, status)
             if status == DONE and sub.code == sub.tram and self.pose != sub.args:
                 self.pose = sub.args
                 self._write(buf, FLOAT, self.world["pose_x"], sub.args[0])
@@ -144,10 +147,12 @@ class Plant:
     def after(self, buf: memoryview) -> tuple:
         """Read co's outputs, react to them and return this cycle's trace row."""
         rng, now = self.rng, self.cycle
-        status_num, status, _, state, _ = self.co_status.struct.unpack_from(buf, self.co_status.offset)
+        _, status_num, status, _, state, _ = self.co_status.struct.unpack_from(
+            buf, self.co_status.offset
+        )
         row = [status_num, status, state]
         for sub in self.subs:
-            number, code, *args = sub.command.unpack_from(buf, sub.command_at)
+            _, number, code, *args = sub.command.unpack_from(buf, sub.command_at)
             row += (number, code, *args)
             if number != sub.number:
                 sub.number, sub.code, sub.args = number, code, tuple(args)

@@ -8,6 +8,7 @@ import platform
 import statistics
 import subprocess
 import sys
+import time
 from importlib import metadata
 from pathlib import Path
 
@@ -56,6 +57,24 @@ def machine() -> dict[str, object]:
         "peers": versions(PEERS),
         "tools": versions(TOOLS),
     }
+
+
+# Code that runs in one thread and never waits is timed in CPU time (the thread's, from
+# the kernel): on a shared machine the time the process spends descheduled while other
+# work runs does not count against it. Reading this clock is a system call (~0.6 µs here,
+# and it disturbs the code timed after it), so it times long stretches: thousands of
+# cycles, or a whole system cycle less `clock_overhead()`. Single steps and modules are
+# timed on the wall clock (`wall_ns`, no system call), dropping every cycle in which one
+# of them took longer than `PREEMPTED_NS` (the process was descheduled meanwhile). Runs of
+# several processes, which wait for each other, are timed on the wall clock.
+cpu_ns = time.thread_time_ns
+wall_ns = time.perf_counter_ns
+PREEMPTED_NS = 1_000_000  # nothing timed one by one takes a millisecond unless descheduled
+
+
+def clock_overhead(clock=cpu_ns, samples: int = 2_000) -> int:
+    """The least time two back-to-back readings of `clock` report: what one timed call adds."""
+    return min(-clock() + clock() for _ in range(samples))
 
 
 def summary(values: list[float]) -> dict[str, float]:

@@ -491,6 +491,7 @@ def test_conjunct_is_one_operand_of_and(tree: Expr, values: dict[Key, Any], gate
         "world.wb == (lb == pb)",
         "(li < pi) == world.wb",
         "li < pi <= world.wi",
+        "world.wi + li < pi * 2",
         "s1.command == MOVE",
         "abs(li - 2) > min(pi, world.wf, 2.5)",
     ],
@@ -527,3 +528,26 @@ def test_an_integer_division_cannot_be_stored_in_an_integer() -> None:
     assert compile_expr("li / pi", SPAN, scope(), diags, INT) is None
     assert [(d.code, d.message) for d in diags] == [("E107", "expected an integer, got a number")]
     assert compile_expr("li // pi", SPAN, scope(), Diagnostics(), INT) is not None
+
+
+@pytest.mark.parametrize(
+    ("source", "col", "code", "message"),
+    [
+        ("pb and ~li > 0", 8, "E102", "bitwise operators are not allowed"),
+        ("pb and li ** 2 > 0", 8, "E102", "only + - * / // % are allowed"),
+        ("pb and li is pi", 8, "E102", "only == != < <= > >= comparisons are allowed"),
+        ("pb and pb < lb", 13, "E107", "cannot compare bool with bool using `<`"),  # at `lb`
+        ("pb and print(li)", 8, "E106", "`print` is not a declared predicate"),
+        ("pb and ready(1)", 8, "E107", "predicate `ready` takes no arguments"),
+        ("pb and abs(li, pi) > 0", 8, "E107", "wrong number of arguments to `abs`"),
+    ],
+)
+def test_a_rejected_operation_is_reported_where_it_is(
+    source: str, col: int, code: str, message: str
+) -> None:
+    """The diagnostic names the offending operation and its column, not the expression's."""
+    diags = Diagnostics()
+    assert compile_expr(source, Span("expr.yaml", 3, 1), scope(), diags) is None
+    assert [(d.span, d.code, d.message) for d in diags] == [
+        (Span("expr.yaml", 3, col), code, message)
+    ]

@@ -135,7 +135,7 @@ def test_a_reader_never_accepts_a_torn_record(duo: Path, package: ModuleType) ->
             text=True,
         )
         record = layout.COMMAND_IN["arm"]
-        accepted = stale = torn = 0
+        accepted = stale = torn = last = 0
         while writer.poll() is None:
             try:
                 values = record.read(block.buf)
@@ -144,8 +144,13 @@ def test_a_reader_never_accepts_a_torn_record(duo: Path, package: ModuleType) ->
                 continue
             number = values["command_num"]
             accepted += 1
+            # whole: every field tells the same write, and no older one than a write read
+            # before (pack_into zeroes a buffer before it fills it: the zeros are no write)
             if values["command"] != number % 1000 or values["arg_level"] != float(number):
                 torn += 1
+            elif number < last:
+                torn += 1
+            last = max(last, number)
         writes = int(writer.communicate(timeout=30)[0])
     finally:
         block.close()

@@ -644,6 +644,57 @@ def test_the_supervisor_writes_a_command_buffer_when_it_sends(h):
     assert h.controller("co").cc_command_num == 3
 
 
+def test_a_world_output_is_written_in_the_cycles_a_rule_set_it_only(h):
+    """post_process writes a world field it owns when a rule set it to another value than
+    the block holds (its sequence word moves on); an outside write between cycles stays."""
+    goal = h.layout.WORLD["goal_x"]
+    h.command("co", "INIT")
+    h.cycle(3)
+    before = goal.seq(h.buf)
+    h.cycle(3)
+    assert goal.seq(h.buf) == before, "nothing set goal_x: its buffer was not written"
+    h.world["goal_x"] = 7.5  # an operator's write between cycles
+    h.cycle()
+    assert h.world["goal_x"] == 7.5
+    h.command("co", "SUMP_SHEAR_CUSP")
+    seq = goal.seq(h.buf)
+    h.cycle()  # S0: co_position_for_sump sets the goal
+    assert goal.seq(h.buf) == seq + 2 and h.world["goal_x"] == h.controller("co").world_goal_x
+    assert h.world["goal_x"] != 7.5
+
+
+def test_run_cycle_is_its_four_steps_in_order(miner):
+    """run_cycle holds pre_process, check_if_new_command, decision_process and post_process
+    inlined: calling the four methods in turn leaves the same trace, mode holds included."""
+    inlined, stepped = Harness(miner), Harness(miner)
+    events = {
+        1: lambda h: h.command("co", "INIT"),
+        4: lambda h: h.command("co", "SUMP_SHEAR_CUSP"),
+        9: lambda h: h.set_mode("co", single_step=True),
+        11: lambda h: h.set_mode("co", single_step_num=1),
+        13: lambda h: h.set_mode("co", single_step=False, dont_run=True),
+        15: lambda h: h.set_mode("co", dont_run=False),
+        16: lambda h: h.world.update({"popped_out_of_shear": True, "loose_coal": 9.0}),
+        19: lambda h: h.world.update({"popped_out_of_shear": False, "loose_coal": 0.0}),
+        30: lambda h: h.command("co", "HALT"),
+    }
+    world = list(inlined.layout.WORLD)
+    for cycle in range(1, 40):
+        for h in (inlined, stepped):
+            if cycle in events:
+                events[cycle](h)
+        inlined.cycle()
+        for name in stepped.modules:
+            controller = stepped.controller(name)
+            controller.pre_process()
+            controller.check_if_new_command()
+            controller.decision_process()
+            controller.post_process()
+        stepped.process.cycle += 1
+        assert trace_line(stepped, world) == trace_line(inlined, world), f"cycle {cycle}"
+    assert inlined.performance("co")["cycles"] == stepped.performance("co")["cycles"] == 39
+
+
 def test_a_restarted_controller_resumes_its_handshake_from_the_block(h):
     """A controller built on a used block reads its numbers back: no spurious new command."""
     h.command("co", "INIT")
@@ -746,8 +797,8 @@ def test_layout_is_little_endian_at_fixed_offsets(h):
     """Layout: each field sits at its buffer's fixed offset, little-endian, packed in order."""
     at = h.layout.CO_COMMAND_AT
     h.layout.COMMAND_IN["co"].write(h.buf, command_num=0x0102030405060708, command=3)
-    # The sequence word first: written odd, then even (one write since initialise: 2).
-    assert bytes(h.buf[at : at + 20]) == bytes.fromhex("0200000000000000080706050403020103000000")
+    # The sequence word first: initialise leaves it at 2 (whole), one write odd then even: 4.
+    assert bytes(h.buf[at : at + 20]) == bytes.fromhex("0400000000000000080706050403020103000000")
     at = h.layout.WORLD_LOOSE_COAL_AT
     h.world["loose_coal"] = 1.0
     assert bytes(h.buf[at + 8 : at + 16]) == bytes.fromhex("000000000000f03f")

@@ -1,14 +1,18 @@
 """What each proposed template change buys: the generated co, changed one step at a time.
 
 Each step is a text edit of the generated co.py (as a template change would make it),
-applied on top of the previous ones. Every variant must leave the generated controller's
-trace (checked over the first 20,000 cycles of the closed loop); then all variants are
-timed on the same recorded inputs, interleaved, as in bench_co.py. An edit whose text is
-no longer in the generated code (the template changed) is reported as not applicable.
-The hand-written baseline and the minimal floor run in the same rounds, for the ratios.
+applied on top of the previous ones; a step whose key starts with R undoes an adopted
+change instead (applied to the generated code alone), to show what that change buys.
+Every variant must leave the generated controller's trace (checked over the first 20,000
+cycles of the closed loop); then all variants are timed on the same recorded inputs,
+interleaved, as in bench_co.py. An edit whose text is no longer in the generated code (the
+template changed) is reported as not applicable. The hand-written baseline and the minimal
+floor run in the same rounds, for the ratios.
 
-Proposals adopted in the templates (148c872: one read for all inputs, one write for
-adjacent world fields, comparisons instead of max()/min()) are no longer listed here.
+Proposals adopted in the templates are no longer listed as proposals: one read for all
+inputs, one write for adjacent world fields, comparisons instead of max()/min() (148c872);
+run_cycle holding the four steps itself (formerly P2; R1 undoes it), and world outputs
+compared with the block's values instead of with what was last written (44fa027).
 
     python bench/prototypes/ablation.py [--cycles N] [--rounds R] [--json PATH]
 """
@@ -26,63 +30,37 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import bench_co  # noqa: E402
 from common import summary, write_json  # noqa: E402
 
-RUN_CYCLE = """\
-        self.pre_process()
-        self.check_if_new_command()
-        self.decision_process()
-        self.post_process()
-"""
-
 PEERS = ["handwritten", "minimal"]  # timed in the same rounds, for the ratios
 
-# (key, what the template would do, [(old text, new text), ...] or "fuse")
+# (key, what the template would do, [(old text, new text), ...] or a function of the source)
+# Keys starting with R undo an adopted change, to show what it buys; they apply to the
+# generated code alone, and the proposals (P) go on from the generated code.
 STEPS = [
+    ("R1", "run_cycle calls the four step methods (the template before 44fa027)", "unfuse"),
     (
         "P1",
         "predicates inlined into the guards that use them (no method call per use)",
         [("self.too_much_loose_coal()", "(self.world_loose_coal > LOOSE_COAL_LIMIT)")],
     ),
-    ("P2", "run_cycle holds the four steps (no four method calls)", "fuse"),
 ]
+FOUR_CALLS = """\
+    def run_cycle(self) -> None:
+        \"\"\"One cycle: the four steps, one call each.\"\"\"
+        self.pre_process()
+        self.check_if_new_command()
+        self.decision_process()
+        self.post_process()
+
+"""
 
 
-def method_body(source: str, name: str) -> list[str]:
-    """The body of method `name` (docstring dropped), dedented to run_cycle's level."""
-    start = source.index(f"    def {name}(self) -> None:\n")
-    end = source.index("\n    def ", start + 1)
-    lines = source[start:end].split("\n")[1:]
-    return [line for line in lines if not line.strip().startswith('"""')]
-
-
-def fuse(source: str) -> str | None:
-    """P6: the bodies of the four steps inside run_cycle (decision_process's early returns
-    become one condition)."""
-    start = source.index("    def run_cycle(self) -> None:\n")
-    end = source.index("\n    def ", start + 1) + 1
-    if not source[start:end].rstrip("\n").endswith(RUN_CYCLE.rstrip("\n")):
+def unfuse(source: str) -> str | None:
+    """run_cycle as four calls of the step methods (which the template still emits)."""
+    start = source.find("    def run_cycle(self) -> None:\n")
+    end = source.find("    def pre_process(self) -> None:\n")
+    if start < 0 or end < start or "self.pre_process()\n        self.check" in source:
         return None
-    pre, check, post = (
-        method_body(source, n) for n in ("pre_process", "check_if_new_command", "post_process")
-    )
-    decision = method_body(source, "decision_process")
-    dispatch = decision[decision.index("        command = self.command") :]
-    body = [
-        *pre,
-        *check,
-        "        if not self.dont_run and not (",
-        "            self.single_step and self.single_step_num == self.perf_single_step_num",
-        "        ):",
-        "            if self.single_step:",
-        "                self.perf_single_step_num = self.single_step_num",
-        *("    " + line if line.strip() else line for line in dispatch),
-        *(line for line in post if line.strip() != "buf = self.buf"),
-    ]
-    fused = (
-        "    def run_cycle(self) -> None:\n"
-        + "\n".join(line for line in body if line.strip())
-        + "\n\n"
-    )
-    return source[:start] + fused + source[end:]
+    return source[:start] + FOUR_CALLS + source[end:]
 
 
 def variants(generated: str) -> list[tuple[str, str, str | None]]:
@@ -91,16 +69,15 @@ def variants(generated: str) -> list[tuple[str, str, str | None]]:
     source = source.replace("from .rcs.", "from miner.rcs.")
     out = [("generated", "as generated today", source)]
     for key, description, edits in STEPS:
-        if edits == "fuse":
-            changed = fuse(source)
+        changed: str | None = source
+        if edits == "unfuse":
+            changed = unfuse(source)
         else:
-            changed = source
             for old, new in edits:
-                changed = changed.replace(old, new) if old in changed else None
-                if changed is None:
-                    break
+                changed = changed.replace(old, new) if changed and old in changed else None
         out.append((key, description, changed))
-        source = changed or source
+        if not key.startswith("R"):
+            source = changed or source
     return out
 
 

@@ -143,11 +143,135 @@ class CcController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs."""
-        self.pre_process()
-        self.check_if_new_command()
-        self.decision_process()
-        self.post_process()
+        """One cycle: read inputs, detect a new command, run its state table, write outputs.
+
+        The four steps below (pre_process, check_if_new_command, decision_process and
+        post_process), inlined: one call a cycle instead of five."""
+        # pre_process
+        cycle_start = perf_counter_ns()
+        buf = self.buf
+        (
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.bm_status_num,
+            self.bm_status,
+            self.cd_status_num,
+            self.cd_status,
+            self.sj_status_num,
+            self.sj_status,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        if self.bm_status_num != self.bm_command_num:
+            self.bm_status = EXECUTING  # until it echoes the last number sent
+        if self.cd_status_num != self.cd_command_num:
+            self.cd_status = EXECUTING  # until it echoes the last number sent
+        if self.sj_status_num != self.sj_command_num:
+            self.sj_status = EXECUTING  # until it echoes the last number sent
+
+        # check_if_new_command
+        if self.command_num != self.status_num:
+            self.status_num = self.command_num
+            self.state = S0
+            self.status = EXECUTING
+            self.status_dirty = True
+
+        # decision_process
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+            elif command == RAISE_DRUM:
+                self.raise_drum()
+            elif command == SUMP:
+                self.sump()
+            elif command == SHEAR:
+                self.shear()
+            elif command == SHEAR_CORRECT:
+                self.shear_correct()
+            elif command == CUSP:
+                self.cusp()
+
+        # post_process
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            SEQ.pack_into(buf, CC_STATUS_AT, seq)  # odd before any field changes
+            STATUS.pack_into(
+                buf,
+                CC_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, CC_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        if self.bm_command_num != self.bm_written:  # a command was sent
+            seq, number = BM_COMMAND.unpack_from(buf, BM_COMMAND_AT)[:2]
+            if number != self.bm_written:  # an operator's command came meanwhile:
+                self.bm_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, BM_COMMAND_AT, seq)
+            BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq, self.bm_command_num, self.bm_command)
+            SEQ.pack_into(buf, BM_COMMAND_AT, seq + 1)
+            self.bm_written = self.bm_command_num
+        if self.cd_command_num != self.cd_written:  # a command was sent
+            seq, number = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)[:2]
+            if number != self.cd_written:  # an operator's command came meanwhile:
+                self.cd_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CD_COMMAND_AT, seq)
+            CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq, self.cd_command_num, self.cd_command)
+            SEQ.pack_into(buf, CD_COMMAND_AT, seq + 1)
+            self.cd_written = self.cd_command_num
+        if self.sj_command_num != self.sj_written:  # a command was sent
+            seq, number = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)[:2]
+            if number != self.sj_written:  # an operator's command came meanwhile:
+                self.sj_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, SJ_COMMAND_AT, seq)
+            SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq, self.sj_command_num, self.sj_command)
+            SEQ.pack_into(buf, SJ_COMMAND_AT, seq + 1)
+            self.sj_written = self.sj_command_num
+        last = perf_counter_ns() - cycle_start
+        self.last_cycle_ns = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = last
+        self.cycles += 1
+        seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CC_PERF_AT, seq)  # odd before any field changes
+        PERF.pack_into(
+            buf,
+            CC_PERF_AT,
+            seq,
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+            self.stale_reads,
+        )
+        SEQ.pack_into(buf, CC_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def pre_process(self) -> None:
         """Copy the command in, the mode, each subordinate's status and the world in."""
@@ -187,27 +311,27 @@ class CcController:
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
-        if self.dont_run:
-            return
-        if self.single_step:
-            if self.single_step_num == self.perf_single_step_num:
-                return
-            self.perf_single_step_num = self.single_step_num
-        command = self.command
-        if command == INIT:
-            self.init()
-        elif command == HALT:
-            self.halt()
-        elif command == RAISE_DRUM:
-            self.raise_drum()
-        elif command == SUMP:
-            self.sump()
-        elif command == SHEAR:
-            self.shear()
-        elif command == SHEAR_CORRECT:
-            self.shear_correct()
-        elif command == CUSP:
-            self.cusp()
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+            elif command == RAISE_DRUM:
+                self.raise_drum()
+            elif command == SUMP:
+                self.sump()
+            elif command == SHEAR:
+                self.shear()
+            elif command == SHEAR_CORRECT:
+                self.shear_correct()
+            elif command == CUSP:
+                self.cusp()
 
     def post_process(self) -> None:
         """Write what changed (the status, the subordinates' commands, the world out), each
@@ -215,6 +339,7 @@ class CcController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CC_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CC_STATUS_AT,
@@ -232,22 +357,28 @@ class CcController:
             seq, number = BM_COMMAND.unpack_from(buf, BM_COMMAND_AT)[:2]
             if number != self.bm_written:  # an operator's command came meanwhile:
                 self.bm_command_num = number + 1  # number ours after it
-            BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq | 1, self.bm_command_num, self.bm_command)
-            SEQ.pack_into(buf, BM_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, BM_COMMAND_AT, seq)
+            BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq, self.bm_command_num, self.bm_command)
+            SEQ.pack_into(buf, BM_COMMAND_AT, seq + 1)
             self.bm_written = self.bm_command_num
         if self.cd_command_num != self.cd_written:  # a command was sent
             seq, number = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)[:2]
             if number != self.cd_written:  # an operator's command came meanwhile:
                 self.cd_command_num = number + 1  # number ours after it
-            CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq | 1, self.cd_command_num, self.cd_command)
-            SEQ.pack_into(buf, CD_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CD_COMMAND_AT, seq)
+            CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq, self.cd_command_num, self.cd_command)
+            SEQ.pack_into(buf, CD_COMMAND_AT, seq + 1)
             self.cd_written = self.cd_command_num
         if self.sj_command_num != self.sj_written:  # a command was sent
             seq, number = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)[:2]
             if number != self.sj_written:  # an operator's command came meanwhile:
                 self.sj_command_num = number + 1  # number ours after it
-            SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq | 1, self.sj_command_num, self.sj_command)
-            SEQ.pack_into(buf, SJ_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, SJ_COMMAND_AT, seq)
+            SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq, self.sj_command_num, self.sj_command)
+            SEQ.pack_into(buf, SJ_COMMAND_AT, seq + 1)
             self.sj_written = self.sj_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -259,6 +390,7 @@ class CcController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CC_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CC_PERF_AT,

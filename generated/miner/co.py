@@ -15,6 +15,8 @@ from .layout import (
     CR_COMMAND_AT,
     VG_COMMAND,
     VG_COMMAND_AT,
+    WORLD_GOAL_X_AT,
+    WORLD_GOAL_Y_AT,
 )
 from .rcs.contract import (
     DONE,
@@ -63,9 +65,11 @@ CC_CUSP = 7
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI80xQI468xQI484xQI1604xd8xd8xd8xd264xd8xd8xd24xd8x?63xd")
 INPUTS_AT = 424
-# Adjacent world fields post_process writes back (each with its sequence word: written odd,
-# then again even), and their sequence words alone.
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
+WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
 WORLD_OUT_1_AT = 3184
 
@@ -139,7 +143,6 @@ class CoController:
         "world_popped_out_of_shear",
         "world_pose_x",
         "world_pose_y",
-        "written_world_1",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -176,7 +179,6 @@ class CoController:
         self.vg_written = self.vg_command_num
         _, self.cc_command_num, self.cc_command = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)
         self.cc_written = self.cc_command_num
-        self.written_world_1 = None  # written at the end of the first cycle
 
     def safe_state(self, reason: int) -> None:
         """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
@@ -192,11 +194,159 @@ class CoController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs."""
-        self.pre_process()
-        self.check_if_new_command()
-        self.decision_process()
-        self.post_process()
+        """One cycle: read inputs, detect a new command, run its state table, write outputs.
+
+        The four steps below (pre_process, check_if_new_command, decision_process and
+        post_process), inlined: one call a cycle instead of five."""
+        # pre_process
+        cycle_start = perf_counter_ns()
+        buf = self.buf
+        (
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.cc_status_num,
+            self.cc_status,
+            self.cr_status_num,
+            self.cr_status,
+            self.vg_status_num,
+            self.vg_status,
+            self.world_operator_goal_x,
+            self.world_operator_goal_y,
+            self.world_goal_x,
+            self.world_goal_y,
+            self.world_pose_x,
+            self.world_pose_y,
+            self.world_heading,
+            self.world_cutter_current,
+            self.world_popped_out_of_shear,
+            self.world_loose_coal,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        if self.cr_status_num != self.cr_command_num:
+            self.cr_status = EXECUTING  # until it echoes the last number sent
+        if self.vg_status_num != self.vg_command_num:
+            self.vg_status = EXECUTING  # until it echoes the last number sent
+        if self.cc_status_num != self.cc_command_num:
+            self.cc_status = EXECUTING  # until it echoes the last number sent
+
+        # check_if_new_command
+        if self.command_num != self.status_num:
+            self.status_num = self.command_num
+            self.state = S0
+            self.status = EXECUTING
+            self.status_dirty = True
+
+        # decision_process
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+            elif command == INITIAL_APPROACH_FACE:
+                self.initial_approach_face()
+            elif command == TRAM_TO_GOAL:
+                self.tram_to_goal()
+            elif command == APPROACH_FACE:
+                self.approach_face()
+            elif command == SUMP_SHEAR_CUSP:
+                self.sump_shear_cusp()
+
+        # post_process
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            SEQ.pack_into(buf, CO_STATUS_AT, seq)  # odd before any field changes
+            STATUS.pack_into(
+                buf,
+                CO_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, CO_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        if self.cr_command_num != self.cr_written:  # a command was sent
+            seq, number = CR_COMMAND.unpack_from(buf, CR_COMMAND_AT)[:2]
+            if number != self.cr_written:  # an operator's command came meanwhile:
+                self.cr_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CR_COMMAND_AT, seq)
+            CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq, self.cr_command_num, self.cr_command)
+            SEQ.pack_into(buf, CR_COMMAND_AT, seq + 1)
+            self.cr_written = self.cr_command_num
+        if self.vg_command_num != self.vg_written:  # a command was sent
+            seq, number = VG_COMMAND.unpack_from(buf, VG_COMMAND_AT)[:2]
+            if number != self.vg_written:  # an operator's command came meanwhile:
+                self.vg_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, VG_COMMAND_AT, seq)
+            VG_COMMAND.pack_into(
+                buf,
+                VG_COMMAND_AT,
+                seq,
+                self.vg_command_num,
+                self.vg_command,
+                self.vg_arg_x,
+                self.vg_arg_y,
+            )
+            SEQ.pack_into(buf, VG_COMMAND_AT, seq + 1)
+            self.vg_written = self.vg_command_num
+        if self.cc_command_num != self.cc_written:  # a command was sent
+            seq, number = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)[:2]
+            if number != self.cc_written:  # an operator's command came meanwhile:
+                self.cc_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CC_COMMAND_AT, seq)
+            CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq, self.cc_command_num, self.cc_command)
+            SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
+            self.cc_written = self.cc_command_num
+        out = (self.world_goal_x, self.world_goal_y)
+        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+            SEQ.pack_into(buf, WORLD_GOAL_X_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, (s[1] | 1) + 1)
+        last = perf_counter_ns() - cycle_start
+        self.last_cycle_ns = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = last
+        self.cycles += 1
+        seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CO_PERF_AT, seq)  # odd before any field changes
+        PERF.pack_into(
+            buf,
+            CO_PERF_AT,
+            seq,
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+            self.stale_reads,
+        )
+        SEQ.pack_into(buf, CO_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def pre_process(self) -> None:
         """Copy the command in, the mode, each subordinate's status and the world in."""
@@ -246,25 +396,25 @@ class CoController:
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
-        if self.dont_run:
-            return
-        if self.single_step:
-            if self.single_step_num == self.perf_single_step_num:
-                return
-            self.perf_single_step_num = self.single_step_num
-        command = self.command
-        if command == INIT:
-            self.init()
-        elif command == HALT:
-            self.halt()
-        elif command == INITIAL_APPROACH_FACE:
-            self.initial_approach_face()
-        elif command == TRAM_TO_GOAL:
-            self.tram_to_goal()
-        elif command == APPROACH_FACE:
-            self.approach_face()
-        elif command == SUMP_SHEAR_CUSP:
-            self.sump_shear_cusp()
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+            elif command == INITIAL_APPROACH_FACE:
+                self.initial_approach_face()
+            elif command == TRAM_TO_GOAL:
+                self.tram_to_goal()
+            elif command == APPROACH_FACE:
+                self.approach_face()
+            elif command == SUMP_SHEAR_CUSP:
+                self.sump_shear_cusp()
 
     def post_process(self) -> None:
         """Write what changed (the status, the subordinates' commands, the world out), each
@@ -272,6 +422,7 @@ class CoController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CO_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CO_STATUS_AT,
@@ -289,38 +440,45 @@ class CoController:
             seq, number = CR_COMMAND.unpack_from(buf, CR_COMMAND_AT)[:2]
             if number != self.cr_written:  # an operator's command came meanwhile:
                 self.cr_command_num = number + 1  # number ours after it
-            CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq | 1, self.cr_command_num, self.cr_command)
-            SEQ.pack_into(buf, CR_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CR_COMMAND_AT, seq)
+            CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq, self.cr_command_num, self.cr_command)
+            SEQ.pack_into(buf, CR_COMMAND_AT, seq + 1)
             self.cr_written = self.cr_command_num
         if self.vg_command_num != self.vg_written:  # a command was sent
             seq, number = VG_COMMAND.unpack_from(buf, VG_COMMAND_AT)[:2]
             if number != self.vg_written:  # an operator's command came meanwhile:
                 self.vg_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, VG_COMMAND_AT, seq)
             VG_COMMAND.pack_into(
                 buf,
                 VG_COMMAND_AT,
-                seq | 1,
+                seq,
                 self.vg_command_num,
                 self.vg_command,
                 self.vg_arg_x,
                 self.vg_arg_y,
             )
-            SEQ.pack_into(buf, VG_COMMAND_AT, (seq | 1) + 1)
+            SEQ.pack_into(buf, VG_COMMAND_AT, seq + 1)
             self.vg_written = self.vg_command_num
         if self.cc_command_num != self.cc_written:  # a command was sent
             seq, number = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)[:2]
             if number != self.cc_written:  # an operator's command came meanwhile:
                 self.cc_command_num = number + 1  # number ours after it
-            CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq | 1, self.cc_command_num, self.cc_command)
-            SEQ.pack_into(buf, CC_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CC_COMMAND_AT, seq)
+            CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq, self.cc_command_num, self.cc_command)
+            SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
             self.cc_written = self.cc_command_num
         out = (self.world_goal_x, self.world_goal_y)
-        s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if (s, out) != self.written_world_1:  # changed here, or written elsewhere
+        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            s = ((s[0] | 1) + 1, (s[1] | 1) + 1)
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0], out[0], s[1], out[1])
-            self.written_world_1 = (s, out)
+            SEQ.pack_into(buf, WORLD_GOAL_X_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -331,6 +489,7 @@ class CoController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CO_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CO_PERF_AT,

@@ -145,11 +145,133 @@ class CrController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs."""
-        self.pre_process()
-        self.check_if_new_command()
-        self.decision_process()
-        self.post_process()
+        """One cycle: read inputs, detect a new command, run its state table, write outputs.
+
+        The four steps below (pre_process, check_if_new_command, decision_process and
+        post_process), inlined: one call a cycle instead of five."""
+        # pre_process
+        cycle_start = perf_counter_ns()
+        buf = self.buf
+        (
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.gh_status_num,
+            self.gh_status,
+            self.cv_status_num,
+            self.cv_status,
+            self.ct_status_num,
+            self.ct_status,
+            self.world_tail_in_position,
+            self.world_loose_coal,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        if self.gh_status_num != self.gh_command_num:
+            self.gh_status = EXECUTING  # until it echoes the last number sent
+        if self.cv_status_num != self.cv_command_num:
+            self.cv_status = EXECUTING  # until it echoes the last number sent
+        if self.ct_status_num != self.ct_command_num:
+            self.ct_status = EXECUTING  # until it echoes the last number sent
+
+        # check_if_new_command
+        if self.command_num != self.status_num:
+            self.status_num = self.command_num
+            self.state = S0
+            self.status = EXECUTING
+            self.status_dirty = True
+
+        # decision_process
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+            elif command == SUMP:
+                self.sump()
+            elif command == SHEAR:
+                self.shear()
+            elif command == CUSP:
+                self.cusp()
+
+        # post_process
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            SEQ.pack_into(buf, CR_STATUS_AT, seq)  # odd before any field changes
+            STATUS.pack_into(
+                buf,
+                CR_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, CR_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        if self.gh_command_num != self.gh_written:  # a command was sent
+            seq, number = GH_COMMAND.unpack_from(buf, GH_COMMAND_AT)[:2]
+            if number != self.gh_written:  # an operator's command came meanwhile:
+                self.gh_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, GH_COMMAND_AT, seq)
+            GH_COMMAND.pack_into(buf, GH_COMMAND_AT, seq, self.gh_command_num, self.gh_command)
+            SEQ.pack_into(buf, GH_COMMAND_AT, seq + 1)
+            self.gh_written = self.gh_command_num
+        if self.cv_command_num != self.cv_written:  # a command was sent
+            seq, number = CV_COMMAND.unpack_from(buf, CV_COMMAND_AT)[:2]
+            if number != self.cv_written:  # an operator's command came meanwhile:
+                self.cv_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CV_COMMAND_AT, seq)
+            CV_COMMAND.pack_into(buf, CV_COMMAND_AT, seq, self.cv_command_num, self.cv_command)
+            SEQ.pack_into(buf, CV_COMMAND_AT, seq + 1)
+            self.cv_written = self.cv_command_num
+        if self.ct_command_num != self.ct_written:  # a command was sent
+            seq, number = CT_COMMAND.unpack_from(buf, CT_COMMAND_AT)[:2]
+            if number != self.ct_written:  # an operator's command came meanwhile:
+                self.ct_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CT_COMMAND_AT, seq)
+            CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq, self.ct_command_num, self.ct_command)
+            SEQ.pack_into(buf, CT_COMMAND_AT, seq + 1)
+            self.ct_written = self.ct_command_num
+        last = perf_counter_ns() - cycle_start
+        self.last_cycle_ns = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = last
+        self.cycles += 1
+        seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CR_PERF_AT, seq)  # odd before any field changes
+        PERF.pack_into(
+            buf,
+            CR_PERF_AT,
+            seq,
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+            self.stale_reads,
+        )
+        SEQ.pack_into(buf, CR_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def pre_process(self) -> None:
         """Copy the command in, the mode, each subordinate's status and the world in."""
@@ -191,23 +313,23 @@ class CrController:
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
-        if self.dont_run:
-            return
-        if self.single_step:
-            if self.single_step_num == self.perf_single_step_num:
-                return
-            self.perf_single_step_num = self.single_step_num
-        command = self.command
-        if command == INIT:
-            self.init()
-        elif command == HALT:
-            self.halt()
-        elif command == SUMP:
-            self.sump()
-        elif command == SHEAR:
-            self.shear()
-        elif command == CUSP:
-            self.cusp()
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+            elif command == SUMP:
+                self.sump()
+            elif command == SHEAR:
+                self.shear()
+            elif command == CUSP:
+                self.cusp()
 
     def post_process(self) -> None:
         """Write what changed (the status, the subordinates' commands, the world out), each
@@ -215,6 +337,7 @@ class CrController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, CR_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CR_STATUS_AT,
@@ -232,22 +355,28 @@ class CrController:
             seq, number = GH_COMMAND.unpack_from(buf, GH_COMMAND_AT)[:2]
             if number != self.gh_written:  # an operator's command came meanwhile:
                 self.gh_command_num = number + 1  # number ours after it
-            GH_COMMAND.pack_into(buf, GH_COMMAND_AT, seq | 1, self.gh_command_num, self.gh_command)
-            SEQ.pack_into(buf, GH_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, GH_COMMAND_AT, seq)
+            GH_COMMAND.pack_into(buf, GH_COMMAND_AT, seq, self.gh_command_num, self.gh_command)
+            SEQ.pack_into(buf, GH_COMMAND_AT, seq + 1)
             self.gh_written = self.gh_command_num
         if self.cv_command_num != self.cv_written:  # a command was sent
             seq, number = CV_COMMAND.unpack_from(buf, CV_COMMAND_AT)[:2]
             if number != self.cv_written:  # an operator's command came meanwhile:
                 self.cv_command_num = number + 1  # number ours after it
-            CV_COMMAND.pack_into(buf, CV_COMMAND_AT, seq | 1, self.cv_command_num, self.cv_command)
-            SEQ.pack_into(buf, CV_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CV_COMMAND_AT, seq)
+            CV_COMMAND.pack_into(buf, CV_COMMAND_AT, seq, self.cv_command_num, self.cv_command)
+            SEQ.pack_into(buf, CV_COMMAND_AT, seq + 1)
             self.cv_written = self.cv_command_num
         if self.ct_command_num != self.ct_written:  # a command was sent
             seq, number = CT_COMMAND.unpack_from(buf, CT_COMMAND_AT)[:2]
             if number != self.ct_written:  # an operator's command came meanwhile:
                 self.ct_command_num = number + 1  # number ours after it
-            CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq | 1, self.ct_command_num, self.ct_command)
-            SEQ.pack_into(buf, CT_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, CT_COMMAND_AT, seq)
+            CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq, self.ct_command_num, self.ct_command)
+            SEQ.pack_into(buf, CT_COMMAND_AT, seq + 1)
             self.ct_written = self.ct_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -259,6 +388,7 @@ class CrController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, CR_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             CR_PERF_AT,

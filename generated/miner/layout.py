@@ -153,6 +153,7 @@ from __future__ import annotations
 from struct import Struct
 
 from .rcs.contract import (
+    FIRST_SEQ,
     HEADER,
     MAGIC,
     MODE,
@@ -164,6 +165,7 @@ from .rcs.contract import (
     PERF_FIELDS,
     PROCESS,
     PROCESS_FIELDS,
+    SEQ,
     STATUS,
     STATUS_FIELDS,
     Record,
@@ -947,10 +949,13 @@ SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "cs
 
 
 def initialise(buf: memoryview) -> None:
-    """Zero the block, write the header, set every world field to its initial value and flag
-    the simulators."""
+    """Zero the block, write the header, mark every buffer whole (a sequence word of 0 is a
+    write in progress), set every world field to its initial value and flag the simulators."""
     buf[:SIZE] = bytes(SIZE)
     HEADER.pack_into(buf, 0, MAGIC, LAYOUT_HASH.encode(), SYSTEM.encode()[:32], SIZE)
+    for records in (PROCESSES, PACING, COMMAND_IN, STATUS_OUT, MODE_IN, PERFORMANCE, WORLD):
+        for record in records.values():
+            SEQ.pack_into(buf, record.offset, FIRST_SEQ)
     for name, value in WORLD_INITIAL.items():
         WORLD[name].write(buf, **{name: value})
     for name in SIMULATORS:

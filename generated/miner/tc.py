@@ -7,6 +7,8 @@ from time import perf_counter_ns
 from .layout import (
     TC_PERF_AT,
     TC_STATUS_AT,
+    WORLD_LEFT_TREAD_CMD_AT,
+    WORLD_RIGHT_TREAD_CMD_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -29,9 +31,11 @@ STOP = 13
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI1584xq8xq")
 INPUTS_AT = 1640
-# Adjacent world fields post_process writes back (each with its sequence word: written odd,
-# then again even), and their sequence words alone.
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
 WORLD_OUT_1 = Struct("<QqQq")
+WORLD_VALUES_1 = Struct("<8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ")
 WORLD_OUT_1_AT = 3280
 
@@ -72,7 +76,6 @@ class TcController:
         "var_ticks",
         "world_left_tread_cmd",
         "world_right_tread_cmd",
-        "written_world_1",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -101,14 +104,120 @@ class TcController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
-        self.written_world_1 = None  # written at the end of the first cycle
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs."""
-        self.pre_process()
-        self.check_if_new_command()
-        self.decision_process()
-        self.post_process()
+        """One cycle: read inputs, detect a new command, run its state table, write outputs.
+
+        The four steps below (pre_process, check_if_new_command, decision_process and
+        post_process), inlined: one call a cycle instead of five."""
+        # pre_process
+        cycle_start = perf_counter_ns()
+        buf = self.buf
+        (
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_left_tread_cmd,
+            self.world_right_tread_cmd,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+
+        # check_if_new_command
+        if self.command_num != self.status_num:
+            self.status_num = self.command_num
+            self.state = S0
+            self.status = EXECUTING
+            self.status_dirty = True
+
+        # decision_process
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+            elif command == SLOW_FORWARD:
+                self.slow_forward()
+            elif command == FAST_FORWARD:
+                self.fast_forward()
+            elif command == SLOW_REVERSE:
+                self.slow_reverse()
+            elif command == FAST_REVERSE:
+                self.fast_reverse()
+            elif command == PIVOT_LEFT:
+                self.pivot_left()
+            elif command == PIVOT_RIGHT:
+                self.pivot_right()
+            elif command == TURN_LEFT_FORWARD:
+                self.turn_left_forward()
+            elif command == TURN_RIGHT_FORWARD:
+                self.turn_right_forward()
+            elif command == TURN_LEFT_REVERSE:
+                self.turn_left_reverse()
+            elif command == TURN_RIGHT_REVERSE:
+                self.turn_right_reverse()
+            elif command == STOP:
+                self.stop()
+
+        # post_process
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            SEQ.pack_into(buf, TC_STATUS_AT, seq)  # odd before any field changes
+            STATUS.pack_into(
+                buf,
+                TC_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, TC_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        out = (self.world_left_tread_cmd, self.world_right_tread_cmd)
+        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_LEFT_TREAD_CMD_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_RIGHT_TREAD_CMD_AT, s[1] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+            SEQ.pack_into(buf, WORLD_LEFT_TREAD_CMD_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_RIGHT_TREAD_CMD_AT, (s[1] | 1) + 1)
+        last = perf_counter_ns() - cycle_start
+        self.last_cycle_ns = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = last
+        self.cycles += 1
+        seq = self.perf_seq + 1
+        SEQ.pack_into(buf, TC_PERF_AT, seq)  # odd before any field changes
+        PERF.pack_into(
+            buf,
+            TC_PERF_AT,
+            seq,
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+            self.stale_reads,
+        )
+        SEQ.pack_into(buf, TC_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def pre_process(self) -> None:
         """Copy the command in, the mode, each subordinate's status and the world in."""
@@ -138,39 +247,39 @@ class TcController:
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
-        if self.dont_run:
-            return
-        if self.single_step:
-            if self.single_step_num == self.perf_single_step_num:
-                return
-            self.perf_single_step_num = self.single_step_num
-        command = self.command
-        if command == INIT:
-            self.init()
-        elif command == HALT:
-            self.halt()
-        elif command == SLOW_FORWARD:
-            self.slow_forward()
-        elif command == FAST_FORWARD:
-            self.fast_forward()
-        elif command == SLOW_REVERSE:
-            self.slow_reverse()
-        elif command == FAST_REVERSE:
-            self.fast_reverse()
-        elif command == PIVOT_LEFT:
-            self.pivot_left()
-        elif command == PIVOT_RIGHT:
-            self.pivot_right()
-        elif command == TURN_LEFT_FORWARD:
-            self.turn_left_forward()
-        elif command == TURN_RIGHT_FORWARD:
-            self.turn_right_forward()
-        elif command == TURN_LEFT_REVERSE:
-            self.turn_left_reverse()
-        elif command == TURN_RIGHT_REVERSE:
-            self.turn_right_reverse()
-        elif command == STOP:
-            self.stop()
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+            elif command == SLOW_FORWARD:
+                self.slow_forward()
+            elif command == FAST_FORWARD:
+                self.fast_forward()
+            elif command == SLOW_REVERSE:
+                self.slow_reverse()
+            elif command == FAST_REVERSE:
+                self.fast_reverse()
+            elif command == PIVOT_LEFT:
+                self.pivot_left()
+            elif command == PIVOT_RIGHT:
+                self.pivot_right()
+            elif command == TURN_LEFT_FORWARD:
+                self.turn_left_forward()
+            elif command == TURN_RIGHT_FORWARD:
+                self.turn_right_forward()
+            elif command == TURN_LEFT_REVERSE:
+                self.turn_left_reverse()
+            elif command == TURN_RIGHT_REVERSE:
+                self.turn_right_reverse()
+            elif command == STOP:
+                self.stop()
 
     def post_process(self) -> None:
         """Write what changed (the status, the subordinates' commands, the world out), each
@@ -178,6 +287,7 @@ class TcController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, TC_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 TC_STATUS_AT,
@@ -192,12 +302,13 @@ class TcController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_left_tread_cmd, self.world_right_tread_cmd)
-        s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if (s, out) != self.written_world_1:  # changed here, or written elsewhere
+        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_LEFT_TREAD_CMD_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_RIGHT_TREAD_CMD_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            s = ((s[0] | 1) + 1, (s[1] | 1) + 1)
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0], out[0], s[1], out[1])
-            self.written_world_1 = (s, out)
+            SEQ.pack_into(buf, WORLD_LEFT_TREAD_CMD_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_RIGHT_TREAD_CMD_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -208,6 +319,7 @@ class TcController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, TC_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             TC_PERF_AT,

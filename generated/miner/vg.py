@@ -157,11 +157,143 @@ class VgController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs."""
-        self.pre_process()
-        self.check_if_new_command()
-        self.decision_process()
-        self.post_process()
+        """One cycle: read inputs, detect a new command, run its state table, write outputs.
+
+        The four steps below (pre_process, check_if_new_command, decision_process and
+        post_process), inlined: one call a cycle instead of five."""
+        # pre_process
+        cycle_start = perf_counter_ns()
+        buf = self.buf
+        for _ in range(READ_TRIES):
+            values = INPUTS.unpack_from(buf, INPUTS_AT)
+            seqs = (
+                values[10],
+                values[13],
+            )
+            if (
+                not (seqs[0] | seqs[1]) & 1
+                and seqs[0]
+                and seqs[1]
+                and SEQS.unpack_from(buf, SEQS_AT) == seqs
+            ):
+                (
+                    self.command_num,
+                    self.command,
+                    self.arg_x,
+                    self.arg_y,
+                    self.dont_run,
+                    self.single_step,
+                    self.simulate,
+                    self.single_step_num,
+                    self.tc_status_num,
+                    self.tc_status,
+                    _,
+                    self.pp_status_num,
+                    self.pp_status,
+                    _,
+                    self.world_tram_dir,
+                    self.world_pose_x,
+                ) = values
+                break
+        else:  # another process kept writing: keep the inputs of the last whole read
+            self.stale_reads += 1
+        if self.pp_status_num != self.pp_command_num:
+            self.pp_status = EXECUTING  # until it echoes the last number sent
+        if self.tc_status_num != self.tc_command_num:
+            self.tc_status = EXECUTING  # until it echoes the last number sent
+
+        # check_if_new_command
+        if self.command_num != self.status_num:
+            self.status_num = self.command_num
+            self.state = S0
+            self.status = EXECUTING
+            self.status_dirty = True
+
+        # decision_process
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+            elif command == TRAM_TO_XY:
+                self.tram_to_xy()
+
+        # post_process
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            SEQ.pack_into(buf, VG_STATUS_AT, seq)  # odd before any field changes
+            STATUS.pack_into(
+                buf,
+                VG_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, VG_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        if self.pp_command_num != self.pp_written:  # a command was sent
+            seq, number = PP_COMMAND.unpack_from(buf, PP_COMMAND_AT)[:2]
+            if number != self.pp_written:  # an operator's command came meanwhile:
+                self.pp_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, PP_COMMAND_AT, seq)
+            PP_COMMAND.pack_into(
+                buf,
+                PP_COMMAND_AT,
+                seq,
+                self.pp_command_num,
+                self.pp_command,
+                self.pp_arg_x,
+                self.pp_arg_y,
+            )
+            SEQ.pack_into(buf, PP_COMMAND_AT, seq + 1)
+            self.pp_written = self.pp_command_num
+        if self.tc_command_num != self.tc_written:  # a command was sent
+            seq, number = TC_COMMAND.unpack_from(buf, TC_COMMAND_AT)[:2]
+            if number != self.tc_written:  # an operator's command came meanwhile:
+                self.tc_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, TC_COMMAND_AT, seq)
+            TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq, self.tc_command_num, self.tc_command)
+            SEQ.pack_into(buf, TC_COMMAND_AT, seq + 1)
+            self.tc_written = self.tc_command_num
+        last = perf_counter_ns() - cycle_start
+        self.last_cycle_ns = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = last
+        self.cycles += 1
+        seq = self.perf_seq + 1
+        SEQ.pack_into(buf, VG_PERF_AT, seq)  # odd before any field changes
+        PERF.pack_into(
+            buf,
+            VG_PERF_AT,
+            seq,
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+            self.stale_reads,
+        )
+        SEQ.pack_into(buf, VG_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
 
     def pre_process(self) -> None:
         """Copy the command in, the mode, each subordinate's status and the world in."""
@@ -173,7 +305,12 @@ class VgController:
                 values[10],
                 values[13],
             )
-            if not (seqs[0] | seqs[1]) & 1 and SEQS.unpack_from(buf, SEQS_AT) == seqs:
+            if (
+                not (seqs[0] | seqs[1]) & 1
+                and seqs[0]
+                and seqs[1]
+                and SEQS.unpack_from(buf, SEQS_AT) == seqs
+            ):
                 (
                     self.command_num,
                     self.command,
@@ -213,19 +350,19 @@ class VgController:
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
-        if self.dont_run:
-            return
-        if self.single_step:
-            if self.single_step_num == self.perf_single_step_num:
-                return
-            self.perf_single_step_num = self.single_step_num
-        command = self.command
-        if command == INIT:
-            self.init()
-        elif command == HALT:
-            self.halt()
-        elif command == TRAM_TO_XY:
-            self.tram_to_xy()
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+            elif command == TRAM_TO_XY:
+                self.tram_to_xy()
 
     def post_process(self) -> None:
         """Write what changed (the status, the subordinates' commands, the world out), each
@@ -233,6 +370,7 @@ class VgController:
         buf = self.buf
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
+            SEQ.pack_into(buf, VG_STATUS_AT, seq)  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 VG_STATUS_AT,
@@ -250,23 +388,27 @@ class VgController:
             seq, number = PP_COMMAND.unpack_from(buf, PP_COMMAND_AT)[:2]
             if number != self.pp_written:  # an operator's command came meanwhile:
                 self.pp_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, PP_COMMAND_AT, seq)
             PP_COMMAND.pack_into(
                 buf,
                 PP_COMMAND_AT,
-                seq | 1,
+                seq,
                 self.pp_command_num,
                 self.pp_command,
                 self.pp_arg_x,
                 self.pp_arg_y,
             )
-            SEQ.pack_into(buf, PP_COMMAND_AT, (seq | 1) + 1)
+            SEQ.pack_into(buf, PP_COMMAND_AT, seq + 1)
             self.pp_written = self.pp_command_num
         if self.tc_command_num != self.tc_written:  # a command was sent
             seq, number = TC_COMMAND.unpack_from(buf, TC_COMMAND_AT)[:2]
             if number != self.tc_written:  # an operator's command came meanwhile:
                 self.tc_command_num = number + 1  # number ours after it
-            TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq | 1, self.tc_command_num, self.tc_command)
-            SEQ.pack_into(buf, TC_COMMAND_AT, (seq | 1) + 1)
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, TC_COMMAND_AT, seq)
+            TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq, self.tc_command_num, self.tc_command)
+            SEQ.pack_into(buf, TC_COMMAND_AT, seq + 1)
             self.tc_written = self.tc_command_num
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -278,6 +420,7 @@ class VgController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
+        SEQ.pack_into(buf, VG_PERF_AT, seq)  # odd before any field changes
         PERF.pack_into(
             buf,
             VG_PERF_AT,

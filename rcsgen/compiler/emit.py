@@ -114,8 +114,9 @@ def environment() -> jinja2.Environment:
 @dataclass(frozen=True)
 class Gathered:
     """Several buffer fields read or written with one `Struct`, the bytes between them
-    skipped: format, offset, the target of each value ("_" for a sequence word), and the
-    struct of the sequence words alone (for the second read of a seqlock), if any."""
+    skipped: format, offset, the target of each value ("_" for a sequence word), the struct
+    of the sequence words alone (for the second read of a seqlock), if any, and the struct
+    of the values alone at the same offset (the sequence words skipped)."""
 
     format: str
     offset: int
@@ -123,6 +124,7 @@ class Gathered:
     seq_indices: list[int]
     seq_format: str
     seq_offset: int
+    values_format: str
 
 
 Field = tuple[int, str, str | None]  # (offset, struct code, target; None: a sequence word)
@@ -135,7 +137,11 @@ def _gather(fields: list[Field]) -> Gathered:
     seqs = [f for f in fields if f[2] is None]
     seq_fmt, _, seq_start = _format(seqs) if seqs else ("", [], 0)
     indices = [i for i, (_, _, target) in enumerate(fields) if target is None]
-    return Gathered(fmt, start, targets, indices, seq_fmt, seq_start)
+    values = [f for f in fields if f[2] is not None]
+    values_fmt, _, values_start = _format(values) if values else ("<", [], start)
+    if values_start > start:  # from the same offset as the whole
+        values_fmt = f"<{values_start - start}x{values_fmt[1:]}"
+    return Gathered(fmt, start, targets, indices, seq_fmt, seq_start, values_fmt)
 
 
 def _format(fields: list[Field]) -> tuple[str, list[str], int]:
@@ -197,10 +203,11 @@ def _inputs(c: ir.IRController, system: ir.IRSystem, placement: Placement) -> Ga
     return _gather(fields)
 
 
-def _world_outputs(c: ir.IRController, layout: ir.Layout) -> list[Gathered]:
+def _world_outputs(c: ir.IRController, layout: ir.Layout) -> list[tuple[Gathered, list[str]]]:
     """The world fields post_process writes, one struct per run of adjacent field buffers
     (each its sequence word and value; only alignment padding lies between them, so packing
-    never touches anyone else's field)."""
+    never touches anyone else's field), with the layout's names of their buffers' offsets
+    (where each sequence word is stored on its own)."""
     by_name = {b.fields[0].name: b for b in layout.world}
     buffers = sorted((by_name[f.name] for f in c.world_writes), key=lambda b: b.offset)
     runs: list[list[ir.Buffer]] = []
@@ -218,7 +225,7 @@ def _world_outputs(c: ir.IRController, layout: ir.Layout) -> list[Gathered]:
                 (b.offset, "Q", None),
                 (value.offset, value.code, f"self.world_{value.name}"),
             ]
-        gathered.append(_gather(fields))
+        gathered.append((_gather(fields), [f"{b.const}_AT" for b in run]))
     return gathered
 
 
@@ -245,10 +252,11 @@ def _controller_context(
         ]
         for s in c.subordinates
     }
-    world_outputs = _world_outputs(c, system.layout)
+    world_runs = _world_outputs(c, system.layout)
+    world_outputs = [gathered for gathered, _ in world_runs]
+    world_seq_at = [names for _, names in world_runs]
     slots = ["buf", "cycle_start", *command_targets, *status_targets, *mode_targets, *perf_targets]
     slots += ["status_seq", "status_dirty", "perf_seq"]
-    slots += [f"written_world_{index}" for index in range(1, len(world_outputs) + 1)]
     if c.hooks_state:
         slots.append("hook_state")
     for s in c.subordinates:
@@ -258,7 +266,7 @@ def _controller_context(
             slots.append(f"{s.name}_sent_at")
     slots += [f"world_{f.name}" for f in c.world_reads]
     slots += [f"var_{v.name}" for v in c.locals]
-    imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT"}
+    imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT", *(n for names in world_seq_at for n in names)}
     for s in c.subordinates:
         imports |= {f"{s.name.upper()}_COMMAND", f"{s.name.upper()}_COMMAND_AT"}
     inputs = _inputs(c, system, placement)
@@ -273,6 +281,7 @@ def _controller_context(
         "own": up,
         "inputs": inputs,
         "world_outputs": world_outputs,
+        "world_seq_at": world_seq_at,
         "system": system,
         "class_name": naming.class_name(c.name),
         "imports": sorted(imports, key=naming.import_order),

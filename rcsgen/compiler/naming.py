@@ -121,6 +121,8 @@ LAYOUT_NAMES = frozenset(
         "MAGIC",
         "PROCESS",
         "PROCESS_FIELDS",
+        "SEQ",
+        "FIRST_SEQ",
         "MODE_FIELDS",
         "PERF_FIELDS",
         "STATUS_FIELDS",
@@ -508,8 +510,6 @@ def _check_controller(
     for item in [*spec.world_reads, *spec.world_writes]:
         field_name = item.value
         names.claim(f"world_{field_name}", f"world field `{field_name}`", item.span, field_name)
-    for index in range(1, len(spec.world_writes) + 1):  # post_process's last world writes
-        names.fixed([f"written_world_{index}"], "an attribute every controller has")
     for local_name, local in spec.locals.items():
         names.claim(f"var_{local_name}", f"local `{local_name}`", local.span, ("local", local_name))
     for command in spec.commands.values():
@@ -632,7 +632,12 @@ def check_module_names(
         taken[spec.name.upper() + suffix] = "a layout name"
     taken.update(_world_layout_names(tuple(system.world)))
     for index in range(1, len(spec.world_writes) + 1):
-        for name in (f"WORLD_OUT_{index}", f"WORLD_OUT_{index}_AT", f"WORLD_SEQS_{index}"):
+        for name in (
+            f"WORLD_OUT_{index}",
+            f"WORLD_OUT_{index}_AT",
+            f"WORLD_VALUES_{index}",
+            f"WORLD_SEQS_{index}",
+        ):
             taken[name] = "a generated name"
     named: list[tuple[str, str, Span]] = [
         (c.name, "command", c.span) for c in spec.commands.values() if not c.generated

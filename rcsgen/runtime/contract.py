@@ -89,12 +89,20 @@ FORMAT_OF_TYPE = {"bool": "?", "int": "q", "float": "d"}
 
 # Every buffer starts with a sequence word (a seqlock): its one writer makes it odd, writes
 # the fields, then makes it even again; a reader in another process accepts what it read
-# only if the word was even and unchanged around the read, retrying `READ_TRIES` times at
-# most before calling the buffer stale for this cycle (a controller never waits). This
-# relies on the stores of one `struct.pack_into` and the loads of one `unpack_from`
-# reaching memory in address order, which x86-64 guarantees (see docs/semantics.md).
+# only if the word was even, not 0, and unchanged around the read, retrying `READ_TRIES`
+# times at most before calling the buffer stale for this cycle (a controller never waits).
+# This relies on stores reaching memory in program order and loads not passing loads,
+# which x86-64 guarantees (see docs/semantics.md).
+#
+# `struct.pack_into` zeroes its whole span before it stores the values (CPython's
+# s_pack_internal), in whatever order memset stores: a word written with it reads 0, an
+# even value, for a moment, and the fields of a span read 0 before their values arrive.
+# So 0 is never a whole buffer's word (`initialise` starts every word at 2, and a reader
+# takes 0 for a write in progress), and a writer stores the odd word by itself before the
+# pack that overwrites the fields: no field changes while the word is even.
 SEQ = Struct("<Q")
 READ_TRIES = 3
+FIRST_SEQ = 2  # every buffer's word in a new block: whole, never written
 
 
 def next_odd(seq: int) -> int:
@@ -140,7 +148,7 @@ class Record(NamedTuple):
         """The buffer's fields; raises StaleRead when it cannot be read whole."""
         for _ in range(READ_TRIES):
             seq, *values = self.struct.unpack_from(buf, self.offset)
-            if seq % 2 == 0 and SEQ.unpack_from(buf, self.offset)[0] == seq:
+            if seq and seq % 2 == 0 and SEQ.unpack_from(buf, self.offset)[0] == seq:
                 return dict(zip(self.fields, values, strict=True))
         raise StaleRead(f"buffer at {self.offset} is being written (or its writer died)")
 
@@ -161,6 +169,7 @@ class Record(NamedTuple):
             current = dict(zip(self.fields, values_now, strict=True))
         current.update(values)
         seq = next_odd(self.seq(buf))
+        SEQ.pack_into(buf, self.offset, seq)  # odd before any field changes
         self.struct.pack_into(buf, self.offset, seq, *current.values())
         SEQ.pack_into(buf, self.offset, seq + 1)
 

@@ -199,6 +199,7 @@ class Process:
         )
         seq = self.record_seq + 1
         buf, at = self.block.buf, self.record.offset
+        SEQ.pack_into(buf, at, seq)  # odd before any field changes (contract.SEQ)
         PROCESS.pack_into(buf, at, seq, *counters.values())
         SEQ.pack_into(buf, at, seq + 1)
         self.record_seq = seq + 1

@@ -31,6 +31,9 @@ class Mine:
     seam: dict[tuple[int, int], float] = field(default_factory=dict)  # (row, col) -> height
     first_face: float = 0.0
     columns: int = 0
+    # row -> the first column with standing coal in it (rows cut through have none): what
+    # `face` looks up instead of scanning the map every cycle; `cut_coal` keeps it current.
+    first: dict[int, int] = field(default_factory=dict)
 
 
 def load_map(path: Path) -> Mine:
@@ -45,6 +48,8 @@ def load_map(path: Path) -> Mine:
             if char == "#":
                 mine.seam[(r, c)] = 1.0
     mine.columns = max((c for _, c in mine.seam), default=-1) + 1
+    for r, c in sorted(mine.seam, reverse=True):
+        mine.first[r] = c
     mine.first_face = face(mine, 0.0)
     return mine
 
@@ -71,10 +76,21 @@ def _covered(mine: Mine, x: float, y: float) -> list[tuple[int, int]]:
 def face(mine: Mine, y: float) -> float:
     """The inby distance of the first standing coal in the drum's band across the entry."""
     rows = _span(y - DRUM_HALF_WIDTH, y + DRUM_HALF_WIDTH, mine.y0)
-    for c in range(mine.columns):
-        if any(mine.seam.get((r, c), 0.0) > 0.0 for r in rows):
-            return mine.x0 + c * CELL
-    return float("inf")
+    first = mine.first
+    columns = [first[r] for r in rows if r in first]
+    return mine.x0 + min(columns) * CELL if columns else float("inf")
+
+
+def _cut_to_floor(mine: Mine, r: int, c: int) -> None:
+    """Cell (r, c) no longer stands: if it was its row's first, the row's first moves on."""
+    if mine.first.get(r) != c:
+        return
+    seam = mine.seam
+    for after in range(c + 1, mine.columns):
+        if seam.get((r, after), 0.0) > 0.0:
+            mine.first[r] = after
+            return
+    del mine.first[r]
 
 
 def cut_coal(
@@ -91,5 +107,7 @@ def cut_coal(
             if drum_on:
                 tonnes += (standing - bottom) * TONNES_PER_CELL
                 mine.seam[cell] = bottom
+                if bottom <= 0.0:
+                    _cut_to_floor(mine, *cell)
     now = face(mine, y)
     return contact, round(now, 6), round(now - mine.first_face, 6), round(tonnes, 6)

@@ -1,0 +1,231 @@
+"""Part 6: what lockstep costs: a system run as OS processes against the same in one process.
+
+1. The miner: generated/miner as its two processes (pc1, and pp alone in pc2), each an OS
+   process over a shared segment stepped in lockstep by the launcher's coordinator
+   (`LaunchedHarness`, what `rcsgen run --processes` uses), against the same package with
+   both processes' modules in this one process (`Harness`). Both run the nominal scenario
+   (specs/miner/scenarios/sump_shear_cusp.yaml), the stop module's command sent again
+   each time it is done, as fast as they can (no pacing).
+2. A synthetic chain (bench/synthetic.py, fan-out 1) of 16 controllers split over 1, 2, 4
+   and 8 processes, its root sent RUN again each time it is done, in lockstep, against the
+   same chain in one process.
+
+Every system cycle is timed on its own on the wall clock (time.perf_counter_ns): lockstep
+is waiting for other processes, which CPU time would not see. The in-process and launched
+versions take turns every `CHUNK` cycles (in alternating order), so a burst of other work
+hits both alike; per version, the median and the mean of its cycles over all rounds. The
+extra time per system cycle is the difference of the medians (and of the means, which
+include the cycles in which a process waited for the scheduler). At the end of each round
+the in-process and launched versions must be in the same state (every module's status and
+command, and the world): lockstep leaves the same trace as one process.
+
+    python bench/bench_lockstep.py [--cycles N] [--rounds R] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from common import ROOT, wall_ns, write_json
+
+from rcsgen.tools import scenario as scenarios
+from rcsgen.tools.harness import Harness, LaunchedHarness, generate
+
+SCENARIO = ROOT / "specs" / "miner" / "scenarios" / "sump_shear_cusp.yaml"
+PACKAGE = ROOT / "generated" / "miner"
+CHAIN = 16  # controllers in the synthetic chain
+SPLITS = (1, 2, 4, 8)  # processes the chain is split over
+CYCLES = 2_000  # system cycles per version and round
+ROUNDS = 3
+CHUNK = 100
+
+
+class Driver:
+    """Keeps a system busy: applies a scenario's events, and when the stop module is done,
+    sends its events again (from the next cycle on)."""
+
+    def __init__(self, events: list[scenarios.Event], stop: str) -> None:
+        self.events, self.stop = events, stop
+        self.pending: list[tuple[int, scenarios.Event]] = [(e.cycle, e) for e in events]
+        self.cycle = 0
+        self.restarts = 0
+
+    def before(self, harness) -> None:
+        """What happens before cycle `self.cycle + 1`."""
+        while self.pending and self.pending[0][0] <= self.cycle + 1:
+            apply(harness, self.pending.pop(0)[1])
+
+    def after(self, harness) -> None:
+        self.cycle += 1
+        if not self.pending and finished(harness, self.stop):
+            self.pending = [(self.cycle + e.cycle, e) for e in self.events]
+            self.restarts += 1
+
+
+def apply(harness, event: scenarios.Event) -> None:
+    harness.world.update(event.world)
+    for module, mode in event.mode.items():
+        harness.set_mode(module, **mode)
+    if event.command is not None:
+        module, name = event.command
+        harness.command(module, name, **event.args)
+
+
+def finished(harness, module: str) -> bool:
+    status = harness.status(module)
+    return status.number == harness.sent(module).number and status.status in ("DONE", "ERROR")
+
+
+def state(harness) -> tuple:
+    """Every module's status and command, and the world: what must be the same either way."""
+    modules = tuple(
+        (m, harness.status(m), harness.sent(m).command, harness.sent(m).number)
+        for m in harness.modules
+    )
+    return modules, tuple(sorted(harness.world.snapshot().items()))
+
+
+def race(
+    open_versions: Callable[[], dict[str, object]],
+    driver_of: Callable[[], Driver],
+    cycles: int,
+    rounds: int,
+) -> dict[str, list[int]]:
+    """Time every system cycle of each version: fresh versions each round, taking turns
+    every CHUNK cycles; checks that they end each round in the same state."""
+    samples: dict[str, list[int]] = {}
+    for index in range(rounds):
+        harnesses = open_versions()
+        try:
+            drivers = {key: driver_of() for key in harnesses}
+            keys = list(harnesses)
+            gc.collect()
+            for number, start in enumerate(range(0, cycles, CHUNK)):
+                turn = keys if (index + number) % 2 == 0 else keys[::-1]
+                for key in turn:
+                    harness, driver = harnesses[key], drivers[key]
+                    taken = samples.setdefault(key, [])
+                    step = harness.cycle
+                    for _ in range(min(CHUNK, cycles - start)):
+                        driver.before(harness)
+                        began = wall_ns()
+                        step()
+                        taken.append(wall_ns() - began)
+                        driver.after(harness)
+            ends = {key: state(harness) for key, harness in harnesses.items()}
+            if len(set(ends.values())) != 1:
+                raise SystemExit(f"round {index + 1}: the versions ended in different states")
+        finally:
+            for harness in harnesses.values():
+                harness.close()
+        print(f"round {index + 1}/{rounds} done", file=sys.stderr)
+    return samples
+
+
+def stats(values: list[int]) -> dict[str, float]:
+    ordered = sorted(values)
+    return {
+        "median": statistics.median(ordered),
+        "mean": statistics.fmean(ordered),
+        "p90": ordered[int(0.9 * (len(ordered) - 1))],
+        "cycles": len(ordered),
+    }
+
+
+def miner(cycles: int, rounds: int) -> dict[str, object]:
+    scenario = scenarios.load_scenario(SCENARIO)
+    events = list(scenario.events)
+    stop = scenario.stop_when_done or "sb"
+    processes: dict[str, int] = {}
+
+    def open_versions() -> dict[str, object]:
+        one = scenarios.open_harness(scenario, PACKAGE)
+        try:
+            launched = scenarios.open_harness(scenario, PACKAGE, processes=True)
+        except BaseException:
+            one.close()
+            raise
+        placement = one.layout.PLACEMENT
+        for name in one.layout.PROCESSES:
+            processes[name] = sum(1 for m in one.layout.MODULES if placement.get(m) == name)
+        return {"one process": one, "processes": launched}
+
+    samples = race(open_versions, lambda: Driver(events, stop), cycles, rounds)
+    return {
+        "scenario": str(SCENARIO.relative_to(ROOT)),
+        "processes": processes,
+        "one_process_ns": stats(samples["one process"]),
+        "processes_ns": stats(samples["processes"]),
+    }
+
+
+def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, object]]:
+    import synthetic
+
+    results = []
+    scratch = Path(tempfile.mkdtemp(prefix="rcsgen-bench-lockstep-"))
+    try:
+        for count in splits:
+            spec = synthetic.write(CHAIN, scratch / f"p{count}", processes=count, fan_out=1)
+            out, name = generate(spec)
+            package_dir = out / name
+            root = synthetic.name(0)
+            run = scenarios.Event(cycle=1, command=(root, "RUN"))
+
+            def open_versions(package_dir: Path = package_dir) -> dict[str, object]:
+                one = Harness.load(package_dir, send_init=True)
+                try:
+                    launched = LaunchedHarness(package_dir)
+                except BaseException:
+                    one.close()
+                    raise
+                return {"one process": one, "processes": launched}
+
+            def driver(run: scenarios.Event = run, root: str = root) -> Driver:
+                return Driver([run], root)
+
+            samples = race(open_versions, driver, cycles, rounds)
+            shutil.rmtree(out, ignore_errors=True)
+            results.append(
+                {
+                    "processes": count,
+                    "modules": CHAIN,
+                    "one_process_ns": stats(samples["one process"]),
+                    "processes_ns": stats(samples["processes"]),
+                }
+            )
+            print(f"chain over {count} process(es) done", file=sys.stderr)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    return results
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--cycles", type=int, default=CYCLES)
+    parser.add_argument("--rounds", type=int, default=ROUNDS)
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args()
+    started = time.perf_counter()
+    results = {
+        "cycles_per_round": args.cycles,
+        "rounds": args.rounds,
+        "chunk": CHUNK,
+        "miner": miner(args.cycles, args.rounds),
+        "chain": chain(SPLITS, args.cycles, args.rounds),
+    }
+    results["seconds"] = time.perf_counter() - started
+    write_json(args.json, results)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
