@@ -541,16 +541,27 @@ def run(
     session.finish()
 
 
+def PACKAGE_COMMAND(command: Callable[..., None]) -> Callable[..., None]:  # noqa: N802
+    """The arguments of the commands that hand over to a built system's `python -m`."""
+    for decorate in reversed(
+        [
+            click.argument("system_dir", type=click.Path(path_type=Path, file_okay=False)),
+            click.option(
+                "--generated",
+                type=click.Path(path_type=Path, file_okay=False),
+                default=Path("generated"),
+                show_default=True,
+                help="Where `rcsgen build` put the system packages.",
+            ),
+            click.argument("options", nargs=-1, type=click.UNPROCESSED),
+        ]
+    ):
+        command = decorate(command)
+    return command
+
+
 @main.command(context_settings={"ignore_unknown_options": True})
-@click.argument("system_dir", type=click.Path(path_type=Path, file_okay=False))
-@click.option(
-    "--generated",
-    type=click.Path(path_type=Path, file_okay=False),
-    default=Path("generated"),
-    show_default=True,
-    help="Where `rcsgen build` put the system packages.",
-)
-@click.argument("options", nargs=-1, type=click.UNPROCESSED)
+@PACKAGE_COMMAND
 def up(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     """Start a built system: every process as its own OS process, paced, until Ctrl-C.
 
@@ -561,15 +572,7 @@ def up(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
 
 
 @main.command(context_settings={"ignore_unknown_options": True})
-@click.argument("system_dir", type=click.Path(path_type=Path, file_okay=False))
-@click.option(
-    "--generated",
-    type=click.Path(path_type=Path, file_okay=False),
-    default=Path("generated"),
-    show_default=True,
-    help="Where `rcsgen build` put the system packages.",
-)
-@click.argument("options", nargs=-1, type=click.UNPROCESSED)
+@PACKAGE_COMMAND
 def ctl(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     """Operate a running system: status, stop/run, step, simulate, slow, send, wait.
 

@@ -26,7 +26,6 @@ subordinate's DONE by design (the QQ1 template): W503 and W506 are not reported 
 
 from __future__ import annotations
 
-import operator
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from fractions import Fraction
@@ -83,22 +82,6 @@ CODES = {
 # has commanded it). Atom keys are (world|local|param|status|command|form|opaque, name).
 STATUS_DOMAIN = ("EXECUTING", *FINISHED)
 
-_COMPARE: dict[str, Callable[[Any, Any], bool]] = {
-    "==": operator.eq,
-    "!=": operator.ne,
-    "<": operator.lt,
-    "<=": operator.le,
-    ">": operator.gt,
-    ">=": operator.ge,
-}
-_ARITH: dict[str, Callable[[Any, Any], Any]] = {
-    "+": operator.add,
-    "-": operator.sub,
-    "*": operator.mul,
-    "/": operator.truediv,
-    "//": operator.floordiv,
-    "%": operator.mod,
-}
 _BUILTIN: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}
 _VARIABLES = ("world", "local", "param")
 
@@ -217,7 +200,7 @@ class GuardBuilder:
         self, a: expr.Expr, op: str, b: expr.Expr, g: Guard
     ) -> Callable[[Valuation], Any] | None:
         """One comparison `a op b`; None when it is not decidable by interval reasoning."""
-        compare = _COMPARE[op]
+        compare = expr.COMPARISONS[op]
         if a.type not in expr.NUMERIC:  # statuses, commands, booleans: evaluated as they are
             left, right = self._fn(a, g), self._fn(b, g)
 
@@ -239,7 +222,7 @@ class GuardBuilder:
         norm = diff.scaled(1 / lead)  # the first variable's coefficient becomes 1
         bound = -norm.constant
         op = op if lead > 0 else _FLIP[op]
-        compare = _COMPARE[op]
+        compare = expr.COMPARISONS[op]
         if len(keys) == 1:
             key, kind = keys[0], types[keys[0]]
         else:
@@ -282,7 +265,9 @@ class GuardBuilder:
                 return left.scaled(1 / right.constant)
             if e.op in ("//", "%") and not left.coefficients and not right.coefficients:
                 if right.constant:
-                    return Linear({}, Fraction(_ARITH[e.op](left.constant, right.constant)))
+                    return Linear(
+                        {}, Fraction(expr.ARITHMETIC[e.op](left.constant, right.constant))
+                    )
             return None
         if isinstance(e, expr.Call) and e.kind == "builtin":
             args = [self._linear(a, types) for a in e.args]

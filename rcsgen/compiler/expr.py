@@ -474,7 +474,8 @@ def _words(kind: str) -> str:
 
 # ---------------------------------------------------------------- constant folding
 
-_FOLD_BINARY: dict[str, Callable[[Any, Any], Any]] = {
+# What each operator of the grammar computes (constant folding here, the analysis too).
+ARITHMETIC: dict[str, Callable[[Any, Any], Any]] = {
     "+": operator.add,
     "-": operator.sub,
     "*": operator.mul,
@@ -482,7 +483,7 @@ _FOLD_BINARY: dict[str, Callable[[Any, Any], Any]] = {
     "//": operator.floordiv,
     "%": operator.mod,
 }
-_FOLD_COMPARE: dict[str, Callable[[Any, Any], bool]] = {
+COMPARISONS: dict[str, Callable[[Any, Any], bool]] = {
     "==": operator.eq,
     "!=": operator.ne,
     "<": operator.lt,
@@ -530,7 +531,7 @@ def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr],
         right = _fold(e.right, constants, predicates, depth + 1)
         if left is None or right is None:
             return None
-        return _FOLD_BINARY[e.op](left, right)
+        return ARITHMETIC[e.op](left, right)
     if isinstance(e, BoolOp):  # and/or short-circuit on a decided operand
         decided = e.op == "or"
         unknown = False
@@ -546,7 +547,7 @@ def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr],
         if None in operands:
             return None
         pairs = zip(operands, operands[1:], e.ops, strict=False)
-        return all(_FOLD_COMPARE[op](a, b) for a, b, op in pairs)
+        return all(COMPARISONS[op](a, b) for a, b, op in pairs)
     return None
 
 
