@@ -44,7 +44,9 @@ def git_revision() -> str:
         return done.stdout.strip() if done.returncode == 0 else ""
 
     revision = git("rev-parse", "--short", "HEAD") or "unknown"
-    return revision + (" + uncommitted changes" if git("status", "--porcelain") else "")
+    # the report a previous run rewrote is no change to what is measured
+    changed = git("status", "--porcelain", "--", ".", ":(exclude)bench/RESULTS.md")
+    return revision + (" + uncommitted changes" if changed else "")
 
 
 def machine() -> dict[str, object]:

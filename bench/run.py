@@ -498,7 +498,10 @@ def section_seqlock(seqlock: dict) -> list[str]:
 def section_lockstep(lockstep: dict) -> list[str]:
     m = lockstep["miner"]
     one, many = m["one_process_ns"], m["processes_ns"]
-    processes = ", ".join(f"{name} ({count} modules)" for name, count in m["processes"].items())
+    processes = ", ".join(
+        f"{name} ({count} module{'' if count == 1 else 's'})"
+        for name, count in m["processes"].items()
+    )
     lines = [
         "## 6. Lockstep: the system as OS processes against the same in one process",
         "",
@@ -542,7 +545,9 @@ def section_lockstep(lockstep: dict) -> list[str]:
         "",
         "In one process a system of N processes still runs N process cycles (each beats); "
         "in lockstep every process costs a request and an answer through its pipes each "
-        "system cycle, two context switches on a machine whose two cores are shared.",
+        "system cycle, two context switches. Most of that is waking a process blocked on its "
+        "pipe, which depends on what else the machine is doing (an idle core wakes slower "
+        "than a busy one): compare lockstep figures of different runs with care.",
         "",
     ]
     return lines
