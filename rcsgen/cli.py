@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, NoReturn, TextIO
 import click
 from click.shell_completion import CompletionItem
 
-from .compiler import emit, write
+from .compiler import write
 from .compiler.acknowledge import WARNING_CODES
 from .compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
 from .compiler.frontend import compile_paths, display_path
@@ -652,11 +652,9 @@ def _package(system: IRSystem, generated: Path | None, scratch: Path, session: _
     """The package to run: the system rendered now into `scratch`, or the one in
     `generated`, refused (E418) unless it is exactly what the specs make."""
     if generated is None:
-        for rel, text in emit.render_all([system]).items():
-            path = scratch / rel
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text, encoding="utf-8")
-        return scratch / system.name
+        from .tools.harness import write_package
+
+        return write_package(system, scratch)
     plan, problems = write.plan_build([system], generated)
     stale = runs.stale_package(plan, generated, system.name)
     if problems.errors or stale is not None:

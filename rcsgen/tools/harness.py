@@ -29,6 +29,7 @@ from typing import Any
 from ..compiler import emit
 from ..compiler.diagnostics import SpecError
 from ..compiler.frontend import compile_paths
+from ..compiler.ir import IRSystem
 
 _unique = itertools.count(1)
 
@@ -92,11 +93,17 @@ def generate(spec_dir: Path) -> tuple[Path, str]:
         raise SpecError(front.diagnostics)
     system = front.systems[0]
     scratch = Path(tempfile.mkdtemp(prefix="rcsgen-harness-"))
+    write_package(system, scratch)
+    return scratch, system.name
+
+
+def write_package(system: IRSystem, root: Path) -> Path:
+    """Render `system` into `root` (a scratch directory, not the user's output): its package."""
     for rel, text in emit.render_all([system]).items():
-        path = scratch / rel
+        path = root / rel
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text, encoding="utf-8")
-    return scratch, system.name
+    return root / system.name
 
 
 class BlockView:
