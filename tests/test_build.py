@@ -160,9 +160,11 @@ def test_generated_package_runs_without_rcsgen(tmp_path: Path, pristine: dict[st
 def test_generated_package_has_a_main(tmp_path: Path, pristine: dict[str, bytes]) -> None:
     """`python -m miner pc1 --cycles N --fast` runs the process, again without site-packages."""
     write_tree(tmp_path, pristine)
+    # Named after this test run, so that runs in parallel checkouts never share a segment.
+    segment = f"rcsgen_build_{os.getpid()}"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(MINER)])}
     done = subprocess.run(
-        [sys.executable, "-S", "-m", "miner", "pc1", "--cycles", "5", "--fast"],
+        [sys.executable, "-S", "-m", "miner", "pc1", "--cycles", "5", "--fast", "--shm", segment],
         cwd=tmp_path,
         env=env,
         capture_output=True,
@@ -177,7 +179,7 @@ def test_generated_package_has_a_main(tmp_path: Path, pristine: dict[str, bytes]
         "pc1: stopped, 5 cycles, 0 overruns, 0 late wake-ups, 0 watchdog trips, 0 load warnings",
     ], done.stdout
     assert lines[2].startswith("  max cycle time per module (us): co ")
-    assert not list(Path("/dev/shm").glob("rcs_miner_*")), "the segment is removed at exit"
+    assert not (Path("/dev/shm") / segment).exists(), "the segment is removed at exit"
 
 
 def test_output_is_byte_identical_wherever_it_is_built(
