@@ -592,11 +592,18 @@ def ctl(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     help="Where `rcsgen build` put the system packages.",
 )
 @click.option("--shm", default=None, help="The segment [default: the launcher's].")
-def monitor(system_dir: Path, generated: Path, shm: str | None) -> None:
+@click.option(
+    "--role",
+    envvar="RCS_ROLE",
+    default=None,
+    help="The operator role whose access levels apply (system.yaml `operators`) [$RCS_ROLE].",
+)
+def monitor(system_dir: Path, generated: Path, shm: str | None, role: str | None) -> None:
     """Watch and operate a running system in a live terminal screen (rcsgen[monitor]).
 
     Keys act on the selected module: s stop, r run, n single-step, i simulate on/off,
-    + / - slow down / speed up every process, c send a command, q quit.
+    + / - slow down / speed up every process, c send a command, a answer the module's
+    request, q quit. What they may do is the role's access level on the module.
     """
     import importlib
 
@@ -615,8 +622,12 @@ def monitor(system_dir: Path, generated: Path, shm: str | None) -> None:
         fail(f"no generated package at {package_dir}; run `rcsgen build` first")
     layout = importlib.import_module(f"{import_package(package_dir.resolve()).__name__}.layout")
     segment = shm or f"rcs_{layout.SYSTEM}_{layout.LAYOUT_HASH[:8]}"
+    from .runtime.ctl import CtlError
+
     try:
-        app = Monitor(layout, segment)
+        app = Monitor(layout, segment, role=role)
+    except CtlError as error:
+        fail(str(error), error.code)
     except BlockError as error:
         fail(str(error))
     app.run()

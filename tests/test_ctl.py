@@ -58,7 +58,7 @@ def package(duo: Path) -> ModuleType:
 class Running:
     """A system launched as `python -m <system> --shm SEGMENT`, and its console."""
 
-    def __init__(self, package_dir: Path, hooks: Path, layout: ModuleType) -> None:
+    def __init__(self, package_dir: Path, hooks: Path, layout: ModuleType, *options: str) -> None:
         self.name, self.layout = package_dir.name, layout
         self.segment = segment_name()
         self.env = {
@@ -66,7 +66,7 @@ class Running:
             "PYTHONPATH": os.pathsep.join([str(package_dir.parent), str(hooks)]),
         }
         self.popen = subprocess.Popen(
-            [sys.executable, "-m", self.name, "--shm", self.segment],
+            [sys.executable, "-m", self.name, "--shm", self.segment, *options],
             env=self.env,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
@@ -284,31 +284,142 @@ def test_rcsgen_ctl_runs_the_console_of_a_built_system(
 # ---------------------------------------------------------------- the miner
 
 
-def test_the_miner_walk_through_from_the_readme() -> None:
-    """Start the miner, send sb BOX_CUT depth=1.5, single-step co five cycles, switch cr to
-    simulation and back, stop it: every step a command line, the system paced."""
+def miner_layout() -> ModuleType:
     miner = REPO / "generated" / "miner"
-    layout = importlib.import_module(
+    return importlib.import_module(
         f"{import_package(miner, REPO / 'specs' / 'miner').__name__}.layout"
     )
-    system = Running(miner, REPO / "specs" / "miner", layout)
+
+
+def test_the_miner_walk_through_from_the_readme() -> None:
+    """Start the miner with the operator at the console (`--world operator_delay=-1`), send
+    sb BOX_CUT depth=1.5 as the crew, single-step co five cycles, switch cr to simulation and
+    back as the engineer, answer the conveyor-tail request as the crew, stop it: every step a
+    command line, the system paced, each role refused what it may not do."""
+    layout = miner_layout()
+    system = Running(
+        REPO / "generated" / "miner",
+        REPO / "specs" / "miner",
+        layout,
+        "--world",
+        "operator_delay=-1",
+    )
     try:
-        sent = system.ctl("send", "sb", "BOX_CUT", "depth=1.5", "--seen")
+        refused = system.ctl("send", "sb", "BOX_CUT", "depth=1.5")  # no role: monitor only
+        assert refused.returncode == 1 and refused.stdout == ""
+        assert refused.stderr.splitlines() == [
+            "ctl: error: refused: commanding sb needs command on sb; no --role was given, so "
+            "this console only monitors (roles that may: crew, engineer)"
+        ]
+        sent = system.ctl("--role", "crew", "send", "sb", "BOX_CUT", "depth=1.5", "--seen")
         assert sent.returncode == 0, sent.stderr
         assert sent.stdout.startswith("sent sb.BOX_CUT depth=1.5 #2")
         wait_for(lambda: system.module("co")["status"] == "EXECUTING", "co working")
-        stepped = system.ctl("step", "co", "5")
+        refused = system.ctl("step", "co", "5", "--role", "crew")
+        assert refused.returncode == 1
+        assert "refused: stepping co needs override on co; role crew may only monitor co" in (
+            refused.stderr
+        )
+        assert system.module("co")["step"] == "AUTO"  # nothing was written
+        stepped = system.ctl("step", "co", "5", "--role", "engineer")
         assert stepped.returncode == 0, stepped.stderr
         assert system.module("co")["step"] == "SINGLE"
-        assert system.ctl("run", "co").returncode == 0
-        assert system.ctl("simulate", "cr", "on").returncode == 0
+        assert system.ctl("run", "co", "--role", "engineer").returncode == 0
+        assert system.ctl("simulate", "cr", "on", "--role", "engineer").returncode == 0
         wait_for(lambda: system.module("cr")["runs"] == "cr_sim", "cr's stand-in")
-        assert system.ctl("simulate", "cr", "off").returncode == 0
+        assert system.ctl("simulate", "cr", "off", "--role", "engineer").returncode == 0
         wait_for(lambda: system.module("cr")["runs"] == "cr", "cr again")
         assert system.module("sb")["command"] == "BOX_CUT"
+        # ct asks for the conveyor tail; nobody but the console answers it
+        wait_for(lambda: system.json().get("requests"), "the tail request", 60)
+        listed = system.ctl("requests")
+        assert listed.stdout.splitlines() == [
+            "tail from ct: Put the conveyor tail over the haulage, then answer."
+        ]
+        assert "request tail from ct:" in system.ctl("status").stdout
+        assert system.module("ct")["status"] == "EXECUTING"
+        refused = system.ctl("answer", "tail")
+        assert refused.returncode == 1 and "answering tail needs respond on ct" in refused.stderr
+        answered = system.ctl("answer", "tail", "--role", "crew")
+        assert answered.returncode == 0, answered.stderr
+        assert answered.stdout.startswith("answered tail: sent oi.TAIL_IN_POSITION #")
+        wait_for(lambda: system.module("ct")["status"] == "DONE", "ct done")
+        assert system.ctl("requests").stdout == "no requests\n"
+        again = system.ctl("answer", "tail", "--role", "crew")
+        assert again.returncode == 1 and "ct is not asking for tail now" in again.stderr
     finally:
         out = system.stop()
     assert "pc1: stopped" in out and "pc2: stopped" in out
+
+
+def test_the_access_matrix_and_a_bad_role() -> None:
+    """`ctl roles` prints the matrix from the layout alone; an unknown role, or a role given
+    to a system that declares none, is a usage error (exit 2, one line)."""
+    layout = miner_layout()
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO / "generated")])}
+
+    def ctl(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [sys.executable, "-m", "miner", "ctl", *args],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+
+    matrix = ctl("roles").stdout.splitlines()
+    assert matrix[0].split() == ["module", "crew", "engineer"]
+    rows = {line.split()[0]: line.split()[1:] for line in matrix[1:]}
+    assert rows["sb"] == ["command", "override"] and rows["ct"] == ["respond", "override"]
+    assert rows["co"] == ["monitor", "override"] and len(rows) == len(layout.MODULES)
+    bad = ctl("--role", "enginer", "status")
+    assert (bad.returncode, bad.stderr) == (
+        2,
+        "ctl: error: no role 'enginer' (did you mean 'engineer'?); roles: crew, engineer\n",
+    )
+    bad = ctl("answer", "tial")  # checked against the layout before attaching
+    assert bad.returncode == 2 and "did you mean 'tail'" in bad.stderr
+
+
+def test_a_role_for_a_system_without_roles_is_refused(running: Running) -> None:
+    done = running.ctl("--role", "crew", "status")
+    assert (done.returncode, done.stderr) == (
+        2,
+        "ctl: error: duo declares no operator roles; leave out --role\n",
+    )
+    assert "every operator may do everything" in running.ctl("roles").stdout
+
+
+def test_world_start_values_are_checked() -> None:
+    """`python -m miner --world FIELD=VALUE`: the field and its type checked, one line."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO / "generated")])}
+    done = subprocess.run(
+        [sys.executable, "-m", "miner", "--cycles", "1"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )  # the hooks are not on the path: said in one line, no traceback
+    assert (done.returncode, done.stderr) == (
+        1,
+        "miner: cannot import module 'miner_hooks'; put the directory that holds the system's "
+        "hook modules (the spec directory) on PYTHONPATH\n",
+    )
+    env["PYTHONPATH"] += os.pathsep + str(REPO / "specs" / "miner")
+    for value, message in (
+        ("operator_dealy=-1", "no world field 'operator_dealy' (did you mean 'operator_delay'?)"),
+        ("operator_delay=soon", "'soon' is not an integer (operator_delay)"),
+        ("operator_delay", "'operator_delay' is not FIELD=VALUE"),
+    ):
+        done = subprocess.run(
+            [sys.executable, "-m", "miner", "--world", value, "--cycles", "0", "--fast"],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert done.returncode == 2 and message in done.stderr, done.stderr
+        assert "Traceback" not in done.stderr
 
 
 # ---------------------------------------------------------------- a clean stop

@@ -88,7 +88,10 @@ def test_a_controllers_picture_holds_init_and_halt_and_every_cycle_rules(system)
     oi = graph.states(system.controller("oi"))
     assert oi.clusters[0].id == "s_every_cycle"
     assert any("world.tail_request" in " ".join(e.label) for e in oi.edges)
-    assert oi.clusters[-1].label == "ENTER_GOAL(x: float, y: float)"
+    assert [c.label for c in oi.clusters][-2:] == [
+        "ENTER_GOAL(x: float, y: float)",
+        "TAIL_IN_POSITION",
+    ]
 
 
 def test_labels_are_escaped_for_mermaid_and_dot(system):

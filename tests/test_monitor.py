@@ -127,3 +127,53 @@ def test_keys_and_the_send_form_operate_the_running_system(
     text = asyncio.run(drive())
     assert "top" in text and "└─ arm" in text and "POWER" in text
     assert "p1: running" in text
+
+
+def test_the_role_limits_the_keys_and_requests_are_answered_on_screen() -> None:
+    """The miner with its operator at the console, watched as the crew: a key the crew may
+    not use is refused on screen and changes nothing; ct's conveyor-tail request appears
+    under the table, and `a` answers it."""
+    from test_ctl import REPO, miner_layout
+
+    layout = miner_layout()
+    system = Running(
+        REPO / "generated" / "miner",
+        REPO / "specs" / "miner",
+        layout,
+        "--world",
+        "operator_delay=-1",
+        "--send",
+        "sb.BOX_CUT:depth=1.5",
+    )
+
+    async def drive() -> tuple[str, str]:
+        app = Monitor(layout, system.segment, interval=0.1, role="crew")
+        async with app.run_test(size=(160, 40)) as pilot:
+            await pilot.pause(0.3)
+            assert app.selected() == "sb" and app.sub_title.endswith(" as crew")
+            await pilot.press("s")
+            message = str(app.query_one("#message").render())
+            assert "refused: changing sb's mode needs override on sb" in message
+            assert system.module("sb")["run"] == "RUN"
+            for _ in range(300):  # ct asks within the first sump (about 30 s at most)
+                await pilot.pause(0.1)
+                if "ct asks:" in str(app.query_one("#requests").render()):
+                    break
+            asking = screen_text(app)
+            await pilot.press("a")
+            await pilot.pause(0.1)
+            assert "answered tail: sent oi.TAIL_IN_POSITION" in str(
+                app.query_one("#message").render()
+            )
+            wait_for(lambda: system.module("ct")["status"] == "DONE", "ct done")
+            await pilot.pause(0.3)
+            return asking, screen_text(app)
+
+    try:
+        asking, after = asyncio.run(drive())
+    finally:
+        system.stop()
+    assert "ct asks: Put the conveyor tail over the haulage, then answer. (a: answer tail)" in (
+        asking
+    )
+    assert "ct asks" not in after

@@ -739,7 +739,7 @@ COMMAND_NAMES = {
             "STOP",
         ),
     ),
-    "oi": (NO_COMMAND_NAME, *("INIT", "HALT", "ENTER_GOAL")),
+    "oi": (NO_COMMAND_NAME, *("INIT", "HALT", "ENTER_GOAL", "TAIL_IN_POSITION")),
     "bas": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "jas": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "tas": (NO_COMMAND_NAME, *("INIT", "HALT")),
@@ -932,7 +932,7 @@ RULES = {
         "TURN_RIGHT_REVERSE/MOVING/2",
         "STOP/S0/1",
     ),
-    "oi": ("", "INIT/S0/1", "HALT/S0/1", "ENTER_GOAL/S0/1"),
+    "oi": ("", "INIT/S0/1", "HALT/S0/1", "ENTER_GOAL/S0/1", "TAIL_IN_POSITION/S0/1"),
     "bas": ("", "INIT/S0/1", "HALT/S0/1"),
     "jas": ("", "INIT/S0/1", "HALT/S0/1"),
     "tas": ("", "INIT/S0/1", "HALT/S0/1"),
@@ -946,6 +946,50 @@ RULES = {
     "cr_sim": ("", "INIT/S0/1", "HALT/S0/1", "SUMP/S0/1", "SHEAR/S0/1", "CUSP/S0/1"),
 }
 SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css")
+# Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
+# module the role may do more than monitor. Empty: the system declares no access control.
+ROLES: dict[str, dict[str, int]] = {
+    "crew": {
+        "sb": 2,  # command
+        "ct": 1,  # respond
+        "oi": 2,  # command
+    },
+    "engineer": {
+        "sb": 3,  # override
+        "co": 3,  # override
+        "cc": 3,  # override
+        "bm": 3,  # override
+        "cd": 3,  # override
+        "sj": 3,  # override
+        "cr": 3,  # override
+        "gh": 3,  # override
+        "cv": 3,  # override
+        "ct": 3,  # override
+        "vg": 3,  # override
+        "tc": 3,  # override
+        "oi": 3,  # override
+        "bas": 3,  # override
+        "jas": 3,  # override
+        "tas": 3,  # override
+        "mine": 3,  # override
+        "das": 3,  # override
+        "gas": 3,  # override
+        "bss": 3,  # override
+        "pss": 3,  # override
+        "css": 3,  # override
+        "pp": 3,  # override
+    },
+}
+# What modules ask of the operator (`operators.requests`): open while the world field
+# `while` is true, answered by sending the command `answer`.
+REQUESTS: dict[str, dict[str, object]] = {
+    "tail": {
+        "by": "ct",
+        "while": "tail_request",
+        "answer": ("oi", "TAIL_IN_POSITION"),
+        "doc": "Put the conveyor tail over the haulage, then answer.",
+    },
+}
 
 
 def initialise(buf: memoryview) -> None:

@@ -17,6 +17,7 @@ from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, 
 INIT = 1
 HALT = 2
 ENTER_GOAL = 3
+TAIL_IN_POSITION = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
@@ -165,6 +166,8 @@ class OiController:
                 self.halt()
             elif command == ENTER_GOAL:
                 self.enter_goal()
+            elif command == TAIL_IN_POSITION:
+                self.tail_in_position()
 
         # post_process
         if self.rule or self.status_dirty:
@@ -277,6 +280,8 @@ class OiController:
                 self.halt()
             elif command == ENTER_GOAL:
                 self.enter_goal()
+            elif command == TAIL_IN_POSITION:
+                self.tail_in_position()
 
     def post_process(self) -> None:
         """Write what changed (the status, the subordinates' commands, the world out), each
@@ -342,6 +347,7 @@ class OiController:
         if (
             self.world_tail_request
             and not self.world_tail_in_position
+            and self.world_operator_delay >= 0
             and self.var_waited >= self.world_operator_delay
         ):
             # the operator reports the tail in position
@@ -373,5 +379,14 @@ class OiController:
             self.rule = 3  # ENTER_GOAL/S0/1
             self.world_operator_goal_x = self.arg_x
             self.world_operator_goal_y = self.arg_y
+            self.state = NOP
+            self.status = DONE
+
+    def tail_in_position(self) -> None:
+        """TAIL_IN_POSITION: The operator at the console reports the conveyor tail over the haulage."""
+        state = self.state
+        if state == S0:
+            self.rule = 4  # TAIL_IN_POSITION/S0/1
+            self.world_tail_in_position = True
             self.state = NOP
             self.status = DONE

@@ -14,7 +14,7 @@ import os
 from dataclasses import replace
 from pathlib import Path
 
-from . import acknowledge, expr, hooks, loader, model, naming
+from . import acknowledge, expr, hooks, loader, model, naming, operators
 from .diagnostics import Diagnostics, Span, SpecError, Subject, known_names_hint
 from .model import Command, ControllerSpec, Located, Rule, SystemSpec
 from .tables import (
@@ -52,6 +52,7 @@ def check_system(
     _check_stand_ins(system, by_name, diags)
     _check_world_writers(system, by_name, diags)
     world = {name: f.type for name, f in system.world.items()}
+    operators.check(system.operators, by_name, supervisors, world, diags)  # E245-E249
     contracts: dict[str, HookContracts] = {}
     _check_numbers(system, controllers, diags)
     acknowledge.check_allows(controllers, diags)  # E237-E239

@@ -104,7 +104,9 @@ def environment() -> jinja2.Environment:
         comment_text=_one_line,
         pyliteral=pyliteral,
         pytuple=pytuple,
+        pystr=lambda text: repr(_one_line(text)),
     )
+    env.globals["access_levels"] = contract.ACCESS_LEVELS
     return env
 
 

@@ -265,6 +265,19 @@ class IRProcess:
 
 
 @dataclass(frozen=True)
+class IRRequest:
+    """A request a module makes of the operator: open while `open_while` is true,
+    answered by sending `command` to `module`."""
+
+    name: str
+    doc: str
+    by: str
+    open_while: str
+    module: str
+    command: str
+
+
+@dataclass(frozen=True)
 class IRSystem:
     name: str
     title: str
@@ -277,6 +290,9 @@ class IRSystem:
     processes: tuple[IRProcess, ...]
     layout: Layout
     sources: tuple[str, ...]  # every spec file the system was built from
+    # role -> module -> index in ACCESS_LEVELS, above monitor; empty: no access control
+    access: dict[str, dict[str, int]] = field(default_factory=dict)
+    requests: tuple[IRRequest, ...] = ()  # what modules ask of the operator
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

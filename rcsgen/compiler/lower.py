@@ -23,7 +23,7 @@ from ..runtime.contract import (
     PROCESS_FIELDS,
     STATUS_FIELDS,
 )
-from . import expr, ir, naming
+from . import expr, ir, naming, operators
 from .model import ENTRY_STATE, Command, Typed, duration_in_cycles
 from .tables import (
     Action,
@@ -69,6 +69,13 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         processes=processes,
         layout=plan_layout(spec.name, (p.name for p in processes), controllers, world),
         sources=tuple(sorted({source, *(c.source for c in controllers)})),
+        access=operators.access(
+            spec.operators, [c.name for c in controllers if c.buffers == c.name]
+        ),
+        requests=tuple(
+            ir.IRRequest(r.name, r.doc, r.by.value, r.open_while.value, *r.answer.value.split("."))
+            for r in spec.operators.requests.values()
+        ),
     )
 
 

@@ -15,7 +15,7 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from ..runtime.contract import BUILTIN_COMMANDS
+from ..runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
 from .diagnostics import Span
 from .loader import key_span, span_of, value_span
 
@@ -51,6 +51,31 @@ class Process:
     cycle_period: float | None = None  # its own period, if not the system's
 
 
+@dataclass(frozen=True)
+class Role:
+    name: str
+    doc: str
+    span: Span
+    # level -> the modules it is granted on (Located names), or "all" (Located("all"))
+    grants: dict[str, list[Located]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Request:
+    name: str
+    doc: str
+    span: Span
+    by: Located
+    open_while: Located  # a bool world field
+    answer: Located  # MODULE.COMMAND
+
+
+@dataclass(frozen=True)
+class Operators:
+    roles: dict[str, Role] = field(default_factory=dict)
+    requests: dict[str, Request] = field(default_factory=dict)
+
+
 @dataclass
 class SystemSpec:
     name: str
@@ -65,6 +90,7 @@ class SystemSpec:
     directory: Path
     display: str  # the file's path as shown in diagnostics and headers
     span: Span
+    operators: Operators = field(default_factory=Operators)  # roles and requests
 
     @cached_property
     def world_types(self) -> dict[str, str]:
@@ -232,7 +258,40 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
         directory=directory,
         display=display,
         span=top,
+        operators=build_operators(data, top),
     )
+
+
+def build_operators(data: Any, top: Span) -> Operators:
+    """The operators model from a schema-valid system document (empty when not declared)."""
+    section = data.get("operators") or {}
+    roles: dict[str, Role] = {}
+    for name, spec in (section.get("roles") or {}).items():
+        span = key_span(section["roles"], name, top)
+        grants: dict[str, list[Located]] = {}
+        for level in ACCESS_LEVELS[1:]:  # monitor is every role's
+            if level not in spec:
+                continue
+            listed = spec[level]
+            if listed == "all":
+                grants[level] = [Located("all", value_span(spec, level, span))]
+            else:
+                grants[level] = [
+                    Located(m, value_span(listed, i, span)) for i, m in enumerate(listed)
+                ]
+        roles[name] = Role(name, spec.get("doc", ""), span, grants)
+    requests: dict[str, Request] = {}
+    for name, spec in (section.get("requests") or {}).items():
+        span = key_span(section["requests"], name, top)
+        requests[name] = Request(
+            name,
+            spec["doc"],
+            span,
+            Located(spec["by"], value_span(spec, "by", span)),
+            Located(spec["while"], value_span(spec, "while", span)),
+            Located(spec["answer"], value_span(spec, "answer", span)),
+        )
+    return Operators(roles, requests)
 
 
 def _typed(name: str, spec: Any, span: Span) -> Typed:

@@ -6,7 +6,9 @@ number, status and number, state, the last rule that fired, RUN/STOP SINGLE/AUTO
 cycle times and its process's heartbeat, coloured by status (done green, executing yellow,
 error red, a dead or silent process grey). Keys act on the selected module through the
 runtime's console (`rcsgen.runtime.ctl.Console`): it reads with consistent reads and writes
-only mode, pacing and command buffers, so it never blocks a controller. textual is an
+only mode, pacing and command buffers, so it never blocks a controller; the operator's role
+(`--role`) decides what the keys may do, and a refusal is shown, not a crash. What the
+modules ask of the operator is shown under the table; `a` answers it. textual is an
 optional extra (`pip install rcsgen[monitor]`), imported only here.
 """
 
@@ -66,6 +68,7 @@ class Monitor(App[None]):
     CSS = """
     DataTable { height: 1fr; }
     #processes { height: auto; color: $text-muted; }
+    #requests { height: auto; color: $warning; text-style: bold; }
     #message { height: auto; }
     #send { display: none; }
     #send.open { display: block; }
@@ -78,26 +81,33 @@ class Monitor(App[None]):
         Binding("plus,equals_sign", "slower", "slower"),
         Binding("minus", "faster", "faster"),
         Binding("c", "send", "send command"),
+        Binding("a", "answer", "answer request"),
         Binding("escape", "close_send", "close form", show=False),
         Binding("q", "quit", "quit"),
     ]
 
-    def __init__(self, layout: ModuleType, segment: str, interval: float = 0.25) -> None:
+    def __init__(
+        self, layout: ModuleType, segment: str, interval: float = 0.25, role: str | None = None
+    ) -> None:
         super().__init__()
         self.layout, self.segment, self.interval = layout, segment, interval
-        self.ctl = Console(layout, segment)  # BlockError: the caller reports it
+        self.ctl = Console(layout, segment, role)  # CtlError/BlockError: the caller reports it
+        self.open_requests: list[dict[str, Any]] = []
         self.rows = tree_order(layout)
         self.last_rule: dict[str, str] = {}
 
     def compose(self) -> ComposeResult:
         yield DataTable(id="modules", cursor_type="row", zebra_stripes=False)
         yield Static(id="processes")
+        yield Static(id="requests")
         yield Static(id="message")
         yield Input(id="send", placeholder="COMMAND name=value ... [--override]")
         yield Footer()
 
     def on_mount(self) -> None:
-        self.sub_title = f"{self.layout.SYSTEM} on {self.segment}"
+        role = self.ctl.access.role
+        who = f" as {role}" if role else (" (monitor only)" if self.ctl.access.roles else "")
+        self.sub_title = f"{self.layout.SYSTEM} on {self.segment}{who}"
         table = self.query_one(DataTable)
         for key, label in COLUMNS:
             table.add_column(label, key=key)
@@ -127,6 +137,9 @@ class Monitor(App[None]):
                 f"overruns, slow x{proc.get('slow', 1.0):g}"
             )
         self.query_one("#processes", Static).update("   ".join(lines))
+        self.open_requests = snapshot["requests"]
+        asks = [f"{r['by']} asks: {r['doc']} (a: answer {r['name']})" for r in self.open_requests]
+        self.query_one("#requests", Static).update("\n".join(asks))
 
     def cells(self, module: str, prefix: str, row: dict[str, Any]) -> dict[str, Text]:
         rule = row.get("rule")
@@ -216,6 +229,26 @@ class Monitor(App[None]):
         form.value = ""
         form.focus()
         self.sending = module
+
+    def action_answer(self) -> None:
+        """Answer the selected module's request, else the first one open."""
+        if not self.open_requests:
+            self.say("no module is asking anything", error=True)
+            return
+        module = self.selected()
+        request = next((r for r in self.open_requests if r["by"] == module), None)
+        name = (request or self.open_requests[0])["name"]
+
+        def answer() -> None:
+            sent, number = self.ctl.answer(name)
+            self.say(f"answered {name}: sent {sent} #{number}")
+
+        try:
+            answer()
+        except CtlError as error:
+            self.say(str(error), error=True)
+            return
+        self.refresh_rows()
 
     def action_close_send(self) -> None:
         form = self.query_one("#send", Input)

@@ -27,6 +27,9 @@ NO_COMMAND = 0
 NO_COMMAND_NAME = "NONE"
 # Every module accepts these first, with codes 1 and 2; declared commands follow.
 BUILTIN_COMMANDS = ("INIT", "HALT")
+# What an operator role may do to a module, least to most (the second paper's Figure 29);
+# each includes the ones before it, and every role may monitor every module.
+ACCESS_LEVELS = ("monitor", "respond", "command", "override")
 
 # Buffers every module has, in the same shape: (field, struct code). A command buffer is
 # its head followed by one `arg_<name>` field per parameter of the module's commands.

@@ -19,6 +19,7 @@ import argparse
 import difflib
 import importlib
 import json
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -28,7 +29,14 @@ from types import ModuleType
 from typing import Any, NoReturn
 
 from .block import Block, BlockError
-from .contract import FINISHED, PROCESS_STATES, RUNNING, STATUS_NAMES, StaleRead
+from .contract import (
+    ACCESS_LEVELS,
+    FINISHED,
+    PROCESS_STATES,
+    RUNNING,
+    STATUS_NAMES,
+    StaleRead,
+)
 
 USAGE, FAILED = 2, 1
 POLL = 0.005  # seconds between two reads while waiting for the system
@@ -106,15 +114,65 @@ def _shown(value: object) -> str:
     return str(value).lower() if isinstance(value, bool) else str(value)
 
 
+# ---------------------------------------------------------------- access levels
+
+
+class Access:
+    """What the operator's role may do, module by module (the layout's ROLES, from the
+    system file's `operators.roles`). A system that declares no roles restricts nothing;
+    one that does lets an operator without a role only monitor."""
+
+    def __init__(self, layout: ModuleType, role: str | None) -> None:
+        self.roles: dict[str, dict[str, int]] = getattr(layout, "ROLES", {})
+        self.system = layout.SYSTEM
+        if role is not None and not self.roles:
+            raise usage(f"{self.system} declares no operator roles; leave out --role")
+        if role is not None and role not in self.roles:
+            raise usage(suggest(role, list(self.roles), "role"))
+        self.role = role
+
+    def level(self, module: str) -> int:
+        """The role's level on `module`, an index in ACCESS_LEVELS."""
+        if not self.roles:
+            return len(ACCESS_LEVELS) - 1
+        if self.role is None:
+            return 0
+        return self.roles[self.role].get(module, 0)
+
+    def require(self, level: str, module: str, what: str) -> None:
+        """Refuse (exit 1) unless the role has `level` on `module`."""
+        needed = ACCESS_LEVELS.index(level)
+        if self.level(module) >= needed:
+            return
+        able = [r for r, levels in self.roles.items() if levels.get(module, 0) >= needed]
+        who = f"roles that may: {', '.join(able)}" if able else "no role may"
+        if self.role is None:
+            has = f"no --role was given, so this console only monitors ({who})"
+        else:
+            has = f"role {self.role} may only {ACCESS_LEVELS[self.level(module)]} {module} ({who})"
+        raise CtlError(f"refused: {what} needs {level} on {module}; {has}")
+
+    def matrix(self, modules: Sequence[str]) -> list[str]:
+        """The access matrix as text: a row per module, a column per role."""
+        roles = list(self.roles)
+        width = max([6, *(len(r) for r in roles)]) + 2
+        lines = ["module".ljust(8) + "".join(r.ljust(width) for r in roles)]
+        for module in modules:
+            cells = [ACCESS_LEVELS[self.roles[r].get(module, 0)].ljust(width) for r in roles]
+            lines.append((module.ljust(8) + "".join(cells)).rstrip())
+        return lines
+
+
 # ---------------------------------------------------------------- the console
 
 
 class Console:
     """A running system's segment, read and written as an operator does."""
 
-    def __init__(self, layout: ModuleType, segment: str) -> None:
+    def __init__(self, layout: ModuleType, segment: str, role: str | None = None) -> None:
         self.layout = layout
         self.segment = segment
+        self.access = Access(layout, role)  # before attaching: a bad role is a usage error
         self.block = Block(layout, segment, create=False)
         self.buf = self.block.buf
         self.supervisor = {
@@ -220,18 +278,56 @@ class Console:
             "system": self.layout.SYSTEM,
             "segment": self.segment,
             "layout_hash": self.layout.LAYOUT_HASH,
+            "role": self.access.role,
             "processes": processes,
             "modules": self.modules(processes),
+            "requests": self.requests(),
         }
+
+    # ------------------------------------------------------------ requests
+
+    def requests(self) -> list[dict[str, Any]]:
+        """The requests modules are making of the operator now (their world field is true)."""
+        found = []
+        for name, request in getattr(self.layout, "REQUESTS", {}).items():
+            value = self.read(self.layout.WORLD[request["while"]]).get(request["while"])
+            if value:
+                module, command = request["answer"]
+                found.append(
+                    {
+                        "name": name,
+                        "by": request["by"],
+                        "doc": request["doc"],
+                        "answer": f"{module}.{command}",
+                    }
+                )
+        return found
+
+    def answer(self, name: str) -> tuple[Command, int]:
+        """Answer request `name` (the role must respond to its module): send its answer
+        command; the command sent and its number."""
+        requests = getattr(self.layout, "REQUESTS", {})
+        if name not in requests:
+            raise usage(suggest(name, list(requests), "request"))
+        request = requests[name]
+        self.access.require("respond", request["by"], f"answering {name}")
+        if not any(r["name"] == name for r in self.requests()):
+            raise CtlError(f"{request['by']} is not asking for {name} now; nothing to answer")
+        module, command = request["answer"]
+        sent = Command(module, command, {})
+        return sent, self._write(sent)
 
     # ------------------------------------------------------------ modes
 
     def set_mode(self, module: str, **mode: object) -> None:
-        self.layout.MODE_IN[self.module(module)].write(self.buf, **mode)
+        """Write `module`'s mode buffer: manual override, so the role must override it."""
+        self.access.require("override", self.module(module), f"changing {module}'s mode")
+        self.layout.MODE_IN[module].write(self.buf, **mode)
 
     def step(self, module: str, count: int = 1, timeout: float = 10.0) -> int:
         """Single-step `module` `count` cycles, each one seen run; the cycles it stepped."""
-        record, perf = self.layout.MODE_IN[self.module(module)], self.layout.PERFORMANCE[module]
+        self.access.require("override", self.module(module), f"stepping {module}")
+        record, perf = self.layout.MODE_IN[module], self.layout.PERFORMANCE[module]
         for done in range(count):
             number = int(self.read(record).get("single_step_num", 0)) + 1
             record.write(self.buf, dont_run=False, single_step=True, single_step_num=number)
@@ -257,6 +353,9 @@ class Console:
         for name in names:
             if name not in pacing:
                 raise usage(suggest(name, list(pacing), "process"))
+        for module in self.layout.MODULES:  # a slower process slows every module in it
+            if self.layout.PLACEMENT.get(module) in names:
+                self.access.require("override", module, "slowing the system down")
         for name in names:
             pacing[name].write(self.buf, slow=factor)
         return names
@@ -268,17 +367,26 @@ class Console:
         number and what the operator should know (a supervisor put in manual override)."""
         notes = []
         boss = self.supervisor.get(command.module)
-        if boss is not None:
+        if boss is None:
+            self.access.require("command", command.module, f"commanding {command.module}")
+        else:
             if not override:
                 raise CtlError(
                     f"{command.module} is commanded by {boss}: its next command would replace "
                     f"yours; use --override to put {boss} in manual override (STOP) first"
                 )
+            what = f"commanding {command.module} out of {boss}'s turn"
+            self.access.require("override", command.module, what)
+            self.access.require("override", boss, what)
             self.set_mode(boss, dont_run=True)
             notes.append(
                 f"{boss} is in manual override (STOP): it sends nothing until "
                 f"`ctl run {boss}`, whose next command to {command.module} replaces this one"
             )
+        return self._write(command), notes
+
+    def _write(self, command: Command) -> int:
+        """Write `command` to its module's buffer, numbered after the last one; the number."""
         record = self.layout.COMMAND_IN[command.module]
         current = self.read(record)
         if not current:
@@ -287,7 +395,7 @@ class Console:
         code = self.layout.COMMAND_NAMES[command.module].index(command.command)
         args = {f"arg_{k}": v for k, v in command.args.items()}
         record.write(self.buf, command_num=number, command=code, **args)
-        return number, notes
+        return number
 
     def seen(self, module: str, number: int) -> bool:
         """Whether `module` has echoed command `number` (its status number caught up)."""
@@ -321,7 +429,7 @@ def _until(condition: Callable[[], object], timeout: float | None) -> bool:
 
 COLUMNS = (
     ("module", 6),
-    ("command", 14),
+    ("command", 17),
     ("#", 4),
     ("status", 9),
     ("#", 4),
@@ -367,6 +475,8 @@ def render(snapshot: dict[str, Any]) -> list[str]:
             f"overruns, {proc['late_wakeups']} late wake-ups, {proc['watchdog_trips']} "
             f"watchdog trips, slow x{proc['slow']:g}"
         )
+    for request in snapshot.get("requests", ()):
+        lines.append(f"request {request['name']} from {request['by']}: {request['doc']}")
     return lines
 
 
@@ -387,6 +497,12 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
         description=f"Operate a running {layout.SYSTEM} system through its segment.",
     )
     top.add_argument("--shm", default=default, help=f"the segment [default: {default}]")
+    role = os.environ.get("RCS_ROLE") or None
+    top.add_argument(
+        "--role",
+        default=role,
+        help=f"the operator role whose access levels apply [default: $RCS_ROLE: {role}]",
+    )
     verbs = top.add_subparsers(dest="verb", required=True, parser_class=_Parser)
     status = verbs.add_parser("status", help="every module's debug-screen line")
     status.add_argument("--watch", action="store_true", help="refresh until Ctrl-C")
@@ -414,6 +530,13 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
     send.add_argument(
         "--seen", action="store_true", help="wait until the module echoes it, print the latency"
     )
+    requests = verbs.add_parser("requests", help="what the modules are asking the operator")
+    requests.add_argument("--format", choices=("text", "json"), default="text")
+    answer = verbs.add_parser("answer", help="answer REQUEST: send its answer command")
+    answer.add_argument("request")
+    verbs.add_parser("roles", help="the access matrix: what each role may do to each module")
+    for sub in verbs.choices.values():  # `ctl send ... --role crew` reads as well
+        sub.add_argument("--role", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
     wait = verbs.add_parser("wait", help="wait until MODULE reports DONE or ERROR")
     wait.add_argument("module")
     wait.add_argument("outcome", choices=FINISHED)
@@ -443,12 +566,22 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
             raise usage(str(error)) from None
     elif hasattr(args, "module") and args.module not in layout.COMMAND_IN:
         raise usage(suggest(args.module, layout.MODULES, "module"))
+    requests = getattr(layout, "REQUESTS", {})
+    if args.verb == "answer" and args.request not in requests:
+        raise usage(suggest(args.request, list(requests), "request"))
     if args.verb == "step" and args.count < 1:
         raise usage("step: N must be 1 or more")
     if args.verb == "slow" and args.factor < 1.0:
         raise usage("slow: FACTOR must be 1 (normal speed) or more")
+    if args.verb == "roles":  # from the layout alone: no running system needed
+        access = Access(layout, args.role)
+        if not access.roles:
+            print(f"{layout.SYSTEM} declares no operator roles: every operator may do everything")
+        else:
+            print("\n".join(access.matrix(layout.MODULES)))
+        return 0
     try:
-        console = Console(layout, args.shm)
+        console = Console(layout, args.shm, args.role)
     except BlockError as error:
         raise CtlError(str(error)) from None
     try:
@@ -502,6 +635,17 @@ def _verb(console: Console, args: argparse.Namespace, command: Command | None) -
                 raise CtlError(f"{command.module} did not echo #{number} within 10 s")
             took = (time.perf_counter() - began) * 1000
             print(f"{command.module} saw #{number} after {took:.1f} ms")
+    elif verb == "requests":
+        found = console.requests()
+        if args.format == "json":
+            print(json.dumps(found, indent=2))
+        elif not found:
+            print("no requests")
+        for request in [] if args.format == "json" else found:
+            print(f"{request['name']} from {request['by']}: {request['doc']}")
+    elif verb == "answer":
+        sent, number = console.answer(args.request)
+        print(f"answered {args.request}: sent {sent} #{number}")
     elif verb == "wait":
         module = args.module
         if not _until(lambda: console.outcome(module) is not None, args.timeout):

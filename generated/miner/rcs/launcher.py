@@ -23,14 +23,14 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Self
 
 from .block import Block, BlockError
 from .contract import DEAD, PROCESS_STATES, STOPPED, StaleRead
-from .ctl import parse_command
+from .ctl import parse_command, suggest, typed
 from .loop import (
     DONE_REPLY,
     READY,
@@ -172,12 +172,14 @@ class Launcher:
         simulate: Sequence[str] = (),
         restart: bool = False,
         python: str = sys.executable,
+        world: Mapping[str, object] | None = None,
     ) -> None:
         self.system = system
         self.segment = segment or system.default_segment
         self.lockstep, self.pace, self.cycles = lockstep, pace, cycles
         self.settings, self.simulate = list(settings), list(simulate)
         self.restart, self.python = restart, python
+        self.world = dict(world or {})  # world fields to start from, over their initial values
         self.block: Block | None = None
         self.children: dict[str, Child] = {}
         self.events: list[str] = []  # what happened, for the summary
@@ -188,6 +190,8 @@ class Launcher:
     def start(self) -> None:
         """Create the segment (refusing one that exists) and start every process."""
         self.block = Block(self.system.layout, self.segment, create=True)
+        for name, value in self.world.items():
+            self.system.layout.WORLD[name].write(self.block.buf, **{name: value})
         try:
             for name in self.system.plans:
                 self.children[name] = Child(name, self._spawn(name, attach=True))
@@ -378,7 +382,16 @@ def main(package: str, argv: list[str] | None = None) -> int:
         from .ctl import main as ctl
 
         return ctl(package, argv[1:])
-    system = System.load(package)
+    try:
+        system = System.load(package)
+    except ImportError as error:  # most often: the hook modules are not on the path
+        missing = f"module {error.name!r}" if error.name else str(error)
+        print(
+            f"{package}: cannot import {missing}; put the directory that holds the system's "
+            "hook modules (the spec directory) on PYTHONPATH",
+            file=sys.stderr,
+        )
+        return 1
     parser = argparse.ArgumentParser(
         prog=f"python -m {package}",
         description=f"Run the {system.layout.SYSTEM} system: every process (the default), "
@@ -427,6 +440,13 @@ def main(package: str, argv: list[str] | None = None) -> int:
         metavar="MODULE",
         help="run this controller's stand-in in its place (repeatable)",
     )
+    parser.add_argument(
+        "--world",
+        action="append",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="start with this world field's value instead of its initial one (repeatable)",
+    )
     args = parser.parse_args(argv)
     if args.cycles is not None and args.cycles < 0:
         parser.error("--cycles must be 0 or more")
@@ -447,10 +467,33 @@ def main(package: str, argv: list[str] | None = None) -> int:
             parser.error(str(error))
         if args.process is not None or args.lockstep:
             parser.error("--send goes with a launch of every process, not PROCESS or --lockstep")
+    try:
+        args.world = parse_world(system.layout, args.world)
+    except ValueError as error:
+        parser.error(str(error))
+    if args.world and (args.process is not None or args.attach):
+        parser.error("--world goes with a launch of every process, which makes the segment")
     if args.process is not None:
         args.shm = args.shm or system.default_segment
         return run_process(system, args)
     return launch(system, args)
+
+
+def parse_world(layout: ModuleType, items: Sequence[str]) -> dict[str, object]:
+    """`FIELD=VALUE` items, each checked against the layout's world fields and typed."""
+    values: dict[str, object] = {}
+    for item in items:
+        name, equals, raw = item.partition("=")
+        if not equals:
+            raise ValueError(f"--world: {item!r} is not FIELD=VALUE")
+        if name not in layout.WORLD:
+            raise ValueError("--world: " + suggest(name, list(layout.WORLD), "world field"))
+        record = layout.WORLD[name]
+        try:
+            values[name] = typed(raw, str(record.struct.format).lstrip("<")[-1], name)
+        except ValueError as error:
+            raise ValueError(f"--world: {error}") from None
+    return values
 
 
 @dataclass(frozen=True)
@@ -511,6 +554,7 @@ def launch(system: System, args: argparse.Namespace) -> int:
         settings=args.set,
         simulate=args.simulate,
         restart=args.restart,
+        world=args.world,
     )
     try:
         launcher.start()
