@@ -327,8 +327,14 @@ def test_the_miner_walk_through_from_the_readme() -> None:
         assert system.ctl("run", "co", "--role", "engineer").returncode == 0
         assert system.ctl("simulate", "cr", "on", "--role", "engineer").returncode == 0
         wait_for(lambda: system.module("cr")["runs"] == "cr_sim", "cr's stand-in")
+        skipped = {n: r.get("skipped_by") for n, r in system.json()["modules"].items()}
+        assert [n for n, by in skipped.items() if by] == ["gh", "cv", "ct"]
+        assert set(skipped.values()) == {None, "cr"}
+        gh = next(line for line in system.ctl("status").stdout.splitlines() if line[:3] == "gh ")
+        assert "skipped: cr SIMU" in gh
         assert system.ctl("simulate", "cr", "off", "--role", "engineer").returncode == 0
         wait_for(lambda: system.module("cr")["runs"] == "cr", "cr again")
+        assert not system.module("gh").get("skipped_by")
         assert system.module("sb")["command"] == "BOX_CUT"
         # ct asks for the conveyor tail; nobody but the console answers it
         wait_for(lambda: system.json().get("requests"), "the tail request", 60)

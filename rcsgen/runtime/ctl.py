@@ -269,7 +269,22 @@ class Console:
             row["alive"] = bool(proc.get("alive"))
             row["supervisor"] = self.supervisor.get(name)
             rows[name] = row
+        for name, row in list(rows.items()):
+            if row["runs"] != name:  # its stand-in runs in place of its subtree in its process
+                for sub in self._subtree(name):
+                    if layout.PLACEMENT.get(sub) == row["process"]:
+                        rows[sub]["runs"] = None
+                        rows[sub]["skipped_by"] = name
         return rows
+
+    def _subtree(self, name: str) -> list[str]:
+        found, todo = [], list(self.layout.SUBORDINATES.get(name, ()))
+        while todo:
+            sub = todo.pop(0)
+            if sub in self.layout.COMMAND_IN and sub not in found:
+                found.append(sub)
+                todo += self.layout.SUBORDINATES.get(sub, ())
+        return found
 
     def snapshot(self) -> dict[str, Any]:
         processes = self.processes()
@@ -446,6 +461,8 @@ def render(snapshot: dict[str, Any]) -> list[str]:
     lines.append("  ".join(title.ljust(width) for title, width in COLUMNS).rstrip())
     for name, row in snapshot["modules"].items():
         mode = f"{row.get('run', '?')} {row.get('step', '?')} {row.get('sim', '?')}"
+        if row.get("skipped_by"):
+            mode = f"skipped: {row['skipped_by']} SIMU"
         times = "/".join(str(row.get(f"{k}_cycle_us", "?")) for k in ("last", "min", "max"))
         age = row.get("heartbeat_age_s")
         beat = "dead" if not row.get("alive") else f"{age:.2f}s"

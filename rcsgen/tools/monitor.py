@@ -145,7 +145,7 @@ class Monitor(App[None]):
         rule = row.get("rule")
         if rule:
             self.last_rule[module] = rule
-        if not row.get("alive"):
+        if not row.get("alive") or row.get("skipped_by"):
             style = "grey50"
         else:
             style = COLOURS.get(str(row.get("status")), "")
@@ -159,7 +159,9 @@ class Monitor(App[None]):
             "snum": str(row.get("status_num", "?")),
             "state": str(row.get("state", "?")),
             "rule": self.last_rule.get(module, "-"),
-            "mode": f"{row.get('run', '?')} {row.get('step', '?')} {row.get('sim', '?')}",
+            "mode": f"skipped: {row['skipped_by']} SIMU"
+            if row.get("skipped_by")
+            else f"{row.get('run', '?')} {row.get('step', '?')} {row.get('sim', '?')}",
             "cycle": times,
             "beat": "dead" if not row.get("alive") else f"{age:.2f}s",
         }
