@@ -200,6 +200,21 @@ def test_slow_stretches_the_period_of_every_process(running: Running) -> None:
     assert running.ctl("slow", "1", "--process", "p1").stdout.strip() == "slow x1: p1"
 
 
+def test_a_slowed_process_is_not_taken_for_lost(running: Running) -> None:
+    """Slowed 30 times, a duo cycle (0.6 s) outlasts the heartbeat timeout (0.3 s): the
+    timeout stretches with the slow-down, so top keeps holding the arm instead of going to
+    its safe state, and the console still shows both processes alive."""
+    assert running.ctl("send", "top", "RUN", "--seen").returncode == 0
+    wait_for(lambda: running.module("arm")["status"] == "EXECUTING", "the arm held")
+    assert running.ctl("slow", "30").returncode == 0
+    time.sleep(2.0)  # more than three slowed cycles
+    snapshot = running.json()
+    top = snapshot["modules"]["top"]  # type: ignore[index]
+    assert (top["status"], top["error_num"]) == ("EXECUTING", 0), top
+    assert all(p["alive"] for p in snapshot["processes"].values()), snapshot["processes"]  # type: ignore[attr-defined]
+    assert running.ctl("slow", "1").returncode == 0
+
+
 @pytest.mark.parametrize(
     ("args", "code", "message"),
     [

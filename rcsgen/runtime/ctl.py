@@ -212,8 +212,10 @@ class Console:
             beat = int(values["beat_ns"])
             age = (now - beat) / 1e9 if beat else None
             state = int(values["state"])
-            alive = state == RUNNING and age is not None and age <= self.layout.HEARTBEAT_TIMEOUT
             pace = self.read(pacing[name]) if name in pacing else {}
+            slow = max(1.0, float(pace.get("slow", 0.0)))  # a slowed process beats less often
+            timeout = self.layout.HEARTBEAT_TIMEOUT * slow
+            alive = state == RUNNING and age is not None and age <= timeout
             found[name] = {
                 "state": _name(PROCESS_STATES, state),
                 "alive": alive,
@@ -224,7 +226,7 @@ class Console:
                 "late_wakeups": values["late_wakeups"],
                 "watchdog_trips": values["watchdog_trips"],
                 "load_warnings": values["load_warnings"],
-                "slow": max(1.0, float(pace.get("slow", 0.0))),
+                "slow": slow,
             }
         return found
 

@@ -250,17 +250,21 @@ class Process:
         return watched
 
     def check_liveness(self, timeout_ns: int, now_ns: int, watched: dict[str, list[str]]) -> None:
-        """Report a watched process lost when its heartbeat is older than `timeout_ns` (or it
-        is marked dead), putting the supervisors of its modules in their safe state; a
-        process that beats again is no longer lost."""
+        """Report a watched process lost when its heartbeat is older than `timeout_ns`
+        stretched by its slow-down (or it is marked dead), putting the supervisors of its
+        modules in their safe state; a process that beats again is no longer lost."""
         buf = self.block.buf
+        pacing = getattr(self.layout, "PACING", {})
         for name, supervisors in watched.items():
             record = self.layout.PROCESSES[name]
             _, _, state, _, _, beat_ns = _BEAT.unpack_from(buf, record.offset)
             if state in (STOPPED, DEAD):
                 silent = True
             else:  # not started yet (no beat): not lost
-                silent = beat_ns > 0 and now_ns - beat_ns > timeout_ns
+                slow = 1.0
+                if name in pacing:  # one float, written whole: read without the seqlock
+                    slow = max(1.0, PACE.unpack_from(buf, pacing[name].offset)[1])
+                silent = beat_ns > 0 and now_ns - beat_ns > timeout_ns * slow
             if silent and name not in self.lost:
                 self.lost.add(name)
                 for supervisor in supervisors:
