@@ -141,6 +141,18 @@ def test_send_to_a_root_then_wait_for_done(running: Running) -> None:
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "top DONE MOVE #2"
     assert running.ctl("wait", "top", "ERROR", "--timeout", "5").returncode == 1
+    # by number: #2 is done; #3 is not given yet; once #3 is, #2 is no longer known
+    assert running.ctl("wait", "top", "DONE", "--number", "2").returncode == 0
+    early = running.ctl("wait", "top", "DONE", "--number", "3", "--timeout", "0.3")
+    assert early.returncode == 1 and "did not finish within 0.3 s" in early.stderr
+    assert running.ctl("send", "top", "MOVE", "--seen").returncode == 0
+    assert running.ctl("wait", "top", "DONE", "--number", "3", "--timeout", "20").returncode == 0
+    gone = running.ctl("wait", "top", "DONE", "--number", "2")
+    assert (gone.returncode, gone.stderr) == (
+        1,
+        "ctl: error: top's command #2 was replaced by #3: its outcome is no longer in the "
+        "status buffer\n",
+    )
 
 
 def test_a_command_to_a_module_with_a_supervisor_needs_override(running: Running) -> None:

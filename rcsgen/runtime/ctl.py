@@ -417,11 +417,21 @@ class Console:
         """Whether `module` has echoed command `number` (its status number caught up)."""
         return int(self.read(self.layout.STATUS_OUT[module]).get("status_num", -1)) >= number
 
-    def outcome(self, module: str) -> str | None:
-        """DONE or ERROR once `module` reported on the command in its buffer; else None."""
+    def outcome(self, module: str, number: int | None = None) -> str | None:
+        """DONE or ERROR once `module` reported on the command in its buffer (or command
+        `number`); else None. CtlError when `number` was replaced before it finished."""
         command = self.read(self.layout.COMMAND_IN[module])
         status = self.read(self.layout.STATUS_OUT[module])
-        if not command or not status or status["status_num"] != command["command_num"]:
+        if not command or not status:
+            return None
+        if number is not None and int(command["command_num"]) > number:
+            raise CtlError(
+                f"{module}'s command #{number} was replaced by #{command['command_num']}: "
+                "its outcome is no longer in the status buffer"
+            )
+        if number is not None and int(command["command_num"]) < number:
+            return None  # not given yet
+        if status["status_num"] != command["command_num"]:
             return None
         name = _name(STATUS_NAMES, int(status["status"]))
         return name if name in FINISHED else None
@@ -559,6 +569,12 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
     wait.add_argument("module")
     wait.add_argument("outcome", choices=FINISHED)
     wait.add_argument("--timeout", type=float, default=None)
+    wait.add_argument(
+        "--number",
+        type=int,
+        default=None,
+        help="the outcome of this command number (as `send` printed it), not the latest",
+    )
     return top
 
 
@@ -665,10 +681,10 @@ def _verb(console: Console, args: argparse.Namespace, command: Command | None) -
         sent, number = console.answer(args.request)
         print(f"answered {args.request}: sent {sent} #{number}")
     elif verb == "wait":
-        module = args.module
-        if not _until(lambda: console.outcome(module) is not None, args.timeout):
+        module, number = args.module, args.number
+        if not _until(lambda: console.outcome(module, number) is not None, args.timeout):
             raise CtlError(f"{module} did not finish within {args.timeout:g} s")
-        outcome = console.outcome(module)
+        outcome = console.outcome(module, number)
         row = console.modules()[module]
         print(f"{module} {outcome} {row.get('command')} #{row.get('command_num')}")
         return 0 if outcome == args.outcome else FAILED
