@@ -21,7 +21,7 @@ import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn, TextIO
+from typing import TYPE_CHECKING, Any, NoReturn, TextIO
 
 import click
 from click.shell_completion import CompletionItem
@@ -846,6 +846,60 @@ def doc_command(paths: tuple[Path, ...], output: Path, check: bool) -> None:
 
 
 # ---------------------------------------------------------------- traces
+
+
+@main.group("new")
+def new_group() -> None:
+    """Start a system or a controller from the QQ1 template: files that validate cleanly."""
+
+
+def _scaffolded(action: Callable[[], Any]) -> None:
+    from .tools.scaffold import ScaffoldError
+
+    try:
+        written = action()
+    except ScaffoldError as error:
+        for diagnostic in error.diagnostics:
+            click.echo(diagnostic.render(), err=True)
+        fail(str(error), error.code)
+    for path in written.created:
+        click.echo(f"created {path}")
+    for path in written.edited:
+        click.echo(f"edited  {path}")
+
+
+@new_group.command("system")
+@click.argument("name")
+@click.option(
+    "--specs",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("specs"),
+    show_default=True,
+    help="Where the system's directory goes.",
+)
+@click.option("--root", default="top", show_default=True, help="The root controller's mnemonic.")
+@click.option("--period", type=float, default=0.1, show_default=True, help="Cycle period, seconds.")
+@click.option("--title", default="", help="One-line human name [default: the name].")
+def new_system(name: str, specs: Path, root: str, period: float, title: str) -> None:
+    """SPECS/NAME/: system.yaml, the root controller and a first scenario."""
+    from .tools.scaffold import new_system as scaffold
+
+    _scaffolded(lambda: scaffold(specs, name, root, period, title))
+    click.echo(f"next: rcsgen validate {specs / name} && rcsgen build {specs}")
+
+
+@new_group.command("controller")
+@click.argument("system_dir", type=click.Path(path_type=Path, file_okay=False))
+@click.argument("name")
+@click.option("--supervisor", default=None, help="The controller that commands it.")
+@click.option("--process", default=None, help="The process it runs in [default: its supervisor's].")
+def new_controller(
+    system_dir: Path, name: str, supervisor: str | None, process: str | None
+) -> None:
+    """SYSTEM_DIR/NAME.yaml, added to its supervisor's subordinates and to a process."""
+    from .tools.scaffold import new_controller as scaffold
+
+    _scaffolded(lambda: scaffold(system_dir, name, supervisor, process))
 
 
 @main.group("trace")
