@@ -318,19 +318,21 @@ def miner_layout() -> ModuleType:
     )
 
 
+def running_miner(*options: str) -> Running:
+    """The committed miner package launched paced, with the operator at the console (the
+    scripted operator never answers the conveyor-tail request)."""
+    miner = REPO / "generated" / "miner"
+    return Running(
+        miner, REPO / "specs" / "miner", miner_layout(), "--world", "operator_delay=-1", *options
+    )
+
+
 def test_the_miner_walk_through_from_the_readme() -> None:
     """Start the miner with the operator at the console (`--world operator_delay=-1`), send
     sb BOX_CUT depth=1.5 as the crew, single-step co five cycles, switch cr to simulation and
     back as the engineer, answer the conveyor-tail request as the crew, stop it: every step a
     command line, the system paced, each role refused what it may not do."""
-    layout = miner_layout()
-    system = Running(
-        REPO / "generated" / "miner",
-        REPO / "specs" / "miner",
-        layout,
-        "--world",
-        "operator_delay=-1",
-    )
+    system = running_miner()
     try:
         refused = system.ctl("send", "sb", "BOX_CUT", "depth=1.5")  # no role: monitor only
         assert refused.returncode == 1 and refused.stdout == ""

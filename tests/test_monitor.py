@@ -133,18 +133,10 @@ def test_the_role_limits_the_keys_and_requests_are_answered_on_screen() -> None:
     """The miner with its operator at the console, watched as the crew: a key the crew may
     not use is refused on screen and changes nothing; ct's conveyor-tail request appears
     under the table, and `a` answers it."""
-    from test_ctl import REPO, miner_layout
+    from test_ctl import running_miner
 
-    layout = miner_layout()
-    system = Running(
-        REPO / "generated" / "miner",
-        REPO / "specs" / "miner",
-        layout,
-        "--world",
-        "operator_delay=-1",
-        "--send",
-        "sb.BOX_CUT:depth=1.5",
-    )
+    system = running_miner("--send", "sb.BOX_CUT:depth=1.5")
+    layout = system.layout
 
     async def drive() -> tuple[str, str]:
         app = Monitor(layout, system.segment, interval=0.1, role="crew")
