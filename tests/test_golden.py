@@ -26,10 +26,13 @@ from rcsgen.tools.scenario import (
 ROOT = Path(__file__).resolve().parent.parent
 MINER = ROOT / "specs" / "miner"
 GOLDEN = ROOT / "tests" / "golden"
-SCENARIOS = sorted((MINER / "scenarios").glob("*.yaml"))
+# Every system's scenarios; golden files are named by scenario, so names are unique across systems.
+SCENARIOS = sorted((ROOT / "specs").glob("*/scenarios/*.yaml"), key=lambda p: p.stem)
 
 
-def run_scenario(path: Path, package: Path = ROOT / "generated" / "miner", processes: bool = False):
+def run_scenario(path: Path, package: Path | None = None, processes: bool = False):
+    """Run a scenario on `package`, by default the committed package of its system."""
+    package = package or ROOT / "generated" / path.parent.parent.name
     scenario = load_scenario(path)
     harness = open_harness(scenario, package, processes)
     try:
@@ -58,8 +61,9 @@ def first_byte_difference(expected: bytes, actual: bytes) -> str | None:
 @pytest.mark.parametrize("processes", [False, True], ids=["one-process", "processes"])
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_scenario_matches_its_golden_trace(path, processes, tmp_path):
-    """In one process, and as the spec's processes (two OS processes in lockstep: the path
-    planner on its own, Figure 7), every scenario leaves its golden trace, byte for byte."""
+    """In one process, and as the spec's processes (the miner's are two OS processes in
+    lockstep: the path planner on its own, Figure 7), every scenario leaves its golden
+    trace, byte for byte."""
     golden = GOLDEN / f"{path.stem}.jsonl"
     result = run_scenario(path, processes=processes)
     written = tmp_path / golden.name
