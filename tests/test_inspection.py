@@ -216,6 +216,22 @@ def test_an_operator_who_refuses_stops_the_workstation_with_that_reason():
     assert not end["tl_asking"] and not end["tl_load_request"]
 
 
+def test_the_inspector_answers_then_refuses_at_the_console():
+    """console_refusal sends what `ctl answer` sends: the plate is mounted, the sphere
+    calibration refused; initForInspect fails in calibrateCMM and goes no further."""
+    final, lines = played("console_refusal")
+    assert final["status"] == "ERROR"
+    assert names(commands_sent(lines, "op"))[1:] == ["FX_DONE", "TL_REFUSE"]
+    assert first(lines, "fx", "EQUIP_SETUP", "DONE") < first(
+        lines, "tl", "CALIBRATE_SPHERE", "ERROR"
+    )
+    assert names(commands_sent(lines, "ms"))[-1] == "CALIBRATE_CMM", "no camera calibration"
+    assert first(lines, "ws", "INIT_FOR_INSPECT", "ERROR")
+    end = lines[-1]["world"]
+    assert (end["ws_reason"], end["ms_reason"], end["tl_reason"]) == (REFUSED,) * 3
+    assert not any(end[f] for f in ("tl_asking", "tl_sphere_request", "tl_refused"))
+
+
 def test_a_machine_fault_climbs_one_level_per_cycle():
     final, lines = played("machine_fault")
     assert final["status"] == "ERROR"
