@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 import yaml
 from conftest import edit, rcsgen
+from workarounds import count, table
 
 from rcsgen.tools.harness import import_package
 from rcsgen.tools.scenario import Scenario, load_scenario, open_harness, run
@@ -349,3 +350,40 @@ def test_the_inspector_answers_and_refuses_at_the_console():
     finally:
         out = system.stop()
     assert "iws: stopped" in out
+
+
+def test_docs_report_the_current_workaround_count():
+    """docs/inspection.md's table of `# workaround(kind)` lines is what the specs hold now."""
+    doc = (ROOT / "docs" / "inspection.md").read_text(encoding="utf-8")
+    result = count(SYSTEM)
+    assert set(result.markers) == {"time", "result", "expr", "reuse", "operator"}
+    assert table(result) in doc, (
+        "docs/inspection.md's workaround table is stale: update it from\n"
+        "  python tests/workarounds.py specs/inspection"
+    )
+
+
+def test_the_workaround_count_follows_its_rule(tmp_path):
+    (tmp_path / "a.yaml").write_text(
+        "constants:\n"
+        "  # workaround(time): kept by hand\n"
+        "  TIMEOUT: 60\n"
+        "  # workaround(result): codes\n"
+        "  # (continued)\n"
+        "  REFUSED: 1\n"
+        "  TIMED_OUT: 2\n"
+        "\n"
+        "commands:\n"
+        "  A:\n"
+        "    # workaround(reuse): the pattern\n"
+        "    states:\n"
+        "      S0:\n"
+        "        - when: waited >= TIMEOUT  # workaround(time)\n"
+        "  B:\n"
+        "    doc: not covered\n",
+        encoding="utf-8",
+    )
+    result = count(tmp_path)
+    assert result.markers == {"reuse": 1, "result": 1, "time": 2}
+    assert result.lines == {"reuse": 3, "result": 2, "time": 2}
+    assert (result.covered, result.total) == (6, 16)

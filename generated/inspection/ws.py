@@ -76,9 +76,9 @@ REFIXTURING = 7
 UNLOADING = 8
 
 # Constants.
+MEASUREMENTS = 2
 ACCEPTED = 1
 REJECTED = 2
-MEASUREMENTS = 2
 
 
 class WsController:
