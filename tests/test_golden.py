@@ -26,10 +26,20 @@ from rcsgen.tools.scenario import (
 ROOT = Path(__file__).resolve().parent.parent
 MINER = ROOT / "specs" / "miner"
 GOLDEN = ROOT / "tests" / "golden"
-SCENARIOS = sorted((MINER / "scenarios").glob("*.yaml"))
+# Every system's scenarios, each with its golden trace: the miner's in tests/golden/, another
+# system's in tests/golden/<system>/ (so that tests/golden/*.jsonl stays the miner's).
+SCENARIOS = sorted((ROOT / "specs").glob("*/scenarios/*.yaml"))
 
 
-def run_scenario(path: Path, package: Path = ROOT / "generated" / "miner", processes: bool = False):
+def golden_of(path: Path) -> Path:
+    """The golden trace of the scenario at `path`."""
+    system = path.parent.parent.name
+    return GOLDEN / ("" if system == "miner" else system) / f"{path.stem}.jsonl"
+
+
+def run_scenario(path: Path, package: Path | None = None, processes: bool = False):
+    """Run a scenario on `package`, by default the committed package of its system."""
+    package = package or ROOT / "generated" / path.parent.parent.name
     scenario = load_scenario(path)
     harness = open_harness(scenario, package, processes)
     try:
@@ -58,9 +68,10 @@ def first_byte_difference(expected: bytes, actual: bytes) -> str | None:
 @pytest.mark.parametrize("processes", [False, True], ids=["one-process", "processes"])
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
 def test_scenario_matches_its_golden_trace(path, processes, tmp_path):
-    """In one process, and as the spec's processes (two OS processes in lockstep: the path
-    planner on its own, Figure 7), every scenario leaves its golden trace, byte for byte."""
-    golden = GOLDEN / f"{path.stem}.jsonl"
+    """In one process, and as the spec's processes (the miner's are two OS processes in
+    lockstep: the path planner on its own, Figure 7), every scenario leaves its golden
+    trace, byte for byte."""
+    golden = golden_of(path)
     result = run_scenario(path, processes=processes)
     written = tmp_path / golden.name
     write_trace(written, result.trace)  # as `rcsgen run` writes it
@@ -72,13 +83,13 @@ def test_scenario_matches_its_golden_trace(path, processes, tmp_path):
     rel = path.relative_to(ROOT)
     pytest.fail(
         f"{path.stem}: {where}\nif the change is intended, re-record with\n"
-        f"  rcsgen run {rel} --record tests/golden/{golden.name}\nand review the diff"
+        f"  rcsgen run {rel} --record {golden.relative_to(ROOT)}\nand review the diff"
     )
 
 
 def test_every_scenario_has_a_golden_trace():
     assert SCENARIOS, "no scenarios found"
-    assert sorted(p.stem for p in GOLDEN.glob("*.jsonl")) == [p.stem for p in SCENARIOS]
+    assert sorted(GOLDEN.glob("**/*.jsonl")) == sorted(golden_of(p) for p in SCENARIOS)
 
 
 def test_first_difference_names_cycle_and_field():

@@ -1,0 +1,389 @@
+"""The inspection workstation's scenarios, asserted directly (specs/inspection; the golden
+comparison is in test_golden.py): each scenario's defining behaviour, so a wrong golden file
+cannot hide a wrong workstation; the inspection-program and part readers' errors; and the
+inspector at the console answering and refusing requests of the running system."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import json
+import shutil
+from functools import cache
+from pathlib import Path
+
+import pytest
+import yaml
+from conftest import edit, rcsgen
+from workarounds import count, table
+
+from rcsgen.tools.harness import import_package
+from rcsgen.tools.scenario import Scenario, load_scenario, open_harness, run
+
+ROOT = Path(__file__).resolve().parent.parent
+SYSTEM = ROOT / "specs" / "inspection"
+PACKAGE = ROOT / "generated" / "inspection"
+REFUSED, TIMED_OUT, MACHINE_FAULT = 1, 2, 3  # the reason codes (docs/inspection.md)
+ACCEPTED, REJECTED = 1, 2
+
+
+def constant(controller: str, name: str) -> int:
+    """A constant as the controller's spec declares it."""
+    spec = yaml.safe_load((SYSTEM / f"{controller}.yaml").read_text(encoding="utf-8"))
+    return int(spec["constants"][name])
+
+
+def play(scenario: Scenario) -> tuple[dict, list[dict]]:
+    harness = open_harness(scenario, PACKAGE)
+    try:
+        result = run(scenario, harness)
+    finally:
+        harness.close()
+    return result.final, [json.loads(line) for line in result.trace]
+
+
+@cache
+def played(name: str) -> tuple[dict, list[dict]]:
+    """Run a scenario on the committed generated package: (final status, trace lines)."""
+    return play(load_scenario(SYSTEM / "scenarios" / f"{name}.yaml"))
+
+
+def commands_sent(lines: list[dict], module: str) -> list[tuple[int, str]]:
+    """Each new command `module` received, with its cycle (one per command number)."""
+    seen, out = 0, []
+    for line in lines:
+        entry = line["modules"][module]
+        if entry["command_num"] != seen:
+            seen = entry["command_num"]
+            out.append((line["cycle"], entry["command"]))
+    return out
+
+
+def names(sent: list[tuple[int, str]]) -> list[str]:
+    return [command for _, command in sent]
+
+
+def first(lines: list[dict], module: str, command: str, status: str) -> int:
+    """The first cycle `module` shows `command` with `status`."""
+    return next(
+        line["cycle"]
+        for line in lines
+        if line["modules"][module]["command"] == command
+        and line["modules"][module]["status"] == status
+    )
+
+
+def open_cycles(lines: list[dict], field: str) -> list[int]:
+    return [line["cycle"] for line in lines if line["world"][field]]
+
+
+def test_nominal_init_for_inspect_then_the_part_is_accepted():
+    final, lines = played("nominal_inspection")
+    assert final["status"] == "DONE"
+    assert names(commands_sent(lines, "ws")) == ["INIT", "INIT_FOR_INSPECT", "INSPECT_PART"]
+    # Figure 4: equipSetup to MS and FX together; calibrateCMM to MS once both are done;
+    # MS has tooling calibrate the sphere, then the probe; then the camera.
+    ms, fx = commands_sent(lines, "ms"), commands_sent(lines, "fx")
+    setup = dict((c, cycle) for cycle, c in ms)["EQUIP_SETUP"]
+    assert dict((c, cycle) for cycle, c in fx)["EQUIP_SETUP"] == setup, "sent in one cycle"
+    calibrate = dict((c, cycle) for cycle, c in ms)["CALIBRATE_CMM"]
+    assert calibrate > max(
+        first(lines, "ms", "EQUIP_SETUP", "DONE"), first(lines, "fx", "EQUIP_SETUP", "DONE")
+    )
+    assert names(ms) == [
+        "INIT", "EQUIP_SETUP", "CALIBRATE_CMM", "CALIBRATE_CAMERA", "LOAD_PROBE", "MEASURE_PART"
+    ]  # fmt: skip
+    assert names(commands_sent(lines, "tl")) == [
+        "INIT", "CALIBRATE_SPHERE", "CALIBRATE_PROBE", "LOAD_PROBE"
+    ]  # fmt: skip
+    cmm = names(commands_sent(lines, "cmm"))
+    assert cmm[:4] == ["INIT", "HOME", "CALIBRATE_PROBE", "CALIBRATE_CAMERA"]
+    # Figure 39: place the part and load the probe, then one Inspect_feature per feature
+    inspect = dict((c, cycle) for cycle, c in commands_sent(lines, "ws"))["INSPECT_PART"]
+    assert first(lines, "ws", "INIT_FOR_INSPECT", "DONE") < inspect, "prepared before use"
+    assert cmm[4:] == ["INSPECT_FEATURE"] * 5
+    assert names(fx)[1:] == ["EQUIP_SETUP", "PLACE_PART", "UNLOAD_PART"]
+    end = lines[-1]["world"]
+    assert (end["verdict"], end["features_measured"], end["features_failed"]) == (ACCEPTED, 5, 0)
+    # every request opened was answered and closed
+    for field in ("fx_setup_request", "fx_place_request", "fx_unload_request", "tl_sphere_request"):
+        assert open_cycles(lines, field), f"{field} was never asked"
+        assert not end[field]
+
+
+def test_nominal_readings_are_within_the_programs_tolerances(monkeypatch):
+    monkeypatch.syspath_prepend(str(SYSTEM))
+    ms = importlib.import_module("inspection_hooks.ms")
+    features = ms.read_program(SYSTEM / "programs" / "bracket.ipg")
+    _, lines = played("nominal_inspection")
+    readings = [
+        line["world"]["cmm_reading"]
+        for line, after in zip(lines, lines[1:], strict=False)
+        if after["modules"]["ms"]["state"] == "JUDGED"
+        and line["modules"]["ms"]["state"] != "JUDGED"
+    ]
+    assert len(readings) == len(features) == 5
+    for feature, reading in zip(features, readings, strict=True):
+        assert feature.accepts(reading), (feature, reading)
+
+
+def test_a_part_out_of_tolerance_is_refixtured_remeasured_and_rejected():
+    final, lines = played("rejected_part")
+    assert final["status"] == "DONE", "rejecting a part completes the inspection"
+    fx = names(commands_sent(lines, "fx"))
+    assert fx[-3:] == ["PLACE_PART", "REFIXTURE_PART", "UNLOAD_PART"]
+    assert names(commands_sent(lines, "ms")).count("MEASURE_PART") == 2
+    measures = [cycle for cycle, c in commands_sent(lines, "ms") if c == "MEASURE_PART"]
+    refixture = next(cycle for cycle, c in commands_sent(lines, "fx") if c == "REFIXTURE_PART")
+    assert measures[0] < refixture < measures[1], "re-seated between the two measurements"
+    # the bore (feature 0, 12.000 +/- 0.020) reads oversize both times
+    bores = [
+        line["world"]["cmm_reading"]
+        for line in lines
+        if line["modules"]["ms"]["state"] == "JUDGED" and line["world"]["features_measured"] == 0
+    ]
+    assert bores and all(reading > 12.02 for reading in bores)
+    end = lines[-1]["world"]
+    assert (end["verdict"], end["features_failed"], end["ws_reason"]) == (REJECTED, 1, 0)
+    unloaded = next(cycle for cycle, c in commands_sent(lines, "fx") if c == "UNLOAD_PART")
+    assert lines[unloaded - 1]["world"]["verdict"] == REJECTED, "rejected before unloading"
+
+
+def test_a_slow_operator_times_out_and_both_requests_are_withdrawn():
+    final, lines = played("slow_operator")
+    assert final["status"] == "ERROR"
+    timeout = constant("fx", "OPERATOR_TIMEOUT")
+    asked = open_cycles(lines, "fx_place_request")
+    assert len(asked) == timeout + 1, "open from the ask through the time-out cycle"
+    assert not any(line["world"]["fx_done"] for line in lines if line["cycle"] >= asked[0])
+    failed = first(lines, "fx", "PLACE_PART", "ERROR")
+    assert failed == asked[-1] + 1
+    # the workstation withdraws the probe loading asked at the same time (HALT to MS, TL)
+    assert ("HALT" in names(commands_sent(lines, "ms"))) and (
+        "HALT" in names(commands_sent(lines, "tl"))
+    )
+    end = lines[-1]["world"]
+    assert (end["ws_reason"], end["fx_reason"]) == (TIMED_OUT, TIMED_OUT)
+    assert not any(
+        end[f] for f in ("fx_asking", "tl_asking", "fx_place_request", "tl_load_request")
+    )
+    assert lines[-1]["modules"]["ws"]["status"] == "ERROR"
+
+
+def with_delay(delay: int) -> Scenario:
+    """slow_operator.yaml with the operator taking `delay` cycles per task instead."""
+    slow = load_scenario(SYSTEM / "scenarios" / "slow_operator.yaml")
+    events = [
+        dataclasses.replace(e, world={"operator_delay": delay}) if e.world else e
+        for e in slow.events
+    ]
+    assert events != slow.events
+    return dataclasses.replace(slow, events=events, expect=[])
+
+
+def test_a_patient_operator_is_waited_for():
+    """The operator slow but within the time-out for both tasks asked together: nothing is
+    withdrawn and the part is accepted (the time-out bounds the wait; it does not hurry)."""
+    timeout = constant("fx", "OPERATOR_TIMEOUT")
+    final, lines = play(with_delay(timeout // 2 - 5))
+    assert final["status"] == "DONE"
+    assert lines[-1]["world"]["verdict"] == ACCEPTED
+    assert len(open_cycles(lines, "fx_place_request")) > timeout // 3, "it took a while"
+
+
+def test_one_operator_serves_the_requests_in_turn():
+    """Placing the part and loading the probe are asked in the same cycle of one person, who
+    does one after the other: each task takes less than the time-out, but the second one
+    asked waits for the first and times out (the time-out runs from the ask)."""
+    timeout = constant("fx", "OPERATOR_TIMEOUT")
+    final, lines = play(with_delay(timeout - 10))
+    assert final["status"] == "ERROR"
+    assert first(lines, "fx", "PLACE_PART", "DONE") < first(lines, "tl", "LOAD_PROBE", "ERROR")
+    assert lines[-1]["world"]["tl_reason"] == TIMED_OUT
+    assert lines[-1]["world"]["ws_reason"] == TIMED_OUT
+
+
+def test_an_operator_who_refuses_stops_the_workstation_with_that_reason():
+    final, lines = played("operator_refuses")
+    assert final["status"] == "ERROR"
+    refused = first(lines, "fx", "PLACE_PART", "ERROR")
+    assert lines[refused - 2]["world"]["fx_refused"] or lines[refused - 1]["world"]["fx_reason"]
+    tl = commands_sent(lines, "tl")
+    assert tl[-2:][0][1] == "LOAD_PROBE" and tl[-1][1] == "HALT", "the probe loading withdrawn"
+    assert tl[-1][0] == refused + 1, "in the cycle after the refusal reached the workstation"
+    assert "MEASURE_PART" not in names(commands_sent(lines, "ms"))
+    end = lines[-1]["world"]
+    assert (end["ws_reason"], end["fx_reason"], end["verdict"]) == (REFUSED, REFUSED, 0)
+    assert not end["tl_asking"] and not end["tl_load_request"]
+
+
+def test_the_inspector_answers_then_refuses_at_the_console():
+    """console_refusal sends what `ctl answer` sends: the plate is mounted, the sphere
+    calibration refused; initForInspect fails in calibrateCMM and goes no further."""
+    final, lines = played("console_refusal")
+    assert final["status"] == "ERROR"
+    assert names(commands_sent(lines, "op"))[1:] == ["FX_DONE", "TL_REFUSE"]
+    assert first(lines, "fx", "EQUIP_SETUP", "DONE") < first(
+        lines, "tl", "CALIBRATE_SPHERE", "ERROR"
+    )
+    assert names(commands_sent(lines, "ms"))[-1] == "CALIBRATE_CMM", "no camera calibration"
+    assert first(lines, "ws", "INIT_FOR_INSPECT", "ERROR")
+    end = lines[-1]["world"]
+    assert (end["ws_reason"], end["ms_reason"], end["tl_reason"]) == (REFUSED,) * 3
+    assert not any(end[f] for f in ("tl_asking", "tl_sphere_request", "tl_refused"))
+
+
+def test_a_machine_fault_climbs_one_level_per_cycle():
+    final, lines = played("machine_fault")
+    assert final["status"] == "ERROR"
+    alarm = open_cycles(lines, "cmm_alarm")[0]
+    chain = (("cmm", "INSPECT_FEATURE"), ("ms", "MEASURE_PART"), ("ws", "INSPECT_PART"))
+    errors = [first(lines, module, command, "ERROR") for module, command in chain]
+    assert errors == [alarm + 1, alarm + 2, alarm + 3], "CMM, then MS, then WS"
+    end = lines[-1]["world"]
+    assert (end["ws_reason"], end["ms_reason"]) == (MACHINE_FAULT, MACHINE_FAULT)
+    assert 0 < end["features_measured"] < 5 and end["verdict"] == 0
+
+
+# ---------------------------------------------------------------- the readers' errors
+
+
+@pytest.fixture
+def hooks(monkeypatch):
+    monkeypatch.syspath_prepend(str(SYSTEM))
+    return importlib.import_module("inspection_hooks.ms"), importlib.import_module(
+        "inspection_hooks.cmm"
+    )
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("bore 12.0\n", "p.ipg:1: expected `name nominal tolerance`, got 'bore 12.0'"),
+        ("# c\nbore 12.0 x\n", "p.ipg:2: `x` is not a number"),
+        ("bore 12.0 0\n", "p.ipg:1: the tolerance of `bore` must be positive"),
+        ("bore 12.0 nan\n", "p.ipg:1: `nan` is not a finite number"),
+        ("bore 1 0.1\nbore 2 0.1\n", "p.ipg:2: feature `bore` is measured twice"),
+        ("# nothing\n", "p.ipg: the inspection program measures no feature"),
+    ],
+)
+def test_a_bad_program_line_is_named(hooks, tmp_path, text, message):
+    ms, _ = hooks
+    program = tmp_path / "p.ipg"
+    program.write_text(text)
+    with pytest.raises(ms.ProgramError) as raised:
+        ms.read_program(program)
+    assert str(raised.value) == f"{tmp_path}/{message}"
+
+
+def test_a_part_file_names_only_program_features(hooks, tmp_path):
+    ms, cmm = hooks
+    features = ms.read_program(SYSTEM / "programs" / "bracket.ipg")
+    part = tmp_path / "x.part"
+    part.write_text("bore_diameter 12.01\nbore_diamter 3\n")
+    with pytest.raises(
+        ms.ProgramError, match=r"x.part:2: the program measures no feature `bore_diamter`"
+    ):
+        cmm.read_part(part, features)
+    part.write_text("bore_diameter 12.01\n")
+    sizes = cmm.read_part(part, features)
+    assert sizes["bore_diameter"] == 12.01 and sizes["slot_width"] == 6.0, "unlisted: nominal"
+    with pytest.raises(ms.ProgramError, match="cannot read the part file"):
+        cmm.read_part(tmp_path / "missing.part", features)
+
+
+def test_a_missing_program_stops_the_run_in_one_line(tmp_path, monkeypatch):
+    """A run whose `program` setting names no file fails at start-up with E420 at the
+    controller's hooks_state, not a traceback."""
+    copy = tmp_path / "inspection"
+    shutil.copytree(SYSTEM, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    edit(
+        copy / "scenarios" / "nominal_inspection.yaml", "programs/bracket.ipg", "programs/nope.ipg"
+    )
+    monkeypatch.chdir(tmp_path)
+    result = rcsgen("run", "inspection/scenarios/nominal_inspection.yaml")
+    assert result.exit_code == 1
+    lines = [line for line in result.output.splitlines() if "error[" in line]
+    assert len(lines) == 1 and "E420" in lines[0], result.output
+    assert lines[0].startswith("inspection/ms.yaml:"), lines[0]
+    assert "nope.ipg: cannot read the inspection program" in lines[0]
+
+
+# ---------------------------------------------------------------- the console
+
+
+def test_the_inspector_answers_and_refuses_at_the_console():
+    """The workstation running paced with nobody scripted (`operator_delay=-1`): the
+    inspector prepares it, answers fixturing's request, refuses tooling's; a console without
+    a role may not answer and the inspector may not stop a module (that is override)."""
+    from test_ctl import Running, wait_for
+
+    layout = importlib.import_module(f"{import_package(PACKAGE, SYSTEM).__name__}.layout")
+    system = Running(PACKAGE, SYSTEM, layout, "--world", "operator_delay=-1")
+    try:
+        sent = system.ctl("--role", "inspector", "send", "ws", "INIT_FOR_INSPECT", "--seen")
+        assert sent.returncode == 0, sent.stderr
+        wait_for(lambda: system.json().get("requests"), "fixturing's request")
+        listed = system.ctl("requests").stdout.splitlines()
+        assert (
+            "fx_setup from fx: Clear the table and mount the fixture plate, then answer." in listed
+        )
+        assert any(line.startswith("fx_refuse from fx:") for line in listed)
+        refused = system.ctl("answer", "fx_setup")  # no role: this console only monitors
+        assert refused.returncode == 1
+        assert "answering fx_setup needs respond on fx" in refused.stderr
+        stop = system.ctl("stop", "ws", "--role", "inspector")
+        assert stop.returncode == 1 and "needs override on ws" in stop.stderr
+        answered = system.ctl("answer", "fx_setup", "--role", "inspector")
+        assert answered.returncode == 0, answered.stderr
+        assert answered.stdout.startswith("answered fx_setup: sent op.FX_DONE #")
+        wait_for(lambda: system.module("fx")["status"] == "DONE", "fixturing done")
+        wait_for(
+            lambda: any(r["name"] == "tl_sphere" for r in system.json()["requests"]),
+            "tooling's request",
+        )
+        assert system.ctl("answer", "tl_refuse", "--role", "inspector").returncode == 0
+        wait_for(lambda: system.module("ws")["status"] == "ERROR", "the workstation stopped")
+        assert system.ctl("requests").stdout == "no requests\n", "nothing left on the screen"
+        again = system.ctl("answer", "fx_setup", "--role", "inspector")
+        assert again.returncode == 1 and "fx is not asking for fx_setup now" in again.stderr
+    finally:
+        out = system.stop()
+    assert "iws: stopped" in out
+
+
+def test_docs_report_the_current_workaround_count():
+    """docs/inspection.md's table of `# workaround(kind)` lines is what the specs hold now."""
+    doc = (ROOT / "docs" / "inspection.md").read_text(encoding="utf-8")
+    result = count(SYSTEM)
+    assert set(result.markers) == {"time", "result", "expr", "reuse", "operator"}
+    assert table(result) in doc, (
+        "docs/inspection.md's workaround table is stale: update it from\n"
+        "  python tests/workarounds.py specs/inspection"
+    )
+
+
+def test_the_workaround_count_follows_its_rule(tmp_path):
+    (tmp_path / "a.yaml").write_text(
+        "constants:\n"
+        "  # workaround(time): kept by hand\n"
+        "  TIMEOUT: 60\n"
+        "  # workaround(result): codes\n"
+        "  # (continued)\n"
+        "  REFUSED: 1\n"
+        "  TIMED_OUT: 2\n"
+        "\n"
+        "commands:\n"
+        "  A:\n"
+        "    # workaround(reuse): the pattern\n"
+        "    states:\n"
+        "      S0:\n"
+        "        - when: waited >= TIMEOUT  # workaround(time)\n"
+        "  B:\n"
+        "    doc: not covered\n",
+        encoding="utf-8",
+    )
+    result = count(tmp_path)
+    assert result.markers == {"reuse": 1, "result": 1, "time": 2}
+    assert result.lines == {"reuse": 3, "result": 2, "time": 2}
+    assert (result.covered, result.total) == (6, 16)
