@@ -26,10 +26,25 @@ from rcsgen.tools.scenario import (
 ROOT = Path(__file__).resolve().parent.parent
 MINER = ROOT / "specs" / "miner"
 GOLDEN = ROOT / "tests" / "golden"
-SCENARIOS = sorted((MINER / "scenarios").glob("*.yaml"))
+# Every scenario of every system in specs/; the first system's goldens keep their bare
+# names (`box_cut.jsonl`), every other system's are `<system>_<scenario>.jsonl`.
+SYSTEMS = sorted(p.parent.name for p in (ROOT / "specs").glob("*/system.yaml"))
+SCENARIOS = sorted((ROOT / "specs").glob("*/scenarios/*.yaml"))
 
 
-def run_scenario(path: Path, package: Path = ROOT / "generated" / "miner", processes: bool = False):
+def system_of(path: Path) -> str:
+    """The system a scenario file belongs to (the directory above `scenarios/`)."""
+    return path.parent.parent.name
+
+
+def golden_name(path: Path) -> str:
+    """The golden trace's file name of a scenario."""
+    system = system_of(path)
+    return f"{path.stem}.jsonl" if system == "miner" else f"{system}_{path.stem}.jsonl"
+
+
+def run_scenario(path: Path, package: Path | None = None, processes: bool = False):
+    package = package or ROOT / "generated" / system_of(path)
     scenario = load_scenario(path)
     harness = open_harness(scenario, package, processes)
     try:
@@ -56,11 +71,12 @@ def first_byte_difference(expected: bytes, actual: bytes) -> str | None:
 
 
 @pytest.mark.parametrize("processes", [False, True], ids=["one-process", "processes"])
-@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: golden_name(p).removesuffix(".jsonl"))
 def test_scenario_matches_its_golden_trace(path, processes, tmp_path):
-    """In one process, and as the spec's processes (two OS processes in lockstep: the path
-    planner on its own, Figure 7), every scenario leaves its golden trace, byte for byte."""
-    golden = GOLDEN / f"{path.stem}.jsonl"
+    """In one process, and as the spec's processes (for the miner two OS processes in
+    lockstep: the path planner on its own, Figure 7), every scenario of every system leaves
+    its golden trace, byte for byte."""
+    golden = GOLDEN / golden_name(path)
     result = run_scenario(path, processes=processes)
     written = tmp_path / golden.name
     write_trace(written, result.trace)  # as `rcsgen run` writes it
@@ -78,7 +94,9 @@ def test_scenario_matches_its_golden_trace(path, processes, tmp_path):
 
 def test_every_scenario_has_a_golden_trace():
     assert SCENARIOS, "no scenarios found"
-    assert sorted(p.stem for p in GOLDEN.glob("*.jsonl")) == [p.stem for p in SCENARIOS]
+    assert {"miner", "submarine"} <= set(SYSTEMS)
+    assert {system_of(p) for p in SCENARIOS} == set(SYSTEMS), "every system has scenarios"
+    assert sorted(p.name for p in GOLDEN.glob("*.jsonl")) == sorted(map(golden_name, SCENARIOS))
 
 
 def test_first_difference_names_cycle_and_field():
