@@ -293,3 +293,25 @@ def test_course_and_waypoints(hooks):
     assert mission.waypoint(plan, 0) == (1.0, 2.0, True)
     assert mission.waypoint(plan, 1) == (0.0, 0.0, False)
     assert mission.waypoint(plan, -1) == (0.0, 0.0, False)
+
+
+# ---- a rudder casualty
+
+
+def test_a_jammed_rudder_s_error_climbs_one_level_a_cycle():
+    final, lines = played("rudder_jam")
+    assert final["status"] == "ERROR"
+    scenario = load_scenario(SCENARIOS / "rudder_jam.yaml")
+    jam = next(e.cycle for e in scenario.events if e.world.get("rudder_jammed"))
+    angle = at(lines, jam - 1)["world"]["rudder_angle"]
+    assert all(line["world"]["rudder_angle"] == angle for line in lines[jam - 1 :]), "jammed"
+
+    def first_error(module: str) -> int:
+        return next(line["cycle"] for line in lines if line["modules"][module]["status"] == "ERROR")
+
+    chain = ["rudder_sim", "rudder", "helm", "sm", "cc"]  # bottom to top
+    start = first_error("rudder_sim")
+    assert start >= jam
+    assert at(lines, start)["modules"]["rudder_sim"]["command"] in ("PLUS_VOLT", "MINUS_VOLT")
+    assert [first_error(m) for m in chain] == [start + k for k in range(len(chain))]
+    assert lines[-1]["cycle"] == start + len(chain) - 1, "the run stops when cc reports"

@@ -43,7 +43,7 @@ RUDDER_GOTO_ANGLE = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI88xQI596xd8x?31xd8xd8xd56xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QIdd44x???1xI88xQI596xd8x?31xd8xd8xd72xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 568
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their

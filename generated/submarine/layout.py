@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 1768 bytes.
+The block is 1784 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -65,24 +65,25 @@ command buffers and world fields:
 | 1432 | 16 | WORLD_SPEED | speed |
 | 1448 | 16 | WORLD_DEPTH | depth |
 | 1464 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 1480 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 1496 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 1512 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 1528 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 1544 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 1560 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 1576 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 1592 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 1608 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 1624 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 1640 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 1656 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 1672 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 1688 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 1704 | 16 | WORLD_CLEARANCE | clearance |
-| 1720 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 1736 | 9 | WORLD_FIRE | fire |
-| 1752 | 16 | WORLD_CO_PPM | co_ppm |
+| 1480 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 1496 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 1512 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 1528 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 1544 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 1560 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 1576 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 1592 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 1608 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 1624 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 1640 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 1656 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 1672 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 1688 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 1704 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 1720 | 16 | WORLD_CLEARANCE | clearance |
+| 1736 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 1752 | 9 | WORLD_FIRE | fire |
+| 1768 | 16 | WORLD_CO_PPM | co_ppm |
 """
 
 from __future__ import annotations
@@ -111,9 +112,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 1768
+SIZE = 1784
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "c623e340a6f8d4351a936cf339633715"
+LAYOUT_HASH = "cd132ce986a2f7456b4c0b6232e4fb47"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 168
 
@@ -203,42 +204,44 @@ WORLD_DEPTH = Struct("<Qd")  # seq, depth
 WORLD_DEPTH_AT = 1448
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
 WORLD_RUDDER_ANGLE_AT = 1464
+WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
+WORLD_RUDDER_JAMMED_AT = 1480
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 1480
+WORLD_SONAR_00_AT = 1496
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 1496
+WORLD_SONAR_01_AT = 1512
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 1512
+WORLD_SONAR_02_AT = 1528
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 1528
+WORLD_SONAR_03_AT = 1544
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 1544
+WORLD_SONAR_04_AT = 1560
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 1560
+WORLD_SONAR_05_AT = 1576
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 1576
+WORLD_SONAR_06_AT = 1592
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 1592
+WORLD_SONAR_07_AT = 1608
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 1608
+WORLD_SONAR_08_AT = 1624
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 1624
+WORLD_SONAR_09_AT = 1640
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 1640
+WORLD_SONAR_10_AT = 1656
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 1656
+WORLD_SONAR_11_AT = 1672
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 1672
+WORLD_SONAR_12_AT = 1688
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 1688
+WORLD_SONAR_13_AT = 1704
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 1704
+WORLD_CLEARANCE_AT = 1720
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 1720
+WORLD_MIN_CLEARANCE_AT = 1736
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 1736
+WORLD_FIRE_AT = 1752
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 1752
+WORLD_CO_PPM_AT = 1768
 
 
 PROCESSES = {
@@ -333,6 +336,7 @@ WORLD = {
     "speed": Record(WORLD_SPEED, WORLD_SPEED_AT, ("speed",)),
     "depth": Record(WORLD_DEPTH, WORLD_DEPTH_AT, ("depth",)),
     "rudder_angle": Record(WORLD_RUDDER_ANGLE, WORLD_RUDDER_ANGLE_AT, ("rudder_angle",)),
+    "rudder_jammed": Record(WORLD_RUDDER_JAMMED, WORLD_RUDDER_JAMMED_AT, ("rudder_jammed",)),
     "sonar_00": Record(WORLD_SONAR_00, WORLD_SONAR_00_AT, ("sonar_00",)),
     "sonar_01": Record(WORLD_SONAR_01, WORLD_SONAR_01_AT, ("sonar_01",)),
     "sonar_02": Record(WORLD_SONAR_02, WORLD_SONAR_02_AT, ("sonar_02",)),
@@ -364,6 +368,7 @@ WORLD_INITIAL: dict[str, object] = {
     "speed": 7.7,
     "depth": 120.0,
     "rudder_angle": 0.0,
+    "rudder_jammed": False,
     "sonar_00": 900.0,
     "sonar_01": 900.0,
     "sonar_02": 900.0,
@@ -482,7 +487,9 @@ RULES = {
         "INIT/S0/1",
         "HALT/S0/1",
         "PLUS_VOLT/S0/1",
+        "PLUS_VOLT/S0/2",
         "MINUS_VOLT/S0/1",
+        "MINUS_VOLT/S0/2",
         "ZERO_VOLT/S0/1",
     ),
     "ship": ("", "INIT/S0/1", "HALT/S0/1"),

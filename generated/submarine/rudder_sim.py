@@ -9,7 +9,7 @@ from .layout import (
     RUDDER_SIM_STATUS_AT,
     WORLD_RUDDER_ANGLE_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
 # Commands rudder_sim accepts (the code written to its command buffer).
 INIT = 1
@@ -20,7 +20,7 @@ ZERO_VOLT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI576xd")
+INPUTS = Struct("<QI44x???1xI576xd8x?")
 INPUTS_AT = 832
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
@@ -66,6 +66,7 @@ class RudderSimController:
         "status_seq",
         "var_drive",
         "world_rudder_angle",
+        "world_rudder_jammed",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -111,6 +112,7 @@ class RudderSimController:
             self.simulate,
             self.single_step_num,
             self.world_rudder_angle,
+            self.world_rudder_jammed,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
         # check_if_new_command
@@ -203,6 +205,7 @@ class RudderSimController:
             self.simulate,
             self.single_step_num,
             self.world_rudder_angle,
+            self.world_rudder_jammed,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def check_if_new_command(self) -> None:
@@ -290,7 +293,7 @@ class RudderSimController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        if self.var_drive != 0:
+        if self.var_drive != 0 and not self.world_rudder_jammed:
             self.world_rudder_angle = max(
                 -LIMIT, min(LIMIT, self.world_rudder_angle + self.var_drive * RATE)
             )
@@ -315,25 +318,37 @@ class RudderSimController:
         """PLUS_VOLT: +VOLT, turn the rudder to starboard."""
         state = self.state
         if state == S0:
-            self.rule = 3  # PLUS_VOLT/S0/1
-            self.var_drive = 1
-            self.state = NOP
-            self.status = DONE
+            if not self.world_rudder_jammed:
+                self.rule = 3  # PLUS_VOLT/S0/1
+                self.var_drive = 1
+                self.state = NOP
+                self.status = DONE
+
+            elif self.world_rudder_jammed:
+                self.rule = 4  # PLUS_VOLT/S0/2
+                self.state = NOP
+                self.status = ERROR
 
     def minus_volt(self) -> None:
         """MINUS_VOLT: -VOLT, turn the rudder to port."""
         state = self.state
         if state == S0:
-            self.rule = 4  # MINUS_VOLT/S0/1
-            self.var_drive = -1
-            self.state = NOP
-            self.status = DONE
+            if not self.world_rudder_jammed:
+                self.rule = 5  # MINUS_VOLT/S0/1
+                self.var_drive = -1
+                self.state = NOP
+                self.status = DONE
+
+            elif self.world_rudder_jammed:
+                self.rule = 6  # MINUS_VOLT/S0/2
+                self.state = NOP
+                self.status = ERROR
 
     def zero_volt(self) -> None:
         """ZERO_VOLT: 0VOLT, stop the rudder."""
         state = self.state
         if state == S0:
-            self.rule = 5  # ZERO_VOLT/S0/1
+            self.rule = 7  # ZERO_VOLT/S0/1
             self.var_drive = 0
             self.state = NOP
             self.status = DONE
