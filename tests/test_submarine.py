@@ -315,3 +315,20 @@ def test_a_jammed_rudder_s_error_climbs_one_level_a_cycle():
     assert at(lines, start)["modules"]["rudder_sim"]["command"] in ("PLUS_VOLT", "MINUS_VOLT")
     assert [first_error(m) for m in chain] == [start + k for k in range(len(chain))]
     assert lines[-1]["cycle"] == start + len(chain) - 1, "the run stops when cc reports"
+
+
+def test_a_malformed_route_or_keel_line_is_named_with_its_line(hooks, tmp_path):
+    _, mission, sim = hooks
+    route = tmp_path / "r.route"
+    route.write_text("# a comment\n10 20  # first\n\n30 forty\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"r\.route:4: expected `X Y` \(numbers\), got '30 forty'"):
+        mission.load_route(route)
+    route.write_text("10 20  # first\n30 40\n", encoding="utf-8")
+    assert mission.load_route(route) == [(10.0, 20.0), (30.0, 40.0)]
+    keels = tmp_path / "k.keels"
+    keels.write_text("1 2 3\n1 2\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"k\.keels:2: expected `X Y RADIUS`"):
+        sim.load_keels(keels)
+    keels.write_text("1 2 nan\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"k\.keels:1:"):
+        sim.load_keels(keels)

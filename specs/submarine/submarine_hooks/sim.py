@@ -12,6 +12,7 @@ import math
 from pathlib import Path
 
 from submarine_hooks.helm import BEAMS
+from submarine_hooks.mission import numbers
 
 SONAR_RANGE = 900.0  # metres
 SYSTEM_DIR = Path(__file__).resolve().parent.parent
@@ -27,10 +28,12 @@ def advance(x: float, y: float, heading: float, distance: float) -> tuple[float,
 def load_keels(path: Path) -> list[tuple[float, float, float]]:
     """The keels of a keel file."""
     keels = []
-    for line in path.read_text(encoding="utf-8").splitlines():
+    lines = path.read_text(encoding="utf-8").splitlines()
+    for number, line in enumerate(lines, start=1):
         text = line.split("#", 1)[0].split()
         if text:
-            keels.append((float(text[0]), float(text[1]), float(text[2])))
+            x, y, radius = numbers(path, number, text, "X Y RADIUS")
+            keels.append((x, y, radius))
     return keels
 
 
