@@ -66,7 +66,9 @@ def first_byte_difference(expected: bytes, actual: bytes) -> str | None:
 
 
 @pytest.mark.parametrize("processes", [False, True], ids=["one-process", "processes"])
-@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
+@pytest.mark.parametrize(
+    "path", SCENARIOS, ids=lambda p: golden_of(p).relative_to(GOLDEN).with_suffix("").as_posix()
+)
 def test_scenario_matches_its_golden_trace(path, processes, tmp_path):
     """In one process, and as the spec's processes (the miner's are two OS processes in
     lockstep: the path planner on its own, Figure 7), every scenario leaves its golden
@@ -89,6 +91,9 @@ def test_scenario_matches_its_golden_trace(path, processes, tmp_path):
 
 def test_every_scenario_has_a_golden_trace():
     assert SCENARIOS, "no scenarios found"
+    systems = {p.parent.name for p in (ROOT / "specs").glob("*/system.yaml")}
+    assert {"miner", "submarine", "inspection"} <= systems
+    assert {p.parent.parent.name for p in SCENARIOS} == systems, "every system has scenarios"
     assert sorted(GOLDEN.glob("**/*.jsonl")) == sorted(golden_of(p) for p in SCENARIOS)
 
 

@@ -18,6 +18,8 @@ from rcsgen.tools import changes, coverage, traces
 REPO = Path(__file__).resolve().parent.parent
 MINER = REPO / "specs" / "miner"
 GOLDEN = REPO / "tests" / "golden"
+# The miner's golden traces (other systems' goldens are `<system>_<scenario>.jsonl`).
+MINER_GOLDEN = sorted(GOLDEN / f"{p.stem}.jsonl" for p in (MINER / "scenarios").glob("*.yaml"))
 
 
 @pytest.fixture(scope="module")
@@ -169,7 +171,7 @@ def test_changes_world_fields(pop_out):
 
 
 def test_coverage_counts_every_table_rule_of_the_miner(system):
-    found = [traces.load(p) for p in sorted(GOLDEN.glob("*.jsonl"))]
+    found = [traces.load(p) for p in MINER_GOLDEN]
     result = coverage.measure(system, found)
     assert len(result.rules) == sum(len(c.table_rules()) for c in system.controllers)
     rules = {(r.module, r.rule): r for r in result.rules}
@@ -179,9 +181,7 @@ def test_coverage_counts_every_table_rule_of_the_miner(system):
     assert rules[("co", "SUMP_SHEAR_CUSP/S2/2")].traces == [str(GOLDEN / "late_tail.jsonl")]
     assert rules[("tc", "FAST_FORWARD/S0/1")].cycles == 0
     assert rules[("cr_sim", "SUMP/S0/1")].traces == [str(GOLDEN / "cr_simulated.jsonl")]
-    assert result.ran["cr"] == [
-        str(p) for p in sorted(GOLDEN.glob("*.jsonl")) if "cr_sim" not in p.name
-    ]
+    assert result.ran["cr"] == [str(p) for p in MINER_GOLDEN if "cr_sim" not in p.name]
     text = coverage.to_text(result)
     assert text.startswith(f"rule coverage of miner over 8 trace(s): {result.fired} of ")
     assert "  co\n    INITIAL_APPROACH_FACE/S1/2      " in text
@@ -202,7 +202,7 @@ def test_cli_changes_and_coverage(monkeypatch):
         "cycle 1",
         "  co     command INIT #1  status EXECUTING #1  state S1  fired INIT/S0/1",
     ]
-    report = rcsgen("trace", "coverage", *sorted(str(p) for p in GOLDEN.glob("*.jsonl")))
+    report = rcsgen("trace", "coverage", *(str(p) for p in MINER_GOLDEN))
     assert report.exit_code == 0 and "never fired:" in report.output
     as_json = rcsgen("trace", "coverage", "tests/golden/box_cut.jsonl", "--format", "json")
     assert json.loads(as_json.output)["traces"] == ["tests/golden/box_cut.jsonl"]
@@ -237,7 +237,7 @@ def test_cli_coverage_needs_specs(tmp_path, monkeypatch):
 
 
 def test_docs_report_the_current_coverage_of_the_scenarios(system):
-    found = [traces.load(p) for p in sorted(GOLDEN.glob("*.jsonl"))]
+    found = [traces.load(p) for p in MINER_GOLDEN]
     result = coverage.measure(system, found)
     total = len(result.rules)
     line = f"**{result.fired} of {total} table rules fired ({100 * result.fired / total:.1f}%)**"

@@ -1,0 +1,334 @@
+"""The submarine's scenarios, asserted directly: clearance from every keel, the casualty
+response's phases and their lengths, so a wrong golden file cannot hide a wrong submarine
+(the golden comparison is in test_golden.py). Also the hooks' geometry, and a helm whose
+ice avoidance is switched off, which must run into the ice."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from functools import cache
+from pathlib import Path
+
+import pytest
+
+from rcsgen.tools.harness import Harness
+from rcsgen.tools.scenario import load_scenario, open_harness, run
+
+ROOT = Path(__file__).resolve().parent.parent
+SUBMARINE = ROOT / "specs" / "submarine"
+SCENARIOS = SUBMARINE / "scenarios"
+CO_HIGH = 50.0  # cc.yaml: the fire alarm
+CO_SAFE = 5.0  # ec.yaml: the atmosphere is acceptable
+HAVEN = 150.0  # sm.yaml: half the box around a waypoint
+
+
+def play(name: str, package: Path) -> tuple[dict, list[dict]]:
+    scenario = load_scenario(SCENARIOS / f"{name}.yaml")
+    harness = open_harness(scenario, package)
+    try:
+        result = run(scenario, harness)
+    finally:
+        harness.close()
+    return result.final, [json.loads(line) for line in result.trace]
+
+
+@cache
+def played(name: str) -> tuple[dict, list[dict]]:
+    """Run a scenario on the committed generated package: (final status, trace lines)."""
+    return play(name, ROOT / "generated" / "submarine")
+
+
+def commands_sent(lines: list[dict], module: str) -> list[str]:
+    """Each new command `module` received, in order (one entry per command number)."""
+    seen, out = 0, []
+    for line in lines:
+        entry = line["modules"][module]
+        if entry["command_num"] != seen:
+            seen = entry["command_num"]
+            out.append(entry["command"])
+    return out
+
+
+def spans(lines: list[dict], module: str, state: str) -> list[tuple[int, int]]:
+    """The (first, last) cycles of each run of consecutive cycles `module` is in `state`."""
+    out: list[tuple[int, int]] = []
+    for line in lines:
+        if line["modules"][module]["state"] != state:
+            continue
+        if out and out[-1][1] == line["cycle"] - 1:
+            out[-1] = (out[-1][0], line["cycle"])
+        else:
+            out.append((line["cycle"], line["cycle"]))
+    return out
+
+
+def route(name: str) -> list[tuple[float, float]]:
+    from_file = (SUBMARINE / "maps" / name).read_text(encoding="utf-8").splitlines()
+    rows = [line.split("#")[0].split() for line in from_file]
+    return [(float(r[0]), float(r[1])) for r in rows if r]
+
+
+def at(lines: list[dict], cycle: int) -> dict:
+    assert lines[cycle - 1]["cycle"] == cycle
+    return lines[cycle - 1]
+
+
+# ---- the ice transit
+
+
+def test_ice_transit_keeps_clear_of_every_keel_and_reaches_every_waypoint():
+    final, lines = played("ice_transit")
+    assert final["status"] == "DONE"
+    clearance = min(line["world"]["clearance"] for line in lines)
+    assert clearance >= 100.0, f"came within {clearance} m of a keel's edge"
+    assert lines[-1]["world"]["min_clearance"] == clearance, "the sonar's running minimum"
+    waypoints = route("bering.route")
+    assert commands_sent(lines, "sm") == ["INIT"] + ["SUBMERGED_TRANSIT"] * len(waypoints)
+    # each SUBMERGED_TRANSIT ended (DONE) inside the box around its waypoint
+    done = [
+        line
+        for prev, line in zip(lines, lines[1:], strict=False)
+        if line["modules"]["sm"]["status"] == "DONE"
+        and prev["modules"]["sm"]["status"] == "EXECUTING"
+        and line["modules"]["sm"]["command"] == "SUBMERGED_TRANSIT"
+    ]
+    assert len(done) == len(waypoints)
+    for line, (x, y) in zip(done, waypoints, strict=True):
+        assert abs(line["world"]["pos_x"] - x) < HAVEN + 8.0  # one cycle's run at 7.7 m/s
+        assert abs(line["world"]["pos_y"] - y) < HAVEN + 8.0
+
+
+def test_ice_transit_avoids_ice_then_recomputes_the_course():
+    _, lines = played("ice_transit")
+    avoided = spans(lines, "helm", "S2")
+    assert len(avoided) >= 3, "Helm avoided ice more than once on the way"
+    for first, last in avoided:
+        before, after = at(lines, first - 1), at(lines, last + 1)
+        assert after["modules"]["helm"]["state"] == "S1", "Evt2: back to servoing the heading"
+        # the course was recomputed from where the ship is now towards the same goal
+        assert after["world"]["course"] != before["world"]["course"]
+        assert not any(at(lines, c)["world"]["helm_at_goal"] for c in range(first, last + 1))
+    # while avoiding, the rudder turned the ship off the course it had been holding
+    first, last = avoided[0]
+    held = at(lines, first)["world"]["course"]
+    off = [
+        abs((at(lines, c)["world"]["heading"] - held + 180) % 360 - 180)
+        for c in range(first, last + 1)
+    ]
+    assert max(off) > 10.0
+
+
+def test_helm_reports_at_goal_only_on_course_with_the_rudder_centred():
+    _, lines = played("ice_transit")
+    on = [line for line in lines if line["world"]["helm_at_goal"]]
+    assert len(on) > 100
+    for line in on:
+        w = line["world"]
+        assert abs(w["rudder_angle"]) <= 1.5 + 3.0  # centred (within the rudder's tolerance)
+        assert line["modules"]["helm"]["status"] == "EXECUTING", "reported while executing"
+
+
+def test_the_rudder_is_driven_only_by_voltage_commands_and_stays_within_its_limits():
+    _, lines = played("ice_transit")
+    sent = set(commands_sent(lines, "rudder_sim"))
+    assert sent == {"INIT", "PLUS_VOLT", "MINUS_VOLT", "ZERO_VOLT"}
+    angles = [line["world"]["rudder_angle"] for line in lines]
+    assert max(angles) <= 37.0 and min(angles) >= -37.0
+    assert max(angles) > 10.0 and min(angles) < -10.0, "turned both ways"
+    steps = [abs(b - a) for a, b in zip(angles, angles[1:], strict=False)]
+    assert max(steps) <= 3.0 + 1e-9, "rate-limited to 3 degrees a cycle"
+
+
+def test_without_ice_avoidance_the_ship_runs_into_a_keel(tmp_path):
+    """The same transit with a persistence time longer than the run: Helm never avoids, and
+    the ship passes through ice. The clearance is the avoidance's doing, not the route's."""
+    specs = tmp_path / "submarine"
+    shutil.copytree(SUBMARINE, specs)
+    helm = specs / "helm.yaml"
+    text = helm.read_text(encoding="utf-8")
+    old = "  PERSIST_CYCLES: 5  #"
+    assert old in text
+    helm.write_text(text.replace(old, "  PERSIST_CYCLES: 100000  #"), encoding="utf-8")
+    with Harness.build(specs) as built:
+        final, lines = play("ice_transit", Path(built.package.__path__[0]))
+    assert final["status"] == "DONE"
+    assert not spans(lines, "helm", "S2")
+    assert min(line["world"]["clearance"] for line in lines) < 0.0
+
+
+# ---- the engine-room fire
+
+
+def fire_phases(lines: list[dict]) -> dict[str, tuple[int, int]]:
+    """cc's casualty phases: (first, last) cycle of PREP_VENT and VENT (each exactly once)."""
+    prep, vent = spans(lines, "cc", "PREP_VENT"), spans(lines, "cc", "VENT")
+    assert len(prep) == 1 and len(vent) == 1
+    return {"prep": prep[0], "vent": vent[0]}
+
+
+def test_engine_room_fire_phases_and_their_cycles():
+    final, lines = played("engine_room_fire")
+    assert final["status"] == "DONE"
+    scenario = load_scenario(SCENARIOS / "engine_room_fire.yaml")
+    fire_at = next(e.cycle for e in scenario.events if e.world.get("fire"))
+    phases = fire_phases(lines)
+    (prep_from, prep_to), (vent_from, vent_to) = phases["prep"], phases["vent"]
+    # the alarm: cc (which runs before the atmosphere) sees the CO of the cycle before
+    alarm = next(line["cycle"] for line in lines if line["world"]["co_ppm"] > CO_HIGH) + 1
+    assert alarm == fire_at + 2  # 40 ppm a cycle: above 50 after the fire's second cycle
+    assert prep_from == alarm
+    # prepare: periscope depth at one-third, 102 m up at 1 m/s, then steady on course
+    top = at(lines, prep_to)
+    assert abs(top["world"]["depth"] - 18.0) < 1.0 and abs(top["world"]["speed"] - 2.6) < 0.1
+    assert top["world"]["helm_at_goal"]
+    assert 102 <= prep_to - prep_from + 1 <= 110
+    # ventilate: engineering lines up the diesel until the fire is out and CO is safe
+    assert vent_from == prep_to + 1
+    # (in VENT's last cycle cc sees the DONE engineering reported after securing: recirculate)
+    assert {at(lines, c)["world"]["vent_flow"] for c in range(vent_from, vent_to)} == {0.05}
+    assert all(at(lines, c)["world"]["depth"] == 18.0 for c in range(vent_from, vent_to + 1))
+    end = at(lines, vent_to)
+    assert end["world"]["co_ppm"] <= CO_SAFE and not end["world"]["fire"]
+    # ventilated no longer than needed: the atmosphere (last in the cycle) reads safe in
+    # cycle k, engineering secures in k + 1 (VENT's last cycle), cc resumes in k + 2
+    safe = next(
+        c for c in range(vent_from, vent_to + 1) if at(lines, c)["world"]["co_ppm"] <= CO_SAFE
+    )
+    assert safe == vent_to - 1
+    # the fire burned for the damage control party's 30 cycles
+    burning = [line["cycle"] for line in lines if line["world"]["fire"]]
+    assert burning == list(range(fire_at, fire_at + 30))
+    # resume: back to the transit to the same waypoint, standard speed and depth
+    resumed = at(lines, vent_to + 1)
+    assert resumed["modules"]["cc"]["state"] == "TRANSIT"
+    assert resumed["world"]["vent_flow"] == 0.002
+    assert commands_sent(lines, "sm") == [
+        "INIT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT"
+    ]  # fmt: skip
+    assert commands_sent(lines, "ec") == [
+        "INIT", "SUBMERGED_VENT", "EMERGENCY_VENT", "SUBMERGED_VENT", "SUBMERGED_VENT"
+    ]  # fmt: skip
+    last = lines[-1]["world"]
+    assert last["depth"] == 120.0 and last["speed"] == 7.7
+
+
+def test_fire_under_ice_prepares_only_once_clear_of_the_ice():
+    """Both together: the fire breaks out short of two keels. Ship maneuver is not prepared
+    for emergency ventilation while Helm is avoiding ice (not steady on course); the ship
+    keeps clear of the keels at one-third speed, then ventilates and completes the mission."""
+    final, lines = played("fire_under_ice")
+    assert final["status"] == "DONE"
+    assert min(line["world"]["clearance"] for line in lines) >= 100.0
+    phases = fire_phases(lines)
+    prep_from, prep_to = phases["prep"]
+    avoiding = [(a, b) for a, b in spans(lines, "helm", "S2") if prep_from <= a and b <= prep_to]
+    assert avoiding, "Helm avoided ice while the ship was preparing"
+    assert prep_to > avoiding[-1][1], "prepared only after the ice was clear"
+    assert prep_to - prep_from + 1 > 110, "longer than in open sea"
+    assert all(at(lines, c)["world"]["speed"] <= 2.61 for c in range(avoiding[0][0], prep_to))
+    assert lines[-1]["world"]["co_ppm"] <= CO_SAFE
+    assert commands_sent(lines, "sm").count("SUBMERGED_TRANSIT") == len(route("bering.route")) + 1
+
+
+# ---- the hooks' geometry
+
+
+@pytest.fixture(scope="module")
+def hooks():
+    import sys
+
+    sys.path.insert(0, str(SUBMARINE))
+    try:
+        from submarine_hooks import helm, mission, sim
+
+        yield helm, mission, sim
+    finally:
+        sys.path.remove(str(SUBMARINE))
+        for name in [m for m in sys.modules if m.startswith("submarine_hooks")]:
+            del sys.modules[name]
+
+
+def test_sonar_beams_meet_a_keel_ahead(hooks):
+    _, _, sim = hooks
+    keels = [(0.0, 500.0, 100.0)]  # 500 m north, radius 100
+    *ranges, clearance = sim.ping(keels, 0.0, 0.0, 0.0)
+    assert len(ranges) == 14
+    assert clearance == 400.0
+    # the two beams either side of the centre line (-3 and +3 degrees) hit it at 402.8 m
+    expected = 500.0 * math.cos(math.radians(3)) - math.sqrt(
+        100.0**2 - (500.0 * math.sin(math.radians(3))) ** 2
+    )
+    assert ranges[6] == ranges[7] == round(expected, 3)
+    assert ranges[0] == ranges[13] == sim.SONAR_RANGE, "the outer beams miss"
+    # turned east, the keel is off the port bow: only port beams see it
+    *east, _ = sim.ping(keels, 0.0, 0.0, 45.0)
+    assert all(r == sim.SONAR_RANGE for r in east[7:])
+
+
+def test_ice_assessment_blocks_the_course_and_recommends_a_clear_heading(hooks):
+    helm, _, sim = hooks
+    keels = [(0.0, 500.0, 100.0)]
+    ranges = sim.ping(keels, 0.0, 0.0, 0.0)[:14]
+    seen, avoid = helm.assess_ice(0.0, 0.0, *ranges)
+    assert seen == 1
+    assert 10.0 <= avoid <= 60.0, "starboard first, just clear of the keel"
+    h = math.radians(avoid)
+    assert abs(sim.ping(keels, 0.0, 0.0, avoid)[14] - 400.0) < 1e-6
+    # along the recommended heading, the keel's centre is wider than the corridor + radius
+    lateral = abs(0.0 * math.cos(h) - 500.0 * math.sin(h))
+    assert lateral >= helm.HALF_WIDTH - 50.0
+    open_sea = [sim.SONAR_RANGE] * 14
+    assert helm.assess_ice(123.0, 120.0, *open_sea) == (0, 123.0)
+
+
+def test_course_and_waypoints(hooks):
+    helm, mission, sim = hooks
+    assert helm.course_to(100.0, 0.0, 0.0, 0.0) == 90.0
+    assert helm.course_to(0.0, -100.0, 0.0, 0.0) == 180.0
+    assert helm.course_to(-100.0, 100.0, 0.0, 0.0) == 315.0
+    assert sim.advance(0.0, 0.0, 90.0, 10.0) == (10.0, 0.0)
+    plan = [(1.0, 2.0)]
+    assert mission.waypoint(plan, 0) == (1.0, 2.0, True)
+    assert mission.waypoint(plan, 1) == (0.0, 0.0, False)
+    assert mission.waypoint(plan, -1) == (0.0, 0.0, False)
+
+
+# ---- a rudder casualty
+
+
+def test_a_jammed_rudder_s_error_climbs_one_level_a_cycle():
+    final, lines = played("rudder_jam")
+    assert final["status"] == "ERROR"
+    scenario = load_scenario(SCENARIOS / "rudder_jam.yaml")
+    jam = next(e.cycle for e in scenario.events if e.world.get("rudder_jammed"))
+    angle = at(lines, jam - 1)["world"]["rudder_angle"]
+    assert all(line["world"]["rudder_angle"] == angle for line in lines[jam - 1 :]), "jammed"
+
+    def first_error(module: str) -> int:
+        return next(line["cycle"] for line in lines if line["modules"][module]["status"] == "ERROR")
+
+    chain = ["rudder_sim", "rudder", "helm", "sm", "cc"]  # bottom to top
+    start = first_error("rudder_sim")
+    assert start >= jam
+    assert at(lines, start)["modules"]["rudder_sim"]["command"] in ("PLUS_VOLT", "MINUS_VOLT")
+    assert [first_error(m) for m in chain] == [start + k for k in range(len(chain))]
+    assert lines[-1]["cycle"] == start + len(chain) - 1, "the run stops when cc reports"
+
+
+def test_a_malformed_route_or_keel_line_is_named_with_its_line(hooks, tmp_path):
+    _, mission, sim = hooks
+    route = tmp_path / "r.route"
+    route.write_text("# a comment\n10 20  # first\n\n30 forty\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"r\.route:4: expected `X Y` \(numbers\), got '30 forty'"):
+        mission.load_route(route)
+    route.write_text("10 20  # first\n30 40\n", encoding="utf-8")
+    assert mission.load_route(route) == [(10.0, 20.0), (30.0, 40.0)]
+    keels = tmp_path / "k.keels"
+    keels.write_text("1 2 3\n1 2\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"k\.keels:2: expected `X Y RADIUS`"):
+        sim.load_keels(keels)
+    keels.write_text("1 2 nan\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"k\.keels:1:"):
+        sim.load_keels(keels)
