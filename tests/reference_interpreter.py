@@ -12,14 +12,17 @@ Covered: the command-number handshake (a new number starts the table at S0 with 
 subordinate status (EXECUTING until the echo of the last number sent), the first rule whose
 guard holds fires (`next` then actions in order), `report` ends the command (state NOP),
 sends number each command, world fields copied in at the start and written out at the end
-of a cycle, locals, parameters, constants, predicates, default INIT/HALT tables.
+of a cycle, locals, parameters, constants, predicates, default INIT/HALT tables, time in a
+state (`after:`, `for:`; docs/semantics.md "Time in a state").
 Not covered: modes, every_cycle rules, hooks.
 """
 
 from __future__ import annotations
 
 import ast
+import math
 import operator
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -78,8 +81,13 @@ class SubCommand:
 class Controller:
     """One controller, cycle by cycle."""
 
-    def __init__(self, spec: dict, subs: dict[str, dict], world: dict[str, dict]) -> None:
+    def __init__(
+        self, spec: dict, subs: dict[str, dict], world: dict[str, dict], period: float = 0.01
+    ) -> None:
         self.spec = spec
+        self.period = period
+        self.time = 0  # cycles the table has run in the current state, before this one
+        self.held: dict[tuple[str, str, int], int] = {}  # `for:` rule -> cycles its when held
         self.subs = list(spec.get("subordinates") or [])
         self.sub_specs = subs
         access = spec.get("world") or {}
@@ -134,16 +142,48 @@ class Controller:
         # check_if_new_command
         if self.command_num != self.status_num:
             self.status_num, self.state, self.status = self.command_num, "S0", "EXECUTING"
+            self.time, self.held = 0, {}
         # decision_process
         table = self.tables.get(self.command)
+        entered = self.state
         if table is not None and self.state in table:
-            for rule in table[self.state]:
-                if "when" not in rule or self.holds(rule["when"]):
+            rules = table[self.state]
+            for index, rule in enumerate(rules):  # every `for:` counts, whichever rule fires
+                if "for" in rule:
+                    key = (self.command, self.state, index)
+                    self.held[key] = self.held.get(key, 0) + 1 if self.holds(rule["when"]) else 0
+            for index, rule in enumerate(rules):
+                if self.may_fire(rule, (self.command, self.state, index)):
                     self.fire(rule)
                     break
+        if table is not None:  # time passes in a state only while its table runs
+            if self.state != entered:
+                self.time, self.held = 0, {}
+            else:
+                self.time += 1
         # post_process: world out
         for name in self.writes:
             block.world[name] = self.world[name]
+
+    def may_fire(self, rule: dict, key: tuple[str, str, int]) -> bool:
+        """`when` holds; `for:` it has held longer than that; `after:` the state has lasted."""
+        if "when" in rule and not self.holds(rule["when"]):
+            return False
+        if "for" in rule and self.held.get(key, 0) <= self.cycles(rule["for"]):
+            return False
+        return "after" not in rule or self.time >= self.cycles(rule["after"])
+
+    def cycles(self, duration: object) -> int:
+        """A duration in cycles: `N cycles`, or seconds rounded up to whole cycles."""
+        if isinstance(duration, int | float):
+            seconds = float(duration)
+        else:
+            number, unit = re.fullmatch(r"([0-9.]+)\s*(s|ms|cycles?)", str(duration)).groups()
+            if unit.startswith("cycle"):
+                return int(number)
+            seconds = float(number) / (1000 if unit == "ms" else 1)
+        count = seconds / self.period
+        return round(count) if abs(count - round(count)) < 1e-6 else math.ceil(count)
 
     def fire(self, rule: dict) -> None:
         if "next" in rule:

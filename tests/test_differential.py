@@ -186,6 +186,11 @@ def random_rule(d: Draw, grammar: Grammar, states: list[str], sent: list[str], s
             actions.append({"set": {target: value}})
         elif not any("report" in a for a in actions):
             actions.append({"report": d.choice(["DONE", "ERROR"])})
+    if d.chance(25):  # time: wait in the state, or for the guard to have held
+        if "when" in rule and d.chance(50):
+            rule["for"] = d.choice(["1 cycle", "2 cycles", "0.03 s"])
+        else:
+            rule["after"] = d.choice(["1 cycle", "3 cycles", "0.02 s", "50 ms"])
     if actions:
         rule["do"] = actions
     if not any("report" in a for a in actions) and (d.chance(50) or not rule):

@@ -83,7 +83,10 @@ CODES = {
 STATUS_DOMAIN = ("EXECUTING", *FINISHED)
 
 _BUILTIN: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}
-_VARIABLES = ("world", "local", "param")
+_VARIABLES = ("world", "local", "param", "time", "held")
+# Time (`after:`, `for:`) grows without bound while a table waits: a wait is one that stays
+# when every timer is past every bound, so completeness reads the timers at this value.
+_LATE = 2**62
 
 
 # ---------------------------------------------------------------- guards
@@ -97,6 +100,10 @@ def show_key(key: Key) -> str:
         return f"{name}.{kind}"
     if kind in ("opaque", "form"):
         return f"({name})"
+    if kind == "time":
+        return "cycles_in_state"
+    if kind == "held":  # held_<command>_<state>_<rule>: the cycles a `for:` guard held
+        return f"cycles_rule_{name.rsplit('_', 1)[-1]}_held"
     return name
 
 
@@ -523,7 +530,9 @@ class _Table:
         subs = {*self.tested[state], *self.owner.every_tested}
         finished = {("status", sub): FINISHED for sub in subs}
         quiet = [(r.guard, False) for r in rules] + [(g, False) for g in self.owner.every_guards]
-        answer = solve(quiet, allowed=finished)
+        # Time passes while it waits: `after:` and `for:` are read once their time has come.
+        late = {key: _LATE for r in rules if r.guard for key in r.guard.order if _timer(key)}
+        answer = solve(quiet, fixed=late, allowed=finished)
         if answer.kind == "yes":
             self.diags.warning(
                 self.states[state].span,
@@ -612,6 +621,10 @@ class _Table:
                         "or do not send it",
                         self.about(state, rule.number),
                     )
+
+
+def _timer(key: Key) -> bool:
+    return key[0] in ("time", "held")
 
 
 def _fires_on_error(guards: list[Guard | None], sub: str) -> bool:

@@ -33,6 +33,7 @@ from .tables import (
     RuleId,
     Send,
     Target,
+    duration_text,
     live,
     one_line,
     reachable,
@@ -90,6 +91,14 @@ def check_system(
 
 
 # ---------------------------------------------------------------- system-wide checks
+
+
+def process_period(system: SystemSpec, module: str) -> float:
+    """The cycle period of the process that runs `module` (the system's if it runs in none)."""
+    for process in system.processes:
+        if any(m.value == module for m in process.modules):
+            return process.cycle_period or system.cycle_period
+    return system.cycle_period
 
 
 def _index_controllers(
@@ -549,6 +558,28 @@ def _return_problems(
     return found
 
 
+def _timed_guard(
+    rule_id: RuleId, guard: expr.Expr | None, after: int | None, hold: int | None
+) -> expr.Expr | None:
+    """The guard with the rule's time: `when and held > FOR and ticks >= AFTER` (the counters
+    are ints no spec text names; docs/semantics.md, "Time in a state")."""
+    parts = [] if guard is None else [guard]
+    if isinstance(guard, expr.BoolOp) and guard.op == "and" and (after or hold):
+        parts = list(guard.values)  # `a and b and ticks >= 20`, not `(a and b) and ...`
+    if hold is not None and guard is not None:
+        counter = naming.held_attribute(rule_id.command or "", rule_id.state or "", rule_id.index)
+        parts.append(_at_least(expr.Ref(expr.INT, "held", counter), ">", hold))
+    if after is not None:
+        parts.append(_at_least(expr.Ref(expr.INT, "time", "ticks"), ">=", after))
+    if len(parts) <= 1:
+        return parts[0] if parts else None
+    return expr.BoolOp(expr.BOOL, "and", tuple(parts))
+
+
+def _at_least(counter: expr.Ref, op: str, cycles: int) -> expr.Expr:
+    return expr.Compare(expr.BOOL, counter, (op,), (expr.Const(expr.INT, cycles),))
+
+
 def _a(kind: str) -> str:
     return {"int": "an int", "float": "a float", "bool": "a bool"}.get(kind, kind)
 
@@ -578,6 +609,7 @@ class _ControllerChecker:
         self.subs = [s.value for s in spec.subordinates]
         self.predicate_trees: dict[str, expr.Expr] = {}  # for folding guards (set by check)
         self.writable = {w.value for w in spec.world_writes}
+        self.period = process_period(system, spec.name)  # a stand-in's: check() sets it
         self.base_scope = expr.Scope(
             world=system.world_types,
             world_access=frozenset(a.value for a in [*spec.world_reads, *spec.world_writes]),
@@ -601,6 +633,7 @@ class _ControllerChecker:
 
     def check(self, supervisor: str | None, simulator: bool, buffers: str) -> CheckedController:
         spec = self.spec
+        self.period = process_period(self.system, buffers)
         predicates = self.check_predicates()
         self.predicate_trees = {name: p.tree for name, p in predicates.items()}
         commands = {
@@ -740,6 +773,8 @@ class _ControllerChecker:
         guard = None
         if rule.when is not None:
             guard = self.typed(rule.when, scope, expr.BOOL)
+        after, hold = self.timing(rule_id, rule)
+        guard = _timed_guard(rule_id, guard, after, hold)
         actions = [self.check_action(a, scope) for a in rule.actions]
         reports = [a for a in rule.actions if isinstance(a, model.Report)]
         if reports and rule.next is not None:
@@ -755,8 +790,67 @@ class _ControllerChecker:
             folded = expr.fold(guard, scope.constants, self.predicate_trees)
             always = folded if isinstance(folded, bool) else None
         return CheckedRule(
-            rule_id, rule, guard, tuple(a for a in actions if a is not None), next_state, always
+            rule_id,
+            rule,
+            guard,
+            tuple(a for a in actions if a is not None),
+            next_state,
+            always,
+            after,
+            hold,
         )
+
+    def timing(self, rule_id: RuleId, rule: Rule) -> tuple[int | None, int | None]:
+        """A rule's `after:` and `for:` in cycles of this controller's process (None: not
+        given, or wrong: E250-E252, W304 when rounded up)."""
+        found: list[int | None] = []
+        for key, item in (("after", rule.after), ("for", rule.hold)):
+            if item is None:
+                found.append(None)
+                continue
+            if rule_id.command is None:
+                self.diags.error(
+                    item.span,
+                    "E251",
+                    f"an every_cycle rule cannot wait: `{key}:` counts the time in a state",
+                    "every_cycle rules run whatever the state; put the timed rule in a table",
+                )
+                found.append(None)
+                continue
+            if key == "for" and rule.when is None:
+                self.diags.error(
+                    item.span,
+                    "E250",
+                    "`for:` needs a `when:`: it is how long the guard must have held",
+                    "add the condition as `when:`, or write `after:` to wait in the state",
+                )
+                found.append(None)
+                continue
+            found.append(self.cycles(key, item, rule_id))
+        return found[0], found[1]
+
+    def cycles(self, key: str, item: Located, rule_id: RuleId) -> int | None:
+        """A duration in whole cycles of this controller's period (rounded up: W304)."""
+        count, exact = model.exact_cycles(item.value, self.period)
+        text = duration_text(item.value)
+        if count < 1:
+            self.diags.error(
+                item.span,
+                "E252",
+                f"`{key}: {text}` is less than one cycle ({self.period:g} s)",
+                "give at least one cycle; a rule that need not wait has no `after:` or `for:`",
+            )
+            return None
+        if not exact:
+            self.diags.warning(
+                item.span,
+                "W304",
+                f"`{key}: {text}` is not a whole number of cycles of {self.period:g} s: "
+                f"it is rounded up to {count} cycles ({count * self.period:g} s)",
+                "write the duration in cycles, or as a multiple of the cycle period",
+                Subject(self.spec.name, rule_id.command, rule_id.state, rule_id.index),
+            )
+        return count
 
     def check_action(self, action: model.Action, scope: expr.Scope) -> Action | None:
         if isinstance(action, model.Send):

@@ -266,6 +266,8 @@ def _controller_context(
             slots.append(f"{s.name}_sent_at")
     slots += [f"world_{f.name}" for f in c.world_reads]
     slots += [f"var_{v.name}" for v in c.locals]
+    if c.timed:
+        slots += ["ticks", *c.counters]
     imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT", *(n for names in world_seq_at for n in names)}
     for s in c.subordinates:
         imports |= {f"{s.name.upper()}_COMMAND", f"{s.name.upper()}_COMMAND_AT"}

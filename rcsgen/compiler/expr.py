@@ -60,7 +60,10 @@ class Const(Expr):
 @dataclass(frozen=True)
 class Ref(Expr):
     """A resolved name. kind: world, param, local, const, status, sub_status, sub_command,
-    sub_command_name (`owner` is the subordinate for the sub_* kinds)."""
+    sub_command_name (`owner` is the subordinate for the sub_* kinds); and two that no spec
+    text names, made by the checker from a rule's `after:` and `for:`: time (the cycles
+    spent in the current state, an int) and held (the cycles a `for:` rule's `when` has
+    held, an int; `name` is its counter)."""
 
     kind: str
     name: str

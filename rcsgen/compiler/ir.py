@@ -178,6 +178,16 @@ class IRRule:
     actions: tuple[IRAction, ...]
     next_state: str | None  # None: stay (NOP after a report)
     code: int = 0  # what the status buffer's `rule` shows when it fires; 0: not recorded
+    timing: str = ""  # its `after:`/`for:` as a comment shows them, with the cycles
+
+
+@dataclass(frozen=True)
+class IRCounter:
+    """The counter of a `for:` rule: `self.<attribute> = self.<attribute> + 1 if <condition>
+    else 0`, updated first in its state every cycle the table runs there."""
+
+    attribute: str  # e.g. held_hold_ice_s1_2
+    condition: IRExpr  # the rule's `when`
 
 
 @dataclass(frozen=True)
@@ -185,6 +195,7 @@ class IRState:
     name: str
     span: Span
     rules: tuple[IRRule, ...]
+    counters: tuple[IRCounter, ...] = ()  # of its `for:` rules, in rule order
 
 
 @dataclass(frozen=True)
@@ -198,6 +209,7 @@ class IRCommand:
     generated: bool
     span: Span
     first_match: tuple[str, ...] = ()  # states whose rules may overlap: the earlier wins
+    timed: bool = False  # a rule waits (`after:`/`for:`): the method keeps `ticks` up to date
 
 
 @dataclass(frozen=True)
@@ -241,6 +253,8 @@ class IRController:
     buffers: str  # whose command/status buffers it uses: itself, or the replaced one
     runtime_names: tuple[str, ...]  # what the module imports from the runtime contract
     hooks_state_span: Span | None = None  # where `hooks_state` names the factory
+    timed: bool = False  # some table waits: the controller keeps `ticks`
+    counters: tuple[str, ...] = ()  # every `for:` counter attribute, in table order
 
     def table_rules(self) -> list[IRRule]:
         """Every rule of the state tables, in code order (code = index + 1)."""

@@ -37,6 +37,8 @@ from .tables import (
     Report,
     Send,
     Target,
+    one_line,
+    untimed,
 )
 
 # What every controller module imports from the runtime contract, whatever its tables say.
@@ -132,6 +134,13 @@ class _ControllerLowering:
                 rules, c.predicates.values(), spec.hooks_state is not None
             ),
             hooks_state_span=spec.hooks_state.span if spec.hooks_state else None,
+            timed=any(command.timed for command in commands),
+            counters=tuple(
+                counter.attribute
+                for command in commands
+                for state in command.states
+                for counter in state.counters
+            ),
         )
 
     def sub(self, sub: str) -> ir.IRSub:
@@ -154,13 +163,33 @@ class _ControllerLowering:
             method=naming.command_method(command.name),
             params=tuple(ir.IRParam(p.name, p.type, p.doc) for p in source.params.values()),
             states=tuple(
-                ir.IRState(s.name, s.span, tuple(self.rule(r, self.code()) for r in s.rules))
+                ir.IRState(
+                    s.name,
+                    s.span,
+                    tuple(self.rule(r, self.code()) for r in s.rules),
+                    tuple(self.counter(r) for r in s.rules if r.hold is not None),
+                )
                 for s in command.states.values()
             ),
             generated=command.generated,
             span=source.span,
             first_match=tuple(item.value for item in source.first_match),
+            timed=any(
+                r.after is not None or r.hold is not None
+                for s in command.states.values()
+                for r in s.rules
+            ),
         )
+
+    def counter(self, rule: CheckedRule) -> ir.IRCounter:
+        """The counter of a `for:` rule, counting the cycles its `when` held."""
+        assert rule.guard is not None  # `when and held > N` (check._timed_guard)
+        when, timers = untimed(rule.guard)
+        assert when is not None
+        text = one_line(rule.source.when.value) if rule.source.when else ""
+        counter = next(t.left for t in timers if isinstance(t, expr.Compare))
+        assert isinstance(counter, expr.Ref) and counter.kind == "held"
+        return ir.IRCounter(counter.name, self.expression(when, text))
 
     def code(self) -> int:
         self.next_code += 1
@@ -172,6 +201,13 @@ class _ControllerLowering:
             text = rule.guard_text or ""
             guard = self.expression(rule.guard, text)
             operand = expr.to_python_conjunct(rule.guard, naming.attribute)
+            if rule.hold is not None:
+                # its counter already counts the cycles `when` held: test only the timers
+                rest = untimed(rule.guard)[1]
+                tested = rest[0] if len(rest) == 1 else expr.BoolOp(expr.BOOL, "and", rest)
+                python = expr.to_python(tested, naming.attribute)
+                guard = ir.IRExpr(rule.guard, text, python)
+                operand = expr.to_python_conjunct(tested, naming.attribute)
         return ir.IRRule(
             id=rule.id,
             span=rule.span,
@@ -181,6 +217,7 @@ class _ControllerLowering:
             actions=tuple(self.action(a) for a in rule.actions),
             next_state=rule.next_state,
             code=code,
+            timing=rule.timing,
         )
 
     def action(self, action: Action) -> ir.IRAction:

@@ -140,6 +140,8 @@ class Rule:
     next: Located | None
     span: Span
     allow: list[Allow] = field(default_factory=list)
+    after: Located | None = None  # a duration: time in the state before the rule may fire
+    hold: Located | None = None  # `for:` a duration the guard must have held without a break
 
 
 @dataclass
@@ -285,6 +287,8 @@ def _rule(raw: Any, span: Span) -> Rule:
         next=nxt,
         span=span,
         allow=_allow(raw, span),
+        after=Located(raw["after"], value_span(raw, "after", span)) if "after" in raw else None,
+        hold=Located(raw["for"], value_span(raw, "for", span)) if "for" in raw else None,
     )
 
 
@@ -414,6 +418,25 @@ def duration_in_cycles(value: object, period: float) -> int:
             return int(float(number))
         seconds = float(number) / (1000 if unit == "ms" else 1)
     return max(1, math.ceil(seconds / period - 1e-9))
+
+
+def exact_cycles(value: object, period: float) -> tuple[int, bool]:
+    """A schema-valid duration as cycles of `period` seconds, rounded up (0 stays 0), and
+    whether that is exact: a duration in seconds that is not a whole number of cycles (to
+    one part in a million) is rounded up, so a limit is never shorter than asked."""
+    if isinstance(value, int | float):
+        seconds = float(value)
+    else:
+        number, unit = _DURATION.fullmatch(str(value).strip()).groups()  # type: ignore[union-attr]
+        if unit.startswith("cycle"):
+            whole = float(number)
+            return math.ceil(whole), whole == int(whole)
+        seconds = float(number) / (1000 if unit == "ms" else 1)
+    cycles = seconds / period
+    nearest = round(cycles)
+    if abs(cycles - nearest) <= 1e-6 * max(1.0, cycles):
+        return nearest, True
+    return math.ceil(cycles), False
 
 
 _DURATION = re.compile(r"([0-9]+(?:\.[0-9]+)?)\s*(s|ms|cycles?)")

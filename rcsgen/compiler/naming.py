@@ -169,6 +169,12 @@ def command_method(command: str) -> str:
     return f"{method}_" if keyword.iskeyword(method) else method
 
 
+def held_attribute(command: str, state: str, index: int) -> str:
+    """The counter of a `for:` rule: cycles its `when` has held, without a break, in its
+    state (HOLD_ICE, S1, rule 2 -> held_hold_ice_s1_2)."""
+    return f"held_{command.lower()}_{state.lower()}_{index}"
+
+
 def sub_command_const(sub: str, command: str) -> str:
     """A subordinate's command code as its supervisor names it: cc, SUMP -> CC_SUMP."""
     return f"{sub.upper()}_{command}"
@@ -193,6 +199,10 @@ def attribute(ref: Ref) -> str:
         return f"self.var_{name}"
     if kind in ("const", "status"):
         return name
+    if kind == "time":  # cycles in the current state (`after:`)
+        return "self.ticks"
+    if kind == "held":  # cycles a `for:` rule's guard has held
+        return f"self.{name}"
     if kind == "sub_status":
         return f"self.{owner}_status"
     if kind == "sub_command":

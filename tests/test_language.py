@@ -1,0 +1,233 @@
+"""The language of issue 14, items 1-3: time in a state, results and reasons, expressions.
+
+Each feature is tested where it shows: its meaning cycle by cycle through the harness on
+the fixtures in tests/fixtures/language/, what the analysis makes of it (tests/test_analysis.py's
+`spec` fixture), and that a table not using it generates exactly the code it did before.
+The differential test (tests/test_differential.py) runs the features against the reference
+interpreter too.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from conftest import REPO
+from test_analysis import at, found, spec  # noqa: F401  (the `spec` fixture)
+
+from rcsgen.compiler import emit
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.tools.harness import Harness
+
+FIXTURES = Path(__file__).resolve().parent / "fixtures" / "language"
+
+
+# ---------------------------------------------------------------- time
+
+
+@pytest.fixture
+def timed():
+    with Harness.build(FIXTURES / "timed") as h:
+        yield h
+
+
+def test_after_fires_once_the_state_has_lasted_that_many_cycles(timed: Harness) -> None:
+    """`after: 3 cycles` in S0: the command arrives in cycle 1 (S0's first), so the rule
+    fires in cycle 4, three cycles later; not before."""
+    timed.command("rudder", "CENTER")
+    seen = []
+    for _ in range(5):
+        timed.step("rudder")
+        seen.append(timed.status("rudder").status)
+    assert seen == ["EXECUTING", "EXECUTING", "EXECUTING", "DONE", "DONE"]
+
+
+def test_a_new_command_starts_the_time_again(timed: Harness) -> None:
+    """Two cycles into CENTER a new CENTER arrives: its S0 waits its three cycles afresh."""
+    timed.command("rudder", "CENTER")
+    timed.step("rudder")
+    timed.step("rudder")
+    number = timed.command("rudder", "CENTER")
+    for _ in range(3):
+        timed.step("rudder")
+        assert timed.status("rudder").status == "EXECUTING"
+    timed.step("rudder")
+    assert (timed.status("rudder").status, timed.status("rudder").number) == ("DONE", number)
+
+
+def _into_s1(h: Harness) -> None:
+    """helm ICE_MANEUVER: S0 sends CENTER and moves to S1; the rudder is done at once."""
+    h.command("helm", "ICE_MANEUVER")
+    h.step("helm")
+    h.reply("rudder", "DONE")
+    assert h.status("helm").state == "S1"
+
+
+def test_for_fires_when_the_condition_has_held_the_whole_duration(timed: Harness) -> None:
+    """`for: 0.5 s` at 0.1 s a cycle: ice seen in 5 cycles in a row is not enough; the rule
+    fires in the cycle it has held for 5 cycles after the first sighting (the 6th)."""
+    _into_s1(timed)
+    timed.world["ice_ahead"] = True
+    states = []
+    for _ in range(6):
+        timed.step("helm")
+        states.append(timed.status("helm").state)
+    assert states == ["S1"] * 5 + ["S2"]
+    assert timed.sent("rudder").command == "HARD_OVER"
+
+
+def test_for_starts_again_when_the_condition_breaks(timed: Harness) -> None:
+    """Four cycles of ice, one without, then ice again: the count starts from the break."""
+    _into_s1(timed)
+    for ice in [True] * 4 + [False] + [True] * 5:
+        timed.world["ice_ahead"] = ice
+        timed.step("helm")
+    assert timed.status("helm").state == "S1"
+    timed.step("helm")
+    assert timed.status("helm").state == "S2"
+
+
+def test_after_counts_from_entering_the_state_not_the_command(timed: Harness) -> None:
+    """S2 times out 2 s (20 cycles) after it was entered, whatever S1 took before."""
+    _into_s1(timed)
+    timed.world["ice_ahead"] = True
+    for _ in range(6):
+        timed.step("helm")
+    assert timed.status("helm").state == "S2"  # the rudder now works on HARD_OVER
+    for _ in range(20):
+        timed.step("helm")
+        assert timed.status("helm").status == "EXECUTING"
+    timed.step("helm")
+    assert (timed.status("helm").status, timed.status("helm").rule) == (
+        "ERROR",
+        "ICE_MANEUVER/S2/3",
+    )
+    assert timed.sent("rudder").command == "CENTER"
+
+
+def test_time_is_counted_in_the_process_s_period(tmp_path: Path) -> None:
+    """A process with its own cycle_period counts `after: 1 s` in its own cycles."""
+    source = FIXTURES / "timed"
+    target = tmp_path / "timed"
+    target.mkdir()
+    for path in source.glob("*.yaml"):
+        text = path.read_text(encoding="utf-8")
+        if path.name == "system.yaml":
+            text = text.replace("[helm, rudder]", "[helm, rudder]\n    cycle_period: 0.5")
+        (target / path.name).write_text(text, encoding="utf-8")
+    with Harness.build(target) as h:
+        _into_s1(h)
+        h.world["ice_ahead"] = False
+        for _ in range(6):  # `after: 3 s` at 0.5 s: 6 cycles after S1's first
+            h.step("helm")
+        assert h.status("helm").status == "EXECUTING"
+        h.step("helm")
+        assert h.status("helm").status == "DONE"
+
+
+def test_timed_code_reads_like_a_hand_written_table(tmp_path: Path) -> None:
+    """The counters are spelled where a C programmer would keep them: one line per `for:`
+    at the top of its state, the time in the rule's test with the duration as a comment,
+    and the time kept up to date once at the end of the table."""
+    front = compile_paths([FIXTURES / "timed"])
+    assert not front.diagnostics.errors
+    helm = emit.render_all(front.systems)["timed/helm.py"]
+    assert (
+        "self.held_ice_maneuver_s1_2 = (\n"
+        "                self.held_ice_maneuver_s1_2 + 1 if self.world_ice_ahead else 0\n"
+        "            )"
+    ) in helm
+    assert "elif self.held_ice_maneuver_s1_2 > 5:  # for: 0.5 s = 5 cycles" in helm
+    assert "elif self.ticks >= 20:  # after: 2 s = 20 cycles" in helm
+    assert (
+        "        if self.state != state:  # a new state, or the command ended: time starts again\n"
+        "            self.ticks = 0\n"
+        "            self.held_ice_maneuver_s1_2 = 0\n"
+        "        else:\n"
+        "            self.ticks += 1\n"
+    ) in helm
+
+
+def test_tables_without_time_generate_what_they_did_before() -> None:
+    """The feature costs nothing where it is not used: the miner's package, rendered now, is
+    the committed one byte for byte, and keeps no time at all."""
+    front = compile_paths([REPO / "specs"])
+    assert not front.diagnostics.errors
+    files = emit.render_all(front.systems)
+    for rel, text in files.items():
+        assert (REPO / "generated" / rel).read_text(encoding="utf-8") == text, rel
+        assert "self.ticks" not in text and "held_" not in text, rel
+
+
+# ---------------------------------------------------------------- time in the analysis
+
+
+def test_a_time_out_ends_a_wait_so_it_is_not_a_wait(spec) -> None:  # noqa: F811
+    """A state whose only way out is a time-out is not W503: time passes. A `for:` whose
+    condition may never come is still a wait, shown without the time."""
+    diags = spec(
+        """
+        GO:
+          states:
+            S0:
+              - after: 2 s
+                next: S1
+            S1:
+              - when: world.hot
+                for: 1 s
+                do: [report: DONE]
+        """
+    )
+    assert found(diags, "W503", "W508", "W512") == [
+        (at("    |S1:"), "W503", "GO S1 waits when world.hot=false: no rule fires then")
+    ]
+
+
+def test_a_time_out_beside_a_condition_overlaps_it(spec) -> None:  # noqa: F811
+    """Both can hold in one cycle, so rule order decides: E501, with the time it takes."""
+    diags = spec(
+        """
+        GO:
+          states:
+            S0:
+              - do: [send: a.GO]
+                next: S1
+            S1:
+              - when: a.status == DONE
+                do: [report: DONE]
+              - when: a.status == ERROR
+                do: [report: ERROR]
+              - after: 3 cycles
+                do: [report: ERROR]
+        """
+    )
+    assert found(diags, "E501") == [
+        (
+            at("        - |after: 3 cycles"),
+            "E501",
+            "rules 1 and 3 of GO S1 can both fire: both hold when a.status=DONE, cycles_in_state=3",
+        ),
+        (
+            at("        - |after: 3 cycles"),
+            "E501",
+            "rules 2 and 3 of GO S1 can both fire: both hold when a.status=ERROR, "
+            "cycles_in_state=3",
+        ),
+    ]
+
+
+def test_a_guard_that_waits_for_time_is_never_dead(spec) -> None:  # noqa: F811
+    """`after:` alone, or after an exclusive guard, can always fire: no W508/W512."""
+    diags = spec(
+        """
+        GO:
+          states:
+            S0:
+              - when: world.hot
+                do: [report: DONE]
+              - when: not world.hot
+                after: 10 cycles
+                do: [report: ERROR]
+        """
+    )
+    assert found(diags) == []
