@@ -13,7 +13,8 @@ subordinate status (EXECUTING until the echo of the last number sent), the first
 guard holds fires (`next` then actions in order), `report` ends the command (state NOP),
 sends number each command, world fields copied in at the start and written out at the end
 of a cycle, locals, parameters, constants, predicates, default INIT/HALT tables, time in a
-state (`after:`, `for:`; docs/semantics.md "Time in a state").
+state (`after:`, `for:`; docs/semantics.md "Time in a state"), results and reasons (own
+and subordinates'; docs/semantics.md "Results and reasons").
 Not covered: modes, every_cycle rules, hooks.
 """
 
@@ -68,6 +69,8 @@ class Block:
     command: str = "NONE"
     args: dict[str, Any] = field(default_factory=dict)
     sub_status: dict[str, tuple[int, str]] = field(default_factory=dict)  # sub -> (num, status)
+    sub_reason: dict[str, str] = field(default_factory=dict)  # sub -> the reason it reports
+    sub_results: dict[str, dict[str, Any]] = field(default_factory=dict)  # sub -> its results
     world: dict[str, Any] = field(default_factory=dict)
 
 
@@ -105,6 +108,23 @@ class Controller:
         for name, command in (spec.get("commands") or {}).items():
             self.tables[name] = command["states"]
         self.params = self._param_types()
+        self.result_types = {
+            name: result["type"]
+            for command in (spec.get("commands") or {}).values()
+            for name, result in (command.get("results") or {}).items()
+        }
+        self.results = {name: _zero(kind) for name, kind in self.result_types.items()}
+        self.reason = "NONE"
+        self.sub_reason = {sub: "NONE" for sub in self.subs}
+        self.sub_result_types = {
+            sub: {
+                name: result["type"]
+                for command in (subs[sub].get("commands") or {}).values()
+                for name, result in (command.get("results") or {}).items()
+            }
+            for sub in self.subs
+        }
+        self.sub_results: dict[str, dict[str, Any]] = {sub: {} for sub in self.subs}
         # status buffer and local copies
         self.status_num, self.status, self.state = 0, "NOT_READY", "NOP"
         self.command_num, self.command, self.args = 0, "NONE", {}
@@ -137,12 +157,23 @@ class Controller:
         self.args = {p: block.args.get(p, _zero(t)) for p, t in self.params.items()}
         for sub in self.subs:
             number, status = block.sub_status.get(sub, (0, "NOT_READY"))
-            self.sub_view[sub] = status if number == self.sent[sub].number else "EXECUTING"
+            echoed = number == self.sent[sub].number
+            self.sub_view[sub] = status if echoed else "EXECUTING"
+            # a reason only with an ERROR, results only for the last command sent
+            reason = block.sub_reason.get(sub, "NONE")
+            self.sub_reason[sub] = reason if echoed and status == "ERROR" else "NONE"
+            results = block.sub_results.get(sub, {})
+            self.sub_results[sub] = {
+                name: results.get(name, _zero(kind)) if echoed else _zero(kind)
+                for name, kind in self.sub_result_types[sub].items()
+            }
         self.world = {name: block.world[name] for name in self.reads}
         # check_if_new_command
         if self.command_num != self.status_num:
             self.status_num, self.state, self.status = self.command_num, "S0", "EXECUTING"
             self.time, self.held = 0, {}
+            self.reason = "NONE"
+            self.results = {name: _zero(kind) for name, kind in self.result_types.items()}
         # decision_process
         table = self.tables.get(self.command)
         entered = self.state
@@ -200,10 +231,16 @@ class Controller:
                     value = self.value(text)
                     if target.startswith("world."):
                         self.world[target.removeprefix("world.")] = value
+                    elif target.startswith("result."):
+                        name = target.removeprefix("result.")
+                        kind = self.result_types[name]
+                        self.results[name] = float(value) if kind == "float" else value
                     else:
                         self.locals[target] = value
             elif "report" in action:
                 self.status, self.state = action["report"], "NOP"
+                if "reason" in action:
+                    self.reason = action["reason"]
 
     # ------------------------------------------------------------ expressions
 
@@ -242,9 +279,14 @@ class Controller:
         if isinstance(node, ast.Name):
             return self.name(node.id, sub_commands)
         if isinstance(node, ast.Attribute):
+            if isinstance(node.value, ast.Attribute):  # <sub>.result.<name>
+                sub = node.value.value.id  # type: ignore[attr-defined]
+                return self.sub_results[sub][node.attr]
             base = node.value.id  # type: ignore[attr-defined]
             if base == "world":
                 return self.world[node.attr]
+            if node.attr == "reason":
+                return self.sub_reason[base]
             return self.sub_view[base] if node.attr == "status" else self.sent[base].command
         if isinstance(node, ast.Call):
             name = node.func.id  # type: ignore[attr-defined]
@@ -276,13 +318,16 @@ class Controller:
                 s: (c.command, c.number, dict(sorted(c.args.items()))) for s, c in self.sent.items()
             },
             "locals": dict(self.locals),
+            "reason": self.reason,
+            "results": dict(self.results),
         }
 
 
 def _sub_command(node: ast.AST, subs: list[str]) -> str | None:
+    """The subordinate whose command or reason `node` reads: compared with names."""
     if (
         isinstance(node, ast.Attribute)
-        and node.attr == "command"
+        and node.attr in ("command", "reason")
         and isinstance(node.value, ast.Name)
         and node.value.id in subs
     ):

@@ -231,3 +231,133 @@ def test_a_guard_that_waits_for_time_is_never_dead(spec) -> None:  # noqa: F811
         """
     )
     assert found(diags) == []
+
+
+# ---------------------------------------------------------------- results and reasons
+
+
+@pytest.fixture
+def results():
+    with Harness.build(FIXTURES / "results") as h:
+        yield h
+
+
+def _status(h: Harness, module: str) -> dict:
+    """The whole status buffer of `module`, its results and error_num included."""
+    return dict(h.layout.STATUS_OUT[module].read(h.buf))
+
+
+def test_a_result_is_read_while_the_subordinate_keeps_executing(results: Harness) -> None:
+    """The helm reports at_goal while it goes on holding station (Figure 18): the mission
+    reads it in a guard, and reports its own result with DONE."""
+    results.world["answer"] = 1  # the operator clamps at once
+    results.command("mission", "GO")
+    results.cycle(4)
+    assert results.status("mission").status == "EXECUTING"
+    results.world["distance"] = 0.5
+    results.cycle(1)
+    helm = _status(results, "helm")
+    assert (helm["status"], helm["result_at_goal"], helm["result_course_error"]) == (1, True, 0.5)
+    assert results.status("mission").status == "EXECUTING"  # it runs before the helm
+    results.cycle(1)
+    mission = _status(results, "mission")
+    assert (mission["status"], mission["error_num"], mission["result_legs"]) == (2, 0, 5)
+
+
+def test_a_reason_tells_refused_from_timed_out(results: Harness) -> None:
+    """The operator refuses: fx says REFUSED, the mission OPERATOR_REFUSED. Nobody
+    answers: fx times out after 2 s, TIMED_OUT, and the mission says NO_OPERATOR."""
+    layout = results.package.fx
+    results.world["answer"] = 2
+    results.command("mission", "GO")
+    results.cycle(2)
+    assert _status(results, "fx")["error_num"] == layout.REASON_REFUSED == 2
+    assert (
+        _status(results, "mission")["error_num"] == results.package.mission.REASON_OPERATOR_REFUSED
+    )
+    assert results.sent("helm").command == "HALT"
+    results.world["answer"] = 0
+    results.command("mission", "GO")
+    results.cycle(1)
+    assert _status(results, "mission")["error_num"] == 0  # a new command: no reason yet
+    results.cycle(19)
+    assert results.status("fx").status == "EXECUTING"  # 2 s = 20 cycles after CLAMP arrived
+    results.cycle(1)
+    assert (results.status("fx").status, _status(results, "fx")["error_num"]) == ("ERROR", 3)
+    assert results.status("mission").status == "EXECUTING"  # it reads fx one cycle later
+    results.cycle(1)
+    assert _status(results, "mission")["error_num"] == results.package.mission.REASON_NO_OPERATOR
+
+
+def test_results_of_an_earlier_command_are_not_read_before_the_echo(results: Harness) -> None:
+    """A supervisor reads a result (and a reason) only once the subordinate has echoed the
+    last command sent: before that they read as none, never as the last command's."""
+    results.world["answer"] = 1
+    results.world["distance"] = 0.5
+    results.command("mission", "GO")
+    results.cycle(3)
+    assert _status(results, "helm")["result_at_goal"] is True
+    results.command("mission", "GO")
+    results.step("mission")  # sends a new TRANSIT; helm has not run yet
+    results.step("mission")
+    mission = results.controller("mission")
+    assert mission.helm_status_num != mission.helm_command_num
+    assert mission.helm_result_at_goal is False
+    assert results.status("mission").state == "S1"
+
+
+def test_lost_is_the_runtime_s_safe_state_reason() -> None:
+    """`LOST` names the error_num the runtime reports when a subordinate's process is lost."""
+    from rcsgen.compiler.expr import BUILTIN_REASONS
+    from rcsgen.runtime.loop import LOST_SUBORDINATE
+
+    assert BUILTIN_REASONS.index("LOST") == LOST_SUBORDINATE
+    assert BUILTIN_REASONS.index("NONE") == 0
+
+
+def _with_mission(tmp_path: Path, states: str) -> list:
+    """The results fixture with the mission's GO table replaced: the mission's diagnostics."""
+    target = tmp_path / "results"
+    target.mkdir(parents=True)
+    for path in (FIXTURES / "results").glob("*.yaml"):
+        (target / path.name).write_text(path.read_text(encoding="utf-8"), encoding="utf-8")
+    (target / "mission.yaml").write_text(
+        "controller: mission\ntitle: Mission\nsubordinates: [helm, fx]\ncommands:\n"
+        "  GO:\n    states:\n      S0:\n        - do: [send: fx.CLAMP]\n          next: S1\n"
+        f"      S1:\n{states}",
+        encoding="utf-8",
+    )
+    front = compile_paths([target])
+    found = [*front.diagnostics, *front.diagnostics.acknowledged]
+    return [d for d in found if d.span.file.endswith("mission.yaml")]
+
+
+def test_a_reason_comes_only_with_error_in_the_analysis(tmp_path: Path) -> None:
+    """`fx.reason == REFUSED` cannot hold with `fx.status == DONE`: no false overlap; with
+    `fx.status == ERROR` it can, and the counter-example names the reason."""
+    apart = _with_mission(
+        tmp_path / "a",
+        "        - when: fx.status == DONE\n          do: [report: DONE]\n"
+        "        - when: fx.reason == REFUSED\n          do: [report: ERROR]\n"
+        "        - when: fx.status == ERROR and fx.reason != REFUSED\n"
+        "          do: [report: ERROR]\n",
+    )
+    assert [d.code for d in apart] == []
+    overlap = _with_mission(
+        tmp_path / "b",
+        "        - when: fx.status == ERROR\n          do: [report: ERROR]\n"
+        "        - when: fx.reason == TIMED_OUT\n          do: [report: ERROR]\n"
+        "        - when: fx.status == DONE\n          do: [report: DONE]\n",
+    )
+    assert [(d.code, d.message) for d in overlap] == [
+        (
+            "E501",
+            "rules 1 and 2 of GO S1 can both fire: both hold when fx.status=ERROR, "
+            "fx.reason=TIMED_OUT",
+        ),
+        (  # and, since a reason comes only with ERROR, rule 1 always fires first
+            "W512",
+            "rule 2 of GO S1 never fires: whenever its guard holds, an earlier rule (1) fires "
+            "first",
+        ),
+    ]

@@ -35,6 +35,7 @@ from typing import Any
 from ..runtime.contract import FINISHED
 from . import expr
 from .diagnostics import Diagnostic, Diagnostics, Span, Subject, known_names_hint
+from .expr import BUILTIN_REASONS
 from .solver import (
     BOOL_DOMAIN,
     LIMIT,
@@ -96,8 +97,11 @@ def show_key(key: Key) -> str:
     kind, name = key
     if kind == "world":
         return f"world.{name}"
-    if kind in ("status", "command"):
+    if kind in ("status", "command", "reason"):
         return f"{name}.{kind}"
+    if kind == "result":
+        sub, _, field = name.partition(".")
+        return f"{sub}.result.{field}"
     if kind in ("opaque", "form"):
         return f"({name})"
     if kind == "time":
@@ -144,8 +148,10 @@ class GuardBuilder:
         constants: dict[str, Any],
         predicates: dict[str, expr.Expr],
         sub_commands: dict[str, tuple[str, ...]],
+        sub_reasons: dict[str, tuple[str, ...]] | None = None,
     ):
         self.constants, self.predicates, self.sub_commands = constants, predicates, sub_commands
+        self.sub_reasons = sub_reasons or {}
 
     def guard(self, tree: expr.Expr) -> Guard:
         guard = Guard(lambda val: True)
@@ -189,11 +195,29 @@ class GuardBuilder:
         if e.kind == "const":
             value = self.constants[e.name]
             return lambda val: value
-        if e.kind in ("status", "sub_command_name"):
+        if e.kind in ("status", "sub_command_name", "sub_reason_name"):
             name = e.name
             return lambda val: name
-        if e.kind == "sub_status":
-            key: Key = ("status", e.owner)
+        if e.kind == "sub_reason":
+            # A reason comes only with an ERROR for the last command sent: NONE otherwise.
+            status: Key = ("status", e.owner)
+            reason: Key = ("reason", e.owner)
+            self._atom(g, status, STATUS_DOMAIN)
+            self._atom(g, reason, ("NONE", *BUILTIN_REASONS[1:], *self.sub_reasons[e.owner]))
+
+            def read(val: Valuation) -> Any:
+                seen = val.get(status)
+                if seen is None or seen != "ERROR":
+                    return None if seen is None else "NONE"
+                return val.get(reason)
+
+            return read
+        key: Key
+        if e.kind == "sub_result":  # a boolean result (numbers are read by comparisons)
+            key = ("result", f"{e.owner}.{e.name}")
+            self._atom(g, key, BOOL_DOMAIN)
+        elif e.kind == "sub_status":
+            key = ("status", e.owner)
             self._atom(g, key, STATUS_DOMAIN)
         elif e.kind == "sub_command":
             key = ("command", e.owner)
@@ -248,8 +272,8 @@ class GuardBuilder:
         if isinstance(e, expr.Ref):
             if e.kind == "const":
                 return Linear({}, Fraction(self.constants[e.name]))
-            if e.kind in _VARIABLES:
-                key = (e.kind, e.name)
+            if e.kind in _VARIABLES or e.kind == "sub_result":
+                key = ("result", f"{e.owner}.{e.name}") if e.owner else (e.kind, e.name)
                 types[key] = e.type
                 return Linear({key: Fraction(1)}, Fraction(0))
             return None
@@ -335,6 +359,7 @@ class _Controller:
             {n: c.value for n, c in checked.spec.constants.items()},
             {n: p.tree for n, p in checked.predicates.items()},
             dict(checked.sub_commands),
+            dict(checked.scope.sub_reasons),
         )
         # every_cycle rules run whatever the state: what they send or test counts everywhere
         every = checked.every_cycle

@@ -230,7 +230,15 @@ def _subtree(name: str, by_name: dict[str, ControllerSpec]) -> set[str]:
 
 
 def _command_signature(spec: ControllerSpec) -> dict[str, dict[str, str]]:
-    return {n: {p: t.type for p, t in c.params.items()} for n, c in spec.commands.items()}
+    """Each command's parameters, results and reasons: what shares its buffers' shape."""
+    return {
+        n: {
+            **{p: t.type for p, t in c.params.items()},
+            **{f"result {r}": t.type for r, t in c.results.items()},
+            **{f"reason {r.value}": "" for r in c.reasons},
+        }
+        for n, c in spec.commands.items()
+    }
 
 
 def _check_stand_ins(
@@ -617,7 +625,10 @@ class _ControllerChecker:
             constants={n: c.value for n, c in spec.constants.items()},
             predicates=frozenset(spec.predicates),
             subordinates={sub: frozenset(by_name[sub].commands) for sub in self.subs},
+            sub_results={sub: naming.result_types(by_name[sub]) for sub in self.subs},
+            sub_reasons={sub: tuple(naming.declared_reasons(by_name[sub])) for sub in self.subs},
         )
+        self.command: Command | None = None  # the command whose table is being checked
 
     def subject(self, rule: CheckedRule) -> Subject:
         """What a finding about `rule` is about, for acknowledgements."""
@@ -654,6 +665,7 @@ class _ControllerChecker:
 
     def check_every_cycle(self) -> tuple[CheckedRule, ...]:
         scope = self.scope_for(None)
+        self.command = None
         rules = []
         for index, written in enumerate(self.spec.every_cycle, start=1):
             if written.next is not None:
@@ -701,6 +713,7 @@ class _ControllerChecker:
 
     def check_command(self, command: Command, code: int) -> CheckedCommand:
         scope = self.scope_for(command)
+        self.command = command
         self.check_states(command)
         states = {}
         for state in command.states.values():
@@ -864,7 +877,7 @@ class _ControllerChecker:
                     pairs.append((target, value))
             return Assign(tuple(pairs), action)
         if isinstance(action, model.Report):
-            return Report(action.status, action.span)
+            return Report(action.status, action.span, self.reason(action))
         hook = self.spec.hooks.get(action.hook)
         if hook is None:
             self.diags.error(
@@ -901,9 +914,50 @@ class _ControllerChecker:
                 f"convert it in the spec, or change the annotation ({where})",
             )
 
+    def reason(self, report: model.Report) -> str | None:
+        """The reason a report gives, checked against its command's `reasons` (E255, E256)."""
+        if report.reason is None:
+            return None
+        reason = str(report.reason.value)
+        if report.status != "ERROR":
+            self.diags.error(
+                report.reason.span,
+                "E255",
+                f"`report: {report.status}` cannot give a reason",
+                "a reason says why a command failed: give it with `report: ERROR`",
+            )
+            return None
+        declared = [r.value for r in self.command.reasons] if self.command else []
+        if reason not in declared:
+            where = f"{self.command.name}'s `reasons`" if self.command else "an every_cycle rule"
+            self.diags.error(
+                report.reason.span,
+                "E256",
+                f"reason `{reason}` is not one of {where}",
+                known_names_hint("reasons", declared, reason)
+                or "declare it in the command's `reasons:` list",
+            )
+            return None
+        return reason
+
     def target(self, target: Located) -> Target | None:
-        """An assignable name (`world.<field>` or a local), or None after an error."""
+        """An assignable name (`world.<field>`, a local or `result.<name>` of the current
+        command), or None after an error."""
         text = str(target.value)
+        if text.startswith("result."):
+            name = text.removeprefix("result.")
+            results = self.command.results if self.command else {}
+            if name not in results:
+                where = f"{self.command.name}" if self.command else "an every_cycle rule"
+                self.diags.error(
+                    target.span,
+                    "E257",
+                    f"`{name}` is not a result of {where}",
+                    known_names_hint("results", results, name)
+                    or "declare it under the command's `results:`",
+                )
+                return None
+            return Target("result", name, results[name].type)
         if text.startswith("world."):
             name = text.removeprefix("world.")
             if name not in self.system.world:

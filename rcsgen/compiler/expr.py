@@ -42,6 +42,16 @@ def command_type(sub: str) -> str:
     return f"command of {sub}"
 
 
+def reason_type(sub: str) -> str:
+    """The type of `<sub>.reason` and of `<sub>`'s reason names."""
+    return f"reason of {sub}"
+
+
+# The reasons every controller that declares some has: none given, and a subordinate's
+# process lost (the runtime's safe state, `error_num` 1: rcs/loop.py LOST_SUBORDINATE).
+BUILTIN_REASONS = ("NONE", "LOST")
+
+
 # ---------------------------------------------------------------- typed tree
 
 
@@ -60,7 +70,8 @@ class Const(Expr):
 @dataclass(frozen=True)
 class Ref(Expr):
     """A resolved name. kind: world, param, local, const, status, sub_status, sub_command,
-    sub_command_name (`owner` is the subordinate for the sub_* kinds); and two that no spec
+    sub_command_name, sub_result (`<sub>.result.<name>`), sub_reason (`<sub>.reason`),
+    sub_reason_name (`owner` is the subordinate for the sub_* kinds); and two that no spec
     text names, made by the checker from a rule's `after:` and `for:`: time (the cycles
     spent in the current state, an int) and held (the cycles a `for:` rule's `when` has
     held, an int; `name` is its counter)."""
@@ -120,6 +131,9 @@ class Scope:
     predicates: frozenset[str] = frozenset()
     subordinates: Mapping[str, frozenset[str]] = field(default_factory=dict)  # sub -> commands
     used_predicates: set[str] = field(default_factory=set)
+    # each subordinate's results (name -> type) and the reasons it declares (none: no reason)
+    sub_results: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    sub_reasons: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
 
     def bare_names(self) -> list[str]:
         return [*self.params, *self.locals, *self.constants, *STATUS_NAMES]
@@ -214,6 +228,13 @@ class _Resolver:
         base, attr, scope = node.value, node.attr, self.scope
         if attr.startswith("__"):
             raise self.fail(node, "E102", f"dunder attribute `{attr}` is not allowed")
+        if (
+            isinstance(base, ast.Attribute)
+            and base.attr == "result"
+            and isinstance(base.value, ast.Name)
+            and base.value.id in scope.subordinates
+        ):
+            return self.sub_result(node, base.value.id, attr)
         if not isinstance(base, ast.Name):
             raise self.fail(node, "E102", "attributes are allowed only on `world` and subordinates")
         if base.id == "world":
@@ -237,10 +258,22 @@ class _Resolver:
                 return Ref(STATUS, "sub_status", attr, base.id)
             if attr == "command":
                 return Ref(command_type(base.id), "sub_command", attr, base.id)
+            if attr == "reason":
+                if not scope.sub_reasons.get(base.id):
+                    raise self.fail(
+                        node,
+                        "E259",
+                        f"`{base.id}` declares no reasons: `{base.id}.reason` says nothing",
+                        f"declare `reasons:` on the commands of `{base.id}` that can fail",
+                    )
+                return Ref(reason_type(base.id), "sub_reason", attr, base.id)
+            if attr == "result":
+                raise self.fail(node, "E108", f"`{base.id}.result` needs a name: `.result.<name>`")
             raise self.fail(
                 node,
                 "E108",
-                f"`{base.id}.{attr}`: a subordinate has only `status` and `command`",
+                f"`{base.id}.{attr}`: a subordinate has only `status`, `command`, `reason` "
+                "and `result.<name>`",
                 did_you_mean_attr(attr),
             )
         raise self.fail(
@@ -249,6 +282,18 @@ class _Resolver:
             f"`{base.id}` is neither `world` nor a subordinate of this controller",
             known_names_hint("subordinates", scope.subordinates, base.id),
         )
+
+    def sub_result(self, node: ast.AST, sub: str, name: str) -> Expr:
+        results = self.scope.sub_results.get(sub, {})
+        if name not in results:
+            raise self.fail(
+                node,
+                "E258",
+                f"`{sub}` has no result `{name}`",
+                known_names_hint(f"results of {sub}", results, name)
+                or f"declare it under `results:` of a command of `{sub}`",
+            )
+        return Ref(results[name], "sub_result", name, sub)
 
     def _Call(self, node: ast.Call) -> Expr:
         if node.keywords or not isinstance(node.func, ast.Name):
@@ -312,9 +357,18 @@ class _Resolver:
                 raise self.fail(node, "E102", "only == != < <= > >= comparisons are allowed")
             ops.append(_CMPOPS[type(cmpop)])
         operands = [node.left, *node.comparators]
-        # A subordinate's command compares with that subordinate's command names.
+        # A subordinate's command compares with that subordinate's command names, its
+        # reason with its reason names.
         commanded = [_sub_commanded(a, self.scope) for a in operands]
         sub = next((s for s in commanded if s is not None), None)
+        if sub is None:
+            reasoned = [_sub_reasoned(a, self.scope) for a in operands]
+            reason_of = next((s for s in reasoned if s is not None), None)
+            if reason_of is not None:
+                typed = [self.reason_name(a, reason_of) for a in operands]
+                for left, right, op, raw in zip(typed, typed[1:], ops, operands[1:], strict=False):
+                    self.comparable(left, right, op, raw)
+                return Compare(BOOL, typed[0], tuple(ops), tuple(typed[1:]))
         typed = [self.command_name(a, sub) if sub else self.expr(a) for a in operands]
         for left, right, op, raw in zip(typed, typed[1:], ops, operands[1:], strict=False):
             self.comparable(left, right, op, raw)
@@ -334,6 +388,21 @@ class _Resolver:
                 known_names_hint(f"commands of {sub}", commands, node.id),
             )
         raise self.fail(node, "E107", f"`{sub}.command` compares only with a command name")
+
+    def reason_name(self, node: ast.AST, sub: str) -> Expr:
+        if _sub_reasoned(node, self.scope) is not None:
+            return self.expr(node)
+        if isinstance(node, ast.Name):
+            names = (*BUILTIN_REASONS, *self.scope.sub_reasons.get(sub, ()))
+            if node.id in names:
+                return Ref(reason_type(sub), "sub_reason_name", node.id, sub)
+            raise self.fail(
+                node,
+                "E260",
+                f"`{sub}` has no reason `{node.id}`",
+                known_names_hint(f"reasons of {sub}", names, node.id),
+            )
+        raise self.fail(node, "E107", f"`{sub}.reason` compares only with a reason name")
 
     def comparable(self, left: Expr, right: Expr, op: str, node: ast.AST) -> None:
         kinds = {left.type, right.type}
@@ -372,8 +441,20 @@ def _sub_commanded(node: ast.AST, scope: Scope) -> str | None:
     return None
 
 
+def _sub_reasoned(node: ast.AST, scope: Scope) -> str | None:
+    """The subordinate `node` reads the reason of (`<sub>.reason`), else None."""
+    if (
+        isinstance(node, ast.Attribute)
+        and node.attr == "reason"
+        and isinstance(node.value, ast.Name)
+        and node.value.id in scope.subordinates
+    ):
+        return node.value.id
+    return None
+
+
 def did_you_mean_attr(attr: str) -> str:
-    return known_names_hint("fields", ("status", "command"), attr)
+    return known_names_hint("fields", ("status", "command", "reason", "result"), attr)
 
 
 def _type_of_value(value: object) -> str:

@@ -151,6 +151,7 @@ class IRSet:
 class IRReport:
     status: str  # DONE or ERROR
     kind: str = "report"
+    reason: str = ""  # the reason's constant (REASON_REFUSED), '' when none is given
 
 
 @dataclass(frozen=True)
@@ -220,6 +221,8 @@ class IRSub:
     commands: tuple[tuple[str, int], ...]  # (constant, code), e.g. ("CC_SUMP", 3)
     params: tuple[IRParam, ...]
     echo_cycles: int | None = None  # cycles it may take to echo a command: then ERROR
+    reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants, when a guard reads one
+    results: tuple[IRParam, ...] = ()  # the results of it a guard or value reads
 
 
 @dataclass(frozen=True)
@@ -254,6 +257,8 @@ class IRController:
     runtime_names: tuple[str, ...]  # what the module imports from the runtime contract
     hooks_state_span: Span | None = None  # where `hooks_state` names the factory
     timed: bool = False  # some table waits: the controller keeps `ticks`
+    results: tuple[IRParam, ...] = ()  # its commands' results, one status slot per name
+    reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants and codes (from 2)
     counters: tuple[str, ...] = ()  # every `for:` counter attribute, in table order
 
     def table_rules(self) -> list[IRRule]:

@@ -24,7 +24,7 @@ from ..runtime.contract import (
     STATUS_FIELDS,
 )
 from . import expr, ir, naming
-from .model import ENTRY_STATE, Command, Typed, duration_in_cycles
+from .model import ENTRY_STATE, Command, ControllerSpec, Typed, duration_in_cycles
 from .tables import (
     Action,
     Assign,
@@ -135,6 +135,10 @@ class _ControllerLowering:
             ),
             hooks_state_span=spec.hooks_state.span if spec.hooks_state else None,
             timed=any(command.timed for command in commands),
+            results=tuple(
+                ir.IRParam(name, kind) for name, kind in naming.result_types(spec).items()
+            ),
+            reasons=tuple((naming.reason_const(r), code) for r, code in reason_codes(spec).items()),
             counters=tuple(
                 counter.attribute
                 for command in commands
@@ -152,7 +156,28 @@ class _ControllerLowering:
         params = _param_slots(self.system.controllers[sub].spec.commands.values())
         timeout = self.spec.echo_timeouts.get(sub)
         echo = None if timeout is None else duration_in_cycles(timeout.value, self.period)
-        return ir.IRSub(sub, consts, params, echo)
+        read = {(r.kind, r.name) for r in self.refs() if r.owner == sub}
+        sub_spec = self.system.controllers[sub].spec
+        reasons: tuple[tuple[str, int], ...] = ()
+        if ("sub_reason", "reason") in read:
+            reasons = tuple(
+                (naming.sub_reason_const(sub, r), code)
+                for r, code in reason_codes(sub_spec).items()
+            )
+        results = tuple(
+            ir.IRParam(name, kind)
+            for name, kind in naming.result_types(sub_spec).items()
+            if ("sub_result", name) in read
+        )
+        return ir.IRSub(sub, consts, params, echo, reasons, results)
+
+    def refs(self) -> list[expr.Ref]:
+        """Every name the controller's guards, values and predicates read."""
+        return [
+            ref
+            for tree in _trees(self.checked.rules(), self.checked.predicates.values())
+            for ref in expr.refs(tree)
+        ]
 
     def command(self, command: CheckedCommand) -> ir.IRCommand:
         source = command.source
@@ -242,7 +267,8 @@ class _ControllerLowering:
                 )
             )
         if isinstance(action, Report):
-            return ir.IRReport(action.status)
+            reason = naming.reason_const(action.reason) if action.reason else ""
+            return ir.IRReport(action.status, reason=reason)
         state = ("self.hook_state",) if self.spec.hooks_state else ()
         values = state + tuple(expr.to_python(a, naming.attribute) for a in action.args)
         kinds = "".join(_KIND_LETTER[t.type] for t in action.targets)
@@ -297,19 +323,13 @@ def _runtime_names(
     NOP (a report ends the command), the hook-call checks, besides those every module
     needs."""
     used = set(ALWAYS_IMPORTED) | ({"HookError"} if factory else set())
-    trees: list[expr.Expr] = [p.tree for p in predicates]
+    rules = list(rules)
+    trees = _trees(rules, predicates)
     for rule in rules:
-        if rule.guard is not None:
-            trees.append(rule.guard)
         for action in rule.actions:
             if isinstance(action, Report):
                 used |= {action.status, "NOP"}
-            elif isinstance(action, Send):
-                trees += [tree for _, tree in action.args]
-            elif isinstance(action, Assign):
-                trees += [tree for _, tree in action.assignments]
             elif isinstance(action, CallHook):
-                trees += list(action.args)
                 used.add("HookError")
                 kinds = {t.type for t in action.targets}
                 used |= {"NUMBER", "is_real"} if "float" in kinds else set()
@@ -317,6 +337,32 @@ def _runtime_names(
     for tree in trees:
         used |= {ref.name for ref in expr.refs(tree) if ref.kind == "status"}
     return tuple(sorted(used, key=naming.import_order))
+
+
+def _trees(rules: Iterable[CheckedRule], predicates: Iterable[CheckedPredicate]) -> list[expr.Expr]:
+    """Every typed tree of a controller: predicates, guards, sent and assigned values, hook
+    arguments."""
+    trees: list[expr.Expr] = [p.tree for p in predicates]
+    for rule in rules:
+        if rule.guard is not None:
+            trees.append(rule.guard)
+        for action in rule.actions:
+            if isinstance(action, Send):
+                trees += [tree for _, tree in action.args]
+            elif isinstance(action, Assign):
+                trees += [tree for _, tree in action.assignments]
+            elif isinstance(action, CallHook):
+                trees += list(action.args)
+    return trees
+
+
+def reason_codes(spec: ControllerSpec) -> dict[str, int]:
+    """A controller's reasons and their codes in `error_num`: NONE 0, LOST 1, then its
+    declared reasons from 2 (none at all when it declares none)."""
+    declared = naming.declared_reasons(spec)
+    if not declared:
+        return {}
+    return {name: code for code, name in enumerate((*expr.BUILTIN_REASONS, *declared))}
 
 
 def _param_slots(commands: Iterable[Command]) -> tuple[ir.IRParam, ...]:
@@ -375,9 +421,10 @@ def plan_layout(
             continue
         prefix = c.name.upper()
         params = [(f"arg_{p.name}", FORMAT_OF_TYPE[p.type]) for p in c.params]
+        results = [(f"result_{r.name}", FORMAT_OF_TYPE[r.type]) for r in c.results]
         parts = {
             "command": ([*COMMAND_HEAD_FIELDS, *params], "command in"),
-            "status": (list(STATUS_FIELDS), "status out"),
+            "status": ([*STATUS_FIELDS, *results], "status out"),
             "mode": (list(MODE_FIELDS), "execution mode"),
             "perf": (list(PERF_FIELDS), "performance"),
         }

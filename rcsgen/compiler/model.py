@@ -111,6 +111,7 @@ class SetWorld:
 class Report:
     status: str  # DONE or ERROR
     span: Span
+    reason: Located | None = None  # with ERROR: one of the command's `reasons`
 
 
 @dataclass
@@ -161,6 +162,8 @@ class Command:
     generated: bool = False  # a default INIT/HALT table rcsgen supplies
     first_match: list[Located] = field(default_factory=list)  # states whose rules may overlap
     allow: list[Allow] = field(default_factory=list)  # warnings of its table that are intended
+    results: dict[str, Typed] = field(default_factory=dict)  # set while executing, in status
+    reasons: list[Located] = field(default_factory=list)  # why it can end in ERROR
 
 
 @dataclass
@@ -256,7 +259,10 @@ def _action(raw: Any, span: Span) -> Action:
         ]
         return SetWorld(assignments, span)
     if "report" in raw:
-        return Report(raw["report"], value_span(raw, "report", span))
+        reason = (
+            Located(raw["reason"], value_span(raw, "reason", span)) if "reason" in raw else None
+        )
+        return Report(raw["report"], value_span(raw, "report", span), reason)
     return CallHook(raw["call"], value_span(raw, "call", span))
 
 
@@ -294,6 +300,7 @@ def _rule(raw: Any, span: Span) -> Rule:
 
 def _command(name: str, raw: Any, span: Span) -> Command:
     params = raw.get("params") or {}
+    results = raw.get("results") or {}
     states = raw.get("states") or {}
     return Command(
         name=name,
@@ -310,6 +317,8 @@ def _command(name: str, raw: Any, span: Span) -> Command:
         span=span,
         first_match=_items(raw, "first_match", span),
         allow=_allow(raw, span),
+        results={r: _typed(r, spec, key_span(results, r, span)) for r, spec in results.items()},
+        reasons=_items(raw, "reasons", span),
     )
 
 

@@ -36,16 +36,16 @@ class RuleId:
 
 @dataclass(frozen=True)
 class Target:
-    """An assignable name: a world field or a local."""
+    """An assignable name: a world field, a local or a result of the current command."""
 
-    kind: str  # "world" or "local"
+    kind: str  # "world", "local" or "result"
     name: str
     type: str
 
     @property
     def text(self) -> str:
-        """As the spec writes it: `world.goal_x`, `ticks`."""
-        return f"world.{self.name}" if self.kind == "world" else self.name
+        """As the spec writes it: `world.goal_x`, `ticks`, `result.at_goal`."""
+        return f"{self.kind}.{self.name}" if self.kind in ("world", "result") else self.name
 
 
 @dataclass(frozen=True)
@@ -79,6 +79,7 @@ class Assign:
 class Report:
     status: str  # DONE or ERROR
     span: Span
+    reason: str | None = None  # with ERROR: one of the command's reasons
 
 
 @dataclass(frozen=True)
