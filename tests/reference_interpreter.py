@@ -14,7 +14,8 @@ guard holds fires (`next` then actions in order), `report` ends the command (sta
 sends number each command, world fields copied in at the start and written out at the end
 of a cycle, locals, parameters, constants, predicates, default INIT/HALT tables, time in a
 state (`after:`, `for:`; docs/semantics.md "Time in a state"), results and reasons (own
-and subordinates'; docs/semantics.md "Results and reasons").
+and subordinates'; docs/semantics.md "Results and reasons"), `let` values, conditional
+expressions and pure functions (docs/spec.md section 13).
 Not covered: modes, every_cycle rules, hooks.
 """
 
@@ -100,6 +101,8 @@ class Controller:
         self.writes = list(access.get("writes") or [])
         self.constants = dict(spec.get("constants") or {})
         self.predicates = dict(spec.get("predicates") or {})
+        self.functions = dict(spec.get("functions") or {})
+        self.names: dict[str, Any] = {}  # `let` values of this cycle, or a function's arguments
         self.locals = {n: v["initial"] for n, v in (spec.get("locals") or {}).items()}
         self.tables = {
             "INIT": default_table("INIT", self.subs),
@@ -177,6 +180,11 @@ class Controller:
         # decision_process
         table = self.tables.get(self.command)
         entered = self.state
+        self.names = {}
+        if table is not None:  # named values first, in order, each seeing those before it
+            lets = (self.spec.get("commands") or {}).get(self.command, {}).get("let") or {}
+            for name, text in lets.items():
+                self.names[name] = self.value(text)
         if table is not None and self.state in table:
             rules = table[self.state]
             for index, rule in enumerate(rules):  # every `for:` counts, whichever rule fires
@@ -288,8 +296,19 @@ class Controller:
             if node.attr == "reason":
                 return self.sub_reason[base]
             return self.sub_view[base] if node.attr == "status" else self.sent[base].command
+        if isinstance(node, ast.IfExp):
+            return self.eval(node.body) if self.eval(node.test) else self.eval(node.orelse)
         if isinstance(node, ast.Call):
             name = node.func.id  # type: ignore[attr-defined]
+            if name in self.functions:  # evaluated with only its arguments (and constants)
+                function = self.functions[name]
+                args = [self.eval(a) for a in node.args]
+                saved, self.names = self.names, dict(zip(function["params"], args, strict=True))
+                try:
+                    result = self.value(function["body"])
+                finally:
+                    self.names = saved
+                return float(result) if function["returns"] == "float" else result
             if name in self.predicates:
                 return self.holds(self.predicates[name])
             args = [self.eval(a) for a in node.args]
@@ -301,6 +320,8 @@ class Controller:
             return name  # compared with <sub>.command: a command name
         if name in STATUSES:
             return name
+        if name in self.names:
+            return self.names[name]
         if name in self.args:
             return self.args[name]
         if name in self.locals:

@@ -114,8 +114,10 @@ class Grammar:
 
     def number(self) -> str:
         d = self.d
-        base = d.choice(["world.i0", "world.i1", "n", "g"])  # a variable: the guard can hold
-        shape = d.int(0, 5)
+        base = d.choice(["world.i0", "world.i1", "n", "g", "m", "twice(n)"])  # can hold
+        shape = d.int(0, 6)
+        if shape == 6:
+            return f"({base} if flag else {d.int(-1, 3)})"
         if shape == 1:
             return f"{base} + {d.choice(['n', 'world.i0', 'LIMIT'])}"
         if shape == 2:
@@ -166,6 +168,7 @@ def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
             "params": {"g": {"type": "int"}},
             "results": {"r": {"type": "int"}},
             "reasons": ["BAD", "WORSE"],
+            "let": {"m": "n + g if flag else world.i0", "m2": "twice(m) - 1"},
             "states": table,
             "first_match": states,  # overlapping guards are meant: the first match wins
         }
@@ -180,6 +183,9 @@ def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
         },
         "constants": {"LIMIT": d.int(0, 4)},
         "predicates": {"busy": "world.b0 and n > LIMIT"},
+        "functions": {
+            "twice": {"params": {"v": "int"}, "returns": "int", "body": "v * 2 if v > 0 else -v"}
+        },
         "commands": commands,
     }
 
@@ -202,7 +208,9 @@ def random_rule(d: Draw, grammar: Grammar, states: list[str], sent: list[str], s
         if kind == "send":
             actions.append(send(d, d.choice(sent), subs))
         elif kind == "set_n":
-            actions.append({"set": {"n": d.choice(["n + 1", "n - 1", "0", "g", "world.i0 % 5"])}})
+            actions.append(
+                {"set": {"n": d.choice(["n + 1", "n - 1", "0", "g", "world.i0 % 5", "m2 % 7"])}}
+            )
         elif kind == "set_flag":
             actions.append({"set": {"flag": d.choice(["not flag", "world.b0", "n > 2"])}})
         elif kind == "set_world":

@@ -361,3 +361,140 @@ def test_a_reason_comes_only_with_error_in_the_analysis(tmp_path: Path) -> None:
             "first",
         ),
     ]
+
+
+# ---------------------------------------------------------------- expressions
+
+
+@pytest.mark.parametrize(
+    ("text", "python", "kind"),
+    [
+        ("x if b else 2.5", "x if b else 2.5", "float"),
+        ("(x if b else 1) + 1", "(x if b else 1) + 1", "int"),
+        ("1 if b else 2 if x > 1 else 3", "1 if b else 2 if x > 1 else 3", "int"),
+        ("(1 if b else 2) if x > 1 else 3", "(1 if b else 2) if x > 1 else 3", "int"),
+        ("b if x > 0 or b else not b", "b if x > 0 or b else not b", "bool"),
+    ],
+)
+def test_a_conditional_expression_is_typed_and_printed_back(text: str, python: str, kind: str):
+    """`a if c else b`: both values of one type (an int and a float make a float), printed
+    with the parentheses Python needs and no others."""
+    from rcsgen.compiler.diagnostics import Diagnostics, Span
+    from rcsgen.compiler.expr import Scope, compile_expr, to_python
+
+    diags = Diagnostics()
+    scope = Scope(locals={"x": "int", "b": "bool"})
+    tree = compile_expr(text, Span("t", 1, 1), scope, diags)
+    assert tree is not None, [d.message for d in diags]
+    assert (to_python(tree, lambda ref: ref.name), tree.type) == (python, kind)
+
+
+def test_a_conditional_of_constants_folds() -> None:
+    """`LIMIT if FAST else 1` with constants is a constant: a guard of it can be W302."""
+    from rcsgen.compiler.diagnostics import Diagnostics, Span
+    from rcsgen.compiler.expr import Scope, compile_expr, fold
+
+    constants = {"FAST": False, "LIMIT": 4}
+    tree = compile_expr(
+        "LIMIT if FAST else 1", Span("t", 1, 1), Scope(constants=constants), Diagnostics()
+    )
+    assert tree is not None and fold(tree, constants) == 1
+
+
+@pytest.fixture
+def steering():
+    with Harness.build(FIXTURES / "expressions") as h:
+        yield h
+
+
+@pytest.mark.parametrize(
+    ("heading", "goal", "rudder", "status"),
+    [
+        (0.0, 350.0, -20.0, "EXECUTING"),  # the error wraps to -10: order 2 * -10
+        (350.0, 10.0, 30.0, "EXECUTING"),  # +20 across north: clamped at 30
+        (10.0, 11.5, 0.0, "DONE"),  # within 2 degrees: on course
+        (179.0, -179.0, 0.0, "DONE"),  # -358 wraps to +2: on the edge of on course
+        (179.0, -178.0, 6.0, "EXECUTING"),  # -357 wraps to +3
+    ],
+)
+def test_named_values_and_functions_compute_the_order(
+    steering: Harness, heading: float, goal: float, rudder: float, status: str
+) -> None:
+    steering.world["heading"] = heading
+    steering.world["goal_heading"] = goal
+    steering.world["rudder"] = 99.0
+    steering.command("helm", "STEER")
+    steering.step("helm")
+    assert (steering.world["rudder"], steering.status("helm").status) == (rudder, status)
+
+
+def test_let_and_functions_read_like_hand_written_code() -> None:
+    """A function is a module-level `def`; the named values are locals of the table's
+    method, computed first; guards read them by name."""
+    front = compile_paths([FIXTURES / "expressions"])
+    helm = emit.render_all(front.systems)["expressions/helm.py"]
+    assert (
+        "def wrap(a: float) -> float:\n"
+        '    """Pure function: a - 360.0 if a > 180.0 else (a + 360.0 if a < -180.0 else a)"""\n'
+        "    return a - 360.0 if a > 180.0 else a + 360.0 if a < -180.0 else a\n"
+    ) in helm
+    assert (
+        "        state = self.state\n"
+        "        # Named values (let), computed once a cycle before the rules.\n"
+        "        error = wrap(self.world_goal_heading - self.world_heading)\n"
+        "        order = clamp(GAIN * error, MAX_RUDDER)\n"
+        "        if state == S0:\n"
+        "            if -ON_COURSE <= error <= ON_COURSE:\n"
+    ) in helm
+
+
+def test_the_analysis_sees_through_let_functions_and_conditionals(tmp_path: Path) -> None:
+    """The fixture's guards are exclusive and complete: nothing is reported. Changed to
+    overlap, the counter-example is a real heading difference, found through `let`, the
+    function and its conditional (-358 degrees wraps to +2)."""
+    assert not list(compile_paths([FIXTURES / "expressions"]).diagnostics)
+    target = tmp_path / "expressions"
+    target.mkdir()
+    for path in (FIXTURES / "expressions").glob("*.yaml"):
+        text = path.read_text(encoding="utf-8")
+        text = text.replace(
+            "- when: error < -ON_COURSE or error > ON_COURSE", "- when: error > 1.0"
+        )
+        (target / path.name).write_text(text, encoding="utf-8")
+    found = [(d.code, d.message) for d in compile_paths([target]).diagnostics]
+    assert found == [
+        (
+            "W503",
+            "STEER S0 waits when (world.goal_heading - world.heading)=-180.0: no rule fires then",
+        ),
+        (
+            "E501",
+            "rules 1 and 2 of STEER S0 can both fire: both hold when "
+            "(world.goal_heading - world.heading)=-358.0",
+        ),
+    ]
+
+
+def test_a_comparison_beyond_intervals_is_reported_undecidable_not_wrong(spec) -> None:  # noqa: F811
+    """A function the analysis cannot reason about (min/max of a variable) leaves the
+    question open: W502 for the overlap, and no W503 for a wait it cannot show; never a
+    made-up counter-example."""
+    diags = spec(
+        """
+        GO:
+          states:
+            S0:
+              - when: cap(world.level) > 3.0
+                do: [report: DONE]
+              - when: world.level < 2.0
+                do: [report: ERROR]
+        """,
+        top_level="""
+        functions:
+          cap:
+            params: {v: float}
+            returns: float
+            body: min(v, 5.0)
+        """,
+    )
+    assert [d.code for d in diags] == ["W502"]

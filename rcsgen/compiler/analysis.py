@@ -152,6 +152,19 @@ class GuardBuilder:
     ):
         self.constants, self.predicates, self.sub_commands = constants, predicates, sub_commands
         self.sub_reasons = sub_reasons or {}
+        self.functions: dict[str, tuple[tuple[str, ...], expr.Expr]] = {}  # name -> params, body
+        self.lets: dict[str, expr.Expr] = {}  # the `let` values of the table being analysed
+
+    def inline(self, e: expr.Expr) -> expr.Expr | None:
+        """A function call's body with its arguments, a `let` value's tree; else None."""
+        if isinstance(e, expr.Call) and e.kind == "function":
+            params, body = self.functions[e.name]
+            return expr.substitute(
+                body, {("arg", p): a for p, a in zip(params, e.args, strict=True)}
+            )
+        if isinstance(e, expr.Ref) and e.kind == "let":
+            return self.lets[e.name]
+        return None
 
     def guard(self, tree: expr.Expr) -> Guard:
         guard = Guard(lambda val: True)
@@ -163,7 +176,16 @@ class GuardBuilder:
         if domain is not None:
             guard.domains[key] = domain
 
+    def opened(self, e: expr.Expr) -> expr.Expr:
+        """`e` with the function calls and `let` values at its top inlined."""
+        while (inlined := self.inline(e)) is not None:
+            e = inlined
+        return e
+
     def _fn(self, e: expr.Expr, g: Guard) -> Callable[[Valuation], Any]:
+        inlined = self.inline(e)
+        if inlined is not None:  # decided as if the body or value were written here
+            return self._fn(inlined, g)
         if isinstance(e, expr.Const):
             value = e.value
             return lambda val: value
@@ -177,6 +199,25 @@ class GuardBuilder:
         if isinstance(e, expr.BoolOp):
             parts = [self._fn(v, g) for v in e.values]
             return kleene_and(parts) if e.op == "and" else kleene_or(parts)
+        if isinstance(e, expr.IfExp):
+            test, body, orelse = (self._fn(x, g) for x in (e.test, e.body, e.orelse))
+
+            def choose(val: Valuation) -> Any:
+                decided = test(val)
+                if decided is None:  # both values agree, or it is not known yet
+                    first, second = body(val), orelse(val)
+                    return first if first == second else None
+                return body(val) if decided else orelse(val)
+
+            return choose
+        if isinstance(e, expr.Compare) and len(e.ops) > 1:  # a <= b <= c: a <= b and b <= c
+            chain = tuple(expr.Compare(expr.BOOL, a, (op,), (b,)) for a, op, b in _pairs(e))
+            return self._fn(expr.BoolOp(expr.BOOL, "and", chain), g)
+        if isinstance(e, expr.Compare):
+            left, right = self.opened(e.left), self.opened(e.comparators[0])
+            split = _split_conditional(expr.Compare(expr.BOOL, left, e.ops, (right,)))
+            if split is not None:  # `(a if c else b) > k`: `(a > k) if c else (b > k)`
+                return self._fn(split, g)
         if isinstance(e, expr.Compare):
             scratch = Guard(g.fn)  # the atoms of this comparison, kept only if it is decidable
             pairs = [self._pair(a, op, b, scratch) for a, op, b in _pairs(e)]
@@ -267,6 +308,9 @@ class GuardBuilder:
 
     def _linear(self, e: expr.Expr, types: dict[Key, str]) -> Linear | None:
         """`e` as a linear form over numeric variables with exact coefficients, else None."""
+        inlined = self.inline(e)
+        if inlined is not None:
+            return self._linear(inlined, types)
         if isinstance(e, expr.Const):
             return Linear({}, Fraction(e.value))
         if isinstance(e, expr.Ref):
@@ -306,6 +350,21 @@ class GuardBuilder:
             if len(constants) == len(args):
                 return Linear({}, Fraction(_BUILTIN[e.name](*constants)))
         return None
+
+
+def _split_conditional(e: expr.Compare) -> expr.Expr | None:
+    """A comparison with a conditional operand as a conditional of two comparisons (each
+    then decided on its own), else None."""
+    left, right = e.left, e.comparators[0]
+    if isinstance(left, expr.IfExp):
+        then = expr.Compare(expr.BOOL, left.body, e.ops, (right,))
+        other = expr.Compare(expr.BOOL, left.orelse, e.ops, (right,))
+        return expr.IfExp(expr.BOOL, left.test, then, other)
+    if isinstance(right, expr.IfExp):
+        then = expr.Compare(expr.BOOL, left, e.ops, (right.body,))
+        other = expr.Compare(expr.BOOL, left, e.ops, (right.orelse,))
+        return expr.IfExp(expr.BOOL, right.test, then, other)
+    return None
 
 
 def _pairs(e: expr.Compare) -> list[tuple[expr.Expr, str, expr.Expr]]:
@@ -361,6 +420,9 @@ class _Controller:
             dict(checked.sub_commands),
             dict(checked.scope.sub_reasons),
         )
+        self.builder.functions = {
+            f.name: (tuple(p for p, _ in f.params), f.tree) for f in checked.functions.values()
+        }
         # every_cycle rules run whatever the state: what they send or test counts everywhere
         every = checked.every_cycle
         self.every_sent = {send.sub for r in every for send in r.sends}
@@ -382,6 +444,7 @@ class _Controller:
 
     def table(self, command: CheckedCommand) -> dict[str, list[_Rule]]:
         """The rules that can be tried (the checked states hold only those)."""
+        self.builder.lets = {let.name: let.tree for let in command.lets}
         return {
             name: [
                 _Rule(

@@ -10,6 +10,8 @@ stages (`tables` holds the checked system's types). All problems are collected f
 from __future__ import annotations
 
 import ast
+import builtins
+import keyword
 import os
 from dataclasses import replace
 from pathlib import Path
@@ -24,6 +26,8 @@ from .tables import (
     CallHook,
     CheckedCommand,
     CheckedController,
+    CheckedFunction,
+    CheckedLet,
     CheckedPredicate,
     CheckedProcess,
     CheckedRule,
@@ -566,6 +570,40 @@ def _return_problems(
     return found
 
 
+# Names a function or a `let` value cannot take: they are Python names of the generated
+# method or module (a `let` is a local of its table's method, a function a module function).
+_PYTHON_NAMES = frozenset(
+    {"self", "state", "hooks", "buf", "command", "perf_counter_ns", "Struct", "is_real"}
+    | {"is_integer", *expr.BUILTINS}
+)
+
+
+def _reserved(name: str) -> str:
+    """What `name` already is in generated code, or ''."""
+    if keyword.iskeyword(name) or keyword.issoftkeyword(name):
+        return "a Python keyword"
+    if name in _PYTHON_NAMES or name in dir(builtins):
+        return "a name the generated code uses"
+    return ""
+
+
+def _calls_later(
+    body: object, name: str, declared: list[str], before: dict[str, CheckedFunction]
+) -> str:
+    """The first function `body` calls that is not declared before `name` (itself
+    included), or ''."""
+    try:
+        tree = ast.parse(" ".join(str(body).split()), mode="eval")
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        return ""  # typing the body reports it
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+            callee = node.func.id
+            if callee in declared and callee not in before:
+                return callee
+    return ""
+
+
 def _timed_guard(
     rule_id: RuleId, guard: expr.Expr | None, after: int | None, hold: int | None
 ) -> expr.Expr | None:
@@ -627,6 +665,9 @@ class _ControllerChecker:
             subordinates={sub: frozenset(by_name[sub].commands) for sub in self.subs},
             sub_results={sub: naming.result_types(by_name[sub]) for sub in self.subs},
             sub_reasons={sub: tuple(naming.declared_reasons(by_name[sub])) for sub in self.subs},
+            functions={
+                f.name: (tuple(f.params.values()), f.returns) for f in spec.functions.values()
+            },
         )
         self.command: Command | None = None  # the command whose table is being checked
 
@@ -645,6 +686,7 @@ class _ControllerChecker:
     def check(self, supervisor: str | None, simulator: bool, buffers: str) -> CheckedController:
         spec = self.spec
         self.period = process_period(self.system, buffers)
+        functions = self.check_functions()
         predicates = self.check_predicates()
         self.predicate_trees = {name: p.tree for name, p in predicates.items()}
         commands = {
@@ -661,7 +703,85 @@ class _ControllerChecker:
             every_cycle=self.check_every_cycle(),
             sub_commands={sub: tuple(self.by_name[sub].commands) for sub in self.subs},
             scope=self.scope_for(None),
+            functions=functions,
         )
+
+    def check_functions(self) -> dict[str, CheckedFunction]:
+        """Each pure function's body, typed over its parameters, the constants and the
+        functions declared before it (E262-E264)."""
+        checked: dict[str, CheckedFunction] = {}
+        spec = self.spec
+        taken = {
+            **{name: "a predicate" for name in spec.predicates},
+            **{name: "a hook" for name in spec.hooks},
+        }
+        for name, function in spec.functions.items():
+            problem = _reserved(name) or taken.get(name)
+            if problem:
+                self.diags.error(
+                    function.span,
+                    "E262",
+                    f"function `{name}` cannot be named so: it is {problem}",
+                    "rename the function",
+                )
+                continue
+            later = _calls_later(function.body.value, name, list(spec.functions), checked)
+            if later:
+                self.diags.error(
+                    function.body.span,
+                    "E264",
+                    f"function `{name}` calls `{later}`, which is not declared before it",
+                    "a function calls only the functions above it, so none can recurse",
+                )
+                continue
+            scope = expr.Scope(
+                constants=self.base_scope.constants,
+                functions={
+                    f.name: (tuple(t for _, t in f.params), f.returns) for f in checked.values()
+                },
+                args=dict(function.params),
+            )
+            tree = self.typed(function.body, scope, function.returns)
+            if tree is not None:
+                checked[name] = CheckedFunction(
+                    name,
+                    tuple(function.params.items()),
+                    function.returns,
+                    tree,
+                    one_line(function.body.value),
+                    function.span,
+                )
+        return checked
+
+    def check_lets(self, command: Command, scope: expr.Scope) -> tuple[CheckedLet, ...]:
+        """A table's named values, in order, each typed over what the table sees and the
+        values before it; `scope` gains each (E262 for a name already used)."""
+        lets: list[CheckedLet] = []
+        known: dict[str, str] = {}
+        spec = self.spec
+        for name, item in command.lets.items():
+            used = (
+                _reserved(name)
+                or ("a parameter" if name in command.params else "")
+                or ("a local" if name in spec.locals else "")
+                or ("a predicate" if name in spec.predicates else "")
+                or ("a function" if name in spec.functions else "")
+                or ("a hook" if name in spec.hooks else "")
+            )
+            if used:
+                self.diags.error(
+                    item.span,
+                    "E262",
+                    f"`let` value `{name}` cannot be named so: it is {used}",
+                    "rename it",
+                )
+                continue
+            tree = self.typed(item, replace(scope, lets=dict(known)), None)
+            if tree is not None:
+                known[name] = tree.type
+                lets.append(CheckedLet(name, tree, one_line(item.value), item.span))
+        scope.lets = known
+        return tuple(lets)
 
     def check_every_cycle(self) -> tuple[CheckedRule, ...]:
         scope = self.scope_for(None)
@@ -714,6 +834,7 @@ class _ControllerChecker:
     def check_command(self, command: Command, code: int) -> CheckedCommand:
         scope = self.scope_for(command)
         self.command = command
+        lets = self.check_lets(command, scope)
         self.check_states(command)
         states = {}
         for state in command.states.values():
@@ -743,7 +864,7 @@ class _ControllerChecker:
                         self.subject(rule),
                     )
             states[state.name] = CheckedState(state.name, state.span, tuple(tried), tuple(shadowed))
-        return CheckedCommand(command.name, code, command, states, scope)
+        return CheckedCommand(command.name, code, command, states, scope, lets)
 
     def check_states(self, command: Command) -> None:
         states = command.states

@@ -116,6 +116,15 @@ class Compare(Expr):
     comparators: tuple[Expr, ...]
 
 
+@dataclass(frozen=True)
+class IfExp(Expr):
+    """`body if test else orelse`: both values of one type (int and float make a float)."""
+
+    test: Expr
+    body: Expr
+    orelse: Expr
+
+
 # ---------------------------------------------------------------- scope
 
 
@@ -134,9 +143,13 @@ class Scope:
     # each subordinate's results (name -> type) and the reasons it declares (none: no reason)
     sub_results: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
     sub_reasons: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    # pure functions it may call: name -> (parameter types in order, result type)
+    functions: Mapping[str, tuple[tuple[str, ...], str]] = field(default_factory=dict)
+    lets: Mapping[str, str] = field(default_factory=dict)  # its table's named values -> type
+    args: Mapping[str, str] = field(default_factory=dict)  # a function body's parameters
 
     def bare_names(self) -> list[str]:
-        return [*self.params, *self.locals, *self.constants, *STATUS_NAMES]
+        return [*self.args, *self.params, *self.lets, *self.locals, *self.constants, *STATUS_NAMES]
 
 
 _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv: "//"}
@@ -153,7 +166,6 @@ _NODE_WORDS = {
     ast.JoinedStr: "f-strings",
     ast.NamedExpr: "assignment expressions (:=)",
     ast.Starred: "starred expressions",
-    ast.IfExp: "conditional expressions",
     ast.Await: "await",
     ast.Yield: "yield",
 }
@@ -182,8 +194,9 @@ class _Resolver:
                 node,
                 "E102",
                 f"{what} are not allowed in a spec expression",
-                "expressions may use literals, and/or/not, comparisons, arithmetic, declared "
-                "names, world.<field>, <sub>.status, <sub>.command and predicate calls",
+                "expressions may use literals, and/or/not, comparisons, arithmetic, `a if c "
+                "else b`, declared names, world.<field>, <sub>.status, <sub>.command and "
+                "calls of predicates and functions",
             )
         return method(node)
 
@@ -205,8 +218,12 @@ class _Resolver:
             return Const(BOOL, name == "True")
         if name in STATUS_NAMES:  # reserved: a param or constant cannot shadow a status
             return Ref(STATUS, "status", name)
+        if name in scope.args:
+            return Ref(scope.args[name], "arg", name)
         if name in scope.params:
             return Ref(scope.params[name], "param", name)
+        if name in scope.lets:
+            return Ref(scope.lets[name], "let", name)
         if name in scope.locals:
             return Ref(scope.locals[name], "local", name)
         if name in scope.constants:
@@ -297,24 +314,51 @@ class _Resolver:
 
     def _Call(self, node: ast.Call) -> Expr:
         if node.keywords or not isinstance(node.func, ast.Name):
-            raise self.fail(node, "E102", "only predicates and abs/min/max can be called")
+            raise self.fail(
+                node, "E102", "only predicates, functions and abs/min/max can be called"
+            )
         name = node.func.id
+        if name in self.scope.functions:
+            params, returns = self.scope.functions[name]
+            if len(node.args) != len(params):
+                raise self.fail(
+                    node,
+                    "E263",
+                    f"function `{name}` takes {len(params)} argument(s), not {len(node.args)}",
+                )
+            args = []
+            for index, (arg, wanted) in enumerate(zip(node.args, params, strict=True)):
+                value = self.expr(arg)
+                if not assignable(wanted, value.type):
+                    raise self.fail(
+                        arg,
+                        "E263",
+                        f"argument {index + 1} of `{name}` is {_words(value.type)}, "
+                        f"but the function takes {_words(wanted)}",
+                    )
+                args.append(value)
+            return Call(returns, "function", name, tuple(args))
         if name in self.scope.predicates:
             if node.args:
                 raise self.fail(node, "E107", f"predicate `{name}` takes no arguments")
             self.scope.used_predicates.add(name)
             return Call(BOOL, "predicate", name)
         if name in BUILTINS:
-            args = tuple(self.numeric(a) for a in node.args)
-            if (name == "abs") != (len(args) == 1) or not args:
+            numbers = tuple(self.numeric(a) for a in node.args)
+            if (name == "abs") != (len(numbers) == 1) or not numbers:
                 raise self.fail(node, "E107", f"wrong number of arguments to `{name}`")
-            kind = FLOAT if any(a.type == FLOAT for a in args) else INT
-            return Call(kind, "builtin", name, args)
+            kind = FLOAT if any(a.type == FLOAT for a in numbers) else INT
+            return Call(kind, "builtin", name, numbers)
+        functions = self.scope.functions
         raise self.fail(
             node,
             "E106",
-            f"`{name}` is not a declared predicate",
-            known_names_hint("predicates", self.scope.predicates, name),
+            f"`{name}` is not a declared predicate" + (" or function" if functions else ""),
+            known_names_hint(
+                "predicates and functions" if functions else "predicates",
+                [*self.scope.predicates, *functions],
+                name,
+            ),
         )
 
     def _UnaryOp(self, node: ast.UnaryOp) -> Expr:
@@ -345,6 +389,23 @@ class _Resolver:
         if problem:
             raise self.fail(node, "E110", f"this expression is always an {problem}", INT_RANGE_HINT)
         return result
+
+    def _IfExp(self, node: ast.IfExp) -> Expr:
+        test = self.boolean(node.test)
+        body, orelse = self.expr(node.body), self.expr(node.orelse)
+        if body.type in NUMERIC and orelse.type in NUMERIC:
+            kind = FLOAT if FLOAT in (body.type, orelse.type) else INT
+        elif body.type == orelse.type:
+            kind = body.type
+        else:
+            raise self.fail(
+                node,
+                "E261",
+                f"the two values of `... if ... else ...` differ: {_words(body.type)} and "
+                f"{_words(orelse.type)}",
+                "give both values one type (an int and a float make a float)",
+            )
+        return IfExp(kind, test, body, orelse)
 
     def _BoolOp(self, node: ast.BoolOp) -> Expr:
         op = "and" if isinstance(node.op, ast.And) else "or"
@@ -603,6 +664,8 @@ def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr],
         if e.kind == "predicate":
             body = predicates.get(e.name)
             return None if body is None else _fold(body, constants, predicates, depth + 1)
+        if e.kind == "function":  # its body is folded where it is declared, not here
+            return None
         args = [_fold(a, constants, predicates, depth + 1) for a in e.args]
         return None if None in args else _FOLD_BUILTIN[e.name](*args)
     if isinstance(e, Unary):
@@ -626,6 +689,11 @@ def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr],
             elif bool(value) == decided:
                 return decided
         return None if unknown else not decided
+    if isinstance(e, IfExp):
+        test = _fold(e.test, constants, predicates, depth + 1)
+        if test is None:
+            return None
+        return _fold(e.body if test else e.orelse, constants, predicates, depth + 1)
     if isinstance(e, Compare):
         operands = [_fold(x, constants, predicates, depth + 1) for x in (e.left, *e.comparators)]
         if None in operands:
@@ -637,7 +705,7 @@ def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr],
 
 # ---------------------------------------------------------------- printing
 
-_PRECEDENCE = {"or": 1, "and": 2, "not": 3, "cmp": 4, "+": 5, "-": 5}
+_PRECEDENCE = {"if": 0, "or": 1, "and": 2, "not": 3, "cmp": 4, "+": 5, "-": 5}
 _PRECEDENCE.update({"*": 6, "/": 6, "//": 6, "%": 6, "neg": 7, "atom": 9})
 
 
@@ -670,6 +738,8 @@ class _Printer:
             callee = expr.name
             if expr.kind == "predicate":
                 callee = self.name_of(Ref(BOOL, "predicate", expr.name))
+            elif expr.kind == "function":
+                callee = self.name_of(Ref(expr.type, "function", expr.name))
             return f"{callee}({args})", atom
         if isinstance(expr, Unary):
             if expr.op == "not":
@@ -683,6 +753,9 @@ class _Printer:
         if isinstance(expr, BoolOp):
             level = _PRECEDENCE[expr.op]
             return f" {expr.op} ".join(self.wrap(v, level + 1) for v in expr.values), level
+        if isinstance(expr, IfExp):  # right-associative: `a if c else b if d else e`
+            body, test = self.wrap(expr.body, 1), self.wrap(expr.test, 1)
+            return f"{body} if {test} else {self.wrap(expr.orelse, 0)}", _PRECEDENCE["if"]
         if isinstance(expr, Compare):
             level = _PRECEDENCE["cmp"]
             parts = [self.wrap(expr.left, level + 1)]
@@ -710,4 +783,35 @@ def refs(expr: Expr) -> list[Ref]:
             stack.extend(reversed(node.values))
         elif isinstance(node, Compare):
             stack.extend(reversed((node.left, *node.comparators)))
+        elif isinstance(node, IfExp):
+            stack.extend((node.orelse, node.body, node.test))
     return found
+
+
+def substitute(tree: Expr, values: Mapping[tuple[str, str], Expr]) -> Expr:
+    """`tree` with each name `(kind, name)` in `values` replaced by its tree: a function's
+    body with its arguments, a guard with its table's `let` values (for the analysis)."""
+    if isinstance(tree, Ref):
+        return values.get((tree.kind, tree.name), tree)
+    if isinstance(tree, Call):
+        args = tuple(substitute(a, values) for a in tree.args)
+        return Call(tree.type, tree.kind, tree.name, args)
+    if isinstance(tree, Unary):
+        return Unary(tree.type, tree.op, substitute(tree.operand, values))
+    if isinstance(tree, Binary):
+        return Binary(
+            tree.type, tree.op, substitute(tree.left, values), substitute(tree.right, values)
+        )
+    if isinstance(tree, BoolOp):
+        return BoolOp(tree.type, tree.op, tuple(substitute(v, values) for v in tree.values))
+    if isinstance(tree, Compare):
+        comparators = tuple(substitute(c, values) for c in tree.comparators)
+        return Compare(tree.type, substitute(tree.left, values), tree.ops, comparators)
+    if isinstance(tree, IfExp):
+        return IfExp(
+            tree.type,
+            substitute(tree.test, values),
+            substitute(tree.body, values),
+            substitute(tree.orelse, values),
+        )
+    return tree

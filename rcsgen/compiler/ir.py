@@ -200,6 +200,16 @@ class IRState:
 
 
 @dataclass(frozen=True)
+class IRFunction:
+    """A pure function, emitted as a module-level `def`."""
+
+    name: str
+    params: tuple[tuple[str, str], ...]  # (name, type) in call order
+    returns: str
+    body: IRExpr
+
+
+@dataclass(frozen=True)
 class IRCommand:
     name: str
     code: int
@@ -211,6 +221,7 @@ class IRCommand:
     span: Span
     first_match: tuple[str, ...] = ()  # states whose rules may overlap: the earlier wins
     timed: bool = False  # a rule waits (`after:`/`for:`): the method keeps `ticks` up to date
+    lets: tuple[tuple[str, IRExpr], ...] = ()  # its named values, computed first each cycle
 
 
 @dataclass(frozen=True)
@@ -259,6 +270,7 @@ class IRController:
     timed: bool = False  # some table waits: the controller keeps `ticks`
     results: tuple[IRParam, ...] = ()  # its commands' results, one status slot per name
     reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants and codes (from 2)
+    functions: tuple[IRFunction, ...] = ()  # its pure functions, in declaration order
     counters: tuple[str, ...] = ()  # every `for:` counter attribute, in table order
 
     def table_rules(self) -> list[IRRule]:

@@ -131,10 +131,17 @@ class _ControllerLowering:
             hooks_state_on_restart=spec.hooks_state_on_restart,
             buffers=c.buffers,
             runtime_names=_runtime_names(
-                rules, c.predicates.values(), spec.hooks_state is not None
+                rules,
+                c.predicates.values(),
+                spec.hooks_state is not None,
+                [let.tree for command in c.commands.values() for let in command.lets],
             ),
             hooks_state_span=spec.hooks_state.span if spec.hooks_state else None,
             timed=any(command.timed for command in commands),
+            functions=tuple(
+                ir.IRFunction(f.name, f.params, f.returns, self.expression(f.tree, f.text))
+                for f in c.functions.values()
+            ),
             results=tuple(
                 ir.IRParam(name, kind) for name, kind in naming.result_types(spec).items()
             ),
@@ -172,12 +179,10 @@ class _ControllerLowering:
         return ir.IRSub(sub, consts, params, echo, reasons, results)
 
     def refs(self) -> list[expr.Ref]:
-        """Every name the controller's guards, values and predicates read."""
-        return [
-            ref
-            for tree in _trees(self.checked.rules(), self.checked.predicates.values())
-            for ref in expr.refs(tree)
-        ]
+        """Every name the controller's guards, values, `let` values and predicates read."""
+        trees = _trees(self.checked.rules(), self.checked.predicates.values())
+        trees += [let.tree for command in self.checked.commands.values() for let in command.lets]
+        return [ref for tree in trees for ref in expr.refs(tree)]
 
     def command(self, command: CheckedCommand) -> ir.IRCommand:
         source = command.source
@@ -204,6 +209,7 @@ class _ControllerLowering:
                 for s in command.states.values()
                 for r in s.rules
             ),
+            lets=tuple((let.name, self.expression(let.tree, let.text)) for let in command.lets),
         )
 
     def counter(self, rule: CheckedRule) -> ir.IRCounter:
@@ -317,14 +323,17 @@ def _attribute(target: Target) -> str:
 
 
 def _runtime_names(
-    rules: Iterable[CheckedRule], predicates: Iterable[CheckedPredicate], factory: bool = False
+    rules: Iterable[CheckedRule],
+    predicates: Iterable[CheckedPredicate],
+    factory: bool = False,
+    lets: Iterable[expr.Expr] = (),
 ) -> tuple[str, ...]:
     """The contract's names a controller module uses: its status comparisons, reports and
     NOP (a report ends the command), the hook-call checks, besides those every module
     needs."""
     used = set(ALWAYS_IMPORTED) | ({"HookError"} if factory else set())
     rules = list(rules)
-    trees = _trees(rules, predicates)
+    trees = [*_trees(rules, predicates), *lets]
     for rule in rules:
         for action in rule.actions:
             if isinstance(action, Report):

@@ -85,6 +85,18 @@ class Hook:
 
 
 @dataclass
+class Function:
+    """A pure function: typed parameters (in call order), a result type, a body."""
+
+    name: str
+    doc: str
+    params: dict[str, str]  # name -> type
+    returns: str
+    body: Located
+    span: Span
+
+
+@dataclass
 class Send:
     sub: str
     command: str
@@ -164,6 +176,7 @@ class Command:
     allow: list[Allow] = field(default_factory=list)  # warnings of its table that are intended
     results: dict[str, Typed] = field(default_factory=dict)  # set while executing, in status
     reasons: list[Located] = field(default_factory=list)  # why it can end in ERROR
+    lets: dict[str, Located] = field(default_factory=dict)  # named values of its table
 
 
 @dataclass
@@ -187,6 +200,7 @@ class ControllerSpec:
     echo_timeouts: dict[str, Located] = field(default_factory=dict)  # subordinate -> duration
     hooks_state_on_restart: str = "refuse"  # or "reset": what a restart does with hook state
     hooks_state: Located | None = None  # factory of the state every hook call receives first
+    functions: dict[str, Function] = field(default_factory=dict)  # pure, callable anywhere
 
 
 # ---------------------------------------------------------------- builders
@@ -319,6 +333,10 @@ def _command(name: str, raw: Any, span: Span) -> Command:
         allow=_allow(raw, span),
         results={r: _typed(r, spec, key_span(results, r, span)) for r, spec in results.items()},
         reasons=_items(raw, "reasons", span),
+        lets={
+            k: Located(v, value_span(raw["let"], k, span))
+            for k, v in (raw.get("let") or {}).items()
+        },
     )
 
 
@@ -370,6 +388,17 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
         if "hooks_state" in data
         else None,
         hooks_state_on_restart=str(data.get("hooks_state_on_restart", "refuse")),
+        functions={
+            k: Function(
+                k,
+                v.get("doc", ""),
+                dict(v.get("params") or {}),
+                v["returns"],
+                Located(v["body"], value_span(v, "body", key_span(data["functions"], k, top))),
+                key_span(data["functions"], k, top),
+            )
+            for k, v in (data.get("functions") or {}).items()
+        },
         echo_timeouts={
             k: Located(v, value_span(data["echo_timeouts"], k, top))
             for k, v in (data.get("echo_timeouts") or {}).items()

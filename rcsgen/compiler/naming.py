@@ -217,6 +217,8 @@ def attribute(ref: Ref) -> str:
         return sub_reason_const(owner, name)
     if kind == "predicate":
         return f"self.{name}"
+    if kind in ("let", "arg", "function"):  # a local of the method, a parameter, a function
+        return name
     raise ValueError(f"no Python name for {ref!r}")
 
 

@@ -234,12 +234,36 @@ class CheckedState:
 
 
 @dataclass(frozen=True)
+class CheckedLet:
+    """A named value of a table (`let:`): evaluated once per cycle before its rules."""
+
+    name: str
+    tree: expr.Expr
+    text: str  # the spec text, on one line
+    span: Span
+
+
+@dataclass(frozen=True)
+class CheckedFunction:
+    """A pure function (`functions:`): its body reads only its parameters, the constants
+    and the functions declared before it."""
+
+    name: str
+    params: tuple[tuple[str, str], ...]  # (name, type) in call order
+    returns: str
+    tree: expr.Expr
+    text: str
+    span: Span
+
+
+@dataclass(frozen=True)
 class CheckedCommand:
     name: str
     code: int  # INIT = 1, HALT = 2, then the declared commands in order
     source: Command
     states: Mapping[str, CheckedState]
     scope: expr.Scope  # what its guards and values may name
+    lets: tuple[CheckedLet, ...] = ()  # in order
 
     @property
     def generated(self) -> bool:
@@ -266,6 +290,7 @@ class CheckedController:
     every_cycle: tuple[CheckedRule, ...]  # the live every_cycle rules
     sub_commands: Mapping[str, tuple[str, ...]]  # each subordinate's commands, in code order
     scope: expr.Scope  # the controller-wide scope (predicates, every_cycle)
+    functions: Mapping[str, CheckedFunction] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
