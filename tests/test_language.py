@@ -498,3 +498,12 @@ def test_a_comparison_beyond_intervals_is_reported_undecidable_not_wrong(spec) -
         """,
     )
     assert [d.code for d in diags] == ["W502"]
+
+
+@pytest.mark.parametrize("fixture", ["timed", "results", "expressions"])
+def test_each_fixture_is_clean_under_strict(fixture: str) -> None:
+    """The fixtures show the features as a user would write them: no error, no warning
+    that is not acknowledged with its reason (what `--strict` requires)."""
+    front = compile_paths([FIXTURES / fixture])
+    assert [d.render() for d in front.diagnostics] == []
+    assert front.systems
