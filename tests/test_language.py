@@ -507,3 +507,24 @@ def test_each_fixture_is_clean_under_strict(fixture: str) -> None:
     front = compile_paths([FIXTURES / fixture])
     assert [d.render() for d in front.diagnostics] == []
     assert front.systems
+
+
+def test_the_reference_pages_show_results_reasons_lets_and_functions(tmp_path: Path) -> None:
+    """`rcsgen doc` documents what a supervisor may read and what a table computes."""
+    from rcsgen.tools import reference
+
+    pages = {}
+    for fixture in ("results", "expressions"):
+        pages.update(reference.render(compile_paths([FIXTURES / fixture]).systems[0]))
+    helm = next(
+        text for name, text in pages.items() if name.endswith("helm.md") and "TRANSIT" in text
+    )
+    assert "| `result.at_goal` | bool | Within a metre of the goal. |" in helm
+    assert "It can fail for: `LOST_TRACK`." in helm
+    mission = next(text for name, text in pages.items() if name.endswith("mission.md"))
+    assert "report ERROR (OPERATOR_REFUSED)" in mission
+    steering = next(
+        text for name, text in pages.items() if name.endswith("helm.md") and "STEER" in text
+    )
+    assert "| `error` | `wrap(world.goal_heading - world.heading)` |" in steering
+    assert "| function | `clamp(x: float, limit: float)` -> float |" in steering

@@ -152,6 +152,7 @@ class IRReport:
     status: str  # DONE or ERROR
     kind: str = "report"
     reason: str = ""  # the reason's constant (REASON_REFUSED), '' when none is given
+    reason_name: str = ""  # as the spec names it (REFUSED)
 
 
 @dataclass(frozen=True)
@@ -222,6 +223,8 @@ class IRCommand:
     first_match: tuple[str, ...] = ()  # states whose rules may overlap: the earlier wins
     timed: bool = False  # a rule waits (`after:`/`for:`): the method keeps `ticks` up to date
     lets: tuple[tuple[str, IRExpr], ...] = ()  # its named values, computed first each cycle
+    results: tuple[IRParam, ...] = ()  # the results it declares
+    reasons: tuple[str, ...] = ()  # the reasons it declares
 
 
 @dataclass(frozen=True)

@@ -210,6 +210,8 @@ class _ControllerLowering:
                 for r in s.rules
             ),
             lets=tuple((let.name, self.expression(let.tree, let.text)) for let in command.lets),
+            results=tuple(ir.IRParam(r.name, r.type, r.doc) for r in source.results.values()),
+            reasons=tuple(str(r.value) for r in source.reasons),
         )
 
     def counter(self, rule: CheckedRule) -> ir.IRCounter:
@@ -274,7 +276,7 @@ class _ControllerLowering:
             )
         if isinstance(action, Report):
             reason = naming.reason_const(action.reason) if action.reason else ""
-            return ir.IRReport(action.status, reason=reason)
+            return ir.IRReport(action.status, reason=reason, reason_name=action.reason or "")
         state = ("self.hook_state",) if self.spec.hooks_state else ()
         values = state + tuple(expr.to_python(a, naming.attribute) for a in action.args)
         kinds = "".join(_KIND_LETTER[t.type] for t in action.targets)
