@@ -528,3 +528,27 @@ def test_the_reference_pages_show_results_reasons_lets_and_functions(tmp_path: P
     )
     assert "| `error` | `wrap(world.goal_heading - world.heading)` |" in steering
     assert "| function | `clamp(x: float, limit: float)` -> float |" in steering
+
+
+def test_a_stand_in_has_its_controller_s_results_and_reasons(tmp_path: Path) -> None:
+    """A stand-in writes its controller's status buffer, so it declares the same results
+    and reasons: another reason is E236, as another parameter is."""
+    target = tmp_path / "results"
+    target.mkdir()
+    for path in (FIXTURES / "results").glob("*.yaml"):
+        (target / path.name).write_text(path.read_text(encoding="utf-8"), encoding="utf-8")
+    system = target / "system.yaml"
+    system.write_text(
+        system.read_text(encoding="utf-8") + "stand_ins: {fx: fx_sim}\n", encoding="utf-8"
+    )
+    fx = (target / "fx.yaml").read_text(encoding="utf-8")
+    (target / "fx_sim.yaml").write_text(
+        fx.replace("controller: fx", "controller: fx_sim")
+        .replace("TIMED_OUT]", "NO_ANSWER]")
+        .replace("reason: TIMED_OUT}", "reason: NO_ANSWER}"),
+        encoding="utf-8",
+    )
+    found = [(d.code, d.message) for d in compile_paths([target]).diagnostics]
+    assert found == [
+        ("E236", "CLAMP of stand-in `fx_sim` has other parameters, results or reasons than `fx`'s")
+    ]

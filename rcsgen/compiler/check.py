@@ -287,7 +287,8 @@ def _check_stand_ins(
                 diags.error(
                     sim.commands[command].span,
                     "E236",
-                    f"{command} of stand-in `{sim.name}` has other parameters than `{name}`'s",
+                    f"{command} of stand-in `{sim.name}` has other parameters, results or "
+                    f"reasons than `{name}`'s",
                     f"`{name}` takes {wanted[command] or 'no parameters'}",
                 )
 
