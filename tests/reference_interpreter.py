@@ -12,14 +12,19 @@ Covered: the command-number handshake (a new number starts the table at S0 with 
 subordinate status (EXECUTING until the echo of the last number sent), the first rule whose
 guard holds fires (`next` then actions in order), `report` ends the command (state NOP),
 sends number each command, world fields copied in at the start and written out at the end
-of a cycle, locals, parameters, constants, predicates, default INIT/HALT tables.
+of a cycle, locals, parameters, constants, predicates, default INIT/HALT tables, time in a
+state (`after:`, `for:`; docs/semantics.md "Time in a state"), results and reasons (own
+and subordinates'; docs/semantics.md "Results and reasons"), `let` values, conditional
+expressions and pure functions (docs/spec.md section 13).
 Not covered: modes, every_cycle rules, hooks.
 """
 
 from __future__ import annotations
 
 import ast
+import math
 import operator
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -65,6 +70,8 @@ class Block:
     command: str = "NONE"
     args: dict[str, Any] = field(default_factory=dict)
     sub_status: dict[str, tuple[int, str]] = field(default_factory=dict)  # sub -> (num, status)
+    sub_reason: dict[str, str] = field(default_factory=dict)  # sub -> the reason it reports
+    sub_results: dict[str, dict[str, Any]] = field(default_factory=dict)  # sub -> its results
     world: dict[str, Any] = field(default_factory=dict)
 
 
@@ -78,8 +85,13 @@ class SubCommand:
 class Controller:
     """One controller, cycle by cycle."""
 
-    def __init__(self, spec: dict, subs: dict[str, dict], world: dict[str, dict]) -> None:
+    def __init__(
+        self, spec: dict, subs: dict[str, dict], world: dict[str, dict], period: float = 0.01
+    ) -> None:
         self.spec = spec
+        self.period = period
+        self.time = 0  # cycles the table has run in the current state, before this one
+        self.held: dict[tuple[str, str, int], int] = {}  # `for:` rule -> cycles its when held
         self.subs = list(spec.get("subordinates") or [])
         self.sub_specs = subs
         access = spec.get("world") or {}
@@ -89,6 +101,8 @@ class Controller:
         self.writes = list(access.get("writes") or [])
         self.constants = dict(spec.get("constants") or {})
         self.predicates = dict(spec.get("predicates") or {})
+        self.functions = dict(spec.get("functions") or {})
+        self.names: dict[str, Any] = {}  # `let` values of this cycle, or a function's arguments
         self.locals = {n: v["initial"] for n, v in (spec.get("locals") or {}).items()}
         self.tables = {
             "INIT": default_table("INIT", self.subs),
@@ -97,6 +111,23 @@ class Controller:
         for name, command in (spec.get("commands") or {}).items():
             self.tables[name] = command["states"]
         self.params = self._param_types()
+        self.result_types = {
+            name: result["type"]
+            for command in (spec.get("commands") or {}).values()
+            for name, result in (command.get("results") or {}).items()
+        }
+        self.results = {name: _zero(kind) for name, kind in self.result_types.items()}
+        self.reason = "NONE"
+        self.sub_reason = {sub: "NONE" for sub in self.subs}
+        self.sub_result_types = {
+            sub: {
+                name: result["type"]
+                for command in (subs[sub].get("commands") or {}).values()
+                for name, result in (command.get("results") or {}).items()
+            }
+            for sub in self.subs
+        }
+        self.sub_results: dict[str, dict[str, Any]] = {sub: {} for sub in self.subs}
         # status buffer and local copies
         self.status_num, self.status, self.state = 0, "NOT_READY", "NOP"
         self.command_num, self.command, self.args = 0, "NONE", {}
@@ -129,21 +160,69 @@ class Controller:
         self.args = {p: block.args.get(p, _zero(t)) for p, t in self.params.items()}
         for sub in self.subs:
             number, status = block.sub_status.get(sub, (0, "NOT_READY"))
-            self.sub_view[sub] = status if number == self.sent[sub].number else "EXECUTING"
+            echoed = number == self.sent[sub].number
+            self.sub_view[sub] = status if echoed else "EXECUTING"
+            # a reason only with an ERROR, results only for the last command sent
+            reason = block.sub_reason.get(sub, "NONE")
+            self.sub_reason[sub] = reason if echoed and status == "ERROR" else "NONE"
+            results = block.sub_results.get(sub, {})
+            self.sub_results[sub] = {
+                name: results.get(name, _zero(kind)) if echoed else _zero(kind)
+                for name, kind in self.sub_result_types[sub].items()
+            }
         self.world = {name: block.world[name] for name in self.reads}
         # check_if_new_command
         if self.command_num != self.status_num:
             self.status_num, self.state, self.status = self.command_num, "S0", "EXECUTING"
+            self.time, self.held = 0, {}
+            self.reason = "NONE"
+            self.results = {name: _zero(kind) for name, kind in self.result_types.items()}
         # decision_process
         table = self.tables.get(self.command)
+        entered = self.state
+        self.names = {}
+        if table is not None:  # named values first, in order, each seeing those before it
+            lets = (self.spec.get("commands") or {}).get(self.command, {}).get("let") or {}
+            for name, text in lets.items():
+                self.names[name] = self.value(text)
         if table is not None and self.state in table:
-            for rule in table[self.state]:
-                if "when" not in rule or self.holds(rule["when"]):
+            rules = table[self.state]
+            for index, rule in enumerate(rules):  # every `for:` counts, whichever rule fires
+                if "for" in rule:
+                    key = (self.command, self.state, index)
+                    self.held[key] = self.held.get(key, 0) + 1 if self.holds(rule["when"]) else 0
+            for index, rule in enumerate(rules):
+                if self.may_fire(rule, (self.command, self.state, index)):
                     self.fire(rule)
                     break
+        if table is not None:  # time passes in a state only while its table runs
+            if self.state != entered:
+                self.time, self.held = 0, {}
+            else:
+                self.time += 1
         # post_process: world out
         for name in self.writes:
             block.world[name] = self.world[name]
+
+    def may_fire(self, rule: dict, key: tuple[str, str, int]) -> bool:
+        """`when` holds; `for:` it has held longer than that; `after:` the state has lasted."""
+        if "when" in rule and not self.holds(rule["when"]):
+            return False
+        if "for" in rule and self.held.get(key, 0) <= self.cycles(rule["for"]):
+            return False
+        return "after" not in rule or self.time >= self.cycles(rule["after"])
+
+    def cycles(self, duration: object) -> int:
+        """A duration in cycles: `N cycles`, or seconds rounded up to whole cycles."""
+        if isinstance(duration, int | float):
+            seconds = float(duration)
+        else:
+            number, unit = re.fullmatch(r"([0-9.]+)\s*(s|ms|cycles?)", str(duration)).groups()
+            if unit.startswith("cycle"):
+                return int(number)
+            seconds = float(number) / (1000 if unit == "ms" else 1)
+        count = seconds / self.period
+        return round(count) if abs(count - round(count)) < 1e-6 else math.ceil(count)
 
     def fire(self, rule: dict) -> None:
         if "next" in rule:
@@ -160,10 +239,16 @@ class Controller:
                     value = self.value(text)
                     if target.startswith("world."):
                         self.world[target.removeprefix("world.")] = value
+                    elif target.startswith("result."):
+                        name = target.removeprefix("result.")
+                        kind = self.result_types[name]
+                        self.results[name] = float(value) if kind == "float" else value
                     else:
                         self.locals[target] = value
             elif "report" in action:
                 self.status, self.state = action["report"], "NOP"
+                if "reason" in action:
+                    self.reason = action["reason"]
 
     # ------------------------------------------------------------ expressions
 
@@ -202,12 +287,28 @@ class Controller:
         if isinstance(node, ast.Name):
             return self.name(node.id, sub_commands)
         if isinstance(node, ast.Attribute):
+            if isinstance(node.value, ast.Attribute):  # <sub>.result.<name>
+                sub = node.value.value.id  # type: ignore[attr-defined]
+                return self.sub_results[sub][node.attr]
             base = node.value.id  # type: ignore[attr-defined]
             if base == "world":
                 return self.world[node.attr]
+            if node.attr == "reason":
+                return self.sub_reason[base]
             return self.sub_view[base] if node.attr == "status" else self.sent[base].command
+        if isinstance(node, ast.IfExp):
+            return self.eval(node.body) if self.eval(node.test) else self.eval(node.orelse)
         if isinstance(node, ast.Call):
             name = node.func.id  # type: ignore[attr-defined]
+            if name in self.functions:  # evaluated with only its arguments (and constants)
+                function = self.functions[name]
+                args = [self.eval(a) for a in node.args]
+                saved, self.names = self.names, dict(zip(function["params"], args, strict=True))
+                try:
+                    result = self.value(function["body"])
+                finally:
+                    self.names = saved
+                return float(result) if function["returns"] == "float" else result
             if name in self.predicates:
                 return self.holds(self.predicates[name])
             args = [self.eval(a) for a in node.args]
@@ -219,6 +320,8 @@ class Controller:
             return name  # compared with <sub>.command: a command name
         if name in STATUSES:
             return name
+        if name in self.names:
+            return self.names[name]
         if name in self.args:
             return self.args[name]
         if name in self.locals:
@@ -236,13 +339,16 @@ class Controller:
                 s: (c.command, c.number, dict(sorted(c.args.items()))) for s, c in self.sent.items()
             },
             "locals": dict(self.locals),
+            "reason": self.reason,
+            "results": dict(self.results),
         }
 
 
 def _sub_command(node: ast.AST, subs: list[str]) -> str | None:
+    """The subordinate whose command or reason `node` reads: compared with names."""
     if (
         isinstance(node, ast.Attribute)
-        and node.attr == "command"
+        and node.attr in ("command", "reason")
         and isinstance(node.value, ast.Name)
         and node.value.id in subs
     ):

@@ -52,12 +52,26 @@ class Draw:
 
 def sub_spec(name: str, d: Draw) -> dict:
     commands = {}
+    results, reasons = d.chance(50), d.chance(50)  # read by `top` as <sub>.result.v, .reason
     for command in ("A", "B", "C")[: d.int(1, 3)]:
         spec: dict = {"states": {"S0": [{"do": [{"report": "DONE"}]}]}}
         if d.chance(40):
             spec["params"] = {"k": {"type": "int"}}
+        if results:
+            spec["results"] = {"v": {"type": "int"}}
+        if reasons:
+            spec["reasons"] = ["REFUSED", "FAULT"]
         commands[command] = spec
     return {"controller": name, "title": f"Subordinate {name}", "commands": commands}
+
+
+def sub_reasons(spec: dict) -> list[str]:
+    first = next(iter(spec["commands"].values()))
+    return ["NONE", "LOST", *first.get("reasons", [])] if "reasons" in first else []
+
+
+def sub_results(spec: dict) -> bool:
+    return "results" in next(iter(spec["commands"].values()))
 
 
 class Grammar:
@@ -70,7 +84,16 @@ class Grammar:
         d = self.d
         kinds = ["world_bool", "world_int", "local_int", "local_bool", "param", "predicate"]
         kinds += ["status", "status", "command"] if self.sent else []
+        kinds += ["reason"] if any(sub_reasons(self.subs[s]) for s in self.sent) else []
+        kinds += ["result"] if any(sub_results(self.subs[s]) for s in self.sent) else []
         kind = d.choice(kinds)
+        if kind == "reason":
+            sub = d.choice([s for s in self.sent if sub_reasons(self.subs[s])])
+            compare = d.choice(["==", "!="])
+            return f"{sub}.reason {compare} {d.choice(sub_reasons(self.subs[sub]))}"
+        if kind == "result":
+            sub = d.choice([s for s in self.sent if sub_results(self.subs[s])])
+            return f"{sub}.result.v {d.choice(['<', '>=', '=='])} {d.int(-1, 3)}"
         if kind == "status":
             sub = d.choice(self.sent)
             return (
@@ -91,8 +114,10 @@ class Grammar:
 
     def number(self) -> str:
         d = self.d
-        base = d.choice(["world.i0", "world.i1", "n", "g"])  # a variable: the guard can hold
-        shape = d.int(0, 5)
+        base = d.choice(["world.i0", "world.i1", "n", "g", "m", "twice(n)"])  # can hold
+        shape = d.int(0, 6)
+        if shape == 6:
+            return f"({base} if flag else {d.int(-1, 3)})"
         if shape == 1:
             return f"{base} + {d.choice(['n', 'world.i0', 'LIMIT'])}"
         if shape == 2:
@@ -141,6 +166,9 @@ def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
             table[state] = rules
         commands[command] = {
             "params": {"g": {"type": "int"}},
+            "results": {"r": {"type": "int"}},
+            "reasons": ["BAD", "WORSE"],
+            "let": {"m": "n + g if flag else world.i0", "m2": "twice(m) - 1"},
             "states": table,
             "first_match": states,  # overlapping guards are meant: the first match wins
         }
@@ -155,6 +183,9 @@ def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
         },
         "constants": {"LIMIT": d.int(0, 4)},
         "predicates": {"busy": "world.b0 and n > LIMIT"},
+        "functions": {
+            "twice": {"params": {"v": "int"}, "returns": "int", "body": "v * 2 if v > 0 else -v"}
+        },
         "commands": commands,
     }
 
@@ -173,19 +204,31 @@ def random_rule(d: Draw, grammar: Grammar, states: list[str], sent: list[str], s
         rule["when"] = grammar.guard()
     actions = []
     for _ in range(d.int(0, 3)):
-        kind = d.choice(["send", "set_n", "set_flag", "set_world", "report"])
+        kind = d.choice(["send", "set_n", "set_flag", "set_world", "set_result", "report"])
         if kind == "send":
             actions.append(send(d, d.choice(sent), subs))
         elif kind == "set_n":
-            actions.append({"set": {"n": d.choice(["n + 1", "n - 1", "0", "g", "world.i0 % 5"])}})
+            actions.append(
+                {"set": {"n": d.choice(["n + 1", "n - 1", "0", "g", "world.i0 % 5", "m2 % 7"])}}
+            )
         elif kind == "set_flag":
             actions.append({"set": {"flag": d.choice(["not flag", "world.b0", "n > 2"])}})
         elif kind == "set_world":
             target = d.choice(["world.b1", "world.i1"])
             value = "not world.b1" if target == "world.b1" else d.choice(["n", "world.i1 + 1"])
             actions.append({"set": {target: value}})
+        elif kind == "set_result":
+            actions.append({"set": {"result.r": d.choice(["n", "g * 2", "world.i0"])}})
         elif not any("report" in a for a in actions):
-            actions.append({"report": d.choice(["DONE", "ERROR"])})
+            report: dict = {"report": d.choice(["DONE", "ERROR"])}
+            if report["report"] == "ERROR" and d.chance(60):
+                report["reason"] = d.choice(["BAD", "WORSE"])
+            actions.append(report)
+    if d.chance(25):  # time: wait in the state, or for the guard to have held
+        if "when" in rule and d.chance(50):
+            rule["for"] = d.choice(["1 cycle", "2 cycles", "0.03 s"])
+        else:
+            rule["after"] = d.choice(["1 cycle", "3 cycles", "0.02 s", "50 ms"])
     if actions:
         rule["do"] = actions
     if not any("report" in a for a in actions) and (d.chance(50) or not rule):
@@ -229,6 +272,10 @@ def generated_trace(h: Harness, subs: list[str]) -> dict[str, Any]:
             for s in subs
         },
         "locals": {"n": top.var_n, "flag": top.var_flag},
+        "reason": ("NONE", "LOST", "BAD", "WORSE")[
+            h.layout.STATUS_OUT["top"].read(h.buf)["error_num"]
+        ],
+        "results": {"r": h.layout.STATUS_OUT["top"].read(h.buf)["result_r"]},
     }
 
 
@@ -255,6 +302,18 @@ def drive(h: Harness, files: dict[str, dict], rnd: random.Random) -> int:
                 number = sent if rnd.random() < 0.9 else max(sent - 1, 0)
                 h.reply(sub, status, number)
                 block.sub_status[sub] = (number, status)
+                extra: dict = {}
+                reasons = sub_reasons(files[sub])
+                if reasons:  # a reason with ERROR (and, from a buggy sub, with others)
+                    reason = rnd.choice(reasons)
+                    extra["error_num"] = reasons.index(reason)
+                    block.sub_reason[sub] = reason
+                if sub_results(files[sub]):
+                    extra["result_v"] = block.sub_results.setdefault(sub, {})["v"] = rnd.randint(
+                        -1, 3
+                    )
+                if extra:
+                    h.layout.STATUS_OUT[sub].write(h.buf, **extra)
         for name, kind in (("b0", "bool"), ("i0", "int"), ("b1", "bool"), ("i1", "int")):
             if rnd.random() < 0.1:  # the world changes
                 value = rnd.random() < 0.5 if kind == "bool" else rnd.randint(-4, 6)

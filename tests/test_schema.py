@@ -298,7 +298,7 @@ def test_s006_rule_needs_when_do_or_next():
                 - doc: nothing here
         """)
     d = only(diags, "S006")
-    assert d.message == "a rule needs at least one of `when`, `do` or `next`"
+    assert d.message == "a rule needs at least one of `when`, `after`, `do` or `next`"
     assert d.span == Span("x.yaml", 7, 11)
     assert len(diags) == 1
 

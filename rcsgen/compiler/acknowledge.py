@@ -23,6 +23,7 @@ from .model import Allow, ControllerSpec
 ACKNOWLEDGEABLE = {
     "W301": "a rule",
     "W302": "a rule",
+    "W304": "a rule",
     "W502": "a rule",
     "W503": "a state",
     "W505": "a rule",

@@ -35,6 +35,7 @@ from typing import Any
 from ..runtime.contract import FINISHED
 from . import expr
 from .diagnostics import Diagnostic, Diagnostics, Span, Subject, known_names_hint
+from .expr import BUILTIN_REASONS
 from .solver import (
     BOOL_DOMAIN,
     LIMIT,
@@ -83,7 +84,10 @@ CODES = {
 STATUS_DOMAIN = ("EXECUTING", *FINISHED)
 
 _BUILTIN: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}
-_VARIABLES = ("world", "local", "param")
+_VARIABLES = ("world", "local", "param", "time", "held")
+# Time (`after:`, `for:`) grows without bound while a table waits: a wait is one that stays
+# when every timer is past every bound, so completeness reads the timers at this value.
+_LATE = 2**62
 
 
 # ---------------------------------------------------------------- guards
@@ -93,10 +97,17 @@ def show_key(key: Key) -> str:
     kind, name = key
     if kind == "world":
         return f"world.{name}"
-    if kind in ("status", "command"):
+    if kind in ("status", "command", "reason"):
         return f"{name}.{kind}"
+    if kind == "result":
+        sub, _, field = name.partition(".")
+        return f"{sub}.result.{field}"
     if kind in ("opaque", "form"):
         return f"({name})"
+    if kind == "time":
+        return "cycles_in_state"
+    if kind == "held":  # held_<command>_<state>_<rule>: the cycles a `for:` guard held
+        return f"cycles_rule_{name.rsplit('_', 1)[-1]}_held"
     return name
 
 
@@ -137,8 +148,23 @@ class GuardBuilder:
         constants: dict[str, Any],
         predicates: dict[str, expr.Expr],
         sub_commands: dict[str, tuple[str, ...]],
+        sub_reasons: dict[str, tuple[str, ...]] | None = None,
     ):
         self.constants, self.predicates, self.sub_commands = constants, predicates, sub_commands
+        self.sub_reasons = sub_reasons or {}
+        self.functions: dict[str, tuple[tuple[str, ...], expr.Expr]] = {}  # name -> params, body
+        self.lets: dict[str, expr.Expr] = {}  # the `let` values of the table being analysed
+
+    def inline(self, e: expr.Expr) -> expr.Expr | None:
+        """A function call's body with its arguments, a `let` value's tree; else None."""
+        if isinstance(e, expr.Call) and e.kind == "function":
+            params, body = self.functions[e.name]
+            return expr.substitute(
+                body, {("arg", p): a for p, a in zip(params, e.args, strict=True)}
+            )
+        if isinstance(e, expr.Ref) and e.kind == "let":
+            return self.lets[e.name]
+        return None
 
     def guard(self, tree: expr.Expr) -> Guard:
         guard = Guard(lambda val: True)
@@ -150,7 +176,16 @@ class GuardBuilder:
         if domain is not None:
             guard.domains[key] = domain
 
+    def opened(self, e: expr.Expr) -> expr.Expr:
+        """`e` with the function calls and `let` values at its top inlined."""
+        while (inlined := self.inline(e)) is not None:
+            e = inlined
+        return e
+
     def _fn(self, e: expr.Expr, g: Guard) -> Callable[[Valuation], Any]:
+        inlined = self.inline(e)
+        if inlined is not None:  # decided as if the body or value were written here
+            return self._fn(inlined, g)
         if isinstance(e, expr.Const):
             value = e.value
             return lambda val: value
@@ -164,6 +199,25 @@ class GuardBuilder:
         if isinstance(e, expr.BoolOp):
             parts = [self._fn(v, g) for v in e.values]
             return kleene_and(parts) if e.op == "and" else kleene_or(parts)
+        if isinstance(e, expr.IfExp):
+            test, body, orelse = (self._fn(x, g) for x in (e.test, e.body, e.orelse))
+
+            def choose(val: Valuation) -> Any:
+                decided = test(val)
+                if decided is None:  # both values agree, or it is not known yet
+                    first, second = body(val), orelse(val)
+                    return first if first == second else None
+                return body(val) if decided else orelse(val)
+
+            return choose
+        if isinstance(e, expr.Compare) and len(e.ops) > 1:  # a <= b <= c: a <= b and b <= c
+            chain = tuple(expr.Compare(expr.BOOL, a, (op,), (b,)) for a, op, b in _pairs(e))
+            return self._fn(expr.BoolOp(expr.BOOL, "and", chain), g)
+        if isinstance(e, expr.Compare):
+            left, right = self.opened(e.left), self.opened(e.comparators[0])
+            split = _split_conditional(expr.Compare(expr.BOOL, left, e.ops, (right,)))
+            if split is not None:  # `(a if c else b) > k`: `(a > k) if c else (b > k)`
+                return self._fn(split, g)
         if isinstance(e, expr.Compare):
             scratch = Guard(g.fn)  # the atoms of this comparison, kept only if it is decidable
             pairs = [self._pair(a, op, b, scratch) for a, op, b in _pairs(e)]
@@ -182,11 +236,29 @@ class GuardBuilder:
         if e.kind == "const":
             value = self.constants[e.name]
             return lambda val: value
-        if e.kind in ("status", "sub_command_name"):
+        if e.kind in ("status", "sub_command_name", "sub_reason_name"):
             name = e.name
             return lambda val: name
-        if e.kind == "sub_status":
-            key: Key = ("status", e.owner)
+        if e.kind == "sub_reason":
+            # A reason comes only with an ERROR for the last command sent: NONE otherwise.
+            status: Key = ("status", e.owner)
+            reason: Key = ("reason", e.owner)
+            self._atom(g, status, STATUS_DOMAIN)
+            self._atom(g, reason, ("NONE", *BUILTIN_REASONS[1:], *self.sub_reasons[e.owner]))
+
+            def read(val: Valuation) -> Any:
+                seen = val.get(status)
+                if seen is None or seen != "ERROR":
+                    return None if seen is None else "NONE"
+                return val.get(reason)
+
+            return read
+        key: Key
+        if e.kind == "sub_result":  # a boolean result (numbers are read by comparisons)
+            key = ("result", f"{e.owner}.{e.name}")
+            self._atom(g, key, BOOL_DOMAIN)
+        elif e.kind == "sub_status":
+            key = ("status", e.owner)
             self._atom(g, key, STATUS_DOMAIN)
         elif e.kind == "sub_command":
             key = ("command", e.owner)
@@ -236,13 +308,16 @@ class GuardBuilder:
 
     def _linear(self, e: expr.Expr, types: dict[Key, str]) -> Linear | None:
         """`e` as a linear form over numeric variables with exact coefficients, else None."""
+        inlined = self.inline(e)
+        if inlined is not None:
+            return self._linear(inlined, types)
         if isinstance(e, expr.Const):
             return Linear({}, Fraction(e.value))
         if isinstance(e, expr.Ref):
             if e.kind == "const":
                 return Linear({}, Fraction(self.constants[e.name]))
-            if e.kind in _VARIABLES:
-                key = (e.kind, e.name)
+            if e.kind in _VARIABLES or e.kind == "sub_result":
+                key = ("result", f"{e.owner}.{e.name}") if e.owner else (e.kind, e.name)
                 types[key] = e.type
                 return Linear({key: Fraction(1)}, Fraction(0))
             return None
@@ -275,6 +350,21 @@ class GuardBuilder:
             if len(constants) == len(args):
                 return Linear({}, Fraction(_BUILTIN[e.name](*constants)))
         return None
+
+
+def _split_conditional(e: expr.Compare) -> expr.Expr | None:
+    """A comparison with a conditional operand as a conditional of two comparisons (each
+    then decided on its own), else None."""
+    left, right = e.left, e.comparators[0]
+    if isinstance(left, expr.IfExp):
+        then = expr.Compare(expr.BOOL, left.body, e.ops, (right,))
+        other = expr.Compare(expr.BOOL, left.orelse, e.ops, (right,))
+        return expr.IfExp(expr.BOOL, left.test, then, other)
+    if isinstance(right, expr.IfExp):
+        then = expr.Compare(expr.BOOL, left, e.ops, (right.body,))
+        other = expr.Compare(expr.BOOL, left, e.ops, (right.orelse,))
+        return expr.IfExp(expr.BOOL, right.test, then, other)
+    return None
 
 
 def _pairs(e: expr.Compare) -> list[tuple[expr.Expr, str, expr.Expr]]:
@@ -328,7 +418,11 @@ class _Controller:
             {n: c.value for n, c in checked.spec.constants.items()},
             {n: p.tree for n, p in checked.predicates.items()},
             dict(checked.sub_commands),
+            dict(checked.scope.sub_reasons),
         )
+        self.builder.functions = {
+            f.name: (tuple(p for p, _ in f.params), f.tree) for f in checked.functions.values()
+        }
         # every_cycle rules run whatever the state: what they send or test counts everywhere
         every = checked.every_cycle
         self.every_sent = {send.sub for r in every for send in r.sends}
@@ -350,6 +444,7 @@ class _Controller:
 
     def table(self, command: CheckedCommand) -> dict[str, list[_Rule]]:
         """The rules that can be tried (the checked states hold only those)."""
+        self.builder.lets = {let.name: let.tree for let in command.lets}
         return {
             name: [
                 _Rule(
@@ -523,7 +618,9 @@ class _Table:
         subs = {*self.tested[state], *self.owner.every_tested}
         finished = {("status", sub): FINISHED for sub in subs}
         quiet = [(r.guard, False) for r in rules] + [(g, False) for g in self.owner.every_guards]
-        answer = solve(quiet, allowed=finished)
+        # Time passes while it waits: `after:` and `for:` are read once their time has come.
+        late = {key: _LATE for r in rules if r.guard for key in r.guard.order if _timer(key)}
+        answer = solve(quiet, fixed=late, allowed=finished)
         if answer.kind == "yes":
             self.diags.warning(
                 self.states[state].span,
@@ -612,6 +709,10 @@ class _Table:
                         "or do not send it",
                         self.about(state, rule.number),
                     )
+
+
+def _timer(key: Key) -> bool:
+    return key[0] in ("time", "held")
 
 
 def _fires_on_error(guards: list[Guard | None], sub: str) -> bool:

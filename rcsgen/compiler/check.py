@@ -10,6 +10,8 @@ stages (`tables` holds the checked system's types). All problems are collected f
 from __future__ import annotations
 
 import ast
+import builtins
+import keyword
 import os
 from dataclasses import replace
 from pathlib import Path
@@ -24,6 +26,8 @@ from .tables import (
     CallHook,
     CheckedCommand,
     CheckedController,
+    CheckedFunction,
+    CheckedLet,
     CheckedPredicate,
     CheckedProcess,
     CheckedRule,
@@ -33,6 +37,7 @@ from .tables import (
     RuleId,
     Send,
     Target,
+    duration_text,
     live,
     one_line,
     reachable,
@@ -91,6 +96,14 @@ def check_system(
 
 
 # ---------------------------------------------------------------- system-wide checks
+
+
+def process_period(system: SystemSpec, module: str) -> float:
+    """The cycle period of the process that runs `module` (the system's if it runs in none)."""
+    for process in system.processes:
+        if any(m.value == module for m in process.modules):
+            return process.cycle_period or system.cycle_period
+    return system.cycle_period
 
 
 def _index_controllers(
@@ -222,7 +235,15 @@ def _subtree(name: str, by_name: dict[str, ControllerSpec]) -> set[str]:
 
 
 def _command_signature(spec: ControllerSpec) -> dict[str, dict[str, str]]:
-    return {n: {p: t.type for p, t in c.params.items()} for n, c in spec.commands.items()}
+    """Each command's parameters, results and reasons: what shares its buffers' shape."""
+    return {
+        n: {
+            **{p: t.type for p, t in c.params.items()},
+            **{f"result {r}": t.type for r, t in c.results.items()},
+            **{f"reason {r.value}": "" for r in c.reasons},
+        }
+        for n, c in spec.commands.items()
+    }
 
 
 def _check_stand_ins(
@@ -267,7 +288,8 @@ def _check_stand_ins(
                 diags.error(
                     sim.commands[command].span,
                     "E236",
-                    f"{command} of stand-in `{sim.name}` has other parameters than `{name}`'s",
+                    f"{command} of stand-in `{sim.name}` has other parameters, results or "
+                    f"reasons than `{name}`'s",
                     f"`{name}` takes {wanted[command] or 'no parameters'}",
                 )
 
@@ -550,6 +572,62 @@ def _return_problems(
     return found
 
 
+# Names a function or a `let` value cannot take: they are Python names of the generated
+# method or module (a `let` is a local of its table's method, a function a module function).
+_PYTHON_NAMES = frozenset(
+    {"self", "state", "hooks", "buf", "command", "perf_counter_ns", "Struct", "is_real"}
+    | {"is_integer", *expr.BUILTINS}
+)
+
+
+def _reserved(name: str) -> str:
+    """What `name` already is in generated code, or ''."""
+    if keyword.iskeyword(name) or keyword.issoftkeyword(name):
+        return "a Python keyword"
+    if name in _PYTHON_NAMES or name in dir(builtins):
+        return "a name the generated code uses"
+    return ""
+
+
+def _calls_later(
+    body: object, name: str, declared: list[str], before: dict[str, CheckedFunction]
+) -> str:
+    """The first function `body` calls that is not declared before `name` (itself
+    included), or ''."""
+    try:
+        tree = ast.parse(" ".join(str(body).split()), mode="eval")
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        return ""  # typing the body reports it
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+            callee = node.func.id
+            if callee in declared and callee not in before:
+                return callee
+    return ""
+
+
+def _timed_guard(
+    rule_id: RuleId, guard: expr.Expr | None, after: int | None, hold: int | None
+) -> expr.Expr | None:
+    """The guard with the rule's time: `when and held > FOR and ticks >= AFTER` (the counters
+    are ints no spec text names; docs/semantics.md, "Time in a state")."""
+    parts = [] if guard is None else [guard]
+    if isinstance(guard, expr.BoolOp) and guard.op == "and" and (after or hold):
+        parts = list(guard.values)  # `a and b and ticks >= 20`, not `(a and b) and ...`
+    if hold is not None and guard is not None:
+        counter = naming.held_attribute(rule_id.command or "", rule_id.state or "", rule_id.index)
+        parts.append(_at_least(expr.Ref(expr.INT, "held", counter), ">", hold))
+    if after is not None:
+        parts.append(_at_least(expr.Ref(expr.INT, "time", "ticks"), ">=", after))
+    if len(parts) <= 1:
+        return parts[0] if parts else None
+    return expr.BoolOp(expr.BOOL, "and", tuple(parts))
+
+
+def _at_least(counter: expr.Ref, op: str, cycles: int) -> expr.Expr:
+    return expr.Compare(expr.BOOL, counter, (op,), (expr.Const(expr.INT, cycles),))
+
+
 def _a(kind: str) -> str:
     return {"int": "an int", "float": "a float", "bool": "a bool"}.get(kind, kind)
 
@@ -579,6 +657,7 @@ class _ControllerChecker:
         self.subs = [s.value for s in spec.subordinates]
         self.predicate_trees: dict[str, expr.Expr] = {}  # for folding guards (set by check)
         self.writable = {w.value for w in spec.world_writes}
+        self.period = process_period(system, spec.name)  # a stand-in's: check() sets it
         self.base_scope = expr.Scope(
             world=system.world_types,
             world_access=frozenset(a.value for a in [*spec.world_reads, *spec.world_writes]),
@@ -586,7 +665,13 @@ class _ControllerChecker:
             constants={n: c.value for n, c in spec.constants.items()},
             predicates=frozenset(spec.predicates),
             subordinates={sub: frozenset(by_name[sub].commands) for sub in self.subs},
+            sub_results={sub: naming.result_types(by_name[sub]) for sub in self.subs},
+            sub_reasons={sub: tuple(naming.declared_reasons(by_name[sub])) for sub in self.subs},
+            functions={
+                f.name: (tuple(f.params.values()), f.returns) for f in spec.functions.values()
+            },
         )
+        self.command: Command | None = None  # the command whose table is being checked
 
     def subject(self, rule: CheckedRule) -> Subject:
         """What a finding about `rule` is about, for acknowledgements."""
@@ -602,6 +687,8 @@ class _ControllerChecker:
 
     def check(self, supervisor: str | None, simulator: bool, buffers: str) -> CheckedController:
         spec = self.spec
+        self.period = process_period(self.system, buffers)
+        functions = self.check_functions()
         predicates = self.check_predicates()
         self.predicate_trees = {name: p.tree for name, p in predicates.items()}
         commands = {
@@ -618,10 +705,89 @@ class _ControllerChecker:
             every_cycle=self.check_every_cycle(),
             sub_commands={sub: tuple(self.by_name[sub].commands) for sub in self.subs},
             scope=self.scope_for(None),
+            functions=functions,
         )
+
+    def check_functions(self) -> dict[str, CheckedFunction]:
+        """Each pure function's body, typed over its parameters, the constants and the
+        functions declared before it (E262-E264)."""
+        checked: dict[str, CheckedFunction] = {}
+        spec = self.spec
+        taken = {
+            **{name: "a predicate" for name in spec.predicates},
+            **{name: "a hook" for name in spec.hooks},
+        }
+        for name, function in spec.functions.items():
+            problem = _reserved(name) or taken.get(name)
+            if problem:
+                self.diags.error(
+                    function.span,
+                    "E262",
+                    f"function `{name}` cannot be named so: it is {problem}",
+                    "rename the function",
+                )
+                continue
+            later = _calls_later(function.body.value, name, list(spec.functions), checked)
+            if later:
+                self.diags.error(
+                    function.body.span,
+                    "E264",
+                    f"function `{name}` calls `{later}`, which is not declared before it",
+                    "a function calls only the functions above it, so none can recurse",
+                )
+                continue
+            scope = expr.Scope(
+                constants=self.base_scope.constants,
+                functions={
+                    f.name: (tuple(t for _, t in f.params), f.returns) for f in checked.values()
+                },
+                args=dict(function.params),
+            )
+            tree = self.typed(function.body, scope, function.returns)
+            if tree is not None:
+                checked[name] = CheckedFunction(
+                    name,
+                    tuple(function.params.items()),
+                    function.returns,
+                    tree,
+                    one_line(function.body.value),
+                    function.span,
+                )
+        return checked
+
+    def check_lets(self, command: Command, scope: expr.Scope) -> tuple[CheckedLet, ...]:
+        """A table's named values, in order, each typed over what the table sees and the
+        values before it; `scope` gains each (E262 for a name already used)."""
+        lets: list[CheckedLet] = []
+        known: dict[str, str] = {}
+        spec = self.spec
+        for name, item in command.lets.items():
+            used = (
+                _reserved(name)
+                or ("a parameter" if name in command.params else "")
+                or ("a local" if name in spec.locals else "")
+                or ("a predicate" if name in spec.predicates else "")
+                or ("a function" if name in spec.functions else "")
+                or ("a hook" if name in spec.hooks else "")
+            )
+            if used:
+                self.diags.error(
+                    item.span,
+                    "E262",
+                    f"`let` value `{name}` cannot be named so: it is {used}",
+                    "rename it",
+                )
+                continue
+            tree = self.typed(item, replace(scope, lets=dict(known)), None)
+            if tree is not None:
+                known[name] = tree.type
+                lets.append(CheckedLet(name, tree, one_line(item.value), item.span))
+        scope.lets = known
+        return tuple(lets)
 
     def check_every_cycle(self) -> tuple[CheckedRule, ...]:
         scope = self.scope_for(None)
+        self.command = None
         rules = []
         for index, written in enumerate(self.spec.every_cycle, start=1):
             if written.next is not None:
@@ -669,6 +835,8 @@ class _ControllerChecker:
 
     def check_command(self, command: Command, code: int) -> CheckedCommand:
         scope = self.scope_for(command)
+        self.command = command
+        lets = self.check_lets(command, scope)
         self.check_states(command)
         states = {}
         for state in command.states.values():
@@ -698,7 +866,7 @@ class _ControllerChecker:
                         self.subject(rule),
                     )
             states[state.name] = CheckedState(state.name, state.span, tuple(tried), tuple(shadowed))
-        return CheckedCommand(command.name, code, command, states, scope)
+        return CheckedCommand(command.name, code, command, states, scope, lets)
 
     def check_states(self, command: Command) -> None:
         states = command.states
@@ -741,6 +909,8 @@ class _ControllerChecker:
         guard = None
         if rule.when is not None:
             guard = self.typed(rule.when, scope, expr.BOOL)
+        after, hold = self.timing(rule_id, rule)
+        guard = _timed_guard(rule_id, guard, after, hold)
         actions = [self.check_action(a, scope) for a in rule.actions]
         reports = [a for a in rule.actions if isinstance(a, model.Report)]
         if reports and rule.next is not None:
@@ -756,8 +926,67 @@ class _ControllerChecker:
             folded = expr.fold(guard, scope.constants, self.predicate_trees)
             always = folded if isinstance(folded, bool) else None
         return CheckedRule(
-            rule_id, rule, guard, tuple(a for a in actions if a is not None), next_state, always
+            rule_id,
+            rule,
+            guard,
+            tuple(a for a in actions if a is not None),
+            next_state,
+            always,
+            after,
+            hold,
         )
+
+    def timing(self, rule_id: RuleId, rule: Rule) -> tuple[int | None, int | None]:
+        """A rule's `after:` and `for:` in cycles of this controller's process (None: not
+        given, or wrong: E250-E252, W304 when rounded up)."""
+        found: list[int | None] = []
+        for key, item in (("after", rule.after), ("for", rule.hold)):
+            if item is None:
+                found.append(None)
+                continue
+            if rule_id.command is None:
+                self.diags.error(
+                    item.span,
+                    "E251",
+                    f"an every_cycle rule cannot wait: `{key}:` counts the time in a state",
+                    "every_cycle rules run whatever the state; put the timed rule in a table",
+                )
+                found.append(None)
+                continue
+            if key == "for" and rule.when is None:
+                self.diags.error(
+                    item.span,
+                    "E250",
+                    "`for:` needs a `when:`: it is how long the guard must have held",
+                    "add the condition as `when:`, or write `after:` to wait in the state",
+                )
+                found.append(None)
+                continue
+            found.append(self.cycles(key, item, rule_id))
+        return found[0], found[1]
+
+    def cycles(self, key: str, item: Located, rule_id: RuleId) -> int | None:
+        """A duration in whole cycles of this controller's period (rounded up: W304)."""
+        count, exact = model.exact_cycles(item.value, self.period)
+        text = duration_text(item.value)
+        if count < 1:
+            self.diags.error(
+                item.span,
+                "E252",
+                f"`{key}: {text}` is less than one cycle ({self.period:g} s)",
+                "give at least one cycle; a rule that need not wait has no `after:` or `for:`",
+            )
+            return None
+        if not exact:
+            self.diags.warning(
+                item.span,
+                "W304",
+                f"`{key}: {text}` is not a whole number of cycles of {self.period:g} s: "
+                f"it is rounded up to {count} cycles ({count * self.period:g} s)",
+                "write the duration in cycles, or as a multiple of the cycle period",
+                Subject(self.spec.name, rule_id.command, rule_id.state, rule_id.index),
+            )
+        return count
 
     def check_action(self, action: model.Action, scope: expr.Scope) -> Action | None:
         if isinstance(action, model.Send):
@@ -771,7 +1000,7 @@ class _ControllerChecker:
                     pairs.append((target, value))
             return Assign(tuple(pairs), action)
         if isinstance(action, model.Report):
-            return Report(action.status, action.span)
+            return Report(action.status, action.span, self.reason(action))
         hook = self.spec.hooks.get(action.hook)
         if hook is None:
             self.diags.error(
@@ -808,9 +1037,50 @@ class _ControllerChecker:
                 f"convert it in the spec, or change the annotation ({where})",
             )
 
+    def reason(self, report: model.Report) -> str | None:
+        """The reason a report gives, checked against its command's `reasons` (E255, E256)."""
+        if report.reason is None:
+            return None
+        reason = str(report.reason.value)
+        if report.status != "ERROR":
+            self.diags.error(
+                report.reason.span,
+                "E255",
+                f"`report: {report.status}` cannot give a reason",
+                "a reason says why a command failed: give it with `report: ERROR`",
+            )
+            return None
+        declared = [r.value for r in self.command.reasons] if self.command else []
+        if reason not in declared:
+            where = f"{self.command.name}'s `reasons`" if self.command else "an every_cycle rule"
+            self.diags.error(
+                report.reason.span,
+                "E256",
+                f"reason `{reason}` is not one of {where}",
+                known_names_hint("reasons", declared, reason)
+                or "declare it in the command's `reasons:` list",
+            )
+            return None
+        return reason
+
     def target(self, target: Located) -> Target | None:
-        """An assignable name (`world.<field>` or a local), or None after an error."""
+        """An assignable name (`world.<field>`, a local or `result.<name>` of the current
+        command), or None after an error."""
         text = str(target.value)
+        if text.startswith("result."):
+            name = text.removeprefix("result.")
+            results = self.command.results if self.command else {}
+            if name not in results:
+                where = f"{self.command.name}" if self.command else "an every_cycle rule"
+                self.diags.error(
+                    target.span,
+                    "E257",
+                    f"`{name}` is not a result of {where}",
+                    known_names_hint("results", results, name)
+                    or "declare it under the command's `results:`",
+                )
+                return None
+            return Target("result", name, results[name].type)
         if text.startswith("world."):
             name = text.removeprefix("world.")
             if name not in self.system.world:

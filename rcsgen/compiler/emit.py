@@ -193,6 +193,12 @@ def _inputs(c: ir.IRController, system: ir.IRSystem, placement: Placement) -> Ga
         status = layout.modules[sub.name].status
         head = status.fields[:2]  # status_num, status
         fields += [(s.offset, s.code, f"self.{sub.name}_{s.name}") for s in head]
+        # and the reason and results its guards read (docs/semantics.md, "Results and reasons")
+        read = {"error_num"} if sub.reasons else set()
+        read |= {f"result_{r.name}" for r in sub.results}
+        fields += [
+            (s.offset, s.code, f"self.{sub.name}_{s.name}") for s in status.fields if s.name in read
+        ]
         if placement.process_of[sub.name] != here:
             fields.append((status.offset, "Q", None))
     by_name = {b.fields[0].name: b for b in layout.world}
@@ -240,7 +246,9 @@ def _controller_context(
         "self.command",
         *(f"self.arg_{p.name}" for p in c.params),
     ]
-    status_targets = [f"self.{n}" for n in contract.field_names(contract.STATUS_FIELDS)]
+    status = system.layout.modules[c.buffers].status  # with its results, if any
+    status_targets = [f"self.{slot.name}" for slot in status.fields]
+    has_results = len(status.fields) > len(contract.field_names(contract.STATUS_FIELDS))
     mode_targets = [f"self.{n}" for n in contract.field_names(contract.MODE_FIELDS)]
     perf_targets = [
         f"self.{naming.attribute_of(n, contract.PERF_FIELDS)}"
@@ -263,16 +271,23 @@ def _controller_context(
         slots.append("hook_state")
     for s in c.subordinates:
         slots += [*sub_targets[s.name], f"self.{s.name}_status_num", f"self.{s.name}_status"]
+        slots += [f"{s.name}_result_{r.name}" for r in s.results]
+        slots += [f"{s.name}_error_num"] if s.reasons else []
         slots.append(f"{s.name}_written")
         if s.echo_cycles:
             slots.append(f"{s.name}_sent_at")
     slots += [f"world_{f.name}" for f in c.world_reads]
     slots += [f"var_{v.name}" for v in c.locals]
+    if c.timed:
+        slots += ["ticks", *c.counters]
     imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT", *(n for names in world_seq_at for n in names)}
     for s in c.subordinates:
         imports |= {f"{s.name.upper()}_COMMAND", f"{s.name.upper()}_COMMAND_AT"}
     inputs = _inputs(c, system, placement)
     runtime_names = {*c.runtime_names, "SEQ"}
+    if has_results:  # its status buffer's own struct, from the layout
+        runtime_names.discard("STATUS")
+        imports.add(f"{up}_STATUS")
     if inputs.seq_indices:
         runtime_names.add("READ_TRIES")
     if c.subordinates:  # safe_state halts them and reports ERROR
@@ -291,6 +306,7 @@ def _controller_context(
         "slots": sorted(s.removeprefix("self.") for s in slots),
         "command_targets": command_targets,
         "status_targets": status_targets,
+        "status_struct": f"{up}_STATUS" if has_results else "STATUS",
         "mode_targets": mode_targets,
         "perf_targets": perf_targets,
         "sub_targets": sub_targets,
@@ -345,6 +361,7 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
             system=system,
             layout=layout,
             owners=[c for c in system.controllers if c.buffers == c.name],
+            with_results={c.name for c in system.controllers if c.buffers == c.name and c.results},
             table=_layout_table(layout),
         ),
     }

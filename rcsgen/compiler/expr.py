@@ -42,6 +42,16 @@ def command_type(sub: str) -> str:
     return f"command of {sub}"
 
 
+def reason_type(sub: str) -> str:
+    """The type of `<sub>.reason` and of `<sub>`'s reason names."""
+    return f"reason of {sub}"
+
+
+# The reasons every controller that declares some has: none given, and a subordinate's
+# process lost (the runtime's safe state, `error_num` 1: rcs/loop.py LOST_SUBORDINATE).
+BUILTIN_REASONS = ("NONE", "LOST")
+
+
 # ---------------------------------------------------------------- typed tree
 
 
@@ -60,7 +70,11 @@ class Const(Expr):
 @dataclass(frozen=True)
 class Ref(Expr):
     """A resolved name. kind: world, param, local, const, status, sub_status, sub_command,
-    sub_command_name (`owner` is the subordinate for the sub_* kinds)."""
+    sub_command_name, sub_result (`<sub>.result.<name>`), sub_reason (`<sub>.reason`),
+    sub_reason_name (`owner` is the subordinate for the sub_* kinds); and two that no spec
+    text names, made by the checker from a rule's `after:` and `for:`: time (the cycles
+    spent in the current state, an int) and held (the cycles a `for:` rule's `when` has
+    held, an int; `name` is its counter)."""
 
     kind: str
     name: str
@@ -102,6 +116,15 @@ class Compare(Expr):
     comparators: tuple[Expr, ...]
 
 
+@dataclass(frozen=True)
+class IfExp(Expr):
+    """`body if test else orelse`: both values of one type (int and float make a float)."""
+
+    test: Expr
+    body: Expr
+    orelse: Expr
+
+
 # ---------------------------------------------------------------- scope
 
 
@@ -117,9 +140,16 @@ class Scope:
     predicates: frozenset[str] = frozenset()
     subordinates: Mapping[str, frozenset[str]] = field(default_factory=dict)  # sub -> commands
     used_predicates: set[str] = field(default_factory=set)
+    # each subordinate's results (name -> type) and the reasons it declares (none: no reason)
+    sub_results: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    sub_reasons: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    # pure functions it may call: name -> (parameter types in order, result type)
+    functions: Mapping[str, tuple[tuple[str, ...], str]] = field(default_factory=dict)
+    lets: Mapping[str, str] = field(default_factory=dict)  # its table's named values -> type
+    args: Mapping[str, str] = field(default_factory=dict)  # a function body's parameters
 
     def bare_names(self) -> list[str]:
-        return [*self.params, *self.locals, *self.constants, *STATUS_NAMES]
+        return [*self.args, *self.params, *self.lets, *self.locals, *self.constants, *STATUS_NAMES]
 
 
 _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv: "//"}
@@ -136,7 +166,6 @@ _NODE_WORDS = {
     ast.JoinedStr: "f-strings",
     ast.NamedExpr: "assignment expressions (:=)",
     ast.Starred: "starred expressions",
-    ast.IfExp: "conditional expressions",
     ast.Await: "await",
     ast.Yield: "yield",
 }
@@ -165,8 +194,9 @@ class _Resolver:
                 node,
                 "E102",
                 f"{what} are not allowed in a spec expression",
-                "expressions may use literals, and/or/not, comparisons, arithmetic, declared "
-                "names, world.<field>, <sub>.status, <sub>.command and predicate calls",
+                "expressions may use literals, and/or/not, comparisons, arithmetic, `a if c "
+                "else b`, declared names, world.<field>, <sub>.status, <sub>.command and "
+                "calls of predicates and functions",
             )
         return method(node)
 
@@ -188,8 +218,12 @@ class _Resolver:
             return Const(BOOL, name == "True")
         if name in STATUS_NAMES:  # reserved: a param or constant cannot shadow a status
             return Ref(STATUS, "status", name)
+        if name in scope.args:
+            return Ref(scope.args[name], "arg", name)
         if name in scope.params:
             return Ref(scope.params[name], "param", name)
+        if name in scope.lets:
+            return Ref(scope.lets[name], "let", name)
         if name in scope.locals:
             return Ref(scope.locals[name], "local", name)
         if name in scope.constants:
@@ -211,6 +245,13 @@ class _Resolver:
         base, attr, scope = node.value, node.attr, self.scope
         if attr.startswith("__"):
             raise self.fail(node, "E102", f"dunder attribute `{attr}` is not allowed")
+        if (
+            isinstance(base, ast.Attribute)
+            and base.attr == "result"
+            and isinstance(base.value, ast.Name)
+            and base.value.id in scope.subordinates
+        ):
+            return self.sub_result(node, base.value.id, attr)
         if not isinstance(base, ast.Name):
             raise self.fail(node, "E102", "attributes are allowed only on `world` and subordinates")
         if base.id == "world":
@@ -234,10 +275,22 @@ class _Resolver:
                 return Ref(STATUS, "sub_status", attr, base.id)
             if attr == "command":
                 return Ref(command_type(base.id), "sub_command", attr, base.id)
+            if attr == "reason":
+                if not scope.sub_reasons.get(base.id):
+                    raise self.fail(
+                        node,
+                        "E259",
+                        f"`{base.id}` declares no reasons: `{base.id}.reason` says nothing",
+                        f"declare `reasons:` on the commands of `{base.id}` that can fail",
+                    )
+                return Ref(reason_type(base.id), "sub_reason", attr, base.id)
+            if attr == "result":
+                raise self.fail(node, "E108", f"`{base.id}.result` needs a name: `.result.<name>`")
             raise self.fail(
                 node,
                 "E108",
-                f"`{base.id}.{attr}`: a subordinate has only `status` and `command`",
+                f"`{base.id}.{attr}`: a subordinate has only `status`, `command`, `reason` "
+                "and `result.<name>`",
                 did_you_mean_attr(attr),
             )
         raise self.fail(
@@ -247,26 +300,65 @@ class _Resolver:
             known_names_hint("subordinates", scope.subordinates, base.id),
         )
 
+    def sub_result(self, node: ast.AST, sub: str, name: str) -> Expr:
+        results = self.scope.sub_results.get(sub, {})
+        if name not in results:
+            raise self.fail(
+                node,
+                "E258",
+                f"`{sub}` has no result `{name}`",
+                known_names_hint(f"results of {sub}", results, name)
+                or f"declare it under `results:` of a command of `{sub}`",
+            )
+        return Ref(results[name], "sub_result", name, sub)
+
     def _Call(self, node: ast.Call) -> Expr:
         if node.keywords or not isinstance(node.func, ast.Name):
-            raise self.fail(node, "E102", "only predicates and abs/min/max can be called")
+            raise self.fail(
+                node, "E102", "only predicates, functions and abs/min/max can be called"
+            )
         name = node.func.id
+        if name in self.scope.functions:
+            params, returns = self.scope.functions[name]
+            if len(node.args) != len(params):
+                raise self.fail(
+                    node,
+                    "E263",
+                    f"function `{name}` takes {len(params)} argument(s), not {len(node.args)}",
+                )
+            args = []
+            for index, (arg, wanted) in enumerate(zip(node.args, params, strict=True)):
+                value = self.expr(arg)
+                if not assignable(wanted, value.type):
+                    raise self.fail(
+                        arg,
+                        "E263",
+                        f"argument {index + 1} of `{name}` is {_words(value.type)}, "
+                        f"but the function takes {_words(wanted)}",
+                    )
+                args.append(value)
+            return Call(returns, "function", name, tuple(args))
         if name in self.scope.predicates:
             if node.args:
                 raise self.fail(node, "E107", f"predicate `{name}` takes no arguments")
             self.scope.used_predicates.add(name)
             return Call(BOOL, "predicate", name)
         if name in BUILTINS:
-            args = tuple(self.numeric(a) for a in node.args)
-            if (name == "abs") != (len(args) == 1) or not args:
+            numbers = tuple(self.numeric(a) for a in node.args)
+            if (name == "abs") != (len(numbers) == 1) or not numbers:
                 raise self.fail(node, "E107", f"wrong number of arguments to `{name}`")
-            kind = FLOAT if any(a.type == FLOAT for a in args) else INT
-            return Call(kind, "builtin", name, args)
+            kind = FLOAT if any(a.type == FLOAT for a in numbers) else INT
+            return Call(kind, "builtin", name, numbers)
+        functions = self.scope.functions
         raise self.fail(
             node,
             "E106",
-            f"`{name}` is not a declared predicate",
-            known_names_hint("predicates", self.scope.predicates, name),
+            f"`{name}` is not a declared predicate" + (" or function" if functions else ""),
+            known_names_hint(
+                "predicates and functions" if functions else "predicates",
+                [*self.scope.predicates, *functions],
+                name,
+            ),
         )
 
     def _UnaryOp(self, node: ast.UnaryOp) -> Expr:
@@ -298,6 +390,23 @@ class _Resolver:
             raise self.fail(node, "E110", f"this expression is always an {problem}", INT_RANGE_HINT)
         return result
 
+    def _IfExp(self, node: ast.IfExp) -> Expr:
+        test = self.boolean(node.test)
+        body, orelse = self.expr(node.body), self.expr(node.orelse)
+        if body.type in NUMERIC and orelse.type in NUMERIC:
+            kind = FLOAT if FLOAT in (body.type, orelse.type) else INT
+        elif body.type == orelse.type:
+            kind = body.type
+        else:
+            raise self.fail(
+                node,
+                "E261",
+                f"the two values of `... if ... else ...` differ: {_words(body.type)} and "
+                f"{_words(orelse.type)}",
+                "give both values one type (an int and a float make a float)",
+            )
+        return IfExp(kind, test, body, orelse)
+
     def _BoolOp(self, node: ast.BoolOp) -> Expr:
         op = "and" if isinstance(node.op, ast.And) else "or"
         return BoolOp(BOOL, op, tuple(self.boolean(v) for v in node.values))
@@ -309,9 +418,18 @@ class _Resolver:
                 raise self.fail(node, "E102", "only == != < <= > >= comparisons are allowed")
             ops.append(_CMPOPS[type(cmpop)])
         operands = [node.left, *node.comparators]
-        # A subordinate's command compares with that subordinate's command names.
+        # A subordinate's command compares with that subordinate's command names, its
+        # reason with its reason names.
         commanded = [_sub_commanded(a, self.scope) for a in operands]
         sub = next((s for s in commanded if s is not None), None)
+        if sub is None:
+            reasoned = [_sub_reasoned(a, self.scope) for a in operands]
+            reason_of = next((s for s in reasoned if s is not None), None)
+            if reason_of is not None:
+                typed = [self.reason_name(a, reason_of) for a in operands]
+                for left, right, op, raw in zip(typed, typed[1:], ops, operands[1:], strict=False):
+                    self.comparable(left, right, op, raw)
+                return Compare(BOOL, typed[0], tuple(ops), tuple(typed[1:]))
         typed = [self.command_name(a, sub) if sub else self.expr(a) for a in operands]
         for left, right, op, raw in zip(typed, typed[1:], ops, operands[1:], strict=False):
             self.comparable(left, right, op, raw)
@@ -331,6 +449,21 @@ class _Resolver:
                 known_names_hint(f"commands of {sub}", commands, node.id),
             )
         raise self.fail(node, "E107", f"`{sub}.command` compares only with a command name")
+
+    def reason_name(self, node: ast.AST, sub: str) -> Expr:
+        if _sub_reasoned(node, self.scope) is not None:
+            return self.expr(node)
+        if isinstance(node, ast.Name):
+            names = (*BUILTIN_REASONS, *self.scope.sub_reasons.get(sub, ()))
+            if node.id in names:
+                return Ref(reason_type(sub), "sub_reason_name", node.id, sub)
+            raise self.fail(
+                node,
+                "E260",
+                f"`{sub}` has no reason `{node.id}`",
+                known_names_hint(f"reasons of {sub}", names, node.id),
+            )
+        raise self.fail(node, "E107", f"`{sub}.reason` compares only with a reason name")
 
     def comparable(self, left: Expr, right: Expr, op: str, node: ast.AST) -> None:
         kinds = {left.type, right.type}
@@ -369,8 +502,20 @@ def _sub_commanded(node: ast.AST, scope: Scope) -> str | None:
     return None
 
 
+def _sub_reasoned(node: ast.AST, scope: Scope) -> str | None:
+    """The subordinate `node` reads the reason of (`<sub>.reason`), else None."""
+    if (
+        isinstance(node, ast.Attribute)
+        and node.attr == "reason"
+        and isinstance(node.value, ast.Name)
+        and node.value.id in scope.subordinates
+    ):
+        return node.value.id
+    return None
+
+
 def did_you_mean_attr(attr: str) -> str:
-    return known_names_hint("fields", ("status", "command"), attr)
+    return known_names_hint("fields", ("status", "command", "reason", "result"), attr)
 
 
 def _type_of_value(value: object) -> str:
@@ -519,6 +664,8 @@ def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr],
         if e.kind == "predicate":
             body = predicates.get(e.name)
             return None if body is None else _fold(body, constants, predicates, depth + 1)
+        if e.kind == "function":  # its body is folded where it is declared, not here
+            return None
         args = [_fold(a, constants, predicates, depth + 1) for a in e.args]
         return None if None in args else _FOLD_BUILTIN[e.name](*args)
     if isinstance(e, Unary):
@@ -542,6 +689,11 @@ def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr],
             elif bool(value) == decided:
                 return decided
         return None if unknown else not decided
+    if isinstance(e, IfExp):
+        test = _fold(e.test, constants, predicates, depth + 1)
+        if test is None:
+            return None
+        return _fold(e.body if test else e.orelse, constants, predicates, depth + 1)
     if isinstance(e, Compare):
         operands = [_fold(x, constants, predicates, depth + 1) for x in (e.left, *e.comparators)]
         if None in operands:
@@ -553,7 +705,7 @@ def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr],
 
 # ---------------------------------------------------------------- printing
 
-_PRECEDENCE = {"or": 1, "and": 2, "not": 3, "cmp": 4, "+": 5, "-": 5}
+_PRECEDENCE = {"if": 0, "or": 1, "and": 2, "not": 3, "cmp": 4, "+": 5, "-": 5}
 _PRECEDENCE.update({"*": 6, "/": 6, "//": 6, "%": 6, "neg": 7, "atom": 9})
 
 
@@ -586,6 +738,8 @@ class _Printer:
             callee = expr.name
             if expr.kind == "predicate":
                 callee = self.name_of(Ref(BOOL, "predicate", expr.name))
+            elif expr.kind == "function":
+                callee = self.name_of(Ref(expr.type, "function", expr.name))
             return f"{callee}({args})", atom
         if isinstance(expr, Unary):
             if expr.op == "not":
@@ -599,6 +753,9 @@ class _Printer:
         if isinstance(expr, BoolOp):
             level = _PRECEDENCE[expr.op]
             return f" {expr.op} ".join(self.wrap(v, level + 1) for v in expr.values), level
+        if isinstance(expr, IfExp):  # right-associative: `a if c else b if d else e`
+            body, test = self.wrap(expr.body, 1), self.wrap(expr.test, 1)
+            return f"{body} if {test} else {self.wrap(expr.orelse, 0)}", _PRECEDENCE["if"]
         if isinstance(expr, Compare):
             level = _PRECEDENCE["cmp"]
             parts = [self.wrap(expr.left, level + 1)]
@@ -626,4 +783,35 @@ def refs(expr: Expr) -> list[Ref]:
             stack.extend(reversed(node.values))
         elif isinstance(node, Compare):
             stack.extend(reversed((node.left, *node.comparators)))
+        elif isinstance(node, IfExp):
+            stack.extend((node.orelse, node.body, node.test))
     return found
+
+
+def substitute(tree: Expr, values: Mapping[tuple[str, str], Expr]) -> Expr:
+    """`tree` with each name `(kind, name)` in `values` replaced by its tree: a function's
+    body with its arguments, a guard with its table's `let` values (for the analysis)."""
+    if isinstance(tree, Ref):
+        return values.get((tree.kind, tree.name), tree)
+    if isinstance(tree, Call):
+        args = tuple(substitute(a, values) for a in tree.args)
+        return Call(tree.type, tree.kind, tree.name, args)
+    if isinstance(tree, Unary):
+        return Unary(tree.type, tree.op, substitute(tree.operand, values))
+    if isinstance(tree, Binary):
+        return Binary(
+            tree.type, tree.op, substitute(tree.left, values), substitute(tree.right, values)
+        )
+    if isinstance(tree, BoolOp):
+        return BoolOp(tree.type, tree.op, tuple(substitute(v, values) for v in tree.values))
+    if isinstance(tree, Compare):
+        comparators = tuple(substitute(c, values) for c in tree.comparators)
+        return Compare(tree.type, substitute(tree.left, values), tree.ops, comparators)
+    if isinstance(tree, IfExp):
+        return IfExp(
+            tree.type,
+            substitute(tree.test, values),
+            substitute(tree.body, values),
+            substitute(tree.orelse, values),
+        )
+    return tree

@@ -151,6 +151,8 @@ class IRSet:
 class IRReport:
     status: str  # DONE or ERROR
     kind: str = "report"
+    reason: str = ""  # the reason's constant (REASON_REFUSED), '' when none is given
+    reason_name: str = ""  # as the spec names it (REFUSED)
 
 
 @dataclass(frozen=True)
@@ -178,6 +180,16 @@ class IRRule:
     actions: tuple[IRAction, ...]
     next_state: str | None  # None: stay (NOP after a report)
     code: int = 0  # what the status buffer's `rule` shows when it fires; 0: not recorded
+    timing: str = ""  # its `after:`/`for:` as a comment shows them, with the cycles
+
+
+@dataclass(frozen=True)
+class IRCounter:
+    """The counter of a `for:` rule: `self.<attribute> = self.<attribute> + 1 if <condition>
+    else 0`, updated first in its state every cycle the table runs there."""
+
+    attribute: str  # e.g. held_hold_ice_s1_2
+    condition: IRExpr  # the rule's `when`
 
 
 @dataclass(frozen=True)
@@ -185,6 +197,17 @@ class IRState:
     name: str
     span: Span
     rules: tuple[IRRule, ...]
+    counters: tuple[IRCounter, ...] = ()  # of its `for:` rules, in rule order
+
+
+@dataclass(frozen=True)
+class IRFunction:
+    """A pure function, emitted as a module-level `def`."""
+
+    name: str
+    params: tuple[tuple[str, str], ...]  # (name, type) in call order
+    returns: str
+    body: IRExpr
 
 
 @dataclass(frozen=True)
@@ -198,6 +221,10 @@ class IRCommand:
     generated: bool
     span: Span
     first_match: tuple[str, ...] = ()  # states whose rules may overlap: the earlier wins
+    timed: bool = False  # a rule waits (`after:`/`for:`): the method keeps `ticks` up to date
+    lets: tuple[tuple[str, IRExpr], ...] = ()  # its named values, computed first each cycle
+    results: tuple[IRParam, ...] = ()  # the results it declares
+    reasons: tuple[str, ...] = ()  # the reasons it declares
 
 
 @dataclass(frozen=True)
@@ -208,6 +235,8 @@ class IRSub:
     commands: tuple[tuple[str, int], ...]  # (constant, code), e.g. ("CC_SUMP", 3)
     params: tuple[IRParam, ...]
     echo_cycles: int | None = None  # cycles it may take to echo a command: then ERROR
+    reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants, when a guard reads one
+    results: tuple[IRParam, ...] = ()  # the results of it a guard or value reads
 
 
 @dataclass(frozen=True)
@@ -241,6 +270,11 @@ class IRController:
     buffers: str  # whose command/status buffers it uses: itself, or the replaced one
     runtime_names: tuple[str, ...]  # what the module imports from the runtime contract
     hooks_state_span: Span | None = None  # where `hooks_state` names the factory
+    timed: bool = False  # some table waits: the controller keeps `ticks`
+    results: tuple[IRParam, ...] = ()  # its commands' results, one status slot per name
+    reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants and codes (from 2)
+    functions: tuple[IRFunction, ...] = ()  # its pure functions, in declaration order
+    counters: tuple[str, ...] = ()  # every `for:` counter attribute, in table order
 
     def table_rules(self) -> list[IRRule]:
         """Every rule of the state tables, in code order (code = index + 1)."""

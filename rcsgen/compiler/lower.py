@@ -24,7 +24,7 @@ from ..runtime.contract import (
     STATUS_FIELDS,
 )
 from . import expr, ir, naming, operators
-from .model import ENTRY_STATE, Command, Typed, duration_in_cycles
+from .model import ENTRY_STATE, Command, ControllerSpec, Typed, duration_in_cycles
 from .tables import (
     Action,
     Assign,
@@ -37,6 +37,8 @@ from .tables import (
     Report,
     Send,
     Target,
+    one_line,
+    untimed,
 )
 
 # What every controller module imports from the runtime contract, whatever its tables say.
@@ -136,9 +138,27 @@ class _ControllerLowering:
             hooks_state_on_restart=spec.hooks_state_on_restart,
             buffers=c.buffers,
             runtime_names=_runtime_names(
-                rules, c.predicates.values(), spec.hooks_state is not None
+                rules,
+                c.predicates.values(),
+                spec.hooks_state is not None,
+                [let.tree for command in c.commands.values() for let in command.lets],
             ),
             hooks_state_span=spec.hooks_state.span if spec.hooks_state else None,
+            timed=any(command.timed for command in commands),
+            functions=tuple(
+                ir.IRFunction(f.name, f.params, f.returns, self.expression(f.tree, f.text))
+                for f in c.functions.values()
+            ),
+            results=tuple(
+                ir.IRParam(name, kind) for name, kind in naming.result_types(spec).items()
+            ),
+            reasons=tuple((naming.reason_const(r), code) for r, code in reason_codes(spec).items()),
+            counters=tuple(
+                counter.attribute
+                for command in commands
+                for state in command.states
+                for counter in state.counters
+            ),
         )
 
     def sub(self, sub: str) -> ir.IRSub:
@@ -150,7 +170,26 @@ class _ControllerLowering:
         params = _param_slots(self.system.controllers[sub].spec.commands.values())
         timeout = self.spec.echo_timeouts.get(sub)
         echo = None if timeout is None else duration_in_cycles(timeout.value, self.period)
-        return ir.IRSub(sub, consts, params, echo)
+        read = {(r.kind, r.name) for r in self.refs() if r.owner == sub}
+        sub_spec = self.system.controllers[sub].spec
+        reasons: tuple[tuple[str, int], ...] = ()
+        if ("sub_reason", "reason") in read:
+            reasons = tuple(
+                (naming.sub_reason_const(sub, r), code)
+                for r, code in reason_codes(sub_spec).items()
+            )
+        results = tuple(
+            ir.IRParam(name, kind)
+            for name, kind in naming.result_types(sub_spec).items()
+            if ("sub_result", name) in read
+        )
+        return ir.IRSub(sub, consts, params, echo, reasons, results)
+
+    def refs(self) -> list[expr.Ref]:
+        """Every name the controller's guards, values, `let` values and predicates read."""
+        trees = _trees(self.checked.rules(), self.checked.predicates.values())
+        trees += [let.tree for command in self.checked.commands.values() for let in command.lets]
+        return [ref for tree in trees for ref in expr.refs(tree)]
 
     def command(self, command: CheckedCommand) -> ir.IRCommand:
         source = command.source
@@ -161,13 +200,36 @@ class _ControllerLowering:
             method=naming.command_method(command.name),
             params=tuple(ir.IRParam(p.name, p.type, p.doc) for p in source.params.values()),
             states=tuple(
-                ir.IRState(s.name, s.span, tuple(self.rule(r, self.code()) for r in s.rules))
+                ir.IRState(
+                    s.name,
+                    s.span,
+                    tuple(self.rule(r, self.code()) for r in s.rules),
+                    tuple(self.counter(r) for r in s.rules if r.hold is not None),
+                )
                 for s in command.states.values()
             ),
             generated=command.generated,
             span=source.span,
             first_match=tuple(item.value for item in source.first_match),
+            timed=any(
+                r.after is not None or r.hold is not None
+                for s in command.states.values()
+                for r in s.rules
+            ),
+            lets=tuple((let.name, self.expression(let.tree, let.text)) for let in command.lets),
+            results=tuple(ir.IRParam(r.name, r.type, r.doc) for r in source.results.values()),
+            reasons=tuple(str(r.value) for r in source.reasons),
         )
+
+    def counter(self, rule: CheckedRule) -> ir.IRCounter:
+        """The counter of a `for:` rule, counting the cycles its `when` held."""
+        assert rule.guard is not None  # `when and held > N` (check._timed_guard)
+        when, timers = untimed(rule.guard)
+        assert when is not None
+        text = one_line(rule.source.when.value) if rule.source.when else ""
+        counter = next(t.left for t in timers if isinstance(t, expr.Compare))
+        assert isinstance(counter, expr.Ref) and counter.kind == "held"
+        return ir.IRCounter(counter.name, self.expression(when, text))
 
     def code(self) -> int:
         self.next_code += 1
@@ -179,6 +241,13 @@ class _ControllerLowering:
             text = rule.guard_text or ""
             guard = self.expression(rule.guard, text)
             operand = expr.to_python_conjunct(rule.guard, naming.attribute)
+            if rule.hold is not None:
+                # its counter already counts the cycles `when` held: test only the timers
+                rest = untimed(rule.guard)[1]
+                tested = rest[0] if len(rest) == 1 else expr.BoolOp(expr.BOOL, "and", rest)
+                python = expr.to_python(tested, naming.attribute)
+                guard = ir.IRExpr(rule.guard, text, python)
+                operand = expr.to_python_conjunct(tested, naming.attribute)
         return ir.IRRule(
             id=rule.id,
             span=rule.span,
@@ -188,6 +257,7 @@ class _ControllerLowering:
             actions=tuple(self.action(a) for a in rule.actions),
             next_state=rule.next_state,
             code=code,
+            timing=rule.timing,
         )
 
     def action(self, action: Action) -> ir.IRAction:
@@ -212,7 +282,8 @@ class _ControllerLowering:
                 )
             )
         if isinstance(action, Report):
-            return ir.IRReport(action.status)
+            reason = naming.reason_const(action.reason) if action.reason else ""
+            return ir.IRReport(action.status, reason=reason, reason_name=action.reason or "")
         state = ("self.hook_state",) if self.spec.hooks_state else ()
         values = state + tuple(expr.to_python(a, naming.attribute) for a in action.args)
         kinds = "".join(_KIND_LETTER[t.type] for t in action.targets)
@@ -261,25 +332,22 @@ def _attribute(target: Target) -> str:
 
 
 def _runtime_names(
-    rules: Iterable[CheckedRule], predicates: Iterable[CheckedPredicate], factory: bool = False
+    rules: Iterable[CheckedRule],
+    predicates: Iterable[CheckedPredicate],
+    factory: bool = False,
+    lets: Iterable[expr.Expr] = (),
 ) -> tuple[str, ...]:
     """The contract's names a controller module uses: its status comparisons, reports and
     NOP (a report ends the command), the hook-call checks, besides those every module
     needs."""
     used = set(ALWAYS_IMPORTED) | ({"HookError"} if factory else set())
-    trees: list[expr.Expr] = [p.tree for p in predicates]
+    rules = list(rules)
+    trees = [*_trees(rules, predicates), *lets]
     for rule in rules:
-        if rule.guard is not None:
-            trees.append(rule.guard)
         for action in rule.actions:
             if isinstance(action, Report):
                 used |= {action.status, "NOP"}
-            elif isinstance(action, Send):
-                trees += [tree for _, tree in action.args]
-            elif isinstance(action, Assign):
-                trees += [tree for _, tree in action.assignments]
             elif isinstance(action, CallHook):
-                trees += list(action.args)
                 used.add("HookError")
                 kinds = {t.type for t in action.targets}
                 used |= {"NUMBER", "is_real"} if "float" in kinds else set()
@@ -287,6 +355,32 @@ def _runtime_names(
     for tree in trees:
         used |= {ref.name for ref in expr.refs(tree) if ref.kind == "status"}
     return tuple(sorted(used, key=naming.import_order))
+
+
+def _trees(rules: Iterable[CheckedRule], predicates: Iterable[CheckedPredicate]) -> list[expr.Expr]:
+    """Every typed tree of a controller: predicates, guards, sent and assigned values, hook
+    arguments."""
+    trees: list[expr.Expr] = [p.tree for p in predicates]
+    for rule in rules:
+        if rule.guard is not None:
+            trees.append(rule.guard)
+        for action in rule.actions:
+            if isinstance(action, Send):
+                trees += [tree for _, tree in action.args]
+            elif isinstance(action, Assign):
+                trees += [tree for _, tree in action.assignments]
+            elif isinstance(action, CallHook):
+                trees += list(action.args)
+    return trees
+
+
+def reason_codes(spec: ControllerSpec) -> dict[str, int]:
+    """A controller's reasons and their codes in `error_num`: NONE 0, LOST 1, then its
+    declared reasons from 2 (none at all when it declares none)."""
+    declared = naming.declared_reasons(spec)
+    if not declared:
+        return {}
+    return {name: code for code, name in enumerate((*expr.BUILTIN_REASONS, *declared))}
 
 
 def _param_slots(commands: Iterable[Command]) -> tuple[ir.IRParam, ...]:
@@ -345,9 +439,10 @@ def plan_layout(
             continue
         prefix = c.name.upper()
         params = [(f"arg_{p.name}", FORMAT_OF_TYPE[p.type]) for p in c.params]
+        results = [(f"result_{r.name}", FORMAT_OF_TYPE[r.type]) for r in c.results]
         parts = {
             "command": ([*COMMAND_HEAD_FIELDS, *params], "command in"),
-            "status": (list(STATUS_FIELDS), "status out"),
+            "status": ([*STATUS_FIELDS, *results], "status out"),
             "mode": (list(MODE_FIELDS), "execution mode"),
             "perf": (list(PERF_FIELDS), "performance"),
         }

@@ -111,6 +111,18 @@ class Hook:
 
 
 @dataclass
+class Function:
+    """A pure function: typed parameters (in call order), a result type, a body."""
+
+    name: str
+    doc: str
+    params: dict[str, str]  # name -> type
+    returns: str
+    body: Located
+    span: Span
+
+
+@dataclass
 class Send:
     sub: str
     command: str
@@ -137,6 +149,7 @@ class SetWorld:
 class Report:
     status: str  # DONE or ERROR
     span: Span
+    reason: Located | None = None  # with ERROR: one of the command's `reasons`
 
 
 @dataclass
@@ -166,6 +179,8 @@ class Rule:
     next: Located | None
     span: Span
     allow: list[Allow] = field(default_factory=list)
+    after: Located | None = None  # a duration: time in the state before the rule may fire
+    hold: Located | None = None  # `for:` a duration the guard must have held without a break
 
 
 @dataclass
@@ -185,6 +200,9 @@ class Command:
     generated: bool = False  # a default INIT/HALT table rcsgen supplies
     first_match: list[Located] = field(default_factory=list)  # states whose rules may overlap
     allow: list[Allow] = field(default_factory=list)  # warnings of its table that are intended
+    results: dict[str, Typed] = field(default_factory=dict)  # set while executing, in status
+    reasons: list[Located] = field(default_factory=list)  # why it can end in ERROR
+    lets: dict[str, Located] = field(default_factory=dict)  # named values of its table
 
 
 @dataclass
@@ -208,6 +226,7 @@ class ControllerSpec:
     echo_timeouts: dict[str, Located] = field(default_factory=dict)  # subordinate -> duration
     hooks_state_on_restart: str = "refuse"  # or "reset": what a restart does with hook state
     hooks_state: Located | None = None  # factory of the state every hook call receives first
+    functions: dict[str, Function] = field(default_factory=dict)  # pure, callable anywhere
 
 
 # ---------------------------------------------------------------- builders
@@ -313,7 +332,10 @@ def _action(raw: Any, span: Span) -> Action:
         ]
         return SetWorld(assignments, span)
     if "report" in raw:
-        return Report(raw["report"], value_span(raw, "report", span))
+        reason = (
+            Located(raw["reason"], value_span(raw, "reason", span)) if "reason" in raw else None
+        )
+        return Report(raw["report"], value_span(raw, "report", span), reason)
     return CallHook(raw["call"], value_span(raw, "call", span))
 
 
@@ -344,11 +366,14 @@ def _rule(raw: Any, span: Span) -> Rule:
         next=nxt,
         span=span,
         allow=_allow(raw, span),
+        after=Located(raw["after"], value_span(raw, "after", span)) if "after" in raw else None,
+        hold=Located(raw["for"], value_span(raw, "for", span)) if "for" in raw else None,
     )
 
 
 def _command(name: str, raw: Any, span: Span) -> Command:
     params = raw.get("params") or {}
+    results = raw.get("results") or {}
     states = raw.get("states") or {}
     return Command(
         name=name,
@@ -365,6 +390,12 @@ def _command(name: str, raw: Any, span: Span) -> Command:
         span=span,
         first_match=_items(raw, "first_match", span),
         allow=_allow(raw, span),
+        results={r: _typed(r, spec, key_span(results, r, span)) for r, spec in results.items()},
+        reasons=_items(raw, "reasons", span),
+        lets={
+            k: Located(v, value_span(raw["let"], k, span))
+            for k, v in (raw.get("let") or {}).items()
+        },
     )
 
 
@@ -416,6 +447,17 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
         if "hooks_state" in data
         else None,
         hooks_state_on_restart=str(data.get("hooks_state_on_restart", "refuse")),
+        functions={
+            k: Function(
+                k,
+                v.get("doc", ""),
+                dict(v.get("params") or {}),
+                v["returns"],
+                Located(v["body"], value_span(v, "body", key_span(data["functions"], k, top))),
+                key_span(data["functions"], k, top),
+            )
+            for k, v in (data.get("functions") or {}).items()
+        },
         echo_timeouts={
             k: Located(v, value_span(data["echo_timeouts"], k, top))
             for k, v in (data.get("echo_timeouts") or {}).items()
@@ -473,6 +515,25 @@ def duration_in_cycles(value: object, period: float) -> int:
             return int(float(number))
         seconds = float(number) / (1000 if unit == "ms" else 1)
     return max(1, math.ceil(seconds / period - 1e-9))
+
+
+def exact_cycles(value: object, period: float) -> tuple[int, bool]:
+    """A schema-valid duration as cycles of `period` seconds, rounded up (0 stays 0), and
+    whether that is exact: a duration in seconds that is not a whole number of cycles (to
+    one part in a million) is rounded up, so a limit is never shorter than asked."""
+    if isinstance(value, int | float):
+        seconds = float(value)
+    else:
+        number, unit = _DURATION.fullmatch(str(value).strip()).groups()  # type: ignore[union-attr]
+        if unit.startswith("cycle"):
+            whole = float(number)
+            return math.ceil(whole), whole == int(whole)
+        seconds = float(number) / (1000 if unit == "ms" else 1)
+    cycles = seconds / period
+    nearest = round(cycles)
+    if abs(cycles - nearest) <= 1e-6 * max(1.0, cycles):
+        return nearest, True
+    return math.ceil(cycles), False
 
 
 _DURATION = re.compile(r"([0-9]+(?:\.[0-9]+)?)\s*(s|ms|cycles?)")

@@ -40,7 +40,7 @@ from ..runtime.contract import (
     field_names,
 )
 from .diagnostics import Diagnostics, Span
-from .expr import BUILTINS, Ref
+from .expr import BUILTIN_REASONS, BUILTINS, Ref
 from .loader import span_of
 from .model import Command, ControllerSpec, SystemSpec
 
@@ -150,12 +150,12 @@ BUFFER_SUFFIXES = ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_A
 LOWER = re.compile(r"[a-z][a-z0-9_]*", re.ASCII)
 UPPER = re.compile(r"[A-Z][A-Z0-9_]*", re.ASCII)
 DOTTED = re.compile(r"[a-z_][a-z0-9_]*(\.[a-z_][a-z0-9_]*)*", re.ASCII)
-TARGET = re.compile(r"(world\.)?[a-z][a-z0-9_]*", re.ASCII)
+TARGET = re.compile(r"((world|result)\.)?[a-z][a-z0-9_]*", re.ASCII)
 _PATTERN_WORDS = {
     LOWER: "a lower_case identifier (a-z, then a-z, 0-9, _)",
     UPPER: "an UPPER_CASE identifier (A-Z, then A-Z, 0-9, _)",
     DOTTED: "a dotted lower_case Python module name",
-    TARGET: "`world.<field>` or a lower_case local name",
+    TARGET: "`world.<field>`, `result.<name>` or a lower_case local name",
 }
 # Every character `str.splitlines` breaks a line at (Python's tokenizer knows \n and \r;
 # editors and other tools also break at the rest).
@@ -167,6 +167,12 @@ def command_method(command: str) -> str:
     raise_ (a keyword gets a trailing underscore, so every command name can be used)."""
     method = command.lower()
     return f"{method}_" if keyword.iskeyword(method) else method
+
+
+def held_attribute(command: str, state: str, index: int) -> str:
+    """The counter of a `for:` rule: cycles its `when` has held, without a break, in its
+    state (HOLD_ICE, S1, rule 2 -> held_hold_ice_s1_2)."""
+    return f"held_{command.lower()}_{state.lower()}_{index}"
 
 
 def sub_command_const(sub: str, command: str) -> str:
@@ -193,14 +199,26 @@ def attribute(ref: Ref) -> str:
         return f"self.var_{name}"
     if kind in ("const", "status"):
         return name
+    if kind == "time":  # cycles in the current state (`after:`)
+        return "self.ticks"
+    if kind == "held":  # cycles a `for:` rule's guard has held
+        return f"self.{name}"
     if kind == "sub_status":
         return f"self.{owner}_status"
     if kind == "sub_command":
         return f"self.{owner}_command"
     if kind == "sub_command_name":
         return sub_command_const(owner, name)
+    if kind == "sub_result":
+        return f"self.{owner}_result_{name}"
+    if kind == "sub_reason":
+        return f"self.{owner}_error_num"
+    if kind == "sub_reason_name":
+        return sub_reason_const(owner, name)
     if kind == "predicate":
         return f"self.{name}"
+    if kind in ("let", "arg", "function"):  # a local of the method, a parameter, a function
+        return name
     raise ValueError(f"no Python name for {ref!r}")
 
 
@@ -208,7 +226,19 @@ def target_attribute(target: str) -> str:
     """`world.goal_x` -> self.world_goal_x; a local `ticks` -> self.var_ticks."""
     if target.startswith("world."):
         return f"self.world_{target.removeprefix('world.')}"
+    if target.startswith("result."):
+        return f"self.result_{target.removeprefix('result.')}"
     return f"self.var_{target}"
+
+
+def reason_const(reason: str) -> str:
+    """A controller's own reason code as its module names it: REFUSED -> REASON_REFUSED."""
+    return f"REASON_{reason}"
+
+
+def sub_reason_const(sub: str, reason: str) -> str:
+    """A subordinate's reason code as its supervisor names it: fx, REFUSED -> FX_REASON_REFUSED."""
+    return f"{sub.upper()}_REASON_{reason}"
 
 
 def import_order(name: str) -> tuple[int, str]:
@@ -612,6 +642,37 @@ def check_controller_names(spec: ControllerSpec, diags: Diagnostics) -> None:
                     "commands of one controller share a parameter slot per name: use one type",
                 )
             param_types.setdefault(param.name, (param.type, command.name))
+    slot_types: dict[str, tuple[str, str]] = {}
+    for command in spec.commands.values():
+        for result in command.results.values():
+            if result.name in slot_types and slot_types[result.name][0] != result.type:
+                first_type, first_command = slot_types[result.name]
+                diags.error(
+                    result.span,
+                    "E253",
+                    f"result `{result.name}` is {result.type} here but {first_type} in "
+                    f"{first_command}",
+                    "commands of one controller share a result slot per name: use one type",
+                )
+            slot_types.setdefault(result.name, (result.type, command.name))
+        for reason in command.reasons:
+            if reason.value in BUILTIN_REASONS:
+                diags.error(
+                    reason.span,
+                    "E254",
+                    f"reason `{reason.value}` is built in: "
+                    + ("no reason given" if reason.value == "NONE" else "a subordinate was lost"),
+                    "declare only the reasons of your own errors",
+                )
+
+
+def declared_reasons(spec: ControllerSpec) -> list[str]:
+    """A controller's reasons in order of first declaration (codes from 2, after the
+    built-in NONE = 0 and LOST = 1)."""
+    found: dict[str, None] = {}
+    for command in spec.commands.values():
+        found.update((r.value, None) for r in command.reasons if r.value not in BUILTIN_REASONS)
+    return list(found)
 
 
 def check_module_names(
@@ -628,6 +689,10 @@ def check_module_names(
         for sent in by_name[sub].commands:
             taken[sub_command_const(sub, sent)] = f"the code of {sub}'s {sent}"
         taken[f"{sub.upper()}_ECHO_CYCLES"] = f"{sub}'s echo timeout"
+        for reason in (*BUILTIN_REASONS, *declared_reasons(by_name[sub])):
+            taken[sub_reason_const(sub, reason)] = f"the code of {sub}'s reason {reason}"
+    for reason in (*BUILTIN_REASONS, *declared_reasons(spec)):
+        taken[reason_const(reason)] = f"the code of the reason {reason}"
     for suffix in _MODULE_BUFFER_SUFFIXES:
         taken[spec.name.upper() + suffix] = "a layout name"
     taken.update(_world_layout_names(tuple(system.world)))
@@ -674,3 +739,12 @@ def _world_layout_names(fields: tuple[str, ...]) -> dict[str, str]:
     for name in fields:
         names[f"WORLD_{name.upper()}"] = names[f"WORLD_{name.upper()}_AT"] = "a layout name"
     return names
+
+
+def result_types(spec: ControllerSpec) -> dict[str, str]:
+    """A controller's results (one slot per name, in order of first declaration) -> type."""
+    found: dict[str, str] = {}
+    for command in spec.commands.values():
+        for name, result in command.results.items():
+            found.setdefault(name, result.type)
+    return found

@@ -36,16 +36,16 @@ class RuleId:
 
 @dataclass(frozen=True)
 class Target:
-    """An assignable name: a world field or a local."""
+    """An assignable name: a world field, a local or a result of the current command."""
 
-    kind: str  # "world" or "local"
+    kind: str  # "world", "local" or "result"
     name: str
     type: str
 
     @property
     def text(self) -> str:
-        """As the spec writes it: `world.goal_x`, `ticks`."""
-        return f"world.{self.name}" if self.kind == "world" else self.name
+        """As the spec writes it: `world.goal_x`, `ticks`, `result.at_goal`."""
+        return f"{self.kind}.{self.name}" if self.kind in ("world", "result") else self.name
 
 
 @dataclass(frozen=True)
@@ -79,6 +79,7 @@ class Assign:
 class Report:
     status: str  # DONE or ERROR
     span: Span
+    reason: str | None = None  # with ERROR: one of the command's reasons
 
 
 @dataclass(frozen=True)
@@ -102,6 +103,10 @@ class CheckedRule:
     # The guard's value when it reads only literals, constants and such predicates (folded
     # by the checker), else None: it depends on the inputs.
     always: bool | None = None
+    # Time (docs/semantics.md, "Time in a state"): `after:` and `for:` in cycles, None when
+    # not given. Both are part of `guard` (cycles in the state, cycles the `when` held).
+    after: int | None = None
+    hold: int | None = None
 
     @property
     def span(self) -> Span:
@@ -110,7 +115,7 @@ class CheckedRule:
     @property
     def unconditional(self) -> bool:
         """Fires whenever it is tried: no `when`, or a guard that is always true."""
-        if self.source.when is None:
+        if self.source.when is None and self.after is None:
             return True
         if self.always is not None:
             return self.always
@@ -131,9 +136,56 @@ class CheckedRule:
 
     @property
     def guard_text(self) -> str | None:
-        """The guard as the spec writes it, on one line; None when it has none."""
-        when = self.source.when
-        return None if when is None else one_line(when.value)
+        """The guard as the spec writes it, on one line, with its time (`world.ice, for 5 s`,
+        `after 30 s`); None when it has none."""
+        when, parts = self.source.when, []
+        if when is not None:
+            parts.append(one_line(when.value))
+        if self.source.hold is not None:
+            parts.append(f"for {duration_text(self.source.hold.value)}")
+        if self.source.after is not None:
+            parts.append(f"after {duration_text(self.source.after.value)}")
+        return ", ".join(parts) if parts else None
+
+    @property
+    def timing(self) -> str:
+        """The rule's time as a comment shows it: `after: 5 s = 50 cycles`, '' without."""
+        parts = []
+        if self.source.hold is not None and self.hold is not None:
+            parts.append(f"for: {duration_text(self.source.hold.value)} = {_cycles(self.hold)}")
+        if self.source.after is not None and self.after is not None:
+            parts.append(f"after: {duration_text(self.source.after.value)} = {_cycles(self.after)}")
+        return ", ".join(parts)
+
+
+def is_timer(e: expr.Expr) -> bool:
+    """A comparison of a rule's time counter that `after:`/`for:` added to its guard."""
+    return (
+        isinstance(e, expr.Compare)
+        and isinstance(e.left, expr.Ref)
+        and e.left.kind in ("time", "held")
+    )
+
+
+def untimed(guard: expr.Expr) -> tuple[expr.Expr | None, tuple[expr.Expr, ...]]:
+    """A timed rule's guard split into its `when` (None: none) and its timer comparisons."""
+    parts = guard.values if isinstance(guard, expr.BoolOp) and guard.op == "and" else (guard,)
+    timers = tuple(p for p in parts if is_timer(p))
+    rest = [p for p in parts if not is_timer(p)]
+    if not rest:
+        return None, timers
+    return (rest[0] if len(rest) == 1 else expr.BoolOp(expr.BOOL, "and", tuple(rest))), timers
+
+
+def duration_text(value: object) -> str:
+    """A duration as written, with its unit: `5` (seconds) -> `5 s`, `2 s`, `10 cycles`."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return f"{value} s"
+    return " ".join(str(value).split())
+
+
+def _cycles(count: int) -> str:
+    return f"{count} cycle" if count == 1 else f"{count} cycles"
 
 
 def one_line(value: object) -> str:
@@ -182,12 +234,36 @@ class CheckedState:
 
 
 @dataclass(frozen=True)
+class CheckedLet:
+    """A named value of a table (`let:`): evaluated once per cycle before its rules."""
+
+    name: str
+    tree: expr.Expr
+    text: str  # the spec text, on one line
+    span: Span
+
+
+@dataclass(frozen=True)
+class CheckedFunction:
+    """A pure function (`functions:`): its body reads only its parameters, the constants
+    and the functions declared before it."""
+
+    name: str
+    params: tuple[tuple[str, str], ...]  # (name, type) in call order
+    returns: str
+    tree: expr.Expr
+    text: str
+    span: Span
+
+
+@dataclass(frozen=True)
 class CheckedCommand:
     name: str
     code: int  # INIT = 1, HALT = 2, then the declared commands in order
     source: Command
     states: Mapping[str, CheckedState]
     scope: expr.Scope  # what its guards and values may name
+    lets: tuple[CheckedLet, ...] = ()  # in order
 
     @property
     def generated(self) -> bool:
@@ -214,6 +290,7 @@ class CheckedController:
     every_cycle: tuple[CheckedRule, ...]  # the live every_cycle rules
     sub_commands: Mapping[str, tuple[str, ...]]  # each subordinate's commands, in code order
     scope: expr.Scope  # the controller-wide scope (predicates, every_cycle)
+    functions: Mapping[str, CheckedFunction] = field(default_factory=dict)
 
     @property
     def name(self) -> str:

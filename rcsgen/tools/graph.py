@@ -163,7 +163,8 @@ def action_text(action: IRAction) -> str:
     if isinstance(action, IRSet):
         return "set " + ", ".join(f"{a.target} = {a.value.text}" for a in action.assignments)
     if isinstance(action, IRReport):
-        return f"report {action.status}"
+        reason = action.reason_name
+        return f"report {action.status}" + (f" ({reason})" if reason else "")
     assert isinstance(action, IRCall)
     return f"call {action.hook}"
 

@@ -88,6 +88,16 @@ def command_section(controller: IRController, command: IRCommand) -> str:
         out += ["| parameter | type | description |", "|---|---|---|"]
         out += [f"| `{p.name}` | {p.type} | {cell(p.doc)} |" for p in command.params]
         out.append("")
+    if command.results:
+        out += ["| result | type | description |", "|---|---|---|"]
+        out += [f"| `result.{r.name}` | {r.type} | {cell(r.doc)} |" for r in command.results]
+        out.append("")
+    if command.reasons:
+        out += ["It can fail for: " + ", ".join(f"`{r}`" for r in command.reasons) + ".", ""]
+    if command.lets:
+        out += ["| let | value |", "|---|---|"]
+        out += [f"| `{name}` | `{cell(value.text)}` |" for name, value in command.lets]
+        out.append("")
     if command.first_match:
         states = ", ".join(command.first_match)
         out += [f"In {states} the rules may overlap: the first that matches fires.", ""]
@@ -144,10 +154,15 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
         for w, access in sorted(fields, key=lambda f: (f[1] != "read", f[0].name)):
             out.append(f"| `world.{w.name}` | {w.type} | {access} | {cell(w.doc)} |")
         out.append("")
-    if c.constants or c.predicates or c.locals or c.hooks:
+    if c.constants or c.predicates or c.locals or c.hooks or c.functions:
         out += ["## Constants, predicates, locals, hooks", ""]
         rows = [f"| constant | `{n}` | `{v}` | |" for n, v in c.constants]
         rows += [f"| predicate | `{p.name}()` | `{cell(p.expr.text)}` | |" for p in c.predicates]
+        rows += [
+            f"| function | `{f.name}({', '.join(f'{p}: {t}' for p, t in f.params)})` "
+            f"-> {f.returns} | `{cell(f.body.text)}` | |"
+            for f in c.functions
+        ]
         rows += [
             f"| local | `{v.name}` | {v.type} = `{v.initial!r}` | {cell(v.doc)} |" for v in c.locals
         ]
