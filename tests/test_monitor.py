@@ -89,19 +89,25 @@ def test_keys_and_the_send_form_operate_the_running_system(
             wait_for(lambda: running.module("top")["status"] == "DONE", "top DONE")
             # keys on the arm: stop, step, run, simulate
             await pilot.press("down")
+            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             assert app.selected() == "arm"
             await pilot.press("s")
+            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             assert running.module("arm")["run"] == "STOP"
             await pilot.press("n")
+            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             assert running.module("arm")["step"] == "SINGLE"
             await pilot.press("r")
+            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             assert (running.module("arm")["run"], running.module("arm")["step"]) == (
                 "RUN",
                 "AUTO",
             )
             await pilot.press("i")
+            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             wait_for(lambda: running.module("arm")["runs"] == "arm_sim", "the stand-in")
             await pilot.press("i")
+            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             wait_for(lambda: running.module("arm")["runs"] == "arm", "the arm again")
             # a command to the arm needs the override: refused, then given
             await pilot.press("c")
@@ -118,8 +124,10 @@ def test_keys_and_the_send_form_operate_the_running_system(
             assert "top is in manual override" in str(app.query_one("#message").render())
             # slow-down
             await pilot.press("plus")
+            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             assert running.json()["processes"]["p1"]["slow"] == 2.0  # type: ignore[index]
             await pilot.press("minus")
+            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             assert running.json()["processes"]["p1"]["slow"] == 1.0  # type: ignore[index]
             await pilot.pause(0.3)
             return screen_text(app)
@@ -144,6 +152,7 @@ def test_the_role_limits_the_keys_and_requests_are_answered_on_screen() -> None:
             await pilot.pause(0.3)
             assert app.selected() == "sb" and app.sub_title.endswith(" as crew")
             await pilot.press("s")
+            await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             message = str(app.query_one("#message").render())
             assert "refused: changing sb's mode needs override on sb" in message
             assert system.module("sb")["run"] == "RUN"

@@ -20,6 +20,7 @@ from typing import Any
 from rich.text import Text
 from textual.app import App, ComposeResult
 from textual.binding import Binding
+from textual.css.query import NoMatches
 from textual.widgets import DataTable, Footer, Input, Static
 
 from ..runtime.ctl import Command, Console, CtlError, parse_command
@@ -93,6 +94,7 @@ class Monitor(App[None]):
         self.layout, self.segment, self.interval = layout, segment, interval
         self.ctl = Console(layout, segment, role)  # CtlError/BlockError: the caller reports it
         self.open_requests: list[dict[str, Any]] = []
+        self.closed = False
         self.rows = tree_order(layout)
         self.last_rule: dict[str, str] = {}
 
@@ -114,16 +116,23 @@ class Monitor(App[None]):
         for module, prefix in self.rows:
             table.add_row(*([prefix + module] + [""] * (len(COLUMNS) - 1)), key=module)
         self.refresh_rows()
-        self.set_interval(self.interval, self.refresh_rows)
+        self.timer = self.set_interval(self.interval, self.refresh_rows)
 
     def on_unmount(self) -> None:
+        self.timer.stop()  # no refresh may run on a closed segment or a torn-down screen
+        self.closed = True
         self.ctl.close()
 
     # ------------------------------------------------------------ the screen
 
     def refresh_rows(self) -> None:
+        if self.closed:
+            return
         snapshot = self.ctl.snapshot()
-        table = self.query_one(DataTable)
+        try:
+            table = self.query_one(DataTable)
+        except NoMatches:  # the app is shutting down: its widgets are gone
+            return
         for module, prefix in self.rows:
             row = snapshot["modules"][module]
             for key, value in self.cells(module, prefix, row).items():
