@@ -169,7 +169,8 @@ class ZenohTransport:
             elif kind == "leave":
                 if key in mirror.layout.PROCESSES and key != self.process:
                     self.lost.add(key)
-                    mirror.mark_dead(key)
+                    if mirror.state(key) != STOPPED:  # it did not say goodbye: lost
+                        mirror.mark_dead(key)
             elif kind == "foreign-join":
                 mirror.counters.foreign += 1
                 if key not in self._warned:

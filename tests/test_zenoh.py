@@ -1,0 +1,311 @@
+"""The miner across "hosts" over Zenoh on 127.0.0.1: each process on a block of its own.
+
+The mirror (what moves, late messages dropped) is tested on private blocks; the rest runs
+real processes connected only through Zenoh, on ports chosen here: the lockstep trace
+equals the golden one, a stopped (partitioned) or killed host is detected and its
+dependants go to their safe state, a host that comes back re-joins, and nothing is left
+in /dev/shm, listening, or running.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from rcsgen.tools.harness import import_package
+from rcsgen.tools.scenario import load_scenario, open_harness, read_trace, run
+
+zenoh = pytest.importorskip("zenoh")
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGE = ROOT / "generated" / "miner"
+HOOKS = ROOT / "specs" / "miner"
+DEADLINE = 15.0  # seconds a liveness condition may take here before the test gives up
+
+
+@pytest.fixture(scope="module")
+def miner() -> ModuleType:
+    return import_package(PACKAGE, HOOKS)
+
+
+def rcs(miner: ModuleType, name: str) -> ModuleType:
+    import importlib
+
+    return importlib.import_module(f"{miner.__name__}.{name}")
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def listening(ports: set[int]) -> set[int]:
+    """Which of `ports` something on this machine listens on (from /proc/net/tcp)."""
+    found = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            lines = Path(table).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            fields = line.split()
+            port = int(fields[1].rsplit(":", 1)[1], 16)
+            if fields[3] == "0A" and port in ports:  # 0A: LISTEN
+                found.add(port)
+    return found
+
+
+def shm_files() -> set[str]:
+    return set(os.listdir("/dev/shm")) if os.path.isdir("/dev/shm") else set()
+
+
+def wait_for(condition: Callable[[], object], what: str, deadline: float = DEADLINE) -> object:
+    end = time.monotonic() + deadline
+    while time.monotonic() < end:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.02)
+    raise AssertionError(f"gave up waiting: {what}")
+
+
+# ---------------------------------------------------------------- the mirror, no network
+
+
+def test_a_node_sends_only_what_it_wrote_and_its_control_record_last(miner: ModuleType) -> None:
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    block = rcs(miner, "rcs.block").Block(layout)
+    mirror = transport.Mirror(layout, block, "pc2")
+    assert list(mirror.changed()) == []  # a new block: nothing written yet
+    layout.STATUS_OUT["pp"].write(block.buf, status_num=1, status=2)
+    layout.PROCESSES["pc2"].write(block.buf, heartbeat=1)
+    layout.WORLD["tram_dir"].write(block.buf, tram_dir=1)
+    sent = [key for key, _ in mirror.changed()]
+    assert sent == ["pp/status", "_world/tram_dir", "_process/pc2/control"]
+    assert list(mirror.changed()) == []  # sent once
+    assert [k for k, _ in mirror.changed(everything=True)] == sent  # for a node that joined
+
+
+def test_a_late_or_out_of_order_message_is_dropped_and_counted(miner: ModuleType) -> None:
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block = rcs(miner, "rcs.block").Block
+    sender_block, receiver_block = Block(layout), Block(layout)
+    sender = transport.Mirror(layout, sender_block, "pc1")
+    receiver = transport.Mirror(layout, receiver_block, "pc2")
+    record = layout.COMMAND_IN["pp"]
+    messages = []
+    for number in (1, 2):
+        record.write(sender_block.buf, command_num=number, command=3, arg_x=float(number))
+        messages += [m for k, m in sender.changed() if k == "pp/command"]
+    assert receiver.apply("pp/command", messages[1])
+    assert record.read(receiver_block.buf)["command_num"] == 2
+    assert not receiver.apply("pp/command", messages[0])  # older: dropped
+    assert not receiver.apply("pp/command", messages[1])  # a duplicate: dropped
+    assert record.read(receiver_block.buf)["arg_x"] == 2.0
+    assert receiver.counters.late == 2
+    # a restarted sender (a new epoch) starts its sequence words again: accepted
+    restarted = transport.Mirror(layout, Block(layout), "pc1")
+    record.write(restarted.block.buf, command_num=7, command=3)
+    (message,) = [m for k, m in restarted.changed() if k == "pp/command"]
+    assert receiver.apply("pp/command", message)
+    assert record.read(receiver_block.buf)["command_num"] == 7
+    assert not receiver.apply("pp/command", message[:-1])  # the wrong size
+    assert not receiver.apply("no/such", message)
+    assert receiver.counters.malformed == 2
+    assert receiver.counters.applied == 2
+
+
+def test_a_mirrored_heartbeat_is_stamped_with_the_receivers_clock(miner: ModuleType) -> None:
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block = rcs(miner, "rcs.block").Block
+    contract = rcs(miner, "rcs.contract")
+    sender = transport.Mirror(layout, Block(layout), "pc2")
+    receiver = transport.Mirror(layout, Block(layout), "pc1")
+    layout.PROCESSES["pc2"].write(sender.block.buf, heartbeat=5, beat_ns=123, state=2)
+    (message,) = [m for k, m in sender.changed() if k == "_process/pc2/control"]
+    assert receiver.apply("_process/pc2/control", message, now_ns=987_654)
+    record = layout.PROCESSES["pc2"].read(receiver.block.buf)
+    assert (record["heartbeat"], record["beat_ns"]) == (5, 987_654)
+    receiver.mark_dead("pc2")
+    assert layout.PROCESSES["pc2"].read(receiver.block.buf)["state"] == contract.DEAD
+    assert list(receiver.changed()) == []  # the mark is local: never sent as pc2's record
+
+
+def test_the_configuration_keeps_zenoh_out_of_dev_shm_and_off_multicast(miner: ModuleType) -> None:
+    zt = rcs(miner, "rcs.zenoh_transport")
+    config = zt.config_json(zt.Options(("tcp/127.0.0.1:1",), (), 700))
+    assert config["transport/shared_memory/enabled"] is False
+    assert config["scouting/multicast/enabled"] is False
+    assert config["transport/link/tx/lease"] == 700
+    before = shm_files()
+    mirror = rcs(miner, "rcs.transport").Mirror(
+        rcs(miner, "layout"), rcs(miner, "rcs.block").Block(rcs(miner, "layout"))
+    )
+    port = free_port()
+    node = zt.ZenohTransport(mirror, zt.Options((f"tcp/127.0.0.1:{port}",), (), 1000))
+    try:
+        assert listening({port}) == {port}
+    finally:
+        node.close()
+    assert shm_files() - before == set()
+    assert listening({port}) == set()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--transport", "zenoh", "--connect", "127.0.0.1:7447"], "is not PROTO/HOST:PORT"),
+        (["--transport", "zenoh", "--listen", "tcp/127.0.0.1:99999"], "port 99999"),
+        (["--connect", "tcp/127.0.0.1:7447"], "go with --transport zenoh"),
+    ],
+)
+def test_a_bad_endpoint_is_one_line_and_exit_2(args: list[str], message: str) -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "miner", "pc2", *args],
+        cwd=PACKAGE.parent,
+        env={**os.environ, "PYTHONPATH": str(HOOKS)},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2
+    assert message in done.stderr.splitlines()[-1]
+    assert "Traceback" not in done.stderr
+
+
+# ---------------------------------------------------------------- processes on two "hosts"
+
+
+def test_lockstep_over_zenoh_leaves_the_golden_box_cut_trace() -> None:
+    """pc1 and pc2 each on a block of their own, connected only through Zenoh, stepped by a
+    coordinator on the network: the trace equals the one-process golden trace, and
+    afterwards nothing is left in /dev/shm, listening or running."""
+    before = shm_files()
+    scenario = load_scenario(HOOKS / "scenarios" / "box_cut.yaml")
+    harness = open_harness(scenario, PACKAGE, processes=True, transport="zenoh")
+    port = int(harness.launcher.listen.rsplit(":", 1)[1])
+    children = [c.popen for c in harness.launcher.children.values()]
+    try:
+        assert listening({port}) == {port}
+        result = run(scenario, harness)
+    finally:
+        harness.close()
+    assert result.trace == read_trace(ROOT / "tests" / "golden" / "box_cut.jsonl")
+    assert any(line.startswith("pc2: stopped, 266 cycles") for line in harness.summary())
+    assert all(child.poll() is not None for child in children)
+    assert shm_files() - before == set()
+    assert listening({port}) == set()
+
+
+@pytest.fixture
+def two_hosts() -> Iterator[dict[str, object]]:
+    """pc2 (the path planner) listening, pc1 connecting to it: paced, each on its own
+    segment named after this test run; stopped and cleaned up afterwards."""
+    pid = os.getpid()
+    ports = {"pc2": free_port(), "pc1": free_port()}
+    segments = {name: f"rcsgen_zenoh_{pid}_{name}" for name in ports}
+    env = {**os.environ, "PYTHONPATH": str(HOOKS)}
+    command = [sys.executable, "-m", "miner"]
+    hosts = {}
+    hosts["pc2"] = subprocess.Popen(
+        [*command, "pc2", "--transport", "zenoh", "--shm", segments["pc2"]]
+        + ["--listen", f"tcp/127.0.0.1:{ports['pc2']}"],
+        cwd=PACKAGE.parent,
+        env=env,
+        stdout=subprocess.DEVNULL,
+    )
+    hosts["pc1"] = subprocess.Popen(
+        [*command, "pc1", "--transport", "zenoh", "--shm", segments["pc1"]]
+        + ["--listen", f"tcp/127.0.0.1:{ports['pc1']}"]
+        + ["--connect", f"tcp/127.0.0.1:{ports['pc2']}"],
+        cwd=PACKAGE.parent,
+        env=env,
+        stdout=subprocess.DEVNULL,
+    )
+    try:
+        yield {"hosts": hosts, "ports": ports, "segments": segments}
+    finally:
+        for host in hosts.values():
+            if host.poll() is None:
+                host.send_signal(signal.SIGCONT)
+                host.terminate()
+        for host in hosts.values():
+            try:
+                host.wait(10)
+            except subprocess.TimeoutExpired:
+                host.kill()
+                host.wait()
+        block = import_package(PACKAGE, HOOKS)
+        unlink = rcs(block, "rcs.block").unlink
+        for name in segments.values():  # a killed host could not remove its own
+            unlink(name)
+
+
+def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_state(
+    miner: ModuleType, two_hosts: dict[str, object]
+) -> None:
+    """vg (pc1) commands pp (pc2) over Zenoh; a partition of pc2 (SIGSTOP) is reported in
+    pc1's control record and vg goes to its safe state; pc2 continued re-joins; pc2 killed
+    is lost again. Afterwards nothing is left behind."""
+    layout = rcs(miner, "layout")
+    Block = rcs(miner, "rcs.block").Block
+    BlockError = rcs(miner, "rcs.block").BlockError
+    contract = rcs(miner, "rcs.contract")
+    hosts = two_hosts["hosts"]
+    segments = two_hosts["segments"]
+    ports = set(two_hosts["ports"].values())
+    before = shm_files()
+
+    def attach(name: str) -> object:
+        def tries() -> object:
+            try:
+                return Block(layout, segments[name], create=False)
+            except BlockError:
+                return None
+
+        return wait_for(tries, f"{name}'s segment")
+
+    pc1, pc2 = attach("pc1"), attach("pc2")
+    try:
+        # INIT rippled from vg (pc1) to pp (pc2) and pp's DONE came back into pc1's block
+        def pp_done_in(block: object) -> bool:
+            status = layout.STATUS_OUT["pp"].read(block.buf)
+            return status["status"] == contract.DONE and status["status_num"] >= 1
+
+        wait_for(lambda: pp_done_in(pc2), "pp's INIT done on pc2")
+        wait_for(lambda: pp_done_in(pc1), "pp's status mirrored on pc1")
+        assert layout.COMMAND_IN["pp"].read(pc2.buf)["command_num"] >= 1  # written by vg
+        lost_bit = 1 << list(layout.PROCESSES).index("pc2")
+
+        def pc2_lost() -> bool:
+            return bool(layout.PROCESSES["pc1"].read(pc1.buf)["lost"] & lost_bit)
+
+        assert not pc2_lost()
+        hosts["pc2"].send_signal(signal.SIGSTOP)  # a partition: pc2 silent, its link open
+        wait_for(pc2_lost, "pc1 reports pc2 lost")
+        vg = layout.STATUS_OUT["vg"].read(pc1.buf)
+        assert (vg["status"], vg["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
+        hosts["pc2"].send_signal(signal.SIGCONT)
+        wait_for(lambda: not pc2_lost(), "pc2 re-joins")
+        hosts["pc2"].send_signal(signal.SIGKILL)
+        hosts["pc2"].wait(10)
+        wait_for(pc2_lost, "pc1 reports the killed pc2 lost")
+        hosts["pc1"].terminate()
+        assert hosts["pc1"].wait(15) == 0
+    finally:
+        pc1.close()
+        pc2.close()
+    assert not rcs(miner, "rcs.block").exists(segments["pc1"])  # pc1 removed its own
+    rcs(miner, "rcs.block").unlink(segments["pc2"])
+    assert shm_files() - before == set()
+    assert listening(ports) == set()
