@@ -186,6 +186,17 @@ def test_a_bad_endpoint_is_one_line_and_exit_2(args: list[str], message: str) ->
 # ---------------------------------------------------------------- processes on two "hosts"
 
 
+def ctl(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "miner", "ctl", *args],
+        cwd=PACKAGE.parent,
+        env={**os.environ, "PYTHONPATH": str(HOOKS)},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+
+
 def test_lockstep_over_zenoh_leaves_the_golden_box_cut_trace() -> None:
     """pc1 and pc2 each on a block of their own, connected only through Zenoh, stepped by a
     coordinator on the network: the trace equals the one-process golden trace, and
@@ -285,6 +296,16 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
         wait_for(lambda: pp_done_in(pc2), "pp's INIT done on pc2")
         wait_for(lambda: pp_done_in(pc1), "pp's status mirrored on pc1")
         assert layout.COMMAND_IN["pp"].read(pc2.buf)["command_num"] >= 1  # written by vg
+        # an operator's console on a third "host", attached through Zenoh to pc2 only
+        status = ctl("--connect", f"tcp/127.0.0.1:{two_hosts['ports']['pc2']}", "status")
+        assert status.returncode == 0, status.stderr
+        lines = status.stdout.splitlines()
+        assert any(line.startswith("process pc1: running") for line in lines), status.stdout
+        (pp,) = [line.split() for line in lines if line.split()[:1] == ["pp"]]
+        assert pp[1:4] == ["INIT", "1", "DONE"], status.stdout
+        stop = ctl("--connect", f"tcp/127.0.0.1:{two_hosts['ports']['pc1']}", "stop", "pp")
+        assert stop.returncode == 0, stop.stderr
+        wait_for(lambda: layout.MODE_IN["pp"].read(pc2.buf)["dont_run"], "pp STOPped on pc2")
         lost_bit = 1 << list(layout.PROCESSES).index("pc2")
 
         def pc2_lost() -> bool:
@@ -309,3 +330,26 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
     rcs(miner, "rcs.block").unlink(segments["pc2"])
     assert shm_files() - before == set()
     assert listening(ports) == set()
+
+
+def test_one_command_runs_the_box_cut_with_the_path_planner_on_a_second_host() -> None:
+    """`python -m miner --transport zenoh`: pc1 and pc2 free-running (not paced), each on a
+    block of its own, connected only through Zenoh; the operator's BOX_CUT, given through
+    the launcher's mirror, ends DONE at the depth of the one-process run."""
+    before = shm_files()
+    done = subprocess.run(
+        [sys.executable, "-m", "miner", "--transport", "zenoh", "--fast"]
+        + ["--shm", f"rcsgen_zenoh_{os.getpid()}_launch"]
+        + ["--set", "map=maps/box_cut.map", "--set", "seed=7"]
+        + ["--send", "sb.BOX_CUT:depth=1.5", "--until-done", "--report", "depth_cut"],
+        cwd=PACKAGE.parent,
+        env={**os.environ, "PYTHONPATH": str(HOOKS)},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[:2] == ["sb DONE #2", "depth_cut = 1.75"], done.stdout
+    assert any(line.startswith("pc2: stopped, ") for line in lines), done.stdout
+    assert shm_files() - before == set()

@@ -28,6 +28,7 @@ from typing import Any, NoReturn
 
 from .block import Block, BlockError
 from .contract import FINISHED, PROCESS_STATES, RUNNING, STATUS_NAMES, StaleRead
+from .transport import TransportError, check_endpoint
 
 USAGE, FAILED = 2, 1
 POLL = 0.005  # seconds between two reads while waiting for the system
@@ -111,10 +112,12 @@ def _shown(value: object) -> str:
 class Console:
     """A running system's segment, read and written as an operator does."""
 
-    def __init__(self, layout: ModuleType, segment: str) -> None:
+    def __init__(self, layout: ModuleType, segment: str, attached: Any = None) -> None:
         self.layout = layout
         self.segment = segment
-        self.block = Block(layout, segment, create=False)
+        # `attached`: a block kept current over the network (zenoh_transport.Attached)
+        self.attached = attached
+        self.block = attached.block if attached is not None else Block(layout, segment, False)
         self.buf = self.block.buf
         self.supervisor = {
             sub: boss
@@ -124,7 +127,10 @@ class Console:
         }
 
     def close(self) -> None:
-        self.block.close()
+        if self.attached is not None:
+            self.attached.close()
+        else:
+            self.block.close()
 
     def read(self, record: Any, tries: int = 20) -> dict[str, Any]:
         """A consistent read, retried briefly while a writer is busy; {} if it stays torn."""
@@ -386,6 +392,13 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
         description=f"Operate a running {layout.SYSTEM} system through its segment.",
     )
     top.add_argument("--shm", default=default, help=f"the segment [default: {default}]")
+    top.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="PROTO/HOST:PORT",
+        help="attach through Zenoh to a host of the system (--transport zenoh), not a segment",
+    )
     verbs = top.add_subparsers(dest="verb", required=True, parser_class=_Parser)
     status = verbs.add_parser("status", help="every module's debug-screen line")
     status.add_argument("--watch", action="store_true", help="refresh until Ctrl-C")
@@ -447,13 +460,22 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
     if args.verb == "slow" and args.factor < 1.0:
         raise usage("slow: FACTOR must be 1 (normal speed) or more")
     try:
-        console = Console(layout, args.shm)
-    except BlockError as error:
+        console = Console(layout, args.shm, _attach(layout, args.connect))
+    except (BlockError, TransportError, ValueError) as error:
         raise CtlError(str(error)) from None
     try:
         return _verb(console, args, command)
     finally:
         console.close()
+
+
+def _attach(layout: ModuleType, endpoints: list[str]) -> Any:
+    """With `--connect`: a private block that mirrors the system over Zenoh."""
+    if not endpoints:
+        return None
+    from .zenoh_transport import Attached, Options
+
+    return Attached(layout, Options(connect=tuple(check_endpoint(e) for e in endpoints)))
 
 
 def _verb(console: Console, args: argparse.Namespace, command: Command | None) -> int:

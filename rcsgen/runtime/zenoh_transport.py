@@ -25,7 +25,8 @@ from dataclasses import dataclass
 from struct import Struct
 from typing import Any
 
-from .contract import STOPPED
+from .block import Block
+from .contract import ABSENT, STOPPED
 from .loop import STEP, Process, Stop
 from .transport import ALIVE, STEP_KEY, Mirror, TransportError, prefix, reads
 
@@ -225,6 +226,33 @@ class ZenohTransport:
         if not self.session.is_closed():
             self.token.undeclare()
             self.session.close()
+
+
+class Attached:
+    """An observer's private block, kept current by a thread that mirrors what the system's
+    processes send and sends what is written here: an operator's console on another host."""
+
+    def __init__(self, layout: Any, options: Options, wait: float = 5.0) -> None:
+        self.block = Block(layout)
+        self.net = ZenohTransport(Mirror(layout, self.block), options)
+        names, mirror = list(layout.PROCESSES), self.net.mirror
+        self.net.wait(lambda: all(mirror.state(n) != ABSENT for n in names), wait)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self.net.pull()
+            self.net.push()
+            self._stop.wait(0.01)
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join()
+        self.net.push()
+        self.net.close()
+        self.block.close()
 
 
 # ---------------------------------------------------------------- lockstep
