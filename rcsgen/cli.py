@@ -592,7 +592,13 @@ def ctl(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     help="Where `rcsgen build` put the system packages.",
 )
 @click.option("--shm", default=None, help="The segment [default: the launcher's].")
-def monitor(system_dir: Path, generated: Path, shm: str | None) -> None:
+@click.option(
+    "--connect",
+    multiple=True,
+    metavar="PROTO/HOST:PORT",
+    help="Attach through Zenoh to a host of a system run with --transport zenoh.",
+)
+def monitor(system_dir: Path, generated: Path, shm: str | None, connect: tuple[str, ...]) -> None:
     """Watch and operate a running system in a live terminal screen (rcsgen[monitor]).
 
     Keys act on the selected module: s stop, r run, n single-step, i simulate on/off,
@@ -605,6 +611,7 @@ def monitor(system_dir: Path, generated: Path, shm: str | None) -> None:
     except ImportError:
         fail("the monitor needs textual: pip install 'rcsgen[monitor]'")
     from .runtime.block import BlockError
+    from .runtime.transport import TransportError
     from .tools.harness import import_package
 
     if not (system_dir / "system.yaml").is_file():
@@ -616,8 +623,8 @@ def monitor(system_dir: Path, generated: Path, shm: str | None) -> None:
     layout = importlib.import_module(f"{import_package(package_dir.resolve()).__name__}.layout")
     segment = shm or f"rcs_{layout.SYSTEM}_{layout.LAYOUT_HASH[:8]}"
     try:
-        app = Monitor(layout, segment)
-    except BlockError as error:
+        app = Monitor(layout, segment, connect=connect)
+    except (BlockError, TransportError, ValueError) as error:
         fail(str(error))
     app.run()
 

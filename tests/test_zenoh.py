@@ -353,3 +353,41 @@ def test_one_command_runs_the_box_cut_with_the_path_planner_on_a_second_host() -
     assert lines[:2] == ["sb DONE #2", "depth_cut = 1.75"], done.stdout
     assert any(line.startswith("pc2: stopped, ") for line in lines), done.stdout
     assert shm_files() - before == set()
+
+
+def test_the_monitor_attaches_through_zenoh(
+    miner: ModuleType, two_hosts: dict[str, object]
+) -> None:
+    """`rcsgen monitor --connect`: the live screen over a block mirrored through Zenoh shows
+    the modules of both hosts, and its keys act on a module on the other host."""
+    import asyncio
+
+    from rcsgen.tools.monitor import Monitor
+
+    layout = rcs(miner, "layout")
+    endpoint = f"tcp/127.0.0.1:{two_hosts['ports']['pc1']}"
+
+    async def drive() -> list[str]:
+        app = Monitor(layout, "unused", interval=0.1, connect=(endpoint,))
+        seen = []
+        async with app.run_test(size=(160, 40)) as pilot:
+            for _ in range(50):  # until pp (on pc2) has reported its INIT
+                await pilot.pause(0.1)
+                if app.ctl.modules()["pp"].get("status") == "DONE":
+                    break
+            seen.append(app.ctl.modules()["pp"].get("status"))
+            while app.selected() != "pp":
+                await pilot.press("down")
+            await pilot.press("s")  # stop pp, on pc2, from here
+            await pilot.pause(0.3)
+            seen.append(app.sub_title)
+        return seen
+
+    status, title = asyncio.run(drive())
+    assert status == "DONE"
+    assert title == f"miner on zenoh {endpoint}"
+    block = rcs(miner, "rcs.block").Block(layout, two_hosts["segments"]["pc2"], create=False)
+    try:
+        wait_for(lambda: layout.MODE_IN["pp"].read(block.buf)["dont_run"], "pp STOPped on pc2")
+    finally:
+        block.close()

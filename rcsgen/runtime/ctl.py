@@ -460,7 +460,7 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
     if args.verb == "slow" and args.factor < 1.0:
         raise usage("slow: FACTOR must be 1 (normal speed) or more")
     try:
-        console = Console(layout, args.shm, _attach(layout, args.connect))
+        console = Console(layout, args.shm, attach(layout, args.connect))
     except (BlockError, TransportError, ValueError) as error:
         raise CtlError(str(error)) from None
     try:
@@ -469,8 +469,8 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
         console.close()
 
 
-def _attach(layout: ModuleType, endpoints: list[str]) -> Any:
-    """With `--connect`: a private block that mirrors the system over Zenoh."""
+def attach(layout: ModuleType, endpoints: Sequence[str]) -> Any:
+    """With `--connect`: a private block that mirrors the system over Zenoh (else None)."""
     if not endpoints:
         return None
     from .zenoh_transport import Attached, Options

@@ -20,7 +20,7 @@ from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.widgets import DataTable, Footer, Input, Static
 
-from ..runtime.ctl import Command, Console, CtlError, parse_command
+from ..runtime.ctl import Command, Console, CtlError, attach, parse_command
 
 COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
 COLUMNS = (
@@ -82,10 +82,19 @@ class Monitor(App[None]):
         Binding("q", "quit", "quit"),
     ]
 
-    def __init__(self, layout: ModuleType, segment: str, interval: float = 0.25) -> None:
+    def __init__(
+        self,
+        layout: ModuleType,
+        segment: str,
+        interval: float = 0.25,
+        connect: tuple[str, ...] = (),
+    ) -> None:
         super().__init__()
         self.layout, self.segment, self.interval = layout, segment, interval
-        self.ctl = Console(layout, segment)  # BlockError: the caller reports it
+        # BlockError, TransportError: the caller reports it. `connect`: through Zenoh.
+        self.ctl = Console(layout, segment, attach(layout, connect))
+        if connect:
+            self.segment = "zenoh " + " ".join(connect)
         self.rows = tree_order(layout)
         self.last_rule: dict[str, str] = {}
 
