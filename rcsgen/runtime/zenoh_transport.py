@@ -100,6 +100,7 @@ class ZenohTransport:
             zenoh.CongestionControl.BLOCK if block_when_congested else zenoh.CongestionControl.DROP
         )
         self._publishers: dict[str, Any] = {}
+        self._zenoh = zenoh
         config = zenoh.Config()
         for key, value in config_json(options).items():
             config.insert_json5(key, json.dumps(value))
@@ -107,24 +108,33 @@ class ZenohTransport:
             self.session = zenoh.open(config)
         except zenoh.ZError as error:
             raise TransportError(f"zenoh: {error}") from None
-        self._zenoh = zenoh
         self._declared: list[Any] = []
-        cut = len(self.prefix) + 1
-        for suffix in reads(layout, process, modules):
+        self._cut = len(self.prefix) + 1
+        self._step = f"{STEP_KEY}/{process}"
+        wanted = reads(layout, process, modules)
+        if block_when_congested or process is None:
+            # Lockstep, or an observer: one subscriber, so one zenoh-python thread delivers
+            # everything in the order each sender sent it (a coordinator's records before
+            # its step request; a process's records before its control record). Several
+            # subscribers would each have a thread of their own, and no order between them.
+            self._wanted = _matcher(wanted)
             self._declared.append(
                 self.session.declare_subscriber(
-                    f"{self.prefix}/{suffix}",
-                    lambda s: self._arrived("data", str(s.key_expr)[cut:], s.payload.to_bytes()),
-                    allowed_origin=zenoh.Locality.REMOTE,
+                    f"{self.prefix}/**", self._sample, allowed_origin=zenoh.Locality.REMOTE
                 )
             )
-        if process is not None:
-            self._declared.append(
-                self.session.declare_subscriber(
-                    f"{self.prefix}/{STEP_KEY}/{process}",
-                    lambda s: self._arrived("step", "", s.payload.to_bytes()),
+        else:  # free-running: only what the process reads crosses the network
+            cut = self._cut
+            for suffix in wanted:
+                self._declared.append(
+                    self.session.declare_subscriber(
+                        f"{self.prefix}/{suffix}",
+                        lambda s: self._arrived(
+                            "data", str(s.key_expr)[cut:], s.payload.to_bytes()
+                        ),
+                        allowed_origin=zenoh.Locality.REMOTE,
+                    )
                 )
-            )
         self._declared.append(
             self.session.liveliness().declare_subscriber(
                 f"rcs/{layout.SYSTEM}/*/{ALIVE}/*", self._token, history=True
@@ -133,6 +143,13 @@ class ZenohTransport:
         self.token = self.session.liveliness().declare_token(f"{self.prefix}/{ALIVE}/{self.node}")
 
     # ------------------------------------------------------------ Zenoh's threads
+
+    def _sample(self, sample: Any) -> None:
+        key = str(sample.key_expr)[self._cut :]
+        if key == self._step:
+            self._arrived("step", "", sample.payload.to_bytes())
+        elif self._wanted(key):
+            self._arrived("data", key, sample.payload.to_bytes())
 
     def _arrived(self, kind: str, key: str, payload: bytes) -> None:
         with self.cond:
@@ -164,10 +181,12 @@ class ZenohTransport:
                 self.steps.append(payload)
             elif kind == "join":
                 self.republish = True  # a node joined: send it what we wrote
+                self.joined.add(key)
                 if key in mirror.layout.PROCESSES:
                     self.lost.discard(key)
                     mirror.counters.joined.append(key)
             elif kind == "leave":
+                self.joined.discard(key)
                 if key in mirror.layout.PROCESSES and key != self.process:
                     self.lost.add(key)
                     if mirror.state(key) != STOPPED:  # it did not say goodbye: lost
@@ -182,11 +201,20 @@ class ZenohTransport:
                         "(rebuild every host from the same specs)"
                     )
 
-    def push(self) -> None:
+    def push(self, last: bool = False) -> None:
         """Send every record this node wrote since the last push (everything it wrote, when
-        a node joined since)."""
+        a node joined since). The `last` push, as the node leaves, waits rather than drops
+        when the network is congested: its STOPPED must arrive before its token goes."""
         everything, self.republish = self.republish, False
         for key, message in self.mirror.changed(everything):
+            if last:
+                self.session.put(
+                    f"{self.prefix}/{key}",
+                    message,
+                    congestion_control=self._zenoh.CongestionControl.BLOCK,
+                )
+                self.mirror.counters.sent += 1
+                continue
             publisher = self._publishers.get(key)
             if publisher is None:
                 publisher = self.session.declare_publisher(
@@ -222,8 +250,10 @@ class ZenohTransport:
                 self.cond.wait(0.2 if left is None else min(left, 0.2))
 
     def close(self) -> None:
-        """Leave: the token goes (the others see this node gone), then the session."""
+        """Leave: send what is left (a process's STOPPED), then the token goes (the others
+        see this node gone), then the session."""
         if not self.session.is_closed():
+            self.push(last=True)
             self.token.undeclare()
             self.session.close()
 
@@ -296,10 +326,21 @@ def serve(
                 process.beat()
             transport.push()
     finally:
-        process.beat(STOPPED)
-        transport.push()
+        process.beat(STOPPED)  # sent as the caller closes the transport
     return None
 
 
 def _reached(mirror: Mirror, others: list[tuple[str, int]]) -> Callable[[], bool]:
     return lambda: all(mirror.heartbeat(n) >= r for n, r in others)
+
+
+def _matcher(patterns: list[str]) -> Callable[[str], bool]:
+    """Whether a key suffix matches one of `patterns` (Zenoh's `*`: one chunk; `**`: any)."""
+    import re
+
+    def chunk(text: str) -> str:
+        return "[^/]+" if text == "*" else ".*" if text == "**" else re.escape(text)
+
+    parts = ["/".join(chunk(c) for c in pattern.split("/")) for pattern in patterns]
+    regex = re.compile("(?:" + "|".join(parts) + ")" + "\\Z")
+    return lambda key: regex.match(key) is not None

@@ -29,7 +29,7 @@ from types import ModuleType
 from typing import Any, Self
 
 from .block import Block, BlockError
-from .contract import DEAD, PROCESS_STATES, STOPPED, StaleRead
+from .contract import DEAD, PROCESS_STATES, RUNNING, STOPPED, StaleRead
 from .ctl import parse_command
 from .loop import (
     DONE_REPLY,
@@ -370,8 +370,11 @@ class Launcher:
                 self.events.append(f"{child.name} did not stop: killed")
             _close(child.popen)
         self.children.clear()
-        if self.net is not None:
-            self.net.pull()
+        if self.net is not None:  # each process's last word (STOPPED) or its leaving
+            names, mirror = list(self.system.plans), self.net.mirror
+            self.net.wait(
+                lambda: all(n in self.net.lost or mirror.state(n) != RUNNING for n in names), 2.0
+            )
             self.net.close()
             self.net = None
             for name in self.system.plans:  # a killed process could not remove its own
@@ -429,8 +432,6 @@ class NetworkCoordinator:
     one block. Only whole-process segments (`System.segments`)."""
 
     def __init__(self, launcher: Launcher, timeout: float = 20.0) -> None:
-        from .contract import RUNNING
-
         self.launcher, self.timeout = launcher, timeout
         self.net = launcher.net
         self.segments = launcher.system.segments()

@@ -375,8 +375,7 @@ def run(
                     process.halt_roots()
     finally:
         process.beat(STOPPED)
-        net.push()
-        net.close()
+        net.close()  # sends the STOPPED
     return process
 
 

@@ -38,7 +38,8 @@ class TransportError(Exception):
 
 class Transport(Protocol):
     """What a process's loop needs of a transport: `pull` before a cycle mirrors what
-    arrived into the local block; `push` after it sends what this process wrote."""
+    arrived into the local block; `push` after it sends what this process wrote; `close`
+    sends what is left (the process's STOPPED) and leaves."""
 
     def pull(self) -> None: ...
 
