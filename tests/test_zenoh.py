@@ -223,6 +223,32 @@ def test_a_bad_endpoint_is_one_line_and_exit_2(args: list[str], message: str) ->
     assert "Traceback" not in done.stderr
 
 
+def test_a_port_in_use_or_nobody_to_attach_to_is_one_line_and_exit_1() -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        done = subprocess.run(
+            [sys.executable, "-m", "miner", "pc2", "--transport", "zenoh", "--cycles", "1"]
+            + ["--shm", f"rcsgen_zenoh_{os.getpid()}_inuse", "--listen", f"tcp/127.0.0.1:{port}"],
+            cwd=PACKAGE.parent,
+            env={**os.environ, "PYTHONPATH": str(HOOKS)},
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    assert done.returncode == 1
+    assert done.stderr.splitlines() == [
+        f"pc2: zenoh: Can not create a new TCP listener bound to tcp/127.0.0.1:{port}: "
+        f"[127.0.0.1:{port}: Address already in use (os error 98)"
+    ]
+    nobody = ctl("--connect", f"tcp/127.0.0.1:{free_port()}", "status")
+    assert nobody.returncode == 1
+    (line,) = nobody.stderr.splitlines()
+    assert line.startswith("ctl: error: no process of miner (layout ")
+    assert line.endswith("within 5 s: is it running with --transport zenoh?")
+
+
 # ---------------------------------------------------------------- processes on two "hosts"
 
 

@@ -106,8 +106,8 @@ class ZenohTransport:
             config.insert_json5(key, json.dumps(value))
         try:
             self.session = zenoh.open(config)
-        except zenoh.ZError as error:
-            raise TransportError(f"zenoh: {error}") from None
+        except zenoh.ZError as error:  # e.g. a --listen port in use; not where in zenoh
+            raise TransportError(f"zenoh: {str(error).split(' at /')[0]}") from None
         self._declared: list[Any] = []
         self._cut = len(self.prefix) + 1
         self._step = f"{STEP_KEY}/{process}"
@@ -267,6 +267,14 @@ class Attached:
         self.net = ZenohTransport(Mirror(layout, self.block), options)
         names, mirror = list(layout.PROCESSES), self.net.mirror
         self.net.wait(lambda: all(mirror.state(n) != ABSENT for n in names), wait)
+        if all(mirror.state(n) == ABSENT for n in names):
+            self.net.close()
+            self.block.close()
+            where = " ".join(options.connect)
+            raise TransportError(
+                f"no process of {layout.SYSTEM} (layout {layout.LAYOUT_HASH[:8]}) answered "
+                f"through {where} within {wait:g} s: is it running with --transport zenoh?"
+            )
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
