@@ -142,6 +142,11 @@ def test_a_mirrored_heartbeat_is_stamped_with_the_receivers_clock(miner: ModuleT
     receiver.mark_dead("pc2")
     assert layout.PROCESSES["pc2"].read(receiver.block.buf)["state"] == contract.DEAD
     assert list(receiver.changed()) == []  # the mark is local: never sent as pc2's record
+    # nobody else's idea of a process overrides its own control record
+    layout.PROCESSES["pc1"].write(sender.block.buf, state=contract.DEAD)
+    (message,) = [m for k, m in sender.changed() if k == "_process/pc1/control"]
+    assert not receiver.apply("_process/pc1/control", message)
+    assert layout.PROCESSES["pc1"].read(receiver.block.buf)["state"] != contract.DEAD
 
 
 def test_the_configuration_keeps_zenoh_out_of_dev_shm_and_off_multicast(miner: ModuleType) -> None:
@@ -368,6 +373,7 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
         status = ctl("--connect", f"tcp/127.0.0.1:{two_hosts['ports']['pc2']}", "status")
         assert status.returncode == 0, status.stderr
         lines = status.stdout.splitlines()
+        assert lines[0] == f"miner on zenoh tcp/127.0.0.1:{two_hosts['ports']['pc2']}"
         assert any(line.startswith("process pc1: running") for line in lines), status.stdout
         (pp,) = [line.split() for line in lines if line.split()[:1] == ["pp"]]
         assert pp[1:4] == ["INIT", "1", "DONE"], status.stdout

@@ -321,7 +321,10 @@ class Launcher:
             record = self.system.layout.PROCESSES[name]
             state = _read(record, self.block.buf).get("state")
             if code != 0 or state != STOPPED:
-                record.write(self.block.buf, state=DEAD)
+                if self.net is not None:  # the others see its token go: a local mark only
+                    self.net.mirror.mark_dead(name)
+                else:
+                    record.write(self.block.buf, state=DEAD)
                 refused = code == REFUSED and child.restarts > 0
                 self.events.append(
                     f"{name} refused to restart: see its error above"

@@ -461,7 +461,8 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
     if args.verb == "slow" and args.factor < 1.0:
         raise usage("slow: FACTOR must be 1 (normal speed) or more")
     try:
-        console = Console(layout, args.shm, attach(layout, args.connect))
+        where = f"zenoh {' '.join(args.connect)}" if args.connect else args.shm
+        console = Console(layout, where, attach(layout, args.connect))
     except (BlockError, TransportError, ValueError) as error:
         raise CtlError(str(error)) from None
     try:

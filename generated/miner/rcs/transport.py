@@ -138,6 +138,7 @@ class Mirror:
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
         self.counters = Counters()
         self._control = {f"{PROCESS_OWNER}/{p}/control" for p in layout.PROCESSES}
+        self._own = f"{PROCESS_OWNER}/{node}/control"  # only this process writes it
 
     def changed(self, everything: bool = False) -> Iterator[tuple[str, bytes]]:
         """(key suffix, message) of each record this node wrote since it was last sent (with
@@ -168,6 +169,8 @@ class Mirror:
         """Mirror one message into the block; False when it is dropped (late, out of
         order, for no record of this layout, or of the wrong size)."""
         record = self.records.get(key)
+        if key == self._own:  # another node's idea of us (a launcher's DEAD): ours wins
+            return False
         if record is None or len(payload) != EPOCH.size + record.struct.size:
             self.counters.malformed += 1
             return False
