@@ -206,6 +206,42 @@ def test_a_step_request_arrives_after_the_records_sent_before_it(miner: ModuleTy
     assert seen == list(range(1, 301))
 
 
+def test_a_node_of_another_layout_is_named_and_ignored(miner: ModuleType) -> None:
+    """Hosts built from other specs share no key (the layout hash is in every key); a token
+    of the same system with another hash is reported once, in one line."""
+    import types
+
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block, zt = rcs(miner, "rcs.block").Block, rcs(miner, "rcs.zenoh_transport")
+    other = types.SimpleNamespace(**vars(layout))
+    other.LAYOUT_HASH = "0123456789abcdef" * 2
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    said: list[str] = []
+    ours_block, theirs_block = Block(layout), Block(layout)
+    ours = zt.ZenohTransport(
+        transport.Mirror(layout, ours_block), zt.Options(listen=(endpoint,)), log=said.append
+    )
+    theirs = zt.ZenohTransport(
+        transport.Mirror(other, theirs_block), zt.Options(connect=(endpoint,))
+    )
+    try:
+        assert ours.wait(lambda: ours.mirror.counters.foreign >= 1, 10.0)
+        layout.WORLD["pose_x"].write(theirs_block.buf, pose_x=5.0)
+        theirs.push()
+        time.sleep(0.3)
+        ours.pull()
+    finally:
+        theirs.close()
+        ours.close()
+    assert len(said) == 1
+    assert said[0].endswith(
+        "runs layout 01234567, not " + layout.LAYOUT_HASH[:8] + ": ignored (rebuild every "
+        "host from the same specs)"
+    )
+    assert ours.mirror.counters.applied == 0
+    assert layout.WORLD["pose_x"].read(ours_block.buf)["pose_x"] == 0.0
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
