@@ -128,6 +128,28 @@ def test_a_late_or_out_of_order_message_is_dropped_and_counted(miner: ModuleType
     assert receiver.counters.applied == 2
 
 
+def test_a_push_is_applied_whole_when_its_last_message_arrives(miner: ModuleType) -> None:
+    """pp writes tram_dir and reports DONE in one cycle: a reader must never see the DONE
+    without the tram_dir, however its messages are split between two pulls."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block = rcs(miner, "rcs.block").Block
+    sender = transport.Mirror(layout, Block(layout), "pc2")
+    receiver = transport.Mirror(layout, Block(layout), "pc1")
+    layout.WORLD["tram_dir"].write(sender.block.buf, tram_dir=-1)
+    layout.STATUS_OUT["pp"].write(sender.block.buf, status_num=1, status=2)
+    layout.PROCESSES["pc2"].write(sender.block.buf, heartbeat=1)
+    push = sender.changed()
+    assert [k for k, _ in push] == ["pp/status", "_world/tram_dir", "_process/pc2/control"]
+    for key, message in push[:-1]:
+        receiver.receive(key, message)
+    assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 0  # not yet
+    assert layout.WORLD["tram_dir"].read(receiver.block.buf)["tram_dir"] == 0
+    receiver.receive(*push[-1])
+    assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 1
+    assert layout.WORLD["tram_dir"].read(receiver.block.buf)["tram_dir"] == -1
+    assert receiver.counters.applied == 3
+
+
 def test_a_mirrored_heartbeat_is_stamped_with_the_receivers_clock(miner: ModuleType) -> None:
     layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
     Block = rcs(miner, "rcs.block").Block

@@ -24,7 +24,10 @@ from typing import Protocol
 from .block import Block
 from .contract import DEAD, PROCESS, SEQ, Record, next_odd
 
-EPOCH = Struct("<Q")  # the sender's incarnation, before the record's bytes
+# Before the record's bytes: the sender's incarnation (random per start) and whether the
+# message ends a push (a cycle's records are applied together, when the last one is in).
+EPOCH = Struct("<QB")
+END = 1
 WORLD_OWNER = "_world"
 PROCESS_OWNER = "_process"
 ALIVE = "_alive"  # liveliness tokens: rcs/<system>/<hash-8>/_alive/<node>
@@ -132,30 +135,54 @@ class Mirror:
         # was written here, or before a restart, and is sent at the first push.
         fresh = memoryview(bytearray(layout.SIZE))
         layout.initialise(fresh)
-        self.known = {key: record.seq(fresh) for key, record in self.records.items()}
+        # Every record's sequence word in one unpack (the bytes between them skipped).
+        ordered = sorted(self.records, key=lambda k: self.records[k].offset)
+        self._keys = tuple(ordered)
+        self._index = {key: i for i, key in enumerate(ordered)}
+        self._start = self.records[ordered[0]].offset
+        layout_format, at = "<", self._start
+        for key in ordered:
+            offset = self.records[key].offset
+            layout_format += (f"{offset - at}x" if offset > at else "") + "Q"
+            at = offset + SEQ.size
+        self._seqs = Struct(layout_format)
+        self.known = list(self._seqs.unpack_from(fresh, self._start))  # as last sent/mirrored
         self.owned: set[str] = set()  # keys whose current value this node wrote
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
+        self.pending: dict[int, list[tuple[str, bytes]]] = {}  # sender epoch -> its push so far
         self.counters = Counters()
         self._control = {f"{PROCESS_OWNER}/{p}/control" for p in layout.PROCESSES}
         self._own = f"{PROCESS_OWNER}/{node}/control"  # only this process writes it
 
-    def changed(self, everything: bool = False) -> Iterator[tuple[str, bytes]]:
+    def changed(self, everything: bool = False) -> list[tuple[str, bytes]]:
         """(key suffix, message) of each record this node wrote since it was last sent (with
         `everything`, of each record whose value this node wrote, to bring a node that
         joined up to date); control records last, so a receiver that has a process's
-        control record of cycle N has everything that process wrote up to cycle N."""
-        buf, epoch = self.block.buf, EPOCH.pack(self.epoch)
+        control record of cycle N has everything that process wrote up to cycle N. The
+        last message is marked as ending the push: a receiver applies the push whole."""
+        found = list(self._changed(everything))
+        if found:  # the last message ends the push
+            key, message = found[-1]
+            found[-1] = (key, EPOCH.pack(self.epoch, END) + message[EPOCH.size :])
+        return found
+
+    def _changed(self, everything: bool) -> Iterator[tuple[str, bytes]]:
+        buf, epoch = self.block.buf, EPOCH.pack(self.epoch, 0)
+        seqs, known, keys = self._seqs.unpack_from(buf, self._start), self.known, self._keys
+        if seqs == tuple(known) and not everything:
+            return
         last_ones = []
-        for key, record in self.records.items():
-            seq = record.seq(buf)
-            if seq == self.known[key] and not (everything and key in self.owned):
+        for i, seq in enumerate(seqs):
+            key = keys[i]
+            if seq == known[i] and not (everything and key in self.owned):
                 continue
             if seq % 2:  # being written (a writer died mid-write): not whole, not sent
                 continue
+            record = self.records[key]
             data = bytes(buf[record.offset : record.offset + record.struct.size])
             if SEQ.unpack_from(data, 0)[0] != seq:
                 continue
-            self.known[key] = seq
+            known[i] = seq
             self.owned.add(key)
             message = epoch + data
             if key in self._control:
@@ -163,6 +190,25 @@ class Mirror:
             else:
                 yield key, message
         yield from last_ones
+
+    def receive(self, key: str, payload: bytes) -> None:
+        """Keep a message until the one that ends its sender's push arrives, then apply the
+        push in the order sent: a reader never sees part of another process's cycle (a
+        subordinate's DONE without the world field it wrote in the same cycle)."""
+        if len(payload) < EPOCH.size:
+            self.counters.malformed += 1
+            return
+        epoch, flags = EPOCH.unpack_from(payload, 0)
+        pending = self.pending.setdefault(epoch, [])
+        pending.append((key, payload))
+        if flags & END:
+            del self.pending[epoch]
+            for each in pending:
+                self.apply(*each)
+        elif len(pending) > 2 * len(self.records):  # its end was lost: apply what we have
+            del self.pending[epoch]
+            for each in pending:
+                self.apply(*each)
 
     def apply(self, key: str, payload: bytes, now_ns: int | None = None) -> bool:
         """Mirror one message into the block; False when it is dropped (late, out of
@@ -213,7 +259,7 @@ class Mirror:
         SEQ.pack_into(buf, record.offset, seq)  # odd before any field changes
         record.struct.pack_into(buf, record.offset, seq, *values)
         SEQ.pack_into(buf, record.offset, seq + 1)
-        self.known[key] = seq + 1
+        self.known[self._index[key]] = seq + 1
 
     def heartbeat(self, process: str) -> int:
         """The cycles a process has run, as mirrored here (its control record)."""

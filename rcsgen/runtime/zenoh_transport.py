@@ -31,6 +31,10 @@ from .loop import STEP, Process, Stop
 from .transport import ALIVE, STEP_KEY, Mirror, TransportError, prefix, reads
 
 DEFAULT_PORT = 7447  # Zenoh's own default
+# A free-running process that cycles faster than this sends its records at most this often:
+# the latest value of each (what a reader on one machine sees, reading once a cycle), so a
+# `--fast` process does not flood the network. Paced at the miner's 0.1 s, every cycle goes.
+MIN_PUSH_INTERVAL = 0.005
 
 
 @dataclass(frozen=True)
@@ -100,6 +104,7 @@ class ZenohTransport:
             zenoh.CongestionControl.BLOCK if block_when_congested else zenoh.CongestionControl.DROP
         )
         self._publishers: dict[str, Any] = {}
+        self._lockstep, self._next_push = block_when_congested, 0.0
         self._zenoh = zenoh
         config = zenoh.Config()
         for key, value in config_json(options).items():
@@ -111,30 +116,16 @@ class ZenohTransport:
         self._declared: list[Any] = []
         self._cut = len(self.prefix) + 1
         self._step = f"{STEP_KEY}/{process}"
-        wanted = reads(layout, process, modules)
-        if block_when_congested or process is None:
-            # Lockstep, or an observer: one subscriber, so one zenoh-python thread delivers
-            # everything in the order each sender sent it (a coordinator's records before
-            # its step request; a process's records before its control record). Several
-            # subscribers would each have a thread of their own, and no order between them.
-            self._wanted = _matcher(wanted)
-            self._declared.append(
-                self.session.declare_subscriber(
-                    f"{self.prefix}/**", self._sample, allowed_origin=zenoh.Locality.REMOTE
-                )
+        # One subscriber for the system's whole prefix, filtered here by what this node
+        # reads: one zenoh-python thread then delivers everything in the order each sender
+        # sent it (a push whole, a coordinator's records before its step request). Several
+        # subscribers would each have a thread of their own, with no order between them.
+        self._wanted = _matcher(reads(layout, process, modules))
+        self._declared.append(
+            self.session.declare_subscriber(
+                f"{self.prefix}/**", self._sample, allowed_origin=zenoh.Locality.REMOTE
             )
-        else:  # free-running: only what the process reads crosses the network
-            cut = self._cut
-            for suffix in wanted:
-                self._declared.append(
-                    self.session.declare_subscriber(
-                        f"{self.prefix}/{suffix}",
-                        lambda s: self._arrived(
-                            "data", str(s.key_expr)[cut:], s.payload.to_bytes()
-                        ),
-                        allowed_origin=zenoh.Locality.REMOTE,
-                    )
-                )
+        )
         self._declared.append(
             self.session.liveliness().declare_subscriber(
                 f"rcs/{layout.SYSTEM}/*/{ALIVE}/*", self._token, history=True
@@ -176,7 +167,7 @@ class ZenohTransport:
         mirror = self.mirror
         for kind, key, payload in arrived:
             if kind == "data":
-                mirror.apply(key, payload)
+                mirror.receive(key, payload)
             elif kind == "step":
                 self.steps.append(payload)
             elif kind == "join":
@@ -205,6 +196,11 @@ class ZenohTransport:
         """Send every record this node wrote since the last push (everything it wrote, when
         a node joined since). The `last` push, as the node leaves, waits rather than drops
         when the network is congested: its STOPPED must arrive before its token goes."""
+        if not (last or self.republish or self._lockstep):
+            now = time.monotonic()
+            if now < self._next_push:  # faster than the network should carry: coalesce
+                return
+            self._next_push = now + MIN_PUSH_INTERVAL
         everything, self.republish = self.republish, False
         for key, message in self.mirror.changed(everything):
             if last:
