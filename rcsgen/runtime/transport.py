@@ -201,11 +201,8 @@ class Mirror:
         epoch, flags = EPOCH.unpack_from(payload, 0)
         pending = self.pending.setdefault(epoch, [])
         pending.append((key, payload))
-        if flags & END:
-            del self.pending[epoch]
-            for each in pending:
-                self.apply(*each)
-        elif len(pending) > 2 * len(self.records):  # its end was lost: apply what we have
+        # (or, when a push's end was lost, once far more than a push has come)
+        if flags & END or len(pending) > 2 * len(self.records):
             del self.pending[epoch]
             for each in pending:
                 self.apply(*each)
