@@ -35,6 +35,12 @@ PARTS = {
     "seqlock": ("bench_seqlock.py", [], ["--reads", "200000", "--record-reads", "50000"]),
     "lockstep": ("bench_lockstep.py", [], ["--cycles", "300", "--rounds", "1"]),
     "detection": ("bench_detection.py", [], ["--runs", "3"]),
+    "zenoh": (
+        "bench_zenoh.py",
+        [],
+        ["--hops", "300", "--messages", "6000", "--cycles", "100", "--rounds", "1"]
+        + ["--runs", "1", "--soak", "2"],
+    ),
 }
 
 # Targets of issue 5.
@@ -595,6 +601,98 @@ def section_detection(detection: dict) -> list[str]:
     ]
 
 
+ZENOH_LOCKSTEP_MAX_NS = 1e6  # issue 16: a two-host lockstep miner cycle under 1 ms
+
+
+def section_zenoh(z: dict) -> list[str]:
+    lines = [
+        "## 8. The same buffers over Zenoh (loopback)",
+        "",
+        "bench/bench_zenoh.py; eclipse-zenoh as pinned in pyproject.toml, peers on "
+        "127.0.0.1, Zenoh's shared-memory transport off.",
+        "",
+    ]
+    if "hop" in z:
+        h = z["hop"]
+        lines += [
+            "One buffer hop (a round trip through an echo process, halved; shared memory: "
+            "the echo polls flat out, Zenoh: the runtime's transport, the receiver waiting):",
+            "",
+            "| | median | 99th percentile |",
+            "|---|--:|--:|",
+            *(
+                f"| {name} | {ns(h[key]['median_ns'])} | {ns(h[key]['p99_ns'])} |"
+                for key, name in (("shm", "shared memory"), ("zenoh", "Zenoh"))
+            ),
+            "",
+        ]
+    if "rate" in z:
+        r = z["rate"]
+        lines += [
+            f"Messages one process sends (world fields, one message per record, every push "
+            f"sent, none dropped): {r['sent_per_s']:,.0f}/s; arrived "
+            f"{r['arrived']:,} of {r['messages']:,} at {r['arrived_per_s']:,.0f}/s.",
+            "",
+        ]
+    if "miner" in z:
+        m = z["miner"]
+        ok = m["zenoh"]["median"] < ZENOH_LOCKSTEP_MAX_NS
+        lines += [
+            "The two-host miner in lockstep (sump_shear_cusp repeated), wall time per system "
+            "cycle; the versions end each round in the same state:",
+            "",
+            "| | median | mean | 90th percentile |",
+            "|---|--:|--:|--:|",
+            *(
+                f"| {name} | {ns(m[key]['median'])} | {ns(m[key]['mean'])} "
+                f"| {ns(m[key]['p90'])} |"
+                for key, name in (
+                    ("one process", "one process"),
+                    ("shm", "2 processes, one segment (pipes)"),
+                    ("zenoh", "2 hosts over Zenoh"),
+                )
+            ),
+            "",
+            f"- {'PASS' if ok else 'FAIL'}: two-host lockstep miner cycle "
+            f"{ns(m['zenoh']['median'])} (target under {ns(ZENOH_LOCKSTEP_MAX_NS)})",
+            "",
+        ]
+    if "chain" in z:
+        lines += [
+            "A chain of 16 controllers over N hosts in lockstep (median per system cycle):",
+            "",
+            "| hosts | one process | one segment (pipes) | Zenoh | Zenoh per host |",
+            "|--:|--:|--:|--:|--:|",
+            *(
+                f"| {c['hosts']} | {ns(c['one process']['median'])} | {ns(c['shm']['median'])} "
+                f"| {ns(c['zenoh']['median'])} | {ns(c['zenoh']['median'] / c['hosts'])} |"
+                for c in z["chain"]
+            ),
+            "",
+        ]
+    if "detection" in z:
+        d = z["detection"]
+        soak = d.get("soak") or {}
+        lines += [
+            f"Detection, two paced hosts (period {d['period_s']} s, heartbeat timeout "
+            f"{d['heartbeat_timeout_s']} s, {d['runs']} run(s), median / max):",
+            "",
+            f"- partition (SIGSTOP of pc2) to pc1 reporting it lost: "
+            f"{d['partition_s']['median']:.2f} s / {d['partition_s']['max']:.2f} s",
+            f"- SIGCONT to pc2 re-joined: {d['rejoin_s']['median']:.2f} s / "
+            f"{d['rejoin_s']['max']:.2f} s",
+            f"- SIGKILL of pc2 to lost: {d['kill_s']['median']:.3f} s / {d['kill_s']['max']:.3f} s",
+        ]
+        if soak:
+            lines.append(
+                f"- soak: {soak['seconds']:g} s free-running, pc1 {soak['cycles']} cycles, "
+                f"{soak['overruns']} overruns, {soak['late_wakeups']} late wake-ups, pc2 lost: "
+                f"{soak['pc2_lost_during']}"
+            )
+        lines.append("")
+    return lines
+
+
 def section_scaling(scaling: dict) -> list[str]:
     lines = [
         "## 3. Generator scaling",
@@ -742,6 +840,8 @@ def main() -> int:
         lines += section_lockstep(lockstep)
     if detection:
         lines += section_detection(detection)
+    if results.get("zenoh"):
+        lines += section_zenoh(results["zenoh"])
     lines += section_cleanup(results, problems)
     args.out.write_text("\n".join(lines).rstrip() + "\n")
     print(f"wrote {args.out} in {time.perf_counter() - started:.0f} s", file=sys.stderr)

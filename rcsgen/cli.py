@@ -598,7 +598,15 @@ def ctl(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     default=None,
     help="The operator role whose access levels apply (system.yaml `operators`) [$RCS_ROLE].",
 )
-def monitor(system_dir: Path, generated: Path, shm: str | None, role: str | None) -> None:
+@click.option(
+    "--connect",
+    multiple=True,
+    metavar="PROTO/HOST:PORT",
+    help="Attach through Zenoh to a host of a system run with --transport zenoh.",
+)
+def monitor(
+    system_dir: Path, generated: Path, shm: str | None, role: str | None, connect: tuple[str, ...]
+) -> None:
     """Watch and operate a running system in a live terminal screen (rcsgen[monitor]).
 
     Keys act on the selected module: s stop, r run, n single-step, i simulate on/off,
@@ -612,6 +620,7 @@ def monitor(system_dir: Path, generated: Path, shm: str | None, role: str | None
     except ImportError:
         fail("the monitor needs textual: pip install 'rcsgen[monitor]'")
     from .runtime.block import BlockError
+    from .runtime.transport import TransportError
     from .tools.harness import import_package
 
     if not (system_dir / "system.yaml").is_file():
@@ -625,10 +634,10 @@ def monitor(system_dir: Path, generated: Path, shm: str | None, role: str | None
     from .runtime.ctl import CtlError
 
     try:
-        app = Monitor(layout, segment, role=role)
+        app = Monitor(layout, segment, role=role, connect=connect)
     except CtlError as error:
         fail(str(error), error.code)
-    except BlockError as error:
+    except (BlockError, TransportError, ValueError) as error:
         fail(str(error))
     app.run()
 

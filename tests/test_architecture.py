@@ -44,6 +44,12 @@ ALLOWED: dict[str, tuple[frozenset[str], frozenset[str]]] = {
     ),
     "main": (frozenset({"cli"}), frozenset()),
 }
+# The optional extras a single module may import, where it is the only one that does.
+OPTIONAL = {
+    # the Zenoh transport, imported (inside a function, never eagerly) only when a process
+    # is started with `--transport zenoh`
+    ("rcsgen.runtime.zenoh_transport", "zenoh"),
+}
 WHY = {
     "runtime": "it is copied into every generated package, which needs nothing but Python",
     "compiler": "it is the library under the tools and the command line",
@@ -185,6 +191,8 @@ def rule_violations(package_dir: Path) -> list[str]:
         if source not in ALLOWED:
             continue  # reported above
         if target is None and top in sys.stdlib_module_names:
+            continue
+        if target is None and (imp.source, top) in OPTIONAL and not imp.eager:
             continue
         if target is None:
             third_party = ALLOWED[source][1]

@@ -34,6 +34,8 @@ EXPECTED_FILES = {
     "miner/rcs/ctl.py",
     "miner/rcs/launcher.py",
     "miner/rcs/loop.py",
+    "miner/rcs/transport.py",
+    "miner/rcs/zenoh_transport.py",
     "miner/layout.py",
     "miner/main_pc1.py",
     "miner/co.py",
@@ -90,7 +92,9 @@ def test_generated_code_imports_only_stdlib_itself_and_hooks(pristine: dict[str,
             elif isinstance(node, ast.ImportFrom) and node.level == 0:
                 absolute.add(node.module.split(".")[0])
     outside = {name for name in absolute if name not in sys.stdlib_module_names}
-    assert outside == {HOOKS_PACKAGE}  # and the hooks are imported at all
+    # zenoh: only the optional network transport imports it, only when chosen
+    # (test_architecture checks where and that it is not imported eagerly)
+    assert outside == {HOOKS_PACKAGE, "zenoh"}  # and the hooks are imported at all
     assert b"import miner_hooks.co as hooks" in pristine["miner/co.py"]
 
 
@@ -320,7 +324,7 @@ def test_rebuild_changes_only_what_changed(work: Path) -> None:
     edit(work / "specs/miner/co.yaml", "LOOSE_COAL_LIMIT: 4.0", "LOOSE_COAL_LIMIT: 5.0")
     result = rcsgen("build")
     assert result.exit_code == 0, result.output
-    assert "1 written, 0 deleted, 14 unchanged" in result.output
+    assert "1 written, 0 deleted, 16 unchanged" in result.output
     after = mtimes(work / "generated", files_only=True)
     assert {rel for rel in after if after[rel] != stamps[rel]} == {"miner/co.py"}
     assert "LOOSE_COAL_LIMIT = 5.0" in (work / "generated/miner/co.py").read_text()
@@ -402,7 +406,7 @@ def test_check_on_a_current_tree(work: Path) -> None:
     stamps = mtimes(work / "generated")
     result = rcsgen("build", "--check")
     assert result.exit_code == 0, result.output
-    assert result.stdout == "generated is current (15 files)\n"
+    assert result.stdout == "generated is current (17 files)\n"
     assert mtimes(work / "generated") == stamps
 
 

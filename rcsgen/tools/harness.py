@@ -295,9 +295,11 @@ class Harness(BlockView):
 
 
 class LaunchedHarness(BlockView):
-    """A generated system run as its processes, one OS process each over a shared segment,
-    stepped in lockstep: a whole system cycle at a time, in the order `Harness` runs them,
-    so a scenario leaves the same trace either way. INIT reaches the roots as in `Harness`
+    """A generated system run as its processes, one OS process each over a shared segment
+    (or, with `transport="zenoh"`, each on a block of its own, connected only through Zenoh
+    on 127.0.0.1, the harness reading the launcher's block that mirrors them all), stepped
+    in lockstep: a whole system cycle at a time, in the order `Harness` runs them, so a
+    scenario leaves the same trace either way. INIT reaches the roots as in `Harness`
     with `send_init`. Use as a context manager: closing stops the processes and removes
     the segment."""
 
@@ -309,6 +311,7 @@ class LaunchedHarness(BlockView):
         hooks_dir: str | Path | None = None,
         settings: dict[str, str] | None = None,
         simulate: tuple[str, ...] = (),
+        transport: str = "shm",
     ) -> None:
         package_dir = Path(package_dir).resolve()
         hooks = Path(hooks_dir).resolve() if hooks_dir is not None else None
@@ -329,11 +332,19 @@ class LaunchedHarness(BlockView):
         segment = f"rcsgen_run_{os.getpid()}_{next(self._segments)}"
         settings_args = [f"{key}={value}" for key, value in (settings or {}).items()]
         self.launcher = launcher.Launcher(
-            system, segment, lockstep=True, settings=settings_args, simulate=list(simulate)
+            system,
+            segment,
+            lockstep=True,
+            settings=settings_args,
+            simulate=list(simulate),
+            transport=transport,
         )
         self.launcher.start()
         try:
-            self.coordinator = launcher.Coordinator(self.launcher)
+            if transport == "zenoh":  # the launcher's block mirrors every process's
+                self.coordinator = launcher.NetworkCoordinator(self.launcher)
+            else:
+                self.coordinator = launcher.Coordinator(self.launcher)
         except BaseException:
             self.launcher.stop()
             raise

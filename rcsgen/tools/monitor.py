@@ -23,7 +23,7 @@ from textual.binding import Binding
 from textual.css.query import NoMatches
 from textual.widgets import DataTable, Footer, Input, Static
 
-from ..runtime.ctl import Command, Console, CtlError, parse_command
+from ..runtime.ctl import Access, Command, Console, CtlError, attach, parse_command
 
 COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
 COLUMNS = (
@@ -88,11 +88,20 @@ class Monitor(App[None]):
     ]
 
     def __init__(
-        self, layout: ModuleType, segment: str, interval: float = 0.25, role: str | None = None
+        self,
+        layout: ModuleType,
+        segment: str,
+        interval: float = 0.25,
+        role: str | None = None,
+        connect: tuple[str, ...] = (),
     ) -> None:
         super().__init__()
         self.layout, self.segment, self.interval = layout, segment, interval
-        self.ctl = Console(layout, segment, role)  # CtlError/BlockError: the caller reports it
+        # CtlError, BlockError, TransportError: the caller reports it. `connect`: through Zenoh.
+        Access(layout, role)  # a bad role is refused before anything is attached
+        self.ctl = Console(layout, segment, role, attach(layout, connect))
+        if connect:
+            self.segment = "zenoh " + " ".join(connect)
         self.open_requests: list[dict[str, Any]] = []
         self.closed = False
         self.rows = tree_order(layout)

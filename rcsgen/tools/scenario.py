@@ -104,13 +104,16 @@ def load_scenario(path: Path) -> Scenario:
     return scenario
 
 
-def open_harness(scenario: Scenario, package_dir: Path, processes: bool = False) -> AnyHarness:
+def open_harness(
+    scenario: Scenario, package_dir: Path, processes: bool = False, transport: str = "shm"
+) -> AnyHarness:
     """The harness a scenario runs on: its process (or every process), settings and
     stand-ins, INIT sent. With `processes`, every process runs as its own OS process, in
-    lockstep (close the harness to stop them)."""
+    lockstep (close the harness to stop them), over one segment or (`transport="zenoh"`)
+    each on its own block, connected through Zenoh."""
     if processes:
         return LaunchedHarness(
-            package_dir, scenario.system_dir, scenario.settings, scenario.simulate
+            package_dir, scenario.system_dir, scenario.settings, scenario.simulate, transport
         )
     return Harness.load(
         package_dir,

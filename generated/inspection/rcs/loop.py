@@ -35,6 +35,7 @@ from .contract import (
     field_names,
     struct_format,
 )
+from .transport import Local, Transport
 
 _BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))  # seq, pid .. beat_ns
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
@@ -320,6 +321,7 @@ def run(
     stop: Stop | None = None,
     watchdog: Watchdog | None = None,
     heartbeat_timeout: float | None = None,
+    transport: Callable[[Process], Transport] | None = None,
 ) -> Process:
     """Start the process and run it: `cycles` times (forever if None), paced or flat out,
     until `on_cycle` returns True or `stop` is requested. The caller closes its block.
@@ -329,8 +331,16 @@ def run(
     consecutive overruns or one cycle longer than `watchdog.period_factor` periods, and
     supervisors of modules in another process go to their safe state when its heartbeat is
     older than `heartbeat_timeout` seconds (`layout.HEARTBEAT_TIMEOUT` by default).
+
+    With a network `transport` (made for the started process), what arrived is mirrored
+    into the block before each cycle and what the process wrote is sent after it.
     """
     process = start(plan, layout, shm_name, create, settings, simulate)
+    try:
+        net = transport(process) if transport is not None else Local()
+    except BaseException:
+        process.block.close()
+        raise
     period = plan.cycle_period if pace else 0.0
     pacer = Pacer(period)
     dog = watchdog or Watchdog()
@@ -342,7 +352,9 @@ def run(
     try:
         while cycles is None or process.cycle < cycles:
             began = time.perf_counter_ns()
+            net.pull()
             process.run_cycle()
+            net.push()
             took = time.perf_counter_ns() - began
             counters["last_cycle_ns"] = took
             counters["max_cycle_ns"] = max(counters["max_cycle_ns"], took)
@@ -367,6 +379,7 @@ def run(
                     process.halt_roots()
     finally:
         process.beat(STOPPED)
+        net.close()  # sends the STOPPED
     return process
 
 

@@ -37,6 +37,7 @@ from .contract import (
     STATUS_NAMES,
     StaleRead,
 )
+from .transport import TransportError, check_endpoint
 
 USAGE, FAILED = 2, 1
 POLL = 0.005  # seconds between two reads while waiting for the system
@@ -169,11 +170,19 @@ class Access:
 class Console:
     """A running system's segment, read and written as an operator does."""
 
-    def __init__(self, layout: ModuleType, segment: str, role: str | None = None) -> None:
+    def __init__(
+        self,
+        layout: ModuleType,
+        segment: str,
+        role: str | None = None,
+        attached: Any = None,
+    ) -> None:
         self.layout = layout
         self.segment = segment
         self.access = Access(layout, role)  # before attaching: a bad role is a usage error
-        self.block = Block(layout, segment, create=False)
+        # `attached`: a block kept current over the network (zenoh_transport.Attached)
+        self.attached = attached
+        self.block = attached.block if attached is not None else Block(layout, segment, False)
         self.buf = self.block.buf
         self.supervisor = {
             sub: boss
@@ -183,7 +192,10 @@ class Console:
         }
 
     def close(self) -> None:
-        self.block.close()
+        if self.attached is not None:
+            self.attached.close()
+        else:
+            self.block.close()
 
     def read(self, record: Any, tries: int = 20) -> dict[str, Any]:
         """A consistent read, retried briefly while a writer is busy; {} if it stays torn."""
@@ -532,6 +544,13 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
         default=role,
         help=f"the operator role whose access levels apply [default: $RCS_ROLE: {role}]",
     )
+    top.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="PROTO/HOST:PORT",
+        help="attach through Zenoh to a host of the system (--transport zenoh), not a segment",
+    )
     verbs = top.add_subparsers(dest="verb", required=True, parser_class=_Parser)
     status = verbs.add_parser("status", help="every module's debug-screen line")
     status.add_argument("--watch", action="store_true", help="refresh until Ctrl-C")
@@ -616,13 +635,24 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
             print("\n".join(access.matrix(layout.MODULES)))
         return 0
     try:
-        console = Console(layout, args.shm, args.role)
-    except BlockError as error:
+        where = f"zenoh {' '.join(args.connect)}" if args.connect else args.shm
+        Access(layout, args.role)  # a bad role is a usage error before anything is attached
+        console = Console(layout, where, args.role, attach(layout, args.connect))
+    except (BlockError, TransportError, ValueError) as error:
         raise CtlError(str(error)) from None
     try:
         return _verb(console, args, command)
     finally:
         console.close()
+
+
+def attach(layout: ModuleType, endpoints: Sequence[str]) -> Any:
+    """With `--connect`: a private block that mirrors the system over Zenoh (else None)."""
+    if not endpoints:
+        return None
+    from .zenoh_transport import Attached, Options
+
+    return Attached(layout, Options(connect=tuple(check_endpoint(e) for e in endpoints)))
 
 
 def _verb(console: Console, args: argparse.Namespace, command: Command | None) -> int:

@@ -23,18 +23,19 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
-from typing import Self
+from typing import Any, Self
 
 from .block import Block, BlockError
-from .contract import DEAD, PROCESS_STATES, STOPPED, StaleRead
+from .contract import DEAD, PROCESS_STATES, RUNNING, STOPPED, StaleRead
 from .ctl import parse_command, suggest, typed
 from .loop import (
     DONE_REPLY,
     READY,
     STEP,
+    Process,
     ProcessPlan,
     RestartRefused,
     Stop,
@@ -42,6 +43,7 @@ from .loop import (
     serve,
     start,
 )
+from .transport import TransportError, check_endpoint
 
 STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
 REFUSED = 3  # the exit code of a process that refused to restart (the launcher gives up)
@@ -87,9 +89,12 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     plan = system.plans[args.process]
     stop = Stop()
     settings = dict(item.partition("=")[::2] for item in args.set)
+    args.set_ = settings
     if args.child:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # the launcher decides when to stop
     signal.signal(signal.SIGTERM, stop)
+    if args.transport == "zenoh":
+        return run_networked(system, args, stop)
     if args.lockstep:
         try:
             process = start(plan, system.layout, args.shm, not args.attach, settings, args.simulate)
@@ -137,6 +142,72 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     return 0
 
 
+def run_networked(system: System, args: argparse.Namespace, stop: Stop) -> int:
+    """One process on its own block, its records moved over Zenoh: free-running, or in
+    lockstep for a coordinator on the network (`--lockstep`)."""
+    from .transport import Mirror
+    from .zenoh_transport import ZenohTransport, serve
+
+    plan, layout = system.plans[args.process], system.layout
+    options = network_options(system, args)
+    if args.child:  # the launcher's end (even a crash) closes our stdin: stop then
+        threading.Thread(target=_stop_on_eof, args=(stop,), daemon=True).start()
+    else:
+        signal.signal(signal.SIGINT, stop)
+
+    def connect(process: Process) -> ZenohTransport:
+        mirror = Mirror(layout, process.block, args.process)
+        return ZenohTransport(mirror, options, args.process, plan.modules, args.lockstep)
+
+    try:
+        if args.lockstep:
+            process = start(plan, layout, args.shm, not args.attach, args.set_, args.simulate)
+            try:
+                transport = connect(process)
+            except BaseException:
+                process.block.close()
+                raise
+            try:
+                problem = serve(process, transport, stop)
+            finally:
+                transport.close()
+            if problem is not None:
+                print(f"{args.process}: {problem}", file=sys.stderr)
+        else:
+            process = run(
+                plan,
+                layout,
+                args.cycles,
+                not args.fast,
+                args.shm,
+                not args.attach,
+                settings=args.set_,
+                simulate=args.simulate,
+                stop=stop,
+                transport=connect,
+            )
+            problem = None
+    except (BlockError, RestartRefused, TransportError) as error:
+        print(f"{args.process}: {error}", file=sys.stderr)
+        return REFUSED if isinstance(error, RestartRefused) else 1
+    if not args.child:
+        print(f"{args.process}: {process.cycle} cycles")
+        for line in summary(system, process.block.buf, [args.process]):
+            print(line)
+    process.block.owner = True  # its own block: nobody else on this host uses it
+    process.block.close()
+    return 1 if problem is not None else 0
+
+
+def network_options(system: System, args: argparse.Namespace) -> Any:
+    """The Zenoh options of `--listen` and `--connect`; a link silent for the heartbeat
+    timeout is closed, so a partitioned host is reported within it."""
+    from .zenoh_transport import Options
+
+    lease_ms = max(100, int(system.layout.HEARTBEAT_TIMEOUT * 1000))
+    return Options(tuple(args.listen), tuple(args.connect), lease_ms)
+
+
 def _stop_on_eof(stop: Stop) -> None:
     try:
         while os.read(0, 1):
@@ -173,9 +244,17 @@ class Launcher:
         restart: bool = False,
         python: str = sys.executable,
         world: Mapping[str, object] | None = None,
+        transport: str = "shm",
+        listen: str | None = None,
     ) -> None:
         self.system = system
         self.segment = segment or system.default_segment
+        # With Zenoh, each process has a block of its own (named after the launcher's) and
+        # the launcher's block mirrors them all: a local `ctl`, a harness and the summary
+        # read it as they read the shared one. Its node listens where the processes connect.
+        self.transport_name = transport
+        self.listen = listen or f"tcp/127.0.0.1:{free_port()}"
+        self.net: Any = None
         self.lockstep, self.pace, self.cycles = lockstep, pace, cycles
         self.settings, self.simulate = list(settings), list(simulate)
         self.restart, self.python = restart, python
@@ -193,6 +272,16 @@ class Launcher:
         for name, value in self.world.items():
             self.system.layout.WORLD[name].write(self.block.buf, **{name: value})
         try:
+            if self.transport_name == "zenoh":
+                from .transport import Mirror
+                from .zenoh_transport import Options, ZenohTransport
+
+                lease_ms = max(100, int(self.system.layout.HEARTBEAT_TIMEOUT * 1000))
+                self.net = ZenohTransport(
+                    Mirror(self.system.layout, self.block),
+                    Options(listen=(self.listen,), lease_ms=lease_ms),
+                    block_when_congested=self.lockstep,
+                )
             for name in self.system.plans:
                 self.children[name] = Child(name, self._spawn(name, attach=True))
         except BaseException:
@@ -201,7 +290,12 @@ class Launcher:
 
     def _spawn(self, name: str, attach: bool) -> subprocess.Popen[bytes]:
         command = [self.python, "-m", self.system.package, name, "--shm", self.segment, "--child"]
-        command += ["--attach"] if attach else []
+        if self.transport_name == "zenoh":  # its own block, a peer of the launcher's node
+            command[5] = f"{self.segment}_{name}"
+            command += ["--transport", "zenoh", "--connect", self.listen]
+            command += ["--listen", "tcp/127.0.0.1:0"]
+        else:
+            command += ["--attach"] if attach else []
         command += ["--lockstep"] if self.lockstep else []
         command += [] if self.pace else ["--fast"]
         command += ["--cycles", str(self.cycles)] if self.cycles is not None else []
@@ -215,7 +309,7 @@ class Launcher:
         return subprocess.Popen(
             command,
             stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE if self.lockstep else None,
+            stdout=subprocess.PIPE if self.lockstep and self.net is None else None,
             env=env,
         )
 
@@ -232,7 +326,10 @@ class Launcher:
             record = self.system.layout.PROCESSES[name]
             state = _read(record, self.block.buf).get("state")
             if code != 0 or state != STOPPED:
-                record.write(self.block.buf, state=DEAD)
+                if self.net is not None:  # the others see its token go: a local mark only
+                    self.net.mirror.mark_dead(name)
+                else:
+                    record.write(self.block.buf, state=DEAD)
                 refused = code == REFUSED and child.restarts > 0
                 self.events.append(
                     f"{name} refused to restart: see its error above"
@@ -253,7 +350,15 @@ class Launcher:
         """Watch the children until they have all ended or `stop` is requested."""
         while self.children and not stop.requested:
             self.poll()
+            self.exchange()
             time.sleep(interval)
+
+    def exchange(self) -> None:
+        """With Zenoh: mirror what the processes sent, send what was written here (an
+        operator's `ctl` on this host, a DEAD mark)."""
+        if self.net is not None:
+            self.net.pull()
+            self.net.push()
 
     def stop(self) -> None:
         """Stop every process (closing its pipe, then SIGTERM, then SIGKILL after a grace
@@ -272,6 +377,15 @@ class Launcher:
                 self.events.append(f"{child.name} did not stop: killed")
             _close(child.popen)
         self.children.clear()
+        if self.net is not None:  # each process's last word (STOPPED) or its leaving
+            names, mirror = list(self.system.plans), self.net.mirror
+            self.net.wait(
+                lambda: all(n in self.net.lost or mirror.state(n) != RUNNING for n in names), 2.0
+            )
+            self.net.close()
+            self.net = None
+            for name in self.system.plans:  # a killed process could not remove its own
+                unlink_quietly(f"{self.segment}_{name}")
         if self.block is not None:
             self.final = [
                 *self.events,
@@ -317,8 +431,70 @@ class Coordinator:
             self.cycle += 1
 
 
+class NetworkCoordinator:
+    """Steps a system whose processes run on Zenoh nodes, in lockstep: a request to each
+    process in turn, answered by its control record of the next cycle, which it sends after
+    everything else it wrote. Each request names the cycle every other process must have
+    reached in the receiver's mirror first, so every process reads what it would read in
+    one block. Only whole-process segments (`System.segments`)."""
+
+    def __init__(self, launcher: Launcher, timeout: float = 20.0) -> None:
+        self.launcher, self.timeout = launcher, timeout
+        self.net = launcher.net
+        self.segments = launcher.system.segments()
+        self.names = list(launcher.system.layout.PROCESSES)
+        self.cycle = 0
+        mirror = self.net.mirror
+        if not self.net.wait(lambda: all(mirror.state(n) == RUNNING for n in self.names), timeout):
+            missing = [n for n in self.names if mirror.state(n) != RUNNING]
+            raise ProcessLost(f"process(es) {missing} did not start within {timeout:g} s")
+        self.reached = {n: mirror.heartbeat(n) for n in self.names}
+
+    def step(self, cycles: int = 1) -> None:
+        """Run `cycles` whole system cycles; raises ProcessLost if a process is gone."""
+        from .zenoh_transport import step_request
+
+        net, mirror = self.net, self.net.mirror
+        for _ in range(cycles):
+            for name, first, last, end in self.segments:
+                if not end:
+                    raise ProcessLost(f"process {name}: a segment that does not end a cycle")
+                if name in net.lost or name not in self.launcher.children:
+                    raise ProcessLost(f"process {name} is not running")
+                target = self.reached[name] + 1
+                net.push()  # what was written here (a scenario's events) goes first
+                request = step_request(first, last, end, [self.reached[n] for n in self.names])
+                net.send_step(name, request)
+                if not net.wait(_answered(mirror, net.lost, name, target), self.timeout):
+                    raise ProcessLost(f"process {name} did not answer within {self.timeout:g} s")
+                if name in net.lost:
+                    raise ProcessLost(f"process {name} left the network (it died?)")
+                self.reached[name] = target
+            self.cycle += 1
+
+
+def _answered(mirror: Any, lost: set[str], name: str, target: int) -> Callable[[], bool]:
+    return lambda: mirror.heartbeat(name) >= target or name in lost
+
+
 class ProcessLost(Exception):
     """A process of a lockstep run is gone."""
+
+
+def free_port() -> int:
+    """A TCP port of 127.0.0.1 that nothing listens on now."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port: int = probe.getsockname()[1]
+    return port
+
+
+def unlink_quietly(name: str) -> None:
+    from .block import unlink
+
+    unlink(name)
 
 
 def _close_stdin(popen: subprocess.Popen[bytes]) -> None:
@@ -410,6 +586,27 @@ def main(package: str, argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument(
+        "--transport",
+        choices=("shm", "zenoh"),
+        default="shm",
+        help="how processes exchange buffers: one shared-memory segment (one host), or "
+        "Zenoh (each process its own block; hosts anywhere) [default: shm]",
+    )
+    parser.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="PROTO/HOST:PORT",
+        help="with --transport zenoh: listen here for other hosts (repeatable)",
+    )
+    parser.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="PROTO/HOST:PORT",
+        help="with --transport zenoh: connect to a host listening here (repeatable)",
+    )
+    parser.add_argument(
         "--send",
         default=None,
         metavar="MODULE.COMMAND[:NAME=VALUE,...]",
@@ -473,8 +670,16 @@ def main(package: str, argv: list[str] | None = None) -> int:
         parser.error(str(error))
     if args.world and (args.process is not None or args.attach):
         parser.error("--world goes with a launch of every process, which makes the segment")
+    if args.transport == "shm" and (args.listen or args.connect):
+        parser.error("--listen and --connect go with --transport zenoh")
+    for endpoint in (*args.listen, *args.connect):
+        try:
+            check_endpoint(endpoint)
+        except ValueError as error:
+            parser.error(str(error))
     if args.process is not None:
-        args.shm = args.shm or system.default_segment
+        own = f"_{args.process}" if args.transport == "zenoh" else ""
+        args.shm = args.shm or system.default_segment + own
         return run_process(system, args)
     return launch(system, args)
 
@@ -555,10 +760,12 @@ def launch(system: System, args: argparse.Namespace) -> int:
         simulate=args.simulate,
         restart=args.restart,
         world=args.world,
+        transport=args.transport,
+        listen=args.listen[0] if args.listen else None,
     )
     try:
         launcher.start()
-    except BlockError as error:
+    except (BlockError, TransportError) as error:
         print(f"{system.layout.SYSTEM}: {error}", file=sys.stderr)
         return 1
     code = 0
@@ -569,7 +776,9 @@ def launch(system: System, args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         if args.lockstep:
-            coordinator = Coordinator(launcher)
+            coordinator: Coordinator | NetworkCoordinator = (
+                NetworkCoordinator(launcher) if launcher.net is not None else Coordinator(launcher)
+            )
             while not stop.requested and (args.cycles is None or coordinator.cycle < args.cycles):
                 coordinator.step()
         elif args.send is not None:
@@ -599,6 +808,7 @@ def operate(launcher: Launcher, send: Send, until_done: bool, stop: Stop) -> int
     number = None
     while launcher.children and not stop.requested:
         launcher.poll()
+        launcher.exchange()
         if number is None:
             number = give(send, layout, buf)
             if number is not None:

@@ -1,0 +1,413 @@
+"""Part 8: the same buffers over Zenoh on loopback, against shared memory.
+
+1. One buffer hop: this process writes pp's command and sends it, an echo process (its
+   own block, over Zenoh; or attached to the same segment, polling) answers with pp's
+   status; the round trip, halved. Zenoh: the runtime's own `ZenohTransport` on both
+   sides (the receiver blocks until something arrives); shared memory: the echo polls the
+   record flat out, so its figure is the floor of a hop.
+2. Messages per second one process sends (world fields, one message per record, a push per
+   round of the float fields; every push sent and none dropped, as in lockstep) and how
+   many arrive.
+3. The two-host miner in lockstep (`LaunchedHarness(transport="zenoh")`: pc1 and pp's pc2
+   on blocks of their own, stepped by a coordinator on the network) against the same
+   over one segment (pipes) and in one process: wall time per system cycle, the versions
+   taking turns and ending each round in the same state (bench_lockstep.race).
+4. A chain of 16 controllers over 2, 4 and 8 hosts in lockstep, Zenoh against pipes.
+5. Detection on two free-running paced hosts (pc2 listening, pc1 connecting): time from
+   SIGSTOP of pc2 (a partition) and from SIGKILL of pc2 to pc1's control record saying pc2
+   is lost; from SIGCONT to pc2 re-joined; and over a soak, pc1's overruns.
+
+    python bench/bench_zenoh.py [--hops N] [--cycles N] [--soak S] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import shutil
+import signal
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from types import ModuleType
+
+from bench_lockstep import CHAIN, Driver, race, stats
+from common import ROOT, write_json
+
+from rcsgen.tools import scenario as scenarios
+from rcsgen.tools.harness import Harness, LaunchedHarness, generate, import_package
+
+PACKAGE = ROOT / "generated" / "miner"
+HOOKS = ROOT / "specs" / "miner"
+SCENARIO = HOOKS / "scenarios" / "sump_shear_cusp.yaml"
+SPLITS = (2, 4, 8)
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def modules(package: ModuleType) -> tuple[ModuleType, ModuleType, ModuleType, ModuleType]:
+    name = package.__name__
+    return tuple(
+        importlib.import_module(f"{name}.{m}")
+        for m in ("layout", "rcs.block", "rcs.transport", "rcs.zenoh_transport")
+    )  # type: ignore[return-value]
+
+
+def percentile(values: list[int], share: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(share * len(ordered)))]
+
+
+# ---------------------------------------------------------------- 1, 2: hop and rate
+
+
+def echo(kind: str, where: str, count: int) -> None:
+    """The far end: answer each new pp command with pp's status (status_num = its number)."""
+    layout, block_mod, transport, zt = modules(import_package(PACKAGE, HOOKS))
+    command, status = layout.COMMAND_IN["pp"], layout.STATUS_OUT["pp"]
+    if kind == "shm":
+        block = block_mod.Block(layout, where, create=False)
+        seen = 0
+        while seen < count:
+            try:
+                number = command.read(block.buf)["command_num"]
+            except Exception:  # noqa: BLE001 - a torn read: look again
+                continue
+            if number != seen:
+                seen = number
+                status.write(block.buf, status_num=number)
+        block.close()
+        return
+    block = block_mod.Block(layout)
+    net = zt.ZenohTransport(
+        transport.Mirror(layout, block), zt.Options(connect=(where,)), block_when_congested=True
+    )
+    seen = 0
+    while seen < count:
+        net.wait(lambda: command.read(block.buf)["command_num"] != seen, 30.0)
+        seen = command.read(block.buf)["command_num"]
+        status.write(block.buf, status_num=seen)
+        net.push()
+    time.sleep(0.5)
+    net.close()
+    block.close()
+
+
+def echoed(status: object, buf: memoryview, number: int) -> bool:
+    try:
+        return status.read(buf)["status_num"] == number  # type: ignore[attr-defined]
+    except Exception:  # noqa: BLE001 - StaleRead: being written, look again
+        return False
+
+
+def hops(count: int) -> dict[str, dict[str, float]]:
+    package = import_package(PACKAGE, HOOKS)
+    layout, block_mod, transport, zt = modules(package)
+    command, status = layout.COMMAND_IN["pp"], layout.STATUS_OUT["pp"]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(HOOKS), *sys.path])}
+    results = {}
+    for kind in ("shm", "zenoh"):
+        if kind == "shm":
+            where = f"rcsgen_bench_zenoh_{os.getpid()}"
+            block = block_mod.Block(layout, where, create=True)
+            net = None
+        else:
+            where = f"tcp/127.0.0.1:{free_port()}"
+            block = block_mod.Block(layout)
+            net = zt.ZenohTransport(
+                transport.Mirror(layout, block),
+                zt.Options(listen=(where,)),
+                block_when_congested=True,
+            )
+        child = subprocess.Popen(
+            [sys.executable, __file__, "--echo", kind, where, str(count + 50)], env=env
+        )
+        try:
+            rtts = []
+            if net is not None:  # the echo's node is up when its token arrives
+                net.wait(lambda: len(net.joined) > 1, 30.0)  # itself and the echo
+                time.sleep(0.5)
+            for number in range(1, count + 51):
+                began = time.perf_counter_ns()
+                command.write(block.buf, command_num=number)
+                if net is None:
+                    while not echoed(status, block.buf, number):
+                        pass
+                else:
+                    net.push()
+                    if not net.wait(
+                        lambda n=number: status.read(block.buf)["status_num"] == n, 10.0
+                    ):
+                        raise SystemExit(f"zenoh: no echo of #{number}")
+                if number > 50:  # the first ones warm up
+                    rtts.append(time.perf_counter_ns() - began)
+            child.wait(30)
+        finally:
+            if child.poll() is None:
+                child.kill()
+                child.wait()
+            if net is not None:
+                net.close()
+            block.close()
+        results[kind] = {
+            "median_ns": statistics.median(rtts) / 2,
+            "p99_ns": percentile(rtts, 0.99) / 2,
+            "round_trips": len(rtts),
+        }
+        print(f"hop over {kind} done", file=sys.stderr)
+    return results
+
+
+def rate(messages: int) -> dict[str, float]:
+    """One process sends world fields (each changed, one message each) flat out to another
+    node; what it sent per second, and what arrived."""
+    package = import_package(PACKAGE, HOOKS)
+    layout, block_mod, transport, zt = modules(package)
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    sender_block, receiver_block = block_mod.Block(layout), block_mod.Block(layout)
+    # As lockstep nodes: every push goes (no 5 ms coalescing) and waits rather than drops,
+    # so the figure is what one process sustains, none lost.
+    receiver = zt.ZenohTransport(
+        transport.Mirror(layout, receiver_block),
+        zt.Options(listen=(endpoint,)),
+        block_when_congested=True,
+    )
+    sender = zt.ZenohTransport(
+        transport.Mirror(layout, sender_block),
+        zt.Options(connect=(endpoint,)),
+        block_when_congested=True,
+    )
+    try:
+        receiver.wait(lambda: len(receiver.joined) > 1, 10.0)
+        sender.wait(lambda: len(sender.joined) > 1, 10.0)
+        time.sleep(0.5)
+        floats = [n for n, v in layout.WORLD_INITIAL.items() if isinstance(v, float)]
+        began = time.perf_counter()
+        for number in range(messages):
+            name = floats[number % len(floats)]
+            layout.WORLD[name].write(sender_block.buf, **{name: float(number)})
+            if number % len(floats) == len(floats) - 1:
+                sender.push()  # one push per "cycle" of every float field
+        sender.push()
+        sent_s = time.perf_counter() - began
+        receiver.wait(lambda: receiver.mirror.counters.applied >= messages, 5.0)
+        arrived_s = time.perf_counter() - began
+        applied = receiver.mirror.counters.applied
+    finally:
+        sender.close()
+        receiver.close()
+    return {
+        "messages": messages,
+        "sent_per_s": sender.mirror.counters.sent / sent_s,
+        "arrived": applied,
+        "arrived_per_s": applied / arrived_s,
+    }
+
+
+# ---------------------------------------------------------------- 3, 4: lockstep
+
+
+def miner(cycles: int, rounds: int) -> dict[str, object]:
+    scenario = scenarios.load_scenario(SCENARIO)
+    events, stop = list(scenario.events), scenario.stop_when_done or "sb"
+
+    def open_versions() -> dict[str, object]:
+        opened: dict[str, object] = {}
+        try:
+            opened["one process"] = scenarios.open_harness(scenario, PACKAGE)
+            opened["shm"] = scenarios.open_harness(scenario, PACKAGE, processes=True)
+            opened["zenoh"] = scenarios.open_harness(
+                scenario, PACKAGE, processes=True, transport="zenoh"
+            )
+        except BaseException:
+            for harness in opened.values():
+                harness.close()  # type: ignore[attr-defined]
+            raise
+        return opened
+
+    samples = race(open_versions, lambda: Driver(events, stop), cycles, rounds)
+    return {key: stats(values) for key, values in samples.items()}
+
+
+def chain(cycles: int, rounds: int) -> list[dict[str, object]]:
+    import synthetic
+
+    results = []
+    scratch = Path(tempfile.mkdtemp(prefix="rcsgen-bench-zenoh-"))
+    try:
+        for count in SPLITS:
+            spec = synthetic.write(CHAIN, scratch / f"p{count}", processes=count, fan_out=1)
+            out, name = generate(spec)
+            package_dir = out / name
+            root = synthetic.name(0)
+            run = scenarios.Event(cycle=1, command=(root, "RUN"))
+
+            def open_versions(package_dir: Path = package_dir) -> dict[str, object]:
+                one = Harness.load(package_dir, send_init=True)
+                try:
+                    shm = LaunchedHarness(package_dir)
+                    try:
+                        zenoh = LaunchedHarness(package_dir, transport="zenoh")
+                    except BaseException:
+                        shm.close()
+                        raise
+                except BaseException:
+                    one.close()
+                    raise
+                return {"one process": one, "shm": shm, "zenoh": zenoh}
+
+            def driver(run: scenarios.Event = run, root: str = root) -> Driver:
+                return Driver([run], root)
+
+            samples = race(open_versions, driver, cycles, rounds)
+            shutil.rmtree(out, ignore_errors=True)
+            results.append(
+                {"hosts": count, **{key: stats(values) for key, values in samples.items()}}
+            )
+            print(f"chain over {count} hosts done", file=sys.stderr)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    return results
+
+
+# ---------------------------------------------------------------- 5: detection
+
+
+def detection(runs: int, soak: float) -> dict[str, object]:
+    package = import_package(PACKAGE, HOOKS)
+    layout, block_mod, _, _ = modules(package)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(HOOKS), *sys.path])}
+    lost_bit = 1 << list(layout.PROCESSES).index("pc2")
+    found: dict[str, list[float]] = {"partition_s": [], "rejoin_s": [], "kill_s": []}
+    soaked: dict[str, object] = {}
+    for run in range(runs):
+        ports = {"pc2": free_port(), "pc1": free_port()}
+        names = {p: f"rcsgen_bench_zenoh_{os.getpid()}_{run}_{p}" for p in ports}
+        base = [sys.executable, "-m", "miner"]
+        hosts = {
+            "pc2": subprocess.Popen(
+                [*base, "pc2", "--transport", "zenoh", "--shm", names["pc2"]]
+                + ["--listen", f"tcp/127.0.0.1:{ports['pc2']}"],
+                cwd=PACKAGE.parent,
+                env=env,
+                stdout=subprocess.DEVNULL,
+            ),
+            "pc1": subprocess.Popen(
+                [*base, "pc1", "--transport", "zenoh", "--shm", names["pc1"]]
+                + ["--connect", f"tcp/127.0.0.1:{ports['pc2']}"],
+                cwd=PACKAGE.parent,
+                env=env,
+                stdout=subprocess.DEVNULL,
+            ),
+        }
+        block = None
+        try:
+            end = time.monotonic() + 30
+            while block is None and time.monotonic() < end:
+                try:
+                    block = block_mod.Block(layout, names["pc1"], create=False)
+                except block_mod.BlockError:
+                    time.sleep(0.05)
+            assert block is not None, "pc1 did not start"
+
+            def lost() -> bool:
+                try:
+                    return bool(layout.PROCESSES["pc1"].read(block.buf)["lost"] & lost_bit)
+                except Exception:  # noqa: BLE001 - torn: not yet
+                    return False
+
+            def until(condition, limit: float = 30.0) -> float:
+                began = time.perf_counter()
+                while not condition():
+                    if time.perf_counter() - began > limit:
+                        raise SystemExit("detection: gave up waiting")
+                    time.sleep(0.001)
+                return time.perf_counter() - began
+
+            until(lambda: layout.STATUS_OUT["pp"].read(block.buf)["status"] == 2)
+            if run == 0 and soak > 0:
+                time.sleep(soak)
+                record = layout.PROCESSES["pc1"].read(block.buf)
+                soaked = {
+                    "seconds": soak,
+                    "cycles": record["heartbeat"],
+                    "overruns": record["overruns"],
+                    "late_wakeups": record["late_wakeups"],
+                    "pc2_lost_during": lost(),
+                }
+            time.sleep(0.5)
+            hosts["pc2"].send_signal(signal.SIGSTOP)
+            found["partition_s"].append(until(lost))
+            hosts["pc2"].send_signal(signal.SIGCONT)
+            found["rejoin_s"].append(until(lambda: not lost()))
+            time.sleep(0.5)
+            hosts["pc2"].send_signal(signal.SIGKILL)
+            found["kill_s"].append(until(lost))
+        finally:
+            if block is not None:
+                block.close()
+            for host in hosts.values():
+                if host.poll() is None:
+                    host.send_signal(signal.SIGCONT)
+                    host.terminate()
+                try:
+                    host.wait(10)
+                except subprocess.TimeoutExpired:
+                    host.kill()
+                    host.wait()
+            for name in names.values():
+                block_mod.unlink(name)
+        print(f"detection run {run + 1}/{runs} done", file=sys.stderr)
+    return {
+        "heartbeat_timeout_s": layout.HEARTBEAT_TIMEOUT,
+        "period_s": 0.1,
+        **{key: {"median": statistics.median(v), "max": max(v)} for key, v in found.items()},
+        "runs": runs,
+        "soak": soaked,
+    }
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--hops", type=int, default=2000)
+    parser.add_argument("--messages", type=int, default=60_000)
+    parser.add_argument("--cycles", type=int, default=500)
+    parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--soak", type=float, default=30.0)
+    parser.add_argument("--parts", default="hop,rate,miner,chain,detection")
+    parser.add_argument("--echo", nargs=3, help=argparse.SUPPRESS)
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args()
+    if args.echo:
+        echo(args.echo[0], args.echo[1], int(args.echo[2]))
+        return 0
+    started = time.perf_counter()
+    parts = args.parts.split(",")
+    results: dict[str, object] = {"cycles_per_round": args.cycles, "rounds": args.rounds}
+    if "hop" in parts:
+        results["hop"] = hops(args.hops)
+    if "rate" in parts:
+        results["rate"] = rate(args.messages)
+    if "miner" in parts:
+        results["miner"] = miner(args.cycles, args.rounds)
+    if "chain" in parts:
+        results["chain"] = chain(args.cycles, args.rounds)
+    if "detection" in parts:
+        results["detection"] = detection(args.runs, args.soak)
+    results["seconds"] = time.perf_counter() - started
+    write_json(args.json, results)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,279 @@
+"""Transport: a layout, a local block and who this node is -> the records it sends and mirrors.
+
+Every process keeps a local block. With the shared-memory transport (`Local`) the block is
+shared by every process of the host and nothing moves. With a network transport (Zenoh,
+`zenoh_transport.py`), each node has a block of its own, and a `Mirror` decides what moves:
+after each cycle it sends every record whose sequence word this node changed (one message per
+record: the sender's epoch, then the record's bytes with its sequence word), and it writes
+what arrives into the local block through the seqlock, dropping (and counting) a message that
+is not newer than the last one applied from the same sender. Keys are
+`rcs/<system>/<layout-hash-8>/<owner>/<buffer>`, so systems built from other specs never
+exchange a byte. Standard library only: copied verbatim into every generated package.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from struct import Struct
+from types import ModuleType
+from typing import Protocol
+
+from .block import Block
+from .contract import DEAD, PROCESS, SEQ, Record, next_odd
+
+# Before the record's bytes: the sender's incarnation (random per start) and whether the
+# message ends a push (a cycle's records are applied together, when the last one is in).
+EPOCH = Struct("<QB")
+END = 1
+WORLD_OWNER = "_world"
+PROCESS_OWNER = "_process"
+ALIVE = "_alive"  # liveliness tokens: rcs/<system>/<hash-8>/_alive/<node>
+STEP_KEY = "_step"  # lockstep requests to a process: rcs/<system>/<hash-8>/_step/<process>
+
+
+class TransportError(Exception):
+    """A transport that cannot start: zenoh missing, an endpoint that cannot be used."""
+
+
+class Transport(Protocol):
+    """What a process's loop needs of a transport: `pull` before a cycle mirrors what
+    arrived into the local block; `push` after it sends what this process wrote; `close`
+    sends what is left (the process's STOPPED) and leaves."""
+
+    def pull(self) -> None: ...
+
+    def push(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class Local:
+    """The shared-memory transport: every process of the host shares the block; nothing moves."""
+
+    def pull(self) -> None:
+        return None
+
+    def push(self) -> None:
+        return None
+
+    def close(self) -> None:
+        return None
+
+
+def prefix(layout: ModuleType) -> str:
+    """The key prefix of a system built from one layout: `rcs/<system>/<layout-hash-8>`."""
+    return f"rcs/{layout.SYSTEM}/{layout.LAYOUT_HASH[:8]}"
+
+
+def records(layout: ModuleType) -> dict[str, Record]:
+    """Every record of the layout by its key suffix (`pp/status`, `_world/pose_x`,
+    `_process/pc1/control`), in layout order."""
+    found: dict[str, Record] = {}
+    for name in layout.PROCESSES:
+        found[f"{PROCESS_OWNER}/{name}/control"] = layout.PROCESSES[name]
+        pacing = getattr(layout, "PACING", {})
+        if name in pacing:
+            found[f"{PROCESS_OWNER}/{name}/pace"] = pacing[name]
+    for module in layout.COMMAND_IN:
+        found[f"{module}/command"] = layout.COMMAND_IN[module]
+        found[f"{module}/status"] = layout.STATUS_OUT[module]
+        found[f"{module}/mode"] = layout.MODE_IN[module]
+        found[f"{module}/perf"] = layout.PERFORMANCE[module]
+    for name, record in layout.WORLD.items():
+        found[f"{WORLD_OWNER}/{name}"] = record
+    return found
+
+
+def reads(layout: ModuleType, process: str | None, modules: tuple[str, ...] = ()) -> list[str]:
+    """The key suffixes (Zenoh key expressions) a node subscribes to: everything for an
+    observer (`process` None: a coordinator, a launcher, an operator's console); for a
+    process, its modules' commands and modes, the status of each subordinate that runs
+    elsewhere, every world field (the layout does not say who reads which), every control
+    record (liveness) and its own pacing record."""
+    if process is None:
+        return ["**"]
+    wanted = [f"{m}/command" for m in modules] + [f"{m}/mode" for m in modules]
+    for module in modules:
+        for sub in layout.SUBORDINATES.get(module, ()):
+            if layout.PLACEMENT.get(sub) != process:
+                wanted.append(f"{sub}/status")
+    wanted += [f"{WORLD_OWNER}/*", f"{PROCESS_OWNER}/*/control", f"{PROCESS_OWNER}/{process}/pace"]
+    return wanted
+
+
+@dataclass
+class Counters:
+    """What a mirror did: messages sent and applied, dropped as late or out of order,
+    from a node of another layout, and liveness events."""
+
+    sent: int = 0
+    applied: int = 0
+    late: int = 0
+    foreign: int = 0
+    malformed: int = 0
+    lost: list[str] = field(default_factory=list)  # processes whose token went away
+    joined: list[str] = field(default_factory=list)
+
+
+class Mirror:
+    """The records a node sends and those it mirrors, over one local block (no network).
+
+    `changed()` gives the messages of every record this node wrote since it last sent or
+    mirrored it; `apply(suffix, payload)` writes a message into the block if it is newer
+    than the last one applied from the same sender. A control record's `beat_ns` is the
+    receiver's clock when it arrives (monotonic clocks of two hosts are not comparable),
+    so the runtime's heartbeat timeout measures silence on the receiving host."""
+
+    def __init__(self, layout: ModuleType, block: Block, node: str | None = None) -> None:
+        self.layout, self.block, self.node = layout, block, node
+        self.records = records(layout)
+        self.epoch = int.from_bytes(os.urandom(8), "little") or 1
+        # What every node's new block holds (layout.initialise): anything else in this block
+        # was written here, or before a restart, and is sent at the first push.
+        fresh = memoryview(bytearray(layout.SIZE))
+        layout.initialise(fresh)
+        # Every record's sequence word in one unpack (the bytes between them skipped).
+        ordered = sorted(self.records, key=lambda k: self.records[k].offset)
+        self._keys = tuple(ordered)
+        self._index = {key: i for i, key in enumerate(ordered)}
+        self._start = self.records[ordered[0]].offset
+        layout_format, at = "<", self._start
+        for key in ordered:
+            offset = self.records[key].offset
+            layout_format += (f"{offset - at}x" if offset > at else "") + "Q"
+            at = offset + SEQ.size
+        self._seqs = Struct(layout_format)
+        self.known = list(self._seqs.unpack_from(fresh, self._start))  # as last sent/mirrored
+        self.owned: set[str] = set()  # keys whose current value this node wrote
+        self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
+        self.pending: dict[int, list[tuple[str, bytes]]] = {}  # sender epoch -> its push so far
+        self.counters = Counters()
+        self._control = {f"{PROCESS_OWNER}/{p}/control" for p in layout.PROCESSES}
+        self._own = f"{PROCESS_OWNER}/{node}/control"  # only this process writes it
+
+    def changed(self, everything: bool = False) -> list[tuple[str, bytes]]:
+        """(key suffix, message) of each record this node wrote since it was last sent (with
+        `everything`, of each record whose value this node wrote, to bring a node that
+        joined up to date); control records last, so a receiver that has a process's
+        control record of cycle N has everything that process wrote up to cycle N. The
+        last message is marked as ending the push: a receiver applies the push whole."""
+        found = list(self._changed(everything))
+        if found:  # the last message ends the push
+            key, message = found[-1]
+            found[-1] = (key, EPOCH.pack(self.epoch, END) + message[EPOCH.size :])
+        return found
+
+    def _changed(self, everything: bool) -> Iterator[tuple[str, bytes]]:
+        buf, epoch = self.block.buf, EPOCH.pack(self.epoch, 0)
+        seqs, known, keys = self._seqs.unpack_from(buf, self._start), self.known, self._keys
+        if seqs == tuple(known) and not everything:
+            return
+        last_ones = []
+        for i, seq in enumerate(seqs):
+            key = keys[i]
+            if seq == known[i] and not (everything and key in self.owned):
+                continue
+            if seq % 2:  # being written (a writer died mid-write): not whole, not sent
+                continue
+            record = self.records[key]
+            data = bytes(buf[record.offset : record.offset + record.struct.size])
+            if SEQ.unpack_from(data, 0)[0] != seq:
+                continue
+            known[i] = seq
+            self.owned.add(key)
+            message = epoch + data
+            if key in self._control:
+                last_ones.append((key, message))
+            else:
+                yield key, message
+        yield from last_ones
+
+    def receive(self, key: str, payload: bytes) -> None:
+        """Keep a message until the one that ends its sender's push arrives, then apply the
+        push in the order sent: a reader never sees part of another process's cycle (a
+        subordinate's DONE without the world field it wrote in the same cycle)."""
+        if len(payload) < EPOCH.size:
+            self.counters.malformed += 1
+            return
+        epoch, flags = EPOCH.unpack_from(payload, 0)
+        pending = self.pending.setdefault(epoch, [])
+        pending.append((key, payload))
+        # (or, when a push's end was lost, once far more than a push has come)
+        if flags & END or len(pending) > 2 * len(self.records):
+            del self.pending[epoch]
+            for each in pending:
+                self.apply(*each)
+
+    def apply(self, key: str, payload: bytes, now_ns: int | None = None) -> bool:
+        """Mirror one message into the block; False when it is dropped (late, out of
+        order, for no record of this layout, or of the wrong size)."""
+        record = self.records.get(key)
+        if key == self._own:  # another node's idea of us (a launcher's DEAD): ours wins
+            return False
+        if record is None or len(payload) != EPOCH.size + record.struct.size:
+            self.counters.malformed += 1
+            return False
+        epoch = EPOCH.unpack_from(payload, 0)[0]
+        seq = SEQ.unpack_from(payload, EPOCH.size)[0]
+        if epoch == self.epoch:  # our own message, looped back
+            return False
+        previous = self.last.get(key)
+        if previous is not None and previous[0] == epoch and seq <= previous[1]:
+            self.counters.late += 1
+            return False
+        if seq == 0 or seq % 2:
+            self.counters.malformed += 1
+            return False
+        self.last[key] = (epoch, seq)
+        values = list(record.struct.unpack_from(payload, EPOCH.size))
+        if key in self._control:
+            # seq, pid, state, watchdog_trips, heartbeat, beat_ns, ...
+            values[5] = time.monotonic_ns() if now_ns is None else now_ns
+        self._write(key, record, values[1:])
+        self.owned.discard(key)
+        self.counters.applied += 1
+        return True
+
+    def mark_dead(self, process: str) -> None:
+        """A process's token went away (killed, or its network cut): its control record says
+        DEAD, so the supervisors of its modules go to their safe state (loop.check_liveness)."""
+        key = f"{PROCESS_OWNER}/{process}/control"
+        record = self.records.get(key)
+        if record is None:
+            return
+        values = list(record.struct.unpack_from(self.block.buf, record.offset))
+        values[2] = DEAD  # seq, pid, state
+        self._write(key, record, values[1:])
+        self.last.pop(key, None)
+        self.counters.lost.append(process)
+
+    def _write(self, key: str, record: Record, values: list[object]) -> None:
+        buf = self.block.buf
+        seq = next_odd(record.seq(buf))
+        SEQ.pack_into(buf, record.offset, seq)  # odd before any field changes
+        record.struct.pack_into(buf, record.offset, seq, *values)
+        SEQ.pack_into(buf, record.offset, seq + 1)
+        self.known[self._index[key]] = seq + 1
+
+    def heartbeat(self, process: str) -> int:
+        """The cycles a process has run, as mirrored here (its control record)."""
+        values = PROCESS.unpack_from(self.block.buf, self.layout.PROCESSES[process].offset)
+        return int(values[4])  # seq, pid, state, watchdog_trips, heartbeat
+
+    def state(self, process: str) -> int:
+        values = PROCESS.unpack_from(self.block.buf, self.layout.PROCESSES[process].offset)
+        return int(values[2])
+
+
+def check_endpoint(text: str) -> str:
+    """`tcp/HOST:PORT` (or udp/, quic/, tls/): a one-line error otherwise."""
+    proto, _, rest = text.partition("/")
+    host, _, port = rest.rpartition(":")
+    if proto not in ("tcp", "udp", "tls", "quic") or not host or not port.isdigit():
+        raise ValueError(f"endpoint {text!r} is not PROTO/HOST:PORT (e.g. tcp/127.0.0.1:7447)")
+    if not 0 <= int(port) <= 65535:
+        raise ValueError(f"endpoint {text!r}: port {port} is not 0..65535")
+    return text

@@ -1,0 +1,350 @@
+"""Zenoh transport: a node's mirror, where it listens and connects -> records moved between hosts.
+
+One Zenoh session per node (a process, or an observer: a lockstep coordinator, a launcher, an
+operator's console), peer to peer with no broker. Data arrives on Zenoh's threads and waits
+in an inbox; `pull` applies it to the local block in arrival order, in the node's own thread,
+at a cycle boundary, so a module never sees a record change under it. `push` sends what the
+node wrote (`transport.Mirror`). Each node declares a liveliness token
+`rcs/<system>/<hash-8>/_alive/<node>`: when a process's token goes away (killed, or its link
+silent for the lease) every node marks it DEAD and its dependants go to their safe state;
+when any node joins, the others send it everything they wrote, and a node of another layout
+is named and ignored. Zenoh's shared-memory transport is switched off, so nothing is left
+in /dev/shm. `zenoh` (the `eclipse-zenoh` package) is imported only here, only when a node
+is made: a system run on shared memory needs nothing but Python.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from struct import Struct
+from typing import Any
+
+from .block import Block
+from .contract import ABSENT, STOPPED
+from .loop import STEP, Process, Stop
+from .transport import ALIVE, STEP_KEY, Mirror, TransportError, prefix, reads
+
+DEFAULT_PORT = 7447  # Zenoh's own default
+# A free-running process that cycles faster than this sends its records at most this often:
+# the latest value of each (what a reader on one machine sees, reading once a cycle), so a
+# `--fast` process does not flood the network. Paced at the miner's 0.1 s, every cycle goes.
+MIN_PUSH_INTERVAL = 0.005
+
+
+@dataclass(frozen=True)
+class Options:
+    """Where a node listens and whom it connects to (`tcp/HOST:PORT` endpoints), and how
+    long a silent link lives (`lease_ms`: a partitioned host is reported after it)."""
+
+    listen: tuple[str, ...] = ()
+    connect: tuple[str, ...] = ()
+    lease_ms: int = 1000
+
+
+def config_json(options: Options) -> dict[str, Any]:
+    """The Zenoh configuration of a node, as JSON: a peer, no multicast scouting (hosts are
+    named, nothing is discovered behind the user's back), gossip over the links it has (so
+    peers that connect to one node find each other), no shared-memory transport."""
+    return {
+        "mode": "peer",
+        "listen/endpoints": list(options.listen),
+        "connect/endpoints": list(options.connect),
+        "scouting/multicast/enabled": False,
+        "transport/shared_memory/enabled": False,
+        "transport/link/tx/lease": options.lease_ms,
+    }
+
+
+def _zenoh() -> Any:
+    try:
+        import zenoh
+    except ImportError:
+        raise TransportError(
+            "the zenoh transport needs the eclipse-zenoh package: pip install 'rcsgen[zenoh]' "
+            "(or eclipse-zenoh==1.10.2)"
+        ) from None
+    return zenoh
+
+
+class ZenohTransport:
+    """A node on the Zenoh network: its subscriptions feed its mirror, its token tells the
+    others it is alive. `process` is the process it runs (None for an observer, which
+    receives everything). `block_when_congested` (lockstep) makes a put wait rather than
+    drop when the network is congested; a free-running controller never waits."""
+
+    def __init__(
+        self,
+        mirror: Mirror,
+        options: Options,
+        process: str | None = None,
+        modules: tuple[str, ...] = (),
+        block_when_congested: bool = False,
+        log: Callable[[str], None] | None = None,
+    ) -> None:
+        zenoh = _zenoh()
+        self.mirror, self.process = mirror, process
+        layout = mirror.layout
+        self.prefix = prefix(layout)
+        self.node = process if process is not None else f"_observer_{mirror.epoch:016x}"
+        self.inbox: deque[tuple[str, str, bytes]] = deque()
+        self.cond = threading.Condition()
+        self.steps: deque[bytes] = deque()
+        self.lost: set[str] = set()
+        self.joined: set[str] = set()
+        self.republish = False
+        self.log = log or (lambda text: print(text, file=sys.stderr))
+        self._warned: set[str] = set()
+        self._congestion = (
+            zenoh.CongestionControl.BLOCK if block_when_congested else zenoh.CongestionControl.DROP
+        )
+        self._publishers: dict[str, Any] = {}
+        self._lockstep, self._next_push = block_when_congested, 0.0
+        self._zenoh = zenoh
+        config = zenoh.Config()
+        for key, value in config_json(options).items():
+            config.insert_json5(key, json.dumps(value))
+        try:
+            self.session = zenoh.open(config)
+        except zenoh.ZError as error:  # e.g. a --listen port in use; not where in zenoh
+            raise TransportError(f"zenoh: {str(error).split(' at /')[0]}") from None
+        self._declared: list[Any] = []
+        self._cut = len(self.prefix) + 1
+        self._step = f"{STEP_KEY}/{process}"
+        # One subscriber for the system's whole prefix, filtered here by what this node
+        # reads: one zenoh-python thread then delivers everything in the order each sender
+        # sent it (a push whole, a coordinator's records before its step request). Several
+        # subscribers would each have a thread of their own, with no order between them.
+        self._wanted = _matcher(reads(layout, process, modules))
+        self._declared.append(
+            self.session.declare_subscriber(
+                f"{self.prefix}/**", self._sample, allowed_origin=zenoh.Locality.REMOTE
+            )
+        )
+        self._declared.append(
+            self.session.liveliness().declare_subscriber(
+                f"rcs/{layout.SYSTEM}/*/{ALIVE}/*", self._token, history=True
+            )
+        )
+        self.token = self.session.liveliness().declare_token(f"{self.prefix}/{ALIVE}/{self.node}")
+
+    # ------------------------------------------------------------ Zenoh's threads
+
+    def _sample(self, sample: Any) -> None:
+        key = str(sample.key_expr)[self._cut :]
+        if key == self._step:
+            self._arrived("step", "", sample.payload.to_bytes())
+        elif self._wanted(key):
+            self._arrived("data", key, sample.payload.to_bytes())
+
+    def _arrived(self, kind: str, key: str, payload: bytes) -> None:
+        with self.cond:
+            self.inbox.append((kind, key, payload))
+            self.cond.notify_all()
+
+    def _token(self, sample: Any) -> None:
+        parts = str(sample.key_expr).split("/")  # rcs, system, hash-8, _alive, node
+        if len(parts) != 5:
+            return
+        kind = "join" if sample.kind == self._zenoh.SampleKind.PUT else "leave"
+        if parts[2] != self.prefix.split("/")[2]:
+            kind = "foreign-" + kind
+        self._arrived(kind, parts[4], parts[2].encode())
+
+    # ------------------------------------------------------------ the node's thread
+
+    def pull(self) -> None:
+        """Apply everything that arrived, in order: records into the block, step requests
+        to `steps`, tokens to liveness (a lost process is marked DEAD)."""
+        with self.cond:
+            arrived = list(self.inbox)
+            self.inbox.clear()
+        mirror = self.mirror
+        for kind, key, payload in arrived:
+            if kind == "data":
+                mirror.receive(key, payload)
+            elif kind == "step":
+                self.steps.append(payload)
+            elif kind == "join":
+                self.republish = True  # a node joined: send it what we wrote
+                self.joined.add(key)
+                if key in mirror.layout.PROCESSES:
+                    self.lost.discard(key)
+                    mirror.counters.joined.append(key)
+            elif kind == "leave":
+                self.joined.discard(key)
+                if key in mirror.layout.PROCESSES and key != self.process:
+                    self.lost.add(key)
+                    if mirror.state(key) != STOPPED:  # it did not say goodbye: lost
+                        mirror.mark_dead(key)
+            elif kind == "foreign-join":
+                mirror.counters.foreign += 1
+                if key not in self._warned:
+                    self._warned.add(key)
+                    self.log(
+                        f"{self.node}: node {key} of {mirror.layout.SYSTEM} runs layout "
+                        f"{payload.decode()}, not {self.prefix.split('/')[2]}: ignored "
+                        "(rebuild every host from the same specs)"
+                    )
+
+    def push(self, last: bool = False) -> None:
+        """Send every record this node wrote since the last push (everything it wrote, when
+        a node joined since). The `last` push, as the node leaves, waits rather than drops
+        when the network is congested: its STOPPED must arrive before its token goes."""
+        if not (last or self.republish or self._lockstep):
+            now = time.monotonic()
+            if now < self._next_push:  # faster than the network should carry: coalesce
+                return
+            self._next_push = now + MIN_PUSH_INTERVAL
+        everything, self.republish = self.republish, False
+        for key, message in self.mirror.changed(everything):
+            if last:
+                self.session.put(
+                    f"{self.prefix}/{key}",
+                    message,
+                    congestion_control=self._zenoh.CongestionControl.BLOCK,
+                )
+                self.mirror.counters.sent += 1
+                continue
+            publisher = self._publishers.get(key)
+            if publisher is None:
+                publisher = self.session.declare_publisher(
+                    f"{self.prefix}/{key}", congestion_control=self._congestion
+                )
+                self._publishers[key] = publisher
+            publisher.put(message)
+            self.mirror.counters.sent += 1
+
+    def send_step(self, process: str, request: bytes) -> None:
+        """A lockstep request to `process` (after this node's own records: same link, in order)."""
+        self.session.put(
+            f"{self.prefix}/{STEP_KEY}/{process}",
+            request,
+            congestion_control=self._zenoh.CongestionControl.BLOCK,
+        )
+
+    def wait(self, ready: Callable[[], bool], timeout: float | None) -> bool:
+        """Pull until `ready()` holds (True) or `timeout` seconds pass (False)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            self.pull()
+            if self.republish:  # a node joined while we wait: it needs what we wrote
+                self.push()
+            if ready():
+                return True
+            with self.cond:
+                if self.inbox:
+                    continue
+                left = None if deadline is None else deadline - time.monotonic()
+                if left is not None and left <= 0:
+                    return False
+                self.cond.wait(0.2 if left is None else min(left, 0.2))
+
+    def close(self) -> None:
+        """Leave: send what is left (a process's STOPPED), then the token goes (the others
+        see this node gone), then the session."""
+        if not self.session.is_closed():
+            self.push(last=True)
+            self.token.undeclare()
+            self.session.close()
+
+
+class Attached:
+    """An observer's private block, kept current by a thread that mirrors what the system's
+    processes send and sends what is written here: an operator's console on another host."""
+
+    def __init__(self, layout: Any, options: Options, wait: float = 5.0) -> None:
+        self.block = Block(layout)
+        self.net = ZenohTransport(Mirror(layout, self.block), options)
+        names, mirror = list(layout.PROCESSES), self.net.mirror
+        self.net.wait(lambda: all(mirror.state(n) != ABSENT for n in names), wait)
+        if all(mirror.state(n) == ABSENT for n in names):
+            self.net.close()
+            self.block.close()
+            where = " ".join(options.connect)
+            raise TransportError(
+                f"no process of {layout.SYSTEM} (layout {layout.LAYOUT_HASH[:8]}) answered "
+                f"through {where} within {wait:g} s: is it running with --transport zenoh?"
+            )
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self.net.pull()
+            self.net.push()
+            self._stop.wait(0.01)
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join()
+        self.net.push()
+        self.net.close()
+        self.block.close()
+
+
+# ---------------------------------------------------------------- lockstep
+
+
+def step_request(first: int, last: int, end: bool, required: list[int]) -> bytes:
+    """A lockstep step: the segment, then the heartbeat each process (layout order) must have
+    reached, as the receiver mirrors it, before the segment runs."""
+    return STEP.pack(b"s", first, last, end) + Struct(f"<{len(required)}Q").pack(*required)
+
+
+def serve(
+    process: Process, transport: ZenohTransport, stop: Stop, timeout: float = 30.0
+) -> str | None:
+    """Run `process` in lockstep for a coordinator on the network: one segment per request,
+    after the records of the cycles the request names have arrived; after each, push what
+    it wrote (its control record last: the coordinator's answer). Returns None when stopped,
+    or why it gave up."""
+    names = list(process.layout.PROCESSES)
+    mirror = transport.mirror
+    transport.push()  # the INITs to our roots, the first beat
+    try:
+        while not stop.requested:
+            if not transport.wait(lambda: bool(transport.steps) or stop.requested, None):
+                continue
+            if stop.requested:
+                break
+            request = transport.steps.popleft()
+            op, first, last, end = STEP.unpack_from(request, 0)
+            if op != b"s":
+                break
+            required = Struct(f"<{len(names)}Q").unpack_from(request, STEP.size)
+            me = process.plan.name
+            others = [(n, r) for n, r in zip(names, required, strict=True) if n != me]
+            if not transport.wait(_reached(mirror, others), timeout):
+                missing = [n for n, r in others if mirror.heartbeat(n) < r]
+                return f"the records of {missing} did not arrive within {timeout:g} s"
+            process.run_modules(first, last)
+            if end:
+                process.cycle += 1
+                process.beat()
+            transport.push()
+    finally:
+        process.beat(STOPPED)  # sent as the caller closes the transport
+    return None
+
+
+def _reached(mirror: Mirror, others: list[tuple[str, int]]) -> Callable[[], bool]:
+    return lambda: all(mirror.heartbeat(n) >= r for n, r in others)
+
+
+def _matcher(patterns: list[str]) -> Callable[[str], bool]:
+    """Whether a key suffix matches one of `patterns` (Zenoh's `*`: one chunk; `**`: any)."""
+    import re
+
+    def chunk(text: str) -> str:
+        return "[^/]+" if text == "*" else ".*" if text == "**" else re.escape(text)
+
+    parts = ["/".join(chunk(c) for c in pattern.split("/")) for pattern in patterns]
+    regex = re.compile("(?:" + "|".join(parts) + ")" + "\\Z")
+    return lambda key: regex.match(key) is not None

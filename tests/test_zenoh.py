@@ -1,0 +1,528 @@
+"""The miner across "hosts" over Zenoh on 127.0.0.1: each process on a block of its own.
+
+The mirror (what moves, late messages dropped) is tested on private blocks; the rest runs
+real processes connected only through Zenoh, on ports chosen here: the lockstep trace
+equals the golden one, a stopped (partitioned) or killed host is detected and its
+dependants go to their safe state, a host that comes back re-joins, and nothing is left
+in /dev/shm, listening, or running.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from rcsgen.tools.harness import import_package
+from rcsgen.tools.scenario import load_scenario, open_harness, read_trace, run
+
+zenoh = pytest.importorskip("zenoh")
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGE = ROOT / "generated" / "miner"
+HOOKS = ROOT / "specs" / "miner"
+DEADLINE = 15.0  # seconds a liveness condition may take here before the test gives up
+
+
+@pytest.fixture(scope="module")
+def miner() -> ModuleType:
+    return import_package(PACKAGE, HOOKS)
+
+
+def rcs(miner: ModuleType, name: str) -> ModuleType:
+    import importlib
+
+    return importlib.import_module(f"{miner.__name__}.{name}")
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def listening(ports: set[int]) -> set[int]:
+    """Which of `ports` something on this machine listens on (from /proc/net/tcp)."""
+    found = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            lines = Path(table).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            fields = line.split()
+            port = int(fields[1].rsplit(":", 1)[1], 16)
+            if fields[3] == "0A" and port in ports:  # 0A: LISTEN
+                found.add(port)
+    return found
+
+
+def shm_files() -> set[str]:
+    """What is in /dev/shm but other checkouts' segments (`rcs*` with another pid): ours,
+    and anything Zenoh would leave (its shared-memory transport is off)."""
+    found = set(os.listdir("/dev/shm")) if os.path.isdir("/dev/shm") else set()
+    return {n for n in found if not n.startswith("rcs") or str(os.getpid()) in n}
+
+
+def wait_for(condition: Callable[[], object], what: str, deadline: float = DEADLINE) -> object:
+    end = time.monotonic() + deadline
+    while time.monotonic() < end:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.02)
+    raise AssertionError(f"gave up waiting: {what}")
+
+
+# ---------------------------------------------------------------- the mirror, no network
+
+
+def test_a_node_sends_only_what_it_wrote_and_its_control_record_last(miner: ModuleType) -> None:
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    block = rcs(miner, "rcs.block").Block(layout)
+    mirror = transport.Mirror(layout, block, "pc2")
+    assert list(mirror.changed()) == []  # a new block: nothing written yet
+    layout.STATUS_OUT["pp"].write(block.buf, status_num=1, status=2)
+    layout.PROCESSES["pc2"].write(block.buf, heartbeat=1)
+    layout.WORLD["tram_dir"].write(block.buf, tram_dir=1)
+    sent = [key for key, _ in mirror.changed()]
+    assert sent == ["pp/status", "_world/tram_dir", "_process/pc2/control"]
+    assert list(mirror.changed()) == []  # sent once
+    assert [k for k, _ in mirror.changed(everything=True)] == sent  # for a node that joined
+
+
+def test_a_late_or_out_of_order_message_is_dropped_and_counted(miner: ModuleType) -> None:
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block = rcs(miner, "rcs.block").Block
+    sender_block, receiver_block = Block(layout), Block(layout)
+    sender = transport.Mirror(layout, sender_block, "pc1")
+    receiver = transport.Mirror(layout, receiver_block, "pc2")
+    record = layout.COMMAND_IN["pp"]
+    messages = []
+    for number in (1, 2):
+        record.write(sender_block.buf, command_num=number, command=3, arg_x=float(number))
+        messages += [m for k, m in sender.changed() if k == "pp/command"]
+    assert receiver.apply("pp/command", messages[1])
+    assert record.read(receiver_block.buf)["command_num"] == 2
+    assert not receiver.apply("pp/command", messages[0])  # older: dropped
+    assert not receiver.apply("pp/command", messages[1])  # a duplicate: dropped
+    assert record.read(receiver_block.buf)["arg_x"] == 2.0
+    assert receiver.counters.late == 2
+    # a restarted sender (a new epoch) starts its sequence words again: accepted
+    restarted = transport.Mirror(layout, Block(layout), "pc1")
+    record.write(restarted.block.buf, command_num=7, command=3)
+    (message,) = [m for k, m in restarted.changed() if k == "pp/command"]
+    assert receiver.apply("pp/command", message)
+    assert record.read(receiver_block.buf)["command_num"] == 7
+    assert not receiver.apply("pp/command", message[:-1])  # the wrong size
+    assert not receiver.apply("no/such", message)
+    assert receiver.counters.malformed == 2
+    assert receiver.counters.applied == 2
+
+
+def test_a_push_is_applied_whole_when_its_last_message_arrives(miner: ModuleType) -> None:
+    """pp writes tram_dir and reports DONE in one cycle: a reader must never see the DONE
+    without the tram_dir, however its messages are split between two pulls."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block = rcs(miner, "rcs.block").Block
+    sender = transport.Mirror(layout, Block(layout), "pc2")
+    receiver = transport.Mirror(layout, Block(layout), "pc1")
+    layout.WORLD["tram_dir"].write(sender.block.buf, tram_dir=-1)
+    layout.STATUS_OUT["pp"].write(sender.block.buf, status_num=1, status=2)
+    layout.PROCESSES["pc2"].write(sender.block.buf, heartbeat=1)
+    push = sender.changed()
+    assert [k for k, _ in push] == ["pp/status", "_world/tram_dir", "_process/pc2/control"]
+    for key, message in push[:-1]:
+        receiver.receive(key, message)
+    assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 0  # not yet
+    assert layout.WORLD["tram_dir"].read(receiver.block.buf)["tram_dir"] == 0
+    receiver.receive(*push[-1])
+    assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 1
+    assert layout.WORLD["tram_dir"].read(receiver.block.buf)["tram_dir"] == -1
+    assert receiver.counters.applied == 3
+
+
+def test_a_mirrored_heartbeat_is_stamped_with_the_receivers_clock(miner: ModuleType) -> None:
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block = rcs(miner, "rcs.block").Block
+    contract = rcs(miner, "rcs.contract")
+    sender = transport.Mirror(layout, Block(layout), "pc2")
+    receiver = transport.Mirror(layout, Block(layout), "pc1")
+    layout.PROCESSES["pc2"].write(sender.block.buf, heartbeat=5, beat_ns=123, state=2)
+    (message,) = [m for k, m in sender.changed() if k == "_process/pc2/control"]
+    assert receiver.apply("_process/pc2/control", message, now_ns=987_654)
+    record = layout.PROCESSES["pc2"].read(receiver.block.buf)
+    assert (record["heartbeat"], record["beat_ns"]) == (5, 987_654)
+    receiver.mark_dead("pc2")
+    assert layout.PROCESSES["pc2"].read(receiver.block.buf)["state"] == contract.DEAD
+    assert list(receiver.changed()) == []  # the mark is local: never sent as pc2's record
+    # nobody else's idea of a process overrides its own control record
+    layout.PROCESSES["pc1"].write(sender.block.buf, state=contract.DEAD)
+    (message,) = [m for k, m in sender.changed() if k == "_process/pc1/control"]
+    assert not receiver.apply("_process/pc1/control", message)
+    assert layout.PROCESSES["pc1"].read(receiver.block.buf)["state"] != contract.DEAD
+
+
+def test_the_configuration_keeps_zenoh_out_of_dev_shm_and_off_multicast(miner: ModuleType) -> None:
+    zt = rcs(miner, "rcs.zenoh_transport")
+    config = zt.config_json(zt.Options(("tcp/127.0.0.1:1",), (), 700))
+    assert config["transport/shared_memory/enabled"] is False
+    assert config["scouting/multicast/enabled"] is False
+    assert config["transport/link/tx/lease"] == 700
+    before = shm_files()
+    mirror = rcs(miner, "rcs.transport").Mirror(
+        rcs(miner, "layout"), rcs(miner, "rcs.block").Block(rcs(miner, "layout"))
+    )
+    port = free_port()
+    node = zt.ZenohTransport(mirror, zt.Options((f"tcp/127.0.0.1:{port}",), (), 1000))
+    try:
+        assert listening({port}) == {port}
+    finally:
+        node.close()
+    assert shm_files() - before == set()
+    assert listening({port}) == set()
+
+
+def test_a_step_request_arrives_after_the_records_sent_before_it(miner: ModuleType) -> None:
+    """Lockstep relies on it: what a coordinator wrote (a scenario's command) must be in a
+    process's block when the step it sends next arrives, though they come through two
+    subscribers (zenoh-python would run each subscriber's callback in a thread of its own)."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block, zt = rcs(miner, "rcs.block").Block, rcs(miner, "rcs.zenoh_transport")
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    process_block, observer_block = Block(layout), Block(layout)
+    process = zt.ZenohTransport(
+        transport.Mirror(layout, process_block, "pc2"),
+        zt.Options(listen=(endpoint,)),
+        "pc2",
+        ("pp",),
+        block_when_congested=True,
+    )
+    observer = zt.ZenohTransport(
+        transport.Mirror(layout, observer_block),
+        zt.Options(connect=(endpoint,)),
+        block_when_congested=True,
+    )
+    record, seen = layout.COMMAND_IN["pp"], []
+    try:
+        assert process.wait(lambda: len(process.joined) == 2, 10.0)
+        assert observer.wait(lambda: len(observer.joined) == 2, 10.0)
+        for number in range(1, 301):
+            record.write(observer_block.buf, command_num=number, command=3)
+            observer.push()
+            observer.send_step("pc2", b"step")
+            assert process.wait(lambda: bool(process.steps), 10.0)
+            process.steps.clear()
+            seen.append(record.read(process_block.buf)["command_num"])
+    finally:
+        observer.close()
+        process.close()
+    assert seen == list(range(1, 301))
+
+
+def test_a_node_of_another_layout_is_named_and_ignored(miner: ModuleType) -> None:
+    """Hosts built from other specs share no key (the layout hash is in every key); a token
+    of the same system with another hash is reported once, in one line."""
+    import types
+
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block, zt = rcs(miner, "rcs.block").Block, rcs(miner, "rcs.zenoh_transport")
+    other = types.SimpleNamespace(**vars(layout))
+    other.LAYOUT_HASH = "0123456789abcdef" * 2
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    said: list[str] = []
+    ours_block, theirs_block = Block(layout), Block(layout)
+    ours = zt.ZenohTransport(
+        transport.Mirror(layout, ours_block), zt.Options(listen=(endpoint,)), log=said.append
+    )
+    theirs = zt.ZenohTransport(
+        transport.Mirror(other, theirs_block), zt.Options(connect=(endpoint,))
+    )
+    try:
+        assert ours.wait(lambda: ours.mirror.counters.foreign >= 1, 10.0)
+        layout.WORLD["pose_x"].write(theirs_block.buf, pose_x=5.0)
+        theirs.push()
+        time.sleep(0.3)
+        ours.pull()
+    finally:
+        theirs.close()
+        ours.close()
+    assert len(said) == 1
+    assert said[0].endswith(
+        "runs layout 01234567, not " + layout.LAYOUT_HASH[:8] + ": ignored (rebuild every "
+        "host from the same specs)"
+    )
+    assert ours.mirror.counters.applied == 0
+    assert layout.WORLD["pose_x"].read(ours_block.buf)["pose_x"] == 0.0
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--transport", "zenoh", "--connect", "127.0.0.1:7447"], "is not PROTO/HOST:PORT"),
+        (["--transport", "zenoh", "--listen", "tcp/127.0.0.1:99999"], "port 99999"),
+        (["--connect", "tcp/127.0.0.1:7447"], "go with --transport zenoh"),
+    ],
+)
+def test_a_bad_endpoint_is_one_line_and_exit_2(args: list[str], message: str) -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "miner", "pc2", *args],
+        cwd=PACKAGE.parent,
+        env={**os.environ, "PYTHONPATH": str(HOOKS)},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2
+    assert message in done.stderr.splitlines()[-1]
+    assert "Traceback" not in done.stderr
+
+
+def test_a_port_in_use_or_nobody_to_attach_to_is_one_line_and_exit_1() -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        done = subprocess.run(
+            [sys.executable, "-m", "miner", "pc2", "--transport", "zenoh", "--cycles", "1"]
+            + ["--shm", f"rcsgen_zenoh_{os.getpid()}_inuse", "--listen", f"tcp/127.0.0.1:{port}"],
+            cwd=PACKAGE.parent,
+            env={**os.environ, "PYTHONPATH": str(HOOKS)},
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    assert done.returncode == 1
+    assert done.stderr.splitlines() == [
+        f"pc2: zenoh: Can not create a new TCP listener bound to tcp/127.0.0.1:{port}: "
+        f"[127.0.0.1:{port}: Address already in use (os error 98)"
+    ]
+    nobody = ctl("--connect", f"tcp/127.0.0.1:{free_port()}", "status")
+    assert nobody.returncode == 1
+    (line,) = nobody.stderr.splitlines()
+    assert line.startswith("ctl: error: no process of miner (layout ")
+    assert line.endswith("within 5 s: is it running with --transport zenoh?")
+
+
+# ---------------------------------------------------------------- processes on two "hosts"
+
+
+def ctl(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "miner", "ctl", *args],
+        cwd=PACKAGE.parent,
+        env={**os.environ, "PYTHONPATH": str(HOOKS)},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+
+
+@pytest.mark.parametrize("name", [p.stem for p in sorted((HOOKS / "scenarios").glob("*.yaml"))])
+def test_lockstep_over_zenoh_leaves_the_golden_trace(name: str) -> None:
+    """pc1 and pc2 each on a block of their own, connected only through Zenoh, stepped by a
+    coordinator on the network: the trace equals the one-process golden trace, and
+    afterwards nothing is left in /dev/shm, listening or running."""
+    before = shm_files()
+    scenario = load_scenario(HOOKS / "scenarios" / f"{name}.yaml")
+    harness = open_harness(scenario, PACKAGE, processes=True, transport="zenoh")
+    port = int(harness.launcher.listen.rsplit(":", 1)[1])
+    children = [c.popen for c in harness.launcher.children.values()]
+    try:
+        assert listening({port}) == {port}
+        result = run(scenario, harness)
+    finally:
+        harness.close()
+    assert result.trace == read_trace(ROOT / "tests" / "golden" / f"{name}.jsonl")
+    cycles = len(result.trace)
+    assert any(line.startswith(f"pc2: stopped, {cycles} cycles") for line in harness.summary())
+    assert all(child.poll() is not None for child in children)
+    assert shm_files() - before == set()
+    assert listening({port}) == set()
+
+
+@pytest.fixture
+def two_hosts() -> Iterator[dict[str, object]]:
+    """pc2 (the path planner) listening, pc1 connecting to it: paced, each on its own
+    segment named after this test run; stopped and cleaned up afterwards."""
+    pid = os.getpid()
+    ports = {"pc2": free_port(), "pc1": free_port()}
+    segments = {name: f"rcsgen_zenoh_{pid}_{name}" for name in ports}
+    env = {**os.environ, "PYTHONPATH": str(HOOKS)}
+    command = [sys.executable, "-m", "miner"]
+    hosts = {}
+    hosts["pc2"] = subprocess.Popen(
+        [*command, "pc2", "--transport", "zenoh", "--shm", segments["pc2"]]
+        + ["--listen", f"tcp/127.0.0.1:{ports['pc2']}"],
+        cwd=PACKAGE.parent,
+        env=env,
+        stdout=subprocess.DEVNULL,
+    )
+    hosts["pc1"] = subprocess.Popen(
+        [*command, "pc1", "--transport", "zenoh", "--shm", segments["pc1"]]
+        + ["--listen", f"tcp/127.0.0.1:{ports['pc1']}"]
+        + ["--connect", f"tcp/127.0.0.1:{ports['pc2']}"],
+        cwd=PACKAGE.parent,
+        env=env,
+        stdout=subprocess.DEVNULL,
+    )
+    try:
+        yield {"hosts": hosts, "ports": ports, "segments": segments}
+    finally:
+        for host in hosts.values():
+            if host.poll() is None:
+                host.send_signal(signal.SIGCONT)
+                host.terminate()
+        for host in hosts.values():
+            try:
+                host.wait(10)
+            except subprocess.TimeoutExpired:
+                host.kill()
+                host.wait()
+        block = import_package(PACKAGE, HOOKS)
+        unlink = rcs(block, "rcs.block").unlink
+        for name in segments.values():  # a killed host could not remove its own
+            unlink(name)
+
+
+def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_state(
+    miner: ModuleType, two_hosts: dict[str, object]
+) -> None:
+    """vg (pc1) commands pp (pc2) over Zenoh; a partition of pc2 (SIGSTOP) is reported in
+    pc1's control record and vg goes to its safe state; pc2 continued re-joins; pc2 killed
+    is lost again. Afterwards nothing is left behind."""
+    layout = rcs(miner, "layout")
+    Block = rcs(miner, "rcs.block").Block
+    BlockError = rcs(miner, "rcs.block").BlockError
+    contract = rcs(miner, "rcs.contract")
+    hosts = two_hosts["hosts"]
+    segments = two_hosts["segments"]
+    ports = set(two_hosts["ports"].values())
+    before = shm_files()
+
+    def attach(name: str) -> object:
+        def tries() -> object:
+            try:
+                return Block(layout, segments[name], create=False)
+            except BlockError:
+                return None
+
+        return wait_for(tries, f"{name}'s segment")
+
+    pc1, pc2 = attach("pc1"), attach("pc2")
+    try:
+        # INIT rippled from vg (pc1) to pp (pc2) and pp's DONE came back into pc1's block
+        def pp_done_in(block: object) -> bool:
+            status = layout.STATUS_OUT["pp"].read(block.buf)
+            return status["status"] == contract.DONE and status["status_num"] >= 1
+
+        wait_for(lambda: pp_done_in(pc2), "pp's INIT done on pc2")
+        wait_for(lambda: pp_done_in(pc1), "pp's status mirrored on pc1")
+        assert layout.COMMAND_IN["pp"].read(pc2.buf)["command_num"] >= 1  # written by vg
+        # an operator's console on a third "host", attached through Zenoh to pc2 only
+        status = ctl("--connect", f"tcp/127.0.0.1:{two_hosts['ports']['pc2']}", "status")
+        assert status.returncode == 0, status.stderr
+        lines = status.stdout.splitlines()
+        assert lines[0] == f"miner on zenoh tcp/127.0.0.1:{two_hosts['ports']['pc2']}"
+        assert any(line.startswith("process pc1: running") for line in lines), status.stdout
+        (pp,) = [line.split() for line in lines if line.split()[:1] == ["pp"]]
+        assert pp[1:4] == ["INIT", "1", "DONE"], status.stdout
+        at_pc1 = f"tcp/127.0.0.1:{two_hosts['ports']['pc1']}"
+        refused = ctl("--connect", at_pc1, "stop", "pp")  # the access levels hold across hosts
+        assert refused.returncode == 1 and "needs override on pp" in refused.stderr
+        stop = ctl("--connect", at_pc1, "--role", "engineer", "stop", "pp")
+        assert stop.returncode == 0, stop.stderr
+        wait_for(lambda: layout.MODE_IN["pp"].read(pc2.buf)["dont_run"], "pp STOPped on pc2")
+        lost_bit = 1 << list(layout.PROCESSES).index("pc2")
+
+        def pc2_lost() -> bool:
+            return bool(layout.PROCESSES["pc1"].read(pc1.buf)["lost"] & lost_bit)
+
+        assert not pc2_lost()
+        hosts["pc2"].send_signal(signal.SIGSTOP)  # a partition: pc2 silent, its link open
+        wait_for(pc2_lost, "pc1 reports pc2 lost")
+        vg = layout.STATUS_OUT["vg"].read(pc1.buf)
+        assert (vg["status"], vg["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
+        hosts["pc2"].send_signal(signal.SIGCONT)
+        wait_for(lambda: not pc2_lost(), "pc2 re-joins")
+        hosts["pc2"].send_signal(signal.SIGKILL)
+        hosts["pc2"].wait(10)
+        wait_for(pc2_lost, "pc1 reports the killed pc2 lost")
+        hosts["pc1"].terminate()
+        assert hosts["pc1"].wait(15) == 0
+    finally:
+        pc1.close()
+        pc2.close()
+    assert not rcs(miner, "rcs.block").exists(segments["pc1"])  # pc1 removed its own
+    rcs(miner, "rcs.block").unlink(segments["pc2"])
+    assert shm_files() - before == set()
+    assert listening(ports) == set()
+
+
+def test_one_command_runs_the_box_cut_with_the_path_planner_on_a_second_host() -> None:
+    """`python -m miner --transport zenoh`: pc1 and pc2 free-running (not paced), each on a
+    block of its own, connected only through Zenoh; the operator's BOX_CUT, given through
+    the launcher's mirror, ends DONE at the depth of the one-process run."""
+    before = shm_files()
+    done = subprocess.run(
+        [sys.executable, "-m", "miner", "--transport", "zenoh", "--fast"]
+        + ["--shm", f"rcsgen_zenoh_{os.getpid()}_launch"]
+        + ["--set", "map=maps/box_cut.map", "--set", "seed=7"]
+        + ["--send", "sb.BOX_CUT:depth=1.5", "--until-done", "--report", "depth_cut"],
+        cwd=PACKAGE.parent,
+        env={**os.environ, "PYTHONPATH": str(HOOKS)},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[:2] == ["sb DONE #2", "depth_cut = 1.75"], done.stdout
+    assert any(line.startswith("pc2: stopped, ") for line in lines), done.stdout
+    assert shm_files() - before == set()
+
+
+def test_the_monitor_attaches_through_zenoh(
+    miner: ModuleType, two_hosts: dict[str, object]
+) -> None:
+    """`rcsgen monitor --connect`: the live screen over a block mirrored through Zenoh shows
+    the modules of both hosts, and its keys act on a module on the other host."""
+    import asyncio
+
+    from rcsgen.tools.monitor import Monitor
+
+    layout = rcs(miner, "layout")
+    endpoint = f"tcp/127.0.0.1:{two_hosts['ports']['pc1']}"
+
+    async def drive() -> list[str]:
+        app = Monitor(layout, "unused", interval=0.1, role="engineer", connect=(endpoint,))
+        seen = []
+        async with app.run_test(size=(160, 40)) as pilot:
+            for _ in range(50):  # until pp (on pc2) has reported its INIT
+                await pilot.pause(0.1)
+                if app.ctl.modules()["pp"].get("status") == "DONE":
+                    break
+            seen.append(app.ctl.modules()["pp"].get("status"))
+            while app.selected() != "pp":
+                await pilot.press("down")
+            await pilot.press("s")  # stop pp, on pc2, from here
+            await pilot.pause(0.3)
+            seen.append(app.sub_title)
+        return seen
+
+    status, title = asyncio.run(drive())
+    assert status == "DONE"
+    assert title == f"miner on zenoh {endpoint} as engineer"
+    block = rcs(miner, "rcs.block").Block(layout, two_hosts["segments"]["pc2"], create=False)
+    try:
+        wait_for(lambda: layout.MODE_IN["pp"].read(block.buf)["dont_run"], "pp STOPped on pc2")
+    finally:
+        block.close()
