@@ -7,6 +7,8 @@ import json
 from functools import cache
 from pathlib import Path
 
+import yaml
+
 from rcsgen.tools.scenario import load_scenario, open_harness, run
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -124,6 +126,43 @@ def test_operator_halt_reaches_every_controller_in_one_cycle_then_restarts():
     )
     assert by_cycle[restart]["modules"]["co"]["command"] == "INITIAL_APPROACH_FACE"
     assert final["status"] == "DONE" and lines[-1]["world"]["depth_cut"] >= 1.45
+
+
+def actuator_fields() -> list[str]:
+    """The world fields the system declares `actuator: true`: what HALT must stop."""
+    system = yaml.safe_load((ROOT / "specs" / "miner" / "system.yaml").read_text("utf-8"))
+    return sorted(name for name, field in system["world"].items() if field.get("actuator"))
+
+
+def test_operator_halt_in_mid_shear_leaves_every_actuator_stopped():
+    _, lines = played("operator_halt")
+    by_cycle = {line["cycle"]: line for line in lines}
+    halt = next(c for c, line in by_cycle.items() if line["modules"]["sb"]["command"] == "HALT")
+    before = by_cycle[halt - 1]
+    assert before["modules"]["cc"]["command"] == "SHEAR", "halted during the shear"
+    assert before["world"]["drum_on_cmd"] and before["world"]["boom_rate_cmd"] < 0.0
+    restart = next(c for c in sorted(by_cycle) if c > halt and halted_then(by_cycle[c], "BOX_CUT"))
+    fields = actuator_fields()
+    assert {"drum_on_cmd", "jack_down_cmd", "tail_request", "left_tread_cmd"} <= set(fields)
+    for cycle in range(halt, restart):
+        world = by_cycle[cycle]["world"]
+        stopped = {
+            "boom_rate_cmd": world["boom_rate_cmd"] == 0.0,
+            "drum_on_cmd": world["drum_on_cmd"] is False,
+            "jack_down_cmd": world["jack_down_cmd"] == world["jack_down"],  # not travelling
+            "left_tread_cmd": world["left_tread_cmd"] == 0,
+            "right_tread_cmd": world["right_tread_cmd"] == 0,
+            "gather_on_cmd": world["gather_on_cmd"] is False,
+            "conveyor_on_cmd": world["conveyor_on_cmd"] is False,
+            "tail_request": world["tail_request"] is False,
+            "pan_float_cmd": True,  # a position the pan holds, not a motion
+        }
+        assert set(stopped) == set(fields), "every actuator field is judged"
+        assert all(stopped.values()), f"cycle {cycle}: {[f for f, ok in stopped.items() if not ok]}"
+    still = [by_cycle[c]["world"] for c in range(halt + 2, restart)]
+    assert len({(w["true_x"], w["boom_angle_true"], w["jack_down"]) for w in still}) == 1, (
+        "nothing moves while halted"
+    )
 
 
 def halted_then(line: dict, command: str) -> bool:

@@ -284,10 +284,11 @@ class CdController:
             self.status = DONE
 
     def halt(self) -> None:
-        """HALT: Halt all actions."""
+        """HALT: Drum motor off (an operator's HALT must not leave the drum turning)."""
         state = self.state
         if state == S0:
             self.rule = 2  # HALT/S0/1
+            self.world_drum_on_cmd = False
             self.state = NOP
             self.status = DONE
 

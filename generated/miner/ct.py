@@ -283,10 +283,11 @@ class CtController:
             self.status = DONE
 
     def halt(self) -> None:
-        """HALT: Halt all actions."""
+        """HALT: Withdraw the request to the operator; the tail stays where it is."""
         state = self.state
         if state == S0:
             self.rule = 2  # HALT/S0/1
+            self.world_tail_request = False
             self.state = NOP
             self.status = DONE
 

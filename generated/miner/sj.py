@@ -288,10 +288,13 @@ class SjController:
             self.status = DONE
 
     def halt(self) -> None:
-        """HALT: Halt all actions."""
+        """HALT: Stop the jack where it is: command the position the jack sensor reports, so the
+        hydraulics stop travelling.
+        """
         state = self.state
         if state == S0:
             self.rule = 2  # HALT/S0/1
+            self.world_jack_down_cmd = self.world_jack_down
             self.state = NOP
             self.status = DONE
 
