@@ -48,8 +48,54 @@ def test_nominal_box_cut_three_slices_to_depth():
         "SUMP_SHEAR_CUSP",
     ]
     world = lines[-1]["world"]
-    assert world["depth_cut"] >= 1.45, "the operator's depth is reached"
+    assert abs(world["depth_cut"] - 1.5) <= DEPTH_TOLERANCE, "stopped at the ordered depth"
     assert world["coal_mined"] > 10.0 and world["loose_coal"] == 0.0
+
+
+# The box cut ends within half a map cell (0.25 m cells) of the ordered depth, measured on
+# the simulation's truth: the controllers only know world modelling's estimate.
+DEPTH_TOLERANCE = 0.125
+
+
+def test_the_last_sump_is_shortened_to_stop_at_the_ordered_depth():
+    for name, depth in (("box_cut", 1.5), ("sump_shear_cusp", 0.5)):
+        _, lines = played(name)
+        steps = [line["world"]["sump_step"] for line in lines]
+        assert steps[-1] < 0.5, f"{name}: the last sump was shortened"
+        assert abs(lines[-1]["world"]["depth_cut"] - depth) <= DEPTH_TOLERANCE, name
+
+
+def test_world_modelling_estimates_the_depth_from_the_sensed_pose():
+    _, lines = played("box_cut")
+    estimates = [(line["world"]["depth_est"], line["world"]["depth_cut"]) for line in lines]
+    assert estimates[-1][0] > 1.45, "the shift boss decided on the estimate"
+    slices = {round(est, 2) for est, _ in estimates if est > 0.0}
+    assert len(slices) >= 3, "the estimate grows slice by slice"
+    ends = [
+        line["world"]
+        for line in lines
+        if line["modules"]["co"]["command"] == "SUMP_SHEAR_CUSP"
+        and line["modules"]["co"]["status"] == "DONE"
+    ]
+    assert ends, "slices ended"
+    for world in ends:  # where the shift boss decides: after each slice
+        assert abs(world["depth_est"] - world["depth_cut"]) <= 0.125, "within half a map cell"
+
+
+def test_no_controller_uses_a_ground_truth_field():
+    miner = ROOT / "specs" / "miner"
+    system = yaml.safe_load((miner / "system.yaml").read_text("utf-8"))
+    truth = {name for name, field in system["world"].items() if field.get("ground_truth")}
+    assert {"depth_cut", "loose_coal_true", "true_x", "boom_angle_true", "in_coal"} <= truth
+    simulated = set(system["simulators"]) | set(system["stand_ins"].values())
+    controllers = [yaml.safe_load(p.read_text("utf-8")) for p in sorted(miner.glob("*.yaml"))]
+    controllers = [c for c in controllers if "controller" in c]
+    checked = [c for c in controllers if c["controller"] not in simulated]
+    assert {"sb", "co", "cr", "wm", "vg", "pp"} <= {c["controller"] for c in checked}
+    for spec in checked:
+        world = spec.get("world", {})
+        used = set(world.get("reads", [])) | set(world.get("writes", []))
+        assert not used & truth, f"{spec['controller']} uses {sorted(used & truth)}"
 
 
 def test_one_slice_is_one_sump_shear_cusp():

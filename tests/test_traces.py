@@ -43,7 +43,7 @@ def write_lines(path: Path, records: list[dict]) -> Path:
 
 
 def test_load_gives_columns_per_module_and_world(pop_out):
-    assert len(pop_out) == 285 and pop_out.cycles[:3] == [1, 2, 3]
+    assert len(pop_out) == 282 and pop_out.cycles[:3] == [1, 2, 3]
     assert "co" in pop_out.modules and pop_out.modules == sorted(pop_out.modules)
     co = pop_out.columns["co"]
     i = pop_out.cycles.index(78)
@@ -175,7 +175,7 @@ def test_coverage_counts_every_table_rule_of_the_miner(system):
     rules = {(r.module, r.rule): r for r in result.rules}
     pop = rules[("co", "SUMP_SHEAR_CUSP/S2/1")]
     assert pop.cycles == 1 and pop.traces == [str(GOLDEN / "pop_out.jsonl")]
-    assert pop.where.endswith("specs/miner/co.yaml:167")
+    assert pop.where.endswith("specs/miner/co.yaml:169")
     assert rules[("co", "SUMP_SHEAR_CUSP/S2/2")].traces == [str(GOLDEN / "late_tail.jsonl")]
     assert rules[("tc", "FAST_FORWARD/S0/1")].cycles == 0
     assert rules[("cr_sim", "SUMP/S0/1")].traces == [str(GOLDEN / "cr_simulated.jsonl")]

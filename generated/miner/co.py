@@ -63,7 +63,7 @@ CC_CUSP = 7
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI80xQI468xQI484xQI1604xd8xd8xd8xd264xd8xd8xd24xd8x?63xd")
+INPUTS = Struct("<QI44x???1xI80xQI468xQI484xQI1844xd8xd8xd8xd264xd8xd8xd24xd8xd8x?47xd")
 INPUTS_AT = 424
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
@@ -71,7 +71,7 @@ INPUTS_AT = 424
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3184
+WORLD_OUT_1_AT = 3424
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -143,6 +143,7 @@ class CoController:
         "world_popped_out_of_shear",
         "world_pose_x",
         "world_pose_y",
+        "world_sump_step",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -222,8 +223,9 @@ class CoController:
             self.world_pose_y,
             self.world_heading,
             self.world_cutter_current,
-            self.world_popped_out_of_shear,
             self.world_loose_coal,
+            self.world_popped_out_of_shear,
+            self.world_sump_step,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.cr_status_num != self.cr_command_num:
             self.cr_status = EXECUTING  # until it echoes the last number sent
@@ -373,8 +375,9 @@ class CoController:
             self.world_pose_y,
             self.world_heading,
             self.world_cutter_current,
-            self.world_popped_out_of_shear,
             self.world_loose_coal,
+            self.world_popped_out_of_shear,
+            self.world_sump_step,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.cr_status_num != self.cr_command_num:
             self.cr_status = EXECUTING  # until it echoes the last number sent
@@ -728,7 +731,7 @@ class CoController:
             self.state = S1
             try:
                 returned = hooks.co_position_for_sump(
-                    self.world_pose_x, self.world_pose_y, self.world_heading
+                    self.world_pose_x, self.world_pose_y, self.world_heading, self.world_sump_step
                 )
             except Exception as error:  # one error naming the module, hook, rule and cycle
                 raise HookError(
@@ -776,7 +779,10 @@ class CoController:
                 self.state = S1
                 try:
                     returned = hooks.co_position_for_sump(
-                        self.world_pose_x, self.world_pose_y, self.world_heading
+                        self.world_pose_x,
+                        self.world_pose_y,
+                        self.world_heading,
+                        self.world_sump_step,
                     )
                 except Exception as error:  # one error naming the module, hook, rule and cycle
                     raise HookError(

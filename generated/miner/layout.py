@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 3648 bytes.
+The block is 3952 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -108,44 +108,56 @@ command buffers and world fields:
 | 2872 | 32 | CSS_STATUS | STATUS_FIELDS |
 | 2904 | 16 | CSS_MODE | MODE_FIELDS |
 | 2920 | 48 | CSS_PERF | PERF_FIELDS |
-| 2968 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
-| 3008 | 32 | PP_STATUS | STATUS_FIELDS |
-| 3040 | 16 | PP_MODE | MODE_FIELDS |
-| 3056 | 48 | PP_PERF | PERF_FIELDS |
-| 3104 | 9 | WORLD_TAIL_REQUEST | tail_request |
-| 3120 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
-| 3136 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 3152 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
-| 3168 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
-| 3184 | 16 | WORLD_GOAL_X | goal_x |
-| 3200 | 16 | WORLD_GOAL_Y | goal_y |
-| 3216 | 16 | WORLD_TRAM_DIR | tram_dir |
-| 3232 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
-| 3248 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
-| 3264 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
-| 3280 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
-| 3296 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
-| 3312 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
-| 3328 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
-| 3344 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
-| 3360 | 16 | WORLD_TRUE_X | true_x |
-| 3376 | 16 | WORLD_TRUE_Y | true_y |
-| 3392 | 16 | WORLD_TRUE_HEADING | true_heading |
-| 3408 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
-| 3424 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
-| 3440 | 9 | WORLD_JACK_DOWN | jack_down |
-| 3456 | 9 | WORLD_TREAD_STALLED | tread_stalled |
-| 3472 | 16 | WORLD_POSE_X | pose_x |
-| 3488 | 16 | WORLD_POSE_Y | pose_y |
-| 3504 | 16 | WORLD_HEADING | heading |
-| 3520 | 16 | WORLD_BOOM_ANGLE | boom_angle |
-| 3536 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
-| 3552 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 3568 | 9 | WORLD_IN_COAL | in_coal |
-| 3584 | 16 | WORLD_FACE_X | face_x |
-| 3600 | 16 | WORLD_DEPTH_CUT | depth_cut |
-| 3616 | 16 | WORLD_LOOSE_COAL | loose_coal |
-| 3632 | 16 | WORLD_COAL_MINED | coal_mined |
+| 2968 | 20 | LCS_COMMAND | command_num, command |
+| 2992 | 32 | LCS_STATUS | STATUS_FIELDS |
+| 3024 | 16 | LCS_MODE | MODE_FIELDS |
+| 3040 | 48 | LCS_PERF | PERF_FIELDS |
+| 3088 | 20 | WM_COMMAND | command_num, command |
+| 3112 | 32 | WM_STATUS | STATUS_FIELDS |
+| 3144 | 16 | WM_MODE | MODE_FIELDS |
+| 3160 | 48 | WM_PERF | PERF_FIELDS |
+| 3208 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
+| 3248 | 32 | PP_STATUS | STATUS_FIELDS |
+| 3280 | 16 | PP_MODE | MODE_FIELDS |
+| 3296 | 48 | PP_PERF | PERF_FIELDS |
+| 3344 | 9 | WORLD_TAIL_REQUEST | tail_request |
+| 3360 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
+| 3376 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 3392 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
+| 3408 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
+| 3424 | 16 | WORLD_GOAL_X | goal_x |
+| 3440 | 16 | WORLD_GOAL_Y | goal_y |
+| 3456 | 16 | WORLD_TRAM_DIR | tram_dir |
+| 3472 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 3488 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 3504 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 3520 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 3536 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 3552 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 3568 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 3584 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 3600 | 16 | WORLD_TRUE_X | true_x |
+| 3616 | 16 | WORLD_TRUE_Y | true_y |
+| 3632 | 16 | WORLD_TRUE_HEADING | true_heading |
+| 3648 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 3664 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 3680 | 9 | WORLD_JACK_DOWN | jack_down |
+| 3696 | 9 | WORLD_TREAD_STALLED | tread_stalled |
+| 3712 | 16 | WORLD_POSE_X | pose_x |
+| 3728 | 16 | WORLD_POSE_Y | pose_y |
+| 3744 | 16 | WORLD_HEADING | heading |
+| 3760 | 16 | WORLD_BOOM_ANGLE | boom_angle |
+| 3776 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
+| 3792 | 16 | WORLD_LOOSE_COAL | loose_coal |
+| 3808 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 3824 | 16 | WORLD_DEPTH_EST | depth_est |
+| 3840 | 16 | WORLD_DRUM_REACH | drum_reach |
+| 3856 | 16 | WORLD_SUMP_STEP | sump_step |
+| 3872 | 9 | WORLD_IN_COAL | in_coal |
+| 3888 | 16 | WORLD_FACE_X | face_x |
+| 3904 | 16 | WORLD_DEPTH_CUT | depth_cut |
+| 3920 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
+| 3936 | 16 | WORLD_COAL_MINED | coal_mined |
 """
 
 from __future__ import annotations
@@ -174,9 +186,9 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 3648
+SIZE = 3952
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "cdd58e1a7624c82462d5aa2e0384b9be"
+LAYOUT_HASH = "aa2f2da67e078582b8f721742751e885"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
@@ -336,82 +348,104 @@ CSS_STATUS_AT = 2872
 CSS_MODE_AT = 2904
 CSS_PERF_AT = 2920
 
+# lcs: Loose coal sensor (simulated)
+LCS_COMMAND = Struct("<QQI")  # seq, command_num, command
+LCS_COMMAND_AT = 2968
+LCS_STATUS_AT = 2992
+LCS_MODE_AT = 3024
+LCS_PERF_AT = 3040
+
+# wm: World modelling (estimates from the sensors)
+WM_COMMAND = Struct("<QQI")  # seq, command_num, command
+WM_COMMAND_AT = 3088
+WM_STATUS_AT = 3112
+WM_MODE_AT = 3144
+WM_PERF_AT = 3160
+
 # pp: Path planner
 PP_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-PP_COMMAND_AT = 2968
-PP_STATUS_AT = 3008
-PP_MODE_AT = 3040
-PP_PERF_AT = 3056
+PP_COMMAND_AT = 3208
+PP_STATUS_AT = 3248
+PP_MODE_AT = 3280
+PP_PERF_AT = 3296
 
 # World model.
 WORLD_TAIL_REQUEST = Struct("<Q?")  # seq, tail_request
-WORLD_TAIL_REQUEST_AT = 3104
+WORLD_TAIL_REQUEST_AT = 3344
 WORLD_TAIL_IN_POSITION = Struct("<Q?")  # seq, tail_in_position
-WORLD_TAIL_IN_POSITION_AT = 3120
+WORLD_TAIL_IN_POSITION_AT = 3360
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 3136
+WORLD_OPERATOR_DELAY_AT = 3376
 WORLD_OPERATOR_GOAL_X = Struct("<Qd")  # seq, operator_goal_x
-WORLD_OPERATOR_GOAL_X_AT = 3152
+WORLD_OPERATOR_GOAL_X_AT = 3392
 WORLD_OPERATOR_GOAL_Y = Struct("<Qd")  # seq, operator_goal_y
-WORLD_OPERATOR_GOAL_Y_AT = 3168
+WORLD_OPERATOR_GOAL_Y_AT = 3408
 WORLD_GOAL_X = Struct("<Qd")  # seq, goal_x
-WORLD_GOAL_X_AT = 3184
+WORLD_GOAL_X_AT = 3424
 WORLD_GOAL_Y = Struct("<Qd")  # seq, goal_y
-WORLD_GOAL_Y_AT = 3200
+WORLD_GOAL_Y_AT = 3440
 WORLD_TRAM_DIR = Struct("<Qq")  # seq, tram_dir
-WORLD_TRAM_DIR_AT = 3216
+WORLD_TRAM_DIR_AT = 3456
 WORLD_BOOM_RATE_CMD = Struct("<Qd")  # seq, boom_rate_cmd
-WORLD_BOOM_RATE_CMD_AT = 3232
+WORLD_BOOM_RATE_CMD_AT = 3472
 WORLD_DRUM_ON_CMD = Struct("<Q?")  # seq, drum_on_cmd
-WORLD_DRUM_ON_CMD_AT = 3248
+WORLD_DRUM_ON_CMD_AT = 3488
 WORLD_JACK_DOWN_CMD = Struct("<Q?")  # seq, jack_down_cmd
-WORLD_JACK_DOWN_CMD_AT = 3264
+WORLD_JACK_DOWN_CMD_AT = 3504
 WORLD_LEFT_TREAD_CMD = Struct("<Qq")  # seq, left_tread_cmd
-WORLD_LEFT_TREAD_CMD_AT = 3280
+WORLD_LEFT_TREAD_CMD_AT = 3520
 WORLD_RIGHT_TREAD_CMD = Struct("<Qq")  # seq, right_tread_cmd
-WORLD_RIGHT_TREAD_CMD_AT = 3296
+WORLD_RIGHT_TREAD_CMD_AT = 3536
 WORLD_PAN_FLOAT_CMD = Struct("<Q?")  # seq, pan_float_cmd
-WORLD_PAN_FLOAT_CMD_AT = 3312
+WORLD_PAN_FLOAT_CMD_AT = 3552
 WORLD_GATHER_ON_CMD = Struct("<Q?")  # seq, gather_on_cmd
-WORLD_GATHER_ON_CMD_AT = 3328
+WORLD_GATHER_ON_CMD_AT = 3568
 WORLD_CONVEYOR_ON_CMD = Struct("<Q?")  # seq, conveyor_on_cmd
-WORLD_CONVEYOR_ON_CMD_AT = 3344
+WORLD_CONVEYOR_ON_CMD_AT = 3584
 WORLD_TRUE_X = Struct("<Qd")  # seq, true_x
-WORLD_TRUE_X_AT = 3360
+WORLD_TRUE_X_AT = 3600
 WORLD_TRUE_Y = Struct("<Qd")  # seq, true_y
-WORLD_TRUE_Y_AT = 3376
+WORLD_TRUE_Y_AT = 3616
 WORLD_TRUE_HEADING = Struct("<Qd")  # seq, true_heading
-WORLD_TRUE_HEADING_AT = 3392
+WORLD_TRUE_HEADING_AT = 3632
 WORLD_BOOM_ANGLE_TRUE = Struct("<Qd")  # seq, boom_angle_true
-WORLD_BOOM_ANGLE_TRUE_AT = 3408
+WORLD_BOOM_ANGLE_TRUE_AT = 3648
 WORLD_DRUM_CURRENT_TRUE = Struct("<Qd")  # seq, drum_current_true
-WORLD_DRUM_CURRENT_TRUE_AT = 3424
+WORLD_DRUM_CURRENT_TRUE_AT = 3664
 WORLD_JACK_DOWN = Struct("<Q?")  # seq, jack_down
-WORLD_JACK_DOWN_AT = 3440
+WORLD_JACK_DOWN_AT = 3680
 WORLD_TREAD_STALLED = Struct("<Q?")  # seq, tread_stalled
-WORLD_TREAD_STALLED_AT = 3456
+WORLD_TREAD_STALLED_AT = 3696
 WORLD_POSE_X = Struct("<Qd")  # seq, pose_x
-WORLD_POSE_X_AT = 3472
+WORLD_POSE_X_AT = 3712
 WORLD_POSE_Y = Struct("<Qd")  # seq, pose_y
-WORLD_POSE_Y_AT = 3488
+WORLD_POSE_Y_AT = 3728
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 3504
+WORLD_HEADING_AT = 3744
 WORLD_BOOM_ANGLE = Struct("<Qd")  # seq, boom_angle
-WORLD_BOOM_ANGLE_AT = 3520
+WORLD_BOOM_ANGLE_AT = 3760
 WORLD_CUTTER_CURRENT = Struct("<Qd")  # seq, cutter_current
-WORLD_CUTTER_CURRENT_AT = 3536
-WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 3552
-WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
-WORLD_IN_COAL_AT = 3568
-WORLD_FACE_X = Struct("<Qd")  # seq, face_x
-WORLD_FACE_X_AT = 3584
-WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
-WORLD_DEPTH_CUT_AT = 3600
+WORLD_CUTTER_CURRENT_AT = 3776
 WORLD_LOOSE_COAL = Struct("<Qd")  # seq, loose_coal
-WORLD_LOOSE_COAL_AT = 3616
+WORLD_LOOSE_COAL_AT = 3792
+WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
+WORLD_POPPED_OUT_OF_SHEAR_AT = 3808
+WORLD_DEPTH_EST = Struct("<Qd")  # seq, depth_est
+WORLD_DEPTH_EST_AT = 3824
+WORLD_DRUM_REACH = Struct("<Qd")  # seq, drum_reach
+WORLD_DRUM_REACH_AT = 3840
+WORLD_SUMP_STEP = Struct("<Qd")  # seq, sump_step
+WORLD_SUMP_STEP_AT = 3856
+WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
+WORLD_IN_COAL_AT = 3872
+WORLD_FACE_X = Struct("<Qd")  # seq, face_x
+WORLD_FACE_X_AT = 3888
+WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
+WORLD_DEPTH_CUT_AT = 3904
+WORLD_LOOSE_COAL_TRUE = Struct("<Qd")  # seq, loose_coal_true
+WORLD_LOOSE_COAL_TRUE_AT = 3920
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
-WORLD_COAL_MINED_AT = 3632
+WORLD_COAL_MINED_AT = 3936
 
 
 PROCESSES = {
@@ -447,6 +481,8 @@ PLACEMENT = {
     "bss": "pc1",
     "pss": "pc1",
     "css": "pc1",
+    "lcs": "pc1",
+    "wm": "pc1",
     "pp": "pc2",
 }
 # Seconds without a heartbeat after which a process is reported dead.
@@ -475,6 +511,8 @@ SUBORDINATES = {
     "bss": (),
     "pss": (),
     "css": (),
+    "lcs": (),
+    "wm": (),
     "pp": (),
     "cr_sim": (),
 }
@@ -505,6 +543,8 @@ MODULES = (
     "bss",
     "pss",
     "css",
+    "lcs",
+    "wm",
     "pp",
 )
 COMMAND_IN = {
@@ -530,6 +570,8 @@ COMMAND_IN = {
     "bss": Record(BSS_COMMAND, BSS_COMMAND_AT, ("command_num", "command")),
     "pss": Record(PSS_COMMAND, PSS_COMMAND_AT, ("command_num", "command")),
     "css": Record(CSS_COMMAND, CSS_COMMAND_AT, ("command_num", "command")),
+    "lcs": Record(LCS_COMMAND, LCS_COMMAND_AT, ("command_num", "command")),
+    "wm": Record(WM_COMMAND, WM_COMMAND_AT, ("command_num", "command")),
     "pp": Record(PP_COMMAND, PP_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
 }
 STATUS_OUT = {
@@ -555,6 +597,8 @@ STATUS_OUT = {
     "bss": Record(STATUS, BSS_STATUS_AT, field_names(STATUS_FIELDS)),
     "pss": Record(STATUS, PSS_STATUS_AT, field_names(STATUS_FIELDS)),
     "css": Record(STATUS, CSS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "lcs": Record(STATUS, LCS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "wm": Record(STATUS, WM_STATUS_AT, field_names(STATUS_FIELDS)),
     "pp": Record(STATUS, PP_STATUS_AT, field_names(STATUS_FIELDS)),
 }
 MODE_IN = {
@@ -580,6 +624,8 @@ MODE_IN = {
     "bss": Record(MODE, BSS_MODE_AT, field_names(MODE_FIELDS)),
     "pss": Record(MODE, PSS_MODE_AT, field_names(MODE_FIELDS)),
     "css": Record(MODE, CSS_MODE_AT, field_names(MODE_FIELDS)),
+    "lcs": Record(MODE, LCS_MODE_AT, field_names(MODE_FIELDS)),
+    "wm": Record(MODE, WM_MODE_AT, field_names(MODE_FIELDS)),
     "pp": Record(MODE, PP_MODE_AT, field_names(MODE_FIELDS)),
 }
 PERFORMANCE = {
@@ -605,6 +651,8 @@ PERFORMANCE = {
     "bss": Record(PERF, BSS_PERF_AT, field_names(PERF_FIELDS)),
     "pss": Record(PERF, PSS_PERF_AT, field_names(PERF_FIELDS)),
     "css": Record(PERF, CSS_PERF_AT, field_names(PERF_FIELDS)),
+    "lcs": Record(PERF, LCS_PERF_AT, field_names(PERF_FIELDS)),
+    "wm": Record(PERF, WM_PERF_AT, field_names(PERF_FIELDS)),
     "pp": Record(PERF, PP_PERF_AT, field_names(PERF_FIELDS)),
 }
 WORLD = {
@@ -650,13 +698,19 @@ WORLD = {
     "heading": Record(WORLD_HEADING, WORLD_HEADING_AT, ("heading",)),
     "boom_angle": Record(WORLD_BOOM_ANGLE, WORLD_BOOM_ANGLE_AT, ("boom_angle",)),
     "cutter_current": Record(WORLD_CUTTER_CURRENT, WORLD_CUTTER_CURRENT_AT, ("cutter_current",)),
+    "loose_coal": Record(WORLD_LOOSE_COAL, WORLD_LOOSE_COAL_AT, ("loose_coal",)),
     "popped_out_of_shear": Record(
         WORLD_POPPED_OUT_OF_SHEAR, WORLD_POPPED_OUT_OF_SHEAR_AT, ("popped_out_of_shear",)
     ),
+    "depth_est": Record(WORLD_DEPTH_EST, WORLD_DEPTH_EST_AT, ("depth_est",)),
+    "drum_reach": Record(WORLD_DRUM_REACH, WORLD_DRUM_REACH_AT, ("drum_reach",)),
+    "sump_step": Record(WORLD_SUMP_STEP, WORLD_SUMP_STEP_AT, ("sump_step",)),
     "in_coal": Record(WORLD_IN_COAL, WORLD_IN_COAL_AT, ("in_coal",)),
     "face_x": Record(WORLD_FACE_X, WORLD_FACE_X_AT, ("face_x",)),
     "depth_cut": Record(WORLD_DEPTH_CUT, WORLD_DEPTH_CUT_AT, ("depth_cut",)),
-    "loose_coal": Record(WORLD_LOOSE_COAL, WORLD_LOOSE_COAL_AT, ("loose_coal",)),
+    "loose_coal_true": Record(
+        WORLD_LOOSE_COAL_TRUE, WORLD_LOOSE_COAL_TRUE_AT, ("loose_coal_true",)
+    ),
     "coal_mined": Record(WORLD_COAL_MINED, WORLD_COAL_MINED_AT, ("coal_mined",)),
 }
 WORLD_INITIAL: dict[str, object] = {
@@ -688,11 +742,15 @@ WORLD_INITIAL: dict[str, object] = {
     "heading": 0.0,
     "boom_angle": 0.0,
     "cutter_current": 0.0,
+    "loose_coal": 0.0,
     "popped_out_of_shear": False,
+    "depth_est": 0.0,
+    "drum_reach": 0.0,
+    "sump_step": 0.5,
     "in_coal": False,
     "face_x": 0.0,
     "depth_cut": 0.0,
-    "loose_coal": 0.0,
+    "loose_coal_true": 0.0,
     "coal_mined": 0.0,
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
@@ -749,6 +807,8 @@ COMMAND_NAMES = {
     "bss": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "pss": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "css": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "lcs": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "wm": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "pp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN")),
 }
 STATE_NAMES = {
@@ -774,6 +834,8 @@ STATE_NAMES = {
     "bss": ("NOP", "S0"),
     "pss": ("NOP", "S0"),
     "css": ("NOP", "S0"),
+    "lcs": ("NOP", "S0"),
+    "wm": ("NOP", "S0"),
     "pp": ("NOP", "S0"),
     "cr_sim": ("NOP", "S0"),
 }
@@ -942,10 +1004,12 @@ RULES = {
     "bss": ("", "INIT/S0/1", "HALT/S0/1"),
     "pss": ("", "INIT/S0/1", "HALT/S0/1"),
     "css": ("", "INIT/S0/1", "HALT/S0/1"),
+    "lcs": ("", "INIT/S0/1", "HALT/S0/1"),
+    "wm": ("", "INIT/S0/1", "HALT/S0/1"),
     "pp": ("", "INIT/S0/1", "HALT/S0/1", "PLAN/S0/1", "PLAN/S0/2", "PLAN/S0/3"),
     "cr_sim": ("", "INIT/S0/1", "HALT/S0/1", "SUMP/S0/1", "SHEAR/S0/1", "CUSP/S0/1"),
 }
-SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css")
+SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css", "lcs")
 
 
 def initialise(buf: memoryview) -> None:

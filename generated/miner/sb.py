@@ -9,6 +9,7 @@ from .layout import (
     CO_COMMAND_AT,
     SB_PERF_AT,
     SB_STATUS_AT,
+    WORLD_SUMP_STEP_AT,
 )
 from .rcs.contract import (
     DONE,
@@ -38,12 +39,19 @@ CO_SUMP_SHEAR_CUSP = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQId44x???1xI80xQI3148xd")
+INPUTS = Struct("<QQId44x???1xI80xQI3372xd8xd8xd")
 INPUTS_AT = 288
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
 SEQS_AT = 288
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
+WORLD_OUT_1 = Struct("<Qd")
+WORLD_VALUES_1 = Struct("<8xd")
+WORLD_SEQS_1 = Struct("<Q")
+WORLD_OUT_1_AT = 3856
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -54,6 +62,7 @@ HALTING = 5
 
 # Constants.
 DEPTH_TOLERANCE = 0.05
+SUMP = 0.5
 
 
 class SbController:
@@ -88,7 +97,9 @@ class SbController:
         "status_dirty",
         "status_num",
         "status_seq",
-        "world_depth_cut",
+        "world_depth_est",
+        "world_drum_reach",
+        "world_sump_step",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -151,7 +162,9 @@ class SbController:
                     self.single_step_num,
                     self.co_status_num,
                     self.co_status,
-                    self.world_depth_cut,
+                    self.world_depth_est,
+                    self.world_drum_reach,
+                    self.world_sump_step,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -212,6 +225,12 @@ class SbController:
             CO_COMMAND.pack_into(buf, CO_COMMAND_AT, seq, self.co_command_num, self.co_command)
             SEQ.pack_into(buf, CO_COMMAND_AT, seq + 1)
             self.co_written = self.co_command_num
+        out = (self.world_sump_step,)
+        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, s[0] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -256,7 +275,9 @@ class SbController:
                     self.single_step_num,
                     self.co_status_num,
                     self.co_status,
-                    self.world_depth_cut,
+                    self.world_depth_est,
+                    self.world_drum_reach,
+                    self.world_sump_step,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -322,6 +343,12 @@ class SbController:
             CO_COMMAND.pack_into(buf, CO_COMMAND_AT, seq, self.co_command_num, self.co_command)
             SEQ.pack_into(buf, CO_COMMAND_AT, seq + 1)
             self.co_written = self.co_command_num
+        out = (self.world_sump_step,)
+        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, s[0] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -412,9 +439,10 @@ class SbController:
 
         elif state == S1:
             if self.co_status == DONE:
-                # at the face; cut the first slice
+                # at the face; cut the first slice (no deeper than ordered)
                 self.rule = 9  # BOX_CUT/S1/1
                 self.state = S2
+                self.world_sump_step = min(SUMP, self.arg_depth - self.world_drum_reach)
                 self.co_command = CO_SUMP_SHEAR_CUSP
                 self.co_command_num += 1
 
@@ -425,13 +453,13 @@ class SbController:
                 self.co_command_num += 1
 
         elif state == S2:
-            if self.co_status == DONE and self.world_depth_cut >= self.arg_depth - DEPTH_TOLERANCE:
+            if self.co_status == DONE and self.world_depth_est >= self.arg_depth - DEPTH_TOLERANCE:
                 # the depth is reached
                 self.rule = 11  # BOX_CUT/S2/1
                 self.state = NOP
                 self.status = DONE
 
-            elif self.co_status == DONE and self.world_depth_cut < self.arg_depth - DEPTH_TOLERANCE:
+            elif self.co_status == DONE and self.world_depth_est < self.arg_depth - DEPTH_TOLERANCE:
                 # not deep enough yet; back to the face
                 self.rule = 12  # BOX_CUT/S2/2
                 self.state = S3
@@ -446,8 +474,10 @@ class SbController:
 
         elif state == S3:
             if self.co_status == DONE:
+                # back at the face; the last sump is shortened to stop at the ordered depth
                 self.rule = 14  # BOX_CUT/S3/1
                 self.state = S2
+                self.world_sump_step = min(SUMP, self.arg_depth - self.world_drum_reach)
                 self.co_command = CO_SUMP_SHEAR_CUSP
                 self.co_command_num += 1
 

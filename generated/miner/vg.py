@@ -51,12 +51,12 @@ TC_STOP = 13
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI80xQI1332xQQI188xQq248xd")
+INPUTS = Struct("<QIdd44x???1xI80xQI1572xQQI188xQq248xd")
 INPUTS_AT = 1504
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q200xQ")
-SEQS_AT = 3008
+SEQS_AT = 3248
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
