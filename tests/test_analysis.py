@@ -1131,7 +1131,7 @@ MINER_FINDINGS = [
     (
         "cr.yaml",
         "W503",
-        "SHEAR S1 waits when world.tail_in_position=false: no rule fires then",
+        "SHEAR S1 waits when world.loose_coal=0.05, gh.command=INIT: no rule fires then",
     ),
     (
         "cr.yaml",

@@ -9,10 +9,12 @@ from pathlib import Path
 
 import yaml
 
+from rcsgen.tools.mine_view import import_hooks
 from rcsgen.tools.scenario import load_scenario, open_harness, run
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIOS = ROOT / "specs" / "miner" / "scenarios"
+mine_hooks = import_hooks(ROOT / "specs" / "miner", "miner_hooks.mine")  # the map, the cutting
 
 
 @cache
@@ -46,10 +48,12 @@ def test_nominal_box_cut_three_slices_to_depth():
         "SUMP_SHEAR_CUSP",
         "APPROACH_FACE",
         "SUMP_SHEAR_CUSP",
+        "HALT",
     ]
     world = lines[-1]["world"]
     assert abs(world["depth_cut"] - 1.5) <= DEPTH_TOLERANCE, "stopped at the ordered depth"
-    assert world["coal_mined"] > 10.0 and world["loose_coal"] == 0.0
+    assert world["coal_mined"] > 10.0 and world["loose_coal"] <= 0.05
+    assert not world["drum_on_cmd"] and not world["conveyor_on_cmd"], "stopped at the end"
 
 
 # The box cut ends within half a map cell (0.25 m cells) of the ordered depth, measured on
@@ -98,12 +102,46 @@ def test_no_controller_uses_a_ground_truth_field():
         assert not used & truth, f"{spec['controller']} uses {sorted(used & truth)}"
 
 
+def test_the_cusp_tram_takes_the_floor_wedge_and_coal_removal_gathers_it():
+    _, lines = played("box_cut")
+    cusp = [
+        line
+        for line in lines
+        if line["modules"]["co"]["command"] == "SUMP_SHEAR_CUSP"
+        and line["modules"]["co"]["state"] == "S4"
+    ]
+    assert cusp, "co trammed back to take the cusp"
+    assert all(line["world"]["gather_on_cmd"] and line["world"]["conveyor_on_cmd"] for line in cusp)
+    mined = [line["world"]["coal_mined"] for line in cusp]
+    assert mined[-1] > mined[0], "coal cut on the way back was gathered"
+
+
+def test_a_shear_leaves_a_floor_wedge_that_a_tram_back_at_the_floor_takes():
+    mine = load_mine()
+    face = mine.first_face
+    x = face + 0.25  # drum centre, a slice into the face
+    for angle in (30.0, 10.0, -10.0):  # sump at the roof, shear down to the floor
+        mine_hooks.cut_coal(mine, x, 0.0, angle, True)
+    behind = [c for c in range(mine.columns) if face - 0.25 < mine.x0 + (c + 0.5) * 0.25 < x]
+    wedges = {c: mine.seam[(45, c)] for c in behind if (45, c) in mine.seam}
+    assert wedges and all(0.0 < h <= mine_hooks.FACE_MIN for h in wedges.values()), wedges
+    tonnes = 0.0
+    for step in range(1, 11):  # tram back 0.5 m with the drum at the floor
+        tonnes += mine_hooks.cut_coal(mine, x - 0.05 * step, 0.0, -10.0, True)[3]
+    assert tonnes > 0.0, "the cusp is loose coal"
+    assert all(mine.seam[(45, c)] == 0.0 for c in wedges), "nothing left on the floor behind"
+
+
+def load_mine():
+    return mine_hooks.load_map(ROOT / "specs" / "miner" / "maps" / "box_cut.map")
+
+
 def test_one_slice_is_one_sump_shear_cusp():
     final, lines = played("sump_shear_cusp")
     assert final["status"] == "DONE"
     assert commands_sent(lines, "co").count("SUMP_SHEAR_CUSP") == 1
     assert commands_sent(lines, "cc") == [
-        "INIT", "RAISE_DRUM", "SUMP", "SHEAR", "CUSP"
+        "INIT", "RAISE_DRUM", "SUMP", "SHEAR", "CUSP", "HALT"
     ]  # fmt: skip
 
 
@@ -121,9 +159,18 @@ def test_pop_out_is_corrected_and_the_cut_completes():
 def test_late_tail_halts_the_shear_until_the_tail_is_in_position():
     final, lines = played("late_tail")
     assert final["status"] == "DONE"
-    halts = [line for line in lines if line["modules"]["cc"]["command"] == "HALT"]
+    halts = [  # co's loose-coal pauses (not the shift boss's HALT at the end)
+        line
+        for line in lines
+        if line["modules"]["cc"]["command"] == "HALT"
+        and line["modules"]["co"]["command"] == "SUMP_SHEAR_CUSP"
+    ]
     assert halts, "too much loose coal halted the shear"
-    assert all(line["world"]["loose_coal"] > 4.0 for line in halts[:-1]), "halted for coal"
+    by_cycle = {line["cycle"]: line for line in lines}
+    for line in halts:  # each HALT co sent was decided on the gauge's reading of the cycle before
+        before = by_cycle[line["cycle"] - 1]
+        if before["modules"]["cc"]["command_num"] != line["modules"]["cc"]["command_num"]:
+            assert before["world"]["loose_coal"] > 4.0, "halted for coal"
     assert not halts[0]["world"]["tail_in_position"], "the tail was not there when it halted"
     placed = next(line["cycle"] for line in lines if line["world"]["tail_in_position"])
     assert halts[0]["cycle"] < placed <= halts[-1]["cycle"], "halted until after the tail came"

@@ -43,7 +43,7 @@ def write_lines(path: Path, records: list[dict]) -> Path:
 
 
 def test_load_gives_columns_per_module_and_world(pop_out):
-    assert len(pop_out) == 282 and pop_out.cycles[:3] == [1, 2, 3]
+    assert len(pop_out) == 287 and pop_out.cycles[:3] == [1, 2, 3]
     assert "co" in pop_out.modules and pop_out.modules == sorted(pop_out.modules)
     co = pop_out.columns["co"]
     i = pop_out.cycles.index(78)
@@ -150,10 +150,11 @@ def test_changes_fold_cycles_that_change_alike(system):
     ]
     every = list(changes.timeline(trace, lanes, ["tc"], "none", 19, 50, merge=False))
     assert len(every) == 64
-    halts = list(changes.timeline(trace, lanes, ["bm"], "none", 77, 113))
-    assert halts[-1] == "  ... the same each cycle through cycle 113 (37 cycles)"
-    assert (
-        halts[1] == "  bm  command HALT #5 -> HALT #6  status DONE #5 -> DONE #6  fired HALT/S0/1"
+    # the loose-coal HALT re-sent every cycle while the gauge reads more than the limit
+    halts = list(changes.timeline(trace, lanes, ["bm"], "none", 91, 107))
+    assert halts[-1] == "  ... the same each cycle through cycle 107 (17 cycles)"
+    assert halts[1] == (
+        "  bm  command HALT #15 -> HALT #16  status DONE #15 -> DONE #16  fired HALT/S0/1"
     )
 
 

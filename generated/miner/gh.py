@@ -301,11 +301,12 @@ class GhController:
             self.status = DONE
 
     def float(self) -> None:
-        """FLOAT: Gathering pan to float on the floor."""
+        """FLOAT: Gathering pan to float on the floor, the head off until there is coal to gather."""
         state = self.state
         if state == S0:
             self.rule = 3  # FLOAT/S0/1
             self.world_pan_float_cmd = True
+            self.world_gather_on_cmd = False
             self.state = NOP
             self.status = DONE
 

@@ -812,7 +812,7 @@ COMMAND_NAMES = {
     "pp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN")),
 }
 STATE_NAMES = {
-    "sb": ("NOP", "S0", "S1", "S2", "S3", "HALTING"),
+    "sb": ("NOP", "S0", "S1", "S2", "S3", "STOPPING", "HALTING"),
     "co": ("NOP", "S0", "S1", "S2", "S3", "FAILED", "S4"),
     "cc": ("NOP", "S0", "S1", "S2"),
     "bm": ("NOP", "S0", "S1"),
@@ -858,6 +858,8 @@ RULES = {
         "BOX_CUT/S2/3",
         "BOX_CUT/S3/1",
         "BOX_CUT/S3/2",
+        "BOX_CUT/STOPPING/1",
+        "BOX_CUT/STOPPING/2",
         "BOX_CUT/HALTING/1",
     ),
     "co": (
@@ -934,8 +936,6 @@ RULES = {
         "CUSP/S0/1",
         "CUSP/S1/1",
         "CUSP/S1/2",
-        "CUSP/S2/1",
-        "CUSP/S2/2",
     ),
     "gh": ("", "INIT/S0/1", "HALT/S0/1", "FLOAT/S0/1", "ON/S0/1"),
     "cv": ("", "INIT/S0/1", "HALT/S0/1", "ON/S0/1"),

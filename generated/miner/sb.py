@@ -58,7 +58,8 @@ S0 = 1
 S1 = 2
 S2 = 3
 S3 = 4
-HALTING = 5
+STOPPING = 5
+HALTING = 6
 
 # Constants.
 DEPTH_TOLERANCE = 0.05
@@ -454,10 +455,11 @@ class SbController:
 
         elif state == S2:
             if self.co_status == DONE and self.world_depth_est >= self.arg_depth - DEPTH_TOLERANCE:
-                # the depth is reached
+                # the depth is reached; stop the machine (drum, conveyance) where it is
                 self.rule = 11  # BOX_CUT/S2/1
-                self.state = NOP
-                self.status = DONE
+                self.state = STOPPING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
 
             elif self.co_status == DONE and self.world_depth_est < self.arg_depth - DEPTH_TOLERANCE:
                 # not deep enough yet; back to the face
@@ -487,8 +489,19 @@ class SbController:
                 self.co_command = CO_HALT
                 self.co_command_num += 1
 
+        elif state == STOPPING:
+            if self.co_status == DONE:
+                self.rule = 16  # BOX_CUT/STOPPING/1
+                self.state = NOP
+                self.status = DONE
+
+            elif self.co_status == ERROR:
+                self.rule = 17  # BOX_CUT/STOPPING/2
+                self.state = NOP
+                self.status = ERROR
+
         elif state == HALTING and (self.co_status == DONE or self.co_status == ERROR):
             # the machine is stopped; tell the operator the box cut failed
-            self.rule = 16  # BOX_CUT/HALTING/1
+            self.rule = 18  # BOX_CUT/HALTING/1
             self.state = NOP
             self.status = ERROR

@@ -3,7 +3,11 @@
 A map file has one character per 0.25 m square cell: rows run across the entry, columns
 run inby along it; `#` is coal, `.` open. Each coal cell keeps how much of the seam height
 is still standing (1.0 = the full seam, 0.0 = cut to the floor). The turning drum cuts
-every cell it overlaps down to the drum's bottom edge; the coal cut becomes loose coal.
+every cell it overlaps down to the drum's round bottom edge; the coal cut becomes loose
+coal. A shear therefore leaves a wedge of floor coal either side of the drum's lowest point
+(the cusp, mining paper section 2.1.2), which the drum takes when the machine trams back
+with the drum at the floor. A cell with no more than a cusp's height standing is floor
+coal, no longer part of the face.
 """
 
 from __future__ import annotations
@@ -17,7 +21,10 @@ DRUM_RADIUS = 0.5  # metres: the drum reaches this far either side of its centre
 DRUM_HALF_WIDTH = 1.6  # metres: the drum spans the entry
 DRUM_HEIGHT = 0.4  # fraction of the seam the drum covers
 ROOF_ANGLE, FLOOR_ANGLE = 30.0, -10.0  # degrees: drum top at the roof, bottom on the floor
-TONNES_PER_CELL = CELL * CELL * 2.0 * 1.3  # cell area x 2 m seam x 1.3 t/m3
+SEAM_HEIGHT = 2.0  # metres
+TONNES_PER_CELL = CELL * CELL * SEAM_HEIGHT * 1.3  # cell area x seam x 1.3 t/m3
+FACE_MIN = 0.1  # fraction of the seam: a cell standing no higher is the cusp, not the face
+CUT_THROUGH = 0.005  # fraction of the seam (1 cm): less than this left is cut to the floor
 SYSTEM_DIR = Path(__file__).resolve().parent.parent
 DEFAULT_MAP = "maps/box_cut.map"
 
@@ -66,6 +73,14 @@ def _span(low: float, high: float, origin: float) -> range:
     return range(first, last + 1)
 
 
+def _wedge(mine: Mine, x: float, column: int) -> float:
+    """How far (seam fraction) the drum's round bottom is above its lowest point over the
+    centre of `column`, for a drum centred at `x`: the cusp it leaves there."""
+    offset = mine.x0 + (column + 0.5) * CELL - x
+    rise = DRUM_RADIUS - math.sqrt(max(0.0, DRUM_RADIUS**2 - offset**2))
+    return rise / SEAM_HEIGHT
+
+
 def _covered(mine: Mine, x: float, y: float) -> list[tuple[int, int]]:
     """The coal cells under the drum, row by row (the map's own order)."""
     rows = _span(y - DRUM_HALF_WIDTH, y + DRUM_HALF_WIDTH, mine.y0)
@@ -82,12 +97,12 @@ def face(mine: Mine, y: float) -> float:
 
 
 def _cut_to_floor(mine: Mine, r: int, c: int) -> None:
-    """Cell (r, c) no longer stands: if it was its row's first, the row's first moves on."""
+    """Cell (r, c) is no longer face: if it was its row's first, the row's first moves on."""
     if mine.first.get(r) != c:
         return
     seam = mine.seam
     for after in range(c + 1, mine.columns):
-        if seam.get((r, after), 0.0) > 0.0:
+        if seam.get((r, after), 0.0) > FACE_MIN:
             mine.first[r] = after
             return
     del mine.first[r]
@@ -102,12 +117,15 @@ def cut_coal(
     contact, tonnes = False, 0.0
     for cell in _covered(mine, x, y):
         standing = mine.seam[cell]
-        if standing > bottom:
+        level = min(1.0, bottom + _wedge(mine, x, cell[1]))
+        if level < CUT_THROUGH:
+            level = 0.0
+        if standing > level:
             contact = True
             if drum_on:
-                tonnes += (standing - bottom) * TONNES_PER_CELL
-                mine.seam[cell] = bottom
-                if bottom <= 0.0:
+                tonnes += (standing - level) * TONNES_PER_CELL
+                mine.seam[cell] = level
+                if level <= FACE_MIN:
                     _cut_to_floor(mine, *cell)
     now = face(mine, y)
     return contact, round(now, 6), round(now - mine.first_face, 6), round(tonnes, 6)

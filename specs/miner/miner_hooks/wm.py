@@ -11,6 +11,9 @@ CUTTER_THRESHOLD = 60.0  # amperes: the drum is cutting coal
 # passes the threshold at the slow tram speed (0.05 m a cycle: half a cell to reach the
 # first coal cell's centre, then the motor's and the sensor's response)
 CONTACT_LAG = 0.15
+# metres: the drum's round bottom is a cusp's height (a tenth of the 2 m seam, as the
+# mine counts the face) above the floor this far from the drum's centre
+FLOOR_REACH = 0.4
 POP_DISTANCE = 0.1  # metres: the machine moved this far since the drum left the roof
 NOWHERE = -1.0e9  # "not seen yet" for a position
 
@@ -35,8 +38,8 @@ def wm_estimate(
     - popped: the jack is down, the boom below the roof, and the machine has moved more than
       POP_DISTANCE from the shear's start: the cutting force pushed the drum out of the cut.
       Cleared once the boom is back at the roof (what SHEAR_CORRECT does);
-    - depth: how far the face is cut back to the floor (floor_x's front edge past face0);
-    - reach: how far the drum's front edge is past face0 now (the next sump starts there).
+    - depth: how far the face is cut back to the floor (floor_x + FLOOR_REACH past face0);
+    - reach: the depth a shear from the sensed pose now would give (the next sump adds to it).
     """
     if face0 <= NOWHERE and cutter_current > CUTTER_THRESHOLD:
         face0 = pose_x + DRUM_RADIUS - CONTACT_LAG
@@ -49,7 +52,7 @@ def wm_estimate(
         popped = True
     depth = reach = 0.0
     if face0 > NOWHERE:
-        reach = round(max(0.0, pose_x + DRUM_RADIUS - face0), 6)
+        reach = round(max(0.0, pose_x + FLOOR_REACH - face0), 6)
         if floor_x > NOWHERE:
-            depth = round(max(0.0, floor_x + DRUM_RADIUS - face0), 6)
+            depth = round(max(0.0, floor_x + FLOOR_REACH - face0), 6)
     return face0, floor_x, shear_x, popped, depth, reach
