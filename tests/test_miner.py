@@ -9,6 +9,7 @@ from pathlib import Path
 
 import yaml
 
+from rcsgen.tools.harness import Harness
 from rcsgen.tools.mine_view import import_hooks
 from rcsgen.tools.scenario import load_scenario, open_harness, run
 
@@ -280,3 +281,40 @@ def test_operator_goal_entry_trams_the_machine_there():
     assert entered["world"]["operator_goal_x"] == -1.5, "the console entry reached the world"
     assert commands_sent(lines, "co")[-1] == "TRAM_TO_GOAL"
     assert abs(lines[-1]["world"]["pose_x"] - -1.5) < 0.05, "the machine is at the goal"
+
+
+def rising(lines: list[dict], field: str) -> list[int]:
+    """The cycles in which a bool world field became true."""
+    cycles, was = [], False
+    for line in lines:
+        now = line["world"][field]
+        if now and not was:
+            cycles.append(line["cycle"])
+        was = now
+    return cycles
+
+
+def test_the_operator_is_asked_for_the_tail_on_every_sump():
+    for name in ("box_cut", "late_tail"):
+        _, lines = played(name)
+        sumps = commands_sent(lines, "co").count("SUMP_SHEAR_CUSP")
+        asked = rising(lines, "tail_request")
+        assert len(asked) == sumps == 3, name
+        for cycle in asked:  # asking moves the tail: not in position until the operator is done
+            assert not next(li for li in lines if li["cycle"] == cycle)["world"]["tail_in_position"]
+
+
+def test_the_tail_is_out_of_position_once_the_machine_advances_beyond_it():
+    with Harness.build(ROOT / "specs" / "miner") as h:
+        h.world.update({"tail_request": True, "true_x": 1.0})
+        for _ in range(5):  # the operator's delay is 3 cycles
+            h.step("oi")
+        assert h.world["tail_in_position"], "placed for the sump ahead"
+        h.world["tail_request"] = False
+        h.world["true_x"] = 1.6  # within the tail's reach of where it was placed (1.25)
+        h.step("oi")
+        h.step("oi")
+        assert h.world["tail_in_position"]
+        h.world["true_x"] = 1.7  # beyond it
+        h.step("oi")
+        assert not h.world["tail_in_position"], "the machine advanced beyond the tail"

@@ -20,7 +20,7 @@ ENTER_GOAL = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQIdd44x???1xI1512x?15x?15xq8xd8xd")
+INPUTS = Struct("<QQIdd44x???1xI1512x?15x?15xq8xd8xd184xd")
 INPUTS_AT = 1752
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -43,6 +43,10 @@ WORLD_OUT_2_AT = 3392
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
+
+# Constants.
+TAIL_AHEAD = 0.25
+TAIL_SLACK = 0.4
 
 
 class OiController:
@@ -73,18 +77,25 @@ class OiController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "var_answered",
+        "var_moving",
+        "var_tail_x",
         "var_waited",
         "world_operator_delay",
         "world_operator_goal_x",
         "world_operator_goal_y",
         "world_tail_in_position",
         "world_tail_request",
+        "world_true_x",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
         self.var_waited: int = 0
+        self.var_moving: bool = False
+        self.var_answered: bool = False
+        self.var_tail_x: float = 0.0
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -135,6 +146,7 @@ class OiController:
                     self.world_operator_delay,
                     self.world_operator_goal_x,
                     self.world_operator_goal_y,
+                    self.world_true_x,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -245,6 +257,7 @@ class OiController:
                     self.world_operator_delay,
                     self.world_operator_goal_x,
                     self.world_operator_goal_y,
+                    self.world_true_x,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -339,16 +352,29 @@ class OiController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        if (
-            self.world_tail_request
-            and not self.world_tail_in_position
-            and self.var_waited >= self.world_operator_delay
-        ):
+        if not self.world_tail_request and self.var_answered:
+            # the request is withdrawn; the next one is a new request
+            self.var_answered = False
+
+        elif self.world_tail_request and not self.var_moving and not self.var_answered:
+            # asked, the operator moves the tail (not in position meanwhile) for the sump ahead
+            self.var_moving = True
+            self.var_waited = 0
+            self.world_tail_in_position = False
+            self.var_tail_x = self.world_true_x + TAIL_AHEAD
+
+        elif self.var_moving and self.var_waited >= self.world_operator_delay:
             # the operator reports the tail in position
             self.world_tail_in_position = True
+            self.var_moving = False
+            self.var_answered = True
 
-        elif self.world_tail_request and not self.world_tail_in_position:
+        elif self.var_moving:
             self.var_waited = self.var_waited + 1
+
+        elif self.world_tail_in_position and abs(self.world_true_x - self.var_tail_x) > TAIL_SLACK:
+            # the machine advanced beyond the tail's reach; the tail no longer dumps on the car
+            self.world_tail_in_position = False
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
