@@ -43,10 +43,10 @@ def write_lines(path: Path, records: list[dict]) -> Path:
 
 
 def test_load_gives_columns_per_module_and_world(pop_out):
-    assert len(pop_out) == 287 and pop_out.cycles[:3] == [1, 2, 3]
+    assert len(pop_out) == 358 and pop_out.cycles[:3] == [1, 2, 3]
     assert "co" in pop_out.modules and pop_out.modules == sorted(pop_out.modules)
     co = pop_out.columns["co"]
-    i = pop_out.cycles.index(78)
+    i = pop_out.cycles.index(157)
     assert (co["command"][i], co["state"][i], co["rule"][i]) == (
         "SUMP_SHEAR_CUSP",
         "S1",
@@ -122,14 +122,15 @@ def test_a_trace_of_other_specs_is_refused(tmp_path, system):
 
 def test_changes_show_what_changed_and_fold_repeats(system, pop_out):
     lanes = traces.lanes(pop_out, system)
-    text = list(changes.timeline(pop_out, lanes, ["co", "cc"], first=76, last=80))
+    text = list(changes.timeline(pop_out, lanes, ["co", "cc"], first=155, last=164))
     assert text == [
-        "cycle 78",
-        "  co     state S2 -> S1  fired SUMP_SHEAR_CUSP/S2/1",
-        "  cc     command SHEAR #4 -> SHEAR_CORRECT #5  status EXECUTING #4 -> EXECUTING #5  "
-        "state S2 -> S1  fired SHEAR_CORRECT/S0/1",
+        "cycle 156",
         "  world  popped_out_of_shear false -> true",
-        "cycle 79",
+        "cycle 157",
+        "  co     state S2 -> S1  fired SUMP_SHEAR_CUSP/S2/1",
+        "  cc     command SHEAR #8 -> SHEAR_CORRECT #9  status EXECUTING #8 -> EXECUTING #9  "
+        "state S2 -> S1  fired SHEAR_CORRECT/S0/1",
+        "cycle 163",
         "  world  popped_out_of_shear true -> false",
     ]
     first = list(changes.timeline(pop_out, lanes, ["sb"], world="none", last=1))

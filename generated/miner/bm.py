@@ -19,7 +19,7 @@ LOWER = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI2752xd280xd")
+INPUTS = Struct("<QI44x???1xI2752xd296xd")
 INPUTS_AT = 664
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their

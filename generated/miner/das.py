@@ -17,7 +17,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI1056x?175xd200x?")
+INPUTS = Struct("<QQI44x???1xI1056x?175xd216x?")
 INPUTS_AT = 2368
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.

@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 3952 bytes.
+The block is 3968 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -142,22 +142,23 @@ command buffers and world fields:
 | 3648 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
 | 3664 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
 | 3680 | 9 | WORLD_JACK_DOWN | jack_down |
-| 3696 | 9 | WORLD_TREAD_STALLED | tread_stalled |
-| 3712 | 16 | WORLD_POSE_X | pose_x |
-| 3728 | 16 | WORLD_POSE_Y | pose_y |
-| 3744 | 16 | WORLD_HEADING | heading |
-| 3760 | 16 | WORLD_BOOM_ANGLE | boom_angle |
-| 3776 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
-| 3792 | 16 | WORLD_LOOSE_COAL | loose_coal |
-| 3808 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 3824 | 16 | WORLD_DEPTH_EST | depth_est |
-| 3840 | 16 | WORLD_DRUM_REACH | drum_reach |
-| 3856 | 16 | WORLD_SUMP_STEP | sump_step |
-| 3872 | 9 | WORLD_IN_COAL | in_coal |
-| 3888 | 16 | WORLD_FACE_X | face_x |
-| 3904 | 16 | WORLD_DEPTH_CUT | depth_cut |
-| 3920 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
-| 3936 | 16 | WORLD_COAL_MINED | coal_mined |
+| 3696 | 16 | WORLD_SLIP | slip |
+| 3712 | 9 | WORLD_TREAD_STALLED | tread_stalled |
+| 3728 | 16 | WORLD_POSE_X | pose_x |
+| 3744 | 16 | WORLD_POSE_Y | pose_y |
+| 3760 | 16 | WORLD_HEADING | heading |
+| 3776 | 16 | WORLD_BOOM_ANGLE | boom_angle |
+| 3792 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
+| 3808 | 16 | WORLD_LOOSE_COAL | loose_coal |
+| 3824 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 3840 | 16 | WORLD_DEPTH_EST | depth_est |
+| 3856 | 16 | WORLD_DRUM_REACH | drum_reach |
+| 3872 | 16 | WORLD_SUMP_STEP | sump_step |
+| 3888 | 9 | WORLD_IN_COAL | in_coal |
+| 3904 | 16 | WORLD_FACE_X | face_x |
+| 3920 | 16 | WORLD_DEPTH_CUT | depth_cut |
+| 3936 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
+| 3952 | 16 | WORLD_COAL_MINED | coal_mined |
 """
 
 from __future__ import annotations
@@ -186,9 +187,9 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 3952
+SIZE = 3968
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "aa2f2da67e078582b8f721742751e885"
+LAYOUT_HASH = "189801d6e9e51cb3ec72eb510b53ede9"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
@@ -414,38 +415,40 @@ WORLD_DRUM_CURRENT_TRUE = Struct("<Qd")  # seq, drum_current_true
 WORLD_DRUM_CURRENT_TRUE_AT = 3664
 WORLD_JACK_DOWN = Struct("<Q?")  # seq, jack_down
 WORLD_JACK_DOWN_AT = 3680
+WORLD_SLIP = Struct("<Qd")  # seq, slip
+WORLD_SLIP_AT = 3696
 WORLD_TREAD_STALLED = Struct("<Q?")  # seq, tread_stalled
-WORLD_TREAD_STALLED_AT = 3696
+WORLD_TREAD_STALLED_AT = 3712
 WORLD_POSE_X = Struct("<Qd")  # seq, pose_x
-WORLD_POSE_X_AT = 3712
+WORLD_POSE_X_AT = 3728
 WORLD_POSE_Y = Struct("<Qd")  # seq, pose_y
-WORLD_POSE_Y_AT = 3728
+WORLD_POSE_Y_AT = 3744
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 3744
+WORLD_HEADING_AT = 3760
 WORLD_BOOM_ANGLE = Struct("<Qd")  # seq, boom_angle
-WORLD_BOOM_ANGLE_AT = 3760
+WORLD_BOOM_ANGLE_AT = 3776
 WORLD_CUTTER_CURRENT = Struct("<Qd")  # seq, cutter_current
-WORLD_CUTTER_CURRENT_AT = 3776
+WORLD_CUTTER_CURRENT_AT = 3792
 WORLD_LOOSE_COAL = Struct("<Qd")  # seq, loose_coal
-WORLD_LOOSE_COAL_AT = 3792
+WORLD_LOOSE_COAL_AT = 3808
 WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 3808
+WORLD_POPPED_OUT_OF_SHEAR_AT = 3824
 WORLD_DEPTH_EST = Struct("<Qd")  # seq, depth_est
-WORLD_DEPTH_EST_AT = 3824
+WORLD_DEPTH_EST_AT = 3840
 WORLD_DRUM_REACH = Struct("<Qd")  # seq, drum_reach
-WORLD_DRUM_REACH_AT = 3840
+WORLD_DRUM_REACH_AT = 3856
 WORLD_SUMP_STEP = Struct("<Qd")  # seq, sump_step
-WORLD_SUMP_STEP_AT = 3856
+WORLD_SUMP_STEP_AT = 3872
 WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
-WORLD_IN_COAL_AT = 3872
+WORLD_IN_COAL_AT = 3888
 WORLD_FACE_X = Struct("<Qd")  # seq, face_x
-WORLD_FACE_X_AT = 3888
+WORLD_FACE_X_AT = 3904
 WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
-WORLD_DEPTH_CUT_AT = 3904
+WORLD_DEPTH_CUT_AT = 3920
 WORLD_LOOSE_COAL_TRUE = Struct("<Qd")  # seq, loose_coal_true
-WORLD_LOOSE_COAL_TRUE_AT = 3920
+WORLD_LOOSE_COAL_TRUE_AT = 3936
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
-WORLD_COAL_MINED_AT = 3936
+WORLD_COAL_MINED_AT = 3952
 
 
 PROCESSES = {
@@ -692,6 +695,7 @@ WORLD = {
         WORLD_DRUM_CURRENT_TRUE, WORLD_DRUM_CURRENT_TRUE_AT, ("drum_current_true",)
     ),
     "jack_down": Record(WORLD_JACK_DOWN, WORLD_JACK_DOWN_AT, ("jack_down",)),
+    "slip": Record(WORLD_SLIP, WORLD_SLIP_AT, ("slip",)),
     "tread_stalled": Record(WORLD_TREAD_STALLED, WORLD_TREAD_STALLED_AT, ("tread_stalled",)),
     "pose_x": Record(WORLD_POSE_X, WORLD_POSE_X_AT, ("pose_x",)),
     "pose_y": Record(WORLD_POSE_Y, WORLD_POSE_Y_AT, ("pose_y",)),
@@ -736,6 +740,7 @@ WORLD_INITIAL: dict[str, object] = {
     "boom_angle_true": 0.0,
     "drum_current_true": 0.0,
     "jack_down": False,
+    "slip": 0.0,
     "tread_stalled": False,
     "pose_x": 0.0,
     "pose_y": 0.0,

@@ -18,11 +18,11 @@ PLAN = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQIdd44x???1xI168xq240xQd")
+INPUTS = Struct("<QQIdd44x???1xI168xq256xQd")
 INPUTS_AT = 3208
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q496xQ")
+SEQS = Struct("<Q512xQ")
 SEQS_AT = 3208
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their

@@ -51,7 +51,7 @@ TC_STOP = 13
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI80xQI1572xQQI188xQq248xd")
+INPUTS = Struct("<QIdd44x???1xI80xQI1572xQQI188xQq264xd")
 INPUTS_AT = 1504
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.

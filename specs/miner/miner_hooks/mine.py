@@ -13,6 +13,7 @@ coal, no longer part of the face.
 from __future__ import annotations
 
 import math
+import random
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,6 +28,7 @@ FACE_MIN = 0.1  # fraction of the seam: a cell standing no higher is the cusp, n
 CUT_THROUGH = 0.005  # fraction of the seam (1 cm): less than this left is cut to the floor
 SYSTEM_DIR = Path(__file__).resolve().parent.parent
 DEFAULT_MAP = "maps/box_cut.map"
+SLIP_ERROR = 0.3  # the slide per cycle on a roll varies by this fraction (seeded)
 
 
 @dataclass
@@ -41,15 +43,23 @@ class Mine:
     # row -> the first column with standing coal in it (rows cut through have none): what
     # `face` looks up instead of scanning the map every cycle; `cut_coal` keeps it current.
     first: dict[int, int] = field(default_factory=dict)
+    # `roll X0 X1 SLIP` lines: where the seam floor rolls (slopes down outby) between X0 and
+    # X1 metres inby, the shear's cutting force slides the machine SLIP metres a cycle outby
+    rolls: list[tuple[float, float, float]] = field(default_factory=list)
+    rng: random.Random = field(default_factory=lambda: random.Random(1))
 
 
 def load_map(path: Path) -> Mine:
     """Read a map file; the first line `origin X Y` places column 0 and row 0."""
     lines = [line.rstrip("\n") for line in path.read_text(encoding="utf-8").splitlines()]
-    rows = [line for line in lines if line and not line.startswith(("#!", "origin"))]
+    rows = [line for line in lines if line and not line.startswith(("#!", "origin", "roll"))]
     origin = next((line.split() for line in lines if line.startswith("origin")), None)
     x0, y0 = (float(origin[1]), float(origin[2])) if origin else (0.0, 0.0)
     mine = Mine(x0, y0)
+    for line in lines:
+        if line.startswith("roll"):
+            _, start, end, slip = line.split()
+            mine.rolls.append((float(start), float(end), float(slip)))
     for r, row in enumerate(rows):
         for c, char in enumerate(row):
             if char == "#":
@@ -62,8 +72,22 @@ def load_map(path: Path) -> Mine:
 
 
 def new_mine(settings: dict[str, str]) -> Mine:
-    """The mine of the run's `map` setting (relative to the system directory)."""
-    return load_map(SYSTEM_DIR / settings.get("map", DEFAULT_MAP))
+    """The mine of the run's `map` setting (relative to the system directory); the slide on
+    a roll is seeded from the run's `seed`."""
+    mine = load_map(SYSTEM_DIR / settings.get("map", DEFAULT_MAP))
+    mine.rng = random.Random(int(settings.get("seed", "1")))
+    return mine
+
+
+def slip(mine: Mine, x: float, boom_angle: float, jack_down: bool, cut: float) -> float:
+    """How far the shear's cutting force slides the machine outby this cycle: on a roll of
+    the seam floor, while the drum cuts below the roof with the jack down, the jack's foot
+    and the treads lose their grip on the slope (with seeded error); elsewhere nothing."""
+    shearing = jack_down and cut > 0.0 and boom_angle < ROOF_ANGLE - 0.5
+    for start, end, amount in mine.rolls:
+        if shearing and start <= x <= end:
+            return round(amount * (1.0 + mine.rng.uniform(-SLIP_ERROR, SLIP_ERROR)), 6)
+    return 0.0
 
 
 def _span(low: float, high: float, origin: float) -> range:

@@ -22,6 +22,11 @@ def advance(
     )
 
 
+def slide(x: float, y: float, heading: float, distance: float) -> tuple[float, float]:
+    """The position after sliding `distance` metres backwards along the heading."""
+    return round(x - distance * math.cos(heading), 9), round(y - distance * math.sin(heading), 9)
+
+
 def new_noise(settings: dict[str, str]) -> random.Random:
     """A noise source seeded from the run's `seed` setting, so runs are reproducible."""
     return random.Random(int(settings.get("seed", "1")))
