@@ -1164,16 +1164,6 @@ MINER_FINDINGS = [
         "W503",
         "RAISE S1 waits when world.jack_down=true: no rule fires then",
     ),
-    (
-        "vg.yaml",
-        "W503",
-        "TRAM_TO_XY INBY waits when tc.status=DONE: no rule fires then",
-    ),
-    (
-        "vg.yaml",
-        "W503",
-        "TRAM_TO_XY OUTBY waits when tc.status=DONE: no rule fires then",
-    ),
 ]
 
 

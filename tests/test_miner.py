@@ -332,3 +332,35 @@ def test_the_tail_is_out_of_position_once_the_machine_advances_beyond_it():
         h.world["true_x"] = 1.7  # beyond it
         h.step("oi")
         assert not h.world["tail_in_position"], "the machine advanced beyond the tail"
+
+
+pp_hooks = import_hooks(ROOT / "specs" / "miner", "miner_hooks.pp")  # the path planner
+
+
+def test_the_planner_goes_straight_in_line_and_around_pillars_otherwise():
+    planner = pp_hooks.new_planner({"map": "maps/box_cut.map"})
+    assert pp_hooks.plan(planner, 0.0, 0.0, 0.0, 5.0, 0.0) == (True, 2.5, 0.0, False)
+    assert pp_hooks.plan(planner, 0.0, 0.0, 0.0, -1.5, 0.0) == (True, -1.5, 0.0, True)
+    found, wx, wy, last = pp_hooks.plan(planner, 0.0, 0.0, 0.0, -3.0, -9.75)
+    assert found and not last, "the goal behind the pillar is not in plain sight"
+    assert abs(wy) < 0.5 and -2.6 < wx < 0.0, "first back along the entry, towards the crosscut"
+    assert pp_hooks.plan(planner, 0.0, 0.0, 0.0, 20.0, 5.0)[0] is False, "inside solid coal"
+
+
+def test_guidance_trams_around_the_pillar_to_a_goal_in_the_next_entry():
+    final, lines = played("around_pillar")
+    assert final["status"] == "DONE"
+    end = lines[-1]["world"]
+    assert abs(end["true_x"] - -3.0) < 0.15 and abs(end["true_y"] - -9.75) < 0.15
+    assert abs(end["true_heading"]) <= 0.06, "facing inby at the goal"
+    moves = set(commands_sent(lines, "tc"))
+    assert "SLOW_REVERSE" in moves and moves & {"PIVOT_LEFT", "PIVOT_RIGHT"}, "reverse and turn"
+    mine = load_mine()
+    for line in lines:  # the drum centre never stands in the surveyed coal: around the pillar
+        w = line["world"]
+        cell = (
+            int((w["true_y"] - mine.y0) // mine_hooks.CELL),
+            int((w["true_x"] - mine.x0) // mine_hooks.CELL),
+        )
+        assert cell not in mine.seam, f"cycle {line['cycle']}: in the coal at {cell}"
+    assert min(line["world"]["true_x"] for line in lines) < -6.0, "through the crosscut"

@@ -43,10 +43,10 @@ def write_lines(path: Path, records: list[dict]) -> Path:
 
 
 def test_load_gives_columns_per_module_and_world(pop_out):
-    assert len(pop_out) == 358 and pop_out.cycles[:3] == [1, 2, 3]
+    assert len(pop_out) == 405 and pop_out.cycles[:3] == [1, 2, 3]
     assert "co" in pop_out.modules and pop_out.modules == sorted(pop_out.modules)
     co = pop_out.columns["co"]
-    i = pop_out.cycles.index(157)
+    i = pop_out.cycles.index(175)
     assert (co["command"][i], co["state"][i], co["rule"][i]) == (
         "SUMP_SHEAR_CUSP",
         "S1",
@@ -122,15 +122,15 @@ def test_a_trace_of_other_specs_is_refused(tmp_path, system):
 
 def test_changes_show_what_changed_and_fold_repeats(system, pop_out):
     lanes = traces.lanes(pop_out, system)
-    text = list(changes.timeline(pop_out, lanes, ["co", "cc"], first=155, last=164))
+    text = list(changes.timeline(pop_out, lanes, ["co", "cc"], first=173, last=182))
     assert text == [
-        "cycle 156",
+        "cycle 174",
         "  world  popped_out_of_shear false -> true",
-        "cycle 157",
+        "cycle 175",
         "  co     state S2 -> S1  fired SUMP_SHEAR_CUSP/S2/1",
         "  cc     command SHEAR #8 -> SHEAR_CORRECT #9  status EXECUTING #8 -> EXECUTING #9  "
         "state S2 -> S1  fired SHEAR_CORRECT/S0/1",
-        "cycle 163",
+        "cycle 182",
         "  world  popped_out_of_shear true -> false",
     ]
     first = list(changes.timeline(pop_out, lanes, ["sb"], world="none", last=1))
@@ -143,19 +143,19 @@ def test_changes_show_what_changed_and_fold_repeats(system, pop_out):
 def test_changes_fold_cycles_that_change_alike(system):
     trace = traces.load(GOLDEN / "late_tail.jsonl")
     lanes = traces.lanes(trace, system)
-    folded = list(changes.timeline(trace, lanes, ["tc"], world="none", first=19, last=50))
+    folded = list(changes.timeline(trace, lanes, ["tc"], world="none", first=21, last=52))
     assert folded == [
-        "cycle 19",
+        "cycle 21",
         "  tc  fired SLOW_FORWARD/MOVING/2",
-        "  ... the same each cycle through cycle 50 (32 cycles)",
+        "  ... the same each cycle through cycle 52 (32 cycles)",
     ]
-    every = list(changes.timeline(trace, lanes, ["tc"], "none", 19, 50, merge=False))
+    every = list(changes.timeline(trace, lanes, ["tc"], "none", 21, 52, merge=False))
     assert len(every) == 64
     # the loose-coal HALT re-sent every cycle while the gauge reads more than the limit
     halts = list(changes.timeline(trace, lanes, ["bm"], "none", 91, 107))
     assert halts[-1] == "  ... the same each cycle through cycle 107 (17 cycles)"
     assert halts[1] == (
-        "  bm  command HALT #15 -> HALT #16  status DONE #15 -> DONE #16  fired HALT/S0/1"
+        "  bm  command HALT #10 -> HALT #11  status DONE #10 -> DONE #11  fired HALT/S0/1"
     )
 
 
@@ -185,7 +185,7 @@ def test_coverage_counts_every_table_rule_of_the_miner(system):
         str(p) for p in sorted(GOLDEN.glob("*.jsonl")) if "cr_sim" not in p.name
     ]
     text = coverage.to_text(result)
-    assert text.startswith(f"rule coverage of miner over 8 trace(s): {result.fired} of ")
+    assert text.startswith(f"rule coverage of miner over 9 trace(s): {result.fired} of ")
     assert "  co\n    INITIAL_APPROACH_FACE/S1/2      " in text
     data = json.loads(coverage.to_json(result))
     assert data["fired"] == result.fired and data["rules"] == len(result.rules)

@@ -63,7 +63,7 @@ CC_CUSP = 7
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI80xQI468xQI484xQI1844xd8xd8xd8xd280xd8xd8xd24xd8xd8x?47xd")
+INPUTS = Struct("<QI44x???1xI80xQI468xQI484xQI1844xd8xd8xd8xd328xd8xd8xd24xd8xd8x?47xd")
 INPUTS_AT = 424
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their

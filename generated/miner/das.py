@@ -17,7 +17,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI1056x?175xd216x?")
+INPUTS = Struct("<QQI44x???1xI1104x?175xd216x?")
 INPUTS_AT = 2368
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -29,7 +29,7 @@ SEQS_AT = 2368
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3664
+WORLD_OUT_1_AT = 3712
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

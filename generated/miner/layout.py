@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 3968 bytes.
+The block is 4016 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -127,38 +127,41 @@ command buffers and world fields:
 | 3408 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
 | 3424 | 16 | WORLD_GOAL_X | goal_x |
 | 3440 | 16 | WORLD_GOAL_Y | goal_y |
-| 3456 | 16 | WORLD_TRAM_DIR | tram_dir |
-| 3472 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
-| 3488 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
-| 3504 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
-| 3520 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
-| 3536 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
-| 3552 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
-| 3568 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
-| 3584 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
-| 3600 | 16 | WORLD_TRUE_X | true_x |
-| 3616 | 16 | WORLD_TRUE_Y | true_y |
-| 3632 | 16 | WORLD_TRUE_HEADING | true_heading |
-| 3648 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
-| 3664 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
-| 3680 | 9 | WORLD_JACK_DOWN | jack_down |
-| 3696 | 16 | WORLD_SLIP | slip |
-| 3712 | 9 | WORLD_TREAD_STALLED | tread_stalled |
-| 3728 | 16 | WORLD_POSE_X | pose_x |
-| 3744 | 16 | WORLD_POSE_Y | pose_y |
-| 3760 | 16 | WORLD_HEADING | heading |
-| 3776 | 16 | WORLD_BOOM_ANGLE | boom_angle |
-| 3792 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
-| 3808 | 16 | WORLD_LOOSE_COAL | loose_coal |
-| 3824 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 3840 | 16 | WORLD_DEPTH_EST | depth_est |
-| 3856 | 16 | WORLD_DRUM_REACH | drum_reach |
-| 3872 | 16 | WORLD_SUMP_STEP | sump_step |
-| 3888 | 9 | WORLD_IN_COAL | in_coal |
-| 3904 | 16 | WORLD_FACE_X | face_x |
-| 3920 | 16 | WORLD_DEPTH_CUT | depth_cut |
-| 3936 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
-| 3952 | 16 | WORLD_COAL_MINED | coal_mined |
+| 3456 | 9 | WORLD_PATH_OK | path_ok |
+| 3472 | 16 | WORLD_WP_X | wp_x |
+| 3488 | 16 | WORLD_WP_Y | wp_y |
+| 3504 | 9 | WORLD_WP_LAST | wp_last |
+| 3520 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 3536 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 3552 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 3568 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 3584 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 3600 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 3616 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 3632 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 3648 | 16 | WORLD_TRUE_X | true_x |
+| 3664 | 16 | WORLD_TRUE_Y | true_y |
+| 3680 | 16 | WORLD_TRUE_HEADING | true_heading |
+| 3696 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 3712 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 3728 | 9 | WORLD_JACK_DOWN | jack_down |
+| 3744 | 16 | WORLD_SLIP | slip |
+| 3760 | 9 | WORLD_TREAD_STALLED | tread_stalled |
+| 3776 | 16 | WORLD_POSE_X | pose_x |
+| 3792 | 16 | WORLD_POSE_Y | pose_y |
+| 3808 | 16 | WORLD_HEADING | heading |
+| 3824 | 16 | WORLD_BOOM_ANGLE | boom_angle |
+| 3840 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
+| 3856 | 16 | WORLD_LOOSE_COAL | loose_coal |
+| 3872 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 3888 | 16 | WORLD_DEPTH_EST | depth_est |
+| 3904 | 16 | WORLD_DRUM_REACH | drum_reach |
+| 3920 | 16 | WORLD_SUMP_STEP | sump_step |
+| 3936 | 9 | WORLD_IN_COAL | in_coal |
+| 3952 | 16 | WORLD_FACE_X | face_x |
+| 3968 | 16 | WORLD_DEPTH_CUT | depth_cut |
+| 3984 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
+| 4000 | 16 | WORLD_COAL_MINED | coal_mined |
 """
 
 from __future__ import annotations
@@ -187,9 +190,9 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 3968
+SIZE = 4016
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "189801d6e9e51cb3ec72eb510b53ede9"
+LAYOUT_HASH = "44b5a95e7a172e306fe7516862bd7881"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
@@ -385,70 +388,76 @@ WORLD_GOAL_X = Struct("<Qd")  # seq, goal_x
 WORLD_GOAL_X_AT = 3424
 WORLD_GOAL_Y = Struct("<Qd")  # seq, goal_y
 WORLD_GOAL_Y_AT = 3440
-WORLD_TRAM_DIR = Struct("<Qq")  # seq, tram_dir
-WORLD_TRAM_DIR_AT = 3456
+WORLD_PATH_OK = Struct("<Q?")  # seq, path_ok
+WORLD_PATH_OK_AT = 3456
+WORLD_WP_X = Struct("<Qd")  # seq, wp_x
+WORLD_WP_X_AT = 3472
+WORLD_WP_Y = Struct("<Qd")  # seq, wp_y
+WORLD_WP_Y_AT = 3488
+WORLD_WP_LAST = Struct("<Q?")  # seq, wp_last
+WORLD_WP_LAST_AT = 3504
 WORLD_BOOM_RATE_CMD = Struct("<Qd")  # seq, boom_rate_cmd
-WORLD_BOOM_RATE_CMD_AT = 3472
+WORLD_BOOM_RATE_CMD_AT = 3520
 WORLD_DRUM_ON_CMD = Struct("<Q?")  # seq, drum_on_cmd
-WORLD_DRUM_ON_CMD_AT = 3488
+WORLD_DRUM_ON_CMD_AT = 3536
 WORLD_JACK_DOWN_CMD = Struct("<Q?")  # seq, jack_down_cmd
-WORLD_JACK_DOWN_CMD_AT = 3504
+WORLD_JACK_DOWN_CMD_AT = 3552
 WORLD_LEFT_TREAD_CMD = Struct("<Qq")  # seq, left_tread_cmd
-WORLD_LEFT_TREAD_CMD_AT = 3520
+WORLD_LEFT_TREAD_CMD_AT = 3568
 WORLD_RIGHT_TREAD_CMD = Struct("<Qq")  # seq, right_tread_cmd
-WORLD_RIGHT_TREAD_CMD_AT = 3536
+WORLD_RIGHT_TREAD_CMD_AT = 3584
 WORLD_PAN_FLOAT_CMD = Struct("<Q?")  # seq, pan_float_cmd
-WORLD_PAN_FLOAT_CMD_AT = 3552
+WORLD_PAN_FLOAT_CMD_AT = 3600
 WORLD_GATHER_ON_CMD = Struct("<Q?")  # seq, gather_on_cmd
-WORLD_GATHER_ON_CMD_AT = 3568
+WORLD_GATHER_ON_CMD_AT = 3616
 WORLD_CONVEYOR_ON_CMD = Struct("<Q?")  # seq, conveyor_on_cmd
-WORLD_CONVEYOR_ON_CMD_AT = 3584
+WORLD_CONVEYOR_ON_CMD_AT = 3632
 WORLD_TRUE_X = Struct("<Qd")  # seq, true_x
-WORLD_TRUE_X_AT = 3600
+WORLD_TRUE_X_AT = 3648
 WORLD_TRUE_Y = Struct("<Qd")  # seq, true_y
-WORLD_TRUE_Y_AT = 3616
+WORLD_TRUE_Y_AT = 3664
 WORLD_TRUE_HEADING = Struct("<Qd")  # seq, true_heading
-WORLD_TRUE_HEADING_AT = 3632
+WORLD_TRUE_HEADING_AT = 3680
 WORLD_BOOM_ANGLE_TRUE = Struct("<Qd")  # seq, boom_angle_true
-WORLD_BOOM_ANGLE_TRUE_AT = 3648
+WORLD_BOOM_ANGLE_TRUE_AT = 3696
 WORLD_DRUM_CURRENT_TRUE = Struct("<Qd")  # seq, drum_current_true
-WORLD_DRUM_CURRENT_TRUE_AT = 3664
+WORLD_DRUM_CURRENT_TRUE_AT = 3712
 WORLD_JACK_DOWN = Struct("<Q?")  # seq, jack_down
-WORLD_JACK_DOWN_AT = 3680
+WORLD_JACK_DOWN_AT = 3728
 WORLD_SLIP = Struct("<Qd")  # seq, slip
-WORLD_SLIP_AT = 3696
+WORLD_SLIP_AT = 3744
 WORLD_TREAD_STALLED = Struct("<Q?")  # seq, tread_stalled
-WORLD_TREAD_STALLED_AT = 3712
+WORLD_TREAD_STALLED_AT = 3760
 WORLD_POSE_X = Struct("<Qd")  # seq, pose_x
-WORLD_POSE_X_AT = 3728
+WORLD_POSE_X_AT = 3776
 WORLD_POSE_Y = Struct("<Qd")  # seq, pose_y
-WORLD_POSE_Y_AT = 3744
+WORLD_POSE_Y_AT = 3792
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 3760
+WORLD_HEADING_AT = 3808
 WORLD_BOOM_ANGLE = Struct("<Qd")  # seq, boom_angle
-WORLD_BOOM_ANGLE_AT = 3776
+WORLD_BOOM_ANGLE_AT = 3824
 WORLD_CUTTER_CURRENT = Struct("<Qd")  # seq, cutter_current
-WORLD_CUTTER_CURRENT_AT = 3792
+WORLD_CUTTER_CURRENT_AT = 3840
 WORLD_LOOSE_COAL = Struct("<Qd")  # seq, loose_coal
-WORLD_LOOSE_COAL_AT = 3808
+WORLD_LOOSE_COAL_AT = 3856
 WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 3824
+WORLD_POPPED_OUT_OF_SHEAR_AT = 3872
 WORLD_DEPTH_EST = Struct("<Qd")  # seq, depth_est
-WORLD_DEPTH_EST_AT = 3840
+WORLD_DEPTH_EST_AT = 3888
 WORLD_DRUM_REACH = Struct("<Qd")  # seq, drum_reach
-WORLD_DRUM_REACH_AT = 3856
+WORLD_DRUM_REACH_AT = 3904
 WORLD_SUMP_STEP = Struct("<Qd")  # seq, sump_step
-WORLD_SUMP_STEP_AT = 3872
+WORLD_SUMP_STEP_AT = 3920
 WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
-WORLD_IN_COAL_AT = 3888
+WORLD_IN_COAL_AT = 3936
 WORLD_FACE_X = Struct("<Qd")  # seq, face_x
-WORLD_FACE_X_AT = 3904
+WORLD_FACE_X_AT = 3952
 WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
-WORLD_DEPTH_CUT_AT = 3920
+WORLD_DEPTH_CUT_AT = 3968
 WORLD_LOOSE_COAL_TRUE = Struct("<Qd")  # seq, loose_coal_true
-WORLD_LOOSE_COAL_TRUE_AT = 3936
+WORLD_LOOSE_COAL_TRUE_AT = 3984
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
-WORLD_COAL_MINED_AT = 3952
+WORLD_COAL_MINED_AT = 4000
 
 
 PROCESSES = {
@@ -672,7 +681,10 @@ WORLD = {
     ),
     "goal_x": Record(WORLD_GOAL_X, WORLD_GOAL_X_AT, ("goal_x",)),
     "goal_y": Record(WORLD_GOAL_Y, WORLD_GOAL_Y_AT, ("goal_y",)),
-    "tram_dir": Record(WORLD_TRAM_DIR, WORLD_TRAM_DIR_AT, ("tram_dir",)),
+    "path_ok": Record(WORLD_PATH_OK, WORLD_PATH_OK_AT, ("path_ok",)),
+    "wp_x": Record(WORLD_WP_X, WORLD_WP_X_AT, ("wp_x",)),
+    "wp_y": Record(WORLD_WP_Y, WORLD_WP_Y_AT, ("wp_y",)),
+    "wp_last": Record(WORLD_WP_LAST, WORLD_WP_LAST_AT, ("wp_last",)),
     "boom_rate_cmd": Record(WORLD_BOOM_RATE_CMD, WORLD_BOOM_RATE_CMD_AT, ("boom_rate_cmd",)),
     "drum_on_cmd": Record(WORLD_DRUM_ON_CMD, WORLD_DRUM_ON_CMD_AT, ("drum_on_cmd",)),
     "jack_down_cmd": Record(WORLD_JACK_DOWN_CMD, WORLD_JACK_DOWN_CMD_AT, ("jack_down_cmd",)),
@@ -725,7 +737,10 @@ WORLD_INITIAL: dict[str, object] = {
     "operator_goal_y": 0.0,
     "goal_x": 0.0,
     "goal_y": 0.0,
-    "tram_dir": 0,
+    "path_ok": False,
+    "wp_x": 0.0,
+    "wp_y": 0.0,
+    "wp_last": False,
     "boom_rate_cmd": 0.0,
     "drum_on_cmd": False,
     "jack_down_cmd": False,
@@ -827,7 +842,22 @@ STATE_NAMES = {
     "gh": ("NOP", "S0"),
     "cv": ("NOP", "S0"),
     "ct": ("NOP", "S0", "S1"),
-    "vg": ("NOP", "S0", "S1", "INBY", "OUTBY", "STOPPING"),
+    "vg": (
+        "NOP",
+        "S0",
+        "S1",
+        "PLANNING",
+        "DECIDE",
+        "FORWARD",
+        "REVERSE",
+        "LEFT",
+        "RIGHT",
+        "STOPPING",
+        "ALIGN",
+        "ALIGN_LEFT",
+        "ALIGN_RIGHT",
+        "ALIGN_STOPPING",
+    ),
     "tc": ("NOP", "S0", "MOVING"),
     "oi": ("NOP", "S0"),
     "bas": ("NOP", "S0"),
@@ -841,7 +871,7 @@ STATE_NAMES = {
     "css": ("NOP", "S0"),
     "lcs": ("NOP", "S0"),
     "wm": ("NOP", "S0"),
-    "pp": ("NOP", "S0"),
+    "pp": ("NOP", "S0", "S1"),
     "cr_sim": ("NOP", "S0"),
 }
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
@@ -952,16 +982,33 @@ RULES = {
         "HALT/S0/1",
         "HALT/S1/1",
         "TRAM_TO_XY/S0/1",
-        "TRAM_TO_XY/S1/1",
-        "TRAM_TO_XY/S1/2",
-        "TRAM_TO_XY/S1/3",
-        "TRAM_TO_XY/S1/4",
-        "TRAM_TO_XY/INBY/1",
-        "TRAM_TO_XY/INBY/2",
-        "TRAM_TO_XY/OUTBY/1",
-        "TRAM_TO_XY/OUTBY/2",
+        "TRAM_TO_XY/PLANNING/1",
+        "TRAM_TO_XY/PLANNING/2",
+        "TRAM_TO_XY/DECIDE/1",
+        "TRAM_TO_XY/DECIDE/2",
+        "TRAM_TO_XY/DECIDE/3",
+        "TRAM_TO_XY/DECIDE/4",
+        "TRAM_TO_XY/DECIDE/5",
+        "TRAM_TO_XY/DECIDE/6",
+        "TRAM_TO_XY/FORWARD/1",
+        "TRAM_TO_XY/FORWARD/2",
+        "TRAM_TO_XY/REVERSE/1",
+        "TRAM_TO_XY/REVERSE/2",
+        "TRAM_TO_XY/LEFT/1",
+        "TRAM_TO_XY/LEFT/2",
+        "TRAM_TO_XY/RIGHT/1",
+        "TRAM_TO_XY/RIGHT/2",
         "TRAM_TO_XY/STOPPING/1",
         "TRAM_TO_XY/STOPPING/2",
+        "TRAM_TO_XY/ALIGN/1",
+        "TRAM_TO_XY/ALIGN/2",
+        "TRAM_TO_XY/ALIGN/3",
+        "TRAM_TO_XY/ALIGN_LEFT/1",
+        "TRAM_TO_XY/ALIGN_LEFT/2",
+        "TRAM_TO_XY/ALIGN_RIGHT/1",
+        "TRAM_TO_XY/ALIGN_RIGHT/2",
+        "TRAM_TO_XY/ALIGN_STOPPING/1",
+        "TRAM_TO_XY/ALIGN_STOPPING/2",
     ),
     "tc": (
         "",
@@ -1011,7 +1058,7 @@ RULES = {
     "css": ("", "INIT/S0/1", "HALT/S0/1"),
     "lcs": ("", "INIT/S0/1", "HALT/S0/1"),
     "wm": ("", "INIT/S0/1", "HALT/S0/1"),
-    "pp": ("", "INIT/S0/1", "HALT/S0/1", "PLAN/S0/1", "PLAN/S0/2", "PLAN/S0/3"),
+    "pp": ("", "INIT/S0/1", "HALT/S0/1", "PLAN/S0/1", "PLAN/S1/1", "PLAN/S1/2"),
     "cr_sim": ("", "INIT/S0/1", "HALT/S0/1", "SUMP/S0/1", "SHEAR/S0/1", "CUSP/S0/1"),
 }
 SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css", "lcs")

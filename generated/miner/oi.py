@@ -20,7 +20,7 @@ ENTER_GOAL = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQIdd44x???1xI1512x?15x?15xq8xd8xd184xd")
+INPUTS = Struct("<QQIdd44x???1xI1512x?15x?15xq8xd8xd232xd")
 INPUTS_AT = 1752
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.

@@ -39,7 +39,7 @@ CO_SUMP_SHEAR_CUSP = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQId44x???1xI80xQI3388xd8xd8xd")
+INPUTS = Struct("<QQId44x???1xI80xQI3436xd8xd8xd")
 INPUTS_AT = 288
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -51,7 +51,7 @@ SEQS_AT = 288
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3872
+WORLD_OUT_1_AT = 3920
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

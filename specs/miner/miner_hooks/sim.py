@@ -6,7 +6,7 @@ import math
 import random
 
 TREAD_STEP = 0.05  # metres per cycle per speed level
-TURN_STEP = 0.01  # radians per cycle per unit of speed difference
+TURN_STEP = 0.03  # radians per cycle per unit of speed difference (a pivot: 3.4 degrees a cycle)
 
 
 def advance(
