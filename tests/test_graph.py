@@ -58,7 +58,7 @@ def test_hierarchy_mermaid_colours_levels_and_marks_simulators(system):
     assert 'm_mine(["mine<br/>Mine (simulated environment)"])' in text
     assert "m_cr_sim -.->" in text
     assert re.search(r"classDef level1 fill:#ffd6a5", text)
-    assert re.search(r"class m_sb,m_wm level1\n", text)
+    assert re.search(r"class m_sb level1\n", text)
     assert "stroke-dasharray" in text.split("classDef simulator", 1)[1].splitlines()[0]
 
 

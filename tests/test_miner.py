@@ -9,12 +9,14 @@ from pathlib import Path
 
 import yaml
 
+from rcsgen.tools import mine_view, traces
 from rcsgen.tools.harness import Harness
 from rcsgen.tools.mine_view import import_hooks
 from rcsgen.tools.scenario import load_scenario, open_harness, run
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIOS = ROOT / "specs" / "miner" / "scenarios"
+GOLDEN = ROOT / "tests" / "golden"
 mine_hooks = import_hooks(ROOT / "specs" / "miner", "miner_hooks.mine")  # the map, the cutting
 
 
@@ -364,3 +366,29 @@ def test_guidance_trams_around_the_pillar_to_a_goal_in_the_next_entry():
         )
         assert cell not in mine.seam, f"cycle {line['cycle']}: in the coal at {cell}"
     assert min(line["world"]["true_x"] for line in lines) < -6.0, "through the crosscut"
+
+
+def test_two_passes_cut_the_whole_wide_face_to_depth():
+    final, lines = played("two_passes")
+    assert final["status"] == "DONE"
+    co = commands_sent(lines, "co")
+    first_slab = co.index("REPOSITION") + 2
+    assert co[: first_slab + 1].count("SUMP_SHEAR_CUSP") >= 2, "the box cut, slice by slice"
+    assert co[co.index("REPOSITION") : first_slab + 1] == [
+        "REPOSITION", "REPOSITION", "INITIAL_APPROACH_FACE"
+    ], "backed out, across, then the slab cut from the face"  # fmt: skip
+    assert "SUMP_SHEAR_CUSP" in co[first_slab:] and co[-1] == "HALT"
+    ys = [line["world"]["true_y"] for line in lines]
+    assert abs(ys[0]) < 0.01 and abs(ys[-1] - 2.75) < 0.1, "the slab pass is 2.75 m across"
+    # the mine as the run left it: the whole 6 m face (rows 39-62) cut back 1.5 m
+    trace = traces.load(GOLDEN / "two_passes.jsonl")
+    settings = {"map": "maps/two_pass.map", "seed": "7"}
+    result = mine_view.replay(trace, mine_hooks, "new_mine", settings)
+    assert result.mismatch is None
+    final_heights = {cell: h for _, cell, h in result.cuts}
+    for row in range(39, 63):
+        for column in range(72, 78):  # 2.0 m to 3.5 m inby
+            assert final_heights.get(row * result.columns + column, 1.0) <= mine_hooks.FACE_MIN, (
+                row,
+                column,
+            )

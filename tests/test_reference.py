@@ -58,7 +58,7 @@ def test_every_link_between_pages_resolves(pages):
 
 def test_controller_page_has_figure_4_tables_and_mermaid(pages):
     co = pages["miner/co.md"]
-    assert co.count("```mermaid") == 6  # INIT, HALT and four commands
+    assert co.count("```mermaid") == 7  # INIT, HALT and five commands
     assert "supervisor [sb](sb.md) · subordinates [cr](cr.md), [vg](vg.md), [cc](cc.md)" in co
     assert "| state | rule | condition | actions | next state | line |" in co
     row = next(line for line in co.splitlines() if "| `too_much_loose_coal()`<br>" in line)

@@ -177,7 +177,7 @@ def test_coverage_counts_every_table_rule_of_the_miner(system):
     rules = {(r.module, r.rule): r for r in result.rules}
     pop = rules[("co", "SUMP_SHEAR_CUSP/S2/1")]
     assert pop.cycles == 1 and pop.traces == [str(GOLDEN / "pop_out.jsonl")]
-    assert pop.where.endswith("specs/miner/co.yaml:169")
+    assert pop.where.endswith("specs/miner/co.yaml:191")
     assert rules[("co", "SUMP_SHEAR_CUSP/S2/2")].traces == [str(GOLDEN / "late_tail.jsonl")]
     assert rules[("tc", "FAST_FORWARD/S0/1")].cycles == 0
     assert rules[("cr_sim", "SUMP/S0/1")].traces == [str(GOLDEN / "cr_simulated.jsonl")]
@@ -185,7 +185,7 @@ def test_coverage_counts_every_table_rule_of_the_miner(system):
         str(p) for p in sorted(GOLDEN.glob("*.jsonl")) if "cr_sim" not in p.name
     ]
     text = coverage.to_text(result)
-    assert text.startswith(f"rule coverage of miner over 9 trace(s): {result.fired} of ")
+    assert text.startswith(f"rule coverage of miner over 10 trace(s): {result.fired} of ")
     assert "  co\n    INITIAL_APPROACH_FACE/S1/2      " in text
     data = json.loads(coverage.to_json(result))
     assert data["fired"] == result.fired and data["rules"] == len(result.rules)

@@ -66,7 +66,7 @@ PLAN = ProcessPlan(
         "wm",
     ),
     # Modules of this process with no supervisor: INIT is sent to them at start-up.
-    roots=("sb", "oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css", "lcs", "wm"),
+    roots=("sb", "oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css", "lcs"),
     # The controller-simulation switch: controller -> (its stand-in, the modules it replaces).
     stand_ins={
         "cr": ("cr_sim", ("cr", "gh", "cv", "ct")),

@@ -20,7 +20,6 @@ from .rcs.contract import (
     NOP,
     NUMBER,
     PERF,
-    READ_TRIES,
     SEQ,
     STATUS,
     HookError,
@@ -30,22 +29,19 @@ from .rcs.contract import (
 # Commands wm accepts (the code written to its command buffer).
 INIT = 1
 HALT = 2
+NEW_CUT = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI576x?47xd40xd8xd24x?15xd8xd")
-INPUTS_AT = 3088
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 3088
+INPUTS = Struct("<QI44x???1xI576x?47xd40xd8xd24x?15xd8xd")
+INPUTS_AT = 3120
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Q?7xQdQd")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 3872
+WORLD_OUT_1_AT = 3896
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -126,29 +122,21 @@ class WmController:
         # pre_process
         cycle_start = perf_counter_ns()
         buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.world_jack_down,
-                    self.world_pose_x,
-                    self.world_boom_angle,
-                    self.world_cutter_current,
-                    self.world_popped_out_of_shear,
-                    self.world_depth_est,
-                    self.world_drum_reach,
-                ) = values
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
+        (
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_jack_down,
+            self.world_pose_x,
+            self.world_boom_angle,
+            self.world_cutter_current,
+            self.world_popped_out_of_shear,
+            self.world_depth_est,
+            self.world_drum_reach,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
         # check_if_new_command
         if self.command_num != self.status_num:
@@ -173,6 +161,8 @@ class WmController:
                 self.init()
             elif command == HALT:
                 self.halt()
+            elif command == NEW_CUT:
+                self.new_cut()
 
         # post_process
         if self.rule or self.status_dirty:
@@ -234,29 +224,21 @@ class WmController:
         """Copy the command in, the mode, each subordinate's status and the world in."""
         self.cycle_start = perf_counter_ns()
         buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.world_jack_down,
-                    self.world_pose_x,
-                    self.world_boom_angle,
-                    self.world_cutter_current,
-                    self.world_popped_out_of_shear,
-                    self.world_depth_est,
-                    self.world_drum_reach,
-                ) = values
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
+        (
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_jack_down,
+            self.world_pose_x,
+            self.world_boom_angle,
+            self.world_cutter_current,
+            self.world_popped_out_of_shear,
+            self.world_depth_est,
+            self.world_drum_reach,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def check_if_new_command(self) -> None:
         """A command number that differs from the echoed status number is a new command."""
@@ -283,6 +265,8 @@ class WmController:
                 self.init()
             elif command == HALT:
                 self.halt()
+            elif command == NEW_CUT:
+                self.new_cut()
 
     def post_process(self) -> None:
         """Write what changed (the status, the subordinates' commands, the world out), each
@@ -392,5 +376,17 @@ class WmController:
         state = self.state
         if state == S0:
             self.rule = 2  # HALT/S0/1
+            self.state = NOP
+            self.status = DONE
+
+    def new_cut(self) -> None:
+        """NEW_CUT: A new pass begins (a box cut, or a slab cut beside it): forget the face and the
+        floor of the last one; the face is found again when the drum meets it.
+        """
+        state = self.state
+        if state == S0:
+            self.rule = 3  # NEW_CUT/S0/1
+            self.var_face0 = -1000000000.0
+            self.var_floor_x = -1000000000.0
             self.state = NOP
             self.status = DONE
