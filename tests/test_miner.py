@@ -4,11 +4,13 @@ golden file cannot hide a wrong machine (the golden comparison is in test_golden
 from __future__ import annotations
 
 import json
+import shutil
 from functools import cache
 from pathlib import Path
 
 import yaml
 
+from rcsgen.compiler.frontend import compile_paths
 from rcsgen.tools import mine_view, traces
 from rcsgen.tools.harness import Harness
 from rcsgen.tools.mine_view import import_hooks
@@ -392,3 +394,24 @@ def test_two_passes_cut_the_whole_wide_face_to_depth():
                 row,
                 column,
             )
+
+
+def test_the_checker_refuses_a_controller_that_reads_the_truth_and_a_halt_that_stops_nothing(
+    tmp_path,
+):
+    copy = tmp_path / "miner"
+    shutil.copytree(ROOT / "specs" / "miner", copy, ignore=shutil.ignore_patterns("__pycache__"))
+    sb = copy / "sb.yaml"
+    sb.write_text(
+        sb.read_text("utf-8").replace("reads: [depth_est,", "reads: [depth_est, depth_cut,", 1),
+        "utf-8",
+    )
+    cd = copy / "cd.yaml"
+    cd.write_text(cd.read_text("utf-8").replace("  HALT:\n", "  STOP:\n", 1), "utf-8")
+    found = {(Path(d.span.file).name, d.code, d.message) for d in compile_paths([copy]).diagnostics}
+    assert ("sb.yaml", "E280", "controller `sb` uses ground-truth world field `depth_cut`") in found
+    assert (
+        "cd.yaml",
+        "W520",
+        "`cd` commands actuator `drum_on_cmd` but keeps the default HALT, which stops nothing",
+    ) in found
