@@ -4,13 +4,22 @@ golden file cannot hide a wrong machine (the golden comparison is in test_golden
 from __future__ import annotations
 
 import json
+import shutil
 from functools import cache
 from pathlib import Path
 
+import yaml
+
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.tools import mine_view, traces
+from rcsgen.tools.harness import Harness
+from rcsgen.tools.mine_view import import_hooks
 from rcsgen.tools.scenario import load_scenario, open_harness, run
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIOS = ROOT / "specs" / "miner" / "scenarios"
+GOLDEN = ROOT / "tests" / "golden"
+mine_hooks = import_hooks(ROOT / "specs" / "miner", "miner_hooks.mine")  # the map, the cutting
 
 
 @cache
@@ -44,10 +53,92 @@ def test_nominal_box_cut_three_slices_to_depth():
         "SUMP_SHEAR_CUSP",
         "APPROACH_FACE",
         "SUMP_SHEAR_CUSP",
+        "HALT",
     ]
     world = lines[-1]["world"]
-    assert world["depth_cut"] >= 1.45, "the operator's depth is reached"
-    assert world["coal_mined"] > 10.0 and world["loose_coal"] == 0.0
+    assert abs(world["depth_cut"] - 1.5) <= DEPTH_TOLERANCE, "stopped at the ordered depth"
+    assert world["coal_mined"] > 10.0 and world["loose_coal"] <= 0.05
+    assert not world["drum_on_cmd"] and not world["conveyor_on_cmd"], "stopped at the end"
+
+
+# The box cut ends within half a map cell (0.25 m cells) of the ordered depth, measured on
+# the simulation's truth: the controllers only know world modelling's estimate.
+DEPTH_TOLERANCE = 0.125
+
+
+def test_the_last_sump_is_shortened_to_stop_at_the_ordered_depth():
+    for name, depth in (("box_cut", 1.5), ("sump_shear_cusp", 0.5)):
+        _, lines = played(name)
+        steps = [line["world"]["sump_step"] for line in lines]
+        assert steps[-1] < 0.5, f"{name}: the last sump was shortened"
+        assert abs(lines[-1]["world"]["depth_cut"] - depth) <= DEPTH_TOLERANCE, name
+
+
+def test_world_modelling_estimates_the_depth_from_the_sensed_pose():
+    _, lines = played("box_cut")
+    estimates = [(line["world"]["depth_est"], line["world"]["depth_cut"]) for line in lines]
+    assert estimates[-1][0] > 1.45, "the shift boss decided on the estimate"
+    slices = {round(est, 2) for est, _ in estimates if est > 0.0}
+    assert len(slices) >= 3, "the estimate grows slice by slice"
+    ends = [
+        line["world"]
+        for line in lines
+        if line["modules"]["co"]["command"] == "SUMP_SHEAR_CUSP"
+        and line["modules"]["co"]["status"] == "DONE"
+    ]
+    assert ends, "slices ended"
+    for world in ends:  # where the shift boss decides: after each slice
+        assert abs(world["depth_est"] - world["depth_cut"]) <= 0.125, "within half a map cell"
+
+
+def test_no_controller_uses_a_ground_truth_field():
+    miner = ROOT / "specs" / "miner"
+    system = yaml.safe_load((miner / "system.yaml").read_text("utf-8"))
+    truth = {name for name, field in system["world"].items() if field.get("ground_truth")}
+    assert {"depth_cut", "loose_coal_true", "true_x", "boom_angle_true", "in_coal"} <= truth
+    simulated = set(system["simulators"]) | set(system["stand_ins"].values())
+    controllers = [yaml.safe_load(p.read_text("utf-8")) for p in sorted(miner.glob("*.yaml"))]
+    controllers = [c for c in controllers if "controller" in c]
+    checked = [c for c in controllers if c["controller"] not in simulated]
+    assert {"sb", "co", "cr", "wm", "vg", "pp"} <= {c["controller"] for c in checked}
+    for spec in checked:
+        world = spec.get("world", {})
+        used = set(world.get("reads", [])) | set(world.get("writes", []))
+        assert not used & truth, f"{spec['controller']} uses {sorted(used & truth)}"
+
+
+def test_the_cusp_tram_takes_the_floor_wedge_and_coal_removal_gathers_it():
+    _, lines = played("box_cut")
+    cusp = [
+        line
+        for line in lines
+        if line["modules"]["co"]["command"] == "SUMP_SHEAR_CUSP"
+        and line["modules"]["co"]["state"] == "S4"
+    ]
+    assert cusp, "co trammed back to take the cusp"
+    assert all(line["world"]["gather_on_cmd"] and line["world"]["conveyor_on_cmd"] for line in cusp)
+    mined = [line["world"]["coal_mined"] for line in cusp]
+    assert mined[-1] > mined[0], "coal cut on the way back was gathered"
+
+
+def test_a_shear_leaves_a_floor_wedge_that_a_tram_back_at_the_floor_takes():
+    mine = load_mine()
+    face = mine.first_face
+    x = face + 0.25  # drum centre, a slice into the face
+    for angle in (30.0, 10.0, -10.0):  # sump at the roof, shear down to the floor
+        mine_hooks.cut_coal(mine, x, 0.0, angle, True)
+    behind = [c for c in range(mine.columns) if face - 0.25 < mine.x0 + (c + 0.5) * 0.25 < x]
+    wedges = {c: mine.seam[(45, c)] for c in behind if (45, c) in mine.seam}
+    assert wedges and all(0.0 < h <= mine_hooks.FACE_MIN for h in wedges.values()), wedges
+    tonnes = 0.0
+    for step in range(1, 11):  # tram back 0.5 m with the drum at the floor
+        tonnes += mine_hooks.cut_coal(mine, x - 0.05 * step, 0.0, -10.0, True)[3]
+    assert tonnes > 0.0, "the cusp is loose coal"
+    assert all(mine.seam[(45, c)] == 0.0 for c in wedges), "nothing left on the floor behind"
+
+
+def load_mine():
+    return mine_hooks.load_map(ROOT / "specs" / "miner" / "maps" / "box_cut.map")
 
 
 def test_one_slice_is_one_sump_shear_cusp():
@@ -55,27 +146,50 @@ def test_one_slice_is_one_sump_shear_cusp():
     assert final["status"] == "DONE"
     assert commands_sent(lines, "co").count("SUMP_SHEAR_CUSP") == 1
     assert commands_sent(lines, "cc") == [
-        "INIT", "RAISE_DRUM", "SUMP", "SHEAR", "CUSP"
+        "INIT", "RAISE_DRUM", "SUMP", "SHEAR", "CUSP", "HALT"
     ]  # fmt: skip
 
 
 def test_pop_out_is_corrected_and_the_cut_completes():
     final, lines = played("pop_out")
     assert final["status"] == "DONE"
+    scenario = load_scenario(SCENARIOS / "pop_out.yaml")
+    assert all(not event.world for event in scenario.events), "nothing is set by hand"
     cc = commands_sent(lines, "cc")
-    first = cc.index("SHEAR")
-    assert cc[first : first + 3] == ["SHEAR", "SHEAR_CORRECT", "SHEAR"], "corrected, sheared again"
+    first = cc.index("SHEAR_CORRECT")
+    assert cc[first - 1 : first + 2] == ["SHEAR", "SHEAR_CORRECT", "SHEAR"], "corrected, again"
     popped = next(line["cycle"] for line in lines if line["world"]["popped_out_of_shear"])
-    assert lines[popped - 1]["modules"]["co"]["state"] == "S1", "co went back to S1 at once"
-    assert lines[-1]["world"]["depth_cut"] >= 1.45
+    by_cycle = {line["cycle"]: line for line in lines}
+    start = max(c for c in by_cycle if c < popped and by_cycle[c]["world"]["boom_angle"] >= 29.5)
+    slid = by_cycle[start]["world"]["true_x"] - by_cycle[popped]["world"]["true_x"]
+    assert slid > 0.1, "the roll in the seam floor slid the machine out of the cut"
+    assert by_cycle[popped + 1]["modules"]["co"]["state"] == "S1", "co went back to S1 at once"
+    cleared = next(
+        c
+        for c in sorted(by_cycle)
+        if c > popped and not by_cycle[c]["world"]["popped_out_of_shear"]
+    )
+    assert by_cycle[cleared]["world"]["boom_angle"] >= 29.0, (
+        "cleared with the boom back at the roof"
+    )
+    assert abs(lines[-1]["world"]["depth_cut"] - 1.5) <= DEPTH_TOLERANCE
 
 
 def test_late_tail_halts_the_shear_until_the_tail_is_in_position():
     final, lines = played("late_tail")
     assert final["status"] == "DONE"
-    halts = [line for line in lines if line["modules"]["cc"]["command"] == "HALT"]
+    halts = [  # co's loose-coal pauses (not the shift boss's HALT at the end)
+        line
+        for line in lines
+        if line["modules"]["cc"]["command"] == "HALT"
+        and line["modules"]["co"]["command"] == "SUMP_SHEAR_CUSP"
+    ]
     assert halts, "too much loose coal halted the shear"
-    assert all(line["world"]["loose_coal"] > 4.0 for line in halts[:-1]), "halted for coal"
+    by_cycle = {line["cycle"]: line for line in lines}
+    for line in halts:  # each HALT co sent was decided on the gauge's reading of the cycle before
+        before = by_cycle[line["cycle"] - 1]
+        if before["modules"]["cc"]["command_num"] != line["modules"]["cc"]["command_num"]:
+            assert before["world"]["loose_coal"] > 4.0, "halted for coal"
     assert not halts[0]["world"]["tail_in_position"], "the tail was not there when it halted"
     placed = next(line["cycle"] for line in lines if line["world"]["tail_in_position"])
     assert halts[0]["cycle"] < placed <= halts[-1]["cycle"], "halted until after the tail came"
@@ -126,6 +240,43 @@ def test_operator_halt_reaches_every_controller_in_one_cycle_then_restarts():
     assert final["status"] == "DONE" and lines[-1]["world"]["depth_cut"] >= 1.45
 
 
+def actuator_fields() -> list[str]:
+    """The world fields the system declares `actuator: true`: what HALT must stop."""
+    system = yaml.safe_load((ROOT / "specs" / "miner" / "system.yaml").read_text("utf-8"))
+    return sorted(name for name, field in system["world"].items() if field.get("actuator"))
+
+
+def test_operator_halt_in_mid_shear_leaves_every_actuator_stopped():
+    _, lines = played("operator_halt")
+    by_cycle = {line["cycle"]: line for line in lines}
+    halt = next(c for c, line in by_cycle.items() if line["modules"]["sb"]["command"] == "HALT")
+    before = by_cycle[halt - 1]
+    assert before["modules"]["cc"]["command"] == "SHEAR", "halted during the shear"
+    assert before["world"]["drum_on_cmd"] and before["world"]["boom_rate_cmd"] < 0.0
+    restart = next(c for c in sorted(by_cycle) if c > halt and halted_then(by_cycle[c], "BOX_CUT"))
+    fields = actuator_fields()
+    assert {"drum_on_cmd", "jack_down_cmd", "tail_request", "left_tread_cmd"} <= set(fields)
+    for cycle in range(halt, restart):
+        world = by_cycle[cycle]["world"]
+        stopped = {
+            "boom_rate_cmd": world["boom_rate_cmd"] == 0.0,
+            "drum_on_cmd": world["drum_on_cmd"] is False,
+            "jack_down_cmd": world["jack_down_cmd"] == world["jack_down"],  # not travelling
+            "left_tread_cmd": world["left_tread_cmd"] == 0,
+            "right_tread_cmd": world["right_tread_cmd"] == 0,
+            "gather_on_cmd": world["gather_on_cmd"] is False,
+            "conveyor_on_cmd": world["conveyor_on_cmd"] is False,
+            "tail_request": world["tail_request"] is False,
+            "pan_float_cmd": True,  # a position the pan holds, not a motion
+        }
+        assert set(stopped) == set(fields), "every actuator field is judged"
+        assert all(stopped.values()), f"cycle {cycle}: {[f for f, ok in stopped.items() if not ok]}"
+    still = [by_cycle[c]["world"] for c in range(halt + 2, restart)]
+    assert len({(w["true_x"], w["boom_angle_true"], w["jack_down"]) for w in still}) == 1, (
+        "nothing moves while halted"
+    )
+
+
 def halted_then(line: dict, command: str) -> bool:
     return line["modules"]["sb"]["command"] == command
 
@@ -148,3 +299,119 @@ def test_operator_goal_entry_trams_the_machine_there():
     assert entered["world"]["operator_goal_x"] == -1.5, "the console entry reached the world"
     assert commands_sent(lines, "co")[-1] == "TRAM_TO_GOAL"
     assert abs(lines[-1]["world"]["pose_x"] - -1.5) < 0.05, "the machine is at the goal"
+
+
+def rising(lines: list[dict], field: str) -> list[int]:
+    """The cycles in which a bool world field became true."""
+    cycles, was = [], False
+    for line in lines:
+        now = line["world"][field]
+        if now and not was:
+            cycles.append(line["cycle"])
+        was = now
+    return cycles
+
+
+def test_the_operator_is_asked_for_the_tail_on_every_sump():
+    for name in ("box_cut", "late_tail"):
+        _, lines = played(name)
+        sumps = commands_sent(lines, "co").count("SUMP_SHEAR_CUSP")
+        asked = rising(lines, "tail_request")
+        assert len(asked) == sumps == 3, name
+        for cycle in asked:  # asking moves the tail: not in position until the operator is done
+            assert not next(li for li in lines if li["cycle"] == cycle)["world"]["tail_in_position"]
+
+
+def test_the_tail_is_out_of_position_once_the_machine_advances_beyond_it():
+    with Harness.build(ROOT / "specs" / "miner") as h:
+        h.world.update({"tail_request": True, "true_x": 1.0})
+        for _ in range(5):  # the operator's delay is 3 cycles
+            h.step("oi")
+        assert h.world["tail_in_position"], "placed for the sump ahead"
+        h.world["tail_request"] = False
+        h.world["true_x"] = 1.6  # within the tail's reach of where it was placed (1.25)
+        h.step("oi")
+        h.step("oi")
+        assert h.world["tail_in_position"]
+        h.world["true_x"] = 1.7  # beyond it
+        h.step("oi")
+        assert not h.world["tail_in_position"], "the machine advanced beyond the tail"
+
+
+pp_hooks = import_hooks(ROOT / "specs" / "miner", "miner_hooks.pp")  # the path planner
+
+
+def test_the_planner_goes_straight_in_line_and_around_pillars_otherwise():
+    planner = pp_hooks.new_planner({"map": "maps/box_cut.map"})
+    assert pp_hooks.plan(planner, 0.0, 0.0, 0.0, 5.0, 0.0) == (True, 2.5, 0.0, False)
+    assert pp_hooks.plan(planner, 0.0, 0.0, 0.0, -1.5, 0.0) == (True, -1.5, 0.0, True)
+    found, wx, wy, last = pp_hooks.plan(planner, 0.0, 0.0, 0.0, -3.0, -9.75)
+    assert found and not last, "the goal behind the pillar is not in plain sight"
+    assert abs(wy) < 0.5 and -2.6 < wx < 0.0, "first back along the entry, towards the crosscut"
+    assert pp_hooks.plan(planner, 0.0, 0.0, 0.0, 20.0, 5.0)[0] is False, "inside solid coal"
+
+
+def test_guidance_trams_around_the_pillar_to_a_goal_in_the_next_entry():
+    final, lines = played("around_pillar")
+    assert final["status"] == "DONE"
+    end = lines[-1]["world"]
+    assert abs(end["true_x"] - -3.0) < 0.15 and abs(end["true_y"] - -9.75) < 0.15
+    assert abs(end["true_heading"]) <= 0.06, "facing inby at the goal"
+    moves = set(commands_sent(lines, "tc"))
+    assert "SLOW_REVERSE" in moves and moves & {"PIVOT_LEFT", "PIVOT_RIGHT"}, "reverse and turn"
+    mine = load_mine()
+    for line in lines:  # the drum centre never stands in the surveyed coal: around the pillar
+        w = line["world"]
+        cell = (
+            int((w["true_y"] - mine.y0) // mine_hooks.CELL),
+            int((w["true_x"] - mine.x0) // mine_hooks.CELL),
+        )
+        assert cell not in mine.seam, f"cycle {line['cycle']}: in the coal at {cell}"
+    assert min(line["world"]["true_x"] for line in lines) < -6.0, "through the crosscut"
+
+
+def test_two_passes_cut_the_whole_wide_face_to_depth():
+    final, lines = played("two_passes")
+    assert final["status"] == "DONE"
+    co = commands_sent(lines, "co")
+    first_slab = co.index("REPOSITION") + 2
+    assert co[: first_slab + 1].count("SUMP_SHEAR_CUSP") >= 2, "the box cut, slice by slice"
+    assert co[co.index("REPOSITION") : first_slab + 1] == [
+        "REPOSITION", "REPOSITION", "INITIAL_APPROACH_FACE"
+    ], "backed out, across, then the slab cut from the face"  # fmt: skip
+    assert "SUMP_SHEAR_CUSP" in co[first_slab:] and co[-1] == "HALT"
+    ys = [line["world"]["true_y"] for line in lines]
+    assert abs(ys[0]) < 0.01 and abs(ys[-1] - 2.75) < 0.1, "the slab pass is 2.75 m across"
+    # the mine as the run left it: the whole 6 m face (rows 39-62) cut back 1.5 m
+    trace = traces.load(GOLDEN / "two_passes.jsonl")
+    settings = {"map": "maps/two_pass.map", "seed": "7"}
+    result = mine_view.replay(trace, mine_hooks, "new_mine", settings)
+    assert result.mismatch is None
+    final_heights = {cell: h for _, cell, h in result.cuts}
+    for row in range(39, 63):
+        for column in range(72, 78):  # 2.0 m to 3.5 m inby
+            assert final_heights.get(row * result.columns + column, 1.0) <= mine_hooks.FACE_MIN, (
+                row,
+                column,
+            )
+
+
+def test_the_checker_refuses_a_controller_that_reads_the_truth_and_a_halt_that_stops_nothing(
+    tmp_path,
+):
+    copy = tmp_path / "miner"
+    shutil.copytree(ROOT / "specs" / "miner", copy, ignore=shutil.ignore_patterns("__pycache__"))
+    sb = copy / "sb.yaml"
+    sb.write_text(
+        sb.read_text("utf-8").replace("reads: [depth_est,", "reads: [depth_est, depth_cut,", 1),
+        "utf-8",
+    )
+    cd = copy / "cd.yaml"
+    cd.write_text(cd.read_text("utf-8").replace("  HALT:\n", "  STOP:\n", 1), "utf-8")
+    found = {(Path(d.span.file).name, d.code, d.message) for d in compile_paths([copy]).diagnostics}
+    assert ("sb.yaml", "E280", "controller `sb` uses ground-truth world field `depth_cut`") in found
+    assert (
+        "cd.yaml",
+        "W520",
+        "`cd` commands actuator `drum_on_cmd` but keeps the default HALT, which stops nothing",
+    ) in found

@@ -48,7 +48,8 @@ def test_the_tree_puts_each_subordinate_under_its_supervisor() -> None:
     )
     rows = dict(tree_order(layout))
     assert list(rows)[:3] == ["sb", "co", "cr"]
-    assert rows["sb"] == "" and rows["co"] == "└─ " and rows["cr"] == "   ├─ "
+    assert rows["sb"] == "" and rows["co"] == "├─ " and rows["cr"] == "│  ├─ "
+    assert rows["wm"] == "└─ ", "world modelling, the shift boss's last subordinate"
     assert rows["pp"].endswith("├─ ") and rows["oi"] == ""
 
 

@@ -58,7 +58,7 @@ def test_every_link_between_pages_resolves(pages):
 
 def test_controller_page_has_figure_4_tables_and_mermaid(pages):
     co = pages["miner/co.md"]
-    assert co.count("```mermaid") == 6  # INIT, HALT and four commands
+    assert co.count("```mermaid") == 7  # INIT, HALT and five commands
     assert "supervisor [sb](sb.md) · subordinates [cr](cr.md), [vg](vg.md), [cc](cc.md)" in co
     assert "| state | rule | condition | actions | next state | line |" in co
     row = next(line for line in co.splitlines() if "| `too_much_loose_coal()`<br>" in line)
@@ -84,7 +84,7 @@ def test_index_has_hierarchy_order_and_world_model(pages):
     assert "## Hierarchy" in index and "m_sb --> m_co" in index
     assert "Execution order, every cycle: sb → co → cc → bm" in index
     assert "Stand-in: [cr_sim](cr_sim.md) can run in place of cr, gh, cv, ct." in index
-    assert "| `loose_coal` | float | `0.0` | mine, gas, cr_sim | co, cr | Loose coal" in index
+    assert "| `loose_coal` | float | `0.0` | lcs | co, cr | Loose coal" in index
 
 
 def test_doc_check_fails_when_stale_and_names_the_command(tmp_path, monkeypatch):

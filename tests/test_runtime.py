@@ -426,8 +426,8 @@ def test_the_miner_as_two_free_running_processes_completes_the_box_cut() -> None
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     assert lines[0] == "sb DONE #2", done.stdout
-    assert lines[1] == "depth_cut = 1.75"
-    assert float(lines[2].split(" = ")[1]) == pytest.approx(14.7875)
+    assert lines[1] == "depth_cut = 1.5"
+    assert float(lines[2].split(" = ")[1]) == pytest.approx(12.587944)
     assert any(line.startswith("pc2: stopped, ") for line in lines)
 
 

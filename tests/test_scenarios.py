@@ -133,7 +133,7 @@ def test_a_scenario_designed_to_end_in_error_passes(miner: Path) -> None:
     result = rcsgen("run", "miner/scenarios/stalled_tread.yaml", "-q")
     assert result.exit_code == 1
     assert (
-        "error[E416]: expected `sb` to finish DONE; it finished ERROR (state NOP) in cycle 188"
+        "error[E416]: expected `sb` to finish DONE; it finished ERROR (state NOP) in cycle 200"
         in result.output
     )
 

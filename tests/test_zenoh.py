@@ -92,9 +92,9 @@ def test_a_node_sends_only_what_it_wrote_and_its_control_record_last(miner: Modu
     assert list(mirror.changed()) == []  # a new block: nothing written yet
     layout.STATUS_OUT["pp"].write(block.buf, status_num=1, status=2)
     layout.PROCESSES["pc2"].write(block.buf, heartbeat=1)
-    layout.WORLD["tram_dir"].write(block.buf, tram_dir=1)
+    layout.WORLD["wp_x"].write(block.buf, wp_x=1.0)
     sent = [key for key, _ in mirror.changed()]
-    assert sent == ["pp/status", "_world/tram_dir", "_process/pc2/control"]
+    assert sent == ["pp/status", "_world/wp_x", "_process/pc2/control"]
     assert list(mirror.changed()) == []  # sent once
     assert [k for k, _ in mirror.changed(everything=True)] == sent  # for a node that joined
 
@@ -129,24 +129,24 @@ def test_a_late_or_out_of_order_message_is_dropped_and_counted(miner: ModuleType
 
 
 def test_a_push_is_applied_whole_when_its_last_message_arrives(miner: ModuleType) -> None:
-    """pp writes tram_dir and reports DONE in one cycle: a reader must never see the DONE
-    without the tram_dir, however its messages are split between two pulls."""
+    """pp writes wp_x and reports DONE in one cycle: a reader must never see the DONE
+    without the wp_x, however its messages are split between two pulls."""
     layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
     Block = rcs(miner, "rcs.block").Block
     sender = transport.Mirror(layout, Block(layout), "pc2")
     receiver = transport.Mirror(layout, Block(layout), "pc1")
-    layout.WORLD["tram_dir"].write(sender.block.buf, tram_dir=-1)
+    layout.WORLD["wp_x"].write(sender.block.buf, wp_x=-1.0)
     layout.STATUS_OUT["pp"].write(sender.block.buf, status_num=1, status=2)
     layout.PROCESSES["pc2"].write(sender.block.buf, heartbeat=1)
     push = sender.changed()
-    assert [k for k, _ in push] == ["pp/status", "_world/tram_dir", "_process/pc2/control"]
+    assert [k for k, _ in push] == ["pp/status", "_world/wp_x", "_process/pc2/control"]
     for key, message in push[:-1]:
         receiver.receive(key, message)
     assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 0  # not yet
-    assert layout.WORLD["tram_dir"].read(receiver.block.buf)["tram_dir"] == 0
+    assert layout.WORLD["wp_x"].read(receiver.block.buf)["wp_x"] == 0.0
     receiver.receive(*push[-1])
     assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 1
-    assert layout.WORLD["tram_dir"].read(receiver.block.buf)["tram_dir"] == -1
+    assert layout.WORLD["wp_x"].read(receiver.block.buf)["wp_x"] == -1.0
     assert receiver.counters.applied == 3
 
 
@@ -485,7 +485,7 @@ def test_one_command_runs_the_box_cut_with_the_path_planner_on_a_second_host() -
     )
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert lines[:2] == ["sb DONE #2", "depth_cut = 1.75"], done.stdout
+    assert lines[:2] == ["sb DONE #2", "depth_cut = 1.5"], done.stdout
     assert any(line.startswith("pc2: stopped, ") for line in lines), done.stdout
     assert shm_files() - before == set()
 

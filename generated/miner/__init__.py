@@ -21,6 +21,7 @@ SOURCES = (
     "miner/gas.yaml",
     "miner/gh.yaml",
     "miner/jas.yaml",
+    "miner/lcs.yaml",
     "miner/mine.yaml",
     "miner/oi.yaml",
     "miner/pp.yaml",
@@ -31,4 +32,5 @@ SOURCES = (
     "miner/tas.yaml",
     "miner/tc.yaml",
     "miner/vg.yaml",
+    "miner/wm.yaml",
 )

@@ -46,7 +46,7 @@ SJ_RAISE = 4
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI80xQI108xQI108xQI")
-INPUTS_AT = 544
+INPUTS_AT = 568
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -502,22 +502,26 @@ class CcController:
                 self.status = ERROR
 
     def shear(self) -> None:
-        """SHEAR: Jack down, then lower the turning drum through the seam to the floor."""
+        """SHEAR: Drum on and jack down, then lower the turning drum through the seam to the floor.
+        The drum is switched on again because a HALT (co's loose-coal pause) stops it.
+        """
         state = self.state
         if state == S0:
             self.rule = 11  # SHEAR/S0/1
             self.state = S1
+            self.cd_command = CD_ON
+            self.cd_command_num += 1
             self.sj_command = SJ_LOWER
             self.sj_command_num += 1
 
         elif state == S1:
-            if self.sj_status == DONE:
+            if self.sj_status == DONE and self.cd_status == DONE:
                 self.rule = 12  # SHEAR/S1/1
                 self.state = S2
                 self.bm_command = BM_LOWER
                 self.bm_command_num += 1
 
-            elif self.sj_status == ERROR:
+            elif self.sj_status == ERROR or self.cd_status == ERROR:
                 self.rule = 13  # SHEAR/S1/2
                 self.state = NOP
                 self.status = ERROR

@@ -19,15 +19,15 @@ OFF = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI2408x?")
-INPUTS_AT = 784
+INPUTS = Struct("<QI44x???1xI2696x?")
+INPUTS_AT = 808
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3248
+WORLD_OUT_1_AT = 3560
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -284,10 +284,11 @@ class CdController:
             self.status = DONE
 
     def halt(self) -> None:
-        """HALT: Halt all actions."""
+        """HALT: Drum motor off (an operator's HALT must not leave the drum turning)."""
         state = self.state
         if state == S0:
             self.rule = 2  # HALT/S0/1
+            self.world_drum_on_cmd = False
             self.state = NOP
             self.status = DONE
 

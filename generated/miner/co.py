@@ -36,9 +36,10 @@ from .rcs.contract import (
 INIT = 1
 HALT = 2
 INITIAL_APPROACH_FACE = 3
-TRAM_TO_GOAL = 4
-APPROACH_FACE = 5
-SUMP_SHEAR_CUSP = 6
+REPOSITION = 4
+TRAM_TO_GOAL = 5
+APPROACH_FACE = 6
+SUMP_SHEAR_CUSP = 7
 
 # Commands co sends to cr.
 CR_INIT = 1
@@ -63,15 +64,15 @@ CC_CUSP = 7
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI80xQI468xQI484xQI1604xd8xd8xd8xd264xd8xd8xd24xd8x?63xd")
-INPUTS_AT = 424
+INPUTS = Struct("<QIdd44x???1xI80xQI468xQI484xQI1844xd8xd8xd8xd328xd8xd8xd24xd8xd8x?47xd")
+INPUTS_AT = 432
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3184
+WORLD_OUT_1_AT = 3448
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -93,6 +94,8 @@ class CoController:
     """The co controller: its local buffers and the QQ1 cycle."""
 
     __slots__ = (
+        "arg_x",
+        "arg_y",
         "buf",
         "cc_command",
         "cc_command_num",
@@ -143,6 +146,7 @@ class CoController:
         "world_popped_out_of_shear",
         "world_pose_x",
         "world_pose_y",
+        "world_sump_step",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -204,6 +208,8 @@ class CoController:
         (
             self.command_num,
             self.command,
+            self.arg_x,
+            self.arg_y,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -222,8 +228,9 @@ class CoController:
             self.world_pose_y,
             self.world_heading,
             self.world_cutter_current,
-            self.world_popped_out_of_shear,
             self.world_loose_coal,
+            self.world_popped_out_of_shear,
+            self.world_sump_step,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.cr_status_num != self.cr_command_num:
             self.cr_status = EXECUTING  # until it echoes the last number sent
@@ -256,6 +263,8 @@ class CoController:
                 self.halt()
             elif command == INITIAL_APPROACH_FACE:
                 self.initial_approach_face()
+            elif command == REPOSITION:
+                self.reposition()
             elif command == TRAM_TO_GOAL:
                 self.tram_to_goal()
             elif command == APPROACH_FACE:
@@ -355,6 +364,8 @@ class CoController:
         (
             self.command_num,
             self.command,
+            self.arg_x,
+            self.arg_y,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -373,8 +384,9 @@ class CoController:
             self.world_pose_y,
             self.world_heading,
             self.world_cutter_current,
-            self.world_popped_out_of_shear,
             self.world_loose_coal,
+            self.world_popped_out_of_shear,
+            self.world_sump_step,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.cr_status_num != self.cr_command_num:
             self.cr_status = EXECUTING  # until it echoes the last number sent
@@ -409,6 +421,8 @@ class CoController:
                 self.halt()
             elif command == INITIAL_APPROACH_FACE:
                 self.initial_approach_face()
+            elif command == REPOSITION:
+                self.reposition()
             elif command == TRAM_TO_GOAL:
                 self.tram_to_goal()
             elif command == APPROACH_FACE:
@@ -642,11 +656,33 @@ class CoController:
             self.state = NOP
             self.status = ERROR
 
+    def reposition(self) -> None:
+        """REPOSITION: Tram to the point (x, y) the shift boss gives, between the passes of a cut."""
+        state = self.state
+        if state == S0:
+            self.rule = 13  # REPOSITION/S0/1
+            self.state = S1
+            self.vg_arg_x = self.arg_x
+            self.vg_arg_y = self.arg_y
+            self.vg_command = VG_TRAM_TO_XY
+            self.vg_command_num += 1
+
+        elif state == S1:
+            if self.vg_status == DONE:
+                self.rule = 14  # REPOSITION/S1/1
+                self.state = NOP
+                self.status = DONE
+
+            elif self.vg_status == ERROR:
+                self.rule = 15  # REPOSITION/S1/2
+                self.state = NOP
+                self.status = ERROR
+
     def tram_to_goal(self) -> None:
         """TRAM_TO_GOAL: Tram in free space to the goal point the operator entered."""
         state = self.state
         if state == S0:
-            self.rule = 13  # TRAM_TO_GOAL/S0/1
+            self.rule = 16  # TRAM_TO_GOAL/S0/1
             self.state = S1
             self.vg_arg_x = self.world_operator_goal_x
             self.vg_arg_y = self.world_operator_goal_y
@@ -655,12 +691,12 @@ class CoController:
 
         elif state == S1:
             if self.vg_status == DONE:
-                self.rule = 14  # TRAM_TO_GOAL/S1/1
+                self.rule = 17  # TRAM_TO_GOAL/S1/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.vg_status == ERROR:
-                self.rule = 15  # TRAM_TO_GOAL/S1/2
+                self.rule = 18  # TRAM_TO_GOAL/S1/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -670,14 +706,14 @@ class CoController:
         """
         state = self.state
         if state == S0:
-            self.rule = 16  # APPROACH_FACE/S0/1
+            self.rule = 19  # APPROACH_FACE/S0/1
             self.state = S1
             self.cc_command = CC_RAISE_DRUM
             self.cc_command_num += 1
 
         elif state == S1:
             if self.cc_status == DONE:
-                self.rule = 17  # APPROACH_FACE/S1/1
+                self.rule = 20  # APPROACH_FACE/S1/1
                 self.state = S2
                 self.var_distance = APPROACH_DISTANCE
                 try:
@@ -704,18 +740,18 @@ class CoController:
                 self.vg_command_num += 1
 
             elif self.cc_status == ERROR:
-                self.rule = 18  # APPROACH_FACE/S1/2
+                self.rule = 21  # APPROACH_FACE/S1/2
                 self.state = NOP
                 self.status = ERROR
 
         elif state == S2:
             if self.vg_status == DONE:
-                self.rule = 19  # APPROACH_FACE/S2/1
+                self.rule = 22  # APPROACH_FACE/S2/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.vg_status == ERROR:
-                self.rule = 20  # APPROACH_FACE/S2/2
+                self.rule = 23  # APPROACH_FACE/S2/2
                 self.state = NOP
                 self.status = ERROR
 
@@ -724,11 +760,11 @@ class CoController:
         state = self.state
         if state == S0:
             # do a sump operation
-            self.rule = 21  # SUMP_SHEAR_CUSP/S0/1
+            self.rule = 24  # SUMP_SHEAR_CUSP/S0/1
             self.state = S1
             try:
                 returned = hooks.co_position_for_sump(
-                    self.world_pose_x, self.world_pose_y, self.world_heading
+                    self.world_pose_x, self.world_pose_y, self.world_heading, self.world_sump_step
                 )
             except Exception as error:  # one error naming the module, hook, rule and cycle
                 raise HookError(
@@ -760,7 +796,7 @@ class CoController:
 
         elif state == S1 and self.vg_status == DONE and self.cc_status == DONE:
             # do a shear operation
-            self.rule = 22  # SUMP_SHEAR_CUSP/S1/1
+            self.rule = 25  # SUMP_SHEAR_CUSP/S1/1
             self.state = S2
             self.cr_command = CR_SHEAR
             self.cr_command_num += 1
@@ -772,11 +808,14 @@ class CoController:
         elif state == S2:
             if self.world_popped_out_of_shear:
                 # the drum popped out of the shear
-                self.rule = 23  # SUMP_SHEAR_CUSP/S2/1
+                self.rule = 26  # SUMP_SHEAR_CUSP/S2/1
                 self.state = S1
                 try:
                     returned = hooks.co_position_for_sump(
-                        self.world_pose_x, self.world_pose_y, self.world_heading
+                        self.world_pose_x,
+                        self.world_pose_y,
+                        self.world_heading,
+                        self.world_sump_step,
                     )
                 except Exception as error:  # one error naming the module, hook, rule and cycle
                     raise HookError(
@@ -802,13 +841,13 @@ class CoController:
 
             elif self.too_much_loose_coal():
                 # too much loose coal (conveyor tail not in position) pauses the shear
-                self.rule = 24  # SUMP_SHEAR_CUSP/S2/2
+                self.rule = 27  # SUMP_SHEAR_CUSP/S2/2
                 self.cc_command = CC_HALT
                 self.cc_command_num += 1
 
             elif not self.too_much_loose_coal() and self.cc_command == CC_HALT:
                 # continue with the shear
-                self.rule = 25  # SUMP_SHEAR_CUSP/S2/3
+                self.rule = 28  # SUMP_SHEAR_CUSP/S2/3
                 self.cc_command = CC_SHEAR
                 self.cc_command_num += 1
 
@@ -819,7 +858,7 @@ class CoController:
                 and not self.world_popped_out_of_shear
             ):
                 # do a cusp operation
-                self.rule = 26  # SUMP_SHEAR_CUSP/S2/4
+                self.rule = 29  # SUMP_SHEAR_CUSP/S2/4
                 self.state = S3
                 self.cr_command = CR_CUSP
                 self.cr_command_num += 1
@@ -832,7 +871,7 @@ class CoController:
             and self.vg_status == DONE
             and self.cc_status == DONE
         ):
-            self.rule = 27  # SUMP_SHEAR_CUSP/S3/1
+            self.rule = 30  # SUMP_SHEAR_CUSP/S3/1
             self.state = S4
             try:
                 returned = hooks.co_position_for_cusp(
@@ -868,6 +907,6 @@ class CoController:
             and self.vg_status == DONE
             and self.cc_status == DONE
         ):
-            self.rule = 28  # SUMP_SHEAR_CUSP/S4/1
+            self.rule = 31  # SUMP_SHEAR_CUSP/S4/1
             self.state = NOP
             self.status = DONE

@@ -41,8 +41,8 @@ CT_POSITION_TAIL = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI80xQI108xQI108xQI1708x?495xd")
-INPUTS_AT = 1024
+INPUTS = Struct("<QI44x???1xI80xQI108xQI108xQI1948x?495xd")
+INPUTS_AT = 1048
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -50,7 +50,6 @@ S1 = 2
 S2 = 3
 
 # Constants.
-ENOUGH_COAL = 0.5
 CLEARED = 0.05
 
 
@@ -454,30 +453,35 @@ class CrController:
             self.status = DONE
 
     def sump(self) -> None:
-        """SUMP: Gathering pan to float; ask the operator to position the conveyor tail."""
+        """SUMP: Gathering pan to float (the head stops) and the conveyor off, now that the last
+        cusp's coal is cleared; ask the operator to position the conveyor tail.
+        """
         state = self.state
         if state == S0:
             self.rule = 5  # SUMP/S0/1
             self.state = S1
             self.gh_command = GH_FLOAT
             self.gh_command_num += 1
+            self.cv_command = CV_HALT
+            self.cv_command_num += 1
             self.ct_command = CT_POSITION_TAIL
             self.ct_command_num += 1
 
         elif state == S1:
-            if self.gh_status == DONE:
+            if self.gh_status == DONE and self.cv_status == DONE:
                 self.rule = 6  # SUMP/S1/1
                 self.state = NOP
                 self.status = DONE
 
-            elif self.gh_status == ERROR:
+            elif self.gh_status == ERROR or self.cv_status == ERROR:
                 self.rule = 7  # SUMP/S1/2
                 self.state = NOP
                 self.status = ERROR
 
     def shear(self) -> None:
-        """SHEAR: Gathering head and conveyor on only when enough coal has piled up and the operator
-        reported the tail in position; done when the loose coal is cleared.
+        """SHEAR: Gathering head and conveyor on once the gauge shows coal and the operator reported
+        the tail in position; done when the loose coal is cleared. (Waiting for a fixed tonnage
+        first left a short last sump's coal on the floor for ever.)
         """
         state = self.state
         if state == S0:
@@ -486,10 +490,10 @@ class CrController:
 
         elif (
             state == S1
-            and (self.world_loose_coal >= ENOUGH_COAL or self.gh_command == GH_ON)
+            and (self.world_loose_coal > CLEARED or self.gh_command == GH_ON)
             and self.world_tail_in_position
         ):
-            # enough coal to convey (or conveyance still running from before a re-shear)
+            # coal to convey (or conveyance still running from before a re-shear)
             self.rule = 9  # SHEAR/S1/1
             self.state = S2
             self.gh_command = GH_ON
@@ -513,8 +517,10 @@ class CrController:
                 self.status = ERROR
 
     def cusp(self) -> None:
-        """CUSP: Keep gathering while the cusp is taken; once the floor is clear, gathering head and
-        conveyor off until the next shear has piled up enough coal.
+        """CUSP: Gathering head and conveyor on; done once the floor is clear, leaving them running,
+        because the coordinator trams back to take the cusp only after this is done (Appendix C's
+        S3 waits for cr): the cusp coal cut on the way back is gathered too. The next SUMP (or a
+        HALT) stops them.
         """
         state = self.state
         if state == S0:
@@ -532,24 +538,10 @@ class CrController:
                 and self.world_loose_coal <= CLEARED
             ):
                 self.rule = 13  # CUSP/S1/1
-                self.state = S2
-                self.gh_command = GH_HALT
-                self.gh_command_num += 1
-                self.cv_command = CV_HALT
-                self.cv_command_num += 1
-
-            elif self.gh_status == ERROR or self.cv_status == ERROR:
-                self.rule = 14  # CUSP/S1/2
-                self.state = NOP
-                self.status = ERROR
-
-        elif state == S2:
-            if self.gh_status == DONE and self.cv_status == DONE:
-                self.rule = 15  # CUSP/S2/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.gh_status == ERROR or self.cv_status == ERROR:
-                self.rule = 16  # CUSP/S2/2
+                self.rule = 14  # CUSP/S1/2
                 self.state = NOP
                 self.status = ERROR

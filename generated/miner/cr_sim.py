@@ -8,7 +8,7 @@ from .layout import (
     CR_PERF_AT,
     CR_STATUS_AT,
     WORLD_COAL_MINED_AT,
-    WORLD_LOOSE_COAL_AT,
+    WORLD_LOOSE_COAL_TRUE_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -21,15 +21,15 @@ CUSP = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI2536xd8xd")
-INPUTS_AT = 1024
+INPUTS = Struct("<QI44x???1xI2904xd8xd")
+INPUTS_AT = 1048
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3616
+WORLD_OUT_1_AT = 4008
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -66,7 +66,7 @@ class CrSimController:
         "status_num",
         "status_seq",
         "world_coal_mined",
-        "world_loose_coal",
+        "world_loose_coal_true",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -110,7 +110,7 @@ class CrSimController:
             self.single_step,
             self.simulate,
             self.single_step_num,
-            self.world_loose_coal,
+            self.world_loose_coal_true,
             self.world_coal_mined,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
@@ -161,13 +161,13 @@ class CrSimController:
             SEQ.pack_into(buf, CR_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_loose_coal, self.world_coal_mined)
+        out = (self.world_loose_coal_true, self.world_coal_mined)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[0] | 1) + 1)
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -205,7 +205,7 @@ class CrSimController:
             self.single_step,
             self.simulate,
             self.single_step_num,
-            self.world_loose_coal,
+            self.world_loose_coal_true,
             self.world_coal_mined,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
@@ -261,13 +261,13 @@ class CrSimController:
             SEQ.pack_into(buf, CR_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_loose_coal, self.world_coal_mined)
+        out = (self.world_loose_coal_true, self.world_coal_mined)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[0] | 1) + 1)
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -296,10 +296,12 @@ class CrSimController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        if self.world_loose_coal > 0.0:
+        if self.world_loose_coal_true > 0.0:
             # the simulated section hauls loose coal away whatever it was told
-            self.world_coal_mined = self.world_coal_mined + min(self.world_loose_coal, HAUL_RATE)
-            self.world_loose_coal = max(0.0, self.world_loose_coal - HAUL_RATE)
+            self.world_coal_mined = self.world_coal_mined + min(
+                self.world_loose_coal_true, HAUL_RATE
+            )
+            self.world_loose_coal_true = max(0.0, self.world_loose_coal_true - HAUL_RATE)
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -328,7 +330,7 @@ class CrSimController:
     def shear(self) -> None:
         """SHEAR: Done when the loose coal is cleared."""
         state = self.state
-        if state == S0 and self.world_loose_coal <= CLEARED:
+        if state == S0 and self.world_loose_coal_true <= CLEARED:
             self.rule = 4  # SHEAR/S0/1
             self.state = NOP
             self.status = DONE
@@ -336,7 +338,7 @@ class CrSimController:
     def cusp(self) -> None:
         """CUSP: Done when the loose coal is cleared."""
         state = self.state
-        if state == S0 and self.world_loose_coal <= CLEARED:
+        if state == S0 and self.world_loose_coal_true <= CLEARED:
             self.rule = 5  # CUSP/S0/1
             self.state = NOP
             self.status = DONE

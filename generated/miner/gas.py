@@ -8,7 +8,7 @@ from .layout import (
     GAS_PERF_AT,
     GAS_STATUS_AT,
     WORLD_COAL_MINED_AT,
-    WORLD_LOOSE_COAL_AT,
+    WORLD_LOOSE_COAL_TRUE_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
 
@@ -18,19 +18,19 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI568x?207x?15x?271xd8xd")
-INPUTS_AT = 2488
+INPUTS = Struct("<QQI44x???1xI808x?255x?15x?351xd8xd")
+INPUTS_AT = 2512
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2488
+SEQS_AT = 2512
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3616
+WORLD_OUT_1_AT = 4008
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -68,7 +68,7 @@ class GasController:
         "world_coal_mined",
         "world_conveyor_on_cmd",
         "world_gather_on_cmd",
-        "world_loose_coal",
+        "world_loose_coal_true",
         "world_tail_in_position",
     )
 
@@ -121,7 +121,7 @@ class GasController:
                     self.world_tail_in_position,
                     self.world_gather_on_cmd,
                     self.world_conveyor_on_cmd,
-                    self.world_loose_coal,
+                    self.world_loose_coal_true,
                     self.world_coal_mined,
                 ) = values
                 break
@@ -169,13 +169,13 @@ class GasController:
             SEQ.pack_into(buf, GAS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_loose_coal, self.world_coal_mined)
+        out = (self.world_loose_coal_true, self.world_coal_mined)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[0] | 1) + 1)
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -221,7 +221,7 @@ class GasController:
                     self.world_tail_in_position,
                     self.world_gather_on_cmd,
                     self.world_conveyor_on_cmd,
-                    self.world_loose_coal,
+                    self.world_loose_coal_true,
                     self.world_coal_mined,
                 ) = values
                 break
@@ -274,13 +274,13 @@ class GasController:
             SEQ.pack_into(buf, GAS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_loose_coal, self.world_coal_mined)
+        out = (self.world_loose_coal_true, self.world_coal_mined)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[0] | 1) + 1)
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -313,10 +313,12 @@ class GasController:
             self.world_gather_on_cmd
             and self.world_conveyor_on_cmd
             and self.world_tail_in_position
-            and self.world_loose_coal > 0.0
+            and self.world_loose_coal_true > 0.0
         ):
-            self.world_coal_mined = self.world_coal_mined + min(self.world_loose_coal, GATHER_RATE)
-            self.world_loose_coal = max(0.0, self.world_loose_coal - GATHER_RATE)
+            self.world_coal_mined = self.world_coal_mined + min(
+                self.world_loose_coal_true, GATHER_RATE
+            )
+            self.world_loose_coal_true = max(0.0, self.world_loose_coal_true - GATHER_RATE)
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -20,15 +20,15 @@ ON = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI2112x?15x?")
-INPUTS_AT = 1144
+INPUTS = Struct("<QI44x???1xI2400x?15x?")
+INPUTS_AT = 1168
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Q?7xQ?")
 WORLD_VALUES_1 = Struct("<8x?15x?")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3312
+WORLD_OUT_1_AT = 3624
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -301,11 +301,12 @@ class GhController:
             self.status = DONE
 
     def float(self) -> None:
-        """FLOAT: Gathering pan to float on the floor."""
+        """FLOAT: Gathering pan to float on the floor, the head off until there is coal to gather."""
         state = self.state
         if state == S0:
             self.rule = 3  # FLOAT/S0/1
             self.world_pan_float_cmd = True
+            self.world_gather_on_cmd = False
             self.state = NOP
             self.status = DONE
 

@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 3648 bytes.
+The block is 4040 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -20,132 +20,148 @@ command buffers and world fields:
 | 168 | 16 | PACE_PC1 | PACE_FIELDS |
 | 184 | 88 | PROCESS_PC2 | PROCESS_FIELDS |
 | 272 | 16 | PACE_PC2 | PACE_FIELDS |
-| 288 | 28 | SB_COMMAND | command_num, command, arg_depth |
-| 320 | 32 | SB_STATUS | STATUS_FIELDS |
-| 352 | 16 | SB_MODE | MODE_FIELDS |
-| 368 | 48 | SB_PERF | PERF_FIELDS |
-| 416 | 20 | CO_COMMAND | command_num, command |
-| 440 | 32 | CO_STATUS | STATUS_FIELDS |
-| 472 | 16 | CO_MODE | MODE_FIELDS |
-| 488 | 48 | CO_PERF | PERF_FIELDS |
-| 536 | 20 | CC_COMMAND | command_num, command |
-| 560 | 32 | CC_STATUS | STATUS_FIELDS |
-| 592 | 16 | CC_MODE | MODE_FIELDS |
-| 608 | 48 | CC_PERF | PERF_FIELDS |
-| 656 | 20 | BM_COMMAND | command_num, command |
-| 680 | 32 | BM_STATUS | STATUS_FIELDS |
-| 712 | 16 | BM_MODE | MODE_FIELDS |
-| 728 | 48 | BM_PERF | PERF_FIELDS |
-| 776 | 20 | CD_COMMAND | command_num, command |
-| 800 | 32 | CD_STATUS | STATUS_FIELDS |
-| 832 | 16 | CD_MODE | MODE_FIELDS |
-| 848 | 48 | CD_PERF | PERF_FIELDS |
-| 896 | 20 | SJ_COMMAND | command_num, command |
-| 920 | 32 | SJ_STATUS | STATUS_FIELDS |
-| 952 | 16 | SJ_MODE | MODE_FIELDS |
-| 968 | 48 | SJ_PERF | PERF_FIELDS |
-| 1016 | 20 | CR_COMMAND | command_num, command |
-| 1040 | 32 | CR_STATUS | STATUS_FIELDS |
-| 1072 | 16 | CR_MODE | MODE_FIELDS |
-| 1088 | 48 | CR_PERF | PERF_FIELDS |
-| 1136 | 20 | GH_COMMAND | command_num, command |
-| 1160 | 32 | GH_STATUS | STATUS_FIELDS |
-| 1192 | 16 | GH_MODE | MODE_FIELDS |
-| 1208 | 48 | GH_PERF | PERF_FIELDS |
-| 1256 | 20 | CV_COMMAND | command_num, command |
-| 1280 | 32 | CV_STATUS | STATUS_FIELDS |
-| 1312 | 16 | CV_MODE | MODE_FIELDS |
-| 1328 | 48 | CV_PERF | PERF_FIELDS |
-| 1376 | 20 | CT_COMMAND | command_num, command |
-| 1400 | 32 | CT_STATUS | STATUS_FIELDS |
-| 1432 | 16 | CT_MODE | MODE_FIELDS |
-| 1448 | 48 | CT_PERF | PERF_FIELDS |
-| 1496 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
-| 1536 | 32 | VG_STATUS | STATUS_FIELDS |
-| 1568 | 16 | VG_MODE | MODE_FIELDS |
-| 1584 | 48 | VG_PERF | PERF_FIELDS |
-| 1632 | 20 | TC_COMMAND | command_num, command |
-| 1656 | 32 | TC_STATUS | STATUS_FIELDS |
-| 1688 | 16 | TC_MODE | MODE_FIELDS |
-| 1704 | 48 | TC_PERF | PERF_FIELDS |
-| 1752 | 36 | OI_COMMAND | command_num, command, arg_x, arg_y |
-| 1792 | 32 | OI_STATUS | STATUS_FIELDS |
-| 1824 | 16 | OI_MODE | MODE_FIELDS |
-| 1840 | 48 | OI_PERF | PERF_FIELDS |
-| 1888 | 20 | BAS_COMMAND | command_num, command |
-| 1912 | 32 | BAS_STATUS | STATUS_FIELDS |
-| 1944 | 16 | BAS_MODE | MODE_FIELDS |
-| 1960 | 48 | BAS_PERF | PERF_FIELDS |
-| 2008 | 20 | JAS_COMMAND | command_num, command |
-| 2032 | 32 | JAS_STATUS | STATUS_FIELDS |
-| 2064 | 16 | JAS_MODE | MODE_FIELDS |
-| 2080 | 48 | JAS_PERF | PERF_FIELDS |
-| 2128 | 20 | TAS_COMMAND | command_num, command |
-| 2152 | 32 | TAS_STATUS | STATUS_FIELDS |
-| 2184 | 16 | TAS_MODE | MODE_FIELDS |
-| 2200 | 48 | TAS_PERF | PERF_FIELDS |
-| 2248 | 20 | MINE_COMMAND | command_num, command |
-| 2272 | 32 | MINE_STATUS | STATUS_FIELDS |
-| 2304 | 16 | MINE_MODE | MODE_FIELDS |
-| 2320 | 48 | MINE_PERF | PERF_FIELDS |
-| 2368 | 20 | DAS_COMMAND | command_num, command |
-| 2392 | 32 | DAS_STATUS | STATUS_FIELDS |
-| 2424 | 16 | DAS_MODE | MODE_FIELDS |
-| 2440 | 48 | DAS_PERF | PERF_FIELDS |
-| 2488 | 20 | GAS_COMMAND | command_num, command |
-| 2512 | 32 | GAS_STATUS | STATUS_FIELDS |
-| 2544 | 16 | GAS_MODE | MODE_FIELDS |
-| 2560 | 48 | GAS_PERF | PERF_FIELDS |
-| 2608 | 20 | BSS_COMMAND | command_num, command |
-| 2632 | 32 | BSS_STATUS | STATUS_FIELDS |
-| 2664 | 16 | BSS_MODE | MODE_FIELDS |
-| 2680 | 48 | BSS_PERF | PERF_FIELDS |
-| 2728 | 20 | PSS_COMMAND | command_num, command |
-| 2752 | 32 | PSS_STATUS | STATUS_FIELDS |
-| 2784 | 16 | PSS_MODE | MODE_FIELDS |
-| 2800 | 48 | PSS_PERF | PERF_FIELDS |
-| 2848 | 20 | CSS_COMMAND | command_num, command |
-| 2872 | 32 | CSS_STATUS | STATUS_FIELDS |
-| 2904 | 16 | CSS_MODE | MODE_FIELDS |
-| 2920 | 48 | CSS_PERF | PERF_FIELDS |
-| 2968 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
-| 3008 | 32 | PP_STATUS | STATUS_FIELDS |
-| 3040 | 16 | PP_MODE | MODE_FIELDS |
-| 3056 | 48 | PP_PERF | PERF_FIELDS |
-| 3104 | 9 | WORLD_TAIL_REQUEST | tail_request |
-| 3120 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
-| 3136 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 3152 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
-| 3168 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
-| 3184 | 16 | WORLD_GOAL_X | goal_x |
-| 3200 | 16 | WORLD_GOAL_Y | goal_y |
-| 3216 | 16 | WORLD_TRAM_DIR | tram_dir |
-| 3232 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
-| 3248 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
-| 3264 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
-| 3280 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
-| 3296 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
-| 3312 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
-| 3328 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
-| 3344 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
-| 3360 | 16 | WORLD_TRUE_X | true_x |
-| 3376 | 16 | WORLD_TRUE_Y | true_y |
-| 3392 | 16 | WORLD_TRUE_HEADING | true_heading |
-| 3408 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
-| 3424 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
-| 3440 | 9 | WORLD_JACK_DOWN | jack_down |
-| 3456 | 9 | WORLD_TREAD_STALLED | tread_stalled |
-| 3472 | 16 | WORLD_POSE_X | pose_x |
-| 3488 | 16 | WORLD_POSE_Y | pose_y |
-| 3504 | 16 | WORLD_HEADING | heading |
-| 3520 | 16 | WORLD_BOOM_ANGLE | boom_angle |
-| 3536 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
-| 3552 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 3568 | 9 | WORLD_IN_COAL | in_coal |
-| 3584 | 16 | WORLD_FACE_X | face_x |
-| 3600 | 16 | WORLD_DEPTH_CUT | depth_cut |
-| 3616 | 16 | WORLD_LOOSE_COAL | loose_coal |
-| 3632 | 16 | WORLD_COAL_MINED | coal_mined |
+| 288 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
+| 328 | 32 | SB_STATUS | STATUS_FIELDS |
+| 360 | 16 | SB_MODE | MODE_FIELDS |
+| 376 | 48 | SB_PERF | PERF_FIELDS |
+| 424 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
+| 464 | 32 | CO_STATUS | STATUS_FIELDS |
+| 496 | 16 | CO_MODE | MODE_FIELDS |
+| 512 | 48 | CO_PERF | PERF_FIELDS |
+| 560 | 20 | CC_COMMAND | command_num, command |
+| 584 | 32 | CC_STATUS | STATUS_FIELDS |
+| 616 | 16 | CC_MODE | MODE_FIELDS |
+| 632 | 48 | CC_PERF | PERF_FIELDS |
+| 680 | 20 | BM_COMMAND | command_num, command |
+| 704 | 32 | BM_STATUS | STATUS_FIELDS |
+| 736 | 16 | BM_MODE | MODE_FIELDS |
+| 752 | 48 | BM_PERF | PERF_FIELDS |
+| 800 | 20 | CD_COMMAND | command_num, command |
+| 824 | 32 | CD_STATUS | STATUS_FIELDS |
+| 856 | 16 | CD_MODE | MODE_FIELDS |
+| 872 | 48 | CD_PERF | PERF_FIELDS |
+| 920 | 20 | SJ_COMMAND | command_num, command |
+| 944 | 32 | SJ_STATUS | STATUS_FIELDS |
+| 976 | 16 | SJ_MODE | MODE_FIELDS |
+| 992 | 48 | SJ_PERF | PERF_FIELDS |
+| 1040 | 20 | CR_COMMAND | command_num, command |
+| 1064 | 32 | CR_STATUS | STATUS_FIELDS |
+| 1096 | 16 | CR_MODE | MODE_FIELDS |
+| 1112 | 48 | CR_PERF | PERF_FIELDS |
+| 1160 | 20 | GH_COMMAND | command_num, command |
+| 1184 | 32 | GH_STATUS | STATUS_FIELDS |
+| 1216 | 16 | GH_MODE | MODE_FIELDS |
+| 1232 | 48 | GH_PERF | PERF_FIELDS |
+| 1280 | 20 | CV_COMMAND | command_num, command |
+| 1304 | 32 | CV_STATUS | STATUS_FIELDS |
+| 1336 | 16 | CV_MODE | MODE_FIELDS |
+| 1352 | 48 | CV_PERF | PERF_FIELDS |
+| 1400 | 20 | CT_COMMAND | command_num, command |
+| 1424 | 32 | CT_STATUS | STATUS_FIELDS |
+| 1456 | 16 | CT_MODE | MODE_FIELDS |
+| 1472 | 48 | CT_PERF | PERF_FIELDS |
+| 1520 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
+| 1560 | 32 | VG_STATUS | STATUS_FIELDS |
+| 1592 | 16 | VG_MODE | MODE_FIELDS |
+| 1608 | 48 | VG_PERF | PERF_FIELDS |
+| 1656 | 20 | TC_COMMAND | command_num, command |
+| 1680 | 32 | TC_STATUS | STATUS_FIELDS |
+| 1712 | 16 | TC_MODE | MODE_FIELDS |
+| 1728 | 48 | TC_PERF | PERF_FIELDS |
+| 1776 | 36 | OI_COMMAND | command_num, command, arg_x, arg_y |
+| 1816 | 32 | OI_STATUS | STATUS_FIELDS |
+| 1848 | 16 | OI_MODE | MODE_FIELDS |
+| 1864 | 48 | OI_PERF | PERF_FIELDS |
+| 1912 | 20 | BAS_COMMAND | command_num, command |
+| 1936 | 32 | BAS_STATUS | STATUS_FIELDS |
+| 1968 | 16 | BAS_MODE | MODE_FIELDS |
+| 1984 | 48 | BAS_PERF | PERF_FIELDS |
+| 2032 | 20 | JAS_COMMAND | command_num, command |
+| 2056 | 32 | JAS_STATUS | STATUS_FIELDS |
+| 2088 | 16 | JAS_MODE | MODE_FIELDS |
+| 2104 | 48 | JAS_PERF | PERF_FIELDS |
+| 2152 | 20 | TAS_COMMAND | command_num, command |
+| 2176 | 32 | TAS_STATUS | STATUS_FIELDS |
+| 2208 | 16 | TAS_MODE | MODE_FIELDS |
+| 2224 | 48 | TAS_PERF | PERF_FIELDS |
+| 2272 | 20 | MINE_COMMAND | command_num, command |
+| 2296 | 32 | MINE_STATUS | STATUS_FIELDS |
+| 2328 | 16 | MINE_MODE | MODE_FIELDS |
+| 2344 | 48 | MINE_PERF | PERF_FIELDS |
+| 2392 | 20 | DAS_COMMAND | command_num, command |
+| 2416 | 32 | DAS_STATUS | STATUS_FIELDS |
+| 2448 | 16 | DAS_MODE | MODE_FIELDS |
+| 2464 | 48 | DAS_PERF | PERF_FIELDS |
+| 2512 | 20 | GAS_COMMAND | command_num, command |
+| 2536 | 32 | GAS_STATUS | STATUS_FIELDS |
+| 2568 | 16 | GAS_MODE | MODE_FIELDS |
+| 2584 | 48 | GAS_PERF | PERF_FIELDS |
+| 2632 | 20 | BSS_COMMAND | command_num, command |
+| 2656 | 32 | BSS_STATUS | STATUS_FIELDS |
+| 2688 | 16 | BSS_MODE | MODE_FIELDS |
+| 2704 | 48 | BSS_PERF | PERF_FIELDS |
+| 2752 | 20 | PSS_COMMAND | command_num, command |
+| 2776 | 32 | PSS_STATUS | STATUS_FIELDS |
+| 2808 | 16 | PSS_MODE | MODE_FIELDS |
+| 2824 | 48 | PSS_PERF | PERF_FIELDS |
+| 2872 | 20 | CSS_COMMAND | command_num, command |
+| 2896 | 32 | CSS_STATUS | STATUS_FIELDS |
+| 2928 | 16 | CSS_MODE | MODE_FIELDS |
+| 2944 | 48 | CSS_PERF | PERF_FIELDS |
+| 2992 | 20 | LCS_COMMAND | command_num, command |
+| 3016 | 32 | LCS_STATUS | STATUS_FIELDS |
+| 3048 | 16 | LCS_MODE | MODE_FIELDS |
+| 3064 | 48 | LCS_PERF | PERF_FIELDS |
+| 3112 | 20 | WM_COMMAND | command_num, command |
+| 3136 | 32 | WM_STATUS | STATUS_FIELDS |
+| 3168 | 16 | WM_MODE | MODE_FIELDS |
+| 3184 | 48 | WM_PERF | PERF_FIELDS |
+| 3232 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
+| 3272 | 32 | PP_STATUS | STATUS_FIELDS |
+| 3304 | 16 | PP_MODE | MODE_FIELDS |
+| 3320 | 48 | PP_PERF | PERF_FIELDS |
+| 3368 | 9 | WORLD_TAIL_REQUEST | tail_request |
+| 3384 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
+| 3400 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 3416 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
+| 3432 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
+| 3448 | 16 | WORLD_GOAL_X | goal_x |
+| 3464 | 16 | WORLD_GOAL_Y | goal_y |
+| 3480 | 9 | WORLD_PATH_OK | path_ok |
+| 3496 | 16 | WORLD_WP_X | wp_x |
+| 3512 | 16 | WORLD_WP_Y | wp_y |
+| 3528 | 9 | WORLD_WP_LAST | wp_last |
+| 3544 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 3560 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 3576 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 3592 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 3608 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 3624 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 3640 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 3656 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 3672 | 16 | WORLD_TRUE_X | true_x |
+| 3688 | 16 | WORLD_TRUE_Y | true_y |
+| 3704 | 16 | WORLD_TRUE_HEADING | true_heading |
+| 3720 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 3736 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 3752 | 9 | WORLD_JACK_DOWN | jack_down |
+| 3768 | 16 | WORLD_SLIP | slip |
+| 3784 | 9 | WORLD_TREAD_STALLED | tread_stalled |
+| 3800 | 16 | WORLD_POSE_X | pose_x |
+| 3816 | 16 | WORLD_POSE_Y | pose_y |
+| 3832 | 16 | WORLD_HEADING | heading |
+| 3848 | 16 | WORLD_BOOM_ANGLE | boom_angle |
+| 3864 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
+| 3880 | 16 | WORLD_LOOSE_COAL | loose_coal |
+| 3896 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 3912 | 16 | WORLD_DEPTH_EST | depth_est |
+| 3928 | 16 | WORLD_DRUM_REACH | drum_reach |
+| 3944 | 16 | WORLD_SUMP_STEP | sump_step |
+| 3960 | 9 | WORLD_IN_COAL | in_coal |
+| 3976 | 16 | WORLD_FACE_X | face_x |
+| 3992 | 16 | WORLD_DEPTH_CUT | depth_cut |
+| 4008 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
+| 4024 | 16 | WORLD_COAL_MINED | coal_mined |
 """
 
 from __future__ import annotations
@@ -174,244 +190,274 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 3648
+SIZE = 4040
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "cdd58e1a7624c82462d5aa2e0384b9be"
+LAYOUT_HASH = "081a49bfc28d0fbc212c82c5f4b334be"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
 PACE_PC2_AT = 272
 
 # sb: Shift boss
-SB_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_depth
+SB_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
 SB_COMMAND_AT = 288
-SB_STATUS_AT = 320
-SB_MODE_AT = 352
-SB_PERF_AT = 368
+SB_STATUS_AT = 328
+SB_MODE_AT = 360
+SB_PERF_AT = 376
 
 # co: Continuous miner operation coordinator
-CO_COMMAND = Struct("<QQI")  # seq, command_num, command
-CO_COMMAND_AT = 416
-CO_STATUS_AT = 440
-CO_MODE_AT = 472
-CO_PERF_AT = 488
+CO_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
+CO_COMMAND_AT = 424
+CO_STATUS_AT = 464
+CO_MODE_AT = 496
+CO_PERF_AT = 512
 
 # cc: Coal cutting
 CC_COMMAND = Struct("<QQI")  # seq, command_num, command
-CC_COMMAND_AT = 536
-CC_STATUS_AT = 560
-CC_MODE_AT = 592
-CC_PERF_AT = 608
+CC_COMMAND_AT = 560
+CC_STATUS_AT = 584
+CC_MODE_AT = 616
+CC_PERF_AT = 632
 
 # bm: Boom
 BM_COMMAND = Struct("<QQI")  # seq, command_num, command
-BM_COMMAND_AT = 656
-BM_STATUS_AT = 680
-BM_MODE_AT = 712
-BM_PERF_AT = 728
+BM_COMMAND_AT = 680
+BM_STATUS_AT = 704
+BM_MODE_AT = 736
+BM_PERF_AT = 752
 
 # cd: Cutter drum
 CD_COMMAND = Struct("<QQI")  # seq, command_num, command
-CD_COMMAND_AT = 776
-CD_STATUS_AT = 800
-CD_MODE_AT = 832
-CD_PERF_AT = 848
+CD_COMMAND_AT = 800
+CD_STATUS_AT = 824
+CD_MODE_AT = 856
+CD_PERF_AT = 872
 
 # sj: Stabilization jack
 SJ_COMMAND = Struct("<QQI")  # seq, command_num, command
-SJ_COMMAND_AT = 896
-SJ_STATUS_AT = 920
-SJ_MODE_AT = 952
-SJ_PERF_AT = 968
+SJ_COMMAND_AT = 920
+SJ_STATUS_AT = 944
+SJ_MODE_AT = 976
+SJ_PERF_AT = 992
 
 # cr: Coal removal
 CR_COMMAND = Struct("<QQI")  # seq, command_num, command
-CR_COMMAND_AT = 1016
-CR_STATUS_AT = 1040
-CR_MODE_AT = 1072
-CR_PERF_AT = 1088
+CR_COMMAND_AT = 1040
+CR_STATUS_AT = 1064
+CR_MODE_AT = 1096
+CR_PERF_AT = 1112
 
 # gh: Gathering head
 GH_COMMAND = Struct("<QQI")  # seq, command_num, command
-GH_COMMAND_AT = 1136
-GH_STATUS_AT = 1160
-GH_MODE_AT = 1192
-GH_PERF_AT = 1208
+GH_COMMAND_AT = 1160
+GH_STATUS_AT = 1184
+GH_MODE_AT = 1216
+GH_PERF_AT = 1232
 
 # cv: Conveyor
 CV_COMMAND = Struct("<QQI")  # seq, command_num, command
-CV_COMMAND_AT = 1256
-CV_STATUS_AT = 1280
-CV_MODE_AT = 1312
-CV_PERF_AT = 1328
+CV_COMMAND_AT = 1280
+CV_STATUS_AT = 1304
+CV_MODE_AT = 1336
+CV_PERF_AT = 1352
 
 # ct: Conveyor tail (operator)
 CT_COMMAND = Struct("<QQI")  # seq, command_num, command
-CT_COMMAND_AT = 1376
-CT_STATUS_AT = 1400
-CT_MODE_AT = 1432
-CT_PERF_AT = 1448
+CT_COMMAND_AT = 1400
+CT_STATUS_AT = 1424
+CT_MODE_AT = 1456
+CT_PERF_AT = 1472
 
 # vg: Vehicle guidance
 VG_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-VG_COMMAND_AT = 1496
-VG_STATUS_AT = 1536
-VG_MODE_AT = 1568
-VG_PERF_AT = 1584
+VG_COMMAND_AT = 1520
+VG_STATUS_AT = 1560
+VG_MODE_AT = 1592
+VG_PERF_AT = 1608
 
 # tc: Tram
 TC_COMMAND = Struct("<QQI")  # seq, command_num, command
-TC_COMMAND_AT = 1632
-TC_STATUS_AT = 1656
-TC_MODE_AT = 1688
-TC_PERF_AT = 1704
+TC_COMMAND_AT = 1656
+TC_STATUS_AT = 1680
+TC_MODE_AT = 1712
+TC_PERF_AT = 1728
 
 # oi: Operator interface (scripted operator)
 OI_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-OI_COMMAND_AT = 1752
-OI_STATUS_AT = 1792
-OI_MODE_AT = 1824
-OI_PERF_AT = 1840
+OI_COMMAND_AT = 1776
+OI_STATUS_AT = 1816
+OI_MODE_AT = 1848
+OI_PERF_AT = 1864
 
 # bas: Boom actuator (simulated)
 BAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-BAS_COMMAND_AT = 1888
-BAS_STATUS_AT = 1912
-BAS_MODE_AT = 1944
-BAS_PERF_AT = 1960
+BAS_COMMAND_AT = 1912
+BAS_STATUS_AT = 1936
+BAS_MODE_AT = 1968
+BAS_PERF_AT = 1984
 
 # jas: Stabilization jack actuator (simulated)
 JAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-JAS_COMMAND_AT = 2008
-JAS_STATUS_AT = 2032
-JAS_MODE_AT = 2064
-JAS_PERF_AT = 2080
+JAS_COMMAND_AT = 2032
+JAS_STATUS_AT = 2056
+JAS_MODE_AT = 2088
+JAS_PERF_AT = 2104
 
 # tas: Tread actuators (simulated)
 TAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-TAS_COMMAND_AT = 2128
-TAS_STATUS_AT = 2152
-TAS_MODE_AT = 2184
-TAS_PERF_AT = 2200
+TAS_COMMAND_AT = 2152
+TAS_STATUS_AT = 2176
+TAS_MODE_AT = 2208
+TAS_PERF_AT = 2224
 
 # mine: Mine (simulated environment)
 MINE_COMMAND = Struct("<QQI")  # seq, command_num, command
-MINE_COMMAND_AT = 2248
-MINE_STATUS_AT = 2272
-MINE_MODE_AT = 2304
-MINE_PERF_AT = 2320
+MINE_COMMAND_AT = 2272
+MINE_STATUS_AT = 2296
+MINE_MODE_AT = 2328
+MINE_PERF_AT = 2344
 
 # das: Cutter drum motor (simulated)
 DAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-DAS_COMMAND_AT = 2368
-DAS_STATUS_AT = 2392
-DAS_MODE_AT = 2424
-DAS_PERF_AT = 2440
+DAS_COMMAND_AT = 2392
+DAS_STATUS_AT = 2416
+DAS_MODE_AT = 2448
+DAS_PERF_AT = 2464
 
 # gas: Gathering head and conveyor (simulated)
 GAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-GAS_COMMAND_AT = 2488
-GAS_STATUS_AT = 2512
-GAS_MODE_AT = 2544
-GAS_PERF_AT = 2560
+GAS_COMMAND_AT = 2512
+GAS_STATUS_AT = 2536
+GAS_MODE_AT = 2568
+GAS_PERF_AT = 2584
 
 # bss: Boom angle sensor (simulated)
 BSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-BSS_COMMAND_AT = 2608
-BSS_STATUS_AT = 2632
-BSS_MODE_AT = 2664
-BSS_PERF_AT = 2680
+BSS_COMMAND_AT = 2632
+BSS_STATUS_AT = 2656
+BSS_MODE_AT = 2688
+BSS_PERF_AT = 2704
 
 # pss: Pose sensor (simulated)
 PSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-PSS_COMMAND_AT = 2728
-PSS_STATUS_AT = 2752
-PSS_MODE_AT = 2784
-PSS_PERF_AT = 2800
+PSS_COMMAND_AT = 2752
+PSS_STATUS_AT = 2776
+PSS_MODE_AT = 2808
+PSS_PERF_AT = 2824
 
 # css: Cutter current sensor (simulated)
 CSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-CSS_COMMAND_AT = 2848
-CSS_STATUS_AT = 2872
-CSS_MODE_AT = 2904
-CSS_PERF_AT = 2920
+CSS_COMMAND_AT = 2872
+CSS_STATUS_AT = 2896
+CSS_MODE_AT = 2928
+CSS_PERF_AT = 2944
+
+# lcs: Loose coal sensor (simulated)
+LCS_COMMAND = Struct("<QQI")  # seq, command_num, command
+LCS_COMMAND_AT = 2992
+LCS_STATUS_AT = 3016
+LCS_MODE_AT = 3048
+LCS_PERF_AT = 3064
+
+# wm: World modelling (estimates from the sensors)
+WM_COMMAND = Struct("<QQI")  # seq, command_num, command
+WM_COMMAND_AT = 3112
+WM_STATUS_AT = 3136
+WM_MODE_AT = 3168
+WM_PERF_AT = 3184
 
 # pp: Path planner
 PP_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-PP_COMMAND_AT = 2968
-PP_STATUS_AT = 3008
-PP_MODE_AT = 3040
-PP_PERF_AT = 3056
+PP_COMMAND_AT = 3232
+PP_STATUS_AT = 3272
+PP_MODE_AT = 3304
+PP_PERF_AT = 3320
 
 # World model.
 WORLD_TAIL_REQUEST = Struct("<Q?")  # seq, tail_request
-WORLD_TAIL_REQUEST_AT = 3104
+WORLD_TAIL_REQUEST_AT = 3368
 WORLD_TAIL_IN_POSITION = Struct("<Q?")  # seq, tail_in_position
-WORLD_TAIL_IN_POSITION_AT = 3120
+WORLD_TAIL_IN_POSITION_AT = 3384
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 3136
+WORLD_OPERATOR_DELAY_AT = 3400
 WORLD_OPERATOR_GOAL_X = Struct("<Qd")  # seq, operator_goal_x
-WORLD_OPERATOR_GOAL_X_AT = 3152
+WORLD_OPERATOR_GOAL_X_AT = 3416
 WORLD_OPERATOR_GOAL_Y = Struct("<Qd")  # seq, operator_goal_y
-WORLD_OPERATOR_GOAL_Y_AT = 3168
+WORLD_OPERATOR_GOAL_Y_AT = 3432
 WORLD_GOAL_X = Struct("<Qd")  # seq, goal_x
-WORLD_GOAL_X_AT = 3184
+WORLD_GOAL_X_AT = 3448
 WORLD_GOAL_Y = Struct("<Qd")  # seq, goal_y
-WORLD_GOAL_Y_AT = 3200
-WORLD_TRAM_DIR = Struct("<Qq")  # seq, tram_dir
-WORLD_TRAM_DIR_AT = 3216
+WORLD_GOAL_Y_AT = 3464
+WORLD_PATH_OK = Struct("<Q?")  # seq, path_ok
+WORLD_PATH_OK_AT = 3480
+WORLD_WP_X = Struct("<Qd")  # seq, wp_x
+WORLD_WP_X_AT = 3496
+WORLD_WP_Y = Struct("<Qd")  # seq, wp_y
+WORLD_WP_Y_AT = 3512
+WORLD_WP_LAST = Struct("<Q?")  # seq, wp_last
+WORLD_WP_LAST_AT = 3528
 WORLD_BOOM_RATE_CMD = Struct("<Qd")  # seq, boom_rate_cmd
-WORLD_BOOM_RATE_CMD_AT = 3232
+WORLD_BOOM_RATE_CMD_AT = 3544
 WORLD_DRUM_ON_CMD = Struct("<Q?")  # seq, drum_on_cmd
-WORLD_DRUM_ON_CMD_AT = 3248
+WORLD_DRUM_ON_CMD_AT = 3560
 WORLD_JACK_DOWN_CMD = Struct("<Q?")  # seq, jack_down_cmd
-WORLD_JACK_DOWN_CMD_AT = 3264
+WORLD_JACK_DOWN_CMD_AT = 3576
 WORLD_LEFT_TREAD_CMD = Struct("<Qq")  # seq, left_tread_cmd
-WORLD_LEFT_TREAD_CMD_AT = 3280
+WORLD_LEFT_TREAD_CMD_AT = 3592
 WORLD_RIGHT_TREAD_CMD = Struct("<Qq")  # seq, right_tread_cmd
-WORLD_RIGHT_TREAD_CMD_AT = 3296
+WORLD_RIGHT_TREAD_CMD_AT = 3608
 WORLD_PAN_FLOAT_CMD = Struct("<Q?")  # seq, pan_float_cmd
-WORLD_PAN_FLOAT_CMD_AT = 3312
+WORLD_PAN_FLOAT_CMD_AT = 3624
 WORLD_GATHER_ON_CMD = Struct("<Q?")  # seq, gather_on_cmd
-WORLD_GATHER_ON_CMD_AT = 3328
+WORLD_GATHER_ON_CMD_AT = 3640
 WORLD_CONVEYOR_ON_CMD = Struct("<Q?")  # seq, conveyor_on_cmd
-WORLD_CONVEYOR_ON_CMD_AT = 3344
+WORLD_CONVEYOR_ON_CMD_AT = 3656
 WORLD_TRUE_X = Struct("<Qd")  # seq, true_x
-WORLD_TRUE_X_AT = 3360
+WORLD_TRUE_X_AT = 3672
 WORLD_TRUE_Y = Struct("<Qd")  # seq, true_y
-WORLD_TRUE_Y_AT = 3376
+WORLD_TRUE_Y_AT = 3688
 WORLD_TRUE_HEADING = Struct("<Qd")  # seq, true_heading
-WORLD_TRUE_HEADING_AT = 3392
+WORLD_TRUE_HEADING_AT = 3704
 WORLD_BOOM_ANGLE_TRUE = Struct("<Qd")  # seq, boom_angle_true
-WORLD_BOOM_ANGLE_TRUE_AT = 3408
+WORLD_BOOM_ANGLE_TRUE_AT = 3720
 WORLD_DRUM_CURRENT_TRUE = Struct("<Qd")  # seq, drum_current_true
-WORLD_DRUM_CURRENT_TRUE_AT = 3424
+WORLD_DRUM_CURRENT_TRUE_AT = 3736
 WORLD_JACK_DOWN = Struct("<Q?")  # seq, jack_down
-WORLD_JACK_DOWN_AT = 3440
+WORLD_JACK_DOWN_AT = 3752
+WORLD_SLIP = Struct("<Qd")  # seq, slip
+WORLD_SLIP_AT = 3768
 WORLD_TREAD_STALLED = Struct("<Q?")  # seq, tread_stalled
-WORLD_TREAD_STALLED_AT = 3456
+WORLD_TREAD_STALLED_AT = 3784
 WORLD_POSE_X = Struct("<Qd")  # seq, pose_x
-WORLD_POSE_X_AT = 3472
+WORLD_POSE_X_AT = 3800
 WORLD_POSE_Y = Struct("<Qd")  # seq, pose_y
-WORLD_POSE_Y_AT = 3488
+WORLD_POSE_Y_AT = 3816
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 3504
+WORLD_HEADING_AT = 3832
 WORLD_BOOM_ANGLE = Struct("<Qd")  # seq, boom_angle
-WORLD_BOOM_ANGLE_AT = 3520
+WORLD_BOOM_ANGLE_AT = 3848
 WORLD_CUTTER_CURRENT = Struct("<Qd")  # seq, cutter_current
-WORLD_CUTTER_CURRENT_AT = 3536
-WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 3552
-WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
-WORLD_IN_COAL_AT = 3568
-WORLD_FACE_X = Struct("<Qd")  # seq, face_x
-WORLD_FACE_X_AT = 3584
-WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
-WORLD_DEPTH_CUT_AT = 3600
+WORLD_CUTTER_CURRENT_AT = 3864
 WORLD_LOOSE_COAL = Struct("<Qd")  # seq, loose_coal
-WORLD_LOOSE_COAL_AT = 3616
+WORLD_LOOSE_COAL_AT = 3880
+WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
+WORLD_POPPED_OUT_OF_SHEAR_AT = 3896
+WORLD_DEPTH_EST = Struct("<Qd")  # seq, depth_est
+WORLD_DEPTH_EST_AT = 3912
+WORLD_DRUM_REACH = Struct("<Qd")  # seq, drum_reach
+WORLD_DRUM_REACH_AT = 3928
+WORLD_SUMP_STEP = Struct("<Qd")  # seq, sump_step
+WORLD_SUMP_STEP_AT = 3944
+WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
+WORLD_IN_COAL_AT = 3960
+WORLD_FACE_X = Struct("<Qd")  # seq, face_x
+WORLD_FACE_X_AT = 3976
+WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
+WORLD_DEPTH_CUT_AT = 3992
+WORLD_LOOSE_COAL_TRUE = Struct("<Qd")  # seq, loose_coal_true
+WORLD_LOOSE_COAL_TRUE_AT = 4008
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
-WORLD_COAL_MINED_AT = 3632
+WORLD_COAL_MINED_AT = 4024
 
 
 PROCESSES = {
@@ -447,13 +493,15 @@ PLACEMENT = {
     "bss": "pc1",
     "pss": "pc1",
     "css": "pc1",
+    "lcs": "pc1",
+    "wm": "pc1",
     "pp": "pc2",
 }
 # Seconds without a heartbeat after which a process is reported dead.
 HEARTBEAT_TIMEOUT = 1.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
-    "sb": ("co",),
+    "sb": ("co", "wm"),
     "co": ("cr", "vg", "cc"),
     "cc": ("bm", "cd", "sj"),
     "bm": (),
@@ -475,6 +523,8 @@ SUBORDINATES = {
     "bss": (),
     "pss": (),
     "css": (),
+    "lcs": (),
+    "wm": (),
     "pp": (),
     "cr_sim": (),
 }
@@ -505,11 +555,13 @@ MODULES = (
     "bss",
     "pss",
     "css",
+    "lcs",
+    "wm",
     "pp",
 )
 COMMAND_IN = {
-    "sb": Record(SB_COMMAND, SB_COMMAND_AT, ("command_num", "command", "arg_depth")),
-    "co": Record(CO_COMMAND, CO_COMMAND_AT, ("command_num", "command")),
+    "sb": Record(SB_COMMAND, SB_COMMAND_AT, ("command_num", "command", "arg_depth", "arg_offset")),
+    "co": Record(CO_COMMAND, CO_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
     "cc": Record(CC_COMMAND, CC_COMMAND_AT, ("command_num", "command")),
     "bm": Record(BM_COMMAND, BM_COMMAND_AT, ("command_num", "command")),
     "cd": Record(CD_COMMAND, CD_COMMAND_AT, ("command_num", "command")),
@@ -530,6 +582,8 @@ COMMAND_IN = {
     "bss": Record(BSS_COMMAND, BSS_COMMAND_AT, ("command_num", "command")),
     "pss": Record(PSS_COMMAND, PSS_COMMAND_AT, ("command_num", "command")),
     "css": Record(CSS_COMMAND, CSS_COMMAND_AT, ("command_num", "command")),
+    "lcs": Record(LCS_COMMAND, LCS_COMMAND_AT, ("command_num", "command")),
+    "wm": Record(WM_COMMAND, WM_COMMAND_AT, ("command_num", "command")),
     "pp": Record(PP_COMMAND, PP_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
 }
 STATUS_OUT = {
@@ -555,6 +609,8 @@ STATUS_OUT = {
     "bss": Record(STATUS, BSS_STATUS_AT, field_names(STATUS_FIELDS)),
     "pss": Record(STATUS, PSS_STATUS_AT, field_names(STATUS_FIELDS)),
     "css": Record(STATUS, CSS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "lcs": Record(STATUS, LCS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "wm": Record(STATUS, WM_STATUS_AT, field_names(STATUS_FIELDS)),
     "pp": Record(STATUS, PP_STATUS_AT, field_names(STATUS_FIELDS)),
 }
 MODE_IN = {
@@ -580,6 +636,8 @@ MODE_IN = {
     "bss": Record(MODE, BSS_MODE_AT, field_names(MODE_FIELDS)),
     "pss": Record(MODE, PSS_MODE_AT, field_names(MODE_FIELDS)),
     "css": Record(MODE, CSS_MODE_AT, field_names(MODE_FIELDS)),
+    "lcs": Record(MODE, LCS_MODE_AT, field_names(MODE_FIELDS)),
+    "wm": Record(MODE, WM_MODE_AT, field_names(MODE_FIELDS)),
     "pp": Record(MODE, PP_MODE_AT, field_names(MODE_FIELDS)),
 }
 PERFORMANCE = {
@@ -605,6 +663,8 @@ PERFORMANCE = {
     "bss": Record(PERF, BSS_PERF_AT, field_names(PERF_FIELDS)),
     "pss": Record(PERF, PSS_PERF_AT, field_names(PERF_FIELDS)),
     "css": Record(PERF, CSS_PERF_AT, field_names(PERF_FIELDS)),
+    "lcs": Record(PERF, LCS_PERF_AT, field_names(PERF_FIELDS)),
+    "wm": Record(PERF, WM_PERF_AT, field_names(PERF_FIELDS)),
     "pp": Record(PERF, PP_PERF_AT, field_names(PERF_FIELDS)),
 }
 WORLD = {
@@ -621,7 +681,10 @@ WORLD = {
     ),
     "goal_x": Record(WORLD_GOAL_X, WORLD_GOAL_X_AT, ("goal_x",)),
     "goal_y": Record(WORLD_GOAL_Y, WORLD_GOAL_Y_AT, ("goal_y",)),
-    "tram_dir": Record(WORLD_TRAM_DIR, WORLD_TRAM_DIR_AT, ("tram_dir",)),
+    "path_ok": Record(WORLD_PATH_OK, WORLD_PATH_OK_AT, ("path_ok",)),
+    "wp_x": Record(WORLD_WP_X, WORLD_WP_X_AT, ("wp_x",)),
+    "wp_y": Record(WORLD_WP_Y, WORLD_WP_Y_AT, ("wp_y",)),
+    "wp_last": Record(WORLD_WP_LAST, WORLD_WP_LAST_AT, ("wp_last",)),
     "boom_rate_cmd": Record(WORLD_BOOM_RATE_CMD, WORLD_BOOM_RATE_CMD_AT, ("boom_rate_cmd",)),
     "drum_on_cmd": Record(WORLD_DRUM_ON_CMD, WORLD_DRUM_ON_CMD_AT, ("drum_on_cmd",)),
     "jack_down_cmd": Record(WORLD_JACK_DOWN_CMD, WORLD_JACK_DOWN_CMD_AT, ("jack_down_cmd",)),
@@ -644,19 +707,26 @@ WORLD = {
         WORLD_DRUM_CURRENT_TRUE, WORLD_DRUM_CURRENT_TRUE_AT, ("drum_current_true",)
     ),
     "jack_down": Record(WORLD_JACK_DOWN, WORLD_JACK_DOWN_AT, ("jack_down",)),
+    "slip": Record(WORLD_SLIP, WORLD_SLIP_AT, ("slip",)),
     "tread_stalled": Record(WORLD_TREAD_STALLED, WORLD_TREAD_STALLED_AT, ("tread_stalled",)),
     "pose_x": Record(WORLD_POSE_X, WORLD_POSE_X_AT, ("pose_x",)),
     "pose_y": Record(WORLD_POSE_Y, WORLD_POSE_Y_AT, ("pose_y",)),
     "heading": Record(WORLD_HEADING, WORLD_HEADING_AT, ("heading",)),
     "boom_angle": Record(WORLD_BOOM_ANGLE, WORLD_BOOM_ANGLE_AT, ("boom_angle",)),
     "cutter_current": Record(WORLD_CUTTER_CURRENT, WORLD_CUTTER_CURRENT_AT, ("cutter_current",)),
+    "loose_coal": Record(WORLD_LOOSE_COAL, WORLD_LOOSE_COAL_AT, ("loose_coal",)),
     "popped_out_of_shear": Record(
         WORLD_POPPED_OUT_OF_SHEAR, WORLD_POPPED_OUT_OF_SHEAR_AT, ("popped_out_of_shear",)
     ),
+    "depth_est": Record(WORLD_DEPTH_EST, WORLD_DEPTH_EST_AT, ("depth_est",)),
+    "drum_reach": Record(WORLD_DRUM_REACH, WORLD_DRUM_REACH_AT, ("drum_reach",)),
+    "sump_step": Record(WORLD_SUMP_STEP, WORLD_SUMP_STEP_AT, ("sump_step",)),
     "in_coal": Record(WORLD_IN_COAL, WORLD_IN_COAL_AT, ("in_coal",)),
     "face_x": Record(WORLD_FACE_X, WORLD_FACE_X_AT, ("face_x",)),
     "depth_cut": Record(WORLD_DEPTH_CUT, WORLD_DEPTH_CUT_AT, ("depth_cut",)),
-    "loose_coal": Record(WORLD_LOOSE_COAL, WORLD_LOOSE_COAL_AT, ("loose_coal",)),
+    "loose_coal_true": Record(
+        WORLD_LOOSE_COAL_TRUE, WORLD_LOOSE_COAL_TRUE_AT, ("loose_coal_true",)
+    ),
     "coal_mined": Record(WORLD_COAL_MINED, WORLD_COAL_MINED_AT, ("coal_mined",)),
 }
 WORLD_INITIAL: dict[str, object] = {
@@ -667,7 +737,10 @@ WORLD_INITIAL: dict[str, object] = {
     "operator_goal_y": 0.0,
     "goal_x": 0.0,
     "goal_y": 0.0,
-    "tram_dir": 0,
+    "path_ok": False,
+    "wp_x": 0.0,
+    "wp_y": 0.0,
+    "wp_last": False,
     "boom_rate_cmd": 0.0,
     "drum_on_cmd": False,
     "jack_down_cmd": False,
@@ -682,28 +755,34 @@ WORLD_INITIAL: dict[str, object] = {
     "boom_angle_true": 0.0,
     "drum_current_true": 0.0,
     "jack_down": False,
+    "slip": 0.0,
     "tread_stalled": False,
     "pose_x": 0.0,
     "pose_y": 0.0,
     "heading": 0.0,
     "boom_angle": 0.0,
     "cutter_current": 0.0,
+    "loose_coal": 0.0,
     "popped_out_of_shear": False,
+    "depth_est": 0.0,
+    "drum_reach": 0.0,
+    "sump_step": 0.5,
     "in_coal": False,
     "face_x": 0.0,
     "depth_cut": 0.0,
-    "loose_coal": 0.0,
+    "loose_coal_true": 0.0,
     "coal_mined": 0.0,
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
-    "sb": (NO_COMMAND_NAME, *("INIT", "HALT", "TRAM_TO_GOAL", "BOX_CUT")),
+    "sb": (NO_COMMAND_NAME, *("INIT", "HALT", "TRAM_TO_GOAL", "BOX_CUT", "CUT_TWO_PASSES")),
     "co": (
         NO_COMMAND_NAME,
         *(
             "INIT",
             "HALT",
             "INITIAL_APPROACH_FACE",
+            "REPOSITION",
             "TRAM_TO_GOAL",
             "APPROACH_FACE",
             "SUMP_SHEAR_CUSP",
@@ -749,10 +828,28 @@ COMMAND_NAMES = {
     "bss": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "pss": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "css": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "lcs": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "wm": (NO_COMMAND_NAME, *("INIT", "HALT", "NEW_CUT")),
     "pp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN")),
 }
 STATE_NAMES = {
-    "sb": ("NOP", "S0", "S1", "S2", "S3", "HALTING"),
+    "sb": (
+        "NOP",
+        "S0",
+        "S1",
+        "S2",
+        "S3",
+        "STOPPING",
+        "HALTING",
+        "BOX_AT_FACE",
+        "BOX_SLICE",
+        "BOX_APPROACH",
+        "BACK_OUT",
+        "ACROSS",
+        "SLAB_AT_FACE",
+        "SLAB_SLICE",
+        "SLAB_APPROACH",
+    ),
     "co": ("NOP", "S0", "S1", "S2", "S3", "FAILED", "S4"),
     "cc": ("NOP", "S0", "S1", "S2"),
     "bm": ("NOP", "S0", "S1"),
@@ -762,7 +859,22 @@ STATE_NAMES = {
     "gh": ("NOP", "S0"),
     "cv": ("NOP", "S0"),
     "ct": ("NOP", "S0", "S1"),
-    "vg": ("NOP", "S0", "S1", "INBY", "OUTBY", "STOPPING"),
+    "vg": (
+        "NOP",
+        "S0",
+        "S1",
+        "PLANNING",
+        "DECIDE",
+        "FORWARD",
+        "REVERSE",
+        "LEFT",
+        "RIGHT",
+        "STOPPING",
+        "ALIGN",
+        "ALIGN_LEFT",
+        "ALIGN_RIGHT",
+        "ALIGN_STOPPING",
+    ),
     "tc": ("NOP", "S0", "MOVING"),
     "oi": ("NOP", "S0"),
     "bas": ("NOP", "S0"),
@@ -774,7 +886,9 @@ STATE_NAMES = {
     "bss": ("NOP", "S0"),
     "pss": ("NOP", "S0"),
     "css": ("NOP", "S0"),
-    "pp": ("NOP", "S0"),
+    "lcs": ("NOP", "S0"),
+    "wm": ("NOP", "S0"),
+    "pp": ("NOP", "S0", "S1"),
     "cr_sim": ("NOP", "S0"),
 }
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
@@ -796,7 +910,31 @@ RULES = {
         "BOX_CUT/S2/3",
         "BOX_CUT/S3/1",
         "BOX_CUT/S3/2",
+        "BOX_CUT/STOPPING/1",
+        "BOX_CUT/STOPPING/2",
         "BOX_CUT/HALTING/1",
+        "CUT_TWO_PASSES/S0/1",
+        "CUT_TWO_PASSES/BOX_AT_FACE/1",
+        "CUT_TWO_PASSES/BOX_AT_FACE/2",
+        "CUT_TWO_PASSES/BOX_SLICE/1",
+        "CUT_TWO_PASSES/BOX_SLICE/2",
+        "CUT_TWO_PASSES/BOX_SLICE/3",
+        "CUT_TWO_PASSES/BOX_APPROACH/1",
+        "CUT_TWO_PASSES/BOX_APPROACH/2",
+        "CUT_TWO_PASSES/BACK_OUT/1",
+        "CUT_TWO_PASSES/BACK_OUT/2",
+        "CUT_TWO_PASSES/ACROSS/1",
+        "CUT_TWO_PASSES/ACROSS/2",
+        "CUT_TWO_PASSES/SLAB_AT_FACE/1",
+        "CUT_TWO_PASSES/SLAB_AT_FACE/2",
+        "CUT_TWO_PASSES/SLAB_SLICE/1",
+        "CUT_TWO_PASSES/SLAB_SLICE/2",
+        "CUT_TWO_PASSES/SLAB_SLICE/3",
+        "CUT_TWO_PASSES/SLAB_APPROACH/1",
+        "CUT_TWO_PASSES/SLAB_APPROACH/2",
+        "CUT_TWO_PASSES/STOPPING/1",
+        "CUT_TWO_PASSES/STOPPING/2",
+        "CUT_TWO_PASSES/HALTING/1",
     ),
     "co": (
         "",
@@ -812,6 +950,9 @@ RULES = {
         "INITIAL_APPROACH_FACE/S3/1",
         "INITIAL_APPROACH_FACE/S3/2",
         "INITIAL_APPROACH_FACE/FAILED/1",
+        "REPOSITION/S0/1",
+        "REPOSITION/S1/1",
+        "REPOSITION/S1/2",
         "TRAM_TO_GOAL/S0/1",
         "TRAM_TO_GOAL/S1/1",
         "TRAM_TO_GOAL/S1/2",
@@ -872,8 +1013,6 @@ RULES = {
         "CUSP/S0/1",
         "CUSP/S1/1",
         "CUSP/S1/2",
-        "CUSP/S2/1",
-        "CUSP/S2/2",
     ),
     "gh": ("", "INIT/S0/1", "HALT/S0/1", "FLOAT/S0/1", "ON/S0/1"),
     "cv": ("", "INIT/S0/1", "HALT/S0/1", "ON/S0/1"),
@@ -885,16 +1024,33 @@ RULES = {
         "HALT/S0/1",
         "HALT/S1/1",
         "TRAM_TO_XY/S0/1",
-        "TRAM_TO_XY/S1/1",
-        "TRAM_TO_XY/S1/2",
-        "TRAM_TO_XY/S1/3",
-        "TRAM_TO_XY/S1/4",
-        "TRAM_TO_XY/INBY/1",
-        "TRAM_TO_XY/INBY/2",
-        "TRAM_TO_XY/OUTBY/1",
-        "TRAM_TO_XY/OUTBY/2",
+        "TRAM_TO_XY/PLANNING/1",
+        "TRAM_TO_XY/PLANNING/2",
+        "TRAM_TO_XY/DECIDE/1",
+        "TRAM_TO_XY/DECIDE/2",
+        "TRAM_TO_XY/DECIDE/3",
+        "TRAM_TO_XY/DECIDE/4",
+        "TRAM_TO_XY/DECIDE/5",
+        "TRAM_TO_XY/DECIDE/6",
+        "TRAM_TO_XY/FORWARD/1",
+        "TRAM_TO_XY/FORWARD/2",
+        "TRAM_TO_XY/REVERSE/1",
+        "TRAM_TO_XY/REVERSE/2",
+        "TRAM_TO_XY/LEFT/1",
+        "TRAM_TO_XY/LEFT/2",
+        "TRAM_TO_XY/RIGHT/1",
+        "TRAM_TO_XY/RIGHT/2",
         "TRAM_TO_XY/STOPPING/1",
         "TRAM_TO_XY/STOPPING/2",
+        "TRAM_TO_XY/ALIGN/1",
+        "TRAM_TO_XY/ALIGN/2",
+        "TRAM_TO_XY/ALIGN/3",
+        "TRAM_TO_XY/ALIGN_LEFT/1",
+        "TRAM_TO_XY/ALIGN_LEFT/2",
+        "TRAM_TO_XY/ALIGN_RIGHT/1",
+        "TRAM_TO_XY/ALIGN_RIGHT/2",
+        "TRAM_TO_XY/ALIGN_STOPPING/1",
+        "TRAM_TO_XY/ALIGN_STOPPING/2",
     ),
     "tc": (
         "",
@@ -942,10 +1098,12 @@ RULES = {
     "bss": ("", "INIT/S0/1", "HALT/S0/1"),
     "pss": ("", "INIT/S0/1", "HALT/S0/1"),
     "css": ("", "INIT/S0/1", "HALT/S0/1"),
-    "pp": ("", "INIT/S0/1", "HALT/S0/1", "PLAN/S0/1", "PLAN/S0/2", "PLAN/S0/3"),
+    "lcs": ("", "INIT/S0/1", "HALT/S0/1"),
+    "wm": ("", "INIT/S0/1", "HALT/S0/1", "NEW_CUT/S0/1"),
+    "pp": ("", "INIT/S0/1", "HALT/S0/1", "PLAN/S0/1", "PLAN/S1/1", "PLAN/S1/2"),
     "cr_sim": ("", "INIT/S0/1", "HALT/S0/1", "SUMP/S0/1", "SHEAR/S0/1", "CUSP/S0/1"),
 }
-SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css")
+SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "css", "lcs")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {
@@ -977,6 +1135,8 @@ ROLES: dict[str, dict[str, int]] = {
         "bss": 3,  # override
         "pss": 3,  # override
         "css": 3,  # override
+        "lcs": 3,  # override
+        "wm": 3,  # override
         "pp": 3,  # override
     },
 }

@@ -12,7 +12,8 @@ from .layout import (
     WORLD_DEPTH_CUT_AT,
     WORLD_FACE_X_AT,
     WORLD_IN_COAL_AT,
-    WORLD_LOOSE_COAL_AT,
+    WORLD_LOOSE_COAL_TRUE_AT,
+    WORLD_SLIP_AT,
 )
 from .rcs.contract import (
     DONE,
@@ -34,19 +35,26 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI936x?111xd8xd24xd152x?15xd8xd8xd")
-INPUTS_AT = 2248
+INPUTS = Struct("<QQI44x???1xI1224x?111xd8xd24xd24x?15xd184x?15xd8xd8xd")
+INPUTS_AT = 2272
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2248
+SEQS_AT = 2272
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
-WORLD_OUT_1 = Struct("<Q?7xQdQdQd")
-WORLD_VALUES_1 = Struct("<8x?15xd8xd8xd")
-WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 3568
+WORLD_OUT_1 = Struct("<Qd")
+WORLD_VALUES_1 = Struct("<8xd")
+WORLD_SEQS_1 = Struct("<Q")
+WORLD_OUT_1_AT = 3768
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
+WORLD_OUT_2 = Struct("<Q?7xQdQdQd")
+WORLD_VALUES_2 = Struct("<8x?15xd8xd8xd")
+WORLD_SEQS_2 = Struct("<Q8xQ8xQ8xQ")
+WORLD_OUT_2_AT = 3960
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -88,7 +96,9 @@ class MineController:
         "world_drum_on_cmd",
         "world_face_x",
         "world_in_coal",
-        "world_loose_coal",
+        "world_jack_down",
+        "world_loose_coal_true",
+        "world_slip",
         "world_true_x",
         "world_true_y",
     )
@@ -148,10 +158,12 @@ class MineController:
                     self.world_true_x,
                     self.world_true_y,
                     self.world_boom_angle_true,
+                    self.world_jack_down,
+                    self.world_slip,
                     self.world_in_coal,
                     self.world_face_x,
                     self.world_depth_cut,
-                    self.world_loose_coal,
+                    self.world_loose_coal_true,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -198,16 +210,27 @@ class MineController:
             SEQ.pack_into(buf, MINE_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_in_coal, self.world_face_x, self.world_depth_cut, self.world_loose_coal)
+        out = (self.world_slip,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_SLIP_AT, s[0] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+            SEQ.pack_into(buf, WORLD_SLIP_AT, (s[0] | 1) + 1)
+        out = (
+            self.world_in_coal,
+            self.world_face_x,
+            self.world_depth_cut,
+            self.world_loose_coal_true,
+        )
+        if WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT) != out:  # set this cycle
+            s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
             SEQ.pack_into(buf, WORLD_IN_COAL_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_FACE_X_AT, s[1] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_DEPTH_CUT_AT, s[2] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[3] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[3] | 1)  # odd before the value changes
+            WORLD_OUT_2.pack_into(
                 buf,
-                WORLD_OUT_1_AT,
+                WORLD_OUT_2_AT,
                 s[0] | 1,
                 out[0],
                 s[1] | 1,
@@ -220,7 +243,7 @@ class MineController:
             SEQ.pack_into(buf, WORLD_IN_COAL_AT, (s[0] | 1) + 1)
             SEQ.pack_into(buf, WORLD_FACE_X_AT, (s[1] | 1) + 1)
             SEQ.pack_into(buf, WORLD_DEPTH_CUT_AT, (s[2] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[3] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[3] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -266,10 +289,12 @@ class MineController:
                     self.world_true_x,
                     self.world_true_y,
                     self.world_boom_angle_true,
+                    self.world_jack_down,
+                    self.world_slip,
                     self.world_in_coal,
                     self.world_face_x,
                     self.world_depth_cut,
-                    self.world_loose_coal,
+                    self.world_loose_coal_true,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -321,16 +346,27 @@ class MineController:
             SEQ.pack_into(buf, MINE_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_in_coal, self.world_face_x, self.world_depth_cut, self.world_loose_coal)
+        out = (self.world_slip,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_SLIP_AT, s[0] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+            SEQ.pack_into(buf, WORLD_SLIP_AT, (s[0] | 1) + 1)
+        out = (
+            self.world_in_coal,
+            self.world_face_x,
+            self.world_depth_cut,
+            self.world_loose_coal_true,
+        )
+        if WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT) != out:  # set this cycle
+            s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
             SEQ.pack_into(buf, WORLD_IN_COAL_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_FACE_X_AT, s[1] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_DEPTH_CUT_AT, s[2] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[3] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[3] | 1)  # odd before the value changes
+            WORLD_OUT_2.pack_into(
                 buf,
-                WORLD_OUT_1_AT,
+                WORLD_OUT_2_AT,
                 s[0] | 1,
                 out[0],
                 s[1] | 1,
@@ -343,7 +379,7 @@ class MineController:
             SEQ.pack_into(buf, WORLD_IN_COAL_AT, (s[0] | 1) + 1)
             SEQ.pack_into(buf, WORLD_FACE_X_AT, (s[1] | 1) + 1)
             SEQ.pack_into(buf, WORLD_DEPTH_CUT_AT, (s[2] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, (s[3] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[3] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -391,7 +427,20 @@ class MineController:
         ):
             raise HookError("mine", "cut_coal", "every_cycle/1", self.cycles, returned, "bfff")
         self.world_in_coal, self.world_face_x, self.world_depth_cut, self.var_cut = returned
-        self.world_loose_coal = self.world_loose_coal + self.var_cut
+        self.world_loose_coal_true = self.world_loose_coal_true + self.var_cut
+        try:
+            returned = hooks.slip(
+                self.hook_state,
+                self.world_true_x,
+                self.world_boom_angle_true,
+                self.world_jack_down,
+                self.var_cut,
+            )
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("mine", "slip", "every_cycle/1", self.cycles) from error
+        if type(returned) not in NUMBER and not is_real(returned):
+            raise HookError("mine", "slip", "every_cycle/1", self.cycles, returned, "f")
+        self.world_slip = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -21,29 +21,33 @@ TAIL_IN_POSITION = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQIdd44x???1xI1272x?15x?15xq8xd8xd")
-INPUTS_AT = 1752
+INPUTS = Struct("<QQIdd44x???1xI1512x?15x?15xq8xd8xd232xd")
+INPUTS_AT = 1776
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1752
+SEQS_AT = 1776
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3120
+WORLD_OUT_1_AT = 3384
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_2 = Struct("<QdQd")
 WORLD_VALUES_2 = Struct("<8xd8xd")
 WORLD_SEQS_2 = Struct("<Q8xQ")
-WORLD_OUT_2_AT = 3152
+WORLD_OUT_2_AT = 3416
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
+
+# Constants.
+TAIL_AHEAD = 0.25
+TAIL_SLACK = 0.4
 
 
 class OiController:
@@ -74,18 +78,25 @@ class OiController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "var_answered",
+        "var_moving",
+        "var_tail_x",
         "var_waited",
         "world_operator_delay",
         "world_operator_goal_x",
         "world_operator_goal_y",
         "world_tail_in_position",
         "world_tail_request",
+        "world_true_x",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
         self.var_waited: int = 0
+        self.var_moving: bool = False
+        self.var_answered: bool = False
+        self.var_tail_x: float = 0.0
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -136,6 +147,7 @@ class OiController:
                     self.world_operator_delay,
                     self.world_operator_goal_x,
                     self.world_operator_goal_y,
+                    self.world_true_x,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -248,6 +260,7 @@ class OiController:
                     self.world_operator_delay,
                     self.world_operator_goal_x,
                     self.world_operator_goal_y,
+                    self.world_true_x,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -344,17 +357,33 @@ class OiController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        if (
-            self.world_tail_request
-            and not self.world_tail_in_position
+        if not self.world_tail_request and self.var_answered:
+            # the request is withdrawn; the next one is a new request
+            self.var_answered = False
+
+        elif self.world_tail_request and not self.var_moving and not self.var_answered:
+            # asked, the operator moves the tail (not in position meanwhile) for the sump ahead
+            self.var_moving = True
+            self.var_waited = 0
+            self.world_tail_in_position = False
+            self.var_tail_x = self.world_true_x + TAIL_AHEAD
+
+        elif (
+            self.var_moving
             and self.world_operator_delay >= 0
             and self.var_waited >= self.world_operator_delay
         ):
             # the operator reports the tail in position
             self.world_tail_in_position = True
+            self.var_moving = False
+            self.var_answered = True
 
-        elif self.world_tail_request and not self.world_tail_in_position:
+        elif self.var_moving:
             self.var_waited = self.var_waited + 1
+
+        elif self.world_tail_in_position and abs(self.world_true_x - self.var_tail_x) > TAIL_SLACK:
+            # the machine advanced beyond the tail's reach; the tail no longer dumps on the car
+            self.world_tail_in_position = False
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -388,5 +417,7 @@ class OiController:
         if state == S0:
             self.rule = 4  # TAIL_IN_POSITION/S0/1
             self.world_tail_in_position = True
+            self.var_moving = False
+            self.var_answered = True
             self.state = NOP
             self.status = DONE

@@ -4,12 +4,30 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import miner_hooks.pp as hooks
+
 from .layout import (
     PP_PERF_AT,
     PP_STATUS_AT,
-    WORLD_TRAM_DIR_AT,
+    WORLD_PATH_OK_AT,
+    WORLD_WP_LAST_AT,
+    WORLD_WP_X_AT,
+    WORLD_WP_Y_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands pp accepts (the code written to its command buffer).
 INIT = 1
@@ -18,29 +36,30 @@ PLAN = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQIdd44x???1xI168xq240xQd")
-INPUTS_AT = 2968
+INPUTS = Struct("<QQIdd44x???1xI168x?15xd8xd8x?263xQdQdQd")
+INPUTS_AT = 3232
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q496xQ")
-SEQS_AT = 2968
+SEQS = Struct("<Q560xQ8xQ8xQ")
+SEQS_AT = 3232
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
-WORLD_OUT_1 = Struct("<Qq")
-WORLD_VALUES_1 = Struct("<8xq")
-WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3216
+WORLD_OUT_1 = Struct("<Q?7xQdQdQ?")
+WORLD_VALUES_1 = Struct("<8x?15xd8xd8x?")
+WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
+WORLD_OUT_1_AT = 3480
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
-
-# Constants.
-ARRIVED = 0.02
+S1 = 2
 
 
 class PpController:
     """The pp controller: its local buffers and the QQ1 cycle."""
+
+    # Its hook state lives outside the block: a restart of its process starts it again.
+    HOOK_STATE_ON_RESTART = "reset"
 
     __slots__ = (
         "arg_x",
@@ -52,6 +71,7 @@ class PpController:
         "cycles",
         "dont_run",
         "error_num",
+        "hook_state",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -67,13 +87,22 @@ class PpController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "world_heading",
+        "world_path_ok",
         "world_pose_x",
-        "world_tram_dir",
+        "world_pose_y",
+        "world_wp_last",
+        "world_wp_x",
+        "world_wp_y",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
+        try:
+            self.hook_state = hooks.new_planner(settings or {})
+        except Exception as error:
+            raise HookError("pp", "new_planner", "hooks_state", 0) from error
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -109,12 +138,16 @@ class PpController:
             values = INPUTS.unpack_from(buf, INPUTS_AT)
             seqs = (
                 values[0],
-                values[10],
+                values[13],
+                values[15],
+                values[17],
             )
             if (
-                not (seqs[0] | seqs[1]) & 1
+                not (seqs[0] | seqs[1] | seqs[2] | seqs[3]) & 1
                 and seqs[0]
                 and seqs[1]
+                and seqs[2]
+                and seqs[3]
                 and SEQS.unpack_from(buf, SEQS_AT) == seqs
             ):
                 (
@@ -127,9 +160,16 @@ class PpController:
                     self.single_step,
                     self.simulate,
                     self.single_step_num,
-                    self.world_tram_dir,
+                    self.world_path_ok,
+                    self.world_wp_x,
+                    self.world_wp_y,
+                    self.world_wp_last,
                     _,
                     self.world_pose_x,
+                    _,
+                    self.world_pose_y,
+                    _,
+                    self.world_heading,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -177,12 +217,29 @@ class PpController:
             SEQ.pack_into(buf, PP_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_tram_dir,)
+        out = (self.world_path_ok, self.world_wp_x, self.world_wp_y, self.world_wp_last)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_TRAM_DIR_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_TRAM_DIR_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_PATH_OK_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_WP_X_AT, s[1] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_WP_Y_AT, s[2] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_WP_LAST_AT, s[3] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(
+                buf,
+                WORLD_OUT_1_AT,
+                s[0] | 1,
+                out[0],
+                s[1] | 1,
+                out[1],
+                s[2] | 1,
+                out[2],
+                s[3] | 1,
+                out[3],
+            )
+            SEQ.pack_into(buf, WORLD_PATH_OK_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_WP_X_AT, (s[1] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_WP_Y_AT, (s[2] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_WP_LAST_AT, (s[3] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -216,12 +273,16 @@ class PpController:
             values = INPUTS.unpack_from(buf, INPUTS_AT)
             seqs = (
                 values[0],
-                values[10],
+                values[13],
+                values[15],
+                values[17],
             )
             if (
-                not (seqs[0] | seqs[1]) & 1
+                not (seqs[0] | seqs[1] | seqs[2] | seqs[3]) & 1
                 and seqs[0]
                 and seqs[1]
+                and seqs[2]
+                and seqs[3]
                 and SEQS.unpack_from(buf, SEQS_AT) == seqs
             ):
                 (
@@ -234,9 +295,16 @@ class PpController:
                     self.single_step,
                     self.simulate,
                     self.single_step_num,
-                    self.world_tram_dir,
+                    self.world_path_ok,
+                    self.world_wp_x,
+                    self.world_wp_y,
+                    self.world_wp_last,
                     _,
                     self.world_pose_x,
+                    _,
+                    self.world_pose_y,
+                    _,
+                    self.world_heading,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -289,12 +357,29 @@ class PpController:
             SEQ.pack_into(buf, PP_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_tram_dir,)
+        out = (self.world_path_ok, self.world_wp_x, self.world_wp_y, self.world_wp_last)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_TRAM_DIR_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_TRAM_DIR_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_PATH_OK_AT, s[0] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_WP_X_AT, s[1] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_WP_Y_AT, s[2] | 1)  # odd before the value changes
+            SEQ.pack_into(buf, WORLD_WP_LAST_AT, s[3] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(
+                buf,
+                WORLD_OUT_1_AT,
+                s[0] | 1,
+                out[0],
+                s[1] | 1,
+                out[1],
+                s[2] | 1,
+                out[2],
+                s[3] | 1,
+                out[3],
+            )
+            SEQ.pack_into(buf, WORLD_PATH_OK_AT, (s[0] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_WP_X_AT, (s[1] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_WP_Y_AT, (s[2] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_WP_LAST_AT, (s[3] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -337,26 +422,42 @@ class PpController:
             self.status = DONE
 
     def plan(self) -> None:
-        """PLAN: Decide the direction from the sensed pose to the goal (x, y) along the entry."""
+        """PLAN: The next waypoint from the sensed pose towards the goal (x, y); ERROR if there is
+        no path.
+        """
         state = self.state
         if state == S0:
-            if self.arg_x > self.world_pose_x + ARRIVED:
-                self.rule = 3  # PLAN/S0/1
-                self.world_tram_dir = 1
-                self.state = NOP
-                self.status = DONE
-
-            elif self.arg_x < self.world_pose_x - ARRIVED:
-                self.rule = 4  # PLAN/S0/2
-                self.world_tram_dir = -1
-                self.state = NOP
-                self.status = DONE
-
-            elif (
-                self.arg_x >= self.world_pose_x - ARRIVED
-                and self.arg_x <= self.world_pose_x + ARRIVED
+            self.rule = 3  # PLAN/S0/1
+            self.state = S1
+            try:
+                returned = hooks.plan(
+                    self.hook_state,
+                    self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_heading,
+                    self.arg_x,
+                    self.arg_y,
+                )
+            except Exception as error:  # one error naming the module, hook, rule and cycle
+                raise HookError("pp", "plan", "PLAN/S0/1", self.cycles) from error
+            if (
+                type(returned) is not tuple
+                or len(returned) != 4
+                or type(returned[0]) is not bool
+                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or type(returned[3]) is not bool
             ):
-                self.rule = 5  # PLAN/S0/3
-                self.world_tram_dir = 0
+                raise HookError("pp", "plan", "PLAN/S0/1", self.cycles, returned, "bffb")
+            self.world_path_ok, self.world_wp_x, self.world_wp_y, self.world_wp_last = returned
+
+        elif state == S1:
+            if self.world_path_ok:
+                self.rule = 4  # PLAN/S1/1
                 self.state = NOP
                 self.status = DONE
+
+            elif not self.world_path_ok:
+                self.rule = 5  # PLAN/S1/2
+                self.state = NOP
+                self.status = ERROR

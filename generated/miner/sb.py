@@ -9,6 +9,9 @@ from .layout import (
     CO_COMMAND_AT,
     SB_PERF_AT,
     SB_STATUS_AT,
+    WM_COMMAND,
+    WM_COMMAND_AT,
+    WORLD_SUMP_STEP_AT,
 )
 from .rcs.contract import (
     DONE,
@@ -27,33 +30,57 @@ INIT = 1
 HALT = 2
 TRAM_TO_GOAL = 3
 BOX_CUT = 4
+CUT_TWO_PASSES = 5
 
 # Commands sb sends to co.
 CO_INIT = 1
 CO_HALT = 2
 CO_INITIAL_APPROACH_FACE = 3
-CO_TRAM_TO_GOAL = 4
-CO_APPROACH_FACE = 5
-CO_SUMP_SHEAR_CUSP = 6
+CO_REPOSITION = 4
+CO_TRAM_TO_GOAL = 5
+CO_APPROACH_FACE = 6
+CO_SUMP_SHEAR_CUSP = 7
+
+# Commands sb sends to wm.
+WM_INIT = 1
+WM_HALT = 2
+WM_NEW_CUT = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQId44x???1xI80xQI3148xd")
+INPUTS = Struct("<QQIdd44x???1xI96xQI2660xQI652xd8xd88xd8xd8xd")
 INPUTS_AT = 288
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
 SEQS_AT = 288
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, and their
+# sequence words alone.
+WORLD_OUT_1 = Struct("<Qd")
+WORLD_VALUES_1 = Struct("<8xd")
+WORLD_SEQS_1 = Struct("<Q")
+WORLD_OUT_1_AT = 3944
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 S2 = 3
 S3 = 4
-HALTING = 5
+STOPPING = 5
+HALTING = 6
+BOX_AT_FACE = 7
+BOX_SLICE = 8
+BOX_APPROACH = 9
+BACK_OUT = 10
+ACROSS = 11
+SLAB_AT_FACE = 12
+SLAB_SLICE = 13
+SLAB_APPROACH = 14
 
 # Constants.
 DEPTH_TOLERANCE = 0.05
+SUMP = 0.5
 
 
 class SbController:
@@ -61,7 +88,10 @@ class SbController:
 
     __slots__ = (
         "arg_depth",
+        "arg_offset",
         "buf",
+        "co_arg_x",
+        "co_arg_y",
         "co_command",
         "co_command_num",
         "co_status",
@@ -88,12 +118,25 @@ class SbController:
         "status_dirty",
         "status_num",
         "status_seq",
-        "world_depth_cut",
+        "var_start_x",
+        "var_start_y",
+        "wm_command",
+        "wm_command_num",
+        "wm_status",
+        "wm_status_num",
+        "wm_written",
+        "world_depth_est",
+        "world_drum_reach",
+        "world_pose_x",
+        "world_pose_y",
+        "world_sump_step",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
+        self.var_start_x: float = 0.0
+        self.var_start_y: float = 0.0
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -116,13 +159,19 @@ class SbController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
-        _, self.co_command_num, self.co_command = CO_COMMAND.unpack_from(buf, CO_COMMAND_AT)
+        _, self.co_command_num, self.co_command, self.co_arg_x, self.co_arg_y = (
+            CO_COMMAND.unpack_from(buf, CO_COMMAND_AT)
+        )
         self.co_written = self.co_command_num
+        _, self.wm_command_num, self.wm_command = WM_COMMAND.unpack_from(buf, WM_COMMAND_AT)
+        self.wm_written = self.wm_command_num
 
     def safe_state(self, reason: int) -> None:
         """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
         self.co_command = CO_HALT
         self.co_command_num += 1
+        self.wm_command = WM_HALT
+        self.wm_command_num += 1
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
@@ -145,19 +194,28 @@ class SbController:
                     self.command_num,
                     self.command,
                     self.arg_depth,
+                    self.arg_offset,
                     self.dont_run,
                     self.single_step,
                     self.simulate,
                     self.single_step_num,
                     self.co_status_num,
                     self.co_status,
-                    self.world_depth_cut,
+                    self.wm_status_num,
+                    self.wm_status,
+                    self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_depth_est,
+                    self.world_drum_reach,
+                    self.world_sump_step,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
             self.stale_reads += 1
         if self.co_status_num != self.co_command_num:
             self.co_status = EXECUTING  # until it echoes the last number sent
+        if self.wm_status_num != self.wm_command_num:
+            self.wm_status = EXECUTING  # until it echoes the last number sent
 
         # check_if_new_command
         if self.command_num != self.status_num:
@@ -185,6 +243,8 @@ class SbController:
                 self.tram_to_goal()
             elif command == BOX_CUT:
                 self.box_cut()
+            elif command == CUT_TWO_PASSES:
+                self.cut_two_passes()
 
         # post_process
         if self.rule or self.status_dirty:
@@ -209,9 +269,32 @@ class SbController:
                 self.co_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
             SEQ.pack_into(buf, CO_COMMAND_AT, seq)
-            CO_COMMAND.pack_into(buf, CO_COMMAND_AT, seq, self.co_command_num, self.co_command)
+            CO_COMMAND.pack_into(
+                buf,
+                CO_COMMAND_AT,
+                seq,
+                self.co_command_num,
+                self.co_command,
+                self.co_arg_x,
+                self.co_arg_y,
+            )
             SEQ.pack_into(buf, CO_COMMAND_AT, seq + 1)
             self.co_written = self.co_command_num
+        if self.wm_command_num != self.wm_written:  # a command was sent
+            seq, number = WM_COMMAND.unpack_from(buf, WM_COMMAND_AT)[:2]
+            if number != self.wm_written:  # an operator's command came meanwhile:
+                self.wm_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, WM_COMMAND_AT, seq)
+            WM_COMMAND.pack_into(buf, WM_COMMAND_AT, seq, self.wm_command_num, self.wm_command)
+            SEQ.pack_into(buf, WM_COMMAND_AT, seq + 1)
+            self.wm_written = self.wm_command_num
+        out = (self.world_sump_step,)
+        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, s[0] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -250,19 +333,28 @@ class SbController:
                     self.command_num,
                     self.command,
                     self.arg_depth,
+                    self.arg_offset,
                     self.dont_run,
                     self.single_step,
                     self.simulate,
                     self.single_step_num,
                     self.co_status_num,
                     self.co_status,
-                    self.world_depth_cut,
+                    self.wm_status_num,
+                    self.wm_status,
+                    self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_depth_est,
+                    self.world_drum_reach,
+                    self.world_sump_step,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
             self.stale_reads += 1
         if self.co_status_num != self.co_command_num:
             self.co_status = EXECUTING  # until it echoes the last number sent
+        if self.wm_status_num != self.wm_command_num:
+            self.wm_status = EXECUTING  # until it echoes the last number sent
 
     def check_if_new_command(self) -> None:
         """A command number that differs from the echoed status number is a new command."""
@@ -292,6 +384,8 @@ class SbController:
                 self.tram_to_goal()
             elif command == BOX_CUT:
                 self.box_cut()
+            elif command == CUT_TWO_PASSES:
+                self.cut_two_passes()
 
     def post_process(self) -> None:
         """Write what changed (the status, the subordinates' commands, the world out), each
@@ -319,9 +413,32 @@ class SbController:
                 self.co_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
             SEQ.pack_into(buf, CO_COMMAND_AT, seq)
-            CO_COMMAND.pack_into(buf, CO_COMMAND_AT, seq, self.co_command_num, self.co_command)
+            CO_COMMAND.pack_into(
+                buf,
+                CO_COMMAND_AT,
+                seq,
+                self.co_command_num,
+                self.co_command,
+                self.co_arg_x,
+                self.co_arg_y,
+            )
             SEQ.pack_into(buf, CO_COMMAND_AT, seq + 1)
             self.co_written = self.co_command_num
+        if self.wm_command_num != self.wm_written:  # a command was sent
+            seq, number = WM_COMMAND.unpack_from(buf, WM_COMMAND_AT)[:2]
+            if number != self.wm_written:  # an operator's command came meanwhile:
+                self.wm_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, WM_COMMAND_AT, seq)
+            WM_COMMAND.pack_into(buf, WM_COMMAND_AT, seq, self.wm_command_num, self.wm_command)
+            SEQ.pack_into(buf, WM_COMMAND_AT, seq + 1)
+            self.wm_written = self.wm_command_num
+        out = (self.world_sump_step,)
+        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, s[0] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -356,8 +473,10 @@ class SbController:
             self.state = S1
             self.co_command = CO_INIT
             self.co_command_num += 1
+            self.wm_command = WM_INIT
+            self.wm_command_num += 1
 
-        elif state == S1 and self.co_status == DONE:
+        elif state == S1 and self.co_status == DONE and self.wm_status == DONE:
             # every subordinate is done
             self.rule = 2  # INIT/S1/1
             self.state = NOP
@@ -372,8 +491,10 @@ class SbController:
             self.state = S1
             self.co_command = CO_HALT
             self.co_command_num += 1
+            self.wm_command = WM_HALT
+            self.wm_command_num += 1
 
-        elif state == S1 and self.co_status == DONE:
+        elif state == S1 and self.co_status == DONE and self.wm_status == DONE:
             # every subordinate is done
             self.rule = 4  # HALT/S1/1
             self.state = NOP
@@ -412,9 +533,10 @@ class SbController:
 
         elif state == S1:
             if self.co_status == DONE:
-                # at the face; cut the first slice
+                # at the face; cut the first slice (no deeper than ordered)
                 self.rule = 9  # BOX_CUT/S1/1
                 self.state = S2
+                self.world_sump_step = min(SUMP, self.arg_depth - self.world_drum_reach)
                 self.co_command = CO_SUMP_SHEAR_CUSP
                 self.co_command_num += 1
 
@@ -425,13 +547,14 @@ class SbController:
                 self.co_command_num += 1
 
         elif state == S2:
-            if self.co_status == DONE and self.world_depth_cut >= self.arg_depth - DEPTH_TOLERANCE:
-                # the depth is reached
+            if self.co_status == DONE and self.world_depth_est >= self.arg_depth - DEPTH_TOLERANCE:
+                # the depth is reached; stop the machine (drum, conveyance) where it is
                 self.rule = 11  # BOX_CUT/S2/1
-                self.state = NOP
-                self.status = DONE
+                self.state = STOPPING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
 
-            elif self.co_status == DONE and self.world_depth_cut < self.arg_depth - DEPTH_TOLERANCE:
+            elif self.co_status == DONE and self.world_depth_est < self.arg_depth - DEPTH_TOLERANCE:
                 # not deep enough yet; back to the face
                 self.rule = 12  # BOX_CUT/S2/2
                 self.state = S3
@@ -446,8 +569,10 @@ class SbController:
 
         elif state == S3:
             if self.co_status == DONE:
+                # back at the face; the last sump is shortened to stop at the ordered depth
                 self.rule = 14  # BOX_CUT/S3/1
                 self.state = S2
+                self.world_sump_step = min(SUMP, self.arg_depth - self.world_drum_reach)
                 self.co_command = CO_SUMP_SHEAR_CUSP
                 self.co_command_num += 1
 
@@ -457,8 +582,184 @@ class SbController:
                 self.co_command = CO_HALT
                 self.co_command_num += 1
 
+        elif state == STOPPING:
+            if self.co_status == DONE:
+                self.rule = 16  # BOX_CUT/STOPPING/1
+                self.state = NOP
+                self.status = DONE
+
+            elif self.co_status == ERROR:
+                self.rule = 17  # BOX_CUT/STOPPING/2
+                self.state = NOP
+                self.status = ERROR
+
         elif state == HALTING and (self.co_status == DONE or self.co_status == ERROR):
             # the machine is stopped; tell the operator the box cut failed
-            self.rule = 16  # BOX_CUT/HALTING/1
+            self.rule = 18  # BOX_CUT/HALTING/1
+            self.state = NOP
+            self.status = ERROR
+
+    def cut_two_passes(self) -> None:
+        """CUT_TWO_PASSES: Cut a face wider than the drum in two passes (mining paper, section
+        2.1.2): a box cut to `depth` where the machine stands, back out of it, reposition
+        `offset` across the entry, and a slab cut beside the box cut to the same depth; then stop
+        the machine.
+        """
+        state = self.state
+        if state == S0:
+            # the box cut, a new cut for world modelling
+            self.rule = 19  # CUT_TWO_PASSES/S0/1
+            self.state = BOX_AT_FACE
+            self.var_start_x = self.world_pose_x
+            self.var_start_y = self.world_pose_y
+            self.wm_command = WM_NEW_CUT
+            self.wm_command_num += 1
+            self.co_command = CO_INITIAL_APPROACH_FACE
+            self.co_command_num += 1
+
+        elif state == BOX_AT_FACE:
+            if self.co_status == DONE and self.wm_status == DONE:
+                self.rule = 20  # CUT_TWO_PASSES/BOX_AT_FACE/1
+                self.state = BOX_SLICE
+                self.world_sump_step = min(SUMP, self.arg_depth - self.world_drum_reach)
+                self.co_command = CO_SUMP_SHEAR_CUSP
+                self.co_command_num += 1
+
+            elif self.co_status == ERROR or self.wm_status == ERROR:
+                self.rule = 21  # CUT_TWO_PASSES/BOX_AT_FACE/2
+                self.state = HALTING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
+
+        elif state == BOX_SLICE:
+            if self.co_status == DONE and self.world_depth_est >= self.arg_depth - DEPTH_TOLERANCE:
+                # the box cut is deep enough; back out of it along the entry
+                self.rule = 22  # CUT_TWO_PASSES/BOX_SLICE/1
+                self.state = BACK_OUT
+                self.co_arg_x = self.var_start_x
+                self.co_arg_y = self.var_start_y
+                self.co_command = CO_REPOSITION
+                self.co_command_num += 1
+
+            elif self.co_status == DONE and self.world_depth_est < self.arg_depth - DEPTH_TOLERANCE:
+                self.rule = 23  # CUT_TWO_PASSES/BOX_SLICE/2
+                self.state = BOX_APPROACH
+                self.co_command = CO_APPROACH_FACE
+                self.co_command_num += 1
+
+            elif self.co_status == ERROR:
+                self.rule = 24  # CUT_TWO_PASSES/BOX_SLICE/3
+                self.state = HALTING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
+
+        elif state == BOX_APPROACH:
+            if self.co_status == DONE:
+                self.rule = 25  # CUT_TWO_PASSES/BOX_APPROACH/1
+                self.state = BOX_SLICE
+                self.world_sump_step = min(SUMP, self.arg_depth - self.world_drum_reach)
+                self.co_command = CO_SUMP_SHEAR_CUSP
+                self.co_command_num += 1
+
+            elif self.co_status == ERROR:
+                self.rule = 26  # CUT_TWO_PASSES/BOX_APPROACH/2
+                self.state = HALTING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
+
+        elif state == BACK_OUT:
+            if self.co_status == DONE:
+                # out of the box cut; the lateral reposition
+                self.rule = 27  # CUT_TWO_PASSES/BACK_OUT/1
+                self.state = ACROSS
+                self.co_arg_x = self.var_start_x
+                self.co_arg_y = self.var_start_y + self.arg_offset
+                self.co_command = CO_REPOSITION
+                self.co_command_num += 1
+
+            elif self.co_status == ERROR:
+                self.rule = 28  # CUT_TWO_PASSES/BACK_OUT/2
+                self.state = HALTING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
+
+        elif state == ACROSS:
+            if self.co_status == DONE:
+                # beside the box cut; the slab cut, a new cut for world modelling
+                self.rule = 29  # CUT_TWO_PASSES/ACROSS/1
+                self.state = SLAB_AT_FACE
+                self.wm_command = WM_NEW_CUT
+                self.wm_command_num += 1
+                self.co_command = CO_INITIAL_APPROACH_FACE
+                self.co_command_num += 1
+
+            elif self.co_status == ERROR:
+                self.rule = 30  # CUT_TWO_PASSES/ACROSS/2
+                self.state = HALTING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
+
+        elif state == SLAB_AT_FACE:
+            if self.co_status == DONE and self.wm_status == DONE:
+                self.rule = 31  # CUT_TWO_PASSES/SLAB_AT_FACE/1
+                self.state = SLAB_SLICE
+                self.world_sump_step = min(SUMP, self.arg_depth - self.world_drum_reach)
+                self.co_command = CO_SUMP_SHEAR_CUSP
+                self.co_command_num += 1
+
+            elif self.co_status == ERROR or self.wm_status == ERROR:
+                self.rule = 32  # CUT_TWO_PASSES/SLAB_AT_FACE/2
+                self.state = HALTING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
+
+        elif state == SLAB_SLICE:
+            if self.co_status == DONE and self.world_depth_est >= self.arg_depth - DEPTH_TOLERANCE:
+                # both passes are deep enough; stop the machine where it is
+                self.rule = 33  # CUT_TWO_PASSES/SLAB_SLICE/1
+                self.state = STOPPING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
+
+            elif self.co_status == DONE and self.world_depth_est < self.arg_depth - DEPTH_TOLERANCE:
+                self.rule = 34  # CUT_TWO_PASSES/SLAB_SLICE/2
+                self.state = SLAB_APPROACH
+                self.co_command = CO_APPROACH_FACE
+                self.co_command_num += 1
+
+            elif self.co_status == ERROR:
+                self.rule = 35  # CUT_TWO_PASSES/SLAB_SLICE/3
+                self.state = HALTING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
+
+        elif state == SLAB_APPROACH:
+            if self.co_status == DONE:
+                self.rule = 36  # CUT_TWO_PASSES/SLAB_APPROACH/1
+                self.state = SLAB_SLICE
+                self.world_sump_step = min(SUMP, self.arg_depth - self.world_drum_reach)
+                self.co_command = CO_SUMP_SHEAR_CUSP
+                self.co_command_num += 1
+
+            elif self.co_status == ERROR:
+                self.rule = 37  # CUT_TWO_PASSES/SLAB_APPROACH/2
+                self.state = HALTING
+                self.co_command = CO_HALT
+                self.co_command_num += 1
+
+        elif state == STOPPING:
+            if self.co_status == DONE:
+                self.rule = 38  # CUT_TWO_PASSES/STOPPING/1
+                self.state = NOP
+                self.status = DONE
+
+            elif self.co_status == ERROR:
+                self.rule = 39  # CUT_TWO_PASSES/STOPPING/2
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == HALTING and (self.co_status == DONE or self.co_status == ERROR):
+            # the machine is stopped; tell the operator the cut failed
+            self.rule = 40  # CUT_TWO_PASSES/HALTING/1
             self.state = NOP
             self.status = ERROR

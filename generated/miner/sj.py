@@ -19,15 +19,15 @@ RAISE = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI2304x?175x?")
-INPUTS_AT = 904
+INPUTS = Struct("<QI44x???1xI2592x?175x?")
+INPUTS_AT = 928
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3264
+WORLD_OUT_1_AT = 3576
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -288,10 +288,13 @@ class SjController:
             self.status = DONE
 
     def halt(self) -> None:
-        """HALT: Halt all actions."""
+        """HALT: Stop the jack where it is: command the position the jack sensor reports, so the
+        hydraulics stop travelling.
+        """
         state = self.state
         if state == S0:
             self.rule = 2  # HALT/S0/1
+            self.world_jack_down_cmd = self.world_jack_down
             self.state = NOP
             self.status = DONE
 

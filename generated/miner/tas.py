@@ -33,19 +33,19 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI1088xq8xq56xd8xd8xd56x?")
-INPUTS_AT = 2128
+INPUTS = Struct("<QQI44x???1xI1376xq8xq56xd8xd8xd56xd8x?")
+INPUTS_AT = 2152
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2128
+SEQS_AT = 2152
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 3360
+WORLD_OUT_1_AT = 3672
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -79,6 +79,7 @@ class TasController:
         "status_seq",
         "world_left_tread_cmd",
         "world_right_tread_cmd",
+        "world_slip",
         "world_tread_stalled",
         "world_true_heading",
         "world_true_x",
@@ -136,6 +137,7 @@ class TasController:
                     self.world_true_x,
                     self.world_true_y,
                     self.world_true_heading,
+                    self.world_slip,
                     self.world_tread_stalled,
                 ) = values
                 break
@@ -241,6 +243,7 @@ class TasController:
                     self.world_true_x,
                     self.world_true_y,
                     self.world_true_heading,
+                    self.world_slip,
                     self.world_tread_stalled,
                 ) = values
                 break
@@ -354,6 +357,23 @@ class TasController:
             ):
                 raise HookError("tas", "advance", "every_cycle/1", self.cycles, returned, "fff")
             self.world_true_x, self.world_true_y, self.world_true_heading = returned
+
+        elif self.world_slip > 0.0:
+            # the shear slides the standing machine outby (a roll in the seam floor)
+            try:
+                returned = hooks.slide(
+                    self.world_true_x, self.world_true_y, self.world_true_heading, self.world_slip
+                )
+            except Exception as error:  # one error naming the module, hook, rule and cycle
+                raise HookError("tas", "slide", "every_cycle/2", self.cycles) from error
+            if (
+                type(returned) is not tuple
+                or len(returned) != 2
+                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            ):
+                raise HookError("tas", "slide", "every_cycle/2", self.cycles, returned, "ff")
+            self.world_true_x, self.world_true_y = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -4,6 +4,8 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import miner_hooks.vg as hooks
+
 from .layout import (
     PP_COMMAND,
     PP_COMMAND_AT,
@@ -16,12 +18,18 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
+    INT_MAX,
+    INT_MIN,
     NO_RULE,
     NOP,
+    NUMBER,
     PERF,
     READ_TRIES,
     SEQ,
     STATUS,
+    HookError,
+    is_integer,
+    is_real,
 )
 
 # Commands vg accepts (the code written to its command buffer).
@@ -51,22 +59,36 @@ TC_STOP = 13
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI80xQI1332xQQI188xQq248xd")
-INPUTS_AT = 1504
+INPUTS = Struct("<QIdd44x???1xI80xQI1572xQQI204xQdQdQ?271xd8xd8xd")
+INPUTS_AT = 1528
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q200xQ")
-SEQS_AT = 3008
+SEQS = Struct("<Q216xQ8xQ8xQ")
+SEQS_AT = 3272
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
-INBY = 3
-OUTBY = 4
-STOPPING = 5
+PLANNING = 3
+DECIDE = 4
+FORWARD = 5
+REVERSE = 6
+LEFT = 7
+RIGHT = 8
+STOPPING = 9
+ALIGN = 10
+ALIGN_LEFT = 11
+ALIGN_RIGHT = 12
+ALIGN_STOPPING = 13
 
 # Constants.
 ARRIVED = 0.02
+HEADING_TOLERANCE = 0.05
+THERE = 0
+GO_FORWARD = 1
+GO_REVERSE = 2
+GO_LEFT = 3
+GO_RIGHT = 4
 
 
 class VgController:
@@ -109,13 +131,27 @@ class VgController:
         "tc_status",
         "tc_status_num",
         "tc_written",
+        "var_ahead",
+        "var_facing",
+        "var_facing_turn",
+        "var_move",
+        "var_turn",
+        "world_heading",
         "world_pose_x",
-        "world_tram_dir",
+        "world_pose_y",
+        "world_wp_last",
+        "world_wp_x",
+        "world_wp_y",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
+        self.var_move: int = 0
+        self.var_ahead: float = 0.0
+        self.var_turn: float = 0.0
+        self.var_facing: int = 0
+        self.var_facing_turn: float = 0.0
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -169,11 +205,15 @@ class VgController:
             seqs = (
                 values[10],
                 values[13],
+                values[15],
+                values[17],
             )
             if (
-                not (seqs[0] | seqs[1]) & 1
+                not (seqs[0] | seqs[1] | seqs[2] | seqs[3]) & 1
                 and seqs[0]
                 and seqs[1]
+                and seqs[2]
+                and seqs[3]
                 and SEQS.unpack_from(buf, SEQS_AT) == seqs
             ):
                 (
@@ -191,8 +231,14 @@ class VgController:
                     self.pp_status_num,
                     self.pp_status,
                     _,
-                    self.world_tram_dir,
+                    self.world_wp_x,
+                    _,
+                    self.world_wp_y,
+                    _,
+                    self.world_wp_last,
                     self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_heading,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -219,6 +265,7 @@ class VgController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
+            self.every_cycle()
             command = self.command
             if command == INIT:
                 self.init()
@@ -304,11 +351,15 @@ class VgController:
             seqs = (
                 values[10],
                 values[13],
+                values[15],
+                values[17],
             )
             if (
-                not (seqs[0] | seqs[1]) & 1
+                not (seqs[0] | seqs[1] | seqs[2] | seqs[3]) & 1
                 and seqs[0]
                 and seqs[1]
+                and seqs[2]
+                and seqs[3]
                 and SEQS.unpack_from(buf, SEQS_AT) == seqs
             ):
                 (
@@ -326,8 +377,14 @@ class VgController:
                     self.pp_status_num,
                     self.pp_status,
                     _,
-                    self.world_tram_dir,
+                    self.world_wp_x,
+                    _,
+                    self.world_wp_y,
+                    _,
+                    self.world_wp_last,
                     self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_heading,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -356,6 +413,7 @@ class VgController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
+            self.every_cycle()
             command = self.command
             if command == INIT:
                 self.init()
@@ -435,6 +493,47 @@ class VgController:
         SEQ.pack_into(buf, VG_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
+    def every_cycle(self) -> None:
+        """Rules tried every cycle, whatever the command."""
+        # where the waypoint is from this cycle's sensed pose (the moves below decide on it)
+        try:
+            returned = hooks.steer(
+                self.world_pose_x,
+                self.world_pose_y,
+                self.world_heading,
+                self.world_wp_x,
+                self.world_wp_y,
+            )
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("vg", "steer", "every_cycle/1", self.cycles) from error
+        if (
+            type(returned) is not tuple
+            or len(returned) != 3
+            or (
+                (type(returned[0]) is not int and not is_integer(returned[0]))
+                or not INT_MIN <= returned[0] <= INT_MAX
+            )
+            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+        ):
+            raise HookError("vg", "steer", "every_cycle/1", self.cycles, returned, "iff")
+        self.var_move, self.var_ahead, self.var_turn = returned
+        try:
+            returned = hooks.align(self.world_heading)
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("vg", "align", "every_cycle/1", self.cycles) from error
+        if (
+            type(returned) is not tuple
+            or len(returned) != 2
+            or (
+                (type(returned[0]) is not int and not is_integer(returned[0]))
+                or not INT_MIN <= returned[0] <= INT_MAX
+            )
+            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+        ):
+            raise HookError("vg", "align", "every_cycle/1", self.cycles, returned, "if")
+        self.var_facing, self.var_facing_turn = returned
+
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
@@ -472,70 +571,173 @@ class VgController:
             self.status = DONE
 
     def tram_to_xy(self) -> None:
-        """TRAM_TO_XY: Tram the machine to the goal point (x, y)."""
+        """TRAM_TO_XY: Tram the machine to the goal point (x, y), then face inby."""
         state = self.state
         if state == S0:
             self.rule = 5  # TRAM_TO_XY/S0/1
-            self.state = S1
+            self.state = PLANNING
             self.pp_arg_x = self.arg_x
             self.pp_arg_y = self.arg_y
             self.pp_command = PP_PLAN
             self.pp_command_num += 1
 
-        elif state == S1:
-            if self.pp_status == DONE and self.world_tram_dir > 0:
-                self.rule = 6  # TRAM_TO_XY/S1/1
-                self.state = INBY
+        elif state == PLANNING:
+            if self.pp_status == DONE:
+                # the next waypoint is known; how to get there (next cycle, from its pose)
+                self.rule = 6  # TRAM_TO_XY/PLANNING/1
+                self.state = DECIDE
+
+            elif self.pp_status == ERROR:
+                self.rule = 7  # TRAM_TO_XY/PLANNING/2
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == DECIDE:
+            if self.var_move == THERE and self.world_wp_last:
+                # at the goal; turn to face inby
+                self.rule = 8  # TRAM_TO_XY/DECIDE/1
+                self.state = ALIGN
+
+            elif self.var_move == THERE and not self.world_wp_last:
+                # at a waypoint on the way; ask for the next one from here
+                self.rule = 9  # TRAM_TO_XY/DECIDE/2
+                self.state = PLANNING
+                self.pp_arg_x = self.arg_x
+                self.pp_arg_y = self.arg_y
+                self.pp_command = PP_PLAN
+                self.pp_command_num += 1
+
+            elif self.var_move == GO_FORWARD:
+                self.rule = 10  # TRAM_TO_XY/DECIDE/3
+                self.state = FORWARD
                 self.tc_command = TC_SLOW_FORWARD
                 self.tc_command_num += 1
 
-            elif self.pp_status == DONE and self.world_tram_dir < 0:
-                self.rule = 7  # TRAM_TO_XY/S1/2
-                self.state = OUTBY
+            elif self.var_move == GO_REVERSE:
+                self.rule = 11  # TRAM_TO_XY/DECIDE/4
+                self.state = REVERSE
                 self.tc_command = TC_SLOW_REVERSE
                 self.tc_command_num += 1
 
-            elif self.pp_status == DONE and self.world_tram_dir == 0:
-                self.rule = 8  # TRAM_TO_XY/S1/3
-                self.state = NOP
-                self.status = DONE
+            elif self.var_move == GO_LEFT:
+                self.rule = 12  # TRAM_TO_XY/DECIDE/5
+                self.state = LEFT
+                self.tc_command = TC_PIVOT_LEFT
+                self.tc_command_num += 1
 
-            elif self.pp_status == ERROR:
-                self.rule = 9  # TRAM_TO_XY/S1/4
-                self.state = NOP
-                self.status = ERROR
+            elif self.var_move == GO_RIGHT:
+                self.rule = 13  # TRAM_TO_XY/DECIDE/6
+                self.state = RIGHT
+                self.tc_command = TC_PIVOT_RIGHT
+                self.tc_command_num += 1
 
-        elif state == INBY:
-            if self.tc_status == EXECUTING and self.world_pose_x >= self.arg_x - ARRIVED:
-                self.rule = 10  # TRAM_TO_XY/INBY/1
+        elif state == FORWARD:
+            if self.tc_status == EXECUTING and self.var_ahead <= ARRIVED:
+                self.rule = 14  # TRAM_TO_XY/FORWARD/1
                 self.state = STOPPING
                 self.tc_command = TC_STOP
                 self.tc_command_num += 1
 
             elif self.tc_status == ERROR:
-                self.rule = 11  # TRAM_TO_XY/INBY/2
+                self.rule = 15  # TRAM_TO_XY/FORWARD/2
                 self.state = NOP
                 self.status = ERROR
 
-        elif state == OUTBY:
-            if self.tc_status == EXECUTING and self.world_pose_x <= self.arg_x + ARRIVED:
-                self.rule = 12  # TRAM_TO_XY/OUTBY/1
+        elif state == REVERSE:
+            if self.tc_status == EXECUTING and self.var_ahead >= -ARRIVED:
+                self.rule = 16  # TRAM_TO_XY/REVERSE/1
                 self.state = STOPPING
                 self.tc_command = TC_STOP
                 self.tc_command_num += 1
 
             elif self.tc_status == ERROR:
-                self.rule = 13  # TRAM_TO_XY/OUTBY/2
+                self.rule = 17  # TRAM_TO_XY/REVERSE/2
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == LEFT:
+            if self.tc_status == EXECUTING and self.var_turn <= HEADING_TOLERANCE:
+                self.rule = 18  # TRAM_TO_XY/LEFT/1
+                self.state = STOPPING
+                self.tc_command = TC_STOP
+                self.tc_command_num += 1
+
+            elif self.tc_status == ERROR:
+                self.rule = 19  # TRAM_TO_XY/LEFT/2
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == RIGHT:
+            if self.tc_status == EXECUTING and self.var_turn >= -HEADING_TOLERANCE:
+                self.rule = 20  # TRAM_TO_XY/RIGHT/1
+                self.state = STOPPING
+                self.tc_command = TC_STOP
+                self.tc_command_num += 1
+
+            elif self.tc_status == ERROR:
+                self.rule = 21  # TRAM_TO_XY/RIGHT/2
                 self.state = NOP
                 self.status = ERROR
 
         elif state == STOPPING:
             if self.tc_status == DONE:
-                self.rule = 14  # TRAM_TO_XY/STOPPING/1
+                # stopped; how far from the waypoint now
+                self.rule = 22  # TRAM_TO_XY/STOPPING/1
+                self.state = DECIDE
+
+            elif self.tc_status == ERROR:
+                self.rule = 23  # TRAM_TO_XY/STOPPING/2
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == ALIGN:
+            if self.var_facing == THERE:
+                self.rule = 24  # TRAM_TO_XY/ALIGN/1
                 self.state = NOP
                 self.status = DONE
 
+            elif self.var_facing == GO_LEFT:
+                self.rule = 25  # TRAM_TO_XY/ALIGN/2
+                self.state = ALIGN_LEFT
+                self.tc_command = TC_PIVOT_LEFT
+                self.tc_command_num += 1
+
+            elif self.var_facing == GO_RIGHT:
+                self.rule = 26  # TRAM_TO_XY/ALIGN/3
+                self.state = ALIGN_RIGHT
+                self.tc_command = TC_PIVOT_RIGHT
+                self.tc_command_num += 1
+
+        elif state == ALIGN_LEFT:
+            if self.tc_status == EXECUTING and self.var_facing_turn <= HEADING_TOLERANCE:
+                self.rule = 27  # TRAM_TO_XY/ALIGN_LEFT/1
+                self.state = ALIGN_STOPPING
+                self.tc_command = TC_STOP
+                self.tc_command_num += 1
+
             elif self.tc_status == ERROR:
-                self.rule = 15  # TRAM_TO_XY/STOPPING/2
+                self.rule = 28  # TRAM_TO_XY/ALIGN_LEFT/2
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == ALIGN_RIGHT:
+            if self.tc_status == EXECUTING and self.var_facing_turn >= -HEADING_TOLERANCE:
+                self.rule = 29  # TRAM_TO_XY/ALIGN_RIGHT/1
+                self.state = ALIGN_STOPPING
+                self.tc_command = TC_STOP
+                self.tc_command_num += 1
+
+            elif self.tc_status == ERROR:
+                self.rule = 30  # TRAM_TO_XY/ALIGN_RIGHT/2
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == ALIGN_STOPPING:
+            if self.tc_status == DONE:
+                self.rule = 31  # TRAM_TO_XY/ALIGN_STOPPING/1
+                self.state = ALIGN
+
+            elif self.tc_status == ERROR:
+                self.rule = 32  # TRAM_TO_XY/ALIGN_STOPPING/2
                 self.state = NOP
                 self.status = ERROR

@@ -56,6 +56,7 @@ def check_system(
     simulators = _check_simulators(system, by_name, diags)
     _check_stand_ins(system, by_name, diags)
     _check_world_writers(system, by_name, diags)
+    _check_sensing(system, by_name, simulators | set(stand_ins.values()), diags)
     world = {name: f.type for name, f in system.world.items()}
     operators.check(system.operators, by_name, supervisors, world, diags)  # E245-E249
     contracts: dict[str, HookContracts] = {}
@@ -332,6 +333,43 @@ def _check_world_writers(
                     f"and by `{other[1]}` in process `{other[0]}` ({other[2]})",
                     "a buffer has one writer: let one process own the field",
                 )
+
+
+def _check_sensing(
+    system: SystemSpec, by_name: dict[str, ControllerSpec], simulated: set[str], diags: Diagnostics
+) -> None:
+    """Controllers decide on what is sensed, never on the simulation's ground truth (E280);
+    a leaf controller that commands an actuator stops it on HALT (W520)."""
+    for spec in by_name.values():
+        if spec.name in simulated:
+            continue
+        for item in [*spec.world_reads, *spec.world_writes]:
+            field = system.world.get(item.value)
+            if field is not None and field.ground_truth:
+                diags.error(
+                    item.span,
+                    "E280",
+                    f"controller `{spec.name}` uses ground-truth world field `{item.value}`",
+                    "only simulators and stand-ins see the simulation's truth; "
+                    "read a sensed or estimated field instead",
+                )
+        halt = spec.commands.get("HALT")
+        if spec.subordinates or halt is None or not halt.generated:
+            continue
+        driven = [
+            item
+            for item in spec.world_writes
+            if item.value in system.world and system.world[item.value].actuator
+        ]
+        if driven:
+            diags.warning(
+                driven[0].span,
+                "W520",
+                f"`{spec.name}` commands actuator `{driven[0].value}` but keeps the default "
+                "HALT, which stops nothing",
+                "declare HALT and set every actuator it writes to its stopped value",
+                Subject(spec.name, "HALT"),
+            )
 
 
 def _check_numbers(

@@ -40,6 +40,8 @@ class Typed:
     doc: str
     span: Span
     initial_span: Span | None = None  # where `initial:` gives the value (not for params)
+    actuator: bool = False  # world fields: commands an actuator (W520)
+    ground_truth: bool = False  # world fields: the simulation's truth, no sensor's (E280)
 
 
 @dataclass
@@ -248,6 +250,8 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
             spec.get("doc", ""),
             key_span(data["world"], name, top),
             value_span(spec, "initial", top),
+            bool(spec.get("actuator", False)),
+            bool(spec.get("ground_truth", False)),
         )
         for name, spec in (data.get("world") or {}).items()
     }

@@ -8,9 +8,12 @@ DRUM_DIAMETER = 1.0  # metres
 CUSP_BACKOFF = 0.5  # metres trammed in reverse to clear the cusp
 
 
-def co_position_for_sump(pose_x: float, pose_y: float, heading: float) -> tuple[float, float]:
-    """Goal point half a drum diameter ahead of the machine, along its heading."""
-    step = DRUM_DIAMETER / 2
+def co_position_for_sump(
+    pose_x: float, pose_y: float, heading: float, step: float
+) -> tuple[float, float]:
+    """Goal point `step` ahead of the machine along its heading: half a drum diameter,
+    or less on the last sump of a box cut (the shift boss's `sump_step`)."""
+    step = max(0.0, min(step, DRUM_DIAMETER / 2))
     return pose_x + step * math.cos(heading), pose_y + step * math.sin(heading)
 
 

@@ -3,12 +3,17 @@
 A map file has one character per 0.25 m square cell: rows run across the entry, columns
 run inby along it; `#` is coal, `.` open. Each coal cell keeps how much of the seam height
 is still standing (1.0 = the full seam, 0.0 = cut to the floor). The turning drum cuts
-every cell it overlaps down to the drum's bottom edge; the coal cut becomes loose coal.
+every cell it overlaps down to the drum's round bottom edge; the coal cut becomes loose
+coal. A shear therefore leaves a wedge of floor coal either side of the drum's lowest point
+(the cusp, mining paper section 2.1.2), which the drum takes when the machine trams back
+with the drum at the floor. A cell with no more than a cusp's height standing is floor
+coal, no longer part of the face.
 """
 
 from __future__ import annotations
 
 import math
+import random
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,9 +22,13 @@ DRUM_RADIUS = 0.5  # metres: the drum reaches this far either side of its centre
 DRUM_HALF_WIDTH = 1.6  # metres: the drum spans the entry
 DRUM_HEIGHT = 0.4  # fraction of the seam the drum covers
 ROOF_ANGLE, FLOOR_ANGLE = 30.0, -10.0  # degrees: drum top at the roof, bottom on the floor
-TONNES_PER_CELL = CELL * CELL * 2.0 * 1.3  # cell area x 2 m seam x 1.3 t/m3
+SEAM_HEIGHT = 2.0  # metres
+TONNES_PER_CELL = CELL * CELL * SEAM_HEIGHT * 1.3  # cell area x seam x 1.3 t/m3
+FACE_MIN = 0.1  # fraction of the seam: a cell standing no higher is the cusp, not the face
+CUT_THROUGH = 0.005  # fraction of the seam (1 cm): less than this left is cut to the floor
 SYSTEM_DIR = Path(__file__).resolve().parent.parent
 DEFAULT_MAP = "maps/box_cut.map"
+SLIP_ERROR = 0.3  # the slide per cycle on a roll varies by this fraction (seeded)
 
 
 @dataclass
@@ -34,15 +43,23 @@ class Mine:
     # row -> the first column with standing coal in it (rows cut through have none): what
     # `face` looks up instead of scanning the map every cycle; `cut_coal` keeps it current.
     first: dict[int, int] = field(default_factory=dict)
+    # `roll X0 X1 SLIP` lines: where the seam floor rolls (slopes down outby) between X0 and
+    # X1 metres inby, the shear's cutting force slides the machine SLIP metres a cycle outby
+    rolls: list[tuple[float, float, float]] = field(default_factory=list)
+    rng: random.Random = field(default_factory=lambda: random.Random(1))
 
 
 def load_map(path: Path) -> Mine:
     """Read a map file; the first line `origin X Y` places column 0 and row 0."""
     lines = [line.rstrip("\n") for line in path.read_text(encoding="utf-8").splitlines()]
-    rows = [line for line in lines if line and not line.startswith(("#!", "origin"))]
+    rows = [line for line in lines if line and not line.startswith(("#!", "origin", "roll"))]
     origin = next((line.split() for line in lines if line.startswith("origin")), None)
     x0, y0 = (float(origin[1]), float(origin[2])) if origin else (0.0, 0.0)
     mine = Mine(x0, y0)
+    for line in lines:
+        if line.startswith("roll"):
+            _, start, end, slip = line.split()
+            mine.rolls.append((float(start), float(end), float(slip)))
     for r, row in enumerate(rows):
         for c, char in enumerate(row):
             if char == "#":
@@ -55,8 +72,22 @@ def load_map(path: Path) -> Mine:
 
 
 def new_mine(settings: dict[str, str]) -> Mine:
-    """The mine of the run's `map` setting (relative to the system directory)."""
-    return load_map(SYSTEM_DIR / settings.get("map", DEFAULT_MAP))
+    """The mine of the run's `map` setting (relative to the system directory); the slide on
+    a roll is seeded from the run's `seed`."""
+    mine = load_map(SYSTEM_DIR / settings.get("map", DEFAULT_MAP))
+    mine.rng = random.Random(int(settings.get("seed", "1")))
+    return mine
+
+
+def slip(mine: Mine, x: float, boom_angle: float, jack_down: bool, cut: float) -> float:
+    """How far the shear's cutting force slides the machine outby this cycle: on a roll of
+    the seam floor, while the drum cuts below the roof with the jack down, the jack's foot
+    and the treads lose their grip on the slope (with seeded error); elsewhere nothing."""
+    shearing = jack_down and cut > 0.0 and boom_angle < ROOF_ANGLE - 0.5
+    for start, end, amount in mine.rolls:
+        if shearing and start <= x <= end:
+            return round(amount * (1.0 + mine.rng.uniform(-SLIP_ERROR, SLIP_ERROR)), 6)
+    return 0.0
 
 
 def _span(low: float, high: float, origin: float) -> range:
@@ -64,6 +95,14 @@ def _span(low: float, high: float, origin: float) -> range:
     first = math.ceil((low - origin) / CELL - 0.5)
     last = math.floor((high - origin) / CELL - 0.5)
     return range(first, last + 1)
+
+
+def _wedge(mine: Mine, x: float, column: int) -> float:
+    """How far (seam fraction) the drum's round bottom is above its lowest point over the
+    centre of `column`, for a drum centred at `x`: the cusp it leaves there."""
+    offset = mine.x0 + (column + 0.5) * CELL - x
+    rise = DRUM_RADIUS - math.sqrt(max(0.0, DRUM_RADIUS**2 - offset**2))
+    return rise / SEAM_HEIGHT
 
 
 def _covered(mine: Mine, x: float, y: float) -> list[tuple[int, int]]:
@@ -82,12 +121,12 @@ def face(mine: Mine, y: float) -> float:
 
 
 def _cut_to_floor(mine: Mine, r: int, c: int) -> None:
-    """Cell (r, c) no longer stands: if it was its row's first, the row's first moves on."""
+    """Cell (r, c) is no longer face: if it was its row's first, the row's first moves on."""
     if mine.first.get(r) != c:
         return
     seam = mine.seam
     for after in range(c + 1, mine.columns):
-        if seam.get((r, after), 0.0) > 0.0:
+        if seam.get((r, after), 0.0) > FACE_MIN:
             mine.first[r] = after
             return
     del mine.first[r]
@@ -102,12 +141,15 @@ def cut_coal(
     contact, tonnes = False, 0.0
     for cell in _covered(mine, x, y):
         standing = mine.seam[cell]
-        if standing > bottom:
+        level = min(1.0, bottom + _wedge(mine, x, cell[1]))
+        if level < CUT_THROUGH:
+            level = 0.0
+        if standing > level:
             contact = True
             if drum_on:
-                tonnes += (standing - bottom) * TONNES_PER_CELL
-                mine.seam[cell] = bottom
-                if bottom <= 0.0:
+                tonnes += (standing - level) * TONNES_PER_CELL
+                mine.seam[cell] = level
+                if level <= FACE_MIN:
                     _cut_to_floor(mine, *cell)
     now = face(mine, y)
     return contact, round(now, 6), round(now - mine.first_face, 6), round(tonnes, 6)

@@ -6,7 +6,7 @@ import math
 import random
 
 TREAD_STEP = 0.05  # metres per cycle per speed level
-TURN_STEP = 0.01  # radians per cycle per unit of speed difference
+TURN_STEP = 0.03  # radians per cycle per unit of speed difference (a pivot: 3.4 degrees a cycle)
 
 
 def advance(
@@ -20,6 +20,11 @@ def advance(
         round(y + speed * math.sin(heading), 9),
         round(heading, 9),
     )
+
+
+def slide(x: float, y: float, heading: float, distance: float) -> tuple[float, float]:
+    """The position after sliding `distance` metres backwards along the heading."""
+    return round(x - distance * math.cos(heading), 9), round(y - distance * math.sin(heading), 9)
 
 
 def new_noise(settings: dict[str, str]) -> random.Random:
