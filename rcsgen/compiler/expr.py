@@ -561,6 +561,17 @@ def compile_expr(
                 "expressions are ASCII: names, numbers, operators and parentheses",
             )
             return None
+        if "#" in text:  # Python would drop the rest of the line as a comment, silently
+            comment = text[text.index("#") + 1 :].strip()
+            shown = comment if len(comment) <= 40 else comment[:37] + "..."
+            diags.error(
+                span,  # the expression's start: in a block scalar, columns do not map
+                "E101",
+                f"invalid expression: `#` is not allowed (`# {shown}`)",
+                "inside a `>-` or `|` block a YAML comment is part of the expression and would "
+                "silently drop the rest of it: put the comment on a line of its own, outside",
+            )
+            return None
         try:
             tree = ast.parse(text.strip(), mode="eval")
         except SyntaxError as exc:
