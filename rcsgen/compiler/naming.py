@@ -90,6 +90,7 @@ CLASS_NAMES = frozenset(
         "buf",
         "cycle_start",
         "hook_state",
+        "ticks",  # cycles in the current state (`after:`)
         *BUFFER_ATTRIBUTES,
     }
 )
@@ -547,6 +548,14 @@ def _check_controller(
             names.claim(
                 f"arg_{param_name}", f"parameter `{param_name}`", typed.span, ("param", param_name)
             )
+    for command in spec.commands.values():  # the counters of `for:` rules
+        for state in command.states.values():
+            for index, rule in enumerate(state.rules, start=1):
+                if rule.hold is not None:
+                    counter = held_attribute(command.name, state.name, index)
+                    names.claim(
+                        counter, f"the `for:` counter of {command.name} {state.name}", rule.span
+                    )
     _check_constants(spec, diags)
     methods = {command_method(c) for c in spec.commands} | {"init", "halt"}
     for name, item in spec.predicates.items():
