@@ -132,6 +132,25 @@ def test_status_shows_every_module_and_process_as_text_and_json(running: Running
     assert snapshot["processes"]["p1"]["heartbeat_age_s"] < 5  # type: ignore[index]
 
 
+def test_a_reader_that_goes_away_ends_status_watch_quietly(running: Running) -> None:
+    """`ctl status --watch | head`: when the reader closes the pipe, ctl ends with 0 and
+    no BrokenPipeError traceback."""
+    watch = subprocess.Popen(
+        [sys.executable, "-m", running.name, "ctl", "--shm", running.segment]
+        + ["status", "--watch", "--interval", "0.05"],
+        env=running.env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert watch.stdout is not None and watch.stderr is not None
+    assert "duo on " in watch.stdout.readline()
+    watch.stdout.close()
+    assert watch.wait(timeout=30) == 0
+    with watch.stderr:
+        assert watch.stderr.read() == ""
+
+
 def test_send_to_a_root_then_wait_for_done(running: Running) -> None:
     sent = running.ctl("send", "top", "MOVE", "--seen")
     assert sent.returncode == 0, sent.stderr

@@ -609,6 +609,10 @@ def main(package: str, argv: Sequence[str]) -> int:
         return error.code
     except KeyboardInterrupt:
         return 0
+    except BrokenPipeError:  # `ctl status | head`: the reader has gone, which is no error
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # so that the flush at exit does not fail again
+        return 0
 
 
 def _run(layout: ModuleType, args: argparse.Namespace) -> int:
