@@ -242,6 +242,7 @@ def main() -> int:
     parser.add_argument("--rounds", type=int, default=ROUNDS)
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
+    args.scenario, args.package = args.scenario.resolve(), args.package.resolve()
     started = time.perf_counter()
 
     repeater = Repeater(args.scenario, args.package)

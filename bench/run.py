@@ -30,6 +30,12 @@ PARTS = {
     "co": ("bench_co.py", [], ["--cycles", "20000", "--slow-cycles", "2000", "--rounds", "2"]),
     "ablation": ("prototypes/ablation.py", [], ["--cycles", "20000", "--rounds", "2"]),
     "system": ("bench_system.py", [], ["--cycles", "2000", "--rounds", "2"]),
+    "helm": (
+        "bench_system.py",
+        HELM := ["--scenario", "specs/submarine/scenarios/ice_transit.yaml"]
+        + ["--package", "generated/submarine"],
+        [*HELM, "--cycles", "2000", "--rounds", "2"],
+    ),
     "scaling": ("bench_scaling.py", [], ["--sizes", "10,100,200", "--repeat", "1"]),
     "startup": ("bench_startup.py", [], ["--rounds", "3"]),
     "seqlock": ("bench_seqlock.py", [], ["--reads", "200000", "--record-reads", "50000"]),
@@ -401,6 +407,35 @@ def hooks_share(system: dict) -> tuple[float, float]:
     hooks = sum(system.get("hook_ns", {}).values())
     modules = system["module_ns"]
     return hooks, (sum(modules.values()) - hooks) / len(modules)
+
+
+def section_helm(helm: dict, system: dict | None) -> list[str]:
+    """The submarine's Helm (ICE_MANEUVER, time in the language) next to the miner's co."""
+    helm_ns = helm["module_ns"]["helm"]
+    helm_hooks = sum(v for k, v in helm.get("hook_ns", {}).items() if ".helm." in k)
+    lines = [
+        "## 2b. The submarine's Helm next to co",
+        "",
+        f"generated/submarine running {helm['scenario']} as part 2 runs the miner "
+        f"({helm['cycles_per_round']:,} system cycles per round, instrumented pass on the wall "
+        "clock). Helm's table uses `after:`/`for:`, results and `let`; co's does not.",
+        "",
+        "| module | ns per cycle | of which its hooks | generated code |",
+        "|---|--:|--:|--:|",
+        f"| helm (submarine) | {helm_ns:,.0f} | {helm_hooks:,.0f} | {helm_ns - helm_hooks:,.0f} |",
+    ]
+    if system and "co" in system.get("module_ns", {}):
+        co_ns = system["module_ns"]["co"]
+        co_hooks = sum(v for k, v in system.get("hook_ns", {}).items() if ".co." in k)
+        lines.append(f"| co (miner) | {co_ns:,.0f} | {co_hooks:,.0f} | {co_ns - co_hooks:,.0f} |")
+    s = helm["ns_per_cycle"]
+    lines += [
+        "",
+        f"The whole submarine: {s['median']:,.0f} ns per system cycle over "
+        f"{len(helm['modules'])} modules (the sonar's 14 beams against the keels dominate).",
+        "",
+    ]
+    return lines
 
 
 def section_system(system: dict) -> list[str]:
@@ -830,6 +865,8 @@ def main() -> int:
         lines += section_co(co, ablation)
     if system:
         lines += section_system(system)
+    if results.get("helm"):
+        lines += section_helm(results["helm"], system)
     if scaling:
         lines += section_scaling(scaling)
     if startup:
