@@ -28,16 +28,15 @@ ACCEPTED, REJECTED = 1, 2
 
 
 def operator_timeout(controller: str) -> int:
-    """The cycles `controller`'s commands wait for the operator: the one `after:` duration
-    its ASKING rules give, in seconds, over the system's cycle period."""
+    """The cycles `controller`'s commands wait for the operator: the `after:` duration of
+    the fragment they all use (fragments.yaml), in seconds, over the system's cycle period."""
     spec = yaml.safe_load((SYSTEM / f"{controller}.yaml").read_text(encoding="utf-8"))
+    shared = yaml.safe_load((SYSTEM / "fragments.yaml").read_text(encoding="utf-8"))
     system = yaml.safe_load((SYSTEM / "system.yaml").read_text(encoding="utf-8"))
-    waits = {
-        rule["after"]
-        for command in spec["commands"].values()
-        for rule in command["states"].get("ASKING", [])
-        if "after" in rule
-    }
+    asking = [c for c in spec["commands"].values() if "use" in c["states"]["S0"]]
+    assert {c["states"]["S0"]["use"] for c in asking} == {"ask_operator"}
+    fragment = shared["fragments"]["ask_operator"]
+    waits = {r["after"] for rules in fragment["states"].values() for r in rules if "after" in r}
     assert len(waits) == 1, f"one operator time-out in {controller}: {waits}"
     seconds = waits.pop()
     assert seconds.endswith(" s"), seconds
