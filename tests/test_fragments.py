@@ -258,3 +258,16 @@ def test_fragments_match_the_reference_on_the_tables_written_out(tmp_path_factor
 
     one()
     assert runs["examples"] >= EXAMPLES
+
+
+def test_a_fragment_no_command_uses_is_a_warning(tmp_path: Path) -> None:
+    states = "      S0:\n        - do: [report: DONE]\n"
+    found = diagnostics(system(tmp_path, with_fragment(states)))
+    assert found == [
+        "7:W305:fragment `move_and_wait` is declared but no command uses it | "
+        "use it in a state (`{use: NAME, with: {...}}`) or remove it"
+    ]
+    shared = diagnostics(
+        system(tmp_path, TOP.format(fragments="", states=states), f"fragments:\n{FRAGMENT}", "b")
+    )
+    assert [f.split(":")[:2] for f in shared] == [["2", "W305"]]

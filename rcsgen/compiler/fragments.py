@@ -9,7 +9,7 @@ every later stage sees an ordinary table; the expanded nodes keep the spans of t
 fragment's text, and `annotate` adds the use's place to a diagnostic found there.
 Diagnostics: E265 unknown fragment, E266 wrong arguments, E267 undeclared `$param`,
 E268 expanded state name already used, E269 malformed fragment or use, E270 fragment
-declared twice.
+declared twice, W305 fragment never used.
 """
 
 from __future__ import annotations
@@ -237,6 +237,30 @@ def _arguments(
     return dict(given)
 
 
+def named(data: object) -> set[str]:
+    """The fragment names `data`'s commands use (whether or not the use is right)."""
+    commands = data.get("commands") if isinstance(data, dict) else None
+    out: set[str] = set()
+    for body in commands.values() if isinstance(commands, dict) else ():
+        states = body.get("states") if isinstance(body, dict) else None
+        for rules in states.values() if isinstance(states, dict) else ():
+            if _is_use(rules) and isinstance(rules["use"], str):
+                out.add(rules["use"])
+    return out
+
+
+def report_unused(declared: dict[str, Fragment | None], used: set[str], diags: Diagnostics) -> None:
+    """W305 for each fragment (found whole) that no use names."""
+    for fragment in declared.values():
+        if fragment is not None and fragment.name not in used:
+            diags.warning(
+                fragment.span,
+                "W305",
+                f"fragment `{fragment.name}` is declared but no command uses it",
+                "use it in a state (`{use: NAME, with: {...}}`) or remove it",
+            )
+
+
 def expand(
     data: object, shared: dict[str, Fragment | None], diags: Diagnostics, where: Span
 ) -> tuple[list[Use], bool]:
@@ -244,10 +268,25 @@ def expand(
     whether every use could be expanded (when not, a diagnostic says why)."""
     if not isinstance(data, LocDict):
         return [], True
-    whole = True
     own: dict[str, Fragment | None] = {}
+    used = named(data)
+    before = len(diags.errors)
+    uses, whole = _expand(data, own, shared, diags, where)
+    if whole and len(diags.errors) == before:  # (a misspelt use would make it noise)
+        report_unused(own, used, diags)
+    return uses, whole
+
+
+def _expand(
+    data: LocDict,
+    own: dict[str, Fragment | None],
+    shared: dict[str, Fragment | None],
+    diags: Diagnostics,
+    where: Span,
+) -> tuple[list[Use], bool]:
+    whole = True
     if "fragments" in data:
-        own = read(data["fragments"], key_span(data, "fragments", where), diags)
+        own.update(read(data["fragments"], key_span(data, "fragments", where), diags))
         for name, fragment in own.items():
             if name in shared and fragment is not None:
                 theirs = shared[name]

@@ -218,6 +218,7 @@ def _load_system(
             system = model.build_system(data, directory, shown)
     controllers = []
     shared = _shared_fragments(directory, diags)
+    used: set[str] = set()  # fragment names the controllers use
     for entry in _entries(directory, diags):
         path = Path(entry.path)
         if not entry.name.endswith(".yaml") or entry.name in (SYSTEM_FILE, fragments.FILE):
@@ -238,6 +239,7 @@ def _load_system(
             )
             continue
         before = len(diags.errors)
+        used |= fragments.named(data)
         made, whole = fragments.expand(data, shared, diags, Span(shown))
         uses += made
         if not whole or len(diags.errors) > before:
@@ -246,6 +248,8 @@ def _load_system(
         diags.extend(problems)
         if not any(p.severity == "error" for p in problems):
             controllers.append(model.build_controller(data, shown))
+    if len(diags.errors) == start:  # (a misspelt use would make it noise)
+        fragments.report_unused(shared, used, diags)
     if system is None or len(diags.errors) > start:
         acknowledge.apply(controllers, diags, first, complete=False)
         return None
