@@ -45,7 +45,7 @@ WORLD_OUT_2_AT = 1224
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
-ASKING = 2
+S0_ASKING = 2
 
 # Constants.
 REFUSED = 1
@@ -429,15 +429,15 @@ class FxController:
         if state == S0:
             # ask the operator (the console shows the request)
             self.rule = 3  # EQUIP_SETUP/S0/1
-            self.state = ASKING
+            self.state = S0_ASKING
             self.world_fx_setup_request = True
             self.world_fx_asking = True
             self.world_fx_reason = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_fx_done:
                 # the operator reports the task done
-                self.rule = 4  # EQUIP_SETUP/ASKING/1
+                self.rule = 4  # EQUIP_SETUP/S0_ASKING/1
                 self.world_fx_setup_request = False
                 self.world_fx_asking = False
                 self.state = NOP
@@ -445,7 +445,7 @@ class FxController:
 
             elif self.world_fx_refused:
                 # the operator refuses
-                self.rule = 5  # EQUIP_SETUP/ASKING/2
+                self.rule = 5  # EQUIP_SETUP/S0_ASKING/2
                 self.world_fx_setup_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = REFUSED
@@ -454,7 +454,7 @@ class FxController:
 
             elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 6  # EQUIP_SETUP/ASKING/3
+                self.rule = 6  # EQUIP_SETUP/S0_ASKING/3
                 self.world_fx_setup_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = TIMED_OUT
@@ -472,15 +472,15 @@ class FxController:
         if state == S0:
             # ask the operator (the console shows the request)
             self.rule = 7  # PLACE_PART/S0/1
-            self.state = ASKING
+            self.state = S0_ASKING
             self.world_fx_place_request = True
             self.world_fx_asking = True
             self.world_fx_reason = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_fx_done:
                 # the operator reports the task done
-                self.rule = 8  # PLACE_PART/ASKING/1
+                self.rule = 8  # PLACE_PART/S0_ASKING/1
                 self.world_fx_place_request = False
                 self.world_fx_asking = False
                 self.state = NOP
@@ -488,7 +488,7 @@ class FxController:
 
             elif self.world_fx_refused:
                 # the operator refuses
-                self.rule = 9  # PLACE_PART/ASKING/2
+                self.rule = 9  # PLACE_PART/S0_ASKING/2
                 self.world_fx_place_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = REFUSED
@@ -497,7 +497,7 @@ class FxController:
 
             elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 10  # PLACE_PART/ASKING/3
+                self.rule = 10  # PLACE_PART/S0_ASKING/3
                 self.world_fx_place_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = TIMED_OUT
@@ -515,15 +515,15 @@ class FxController:
         if state == S0:
             # ask the operator (the console shows the request)
             self.rule = 11  # REFIXTURE_PART/S0/1
-            self.state = ASKING
+            self.state = S0_ASKING
             self.world_fx_refixture_request = True
             self.world_fx_asking = True
             self.world_fx_reason = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_fx_done:
                 # the operator reports the task done
-                self.rule = 12  # REFIXTURE_PART/ASKING/1
+                self.rule = 12  # REFIXTURE_PART/S0_ASKING/1
                 self.world_fx_refixture_request = False
                 self.world_fx_asking = False
                 self.state = NOP
@@ -531,7 +531,7 @@ class FxController:
 
             elif self.world_fx_refused:
                 # the operator refuses
-                self.rule = 13  # REFIXTURE_PART/ASKING/2
+                self.rule = 13  # REFIXTURE_PART/S0_ASKING/2
                 self.world_fx_refixture_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = REFUSED
@@ -540,7 +540,7 @@ class FxController:
 
             elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 14  # REFIXTURE_PART/ASKING/3
+                self.rule = 14  # REFIXTURE_PART/S0_ASKING/3
                 self.world_fx_refixture_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = TIMED_OUT
@@ -558,15 +558,15 @@ class FxController:
         if state == S0:
             # ask the operator (the console shows the request)
             self.rule = 15  # UNLOAD_PART/S0/1
-            self.state = ASKING
+            self.state = S0_ASKING
             self.world_fx_unload_request = True
             self.world_fx_asking = True
             self.world_fx_reason = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_fx_done:
                 # the operator reports the task done
-                self.rule = 16  # UNLOAD_PART/ASKING/1
+                self.rule = 16  # UNLOAD_PART/S0_ASKING/1
                 self.world_fx_unload_request = False
                 self.world_fx_asking = False
                 self.state = NOP
@@ -574,7 +574,7 @@ class FxController:
 
             elif self.world_fx_refused:
                 # the operator refuses
-                self.rule = 17  # UNLOAD_PART/ASKING/2
+                self.rule = 17  # UNLOAD_PART/S0_ASKING/2
                 self.world_fx_unload_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = REFUSED
@@ -583,7 +583,7 @@ class FxController:
 
             elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 18  # UNLOAD_PART/ASKING/3
+                self.rule = 18  # UNLOAD_PART/S0_ASKING/3
                 self.world_fx_unload_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = TIMED_OUT

@@ -43,7 +43,7 @@ WORLD_OUT_2_AT = 1336
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
-ASKING = 2
+S0_ASKING = 2
 
 # Constants.
 REFUSED = 1
@@ -406,15 +406,15 @@ class TlController:
         if state == S0:
             # ask the operator (the console shows the request)
             self.rule = 3  # CALIBRATE_SPHERE/S0/1
-            self.state = ASKING
+            self.state = S0_ASKING
             self.world_tl_sphere_request = True
             self.world_tl_asking = True
             self.world_tl_reason = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_tl_done:
                 # the operator reports the task done
-                self.rule = 4  # CALIBRATE_SPHERE/ASKING/1
+                self.rule = 4  # CALIBRATE_SPHERE/S0_ASKING/1
                 self.world_tl_sphere_request = False
                 self.world_tl_asking = False
                 self.state = NOP
@@ -422,7 +422,7 @@ class TlController:
 
             elif self.world_tl_refused:
                 # the operator refuses
-                self.rule = 5  # CALIBRATE_SPHERE/ASKING/2
+                self.rule = 5  # CALIBRATE_SPHERE/S0_ASKING/2
                 self.world_tl_sphere_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = REFUSED
@@ -431,7 +431,7 @@ class TlController:
 
             elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 6  # CALIBRATE_SPHERE/ASKING/3
+                self.rule = 6  # CALIBRATE_SPHERE/S0_ASKING/3
                 self.world_tl_sphere_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = TIMED_OUT
@@ -449,15 +449,15 @@ class TlController:
         if state == S0:
             # ask the operator (the console shows the request)
             self.rule = 7  # CALIBRATE_PROBE/S0/1
-            self.state = ASKING
+            self.state = S0_ASKING
             self.world_tl_probe_request = True
             self.world_tl_asking = True
             self.world_tl_reason = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_tl_done:
                 # the operator reports the task done
-                self.rule = 8  # CALIBRATE_PROBE/ASKING/1
+                self.rule = 8  # CALIBRATE_PROBE/S0_ASKING/1
                 self.world_tl_probe_request = False
                 self.world_tl_asking = False
                 self.state = NOP
@@ -465,7 +465,7 @@ class TlController:
 
             elif self.world_tl_refused:
                 # the operator refuses
-                self.rule = 9  # CALIBRATE_PROBE/ASKING/2
+                self.rule = 9  # CALIBRATE_PROBE/S0_ASKING/2
                 self.world_tl_probe_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = REFUSED
@@ -474,7 +474,7 @@ class TlController:
 
             elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 10  # CALIBRATE_PROBE/ASKING/3
+                self.rule = 10  # CALIBRATE_PROBE/S0_ASKING/3
                 self.world_tl_probe_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = TIMED_OUT
@@ -492,15 +492,15 @@ class TlController:
         if state == S0:
             # ask the operator (the console shows the request)
             self.rule = 11  # LOAD_PROBE/S0/1
-            self.state = ASKING
+            self.state = S0_ASKING
             self.world_tl_load_request = True
             self.world_tl_asking = True
             self.world_tl_reason = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_tl_done:
                 # the operator reports the task done
-                self.rule = 12  # LOAD_PROBE/ASKING/1
+                self.rule = 12  # LOAD_PROBE/S0_ASKING/1
                 self.world_tl_load_request = False
                 self.world_tl_asking = False
                 self.state = NOP
@@ -508,7 +508,7 @@ class TlController:
 
             elif self.world_tl_refused:
                 # the operator refuses
-                self.rule = 13  # LOAD_PROBE/ASKING/2
+                self.rule = 13  # LOAD_PROBE/S0_ASKING/2
                 self.world_tl_load_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = REFUSED
@@ -517,7 +517,7 @@ class TlController:
 
             elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 14  # LOAD_PROBE/ASKING/3
+                self.rule = 14  # LOAD_PROBE/S0_ASKING/3
                 self.world_tl_load_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = TIMED_OUT
