@@ -156,7 +156,8 @@ def test_tables_without_time_generate_what_they_did_before() -> None:
     files = emit.render_all(front.systems)
     for rel, text in files.items():
         assert (REPO / "generated" / rel).read_text(encoding="utf-8") == text, rel
-        assert "self.ticks" not in text and "held_" not in text, rel
+        if rel.startswith("miner/"):  # (the submarine's and inspection's tables wait on time)
+            assert "self.ticks" not in text and "held_" not in text, rel
 
 
 # ---------------------------------------------------------------- time in the analysis

@@ -70,6 +70,25 @@ def route(name: str) -> list[tuple[float, float]]:
     return [(float(r[0]), float(r[1])) for r in rows if r]
 
 
+# Helm's rules that set ICE_MANEUVER's result at_goal (helm.yaml): Evt3 to true; Evt0 (a new
+# command clears it), Evt1 and Evt5 to false. The trace records rules, not results.
+AT_GOAL_SETS = {
+    "ICE_MANEUVER/S1/4": True,
+    "ICE_MANEUVER/S0/1": False,
+    "ICE_MANEUVER/S1/1": False,
+    "ICE_MANEUVER/S1/2": False,
+}
+
+
+def helm_at_goal(lines: list[dict]) -> list[bool]:
+    """Helm's result at_goal after each cycle, replayed from the rules the trace shows."""
+    out, value = [], False
+    for line in lines:
+        value = AT_GOAL_SETS.get(line["modules"]["helm"]["rule"], value)
+        out.append(value)
+    return out
+
+
 def at(lines: list[dict], cycle: int) -> dict:
     assert lines[cycle - 1]["cycle"] == cycle
     return lines[cycle - 1]
@@ -109,7 +128,7 @@ def test_ice_transit_avoids_ice_then_recomputes_the_course():
         assert after["modules"]["helm"]["state"] == "S1", "Evt2: back to servoing the heading"
         # the course was recomputed from where the ship is now towards the same goal
         assert after["world"]["course"] != before["world"]["course"]
-        assert not any(at(lines, c)["world"]["helm_at_goal"] for c in range(first, last + 1))
+        assert not any(helm_at_goal(lines)[c - 1] for c in range(first, last + 1))
     # while avoiding, the rudder turned the ship off the course it had been holding
     first, last = avoided[0]
     held = at(lines, first)["world"]["course"]
@@ -122,7 +141,7 @@ def test_ice_transit_avoids_ice_then_recomputes_the_course():
 
 def test_helm_reports_at_goal_only_on_course_with_the_rudder_centred():
     _, lines = played("ice_transit")
-    on = [line for line in lines if line["world"]["helm_at_goal"]]
+    on = [line for line, at_goal in zip(lines, helm_at_goal(lines), strict=True) if at_goal]
     assert len(on) > 100
     for line in on:
         w = line["world"]
@@ -148,9 +167,9 @@ def test_without_ice_avoidance_the_ship_runs_into_a_keel(tmp_path):
     shutil.copytree(SUBMARINE, specs)
     helm = specs / "helm.yaml"
     text = helm.read_text(encoding="utf-8")
-    old = "  PERSIST_CYCLES: 5  #"
-    assert old in text
-    helm.write_text(text.replace(old, "  PERSIST_CYCLES: 100000  #"), encoding="utf-8")
+    old = "          for: 5 s\n"
+    assert text.count(old) == 1
+    helm.write_text(text.replace(old, "          for: 100000 s\n"), encoding="utf-8")
     with Harness.build(specs) as built:
         final, lines = play("ice_transit", Path(built.package.__path__[0]))
     assert final["status"] == "DONE"
@@ -182,7 +201,7 @@ def test_engine_room_fire_phases_and_their_cycles():
     # prepare: periscope depth at one-third, 102 m up at 1 m/s, then steady on course
     top = at(lines, prep_to)
     assert abs(top["world"]["depth"] - 18.0) < 1.0 and abs(top["world"]["speed"] - 2.6) < 0.1
-    assert top["world"]["helm_at_goal"]
+    assert helm_at_goal(lines)[prep_to - 1]
     assert 102 <= prep_to - prep_from + 1 <= 110
     # ventilate: engineering lines up the diesel until the fire is out and CO is safe
     assert vent_from == prep_to + 1

@@ -45,10 +45,9 @@ WORLD_OUT_2_AT = 1224
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
-ASKING = 2
+S0_ASKING = 2
 
 # Constants.
-OPERATOR_TIMEOUT = 60
 REFUSED = 1
 TIMED_OUT = 2
 
@@ -79,7 +78,7 @@ class FxController:
         "status_dirty",
         "status_num",
         "status_seq",
-        "var_waited",
+        "ticks",
         "world_fx_asking",
         "world_fx_done",
         "world_fx_place_request",
@@ -93,7 +92,7 @@ class FxController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.var_waited: int = 0
+        self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -148,6 +147,7 @@ class FxController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.ticks = 0  # a new command: its time in S0 starts
 
         # decision_process
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -284,6 +284,7 @@ class FxController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.ticks = 0  # a new command: its time in S0 starts
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
@@ -428,16 +429,15 @@ class FxController:
         if state == S0:
             # ask the operator (the console shows the request)
             self.rule = 3  # EQUIP_SETUP/S0/1
-            self.state = ASKING
+            self.state = S0_ASKING
             self.world_fx_setup_request = True
             self.world_fx_asking = True
             self.world_fx_reason = 0
-            self.var_waited = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_fx_done:
                 # the operator reports the task done
-                self.rule = 4  # EQUIP_SETUP/ASKING/1
+                self.rule = 4  # EQUIP_SETUP/S0_ASKING/1
                 self.world_fx_setup_request = False
                 self.world_fx_asking = False
                 self.state = NOP
@@ -445,42 +445,42 @@ class FxController:
 
             elif self.world_fx_refused:
                 # the operator refuses
-                self.rule = 5  # EQUIP_SETUP/ASKING/2
+                self.rule = 5  # EQUIP_SETUP/S0_ASKING/2
                 self.world_fx_setup_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
 
-            elif self.var_waited >= OPERATOR_TIMEOUT:
+            elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 6  # EQUIP_SETUP/ASKING/3
+                self.rule = 6  # EQUIP_SETUP/S0_ASKING/3
                 self.world_fx_setup_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
 
-            else:
-                self.rule = 7  # EQUIP_SETUP/ASKING/4
-                self.var_waited = self.var_waited + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def place_part(self) -> None:
         """PLACE_PART: Ask the operator to place and clamp the part (Place_part, Figure 39)."""
         state = self.state
         if state == S0:
             # ask the operator (the console shows the request)
-            self.rule = 8  # PLACE_PART/S0/1
-            self.state = ASKING
+            self.rule = 7  # PLACE_PART/S0/1
+            self.state = S0_ASKING
             self.world_fx_place_request = True
             self.world_fx_asking = True
             self.world_fx_reason = 0
-            self.var_waited = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_fx_done:
                 # the operator reports the task done
-                self.rule = 9  # PLACE_PART/ASKING/1
+                self.rule = 8  # PLACE_PART/S0_ASKING/1
                 self.world_fx_place_request = False
                 self.world_fx_asking = False
                 self.state = NOP
@@ -488,42 +488,42 @@ class FxController:
 
             elif self.world_fx_refused:
                 # the operator refuses
-                self.rule = 10  # PLACE_PART/ASKING/2
+                self.rule = 9  # PLACE_PART/S0_ASKING/2
                 self.world_fx_place_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
 
-            elif self.var_waited >= OPERATOR_TIMEOUT:
+            elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 11  # PLACE_PART/ASKING/3
+                self.rule = 10  # PLACE_PART/S0_ASKING/3
                 self.world_fx_place_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
 
-            else:
-                self.rule = 12  # PLACE_PART/ASKING/4
-                self.var_waited = self.var_waited + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def refixture_part(self) -> None:
         """REFIXTURE_PART: Ask the operator to re-seat the part before it is measured again."""
         state = self.state
         if state == S0:
             # ask the operator (the console shows the request)
-            self.rule = 13  # REFIXTURE_PART/S0/1
-            self.state = ASKING
+            self.rule = 11  # REFIXTURE_PART/S0/1
+            self.state = S0_ASKING
             self.world_fx_refixture_request = True
             self.world_fx_asking = True
             self.world_fx_reason = 0
-            self.var_waited = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_fx_done:
                 # the operator reports the task done
-                self.rule = 14  # REFIXTURE_PART/ASKING/1
+                self.rule = 12  # REFIXTURE_PART/S0_ASKING/1
                 self.world_fx_refixture_request = False
                 self.world_fx_asking = False
                 self.state = NOP
@@ -531,42 +531,42 @@ class FxController:
 
             elif self.world_fx_refused:
                 # the operator refuses
-                self.rule = 15  # REFIXTURE_PART/ASKING/2
+                self.rule = 13  # REFIXTURE_PART/S0_ASKING/2
                 self.world_fx_refixture_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
 
-            elif self.var_waited >= OPERATOR_TIMEOUT:
+            elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 16  # REFIXTURE_PART/ASKING/3
+                self.rule = 14  # REFIXTURE_PART/S0_ASKING/3
                 self.world_fx_refixture_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
 
-            else:
-                self.rule = 17  # REFIXTURE_PART/ASKING/4
-                self.var_waited = self.var_waited + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def unload_part(self) -> None:
         """UNLOAD_PART: Ask the operator to take the part off the table."""
         state = self.state
         if state == S0:
             # ask the operator (the console shows the request)
-            self.rule = 18  # UNLOAD_PART/S0/1
-            self.state = ASKING
+            self.rule = 15  # UNLOAD_PART/S0/1
+            self.state = S0_ASKING
             self.world_fx_unload_request = True
             self.world_fx_asking = True
             self.world_fx_reason = 0
-            self.var_waited = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_fx_done:
                 # the operator reports the task done
-                self.rule = 19  # UNLOAD_PART/ASKING/1
+                self.rule = 16  # UNLOAD_PART/S0_ASKING/1
                 self.world_fx_unload_request = False
                 self.world_fx_asking = False
                 self.state = NOP
@@ -574,22 +574,23 @@ class FxController:
 
             elif self.world_fx_refused:
                 # the operator refuses
-                self.rule = 20  # UNLOAD_PART/ASKING/2
+                self.rule = 17  # UNLOAD_PART/S0_ASKING/2
                 self.world_fx_unload_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
 
-            elif self.var_waited >= OPERATOR_TIMEOUT:
+            elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 21  # UNLOAD_PART/ASKING/3
+                self.rule = 18  # UNLOAD_PART/S0_ASKING/3
                 self.world_fx_unload_request = False
                 self.world_fx_asking = False
                 self.world_fx_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
 
-            else:
-                self.rule = 22  # UNLOAD_PART/ASKING/4
-                self.var_waited = self.var_waited + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1

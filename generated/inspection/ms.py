@@ -687,15 +687,8 @@ class MsController:
                 self.status = ERROR
 
         elif state == JUDGED:
-            if self.var_in_tolerance:
-                self.rule = 26  # MEASURE_PART/JUDGED/1
-                self.state = NEXT
-                self.var_feature = self.var_feature + 1
-                self.world_features_measured = self.var_feature
-
-            elif not self.var_in_tolerance:
-                self.rule = 27  # MEASURE_PART/JUDGED/2
-                self.state = NEXT
-                self.var_feature = self.var_feature + 1
-                self.var_failed = self.var_failed + 1
-                self.world_features_measured = self.var_feature
+            self.rule = 26  # MEASURE_PART/JUDGED/1
+            self.state = NEXT
+            self.var_feature = self.var_feature + 1
+            self.var_failed = self.var_failed + (0 if self.var_in_tolerance else 1)
+            self.world_features_measured = self.var_feature

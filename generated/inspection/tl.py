@@ -43,10 +43,9 @@ WORLD_OUT_2_AT = 1336
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
-ASKING = 2
+S0_ASKING = 2
 
 # Constants.
-OPERATOR_TIMEOUT = 60
 REFUSED = 1
 TIMED_OUT = 2
 
@@ -77,7 +76,7 @@ class TlController:
         "status_dirty",
         "status_num",
         "status_seq",
-        "var_waited",
+        "ticks",
         "world_tl_asking",
         "world_tl_done",
         "world_tl_load_request",
@@ -90,7 +89,7 @@ class TlController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.var_waited: int = 0
+        self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -144,6 +143,7 @@ class TlController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.ticks = 0  # a new command: its time in S0 starts
 
         # decision_process
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -270,6 +270,7 @@ class TlController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.ticks = 0  # a new command: its time in S0 starts
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
@@ -405,16 +406,15 @@ class TlController:
         if state == S0:
             # ask the operator (the console shows the request)
             self.rule = 3  # CALIBRATE_SPHERE/S0/1
-            self.state = ASKING
+            self.state = S0_ASKING
             self.world_tl_sphere_request = True
             self.world_tl_asking = True
             self.world_tl_reason = 0
-            self.var_waited = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_tl_done:
                 # the operator reports the task done
-                self.rule = 4  # CALIBRATE_SPHERE/ASKING/1
+                self.rule = 4  # CALIBRATE_SPHERE/S0_ASKING/1
                 self.world_tl_sphere_request = False
                 self.world_tl_asking = False
                 self.state = NOP
@@ -422,42 +422,42 @@ class TlController:
 
             elif self.world_tl_refused:
                 # the operator refuses
-                self.rule = 5  # CALIBRATE_SPHERE/ASKING/2
+                self.rule = 5  # CALIBRATE_SPHERE/S0_ASKING/2
                 self.world_tl_sphere_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
 
-            elif self.var_waited >= OPERATOR_TIMEOUT:
+            elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 6  # CALIBRATE_SPHERE/ASKING/3
+                self.rule = 6  # CALIBRATE_SPHERE/S0_ASKING/3
                 self.world_tl_sphere_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
 
-            else:
-                self.rule = 7  # CALIBRATE_SPHERE/ASKING/4
-                self.var_waited = self.var_waited + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def calibrate_probe(self) -> None:
         """CALIBRATE_PROBE: Ask the operator to orient the probe for calibration (Figure 4)."""
         state = self.state
         if state == S0:
             # ask the operator (the console shows the request)
-            self.rule = 8  # CALIBRATE_PROBE/S0/1
-            self.state = ASKING
+            self.rule = 7  # CALIBRATE_PROBE/S0/1
+            self.state = S0_ASKING
             self.world_tl_probe_request = True
             self.world_tl_asking = True
             self.world_tl_reason = 0
-            self.var_waited = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_tl_done:
                 # the operator reports the task done
-                self.rule = 9  # CALIBRATE_PROBE/ASKING/1
+                self.rule = 8  # CALIBRATE_PROBE/S0_ASKING/1
                 self.world_tl_probe_request = False
                 self.world_tl_asking = False
                 self.state = NOP
@@ -465,42 +465,42 @@ class TlController:
 
             elif self.world_tl_refused:
                 # the operator refuses
-                self.rule = 10  # CALIBRATE_PROBE/ASKING/2
+                self.rule = 9  # CALIBRATE_PROBE/S0_ASKING/2
                 self.world_tl_probe_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
 
-            elif self.var_waited >= OPERATOR_TIMEOUT:
+            elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 11  # CALIBRATE_PROBE/ASKING/3
+                self.rule = 10  # CALIBRATE_PROBE/S0_ASKING/3
                 self.world_tl_probe_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
 
-            else:
-                self.rule = 12  # CALIBRATE_PROBE/ASKING/4
-                self.var_waited = self.var_waited + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def load_probe(self) -> None:
         """LOAD_PROBE: Ask the operator to load the probe (Load_probe, Figure 39)."""
         state = self.state
         if state == S0:
             # ask the operator (the console shows the request)
-            self.rule = 13  # LOAD_PROBE/S0/1
-            self.state = ASKING
+            self.rule = 11  # LOAD_PROBE/S0/1
+            self.state = S0_ASKING
             self.world_tl_load_request = True
             self.world_tl_asking = True
             self.world_tl_reason = 0
-            self.var_waited = 0
 
-        elif state == ASKING:
+        elif state == S0_ASKING:
             if self.world_tl_done:
                 # the operator reports the task done
-                self.rule = 14  # LOAD_PROBE/ASKING/1
+                self.rule = 12  # LOAD_PROBE/S0_ASKING/1
                 self.world_tl_load_request = False
                 self.world_tl_asking = False
                 self.state = NOP
@@ -508,22 +508,23 @@ class TlController:
 
             elif self.world_tl_refused:
                 # the operator refuses
-                self.rule = 15  # LOAD_PROBE/ASKING/2
+                self.rule = 13  # LOAD_PROBE/S0_ASKING/2
                 self.world_tl_load_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
 
-            elif self.var_waited >= OPERATOR_TIMEOUT:
+            elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 16  # LOAD_PROBE/ASKING/3
+                self.rule = 14  # LOAD_PROBE/S0_ASKING/3
                 self.world_tl_load_request = False
                 self.world_tl_asking = False
                 self.world_tl_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
 
-            else:
-                self.rule = 17  # LOAD_PROBE/ASKING/4
-                self.var_waited = self.var_waited + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1

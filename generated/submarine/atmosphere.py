@@ -18,19 +18,19 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI120xd376x?15xd")
-INPUTS_AT = 1184
+INPUTS = Struct("<QQI44x???1xI104xd376x?15xd")
+INPUTS_AT = 1192
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1184
+SEQS_AT = 1192
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Q?7xQd")
 WORLD_VALUES_1 = Struct("<8x?15xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1752
+WORLD_OUT_1_AT = 1744
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -38,6 +38,11 @@ S0 = 1
 # Constants.
 FIRE_CO = 40.0
 FIGHT_CYCLES = 30
+
+
+def vented(co: float, made: float, flow: float) -> float:
+    """Pure function: co + made - co * flow"""
+    return co + made - co * flow
 
 
 class AtmosphereController:
@@ -308,20 +313,18 @@ class AtmosphereController:
         """Rules tried every cycle, whatever the command."""
         if self.world_fire and self.var_fought < FIGHT_CYCLES:
             # the fire burns; the damage control party fights it
-            self.world_co_ppm = (
-                self.world_co_ppm + FIRE_CO - self.world_co_ppm * self.world_vent_flow
-            )
+            self.world_co_ppm = vented(self.world_co_ppm, FIRE_CO, self.world_vent_flow)
             self.var_fought = self.var_fought + 1
 
         elif self.world_fire:
             # the damage control party reports the fire out
             self.world_fire = False
             self.var_fought = 0
-            self.world_co_ppm = self.world_co_ppm - self.world_co_ppm * self.world_vent_flow
+            self.world_co_ppm = vented(self.world_co_ppm, 0.0, self.world_vent_flow)
 
         elif self.world_co_ppm > 0.0:
             # the ventilation line-up removes the gas
-            self.world_co_ppm = self.world_co_ppm - self.world_co_ppm * self.world_vent_flow
+            self.world_co_ppm = vented(self.world_co_ppm, 0.0, self.world_vent_flow)
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

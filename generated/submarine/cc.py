@@ -48,7 +48,7 @@ EC_EMERGENCY_VENT = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI96xQI108xQI1292xd")
+INPUTS = Struct("<QQI44x???1xI96xQI108xQI1284xd")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.

@@ -8,11 +8,11 @@ import submarine_hooks.helm as hooks
 
 from .layout import (
     HELM_PERF_AT,
+    HELM_STATUS,
     HELM_STATUS_AT,
     RUDDER_COMMAND,
     RUDDER_COMMAND_AT,
     WORLD_COURSE_AT,
-    WORLD_HELM_AT_GOAL_AT,
 )
 from .rcs.contract import (
     DONE,
@@ -25,7 +25,6 @@ from .rcs.contract import (
     NUMBER,
     PERF,
     SEQ,
-    STATUS,
     HookError,
     is_integer,
     is_real,
@@ -43,15 +42,15 @@ RUDDER_GOTO_ANGLE = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI88xQI596xd8x?31xd8xd8xd72xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QIdd52x???1xI88xQI596xd24xd8xd8xd72xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 568
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
-WORLD_OUT_1 = Struct("<QdQ?")
-WORLD_VALUES_1 = Struct("<8xd8x?")
-WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1336
+WORLD_OUT_1 = Struct("<Qd")
+WORLD_VALUES_1 = Struct("<8xd")
+WORLD_SEQS_1 = Struct("<Q")
+WORLD_OUT_1_AT = 1344
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -59,11 +58,20 @@ S1 = 2
 S2 = 3
 
 # Constants.
-PERSIST_CYCLES = 5
 GAIN = 1.5
 RUDDER_MAX = 30.0
 COURSE_TOL = 1.5
 DEADBAND = 2.0
+
+
+def wrap(a: float) -> float:
+    """Pure function: (a + 540.0) % 360.0 - 180.0"""
+    return (a + 540.0) % 360.0 - 180.0
+
+
+def order(error: float) -> float:
+    """Pure function: max(-RUDDER_MAX, min(RUDDER_MAX, GAIN * error))"""
+    return max(-RUDDER_MAX, min(RUDDER_MAX, GAIN * error))
 
 
 class HelmController:
@@ -79,11 +87,13 @@ class HelmController:
         "cycles",
         "dont_run",
         "error_num",
+        "held_ice_maneuver_s1_1",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_seq",
         "perf_single_step_num",
+        "result_at_goal",
         "rudder_arg_angle",
         "rudder_command",
         "rudder_command_num",
@@ -100,17 +110,12 @@ class HelmController:
         "status_dirty",
         "status_num",
         "status_seq",
-        "var_avoid_error",
+        "ticks",
         "var_avoid_heading",
-        "var_avoid_order",
-        "var_course_error",
-        "var_ice_cycles",
         "var_ice_seen",
-        "var_rudder_order",
         "var_sent_angle",
         "world_course",
         "world_heading",
-        "world_helm_at_goal",
         "world_pos_x",
         "world_pos_y",
         "world_sonar_00",
@@ -133,13 +138,10 @@ class HelmController:
         self.buf = buf
         self.cycle_start = 0
         self.var_ice_seen: int = 0
-        self.var_ice_cycles: int = 0
         self.var_avoid_heading: float = 0.0
-        self.var_course_error: float = 0.0
-        self.var_avoid_error: float = 0.0
-        self.var_rudder_order: float = 0.0
-        self.var_avoid_order: float = 0.0
         self.var_sent_angle: float = 0.0
+        self.ticks = 0  # cycles the table has run in the current state (after:)
+        self.held_ice_maneuver_s1_1 = 0  # cycles its rule's `when` has held in a row (for:)
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -147,9 +149,15 @@ class HelmController:
         """Take up the buffers this module writes from the block: a restarted module keeps
         its command-number handshake, and its sequence words go on from the block's."""
         buf = self.buf
-        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
-            STATUS.unpack_from(buf, HELM_STATUS_AT)
-        )
+        (
+            self.status_seq,
+            self.status_num,
+            self.status,
+            self.error_num,
+            self.state,
+            self.rule,
+            self.result_at_goal,
+        ) = HELM_STATUS.unpack_from(buf, HELM_STATUS_AT)
         (
             self.perf_seq,
             self.last_cycle_ns,
@@ -196,7 +204,6 @@ class HelmController:
             self.rudder_status_num,
             self.rudder_status,
             self.world_course,
-            self.world_helm_at_goal,
             self.world_pos_x,
             self.world_pos_y,
             self.world_heading,
@@ -224,6 +231,9 @@ class HelmController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.result_at_goal = False  # no result yet
+            self.ticks = 0  # a new command: its time in S0 starts
+            self.held_ice_maneuver_s1_1 = 0
 
         # decision_process
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -248,7 +258,7 @@ class HelmController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, HELM_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            HELM_STATUS.pack_into(
                 buf,
                 HELM_STATUS_AT,
                 seq,
@@ -257,6 +267,7 @@ class HelmController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.result_at_goal,
             )
             SEQ.pack_into(buf, HELM_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -277,14 +288,12 @@ class HelmController:
             )
             SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq + 1)
             self.rudder_written = self.rudder_command_num
-        out = (self.world_course, self.world_helm_at_goal)
+        out = (self.world_course,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_COURSE_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_HELM_AT_GOAL_AT, s[1] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
             SEQ.pack_into(buf, WORLD_COURSE_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_HELM_AT_GOAL_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -326,7 +335,6 @@ class HelmController:
             self.rudder_status_num,
             self.rudder_status,
             self.world_course,
-            self.world_helm_at_goal,
             self.world_pos_x,
             self.world_pos_y,
             self.world_heading,
@@ -355,6 +363,9 @@ class HelmController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.result_at_goal = False  # no result yet
+            self.ticks = 0  # a new command: its time in S0 starts
+            self.held_ice_maneuver_s1_1 = 0
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
@@ -383,7 +394,7 @@ class HelmController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, HELM_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            HELM_STATUS.pack_into(
                 buf,
                 HELM_STATUS_AT,
                 seq,
@@ -392,6 +403,7 @@ class HelmController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.result_at_goal,
             )
             SEQ.pack_into(buf, HELM_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -412,14 +424,12 @@ class HelmController:
             )
             SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq + 1)
             self.rudder_written = self.rudder_command_num
-        out = (self.world_course, self.world_helm_at_goal)
+        out = (self.world_course,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_COURSE_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_HELM_AT_GOAL_AT, s[1] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
             SEQ.pack_into(buf, WORLD_COURSE_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_HELM_AT_GOAL_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -447,7 +457,7 @@ class HelmController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        # sensory processing and the heading errors, every cycle whatever the command
+        # sensory processing, every cycle whatever the command
         try:
             returned = hooks.assess_ice(
                 self.world_course,
@@ -480,11 +490,6 @@ class HelmController:
         ):
             raise HookError("helm", "assess_ice", "every_cycle/1", self.cycles, returned, "if")
         self.var_ice_seen, self.var_avoid_heading = returned
-        self.var_ice_cycles = min(self.var_ice_cycles + 1, PERSIST_CYCLES + 1) * self.var_ice_seen
-        self.var_course_error = (self.world_course - self.world_heading + 540.0) % 360.0 - 180.0
-        self.var_avoid_error = (self.var_avoid_heading - self.world_heading + 540.0) % 360.0 - 180.0
-        self.var_rudder_order = max(-RUDDER_MAX, min(RUDDER_MAX, GAIN * self.var_course_error))
-        self.var_avoid_order = max(-RUDDER_MAX, min(RUDDER_MAX, GAIN * self.var_avoid_error))
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -520,10 +525,14 @@ class HelmController:
 
     def ice_maneuver(self) -> None:
         """ICE_MANEUVER: Steer towards the goal (x, y) avoiding ice keels; keeps executing (servo
-        heading), reporting "at goal" through world.helm_at_goal when on course with the rudder
-        centred.
+        heading), with the result at_goal true while on course with the rudder centred.
         """
         state = self.state
+        # Named values (let), computed once a cycle before the rules.
+        course_error = wrap(self.world_course - self.world_heading)
+        avoid_error = wrap(self.var_avoid_heading - self.world_heading)
+        rudder_order = order(course_error)
+        avoid_order = order(avoid_error)
         if state == S0:
             # Evt0 new command; compute the course
             self.rule = 5  # ICE_MANEUVER/S0/1
@@ -539,32 +548,34 @@ class HelmController:
                     "helm", "course_to", "ICE_MANEUVER/S0/1", self.cycles, returned, "f"
                 )
             self.world_course = returned
-            self.world_helm_at_goal = False
 
         elif state == S1:
-            if self.var_ice_cycles > PERSIST_CYCLES:
+            self.held_ice_maneuver_s1_1 = (
+                self.held_ice_maneuver_s1_1 + 1 if self.var_ice_seen != 0 else 0
+            )
+            if self.held_ice_maneuver_s1_1 > 5:  # for: 5 s = 5 cycles
                 # Evt1 the ice problem persists beyond the persistence time; avoid ice
                 self.rule = 6  # ICE_MANEUVER/S1/1
                 self.state = S2
-                self.rudder_arg_angle = self.var_avoid_order
+                self.rudder_arg_angle = avoid_order
                 self.rudder_command = RUDDER_GOTO_ANGLE
                 self.rudder_command_num += 1
-                self.var_sent_angle = self.var_avoid_order
-                self.world_helm_at_goal = False
+                self.var_sent_angle = avoid_order
+                self.result_at_goal = False
 
             elif (
-                abs(self.var_course_error) > COURSE_TOL
-                and abs(self.var_rudder_order - self.var_sent_angle) > DEADBAND
+                abs(course_error) > COURSE_TOL
+                and abs(rudder_order - self.var_sent_angle) > DEADBAND
             ):
                 # Evt5 course error detected; order the rudder angle
                 self.rule = 7  # ICE_MANEUVER/S1/2
-                self.rudder_arg_angle = self.var_rudder_order
+                self.rudder_arg_angle = rudder_order
                 self.rudder_command = RUDDER_GOTO_ANGLE
                 self.rudder_command_num += 1
-                self.var_sent_angle = self.var_rudder_order
-                self.world_helm_at_goal = False
+                self.var_sent_angle = rudder_order
+                self.result_at_goal = False
 
-            elif abs(self.var_course_error) <= COURSE_TOL and self.var_sent_angle != 0.0:
+            elif abs(course_error) <= COURSE_TOL and self.var_sent_angle != 0.0:
                 # Evt4 course error in tolerance, rudder not centred; order zero rudder
                 self.rule = 8  # ICE_MANEUVER/S1/3
                 self.rudder_arg_angle = 0.0
@@ -573,14 +584,13 @@ class HelmController:
                 self.var_sent_angle = 0.0
 
             elif (
-                abs(self.var_course_error) <= COURSE_TOL
+                abs(course_error) <= COURSE_TOL
                 and self.var_sent_angle == 0.0
                 and self.rudder_status == DONE
-                and not self.world_helm_at_goal
             ):
-                # Evt3 course error in tolerance, rudder at goal; report at goal, keep servoing
+                # Evt3 course error in tolerance, rudder at goal; at goal, keep servoing
                 self.rule = 9  # ICE_MANEUVER/S1/4
-                self.world_helm_at_goal = True
+                self.result_at_goal = True
 
             elif self.rudder_status == ERROR:
                 self.rule = 10  # ICE_MANEUVER/S1/5
@@ -611,13 +621,16 @@ class HelmController:
                     )
                 self.world_course = returned
 
-            elif (
-                self.var_ice_seen != 0
-                and abs(self.var_avoid_order - self.var_sent_angle) > DEADBAND
-            ):
+            elif self.var_ice_seen != 0 and abs(avoid_order - self.var_sent_angle) > DEADBAND:
                 # steer the ice-avoiding heading
                 self.rule = 13  # ICE_MANEUVER/S2/3
-                self.rudder_arg_angle = self.var_avoid_order
+                self.rudder_arg_angle = avoid_order
                 self.rudder_command = RUDDER_GOTO_ANGLE
                 self.rudder_command_num += 1
-                self.var_sent_angle = self.var_avoid_order
+                self.var_sent_angle = avoid_order
+
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+            self.held_ice_maneuver_s1_1 = 0
+        else:
+            self.ticks += 1

@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 1784 bytes.
+The block is 1776 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -31,59 +31,58 @@ command buffers and world fields:
 | 496 | 16 | EC_MODE | MODE_FIELDS |
 | 512 | 48 | EC_PERF | PERF_FIELDS |
 | 560 | 36 | HELM_COMMAND | command_num, command, arg_x, arg_y |
-| 600 | 32 | HELM_STATUS | STATUS_FIELDS |
-| 632 | 16 | HELM_MODE | MODE_FIELDS |
-| 648 | 48 | HELM_PERF | PERF_FIELDS |
-| 696 | 28 | RUDDER_COMMAND | command_num, command, arg_angle |
-| 728 | 32 | RUDDER_STATUS | STATUS_FIELDS |
-| 760 | 16 | RUDDER_MODE | MODE_FIELDS |
-| 776 | 48 | RUDDER_PERF | PERF_FIELDS |
-| 824 | 20 | RUDDER_SIM_COMMAND | command_num, command |
-| 848 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
-| 880 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
-| 896 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
-| 944 | 20 | SHIP_COMMAND | command_num, command |
-| 968 | 32 | SHIP_STATUS | STATUS_FIELDS |
-| 1000 | 16 | SHIP_MODE | MODE_FIELDS |
-| 1016 | 48 | SHIP_PERF | PERF_FIELDS |
-| 1064 | 20 | SONAR_COMMAND | command_num, command |
-| 1088 | 32 | SONAR_STATUS | STATUS_FIELDS |
-| 1120 | 16 | SONAR_MODE | MODE_FIELDS |
-| 1136 | 48 | SONAR_PERF | PERF_FIELDS |
-| 1184 | 20 | ATMOSPHERE_COMMAND | command_num, command |
-| 1208 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
-| 1240 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
-| 1256 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
-| 1304 | 16 | WORLD_SPEED_CMD | speed_cmd |
-| 1320 | 16 | WORLD_DEPTH_CMD | depth_cmd |
-| 1336 | 16 | WORLD_COURSE | course |
-| 1352 | 9 | WORLD_HELM_AT_GOAL | helm_at_goal |
-| 1368 | 16 | WORLD_VENT_FLOW | vent_flow |
-| 1384 | 16 | WORLD_POS_X | pos_x |
-| 1400 | 16 | WORLD_POS_Y | pos_y |
-| 1416 | 16 | WORLD_HEADING | heading |
-| 1432 | 16 | WORLD_SPEED | speed |
-| 1448 | 16 | WORLD_DEPTH | depth |
-| 1464 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 1480 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 1496 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 1512 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 1528 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 1544 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 1560 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 1576 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 1592 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 1608 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 1624 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 1640 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 1656 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 1672 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 1688 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 1704 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 1720 | 16 | WORLD_CLEARANCE | clearance |
-| 1736 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 1752 | 9 | WORLD_FIRE | fire |
-| 1768 | 16 | WORLD_CO_PPM | co_ppm |
+| 600 | 33 | HELM_STATUS | STATUS_FIELDS |
+| 640 | 16 | HELM_MODE | MODE_FIELDS |
+| 656 | 48 | HELM_PERF | PERF_FIELDS |
+| 704 | 28 | RUDDER_COMMAND | command_num, command, arg_angle |
+| 736 | 32 | RUDDER_STATUS | STATUS_FIELDS |
+| 768 | 16 | RUDDER_MODE | MODE_FIELDS |
+| 784 | 48 | RUDDER_PERF | PERF_FIELDS |
+| 832 | 20 | RUDDER_SIM_COMMAND | command_num, command |
+| 856 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
+| 888 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
+| 904 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
+| 952 | 20 | SHIP_COMMAND | command_num, command |
+| 976 | 32 | SHIP_STATUS | STATUS_FIELDS |
+| 1008 | 16 | SHIP_MODE | MODE_FIELDS |
+| 1024 | 48 | SHIP_PERF | PERF_FIELDS |
+| 1072 | 20 | SONAR_COMMAND | command_num, command |
+| 1096 | 32 | SONAR_STATUS | STATUS_FIELDS |
+| 1128 | 16 | SONAR_MODE | MODE_FIELDS |
+| 1144 | 48 | SONAR_PERF | PERF_FIELDS |
+| 1192 | 20 | ATMOSPHERE_COMMAND | command_num, command |
+| 1216 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
+| 1248 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
+| 1264 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
+| 1312 | 16 | WORLD_SPEED_CMD | speed_cmd |
+| 1328 | 16 | WORLD_DEPTH_CMD | depth_cmd |
+| 1344 | 16 | WORLD_COURSE | course |
+| 1360 | 16 | WORLD_VENT_FLOW | vent_flow |
+| 1376 | 16 | WORLD_POS_X | pos_x |
+| 1392 | 16 | WORLD_POS_Y | pos_y |
+| 1408 | 16 | WORLD_HEADING | heading |
+| 1424 | 16 | WORLD_SPEED | speed |
+| 1440 | 16 | WORLD_DEPTH | depth |
+| 1456 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 1472 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 1488 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 1504 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 1520 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 1536 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 1552 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 1568 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 1584 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 1600 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 1616 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 1632 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 1648 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 1664 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 1680 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 1696 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 1712 | 16 | WORLD_CLEARANCE | clearance |
+| 1728 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 1744 | 9 | WORLD_FIRE | fire |
+| 1760 | 16 | WORLD_CO_PPM | co_ppm |
 """
 
 from __future__ import annotations
@@ -112,9 +111,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 1784
+SIZE = 1776
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "cd132ce986a2f7456b4c0b6232e4fb47"
+LAYOUT_HASH = "fa6a3a1a0f9f8f14f705b522e193649e"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 168
 
@@ -142,106 +141,105 @@ EC_PERF_AT = 512
 # helm: Helm
 HELM_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
 HELM_COMMAND_AT = 560
+HELM_STATUS = Struct("<QQIIii?")  # seq, status_num, status, error_num, state, rule, result_at_goal
 HELM_STATUS_AT = 600
-HELM_MODE_AT = 632
-HELM_PERF_AT = 648
+HELM_MODE_AT = 640
+HELM_PERF_AT = 656
 
 # rudder: Rudder
 RUDDER_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_angle
-RUDDER_COMMAND_AT = 696
-RUDDER_STATUS_AT = 728
-RUDDER_MODE_AT = 760
-RUDDER_PERF_AT = 776
+RUDDER_COMMAND_AT = 704
+RUDDER_STATUS_AT = 736
+RUDDER_MODE_AT = 768
+RUDDER_PERF_AT = 784
 
 # rudder_sim: Rudder (simulated)
 RUDDER_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-RUDDER_SIM_COMMAND_AT = 824
-RUDDER_SIM_STATUS_AT = 848
-RUDDER_SIM_MODE_AT = 880
-RUDDER_SIM_PERF_AT = 896
+RUDDER_SIM_COMMAND_AT = 832
+RUDDER_SIM_STATUS_AT = 856
+RUDDER_SIM_MODE_AT = 888
+RUDDER_SIM_PERF_AT = 904
 
 # ship: Ship dynamics (simulated)
 SHIP_COMMAND = Struct("<QQI")  # seq, command_num, command
-SHIP_COMMAND_AT = 944
-SHIP_STATUS_AT = 968
-SHIP_MODE_AT = 1000
-SHIP_PERF_AT = 1016
+SHIP_COMMAND_AT = 952
+SHIP_STATUS_AT = 976
+SHIP_MODE_AT = 1008
+SHIP_PERF_AT = 1024
 
 # sonar: Sonar and ice (simulated)
 SONAR_COMMAND = Struct("<QQI")  # seq, command_num, command
-SONAR_COMMAND_AT = 1064
-SONAR_STATUS_AT = 1088
-SONAR_MODE_AT = 1120
-SONAR_PERF_AT = 1136
+SONAR_COMMAND_AT = 1072
+SONAR_STATUS_AT = 1096
+SONAR_MODE_AT = 1128
+SONAR_PERF_AT = 1144
 
 # atmosphere: Engine-room atmosphere and fire (simulated)
 ATMOSPHERE_COMMAND = Struct("<QQI")  # seq, command_num, command
-ATMOSPHERE_COMMAND_AT = 1184
-ATMOSPHERE_STATUS_AT = 1208
-ATMOSPHERE_MODE_AT = 1240
-ATMOSPHERE_PERF_AT = 1256
+ATMOSPHERE_COMMAND_AT = 1192
+ATMOSPHERE_STATUS_AT = 1216
+ATMOSPHERE_MODE_AT = 1248
+ATMOSPHERE_PERF_AT = 1264
 
 # World model.
 WORLD_SPEED_CMD = Struct("<Qd")  # seq, speed_cmd
-WORLD_SPEED_CMD_AT = 1304
+WORLD_SPEED_CMD_AT = 1312
 WORLD_DEPTH_CMD = Struct("<Qd")  # seq, depth_cmd
-WORLD_DEPTH_CMD_AT = 1320
+WORLD_DEPTH_CMD_AT = 1328
 WORLD_COURSE = Struct("<Qd")  # seq, course
-WORLD_COURSE_AT = 1336
-WORLD_HELM_AT_GOAL = Struct("<Q?")  # seq, helm_at_goal
-WORLD_HELM_AT_GOAL_AT = 1352
+WORLD_COURSE_AT = 1344
 WORLD_VENT_FLOW = Struct("<Qd")  # seq, vent_flow
-WORLD_VENT_FLOW_AT = 1368
+WORLD_VENT_FLOW_AT = 1360
 WORLD_POS_X = Struct("<Qd")  # seq, pos_x
-WORLD_POS_X_AT = 1384
+WORLD_POS_X_AT = 1376
 WORLD_POS_Y = Struct("<Qd")  # seq, pos_y
-WORLD_POS_Y_AT = 1400
+WORLD_POS_Y_AT = 1392
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 1416
+WORLD_HEADING_AT = 1408
 WORLD_SPEED = Struct("<Qd")  # seq, speed
-WORLD_SPEED_AT = 1432
+WORLD_SPEED_AT = 1424
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
-WORLD_DEPTH_AT = 1448
+WORLD_DEPTH_AT = 1440
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 1464
+WORLD_RUDDER_ANGLE_AT = 1456
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 1480
+WORLD_RUDDER_JAMMED_AT = 1472
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 1496
+WORLD_SONAR_00_AT = 1488
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 1512
+WORLD_SONAR_01_AT = 1504
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 1528
+WORLD_SONAR_02_AT = 1520
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 1544
+WORLD_SONAR_03_AT = 1536
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 1560
+WORLD_SONAR_04_AT = 1552
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 1576
+WORLD_SONAR_05_AT = 1568
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 1592
+WORLD_SONAR_06_AT = 1584
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 1608
+WORLD_SONAR_07_AT = 1600
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 1624
+WORLD_SONAR_08_AT = 1616
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 1640
+WORLD_SONAR_09_AT = 1632
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 1656
+WORLD_SONAR_10_AT = 1648
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 1672
+WORLD_SONAR_11_AT = 1664
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 1688
+WORLD_SONAR_12_AT = 1680
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 1704
+WORLD_SONAR_13_AT = 1696
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 1720
+WORLD_CLEARANCE_AT = 1712
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 1736
+WORLD_MIN_CLEARANCE_AT = 1728
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 1752
+WORLD_FIRE_AT = 1744
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 1768
+WORLD_CO_PPM_AT = 1760
 
 
 PROCESSES = {
@@ -295,7 +293,11 @@ STATUS_OUT = {
     "cc": Record(STATUS, CC_STATUS_AT, field_names(STATUS_FIELDS)),
     "sm": Record(STATUS, SM_STATUS_AT, field_names(STATUS_FIELDS)),
     "ec": Record(STATUS, EC_STATUS_AT, field_names(STATUS_FIELDS)),
-    "helm": Record(STATUS, HELM_STATUS_AT, field_names(STATUS_FIELDS)),
+    "helm": Record(
+        HELM_STATUS,
+        HELM_STATUS_AT,
+        ("status_num", "status", "error_num", "state", "rule", "result_at_goal"),
+    ),
     "rudder": Record(STATUS, RUDDER_STATUS_AT, field_names(STATUS_FIELDS)),
     "rudder_sim": Record(STATUS, RUDDER_SIM_STATUS_AT, field_names(STATUS_FIELDS)),
     "ship": Record(STATUS, SHIP_STATUS_AT, field_names(STATUS_FIELDS)),
@@ -328,7 +330,6 @@ WORLD = {
     "speed_cmd": Record(WORLD_SPEED_CMD, WORLD_SPEED_CMD_AT, ("speed_cmd",)),
     "depth_cmd": Record(WORLD_DEPTH_CMD, WORLD_DEPTH_CMD_AT, ("depth_cmd",)),
     "course": Record(WORLD_COURSE, WORLD_COURSE_AT, ("course",)),
-    "helm_at_goal": Record(WORLD_HELM_AT_GOAL, WORLD_HELM_AT_GOAL_AT, ("helm_at_goal",)),
     "vent_flow": Record(WORLD_VENT_FLOW, WORLD_VENT_FLOW_AT, ("vent_flow",)),
     "pos_x": Record(WORLD_POS_X, WORLD_POS_X_AT, ("pos_x",)),
     "pos_y": Record(WORLD_POS_Y, WORLD_POS_Y_AT, ("pos_y",)),
@@ -360,7 +361,6 @@ WORLD_INITIAL: dict[str, object] = {
     "speed_cmd": 7.7,
     "depth_cmd": 120.0,
     "course": 0.0,
-    "helm_at_goal": False,
     "vent_flow": 0.002,
     "pos_x": 0.0,
     "pos_y": 0.0,

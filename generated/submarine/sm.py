@@ -27,7 +27,7 @@ HELM_ICE_MANEUVER = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI216xQI692xd8xd24x?31xd8xd24xd8xd")
+INPUTS = Struct("<QIdd44x???1xI216xQI12x?687xd8xd40xd8xd24xd8xd")
 INPUTS_AT = 312
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
@@ -35,7 +35,7 @@ INPUTS_AT = 312
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1304
+WORLD_OUT_1_AT = 1312
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -68,6 +68,7 @@ class SmController:
         "helm_arg_y",
         "helm_command",
         "helm_command_num",
+        "helm_result_at_goal",
         "helm_status",
         "helm_status_num",
         "helm_written",
@@ -88,7 +89,6 @@ class SmController:
         "status_seq",
         "world_depth",
         "world_depth_cmd",
-        "world_helm_at_goal",
         "world_pos_x",
         "world_pos_y",
         "world_speed",
@@ -153,9 +153,9 @@ class SmController:
             self.single_step_num,
             self.helm_status_num,
             self.helm_status,
+            self.helm_result_at_goal,
             self.world_speed_cmd,
             self.world_depth_cmd,
-            self.world_helm_at_goal,
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
@@ -163,6 +163,7 @@ class SmController:
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.helm_status_num != self.helm_command_num:
             self.helm_status = EXECUTING  # until it echoes the last number sent
+            self.helm_result_at_goal = False  # no result yet
 
         # check_if_new_command
         if self.command_num != self.status_num:
@@ -273,9 +274,9 @@ class SmController:
             self.single_step_num,
             self.helm_status_num,
             self.helm_status,
+            self.helm_result_at_goal,
             self.world_speed_cmd,
             self.world_depth_cmd,
-            self.world_helm_at_goal,
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
@@ -283,6 +284,7 @@ class SmController:
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.helm_status_num != self.helm_command_num:
             self.helm_status = EXECUTING  # until it echoes the last number sent
+            self.helm_result_at_goal = False  # no result yet
 
     def check_if_new_command(self) -> None:
         """A command number that differs from the echoed status number is a new command."""
@@ -460,7 +462,7 @@ class SmController:
             state == S1
             and abs(self.world_depth - PERISCOPE_DEPTH) < DEPTH_TOL
             and abs(self.world_speed - ONE_THIRD_SPEED) < SPEED_TOL
-            and self.world_helm_at_goal
+            and self.helm_result_at_goal
         ):
             # at periscope depth and one-third speed, helm on course
             self.rule = 9  # PREP_EMERGENCY_VENT/S1/1

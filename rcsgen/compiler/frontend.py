@@ -11,7 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import acknowledge, model
+from . import acknowledge, fragments, model
 from .analysis import analyse_system
 from .check import check_system
 from .diagnostics import Diagnostics, Span, SpecError
@@ -170,6 +170,38 @@ def load_system(
     directory: Path, diags: Diagnostics, progress: Progress = _quiet
 ) -> IRSystem | None:
     """Load, schema-check, model and check one system directory."""
+    first = len(diags.items)
+    uses: list[fragments.Use] = []
+    try:
+        return _load_system(directory, diags, progress, uses)
+    finally:
+        fragments.annotate(diags, uses, first)
+
+
+def _shared_fragments(directory: Path, diags: Diagnostics) -> dict[str, fragments.Fragment | None]:
+    """The fragments of the directory's `fragments.yaml` (none without one)."""
+    path = directory / fragments.FILE
+    if not path.is_file():
+        return {}
+    shown = display_path(path)
+    loaded = len(diags.errors)
+    data = _load(path, diags)
+    if len(diags.errors) > loaded:
+        return {}
+    if not isinstance(data, LocDict) or set(data) != {"fragments"}:
+        diags.error(
+            getattr(data, "span", Span(shown)),
+            "E269",
+            f"`{fragments.FILE}` must hold one key, `fragments:`",
+            "a shared fragment file declares fragments only",
+        )
+        return {}
+    return fragments.read(data["fragments"], Span(shown), diags)
+
+
+def _load_system(
+    directory: Path, diags: Diagnostics, progress: Progress, uses: list[fragments.Use]
+) -> IRSystem | None:
     progress(f"loading {display_path(directory)}")
     start, first = len(diags.errors), len(diags.items)
     system_path = directory / SYSTEM_FILE
@@ -185,9 +217,11 @@ def load_system(
         if not any(p.severity == "error" for p in problems):
             system = model.build_system(data, directory, shown)
     controllers = []
+    shared = _shared_fragments(directory, diags)
+    used: set[str] = set()  # fragment names the controllers use
     for entry in _entries(directory, diags):
         path = Path(entry.path)
-        if not entry.name.endswith(".yaml") or entry.name == SYSTEM_FILE:
+        if not entry.name.endswith(".yaml") or entry.name in (SYSTEM_FILE, fragments.FILE):
             continue
         loaded = len(diags.errors)
         data = _load(path, diags)
@@ -204,10 +238,18 @@ def load_system(
                 "only system.yaml and controller files belong in a system directory",
             )
             continue
+        before = len(diags.errors)
+        used |= fragments.named(data)
+        made, whole = fragments.expand(data, shared, diags, Span(shown))
+        uses += made
+        if not whole or len(diags.errors) > before:
+            continue  # a use that failed leaves a table with a hole: no more about it
         problems = check_document(data, "controller", shown)
         diags.extend(problems)
         if not any(p.severity == "error" for p in problems):
             controllers.append(model.build_controller(data, shown))
+    if len(diags.errors) == start:  # (a misspelt use would make it noise)
+        fragments.report_unused(shared, used, diags)
     if system is None or len(diags.errors) > start:
         acknowledge.apply(controllers, diags, first, complete=False)
         return None
