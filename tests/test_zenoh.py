@@ -526,3 +526,121 @@ def test_the_monitor_attaches_through_zenoh(
         wait_for(lambda: layout.MODE_IN["pp"].read(block.buf)["dont_run"], "pp STOPped on pc2")
     finally:
         block.close()
+
+
+# ---------------------------------------------------------------- a cut link
+
+
+RELAY = ROOT / "tests" / "tcp_relay.py"
+
+
+@pytest.fixture
+def through_a_relay() -> Iterator[dict[str, object]]:
+    """pc2 listening; pc1 reaching it only through a TCP relay (tests/tcp_relay.py), the
+    "network" that the test cuts and mends while both hosts keep running. pc1 does not
+    listen, so pc2 has no other way to it."""
+    pid = os.getpid()
+    port = free_port()
+    segments = {name: f"rcsgen_zenoh_{pid}_cut_{name}" for name in ("pc1", "pc2")}
+    env = {**os.environ, "PYTHONPATH": str(HOOKS)}
+    command = [sys.executable, "-m", "miner"]
+    running: dict[str, subprocess.Popen[str]] = {}
+    try:
+        running["pc2"] = subprocess.Popen(
+            [*command, "pc2", "--transport", "zenoh", "--shm", segments["pc2"]]
+            + ["--listen", f"tcp/127.0.0.1:{port}"],
+            cwd=PACKAGE.parent,
+            env=env,
+            stdout=subprocess.DEVNULL,
+        )
+        running["relay"] = subprocess.Popen(
+            [sys.executable, str(RELAY), str(port)], stdout=subprocess.PIPE, text=True
+        )
+        assert running["relay"].stdout is not None
+        relay_port = int(running["relay"].stdout.readline())
+        running["pc1"] = subprocess.Popen(
+            [*command, "pc1", "--transport", "zenoh", "--shm", segments["pc1"]]
+            + ["--connect", f"tcp/127.0.0.1:{relay_port}"],
+            cwd=PACKAGE.parent,
+            env=env,
+            stdout=subprocess.DEVNULL,
+        )
+        yield {"running": running, "ports": {port, relay_port}, "segments": segments}
+    finally:
+        for each in running.values():
+            if each.poll() is None:
+                each.terminate()
+        for each in running.values():
+            try:
+                each.wait(10)
+            except subprocess.TimeoutExpired:
+                each.kill()
+                each.wait()
+            if each.stdout is not None:
+                each.stdout.close()
+        unlink = rcs(import_package(PACKAGE, HOOKS), "rcs.block").unlink
+        for name in segments.values():
+            unlink(name)
+
+
+def test_a_cut_link_is_detected_contained_and_mended(
+    miner: ModuleType, through_a_relay: dict[str, object]
+) -> None:
+    """The link between the hosts goes silent (no connection closed, neither host stopped):
+    pc1 reports pc2 lost after its heartbeat timeout and vg goes to its safe state; pc2
+    sees pc1's token go (its control record DEAD in pc2's block). While the link is out
+    nobody re-joins by another way; when it is back, both re-join. Afterwards nothing is
+    left in /dev/shm, listening or running."""
+    layout = rcs(miner, "layout")
+    block_module, contract = rcs(miner, "rcs.block"), rcs(miner, "rcs.contract")
+    running: dict[str, subprocess.Popen[str]] = through_a_relay["running"]
+    segments: dict[str, str] = through_a_relay["segments"]
+    ports: set[int] = through_a_relay["ports"]
+    before = shm_files()
+
+    def attach(name: str) -> object:
+        def tries() -> object:
+            try:
+                return block_module.Block(layout, segments[name], create=False)
+            except block_module.BlockError:
+                return None
+
+        return wait_for(tries, f"{name}'s segment")
+
+    pc1, pc2 = attach("pc1"), attach("pc2")
+    lost_bit = 1 << list(layout.PROCESSES).index("pc2")
+
+    def pc2_lost_on_pc1() -> bool:
+        return bool(layout.PROCESSES["pc1"].read(pc1.buf)["lost"] & lost_bit)
+
+    def pc1_state_on_pc2() -> int:
+        return int(layout.PROCESSES["pc1"].read(pc2.buf)["state"])
+
+    try:
+        wait_for(
+            lambda: layout.STATUS_OUT["pp"].read(pc1.buf)["status"] == contract.DONE,
+            "pp's INIT done, mirrored on pc1 through the relay",
+        )
+        assert pc1_state_on_pc2() == contract.RUNNING
+        for _ in range(2):  # cut and mended twice: the second cut finds a mended link
+            running["relay"].send_signal(signal.SIGUSR1)  # the cable is pulled
+            wait_for(pc2_lost_on_pc1, "pc1 reports pc2 lost")
+            vg = layout.STATUS_OUT["vg"].read(pc1.buf)
+            assert (vg["status"], vg["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
+            wait_for(lambda: pc1_state_on_pc2() == contract.DEAD, "pc2 sees pc1's token go")
+            assert all(each.poll() is None for each in running.values())  # nobody stopped
+            for _ in range(10):  # while it is out, no way around it
+                time.sleep(0.1)
+                assert pc2_lost_on_pc1() and pc1_state_on_pc2() == contract.DEAD
+            running["relay"].send_signal(signal.SIGUSR2)  # the cable is back
+            wait_for(lambda: not pc2_lost_on_pc1(), "pc1 sees pc2 again")
+            wait_for(lambda: pc1_state_on_pc2() == contract.RUNNING, "pc2 sees pc1 again")
+        for name in ("pc1", "pc2", "relay"):
+            running[name].terminate()
+            assert running[name].wait(15) == 0
+    finally:
+        pc1.close()
+        pc2.close()
+    assert not any(block_module.exists(name) for name in segments.values())
+    assert shm_files() - before == set()
+    assert listening(ports) == set()
