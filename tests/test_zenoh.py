@@ -128,9 +128,12 @@ def test_a_late_or_out_of_order_message_is_dropped_and_counted(miner: ModuleType
     assert receiver.counters.applied == 2
 
 
-def test_a_push_is_applied_whole_when_its_last_message_arrives(miner: ModuleType) -> None:
+def test_a_push_travels_as_one_message_and_is_applied_whole_or_not_at_all(
+    miner: ModuleType,
+) -> None:
     """pp writes wp_x and reports DONE in one cycle: a reader must never see the DONE
-    without the wp_x, however its messages are split between two pulls."""
+    without the wp_x. The cycle's records travel as one payload; one that is cut short or
+    names no record of this layout is refused whole (counted), nothing of it applied."""
     layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
     Block = rcs(miner, "rcs.block").Block
     sender = transport.Mirror(layout, Block(layout), "pc2")
@@ -140,11 +143,14 @@ def test_a_push_is_applied_whole_when_its_last_message_arrives(miner: ModuleType
     layout.PROCESSES["pc2"].write(sender.block.buf, heartbeat=1)
     push = sender.changed()
     assert [k for k, _ in push] == ["pp/status", "_world/wp_x", "_process/pc2/control"]
-    for key, message in push[:-1]:
-        receiver.receive(key, message)
-    assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 0  # not yet
-    assert layout.WORLD["wp_x"].read(receiver.block.buf)["wp_x"] == 0.0
-    receiver.receive(*push[-1])
+    payload = sender.pack(push)
+    assert receiver.unpack(payload[:-1]) is None  # cut short
+    assert receiver.unpack(b"\xff\xff" + payload) is None  # no such record
+    assert receiver.counters.malformed == 2
+    assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 0
+    assert receiver.unpack(payload) == push
+    for key, message in receiver.unpack(payload) or ():
+        receiver.apply(key, message)
     assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 1
     assert layout.WORLD["wp_x"].read(receiver.block.buf)["wp_x"] == -1.0
     assert receiver.counters.applied == 3

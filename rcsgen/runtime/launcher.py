@@ -439,10 +439,10 @@ class Coordinator:
 
 class NetworkCoordinator:
     """Steps a system whose processes run on Zenoh nodes, in lockstep: a request to each
-    process in turn, answered by its control record of the next cycle, which it sends after
+    process, answered by its control record of the next cycle, which it sends after
     everything else it wrote. Each request names the cycle every other process must have
     reached in the receiver's mirror first, so every process reads what it would read in
-    one block. Only whole-process segments (`System.segments`)."""
+    one block, in the execution order. Only whole-process segments (`System.segments`)."""
 
     def __init__(self, launcher: Launcher, timeout: float = 20.0) -> None:
         self.launcher, self.timeout = launcher, timeout
@@ -457,30 +457,40 @@ class NetworkCoordinator:
         self.reached = {n: mirror.heartbeat(n) for n in self.names}
 
     def step(self, cycles: int = 1) -> None:
-        """Run `cycles` whole system cycles; raises ProcessLost if a process is gone."""
+        """Run `cycles` whole system cycles; raises ProcessLost if a process is gone.
+
+        Every request of a cycle goes at once: each names the cycle the processes before it
+        reach in this cycle, so a process waits in its own mirror for their records (which
+        come to it directly) and none waits for the coordinator to hear the one before it:
+        three network hops on the way of a two-process cycle, not four."""
         from .zenoh_transport import step_request
 
         net, mirror = self.net, self.net.mirror
         for _ in range(cycles):
+            net.push()  # what was written here (a scenario's events) goes first
+            targets = dict(self.reached)
             for name, first, last, end in self.segments:
                 if not end:
                     raise ProcessLost(f"process {name}: a segment that does not end a cycle")
                 if name in net.lost or name not in self.launcher.children:
                     raise ProcessLost(f"process {name} is not running")
-                target = self.reached[name] + 1
-                net.push()  # what was written here (a scenario's events) goes first
-                request = step_request(first, last, end, [self.reached[n] for n in self.names])
+                request = step_request(first, last, end, [targets[n] for n in self.names])
                 net.send_step(name, request)
-                if not net.wait(_answered(mirror, net.lost, name, target), self.timeout):
-                    raise ProcessLost(f"process {name} did not answer within {self.timeout:g} s")
-                if name in net.lost:
-                    raise ProcessLost(f"process {name} left the network (it died?)")
-                self.reached[name] = target
+                targets[name] = self.reached[name] + 1
+            if not net.wait(_answered(mirror, net.lost, targets), self.timeout):
+                late = [n for n in self.names if mirror.heartbeat(n) < targets[n]]
+                raise ProcessLost(f"process(es) {late} did not answer within {self.timeout:g} s")
+            gone = sorted(net.lost & set(self.names))
+            if gone:
+                raise ProcessLost(f"process(es) {gone} left the network (died?)")
+            self.reached = targets
             self.cycle += 1
 
 
-def _answered(mirror: Any, lost: set[str], name: str, target: int) -> Callable[[], bool]:
-    return lambda: mirror.heartbeat(name) >= target or name in lost
+def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[[], bool]:
+    return lambda: (
+        bool(lost & targets.keys()) or all(mirror.heartbeat(n) >= t for n, t in targets.items())
+    )
 
 
 class ProcessLost(Exception):
