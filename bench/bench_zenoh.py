@@ -5,9 +5,9 @@
    status; the round trip, halved. Zenoh: the runtime's own `ZenohTransport` on both
    sides (the receiver blocks until something arrives); shared memory: the echo polls the
    record flat out, so its figure is the floor of a hop.
-2. Messages per second one process sends (world fields, one message per record, a push per
-   round of the float fields; every push sent and none dropped, as in lockstep) and how
-   many arrive.
+2. Records per second one process sends (world fields, a push per round of the float
+   fields, each push one Zenoh message; every push sent and none dropped, as in lockstep)
+   and how many arrive.
 3. The two-host miner in lockstep (`LaunchedHarness(transport="zenoh")`: pc1 and pp's pc2
    on blocks of their own, stepped by a coordinator on the network) against the same
    over one segment (pipes) and in one process: wall time per system cycle, the versions
@@ -170,8 +170,8 @@ def hops(count: int) -> dict[str, dict[str, float]]:
 
 
 def rate(messages: int) -> dict[str, float]:
-    """One process sends world fields (each changed, one message each) flat out to another
-    node; what it sent per second, and what arrived."""
+    """One process sends world fields (each changed, a push per round of them) flat out to
+    another node; the records it sent per second, and those that arrived."""
     package = import_package(PACKAGE, HOOKS)
     layout, block_mod, transport, zt = modules(package)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
