@@ -5,17 +5,19 @@
    status; the round trip, halved. Zenoh: the runtime's own `ZenohTransport` on both
    sides (the receiver blocks until something arrives); shared memory: the echo polls the
    record flat out, so its figure is the floor of a hop.
-2. Messages per second one process sends (world fields, one message per record, a push per
-   round of the float fields; every push sent and none dropped, as in lockstep) and how
-   many arrive.
+2. Records per second one process sends (world fields, a push per round of the float
+   fields, each push one Zenoh message; every push sent and none dropped, as in lockstep)
+   and how many arrive.
 3. The two-host miner in lockstep (`LaunchedHarness(transport="zenoh")`: pc1 and pp's pc2
    on blocks of their own, stepped by a coordinator on the network) against the same
    over one segment (pipes) and in one process: wall time per system cycle, the versions
    taking turns and ending each round in the same state (bench_lockstep.race).
 4. A chain of 16 controllers over 2, 4 and 8 hosts in lockstep, Zenoh against pipes.
-5. Detection on two free-running paced hosts (pc2 listening, pc1 connecting): time from
-   SIGSTOP of pc2 (a partition) and from SIGKILL of pc2 to pc1's control record saying pc2
-   is lost; from SIGCONT to pc2 re-joined; and over a soak, pc1's overruns.
+5. Detection on two free-running paced hosts (pc2 listening, pc1 connecting through a TCP
+   relay, tests/tcp_relay.py): time from a cut of the link (the relay delivers nothing
+   more, closes nothing), from SIGSTOP of pc2 (a frozen host) and from SIGKILL of pc2 to
+   pc1's control record saying pc2 is lost; from the link mended and from SIGCONT to pc2
+   re-joined; and over a soak, pc1's overruns.
 
     python bench/bench_zenoh.py [--hops N] [--cycles N] [--soak S] [--json PATH]
 """
@@ -168,8 +170,8 @@ def hops(count: int) -> dict[str, dict[str, float]]:
 
 
 def rate(messages: int) -> dict[str, float]:
-    """One process sends world fields (each changed, one message each) flat out to another
-    node; what it sent per second, and what arrived."""
+    """One process sends world fields (each changed, a push per round of them) flat out to
+    another node; the records it sent per second, and those that arrived."""
     package = import_package(PACKAGE, HOOKS)
     layout, block_mod, transport, zt = modules(package)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
@@ -287,12 +289,25 @@ def detection(runs: int, soak: float) -> dict[str, object]:
     layout, block_mod, _, _ = modules(package)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(HOOKS), *sys.path])}
     lost_bit = 1 << list(layout.PROCESSES).index("pc2")
-    found: dict[str, list[float]] = {"partition_s": [], "rejoin_s": [], "kill_s": []}
+    found: dict[str, list[float]] = {
+        "cut_s": [],
+        "mend_s": [],
+        "partition_s": [],
+        "rejoin_s": [],
+        "kill_s": [],
+    }
     soaked: dict[str, object] = {}
     for run in range(runs):
         ports = {"pc2": free_port(), "pc1": free_port()}
         names = {p: f"rcsgen_bench_zenoh_{os.getpid()}_{run}_{p}" for p in ports}
         base = [sys.executable, "-m", "miner"]
+        relay = subprocess.Popen(
+            [sys.executable, str(ROOT / "tests" / "tcp_relay.py"), str(ports["pc2"])],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert relay.stdout is not None
+        relay_port = int(relay.stdout.readline())
         hosts = {
             "pc2": subprocess.Popen(
                 [*base, "pc2", "--transport", "zenoh", "--shm", names["pc2"]]
@@ -303,7 +318,7 @@ def detection(runs: int, soak: float) -> dict[str, object]:
             ),
             "pc1": subprocess.Popen(
                 [*base, "pc1", "--transport", "zenoh", "--shm", names["pc1"]]
-                + ["--connect", f"tcp/127.0.0.1:{ports['pc2']}"],
+                + ["--connect", f"tcp/127.0.0.1:{relay_port}"],
                 cwd=PACKAGE.parent,
                 env=env,
                 stdout=subprocess.DEVNULL,
@@ -345,6 +360,11 @@ def detection(runs: int, soak: float) -> dict[str, object]:
                     "pc2_lost_during": lost(),
                 }
             time.sleep(0.5)
+            relay.send_signal(signal.SIGUSR1)
+            found["cut_s"].append(until(lost))
+            relay.send_signal(signal.SIGUSR2)
+            found["mend_s"].append(until(lambda: not lost()))
+            time.sleep(0.5)
             hosts["pc2"].send_signal(signal.SIGSTOP)
             found["partition_s"].append(until(lost))
             hosts["pc2"].send_signal(signal.SIGCONT)
@@ -364,6 +384,9 @@ def detection(runs: int, soak: float) -> dict[str, object]:
                 except subprocess.TimeoutExpired:
                     host.kill()
                     host.wait()
+            relay.terminate()
+            relay.wait(10)
+            relay.stdout.close()
             for name in names.values():
                 block_mod.unlink(name)
         print(f"detection run {run + 1}/{runs} done", file=sys.stderr)

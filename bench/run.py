@@ -664,8 +664,8 @@ def section_zenoh(z: dict) -> list[str]:
     if "rate" in z:
         r = z["rate"]
         lines += [
-            f"Messages one process sends (world fields, one message per record, every push "
-            f"sent, none dropped): {r['sent_per_s']:,.0f}/s; arrived "
+            f"Records one process sends (world fields, 26 a push, a push one message, every "
+            f"push sent, none dropped): {r['sent_per_s']:,.0f}/s; arrived "
             f"{r['arrived']:,} of {r['messages']:,} at {r['arrived_per_s']:,.0f}/s.",
             "",
         ]

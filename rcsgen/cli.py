@@ -566,7 +566,7 @@ def up(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     """Start a built system: every process as its own OS process, paced, until Ctrl-C.
 
     OPTIONS go to `python -m <system>` (e.g. `--cycles 100`, `--restart`, `--shm NAME`,
-    one PROCESS, `--help`).
+    one PROCESS, `--deploy FILE HOST` for one host of several, `--help`).
     """
     _exec_package(system_dir, generated, list(options))
 

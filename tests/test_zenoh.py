@@ -128,9 +128,12 @@ def test_a_late_or_out_of_order_message_is_dropped_and_counted(miner: ModuleType
     assert receiver.counters.applied == 2
 
 
-def test_a_push_is_applied_whole_when_its_last_message_arrives(miner: ModuleType) -> None:
+def test_a_push_travels_as_one_message_and_is_applied_whole_or_not_at_all(
+    miner: ModuleType,
+) -> None:
     """pp writes wp_x and reports DONE in one cycle: a reader must never see the DONE
-    without the wp_x, however its messages are split between two pulls."""
+    without the wp_x. The cycle's records travel as one payload; one that is cut short or
+    names no record of this layout is refused whole (counted), nothing of it applied."""
     layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
     Block = rcs(miner, "rcs.block").Block
     sender = transport.Mirror(layout, Block(layout), "pc2")
@@ -140,11 +143,14 @@ def test_a_push_is_applied_whole_when_its_last_message_arrives(miner: ModuleType
     layout.PROCESSES["pc2"].write(sender.block.buf, heartbeat=1)
     push = sender.changed()
     assert [k for k, _ in push] == ["pp/status", "_world/wp_x", "_process/pc2/control"]
-    for key, message in push[:-1]:
-        receiver.receive(key, message)
-    assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 0  # not yet
-    assert layout.WORLD["wp_x"].read(receiver.block.buf)["wp_x"] == 0.0
-    receiver.receive(*push[-1])
+    payload = sender.pack(push)
+    assert receiver.unpack(payload[:-1]) is None  # cut short
+    assert receiver.unpack(b"\xff\xff" + payload) is None  # no such record
+    assert receiver.counters.malformed == 2
+    assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 0
+    assert receiver.unpack(payload) == push
+    for key, message in receiver.unpack(payload) or ():
+        receiver.apply(key, message)
     assert layout.STATUS_OUT["pp"].read(receiver.block.buf)["status_num"] == 1
     assert layout.WORLD["wp_x"].read(receiver.block.buf)["wp_x"] == -1.0
     assert receiver.counters.applied == 3
@@ -526,3 +532,121 @@ def test_the_monitor_attaches_through_zenoh(
         wait_for(lambda: layout.MODE_IN["pp"].read(block.buf)["dont_run"], "pp STOPped on pc2")
     finally:
         block.close()
+
+
+# ---------------------------------------------------------------- a cut link
+
+
+RELAY = ROOT / "tests" / "tcp_relay.py"
+
+
+@pytest.fixture
+def through_a_relay() -> Iterator[dict[str, object]]:
+    """pc2 listening; pc1 reaching it only through a TCP relay (tests/tcp_relay.py), the
+    "network" that the test cuts and mends while both hosts keep running. pc1 does not
+    listen, so pc2 has no other way to it."""
+    pid = os.getpid()
+    port = free_port()
+    segments = {name: f"rcsgen_zenoh_{pid}_cut_{name}" for name in ("pc1", "pc2")}
+    env = {**os.environ, "PYTHONPATH": str(HOOKS)}
+    command = [sys.executable, "-m", "miner"]
+    running: dict[str, subprocess.Popen[str]] = {}
+    try:
+        running["pc2"] = subprocess.Popen(
+            [*command, "pc2", "--transport", "zenoh", "--shm", segments["pc2"]]
+            + ["--listen", f"tcp/127.0.0.1:{port}"],
+            cwd=PACKAGE.parent,
+            env=env,
+            stdout=subprocess.DEVNULL,
+        )
+        running["relay"] = subprocess.Popen(
+            [sys.executable, str(RELAY), str(port)], stdout=subprocess.PIPE, text=True
+        )
+        assert running["relay"].stdout is not None
+        relay_port = int(running["relay"].stdout.readline())
+        running["pc1"] = subprocess.Popen(
+            [*command, "pc1", "--transport", "zenoh", "--shm", segments["pc1"]]
+            + ["--connect", f"tcp/127.0.0.1:{relay_port}"],
+            cwd=PACKAGE.parent,
+            env=env,
+            stdout=subprocess.DEVNULL,
+        )
+        yield {"running": running, "ports": {port, relay_port}, "segments": segments}
+    finally:
+        for each in running.values():
+            if each.poll() is None:
+                each.terminate()
+        for each in running.values():
+            try:
+                each.wait(10)
+            except subprocess.TimeoutExpired:
+                each.kill()
+                each.wait()
+            if each.stdout is not None:
+                each.stdout.close()
+        unlink = rcs(import_package(PACKAGE, HOOKS), "rcs.block").unlink
+        for name in segments.values():
+            unlink(name)
+
+
+def test_a_cut_link_is_detected_contained_and_mended(
+    miner: ModuleType, through_a_relay: dict[str, object]
+) -> None:
+    """The link between the hosts goes silent (no connection closed, neither host stopped):
+    pc1 reports pc2 lost after its heartbeat timeout and vg goes to its safe state; pc2
+    sees pc1's token go (its control record DEAD in pc2's block). While the link is out
+    nobody re-joins by another way; when it is back, both re-join. Afterwards nothing is
+    left in /dev/shm, listening or running."""
+    layout = rcs(miner, "layout")
+    block_module, contract = rcs(miner, "rcs.block"), rcs(miner, "rcs.contract")
+    running: dict[str, subprocess.Popen[str]] = through_a_relay["running"]
+    segments: dict[str, str] = through_a_relay["segments"]
+    ports: set[int] = through_a_relay["ports"]
+    before = shm_files()
+
+    def attach(name: str) -> object:
+        def tries() -> object:
+            try:
+                return block_module.Block(layout, segments[name], create=False)
+            except block_module.BlockError:
+                return None
+
+        return wait_for(tries, f"{name}'s segment")
+
+    pc1, pc2 = attach("pc1"), attach("pc2")
+    lost_bit = 1 << list(layout.PROCESSES).index("pc2")
+
+    def pc2_lost_on_pc1() -> bool:
+        return bool(layout.PROCESSES["pc1"].read(pc1.buf)["lost"] & lost_bit)
+
+    def pc1_state_on_pc2() -> int:
+        return int(layout.PROCESSES["pc1"].read(pc2.buf)["state"])
+
+    try:
+        wait_for(
+            lambda: layout.STATUS_OUT["pp"].read(pc1.buf)["status"] == contract.DONE,
+            "pp's INIT done, mirrored on pc1 through the relay",
+        )
+        assert pc1_state_on_pc2() == contract.RUNNING
+        for _ in range(2):  # cut and mended twice: the second cut finds a mended link
+            running["relay"].send_signal(signal.SIGUSR1)  # the cable is pulled
+            wait_for(pc2_lost_on_pc1, "pc1 reports pc2 lost")
+            vg = layout.STATUS_OUT["vg"].read(pc1.buf)
+            assert (vg["status"], vg["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
+            wait_for(lambda: pc1_state_on_pc2() == contract.DEAD, "pc2 sees pc1's token go")
+            assert all(each.poll() is None for each in running.values())  # nobody stopped
+            for _ in range(10):  # while it is out, no way around it
+                time.sleep(0.1)
+                assert pc2_lost_on_pc1() and pc1_state_on_pc2() == contract.DEAD
+            running["relay"].send_signal(signal.SIGUSR2)  # the cable is back
+            wait_for(lambda: not pc2_lost_on_pc1(), "pc1 sees pc2 again")
+            wait_for(lambda: pc1_state_on_pc2() == contract.RUNNING, "pc2 sees pc1 again")
+        for name in ("pc1", "pc2", "relay"):
+            running[name].terminate()
+            assert running[name].wait(15) == 0
+    finally:
+        pc1.close()
+        pc2.close()
+    assert not any(block_module.exists(name) for name in segments.values())
+    assert shm_files() - before == set()
+    assert listening(ports) == set()

@@ -245,6 +245,9 @@ class Launcher:
         world: Mapping[str, object] | None = None,
         transport: str = "shm",
         listen: str | None = None,
+        connect: Sequence[str] = (),
+        processes: Sequence[str] | None = None,
+        also_listen: Sequence[str] = (),
     ) -> None:
         self.system = system
         self.segment = segment or system.default_segment
@@ -253,6 +256,10 @@ class Launcher:
         # read it as they read the shared one. Its node listens where the processes connect.
         self.transport_name = transport
         self.listen = listen or f"tcp/127.0.0.1:{free_port()}"
+        # A host of a deployment (`--deploy`): only its processes here, its node also
+        # listening on the host's other endpoints and connecting to the other hosts.
+        self.connect, self.also_listen = tuple(connect), tuple(also_listen)
+        self.processes = list(system.plans) if processes is None else list(processes)
         self.net: Any = None
         self.lockstep, self.pace, self.cycles = lockstep, pace, cycles
         self.settings, self.simulate = list(settings), list(simulate)
@@ -278,10 +285,10 @@ class Launcher:
                 lease_ms = max(100, int(self.system.layout.HEARTBEAT_TIMEOUT * 1000))
                 self.net = ZenohTransport(
                     Mirror(self.system.layout, self.block),
-                    Options(listen=(self.listen,), lease_ms=lease_ms),
+                    Options((self.listen, *self.also_listen), self.connect, lease_ms),
                     block_when_congested=self.lockstep,
                 )
-            for name in self.system.plans:
+            for name in self.processes:
                 self.children[name] = Child(name, self._spawn(name, attach=True))
         except BaseException:
             self.stop()
@@ -377,18 +384,18 @@ class Launcher:
             _close(child.popen)
         self.children.clear()
         if self.net is not None:  # each process's last word (STOPPED) or its leaving
-            names, mirror = list(self.system.plans), self.net.mirror
+            names, mirror = self.processes, self.net.mirror
             self.net.wait(
                 lambda: all(n in self.net.lost or mirror.state(n) != RUNNING for n in names), 2.0
             )
             self.net.close()
             self.net = None
-            for name in self.system.plans:  # a killed process could not remove its own
+            for name in self.processes:  # a killed process could not remove its own
                 unlink_quietly(f"{self.segment}_{name}")
         if self.block is not None:
             self.final = [
                 *self.events,
-                *summary(self.system, self.block.buf, list(self.system.plans)),
+                *summary(self.system, self.block.buf, self.processes),
             ]
             self.block.close()
             self.block = None
@@ -432,10 +439,10 @@ class Coordinator:
 
 class NetworkCoordinator:
     """Steps a system whose processes run on Zenoh nodes, in lockstep: a request to each
-    process in turn, answered by its control record of the next cycle, which it sends after
+    process, answered by its control record of the next cycle, which it sends after
     everything else it wrote. Each request names the cycle every other process must have
     reached in the receiver's mirror first, so every process reads what it would read in
-    one block. Only whole-process segments (`System.segments`)."""
+    one block, in the execution order. Only whole-process segments (`System.segments`)."""
 
     def __init__(self, launcher: Launcher, timeout: float = 20.0) -> None:
         self.launcher, self.timeout = launcher, timeout
@@ -450,30 +457,40 @@ class NetworkCoordinator:
         self.reached = {n: mirror.heartbeat(n) for n in self.names}
 
     def step(self, cycles: int = 1) -> None:
-        """Run `cycles` whole system cycles; raises ProcessLost if a process is gone."""
+        """Run `cycles` whole system cycles; raises ProcessLost if a process is gone.
+
+        Every request of a cycle goes at once: each names the cycle the processes before it
+        reach in this cycle, so a process waits in its own mirror for their records (which
+        come to it directly) and none waits for the coordinator to hear the one before it:
+        three network hops on the way of a two-process cycle, not four."""
         from .zenoh_transport import step_request
 
         net, mirror = self.net, self.net.mirror
         for _ in range(cycles):
+            net.push()  # what was written here (a scenario's events) goes first
+            targets = dict(self.reached)
             for name, first, last, end in self.segments:
                 if not end:
                     raise ProcessLost(f"process {name}: a segment that does not end a cycle")
                 if name in net.lost or name not in self.launcher.children:
                     raise ProcessLost(f"process {name} is not running")
-                target = self.reached[name] + 1
-                net.push()  # what was written here (a scenario's events) goes first
-                request = step_request(first, last, end, [self.reached[n] for n in self.names])
+                request = step_request(first, last, end, [targets[n] for n in self.names])
                 net.send_step(name, request)
-                if not net.wait(_answered(mirror, net.lost, name, target), self.timeout):
-                    raise ProcessLost(f"process {name} did not answer within {self.timeout:g} s")
-                if name in net.lost:
-                    raise ProcessLost(f"process {name} left the network (it died?)")
-                self.reached[name] = target
+                targets[name] = self.reached[name] + 1
+            if not net.wait(_answered(mirror, net.lost, targets), self.timeout):
+                late = [n for n in self.names if mirror.heartbeat(n) < targets[n]]
+                raise ProcessLost(f"process(es) {late} did not answer within {self.timeout:g} s")
+            gone = sorted(net.lost & set(self.names))
+            if gone:
+                raise ProcessLost(f"process(es) {gone} left the network (died?)")
+            self.reached = targets
             self.cycle += 1
 
 
-def _answered(mirror: Any, lost: set[str], name: str, target: int) -> Callable[[], bool]:
-    return lambda: mirror.heartbeat(name) >= target or name in lost
+def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[[], bool]:
+    return lambda: (
+        bool(lost & targets.keys()) or all(mirror.heartbeat(n) >= t for n, t in targets.items())
+    )
 
 
 class ProcessLost(Exception):
@@ -572,7 +589,19 @@ def main(package: str, argv: list[str] | None = None) -> int:
         description=f"Run the {system.layout.SYSTEM} system: every process (the default), "
         "or one PROCESS.",
     )
-    parser.add_argument("process", nargs="?", choices=list(system.plans), help="run only this")
+    parser.add_argument(
+        "process",
+        nargs="?",
+        metavar="PROCESS|HOST",
+        help=f"run only this process ({', '.join(system.plans)}); with --deploy, this host's",
+    )
+    parser.add_argument(
+        "--deploy",
+        default=None,
+        metavar="FILE",
+        help="a deployment file (JSON): run HOST's processes (default: the host named after "
+        "this machine) with its endpoints, over Zenoh",
+    )
     parser.add_argument("--cycles", type=int, default=None, help="stop after this many cycles")
     parser.add_argument("--fast", action="store_true", help="do not pace to the cycle period")
     parser.add_argument(
@@ -644,6 +673,14 @@ def main(package: str, argv: list[str] | None = None) -> int:
         help="start with this world field's value instead of its initial one (repeatable)",
     )
     args = parser.parse_args(argv)
+    host = None
+    if args.deploy is not None:
+        host = deployed(system, args, parser)
+        if host is None:
+            return 2
+    elif args.process is not None and args.process not in system.plans:
+        choices = ", ".join(repr(p) for p in system.plans)
+        parser.error(f"argument process: invalid choice: {args.process!r} (choose from {choices})")
     if args.cycles is not None and args.cycles < 0:
         parser.error("--cycles must be 0 or more")
     switchable = {m for plan in system.plans.values() for m in plan.stand_ins}
@@ -680,7 +717,32 @@ def main(package: str, argv: list[str] | None = None) -> int:
         own = f"_{args.process}" if args.transport == "zenoh" else ""
         args.shm = args.shm or system.default_segment + own
         return run_process(system, args)
-    return launch(system, args)
+    return launch(system, args, host)
+
+
+def deployed(system: System, args: argparse.Namespace, parser: argparse.ArgumentParser) -> Any:
+    """`--deploy FILE [HOST]`: the host's entry of the checked file, its endpoints and
+    transport put in `args` (its one process in `args.process`); None after a located
+    error on stderr."""
+    import socket
+
+    from .deploy import DeployError, load
+
+    if args.listen or args.connect or args.transport != "shm":
+        parser.error(
+            "--deploy gives the transport and endpoints: no --transport, --listen, --connect"
+        )
+    if args.lockstep:
+        parser.error("--lockstep steps the processes of one launch, not the hosts of --deploy")
+    try:
+        deployment = load(args.deploy, system.layout.SYSTEM, list(system.plans))
+        host = deployment.host(args.process, socket.gethostname())
+    except DeployError as error:
+        print(error, file=sys.stderr)
+        return None
+    args.transport, args.listen, args.connect = "zenoh", list(host.listen), list(host.connect)
+    args.process = host.processes[0] if len(host.processes) == 1 else None
+    return host
 
 
 def parse_world(layout: ModuleType, items: Sequence[str]) -> dict[str, object]:
@@ -744,8 +806,9 @@ def finished(send: Send, number: int, layout: ModuleType, buf: memoryview) -> st
     return None
 
 
-def launch(system: System, args: argparse.Namespace) -> int:
-    """Every process: until Ctrl-C / SIGTERM (or `--cycles`), then a summary."""
+def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
+    """Every process (or a deployment `host`'s): until Ctrl-C / SIGTERM (or `--cycles`),
+    then a summary."""
     stop = Stop()
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
@@ -761,6 +824,9 @@ def launch(system: System, args: argparse.Namespace) -> int:
         world=args.world,
         transport=args.transport,
         listen=args.listen[0] if args.listen else None,
+        connect=args.connect,
+        processes=None if host is None else host.processes,
+        also_listen=args.listen[1:],
     )
     try:
         launcher.start()

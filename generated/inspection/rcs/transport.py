@@ -4,11 +4,12 @@
 Every process keeps a local block. With the shared-memory transport (`Local`) the block is
 shared by every process of the host and nothing moves. With a network transport (Zenoh,
 `zenoh_transport.py`), each node has a block of its own, and a `Mirror` decides what moves:
-after each cycle it sends every record whose sequence word this node changed (one message per
-record: the sender's epoch, then the record's bytes with its sequence word), and it writes
-what arrives into the local block through the seqlock, dropping (and counting) a message that
-is not newer than the last one applied from the same sender. Keys are
-`rcs/<system>/<layout-hash-8>/<owner>/<buffer>`, so systems built from other specs never
+after each cycle it sends every record whose sequence word this node changed (each record
+whole, after the sender's epoch, with its sequence word; a cycle's records packed into one
+push), and it writes what arrives into the local block through the seqlock, dropping (and
+counting) a record that is not newer than the last one applied from the same sender. A
+record is named `<owner>/<buffer>` and a node's pushes travel on
+`rcs/<system>/<layout-hash-8>/_push/<node>`, so systems built from other specs never
 exchange a byte. Standard library only: copied verbatim into every generated package.
 """
 
@@ -25,14 +26,17 @@ from typing import Protocol
 from .block import Block
 from .contract import DEAD, PROCESS, SEQ, Record, next_odd
 
-# Before the record's bytes: the sender's incarnation (random per start) and whether the
-# message ends a push (a cycle's records are applied together, when the last one is in).
-EPOCH = Struct("<QB")
-END = 1
+# Before a record's bytes: the sender's incarnation (random per start).
+EPOCH = Struct("<Q")
+# A push (what a node wrote in a cycle) travels as one message: each record as its index in
+# the layout's records (by offset: the same on every node of one layout hash), then its
+# message (EPOCH and the record's bytes, whose size the layout gives).
+INDEX = Struct("<H")
 WORLD_OWNER = "_world"
 PROCESS_OWNER = "_process"
 ALIVE = "_alive"  # liveliness tokens: rcs/<system>/<hash-8>/_alive/<node>
 STEP_KEY = "_step"  # lockstep requests to a process: rcs/<system>/<hash-8>/_step/<process>
+PUSH_KEY = "_push"  # a node's pushes: rcs/<system>/<hash-8>/_push/<node>
 
 
 class TransportError(Exception):
@@ -150,7 +154,6 @@ class Mirror:
         self.known = list(self._seqs.unpack_from(fresh, self._start))  # as last sent/mirrored
         self.owned: set[str] = set()  # keys whose current value this node wrote
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
-        self.pending: dict[int, list[tuple[str, bytes]]] = {}  # sender epoch -> its push so far
         self.counters = Counters()
         self._control = {f"{PROCESS_OWNER}/{p}/control" for p in layout.PROCESSES}
         self._own = f"{PROCESS_OWNER}/{node}/control"  # only this process writes it
@@ -159,16 +162,36 @@ class Mirror:
         """(key suffix, message) of each record this node wrote since it was last sent (with
         `everything`, of each record whose value this node wrote, to bring a node that
         joined up to date); control records last, so a receiver that has a process's
-        control record of cycle N has everything that process wrote up to cycle N. The
-        last message is marked as ending the push: a receiver applies the push whole."""
-        found = list(self._changed(everything))
-        if found:  # the last message ends the push
-            key, message = found[-1]
-            found[-1] = (key, EPOCH.pack(self.epoch, END) + message[EPOCH.size :])
-        return found
+        control record of cycle N has everything that process wrote up to cycle N."""
+        return list(self._changed(everything))
+
+    def pack(self, messages: list[tuple[str, bytes]]) -> bytes:
+        """A push as one payload: each message after its record's index."""
+        return b"".join(INDEX.pack(self._index[key]) + message for key, message in messages)
+
+    def unpack(self, payload: bytes) -> list[tuple[str, bytes]] | None:
+        """The messages of a push, or None (counted) if any part is not a record of this
+        layout: a push is applied whole or not at all."""
+        found, at = [], 0
+        while at < len(payload):
+            if at + INDEX.size > len(payload):
+                break
+            (index,) = INDEX.unpack_from(payload, at)
+            if index >= len(self._keys):
+                break
+            key = self._keys[index]
+            end = at + INDEX.size + EPOCH.size + self.records[key].struct.size
+            if end > len(payload):
+                break
+            found.append((key, payload[at + INDEX.size : end]))
+            at = end
+        else:
+            return found
+        self.counters.malformed += 1
+        return None
 
     def _changed(self, everything: bool) -> Iterator[tuple[str, bytes]]:
-        buf, epoch = self.block.buf, EPOCH.pack(self.epoch, 0)
+        buf, epoch = self.block.buf, EPOCH.pack(self.epoch)
         seqs, known, keys = self._seqs.unpack_from(buf, self._start), self.known, self._keys
         if seqs == tuple(known) and not everything:
             return
@@ -191,22 +214,6 @@ class Mirror:
             else:
                 yield key, message
         yield from last_ones
-
-    def receive(self, key: str, payload: bytes) -> None:
-        """Keep a message until the one that ends its sender's push arrives, then apply the
-        push in the order sent: a reader never sees part of another process's cycle (a
-        subordinate's DONE without the world field it wrote in the same cycle)."""
-        if len(payload) < EPOCH.size:
-            self.counters.malformed += 1
-            return
-        epoch, flags = EPOCH.unpack_from(payload, 0)
-        pending = self.pending.setdefault(epoch, [])
-        pending.append((key, payload))
-        # (or, when a push's end was lost, once far more than a push has come)
-        if flags & END or len(pending) > 2 * len(self.records):
-            del self.pending[epoch]
-            for each in pending:
-                self.apply(*each)
 
     def apply(self, key: str, payload: bytes, now_ns: int | None = None) -> bool:
         """Mirror one message into the block; False when it is dropped (late, out of

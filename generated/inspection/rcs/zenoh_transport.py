@@ -29,7 +29,7 @@ from typing import Any
 from .block import Block
 from .contract import ABSENT, STOPPED
 from .loop import STEP, Process, Stop
-from .transport import ALIVE, STEP_KEY, Mirror, TransportError, prefix, reads
+from .transport import ALIVE, PUSH_KEY, STEP_KEY, Mirror, TransportError, prefix, reads
 
 DEFAULT_PORT = 7447  # Zenoh's own default
 # A free-running process that cycles faster than this sends its records at most this often:
@@ -104,7 +104,6 @@ class ZenohTransport:
         self._congestion = (
             zenoh.CongestionControl.BLOCK if block_when_congested else zenoh.CongestionControl.DROP
         )
-        self._publishers: dict[str, Any] = {}
         self._lockstep, self._next_push = block_when_congested, 0.0
         self._zenoh = zenoh
         config = zenoh.Config()
@@ -117,6 +116,8 @@ class ZenohTransport:
         self._declared: list[Any] = []
         self._cut = len(self.prefix) + 1
         self._step = f"{STEP_KEY}/{process}"
+        self._pushes = f"{PUSH_KEY}/"
+        self._publisher: Any = None
         # One subscriber for the system's whole prefix, filtered here by what this node
         # reads: one zenoh-python thread then delivers everything in the order each sender
         # sent it (a push whole, a coordinator's records before its step request). Several
@@ -138,10 +139,10 @@ class ZenohTransport:
 
     def _sample(self, sample: Any) -> None:
         key = str(sample.key_expr)[self._cut :]
-        if key == self._step:
+        if key.startswith(self._pushes):
+            self._arrived("push", key, sample.payload.to_bytes())
+        elif key == self._step:
             self._arrived("step", "", sample.payload.to_bytes())
-        elif self._wanted(key):
-            self._arrived("data", key, sample.payload.to_bytes())
 
     def _arrived(self, kind: str, key: str, payload: bytes) -> None:
         with self.cond:
@@ -167,8 +168,10 @@ class ZenohTransport:
             self.inbox.clear()
         mirror = self.mirror
         for kind, key, payload in arrived:
-            if kind == "data":
-                mirror.receive(key, payload)
+            if kind == "push":  # a sender's cycle, whole: applied whole, in the order sent
+                for record, message in mirror.unpack(payload) or ():
+                    if self._wanted(record):
+                        mirror.apply(record, message)
             elif kind == "step":
                 self.steps.append(payload)
             elif kind == "join":
@@ -203,23 +206,21 @@ class ZenohTransport:
                 return
             self._next_push = now + MIN_PUSH_INTERVAL
         everything, self.republish = self.republish, False
-        for key, message in self.mirror.changed(everything):
-            if last:
-                self.session.put(
-                    f"{self.prefix}/{key}",
-                    message,
-                    congestion_control=self._zenoh.CongestionControl.BLOCK,
+        messages = self.mirror.changed(everything)
+        if not messages:
+            return
+        payload = self.mirror.pack(messages)
+        key = f"{self.prefix}/{PUSH_KEY}/{self.node}"
+        if last:
+            block = self._zenoh.CongestionControl.BLOCK
+            self.session.put(key, payload, congestion_control=block)
+        else:
+            if self._publisher is None:
+                self._publisher = self.session.declare_publisher(
+                    key, congestion_control=self._congestion
                 )
-                self.mirror.counters.sent += 1
-                continue
-            publisher = self._publishers.get(key)
-            if publisher is None:
-                publisher = self.session.declare_publisher(
-                    f"{self.prefix}/{key}", congestion_control=self._congestion
-                )
-                self._publishers[key] = publisher
-            publisher.put(message)
-            self.mirror.counters.sent += 1
+            self._publisher.put(payload)
+        self.mirror.counters.sent += len(messages)
 
     def send_step(self, process: str, request: bytes) -> None:
         """A lockstep request to `process` (after this node's own records: same link, in order)."""
