@@ -50,8 +50,8 @@ def test_page_is_self_contained_and_deterministic(late_tail):
     assert page == trace_view.render(trace, lanes, system.name, system.cycle_period)
     assert not re.search(r"<(link|img|iframe)\b|\bsrc=|https?://(?!www\.w3\.org/2000/svg)", page)
     data = data_of(page)
-    assert data["n"] == 406 and data["period"] == 0.1 and data["system"] == "miner"
-    assert [lane["module"] for lane in data["lanes"]][:4] == ["sb", "co", "cc", "bm"]
+    assert data["n"] == 407 and data["period"] == 0.1 and data["system"] == "miner"
+    assert [lane["module"] for lane in data["lanes"]][:4] == ["sec", "sb", "co", "cc"]
     co = next(lane for lane in data["lanes"] if lane["module"] == "co")
     fired = {data["strings"][i] for i in co["rules"][1::2]}
     assert "SUMP_SHEAR_CUSP/S2/2" in fired

@@ -45,7 +45,7 @@ def write_lines(path: Path, records: list[dict]) -> Path:
 
 
 def test_load_gives_columns_per_module_and_world(pop_out):
-    assert len(pop_out) == 405 and pop_out.cycles[:3] == [1, 2, 3]
+    assert len(pop_out) == 406 and pop_out.cycles[:3] == [1, 2, 3]
     assert "co" in pop_out.modules and pop_out.modules == sorted(pop_out.modules)
     co = pop_out.columns["co"]
     i = pop_out.cycles.index(175)
@@ -93,7 +93,7 @@ def test_lanes_follow_the_execution_order_with_levels(system, pop_out):
     lanes = traces.lanes(pop_out, system)
     assert [lane.module for lane in lanes] == [m for p in system.processes for m in p.modules]
     by_name = {lane.module: lane for lane in lanes}
-    assert (by_name["sb"].level, by_name["cc"].level, by_name["bm"].level) == (1, 3, 4)
+    assert (by_name["sec"].level, by_name["sb"].level, by_name["bm"].level) == (1, 2, 5)
     assert by_name["mine"].simulator and by_name["mine"].level == 0
     assert [lane.module for lane in traces.lanes(pop_out, None)] == pop_out.modules
 
