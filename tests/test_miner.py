@@ -209,10 +209,10 @@ def test_stalled_tread_times_out_and_error_reaches_the_shift_boss():
     assert final["status"] == "ERROR"
     first_error = {}
     for line in lines:
-        for module in ("tc", "vg", "co", "sb"):
+        for module in ("tc", "vg", "co", "sb", "sec"):
             if line["modules"][module]["status"] == "ERROR":
                 first_error.setdefault(module, line["cycle"])
-    assert list(first_error) == ["tc", "vg", "co", "sb"], "ERROR climbs the thread in order"
+    assert list(first_error) == ["tc", "vg", "co", "sb", "sec"], "ERROR climbs in order"
     assert first_error["vg"] - first_error["tc"] == 1, "one level per cycle, command-first"
     stalled = next(line["cycle"] for line in lines if line["world"]["tread_stalled"])
     assert first_error["tc"] - stalled >= 60, "the safety time-out, not an early failure"
@@ -373,6 +373,17 @@ def test_guidance_trams_around_the_pillar_to_a_goal_in_the_next_entry():
 def test_two_passes_cut_the_whole_wide_face_to_depth():
     final, lines = played("two_passes")
     assert final["status"] == "DONE"
+    # the section's MINE_COAL is the shift boss's two passes, with the operator's figures
+    assert commands_sent(lines, "sec")[-1] == "MINE_COAL"
+    assert commands_sent(lines, "sb") == ["INIT", "CUT_TWO_PASSES"]
+    sb_done = next(
+        i
+        for i, line in enumerate(lines)
+        if line["modules"]["sb"]["status"] == "DONE"
+        and line["modules"]["sb"]["command"] == "CUT_TWO_PASSES"
+    )
+    assert lines[sb_done]["modules"]["sec"]["status"] == "EXECUTING"
+    assert lines[sb_done + 1]["modules"]["sec"]["status"] == "DONE", "a cycle a level up"
     co = commands_sent(lines, "co")
     first_slab = co.index("REPOSITION") + 2
     assert co[: first_slab + 1].count("SUMP_SHEAR_CUSP") >= 2, "the box cut, slice by slice"
