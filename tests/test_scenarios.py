@@ -157,7 +157,7 @@ def test_a_scenario_designed_to_end_in_error_passes(miner: Path) -> None:
     result = rcsgen("run", "miner/scenarios/stalled_tread.yaml", "-q")
     assert result.exit_code == 1
     assert (
-        "error[E416]: expected `sec` to finish DONE; it finished ERROR (state NOP) in cycle 201"
+        "error[E416]: expected `sec` to finish DONE; it finished ERROR (state NOP) in cycle 262"
         in result.output
     )
 

@@ -4,12 +4,27 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import miner_hooks.sim as hooks
+
 from .layout import (
     JAS_PERF_AT,
     JAS_STATUS_AT,
     WORLD_JACK_DOWN_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    INT_MAX,
+    INT_MIN,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+    is_integer,
+)
 
 # Commands jas accepts (the code written to its command buffer).
 INIT = 1
@@ -35,11 +50,15 @@ WORLD_OUT_1_AT = 3888
 S0 = 1
 
 # Constants.
-TRAVEL_CYCLES = 3
+TRAVEL_CYCLES = 15
+TRAVEL_SPREAD = 3
 
 
 class JasController:
     """The jas controller: its local buffers and the QQ1 cycle."""
+
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
 
     __slots__ = (
         "buf",
@@ -49,6 +68,7 @@ class JasController:
         "cycles",
         "dont_run",
         "error_num",
+        "hook_state",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -64,6 +84,7 @@ class JasController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "var_stroke",
         "var_travel",
         "world_jack_down",
         "world_jack_down_cmd",
@@ -72,7 +93,12 @@ class JasController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
+        try:
+            self.hook_state = hooks.new_actuator_error(settings or {})
+        except Exception as error:
+            raise HookError("jas", "new_actuator_error", "hooks_state", 0) from error
         self.var_travel: int = 0
+        self.var_stroke: int = 0
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -297,12 +323,31 @@ class JasController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        if self.world_jack_down_cmd != self.world_jack_down and self.var_travel >= TRAVEL_CYCLES:
+        if self.world_jack_down_cmd != self.world_jack_down and self.var_travel == 0:
+            # a new stroke; how long it takes
+            try:
+                returned = hooks.travel_time(self.hook_state, TRAVEL_CYCLES, TRAVEL_SPREAD)
+            except Exception as error:  # one error naming the module, hook, rule and cycle
+                raise HookError("jas", "travel_time", "every_cycle/1", self.cycles) from error
+            if (
+                type(returned) is not int and not is_integer(returned)
+            ) or not INT_MIN <= returned <= INT_MAX:
+                raise HookError("jas", "travel_time", "every_cycle/1", self.cycles, returned, "i")
+            self.var_stroke = returned
+            self.var_travel = 1
+
+        elif (
+            self.world_jack_down_cmd != self.world_jack_down and self.var_travel >= self.var_stroke
+        ):
             self.world_jack_down = self.world_jack_down_cmd
             self.var_travel = 0
 
         elif self.world_jack_down_cmd != self.world_jack_down:
             self.var_travel = self.var_travel + 1
+
+        elif self.var_travel != 0:
+            # the stroke was called off (HALT commands where the jack is)
+            self.var_travel = 0
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 4176 bytes.
+The block is 4192 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -166,6 +166,7 @@ command buffers and world fields:
 | 4128 | 16 | WORLD_DEPTH_CUT | depth_cut |
 | 4144 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
 | 4160 | 16 | WORLD_COAL_MINED | coal_mined |
+| 4176 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
 """
 
 from __future__ import annotations
@@ -194,9 +195,9 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 4176
+SIZE = 4192
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "b6f9fd1497a8be69241d143c45145f60"
+LAYOUT_HASH = "42c60a3aab361bee64197473d0875ece"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
@@ -469,6 +470,8 @@ WORLD_LOOSE_COAL_TRUE = Struct("<Qd")  # seq, loose_coal_true
 WORLD_LOOSE_COAL_TRUE_AT = 4144
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
 WORLD_COAL_MINED_AT = 4160
+WORLD_SHUTTLE_CAR_AWAY = Struct("<Q?")  # seq, shuttle_car_away
+WORLD_SHUTTLE_CAR_AWAY_AT = 4176
 
 
 PROCESSES = {
@@ -748,6 +751,9 @@ WORLD = {
         WORLD_LOOSE_COAL_TRUE, WORLD_LOOSE_COAL_TRUE_AT, ("loose_coal_true",)
     ),
     "coal_mined": Record(WORLD_COAL_MINED, WORLD_COAL_MINED_AT, ("coal_mined",)),
+    "shuttle_car_away": Record(
+        WORLD_SHUTTLE_CAR_AWAY, WORLD_SHUTTLE_CAR_AWAY_AT, ("shuttle_car_away",)
+    ),
 }
 WORLD_INITIAL: dict[str, object] = {
     "tail_request": False,
@@ -792,6 +798,7 @@ WORLD_INITIAL: dict[str, object] = {
     "depth_cut": 0.0,
     "loose_coal_true": 0.0,
     "coal_mined": 0.0,
+    "shuttle_car_away": False,
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
