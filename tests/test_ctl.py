@@ -348,20 +348,24 @@ def running_miner(*options: str) -> Running:
 
 def test_the_miner_walk_through_from_the_readme() -> None:
     """Start the miner with the operator at the console (`--world operator_delay=-1`), send
-    sb BOX_CUT depth=1.5 as the crew, single-step co five cycles, switch cr to simulation and
+    sec BOX_CUT depth=1.5 as the crew (the section, the top; the shift boss below it is the
+    engineer's to override), single-step co five cycles, switch cr to simulation and
     back as the engineer, answer the conveyor-tail request as the crew, stop it: every step a
     command line, the system paced, each role refused what it may not do."""
     system = running_miner()
     try:
-        refused = system.ctl("send", "sb", "BOX_CUT", "depth=1.5")  # no role: monitor only
+        refused = system.ctl("send", "sec", "BOX_CUT", "depth=1.5")  # no role: monitor only
         assert refused.returncode == 1 and refused.stdout == ""
         assert refused.stderr.splitlines() == [
-            "ctl: error: refused: commanding sb needs command on sb; no --role was given, so "
+            "ctl: error: refused: commanding sec needs command on sec; no --role was given, so "
             "this console only monitors (roles that may: crew, engineer)"
         ]
-        sent = system.ctl("--role", "crew", "send", "sb", "BOX_CUT", "depth=1.5", "--seen")
+        under = system.ctl("--role", "crew", "send", "sb", "BOX_CUT", "depth=1.5")
+        assert under.returncode == 1 and under.stdout == "", under.stdout
+        assert under.stderr.startswith("ctl: error: sb is commanded by sec: "), under.stderr
+        sent = system.ctl("--role", "crew", "send", "sec", "BOX_CUT", "depth=1.5", "--seen")
         assert sent.returncode == 0, sent.stderr
-        assert sent.stdout.startswith("sent sb.BOX_CUT depth=1.5 #2")
+        assert sent.stdout.startswith("sent sec.BOX_CUT depth=1.5 #2")
         wait_for(lambda: system.module("co")["status"] == "EXECUTING", "co working")
         refused = system.ctl("step", "co", "5", "--role", "crew")
         assert refused.returncode == 1
@@ -383,7 +387,7 @@ def test_the_miner_walk_through_from_the_readme() -> None:
         assert system.ctl("simulate", "cr", "off", "--role", "engineer").returncode == 0
         wait_for(lambda: system.module("cr")["runs"] == "cr", "cr again")
         assert not system.module("gh").get("skipped_by")
-        assert system.module("sb")["command"] == "BOX_CUT"
+        assert system.module("sec")["command"] == system.module("sb")["command"] == "BOX_CUT"
         # ct asks for the conveyor tail; nobody but the console answers it
         wait_for(lambda: system.json().get("requests"), "the tail request", 60)
         listed = system.ctl("requests")
@@ -424,7 +428,8 @@ def test_the_access_matrix_and_a_bad_role() -> None:
     matrix = ctl("roles").stdout.splitlines()
     assert matrix[0].split() == ["module", "crew", "engineer"]
     rows = {line.split()[0]: line.split()[1:] for line in matrix[1:]}
-    assert rows["sb"] == ["command", "override"] and rows["ct"] == ["respond", "override"]
+    assert rows["sec"] == ["command", "override"] and rows["sb"] == ["monitor", "override"]
+    assert rows["ct"] == ["respond", "override"]
     assert rows["co"] == ["monitor", "override"] and len(rows) == len(layout.MODULES)
     bad = ctl("--role", "enginer", "status")
     assert (bad.returncode, bad.stderr) == (

@@ -271,7 +271,7 @@ def test_a_host_of_several_processes_launches_them_all(tmp_path: Path) -> None:
         "--set",
         "seed=7",
         "--send",
-        "sb.BOX_CUT:depth=1.5",
+        "sec.BOX_CUT:depth=1.5",
         "--until-done",
         "--report",
         "depth_cut",
@@ -279,6 +279,6 @@ def test_a_host_of_several_processes_launches_them_all(tmp_path: Path) -> None:
     )
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert lines[:2] == ["sb DONE #2", "depth_cut = 1.5"], done.stdout
+    assert lines[:2] == ["sec DONE #2", "depth_cut = 1.5"], done.stdout
     assert any(line.startswith("pc2: stopped, ") for line in lines), done.stdout
     assert not [n for n in os.listdir("/dev/shm") if n.startswith(segment)]

@@ -148,7 +148,7 @@ def test_editing_a_guard_is_caught_with_the_first_differing_cycle(tmp_path):
         )
     mismatch = first_difference(read_trace(GOLDEN / "late_tail.jsonl"), result.trace)
     assert mismatch is not None
-    # 4.01 t of loose coal on the gauge no longer pauses the shear at cycle 83: the HALT
+    # 4.01 t of loose coal on the gauge no longer pauses the shear at cycle 111: the HALT
     # that reached the boom (first field in sorted order) is not sent, the boom keeps lowering.
-    assert (mismatch.cycle, mismatch.field) == (83, "modules.bm.command")
+    assert (mismatch.cycle, mismatch.field) == (111, "modules.bm.command")
     assert (mismatch.expected, mismatch.actual) == ("HALT", "LOWER")

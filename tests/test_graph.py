@@ -36,12 +36,8 @@ def test_hierarchy_has_every_module_by_level_with_simulators_and_stand_ins(syste
     picture = graph.hierarchy(system)
     nodes = {n.id.removeprefix("m_"): n for n in picture.nodes}
     assert set(nodes) == {c.name for c in system.controllers}
-    assert (nodes["sb"].level, nodes["co"].level, nodes["cc"].level, nodes["bm"].level) == (
-        1,
-        2,
-        3,
-        4,
-    )
+    levels = [nodes[m].level for m in ("sec", "sb", "co", "cc", "bm")]
+    assert levels == [1, 2, 3, 4, 5]
     assert nodes["mine"].kind == "simulator" and nodes["mine"].cluster == "p_pc1_sim"
     assert nodes["cr_sim"].kind == "stand_in"
     commands = {(e.source, e.target) for e in picture.edges if e.kind == "command"}
@@ -58,7 +54,8 @@ def test_hierarchy_mermaid_colours_levels_and_marks_simulators(system):
     assert 'm_mine(["mine<br/>Mine (simulated environment)"])' in text
     assert "m_cr_sim -.->" in text
     assert re.search(r"classDef level1 fill:#ffd6a5", text)
-    assert re.search(r"class m_sb level1\n", text)
+    assert re.search(r"class m_sec level1\n", text)
+    assert re.search(r"class m_sb level2\n", text)
     assert "stroke-dasharray" in text.split("classDef simulator", 1)[1].splitlines()[0]
 
 
@@ -108,29 +105,32 @@ def test_labels_are_escaped_for_mermaid_and_dot(system):
 def test_round_trip_command_first_takes_one_cycle_down_and_a_cycle_per_level_up(system):
     process = system.processes[0]
     chain = graph.thread(system, process, None)
-    assert chain == ["sb", "co", "cc", "bm"]  # the deepest thread, first in execution order
+    # the deepest thread, first in execution order
+    assert chain == ["sec", "sb", "co", "cc", "bm"]
     assert graph.round_trip(process, chain) == [
+        ("command", "sec", "sb", 1, 1),
         ("command", "sb", "co", 1, 1),
         ("command", "co", "cc", 1, 1),
         ("command", "cc", "bm", 1, 1),
         ("status", "bm", "cc", 1, 2),
         ("status", "cc", "co", 2, 3),
         ("status", "co", "sb", 3, 4),
+        ("status", "sb", "sec", 4, 5),
     ]
     # Status-first order (the paper's alternative): the command needs a cycle per level.
     upside_down = replace(process, modules=tuple(reversed(process.modules)))
     hops = graph.round_trip(upside_down, chain)
-    assert [h[4] for h in hops] == [2, 3, 4, 4, 4, 4]
-    assert graph.thread(system, process, "tc") == ["sb", "co", "vg", "tc"]
+    assert [h[4] for h in hops] == [2, 3, 4, 5, 5, 5, 5, 5]
+    assert graph.thread(system, process, "tc") == ["sec", "sb", "co", "vg", "tc"]
 
 
 def test_order_picture_has_a_cluster_per_cycle_and_message_edges(system):
     picture = graph.picture(system, "order")
-    assert [c.label for c in picture.clusters] == ["cycle 1", "cycle 2", "cycle 3", "cycle 4"]
+    assert [c.label for c in picture.clusters] == [f"cycle {n}" for n in range(1, 6)]
     kinds = [(e.kind, e.source, e.target) for e in picture.edges if e.kind != "then"]
     assert ("status", "x1_bm", "x2_cc") in kinds and ("status", "x3_co", "x4_sb") in kinds
-    assert picture.nodes[-1].id == "x4_sb"  # the round trip ends when sb reads the status
-    assert "sb co cc bm cd sj" in " ".join(picture.nodes[0].label)
+    assert picture.nodes[-1].id == "x5_sec"  # the round trip ends when sec reads the status
+    assert "sec sb co cc bm cd sj" in " ".join(picture.nodes[0].label)
 
 
 def test_same_specs_give_the_same_bytes(system):

@@ -93,7 +93,7 @@ def test_cli_writes_the_replay_beside_the_trace(tmp_path, monkeypatch):
         re.search(r'id="mine-data" type="application/json">(.*?)</script>', page).group(1)
     )
     assert data["scenario"] == "pop_out" and data["mismatch"] is None
-    assert [c["module"] for c in data["controllers"]] == ["sb", "co", "cc", "cr", "vg", "wm"]
+    assert [c["module"] for c in data["controllers"]] == ["sec", "sb", "co", "cc", "cr", "vg", "wm"]
     assert page == rcsgen_page(copy, tmp_path)  # same trace, same bytes
 
 

@@ -209,10 +209,10 @@ def test_stalled_tread_times_out_and_error_reaches_the_shift_boss():
     assert final["status"] == "ERROR"
     first_error = {}
     for line in lines:
-        for module in ("tc", "vg", "co", "sb"):
+        for module in ("tc", "vg", "co", "sb", "sec"):
             if line["modules"][module]["status"] == "ERROR":
                 first_error.setdefault(module, line["cycle"])
-    assert list(first_error) == ["tc", "vg", "co", "sb"], "ERROR climbs the thread in order"
+    assert list(first_error) == ["tc", "vg", "co", "sb", "sec"], "ERROR climbs in order"
     assert first_error["vg"] - first_error["tc"] == 1, "one level per cycle, command-first"
     stalled = next(line["cycle"] for line in lines if line["world"]["tread_stalled"])
     assert first_error["tc"] - stalled >= 60, "the safety time-out, not an early failure"
@@ -373,6 +373,17 @@ def test_guidance_trams_around_the_pillar_to_a_goal_in_the_next_entry():
 def test_two_passes_cut_the_whole_wide_face_to_depth():
     final, lines = played("two_passes")
     assert final["status"] == "DONE"
+    # the section's MINE_COAL is the shift boss's two passes, with the operator's figures
+    assert commands_sent(lines, "sec")[-1] == "MINE_COAL"
+    assert commands_sent(lines, "sb") == ["INIT", "CUT_TWO_PASSES"]
+    sb_done = next(
+        i
+        for i, line in enumerate(lines)
+        if line["modules"]["sb"]["status"] == "DONE"
+        and line["modules"]["sb"]["command"] == "CUT_TWO_PASSES"
+    )
+    assert lines[sb_done]["modules"]["sec"]["status"] == "EXECUTING"
+    assert lines[sb_done + 1]["modules"]["sec"]["status"] == "DONE", "a cycle a level up"
     co = commands_sent(lines, "co")
     first_slab = co.index("REPOSITION") + 2
     assert co[: first_slab + 1].count("SUMP_SHEAR_CUSP") >= 2, "the box cut, slice by slice"
@@ -415,3 +426,81 @@ def test_the_checker_refuses_a_controller_that_reads_the_truth_and_a_halt_that_s
         "W520",
         "`cd` commands actuator `drum_on_cmd` but keeps the default HALT, which stops nothing",
     ) in found
+
+
+sim_hooks = import_hooks(ROOT / "specs" / "miner", "miner_hooks.sim")
+haulage_hooks = import_hooks(ROOT / "specs" / "miner", "miner_hooks.haulage")
+
+
+def test_a_shuttle_car_away_piles_up_loose_coal_until_the_shear_pauses():
+    """Nothing is set by hand: the car fills, leaves, the conveyor has nowhere to put coal,
+    the pile grows past the gauge's limit and co pauses the shear (Appendix C's loose-coal
+    branch) until the car is back and the pile is gathered; the cut then completes."""
+    final, lines = played("shuttle_car")
+    assert final["status"] == "DONE"
+    scenario = load_scenario(SCENARIOS / "shuttle_car.yaml")
+    assert all(not event.world for event in scenario.events), "nothing is set by hand"
+    halts = [
+        line
+        for line in lines
+        if line["modules"]["cc"]["command"] == "HALT"
+        and line["modules"]["co"]["command"] == "SUMP_SHEAR_CUSP"
+    ]
+    assert halts, "too much loose coal paused the shear"
+    assert halts[0]["world"]["shuttle_car_away"], "because the car was away"
+    assert halts[0]["world"]["tail_in_position"], "not because of the tail"
+    by_cycle = {line["cycle"]: line for line in lines}
+    assert by_cycle[halts[0]["cycle"] - 1]["world"]["loose_coal"] > 4.0, "the gauge said so"
+    resumed = next(
+        line
+        for line in lines
+        if line["cycle"] > halts[-1]["cycle"] and line["modules"]["cc"]["command"] == "SHEAR"
+    )
+    assert not resumed["world"]["shuttle_car_away"], "resumed once the car was back"
+    assert lines[-1]["world"]["depth_cut"] >= 1.5 and lines[-1]["world"]["coal_mined"] > 12.0
+    # without the car (a belt), the same cut never pauses
+    _, belt = played("box_cut")
+    assert not any(
+        line["modules"]["cc"]["command"] == "HALT"
+        and line["modules"]["co"]["command"] == "SUMP_SHEAR_CUSP"
+        for line in belt
+    )
+
+
+def test_the_shuttle_car_fills_leaves_and_comes_back_empty():
+    car = haulage_hooks.new_haulage({"shuttle_car": "1.0 3"})
+    steps = [haulage_hooks.haul(car, 5.0, 0.0, True, 0.6)]
+    assert steps[0] == (4.4, 0.6, False)
+    steps.append(haulage_hooks.haul(car, 4.4, 0.6, True, 0.6))
+    assert steps[1] == (4.0, 1.0, True), "only what fits; full, it leaves"
+    for _ in range(2):
+        assert haulage_hooks.haul(car, 4.0, 1.0, True, 0.6) == (4.0, 1.0, True)
+    assert haulage_hooks.haul(car, 4.0, 1.0, True, 0.6) == (3.4, 1.6, False), "back, empty"
+    belt = haulage_hooks.new_haulage({})
+    assert haulage_hooks.haul(belt, 50.0, 0.0, True, 0.6) == (49.4, 0.6, False)
+    assert haulage_hooks.haul(belt, 1.0, 0.0, False, 0.6) == (1.0, 0.0, False), "not running"
+    for bad in ("3.0", "x 4", "3.0 0", "-1 10", "1 2 3"):
+        try:
+            haulage_hooks.new_haulage({"shuttle_car": bad})
+        except haulage_hooks.HaulageSettingError as error:
+            assert repr(bad) in str(error)
+        else:
+            raise AssertionError(f"{bad!r} was taken")
+
+
+def test_actuators_have_seeded_random_error_within_their_bounds():
+    """Boom rate within 10% of the command, a jack stroke of 15 +- 3 cycles, each tread
+    within 5% of its speed: they vary, stay in bounds, and the same seed repeats them."""
+    rng = sim_hooks.new_actuator_error({"seed": "7"})
+    moves = [sim_hooks.turn_boom(rng, 0.0, 1.5, 0.1, -10.0, 30.0) for _ in range(200)]
+    assert all(1.35 <= m <= 1.65 for m in moves) and len(set(moves)) > 100
+    assert sim_hooks.turn_boom(rng, 29.5, 1.5, 0.1, -10.0, 30.0) == 30.0, "the stop holds"
+    strokes = {sim_hooks.travel_time(rng, 15, 3) for _ in range(200)}
+    assert strokes == set(range(12, 19))
+    poses = [sim_hooks.advance(rng, 0.0, 0.0, 0.0, 1, 1, 0.05) for _ in range(200)]
+    assert all(0.0475 <= x <= 0.0525 for x, _, _ in poses)
+    assert len({h for _, _, h in poses}) > 100, "unequal treads turn the machine a little"
+    again = sim_hooks.new_actuator_error({"seed": "7"})
+    assert [sim_hooks.turn_boom(again, 0.0, 1.5, 0.1, -10.0, 30.0) for _ in range(200)] == moves
+    other = sim_hooks.new_actuator_error({"seed": "8"})
+    assert sim_hooks.turn_boom(other, 0.0, 1.5, 0.1, -10.0, 30.0) != moves[0]

@@ -47,9 +47,10 @@ def test_the_tree_puts_each_subordinate_under_its_supervisor() -> None:
         f"{import_package(Path('generated/miner').resolve(), None).__name__}.layout"
     )
     rows = dict(tree_order(layout))
-    assert list(rows)[:3] == ["sb", "co", "cr"]
-    assert rows["sb"] == "" and rows["co"] == "├─ " and rows["cr"] == "│  ├─ "
-    assert rows["wm"] == "└─ ", "world modelling, the shift boss's last subordinate"
+    assert list(rows)[:4] == ["sec", "sb", "co", "cr"]
+    assert rows["sec"] == "" and rows["sb"] == "└─ "
+    assert rows["co"] == "   ├─ " and rows["cr"] == "   │  ├─ "
+    assert rows["wm"] == "   └─ ", "world modelling, the shift boss's last subordinate"
     assert rows["pp"].endswith("├─ ") and rows["oi"] == ""
 
 
@@ -144,19 +145,19 @@ def test_the_role_limits_the_keys_and_requests_are_answered_on_screen() -> None:
     under the table, and `a` answers it."""
     from test_ctl import running_miner
 
-    system = running_miner("--send", "sb.BOX_CUT:depth=1.5")
+    system = running_miner("--send", "sec.BOX_CUT:depth=1.5")
     layout = system.layout
 
     async def drive() -> tuple[str, str]:
         app = Monitor(layout, system.segment, interval=0.1, role="crew")
         async with app.run_test(size=(160, 40)) as pilot:
             await pilot.pause(0.3)
-            assert app.selected() == "sb" and app.sub_title.endswith(" as crew")
+            assert app.selected() == "sec" and app.sub_title.endswith(" as crew")
             await pilot.press("s")
             await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             message = str(app.query_one("#message").render())
-            assert "refused: changing sb's mode needs override on sb" in message
-            assert system.module("sb")["run"] == "RUN"
+            assert "refused: changing sec's mode needs override on sec" in message
+            assert system.module("sec")["run"] == "RUN"
             for _ in range(900):  # ct asks at the first sump: seconds, more on a busy host
                 await pilot.pause(0.1)
                 if "ct asks:" in str(app.query_one("#requests").render()):

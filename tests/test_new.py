@@ -57,7 +57,7 @@ def test_a_controller_joins_its_supervisor_and_runs_after_its_subtree(
         "edited  system.yaml",
     ]
     after = system.read_text()
-    assert "[sb, co, cc, bm, cd, sj, wl, cr, gh," in after
+    assert "[sec, sb, co, cc, bm, cd, sj, wl, cr, gh," in after
     assert after.replace(" wl,", "", 1) == before[system]  # one item more, nothing else
     subordinates = next(line for line in cc.read_text().splitlines() if "subordinates" in line)
     assert subordinates.endswith(", wl]")

@@ -82,7 +82,7 @@ def test_parameters_and_pipes_are_table_safe(pages):
 def test_index_has_hierarchy_order_and_world_model(pages):
     index = pages["miner/README.md"]
     assert "## Hierarchy" in index and "m_sb --> m_co" in index
-    assert "Execution order, every cycle: sb → co → cc → bm" in index
+    assert "Execution order, every cycle: sec → sb → co → cc → bm" in index
     assert "Stand-in: [cr_sim](cr_sim.md) can run in place of cr, gh, cv, ct." in index
     assert "| `loose_coal` | float | `0.0` | lcs | co, cr | Loose coal" in index
 

@@ -44,7 +44,7 @@ def phases(trace: bytes, module: str) -> Counter[str]:
 def test_a_run_ending_in_the_expected_error_writes_trace_and_record_and_exits_0(
     cwd: Path,
 ) -> None:
-    """stalled_tread: sb reports ERROR, as its `expect:` says. Exit 0; the trace (default
+    """stalled_tread: sec reports ERROR, as its `expect:` says. Exit 0; the trace (default
     path) and the --record file are the golden trace byte for byte; the summary names the
     result, cycles and phases. (An outcome that is not the expected one exits 1: E416 in
     the corpus.)"""
@@ -60,7 +60,7 @@ def test_a_run_ending_in_the_expected_error_writes_trace_and_record_and_exits_0(
     lines = result.stdout.splitlines()
     assert lines[:4] == [
         f"scenario  stalled_tread: {title}",
-        "result    sb ERROR (state NOP)",
+        "result    sec ERROR (state NOP)",
         f"cycles    {cycles}",
         "phases    cycles per co command:",
     ]
@@ -83,7 +83,7 @@ def test_a_run_ending_in_the_expected_error_writes_trace_and_record_and_exits_0(
 
 
 def test_a_run_ending_done_exits_0_and_writes_only_its_trace(cwd: Path) -> None:
-    """sump_shear_cusp: sb reports DONE. Exit 0; `--trace` names the file; no record."""
+    """sump_shear_cusp: sec reports DONE. Exit 0; `--trace` names the file; no record."""
     result = rcsgen(
         "run", SCENARIOS / "sump_shear_cusp.yaml", "--generated", GENERATED, "--trace", "t.jsonl"
     )
@@ -93,13 +93,13 @@ def test_a_run_ending_done_exits_0_and_writes_only_its_trace(cwd: Path) -> None:
     assert (cwd / "t.jsonl").read_bytes() == golden
     cycles = len(golden.splitlines())
     lines = result.stdout.splitlines()
-    assert "result    sb DONE (state NOP)" in lines
+    assert "result    sec DONE (state NOP)" in lines
     assert lines[-1] == f"trace     t.jsonl ({cycles} lines)"
     assert not any(line.startswith("recorded") for line in lines)
 
 
 def test_a_run_cut_short_before_the_stop_module_finishes_exits_1(cwd: Path) -> None:
-    """max_cycles reached while sb is still EXECUTING: not a success either."""
+    """max_cycles reached while sec is still EXECUTING: not a success either."""
     specs = cwd / "specs" / "miner"
     shutil.copytree(MINER, specs, ignore=shutil.ignore_patterns("__pycache__"))
     scenario = specs / "scenarios" / "sump_shear_cusp.yaml"
@@ -108,7 +108,7 @@ def test_a_run_cut_short_before_the_stop_module_finishes_exits_1(cwd: Path) -> N
     scenario.write_text(text.replace("max_cycles: 400\n", "max_cycles: 20\n"), encoding="utf-8")
     result = rcsgen("run", scenario, "--generated", GENERATED, "--trace", "t.jsonl")
     assert result.exit_code == 1, result.output
-    assert "result    sb EXECUTING (state S1)" in result.stdout.splitlines()
+    assert "result    sec EXECUTING (state S1)" in result.stdout.splitlines()
     golden = (GOLDEN / "sump_shear_cusp.jsonl").read_bytes().splitlines(keepends=True)
     assert (cwd / "t.jsonl").read_bytes() == b"".join(golden[:20])
 

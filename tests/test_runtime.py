@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import itertools
+import json
 import os
 import shutil
 import signal
@@ -414,20 +415,23 @@ def python_m_miner(*args: str, timeout: float = 120) -> subprocess.CompletedProc
 def test_the_miner_as_two_free_running_processes_completes_the_box_cut() -> None:
     """`python -m miner`: pc1 and pc2 (the path planner) as two OS processes, not in
     lockstep and not paced (each as fast as it can); the operator's BOX_CUT is sent once
-    sb has finished INIT, and the box cut ends DONE at the depth of the one-process run."""
+    the section (sec) has finished INIT, and the box cut ends DONE at the depth of the
+    one-process run."""
     done = python_m_miner(
         "--fast",
         "--set", "map=maps/box_cut.map",
         "--set", "seed=7",
-        "--send", "sb.BOX_CUT:depth=1.5",
+        "--send", "sec.BOX_CUT:depth=1.5",
         "--until-done",
         "--report", "depth_cut,coal_mined",
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert lines[0] == "sb DONE #2", done.stdout
+    assert lines[0] == "sec DONE #2", done.stdout
     assert lines[1] == "depth_cut = 1.5"
-    assert float(lines[2].split(" = ")[1]) == pytest.approx(12.587944)
+    golden = (REPO / "tests" / "golden" / "box_cut.jsonl").read_text().splitlines()[-1]
+    one_process = json.loads(golden)["world"]["coal_mined"]
+    assert float(lines[2].split(" = ")[1]) == pytest.approx(one_process)
     assert any(line.startswith("pc2: stopped, ") for line in lines)
 
 

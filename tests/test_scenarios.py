@@ -56,18 +56,42 @@ def edit(path: Path, old: str, new: str) -> None:
 
 
 def test_a_command_in_the_supervisors_place_is_kept(tiny: Path) -> None:
-    """With `overrides: true` the supervisor adopts the command instead of overwriting it:
-    sub runs MOVE to DONE and top sees the echo of the number it now holds."""
+    """With `overrides: true` the supervisor does not overwrite the command: sub runs MOVE
+    to DONE under the number the scenario gave it, and top's next send is numbered after."""
     scenario = load_scenario(tiny / "scenarios" / "move.yaml")
     assert scenario.events[0].overrides == "top"
     result = rcsgen("run", "sys/scenarios/move.yaml")
     assert result.exit_code == 0, result.output
     assert "result    sub DONE (state NOP)" in result.stdout
-    h = open_harness(scenario, _built(tiny))
-    outcome = run(scenario, h)
-    assert outcome.final["status"] == "DONE"
-    top = h.controller("top")
-    assert (top.sub_command_num, top.sub_arg_x) == (h.sent("sub").number, 1.0)
+    with open_harness(scenario, _built(tiny)) as h:
+        outcome = run(scenario, h)
+        assert outcome.final["status"] == "DONE"
+        assert (h.sent("sub").command, h.sent("sub").number, h.sent("sub").args) == (
+            "MOVE",
+            2,
+            {"x": 1.0},
+        )
+        h.command("top", "GO")
+        h.cycle()
+        assert (h.sent("sub").command, h.sent("sub").number) == ("MOVE", 3)
+
+
+def test_an_override_under_a_supervisor_in_init_runs_alike_in_one_process_and_in_lockstep(
+    tiny: Path,
+) -> None:
+    """The sub is commanded while top still waits in INIT for sub's echo. The one-process
+    harness used to write the supervisor's locals (`adopt`), so top rewrote the command
+    numbered 3 and kept waiting; the processes, where no one can reach into top, left it
+    at 2 and top finished INIT. A scenario must leave the same trace either way."""
+    scenario = load_scenario(tiny / "scenarios" / "move.yaml")
+    package = _built(tiny)
+    with open_harness(scenario, package) as one:
+        alone = run(scenario, one).trace
+    with open_harness(scenario, package, processes=True) as launched:
+        lockstep = run(scenario, launched).trace
+    cycle_2 = json.loads(alone[1])["modules"]
+    assert cycle_2["top"]["command"] == "INIT" and cycle_2["sub"]["command_num"] == 2
+    assert alone == lockstep
 
 
 def _built(system: Path) -> Path:
@@ -133,7 +157,7 @@ def test_a_scenario_designed_to_end_in_error_passes(miner: Path) -> None:
     result = rcsgen("run", "miner/scenarios/stalled_tread.yaml", "-q")
     assert result.exit_code == 1
     assert (
-        "error[E416]: expected `sb` to finish DONE; it finished ERROR (state NOP) in cycle 200"
+        "error[E416]: expected `sec` to finish DONE; it finished ERROR (state NOP) in cycle 262"
         in result.output
     )
 

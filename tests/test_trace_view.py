@@ -50,8 +50,8 @@ def test_page_is_self_contained_and_deterministic(late_tail):
     assert page == trace_view.render(trace, lanes, system.name, system.cycle_period)
     assert not re.search(r"<(link|img|iframe)\b|\bsrc=|https?://(?!www\.w3\.org/2000/svg)", page)
     data = data_of(page)
-    assert data["n"] == 406 and data["period"] == 0.1 and data["system"] == "miner"
-    assert [lane["module"] for lane in data["lanes"]][:4] == ["sb", "co", "cc", "bm"]
+    assert data["n"] == 494 and data["period"] == 0.1 and data["system"] == "miner"
+    assert [lane["module"] for lane in data["lanes"]][:4] == ["sec", "sb", "co", "cc"]
     co = next(lane for lane in data["lanes"] if lane["module"] == "co")
     fired = {data["strings"][i] for i in co["rules"][1::2]}
     assert "SUMP_SHEAR_CUSP/S2/2" in fired
@@ -92,22 +92,22 @@ def test_page_in_a_browser_draws_lanes_markers_and_the_cursor(tmp_path, late_tai
     trace, lanes, system = late_tail
     page = tmp_path / "late_tail.html"
     page.write_text(trace_view.render(trace, lanes, system.name, 0.1), encoding="utf-8")
-    shown = load(f"{page.as_uri()}#from=60&to=130&cycle=83", tmp_path, "late_tail")
+    shown = load(f"{page.as_uri()}#from=90&to=160&cycle=111", tmp_path, "late_tail")
     body = shown.body()
     assert shown.console == [], shown.console
     assert body.get("data-ready") == "1" and "data-error" not in body
     assert body["data-lanes"] == str(len(lanes)) and int(body["data-markers"]) > 20
-    assert body["data-cursor"] == "83"
+    assert body["data-cursor"] == "111"
     for lane in lanes:
         assert f'<g class="lane" data-module="{lane.module}">' in shown.dom
     assert re.search(
-        r'<path class="marker" data-rule="SUMP_SHEAR_CUSP/S2/2" data-cycle="83"', shown.dom
+        r'<path class="marker" data-rule="SUMP_SHEAR_CUSP/S2/2" data-cycle="111"', shown.dom
     )
     assert (
         'class="seg seg-command"' in shown.dom
         and 'class="plot" data-field="loose_coal"' in shown.dom
     )
-    # the cursor's panel: cc was sent HALT #5 by co's loose-coal rule in cycle 83
+    # the cursor's panel: cc was sent HALT #5 by co's loose-coal rule in cycle 111
     row = re.search(r'<tr data-module="cc">(.*?)</tr>', shown.dom)
     assert row is not None and "HALT #5" in row.group(1) and 'class="changed"' in row.group(1)
     assert shown.screenshot is not None and shown.screenshot.stat().st_size > 20_000

@@ -45,10 +45,10 @@ def write_lines(path: Path, records: list[dict]) -> Path:
 
 
 def test_load_gives_columns_per_module_and_world(pop_out):
-    assert len(pop_out) == 405 and pop_out.cycles[:3] == [1, 2, 3]
+    assert len(pop_out) == 620 and pop_out.cycles[:3] == [1, 2, 3]
     assert "co" in pop_out.modules and pop_out.modules == sorted(pop_out.modules)
     co = pop_out.columns["co"]
-    i = pop_out.cycles.index(175)
+    i = pop_out.cycles.index(248)
     assert (co["command"][i], co["state"][i], co["rule"][i]) == (
         "SUMP_SHEAR_CUSP",
         "S1",
@@ -93,7 +93,7 @@ def test_lanes_follow_the_execution_order_with_levels(system, pop_out):
     lanes = traces.lanes(pop_out, system)
     assert [lane.module for lane in lanes] == [m for p in system.processes for m in p.modules]
     by_name = {lane.module: lane for lane in lanes}
-    assert (by_name["sb"].level, by_name["cc"].level, by_name["bm"].level) == (1, 3, 4)
+    assert (by_name["sec"].level, by_name["sb"].level, by_name["bm"].level) == (1, 2, 5)
     assert by_name["mine"].simulator and by_name["mine"].level == 0
     assert [lane.module for lane in traces.lanes(pop_out, None)] == pop_out.modules
 
@@ -124,40 +124,40 @@ def test_a_trace_of_other_specs_is_refused(tmp_path, system):
 
 def test_changes_show_what_changed_and_fold_repeats(system, pop_out):
     lanes = traces.lanes(pop_out, system)
-    text = list(changes.timeline(pop_out, lanes, ["co", "cc"], first=173, last=182))
+    text = list(changes.timeline(pop_out, lanes, ["co", "cc"], first=246, last=253))
     assert text == [
-        "cycle 174",
+        "cycle 247",
         "  world  popped_out_of_shear false -> true",
-        "cycle 175",
+        "cycle 248",
         "  co     state S2 -> S1  fired SUMP_SHEAR_CUSP/S2/1",
         "  cc     command SHEAR #8 -> SHEAR_CORRECT #9  status EXECUTING #8 -> EXECUTING #9  "
         "state S2 -> S1  fired SHEAR_CORRECT/S0/1",
-        "cycle 182",
+        "cycle 253",
         "  world  popped_out_of_shear true -> false",
     ]
-    first = list(changes.timeline(pop_out, lanes, ["sb"], world="none", last=1))
+    first = list(changes.timeline(pop_out, lanes, ["sec"], world="none", last=1))
     assert first == [
         "cycle 1",
-        "  sb  command INIT #1  status EXECUTING #1  state S1  fired INIT/S0/1",
+        "  sec  command INIT #1  status EXECUTING #1  state S1  fired INIT/S0/1",
     ]
 
 
 def test_changes_fold_cycles_that_change_alike(system):
     trace = traces.load(GOLDEN / "late_tail.jsonl")
     lanes = traces.lanes(trace, system)
-    folded = list(changes.timeline(trace, lanes, ["tc"], world="none", first=21, last=52))
+    folded = list(changes.timeline(trace, lanes, ["tc"], world="none", first=32, last=63))
     assert folded == [
-        "cycle 21",
+        "cycle 32",
         "  tc  fired SLOW_FORWARD/MOVING/2",
-        "  ... the same each cycle through cycle 52 (32 cycles)",
+        "  ... the same each cycle through cycle 63 (32 cycles)",
     ]
-    every = list(changes.timeline(trace, lanes, ["tc"], "none", 21, 52, merge=False))
+    every = list(changes.timeline(trace, lanes, ["tc"], "none", 32, 63, merge=False))
     assert len(every) == 64
     # the loose-coal HALT re-sent every cycle while the gauge reads more than the limit
-    halts = list(changes.timeline(trace, lanes, ["bm"], "none", 91, 107))
-    assert halts[-1] == "  ... the same each cycle through cycle 107 (17 cycles)"
+    halts = list(changes.timeline(trace, lanes, ["bm"], "none", 112, 116))
+    assert halts[-1] == "  ... the same each cycle through cycle 116 (5 cycles)"
     assert halts[1] == (
-        "  bm  command HALT #10 -> HALT #11  status DONE #10 -> DONE #11  fired HALT/S0/1"
+        "  bm  command HALT #5 -> HALT #6  status DONE #5 -> DONE #6  fired HALT/S0/1"
     )
 
 
@@ -180,12 +180,15 @@ def test_coverage_counts_every_table_rule_of_the_miner(system):
     pop = rules[("co", "SUMP_SHEAR_CUSP/S2/1")]
     assert pop.cycles == 1 and pop.traces == [str(GOLDEN / "pop_out.jsonl")]
     assert pop.where.endswith("specs/miner/co.yaml:191")
-    assert rules[("co", "SUMP_SHEAR_CUSP/S2/2")].traces == [str(GOLDEN / "late_tail.jsonl")]
+    assert rules[("co", "SUMP_SHEAR_CUSP/S2/2")].traces == [
+        str(GOLDEN / "late_tail.jsonl"),
+        str(GOLDEN / "shuttle_car.jsonl"),
+    ]
     assert rules[("tc", "FAST_FORWARD/S0/1")].cycles == 0
     assert rules[("cr_sim", "SUMP/S0/1")].traces == [str(GOLDEN / "cr_simulated.jsonl")]
     assert result.ran["cr"] == [str(p) for p in MINER_GOLDEN if "cr_sim" not in p.name]
     text = coverage.to_text(result)
-    assert text.startswith(f"rule coverage of miner over 10 trace(s): {result.fired} of ")
+    assert text.startswith(f"rule coverage of miner over 11 trace(s): {result.fired} of ")
     assert "  co\n    INITIAL_APPROACH_FACE/S1/2      " in text
     data = json.loads(coverage.to_json(result))
     assert data["fired"] == result.fired and data["rules"] == len(result.rules)

@@ -482,7 +482,7 @@ def test_one_command_runs_the_box_cut_with_the_path_planner_on_a_second_host() -
         [sys.executable, "-m", "miner", "--transport", "zenoh", "--fast"]
         + ["--shm", f"rcsgen_zenoh_{os.getpid()}_launch"]
         + ["--set", "map=maps/box_cut.map", "--set", "seed=7"]
-        + ["--send", "sb.BOX_CUT:depth=1.5", "--until-done", "--report", "depth_cut"],
+        + ["--send", "sec.BOX_CUT:depth=1.5", "--until-done", "--report", "depth_cut"],
         cwd=PACKAGE.parent,
         env={**os.environ, "PYTHONPATH": str(HOOKS)},
         capture_output=True,
@@ -491,7 +491,7 @@ def test_one_command_runs_the_box_cut_with_the_path_planner_on_a_second_host() -
     )
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert lines[:2] == ["sb DONE #2", "depth_cut = 1.5"], done.stdout
+    assert lines[:2] == ["sec DONE #2", "depth_cut = 1.5"], done.stdout
     assert any(line.startswith("pc2: stopped, ") for line in lines), done.stdout
     assert shm_files() - before == set()
 

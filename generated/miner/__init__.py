@@ -27,6 +27,7 @@ SOURCES = (
     "miner/pp.yaml",
     "miner/pss.yaml",
     "miner/sb.yaml",
+    "miner/sec.yaml",
     "miner/sj.yaml",
     "miner/system.yaml",
     "miner/tas.yaml",

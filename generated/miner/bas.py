@@ -4,12 +4,26 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import miner_hooks.sim as hooks
+
 from .layout import (
     BAS_PERF_AT,
     BAS_STATUS_AT,
     WORLD_BOOM_ANGLE_TRUE_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands bas accepts (the code written to its command buffer).
 INIT = 1
@@ -18,18 +32,18 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI1568xd168xd")
-INPUTS_AT = 1912
+INPUTS_AT = 2048
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1912
+SEQS_AT = 2048
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3720
+WORLD_OUT_1_AT = 3856
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -37,10 +51,14 @@ S0 = 1
 # Constants.
 UPPER_STOP = 30.0
 LOWER_STOP = -10.0
+RATE_ERROR = 0.1
 
 
 class BasController:
     """The bas controller: its local buffers and the QQ1 cycle."""
+
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
 
     __slots__ = (
         "buf",
@@ -50,6 +68,7 @@ class BasController:
         "cycles",
         "dont_run",
         "error_num",
+        "hook_state",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -72,6 +91,10 @@ class BasController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
+        try:
+            self.hook_state = hooks.new_actuator_error(settings or {})
+        except Exception as error:
+            raise HookError("bas", "new_actuator_error", "hooks_state", 0) from error
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -297,9 +320,20 @@ class BasController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         if self.world_boom_rate_cmd != 0.0:
-            self.world_boom_angle_true = max(
-                LOWER_STOP, min(UPPER_STOP, self.world_boom_angle_true + self.world_boom_rate_cmd)
-            )
+            try:
+                returned = hooks.turn_boom(
+                    self.hook_state,
+                    self.world_boom_angle_true,
+                    self.world_boom_rate_cmd,
+                    RATE_ERROR,
+                    LOWER_STOP,
+                    UPPER_STOP,
+                )
+            except Exception as error:  # one error naming the module, hook, rule and cycle
+                raise HookError("bas", "turn_boom", "every_cycle/1", self.cycles) from error
+            if type(returned) not in NUMBER and not is_real(returned):
+                raise HookError("bas", "turn_boom", "every_cycle/1", self.cycles, returned, "f")
+            self.world_boom_angle_true = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -20,21 +20,21 @@ LOWER = 4
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI2800xd296xd")
-INPUTS_AT = 688
+INPUTS_AT = 824
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3544
+WORLD_OUT_1_AT = 3680
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 
 # Constants.
-BOOM_RATE = 4.0
+BOOM_RATE = 1.5
 ROOF_ANGLE = 30.0
 FLOOR_ANGLE = -10.0
 ANGLE_TOLERANCE = 0.5

@@ -65,14 +65,14 @@ CC_CUSP = 7
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd44x???1xI80xQI468xQI484xQI1844xd8xd8xd8xd328xd8xd8xd24xd8xd8x?47xd")
-INPUTS_AT = 432
+INPUTS_AT = 568
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3448
+WORLD_OUT_1_AT = 3584
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -4,13 +4,28 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import miner_hooks.haulage as hooks
+
 from .layout import (
     GAS_PERF_AT,
     GAS_STATUS_AT,
     WORLD_COAL_MINED_AT,
     WORLD_LOOSE_COAL_TRUE_AT,
+    WORLD_SHUTTLE_CAR_AWAY_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    NUMBER,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+    is_real,
+)
 
 # Commands gas accepts (the code written to its command buffer).
 INIT = 1
@@ -18,19 +33,19 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI808x?255x?15x?351xd8xd")
-INPUTS_AT = 2512
+INPUTS = Struct("<QQI44x???1xI808x?255x?15x?351xd8xd8x?")
+INPUTS_AT = 2648
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2512
+SEQS_AT = 2648
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
-WORLD_OUT_1 = Struct("<QdQd")
-WORLD_VALUES_1 = Struct("<8xd8xd")
-WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 4008
+WORLD_OUT_1 = Struct("<QdQdQ?")
+WORLD_VALUES_1 = Struct("<8xd8xd8x?")
+WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
+WORLD_OUT_1_AT = 4144
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -42,6 +57,9 @@ GATHER_RATE = 0.6
 class GasController:
     """The gas controller: its local buffers and the QQ1 cycle."""
 
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
+
     __slots__ = (
         "buf",
         "command",
@@ -50,6 +68,7 @@ class GasController:
         "cycles",
         "dont_run",
         "error_num",
+        "hook_state",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -69,12 +88,17 @@ class GasController:
         "world_conveyor_on_cmd",
         "world_gather_on_cmd",
         "world_loose_coal_true",
+        "world_shuttle_car_away",
         "world_tail_in_position",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
+        try:
+            self.hook_state = hooks.new_haulage(settings or {})
+        except Exception as error:
+            raise HookError("gas", "new_haulage", "hooks_state", 0) from error
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -123,6 +147,7 @@ class GasController:
                     self.world_conveyor_on_cmd,
                     self.world_loose_coal_true,
                     self.world_coal_mined,
+                    self.world_shuttle_car_away,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -169,14 +194,18 @@ class GasController:
             SEQ.pack_into(buf, GAS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_loose_coal_true, self.world_coal_mined)
+        out = (self.world_loose_coal_true, self.world_coal_mined, self.world_shuttle_car_away)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+            SEQ.pack_into(buf, WORLD_SHUTTLE_CAR_AWAY_AT, s[2] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(
+                buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
+            )
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[0] | 1) + 1)
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_SHUTTLE_CAR_AWAY_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -223,6 +252,7 @@ class GasController:
                     self.world_conveyor_on_cmd,
                     self.world_loose_coal_true,
                     self.world_coal_mined,
+                    self.world_shuttle_car_away,
                 ) = values
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
@@ -274,14 +304,18 @@ class GasController:
             SEQ.pack_into(buf, GAS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_loose_coal_true, self.world_coal_mined)
+        out = (self.world_loose_coal_true, self.world_coal_mined, self.world_shuttle_car_away)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+            SEQ.pack_into(buf, WORLD_SHUTTLE_CAR_AWAY_AT, s[2] | 1)  # odd before the value changes
+            WORLD_OUT_1.pack_into(
+                buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
+            )
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[0] | 1) + 1)
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
+            SEQ.pack_into(buf, WORLD_SHUTTLE_CAR_AWAY_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -309,16 +343,27 @@ class GasController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        if (
-            self.world_gather_on_cmd
-            and self.world_conveyor_on_cmd
-            and self.world_tail_in_position
-            and self.world_loose_coal_true > 0.0
-        ):
-            self.world_coal_mined = self.world_coal_mined + min(
-                self.world_loose_coal_true, GATHER_RATE
+        try:
+            returned = hooks.haul(
+                self.hook_state,
+                self.world_loose_coal_true,
+                self.world_coal_mined,
+                self.world_gather_on_cmd
+                and self.world_conveyor_on_cmd
+                and self.world_tail_in_position,
+                GATHER_RATE,
             )
-            self.world_loose_coal_true = max(0.0, self.world_loose_coal_true - GATHER_RATE)
+        except Exception as error:  # one error naming the module, hook, rule and cycle
+            raise HookError("gas", "haul", "every_cycle/1", self.cycles) from error
+        if (
+            type(returned) is not tuple
+            or len(returned) != 3
+            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or type(returned[2]) is not bool
+        ):
+            raise HookError("gas", "haul", "every_cycle/1", self.cycles, returned, "ffb")
+        self.world_loose_coal_true, self.world_coal_mined, self.world_shuttle_car_away = returned
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -4,12 +4,27 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import miner_hooks.sim as hooks
+
 from .layout import (
     JAS_PERF_AT,
     JAS_STATUS_AT,
     WORLD_JACK_DOWN_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    INT_MAX,
+    INT_MIN,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+    is_integer,
+)
 
 # Commands jas accepts (the code written to its command buffer).
 INIT = 1
@@ -18,28 +33,32 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI1480x?175x?")
-INPUTS_AT = 2032
+INPUTS_AT = 2168
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2032
+SEQS_AT = 2168
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3752
+WORLD_OUT_1_AT = 3888
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 
 # Constants.
-TRAVEL_CYCLES = 3
+TRAVEL_CYCLES = 15
+TRAVEL_SPREAD = 3
 
 
 class JasController:
     """The jas controller: its local buffers and the QQ1 cycle."""
+
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
 
     __slots__ = (
         "buf",
@@ -49,6 +68,7 @@ class JasController:
         "cycles",
         "dont_run",
         "error_num",
+        "hook_state",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -64,6 +84,7 @@ class JasController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "var_stroke",
         "var_travel",
         "world_jack_down",
         "world_jack_down_cmd",
@@ -72,7 +93,12 @@ class JasController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
+        try:
+            self.hook_state = hooks.new_actuator_error(settings or {})
+        except Exception as error:
+            raise HookError("jas", "new_actuator_error", "hooks_state", 0) from error
         self.var_travel: int = 0
+        self.var_stroke: int = 0
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -297,12 +323,31 @@ class JasController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        if self.world_jack_down_cmd != self.world_jack_down and self.var_travel >= TRAVEL_CYCLES:
+        if self.world_jack_down_cmd != self.world_jack_down and self.var_travel == 0:
+            # a new stroke; how long it takes
+            try:
+                returned = hooks.travel_time(self.hook_state, TRAVEL_CYCLES, TRAVEL_SPREAD)
+            except Exception as error:  # one error naming the module, hook, rule and cycle
+                raise HookError("jas", "travel_time", "every_cycle/1", self.cycles) from error
+            if (
+                type(returned) is not int and not is_integer(returned)
+            ) or not INT_MIN <= returned <= INT_MAX:
+                raise HookError("jas", "travel_time", "every_cycle/1", self.cycles, returned, "i")
+            self.var_stroke = returned
+            self.var_travel = 1
+
+        elif (
+            self.world_jack_down_cmd != self.world_jack_down and self.var_travel >= self.var_stroke
+        ):
             self.world_jack_down = self.world_jack_down_cmd
             self.var_travel = 0
 
         elif self.world_jack_down_cmd != self.world_jack_down:
             self.var_travel = self.var_travel + 1
+
+        elif self.var_travel != 0:
+            # the stroke was called off (HALT commands where the jack is)
+            self.var_travel = 0
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

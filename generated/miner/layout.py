@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 4040 bytes.
+The block is 4192 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -20,148 +20,153 @@ command buffers and world fields:
 | 168 | 16 | PACE_PC1 | PACE_FIELDS |
 | 184 | 88 | PROCESS_PC2 | PROCESS_FIELDS |
 | 272 | 16 | PACE_PC2 | PACE_FIELDS |
-| 288 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
-| 328 | 32 | SB_STATUS | STATUS_FIELDS |
-| 360 | 16 | SB_MODE | MODE_FIELDS |
-| 376 | 48 | SB_PERF | PERF_FIELDS |
-| 424 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
-| 464 | 32 | CO_STATUS | STATUS_FIELDS |
-| 496 | 16 | CO_MODE | MODE_FIELDS |
-| 512 | 48 | CO_PERF | PERF_FIELDS |
-| 560 | 20 | CC_COMMAND | command_num, command |
-| 584 | 32 | CC_STATUS | STATUS_FIELDS |
-| 616 | 16 | CC_MODE | MODE_FIELDS |
-| 632 | 48 | CC_PERF | PERF_FIELDS |
-| 680 | 20 | BM_COMMAND | command_num, command |
-| 704 | 32 | BM_STATUS | STATUS_FIELDS |
-| 736 | 16 | BM_MODE | MODE_FIELDS |
-| 752 | 48 | BM_PERF | PERF_FIELDS |
-| 800 | 20 | CD_COMMAND | command_num, command |
-| 824 | 32 | CD_STATUS | STATUS_FIELDS |
-| 856 | 16 | CD_MODE | MODE_FIELDS |
-| 872 | 48 | CD_PERF | PERF_FIELDS |
-| 920 | 20 | SJ_COMMAND | command_num, command |
-| 944 | 32 | SJ_STATUS | STATUS_FIELDS |
-| 976 | 16 | SJ_MODE | MODE_FIELDS |
-| 992 | 48 | SJ_PERF | PERF_FIELDS |
-| 1040 | 20 | CR_COMMAND | command_num, command |
-| 1064 | 32 | CR_STATUS | STATUS_FIELDS |
-| 1096 | 16 | CR_MODE | MODE_FIELDS |
-| 1112 | 48 | CR_PERF | PERF_FIELDS |
-| 1160 | 20 | GH_COMMAND | command_num, command |
-| 1184 | 32 | GH_STATUS | STATUS_FIELDS |
-| 1216 | 16 | GH_MODE | MODE_FIELDS |
-| 1232 | 48 | GH_PERF | PERF_FIELDS |
-| 1280 | 20 | CV_COMMAND | command_num, command |
-| 1304 | 32 | CV_STATUS | STATUS_FIELDS |
-| 1336 | 16 | CV_MODE | MODE_FIELDS |
-| 1352 | 48 | CV_PERF | PERF_FIELDS |
-| 1400 | 20 | CT_COMMAND | command_num, command |
-| 1424 | 32 | CT_STATUS | STATUS_FIELDS |
-| 1456 | 16 | CT_MODE | MODE_FIELDS |
-| 1472 | 48 | CT_PERF | PERF_FIELDS |
-| 1520 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
-| 1560 | 32 | VG_STATUS | STATUS_FIELDS |
-| 1592 | 16 | VG_MODE | MODE_FIELDS |
-| 1608 | 48 | VG_PERF | PERF_FIELDS |
-| 1656 | 20 | TC_COMMAND | command_num, command |
-| 1680 | 32 | TC_STATUS | STATUS_FIELDS |
-| 1712 | 16 | TC_MODE | MODE_FIELDS |
-| 1728 | 48 | TC_PERF | PERF_FIELDS |
-| 1776 | 36 | OI_COMMAND | command_num, command, arg_x, arg_y |
-| 1816 | 32 | OI_STATUS | STATUS_FIELDS |
-| 1848 | 16 | OI_MODE | MODE_FIELDS |
-| 1864 | 48 | OI_PERF | PERF_FIELDS |
-| 1912 | 20 | BAS_COMMAND | command_num, command |
-| 1936 | 32 | BAS_STATUS | STATUS_FIELDS |
-| 1968 | 16 | BAS_MODE | MODE_FIELDS |
-| 1984 | 48 | BAS_PERF | PERF_FIELDS |
-| 2032 | 20 | JAS_COMMAND | command_num, command |
-| 2056 | 32 | JAS_STATUS | STATUS_FIELDS |
-| 2088 | 16 | JAS_MODE | MODE_FIELDS |
-| 2104 | 48 | JAS_PERF | PERF_FIELDS |
-| 2152 | 20 | TAS_COMMAND | command_num, command |
-| 2176 | 32 | TAS_STATUS | STATUS_FIELDS |
-| 2208 | 16 | TAS_MODE | MODE_FIELDS |
-| 2224 | 48 | TAS_PERF | PERF_FIELDS |
-| 2272 | 20 | MINE_COMMAND | command_num, command |
-| 2296 | 32 | MINE_STATUS | STATUS_FIELDS |
-| 2328 | 16 | MINE_MODE | MODE_FIELDS |
-| 2344 | 48 | MINE_PERF | PERF_FIELDS |
-| 2392 | 20 | DAS_COMMAND | command_num, command |
-| 2416 | 32 | DAS_STATUS | STATUS_FIELDS |
-| 2448 | 16 | DAS_MODE | MODE_FIELDS |
-| 2464 | 48 | DAS_PERF | PERF_FIELDS |
-| 2512 | 20 | GAS_COMMAND | command_num, command |
-| 2536 | 32 | GAS_STATUS | STATUS_FIELDS |
-| 2568 | 16 | GAS_MODE | MODE_FIELDS |
-| 2584 | 48 | GAS_PERF | PERF_FIELDS |
-| 2632 | 20 | BSS_COMMAND | command_num, command |
-| 2656 | 32 | BSS_STATUS | STATUS_FIELDS |
-| 2688 | 16 | BSS_MODE | MODE_FIELDS |
-| 2704 | 48 | BSS_PERF | PERF_FIELDS |
-| 2752 | 20 | PSS_COMMAND | command_num, command |
-| 2776 | 32 | PSS_STATUS | STATUS_FIELDS |
-| 2808 | 16 | PSS_MODE | MODE_FIELDS |
-| 2824 | 48 | PSS_PERF | PERF_FIELDS |
-| 2872 | 20 | CSS_COMMAND | command_num, command |
-| 2896 | 32 | CSS_STATUS | STATUS_FIELDS |
-| 2928 | 16 | CSS_MODE | MODE_FIELDS |
-| 2944 | 48 | CSS_PERF | PERF_FIELDS |
-| 2992 | 20 | LCS_COMMAND | command_num, command |
-| 3016 | 32 | LCS_STATUS | STATUS_FIELDS |
-| 3048 | 16 | LCS_MODE | MODE_FIELDS |
-| 3064 | 48 | LCS_PERF | PERF_FIELDS |
-| 3112 | 20 | WM_COMMAND | command_num, command |
-| 3136 | 32 | WM_STATUS | STATUS_FIELDS |
-| 3168 | 16 | WM_MODE | MODE_FIELDS |
-| 3184 | 48 | WM_PERF | PERF_FIELDS |
-| 3232 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
-| 3272 | 32 | PP_STATUS | STATUS_FIELDS |
-| 3304 | 16 | PP_MODE | MODE_FIELDS |
-| 3320 | 48 | PP_PERF | PERF_FIELDS |
-| 3368 | 9 | WORLD_TAIL_REQUEST | tail_request |
-| 3384 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
-| 3400 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 3416 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
-| 3432 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
-| 3448 | 16 | WORLD_GOAL_X | goal_x |
-| 3464 | 16 | WORLD_GOAL_Y | goal_y |
-| 3480 | 9 | WORLD_PATH_OK | path_ok |
-| 3496 | 16 | WORLD_WP_X | wp_x |
-| 3512 | 16 | WORLD_WP_Y | wp_y |
-| 3528 | 9 | WORLD_WP_LAST | wp_last |
-| 3544 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
-| 3560 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
-| 3576 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
-| 3592 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
-| 3608 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
-| 3624 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
-| 3640 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
-| 3656 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
-| 3672 | 16 | WORLD_TRUE_X | true_x |
-| 3688 | 16 | WORLD_TRUE_Y | true_y |
-| 3704 | 16 | WORLD_TRUE_HEADING | true_heading |
-| 3720 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
-| 3736 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
-| 3752 | 9 | WORLD_JACK_DOWN | jack_down |
-| 3768 | 16 | WORLD_SLIP | slip |
-| 3784 | 9 | WORLD_TREAD_STALLED | tread_stalled |
-| 3800 | 16 | WORLD_POSE_X | pose_x |
-| 3816 | 16 | WORLD_POSE_Y | pose_y |
-| 3832 | 16 | WORLD_HEADING | heading |
-| 3848 | 16 | WORLD_BOOM_ANGLE | boom_angle |
-| 3864 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
-| 3880 | 16 | WORLD_LOOSE_COAL | loose_coal |
-| 3896 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 3912 | 16 | WORLD_DEPTH_EST | depth_est |
-| 3928 | 16 | WORLD_DRUM_REACH | drum_reach |
-| 3944 | 16 | WORLD_SUMP_STEP | sump_step |
-| 3960 | 9 | WORLD_IN_COAL | in_coal |
-| 3976 | 16 | WORLD_FACE_X | face_x |
-| 3992 | 16 | WORLD_DEPTH_CUT | depth_cut |
-| 4008 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
-| 4024 | 16 | WORLD_COAL_MINED | coal_mined |
+| 288 | 36 | SEC_COMMAND | command_num, command, arg_depth, arg_offset |
+| 328 | 32 | SEC_STATUS | STATUS_FIELDS |
+| 360 | 16 | SEC_MODE | MODE_FIELDS |
+| 376 | 48 | SEC_PERF | PERF_FIELDS |
+| 424 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
+| 464 | 32 | SB_STATUS | STATUS_FIELDS |
+| 496 | 16 | SB_MODE | MODE_FIELDS |
+| 512 | 48 | SB_PERF | PERF_FIELDS |
+| 560 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
+| 600 | 32 | CO_STATUS | STATUS_FIELDS |
+| 632 | 16 | CO_MODE | MODE_FIELDS |
+| 648 | 48 | CO_PERF | PERF_FIELDS |
+| 696 | 20 | CC_COMMAND | command_num, command |
+| 720 | 32 | CC_STATUS | STATUS_FIELDS |
+| 752 | 16 | CC_MODE | MODE_FIELDS |
+| 768 | 48 | CC_PERF | PERF_FIELDS |
+| 816 | 20 | BM_COMMAND | command_num, command |
+| 840 | 32 | BM_STATUS | STATUS_FIELDS |
+| 872 | 16 | BM_MODE | MODE_FIELDS |
+| 888 | 48 | BM_PERF | PERF_FIELDS |
+| 936 | 20 | CD_COMMAND | command_num, command |
+| 960 | 32 | CD_STATUS | STATUS_FIELDS |
+| 992 | 16 | CD_MODE | MODE_FIELDS |
+| 1008 | 48 | CD_PERF | PERF_FIELDS |
+| 1056 | 20 | SJ_COMMAND | command_num, command |
+| 1080 | 32 | SJ_STATUS | STATUS_FIELDS |
+| 1112 | 16 | SJ_MODE | MODE_FIELDS |
+| 1128 | 48 | SJ_PERF | PERF_FIELDS |
+| 1176 | 20 | CR_COMMAND | command_num, command |
+| 1200 | 32 | CR_STATUS | STATUS_FIELDS |
+| 1232 | 16 | CR_MODE | MODE_FIELDS |
+| 1248 | 48 | CR_PERF | PERF_FIELDS |
+| 1296 | 20 | GH_COMMAND | command_num, command |
+| 1320 | 32 | GH_STATUS | STATUS_FIELDS |
+| 1352 | 16 | GH_MODE | MODE_FIELDS |
+| 1368 | 48 | GH_PERF | PERF_FIELDS |
+| 1416 | 20 | CV_COMMAND | command_num, command |
+| 1440 | 32 | CV_STATUS | STATUS_FIELDS |
+| 1472 | 16 | CV_MODE | MODE_FIELDS |
+| 1488 | 48 | CV_PERF | PERF_FIELDS |
+| 1536 | 20 | CT_COMMAND | command_num, command |
+| 1560 | 32 | CT_STATUS | STATUS_FIELDS |
+| 1592 | 16 | CT_MODE | MODE_FIELDS |
+| 1608 | 48 | CT_PERF | PERF_FIELDS |
+| 1656 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
+| 1696 | 32 | VG_STATUS | STATUS_FIELDS |
+| 1728 | 16 | VG_MODE | MODE_FIELDS |
+| 1744 | 48 | VG_PERF | PERF_FIELDS |
+| 1792 | 20 | TC_COMMAND | command_num, command |
+| 1816 | 32 | TC_STATUS | STATUS_FIELDS |
+| 1848 | 16 | TC_MODE | MODE_FIELDS |
+| 1864 | 48 | TC_PERF | PERF_FIELDS |
+| 1912 | 36 | OI_COMMAND | command_num, command, arg_x, arg_y |
+| 1952 | 32 | OI_STATUS | STATUS_FIELDS |
+| 1984 | 16 | OI_MODE | MODE_FIELDS |
+| 2000 | 48 | OI_PERF | PERF_FIELDS |
+| 2048 | 20 | BAS_COMMAND | command_num, command |
+| 2072 | 32 | BAS_STATUS | STATUS_FIELDS |
+| 2104 | 16 | BAS_MODE | MODE_FIELDS |
+| 2120 | 48 | BAS_PERF | PERF_FIELDS |
+| 2168 | 20 | JAS_COMMAND | command_num, command |
+| 2192 | 32 | JAS_STATUS | STATUS_FIELDS |
+| 2224 | 16 | JAS_MODE | MODE_FIELDS |
+| 2240 | 48 | JAS_PERF | PERF_FIELDS |
+| 2288 | 20 | TAS_COMMAND | command_num, command |
+| 2312 | 32 | TAS_STATUS | STATUS_FIELDS |
+| 2344 | 16 | TAS_MODE | MODE_FIELDS |
+| 2360 | 48 | TAS_PERF | PERF_FIELDS |
+| 2408 | 20 | MINE_COMMAND | command_num, command |
+| 2432 | 32 | MINE_STATUS | STATUS_FIELDS |
+| 2464 | 16 | MINE_MODE | MODE_FIELDS |
+| 2480 | 48 | MINE_PERF | PERF_FIELDS |
+| 2528 | 20 | DAS_COMMAND | command_num, command |
+| 2552 | 32 | DAS_STATUS | STATUS_FIELDS |
+| 2584 | 16 | DAS_MODE | MODE_FIELDS |
+| 2600 | 48 | DAS_PERF | PERF_FIELDS |
+| 2648 | 20 | GAS_COMMAND | command_num, command |
+| 2672 | 32 | GAS_STATUS | STATUS_FIELDS |
+| 2704 | 16 | GAS_MODE | MODE_FIELDS |
+| 2720 | 48 | GAS_PERF | PERF_FIELDS |
+| 2768 | 20 | BSS_COMMAND | command_num, command |
+| 2792 | 32 | BSS_STATUS | STATUS_FIELDS |
+| 2824 | 16 | BSS_MODE | MODE_FIELDS |
+| 2840 | 48 | BSS_PERF | PERF_FIELDS |
+| 2888 | 20 | PSS_COMMAND | command_num, command |
+| 2912 | 32 | PSS_STATUS | STATUS_FIELDS |
+| 2944 | 16 | PSS_MODE | MODE_FIELDS |
+| 2960 | 48 | PSS_PERF | PERF_FIELDS |
+| 3008 | 20 | CSS_COMMAND | command_num, command |
+| 3032 | 32 | CSS_STATUS | STATUS_FIELDS |
+| 3064 | 16 | CSS_MODE | MODE_FIELDS |
+| 3080 | 48 | CSS_PERF | PERF_FIELDS |
+| 3128 | 20 | LCS_COMMAND | command_num, command |
+| 3152 | 32 | LCS_STATUS | STATUS_FIELDS |
+| 3184 | 16 | LCS_MODE | MODE_FIELDS |
+| 3200 | 48 | LCS_PERF | PERF_FIELDS |
+| 3248 | 20 | WM_COMMAND | command_num, command |
+| 3272 | 32 | WM_STATUS | STATUS_FIELDS |
+| 3304 | 16 | WM_MODE | MODE_FIELDS |
+| 3320 | 48 | WM_PERF | PERF_FIELDS |
+| 3368 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
+| 3408 | 32 | PP_STATUS | STATUS_FIELDS |
+| 3440 | 16 | PP_MODE | MODE_FIELDS |
+| 3456 | 48 | PP_PERF | PERF_FIELDS |
+| 3504 | 9 | WORLD_TAIL_REQUEST | tail_request |
+| 3520 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
+| 3536 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 3552 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
+| 3568 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
+| 3584 | 16 | WORLD_GOAL_X | goal_x |
+| 3600 | 16 | WORLD_GOAL_Y | goal_y |
+| 3616 | 9 | WORLD_PATH_OK | path_ok |
+| 3632 | 16 | WORLD_WP_X | wp_x |
+| 3648 | 16 | WORLD_WP_Y | wp_y |
+| 3664 | 9 | WORLD_WP_LAST | wp_last |
+| 3680 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 3696 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 3712 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 3728 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 3744 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 3760 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 3776 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 3792 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 3808 | 16 | WORLD_TRUE_X | true_x |
+| 3824 | 16 | WORLD_TRUE_Y | true_y |
+| 3840 | 16 | WORLD_TRUE_HEADING | true_heading |
+| 3856 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 3872 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 3888 | 9 | WORLD_JACK_DOWN | jack_down |
+| 3904 | 16 | WORLD_SLIP | slip |
+| 3920 | 9 | WORLD_TREAD_STALLED | tread_stalled |
+| 3936 | 16 | WORLD_POSE_X | pose_x |
+| 3952 | 16 | WORLD_POSE_Y | pose_y |
+| 3968 | 16 | WORLD_HEADING | heading |
+| 3984 | 16 | WORLD_BOOM_ANGLE | boom_angle |
+| 4000 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
+| 4016 | 16 | WORLD_LOOSE_COAL | loose_coal |
+| 4032 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 4048 | 16 | WORLD_DEPTH_EST | depth_est |
+| 4064 | 16 | WORLD_DRUM_REACH | drum_reach |
+| 4080 | 16 | WORLD_SUMP_STEP | sump_step |
+| 4096 | 9 | WORLD_IN_COAL | in_coal |
+| 4112 | 16 | WORLD_FACE_X | face_x |
+| 4128 | 16 | WORLD_DEPTH_CUT | depth_cut |
+| 4144 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
+| 4160 | 16 | WORLD_COAL_MINED | coal_mined |
+| 4176 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
 """
 
 from __future__ import annotations
@@ -190,274 +195,283 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 4040
+SIZE = 4192
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "081a49bfc28d0fbc212c82c5f4b334be"
+LAYOUT_HASH = "42c60a3aab361bee64197473d0875ece"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
 PACE_PC2_AT = 272
 
+# sec: Section
+SEC_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
+SEC_COMMAND_AT = 288
+SEC_STATUS_AT = 328
+SEC_MODE_AT = 360
+SEC_PERF_AT = 376
+
 # sb: Shift boss
 SB_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
-SB_COMMAND_AT = 288
-SB_STATUS_AT = 328
-SB_MODE_AT = 360
-SB_PERF_AT = 376
+SB_COMMAND_AT = 424
+SB_STATUS_AT = 464
+SB_MODE_AT = 496
+SB_PERF_AT = 512
 
 # co: Continuous miner operation coordinator
 CO_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-CO_COMMAND_AT = 424
-CO_STATUS_AT = 464
-CO_MODE_AT = 496
-CO_PERF_AT = 512
+CO_COMMAND_AT = 560
+CO_STATUS_AT = 600
+CO_MODE_AT = 632
+CO_PERF_AT = 648
 
 # cc: Coal cutting
 CC_COMMAND = Struct("<QQI")  # seq, command_num, command
-CC_COMMAND_AT = 560
-CC_STATUS_AT = 584
-CC_MODE_AT = 616
-CC_PERF_AT = 632
+CC_COMMAND_AT = 696
+CC_STATUS_AT = 720
+CC_MODE_AT = 752
+CC_PERF_AT = 768
 
 # bm: Boom
 BM_COMMAND = Struct("<QQI")  # seq, command_num, command
-BM_COMMAND_AT = 680
-BM_STATUS_AT = 704
-BM_MODE_AT = 736
-BM_PERF_AT = 752
+BM_COMMAND_AT = 816
+BM_STATUS_AT = 840
+BM_MODE_AT = 872
+BM_PERF_AT = 888
 
 # cd: Cutter drum
 CD_COMMAND = Struct("<QQI")  # seq, command_num, command
-CD_COMMAND_AT = 800
-CD_STATUS_AT = 824
-CD_MODE_AT = 856
-CD_PERF_AT = 872
+CD_COMMAND_AT = 936
+CD_STATUS_AT = 960
+CD_MODE_AT = 992
+CD_PERF_AT = 1008
 
 # sj: Stabilization jack
 SJ_COMMAND = Struct("<QQI")  # seq, command_num, command
-SJ_COMMAND_AT = 920
-SJ_STATUS_AT = 944
-SJ_MODE_AT = 976
-SJ_PERF_AT = 992
+SJ_COMMAND_AT = 1056
+SJ_STATUS_AT = 1080
+SJ_MODE_AT = 1112
+SJ_PERF_AT = 1128
 
 # cr: Coal removal
 CR_COMMAND = Struct("<QQI")  # seq, command_num, command
-CR_COMMAND_AT = 1040
-CR_STATUS_AT = 1064
-CR_MODE_AT = 1096
-CR_PERF_AT = 1112
+CR_COMMAND_AT = 1176
+CR_STATUS_AT = 1200
+CR_MODE_AT = 1232
+CR_PERF_AT = 1248
 
 # gh: Gathering head
 GH_COMMAND = Struct("<QQI")  # seq, command_num, command
-GH_COMMAND_AT = 1160
-GH_STATUS_AT = 1184
-GH_MODE_AT = 1216
-GH_PERF_AT = 1232
+GH_COMMAND_AT = 1296
+GH_STATUS_AT = 1320
+GH_MODE_AT = 1352
+GH_PERF_AT = 1368
 
 # cv: Conveyor
 CV_COMMAND = Struct("<QQI")  # seq, command_num, command
-CV_COMMAND_AT = 1280
-CV_STATUS_AT = 1304
-CV_MODE_AT = 1336
-CV_PERF_AT = 1352
+CV_COMMAND_AT = 1416
+CV_STATUS_AT = 1440
+CV_MODE_AT = 1472
+CV_PERF_AT = 1488
 
 # ct: Conveyor tail (operator)
 CT_COMMAND = Struct("<QQI")  # seq, command_num, command
-CT_COMMAND_AT = 1400
-CT_STATUS_AT = 1424
-CT_MODE_AT = 1456
-CT_PERF_AT = 1472
+CT_COMMAND_AT = 1536
+CT_STATUS_AT = 1560
+CT_MODE_AT = 1592
+CT_PERF_AT = 1608
 
 # vg: Vehicle guidance
 VG_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-VG_COMMAND_AT = 1520
-VG_STATUS_AT = 1560
-VG_MODE_AT = 1592
-VG_PERF_AT = 1608
+VG_COMMAND_AT = 1656
+VG_STATUS_AT = 1696
+VG_MODE_AT = 1728
+VG_PERF_AT = 1744
 
 # tc: Tram
 TC_COMMAND = Struct("<QQI")  # seq, command_num, command
-TC_COMMAND_AT = 1656
-TC_STATUS_AT = 1680
-TC_MODE_AT = 1712
-TC_PERF_AT = 1728
+TC_COMMAND_AT = 1792
+TC_STATUS_AT = 1816
+TC_MODE_AT = 1848
+TC_PERF_AT = 1864
 
 # oi: Operator interface (scripted operator)
 OI_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-OI_COMMAND_AT = 1776
-OI_STATUS_AT = 1816
-OI_MODE_AT = 1848
-OI_PERF_AT = 1864
+OI_COMMAND_AT = 1912
+OI_STATUS_AT = 1952
+OI_MODE_AT = 1984
+OI_PERF_AT = 2000
 
 # bas: Boom actuator (simulated)
 BAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-BAS_COMMAND_AT = 1912
-BAS_STATUS_AT = 1936
-BAS_MODE_AT = 1968
-BAS_PERF_AT = 1984
+BAS_COMMAND_AT = 2048
+BAS_STATUS_AT = 2072
+BAS_MODE_AT = 2104
+BAS_PERF_AT = 2120
 
 # jas: Stabilization jack actuator (simulated)
 JAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-JAS_COMMAND_AT = 2032
-JAS_STATUS_AT = 2056
-JAS_MODE_AT = 2088
-JAS_PERF_AT = 2104
+JAS_COMMAND_AT = 2168
+JAS_STATUS_AT = 2192
+JAS_MODE_AT = 2224
+JAS_PERF_AT = 2240
 
 # tas: Tread actuators (simulated)
 TAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-TAS_COMMAND_AT = 2152
-TAS_STATUS_AT = 2176
-TAS_MODE_AT = 2208
-TAS_PERF_AT = 2224
+TAS_COMMAND_AT = 2288
+TAS_STATUS_AT = 2312
+TAS_MODE_AT = 2344
+TAS_PERF_AT = 2360
 
 # mine: Mine (simulated environment)
 MINE_COMMAND = Struct("<QQI")  # seq, command_num, command
-MINE_COMMAND_AT = 2272
-MINE_STATUS_AT = 2296
-MINE_MODE_AT = 2328
-MINE_PERF_AT = 2344
+MINE_COMMAND_AT = 2408
+MINE_STATUS_AT = 2432
+MINE_MODE_AT = 2464
+MINE_PERF_AT = 2480
 
 # das: Cutter drum motor (simulated)
 DAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-DAS_COMMAND_AT = 2392
-DAS_STATUS_AT = 2416
-DAS_MODE_AT = 2448
-DAS_PERF_AT = 2464
+DAS_COMMAND_AT = 2528
+DAS_STATUS_AT = 2552
+DAS_MODE_AT = 2584
+DAS_PERF_AT = 2600
 
 # gas: Gathering head and conveyor (simulated)
 GAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-GAS_COMMAND_AT = 2512
-GAS_STATUS_AT = 2536
-GAS_MODE_AT = 2568
-GAS_PERF_AT = 2584
+GAS_COMMAND_AT = 2648
+GAS_STATUS_AT = 2672
+GAS_MODE_AT = 2704
+GAS_PERF_AT = 2720
 
 # bss: Boom angle sensor (simulated)
 BSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-BSS_COMMAND_AT = 2632
-BSS_STATUS_AT = 2656
-BSS_MODE_AT = 2688
-BSS_PERF_AT = 2704
+BSS_COMMAND_AT = 2768
+BSS_STATUS_AT = 2792
+BSS_MODE_AT = 2824
+BSS_PERF_AT = 2840
 
 # pss: Pose sensor (simulated)
 PSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-PSS_COMMAND_AT = 2752
-PSS_STATUS_AT = 2776
-PSS_MODE_AT = 2808
-PSS_PERF_AT = 2824
+PSS_COMMAND_AT = 2888
+PSS_STATUS_AT = 2912
+PSS_MODE_AT = 2944
+PSS_PERF_AT = 2960
 
 # css: Cutter current sensor (simulated)
 CSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-CSS_COMMAND_AT = 2872
-CSS_STATUS_AT = 2896
-CSS_MODE_AT = 2928
-CSS_PERF_AT = 2944
+CSS_COMMAND_AT = 3008
+CSS_STATUS_AT = 3032
+CSS_MODE_AT = 3064
+CSS_PERF_AT = 3080
 
 # lcs: Loose coal sensor (simulated)
 LCS_COMMAND = Struct("<QQI")  # seq, command_num, command
-LCS_COMMAND_AT = 2992
-LCS_STATUS_AT = 3016
-LCS_MODE_AT = 3048
-LCS_PERF_AT = 3064
+LCS_COMMAND_AT = 3128
+LCS_STATUS_AT = 3152
+LCS_MODE_AT = 3184
+LCS_PERF_AT = 3200
 
 # wm: World modelling (estimates from the sensors)
 WM_COMMAND = Struct("<QQI")  # seq, command_num, command
-WM_COMMAND_AT = 3112
-WM_STATUS_AT = 3136
-WM_MODE_AT = 3168
-WM_PERF_AT = 3184
+WM_COMMAND_AT = 3248
+WM_STATUS_AT = 3272
+WM_MODE_AT = 3304
+WM_PERF_AT = 3320
 
 # pp: Path planner
 PP_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-PP_COMMAND_AT = 3232
-PP_STATUS_AT = 3272
-PP_MODE_AT = 3304
-PP_PERF_AT = 3320
+PP_COMMAND_AT = 3368
+PP_STATUS_AT = 3408
+PP_MODE_AT = 3440
+PP_PERF_AT = 3456
 
 # World model.
 WORLD_TAIL_REQUEST = Struct("<Q?")  # seq, tail_request
-WORLD_TAIL_REQUEST_AT = 3368
+WORLD_TAIL_REQUEST_AT = 3504
 WORLD_TAIL_IN_POSITION = Struct("<Q?")  # seq, tail_in_position
-WORLD_TAIL_IN_POSITION_AT = 3384
+WORLD_TAIL_IN_POSITION_AT = 3520
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 3400
+WORLD_OPERATOR_DELAY_AT = 3536
 WORLD_OPERATOR_GOAL_X = Struct("<Qd")  # seq, operator_goal_x
-WORLD_OPERATOR_GOAL_X_AT = 3416
+WORLD_OPERATOR_GOAL_X_AT = 3552
 WORLD_OPERATOR_GOAL_Y = Struct("<Qd")  # seq, operator_goal_y
-WORLD_OPERATOR_GOAL_Y_AT = 3432
+WORLD_OPERATOR_GOAL_Y_AT = 3568
 WORLD_GOAL_X = Struct("<Qd")  # seq, goal_x
-WORLD_GOAL_X_AT = 3448
+WORLD_GOAL_X_AT = 3584
 WORLD_GOAL_Y = Struct("<Qd")  # seq, goal_y
-WORLD_GOAL_Y_AT = 3464
+WORLD_GOAL_Y_AT = 3600
 WORLD_PATH_OK = Struct("<Q?")  # seq, path_ok
-WORLD_PATH_OK_AT = 3480
+WORLD_PATH_OK_AT = 3616
 WORLD_WP_X = Struct("<Qd")  # seq, wp_x
-WORLD_WP_X_AT = 3496
+WORLD_WP_X_AT = 3632
 WORLD_WP_Y = Struct("<Qd")  # seq, wp_y
-WORLD_WP_Y_AT = 3512
+WORLD_WP_Y_AT = 3648
 WORLD_WP_LAST = Struct("<Q?")  # seq, wp_last
-WORLD_WP_LAST_AT = 3528
+WORLD_WP_LAST_AT = 3664
 WORLD_BOOM_RATE_CMD = Struct("<Qd")  # seq, boom_rate_cmd
-WORLD_BOOM_RATE_CMD_AT = 3544
+WORLD_BOOM_RATE_CMD_AT = 3680
 WORLD_DRUM_ON_CMD = Struct("<Q?")  # seq, drum_on_cmd
-WORLD_DRUM_ON_CMD_AT = 3560
+WORLD_DRUM_ON_CMD_AT = 3696
 WORLD_JACK_DOWN_CMD = Struct("<Q?")  # seq, jack_down_cmd
-WORLD_JACK_DOWN_CMD_AT = 3576
+WORLD_JACK_DOWN_CMD_AT = 3712
 WORLD_LEFT_TREAD_CMD = Struct("<Qq")  # seq, left_tread_cmd
-WORLD_LEFT_TREAD_CMD_AT = 3592
+WORLD_LEFT_TREAD_CMD_AT = 3728
 WORLD_RIGHT_TREAD_CMD = Struct("<Qq")  # seq, right_tread_cmd
-WORLD_RIGHT_TREAD_CMD_AT = 3608
+WORLD_RIGHT_TREAD_CMD_AT = 3744
 WORLD_PAN_FLOAT_CMD = Struct("<Q?")  # seq, pan_float_cmd
-WORLD_PAN_FLOAT_CMD_AT = 3624
+WORLD_PAN_FLOAT_CMD_AT = 3760
 WORLD_GATHER_ON_CMD = Struct("<Q?")  # seq, gather_on_cmd
-WORLD_GATHER_ON_CMD_AT = 3640
+WORLD_GATHER_ON_CMD_AT = 3776
 WORLD_CONVEYOR_ON_CMD = Struct("<Q?")  # seq, conveyor_on_cmd
-WORLD_CONVEYOR_ON_CMD_AT = 3656
+WORLD_CONVEYOR_ON_CMD_AT = 3792
 WORLD_TRUE_X = Struct("<Qd")  # seq, true_x
-WORLD_TRUE_X_AT = 3672
+WORLD_TRUE_X_AT = 3808
 WORLD_TRUE_Y = Struct("<Qd")  # seq, true_y
-WORLD_TRUE_Y_AT = 3688
+WORLD_TRUE_Y_AT = 3824
 WORLD_TRUE_HEADING = Struct("<Qd")  # seq, true_heading
-WORLD_TRUE_HEADING_AT = 3704
+WORLD_TRUE_HEADING_AT = 3840
 WORLD_BOOM_ANGLE_TRUE = Struct("<Qd")  # seq, boom_angle_true
-WORLD_BOOM_ANGLE_TRUE_AT = 3720
+WORLD_BOOM_ANGLE_TRUE_AT = 3856
 WORLD_DRUM_CURRENT_TRUE = Struct("<Qd")  # seq, drum_current_true
-WORLD_DRUM_CURRENT_TRUE_AT = 3736
+WORLD_DRUM_CURRENT_TRUE_AT = 3872
 WORLD_JACK_DOWN = Struct("<Q?")  # seq, jack_down
-WORLD_JACK_DOWN_AT = 3752
+WORLD_JACK_DOWN_AT = 3888
 WORLD_SLIP = Struct("<Qd")  # seq, slip
-WORLD_SLIP_AT = 3768
+WORLD_SLIP_AT = 3904
 WORLD_TREAD_STALLED = Struct("<Q?")  # seq, tread_stalled
-WORLD_TREAD_STALLED_AT = 3784
+WORLD_TREAD_STALLED_AT = 3920
 WORLD_POSE_X = Struct("<Qd")  # seq, pose_x
-WORLD_POSE_X_AT = 3800
+WORLD_POSE_X_AT = 3936
 WORLD_POSE_Y = Struct("<Qd")  # seq, pose_y
-WORLD_POSE_Y_AT = 3816
+WORLD_POSE_Y_AT = 3952
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 3832
+WORLD_HEADING_AT = 3968
 WORLD_BOOM_ANGLE = Struct("<Qd")  # seq, boom_angle
-WORLD_BOOM_ANGLE_AT = 3848
+WORLD_BOOM_ANGLE_AT = 3984
 WORLD_CUTTER_CURRENT = Struct("<Qd")  # seq, cutter_current
-WORLD_CUTTER_CURRENT_AT = 3864
+WORLD_CUTTER_CURRENT_AT = 4000
 WORLD_LOOSE_COAL = Struct("<Qd")  # seq, loose_coal
-WORLD_LOOSE_COAL_AT = 3880
+WORLD_LOOSE_COAL_AT = 4016
 WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 3896
+WORLD_POPPED_OUT_OF_SHEAR_AT = 4032
 WORLD_DEPTH_EST = Struct("<Qd")  # seq, depth_est
-WORLD_DEPTH_EST_AT = 3912
+WORLD_DEPTH_EST_AT = 4048
 WORLD_DRUM_REACH = Struct("<Qd")  # seq, drum_reach
-WORLD_DRUM_REACH_AT = 3928
+WORLD_DRUM_REACH_AT = 4064
 WORLD_SUMP_STEP = Struct("<Qd")  # seq, sump_step
-WORLD_SUMP_STEP_AT = 3944
+WORLD_SUMP_STEP_AT = 4080
 WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
-WORLD_IN_COAL_AT = 3960
+WORLD_IN_COAL_AT = 4096
 WORLD_FACE_X = Struct("<Qd")  # seq, face_x
-WORLD_FACE_X_AT = 3976
+WORLD_FACE_X_AT = 4112
 WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
-WORLD_DEPTH_CUT_AT = 3992
+WORLD_DEPTH_CUT_AT = 4128
 WORLD_LOOSE_COAL_TRUE = Struct("<Qd")  # seq, loose_coal_true
-WORLD_LOOSE_COAL_TRUE_AT = 4008
+WORLD_LOOSE_COAL_TRUE_AT = 4144
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
-WORLD_COAL_MINED_AT = 4024
+WORLD_COAL_MINED_AT = 4160
+WORLD_SHUTTLE_CAR_AWAY = Struct("<Q?")  # seq, shuttle_car_away
+WORLD_SHUTTLE_CAR_AWAY_AT = 4176
 
 
 PROCESSES = {
@@ -471,6 +485,7 @@ PACING = {
 }
 # The process each module runs in (a stand-in runs in its controller's).
 PLACEMENT = {
+    "sec": "pc1",
     "sb": "pc1",
     "co": "pc1",
     "cc": "pc1",
@@ -501,6 +516,7 @@ PLACEMENT = {
 HEARTBEAT_TIMEOUT = 1.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
+    "sec": ("sb",),
     "sb": ("co", "wm"),
     "co": ("cr", "vg", "cc"),
     "cc": ("bm", "cd", "sj"),
@@ -533,6 +549,7 @@ STAND_INS = {
     "cr": "cr_sim",
 }
 MODULES = (
+    "sec",
     "sb",
     "co",
     "cc",
@@ -560,6 +577,9 @@ MODULES = (
     "pp",
 )
 COMMAND_IN = {
+    "sec": Record(
+        SEC_COMMAND, SEC_COMMAND_AT, ("command_num", "command", "arg_depth", "arg_offset")
+    ),
     "sb": Record(SB_COMMAND, SB_COMMAND_AT, ("command_num", "command", "arg_depth", "arg_offset")),
     "co": Record(CO_COMMAND, CO_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
     "cc": Record(CC_COMMAND, CC_COMMAND_AT, ("command_num", "command")),
@@ -587,6 +607,7 @@ COMMAND_IN = {
     "pp": Record(PP_COMMAND, PP_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
 }
 STATUS_OUT = {
+    "sec": Record(STATUS, SEC_STATUS_AT, field_names(STATUS_FIELDS)),
     "sb": Record(STATUS, SB_STATUS_AT, field_names(STATUS_FIELDS)),
     "co": Record(STATUS, CO_STATUS_AT, field_names(STATUS_FIELDS)),
     "cc": Record(STATUS, CC_STATUS_AT, field_names(STATUS_FIELDS)),
@@ -614,6 +635,7 @@ STATUS_OUT = {
     "pp": Record(STATUS, PP_STATUS_AT, field_names(STATUS_FIELDS)),
 }
 MODE_IN = {
+    "sec": Record(MODE, SEC_MODE_AT, field_names(MODE_FIELDS)),
     "sb": Record(MODE, SB_MODE_AT, field_names(MODE_FIELDS)),
     "co": Record(MODE, CO_MODE_AT, field_names(MODE_FIELDS)),
     "cc": Record(MODE, CC_MODE_AT, field_names(MODE_FIELDS)),
@@ -641,6 +663,7 @@ MODE_IN = {
     "pp": Record(MODE, PP_MODE_AT, field_names(MODE_FIELDS)),
 }
 PERFORMANCE = {
+    "sec": Record(PERF, SEC_PERF_AT, field_names(PERF_FIELDS)),
     "sb": Record(PERF, SB_PERF_AT, field_names(PERF_FIELDS)),
     "co": Record(PERF, CO_PERF_AT, field_names(PERF_FIELDS)),
     "cc": Record(PERF, CC_PERF_AT, field_names(PERF_FIELDS)),
@@ -728,6 +751,9 @@ WORLD = {
         WORLD_LOOSE_COAL_TRUE, WORLD_LOOSE_COAL_TRUE_AT, ("loose_coal_true",)
     ),
     "coal_mined": Record(WORLD_COAL_MINED, WORLD_COAL_MINED_AT, ("coal_mined",)),
+    "shuttle_car_away": Record(
+        WORLD_SHUTTLE_CAR_AWAY, WORLD_SHUTTLE_CAR_AWAY_AT, ("shuttle_car_away",)
+    ),
 }
 WORLD_INITIAL: dict[str, object] = {
     "tail_request": False,
@@ -772,9 +798,11 @@ WORLD_INITIAL: dict[str, object] = {
     "depth_cut": 0.0,
     "loose_coal_true": 0.0,
     "coal_mined": 0.0,
+    "shuttle_car_away": False,
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
+    "sec": (NO_COMMAND_NAME, *("INIT", "HALT", "MINE_COAL", "BOX_CUT", "TRAM_TO_GOAL")),
     "sb": (NO_COMMAND_NAME, *("INIT", "HALT", "TRAM_TO_GOAL", "BOX_CUT", "CUT_TWO_PASSES")),
     "co": (
         NO_COMMAND_NAME,
@@ -833,6 +861,7 @@ COMMAND_NAMES = {
     "pp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN")),
 }
 STATE_NAMES = {
+    "sec": ("NOP", "S0", "S1"),
     "sb": (
         "NOP",
         "S0",
@@ -893,6 +922,22 @@ STATE_NAMES = {
 }
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
+    "sec": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "MINE_COAL/S0/1",
+        "MINE_COAL/S1/1",
+        "MINE_COAL/S1/2",
+        "BOX_CUT/S0/1",
+        "BOX_CUT/S1/1",
+        "BOX_CUT/S1/2",
+        "TRAM_TO_GOAL/S0/1",
+        "TRAM_TO_GOAL/S1/1",
+        "TRAM_TO_GOAL/S1/2",
+    ),
     "sb": (
         "",
         "INIT/S0/1",
@@ -1108,11 +1153,12 @@ SIMULATORS = ("oi", "bas", "jas", "tas", "mine", "das", "gas", "bss", "pss", "cs
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {
     "crew": {
-        "sb": 2,  # command
+        "sec": 2,  # command
         "ct": 1,  # respond
         "oi": 2,  # command
     },
     "engineer": {
+        "sec": 3,  # override
         "sb": 3,  # override
         "co": 3,  # override
         "cc": 3,  # override

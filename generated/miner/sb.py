@@ -13,17 +13,7 @@ from .layout import (
     WM_COMMAND_AT,
     WORLD_SUMP_STEP_AT,
 )
-from .rcs.contract import (
-    DONE,
-    ERROR,
-    EXECUTING,
-    NO_RULE,
-    NOP,
-    PERF,
-    READ_TRIES,
-    SEQ,
-    STATUS,
-)
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
 # Commands sb accepts (the code written to its command buffer).
 INIT = 1
@@ -48,19 +38,15 @@ WM_NEW_CUT = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQIdd44x???1xI96xQI2660xQI652xd8xd88xd8xd8xd")
-INPUTS_AT = 288
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 288
+INPUTS = Struct("<QIdd44x???1xI96xQI2660xQI652xd8xd88xd8xd8xd")
+INPUTS_AT = 432
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3944
+WORLD_OUT_1_AT = 4080
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -185,33 +171,25 @@ class SbController:
         # pre_process
         cycle_start = perf_counter_ns()
         buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.arg_depth,
-                    self.arg_offset,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.co_status_num,
-                    self.co_status,
-                    self.wm_status_num,
-                    self.wm_status,
-                    self.world_pose_x,
-                    self.world_pose_y,
-                    self.world_depth_est,
-                    self.world_drum_reach,
-                    self.world_sump_step,
-                ) = values
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
+        (
+            self.command_num,
+            self.command,
+            self.arg_depth,
+            self.arg_offset,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.co_status_num,
+            self.co_status,
+            self.wm_status_num,
+            self.wm_status,
+            self.world_pose_x,
+            self.world_pose_y,
+            self.world_depth_est,
+            self.world_drum_reach,
+            self.world_sump_step,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.co_status_num != self.co_command_num:
             self.co_status = EXECUTING  # until it echoes the last number sent
         if self.wm_status_num != self.wm_command_num:
@@ -324,33 +302,25 @@ class SbController:
         """Copy the command in, the mode, each subordinate's status and the world in."""
         self.cycle_start = perf_counter_ns()
         buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.arg_depth,
-                    self.arg_offset,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.co_status_num,
-                    self.co_status,
-                    self.wm_status_num,
-                    self.wm_status,
-                    self.world_pose_x,
-                    self.world_pose_y,
-                    self.world_depth_est,
-                    self.world_drum_reach,
-                    self.world_sump_step,
-                ) = values
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
+        (
+            self.command_num,
+            self.command,
+            self.arg_depth,
+            self.arg_offset,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.co_status_num,
+            self.co_status,
+            self.wm_status_num,
+            self.wm_status,
+            self.world_pose_x,
+            self.world_pose_y,
+            self.world_depth_est,
+            self.world_drum_reach,
+            self.world_sump_step,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.co_status_num != self.co_command_num:
             self.co_status = EXECUTING  # until it echoes the last number sent
         if self.wm_status_num != self.wm_command_num:

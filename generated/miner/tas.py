@@ -34,25 +34,31 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI1376xq8xq56xd8xd8xd56xd8x?")
-INPUTS_AT = 2152
+INPUTS_AT = 2288
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2152
+SEQS_AT = 2288
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 3672
+WORLD_OUT_1_AT = 3808
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 
+# Constants.
+SPEED_ERROR = 0.05
+
 
 class TasController:
     """The tas controller: its local buffers and the QQ1 cycle."""
+
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
 
     __slots__ = (
         "buf",
@@ -62,6 +68,7 @@ class TasController:
         "cycles",
         "dont_run",
         "error_num",
+        "hook_state",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -89,6 +96,10 @@ class TasController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
+        try:
+            self.hook_state = hooks.new_actuator_error(settings or {})
+        except Exception as error:
+            raise HookError("tas", "new_actuator_error", "hooks_state", 0) from error
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -340,11 +351,13 @@ class TasController:
         ):
             try:
                 returned = hooks.advance(
+                    self.hook_state,
                     self.world_true_x,
                     self.world_true_y,
                     self.world_true_heading,
                     self.world_left_tread_cmd,
                     self.world_right_tread_cmd,
+                    SPEED_ERROR,
                 )
             except Exception as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("tas", "advance", "every_cycle/1", self.cycles) from error
@@ -362,7 +375,11 @@ class TasController:
             # the shear slides the standing machine outby (a roll in the seam floor)
             try:
                 returned = hooks.slide(
-                    self.world_true_x, self.world_true_y, self.world_true_heading, self.world_slip
+                    self.hook_state,
+                    self.world_true_x,
+                    self.world_true_y,
+                    self.world_true_heading,
+                    self.world_slip,
                 )
             except Exception as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("tas", "slide", "every_cycle/2", self.cycles) from error

@@ -638,7 +638,7 @@ def main(package: str, argv: list[str] | None = None) -> int:
         "--send",
         default=None,
         metavar="MODULE.COMMAND[:NAME=VALUE,...]",
-        help="once MODULE has finished INIT, send it this command (e.g. sb.BOX_CUT:depth=1.5)",
+        help="once MODULE has finished INIT, send it this command (e.g. sec.BOX_CUT:depth=1.5)",
     )
     parser.add_argument(
         "--report",
@@ -764,7 +764,7 @@ def parse_world(layout: ModuleType, items: Sequence[str]) -> dict[str, object]:
 
 @dataclass(frozen=True)
 class Send:
-    """A command an operator gives a module: `sb.BOX_CUT:depth=1.5`."""
+    """A command an operator gives a module: `sec.BOX_CUT:depth=1.5`."""
 
     module: str
     command: str

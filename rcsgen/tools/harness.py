@@ -270,15 +270,6 @@ class Harness(BlockView):
                 return each.modules[module]
         raise KeyError(f"{module} does not run in this harness")
 
-    def adopt(self, supervisor: str, module: str) -> None:
-        """Make `supervisor` keep `module`'s current command as the last one it sent, so that
-        its post_process writes the same command back instead of overwriting it (a
-        scenario's `overrides: true`)."""
-        controller = self.controller(supervisor)
-        values = self.layout.COMMAND_IN[module].read(self.buf)
-        for name, value in values.items():  # command_num, command, arg_<param>
-            setattr(controller, f"{module}_{name}", value)
-
     def step(self, module: str) -> None:
         """Run one module for one cycle; nothing else runs."""
         self.controller(module).run_cycle()
@@ -374,11 +365,6 @@ class LaunchedHarness(BlockView):
     @property
     def cycles(self) -> int:
         return int(self.coordinator.cycle)
-
-    def adopt(self, supervisor: str, module: str) -> None:
-        """Nothing to do: a supervisor writes its subordinate's command buffer only when it
-        sends, numbering after an operator's command (docs/semantics.md §12), so a
-        scenario's command to a supervised module stays until the supervisor sends."""
 
     def summary(self) -> list[str]:
         """The launcher's summary, once closed."""

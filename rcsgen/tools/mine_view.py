@@ -150,7 +150,7 @@ def payload(
             "status": runs(trace.columns[lane.module]["status"], None, table),
         }
         for lane in lanes
-        if not lane.simulator and lane.level and lane.level <= 3
+        if not lane.simulator and lane.level and lane.level <= 4  # the top four levels
     ]
     world: dict[str, list[Any]] = {}
     for name in (*REQUIRED, *SHOWN):

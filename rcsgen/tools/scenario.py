@@ -32,7 +32,7 @@ class Event:
     world: dict[str, Any] = field(default_factory=dict)
     mode: dict[str, dict[str, Any]] = field(default_factory=dict)
     doc: str = ""
-    overrides: str | None = None  # the supervisor whose place the command takes (`overrides`)
+    overrides: str | None = None  # the supervisor it is written under (`overrides: true`)
 
 
 @dataclass(frozen=True)
@@ -162,9 +162,10 @@ def _apply(harness: AnyHarness, event: Event) -> None:
         harness.set_mode(module, **mode)
     if event.command is not None:
         module, name = event.command
+        # Under a supervisor (`overrides`) the command is written as an operator's: it stays
+        # until the supervisor's next send, numbered after it (docs/semantics.md §12). The
+        # supervisor's own memory is not touched: no running system could reach it.
         harness.command(module, name, **event.args)
-        if event.overrides is not None:  # the supervisor keeps it as the last command it sent
-            harness.adopt(event.overrides, module)
 
 
 def run(

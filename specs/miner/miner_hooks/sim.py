@@ -1,4 +1,5 @@
-"""Hooks of the equipment simulators: tram kinematics and seeded sensor noise."""
+"""Hooks of the equipment simulators: actuators with seeded random error, tram kinematics,
+seeded sensor noise."""
 
 from __future__ import annotations
 
@@ -9,12 +10,35 @@ TREAD_STEP = 0.05  # metres per cycle per speed level
 TURN_STEP = 0.03  # radians per cycle per unit of speed difference (a pivot: 3.4 degrees a cycle)
 
 
+def new_actuator_error(settings: dict[str, str]) -> random.Random:
+    """An actuator's source of random error, seeded from the run's `seed` setting apart from
+    the sensors' noise (a seed string of its own), so runs are reproducible."""
+    return random.Random(f"actuator-{settings.get('seed', '1')}")
+
+
+def turn_boom(
+    rng: random.Random, angle: float, rate: float, error: float, low: float, high: float
+) -> float:
+    """The boom angle after one cycle at the commanded rate, off by up to `error` of it (the
+    hydraulics' flow varies), between the mechanical stops `low` and `high`."""
+    moved = angle + rate * (1.0 + rng.uniform(-error, error))
+    return round(max(low, min(high, moved)), 6)
+
+
+def travel_time(rng: random.Random, nominal: int, spread: int) -> int:
+    """Cycles a jack stroke takes this time: `nominal`, give or take up to `spread`."""
+    return nominal + rng.randint(-spread, spread)
+
+
 def advance(
-    x: float, y: float, heading: float, left: int, right: int
+    rng: random.Random, x: float, y: float, heading: float, left: int, right: int, error: float
 ) -> tuple[float, float, float]:
-    """The pose after one cycle of tramming with these tread speed levels."""
-    speed = (left + right) / 2 * TREAD_STEP
-    heading = heading + (right - left) * TURN_STEP
+    """The pose after one cycle of tramming with these tread speed levels, each tread off by
+    up to `error` of its speed (slip on the floor, hydraulic flow): the machine wanders."""
+    left_speed = left * (1.0 + rng.uniform(-error, error))
+    right_speed = right * (1.0 + rng.uniform(-error, error))
+    speed = (left_speed + right_speed) / 2 * TREAD_STEP
+    heading = heading + (right_speed - left_speed) * TURN_STEP
     return (
         round(x + speed * math.cos(heading), 9),
         round(y + speed * math.sin(heading), 9),
@@ -22,7 +46,9 @@ def advance(
     )
 
 
-def slide(x: float, y: float, heading: float, distance: float) -> tuple[float, float]:
+def slide(
+    rng: random.Random, x: float, y: float, heading: float, distance: float
+) -> tuple[float, float]:
     """The position after sliding `distance` metres backwards along the heading."""
     return round(x - distance * math.cos(heading), 9), round(y - distance * math.sin(heading), 9)
 
