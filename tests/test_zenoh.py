@@ -510,6 +510,10 @@ def test_the_monitor_attaches_through_zenoh(
 
     async def drive() -> list[str]:
         app = Monitor(layout, "unused", interval=0.1, role="engineer", connect=(endpoint,))
+        # attached only once both running processes had sent everything they wrote, so the
+        # first screen is whole (pp's command, written on pc1, with pp's status, from pc2)
+        assert app.ctl.attached.net.synced == {"pc1", "pc2"}
+        assert app.ctl.modules()["pp"]["command"] == "INIT"
         seen = []
         async with app.run_test(size=(160, 40)) as pilot:
             for _ in range(50):  # until pp (on pc2) has reported its INIT

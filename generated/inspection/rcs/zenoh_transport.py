@@ -27,9 +27,11 @@ from struct import Struct
 from typing import Any
 
 from .block import Block
-from .contract import ABSENT, STOPPED
+from .contract import ABSENT, DEAD, STOPPED
 from .loop import STEP, Process, Stop
 from .transport import ALIVE, PUSH_KEY, STEP_KEY, Mirror, TransportError, prefix, reads
+
+FULL = "full"  # the last part of a full push's key: everything its sender wrote
 
 DEFAULT_PORT = 7447  # Zenoh's own default
 # A free-running process that cycles faster than this sends its records at most this often:
@@ -98,6 +100,8 @@ class ZenohTransport:
         self.steps: deque[bytes] = deque()
         self.lost: set[str] = set()
         self.joined: set[str] = set()
+        # senders whose full push (everything they wrote, sent when this node joined) arrived
+        self.synced: set[str] = set()
         self.republish = False
         self.log = log or (lambda text: print(text, file=sys.stderr))
         self._warned: set[str] = set()
@@ -169,9 +173,13 @@ class ZenohTransport:
         mirror = self.mirror
         for kind, key, payload in arrived:
             if kind == "push":  # a sender's cycle, whole: applied whole, in the order sent
-                for record, message in mirror.unpack(payload) or ():
+                records = mirror.unpack(payload)
+                for record, message in records or ():
                     if self._wanted(record):
                         mirror.apply(record, message)
+                sender, _, full = key[len(self._pushes) :].partition("/")
+                if full == FULL and records is not None:
+                    self.synced.add(sender)
             elif kind == "step":
                 self.steps.append(payload)
             elif kind == "join":
@@ -182,6 +190,7 @@ class ZenohTransport:
                     mirror.counters.joined.append(key)
             elif kind == "leave":
                 self.joined.discard(key)
+                self.synced.discard(key)
                 if key in mirror.layout.PROCESSES and key != self.process:
                     self.lost.add(key)
                     if mirror.state(key) != STOPPED:  # it did not say goodbye: lost
@@ -211,9 +220,11 @@ class ZenohTransport:
             return
         payload = self.mirror.pack(messages)
         key = f"{self.prefix}/{PUSH_KEY}/{self.node}"
-        if last:
+        if last or everything:  # never dropped; a full push says so in its key
             block = self._zenoh.CongestionControl.BLOCK
-            self.session.put(key, payload, congestion_control=block)
+            self.session.put(
+                key + (f"/{FULL}" if everything else ""), payload, congestion_control=block
+            )
         else:
             if self._publisher is None:
                 self._publisher = self.session.declare_publisher(
@@ -273,6 +284,15 @@ class Attached:
                 f"no process of {layout.SYSTEM} (layout {layout.LAYOUT_HASH[:8]}) answered "
                 f"through {where} within {wait:g} s: is it running with --transport zenoh?"
             )
+        # Before the first read: every running process's full push, so that what is shown
+        # is whole (a process's regular push can come before the one that answers our join).
+        synced = self.net.synced
+        self.net.wait(
+            lambda: all(
+                n in synced for n in names if mirror.state(n) not in (ABSENT, DEAD, STOPPED)
+            ),
+            wait,
+        )
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
