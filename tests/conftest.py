@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -21,6 +23,20 @@ def rcsgen(*args: str | Path) -> Result:
     result = CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
     assert "Traceback" not in result.output, result.output
     return result
+
+
+def wait_for(
+    condition: Callable[[], object], what: str, deadline: float = 20.0, every: float = 0.01
+) -> object:
+    """Poll `condition` until it is true (its value); fail naming `what` after `deadline`
+    seconds: how the tests of running systems wait, never asserting on wall-clock time."""
+    end = time.monotonic() + deadline
+    while time.monotonic() < end:
+        value = condition()
+        if value:
+            return value
+        time.sleep(every)
+    raise AssertionError(f"gave up waiting: {what}")
 
 
 def edit(path: Path, old: str, new: str) -> str:

@@ -14,33 +14,22 @@ import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
 import pytest
-from conftest import rcsgen
+from conftest import rcsgen, wait_for
 
 from rcsgen.tools.harness import generate, import_package
 
 DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
 REPO = Path(__file__).resolve().parent.parent
-DEADLINE = 20.0
 _names = itertools.count(1)
 
 
 def segment_name() -> str:
     return f"rcsgen_ctl_{os.getpid()}_{next(_names)}"
-
-
-def wait_for(condition: Callable[[], object], what: str, deadline: float = DEADLINE) -> object:
-    end = time.monotonic() + deadline
-    while time.monotonic() < end:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.01)
-    raise AssertionError(f"gave up waiting: {what}")
 
 
 @pytest.fixture(scope="module")

@@ -326,7 +326,8 @@ def test_the_inspector_answers_and_refuses_at_the_console():
     """The workstation running paced with nobody scripted (`operator_delay=-1`): the
     inspector prepares it, answers fixturing's request, refuses tooling's; a console without
     a role may not answer and the inspector may not stop a module (that is override)."""
-    from test_ctl import Running, wait_for
+    from conftest import wait_for
+    from test_ctl import Running
 
     layout = importlib.import_module(f"{import_package(PACKAGE, SYSTEM).__name__}.layout")
     system = Running(PACKAGE, SYSTEM, layout, "--world", "operator_delay=-1")

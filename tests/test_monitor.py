@@ -15,7 +15,8 @@ import pytest
 
 pytest.importorskip("textual")
 
-from test_ctl import DUO, Running, wait_for  # noqa: E402
+from conftest import wait_for  # noqa: E402
+from test_ctl import DUO, Running  # noqa: E402
 
 from rcsgen.tools.harness import generate, import_package  # noqa: E402
 from rcsgen.tools.monitor import Monitor, tree_order  # noqa: E402

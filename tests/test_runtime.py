@@ -23,27 +23,16 @@ from pathlib import Path
 from types import ModuleType
 
 import pytest
+from conftest import wait_for
 
 from rcsgen.tools.harness import Harness, generate, import_package
 
 DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
-DEADLINE = 20.0  # seconds a paced system gets to react before a test gives up
 _names = itertools.count(1)
 
 
 def segment_name() -> str:
     return f"rcsgen_rt_{os.getpid()}_{next(_names)}"
-
-
-def wait_for(condition: Callable[[], object], what: str, deadline: float = DEADLINE) -> object:
-    """Poll `condition` until it is true; fail naming `what` after `deadline` seconds."""
-    end = time.monotonic() + deadline
-    while time.monotonic() < end:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.01)
-    raise AssertionError(f"gave up waiting: {what}")
 
 
 @pytest.fixture(scope="module")

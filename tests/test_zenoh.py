@@ -15,11 +15,12 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
 import pytest
+from conftest import wait_for
 
 from rcsgen.tools.harness import import_package
 from rcsgen.tools.scenario import load_scenario, open_harness, read_trace, run
@@ -29,7 +30,6 @@ zenoh = pytest.importorskip("zenoh")
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "generated" / "miner"
 HOOKS = ROOT / "specs" / "miner"
-DEADLINE = 15.0  # seconds a liveness condition may take here before the test gives up
 
 
 @pytest.fixture(scope="module")
@@ -70,16 +70,6 @@ def shm_files() -> set[str]:
     and anything Zenoh would leave (its shared-memory transport is off)."""
     found = set(os.listdir("/dev/shm")) if os.path.isdir("/dev/shm") else set()
     return {n for n in found if not n.startswith("rcs") or str(os.getpid()) in n}
-
-
-def wait_for(condition: Callable[[], object], what: str, deadline: float = DEADLINE) -> object:
-    end = time.monotonic() + deadline
-    while time.monotonic() < end:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.02)
-    raise AssertionError(f"gave up waiting: {what}")
 
 
 # ---------------------------------------------------------------- the mirror, no network
