@@ -490,28 +490,24 @@ def _is_sub_command(node: ast.AST, scope: Scope) -> bool:
     return _sub_commanded(node, scope) is not None
 
 
-def _sub_commanded(node: ast.AST, scope: Scope) -> str | None:
-    """The subordinate `node` reads the command of (`<sub>.command`), else None."""
+def _sub_attribute(node: ast.AST, scope: Scope, attr: str) -> str | None:
+    """The subordinate whose `attr` `node` reads (`<sub>.command`, `<sub>.reason`), else None."""
     if (
         isinstance(node, ast.Attribute)
-        and node.attr == "command"
+        and node.attr == attr
         and isinstance(node.value, ast.Name)
         and node.value.id in scope.subordinates
     ):
         return node.value.id
     return None
+
+
+def _sub_commanded(node: ast.AST, scope: Scope) -> str | None:
+    return _sub_attribute(node, scope, "command")
 
 
 def _sub_reasoned(node: ast.AST, scope: Scope) -> str | None:
-    """The subordinate `node` reads the reason of (`<sub>.reason`), else None."""
-    if (
-        isinstance(node, ast.Attribute)
-        and node.attr == "reason"
-        and isinstance(node.value, ast.Name)
-        and node.value.id in scope.subordinates
-    ):
-        return node.value.id
-    return None
+    return _sub_attribute(node, scope, "reason")
 
 
 def did_you_mean_attr(attr: str) -> str:

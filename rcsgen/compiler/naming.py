@@ -42,7 +42,7 @@ from ..runtime.contract import (
 from .diagnostics import Diagnostics, Span
 from .expr import BUILTIN_REASONS, BUILTINS, Ref
 from .loader import span_of
-from .model import Command, ControllerSpec, SystemSpec
+from .model import Command, ControllerSpec, SystemSpec, Typed
 
 # Methods every generated controller class has (QQ1 shape).
 FIXED_METHODS = frozenset(
@@ -638,32 +638,14 @@ def check_controller_names(spec: ControllerSpec, diags: Diagnostics) -> None:
                     f"parameter `{name}` of {command.name} has the name of a local",
                     "rename one of them",
                 )
-    param_types: dict[str, tuple[str, str]] = {}
-    for command in spec.commands.values():
-        for param in command.params.values():
-            if param.name in param_types and param_types[param.name][0] != param.type:
-                first_type, first_command = param_types[param.name]
-                diags.error(
-                    param.span,
-                    "E230",
-                    f"parameter `{param.name}` is {param.type} here but {first_type} in "
-                    f"{first_command}",
-                    "commands of one controller share a parameter slot per name: use one type",
-                )
-            param_types.setdefault(param.name, (param.type, command.name))
-    slot_types: dict[str, tuple[str, str]] = {}
-    for command in spec.commands.values():
-        for result in command.results.values():
-            if result.name in slot_types and slot_types[result.name][0] != result.type:
-                first_type, first_command = slot_types[result.name]
-                diags.error(
-                    result.span,
-                    "E253",
-                    f"result `{result.name}` is {result.type} here but {first_type} in "
-                    f"{first_command}",
-                    "commands of one controller share a result slot per name: use one type",
-                )
-            slot_types.setdefault(result.name, (result.type, command.name))
+    commands = list(spec.commands.values())
+    _one_type_per_slot(
+        [(c.name, p) for c in commands for p in c.params.values()], "E230", "parameter", diags
+    )
+    _one_type_per_slot(
+        [(c.name, r) for c in commands for r in c.results.values()], "E253", "result", diags
+    )
+    for command in commands:
         for reason in command.reasons:
             if reason.value in BUILTIN_REASONS:
                 diags.error(
@@ -673,6 +655,24 @@ def check_controller_names(spec: ControllerSpec, diags: Diagnostics) -> None:
                     + ("no reason given" if reason.value == "NONE" else "a subordinate was lost"),
                     "declare only the reasons of your own errors",
                 )
+
+
+def _one_type_per_slot(
+    named: list[tuple[str, Typed]], code: str, kind: str, diags: Diagnostics
+) -> None:
+    """Commands of one controller share a buffer slot per parameter (or result) name, so
+    every declaration of a name has the first one's type."""
+    first: dict[str, tuple[str, str]] = {}
+    for command, item in named:
+        if item.name in first and first[item.name][0] != item.type:
+            first_type, first_command = first[item.name]
+            diags.error(
+                item.span,
+                code,
+                f"{kind} `{item.name}` is {item.type} here but {first_type} in {first_command}",
+                f"commands of one controller share a {kind} slot per name: use one type",
+            )
+        first.setdefault(item.name, (item.type, command))
 
 
 def declared_reasons(spec: ControllerSpec) -> list[str]:

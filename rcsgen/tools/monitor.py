@@ -23,7 +23,7 @@ from textual.binding import Binding
 from textual.css.query import NoMatches
 from textual.widgets import DataTable, Footer, Input, Static
 
-from ..runtime.ctl import Access, Command, Console, CtlError, attach, parse_command
+from ..runtime.ctl import Command, Console, CtlError, parse_command
 
 COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
 COLUMNS = (
@@ -96,12 +96,10 @@ class Monitor(App[None]):
         connect: tuple[str, ...] = (),
     ) -> None:
         super().__init__()
-        self.layout, self.segment, self.interval = layout, segment, interval
+        self.layout, self.interval = layout, interval
         # CtlError, BlockError, TransportError: the caller reports it. `connect`: through Zenoh.
-        Access(layout, role)  # a bad role is refused before anything is attached
-        self.ctl = Console(layout, segment, role, attach(layout, connect))
-        if connect:
-            self.segment = "zenoh " + " ".join(connect)
+        self.ctl = Console(layout, segment, role, connect)
+        self.segment = self.ctl.segment
         self.open_requests: list[dict[str, Any]] = []
         self.closed = False
         self.rows = tree_order(layout)
@@ -194,12 +192,14 @@ class Monitor(App[None]):
         self.query_one("#message", Static).update(Text(text, style="bold red" if error else ""))
 
     def act(self, what: str, action: Any) -> None:
+        """Run `action` through the console: say `what` (or the text the action returns)
+        and refresh, or say why the console refused."""
         try:
-            action()
+            said = action()
         except CtlError as error:
             self.say(str(error), error=True)
             return
-        self.say(what)
+        self.say(said if isinstance(said, str) else what)
         self.refresh_rows()
 
     # ------------------------------------------------------------ keys
@@ -259,16 +259,11 @@ class Monitor(App[None]):
         request = next((r for r in self.open_requests if r["by"] == module), None)
         name = (request or self.open_requests[0])["name"]
 
-        def answer() -> None:
+        def answer() -> str:
             sent, number = self.ctl.answer(name)
-            self.say(f"answered {name}: sent {sent} #{number}")
+            return f"answered {name}: sent {sent} #{number}"
 
-        try:
-            answer()
-        except CtlError as error:
-            self.say(str(error), error=True)
-            return
-        self.refresh_rows()
+        self.act("", answer)
 
     def action_close_send(self) -> None:
         form = self.query_one("#send", Input)
@@ -290,13 +285,8 @@ class Monitor(App[None]):
             self.say(str(error), error=True)
             return
 
-        def send() -> None:
+        def send() -> str:
             number, notes = self.ctl.send(command, override)
-            self.say("; ".join([*notes, f"sent {command} #{number}"]))
+            return "; ".join([*notes, f"sent {command} #{number}"])
 
-        try:
-            send()
-        except CtlError as error:
-            self.say(str(error), error=True)
-            return
-        self.refresh_rows()
+        self.act("", send)

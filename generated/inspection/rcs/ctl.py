@@ -92,9 +92,13 @@ def parse_command(layout: ModuleType, module: str, command: str, items: Sequence
             raise ValueError(f"{item!r} is not NAME=VALUE")
         if name not in slots:
             raise ValueError(f"{module} has " + suggest(name, list(slots), "parameter"))
-        code = str(record.struct.format).lstrip("<")[list(record.fields).index(slots[name]) + 1]
-        values[name] = typed(raw, code, name)
+        values[name] = typed(raw, field_code(record, slots[name]), name)
     return Command(module, command, values)
+
+
+def field_code(record: Any, field: str) -> str:
+    """The struct code of a record's field (after its sequence word): ? bool, q int, d float."""
+    return str(record.struct.format).lstrip("<")[list(record.fields).index(field) + 1]
 
 
 def typed(raw: str, code: str, name: str = "") -> object:
@@ -175,14 +179,14 @@ class Console:
         layout: ModuleType,
         segment: str,
         role: str | None = None,
-        attached: Any = None,
+        connect: Sequence[str] = (),
     ) -> None:
         self.layout = layout
-        self.segment = segment
+        self.segment = f"zenoh {' '.join(connect)}" if connect else segment
         self.access = Access(layout, role)  # before attaching: a bad role is a usage error
-        # `attached`: a block kept current over the network (zenoh_transport.Attached)
-        self.attached = attached
-        self.block = attached.block if attached is not None else Block(layout, segment, False)
+        # With `connect`: a private block kept current over Zenoh (zenoh_transport.Attached)
+        self.attached = attach(layout, connect)
+        self.block = self.attached.block if self.attached else Block(layout, segment, False)
         self.buf = self.block.buf
         self.supervisor = {
             sub: boss
@@ -639,9 +643,7 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
             print("\n".join(access.matrix(layout.MODULES)))
         return 0
     try:
-        where = f"zenoh {' '.join(args.connect)}" if args.connect else args.shm
-        Access(layout, args.role)  # a bad role is a usage error before anything is attached
-        console = Console(layout, where, args.role, attach(layout, args.connect))
+        console = Console(layout, args.shm, args.role, args.connect)
     except (BlockError, TransportError, ValueError) as error:
         raise CtlError(str(error)) from None
     try:

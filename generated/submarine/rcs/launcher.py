@@ -30,7 +30,7 @@ from typing import Any, Self
 
 from .block import Block, BlockError
 from .contract import DEAD, PROCESS_STATES, RUNNING, STOPPED, StaleRead
-from .ctl import parse_command, suggest, typed
+from .ctl import field_code, parse_command, suggest, typed
 from .loop import (
     DONE_REPLY,
     READY,
@@ -89,12 +89,11 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     plan = system.plans[args.process]
     stop = Stop()
     settings = dict(item.partition("=")[::2] for item in args.set)
-    args.set_ = settings
     if args.child:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # the launcher decides when to stop
     signal.signal(signal.SIGTERM, stop)
     if args.transport == "zenoh":
-        return run_networked(system, args, stop)
+        return run_networked(system, args, stop, settings)
     if args.lockstep:
         try:
             process = start(plan, system.layout, args.shm, not args.attach, settings, args.simulate)
@@ -132,17 +131,24 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     except (BlockError, RestartRefused) as error:
         print(f"{args.process}: {error}", file=sys.stderr)
         return REFUSED if isinstance(error, RestartRefused) else 1
-    if not args.child:
-        print(f"{args.process}: {process.cycle} cycles")
-        for line in summary(system, process.block.buf, [args.process]):
-            print(line)
+    report(system, args, process)
     if args.child and stop.orphaned:
         process.block.owner = True  # the launcher is gone: the last one out removes it
     process.block.close()
     return 0
 
 
-def run_networked(system: System, args: argparse.Namespace, stop: Stop) -> int:
+def report(system: System, args: argparse.Namespace, process: Process) -> None:
+    """A process run by hand (not the launcher's child) prints its cycles and summary."""
+    if not args.child:
+        print(f"{args.process}: {process.cycle} cycles")
+        for line in summary(system, process.block.buf, [args.process]):
+            print(line)
+
+
+def run_networked(
+    system: System, args: argparse.Namespace, stop: Stop, settings: dict[str, str]
+) -> int:
     """One process on its own block, its records moved over Zenoh: free-running, or in
     lockstep for a coordinator on the network (`--lockstep`)."""
     from .transport import Mirror
@@ -161,7 +167,7 @@ def run_networked(system: System, args: argparse.Namespace, stop: Stop) -> int:
 
     try:
         if args.lockstep:
-            process = start(plan, layout, args.shm, not args.attach, args.set_, args.simulate)
+            process = start(plan, layout, args.shm, not args.attach, settings, args.simulate)
             try:
                 transport = connect(process)
             except BaseException:
@@ -181,7 +187,7 @@ def run_networked(system: System, args: argparse.Namespace, stop: Stop) -> int:
                 not args.fast,
                 args.shm,
                 not args.attach,
-                settings=args.set_,
+                settings=settings,
                 simulate=args.simulate,
                 stop=stop,
                 transport=connect,
@@ -190,10 +196,7 @@ def run_networked(system: System, args: argparse.Namespace, stop: Stop) -> int:
     except (BlockError, RestartRefused, TransportError) as error:
         print(f"{args.process}: {error}", file=sys.stderr)
         return REFUSED if isinstance(error, RestartRefused) else 1
-    if not args.child:
-        print(f"{args.process}: {process.cycle} cycles")
-        for line in summary(system, process.block.buf, [args.process]):
-            print(line)
+    report(system, args, process)
     process.block.owner = True  # its own block: nobody else on this host uses it
     process.block.close()
     return 1 if problem is not None else 0
@@ -757,7 +760,7 @@ def parse_world(layout: ModuleType, items: Sequence[str]) -> dict[str, object]:
             raise ValueError("--world: " + suggest(name, list(layout.WORLD), "world field"))
         record = layout.WORLD[name]
         try:
-            values[name] = typed(raw, str(record.struct.format).lstrip("<")[-1], name)
+            values[name] = typed(raw, field_code(record, name), name)
         except ValueError as error:
             raise ValueError(f"--world: {error}") from None
     return values
