@@ -87,6 +87,37 @@ def test_for_starts_again_when_the_condition_breaks(timed: Harness) -> None:
     assert timed.status("helm").state == "S2"
 
 
+@pytest.fixture
+def watch():
+    with Harness.build(FIXTURES / "watch") as h:
+        yield h
+
+
+def test_for_on_an_every_cycle_rule_counts_whatever_the_command(watch: Harness) -> None:
+    """`for: 0.3 s` (3 cycles) every cycle: ice seen 3 cycles is not enough, the 4th raises
+    the alarm, and a command arriving meanwhile does not start the count again."""
+    watch.world["ice_ahead"] = True
+    alarms = []
+    for cycle in range(4):
+        if cycle == 2:
+            watch.command("watch", "LOOK")
+        watch.step("watch")
+        alarms.append(watch.world["alarm"])
+    assert alarms == [False, False, False, True]
+
+
+def test_for_on_an_every_cycle_rule_starts_again_when_the_condition_breaks(
+    watch: Harness,
+) -> None:
+    """Three cycles of ice, one without, three again: no alarm; a fourth raises it."""
+    for ice in [True] * 3 + [False] + [True] * 3:
+        watch.world["ice_ahead"] = ice
+        watch.step("watch")
+        assert watch.world["alarm"] is False
+    watch.step("watch")
+    assert watch.world["alarm"] is True
+
+
 def test_after_counts_from_entering_the_state_not_the_command(timed: Harness) -> None:
     """S2 times out 2 s (20 cycles) after it was entered, whatever S1 took before."""
     _into_s1(timed)
@@ -123,6 +154,41 @@ def test_time_is_counted_in_the_process_s_period(tmp_path: Path) -> None:
         assert h.status("helm").status == "EXECUTING"
         h.step("helm")
         assert h.status("helm").status == "DONE"
+
+
+def test_cycle_period_is_the_process_s_and_only_a_table_reading_it_has_it(tmp_path: Path) -> None:
+    """CYCLE_PERIOD in an expression is the seconds per cycle of the controller's process
+    (0.5 s where the process has its own period, not the system's 0.1 s); a controller whose
+    expressions do not read it does not define it."""
+    source = FIXTURES / "watch"
+    target = tmp_path / "watch"
+    target.mkdir()
+    for path in source.glob("*.yaml"):
+        text = path.read_text(encoding="utf-8")
+        if path.name == "system.yaml":
+            text = text.replace("[watch]", "[watch]\n    cycle_period: 0.5")
+            text = text.replace(
+                "processes:",
+                "  seen_for:\n    type: float\n    initial: 0.0\n    doc: Seconds of ice.\n\n"
+                "processes:",
+            )
+        else:
+            text = text.replace("writes: [alarm]", "writes: [alarm, seen_for]")
+            text = text.replace(
+                "do: [set: {world.alarm: true}]",
+                "do: [set: {world.alarm: true, world.seen_for: world.seen_for + CYCLE_PERIOD}]",
+            )
+        (target / path.name).write_text(text, encoding="utf-8")
+    with Harness.build(target) as h:
+        h.world["ice_ahead"] = True
+        for _ in range(3):  # `for: 0.3 s` at 0.5 s a cycle: one cycle, so the second fires
+            h.step("watch")
+        assert (h.world["alarm"], h.world["seen_for"]) == (True, 1.0)
+    front = compile_paths([target, FIXTURES / "timed"])
+    assert not front.diagnostics.errors
+    code = emit.render_all(front.systems)
+    assert "CYCLE_PERIOD = 0.5  # seconds per cycle of its process" in code["watch/watch.py"]
+    assert "CYCLE_PERIOD" not in code["timed/helm.py"]
 
 
 def test_timed_code_reads_like_a_hand_written_table(tmp_path: Path) -> None:

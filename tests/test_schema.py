@@ -372,10 +372,14 @@ def test_pre_commit_hooks_run_existing_commands():
 
 
 def test_a_use_of_a_fragment_is_a_state_for_editors_and_a_mistyped_one_is_flagged():
-    use = "controller: fx\ntitle: T\ncommands:\n  GO:\n    states:\n      S0: {use: ask, with: {task: place}}\n"
+    use = (
+        "controller: fx\ntitle: T\ncommands:\n  GO:\n    states:\n"
+        "      S0: {use: ask, with: {task: place}}\n"
+    )
     assert check(use) == []
     wrong = only(check(use.replace("with:", "whit:")), "S002")
     assert (wrong.span.line, "whit" in wrong.message) == (6, True)
     # A single rule written without its list is still the familiar "not a list" error.
-    single = only(check(use.replace("{use: ask, with: {task: place}}", "{do: [report: DONE]}")), "S003")
+    single = check(use.replace("{use: ask, with: {task: place}}", "{do: [report: DONE]}"))
+    single = only(single, "S003")
     assert single.span.line == 6

@@ -37,7 +37,6 @@ S0 = 1
 
 # Constants.
 FIRE_CO = 40.0
-FIGHT_CYCLES = 30
 
 
 def vented(co: float, made: float, flow: float) -> float:
@@ -56,6 +55,7 @@ class AtmosphereController:
         "cycles",
         "dont_run",
         "error_num",
+        "held_every_cycle_1",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -71,7 +71,6 @@ class AtmosphereController:
         "status_dirty",
         "status_num",
         "status_seq",
-        "var_fought",
         "world_co_ppm",
         "world_fire",
         "world_vent_flow",
@@ -80,7 +79,7 @@ class AtmosphereController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.var_fought: int = 0
+        self.held_every_cycle_1 = 0  # cycles its every_cycle rule's `when` has held (for:)
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -311,16 +310,15 @@ class AtmosphereController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        if self.world_fire and self.var_fought < FIGHT_CYCLES:
-            # the fire burns; the damage control party fights it
-            self.world_co_ppm = vented(self.world_co_ppm, FIRE_CO, self.world_vent_flow)
-            self.var_fought = self.var_fought + 1
+        self.held_every_cycle_1 = self.held_every_cycle_1 + 1 if self.world_fire else 0
+        if self.held_every_cycle_1 > 30:  # for: 30 s = 30 cycles
+            # the damage control party, having fought the fire for 30 s, reports it out
+            self.world_fire = False
+            self.world_co_ppm = vented(self.world_co_ppm, 0.0, self.world_vent_flow)
 
         elif self.world_fire:
-            # the damage control party reports the fire out
-            self.world_fire = False
-            self.var_fought = 0
-            self.world_co_ppm = vented(self.world_co_ppm, 0.0, self.world_vent_flow)
+            # the fire burns; the damage control party fights it
+            self.world_co_ppm = vented(self.world_co_ppm, FIRE_CO, self.world_vent_flow)
 
         elif self.world_co_ppm > 0.0:
             # the ventilation line-up removes the gas

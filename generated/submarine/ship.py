@@ -53,10 +53,10 @@ WORLD_OUT_1_AT = 1376
 S0 = 1
 
 # Constants.
-DT = 1.0
 TURN = 0.0065
 ACCEL = 0.1
 DEPTH_RATE = 1.0
+CYCLE_PERIOD = 1.0  # seconds per cycle of its process
 
 
 class ShipController:
@@ -390,7 +390,10 @@ class ShipController:
         """Rules tried every cycle, whatever the command."""
         try:
             returned = hooks.advance(
-                self.world_pos_x, self.world_pos_y, self.world_heading, self.world_speed * DT
+                self.world_pos_x,
+                self.world_pos_y,
+                self.world_heading,
+                self.world_speed * CYCLE_PERIOD,
             )
         except Exception as error:  # one error naming the module, hook, rule and cycle
             raise HookError("ship", "advance", "every_cycle/1", self.cycles) from error
@@ -403,13 +406,15 @@ class ShipController:
             raise HookError("ship", "advance", "every_cycle/1", self.cycles, returned, "ff")
         self.world_pos_x, self.world_pos_y = returned
         self.world_heading = (
-            self.world_heading + TURN * self.world_speed * self.world_rudder_angle * DT
+            self.world_heading + TURN * self.world_speed * self.world_rudder_angle * CYCLE_PERIOD
         ) % 360.0
         self.world_speed = self.world_speed + max(
-            -ACCEL * DT, min(ACCEL * DT, self.world_speed_cmd - self.world_speed)
+            -ACCEL * CYCLE_PERIOD,
+            min(ACCEL * CYCLE_PERIOD, self.world_speed_cmd - self.world_speed),
         )
         self.world_depth = self.world_depth + max(
-            -DEPTH_RATE * DT, min(DEPTH_RATE * DT, self.world_depth_cmd - self.world_depth)
+            -DEPTH_RATE * CYCLE_PERIOD,
+            min(DEPTH_RATE * CYCLE_PERIOD, self.world_depth_cmd - self.world_depth),
         )
 
     def init(self) -> None:

@@ -653,7 +653,7 @@ def _timed_guard(
     if isinstance(guard, expr.BoolOp) and guard.op == "and" and (after or hold):
         parts = list(guard.values)  # `a and b and ticks >= 20`, not `(a and b) and ...`
     if hold is not None and guard is not None:
-        counter = naming.held_attribute(rule_id.command or "", rule_id.state or "", rule_id.index)
+        counter = naming.held_attribute(rule_id.command, rule_id.state, rule_id.index)
         parts.append(_at_least(expr.Ref(expr.INT, "held", counter), ">", hold))
     if after is not None:
         parts.append(_at_least(expr.Ref(expr.INT, "time", "ticks"), ">=", after))
@@ -715,6 +715,13 @@ class _ControllerChecker:
         """What a finding about `rule` is about, for acknowledgements."""
         return Subject(self.spec.name, rule.id.command, rule.id.state, rule.id.index)
 
+    def given_constants(self) -> dict[str, float]:
+        """The constants the system gives every controller: CYCLE_PERIOD, the seconds per
+        cycle of its process (a constant the spec declares itself is E297)."""
+        if naming.CYCLE_PERIOD in self.spec.constants:
+            return {}
+        return {naming.CYCLE_PERIOD: self.period}
+
     def scope_for(self, command: Command | None) -> expr.Scope:
         """The names a guard or value of `command` (None: a predicate, every_cycle) may use."""
         params = {p.name: p.type for p in command.params.values()} if command else {}
@@ -726,6 +733,9 @@ class _ControllerChecker:
     def check(self, supervisor: str | None, simulator: bool, buffers: str) -> CheckedController:
         spec = self.spec
         self.period = process_period(self.system, buffers)
+        self.base_scope = replace(
+            self.base_scope, constants={**self.base_scope.constants, **self.given_constants()}
+        )
         functions = self.check_functions()
         predicates = self.check_predicates()
         self.predicate_trees = {name: p.tree for name, p in predicates.items()}
@@ -982,12 +992,13 @@ class _ControllerChecker:
             if item is None:
                 found.append(None)
                 continue
-            if rule_id.command is None:
+            if rule_id.command is None and key == "after":
                 self.diags.error(
                     item.span,
                     "E251",
-                    f"an every_cycle rule cannot wait: `{key}:` counts the time in a state",
-                    "every_cycle rules run whatever the state; put the timed rule in a table",
+                    "an every_cycle rule cannot wait `after:`: it counts the time in a state",
+                    "every_cycle rules run whatever the state: put the timed rule in a table, "
+                    "or use `for:`, how long its `when` has held",
                 )
                 found.append(None)
                 continue

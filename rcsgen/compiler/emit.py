@@ -280,6 +280,7 @@ def _controller_context(
     slots += [f"var_{v.name}" for v in c.locals]
     if c.timed:
         slots += ["ticks", *c.counters]
+    slots += [counter.attribute for counter in c.every_cycle_counters]
     imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT", *(n for names in world_seq_at for n in names)}
     for s in c.subordinates:
         imports |= {f"{s.name.upper()}_COMMAND", f"{s.name.upper()}_COMMAND_AT"}

@@ -146,6 +146,8 @@ class Scope:
     # pure functions it may call: name -> (parameter types in order, result type)
     functions: Mapping[str, tuple[tuple[str, ...], str]] = field(default_factory=dict)
     lets: Mapping[str, str] = field(default_factory=dict)  # its table's named values -> type
+    # constants an expression named (shared by every copy of the controller's scope)
+    used_constants: set[str] = field(default_factory=set)
     args: Mapping[str, str] = field(default_factory=dict)  # a function body's parameters
 
     def bare_names(self) -> list[str]:
@@ -227,6 +229,7 @@ class _Resolver:
         if name in scope.locals:
             return Ref(scope.locals[name], "local", name)
         if name in scope.constants:
+            scope.used_constants.add(name)
             return Ref(_type_of_value(scope.constants[name]), "const", name)
         if name.startswith("__"):
             raise self.fail(node, "E102", f"dunder name `{name}` is not allowed")

@@ -275,6 +275,8 @@ class IRController:
     reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants and codes (from 2)
     functions: tuple[IRFunction, ...] = ()  # its pure functions, in declaration order
     counters: tuple[str, ...] = ()  # every `for:` counter attribute, in table order
+    # The counters of `for:` every_cycle rules: updated first every cycle, never reset.
+    every_cycle_counters: tuple[IRCounter, ...] = ()
 
     def table_rules(self) -> list[IRRule]:
         """Every rule of the state tables, in code order (code = index + 1)."""

@@ -126,7 +126,7 @@ class _ControllerLowering:
             locals=tuple(
                 ir.IRLocal(v.name, v.type, v.initial, v.doc) for v in spec.locals.values()
             ),
-            constants=tuple((n, repr(item.value)) for n, item in spec.constants.items()),
+            constants=self.constants(),
             predicates=predicates,
             hooks_module=spec.hooks_module.value if spec.hooks_module and uses_hooks else None,
             hooks=tuple(sorted(spec.hooks)),
@@ -159,7 +159,19 @@ class _ControllerLowering:
                 for state in command.states
                 for counter in state.counters
             ),
+            every_cycle_counters=tuple(
+                self.counter(rule) for rule in c.every_cycle if rule.hold is not None
+            ),
         )
+
+    def constants(self) -> tuple[tuple[str, str], ...]:
+        """The spec's constants, then CYCLE_PERIOD if an expression reads it (its period)."""
+        spec, scope = self.spec, self.checked.scope
+        found = [(n, repr(item.value)) for n, item in spec.constants.items()]
+        given = naming.CYCLE_PERIOD
+        if given in scope.used_constants and given not in spec.constants:
+            found.append((given, f"{scope.constants[given]!r}  # seconds per cycle of its process"))
+        return tuple(found)
 
     def sub(self, sub: str) -> ir.IRSub:
         commands = self.checked.sub_commands[sub]

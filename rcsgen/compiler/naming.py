@@ -170,9 +170,12 @@ def command_method(command: str) -> str:
     return f"{method}_" if keyword.iskeyword(method) else method
 
 
-def held_attribute(command: str, state: str, index: int) -> str:
+def held_attribute(command: str | None, state: str | None, index: int) -> str:
     """The counter of a `for:` rule: cycles its `when` has held, without a break, in its
-    state (HOLD_ICE, S1, rule 2 -> held_hold_ice_s1_2)."""
+    state (HOLD_ICE, S1, rule 2 -> held_hold_ice_s1_2), or for an every_cycle rule (no
+    command: rule 1 -> held_every_cycle_1)."""
+    if command is None or state is None:
+        return f"held_every_cycle_{index}"
     return f"held_{command.lower()}_{state.lower()}_{index}"
 
 
@@ -548,7 +551,11 @@ def _check_controller(
             names.claim(
                 f"arg_{param_name}", f"parameter `{param_name}`", typed.span, ("param", param_name)
             )
-    for command in spec.commands.values():  # the counters of `for:` rules
+    for index, rule in enumerate(spec.every_cycle, start=1):  # the counters of `for:` rules
+        if rule.hold is not None:
+            counter = held_attribute(None, None, index)
+            names.claim(counter, "the `for:` counter of an every_cycle rule", rule.span)
+    for command in spec.commands.values():
         for state in command.states.values():
             for index, rule in enumerate(state.rules, start=1):
                 if rule.hold is not None:
@@ -575,12 +582,32 @@ def _check_controller(
             names.claim(method, f"command `{name}`", command.span)
 
 
+# The constant the system gives every controller's expressions: seconds per cycle.
+CYCLE_PERIOD = "CYCLE_PERIOD"
+
+
 def _check_constants(spec: ControllerSpec, diags: Diagnostics) -> None:
     """A constant may not have the name of a command or state: all are module constants.
 
     Reported at the constant (the lowering's own check would point at the first table with
     that state, which may be a default INIT/HALT table the user never wrote)."""
     states = {state for command in spec.commands.values() for state in command.states}
+    given = [(item.span, "constant") for n, item in spec.constants.items() if n == CYCLE_PERIOD]
+    given += [(c.span, "command") for n, c in spec.commands.items() if n == CYCLE_PERIOD]
+    given += [
+        (s.span, "state")
+        for c in spec.commands.values()
+        for n, s in c.states.items()
+        if n == CYCLE_PERIOD
+    ]
+    for span, what in given:
+        diags.error(
+            span,
+            "E297",
+            f"`{CYCLE_PERIOD}` is the system's: the seconds per cycle of the controller's "
+            f"process, which expressions read; a {what} cannot have its name",
+            "rename it; to use the cycle period, write CYCLE_PERIOD in an expression",
+        )
     for name, item in spec.constants.items():
         kind = "command" if name in spec.commands else None
         kind = kind or ("state" if name in states else None)
