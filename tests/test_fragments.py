@@ -271,3 +271,76 @@ def test_a_fragment_no_command_uses_is_a_warning(tmp_path: Path) -> None:
         system(tmp_path, TOP.format(fragments="", states=states), f"fragments:\n{FRAGMENT}", "b")
     )
     assert [f.split(":")[:2] for f in shared] == [["2", "W305"]]
+
+
+# ---------------------------------------------------------------- fragments within fragments
+
+TWICE = """\
+  twice:
+    doc: Move the subordinate to $x1, then to $x2, each at most 3 s.
+    params: [x1, x2, then]
+    states:
+      FIRST: {use: move_and_wait, with: {x: $x1, limit: 3 s, then: SECOND}}
+      SECOND: {use: move_and_wait, with: {x: $x2, limit: 3 s, then: $then}}
+"""
+
+# `twice` written out: each inner use is named after the state of `twice` that holds it, and
+# a value naming one of twice's states (SECOND) means that state as expanded (S0_SECOND).
+TWICE_BY_HAND = """\
+    first_match: [S0_WAIT, S0_SECOND_WAIT]
+    states:
+      S0:
+        - do:
+            - send: sub.MOVE
+              with: {x: 1.0}
+          next: S0_WAIT
+      S0_WAIT:
+        - when: sub.status == DONE
+          next: S0_SECOND
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+        - after: 3 s
+          do: [report: ERROR]
+      S0_SECOND:
+        - do:
+            - send: sub.MOVE
+              with: {x: 2.0}
+          next: S0_SECOND_WAIT
+      S0_SECOND_WAIT:
+        - when: sub.status == DONE
+          next: ARRIVED
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+        - after: 3 s
+          do: [report: ERROR]
+      ARRIVED:
+        - do: [report: DONE]
+"""
+
+TWICE_USE = """\
+      S0: {use: twice, with: {x1: 1.0, x2: 2.0, then: ARRIVED}}
+      ARRIVED:
+        - do: [report: DONE]
+"""
+
+
+def test_a_fragment_using_a_fragment_generates_the_hand_written_table(tmp_path: Path) -> None:
+    """`twice` uses `move_and_wait` twice; only `twice` is used by a command, and neither
+    is reported unused (W305)."""
+    directory = system(tmp_path, with_fragment(TWICE_USE, FRAGMENT + TWICE))
+    assert diagnostics(directory) == []
+    by_hand = TOP.format(fragments="", states="").replace("    states:\n", TWICE_BY_HAND)
+    assert generated(directory) == generated(system(tmp_path, by_hand, name="hand"))
+
+
+def test_fragments_that_use_each_other_are_refused_where_the_cycle_closes(tmp_path: Path) -> None:
+    again = "      AGAIN: {use: twice, with: {x1: $x, x2: $x, then: WAIT}}\n"
+    looped = FRAGMENT.replace("      WAIT:\n", again + "      WAIT:\n")
+    found = diagnostics(system(tmp_path, with_fragment(TWICE_USE, looped + TWICE)))
+    assert any(
+        ":E298:fragment `twice` is used within itself (twice -> move_and_wait -> twice)" in d
+        for d in found
+    ), found
+    line = int(next(d for d in found if ":E298:" in d).split(":")[0])
+    top = with_fragment(TWICE_USE, looped + TWICE).splitlines()
+    assert "AGAIN: {use: twice" in top[line - 1]  # at the use that closes the cycle

@@ -4,12 +4,13 @@ A fragment is a named, parameterised piece of state table (docs/spec.md section 
 declared under `fragments:` in a controller or in the spec directory's `fragments.yaml`.
 A command's state written `{use: NAME, with: {param: value}}` becomes the fragment's states:
 the first takes the using state's name, each other one `<USING>_<NAME>`; `$param` in any
-string of the fragment is replaced by its value. The expansion runs before the schema, so
+string of the fragment is replaced by its value. A fragment's state may itself use another
+fragment (not itself, directly or through others: E298). The expansion runs before the schema, so
 every later stage sees an ordinary table; the expanded nodes keep the spans of the
 fragment's text, and `annotate` adds the use's place to a diagnostic found there.
 Diagnostics: E265 unknown fragment, E266 wrong arguments, E267 undeclared `$param`,
 E268 expanded state name already used, E269 malformed fragment or use, E270 fragment
-declared twice, W305 fragment never used.
+declared twice, E298 fragments that use each other in a cycle, W305 fragment never used.
 """
 
 from __future__ import annotations
@@ -120,13 +121,14 @@ def read(data: object, where: Span, diags: Diagnostics) -> dict[str, Fragment | 
         bad = [
             s
             for s, rules in states.items()
-            if not _STATE.fullmatch(s) or not isinstance(rules, list)
+            if not _STATE.fullmatch(s) or not (isinstance(rules, list) or _is_use(rules))
         ]
         if not states or bad:
             diags.error(
                 key_span(states, bad[0], at) if bad else at,
                 "E269",
-                f"fragment `{name}`'s states must be UPPER_CASE names, each with a list of rules",
+                f"fragment `{name}`'s states must be UPPER_CASE names, each with a list of "
+                "rules or a use of another fragment",
             )
             continue
         first_match = body.get("first_match", [])
@@ -272,6 +274,7 @@ def expand(
     used = named(data)
     before = len(diags.errors)
     uses, whole = _expand(data, own, shared, diags, where)
+    used |= {u.fragment.name for u in uses}  # (a use inside a used fragment counts)
     if whole and len(diags.errors) == before:  # (a misspelt use would make it noise)
         report_unused(own, used, diags)
     return uses, whole
@@ -318,11 +321,11 @@ def _expand(
                 out.key_spans[state] = states.key_spans.get(state, states.span)
                 out.value_spans[state] = states.value_spans.get(state, states.span)
                 continue
-            made = _use(rules, state, states, known, diags, where)
+            made = _use(rules, state, states, known, diags, where, ())
             if made is None:
                 whole = False
                 continue
-            fragment, at, expanded = made
+            fragment, at, expanded, first, inner = made
             for name, table in expanded.items():
                 if name in out or (name != state and name in states):
                     diags.error(
@@ -339,12 +342,9 @@ def _expand(
                 out[key] = table
                 out.key_spans[key] = span
                 out.value_spans[key] = at
-            added_first += [
-                n
-                for f, n in zip(fragment.states, expanded, strict=True)
-                if f in fragment.first_match
-            ]
+            added_first += first
             uses.append(Use(fragment, at, controller, str(command), str(state), tuple(expanded)))
+            uses += [replace(u, controller=controller, command=str(command)) for u in inner]
         body["states"] = out
         if added_first:
             listed = body.get("first_match")
@@ -361,6 +361,9 @@ def _is_use(rules: object) -> bool:
     return isinstance(rules, dict) and "use" in rules
 
 
+_NESTING = 8  # fragments within fragments: deeper is surely a mistake
+
+
 def _use(
     use: dict[str, Any],
     state: str,
@@ -368,8 +371,11 @@ def _use(
     known: dict[str, Fragment | None],
     diags: Diagnostics,
     where: Span,
-) -> tuple[Fragment, Span, dict[str, Any]] | None:
-    """One state's use expanded: (fragment, the use's span, new state name -> rules)."""
+    within: tuple[Fragment, ...],
+) -> tuple[Fragment, Span, dict[str, Any], list[str], list[Use]] | None:
+    """One state's use expanded: (fragment, the use's span, new state name -> rules, the
+    new states that are first_match, the uses nested in it). `within`: the fragments
+    being expanded around this use, outermost first."""
     at = value_span(states, state, where)
     unknown = [k for k in use if k not in _USE_KEYS]
     if unknown:
@@ -395,12 +401,58 @@ def _use(
     fragment = known[name]
     if fragment is None:
         return None  # what is wrong with it is reported where it is declared
+    if fragment in within or len(within) >= _NESTING:
+        chain = " -> ".join(f.name for f in (*within, fragment))
+        diags.error(
+            at,
+            "E298",
+            f"fragment `{fragment.name}` is used within itself ({chain})"
+            if fragment in within
+            else f"fragments nested more than {_NESTING} deep ({chain})",
+            "a fragment may use other fragments, but not itself, directly or through others",
+        )
+        return None
     values = _arguments(use, fragment, at, diags)
     if values is None:
         return None
     names = {s: (state if i == 0 else f"{state}_{s}") for i, s in enumerate(fragment.states)}
-    expanded = {names[s]: _copy(rules, values, names) for s, rules in fragment.states.items()}
-    return fragment, at, expanded
+    expanded: dict[str, Any] = {}
+    first = [names[s] for s in fragment.first_match]
+    inner: list[Use] = []
+    for s, rules in fragment.states.items():
+        if not _is_use(rules):
+            expanded[names[s]] = _copy(rules, values, names)
+            continue
+        # A use within the fragment: its values are this use's, and a value naming one of
+        # this fragment's states means that state as expanded here.
+        nested = _copy(rules, values, names)
+        given = nested.get("with")
+        if isinstance(given, dict):
+            for key, value in given.items():
+                if isinstance(value, str) and value in names:
+                    given[key] = LocStr(names[value], span_of(value, at))
+        holder = LocDict(fragment.states.span)
+        holder[names[s]] = nested
+        holder.value_spans[names[s]] = fragment.states.value_spans.get(s, fragment.span)
+        made = _use(nested, names[s], holder, known, diags, where, (*within, fragment))
+        if made is None:
+            return None
+        inner_fragment, inner_at, inner_states, inner_first, deeper = made
+        clash = [n for n in inner_states if n in expanded or n in names.values() and n != names[s]]
+        if clash:
+            diags.error(
+                inner_at,
+                "E268",
+                f"fragment `{inner_fragment.name}` used in `{fragment.name}`'s `{s}` makes "
+                f"state `{clash[0]}`, which the expansion of `{fragment.name}` already has",
+                "rename a state of one of the fragments",
+            )
+            return None
+        expanded.update(inner_states)
+        first += inner_first
+        inner.append(Use(inner_fragment, inner_at, "", "", names[s], tuple(inner_states)))
+        inner += deeper
+    return fragment, at, expanded, first, inner
 
 
 def annotate(diags: Diagnostics, uses: list[Use], first: int) -> None:

@@ -241,6 +241,7 @@ def _load_system(
         before = len(diags.errors)
         used |= fragments.named(data)
         made, whole = fragments.expand(data, shared, diags, Span(shown))
+        used |= {use.fragment.name for use in made}  # (also those used within fragments)
         uses += made
         if not whole or len(diags.errors) > before:
             continue  # a use that failed leaves a table with a hole: no more about it
