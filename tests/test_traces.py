@@ -143,18 +143,20 @@ def test_changes_show_what_changed_and_fold_repeats(system, pop_out):
 
 
 def test_changes_fold_cycles_that_change_alike(system):
-    trace = traces.load(GOLDEN / "late_tail.jsonl")
+    # the shuttle car is late: the loose-coal HALT is re-sent every cycle for 78 cycles
+    trace = traces.load(GOLDEN / "shuttle_car.jsonl")
     lanes = traces.lanes(trace, system)
-    folded = list(changes.timeline(trace, lanes, ["tc"], world="none", first=32, last=63))
+    folded = list(changes.timeline(trace, lanes, ["bm"], world="none", first=356, last=433))
     assert folded == [
-        "cycle 32",
-        "  tc  fired SLOW_FORWARD/MOVING/2",
-        "  ... the same each cycle through cycle 63 (32 cycles)",
+        "cycle 356",
+        "  bm  command HALT #8 -> HALT #9  status DONE #8 -> DONE #9  fired HALT/S0/1",
+        "  ... the same each cycle through cycle 433 (78 cycles)",
     ]
-    every = list(changes.timeline(trace, lanes, ["tc"], "none", 32, 63, merge=False))
-    assert len(every) == 64
-    # the loose-coal HALT re-sent every cycle while the gauge reads more than the limit
-    halts = list(changes.timeline(trace, lanes, ["bm"], "none", 112, 116))
+    every = list(changes.timeline(trace, lanes, ["bm"], "none", 356, 433, merge=False))
+    assert len(every) == 2 * 78
+    # a shorter run of it in late_tail: the fold ends where the gauge drops below the limit
+    trace = traces.load(GOLDEN / "late_tail.jsonl")
+    halts = list(changes.timeline(trace, traces.lanes(trace, system), ["bm"], "none", 112, 116))
     assert halts[-1] == "  ... the same each cycle through cycle 116 (5 cycles)"
     assert halts[1] == (
         "  bm  command HALT #5 -> HALT #6  status DONE #5 -> DONE #6  fired HALT/S0/1"

@@ -41,10 +41,7 @@ WORLD_OUT_1_AT = 3728
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
-MOVING = 2
-
-# Constants.
-TRAM_TIMEOUT = 60
+S0_MOVING = 2
 
 
 class TcController:
@@ -73,7 +70,7 @@ class TcController:
         "status_dirty",
         "status_num",
         "status_seq",
-        "var_ticks",
+        "ticks",
         "world_left_tread_cmd",
         "world_right_tread_cmd",
     )
@@ -81,7 +78,7 @@ class TcController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.cycle_start = 0
-        self.var_ticks: int = 0
+        self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -130,6 +127,7 @@ class TcController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.ticks = 0  # a new command: its time in S0 starts
 
         # decision_process
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -241,6 +239,7 @@ class TcController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.ticks = 0  # a new command: its time in S0 starts
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
@@ -357,236 +356,226 @@ class TcController:
         state = self.state
         if state == S0:
             self.rule = 3  # SLOW_FORWARD/S0/1
-            self.state = MOVING
+            self.state = S0_MOVING
             self.world_left_tread_cmd = 1
             self.world_right_tread_cmd = 1
-            self.var_ticks = 0
 
-        elif state == MOVING:
-            if self.var_ticks >= TRAM_TIMEOUT:
-                # safety time-out
-                self.rule = 4  # SLOW_FORWARD/MOVING/1
-                self.world_left_tread_cmd = 0
-                self.world_right_tread_cmd = 0
-                self.state = NOP
-                self.status = ERROR
+        elif state == S0_MOVING and self.ticks >= 60:  # after: 6 s = 60 cycles
+            # safety time-out
+            self.rule = 4  # SLOW_FORWARD/S0_MOVING/1
+            self.world_left_tread_cmd = 0
+            self.world_right_tread_cmd = 0
+            self.state = NOP
+            self.status = ERROR
 
-            elif self.var_ticks < TRAM_TIMEOUT:
-                self.rule = 5  # SLOW_FORWARD/MOVING/2
-                self.var_ticks = self.var_ticks + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def fast_forward(self) -> None:
         """FAST_FORWARD: Both treads fast forward."""
         state = self.state
         if state == S0:
-            self.rule = 6  # FAST_FORWARD/S0/1
-            self.state = MOVING
+            self.rule = 5  # FAST_FORWARD/S0/1
+            self.state = S0_MOVING
             self.world_left_tread_cmd = 3
             self.world_right_tread_cmd = 3
-            self.var_ticks = 0
 
-        elif state == MOVING:
-            if self.var_ticks >= TRAM_TIMEOUT:
-                # safety time-out
-                self.rule = 7  # FAST_FORWARD/MOVING/1
-                self.world_left_tread_cmd = 0
-                self.world_right_tread_cmd = 0
-                self.state = NOP
-                self.status = ERROR
+        elif state == S0_MOVING and self.ticks >= 60:  # after: 6 s = 60 cycles
+            # safety time-out
+            self.rule = 6  # FAST_FORWARD/S0_MOVING/1
+            self.world_left_tread_cmd = 0
+            self.world_right_tread_cmd = 0
+            self.state = NOP
+            self.status = ERROR
 
-            elif self.var_ticks < TRAM_TIMEOUT:
-                self.rule = 8  # FAST_FORWARD/MOVING/2
-                self.var_ticks = self.var_ticks + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def slow_reverse(self) -> None:
         """SLOW_REVERSE: Both treads slow in reverse."""
         state = self.state
         if state == S0:
-            self.rule = 9  # SLOW_REVERSE/S0/1
-            self.state = MOVING
+            self.rule = 7  # SLOW_REVERSE/S0/1
+            self.state = S0_MOVING
             self.world_left_tread_cmd = -1
             self.world_right_tread_cmd = -1
-            self.var_ticks = 0
 
-        elif state == MOVING:
-            if self.var_ticks >= TRAM_TIMEOUT:
-                # safety time-out
-                self.rule = 10  # SLOW_REVERSE/MOVING/1
-                self.world_left_tread_cmd = 0
-                self.world_right_tread_cmd = 0
-                self.state = NOP
-                self.status = ERROR
+        elif state == S0_MOVING and self.ticks >= 60:  # after: 6 s = 60 cycles
+            # safety time-out
+            self.rule = 8  # SLOW_REVERSE/S0_MOVING/1
+            self.world_left_tread_cmd = 0
+            self.world_right_tread_cmd = 0
+            self.state = NOP
+            self.status = ERROR
 
-            elif self.var_ticks < TRAM_TIMEOUT:
-                self.rule = 11  # SLOW_REVERSE/MOVING/2
-                self.var_ticks = self.var_ticks + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def fast_reverse(self) -> None:
         """FAST_REVERSE: Both treads fast in reverse."""
         state = self.state
         if state == S0:
-            self.rule = 12  # FAST_REVERSE/S0/1
-            self.state = MOVING
+            self.rule = 9  # FAST_REVERSE/S0/1
+            self.state = S0_MOVING
             self.world_left_tread_cmd = -3
             self.world_right_tread_cmd = -3
-            self.var_ticks = 0
 
-        elif state == MOVING:
-            if self.var_ticks >= TRAM_TIMEOUT:
-                # safety time-out
-                self.rule = 13  # FAST_REVERSE/MOVING/1
-                self.world_left_tread_cmd = 0
-                self.world_right_tread_cmd = 0
-                self.state = NOP
-                self.status = ERROR
+        elif state == S0_MOVING and self.ticks >= 60:  # after: 6 s = 60 cycles
+            # safety time-out
+            self.rule = 10  # FAST_REVERSE/S0_MOVING/1
+            self.world_left_tread_cmd = 0
+            self.world_right_tread_cmd = 0
+            self.state = NOP
+            self.status = ERROR
 
-            elif self.var_ticks < TRAM_TIMEOUT:
-                self.rule = 14  # FAST_REVERSE/MOVING/2
-                self.var_ticks = self.var_ticks + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def pivot_left(self) -> None:
         """PIVOT_LEFT: Treads in opposite directions, turning left on the spot."""
         state = self.state
         if state == S0:
-            self.rule = 15  # PIVOT_LEFT/S0/1
-            self.state = MOVING
+            self.rule = 11  # PIVOT_LEFT/S0/1
+            self.state = S0_MOVING
             self.world_left_tread_cmd = -1
             self.world_right_tread_cmd = 1
-            self.var_ticks = 0
 
-        elif state == MOVING:
-            if self.var_ticks >= TRAM_TIMEOUT:
-                # safety time-out
-                self.rule = 16  # PIVOT_LEFT/MOVING/1
-                self.world_left_tread_cmd = 0
-                self.world_right_tread_cmd = 0
-                self.state = NOP
-                self.status = ERROR
+        elif state == S0_MOVING and self.ticks >= 60:  # after: 6 s = 60 cycles
+            # safety time-out
+            self.rule = 12  # PIVOT_LEFT/S0_MOVING/1
+            self.world_left_tread_cmd = 0
+            self.world_right_tread_cmd = 0
+            self.state = NOP
+            self.status = ERROR
 
-            elif self.var_ticks < TRAM_TIMEOUT:
-                self.rule = 17  # PIVOT_LEFT/MOVING/2
-                self.var_ticks = self.var_ticks + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def pivot_right(self) -> None:
         """PIVOT_RIGHT: Treads in opposite directions, turning right on the spot."""
         state = self.state
         if state == S0:
-            self.rule = 18  # PIVOT_RIGHT/S0/1
-            self.state = MOVING
+            self.rule = 13  # PIVOT_RIGHT/S0/1
+            self.state = S0_MOVING
             self.world_left_tread_cmd = 1
             self.world_right_tread_cmd = -1
-            self.var_ticks = 0
 
-        elif state == MOVING:
-            if self.var_ticks >= TRAM_TIMEOUT:
-                # safety time-out
-                self.rule = 19  # PIVOT_RIGHT/MOVING/1
-                self.world_left_tread_cmd = 0
-                self.world_right_tread_cmd = 0
-                self.state = NOP
-                self.status = ERROR
+        elif state == S0_MOVING and self.ticks >= 60:  # after: 6 s = 60 cycles
+            # safety time-out
+            self.rule = 14  # PIVOT_RIGHT/S0_MOVING/1
+            self.world_left_tread_cmd = 0
+            self.world_right_tread_cmd = 0
+            self.state = NOP
+            self.status = ERROR
 
-            elif self.var_ticks < TRAM_TIMEOUT:
-                self.rule = 20  # PIVOT_RIGHT/MOVING/2
-                self.var_ticks = self.var_ticks + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def turn_left_forward(self) -> None:
         """TURN_LEFT_FORWARD: Right tread forward only."""
         state = self.state
         if state == S0:
-            self.rule = 21  # TURN_LEFT_FORWARD/S0/1
-            self.state = MOVING
+            self.rule = 15  # TURN_LEFT_FORWARD/S0/1
+            self.state = S0_MOVING
             self.world_left_tread_cmd = 0
             self.world_right_tread_cmd = 1
-            self.var_ticks = 0
 
-        elif state == MOVING:
-            if self.var_ticks >= TRAM_TIMEOUT:
-                # safety time-out
-                self.rule = 22  # TURN_LEFT_FORWARD/MOVING/1
-                self.world_left_tread_cmd = 0
-                self.world_right_tread_cmd = 0
-                self.state = NOP
-                self.status = ERROR
+        elif state == S0_MOVING and self.ticks >= 60:  # after: 6 s = 60 cycles
+            # safety time-out
+            self.rule = 16  # TURN_LEFT_FORWARD/S0_MOVING/1
+            self.world_left_tread_cmd = 0
+            self.world_right_tread_cmd = 0
+            self.state = NOP
+            self.status = ERROR
 
-            elif self.var_ticks < TRAM_TIMEOUT:
-                self.rule = 23  # TURN_LEFT_FORWARD/MOVING/2
-                self.var_ticks = self.var_ticks + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def turn_right_forward(self) -> None:
         """TURN_RIGHT_FORWARD: Left tread forward only."""
         state = self.state
         if state == S0:
-            self.rule = 24  # TURN_RIGHT_FORWARD/S0/1
-            self.state = MOVING
+            self.rule = 17  # TURN_RIGHT_FORWARD/S0/1
+            self.state = S0_MOVING
             self.world_left_tread_cmd = 1
             self.world_right_tread_cmd = 0
-            self.var_ticks = 0
 
-        elif state == MOVING:
-            if self.var_ticks >= TRAM_TIMEOUT:
-                # safety time-out
-                self.rule = 25  # TURN_RIGHT_FORWARD/MOVING/1
-                self.world_left_tread_cmd = 0
-                self.world_right_tread_cmd = 0
-                self.state = NOP
-                self.status = ERROR
+        elif state == S0_MOVING and self.ticks >= 60:  # after: 6 s = 60 cycles
+            # safety time-out
+            self.rule = 18  # TURN_RIGHT_FORWARD/S0_MOVING/1
+            self.world_left_tread_cmd = 0
+            self.world_right_tread_cmd = 0
+            self.state = NOP
+            self.status = ERROR
 
-            elif self.var_ticks < TRAM_TIMEOUT:
-                self.rule = 26  # TURN_RIGHT_FORWARD/MOVING/2
-                self.var_ticks = self.var_ticks + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def turn_left_reverse(self) -> None:
         """TURN_LEFT_REVERSE: Right tread in reverse only."""
         state = self.state
         if state == S0:
-            self.rule = 27  # TURN_LEFT_REVERSE/S0/1
-            self.state = MOVING
+            self.rule = 19  # TURN_LEFT_REVERSE/S0/1
+            self.state = S0_MOVING
             self.world_left_tread_cmd = 0
             self.world_right_tread_cmd = -1
-            self.var_ticks = 0
 
-        elif state == MOVING:
-            if self.var_ticks >= TRAM_TIMEOUT:
-                # safety time-out
-                self.rule = 28  # TURN_LEFT_REVERSE/MOVING/1
-                self.world_left_tread_cmd = 0
-                self.world_right_tread_cmd = 0
-                self.state = NOP
-                self.status = ERROR
+        elif state == S0_MOVING and self.ticks >= 60:  # after: 6 s = 60 cycles
+            # safety time-out
+            self.rule = 20  # TURN_LEFT_REVERSE/S0_MOVING/1
+            self.world_left_tread_cmd = 0
+            self.world_right_tread_cmd = 0
+            self.state = NOP
+            self.status = ERROR
 
-            elif self.var_ticks < TRAM_TIMEOUT:
-                self.rule = 29  # TURN_LEFT_REVERSE/MOVING/2
-                self.var_ticks = self.var_ticks + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def turn_right_reverse(self) -> None:
         """TURN_RIGHT_REVERSE: Left tread in reverse only."""
         state = self.state
         if state == S0:
-            self.rule = 30  # TURN_RIGHT_REVERSE/S0/1
-            self.state = MOVING
+            self.rule = 21  # TURN_RIGHT_REVERSE/S0/1
+            self.state = S0_MOVING
             self.world_left_tread_cmd = -1
             self.world_right_tread_cmd = 0
-            self.var_ticks = 0
 
-        elif state == MOVING:
-            if self.var_ticks >= TRAM_TIMEOUT:
-                # safety time-out
-                self.rule = 31  # TURN_RIGHT_REVERSE/MOVING/1
-                self.world_left_tread_cmd = 0
-                self.world_right_tread_cmd = 0
-                self.state = NOP
-                self.status = ERROR
+        elif state == S0_MOVING and self.ticks >= 60:  # after: 6 s = 60 cycles
+            # safety time-out
+            self.rule = 22  # TURN_RIGHT_REVERSE/S0_MOVING/1
+            self.world_left_tread_cmd = 0
+            self.world_right_tread_cmd = 0
+            self.state = NOP
+            self.status = ERROR
 
-            elif self.var_ticks < TRAM_TIMEOUT:
-                self.rule = 32  # TURN_RIGHT_REVERSE/MOVING/2
-                self.var_ticks = self.var_ticks + 1
+        if self.state != state:  # a new state, or the command ended: time starts again
+            self.ticks = 0
+        else:
+            self.ticks += 1
 
     def stop(self) -> None:
         """STOP: Stop both treads."""
         state = self.state
         if state == S0:
-            self.rule = 33  # STOP/S0/1
+            self.rule = 23  # STOP/S0/1
             self.world_left_tread_cmd = 0
             self.world_right_tread_cmd = 0
             self.state = NOP
