@@ -280,3 +280,73 @@ def test_ctl_status_shows_the_reason_beside_an_error_and_the_results(package: Pa
         assert snapshot["helm"]["results"] == {"at_goal": True, "course_error": 0.5}  # type: ignore[index]
     finally:
         running.stop()
+
+
+# ---------------------------------------------------------------- a reason passed up
+
+PASSING_SUB = """\
+controller: sub
+title: Sub
+commands:
+  CLAMP:
+    reasons: [REFUSED]
+    states:
+      S0:
+        - do: [{report: ERROR, reason: REFUSED}]
+  UNCLAMP:
+    reasons: [JAMMED]
+    states:
+      S0:
+        - do: [{report: ERROR, reason: JAMMED}]
+"""
+PASSING_TOP = """\
+controller: top
+title: Top
+subordinates: [sub]
+commands:
+  GO:
+    doc: Clamp; a failure is passed up as the sub's reason.
+    reasons: [BUSY, REFUSED]  # REFUSED is code 3 here, 2 in sub
+    states:
+      S0:
+        - do: [send: sub.CLAMP]
+          next: S1
+      S1:
+        - when: sub.status == ERROR
+          do: [{report: ERROR, reason: sub.reason}]
+"""
+PASSING_SYSTEM = """\
+system: passing
+title: A reason passed up
+cycle_period: 0.1
+processes:
+  p:
+    modules: [top, sub]
+"""
+
+
+@pytest.fixture
+def passing(tmp_path: Path) -> Iterator[Harness]:
+    for name, text in (("sub", PASSING_SUB), ("top", PASSING_TOP), ("system", PASSING_SYSTEM)):
+        (tmp_path / f"{name}.yaml").write_text(text, encoding="utf-8")
+    with Harness.build(tmp_path) as h:
+        yield h
+
+
+def test_a_subordinates_reason_is_passed_up_by_name(passing: Harness) -> None:
+    """sub's REFUSED (its code 2) is top's REFUSED (its code 3): the name is passed, not the
+    code; LOST stays LOST; a reason top's command does not declare (JAMMED, which an
+    operator's UNCLAMP could leave) is passed up as NONE."""
+    h = passing
+    h.command("top", "GO")
+    h.cycle(2)
+    assert (h.status("top").status, h.status("top").reason) == ("ERROR", "REFUSED")
+    assert h.status("top").error_num == 3 and h.status("sub").error_num == 2
+    for given, passed in (("LOST", "LOST"), ("JAMMED", "NONE"), ("NONE", "NONE")):
+        h.command("top", "GO")
+        h.step("top")  # S0: sends CLAMP
+        h.reply("sub", "ERROR")
+        code = h.layout.REASON_NAMES["sub"].index(given)
+        h.layout.STATUS_OUT["sub"].write(h.buf, error_num=code)
+        h.step("top")
+        assert (h.status("top").status, h.status("top").reason) == ("ERROR", passed), given
