@@ -728,6 +728,7 @@ def _summarise(
             echo(f"            {phase:<26} {count:>6}")
     for name, value in result.figures.items():
         shown = f"{value:.3f}" if isinstance(value, float) else str(value)
+        shown = shown.lower() if isinstance(value, bool) else shown
         echo(f"{name.replace('_', ' '):<9} {shown}")
     slowest = sorted(result.max_cycle_ns.items(), key=lambda item: -item[1])
     echo("max cycle time per module (us):")
