@@ -719,8 +719,7 @@ def _summarise(
         shown = contract.status_text(final["status"], final.get("reason"))
         echo(f"result    {spec.stop_when_done} {shown} (state {final['state']})")
         for name, value in (final.get("results") or {}).items():
-            shown = str(value).lower() if isinstance(value, bool) else str(value)
-            echo(f"          result.{name} {shown}")
+            echo(f"          result.{name} {value}")  # as the figures below show values
     echo(f"cycles    {result.cycles}")
     if result.phase_cycles:
         echo(f"phases    cycles per {spec.phases_of} command:")
@@ -728,7 +727,6 @@ def _summarise(
             echo(f"            {phase:<26} {count:>6}")
     for name, value in result.figures.items():
         shown = f"{value:.3f}" if isinstance(value, float) else str(value)
-        shown = shown.lower() if isinstance(value, bool) else shown
         echo(f"{name.replace('_', ' '):<9} {shown}")
     slowest = sorted(result.max_cycle_ns.items(), key=lambda item: -item[1])
     echo("max cycle time per module (us):")
