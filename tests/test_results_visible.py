@@ -350,3 +350,31 @@ def test_a_subordinates_reason_is_passed_up_by_name(passing: Harness) -> None:
         h.layout.STATUS_OUT["sub"].write(h.buf, error_num=code)
         h.step("top")
         assert (h.status("top").status, h.status("top").reason) == ("ERROR", passed), given
+
+
+@pytest.mark.parametrize(
+    ("guard", "warned"),
+    [
+        ("sub.status == ERROR", False),
+        ("ERROR == sub.status", False),
+        ("sub.reason == REFUSED", False),
+        ("sub.reason != NONE", False),
+        ("sub.command == CLAMP and sub.status == ERROR", False),
+        ("sub.status != EXECUTING", True),
+        ("sub.reason == NONE", True),
+        ("sub.status == ERROR or sub.status == DONE", True),
+        ("not (sub.status != ERROR)", True),  # said another way: the check is by its terms
+    ],
+)
+def test_w306_when_the_guard_does_not_require_the_subordinates_error(
+    tmp_path: Path, guard: str, warned: bool
+) -> None:
+    top = PASSING_TOP.replace("when: sub.status == ERROR", f"when: {guard}")
+    for name, text in (("sub", PASSING_SUB), ("top", top), ("system", PASSING_SYSTEM)):
+        (tmp_path / f"{name}.yaml").write_text(text, encoding="utf-8")
+    found = compile_paths([tmp_path]).diagnostics.items
+    assert not [d for d in found if d.code.startswith("E")], found
+    w306 = [d for d in found if d.code == "W306"]
+    assert bool(w306) == warned, [str(d) for d in found]
+    if warned:
+        assert (w306[0].span.line, w306[0].span.col) == (14, 40)

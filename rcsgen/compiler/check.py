@@ -959,6 +959,8 @@ class _ControllerChecker:
                 "reporting ends the command: the state becomes NOP",
             )
         next_state = "NOP" if reports else (rule.next.value if rule.next else None)
+        for report in reports:
+            self.check_passed_in_error(rule_id, report, guard)
         always = None
         if guard is not None:
             folded = expr.fold(guard, scope.constants, self.predicate_trees)
@@ -1108,6 +1110,29 @@ class _ControllerChecker:
             )
             return None
         return reason
+
+    def check_passed_in_error(
+        self, rule_id: RuleId, report: model.Report, guard: expr.Expr | None
+    ) -> None:
+        """W306: `reason: <sub>.reason` in a rule whose guard does not say the subordinate
+        is in ERROR (a conjunct `<sub>.status == ERROR`, or a test of its reason against
+        one that is not NONE): its reason reads NONE otherwise."""
+        reason = str(report.reason.value) if report.reason is not None else ""
+        sub = reason.removesuffix(".reason")
+        if report.status != "ERROR" or not reason.endswith(".reason") or sub not in self.subs:
+            return
+        if any(_says_in_error(term, sub) for term in _conjuncts(guard)):
+            return
+        assert report.reason is not None
+        self.diags.warning(
+            report.reason.span,
+            "W306",
+            f"`reason: {reason}` in a rule whose guard does not require "
+            f"`{sub}.status == ERROR`: when it fires otherwise, it passes up NONE",
+            f"add `{sub}.status == ERROR and` to the guard, or acknowledge it on the rule "
+            "if the state is entered only once it is in ERROR",
+            Subject(self.spec.name, rule_id.command, rule_id.state, rule_id.index),
+        )
 
     def passed_reason(self, report: model.Report, sub: str, declared: list[str]) -> str | None:
         """`reason: <sub>.reason`: the subordinate's reason, passed up by name. Every reason
@@ -1273,3 +1298,28 @@ class _ControllerChecker:
                 "give them under `with:`",
             )
         return Send(send.sub, send.command, tuple(args), send)
+
+
+def _conjuncts(guard: expr.Expr | None) -> list[expr.Expr]:
+    """The terms a guard requires all of: its top-level `and`'s, or itself."""
+    if guard is None:
+        return []
+    if isinstance(guard, expr.BoolOp) and guard.op == "and":
+        return [t for value in guard.values for t in _conjuncts(value)]
+    return [guard]
+
+
+def _says_in_error(term: expr.Expr, sub: str) -> bool:
+    """`<sub>.status == ERROR` (either way round), or `<sub>.reason == R` for R not NONE, or
+    `<sub>.reason != NONE`: a term that holds only while `sub` is in ERROR."""
+    if not isinstance(term, expr.Compare) or len(term.ops) != 1:
+        return False
+    pair = (term.left, term.comparators[0])
+    for a, b in (pair, pair[::-1]):
+        if not (isinstance(a, expr.Ref) and isinstance(b, expr.Ref) and a.owner == sub):
+            continue
+        if a.kind == "sub_status" and b.kind == "status":
+            return term.ops[0] == "==" and b.name == "ERROR"
+        if a.kind == "sub_reason" and b.kind == "sub_reason_name":
+            return (term.ops[0] == "==") != (b.name == "NONE")
+    return False
