@@ -32,6 +32,7 @@ from .compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
 from .compiler.frontend import compile_paths, display_path
 from .compiler.ir import IRSystem
 from .compiler.loader import decode, read_bytes
+from .runtime import contract
 from .tools import config, runs
 from .tools.config import Config, ConfigError
 from .tools.report import (
@@ -715,7 +716,10 @@ def _summarise(
     echo(f"scenario  {spec.name}: {spec.title}")
     if spec.stop_when_done:
         final = result.final
-        echo(f"result    {spec.stop_when_done} {final['status']} (state {final['state']})")
+        shown = contract.status_text(final["status"], final.get("reason"))
+        echo(f"result    {spec.stop_when_done} {shown} (state {final['state']})")
+        for name, value in (final.get("results") or {}).items():
+            echo(f"          result.{name} {value}")  # as the figures below show values
     echo(f"cycles    {result.cycles}")
     if result.phase_cycles:
         echo(f"phases    cycles per {spec.phases_of} command:")

@@ -108,7 +108,8 @@ class Controller:
             "INIT": default_table("INIT", self.subs),
             "HALT": default_table("HALT", self.subs),
         }
-        for name, command in (spec.get("commands") or {}).items():
+        self.spec_commands: dict[str, Any] = dict(spec.get("commands") or {})
+        for name, command in self.spec_commands.items():
             self.tables[name] = command["states"]
         self.params = self._param_types()
         self.result_types = {
@@ -248,7 +249,16 @@ class Controller:
             elif "report" in action:
                 self.status, self.state = action["report"], "NOP"
                 if "reason" in action:
-                    self.reason = action["reason"]
+                    self.reason = self._reason(action["reason"])
+
+    def _reason(self, reason: str) -> str:
+        """A report's reason: its own, or a subordinate's passed up by name (`fx.reason`),
+        which reads NONE unless it is LOST or one of the current command's reasons."""
+        if not reason.endswith(".reason"):
+            return reason
+        passed = self.sub_reason[reason.removesuffix(".reason")]
+        own = self.spec_commands.get(self.command, {}).get("reasons") or []
+        return passed if passed == "LOST" or passed in own else "NONE"
 
     # ------------------------------------------------------------ expressions
 

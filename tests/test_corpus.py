@@ -148,6 +148,7 @@ def test_corpus_shows_did_you_mean(monkeypatch: pytest.MonkeyPatch) -> None:
         "e204-undeclared-command--typo",
         "e206-undefined-state--typo",
         "e211-unknown-module--typo",
+        "e271-reason-passed-from-a-non-subordinate--typo",
         "s002-unknown-key--typo-title",
         "s005-invalid-value--type-typo",
     ):
@@ -157,6 +158,7 @@ def test_corpus_shows_did_you_mean(monkeypatch: pytest.MonkeyPatch) -> None:
     assert hints["e103-unknown-name--local-typo"] == ["did you mean `n`?"]
     assert hints["e204-undeclared-command--typo"] == ["did you mean `MOVE`?"]
     assert hints["s005-invalid-value--type-typo"] == ["did you mean `float`?"]
+    assert hints["e271-reason-passed-from-a-non-subordinate--typo"] == ["did you mean `sub`?"]
 
 
 CODE = re.compile(r"""["']([ESW]\d{3})["']""")

@@ -50,6 +50,9 @@ class Draw:
         return self.int(1, 100) <= percent
 
 
+PASSED = ("REFUSED", "FAULT")  # the subordinates' reasons, which `top` also declares
+
+
 def sub_spec(name: str, d: Draw) -> dict:
     commands = {}
     results, reasons = d.chance(50), d.chance(50)  # read by `top` as <sub>.result.v, .reason
@@ -60,7 +63,7 @@ def sub_spec(name: str, d: Draw) -> dict:
         if results:
             spec["results"] = {"v": {"type": "int"}}
         if reasons:
-            spec["reasons"] = ["REFUSED", "FAULT"]
+            spec["reasons"] = list(PASSED)
         commands[command] = spec
     return {"controller": name, "title": f"Subordinate {name}", "commands": commands}
 
@@ -167,7 +170,7 @@ def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
         commands[command] = {
             "params": {"g": {"type": "int"}},
             "results": {"r": {"type": "int"}},
-            "reasons": ["BAD", "WORSE"],
+            "reasons": ["BAD", "WORSE", *PASSED],  # a subordinate's are passed up by name
             "let": {"m": "n + g if flag else world.i0", "m2": "twice(m) - 1"},
             "states": table,
             "first_match": states,  # overlapping guards are meant: the first match wins
@@ -222,7 +225,8 @@ def random_rule(d: Draw, grammar: Grammar, states: list[str], sent: list[str], s
         elif not any("report" in a for a in actions):
             report: dict = {"report": d.choice(["DONE", "ERROR"])}
             if report["report"] == "ERROR" and d.chance(60):
-                report["reason"] = d.choice(["BAD", "WORSE"])
+                passing = [f"{s}.reason" for s in sent if sub_reasons(subs[s])]
+                report["reason"] = d.choice(["BAD", "WORSE", *passing])
             actions.append(report)
     if d.chance(25):  # time: wait in the state, or for the guard to have held
         if "when" in rule and d.chance(50):
@@ -272,7 +276,7 @@ def generated_trace(h: Harness, subs: list[str]) -> dict[str, Any]:
             for s in subs
         },
         "locals": {"n": top.var_n, "flag": top.var_flag},
-        "reason": ("NONE", "LOST", "BAD", "WORSE")[
+        "reason": ("NONE", "LOST", "BAD", "WORSE", *PASSED)[
             h.layout.STATUS_OUT["top"].read(h.buf)["error_num"]
         ],
         "results": {"r": h.layout.STATUS_OUT["top"].read(h.buf)["result_r"]},

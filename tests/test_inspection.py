@@ -23,8 +23,8 @@ from rcsgen.tools.scenario import Scenario, load_scenario, open_harness, run
 ROOT = Path(__file__).resolve().parent.parent
 SYSTEM = ROOT / "specs" / "inspection"
 PACKAGE = ROOT / "generated" / "inspection"
-REFUSED, TIMED_OUT, MACHINE_FAULT = 1, 2, 3  # the reason codes (docs/inspection.md)
-ACCEPTED, REJECTED = 1, 2
+# fixturing's and tooling's reason codes, still world fields (fx_reason, tl_reason)
+FX_REFUSED, FX_TIMED_OUT = 1, 2
 
 
 def operator_timeout(controller: str) -> int:
@@ -83,6 +83,12 @@ def first(lines: list[dict], module: str, command: str, status: str) -> int:
     )
 
 
+def outcome(line: dict, module: str) -> tuple[str, str, dict]:
+    """A module's status, reason and results in one trace line."""
+    entry = line["modules"][module]
+    return entry["status"], entry.get("reason"), entry.get("result", {})
+
+
 def open_cycles(lines: list[dict], field: str) -> list[int]:
     return [line["cycle"] for line in lines if line["world"][field]]
 
@@ -114,7 +120,9 @@ def test_nominal_init_for_inspect_then_the_part_is_accepted():
     assert cmm[4:] == ["INSPECT_FEATURE"] * 5
     assert names(fx)[1:] == ["EQUIP_SETUP", "PLACE_PART", "UNLOAD_PART"]
     end = lines[-1]["world"]
-    assert (end["verdict"], end["features_measured"], end["features_failed"]) == (ACCEPTED, 5, 0)
+    assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": True})
+    assert outcome(lines[-1], "ms") == ("DONE", "NONE", {"measured": 5, "failed": 0})
+    assert final["results"] == {"accepted": True} and final["reason"] == "NONE"
     # every request opened was answered and closed
     for field in ("fx_setup_request", "fx_place_request", "fx_unload_request", "tl_sphere_request"):
         assert open_cycles(lines, field), f"{field} was never asked"
@@ -150,13 +158,17 @@ def test_a_part_out_of_tolerance_is_refixtured_remeasured_and_rejected():
     bores = [
         line["world"]["cmm_reading"]
         for line in lines
-        if line["modules"]["ms"]["state"] == "JUDGED" and line["world"]["features_measured"] == 0
+        if line["modules"]["ms"]["state"] == "JUDGED"
+        and line["modules"]["ms"]["result"]["measured"] == 0
     ]
     assert bores and all(reading > 12.02 for reading in bores)
-    end = lines[-1]["world"]
-    assert (end["verdict"], end["features_failed"], end["ws_reason"]) == (REJECTED, 1, 0)
+    assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": False})  # rejected
+    assert outcome(lines[-1], "ms")[2] == {"measured": 5, "failed": 1}  # the bore, again
+    # the first measurement found the bore out too, and MS said so with DONE
+    first_done = first(lines, "ms", "MEASURE_PART", "DONE")
+    assert outcome(lines[first_done - 1], "ms") == ("DONE", "NONE", {"measured": 5, "failed": 1})
     unloaded = next(cycle for cycle, c in commands_sent(lines, "fx") if c == "UNLOAD_PART")
-    assert lines[unloaded - 1]["world"]["verdict"] == REJECTED, "rejected before unloading"
+    assert lines[unloaded - 1]["modules"]["ws"]["state"] == "UNLOADING", "rejected, then unloaded"
 
 
 def test_a_slow_operator_times_out_and_both_requests_are_withdrawn():
@@ -173,7 +185,9 @@ def test_a_slow_operator_times_out_and_both_requests_are_withdrawn():
         "HALT" in names(commands_sent(lines, "tl"))
     )
     end = lines[-1]["world"]
-    assert (end["ws_reason"], end["fx_reason"]) == (TIMED_OUT, TIMED_OUT)
+    assert outcome(lines[-1], "ws") == ("ERROR", "TIMED_OUT", {"accepted": False})
+    assert end["fx_reason"] == FX_TIMED_OUT
+    assert outcome(lines[-1], "ms")[:2] == ("DONE", "NONE"), "MS was halted, not failed"
     assert not any(
         end[f] for f in ("fx_asking", "tl_asking", "fx_place_request", "tl_load_request")
     )
@@ -197,7 +211,7 @@ def test_a_patient_operator_is_waited_for():
     timeout = operator_timeout("fx")
     final, lines = play(with_delay(timeout // 2 - 5))
     assert final["status"] == "DONE"
-    assert lines[-1]["world"]["verdict"] == ACCEPTED
+    assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": True})
     assert len(open_cycles(lines, "fx_place_request")) > timeout // 3, "it took a while"
 
 
@@ -209,8 +223,10 @@ def test_one_operator_serves_the_requests_in_turn():
     final, lines = play(with_delay(timeout - 10))
     assert final["status"] == "ERROR"
     assert first(lines, "fx", "PLACE_PART", "DONE") < first(lines, "tl", "LOAD_PROBE", "ERROR")
-    assert lines[-1]["world"]["tl_reason"] == TIMED_OUT
-    assert lines[-1]["world"]["ws_reason"] == TIMED_OUT
+    assert lines[-1]["world"]["tl_reason"] == FX_TIMED_OUT  # tooling's codes are fixturing's
+    # tooling's time-out is passed up: MS's LOAD_PROBE, then WS, fail TIMED_OUT
+    assert outcome(lines[-1], "ms")[:2] == ("ERROR", "TIMED_OUT")
+    assert outcome(lines[-1], "ws")[:2] == ("ERROR", "TIMED_OUT")
 
 
 def test_an_operator_who_refuses_stops_the_workstation_with_that_reason():
@@ -223,7 +239,9 @@ def test_an_operator_who_refuses_stops_the_workstation_with_that_reason():
     assert tl[-1][0] == refused + 1, "in the cycle after the refusal reached the workstation"
     assert "MEASURE_PART" not in names(commands_sent(lines, "ms"))
     end = lines[-1]["world"]
-    assert (end["ws_reason"], end["fx_reason"], end["verdict"]) == (REFUSED, REFUSED, 0)
+    assert outcome(lines[-1], "ws") == ("ERROR", "REFUSED", {"accepted": False})
+    assert end["fx_reason"] == FX_REFUSED
+    assert outcome(lines[refused], "ws")[0] == "EXECUTING", "it waits for MS to stop first"
     assert not end["tl_asking"] and not end["tl_load_request"]
 
 
@@ -239,7 +257,9 @@ def test_the_inspector_answers_then_refuses_at_the_console():
     assert names(commands_sent(lines, "ms"))[-1] == "CALIBRATE_CMM", "no camera calibration"
     assert first(lines, "ws", "INIT_FOR_INSPECT", "ERROR")
     end = lines[-1]["world"]
-    assert (end["ws_reason"], end["ms_reason"], end["tl_reason"]) == (REFUSED,) * 3
+    assert outcome(lines[-1], "ws")[:2] == ("ERROR", "REFUSED")  # passed up from MS
+    assert outcome(lines[-1], "ms")[:2] == ("ERROR", "REFUSED")
+    assert end["tl_reason"] == FX_REFUSED
     assert not any(end[f] for f in ("tl_asking", "tl_sphere_request", "tl_refused"))
 
 
@@ -250,9 +270,13 @@ def test_a_machine_fault_climbs_one_level_per_cycle():
     chain = (("cmm", "INSPECT_FEATURE"), ("ms", "MEASURE_PART"), ("ws", "INSPECT_PART"))
     errors = [first(lines, module, command, "ERROR") for module, command in chain]
     assert errors == [alarm + 1, alarm + 2, alarm + 3], "CMM, then MS, then WS"
-    end = lines[-1]["world"]
-    assert (end["ws_reason"], end["ms_reason"]) == (MACHINE_FAULT, MACHINE_FAULT)
-    assert 0 < end["features_measured"] < 5 and end["verdict"] == 0
+    reasons = [
+        outcome(lines[cycle - 1], m)[1] for cycle, m in zip(errors[1:], ("ms", "ws"), strict=True)
+    ]
+    assert reasons == ["MACHINE_FAULT", "MACHINE_FAULT"], "each says why as it fails"
+    status, _, results = outcome(lines[-1], "ms")
+    assert status == "ERROR" and 0 < results["measured"] < 5
+    assert outcome(lines[-1], "ws") == ("ERROR", "MACHINE_FAULT", {"accepted": False})
 
 
 # ---------------------------------------------------------------- the readers' errors

@@ -186,3 +186,36 @@ def test_the_role_limits_the_keys_and_requests_are_answered_on_screen() -> None:
         asking
     )
     assert "ct asks" not in after
+
+
+def test_the_status_column_shows_why_a_module_is_in_error() -> None:
+    """The results fixture, its operator refusing: the mission's and fixturing's status cells
+    read ERROR(OPERATOR_REFUSED) and ERROR(REFUSED), not a bare ERROR."""
+    import shutil
+
+    fixture = Path(__file__).resolve().parent / "fixtures" / "language" / "results"
+    scratch, name = generate(fixture)
+    try:
+        layout = importlib.import_module(
+            f"{import_package(scratch / name, fixture).__name__}.layout"
+        )
+        system = Running(scratch / name, fixture, layout, "--world", "answer=2")
+        try:
+            assert system.ctl("send", "mission", "GO").returncode == 0
+            wait_for(lambda: system.module("mission")["status"] == "ERROR", "mission ERROR")
+
+            async def drive() -> str:
+                app = Monitor(layout, system.segment, interval=0.1)
+                async with app.run_test(size=(150, 20)) as pilot:
+                    await pilot.pause(0.3)
+                    return screen_text(app)
+
+            text = asyncio.run(drive())
+        finally:
+            system.stop()
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    mission = next(line for line in text.splitlines() if "mission" in line)
+    assert "ERROR(OPERATOR_REFUSED)" in mission, text
+    fx = next(line for line in text.splitlines() if "└─ fx" in line)
+    assert "ERROR(REFUSED)" in fx, text

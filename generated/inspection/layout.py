@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 1496 bytes.
+The block is 1440 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -19,62 +19,57 @@ command buffers and world fields:
 | 80 | 88 | PROCESS_IWS | PROCESS_FIELDS |
 | 168 | 16 | PACE_IWS | PACE_FIELDS |
 | 184 | 20 | WS_COMMAND | command_num, command |
-| 208 | 32 | WS_STATUS | STATUS_FIELDS |
-| 240 | 16 | WS_MODE | MODE_FIELDS |
-| 256 | 48 | WS_PERF | PERF_FIELDS |
-| 304 | 20 | MS_COMMAND | command_num, command |
-| 328 | 32 | MS_STATUS | STATUS_FIELDS |
-| 360 | 16 | MS_MODE | MODE_FIELDS |
-| 376 | 48 | MS_PERF | PERF_FIELDS |
-| 424 | 20 | FX_COMMAND | command_num, command |
-| 448 | 32 | FX_STATUS | STATUS_FIELDS |
-| 480 | 16 | FX_MODE | MODE_FIELDS |
-| 496 | 48 | FX_PERF | PERF_FIELDS |
-| 544 | 20 | TL_COMMAND | command_num, command |
-| 568 | 32 | TL_STATUS | STATUS_FIELDS |
-| 600 | 16 | TL_MODE | MODE_FIELDS |
-| 616 | 48 | TL_PERF | PERF_FIELDS |
-| 664 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 696 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 728 | 16 | CMM_MODE | MODE_FIELDS |
-| 744 | 48 | CMM_PERF | PERF_FIELDS |
-| 792 | 20 | OP_COMMAND | command_num, command |
-| 816 | 32 | OP_STATUS | STATUS_FIELDS |
-| 848 | 16 | OP_MODE | MODE_FIELDS |
-| 864 | 48 | OP_PERF | PERF_FIELDS |
-| 912 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 936 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 968 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 984 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1032 | 16 | WORLD_VERDICT | verdict |
-| 1048 | 16 | WORLD_WS_REASON | ws_reason |
-| 1064 | 16 | WORLD_MS_REASON | ms_reason |
-| 1080 | 16 | WORLD_FEATURES_FAILED | features_failed |
-| 1096 | 16 | WORLD_FEATURES_MEASURED | features_measured |
-| 1112 | 9 | WORLD_FX_ASKING | fx_asking |
-| 1128 | 9 | WORLD_FX_SETUP_REQUEST | fx_setup_request |
-| 1144 | 9 | WORLD_FX_PLACE_REQUEST | fx_place_request |
-| 1160 | 9 | WORLD_FX_REFIXTURE_REQUEST | fx_refixture_request |
-| 1176 | 9 | WORLD_FX_UNLOAD_REQUEST | fx_unload_request |
-| 1192 | 9 | WORLD_FX_DONE | fx_done |
-| 1208 | 9 | WORLD_FX_REFUSED | fx_refused |
-| 1224 | 16 | WORLD_FX_REASON | fx_reason |
-| 1240 | 9 | WORLD_TL_ASKING | tl_asking |
-| 1256 | 9 | WORLD_TL_SPHERE_REQUEST | tl_sphere_request |
-| 1272 | 9 | WORLD_TL_PROBE_REQUEST | tl_probe_request |
-| 1288 | 9 | WORLD_TL_LOAD_REQUEST | tl_load_request |
-| 1304 | 9 | WORLD_TL_DONE | tl_done |
-| 1320 | 9 | WORLD_TL_REFUSED | tl_refused |
-| 1336 | 16 | WORLD_TL_REASON | tl_reason |
-| 1352 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 1368 | 9 | WORLD_OPERATOR_REFUSES | operator_refuses |
-| 1384 | 16 | WORLD_CMM_OP | cmm_op |
-| 1400 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1416 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1432 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1448 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1464 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1480 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 208 | 33 | WS_STATUS | STATUS_FIELDS |
+| 248 | 16 | WS_MODE | MODE_FIELDS |
+| 264 | 48 | WS_PERF | PERF_FIELDS |
+| 312 | 20 | MS_COMMAND | command_num, command |
+| 336 | 48 | MS_STATUS | STATUS_FIELDS |
+| 384 | 16 | MS_MODE | MODE_FIELDS |
+| 400 | 48 | MS_PERF | PERF_FIELDS |
+| 448 | 20 | FX_COMMAND | command_num, command |
+| 472 | 32 | FX_STATUS | STATUS_FIELDS |
+| 504 | 16 | FX_MODE | MODE_FIELDS |
+| 520 | 48 | FX_PERF | PERF_FIELDS |
+| 568 | 20 | TL_COMMAND | command_num, command |
+| 592 | 32 | TL_STATUS | STATUS_FIELDS |
+| 624 | 16 | TL_MODE | MODE_FIELDS |
+| 640 | 48 | TL_PERF | PERF_FIELDS |
+| 688 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 720 | 32 | CMM_STATUS | STATUS_FIELDS |
+| 752 | 16 | CMM_MODE | MODE_FIELDS |
+| 768 | 48 | CMM_PERF | PERF_FIELDS |
+| 816 | 20 | OP_COMMAND | command_num, command |
+| 840 | 32 | OP_STATUS | STATUS_FIELDS |
+| 872 | 16 | OP_MODE | MODE_FIELDS |
+| 888 | 48 | OP_PERF | PERF_FIELDS |
+| 936 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 960 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 992 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1008 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1056 | 9 | WORLD_FX_ASKING | fx_asking |
+| 1072 | 9 | WORLD_FX_SETUP_REQUEST | fx_setup_request |
+| 1088 | 9 | WORLD_FX_PLACE_REQUEST | fx_place_request |
+| 1104 | 9 | WORLD_FX_REFIXTURE_REQUEST | fx_refixture_request |
+| 1120 | 9 | WORLD_FX_UNLOAD_REQUEST | fx_unload_request |
+| 1136 | 9 | WORLD_FX_DONE | fx_done |
+| 1152 | 9 | WORLD_FX_REFUSED | fx_refused |
+| 1168 | 16 | WORLD_FX_REASON | fx_reason |
+| 1184 | 9 | WORLD_TL_ASKING | tl_asking |
+| 1200 | 9 | WORLD_TL_SPHERE_REQUEST | tl_sphere_request |
+| 1216 | 9 | WORLD_TL_PROBE_REQUEST | tl_probe_request |
+| 1232 | 9 | WORLD_TL_LOAD_REQUEST | tl_load_request |
+| 1248 | 9 | WORLD_TL_DONE | tl_done |
+| 1264 | 9 | WORLD_TL_REFUSED | tl_refused |
+| 1280 | 16 | WORLD_TL_REASON | tl_reason |
+| 1296 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 1312 | 9 | WORLD_OPERATOR_REFUSES | operator_refuses |
+| 1328 | 16 | WORLD_CMM_OP | cmm_op |
+| 1344 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1360 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1376 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1392 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1408 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1424 | 9 | WORLD_CMM_FAULT | cmm_fault |
 """
 
 from __future__ import annotations
@@ -103,120 +98,114 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 1496
+SIZE = 1440
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "ce28065bd2604c51378d951e5d9fb10a"
+LAYOUT_HASH = "ff0588ef986da372006ebf489127bc0c"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 168
 
 # ws: Inspection workstation
 WS_COMMAND = Struct("<QQI")  # seq, command_num, command
 WS_COMMAND_AT = 184
+WS_STATUS = Struct("<QQIIii?")  # seq, status_num, status, error_num, state, rule, result_accepted
 WS_STATUS_AT = 208
-WS_MODE_AT = 240
-WS_PERF_AT = 256
+WS_MODE_AT = 248
+WS_PERF_AT = 264
 
 # ms: Measurement
 MS_COMMAND = Struct("<QQI")  # seq, command_num, command
-MS_COMMAND_AT = 304
-MS_STATUS_AT = 328
-MS_MODE_AT = 360
-MS_PERF_AT = 376
+MS_COMMAND_AT = 312
+MS_STATUS = Struct(
+    "<QQIIiiqq"
+)  # seq, status_num, status, error_num, state, rule, result_measured, result_failed
+MS_STATUS_AT = 336
+MS_MODE_AT = 384
+MS_PERF_AT = 400
 
 # fx: Fixturing (performed by the operator)
 FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 424
-FX_STATUS_AT = 448
-FX_MODE_AT = 480
-FX_PERF_AT = 496
+FX_COMMAND_AT = 448
+FX_STATUS_AT = 472
+FX_MODE_AT = 504
+FX_PERF_AT = 520
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 544
-TL_STATUS_AT = 568
-TL_MODE_AT = 600
-TL_PERF_AT = 616
+TL_COMMAND_AT = 568
+TL_STATUS_AT = 592
+TL_MODE_AT = 624
+TL_PERF_AT = 640
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 664
-CMM_STATUS_AT = 696
-CMM_MODE_AT = 728
-CMM_PERF_AT = 744
+CMM_COMMAND_AT = 688
+CMM_STATUS_AT = 720
+CMM_MODE_AT = 752
+CMM_PERF_AT = 768
 
 # op: Operator at the screen (scripted)
 OP_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_COMMAND_AT = 792
-OP_STATUS_AT = 816
-OP_MODE_AT = 848
-OP_PERF_AT = 864
+OP_COMMAND_AT = 816
+OP_STATUS_AT = 840
+OP_MODE_AT = 872
+OP_PERF_AT = 888
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 912
-CMM_SIM_STATUS_AT = 936
-CMM_SIM_MODE_AT = 968
-CMM_SIM_PERF_AT = 984
+CMM_SIM_COMMAND_AT = 936
+CMM_SIM_STATUS_AT = 960
+CMM_SIM_MODE_AT = 992
+CMM_SIM_PERF_AT = 1008
 
 # World model.
-WORLD_VERDICT = Struct("<Qq")  # seq, verdict
-WORLD_VERDICT_AT = 1032
-WORLD_WS_REASON = Struct("<Qq")  # seq, ws_reason
-WORLD_WS_REASON_AT = 1048
-WORLD_MS_REASON = Struct("<Qq")  # seq, ms_reason
-WORLD_MS_REASON_AT = 1064
-WORLD_FEATURES_FAILED = Struct("<Qq")  # seq, features_failed
-WORLD_FEATURES_FAILED_AT = 1080
-WORLD_FEATURES_MEASURED = Struct("<Qq")  # seq, features_measured
-WORLD_FEATURES_MEASURED_AT = 1096
 WORLD_FX_ASKING = Struct("<Q?")  # seq, fx_asking
-WORLD_FX_ASKING_AT = 1112
+WORLD_FX_ASKING_AT = 1056
 WORLD_FX_SETUP_REQUEST = Struct("<Q?")  # seq, fx_setup_request
-WORLD_FX_SETUP_REQUEST_AT = 1128
+WORLD_FX_SETUP_REQUEST_AT = 1072
 WORLD_FX_PLACE_REQUEST = Struct("<Q?")  # seq, fx_place_request
-WORLD_FX_PLACE_REQUEST_AT = 1144
+WORLD_FX_PLACE_REQUEST_AT = 1088
 WORLD_FX_REFIXTURE_REQUEST = Struct("<Q?")  # seq, fx_refixture_request
-WORLD_FX_REFIXTURE_REQUEST_AT = 1160
+WORLD_FX_REFIXTURE_REQUEST_AT = 1104
 WORLD_FX_UNLOAD_REQUEST = Struct("<Q?")  # seq, fx_unload_request
-WORLD_FX_UNLOAD_REQUEST_AT = 1176
+WORLD_FX_UNLOAD_REQUEST_AT = 1120
 WORLD_FX_DONE = Struct("<Q?")  # seq, fx_done
-WORLD_FX_DONE_AT = 1192
+WORLD_FX_DONE_AT = 1136
 WORLD_FX_REFUSED = Struct("<Q?")  # seq, fx_refused
-WORLD_FX_REFUSED_AT = 1208
+WORLD_FX_REFUSED_AT = 1152
 WORLD_FX_REASON = Struct("<Qq")  # seq, fx_reason
-WORLD_FX_REASON_AT = 1224
+WORLD_FX_REASON_AT = 1168
 WORLD_TL_ASKING = Struct("<Q?")  # seq, tl_asking
-WORLD_TL_ASKING_AT = 1240
+WORLD_TL_ASKING_AT = 1184
 WORLD_TL_SPHERE_REQUEST = Struct("<Q?")  # seq, tl_sphere_request
-WORLD_TL_SPHERE_REQUEST_AT = 1256
+WORLD_TL_SPHERE_REQUEST_AT = 1200
 WORLD_TL_PROBE_REQUEST = Struct("<Q?")  # seq, tl_probe_request
-WORLD_TL_PROBE_REQUEST_AT = 1272
+WORLD_TL_PROBE_REQUEST_AT = 1216
 WORLD_TL_LOAD_REQUEST = Struct("<Q?")  # seq, tl_load_request
-WORLD_TL_LOAD_REQUEST_AT = 1288
+WORLD_TL_LOAD_REQUEST_AT = 1232
 WORLD_TL_DONE = Struct("<Q?")  # seq, tl_done
-WORLD_TL_DONE_AT = 1304
+WORLD_TL_DONE_AT = 1248
 WORLD_TL_REFUSED = Struct("<Q?")  # seq, tl_refused
-WORLD_TL_REFUSED_AT = 1320
+WORLD_TL_REFUSED_AT = 1264
 WORLD_TL_REASON = Struct("<Qq")  # seq, tl_reason
-WORLD_TL_REASON_AT = 1336
+WORLD_TL_REASON_AT = 1280
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 1352
+WORLD_OPERATOR_DELAY_AT = 1296
 WORLD_OPERATOR_REFUSES = Struct("<Q?")  # seq, operator_refuses
-WORLD_OPERATOR_REFUSES_AT = 1368
+WORLD_OPERATOR_REFUSES_AT = 1312
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1384
+WORLD_CMM_OP_AT = 1328
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1400
+WORLD_CMM_FEATURE_AT = 1344
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1416
+WORLD_CMM_SEQ_AT = 1360
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1432
+WORLD_CMM_DONE_SEQ_AT = 1376
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1448
+WORLD_CMM_READING_AT = 1392
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1464
+WORLD_CMM_ALARM_AT = 1408
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1480
+WORLD_CMM_FAULT_AT = 1424
 
 
 PROCESSES = {
@@ -261,8 +250,16 @@ COMMAND_IN = {
     "cmm_sim": Record(CMM_SIM_COMMAND, CMM_SIM_COMMAND_AT, ("command_num", "command")),
 }
 STATUS_OUT = {
-    "ws": Record(STATUS, WS_STATUS_AT, field_names(STATUS_FIELDS)),
-    "ms": Record(STATUS, MS_STATUS_AT, field_names(STATUS_FIELDS)),
+    "ws": Record(
+        WS_STATUS,
+        WS_STATUS_AT,
+        ("status_num", "status", "error_num", "state", "rule", "result_accepted"),
+    ),
+    "ms": Record(
+        MS_STATUS,
+        MS_STATUS_AT,
+        ("status_num", "status", "error_num", "state", "rule", "result_measured", "result_failed"),
+    ),
     "fx": Record(STATUS, FX_STATUS_AT, field_names(STATUS_FIELDS)),
     "tl": Record(STATUS, TL_STATUS_AT, field_names(STATUS_FIELDS)),
     "cmm": Record(STATUS, CMM_STATUS_AT, field_names(STATUS_FIELDS)),
@@ -288,15 +285,6 @@ PERFORMANCE = {
     "cmm_sim": Record(PERF, CMM_SIM_PERF_AT, field_names(PERF_FIELDS)),
 }
 WORLD = {
-    "verdict": Record(WORLD_VERDICT, WORLD_VERDICT_AT, ("verdict",)),
-    "ws_reason": Record(WORLD_WS_REASON, WORLD_WS_REASON_AT, ("ws_reason",)),
-    "ms_reason": Record(WORLD_MS_REASON, WORLD_MS_REASON_AT, ("ms_reason",)),
-    "features_failed": Record(
-        WORLD_FEATURES_FAILED, WORLD_FEATURES_FAILED_AT, ("features_failed",)
-    ),
-    "features_measured": Record(
-        WORLD_FEATURES_MEASURED, WORLD_FEATURES_MEASURED_AT, ("features_measured",)
-    ),
     "fx_asking": Record(WORLD_FX_ASKING, WORLD_FX_ASKING_AT, ("fx_asking",)),
     "fx_setup_request": Record(
         WORLD_FX_SETUP_REQUEST, WORLD_FX_SETUP_REQUEST_AT, ("fx_setup_request",)
@@ -339,11 +327,6 @@ WORLD = {
     "cmm_fault": Record(WORLD_CMM_FAULT, WORLD_CMM_FAULT_AT, ("cmm_fault",)),
 }
 WORLD_INITIAL: dict[str, object] = {
-    "verdict": 0,
-    "ws_reason": 0,
-    "ms_reason": 0,
-    "features_failed": 0,
-    "features_measured": 0,
     "fx_asking": False,
     "fx_setup_request": False,
     "fx_place_request": False,
@@ -397,13 +380,30 @@ COMMAND_NAMES = {
     "cmm_sim": (NO_COMMAND_NAME, *("INIT", "HALT")),
 }
 STATE_NAMES = {
-    "ws": ("NOP", "S0", "S1", "S2", "S3", "ABORT", "MEASURING", "REFIXTURING", "UNLOADING"),
+    "ws": (
+        "NOP",
+        "S0",
+        "S1",
+        "S2",
+        "S3",
+        "MS_FAILED",
+        "FX_FAILED",
+        "MEASURING",
+        "REFIXTURING",
+        "UNLOADING",
+    ),
     "ms": ("NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     "fx": ("NOP", "S0", "S0_ASKING"),
     "tl": ("NOP", "S0", "S0_ASKING"),
     "cmm": ("NOP", "S0", "S1"),
     "op": ("NOP", "S0"),
     "cmm_sim": ("NOP", "S0"),
+}
+# The reason each code of a status buffer's `error_num` names, indexed by code, for the
+# controllers that declare reasons (docs/semantics.md, "Results and reasons").
+REASON_NAMES: dict[str, tuple[str, ...]] = {
+    "ws": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
+    "ms": ("NONE", "LOST", "MACHINE_FAULT", "REFUSED", "TIMED_OUT"),
 }
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
@@ -421,7 +421,9 @@ RULES = {
         "INIT_FOR_INSPECT/S2/2",
         "INIT_FOR_INSPECT/S3/1",
         "INIT_FOR_INSPECT/S3/2",
-        "INIT_FOR_INSPECT/ABORT/1",
+        "INIT_FOR_INSPECT/MS_FAILED/1",
+        "INIT_FOR_INSPECT/FX_FAILED/1",
+        "INIT_FOR_INSPECT/FX_FAILED/2",
         "INSPECT_PART/S0/1",
         "INSPECT_PART/S1/1",
         "INSPECT_PART/S1/2",
@@ -432,9 +434,13 @@ RULES = {
         "INSPECT_PART/MEASURING/4",
         "INSPECT_PART/REFIXTURING/1",
         "INSPECT_PART/REFIXTURING/2",
+        "INSPECT_PART/REFIXTURING/3",
         "INSPECT_PART/UNLOADING/1",
         "INSPECT_PART/UNLOADING/2",
-        "INSPECT_PART/ABORT/1",
+        "INSPECT_PART/UNLOADING/3",
+        "INSPECT_PART/MS_FAILED/1",
+        "INSPECT_PART/FX_FAILED/1",
+        "INSPECT_PART/FX_FAILED/2",
     ),
     "ms": (
         "",
@@ -448,8 +454,10 @@ RULES = {
         "CALIBRATE_CMM/S0/1",
         "CALIBRATE_CMM/S1/1",
         "CALIBRATE_CMM/S1/2",
+        "CALIBRATE_CMM/S1/3",
         "CALIBRATE_CMM/S2/1",
         "CALIBRATE_CMM/S2/2",
+        "CALIBRATE_CMM/S2/3",
         "CALIBRATE_CMM/S3/1",
         "CALIBRATE_CMM/S3/2",
         "CALIBRATE_CAMERA/S0/1",
@@ -458,6 +466,7 @@ RULES = {
         "LOAD_PROBE/S0/1",
         "LOAD_PROBE/S1/1",
         "LOAD_PROBE/S1/2",
+        "LOAD_PROBE/S1/3",
         "MEASURE_PART/S0/1",
         "MEASURE_PART/NEXT/1",
         "MEASURE_PART/NEXT/2",

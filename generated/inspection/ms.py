@@ -10,12 +10,10 @@ from .layout import (
     CMM_COMMAND,
     CMM_COMMAND_AT,
     MS_PERF_AT,
+    MS_STATUS,
     MS_STATUS_AT,
     TL_COMMAND,
     TL_COMMAND_AT,
-    WORLD_FEATURES_FAILED_AT,
-    WORLD_FEATURES_MEASURED_AT,
-    WORLD_MS_REASON_AT,
 )
 from .rcs.contract import (
     DONE,
@@ -27,7 +25,6 @@ from .rcs.contract import (
     NOP,
     PERF,
     SEQ,
-    STATUS,
     HookError,
     is_integer,
 )
@@ -40,6 +37,13 @@ CALIBRATE_CMM = 4
 CALIBRATE_CAMERA = 5
 LOAD_PROBE = 6
 MEASURE_PART = 7
+
+# Why ms may end a command in ERROR (the error_num it reports).
+REASON_NONE = 0
+REASON_LOST = 1
+REASON_MACHINE_FAULT = 2
+REASON_REFUSED = 3
+REASON_TIMED_OUT = 4
 
 # Commands ms sends to tl.
 TL_INIT = 1
@@ -58,15 +62,8 @@ CMM_INSPECT_FEATURE = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI200xQI116xQI356xq8xq8xq232xq104xd")
-INPUTS_AT = 312
-# Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
-WORLD_OUT_1 = Struct("<QqQqQq")
-WORLD_VALUES_1 = Struct("<8xq8xq8xq")
-WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1064
+INPUTS = Struct("<QI60x???1xI200xQI116xQI548xq104xd")
+INPUTS_AT = 320
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -78,7 +75,7 @@ PROBING = 6
 JUDGED = 7
 
 # Constants.
-MACHINE_FAULT = 3
+TL_REFUSED = 1
 
 
 class MsController:
@@ -107,6 +104,8 @@ class MsController:
         "min_cycle_ns",
         "perf_seq",
         "perf_single_step_num",
+        "result_failed",
+        "result_measured",
         "rule",
         "simulate",
         "single_step",
@@ -127,9 +126,6 @@ class MsController:
         "var_features",
         "var_in_tolerance",
         "world_cmm_reading",
-        "world_features_failed",
-        "world_features_measured",
-        "world_ms_reason",
         "world_tl_reason",
     )
 
@@ -151,9 +147,16 @@ class MsController:
         """Take up the buffers this module writes from the block: a restarted module keeps
         its command-number handshake, and its sequence words go on from the block's."""
         buf = self.buf
-        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
-            STATUS.unpack_from(buf, MS_STATUS_AT)
-        )
+        (
+            self.status_seq,
+            self.status_num,
+            self.status,
+            self.error_num,
+            self.state,
+            self.rule,
+            self.result_measured,
+            self.result_failed,
+        ) = MS_STATUS.unpack_from(buf, MS_STATUS_AT)
         (
             self.perf_seq,
             self.last_cycle_ns,
@@ -203,9 +206,6 @@ class MsController:
             self.tl_status,
             self.cmm_status_num,
             self.cmm_status,
-            self.world_ms_reason,
-            self.world_features_failed,
-            self.world_features_measured,
             self.world_tl_reason,
             self.world_cmm_reading,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
@@ -220,6 +220,9 @@ class MsController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
+            self.result_measured = 0  # no result yet
+            self.result_failed = 0  # no result yet
 
         # decision_process
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -251,7 +254,7 @@ class MsController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, MS_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            MS_STATUS.pack_into(
                 buf,
                 MS_STATUS_AT,
                 seq,
@@ -260,6 +263,8 @@ class MsController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.result_measured,
+                self.result_failed,
             )
             SEQ.pack_into(buf, MS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -289,18 +294,6 @@ class MsController:
             )
             SEQ.pack_into(buf, CMM_COMMAND_AT, seq + 1)
             self.cmm_written = self.cmm_command_num
-        out = (self.world_ms_reason, self.world_features_failed, self.world_features_measured)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_MS_REASON_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_FEATURES_FAILED_AT, s[1] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_FEATURES_MEASURED_AT, s[2] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
-            )
-            SEQ.pack_into(buf, WORLD_MS_REASON_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_FEATURES_FAILED_AT, (s[1] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_FEATURES_MEASURED_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -341,9 +334,6 @@ class MsController:
             self.tl_status,
             self.cmm_status_num,
             self.cmm_status,
-            self.world_ms_reason,
-            self.world_features_failed,
-            self.world_features_measured,
             self.world_tl_reason,
             self.world_cmm_reading,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
@@ -359,6 +349,9 @@ class MsController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
+            self.result_measured = 0  # no result yet
+            self.result_failed = 0  # no result yet
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
@@ -394,7 +387,7 @@ class MsController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, MS_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            MS_STATUS.pack_into(
                 buf,
                 MS_STATUS_AT,
                 seq,
@@ -403,6 +396,8 @@ class MsController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.result_measured,
+                self.result_failed,
             )
             SEQ.pack_into(buf, MS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -432,18 +427,6 @@ class MsController:
             )
             SEQ.pack_into(buf, CMM_COMMAND_AT, seq + 1)
             self.cmm_written = self.cmm_command_num
-        out = (self.world_ms_reason, self.world_features_failed, self.world_features_measured)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_MS_REASON_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_FEATURES_FAILED_AT, s[1] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_FEATURES_MEASURED_AT, s[2] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
-            )
-            SEQ.pack_into(buf, WORLD_MS_REASON_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_FEATURES_FAILED_AT, (s[1] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_FEATURES_MEASURED_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -511,7 +494,6 @@ class MsController:
         if state == S0:
             self.rule = 5  # EQUIP_SETUP/S0/1
             self.state = S1
-            self.world_ms_reason = 0
             self.cmm_command = CMM_HOME
             self.cmm_command_num += 1
 
@@ -523,9 +505,9 @@ class MsController:
 
             elif self.cmm_status == ERROR:
                 self.rule = 7  # EQUIP_SETUP/S1/2
-                self.world_ms_reason = MACHINE_FAULT
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_MACHINE_FAULT
 
     def calibrate_cmm(self) -> None:
         """CALIBRATE_CMM: Calibrate the reference sphere, then the probe, with the tooling operator
@@ -535,7 +517,6 @@ class MsController:
         if state == S0:
             self.rule = 8  # CALIBRATE_CMM/S0/1
             self.state = S1
-            self.world_ms_reason = 0
             self.tl_command = TL_CALIBRATE_SPHERE
             self.tl_command_num += 1
 
@@ -546,58 +527,69 @@ class MsController:
                 self.tl_command = TL_CALIBRATE_PROBE
                 self.tl_command_num += 1
 
-            elif self.tl_status == ERROR:
+            elif self.tl_status == ERROR and self.world_tl_reason == TL_REFUSED:
                 self.rule = 10  # CALIBRATE_CMM/S1/2
-                self.world_ms_reason = self.world_tl_reason
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_REFUSED
+
+            elif self.tl_status == ERROR and self.world_tl_reason != TL_REFUSED:
+                self.rule = 11  # CALIBRATE_CMM/S1/3
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_TIMED_OUT
 
         elif state == S2:
             if self.tl_status == DONE:
-                self.rule = 11  # CALIBRATE_CMM/S2/1
+                self.rule = 12  # CALIBRATE_CMM/S2/1
                 self.state = S3
                 self.cmm_command = CMM_CALIBRATE_PROBE
                 self.cmm_command_num += 1
 
-            elif self.tl_status == ERROR:
-                self.rule = 12  # CALIBRATE_CMM/S2/2
-                self.world_ms_reason = self.world_tl_reason
+            elif self.tl_status == ERROR and self.world_tl_reason == TL_REFUSED:
+                self.rule = 13  # CALIBRATE_CMM/S2/2
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_REFUSED
+
+            elif self.tl_status == ERROR and self.world_tl_reason != TL_REFUSED:
+                self.rule = 14  # CALIBRATE_CMM/S2/3
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_TIMED_OUT
 
         elif state == S3:
             if self.cmm_status == DONE:
-                self.rule = 13  # CALIBRATE_CMM/S3/1
+                self.rule = 15  # CALIBRATE_CMM/S3/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.cmm_status == ERROR:
-                self.rule = 14  # CALIBRATE_CMM/S3/2
-                self.world_ms_reason = MACHINE_FAULT
+                self.rule = 16  # CALIBRATE_CMM/S3/2
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_MACHINE_FAULT
 
     def calibrate_camera(self) -> None:
         """CALIBRATE_CAMERA: The CMM calibrates the camera against the reference sphere."""
         state = self.state
         if state == S0:
-            self.rule = 15  # CALIBRATE_CAMERA/S0/1
+            self.rule = 17  # CALIBRATE_CAMERA/S0/1
             self.state = S1
-            self.world_ms_reason = 0
             self.cmm_command = CMM_CALIBRATE_CAMERA
             self.cmm_command_num += 1
 
         elif state == S1:
             if self.cmm_status == DONE:
-                self.rule = 16  # CALIBRATE_CAMERA/S1/1
+                self.rule = 18  # CALIBRATE_CAMERA/S1/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.cmm_status == ERROR:
-                self.rule = 17  # CALIBRATE_CAMERA/S1/2
-                self.world_ms_reason = MACHINE_FAULT
+                self.rule = 19  # CALIBRATE_CAMERA/S1/2
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_MACHINE_FAULT
 
     def load_probe(self) -> None:
         """LOAD_PROBE: The tooling operator loads the probe the inspection program needs (Figure
@@ -605,23 +597,28 @@ class MsController:
         """
         state = self.state
         if state == S0:
-            self.rule = 18  # LOAD_PROBE/S0/1
+            self.rule = 20  # LOAD_PROBE/S0/1
             self.state = S1
-            self.world_ms_reason = 0
             self.tl_command = TL_LOAD_PROBE
             self.tl_command_num += 1
 
         elif state == S1:
             if self.tl_status == DONE:
-                self.rule = 19  # LOAD_PROBE/S1/1
+                self.rule = 21  # LOAD_PROBE/S1/1
                 self.state = NOP
                 self.status = DONE
 
-            elif self.tl_status == ERROR:
-                self.rule = 20  # LOAD_PROBE/S1/2
-                self.world_ms_reason = self.world_tl_reason
+            elif self.tl_status == ERROR and self.world_tl_reason == TL_REFUSED:
+                self.rule = 22  # LOAD_PROBE/S1/2
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_REFUSED
+
+            elif self.tl_status == ERROR and self.world_tl_reason != TL_REFUSED:
+                self.rule = 23  # LOAD_PROBE/S1/3
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_TIMED_OUT
 
     def measure_part(self) -> None:
         """MEASURE_PART: Measure every feature of the inspection program with the CMM
@@ -629,7 +626,7 @@ class MsController:
         """
         state = self.state
         if state == S0:
-            self.rule = 21  # MEASURE_PART/S0/1
+            self.rule = 24  # MEASURE_PART/S0/1
             self.state = NEXT
             try:
                 returned = hooks.program_features(self.hook_state)
@@ -644,29 +641,26 @@ class MsController:
                     "ms", "program_features", "MEASURE_PART/S0/1", self.cycles, returned, "i"
                 )
             self.var_features = returned
-            self.world_ms_reason = 0
             self.var_feature = 0
             self.var_failed = 0
-            self.world_features_measured = 0
 
         elif state == NEXT:
             if self.var_feature < self.var_features:
-                self.rule = 22  # MEASURE_PART/NEXT/1
+                self.rule = 25  # MEASURE_PART/NEXT/1
                 self.state = PROBING
                 self.cmm_arg_number = self.var_feature
                 self.cmm_command = CMM_INSPECT_FEATURE
                 self.cmm_command_num += 1
 
             elif self.var_feature >= self.var_features:
-                self.rule = 23  # MEASURE_PART/NEXT/2
-                self.world_features_failed = self.var_failed
+                self.rule = 26  # MEASURE_PART/NEXT/2
                 self.state = NOP
                 self.status = DONE
 
         elif state == PROBING:
             if self.cmm_status == DONE:
                 # a reading; judging it is a hook, which a guard cannot call
-                self.rule = 24  # MEASURE_PART/PROBING/1
+                self.rule = 27  # MEASURE_PART/PROBING/1
                 self.state = JUDGED
                 try:
                     returned = hooks.judge(
@@ -681,14 +675,15 @@ class MsController:
                 self.var_in_tolerance = returned
 
             elif self.cmm_status == ERROR:
-                self.rule = 25  # MEASURE_PART/PROBING/2
-                self.world_ms_reason = MACHINE_FAULT
+                self.rule = 28  # MEASURE_PART/PROBING/2
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_MACHINE_FAULT
 
         elif state == JUDGED:
-            self.rule = 26  # MEASURE_PART/JUDGED/1
+            self.rule = 29  # MEASURE_PART/JUDGED/1
             self.state = NEXT
             self.var_feature = self.var_feature + 1
             self.var_failed = self.var_failed + (0 if self.var_in_tolerance else 1)
-            self.world_features_measured = self.var_feature
+            self.result_measured = self.var_feature
+            self.result_failed = self.var_failed

@@ -9,28 +9,24 @@ from .layout import (
     FX_COMMAND_AT,
     MS_COMMAND,
     MS_COMMAND_AT,
-    WORLD_VERDICT_AT,
-    WORLD_WS_REASON_AT,
     WS_PERF_AT,
+    WS_STATUS,
     WS_STATUS_AT,
 )
-from .rcs.contract import (
-    DONE,
-    ERROR,
-    EXECUTING,
-    NO_RULE,
-    NOP,
-    PERF,
-    READ_TRIES,
-    SEQ,
-    STATUS,
-)
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ
 
 # Commands ws accepts (the code written to its command buffer).
 INIT = 1
 HALT = 2
 INIT_FOR_INSPECT = 3
 INSPECT_PART = 4
+
+# Why ws may end a command in ERROR (the error_num it reports).
+REASON_NONE = 0
+REASON_LOST = 1
+REASON_REFUSED = 2
+REASON_TIMED_OUT = 3
+REASON_MACHINE_FAULT = 4
 
 # Commands ws sends to ms.
 MS_INIT = 1
@@ -40,6 +36,12 @@ MS_CALIBRATE_CMM = 4
 MS_CALIBRATE_CAMERA = 5
 MS_LOAD_PROBE = 6
 MS_MEASURE_PART = 7
+# Why ms may end a command in ERROR (its error_num).
+MS_REASON_NONE = 0
+MS_REASON_LOST = 1
+MS_REASON_MACHINE_FAULT = 2
+MS_REASON_REFUSED = 3
+MS_REASON_TIMED_OUT = 4
 
 # Commands ws sends to fx.
 FX_INIT = 1
@@ -51,34 +53,27 @@ FX_UNLOAD_PART = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI80xQI108xQI572xq8xq8xq8xq136xq")
+INPUTS = Struct("<QQI52x???1xI80xQII16xq96xQI684xq")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
 SEQS_AT = 184
-# Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
-WORLD_OUT_1 = Struct("<QqQq")
-WORLD_VALUES_1 = Struct("<8xq8xq")
-WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1032
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 S2 = 3
 S3 = 4
-ABORT = 5
-MEASURING = 6
-REFIXTURING = 7
-UNLOADING = 8
+MS_FAILED = 5
+FX_FAILED = 6
+MEASURING = 7
+REFIXTURING = 8
+UNLOADING = 9
 
 # Constants.
 MEASUREMENTS = 2
-ACCEPTED = 1
-REJECTED = 2
+FX_REFUSED = 1
 
 
 class WsController:
@@ -102,11 +97,14 @@ class WsController:
         "min_cycle_ns",
         "ms_command",
         "ms_command_num",
+        "ms_error_num",
+        "ms_result_failed",
         "ms_status",
         "ms_status_num",
         "ms_written",
         "perf_seq",
         "perf_single_step_num",
+        "result_accepted",
         "rule",
         "simulate",
         "single_step",
@@ -118,11 +116,7 @@ class WsController:
         "status_num",
         "status_seq",
         "var_measured",
-        "world_features_failed",
         "world_fx_reason",
-        "world_ms_reason",
-        "world_verdict",
-        "world_ws_reason",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -136,9 +130,15 @@ class WsController:
         """Take up the buffers this module writes from the block: a restarted module keeps
         its command-number handshake, and its sequence words go on from the block's."""
         buf = self.buf
-        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
-            STATUS.unpack_from(buf, WS_STATUS_AT)
-        )
+        (
+            self.status_seq,
+            self.status_num,
+            self.status,
+            self.error_num,
+            self.state,
+            self.rule,
+            self.result_accepted,
+        ) = WS_STATUS.unpack_from(buf, WS_STATUS_AT)
         (
             self.perf_seq,
             self.last_cycle_ns,
@@ -189,12 +189,10 @@ class WsController:
                     self.single_step_num,
                     self.ms_status_num,
                     self.ms_status,
+                    self.ms_error_num,
+                    self.ms_result_failed,
                     self.fx_status_num,
                     self.fx_status,
-                    self.world_verdict,
-                    self.world_ws_reason,
-                    self.world_ms_reason,
-                    self.world_features_failed,
                     self.world_fx_reason,
                 ) = values
                 break
@@ -202,6 +200,10 @@ class WsController:
             self.stale_reads += 1
         if self.ms_status_num != self.ms_command_num:
             self.ms_status = EXECUTING  # until it echoes the last number sent
+            self.ms_result_failed = 0  # no result yet
+            self.ms_error_num = MS_REASON_NONE  # no reason yet
+        elif self.ms_status != ERROR:
+            self.ms_error_num = MS_REASON_NONE  # a reason comes only with ERROR
         if self.fx_status_num != self.fx_command_num:
             self.fx_status = EXECUTING  # until it echoes the last number sent
 
@@ -211,6 +213,8 @@ class WsController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
+            self.result_accepted = False  # no result yet
 
         # decision_process
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -236,7 +240,7 @@ class WsController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, WS_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            WS_STATUS.pack_into(
                 buf,
                 WS_STATUS_AT,
                 seq,
@@ -245,6 +249,7 @@ class WsController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.result_accepted,
             )
             SEQ.pack_into(buf, WS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -267,14 +272,6 @@ class WsController:
             FX_COMMAND.pack_into(buf, FX_COMMAND_AT, seq, self.fx_command_num, self.fx_command)
             SEQ.pack_into(buf, FX_COMMAND_AT, seq + 1)
             self.fx_written = self.fx_command_num
-        out = (self.world_verdict, self.world_ws_reason)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_VERDICT_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_WS_REASON_AT, s[1] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            SEQ.pack_into(buf, WORLD_VERDICT_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_WS_REASON_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -318,12 +315,10 @@ class WsController:
                     self.single_step_num,
                     self.ms_status_num,
                     self.ms_status,
+                    self.ms_error_num,
+                    self.ms_result_failed,
                     self.fx_status_num,
                     self.fx_status,
-                    self.world_verdict,
-                    self.world_ws_reason,
-                    self.world_ms_reason,
-                    self.world_features_failed,
                     self.world_fx_reason,
                 ) = values
                 break
@@ -331,6 +326,10 @@ class WsController:
             self.stale_reads += 1
         if self.ms_status_num != self.ms_command_num:
             self.ms_status = EXECUTING  # until it echoes the last number sent
+            self.ms_result_failed = 0  # no result yet
+            self.ms_error_num = MS_REASON_NONE  # no reason yet
+        elif self.ms_status != ERROR:
+            self.ms_error_num = MS_REASON_NONE  # a reason comes only with ERROR
         if self.fx_status_num != self.fx_command_num:
             self.fx_status = EXECUTING  # until it echoes the last number sent
 
@@ -341,6 +340,8 @@ class WsController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
+            self.result_accepted = False  # no result yet
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
@@ -370,7 +371,7 @@ class WsController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, WS_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            WS_STATUS.pack_into(
                 buf,
                 WS_STATUS_AT,
                 seq,
@@ -379,6 +380,7 @@ class WsController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.result_accepted,
             )
             SEQ.pack_into(buf, WS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -401,14 +403,6 @@ class WsController:
             FX_COMMAND.pack_into(buf, FX_COMMAND_AT, seq, self.fx_command_num, self.fx_command)
             SEQ.pack_into(buf, FX_COMMAND_AT, seq + 1)
             self.fx_written = self.fx_command_num
-        out = (self.world_verdict, self.world_ws_reason)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_VERDICT_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_WS_REASON_AT, s[1] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            SEQ.pack_into(buf, WORLD_VERDICT_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_WS_REASON_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -479,7 +473,6 @@ class WsController:
         if state == S0:
             self.rule = 5  # INIT_FOR_INSPECT/S0/1
             self.state = S1
-            self.world_ws_reason = 0
             self.ms_command = MS_EQUIP_SETUP
             self.ms_command_num += 1
             self.fx_command = FX_EQUIP_SETUP
@@ -489,16 +482,14 @@ class WsController:
             if self.fx_status == ERROR:
                 # fixturing failed; withdraw measurement's set-up
                 self.rule = 6  # INIT_FOR_INSPECT/S1/1
-                self.state = ABORT
-                self.world_ws_reason = self.world_fx_reason
+                self.state = FX_FAILED
                 self.ms_command = MS_HALT
                 self.ms_command_num += 1
 
             elif self.ms_status == ERROR:
                 # measurement failed; withdraw fixturing's set-up
                 self.rule = 7  # INIT_FOR_INSPECT/S1/2
-                self.state = ABORT
-                self.world_ws_reason = self.world_ms_reason
+                self.state = MS_FAILED
                 self.fx_command = FX_HALT
                 self.fx_command_num += 1
 
@@ -517,9 +508,15 @@ class WsController:
 
             elif self.ms_status == ERROR:
                 self.rule = 10  # INIT_FOR_INSPECT/S2/2
-                self.world_ws_reason = self.world_ms_reason
                 self.state = NOP
                 self.status = ERROR
+                # ms's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    MS_REASON_LOST: REASON_LOST,
+                    MS_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                    MS_REASON_REFUSED: REASON_REFUSED,
+                    MS_REASON_TIMED_OUT: REASON_TIMED_OUT,
+                }.get(self.ms_error_num, REASON_NONE)
 
         elif state == S3:
             if self.ms_status == DONE:
@@ -529,15 +526,43 @@ class WsController:
 
             elif self.ms_status == ERROR:
                 self.rule = 12  # INIT_FOR_INSPECT/S3/2
-                self.world_ws_reason = self.world_ms_reason
                 self.state = NOP
                 self.status = ERROR
+                # ms's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    MS_REASON_LOST: REASON_LOST,
+                    MS_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                    MS_REASON_REFUSED: REASON_REFUSED,
+                    MS_REASON_TIMED_OUT: REASON_TIMED_OUT,
+                }.get(self.ms_error_num, REASON_NONE)
 
-        elif state == ABORT and self.ms_status != EXECUTING and self.fx_status != EXECUTING:
-            # both subordinates have stopped
-            self.rule = 13  # INIT_FOR_INSPECT/ABORT/1
+        elif state == MS_FAILED and self.fx_status != EXECUTING:
+            # fixturing has stopped; fail for measurement's reason
+            self.rule = 13  # INIT_FOR_INSPECT/MS_FAILED/1
             self.state = NOP
             self.status = ERROR
+            # ms's reason, passed up by name (another: NONE)
+            self.error_num = {
+                MS_REASON_LOST: REASON_LOST,
+                MS_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                MS_REASON_REFUSED: REASON_REFUSED,
+                MS_REASON_TIMED_OUT: REASON_TIMED_OUT,
+            }.get(self.ms_error_num, REASON_NONE)
+
+        elif state == FX_FAILED:
+            if self.ms_status != EXECUTING and self.world_fx_reason == FX_REFUSED:
+                # measurement has stopped; the operator refused
+                self.rule = 14  # INIT_FOR_INSPECT/FX_FAILED/1
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_REFUSED
+
+            elif self.ms_status != EXECUTING and self.world_fx_reason != FX_REFUSED:
+                # measurement has stopped; no answer in time (fixturing's one other reason)
+                self.rule = 15  # INIT_FOR_INSPECT/FX_FAILED/2
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_TIMED_OUT
 
     def inspect_part(self) -> None:
         """INSPECT_PART: Inspect one part (Figure 39): FX places it while MS has the probe loaded,
@@ -546,10 +571,8 @@ class WsController:
         """
         state = self.state
         if state == S0:
-            self.rule = 14  # INSPECT_PART/S0/1
+            self.rule = 16  # INSPECT_PART/S0/1
             self.state = S1
-            self.world_verdict = 0
-            self.world_ws_reason = 0
             self.var_measured = 0
             self.fx_command = FX_PLACE_PART
             self.fx_command_num += 1
@@ -559,22 +582,20 @@ class WsController:
         elif state == S1:
             if self.fx_status == ERROR:
                 # fixturing failed; withdraw the probe loading
-                self.rule = 15  # INSPECT_PART/S1/1
-                self.state = ABORT
-                self.world_ws_reason = self.world_fx_reason
+                self.rule = 17  # INSPECT_PART/S1/1
+                self.state = FX_FAILED
                 self.ms_command = MS_HALT
                 self.ms_command_num += 1
 
             elif self.ms_status == ERROR:
                 # measurement failed; withdraw the placing
-                self.rule = 16  # INSPECT_PART/S1/2
-                self.state = ABORT
-                self.world_ws_reason = self.world_ms_reason
+                self.rule = 18  # INSPECT_PART/S1/2
+                self.state = MS_FAILED
                 self.fx_command = FX_HALT
                 self.fx_command_num += 1
 
             elif self.fx_status == DONE and self.ms_status == DONE:
-                self.rule = 17  # INSPECT_PART/S1/3
+                self.rule = 19  # INSPECT_PART/S1/3
                 self.state = MEASURING
                 self.ms_command = MS_MEASURE_PART
                 self.ms_command_num += 1
@@ -582,70 +603,110 @@ class WsController:
 
         elif state == MEASURING:
             if self.ms_status == ERROR:
-                self.rule = 18  # INSPECT_PART/MEASURING/1
-                self.world_ws_reason = self.world_ms_reason
+                self.rule = 20  # INSPECT_PART/MEASURING/1
                 self.state = NOP
                 self.status = ERROR
+                # ms's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    MS_REASON_LOST: REASON_LOST,
+                    MS_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                    MS_REASON_REFUSED: REASON_REFUSED,
+                    MS_REASON_TIMED_OUT: REASON_TIMED_OUT,
+                }.get(self.ms_error_num, REASON_NONE)
 
-            elif self.ms_status == DONE and self.world_features_failed == 0:
+            elif self.ms_status == DONE and self.ms_result_failed == 0:
                 # every feature in tolerance
-                self.rule = 19  # INSPECT_PART/MEASURING/2
+                self.rule = 21  # INSPECT_PART/MEASURING/2
                 self.state = UNLOADING
-                self.world_verdict = ACCEPTED
+                self.result_accepted = True
                 self.fx_command = FX_UNLOAD_PART
                 self.fx_command_num += 1
 
             elif (
                 self.ms_status == DONE
-                and self.world_features_failed != 0
+                and self.ms_result_failed != 0
                 and self.var_measured < MEASUREMENTS
             ):
                 # out of tolerance; re-fixture and measure again
-                self.rule = 20  # INSPECT_PART/MEASURING/3
+                self.rule = 22  # INSPECT_PART/MEASURING/3
                 self.state = REFIXTURING
                 self.fx_command = FX_REFIXTURE_PART
                 self.fx_command_num += 1
 
             elif (
                 self.ms_status == DONE
-                and self.world_features_failed != 0
+                and self.ms_result_failed != 0
                 and self.var_measured >= MEASUREMENTS
             ):
                 # out of tolerance again; reject the part
-                self.rule = 21  # INSPECT_PART/MEASURING/4
+                self.rule = 23  # INSPECT_PART/MEASURING/4
                 self.state = UNLOADING
-                self.world_verdict = REJECTED
+                self.result_accepted = False
                 self.fx_command = FX_UNLOAD_PART
                 self.fx_command_num += 1
 
         elif state == REFIXTURING:
             if self.fx_status == DONE:
-                self.rule = 22  # INSPECT_PART/REFIXTURING/1
+                self.rule = 24  # INSPECT_PART/REFIXTURING/1
                 self.state = MEASURING
                 self.ms_command = MS_MEASURE_PART
                 self.ms_command_num += 1
                 self.var_measured = self.var_measured + 1
 
-            elif self.fx_status == ERROR:
-                self.rule = 23  # INSPECT_PART/REFIXTURING/2
-                self.world_ws_reason = self.world_fx_reason
+            elif self.fx_status == ERROR and self.world_fx_reason == FX_REFUSED:
+                self.rule = 25  # INSPECT_PART/REFIXTURING/2
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_REFUSED
+
+            elif self.fx_status == ERROR and self.world_fx_reason != FX_REFUSED:
+                self.rule = 26  # INSPECT_PART/REFIXTURING/3
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_TIMED_OUT
 
         elif state == UNLOADING:
             if self.fx_status == DONE:
-                self.rule = 24  # INSPECT_PART/UNLOADING/1
+                self.rule = 27  # INSPECT_PART/UNLOADING/1
                 self.state = NOP
                 self.status = DONE
 
-            elif self.fx_status == ERROR:
-                self.rule = 25  # INSPECT_PART/UNLOADING/2
-                self.world_ws_reason = self.world_fx_reason
+            elif self.fx_status == ERROR and self.world_fx_reason == FX_REFUSED:
+                self.rule = 28  # INSPECT_PART/UNLOADING/2
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_REFUSED
 
-        elif state == ABORT and self.ms_status != EXECUTING and self.fx_status != EXECUTING:
-            # both subordinates have stopped
-            self.rule = 26  # INSPECT_PART/ABORT/1
+            elif self.fx_status == ERROR and self.world_fx_reason != FX_REFUSED:
+                self.rule = 29  # INSPECT_PART/UNLOADING/3
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_TIMED_OUT
+
+        elif state == MS_FAILED and self.fx_status != EXECUTING:
+            # fixturing has stopped; fail for measurement's reason
+            self.rule = 30  # INSPECT_PART/MS_FAILED/1
             self.state = NOP
             self.status = ERROR
+            # ms's reason, passed up by name (another: NONE)
+            self.error_num = {
+                MS_REASON_LOST: REASON_LOST,
+                MS_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                MS_REASON_REFUSED: REASON_REFUSED,
+                MS_REASON_TIMED_OUT: REASON_TIMED_OUT,
+            }.get(self.ms_error_num, REASON_NONE)
+
+        elif state == FX_FAILED:
+            if self.ms_status != EXECUTING and self.world_fx_reason == FX_REFUSED:
+                # measurement has stopped; the operator refused
+                self.rule = 31  # INSPECT_PART/FX_FAILED/1
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_REFUSED
+
+            elif self.ms_status != EXECUTING and self.world_fx_reason != FX_REFUSED:
+                # measurement has stopped; no answer in time (fixturing's one other reason)
+                self.rule = 32  # INSPECT_PART/FX_FAILED/2
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_TIMED_OUT

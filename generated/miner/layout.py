@@ -920,6 +920,9 @@ STATE_NAMES = {
     "pp": ("NOP", "S0", "S1"),
     "cr_sim": ("NOP", "S0"),
 }
+# The reason each code of a status buffer's `error_num` names, indexed by code, for the
+# controllers that declare reasons (docs/semantics.md, "Results and reasons").
+REASON_NAMES: dict[str, tuple[str, ...]] = {}
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
     "sec": (

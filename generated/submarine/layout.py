@@ -411,6 +411,9 @@ STATE_NAMES = {
     "sonar": ("NOP", "S0"),
     "atmosphere": ("NOP", "S0"),
 }
+# The reason each code of a status buffer's `error_num` names, indexed by code, for the
+# controllers that declare reasons (docs/semantics.md, "Results and reasons").
+REASON_NAMES: dict[str, tuple[str, ...]] = {}
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
     "cc": (

@@ -969,6 +969,8 @@ class _ControllerChecker:
                 "reporting ends the command: the state becomes NOP",
             )
         next_state = "NOP" if reports else (rule.next.value if rule.next else None)
+        for report in reports:
+            self.check_passed_in_error(rule_id, report, guard)
         always = None
         if guard is not None:
             folded = expr.fold(guard, scope.constants, self.predicate_trees)
@@ -1049,7 +1051,13 @@ class _ControllerChecker:
                     pairs.append((target, value))
             return Assign(tuple(pairs), action)
         if isinstance(action, model.Report):
-            return Report(action.status, action.span, self.reason(action))
+            reason = self.reason(action)
+            if reason is None or not reason.endswith(".reason") or self.command is None:
+                return Report(action.status, action.span, reason)
+            own = {r.value for r in self.command.reasons}
+            sub_reasons = naming.declared_reasons(self.by_name[reason.removesuffix(".reason")])
+            passes = ("LOST", *(r for r in sub_reasons if r in own))
+            return Report(action.status, action.span, reason, passes)
         hook = self.spec.hooks.get(action.hook)
         if hook is None:
             self.diags.error(
@@ -1100,6 +1108,8 @@ class _ControllerChecker:
             )
             return None
         declared = [r.value for r in self.command.reasons] if self.command else []
+        if reason.endswith(".reason"):  # passed up from a subordinate, by name
+            return self.passed_reason(report, reason.removesuffix(".reason"), declared)
         if reason not in declared:
             where = f"{self.command.name}'s `reasons`" if self.command else "an every_cycle rule"
             self.diags.error(
@@ -1111,6 +1121,104 @@ class _ControllerChecker:
             )
             return None
         return reason
+
+    def check_passed_in_error(
+        self, rule_id: RuleId, report: model.Report, guard: expr.Expr | None
+    ) -> None:
+        """W306: `reason: <sub>.reason` in a rule whose guard does not say the subordinate
+        is in ERROR (a conjunct `<sub>.status == ERROR`, or a test of its reason against
+        one that is not NONE): its reason reads NONE otherwise."""
+        reason = str(report.reason.value) if report.reason is not None else ""
+        sub = reason.removesuffix(".reason")
+        if report.status != "ERROR" or not reason.endswith(".reason") or sub not in self.subs:
+            return
+        if any(_says_in_error(term, sub) for term in _conjuncts(guard)):
+            return
+        assert report.reason is not None
+        self.diags.warning(
+            report.reason.span,
+            "W306",
+            f"`reason: {reason}` in a rule whose guard does not require "
+            f"`{sub}.status == ERROR`: when it fires otherwise, it passes up NONE",
+            f"add `{sub}.status == ERROR and` to the guard, or acknowledge it on the rule "
+            "if the state is entered only once it is in ERROR",
+            Subject(self.spec.name, rule_id.command, rule_id.state, rule_id.index),
+        )
+
+    def passed_reason(self, report: model.Report, sub: str, declared: list[str]) -> str | None:
+        """`reason: <sub>.reason`: the subordinate's reason, passed up by name. Every reason
+        the subordinate can give for the commands this table sends it must be one of this
+        command's (E271 not a subordinate, E259 it declares none, E273 never sent a command,
+        E272 a reason this command does not declare)."""
+        assert report.reason is not None
+        span, where = report.reason.span, f"`reason: {sub}.reason`"
+        if sub not in self.subs:
+            self.diags.error(
+                span,
+                "E271",
+                f"{where}: `{sub}` is not a subordinate of `{self.spec.name}`",
+                known_names_hint("subordinates", self.subs, sub),
+            )
+            return None
+        sub_spec = self.by_name[sub]
+        if not naming.declared_reasons(sub_spec):
+            self.diags.error(
+                span,
+                "E259",
+                f"`{sub}` declares no reasons: `{sub}.reason` says nothing",
+                f"declare `reasons:` on the commands of `{sub}` that can fail",
+            )
+            return None
+        if self.command is None:  # every_cycle: no command of its own to pass a reason for
+            self.diags.error(
+                span,
+                "E256",
+                f"{where}: an every_cycle rule has no command whose reason it could be",
+                "pass the reason in a command's table",
+            )
+            return None
+        if not declared:
+            self.diags.error(
+                span,
+                "E272",
+                f"{where}: {self.command.name} declares no reasons to pass `{sub}`'s on as",
+                f"declare the reasons `{sub}` can give in {self.command.name}'s `reasons:`",
+            )
+            return None
+        sent = [
+            action.command
+            for state in self.command.states.values()
+            for rule in state.rules
+            for action in rule.actions
+            if isinstance(action, model.Send) and action.sub == sub
+        ]
+        if not sent:
+            self.diags.error(
+                span,
+                "E273",
+                f"{where}: {self.command.name} never sends `{sub}` a command, so `{sub}`'s "
+                "reason is never its answer to this command",
+                f"send `{sub}` the command whose failure this passes on, or give a reason of "
+                f"{self.command.name}'s own",
+            )
+            return None
+        for name in dict.fromkeys(
+            r.value
+            for command in dict.fromkeys(sent)
+            if command in sub_spec.commands
+            for r in sub_spec.commands[command].reasons
+        ):
+            if name not in declared:
+                self.diags.error(
+                    span,
+                    "E272",
+                    f"{where} passes `{name}`, a reason `{sub}` can give, which is not one of "
+                    f"{self.command.name}'s `reasons`",
+                    f"add `{name}` to {self.command.name}'s `reasons:` (a reason is passed by "
+                    "name), or report a reason of its own in a rule that tells them apart",
+                )
+                return None
+        return f"{sub}.reason"
 
     def target(self, target: Located) -> Target | None:
         """An assignable name (`world.<field>`, a local or `result.<name>` of the current
@@ -1201,3 +1309,28 @@ class _ControllerChecker:
                 "give them under `with:`",
             )
         return Send(send.sub, send.command, tuple(args), send)
+
+
+def _conjuncts(guard: expr.Expr | None) -> list[expr.Expr]:
+    """The terms a guard requires all of: its top-level `and`'s, or itself."""
+    if guard is None:
+        return []
+    if isinstance(guard, expr.BoolOp) and guard.op == "and":
+        return [t for value in guard.values for t in _conjuncts(value)]
+    return [guard]
+
+
+def _says_in_error(term: expr.Expr, sub: str) -> bool:
+    """`<sub>.status == ERROR` (either way round), or `<sub>.reason == R` for R not NONE, or
+    `<sub>.reason != NONE`: a term that holds only while `sub` is in ERROR."""
+    if not isinstance(term, expr.Compare) or len(term.ops) != 1:
+        return False
+    pair = (term.left, term.comparators[0])
+    for a, b in (pair, pair[::-1]):
+        if not (isinstance(a, expr.Ref) and isinstance(b, expr.Ref) and a.owner == sub):
+            continue
+        if a.kind == "sub_status" and b.kind == "status":
+            return term.ops[0] == "==" and b.name == "ERROR"
+        if a.kind == "sub_reason" and b.kind == "sub_reason_name":
+            return (term.ops[0] == "==") != (b.name == "NONE")
+    return False

@@ -152,7 +152,11 @@ class IRReport:
     status: str  # DONE or ERROR
     kind: str = "report"
     reason: str = ""  # the reason's constant (REASON_REFUSED), '' when none is given
-    reason_name: str = ""  # as the spec names it (REFUSED)
+    reason_name: str = ""  # as the spec names it (REFUSED, or fx.reason when passed up)
+    reason_of: str = ""  # the subordinate whose reason is passed up, by name (fx)
+    # with reason_of: its reason constants -> this controller's (FX_REASON_REFUSED,
+    # REASON_REFUSED); any other code it reports is passed up as NONE
+    reason_map: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)

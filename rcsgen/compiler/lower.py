@@ -185,7 +185,7 @@ class _ControllerLowering:
         read = {(r.kind, r.name) for r in self.refs() if r.owner == sub}
         sub_spec = self.system.controllers[sub].spec
         reasons: tuple[tuple[str, int], ...] = ()
-        if ("sub_reason", "reason") in read:
+        if ("sub_reason", "reason") in read or sub in self.reasons_passed():
             reasons = tuple(
                 (naming.sub_reason_const(sub, r), code)
                 for r, code in reason_codes(sub_spec).items()
@@ -196,6 +196,15 @@ class _ControllerLowering:
             if ("sub_result", name) in read
         )
         return ir.IRSub(sub, consts, params, echo, reasons, results)
+
+    def reasons_passed(self) -> set[str]:
+        """The subordinates whose reason a report passes up (`reason: <sub>.reason`)."""
+        return {
+            action.reason.removesuffix(".reason")
+            for rule in self.checked.rules()
+            for action in rule.actions
+            if isinstance(action, Report) and action.reason and action.reason.endswith(".reason")
+        }
 
     def refs(self) -> list[expr.Ref]:
         """Every name the controller's guards, values, `let` values and predicates read."""
@@ -294,6 +303,14 @@ class _ControllerLowering:
                 )
             )
         if isinstance(action, Report):
+            if action.reason and action.reason.endswith(".reason"):  # passed up, by name
+                sub = action.reason.removesuffix(".reason")
+                pairs = tuple(
+                    (naming.sub_reason_const(sub, r), naming.reason_const(r)) for r in action.passes
+                )
+                return ir.IRReport(
+                    action.status, reason_name=action.reason, reason_of=sub, reason_map=pairs
+                )
             reason = naming.reason_const(action.reason) if action.reason else ""
             return ir.IRReport(action.status, reason=reason, reason_name=action.reason or "")
         state = ("self.hook_state",) if self.spec.hooks_state else ()

@@ -42,6 +42,9 @@ _NAME_RULES = {
     r"^[a-z_][a-z0-9_]*(\.[a-z_][a-z0-9_]*)*$": "{}s are dotted lower_case Python names",
     r"^(world\.)?[a-z][a-z0-9_]*$": "expected `world.<field>` or a local name",
     r"^[a-z][a-z0-9_]*\.[A-Z][A-Z0-9_]*$": "expected `<subordinate>.<COMMAND>`",
+    r"^([A-Z][A-Z0-9_]*|[a-z][a-z0-9_]*\.reason)$": (
+        "expected an UPPER_CASE reason, or `<subordinate>.reason` to pass its reason up"
+    ),
 }
 
 

@@ -79,7 +79,10 @@ class Assign:
 class Report:
     status: str  # DONE or ERROR
     span: Span
-    reason: str | None = None  # with ERROR: one of the command's reasons
+    reason: str | None = None  # with ERROR: one of the command's reasons, or `<sub>.reason`
+    # `<sub>.reason`: the subordinate's reasons passed on as the same names (LOST too); any
+    # other code it reports reads as NONE (docs/semantics.md, "Results and reasons")
+    passes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -35,6 +35,8 @@ from .contract import (
     RUNNING,
     STATUS_NAMES,
     StaleRead,
+    reason_name,
+    status_text,
 )
 from .transport import TransportError, check_endpoint
 
@@ -271,6 +273,16 @@ class Console:
                 row["status"] = _name(STATUS_NAMES, int(status["status"]))
                 row["status_num"] = status["status_num"]
                 row["error_num"] = status["error_num"]
+                reason = reason_name(layout, name, row["status"], int(status["error_num"]))
+                if reason is not None:  # a module that declares reasons
+                    row["reason"] = reason
+                results = {
+                    k.removeprefix("result_"): v
+                    for k, v in status.items()
+                    if k.startswith("result_")
+                }
+                if results:
+                    row["results"] = results
                 row["state"] = _name(layout.STATE_NAMES[runs], int(status["state"]))
                 rule = _name(layout.RULES[runs], int(status["rule"]))
                 row["rule"] = rule or None
@@ -486,7 +498,14 @@ COLUMNS = (
 def render(snapshot: dict[str, Any]) -> list[str]:
     """The debug screen as text: one line per module, then one per process."""
     lines = [f"{snapshot['system']} on {snapshot['segment']}"]
-    lines.append("  ".join(title.ljust(width) for title, width in COLUMNS).rstrip())
+    shown = {
+        name: status_text(str(row.get("status", "?")), row.get("reason"))
+        for name, row in snapshot["modules"].items()
+    }
+    widths = [w for _, w in COLUMNS]
+    widths[3] = max([widths[3], *map(len, shown.values())])  # ERROR(MACHINE_FAULT)
+    titles = [title for title, _ in COLUMNS]
+    lines.append("  ".join(t.ljust(w) for t, w in zip(titles, widths, strict=True)).rstrip())
     for name, row in snapshot["modules"].items():
         mode = f"{row.get('run', '?')} {row.get('step', '?')} {row.get('sim', '?')}"
         if row.get("skipped_by"):
@@ -498,7 +517,7 @@ def render(snapshot: dict[str, Any]) -> list[str]:
             name,
             str(row.get("command", "?")),
             str(row.get("command_num", "?")),
-            str(row.get("status", "?")),
+            shown[name],
             str(row.get("status_num", "?")),
             str(row.get("state", "?")),
             str(row.get("rule") or "-"),
@@ -506,8 +525,11 @@ def render(snapshot: dict[str, Any]) -> list[str]:
             times,
             beat,
         ]
-        widths = [w for _, w in COLUMNS]
         lines.append("  ".join(c.ljust(w) for c, w in zip(cells, widths, strict=True)).rstrip())
+    for name, row in snapshot["modules"].items():
+        if row.get("results"):
+            values = ", ".join(f"{k} {_shown(v)}" for k, v in row["results"].items())
+            lines.append(f"results {name}: {values}")
     for name, proc in snapshot["processes"].items():
         if proc.get("state") == "?":
             lines.append(f"process {name}: control record unreadable")

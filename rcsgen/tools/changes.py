@@ -1,7 +1,8 @@
 """Changes: a trace -> a terminal timeline of only what changed, cycle by cycle.
 
 The first cycle shows every module as it is; after that a cycle appears only when something
-changed in it: a module's command (with its number), status (with its number) or state,
+changed in it: a module's command (with its number), status (with its number and, in
+ERROR, its reason: `ERROR(REFUSED) #4`), state or results,
 a rule that fired (a rule re-firing every cycle shows every cycle: it sends every cycle),
 or a world field. Floating-point world fields drift with sensor noise every cycle, so by
 default only bool and int fields are shown (`world="all"` shows every one). Consecutive
@@ -16,7 +17,7 @@ import re
 from collections.abc import Iterator
 from typing import Any
 
-from .traces import Lane, Trace
+from .traces import Lane, Trace, status_text
 
 WORLD_CHOICES = ("discrete", "all", "none")
 
@@ -34,17 +35,24 @@ def module_line(trace: Trace, module: str, i: int) -> list[str]:
     col = trace.columns[module]
     parts = []
     for name, num in (("command", "command_num"), ("status", "status_num")):
-        now = _pair(col[name][i], col[num][i])
+        text = status_text if name == "status" else lambda c, k: str(c["command"][k])
+        now = _pair(text(col, i), col[num][i])
         if i == 0:
             parts.append(f"{name} {now}")
         else:
-            before = _pair(col[name][i - 1], col[num][i - 1])
+            before = _pair(text(col, i - 1), col[num][i - 1])
             if before != now:
                 parts.append(f"{name} {before} -> {now}")
     if i == 0:
         parts.append(f"state {col['state'][i]}")
     elif col["state"][i] != col["state"][i - 1]:
         parts.append(f"state {col['state'][i - 1]} -> {col['state'][i]}")
+    for name, value in (col["result"][i] if "result" in col else {}).items():
+        if i == 0:
+            parts.append(f"result.{name} {_value(value)}")
+        elif col["result"][i - 1].get(name) != value:
+            was = _value(col["result"][i - 1].get(name))
+            parts.append(f"result.{name} {was} -> {_value(value)}")
     if col["rule"][i] is not None:
         parts.append(f"fired {col['rule'][i]}")
     return parts

@@ -21,7 +21,7 @@ import os
 import shutil
 import sys
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -52,6 +52,10 @@ class Status:
     state: str
     error_num: int
     rule: str | None = None  # the table rule that fired in the module's last cycle
+    # Why it is in ERROR, by name (`NONE` otherwise); None: the module declares no reasons.
+    reason: str | None = None
+    # Its result slots by name (`result.<name>` in the spec); empty: it declares no results.
+    results: dict[str, Any] = field(default_factory=dict)
 
 
 def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleType:
@@ -146,12 +150,15 @@ class BlockView:
     def status(self, module: str) -> Status:
         values = self.layout.STATUS_OUT[module].read(self.buf)
         runs = self._states_of.get(module, module)  # a stand-in's names, while it runs
+        status = self.contract.STATUS_NAMES[values["status"]]
         return Status(
-            self.contract.STATUS_NAMES[values["status"]],
+            status,
             values["status_num"],
             self.layout.STATE_NAMES[runs][values["state"]],
             values["error_num"],
             self.layout.RULES[runs][values["rule"]] or None,
+            self.contract.reason_name(self.layout, module, status, values["error_num"]),
+            {k.removeprefix("result_"): v for k, v in values.items() if k.startswith("result_")},
         )
 
     def set_mode(self, module: str, **mode: Any) -> None:

@@ -23,6 +23,7 @@ from textual.binding import Binding
 from textual.css.query import NoMatches
 from textual.widgets import DataTable, Footer, Input, Static
 
+from ..runtime import contract
 from ..runtime.ctl import Command, Console, CtlError, parse_command
 
 COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
@@ -171,7 +172,7 @@ class Monitor(App[None]):
             "module": prefix + module,
             "command": str(row.get("command", "?")),
             "cnum": str(row.get("command_num", "?")),
-            "status": str(row.get("status", "?")),
+            "status": contract.status_text(str(row.get("status", "?")), row.get("reason")),
             "snum": str(row.get("status_num", "?")),
             "state": str(row.get("state", "?")),
             "rule": self.last_rule.get(module, "-"),

@@ -21,7 +21,7 @@ from ..compiler.diagnostics import Diagnostic, Span, SpecError
 from ..compiler.frontend import display_path
 from ..compiler.ir import IRCall, IRController, IRSystem
 from ..compiler.write import Plan
-from .scenario import RunResult, Scenario, first_difference, read_trace
+from .scenario import RunResult, Scenario, final_value, first_difference, read_trace
 
 
 def _controller(system: IRSystem | None, name: str) -> IRController | None:
@@ -145,10 +145,13 @@ def unmet_expectations(
                 f"expected the run to take {expected.wanted()} cycles; it took {result.cycles}"
             )
         else:
-            actual = world.get(expected.what)
+            actual = final_value(expected.what, world, result.statuses)
             if expected.met(actual):
                 continue
-            shown = str(actual).lower() if isinstance(actual, bool) else f"{actual:g}"
+            if isinstance(actual, bool) or not isinstance(actual, int | float):
+                shown = str(actual).lower() if isinstance(actual, bool) else str(actual)
+            else:
+                shown = f"{actual:g}"
             message = f"expected `{expected.what}` {expected.wanted()} at the end; it was {shown}"
         found.append(
             Diagnostic(

@@ -4,7 +4,8 @@ A scenario names the commands an operator gives and the world changes that happe
 cycle number, and what to trace. Runs use the harness on a private block and no clock, so
 the same scenario gives the same trace on every machine. Traces are JSON Lines, one
 canonical line (sorted keys) per cycle: every module's command, command number, status,
-status number and state, and the world fields the scenario names. Never wall time.
+status number, state and the rule that fired (with its reason and results, for a module
+that declares them), and the world fields the scenario names. Never wall time.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from typing import Any
 from ..compiler.diagnostics import Span, SpecError
 from ..compiler.frontend import SYSTEM_FILE, display_path, real_path
 from ..compiler.loader import decode, read_bytes
-from .harness import AnyHarness, Harness, LaunchedHarness
+from .harness import AnyHarness, Harness, LaunchedHarness, Status
 
 
 @dataclass
@@ -39,7 +40,7 @@ class Event:
 class Expected:
     """One expected outcome (`expect:`): a final value, or bounds; where it is written."""
 
-    what: str  # "status", "cycles" or a world field
+    what: str  # "status", "cycles", a world field, `<module>.reason` or `<module>.result.<name>`
     span: Span
     value: Any = None  # an exact value (status name, number, bool), or None
     low: float | None = None
@@ -81,7 +82,7 @@ class Scenario:
     settings: dict[str, str] = field(default_factory=dict)  # for the hook-state factories
     simulate: tuple[str, ...] = ()  # controllers replaced by their stand-ins
     phases_of: str | None = None  # the module whose commands are the run's phases
-    figures: list[str] = field(default_factory=list)  # world fields the summary reports
+    figures: list[str] = field(default_factory=list)  # world fields (or module.reason ...) shown
     expect: list[Expected] = field(default_factory=list)  # empty: stop module DONE, if any
 
 
@@ -136,7 +137,22 @@ class RunResult:
     final: dict[str, Any]  # the stop module's last status
     phase_cycles: Counter[str]  # cycles per command of the `phases` module
     max_cycle_ns: dict[str, int]
-    figures: dict[str, Any]  # the summary's world fields at the end
+    figures: dict[str, Any]  # the summary's figures at the end
+    statuses: dict[str, Status] = field(default_factory=dict)  # every module's, at the end
+
+
+def final_value(name: str, world: dict[str, Any], statuses: dict[str, Status]) -> Any:
+    """What a figure names at the end of a run: a world field, `<module>.reason` (its name)
+    or `<module>.result.<name>`; None when the run has no such value."""
+    module, dot, rest = name.partition(".")
+    if not dot:
+        return world.get(name)
+    status = statuses.get(module)
+    if status is None:
+        return None
+    if rest == "reason":
+        return status.reason
+    return status.results.get(rest.removeprefix("result."))
 
 
 def trace_line(harness: AnyHarness, world: list[str]) -> str:
@@ -152,6 +168,10 @@ def trace_line(harness: AnyHarness, world: list[str]) -> str:
             "state": status.state,
             "rule": status.rule,
         }
+        if status.reason is not None:  # only modules that declare reasons
+            modules[name]["reason"] = status.reason
+        if status.results:  # every result slot of the module (docs/decisions.md)
+            modules[name]["result"] = status.results
     line = {"cycle": harness.cycles, "modules": modules, "world": harness.world.snapshot(world)}
     return json.dumps(line, sort_keys=True, separators=(",", ":"))
 
@@ -193,8 +213,10 @@ def run(
             break
     final = harness.status(stop).__dict__ if stop else {}
     max_ns = {m: harness.performance(m)["max_cycle_ns"] for m in harness.modules}
-    figures = harness.world.snapshot(scenario.figures)
-    return RunResult(scenario, trace, harness.cycles, final, phases, max_ns, figures)
+    statuses = {m: harness.status(m) for m in harness.modules}
+    world = harness.world.snapshot([f for f in scenario.figures if "." not in f])
+    figures = {name: final_value(name, world, statuses) for name in scenario.figures}
+    return RunResult(scenario, trace, harness.cycles, final, phases, max_ns, figures, statuses)
 
 
 def _finished(harness: AnyHarness, module: str) -> bool:

@@ -1,14 +1,15 @@
 """Scenario check: a scenario file -> located diagnostics and, when clean, the `Scenario`.
 
-Scenario files get the spec's front end: the same located loader (strict YAML 1.2: `no` is
-a string, never false), a JSON Schema (`compiler/schemas/scenario.schema.json`, the file
+Scenario files get the spec's front end: the same located loader (strict YAML 1.2: `no` is a
+string, never false), a JSON Schema (`compiler/schemas/scenario.schema.json`, the file
 editors use: S001-S006), then checks against the system the scenario runs, before cycle 0:
-every module, command, parameter (all of them, each of its type, ints within 64 bits),
-world field, process, stand-in, trace field, report figure and stop module exists and runs
-in that process; bool fields take only true/false; cycles are within max_cycles and in
-order; a command to a module whose supervisor runs is an error unless the event says it
-`overrides` the supervisor; expectations name what the run can show. Every problem has a
-code (E401-E415) and, for names, a did-you-mean.
+every module, command, parameter (all of them, each of its type, ints within 64 bits), world
+field, process, stand-in, trace field, report figure (a world field, or a module's `reason`
+or `result.<name>`) and stop module exists and runs in that process; bool fields take only
+true/false; cycles are within max_cycles and in order; a command to a module whose
+supervisor runs is an error unless the event says it `overrides` the supervisor;
+expectations name what the run can show. Every problem has a code (E401-E415) and, for
+names, a did-you-mean.
 """
 
 from __future__ import annotations
@@ -144,6 +145,48 @@ class _Checker:
             )
         return kind
 
+    def figure(self, name: str, span: Span, run: _Run | None, what: str) -> str | None:
+        """The type of what a figure names: a world field's (E409), or a module's
+        `result.<name>` (E405/E414 for the module, E415 for the result), or `reason` for
+        `<module>.reason` (E415 when the module declares no reasons)."""
+        if "." not in name:
+            return self.field(name, span, what)
+        module, _, rest = name.partition(".")
+        controller = self.module(module, span, run, f"{what}'s module")
+        if controller is None:
+            return None
+        if rest == "reason":
+            if not controller.reasons:
+                self.error(
+                    span,
+                    "E415",
+                    f"{what} `{name}`: `{module}` declares no reasons, so it never gives one",
+                    "declare `reasons:` on its commands, or expect its `status`",
+                )
+                return None
+            return "reason"
+        result = rest.removeprefix("result.")
+        results = {r.name: r.type for r in controller.results}
+        if result not in results:
+            self.error(
+                span,
+                "E415",
+                f"{what} `{name}`: `{module}` has no result `{result}`",
+                known_names_hint(f"results of {module}", results, result),
+            )
+            return None
+        return results[result]
+
+    def reason(self, value: Any, module: str, span: Span) -> bool:
+        """E408 unless `value` is a reason `module` can give (NONE, LOST or a declared one)."""
+        names = [c.removeprefix("REASON_") for c, _ in self.controllers[module].reasons]
+        if isinstance(value, str) and value in names:
+            return True
+        shown = _shown(value)
+        hint = known_names_hint(f"reasons of {module}", names, str(value))
+        self.error(span, "E408", f"`{shown}` is not a reason `{module}` can give", hint)
+        return False
+
     def value(self, value: Any, kind: str, span: Span, what: str) -> bool:
         """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit)."""
         problem = ""
@@ -178,8 +221,8 @@ class _Checker:
         if "phases" in report:
             self.module(report["phases"], self.span(report, "phases"), run, "phases module")
         for index, name in enumerate(report.get("figures") or []):
-            self.field(name, self.span(report["figures"], index), "report figure")
-        expected = self.expectations(stop)
+            self.figure(name, self.span(report["figures"], index), run, "report figure")
+        expected = self.expectations(stop, run)
         events = self.events(run, max_cycles)
         settings = {
             str(k): (str(v).lower() if isinstance(v, bool) else str(v))
@@ -243,7 +286,7 @@ class _Checker:
         running = [m for m in process.modules if m not in skipped]
         return _Run(process, running, skipped)
 
-    def expectations(self, stop: str | None) -> list[Expected]:
+    def expectations(self, stop: str | None, run: _Run | None) -> list[Expected]:
         """What `expect:` asks of the run (E415 for what no run can show)."""
         expect = self.data.get("expect")
         if expect is None:  # a run that stops on a module expects it to finish DONE
@@ -266,18 +309,22 @@ class _Checker:
         figures = expect.get("figures") or {}
         for name, wanted in figures.items():
             span = key_span(figures, name, self.span(expect, "figures"))
-            kind = self.field(name, span, "expected figure")
+            kind = self.figure(name, span, run, "expected figure")
             if kind is None:
                 continue
             if isinstance(wanted, dict):
-                if kind == "bool":
+                if kind in ("bool", "reason"):
+                    words = "true or false" if kind == "bool" else "one of its names"
                     self.error(
                         span,
                         "E415",
-                        f"`{name}` is a bool: expect true or false, not a range",
+                        f"`{name}` is a {kind}: expect {words}, not a range",
                     )
                     continue
                 found.append(self.bounds(name, wanted, span))
+            elif kind == "reason":
+                if self.reason(wanted, name.partition(".")[0], self.span(figures, name)):
+                    found.append(Expected(name, span, value=wanted))
             elif self.value(wanted, kind, self.span(figures, name), f"expected `{name}`"):
                 found.append(Expected(name, span, value=wanted))
         return found

@@ -1,10 +1,11 @@
 """Trace view: a trace (and its lanes) -> one self-contained HTML page that opens offline.
 
-A swim-lane per module (command, state and status over the cycles, a marker where a rule
-fired, its id on hover), the world fields as plots, zoom and pan, and a cursor that shows
-every module at one cycle. The page is the template `assets/trace_view.html` (hand-written
-JavaScript, CSS and SVG; nothing loaded from the network) with the trace inlined as
-run-length encoded JSON, so a 20,000-cycle trace stays a few megabytes.
+A swim-lane per module (command, state and status over the cycles, an error with its reason:
+`ERROR(REFUSED)`; a marker where a rule fired, its id on hover), the world fields as plots,
+zoom and pan, and a cursor that shows every module at one cycle. The page is the template
+`assets/trace_view.html` (hand-written JavaScript, CSS and SVG; nothing loaded from the
+network) with the trace inlined as run-length encoded JSON, so a 20,000-cycle trace stays a
+few megabytes.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import math
 from importlib import resources
 from typing import Any
 
-from .traces import Lane, Trace
+from .traces import Lane, Trace, status_text
 
 TEMPLATE = "trace_view.html"
 
@@ -71,7 +72,9 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
                 "simulator": lane.simulator,
                 "runs_as": lane.runs_as if lane.runs_as != lane.module else "",
                 "command": runs(col["command"], col["command_num"], table),
-                "status": runs(col["status"], col["status_num"], table),
+                "status": runs(
+                    [status_text(col, i) for i in range(len(trace))], col["status_num"], table
+                ),
                 "state": runs(col["state"], None, table),
                 "rules": [x for pair in fired for x in pair],
             }

@@ -14,9 +14,13 @@ from pathlib import Path
 from typing import Any
 
 from ..compiler.ir import IRProcess, IRSystem
+from ..runtime import contract
 from .graph import levels
 
 FIELDS = ("command", "command_num", "status", "status_num", "state", "rule")
+# Only for modules that declare them, on every line or none: the reason's name and the
+# result slots ({name: value}).
+OPTIONAL = ("reason", "result")
 
 
 class TraceError(Exception):
@@ -76,17 +80,27 @@ def parse(text: str, shown: str = "<trace>") -> Trace:
             raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
         if not cycles:
             modules = sorted(found)
-            columns = {m: {f: [] for f in FIELDS} for m in modules}
+            columns = {
+                m: {f: [] for f in (*FIELDS, *(o for o in OPTIONAL if o in found[m]))}
+                for m in modules
+            }
             world = {name: [] for name in sorted(record.get("world") or {})}
         elif sorted(found) != modules:
             extra = sorted(set(found) ^ set(modules))
             raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
         for module in modules:
             values = found[module]
-            missing = [f for f in FIELDS if f not in values]
+            missing = [f for f in columns[module] if f not in values]
             if missing:
                 raise TraceError(f"{where}: module {module} has no `{missing[0]}`")
-            for name in FIELDS:
+            extra = [f for f in OPTIONAL if f in values and f not in columns[module]]
+            if extra:
+                raise TraceError(
+                    f"{where}: module {module} has a `{extra[0]}` the first line does not have"
+                )
+            if "result" in values and not isinstance(values["result"], dict):
+                raise TraceError(f"{where}: module {module}'s `result` is not an object")
+            for name in columns[module]:
                 columns[module][name].append(values[name])
         fields = record.get("world") or {}
         if not isinstance(fields, dict) or sorted(fields) != list(world):
@@ -95,6 +109,13 @@ def parse(text: str, shown: str = "<trace>") -> Trace:
             series.append(fields[name])
         cycles.append(record["cycle"])
     return Trace(shown, cycles, modules, columns, world)
+
+
+def status_text(column: dict[str, list[Any]], i: int) -> str:
+    """A module's status at cycle index `i` as a person reads it: `ERROR(REFUSED)` when it
+    is in ERROR for a reason, the bare status otherwise."""
+    reason = column["reason"][i] if "reason" in column else None
+    return contract.status_text(str(column["status"][i]), reason)
 
 
 # ---------------------------------------------------------------- a trace beside its specs

@@ -126,6 +126,23 @@ def struct_format(fields: tuple[tuple[str, str], ...]) -> str:
     return "<Q" + "".join(code for _, code in fields)
 
 
+def reason_name(layout: object, module: str, status: str, error_num: int) -> str | None:
+    """The reason `module`'s status gives, by name (the layout's REASON_NAMES): `NONE` unless
+    the status is ERROR (as its supervisor reads it), `?<code>` for a code it does not
+    declare; None for a module that declares no reasons."""
+    names = getattr(layout, "REASON_NAMES", {}).get(module)
+    if names is None:
+        return None
+    if status != "ERROR":
+        return "NONE"
+    return str(names[error_num]) if 0 <= error_num < len(names) else f"?{error_num}"
+
+
+def status_text(status: str, reason: str | None) -> str:
+    """A status as a person reads it: `ERROR(REFUSED)` in ERROR for a reason, else bare."""
+    return f"{status}({reason})" if status == "ERROR" and reason not in (None, "NONE") else status
+
+
 STATUS = Struct(struct_format(STATUS_FIELDS))
 MODE = Struct(struct_format(MODE_FIELDS))
 PERF = Struct(struct_format(PERF_FIELDS))
