@@ -17,7 +17,20 @@ from . import expr
 from .diagnostics import Span
 from .tables import RuleId
 
-PY_TYPE = {"bool": "bool", "int": "int", "float": "float"}
+
+class _PyTypes(dict[str, str]):
+    """The Python annotation of each spec type: an enumeration's value is its index (int),
+    a string a str."""
+
+    def __missing__(self, kind: str) -> str:
+        if expr.enum_values(kind):
+            return "int"
+        if expr.str_size(kind):
+            return "str"
+        raise KeyError(kind)
+
+
+PY_TYPE = _PyTypes(bool="bool", int="int", float="float")
 
 
 # ---------------------------------------------------------------- layout
