@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 1496 bytes.
+The block is 1560 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -18,63 +18,63 @@ command buffers and world fields:
 |-------:|-----:|--------|--------------------|
 | 80 | 88 | PROCESS_IWS | PROCESS_FIELDS |
 | 168 | 16 | PACE_IWS | PACE_FIELDS |
-| 184 | 20 | WS_COMMAND | command_num, command |
-| 208 | 32 | WS_STATUS | STATUS_FIELDS |
-| 240 | 16 | WS_MODE | MODE_FIELDS |
-| 256 | 48 | WS_PERF | PERF_FIELDS |
-| 304 | 20 | MS_COMMAND | command_num, command |
-| 328 | 32 | MS_STATUS | STATUS_FIELDS |
-| 360 | 16 | MS_MODE | MODE_FIELDS |
-| 376 | 48 | MS_PERF | PERF_FIELDS |
-| 424 | 20 | FX_COMMAND | command_num, command |
-| 448 | 32 | FX_STATUS | STATUS_FIELDS |
-| 480 | 16 | FX_MODE | MODE_FIELDS |
-| 496 | 48 | FX_PERF | PERF_FIELDS |
-| 544 | 20 | TL_COMMAND | command_num, command |
-| 568 | 32 | TL_STATUS | STATUS_FIELDS |
-| 600 | 16 | TL_MODE | MODE_FIELDS |
-| 616 | 48 | TL_PERF | PERF_FIELDS |
-| 664 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 696 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 728 | 16 | CMM_MODE | MODE_FIELDS |
-| 744 | 48 | CMM_PERF | PERF_FIELDS |
-| 792 | 20 | OP_COMMAND | command_num, command |
-| 816 | 32 | OP_STATUS | STATUS_FIELDS |
-| 848 | 16 | OP_MODE | MODE_FIELDS |
-| 864 | 48 | OP_PERF | PERF_FIELDS |
-| 912 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 936 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 968 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 984 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1032 | 16 | WORLD_VERDICT | verdict |
-| 1048 | 16 | WORLD_WS_REASON | ws_reason |
-| 1064 | 16 | WORLD_MS_REASON | ms_reason |
-| 1080 | 16 | WORLD_FEATURES_FAILED | features_failed |
-| 1096 | 16 | WORLD_FEATURES_MEASURED | features_measured |
-| 1112 | 9 | WORLD_FX_ASKING | fx_asking |
-| 1128 | 9 | WORLD_FX_SETUP_REQUEST | fx_setup_request |
-| 1144 | 9 | WORLD_FX_PLACE_REQUEST | fx_place_request |
-| 1160 | 9 | WORLD_FX_REFIXTURE_REQUEST | fx_refixture_request |
-| 1176 | 9 | WORLD_FX_UNLOAD_REQUEST | fx_unload_request |
-| 1192 | 9 | WORLD_FX_DONE | fx_done |
-| 1208 | 9 | WORLD_FX_REFUSED | fx_refused |
-| 1224 | 16 | WORLD_FX_REASON | fx_reason |
-| 1240 | 9 | WORLD_TL_ASKING | tl_asking |
-| 1256 | 9 | WORLD_TL_SPHERE_REQUEST | tl_sphere_request |
-| 1272 | 9 | WORLD_TL_PROBE_REQUEST | tl_probe_request |
-| 1288 | 9 | WORLD_TL_LOAD_REQUEST | tl_load_request |
-| 1304 | 9 | WORLD_TL_DONE | tl_done |
-| 1320 | 9 | WORLD_TL_REFUSED | tl_refused |
-| 1336 | 16 | WORLD_TL_REASON | tl_reason |
-| 1352 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 1368 | 9 | WORLD_OPERATOR_REFUSES | operator_refuses |
-| 1384 | 16 | WORLD_CMM_OP | cmm_op |
-| 1400 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1416 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1432 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1448 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1464 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1480 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 184 | 52 | WS_COMMAND | command_num, command, arg_program |
+| 240 | 32 | WS_STATUS | STATUS_FIELDS |
+| 272 | 16 | WS_MODE | MODE_FIELDS |
+| 288 | 48 | WS_PERF | PERF_FIELDS |
+| 336 | 52 | MS_COMMAND | command_num, command, arg_program |
+| 392 | 32 | MS_STATUS | STATUS_FIELDS |
+| 424 | 16 | MS_MODE | MODE_FIELDS |
+| 440 | 48 | MS_PERF | PERF_FIELDS |
+| 488 | 20 | FX_COMMAND | command_num, command |
+| 512 | 32 | FX_STATUS | STATUS_FIELDS |
+| 544 | 16 | FX_MODE | MODE_FIELDS |
+| 560 | 48 | FX_PERF | PERF_FIELDS |
+| 608 | 20 | TL_COMMAND | command_num, command |
+| 632 | 32 | TL_STATUS | STATUS_FIELDS |
+| 664 | 16 | TL_MODE | MODE_FIELDS |
+| 680 | 48 | TL_PERF | PERF_FIELDS |
+| 728 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 760 | 32 | CMM_STATUS | STATUS_FIELDS |
+| 792 | 16 | CMM_MODE | MODE_FIELDS |
+| 808 | 48 | CMM_PERF | PERF_FIELDS |
+| 856 | 20 | OP_COMMAND | command_num, command |
+| 880 | 32 | OP_STATUS | STATUS_FIELDS |
+| 912 | 16 | OP_MODE | MODE_FIELDS |
+| 928 | 48 | OP_PERF | PERF_FIELDS |
+| 976 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 1000 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 1032 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1048 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1096 | 16 | WORLD_VERDICT | verdict |
+| 1112 | 16 | WORLD_WS_REASON | ws_reason |
+| 1128 | 16 | WORLD_MS_REASON | ms_reason |
+| 1144 | 16 | WORLD_FEATURES_FAILED | features_failed |
+| 1160 | 16 | WORLD_FEATURES_MEASURED | features_measured |
+| 1176 | 9 | WORLD_FX_ASKING | fx_asking |
+| 1192 | 9 | WORLD_FX_SETUP_REQUEST | fx_setup_request |
+| 1208 | 9 | WORLD_FX_PLACE_REQUEST | fx_place_request |
+| 1224 | 9 | WORLD_FX_REFIXTURE_REQUEST | fx_refixture_request |
+| 1240 | 9 | WORLD_FX_UNLOAD_REQUEST | fx_unload_request |
+| 1256 | 9 | WORLD_FX_DONE | fx_done |
+| 1272 | 9 | WORLD_FX_REFUSED | fx_refused |
+| 1288 | 16 | WORLD_FX_REASON | fx_reason |
+| 1304 | 9 | WORLD_TL_ASKING | tl_asking |
+| 1320 | 9 | WORLD_TL_SPHERE_REQUEST | tl_sphere_request |
+| 1336 | 9 | WORLD_TL_PROBE_REQUEST | tl_probe_request |
+| 1352 | 9 | WORLD_TL_LOAD_REQUEST | tl_load_request |
+| 1368 | 9 | WORLD_TL_DONE | tl_done |
+| 1384 | 9 | WORLD_TL_REFUSED | tl_refused |
+| 1400 | 16 | WORLD_TL_REASON | tl_reason |
+| 1416 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 1432 | 9 | WORLD_OPERATOR_REFUSES | operator_refuses |
+| 1448 | 16 | WORLD_CMM_OP | cmm_op |
+| 1464 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1480 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1496 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1512 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1528 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1544 | 9 | WORLD_CMM_FAULT | cmm_fault |
 """
 
 from __future__ import annotations
@@ -103,120 +103,120 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 1496
+SIZE = 1560
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "ce28065bd2604c51378d951e5d9fb10a"
+LAYOUT_HASH = "98b223ea81b1087b2b918c985d46e3dc"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 168
 
 # ws: Inspection workstation
-WS_COMMAND = Struct("<QQI")  # seq, command_num, command
+WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
 WS_COMMAND_AT = 184
-WS_STATUS_AT = 208
-WS_MODE_AT = 240
-WS_PERF_AT = 256
+WS_STATUS_AT = 240
+WS_MODE_AT = 272
+WS_PERF_AT = 288
 
 # ms: Measurement
-MS_COMMAND = Struct("<QQI")  # seq, command_num, command
-MS_COMMAND_AT = 304
-MS_STATUS_AT = 328
-MS_MODE_AT = 360
-MS_PERF_AT = 376
+MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
+MS_COMMAND_AT = 336
+MS_STATUS_AT = 392
+MS_MODE_AT = 424
+MS_PERF_AT = 440
 
 # fx: Fixturing (performed by the operator)
 FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 424
-FX_STATUS_AT = 448
-FX_MODE_AT = 480
-FX_PERF_AT = 496
+FX_COMMAND_AT = 488
+FX_STATUS_AT = 512
+FX_MODE_AT = 544
+FX_PERF_AT = 560
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 544
-TL_STATUS_AT = 568
-TL_MODE_AT = 600
-TL_PERF_AT = 616
+TL_COMMAND_AT = 608
+TL_STATUS_AT = 632
+TL_MODE_AT = 664
+TL_PERF_AT = 680
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 664
-CMM_STATUS_AT = 696
-CMM_MODE_AT = 728
-CMM_PERF_AT = 744
+CMM_COMMAND_AT = 728
+CMM_STATUS_AT = 760
+CMM_MODE_AT = 792
+CMM_PERF_AT = 808
 
 # op: Operator at the screen (scripted)
 OP_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_COMMAND_AT = 792
-OP_STATUS_AT = 816
-OP_MODE_AT = 848
-OP_PERF_AT = 864
+OP_COMMAND_AT = 856
+OP_STATUS_AT = 880
+OP_MODE_AT = 912
+OP_PERF_AT = 928
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 912
-CMM_SIM_STATUS_AT = 936
-CMM_SIM_MODE_AT = 968
-CMM_SIM_PERF_AT = 984
+CMM_SIM_COMMAND_AT = 976
+CMM_SIM_STATUS_AT = 1000
+CMM_SIM_MODE_AT = 1032
+CMM_SIM_PERF_AT = 1048
 
 # World model.
 WORLD_VERDICT = Struct("<Qq")  # seq, verdict
-WORLD_VERDICT_AT = 1032
+WORLD_VERDICT_AT = 1096
 WORLD_WS_REASON = Struct("<Qq")  # seq, ws_reason
-WORLD_WS_REASON_AT = 1048
+WORLD_WS_REASON_AT = 1112
 WORLD_MS_REASON = Struct("<Qq")  # seq, ms_reason
-WORLD_MS_REASON_AT = 1064
+WORLD_MS_REASON_AT = 1128
 WORLD_FEATURES_FAILED = Struct("<Qq")  # seq, features_failed
-WORLD_FEATURES_FAILED_AT = 1080
+WORLD_FEATURES_FAILED_AT = 1144
 WORLD_FEATURES_MEASURED = Struct("<Qq")  # seq, features_measured
-WORLD_FEATURES_MEASURED_AT = 1096
+WORLD_FEATURES_MEASURED_AT = 1160
 WORLD_FX_ASKING = Struct("<Q?")  # seq, fx_asking
-WORLD_FX_ASKING_AT = 1112
+WORLD_FX_ASKING_AT = 1176
 WORLD_FX_SETUP_REQUEST = Struct("<Q?")  # seq, fx_setup_request
-WORLD_FX_SETUP_REQUEST_AT = 1128
+WORLD_FX_SETUP_REQUEST_AT = 1192
 WORLD_FX_PLACE_REQUEST = Struct("<Q?")  # seq, fx_place_request
-WORLD_FX_PLACE_REQUEST_AT = 1144
+WORLD_FX_PLACE_REQUEST_AT = 1208
 WORLD_FX_REFIXTURE_REQUEST = Struct("<Q?")  # seq, fx_refixture_request
-WORLD_FX_REFIXTURE_REQUEST_AT = 1160
+WORLD_FX_REFIXTURE_REQUEST_AT = 1224
 WORLD_FX_UNLOAD_REQUEST = Struct("<Q?")  # seq, fx_unload_request
-WORLD_FX_UNLOAD_REQUEST_AT = 1176
+WORLD_FX_UNLOAD_REQUEST_AT = 1240
 WORLD_FX_DONE = Struct("<Q?")  # seq, fx_done
-WORLD_FX_DONE_AT = 1192
+WORLD_FX_DONE_AT = 1256
 WORLD_FX_REFUSED = Struct("<Q?")  # seq, fx_refused
-WORLD_FX_REFUSED_AT = 1208
+WORLD_FX_REFUSED_AT = 1272
 WORLD_FX_REASON = Struct("<Qq")  # seq, fx_reason
-WORLD_FX_REASON_AT = 1224
+WORLD_FX_REASON_AT = 1288
 WORLD_TL_ASKING = Struct("<Q?")  # seq, tl_asking
-WORLD_TL_ASKING_AT = 1240
+WORLD_TL_ASKING_AT = 1304
 WORLD_TL_SPHERE_REQUEST = Struct("<Q?")  # seq, tl_sphere_request
-WORLD_TL_SPHERE_REQUEST_AT = 1256
+WORLD_TL_SPHERE_REQUEST_AT = 1320
 WORLD_TL_PROBE_REQUEST = Struct("<Q?")  # seq, tl_probe_request
-WORLD_TL_PROBE_REQUEST_AT = 1272
+WORLD_TL_PROBE_REQUEST_AT = 1336
 WORLD_TL_LOAD_REQUEST = Struct("<Q?")  # seq, tl_load_request
-WORLD_TL_LOAD_REQUEST_AT = 1288
+WORLD_TL_LOAD_REQUEST_AT = 1352
 WORLD_TL_DONE = Struct("<Q?")  # seq, tl_done
-WORLD_TL_DONE_AT = 1304
+WORLD_TL_DONE_AT = 1368
 WORLD_TL_REFUSED = Struct("<Q?")  # seq, tl_refused
-WORLD_TL_REFUSED_AT = 1320
+WORLD_TL_REFUSED_AT = 1384
 WORLD_TL_REASON = Struct("<Qq")  # seq, tl_reason
-WORLD_TL_REASON_AT = 1336
+WORLD_TL_REASON_AT = 1400
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 1352
+WORLD_OPERATOR_DELAY_AT = 1416
 WORLD_OPERATOR_REFUSES = Struct("<Q?")  # seq, operator_refuses
-WORLD_OPERATOR_REFUSES_AT = 1368
+WORLD_OPERATOR_REFUSES_AT = 1432
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1384
+WORLD_CMM_OP_AT = 1448
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1400
+WORLD_CMM_FEATURE_AT = 1464
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1416
+WORLD_CMM_SEQ_AT = 1480
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1432
+WORLD_CMM_DONE_SEQ_AT = 1496
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1448
+WORLD_CMM_READING_AT = 1512
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1464
+WORLD_CMM_ALARM_AT = 1528
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1480
+WORLD_CMM_FAULT_AT = 1544
 
 
 PROCESSES = {
@@ -252,8 +252,8 @@ SUBORDINATES = {
 STAND_INS = {}
 MODULES = ("ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim")
 COMMAND_IN = {
-    "ws": Record(WS_COMMAND, WS_COMMAND_AT, ("command_num", "command")),
-    "ms": Record(MS_COMMAND, MS_COMMAND_AT, ("command_num", "command")),
+    "ws": Record(WS_COMMAND, WS_COMMAND_AT, ("command_num", "command", "arg_program")),
+    "ms": Record(MS_COMMAND, MS_COMMAND_AT, ("command_num", "command", "arg_program")),
     "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command")),
     "tl": Record(TL_COMMAND, TL_COMMAND_AT, ("command_num", "command")),
     "cmm": Record(CMM_COMMAND, CMM_COMMAND_AT, ("command_num", "command", "arg_number")),

@@ -29,6 +29,7 @@ from .rcs.contract import (
     SEQ,
     STATUS,
     HookError,
+    decode_text,
     is_integer,
 )
 
@@ -58,15 +59,15 @@ CMM_INSPECT_FEATURE = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI200xQI116xQI356xq8xq8xq232xq104xd")
-INPUTS_AT = 312
+INPUTS = Struct("<QI32s44x???1xI200xQI116xQI356xq8xq8xq232xq104xd")
+INPUTS_AT = 344
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<QqQqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1064
+WORLD_OUT_1_AT = 1128
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -88,6 +89,7 @@ class MsController:
     HOOK_STATE_ON_RESTART = "refuse"
 
     __slots__ = (
+        "arg_program",
         "buf",
         "cmm_arg_number",
         "cmm_command",
@@ -195,6 +197,7 @@ class MsController:
         (
             self.command_num,
             self.command,
+            self.arg_program,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -209,6 +212,7 @@ class MsController:
             self.world_tl_reason,
             self.world_cmm_reading,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.arg_program = decode_text(self.arg_program)
         if self.tl_status_num != self.tl_command_num:
             self.tl_status = EXECUTING  # until it echoes the last number sent
         if self.cmm_status_num != self.cmm_command_num:
@@ -333,6 +337,7 @@ class MsController:
         (
             self.command_num,
             self.command,
+            self.arg_program,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -347,6 +352,7 @@ class MsController:
             self.world_tl_reason,
             self.world_cmm_reading,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.arg_program = decode_text(self.arg_program)
         if self.tl_status_num != self.tl_command_num:
             self.tl_status = EXECUTING  # until it echoes the last number sent
         if self.cmm_status_num != self.cmm_command_num:
@@ -632,7 +638,7 @@ class MsController:
             self.rule = 21  # MEASURE_PART/S0/1
             self.state = NEXT
             try:
-                returned = hooks.program_features(self.hook_state)
+                returned = hooks.program_features(self.hook_state, self.arg_program)
             except Exception as error:  # one error naming the module, hook, rule and cycle
                 raise HookError(
                     "ms", "program_features", "MEASURE_PART/S0/1", self.cycles

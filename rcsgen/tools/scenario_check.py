@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from ..compiler.diagnostics import Diagnostics, Span, SpecError, known_names_hint
-from ..compiler.expr import int_range_problem
+from ..compiler.expr import enum_values, int_range_problem, str_size, text_problem_of
 from ..compiler.frontend import SYSTEM_FILE, compile_paths, display_path
 from ..compiler.ir import IRController, IRProcess, IRSystem
 from ..compiler.loader import LocDict, key_span, load_file, span_of, value_span
@@ -145,9 +145,23 @@ class _Checker:
         return kind
 
     def value(self, value: Any, kind: str, span: Span, what: str) -> bool:
-        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit)."""
-        problem = ""
-        if kind == "bool" and not isinstance(value, bool):
+        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit; an
+        enumeration: one of its value names; a string: one that fits its size)."""
+        problem, hint = "", ""
+        names = enum_values(kind)
+        if names and value not in names:
+            problem = f"{what} is an enum: give one of {', '.join(names)}, not `{_shown(value)}`"
+            hint = known_names_hint("values", names, str(value))
+        elif names:
+            pass
+        elif str_size(kind):
+            problem = text_problem_of(value, kind)
+            problem = (
+                f"{what} is a string of at most {str_size(kind)} bytes: {problem}"
+                if problem
+                else ""
+            )
+        elif kind == "bool" and not isinstance(value, bool):
             problem = f"{what} is a bool: give true or false, not `{_shown(value)}`"
         elif kind == "int" and (isinstance(value, bool) or not isinstance(value, int)):
             problem = f"{what} is an int: give a whole number, not `{_shown(value)}`"
@@ -156,7 +170,6 @@ class _Checker:
         elif kind == "int" and int_range_problem(value):
             problem = f"{what}: {int_range_problem(value)}"
         if problem:
-            hint = ""
             if isinstance(value, str) and value.lower() in ("yes", "no", "on", "off"):
                 hint = f"`{value}` is a string in YAML 1.2; write true or false"
             self.error(span, "E408", problem, hint)
