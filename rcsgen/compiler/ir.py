@@ -110,7 +110,7 @@ class IRExpr:
 class IRWorldField:
     name: str
     type: str
-    initial: bool | int | float
+    initial: bool | int | float | str  # an enum's value name, a string's text
     doc: str
 
 
@@ -125,7 +125,7 @@ class IRParam:
 class IRLocal:
     name: str
     type: str
-    initial: bool | int | float
+    initial: bool | int | float | str  # an enum's value name, a string's text
     doc: str
 
 
