@@ -9,11 +9,12 @@ case per code as well (tests/cases/invalid/e274-* ... w307-*).
 from __future__ import annotations
 
 import ast
+import json
 import shutil
 from pathlib import Path
 
 import pytest
-from conftest import edit
+from conftest import edit, rcsgen
 
 from rcsgen.compiler import expr
 from rcsgen.compiler.diagnostics import Diagnostics, Span
@@ -279,3 +280,51 @@ def test_the_analysis_decides_enums_and_never_proves_string_equalities(typed: Pa
     assert ("W502" in {c for c, _ in found}) and not any(
         c == "E501" and "program" in m for c, m in found
     )
+
+
+GOOD = """\
+scenario: good
+title: A program and a side, by name
+max_cycles: 20
+stop_when_done: top
+trace: {world: [side, label]}
+report: {figures: [side, label]}
+expect:
+  status: DONE
+  figures: {side: RIGHT, label: "flange@1"}
+events:
+  - cycle: 1
+    set: {label: "é"}
+  - cycle: 2
+    command: top.INSPECT
+    with: {program: flange, side: RIGHT}
+"""
+
+
+def test_a_scenario_sets_sends_traces_and_expects_by_name(typed: Path) -> None:
+    (typed / "scenarios").mkdir()
+    (typed / "scenarios" / "good.yaml").write_text(GOOD, encoding="utf-8")
+    trace = typed.parent / "good.jsonl"
+    ran = rcsgen("run", typed / "scenarios" / "good.yaml", "--trace", trace)
+    assert ran.exit_code == 0, ran.output
+    lines = [json.loads(line) for line in trace.read_text(encoding="utf-8").splitlines()]
+    assert lines[0]["world"] == {"side": "LEFT", "label": "é"}
+    assert lines[-1]["world"] == {"side": "RIGHT", "label": "flange@1"}
+    edit(typed / "scenarios" / "good.yaml", "side: RIGHT, label", "side: LEFT, label")
+    ran = rcsgen("run", typed / "scenarios" / "good.yaml", "--trace", trace)
+    assert ran.exit_code == 1 and "E416" in ran.output and "RIGHT" in ran.output
+    edit(typed / "scenarios" / "good.yaml", "side: LEFT, label", "side: {min: 1}, label")
+    ran = rcsgen("validate", typed)
+    assert ran.exit_code == 1
+    assert "E415" in ran.output and "`side` is an enum: expect one value, not a range" in ran.output
+
+
+def test_reference_pages_name_the_values_and_sizes(typed: Path) -> None:
+    out = typed.parent / "reference"
+    assert rcsgen("doc", typed, "-o", out).exit_code == 0
+    page = (out / "typed" / "sub.md").read_text(encoding="utf-8")
+    assert "### MEASURE(program: str[16], side: enum(LEFT, RIGHT))" in page
+    assert "| `result.verdict` | enum(PASS, FAIL) |" in page
+    world = (out / "typed" / "README.md").read_text(encoding="utf-8")
+    assert "| `side` | enum(LEFT, RIGHT) | `LEFT` |" in world
+    assert "| `label` | str[16] | `'none'` |" in world

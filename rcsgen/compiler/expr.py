@@ -746,6 +746,16 @@ def _words(kind: str) -> str:
     return {BOOL: "a boolean", INT: "an integer", FLOAT: "a number"}.get(kind, kind)
 
 
+def type_label(kind: str) -> str:
+    """A type as a reference page or a picture shows it: `enum(LEFT, RIGHT)`, `str[32]`,
+    `float`."""
+    if enum_values(kind):
+        return f"enum({', '.join(enum_values(kind))})"
+    if str_size(kind):
+        return f"str[{str_size(kind)}]"
+    return kind
+
+
 def type_words(kind: str) -> str:
     """How a type reads in a message: `a boolean`, `enum LEFT, RIGHT`, `a string of ...`."""
     return _words(kind)

@@ -148,7 +148,12 @@ def unmet_expectations(
             actual = world.get(expected.what)
             if expected.met(actual):
                 continue
-            shown = str(actual).lower() if isinstance(actual, bool) else f"{actual:g}"
+            if isinstance(actual, bool):
+                shown = str(actual).lower()
+            elif isinstance(actual, str):  # an enum's value name, a string's text
+                shown = actual if actual.isidentifier() else repr(actual)
+            else:
+                shown = f"{actual:g}"
             message = f"expected `{expected.what}` {expected.wanted()} at the end; it was {shown}"
         found.append(
             Diagnostic(

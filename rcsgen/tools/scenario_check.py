@@ -283,11 +283,14 @@ class _Checker:
             if kind is None:
                 continue
             if isinstance(wanted, dict):
-                if kind == "bool":
+                if kind == "bool" or enum_values(kind) or str_size(kind):
+                    word = (
+                        "an enum" if enum_values(kind) else "a str" if str_size(kind) else "a bool"
+                    )
                     self.error(
                         span,
                         "E415",
-                        f"`{name}` is a bool: expect true or false, not a range",
+                        f"`{name}` is {word}: expect one value, not a range",
                     )
                     continue
                 found.append(self.bounds(name, wanted, span))
