@@ -9,6 +9,7 @@ case per code as well (tests/cases/invalid/e274-* ... w307-*).
 from __future__ import annotations
 
 import ast
+import importlib
 import json
 import shutil
 from pathlib import Path
@@ -20,7 +21,7 @@ from rcsgen.compiler import expr
 from rcsgen.compiler.diagnostics import Diagnostics, Span
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.runtime import contract, ctl, launcher
-from rcsgen.tools.harness import Harness
+from rcsgen.tools.harness import Harness, generate, import_package
 from rcsgen.tools.scenario_check import check_scenario
 
 TYPED = Path(__file__).resolve().parent / "cases" / "valid" / "typed"
@@ -328,3 +329,33 @@ def test_reference_pages_name_the_values_and_sizes(typed: Path) -> None:
     world = (out / "typed" / "README.md").read_text(encoding="utf-8")
     assert "| `side` | enum(LEFT, RIGHT) | `LEFT` |" in world
     assert "| `label` | str[16] | `'none'` |" in world
+
+
+def test_the_console_of_a_running_system_sends_and_shows_names(tmp_path: Path) -> None:
+    from test_ctl import Running  # a system launched as OS processes, on a pid-named segment
+
+    scratch, name = generate(TYPED)
+    try:
+        package = import_package(scratch / name, TYPED)
+        layout = importlib.import_module(f"{package.__name__}.layout")
+        running = Running(scratch / name, TYPED, layout)
+        try:
+            sent = running.ctl("send", "top", "INSPECT", "program=bracket", "side=LEFT")
+            assert sent.returncode == 0, sent.stderr
+            assert sent.stdout.splitlines()[0] == "sent top.INSPECT program=bracket side=LEFT #2"
+            assert running.ctl("wait", "top", "DONE", "--timeout", "20").returncode == 0
+            modules = running.json()["modules"]
+            assert modules["top"]["args"] == {"program": "bracket", "side": "LEFT"}
+            assert modules["top"]["results"] == {"verdict": "PASS"}
+            assert modules["sub"]["results"] == {"verdict": "PASS", "seen": "bracket"}
+            long = running.ctl("send", "top", "INSPECT", "program=" + "x" * 17, "side=LEFT")
+            typo = running.ctl("send", "top", "INSPECT", "program=x", "side=LEFTT")
+            assert (long.returncode, typo.returncode) == (2, 2)
+            assert long.stderr.splitlines() == [
+                "ctl: error: 'xxxxxxxxxxxxxxxxx' is 17 bytes: more than the 16 it holds (program)"
+            ]
+            assert "did you mean 'LEFT'?" in typo.stderr and len(typo.stderr.splitlines()) == 1
+        finally:
+            running.stop()
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
