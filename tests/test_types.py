@@ -11,16 +11,19 @@ from __future__ import annotations
 import ast
 import importlib
 import json
+import re
 import shutil
 from pathlib import Path
 
 import pytest
+from browser import load, needs_chromium
 from conftest import edit, rcsgen
 
 from rcsgen.compiler import expr
 from rcsgen.compiler.diagnostics import Diagnostics, Span
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.runtime import contract, ctl, launcher
+from rcsgen.tools import trace_view, traces
 from rcsgen.tools.harness import Harness, generate, import_package
 from rcsgen.tools.scenario_check import check_scenario
 
@@ -359,3 +362,21 @@ def test_the_console_of_a_running_system_sends_and_shows_names(tmp_path: Path) -
             running.stop()
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+@needs_chromium
+def test_the_trace_view_shows_enum_and_string_fields_by_value(typed: Path) -> None:
+    (typed / "scenarios").mkdir()
+    (typed / "scenarios" / "good.yaml").write_text(GOOD, encoding="utf-8")
+    trace_file = typed.parent / "good.jsonl"
+    assert rcsgen("run", typed / "scenarios" / "good.yaml", "--trace", trace_file).exit_code == 0
+    system = compile_paths([typed]).systems[0]
+    trace = traces.load(trace_file)
+    page = typed.parent / "good.html"
+    page.write_text(trace_view.render(trace, traces.lanes(trace, system), "typed", 0.1))
+    shown = load(f"{page.as_uri()}#cycle=3", typed.parent, "typed")
+    assert shown.console == [], shown.console
+    assert shown.body().get("data-ready") == "1" and "data-error" not in shown.body()
+    assert 'class="plot" data-field="side"' in shown.dom
+    assert re.search(r"<td>side</td><td[^>]*>RIGHT</td>", shown.dom), shown.dom[-2000:]
+    assert re.search(r"<td>label</td><td[^>]*>flange@1</td>", shown.dom)
