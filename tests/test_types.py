@@ -21,6 +21,7 @@ from conftest import edit, rcsgen
 
 from rcsgen.compiler import expr
 from rcsgen.compiler.diagnostics import Diagnostics, Span
+from rcsgen.compiler.emit import render_system
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.runtime import contract, ctl, launcher
 from rcsgen.tools import trace_view, traces
@@ -222,10 +223,11 @@ def test_assignment_needs_the_same_enum_and_room_for_the_string(typed: Path) -> 
     edit(
         typed / "top.yaml",
         "values: [PASS, FAIL]\n    initial: FAIL",
-        "values: [FAIL, PASS]\n    initial: FAIL",
+        "values: [GOOD, BAD]\n    initial: BAD",
     )
+    edit(typed / "top.yaml", "set: {last: PASS,", "set: {last: GOOD,")
     assert [(c, m) for c, _, _, m in findings(typed)] == [
-        ("E277", "expected enum FAIL, PASS, got enum PASS, FAIL")
+        ("E277", "expected enum GOOD, BAD, got enum PASS, FAIL")
     ]
     shutil.rmtree(typed)
     shutil.copytree(TYPED, typed, ignore=shutil.ignore_patterns("__pycache__"))
@@ -233,6 +235,25 @@ def test_assignment_needs_the_same_enum_and_room_for_the_string(typed: Path) -> 
     assert [(c, m) for c, _, _, m in findings(typed)] == [
         ("E277", "expected a string of at most 16 bytes, got a string of at most 17 bytes")
     ]
+
+
+def test_an_enum_value_is_one_module_constant(typed: Path) -> None:
+    """Values name module constants (`self.arg_side == LEFT`): one index per name."""
+    generated = emit_sub_module(typed)
+    assert "LEFT = 0\n" in generated and "self.arg_side == LEFT" in generated
+    edit(
+        typed / "top.yaml",
+        "values: [PASS, FAIL]\n    initial: FAIL",
+        "values: [FAIL, PASS]\n    initial: FAIL",
+    )
+    found = [(c, f, m) for c, f, _, m in findings(typed) if c == "E228"]
+    assert len(found) == 1, found
+    assert found[0][2].startswith("enum value `PASS` is 0 in `verdict` but 1 in `last`")
+
+
+def emit_sub_module(directory: Path) -> str:
+    system = compile_paths([directory]).systems[0]
+    return render_system(system)["typed/sub.py"]
 
 
 def test_declarations_are_checked(typed: Path) -> None:

@@ -874,7 +874,8 @@ class _Printer:
     def text(self, expr: Expr) -> tuple[str, int]:
         atom = _PRECEDENCE["atom"]
         if isinstance(expr, Const):
-            return repr(expr.value), atom
+            names = enum_values(expr.type)  # a module constant of the value's index
+            return (names[int(expr.value)] if names else repr(expr.value)), atom
         if isinstance(expr, Ref):
             return self.name_of(expr), atom
         if isinstance(expr, Call):
@@ -917,6 +918,29 @@ def refs(expr: Expr) -> list[Ref]:
         node = stack.pop()
         if isinstance(node, Ref):
             found.append(node)
+        elif isinstance(node, Call):
+            stack.extend(reversed(node.args))
+        elif isinstance(node, Unary):
+            stack.append(node.operand)
+        elif isinstance(node, Binary):
+            stack.extend((node.right, node.left))
+        elif isinstance(node, BoolOp):
+            stack.extend(reversed(node.values))
+        elif isinstance(node, Compare):
+            stack.extend(reversed((node.left, *node.comparators)))
+        elif isinstance(node, IfExp):
+            stack.extend((node.orelse, node.body, node.test))
+    return found
+
+
+def enum_constants(expr: Expr) -> list[tuple[str, int]]:
+    """Every enumeration value `expr` names, as (value name, index), in reading order."""
+    found: list[tuple[str, int]] = []
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, Const) and enum_values(node.type):
+            found.append((enum_values(node.type)[int(node.value)], int(node.value)))
         elif isinstance(node, Call):
             stack.extend(reversed(node.args))
         elif isinstance(node, Unary):

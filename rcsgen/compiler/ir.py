@@ -288,6 +288,8 @@ class IRController:
     reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants and codes (from 2)
     functions: tuple[IRFunction, ...] = ()  # its pure functions, in declaration order
     counters: tuple[str, ...] = ()  # every `for:` counter attribute, in table order
+    # the enumeration values its expressions name: (value name, index), a module constant each
+    enum_values: tuple[tuple[str, int], ...] = ()
 
     def table_rules(self) -> list[IRRule]:
         """Every rule of the state tables, in code order (code = index + 1)."""

@@ -160,6 +160,19 @@ class _ControllerLowering:
                 for state in command.states
                 for counter in state.counters
             ),
+            enum_values=tuple(
+                sorted(
+                    {
+                        pair
+                        for tree in [
+                            *_trees(rules, c.predicates.values()),
+                            *(let.tree for command in c.commands.values() for let in command.lets),
+                        ]
+                        for pair in expr.enum_constants(tree)
+                    },
+                    key=lambda pair: (pair[1], pair[0]),
+                )
+            ),
         )
 
     def sub(self, sub: str) -> ir.IRSub:
