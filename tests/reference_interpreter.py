@@ -15,7 +15,9 @@ sends number each command, world fields copied in at the start and written out a
 of a cycle, locals, parameters, constants, predicates, default INIT/HALT tables, time in a
 state (`after:`, `for:`; docs/semantics.md "Time in a state"), results and reasons (own
 and subordinates'; docs/semantics.md "Results and reasons"), `let` values, conditional
-expressions and pure functions (docs/spec.md section 13).
+expressions and pure functions (docs/spec.md section 13), enumerations (held by value name;
+a bare name no parameter, local or constant has is a value name) and strings (docs/spec.md
+section 15).
 Not covered: modes, every_cycle rules, hooks.
 """
 
@@ -113,7 +115,7 @@ class Controller:
             self.tables[name] = command["states"]
         self.params = self._param_types()
         self.result_types = {
-            name: result["type"]
+            name: _kind(result)
             for command in (spec.get("commands") or {}).values()
             for name, result in (command.get("results") or {}).items()
         }
@@ -122,7 +124,7 @@ class Controller:
         self.sub_reason = {sub: "NONE" for sub in self.subs}
         self.sub_result_types = {
             sub: {
-                name: result["type"]
+                name: _kind(result)
                 for command in (subs[sub].get("commands") or {}).values()
                 for name, result in (command.get("results") or {}).items()
             }
@@ -143,14 +145,14 @@ class Controller:
         slots = {}
         for command in (spec.get("commands") or {}).values():
             for name, param in (command.get("params") or {}).items():
-                slots.setdefault(name, _zero(param["type"]))
+                slots.setdefault(name, _zero(_kind(param)))
         return slots
 
     def _param_types(self) -> dict[str, str]:
         types = {}
         for command in (self.spec.get("commands") or {}).values():
             for name, param in (command.get("params") or {}).items():
-                types[name] = param["type"]
+                types[name] = _kind(param)
         return types
 
     # ------------------------------------------------------------ one cycle
@@ -336,7 +338,7 @@ class Controller:
             return self.args[name]
         if name in self.locals:
             return self.locals[name]
-        return self.constants[name]
+        return self.constants.get(name, name)  # else an enumeration's value name
 
     # ------------------------------------------------------------ what a trace shows
 
@@ -366,5 +368,15 @@ def _sub_command(node: ast.AST, subs: list[str]) -> str | None:
     return None
 
 
+def _kind(declaration: dict) -> str:
+    """A declaration's type; an enumeration's as `enum:<its first value>`."""
+    if declaration["type"] == "enum":
+        return f"enum:{declaration['values'][0]}"
+    return str(declaration["type"])
+
+
 def _zero(kind: str) -> Any:
-    return {"bool": False, "int": 0, "float": 0.0}[kind]
+    """A value before anything is set: false, 0, 0.0, the first value, the empty string."""
+    if kind.startswith("enum:"):
+        return kind.removeprefix("enum:")
+    return {"bool": False, "int": 0, "float": 0.0, "str": ""}[kind]

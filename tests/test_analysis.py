@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 from conftest import REPO, rcsgen
 
-from rcsgen.compiler import analysis, solver
+from rcsgen.compiler import analysis, fragments, solver
 from rcsgen.compiler import expr as X
 from rcsgen.compiler.check import check_system
 from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
@@ -125,11 +125,17 @@ def models(directory: Path) -> tuple[SystemSpec, list[ControllerSpec]]:
     system = build_system(
         load_file(directory / "system.yaml", "system.yaml"), directory, "system.yaml"
     )
-    controllers = [
-        build_controller(load_file(path, path.name), path.name)
-        for path in sorted(directory.glob("*.yaml"))
-        if path.name != "system.yaml"
-    ]
+    shared: dict = {}
+    if (directory / fragments.FILE).is_file():
+        data = load_file(directory / fragments.FILE, fragments.FILE)
+        shared = fragments.read(data["fragments"], Span(fragments.FILE), Diagnostics())
+    controllers = []
+    for path in sorted(directory.glob("*.yaml")):
+        if path.name in ("system.yaml", fragments.FILE):
+            continue
+        data = load_file(path, path.name)
+        fragments.expand(data, shared, Diagnostics(), Span(path.name))  # (the tc's tram)
+        controllers.append(build_controller(data, path.name))
     return system, controllers
 
 

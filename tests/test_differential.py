@@ -1,7 +1,8 @@
 """Differential test: generated code against a reference interpreter of the semantics.
 
 Hypothesis generates small random systems: a controller `top` with 1-3 subordinates (each
-with a few commands, some with a parameter), world bools and ints, locals, a predicate, and
+with a few commands, some with parameters), world bools, ints, an enumeration and a string,
+locals (an enumeration and a string among them), a predicate, and
 1-2 commands of 2-5 states whose rules have guards from a small grammar over subordinate
 statuses and commands, world fields, locals, parameters and the predicate, and actions that
 send, set and report, with `next` transitions. Each system is built (Harness.build) and run
@@ -32,6 +33,8 @@ EXAMPLES = int(os.environ.get("DIFF_EXAMPLES", "25"))
 DERANDOMIZE = os.environ.get("FUZZ_RANDOM", "") == ""
 CYCLES = 200
 REPLIES = ("DONE", "DONE", "ERROR", "EXECUTING")
+SIDES = ["LEFT", "RIGHT", "UP"]
+TEXTS = ["", "ab", "x", "héé"]  # UTF-8: 5 bytes of 8
 
 
 class Draw:
@@ -60,6 +63,9 @@ def sub_spec(name: str, d: Draw) -> dict:
         spec: dict = {"states": {"S0": [{"do": [{"report": "DONE"}]}]}}
         if d.chance(40):
             spec["params"] = {"k": {"type": "int"}}
+        if d.chance(40):  # an enumeration and a string, passed on from top's
+            spec["params"] = {**spec.get("params", {}), "e": {"type": "enum", "values": SIDES}}
+            spec["params"]["s"] = {"type": "str", "size": 8}
         if results:
             spec["results"] = {"v": {"type": "int"}}
         if reasons:
@@ -86,6 +92,7 @@ class Grammar:
     def atom(self) -> str:
         d = self.d
         kinds = ["world_bool", "world_int", "local_int", "local_bool", "param", "predicate"]
+        kinds += ["enum", "text"]
         kinds += ["status", "status", "command"] if self.sent else []
         kinds += ["reason"] if any(sub_reasons(self.subs[s]) for s in self.sent) else []
         kinds += ["result"] if any(sub_results(self.subs[s]) for s in self.sent) else []
@@ -106,6 +113,14 @@ class Grammar:
             sub = d.choice(self.sent)
             names = ["INIT", "HALT", *self.subs[sub]["commands"]]
             return f"{sub}.command {d.choice(['==', '!='])} {d.choice(names)}"
+        if kind == "enum":
+            value = d.choice(["side", "mode", "world.e0"])
+            names = ["IDLE", "BUSY"] if value in ("mode", "world.e0") else SIDES
+            return f"{value} {d.choice(['==', '!='])} {d.choice(names)}"
+        if kind == "text":
+            left = d.choice(["tag", "label", "world.t0"])
+            right = d.choice(["'ab'", "'x'", "''", "tag", "label"])
+            return f"{left} {d.choice(['==', '!='])} {right}"
         if kind == "world_bool":
             return d.choice(["world.b0", "not world.b0", "world.b1"])
         if kind == "local_bool":
@@ -168,7 +183,11 @@ def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
             rules.insert(0, anchor)
             table[state] = rules
         commands[command] = {
-            "params": {"g": {"type": "int"}},
+            "params": {
+                "g": {"type": "int"},
+                "side": {"type": "enum", "values": SIDES},
+                "tag": {"type": "str", "size": 8},
+            },
             "results": {"r": {"type": "int"}},
             "reasons": ["BAD", "WORSE", *PASSED],  # a subordinate's are passed up by name
             "let": {"m": "n + g if flag else world.i0", "m2": "twice(m) - 1"},
@@ -179,10 +198,16 @@ def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
         "controller": "top",
         "title": "Top",
         "subordinates": names,
-        "world": {"reads": ["b0", "i0"], "writes": ["b1", "i1"]},
+        "world": {"reads": ["b0", "i0"], "writes": ["b1", "i1", "e0", "t0"]},
         "locals": {
             "n": {"type": "int", "initial": d.int(-1, 2)},
             "flag": {"type": "bool", "initial": d.chance(50)},
+            "mode": {
+                "type": "enum",
+                "values": ["IDLE", "BUSY"],
+                "initial": d.choice(["IDLE", "BUSY"]),
+            },
+            "label": {"type": "str", "size": 8, "initial": d.choice(TEXTS)},
         },
         "constants": {"LIMIT": d.int(0, 4)},
         "predicates": {"busy": "world.b0 and n > LIMIT"},
@@ -196,8 +221,14 @@ def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
 def send(d: Draw, sub: str, subs: dict[str, dict]) -> dict:
     command = d.choice(["INIT", "HALT", *subs[sub]["commands"]])
     action: dict = {"send": f"{sub}.{command}"}
-    if "params" in subs[sub]["commands"].get(command, {}):
-        action["with"] = {"k": d.choice(["n", "g + 1", "world.i0", "3"])}
+    params = subs[sub]["commands"].get(command, {}).get("params", {})
+    values = {
+        "k": lambda: d.choice(["n", "g + 1", "world.i0", "3"]),
+        "e": lambda: d.choice(["side", "LEFT", "UP"]),
+        "s": lambda: d.choice(["tag", "label", "'x'", "world.t0"]),
+    }
+    if params:
+        action["with"] = {name: values[name]() for name in params}
     return action
 
 
@@ -207,7 +238,9 @@ def random_rule(d: Draw, grammar: Grammar, states: list[str], sent: list[str], s
         rule["when"] = grammar.guard()
     actions = []
     for _ in range(d.int(0, 3)):
-        kind = d.choice(["send", "set_n", "set_flag", "set_world", "set_result", "report"])
+        kind = d.choice(
+            ["send", "set_n", "set_flag", "set_world", "set_result", "set_typed", "report"]
+        )
         if kind == "send":
             actions.append(send(d, d.choice(sent), subs))
         elif kind == "set_n":
@@ -220,6 +253,15 @@ def random_rule(d: Draw, grammar: Grammar, states: list[str], sent: list[str], s
             target = d.choice(["world.b1", "world.i1"])
             value = "not world.b1" if target == "world.b1" else d.choice(["n", "world.i1 + 1"])
             actions.append({"set": {target: value}})
+        elif kind == "set_typed":  # an enumeration or a string, local or world field
+            target = d.choice(["mode", "label", "world.e0", "world.t0"])
+            value = {
+                "mode": ["BUSY", "IDLE", "world.e0", "BUSY if flag else IDLE"],
+                "label": ["tag", "'ab'", "world.t0", "label"],
+                "world.e0": ["mode", "IDLE"],
+                "world.t0": ["label", "tag", "'x'"],
+            }[target]
+            actions.append({"set": {target: d.choice(value)}})
         elif kind == "set_result":
             actions.append({"set": {"result.r": d.choice(["n", "g * 2", "world.i0"])}})
         elif not any("report" in a for a in actions):
@@ -251,16 +293,25 @@ def system_files(d: Draw) -> dict[str, dict]:
             "b1": {"type": "bool", "initial": False},
             "i0": {"type": "int", "initial": d.int(-3, 3)},
             "i1": {"type": "int", "initial": 0},
+            "e0": {"type": "enum", "values": ["IDLE", "BUSY"], "initial": "IDLE"},
+            "t0": {"type": "str", "size": 8, "initial": "x"},
         },
         "processes": {"p": {"modules": ["top", *subs]}},
     }
     return {"system": system, "top": top_spec(d, subs), **subs}
 
 
+class _NoAliases(yaml.SafeDumper):
+    """A list used twice (SIDES) is written out twice: rcsgen refuses YAML aliases."""
+
+    def ignore_aliases(self, data: Any) -> bool:
+        return True
+
+
 def write_system(directory: Path, files: dict[str, dict]) -> None:
     directory.mkdir(parents=True)
     for name, data in files.items():
-        text = yaml.safe_dump(data, sort_keys=False, width=1000)
+        text = yaml.dump(data, Dumper=_NoAliases, sort_keys=False, width=1000)
         (directory / f"{name}.yaml").write_text(text, encoding="utf-8")
 
 
@@ -275,7 +326,12 @@ def generated_trace(h: Harness, subs: list[str]) -> dict[str, Any]:
             s: (h.sent(s).command, h.sent(s).number, dict(sorted(h.sent(s).args.items())))
             for s in subs
         },
-        "locals": {"n": top.var_n, "flag": top.var_flag},
+        "locals": {
+            "n": top.var_n,
+            "flag": top.var_flag,
+            "mode": ("IDLE", "BUSY")[top.var_mode],
+            "label": top.var_label,
+        },
         "reason": ("NONE", "LOST", "BAD", "WORSE", *PASSED)[
             h.layout.STATUS_OUT["top"].read(h.buf)["error_num"]
         ],
@@ -293,7 +349,8 @@ def drive(h: Harness, files: dict[str, dict], rnd: random.Random) -> int:
     for cycle in range(CYCLES):
         if cycle == 0 or rnd.random() < 0.06:  # the operator gives a new command
             command, g = rnd.choice(commands), rnd.randint(-2, 5)
-            args = {"g": g} if command not in ("INIT", "HALT") else {}
+            typed = {"side": rnd.choice(SIDES), "tag": rnd.choice(TEXTS)}
+            args = {"g": g, **typed} if command not in ("INIT", "HALT") else {}
             block.command_num = h.command("top", command, **args)
             block.command = command
             block.args.update(args)

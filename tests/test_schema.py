@@ -267,7 +267,9 @@ def test_s005_enum_with_suggestion():
         check("controller: co\ntitle: T\nlocals: {n: {type: flaot, initial: 0}}\ncommands: {}\n"),
         "S005",
     )
-    assert d.message == "`flaot` is not a valid type: expected `bool`, `int` or `float`"
+    assert d.message == (
+        "`flaot` is not a valid type: expected `bool`, `int`, `float`, `enum` or `str`"
+    )
     assert d.span == Span("x.yaml", 3, 20)
     assert d.hint == "did you mean `float`?"
     d = only(action("{report: FINISHED}"), "S005")

@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 1440 bytes.
+The block is 1504 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -18,58 +18,58 @@ command buffers and world fields:
 |-------:|-----:|--------|--------------------|
 | 80 | 88 | PROCESS_IWS | PROCESS_FIELDS |
 | 168 | 16 | PACE_IWS | PACE_FIELDS |
-| 184 | 20 | WS_COMMAND | command_num, command |
-| 208 | 33 | WS_STATUS | STATUS_FIELDS |
-| 248 | 16 | WS_MODE | MODE_FIELDS |
-| 264 | 48 | WS_PERF | PERF_FIELDS |
-| 312 | 20 | MS_COMMAND | command_num, command |
-| 336 | 48 | MS_STATUS | STATUS_FIELDS |
-| 384 | 16 | MS_MODE | MODE_FIELDS |
-| 400 | 48 | MS_PERF | PERF_FIELDS |
-| 448 | 20 | FX_COMMAND | command_num, command |
-| 472 | 32 | FX_STATUS | STATUS_FIELDS |
-| 504 | 16 | FX_MODE | MODE_FIELDS |
-| 520 | 48 | FX_PERF | PERF_FIELDS |
-| 568 | 20 | TL_COMMAND | command_num, command |
-| 592 | 32 | TL_STATUS | STATUS_FIELDS |
-| 624 | 16 | TL_MODE | MODE_FIELDS |
-| 640 | 48 | TL_PERF | PERF_FIELDS |
-| 688 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 720 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 752 | 16 | CMM_MODE | MODE_FIELDS |
-| 768 | 48 | CMM_PERF | PERF_FIELDS |
-| 816 | 20 | OP_COMMAND | command_num, command |
-| 840 | 32 | OP_STATUS | STATUS_FIELDS |
-| 872 | 16 | OP_MODE | MODE_FIELDS |
-| 888 | 48 | OP_PERF | PERF_FIELDS |
-| 936 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 960 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 992 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1008 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1056 | 9 | WORLD_FX_ASKING | fx_asking |
-| 1072 | 9 | WORLD_FX_SETUP_REQUEST | fx_setup_request |
-| 1088 | 9 | WORLD_FX_PLACE_REQUEST | fx_place_request |
-| 1104 | 9 | WORLD_FX_REFIXTURE_REQUEST | fx_refixture_request |
-| 1120 | 9 | WORLD_FX_UNLOAD_REQUEST | fx_unload_request |
-| 1136 | 9 | WORLD_FX_DONE | fx_done |
-| 1152 | 9 | WORLD_FX_REFUSED | fx_refused |
-| 1168 | 16 | WORLD_FX_REASON | fx_reason |
-| 1184 | 9 | WORLD_TL_ASKING | tl_asking |
-| 1200 | 9 | WORLD_TL_SPHERE_REQUEST | tl_sphere_request |
-| 1216 | 9 | WORLD_TL_PROBE_REQUEST | tl_probe_request |
-| 1232 | 9 | WORLD_TL_LOAD_REQUEST | tl_load_request |
-| 1248 | 9 | WORLD_TL_DONE | tl_done |
-| 1264 | 9 | WORLD_TL_REFUSED | tl_refused |
-| 1280 | 16 | WORLD_TL_REASON | tl_reason |
-| 1296 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 1312 | 9 | WORLD_OPERATOR_REFUSES | operator_refuses |
-| 1328 | 16 | WORLD_CMM_OP | cmm_op |
-| 1344 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1360 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1376 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1392 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1408 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1424 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 184 | 52 | WS_COMMAND | command_num, command, arg_program |
+| 240 | 33 | WS_STATUS | STATUS_FIELDS |
+| 280 | 16 | WS_MODE | MODE_FIELDS |
+| 296 | 48 | WS_PERF | PERF_FIELDS |
+| 344 | 52 | MS_COMMAND | command_num, command, arg_program |
+| 400 | 48 | MS_STATUS | STATUS_FIELDS |
+| 448 | 16 | MS_MODE | MODE_FIELDS |
+| 464 | 48 | MS_PERF | PERF_FIELDS |
+| 512 | 20 | FX_COMMAND | command_num, command |
+| 536 | 32 | FX_STATUS | STATUS_FIELDS |
+| 568 | 16 | FX_MODE | MODE_FIELDS |
+| 584 | 48 | FX_PERF | PERF_FIELDS |
+| 632 | 20 | TL_COMMAND | command_num, command |
+| 656 | 32 | TL_STATUS | STATUS_FIELDS |
+| 688 | 16 | TL_MODE | MODE_FIELDS |
+| 704 | 48 | TL_PERF | PERF_FIELDS |
+| 752 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 784 | 32 | CMM_STATUS | STATUS_FIELDS |
+| 816 | 16 | CMM_MODE | MODE_FIELDS |
+| 832 | 48 | CMM_PERF | PERF_FIELDS |
+| 880 | 20 | OP_COMMAND | command_num, command |
+| 904 | 32 | OP_STATUS | STATUS_FIELDS |
+| 936 | 16 | OP_MODE | MODE_FIELDS |
+| 952 | 48 | OP_PERF | PERF_FIELDS |
+| 1000 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 1024 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 1056 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1072 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1120 | 9 | WORLD_FX_ASKING | fx_asking |
+| 1136 | 9 | WORLD_FX_SETUP_REQUEST | fx_setup_request |
+| 1152 | 9 | WORLD_FX_PLACE_REQUEST | fx_place_request |
+| 1168 | 9 | WORLD_FX_REFIXTURE_REQUEST | fx_refixture_request |
+| 1184 | 9 | WORLD_FX_UNLOAD_REQUEST | fx_unload_request |
+| 1200 | 9 | WORLD_FX_DONE | fx_done |
+| 1216 | 9 | WORLD_FX_REFUSED | fx_refused |
+| 1232 | 16 | WORLD_FX_REASON | fx_reason |
+| 1248 | 9 | WORLD_TL_ASKING | tl_asking |
+| 1264 | 9 | WORLD_TL_SPHERE_REQUEST | tl_sphere_request |
+| 1280 | 9 | WORLD_TL_PROBE_REQUEST | tl_probe_request |
+| 1296 | 9 | WORLD_TL_LOAD_REQUEST | tl_load_request |
+| 1312 | 9 | WORLD_TL_DONE | tl_done |
+| 1328 | 9 | WORLD_TL_REFUSED | tl_refused |
+| 1344 | 16 | WORLD_TL_REASON | tl_reason |
+| 1360 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 1376 | 9 | WORLD_OPERATOR_REFUSES | operator_refuses |
+| 1392 | 16 | WORLD_CMM_OP | cmm_op |
+| 1408 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1424 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1440 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1456 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1472 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1488 | 9 | WORLD_CMM_FAULT | cmm_fault |
 """
 
 from __future__ import annotations
@@ -98,114 +98,114 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 1440
+SIZE = 1504
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "ff0588ef986da372006ebf489127bc0c"
+LAYOUT_HASH = "7bf7fe1f6ecfd0e52e74b9c2aa68e147"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 168
 
 # ws: Inspection workstation
-WS_COMMAND = Struct("<QQI")  # seq, command_num, command
+WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
 WS_COMMAND_AT = 184
 WS_STATUS = Struct("<QQIIii?")  # seq, status_num, status, error_num, state, rule, result_accepted
-WS_STATUS_AT = 208
-WS_MODE_AT = 248
-WS_PERF_AT = 264
+WS_STATUS_AT = 240
+WS_MODE_AT = 280
+WS_PERF_AT = 296
 
 # ms: Measurement
-MS_COMMAND = Struct("<QQI")  # seq, command_num, command
-MS_COMMAND_AT = 312
+MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
+MS_COMMAND_AT = 344
 MS_STATUS = Struct(
     "<QQIIiiqq"
 )  # seq, status_num, status, error_num, state, rule, result_measured, result_failed
-MS_STATUS_AT = 336
-MS_MODE_AT = 384
-MS_PERF_AT = 400
+MS_STATUS_AT = 400
+MS_MODE_AT = 448
+MS_PERF_AT = 464
 
 # fx: Fixturing (performed by the operator)
 FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 448
-FX_STATUS_AT = 472
-FX_MODE_AT = 504
-FX_PERF_AT = 520
+FX_COMMAND_AT = 512
+FX_STATUS_AT = 536
+FX_MODE_AT = 568
+FX_PERF_AT = 584
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 568
-TL_STATUS_AT = 592
-TL_MODE_AT = 624
-TL_PERF_AT = 640
+TL_COMMAND_AT = 632
+TL_STATUS_AT = 656
+TL_MODE_AT = 688
+TL_PERF_AT = 704
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 688
-CMM_STATUS_AT = 720
-CMM_MODE_AT = 752
-CMM_PERF_AT = 768
+CMM_COMMAND_AT = 752
+CMM_STATUS_AT = 784
+CMM_MODE_AT = 816
+CMM_PERF_AT = 832
 
 # op: Operator at the screen (scripted)
 OP_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_COMMAND_AT = 816
-OP_STATUS_AT = 840
-OP_MODE_AT = 872
-OP_PERF_AT = 888
+OP_COMMAND_AT = 880
+OP_STATUS_AT = 904
+OP_MODE_AT = 936
+OP_PERF_AT = 952
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 936
-CMM_SIM_STATUS_AT = 960
-CMM_SIM_MODE_AT = 992
-CMM_SIM_PERF_AT = 1008
+CMM_SIM_COMMAND_AT = 1000
+CMM_SIM_STATUS_AT = 1024
+CMM_SIM_MODE_AT = 1056
+CMM_SIM_PERF_AT = 1072
 
 # World model.
 WORLD_FX_ASKING = Struct("<Q?")  # seq, fx_asking
-WORLD_FX_ASKING_AT = 1056
+WORLD_FX_ASKING_AT = 1120
 WORLD_FX_SETUP_REQUEST = Struct("<Q?")  # seq, fx_setup_request
-WORLD_FX_SETUP_REQUEST_AT = 1072
+WORLD_FX_SETUP_REQUEST_AT = 1136
 WORLD_FX_PLACE_REQUEST = Struct("<Q?")  # seq, fx_place_request
-WORLD_FX_PLACE_REQUEST_AT = 1088
+WORLD_FX_PLACE_REQUEST_AT = 1152
 WORLD_FX_REFIXTURE_REQUEST = Struct("<Q?")  # seq, fx_refixture_request
-WORLD_FX_REFIXTURE_REQUEST_AT = 1104
+WORLD_FX_REFIXTURE_REQUEST_AT = 1168
 WORLD_FX_UNLOAD_REQUEST = Struct("<Q?")  # seq, fx_unload_request
-WORLD_FX_UNLOAD_REQUEST_AT = 1120
+WORLD_FX_UNLOAD_REQUEST_AT = 1184
 WORLD_FX_DONE = Struct("<Q?")  # seq, fx_done
-WORLD_FX_DONE_AT = 1136
+WORLD_FX_DONE_AT = 1200
 WORLD_FX_REFUSED = Struct("<Q?")  # seq, fx_refused
-WORLD_FX_REFUSED_AT = 1152
+WORLD_FX_REFUSED_AT = 1216
 WORLD_FX_REASON = Struct("<Qq")  # seq, fx_reason
-WORLD_FX_REASON_AT = 1168
+WORLD_FX_REASON_AT = 1232
 WORLD_TL_ASKING = Struct("<Q?")  # seq, tl_asking
-WORLD_TL_ASKING_AT = 1184
+WORLD_TL_ASKING_AT = 1248
 WORLD_TL_SPHERE_REQUEST = Struct("<Q?")  # seq, tl_sphere_request
-WORLD_TL_SPHERE_REQUEST_AT = 1200
+WORLD_TL_SPHERE_REQUEST_AT = 1264
 WORLD_TL_PROBE_REQUEST = Struct("<Q?")  # seq, tl_probe_request
-WORLD_TL_PROBE_REQUEST_AT = 1216
+WORLD_TL_PROBE_REQUEST_AT = 1280
 WORLD_TL_LOAD_REQUEST = Struct("<Q?")  # seq, tl_load_request
-WORLD_TL_LOAD_REQUEST_AT = 1232
+WORLD_TL_LOAD_REQUEST_AT = 1296
 WORLD_TL_DONE = Struct("<Q?")  # seq, tl_done
-WORLD_TL_DONE_AT = 1248
+WORLD_TL_DONE_AT = 1312
 WORLD_TL_REFUSED = Struct("<Q?")  # seq, tl_refused
-WORLD_TL_REFUSED_AT = 1264
+WORLD_TL_REFUSED_AT = 1328
 WORLD_TL_REASON = Struct("<Qq")  # seq, tl_reason
-WORLD_TL_REASON_AT = 1280
+WORLD_TL_REASON_AT = 1344
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 1296
+WORLD_OPERATOR_DELAY_AT = 1360
 WORLD_OPERATOR_REFUSES = Struct("<Q?")  # seq, operator_refuses
-WORLD_OPERATOR_REFUSES_AT = 1312
+WORLD_OPERATOR_REFUSES_AT = 1376
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1328
+WORLD_CMM_OP_AT = 1392
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1344
+WORLD_CMM_FEATURE_AT = 1408
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1360
+WORLD_CMM_SEQ_AT = 1424
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1376
+WORLD_CMM_DONE_SEQ_AT = 1440
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1392
+WORLD_CMM_READING_AT = 1456
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1408
+WORLD_CMM_ALARM_AT = 1472
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1424
+WORLD_CMM_FAULT_AT = 1488
 
 
 PROCESSES = {
@@ -241,8 +241,8 @@ SUBORDINATES = {
 STAND_INS = {}
 MODULES = ("ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim")
 COMMAND_IN = {
-    "ws": Record(WS_COMMAND, WS_COMMAND_AT, ("command_num", "command")),
-    "ms": Record(MS_COMMAND, MS_COMMAND_AT, ("command_num", "command")),
+    "ws": Record(WS_COMMAND, WS_COMMAND_AT, ("command_num", "command", "arg_program")),
+    "ms": Record(MS_COMMAND, MS_COMMAND_AT, ("command_num", "command", "arg_program")),
     "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command")),
     "tl": Record(TL_COMMAND, TL_COMMAND_AT, ("command_num", "command")),
     "cmm": Record(CMM_COMMAND, CMM_COMMAND_AT, ("command_num", "command", "arg_number")),

@@ -26,6 +26,7 @@ from .rcs.contract import (
     PERF,
     SEQ,
     HookError,
+    decode_text,
     is_integer,
 )
 
@@ -62,8 +63,8 @@ CMM_INSPECT_FEATURE = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI60x???1xI200xQI116xQI548xq104xd")
-INPUTS_AT = 320
+INPUTS = Struct("<QI32s60x???1xI200xQI116xQI548xq104xd")
+INPUTS_AT = 352
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -85,6 +86,7 @@ class MsController:
     HOOK_STATE_ON_RESTART = "refuse"
 
     __slots__ = (
+        "arg_program",
         "buf",
         "cmm_arg_number",
         "cmm_command",
@@ -198,6 +200,7 @@ class MsController:
         (
             self.command_num,
             self.command,
+            self.arg_program,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -209,6 +212,7 @@ class MsController:
             self.world_tl_reason,
             self.world_cmm_reading,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.arg_program = decode_text(self.arg_program)
         if self.tl_status_num != self.tl_command_num:
             self.tl_status = EXECUTING  # until it echoes the last number sent
         if self.cmm_status_num != self.cmm_command_num:
@@ -326,6 +330,7 @@ class MsController:
         (
             self.command_num,
             self.command,
+            self.arg_program,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -337,6 +342,7 @@ class MsController:
             self.world_tl_reason,
             self.world_cmm_reading,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.arg_program = decode_text(self.arg_program)
         if self.tl_status_num != self.tl_command_num:
             self.tl_status = EXECUTING  # until it echoes the last number sent
         if self.cmm_status_num != self.cmm_command_num:
@@ -629,7 +635,7 @@ class MsController:
             self.rule = 24  # MEASURE_PART/S0/1
             self.state = NEXT
             try:
-                returned = hooks.program_features(self.hook_state)
+                returned = hooks.program_features(self.hook_state, self.arg_program)
             except Exception as error:  # one error naming the module, hook, rule and cycle
                 raise HookError(
                     "ms", "program_features", "MEASURE_PART/S0/1", self.cycles

@@ -25,25 +25,25 @@ TL_REFUSE = 6
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI176x?79x?15x?31x?63x?15x?31xq8x?")
-INPUTS_AT = 816
+INPUTS_AT = 880
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 816
+SEQS_AT = 880
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Q?7xQ?")
 WORLD_VALUES_1 = Struct("<8x?15x?")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1136
+WORLD_OUT_1_AT = 1200
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_2 = Struct("<Q?7xQ?")
 WORLD_VALUES_2 = Struct("<8x?15x?")
 WORLD_SEQS_2 = Struct("<Q8xQ")
-WORLD_OUT_2_AT = 1248
+WORLD_OUT_2_AT = 1312
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

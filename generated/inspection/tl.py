@@ -25,21 +25,21 @@ LOAD_PROBE = 5
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI552x?15x?15x?15x?15x?15x?15xq")
-INPUTS_AT = 576
+INPUTS_AT = 640
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Q?7xQ?7xQ?7xQ?")
 WORLD_VALUES_1 = Struct("<8x?15x?15x?15x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 1184
+WORLD_OUT_1_AT = 1248
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_2 = Struct("<Qq")
 WORLD_VALUES_2 = Struct("<8xq")
 WORLD_SEQS_2 = Struct("<Q")
-WORLD_OUT_2_AT = 1280
+WORLD_OUT_2_AT = 1344
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -13,7 +13,18 @@ from .layout import (
     WS_STATUS,
     WS_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    decode_text,
+    encode_text,
+)
 
 # Commands ws accepts (the code written to its command buffer).
 INIT = 1
@@ -53,7 +64,7 @@ FX_UNLOAD_PART = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI52x???1xI80xQII16xq96xQI684xq")
+INPUTS = Struct("<QQI32s52x???1xI112xQII16xq96xQI684xq")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -80,6 +91,7 @@ class WsController:
     """The ws controller: its local buffers and the QQ1 cycle."""
 
     __slots__ = (
+        "arg_program",
         "buf",
         "command",
         "command_num",
@@ -95,6 +107,7 @@ class WsController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "ms_arg_program",
         "ms_command",
         "ms_command_num",
         "ms_error_num",
@@ -151,10 +164,13 @@ class WsController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
-        _, self.ms_command_num, self.ms_command = MS_COMMAND.unpack_from(buf, MS_COMMAND_AT)
+        _, self.ms_command_num, self.ms_command, self.ms_arg_program = MS_COMMAND.unpack_from(
+            buf, MS_COMMAND_AT
+        )
         self.ms_written = self.ms_command_num
         _, self.fx_command_num, self.fx_command = FX_COMMAND.unpack_from(buf, FX_COMMAND_AT)
         self.fx_written = self.fx_command_num
+        self.ms_arg_program = decode_text(self.ms_arg_program)
 
     def safe_state(self, reason: int) -> None:
         """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
@@ -183,6 +199,7 @@ class WsController:
                     _,
                     self.command_num,
                     self.command,
+                    self.arg_program,
                     self.dont_run,
                     self.single_step,
                     self.simulate,
@@ -195,6 +212,7 @@ class WsController:
                     self.fx_status,
                     self.world_fx_reason,
                 ) = values
+                self.arg_program = decode_text(self.arg_program)
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
             self.stale_reads += 1
@@ -260,7 +278,14 @@ class WsController:
                 self.ms_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
             SEQ.pack_into(buf, MS_COMMAND_AT, seq)
-            MS_COMMAND.pack_into(buf, MS_COMMAND_AT, seq, self.ms_command_num, self.ms_command)
+            MS_COMMAND.pack_into(
+                buf,
+                MS_COMMAND_AT,
+                seq,
+                self.ms_command_num,
+                self.ms_command,
+                encode_text(self.ms_arg_program, 32),
+            )
             SEQ.pack_into(buf, MS_COMMAND_AT, seq + 1)
             self.ms_written = self.ms_command_num
         if self.fx_command_num != self.fx_written:  # a command was sent
@@ -309,6 +334,7 @@ class WsController:
                     _,
                     self.command_num,
                     self.command,
+                    self.arg_program,
                     self.dont_run,
                     self.single_step,
                     self.simulate,
@@ -321,6 +347,7 @@ class WsController:
                     self.fx_status,
                     self.world_fx_reason,
                 ) = values
+                self.arg_program = decode_text(self.arg_program)
                 break
         else:  # another process kept writing: keep the inputs of the last whole read
             self.stale_reads += 1
@@ -391,7 +418,14 @@ class WsController:
                 self.ms_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
             SEQ.pack_into(buf, MS_COMMAND_AT, seq)
-            MS_COMMAND.pack_into(buf, MS_COMMAND_AT, seq, self.ms_command_num, self.ms_command)
+            MS_COMMAND.pack_into(
+                buf,
+                MS_COMMAND_AT,
+                seq,
+                self.ms_command_num,
+                self.ms_command,
+                encode_text(self.ms_arg_program, 32),
+            )
             SEQ.pack_into(buf, MS_COMMAND_AT, seq + 1)
             self.ms_written = self.ms_command_num
         if self.fx_command_num != self.fx_written:  # a command was sent
@@ -597,6 +631,7 @@ class WsController:
             elif self.fx_status == DONE and self.ms_status == DONE:
                 self.rule = 19  # INSPECT_PART/S1/3
                 self.state = MEASURING
+                self.ms_arg_program = self.arg_program
                 self.ms_command = MS_MEASURE_PART
                 self.ms_command_num += 1
                 self.var_measured = self.var_measured + 1
@@ -649,6 +684,7 @@ class WsController:
             if self.fx_status == DONE:
                 self.rule = 24  # INSPECT_PART/REFIXTURING/1
                 self.state = MEASURING
+                self.ms_arg_program = self.arg_program
                 self.ms_command = MS_MEASURE_PART
                 self.ms_command_num += 1
                 self.var_measured = self.var_measured + 1

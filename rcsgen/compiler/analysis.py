@@ -187,7 +187,8 @@ class GuardBuilder:
         if inlined is not None:  # decided as if the body or value were written here
             return self._fn(inlined, g)
         if isinstance(e, expr.Const):
-            value = e.value
+            names = expr.enum_values(e.type)  # an enumeration's value: by name, as its domain
+            value = names[int(e.value)] if names else e.value
             return lambda val: value
         if isinstance(e, expr.Ref):
             return self._ref(e, g)
@@ -254,18 +255,21 @@ class GuardBuilder:
 
             return read
         key: Key
-        if e.kind == "sub_result":  # a boolean result (numbers are read by comparisons)
+        # An enumeration is a finite domain of its value names; anything else read here is
+        # a boolean (numbers are read by comparisons, strings never reach here: `_pair`).
+        domain = expr.enum_values(e.type) or BOOL_DOMAIN
+        if e.kind == "sub_result":
             key = ("result", f"{e.owner}.{e.name}")
-            self._atom(g, key, BOOL_DOMAIN)
+            self._atom(g, key, domain)
         elif e.kind == "sub_status":
             key = ("status", e.owner)
             self._atom(g, key, STATUS_DOMAIN)
         elif e.kind == "sub_command":
             key = ("command", e.owner)
             self._atom(g, key, self.sub_commands[e.owner])
-        else:  # a boolean world field, local or parameter (numbers are read by comparisons)
+        else:  # a boolean or enumeration world field, local or parameter
             key = (e.kind, e.name)
-            self._atom(g, key, BOOL_DOMAIN)
+            self._atom(g, key, domain)
         return lambda val: val.get(key)
 
     def _pair(
@@ -273,7 +277,9 @@ class GuardBuilder:
     ) -> Callable[[Valuation], Any] | None:
         """One comparison `a op b`; None when it is not decidable by interval reasoning."""
         compare = expr.COMPARISONS[op]
-        if a.type not in expr.NUMERIC:  # statuses, commands, booleans: evaluated as they are
+        if expr.str_size(a.type) or expr.str_size(b.type):
+            return None  # a string's values are not enumerated: "cannot prove" (W502)
+        if a.type not in expr.NUMERIC:  # statuses, commands, booleans, enumerations: as they are
             left, right = self._fn(a, g), self._fn(b, g)
 
             def pair(val: Valuation) -> bool | None:

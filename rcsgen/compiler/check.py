@@ -61,6 +61,7 @@ def check_system(
     operators.check(system.operators, by_name, supervisors, world, diags)  # E245-E249
     contracts: dict[str, HookContracts] = {}
     _check_numbers(system, controllers, diags)
+    _check_enums_and_strings(system, controllers, diags)  # E274, E276, E278, W307
     acknowledge.check_allows(controllers, diags)  # E237-E239
     for spec in by_name.values():
         _check_echo_timeouts(spec, diags)
@@ -394,6 +395,51 @@ def _check_numbers(
             diags.error(span, "E110", problem, expr.INT_RANGE_HINT)
 
 
+def _check_enums_and_strings(
+    system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
+) -> None:
+    """An enumeration's initial value is one of its names (E274) and no value is named like
+    a status (E278); a string's initial value fits its size (E276); an enumeration of one
+    value is warning W307."""
+    declared: list[tuple[model.Typed, bool]] = [(f, True) for f in system.world.values()]
+    for spec in controllers:
+        declared += [(v, True) for v in spec.locals.values()]
+        for command in spec.commands.values():
+            declared += [(p, False) for p in command.params.values()]
+            declared += [(r, False) for r in command.results.values()]
+    for item, has_initial in declared:
+        values = expr.enum_values(item.type)
+        at = item.initial_span or item.span
+        if values:
+            shadowed = [v for v in values if v in expr.STATUS_NAMES]
+            if shadowed:
+                diags.error(
+                    item.span,
+                    "E278",
+                    f"enum value `{shadowed[0]}` of `{item.name}` is a status name",
+                    f"the status names {', '.join(expr.STATUS_NAMES)} are reserved: rename it",
+                )
+            if len(values) == 1:
+                diags.warning(
+                    item.span,
+                    "W307",
+                    f"enum `{item.name}` has one value, `{values[0]}`: it can never change",
+                    "add the other values, or drop the field",
+                )
+            if has_initial and item.initial not in values:
+                diags.error(
+                    at,
+                    "E274",
+                    f"initial value `{item.initial}` of `{item.name}` is not a value of "
+                    f"{expr.type_words(item.type)}",
+                    known_names_hint("values", values, str(item.initial)),
+                )
+        elif expr.str_size(item.type) and has_initial:
+            problem = expr.text_problem_of(item.initial, item.type)
+            if problem:
+                diags.error(at, "E276", f"initial value of `{item.name}`: {problem}")
+
+
 def _check_world_access(spec: ControllerSpec, world: dict[str, str], diags: Diagnostics) -> None:
     for item in [*spec.world_reads, *spec.world_writes]:
         if item.value not in world:
@@ -667,7 +713,8 @@ def _at_least(counter: expr.Ref, op: str, cycles: int) -> expr.Expr:
 
 
 def _a(kind: str) -> str:
-    return {"int": "an int", "float": "a float", "bool": "a bool"}.get(kind, kind)
+    words = {"int": "an int", "float": "a float", "bool": "a bool"}
+    return words.get(kind) or expr.type_words(kind)
 
 
 # ---------------------------------------------------------------- one controller

@@ -12,10 +12,11 @@ from __future__ import annotations
 import ast
 import math
 import operator
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..runtime.contract import text_problem
 from .diagnostics import Diagnostics, Span, known_names_hint
 
 BOOL, INT, FLOAT, STATUS = "bool", "int", "float", "status"
@@ -35,6 +36,47 @@ def int_range_problem(value: object) -> str:
 
 
 INT_RANGE_HINT = "use a smaller number, or a float if the value is not a count"
+
+# An enumeration's type names its values in order (`enum LEFT|RIGHT`): two declarations with
+# the same values are one type, so a parameter passes on to another controller's. A value is
+# stored as its index. A string's type names its capacity in bytes (`str 32`).
+ENUM_PREFIX, STR_PREFIX = "enum ", "str "
+STR_DEFAULT_SIZE, STR_MAX_SIZE = 32, 255
+
+
+def enum_type(values: Sequence[str]) -> str:
+    """The type of an enumeration of these value names, in order."""
+    return ENUM_PREFIX + "|".join(values)
+
+
+def enum_values(kind: str) -> tuple[str, ...]:
+    """The value names of an enumeration type, in order; () for any other type."""
+    return tuple(kind[len(ENUM_PREFIX) :].split("|")) if kind.startswith(ENUM_PREFIX) else ()
+
+
+def str_type(size: int = STR_DEFAULT_SIZE) -> str:
+    """The type of a string of at most `size` bytes of UTF-8."""
+    return f"{STR_PREFIX}{size}"
+
+
+def str_size(kind: str) -> int:
+    """The capacity in bytes of a string type; 0 for any other type."""
+    return int(kind[len(STR_PREFIX) :]) if kind.startswith(STR_PREFIX) else 0
+
+
+def spec_type(spec: Mapping[str, Any]) -> str:
+    """The type a schema-valid declaration (`{type, values, size}`) gives its value."""
+    kind = str(spec["type"])
+    if kind == "enum":
+        return enum_type([str(v) for v in spec.get("values") or ()])
+    if kind == "str":
+        return str_type(int(spec.get("size", STR_DEFAULT_SIZE)))
+    return kind
+
+
+def text_problem_of(value: object, kind: str) -> str:
+    """'' when `value` is a text that fits string type `kind`, else what is wrong with it."""
+    return text_problem(value, str_size(kind))
 
 
 def command_type(sub: str) -> str:
@@ -64,7 +106,10 @@ class Expr:
 
 @dataclass(frozen=True)
 class Const(Expr):
-    value: bool | int | float
+    """A literal: a bool, an int, a float, a string, or an enumeration's value (its index,
+    `type` naming the enumeration)."""
+
+    value: bool | int | float | str
 
 
 @dataclass(frozen=True)
@@ -178,8 +223,9 @@ class _Fail(Exception):
 
 
 class _Resolver:
-    def __init__(self, scope: Scope, span: Span, diags: Diagnostics):
+    def __init__(self, scope: Scope, span: Span, diags: Diagnostics, want: str | None = None):
         self.scope, self.span, self.diags = scope, span, diags
+        self.want = want  # the enumeration a bare value name is looked up in, if any
 
     def at(self, node: ast.AST) -> Span:
         return offset_span(self.span, getattr(node, "lineno", 1), getattr(node, "col_offset", 0))
@@ -204,6 +250,11 @@ class _Resolver:
 
     def _Constant(self, node: ast.Constant) -> Expr:
         value = node.value
+        if isinstance(value, str):  # a plain constant, printed back with repr()
+            problem = text_problem(value, STR_MAX_SIZE)
+            if problem:
+                raise self.fail(node, "E276", f"invalid string literal: {problem}")
+            return Const(str_type(max(1, len(value.encode("utf-8")))), value)
         if isinstance(value, bool):
             return Const(BOOL, value)
         if isinstance(value, int):
@@ -212,7 +263,9 @@ class _Resolver:
             return Const(INT, value)
         if isinstance(value, float) and math.isfinite(value):
             return Const(FLOAT, value)
-        raise self.fail(node, "E102", f"the literal {value!r} is not allowed", "use a number")
+        raise self.fail(
+            node, "E102", f"the literal {value!r} is not allowed", "use a number or a string"
+        )
 
     def _Name(self, node: ast.Name) -> Expr:
         name, scope = node.id, self.scope
@@ -220,6 +273,9 @@ class _Resolver:
             return Const(BOOL, name == "True")
         if name in STATUS_NAMES:  # reserved: a param or constant cannot shadow a status
             return Ref(STATUS, "status", name)
+        values = enum_values(self.want or "")
+        if name in values:  # where an enumeration is expected, its value names come first
+            return Const(str(self.want), values.index(name))
         if name in scope.args:
             return Ref(scope.args[name], "arg", name)
         if name in scope.params:
@@ -237,6 +293,13 @@ class _Resolver:
             raise self.fail(node, "E107", f"predicate `{name}` must be called", f"write `{name}()`")
         if name == "world" or name in scope.subordinates:
             raise self.fail(node, "E108", f"`{name}` needs a field: `{name}.<field>`")
+        if values:
+            raise self.fail(
+                node,
+                "E274",
+                f"`{name}` is not a value of {_words(str(self.want))}",
+                known_names_hint("values", values, name),
+            )
         raise self.fail(
             node,
             "E103",
@@ -394,7 +457,11 @@ class _Resolver:
         return result
 
     def _IfExp(self, node: ast.IfExp) -> Expr:
-        test = self.boolean(node.test)
+        want, self.want = self.want, None
+        try:
+            test = self.boolean(node.test)
+        finally:
+            self.want = want
         body, orelse = self.expr(node.body), self.expr(node.orelse)
         if body.type in NUMERIC and orelse.type in NUMERIC:
             kind = FLOAT if FLOAT in (body.type, orelse.type) else INT
@@ -433,10 +500,29 @@ class _Resolver:
                 for left, right, op, raw in zip(typed, typed[1:], ops, operands[1:], strict=False):
                     self.comparable(left, right, op, raw)
                 return Compare(BOOL, typed[0], tuple(ops), tuple(typed[1:]))
-        typed = [self.command_name(a, sub) if sub else self.expr(a) for a in operands]
+        typed = [self.command_name(a, sub) for a in operands] if sub else self.operands(operands)
         for left, right, op, raw in zip(typed, typed[1:], ops, operands[1:], strict=False):
             self.comparable(left, right, op, raw)
         return Compare(BOOL, typed[0], tuple(ops), tuple(typed[1:]))
+
+    def operands(self, operands: list[ast.expr]) -> list[Expr]:
+        """The operands of a comparison, typed; a bare UPPER name that is not a parameter,
+        local, let or status is typed last, as a value of the first enumeration among the
+        others (`side == LEFT`), and otherwise as a constant."""
+        scope = self.scope
+        lower = (*scope.args, *scope.params, *scope.lets, *scope.locals, *STATUS_NAMES)
+        deferred = [isinstance(a, ast.Name) and a.id not in lower for a in operands]
+        want, self.want = self.want, None
+        typed: list[Expr | None] = [
+            None if wait else self.expr(a) for a, wait in zip(operands, deferred, strict=True)
+        ]
+        self.want = next((t.type for t in typed if t is not None and enum_values(t.type)), None)
+        try:
+            return [
+                t if t is not None else self.expr(a) for a, t in zip(operands, typed, strict=True)
+            ]
+        finally:
+            self.want = want
 
     def command_name(self, node: ast.AST, sub: str) -> Expr:
         if _is_sub_command(node, self.scope):
@@ -472,13 +558,33 @@ class _Resolver:
         kinds = {left.type, right.type}
         if kinds <= set(NUMERIC):
             return
-        if len(kinds) == 1 and op in ("==", "!="):
+        texts = all(str_size(k) for k in kinds)
+        if (len(kinds) == 1 or texts) and op in ("==", "!="):
             return
+        if any(enum_values(k) or str_size(k) for k in kinds):
+            code = "E275" if len(kinds) == 1 or texts else "E277"
+            raise self.fail(
+                node,
+                code,
+                f"cannot compare {_words(left.type)} with {_words(right.type)} using `{op}`",
+                "an enumeration compares with == and != against its own values, a string "
+                "against a string"
+                if code == "E277"
+                else "an enumeration or a string has no order: compare it with == or !=",
+            )
         raise self.fail(node, "E107", f"cannot compare {left.type} with {right.type} using `{op}`")
 
     def typed(self, node: ast.AST, wanted: tuple[str, ...], words: str) -> Expr:
         result = self.expr(node)
         if result.type not in wanted:
+            if enum_values(result.type) or str_size(result.type):
+                raise self.fail(
+                    node,
+                    "E275",
+                    f"expected {words}, got {_words(result.type)}",
+                    "an enumeration or a string only compares with == and != (and a string "
+                    "passes to hooks): no arithmetic, ordering or logic",
+                )
             raise self.fail(node, "E107", f"expected {words}, got {result.type}")
         return result
 
@@ -589,7 +695,7 @@ def compile_expr(
                 f"at most {MAX_DEPTH} levels; split it into predicates",
             )
             return None
-        resolver = _Resolver(scope, span, diags)
+        resolver = _Resolver(scope, span, diags, expect if expect and enum_values(expect) else None)
         try:
             result = resolver.expr(tree.body)
         except _Fail:
@@ -598,7 +704,16 @@ def compile_expr(
             diags.error(span, "E102", "expression is nested too deeply")
             return None
     if expect is not None and not assignable(expect, result.type):
-        diags.error(span, "E107", f"expected {_words(expect)}, got {_words(result.type)}")
+        special = any(enum_values(k) or str_size(k) for k in (expect, result.type))
+        diags.error(
+            span,
+            "E277" if special else "E107",
+            f"expected {_words(expect)}, got {_words(result.type)}",
+            "a string longer than its target could not be stored whole: give the target a "
+            "larger `size`"
+            if str_size(expect) and str_size(result.type)
+            else "",
+        )
         return None
     return result
 
@@ -619,12 +734,34 @@ def _depth(node: ast.AST) -> int:
 
 
 def assignable(target: str, source: str) -> bool:
-    """Whether a value of type `source` may be stored where `target` is expected."""
+    """Whether a value of type `source` may be stored where `target` is expected: its own
+    type, an int as a float, a string that fits the target's size."""
+    if str_size(target) and str_size(source):
+        return str_size(source) <= str_size(target)
     return target == source or (target == FLOAT and source == INT)
 
 
 def _words(kind: str) -> str:
+    if enum_values(kind):
+        return f"enum {', '.join(enum_values(kind))}"
+    if str_size(kind):
+        return f"a string of at most {str_size(kind)} bytes"
     return {BOOL: "a boolean", INT: "an integer", FLOAT: "a number"}.get(kind, kind)
+
+
+def type_label(kind: str) -> str:
+    """A type as a reference page or a picture shows it: `enum(LEFT, RIGHT)`, `str[32]`,
+    `float`."""
+    if enum_values(kind):
+        return f"enum({', '.join(enum_values(kind))})"
+    if str_size(kind):
+        return f"str[{str_size(kind)}]"
+    return kind
+
+
+def type_words(kind: str) -> str:
+    """How a type reads in a message: `a boolean`, `enum LEFT, RIGHT`, `a string of ...`."""
+    return _words(kind)
 
 
 # ---------------------------------------------------------------- constant folding
@@ -740,7 +877,8 @@ class _Printer:
     def text(self, expr: Expr) -> tuple[str, int]:
         atom = _PRECEDENCE["atom"]
         if isinstance(expr, Const):
-            return repr(expr.value), atom
+            names = enum_values(expr.type)  # a module constant of the value's index
+            return (names[int(expr.value)] if names else repr(expr.value)), atom
         if isinstance(expr, Ref):
             return self.name_of(expr), atom
         if isinstance(expr, Call):
@@ -783,6 +921,29 @@ def refs(expr: Expr) -> list[Ref]:
         node = stack.pop()
         if isinstance(node, Ref):
             found.append(node)
+        elif isinstance(node, Call):
+            stack.extend(reversed(node.args))
+        elif isinstance(node, Unary):
+            stack.append(node.operand)
+        elif isinstance(node, Binary):
+            stack.extend((node.right, node.left))
+        elif isinstance(node, BoolOp):
+            stack.extend(reversed(node.values))
+        elif isinstance(node, Compare):
+            stack.extend(reversed((node.left, *node.comparators)))
+        elif isinstance(node, IfExp):
+            stack.extend((node.orelse, node.body, node.test))
+    return found
+
+
+def enum_constants(expr: Expr) -> list[tuple[str, int]]:
+    """Every enumeration value `expr` names, as (value name, index), in reading order."""
+    found: list[tuple[str, int]] = []
+    stack = [expr]
+    while stack:
+        node = stack.pop()
+        if isinstance(node, Const) and enum_values(node.type):
+            found.append((enum_values(node.type)[int(node.value)], int(node.value)))
         elif isinstance(node, Call):
             stack.extend(reversed(node.args))
         elif isinstance(node, Unary):

@@ -2,7 +2,7 @@
 
 The module is never imported. From a function's definition this reads what can be known
 without running it: whether it is a plain function (not `async def`, not a generator),
-the spec types its parameter and return annotations name (`float`, `int`, `bool`,
+the spec types its parameter and return annotations name (`float`, `int`, `bool`, `str`,
 `tuple[float, float]`, `None`; anything else is not checked), and the length of each tuple
 it returns literally (`return x, y`). The checker compares these with the hook's declared
 `args` and `returns` (E240, E241, E242); the generated code checks the result of every
@@ -16,7 +16,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 Function = ast.FunctionDef | ast.AsyncFunctionDef
-SPEC_TYPES = ("bool", "int", "float")
+SPEC_TYPES = ("bool", "int", "float", "str")
 
 
 @dataclass(frozen=True)
@@ -116,5 +116,13 @@ def param_types(node: Function) -> list[str | None]:
 
 
 def assignable(target: str, value: str) -> bool:
-    """Whether a hook value of spec type `value` may go into a target of type `target`."""
+    """Whether a hook value of spec type `value` may go into a target of type `target`: a
+    string of any size is a `str` (its length is checked at run time), an enumeration's
+    value an `int` (its index)."""
+    target, value = _annotated(target), _annotated(value)
     return target == value or (target == "float" and value == "int")
+
+
+def _annotated(kind: str) -> str:
+    """The annotation a value of spec type `kind` has in a hook: `str 32` -> str, an enum -> int."""
+    return "str" if kind.startswith("str") else "int" if kind.startswith("enum ") else kind

@@ -17,7 +17,20 @@ from . import expr
 from .diagnostics import Span
 from .tables import RuleId
 
-PY_TYPE = {"bool": "bool", "int": "int", "float": "float"}
+
+class _PyTypes(dict[str, str]):
+    """The Python annotation of each spec type: an enumeration's value is its index (int),
+    a string a str."""
+
+    def __missing__(self, kind: str) -> str:
+        if expr.enum_values(kind):
+            return "int"
+        if expr.str_size(kind):
+            return "str"
+        raise KeyError(kind)
+
+
+PY_TYPE = _PyTypes(bool="bool", int="int", float="float")
 
 
 # ---------------------------------------------------------------- layout
@@ -97,7 +110,7 @@ class IRExpr:
 class IRWorldField:
     name: str
     type: str
-    initial: bool | int | float
+    initial: bool | int | float | str  # an enum's value name, a string's text
     doc: str
 
 
@@ -112,7 +125,7 @@ class IRParam:
 class IRLocal:
     name: str
     type: str
-    initial: bool | int | float
+    initial: bool | int | float | str  # an enum's value name, a string's text
     doc: str
 
 
@@ -281,6 +294,8 @@ class IRController:
     counters: tuple[str, ...] = ()  # every `for:` counter attribute, in table order
     # The counters of `for:` every_cycle rules: updated first every cycle, never reset.
     every_cycle_counters: tuple[IRCounter, ...] = ()
+    # the enumeration values its expressions name: (value name, index), a module constant each
+    enum_values: tuple[tuple[str, int], ...] = ()
 
     def table_rules(self) -> list[IRRule]:
         """Every rule of the state tables, in code order (code = index + 1)."""

@@ -15,13 +15,14 @@ from dataclasses import replace
 
 from ..runtime.contract import (
     COMMAND_HEAD_FIELDS,
-    FORMAT_OF_TYPE,
     HEADER,
     MODE_FIELDS,
     PACE_FIELDS,
     PERF_FIELDS,
     PROCESS_FIELDS,
     STATUS_FIELDS,
+    format_of_type,
+    kind_tokens,
 )
 from . import expr, ir, naming, operators
 from .model import ENTRY_STATE, Command, ControllerSpec, Typed, duration_in_cycles
@@ -161,6 +162,19 @@ class _ControllerLowering:
             ),
             every_cycle_counters=tuple(
                 self.counter(rule) for rule in c.every_cycle if rule.hold is not None
+            ),
+            enum_values=tuple(
+                sorted(
+                    {
+                        pair
+                        for tree in [
+                            *_trees(rules, c.predicates.values()),
+                            *(let.tree for command in c.commands.values() for let in command.lets),
+                        ]
+                        for pair in expr.enum_constants(tree)
+                    },
+                    key=lambda pair: (pair[1], pair[0]),
+                )
             ),
         )
 
@@ -315,7 +329,7 @@ class _ControllerLowering:
             return ir.IRReport(action.status, reason=reason, reason_name=action.reason or "")
         state = ("self.hook_state",) if self.spec.hooks_state else ()
         values = state + tuple(expr.to_python(a, naming.attribute) for a in action.args)
-        kinds = "".join(_KIND_LETTER[t.type] for t in action.targets)
+        kinds = "".join(kind_letter(t.type) for t in action.targets)
         return ir.IRCall(
             action.hook.name,
             values,
@@ -332,8 +346,22 @@ class _ControllerLowering:
 _KIND_LETTER = {"float": "f", "int": "i", "bool": "b"}
 
 
+def kind_letter(kind: str) -> str:
+    """How a hook's target type is spelled in its result check (contract.HookError): f, i,
+    b, `e3` for an enumeration of 3 values, `s32` for a string of 32 bytes."""
+    if expr.enum_values(kind):
+        return f"e{len(expr.enum_values(kind))}"
+    if expr.str_size(kind):
+        return f"s{expr.str_size(kind)}"
+    return _KIND_LETTER[kind]
+
+
 def _value_mismatch(value: str, kind: str) -> str:
     """A condition true when `value` cannot go into a target of this kind (see contract)."""
+    if kind.startswith("e"):  # an enumeration: the index of one of its values
+        return f"type({value}) is not int or not 0 <= {value} < {kind[1:]}"
+    if kind.startswith("s"):  # a string that fits, never truncated
+        return f"text_problem({value}, {kind[1:]})"
     if kind == "f":
         return f"type({value}) not in NUMBER and not is_real({value})"
     if kind == "i":
@@ -349,10 +377,11 @@ def result_mismatch(kinds: str, name: str = "returned") -> str:
     one value of its kind, or a tuple of exactly that many values of theirs."""
     if not kinds:
         return ""  # no targets: the result is ignored
-    if len(kinds) == 1:
+    letters = kind_tokens(kinds)
+    if len(letters) == 1:
         return _value_mismatch(name, kinds)
-    parts = [f"type({name}) is not tuple", f"len({name}) != {len(kinds)}"]
-    parts += [f"{_value_mismatch(f'{name}[{i}]', k)}" for i, k in enumerate(kinds)]
+    parts = [f"type({name}) is not tuple", f"len({name}) != {len(letters)}"]
+    parts += [f"{_value_mismatch(f'{name}[{i}]', k)}" for i, k in enumerate(letters)]
     return " or ".join(f"({p})" if " or " in p or " and " in p else p for p in parts)
 
 
@@ -381,6 +410,7 @@ def _runtime_names(
                 kinds = {t.type for t in action.targets}
                 used |= {"NUMBER", "is_real"} if "float" in kinds else set()
                 used |= {"INT_MIN", "INT_MAX", "is_integer"} if "int" in kinds else set()
+                used |= {"text_problem"} if any(expr.str_size(k) for k in kinds) else set()
     for tree in trees:
         used |= {ref.name for ref in expr.refs(tree) if ref.kind == "status"}
     return tuple(sorted(used, key=naming.import_order))
@@ -467,8 +497,8 @@ def plan_layout(
         if c.buffers != c.name:
             continue
         prefix = c.name.upper()
-        params = [(f"arg_{p.name}", FORMAT_OF_TYPE[p.type]) for p in c.params]
-        results = [(f"result_{r.name}", FORMAT_OF_TYPE[r.type]) for r in c.results]
+        params = [(f"arg_{p.name}", format_of_type(p.type)) for p in c.params]
+        results = [(f"result_{r.name}", format_of_type(r.type)) for r in c.results]
         parts = {
             "command": ([*COMMAND_HEAD_FIELDS, *params], "command in"),
             "status": ([*STATUS_FIELDS, *results], "status out"),
@@ -482,7 +512,7 @@ def plan_layout(
         modules[c.name] = ir.ModuleBuffers(**made)
     world_buffers = []
     for f in world:
-        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, FORMAT_OF_TYPE[f.type])], f.doc)
+        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, format_of_type(f.type))], f.doc)
         world_buffers.append(buffer)
         at = align(at + buffer.size)
     layout = ir.Layout(process_records, modules, tuple(world_buffers), at, "", pacing)

@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 
 from ..runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
 from .diagnostics import Span
+from .expr import spec_type
 from .loader import key_span, span_of, value_span
 
 
@@ -32,11 +33,14 @@ class Located(NamedTuple):
 
 @dataclass
 class Typed:
-    """A world field, param or local: name, type, initial value (not of params) and doc."""
+    """A world field, param or local: name, type, initial value (not of params) and doc.
+
+    `type` is `bool`, `int`, `float`, `enum A|B|...` or `str N` (expr.spec_type); an enum's
+    initial value is the value's name as written, a string's its text."""
 
     name: str
     type: str
-    initial: bool | int | float
+    initial: bool | int | float | str
     doc: str
     span: Span
     initial_span: Span | None = None  # where `initial:` gives the value (not for params)
@@ -245,7 +249,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
     world = {
         name: Typed(
             name,
-            spec["type"],
+            spec_type(spec),
             spec["initial"],
             spec.get("doc", ""),
             key_span(data["world"], name, top),
@@ -319,7 +323,9 @@ def build_operators(data: Any, top: Span) -> Operators:
 
 def _typed(name: str, spec: Any, span: Span) -> Typed:
     initial = value_span(spec, "initial", span) if "initial" in spec else None
-    return Typed(name, spec["type"], spec.get("initial", False), spec.get("doc", ""), span, initial)
+    return Typed(
+        name, spec_type(spec), spec.get("initial", False), spec.get("doc", ""), span, initial
+    )
 
 
 def _action(raw: Any, span: Span) -> Action:

@@ -40,7 +40,7 @@ from ..runtime.contract import (
     field_names,
 )
 from .diagnostics import Diagnostics, Span
-from .expr import BUILTIN_REASONS, BUILTINS, Ref
+from .expr import BUILTIN_REASONS, BUILTINS, STATUS_NAMES, Ref, enum_values
 from .loader import span_of
 from .model import Command, ControllerSpec, SystemSpec, Typed
 
@@ -748,6 +748,7 @@ def check_module_names(
         named += [(s.name, "state", s.span) for s in command.states.values()]
     for builtin in BUILTIN_COMMANDS:
         taken.setdefault(builtin, "a command")
+    named += _enum_value_names(spec, by_name, system, diags)
     states_seen: set[str] = set()
     for name, kind, span in named:
         if kind == "state":
@@ -762,6 +763,45 @@ def check_module_names(
                 "rename it",
             )
         taken.setdefault(name, f"a {kind}")
+
+
+def _enum_value_names(
+    spec: ControllerSpec,
+    by_name: dict[str, ControllerSpec],
+    system: SystemSpec,
+    diags: Diagnostics,
+) -> list[tuple[str, str, Span]]:
+    """The value names of every enumeration the controller's tables can name (its commands'
+    parameters and results, its locals, its world fields, its subordinates' parameters and
+    results), each once: they become module constants of their index. A name that is one
+    index in one of them and another in another is E228."""
+    seen: list[Typed] = [f for f in (system.world.get(str(a.value)) for a in spec.world_reads) if f]
+    seen += [f for f in (system.world.get(str(a.value)) for a in spec.world_writes) if f]
+    seen += list(spec.locals.values())
+    for owner in [spec, *(by_name[str(s.value)] for s in spec.subordinates if s.value in by_name)]:
+        for command in owner.commands.values():
+            seen += [*command.params.values(), *command.results.values()]
+    found: dict[str, tuple[int, Typed]] = {}
+    named = []
+    for item in seen:
+        for index, value in enumerate(enum_values(item.type)):
+            if value in STATUS_NAMES:
+                continue  # E278 says so
+            if value not in found:
+                found[value] = (index, item)
+                named.append((value, "enum value", item.span))
+            elif found[value][0] != index and item.span != found[value][1].span:
+                before, other = found[value]
+                found.update((v, (i, item)) for i, v in enumerate(enum_values(item.type)))
+                diags.error(
+                    item.span,
+                    "E228",
+                    f"enum value `{value}` is {index} in `{item.name}` but {before} in "
+                    f"`{other.name}` ({other.span}): both name the constant `{value}` of "
+                    f"`{spec.name}`'s module",
+                    "give the enumerations their values in the same order, or rename one",
+                )
+    return named
 
 
 # Suffixes of the layout names a controller module imports for itself and its subordinates.

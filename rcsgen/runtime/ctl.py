@@ -35,8 +35,11 @@ from .contract import (
     RUNNING,
     STATUS_NAMES,
     StaleRead,
+    enum_code,
+    enum_name,
     reason_name,
     status_text,
+    text_problem,
 )
 from .transport import TransportError, check_endpoint
 
@@ -93,17 +96,31 @@ def parse_command(layout: ModuleType, module: str, command: str, items: Sequence
             raise ValueError(f"{item!r} is not NAME=VALUE")
         if name not in slots:
             raise ValueError(f"{module} has " + suggest(name, list(slots), "parameter"))
-        values[name] = typed(raw, field_code(record, slots[name]), name)
+        names = getattr(layout, "ENUMS", {}).get((module, slots[name]), ())
+        values[name] = typed(raw, field_code(record, slots[name]), name, names)
     return Command(module, command, values)
 
 
 def field_code(record: Any, field: str) -> str:
-    """The struct code of a record's field (after its sequence word): ? bool, q int, d float."""
-    return str(record.struct.format).lstrip("<")[list(record.fields).index(field) + 1]
+    """The struct code of a record's field: ? bool, q int (or an enum's code), d float, Ns a
+    string of N bytes."""
+    return str(record.codes()[field])
 
 
-def typed(raw: str, code: str, name: str = "") -> object:
-    """`raw` as the struct `code` of a parameter or world field: ? bool, q int, d float."""
+def typed(raw: str, code: str, name: str = "", names: Sequence[str] = ()) -> object:
+    """`raw` as the struct `code` of a parameter or world field: ? bool, q int, d float, Ns a
+    string that fits N bytes (never truncated); with `names`, an enumeration's value name
+    (kept as the name: `Record.write` is given the code by `enum_code`)."""
+    where = f" ({name})" if name else ""
+    if names:
+        if raw not in names:
+            raise ValueError(f"{suggest(raw, list(names), 'value')}{where}")
+        return raw
+    if code.endswith("s"):
+        problem = text_problem(raw, int(code[:-1]))
+        if problem:
+            raise ValueError(f"{problem}{where}")
+        return raw
     try:
         if code == "?":
             if raw not in ("true", "false"):
@@ -112,7 +129,6 @@ def typed(raw: str, code: str, name: str = "") -> object:
         return int(raw) if code == "q" else float(raw)
     except ValueError:
         kind = {"?": "true or false", "q": "an integer"}.get(code, "a number")
-        where = f" ({name})" if name else ""
         raise ValueError(f"{raw!r} is not {kind}{where}") from None
 
 
@@ -267,7 +283,9 @@ class Console:
                 row["command"] = _name(layout.COMMAND_NAMES[name], int(command["command"]))
                 row["command_num"] = command["command_num"]
                 row["args"] = {
-                    k.removeprefix("arg_"): v for k, v in command.items() if k.startswith("arg_")
+                    k.removeprefix("arg_"): enum_name(layout, name, k, v)
+                    for k, v in command.items()
+                    if k.startswith("arg_")
                 }
             if status:
                 row["status"] = _name(STATUS_NAMES, int(status["status"]))
@@ -284,6 +302,13 @@ class Console:
                 if results:
                     row["results"] = results
                 row["state"] = _name(layout.STATE_NAMES[runs], int(status["state"]))
+                results = {
+                    k.removeprefix("result_"): enum_name(layout, name, k, v)
+                    for k, v in status.items()
+                    if k.startswith("result_")
+                }
+                if results:
+                    row["results"] = results
                 rule = _name(layout.RULES[runs], int(status["rule"]))
                 row["rule"] = rule or None
             if mode:
@@ -437,7 +462,10 @@ class Console:
             raise CtlError(f"{command.module}'s command buffer cannot be read whole")
         number = int(current["command_num"]) + 1
         code = self.layout.COMMAND_NAMES[command.module].index(command.command)
-        args = {f"arg_{k}": v for k, v in command.args.items()}
+        args = {
+            f"arg_{k}": enum_code(self.layout, command.module, f"arg_{k}", v)
+            for k, v in command.args.items()
+        }
         record.write(self.buf, command_num=number, command=code, **args)
         return number
 

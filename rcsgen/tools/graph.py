@@ -21,6 +21,7 @@ import subprocess
 import textwrap
 from dataclasses import dataclass
 
+from ..compiler.expr import type_label
 from ..compiler.ir import (
     IRAction,
     IRCall,
@@ -244,7 +245,7 @@ def states(controller: IRController, command: str | None = None) -> Graph:
     for cmd in chosen:
         cluster = None if command is not None else f"c_{cmd.name}"
         if cluster is not None:
-            params = ", ".join(f"{p.name}: {p.type}" for p in cmd.params)
+            params = ", ".join(f"{p.name}: {type_label(p.type)}" for p in cmd.params)
             clusters.append(Cluster(cluster, cmd.name + (f"({params})" if params else "")))
         more_nodes, more_edges = _command_picture(cmd, cluster)
         nodes += more_nodes

@@ -30,6 +30,7 @@ from ..compiler import emit
 from ..compiler.diagnostics import SpecError
 from ..compiler.frontend import compile_paths
 from ..compiler.ir import IRSystem
+from ..runtime.contract import enum_code, enum_name
 
 _unique = itertools.count(1)
 
@@ -130,14 +131,21 @@ class BlockView:
         if unknown:
             raise ValueError(f"{module} has no parameter(s) {sorted(unknown)}")
         number = record.read(self.buf)["command_num"] + 1
-        values = {f"arg_{k}": v for k, v in args.items()}
+        values = {
+            f"arg_{k}": self.contract.enum_code(self.layout, module, f"arg_{k}", v)
+            for k, v in args.items()
+        }
         record.write(self.buf, command_num=number, command=names.index(command), **values)
         return int(number)
 
     def sent(self, module: str) -> Sent:
         """What is in `module`'s command buffer: the last command its supervisor sent."""
         values = self.layout.COMMAND_IN[module].read(self.buf)
-        args = {k.removeprefix("arg_"): v for k, v in values.items() if k.startswith("arg_")}
+        args = {
+            k.removeprefix("arg_"): self.contract.enum_name(self.layout, module, k, v)
+            for k, v in values.items()
+            if k.startswith("arg_")
+        }
         name = self.layout.COMMAND_NAMES[module][values["command"]]
         return Sent(name, values["command_num"], args)
 
@@ -171,6 +179,15 @@ class BlockView:
     def process_record(self, process: str) -> dict[str, int]:
         """A process's control record: heartbeat, counters, state."""
         return dict(self.layout.PROCESSES[process].read(self.buf))
+
+    def results(self, module: str) -> dict[str, Any]:
+        """`module`'s results in its status buffer, by name (an enumeration's by value name)."""
+        values = self.layout.STATUS_OUT[module].read(self.buf)
+        return {
+            k.removeprefix("result_"): self.contract.enum_name(self.layout, module, k, v)
+            for k, v in values.items()
+            if k.startswith("result_")
+        }
 
     @property
     def world(self) -> World:
@@ -404,9 +421,11 @@ class World:
         self._layout, self._buf = layout, buf
 
     def __getitem__(self, name: str) -> Any:
-        return self._layout.WORLD[name].read(self._buf)[name]
+        value = self._layout.WORLD[name].read(self._buf)[name]
+        return enum_name(self._layout, "", name, value)
 
     def __setitem__(self, name: str, value: Any) -> None:
+        value = enum_code(self._layout, "", name, value)
         self._layout.WORLD[name].write(self._buf, **{name: value})
 
     def update(self, values: dict[str, Any]) -> None:

@@ -148,8 +148,10 @@ def unmet_expectations(
             actual = final_value(expected.what, world, result.statuses)
             if expected.met(actual):
                 continue
-            if isinstance(actual, bool) or not isinstance(actual, int | float):
-                shown = str(actual).lower() if isinstance(actual, bool) else str(actual)
+            if isinstance(actual, bool):
+                shown = str(actual).lower()
+            elif isinstance(actual, str):  # an enum's value name, a string's text
+                shown = actual if actual.isidentifier() else repr(actual)
             else:
                 shown = f"{actual:g}"
             message = f"expected `{expected.what}` {expected.wanted()} at the end; it was {shown}"

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from ..compiler.diagnostics import Diagnostics, Span, SpecError, known_names_hint
-from ..compiler.expr import int_range_problem
+from ..compiler.expr import enum_values, int_range_problem, str_size, text_problem_of
 from ..compiler.frontend import SYSTEM_FILE, compile_paths, display_path
 from ..compiler.ir import IRController, IRProcess, IRSystem
 from ..compiler.loader import LocDict, key_span, load_file, span_of, value_span
@@ -188,9 +188,23 @@ class _Checker:
         return False
 
     def value(self, value: Any, kind: str, span: Span, what: str) -> bool:
-        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit)."""
-        problem = ""
-        if kind == "bool" and not isinstance(value, bool):
+        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit; an
+        enumeration: one of its value names; a string: one that fits its size)."""
+        problem, hint = "", ""
+        names = enum_values(kind)
+        if names and value not in names:
+            problem = f"{what} is an enum: give one of {', '.join(names)}, not `{_shown(value)}`"
+            hint = known_names_hint("values", names, str(value))
+        elif names:
+            pass
+        elif str_size(kind):
+            problem = text_problem_of(value, kind)
+            problem = (
+                f"{what} is a string of at most {str_size(kind)} bytes: {problem}"
+                if problem
+                else ""
+            )
+        elif kind == "bool" and not isinstance(value, bool):
             problem = f"{what} is a bool: give true or false, not `{_shown(value)}`"
         elif kind == "int" and (isinstance(value, bool) or not isinstance(value, int)):
             problem = f"{what} is an int: give a whole number, not `{_shown(value)}`"
@@ -199,7 +213,6 @@ class _Checker:
         elif kind == "int" and int_range_problem(value):
             problem = f"{what}: {int_range_problem(value)}"
         if problem:
-            hint = ""
             if isinstance(value, str) and value.lower() in ("yes", "no", "on", "off"):
                 hint = f"`{value}` is a string in YAML 1.2; write true or false"
             self.error(span, "E408", problem, hint)
@@ -313,12 +326,21 @@ class _Checker:
             if kind is None:
                 continue
             if isinstance(wanted, dict):
-                if kind in ("bool", "reason"):
-                    words = "true or false" if kind == "bool" else "one of its names"
+                if kind in ("bool", "reason") or enum_values(kind) or str_size(kind):
+                    word = (
+                        "a reason"
+                        if kind == "reason"
+                        else "an enum"
+                        if enum_values(kind)
+                        else "a str"
+                        if str_size(kind)
+                        else "a bool"
+                    )
+                    expect = {"bool": "true or false", "reason": "one of its names"}
                     self.error(
                         span,
                         "E415",
-                        f"`{name}` is a {kind}: expect {words}, not a range",
+                        f"`{name}` is {word}: expect {expect.get(kind, 'one value')}, not a range",
                     )
                     continue
                 found.append(self.bounds(name, wanted, span))

@@ -86,6 +86,13 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
             kind, values = "bool", [int(v) for v in series]
         elif all(isinstance(v, int) and not isinstance(v, bool) for v in series):
             kind, values = "int", list(series)
+        elif all(isinstance(v, str) for v in series):  # an enumeration's names, a string's text
+            names = sorted(set(series))
+            world.append(
+                {"name": name, "type": "text", "values": [names.index(v) for v in series]}
+                | {"names": names}
+            )
+            continue
         else:
             kind, values = "float", [number(v) for v in series]
         world.append({"name": name, "type": kind, "values": values})

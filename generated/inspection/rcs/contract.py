@@ -87,8 +87,61 @@ PACE_FIELDS = (("slow", "d"),)
 PROCESS_STATES = ("ABSENT", "STARTING", "RUNNING", "STOPPED", "DEAD")
 ABSENT, STARTING, RUNNING, STOPPED, DEAD = range(5)
 
-# The struct code of each spec type (world fields, parameters).
+# The struct code of each spec type (world fields, parameters). An enumeration is stored as
+# its value's index (`q`); a string of capacity N as N bytes of UTF-8, NUL-padded (`Ns`).
 FORMAT_OF_TYPE = {"bool": "?", "int": "q", "float": "d"}
+
+
+def format_of_type(kind: str) -> str:
+    """The struct code of a spec type: `enum A|B` -> q, `str 32` -> 32s, else FORMAT_OF_TYPE."""
+    if kind.startswith("enum "):
+        return "q"
+    if kind.startswith("str "):
+        return kind[4:] + "s"
+    return FORMAT_OF_TYPE[kind]
+
+
+def field_codes(fmt: str) -> list[str]:
+    """The struct code of each value a format packs, in order, padding left out:
+    `<Q4x32sq` -> [Q, 32s, q]."""
+    codes, count = [], ""
+    for char in fmt.lstrip("<>=!@"):
+        if char.isdigit():
+            count += char
+            continue
+        if char == "s":
+            codes.append(count + char)
+        elif char != "x":
+            codes += [char] * int(count or 1)
+        count = ""
+    return codes
+
+
+def text_problem(value: object, size: int) -> str:
+    """'' when `value` is a string that fits `size` bytes of UTF-8, else what is wrong."""
+    if not isinstance(value, str):
+        return f"{value!r} is not a string"
+    if "\0" in value:
+        return "a string may not contain the NUL character"
+    used = len(value.encode("utf-8"))
+    if used > size:
+        shown = repr(value[:20]) + ("..." if len(value) > 20 else "")
+        return f"{shown} is {used} bytes: more than the {size} it holds"
+    return ""
+
+
+def encode_text(value: str, size: int) -> bytes:
+    """`value` as a string field of `size` bytes, NUL-padded; ValueError if it does not fit
+    (never truncated)."""
+    problem = text_problem(value, size)
+    if problem:
+        raise ValueError(problem)
+    return value.encode("utf-8").ljust(size, b"\0")
+
+
+def decode_text(raw: bytes) -> str:
+    """A string field's bytes as text, without its NUL padding."""
+    return raw.rstrip(b"\0").decode("utf-8", "replace")
 
 
 # Every buffer starts with a sequence word (a seqlock): its one writer makes it odd, writes
@@ -170,7 +223,10 @@ class Record(NamedTuple):
         for _ in range(READ_TRIES):
             seq, *values = self.struct.unpack_from(buf, self.offset)
             if seq and seq % 2 == 0 and SEQ.unpack_from(buf, self.offset)[0] == seq:
-                return dict(zip(self.fields, values, strict=True))
+                return {
+                    name: decode_text(v) if type(v) is bytes else v
+                    for name, v in zip(self.fields, values, strict=True)
+                }
         raise StaleRead(f"buffer at {self.offset} is being written (or its writer died)")
 
     def seq(self, buf: memoryview) -> int:
@@ -178,21 +234,55 @@ class Record(NamedTuple):
         value: int = SEQ.unpack_from(buf, self.offset)[0]
         return value
 
+    def codes(self) -> dict[str, str]:
+        """Each field's struct code (`?`, `q`, `d`, `32s`, ...)."""
+        codes = field_codes(self.struct.format)[1:]
+        return dict(zip(self.fields, codes, strict=True))
+
     def write(self, buf: memoryview, **values: object) -> None:
-        """Change some fields, keeping the others."""
+        """Change some fields, keeping the others. A string goes into a string field whole or
+        not at all: ValueError when it does not fit."""
         unknown = set(values) - set(self.fields)
         if unknown:
             raise KeyError(f"no field(s) {sorted(unknown)} in a buffer of {self.fields}")
+        texts = {k: v for k, v in values.items() if isinstance(v, str)}
+        if texts:
+            codes = self.codes()
+            values.update(
+                (k, encode_text(v, int(codes[k][:-1]) if codes[k].endswith("s") else -1))
+                for k, v in texts.items()
+            )
         try:
             current = self.read(buf)
         except StaleRead:  # a writer died mid-write: the fields named here are rewritten
             values_now = self.struct.unpack_from(buf, self.offset)[1:]
             current = dict(zip(self.fields, values_now, strict=True))
+        current = {k: v.encode("utf-8") if isinstance(v, str) else v for k, v in current.items()}
         current.update(values)
         seq = next_odd(self.seq(buf))
         SEQ.pack_into(buf, self.offset, seq)  # odd before any field changes
         self.struct.pack_into(buf, self.offset, seq, *current.values())
         SEQ.pack_into(buf, self.offset, seq + 1)
+
+
+def enum_name(layout: object, owner: str, field: str, value: object) -> object:
+    """A field's value as a person reads it: an enumeration's code as its value name (the
+    layout's ENUMS; `owner` is the module, or "" for a world field), anything else as is."""
+    names = getattr(layout, "ENUMS", {}).get((owner, field))
+    if names and type(value) is int and 0 <= value < len(names):
+        return names[value]
+    return value
+
+
+def enum_code(layout: object, owner: str, field: str, value: object) -> object:
+    """A value a person gave for a field, as the field holds it: an enumeration's value name
+    as its code (ValueError naming the values when it is none of them), anything else as is."""
+    names: tuple[str, ...] = getattr(layout, "ENUMS", {}).get((owner, field), ())
+    if not names:
+        return value
+    if isinstance(value, str) and value in names:
+        return names.index(value)
+    raise ValueError(f"{value!r} is not one of {', '.join(names)}")
 
 
 # ---------------------------------------------------------------- hook calls
@@ -215,7 +305,29 @@ def is_integer(value: object) -> bool:
     return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
-_KIND_NAMES = {"f": "float", "i": "int", "b": "bool"}
+_KIND_NAMES = {"f": "float", "i": "int", "b": "bool", "e": "enum index", "s": "str"}
+
+
+def kind_tokens(kinds: str) -> list[str]:
+    """A hook's target kinds, one token each: `fs32e3` -> [f, s32, e3] (s: a string of that
+    many bytes, e: the index of an enumeration of that many values)."""
+    tokens: list[str] = []
+    for char in kinds:
+        if char.isdigit() and tokens:
+            tokens[-1] += char
+        else:
+            tokens.append(char)
+    return tokens
+
+
+def _kind_words(token: str) -> str:
+    if token[0] == "s":
+        return f"str of at most {token[1:]} bytes"
+    if token[0] == "e":
+        return f"int 0..{int(token[1:]) - 1} (an enum's index)"
+    return _KIND_NAMES[token]
+
+
 _NOTHING = object()
 
 
@@ -248,9 +360,9 @@ class HookError(Exception):
 
     def expected(self) -> str:
         """What `returns:` asks for: `a float`, `a tuple of 2 values (float, int)`."""
-        names = [_KIND_NAMES[k] for k in self.kinds]
+        names = [_kind_words(k) for k in kind_tokens(self.kinds)]
         if len(names) == 1:
-            return f"a{'n' if names[0] == 'int' else ''} {names[0]}"
+            return f"a{'n' if names[0].startswith(('int', 'enum')) else ''} {names[0]}"
         return f"a tuple of {len(names)} values ({', '.join(names)})"
 
     def problem(self) -> str:

@@ -29,7 +29,15 @@ from types import ModuleType
 from typing import Any, Self
 
 from .block import Block, BlockError
-from .contract import DEAD, PROCESS_STATES, RUNNING, STOPPED, StaleRead
+from .contract import (
+    DEAD,
+    PROCESS_STATES,
+    RUNNING,
+    STOPPED,
+    StaleRead,
+    enum_code,
+    enum_name,
+)
 from .ctl import field_code, parse_command, suggest, typed
 from .loop import (
     DONE_REPLY,
@@ -279,8 +287,9 @@ class Launcher:
     def start(self) -> None:
         """Create the segment (refusing one that exists) and start every process."""
         self.block = Block(self.system.layout, self.segment, create=True)
+        layout = self.system.layout
         for name, value in self.world.items():
-            self.system.layout.WORLD[name].write(self.block.buf, **{name: value})
+            layout.WORLD[name].write(self.block.buf, **{name: enum_code(layout, "", name, value)})
         try:
             if self.transport_name == "zenoh":
                 from .transport import Mirror
@@ -760,7 +769,8 @@ def parse_world(layout: ModuleType, items: Sequence[str]) -> dict[str, object]:
             raise ValueError("--world: " + suggest(name, list(layout.WORLD), "world field"))
         record = layout.WORLD[name]
         try:
-            values[name] = typed(raw, field_code(record, name), name)
+            names = getattr(layout, "ENUMS", {}).get(("", name), ())
+            values[name] = typed(raw, field_code(record, name), name, names)
         except ValueError as error:
             raise ValueError(f"--world: {error}") from None
     return values
@@ -797,7 +807,7 @@ def give(send: Send, layout: ModuleType, buf: memoryview) -> int | None:
         return None
     number: int = int(current["command_num"]) + 1  # type: ignore[call-overload]
     code = layout.COMMAND_NAMES[send.module].index(send.command)
-    args = {f"arg_{k}": v for k, v in send.args.items()}
+    args = {f"arg_{k}": enum_code(layout, send.module, f"arg_{k}", v) for k, v in send.args.items()}
     record.write(buf, command_num=number, command=code, **args)
     return number
 
@@ -861,7 +871,7 @@ def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
         if launcher.block is not None:
             for field in args.report:
                 value = _read(system.layout.WORLD[field], launcher.block.buf).get(field)
-                print(f"{field} = {value}")
+                print(f"{field} = {enum_name(system.layout, '', field, value)}")
         launcher.stop()
     for line in launcher.final:
         print(line)

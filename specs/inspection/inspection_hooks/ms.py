@@ -8,10 +8,13 @@ tolerance either side, in millimetres; `#` starts a comment:
     bore_diameter   12.000    0.020
 
 The features are measured in the file's order; MEASURE_PART's `feature` indexes them.
+INSPECT_PART names the program (its `program` argument, passed on to MEASURE_PART):
+`bracket` is programs/bracket.ipg. The run's `program` setting is read when the run starts.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -90,8 +93,15 @@ def new_program(settings: dict[str, str]) -> Program:
     return Program(read_program(program_path(settings)))
 
 
-def program_features(program: Program) -> int:
-    """How many features MEASURE_PART measures."""
+PROGRAM_NAME = re.compile(r"[a-z0-9_]+")
+
+
+def program_features(program: Program, name: str) -> int:
+    """Read the inspection program `name` (programs/<name>.ipg) for this MEASURE_PART; how
+    many features it measures."""
+    if not PROGRAM_NAME.fullmatch(name):
+        raise ProgramError(f"{name!r} is not an inspection program's name (a-z, 0-9, _)")
+    program.features = read_program(SYSTEM_DIR / "programs" / f"{name}.ipg")
     return len(program.features)
 
 
