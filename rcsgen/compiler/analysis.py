@@ -56,6 +56,7 @@ from .tables import (
     CheckedController,
     CheckedRule,
     CheckedSystem,
+    PlanAction,
     Send,
     reachable,
 )
@@ -77,6 +78,7 @@ CODES = {
     "W511": "`first_match` on a state whose rules never overlap",
     "W512": "a rule that can never fire: its guard never holds, or only when an earlier "
     "rule's does",
+    "W309": "a `replan:` that can run with no replans left (a run-time error)",
 }
 
 # The statuses a tested subordinate can show (NOT_READY is not observable once the table
@@ -154,6 +156,8 @@ class GuardBuilder:
         self.sub_reasons = sub_reasons or {}
         self.functions: dict[str, tuple[tuple[str, ...], expr.Expr]] = {}  # name -> params, body
         self.lets: dict[str, expr.Expr] = {}  # the `let` values of the table being analysed
+        self.plans: dict[str, tuple[int, int]] = {}  # plan -> (capacity, replans)
+        self.bounds: dict[Key, tuple[Fraction, Fraction]] = {}  # bounded plan variables
 
     def inline(self, e: expr.Expr) -> expr.Expr | None:
         """A function call's body with its arguments, a `let` value's tree; else None."""
@@ -164,6 +168,11 @@ class GuardBuilder:
             )
         if isinstance(e, expr.Ref) and e.kind == "let":
             return self.lets[e.name]
+        if isinstance(e, expr.Ref) and e.kind == "plan" and e.name == "done":
+            # past the last step: read as the comparison it is, so that no counter-example
+            # shows a plan done at a step before its last
+            step, steps = (expr.Ref(expr.INT, "plan", n, e.owner) for n in ("step", "steps"))
+            return expr.Compare(expr.BOOL, step, (">=",), (steps,))
         return None
 
     def guard(self, tree: expr.Expr) -> Guard:
@@ -263,6 +272,9 @@ class GuardBuilder:
         elif e.kind == "sub_command":
             key = ("command", e.owner)
             self._atom(g, key, self.sub_commands[e.owner])
+        elif e.kind == "plan":  # a boolean step field of the current step
+            key = ("plan", f"{e.owner}.{e.name}")
+            self._atom(g, key, BOOL_DOMAIN)
         else:  # a boolean world field, local or parameter (numbers are read by comparisons)
             key = (e.kind, e.name)
             self._atom(g, key, BOOL_DOMAIN)
@@ -302,6 +314,7 @@ class GuardBuilder:
             kind = expr.FLOAT
             g.forms[key] = norm.coefficients
         g.types.update(types)
+        g.bounds.update({k: b for k, b in self.bounds.items() if k == key})
         self._atom(g, key)
         g.numeric.setdefault(key, (kind, set()))[1].add(bound)
         return lambda val: None if (v := val.get(key)) is None else compare(v, bound)
@@ -316,6 +329,14 @@ class GuardBuilder:
         if isinstance(e, expr.Ref):
             if e.kind == "const":
                 return Linear({}, Fraction(self.constants[e.name]))
+            if e.kind == "plan":  # step and steps within 0..capacity, replans_left 0..replans
+                key = ("plan", f"{e.owner}.{e.name}")
+                types[key] = e.type
+                capacity, replans = self.plans[e.owner]
+                high = {"step": capacity, "steps": capacity, "replans_left": replans}
+                if e.name in high:
+                    self.bounds[key] = (Fraction(0), Fraction(high[e.name]))
+                return Linear({key: Fraction(1)}, Fraction(0))
             if e.kind in _VARIABLES or e.kind == "sub_result":
                 key = ("result", f"{e.owner}.{e.name}") if e.owner else (e.kind, e.name)
                 types[key] = e.type
@@ -423,6 +444,7 @@ class _Controller:
         self.builder.functions = {
             f.name: (tuple(p for p, _ in f.params), f.tree) for f in checked.functions.values()
         }
+        self.builder.plans = {p.name: (p.capacity, p.replans) for p in checked.spec.plans.values()}
         # every_cycle rules run whatever the state: what they send or test counts everywhere
         every = checked.every_cycle
         self.every_sent = {send.sub for r in every for send in r.sends}
@@ -515,6 +537,31 @@ class _Table:
         self.finishes()
         self.commanded()
         self.awaited()
+        self.replans()
+
+    def replans(self) -> None:
+        """W309 for a `replan:` whose rule can fire when its plan has no replans left."""
+        for state, rules in self.table.items():
+            for rule in rules:
+                for action in rule.rule.actions:
+                    if not isinstance(action, PlanAction) or action.kind != "replan":
+                        continue
+                    plan = action.plan.name
+                    left: Key = ("plan", f"{plan}.replans_left")
+                    answer = solve([(rule.guard, True)], fixed={left: 0})
+                    tested = rule.guard is not None and left in rule.guard.order
+                    if answer.kind == "no" and tested:
+                        continue
+                    self.diags.warning(
+                        action.span,
+                        "W309",
+                        f"rule {rule.number} of {self.name} {state} can `replan: {plan}` when "
+                        f"no replans are left ({action.plan.replans} declared): the run stops "
+                        "with an error",
+                        f"add `and {plan}.replans_left > 0` to its `when:`, and a rule for when "
+                        "none are left",
+                        self.about(state, rule.number),
+                    )
 
     def never_fires(self, state: str, rules: list[_Rule]) -> None:
         """W512 for each rule of a live state that can never fire."""

@@ -21,7 +21,7 @@ import os
 import shutil
 import sys
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -52,6 +52,22 @@ class Status:
     state: str
     error_num: int
     rule: str | None = None  # the table rule that fired in the module's last cycle
+    # each plan's step, number of steps and replans left (modules with plans only)
+    plans: dict[str, dict[str, int]] = field(default_factory=dict)
+
+
+_PLAN_SLOTS = ("_replans_left", "_steps", "_step")  # `plan_<name><slot>` in a status buffer
+
+
+def plan_slots(values: dict[str, Any]) -> dict[str, dict[str, int]]:
+    """The plans of a status buffer's values: `plan_route_step` -> {"route": {"step": ...}}."""
+    plans: dict[str, dict[str, int]] = {}
+    for key, value in values.items():
+        if not key.startswith("plan_"):
+            continue
+        slot = next(s for s in _PLAN_SLOTS if key.endswith(s))
+        plans.setdefault(key[len("plan_") : -len(slot)], {})[slot[1:]] = int(value)
+    return plans
 
 
 def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleType:
@@ -152,6 +168,7 @@ class BlockView:
             self.layout.STATE_NAMES[runs][values["state"]],
             values["error_num"],
             self.layout.RULES[runs][values["rule"]] or None,
+            plan_slots(values),
         )
 
     def set_mode(self, module: str, **mode: Any) -> None:

@@ -152,6 +152,8 @@ def trace_line(harness: AnyHarness, world: list[str]) -> str:
             "state": status.state,
             "rule": status.rule,
         }
+        if status.plans:  # modules with plans only: each plan's step, steps and replans left
+            modules[name]["plans"] = status.plans
     line = {"cycle": harness.cycles, "modules": modules, "world": harness.world.snapshot(world)}
     return json.dumps(line, sort_keys=True, separators=(",", ":"))
 
