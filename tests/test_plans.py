@@ -1,0 +1,149 @@
+"""Plans (issue 14, item 6): a planner's steps stepped through, replanned up to a count.
+
+The fixture `tests/fixtures/language/plans` has one executor whose planner makes `wanted`
+steps; each test drives it through the harness and reads its status buffer, or builds a
+changed copy of it and reads the diagnostics.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from rcsgen.compiler import emit
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.tools.harness import Harness
+
+PLANS = Path(__file__).resolve().parent / "fixtures" / "language" / "plans"
+
+
+@pytest.fixture
+def exe():
+    with Harness.build(PLANS) as h:
+        yield h
+
+
+def plan(h: Harness) -> dict[str, int]:
+    return h.status("exe").plans["legs"]
+
+
+def test_the_table_steps_through_the_plan_and_finishes_past_the_last_step(exe: Harness) -> None:
+    exe.command("exe", "GO")
+    exe.cycle(1)  # S0: plan
+    assert plan(exe) == {"replans_left": 2, "step": 0, "steps": 3}
+    outs = []
+    for _ in range(3):
+        exe.cycle(1)
+        outs.append(exe.world["out"])
+    assert outs == [10, 11, 12]
+    assert plan(exe) == {"replans_left": 2, "step": 3, "steps": 3}
+    exe.cycle(1)
+    assert exe.status("exe").status == "DONE"
+    controller = exe.controller("exe")
+    assert controller.plan_legs_done is True
+    assert (controller.plan_legs_n, controller.plan_legs_size, controller.plan_legs_last) == (
+        0,
+        0.0,
+        False,
+    ), "past the last step every field reads as none"
+
+
+def test_a_failed_step_is_replanned_until_no_replans_are_left(exe: Harness) -> None:
+    exe.command("exe", "GO")
+    exe.cycle(2)  # planned, and step 0 carried out
+    exe.world["fail"] = True
+    exe.cycle(1)
+    assert plan(exe) == {"replans_left": 1, "step": 0, "steps": 3}
+    assert exe.controller("exe").plan_legs_n == 20, "the replan's steps"
+    exe.cycle(1)
+    assert plan(exe)["replans_left"] == 0
+    exe.cycle(1)
+    assert exe.status("exe").status == "ERROR", "no replans left: the table fails"
+    exe.command("exe", "GO")  # a new command plans again, with every replan
+    exe.world["fail"] = False
+    exe.cycle(2)
+    assert plan(exe) == {"replans_left": 2, "step": 1, "steps": 3}
+    assert exe.world["out"] == 10
+
+
+@pytest.mark.parametrize(
+    ("wanted", "message"),
+    [
+        (5, "hook `plan_legs` of `exe` returned 5 steps, more than the plan's capacity "
+         "(a list of at most 4 steps, each a tuple (int, float, bool)) (rule GO/S0/1, cycle 1)"),
+        (-1, "hook `plan_legs` of `exe` returned step 0 as (1, 2.0); a plan is a list of at "
+         "most 4 steps, each a tuple (int, float, bool) (rule GO/S0/1, cycle 1)"),
+    ],
+)  # fmt: skip
+def test_a_plan_too_long_or_of_the_wrong_shape_is_one_line_error(
+    exe: Harness, wanted: int, message: str
+) -> None:
+    exe.world["wanted"] = wanted
+    exe.command("exe", "GO")
+    with pytest.raises(Exception, match=r"^hook") as raised:
+        exe.cycle(1)
+    assert type(raised.value).__name__ == "HookError"
+    assert str(raised.value) == message
+    assert "\n" not in str(raised.value)
+
+
+def test_the_generated_executor_reads_like_a_hand_written_table() -> None:
+    front = compile_paths([PLANS])
+    text = emit.render_all(front.systems)["plans/exe.py"]
+    assert "            elif state == S1 and self.plan_legs_done:" not in text  # several rules
+    for line in (
+        "            if self.plan_legs_done:",
+        "                self.world_out = self.plan_legs_n",
+        "                self.plan_legs_go(self.plan_legs_step + 1)  # advance: legs",
+        "            self.plan_legs_replans_left = 2  # plan: legs, from no steps",
+        "                returned = hooks.plan_legs(self.world_wanted, self.plan_legs_steps)",
+        '        problem = plan_problem(steps, "ifb", 4)',
+    ):
+        assert line in text.splitlines(), line
+
+
+def _changed(tmp_path: Path, old: str, new: str) -> list[tuple[str, str]]:
+    copy = tmp_path / "plans"
+    shutil.copytree(PLANS, copy)
+    spec = copy / "exe.yaml"
+    text = spec.read_text(encoding="utf-8")
+    assert old in text
+    spec.write_text(text.replace(old, new), encoding="utf-8")
+    front = compile_paths([copy])
+    return [(d.code, f"{d.message} / {d.hint}") for d in front.diagnostics]
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "code", "words"),
+    [
+        ("set: {world.out: legs.n}", "set: {world.out: legs.m}", "E290",
+         "plan `legs` has no step field or property `m`"),
+        ("do: [plan: legs]", "do: [plan: leg]", "E292", "did you mean"),
+        ("steps: {n: int,", "steps: {step: int,", "E291", "step field `step`"),
+        ("planner: plan_legs", "planner: plan_leg", "E294",
+         "planner `plan_leg` of plan `legs` is not defined"),
+        ("world.fail and legs.replans_left > 0", "world.fail", "W309",
+         "can `replan: legs` when no replans are left"),
+    ],
+)  # fmt: skip
+def test_mistakes_in_plans_are_located_diagnostics(
+    tmp_path: Path, old: str, new: str, code: str, words: str
+) -> None:
+    found = _changed(tmp_path, old, new)
+    assert any(c == code and words in m for c, m in found), found
+
+
+def test_an_every_cycle_plan_action_is_refused(tmp_path: Path) -> None:
+    found = _changed(tmp_path, "commands:", "every_cycle:\n  - do: [advance: legs]\ncommands:")
+    assert [c for c, _ in found] == ["E295"]
+    assert "a plan is stepped through by a command's table" in found[0][1]
+
+
+def test_the_analysis_reads_done_as_past_the_last_step() -> None:
+    """`legs.done` and `not legs.done and ...` are exclusive and, with the replans left
+    bounded by 0..2, `> 0` and `== 0` cover every case: the fixture is clean under
+    --strict, so no counter-example shows a replan count below 0."""
+    front = compile_paths([PLANS])
+    assert not list(front.diagnostics)
