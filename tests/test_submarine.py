@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import shutil
 from functools import cache
 from pathlib import Path
@@ -353,34 +352,18 @@ def test_a_blocked_leg_is_replanned_by_its_alternate_and_the_mission_completes()
     assert min(ln["world"]["min_clearance"] for ln in lines) >= 100.0
 
 
-def test_a_blocked_leg_fails_the_mission_once_no_replans_are_left(tmp_path):
-    """The same ridge with no alternate in the route: each replan tries the blocked waypoint
-    again; after the two declared replans cc reports ERROR with the reason BLOCKED."""
-    maps = SUBMARINE / "maps"
-    text = (maps / "ridge.route").read_text(encoding="utf-8")
-    no_way = "\n".join(
-        " ".join(line.split()[:2]) if not line.startswith("#") else line
-        for line in text.splitlines()
-    )
-    (maps / f"ridge_no_way_{os.getpid()}.route").write_text(no_way + "\n", encoding="utf-8")
-    try:
-        scenario_text = (SCENARIOS / "ice_replan.yaml").read_text(encoding="utf-8")
-        scenario_text = scenario_text.replace(
-            "maps/ridge.route", f"maps/ridge_no_way_{os.getpid()}.route"
-        ).replace("status: DONE", "status: ERROR")
-        copy = SCENARIOS / f"ice_no_way_{os.getpid()}.yaml"
-        copy.write_text(scenario_text, encoding="utf-8")
-        try:
-            final, lines = play(copy.stem, ROOT / "generated" / "submarine")
-        finally:
-            copy.unlink()
-    finally:
-        (maps / f"ridge_no_way_{os.getpid()}.route").unlink()
+def test_a_blocked_leg_fails_the_mission_once_no_replans_are_left():
+    """ice_no_way: the same ridge with no alternate in the route; each replan tries the
+    blocked waypoint again; after the two declared replans cc reports ERROR, BLOCKED."""
+    final, lines = played("ice_no_way")
     assert final["status"] == "ERROR"
     cc = [ln["modules"]["cc"]["rule"] for ln in lines]
-    assert cc.count("RUN_MISSION/TRANSIT/3") == 2, "both replans used"
+    replans = [i for i, rule in enumerate(cc) if rule == "RUN_MISSION/TRANSIT/3"]
+    assert [plan_of(lines[i])["replans_left"] for i in replans] == [1, 0], "both replans used"
+    assert all(plan_of(lines[i])["steps"] == 2 for i in replans), "the same waypoint again"
     assert cc[-1] == "RUN_MISSION/TRANSIT/4", "then blocked with no replans left: ERROR"
-    assert plan_of(lines[-1])["replans_left"] == 0
+    assert lines[-2]["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/3", "SM: BLOCKED"
+    assert min(ln["world"]["min_clearance"] for ln in lines) >= 100.0
 
 
 # ---- a rudder casualty
