@@ -147,3 +147,20 @@ def test_the_analysis_reads_done_as_past_the_last_step() -> None:
     --strict, so no counter-example shows a replan count below 0."""
     front = compile_paths([PLANS])
     assert not list(front.diagnostics)
+
+
+def test_a_stand_in_must_declare_its_controller_s_plans(tmp_path: Path) -> None:
+    """The stand-in writes the controller's status buffer, which holds each plan's step."""
+    copy = tmp_path / "plans"
+    shutil.copytree(PLANS, copy)
+    system = copy / "system.yaml"
+    system.write_text(
+        system.read_text(encoding="utf-8") + "\nstand_ins: {exe: exe_sim}\n", encoding="utf-8"
+    )
+    (copy / "exe_sim.yaml").write_text(
+        "controller: exe_sim\ntitle: Executor stand-in\n"
+        "commands:\n  GO:\n    states:\n      S0:\n        - do: [report: DONE]\n",
+        encoding="utf-8",
+    )
+    found = [(d.code, d.message) for d in compile_paths([copy]).diagnostics]
+    assert ("E236", "stand-in `exe_sim` and `exe` declare different plans") in found, found

@@ -294,6 +294,14 @@ def _check_stand_ins(
                     f"reasons than `{name}`'s",
                     f"`{name}` takes {wanted[command] or 'no parameters'}",
                 )
+        if sorted(by_name[name].plans) != sorted(sim.plans):  # their slots: one status buffer
+            diags.error(
+                sim.name_span,
+                "E236",
+                f"stand-in `{sim.name}` and `{name}` declare different plans",
+                "a stand-in writes its controller's status buffer, which holds each plan's "
+                f"step: declare the plans of `{name}` ({', '.join(by_name[name].plans) or 'none'})",
+            )
 
 
 def _check_echo_timeouts(spec: ControllerSpec, diags: Diagnostics) -> None:
