@@ -164,3 +164,16 @@ def test_a_stand_in_must_declare_its_controller_s_plans(tmp_path: Path) -> None:
     )
     found = [(d.code, d.message) for d in compile_paths([copy]).diagnostics]
     assert ("E236", "stand-in `exe_sim` and `exe` declare different plans") in found, found
+
+
+def test_a_replan_that_may_run_out_can_be_acknowledged_on_its_rule(tmp_path: Path) -> None:
+    found = _changed(
+        tmp_path,
+        "        - when: not legs.done and world.fail and legs.replans_left > 0\n",
+        "        - when: not legs.done and world.fail\n"
+        "          allow: [{code: W309, reason: the planner never fails twice here}]\n",
+    )
+    codes = [c for c, _ in found]
+    assert "W309" not in codes
+    # rule 3 (no replans left) now never fires: rule 2 takes every such cycle first
+    assert any(c == "W512" and "rule 3 of GO S1 never fires" in m for c, m in found), found

@@ -78,7 +78,6 @@ CODES = {
     "W511": "`first_match` on a state whose rules never overlap",
     "W512": "a rule that can never fire: its guard never holds, or only when an earlier "
     "rule's does",
-    "W309": "a `replan:` that can run with no replans left (a run-time error)",
 }
 
 # The statuses a tested subordinate can show (NOT_READY is not observable once the table
