@@ -11,7 +11,9 @@ import shutil
 from pathlib import Path
 
 import pytest
+from click.testing import CliRunner
 
+from rcsgen.cli import main
 from rcsgen.compiler import emit
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.tools.harness import Harness
@@ -177,3 +179,25 @@ def test_a_replan_that_may_run_out_can_be_acknowledged_on_its_rule(tmp_path: Pat
     assert "W309" not in codes
     # rule 3 (no replans left) now never fires: rule 2 takes every such cycle first
     assert any(c == "W512" and "rule 3 of GO S1 never fires" in m for c, m in found), found
+
+
+def test_rcsgen_run_names_the_plan_action_of_a_plan_that_does_not_fit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    copy = tmp_path / "plans"
+    shutil.copytree(PLANS, copy)
+    (copy / "scenarios").mkdir()
+    (copy / "scenarios" / "long.yaml").write_text(
+        "scenario: long\ntitle: A plan too long\nmax_cycles: 20\nstop_when_done: exe\n"
+        "events:\n  - cycle: 1\n    set: {wanted: 6}\n    command: exe.GO\n",
+        encoding="utf-8",
+    )
+    monkeypatch.chdir(copy)
+    result = CliRunner().invoke(main, ["run", "scenarios/long.yaml"], catch_exceptions=False)
+    assert result.exit_code == 1
+    assert "Traceback" not in result.output
+    assert (
+        "exe.yaml:21:22: error[E421]: hook `plan_legs` of `exe` returned 6 steps, more than "
+        "the plan's capacity" in result.output
+    )
+    assert "= hint: a planner returns a list of steps" in result.output
