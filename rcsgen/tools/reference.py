@@ -174,9 +174,9 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
         out += ["| plan | planner | steps | capacity | replans | description |"]
         out += ["|---|---|---|---|---|---|"]
         for p in c.plans:
-            fields = ", ".join(f"{f.name}: {f.type}" for f in p.fields)
+            steps = ", ".join(f"{f.name}: {f.type}" for f in p.steps)
             out.append(
-                f"| `{p.name}` | `{p.planner}({', '.join(p.args)})` | {fields} | {p.capacity} "
+                f"| `{p.name}` | `{p.planner}({', '.join(p.args)})` | {steps} | {p.capacity} "
                 f"| {p.replans} | {cell(p.doc)} |"
             )
         out.append("")
