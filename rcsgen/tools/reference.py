@@ -174,7 +174,7 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
         out += ["| plan | planner | steps | capacity | replans | description |"]
         out += ["|---|---|---|---|---|---|"]
         for p in c.plans:
-            steps = ", ".join(f"{f.name}: {f.type}" for f in p.steps)
+            steps = ", ".join(f"{f.name}: {f.type}" for f in p.fields)
             out.append(
                 f"| `{p.name}` | `{p.planner}({', '.join(p.args)})` | {steps} | {p.capacity} "
                 f"| {p.replans} | {cell(p.doc)} |"
