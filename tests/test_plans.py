@@ -126,6 +126,9 @@ def _changed(tmp_path: Path, old: str, new: str) -> list[tuple[str, str]]:
         ("steps: {n: int,", "steps: {step: int,", "E291", "step field `step`"),
         ("planner: plan_legs", "planner: plan_leg", "E294",
          "planner `plan_leg` of plan `legs` is not defined"),
+        ("args: [world.wanted, legs.steps]", "args: [legs.size, legs.steps]", "E293",
+         "argument 1 of planner `plan_legs` is a float, but the function's parameter is "
+         "annotated `int`"),
         ("world.fail and legs.replans_left > 0", "world.fail", "W309",
          "can `replan: legs` when no replans are left"),
     ],

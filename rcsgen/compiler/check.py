@@ -545,7 +545,12 @@ def _check_hooks_module(
         params = hooks.param_types(node)[stateful:]
         contracts[hook.name] = (params, f"{where}:{node.lineno}")
     for plan in spec.plans.values():
-        _check_planner(plan, functions.get(plan.planner.value), stateful, module, where, diags)
+        node = functions.get(plan.planner.value)
+        if _check_planner(plan, node, stateful, module, where, diags) and node is not None:
+            contracts[f"plan:{plan.name}"] = (
+                hooks.param_types(node)[stateful:],
+                f"{where}:{node.lineno}",
+            )
     return contracts
 
 
@@ -556,9 +561,9 @@ def _check_planner(
     module: str,
     where: str,
     diags: Diagnostics,
-) -> None:
+) -> bool:
     """A plan's planner is a plain function of the hooks module that takes its arguments
-    (the hook state first, if any): E294."""
+    (the hook state first, if any): E294. Whether it is."""
     name = plan.planner.value
     given = len(plan.args) + stateful
     if node is None:
@@ -585,6 +590,9 @@ def _check_planner(
             f"`{module}.{name}` takes {_positional(node)}",
             "make the plan's `args:` match the function's parameters",
         )
+    else:
+        return True
+    return False
 
 
 def _positional(node: hooks.Function) -> int:
@@ -1188,7 +1196,27 @@ class _ControllerChecker:
             if any(t is None for t in typed):
                 return None
             args = tuple(t for t in typed if t is not None)
+            self.check_planner_arguments(plan, args)
         return PlanAction(action.kind, plan, args, action.span)
+
+    def check_planner_arguments(self, plan: model.Plan, args: tuple[expr.Expr, ...]) -> None:
+        """E293 once per plan: an argument whose type its planner parameter's annotation
+        excludes."""
+        key = f"plan:{plan.name}"
+        if key in self.checked_calls or key not in self.contracts:
+            return
+        self.checked_calls.add(key)
+        params, where = self.contracts[key]
+        for index, (arg, param) in enumerate(zip(args, params, strict=False)):
+            if param is None or hooks.assignable(param, arg.type):
+                continue
+            self.diags.error(
+                plan.args[index].span,
+                "E293",
+                f"argument {index + 1} of planner `{plan.planner.value}` is {_a(arg.type)}, but "
+                f"the function's parameter is annotated `{param}`",
+                f"convert it in the spec, or change the annotation ({where})",
+            )
 
     def check_hook_arguments(self, hook: model.Hook, args: list[expr.Expr | None]) -> None:
         """E242 once per hook: an argument whose type its parameter's annotation excludes."""
