@@ -204,3 +204,44 @@ def test_rcsgen_run_names_the_plan_action_of_a_plan_that_does_not_fit(
         "the plan's capacity" in result.output
     )
     assert "= hint: a planner returns a list of steps" in result.output
+
+
+TABLE = """    states:
+      S0:
+        - do: [plan: legs]
+          next: S1
+      S1:
+        - when: {first}
+          do: [report: DONE]
+        - when: {second}
+          do: [advance: legs]
+        - when: {third}
+          do: [report: ERROR]
+"""
+
+
+def _table(tmp_path: Path, first: str, second: str, third: str) -> list[tuple[str, str]]:
+    text = (PLANS / "exe.yaml").read_text(encoding="utf-8")
+    states = text[text.index("    states:\n") :]
+    return _changed(tmp_path, states, TABLE.format(first=first, second=second, third=third))
+
+
+def test_the_analysis_shows_a_real_overlap_of_done_with_a_step(tmp_path: Path) -> None:
+    """Done and at step 1 or later: both hold once the last step is passed (step 3 of 3)."""
+    found = _table(tmp_path, "legs.done", "legs.step >= 1", "legs.step < 1 and not legs.done")
+    overlaps = [m for c, m in found if c == "E501"]
+    assert len(overlaps) == 1, found
+    assert "legs.step=1" in overlaps[0] and "(legs.steps - legs.step)=0" in overlaps[0]
+
+
+def test_the_analysis_shows_no_plan_it_cannot_have(tmp_path: Path) -> None:
+    """No steps at all and at step 1 or later cannot both hold (the step is never past the
+    steps): not an E501 with a made-up counter-example; at most "cannot prove" (W502).
+    Done and not done are exclusive and cover every plan: only the real overlap of rules 2
+    and 3 (not done, the step failing) is reported, and no wait (W503)."""
+    found = _table(tmp_path, "legs.steps == 0", "legs.step >= 1", "legs.done")
+    pair = [m for c, m in found if c in ("E501", "W502") and "rules 1 and 2" in m]
+    assert len(pair) == 1 and pair[0].startswith("cannot prove rules 1 and 2"), found
+    assert "both hold if (legs.steps)=0" in pair[0], "shown as the spec names it"
+    found = _table(tmp_path / "b", "legs.done", "not legs.done and world.fail", "not legs.done")
+    assert [c for c, _ in found if c in ("E501", "W502", "W503")] == ["E501"], found

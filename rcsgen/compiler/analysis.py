@@ -105,6 +105,9 @@ def show_key(key: Key) -> str:
         return f"{sub}.result.{field}"
     if kind in ("opaque", "form"):
         return f"({name})"
+    if kind == "plan" and name.endswith(".remaining"):  # see GuardBuilder.inline
+        plan = name.removesuffix(".remaining")
+        return f"({plan}.steps - {plan}.step)"
     if kind == "time":
         return "cycles_in_state"
     if kind == "held":  # held_<command>_<state>_<rule>: the cycles a `for:` guard held
@@ -167,11 +170,17 @@ class GuardBuilder:
             )
         if isinstance(e, expr.Ref) and e.kind == "let":
             return self.lets[e.name]
-        if isinstance(e, expr.Ref) and e.kind == "plan" and e.name == "done":
-            # past the last step: read as the comparison it is, so that no counter-example
-            # shows a plan done at a step before its last
-            step, steps = (expr.Ref(expr.INT, "plan", n, e.owner) for n in ("step", "steps"))
-            return expr.Compare(expr.BOOL, step, (">=",), (steps,))
+        if isinstance(e, expr.Ref) and e.kind == "plan" and e.name in ("done", "steps"):
+            # A plan's position is two independent variables, the step and the steps after
+            # it (`remaining`, both 0..capacity): `steps` is their sum and `done` is no step
+            # remaining, so no counter-example shows a plan done before its last step, or
+            # past a last step it does not have.
+            step, remaining = (
+                expr.Ref(expr.INT, "plan", n, e.owner) for n in ("step", "remaining")
+            )
+            if e.name == "steps":
+                return expr.Binary(expr.INT, "+", step, remaining)
+            return expr.Compare(expr.BOOL, remaining, ("<=",), (expr.Const(expr.INT, 0),))
         return None
 
     def guard(self, tree: expr.Expr) -> Guard:
@@ -332,7 +341,7 @@ class GuardBuilder:
                 key = ("plan", f"{e.owner}.{e.name}")
                 types[key] = e.type
                 capacity, replans = self.plans[e.owner]
-                high = {"step": capacity, "steps": capacity, "replans_left": replans}
+                high = {"step": capacity, "remaining": capacity, "replans_left": replans}
                 if e.name in high:
                     self.bounds[key] = (Fraction(0), Fraction(high[e.name]))
                 return Linear({key: Fraction(1)}, Fraction(0))
@@ -393,6 +402,13 @@ def _pairs(e: expr.Compare) -> list[tuple[expr.Expr, str, expr.Expr]]:
 
 
 def _form_text(coefficients: dict[Key, Fraction], keys: list[Key]) -> str:
+    plans = {name.rsplit(".", 1)[0] for kind, name in keys if kind == "plan"}
+    for plan in plans:  # a plan's step + its steps remaining: its steps, as the spec says
+        step, remaining = ("plan", f"{plan}.step"), ("plan", f"{plan}.remaining")
+        if coefficients.get(step) and coefficients.get(step) == coefficients.get(remaining):
+            rest = {k: c for k, c in coefficients.items() if k not in (step, remaining)}
+            steps: Key = ("plan", f"{plan}.steps")
+            return _form_text({steps: coefficients[step], **rest}, [steps, *sorted(rest)])
     text = ""
     for key in keys:
         c = coefficients[key]
