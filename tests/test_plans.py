@@ -245,3 +245,12 @@ def test_the_analysis_shows_no_plan_it_cannot_have(tmp_path: Path) -> None:
     assert "both hold if (legs.steps)=0" in pair[0], "shown as the spec names it"
     found = _table(tmp_path / "b", "legs.done", "not legs.done and world.fail", "not legs.done")
     assert [c for c, _ in found if c in ("E501", "W502", "W503")] == ["E501"], found
+
+
+def test_the_analysis_knows_a_plan_holds_at_most_its_capacity(tmp_path: Path) -> None:
+    """At the last possible step (4 of capacity 4) the plan is done: `legs.step >= 4 and not
+    legs.done` never holds, so it overlaps nothing and never fires (W512), and no
+    counter-example shows a step 4 with steps after it."""
+    found = _table(tmp_path, "legs.done", "legs.step >= 4 and not legs.done", "not legs.done")
+    assert [c for c, _ in found if c in ("E501", "W502")] == [], found
+    assert any(c == "W512" and "rule 2 of GO S1 never fires" in m for c, m in found), found

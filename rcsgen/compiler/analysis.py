@@ -183,6 +183,19 @@ class GuardBuilder:
             return expr.Compare(expr.BOOL, remaining, ("<=",), (expr.Const(expr.INT, 0),))
         return None
 
+    def within_capacity(self, plan: str) -> Callable[[Valuation], bool | None]:
+        """A plan's step and the steps after it add up to at most its capacity."""
+        capacity = self.plans[plan][0]
+        step: Key = ("plan", f"{plan}.step")
+        remaining: Key = ("plan", f"{plan}.remaining")
+
+        def keeps(val: Valuation) -> bool | None:
+            if step not in val or remaining not in val:
+                return None
+            return bool(val[step] + val[remaining] <= capacity)
+
+        return keeps
+
     def guard(self, tree: expr.Expr) -> Guard:
         guard = Guard(lambda val: True)
         guard.fn = self._fn(tree, guard)
@@ -323,6 +336,8 @@ class GuardBuilder:
             g.forms[key] = norm.coefficients
         g.types.update(types)
         g.bounds.update({k: b for k, b in self.bounds.items() if k == key})
+        for plan in {name.rsplit(".", 1)[0] for kind, name in types if kind == "plan"}:
+            g.invariants[f"plan {plan}"] = self.within_capacity(plan)
         self._atom(g, key)
         g.numeric.setdefault(key, (kind, set()))[1].add(bound)
         return lambda val: None if (v := val.get(key)) is None else compare(v, bound)
