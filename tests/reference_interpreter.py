@@ -16,8 +16,8 @@ of a cycle, locals, parameters, constants, predicates, default INIT/HALT tables,
 state (`after:`, `for:`; docs/semantics.md "Time in a state"), results and reasons (own
 and subordinates'; docs/semantics.md "Results and reasons"), `let` values, conditional
 expressions and pure functions (docs/spec.md section 13), enumerations (held by value name;
-a bare name no parameter, local or constant has is a value name) and strings (docs/spec.md
-section 15).
+a bare name no parameter, local or constant has is a value name), strings, and plans
+(docs/semantics.md "Plans"; the planner is a Python function the test gives).
 Not covered: modes, every_cycle rules, hooks.
 """
 
@@ -27,6 +27,7 @@ import ast
 import math
 import operator
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -88,9 +89,17 @@ class Controller:
     """One controller, cycle by cycle."""
 
     def __init__(
-        self, spec: dict, subs: dict[str, dict], world: dict[str, dict], period: float = 0.01
+        self,
+        spec: dict,
+        subs: dict[str, dict],
+        world: dict[str, dict],
+        period: float = 0.01,
+        planners: dict[str, Callable[..., Any]] | None = None,
     ) -> None:
         self.spec = spec
+        self.planners = planners or {}
+        # each plan: its steps, the current step, the replans left (docs/semantics.md "Plans")
+        self.plans = {name: {"list": [], "step": 0, "left": 0} for name in spec.get("plans") or {}}
         self.period = period
         self.time = 0  # cycles the table has run in the current state, before this one
         self.held: dict[tuple[str, str, int], int] = {}  # `for:` rule -> cycles its when held
@@ -252,6 +261,12 @@ class Controller:
                 self.status, self.state = action["report"], "NOP"
                 if "reason" in action:
                     self.reason = self._reason(action["reason"])
+            elif "advance" in action:
+                plan = self.plans[action["advance"]]
+                plan["step"] = min(plan["step"] + 1, len(plan["list"]))
+            else:
+                kind = "plan" if "plan" in action else "replan"
+                self.make_plan(action[kind], kind)
 
     def _reason(self, reason: str) -> str:
         """A report's reason: its own, or a subordinate's passed up by name (`fx.reason`),
@@ -261,6 +276,23 @@ class Controller:
         passed = self.sub_reason[reason.removesuffix(".reason")]
         own = self.spec_commands.get(self.command, {}).get("reasons") or []
         return passed if passed == "LOST" or passed in own else "NONE"
+
+    def make_plan(self, name: str, kind: str) -> None:
+        """`plan:` (every replan left, from no steps) or `replan:` (one fewer), then the
+        planner's steps from step 0; a wrong plan, or a replan with none left, raises."""
+        declared, plan = self.spec["plans"][name], self.plans[name]
+        if kind == "plan":
+            plan.update({"list": [], "step": 0, "left": declared.get("replans", 0)})
+        elif plan["left"] == 0:
+            raise ValueError(f"plan {name}: no replans left")
+        else:
+            plan["left"] -= 1
+        args = [self.value(a) for a in declared.get("args") or []]
+        steps = self.planners[declared["planner"]](*args)
+        fields = list(declared["steps"].values())
+        if len(steps) > declared["capacity"] or any(len(s) != len(fields) for s in steps):
+            raise ValueError(f"plan {name}: {steps!r} does not fit")
+        plan.update({"list": [tuple(s) for s in steps], "step": 0})
 
     # ------------------------------------------------------------ expressions
 
@@ -299,6 +331,8 @@ class Controller:
         if isinstance(node, ast.Name):
             return self.name(node.id, sub_commands)
         if isinstance(node, ast.Attribute):
+            if isinstance(node.value, ast.Name) and node.value.id in self.plans:
+                return self.plan_value(node.value.id, node.attr)
             if isinstance(node.value, ast.Attribute):  # <sub>.result.<name>
                 sub = node.value.value.id  # type: ignore[attr-defined]
                 return self.sub_results[sub][node.attr]
@@ -327,6 +361,22 @@ class Controller:
             return {"abs": abs, "min": min, "max": max}[name](*args)
         raise ValueError(f"not in the expression language: {ast.dump(node)}")
 
+    def plan_value(self, name: str, attr: str) -> Any:
+        """`<plan>.<attr>`: a property, or the current step's field (none once done)."""
+        plan = self.plans[name]
+        steps, step = plan["list"], plan["step"]
+        properties = {
+            "step": step,
+            "steps": len(steps),
+            "done": step >= len(steps),
+            "replans_left": plan["left"],
+        }
+        if attr in properties:
+            return properties[attr]
+        fields = self.spec["plans"][name]["steps"]
+        index = list(fields).index(attr)
+        return steps[step][index] if step < len(steps) else _zero(fields[attr])
+
     def name(self, name: str, sub_commands: str | None) -> Any:
         if sub_commands is not None:
             return name  # compared with <sub>.command: a command name
@@ -353,6 +403,9 @@ class Controller:
             "locals": dict(self.locals),
             "reason": self.reason,
             "results": dict(self.results),
+            "plans": {
+                name: (p["step"], len(p["list"]), p["left"]) for name, p in self.plans.items()
+            },
         }
 
 

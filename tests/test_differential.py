@@ -8,6 +8,9 @@ statuses and commands, world fields, locals, parameters and the predicate, and a
 send, set and report, with `next` transitions. Each system is built (Harness.build) and run
 for CYCLES cycles; the test plays the subordinates (seeded random replies: echo with DONE,
 ERROR or EXECUTING, a stale number, or nothing), changes the world and issues new commands.
+Half the systems give `top` a plan (`legs`, two step fields, capacity 4, two replans) whose
+planner is a Python function of the system's hooks package, stepped through, replanned
+(guarded by `legs.replans_left > 0`) and read in guards and values.
 The same inputs drive tests/reference_interpreter.py, written from docs/semantics.md
 without rcsgen. Every cycle the two must agree on state, status, status number, each
 subordinate's command, number and arguments, the locals and the world.
@@ -83,16 +86,32 @@ def sub_results(spec: dict) -> bool:
     return "results" in next(iter(spec["commands"].values()))
 
 
+PLANNER = '''
+def plan_legs(k, steps):
+    """abs(k) % 5 steps (n, even), n counting from k (from k + 10 on a replan)."""
+    first = k if steps == 0 else k + 10
+    return [(first + i, (first + i) % 2 == 0) for i in range(abs(k) % 5)]
+'''
+
+
+def plan_legs(k: int, steps: int) -> list[tuple[int, bool]]:
+    """The planner of PLANNER, for the reference interpreter."""
+    namespace: dict[str, Any] = {}
+    exec(PLANNER, namespace)  # the very text the generated system's hooks module holds
+    return namespace["plan_legs"](k, steps)
+
+
 class Grammar:
     """Guards and values over what `top` can see."""
 
-    def __init__(self, d: Draw, subs: dict[str, dict], sent: list[str]) -> None:
-        self.d, self.subs, self.sent = d, subs, sent
+    def __init__(self, d: Draw, subs: dict[str, dict], sent: list[str], plan: bool) -> None:
+        self.d, self.subs, self.sent, self.plan = d, subs, sent, plan
 
     def atom(self) -> str:
         d = self.d
         kinds = ["world_bool", "world_int", "local_int", "local_bool", "param", "predicate"]
         kinds += ["enum", "text"]
+        kinds += ["plan", "plan"] if self.plan else []
         kinds += ["status", "status", "command"] if self.sent else []
         kinds += ["reason"] if any(sub_reasons(self.subs[s]) for s in self.sent) else []
         kinds += ["result"] if any(sub_results(self.subs[s]) for s in self.sent) else []
@@ -121,6 +140,18 @@ class Grammar:
             left = d.choice(["tag", "label", "world.t0"])
             right = d.choice(["'ab'", "'x'", "''", "tag", "label"])
             return f"{left} {d.choice(['==', '!='])} {right}"
+        if kind == "plan":
+            return d.choice(
+                [
+                    "legs.done",
+                    "not legs.done",
+                    "legs.even",
+                    f"legs.step < {d.int(0, 3)}",
+                    f"legs.n > {d.int(-1, 3)}",
+                    "legs.replans_left == 0",
+                    f"legs.steps >= {d.int(0, 4)}",
+                ]
+            )
         if kind == "world_bool":
             return d.choice(["world.b0", "not world.b0", "world.b1"])
         if kind == "local_bool":
@@ -160,11 +191,12 @@ class Grammar:
 
 def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
     names = list(subs)
+    plan = d.chance(50)
     commands, count = {}, d.int(1, 2)
     for command in ("GO", "RUN")[:count]:
         states = [f"S{i}" for i in range(d.int(2, 5))]
         sent = sorted({d.choice(names) for _ in range(d.int(1, len(names)))})
-        grammar = Grammar(d, subs, sent)
+        grammar = Grammar(d, subs, sent, plan)
         table: dict[str, list] = {}
         for index, state in enumerate(states):
             rules = []
@@ -194,10 +226,25 @@ def top_spec(d: Draw, subs: dict[str, dict]) -> dict:
             "states": table,
             "first_match": states,  # overlapping guards are meant: the first match wins
         }
+    extra: dict = {}
+    if plan:
+        extra = {
+            "hooks_module": "diff_hooks.top",
+            "plans": {
+                "legs": {
+                    "planner": "plan_legs",
+                    "args": ["n", "legs.steps"],
+                    "steps": {"n": "int", "even": "bool"},
+                    "capacity": 4,
+                    "replans": 2,
+                }
+            },
+        }
     return {
         "controller": "top",
         "title": "Top",
         "subordinates": names,
+        **extra,
         "world": {"reads": ["b0", "i0"], "writes": ["b1", "i1", "e0", "t0"]},
         "locals": {
             "n": {"type": "int", "initial": d.int(-1, 2)},
@@ -238,15 +285,24 @@ def random_rule(d: Draw, grammar: Grammar, states: list[str], sent: list[str], s
         rule["when"] = grammar.guard()
     actions = []
     for _ in range(d.int(0, 3)):
-        kind = d.choice(
-            ["send", "set_n", "set_flag", "set_world", "set_result", "set_typed", "report"]
-        )
-        if kind == "send":
+        kinds = ["send", "set_n", "set_flag", "set_world", "set_result", "set_typed", "report"]
+        kinds += ["plan", "replan", "advance", "advance"] if grammar.plan else []
+        kind = d.choice(kinds)
+        if kind in ("plan", "advance"):
+            actions.append({kind: "legs"})
+        elif kind == "replan":  # only while replans are left: W309 otherwise
+            actions.append({"replan": "legs"})
+            rule["when"] = (
+                f"({rule['when']}) and legs.replans_left > 0"
+                if "when" in rule
+                else ("legs.replans_left > 0")
+            )
+        elif kind == "send":
             actions.append(send(d, d.choice(sent), subs))
         elif kind == "set_n":
-            actions.append(
-                {"set": {"n": d.choice(["n + 1", "n - 1", "0", "g", "world.i0 % 5", "m2 % 7"])}}
-            )
+            values = ["n + 1", "n - 1", "0", "g", "world.i0 % 5", "m2 % 7"]
+            values += ["legs.n", "legs.step + legs.steps"] if grammar.plan else []
+            actions.append({"set": {"n": d.choice(values)}})
         elif kind == "set_flag":
             actions.append({"set": {"flag": d.choice(["not flag", "world.b0", "n > 2"])}})
         elif kind == "set_world":
@@ -313,6 +369,10 @@ def write_system(directory: Path, files: dict[str, dict]) -> None:
     for name, data in files.items():
         text = yaml.dump(data, Dumper=_NoAliases, sort_keys=False, width=1000)
         (directory / f"{name}.yaml").write_text(text, encoding="utf-8")
+    if "plans" in files["top"]:
+        (directory / "diff_hooks").mkdir()
+        (directory / "diff_hooks" / "__init__.py").write_text("", encoding="utf-8")
+        (directory / "diff_hooks" / "top.py").write_text(PLANNER, encoding="utf-8")
 
 
 def generated_trace(h: Harness, subs: list[str]) -> dict[str, Any]:
@@ -336,16 +396,25 @@ def generated_trace(h: Harness, subs: list[str]) -> dict[str, Any]:
             h.layout.STATUS_OUT["top"].read(h.buf)["error_num"]
         ],
         "results": {"r": h.layout.STATUS_OUT["top"].read(h.buf)["result_r"]},
+        "plans": {
+            name: (p["step"], p["steps"], p["replans_left"]) for name, p in status.plans.items()
+        },
     }
 
 
-def drive(h: Harness, files: dict[str, dict], rnd: random.Random) -> int:
-    """Run both for CYCLES cycles on the same inputs; the number of commands given."""
+def drive(h: Harness, files: dict[str, dict], rnd: random.Random) -> tuple[int, int]:
+    """Run both for CYCLES cycles on the same inputs; the number of commands given, and of
+    cycles after which `top` had a plan with steps."""
     subs = [n for n in files if n not in ("system", "top")]
-    reference = Controller(files["top"], {s: files[s] for s in subs}, files["system"]["world"])
+    reference = Controller(
+        files["top"],
+        {s: files[s] for s in subs},
+        files["system"]["world"],
+        planners={"plan_legs": plan_legs},
+    )
     block = Block(world={n: f["initial"] for n, f in files["system"]["world"].items()})
     commands = ["INIT", "HALT", *files["top"]["commands"]]
-    given = 0
+    given = planned = 0
     for cycle in range(CYCLES):
         if cycle == 0 or rnd.random() < 0.06:  # the operator gives a new command
             command, g = rnd.choice(commands), rnd.randint(-2, 5)
@@ -385,11 +454,12 @@ def drive(h: Harness, files: dict[str, dict], rnd: random.Random) -> int:
         want = {**reference.trace(), "world": dict(block.world)}
         got = {**generated_trace(h, subs), "world": h.world.snapshot()}
         assert got == want, f"cycle {cycle + 1}: generated {got} != reference {want}"
-    return given
+        planned += any(steps for _, steps, _ in want["plans"].values())
+    return given, planned
 
 
 def test_generated_code_matches_the_reference(tmp_path_factory) -> None:
-    runs = {"examples": 0, "cycles": 0, "commands": 0}
+    runs = {"examples": 0, "cycles": 0, "commands": 0, "planned": 0}
 
     @settings(
         max_examples=EXAMPLES,
@@ -404,13 +474,16 @@ def test_generated_code_matches_the_reference(tmp_path_factory) -> None:
         directory = tmp_path_factory.mktemp("diff") / "diff"
         write_system(directory, files)
         with Harness.build(directory) as h:
-            runs["commands"] += drive(h, files, random.Random(seed))
+            given, planned = drive(h, files, random.Random(seed))
+        runs["commands"] += given
+        runs["planned"] += planned
         runs["examples"] += 1
         runs["cycles"] += CYCLES
 
     one()
     assert runs["examples"] >= EXAMPLES
+    assert runs["planned"] > 0 or EXAMPLES < 10, "no system stepped through a plan"
     print(
         f"\ndifferential: {runs['examples']} systems, {runs['cycles']} cycles, "
-        f"{runs['commands']} commands, 0 differences"
+        f"{runs['commands']} commands, {runs['planned']} cycles with a plan, 0 differences"
     )

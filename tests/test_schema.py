@@ -316,7 +316,10 @@ def test_s006_action_with_two_forms_points_at_the_second():
 
 def test_s006_unknown_action_and_missing_colon():
     d = only(action("{sned: cr.GO}"), "S006")
-    assert d.message == "malformed action: no `send`, `set`, `report` or `call` (found `sned`)"
+    assert d.message == (
+        "malformed action: no `send`, `set`, `report`, `call`, `plan`, `replan` or `advance` "
+        "(found `sned`)"
+    )
     assert (d.span, d.hint) == (Span("x.yaml", 9, 16), "did you mean `send`?")
     d = only(action("report DONE"), "S006")
     assert d.message == "malformed action: expected a mapping, got a string `report DONE`"

@@ -291,8 +291,8 @@ def test_ice_assessment_blocks_the_course_and_recommends_a_clear_heading(hooks):
     keels = [(0.0, 500.0, 100.0)]
     ranges = sim.ping(keels, 0.0, 0.0, 0.0)[:14]
     seen, avoid = helm.assess_ice(0.0, 0.0, *ranges)
-    assert seen == 1
     assert 10.0 <= avoid <= 60.0, "starboard first, just clear of the keel"
+    assert seen == (1 if avoid <= helm.PASSAGE_LIMIT else 2), "2: no passage near the course"
     h = math.radians(avoid)
     assert abs(sim.ping(keels, 0.0, 0.0, avoid)[14] - 400.0) < 1e-6
     # along the recommended heading, the keel's centre is wider than the corridor + radius
@@ -308,10 +308,62 @@ def test_course_and_waypoints(hooks):
     assert helm.course_to(0.0, -100.0, 0.0, 0.0) == 180.0
     assert helm.course_to(-100.0, 100.0, 0.0, 0.0) == 315.0
     assert sim.advance(0.0, 0.0, 90.0, 10.0) == (10.0, 0.0)
-    plan = [(1.0, 2.0)]
-    assert mission.waypoint(plan, 0) == (1.0, 2.0, True)
-    assert mission.waypoint(plan, 1) == (0.0, 0.0, False)
-    assert mission.waypoint(plan, -1) == (0.0, 0.0, False)
+    plan = mission.Mission([(1.0, 2.0), (3.0, 4.0), (5.0, 6.0)], {(3.0, 4.0): (-3.0, 4.0)})
+    assert mission.plan_route(plan, 0, 0) == [(1.0, 2.0), (3.0, 4.0), (5.0, 6.0)], "the route"
+    # blocked at step 1: the rest of the plan, the blocked waypoint replaced by its alternate
+    assert mission.plan_route(plan, 1, 3) == [(-3.0, 4.0), (5.0, 6.0)]
+    # blocked again at the alternate, which has none: the same waypoint is tried again
+    assert mission.plan_route(plan, 0, 2) == [(-3.0, 4.0), (5.0, 6.0)]
+
+
+# ---- a leg blocked by ice: the plan
+
+
+def plan_of(line: dict) -> dict:
+    return line["modules"]["cc"]["plans"]["route"]
+
+
+def test_a_blocked_leg_is_replanned_by_its_alternate_and_the_mission_completes():
+    """ice_replan: Helm finds no passage towards the second waypoint (a ridge of keels across
+    the path), reports BLOCKED; SM passes the reason up; cc replans once (one replan of the
+    declared two used), makes for the alternate waypoint instead, and finishes DONE."""
+    final, lines = played("ice_replan")
+    assert final["status"] == "DONE"
+    helm_errors = [ln for ln in lines if ln["modules"]["helm"]["rule"] == "ICE_MANEUVER/S2/4"]
+    assert len(helm_errors) == 1, "Helm reports BLOCKED once"
+    blocked = helm_errors[0]["cycle"]
+    assert at(lines, blocked + 1)["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/3"
+    replanned = at(lines, blocked + 2)
+    assert replanned["modules"]["cc"]["rule"] == "RUN_MISSION/TRANSIT/3"
+    before = plan_of(at(lines, blocked + 1))
+    assert before == {"replans_left": 2, "step": 1, "steps": 3}, "blocked on the second leg"
+    assert plan_of(replanned) == {"replans_left": 1, "step": 0, "steps": 2}
+    # the rest of the run follows the new plan: the alternate, then the last waypoint
+    waypoints = route("ridge.route")
+    alternate = (-1600.0, 6800.0)  # ridge.route: the second waypoint's alternate
+    sent = [
+        ln for ln in lines[blocked + 1 :] if ln["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S0/1"
+    ]
+    assert len(sent) == 2
+    done = [ln for ln in lines if ln["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/2"]
+    for line, (x, y) in zip(done, [waypoints[0], alternate, waypoints[2]], strict=True):
+        assert abs(line["world"]["pos_x"] - x) < HAVEN and abs(line["world"]["pos_y"] - y) < HAVEN
+    assert plan_of(lines[-1]) == {"replans_left": 1, "step": 2, "steps": 2}, "done"
+    assert min(ln["world"]["min_clearance"] for ln in lines) >= 100.0
+
+
+def test_a_blocked_leg_fails_the_mission_once_no_replans_are_left():
+    """ice_no_way: the same ridge with no alternate in the route; each replan tries the
+    blocked waypoint again; after the two declared replans cc reports ERROR, BLOCKED."""
+    final, lines = played("ice_no_way")
+    assert final["status"] == "ERROR"
+    cc = [ln["modules"]["cc"]["rule"] for ln in lines]
+    replans = [i for i, rule in enumerate(cc) if rule == "RUN_MISSION/TRANSIT/3"]
+    assert [plan_of(lines[i])["replans_left"] for i in replans] == [1, 0], "both replans used"
+    assert all(plan_of(lines[i])["steps"] == 2 for i in replans), "the same waypoint again"
+    assert cc[-1] == "RUN_MISSION/TRANSIT/4", "then blocked with no replans left: ERROR"
+    assert lines[-2]["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/3", "SM: BLOCKED"
+    assert min(ln["world"]["min_clearance"] for ln in lines) >= 100.0
 
 
 # ---- a rudder casualty
@@ -342,8 +394,10 @@ def test_a_malformed_route_or_keel_line_is_named_with_its_line(hooks, tmp_path):
     route.write_text("# a comment\n10 20  # first\n\n30 forty\n", encoding="utf-8")
     with pytest.raises(ValueError, match=r"r\.route:4: expected `X Y` \(numbers\), got '30 forty'"):
         mission.load_route(route)
-    route.write_text("10 20  # first\n30 40\n", encoding="utf-8")
-    assert mission.load_route(route) == [(10.0, 20.0), (30.0, 40.0)]
+    route.write_text("10 20  # first\n30 40 -30 40\n", encoding="utf-8")
+    loaded = mission.load_route(route)
+    assert loaded.route == [(10.0, 20.0), (30.0, 40.0)]
+    assert loaded.alternates == {(30.0, 40.0): (-30.0, 40.0)}
     keels = tmp_path / "k.keels"
     keels.write_text("1 2 3\n1 2\n", encoding="utf-8")
     with pytest.raises(ValueError, match=r"k\.keels:2: expected `X Y RADIUS`"):

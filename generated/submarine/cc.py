@@ -8,6 +8,7 @@ import submarine_hooks.mission as hooks
 
 from .layout import (
     CC_PERF_AT,
+    CC_STATUS,
     CC_STATUS_AT,
     EC_COMMAND,
     EC_COMMAND_AT,
@@ -20,13 +21,11 @@ from .rcs.contract import (
     EXECUTING,
     NO_RULE,
     NOP,
-    NUMBER,
     PERF,
     READ_TRIES,
     SEQ,
-    STATUS,
     HookError,
-    is_real,
+    plan_problem,
 )
 
 # Commands cc accepts (the code written to its command buffer).
@@ -34,11 +33,20 @@ INIT = 1
 HALT = 2
 RUN_MISSION = 3
 
+# Why cc may end a command in ERROR (the error_num it reports).
+REASON_NONE = 0
+REASON_LOST = 1
+REASON_BLOCKED = 2
+
 # Commands cc sends to sm.
 SM_INIT = 1
 SM_HALT = 2
 SM_SUBMERGED_TRANSIT = 3
 SM_PREP_EMERGENCY_VENT = 4
+# Why sm may end a command in ERROR (its error_num).
+SM_REASON_NONE = 0
+SM_REASON_LOST = 1
+SM_REASON_BLOCKED = 2
 
 # Commands cc sends to ec.
 EC_INIT = 1
@@ -48,7 +56,7 @@ EC_EMERGENCY_VENT = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI96xQI108xQI1284xd")
+INPUTS = Struct("<QQI68x???1xI96xQII104xQI1284xd")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -91,6 +99,13 @@ class CcController:
         "min_cycle_ns",
         "perf_seq",
         "perf_single_step_num",
+        "plan_route",
+        "plan_route_done",
+        "plan_route_replans_left",
+        "plan_route_step",
+        "plan_route_steps",
+        "plan_route_x",
+        "plan_route_y",
         "rule",
         "simulate",
         "single_step",
@@ -99,6 +114,7 @@ class CcController:
         "sm_arg_y",
         "sm_command",
         "sm_command_num",
+        "sm_error_num",
         "sm_status",
         "sm_status_num",
         "sm_written",
@@ -108,10 +124,6 @@ class CcController:
         "status_dirty",
         "status_num",
         "status_seq",
-        "var_leg",
-        "var_more",
-        "var_wp_x",
-        "var_wp_y",
         "world_co_ppm",
     )
 
@@ -122,20 +134,27 @@ class CcController:
             self.hook_state = hooks.new_mission(settings or {})
         except Exception as error:
             raise HookError("cc", "new_mission", "hooks_state", 0) from error
-        self.var_leg: int = 0
-        self.var_wp_x: float = 0.0
-        self.var_wp_y: float = 0.0
-        self.var_more: bool = False
         self.resume()
+        self.plan_route: list[tuple[float, float]] = []  # plan route: no steps yet
+        self.plan_route_steps = self.plan_route_replans_left = 0
+        self.plan_route_go(0)
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
         its command-number handshake, and its sequence words go on from the block's."""
         buf = self.buf
-        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
-            STATUS.unpack_from(buf, CC_STATUS_AT)
-        )
+        (
+            self.status_seq,
+            self.status_num,
+            self.status,
+            self.error_num,
+            self.state,
+            self.rule,
+            self.plan_route_step,
+            self.plan_route_steps,
+            self.plan_route_replans_left,
+        ) = CC_STATUS.unpack_from(buf, CC_STATUS_AT)
         (
             self.perf_seq,
             self.last_cycle_ns,
@@ -188,6 +207,7 @@ class CcController:
                     self.single_step_num,
                     self.sm_status_num,
                     self.sm_status,
+                    self.sm_error_num,
                     self.ec_status_num,
                     self.ec_status,
                     self.world_co_ppm,
@@ -197,6 +217,9 @@ class CcController:
             self.stale_reads += 1
         if self.sm_status_num != self.sm_command_num:
             self.sm_status = EXECUTING  # until it echoes the last number sent
+            self.sm_error_num = SM_REASON_NONE  # no reason yet
+        elif self.sm_status != ERROR:
+            self.sm_error_num = SM_REASON_NONE  # a reason comes only with ERROR
         if self.ec_status_num != self.ec_command_num:
             self.ec_status = EXECUTING  # until it echoes the last number sent
 
@@ -206,6 +229,7 @@ class CcController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
 
         # decision_process
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -229,7 +253,7 @@ class CcController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, CC_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            CC_STATUS.pack_into(
                 buf,
                 CC_STATUS_AT,
                 seq,
@@ -238,6 +262,9 @@ class CcController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.plan_route_step,
+                self.plan_route_steps,
+                self.plan_route_replans_left,
             )
             SEQ.pack_into(buf, CC_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -311,6 +338,7 @@ class CcController:
                     self.single_step_num,
                     self.sm_status_num,
                     self.sm_status,
+                    self.sm_error_num,
                     self.ec_status_num,
                     self.ec_status,
                     self.world_co_ppm,
@@ -320,6 +348,9 @@ class CcController:
             self.stale_reads += 1
         if self.sm_status_num != self.sm_command_num:
             self.sm_status = EXECUTING  # until it echoes the last number sent
+            self.sm_error_num = SM_REASON_NONE  # no reason yet
+        elif self.sm_status != ERROR:
+            self.sm_error_num = SM_REASON_NONE  # a reason comes only with ERROR
         if self.ec_status_num != self.ec_command_num:
             self.ec_status = EXECUTING  # until it echoes the last number sent
 
@@ -330,6 +361,7 @@ class CcController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
@@ -357,7 +389,7 @@ class CcController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, CC_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            CC_STATUS.pack_into(
                 buf,
                 CC_STATUS_AT,
                 seq,
@@ -366,6 +398,9 @@ class CcController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.plan_route_step,
+                self.plan_route_steps,
+                self.plan_route_replans_left,
             )
             SEQ.pack_into(buf, CC_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -421,6 +456,24 @@ class CcController:
         SEQ.pack_into(buf, CC_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
+    def plan_route_load(self, steps: object, rule: str) -> None:
+        """Plan route: the planner's steps (x, y), at most 16, checked; step 0 is current."""
+        problem = plan_problem(steps, "ff", 16)
+        if problem:
+            raise HookError("cc", "plan_route", rule, self.cycles, steps, why=problem)
+        self.plan_route = list(steps)  # a list of checked tuples
+        self.plan_route_steps = len(self.plan_route)
+        self.plan_route_go(0)
+
+    def plan_route_go(self, step: int) -> None:
+        """Plan route: make step `step` the current one (past the last: done, fields 0)."""
+        self.plan_route_step = min(step, self.plan_route_steps)
+        self.plan_route_done = self.plan_route_step >= self.plan_route_steps
+        if self.plan_route_done:
+            self.plan_route_x, self.plan_route_y = 0.0, 0.0
+        else:
+            self.plan_route_x, self.plan_route_y = self.plan_route[self.plan_route_step]
+
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
@@ -464,37 +517,32 @@ class CcController:
         """
         state = self.state
         if state == S0:
-            # new command; obtain the first waypoint
+            # new command; plan the route
             self.rule = 5  # RUN_MISSION/S0/1
             self.state = S1
-            self.var_leg = 0
+            self.plan_route_replans_left = 2  # plan: route, from no steps
+            self.plan_route_load([], "RUN_MISSION/S0/1")
             try:
-                returned = hooks.waypoint(self.hook_state, self.var_leg)
-            except Exception as error:  # one error naming the module, hook, rule and cycle
-                raise HookError("cc", "waypoint", "RUN_MISSION/S0/1", self.cycles) from error
-            if (
-                type(returned) is not tuple
-                or len(returned) != 3
-                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                or type(returned[2]) is not bool
-            ):
-                raise HookError("cc", "waypoint", "RUN_MISSION/S0/1", self.cycles, returned, "ffb")
-            self.var_wp_x, self.var_wp_y, self.var_more = returned
+                returned = hooks.plan_route(
+                    self.hook_state, self.plan_route_step, self.plan_route_steps
+                )
+            except Exception as error:  # one error naming the module, planner, rule and cycle
+                raise HookError("cc", "plan_route", "RUN_MISSION/S0/1", self.cycles) from error
+            self.plan_route_load(returned, "RUN_MISSION/S0/1")
 
         elif state == S1:
-            if self.var_more:
+            if not self.plan_route_done:
                 # (S1) a waypoint; SM submerged transit, EC submerged vent
                 self.rule = 6  # RUN_MISSION/S1/1
                 self.state = TRANSIT
-                self.sm_arg_x = self.var_wp_x
-                self.sm_arg_y = self.var_wp_y
+                self.sm_arg_x = self.plan_route_x
+                self.sm_arg_y = self.plan_route_y
                 self.sm_command = SM_SUBMERGED_TRANSIT
                 self.sm_command_num += 1
                 self.ec_command = EC_SUBMERGED_VENT
                 self.ec_command_num += 1
 
-            elif not self.var_more:
+            elif self.plan_route_done:
                 # no more waypoints; the mission is done
                 self.rule = 7  # RUN_MISSION/S1/2
                 self.state = NOP
@@ -509,59 +557,76 @@ class CcController:
                 self.sm_command_num += 1
 
             elif self.sm_status == DONE and self.ec_status == DONE:
-                # SM done and EC done; obtain the next waypoint
+                # SM done and EC done; on to the next waypoint
                 self.rule = 9  # RUN_MISSION/TRANSIT/2
                 self.state = S1
-                self.var_leg = self.var_leg + 1
-                try:
-                    returned = hooks.waypoint(self.hook_state, self.var_leg)
-                except Exception as error:  # one error naming the module, hook, rule and cycle
+                self.plan_route_go(self.plan_route_step + 1)  # advance: route
+
+            elif (
+                self.sm_status == ERROR
+                and self.sm_error_num == SM_REASON_BLOCKED
+                and self.plan_route_replans_left > 0
+            ):
+                # ice blocks the leg; plan again around it, while replans are left
+                self.rule = 10  # RUN_MISSION/TRANSIT/3
+                self.state = S1
+                if not self.plan_route_replans_left:  # replan: route, counted
                     raise HookError(
-                        "cc", "waypoint", "RUN_MISSION/TRANSIT/2", self.cycles
-                    ) from error
-                if (
-                    type(returned) is not tuple
-                    or len(returned) != 3
-                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                    or type(returned[2]) is not bool
-                ):
-                    raise HookError(
-                        "cc", "waypoint", "RUN_MISSION/TRANSIT/2", self.cycles, returned, "ffb"
+                        "cc",
+                        "plan_route",
+                        "RUN_MISSION/TRANSIT/3",
+                        self.cycles,
+                        why="was not called: plan `route` has no replans left (2 declared)",
                     )
-                self.var_wp_x, self.var_wp_y, self.var_more = returned
+                self.plan_route_replans_left -= 1
+                try:
+                    returned = hooks.plan_route(
+                        self.hook_state, self.plan_route_step, self.plan_route_steps
+                    )
+                except Exception as error:  # one error naming the module, planner, rule and cycle
+                    raise HookError(
+                        "cc", "plan_route", "RUN_MISSION/TRANSIT/3", self.cycles
+                    ) from error
+                self.plan_route_load(returned, "RUN_MISSION/TRANSIT/3")
+
+            elif self.sm_status == ERROR and self.sm_error_num == SM_REASON_BLOCKED:
+                # blocked, and no replans left
+                self.rule = 11  # RUN_MISSION/TRANSIT/4
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_BLOCKED
 
             elif self.sm_status == ERROR or self.ec_status == ERROR:
-                self.rule = 10  # RUN_MISSION/TRANSIT/3
+                self.rule = 12  # RUN_MISSION/TRANSIT/5
                 self.state = NOP
                 self.status = ERROR
 
         elif state == PREP_VENT:
             if self.sm_status == DONE:
                 # (S3) SM done; EC emergency vent
-                self.rule = 11  # RUN_MISSION/PREP_VENT/1
+                self.rule = 13  # RUN_MISSION/PREP_VENT/1
                 self.state = VENT
                 self.ec_command = EC_EMERGENCY_VENT
                 self.ec_command_num += 1
 
             elif self.sm_status == ERROR:
-                self.rule = 12  # RUN_MISSION/PREP_VENT/2
+                self.rule = 14  # RUN_MISSION/PREP_VENT/2
                 self.state = NOP
                 self.status = ERROR
 
         elif state == VENT:
             if self.ec_status == DONE:
                 # (S4) fire out, smoke and gas normal; resume the transit to the same waypoint
-                self.rule = 13  # RUN_MISSION/VENT/1
+                self.rule = 15  # RUN_MISSION/VENT/1
                 self.state = TRANSIT
-                self.sm_arg_x = self.var_wp_x
-                self.sm_arg_y = self.var_wp_y
+                self.sm_arg_x = self.plan_route_x
+                self.sm_arg_y = self.plan_route_y
                 self.sm_command = SM_SUBMERGED_TRANSIT
                 self.sm_command_num += 1
                 self.ec_command = EC_SUBMERGED_VENT
                 self.ec_command_num += 1
 
             elif self.ec_status == ERROR:
-                self.rule = 14  # RUN_MISSION/VENT/2
+                self.rule = 16  # RUN_MISSION/VENT/2
                 self.state = NOP
                 self.status = ERROR

@@ -35,6 +35,11 @@ INIT = 1
 HALT = 2
 ICE_MANEUVER = 3
 
+# Why helm may end a command in ERROR (the error_num it reports).
+REASON_NONE = 0
+REASON_LOST = 1
+REASON_BLOCKED = 2
+
 # Commands helm sends to rudder.
 RUDDER_INIT = 1
 RUDDER_HALT = 2
@@ -43,14 +48,14 @@ RUDDER_GOTO_ANGLE = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd52x???1xI88xQI596xd24xd8xd8xd72xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
-INPUTS_AT = 568
+INPUTS_AT = 592
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 1344
+WORLD_OUT_1_AT = 1368
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -88,6 +93,7 @@ class HelmController:
         "dont_run",
         "error_num",
         "held_ice_maneuver_s1_1",
+        "held_ice_maneuver_s2_4",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -142,6 +148,7 @@ class HelmController:
         self.var_sent_angle: float = 0.0
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.held_ice_maneuver_s1_1 = 0  # cycles its rule's `when` has held in a row (for:)
+        self.held_ice_maneuver_s2_4 = 0  # cycles its rule's `when` has held in a row (for:)
         self.resume()
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
@@ -231,9 +238,11 @@ class HelmController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
             self.result_at_goal = False  # no result yet
             self.ticks = 0  # a new command: its time in S0 starts
             self.held_ice_maneuver_s1_1 = 0
+            self.held_ice_maneuver_s2_4 = 0
 
         # decision_process
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -363,9 +372,11 @@ class HelmController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
             self.result_at_goal = False  # no result yet
             self.ticks = 0  # a new command: its time in S0 starts
             self.held_ice_maneuver_s1_1 = 0
+            self.held_ice_maneuver_s2_4 = 0
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
@@ -598,6 +609,9 @@ class HelmController:
                 self.status = ERROR
 
         elif state == S2:
+            self.held_ice_maneuver_s2_4 = (
+                self.held_ice_maneuver_s2_4 + 1 if self.var_ice_seen == 2 else 0
+            )
             if self.rudder_status == ERROR:
                 self.rule = 11  # ICE_MANEUVER/S2/1
                 self.state = NOP
@@ -629,8 +643,16 @@ class HelmController:
                 self.rudder_command_num += 1
                 self.var_sent_angle = avoid_order
 
+            elif self.held_ice_maneuver_s2_4 > 3:  # for: 3 s = 3 cycles
+                # no clear heading towards the goal for the blocking time; the leg is blocked
+                self.rule = 14  # ICE_MANEUVER/S2/4
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_BLOCKED
+
         if self.state != state:  # a new state, or the command ended: time starts again
             self.ticks = 0
             self.held_ice_maneuver_s1_1 = 0
+            self.held_ice_maneuver_s2_4 = 0
         else:
             self.ticks += 1

@@ -8,7 +8,7 @@ buffer (written by its supervisor), a status buffer and a performance buffer (wr
 the module) and a mode buffer (written by an operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 1776 bytes.
+The block is 1800 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -19,70 +19,70 @@ command buffers and world fields:
 | 80 | 88 | PROCESS_SHIP | PROCESS_FIELDS |
 | 168 | 16 | PACE_SHIP | PACE_FIELDS |
 | 184 | 20 | CC_COMMAND | command_num, command |
-| 208 | 32 | CC_STATUS | STATUS_FIELDS |
-| 240 | 16 | CC_MODE | MODE_FIELDS |
-| 256 | 48 | CC_PERF | PERF_FIELDS |
-| 304 | 36 | SM_COMMAND | command_num, command, arg_x, arg_y |
-| 344 | 32 | SM_STATUS | STATUS_FIELDS |
-| 376 | 16 | SM_MODE | MODE_FIELDS |
-| 392 | 48 | SM_PERF | PERF_FIELDS |
-| 440 | 20 | EC_COMMAND | command_num, command |
-| 464 | 32 | EC_STATUS | STATUS_FIELDS |
-| 496 | 16 | EC_MODE | MODE_FIELDS |
-| 512 | 48 | EC_PERF | PERF_FIELDS |
-| 560 | 36 | HELM_COMMAND | command_num, command, arg_x, arg_y |
-| 600 | 33 | HELM_STATUS | STATUS_FIELDS |
-| 640 | 16 | HELM_MODE | MODE_FIELDS |
-| 656 | 48 | HELM_PERF | PERF_FIELDS |
-| 704 | 28 | RUDDER_COMMAND | command_num, command, arg_angle |
-| 736 | 32 | RUDDER_STATUS | STATUS_FIELDS |
-| 768 | 16 | RUDDER_MODE | MODE_FIELDS |
-| 784 | 48 | RUDDER_PERF | PERF_FIELDS |
-| 832 | 20 | RUDDER_SIM_COMMAND | command_num, command |
-| 856 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
-| 888 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
-| 904 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
-| 952 | 20 | SHIP_COMMAND | command_num, command |
-| 976 | 32 | SHIP_STATUS | STATUS_FIELDS |
-| 1008 | 16 | SHIP_MODE | MODE_FIELDS |
-| 1024 | 48 | SHIP_PERF | PERF_FIELDS |
-| 1072 | 20 | SONAR_COMMAND | command_num, command |
-| 1096 | 32 | SONAR_STATUS | STATUS_FIELDS |
-| 1128 | 16 | SONAR_MODE | MODE_FIELDS |
-| 1144 | 48 | SONAR_PERF | PERF_FIELDS |
-| 1192 | 20 | ATMOSPHERE_COMMAND | command_num, command |
-| 1216 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
-| 1248 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
-| 1264 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
-| 1312 | 16 | WORLD_SPEED_CMD | speed_cmd |
-| 1328 | 16 | WORLD_DEPTH_CMD | depth_cmd |
-| 1344 | 16 | WORLD_COURSE | course |
-| 1360 | 16 | WORLD_VENT_FLOW | vent_flow |
-| 1376 | 16 | WORLD_POS_X | pos_x |
-| 1392 | 16 | WORLD_POS_Y | pos_y |
-| 1408 | 16 | WORLD_HEADING | heading |
-| 1424 | 16 | WORLD_SPEED | speed |
-| 1440 | 16 | WORLD_DEPTH | depth |
-| 1456 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 1472 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 1488 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 1504 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 1520 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 1536 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 1552 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 1568 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 1584 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 1600 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 1616 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 1632 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 1648 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 1664 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 1680 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 1696 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 1712 | 16 | WORLD_CLEARANCE | clearance |
-| 1728 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 1744 | 9 | WORLD_FIRE | fire |
-| 1760 | 16 | WORLD_CO_PPM | co_ppm |
+| 208 | 56 | CC_STATUS | STATUS_FIELDS |
+| 264 | 16 | CC_MODE | MODE_FIELDS |
+| 280 | 48 | CC_PERF | PERF_FIELDS |
+| 328 | 36 | SM_COMMAND | command_num, command, arg_x, arg_y |
+| 368 | 32 | SM_STATUS | STATUS_FIELDS |
+| 400 | 16 | SM_MODE | MODE_FIELDS |
+| 416 | 48 | SM_PERF | PERF_FIELDS |
+| 464 | 20 | EC_COMMAND | command_num, command |
+| 488 | 32 | EC_STATUS | STATUS_FIELDS |
+| 520 | 16 | EC_MODE | MODE_FIELDS |
+| 536 | 48 | EC_PERF | PERF_FIELDS |
+| 584 | 36 | HELM_COMMAND | command_num, command, arg_x, arg_y |
+| 624 | 33 | HELM_STATUS | STATUS_FIELDS |
+| 664 | 16 | HELM_MODE | MODE_FIELDS |
+| 680 | 48 | HELM_PERF | PERF_FIELDS |
+| 728 | 28 | RUDDER_COMMAND | command_num, command, arg_angle |
+| 760 | 32 | RUDDER_STATUS | STATUS_FIELDS |
+| 792 | 16 | RUDDER_MODE | MODE_FIELDS |
+| 808 | 48 | RUDDER_PERF | PERF_FIELDS |
+| 856 | 20 | RUDDER_SIM_COMMAND | command_num, command |
+| 880 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
+| 912 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
+| 928 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
+| 976 | 20 | SHIP_COMMAND | command_num, command |
+| 1000 | 32 | SHIP_STATUS | STATUS_FIELDS |
+| 1032 | 16 | SHIP_MODE | MODE_FIELDS |
+| 1048 | 48 | SHIP_PERF | PERF_FIELDS |
+| 1096 | 20 | SONAR_COMMAND | command_num, command |
+| 1120 | 32 | SONAR_STATUS | STATUS_FIELDS |
+| 1152 | 16 | SONAR_MODE | MODE_FIELDS |
+| 1168 | 48 | SONAR_PERF | PERF_FIELDS |
+| 1216 | 20 | ATMOSPHERE_COMMAND | command_num, command |
+| 1240 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
+| 1272 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
+| 1288 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
+| 1336 | 16 | WORLD_SPEED_CMD | speed_cmd |
+| 1352 | 16 | WORLD_DEPTH_CMD | depth_cmd |
+| 1368 | 16 | WORLD_COURSE | course |
+| 1384 | 16 | WORLD_VENT_FLOW | vent_flow |
+| 1400 | 16 | WORLD_POS_X | pos_x |
+| 1416 | 16 | WORLD_POS_Y | pos_y |
+| 1432 | 16 | WORLD_HEADING | heading |
+| 1448 | 16 | WORLD_SPEED | speed |
+| 1464 | 16 | WORLD_DEPTH | depth |
+| 1480 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 1496 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 1512 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 1528 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 1544 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 1560 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 1576 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 1592 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 1608 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 1624 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 1640 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 1656 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 1672 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 1688 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 1704 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 1720 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 1736 | 16 | WORLD_CLEARANCE | clearance |
+| 1752 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 1768 | 9 | WORLD_FIRE | fire |
+| 1784 | 16 | WORLD_CO_PPM | co_ppm |
 """
 
 from __future__ import annotations
@@ -111,135 +111,138 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 1776
+SIZE = 1800
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "fa6a3a1a0f9f8f14f705b522e193649e"
+LAYOUT_HASH = "5f7fca7cae901c88c90a77d0e68636dc"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 168
 
 # cc: Command controller
 CC_COMMAND = Struct("<QQI")  # seq, command_num, command
 CC_COMMAND_AT = 184
+CC_STATUS = Struct(
+    "<QQIIiiqqq"
+)  # seq, status_num, status, error_num, state, rule, plan_route_step, plan_route_steps, plan_route_replans_left
 CC_STATUS_AT = 208
-CC_MODE_AT = 240
-CC_PERF_AT = 256
+CC_MODE_AT = 264
+CC_PERF_AT = 280
 
 # sm: Ship maneuver
 SM_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-SM_COMMAND_AT = 304
-SM_STATUS_AT = 344
-SM_MODE_AT = 376
-SM_PERF_AT = 392
+SM_COMMAND_AT = 328
+SM_STATUS_AT = 368
+SM_MODE_AT = 400
+SM_PERF_AT = 416
 
 # ec: Engineering system controller
 EC_COMMAND = Struct("<QQI")  # seq, command_num, command
-EC_COMMAND_AT = 440
-EC_STATUS_AT = 464
-EC_MODE_AT = 496
-EC_PERF_AT = 512
+EC_COMMAND_AT = 464
+EC_STATUS_AT = 488
+EC_MODE_AT = 520
+EC_PERF_AT = 536
 
 # helm: Helm
 HELM_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-HELM_COMMAND_AT = 560
+HELM_COMMAND_AT = 584
 HELM_STATUS = Struct("<QQIIii?")  # seq, status_num, status, error_num, state, rule, result_at_goal
-HELM_STATUS_AT = 600
-HELM_MODE_AT = 640
-HELM_PERF_AT = 656
+HELM_STATUS_AT = 624
+HELM_MODE_AT = 664
+HELM_PERF_AT = 680
 
 # rudder: Rudder
 RUDDER_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_angle
-RUDDER_COMMAND_AT = 704
-RUDDER_STATUS_AT = 736
-RUDDER_MODE_AT = 768
-RUDDER_PERF_AT = 784
+RUDDER_COMMAND_AT = 728
+RUDDER_STATUS_AT = 760
+RUDDER_MODE_AT = 792
+RUDDER_PERF_AT = 808
 
 # rudder_sim: Rudder (simulated)
 RUDDER_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-RUDDER_SIM_COMMAND_AT = 832
-RUDDER_SIM_STATUS_AT = 856
-RUDDER_SIM_MODE_AT = 888
-RUDDER_SIM_PERF_AT = 904
+RUDDER_SIM_COMMAND_AT = 856
+RUDDER_SIM_STATUS_AT = 880
+RUDDER_SIM_MODE_AT = 912
+RUDDER_SIM_PERF_AT = 928
 
 # ship: Ship dynamics (simulated)
 SHIP_COMMAND = Struct("<QQI")  # seq, command_num, command
-SHIP_COMMAND_AT = 952
-SHIP_STATUS_AT = 976
-SHIP_MODE_AT = 1008
-SHIP_PERF_AT = 1024
+SHIP_COMMAND_AT = 976
+SHIP_STATUS_AT = 1000
+SHIP_MODE_AT = 1032
+SHIP_PERF_AT = 1048
 
 # sonar: Sonar and ice (simulated)
 SONAR_COMMAND = Struct("<QQI")  # seq, command_num, command
-SONAR_COMMAND_AT = 1072
-SONAR_STATUS_AT = 1096
-SONAR_MODE_AT = 1128
-SONAR_PERF_AT = 1144
+SONAR_COMMAND_AT = 1096
+SONAR_STATUS_AT = 1120
+SONAR_MODE_AT = 1152
+SONAR_PERF_AT = 1168
 
 # atmosphere: Engine-room atmosphere and fire (simulated)
 ATMOSPHERE_COMMAND = Struct("<QQI")  # seq, command_num, command
-ATMOSPHERE_COMMAND_AT = 1192
-ATMOSPHERE_STATUS_AT = 1216
-ATMOSPHERE_MODE_AT = 1248
-ATMOSPHERE_PERF_AT = 1264
+ATMOSPHERE_COMMAND_AT = 1216
+ATMOSPHERE_STATUS_AT = 1240
+ATMOSPHERE_MODE_AT = 1272
+ATMOSPHERE_PERF_AT = 1288
 
 # World model.
 WORLD_SPEED_CMD = Struct("<Qd")  # seq, speed_cmd
-WORLD_SPEED_CMD_AT = 1312
+WORLD_SPEED_CMD_AT = 1336
 WORLD_DEPTH_CMD = Struct("<Qd")  # seq, depth_cmd
-WORLD_DEPTH_CMD_AT = 1328
+WORLD_DEPTH_CMD_AT = 1352
 WORLD_COURSE = Struct("<Qd")  # seq, course
-WORLD_COURSE_AT = 1344
+WORLD_COURSE_AT = 1368
 WORLD_VENT_FLOW = Struct("<Qd")  # seq, vent_flow
-WORLD_VENT_FLOW_AT = 1360
+WORLD_VENT_FLOW_AT = 1384
 WORLD_POS_X = Struct("<Qd")  # seq, pos_x
-WORLD_POS_X_AT = 1376
+WORLD_POS_X_AT = 1400
 WORLD_POS_Y = Struct("<Qd")  # seq, pos_y
-WORLD_POS_Y_AT = 1392
+WORLD_POS_Y_AT = 1416
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 1408
+WORLD_HEADING_AT = 1432
 WORLD_SPEED = Struct("<Qd")  # seq, speed
-WORLD_SPEED_AT = 1424
+WORLD_SPEED_AT = 1448
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
-WORLD_DEPTH_AT = 1440
+WORLD_DEPTH_AT = 1464
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 1456
+WORLD_RUDDER_ANGLE_AT = 1480
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 1472
+WORLD_RUDDER_JAMMED_AT = 1496
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 1488
+WORLD_SONAR_00_AT = 1512
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 1504
+WORLD_SONAR_01_AT = 1528
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 1520
+WORLD_SONAR_02_AT = 1544
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 1536
+WORLD_SONAR_03_AT = 1560
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 1552
+WORLD_SONAR_04_AT = 1576
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 1568
+WORLD_SONAR_05_AT = 1592
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 1584
+WORLD_SONAR_06_AT = 1608
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 1600
+WORLD_SONAR_07_AT = 1624
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 1616
+WORLD_SONAR_08_AT = 1640
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 1632
+WORLD_SONAR_09_AT = 1656
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 1648
+WORLD_SONAR_10_AT = 1672
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 1664
+WORLD_SONAR_11_AT = 1688
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 1680
+WORLD_SONAR_12_AT = 1704
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 1696
+WORLD_SONAR_13_AT = 1720
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 1712
+WORLD_CLEARANCE_AT = 1736
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 1728
+WORLD_MIN_CLEARANCE_AT = 1752
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 1744
+WORLD_FIRE_AT = 1768
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 1760
+WORLD_CO_PPM_AT = 1784
 
 
 PROCESSES = {
@@ -290,7 +293,20 @@ COMMAND_IN = {
     "atmosphere": Record(ATMOSPHERE_COMMAND, ATMOSPHERE_COMMAND_AT, ("command_num", "command")),
 }
 STATUS_OUT = {
-    "cc": Record(STATUS, CC_STATUS_AT, field_names(STATUS_FIELDS)),
+    "cc": Record(
+        CC_STATUS,
+        CC_STATUS_AT,
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "plan_route_step",
+            "plan_route_steps",
+            "plan_route_replans_left",
+        ),
+    ),
     "sm": Record(STATUS, SM_STATUS_AT, field_names(STATUS_FIELDS)),
     "ec": Record(STATUS, EC_STATUS_AT, field_names(STATUS_FIELDS)),
     "helm": Record(
@@ -413,7 +429,11 @@ STATE_NAMES = {
 }
 # The reason each code of a status buffer's `error_num` names, indexed by code, for the
 # controllers that declare reasons (docs/semantics.md, "Results and reasons").
-REASON_NAMES: dict[str, tuple[str, ...]] = {}
+REASON_NAMES: dict[str, tuple[str, ...]] = {
+    "cc": ("NONE", "LOST", "BLOCKED"),
+    "sm": ("NONE", "LOST", "BLOCKED"),
+    "helm": ("NONE", "LOST", "BLOCKED"),
+}
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
     "cc": (
@@ -428,6 +448,8 @@ RULES = {
         "RUN_MISSION/TRANSIT/1",
         "RUN_MISSION/TRANSIT/2",
         "RUN_MISSION/TRANSIT/3",
+        "RUN_MISSION/TRANSIT/4",
+        "RUN_MISSION/TRANSIT/5",
         "RUN_MISSION/PREP_VENT/1",
         "RUN_MISSION/PREP_VENT/2",
         "RUN_MISSION/VENT/1",
@@ -442,6 +464,7 @@ RULES = {
         "SUBMERGED_TRANSIT/S0/1",
         "SUBMERGED_TRANSIT/S1/1",
         "SUBMERGED_TRANSIT/S1/2",
+        "SUBMERGED_TRANSIT/S1/3",
         "PREP_EMERGENCY_VENT/S0/1",
         "PREP_EMERGENCY_VENT/S1/1",
     ),
@@ -468,6 +491,7 @@ RULES = {
         "ICE_MANEUVER/S2/1",
         "ICE_MANEUVER/S2/2",
         "ICE_MANEUVER/S2/3",
+        "ICE_MANEUVER/S2/4",
     ),
     "rudder": (
         "",

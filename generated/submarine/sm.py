@@ -20,22 +20,31 @@ HALT = 2
 SUBMERGED_TRANSIT = 3
 PREP_EMERGENCY_VENT = 4
 
+# Why sm may end a command in ERROR (the error_num it reports).
+REASON_NONE = 0
+REASON_LOST = 1
+REASON_BLOCKED = 2
+
 # Commands sm sends to helm.
 HELM_INIT = 1
 HELM_HALT = 2
 HELM_ICE_MANEUVER = 3
+# Why helm may end a command in ERROR (its error_num).
+HELM_REASON_NONE = 0
+HELM_REASON_LOST = 1
+HELM_REASON_BLOCKED = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI216xQI12x?687xd8xd40xd8xd24xd8xd")
-INPUTS_AT = 312
+INPUTS = Struct("<QIdd44x???1xI216xQII8x?687xd8xd40xd8xd24xd8xd")
+INPUTS_AT = 336
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1312
+WORLD_OUT_1_AT = 1336
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -68,6 +77,7 @@ class SmController:
         "helm_arg_y",
         "helm_command",
         "helm_command_num",
+        "helm_error_num",
         "helm_result_at_goal",
         "helm_status",
         "helm_status_num",
@@ -153,6 +163,7 @@ class SmController:
             self.single_step_num,
             self.helm_status_num,
             self.helm_status,
+            self.helm_error_num,
             self.helm_result_at_goal,
             self.world_speed_cmd,
             self.world_depth_cmd,
@@ -164,6 +175,9 @@ class SmController:
         if self.helm_status_num != self.helm_command_num:
             self.helm_status = EXECUTING  # until it echoes the last number sent
             self.helm_result_at_goal = False  # no result yet
+            self.helm_error_num = HELM_REASON_NONE  # no reason yet
+        elif self.helm_status != ERROR:
+            self.helm_error_num = HELM_REASON_NONE  # a reason comes only with ERROR
 
         # check_if_new_command
         if self.command_num != self.status_num:
@@ -171,6 +185,7 @@ class SmController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
 
         # decision_process
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -274,6 +289,7 @@ class SmController:
             self.single_step_num,
             self.helm_status_num,
             self.helm_status,
+            self.helm_error_num,
             self.helm_result_at_goal,
             self.world_speed_cmd,
             self.world_depth_cmd,
@@ -285,6 +301,9 @@ class SmController:
         if self.helm_status_num != self.helm_command_num:
             self.helm_status = EXECUTING  # until it echoes the last number sent
             self.helm_result_at_goal = False  # no result yet
+            self.helm_error_num = HELM_REASON_NONE  # no reason yet
+        elif self.helm_status != ERROR:
+            self.helm_error_num = HELM_REASON_NONE  # a reason comes only with ERROR
 
     def check_if_new_command(self) -> None:
         """A command number that differs from the echoed status number is a new command."""
@@ -293,6 +312,7 @@ class SmController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
 
     def decision_process(self) -> None:
         """Run the current command's state table, unless the mode holds the module."""
@@ -431,7 +451,7 @@ class SmController:
             self.helm_command_num += 1
 
         elif state == S1:
-            if self.helm_status == ERROR:
+            if self.helm_status == ERROR and self.helm_error_num != HELM_REASON_BLOCKED:
                 self.rule = 6  # SUBMERGED_TRANSIT/S1/1
                 self.state = NOP
                 self.status = ERROR
@@ -445,6 +465,13 @@ class SmController:
                 self.state = NOP
                 self.status = DONE
 
+            elif self.helm_status == ERROR and self.helm_error_num == HELM_REASON_BLOCKED:
+                # ice leaves no passage towards the waypoint
+                self.rule = 8  # SUBMERGED_TRANSIT/S1/3
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_BLOCKED
+
     def prep_emergency_vent(self) -> None:
         """PREP_EMERGENCY_VENT: Come to periscope depth at ahead one-third, steady on course
         (Section 4.1.3: slowing and changing depth), keeping the helm's maneuver towards the
@@ -453,7 +480,7 @@ class SmController:
         state = self.state
         if state == S0:
             # slow and come up
-            self.rule = 8  # PREP_EMERGENCY_VENT/S0/1
+            self.rule = 9  # PREP_EMERGENCY_VENT/S0/1
             self.state = S1
             self.world_speed_cmd = ONE_THIRD_SPEED
             self.world_depth_cmd = PERISCOPE_DEPTH
@@ -465,6 +492,6 @@ class SmController:
             and self.helm_result_at_goal
         ):
             # at periscope depth and one-third speed, helm on course
-            self.rule = 9  # PREP_EMERGENCY_VENT/S1/1
+            self.rule = 10  # PREP_EMERGENCY_VENT/S1/1
             self.state = NOP
             self.status = DONE

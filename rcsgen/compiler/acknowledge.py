@@ -25,6 +25,7 @@ ACKNOWLEDGEABLE = {
     "W302": "a rule",
     "W304": "a rule",
     "W306": "a rule",
+    "W309": "a rule",
     "W502": "a rule",
     "W503": "a state",
     "W505": "a rule",

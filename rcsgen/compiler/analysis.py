@@ -56,6 +56,7 @@ from .tables import (
     CheckedController,
     CheckedRule,
     CheckedSystem,
+    PlanAction,
     Send,
     reachable,
 )
@@ -104,6 +105,9 @@ def show_key(key: Key) -> str:
         return f"{sub}.result.{field}"
     if kind in ("opaque", "form"):
         return f"({name})"
+    if kind == "plan" and name.endswith(".remaining"):  # see GuardBuilder.inline
+        plan = name.removesuffix(".remaining")
+        return f"({plan}.steps - {plan}.step)"
     if kind == "time":
         return "cycles_in_state"
     if kind == "held":  # held_<command>_<state>_<rule>: the cycles a `for:` guard held
@@ -154,6 +158,8 @@ class GuardBuilder:
         self.sub_reasons = sub_reasons or {}
         self.functions: dict[str, tuple[tuple[str, ...], expr.Expr]] = {}  # name -> params, body
         self.lets: dict[str, expr.Expr] = {}  # the `let` values of the table being analysed
+        self.plans: dict[str, tuple[int, int]] = {}  # plan -> (capacity, replans)
+        self.bounds: dict[Key, tuple[Fraction, Fraction]] = {}  # bounded plan variables
 
     def inline(self, e: expr.Expr) -> expr.Expr | None:
         """A function call's body with its arguments, a `let` value's tree; else None."""
@@ -164,7 +170,31 @@ class GuardBuilder:
             )
         if isinstance(e, expr.Ref) and e.kind == "let":
             return self.lets[e.name]
+        if isinstance(e, expr.Ref) and e.kind == "plan" and e.name in ("done", "steps"):
+            # A plan's position is two independent variables, the step and the steps after
+            # it (`remaining`, both 0..capacity): `steps` is their sum and `done` is no step
+            # remaining, so no counter-example shows a plan done before its last step, or
+            # past a last step it does not have.
+            step, remaining = (
+                expr.Ref(expr.INT, "plan", n, e.owner) for n in ("step", "remaining")
+            )
+            if e.name == "steps":
+                return expr.Binary(expr.INT, "+", step, remaining)
+            return expr.Compare(expr.BOOL, remaining, ("<=",), (expr.Const(expr.INT, 0),))
         return None
+
+    def within_capacity(self, plan: str) -> Callable[[Valuation], bool | None]:
+        """A plan's step and the steps after it add up to at most its capacity."""
+        capacity = self.plans[plan][0]
+        step: Key = ("plan", f"{plan}.step")
+        remaining: Key = ("plan", f"{plan}.remaining")
+
+        def keeps(val: Valuation) -> bool | None:
+            if step not in val or remaining not in val:
+                return None
+            return bool(val[step] + val[remaining] <= capacity)
+
+        return keeps
 
     def guard(self, tree: expr.Expr) -> Guard:
         guard = Guard(lambda val: True)
@@ -267,6 +297,9 @@ class GuardBuilder:
         elif e.kind == "sub_command":
             key = ("command", e.owner)
             self._atom(g, key, self.sub_commands[e.owner])
+        elif e.kind == "plan":  # a boolean step field of the current step
+            key = ("plan", f"{e.owner}.{e.name}")
+            self._atom(g, key, BOOL_DOMAIN)
         else:  # a boolean or enumeration world field, local or parameter
             key = (e.kind, e.name)
             self._atom(g, key, domain)
@@ -308,6 +341,9 @@ class GuardBuilder:
             kind = expr.FLOAT
             g.forms[key] = norm.coefficients
         g.types.update(types)
+        g.bounds.update({k: b for k, b in self.bounds.items() if k == key})
+        for plan in {name.rsplit(".", 1)[0] for kind, name in types if kind == "plan"}:
+            g.invariants[f"plan {plan}"] = self.within_capacity(plan)
         self._atom(g, key)
         g.numeric.setdefault(key, (kind, set()))[1].add(bound)
         return lambda val: None if (v := val.get(key)) is None else compare(v, bound)
@@ -322,6 +358,14 @@ class GuardBuilder:
         if isinstance(e, expr.Ref):
             if e.kind == "const":
                 return Linear({}, Fraction(self.constants[e.name]))
+            if e.kind == "plan":  # step and steps within 0..capacity, replans_left 0..replans
+                key = ("plan", f"{e.owner}.{e.name}")
+                types[key] = e.type
+                capacity, replans = self.plans[e.owner]
+                high = {"step": capacity, "remaining": capacity, "replans_left": replans}
+                if e.name in high:
+                    self.bounds[key] = (Fraction(0), Fraction(high[e.name]))
+                return Linear({key: Fraction(1)}, Fraction(0))
             if e.kind in _VARIABLES or e.kind == "sub_result":
                 key = ("result", f"{e.owner}.{e.name}") if e.owner else (e.kind, e.name)
                 types[key] = e.type
@@ -379,6 +423,13 @@ def _pairs(e: expr.Compare) -> list[tuple[expr.Expr, str, expr.Expr]]:
 
 
 def _form_text(coefficients: dict[Key, Fraction], keys: list[Key]) -> str:
+    plans = {name.rsplit(".", 1)[0] for kind, name in keys if kind == "plan"}
+    for plan in plans:  # a plan's step + its steps remaining: its steps, as the spec says
+        step, remaining = ("plan", f"{plan}.step"), ("plan", f"{plan}.remaining")
+        if coefficients.get(step) and coefficients.get(step) == coefficients.get(remaining):
+            rest = {k: c for k, c in coefficients.items() if k not in (step, remaining)}
+            steps: Key = ("plan", f"{plan}.steps")
+            return _form_text({steps: coefficients[step], **rest}, [steps, *sorted(rest)])
     text = ""
     for key in keys:
         c = coefficients[key]
@@ -429,6 +480,7 @@ class _Controller:
         self.builder.functions = {
             f.name: (tuple(p for p, _ in f.params), f.tree) for f in checked.functions.values()
         }
+        self.builder.plans = {p.name: (p.capacity, p.replans) for p in checked.spec.plans.values()}
         # every_cycle rules run whatever the state: what they send or test counts everywhere
         every = checked.every_cycle
         self.every_sent = {send.sub for r in every for send in r.sends}
@@ -521,6 +573,31 @@ class _Table:
         self.finishes()
         self.commanded()
         self.awaited()
+        self.replans()
+
+    def replans(self) -> None:
+        """W309 for a `replan:` whose rule can fire when its plan has no replans left."""
+        for state, rules in self.table.items():
+            for rule in rules:
+                for action in rule.rule.actions:
+                    if not isinstance(action, PlanAction) or action.kind != "replan":
+                        continue
+                    plan = action.plan.name
+                    left: Key = ("plan", f"{plan}.replans_left")
+                    answer = solve([(rule.guard, True)], fixed={left: 0})
+                    tested = rule.guard is not None and left in rule.guard.order
+                    if answer.kind == "no" and tested:
+                        continue
+                    self.diags.warning(
+                        action.span,
+                        "W309",
+                        f"rule {rule.number} of {self.name} {state} can `replan: {plan}` when "
+                        f"no replans are left ({action.plan.replans} declared): the run stops "
+                        "with an error",
+                        f"add `and {plan}.replans_left > 0` to its `when:`, and a rule for when "
+                        "none are left",
+                        self.about(state, rule.number),
+                    )
 
     def never_fires(self, state: str, rules: list[_Rule]) -> None:
         """W512 for each rule of a live state that can never fire."""

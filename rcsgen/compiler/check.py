@@ -33,6 +33,7 @@ from .tables import (
     CheckedRule,
     CheckedState,
     CheckedSystem,
+    PlanAction,
     Report,
     RuleId,
     Send,
@@ -294,6 +295,14 @@ def _check_stand_ins(
                     f"reasons than `{name}`'s",
                     f"`{name}` takes {wanted[command] or 'no parameters'}",
                 )
+        if sorted(by_name[name].plans) != sorted(sim.plans):  # their slots: one status buffer
+            diags.error(
+                sim.name_span,
+                "E236",
+                f"stand-in `{sim.name}` and `{name}` declare different plans",
+                "a stand-in writes its controller's status buffer, which holds each plan's "
+                f"step: declare the plans of `{name}` ({', '.join(by_name[name].plans) or 'none'})",
+            )
 
 
 def _check_echo_timeouts(spec: ControllerSpec, diags: Diagnostics) -> None:
@@ -469,16 +478,19 @@ def _check_hooks_module(
     declaration (read, never imported): arity (E214), kind (E240), results (E241). Returns
     each hook's parameter annotations, for the checker to compare with its argument types."""
     contracts: HookContracts = {}
-    if not spec.hooks and spec.hooks_state is None:
+    if not spec.hooks and spec.hooks_state is None and not spec.plans:
         return contracts
     if spec.hooks_module is None:
         first = next((hook.span for hook in spec.hooks.values()), spec.span)
         if spec.hooks_state is not None and not spec.hooks:
             first = spec.hooks_state.span
+        if not spec.hooks and spec.hooks_state is None:
+            first = next(iter(spec.plans.values())).planner.span
         diags.error(
             first,
             "E215",
-            f"`{spec.name}` declares hooks but no `hooks_module`",
+            f"`{spec.name}` declares {'hooks' if spec.hooks else 'a planner'} but no "
+            "`hooks_module`",
             "add `hooks_module: <package>.<module>`, a Python module in the system directory",
         )
         return contracts
@@ -578,7 +590,55 @@ def _check_hooks_module(
             diags.error(hook.span, "E241", problem, f"see {where}:{node.lineno}")
         params = hooks.param_types(node)[stateful:]
         contracts[hook.name] = (params, f"{where}:{node.lineno}")
+    for plan in spec.plans.values():
+        node = functions.get(plan.planner.value)
+        if _check_planner(plan, node, stateful, module, where, diags) and node is not None:
+            contracts[f"plan:{plan.name}"] = (
+                hooks.param_types(node)[stateful:],
+                f"{where}:{node.lineno}",
+            )
     return contracts
+
+
+def _check_planner(
+    plan: model.Plan,
+    node: hooks.Function | None,
+    stateful: bool,
+    module: str,
+    where: str,
+    diags: Diagnostics,
+) -> bool:
+    """A plan's planner is a plain function of the hooks module that takes its arguments
+    (the hook state first, if any): E294. Whether it is."""
+    name = plan.planner.value
+    given = len(plan.args) + stateful
+    if node is None:
+        args = ", ".join(["state"] * stateful + [f"a{i}" for i in range(len(plan.args))])
+        diags.error(
+            plan.planner.span,
+            "E294",
+            f"planner `{name}` of plan `{plan.name}` is not defined in `{module}`",
+            f"add `def {name}({args}): ...` returning a list of steps to {where}",
+        )
+    elif hooks.kind_problem(node):
+        diags.error(
+            plan.planner.span,
+            "E294",
+            f"planner `{name}` of plan `{plan.name}` is {hooks.kind_problem(node)}",
+            f"make it a plain `def {name}(...)` ({where}:{node.lineno})",
+        )
+    elif not _takes(node, given):
+        diags.error(
+            plan.planner.span,
+            "E294",
+            f"planner `{name}` of plan `{plan.name}` is called with {given} argument(s)"
+            f"{' (the hook state, then its args)' if stateful else ''} but "
+            f"`{module}.{name}` takes {_positional(node)}",
+            "make the plan's `args:` match the function's parameters",
+        )
+    else:
+        return True
+    return False
 
 
 def _positional(node: hooks.Function) -> int:
@@ -755,6 +815,9 @@ class _ControllerChecker:
             functions={
                 f.name: (tuple(f.params.values()), f.returns) for f in spec.functions.values()
             },
+            plans={
+                name: {**plan.steps, **expr.PLAN_PROPERTIES} for name, plan in spec.plans.items()
+            },
         )
         self.command: Command | None = None  # the command whose table is being checked
 
@@ -783,6 +846,7 @@ class _ControllerChecker:
         self.base_scope = replace(
             self.base_scope, constants={**self.base_scope.constants, **self.given_constants()}
         )
+        self.check_plans()
         functions = self.check_functions()
         predicates = self.check_predicates()
         self.predicate_trees = {name: p.tree for name, p in predicates.items()}
@@ -802,6 +866,49 @@ class _ControllerChecker:
             scope=self.scope_for(None),
             functions=functions,
         )
+
+    def check_plans(self) -> None:
+        """Each plan's name and step fields can be read as `<plan>.<name>` and become
+        attributes of their own in the generated class (E291)."""
+        spec = self.spec
+        attributes: dict[str, str] = {}
+        methods = {naming.command_method(c) for c in spec.commands} | set(spec.predicates)
+        for name, plan in spec.plans.items():
+            taken = (
+                ("`world`" if name == "world" else "")
+                or ("a subordinate" if name in self.subs else "")
+                or ("what `result.<name>` assigns" if name == "result" else "")
+            )
+            if taken:
+                self.diags.error(
+                    plan.span,
+                    "E291",
+                    f"plan `{name}` cannot be named so: it is {taken}",
+                    "rename the plan: `<plan>.<name>` must say which one it reads",
+                )
+                continue
+            for field_name in plan.steps:
+                if field_name in expr.PLAN_PROPERTIES:
+                    self.diags.error(
+                        plan.span,
+                        "E291",
+                        f"step field `{field_name}` of plan `{name}` has the name of a property "
+                        f"every plan has (`{name}.{field_name}`)",
+                        "rename the field; every plan has "
+                        + ", ".join(f"`{p}`" for p in expr.PLAN_PROPERTIES),
+                    )
+            for attribute in naming.plan_attributes(name, plan.steps):
+                other = attributes.setdefault(attribute, name)
+                owner = f"plan `{other}`" if other != name else "a command or predicate"
+                if other != name or attribute in methods:
+                    self.diags.error(
+                        plan.span,
+                        "E291",
+                        f"plan `{name}` makes the name `{attribute}` in the generated class, "
+                        f"which {owner} makes too",
+                        "rename the plan or the field",
+                    )
+                    break
 
     def check_functions(self) -> dict[str, CheckedFunction]:
         """Each pure function's body, typed over its parameters, the constants and the
@@ -1105,6 +1212,8 @@ class _ControllerChecker:
             sub_reasons = naming.declared_reasons(self.by_name[reason.removesuffix(".reason")])
             passes = ("LOST", *(r for r in sub_reasons if r in own))
             return Report(action.status, action.span, reason, passes)
+        if isinstance(action, model.PlanAction):
+            return self.check_plan_action(action, scope)
         hook = self.spec.hooks.get(action.hook)
         if hook is None:
             self.diags.error(
@@ -1123,6 +1232,57 @@ class _ControllerChecker:
             tuple(t for t in targets if t is not None),
             action.span,
         )
+
+    def check_plan_action(self, action: model.PlanAction, scope: expr.Scope) -> Action | None:
+        """`plan:`, `replan:` or `advance:` of a declared plan, in a command's table (E292,
+        E295); the planner's arguments typed where the action runs."""
+        plan = self.spec.plans.get(action.plan)
+        if plan is None:
+            self.diags.error(
+                action.span,
+                "E292",
+                f"`{action.kind}: {action.plan}`: `{self.spec.name}` declares no plan "
+                f"`{action.plan}`",
+                known_names_hint("plans", self.spec.plans, action.plan)
+                or "declare it under `plans:`",
+            )
+            return None
+        if self.command is None:
+            self.diags.error(
+                action.span,
+                "E295",
+                f"`{action.kind}: {action.plan}` in an every_cycle rule: a plan is stepped "
+                "through by a command's table",
+                "move the action into the table of the command that plans",
+            )
+            return None
+        args: tuple[expr.Expr, ...] = ()
+        if action.kind != "advance":
+            typed = [self.typed(a, scope, None) for a in plan.args]
+            if any(t is None for t in typed):
+                return None
+            args = tuple(t for t in typed if t is not None)
+            self.check_planner_arguments(plan, args)
+        return PlanAction(action.kind, plan, args, action.span)
+
+    def check_planner_arguments(self, plan: model.Plan, args: tuple[expr.Expr, ...]) -> None:
+        """E293 once per plan: an argument whose type its planner parameter's annotation
+        excludes."""
+        key = f"plan:{plan.name}"
+        if key in self.checked_calls or key not in self.contracts:
+            return
+        self.checked_calls.add(key)
+        params, where = self.contracts[key]
+        for index, (arg, param) in enumerate(zip(args, params, strict=False)):
+            if param is None or hooks.assignable(param, arg.type):
+                continue
+            self.diags.error(
+                plan.args[index].span,
+                "E293",
+                f"argument {index + 1} of planner `{plan.planner.value}` is {_a(arg.type)}, but "
+                f"the function's parameter is annotated `{param}`",
+                f"convert it in the spec, or change the annotation ({where})",
+            )
 
     def check_hook_arguments(self, hook: model.Hook, args: list[expr.Expr | None]) -> None:
         """E242 once per hook: an argument whose type its parameter's annotation excludes."""

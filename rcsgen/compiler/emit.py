@@ -299,6 +299,10 @@ def _controller_context(
     if c.timed:
         slots += ["ticks", *c.counters]
     slots += [counter.attribute for counter in c.every_cycle_counters]
+    for plan in c.plans:  # its list, its done flag, the current step's fields (and, in the
+        # status buffer, step, steps and replans_left)
+        slots += [f"plan_{plan.name}", naming.plan_attribute(plan.name, "done")]
+        slots += [naming.plan_attribute(plan.name, f.name) for f in plan.fields]
     imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT", *(n for names in world_seq_at for n in names)}
     for s in c.subordinates:
         imports |= {f"{s.name.upper()}_COMMAND", f"{s.name.upper()}_COMMAND_AT"}
@@ -361,6 +365,7 @@ def _controller_context(
         "world_values": world_values,
         "nop": contract.NOP,
         "py_type": ir.PY_TYPE,
+        "plans": {plan.name: plan for plan in c.plans},
     }
 
 
@@ -410,7 +415,9 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
             system=system,
             layout=layout,
             owners=[c for c in system.controllers if c.buffers == c.name],
-            with_results={c.name for c in system.controllers if c.buffers == c.name and c.results},
+            with_results={
+                c.name for c in system.controllers if c.buffers == c.name and (c.results or c.plans)
+            },
             table=_layout_table(layout),
             enums=_enum_fields(system),
         ),

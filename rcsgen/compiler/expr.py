@@ -93,6 +93,10 @@ def reason_type(sub: str) -> str:
 # process lost (the runtime's safe state, `error_num` 1: rcs/loop.py LOST_SUBORDINATE).
 BUILTIN_REASONS = ("NONE", "LOST")
 
+# What every plan has besides its step fields (`route.step`, ...), and their types: the
+# current step (from 0), the number of steps, past the last step, the replans left.
+PLAN_PROPERTIES = {"step": INT, "steps": INT, "done": BOOL, "replans_left": INT}
+
 
 # ---------------------------------------------------------------- typed tree
 
@@ -116,7 +120,8 @@ class Const(Expr):
 class Ref(Expr):
     """A resolved name. kind: world, param, local, const, status, sub_status, sub_command,
     sub_command_name, sub_result (`<sub>.result.<name>`), sub_reason (`<sub>.reason`),
-    sub_reason_name (`owner` is the subordinate for the sub_* kinds); and two that no spec
+    sub_reason_name (`owner` is the subordinate for the sub_* kinds), plan (`<plan>.<name>`,
+    a step field or one of PLAN_PROPERTIES; `owner` is the plan); and two that no spec
     text names, made by the checker from a rule's `after:` and `for:`: time (the cycles
     spent in the current state, an int) and held (the cycles a `for:` rule's `when` has
     held, an int; `name` is its counter)."""
@@ -194,6 +199,8 @@ class Scope:
     # constants an expression named (shared by every copy of the controller's scope)
     used_constants: set[str] = field(default_factory=set)
     args: Mapping[str, str] = field(default_factory=dict)  # a function body's parameters
+    # each plan's names (its step fields and PLAN_PROPERTIES) -> type
+    plans: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
 
     def bare_names(self) -> list[str]:
         return [*self.args, *self.params, *self.lets, *self.locals, *self.constants, *STATUS_NAMES]
@@ -291,7 +298,7 @@ class _Resolver:
             raise self.fail(node, "E102", f"dunder name `{name}` is not allowed")
         if name in scope.predicates:
             raise self.fail(node, "E107", f"predicate `{name}` must be called", f"write `{name}()`")
-        if name == "world" or name in scope.subordinates:
+        if name == "world" or name in scope.subordinates or name in scope.plans:
             raise self.fail(node, "E108", f"`{name}` needs a field: `{name}.<field>`")
         if values:
             raise self.fail(
@@ -319,7 +326,19 @@ class _Resolver:
         ):
             return self.sub_result(node, base.value.id, attr)
         if not isinstance(base, ast.Name):
-            raise self.fail(node, "E102", "attributes are allowed only on `world` and subordinates")
+            raise self.fail(
+                node, "E102", "attributes are allowed only on `world`, subordinates and plans"
+            )
+        if base.id in scope.plans and base.id != "world" and base.id not in scope.subordinates:
+            names = scope.plans[base.id]
+            if attr not in names:
+                raise self.fail(
+                    node,
+                    "E290",
+                    f"plan `{base.id}` has no step field or property `{attr}`",
+                    known_names_hint(f"names of plan {base.id}", names, attr),
+                )
+            return Ref(names[attr], "plan", attr, base.id)
         if base.id == "world":
             if attr not in scope.world:
                 raise self.fail(
@@ -362,8 +381,14 @@ class _Resolver:
         raise self.fail(
             node,
             "E108",
-            f"`{base.id}` is neither `world` nor a subordinate of this controller",
-            known_names_hint("subordinates", scope.subordinates, base.id),
+            f"`{base.id}` is neither `world` nor a subordinate"
+            + (" or a plan" if scope.plans else "")
+            + " of this controller",
+            known_names_hint(
+                "subordinates and plans" if scope.plans else "subordinates",
+                [*scope.subordinates, *scope.plans],
+                base.id,
+            ),
         )
 
     def sub_result(self, node: ast.AST, sub: str, name: str) -> Expr:

@@ -184,7 +184,19 @@ class IRCall:
     span: Span | None = None  # where the spec calls it
 
 
-IRAction = IRSend | IRSet | IRReport | IRCall
+@dataclass(frozen=True)
+class IRPlanAction:
+    """`plan:` / `replan:` (the planner called with `args`) or `advance:` of a plan."""
+
+    plan: str
+    action: str  # "plan", "replan" or "advance"
+    planner: str
+    args: tuple[str, ...] = ()  # Python text of each argument (the hook state first, if any)
+    kind: str = "plan_action"
+    span: Span | None = None  # where the spec writes it
+
+
+IRAction = IRSend | IRSet | IRReport | IRCall | IRPlanAction
 
 
 @dataclass(frozen=True)
@@ -263,6 +275,29 @@ class IRPredicate:
 
 
 @dataclass(frozen=True)
+class IRPlan:
+    """A plan: its planner, its step fields in order, capacity and replans."""
+
+    name: str
+    doc: str
+    planner: str
+    fields: tuple[IRParam, ...]
+    capacity: int
+    replans: int
+    args: tuple[str, ...] = ()  # the spec text of the planner's arguments
+
+    @property
+    def kinds(self) -> str:
+        """Each field's type, one letter (f, i, b), as the runtime's plan check takes them."""
+        return "".join(t.type[0] for t in self.fields)
+
+    @property
+    def status_fields(self) -> tuple[str, ...]:
+        """Its slots in the status buffer: the step, the number of steps, the replans left."""
+        return tuple(f"plan_{self.name}_{n}" for n in ("step", "steps", "replans_left"))
+
+
+@dataclass(frozen=True)
 class IRController:
     name: str
     title: str
@@ -296,6 +331,7 @@ class IRController:
     every_cycle_counters: tuple[IRCounter, ...] = ()
     # the enumeration values its expressions name: (value name, index), a module constant each
     enum_values: tuple[tuple[str, int], ...] = ()
+    plans: tuple[IRPlan, ...] = ()  # its plans, in declaration order
 
     def table_rules(self) -> list[IRRule]:
         """Every rule of the state tables, in code order (code = index + 1)."""

@@ -35,6 +35,7 @@ from .tables import (
     CheckedPredicate,
     CheckedRule,
     CheckedSystem,
+    PlanAction,
     Report,
     Send,
     Target,
@@ -110,7 +111,9 @@ class _ControllerLowering:
         )
         rules = c.rules()
         uses_hooks = spec.hooks_state is not None or any(
-            isinstance(a, CallHook) for r in rules for a in r.actions
+            isinstance(a, CallHook) or (isinstance(a, PlanAction) and a.kind != "advance")
+            for r in rules
+            for a in r.actions
         )
         world = self.system.spec.world
         reads = dict.fromkeys(a.value for a in [*spec.world_reads, *spec.world_writes])
@@ -175,6 +178,18 @@ class _ControllerLowering:
                     },
                     key=lambda pair: (pair[1], pair[0]),
                 )
+            ),
+            plans=tuple(
+                ir.IRPlan(
+                    p.name,
+                    p.doc,
+                    p.planner.value,
+                    tuple(ir.IRParam(n, t) for n, t in p.steps.items()),
+                    p.capacity,
+                    p.replans,
+                    tuple(one_line(a.value) for a in p.args),
+                )
+                for p in spec.plans.values()
             ),
         )
 
@@ -329,6 +344,10 @@ class _ControllerLowering:
             return ir.IRReport(action.status, reason=reason, reason_name=action.reason or "")
         state = ("self.hook_state",) if self.spec.hooks_state else ()
         values = state + tuple(expr.to_python(a, naming.attribute) for a in action.args)
+        if isinstance(action, PlanAction):
+            planner = action.plan.planner.value
+            called = values if action.kind != "advance" else ()
+            return ir.IRPlanAction(action.plan.name, action.kind, planner, called, span=action.span)
         kinds = "".join(kind_letter(t.type) for t in action.targets)
         return ir.IRCall(
             action.hook.name,
@@ -405,6 +424,8 @@ def _runtime_names(
         for action in rule.actions:
             if isinstance(action, Report):
                 used |= {action.status, "NOP"}
+            elif isinstance(action, PlanAction) and action.kind != "advance":
+                used |= {"HookError", "plan_problem"}
             elif isinstance(action, CallHook):
                 used.add("HookError")
                 kinds = {t.type for t in action.targets}
@@ -428,7 +449,7 @@ def _trees(rules: Iterable[CheckedRule], predicates: Iterable[CheckedPredicate])
                 trees += [tree for _, tree in action.args]
             elif isinstance(action, Assign):
                 trees += [tree for _, tree in action.assignments]
-            elif isinstance(action, CallHook):
+            elif isinstance(action, CallHook | PlanAction):
                 trees += list(action.args)
     return trees
 
@@ -499,6 +520,7 @@ def plan_layout(
         prefix = c.name.upper()
         params = [(f"arg_{p.name}", format_of_type(p.type)) for p in c.params]
         results = [(f"result_{r.name}", format_of_type(r.type)) for r in c.results]
+        results += [(name, format_of_type("int")) for p in c.plans for name in p.status_fields]
         parts = {
             "command": ([*COMMAND_HEAD_FIELDS, *params], "command in"),
             "status": ([*STATUS_FIELDS, *results], "status out"),

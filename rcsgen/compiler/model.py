@@ -117,6 +117,21 @@ class Hook:
 
 
 @dataclass
+class Plan:
+    """A plan: the steps its planner (a function of the hooks module) returns, each of the
+    typed fields `steps`, at most `capacity` of them, and the replans a command may make."""
+
+    name: str
+    doc: str
+    planner: Located
+    args: list[Located]
+    steps: dict[str, str]  # field name -> type, in order
+    capacity: int
+    replans: int
+    span: Span
+
+
+@dataclass
 class Function:
     """A pure function: typed parameters (in call order), a result type, a body."""
 
@@ -164,7 +179,18 @@ class CallHook:
     span: Span
 
 
-Action = Send | SetWorld | Report | CallHook
+@dataclass
+class PlanAction:
+    """`plan:`, `replan:` or `advance:` of a declared plan."""
+
+    kind: str  # "plan", "replan" or "advance"
+    plan: str
+    span: Span
+
+
+Action = Send | SetWorld | Report | CallHook | PlanAction
+
+PLAN_ACTIONS = ("plan", "replan", "advance")
 
 
 @dataclass
@@ -233,6 +259,7 @@ class ControllerSpec:
     hooks_state_on_restart: str = "refuse"  # or "reset": what a restart does with hook state
     hooks_state: Located | None = None  # factory of the state every hook call receives first
     functions: dict[str, Function] = field(default_factory=dict)  # pure, callable anywhere
+    plans: dict[str, Plan] = field(default_factory=dict)  # stepped through by its tables
 
 
 # ---------------------------------------------------------------- builders
@@ -346,6 +373,9 @@ def _action(raw: Any, span: Span) -> Action:
             Located(raw["reason"], value_span(raw, "reason", span)) if "reason" in raw else None
         )
         return Report(raw["report"], value_span(raw, "report", span), reason)
+    for kind in PLAN_ACTIONS:
+        if kind in raw:
+            return PlanAction(kind, str(raw[kind]), value_span(raw, kind, span))
     return CallHook(raw["call"], value_span(raw, "call", span))
 
 
@@ -472,6 +502,23 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
             k: Located(v, value_span(data["echo_timeouts"], k, top))
             for k, v in (data.get("echo_timeouts") or {}).items()
         },
+        plans={
+            k: _plan(k, v, key_span(data["plans"], k, top))
+            for k, v in (data.get("plans") or {}).items()
+        },
+    )
+
+
+def _plan(name: str, raw: Any, span: Span) -> Plan:
+    return Plan(
+        name,
+        raw.get("doc", ""),
+        Located(raw["planner"], value_span(raw, "planner", span)),
+        _items(raw, "args", span),
+        dict(raw["steps"]),
+        int(raw["capacity"]),
+        int(raw.get("replans", 0)),
+        span,
     )
 
 

@@ -40,7 +40,7 @@ from ..runtime.contract import (
     field_names,
 )
 from .diagnostics import Diagnostics, Span
-from .expr import BUILTIN_REASONS, BUILTINS, STATUS_NAMES, Ref, enum_values
+from .expr import BUILTIN_REASONS, BUILTINS, PLAN_PROPERTIES, STATUS_NAMES, Ref, enum_values
 from .loader import span_of
 from .model import Command, ControllerSpec, SystemSpec, Typed
 
@@ -179,6 +179,18 @@ def held_attribute(command: str | None, state: str | None, index: int) -> str:
     return f"held_{command.lower()}_{state.lower()}_{index}"
 
 
+def plan_attribute(plan: str, name: str) -> str:
+    """The attribute a plan's step field or property is kept in: route, x -> plan_route_x,
+    route, step -> plan_route_step (the plan's own list of steps is `plan_route`)."""
+    return f"plan_{plan}_{name}"
+
+
+def plan_attributes(plan: str, fields: Iterable[str]) -> list[str]:
+    """Every attribute and method a plan makes in its controller's class."""
+    names = [f"plan_{plan}", f"plan_{plan}_load", f"plan_{plan}_go"]
+    return names + [plan_attribute(plan, n) for n in [*fields, *PLAN_PROPERTIES]]
+
+
 def sub_command_const(sub: str, command: str) -> str:
     """A subordinate's command code as its supervisor names it: cc, SUMP -> CC_SUMP."""
     return f"{sub.upper()}_{command}"
@@ -207,6 +219,8 @@ def attribute(ref: Ref) -> str:
         return "self.ticks"
     if kind == "held":  # cycles a `for:` rule's guard has held
         return f"self.{name}"
+    if kind == "plan":  # a plan's current step field or property: route.x
+        return f"self.{plan_attribute(owner, name)}"
     if kind == "sub_status":
         return f"self.{owner}_status"
     if kind == "sub_command":
@@ -404,6 +418,8 @@ def _action_names(action: Any, top: Span) -> Iterator[NameUse]:
             yield assign.target.value, TARGET, "assignment target", assign.target.span
     elif kind == "CallHook":
         yield action.hook, LOWER, "hook name", action.span
+    elif kind == "PlanAction":
+        yield action.plan, LOWER, "plan name", action.span
 
 
 # The longest name (each part of a dotted one): it becomes part of file names such as

@@ -41,6 +41,11 @@ class Guard:
     types: dict[Key, str] = field(default_factory=dict)  # numeric variable -> int or float
     opaque: dict[Key, None] = field(default_factory=dict)
     order: dict[Key, None] = field(default_factory=dict)
+    # the least and greatest value a numeric variable can take, where it has bounds
+    bounds: dict[Key, tuple[Fraction, Fraction]] = field(default_factory=dict)
+    # relations between atoms that every possible valuation keeps, by name: False rules a
+    # valuation out, None is "not known yet" (an atom it reads is not set)
+    invariants: dict[str, Callable[[Valuation], bool | None]] = field(default_factory=dict)
 
 
 @dataclass
@@ -102,6 +107,8 @@ def merge_atoms(into: Guard, atoms: Guard) -> None:
     into.forms.update(atoms.forms)
     into.types.update(atoms.types)
     into.opaque.update(atoms.opaque)
+    into.bounds.update(atoms.bounds)
+    into.invariants.update(atoms.invariants)
     for key, (kind, constants) in atoms.numeric.items():
         into.numeric.setdefault(key, (kind, set()))[1].update(constants)
 
@@ -179,6 +186,8 @@ def solve(
     forms: dict[Key, dict[Key, Fraction]] = {}
     types: dict[Key, str] = {}
     opaque: dict[Key, None] = {}
+    bounds: dict[Key, tuple[Fraction, Fraction]] = {}
+    invariants: dict[str, Callable[[Valuation], bool | None]] = {}
     for g, _ in guards:
         for key in g.order:
             if key in g.opaque:
@@ -188,10 +197,17 @@ def solve(
         domains.update(g.domains)
         forms.update(g.forms)
         types.update(g.types)
+        bounds.update(g.bounds)
+        invariants.update(g.invariants)
         for key, (kind, constants) in g.numeric.items():
             numeric.setdefault(key, (kind, set()))[1].update(constants)
     for key, (kind, constants) in numeric.items():
-        domains[key] = samples(kind, constants)
+        if key in bounds:  # only values within them, the bounds themselves included
+            low, high = bounds[key]
+            values = samples(kind, {*constants, low, high})
+            domains[key] = tuple(v for v in values if low <= v <= high)
+        else:
+            domains[key] = samples(kind, constants)
     for key, value in (fixed or {}).items():
         if key in domains:
             domains[key] = (value,)
@@ -204,7 +220,10 @@ def solve(
     keys, okeys = list(domains), list(opaque)
 
     def truth(val: dict[Key, Any]) -> bool | None:
-        """Whether every guard has its wanted value: True, False or None (not known yet)."""
+        """Whether every guard has its wanted value: True, False or None (not known yet).
+        A valuation no invariant allows is False: it cannot happen."""
+        if any(keeps(val) is False for keeps in invariants.values()):
+            return False
         unknown = False
         for g, wanted in guards:
             value = g.fn(val)

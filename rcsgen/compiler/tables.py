@@ -93,7 +93,17 @@ class CallHook:
     span: Span
 
 
-Action = Send | Assign | Report | CallHook
+@dataclass(frozen=True)
+class PlanAction:
+    """`plan:`/`replan:` (the planner's arguments typed where the action is) or `advance:`."""
+
+    kind: str  # "plan", "replan" or "advance"
+    plan: model.Plan
+    args: tuple[expr.Expr, ...]  # the planner's arguments (none for advance)
+    span: Span
+
+
+Action = Send | Assign | Report | CallHook | PlanAction
 
 
 @dataclass(frozen=True)

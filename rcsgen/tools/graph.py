@@ -27,6 +27,7 @@ from ..compiler.ir import (
     IRCall,
     IRCommand,
     IRController,
+    IRPlanAction,
     IRProcess,
     IRReport,
     IRRule,
@@ -166,6 +167,8 @@ def action_text(action: IRAction) -> str:
     if isinstance(action, IRReport):
         reason = action.reason_name
         return f"report {action.status}" + (f" ({reason})" if reason else "")
+    if isinstance(action, IRPlanAction):
+        return f"{action.action} {action.plan}"
     assert isinstance(action, IRCall)
     return f"call {action.hook}"
 

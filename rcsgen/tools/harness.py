@@ -57,6 +57,22 @@ class Status:
     reason: str | None = None
     # Its result slots by name (`result.<name>` in the spec); empty: it declares no results.
     results: dict[str, Any] = field(default_factory=dict)
+    # each plan's step, number of steps and replans left (modules with plans only)
+    plans: dict[str, dict[str, int]] = field(default_factory=dict)
+
+
+_PLAN_SLOTS = ("_replans_left", "_steps", "_step")  # `plan_<name><slot>` in a status buffer
+
+
+def plan_slots(values: dict[str, Any]) -> dict[str, dict[str, int]]:
+    """The plans of a status buffer's values: `plan_route_step` -> {"route": {"step": ...}}."""
+    plans: dict[str, dict[str, int]] = {}
+    for key, value in values.items():
+        if not key.startswith("plan_"):
+            continue
+        slot = next(s for s in _PLAN_SLOTS if key.endswith(s))
+        plans.setdefault(key[len("plan_") : -len(slot)], {})[slot[1:]] = int(value)
+    return plans
 
 
 def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleType:
@@ -167,6 +183,7 @@ class BlockView:
             self.layout.RULES[runs][values["rule"]] or None,
             self.contract.reason_name(self.layout, module, status, values["error_num"]),
             {k.removeprefix("result_"): v for k, v in values.items() if k.startswith("result_")},
+            plan_slots(values),
         )
 
     def set_mode(self, module: str, **mode: Any) -> None:

@@ -178,6 +178,18 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
         ]
         rows += [f"| hook | `{h}` | `{c.hooks_module}` | |" for h in c.hooks]
         out += ["| kind | name | value | description |", "|---|---|---|---|", *rows, ""]
+    if c.plans:
+        out += ["## Plans", ""]
+        out += ["Made by `plan:`, stepped through by `advance:`, made again by `replan:`.", ""]
+        out += ["| plan | planner | steps | capacity | replans | description |"]
+        out += ["|---|---|---|---|---|---|"]
+        for p in c.plans:
+            steps = ", ".join(f"{f.name}: {f.type}" for f in p.fields)
+            out.append(
+                f"| `{p.name}` | `{p.planner}({', '.join(p.args)})` | {steps} | {p.capacity} "
+                f"| {p.replans} | {cell(p.doc)} |"
+            )
+        out.append("")
     if c.every_cycle:
         out += ["## Every cycle", "", "Tried first, every cycle, before the command's table.", ""]
         out.append(rule_table([("every cycle", rule) for rule in c.every_cycle]))

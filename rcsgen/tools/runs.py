@@ -19,7 +19,7 @@ from typing import Any
 
 from ..compiler.diagnostics import Diagnostic, Span, SpecError
 from ..compiler.frontend import display_path
-from ..compiler.ir import IRCall, IRController, IRSystem
+from ..compiler.ir import IRCall, IRController, IRPlanAction, IRSystem
 from ..compiler.write import Plan
 from .scenario import RunResult, Scenario, final_value, first_difference, read_trace
 
@@ -49,6 +49,13 @@ def _call_span(controller: IRController | None, rule: str, hook: str) -> Span | 
             continue
         for action in ir_rule.actions:
             if isinstance(action, IRCall) and action.hook == hook and action.span is not None:
+                return action.span
+            if (
+                isinstance(action, IRPlanAction)
+                and action.planner == hook
+                and action.action != "advance"
+                and action.span is not None
+            ):
                 return action.span
         return ir_rule.span
     return None
@@ -91,12 +98,13 @@ def run_error(
                 f"{problem} ({called}, {when})",
                 "the hook's own traceback: run again with -v",
             )
-        return Diagnostic(
-            span,
-            "E421",
-            f"{problem} ({called}, {when})",
-            "make the function return what `returns:` names, in that order and of those types",
-        )
+        why = str(getattr(error, "why", ""))
+        hint = "make the function return what `returns:` names, in that order and of those types"
+        if why.startswith("was not called"):
+            hint = "replan only while `<plan>.replans_left > 0` (W309), and fail otherwise"
+        elif why:
+            hint = "a planner returns a list of steps, each a tuple of the plan's step fields"
+        return Diagnostic(span, "E421", f"{problem} ({called}, {when})", hint)
     module = _generated_module(error, package)
     controller = _controller(system, module) if module else None
     text = f"{type(error).__name__}: {error}" if str(error) else type(error).__name__

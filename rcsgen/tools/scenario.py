@@ -172,6 +172,8 @@ def trace_line(harness: AnyHarness, world: list[str]) -> str:
             modules[name]["reason"] = status.reason
         if status.results:  # every result slot of the module (docs/decisions.md)
             modules[name]["result"] = status.results
+        if status.plans:  # modules with plans only: each plan's step, steps and replans left
+            modules[name]["plans"] = status.plans
     line = {"cycle": harness.cycles, "modules": modules, "world": harness.world.snapshot(world)}
     return json.dumps(line, sort_keys=True, separators=(",", ":"))
 

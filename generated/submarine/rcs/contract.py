@@ -331,6 +331,44 @@ def _kind_words(token: str) -> str:
 _NOTHING = object()
 
 
+def _fits(value: object, kind: str) -> bool:
+    """Whether `value` may go into a target of this kind (the check generated code makes)."""
+    if kind == "f":
+        return is_real(value)
+    if kind == "i":
+        return (
+            isinstance(value, numbers.Integral)
+            and is_integer(value)
+            and (INT_MIN <= int(value) <= INT_MAX)
+        )
+    return type(value) is bool
+
+
+def plan_problem(steps: object, kinds: str, capacity: int) -> str:
+    """'' when a planner's result is a plan: a list (or tuple) of at most `capacity` steps,
+    each a tuple of one value per step field of `kinds` (f, i, b); else what is wrong, as
+    the rest of a sentence that starts with the planner's name."""
+    names = ", ".join(_KIND_NAMES[k] for k in kinds)
+    shape = f"a list of at most {capacity} steps, each a tuple ({names})"
+    if not isinstance(steps, list | tuple):
+        return f"returned {_shown(steps)}; a plan is {shape}"
+    if len(steps) > capacity:
+        return f"returned {len(steps)} steps, more than the plan's capacity ({shape})"
+    for index, step in enumerate(steps):
+        if (
+            not isinstance(step, tuple)
+            or len(step) != len(kinds)
+            or not all(_fits(v, k) for v, k in zip(step, kinds, strict=True))
+        ):
+            return f"returned step {index} as {_shown(step)}; a plan is {shape}"
+    return ""
+
+
+def _shown(value: object) -> str:
+    shown = repr(value)
+    return shown if len(shown) <= 60 else shown[:57] + "..."
+
+
 class HookError(Exception):
     """A hook call that failed at run time, raised by generated code: the hook raised (the
     exception is the `__cause__`), or its result does not fit its `returns:`.
@@ -347,16 +385,18 @@ class HookError(Exception):
         cycles: int,
         result: object = _NOTHING,
         kinds: str = "",
+        why: str = "",
     ) -> None:
         self.module, self.hook, self.rule = module, hook, rule
         self.cycle = cycles + 1 if rule != "hooks_state" else 0
         self.result, self.kinds = result, kinds
+        self.why = why  # what is wrong, when it is not the shape of `returns:` (a plan's)
         super().__init__(self.problem())
 
     @property
     def raised(self) -> bool:
         """The hook raised (rather than returning a wrong result)."""
-        return self.result is _NOTHING
+        return self.result is _NOTHING and not self.why
 
     def expected(self) -> str:
         """What `returns:` asks for: `a float`, `a tuple of 2 values (float, int)`."""
@@ -367,6 +407,8 @@ class HookError(Exception):
 
     def problem(self) -> str:
         who = f"hook `{self.hook}` of `{self.module}`"
+        if self.why:
+            return f"{who} {self.why}"
         if self.raised:
             cause = self.__cause__
             what = f"{type(cause).__name__}: {cause}" if cause is not None else "an exception"

@@ -17,6 +17,7 @@ DANGER_RANGE = 700.0  # metres ahead that count
 HALF_WIDTH = 150.0  # metres either side of the track that must be clear
 SEARCH_STEP = 2.0  # degrees between the headings tried
 SEARCH_LIMIT = 80.0  # degrees either side of the course
+PASSAGE_LIMIT = 20.0  # degrees: a clear heading further off the course is no passage to it
 
 
 def course_to(x: float, y: float, pos_x: float, pos_y: float) -> float:
@@ -42,7 +43,8 @@ def assess_ice(
     b00: float, b01: float, b02: float, b03: float, b04: float, b05: float, b06: float,
     b07: float, b08: float, b09: float, b10: float, b11: float, b12: float, b13: float,
 ) -> tuple[int, float]:  # fmt: skip
-    """(1 if the course is blocked by ice else 0, the recommended heading)."""
+    """(1 if the course is blocked by ice, 2 if every heading within PASSAGE_LIMIT of it is
+    too, else 0; the recommended heading)."""
     ranges = [b00, b01, b02, b03, b04, b05, b06, b07, b08, b09, b10, b11, b12, b13]
     points = []
     for offset, distance in zip(BEAMS, ranges, strict=True):
@@ -56,6 +58,6 @@ def assess_ice(
         for sign in (1.0, -1.0):  # starboard first on a tie
             candidate = (course + sign * step) % 360.0
             if not _blocked(candidate, points):
-                return 1, round(candidate, 6)
+                return 1 if step <= PASSAGE_LIMIT else 2, round(candidate, 6)
         step += SEARCH_STEP
-    return 1, round((course + SEARCH_LIMIT) % 360.0, 6)
+    return 2, round((course + SEARCH_LIMIT) % 360.0, 6)
