@@ -52,7 +52,7 @@ def action(text: str) -> list:
 # ---------------------------------------------------------------- the schemas themselves
 
 
-@pytest.mark.parametrize("kind", ["system", "controller", "scenario"])
+@pytest.mark.parametrize("kind", ["system", "controller", "operator", "scenario"])
 def test_schema_is_valid_draft_2020_12(kind):
     schema = schema_for(kind)
     Draft202012Validator.check_schema(schema)
@@ -60,7 +60,7 @@ def test_schema_is_valid_draft_2020_12(kind):
     assert schema["$id"] == f"https://rcsgen.dev/schema/v1/{kind}.schema.json"
 
 
-@pytest.mark.parametrize("kind", ["system", "controller", "scenario"])
+@pytest.mark.parametrize("kind", ["system", "controller", "operator", "scenario"])
 def test_every_property_and_definition_has_a_description(kind):
     missing = []
 
