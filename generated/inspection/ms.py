@@ -58,7 +58,7 @@ CMM_INSPECT_FEATURE = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI200xQI116xQI356xq8xq8xq232xq104xd")
+INPUTS = Struct("<QI44x???1xI200xQI116xQI460xq8xq8xq24xq72xd")
 INPUTS_AT = 312
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
@@ -66,7 +66,7 @@ INPUTS_AT = 312
 WORLD_OUT_1 = Struct("<QqQqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1064
+WORLD_OUT_1_AT = 1168
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

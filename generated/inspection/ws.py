@@ -51,7 +51,7 @@ FX_UNLOAD_PART = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI80xQI108xQI572xq8xq8xq8xq136xq")
+INPUTS = Struct("<QQI44x???1xI80xQI108xQI676xq8xq8xq8xq24xq")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -63,7 +63,7 @@ SEQS_AT = 184
 WORLD_OUT_1 = Struct("<QqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1032
+WORLD_OUT_1_AT = 1136
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
