@@ -173,13 +173,17 @@ class _Checker:
         max_cycles = data.get("max_cycles", DEFAULT_MAX_CYCLES)
         stop = data.get("stop_when_done")
         if stop is not None:
-            self.module(stop, self.span(data, "stop_when_done"), run, "stop_when_done module")
+            span = self.span(data, "stop_when_done")
+            found = self.module(stop, span, run, "stop_when_done module")
+            self.not_an_operator(found, span, "finishes no command of its own: stop on a client")
         trace = data.get("trace") or {}
         for index, name in enumerate(trace.get("world") or []):
             self.field(name, self.span(trace["world"], index), "trace field")
         report = data.get("report") or {}
         if "phases" in report:
-            self.module(report["phases"], self.span(report, "phases"), run, "phases module")
+            span = self.span(report, "phases")
+            found = self.module(report["phases"], span, run, "phases module")
+            self.not_an_operator(found, span, "has no phases of its own: name a client")
         for index, name in enumerate(report.get("figures") or []):
             self.field(name, self.span(report["figures"], index), "report figure")
         expected = self.expectations(stop)
@@ -402,6 +406,16 @@ class _Checker:
                 )
 
     # ------------------------------------------------------------ the operator
+
+    def not_an_operator(self, found: IRController | None, span: Span, why: str) -> None:
+        """E285 for an operator module where a scenario needs a controller's command."""
+        if found is not None and found.kind == "operator":
+            self.error(
+                span,
+                "E285",
+                f"`{found.name}` is an operator module: it {why}",
+                f"its clients: {', '.join(found.clients) or 'none'}",
+            )
 
     def operator_script(self) -> OperatorScript | None:
         """The scripted person (`operator:`): every operator module, task, client and reason
