@@ -105,6 +105,16 @@ def _check_answer(
             known_names_hint("modules", by_name, module),
         )
         return
+    if spec.is_operator:
+        diags.error(
+            at,
+            "E248",
+            f"request `{request.name}` is answered by `{module}.{command}`, but `{module}` is "
+            "an operator module: its tasks are answered on its channels",
+            f"let the asking module send `{module}.{command}` itself and drop this request; "
+            f"`ctl answer {module}/<client>` answers it",
+        )
+        return
     commands = spec.commands
     if command in BUILTIN_COMMANDS or command not in commands:
         diags.error(

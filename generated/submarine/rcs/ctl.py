@@ -183,7 +183,7 @@ def write_answer(
         raise ValueError(suggest(reason, request["reasons"], "reason") + f" of {request['task']}")
     code = DONE if status == "DONE" else ERROR
     layout.ANSWERS[request["name"]].write(
-        buf, command_num=request["number"], status=code, reason=names.index(reason or "NONE")
+        buf, command_num=request["number"], status=code, reason=names.index(reason) if reason else 0
     )
 
 
