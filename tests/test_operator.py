@@ -200,3 +200,14 @@ def test_an_operator_file_with_a_table_is_refused_where_it_is_written(tmp_path):
     errors = [line for line in result.output.splitlines() if "error[" in line]
     assert errors and all(line.startswith(f"{op}:") or "op.yaml:" in line for line in errors)
     assert "states" in result.output and "Traceback" not in result.output
+
+
+def test_the_inspection_operator_names_its_schema_for_editors_and_passes_it():
+    from rcsgen.compiler.loader import load_text
+    from rcsgen.compiler.schema import check_document
+
+    path = Path(__file__).resolve().parent.parent / "specs" / "inspection" / "op.yaml"
+    text = path.read_text(encoding="utf-8")
+    target = (path.parent / text.splitlines()[0].split("$schema=", 1)[1]).resolve()
+    assert target.name == "operator.schema.json" and target.is_file()
+    assert check_document(load_text(text, path.name), "operator", path.name) == []
