@@ -196,7 +196,7 @@ def test_an_operator_modules_requests_show_their_text_and_a_answers_them() -> No
     """Two clients ask one operator module (tests/cases/valid/operator-module, run as OS
     processes): each request is shown with its client, task and instruction text, the
     parameter filled in; `a` on a client's row opens the answer form, and Enter answers
-    that client's request DONE, through its own channel only."""
+    that client's request DONE, through its own channel only; `ERROR REFUSED` refuses."""
     import shutil
 
     scratch, name = generate(OPERATOR_DESK)
@@ -223,16 +223,24 @@ def test_an_operator_modules_requests_show_their_text_and_a_answers_them() -> No
             )
             await pilot.press("enter")
             await pilot.pause(0.1)
-            return shown, str(app.query_one("#message").render())
+            said = str(app.query_one("#message").render())
+            wait_for(lambda: system.module("tl")["status"] == "DONE", "tl done", 30)
+            assert system.module("fx")["status"] == "EXECUTING", "fx's request is still open"
+            assert system.module("op/fx")["state"] == "ASKING"
+            table.move_cursor(row=[m for m, _ in tree_order(layout)].index("fx"))
+            await pilot.press("a", *["backspace"] * 4, *"ERROR", "space", *"REFUSED", "enter")
+            await pilot.pause(0.1)
+            return shown, said + "\n" + str(app.query_one("#message").render())
 
     try:
         for command in (("fx", "PLACE"), ("tl", "LOAD", "probe=7")):
             assert system.ctl("send", *command).returncode == 0
         shown, said = asyncio.run(drive())
-        assert said == "answered op/tl: LOAD_PROBE #2 DONE"
-        wait_for(lambda: system.module("tl")["status"] == "DONE", "tl done", 30)
-        assert system.module("fx")["status"] == "EXECUTING", "fx's request is still open"
-        assert system.module("op/fx")["state"] == "ASKING"
+        assert said.splitlines() == [
+            "answered op/tl: LOAD_PROBE #2 DONE",
+            "answered op/fx: PLACE_PART #2 ERROR (REFUSED)",
+        ]
+        wait_for(lambda: system.module("fx")["status"] == "ERROR", "fx refused", 30)
     finally:
         system.stop()
         shutil.rmtree(scratch, ignore_errors=True)
