@@ -15,6 +15,12 @@ The same inputs drive tests/reference_interpreter.py, written from docs/semantic
 without rcsgen. Every cycle the two must agree on state, status, status number, each
 subordinate's command, number and arguments, the locals and the world.
 
+A second run makes `s0` an operator module (docs/spec.md section 17): the test then plays
+the person, writing answers (current, stale, DONE or ERROR with a reason) into the answer
+record of `top`'s channel, the generated operator module runs after `top`, and the
+reference feeds `top` the channel status that docs/semantics.md section 21 says the
+operator module reports (the model of tests/test_operator.py).
+
 DIFF_EXAMPLES (default 25) examples run in the tests; `make fuzz` runs more.
 """
 
@@ -26,9 +32,10 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from reference_interpreter import Block, Controller
+from test_operator import Channel
 
 from rcsgen.tools.harness import Harness
 
@@ -38,6 +45,7 @@ CYCLES = 200
 REPLIES = ("DONE", "DONE", "ERROR", "EXECUTING")
 SIDES = ["LEFT", "RIGHT", "UP"]
 TEXTS = ["", "ab", "x", "héé"]  # UTF-8: 5 bytes of 8
+REPLIES_CODES = {"DONE": 2, "ERROR": 3}  # an answer record's status (contract.STATUS_NAMES)
 
 
 class Draw:
@@ -375,17 +383,27 @@ def write_system(directory: Path, files: dict[str, dict]) -> None:
         (directory / "diff_hooks" / "top.py").write_text(PLANNER, encoding="utf-8")
 
 
-def generated_trace(h: Harness, subs: list[str]) -> dict[str, Any]:
+def as_operator(spec: dict) -> dict:
+    """A subordinate's spec made an operator module: each command a task with instruction
+    text (showing its parameter), the same parameters and reasons, no table."""
+    tasks = {}
+    for name, command in spec["commands"].items():
+        task = {k: v for k, v in command.items() if k in ("params", "reasons")}
+        shown = ", ".join(f"{p}={{{p}}}" for p in command.get("params", {}))
+        task["text"] = f"Do {name}" + (f" with {shown}." if shown else ".")
+        tasks[name] = task
+    return {"operator": spec["controller"], "title": "A person", "commands": tasks}
+
+
+def generated_trace(h: Harness, subs: list[str], rows: dict[str, str]) -> dict[str, Any]:
     status = h.status("top")
     top = h.controller("top")
+    sent = {s: h.sent(rows.get(s, s)) for s in subs}  # an operator's: top's channel
     return {
         "state": status.state,
         "status": status.status,
         "status_num": status.number,
-        "sent": {
-            s: (h.sent(s).command, h.sent(s).number, dict(sorted(h.sent(s).args.items())))
-            for s in subs
-        },
+        "sent": {s: (c.command, c.number, dict(sorted(c.args.items()))) for s, c in sent.items()},
         "locals": {
             "n": top.var_n,
             "flag": top.var_flag,
@@ -402,9 +420,16 @@ def generated_trace(h: Harness, subs: list[str]) -> dict[str, Any]:
     }
 
 
-def drive(h: Harness, files: dict[str, dict], rnd: random.Random) -> tuple[int, int]:
+def drive(
+    h: Harness,
+    files: dict[str, dict],
+    rnd: random.Random,
+    operator: str | None = None,
+    seen: set[str] | None = None,
+) -> tuple[int, int]:
     """Run both for CYCLES cycles on the same inputs; the number of commands given, and of
-    cycles after which `top` had a plan with steps."""
+    cycles after which `top` had a plan with steps. With `operator`, that subordinate is an
+    operator module the test answers as its person."""
     subs = [n for n in files if n not in ("system", "top")]
     reference = Controller(
         files["top"],
@@ -412,6 +437,9 @@ def drive(h: Harness, files: dict[str, dict], rnd: random.Random) -> tuple[int, 
         files["system"]["world"],
         planners={"plan_legs": plan_legs},
     )
+    rows = {operator: f"{operator}/top"} if operator else {}
+    person = Channel()
+    answer: tuple[int, str, int] = (0, "NOT_READY", 0)
     block = Block(world={n: f["initial"] for n, f in files["system"]["world"].items()})
     commands = ["INIT", "HALT", *files["top"]["commands"]]
     given = planned = 0
@@ -427,6 +455,17 @@ def drive(h: Harness, files: dict[str, dict], rnd: random.Random) -> tuple[int, 
         for sub in subs:  # the subordinates answer, or not
             roll = rnd.random()
             sent = reference.sent[sub].number
+            if sub == operator:
+                if roll < 0.3:  # the person answers the request, or a stale one
+                    number = sent if rnd.random() < 0.85 else max(sent - 1, 0)
+                    status = rnd.choice(["DONE", "ERROR"])
+                    reasons = sub_reasons(files[sub])
+                    code = rnd.randrange(len(reasons)) if reasons and status == "ERROR" else 0
+                    answer = (number, status, code)
+                    h.layout.ANSWERS[rows[sub]].write(
+                        h.buf, command_num=number, status=REPLIES_CODES[status], reason=code
+                    )
+                continue
             if roll < 0.45:
                 status = rnd.choice(REPLIES)
                 number = sent if rnd.random() < 0.9 else max(sent - 1, 0)
@@ -451,8 +490,18 @@ def drive(h: Harness, files: dict[str, dict], rnd: random.Random) -> tuple[int, 
                 block.world[name] = value
         h.step("top")
         reference.run_cycle(block)
+        if operator is not None:  # the operator module's cycle, after top's, as documented
+            h.step(operator)
+            person.cycle(
+                (reference.sent[operator].number, reference.sent[operator].command), answer
+            )
+            block.sub_status[operator] = (person.number, person.status)
+            reasons = sub_reasons(files[operator])
+            block.sub_reason[operator] = reasons[person.reason] if reasons else "NONE"
+            if seen is not None:
+                seen.add(reference.sub_view[operator])
         want = {**reference.trace(), "world": dict(block.world)}
-        got = {**generated_trace(h, subs), "world": h.world.snapshot()}
+        got = {**generated_trace(h, subs, rows), "world": h.world.snapshot()}
         assert got == want, f"cycle {cycle + 1}: generated {got} != reference {want}"
         planned += any(steps for _, steps, _ in want["plans"].values())
     return given, planned
@@ -487,3 +536,31 @@ def test_generated_code_matches_the_reference(tmp_path_factory) -> None:
         f"\ndifferential: {runs['examples']} systems, {runs['cycles']} cycles, "
         f"{runs['commands']} commands, {runs['planned']} cycles with a plan, 0 differences"
     )
+
+
+def test_a_client_of_an_operator_module_matches_the_reference(tmp_path_factory) -> None:
+    """`s0` an operator module: `top`'s table, its channel and the person's answers agree
+    with the reference interpreter fed the documented operator cycle, every cycle."""
+    runs = {"examples": 0}
+    seen: set[str] = set()  # what top saw of its channel
+
+    @settings(
+        max_examples=EXAMPLES,
+        deadline=None,
+        derandomize=DERANDOMIZE,
+        database=None,
+        suppress_health_check=list(HealthCheck),
+    )
+    @given(data=st.data(), seed=st.integers(0, 2**32))
+    def one(data: st.DataObject, seed: int) -> None:
+        files = system_files(Draw(data))
+        assume(not sub_results(files["s0"]))  # a task has no results
+        directory = tmp_path_factory.mktemp("diff") / "diff"
+        write_system(directory, {**files, "s0": as_operator(files["s0"])})
+        with Harness.build(directory) as h:
+            drive(h, files, random.Random(seed), operator="s0", seen=seen)
+        runs["examples"] += 1
+
+    one()
+    assert runs["examples"] >= EXAMPLES
+    assert {"EXECUTING", "DONE", "ERROR"} <= seen, seen

@@ -93,6 +93,16 @@ def open_cycles(lines: list[dict], field: str) -> list[int]:
     return [line["cycle"] for line in lines if line["world"][field]]
 
 
+def asking(lines: list[dict], channel: str, task: str) -> list[int]:
+    """The cycles the operator module's `channel` (op/fx) shows `task` open on the screen."""
+    return [
+        line["cycle"]
+        for line in lines
+        if line["modules"][channel]["command"] == task
+        and line["modules"][channel]["state"] == "ASKING"
+    ]
+
+
 def test_nominal_init_for_inspect_then_the_part_is_accepted():
     final, lines = played("nominal_inspection")
     assert final["status"] == "DONE"
@@ -119,14 +129,20 @@ def test_nominal_init_for_inspect_then_the_part_is_accepted():
     assert first(lines, "ws", "INIT_FOR_INSPECT", "DONE") < inspect, "prepared before use"
     assert cmm[4:] == ["INSPECT_FEATURE"] * 5
     assert names(fx)[1:] == ["EQUIP_SETUP", "PLACE_PART", "UNLOAD_PART"]
-    end = lines[-1]["world"]
     assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": True})
     assert outcome(lines[-1], "ms") == ("DONE", "NONE", {"measured": 5, "failed": 0})
     assert final["results"] == {"accepted": True} and final["reason"] == "NONE"
-    # every request opened was answered and closed
-    for field in ("fx_setup_request", "fx_place_request", "fx_unload_request", "tl_sphere_request"):
-        assert open_cycles(lines, field), f"{field} was never asked"
-        assert not end[field]
+    # one person serves both: each task asked through its client's channel, answered DONE
+    tasks = {
+        "op/fx": ["MOUNT_FIXTURE_PLATE", "PLACE_PART", "UNLOAD_PART"],
+        "op/tl": ["MOUNT_SPHERE", "ORIENT_PROBE", "LOAD_PROBE"],
+    }
+    for channel, asked in tasks.items():
+        assert names(commands_sent(lines, channel)) == ["INIT", *asked]
+        for task in asked:
+            assert asking(lines, channel, task), f"{task} was never on the screen"
+            assert first(lines, channel, task, "DONE") == asking(lines, channel, task)[-1] + 1
+        assert lines[-1]["modules"][channel]["state"] == "NOP", "nothing left on the screen"
 
 
 def test_nominal_readings_are_within_the_programs_tolerances(monkeypatch):
@@ -175,11 +191,16 @@ def test_a_slow_operator_times_out_and_both_requests_are_withdrawn():
     final, lines = played("slow_operator")
     assert final["status"] == "ERROR"
     timeout = operator_timeout("fx")
-    asked = open_cycles(lines, "fx_place_request")
-    assert len(asked) == timeout + 1, "open from the ask through the time-out cycle"
-    assert not any(line["world"]["fx_done"] for line in lines if line["cycle"] >= asked[0])
+    asked = asking(lines, "op/fx", "PLACE_PART")
+    assert len(asked) == timeout + 1, "on the screen from the ask through the time-out cycle"
+    assert not any(
+        line["modules"]["op/fx"]["command"] == "PLACE_PART"
+        and line["modules"]["op/fx"]["status"] == "DONE"
+        for line in lines
+    ), "never answered"
     failed = first(lines, "fx", "PLACE_PART", "ERROR")
     assert failed == asked[-1] + 1
+    assert lines[failed - 1]["modules"]["op/fx"]["command"] == "HALT", "withdrawn at once"
     # the workstation withdraws the probe loading asked at the same time (HALT to MS, TL)
     assert ("HALT" in names(commands_sent(lines, "ms"))) and (
         "HALT" in names(commands_sent(lines, "tl"))
@@ -188,21 +209,19 @@ def test_a_slow_operator_times_out_and_both_requests_are_withdrawn():
     assert outcome(lines[-1], "ws") == ("ERROR", "TIMED_OUT", {"accepted": False})
     assert end["fx_reason"] == FX_TIMED_OUT
     assert outcome(lines[-1], "ms")[:2] == ("DONE", "NONE"), "MS was halted, not failed"
-    assert not any(
-        end[f] for f in ("fx_asking", "tl_asking", "fx_place_request", "tl_load_request")
-    )
+    assert [lines[-1]["modules"][c]["state"] for c in ("op/fx", "op/tl")] == ["NOP", "NOP"]
     assert lines[-1]["modules"]["ws"]["status"] == "ERROR"
 
 
 def with_delay(delay: int) -> Scenario:
-    """slow_operator.yaml with the operator taking `delay` cycles per task instead."""
+    """slow_operator.yaml with the person taking `delay` cycles over the part and the
+    probe instead."""
     slow = load_scenario(SYSTEM / "scenarios" / "slow_operator.yaml")
-    events = [
-        dataclasses.replace(e, world={"operator_delay": delay}) if e.world else e
-        for e in slow.events
-    ]
-    assert events != slow.events
-    return dataclasses.replace(slow, events=events, expect=[])
+    assert slow.operator is not None
+    answers = tuple(dataclasses.replace(a, after=delay) for a in slow.operator.answers)
+    assert {a.task for a in answers} == {"PLACE_PART", "LOAD_PROBE"}
+    script = dataclasses.replace(slow.operator, answers=answers)
+    return dataclasses.replace(slow, operator=script, expect=[])
 
 
 def test_a_patient_operator_is_waited_for():
@@ -212,7 +231,7 @@ def test_a_patient_operator_is_waited_for():
     final, lines = play(with_delay(timeout // 2 - 5))
     assert final["status"] == "DONE"
     assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": True})
-    assert len(open_cycles(lines, "fx_place_request")) > timeout // 3, "it took a while"
+    assert len(asking(lines, "op/fx", "PLACE_PART")) > timeout // 3, "it took a while"
 
 
 def test_one_operator_serves_the_requests_in_turn():
@@ -233,7 +252,7 @@ def test_an_operator_who_refuses_stops_the_workstation_with_that_reason():
     final, lines = played("operator_refuses")
     assert final["status"] == "ERROR"
     refused = first(lines, "fx", "PLACE_PART", "ERROR")
-    assert lines[refused - 2]["world"]["fx_refused"] or lines[refused - 1]["world"]["fx_reason"]
+    assert first(lines, "op/fx", "PLACE_PART", "ERROR") == refused - 1, "the person refused"
     tl = commands_sent(lines, "tl")
     assert tl[-2:][0][1] == "LOAD_PROBE" and tl[-1][1] == "HALT", "the probe loading withdrawn"
     assert tl[-1][0] == refused + 1, "in the cycle after the refusal reached the workstation"
@@ -242,15 +261,17 @@ def test_an_operator_who_refuses_stops_the_workstation_with_that_reason():
     assert outcome(lines[-1], "ws") == ("ERROR", "REFUSED", {"accepted": False})
     assert end["fx_reason"] == FX_REFUSED
     assert outcome(lines[refused], "ws")[0] == "EXECUTING", "it waits for MS to stop first"
-    assert not end["tl_asking"] and not end["tl_load_request"]
+    assert names(commands_sent(lines, "op/tl"))[-2:] == ["LOAD_PROBE", "HALT"], "withdrawn"
+    assert lines[-1]["modules"]["op/tl"]["state"] == "NOP", "nothing left on the screen"
 
 
 def test_the_inspector_answers_then_refuses_at_the_console():
-    """console_refusal sends what `ctl answer` sends: the plate is mounted, the sphere
+    """console_refusal writes what `ctl answer` writes: the plate is mounted, the sphere
     calibration refused; initForInspect fails in calibrateCMM and goes no further."""
     final, lines = played("console_refusal")
     assert final["status"] == "ERROR"
-    assert names(commands_sent(lines, "op"))[1:] == ["FX_DONE", "TL_REFUSE"]
+    assert first(lines, "op/fx", "MOUNT_FIXTURE_PLATE", "DONE") == 12, "answered at cycle 12"
+    assert first(lines, "op/tl", "MOUNT_SPHERE", "ERROR") == 30, "refused at cycle 30"
     assert first(lines, "fx", "EQUIP_SETUP", "DONE") < first(
         lines, "tl", "CALIBRATE_SPHERE", "ERROR"
     )
@@ -260,7 +281,7 @@ def test_the_inspector_answers_then_refuses_at_the_console():
     assert outcome(lines[-1], "ws")[:2] == ("ERROR", "REFUSED")  # passed up from MS
     assert outcome(lines[-1], "ms")[:2] == ("ERROR", "REFUSED")
     assert end["tl_reason"] == FX_REFUSED
-    assert not any(end[f] for f in ("tl_asking", "tl_sphere_request", "tl_refused"))
+    assert [lines[-1]["modules"][c]["state"] for c in ("op/fx", "op/tl")] == ["NOP", "NOP"]
 
 
 def test_a_machine_fault_climbs_one_level_per_cycle():
@@ -347,41 +368,46 @@ def test_a_missing_program_stops_the_run_in_one_line(tmp_path, monkeypatch):
 
 
 def test_the_inspector_answers_and_refuses_at_the_console():
-    """The workstation running paced with nobody scripted (`operator_delay=-1`): the
-    inspector prepares it, answers fixturing's request, refuses tooling's; a console without
-    a role may not answer and the inspector may not stop a module (that is override)."""
+    """The workstation running paced as OS processes (`rcsgen up`'s launcher), nobody
+    scripted: the inspector prepares it, answers fixturing's request on the operator
+    module's channel, refuses tooling's with a reason; a console without a role may not
+    answer, a wrong reason is refused, and the inspector may not stop a module."""
     from conftest import wait_for
     from test_ctl import Running
 
     layout = importlib.import_module(f"{import_package(PACKAGE, SYSTEM).__name__}.layout")
-    system = Running(PACKAGE, SYSTEM, layout, "--world", "operator_delay=-1")
+    system = Running(PACKAGE, SYSTEM, layout)
     try:
         sent = system.ctl("--role", "inspector", "send", "ws", "INIT_FOR_INSPECT", "--seen")
         assert sent.returncode == 0, sent.stderr
         wait_for(lambda: system.json().get("requests"), "fixturing's request")
         listed = system.ctl("requests").stdout.splitlines()
-        assert (
-            "fx_setup from fx: Clear the table and mount the fixture plate, then answer." in listed
-        )
-        assert any(line.startswith("fx_refuse from fx:") for line in listed)
-        refused = system.ctl("answer", "fx_setup")  # no role: this console only monitors
+        assert listed == [
+            "op/fx from fx: MOUNT_FIXTURE_PLATE #2: Clear the table and mount the fixture "
+            "plate, then answer."
+        ]
+        refused = system.ctl("answer", "op/fx")  # no role: this console only monitors
         assert refused.returncode == 1
-        assert "answering fx_setup needs respond on fx" in refused.stderr
+        assert "answering op/fx needs respond on op" in refused.stderr
         stop = system.ctl("stop", "ws", "--role", "inspector")
         assert stop.returncode == 1 and "needs override on ws" in stop.stderr
-        answered = system.ctl("answer", "fx_setup", "--role", "inspector")
+        typo = system.ctl("answer", "op/fx", "ERROR", "--reason", "REFUSD", "--role", "inspector")
+        assert typo.returncode == 2 and "did you mean 'REFUSED'?" in typo.stderr
+        answered = system.ctl("answer", "op/fx", "DONE", "--role", "inspector")
         assert answered.returncode == 0, answered.stderr
-        assert answered.stdout.startswith("answered fx_setup: sent op.FX_DONE #")
+        assert answered.stdout == "answered op/fx: MOUNT_FIXTURE_PLATE #2 DONE\n"
         wait_for(lambda: system.module("fx")["status"] == "DONE", "fixturing done")
         wait_for(
-            lambda: any(r["name"] == "tl_sphere" for r in system.json()["requests"]),
+            lambda: any(r.get("task") == "MOUNT_SPHERE" for r in system.json()["requests"]),
             "tooling's request",
         )
-        assert system.ctl("answer", "tl_refuse", "--role", "inspector").returncode == 0
+        no = system.ctl("answer", "op/tl", "ERROR", "--reason", "REFUSED", "--role", "inspector")
+        assert no.returncode == 0, no.stderr
         wait_for(lambda: system.module("ws")["status"] == "ERROR", "the workstation stopped")
+        assert system.module("op/tl")["status"] == "ERROR"
         assert system.ctl("requests").stdout == "no requests\n", "nothing left on the screen"
-        again = system.ctl("answer", "fx_setup", "--role", "inspector")
-        assert again.returncode == 1 and "fx is not asking for fx_setup now" in again.stderr
+        again = system.ctl("answer", "op/fx", "--role", "inspector")
+        assert again.returncode == 1 and "fx is asking nothing of op now" in again.stderr
     finally:
         out = system.stop()
     assert "iws: stopped" in out

@@ -17,6 +17,7 @@ pytest.importorskip("textual")
 
 from conftest import wait_for  # noqa: E402
 from test_ctl import DUO, Running  # noqa: E402
+from textual.widgets import DataTable, Input  # noqa: E402
 
 from rcsgen.tools.harness import generate, import_package  # noqa: E402
 from rcsgen.tools.monitor import Monitor, tree_order  # noqa: E402
@@ -219,3 +220,65 @@ def test_the_status_column_shows_why_a_module_is_in_error() -> None:
     assert "ERROR(OPERATOR_REFUSED)" in mission, text
     fx = next(line for line in text.splitlines() if "└─ fx" in line)
     assert "ERROR(REFUSED)" in fx, text
+
+
+OPERATOR_DESK = Path(__file__).resolve().parent / "cases" / "valid" / "operator-module"
+
+
+def test_an_operator_modules_requests_show_their_text_and_a_answers_them() -> None:
+    """Two clients ask one operator module (tests/cases/valid/operator-module, run as OS
+    processes): each request is shown with its client, task and instruction text, the
+    parameter filled in; `a` on a client's row opens the answer form, and Enter answers
+    that client's request DONE, through its own channel only; `ERROR REFUSED` refuses."""
+    import shutil
+
+    scratch, name = generate(OPERATOR_DESK)
+    package = scratch / name
+    layout = importlib.import_module(f"{import_package(package, OPERATOR_DESK).__name__}.layout")
+    system = Running(package, OPERATOR_DESK, layout)
+
+    async def drive() -> tuple[str, str]:
+        app = Monitor(layout, system.segment, interval=0.1)
+        async with app.run_test(size=(160, 40)) as pilot:
+            for _ in range(300):
+                await pilot.pause(0.1)
+                if str(app.query_one("#requests").render()).count(" asks op:") == 2:
+                    break
+            else:
+                raise AssertionError("fx and tl never both asked op within 30 s")
+            shown = str(app.query_one("#requests").render())
+            table = app.query_one(DataTable)
+            table.move_cursor(row=[m for m, _ in tree_order(layout)].index("tl"))
+            await pilot.press("a")
+            await pilot.pause(0.1)
+            assert "op/tl LOAD_PROBE: DONE | ERROR [REASON]" in str(
+                app.query_one("#send", Input).placeholder
+            )
+            await pilot.press("enter")
+            await pilot.pause(0.1)
+            said = str(app.query_one("#message").render())
+            wait_for(lambda: system.module("tl")["status"] == "DONE", "tl done", 30)
+            assert system.module("fx")["status"] == "EXECUTING", "fx's request is still open"
+            assert system.module("op/fx")["state"] == "ASKING"
+            table.move_cursor(row=[m for m, _ in tree_order(layout)].index("fx"))
+            await pilot.press("a", *["backspace"] * 4, *"ERROR", "space", *"REFUSED", "enter")
+            await pilot.pause(0.1)
+            return shown, said + "\n" + str(app.query_one("#message").render())
+
+    try:
+        for command in (("fx", "PLACE"), ("tl", "LOAD", "probe=7")):
+            assert system.ctl("send", *command).returncode == 0
+        shown, said = asyncio.run(drive())
+        assert said.splitlines() == [
+            "answered op/tl: LOAD_PROBE #2 DONE",
+            "answered op/fx: PLACE_PART #2 ERROR (REFUSED)",
+        ]
+        wait_for(lambda: system.module("fx")["status"] == "ERROR", "fx refused", 30)
+    finally:
+        system.stop()
+        shutil.rmtree(scratch, ignore_errors=True)
+    assert (
+        "fx asks op: PLACE_PART: Place the part in the fixture and clamp it, then answer. "
+        "(a: answer op/fx)" in shown
+    )
+    assert "tl asks op: LOAD_PROBE: Load probe 7 into the probe head, then answer." in shown

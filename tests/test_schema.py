@@ -20,7 +20,10 @@ SCENARIOS = sorted(SPECS.glob("*/scenarios/*.yaml"))
 
 
 def kind_of(path: pathlib.Path) -> str:
-    return "system" if path.name == "system.yaml" else "controller"
+    if path.name == "system.yaml":
+        return "system"
+    first = path.read_text(encoding="utf-8").splitlines()[0]
+    return "operator" if "operator.schema.json" in first else "controller"
 
 
 def check(text: str, kind: str = "controller") -> list:
@@ -54,7 +57,7 @@ def action(text: str) -> list:
 # ---------------------------------------------------------------- the schemas themselves
 
 
-@pytest.mark.parametrize("kind", ["system", "controller", "scenario"])
+@pytest.mark.parametrize("kind", ["system", "controller", "operator", "scenario"])
 def test_schema_is_valid_draft_2020_12(kind):
     schema = schema_for(kind)
     Draft202012Validator.check_schema(schema)
@@ -62,7 +65,7 @@ def test_schema_is_valid_draft_2020_12(kind):
     assert schema["$id"] == f"https://rcsgen.dev/schema/v1/{kind}.schema.json"
 
 
-@pytest.mark.parametrize("kind", ["system", "controller", "scenario"])
+@pytest.mark.parametrize("kind", ["system", "controller", "operator", "scenario"])
 def test_every_property_and_definition_has_a_description(kind):
     missing = []
 

@@ -322,6 +322,24 @@ def ctl(*args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
+@pytest.mark.parametrize("name", ["console_refusal", "operator_refuses"])
+def test_an_operator_modules_answers_travel_over_zenoh(name: str) -> None:
+    """The inspection workstation behind Zenoh: the answer records the console's events
+    and the scripted person write in the coordinator's block reach the operator module,
+    and its channels' statuses come back: the golden trace, nothing left behind."""
+    before = shm_files()
+    system = ROOT / "specs" / "inspection"
+    scenario = load_scenario(system / "scenarios" / f"{name}.yaml")
+    harness = open_harness(scenario, ROOT / "generated" / "inspection", True, "zenoh")
+    try:
+        result = run(scenario, harness)
+    finally:
+        harness.close()
+    golden = ROOT / "tests" / "golden" / "inspection" / f"{name}.jsonl"
+    assert result.trace == read_trace(golden)
+    assert shm_files() - before == set()
+
+
 @pytest.mark.parametrize("name", [p.stem for p in sorted((HOOKS / "scenarios").glob("*.yaml"))])
 def test_lockstep_over_zenoh_leaves_the_golden_trace(name: str) -> None:
     """pc1 and pc2 each on a block of their own, connected only through Zenoh, stepped by a

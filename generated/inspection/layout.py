@@ -5,13 +5,17 @@ The header comes first (the layout's hash: a process refuses to attach to anothe
 then each process's control record (its heartbeat and counters) and pacing record (its
 slow-down, written by an operator). Every module owns a command
 buffer (written by its supervisor), a status buffer and a performance buffer (written by
-the module) and a mode buffer (written by an operator). World-model fields follow, one
+the module) and a mode buffer (written by an operator); an operator module owns a mode and
+a performance buffer, and a channel per client: a command buffer (written by the client), a
+status buffer (written by the operator module) and an answer record (written by the
+answering side: the console, a scenario's scripted operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 1504 bytes.
+The block is 1368 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
-control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
+control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
+ANSWER_FIELDS);
 command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
@@ -38,38 +42,27 @@ command buffers and world fields:
 | 784 | 32 | CMM_STATUS | STATUS_FIELDS |
 | 816 | 16 | CMM_MODE | MODE_FIELDS |
 | 832 | 48 | CMM_PERF | PERF_FIELDS |
-| 880 | 20 | OP_COMMAND | command_num, command |
-| 904 | 32 | OP_STATUS | STATUS_FIELDS |
-| 936 | 16 | OP_MODE | MODE_FIELDS |
-| 952 | 48 | OP_PERF | PERF_FIELDS |
-| 1000 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 1024 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 1056 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1072 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1120 | 9 | WORLD_FX_ASKING | fx_asking |
-| 1136 | 9 | WORLD_FX_SETUP_REQUEST | fx_setup_request |
-| 1152 | 9 | WORLD_FX_PLACE_REQUEST | fx_place_request |
-| 1168 | 9 | WORLD_FX_REFIXTURE_REQUEST | fx_refixture_request |
-| 1184 | 9 | WORLD_FX_UNLOAD_REQUEST | fx_unload_request |
-| 1200 | 9 | WORLD_FX_DONE | fx_done |
-| 1216 | 9 | WORLD_FX_REFUSED | fx_refused |
-| 1232 | 16 | WORLD_FX_REASON | fx_reason |
-| 1248 | 9 | WORLD_TL_ASKING | tl_asking |
-| 1264 | 9 | WORLD_TL_SPHERE_REQUEST | tl_sphere_request |
-| 1280 | 9 | WORLD_TL_PROBE_REQUEST | tl_probe_request |
-| 1296 | 9 | WORLD_TL_LOAD_REQUEST | tl_load_request |
-| 1312 | 9 | WORLD_TL_DONE | tl_done |
-| 1328 | 9 | WORLD_TL_REFUSED | tl_refused |
-| 1344 | 16 | WORLD_TL_REASON | tl_reason |
-| 1360 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 1376 | 9 | WORLD_OPERATOR_REFUSES | operator_refuses |
-| 1392 | 16 | WORLD_CMM_OP | cmm_op |
-| 1408 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1424 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1440 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1456 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1472 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1488 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 880 | 16 | OP_MODE | MODE_FIELDS |
+| 896 | 48 | OP_PERF | PERF_FIELDS |
+| 944 | 20 | OP_FX_COMMAND | command_num, command |
+| 968 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 1000 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 1024 | 20 | OP_TL_COMMAND | command_num, command |
+| 1048 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 1080 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 1104 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 1128 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 1160 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1176 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1224 | 16 | WORLD_FX_REASON | fx_reason |
+| 1240 | 16 | WORLD_TL_REASON | tl_reason |
+| 1256 | 16 | WORLD_CMM_OP | cmm_op |
+| 1272 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1288 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1304 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1320 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1336 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1352 | 9 | WORLD_CMM_FAULT | cmm_fault |
 """
 
 from __future__ import annotations
@@ -77,12 +70,15 @@ from __future__ import annotations
 from struct import Struct
 
 from .rcs.contract import (
+    ANSWER,
+    ANSWER_FIELDS,
     FIRST_SEQ,
     HEADER,
     MAGIC,
     MODE,
     MODE_FIELDS,
     NO_COMMAND_NAME,
+    OPERATOR_STATES,
     PACE,
     PACE_FIELDS,
     PERF,
@@ -98,9 +94,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 1504
+SIZE = 1368
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "7bf7fe1f6ecfd0e52e74b9c2aa68e147"
+LAYOUT_HASH = "9ffd952a896c10de26e4cff958431db2"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 168
 
@@ -143,69 +139,44 @@ CMM_STATUS_AT = 784
 CMM_MODE_AT = 816
 CMM_PERF_AT = 832
 
-# op: Operator at the screen (scripted)
-OP_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_COMMAND_AT = 880
-OP_STATUS_AT = 904
-OP_MODE_AT = 936
-OP_PERF_AT = 952
-
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 1000
-CMM_SIM_STATUS_AT = 1024
-CMM_SIM_MODE_AT = 1056
-CMM_SIM_PERF_AT = 1072
+CMM_SIM_COMMAND_AT = 1104
+CMM_SIM_STATUS_AT = 1128
+CMM_SIM_MODE_AT = 1160
+CMM_SIM_PERF_AT = 1176
+
+# op: Operator at the screen (an operator module: a channel per client)
+OP_MODE_AT = 880
+OP_PERF_AT = 896
+OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
+OP_FX_COMMAND_AT = 944
+OP_FX_STATUS_AT = 968
+OP_FX_ANSWER_AT = 1000
+OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
+OP_TL_COMMAND_AT = 1024
+OP_TL_STATUS_AT = 1048
+OP_TL_ANSWER_AT = 1080
 
 # World model.
-WORLD_FX_ASKING = Struct("<Q?")  # seq, fx_asking
-WORLD_FX_ASKING_AT = 1120
-WORLD_FX_SETUP_REQUEST = Struct("<Q?")  # seq, fx_setup_request
-WORLD_FX_SETUP_REQUEST_AT = 1136
-WORLD_FX_PLACE_REQUEST = Struct("<Q?")  # seq, fx_place_request
-WORLD_FX_PLACE_REQUEST_AT = 1152
-WORLD_FX_REFIXTURE_REQUEST = Struct("<Q?")  # seq, fx_refixture_request
-WORLD_FX_REFIXTURE_REQUEST_AT = 1168
-WORLD_FX_UNLOAD_REQUEST = Struct("<Q?")  # seq, fx_unload_request
-WORLD_FX_UNLOAD_REQUEST_AT = 1184
-WORLD_FX_DONE = Struct("<Q?")  # seq, fx_done
-WORLD_FX_DONE_AT = 1200
-WORLD_FX_REFUSED = Struct("<Q?")  # seq, fx_refused
-WORLD_FX_REFUSED_AT = 1216
 WORLD_FX_REASON = Struct("<Qq")  # seq, fx_reason
-WORLD_FX_REASON_AT = 1232
-WORLD_TL_ASKING = Struct("<Q?")  # seq, tl_asking
-WORLD_TL_ASKING_AT = 1248
-WORLD_TL_SPHERE_REQUEST = Struct("<Q?")  # seq, tl_sphere_request
-WORLD_TL_SPHERE_REQUEST_AT = 1264
-WORLD_TL_PROBE_REQUEST = Struct("<Q?")  # seq, tl_probe_request
-WORLD_TL_PROBE_REQUEST_AT = 1280
-WORLD_TL_LOAD_REQUEST = Struct("<Q?")  # seq, tl_load_request
-WORLD_TL_LOAD_REQUEST_AT = 1296
-WORLD_TL_DONE = Struct("<Q?")  # seq, tl_done
-WORLD_TL_DONE_AT = 1312
-WORLD_TL_REFUSED = Struct("<Q?")  # seq, tl_refused
-WORLD_TL_REFUSED_AT = 1328
+WORLD_FX_REASON_AT = 1224
 WORLD_TL_REASON = Struct("<Qq")  # seq, tl_reason
-WORLD_TL_REASON_AT = 1344
-WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 1360
-WORLD_OPERATOR_REFUSES = Struct("<Q?")  # seq, operator_refuses
-WORLD_OPERATOR_REFUSES_AT = 1376
+WORLD_TL_REASON_AT = 1240
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1392
+WORLD_CMM_OP_AT = 1256
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1408
+WORLD_CMM_FEATURE_AT = 1272
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1424
+WORLD_CMM_SEQ_AT = 1288
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1440
+WORLD_CMM_DONE_SEQ_AT = 1304
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1456
+WORLD_CMM_READING_AT = 1320
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1472
+WORLD_CMM_ALARM_AT = 1336
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1488
+WORLD_CMM_FAULT_AT = 1352
 
 
 PROCESSES = {
@@ -223,6 +194,8 @@ PLACEMENT = {
     "tl": "iws",
     "cmm": "iws",
     "op": "iws",
+    "op/fx": "iws",
+    "op/tl": "iws",
     "cmm_sim": "iws",
 }
 # Seconds without a heartbeat after which a process is reported dead.
@@ -231,23 +204,24 @@ HEARTBEAT_TIMEOUT = 5.0
 SUBORDINATES = {
     "ws": ("ms", "fx"),
     "ms": ("tl", "cmm"),
-    "fx": (),
-    "tl": (),
+    "fx": ("op/fx",),
+    "tl": ("op/tl",),
     "cmm": (),
     "op": (),
     "cmm_sim": (),
 }
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {}
-MODULES = ("ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim")
+MODULES = ("ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim")
 COMMAND_IN = {
     "ws": Record(WS_COMMAND, WS_COMMAND_AT, ("command_num", "command", "arg_program")),
     "ms": Record(MS_COMMAND, MS_COMMAND_AT, ("command_num", "command", "arg_program")),
     "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command")),
     "tl": Record(TL_COMMAND, TL_COMMAND_AT, ("command_num", "command")),
     "cmm": Record(CMM_COMMAND, CMM_COMMAND_AT, ("command_num", "command", "arg_number")),
-    "op": Record(OP_COMMAND, OP_COMMAND_AT, ("command_num", "command")),
     "cmm_sim": Record(CMM_SIM_COMMAND, CMM_SIM_COMMAND_AT, ("command_num", "command")),
+    "op/fx": Record(OP_FX_COMMAND, OP_FX_COMMAND_AT, ("command_num", "command")),
+    "op/tl": Record(OP_TL_COMMAND, OP_TL_COMMAND_AT, ("command_num", "command")),
 }
 STATUS_OUT = {
     "ws": Record(
@@ -263,8 +237,9 @@ STATUS_OUT = {
     "fx": Record(STATUS, FX_STATUS_AT, field_names(STATUS_FIELDS)),
     "tl": Record(STATUS, TL_STATUS_AT, field_names(STATUS_FIELDS)),
     "cmm": Record(STATUS, CMM_STATUS_AT, field_names(STATUS_FIELDS)),
-    "op": Record(STATUS, OP_STATUS_AT, field_names(STATUS_FIELDS)),
     "cmm_sim": Record(STATUS, CMM_SIM_STATUS_AT, field_names(STATUS_FIELDS)),
+    "op/fx": Record(STATUS, OP_FX_STATUS_AT, field_names(STATUS_FIELDS)),
+    "op/tl": Record(STATUS, OP_TL_STATUS_AT, field_names(STATUS_FIELDS)),
 }
 MODE_IN = {
     "ws": Record(MODE, WS_MODE_AT, field_names(MODE_FIELDS)),
@@ -272,8 +247,10 @@ MODE_IN = {
     "fx": Record(MODE, FX_MODE_AT, field_names(MODE_FIELDS)),
     "tl": Record(MODE, TL_MODE_AT, field_names(MODE_FIELDS)),
     "cmm": Record(MODE, CMM_MODE_AT, field_names(MODE_FIELDS)),
-    "op": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
     "cmm_sim": Record(MODE, CMM_SIM_MODE_AT, field_names(MODE_FIELDS)),
+    "op": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
+    "op/fx": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
+    "op/tl": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
 }
 PERFORMANCE = {
     "ws": Record(PERF, WS_PERF_AT, field_names(PERF_FIELDS)),
@@ -281,43 +258,14 @@ PERFORMANCE = {
     "fx": Record(PERF, FX_PERF_AT, field_names(PERF_FIELDS)),
     "tl": Record(PERF, TL_PERF_AT, field_names(PERF_FIELDS)),
     "cmm": Record(PERF, CMM_PERF_AT, field_names(PERF_FIELDS)),
-    "op": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
     "cmm_sim": Record(PERF, CMM_SIM_PERF_AT, field_names(PERF_FIELDS)),
+    "op": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
+    "op/fx": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
+    "op/tl": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
 }
 WORLD = {
-    "fx_asking": Record(WORLD_FX_ASKING, WORLD_FX_ASKING_AT, ("fx_asking",)),
-    "fx_setup_request": Record(
-        WORLD_FX_SETUP_REQUEST, WORLD_FX_SETUP_REQUEST_AT, ("fx_setup_request",)
-    ),
-    "fx_place_request": Record(
-        WORLD_FX_PLACE_REQUEST, WORLD_FX_PLACE_REQUEST_AT, ("fx_place_request",)
-    ),
-    "fx_refixture_request": Record(
-        WORLD_FX_REFIXTURE_REQUEST, WORLD_FX_REFIXTURE_REQUEST_AT, ("fx_refixture_request",)
-    ),
-    "fx_unload_request": Record(
-        WORLD_FX_UNLOAD_REQUEST, WORLD_FX_UNLOAD_REQUEST_AT, ("fx_unload_request",)
-    ),
-    "fx_done": Record(WORLD_FX_DONE, WORLD_FX_DONE_AT, ("fx_done",)),
-    "fx_refused": Record(WORLD_FX_REFUSED, WORLD_FX_REFUSED_AT, ("fx_refused",)),
     "fx_reason": Record(WORLD_FX_REASON, WORLD_FX_REASON_AT, ("fx_reason",)),
-    "tl_asking": Record(WORLD_TL_ASKING, WORLD_TL_ASKING_AT, ("tl_asking",)),
-    "tl_sphere_request": Record(
-        WORLD_TL_SPHERE_REQUEST, WORLD_TL_SPHERE_REQUEST_AT, ("tl_sphere_request",)
-    ),
-    "tl_probe_request": Record(
-        WORLD_TL_PROBE_REQUEST, WORLD_TL_PROBE_REQUEST_AT, ("tl_probe_request",)
-    ),
-    "tl_load_request": Record(
-        WORLD_TL_LOAD_REQUEST, WORLD_TL_LOAD_REQUEST_AT, ("tl_load_request",)
-    ),
-    "tl_done": Record(WORLD_TL_DONE, WORLD_TL_DONE_AT, ("tl_done",)),
-    "tl_refused": Record(WORLD_TL_REFUSED, WORLD_TL_REFUSED_AT, ("tl_refused",)),
     "tl_reason": Record(WORLD_TL_REASON, WORLD_TL_REASON_AT, ("tl_reason",)),
-    "operator_delay": Record(WORLD_OPERATOR_DELAY, WORLD_OPERATOR_DELAY_AT, ("operator_delay",)),
-    "operator_refuses": Record(
-        WORLD_OPERATOR_REFUSES, WORLD_OPERATOR_REFUSES_AT, ("operator_refuses",)
-    ),
     "cmm_op": Record(WORLD_CMM_OP, WORLD_CMM_OP_AT, ("cmm_op",)),
     "cmm_feature": Record(WORLD_CMM_FEATURE, WORLD_CMM_FEATURE_AT, ("cmm_feature",)),
     "cmm_seq": Record(WORLD_CMM_SEQ, WORLD_CMM_SEQ_AT, ("cmm_seq",)),
@@ -327,23 +275,8 @@ WORLD = {
     "cmm_fault": Record(WORLD_CMM_FAULT, WORLD_CMM_FAULT_AT, ("cmm_fault",)),
 }
 WORLD_INITIAL: dict[str, object] = {
-    "fx_asking": False,
-    "fx_setup_request": False,
-    "fx_place_request": False,
-    "fx_refixture_request": False,
-    "fx_unload_request": False,
-    "fx_done": False,
-    "fx_refused": False,
     "fx_reason": 0,
-    "tl_asking": False,
-    "tl_sphere_request": False,
-    "tl_probe_request": False,
-    "tl_load_request": False,
-    "tl_done": False,
-    "tl_refused": False,
     "tl_reason": 0,
-    "operator_delay": 6,
-    "operator_refuses": False,
     "cmm_op": 0,
     "cmm_feature": 0,
     "cmm_seq": 0,
@@ -376,8 +309,35 @@ COMMAND_NAMES = {
         NO_COMMAND_NAME,
         *("INIT", "HALT", "HOME", "CALIBRATE_PROBE", "CALIBRATE_CAMERA", "INSPECT_FEATURE"),
     ),
-    "op": (NO_COMMAND_NAME, *("INIT", "HALT", "FX_DONE", "FX_REFUSE", "TL_DONE", "TL_REFUSE")),
     "cmm_sim": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "op/fx": (
+        NO_COMMAND_NAME,
+        *(
+            "INIT",
+            "HALT",
+            "MOUNT_FIXTURE_PLATE",
+            "PLACE_PART",
+            "RESEAT_PART",
+            "UNLOAD_PART",
+            "MOUNT_SPHERE",
+            "ORIENT_PROBE",
+            "LOAD_PROBE",
+        ),
+    ),
+    "op/tl": (
+        NO_COMMAND_NAME,
+        *(
+            "INIT",
+            "HALT",
+            "MOUNT_FIXTURE_PLATE",
+            "PLACE_PART",
+            "RESEAT_PART",
+            "UNLOAD_PART",
+            "MOUNT_SPHERE",
+            "ORIENT_PROBE",
+            "LOAD_PROBE",
+        ),
+    ),
 }
 STATE_NAMES = {
     "ws": (
@@ -393,17 +353,20 @@ STATE_NAMES = {
         "UNLOADING",
     ),
     "ms": ("NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
-    "fx": ("NOP", "S0", "S0_ASKING"),
-    "tl": ("NOP", "S0", "S0_ASKING"),
+    "fx": ("NOP", "S0", "S1", "S0_ASKING"),
+    "tl": ("NOP", "S0", "S1", "S0_ASKING"),
     "cmm": ("NOP", "S0", "S1"),
-    "op": ("NOP", "S0"),
     "cmm_sim": ("NOP", "S0"),
+    "op/fx": OPERATOR_STATES,
+    "op/tl": OPERATOR_STATES,
 }
 # The reason each code of a status buffer's `error_num` names, indexed by code, for the
 # controllers that declare reasons (docs/semantics.md, "Results and reasons").
 REASON_NAMES: dict[str, tuple[str, ...]] = {
     "ws": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ms": ("NONE", "LOST", "MACHINE_FAULT", "REFUSED", "TIMED_OUT"),
+    "fx": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
+    "tl": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
 }
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
@@ -477,7 +440,9 @@ RULES = {
     "fx": (
         "",
         "INIT/S0/1",
+        "INIT/S1/1",
         "HALT/S0/1",
+        "HALT/S1/1",
         "EQUIP_SETUP/S0/1",
         "EQUIP_SETUP/S0_ASKING/1",
         "EQUIP_SETUP/S0_ASKING/2",
@@ -498,7 +463,9 @@ RULES = {
     "tl": (
         "",
         "INIT/S0/1",
+        "INIT/S1/1",
         "HALT/S0/1",
+        "HALT/S1/1",
         "CALIBRATE_SPHERE/S0/1",
         "CALIBRATE_SPHERE/S0_ASKING/1",
         "CALIBRATE_SPHERE/S0_ASKING/2",
@@ -529,26 +496,17 @@ RULES = {
         "INSPECT_FEATURE/S1/1",
         "INSPECT_FEATURE/S1/2",
     ),
-    "op": (
-        "",
-        "INIT/S0/1",
-        "HALT/S0/1",
-        "FX_DONE/S0/1",
-        "FX_REFUSE/S0/1",
-        "TL_DONE/S0/1",
-        "TL_REFUSE/S0/1",
-    ),
     "cmm_sim": ("", "INIT/S0/1", "HALT/S0/1"),
+    "op/fx": ("",),  # an operator module has no table
+    "op/tl": ("",),  # an operator module has no table
 }
-SIMULATORS = ("op", "cmm_sim")
+SIMULATORS = ("cmm_sim",)
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {
     "inspector": {
         "ws": 2,  # command
-        "fx": 1,  # respond
-        "tl": 1,  # respond
-        "op": 2,  # command
+        "op": 1,  # respond
     },
     "engineer": {
         "ws": 3,  # override
@@ -562,61 +520,34 @@ ROLES: dict[str, dict[str, int]] = {
 }
 # What modules ask of the operator (`operators.requests`): open while the world field
 # `while` is true, answered by sending the command `answer`.
-REQUESTS: dict[str, dict[str, object]] = {
-    "fx_setup": {
-        "by": "fx",
-        "while": "fx_setup_request",
-        "answer": ("op", "FX_DONE"),
-        "doc": "Clear the table and mount the fixture plate, then answer.",
+REQUESTS: dict[str, dict[str, object]] = {}
+
+
+# Operator modules (a person at a screen): each one's channels, `operator/client`.
+OPERATORS = {
+    "op": ("op/fx", "op/tl"),
+}
+# Each channel's answer record: written only by the answering side (`ctl answer`, a
+# scenario's scripted operator), read by the operator module.
+ANSWERS = {
+    "op/fx": Record(ANSWER, OP_FX_ANSWER_AT, field_names(ANSWER_FIELDS)),
+    "op/tl": Record(ANSWER, OP_TL_ANSWER_AT, field_names(ANSWER_FIELDS)),
+}
+# Each operator module's tasks: the instruction the screen shows (`{param}`: its value).
+INSTRUCTIONS = {
+    "op": {
+        "MOUNT_FIXTURE_PLATE": "Clear the table and mount the fixture plate, then answer.",
+        "PLACE_PART": "Place the part in the fixture and clamp it, then answer.",
+        "RESEAT_PART": "Unclamp, clean and re-seat the part, clamp it, then answer.",
+        "UNLOAD_PART": "Unclamp the part and take it off the table, then answer.",
+        "MOUNT_SPHERE": "Mount the reference sphere and define the coordinate system, then answer.",
+        "ORIENT_PROBE": "Orient the probe for calibration on the reference sphere, then answer.",
+        "LOAD_PROBE": "Load the part program's probe into the probe head, then answer.",
     },
-    "fx_place": {
-        "by": "fx",
-        "while": "fx_place_request",
-        "answer": ("op", "FX_DONE"),
-        "doc": "Place the part in the fixture and clamp it, then answer.",
-    },
-    "fx_refixture": {
-        "by": "fx",
-        "while": "fx_refixture_request",
-        "answer": ("op", "FX_DONE"),
-        "doc": "Unclamp, clean and re-seat the part, clamp it, then answer.",
-    },
-    "fx_unload": {
-        "by": "fx",
-        "while": "fx_unload_request",
-        "answer": ("op", "FX_DONE"),
-        "doc": "Unclamp the part and take it off the table, then answer.",
-    },
-    "fx_refuse": {
-        "by": "fx",
-        "while": "fx_asking",
-        "answer": ("op", "FX_REFUSE"),
-        "doc": "Refuse the fixturing task asked (the workstation stops, reason refused).",
-    },
-    "tl_sphere": {
-        "by": "tl",
-        "while": "tl_sphere_request",
-        "answer": ("op", "TL_DONE"),
-        "doc": "Mount the reference sphere and define the coordinate system, then answer.",
-    },
-    "tl_probe": {
-        "by": "tl",
-        "while": "tl_probe_request",
-        "answer": ("op", "TL_DONE"),
-        "doc": "Orient the probe for calibration on the reference sphere, then answer.",
-    },
-    "tl_load": {
-        "by": "tl",
-        "while": "tl_load_request",
-        "answer": ("op", "TL_DONE"),
-        "doc": "Load the part program's probe into the probe head, then answer.",
-    },
-    "tl_refuse": {
-        "by": "tl",
-        "while": "tl_asking",
-        "answer": ("op", "TL_REFUSE"),
-        "doc": "Refuse the tooling task asked (the workstation stops, reason refused).",
-    },
+}
+# Each operator module's reasons, indexed by code (an answer's `reason`, a status's error_num).
+ANSWER_REASONS = {
+    "op": ("NONE", "LOST", "REFUSED"),
 }
 
 
@@ -625,7 +556,16 @@ def initialise(buf: memoryview) -> None:
     write in progress), set every world field to its initial value and flag the simulators."""
     buf[:SIZE] = bytes(SIZE)
     HEADER.pack_into(buf, 0, MAGIC, LAYOUT_HASH.encode(), SYSTEM.encode()[:32], SIZE)
-    for records in (PROCESSES, PACING, COMMAND_IN, STATUS_OUT, MODE_IN, PERFORMANCE, WORLD):
+    for records in (
+        PROCESSES,
+        PACING,
+        COMMAND_IN,
+        STATUS_OUT,
+        MODE_IN,
+        PERFORMANCE,
+        WORLD,
+        ANSWERS,
+    ):
         for record in records.values():
             SEQ.pack_into(buf, record.offset, FIRST_SEQ)
     for name, value in WORLD_INITIAL.items():

@@ -21,7 +21,7 @@ PLAN = ProcessPlan(
     cycle_period=0.5,
     modules=("ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim"),
     # Modules of this process with no supervisor: INIT is sent to them at start-up.
-    roots=("ws", "op", "cmm_sim"),
+    roots=("ws", "cmm_sim"),
     # The controller-simulation switch: controller -> (its stand-in, the modules it replaces).
     stand_ins={},
     classes={

@@ -63,7 +63,7 @@ CMM_INSPECT_FEATURE = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s60x???1xI200xQI116xQI548xq104xd")
+INPUTS = Struct("<QI32s60x???1xI200xQI116xQI444xq72xd")
 INPUTS_AT = 352
 
 # States of the state tables (NOP = 0: no command to work on).

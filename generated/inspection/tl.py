@@ -5,13 +5,11 @@ from struct import Struct
 from time import perf_counter_ns
 
 from .layout import (
+    OP_TL_COMMAND,
+    OP_TL_COMMAND_AT,
     TL_PERF_AT,
     TL_STATUS_AT,
-    WORLD_TL_ASKING_AT,
-    WORLD_TL_LOAD_REQUEST_AT,
-    WORLD_TL_PROBE_REQUEST_AT,
     WORLD_TL_REASON_AT,
-    WORLD_TL_SPHERE_REQUEST_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -22,28 +20,39 @@ CALIBRATE_SPHERE = 3
 CALIBRATE_PROBE = 4
 LOAD_PROBE = 5
 
+# Why tl may end a command in ERROR (the error_num it reports).
+REASON_NONE = 0
+REASON_LOST = 1
+REASON_REFUSED = 2
+REASON_TIMED_OUT = 3
+
+# Commands tl sends to op.
+OP_INIT = 1
+OP_HALT = 2
+OP_MOUNT_FIXTURE_PLATE = 3
+OP_PLACE_PART = 4
+OP_RESEAT_PART = 5
+OP_UNLOAD_PART = 6
+OP_MOUNT_SPHERE = 7
+OP_ORIENT_PROBE = 8
+OP_LOAD_PROBE = 9
+
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI552x?15x?15x?15x?15x?15x?15xq")
+INPUTS = Struct("<QI44x???1xI352xQI180xq")
 INPUTS_AT = 640
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, and their
 # sequence words alone.
-WORLD_OUT_1 = Struct("<Q?7xQ?7xQ?7xQ?")
-WORLD_VALUES_1 = Struct("<8x?15x?15x?15x?")
-WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 1248
-# Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
-WORLD_OUT_2 = Struct("<Qq")
-WORLD_VALUES_2 = Struct("<8xq")
-WORLD_SEQS_2 = Struct("<Q")
-WORLD_OUT_2_AT = 1344
+WORLD_OUT_1 = Struct("<Qq")
+WORLD_VALUES_1 = Struct("<8xq")
+WORLD_SEQS_1 = Struct("<Q")
+WORLD_OUT_1_AT = 1240
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
-S0_ASKING = 2
+S1 = 2
+S0_ASKING = 3
 
 # Constants.
 REFUSED = 1
@@ -64,6 +73,11 @@ class TlController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "op_command",
+        "op_command_num",
+        "op_status",
+        "op_status_num",
+        "op_written",
         "perf_seq",
         "perf_single_step_num",
         "rule",
@@ -77,13 +91,7 @@ class TlController:
         "status_num",
         "status_seq",
         "ticks",
-        "world_tl_asking",
-        "world_tl_done",
-        "world_tl_load_request",
-        "world_tl_probe_request",
         "world_tl_reason",
-        "world_tl_refused",
-        "world_tl_sphere_request",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -112,6 +120,17 @@ class TlController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
+        _, self.op_command_num, self.op_command = OP_TL_COMMAND.unpack_from(buf, OP_TL_COMMAND_AT)
+        self.op_written = self.op_command_num
+
+    def safe_state(self, reason: int) -> None:
+        """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
+        self.op_command = OP_HALT
+        self.op_command_num += 1
+        self.state = NOP
+        self.status = ERROR
+        self.error_num = reason
+        self.status_dirty = True
 
     def run_cycle(self) -> None:
         """One cycle: read inputs, detect a new command, run its state table, write outputs.
@@ -128,14 +147,12 @@ class TlController:
             self.single_step,
             self.simulate,
             self.single_step_num,
-            self.world_tl_asking,
-            self.world_tl_sphere_request,
-            self.world_tl_probe_request,
-            self.world_tl_load_request,
-            self.world_tl_done,
-            self.world_tl_refused,
+            self.op_status_num,
+            self.op_status,
             self.world_tl_reason,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        if self.op_status_num != self.op_command_num:
+            self.op_status = EXECUTING  # until it echoes the last number sent
 
         # check_if_new_command
         if self.command_num != self.status_num:
@@ -143,6 +160,7 @@ class TlController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
             self.ticks = 0  # a new command: its time in S0 starts
 
         # decision_process
@@ -184,39 +202,22 @@ class TlController:
             SEQ.pack_into(buf, TL_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (
-            self.world_tl_asking,
-            self.world_tl_sphere_request,
-            self.world_tl_probe_request,
-            self.world_tl_load_request,
-        )
+        if self.op_command_num != self.op_written:  # a command was sent
+            seq, number = OP_TL_COMMAND.unpack_from(buf, OP_TL_COMMAND_AT)[:2]
+            if number != self.op_written:  # an operator's command came meanwhile:
+                self.op_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, OP_TL_COMMAND_AT, seq)
+            OP_TL_COMMAND.pack_into(
+                buf, OP_TL_COMMAND_AT, seq, self.op_command_num, self.op_command
+            )
+            SEQ.pack_into(buf, OP_TL_COMMAND_AT, seq + 1)
+            self.op_written = self.op_command_num
+        out = (self.world_tl_reason,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_TL_ASKING_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_TL_SPHERE_REQUEST_AT, s[1] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_TL_PROBE_REQUEST_AT, s[2] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_TL_LOAD_REQUEST_AT, s[3] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(
-                buf,
-                WORLD_OUT_1_AT,
-                s[0] | 1,
-                out[0],
-                s[1] | 1,
-                out[1],
-                s[2] | 1,
-                out[2],
-                s[3] | 1,
-                out[3],
-            )
-            SEQ.pack_into(buf, WORLD_TL_ASKING_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_TL_SPHERE_REQUEST_AT, (s[1] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_TL_PROBE_REQUEST_AT, (s[2] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_TL_LOAD_REQUEST_AT, (s[3] | 1) + 1)
-        out = (self.world_tl_reason,)
-        if WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT) != out:  # set this cycle
-            s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
             SEQ.pack_into(buf, WORLD_TL_REASON_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0])
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
             SEQ.pack_into(buf, WORLD_TL_REASON_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -254,14 +255,12 @@ class TlController:
             self.single_step,
             self.simulate,
             self.single_step_num,
-            self.world_tl_asking,
-            self.world_tl_sphere_request,
-            self.world_tl_probe_request,
-            self.world_tl_load_request,
-            self.world_tl_done,
-            self.world_tl_refused,
+            self.op_status_num,
+            self.op_status,
             self.world_tl_reason,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        if self.op_status_num != self.op_command_num:
+            self.op_status = EXECUTING  # until it echoes the last number sent
 
     def check_if_new_command(self) -> None:
         """A command number that differs from the echoed status number is a new command."""
@@ -270,6 +269,7 @@ class TlController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
             self.ticks = 0  # a new command: its time in S0 starts
 
     def decision_process(self) -> None:
@@ -315,39 +315,22 @@ class TlController:
             SEQ.pack_into(buf, TL_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (
-            self.world_tl_asking,
-            self.world_tl_sphere_request,
-            self.world_tl_probe_request,
-            self.world_tl_load_request,
-        )
+        if self.op_command_num != self.op_written:  # a command was sent
+            seq, number = OP_TL_COMMAND.unpack_from(buf, OP_TL_COMMAND_AT)[:2]
+            if number != self.op_written:  # an operator's command came meanwhile:
+                self.op_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, OP_TL_COMMAND_AT, seq)
+            OP_TL_COMMAND.pack_into(
+                buf, OP_TL_COMMAND_AT, seq, self.op_command_num, self.op_command
+            )
+            SEQ.pack_into(buf, OP_TL_COMMAND_AT, seq + 1)
+            self.op_written = self.op_command_num
+        out = (self.world_tl_reason,)
         if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_TL_ASKING_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_TL_SPHERE_REQUEST_AT, s[1] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_TL_PROBE_REQUEST_AT, s[2] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_TL_LOAD_REQUEST_AT, s[3] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(
-                buf,
-                WORLD_OUT_1_AT,
-                s[0] | 1,
-                out[0],
-                s[1] | 1,
-                out[1],
-                s[2] | 1,
-                out[2],
-                s[3] | 1,
-                out[3],
-            )
-            SEQ.pack_into(buf, WORLD_TL_ASKING_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_TL_SPHERE_REQUEST_AT, (s[1] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_TL_PROBE_REQUEST_AT, (s[2] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_TL_LOAD_REQUEST_AT, (s[3] | 1) + 1)
-        out = (self.world_tl_reason,)
-        if WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT) != out:  # set this cycle
-            s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
             SEQ.pack_into(buf, WORLD_TL_REASON_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0])
+            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
             SEQ.pack_into(buf, WORLD_TL_REASON_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
@@ -375,26 +358,34 @@ class TlController:
         self.perf_seq = seq + 1
 
     def init(self) -> None:
-        """INIT: Withdraw any request (the screen clears) and stop."""
+        """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            # send INIT to every subordinate
             self.rule = 1  # INIT/S0/1
-            self.world_tl_sphere_request = False
-            self.world_tl_probe_request = False
-            self.world_tl_load_request = False
-            self.world_tl_asking = False
+            self.state = S1
+            self.op_command = OP_INIT
+            self.op_command_num += 1
+
+        elif state == S1 and self.op_status == DONE:
+            # every subordinate is done
+            self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
 
     def halt(self) -> None:
-        """HALT: Withdraw any request (the screen clears) and stop."""
+        """HALT: Halt all actions."""
         state = self.state
         if state == S0:
-            self.rule = 2  # HALT/S0/1
-            self.world_tl_sphere_request = False
-            self.world_tl_probe_request = False
-            self.world_tl_load_request = False
-            self.world_tl_asking = False
+            # send HALT to every subordinate
+            self.rule = 3  # HALT/S0/1
+            self.state = S1
+            self.op_command = OP_HALT
+            self.op_command_num += 1
+
+        elif state == S1 and self.op_status == DONE:
+            # every subordinate is done
+            self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
 
@@ -404,39 +395,37 @@ class TlController:
         """
         state = self.state
         if state == S0:
-            # ask the operator (the console shows the request)
-            self.rule = 3  # CALIBRATE_SPHERE/S0/1
+            # ask the operator (the console shows the task's instruction)
+            self.rule = 5  # CALIBRATE_SPHERE/S0/1
             self.state = S0_ASKING
-            self.world_tl_sphere_request = True
-            self.world_tl_asking = True
+            self.op_command = OP_MOUNT_SPHERE
+            self.op_command_num += 1
             self.world_tl_reason = 0
 
         elif state == S0_ASKING:
-            if self.world_tl_done:
+            if self.op_status == DONE:
                 # the operator reports the task done
-                self.rule = 4  # CALIBRATE_SPHERE/S0_ASKING/1
-                self.world_tl_sphere_request = False
-                self.world_tl_asking = False
+                self.rule = 6  # CALIBRATE_SPHERE/S0_ASKING/1
                 self.state = NOP
                 self.status = DONE
 
-            elif self.world_tl_refused:
+            elif self.op_status == ERROR:
                 # the operator refuses
-                self.rule = 5  # CALIBRATE_SPHERE/S0_ASKING/2
-                self.world_tl_sphere_request = False
-                self.world_tl_asking = False
+                self.rule = 7  # CALIBRATE_SPHERE/S0_ASKING/2
                 self.world_tl_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_REFUSED
 
             elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 6  # CALIBRATE_SPHERE/S0_ASKING/3
-                self.world_tl_sphere_request = False
-                self.world_tl_asking = False
+                self.rule = 8  # CALIBRATE_SPHERE/S0_ASKING/3
+                self.op_command = OP_HALT
+                self.op_command_num += 1
                 self.world_tl_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_TIMED_OUT
 
         if self.state != state:  # a new state, or the command ended: time starts again
             self.ticks = 0
@@ -447,39 +436,37 @@ class TlController:
         """CALIBRATE_PROBE: Ask the operator to orient the probe for calibration (Figure 4)."""
         state = self.state
         if state == S0:
-            # ask the operator (the console shows the request)
-            self.rule = 7  # CALIBRATE_PROBE/S0/1
+            # ask the operator (the console shows the task's instruction)
+            self.rule = 9  # CALIBRATE_PROBE/S0/1
             self.state = S0_ASKING
-            self.world_tl_probe_request = True
-            self.world_tl_asking = True
+            self.op_command = OP_ORIENT_PROBE
+            self.op_command_num += 1
             self.world_tl_reason = 0
 
         elif state == S0_ASKING:
-            if self.world_tl_done:
+            if self.op_status == DONE:
                 # the operator reports the task done
-                self.rule = 8  # CALIBRATE_PROBE/S0_ASKING/1
-                self.world_tl_probe_request = False
-                self.world_tl_asking = False
+                self.rule = 10  # CALIBRATE_PROBE/S0_ASKING/1
                 self.state = NOP
                 self.status = DONE
 
-            elif self.world_tl_refused:
+            elif self.op_status == ERROR:
                 # the operator refuses
-                self.rule = 9  # CALIBRATE_PROBE/S0_ASKING/2
-                self.world_tl_probe_request = False
-                self.world_tl_asking = False
+                self.rule = 11  # CALIBRATE_PROBE/S0_ASKING/2
                 self.world_tl_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_REFUSED
 
             elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 10  # CALIBRATE_PROBE/S0_ASKING/3
-                self.world_tl_probe_request = False
-                self.world_tl_asking = False
+                self.rule = 12  # CALIBRATE_PROBE/S0_ASKING/3
+                self.op_command = OP_HALT
+                self.op_command_num += 1
                 self.world_tl_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_TIMED_OUT
 
         if self.state != state:  # a new state, or the command ended: time starts again
             self.ticks = 0
@@ -490,39 +477,37 @@ class TlController:
         """LOAD_PROBE: Ask the operator to load the probe (Load_probe, Figure 39)."""
         state = self.state
         if state == S0:
-            # ask the operator (the console shows the request)
-            self.rule = 11  # LOAD_PROBE/S0/1
+            # ask the operator (the console shows the task's instruction)
+            self.rule = 13  # LOAD_PROBE/S0/1
             self.state = S0_ASKING
-            self.world_tl_load_request = True
-            self.world_tl_asking = True
+            self.op_command = OP_LOAD_PROBE
+            self.op_command_num += 1
             self.world_tl_reason = 0
 
         elif state == S0_ASKING:
-            if self.world_tl_done:
+            if self.op_status == DONE:
                 # the operator reports the task done
-                self.rule = 12  # LOAD_PROBE/S0_ASKING/1
-                self.world_tl_load_request = False
-                self.world_tl_asking = False
+                self.rule = 14  # LOAD_PROBE/S0_ASKING/1
                 self.state = NOP
                 self.status = DONE
 
-            elif self.world_tl_refused:
+            elif self.op_status == ERROR:
                 # the operator refuses
-                self.rule = 13  # LOAD_PROBE/S0_ASKING/2
-                self.world_tl_load_request = False
-                self.world_tl_asking = False
+                self.rule = 15  # LOAD_PROBE/S0_ASKING/2
                 self.world_tl_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_REFUSED
 
             elif self.ticks >= 60:  # after: 30 s = 60 cycles
                 # no answer in time; withdraw the request
-                self.rule = 14  # LOAD_PROBE/S0_ASKING/3
-                self.world_tl_load_request = False
-                self.world_tl_asking = False
+                self.rule = 16  # LOAD_PROBE/S0_ASKING/3
+                self.op_command = OP_HALT
+                self.op_command_num += 1
                 self.world_tl_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_TIMED_OUT
 
         if self.state != state:  # a new state, or the command ended: time starts again
             self.ticks = 0

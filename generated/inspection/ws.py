@@ -64,7 +64,7 @@ FX_UNLOAD_PART = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI32s52x???1xI112xQII16xq96xQI684xq")
+INPUTS = Struct("<QQI32s52x???1xI112xQII16xq96xQI676xq")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.

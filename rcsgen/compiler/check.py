@@ -60,6 +60,7 @@ def check_system(
     _check_sensing(system, by_name, simulators | set(stand_ins.values()), diags)
     world = {name: f.type for name, f in system.world.items()}
     operators.check(system.operators, by_name, supervisors, world, diags)  # E245-E249
+    clients = operators.check_modules(system, by_name, diags)  # E281-E284, W308
     contracts: dict[str, HookContracts] = {}
     _check_numbers(system, controllers, diags)
     _check_enums_and_strings(system, controllers, diags)  # E274, E276, E278, W307
@@ -79,7 +80,10 @@ def check_system(
         buffers = replaced_by.get(name, name)  # a stand-in runs in its controller's buffers
         checker = _ControllerChecker(by_name[name], by_name, system, diags, contracts[name])
         checked[name] = checker.check(
-            supervisors.get(buffers), name in simulators or name in replaced_by, buffers
+            supervisors.get(buffers),
+            name in simulators or name in replaced_by,
+            buffers,
+            clients.get(name, ()),
         )
         naming.check_module_names(by_name[name], by_name, system, diags)
     if len(diags.errors) > before:
@@ -92,7 +96,7 @@ def check_system(
             for name, stand_in in sorted(stand_ins.items())
             if name in modules
         }
-        roots = tuple(m for m in modules if m not in supervisors)
+        roots = tuple(m for m in modules if m not in supervisors and m not in clients)
         period = p.cycle_period or system.cycle_period
         processes.append(CheckedProcess(p.name, period, p.doc, modules, roots, replaces))
     return CheckedSystem(system, checked, tuple(processes))
@@ -187,6 +191,8 @@ def _check_hierarchy(by_name: dict[str, ControllerSpec], diags: Diagnostics) -> 
                     f"unknown subordinate `{sub.value}` of `{name}`",
                     known_names_hint("controllers", by_name, sub.value),
                 )
+            elif by_name[sub.value].is_operator:
+                continue  # a person at a screen serves every client that lists it
             elif sub.value in supervisor:
                 diags.error(
                     sub.span,
@@ -233,7 +239,12 @@ def _subtree(name: str, by_name: dict[str, ControllerSpec]) -> set[str]:
         if at in found or at not in by_name:
             continue
         found.add(at)
-        todo.extend(s.value for s in by_name[at].subordinates)
+        # an operator module serves other clients too: no stand-in replaces it
+        todo.extend(
+            s.value
+            for s in by_name[at].subordinates
+            if s.value not in by_name or not by_name[s.value].is_operator
+        )
     return found
 
 
@@ -840,7 +851,13 @@ class _ControllerChecker:
     def typed(self, item: Located, scope: expr.Scope, expect: str | None) -> expr.Expr | None:
         return expr.compile_expr(item.value, item.span, scope, self.diags, expect)
 
-    def check(self, supervisor: str | None, simulator: bool, buffers: str) -> CheckedController:
+    def check(
+        self,
+        supervisor: str | None,
+        simulator: bool,
+        buffers: str,
+        clients: tuple[str, ...] = (),
+    ) -> CheckedController:
         spec = self.spec
         self.period = process_period(self.system, buffers)
         self.base_scope = replace(
@@ -852,6 +869,8 @@ class _ControllerChecker:
         self.predicate_trees = {name: p.tree for name, p in predicates.items()}
         commands = {
             command.name: self.check_command(command, code)
+            if not spec.is_operator  # a task has no table: the person answers it
+            else CheckedCommand(command.name, code, command, {}, self.scope_for(command))
             for code, command in enumerate(spec.commands.values(), start=1)
         }
         return CheckedController(
@@ -865,6 +884,7 @@ class _ControllerChecker:
             sub_commands={sub: tuple(self.by_name[sub].commands) for sub in self.subs},
             scope=self.scope_for(None),
             functions=functions,
+            clients=clients,
         )
 
     def check_plans(self) -> None:

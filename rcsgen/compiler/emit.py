@@ -197,7 +197,7 @@ def _inputs(c: ir.IRController, system: ir.IRSystem, placement: Placement) -> Ga
         fields.append((own.command.offset, "Q", None))
     fields += [(s.offset, s.code, f"self.{s.name}") for s in own.mode.fields if s.name != "pad"]
     for sub in c.subordinates:
-        status = layout.modules[sub.name].status
+        status = layout.handshake(sub.name, c.buffers)[1]
         head = status.fields[:2]  # status_num, status
         fields += [(s.offset, s.code, f"self.{sub.name}_{s.name}") for s in head]
         # and the reason and results its guards read (docs/semantics.md, "Results and reasons")
@@ -305,15 +305,15 @@ def _controller_context(
         slots += [naming.plan_attribute(plan.name, f.name) for f in plan.fields]
     imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT", *(n for names in world_seq_at for n in names)}
     for s in c.subordinates:
-        imports |= {f"{s.name.upper()}_COMMAND", f"{s.name.upper()}_COMMAND_AT"}
+        imports |= {f"{s.prefix}_COMMAND", f"{s.prefix}_COMMAND_AT"}
     inputs = _inputs(c, system, placement)
     runtime_names = {*c.runtime_names, "SEQ"}
     # String fields: decoded after every read, encoded (checked, padded) for every write.
     input_texts = _texts(inputs.targets, contract.field_codes(inputs.format))
     status_codes = [s.code for s in status.fields]
     status_values = [_packed(t, k) for t, k in zip(status_targets, status_codes, strict=True)]
-    sub_codes = {
-        s.name: [f.code for f in system.layout.modules[s.name].command.fields]
+    sub_codes = {  # (an operator module's subordinate: the client's own channel)
+        s.name: [f.code for f in system.layout.handshake(s.name, c.name)[0].fields]
         for s in c.subordinates
     }
     sub_values = {
@@ -414,18 +414,35 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
         f"{root}/layout.py": env.get_template("layout.py.j2").render(
             system=system,
             layout=layout,
-            owners=[c for c in system.controllers if c.buffers == c.name],
+            owners=[c for c in system.controllers if c.buffers == c.name and c.kind != "operator"],
             with_results={
                 c.name for c in system.controllers if c.buffers == c.name and (c.results or c.plans)
             },
             table=_layout_table(layout),
             enums=_enum_fields(system),
+            operators=[c for c in system.controllers if c.kind == "operator"],
+            module_names=[
+                name
+                for c in system.controllers
+                if c.buffers == c.name
+                for name in (c.channels if c.kind == "operator" else (c.name,))
+            ],
+            channels_of={c.name: c.channels for c in system.controllers},
+            answer_reasons={
+                c.name: [const.removeprefix("REASON_") for const, _ in c.reasons]
+                for c in system.controllers
+            },
         ),
     }
     files.update(runtime_files(root))
     template = env.get_template("controller.py.j2")
     placement = Placement.of(system)
     for c in system.controllers:
+        if c.kind == "operator":
+            files[f"{root}/{c.name}.py"] = env.get_template("operator.py.j2").render(
+                c=c, class_name=class_names[c.name], **_operator_context(c)
+            )
+            continue
         context = _controller_context(c, system, placement)
         files[f"{root}/{c.name}.py"] = template.render(**context)
     process_template = env.get_template("process.py.j2")
@@ -452,9 +469,12 @@ def _enum_fields(system: ir.IRSystem) -> list[tuple[str, str, tuple[str, ...]]]:
     for c in system.controllers:
         if c.buffers != c.name:
             continue
+        # an operator module's fields are its channels' too (`op/fx`: a client's command)
+        owners = (c.name, *c.channels) if c.kind == "operator" else (c.name,)
         for prefix, items in (("arg_", c.params), ("result_", c.results)):
             found += [
-                (c.name, prefix + p.name, expr.enum_values(p.type))
+                (owner, prefix + p.name, expr.enum_values(p.type))
+                for owner in owners
                 for p in items
                 if expr.enum_values(p.type)
             ]
@@ -464,6 +484,15 @@ def _enum_fields(system: ir.IRSystem) -> list[tuple[str, str, tuple[str, ...]]]:
     return found
 
 
+def _operator_context(c: ir.IRController) -> dict[str, object]:
+    """What an operator module's template names: its layout constants."""
+    own = c.name.upper()
+    imports = [f"{own}_MODE_AT", f"{own}_PERF_AT"]
+    for client in c.clients:
+        imports += [f"{own}_{client.upper()}_{part}_AT" for part in ("COMMAND", "STATUS", "ANSWER")]
+    return {"own": own, "imports": sorted(imports)}
+
+
 def _layout_table(layout: ir.Layout) -> list[tuple[int, int, str, str]]:
     """The layout docstring's rows: offset, size, buffer, and its fields (or its shape)."""
     shapes = {id(b): "PROCESS_FIELDS" for b in layout.processes.values()}
@@ -471,6 +500,12 @@ def _layout_table(layout: ir.Layout) -> list[tuple[int, int, str, str]]:
     for m in layout.modules.values():
         shapes.update({id(m.status): "STATUS_FIELDS", id(m.mode): "MODE_FIELDS"})
         shapes[id(m.perf)] = "PERF_FIELDS"
+    for o in layout.operators.values():
+        shapes.update({id(o.mode): "MODE_FIELDS", id(o.perf): "PERF_FIELDS"})
+        for channel in o.channels.values():
+            shapes.update(
+                {id(channel.status): "STATUS_FIELDS", id(channel.answer): "ANSWER_FIELDS"}
+            )
     return [
         (b.offset, b.size, b.const, shapes.get(id(b)) or ", ".join(f.name for f in b.fields))
         for b in layout.all_buffers()

@@ -230,12 +230,19 @@ def _load_system(
             if len(diags.errors) == loaded:
                 _empty(path, "controller spec", diags)
             continue
+        if isinstance(data, dict) and "operator" in data and "controller" not in data:
+            problems = check_document(data, "operator", shown)
+            diags.extend(problems)
+            if not any(p.severity == "error" for p in problems):
+                controllers.append(model.build_operator(data, shown))
+            continue
         if not isinstance(data, dict) or "controller" not in data:
             diags.error(
                 getattr(data, "span", Span(shown)),
                 "E225",
-                f"`{path.name}` is not a controller spec (no `controller:` key)",
-                "only system.yaml and controller files belong in a system directory",
+                f"`{path.name}` is not a controller spec (no `controller:` or `operator:` key)",
+                "only system.yaml, fragments.yaml and controller or operator files belong "
+                "in a system directory",
             )
             continue
         before = len(diags.errors)

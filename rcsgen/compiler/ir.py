@@ -77,6 +77,31 @@ class ModuleBuffers:
 
 
 @dataclass(frozen=True)
+class Channel:
+    """An operator module's channel to one client: the command buffer the client writes,
+    the status buffer the operator module writes, the answer record the answering side
+    (the console, a scenario's scripted operator) writes."""
+
+    command: Buffer
+    status: Buffer
+    answer: Buffer
+
+
+@dataclass(frozen=True)
+class OperatorBuffers:
+    """An operator module's own mode and performance buffers, and a channel per client."""
+
+    mode: Buffer
+    perf: Buffer
+    channels: dict[str, Channel]  # client -> its channel, in execution order
+
+
+def channel_key(operator: str, client: str) -> str:
+    """How the layout, traces and the console name a channel: `op/fx`."""
+    return f"{operator}/{client}"
+
+
+@dataclass(frozen=True)
 class Layout:
     """The block: the header at 0, each process's control record, each module's buffers, the
     world fields. `hash` identifies it (a process refuses to attach to another layout)."""
@@ -87,9 +112,21 @@ class Layout:
     size: int
     hash: str
     pacing: dict[str, Buffer] = field(default_factory=dict)  # each process's pacing record
+    operators: dict[str, OperatorBuffers] = field(default_factory=dict)
+
+    def handshake(self, module: str, client: str) -> tuple[Buffer, Buffer]:
+        """The command and status buffers through which `client` commands `module`: the
+        module's own, or an operator module's channel to that client."""
+        if module in self.operators:
+            channel = self.operators[module].channels[client]
+            return channel.command, channel.status
+        return self.modules[module].command, self.modules[module].status
 
     def all_buffers(self) -> list[Buffer]:
         found = [b for m in self.modules.values() for b in (m.command, m.status, m.mode, m.perf)]
+        for o in self.operators.values():
+            found += [o.mode, o.perf]
+            found += [b for c in o.channels.values() for b in (c.command, c.status, c.answer)]
         every = [*self.processes.values(), *self.pacing.values(), *found, *self.world]
         return sorted(every, key=lambda b: b.offset)
 
@@ -254,6 +291,7 @@ class IRCommand:
     lets: tuple[tuple[str, IRExpr], ...] = ()  # its named values, computed first each cycle
     results: tuple[IRParam, ...] = ()  # the results it declares
     reasons: tuple[str, ...] = ()  # the reasons it declares
+    text: str = ""  # an operator module's task: the instruction the screen shows
 
 
 @dataclass(frozen=True)
@@ -266,6 +304,17 @@ class IRSub:
     echo_cycles: int | None = None  # cycles it may take to echo a command: then ERROR
     reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants, when a guard reads one
     results: tuple[IRParam, ...] = ()  # the results of it a guard or value reads
+    channel: str = ""  # an operator module's channel to this supervisor (`op/fx`), if it is one
+
+    @property
+    def key(self) -> str:
+        """How the layout's tables name the buffers the supervisor uses: `cr`, `op/fx`."""
+        return self.channel or self.name
+
+    @property
+    def prefix(self) -> str:
+        """The layout's prefix of the buffers the supervisor uses: `CR`, or `OP_FX`."""
+        return (self.channel or self.name).replace("/", "_").upper()
 
 
 @dataclass(frozen=True)
@@ -332,6 +381,13 @@ class IRController:
     # the enumeration values its expressions name: (value name, index), a module constant each
     enum_values: tuple[tuple[str, int], ...] = ()
     plans: tuple[IRPlan, ...] = ()  # its plans, in declaration order
+    kind: str = "controller"  # or "operator": a person at a screen, answered, no table
+    clients: tuple[str, ...] = ()  # an operator module's: whom it serves, one channel each
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        """An operator module's channels as the layout names them (`op/fx`)."""
+        return tuple(channel_key(self.name, client) for client in self.clients)
 
     def table_rules(self) -> list[IRRule]:
         """Every rule of the state tables, in code order (code = index + 1)."""

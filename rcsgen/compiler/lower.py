@@ -14,6 +14,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import replace
 
 from ..runtime.contract import (
+    ANSWER_FIELDS,
     COMMAND_HEAD_FIELDS,
     HEADER,
     MODE_FIELDS,
@@ -191,6 +192,8 @@ class _ControllerLowering:
                 )
                 for p in spec.plans.values()
             ),
+            kind=spec.kind,
+            clients=c.clients,
         )
 
     def constants(self) -> tuple[tuple[str, str], ...]:
@@ -224,7 +227,8 @@ class _ControllerLowering:
             for name, kind in naming.result_types(sub_spec).items()
             if ("sub_result", name) in read
         )
-        return ir.IRSub(sub, consts, params, echo, reasons, results)
+        channel = ir.channel_key(sub, self.spec.name) if sub_spec.is_operator else ""
+        return ir.IRSub(sub, consts, params, echo, reasons, results, channel)
 
     def reasons_passed(self) -> set[str]:
         """The subordinates whose reason a report passes up (`reason: <sub>.reason`)."""
@@ -269,6 +273,7 @@ class _ControllerLowering:
             lets=tuple((let.name, self.expression(let.tree, let.text)) for let in command.lets),
             results=tuple(ir.IRParam(r.name, r.type, r.doc) for r in source.results.values()),
             reasons=tuple(str(r.value) for r in source.reasons),
+            text=str(source.text.value) if source.text else "",
         )
 
     def counter(self, rule: CheckedRule) -> ir.IRCounter:
@@ -513,12 +518,15 @@ def plan_layout(
         pace = _buffer(f"PACE_{name.upper()}", at, PACE_FIELDS, f"process {name} pacing")
         pacing[name] = pace
         at = align(at + pace.size)
-    modules = {}
+    modules, operators = {}, {}
     for c in controllers:
         if c.buffers != c.name:
             continue
         prefix = c.name.upper()
         params = [(f"arg_{p.name}", format_of_type(p.type)) for p in c.params]
+        if c.kind == "operator":
+            operators[c.name], at = _operator_buffers(c, at, params)
+            continue
         results = [(f"result_{r.name}", format_of_type(r.type)) for r in c.results]
         results += [(name, format_of_type("int")) for p in c.plans for name in p.status_fields]
         parts = {
@@ -537,8 +545,37 @@ def plan_layout(
         buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, format_of_type(f.type))], f.doc)
         world_buffers.append(buffer)
         at = align(at + buffer.size)
-    layout = ir.Layout(process_records, modules, tuple(world_buffers), at, "", pacing)
+    layout = ir.Layout(process_records, modules, tuple(world_buffers), at, "", pacing, operators)
     return replace(layout, hash=layout_hash(system, layout))
+
+
+def _operator_buffers(
+    c: ir.IRController, at: int, params: list[tuple[str, str]]
+) -> tuple[ir.OperatorBuffers, int]:
+    """An operator module's mode and performance buffers, then each client's channel (its
+    command, status and answer record), from `at`; and the offset after them."""
+    prefix = c.name.upper()
+    own = {}
+    for part, shape, doc in (
+        ("mode", MODE_FIELDS, "execution mode"),
+        ("perf", PERF_FIELDS, "performance"),
+    ):
+        own[part] = _buffer(f"{prefix}_{part.upper()}", at, shape, f"{c.name} {doc}")
+        at = align(at + own[part].size)
+    channels = {}
+    for client in c.clients:
+        parts = {
+            "command": ([*COMMAND_HEAD_FIELDS, *params], f"{client}'s command in"),
+            "status": (list(STATUS_FIELDS), f"status out to {client}"),
+            "answer": (list(ANSWER_FIELDS), f"the answer to {client}'s request"),
+        }
+        made = {}
+        for part, (fields, doc) in parts.items():
+            const = f"{prefix}_{client.upper()}_{part.upper()}"
+            made[part] = _buffer(const, at, fields, f"{c.name} {doc}")
+            at = align(at + made[part].size)
+        channels[client] = ir.Channel(**made)
+    return ir.OperatorBuffers(own["mode"], own["perf"], channels), at
 
 
 def layout_hash(system: str, layout: ir.Layout) -> str:

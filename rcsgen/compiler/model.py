@@ -235,6 +235,7 @@ class Command:
     results: dict[str, Typed] = field(default_factory=dict)  # set while executing, in status
     reasons: list[Located] = field(default_factory=list)  # why it can end in ERROR
     lets: dict[str, Located] = field(default_factory=dict)  # named values of its table
+    text: Located | None = None  # an operator's task: the instruction the screen shows
 
 
 @dataclass
@@ -260,6 +261,11 @@ class ControllerSpec:
     hooks_state: Located | None = None  # factory of the state every hook call receives first
     functions: dict[str, Function] = field(default_factory=dict)  # pure, callable anywhere
     plans: dict[str, Plan] = field(default_factory=dict)  # stepped through by its tables
+    kind: str = "controller"  # or "operator": a person at a screen, no table (build_operator)
+
+    @property
+    def is_operator(self) -> bool:
+        return self.kind == "operator"
 
 
 # ---------------------------------------------------------------- builders
@@ -519,6 +525,45 @@ def _plan(name: str, raw: Any, span: Span) -> Plan:
         int(raw["capacity"]),
         int(raw.get("replans", 0)),
         span,
+    )
+
+
+def build_operator(data: Any, display: str) -> ControllerSpec:
+    """The model of a schema-valid operator document: a module with tasks (commands with
+    instruction text, parameters and reasons) and no table; INIT and HALT are its own
+    (they withdraw a request), kept as commands without states."""
+    top = span_of(data, Span(display))
+    commands = data["commands"]
+    tasks = {}
+    for name, raw in commands.items():
+        span = key_span(commands, name, top)
+        task = _command(name, {k: v for k, v in raw.items() if k != "text"}, span)
+        task.text = Located(raw["text"], value_span(raw, "text", span))
+        tasks[name] = task
+    builtin = {
+        "INIT": "Withdraw the client's open request, if any.",
+        "HALT": "Withdraw the client's open request, if any.",
+    }
+    return ControllerSpec(
+        name=data["operator"],
+        title=data["title"],
+        doc=data.get("doc", ""),
+        subordinates=[],
+        hooks_module=None,
+        world_reads=[],
+        world_writes=[],
+        constants={},
+        locals={},
+        predicates={},
+        hooks={},
+        commands={  # a declared INIT or HALT stays, for check's E284
+            **{n: Command(n, doc, {}, {}, top, generated=True) for n, doc in builtin.items()},
+            **tasks,
+        },
+        display=display,
+        span=top,
+        name_span=value_span(data, "operator", top),
+        kind="operator",
     )
 
 

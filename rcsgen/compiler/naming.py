@@ -146,6 +146,13 @@ LAYOUT_NAMES = frozenset(
 SUB_SUFFIXES = ("_command_num", "_command", "_status_num", "_status", "_written", "_sent_at")
 # Suffixes of the layout names of each controller's buffers: CO_COMMAND, CO_COMMAND_AT, ...
 BUFFER_SUFFIXES = ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT")
+CHANNEL_SUFFIXES = ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_ANSWER_AT")
+
+
+def channel_prefix(operator: str, client: str) -> str:
+    """The layout's prefix of an operator module's channel to a client: `OP_FX`."""
+    return f"{operator}_{client}".upper()
+
 
 # The full-match patterns of the spec's names (the schema's, anchored with \Z in effect).
 LOWER = re.compile(r"[a-z][a-z0-9_]*", re.ASCII)
@@ -459,6 +466,11 @@ def _check_texts(system: SystemSpec, controllers: list[ControllerSpec], diags: D
             for state in command.states.values():
                 rules += state.rules
         texts += [("rule doc", rule.doc, rule.span) for rule in rules if rule.doc]
+        texts += [
+            ("task's instruction text", c.text.value, c.text.span)
+            for c in spec.commands.values()
+            if c.text is not None
+        ]
     for kind, text, fallback in texts:
         found = line_break(text)
         if found is not None:
@@ -527,10 +539,16 @@ def _check_layout(
     """The module-level names of the generated layout module."""
     names = _Namespace("in the generated layout module", diags)
     names.fixed(LAYOUT_NAMES, "a name the layout module always has")
+    by_name = {spec.name: spec for spec in controllers}
     for spec in controllers:
         up = spec.name.upper()
         for suffix in BUFFER_SUFFIXES:
             names.claim(up + suffix, f"controller `{spec.name}`", spec.name_span, spec.name)
+        for sub in spec.subordinates:
+            if sub.value in by_name and by_name[sub.value].is_operator:
+                what = f"`{sub.value}`'s channel to `{spec.name}`"
+                for suffix in CHANNEL_SUFFIXES:
+                    names.claim(channel_prefix(sub.value, spec.name) + suffix, what, sub.span)
     for process in system.processes:
         name = f"PROCESS_{process.name.upper()}_AT"
         names.claim(name, f"process `{process.name}`", span_of(process.name, process.span))
@@ -738,6 +756,9 @@ def check_module_names(
     for sub in (s.value for s in spec.subordinates):
         for suffix in _MODULE_BUFFER_SUFFIXES:
             taken[sub.upper() + suffix] = "a layout name"
+        if by_name[sub].is_operator:  # its channel to this module
+            for suffix in ("_COMMAND", "_COMMAND_AT"):
+                taken[channel_prefix(sub, spec.name) + suffix] = "a layout name"
         for sent in by_name[sub].commands:
             taken[sub_command_const(sub, sent)] = f"the code of {sub}'s {sent}"
         taken[f"{sub.upper()}_ECHO_CYCLES"] = f"{sub}'s echo timeout"

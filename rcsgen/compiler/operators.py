@@ -1,4 +1,7 @@
-"""Operators: the system's `operators:` model -> its checks (E245-E249) and access table.
+"""Operators: the system's `operators:` and operator modules -> their checks and access table.
+
+Checks E245-E249 (roles and requests) and E281-E284, W308 (operator modules: a person at
+a screen who serves several clients, docs/spec.md section 17).
 
 The second paper's access matrix (Figure 29): each operator role may monitor every module
 and is granted, module by module, the right to respond to the module's requests, to
@@ -9,9 +12,11 @@ are open while a bool world field is true and are answered by sending a command.
 
 from __future__ import annotations
 
+from string import Formatter
+
 from ..runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
 from .diagnostics import Diagnostics, known_names_hint
-from .model import ControllerSpec, Operators, Request
+from .model import Command, ControllerSpec, Located, Operators, Request, SystemSpec
 
 
 def access(operators: Operators, modules: list[str]) -> dict[str, dict[str, int]]:
@@ -100,6 +105,16 @@ def _check_answer(
             known_names_hint("modules", by_name, module),
         )
         return
+    if spec.is_operator:
+        diags.error(
+            at,
+            "E248",
+            f"request `{request.name}` is answered by `{module}.{command}`, but `{module}` is "
+            "an operator module: its tasks are answered on its channels",
+            f"let the asking module send `{module}.{command}` itself and drop this request; "
+            f"`ctl answer {module}/<client>` answers it",
+        )
+        return
     commands = spec.commands
     if command in BUILTIN_COMMANDS or command not in commands:
         diags.error(
@@ -127,3 +142,98 @@ def _check_answer(
             "answer through a module no controller commands (an operator interface), so "
             "the answer never fights its supervisor's commands",
         )
+
+
+# ---------------------------------------------------------------- operator modules
+
+
+def check_modules(
+    system: SystemSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics
+) -> dict[str, tuple[str, ...]]:
+    """Each operator module's clients (the controllers that list it in `subordinates`, in
+    execution order); its tasks' instruction texts (E281, E282), that it declares no INIT or
+    HALT (E284), is no simulator or stand-in (E283) and serves someone (W308)."""
+    order = [m.value for p in system.processes for m in p.modules]
+    ranked = sorted(by_name, key=lambda n: (order.index(n) if n in order else len(order), n))
+    clients: dict[str, tuple[str, ...]] = {}
+    for name in ranked:
+        spec = by_name[name]
+        if not spec.is_operator:
+            continue
+        clients[name] = tuple(
+            c for c in ranked if any(s.value == name for s in by_name[c].subordinates)
+        )
+        if not clients[name]:
+            diags.warning(
+                spec.name_span,
+                "W308",
+                f"operator module `{name}` serves no client: no controller lists it in "
+                "`subordinates`",
+                f"add `{name}` to the subordinates of the controllers that ask its tasks",
+            )
+        for command in spec.commands.values():
+            if command.text is None:
+                continue
+            if command.name in BUILTIN_COMMANDS:
+                diags.error(
+                    command.span,
+                    "E284",
+                    f"operator module `{name}` declares {command.name}, which is built in",
+                    "INIT and HALT withdraw a client's open request; declare only the tasks",
+                )
+                continue
+            _check_text(name, command, command.text, diags)
+    for item in [*system.simulators, *system.stand_ins.values()]:
+        if item.value in clients:
+            diags.error(
+                item.span,
+                "E283",
+                f"operator module `{item.value}` cannot be a simulator or a stand-in",
+                "a person answers it; script the person in a scenario's `operator:` section",
+            )
+    for name, item in system.stand_ins.items():
+        if name in clients:
+            diags.error(
+                item.span,
+                "E283",
+                f"operator module `{name}` cannot be replaced by a stand-in",
+                "a person answers it; script the person in a scenario's `operator:` section",
+            )
+    return clients
+
+
+def instruction_fields(text: str) -> list[str]:
+    """The parameter names an instruction text shows (`{name}`), in order; raises
+    ValueError for a malformed text (a lone brace, a format spec, an index)."""
+    found = []
+    for _, field, spec, conversion in Formatter().parse(text):
+        if field is None:
+            continue
+        if not field.isidentifier() or spec or conversion:
+            shown = field + (f"!{conversion}" if conversion else "") + (f":{spec}" if spec else "")
+            raise ValueError(f"`{{{shown}}}` is not `{{parameter}}`")
+        found.append(field)
+    return found
+
+
+def _check_text(module: str, command: Command, text: Located, diags: Diagnostics) -> None:
+    try:
+        fields = instruction_fields(str(text.value))
+    except ValueError as problem:
+        diags.error(
+            text.span,
+            "E282",
+            f"the instruction text of `{module}.{command.name}` is malformed: {problem}",
+            "write `{param}` to show a parameter, `{{` and `}}` for literal braces",
+        )
+        return
+    for field in fields:
+        if field not in command.params:
+            diags.error(
+                text.span,
+                "E281",
+                f"the instruction text of `{module}.{command.name}` shows `{{{field}}}`, "
+                "which is not a parameter of the task",
+                known_names_hint(f"parameters of {command.name}", command.params, field)
+                or "declare it under `params:`, or write `{{` for a literal brace",
+            )

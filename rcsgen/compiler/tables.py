@@ -304,6 +304,7 @@ class CheckedController:
     sub_commands: Mapping[str, tuple[str, ...]]  # each subordinate's commands, in code order
     scope: expr.Scope  # the controller-wide scope (predicates, every_cycle)
     functions: Mapping[str, CheckedFunction] = field(default_factory=dict)
+    clients: tuple[str, ...] = ()  # an operator module's: the controllers it serves
 
     @property
     def name(self) -> str:

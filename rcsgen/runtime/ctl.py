@@ -4,10 +4,12 @@ The debug screen of the mining paper (4.1.1.1, Appendix D) as commands: `status`
 every module's command, status, state, the rule that fired, its modes and cycle times and
 its process's heartbeat; `stop`/`run`/`step`/`simulate` set a module's mode buffer; `slow`
 stretches the processes' cycle periods; `send` gives a module a command, its parameters
-checked against the layout; `wait` waits for a module to finish. It attaches to the segment
-by name (checking the layout hash) and needs only the package's layout: no hooks, no
-compiler. Every read is a consistent read and every write goes through `Record.write`
-(the seqlock); it writes only mode, pacing and command buffers. Bad input is one line on
+checked against the layout; `wait` waits for a module to finish; `requests` lists what
+modules ask of the operator and `answer` answers (an operator module's channel: DONE or
+ERROR with a reason, in its answer record). It attaches to the segment by name (checking
+the layout hash) and needs only the package's layout: no hooks, no compiler. Every read is
+a consistent read and every write goes through `Record.write` (the seqlock); it writes
+only mode, pacing, command buffers and answer records. Bad input is one line on
 stderr and exit 2 (usage) or 1 (the system refused or is not there). Standard library only:
 copied verbatim into every generated package.
 """
@@ -30,6 +32,10 @@ from typing import Any, NoReturn
 from .block import Block, BlockError
 from .contract import (
     ACCESS_LEVELS,
+    BUILTIN_COMMANDS,
+    DONE,
+    ERROR,
+    EXECUTING,
     FINISHED,
     PROCESS_STATES,
     RUNNING,
@@ -136,6 +142,73 @@ def _shown(value: object) -> str:
     return str(value).lower() if isinstance(value, bool) else str(value)
 
 
+# ---------------------------------------------------------------- operator modules' requests
+
+
+def channel_requests(layout: ModuleType, buf: memoryview) -> list[dict[str, Any]]:
+    """The requests open on the operator modules' channels now, in layout order: a client
+    sent a task (not INIT or HALT) that the channel has not answered, and no answer to its
+    number is on its way. Each: the channel (`name`, `op/fx`), the client (`by`), the task,
+    its command number, the instruction text with the parameters' values (`doc`) and the
+    reasons an ERROR may give. One place for what "open" means: the console, the monitor
+    and a scenario's scripted operator all read it here."""
+    found = []
+    for operator, channels in getattr(layout, "OPERATORS", {}).items():
+        for channel in channels:
+            try:
+                command = layout.COMMAND_IN[channel].read(buf)
+                status = layout.STATUS_OUT[channel].read(buf)
+                answer = layout.ANSWERS[channel].read(buf)
+            except StaleRead:
+                continue  # being written: it shows next time
+            number, code = int(command["command_num"]), int(command["command"])
+            if code <= len(BUILTIN_COMMANDS) or answer["command_num"] == number:
+                continue  # nothing asked, a withdrawal, or answered already
+            if status["status_num"] == number and status["status"] != EXECUTING:
+                continue  # answered and closed
+            task = layout.COMMAND_NAMES[channel][code]
+            args = {k.removeprefix("arg_"): v for k, v in command.items() if k.startswith("arg_")}
+            text = layout.INSTRUCTIONS[operator].get(task, "")
+            found.append(
+                {
+                    "name": channel,
+                    "by": channel.split("/", 1)[1],
+                    "operator": operator,
+                    "task": task,
+                    "number": number,
+                    "doc": text.format(
+                        **{
+                            k: _shown(enum_name(layout, operator, f"arg_{k}", v))
+                            for k, v in args.items()
+                        }
+                    ),
+                    "answer": "DONE|ERROR",
+                    "reasons": list(layout.ANSWER_REASONS[operator][2:]),
+                }
+            )
+    return found
+
+
+def write_answer(
+    layout: ModuleType, buf: memoryview, request: dict[str, Any], status: str, reason: str = ""
+) -> None:
+    """Answer an open channel request (one of `channel_requests`): DONE, or ERROR with one
+    of its reasons (none: NONE). ValueError for another status or an unknown reason. The
+    one writer of answer records: the console and a scenario's scripted operator both
+    answer here."""
+    if status not in FINISHED:
+        raise ValueError(f"answer DONE or ERROR, not {status!r}")
+    names = layout.ANSWER_REASONS[request["operator"]]
+    if reason and status != "ERROR":
+        raise ValueError(f"a reason goes with ERROR only; DONE needs none (got {reason!r})")
+    if reason and reason not in request["reasons"]:
+        raise ValueError(suggest(reason, request["reasons"], "reason") + f" of {request['task']}")
+    code = DONE if status == "DONE" else ERROR
+    layout.ANSWERS[request["name"]].write(
+        buf, command_num=request["number"], status=code, reason=names.index(reason) if reason else 0
+    )
+
+
 # ---------------------------------------------------------------- access levels
 
 
@@ -154,12 +227,13 @@ class Access:
         self.role = role
 
     def level(self, module: str) -> int:
-        """The role's level on `module`, an index in ACCESS_LEVELS."""
+        """The role's level on `module` (an operator module's, for its channel `op/fx`),
+        an index in ACCESS_LEVELS."""
         if not self.roles:
             return len(ACCESS_LEVELS) - 1
         if self.role is None:
             return 0
-        return self.roles[self.role].get(module, 0)
+        return self.roles[self.role].get(module.split("/")[0], 0)
 
     def require(self, level: str, module: str, what: str) -> None:
         """Refuse (exit 1) unless the role has `level` on `module`."""
@@ -356,7 +430,18 @@ class Console:
     # ------------------------------------------------------------ requests
 
     def requests(self) -> list[dict[str, Any]]:
-        """The requests modules are making of the operator now (their world field is true)."""
+        """The requests modules are making of the operator now: those world fields hold
+        open (`operators.requests`), then those open on operator modules' channels."""
+        found = self.field_requests()
+        for _ in range(20):  # a channel being written shows after a moment
+            try:
+                return found + channel_requests(self.layout, self.buf)
+            except StaleRead:
+                time.sleep(0.0005)
+        return found
+
+    def field_requests(self) -> list[dict[str, Any]]:
+        """The requests open while a world field is true (`operators.requests`)."""
         found = []
         for name, request in getattr(self.layout, "REQUESTS", {}).items():
             value = self.read(self.layout.WORLD[request["while"]]).get(request["while"])
@@ -372,15 +457,32 @@ class Console:
                 )
         return found
 
+    def answer_channel(self, name: str, status: str = "DONE", reason: str = "") -> dict[str, Any]:
+        """Answer the request open on channel `name` (`op/fx`; the role must respond to the
+        operator module): DONE, or ERROR with a reason. The request answered."""
+        operator = name.split("/")[0]
+        self.access.require("respond", operator, f"answering {name}")
+        request = next(
+            (r for r in channel_requests(self.layout, self.buf) if r["name"] == name), None
+        )
+        if request is None:
+            client = name.split("/", 1)[1]
+            raise CtlError(f"{client} is asking nothing of {operator} now; nothing to answer")
+        try:
+            write_answer(self.layout, self.buf, request, status, reason)
+        except ValueError as error:
+            raise usage(str(error)) from None
+        return request
+
     def answer(self, name: str) -> tuple[Command, int]:
         """Answer request `name` (the role must respond to its module): send its answer
         command; the command sent and its number."""
         requests = getattr(self.layout, "REQUESTS", {})
         if name not in requests:
-            raise usage(suggest(name, list(requests), "request"))
+            raise usage(suggest(name, request_names(self.layout), "request"))
         request = requests[name]
         self.access.require("respond", request["by"], f"answering {name}")
-        if not any(r["name"] == name for r in self.requests()):
+        if not any(r["name"] == name for r in self.field_requests()):
             raise CtlError(f"{request['by']} is not asking for {name} now; nothing to answer")
         module, command = request["answer"]
         sent = Command(module, command, {})
@@ -491,6 +593,11 @@ class Console:
             return None
         name = _name(STATUS_NAMES, int(status["status"]))
         return name if name in FINISHED else None
+
+
+def request_names(layout: ModuleType) -> list[str]:
+    """What `ctl answer` accepts: the world-field requests, then the operator channels."""
+    return [*getattr(layout, "REQUESTS", {}), *getattr(layout, "ANSWERS", {})]
 
 
 def _name(names: Sequence[str], code: int) -> str:
@@ -633,8 +740,14 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
     )
     requests = verbs.add_parser("requests", help="what the modules are asking the operator")
     requests.add_argument("--format", choices=("text", "json"), default="text")
-    answer = verbs.add_parser("answer", help="answer REQUEST: send its answer command")
+    answer = verbs.add_parser(
+        "answer",
+        help="answer REQUEST: a channel's (op/fx) DONE or ERROR [--reason R], or a world "
+        "field's request by sending its answer command",
+    )
     answer.add_argument("request")
+    answer.add_argument("status", nargs="?", choices=FINISHED, default=None)
+    answer.add_argument("--reason", default="", help="with ERROR: why (one of the task's reasons)")
     verbs.add_parser("roles", help="the access matrix: what each role may do to each module")
     for sub in verbs.choices.values():  # `ctl send ... --role crew` reads as well
         sub.add_argument("--role", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
@@ -678,8 +791,11 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
     elif hasattr(args, "module") and args.module not in layout.COMMAND_IN:
         raise usage(suggest(args.module, layout.MODULES, "module"))
     requests = getattr(layout, "REQUESTS", {})
-    if args.verb == "answer" and args.request not in requests:
-        raise usage(suggest(args.request, list(requests), "request"))
+    channels = getattr(layout, "ANSWERS", {})
+    if args.verb == "answer" and args.request not in [*requests, *channels]:
+        raise usage(suggest(args.request, request_names(layout), "request"))
+    if args.verb == "answer" and args.request in requests and (args.status or args.reason):
+        raise usage(f"{args.request} is answered by its command alone: no DONE/ERROR/--reason")
     if args.verb == "step" and args.count < 1:
         raise usage("step: N must be 1 or more")
     if args.verb == "slow" and args.factor < 1.0:
@@ -762,7 +878,13 @@ def _verb(console: Console, args: argparse.Namespace, command: Command | None) -
         elif not found:
             print("no requests")
         for request in [] if args.format == "json" else found:
-            print(f"{request['name']} from {request['by']}: {request['doc']}")
+            task = f"{request['task']} #{request['number']}: " if "task" in request else ""
+            print(f"{request['name']} from {request['by']}: {task}{request['doc']}")
+    elif verb == "answer" and args.request in getattr(console.layout, "ANSWERS", {}):
+        status = args.status or "DONE"
+        request = console.answer_channel(args.request, status, args.reason)
+        why = f" ({args.reason})" if args.reason else ""
+        print(f"answered {args.request}: {request['task']} #{request['number']} {status}{why}")
     elif verb == "answer":
         sent, number = console.answer(args.request)
         print(f"answered {args.request}: sent {sent} #{number}")

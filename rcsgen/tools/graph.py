@@ -89,11 +89,15 @@ class Graph:
 
 
 def levels(system: IRSystem) -> dict[str, int]:
-    """Each controller's level: 1 for a module without a supervisor, its supervisor's + 1."""
+    """Each controller's level: 1 for a module without a supervisor, its supervisor's + 1
+    (an operator module's: its deepest client's + 1)."""
     found: dict[str, int] = {}
     by_name = {c.name: c for c in system.controllers}
 
     def level(name: str, seen: frozenset[str] = frozenset()) -> int:
+        clients = [c for c in by_name[name].clients if c in by_name and c not in seen]
+        if name not in found and clients:  # an operator module: below its deepest client
+            found[name] = max(level(c, seen | {name}) for c in clients) + 1
         if name not in found:
             sup = by_name[name].supervisor
             ok = sup is not None and sup in by_name and sup not in seen

@@ -210,6 +210,12 @@ class BlockView:
     def world(self) -> World:
         return World(self.layout, self.buf)
 
+    def _rows(self, modules: tuple[str, ...]) -> tuple[str, ...]:
+        """`modules` with each operator module replaced by its channels (`op/fx`, ...): the
+        names that have a command and status buffer each."""
+        channels = getattr(self.layout, "OPERATORS", {})
+        return tuple(row for m in modules for row in channels.get(m, (m,)))
+
 
 class Harness(BlockView):
     """A generated system on a private in-process block: one process of it, or all of them
@@ -301,8 +307,9 @@ class Harness(BlockView):
 
     @property
     def modules(self) -> tuple[str, ...]:
-        """The modules this run executes, in order (a stand-in runs under its controller's name)."""
-        return tuple(m for each in self.processes.values() for m in each.modules)
+        """The modules this run executes, in order (a stand-in runs under its controller's
+        name, an operator module as its channels, `op/fx`)."""
+        return self._rows(tuple(m for each in self.processes.values() for m in each.modules))
 
     def controller(self, module: str) -> Any:
         """The generated controller object of `module` (its local buffers are attributes)."""
@@ -397,7 +404,7 @@ class LaunchedHarness(BlockView):
 
     @property
     def modules(self) -> tuple[str, ...]:
-        return self._modules
+        return self._rows(self._modules)
 
     def cycle(self, count: int = 1) -> None:
         """Run whole system cycles, every process in turn."""

@@ -155,7 +155,12 @@ class Monitor(App[None]):
             )
         self.query_one("#processes", Static).update("   ".join(lines))
         self.open_requests = snapshot["requests"]
-        asks = [f"{r['by']} asks: {r['doc']} (a: answer {r['name']})" for r in self.open_requests]
+        asks = [
+            f"{r['by']} asks {r['operator']}: {r['task']}: {r['doc']} (a: answer {r['name']})"
+            if "task" in r
+            else f"{r['by']} asks: {r['doc']} (a: answer {r['name']})"
+            for r in self.open_requests
+        ]
         self.query_one("#requests", Static).update("\n".join(asks))
 
     def cells(self, module: str, prefix: str, row: dict[str, Any]) -> dict[str, Text]:
@@ -252,17 +257,48 @@ class Monitor(App[None]):
         self.sending = module
 
     def action_answer(self) -> None:
-        """Answer the selected module's request, else the first one open."""
+        """Answer the selected module's request, else the first one open: a world field's
+        at once; an operator module's task asks DONE or ERROR [REASON] in the form."""
         if not self.open_requests:
             self.say("no module is asking anything", error=True)
             return
         module = self.selected()
-        request = next((r for r in self.open_requests if r["by"] == module), None)
-        name = (request or self.open_requests[0])["name"]
+        request = next(
+            (r for r in self.open_requests if module in (r["by"], r["name"])),
+            self.open_requests[0],
+        )
+        name = request["name"]
+        if "task" in request:  # an operator module's channel: DONE, or ERROR with a reason
+            form = self.query_one("#send", Input)
+            form.add_class("open")
+            reasons = ", ".join(request["reasons"]) or "none"
+            form.placeholder = (
+                f"{name} {request['task']}: DONE | ERROR [REASON]  reasons: {reasons}"
+            )
+            form.value = "DONE"
+            form.focus()
+            self.answering = name
+            return
 
         def answer() -> str:
             sent, number = self.ctl.answer(name)
             return f"answered {name}: sent {sent} #{number}"
+
+        self.act("", answer)
+
+    def _answer(self, name: str, words: list[str]) -> None:
+        """The answer form submitted: `DONE`, or `ERROR [REASON]`."""
+        self.action_close_send()
+        status = words[0].upper() if words else ""
+        if status not in ("DONE", "ERROR") or len(words) > 2:
+            self.say(f"answer {name} with DONE or ERROR [REASON]", error=True)
+            return
+        reason = words[1] if len(words) == 2 else ""
+
+        def answer() -> str:
+            request = self.ctl.answer_channel(name, status, reason)
+            why = f" ({reason})" if reason else ""
+            return f"answered {name}: {request['task']} #{request['number']} {status}{why}"
 
         self.act("", answer)
 
@@ -272,6 +308,10 @@ class Monitor(App[None]):
         self.query_one(DataTable).focus()
 
     def on_input_submitted(self, event: Input.Submitted) -> None:
+        answering, self.answering = getattr(self, "answering", None), None
+        if answering is not None:
+            self._answer(answering, event.value.split())
+            return
         module = getattr(self, "sending", self.selected())
         words = event.value.split()
         override = "--override" in words

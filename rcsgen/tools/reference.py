@@ -115,8 +115,43 @@ def command_section(controller: IRController, command: IRCommand) -> str:
     return "\n".join(out)
 
 
+def operator_page(system: IRSystem, c: IRController, level: int) -> str:
+    """An operator module's page: whom it serves, and each task with its instruction."""
+    out = [header(c.source), f"# {c.name}: {c.title}", ""]
+    facts = [f"system [{system.name}]({INDEX})", f"level {level}", "operator module"]
+    if c.clients:
+        facts.append("clients " + ", ".join(link(client) for client in c.clients))
+    facts.append(f"spec `{c.source}`")
+    out += [" · ".join(facts), ""]
+    if c.doc.strip():
+        out += [c.doc.strip(), ""]
+    out += [
+        "A person at a screen performs these tasks when a client asks, and answers DONE or "
+        "ERROR with a reason; each client asks through its own channel "
+        f"({', '.join(code(ch) for ch in c.channels) or 'none'}). INIT and HALT withdraw a "
+        "client's open request.",
+        "",
+        "## Tasks",
+        "",
+        "| code | task | parameters | instruction on the screen | reasons | description |",
+        "|---:|---|---|---|---|---|",
+    ]
+    for command in c.commands:
+        if not command.text:
+            continue
+        params = ", ".join(f"{p.name}: {p.type}" for p in command.params)
+        reasons = ", ".join(code(r) for r in command.reasons)
+        out.append(
+            f"| {command.code} | {command.name} | {params} | {cell(command.text)} | "
+            f"{reasons} | {cell(command.doc.strip())} |"
+        )
+    return "\n".join(out).rstrip("\n") + "\n"
+
+
 def controller_page(system: IRSystem, controller: IRController, level: int) -> str:
     c = controller
+    if c.kind == "operator":
+        return operator_page(system, c, level)
     out = [header(c.source), f"# {c.name}: {c.title}", ""]
     facts = [f"system [{system.name}]({INDEX})"]
     if c.simulator:

@@ -20,6 +20,7 @@ from typing import Any
 from ..compiler.diagnostics import Span, SpecError
 from ..compiler.frontend import SYSTEM_FILE, display_path, real_path
 from ..compiler.loader import decode, read_bytes
+from ..runtime.ctl import channel_requests, write_answer
 from .harness import AnyHarness, Harness, LaunchedHarness, Status
 
 
@@ -34,6 +35,7 @@ class Event:
     mode: dict[str, dict[str, Any]] = field(default_factory=dict)
     doc: str = ""
     overrides: str | None = None  # the supervisor it is written under (`overrides: true`)
+    answer: tuple[str, str, str] | None = None  # (channel, DONE|ERROR, reason): `ctl answer`
 
 
 @dataclass(frozen=True)
@@ -68,6 +70,73 @@ class Expected:
         return f"at least {self.low:g}" if self.low is not None else f"at most {self.high:g}"
 
 
+@dataclass(frozen=True)
+class ScriptedAnswer:
+    """How the scripted person answers the requests it matches (`operator:` of a scenario)."""
+
+    after: int  # cycles from taking the request up to the answer
+    answer: str  # DONE, ERROR or never
+    reason: str = ""  # with ERROR: one of the task's reasons ("": NONE)
+    operator: str | None = None  # None: any
+    task: str | None = None
+    client: str | None = None
+
+    def matches(self, request: dict[str, Any]) -> bool:
+        return (
+            self.operator in (None, request["operator"])
+            and self.task in (None, request["task"])
+            and self.client in (None, request["by"])
+        )
+
+
+@dataclass(frozen=True)
+class OperatorScript:
+    """The scripted person at the screen: answers by task and/or client, and a default."""
+
+    answers: tuple[ScriptedAnswer, ...] = ()
+    default: ScriptedAnswer | None = None  # None: unmatched requests are left to the console
+
+    def how(self, request: dict[str, Any]) -> ScriptedAnswer | None:
+        """How the person answers `request`; None: never (the console does)."""
+        found = next((a for a in self.answers if a.matches(request)), self.default)
+        return None if found is None or found.answer == "never" else found
+
+
+class ScriptedPerson:
+    """An `OperatorScript` played before each cycle: one person per operator module takes
+    its open requests up one at a time, in the order they were asked (same cycle: in the
+    layout's channel order), and answers each `after` cycles after taking it up, writing
+    the answer record as `ctl answer` does; a request withdrawn meanwhile is dropped."""
+
+    def __init__(self, script: OperatorScript) -> None:
+        self.script = script
+        self.queues: dict[str, list[tuple[str, int]]] = {}  # operator -> (channel, number)
+        self.taken_up: dict[str, tuple[tuple[str, int], int]] = {}  # operator -> (head, at)
+
+    def before_cycle(self, harness: AnyHarness) -> None:
+        now = harness.cycles
+        requests = channel_requests(harness.layout, harness.buf)
+        open_now = {(r["name"], r["number"]): r for r in requests}
+        for request in requests:
+            queue = self.queues.setdefault(request["operator"], [])
+            key = (request["name"], request["number"])
+            if key not in queue and self.script.how(request) is not None:
+                queue.append(key)
+        for operator, queue in self.queues.items():
+            queue[:] = [key for key in queue if key in open_now]
+            while queue:
+                head = queue[0]
+                taken = self.taken_up.get(operator)
+                if taken is None or taken[0] != head:
+                    taken = self.taken_up[operator] = (head, now)
+                how = self.script.how(open_now[head])
+                assert how is not None
+                if now - taken[1] < how.after:
+                    break
+                write_answer(harness.layout, harness.buf, open_now[head], how.answer, how.reason)
+                queue.pop(0)
+
+
 @dataclass
 class Scenario:
     name: str
@@ -84,6 +153,7 @@ class Scenario:
     phases_of: str | None = None  # the module whose commands are the run's phases
     figures: list[str] = field(default_factory=list)  # world fields (or module.reason ...) shown
     expect: list[Expected] = field(default_factory=list)  # empty: stop module DONE, if any
+    operator: OperatorScript | None = None  # the scripted person at the screen, if any
 
 
 def find_system_dir(path: Path) -> Path | None:
@@ -127,6 +197,10 @@ def open_harness(
 
 
 # ---------------------------------------------------------------- running
+
+
+class ScenarioError(Exception):
+    """A scenario cannot go on as written: what happened, in one line."""
 
 
 @dataclass
@@ -182,6 +256,18 @@ def _apply(harness: AnyHarness, event: Event) -> None:
     harness.world.update(event.world)
     for module, mode in event.mode.items():
         harness.set_mode(module, **mode)
+    if event.answer is not None:
+        channel, status, reason = event.answer
+        request = next(
+            (r for r in channel_requests(harness.layout, harness.buf) if r["name"] == channel),
+            None,
+        )
+        if request is None:
+            raise ScenarioError(
+                f"cycle {event.cycle}: `{channel}` has no open request to answer"
+                + (f" ({event.doc})" if event.doc else "")
+            )
+        write_answer(harness.layout, harness.buf, request, status, reason)
     if event.command is not None:
         module, name = event.command
         # Under a supervisor (`overrides`) the command is written as an operator's: it stays
@@ -197,12 +283,15 @@ def run(
 ) -> RunResult:
     """Run a scenario to its stop condition (or `max_cycles`) and collect its trace."""
     pending = list(scenario.events)
+    person = ScriptedPerson(scenario.operator) if scenario.operator is not None else None
     stop = scenario.stop_when_done
     trace: list[str] = []
     phases: Counter[str] = Counter()
     while harness.cycles < scenario.max_cycles:
         while pending and pending[0].cycle <= harness.cycles + 1:
             _apply(harness, pending.pop(0))
+        if person is not None:
+            person.before_cycle(harness)
         harness.cycle()
         trace.append(trace_line(harness, scenario.trace_world))
         if scenario.phases_of is not None:
@@ -214,7 +303,8 @@ def run(
         if stop is not None and not pending and _finished(harness, stop):
             break
     final = harness.status(stop).__dict__ if stop else {}
-    max_ns = {m: harness.performance(m)["max_cycle_ns"] for m in harness.modules}
+    modules = dict.fromkeys(m.split("/")[0] for m in harness.modules)  # an operator's once
+    max_ns = {m: harness.performance(m)["max_cycle_ns"] for m in modules}
     statuses = {m: harness.status(m) for m in harness.modules}
     world = harness.world.snapshot([f for f in scenario.figures if "." not in f])
     figures = {name: final_value(name, world, statuses) for name in scenario.figures}

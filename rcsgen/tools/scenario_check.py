@@ -8,8 +8,8 @@ field, process, stand-in, trace field, report figure (a world field, or a module
 or `result.<name>`) and stop module exists and runs in that process; bool fields take only
 true/false; cycles are within max_cycles and in order; a command to a module whose
 supervisor runs is an error unless the event says it `overrides` the supervisor;
-expectations name what the run can show. Every problem has a code (E401-E415) and, for
-names, a did-you-mean.
+expectations name what the run can show. Every problem has a code (E401-E415; E285-E289
+for the scripted operator and console answers) and, for names, a did-you-mean.
 """
 
 from __future__ import annotations
@@ -23,8 +23,9 @@ from ..compiler.expr import enum_values, int_range_problem, str_size, text_probl
 from ..compiler.frontend import SYSTEM_FILE, compile_paths, display_path
 from ..compiler.ir import IRController, IRProcess, IRSystem
 from ..compiler.loader import LocDict, key_span, load_file, span_of, value_span
+from ..compiler.model import exact_cycles
 from ..compiler.schema import check_document
-from .scenario import Event, Expected, Scenario, find_system_dir
+from .scenario import Event, Expected, OperatorScript, Scenario, ScriptedAnswer, find_system_dir
 from .traces import whole_system
 
 DEFAULT_MAX_CYCLES = 1000
@@ -98,6 +99,7 @@ class _Checker:
     def __init__(self, data: LocDict, system: IRSystem, diags: Diagnostics, top: Span):
         self.data, self.system, self.diags, self.top = data, system, diags, top
         self.controllers = {c.name: c for c in system.controllers if c.buffers == c.name}
+        self.operators = {c.name: c for c in system.controllers if c.kind == "operator"}
         self.world = {f.name: f.type for f in system.world}
 
     def error(self, span: Span, code: str, message: str, hint: str = "") -> None:
@@ -226,17 +228,22 @@ class _Checker:
         max_cycles = data.get("max_cycles", DEFAULT_MAX_CYCLES)
         stop = data.get("stop_when_done")
         if stop is not None:
-            self.module(stop, self.span(data, "stop_when_done"), run, "stop_when_done module")
+            span = self.span(data, "stop_when_done")
+            found = self.module(stop, span, run, "stop_when_done module")
+            self.not_an_operator(found, span, "finishes no command of its own: stop on a client")
         trace = data.get("trace") or {}
         for index, name in enumerate(trace.get("world") or []):
             self.field(name, self.span(trace["world"], index), "trace field")
         report = data.get("report") or {}
         if "phases" in report:
-            self.module(report["phases"], self.span(report, "phases"), run, "phases module")
+            span = self.span(report, "phases")
+            found = self.module(report["phases"], span, run, "phases module")
+            self.not_an_operator(found, span, "has no phases of its own: name a client")
         for index, name in enumerate(report.get("figures") or []):
             self.figure(name, self.span(report["figures"], index), run, "report figure")
         expected = self.expectations(stop, run)
         events = self.events(run, max_cycles)
+        script = self.operator_script() if "operator" in data else None
         settings = {
             str(k): (str(v).lower() if isinstance(v, bool) else str(v))
             for k, v in (data.get("settings") or {}).items()
@@ -256,6 +263,7 @@ class _Checker:
             phases_of=report.get("phases"),
             figures=[str(f) for f in report.get("figures") or []],
             expect=expected,
+            operator=script,
         )
 
     def process(self) -> _Run | None:
@@ -384,6 +392,8 @@ class _Checker:
             event = Event(cycle=cycle, doc=str(raw.get("doc", "")))
             if "command" in raw:
                 self.command(raw, event, run, where)
+            if "answer" in raw:
+                self.answer(raw["answer"], event, self.span(raw, "answer"))
             world = raw.get("set") or {}
             for name, value in world.items():
                 span = key_span(world, name, where)
@@ -407,6 +417,17 @@ class _Checker:
         event.args = dict(args)
         controller = self.module(module, span, run, "command to module")
         if controller is None:
+            return
+        if controller.kind == "operator":
+            self.error(
+                span,
+                "E285",
+                f"`{module}` is an operator module: its clients ({', '.join(controller.clients)}) "
+                "ask it, a person answers",
+                "answer its requests with an event's `answer: {request: "
+                f"{(controller.channels or ('op/client',))[0]}, status: DONE}}`, or script the "
+                "person under `operator:`",
+            )
             return
         commands = {c.name: c for c in controller.commands}
         command = commands.get(name)
@@ -451,6 +472,130 @@ class _Checker:
                     f"command `{supervisor}` instead, or add `overrides: true` to command "
                     f"`{module}` in `{supervisor}`'s place",
                 )
+
+    # ------------------------------------------------------------ the operator
+
+    def not_an_operator(self, found: IRController | None, span: Span, why: str) -> None:
+        """E285 for an operator module where a scenario needs a controller's command."""
+        if found is not None and found.kind == "operator":
+            self.error(
+                span,
+                "E285",
+                f"`{found.name}` is an operator module: it {why}",
+                f"its clients: {', '.join(found.clients) or 'none'}",
+            )
+
+    def operator_script(self) -> OperatorScript | None:
+        """The scripted person (`operator:`): every operator module, task, client and reason
+        it names exists (E285-E288), each duration in cycles of the module's process."""
+        section = self.data["operator"] or {}
+        span = self.span(self.data, "operator")
+        if not self.operators:
+            self.error(
+                span,
+                "E285",
+                f"`{self.system.name}` has no operator module for `operator:` to script",
+                "an operator module is a `<mnemonic>.yaml` with `operator:` (docs/spec.md 15)",
+            )
+            return None
+        entries = section.get("answers") or []
+        answers = [
+            self.scripted(entry, self.span(entries, index), True)
+            for index, entry in enumerate(entries)
+        ]
+        default = None
+        if "default" in section:
+            default = self.scripted(section["default"], self.span(section, "default"), False)
+        if any(a is None for a in answers) or ("default" in section and default is None):
+            return None
+        return OperatorScript(tuple(a for a in answers if a is not None), default)
+
+    def scripted(self, raw: LocDict, where: Span, matching: bool) -> ScriptedAnswer | None:
+        before = len(self.diags.errors)
+        chosen = list(self.operators.values())
+        name = raw.get("operator")
+        if name is not None:
+            chosen = [self.operators[name]] if name in self.operators else []
+            if not chosen:
+                self.error(
+                    self.span(raw, "operator"),
+                    "E285",
+                    f"`{name}` is not an operator module of `{self.system.name}`",
+                    known_names_hint("operator modules", self.operators, name),
+                )
+        tasks = {c.name: c for o in chosen for c in o.commands if c.text}
+        task = raw.get("task")
+        if task is not None and chosen and task not in tasks:
+            self.error(
+                self.span(raw, "task"),
+                "E286",
+                f"`{task}` is not a task of {_names(chosen)}",
+                known_names_hint("tasks", tasks, task),
+            )
+        clients = {client for o in chosen for client in o.clients}
+        client = raw.get("client")
+        if client is not None and chosen and client not in clients:
+            self.error(
+                self.span(raw, "client"),
+                "E287",
+                f"`{client}` is not a client of {_names(chosen)}",
+                known_names_hint("clients", sorted(clients), client),
+            )
+        answer, reason = str(raw.get("answer", "DONE")), str(raw.get("reason", ""))
+        if reason:
+            asked = [tasks[task]] if task in tasks else list(tasks.values())
+            self.answer_reason(reason, answer, asked, self.span(raw, "reason"))
+        period = min(
+            (p.cycle_period for p in self.system.processes for o in chosen if o.name in p.modules),
+            default=self.system.cycle_period,
+        )
+        after = exact_cycles(raw["after"], period)[0] if "after" in raw else 0
+        if len(self.diags.errors) > before:
+            return None
+        return ScriptedAnswer(after, answer, reason, name, task, client)
+
+    def answer_reason(self, reason: str, answer: str, tasks: list[Any], span: Span) -> None:
+        """A reason given with ERROR only, and one that a task it may answer declares (E288);
+        at run time an answer's reason must be the answered task's."""
+        if answer != "ERROR":
+            self.error(
+                span,
+                "E288",
+                f"reason `{reason}` given with {answer}: a reason goes with ERROR only",
+                "write `answer: ERROR`, or leave the reason out",
+            )
+            return
+        if not any(reason in t.reasons for t in tasks):
+            declared = sorted({r for t in tasks for r in t.reasons})
+            self.error(
+                span,
+                "E288",
+                f"`{reason}` is not a reason of {' or '.join(t.name for t in tasks) or 'any task'}",
+                known_names_hint("reasons", declared, reason)
+                or "declare it under the task's `reasons:`",
+            )
+
+    def answer(self, raw: LocDict, event: Event, span: Span) -> None:
+        """A console answer event: an operator module's channel, a status, a reason (E289)."""
+        channel = str(raw["request"])
+        status, reason = str(raw.get("status", "DONE")), str(raw.get("reason", ""))
+        event.answer = (channel, status, reason)
+        channels = {ch: o for o in self.operators.values() for ch in o.channels}
+        if channel not in channels:
+            self.error(
+                self.span(raw, "request"),
+                "E289",
+                f"`{channel}` is not a channel of an operator module of `{self.system.name}`",
+                known_names_hint("channels", sorted(channels), channel),
+            )
+            return
+        if reason:
+            tasks = [c for c in channels[channel].commands if c.text]
+            self.answer_reason(reason, status, tasks, self.span(raw, "reason"))
+
+
+def _names(operators: list[IRController]) -> str:
+    return " or ".join(f"`{o.name}`" for o in operators)
 
 
 def _shown(value: Any) -> str:

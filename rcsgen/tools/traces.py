@@ -132,14 +132,21 @@ class Lane:
     runs_as: str = ""  # the controller whose table it runs: itself, or its stand-in
 
 
+def module_of(row: str) -> str:
+    """The module a trace's row belongs to: itself, or the operator module of a channel
+    (`op/fx` -> `op`)."""
+    return row.split("/", 1)[0]
+
+
 def process_of(system: IRSystem, trace: Trace) -> IRProcess | None:
     """What ran the trace: the one process whose modules it holds, else the whole system
     (every process's modules, process by process: a scenario runs them all)."""
+    held = {module_of(m) for m in trace.modules}
     for process in system.processes:
-        if set(trace.modules) <= set(process.modules):
+        if held <= set(process.modules):
             return process
     whole = whole_system(system)
-    return whole if set(trace.modules) <= set(whole.modules) else None
+    return whole if held <= set(whole.modules) else None
 
 
 def whole_system(system: IRSystem) -> IRProcess:
@@ -158,7 +165,7 @@ def whole_system(system: IRSystem) -> IRProcess:
 def runs_as(process: IRProcess, trace: Trace) -> dict[str, str]:
     """Which controller's table each module of the trace ran: a controller whose subtree is
     missing from the trace ran as its stand-in (`simulate:` in the scenario)."""
-    out = {m: m for m in trace.modules}
+    out = {m: module_of(m) for m in trace.modules}
     for replaced, (stand_in, subtree) in process.stand_ins.items():
         others = [m for m in subtree if m != replaced]
         if replaced in out and others and not any(m in out for m in others):
@@ -169,7 +176,7 @@ def runs_as(process: IRProcess, trace: Trace) -> dict[str, str]:
 def check_against(system: IRSystem, trace: Trace) -> IRProcess:
     """The trace's process; TraceError when a module or a rule is not in the specs."""
     names = {c.name for c in system.controllers}
-    unknown = [m for m in trace.modules if m not in names]
+    unknown = [m for m in trace.modules if module_of(m) not in names]
     if unknown:
         raise TraceError(
             f"{trace.name}: module `{unknown[0]}` is not in system {system.name}: "
@@ -200,14 +207,14 @@ def lanes(trace: Trace, system: IRSystem | None) -> list[Lane]:
     level = levels(system)
     ran = runs_as(process, trace)
     out = []
-    for module in process.modules:
-        if module in ran:
+    for name in process.modules:
+        for module in [row for row in ran if module_of(row) == name]:  # an operator's channels
             controller = system.controller(ran[module])
             out.append(
                 Lane(
                     module,
                     controller.title,
-                    0 if controller.simulator and module == ran[module] else level[module],
+                    0 if controller.simulator and module == ran[module] else level[name],
                     controller.simulator,
                     ran[module],
                 )

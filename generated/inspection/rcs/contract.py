@@ -59,6 +59,16 @@ PERF_FIELDS = (
     ("single_step_num", "I"),
     ("stale_reads", "I"),  # cycles whose inputs from another process could not be read whole
 )
+# An operator module (a person at a screen) serves several clients, each through a channel:
+# a command buffer (COMMAND_HEAD_FIELDS and arguments) its client writes, a status buffer
+# (STATUS_FIELDS) the operator module writes, and an answer record written only by the
+# answering side (the console, a scenario's scripted operator): the command number it
+# answers, DONE or ERROR, and the reason's code (0: none). The operator module turns an
+# answer to its channel's current command into the channel's status.
+ANSWER_FIELDS = (("command_num", "Q"), ("status", "I"), ("reason", "I"))
+# A channel's states: idle, or a request open on the screen.
+OPERATOR_STATES = ("NOP", "ASKING")
+ASKING = 1
 # The block's header, at offset 0: what a process checks before it attaches. The layout hash
 # covers every buffer, field, type and offset and the system's name.
 MAGIC = b"RCSBLK01"
@@ -201,6 +211,7 @@ MODE = Struct(struct_format(MODE_FIELDS))
 PERF = Struct(struct_format(PERF_FIELDS))
 PROCESS = Struct(struct_format(PROCESS_FIELDS))
 PACE = Struct(struct_format(PACE_FIELDS))
+ANSWER = Struct(struct_format(ANSWER_FIELDS))
 
 
 class StaleRead(Exception):

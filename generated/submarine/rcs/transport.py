@@ -85,8 +85,14 @@ def records(layout: ModuleType) -> dict[str, Record]:
     for module in layout.COMMAND_IN:
         found[f"{module}/command"] = layout.COMMAND_IN[module]
         found[f"{module}/status"] = layout.STATUS_OUT[module]
-        found[f"{module}/mode"] = layout.MODE_IN[module]
-        found[f"{module}/perf"] = layout.PERFORMANCE[module]
+        if "/" not in module:  # an operator module's channel shares its mode and perf
+            found[f"{module}/mode"] = layout.MODE_IN[module]
+            found[f"{module}/perf"] = layout.PERFORMANCE[module]
+    for operator in getattr(layout, "OPERATORS", {}):
+        found[f"{operator}/mode"] = layout.MODE_IN[operator]
+        found[f"{operator}/perf"] = layout.PERFORMANCE[operator]
+    for channel, record in getattr(layout, "ANSWERS", {}).items():  # `op/fx/answer`
+        found[f"{channel}/answer"] = record
     for name, record in layout.WORLD.items():
         found[f"{WORLD_OWNER}/{name}"] = record
     return found
@@ -101,6 +107,9 @@ def reads(layout: ModuleType, process: str | None, modules: tuple[str, ...] = ()
     if process is None:
         return ["**"]
     wanted = [f"{m}/command" for m in modules] + [f"{m}/mode" for m in modules]
+    for module in modules:  # an operator module reads its channels' commands and answers
+        for channel in getattr(layout, "OPERATORS", {}).get(module, ()):
+            wanted += [f"{channel}/command", f"{channel}/answer"]
     for module in modules:
         for sub in layout.SUBORDINATES.get(module, ()):
             if layout.PLACEMENT.get(sub) != process:

@@ -1,0 +1,197 @@
+"""Operator: an operator module's channels in the block -> each client's status, every cycle.
+
+An operator module is a person at a screen (docs/semantics.md section 21). It serves every
+controller that lists it in `subordinates`, each through a channel of its own: the client
+writes the channel's command buffer, as it would any subordinate's; the operator module
+writes the channel's status buffer; the answering side (the console's `ctl answer`, or a
+scenario's scripted operator) writes the channel's answer record, and nobody else does.
+Each cycle, for each channel: a new command number opens a request (INIT and HALT instead
+close whatever was open, and are DONE at once); an answer to the open request's command
+number becomes the channel's status, DONE or ERROR with its reason; an answer to an older
+command is ignored. A generated `<operator>.py` names its channels' offsets and subclasses
+`OperatorModule`. Standard library only: copied verbatim into every generated package.
+"""
+
+from __future__ import annotations
+
+from struct import Struct
+from time import perf_counter_ns
+
+from .contract import (
+    ANSWER,
+    ASKING,
+    BUILTIN_COMMANDS,
+    COMMAND_HEAD_FIELDS,
+    DONE,
+    ERROR,
+    EXECUTING,
+    MODE,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    struct_format,
+)
+
+COMMAND_HEAD = Struct(struct_format(COMMAND_HEAD_FIELDS))  # seq, command_num, command
+WITHDRAW = tuple(range(1, len(BUILTIN_COMMANDS) + 1))  # INIT and HALT close a request
+_STALE = None
+
+
+def read_whole(buf: memoryview, shape: Struct, at: int) -> tuple[int, ...] | None:
+    """A buffer's fields after its sequence word, read whole under its seqlock (a word that
+    is even, not 0 and unchanged around the read), or None after READ_TRIES tries."""
+    for _ in range(READ_TRIES):
+        seq, *values = shape.unpack_from(buf, at)
+        if seq and not seq & 1 and SEQ.unpack_from(buf, at)[0] == seq:
+            return tuple(values)
+    return _STALE
+
+
+class Channel:
+    """One client's channel: where its buffers are, and the status last written back."""
+
+    __slots__ = (
+        "answer_at",
+        "client",
+        "command_at",
+        "error_num",
+        "state",
+        "status",
+        "status_at",
+        "status_num",
+        "status_seq",
+    )
+
+    def __init__(self, client: str, command_at: int, status_at: int, answer_at: int) -> None:
+        self.client = client
+        self.command_at, self.status_at, self.answer_at = command_at, status_at, answer_at
+        self.status_seq = self.status_num = self.status = self.error_num = self.state = 0
+
+    def resume(self, buf: memoryview) -> None:
+        """Take up the status from the block (a restarted module keeps its handshake)."""
+        seq, self.status_num, self.status, self.error_num, self.state, _ = STATUS.unpack_from(
+            buf, self.status_at
+        )
+        self.status_seq = seq + (seq & 1)  # odd: its writer died mid-write
+
+    def step(self, buf: memoryview) -> bool | None:
+        """One cycle of this channel: whether the status changed (None: its command or
+        answer could not be read whole this cycle; nothing changed)."""
+        command = read_whole(buf, COMMAND_HEAD, self.command_at)
+        if command is None:
+            return None
+        number, code = command
+        changed = False
+        if number != self.status_num:  # a new command: a new request, or a withdrawal
+            self.status_num, self.error_num = number, 0
+            if code in WITHDRAW:
+                self.status, self.state = DONE, NOP
+            else:
+                self.status, self.state = EXECUTING, ASKING
+            changed = True
+        if self.state == ASKING:
+            answer = read_whole(buf, ANSWER, self.answer_at)
+            if answer is None:
+                return True if changed else None
+            answered, status, reason = answer
+            if answered == self.status_num and status in (DONE, ERROR):
+                self.status, self.state = status, NOP
+                self.error_num = reason if status == ERROR else 0
+                changed = True
+        return changed
+
+    def write(self, buf: memoryview) -> None:
+        """Write the channel's status back, odd while it is written."""
+        seq = self.status_seq + 1
+        SEQ.pack_into(buf, self.status_at, seq)  # odd before any field changes
+        values = (self.status_num, self.status, self.error_num, self.state, NO_RULE)
+        STATUS.pack_into(buf, self.status_at, seq, *values)
+        SEQ.pack_into(buf, self.status_at, seq + 1)
+        self.status_seq = seq + 1
+
+
+class OperatorModule:
+    """The cycle of an operator module: every channel in turn, under the module's mode.
+
+    A generated subclass sets `NAME`, `MODE_AT`, `PERF_AT` and `CHANNELS` (client, command,
+    status and answer offsets, in the clients' execution order)."""
+
+    NAME = ""
+    MODE_AT = 0
+    PERF_AT = 0
+    CHANNELS: tuple[tuple[str, int, int, int], ...] = ()
+
+    def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
+        self.buf = buf
+        self.channels = tuple(Channel(*where) for where in self.CHANNELS)
+        self.dont_run = self.single_step = False
+        self.single_step_num = 0
+        self.resume()
+
+    def resume(self) -> None:
+        """Take up the channels' statuses and the performance counters from the block."""
+        buf = self.buf
+        for channel in self.channels:
+            channel.resume(buf)
+        (
+            seq,
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+            self.stale_reads,
+        ) = PERF.unpack_from(buf, self.PERF_AT)
+        self.perf_seq = seq + (seq & 1)
+
+    def run_cycle(self) -> None:
+        """One cycle: the mode, then each channel (unless the mode holds the module), then
+        the cycle time."""
+        start = perf_counter_ns()
+        buf = self.buf
+        mode = read_whole(buf, MODE, self.MODE_AT)
+        if mode is None:
+            self.stale_reads += 1
+        else:
+            dont_run, single_step, _, self.single_step_num = mode
+            self.dont_run, self.single_step = bool(dont_run), bool(single_step)
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            for channel in self.channels:
+                changed = channel.step(buf)
+                if changed is None:
+                    self.stale_reads += 1
+                elif changed:
+                    channel.write(buf)
+        self.write_performance(perf_counter_ns() - start)
+
+    def write_performance(self, last: int) -> None:
+        self.last_cycle_ns = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = last
+        self.cycles += 1
+        buf, seq = self.buf, self.perf_seq + 1
+        SEQ.pack_into(buf, self.PERF_AT, seq)  # odd before any field changes
+        PERF.pack_into(
+            buf,
+            self.PERF_AT,
+            seq,
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+            self.stale_reads,
+        )
+        SEQ.pack_into(buf, self.PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
