@@ -23,8 +23,6 @@ from rcsgen.tools.scenario import Scenario, load_scenario, open_harness, run
 ROOT = Path(__file__).resolve().parent.parent
 SYSTEM = ROOT / "specs" / "inspection"
 PACKAGE = ROOT / "generated" / "inspection"
-# fixturing's and tooling's reason codes, still world fields (fx_reason, tl_reason)
-FX_REFUSED, FX_TIMED_OUT = 1, 2
 
 
 def operator_timeout(controller: str) -> int:
@@ -205,9 +203,8 @@ def test_a_slow_operator_times_out_and_both_requests_are_withdrawn():
     assert ("HALT" in names(commands_sent(lines, "ms"))) and (
         "HALT" in names(commands_sent(lines, "tl"))
     )
-    end = lines[-1]["world"]
     assert outcome(lines[-1], "ws") == ("ERROR", "TIMED_OUT", {"accepted": False})
-    assert end["fx_reason"] == FX_TIMED_OUT
+    assert outcome(lines[-1], "fx")[:2] == ("ERROR", "TIMED_OUT")  # passed up by name
     assert outcome(lines[-1], "ms")[:2] == ("DONE", "NONE"), "MS was halted, not failed"
     assert [lines[-1]["modules"][c]["state"] for c in ("op/fx", "op/tl")] == ["NOP", "NOP"]
     assert lines[-1]["modules"]["ws"]["status"] == "ERROR"
@@ -242,7 +239,7 @@ def test_one_operator_serves_the_requests_in_turn():
     final, lines = play(with_delay(timeout - 10))
     assert final["status"] == "ERROR"
     assert first(lines, "fx", "PLACE_PART", "DONE") < first(lines, "tl", "LOAD_PROBE", "ERROR")
-    assert lines[-1]["world"]["tl_reason"] == FX_TIMED_OUT  # tooling's codes are fixturing's
+    assert outcome(lines[-1], "tl")[:2] == ("ERROR", "TIMED_OUT")
     # tooling's time-out is passed up: MS's LOAD_PROBE, then WS, fail TIMED_OUT
     assert outcome(lines[-1], "ms")[:2] == ("ERROR", "TIMED_OUT")
     assert outcome(lines[-1], "ws")[:2] == ("ERROR", "TIMED_OUT")
@@ -257,9 +254,8 @@ def test_an_operator_who_refuses_stops_the_workstation_with_that_reason():
     assert tl[-2:][0][1] == "LOAD_PROBE" and tl[-1][1] == "HALT", "the probe loading withdrawn"
     assert tl[-1][0] == refused + 1, "in the cycle after the refusal reached the workstation"
     assert "MEASURE_PART" not in names(commands_sent(lines, "ms"))
-    end = lines[-1]["world"]
     assert outcome(lines[-1], "ws") == ("ERROR", "REFUSED", {"accepted": False})
-    assert end["fx_reason"] == FX_REFUSED
+    assert outcome(lines[-1], "fx")[:2] == ("ERROR", "REFUSED")
     assert outcome(lines[refused], "ws")[0] == "EXECUTING", "it waits for MS to stop first"
     assert names(commands_sent(lines, "op/tl"))[-2:] == ["LOAD_PROBE", "HALT"], "withdrawn"
     assert lines[-1]["modules"]["op/tl"]["state"] == "NOP", "nothing left on the screen"
@@ -277,10 +273,9 @@ def test_the_inspector_answers_then_refuses_at_the_console():
     )
     assert names(commands_sent(lines, "ms"))[-1] == "CALIBRATE_CMM", "no camera calibration"
     assert first(lines, "ws", "INIT_FOR_INSPECT", "ERROR")
-    end = lines[-1]["world"]
     assert outcome(lines[-1], "ws")[:2] == ("ERROR", "REFUSED")  # passed up from MS
-    assert outcome(lines[-1], "ms")[:2] == ("ERROR", "REFUSED")
-    assert end["tl_reason"] == FX_REFUSED
+    assert outcome(lines[-1], "ms")[:2] == ("ERROR", "REFUSED")  # passed up from TL
+    assert outcome(lines[-1], "tl")[:2] == ("ERROR", "REFUSED")
     assert [lines[-1]["modules"][c]["state"] for c in ("op/fx", "op/tl")] == ["NOP", "NOP"]
 
 

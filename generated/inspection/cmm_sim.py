@@ -33,7 +33,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI88xq8xq8xq8xq8xd8x?15x?")
+INPUTS = Struct("<QQI44x???1xI56xq8xq8xq8xq8xd8x?15x?")
 INPUTS_AT = 1104
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -45,7 +45,7 @@ SEQS_AT = 1104
 WORLD_OUT_1 = Struct("<QqQdQ?")
 WORLD_VALUES_1 = Struct("<8xq8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1304
+WORLD_OUT_1_AT = 1272
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -9,7 +9,6 @@ from .layout import (
     FX_STATUS_AT,
     OP_FX_COMMAND,
     OP_FX_COMMAND_AT,
-    WORLD_FX_REASON_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -40,24 +39,13 @@ OP_LOAD_PROBE = 9
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI392xQI244xq")
+INPUTS = Struct("<QI44x???1xI392xQI")
 INPUTS_AT = 520
-# Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
-WORLD_OUT_1 = Struct("<Qq")
-WORLD_VALUES_1 = Struct("<8xq")
-WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 1224
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 S0_ASKING = 3
-
-# Constants.
-REFUSED = 1
-TIMED_OUT = 2
 
 
 class FxController:
@@ -92,7 +80,6 @@ class FxController:
         "status_num",
         "status_seq",
         "ticks",
-        "world_fx_reason",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -150,7 +137,6 @@ class FxController:
             self.single_step_num,
             self.op_status_num,
             self.op_status,
-            self.world_fx_reason,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.op_status_num != self.op_command_num:
             self.op_status = EXECUTING  # until it echoes the last number sent
@@ -216,12 +202,6 @@ class FxController:
             )
             SEQ.pack_into(buf, OP_FX_COMMAND_AT, seq + 1)
             self.op_written = self.op_command_num
-        out = (self.world_fx_reason,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_FX_REASON_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_FX_REASON_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -260,7 +240,6 @@ class FxController:
             self.single_step_num,
             self.op_status_num,
             self.op_status,
-            self.world_fx_reason,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.op_status_num != self.op_command_num:
             self.op_status = EXECUTING  # until it echoes the last number sent
@@ -331,12 +310,6 @@ class FxController:
             )
             SEQ.pack_into(buf, OP_FX_COMMAND_AT, seq + 1)
             self.op_written = self.op_command_num
-        out = (self.world_fx_reason,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_FX_REASON_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_FX_REASON_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -403,7 +376,6 @@ class FxController:
             self.state = S0_ASKING
             self.op_command = OP_MOUNT_FIXTURE_PLATE
             self.op_command_num += 1
-            self.world_fx_reason = 0
 
         elif state == S0_ASKING:
             if self.op_status == DONE:
@@ -415,7 +387,6 @@ class FxController:
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 7  # EQUIP_SETUP/S0_ASKING/2
-                self.world_fx_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -425,7 +396,6 @@ class FxController:
                 self.rule = 8  # EQUIP_SETUP/S0_ASKING/3
                 self.op_command = OP_HALT
                 self.op_command_num += 1
-                self.world_fx_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_TIMED_OUT
@@ -444,7 +414,6 @@ class FxController:
             self.state = S0_ASKING
             self.op_command = OP_PLACE_PART
             self.op_command_num += 1
-            self.world_fx_reason = 0
 
         elif state == S0_ASKING:
             if self.op_status == DONE:
@@ -456,7 +425,6 @@ class FxController:
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 11  # PLACE_PART/S0_ASKING/2
-                self.world_fx_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -466,7 +434,6 @@ class FxController:
                 self.rule = 12  # PLACE_PART/S0_ASKING/3
                 self.op_command = OP_HALT
                 self.op_command_num += 1
-                self.world_fx_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_TIMED_OUT
@@ -485,7 +452,6 @@ class FxController:
             self.state = S0_ASKING
             self.op_command = OP_RESEAT_PART
             self.op_command_num += 1
-            self.world_fx_reason = 0
 
         elif state == S0_ASKING:
             if self.op_status == DONE:
@@ -497,7 +463,6 @@ class FxController:
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 15  # REFIXTURE_PART/S0_ASKING/2
-                self.world_fx_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -507,7 +472,6 @@ class FxController:
                 self.rule = 16  # REFIXTURE_PART/S0_ASKING/3
                 self.op_command = OP_HALT
                 self.op_command_num += 1
-                self.world_fx_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_TIMED_OUT
@@ -526,7 +490,6 @@ class FxController:
             self.state = S0_ASKING
             self.op_command = OP_UNLOAD_PART
             self.op_command_num += 1
-            self.world_fx_reason = 0
 
         elif state == S0_ASKING:
             if self.op_status == DONE:
@@ -538,7 +501,6 @@ class FxController:
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 19  # UNLOAD_PART/S0_ASKING/2
-                self.world_fx_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -548,7 +510,6 @@ class FxController:
                 self.rule = 20  # UNLOAD_PART/S0_ASKING/3
                 self.op_command = OP_HALT
                 self.op_command_num += 1
-                self.world_fx_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_TIMED_OUT

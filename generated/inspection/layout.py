@@ -11,7 +11,7 @@ status buffer (written by the operator module) and an answer record (written by 
 answering side: the console, a scenario's scripted operator). World-model fields follow, one
 buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
 8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 1368 bytes.
+The block is 1336 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -54,15 +54,13 @@ command buffers and world fields:
 | 1128 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
 | 1160 | 16 | CMM_SIM_MODE | MODE_FIELDS |
 | 1176 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1224 | 16 | WORLD_FX_REASON | fx_reason |
-| 1240 | 16 | WORLD_TL_REASON | tl_reason |
-| 1256 | 16 | WORLD_CMM_OP | cmm_op |
-| 1272 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1288 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1304 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1320 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1336 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1352 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 1224 | 16 | WORLD_CMM_OP | cmm_op |
+| 1240 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1256 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1272 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1288 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1304 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1320 | 9 | WORLD_CMM_FAULT | cmm_fault |
 """
 
 from __future__ import annotations
@@ -94,9 +92,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 1368
+SIZE = 1336
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "9ffd952a896c10de26e4cff958431db2"
+LAYOUT_HASH = "4d50202278acc898a49b13614ab8cb14"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 168
 
@@ -159,24 +157,20 @@ OP_TL_STATUS_AT = 1048
 OP_TL_ANSWER_AT = 1080
 
 # World model.
-WORLD_FX_REASON = Struct("<Qq")  # seq, fx_reason
-WORLD_FX_REASON_AT = 1224
-WORLD_TL_REASON = Struct("<Qq")  # seq, tl_reason
-WORLD_TL_REASON_AT = 1240
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1256
+WORLD_CMM_OP_AT = 1224
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1272
+WORLD_CMM_FEATURE_AT = 1240
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1288
+WORLD_CMM_SEQ_AT = 1256
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1304
+WORLD_CMM_DONE_SEQ_AT = 1272
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1320
+WORLD_CMM_READING_AT = 1288
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1336
+WORLD_CMM_ALARM_AT = 1304
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1352
+WORLD_CMM_FAULT_AT = 1320
 
 
 PROCESSES = {
@@ -264,8 +258,6 @@ PERFORMANCE = {
     "op/tl": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
 }
 WORLD = {
-    "fx_reason": Record(WORLD_FX_REASON, WORLD_FX_REASON_AT, ("fx_reason",)),
-    "tl_reason": Record(WORLD_TL_REASON, WORLD_TL_REASON_AT, ("tl_reason",)),
     "cmm_op": Record(WORLD_CMM_OP, WORLD_CMM_OP_AT, ("cmm_op",)),
     "cmm_feature": Record(WORLD_CMM_FEATURE, WORLD_CMM_FEATURE_AT, ("cmm_feature",)),
     "cmm_seq": Record(WORLD_CMM_SEQ, WORLD_CMM_SEQ_AT, ("cmm_seq",)),
@@ -275,8 +267,6 @@ WORLD = {
     "cmm_fault": Record(WORLD_CMM_FAULT, WORLD_CMM_FAULT_AT, ("cmm_fault",)),
 }
 WORLD_INITIAL: dict[str, object] = {
-    "fx_reason": 0,
-    "tl_reason": 0,
     "cmm_op": 0,
     "cmm_feature": 0,
     "cmm_seq": 0,
@@ -386,7 +376,6 @@ RULES = {
         "INIT_FOR_INSPECT/S3/2",
         "INIT_FOR_INSPECT/MS_FAILED/1",
         "INIT_FOR_INSPECT/FX_FAILED/1",
-        "INIT_FOR_INSPECT/FX_FAILED/2",
         "INSPECT_PART/S0/1",
         "INSPECT_PART/S1/1",
         "INSPECT_PART/S1/2",
@@ -397,13 +386,10 @@ RULES = {
         "INSPECT_PART/MEASURING/4",
         "INSPECT_PART/REFIXTURING/1",
         "INSPECT_PART/REFIXTURING/2",
-        "INSPECT_PART/REFIXTURING/3",
         "INSPECT_PART/UNLOADING/1",
         "INSPECT_PART/UNLOADING/2",
-        "INSPECT_PART/UNLOADING/3",
         "INSPECT_PART/MS_FAILED/1",
         "INSPECT_PART/FX_FAILED/1",
-        "INSPECT_PART/FX_FAILED/2",
     ),
     "ms": (
         "",
@@ -417,10 +403,8 @@ RULES = {
         "CALIBRATE_CMM/S0/1",
         "CALIBRATE_CMM/S1/1",
         "CALIBRATE_CMM/S1/2",
-        "CALIBRATE_CMM/S1/3",
         "CALIBRATE_CMM/S2/1",
         "CALIBRATE_CMM/S2/2",
-        "CALIBRATE_CMM/S2/3",
         "CALIBRATE_CMM/S3/1",
         "CALIBRATE_CMM/S3/2",
         "CALIBRATE_CAMERA/S0/1",
@@ -429,7 +413,6 @@ RULES = {
         "LOAD_PROBE/S0/1",
         "LOAD_PROBE/S1/1",
         "LOAD_PROBE/S1/2",
-        "LOAD_PROBE/S1/3",
         "MEASURE_PART/S0/1",
         "MEASURE_PART/NEXT/1",
         "MEASURE_PART/NEXT/2",

@@ -52,6 +52,11 @@ TL_HALT = 2
 TL_CALIBRATE_SPHERE = 3
 TL_CALIBRATE_PROBE = 4
 TL_LOAD_PROBE = 5
+# Why tl may end a command in ERROR (its error_num).
+TL_REASON_NONE = 0
+TL_REASON_LOST = 1
+TL_REASON_REFUSED = 2
+TL_REASON_TIMED_OUT = 3
 
 # Commands ms sends to cmm.
 CMM_INIT = 1
@@ -63,7 +68,7 @@ CMM_INSPECT_FEATURE = 6
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s60x???1xI200xQI116xQI444xq72xd")
+INPUTS = Struct("<QI32s60x???1xI200xQII112xQI492xd")
 INPUTS_AT = 352
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -74,9 +79,6 @@ S3 = 4
 NEXT = 5
 PROBING = 6
 JUDGED = 7
-
-# Constants.
-TL_REFUSED = 1
 
 
 class MsController:
@@ -120,6 +122,7 @@ class MsController:
         "status_seq",
         "tl_command",
         "tl_command_num",
+        "tl_error_num",
         "tl_status",
         "tl_status_num",
         "tl_written",
@@ -128,7 +131,6 @@ class MsController:
         "var_features",
         "var_in_tolerance",
         "world_cmm_reading",
-        "world_tl_reason",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -207,14 +209,17 @@ class MsController:
             self.single_step_num,
             self.tl_status_num,
             self.tl_status,
+            self.tl_error_num,
             self.cmm_status_num,
             self.cmm_status,
-            self.world_tl_reason,
             self.world_cmm_reading,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
         if self.tl_status_num != self.tl_command_num:
             self.tl_status = EXECUTING  # until it echoes the last number sent
+            self.tl_error_num = TL_REASON_NONE  # no reason yet
+        elif self.tl_status != ERROR:
+            self.tl_error_num = TL_REASON_NONE  # a reason comes only with ERROR
         if self.cmm_status_num != self.cmm_command_num:
             self.cmm_status = EXECUTING  # until it echoes the last number sent
 
@@ -337,14 +342,17 @@ class MsController:
             self.single_step_num,
             self.tl_status_num,
             self.tl_status,
+            self.tl_error_num,
             self.cmm_status_num,
             self.cmm_status,
-            self.world_tl_reason,
             self.world_cmm_reading,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
         if self.tl_status_num != self.tl_command_num:
             self.tl_status = EXECUTING  # until it echoes the last number sent
+            self.tl_error_num = TL_REASON_NONE  # no reason yet
+        elif self.tl_status != ERROR:
+            self.tl_error_num = TL_REASON_NONE  # a reason comes only with ERROR
         if self.cmm_status_num != self.cmm_command_num:
             self.cmm_status = EXECUTING  # until it echoes the last number sent
 
@@ -533,45 +541,43 @@ class MsController:
                 self.tl_command = TL_CALIBRATE_PROBE
                 self.tl_command_num += 1
 
-            elif self.tl_status == ERROR and self.world_tl_reason == TL_REFUSED:
+            elif self.tl_status == ERROR:
                 self.rule = 10  # CALIBRATE_CMM/S1/2
                 self.state = NOP
                 self.status = ERROR
-                self.error_num = REASON_REFUSED
-
-            elif self.tl_status == ERROR and self.world_tl_reason != TL_REFUSED:
-                self.rule = 11  # CALIBRATE_CMM/S1/3
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_TIMED_OUT
+                # tl's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    TL_REASON_LOST: REASON_LOST,
+                    TL_REASON_REFUSED: REASON_REFUSED,
+                    TL_REASON_TIMED_OUT: REASON_TIMED_OUT,
+                }.get(self.tl_error_num, REASON_NONE)
 
         elif state == S2:
             if self.tl_status == DONE:
-                self.rule = 12  # CALIBRATE_CMM/S2/1
+                self.rule = 11  # CALIBRATE_CMM/S2/1
                 self.state = S3
                 self.cmm_command = CMM_CALIBRATE_PROBE
                 self.cmm_command_num += 1
 
-            elif self.tl_status == ERROR and self.world_tl_reason == TL_REFUSED:
-                self.rule = 13  # CALIBRATE_CMM/S2/2
+            elif self.tl_status == ERROR:
+                self.rule = 12  # CALIBRATE_CMM/S2/2
                 self.state = NOP
                 self.status = ERROR
-                self.error_num = REASON_REFUSED
-
-            elif self.tl_status == ERROR and self.world_tl_reason != TL_REFUSED:
-                self.rule = 14  # CALIBRATE_CMM/S2/3
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_TIMED_OUT
+                # tl's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    TL_REASON_LOST: REASON_LOST,
+                    TL_REASON_REFUSED: REASON_REFUSED,
+                    TL_REASON_TIMED_OUT: REASON_TIMED_OUT,
+                }.get(self.tl_error_num, REASON_NONE)
 
         elif state == S3:
             if self.cmm_status == DONE:
-                self.rule = 15  # CALIBRATE_CMM/S3/1
+                self.rule = 13  # CALIBRATE_CMM/S3/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.cmm_status == ERROR:
-                self.rule = 16  # CALIBRATE_CMM/S3/2
+                self.rule = 14  # CALIBRATE_CMM/S3/2
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -580,19 +586,19 @@ class MsController:
         """CALIBRATE_CAMERA: The CMM calibrates the camera against the reference sphere."""
         state = self.state
         if state == S0:
-            self.rule = 17  # CALIBRATE_CAMERA/S0/1
+            self.rule = 15  # CALIBRATE_CAMERA/S0/1
             self.state = S1
             self.cmm_command = CMM_CALIBRATE_CAMERA
             self.cmm_command_num += 1
 
         elif state == S1:
             if self.cmm_status == DONE:
-                self.rule = 18  # CALIBRATE_CAMERA/S1/1
+                self.rule = 16  # CALIBRATE_CAMERA/S1/1
                 self.state = NOP
                 self.status = DONE
 
             elif self.cmm_status == ERROR:
-                self.rule = 19  # CALIBRATE_CAMERA/S1/2
+                self.rule = 17  # CALIBRATE_CAMERA/S1/2
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -603,28 +609,27 @@ class MsController:
         """
         state = self.state
         if state == S0:
-            self.rule = 20  # LOAD_PROBE/S0/1
+            self.rule = 18  # LOAD_PROBE/S0/1
             self.state = S1
             self.tl_command = TL_LOAD_PROBE
             self.tl_command_num += 1
 
         elif state == S1:
             if self.tl_status == DONE:
-                self.rule = 21  # LOAD_PROBE/S1/1
+                self.rule = 19  # LOAD_PROBE/S1/1
                 self.state = NOP
                 self.status = DONE
 
-            elif self.tl_status == ERROR and self.world_tl_reason == TL_REFUSED:
-                self.rule = 22  # LOAD_PROBE/S1/2
+            elif self.tl_status == ERROR:
+                self.rule = 20  # LOAD_PROBE/S1/2
                 self.state = NOP
                 self.status = ERROR
-                self.error_num = REASON_REFUSED
-
-            elif self.tl_status == ERROR and self.world_tl_reason != TL_REFUSED:
-                self.rule = 23  # LOAD_PROBE/S1/3
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_TIMED_OUT
+                # tl's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    TL_REASON_LOST: REASON_LOST,
+                    TL_REASON_REFUSED: REASON_REFUSED,
+                    TL_REASON_TIMED_OUT: REASON_TIMED_OUT,
+                }.get(self.tl_error_num, REASON_NONE)
 
     def measure_part(self) -> None:
         """MEASURE_PART: Measure every feature of the inspection program with the CMM
@@ -632,7 +637,7 @@ class MsController:
         """
         state = self.state
         if state == S0:
-            self.rule = 24  # MEASURE_PART/S0/1
+            self.rule = 21  # MEASURE_PART/S0/1
             self.state = NEXT
             try:
                 returned = hooks.program_features(self.hook_state, self.arg_program)
@@ -652,21 +657,21 @@ class MsController:
 
         elif state == NEXT:
             if self.var_feature < self.var_features:
-                self.rule = 25  # MEASURE_PART/NEXT/1
+                self.rule = 22  # MEASURE_PART/NEXT/1
                 self.state = PROBING
                 self.cmm_arg_number = self.var_feature
                 self.cmm_command = CMM_INSPECT_FEATURE
                 self.cmm_command_num += 1
 
             elif self.var_feature >= self.var_features:
-                self.rule = 26  # MEASURE_PART/NEXT/2
+                self.rule = 23  # MEASURE_PART/NEXT/2
                 self.state = NOP
                 self.status = DONE
 
         elif state == PROBING:
             if self.cmm_status == DONE:
                 # a reading; judging it is a hook, which a guard cannot call
-                self.rule = 27  # MEASURE_PART/PROBING/1
+                self.rule = 24  # MEASURE_PART/PROBING/1
                 self.state = JUDGED
                 try:
                     returned = hooks.judge(
@@ -681,13 +686,13 @@ class MsController:
                 self.var_in_tolerance = returned
 
             elif self.cmm_status == ERROR:
-                self.rule = 28  # MEASURE_PART/PROBING/2
+                self.rule = 25  # MEASURE_PART/PROBING/2
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
 
         elif state == JUDGED:
-            self.rule = 29  # MEASURE_PART/JUDGED/1
+            self.rule = 26  # MEASURE_PART/JUDGED/1
             self.state = NEXT
             self.var_feature = self.var_feature + 1
             self.var_failed = self.var_failed + (0 if self.var_in_tolerance else 1)

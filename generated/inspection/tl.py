@@ -9,7 +9,6 @@ from .layout import (
     OP_TL_COMMAND_AT,
     TL_PERF_AT,
     TL_STATUS_AT,
-    WORLD_TL_REASON_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 
@@ -39,24 +38,13 @@ OP_LOAD_PROBE = 9
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI352xQI180xq")
+INPUTS = Struct("<QI44x???1xI352xQI")
 INPUTS_AT = 640
-# Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
-WORLD_OUT_1 = Struct("<Qq")
-WORLD_VALUES_1 = Struct("<8xq")
-WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 1240
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 S0_ASKING = 3
-
-# Constants.
-REFUSED = 1
-TIMED_OUT = 2
 
 
 class TlController:
@@ -91,7 +79,6 @@ class TlController:
         "status_num",
         "status_seq",
         "ticks",
-        "world_tl_reason",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -149,7 +136,6 @@ class TlController:
             self.single_step_num,
             self.op_status_num,
             self.op_status,
-            self.world_tl_reason,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.op_status_num != self.op_command_num:
             self.op_status = EXECUTING  # until it echoes the last number sent
@@ -213,12 +199,6 @@ class TlController:
             )
             SEQ.pack_into(buf, OP_TL_COMMAND_AT, seq + 1)
             self.op_written = self.op_command_num
-        out = (self.world_tl_reason,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_TL_REASON_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_TL_REASON_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -257,7 +237,6 @@ class TlController:
             self.single_step_num,
             self.op_status_num,
             self.op_status,
-            self.world_tl_reason,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.op_status_num != self.op_command_num:
             self.op_status = EXECUTING  # until it echoes the last number sent
@@ -326,12 +305,6 @@ class TlController:
             )
             SEQ.pack_into(buf, OP_TL_COMMAND_AT, seq + 1)
             self.op_written = self.op_command_num
-        out = (self.world_tl_reason,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_TL_REASON_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_TL_REASON_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - self.cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -400,7 +373,6 @@ class TlController:
             self.state = S0_ASKING
             self.op_command = OP_MOUNT_SPHERE
             self.op_command_num += 1
-            self.world_tl_reason = 0
 
         elif state == S0_ASKING:
             if self.op_status == DONE:
@@ -412,7 +384,6 @@ class TlController:
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 7  # CALIBRATE_SPHERE/S0_ASKING/2
-                self.world_tl_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -422,7 +393,6 @@ class TlController:
                 self.rule = 8  # CALIBRATE_SPHERE/S0_ASKING/3
                 self.op_command = OP_HALT
                 self.op_command_num += 1
-                self.world_tl_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_TIMED_OUT
@@ -441,7 +411,6 @@ class TlController:
             self.state = S0_ASKING
             self.op_command = OP_ORIENT_PROBE
             self.op_command_num += 1
-            self.world_tl_reason = 0
 
         elif state == S0_ASKING:
             if self.op_status == DONE:
@@ -453,7 +422,6 @@ class TlController:
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 11  # CALIBRATE_PROBE/S0_ASKING/2
-                self.world_tl_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -463,7 +431,6 @@ class TlController:
                 self.rule = 12  # CALIBRATE_PROBE/S0_ASKING/3
                 self.op_command = OP_HALT
                 self.op_command_num += 1
-                self.world_tl_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_TIMED_OUT
@@ -482,7 +449,6 @@ class TlController:
             self.state = S0_ASKING
             self.op_command = OP_LOAD_PROBE
             self.op_command_num += 1
-            self.world_tl_reason = 0
 
         elif state == S0_ASKING:
             if self.op_status == DONE:
@@ -494,7 +460,6 @@ class TlController:
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 15  # LOAD_PROBE/S0_ASKING/2
-                self.world_tl_reason = REFUSED
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -504,7 +469,6 @@ class TlController:
                 self.rule = 16  # LOAD_PROBE/S0_ASKING/3
                 self.op_command = OP_HALT
                 self.op_command_num += 1
-                self.world_tl_reason = TIMED_OUT
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_TIMED_OUT

@@ -61,10 +61,15 @@ FX_EQUIP_SETUP = 3
 FX_PLACE_PART = 4
 FX_REFIXTURE_PART = 5
 FX_UNLOAD_PART = 6
+# Why fx may end a command in ERROR (its error_num).
+FX_REASON_NONE = 0
+FX_REASON_LOST = 1
+FX_REASON_REFUSED = 2
+FX_REASON_TIMED_OUT = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI32s52x???1xI112xQII16xq96xQI676xq")
+INPUTS = Struct("<QQI32s52x???1xI112xQII16xq96xQII")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -84,7 +89,6 @@ UNLOADING = 9
 
 # Constants.
 MEASUREMENTS = 2
-FX_REFUSED = 1
 
 
 class WsController:
@@ -101,6 +105,7 @@ class WsController:
         "error_num",
         "fx_command",
         "fx_command_num",
+        "fx_error_num",
         "fx_status",
         "fx_status_num",
         "fx_written",
@@ -129,7 +134,6 @@ class WsController:
         "status_num",
         "status_seq",
         "var_measured",
-        "world_fx_reason",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -210,7 +214,7 @@ class WsController:
                     self.ms_result_failed,
                     self.fx_status_num,
                     self.fx_status,
-                    self.world_fx_reason,
+                    self.fx_error_num,
                 ) = values
                 self.arg_program = decode_text(self.arg_program)
                 break
@@ -224,6 +228,9 @@ class WsController:
             self.ms_error_num = MS_REASON_NONE  # a reason comes only with ERROR
         if self.fx_status_num != self.fx_command_num:
             self.fx_status = EXECUTING  # until it echoes the last number sent
+            self.fx_error_num = FX_REASON_NONE  # no reason yet
+        elif self.fx_status != ERROR:
+            self.fx_error_num = FX_REASON_NONE  # a reason comes only with ERROR
 
         # check_if_new_command
         if self.command_num != self.status_num:
@@ -345,7 +352,7 @@ class WsController:
                     self.ms_result_failed,
                     self.fx_status_num,
                     self.fx_status,
-                    self.world_fx_reason,
+                    self.fx_error_num,
                 ) = values
                 self.arg_program = decode_text(self.arg_program)
                 break
@@ -359,6 +366,9 @@ class WsController:
             self.ms_error_num = MS_REASON_NONE  # a reason comes only with ERROR
         if self.fx_status_num != self.fx_command_num:
             self.fx_status = EXECUTING  # until it echoes the last number sent
+            self.fx_error_num = FX_REASON_NONE  # no reason yet
+        elif self.fx_status != ERROR:
+            self.fx_error_num = FX_REASON_NONE  # a reason comes only with ERROR
 
     def check_if_new_command(self) -> None:
         """A command number that differs from the echoed status number is a new command."""
@@ -583,20 +593,17 @@ class WsController:
                 MS_REASON_TIMED_OUT: REASON_TIMED_OUT,
             }.get(self.ms_error_num, REASON_NONE)
 
-        elif state == FX_FAILED:
-            if self.ms_status != EXECUTING and self.world_fx_reason == FX_REFUSED:
-                # measurement has stopped; the operator refused
-                self.rule = 14  # INIT_FOR_INSPECT/FX_FAILED/1
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_REFUSED
-
-            elif self.ms_status != EXECUTING and self.world_fx_reason != FX_REFUSED:
-                # measurement has stopped; no answer in time (fixturing's one other reason)
-                self.rule = 15  # INIT_FOR_INSPECT/FX_FAILED/2
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_TIMED_OUT
+        elif state == FX_FAILED and self.ms_status != EXECUTING:
+            # measurement has stopped; fail for fixturing's reason
+            self.rule = 14  # INIT_FOR_INSPECT/FX_FAILED/1
+            self.state = NOP
+            self.status = ERROR
+            # fx's reason, passed up by name (another: NONE)
+            self.error_num = {
+                FX_REASON_LOST: REASON_LOST,
+                FX_REASON_REFUSED: REASON_REFUSED,
+                FX_REASON_TIMED_OUT: REASON_TIMED_OUT,
+            }.get(self.fx_error_num, REASON_NONE)
 
     def inspect_part(self) -> None:
         """INSPECT_PART: Inspect one part (Figure 39): FX places it while MS has the probe loaded,
@@ -605,7 +612,7 @@ class WsController:
         """
         state = self.state
         if state == S0:
-            self.rule = 16  # INSPECT_PART/S0/1
+            self.rule = 15  # INSPECT_PART/S0/1
             self.state = S1
             self.var_measured = 0
             self.fx_command = FX_PLACE_PART
@@ -616,20 +623,20 @@ class WsController:
         elif state == S1:
             if self.fx_status == ERROR:
                 # fixturing failed; withdraw the probe loading
-                self.rule = 17  # INSPECT_PART/S1/1
+                self.rule = 16  # INSPECT_PART/S1/1
                 self.state = FX_FAILED
                 self.ms_command = MS_HALT
                 self.ms_command_num += 1
 
             elif self.ms_status == ERROR:
                 # measurement failed; withdraw the placing
-                self.rule = 18  # INSPECT_PART/S1/2
+                self.rule = 17  # INSPECT_PART/S1/2
                 self.state = MS_FAILED
                 self.fx_command = FX_HALT
                 self.fx_command_num += 1
 
             elif self.fx_status == DONE and self.ms_status == DONE:
-                self.rule = 19  # INSPECT_PART/S1/3
+                self.rule = 18  # INSPECT_PART/S1/3
                 self.state = MEASURING
                 self.ms_arg_program = self.arg_program
                 self.ms_command = MS_MEASURE_PART
@@ -638,7 +645,7 @@ class WsController:
 
         elif state == MEASURING:
             if self.ms_status == ERROR:
-                self.rule = 20  # INSPECT_PART/MEASURING/1
+                self.rule = 19  # INSPECT_PART/MEASURING/1
                 self.state = NOP
                 self.status = ERROR
                 # ms's reason, passed up by name (another: NONE)
@@ -651,7 +658,7 @@ class WsController:
 
             elif self.ms_status == DONE and self.ms_result_failed == 0:
                 # every feature in tolerance
-                self.rule = 21  # INSPECT_PART/MEASURING/2
+                self.rule = 20  # INSPECT_PART/MEASURING/2
                 self.state = UNLOADING
                 self.result_accepted = True
                 self.fx_command = FX_UNLOAD_PART
@@ -663,7 +670,7 @@ class WsController:
                 and self.var_measured < MEASUREMENTS
             ):
                 # out of tolerance; re-fixture and measure again
-                self.rule = 22  # INSPECT_PART/MEASURING/3
+                self.rule = 21  # INSPECT_PART/MEASURING/3
                 self.state = REFIXTURING
                 self.fx_command = FX_REFIXTURE_PART
                 self.fx_command_num += 1
@@ -674,7 +681,7 @@ class WsController:
                 and self.var_measured >= MEASUREMENTS
             ):
                 # out of tolerance again; reject the part
-                self.rule = 23  # INSPECT_PART/MEASURING/4
+                self.rule = 22  # INSPECT_PART/MEASURING/4
                 self.state = UNLOADING
                 self.result_accepted = False
                 self.fx_command = FX_UNLOAD_PART
@@ -682,46 +689,44 @@ class WsController:
 
         elif state == REFIXTURING:
             if self.fx_status == DONE:
-                self.rule = 24  # INSPECT_PART/REFIXTURING/1
+                self.rule = 23  # INSPECT_PART/REFIXTURING/1
                 self.state = MEASURING
                 self.ms_arg_program = self.arg_program
                 self.ms_command = MS_MEASURE_PART
                 self.ms_command_num += 1
                 self.var_measured = self.var_measured + 1
 
-            elif self.fx_status == ERROR and self.world_fx_reason == FX_REFUSED:
-                self.rule = 25  # INSPECT_PART/REFIXTURING/2
+            elif self.fx_status == ERROR:
+                self.rule = 24  # INSPECT_PART/REFIXTURING/2
                 self.state = NOP
                 self.status = ERROR
-                self.error_num = REASON_REFUSED
-
-            elif self.fx_status == ERROR and self.world_fx_reason != FX_REFUSED:
-                self.rule = 26  # INSPECT_PART/REFIXTURING/3
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_TIMED_OUT
+                # fx's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    FX_REASON_LOST: REASON_LOST,
+                    FX_REASON_REFUSED: REASON_REFUSED,
+                    FX_REASON_TIMED_OUT: REASON_TIMED_OUT,
+                }.get(self.fx_error_num, REASON_NONE)
 
         elif state == UNLOADING:
             if self.fx_status == DONE:
-                self.rule = 27  # INSPECT_PART/UNLOADING/1
+                self.rule = 25  # INSPECT_PART/UNLOADING/1
                 self.state = NOP
                 self.status = DONE
 
-            elif self.fx_status == ERROR and self.world_fx_reason == FX_REFUSED:
-                self.rule = 28  # INSPECT_PART/UNLOADING/2
+            elif self.fx_status == ERROR:
+                self.rule = 26  # INSPECT_PART/UNLOADING/2
                 self.state = NOP
                 self.status = ERROR
-                self.error_num = REASON_REFUSED
-
-            elif self.fx_status == ERROR and self.world_fx_reason != FX_REFUSED:
-                self.rule = 29  # INSPECT_PART/UNLOADING/3
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_TIMED_OUT
+                # fx's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    FX_REASON_LOST: REASON_LOST,
+                    FX_REASON_REFUSED: REASON_REFUSED,
+                    FX_REASON_TIMED_OUT: REASON_TIMED_OUT,
+                }.get(self.fx_error_num, REASON_NONE)
 
         elif state == MS_FAILED and self.fx_status != EXECUTING:
             # fixturing has stopped; fail for measurement's reason
-            self.rule = 30  # INSPECT_PART/MS_FAILED/1
+            self.rule = 27  # INSPECT_PART/MS_FAILED/1
             self.state = NOP
             self.status = ERROR
             # ms's reason, passed up by name (another: NONE)
@@ -732,17 +737,14 @@ class WsController:
                 MS_REASON_TIMED_OUT: REASON_TIMED_OUT,
             }.get(self.ms_error_num, REASON_NONE)
 
-        elif state == FX_FAILED:
-            if self.ms_status != EXECUTING and self.world_fx_reason == FX_REFUSED:
-                # measurement has stopped; the operator refused
-                self.rule = 31  # INSPECT_PART/FX_FAILED/1
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_REFUSED
-
-            elif self.ms_status != EXECUTING and self.world_fx_reason != FX_REFUSED:
-                # measurement has stopped; no answer in time (fixturing's one other reason)
-                self.rule = 32  # INSPECT_PART/FX_FAILED/2
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_TIMED_OUT
+        elif state == FX_FAILED and self.ms_status != EXECUTING:
+            # measurement has stopped; fail for fixturing's reason
+            self.rule = 28  # INSPECT_PART/FX_FAILED/1
+            self.state = NOP
+            self.status = ERROR
+            # fx's reason, passed up by name (another: NONE)
+            self.error_num = {
+                FX_REASON_LOST: REASON_LOST,
+                FX_REASON_REFUSED: REASON_REFUSED,
+                FX_REASON_TIMED_OUT: REASON_TIMED_OUT,
+            }.get(self.fx_error_num, REASON_NONE)
