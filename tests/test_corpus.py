@@ -180,6 +180,18 @@ def test_docs_list_every_code() -> None:
     assert sorted(set(entries) - in_code) == [], "documented but never emitted"
 
 
+def test_every_documented_warning_can_be_selected_and_ignored() -> None:
+    """--select, --ignore and [tool.rcsgen] name warnings from WARNING_CODES: every warning
+    the docs list (so every one the code base emits) must be in it, or a user cannot turn
+    it off or on by name."""
+    from rcsgen.compiler.acknowledge import WARNING_CODES
+
+    doc = (Path(__file__).resolve().parent.parent / "docs" / "diagnostics.md").read_text("utf-8")
+    warnings = {c for c in DOC_ENTRY.findall(doc) if c.startswith("W")}
+    assert sorted(warnings - WARNING_CODES) == [], "documented but not selectable"
+    assert sorted(WARNING_CODES - warnings) == [], "selectable but not documented"
+
+
 def test_corpus_cases_are_named_after_documented_codes() -> None:
     doc = (CASES.parent.parent / "docs" / "diagnostics.md").read_text(encoding="utf-8")
     documented = {c.lower() for c in DOC_ENTRY.findall(doc)}

@@ -36,7 +36,7 @@ ACKNOWLEDGEABLE = {
     "W512": "a rule",
 }
 # Every warning rcsgen reports (what --select and --ignore can name).
-WARNING_CODES = frozenset({*ACKNOWLEDGEABLE, "W303", "W501"})
+WARNING_CODES = frozenset({*ACKNOWLEDGEABLE, "W303", "W305", "W307", "W308", "W501", "W520"})
 
 
 @dataclass
