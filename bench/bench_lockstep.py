@@ -121,7 +121,8 @@ def race(
                         taken.append(wall_ns() - began)
                         driver.after(harness)
             ends = {key: state(harness) for key, harness in harnesses.items()}
-            if len(set(ends.values())) != 1:
+            first, *others = ends.values()  # (a Status holds dicts: compared, not hashed)
+            if any(other != first for other in others):
                 raise SystemExit(f"round {index + 1}: the versions ended in different states")
         finally:
             for harness in harnesses.values():

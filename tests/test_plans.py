@@ -254,3 +254,38 @@ def test_the_analysis_knows_a_plan_holds_at_most_its_capacity(tmp_path: Path) ->
     found = _table(tmp_path, "legs.done", "legs.step >= 4 and not legs.done", "not legs.done")
     assert [c for c, _ in found if c in ("E501", "W502")] == [], found
     assert any(c == "W512" and "rule 2 of GO S1 never fires" in m for c, m in found), found
+
+
+# ---------------------------------------------------------------- the console
+
+
+def test_ctl_status_shows_where_the_executor_is_in_its_plan() -> None:
+    """The submarine as OS processes, its mission sent: `ctl status` says which step of the
+    route cc is on, of how many, and how many replans are left (text and JSON)."""
+    import importlib
+
+    from conftest import REPO, wait_for
+    from test_ctl import Running
+
+    from rcsgen.tools.harness import import_package
+
+    package, specs = REPO / "generated" / "submarine", REPO / "specs" / "submarine"
+    layout = importlib.import_module(f"{import_package(package, specs).__name__}.layout")
+    running = Running(package, specs, layout, "--send", "cc.RUN_MISSION")  # paced: 1 s a cycle
+
+    def route() -> dict[str, int]:
+        return running.module("cc")["plans"]["route"]  # type: ignore[index, no-any-return]
+
+    try:
+        wait_for(lambda: route()["steps"] > 0, "cc's route planned", 60)
+        plan = route()
+        assert plan["steps"] > 1 and 0 <= plan["step"] < plan["steps"], plan
+        assert plan["replans_left"] == 2, "no replan on an open passage"
+        text = running.ctl("status").stdout.splitlines()
+        shown = [line for line in text if line.startswith("plan cc.route: ")]
+        assert len(shown) == 1, text
+        step, steps = shown[0].split("step ")[1].split(",")[0].split(" of ")
+        assert int(steps) == plan["steps"] and 0 <= int(step) < int(steps), shown
+        assert shown[0].endswith(", 2 replans left"), shown
+    finally:
+        running.stop()

@@ -41,7 +41,8 @@ def check(
     diags: Diagnostics,
 ) -> None:
     """Every module a role or request names exists; a role commands only modules no
-    controller commands (E245-E247); requests are answerable (E248, E249)."""
+    controller commands and that are not operator modules (E245-E247, E296); requests
+    are answerable (E248, E249)."""
     for role in operators.roles.values():
         for level, listed in role.grants.items():
             for module in listed:
@@ -54,6 +55,16 @@ def check(
                         f"role `{role.name}` is granted `{level}` on unknown module "
                         f"`{module.value}`",
                         known_names_hint("modules", by_name, module.value),
+                    )
+                elif level == "command" and by_name[module.value].is_operator:
+                    diags.error(
+                        module.span,
+                        "E296",
+                        f"role `{role.name}` may not `command` operator module "
+                        f"`{module.value}`: its clients send it their tasks, and a person "
+                        f"answers them",
+                        f"grant `respond` on `{module.value}` to answer its requests "
+                        f"(`ctl answer`)",
                     )
                 elif level == "command" and module.value in supervisors:
                     boss = supervisors[module.value]

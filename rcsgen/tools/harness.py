@@ -30,7 +30,7 @@ from ..compiler import emit
 from ..compiler.diagnostics import SpecError
 from ..compiler.frontend import compile_paths
 from ..compiler.ir import IRSystem
-from ..runtime.contract import enum_code, enum_name
+from ..runtime.contract import enum_code, enum_name, plan_slots
 
 _unique = itertools.count(1)
 
@@ -59,20 +59,6 @@ class Status:
     results: dict[str, Any] = field(default_factory=dict)
     # each plan's step, number of steps and replans left (modules with plans only)
     plans: dict[str, dict[str, int]] = field(default_factory=dict)
-
-
-_PLAN_SLOTS = ("_replans_left", "_steps", "_step")  # `plan_<name><slot>` in a status buffer
-
-
-def plan_slots(values: dict[str, Any]) -> dict[str, dict[str, int]]:
-    """The plans of a status buffer's values: `plan_route_step` -> {"route": {"step": ...}}."""
-    plans: dict[str, dict[str, int]] = {}
-    for key, value in values.items():
-        if not key.startswith("plan_"):
-            continue
-        slot = next(s for s in _PLAN_SLOTS if key.endswith(s))
-        plans.setdefault(key[len("plan_") : -len(slot)], {})[slot[1:]] = int(value)
-    return plans
 
 
 def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleType:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numbers
 from struct import Struct
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 # Status a module reports to its supervisor (QQ1.h `qq1_responses`), by code.
 NOT_READY = 0
@@ -274,6 +274,21 @@ class Record(NamedTuple):
         SEQ.pack_into(buf, self.offset, seq)  # odd before any field changes
         self.struct.pack_into(buf, self.offset, seq, *current.values())
         SEQ.pack_into(buf, self.offset, seq + 1)
+
+
+_PLAN_SLOTS = ("_replans_left", "_steps", "_step")  # `plan_<name><slot>` in a status buffer
+
+
+def plan_slots(values: dict[str, Any]) -> dict[str, dict[str, int]]:
+    """The plans of a status buffer's values: `plan_route_step` -> {"route": {"step": ...}}
+    (one place for the harness, traces and the console)."""
+    plans: dict[str, dict[str, int]] = {}
+    for key, value in values.items():
+        if not key.startswith("plan_"):
+            continue
+        slot = next(s for s in _PLAN_SLOTS if key.endswith(s))
+        plans.setdefault(key[len("plan_") : -len(slot)], {})[slot[1:]] = int(value)
+    return plans
 
 
 def enum_name(layout: object, owner: str, field: str, value: object) -> object:

@@ -44,6 +44,7 @@ from .contract import (
     StaleRead,
     enum_code,
     enum_name,
+    plan_slots,
     reason_name,
     status_text,
     text_problem,
@@ -369,13 +370,6 @@ class Console:
                 reason = reason_name(layout, name, row["status"], int(status["error_num"]))
                 if reason is not None:  # a module that declares reasons
                     row["reason"] = reason
-                results = {
-                    k.removeprefix("result_"): v
-                    for k, v in status.items()
-                    if k.startswith("result_")
-                }
-                if results:
-                    row["results"] = results
                 row["state"] = _name(layout.STATE_NAMES[runs], int(status["state"]))
                 results = {
                     k.removeprefix("result_"): enum_name(layout, name, k, v)
@@ -384,6 +378,9 @@ class Console:
                 }
                 if results:
                     row["results"] = results
+                plans = plan_slots(status)
+                if plans:  # a module with plans: where its executor is in each
+                    row["plans"] = plans
                 rule = _name(layout.RULES[runs], int(status["rule"]))
                 row["rule"] = rule or None
             if mode:
@@ -666,6 +663,11 @@ def render(snapshot: dict[str, Any]) -> list[str]:
         if row.get("results"):
             values = ", ".join(f"{k} {_shown(v)}" for k, v in row["results"].items())
             lines.append(f"results {name}: {values}")
+        for plan, at in (row.get("plans") or {}).items():
+            lines.append(
+                f"plan {name}.{plan}: step {at['step']} of {at['steps']}, "
+                f"{at['replans_left']} replans left"
+            )
     for name, proc in snapshot["processes"].items():
         if proc.get("state") == "?":
             lines.append(f"process {name}: control record unreadable")
