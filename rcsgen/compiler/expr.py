@@ -12,7 +12,7 @@ from __future__ import annotations
 import ast
 import math
 import operator
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -938,15 +938,13 @@ class _Printer:
         raise TypeError(f"unknown expression node {expr!r}")
 
 
-def refs(expr: Expr) -> list[Ref]:
-    """Every resolved name in `expr`, in reading order."""
-    found: list[Ref] = []
+def walk(expr: Expr) -> Iterator[Expr]:
+    """Every node of `expr`, each before its operands, in reading order."""
     stack = [expr]
     while stack:
         node = stack.pop()
-        if isinstance(node, Ref):
-            found.append(node)
-        elif isinstance(node, Call):
+        yield node
+        if isinstance(node, Call):
             stack.extend(reversed(node.args))
         elif isinstance(node, Unary):
             stack.append(node.operand)
@@ -958,30 +956,20 @@ def refs(expr: Expr) -> list[Ref]:
             stack.extend(reversed((node.left, *node.comparators)))
         elif isinstance(node, IfExp):
             stack.extend((node.orelse, node.body, node.test))
-    return found
+
+
+def refs(expr: Expr) -> list[Ref]:
+    """Every resolved name in `expr`, in reading order."""
+    return [node for node in walk(expr) if isinstance(node, Ref)]
 
 
 def enum_constants(expr: Expr) -> list[tuple[str, int]]:
     """Every enumeration value `expr` names, as (value name, index), in reading order."""
-    found: list[tuple[str, int]] = []
-    stack = [expr]
-    while stack:
-        node = stack.pop()
-        if isinstance(node, Const) and enum_values(node.type):
-            found.append((enum_values(node.type)[int(node.value)], int(node.value)))
-        elif isinstance(node, Call):
-            stack.extend(reversed(node.args))
-        elif isinstance(node, Unary):
-            stack.append(node.operand)
-        elif isinstance(node, Binary):
-            stack.extend((node.right, node.left))
-        elif isinstance(node, BoolOp):
-            stack.extend(reversed(node.values))
-        elif isinstance(node, Compare):
-            stack.extend(reversed((node.left, *node.comparators)))
-        elif isinstance(node, IfExp):
-            stack.extend((node.orelse, node.body, node.test))
-    return found
+    return [
+        (enum_values(node.type)[int(node.value)], int(node.value))
+        for node in walk(expr)
+        if isinstance(node, Const) and enum_values(node.type)
+    ]
 
 
 def substitute(tree: Expr, values: Mapping[tuple[str, str], Expr]) -> Expr:
