@@ -351,12 +351,14 @@ STATE_NAMES = {
     "op/tl": OPERATOR_STATES,
 }
 # The reason each code of a status buffer's `error_num` names, indexed by code, for the
-# controllers that declare reasons (docs/semantics.md, "Results and reasons").
+# controllers and operator modules that declare reasons (docs/semantics.md, "Results and
+# reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {
     "ws": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ms": ("NONE", "LOST", "MACHINE_FAULT", "REFUSED", "TIMED_OUT"),
     "fx": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
     "tl": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
+    "op": ("NONE", "LOST", "REFUSED"),
 }
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
@@ -527,10 +529,6 @@ INSTRUCTIONS = {
         "ORIENT_PROBE": "Orient the probe for calibration on the reference sphere, then answer.",
         "LOAD_PROBE": "Load the part program's probe into the probe head, then answer.",
     },
-}
-# Each operator module's reasons, indexed by code (an answer's `reason`, a status's error_num).
-ANSWER_REASONS = {
-    "op": ("NONE", "LOST", "REFUSED"),
 }
 
 

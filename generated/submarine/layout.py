@@ -428,7 +428,8 @@ STATE_NAMES = {
     "atmosphere": ("NOP", "S0"),
 }
 # The reason each code of a status buffer's `error_num` names, indexed by code, for the
-# controllers that declare reasons (docs/semantics.md, "Results and reasons").
+# controllers and operator modules that declare reasons (docs/semantics.md, "Results and
+# reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {
     "cc": ("NONE", "LOST", "BLOCKED"),
     "sm": ("NONE", "LOST", "BLOCKED"),

@@ -428,10 +428,6 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
                 for name in (c.channels if c.kind == "operator" else (c.name,))
             ],
             channels_of={c.name: c.channels for c in system.controllers},
-            answer_reasons={
-                c.name: [const.removeprefix("REASON_") for const, _ in c.reasons]
-                for c in system.controllers
-            },
         ),
     }
     files.update(runtime_files(root))

@@ -30,7 +30,7 @@ from ..compiler import emit
 from ..compiler.diagnostics import SpecError
 from ..compiler.frontend import compile_paths
 from ..compiler.ir import IRSystem
-from ..runtime.contract import enum_code, enum_name, plan_slots
+from ..runtime.contract import enum_code, enum_name, plan_slots, result_values
 
 _unique = itertools.count(1)
 
@@ -168,7 +168,7 @@ class BlockView:
             values["error_num"],
             self.layout.RULES[runs][values["rule"]] or None,
             self.contract.reason_name(self.layout, module, status, values["error_num"]),
-            {k.removeprefix("result_"): v for k, v in values.items() if k.startswith("result_")},
+            result_values(self.layout, module, values),
             plan_slots(values),
         )
 
@@ -185,12 +185,7 @@ class BlockView:
 
     def results(self, module: str) -> dict[str, Any]:
         """`module`'s results in its status buffer, by name (an enumeration's by value name)."""
-        values = self.layout.STATUS_OUT[module].read(self.buf)
-        return {
-            k.removeprefix("result_"): self.contract.enum_name(self.layout, module, k, v)
-            for k, v in values.items()
-            if k.startswith("result_")
-        }
+        return self.status(module).results
 
     @property
     def world(self) -> World:

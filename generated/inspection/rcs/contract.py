@@ -300,6 +300,16 @@ def enum_name(layout: object, owner: str, field: str, value: object) -> object:
     return value
 
 
+def result_values(layout: object, module: str, values: dict[str, Any]) -> dict[str, object]:
+    """The result slots of `module`'s status buffer values by result name, an enumeration's
+    by its value name (one place for the harness, traces and the console)."""
+    return {
+        k.removeprefix("result_"): enum_name(layout, module, k, v)
+        for k, v in values.items()
+        if k.startswith("result_")
+    }
+
+
 def enum_code(layout: object, owner: str, field: str, value: object) -> object:
     """A value a person gave for a field, as the field holds it: an enumeration's value name
     as its code (ValueError naming the values when it is none of them), anything else as is."""

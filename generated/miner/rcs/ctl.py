@@ -46,6 +46,7 @@ from .contract import (
     enum_name,
     plan_slots,
     reason_name,
+    result_values,
     status_text,
     text_problem,
 )
@@ -185,7 +186,7 @@ def channel_requests(layout: ModuleType, buf: memoryview) -> list[dict[str, Any]
                         }
                     ),
                     "answer": "DONE|ERROR",
-                    "reasons": list(layout.ANSWER_REASONS[operator][2:]),
+                    "reasons": list(layout.REASON_NAMES.get(operator, ())[2:]),
                 }
             )
     return found
@@ -200,7 +201,7 @@ def write_answer(
     answer here."""
     if status not in FINISHED:
         raise ValueError(f"answer DONE or ERROR, not {status!r}")
-    names = layout.ANSWER_REASONS[request["operator"]]
+    names = layout.REASON_NAMES.get(request["operator"], ())
     if reason and status != "ERROR":
         raise ValueError(f"a reason goes with ERROR only; DONE needs none (got {reason!r})")
     if reason and reason not in request["reasons"]:
@@ -371,11 +372,7 @@ class Console:
                 if reason is not None:  # a module that declares reasons
                     row["reason"] = reason
                 row["state"] = _name(layout.STATE_NAMES[runs], int(status["state"]))
-                results = {
-                    k.removeprefix("result_"): enum_name(layout, name, k, v)
-                    for k, v in status.items()
-                    if k.startswith("result_")
-                }
+                results = result_values(layout, name, status)
                 if results:
                     row["results"] = results
                 plans = plan_slots(status)
