@@ -46,6 +46,10 @@ class Typed:
     initial_span: Span | None = None  # where `initial:` gives the value (not for params)
     actuator: bool = False  # world fields: commands an actuator (W520)
     ground_truth: bool = False  # world fields: the simulation's truth, no sensor's (E280)
+    # world fields that command an actuator: the value it is driven to when the process that
+    # writes it is lost or stops (None: not given, the type's zero; E279 without `actuator`)
+    safe: bool | int | float | str | None = None
+    safe_span: Span | None = None
 
 
 @dataclass
@@ -289,6 +293,8 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
             value_span(spec, "initial", top),
             bool(spec.get("actuator", False)),
             bool(spec.get("ground_truth", False)),
+            spec.get("safe"),
+            value_span(spec, "safe", top) if "safe" in spec else None,
         )
         for name, spec in (data.get("world") or {}).items()
     }
