@@ -214,6 +214,9 @@ SUBORDINATES = {
     "op": (),
     "cmm_sim": (),
 }
+# The subordinates whose loss a supervisor's own rules handle (`on_lost: continue`); every
+# other loss halts everything (`halt_all`: rcs/loop.py `reaction`).
+ON_LOST_CONTINUE: dict[str, tuple[str, ...]] = {}
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {}
 MODULES = ("ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim")

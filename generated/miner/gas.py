@@ -108,6 +108,25 @@ class GasController:
         except Exception as error:
             raise HookError("gas", "new_haulage", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_tail_in_position,
+            self.world_gather_on_cmd,
+            self.world_conveyor_on_cmd,
+            self.world_loose_coal_true,
+            self.world_coal_mined,
+            self.world_shuttle_car_away,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:

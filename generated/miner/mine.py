@@ -122,6 +122,29 @@ class MineController:
             raise HookError("mine", "new_mine", "hooks_state", 0) from error
         self.var_cut: float = 0.0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_drum_on_cmd,
+            self.world_true_x,
+            self.world_true_y,
+            self.world_boom_angle_true,
+            self.world_jack_down,
+            self.world_slip,
+            self.world_in_coal,
+            self.world_face_x,
+            self.world_depth_cut,
+            self.world_loose_coal_true,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:

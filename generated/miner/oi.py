@@ -103,6 +103,27 @@ class OiController:
         self.var_answered: bool = False
         self.var_tail_x: float = 0.0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.arg_x,
+            self.arg_y,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_tail_request,
+            self.world_tail_in_position,
+            self.world_operator_delay,
+            self.world_operator_goal_x,
+            self.world_operator_goal_y,
+            self.world_true_x,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:

@@ -113,6 +113,31 @@ class PpController:
         except Exception as error:
             raise HookError("pp", "new_planner", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.arg_x,
+            self.arg_y,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_path_ok,
+            self.world_wp_x,
+            self.world_wp_y,
+            self.world_wp_last,
+            _,
+            self.world_pose_x,
+            _,
+            self.world_pose_y,
+            _,
+            self.world_heading,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:

@@ -105,6 +105,25 @@ class PssController:
         except Exception as error:
             raise HookError("pss", "new_noise", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_true_x,
+            self.world_true_y,
+            self.world_true_heading,
+            self.world_pose_x,
+            self.world_pose_y,
+            self.world_heading,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:

@@ -109,6 +109,27 @@ class ShipController:
         self.buf = buf
         self.cycle_start = 0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_speed_cmd,
+            self.world_depth_cmd,
+            self.world_pos_x,
+            self.world_pos_y,
+            self.world_heading,
+            self.world_speed,
+            self.world_depth,
+            self.world_rudder_angle,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:

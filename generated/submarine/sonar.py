@@ -144,6 +144,38 @@ class SonarController:
         except Exception as error:
             raise HookError("sonar", "new_ice", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_pos_x,
+            self.world_pos_y,
+            self.world_heading,
+            self.world_sonar_00,
+            self.world_sonar_01,
+            self.world_sonar_02,
+            self.world_sonar_03,
+            self.world_sonar_04,
+            self.world_sonar_05,
+            self.world_sonar_06,
+            self.world_sonar_07,
+            self.world_sonar_08,
+            self.world_sonar_09,
+            self.world_sonar_10,
+            self.world_sonar_11,
+            self.world_sonar_12,
+            self.world_sonar_13,
+            self.world_clearance,
+            self.world_min_clearance,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:

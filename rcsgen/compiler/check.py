@@ -68,6 +68,7 @@ def check_system(
     acknowledge.check_allows(controllers, diags)  # E237-E239
     for spec in by_name.values():
         _check_echo_timeouts(spec, diags)
+        _check_on_lost(spec, diags)  # E299 (its rules: analysis.py)
         _check_world_access(spec, world, diags)
         naming.check_controller_names(spec, diags)
         contracts[spec.name] = _check_hooks_module(spec, system.directory, world, diags)
@@ -325,6 +326,18 @@ def _check_echo_timeouts(spec: ControllerSpec, diags: Diagnostics) -> None:
                 duration.span,
                 "E244",
                 f"`echo_timeouts` names `{name}`, which is not a subordinate of `{spec.name}`",
+                known_names_hint("subordinates", subordinates, name),
+            )
+
+
+def _check_on_lost(spec: ControllerSpec, diags: Diagnostics) -> None:
+    subordinates = [s.value for s in spec.subordinates]
+    for name, policy in spec.on_lost.items():
+        if name not in subordinates:
+            diags.error(
+                policy.span,
+                "E299",
+                f"`on_lost` names `{name}`, which is not a subordinate of `{spec.name}`",
                 known_names_hint("subordinates", subordinates, name),
             )
 

@@ -294,6 +294,8 @@ def _controller_context(
         slots.append(f"{s.name}_written")
         if s.echo_cycles:
             slots.append(f"{s.name}_sent_at")
+        if s.continue_on_lost:
+            slots.append(f"{s.name}_lost")
     slots += [f"world_{f.name}" for f in c.world_reads]
     slots += [f"var_{v.name}" for v in c.locals]
     if c.timed:

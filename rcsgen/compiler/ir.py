@@ -315,6 +315,9 @@ class IRSub:
     reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants, when a guard reads one
     results: tuple[IRParam, ...] = ()  # the results of it a guard or value reads
     channel: str = ""  # an operator module's channel to this supervisor (`op/fx`), if it is one
+    # `on_lost: continue`: while its process is lost, its status reads ERROR (reason LOST) and
+    # the supervisor's own rules handle it (the runtime sets `<sub>_lost`)
+    continue_on_lost: bool = False
 
     @property
     def key(self) -> str:

@@ -230,7 +230,9 @@ class _ControllerLowering:
             if ("sub_result", name) in read
         )
         channel = ir.channel_key(sub, self.spec.name) if sub_spec.is_operator else ""
-        return ir.IRSub(sub, consts, params, echo, reasons, results, channel)
+        policy = self.spec.on_lost.get(sub)
+        continued = policy is not None and policy.value == "continue"
+        return ir.IRSub(sub, consts, params, echo, reasons, results, channel, continued)
 
     def reasons_passed(self) -> set[str]:
         """The subordinates whose reason a report passes up (`reason: <sub>.reason`)."""

@@ -261,6 +261,8 @@ class ControllerSpec:
     name_span: Span = field(default_factory=lambda: Span("?"))
     every_cycle: list[Rule] = field(default_factory=list)  # tried every cycle, any command
     echo_timeouts: dict[str, Located] = field(default_factory=dict)  # subordinate -> duration
+    # subordinate -> `halt_all` | `continue`: what the loss of its process does (E299)
+    on_lost: dict[str, Located] = field(default_factory=dict)
     hooks_state_on_restart: str = "refuse"  # or "reset": what a restart does with hook state
     hooks_state: Located | None = None  # factory of the state every hook call receives first
     functions: dict[str, Function] = field(default_factory=dict)  # pure, callable anywhere
@@ -513,6 +515,10 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
         echo_timeouts={
             k: Located(v, value_span(data["echo_timeouts"], k, top))
             for k, v in (data.get("echo_timeouts") or {}).items()
+        },
+        on_lost={
+            k: Located(v, value_span(data["on_lost"], k, top))
+            for k, v in (data.get("on_lost") or {}).items()
         },
         plans={
             k: _plan(k, v, key_span(data["plans"], k, top))
