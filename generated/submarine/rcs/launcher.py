@@ -347,6 +347,7 @@ class Launcher:
             time.sleep(0.01)
 
     def _spawn(self, name: str, attach: bool) -> subprocess.Popen[bytes]:
+        self.trips[name] = 0  # a new process has tripped nothing yet
         command = [self.python, "-m", self.system.package, name, "--shm", self.segment, "--child"]
         if self.transport_name == "zenoh":  # its own block, a peer of the launcher's node
             command[5] = f"{self.segment}_{name}"
