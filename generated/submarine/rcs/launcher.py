@@ -416,7 +416,7 @@ class Launcher:
         its slow-down), found again when it beats; a new watchdog trip is a fault too."""
         assert self.block is not None
         layout, buf = self.system.layout, self.block.buf
-        _, _, state, trips, _, beat_ns = _BEAT.unpack_from(buf, layout.PROCESSES[name].offset)
+        _, _, _, trips, _, beat_ns = _BEAT.unpack_from(buf, layout.PROCESSES[name].offset)
         if self.net is not None or self.lockstep:
             return
         slow = 1.0
