@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import importlib
 import itertools
+import json
 import os
 import shutil
 import signal
@@ -464,7 +465,16 @@ def test_the_watchdog_trips_on_the_declared_count_of_missed_periods_not_one_late
     pacer.wait()
     assert pacer.overruns == 5 + 30
     assert dog.trips(pacer, 50_000_000, 0.1)
+    before = pacer.overruns
+    sleeps = iter([pacer.deadline - 0.05, pacer.deadline + 0.25])  # a stall while asleep
+    now[0] = next(sleeps)
+    pacer.sleep = lambda s: now.__setitem__(0, next(sleeps))
+    pacer.wait()
+    assert (pacer.overruns, pacer.consecutive) == (before + 2, 2), "counted in periods too"
+    pacer.sleep = lambda s: None
+    now[0] = pacer.deadline - 0.05
     pacer.wait()  # on time again
+    assert pacer.consecutive == 0
     assert not dog.trips(pacer, 290_000_000, 0.1)
     assert dog.trips(pacer, 310_000_000, 0.1), "one cycle longer than three periods"
 
@@ -604,3 +614,19 @@ def test_a_first_read_that_stays_torn_leaves_the_module_stale_not_crashed(
     contract.SEQ.pack_into(buf, at, contract.SEQ.unpack_from(buf, at)[0] + 1)  # whole again
     lead.run_cycle()
     assert layout.COMMAND_NAMES["v1"][layout.COMMAND_IN["v1"].read(buf)["command"]] == "DRIVE"
+
+
+def test_a_trace_line_shows_the_overrides_only_while_there_are_some(package: ModuleType) -> None:
+    from rcsgen.tools.scenario import trace_line
+
+    override, layout = runtime(package, "rcs.override"), runtime(package, "layout")
+    h = Harness(package, "pb")
+    h.cycle()
+    assert "overrides" not in json.loads(trace_line(h, ["v2_drive"]))
+    override.latch_safe(layout, h.buf, ["v2_drive"])
+    override.force(layout, h.buf, "mode", "ALONE")
+    h.cycle()
+    assert json.loads(trace_line(h, ["v2_drive"]))["overrides"] == {
+        "mode": "FORCED",
+        "v2_drive": "SAFE",
+    }

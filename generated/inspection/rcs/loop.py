@@ -535,10 +535,17 @@ class Pacer:
         now = self.clock()
         if now <= self.deadline:
             self.sleep(self.deadline - now)
-            if self.clock() - self.deadline > self.late_after:
+            late = self.clock() - self.deadline
+            if late > self.late_after:
                 self.late += 1
-            self.deadline += self.period
-            self.consecutive = 0
+            if late >= self.period:  # stalled asleep (frozen, starved): each period missed
+                missed = int(late // self.period)
+                self.overruns += missed
+                self.consecutive += missed
+                self.deadline += (missed + 1) * self.period
+            else:
+                self.deadline += self.period
+                self.consecutive = 0
         else:  # each period it missed is an overrun: a 3 s stall at 0.1 s is 30
             missed = int((now - self.deadline) // self.period) + 1
             self.overruns += missed
