@@ -630,3 +630,37 @@ def test_a_trace_line_shows_the_overrides_only_while_there_are_some(package: Mod
         "mode": "FORCED",
         "v2_drive": "SAFE",
     }
+
+
+@pytest.mark.parametrize(
+    ("file", "old", "new", "code", "message"),
+    [
+        (
+            "lead.yaml",
+            "when: v2.status == ERROR and v1.status != ERROR",
+            "when: v2.status == DONE and v1.status != ERROR",
+            "E299",
+            "CONVOY S1 waits on v2, whose loss `on_lost: continue` leaves to these rules",
+        ),
+        ("lead.yaml", "  v2: continue", "  v3: continue", "E299", "`on_lost` names `v3`"),
+        (
+            "system.yaml",
+            "    initial: 0\n",
+            "    initial: 0\n    safe: 3\n",
+            "E279",
+            "not an actuator",
+        ),
+    ],
+)
+def test_a_policy_or_safe_value_that_cannot_hold_is_refused_at_build(
+    tmp_path: Path, file: str, old: str, new: str, code: str, message: str
+) -> None:
+    from rcsgen.compiler.frontend import compile_paths
+
+    spec = tmp_path / "fleet"
+    shutil.copytree(FLEET, spec)
+    text = (spec / file).read_text()
+    assert old in text
+    (spec / file).write_text(text.replace(old, new, 1))
+    found = [(d.code, d.message) for d in compile_paths([spec]).diagnostics.errors]
+    assert any(c == code and message in m for c, m in found), found
