@@ -224,7 +224,7 @@ def convoy(fleet: Path, package: ModuleType) -> Iterator[Callable[..., Any]]:
         record = layout.COMMAND_IN["lead"]
         number = record.read(buf)["command_num"] + 1
         record.write(buf, command_num=number, command=layout.COMMAND_NAMES["lead"].index("CONVOY"))
-        wait_for(lambda: actuators(layout, buf) == DRIVING, "the convoy driving")
+        watch(launcher, lambda: actuators(layout, buf) == DRIVING, "the convoy driving")
         return launcher
 
     yield launch
@@ -247,6 +247,30 @@ def lost_mask(layout: ModuleType, buf: memoryview, watcher: str) -> int:
     return int(layout.PROCESSES[watcher].read(buf)["lost"])
 
 
+def watch(launcher: Any, condition: Callable[[], object], what: str, deadline: float = 20) -> None:
+    """wait_for with the launcher watching meanwhile (its poll records every fault it sees);
+    a wait that gives up says what the launcher saw, what is latched, and each process's
+    lost mask and watchdog trips: a re-latch under load is named, not guessed at."""
+    try:
+        wait_for(lambda: launcher.poll() is not None and condition(), what, deadline)
+    except AssertionError as error:
+        raise AssertionError(f"{error}; {seen(launcher)}") from None
+
+
+def seen(launcher: Any) -> str:
+    layout = launcher.system.layout
+    override = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.override"]
+    buf = launcher.block.buf
+    records = {p: layout.PROCESSES[p].read(buf) for p in layout.PROCESSES}
+    return (
+        f"the launcher saw {launcher.events}; overrides {override.overrides(layout, buf)}; "
+        + ", ".join(
+            f"{p}: lost mask {r['lost']}, {r['watchdog_trips']} trips, {r['overruns']} overruns"
+            for p, r in records.items()
+        )
+    )
+
+
 @pytest.mark.parametrize("fault", ["kill", "stop"])
 def test_a_dead_or_frozen_process_latches_every_actuator_and_halts_the_hierarchy(
     convoy: Callable[..., Any], package: ModuleType, fault: str
@@ -261,22 +285,20 @@ def test_a_dead_or_frozen_process_latches_every_actuator_and_halts_the_hierarchy
     override = runtime(package, "rcs.override")
     pa = launcher.children["pa"].popen
     pa.send_signal(signal.SIGKILL if fault == "kill" else signal.SIGSTOP)
-    wait_for(lambda: actuators(layout, buf) == ACTUATORS_SAFE, "every actuator safe", deadline=10)
-    wait_for(lambda: lost_mask(layout, buf, "pl") & 0b010, "pl reports pa lost")
-    wait_for(lambda: lead_status(layout, buf) == ("ERROR", 1), "lead ERROR(LOST)")
+    watch(launcher, lambda: actuators(layout, buf) == ACTUATORS_SAFE, "every actuator safe", 10)
+    watch(launcher, lambda: lost_mask(layout, buf, "pl") & 0b010, "pl reports pa lost")
+    watch(launcher, lambda: lead_status(layout, buf) == ("ERROR", 1), "lead ERROR(LOST)")
     sent = layout.COMMAND_IN["v2"].read(buf)
     assert layout.COMMAND_NAMES["v2"][sent["command"]] == "HALT", "lead halted v2 too"
     assert set(override.overrides(layout, buf)) == set(ACTUATORS_SAFE)
-    wait_for(lambda: launcher.poll() is not None and launcher.halted, "the launcher saw it")
+    watch(launcher, lambda: launcher.halted, "the launcher saw it")
     if fault == "kill":
         assert "pa died (exit -9)" in launcher.events
         return
     assert any(e.startswith("pa lost: no heartbeat") for e in launcher.events)
     pa.send_signal(signal.SIGCONT)
-    wait_for(lambda: not lost_mask(layout, buf, "pl") & 0b010, "pa beats again: not lost")
-    wait_for(
-        lambda: launcher.poll() is not None and "pa" not in launcher.lost, "nor for the launcher"
-    )
+    watch(launcher, lambda: not lost_mask(layout, buf, "pl") & 0b010, "pa beats again: not lost")
+    watch(launcher, lambda: "pa" not in launcher.lost, "nor for the launcher")
     assert actuators(layout, buf) == ACTUATORS_SAFE, "latched: nothing un-safes them"
     assert override.reset(layout, buf, segment=launcher.segment) == list(ACTUATORS_SAFE)
     assert override.overrides(layout, buf) == {}
@@ -290,8 +312,9 @@ def test_the_survivor_keeps_going_when_its_supervisor_continues_on_a_loss(
     launcher = convoy()
     layout, buf = runtime(package, "layout"), launcher.block.buf
     launcher.children["pb"].popen.send_signal(signal.SIGKILL)
-    wait_for(lambda: world(layout, buf, "mode") == 2, "lead goes on ALONE")
-    assert actuators(layout, buf) == {"v1_drive": 1.0, "v2_drive": -0.5, "v2_brake": True}
+    watch(launcher, lambda: world(layout, buf, "mode") == 2, "lead goes on ALONE")
+    expected = {"v1_drive": 1.0, "v2_drive": -0.5, "v2_brake": True}
+    assert actuators(layout, buf) == expected, seen(launcher)
     assert lead_status(layout, buf) == ("EXECUTING", 0)
     assert layout.STATE_NAMES["lead"][layout.STATUS_OUT["lead"].read(buf)["state"]] == "S2"
     launcher.poll()
@@ -318,7 +341,7 @@ def test_a_starved_process_trips_its_watchdog_and_latches_safe(
         pa.send_signal(signal.SIGCONT)
     assert actuators(layout, buf) == ACTUATORS_SAFE
     assert layout.PROCESSES["pa"].read(buf)["watchdog_trips"] >= 1
-    wait_for(lambda: launcher.poll() is not None and launcher.halted, "the launcher saw it")
+    watch(launcher, lambda: launcher.halted, "the launcher saw it")
 
 
 def test_a_restarted_process_resumes_its_command_with_its_outputs_latched(
@@ -326,26 +349,56 @@ def test_a_restarted_process_resumes_its_command_with_its_outputs_latched(
 ) -> None:
     """--restart, pb killed mid-command: it is started again and resumes DRIVE from the
     block; its actuators stay latched safe (a restart does not un-safe them) until a reset,
-    and a reset does not restart them: v2 drives again only when commanded again."""
+    and a reset does not restart them: v2 drives again only when commanded again.
+
+    The new pb is told from the dead one by its pid (the dead one's record keeps its
+    heartbeat), and the reset waits until every watcher has seen it beat again: a reset
+    while a watcher still holds pb lost is re-latched by that watcher, as it must be."""
     launcher = convoy(restart=True)
     layout, buf = runtime(package, "layout"), launcher.block.buf
-    override = runtime(package, "rcs.override")
-    launcher.children["pb"].popen.send_signal(signal.SIGKILL)
-    wait_for(lambda: launcher.poll() is not None and launcher.children["pb"].restarts, "restarted")
-    wait_for(lambda: layout.PROCESSES["pb"].read(buf)["heartbeat"] > 3, "the new pb running")
+    override, contract = runtime(package, "rcs.override"), runtime(package, "rcs.contract")
+    dead = launcher.children["pb"].popen
+    dead.send_signal(signal.SIGKILL)
+    watch(launcher, lambda: launcher.children["pb"].popen is not dead, "pb restarted")
+    new = launcher.children["pb"].popen.pid
+    record = layout.PROCESSES["pb"]
+
+    def running() -> bool:
+        now = record.read(buf)
+        return bool(now["pid"] == new and now["state"] == contract.RUNNING and now["heartbeat"] > 3)
+
+    watch(launcher, running, "the new pb running three cycles")
+    pb_bit = 1 << list(layout.PROCESSES).index("pb")
+    watch(
+        launcher,
+        lambda: (
+            not (lost_mask(layout, buf, "pl") | lost_mask(layout, buf, "pa")) & pb_bit
+            and "pb" not in launcher.lost
+        ),
+        "every watcher sees pb beat again",
+    )
     v2 = layout.STATUS_OUT["v2"].read(buf)
     assert layout.STATE_NAMES["v2"][v2["state"]] == "S1", "v2 resumed DRIVE"
+    assert contract.STATUS_NAMES[v2["status"]] == "EXECUTING"
+    assert v2["status_num"] == layout.COMMAND_IN["v2"].read(buf)["command_num"]
     assert actuators(layout, buf, ["v2_drive", "v2_brake"]) == {"v2_drive": -0.5, "v2_brake": True}
-    override.reset(layout, buf, segment=launcher.segment)
-    time.sleep(0.1)  # five periods
+    assert override.reset(layout, buf, segment=launcher.segment) == ["v2_drive", "v2_brake"]
+    beat = record.read(buf)["heartbeat"]
+    watch(launcher, lambda: record.read(buf)["heartbeat"] > beat + 5, "five cycles of pb")
     assert actuators(layout, buf, ["v2_drive", "v2_brake"]) == {"v2_drive": -0.5, "v2_brake": True}
-    record = layout.COMMAND_IN["v2"]
-    record.write(
+    command = layout.COMMAND_IN["v2"]
+    command.write(
         buf,
-        command_num=record.read(buf)["command_num"] + 1,
+        command_num=command.read(buf)["command_num"] + 1,
         command=layout.COMMAND_NAMES["v2"].index("DRIVE"),
     )
-    wait_for(lambda: actuators(layout, buf, ["v2_drive"]) == {"v2_drive": 2.0}, "v2 driving again")
+    watch(
+        launcher,
+        lambda: (
+            actuators(layout, buf, ["v2_drive", "v2_brake"]) == {"v2_drive": 2.0, "v2_brake": False}
+        ),
+        "v2 driving again",
+    )
 
 
 def test_a_second_copy_of_a_process_is_refused_naming_the_owner(
