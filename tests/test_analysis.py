@@ -27,6 +27,7 @@ from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.loader import load_file
 from rcsgen.compiler.model import ControllerSpec, SystemSpec, build_controller, build_system
+from rcsgen.compiler.types import BOOL, STATUS, CommandOf, Type
 
 SYSTEM = """\
 system: t
@@ -193,7 +194,7 @@ class Evaluator:
 
     def names(self, tree: X.Expr) -> dict[str, str]:
         """Every name the guard reads (predicates followed) -> its type."""
-        out: dict[str, str] = {}
+        out: dict[str, Type] = {}
         todo = [tree]
         while todo:
             node = todo.pop()
@@ -241,19 +242,19 @@ class Evaluator:
             )
         raise TypeError(e)
 
-    def domain(self, name: str, kind: str) -> tuple[Any, ...]:
-        if kind == X.BOOL:
+    def domain(self, name: str, kind: Type) -> tuple[Any, ...]:
+        if kind == BOOL:
             return (False, True)
-        if kind == X.STATUS:
+        if kind == STATUS:
             return X.STATUS_NAMES
-        if kind.startswith("command of "):
-            return self.commands[kind.removeprefix("command of ")]
+        if isinstance(kind, CommandOf):
+            return self.commands[kind.sub]
         return (-1000, -1, 0, 1, 1000)
 
     def all_hold(self, trees: list[X.Expr], valuation: str) -> bool:
         """Whether every guard holds on the valuation, whatever the names it leaves out."""
         given = parse_valuation(valuation) if valuation else {}
-        read: dict[str, str] = {}
+        read: dict[str, Type] = {}
         for tree in trees:
             read.update(self.names(tree))
         assert set(given) <= set(read), f"{given} names something no guard reads"
@@ -266,7 +267,7 @@ class Evaluator:
 
     def none_holds(self, trees: list[X.Expr], valuation: str) -> bool:
         given = parse_valuation(valuation)
-        read: dict[str, str] = {}
+        read: dict[str, Type] = {}
         for tree in trees:
             read.update(self.names(tree))
         missing = [n for n in read if n not in given]
@@ -949,9 +950,9 @@ def test_every_code_is_listed_with_its_meaning() -> None:
 def test_samples_cover_every_region_once() -> None:
     from fractions import Fraction
 
-    assert solver.samples(X.INT, [Fraction(3), Fraction(4)]) == (3, 4, 2, 5)  # none between
-    assert solver.samples(X.INT, [Fraction(5, 2)]) == (2, 3)
-    assert solver.samples(X.FLOAT, [Fraction(0), Fraction(1)]) == (
+    assert solver.samples(solver.INT, [Fraction(3), Fraction(4)]) == (3, 4, 2, 5)  # none between
+    assert solver.samples(solver.INT, [Fraction(5, 2)]) == (2, 3)
+    assert solver.samples(solver.FLOAT, [Fraction(0), Fraction(1)]) == (
         0,
         1,
         -1,

@@ -33,9 +33,6 @@ from hypothesis import strategies as st
 from rcsgen.compiler import naming
 from rcsgen.compiler.diagnostics import Diagnostics, Span
 from rcsgen.compiler.expr import (
-    BOOL,
-    FLOAT,
-    INT,
     Binary,
     BoolOp,
     Call,
@@ -49,6 +46,7 @@ from rcsgen.compiler.expr import (
     to_python,
     to_python_conjunct,
 )
+from rcsgen.compiler.types import BOOL, FLOAT, INT, STATUS, CommandOf, Type
 
 EXAMPLES = int(os.environ.get("EXPR_EXAMPLES", "400"))
 DERANDOMIZE = os.environ.get("FUZZ_RANDOM", "") == ""
@@ -73,31 +71,31 @@ def scope() -> Scope:
 
 
 # Every name an expression can use, by type (the tree nodes `compile_expr` resolves them to).
-NAMES: dict[str, list[Ref]] = {
+NAMES: dict[Type, list[Ref]] = {
     kind: [
-        Ref(kind, "world", f"w{kind[0]}"),
-        Ref(kind, "param", f"p{kind[0]}"),
-        Ref(kind, "local", f"l{kind[0]}"),
-        Ref(kind, "const", f"C{kind[0].upper()}"),
+        Ref(kind, "world", f"w{str(kind)[0]}"),
+        Ref(kind, "param", f"p{str(kind)[0]}"),
+        Ref(kind, "local", f"l{str(kind)[0]}"),
+        Ref(kind, "const", f"C{str(kind)[0].upper()}"),
     ]
     for kind in (BOOL, INT, FLOAT)
 }
-STATUS_TYPE = "status"
+STATUS_TYPE = STATUS
 
 
-def command_type(sub: str) -> str:
-    return f"command of {sub}"
+def command_type(sub: str) -> Type:
+    return CommandOf(sub)
 
 
 # ---------------------------------------------------------------- typing rules (written here)
 
 
-def binary_type(op: str, left: str, right: str) -> str:
+def binary_type(op: str, left: Type, right: Type) -> Type:
     """`int op int` is an int except for `/`; anything with a float (or `/`) is a float."""
     return INT if (left, right) == (INT, INT) and op != "/" else FLOAT
 
 
-def call_type(args: tuple[Expr, ...]) -> str:
+def call_type(args: tuple[Expr, ...]) -> Type:
     return FLOAT if any(a.type == FLOAT for a in args) else INT
 
 
@@ -152,7 +150,7 @@ FLOAT_OPS = st.sampled_from([*ARITHMETIC, "/", "/"])  # `/` of ints is a float
 MIN_MAX = st.sampled_from(["min", "max"])
 
 
-def build(draw: st.DrawFn, kind: str, depth: int) -> Expr:
+def build(draw: st.DrawFn, kind: Type, depth: int) -> Expr:
     """A random tree of type `kind` (BOOL, INT or FLOAT), at most `depth` operators deep.
 
     Draws only from the strategies above (built once): a tree costs one draw per choice."""
@@ -212,7 +210,7 @@ def build(draw: st.DrawFn, kind: str, depth: int) -> Expr:
 
 
 @st.composite
-def trees(draw: st.DrawFn, kind: str | None = None, depth: int = 4) -> Expr:
+def trees(draw: st.DrawFn, kind: Type | None = None, depth: int = 4) -> Expr:
     return build(draw, kind or draw(TYPES), depth)
 
 
@@ -372,7 +370,7 @@ def controller(values: dict[Key, Any]) -> tuple[dict[str, Any], SimpleNamespace]
     return module, me
 
 
-def has_claimed_type(value: Any, kind: str) -> bool:
+def has_claimed_type(value: Any, kind: Type) -> bool:
     if kind == BOOL:
         return type(value) is bool
     if kind == INT:
@@ -517,7 +515,7 @@ def test_canonical_source_prints_as_written(source: str) -> None:
         ("-li", INT),
     ],
 )
-def test_arithmetic_types(source: str, kind: str) -> None:
+def test_arithmetic_types(source: str, kind: Type) -> None:
     tree = compile_expr(source, SPAN, scope(), Diagnostics())
     assert tree is not None and tree.type == kind
 

@@ -452,10 +452,12 @@ def test_a_conditional_expression_is_typed_and_printed_back(text: str, python: s
     from rcsgen.compiler.expr import Scope, compile_expr, to_python
 
     diags = Diagnostics()
-    scope = Scope(locals={"x": "int", "b": "bool"})
+    from rcsgen.compiler.types import BOOL, INT
+
+    scope = Scope(locals={"x": INT, "b": BOOL})
     tree = compile_expr(text, Span("t", 1, 1), scope, diags)
     assert tree is not None, [d.message for d in diags]
-    assert (to_python(tree, lambda ref: ref.name), tree.type) == (python, kind)
+    assert (to_python(tree, lambda ref: ref.name), str(tree.type)) == (python, kind)
 
 
 def test_a_conditional_of_constants_folds() -> None:

@@ -28,14 +28,16 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from enum import StrEnum
 from fractions import Fraction
 from itertools import pairwise
 from typing import Any
 
 from ..runtime.contract import FINISHED
-from . import expr
+from . import expr, solver
 from .diagnostics import Diagnostic, Diagnostics, Span, Subject, known_names_hint
 from .expr import BUILTIN_REASONS
+from .model import PlanVerb
 from .solver import (
     BOOL_DOMAIN,
     LIMIT,
@@ -44,6 +46,7 @@ from .solver import (
     Linear,
     Part,
     Valuation,
+    Verdict,
     kleene_and,
     kleene_not,
     kleene_or,
@@ -60,6 +63,7 @@ from .tables import (
     Send,
     reachable,
 )
+from .types import BOOL, INT, NUMERIC, Enum, Str, Type
 
 # Every code this module reports, with its meaning (docs/diagnostics.md documents them).
 CODES = {
@@ -80,12 +84,37 @@ CODES = {
     "rule's does",
 }
 
+
+class Atom(StrEnum):
+    """What an atom of a guard is: the first half of its solver `Key`, (Atom, name)."""
+
+    WORLD = "world"
+    LOCAL = "local"
+    PARAM = "param"
+    TIME = "time"  # the cycles in the current state (`after:`)
+    HELD = "held"  # the cycles a `for:` rule's `when` held
+    STATUS = "status"  # a subordinate's status (name: the subordinate)
+    COMMAND = "command"  # a subordinate's command
+    REASON = "reason"  # a subordinate's reason
+    RESULT = "result"  # `<sub>.<result>`
+    PLAN = "plan"  # `<plan>.<name>`
+    FORM = "form"  # a linear form of several numeric variables
+    OPAQUE = "opaque"  # a comparison no interval reasoning decides
+
+
 # The statuses a tested subordinate can show (NOT_READY is not observable once the table
-# has commanded it). Atom keys are (world|local|param|status|command|form|opaque, name).
+# has commanded it).
 STATUS_DOMAIN = ("EXECUTING", *FINISHED)
 
 _BUILTIN: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}
-_VARIABLES = ("world", "local", "param", "time", "held")
+# The names that are numeric variables of their own (their atom has the kind's name).
+_VARIABLES = {
+    expr.RefKind.WORLD: Atom.WORLD,
+    expr.RefKind.LOCAL: Atom.LOCAL,
+    expr.RefKind.PARAM: Atom.PARAM,
+    expr.RefKind.TIME: Atom.TIME,
+    expr.RefKind.HELD: Atom.HELD,
+}
 # Time (`after:`, `for:`) grows without bound while a table waits: a wait is one that stays
 # when every timer is past every bound, so completeness reads the timers at this value.
 _LATE = 2**62
@@ -96,22 +125,23 @@ _LATE = 2**62
 
 def show_key(key: Key) -> str:
     kind, name = key
-    if kind == "world":
-        return f"world.{name}"
-    if kind in ("status", "command", "reason"):
-        return f"{name}.{kind}"
-    if kind == "result":
-        sub, _, field = name.partition(".")
-        return f"{sub}.result.{field}"
-    if kind in ("opaque", "form"):
-        return f"({name})"
-    if kind == "plan" and name.endswith(".remaining"):  # see GuardBuilder.inline
-        plan = name.removesuffix(".remaining")
-        return f"({plan}.steps - {plan}.step)"
-    if kind == "time":
-        return "cycles_in_state"
-    if kind == "held":  # held_<command>_<state>_<rule>: the cycles a `for:` guard held
-        return f"cycles_rule_{name.rsplit('_', 1)[-1]}_held"
+    match kind:
+        case Atom.WORLD:
+            return f"world.{name}"
+        case Atom.STATUS | Atom.COMMAND | Atom.REASON:
+            return f"{name}.{kind}"
+        case Atom.RESULT:
+            sub, _, field = name.partition(".")
+            return f"{sub}.result.{field}"
+        case Atom.OPAQUE | Atom.FORM:
+            return f"({name})"
+        case Atom.PLAN if name.endswith(".remaining"):  # see GuardBuilder.inline
+            plan = name.removesuffix(".remaining")
+            return f"({plan}.steps - {plan}.step)"
+        case Atom.TIME:
+            return "cycles_in_state"
+        case Atom.HELD:  # held_<command>_<state>_<rule>: the cycles a `for:` guard held
+            return f"cycles_rule_{name.rsplit('_', 1)[-1]}_held"
     return name
 
 
@@ -134,9 +164,9 @@ def show_valuation(shown: Iterable[tuple[Key, Any]]) -> str:
 
 
 def _spec_name(ref: expr.Ref) -> str:
-    if ref.kind == "world":
+    if ref.kind == expr.RefKind.WORLD:
         return f"world.{ref.name}"
-    if ref.kind in ("sub_status", "sub_command"):
+    if ref.kind in (expr.RefKind.SUB_STATUS, expr.RefKind.SUB_COMMAND):
         return f"{ref.owner}.{ref.name}"
     return ref.name
 
@@ -163,31 +193,31 @@ class GuardBuilder:
 
     def inline(self, e: expr.Expr) -> expr.Expr | None:
         """A function call's body with its arguments, a `let` value's tree; else None."""
-        if isinstance(e, expr.Call) and e.kind == "function":
+        if isinstance(e, expr.Call) and e.kind == expr.CallKind.FUNCTION:
             params, body = self.functions[e.name]
             return expr.substitute(
-                body, {("arg", p): a for p, a in zip(params, e.args, strict=True)}
+                body, {(expr.RefKind.ARG, p): a for p, a in zip(params, e.args, strict=True)}
             )
-        if isinstance(e, expr.Ref) and e.kind == "let":
+        if isinstance(e, expr.Ref) and e.kind == expr.RefKind.LET:
             return self.lets[e.name]
-        if isinstance(e, expr.Ref) and e.kind == "plan" and e.name in ("done", "steps"):
+        if isinstance(e, expr.Ref) and e.kind == expr.RefKind.PLAN and e.name in ("done", "steps"):
             # A plan's position is two independent variables, the step and the steps after
             # it (`remaining`, both 0..capacity): `steps` is their sum and `done` is no step
             # remaining, so no counter-example shows a plan done before its last step, or
             # past a last step it does not have.
             step, remaining = (
-                expr.Ref(expr.INT, "plan", n, e.owner) for n in ("step", "remaining")
+                expr.Ref(INT, expr.RefKind.PLAN, n, e.owner) for n in ("step", "remaining")
             )
             if e.name == "steps":
-                return expr.Binary(expr.INT, "+", step, remaining)
-            return expr.Compare(expr.BOOL, remaining, ("<=",), (expr.Const(expr.INT, 0),))
+                return expr.Binary(INT, "+", step, remaining)
+            return expr.Compare(BOOL, remaining, ("<=",), (expr.Const(INT, 0),))
         return None
 
     def within_capacity(self, plan: str) -> Callable[[Valuation], bool | None]:
         """A plan's step and the steps after it add up to at most its capacity."""
         capacity = self.plans[plan][0]
-        step: Key = ("plan", f"{plan}.step")
-        remaining: Key = ("plan", f"{plan}.remaining")
+        step: Key = (Atom.PLAN, f"{plan}.step")
+        remaining: Key = (Atom.PLAN, f"{plan}.remaining")
 
         def keeps(val: Valuation) -> bool | None:
             if step not in val or remaining not in val:
@@ -217,12 +247,12 @@ class GuardBuilder:
         if inlined is not None:  # decided as if the body or value were written here
             return self._fn(inlined, g)
         if isinstance(e, expr.Const):
-            names = expr.enum_values(e.type)  # an enumeration's value: by name, as its domain
-            value = names[int(e.value)] if names else e.value
+            # an enumeration's value: by name, as its domain
+            value = e.type.values[int(e.value)] if isinstance(e.type, Enum) else e.value
             return lambda val: value
         if isinstance(e, expr.Ref):
             return self._ref(e, g)
-        if isinstance(e, expr.Call) and e.kind == "predicate":
+        if isinstance(e, expr.Call) and e.kind == expr.CallKind.PREDICATE:
             return self._fn(self.predicates[e.name], g)
         if isinstance(e, expr.Unary) and e.op == "not":
             inner = self._fn(e.operand, g)
@@ -242,18 +272,18 @@ class GuardBuilder:
 
             return choose
         if isinstance(e, expr.Compare) and len(e.ops) > 1:  # a <= b <= c: a <= b and b <= c
-            chain = tuple(expr.Compare(expr.BOOL, a, (op,), (b,)) for a, op, b in _pairs(e))
-            return self._fn(expr.BoolOp(expr.BOOL, "and", chain), g)
+            chain = tuple(expr.Compare(BOOL, a, (op,), (b,)) for a, op, b in _pairs(e))
+            return self._fn(expr.BoolOp(BOOL, "and", chain), g)
         if isinstance(e, expr.Compare):
             left, right = self.opened(e.left), self.opened(e.comparators[0])
-            split = _split_conditional(expr.Compare(expr.BOOL, left, e.ops, (right,)))
+            split = _split_conditional(expr.Compare(BOOL, left, e.ops, (right,)))
             if split is not None:  # `(a if c else b) > k`: `(a > k) if c else (b > k)`
                 return self._fn(split, g)
         if isinstance(e, expr.Compare):
             scratch = Guard(g.fn)  # the atoms of this comparison, kept only if it is decidable
             pairs = [self._pair(a, op, b, scratch) for a, op, b in _pairs(e)]
             if any(p is None for p in pairs):  # beyond interval reasoning: a free boolean
-                key: Key = ("opaque", expr.to_python(e, _spec_name))
+                key: Key = (Atom.OPAQUE, expr.to_python(e, _spec_name))
                 g.opaque.setdefault(key, None)
                 g.order.setdefault(key, None)
                 return lambda val: val.get(key)
@@ -264,16 +294,20 @@ class GuardBuilder:
         raise TypeError(f"not a boolean expression node: {e!r}")
 
     def _ref(self, e: expr.Ref, g: Guard) -> Callable[[Valuation], Any]:
-        if e.kind == "const":
+        if e.kind == expr.RefKind.CONST:
             value = self.constants[e.name]
             return lambda val: value
-        if e.kind in ("status", "sub_command_name", "sub_reason_name"):
+        if e.kind in (
+            expr.RefKind.STATUS,
+            expr.RefKind.SUB_COMMAND_NAME,
+            expr.RefKind.SUB_REASON_NAME,
+        ):
             name = e.name
             return lambda val: name
-        if e.kind == "sub_reason":
+        if e.kind == expr.RefKind.SUB_REASON:
             # A reason comes only with an ERROR for the last command sent: NONE otherwise.
-            status: Key = ("status", e.owner)
-            reason: Key = ("reason", e.owner)
+            status: Key = (Atom.STATUS, e.owner)
+            reason: Key = (Atom.REASON, e.owner)
             self._atom(g, status, STATUS_DOMAIN)
             self._atom(g, reason, ("NONE", *BUILTIN_REASONS[1:], *self.sub_reasons[e.owner]))
 
@@ -287,21 +321,21 @@ class GuardBuilder:
         key: Key
         # An enumeration is a finite domain of its value names; anything else read here is
         # a boolean (numbers are read by comparisons, strings never reach here: `_pair`).
-        domain = expr.enum_values(e.type) or BOOL_DOMAIN
-        if e.kind == "sub_result":
-            key = ("result", f"{e.owner}.{e.name}")
+        domain = e.type.values if isinstance(e.type, Enum) else BOOL_DOMAIN
+        if e.kind == expr.RefKind.SUB_RESULT:
+            key = (Atom.RESULT, f"{e.owner}.{e.name}")
             self._atom(g, key, domain)
-        elif e.kind == "sub_status":
-            key = ("status", e.owner)
+        elif e.kind == expr.RefKind.SUB_STATUS:
+            key = (Atom.STATUS, e.owner)
             self._atom(g, key, STATUS_DOMAIN)
-        elif e.kind == "sub_command":
-            key = ("command", e.owner)
+        elif e.kind == expr.RefKind.SUB_COMMAND:
+            key = (Atom.COMMAND, e.owner)
             self._atom(g, key, self.sub_commands[e.owner])
-        elif e.kind == "plan":  # a boolean step field of the current step
-            key = ("plan", f"{e.owner}.{e.name}")
+        elif e.kind == expr.RefKind.PLAN:  # a boolean step field of the current step
+            key = (Atom.PLAN, f"{e.owner}.{e.name}")
             self._atom(g, key, BOOL_DOMAIN)
         else:  # a boolean or enumeration world field, local or parameter
-            key = (e.kind, e.name)
+            key = (_VARIABLES[e.kind], e.name)
             self._atom(g, key, domain)
         return lambda val: val.get(key)
 
@@ -310,9 +344,9 @@ class GuardBuilder:
     ) -> Callable[[Valuation], Any] | None:
         """One comparison `a op b`; None when it is not decidable by interval reasoning."""
         compare = expr.COMPARISONS[op]
-        if expr.str_size(a.type) or expr.str_size(b.type):
+        if isinstance(a.type, Str) or isinstance(b.type, Str):
             return None  # a string's values are not enumerated: "cannot prove" (W502)
-        if a.type not in expr.NUMERIC:  # statuses, commands, booleans, enumerations: as they are
+        if a.type not in NUMERIC:  # statuses, commands, booleans, enumerations: as they are
             left, right = self._fn(a, g), self._fn(b, g)
 
             def pair(val: Valuation) -> bool | None:
@@ -320,7 +354,7 @@ class GuardBuilder:
                 return None if lv is None or rv is None else compare(lv, rv)
 
             return pair
-        types: dict[Key, str] = {}
+        types: dict[Key, solver.Number] = {}
         la, lb = self._linear(a, types), self._linear(b, types)
         if la is None or lb is None:
             return None
@@ -337,18 +371,18 @@ class GuardBuilder:
         if len(keys) == 1:
             key, kind = keys[0], types[keys[0]]
         else:
-            key = ("form", _form_text(norm.coefficients, keys))
-            kind = expr.FLOAT
+            key = (Atom.FORM, _form_text(norm.coefficients, keys))
+            kind = solver.FLOAT
             g.forms[key] = norm.coefficients
         g.types.update(types)
         g.bounds.update({k: b for k, b in self.bounds.items() if k == key})
-        for plan in {name.rsplit(".", 1)[0] for kind, name in types if kind == "plan"}:
+        for plan in {name.rsplit(".", 1)[0] for kind, name in types if kind == Atom.PLAN}:
             g.invariants[f"plan {plan}"] = self.within_capacity(plan)
         self._atom(g, key)
         g.numeric.setdefault(key, (kind, set()))[1].add(bound)
         return lambda val: None if (v := val.get(key)) is None else compare(v, bound)
 
-    def _linear(self, e: expr.Expr, types: dict[Key, str]) -> Linear | None:
+    def _linear(self, e: expr.Expr, types: dict[Key, solver.Number]) -> Linear | None:
         """`e` as a linear form over numeric variables with exact coefficients, else None."""
         inlined = self.inline(e)
         if inlined is not None:
@@ -356,19 +390,23 @@ class GuardBuilder:
         if isinstance(e, expr.Const):
             return Linear({}, Fraction(e.value))
         if isinstance(e, expr.Ref):
-            if e.kind == "const":
+            if e.kind == expr.RefKind.CONST:
                 return Linear({}, Fraction(self.constants[e.name]))
-            if e.kind == "plan":  # step and steps within 0..capacity, replans_left 0..replans
-                key = ("plan", f"{e.owner}.{e.name}")
-                types[key] = e.type
+            if e.kind == expr.RefKind.PLAN:  # step and steps within 0..capacity, replans_left 0..
+                key = (Atom.PLAN, f"{e.owner}.{e.name}")
+                types[key] = _number(e.type)
                 capacity, replans = self.plans[e.owner]
                 high = {"step": capacity, "remaining": capacity, "replans_left": replans}
                 if e.name in high:
                     self.bounds[key] = (Fraction(0), Fraction(high[e.name]))
                 return Linear({key: Fraction(1)}, Fraction(0))
-            if e.kind in _VARIABLES or e.kind == "sub_result":
-                key = ("result", f"{e.owner}.{e.name}") if e.owner else (e.kind, e.name)
-                types[key] = e.type
+            if e.kind == expr.RefKind.SUB_RESULT:
+                key = (Atom.RESULT, f"{e.owner}.{e.name}")
+                types[key] = _number(e.type)
+                return Linear({key: Fraction(1)}, Fraction(0))
+            if e.kind in _VARIABLES:
+                key = (_VARIABLES[e.kind], e.name)
+                types[key] = _number(e.type)
                 return Linear({key: Fraction(1)}, Fraction(0))
             return None
         if isinstance(e, expr.Unary):
@@ -394,7 +432,7 @@ class GuardBuilder:
                         {}, Fraction(expr.ARITHMETIC[e.op](left.constant, right.constant))
                     )
             return None
-        if isinstance(e, expr.Call) and e.kind == "builtin":
+        if isinstance(e, expr.Call) and e.kind == expr.CallKind.BUILTIN:
             args = [self._linear(a, types) for a in e.args]
             constants = [a.constant for a in args if a is not None and not a.coefficients]
             if len(constants) == len(args):
@@ -402,18 +440,23 @@ class GuardBuilder:
         return None
 
 
+def _number(kind: Type) -> solver.Number:
+    """The solver's kind of a numeric variable of this type."""
+    return solver.INT if kind == INT else solver.FLOAT
+
+
 def _split_conditional(e: expr.Compare) -> expr.Expr | None:
     """A comparison with a conditional operand as a conditional of two comparisons (each
     then decided on its own), else None."""
     left, right = e.left, e.comparators[0]
     if isinstance(left, expr.IfExp):
-        then = expr.Compare(expr.BOOL, left.body, e.ops, (right,))
-        other = expr.Compare(expr.BOOL, left.orelse, e.ops, (right,))
-        return expr.IfExp(expr.BOOL, left.test, then, other)
+        then = expr.Compare(BOOL, left.body, e.ops, (right,))
+        other = expr.Compare(BOOL, left.orelse, e.ops, (right,))
+        return expr.IfExp(BOOL, left.test, then, other)
     if isinstance(right, expr.IfExp):
-        then = expr.Compare(expr.BOOL, left, e.ops, (right.body,))
-        other = expr.Compare(expr.BOOL, left, e.ops, (right.orelse,))
-        return expr.IfExp(expr.BOOL, right.test, then, other)
+        then = expr.Compare(BOOL, left, e.ops, (right.body,))
+        other = expr.Compare(BOOL, left, e.ops, (right.orelse,))
+        return expr.IfExp(BOOL, right.test, then, other)
     return None
 
 
@@ -423,12 +466,12 @@ def _pairs(e: expr.Compare) -> list[tuple[expr.Expr, str, expr.Expr]]:
 
 
 def _form_text(coefficients: dict[Key, Fraction], keys: list[Key]) -> str:
-    plans = {name.rsplit(".", 1)[0] for kind, name in keys if kind == "plan"}
+    plans = {name.rsplit(".", 1)[0] for kind, name in keys if kind == Atom.PLAN}
     for plan in plans:  # a plan's step + its steps remaining: its steps, as the spec says
-        step, remaining = ("plan", f"{plan}.step"), ("plan", f"{plan}.remaining")
+        step, remaining = (Atom.PLAN, f"{plan}.step"), (Atom.PLAN, f"{plan}.remaining")
         if coefficients.get(step) and coefficients.get(step) == coefficients.get(remaining):
             rest = {k: c for k, c in coefficients.items() if k not in (step, remaining)}
-            steps: Key = ("plan", f"{plan}.steps")
+            steps: Key = (Atom.PLAN, f"{plan}.steps")
             return _form_text({steps: coefficients[step], **rest}, [steps, *sorted(rest)])
     text = ""
     for key in keys:
@@ -466,7 +509,7 @@ def analyse_system(system: CheckedSystem, diags: Diagnostics) -> None:
 
 def subs_tested(guard: Guard) -> list[str]:
     """The subordinates whose status a guard tests."""
-    return [name for kind, name in guard.order if kind == "status"]
+    return [name for kind, name in guard.order if kind == Atom.STATUS]
 
 
 class _Controller:
@@ -542,7 +585,7 @@ class _Table:
         for state, rules in self.table.items():
             for index, rule in enumerate(rules):
                 earlier = [(r.guard, False) for r in rules[:index]]
-                rule.fires = solve([(rule.guard, True), *earlier]).kind != "no"
+                rule.fires = solve([(rule.guard, True), *earlier]).kind != Verdict.NO
             self.determinism(state, rules, first_match)
         generated = self.command.generated
         for state, rules in self.table.items():
@@ -581,13 +624,13 @@ class _Table:
         for state, rules in self.table.items():
             for rule in rules:
                 for action in rule.rule.actions:
-                    if not isinstance(action, PlanAction) or action.kind != "replan":
+                    if not isinstance(action, PlanAction) or action.kind is not PlanVerb.REPLAN:
                         continue
                     plan = action.plan.name
-                    left: Key = ("plan", f"{plan}.replans_left")
+                    left: Key = (Atom.PLAN, f"{plan}.replans_left")
                     answer = solve([(rule.guard, True)], fixed={left: 0})
                     tested = rule.guard is not None and left in rule.guard.order
-                    if answer.kind == "no" and tested:
+                    if answer.kind == Verdict.NO and tested:
                         continue
                     self.diags.warning(
                         action.span,
@@ -605,7 +648,7 @@ class _Table:
         for index, rule in enumerate(rules):
             if rule.fires:
                 continue
-            if solve([(rule.guard, True)]).kind == "no":
+            if solve([(rule.guard, True)]).kind == Verdict.NO:
                 why = "its guard can never hold"
             else:
                 earlier = [r.number for r in rules[:index]]
@@ -643,12 +686,12 @@ class _Table:
         for j, later in enumerate(rules):
             for earlier in rules[:j]:
                 answer = solve([(earlier.guard, True), (later.guard, True)])
-                if answer.kind == "no":
+                if answer.kind == Verdict.NO:
                     continue
                 overlap = True
                 pair = f"rules {earlier.number} and {later.number} of {self.name} {state}"
                 when = _when(answer.shown)
-                if answer.kind == "yes" and ordered:  # first_match acknowledges the overlap
+                if answer.kind == Verdict.YES and ordered:  # first_match acknowledges the overlap
                     finding = Diagnostic(
                         later.rule.span,
                         "W501",
@@ -659,7 +702,7 @@ class _Table:
                     self.diags.acknowledge(
                         finding, f"`first_match: [{state}]` on {self.name}: the earlier rule wins"
                     )
-                elif answer.kind == "yes":
+                elif answer.kind == Verdict.YES:
                     self.diags.error(
                         later.rule.span,
                         "E501",
@@ -668,7 +711,7 @@ class _Table:
                         f"{self.name} so that rule {earlier.number} wins on purpose",
                     )
                 elif not ordered:
-                    if answer.kind == "maybe":
+                    if answer.kind == Verdict.MAYBE:
                         atoms = ", ".join(f"`{name}`" for _, name in answer.undecided)
                         why = f"both hold if {_valuation(answer.shown)}; "
                         why += f"interval reasoning cannot decide {atoms}"
@@ -700,12 +743,12 @@ class _Table:
         # once every subordinate this state tests has finished (DONE or ERROR) is reported.
         # An every_cycle rule that fires acts in this state too, so it is not a wait.
         subs = {*self.tested[state], *self.owner.every_tested}
-        finished = {("status", sub): FINISHED for sub in subs}
+        finished: dict[Key, tuple[Any, ...]] = {(Atom.STATUS, sub): FINISHED for sub in subs}
         quiet = [(r.guard, False) for r in rules] + [(g, False) for g in self.owner.every_guards]
         # Time passes while it waits: `after:` and `for:` are read once their time has come.
         late = {key: _LATE for r in rules if r.guard for key in r.guard.order if _timer(key)}
         answer = solve(quiet, fixed=late, allowed=finished)
-        if answer.kind == "yes":
+        if answer.kind == Verdict.YES:
             self.diags.warning(
                 self.states[state].span,
                 "W503",
@@ -805,7 +848,7 @@ def _fires_on_error(guards: list[Guard | None], sub: str) -> bool:
         if guard is None or sub not in subs_tested(guard):
             continue
         earlier: list[Part] = [(g, False) for g in guards[:index]]
-        if solve([(guard, True), *earlier], {("status", sub): "ERROR"}).kind != "no":
+        if solve([(guard, True), *earlier], {(Atom.STATUS, sub): "ERROR"}).kind != Verdict.NO:
             return True
     return False
 

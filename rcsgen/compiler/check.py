@@ -18,7 +18,7 @@ from pathlib import Path
 
 from . import acknowledge, expr, hooks, loader, model, naming, operators
 from .diagnostics import Diagnostics, Span, SpecError, Subject, known_names_hint
-from .model import Command, ControllerSpec, Located, Rule, SystemSpec
+from .model import Command, ControllerSpec, Located, PlanVerb, Rule, SystemSpec
 from .tables import (
     ENTRY_STATE,
     Action,
@@ -38,10 +38,23 @@ from .tables import (
     RuleId,
     Send,
     Target,
+    TargetKind,
     duration_text,
     live,
     one_line,
     reachable,
+)
+from .types import (
+    BOOL,
+    FLOAT,
+    INT,
+    Annotation,
+    Enum,
+    Str,
+    Type,
+    annotation_accepts,
+    annotation_fits,
+    hook_words,
 )
 
 
@@ -248,13 +261,14 @@ def _subtree(name: str, by_name: dict[str, ControllerSpec]) -> set[str]:
     return found
 
 
-def _command_signature(spec: ControllerSpec) -> dict[str, dict[str, str]]:
-    """Each command's parameters, results and reasons: what shares its buffers' shape."""
+def _command_signature(spec: ControllerSpec) -> dict[str, dict[str, Type | None]]:
+    """Each command's parameters, results and reasons (None: a reason has no type): what
+    shares its buffers' shape."""
     return {
         n: {
             **{p: t.type for p, t in c.params.items()},
             **{f"result {r}": t.type for r, t in c.results.items()},
-            **{f"reason {r.value}": "" for r in c.reasons},
+            **{f"reason {r.value}": None for r in c.reasons},
         }
         for n, c in spec.commands.items()
     }
@@ -304,7 +318,7 @@ def _check_stand_ins(
                     "E236",
                     f"{command} of stand-in `{sim.name}` has other parameters, results or "
                     f"reasons than `{name}`'s",
-                    f"`{name}` takes {wanted[command] or 'no parameters'}",
+                    f"`{name}` takes {_signature_text(wanted[command])}",
                 )
         if sorted(by_name[name].plans) != sorted(sim.plans):  # their slots: one status buffer
             diags.error(
@@ -314,6 +328,13 @@ def _check_stand_ins(
                 "a stand-in writes its controller's status buffer, which holds each plan's "
                 f"step: declare the plans of `{name}` ({', '.join(by_name[name].plans) or 'none'})",
             )
+
+
+def _signature_text(signature: dict[str, Type | None]) -> str:
+    """A command's signature as E236 shows it: `{'x': 'float', 'reason R': ''}`."""
+    if not signature:
+        return "no parameters"
+    return repr({name: "" if kind is None else str(kind) for name, kind in signature.items()})
 
 
 def _check_echo_timeouts(spec: ControllerSpec, diags: Diagnostics) -> None:
@@ -398,15 +419,15 @@ def _check_numbers(
 ) -> None:
     """Every integer constant and initial value fits in 64 bits (E110); an int given for a
     float fits in a float."""
-    values: list[tuple[str, object, Span]] = [
+    values: list[tuple[Type | None, object, Span]] = [  # None: a constant, of any type
         (f.type, f.initial, f.initial_span or f.span) for f in system.world.values()
     ]
     for spec in controllers:
         values += [(v.type, v.initial, v.initial_span or v.span) for v in spec.locals.values()]
-        values += [("const", c.value, c.span) for c in spec.constants.values()]
+        values += [(None, c.value, c.span) for c in spec.constants.values()]
     for kind, value, span in values:
-        problem = expr.int_range_problem(value) if kind in ("int", "const") else ""
-        if not problem and kind == "float" and isinstance(value, int):
+        problem = expr.int_range_problem(value) if kind in (INT, None) else ""
+        if not problem and kind == FLOAT and isinstance(value, int):
             try:
                 float(value)
             except OverflowError:
@@ -428,9 +449,9 @@ def _check_enums_and_strings(
             declared += [(p, False) for p in command.params.values()]
             declared += [(r, False) for r in command.results.values()]
     for item, has_initial in declared:
-        values = expr.enum_values(item.type)
         at = item.initial_span or item.span
-        if values:
+        if isinstance(item.type, Enum):
+            values = item.type.values
             shadowed = [v for v in values if v in expr.STATUS_NAMES]
             if shadowed:
                 diags.error(
@@ -451,16 +472,16 @@ def _check_enums_and_strings(
                     at,
                     "E274",
                     f"initial value `{item.initial}` of `{item.name}` is not a value of "
-                    f"{expr.type_words(item.type)}",
+                    f"{item.type.words}",
                     known_names_hint("values", values, str(item.initial)),
                 )
-        elif expr.str_size(item.type) and has_initial:
+        elif isinstance(item.type, Str) and has_initial:
             problem = expr.text_problem_of(item.initial, item.type)
             if problem:
                 diags.error(at, "E276", f"initial value of `{item.name}`: {problem}")
 
 
-def _check_world_access(spec: ControllerSpec, world: dict[str, str], diags: Diagnostics) -> None:
+def _check_world_access(spec: ControllerSpec, world: dict[str, Type], diags: Diagnostics) -> None:
     for item in [*spec.world_reads, *spec.world_writes]:
         if item.value not in world:
             diags.error(
@@ -479,11 +500,12 @@ def _hook_module_file(directory: Path, module: str) -> Path | None:
     return None
 
 
-HookContracts = dict[str, tuple[list[str | None], str]]  # hook -> (param types, file:line)
+# hook -> (its parameters' annotated types, file:line)
+HookContracts = dict[str, tuple[list[Annotation | None], str]]
 
 
 def _check_hooks_module(
-    spec: ControllerSpec, directory: Path, world: dict[str, str], diags: Diagnostics
+    spec: ControllerSpec, directory: Path, world: dict[str, Type], diags: Diagnostics
 ) -> HookContracts:
     """Each declared hook exists in the user's module as a plain function that fits its
     declaration (read, never imported): arity (E214), kind (E240), results (E241). Returns
@@ -663,7 +685,7 @@ def _takes(node: hooks.Function, given: int) -> bool:
     return required <= given and (node.args.vararg is not None or given <= positional)
 
 
-def _target_type(target: str, spec: ControllerSpec, world: dict[str, str]) -> str | None:
+def _target_type(target: str, spec: ControllerSpec, world: dict[str, Type]) -> Type | None:
     if target.startswith("world."):
         return world.get(target.removeprefix("world."))
     local = spec.locals.get(target)
@@ -675,7 +697,7 @@ def _ordinal(n: int) -> str:
 
 
 def _return_problems(
-    name: str, node: hooks.Function, types: list[str | None], targets: list[str]
+    name: str, node: hooks.Function, types: list[Type | None], targets: list[str]
 ) -> list[str]:
     """How the function's return annotation and literal returns contradict `returns:`."""
     want = len(targets)
@@ -704,7 +726,7 @@ def _return_problems(
         elif not found:
             every = promised.types * want if promised.count is None else promised.types
             for index, (value, target) in enumerate(zip(every, types, strict=False), start=1):
-                if value is not None and target is not None and not hooks.assignable(target, value):
+                if value is not None and target is not None and not annotation_fits(target, value):
                     found.append(
                         f"hook `{name}` returns {_a(value)} as its {_ordinal(index)} value "
                         f"(by its annotation), but `{targets[index - 1]}` is {_a(target)}"
@@ -771,21 +793,20 @@ def _timed_guard(
         parts = list(guard.values)  # `a and b and ticks >= 20`, not `(a and b) and ...`
     if hold is not None and guard is not None:
         counter = naming.held_attribute(rule_id.command, rule_id.state, rule_id.index)
-        parts.append(_at_least(expr.Ref(expr.INT, "held", counter), ">", hold))
+        parts.append(_at_least(expr.Ref(INT, expr.RefKind.HELD, counter), ">", hold))
     if after is not None:
-        parts.append(_at_least(expr.Ref(expr.INT, "time", "ticks"), ">=", after))
+        parts.append(_at_least(expr.Ref(INT, expr.RefKind.TIME, "ticks"), ">=", after))
     if len(parts) <= 1:
         return parts[0] if parts else None
-    return expr.BoolOp(expr.BOOL, "and", tuple(parts))
+    return expr.BoolOp(BOOL, "and", tuple(parts))
 
 
 def _at_least(counter: expr.Ref, op: str, cycles: int) -> expr.Expr:
-    return expr.Compare(expr.BOOL, counter, (op,), (expr.Const(expr.INT, cycles),))
+    return expr.Compare(BOOL, counter, (op,), (expr.Const(INT, cycles),))
 
 
-def _a(kind: str) -> str:
-    words = {"int": "an int", "float": "a float", "bool": "a bool"}
-    return words.get(kind) or expr.type_words(kind)
+def _a(kind: Type | Annotation) -> str:
+    return hook_words(kind)
 
 
 # ---------------------------------------------------------------- one controller
@@ -848,7 +869,7 @@ class _ControllerChecker:
         params = {p.name: p.type for p in command.params.values()} if command else {}
         return replace(self.base_scope, params=params, used_predicates=set())
 
-    def typed(self, item: Located, scope: expr.Scope, expect: str | None) -> expr.Expr | None:
+    def typed(self, item: Located, scope: expr.Scope, expect: Type | None) -> expr.Expr | None:
         return expr.compile_expr(item.value, item.span, scope, self.diags, expect)
 
     def check(
@@ -981,7 +1002,7 @@ class _ControllerChecker:
         """A table's named values, in order, each typed over what the table sees and the
         values before it; `scope` gains each (E262 for a name already used)."""
         lets: list[CheckedLet] = []
-        known: dict[str, str] = {}
+        known: dict[str, Type] = {}
         spec = self.spec
         for name, item in command.lets.items():
             used = (
@@ -1043,7 +1064,7 @@ class _ControllerChecker:
         checked, calls = {}, {}
         for name, item in self.spec.predicates.items():
             scope = self.scope_for(None)
-            tree = self.typed(item, scope, expr.BOOL)
+            tree = self.typed(item, scope, BOOL)
             if tree is not None:
                 checked[name] = CheckedPredicate(name, tree, one_line(item.value), item.span)
             calls[name] = set(scope.used_predicates)
@@ -1130,7 +1151,7 @@ class _ControllerChecker:
         """A rule's guard, actions and next state, checked and typed."""
         guard = None
         if rule.when is not None:
-            guard = self.typed(rule.when, scope, expr.BOOL)
+            guard = self.typed(rule.when, scope, BOOL)
         after, hold = self.timing(rule_id, rule)
         guard = _timed_guard(rule_id, guard, after, hold)
         actions = [self.check_action(a, scope) for a in rule.actions]
@@ -1277,7 +1298,7 @@ class _ControllerChecker:
             )
             return None
         args: tuple[expr.Expr, ...] = ()
-        if action.kind != "advance":
+        if action.kind is not PlanVerb.ADVANCE:
             typed = [self.typed(a, scope, None) for a in plan.args]
             if any(t is None for t in typed):
                 return None
@@ -1294,7 +1315,7 @@ class _ControllerChecker:
         self.checked_calls.add(key)
         params, where = self.contracts[key]
         for index, (arg, param) in enumerate(zip(args, params, strict=False)):
-            if param is None or hooks.assignable(param, arg.type):
+            if param is None or annotation_accepts(param, arg.type):
                 continue
             self.diags.error(
                 plan.args[index].span,
@@ -1311,7 +1332,7 @@ class _ControllerChecker:
         self.checked_calls.add(hook.name)
         params, where = self.contracts[hook.name]
         for index, (arg, param) in enumerate(zip(args, params, strict=False)):
-            if arg is None or param is None or hooks.assignable(param, arg.type):
+            if arg is None or param is None or annotation_accepts(param, arg.type):
                 continue
             self.diags.error(
                 hook.args[index].span,
@@ -1464,7 +1485,7 @@ class _ControllerChecker:
                     or "declare it under the command's `results:`",
                 )
                 return None
-            return Target("result", name, results[name].type)
+            return Target(TargetKind.RESULT, name, results[name].type)
         if text.startswith("world."):
             name = text.removeprefix("world.")
             if name not in self.system.world:
@@ -1483,9 +1504,9 @@ class _ControllerChecker:
                     f"add `{name}` to `world: writes:`",
                 )
                 return None
-            return Target("world", name, self.system.world[name].type)
+            return Target(TargetKind.WORLD, name, self.system.world[name].type)
         if text in self.spec.locals:
-            return Target("local", text, self.spec.locals[text].type)
+            return Target(TargetKind.LOCAL, text, self.spec.locals[text].type)
         self.diags.error(
             target.span,
             "E220",
@@ -1556,8 +1577,8 @@ def _says_in_error(term: expr.Expr, sub: str) -> bool:
     for a, b in (pair, pair[::-1]):
         if not (isinstance(a, expr.Ref) and isinstance(b, expr.Ref) and a.owner == sub):
             continue
-        if a.kind == "sub_status" and b.kind == "status":
+        if a.kind == expr.RefKind.SUB_STATUS and b.kind == expr.RefKind.STATUS:
             return term.ops[0] == "==" and b.name == "ERROR"
-        if a.kind == "sub_reason" and b.kind == "sub_reason_name":
+        if a.kind == expr.RefKind.SUB_REASON and b.kind == expr.RefKind.SUB_REASON_NAME:
             return (term.ops[0] == "==") != (b.name == "NONE")
     return False

@@ -12,15 +12,62 @@ from __future__ import annotations
 import ast
 import math
 import operator
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any
 
 from ..runtime.contract import text_problem
 from .diagnostics import Diagnostics, Span, known_names_hint
+from .types import (
+    BOOL,
+    FLOAT,
+    INT,
+    NUMERIC,
+    STATUS,
+    STR_MAX_SIZE,
+    CommandOf,
+    Enum,
+    ReasonOf,
+    Str,
+    Type,
+    assignable,
+)
 
-BOOL, INT, FLOAT, STATUS = "bool", "int", "float", "status"
-NUMERIC = (INT, FLOAT)
+
+class RefKind(StrEnum):
+    """What a resolved name is (`Ref.kind`); `owner` is the subordinate for the SUB_* kinds
+    and the plan for PLAN. TIME and HELD are named by no spec text: the checker makes them
+    from a rule's `after:` and `for:`. PREDICATE and FUNCTION name a callee when printed."""
+
+    WORLD = "world"
+    PARAM = "param"
+    LOCAL = "local"
+    CONST = "const"
+    STATUS = "status"  # a status name: NOT_READY, EXECUTING, DONE, ERROR
+    SUB_STATUS = "sub_status"
+    SUB_COMMAND = "sub_command"
+    SUB_COMMAND_NAME = "sub_command_name"
+    SUB_RESULT = "sub_result"  # `<sub>.result.<name>`
+    SUB_REASON = "sub_reason"  # `<sub>.reason`
+    SUB_REASON_NAME = "sub_reason_name"
+    PLAN = "plan"  # `<plan>.<name>`: a step field or one of PLAN_PROPERTIES
+    TIME = "time"  # the cycles spent in the current state, an int
+    HELD = "held"  # the cycles a `for:` rule's `when` has held, an int; `name` its counter
+    ARG = "arg"  # a parameter of a function's body
+    LET = "let"
+    PREDICATE = "predicate"
+    FUNCTION = "function"
+
+
+class CallKind(StrEnum):
+    """What a call calls (`Call.kind`)."""
+
+    PREDICATE = "predicate"
+    BUILTIN = "builtin"
+    FUNCTION = "function"
+
+
 STATUS_NAMES = ("NOT_READY", "EXECUTING", "DONE", "ERROR")
 BUILTINS = ("abs", "min", "max")
 MAX_DEPTH = 100  # nesting levels of an expression tree (each operator, call, name, ...)
@@ -37,56 +84,10 @@ def int_range_problem(value: object) -> str:
 
 INT_RANGE_HINT = "use a smaller number, or a float if the value is not a count"
 
-# An enumeration's type names its values in order (`enum LEFT|RIGHT`): two declarations with
-# the same values are one type, so a parameter passes on to another controller's. A value is
-# stored as its index. A string's type names its capacity in bytes (`str 32`).
-ENUM_PREFIX, STR_PREFIX = "enum ", "str "
-STR_DEFAULT_SIZE, STR_MAX_SIZE = 32, 255
 
-
-def enum_type(values: Sequence[str]) -> str:
-    """The type of an enumeration of these value names, in order."""
-    return ENUM_PREFIX + "|".join(values)
-
-
-def enum_values(kind: str) -> tuple[str, ...]:
-    """The value names of an enumeration type, in order; () for any other type."""
-    return tuple(kind[len(ENUM_PREFIX) :].split("|")) if kind.startswith(ENUM_PREFIX) else ()
-
-
-def str_type(size: int = STR_DEFAULT_SIZE) -> str:
-    """The type of a string of at most `size` bytes of UTF-8."""
-    return f"{STR_PREFIX}{size}"
-
-
-def str_size(kind: str) -> int:
-    """The capacity in bytes of a string type; 0 for any other type."""
-    return int(kind[len(STR_PREFIX) :]) if kind.startswith(STR_PREFIX) else 0
-
-
-def spec_type(spec: Mapping[str, Any]) -> str:
-    """The type a schema-valid declaration (`{type, values, size}`) gives its value."""
-    kind = str(spec["type"])
-    if kind == "enum":
-        return enum_type([str(v) for v in spec.get("values") or ()])
-    if kind == "str":
-        return str_type(int(spec.get("size", STR_DEFAULT_SIZE)))
-    return kind
-
-
-def text_problem_of(value: object, kind: str) -> str:
+def text_problem_of(value: object, kind: Str) -> str:
     """'' when `value` is a text that fits string type `kind`, else what is wrong with it."""
-    return text_problem(value, str_size(kind))
-
-
-def command_type(sub: str) -> str:
-    """The type of `<sub>.command` and of `<sub>`'s command names."""
-    return f"command of {sub}"
-
-
-def reason_type(sub: str) -> str:
-    """The type of `<sub>.reason` and of `<sub>`'s reason names."""
-    return f"reason of {sub}"
+    return text_problem(value, kind.size)
 
 
 # The reasons every controller that declares some has: none given, and a subordinate's
@@ -95,7 +96,7 @@ BUILTIN_REASONS = ("NONE", "LOST")
 
 # What every plan has besides its step fields (`route.step`, ...), and their types: the
 # current step (from 0), the number of steps, past the last step, the replans left.
-PLAN_PROPERTIES = {"step": INT, "steps": INT, "done": BOOL, "replans_left": INT}
+PLAN_PROPERTIES: dict[str, Type] = {"step": INT, "steps": INT, "done": BOOL, "replans_left": INT}
 
 
 # ---------------------------------------------------------------- typed tree
@@ -103,9 +104,9 @@ PLAN_PROPERTIES = {"step": INT, "steps": INT, "done": BOOL, "replans_left": INT}
 
 @dataclass(frozen=True)
 class Expr:
-    """A typed expression node; `type` is one of the type names above."""
+    """A typed expression node."""
 
-    type: str
+    type: Type
 
 
 @dataclass(frozen=True)
@@ -118,24 +119,18 @@ class Const(Expr):
 
 @dataclass(frozen=True)
 class Ref(Expr):
-    """A resolved name. kind: world, param, local, const, status, sub_status, sub_command,
-    sub_command_name, sub_result (`<sub>.result.<name>`), sub_reason (`<sub>.reason`),
-    sub_reason_name (`owner` is the subordinate for the sub_* kinds), plan (`<plan>.<name>`,
-    a step field or one of PLAN_PROPERTIES; `owner` is the plan); and two that no spec
-    text names, made by the checker from a rule's `after:` and `for:`: time (the cycles
-    spent in the current state, an int) and held (the cycles a `for:` rule's `when` has
-    held, an int; `name` is its counter)."""
+    """A resolved name, of a kind (RefKind)."""
 
-    kind: str
+    kind: RefKind
     name: str
     owner: str = ""
 
 
 @dataclass(frozen=True)
 class Call(Expr):
-    """A call of a declared predicate (kind "predicate") or a builtin (kind "builtin")."""
+    """A call of a declared predicate, a function or a builtin."""
 
-    kind: str
+    kind: CallKind
     name: str
     args: tuple[Expr, ...] = ()
 
@@ -182,25 +177,25 @@ class IfExp(Expr):
 class Scope:
     """What an expression may name: everything declared for one controller and command."""
 
-    world: Mapping[str, str] = field(default_factory=dict)  # every world field -> type
+    world: Mapping[str, Type] = field(default_factory=dict)  # every world field -> type
     world_access: frozenset[str] = frozenset()  # fields the controller reads or writes
-    params: Mapping[str, str] = field(default_factory=dict)
-    locals: Mapping[str, str] = field(default_factory=dict)
+    params: Mapping[str, Type] = field(default_factory=dict)
+    locals: Mapping[str, Type] = field(default_factory=dict)
     constants: Mapping[str, bool | int | float] = field(default_factory=dict)
     predicates: frozenset[str] = frozenset()
     subordinates: Mapping[str, frozenset[str]] = field(default_factory=dict)  # sub -> commands
     used_predicates: set[str] = field(default_factory=set)
     # each subordinate's results (name -> type) and the reasons it declares (none: no reason)
-    sub_results: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    sub_results: Mapping[str, Mapping[str, Type]] = field(default_factory=dict)
     sub_reasons: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     # pure functions it may call: name -> (parameter types in order, result type)
-    functions: Mapping[str, tuple[tuple[str, ...], str]] = field(default_factory=dict)
-    lets: Mapping[str, str] = field(default_factory=dict)  # its table's named values -> type
+    functions: Mapping[str, tuple[tuple[Type, ...], Type]] = field(default_factory=dict)
+    lets: Mapping[str, Type] = field(default_factory=dict)  # its table's named values -> type
     # constants an expression named (shared by every copy of the controller's scope)
     used_constants: set[str] = field(default_factory=set)
-    args: Mapping[str, str] = field(default_factory=dict)  # a function body's parameters
+    args: Mapping[str, Type] = field(default_factory=dict)  # a function body's parameters
     # each plan's names (its step fields and PLAN_PROPERTIES) -> type
-    plans: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    plans: Mapping[str, Mapping[str, Type]] = field(default_factory=dict)
 
     def bare_names(self) -> list[str]:
         return [*self.args, *self.params, *self.lets, *self.locals, *self.constants, *STATUS_NAMES]
@@ -230,7 +225,7 @@ class _Fail(Exception):
 
 
 class _Resolver:
-    def __init__(self, scope: Scope, span: Span, diags: Diagnostics, want: str | None = None):
+    def __init__(self, scope: Scope, span: Span, diags: Diagnostics, want: Enum | None = None):
         self.scope, self.span, self.diags = scope, span, diags
         self.want = want  # the enumeration a bare value name is looked up in, if any
 
@@ -261,7 +256,7 @@ class _Resolver:
             problem = text_problem(value, STR_MAX_SIZE)
             if problem:
                 raise self.fail(node, "E276", f"invalid string literal: {problem}")
-            return Const(str_type(max(1, len(value.encode("utf-8")))), value)
+            return Const(Str(max(1, len(value.encode("utf-8")))), value)
         if isinstance(value, bool):
             return Const(BOOL, value)
         if isinstance(value, int):
@@ -279,32 +274,32 @@ class _Resolver:
         if name in ("True", "False"):  # only reachable on very old parsers
             return Const(BOOL, name == "True")
         if name in STATUS_NAMES:  # reserved: a param or constant cannot shadow a status
-            return Ref(STATUS, "status", name)
-        values = enum_values(self.want or "")
-        if name in values:  # where an enumeration is expected, its value names come first
-            return Const(str(self.want), values.index(name))
+            return Ref(STATUS, RefKind.STATUS, name)
+        values = self.want.values if self.want else ()
+        if self.want and name in values:  # where an enumeration is expected, its values first
+            return Const(self.want, values.index(name))
         if name in scope.args:
-            return Ref(scope.args[name], "arg", name)
+            return Ref(scope.args[name], RefKind.ARG, name)
         if name in scope.params:
-            return Ref(scope.params[name], "param", name)
+            return Ref(scope.params[name], RefKind.PARAM, name)
         if name in scope.lets:
-            return Ref(scope.lets[name], "let", name)
+            return Ref(scope.lets[name], RefKind.LET, name)
         if name in scope.locals:
-            return Ref(scope.locals[name], "local", name)
+            return Ref(scope.locals[name], RefKind.LOCAL, name)
         if name in scope.constants:
             scope.used_constants.add(name)
-            return Ref(_type_of_value(scope.constants[name]), "const", name)
+            return Ref(_type_of_value(scope.constants[name]), RefKind.CONST, name)
         if name.startswith("__"):
             raise self.fail(node, "E102", f"dunder name `{name}` is not allowed")
         if name in scope.predicates:
             raise self.fail(node, "E107", f"predicate `{name}` must be called", f"write `{name}()`")
         if name == "world" or name in scope.subordinates or name in scope.plans:
             raise self.fail(node, "E108", f"`{name}` needs a field: `{name}.<field>`")
-        if values:
+        if self.want:
             raise self.fail(
                 node,
                 "E274",
-                f"`{name}` is not a value of {_words(str(self.want))}",
+                f"`{name}` is not a value of {self.want.words}",
                 known_names_hint("values", values, name),
             )
         raise self.fail(
@@ -338,7 +333,7 @@ class _Resolver:
                     f"plan `{base.id}` has no step field or property `{attr}`",
                     known_names_hint(f"names of plan {base.id}", names, attr),
                 )
-            return Ref(names[attr], "plan", attr, base.id)
+            return Ref(names[attr], RefKind.PLAN, attr, base.id)
         if base.id == "world":
             if attr not in scope.world:
                 raise self.fail(
@@ -354,12 +349,12 @@ class _Resolver:
                     f"world field `{attr}` is not in this controller's world.reads or world.writes",
                     f"add `{attr}` to `world: reads:`",
                 )
-            return Ref(scope.world[attr], "world", attr)
+            return Ref(scope.world[attr], RefKind.WORLD, attr)
         if base.id in scope.subordinates:
             if attr == "status":
-                return Ref(STATUS, "sub_status", attr, base.id)
+                return Ref(STATUS, RefKind.SUB_STATUS, attr, base.id)
             if attr == "command":
-                return Ref(command_type(base.id), "sub_command", attr, base.id)
+                return Ref(CommandOf(base.id), RefKind.SUB_COMMAND, attr, base.id)
             if attr == "reason":
                 if not scope.sub_reasons.get(base.id):
                     raise self.fail(
@@ -368,7 +363,7 @@ class _Resolver:
                         f"`{base.id}` declares no reasons: `{base.id}.reason` says nothing",
                         f"declare `reasons:` on the commands of `{base.id}` that can fail",
                     )
-                return Ref(reason_type(base.id), "sub_reason", attr, base.id)
+                return Ref(ReasonOf(base.id), RefKind.SUB_REASON, attr, base.id)
             if attr == "result":
                 raise self.fail(node, "E108", f"`{base.id}.result` needs a name: `.result.<name>`")
             raise self.fail(
@@ -401,7 +396,7 @@ class _Resolver:
                 known_names_hint(f"results of {sub}", results, name)
                 or f"declare it under `results:` of a command of `{sub}`",
             )
-        return Ref(results[name], "sub_result", name, sub)
+        return Ref(results[name], RefKind.SUB_RESULT, name, sub)
 
     def _Call(self, node: ast.Call) -> Expr:
         if node.keywords or not isinstance(node.func, ast.Name):
@@ -424,22 +419,22 @@ class _Resolver:
                     raise self.fail(
                         arg,
                         "E263",
-                        f"argument {index + 1} of `{name}` is {_words(value.type)}, "
-                        f"but the function takes {_words(wanted)}",
+                        f"argument {index + 1} of `{name}` is {value.type.words}, "
+                        f"but the function takes {wanted.words}",
                     )
                 args.append(value)
-            return Call(returns, "function", name, tuple(args))
+            return Call(returns, CallKind.FUNCTION, name, tuple(args))
         if name in self.scope.predicates:
             if node.args:
                 raise self.fail(node, "E107", f"predicate `{name}` takes no arguments")
             self.scope.used_predicates.add(name)
-            return Call(BOOL, "predicate", name)
+            return Call(BOOL, CallKind.PREDICATE, name)
         if name in BUILTINS:
             numbers = tuple(self.numeric(a) for a in node.args)
             if (name == "abs") != (len(numbers) == 1) or not numbers:
                 raise self.fail(node, "E107", f"wrong number of arguments to `{name}`")
             kind = FLOAT if any(a.type == FLOAT for a in numbers) else INT
-            return Call(kind, "builtin", name, numbers)
+            return Call(kind, CallKind.BUILTIN, name, numbers)
         functions = self.scope.functions
         raise self.fail(
             node,
@@ -488,6 +483,7 @@ class _Resolver:
         finally:
             self.want = want
         body, orelse = self.expr(node.body), self.expr(node.orelse)
+        kind: Type
         if body.type in NUMERIC and orelse.type in NUMERIC:
             kind = FLOAT if FLOAT in (body.type, orelse.type) else INT
         elif body.type == orelse.type:
@@ -496,8 +492,8 @@ class _Resolver:
             raise self.fail(
                 node,
                 "E261",
-                f"the two values of `... if ... else ...` differ: {_words(body.type)} and "
-                f"{_words(orelse.type)}",
+                f"the two values of `... if ... else ...` differ: {body.type.words} and "
+                f"{orelse.type.words}",
                 "give both values one type (an int and a float make a float)",
             )
         return IfExp(kind, test, body, orelse)
@@ -541,7 +537,9 @@ class _Resolver:
         typed: list[Expr | None] = [
             None if wait else self.expr(a) for a, wait in zip(operands, deferred, strict=True)
         ]
-        self.want = next((t.type for t in typed if t is not None and enum_values(t.type)), None)
+        self.want = next(
+            (t.type for t in typed if t is not None and isinstance(t.type, Enum)), None
+        )
         try:
             return [
                 t if t is not None else self.expr(a) for a, t in zip(operands, typed, strict=True)
@@ -555,7 +553,7 @@ class _Resolver:
         if isinstance(node, ast.Name):
             commands = self.scope.subordinates[sub]
             if node.id in commands:
-                return Ref(command_type(sub), "sub_command_name", node.id, sub)
+                return Ref(CommandOf(sub), RefKind.SUB_COMMAND_NAME, node.id, sub)
             raise self.fail(
                 node,
                 "E109",
@@ -570,7 +568,7 @@ class _Resolver:
         if isinstance(node, ast.Name):
             names = (*BUILTIN_REASONS, *self.scope.sub_reasons.get(sub, ()))
             if node.id in names:
-                return Ref(reason_type(sub), "sub_reason_name", node.id, sub)
+                return Ref(ReasonOf(sub), RefKind.SUB_REASON_NAME, node.id, sub)
             raise self.fail(
                 node,
                 "E260",
@@ -583,15 +581,15 @@ class _Resolver:
         kinds = {left.type, right.type}
         if kinds <= set(NUMERIC):
             return
-        texts = all(str_size(k) for k in kinds)
+        texts = all(isinstance(k, Str) for k in kinds)
         if (len(kinds) == 1 or texts) and op in ("==", "!="):
             return
-        if any(enum_values(k) or str_size(k) for k in kinds):
+        if any(isinstance(k, Enum | Str) for k in kinds):
             code = "E275" if len(kinds) == 1 or texts else "E277"
             raise self.fail(
                 node,
                 code,
-                f"cannot compare {_words(left.type)} with {_words(right.type)} using `{op}`",
+                f"cannot compare {left.type.words} with {right.type.words} using `{op}`",
                 "an enumeration compares with == and != against its own values, a string "
                 "against a string"
                 if code == "E277"
@@ -599,14 +597,14 @@ class _Resolver:
             )
         raise self.fail(node, "E107", f"cannot compare {left.type} with {right.type} using `{op}`")
 
-    def typed(self, node: ast.AST, wanted: tuple[str, ...], words: str) -> Expr:
+    def typed(self, node: ast.AST, wanted: tuple[Type, ...], words: str) -> Expr:
         result = self.expr(node)
         if result.type not in wanted:
-            if enum_values(result.type) or str_size(result.type):
+            if isinstance(result.type, Enum | Str):
                 raise self.fail(
                     node,
                     "E275",
-                    f"expected {words}, got {_words(result.type)}",
+                    f"expected {words}, got {result.type.words}",
                     "an enumeration or a string only compares with == and != (and a string "
                     "passes to hooks): no arithmetic, ordering or logic",
                 )
@@ -648,7 +646,7 @@ def did_you_mean_attr(attr: str) -> str:
     return known_names_hint("fields", ("status", "command", "reason", "result"), attr)
 
 
-def _type_of_value(value: object) -> str:
+def _type_of_value(value: object) -> Type:
     if isinstance(value, bool):
         return BOOL
     return INT if isinstance(value, int) else FLOAT
@@ -662,7 +660,7 @@ def offset_span(base: Span, lineno: int, col_offset: int) -> Span:
 
 
 def compile_expr(
-    source: object, span: Span, scope: Scope, diags: Diagnostics, expect: str | None = None
+    source: object, span: Span, scope: Scope, diags: Diagnostics, expect: Type | None = None
 ) -> Expr | None:
     """Parse, check and type `source` (expression text, or a YAML number/boolean).
 
@@ -720,7 +718,7 @@ def compile_expr(
                 f"at most {MAX_DEPTH} levels; split it into predicates",
             )
             return None
-        resolver = _Resolver(scope, span, diags, expect if expect and enum_values(expect) else None)
+        resolver = _Resolver(scope, span, diags, expect if isinstance(expect, Enum) else None)
         try:
             result = resolver.expr(tree.body)
         except _Fail:
@@ -729,14 +727,14 @@ def compile_expr(
             diags.error(span, "E102", "expression is nested too deeply")
             return None
     if expect is not None and not assignable(expect, result.type):
-        special = any(enum_values(k) or str_size(k) for k in (expect, result.type))
+        special = any(isinstance(k, Enum | Str) for k in (expect, result.type))
         diags.error(
             span,
             "E277" if special else "E107",
-            f"expected {_words(expect)}, got {_words(result.type)}",
+            f"expected {expect.words}, got {result.type.words}",
             "a string longer than its target could not be stored whole: give the target a "
             "larger `size`"
-            if str_size(expect) and str_size(result.type)
+            if isinstance(expect, Str) and isinstance(result.type, Str)
             else "",
         )
         return None
@@ -756,37 +754,6 @@ def _depth(node: ast.AST) -> int:
         deepest = max(deepest, level)
         todo.extend((child, level + 1) for child in ast.iter_child_nodes(at))
     return deepest
-
-
-def assignable(target: str, source: str) -> bool:
-    """Whether a value of type `source` may be stored where `target` is expected: its own
-    type, an int as a float, a string that fits the target's size."""
-    if str_size(target) and str_size(source):
-        return str_size(source) <= str_size(target)
-    return target == source or (target == FLOAT and source == INT)
-
-
-def _words(kind: str) -> str:
-    if enum_values(kind):
-        return f"enum {', '.join(enum_values(kind))}"
-    if str_size(kind):
-        return f"a string of at most {str_size(kind)} bytes"
-    return {BOOL: "a boolean", INT: "an integer", FLOAT: "a number"}.get(kind, kind)
-
-
-def type_label(kind: str) -> str:
-    """A type as a reference page or a picture shows it: `enum(LEFT, RIGHT)`, `str[32]`,
-    `float`."""
-    if enum_values(kind):
-        return f"enum({', '.join(enum_values(kind))})"
-    if str_size(kind):
-        return f"str[{str_size(kind)}]"
-    return kind
-
-
-def type_words(kind: str) -> str:
-    """How a type reads in a message: `a boolean`, `enum LEFT, RIGHT`, `a string of ...`."""
-    return _words(kind)
 
 
 # ---------------------------------------------------------------- constant folding
@@ -831,12 +798,12 @@ def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr],
     if isinstance(e, Const):
         return e.value
     if isinstance(e, Ref):
-        return constants.get(e.name) if e.kind == "const" else None
+        return constants.get(e.name) if e.kind == RefKind.CONST else None
     if isinstance(e, Call):
-        if e.kind == "predicate":
+        if e.kind == CallKind.PREDICATE:
             body = predicates.get(e.name)
             return None if body is None else _fold(body, constants, predicates, depth + 1)
-        if e.kind == "function":  # its body is folded where it is declared, not here
+        if e.kind == CallKind.FUNCTION:  # its body is folded where it is declared, not here
             return None
         args = [_fold(a, constants, predicates, depth + 1) for a in e.args]
         return None if None in args else _FOLD_BUILTIN[e.name](*args)
@@ -902,17 +869,18 @@ class _Printer:
     def text(self, expr: Expr) -> tuple[str, int]:
         atom = _PRECEDENCE["atom"]
         if isinstance(expr, Const):
-            names = enum_values(expr.type)  # a module constant of the value's index
-            return (names[int(expr.value)] if names else repr(expr.value)), atom
+            if isinstance(expr.type, Enum):  # a module constant of the value's index
+                return expr.type.values[int(expr.value)], atom
+            return repr(expr.value), atom
         if isinstance(expr, Ref):
             return self.name_of(expr), atom
         if isinstance(expr, Call):
             args = ", ".join(self.wrap(a, 0) for a in expr.args)
             callee = expr.name
-            if expr.kind == "predicate":
-                callee = self.name_of(Ref(BOOL, "predicate", expr.name))
-            elif expr.kind == "function":
-                callee = self.name_of(Ref(expr.type, "function", expr.name))
+            if expr.kind == CallKind.PREDICATE:
+                callee = self.name_of(Ref(BOOL, RefKind.PREDICATE, expr.name))
+            elif expr.kind == CallKind.FUNCTION:
+                callee = self.name_of(Ref(expr.type, RefKind.FUNCTION, expr.name))
             return f"{callee}({args})", atom
         if isinstance(expr, Unary):
             if expr.op == "not":
@@ -966,13 +934,13 @@ def refs(expr: Expr) -> list[Ref]:
 def enum_constants(expr: Expr) -> list[tuple[str, int]]:
     """Every enumeration value `expr` names, as (value name, index), in reading order."""
     return [
-        (enum_values(node.type)[int(node.value)], int(node.value))
+        (node.type.values[int(node.value)], int(node.value))
         for node in walk(expr)
-        if isinstance(node, Const) and enum_values(node.type)
+        if isinstance(node, Const) and isinstance(node.type, Enum)
     ]
 
 
-def substitute(tree: Expr, values: Mapping[tuple[str, str], Expr]) -> Expr:
+def substitute(tree: Expr, values: Mapping[tuple[RefKind, str], Expr]) -> Expr:
     """`tree` with each name `(kind, name)` in `values` replaced by its tree: a function's
     body with its arguments, a guard with its table's `let` values (for the analysis)."""
     if isinstance(tree, Ref):

@@ -15,17 +15,18 @@ import ast
 from collections.abc import Iterator
 from dataclasses import dataclass
 
+from .types import Annotation
+
 Function = ast.FunctionDef | ast.AsyncFunctionDef
-SPEC_TYPES = ("bool", "int", "float", "str")
 
 
 @dataclass(frozen=True)
 class Returns:
-    """What a return annotation says: how many values (None: any number) of which spec
+    """What a return annotation says: how many values (None: any number) of which Python
     types (None: not known)."""
 
     count: int | None
-    types: tuple[str | None, ...]  # one per value; for `tuple[float, ...]`, one for all
+    types: tuple[Annotation | None, ...]  # one per value; for `tuple[float, ...]`, one for all
     scalar: bool = False  # one value, not a tuple (`-> float`)
 
 
@@ -68,10 +69,10 @@ def _name(node: ast.expr | None) -> str | None:
     return None
 
 
-def spec_type(node: ast.expr | None) -> str | None:
-    """The spec type an annotation names (`bool`, `int`, `float`), else None."""
+def annotated(node: ast.expr | None) -> Annotation | None:
+    """The Python type an annotation names (`bool`, `int`, `float`, `str`), else None."""
     name = _name(_annotation(node))
-    return name if name in SPEC_TYPES else None
+    return Annotation(name) if name in tuple(Annotation) else None
 
 
 def returns(node: Function) -> Returns | None:
@@ -81,13 +82,13 @@ def returns(node: Function) -> Returns | None:
         return None
     if isinstance(ann, ast.Constant) and ann.value is None:
         return Returns(0, ())
-    if _name(ann) in SPEC_TYPES:
-        return Returns(1, (_name(ann),), scalar=True)
+    if annotated(ann) is not None:
+        return Returns(1, (annotated(ann),), scalar=True)
     if isinstance(ann, ast.Subscript) and _name(ann.value) in ("tuple", "Tuple"):
         items = ann.slice.elts if isinstance(ann.slice, ast.Tuple) else [ann.slice]
         if len(items) == 2 and isinstance(items[1], ast.Constant) and items[1].value is ...:
-            return Returns(None, (spec_type(items[0]),))
-        return Returns(len(items), tuple(spec_type(item) for item in items))
+            return Returns(None, (annotated(items[0]),))
+        return Returns(len(items), tuple(annotated(item) for item in items))
     return None
 
 
@@ -110,19 +111,6 @@ def literal_return_counts(node: Function) -> list[tuple[int, int | None]]:
     return sorted(found)
 
 
-def param_types(node: Function) -> list[str | None]:
-    """The spec type each positional parameter's annotation names (None: not checked)."""
-    return [spec_type(a.annotation) for a in [*node.args.posonlyargs, *node.args.args]]
-
-
-def assignable(target: str, value: str) -> bool:
-    """Whether a hook value of spec type `value` may go into a target of type `target`: a
-    string of any size is a `str` (its length is checked at run time), an enumeration's
-    value an `int` (its index)."""
-    target, value = _annotated(target), _annotated(value)
-    return target == value or (target == "float" and value == "int")
-
-
-def _annotated(kind: str) -> str:
-    """The annotation a value of spec type `kind` has in a hook: `str 32` -> str, an enum -> int."""
-    return "str" if kind.startswith("str") else "int" if kind.startswith("enum ") else kind
+def param_types(node: Function) -> list[Annotation | None]:
+    """The Python type each positional parameter's annotation names (None: not checked)."""
+    return [annotated(a.annotation) for a in [*node.args.posonlyargs, *node.args.args]]

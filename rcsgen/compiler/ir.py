@@ -15,23 +15,9 @@ from functools import cached_property
 
 from . import expr
 from .diagnostics import Span
+from .model import ModuleKind, PlanVerb
 from .tables import RuleId
-
-
-class _PyTypes(dict[str, str]):
-    """The Python annotation of each spec type: an enumeration's value is its index (int),
-    a string a str."""
-
-    def __missing__(self, kind: str) -> str:
-        if expr.enum_values(kind):
-            return "int"
-        if expr.str_size(kind):
-            return "str"
-        raise KeyError(kind)
-
-
-PY_TYPE = _PyTypes(bool="bool", int="int", float="float")
-
+from .types import Type
 
 # ---------------------------------------------------------------- layout
 
@@ -146,7 +132,7 @@ class IRExpr:
 @dataclass(frozen=True)
 class IRWorldField:
     name: str
-    type: str
+    type: Type
     initial: bool | int | float | str  # an enum's value name, a string's text
     doc: str
 
@@ -154,14 +140,14 @@ class IRWorldField:
 @dataclass(frozen=True)
 class IRParam:
     name: str
-    type: str
+    type: Type
     doc: str = ""
 
 
 @dataclass(frozen=True)
 class IRLocal:
     name: str
-    type: str
+    type: Type
     initial: bool | int | float | str  # an enum's value name, a string's text
     doc: str
 
@@ -177,11 +163,14 @@ class IRArg:
 
 @dataclass(frozen=True)
 class IRSend:
+    """`send: <sub>.<COMMAND>`: its arguments set, its command code and number written."""
+
     sub: str
     command: str
     command_const: str  # e.g. CR_SUMP
     args: tuple[IRArg, ...]
-    kind: str = "send"
+    command_attribute: str = ""  # where the command code goes: self.cr_command
+    number_attribute: str = ""  # the command number counted up: self.cr_command_num
 
 
 @dataclass(frozen=True)
@@ -193,29 +182,33 @@ class IRAssign:
 
 @dataclass(frozen=True)
 class IRSet:
+    """`set:` world fields, locals and results, in order."""
+
     assignments: tuple[IRAssign, ...]
-    kind: str = "set"
 
 
 @dataclass(frozen=True)
 class IRReport:
+    """`report: DONE` or `report: ERROR`, with a reason of its own or one passed up."""
+
     status: str  # DONE or ERROR
-    kind: str = "report"
     reason: str = ""  # the reason's constant (REASON_REFUSED), '' when none is given
     reason_name: str = ""  # as the spec names it (REFUSED, or fx.reason when passed up)
     reason_of: str = ""  # the subordinate whose reason is passed up, by name (fx)
     # with reason_of: its reason constants -> this controller's (FX_REASON_REFUSED,
     # REASON_REFUSED); any other code it reports is passed up as NONE
     reason_map: tuple[tuple[str, str], ...] = ()
+    reason_of_attribute: str = ""  # with reason_of: where its reason is read (self.fx_error_num)
 
 
 @dataclass(frozen=True)
 class IRCall:
+    """`call: <hook>`: the hook called, its result checked and assigned to the targets."""
+
     hook: str
     args: tuple[str, ...]  # Python text of each argument (the hook state first, if any)
     targets: tuple[str, ...]  # attributes assigned from the hook's result
-    kind: str = "call"
-    kinds: str = ""  # each target's type, one letter: f(loat), i(nt), b(ool)
+    kinds: str = ""  # each target's token in the result check (types.Type.hook_kind)
     # Python condition true when `returned` does not fit the targets (cheap: type and len)
     mismatch: str = ""
     span: Span | None = None  # where the spec calls it
@@ -223,17 +216,46 @@ class IRCall:
 
 @dataclass(frozen=True)
 class IRPlanAction:
-    """`plan:` / `replan:` (the planner called with `args`) or `advance:` of a plan."""
+    """An action on a plan (a base: IRLoadPlan or IRAdvance)."""
 
     plan: str
-    action: str  # "plan", "replan" or "advance"
-    planner: str
+
+    @property
+    def verb(self) -> PlanVerb:
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class IRLoadPlan(IRPlanAction):
+    """`plan:` / `replan:`: the planner called with `args`, its steps checked and loaded
+    (a replan counted against the plan's `replans`)."""
+
+    planner: str = ""
+    replan: bool = False
     args: tuple[str, ...] = ()  # Python text of each argument (the hook state first, if any)
-    kind: str = "plan_action"
     span: Span | None = None  # where the spec writes it
+    replans: int = 0  # the replans the plan declares
+    load: str = ""  # its load method: self.plan_route_load
+    replans_left: str = ""  # its counter: self.plan_route_replans_left
+
+    @property
+    def verb(self) -> PlanVerb:
+        return PlanVerb.REPLAN if self.replan else PlanVerb.PLAN
 
 
-IRAction = IRSend | IRSet | IRReport | IRCall | IRPlanAction
+@dataclass(frozen=True)
+class IRAdvance(IRPlanAction):
+    """`advance:`: the plan's next step becomes the current one."""
+
+    go: str = ""  # its method that makes a step current: self.plan_route_go
+    step: str = ""  # its current step: self.plan_route_step
+
+    @property
+    def verb(self) -> PlanVerb:
+        return PlanVerb.ADVANCE
+
+
+IRAction = IRSend | IRSet | IRReport | IRCall | IRLoadPlan | IRAdvance
 
 
 @dataclass(frozen=True)
@@ -271,8 +293,8 @@ class IRFunction:
     """A pure function, emitted as a module-level `def`."""
 
     name: str
-    params: tuple[tuple[str, str], ...]  # (name, type) in call order
-    returns: str
+    params: tuple[tuple[str, Type], ...]  # (name, type) in call order
+    returns: Type
     body: IRExpr
 
 
@@ -338,7 +360,7 @@ class IRPlan:
     @property
     def kinds(self) -> str:
         """Each field's type, one letter (f, i, b), as the runtime's plan check takes them."""
-        return "".join(t.type[0] for t in self.fields)
+        return "".join(t.type.hook_kind for t in self.fields)
 
     @property
     def status_fields(self) -> tuple[str, ...]:
@@ -381,8 +403,12 @@ class IRController:
     # the enumeration values its expressions name: (value name, index), a module constant each
     enum_values: tuple[tuple[str, int], ...] = ()
     plans: tuple[IRPlan, ...] = ()  # its plans, in declaration order
-    kind: str = "controller"  # or "operator": a person at a screen, answered, no table
+    kind: ModuleKind = ModuleKind.CONTROLLER  # OPERATOR: a person at a screen, no table
     clients: tuple[str, ...] = ()  # an operator module's: whom it serves, one channel each
+
+    @property
+    def is_operator(self) -> bool:
+        return self.kind is ModuleKind.OPERATOR
 
     @property
     def channels(self) -> tuple[str, ...]:

@@ -22,11 +22,10 @@ from ..runtime.contract import (
     PERF_FIELDS,
     PROCESS_FIELDS,
     STATUS_FIELDS,
-    format_of_type,
-    kind_tokens,
 )
 from . import expr, ir, naming, operators
-from .model import ENTRY_STATE, Command, ControllerSpec, Typed, duration_in_cycles
+from .expr import RefKind
+from .model import ENTRY_STATE, Command, ControllerSpec, PlanVerb, Typed, duration_in_cycles
 from .tables import (
     Action,
     Assign,
@@ -43,6 +42,7 @@ from .tables import (
     one_line,
     untimed,
 )
+from .types import BOOL, FLOAT, INT, Bool, Enum, Float, Int, Str, Type
 
 # What every controller module imports from the runtime contract, whatever its tables say.
 ALWAYS_IMPORTED = ("EXECUTING", "NO_RULE", "PERF", "STATUS")
@@ -112,7 +112,8 @@ class _ControllerLowering:
         )
         rules = c.rules()
         uses_hooks = spec.hooks_state is not None or any(
-            isinstance(a, CallHook) or (isinstance(a, PlanAction) and a.kind != "advance")
+            isinstance(a, CallHook)
+            or (isinstance(a, PlanAction) and a.kind is not PlanVerb.ADVANCE)
             for r in rules
             for a in r.actions
         )
@@ -217,7 +218,7 @@ class _ControllerLowering:
         read = {(r.kind, r.name) for r in self.refs() if r.owner == sub}
         sub_spec = self.system.controllers[sub].spec
         reasons: tuple[tuple[str, int], ...] = ()
-        if ("sub_reason", "reason") in read or sub in self.reasons_passed():
+        if (RefKind.SUB_REASON, "reason") in read or sub in self.reasons_passed():
             reasons = tuple(
                 (naming.sub_reason_const(sub, r), code)
                 for r, code in reason_codes(sub_spec).items()
@@ -225,7 +226,7 @@ class _ControllerLowering:
         results = tuple(
             ir.IRParam(name, kind)
             for name, kind in naming.result_types(sub_spec).items()
-            if ("sub_result", name) in read
+            if (RefKind.SUB_RESULT, name) in read
         )
         channel = ir.channel_key(sub, self.spec.name) if sub_spec.is_operator else ""
         return ir.IRSub(sub, consts, params, echo, reasons, results, channel)
@@ -283,7 +284,7 @@ class _ControllerLowering:
         assert when is not None
         text = one_line(rule.source.when.value) if rule.source.when else ""
         counter = next(t.left for t in timers if isinstance(t, expr.Compare))
-        assert isinstance(counter, expr.Ref) and counter.kind == "held"
+        assert isinstance(counter, expr.Ref) and counter.kind == RefKind.HELD
         return ir.IRCounter(counter.name, self.expression(when, text))
 
     def code(self) -> int:
@@ -299,7 +300,7 @@ class _ControllerLowering:
             if rule.hold is not None:
                 # its counter already counts the cycles `when` held: test only the timers
                 rest = untimed(rule.guard)[1]
-                tested = rest[0] if len(rest) == 1 else expr.BoolOp(expr.BOOL, "and", rest)
+                tested = rest[0] if len(rest) == 1 else expr.BoolOp(BOOL, "and", rest)
                 python = expr.to_python(tested, naming.attribute)
                 guard = ir.IRExpr(rule.guard, text, python)
                 operand = expr.to_python_conjunct(tested, naming.attribute)
@@ -316,101 +317,132 @@ class _ControllerLowering:
         )
 
     def action(self, action: Action) -> ir.IRAction:
-        if isinstance(action, Send):
-            args = tuple(
-                ir.IRArg(
-                    param,
-                    f"self.{action.sub}_arg_{param}",
-                    self.expression(tree, action.text(param)),
-                )
-                for param, tree in action.args
-            )
-            const = naming.sub_command_const(action.sub, action.command)
-            return ir.IRSend(action.sub, action.command, const, args)
-        if isinstance(action, Assign):
-            return ir.IRSet(
-                tuple(
-                    ir.IRAssign(
-                        target.text, _attribute(target), self.expression(tree, action.text(target))
+        match action:
+            case Send():
+                return self.send(action)
+            case Assign():
+                return ir.IRSet(
+                    tuple(
+                        ir.IRAssign(
+                            target.text,
+                            _attribute(target),
+                            self.expression(tree, action.text(target)),
+                        )
+                        for target, tree in action.assignments
                     )
-                    for target, tree in action.assignments
                 )
+            case Report():
+                return self.report(action)
+            case PlanAction():
+                return self.plan_action(action)
+            case CallHook():
+                kinds = tuple(t.type for t in action.targets)
+                return ir.IRCall(
+                    action.hook.name,
+                    self.hook_arguments(action.args),
+                    tuple(_attribute(t) for t in action.targets),
+                    kinds="".join(kind.hook_kind for kind in kinds),
+                    mismatch=result_mismatch(kinds),
+                    span=action.span,
+                )
+        raise TypeError(f"unknown action {action!r}")
+
+    def send(self, action: Send) -> ir.IRSend:
+        sub = action.sub
+        args = tuple(
+            ir.IRArg(
+                param,
+                naming.sub_arg_attribute(sub, param),
+                self.expression(tree, action.text(param)),
             )
-        if isinstance(action, Report):
-            if action.reason and action.reason.endswith(".reason"):  # passed up, by name
-                sub = action.reason.removesuffix(".reason")
-                pairs = tuple(
-                    (naming.sub_reason_const(sub, r), naming.reason_const(r)) for r in action.passes
-                )
-                return ir.IRReport(
-                    action.status, reason_name=action.reason, reason_of=sub, reason_map=pairs
-                )
-            reason = naming.reason_const(action.reason) if action.reason else ""
-            return ir.IRReport(action.status, reason=reason, reason_name=action.reason or "")
-        state = ("self.hook_state",) if self.spec.hooks_state else ()
-        values = state + tuple(expr.to_python(a, naming.attribute) for a in action.args)
-        if isinstance(action, PlanAction):
-            planner = action.plan.planner.value
-            called = values if action.kind != "advance" else ()
-            return ir.IRPlanAction(action.plan.name, action.kind, planner, called, span=action.span)
-        kinds = "".join(kind_letter(t.type) for t in action.targets)
-        return ir.IRCall(
-            action.hook.name,
-            values,
-            tuple(_attribute(t) for t in action.targets),
-            kinds=kinds,
-            mismatch=result_mismatch(kinds),
-            span=action.span,
+            for param, tree in action.args
         )
+        return ir.IRSend(
+            sub,
+            action.command,
+            naming.sub_command_const(sub, action.command),
+            args,
+            command_attribute=naming.sub_attribute(sub, "_command"),
+            number_attribute=naming.sub_attribute(sub, "_command_num"),
+        )
+
+    def report(self, action: Report) -> ir.IRReport:
+        if action.reason and action.reason.endswith(".reason"):  # passed up, by name
+            sub = action.reason.removesuffix(".reason")
+            pairs = tuple(
+                (naming.sub_reason_const(sub, r), naming.reason_const(r)) for r in action.passes
+            )
+            return ir.IRReport(
+                action.status,
+                reason_name=action.reason,
+                reason_of=sub,
+                reason_map=pairs,
+                reason_of_attribute=naming.sub_attribute(sub, "_error_num"),
+            )
+        reason = naming.reason_const(action.reason) if action.reason else ""
+        return ir.IRReport(action.status, reason=reason, reason_name=action.reason or "")
+
+    def plan_action(self, action: PlanAction) -> ir.IRLoadPlan | ir.IRAdvance:
+        plan = action.plan.name
+        if action.kind is PlanVerb.ADVANCE:
+            return ir.IRAdvance(
+                plan,
+                go=f"self.{naming.plan_method(plan, 'go')}",
+                step=f"self.{naming.plan_attribute(plan, 'step')}",
+            )
+        return ir.IRLoadPlan(
+            plan,
+            planner=action.plan.planner.value,
+            replan=action.kind is PlanVerb.REPLAN,
+            args=self.hook_arguments(action.args),
+            span=action.span,
+            replans=action.plan.replans,
+            load=f"self.{naming.plan_method(plan, 'load')}",
+            replans_left=f"self.{naming.plan_attribute(plan, 'replans_left')}",
+        )
+
+    def hook_arguments(self, args: tuple[expr.Expr, ...]) -> tuple[str, ...]:
+        """A hook's or a planner's arguments as Python: the hook state first, if any."""
+        state = ("self.hook_state",) if self.spec.hooks_state else ()
+        return state + tuple(expr.to_python(a, naming.attribute) for a in args)
 
     def expression(self, tree: expr.Expr, text: str) -> ir.IRExpr:
         return ir.IRExpr(tree, text, expr.to_python(tree, naming.attribute))
 
 
-_KIND_LETTER = {"float": "f", "int": "i", "bool": "b"}
+def _value_mismatch(value: str, kind: Type) -> str:
+    """A condition true when `value` cannot go into a target of this type (see contract)."""
+    match kind:
+        case Enum(values=values):  # the index of one of its values
+            return f"type({value}) is not int or not 0 <= {value} < {len(values)}"
+        case Str(size=size):  # a string that fits, never truncated
+            return f"text_problem({value}, {size})"
+        case Float():
+            return f"type({value}) not in NUMBER and not is_real({value})"
+        case Int():
+            return (
+                f"(type({value}) is not int and not is_integer({value})) "
+                f"or not INT_MIN <= {value} <= INT_MAX"
+            )
+        case Bool():
+            return f"type({value}) is not bool"
+    raise TypeError(f"a hook cannot return a {kind}")
 
 
-def kind_letter(kind: str) -> str:
-    """How a hook's target type is spelled in its result check (contract.HookError): f, i,
-    b, `e3` for an enumeration of 3 values, `s32` for a string of 32 bytes."""
-    if expr.enum_values(kind):
-        return f"e{len(expr.enum_values(kind))}"
-    if expr.str_size(kind):
-        return f"s{expr.str_size(kind)}"
-    return _KIND_LETTER[kind]
-
-
-def _value_mismatch(value: str, kind: str) -> str:
-    """A condition true when `value` cannot go into a target of this kind (see contract)."""
-    if kind.startswith("e"):  # an enumeration: the index of one of its values
-        return f"type({value}) is not int or not 0 <= {value} < {kind[1:]}"
-    if kind.startswith("s"):  # a string that fits, never truncated
-        return f"text_problem({value}, {kind[1:]})"
-    if kind == "f":
-        return f"type({value}) not in NUMBER and not is_real({value})"
-    if kind == "i":
-        return (
-            f"(type({value}) is not int and not is_integer({value})) "
-            f"or not INT_MIN <= {value} <= INT_MAX"
-        )
-    return f"type({value}) is not bool"
-
-
-def result_mismatch(kinds: str, name: str = "returned") -> str:
+def result_mismatch(kinds: tuple[Type, ...], name: str = "returned") -> str:
     """The Python condition that a hook's result `name` does not fit targets of `kinds`:
-    one value of its kind, or a tuple of exactly that many values of theirs."""
+    one value of its type, or a tuple of exactly that many values of theirs."""
     if not kinds:
         return ""  # no targets: the result is ignored
-    letters = kind_tokens(kinds)
-    if len(letters) == 1:
-        return _value_mismatch(name, kinds)
-    parts = [f"type({name}) is not tuple", f"len({name}) != {len(letters)}"]
-    parts += [f"{_value_mismatch(f'{name}[{i}]', k)}" for i, k in enumerate(letters)]
+    if len(kinds) == 1:
+        return _value_mismatch(name, kinds[0])
+    parts = [f"type({name}) is not tuple", f"len({name}) != {len(kinds)}"]
+    parts += [f"{_value_mismatch(f'{name}[{i}]', k)}" for i, k in enumerate(kinds)]
     return " or ".join(f"({p})" if " or " in p or " and " in p else p for p in parts)
 
 
 def _attribute(target: Target) -> str:
-    return naming.target_attribute(target.text)
+    return naming.target_attribute(target.kind, target.name)
 
 
 def _runtime_names(
@@ -429,16 +461,16 @@ def _runtime_names(
         for action in rule.actions:
             if isinstance(action, Report):
                 used |= {action.status, "NOP"}
-            elif isinstance(action, PlanAction) and action.kind != "advance":
+            elif isinstance(action, PlanAction) and action.kind is not PlanVerb.ADVANCE:
                 used |= {"HookError", "plan_problem"}
             elif isinstance(action, CallHook):
                 used.add("HookError")
                 kinds = {t.type for t in action.targets}
-                used |= {"NUMBER", "is_real"} if "float" in kinds else set()
-                used |= {"INT_MIN", "INT_MAX", "is_integer"} if "int" in kinds else set()
-                used |= {"text_problem"} if any(expr.str_size(k) for k in kinds) else set()
+                used |= {"NUMBER", "is_real"} if FLOAT in kinds else set()
+                used |= {"INT_MIN", "INT_MAX", "is_integer"} if INT in kinds else set()
+                used |= {"text_problem"} if any(isinstance(k, Str) for k in kinds) else set()
     for tree in trees:
-        used |= {ref.name for ref in expr.refs(tree) if ref.kind == "status"}
+        used |= {ref.name for ref in expr.refs(tree) if ref.kind == RefKind.STATUS}
     return tuple(sorted(used, key=naming.import_order))
 
 
@@ -523,12 +555,12 @@ def plan_layout(
         if c.buffers != c.name:
             continue
         prefix = c.name.upper()
-        params = [(f"arg_{p.name}", format_of_type(p.type)) for p in c.params]
-        if c.kind == "operator":
+        params = [(f"arg_{p.name}", p.type.code) for p in c.params]
+        if c.is_operator:
             operators[c.name], at = _operator_buffers(c, at, params)
             continue
-        results = [(f"result_{r.name}", format_of_type(r.type)) for r in c.results]
-        results += [(name, format_of_type("int")) for p in c.plans for name in p.status_fields]
+        results = [(f"result_{r.name}", r.type.code) for r in c.results]
+        results += [(name, INT.code) for p in c.plans for name in p.status_fields]
         parts = {
             "command": ([*COMMAND_HEAD_FIELDS, *params], "command in"),
             "status": ([*STATUS_FIELDS, *results], "status out"),
@@ -542,7 +574,7 @@ def plan_layout(
         modules[c.name] = ir.ModuleBuffers(**made)
     world_buffers = []
     for f in world:
-        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, format_of_type(f.type))], f.doc)
+        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, f.type.code)], f.doc)
         world_buffers.append(buffer)
         at = align(at + buffer.size)
     layout = ir.Layout(process_records, modules, tuple(world_buffers), at, "", pacing, operators)

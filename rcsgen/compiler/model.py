@@ -11,14 +11,30 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
+from enum import StrEnum
 from functools import cached_property
 from pathlib import Path
 from typing import Any, NamedTuple
 
 from ..runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
 from .diagnostics import Span
-from .expr import spec_type
 from .loader import key_span, span_of, value_span
+from .types import NAMED, STR_DEFAULT_SIZE, Str, Type, enum_of
+
+
+class ModuleKind(StrEnum):
+    """What a module of a system is."""
+
+    CONTROLLER = "controller"  # a state table, run every cycle
+    OPERATOR = "operator"  # a person at a screen: tasks answered, no table (build_operator)
+
+
+class PlanVerb(StrEnum):
+    """What an action does to a plan; its key in the spec (`plan: route`)."""
+
+    PLAN = "plan"  # call the planner, load its steps
+    REPLAN = "replan"  # the same, counted against the plan's `replans`
+    ADVANCE = "advance"  # make the next step the current one
 
 
 class Located(NamedTuple):
@@ -35,11 +51,11 @@ class Located(NamedTuple):
 class Typed:
     """A world field, param or local: name, type, initial value (not of params) and doc.
 
-    `type` is `bool`, `int`, `float`, `enum A|B|...` or `str N` (expr.spec_type); an enum's
-    initial value is the value's name as written, a string's its text."""
+    `type` is BOOL, INT, FLOAT, an Enum or a Str (`declared_type`); an enum's initial value
+    is the value's name as written, a string's its text."""
 
     name: str
-    type: str
+    type: Type
     initial: bool | int | float | str
     doc: str
     span: Span
@@ -99,7 +115,7 @@ class SystemSpec:
     operators: Operators = field(default_factory=Operators)  # roles and requests
 
     @cached_property
-    def world_types(self) -> dict[str, str]:
+    def world_types(self) -> dict[str, Type]:
         """Each world field's type, by name (every controller's scope shares it)."""
         return {name: f.type for name, f in self.world.items()}
 
@@ -125,7 +141,7 @@ class Plan:
     doc: str
     planner: Located
     args: list[Located]
-    steps: dict[str, str]  # field name -> type, in order
+    steps: dict[str, Type]  # field name -> type, in order
     capacity: int
     replans: int
     span: Span
@@ -137,8 +153,8 @@ class Function:
 
     name: str
     doc: str
-    params: dict[str, str]  # name -> type
-    returns: str
+    params: dict[str, Type]  # name -> type
+    returns: Type
     body: Located
     span: Span
 
@@ -183,14 +199,12 @@ class CallHook:
 class PlanAction:
     """`plan:`, `replan:` or `advance:` of a declared plan."""
 
-    kind: str  # "plan", "replan" or "advance"
+    kind: PlanVerb
     plan: str
     span: Span
 
 
 Action = Send | SetWorld | Report | CallHook | PlanAction
-
-PLAN_ACTIONS = ("plan", "replan", "advance")
 
 
 @dataclass
@@ -261,14 +275,25 @@ class ControllerSpec:
     hooks_state: Located | None = None  # factory of the state every hook call receives first
     functions: dict[str, Function] = field(default_factory=dict)  # pure, callable anywhere
     plans: dict[str, Plan] = field(default_factory=dict)  # stepped through by its tables
-    kind: str = "controller"  # or "operator": a person at a screen, no table (build_operator)
+    kind: ModuleKind = ModuleKind.CONTROLLER  # OPERATOR: a person at a screen, no table
 
     @property
     def is_operator(self) -> bool:
-        return self.kind == "operator"
+        return self.kind is ModuleKind.OPERATOR
 
 
 # ---------------------------------------------------------------- builders
+
+
+def declared_type(spec: Any) -> Type:
+    """The type a schema-valid declaration (`{type, values, size}`) gives its value: the one
+    place a type is read from the spec's text."""
+    kind = str(spec["type"])
+    if kind == "enum":
+        return enum_of([str(v) for v in spec.get("values") or ()])
+    if kind == "str":
+        return Str(int(spec.get("size", STR_DEFAULT_SIZE)))
+    return NAMED[kind]
 
 
 def _items(data: Any, key: str, span: Span) -> list[Located]:
@@ -282,7 +307,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
     world = {
         name: Typed(
             name,
-            spec_type(spec),
+            declared_type(spec),
             spec["initial"],
             spec.get("doc", ""),
             key_span(data["world"], name, top),
@@ -357,7 +382,7 @@ def build_operators(data: Any, top: Span) -> Operators:
 def _typed(name: str, spec: Any, span: Span) -> Typed:
     initial = value_span(spec, "initial", span) if "initial" in spec else None
     return Typed(
-        name, spec_type(spec), spec.get("initial", False), spec.get("doc", ""), span, initial
+        name, declared_type(spec), spec.get("initial", False), spec.get("doc", ""), span, initial
     )
 
 
@@ -379,9 +404,9 @@ def _action(raw: Any, span: Span) -> Action:
             Located(raw["reason"], value_span(raw, "reason", span)) if "reason" in raw else None
         )
         return Report(raw["report"], value_span(raw, "report", span), reason)
-    for kind in PLAN_ACTIONS:
-        if kind in raw:
-            return PlanAction(kind, str(raw[kind]), value_span(raw, kind, span))
+    for verb in PlanVerb:
+        if verb.value in raw:
+            return PlanAction(verb, str(raw[verb.value]), value_span(raw, verb.value, span))
     return CallHook(raw["call"], value_span(raw, "call", span))
 
 
@@ -497,8 +522,8 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
             k: Function(
                 k,
                 v.get("doc", ""),
-                dict(v.get("params") or {}),
-                v["returns"],
+                {name: NAMED[kind] for name, kind in (v.get("params") or {}).items()},
+                NAMED[v["returns"]],
                 Located(v["body"], value_span(v, "body", key_span(data["functions"], k, top))),
                 key_span(data["functions"], k, top),
             )
@@ -521,7 +546,7 @@ def _plan(name: str, raw: Any, span: Span) -> Plan:
         raw.get("doc", ""),
         Located(raw["planner"], value_span(raw, "planner", span)),
         _items(raw, "args", span),
-        dict(raw["steps"]),
+        {name: NAMED[kind] for name, kind in raw["steps"].items()},
         int(raw["capacity"]),
         int(raw.get("replans", 0)),
         span,
@@ -563,7 +588,7 @@ def build_operator(data: Any, display: str) -> ControllerSpec:
         display=display,
         span=top,
         name_span=value_span(data, "operator", top),
-        kind="operator",
+        kind=ModuleKind.OPERATOR,
     )
 
 

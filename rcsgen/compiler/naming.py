@@ -40,9 +40,11 @@ from ..runtime.contract import (
     field_names,
 )
 from .diagnostics import Diagnostics, Span
-from .expr import BUILTIN_REASONS, BUILTINS, PLAN_PROPERTIES, STATUS_NAMES, Ref, enum_values
+from .expr import BUILTIN_REASONS, BUILTINS, PLAN_PROPERTIES, STATUS_NAMES, Ref, RefKind
 from .loader import span_of
 from .model import Command, ControllerSpec, SystemSpec, Typed
+from .tables import TargetKind
+from .types import Enum, Type
 
 # Methods every generated controller class has (QQ1 shape).
 FIXED_METHODS = frozenset(
@@ -192,10 +194,28 @@ def plan_attribute(plan: str, name: str) -> str:
     return f"plan_{plan}_{name}"
 
 
+def plan_method(plan: str, name: str) -> str:
+    """A method a plan makes: route, load -> plan_route_load (its steps checked and loaded),
+    route, go -> plan_route_go (a step made current)."""
+    return f"plan_{plan}_{name}"
+
+
 def plan_attributes(plan: str, fields: Iterable[str]) -> list[str]:
     """Every attribute and method a plan makes in its controller's class."""
-    names = [f"plan_{plan}", f"plan_{plan}_load", f"plan_{plan}_go"]
+    names = [f"plan_{plan}", plan_method(plan, "load"), plan_method(plan, "go")]
     return names + [plan_attribute(plan, n) for n in [*fields, *PLAN_PROPERTIES]]
+
+
+def sub_attribute(sub: str, suffix: str) -> str:
+    """An attribute its supervisor keeps for a subordinate (a suffix of SUB_SUFFIXES, or
+    `_error_num`, `_result_<name>`): cc, _status -> self.cc_status."""
+    return f"self.{sub}{suffix}"
+
+
+def sub_arg_attribute(sub: str, param: str) -> str:
+    """The attribute a parameter of a command sent to a subordinate is kept in: cr, x ->
+    self.cr_arg_x (copied into its command buffer)."""
+    return f"self.{sub}_arg_{param}"
 
 
 def sub_command_const(sub: str, command: str) -> str:
@@ -213,47 +233,52 @@ def class_name(mnemonic: str) -> str:
 
 def attribute(ref: Ref) -> str:
     """The Python text a resolved name is printed as inside a controller method."""
-    kind, name, owner = ref.kind, ref.name, ref.owner
-    if kind == "world":
-        return f"self.world_{name}"
-    if kind == "param":
-        return f"self.arg_{name}"
-    if kind == "local":
-        return f"self.var_{name}"
-    if kind in ("const", "status"):
-        return name
-    if kind == "time":  # cycles in the current state (`after:`)
-        return "self.ticks"
-    if kind == "held":  # cycles a `for:` rule's guard has held
-        return f"self.{name}"
-    if kind == "plan":  # a plan's current step field or property: route.x
-        return f"self.{plan_attribute(owner, name)}"
-    if kind == "sub_status":
-        return f"self.{owner}_status"
-    if kind == "sub_command":
-        return f"self.{owner}_command"
-    if kind == "sub_command_name":
-        return sub_command_const(owner, name)
-    if kind == "sub_result":
-        return f"self.{owner}_result_{name}"
-    if kind == "sub_reason":
-        return f"self.{owner}_error_num"
-    if kind == "sub_reason_name":
-        return sub_reason_const(owner, name)
-    if kind == "predicate":
-        return f"self.{name}"
-    if kind in ("let", "arg", "function"):  # a local of the method, a parameter, a function
-        return name
+    name, owner = ref.name, ref.owner
+    match ref.kind:
+        case RefKind.WORLD:
+            return f"self.world_{name}"
+        case RefKind.PARAM:
+            return f"self.arg_{name}"
+        case RefKind.LOCAL:
+            return f"self.var_{name}"
+        case RefKind.CONST | RefKind.STATUS:
+            return name
+        case RefKind.TIME:  # cycles in the current state (`after:`)
+            return "self.ticks"
+        case RefKind.HELD:  # cycles a `for:` rule's guard has held
+            return f"self.{name}"
+        case RefKind.PLAN:  # a plan's current step field or property: route.x
+            return f"self.{plan_attribute(owner, name)}"
+        case RefKind.SUB_STATUS:
+            return f"self.{owner}_status"
+        case RefKind.SUB_COMMAND:
+            return f"self.{owner}_command"
+        case RefKind.SUB_COMMAND_NAME:
+            return sub_command_const(owner, name)
+        case RefKind.SUB_RESULT:
+            return f"self.{owner}_result_{name}"
+        case RefKind.SUB_REASON:
+            return f"self.{owner}_error_num"
+        case RefKind.SUB_REASON_NAME:
+            return sub_reason_const(owner, name)
+        case RefKind.PREDICATE:
+            return f"self.{name}"
+        case RefKind.LET | RefKind.ARG | RefKind.FUNCTION:  # a method's local, a parameter
+            return name
     raise ValueError(f"no Python name for {ref!r}")
 
 
-def target_attribute(target: str) -> str:
-    """`world.goal_x` -> self.world_goal_x; a local `ticks` -> self.var_ticks."""
-    if target.startswith("world."):
-        return f"self.world_{target.removeprefix('world.')}"
-    if target.startswith("result."):
-        return f"self.result_{target.removeprefix('result.')}"
-    return f"self.var_{target}"
+def target_attribute(kind: TargetKind, name: str) -> str:
+    """Where an assignment's target is kept: world.goal_x -> self.world_goal_x, a local
+    ticks -> self.var_ticks, result.at_goal -> self.result_at_goal."""
+    return f"self.{_TARGET_PREFIXES[kind]}{name}"
+
+
+_TARGET_PREFIXES = {
+    TargetKind.WORLD: "world_",
+    TargetKind.LOCAL: "var_",
+    TargetKind.RESULT: "result_",
+}
 
 
 def reason_const(reason: str) -> str:
@@ -723,7 +748,7 @@ def _one_type_per_slot(
 ) -> None:
     """Commands of one controller share a buffer slot per parameter (or result) name, so
     every declaration of a name has the first one's type."""
-    first: dict[str, tuple[str, str]] = {}
+    first: dict[str, tuple[Type, str]] = {}
     for command, item in named:
         if item.name in first and first[item.name][0] != item.type:
             first_type, first_command = first[item.name]
@@ -821,7 +846,7 @@ def _enum_value_names(
     found: dict[str, tuple[int, Typed]] = {}
     named = []
     for item in seen:
-        for index, value in enumerate(enum_values(item.type)):
+        for index, value in enumerate(item.type.values if isinstance(item.type, Enum) else ()):
             if value in STATUS_NAMES:
                 continue  # E278 says so
             if value not in found:
@@ -829,7 +854,8 @@ def _enum_value_names(
                 named.append((value, "enum value", item.span))
             elif found[value][0] != index and item.span != found[value][1].span:
                 before, other = found[value]
-                found.update((v, (i, item)) for i, v in enumerate(enum_values(item.type)))
+                assert isinstance(item.type, Enum)
+                found.update((v, (i, item)) for i, v in enumerate(item.type.values))
                 diags.error(
                     item.span,
                     "E228",
@@ -854,9 +880,9 @@ def _world_layout_names(fields: tuple[str, ...]) -> dict[str, str]:
     return names
 
 
-def result_types(spec: ControllerSpec) -> dict[str, str]:
+def result_types(spec: ControllerSpec) -> dict[str, Type]:
     """A controller's results (one slot per name, in order of first declaration) -> type."""
-    found: dict[str, str] = {}
+    found: dict[str, Type] = {}
     for command in spec.commands.values():
         for name, result in command.results.items():
             found.setdefault(name, result.type)

@@ -17,6 +17,7 @@ from string import Formatter
 from ..runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
 from .diagnostics import Diagnostics, known_names_hint
 from .model import Command, ControllerSpec, Located, Operators, Request, SystemSpec
+from .types import BOOL, Type
 
 
 def access(operators: Operators, modules: list[str]) -> dict[str, dict[str, int]]:
@@ -37,7 +38,7 @@ def check(
     operators: Operators,
     by_name: dict[str, ControllerSpec],
     supervisors: dict[str, str],
-    world: dict[str, str],
+    world: dict[str, Type],
     diags: Diagnostics,
 ) -> None:
     """Every module a role or request names exists; a role commands only modules no
@@ -85,7 +86,7 @@ def check(
                 known_names_hint("modules", by_name, request.by.value),
             )
         field_type = world.get(request.open_while.value)
-        if field_type != "bool":
+        if field_type != BOOL:
             problem = "an unknown world field" if field_type is None else f"a {field_type}"
             diags.error(
                 request.open_while.span,

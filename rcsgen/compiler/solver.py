@@ -13,13 +13,33 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from enum import StrEnum
 from fractions import Fraction
 from itertools import pairwise, product
 from typing import Any
 
 LIMIT = 4096  # the most valuations one question may enumerate
 BOOL_DOMAIN = (False, True)
-INT, FLOAT = "int", "float"  # the kinds of a numeric atom
+
+
+class Number(StrEnum):
+    """The kinds of a numeric atom: whole numbers only, or any."""
+
+    INT = "int"
+    FLOAT = "float"
+
+
+INT, FLOAT = Number.INT, Number.FLOAT
+
+
+class Verdict(StrEnum):
+    """Whether a conjunction of guards can hold (`Answer.kind`)."""
+
+    YES = "yes"  # a valuation that can happen makes it hold, whatever the opaque atoms
+    MAYBE = "maybe"  # only for values rcsgen cannot show possible
+    NO = "no"
+    UNKNOWN = "unknown"  # more than LIMIT valuations
+
 
 Key = tuple[str, str]  # (kind, name): what an atom is, for the caller to interpret
 Valuation = dict[Key, Any]
@@ -36,9 +56,9 @@ class Guard:
 
     fn: Callable[[Valuation], Any]
     domains: dict[Key, tuple[Any, ...]] = field(default_factory=dict)  # discrete atoms
-    numeric: dict[Key, tuple[str, set[Fraction]]] = field(default_factory=dict)
+    numeric: dict[Key, tuple[Number, set[Fraction]]] = field(default_factory=dict)
     forms: dict[Key, dict[Key, Fraction]] = field(default_factory=dict)
-    types: dict[Key, str] = field(default_factory=dict)  # numeric variable -> int or float
+    types: dict[Key, Number] = field(default_factory=dict)  # numeric variable -> its kind
     opaque: dict[Key, None] = field(default_factory=dict)
     order: dict[Key, None] = field(default_factory=dict)
     # the least and greatest value a numeric variable can take, where it has bounds
@@ -113,7 +133,7 @@ def merge_atoms(into: Guard, atoms: Guard) -> None:
         into.numeric.setdefault(key, (kind, set()))[1].update(constants)
 
 
-def samples(kind: str, constants: Iterable[Fraction]) -> tuple[Any, ...]:
+def samples(kind: Number, constants: Iterable[Fraction]) -> tuple[Any, ...]:
     """One value per region the constants cut the number line into: the constants first."""
     cs = sorted(set(constants))
     if kind == INT:
@@ -161,7 +181,7 @@ class Answer:
     matter; `undecided` names the atoms a "maybe" depends on.
     """
 
-    kind: str
+    kind: Verdict
     shown: list[tuple[Key, Any]] = field(default_factory=list)
     size: int = 0
     undecided: list[Key] = field(default_factory=list)
@@ -179,12 +199,12 @@ def solve(
     """Search a valuation under which every guard of `parts` has the wanted truth value;
     `fixed` pins atoms to one value, `allowed` narrows them to some values."""
     if any(g is None and not wanted for g, wanted in parts):
-        return Answer("no")
+        return Answer(Verdict.NO)
     guards = [(g, wanted) for g, wanted in parts if g is not None]
     domains: dict[Key, tuple[Any, ...]] = {}
-    numeric: dict[Key, tuple[str, set[Fraction]]] = {}
+    numeric: dict[Key, tuple[Number, set[Fraction]]] = {}
     forms: dict[Key, dict[Key, Fraction]] = {}
-    types: dict[Key, str] = {}
+    types: dict[Key, Number] = {}
     opaque: dict[Key, None] = {}
     bounds: dict[Key, tuple[Fraction, Fraction]] = {}
     invariants: dict[str, Callable[[Valuation], bool | None]] = {}
@@ -216,7 +236,7 @@ def solve(
             domains[key] = tuple(v for v in domains[key] if v in values)
     size = math.prod(len(d) for d in domains.values()) * 2 ** len(opaque)
     if size > LIMIT:
-        return Answer("unknown", size=size)
+        return Answer(Verdict.UNKNOWN, size=size)
     keys, okeys = list(domains), list(opaque)
 
     def truth(val: dict[Key, Any]) -> bool | None:
@@ -276,15 +296,15 @@ def solve(
             shown = [(k, val[k]) for k in keys if k in val and k not in free]
             unsure = uncertain(k for k, _ in shown)
             if not unsure:
-                return Answer("yes", shown, size)
-            maybe.append(Answer("maybe", shown, size, unsure))
+                return Answer(Verdict.YES, shown, size)
+            maybe.append(Answer(Verdict.MAYBE, shown, size, unsure))
             return None
         if index == len(keys):  # only opaque atoms are left undecided
             for ov in product(BOOL_DOMAIN, repeat=len(okeys)):
                 at = {**val, **dict(zip(okeys, ov, strict=True))}
                 if truth(at):
                     shown = [(k, at[k]) for k in [*keys, *okeys]]
-                    maybe.append(Answer("maybe", shown, size, okeys))
+                    maybe.append(Answer(Verdict.MAYBE, shown, size, okeys))
                     break
             return None
         key = keys[index]
@@ -296,4 +316,4 @@ def solve(
                 return answer
         return None
 
-    return search(0, {}) or (maybe[0] if maybe else Answer("no", size=size))
+    return search(0, {}) or (maybe[0] if maybe else Answer(Verdict.NO, size=size))

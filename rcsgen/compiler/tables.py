@@ -11,10 +11,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from enum import StrEnum
 
 from . import expr, model
 from .diagnostics import Span
 from .model import ENTRY_STATE, Command, ControllerSpec, Hook, Rule, SystemSpec
+from .types import BOOL, Type
 
 __all__ = ["ENTRY_STATE"]
 
@@ -34,18 +36,26 @@ class RuleId:
         return f"{self.command}/{self.state}/{self.index}"
 
 
+class TargetKind(StrEnum):
+    """What an assignment writes (`Target.kind`)."""
+
+    WORLD = "world"
+    LOCAL = "local"
+    RESULT = "result"  # of the current command
+
+
 @dataclass(frozen=True)
 class Target:
     """An assignable name: a world field, a local or a result of the current command."""
 
-    kind: str  # "world", "local" or "result"
+    kind: TargetKind
     name: str
-    type: str
+    type: Type
 
     @property
     def text(self) -> str:
         """As the spec writes it: `world.goal_x`, `ticks`, `result.at_goal`."""
-        return f"{self.kind}.{self.name}" if self.kind in ("world", "result") else self.name
+        return self.name if self.kind is TargetKind.LOCAL else f"{self.kind}.{self.name}"
 
 
 @dataclass(frozen=True)
@@ -97,7 +107,7 @@ class CallHook:
 class PlanAction:
     """`plan:`/`replan:` (the planner's arguments typed where the action is) or `advance:`."""
 
-    kind: str  # "plan", "replan" or "advance"
+    kind: model.PlanVerb
     plan: model.Plan
     args: tuple[expr.Expr, ...]  # the planner's arguments (none for advance)
     span: Span
@@ -176,7 +186,7 @@ def is_timer(e: expr.Expr) -> bool:
     return (
         isinstance(e, expr.Compare)
         and isinstance(e.left, expr.Ref)
-        and e.left.kind in ("time", "held")
+        and e.left.kind in (expr.RefKind.TIME, expr.RefKind.HELD)
     )
 
 
@@ -187,7 +197,7 @@ def untimed(guard: expr.Expr) -> tuple[expr.Expr | None, tuple[expr.Expr, ...]]:
     rest = [p for p in parts if not is_timer(p)]
     if not rest:
         return None, timers
-    return (rest[0] if len(rest) == 1 else expr.BoolOp(expr.BOOL, "and", tuple(rest))), timers
+    return (rest[0] if len(rest) == 1 else expr.BoolOp(BOOL, "and", tuple(rest))), timers
 
 
 def duration_text(value: object) -> str:
@@ -262,8 +272,8 @@ class CheckedFunction:
     and the functions declared before it."""
 
     name: str
-    params: tuple[tuple[str, str], ...]  # (name, type) in call order
-    returns: str
+    params: tuple[tuple[str, Type], ...]  # (name, type) in call order
+    returns: Type
     tree: expr.Expr
     text: str
     span: Span

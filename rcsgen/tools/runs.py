@@ -19,7 +19,7 @@ from typing import Any
 
 from ..compiler.diagnostics import Diagnostic, Span, SpecError
 from ..compiler.frontend import display_path
-from ..compiler.ir import IRCall, IRController, IRPlanAction, IRSystem
+from ..compiler.ir import IRCall, IRController, IRLoadPlan, IRSystem
 from ..compiler.write import Plan
 from .scenario import RunResult, Scenario, final_value, first_difference, read_trace
 
@@ -51,9 +51,8 @@ def _call_span(controller: IRController | None, rule: str, hook: str) -> Span | 
             if isinstance(action, IRCall) and action.hook == hook and action.span is not None:
                 return action.span
             if (
-                isinstance(action, IRPlanAction)
+                isinstance(action, IRLoadPlan)
                 and action.planner == hook
-                and action.action != "advance"
                 and action.span is not None
             ):
                 return action.span
