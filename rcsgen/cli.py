@@ -27,7 +27,7 @@ import click
 from click.shell_completion import CompletionItem
 
 from .compiler import write
-from .compiler.acknowledge import WARNING_CODES
+from .compiler.codes import CODES, WARNING_CODES
 from .compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
 from .compiler.frontend import compile_paths, display_path
 from .compiler.ir import IRSystem
@@ -219,11 +219,12 @@ def _codes(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) 
 def _complete_codes(
     ctx: click.Context, param: click.Parameter, incomplete: str
 ) -> list[CompletionItem]:
-    """Shell completion of --select/--ignore: the warning codes (after the last comma)."""
+    """Shell completion of --select/--ignore: the warning codes (after the last comma), each
+    with its title."""
     done, _, last = incomplete.rpartition(",")
     prefix = f"{done}," if done else ""
     return [
-        CompletionItem(prefix + code)
+        CompletionItem(prefix + code, help=CODES[code].title)
         for code in sorted(WARNING_CODES)
         if code.startswith(last.upper())
     ]

@@ -40,6 +40,7 @@ from rcsgen.compiler.expr import (
     Const,
     Expr,
     Ref,
+    RefKind,
     Scope,
     Unary,
     compile_expr,
@@ -549,3 +550,27 @@ def test_a_rejected_operation_is_reported_where_it_is(
     assert [(d.span, d.code, d.message) for d in diags] == [
         (Span("expr.yaml", 3, col), code, message)
     ]
+
+
+# ---------------------------------------------------------------- folding and/or (mutants)
+
+
+@pytest.mark.parametrize(
+    ("op", "first", "want"),
+    [
+        ("and", False, False),  # decided by a false operand, whatever the other
+        ("and", True, None),  # true and unknown: unknown
+        ("or", True, True),  # decided by a true operand
+        ("or", False, None),  # false or unknown: unknown
+    ],
+)
+def test_and_or_fold_short_circuit_on_the_deciding_operand(op: str, first: bool, want: object):
+    """`and` is decided by a false operand, `or` by a true one, in either position: swapping
+    the two (a seeded one-line bug) or ignoring an unknown operand is caught here."""
+    from rcsgen.compiler.expr import fold
+
+    unknown = Ref(BOOL, RefKind.WORLD, "wb")
+    for values in ((Const(BOOL, first), unknown), (unknown, Const(BOOL, first))):
+        assert fold(BoolOp(BOOL, op, values), {}) is want, (op, values)
+    both = (Const(BOOL, first), Const(BOOL, not first))
+    assert fold(BoolOp(BOOL, op, both), {}) is (op == "or")

@@ -16,27 +16,9 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+from .codes import ACKNOWLEDGEABLE, Severity
 from .diagnostics import Diagnostic, Diagnostics, known_names_hint
 from .model import Allow, ControllerSpec
-
-# The warnings a spec can acknowledge, each with what it is about (for W303's hint).
-ACKNOWLEDGEABLE = {
-    "W301": "a rule",
-    "W302": "a rule",
-    "W304": "a rule",
-    "W306": "a rule",
-    "W309": "a rule",
-    "W502": "a rule",
-    "W503": "a state",
-    "W505": "a rule",
-    "W506": "a state",
-    "W508": "a state",
-    "W509": "a state",
-    "W511": "a state",
-    "W512": "a rule",
-}
-# Every warning rcsgen reports (what --select and --ignore can name).
-WARNING_CODES = frozenset({*ACKNOWLEDGEABLE, "W303", "W305", "W307", "W308", "W501", "W520"})
 
 
 @dataclass
@@ -124,7 +106,7 @@ def apply(
     kept = []
     for diagnostic in diags.items[since:]:
         entry = next((e for e in entries if e.matches(diagnostic)), None)
-        if entry is None or diagnostic.severity != "warning":
+        if entry is None or diagnostic.severity is not Severity.WARNING:
             kept.append(diagnostic)
             continue
         entry.used = True

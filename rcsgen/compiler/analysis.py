@@ -19,7 +19,8 @@ of a state both hold? can none hold? can this rule fire at all? - is decided by 
   variable) is an opaque atom, free to be true or false: "cannot prove" as well.
 
 More than `LIMIT` valuations is "cannot prove" too, never a hang. Findings are diagnostics
-in the E5xx/W5xx range (`CODES`), located at the rule, state, send or command they concern.
+in the E5xx/W5xx range (`codes.Topic.ANALYSIS`), located at the rule, state, send or
+command they concern.
 The default INIT/HALT tables are analysed like the others, except that they wait for every
 subordinate's DONE by design (the QQ1 template): W503 and W506 are not reported for them.
 """
@@ -64,25 +65,6 @@ from .tables import (
     reachable,
 )
 from .types import BOOL, INT, NUMERIC, Enum, Str, Type
-
-# Every code this module reports, with its meaning (docs/diagnostics.md documents them).
-CODES = {
-    "E501": "two rules of one state can both fire in the same cycle (nondeterministic table)",
-    "W501": "two rules of a `first_match` state can both fire: the earlier one wins",
-    "W502": "cannot prove two rules of a state exclusive (a numeric comparison beyond interval "
-    "reasoning, or too many valuations)",
-    "W503": "a state where no rule fires for some valuation: the table waits there",
-    "E504": "a command that can never finish: no rule reachable from S0 reports DONE or ERROR",
-    "W505": "a command sent to a subordinate whose status no later state tests",
-    "W506": "a state waits on a subordinate but no rule fires on its ERROR",
-    "E507": "a guard tests the status of a subordinate the table never commands",
-    "W508": "a dead state: none of its rules can ever fire",
-    "W509": "a state with no way out: no rule leaves it or reports",
-    "E510": "`first_match` names a state the command does not have",
-    "W511": "`first_match` on a state whose rules never overlap",
-    "W512": "a rule that can never fire: its guard never holds, or only when an earlier "
-    "rule's does",
-}
 
 
 class Atom(StrEnum):
@@ -390,25 +372,7 @@ class GuardBuilder:
         if isinstance(e, expr.Const):
             return Linear({}, Fraction(e.value))
         if isinstance(e, expr.Ref):
-            if e.kind == expr.RefKind.CONST:
-                return Linear({}, Fraction(self.constants[e.name]))
-            if e.kind == expr.RefKind.PLAN:  # step and steps within 0..capacity, replans_left 0..
-                key = (Atom.PLAN, f"{e.owner}.{e.name}")
-                types[key] = _number(e.type)
-                capacity, replans = self.plans[e.owner]
-                high = {"step": capacity, "remaining": capacity, "replans_left": replans}
-                if e.name in high:
-                    self.bounds[key] = (Fraction(0), Fraction(high[e.name]))
-                return Linear({key: Fraction(1)}, Fraction(0))
-            if e.kind == expr.RefKind.SUB_RESULT:
-                key = (Atom.RESULT, f"{e.owner}.{e.name}")
-                types[key] = _number(e.type)
-                return Linear({key: Fraction(1)}, Fraction(0))
-            if e.kind in _VARIABLES:
-                key = (_VARIABLES[e.kind], e.name)
-                types[key] = _number(e.type)
-                return Linear({key: Fraction(1)}, Fraction(0))
-            return None
+            return self._linear_ref(e, types)
         if isinstance(e, expr.Unary):
             inner = self._linear(e.operand, types)
             return inner.scaled(Fraction(-1 if e.op == "-" else 1)) if inner else None
@@ -416,28 +380,53 @@ class GuardBuilder:
             left, right = self._linear(e.left, types), self._linear(e.right, types)
             if left is None or right is None:
                 return None
-            if e.op == "+":
-                return left.minus(right.scaled(Fraction(-1)))
-            if e.op == "-":
-                return left.minus(right)
-            if e.op == "*" and not left.coefficients:
-                return right.scaled(left.constant)
-            if e.op == "*" and not right.coefficients:
-                return left.scaled(right.constant)
-            if e.op == "/" and not right.coefficients and right.constant:
-                return left.scaled(1 / right.constant)
-            if e.op in ("//", "%") and not left.coefficients and not right.coefficients:
-                if right.constant:
-                    return Linear(
-                        {}, Fraction(expr.ARITHMETIC[e.op](left.constant, right.constant))
-                    )
-            return None
+            return _linear_binary(e.op, left, right)
         if isinstance(e, expr.Call) and e.kind == expr.CallKind.BUILTIN:
             args = [self._linear(a, types) for a in e.args]
             constants = [a.constant for a in args if a is not None and not a.coefficients]
             if len(constants) == len(args):
                 return Linear({}, Fraction(_BUILTIN[e.name](*constants)))
         return None
+
+    def _linear_ref(self, e: expr.Ref, types: dict[Key, solver.Number]) -> Linear | None:
+        """A name as a linear form: a constant's value, or a numeric variable (a plan's step
+        and steps within 0..capacity, its replans_left within 0..replans)."""
+        key: Key
+        if e.kind == expr.RefKind.CONST:
+            return Linear({}, Fraction(self.constants[e.name]))
+        if e.kind == expr.RefKind.PLAN:
+            key = (Atom.PLAN, f"{e.owner}.{e.name}")
+            capacity, replans = self.plans[e.owner]
+            high = {"step": capacity, "remaining": capacity, "replans_left": replans}
+            if e.name in high:
+                self.bounds[key] = (Fraction(0), Fraction(high[e.name]))
+        elif e.kind == expr.RefKind.SUB_RESULT:
+            key = (Atom.RESULT, f"{e.owner}.{e.name}")
+        elif e.kind in _VARIABLES:
+            key = (_VARIABLES[e.kind], e.name)
+        else:
+            return None
+        types[key] = _number(e.type)
+        return Linear({key: Fraction(1)}, Fraction(0))
+
+
+def _linear_binary(op: str, left: Linear, right: Linear) -> Linear | None:
+    """`left op right` as a linear form, when it is one (a product or quotient by a
+    constant, a `//` or `%` of constants)."""
+    if op == "+":
+        return left.minus(right.scaled(Fraction(-1)))
+    if op == "-":
+        return left.minus(right)
+    if op == "*" and not left.coefficients:
+        return right.scaled(left.constant)
+    if op == "*" and not right.coefficients:
+        return left.scaled(right.constant)
+    if op == "/" and not right.coefficients and right.constant:
+        return left.scaled(1 / right.constant)
+    if op in ("//", "%") and not left.coefficients and not right.coefficients:
+        if right.constant:
+            return Linear({}, Fraction(expr.ARITHMETIC[op](left.constant, right.constant)))
+    return None
 
 
 def _number(kind: Type) -> solver.Number:
@@ -592,7 +581,7 @@ class _Table:
             span = self.states[state].span
             if not any(r.fires for r in rules):
                 self.diags.warning(
-                    span,
+                    self.dead_at(rules) or span,
                     "W508",
                     f"{self.name} {state} is dead: none of its rules can ever fire",
                     "its guards can never be true: check their constants and comparisons",
@@ -642,6 +631,18 @@ class _Table:
                         "none are left",
                         self.about(state, rule.number),
                     )
+
+    def dead_at(self, rules: list[_Rule]) -> Span | None:
+        """Where a dead state's finding belongs: its first guard, which is what to fix (a
+        state is dead when no rule of it can hold on its own: a contradiction in each guard,
+        `x > 5 and x < 3`); None (the state) when that cannot be shown."""
+        guarded = [r for r in rules if r.rule.source.when is not None]
+        if len(guarded) != len(rules) or not guarded:
+            return None
+        if any(solve([(r.guard, True)]).kind != Verdict.NO for r in rules):
+            return None
+        when = guarded[0].rule.source.when
+        return when.span if when is not None else None
 
     def never_fires(self, state: str, rules: list[_Rule]) -> None:
         """W512 for each rule of a live state that can never fire."""
@@ -696,7 +697,6 @@ class _Table:
                         later.rule.span,
                         "W501",
                         f"{pair} both hold {when}; rule {earlier.number} wins (first_match)",
-                        severity="warning",
                         subject=self.about(state, later.number),
                     )
                     self.diags.acknowledge(

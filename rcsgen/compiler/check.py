@@ -12,12 +12,12 @@ from __future__ import annotations
 import ast
 import builtins
 import keyword
-import os
 from dataclasses import replace
 from pathlib import Path
 
-from . import acknowledge, expr, hooks, loader, model, naming, operators
-from .diagnostics import Diagnostics, Span, SpecError, Subject, known_names_hint
+from ..runtime.contract import BUILTIN_COMMANDS
+from . import acknowledge, expr, hook_checks, model, naming, operators
+from .diagnostics import Diagnostics, Span, Subject, known_names_hint
 from .model import Command, ControllerSpec, Located, PlanVerb, Rule, SystemSpec
 from .tables import (
     ENTRY_STATE,
@@ -48,12 +48,10 @@ from .types import (
     BOOL,
     FLOAT,
     INT,
-    Annotation,
     Enum,
     Str,
     Type,
     annotation_accepts,
-    annotation_fits,
     hook_words,
 )
 
@@ -64,25 +62,23 @@ def check_system(
     """Check a system and its controllers; the checked system, or None after errors."""
     naming.check_spec(system, controllers, diags)  # identifier and text policy (E228, E6xx)
     by_name = _index_controllers(controllers, diags)
-    stand_ins = {k: a.value for k, a in system.stand_ins.items()}
-    _check_processes(system, by_name, set(stand_ins.values()), diags)
-    supervisors = _check_hierarchy(by_name, diags)
+    valid = _valid_stand_ins(system, diags)  # E299: of itself, of a stand-in
+    stand_ins = {k: a.value for k, a in valid.items()}
+    named = {a.value for a in system.stand_ins.values()}  # valid or not: no more errors
+    _check_processes(system, by_name, set(stand_ins.values()), named, diags)
+    supervisors = _check_hierarchy(by_name, set(stand_ins.values()), diags)
     simulators = _check_simulators(system, by_name, diags)
-    _check_stand_ins(system, by_name, diags)
-    _check_world_writers(system, by_name, diags)
-    _check_sensing(system, by_name, simulators | set(stand_ins.values()), diags)
+    _check_stand_ins(valid, by_name, diags)
+    _check_builtin_commands(by_name, diags)  # E284: INIT and HALT take no parameters
+    _check_world_writers(system, stand_ins, by_name, diags)
+    _check_sensing(system, by_name, simulators | named, diags)
     world = {name: f.type for name, f in system.world.items()}
     operators.check(system.operators, by_name, supervisors, world, diags)  # E245-E249
     clients = operators.check_modules(system, by_name, diags)  # E281-E284, W308
-    contracts: dict[str, HookContracts] = {}
     _check_numbers(system, controllers, diags)
     _check_enums_and_strings(system, controllers, diags)  # E274, E276, E278, W307
     acknowledge.check_allows(controllers, diags)  # E237-E239
-    for spec in by_name.values():
-        _check_echo_timeouts(spec, diags)
-        _check_world_access(spec, world, diags)
-        naming.check_controller_names(spec, diags)
-        contracts[spec.name] = _check_hooks_module(spec, system.directory, world, diags)
+    contracts = {spec.name: _check_module(spec, system, world, diags) for spec in by_name.values()}
     before = len(diags.errors)
     if before:  # names must resolve before tables can be checked meaningfully
         return None
@@ -101,21 +97,43 @@ def check_system(
         naming.check_module_names(by_name[name], by_name, system, diags)
     if len(diags.errors) > before:
         return None
-    processes = []
-    for p in system.processes:
-        modules = tuple(a.value for a in p.modules)
-        replaces = {
-            name: (stand_in, tuple(m for m in modules if m in _subtree(name, by_name)))
-            for name, stand_in in sorted(stand_ins.items())
-            if name in modules
-        }
-        roots = tuple(m for m in modules if m not in supervisors and m not in clients)
-        period = p.cycle_period or system.cycle_period
-        processes.append(CheckedProcess(p.name, period, p.doc, modules, roots, replaces))
-    return CheckedSystem(system, checked, tuple(processes))
+    ruled = set(supervisors) | set(clients)  # modules commanded by another
+    processes = tuple(_process(p, system, by_name, stand_ins, ruled) for p in system.processes)
+    return CheckedSystem(system, checked, processes)
+
+
+def _process(
+    p: model.Process,
+    system: SystemSpec,
+    by_name: dict[str, ControllerSpec],
+    stand_ins: dict[str, str],
+    ruled: set[str],
+) -> CheckedProcess:
+    """A process: its modules in order, its roots (commanded by nobody), and for each of its
+    controllers that has a stand-in, the stand-in and the modules it replaces."""
+    modules = tuple(a.value for a in p.modules)
+    replaces = {
+        name: (stand_in, tuple(m for m in modules if m in _subtree(name, by_name)))
+        for name, stand_in in sorted(stand_ins.items())
+        if name in modules
+    }
+    roots = tuple(m for m in modules if m not in ruled)
+    period = p.cycle_period or system.cycle_period
+    return CheckedProcess(p.name, period, p.doc, modules, roots, replaces)
 
 
 # ---------------------------------------------------------------- system-wide checks
+
+
+def _check_module(
+    spec: ControllerSpec, system: SystemSpec, world: dict[str, Type], diags: Diagnostics
+) -> hook_checks.HookContracts:
+    """One module's own declarations (echo timeouts, world access, names) and its hooks
+    module; the hooks' contracts."""
+    _check_echo_timeouts(spec, diags)
+    _check_world_access(spec, world, diags)
+    naming.check_controller_names(spec, diags)
+    return hook_checks.check_hooks_module(spec, system.directory, world, diags)
 
 
 def process_period(system: SystemSpec, module: str) -> float:
@@ -152,8 +170,14 @@ def _index_controllers(
 
 
 def _check_processes(
-    system: SystemSpec, by_name: dict[str, ControllerSpec], stand_ins: set[str], diags: Diagnostics
+    system: SystemSpec,
+    by_name: dict[str, ControllerSpec],
+    stand_ins: set[str],
+    named: set[str],
+    diags: Diagnostics,
 ) -> dict[str, str]:
+    """Each module runs in one process (E209-E211), a stand-in in none (E233); `named`:
+    every module `stand_ins:` names, which E209 leaves to E299 when its entry is wrong."""
     placement: dict[str, str] = {}
     for process in system.processes:
         for module in process.modules:
@@ -182,7 +206,7 @@ def _check_processes(
             else:
                 placement[module.value] = process.name
     for name, spec in sorted(by_name.items()):
-        if name not in placement and name not in stand_ins:
+        if name not in placement and name not in named:
             diags.error(
                 spec.name_span,
                 "E209",
@@ -192,12 +216,23 @@ def _check_processes(
     return placement
 
 
-def _check_hierarchy(by_name: dict[str, ControllerSpec], diags: Diagnostics) -> dict[str, str]:
-    """Each controller's supervisor; reports unknown subordinates, two supervisors, cycles."""
+def _check_hierarchy(
+    by_name: dict[str, ControllerSpec], stand_ins: set[str], diags: Diagnostics
+) -> dict[str, str]:
+    """Each controller's supervisor; reports unknown subordinates, a stand-in commanded,
+    two supervisors, cycles."""
     supervisor: dict[str, str] = {}
     for name, spec in by_name.items():
         for sub in spec.subordinates:
-            if sub.value not in by_name:
+            if sub.value in stand_ins:
+                diags.error(
+                    sub.span,
+                    "E233",
+                    f"stand-in `{sub.value}` cannot be a subordinate of `{name}`",
+                    "a stand-in runs in its controller's place when a run simulates it: command "
+                    "the controller it stands in for",
+                )
+            elif sub.value not in by_name:
                 diags.error(
                     sub.span,
                     "E201",
@@ -274,11 +309,55 @@ def _command_signature(spec: ControllerSpec) -> dict[str, dict[str, Type | None]
     }
 
 
+def _valid_stand_ins(system: SystemSpec, diags: Diagnostics) -> dict[str, Located]:
+    """The `stand_ins:` entries that name another controller than their own, which has no
+    stand-in itself and stands in for nobody else (E299 at each other one, and it is left
+    out of every later check: one error, where it is written)."""
+    valid: dict[str, Located] = {}
+    replaced = {s.value: name for name, s in system.stand_ins.items()}
+    for name, stand_in in system.stand_ins.items():
+        if stand_in.value == name:
+            problem = f"`{name}` cannot stand in for itself"
+        elif name in replaced:
+            problem = (
+                f"`{name}` stands in for `{replaced[name]}`: a stand-in cannot have one of its own"
+            )
+        else:
+            valid[name] = stand_in
+            continue
+        diags.error(
+            stand_in.span,
+            "E299",
+            problem,
+            "a stand-in is a controller simulator that replaces one controller and its subtree "
+            "in a run: name a controller and its simulator, one pair per line",
+        )
+    return valid
+
+
+def _check_builtin_commands(by_name: dict[str, ControllerSpec], diags: Diagnostics) -> None:
+    """INIT and HALT take no parameters: the launcher, the supervisors' default tables and
+    a lost subordinate's safe state send them with none (E284, at the parameter)."""
+    for spec in by_name.values():
+        for name in BUILTIN_COMMANDS:
+            command = spec.commands.get(name)
+            if command is None or not command.params:
+                continue
+            first = next(iter(command.params.values()))
+            diags.error(
+                first.span,
+                "E284",
+                f"{name} of `{spec.name}` cannot take parameters: it is sent with none",
+                f"the launcher, a supervisor's default tables and the safe state send {name} "
+                "alone: take the values from the world, a local or a constant instead",
+            )
+
+
 def _check_stand_ins(
-    system: SystemSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics
+    stand_ins: dict[str, Located], by_name: dict[str, ControllerSpec], diags: Diagnostics
 ) -> None:
     """A stand-in replaces a controller and its subtree: same commands, no subordinates."""
-    for name, stand_in in system.stand_ins.items():
+    for name, stand_in in stand_ins.items():
         if name not in by_name:
             diags.error(
                 stand_in.span,
@@ -350,13 +429,16 @@ def _check_echo_timeouts(spec: ControllerSpec, diags: Diagnostics) -> None:
 
 
 def _check_world_writers(
-    system: SystemSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics
+    system: SystemSpec,
+    stand_ins: dict[str, str],
+    by_name: dict[str, ControllerSpec],
+    diags: Diagnostics,
 ) -> None:
     """A world field is written in one process at most: its buffer has one writer."""
     process_of = {m.value: p.name for p in system.processes for m in p.modules}
-    for name, stand_in in system.stand_ins.items():  # a stand-in runs in its place
+    for name, stand_in in stand_ins.items():  # a stand-in runs in its place
         if name in process_of:
-            process_of.setdefault(stand_in.value, process_of[name])
+            process_of.setdefault(stand_in, process_of[name])
     writers: dict[str, list[tuple[str, str, Span]]] = {}
     for spec in by_name.values():
         process = process_of.get(spec.name)
@@ -492,263 +574,6 @@ def _check_world_access(spec: ControllerSpec, world: dict[str, Type], diags: Dia
             )
 
 
-def _hook_module_file(directory: Path, module: str) -> Path | None:
-    base = directory.joinpath(*module.split("."))
-    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
-        if os.path.lexists(candidate):  # whatever it is: reading it says what is wrong
-            return candidate
-    return None
-
-
-# hook -> (its parameters' annotated types, file:line)
-HookContracts = dict[str, tuple[list[Annotation | None], str]]
-
-
-def _check_hooks_module(
-    spec: ControllerSpec, directory: Path, world: dict[str, Type], diags: Diagnostics
-) -> HookContracts:
-    """Each declared hook exists in the user's module as a plain function that fits its
-    declaration (read, never imported): arity (E214), kind (E240), results (E241). Returns
-    each hook's parameter annotations, for the checker to compare with its argument types."""
-    contracts: HookContracts = {}
-    if not spec.hooks and spec.hooks_state is None and not spec.plans:
-        return contracts
-    if spec.hooks_module is None:
-        first = next((hook.span for hook in spec.hooks.values()), spec.span)
-        if spec.hooks_state is not None and not spec.hooks:
-            first = spec.hooks_state.span
-        if not spec.hooks and spec.hooks_state is None:
-            first = next(iter(spec.plans.values())).planner.span
-        diags.error(
-            first,
-            "E215",
-            f"`{spec.name}` declares {'hooks' if spec.hooks else 'a planner'} but no "
-            "`hooks_module`",
-            "add `hooks_module: <package>.<module>`, a Python module in the system directory",
-        )
-        return contracts
-    module = spec.hooks_module.value
-    path = _hook_module_file(directory, module)
-    if path is None:
-        diags.error(
-            spec.hooks_module.span,
-            "E212",
-            f"hooks module `{module}` not found",
-            f"create {Path(*module.split('.')).with_suffix('.py')} next to system.yaml",
-        )
-        return contracts
-    try:
-        source = loader.read_bytes(path, str(path), loader.MAX_BYTES)
-        tree = ast.parse(loader.decode(source, str(path)), filename=str(path))
-        compile(tree, str(path), "exec", dont_inherit=True)  # what only compiling finds
-    except SpecError as error:
-        reason = next(iter(error.diagnostics)).message
-        diags.error(
-            spec.hooks_module.span,
-            "E212",
-            f"hooks module `{module}` cannot be read ({path.name}): {reason}",
-        )
-        return contracts
-    except (SyntaxError, ValueError, RecursionError, MemoryError) as exc:
-        diags.error(
-            spec.hooks_module.span,
-            "E212",
-            f"hooks module `{module}` cannot be read: {str(exc) or type(exc).__name__}",
-        )
-        return contracts
-    functions = {
-        node.name: node
-        for node in tree.body
-        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
-    }
-    stateful = spec.hooks_state is not None
-    where = f"{path.name}"
-    if spec.hooks_state is not None:
-        factory = spec.hooks_state
-        node = functions.get(factory.value)
-        if node is None:
-            diags.error(
-                factory.span,
-                "E213",
-                f"hook-state factory `{factory.value}` is not defined in `{module}`",
-                f"add `def {factory.value}(settings): ...` to {path.name}",
-            )
-        elif hooks.kind_problem(node):
-            diags.error(
-                factory.span,
-                "E240",
-                f"hook-state factory `{factory.value}` is {hooks.kind_problem(node)}",
-                f"make it a plain `def {factory.value}(settings):` ({where}:{node.lineno})",
-            )
-        elif not _takes(node, 1):
-            diags.error(
-                factory.span,
-                "E214",
-                f"hook-state factory `{factory.value}` is called with one argument (the run's "
-                f"settings) but `{module}.{factory.value}` takes {_positional(node)}",
-                f"define it as `def {factory.value}(settings):` ({where}:{node.lineno})",
-            )
-    for hook in spec.hooks.values():
-        node = functions.get(hook.name)
-        if node is None:
-            args = ", ".join(f"a{i}" for i in range(len(hook.args)))
-            diags.error(
-                hook.span,
-                "E213",
-                f"hook `{hook.name}` is not defined in `{module}`",
-                f"add `def {hook.name}({args}): ...` to {path.name}",
-            )
-            continue
-        if hooks.kind_problem(node):
-            diags.error(
-                hook.span,
-                "E240",
-                f"hook `{hook.name}` is {hooks.kind_problem(node)}",
-                f"make it a plain `def {hook.name}(...)` ({where}:{node.lineno})",
-            )
-            continue
-        given = len(hook.args) + stateful  # the hook state comes first
-        if not _takes(node, given):
-            diags.error(
-                hook.span,
-                "E214",
-                f"hook `{hook.name}` is called with {given} argument(s)"
-                f"{' (the hook state, then its args)' if stateful else ''} but "
-                f"`{module}.{hook.name}` takes {_positional(node)}",
-                "make `args:` match the function's parameters",
-            )
-            continue
-        targets = [_target_type(t.value, spec, world) for t in hook.returns]
-        for problem in _return_problems(hook.name, node, targets, [t.value for t in hook.returns]):
-            diags.error(hook.span, "E241", problem, f"see {where}:{node.lineno}")
-        params = hooks.param_types(node)[stateful:]
-        contracts[hook.name] = (params, f"{where}:{node.lineno}")
-    for plan in spec.plans.values():
-        node = functions.get(plan.planner.value)
-        if _check_planner(plan, node, stateful, module, where, diags) and node is not None:
-            contracts[f"plan:{plan.name}"] = (
-                hooks.param_types(node)[stateful:],
-                f"{where}:{node.lineno}",
-            )
-    return contracts
-
-
-def _check_planner(
-    plan: model.Plan,
-    node: hooks.Function | None,
-    stateful: bool,
-    module: str,
-    where: str,
-    diags: Diagnostics,
-) -> bool:
-    """A plan's planner is a plain function of the hooks module that takes its arguments
-    (the hook state first, if any): E294. Whether it is."""
-    name = plan.planner.value
-    given = len(plan.args) + stateful
-    if node is None:
-        args = ", ".join(["state"] * stateful + [f"a{i}" for i in range(len(plan.args))])
-        diags.error(
-            plan.planner.span,
-            "E294",
-            f"planner `{name}` of plan `{plan.name}` is not defined in `{module}`",
-            f"add `def {name}({args}): ...` returning a list of steps to {where}",
-        )
-    elif hooks.kind_problem(node):
-        diags.error(
-            plan.planner.span,
-            "E294",
-            f"planner `{name}` of plan `{plan.name}` is {hooks.kind_problem(node)}",
-            f"make it a plain `def {name}(...)` ({where}:{node.lineno})",
-        )
-    elif not _takes(node, given):
-        diags.error(
-            plan.planner.span,
-            "E294",
-            f"planner `{name}` of plan `{plan.name}` is called with {given} argument(s)"
-            f"{' (the hook state, then its args)' if stateful else ''} but "
-            f"`{module}.{name}` takes {_positional(node)}",
-            "make the plan's `args:` match the function's parameters",
-        )
-    else:
-        return True
-    return False
-
-
-def _positional(node: hooks.Function) -> int:
-    return len([*node.args.posonlyargs, *node.args.args])
-
-
-def _takes(node: hooks.Function, given: int) -> bool:
-    """Whether the function can be called with `given` positional arguments."""
-    positional = _positional(node)
-    required = positional - len(node.args.defaults)
-    return required <= given and (node.args.vararg is not None or given <= positional)
-
-
-def _target_type(target: str, spec: ControllerSpec, world: dict[str, Type]) -> Type | None:
-    if target.startswith("world."):
-        return world.get(target.removeprefix("world."))
-    local = spec.locals.get(target)
-    return local.type if local else None
-
-
-def _ordinal(n: int) -> str:
-    return {1: "1st", 2: "2nd", 3: "3rd"}.get(n, f"{n}th")
-
-
-def _return_problems(
-    name: str, node: hooks.Function, types: list[Type | None], targets: list[str]
-) -> list[str]:
-    """How the function's return annotation and literal returns contradict `returns:`."""
-    want = len(targets)
-    if want == 0:
-        return []  # the result is ignored
-    named = "one target" if want == 1 else f"{want} targets"
-    found = []
-    promised = hooks.returns(node)
-    if promised is not None:
-        if promised.count == 0:
-            found.append(f"hook `{name}` is annotated `-> None`, but `returns:` names {named}")
-        elif want == 1 and not promised.scalar:
-            found.append(
-                f"hook `{name}` is annotated to return a tuple, but `returns:` names one "
-                f"target, `{targets[0]}`, which would be assigned the whole tuple"
-            )
-        elif want > 1 and promised.scalar:
-            found.append(
-                f"hook `{name}` is annotated to return one value, but `returns:` names {named}"
-            )
-        elif promised.count is not None and want > 1 and promised.count != want:
-            found.append(
-                f"hook `{name}` is annotated to return {promised.count} values, but "
-                f"`returns:` names {named}"
-            )
-        elif not found:
-            every = promised.types * want if promised.count is None else promised.types
-            for index, (value, target) in enumerate(zip(every, types, strict=False), start=1):
-                if value is not None and target is not None and not annotation_fits(target, value):
-                    found.append(
-                        f"hook `{name}` returns {_a(value)} as its {_ordinal(index)} value "
-                        f"(by its annotation), but `{targets[index - 1]}` is {_a(target)}"
-                    )
-    counts = hooks.literal_return_counts(node)
-    if not counts:
-        found.append(f"hook `{name}` never returns a value, but `returns:` names {named}")
-    for line, count in counts:
-        if count == 0:
-            found.append(f"hook `{name}` returns nothing at line {line}; `returns:` names {named}")
-        elif count is not None and want > 1 and count != want:
-            found.append(
-                f"hook `{name}` returns {count} value(s) at line {line}; `returns:` names {named}"
-            )
-        elif count is not None and want == 1 and count > 1:
-            found.append(
-                f"hook `{name}` returns a tuple of {count} at line {line}; `returns:` names one "
-                "target"
-            )
-    return found
-
-
 # Names a function or a `let` value cannot take: they are Python names of the generated
 # method or module (a `let` is a local of its table's method, a function a module function).
 _PYTHON_NAMES = frozenset(
@@ -805,10 +630,6 @@ def _at_least(counter: expr.Ref, op: str, cycles: int) -> expr.Expr:
     return expr.Compare(BOOL, counter, (op,), (expr.Const(INT, cycles),))
 
 
-def _a(kind: Type | Annotation) -> str:
-    return hook_words(kind)
-
-
 # ---------------------------------------------------------------- one controller
 
 _ALWAYS_FALSE_HINT = (
@@ -826,7 +647,7 @@ class _ControllerChecker:
         by_name: dict[str, ControllerSpec],
         system: SystemSpec,
         diags: Diagnostics,
-        contracts: HookContracts | None = None,
+        contracts: hook_checks.HookContracts | None = None,
     ):
         self.spec, self.by_name, self.system, self.diags = spec, by_name, system, diags
         self.contracts = contracts or {}  # hook -> its parameters' annotated types
@@ -1040,6 +861,14 @@ class _ControllerChecker:
                     "an every_cycle rule cannot change state",
                     "every_cycle rules run whatever the command; move `next` into a table",
                 )
+            for report in (a for a in written.actions if isinstance(a, model.Report)):
+                self.diags.error(
+                    report.span,
+                    "E232",
+                    f"an every_cycle rule cannot report {report.status}: it has no command to end",
+                    "every_cycle rules run whatever the command (and when there is none); "
+                    "report from the command's table, which may test what every_cycle set",
+                )
             rules.append(self.check_rule(RuleId(None, None, index), written, scope))
         tried, shadowed = live(rules)
         for rule in shadowed:
@@ -1156,6 +985,7 @@ class _ControllerChecker:
         guard = _timed_guard(rule_id, guard, after, hold)
         actions = [self.check_action(a, scope) for a in rule.actions]
         reports = [a for a in rule.actions if isinstance(a, model.Report)]
+        self.check_one_each(rule)
         if reports and rule.next is not None:
             self.diags.error(
                 rule.next.span,
@@ -1180,6 +1010,30 @@ class _ControllerChecker:
             after,
             hold,
         )
+
+    def check_one_each(self, rule: Rule) -> None:
+        """A rule reports once (E226) and sends each subordinate one command (E279): the
+        second would silently replace the first."""
+        reports = [a for a in rule.actions if isinstance(a, model.Report)]
+        for extra in reports[1:]:
+            self.diags.error(
+                extra.span,
+                "E226",
+                f"this rule already reports {reports[0].status}: a rule reports once",
+                "reporting ends the command: keep the one report the rule means",
+            )
+        sent: dict[str, model.Send] = {}
+        for send in (a for a in rule.actions if isinstance(a, model.Send)):
+            first = sent.setdefault(send.sub, send)
+            if first is not send:
+                self.diags.error(
+                    send.span,
+                    "E279",
+                    f"this rule already sends `{send.sub}` {first.command}: a subordinate takes "
+                    f"one command at a time, and {send.command} would replace it unseen",
+                    f"send {send.command} from a later state, once `{send.sub}.status` says the "
+                    "first is DONE",
+                )
 
     def timing(self, rule_id: RuleId, rule: Rule) -> tuple[int | None, int | None]:
         """A rule's `after:` and `for:` in cycles of this controller's process (None: not
@@ -1235,26 +1089,38 @@ class _ControllerChecker:
         return count
 
     def check_action(self, action: model.Action, scope: expr.Scope) -> Action | None:
-        if isinstance(action, model.Send):
-            return self.check_send(action, scope)
-        if isinstance(action, model.SetWorld):
-            pairs = []
-            for assign in action.assignments:
-                target = self.target(assign.target)
-                value = self.typed(assign.value, scope, target.type) if target else None
-                if target is not None and value is not None:
-                    pairs.append((target, value))
-            return Assign(tuple(pairs), action)
-        if isinstance(action, model.Report):
-            reason = self.reason(action)
-            if reason is None or not reason.endswith(".reason") or self.command is None:
-                return Report(action.status, action.span, reason)
-            own = {r.value for r in self.command.reasons}
-            sub_reasons = naming.declared_reasons(self.by_name[reason.removesuffix(".reason")])
-            passes = ("LOST", *(r for r in sub_reasons if r in own))
-            return Report(action.status, action.span, reason, passes)
-        if isinstance(action, model.PlanAction):
-            return self.check_plan_action(action, scope)
+        match action:
+            case model.Send():
+                return self.check_send(action, scope)
+            case model.SetWorld():
+                return self.check_set(action, scope)
+            case model.Report():
+                return self.check_report(action)
+            case model.PlanAction():
+                return self.check_plan_action(action, scope)
+            case model.CallHook():
+                return self.check_call(action, scope)
+        raise TypeError(f"unknown action {action!r}")
+
+    def check_set(self, action: model.SetWorld, scope: expr.Scope) -> Assign:
+        pairs = []
+        for assign in action.assignments:
+            target = self.target(assign.target)
+            value = self.typed(assign.value, scope, target.type) if target else None
+            if target is not None and value is not None:
+                pairs.append((target, value))
+        return Assign(tuple(pairs), action)
+
+    def check_report(self, action: model.Report) -> Report:
+        reason = self.reason(action)
+        if reason is None or not reason.endswith(".reason") or self.command is None:
+            return Report(action.status, action.span, reason)
+        own = {r.value for r in self.command.reasons}
+        sub_reasons = naming.declared_reasons(self.by_name[reason.removesuffix(".reason")])
+        passes = ("LOST", *(r for r in sub_reasons if r in own))
+        return Report(action.status, action.span, reason, passes)
+
+    def check_call(self, action: model.CallHook, scope: expr.Scope) -> CallHook | None:
         hook = self.spec.hooks.get(action.hook)
         if hook is None:
             self.diags.error(
@@ -1320,8 +1186,8 @@ class _ControllerChecker:
             self.diags.error(
                 plan.args[index].span,
                 "E293",
-                f"argument {index + 1} of planner `{plan.planner.value}` is {_a(arg.type)}, but "
-                f"the function's parameter is annotated `{param}`",
+                f"argument {index + 1} of planner `{plan.planner.value}` is "
+                f"{hook_words(arg.type)}, but the function's parameter is annotated `{param}`",
                 f"convert it in the spec, or change the annotation ({where})",
             )
 
@@ -1337,7 +1203,7 @@ class _ControllerChecker:
             self.diags.error(
                 hook.args[index].span,
                 "E242",
-                f"argument {index + 1} of hook `{hook.name}` is {_a(arg.type)}, but the "
+                f"argument {index + 1} of hook `{hook.name}` is {hook_words(arg.type)}, but the "
                 f"function's parameter is annotated `{param}`",
                 f"convert it in the spec, or change the annotation ({where})",
             )

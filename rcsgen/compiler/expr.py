@@ -335,44 +335,9 @@ class _Resolver:
                 )
             return Ref(names[attr], RefKind.PLAN, attr, base.id)
         if base.id == "world":
-            if attr not in scope.world:
-                raise self.fail(
-                    node,
-                    "E104",
-                    f"undeclared world field `{attr}`",
-                    known_names_hint("world fields", scope.world, attr),
-                )
-            if attr not in scope.world_access:
-                raise self.fail(
-                    node,
-                    "E105",
-                    f"world field `{attr}` is not in this controller's world.reads or world.writes",
-                    f"add `{attr}` to `world: reads:`",
-                )
-            return Ref(scope.world[attr], RefKind.WORLD, attr)
+            return self.world_field(node, attr)
         if base.id in scope.subordinates:
-            if attr == "status":
-                return Ref(STATUS, RefKind.SUB_STATUS, attr, base.id)
-            if attr == "command":
-                return Ref(CommandOf(base.id), RefKind.SUB_COMMAND, attr, base.id)
-            if attr == "reason":
-                if not scope.sub_reasons.get(base.id):
-                    raise self.fail(
-                        node,
-                        "E259",
-                        f"`{base.id}` declares no reasons: `{base.id}.reason` says nothing",
-                        f"declare `reasons:` on the commands of `{base.id}` that can fail",
-                    )
-                return Ref(ReasonOf(base.id), RefKind.SUB_REASON, attr, base.id)
-            if attr == "result":
-                raise self.fail(node, "E108", f"`{base.id}.result` needs a name: `.result.<name>`")
-            raise self.fail(
-                node,
-                "E108",
-                f"`{base.id}.{attr}`: a subordinate has only `status`, `command`, `reason` "
-                "and `result.<name>`",
-                did_you_mean_attr(attr),
-            )
+            return self.sub_attribute(node, base.id, attr)
         raise self.fail(
             node,
             "E108",
@@ -384,6 +349,50 @@ class _Resolver:
                 [*scope.subordinates, *scope.plans],
                 base.id,
             ),
+        )
+
+    def world_field(self, node: ast.AST, attr: str) -> Expr:
+        """`world.<attr>`: a declared field this controller reads or writes."""
+        scope = self.scope
+        if attr not in scope.world:
+            raise self.fail(
+                node,
+                "E104",
+                f"undeclared world field `{attr}`",
+                known_names_hint("world fields", scope.world, attr),
+            )
+        if attr not in scope.world_access:
+            raise self.fail(
+                node,
+                "E105",
+                f"world field `{attr}` is not in this controller's world.reads or world.writes",
+                f"add `{attr}` to `world: reads:`",
+            )
+        return Ref(scope.world[attr], RefKind.WORLD, attr)
+
+    def sub_attribute(self, node: ast.AST, sub: str, attr: str) -> Expr:
+        """`<sub>.status`, `<sub>.command`, `<sub>.reason` (E259 when it declares none)."""
+        if attr == "status":
+            return Ref(STATUS, RefKind.SUB_STATUS, attr, sub)
+        if attr == "command":
+            return Ref(CommandOf(sub), RefKind.SUB_COMMAND, attr, sub)
+        if attr == "reason":
+            if not self.scope.sub_reasons.get(sub):
+                raise self.fail(
+                    node,
+                    "E259",
+                    f"`{sub}` declares no reasons: `{sub}.reason` says nothing",
+                    f"declare `reasons:` on the commands of `{sub}` that can fail",
+                )
+            return Ref(ReasonOf(sub), RefKind.SUB_REASON, attr, sub)
+        if attr == "result":
+            raise self.fail(node, "E108", f"`{sub}.result` needs a name: `.result.<name>`")
+        raise self.fail(
+            node,
+            "E108",
+            f"`{sub}.{attr}`: a subordinate has only `status`, `command`, `reason` "
+            "and `result.<name>`",
+            did_you_mean_attr(attr),
         )
 
     def sub_result(self, node: ast.AST, sub: str, name: str) -> Expr:
@@ -676,47 +685,8 @@ def compile_expr(
             return None
         result: Expr = Const(_type_of_value(source), source)
     else:
-        text = str(source)
-        if "\n" in text.strip() or "\r" in text:
-            text = " ".join(text.split())
-        odd = next((i for i, ch in enumerate(text.strip()) if not _ascii_text(ch)), None)
-        if odd is not None:  # Python would accept (and NFKC-fold) non-ASCII identifiers
-            char = text.strip()[odd]
-            diags.error(
-                offset_span(span, 1, odd),
-                "E101",
-                f"invalid expression: character {char!r} (U+{ord(char):04X}) is not allowed",
-                "expressions are ASCII: names, numbers, operators and parentheses",
-            )
-            return None
-        if "#" in text:  # Python would drop the rest of the line as a comment, silently
-            comment = text[text.index("#") + 1 :].strip()
-            shown = comment if len(comment) <= 40 else comment[:37] + "..."
-            diags.error(
-                span,  # the expression's start: in a block scalar, columns do not map
-                "E101",
-                f"invalid expression: `#` is not allowed (`# {shown}`)",
-                "inside a `>-` or `|` block a YAML comment is part of the expression and would "
-                "silently drop the rest of it: put the comment on a line of its own, outside",
-            )
-            return None
-        try:
-            tree = ast.parse(text.strip(), mode="eval")
-        except SyntaxError as exc:
-            where = offset_span(span, exc.lineno or 1, max((exc.offset or 1) - 1, 0))
-            shown = text.strip() if len(text.strip()) <= 80 else text.strip()[:77] + "..."
-            diags.error(where, "E101", f"invalid expression: {exc.msg}", f"in `{shown}`")
-            return None
-        except (RecursionError, MemoryError, ValueError):  # the parser's own limits
-            diags.error(span, "E102", "expression is nested too deeply")
-            return None
-        if _depth(tree.body) > MAX_DEPTH:
-            diags.error(
-                span,
-                "E102",
-                "expression is nested too deeply",
-                f"at most {MAX_DEPTH} levels; split it into predicates",
-            )
+        tree = _parse(str(source), span, diags)
+        if tree is None:
             return None
         resolver = _Resolver(scope, span, diags, expect if isinstance(expect, Enum) else None)
         try:
@@ -739,6 +709,54 @@ def compile_expr(
         )
         return None
     return result
+
+
+def _parse(text: str, span: Span, diags: Diagnostics) -> ast.Expression | None:
+    """Expression text as a Python syntax tree, or None after its problem: a character that
+    is not printable ASCII, a `#` (a comment would drop the rest), a syntax error (E101),
+    nesting beyond MAX_DEPTH (E102)."""
+    if "\n" in text.strip() or "\r" in text:
+        text = " ".join(text.split())
+    odd = next((i for i, ch in enumerate(text.strip()) if not _ascii_text(ch)), None)
+    if odd is not None:  # Python would accept (and NFKC-fold) non-ASCII identifiers
+        char = text.strip()[odd]
+        diags.error(
+            offset_span(span, 1, odd),
+            "E101",
+            f"invalid expression: character {char!r} (U+{ord(char):04X}) is not allowed",
+            "expressions are ASCII: names, numbers, operators and parentheses",
+        )
+        return None
+    if "#" in text:  # Python would drop the rest of the line as a comment, silently
+        comment = text[text.index("#") + 1 :].strip()
+        shown = comment if len(comment) <= 40 else comment[:37] + "..."
+        diags.error(
+            span,  # the expression's start: in a block scalar, columns do not map
+            "E101",
+            f"invalid expression: `#` is not allowed (`# {shown}`)",
+            "inside a `>-` or `|` block a YAML comment is part of the expression and would "
+            "silently drop the rest of it: put the comment on a line of its own, outside",
+        )
+        return None
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError as exc:
+        where = offset_span(span, exc.lineno or 1, max((exc.offset or 1) - 1, 0))
+        shown = text.strip() if len(text.strip()) <= 80 else text.strip()[:77] + "..."
+        diags.error(where, "E101", f"invalid expression: {exc.msg}", f"in `{shown}`")
+        return None
+    except (RecursionError, MemoryError, ValueError):  # the parser's own limits
+        diags.error(span, "E102", "expression is nested too deeply")
+        return None
+    if _depth(tree.body) > MAX_DEPTH:
+        diags.error(
+            span,
+            "E102",
+            "expression is nested too deeply",
+            f"at most {MAX_DEPTH} levels; split it into predicates",
+        )
+        return None
+    return tree
 
 
 def _ascii_text(char: str) -> bool:
@@ -795,51 +813,70 @@ def fold(
 def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr], depth: int) -> Any:
     if depth > 2 * MAX_DEPTH:  # a predicate chain folded in: bounded like the parser
         return None
-    if isinstance(e, Const):
-        return e.value
-    if isinstance(e, Ref):
-        return constants.get(e.name) if e.kind == RefKind.CONST else None
-    if isinstance(e, Call):
-        if e.kind == CallKind.PREDICATE:
-            body = predicates.get(e.name)
-            return None if body is None else _fold(body, constants, predicates, depth + 1)
-        if e.kind == CallKind.FUNCTION:  # its body is folded where it is declared, not here
-            return None
-        args = [_fold(a, constants, predicates, depth + 1) for a in e.args]
-        return None if None in args else _FOLD_BUILTIN[e.name](*args)
-    if isinstance(e, Unary):
-        value = _fold(e.operand, constants, predicates, depth + 1)
-        if value is None:
-            return None
-        return (not value) if e.op == "not" else (-value if e.op == "-" else value)
-    if isinstance(e, Binary):
-        left = _fold(e.left, constants, predicates, depth + 1)
-        right = _fold(e.right, constants, predicates, depth + 1)
-        if left is None or right is None:
-            return None
-        return ARITHMETIC[e.op](left, right)
-    if isinstance(e, BoolOp):  # and/or short-circuit on a decided operand
-        decided = e.op == "or"
-        unknown = False
-        for part in e.values:
-            value = _fold(part, constants, predicates, depth + 1)
-            if value is None:
-                unknown = True
-            elif bool(value) == decided:
-                return decided
-        return None if unknown else not decided
-    if isinstance(e, IfExp):
-        test = _fold(e.test, constants, predicates, depth + 1)
-        if test is None:
-            return None
-        return _fold(e.body if test else e.orelse, constants, predicates, depth + 1)
-    if isinstance(e, Compare):
-        operands = [_fold(x, constants, predicates, depth + 1) for x in (e.left, *e.comparators)]
-        if None in operands:
-            return None
-        pairs = zip(operands, operands[1:], e.ops, strict=False)
-        return all(COMPARISONS[op](a, b) for a, b, op in pairs)
+
+    def inner(x: Expr) -> Any:
+        return _fold(x, constants, predicates, depth + 1)
+
+    match e:
+        case Const():
+            return e.value
+        case Ref():
+            return constants.get(e.name) if e.kind == RefKind.CONST else None
+        case Call():
+            return _fold_call(e, predicates, inner)
+        case Unary():
+            return _fold_unary(e.op, inner(e.operand))
+        case Binary():
+            left, right = inner(e.left), inner(e.right)
+            return None if left is None or right is None else ARITHMETIC[e.op](left, right)
+        case BoolOp():
+            return _fold_bool(e, inner)
+        case IfExp():
+            test = inner(e.test)
+            return None if test is None else inner(e.body if test else e.orelse)
+        case Compare():
+            return _fold_compare(e.ops, [inner(x) for x in (e.left, *e.comparators)])
     return None
+
+
+def _fold_unary(op: str, value: Any) -> Any:
+    if value is None:
+        return None
+    return (not value) if op == "not" else (-value if op == "-" else value)
+
+
+def _fold_compare(ops: tuple[str, ...], operands: list[Any]) -> bool | None:
+    """A chain of comparisons (`a < b <= c`): each pair, all of them."""
+    if None in operands:
+        return None
+    pairs = zip(operands, operands[1:], ops, strict=False)
+    return all(COMPARISONS[op](a, b) for a, b, op in pairs)
+
+
+def _fold_call(e: Call, predicates: Mapping[str, Expr], inner: Callable[[Expr], Any]) -> Any:
+    """A predicate's body folded where it is called; a builtin of folded arguments; a
+    function is folded where it is declared, not here."""
+    if e.kind == CallKind.PREDICATE:
+        body = predicates.get(e.name)
+        return None if body is None else inner(body)
+    if e.kind == CallKind.FUNCTION:
+        return None
+    args = [inner(a) for a in e.args]
+    return None if None in args else _FOLD_BUILTIN[e.name](*args)
+
+
+def _fold_bool(e: BoolOp, inner: Callable[[Expr], Any]) -> bool | None:
+    """`and`/`or` short-circuit on a decided operand: `or` is true as soon as one operand
+    is, `and` false as soon as one is; unknown when an undecided operand could decide."""
+    decided = e.op == "or"
+    unknown = False
+    for part in e.values:
+        value = inner(part)
+        if value is None:
+            unknown = True
+        elif bool(value) == decided:
+            return decided
+    return None if unknown else not decided
 
 
 # ---------------------------------------------------------------- printing

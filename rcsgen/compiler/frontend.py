@@ -14,6 +14,7 @@ from pathlib import Path
 from . import acknowledge, fragments, model
 from .analysis import analyse_system
 from .check import check_system
+from .codes import Severity
 from .diagnostics import Diagnostics, Span, SpecError
 from .ir import IRSystem
 from .loader import LocDict, PathProblem, load_file, path_problem
@@ -214,7 +215,7 @@ def _load_system(
         shown = display_path(system_path)
         problems = check_document(data, "system", shown)
         diags.extend(problems)
-        if not any(p.severity == "error" for p in problems):
+        if not any(p.severity is Severity.ERROR for p in problems):
             system = model.build_system(data, directory, shown)
     controllers = []
     shared = _shared_fragments(directory, diags)
@@ -233,7 +234,7 @@ def _load_system(
         if isinstance(data, dict) and "operator" in data and "controller" not in data:
             problems = check_document(data, "operator", shown)
             diags.extend(problems)
-            if not any(p.severity == "error" for p in problems):
+            if not any(p.severity is Severity.ERROR for p in problems):
                 controllers.append(model.build_operator(data, shown))
             continue
         if not isinstance(data, dict) or "controller" not in data:
@@ -254,7 +255,7 @@ def _load_system(
             continue  # a use that failed leaves a table with a hole: no more about it
         problems = check_document(data, "controller", shown)
         diags.extend(problems)
-        if not any(p.severity == "error" for p in problems):
+        if not any(p.severity is Severity.ERROR for p in problems):
             controllers.append(model.build_controller(data, shown))
     if len(diags.errors) == start:  # (a misspelt use would make it noise)
         fragments.report_unused(shared, used, diags)

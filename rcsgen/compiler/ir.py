@@ -24,11 +24,13 @@ from .types import Type
 
 @dataclass(frozen=True)
 class Slot:
-    """One field of a buffer: name, struct code, offset in the whole block."""
+    """One field of a buffer: name, struct code, offset in the whole block, and the capacity
+    of the string it holds (0: not a string)."""
 
     name: str
     code: str
     offset: int
+    text: int = 0
 
 
 @dataclass(frozen=True)
@@ -115,6 +117,63 @@ class Layout:
             found += [b for c in o.channels.values() for b in (c.command, c.status, c.answer)]
         every = [*self.processes.values(), *self.pacing.values(), *found, *self.world]
         return sorted(every, key=lambda b: b.offset)
+
+
+# ---------------------------------------------------------------- a module's reads and writes
+
+
+@dataclass(frozen=True)
+class Gathered:
+    """Several buffer fields read or written with one `Struct`, the bytes between them
+    skipped: format, offset, the target of each value ("_" for a sequence word), the struct
+    of the sequence words alone (for the second read of a seqlock), if any, and the struct
+    of the values alone at the same offset (the sequence words skipped); the targets that
+    hold strings (decoded after a read), and each value as packed (a string encoded)."""
+
+    format: str
+    offset: int
+    targets: tuple[str, ...]
+    seq_indices: tuple[int, ...]
+    seq_format: str
+    seq_offset: int
+    values_format: str
+    texts: tuple[str, ...] = ()
+    packed: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class WorldRun:
+    """Adjacent world buffers a module writes with one struct, and the layout's names of
+    their offsets (where each sequence word is stored on its own)."""
+
+    gathered: Gathered
+    seq_at: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ModuleIO:
+    """What a generated module names about the block, all decided by `module_io`: the
+    prefix of its buffers' layout names, its imports, its class's attributes, its one read
+    of the inputs and its writes (each value as packed), the strings it decodes."""
+
+    own: str  # CO: CO_STATUS_AT, CO_PERF_AT, ... (a stand-in: its controller's)
+    imports: tuple[str, ...]  # from its package's layout
+    rcs_imports: tuple[str, ...] = ()  # from the runtime contract
+    slots: tuple[str, ...] = ()
+    inputs: Gathered | None = None
+    world_outputs: tuple[Gathered, ...] = ()
+    world_seq_at: tuple[tuple[str, ...], ...] = ()
+    world_values: tuple[tuple[str, ...], ...] = ()
+    command_targets: tuple[str, ...] = ()
+    status_targets: tuple[str, ...] = ()
+    status_struct: str = "STATUS"  # its layout's own struct when it has results
+    status_values: tuple[str, ...] = ()
+    mode_targets: tuple[str, ...] = ()
+    perf_targets: tuple[str, ...] = ()
+    sub_targets: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    sub_values: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    input_texts: tuple[str, ...] = ()
+    resume_texts: tuple[str, ...] = ()
 
 
 # ---------------------------------------------------------------- system IR
@@ -393,6 +452,7 @@ class IRController:
     buffers: str  # whose command/status buffers it uses: itself, or the replaced one
     runtime_names: tuple[str, ...]  # what the module imports from the runtime contract
     hooks_state_span: Span | None = None  # where `hooks_state` names the factory
+    hooks_module_span: Span | None = None  # where `hooks_module` names the module
     timed: bool = False  # some table waits: the controller keeps `ticks`
     results: tuple[IRParam, ...] = ()  # its commands' results, one status slot per name
     reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants and codes (from 2)
@@ -405,6 +465,7 @@ class IRController:
     plans: tuple[IRPlan, ...] = ()  # its plans, in declaration order
     kind: ModuleKind = ModuleKind.CONTROLLER  # OPERATOR: a person at a screen, no table
     clients: tuple[str, ...] = ()  # an operator module's: whom it serves, one channel each
+    io: ModuleIO | None = None  # its reads and writes of the block (set once it is laid out)
 
     @property
     def is_operator(self) -> bool:

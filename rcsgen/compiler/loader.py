@@ -260,6 +260,9 @@ def _syntax_error(exc: yaml.YAMLError, text: str, path: str) -> tuple[Span, str,
         message = f"unacceptable character #x{exc.character:04x}: {exc.reason}"
         return Span(path, *_line_col(text, exc.position)), message, "remove it"
     if isinstance(exc, yaml.MarkedYAMLError):
+        long_key = _long_key(exc, text, path)
+        if long_key is not None:
+            return long_key
         mark = exc.problem_mark or exc.context_mark
         span = Span(path, mark.line + 1, mark.column + 1) if mark else Span(path)
         hint = "check the indentation (spaces, not tabs), quotes and brackets here"
@@ -267,6 +270,24 @@ def _syntax_error(exc: yaml.YAMLError, text: str, path: str) -> tuple[Span, str,
             hint = f"{exc.context} that starts at line {exc.context_mark.line + 1}"
         return span, exc.problem or exc.context or "invalid YAML", hint
     return Span(path), str(exc), ""
+
+
+MAX_PLAIN_KEY = 1024  # characters: YAML's limit for a key written without `? `
+
+
+def _long_key(exc: yaml.MarkedYAMLError, text: str, path: str) -> tuple[Span, str, str] | None:
+    """The clear message of PyYAML's `could not find expected ':'` for a key longer than
+    YAML allows a plain key (its scanner gives up on it), else None."""
+    mark = exc.context_mark
+    if exc.context != "while scanning a simple key" or mark is None:
+        return None
+    line = text.splitlines()[mark.line] if mark.line < len(text.splitlines()) else ""
+    key = line[mark.column :].split(":", 1)[0]
+    if len(key) <= MAX_PLAIN_KEY:
+        return None
+    message = f"a key of {len(key):,} characters: YAML allows a key of at most {MAX_PLAIN_KEY:,}"
+    hint = "keys are names: shorten it (a long text belongs in a value, such as `doc:`)"
+    return Span(path, mark.line + 1, mark.column + 1), message, hint
 
 
 def _fail(span: Span, code: str, message: str, hint: str) -> SpecError:
@@ -423,7 +444,13 @@ def read_bytes(path: pathlib.Path, display_path: str, limit: int = MAX_BYTES) ->
 
 
 def decode(data: bytes, display_path: str) -> str:
-    """UTF-8 text of a file's bytes; E008 located at the first bad byte otherwise."""
+    """UTF-8 text of a file's bytes; E008 located at the first bad byte otherwise (or at the
+    start of a file that is UTF-16 without a byte-order mark: as UTF-8 it reads as text
+    with a NUL between its characters)."""
+    utf16 = utf16_without_bom(data)
+    if utf16:
+        message = f"file is not UTF-8: it is UTF-16 ({utf16}) without a byte-order mark"
+        raise _fail(Span(display_path), "E008", message, "save the file as UTF-8") from None
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -433,6 +460,20 @@ def decode(data: bytes, display_path: str) -> str:
         if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
             hint = "the file is UTF-16 (it starts with a UTF-16 byte-order mark); save it as UTF-8"
         raise _fail(span, "E008", message, hint) from None
+
+
+def utf16_without_bom(data: bytes) -> str:
+    """`little-endian` or `big-endian` when the bytes are text in UTF-16 without a
+    byte-order mark (its first characters ASCII, so every other byte NUL), else ''."""
+    head = data[:64]
+    if len(head) < 4 or head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        return ""
+    even, odd = head[0::2], head[1::2]
+    if not odd.strip(b"\0") and even.strip(b"\0"):
+        return "little-endian"
+    if not even.strip(b"\0") and odd.strip(b"\0"):
+        return "big-endian"
+    return ""
 
 
 def load_file(path: pathlib.Path, display_path: str) -> object:

@@ -23,9 +23,20 @@ from ..runtime.contract import (
     PROCESS_FIELDS,
     STATUS_FIELDS,
 )
-from . import expr, ir, naming, operators
+from . import expr, ir, module_io, naming, operators
+from .diagnostics import Span
 from .expr import RefKind
-from .model import ENTRY_STATE, Command, ControllerSpec, PlanVerb, Typed, duration_in_cycles
+from .model import (
+    ENTRY_STATE,
+    Command,
+    ControllerSpec,
+    Located,
+    Plan,
+    PlanVerb,
+    Typed,
+    duration_in_cycles,
+)
+from .module_io import align
 from .tables import (
     Action,
     Assign,
@@ -61,6 +72,17 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         ir.IRProcess(p.name, p.cycle_period, p.doc, p.modules, p.roots, dict(p.stand_ins))
         for p in checked.processes
     )
+    layout = plan_layout(spec.name, (p.name for p in processes), controllers, world)
+    placement = module_io.Placement.of(processes, controllers)
+    controllers = tuple(
+        replace(
+            c,
+            io=module_io.operator_io(c)
+            if c.is_operator
+            else module_io.controller_io(c, layout, placement),
+        )
+        for c in controllers
+    )
     source = sources[spec.display]
     return ir.IRSystem(
         name=spec.name,
@@ -72,7 +94,7 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         world=world,
         controllers=controllers,
         processes=processes,
-        layout=plan_layout(spec.name, (p.name for p in processes), controllers, world),
+        layout=layout,
         sources=tuple(sorted({source, *(c.source for c in controllers)})),
         access=operators.access(
             spec.operators, [c.name for c in controllers if c.buffers == c.name]
@@ -101,22 +123,10 @@ class _ControllerLowering:
 
     def lower(self) -> ir.IRController:
         c, spec = self.checked, self.spec
-        states = [ENTRY_STATE]
-        for command in c.commands.values():
-            states += [s for s in command.states if s not in states]
         self.next_code = 1  # table rules are numbered in order, from 1
         commands = tuple(self.command(command) for command in c.commands.values())
-        every_cycle = tuple(self.rule(rule) for rule in c.every_cycle)
-        predicates = tuple(
-            ir.IRPredicate(p.name, self.expression(p.tree, p.text)) for p in c.predicates.values()
-        )
         rules = c.rules()
-        uses_hooks = spec.hooks_state is not None or any(
-            isinstance(a, CallHook)
-            or (isinstance(a, PlanAction) and a.kind is not PlanVerb.ADVANCE)
-            for r in rules
-            for a in r.actions
-        )
+        lets = [let.tree for command in c.commands.values() for let in command.lets]
         world = self.system.spec.world
         reads = dict.fromkeys(a.value for a in [*spec.world_reads, *spec.world_writes])
         return ir.IRController(
@@ -133,23 +143,24 @@ class _ControllerLowering:
                 ir.IRLocal(v.name, v.type, v.initial, v.doc) for v in spec.locals.values()
             ),
             constants=self.constants(),
-            predicates=predicates,
-            hooks_module=spec.hooks_module.value if spec.hooks_module and uses_hooks else None,
+            predicates=tuple(
+                ir.IRPredicate(p.name, self.expression(p.tree, p.text))
+                for p in c.predicates.values()
+            ),
+            hooks_module=self.hooks_module(rules),
             hooks=tuple(sorted(spec.hooks)),
             world_reads=tuple(_world_field(world[n]) for n in reads),
             world_writes=tuple(_world_field(world[a.value]) for a in spec.world_writes),
-            states=tuple(states),
-            every_cycle=every_cycle,
-            hooks_state=spec.hooks_state.value if spec.hooks_state else None,
+            states=self.states(),
+            every_cycle=tuple(self.rule(rule) for rule in c.every_cycle),
+            hooks_state=_value(spec.hooks_state),
             hooks_state_on_restart=spec.hooks_state_on_restart,
             buffers=c.buffers,
             runtime_names=_runtime_names(
-                rules,
-                c.predicates.values(),
-                spec.hooks_state is not None,
-                [let.tree for command in c.commands.values() for let in command.lets],
+                rules, c.predicates.values(), spec.hooks_state is not None, lets
             ),
-            hooks_state_span=spec.hooks_state.span if spec.hooks_state else None,
+            hooks_state_span=_span(spec.hooks_state),
+            hooks_module_span=_span(spec.hooks_module),
             timed=any(command.timed for command in commands),
             functions=tuple(
                 ir.IRFunction(f.name, f.params, f.returns, self.expression(f.tree, f.text))
@@ -159,43 +170,36 @@ class _ControllerLowering:
                 ir.IRParam(name, kind) for name, kind in naming.result_types(spec).items()
             ),
             reasons=tuple((naming.reason_const(r), code) for r, code in reason_codes(spec).items()),
-            counters=tuple(
-                counter.attribute
-                for command in commands
-                for state in command.states
-                for counter in state.counters
-            ),
-            every_cycle_counters=tuple(
-                self.counter(rule) for rule in c.every_cycle if rule.hold is not None
-            ),
-            enum_values=tuple(
-                sorted(
-                    {
-                        pair
-                        for tree in [
-                            *_trees(rules, c.predicates.values()),
-                            *(let.tree for command in c.commands.values() for let in command.lets),
-                        ]
-                        for pair in expr.enum_constants(tree)
-                    },
-                    key=lambda pair: (pair[1], pair[0]),
-                )
-            ),
-            plans=tuple(
-                ir.IRPlan(
-                    p.name,
-                    p.doc,
-                    p.planner.value,
-                    tuple(ir.IRParam(n, t) for n, t in p.steps.items()),
-                    p.capacity,
-                    p.replans,
-                    tuple(one_line(a.value) for a in p.args),
-                )
-                for p in spec.plans.values()
-            ),
+            counters=_counters(commands),
+            every_cycle_counters=self.every_cycle_counters(),
+            enum_values=_enum_values([*_trees(rules, c.predicates.values()), *lets]),
+            plans=tuple(_plan(p) for p in spec.plans.values()),
             kind=spec.kind,
             clients=c.clients,
         )
+
+    def every_cycle_counters(self) -> tuple[ir.IRCounter, ...]:
+        """The counters of its `for:` every_cycle rules."""
+        return tuple(self.counter(r) for r in self.checked.every_cycle if r.hold is not None)
+
+    def states(self) -> tuple[str, ...]:
+        """Every state name of its tables, S0 first (code = index + 1)."""
+        states = [ENTRY_STATE]
+        for command in self.checked.commands.values():
+            states += [s for s in command.states if s not in states]
+        return tuple(states)
+
+    def hooks_module(self, rules: Iterable[CheckedRule]) -> str | None:
+        """Its hooks module, imported only when a rule calls a hook or a planner, or hook
+        state is kept."""
+        spec = self.spec
+        uses_hooks = spec.hooks_state is not None or any(
+            isinstance(a, CallHook)
+            or (isinstance(a, PlanAction) and a.kind is not PlanVerb.ADVANCE)
+            for r in rules
+            for a in r.actions
+        )
+        return _value(spec.hooks_module) if uses_hooks else None
 
     def constants(self) -> tuple[tuple[str, str], ...]:
         """The spec's constants, then CYCLE_PERIOD if an expression reads it (its period)."""
@@ -509,6 +513,42 @@ def _param_slots(commands: Iterable[Command]) -> tuple[ir.IRParam, ...]:
     return tuple(slots.values())
 
 
+def _value(item: Located | None) -> str | None:
+    return None if item is None else str(item.value)
+
+
+def _span(item: Located | None) -> Span | None:
+    return None if item is None else item.span
+
+
+def _counters(commands: Iterable[ir.IRCommand]) -> tuple[str, ...]:
+    """Every `for:` counter attribute of the tables, in table order."""
+    return tuple(
+        counter.attribute
+        for command in commands
+        for state in command.states
+        for counter in state.counters
+    )
+
+
+def _enum_values(trees: Iterable[expr.Expr]) -> tuple[tuple[str, int], ...]:
+    """The enumeration values the trees name, each once: (value name, index), by index."""
+    pairs = {pair for tree in trees for pair in expr.enum_constants(tree)}
+    return tuple(sorted(pairs, key=lambda pair: (pair[1], pair[0])))
+
+
+def _plan(p: Plan) -> ir.IRPlan:
+    return ir.IRPlan(
+        p.name,
+        p.doc,
+        p.planner.value,
+        tuple(ir.IRParam(n, t) for n, t in p.steps.items()),
+        p.capacity,
+        p.replans,
+        tuple(one_line(a.value) for a in p.args),
+    )
+
+
 def _world_field(f: Typed) -> ir.IRWorldField:
     return ir.IRWorldField(f.name, f.type, f.initial, f.doc)
 
@@ -516,18 +556,27 @@ def _world_field(f: Typed) -> ir.IRWorldField:
 # ---------------------------------------------------------------- layout
 
 
-def _buffer(const: str, offset: int, fields: Iterable[tuple[str, str]], doc: str) -> ir.Buffer:
+# A buffer's field: its name, struct code and, for a string, its capacity (else 0).
+FieldShape = tuple[str, str, int]
+
+
+def _shape(fields: Iterable[tuple[str, str]]) -> list[FieldShape]:
+    """A runtime contract's buffer fields (name, code): none of them is a string."""
+    return [(name, code, 0) for name, code in fields]
+
+
+def _typed(name: str, kind: Type) -> FieldShape:
+    """A field that holds a value of spec type `kind`."""
+    return name, kind.code, kind.size if isinstance(kind, Str) else 0
+
+
+def _buffer(const: str, offset: int, fields: Iterable[FieldShape], doc: str) -> ir.Buffer:
     """A buffer at `offset`: its sequence word, then `fields`."""
     slots, at = [], offset
-    for name, code in [("seq", "Q"), *fields]:
-        slots.append(ir.Slot(name, code, at))
+    for name, code, text in [("seq", "Q", 0), *fields]:
+        slots.append(ir.Slot(name, code, at, text))
         at += struct.calcsize("<" + code)
     return ir.Buffer(const, offset, tuple(slots), doc)
-
-
-def align(offset: int, to: int = 8) -> int:
-    """`offset` rounded up to a multiple of `to`."""
-    return -(-offset // to) * to
 
 
 def plan_layout(
@@ -544,10 +593,10 @@ def plan_layout(
     at = align(HEADER.size)
     process_records, pacing = {}, {}
     for name in processes:
-        buffer = _buffer(f"PROCESS_{name.upper()}", at, PROCESS_FIELDS, f"process {name}")
+        buffer = _buffer(f"PROCESS_{name.upper()}", at, _shape(PROCESS_FIELDS), f"process {name}")
         process_records[name] = buffer
         at = align(at + buffer.size)
-        pace = _buffer(f"PACE_{name.upper()}", at, PACE_FIELDS, f"process {name} pacing")
+        pace = _buffer(f"PACE_{name.upper()}", at, _shape(PACE_FIELDS), f"process {name} pacing")
         pacing[name] = pace
         at = align(at + pace.size)
     modules, operators = {}, {}
@@ -555,17 +604,17 @@ def plan_layout(
         if c.buffers != c.name:
             continue
         prefix = c.name.upper()
-        params = [(f"arg_{p.name}", p.type.code) for p in c.params]
+        params = [_typed(f"arg_{p.name}", p.type) for p in c.params]
         if c.is_operator:
             operators[c.name], at = _operator_buffers(c, at, params)
             continue
-        results = [(f"result_{r.name}", r.type.code) for r in c.results]
-        results += [(name, INT.code) for p in c.plans for name in p.status_fields]
+        results = [_typed(f"result_{r.name}", r.type) for r in c.results]
+        results += [_typed(name, INT) for p in c.plans for name in p.status_fields]
         parts = {
-            "command": ([*COMMAND_HEAD_FIELDS, *params], "command in"),
-            "status": ([*STATUS_FIELDS, *results], "status out"),
-            "mode": (list(MODE_FIELDS), "execution mode"),
-            "perf": (list(PERF_FIELDS), "performance"),
+            "command": ([*_shape(COMMAND_HEAD_FIELDS), *params], "command in"),
+            "status": ([*_shape(STATUS_FIELDS), *results], "status out"),
+            "mode": (_shape(MODE_FIELDS), "execution mode"),
+            "perf": (_shape(PERF_FIELDS), "performance"),
         }
         made = {}
         for part, (fields, doc) in parts.items():
@@ -574,7 +623,7 @@ def plan_layout(
         modules[c.name] = ir.ModuleBuffers(**made)
     world_buffers = []
     for f in world:
-        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, f.type.code)], f.doc)
+        buffer = _buffer(f"WORLD_{f.name.upper()}", at, [_typed(f.name, f.type)], f.doc)
         world_buffers.append(buffer)
         at = align(at + buffer.size)
     layout = ir.Layout(process_records, modules, tuple(world_buffers), at, "", pacing, operators)
@@ -582,7 +631,7 @@ def plan_layout(
 
 
 def _operator_buffers(
-    c: ir.IRController, at: int, params: list[tuple[str, str]]
+    c: ir.IRController, at: int, params: list[FieldShape]
 ) -> tuple[ir.OperatorBuffers, int]:
     """An operator module's mode and performance buffers, then each client's channel (its
     command, status and answer record), from `at`; and the offset after them."""
@@ -592,14 +641,14 @@ def _operator_buffers(
         ("mode", MODE_FIELDS, "execution mode"),
         ("perf", PERF_FIELDS, "performance"),
     ):
-        own[part] = _buffer(f"{prefix}_{part.upper()}", at, shape, f"{c.name} {doc}")
+        own[part] = _buffer(f"{prefix}_{part.upper()}", at, _shape(shape), f"{c.name} {doc}")
         at = align(at + own[part].size)
     channels = {}
     for client in c.clients:
         parts = {
-            "command": ([*COMMAND_HEAD_FIELDS, *params], f"{client}'s command in"),
-            "status": (list(STATUS_FIELDS), f"status out to {client}"),
-            "answer": (list(ANSWER_FIELDS), f"the answer to {client}'s request"),
+            "command": ([*_shape(COMMAND_HEAD_FIELDS), *params], f"{client}'s command in"),
+            "status": (_shape(STATUS_FIELDS), f"status out to {client}"),
+            "answer": (_shape(ANSWER_FIELDS), f"the answer to {client}'s request"),
         }
         made = {}
         for part, (fields, doc) in parts.items():

@@ -484,24 +484,13 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
         title=data["title"],
         doc=data.get("doc", ""),
         subordinates=_items(data, "subordinates", top),
-        hooks_module=Located(data["hooks_module"], value_span(data, "hooks_module", top))
-        if "hooks_module" in data
-        else None,
+        hooks_module=_optional(data, "hooks_module", top),
         world_reads=_items(world, "reads", top),
         world_writes=_items(world, "writes", top),
         constants={k: Located(v, key_span(constants, k, top)) for k, v in constants.items()},
         locals={k: _typed(k, v, key_span(local_specs, k, top)) for k, v in local_specs.items()},
         predicates={k: Located(v, value_span(predicates, k, top)) for k, v in predicates.items()},
-        hooks={
-            k: Hook(
-                k,
-                v.get("doc", ""),
-                _items(v, "args", key_span(hooks, k, top)),
-                _items(v, "returns", key_span(hooks, k, top)),
-                key_span(hooks, k, top),
-            )
-            for k, v in hooks.items()
-        },
+        hooks={k: _hook(k, v, key_span(hooks, k, top)) for k, v in hooks.items()},
         commands=with_default_tables(
             {k: _command(k, v, key_span(commands, k, top)) for k, v in commands.items()},
             [str(s) for s in data.get("subordinates") or []],
@@ -514,19 +503,10 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
             _rule(r, value_span(data["every_cycle"], i, top))
             for i, r in enumerate(data.get("every_cycle") or [])
         ],
-        hooks_state=Located(data["hooks_state"], value_span(data, "hooks_state", top))
-        if "hooks_state" in data
-        else None,
+        hooks_state=_optional(data, "hooks_state", top),
         hooks_state_on_restart=str(data.get("hooks_state_on_restart", "refuse")),
         functions={
-            k: Function(
-                k,
-                v.get("doc", ""),
-                {name: NAMED[kind] for name, kind in (v.get("params") or {}).items()},
-                NAMED[v["returns"]],
-                Located(v["body"], value_span(v, "body", key_span(data["functions"], k, top))),
-                key_span(data["functions"], k, top),
-            )
+            k: _function(k, v, key_span(data["functions"], k, top))
             for k, v in (data.get("functions") or {}).items()
         },
         echo_timeouts={
@@ -537,6 +517,28 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
             k: _plan(k, v, key_span(data["plans"], k, top))
             for k, v in (data.get("plans") or {}).items()
         },
+    )
+
+
+def _optional(data: Any, key: str, top: Span) -> Located | None:
+    """`data[key]` with its span, None when it is not given."""
+    return Located(data[key], value_span(data, key, top)) if key in data else None
+
+
+def _hook(name: str, raw: Any, span: Span) -> Hook:
+    return Hook(
+        name, raw.get("doc", ""), _items(raw, "args", span), _items(raw, "returns", span), span
+    )
+
+
+def _function(name: str, raw: Any, span: Span) -> Function:
+    return Function(
+        name,
+        raw.get("doc", ""),
+        {param: NAMED[kind] for param, kind in (raw.get("params") or {}).items()},
+        NAMED[raw["returns"]],
+        Located(raw["body"], value_span(raw, "body", span)),
+        span,
     )
 
 

@@ -46,6 +46,11 @@ from .model import Command, ControllerSpec, SystemSpec, Typed
 from .tables import TargetKind
 from .types import Enum, Type
 
+# Names an expression gives a meaning of their own, which no controller can take (as a
+# subordinate, `world.status` would read a world field).
+RESERVED_MODULE_NAMES = {
+    "world": "`world.<field>` names a world field in every expression and assignment",
+}
 # Methods every generated controller class has (QQ1 shape).
 FIXED_METHODS = frozenset(
     {"run_cycle", "pre_process", "check_if_new_command", "decision_process", "post_process"}
@@ -590,7 +595,33 @@ def _check_controller(
     """The attributes and methods of one generated controller class."""
     names = _Namespace(f"in the generated class of `{spec.name}`", diags)
     names.fixed(CLASS_NAMES, "an attribute or method every controller has")
+    _claim_attributes(spec, by_name, names)
+    _claim_counters(spec, names)
+    _check_constants(spec, diags)
     subs = {s.value for s in spec.subordinates}
+    methods = {command_method(c) for c in spec.commands} | {"init", "halt"}
+    for name, item in spec.predicates.items():
+        span = span_of(name, item.span)
+        if name in BUILTINS:
+            diags.error(
+                span,
+                "E228",
+                f"predicate `{name}` would hide the expression builtin `{name}()`",
+                "rename the predicate",
+            )
+        elif not _reported_by_check(name, methods, subs):
+            names.claim(name, f"predicate `{name}`", span)
+    for name, command in spec.commands.items():
+        method = command_method(name)
+        if method not in FIXED_METHODS:  # those are check's E228
+            names.claim(method, f"command `{name}`", command.span)
+
+
+def _claim_attributes(
+    spec: ControllerSpec, by_name: dict[str, ControllerSpec], names: _Namespace
+) -> None:
+    """The attributes a controller keeps for its subordinates, world fields, locals and
+    parameters."""
     for sub in spec.subordinates:
         origin = ("sub", sub.value)
         what = f"subordinate `{sub.value}`"
@@ -610,7 +641,11 @@ def _check_controller(
             names.claim(
                 f"arg_{param_name}", f"parameter `{param_name}`", typed.span, ("param", param_name)
             )
-    for index, rule in enumerate(spec.every_cycle, start=1):  # the counters of `for:` rules
+
+
+def _claim_counters(spec: ControllerSpec, names: _Namespace) -> None:
+    """The counters of its `for:` rules."""
+    for index, rule in enumerate(spec.every_cycle, start=1):
         if rule.hold is not None:
             counter = held_attribute(None, None, index)
             names.claim(counter, "the `for:` counter of an every_cycle rule", rule.span)
@@ -622,23 +657,6 @@ def _check_controller(
                     names.claim(
                         counter, f"the `for:` counter of {command.name} {state.name}", rule.span
                     )
-    _check_constants(spec, diags)
-    methods = {command_method(c) for c in spec.commands} | {"init", "halt"}
-    for name, item in spec.predicates.items():
-        span = span_of(name, item.span)
-        if name in BUILTINS:
-            diags.error(
-                span,
-                "E228",
-                f"predicate `{name}` would hide the expression builtin `{name}()`",
-                "rename the predicate",
-            )
-        elif not _reported_by_check(name, methods, subs):
-            names.claim(name, f"predicate `{name}`", span)
-    for name, command in spec.commands.items():
-        method = command_method(name)
-        if method not in FIXED_METHODS:  # those are check's E228
-            names.claim(method, f"command `{name}`", command.span)
 
 
 # The constant the system gives every controller's expressions: seconds per cycle.
@@ -680,7 +698,7 @@ def _check_constants(spec: ControllerSpec, diags: Diagnostics) -> None:
 
 
 def _reported_by_check(name: str, methods: set[str], subs: set[str]) -> bool:
-    """Whether `check._check_names` already reports predicate `name` (no second error)."""
+    """Whether `check_controller_names` reports predicate `name` (no second error)."""
     return (
         is_keyword(name)
         or name in FIXED_METHODS
@@ -694,29 +712,43 @@ def check_controller_names(spec: ControllerSpec, diags: Diagnostics) -> None:
     """A controller's names that would collide in its generated module or class."""
     if is_keyword(spec.name) or spec.name in FIXED_MODULES:
         diags.error(spec.name_span, "E228", f"`{spec.name}` cannot name a controller module")
-    methods = {command_method(c): c for c in spec.commands}
+    elif spec.name in RESERVED_MODULE_NAMES:
+        diags.error(
+            spec.name_span,
+            "E228",
+            f"`{spec.name}` cannot name a controller: {RESERVED_MODULE_NAMES[spec.name]}",
+            "rename the controller (and its file)",
+        )
+    _check_member_names(spec, diags)
+    _check_slot_names(spec, diags)
+
+
+def _check_member_names(spec: ControllerSpec, diags: Diagnostics) -> None:
+    """Commands that would be QQ1 methods; predicates that would be generated names; hooks
+    named like keywords."""
     for command in spec.commands.values():
         if command_method(command.name) in FIXED_METHODS:
             diags.error(
                 command.span, "E228", f"command `{command.name}` collides with a QQ1 method"
             )
-    taken_attrs = {s.value for s in spec.subordinates}
-    for kind, names in (("predicate", spec.predicates), ("hook", spec.hooks)):
-        for name, item in names.items():
-            span = item.span
-            clash = (
-                is_keyword(name)
-                or name in FIXED_METHODS
-                or name in methods
-                or name.startswith(ATTRIBUTE_PREFIXES)
-                or any(name.startswith(f"{sub}_") for sub in taken_attrs)
+    methods = {command_method(c) for c in spec.commands}
+    subs = {s.value for s in spec.subordinates}
+    for name, item in spec.predicates.items():
+        if _reported_by_check(name, methods, subs):
+            diags.error(
+                item.span, "E228", f"predicate name `{name}` collides with a generated name"
             )
-            if clash and kind == "predicate":
-                diags.error(span, "E228", f"predicate name `{name}` collides with a generated name")
-            elif is_keyword(name):
-                diags.error(span, "E228", f"hook name `{name}` is a Python keyword")
+    for name, hook in spec.hooks.items():
+        if is_keyword(name):
+            diags.error(hook.span, "E228", f"hook name `{name}` is a Python keyword")
+
+
+def _check_slot_names(spec: ControllerSpec, diags: Diagnostics) -> None:
+    """Parameters named like locals (E228); one type per parameter or result slot (E230,
+    E253); no built-in reason declared (E254)."""
+    commands = list(spec.commands.values())
     for name in spec.locals:
-        for command in spec.commands.values():
+        for command in commands:
             if name in command.params:
                 diags.error(
                     command.params[name].span,
@@ -724,23 +756,21 @@ def check_controller_names(spec: ControllerSpec, diags: Diagnostics) -> None:
                     f"parameter `{name}` of {command.name} has the name of a local",
                     "rename one of them",
                 )
-    commands = list(spec.commands.values())
     _one_type_per_slot(
         [(c.name, p) for c in commands for p in c.params.values()], "E230", "parameter", diags
     )
     _one_type_per_slot(
         [(c.name, r) for c in commands for r in c.results.values()], "E253", "result", diags
     )
-    for command in commands:
-        for reason in command.reasons:
-            if reason.value in BUILTIN_REASONS:
-                diags.error(
-                    reason.span,
-                    "E254",
-                    f"reason `{reason.value}` is built in: "
-                    + ("no reason given" if reason.value == "NONE" else "a subordinate was lost"),
-                    "declare only the reasons of your own errors",
-                )
+    for reason in (r for command in commands for r in command.reasons):
+        if reason.value in BUILTIN_REASONS:
+            diags.error(
+                reason.span,
+                "E254",
+                f"reason `{reason.value}` is built in: "
+                + ("no reason given" if reason.value == "NONE" else "a subordinate was lost"),
+                "declare only the reasons of your own errors",
+            )
 
 
 def _one_type_per_slot(
@@ -777,18 +807,36 @@ def check_module_names(
     diags: Diagnostics,
 ) -> None:
     """Every module-level name of a generated controller module must be unique."""
+    taken = _generated_module_names(spec, by_name, system)
+    named: list[tuple[str, str, Span]] = [
+        (c.name, "command", c.span) for c in spec.commands.values() if not c.generated
+    ]
+    named += [(n, "constant", c.span) for n, c in spec.constants.items()]
+    states: dict[str, Span] = {}  # the same state in several tables is one constant
+    for state in (s for command in spec.commands.values() for s in command.states.values()):
+        states.setdefault(state.name, state.span)
+    named += [(name, "state", span) for name, span in states.items()]
+    named += _enum_value_names(spec, by_name, system, diags)
+    for name, kind, span in named:
+        if name in taken and not (kind == "command" and name in BUILTIN_COMMANDS):
+            diags.error(
+                span,
+                "E228",
+                f"{kind} `{name}` collides with {taken[name]} in the generated module",
+                "rename it",
+            )
+        taken.setdefault(name, f"a {kind}")
+
+
+def _generated_module_names(
+    spec: ControllerSpec, by_name: dict[str, ControllerSpec], system: SystemSpec
+) -> dict[str, str]:
+    """The module-level names a controller's generated module has whatever its spec names:
+    the runtime's and the layout's, its subordinates' codes, its reasons', its world
+    runs', the built-in commands; each with what it is."""
     taken: dict[str, str] = {n: "a status or runtime name" for n in RUNTIME_NAMES}
     for sub in (s.value for s in spec.subordinates):
-        for suffix in _MODULE_BUFFER_SUFFIXES:
-            taken[sub.upper() + suffix] = "a layout name"
-        if by_name[sub].is_operator:  # its channel to this module
-            for suffix in ("_COMMAND", "_COMMAND_AT"):
-                taken[channel_prefix(sub, spec.name) + suffix] = "a layout name"
-        for sent in by_name[sub].commands:
-            taken[sub_command_const(sub, sent)] = f"the code of {sub}'s {sent}"
-        taken[f"{sub.upper()}_ECHO_CYCLES"] = f"{sub}'s echo timeout"
-        for reason in (*BUILTIN_REASONS, *declared_reasons(by_name[sub])):
-            taken[sub_reason_const(sub, reason)] = f"the code of {sub}'s reason {reason}"
+        taken.update(_subordinate_names(sub, spec.name, by_name[sub]))
     for reason in (*BUILTIN_REASONS, *declared_reasons(spec)):
         taken[reason_const(reason)] = f"the code of the reason {reason}"
     for suffix in _MODULE_BUFFER_SUFFIXES:
@@ -802,29 +850,25 @@ def check_module_names(
             f"WORLD_SEQS_{index}",
         ):
             taken[name] = "a generated name"
-    named: list[tuple[str, str, Span]] = [
-        (c.name, "command", c.span) for c in spec.commands.values() if not c.generated
-    ]
-    named += [(n, "constant", c.span) for n, c in spec.constants.items()]
-    for command in spec.commands.values():
-        named += [(s.name, "state", s.span) for s in command.states.values()]
     for builtin in BUILTIN_COMMANDS:
         taken.setdefault(builtin, "a command")
-    named += _enum_value_names(spec, by_name, system, diags)
-    states_seen: set[str] = set()
-    for name, kind, span in named:
-        if kind == "state":
-            if name in states_seen:
-                continue  # the same state name in several tables is one constant
-            states_seen.add(name)
-        if name in taken and not (kind == "command" and name in BUILTIN_COMMANDS):
-            diags.error(
-                span,
-                "E228",
-                f"{kind} `{name}` collides with {taken[name]} in the generated module",
-                "rename it",
-            )
-        taken.setdefault(name, f"a {kind}")
+    return taken
+
+
+def _subordinate_names(sub: str, module: str, spec: ControllerSpec) -> dict[str, str]:
+    """The names a supervisor's module has for a subordinate: its layout names (an operator
+    module's: its channel to the supervisor), its command and reason codes, its echo
+    timeout."""
+    taken = {sub.upper() + suffix: "a layout name" for suffix in _MODULE_BUFFER_SUFFIXES}
+    if spec.is_operator:  # its channel to this module
+        for suffix in ("_COMMAND", "_COMMAND_AT"):
+            taken[channel_prefix(sub, module) + suffix] = "a layout name"
+    for sent in spec.commands:
+        taken[sub_command_const(sub, sent)] = f"the code of {sub}'s {sent}"
+    taken[f"{sub.upper()}_ECHO_CYCLES"] = f"{sub}'s echo timeout"
+    for reason in (*BUILTIN_REASONS, *declared_reasons(spec)):
+        taken[sub_reason_const(sub, reason)] = f"the code of {sub}'s reason {reason}"
+    return taken
 
 
 def _enum_value_names(
@@ -837,12 +881,7 @@ def _enum_value_names(
     parameters and results, its locals, its world fields, its subordinates' parameters and
     results), each once: they become module constants of their index. A name that is one
     index in one of them and another in another is E228."""
-    seen: list[Typed] = [f for f in (system.world.get(str(a.value)) for a in spec.world_reads) if f]
-    seen += [f for f in (system.world.get(str(a.value)) for a in spec.world_writes) if f]
-    seen += list(spec.locals.values())
-    for owner in [spec, *(by_name[str(s.value)] for s in spec.subordinates if s.value in by_name)]:
-        for command in owner.commands.values():
-            seen += [*command.params.values(), *command.results.values()]
+    seen = _typed_names(spec, by_name, system)
     found: dict[str, tuple[int, Typed]] = {}
     named = []
     for item in seen:
@@ -865,6 +904,20 @@ def _enum_value_names(
                     "give the enumerations their values in the same order, or rename one",
                 )
     return named
+
+
+def _typed_names(
+    spec: ControllerSpec, by_name: dict[str, ControllerSpec], system: SystemSpec
+) -> list[Typed]:
+    """What a controller's tables can name that has a type: its world fields, its locals,
+    its and its subordinates' commands' parameters and results."""
+    access = [str(a.value) for a in [*spec.world_reads, *spec.world_writes]]
+    seen: list[Typed] = [system.world[name] for name in access if name in system.world]
+    seen += list(spec.locals.values())
+    owners = [spec, *(by_name[str(s.value)] for s in spec.subordinates if s.value in by_name)]
+    for command in (c for owner in owners for c in owner.commands.values()):
+        seen += [*command.params.values(), *command.results.values()]
+    return seen
 
 
 # Suffixes of the layout names a controller module imports for itself and its subordinates.

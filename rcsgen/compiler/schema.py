@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from functools import cache
 from importlib.resources import files
 from typing import Any, cast
@@ -139,97 +140,162 @@ def _schema_of(error: ValidationError) -> Mapping[str, Any]:
     return error.schema if isinstance(error.schema, Mapping) else {}
 
 
+@dataclass
+class _Failed:
+    """One jsonschema error, located: the keyword's value, the instance, the schema of the
+    place, its span and words (`where`), and the hint and title its schema gives."""
+
+    error: ValidationError
+    data: object
+    schema: Mapping[str, Any]
+    inst: Any  # JSON-shaped values: set on every error iter_errors yields
+    value: Any
+    span: Span
+    where: str
+    hint: str
+    title: str
+
+    def one(self, code: str, message: str, hint: str | None = None) -> list[Diagnostic]:
+        return [Diagnostic(self.span, code, message, self.hint if hint is None else hint)]
+
+
 def _diagnose(error: ValidationError, data: object, file: str) -> list[Diagnostic]:
     """The diagnostics of one jsonschema error (several for a missing/unknown-keys error)."""
     kw, schema, path = error.validator, _schema_of(error), error.absolute_path
-    # Set on every error iter_errors yields (the stubs allow Unset); JSON-shaped values.
-    inst: Any = error.instance
-    value: Any = error.validator_value
-    span, where = _locate(data, path, file), _where(list(path))
-    hint = schema.get("description", "")
-    title = schema.get("title") or "value"
+    span = _locate(data, path, file)
     if kw in ("oneOf", "anyOf"):
         return _composite(error, data, file, span)
+    failed = _Failed(
+        error,
+        data,
+        schema,
+        error.instance,
+        error.validator_value,
+        span,
+        _where(list(path)),
+        schema.get("description", ""),
+        schema.get("title") or "value",
+    )
     if "propertyNames" in error.absolute_schema_path:  # a bad key: point at the key itself
         mapping = _walk(data, path)
-        span, where = _key_span(mapping, inst, span), ""
-        hint = _comma_hint(mapping, inst) or hint
-    if kw == "required":
-        props = schema.get("properties", {})
-        return [
-            Diagnostic(
-                span,
-                "S001",
-                f"missing required key `{key}`",
-                props.get(key, schema).get("description", ""),
-            )
-            for key in value
-            if isinstance(inst, dict) and key not in inst
-        ]
-    if kw == "dependentRequired":
-        return [
-            Diagnostic(
-                _key_span(inst, key, span),
-                "S001",
-                f"`{key}` needs {_words(needed, 'and')}",
-                schema.get("properties", {}).get(key, {}).get("description", ""),
-            )
-            for key, needed in value.items()
-            if isinstance(inst, dict) and key in inst and any(n not in inst for n in needed)
-        ]
-    if kw == "additionalProperties":
-        allowed, patterns = list(schema.get("properties", {})), schema.get("patternProperties", {})
-        extras = [
-            k for k in inst if k not in allowed and not any(re.search(p, k) for p in patterns)
-        ]
-        return [
-            Diagnostic(
-                _key_span(inst, key, span),
-                "S002",
-                f"unknown key `{key}`",
-                did_you_mean(key, allowed)
-                or _comma_hint(inst, key)
-                or f"allowed keys here: {_words(allowed, 'and')}",
-            )
-            for key in extras
-        ]
-    if kw == "type":
-        wanted = [value] if isinstance(value, str) else value
-        expected = _words([_EXPECTED[t] for t in wanted]).replace("`", "")
-        if inst is None and path:
-            hint = _comma_hint(_walk(data, list(path)[:-1]), path[-1]) or hint
-        if "string" in wanted and isinstance(inst, bool | int | float):
-            text = str(inst).lower() if isinstance(inst, bool) else inst
-            hint = f'{hint} Quote the value to make it a string: "{text}"'.strip()
-        if "boolean" in wanted and isinstance(inst, str) and inst.lower() in _YAML_11_BOOLS:
-            hint = f"`{inst}` is a string in YAML 1.2 (not a boolean): write true or false"
-        return [Diagnostic(span, "S003", f"{where}expected {expected}, got {_got(inst)}", hint)]
-    if kw == "pattern":
-        rule = _NAME_RULES.get(value, "does not match `{}`")
-        rule = rule.format(title if "{}s" in rule else value)
-        return [Diagnostic(span, "S004", f"`{inst}` is not a valid {title}: {rule}", hint)]
-    if kw in ("enum", "const"):
-        choices = value if kw == "enum" else [value]
-        near = did_you_mean(str(inst), [str(c) for c in choices])
-        message = f"`{inst}` is not a valid {title}: expected {_words(choices)}"
-        return [Diagnostic(span, "S005", message, near or hint)]
-    if kw in ("exclusiveMinimum", "minimum"):
-        bound = "greater than" if kw == "exclusiveMinimum" else "at least"
-        message = f"{where}must be {bound} {value}, got {inst}"
-        return [Diagnostic(span, "S005", message, hint)]
-    if kw in ("minItems", "minProperties"):
-        what = "item" if kw == "minItems" else "entry"
-        message = f"{where}needs at least {value} {what}, got {len(inst) or 'none'}"
-        return [Diagnostic(span, "S005", message.replace("at least 1 ", "at least one "), hint)]
-    if kw == "uniqueItems":
-        seen: list[object] = []
-        for index, item in enumerate(inst):
-            if item in seen:
-                spans = getattr(inst, "item_spans", [])
-                at = spans[index] if index < len(spans) else span
-                return [Diagnostic(at, "S005", f"{where}duplicate item `{item}`", "remove it")]
-            seen.append(item)
-    return [Diagnostic(span, "S005", f"{where}{error.message}", hint)]
+        failed.span, failed.where = _key_span(mapping, failed.inst, span), ""
+        failed.hint = _comma_hint(mapping, failed.inst) or failed.hint
+    return _BY_KEYWORD.get(str(kw), _other)(failed)
+
+
+def _required(f: _Failed) -> list[Diagnostic]:
+    props = f.schema.get("properties", {})
+    return [
+        Diagnostic(
+            f.span,
+            "S001",
+            f"missing required key `{key}`",
+            props.get(key, f.schema).get("description", ""),
+        )
+        for key in f.value
+        if isinstance(f.inst, dict) and key not in f.inst
+    ]
+
+
+def _dependent_required(f: _Failed) -> list[Diagnostic]:
+    inst = f.inst
+    return [
+        Diagnostic(
+            _key_span(inst, key, f.span),
+            "S001",
+            f"`{key}` needs {_words(needed, 'and')}",
+            f.schema.get("properties", {}).get(key, {}).get("description", ""),
+        )
+        for key, needed in f.value.items()
+        if isinstance(inst, dict) and key in inst and any(n not in inst for n in needed)
+    ]
+
+
+def _additional_properties(f: _Failed) -> list[Diagnostic]:
+    allowed, patterns = list(f.schema.get("properties", {})), f.schema.get("patternProperties", {})
+    extras = [k for k in f.inst if k not in allowed and not any(re.search(p, k) for p in patterns)]
+    return [
+        Diagnostic(
+            _key_span(f.inst, key, f.span),
+            "S002",
+            f"unknown key `{key}`",
+            did_you_mean(key, allowed)
+            or _comma_hint(f.inst, key)
+            or f"allowed keys here: {_words(allowed, 'and')}",
+        )
+        for key in extras
+    ]
+
+
+def _type(f: _Failed) -> list[Diagnostic]:
+    inst, path, hint = f.inst, f.error.absolute_path, f.hint
+    wanted = [f.value] if isinstance(f.value, str) else f.value
+    expected = _words([_EXPECTED[t] for t in wanted]).replace("`", "")
+    if inst is None and path:
+        hint = _comma_hint(_walk(f.data, list(path)[:-1]), path[-1]) or hint
+    if "string" in wanted and isinstance(inst, bool | int | float):
+        text = str(inst).lower() if isinstance(inst, bool) else inst
+        hint = f'{hint} Quote the value to make it a string: "{text}"'.strip()
+    if "boolean" in wanted and isinstance(inst, str) and inst.lower() in _YAML_11_BOOLS:
+        hint = f"`{inst}` is a string in YAML 1.2 (not a boolean): write true or false"
+    return f.one("S003", f"{f.where}expected {expected}, got {_got(inst)}", hint)
+
+
+def _pattern(f: _Failed) -> list[Diagnostic]:
+    rule = _NAME_RULES.get(f.value, "does not match `{}`")
+    rule = rule.format(f.title if "{}s" in rule else f.value)
+    return f.one("S004", f"`{f.inst}` is not a valid {f.title}: {rule}")
+
+
+def _choice(f: _Failed) -> list[Diagnostic]:
+    choices = f.value if f.error.validator == "enum" else [f.value]
+    near = did_you_mean(str(f.inst), [str(c) for c in choices])
+    return f.one(
+        "S005", f"`{f.inst}` is not a valid {f.title}: expected {_words(choices)}", near or f.hint
+    )
+
+
+def _minimum(f: _Failed) -> list[Diagnostic]:
+    bound = "greater than" if f.error.validator == "exclusiveMinimum" else "at least"
+    return f.one("S005", f"{f.where}must be {bound} {f.value}, got {f.inst}")
+
+
+def _min_size(f: _Failed) -> list[Diagnostic]:
+    what = "item" if f.error.validator == "minItems" else "entry"
+    message = f"{f.where}needs at least {f.value} {what}, got {len(f.inst) or 'none'}"
+    return f.one("S005", message.replace("at least 1 ", "at least one "))
+
+
+def _unique_items(f: _Failed) -> list[Diagnostic]:
+    seen: list[object] = []
+    for index, item in enumerate(f.inst):
+        if item in seen:
+            spans = getattr(f.inst, "item_spans", [])
+            at = spans[index] if index < len(spans) else f.span
+            return [Diagnostic(at, "S005", f"{f.where}duplicate item `{item}`", "remove it")]
+        seen.append(item)
+    return _other(f)
+
+
+def _other(f: _Failed) -> list[Diagnostic]:
+    return f.one("S005", f"{f.where}{f.error.message}")
+
+
+# How each JSON Schema keyword's failure is told (any other: S005 with jsonschema's words).
+_BY_KEYWORD: dict[str, Callable[[_Failed], list[Diagnostic]]] = {
+    "required": _required,
+    "dependentRequired": _dependent_required,
+    "additionalProperties": _additional_properties,
+    "type": _type,
+    "pattern": _pattern,
+    "enum": _choice,
+    "const": _choice,
+    "exclusiveMinimum": _minimum,
+    "minimum": _minimum,
+    "minItems": _min_size,
+    "minProperties": _min_size,
+    "uniqueItems": _unique_items,
+}
 
 
 def _composite(error: ValidationError, data: object, file: str, span: Span) -> list[Diagnostic]:
@@ -261,6 +327,16 @@ def _composite(error: ValidationError, data: object, file: str, span: Span) -> l
                 span, "S006", f"malformed {title}: expected a mapping, got {_got(inst)}", hint
             )
         ]
+    return _one_form(error, data, file, span, forms, usage)
+
+
+def _one_form(
+    error: ValidationError, data: object, file: str, span: Span, forms: list[str], usage: str
+) -> list[Diagnostic]:
+    """A mapping that must have exactly one of `forms` (an action, a rule's form): which
+    it has both of, or none of; else what is wrong inside the one it has."""
+    inst: Any = error.instance
+    title = _schema_of(error).get("title", "value")
     present = [k for k in inst if k in forms]
     if len(present) > 1:
         at = _key_span(inst, present[1], span)
