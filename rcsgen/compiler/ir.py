@@ -527,6 +527,7 @@ class IRSystem:
     # role -> module -> index in ACCESS_LEVELS, above monitor; empty: no access control
     access: dict[str, dict[str, int]] = field(default_factory=dict)
     requests: tuple[IRRequest, ...] = ()  # what modules ask of the operator
+    name_span: Span = field(default_factory=lambda: Span("?"))  # where `system:` names it
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

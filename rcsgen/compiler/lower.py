@@ -95,6 +95,7 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         controllers=controllers,
         processes=processes,
         layout=layout,
+        name_span=spec.name_span,
         sources=tuple(sorted({source, *(c.source for c in controllers)})),
         access=operators.access(
             spec.operators, [c.name for c in controllers if c.buffers == c.name]

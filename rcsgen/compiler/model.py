@@ -113,6 +113,7 @@ class SystemSpec:
     display: str  # the file's path as shown in diagnostics and headers
     span: Span
     operators: Operators = field(default_factory=Operators)  # roles and requests
+    name_span: Span = field(default_factory=lambda: Span("?"))  # where `system:` names it
 
     @cached_property
     def world_types(self) -> dict[str, Type]:
@@ -344,6 +345,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
         display=display,
         span=top,
         operators=build_operators(data, top),
+        name_span=value_span(data, "system", top),
     )
 
 

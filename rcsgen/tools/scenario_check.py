@@ -26,7 +26,14 @@ from ..compiler.loader import LocDict, key_span, load_file, span_of, value_span
 from ..compiler.model import exact_cycles
 from ..compiler.schema import check_document
 from ..compiler.types import BOOL, FLOAT, INT, Bool, Enum, ReasonOf, Str, Type
-from .scenario import Event, Expected, OperatorScript, Scenario, ScriptedAnswer, find_system_dir
+from .scenario_model import (
+    Event,
+    Expected,
+    OperatorScript,
+    Scenario,
+    ScriptedAnswer,
+    find_system_dir,
+)
 from .traces import whole_system
 
 DEFAULT_MAX_CYCLES = 1000
