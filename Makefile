@@ -80,7 +80,7 @@ bench: $(BENCH_STAMP)
 # Browse the survivors with `.venv-mutate/bin/mutmut browse` (or `results`, `show NAME`).
 MUTATE_VENV := .venv-mutate
 MUTATE_STAMP := $(MUTATE_VENV)/.installed
-MUTANTS ?= rcsgen.compiler.expr.* rcsgen.compiler.emit.* rcsgen.compiler.check.*
+MUTANTS ?= rcsgen.compiler.expressions.* rcsgen.compiler.back_end.emit.* rcsgen.compiler.checks.check.*
 # Fewer random examples than `make test`: every surviving mutant reruns the properties.
 MUTATE_ENV := EXPR_EXAMPLES=200 DIFF_EXAMPLES=5
 

@@ -1,4 +1,4 @@
-"""The static analysis of state tables (compiler/analysis.py): codes, spans, counter-examples.
+"""The static analysis of state tables (compiler/analysis/): codes, spans, counter-examples.
 
 Each case writes a small system into a scratch directory: a supervisor `top` with two leaf
 subordinates `a` and `b`, and the state table under test. Counter-examples are checked by
@@ -20,14 +20,21 @@ from typing import Any
 import pytest
 from conftest import REPO, rcsgen
 
-from rcsgen.compiler import analysis, fragments, solver
-from rcsgen.compiler import expr as X
-from rcsgen.compiler.check import check_system
+from rcsgen.compiler import expressions as X
+from rcsgen.compiler.analysis import solver
+from rcsgen.compiler.analysis import tables as analysis
+from rcsgen.compiler.checks.check import check_system
 from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
+from rcsgen.compiler.front_end import fragments
+from rcsgen.compiler.front_end.loader import load_file
+from rcsgen.compiler.front_end.model import (
+    ControllerSpec,
+    SystemSpec,
+    build_controller,
+    build_system,
+)
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.compiler.loader import load_file
-from rcsgen.compiler.model import ControllerSpec, SystemSpec, build_controller, build_system
-from rcsgen.compiler.types import BOOL, STATUS, CommandOf, Type
+from rcsgen.compiler.types import BOOL, FLOAT, INT, STATUS, CommandOf, Type
 
 SYSTEM = """\
 system: t
@@ -1259,9 +1266,9 @@ def test_decisions_agree_with_brute_force() -> None:
     """On random guards, "yes" and "no" agree with Python evaluating every grid point; with
     independent forms of floats nothing is left undecided."""
     scope = X.Scope(
-        world={"hot": X.BOOL, "cold": X.BOOL, "level": X.FLOAT, "x": X.FLOAT, "y": X.FLOAT},
+        world={"hot": BOOL, "cold": BOOL, "level": FLOAT, "x": FLOAT, "y": FLOAT},
         world_access=frozenset({"hot", "cold", "level", "x", "y"}),
-        locals={"ticks": X.INT},
+        locals={"ticks": INT},
         constants={"LIMIT": 4.0},
         subordinates={"a": frozenset({"INIT", "HALT", "GO"})},
     )
@@ -1271,7 +1278,7 @@ def test_decisions_agree_with_brute_force() -> None:
     for _ in range(500):
         texts = [_random_guard(rnd) for _ in range(rnd.randint(1, 4))]
         wanted = [rnd.random() < 0.6 for _ in texts]
-        trees = [X.compile_expr(t, Span("t"), scope, Diagnostics(), X.BOOL) for t in texts]
+        trees = [X.compile_expr(t, Span("t"), scope, Diagnostics(), BOOL) for t in texts]
         answer = solver.solve(
             [(compiler.guard(tree), w) for tree, w in zip(trees, wanted, strict=True)]
         )

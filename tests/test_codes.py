@@ -13,12 +13,12 @@ from pathlib import Path
 
 from conftest import REPO
 
-from rcsgen.compiler import write
-from rcsgen.compiler.check import check_system
+from rcsgen.compiler.back_end import write
+from rcsgen.compiler.checks.check import check_system
 from rcsgen.compiler.diagnostics import Diagnostics
+from rcsgen.compiler.front_end.loader import load_file
+from rcsgen.compiler.front_end.model import build_controller, build_system
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.compiler.loader import load_file
-from rcsgen.compiler.model import build_controller, build_system
 from rcsgen.tools.runs import golden_differences
 from rcsgen.tools.scenario_check import check_scenario
 

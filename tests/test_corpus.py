@@ -26,10 +26,10 @@ import pytest
 from click.testing import CliRunner, Result
 
 from rcsgen.cli import main
-from rcsgen.compiler import write
+from rcsgen.compiler.back_end import write
 from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
+from rcsgen.compiler.front_end.loader import utf16_without_bom
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.compiler.loader import utf16_without_bom
 from rcsgen.tools.scenario_check import check_system_scenarios
 
 CASES = Path(__file__).resolve().parent / "cases"

@@ -1,4 +1,4 @@
-"""Expressions (compiler/expr.py): print, re-parse and evaluate random typed trees.
+"""Expressions (compiler/expressions/): print, re-parse and evaluate random typed trees.
 
 Hypothesis generates typed trees over the whole expression grammar - literals, `and`/`or`/
 `not`, comparisons (chains included) of numbers, booleans, statuses and subordinate
@@ -30,9 +30,9 @@ import pytest
 from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
-from rcsgen.compiler import naming
+from rcsgen.compiler.checks import naming
 from rcsgen.compiler.diagnostics import Diagnostics, Span
-from rcsgen.compiler.expr import (
+from rcsgen.compiler.expressions import (
     Binary,
     BoolOp,
     Call,
@@ -567,7 +567,7 @@ def test_a_rejected_operation_is_reported_where_it_is(
 def test_and_or_fold_short_circuit_on_the_deciding_operand(op: str, first: bool, want: object):
     """`and` is decided by a false operand, `or` by a true one, in either position: swapping
     the two (a seeded one-line bug) or ignoring an unknown operand is caught here."""
-    from rcsgen.compiler.expr import fold
+    from rcsgen.compiler.expressions import fold
 
     unknown = Ref(BOOL, RefKind.WORLD, "wb")
     for values in ((Const(BOOL, first), unknown), (unknown, Const(BOOL, first))):

@@ -19,9 +19,9 @@ import pytest
 from browser import load, needs_chromium
 from conftest import edit, rcsgen
 
-from rcsgen.compiler import expr
+from rcsgen.compiler import expressions as expr
+from rcsgen.compiler.back_end.emit import render_system
 from rcsgen.compiler.diagnostics import Diagnostics, Span
-from rcsgen.compiler.emit import render_system
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.types import BOOL, Str
 from rcsgen.runtime import contract, ctl, launcher

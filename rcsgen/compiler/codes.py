@@ -29,44 +29,47 @@ class Topic(Enum):
     """What a code is about, as the index of docs/diagnostics.md groups them: (what, where
     it is found)."""
 
-    FILES = ("reading files and the YAML", "`rcsgen/compiler/loader.py`, `frontend.py`")
-    SCHEMA = ("the shape of a file (JSON Schema)", "`rcsgen/compiler/schema.py`")
-    EXPRESSIONS = ("expressions and numbers", "`rcsgen/compiler/expr.py`, `check.py`")
+    FILES = (
+        "reading files and the YAML",
+        "`rcsgen/compiler/front_end/loader.py`, `compiler/frontend.py`",
+    )
+    SCHEMA = ("the shape of a file (JSON Schema)", "`rcsgen/compiler/front_end/schema.py`")
+    EXPRESSIONS = ("expressions and numbers", "`rcsgen/compiler/expressions/`, `checks/check.py`")
     TABLES = (
         "names, hierarchy, hooks, state tables, time, results and reasons, let and "
         "functions, acknowledgements, operators",
-        "`rcsgen/compiler/check.py`, `hooks.py`, `acknowledge.py`, `operators.py`",
+        "`rcsgen/compiler/checks/`: `check.py`, `hook_checks.py`, `acknowledge.py`, `operators.py`",
     )
     FRAGMENTS = (
         "fragments (parameterised sub-tables), and fragments used within fragments",
-        "`rcsgen/compiler/fragments.py`, `frontend.py`",
+        "`rcsgen/compiler/front_end/fragments.py`, `compiler/frontend.py`",
     )
     REASONS = (
         "a subordinate's reason passed up (`reason: <sub>.reason`)",
-        "`rcsgen/compiler/check.py`",
+        "`rcsgen/compiler/checks/check.py`",
     )
-    TYPES = ("enumerations and strings", "`rcsgen/compiler/expr.py`, `check.py`")
-    WORLD = ("ground truth and actuators (world fields)", "`rcsgen/compiler/check.py`")
+    TYPES = ("enumerations and strings", "`rcsgen/compiler/expressions/`, `checks/check.py`")
+    WORLD = ("ground truth and actuators (world fields)", "`rcsgen/compiler/checks/check.py`")
     OPERATORS = (
         "operator modules, their clients, roles on them and the scripted person",
-        "`rcsgen/compiler/operators.py`, `check.py`, `rcsgen/tools/scenario_check.py`",
+        "`rcsgen/compiler/checks/operators.py`, `check.py`, `rcsgen/tools/scenario_check.py`",
     )
     PLANS = (
         "plans (planner and executor)",
-        "`rcsgen/compiler/expr.py`, `check.py`, `analysis.py`",
+        "`rcsgen/compiler/expressions/`, `checks/check.py`, `analysis/tables.py`",
     )
     CYCLE_PERIOD = (
         "`CYCLE_PERIOD`, the cycle period expressions read",
-        "`rcsgen/compiler/naming.py`, `check.py`",
+        "`rcsgen/compiler/checks/naming.py`, `check.py`",
     )
-    OUTPUT = ("writing the output", "`rcsgen/compiler/write.py`")
+    OUTPUT = ("writing the output", "`rcsgen/compiler/back_end/write.py`")
     SCENARIOS = (
         "scenario files and runs",
         "`rcsgen/tools/scenario_check.py`, `runs.py`",
     )
     DEPLOYMENT = ("deployment files (`--deploy`)", "`rcsgen/runtime/deploy.py`")
-    ANALYSIS = ("static analysis of the tables", "`rcsgen/compiler/analysis.py`")
-    NAMES = ("names and text that reach generated code", "`rcsgen/compiler/naming.py`")
+    ANALYSIS = ("static analysis of the tables", "`rcsgen/compiler/analysis/tables.py`")
+    NAMES = ("names and text that reach generated code", "`rcsgen/compiler/checks/naming.py`")
 
     @property
     def what(self) -> str:

@@ -11,15 +11,16 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import acknowledge, fragments, model
-from .analysis import analyse_system
-from .check import check_system
+from .analysis.tables import analyse_system
+from .back_end.lower import lower_system
+from .checks import acknowledge
+from .checks.check import check_system
 from .codes import Severity
 from .diagnostics import Diagnostics, Span, SpecError
+from .front_end import fragments, model
+from .front_end.loader import LocDict, PathProblem, load_file, path_problem
+from .front_end.schema import check_document
 from .ir import IRSystem
-from .loader import LocDict, PathProblem, load_file, path_problem
-from .lower import lower_system
-from .schema import check_document
 
 SYSTEM_FILE = "system.yaml"
 

@@ -13,10 +13,10 @@ import struct
 from dataclasses import dataclass, field
 from functools import cached_property
 
-from . import expr
+from . import expressions as expr
+from .checks.tables import RuleId
 from .diagnostics import Span
-from .model import ModuleKind, PlanVerb
-from .tables import RuleId
+from .front_end.model import ModuleKind, PlanVerb
 from .types import Type
 
 # ---------------------------------------------------------------- layout

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..compiler import write
+from ..compiler.back_end import write
+from ..compiler.back_end.emit import MARKER
 from ..compiler.diagnostics import Diagnostics
-from ..compiler.emit import MARKER
 from ..compiler.ir import IRCommand, IRController, IRRule, IRSystem
 from ..compiler.types import Enum, Type
 from . import graph

@@ -17,10 +17,10 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+from ..compiler.back_end.write import Plan
 from ..compiler.diagnostics import Diagnostic, Span, SpecError
 from ..compiler.frontend import display_path
 from ..compiler.ir import IRCall, IRController, IRLoadPlan, IRSystem
-from ..compiler.write import Plan
 from .scenario import RunResult, Scenario, final_value, first_difference, read_trace
 
 

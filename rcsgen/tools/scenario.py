@@ -18,8 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from ..compiler.diagnostics import SpecError
+from ..compiler.front_end.loader import decode, read_bytes
 from ..compiler.frontend import display_path
-from ..compiler.loader import decode, read_bytes
 from ..runtime.ctl import channel_requests, write_answer
 from .harness import AnyHarness, Harness, LaunchedHarness, Status
 from .scenario_check import check_scenario

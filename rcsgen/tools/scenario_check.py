@@ -19,12 +19,12 @@ from pathlib import Path
 from typing import Any
 
 from ..compiler.diagnostics import Diagnostics, Span, SpecError, known_names_hint
-from ..compiler.expr import int_range_problem, text_problem_of
+from ..compiler.expressions import int_range_problem, text_problem_of
+from ..compiler.front_end.loader import LocDict, key_span, load_file, span_of, value_span
+from ..compiler.front_end.model import exact_cycles
+from ..compiler.front_end.schema import check_document
 from ..compiler.frontend import SYSTEM_FILE, compile_paths, display_path
 from ..compiler.ir import IRController, IRProcess, IRSystem
-from ..compiler.loader import LocDict, key_span, load_file, span_of, value_span
-from ..compiler.model import exact_cycles
-from ..compiler.schema import check_document
 from ..compiler.types import BOOL, FLOAT, INT, Bool, Enum, ReasonOf, Str, Type
 from .scenario_model import (
     Event,

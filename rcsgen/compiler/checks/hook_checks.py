@@ -15,10 +15,11 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import hooks, loader, model
-from .diagnostics import Diagnostics, SpecError
-from .model import ControllerSpec, Located
-from .types import Annotation, Type, annotation_fits, hook_words
+from ..diagnostics import Diagnostics, SpecError
+from ..front_end import loader, model
+from ..front_end.model import ControllerSpec, Located
+from ..types import Annotation, Type, annotation_fits, hook_words
+from . import hooks
 
 
 def _hook_module_file(directory: Path, module: str) -> Path | None:

@@ -13,10 +13,11 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
 
-from . import expr, model
-from .diagnostics import Span
-from .model import ENTRY_STATE, Command, ControllerSpec, Hook, Rule, SystemSpec
-from .types import BOOL, Type
+from .. import expressions as expr
+from ..diagnostics import Span
+from ..front_end import model
+from ..front_end.model import ENTRY_STATE, Command, ControllerSpec, Hook, Rule, SystemSpec
+from ..types import BOOL, Type
 
 __all__ = ["ENTRY_STATE"]
 

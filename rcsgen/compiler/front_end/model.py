@@ -16,10 +16,10 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from ..runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
-from .diagnostics import Span
+from ...runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
+from ..diagnostics import Span
+from ..types import NAMED, STR_DEFAULT_SIZE, Str, Type, enum_of
 from .loader import key_span, span_of, value_span
-from .types import NAMED, STR_DEFAULT_SIZE, Str, Type, enum_of
 
 
 class ModuleKind(StrEnum):

@@ -21,10 +21,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .diagnostics import Diagnostics, Span, SpecError
+from ..diagnostics import Diagnostics, Span, SpecError
+from ..front_end.loader import path_problem, read_bytes
+from ..ir import IRSystem
 from .emit import MARKER, render_all
-from .ir import IRSystem
-from .loader import path_problem, read_bytes
 
 MANIFEST = ".rcsgen-manifest"
 _MANIFEST_HEAD = f"{MARKER}: the files it wrote in this directory; it overwrites and deletes\n"

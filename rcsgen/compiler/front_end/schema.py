@@ -20,7 +20,7 @@ from jsonschema import Draft202012Validator, validators
 from jsonschema.exceptions import ValidationError, best_match
 from jsonschema.protocols import Validator
 
-from .diagnostics import Diagnostic, Span, did_you_mean
+from ..diagnostics import Diagnostic, Span, did_you_mean
 
 KINDS = ("system", "controller", "operator", "scenario")
 

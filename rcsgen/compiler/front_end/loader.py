@@ -22,7 +22,7 @@ from typing import Any, Protocol
 
 import yaml
 
-from .diagnostics import Diagnostics, Span, SpecError
+from ..diagnostics import Diagnostics, Span, SpecError
 
 MAX_BYTES = 1_000_000
 MAX_DEPTH = 64

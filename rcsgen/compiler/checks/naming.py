@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
-from ..runtime.contract import (
+from ...runtime.contract import (
     BUILTIN_COMMANDS,
     COMMAND_HEAD_FIELDS,
     MODE_FIELDS,
@@ -39,12 +39,12 @@ from ..runtime.contract import (
     STATUS_FIELDS,
     field_names,
 )
-from .diagnostics import Diagnostics, Span
-from .expr import BUILTIN_REASONS, BUILTINS, PLAN_PROPERTIES, STATUS_NAMES, Ref, RefKind
-from .loader import span_of
-from .model import Command, ControllerSpec, SystemSpec, Typed
+from ..diagnostics import Diagnostics, Span
+from ..expressions import BUILTIN_REASONS, BUILTINS, PLAN_PROPERTIES, STATUS_NAMES, Ref, RefKind
+from ..front_end.loader import span_of
+from ..front_end.model import Command, ControllerSpec, SystemSpec, Typed
+from ..types import Enum, Type
 from .tables import TargetKind
-from .types import Enum, Type
 
 # Names an expression gives a meaning of their own, which no controller can take (as a
 # subordinate, `world.status` would read a world field).

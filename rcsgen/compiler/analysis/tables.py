@@ -34,11 +34,23 @@ from fractions import Fraction
 from itertools import pairwise
 from typing import Any
 
-from ..runtime.contract import FINISHED
-from . import expr, solver
-from .diagnostics import Diagnostic, Diagnostics, Span, Subject, known_names_hint
-from .expr import BUILTIN_REASONS
-from .model import PlanVerb
+from ...runtime.contract import FINISHED
+from .. import expressions as expr
+from ..checks.tables import (
+    ENTRY_STATE,
+    CheckedCommand,
+    CheckedController,
+    CheckedRule,
+    CheckedSystem,
+    PlanAction,
+    Send,
+    reachable,
+)
+from ..diagnostics import Diagnostic, Diagnostics, Span, Subject, known_names_hint
+from ..expressions import BUILTIN_REASONS
+from ..front_end.model import PlanVerb
+from ..types import BOOL, INT, NUMERIC, Enum, Str, Type
+from . import solver
 from .solver import (
     BOOL_DOMAIN,
     LIMIT,
@@ -54,17 +66,6 @@ from .solver import (
     merge_atoms,
     solve,
 )
-from .tables import (
-    ENTRY_STATE,
-    CheckedCommand,
-    CheckedController,
-    CheckedRule,
-    CheckedSystem,
-    PlanAction,
-    Send,
-    reachable,
-)
-from .types import BOOL, INT, NUMERIC, Enum, Str, Type
 
 
 class Atom(StrEnum):

@@ -20,7 +20,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from typing import Any
 
-from .diagnostics import Diagnostic, Diagnostics, Span, known_names_hint
+from ..diagnostics import Diagnostic, Diagnostics, Span, known_names_hint
 from .loader import LocDict, LocList, LocStr, key_span, span_of, value_span
 
 FILE = "fragments.yaml"

@@ -1,25 +1,22 @@
-"""Expressions: guard, argument and assignment text -> typed expression tree -> Python source.
+"""Resolve: expression text -> a typed tree, over the scope of one controller and command.
 
 A spec's expression text never reaches generated code. It is parsed with `ast` and every
 node is checked against an allowlist (literals, `and`/`or`/`not`, comparisons, arithmetic,
 declared names, `world.<field>`, `<sub>.status`, `<sub>.command`, calls of declared
 predicates and of `abs`/`min`/`max`); anything else is a located error. Names are resolved
-against a `Scope` and typed, and the Python text is printed back from the typed tree.
+against a `Scope` and typed.
 """
 
 from __future__ import annotations
 
 import ast
 import math
-import operator
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from enum import StrEnum
-from typing import Any
 
-from ..runtime.contract import text_problem
-from .diagnostics import Diagnostics, Span, known_names_hint
-from .types import (
+from ...runtime.contract import text_problem
+from ..diagnostics import Diagnostics, Span, known_names_hint
+from ..types import (
     BOOL,
     FLOAT,
     INT,
@@ -33,142 +30,26 @@ from .types import (
     Type,
     assignable,
 )
-
-
-class RefKind(StrEnum):
-    """What a resolved name is (`Ref.kind`); `owner` is the subordinate for the SUB_* kinds
-    and the plan for PLAN. TIME and HELD are named by no spec text: the checker makes them
-    from a rule's `after:` and `for:`. PREDICATE and FUNCTION name a callee when printed."""
-
-    WORLD = "world"
-    PARAM = "param"
-    LOCAL = "local"
-    CONST = "const"
-    STATUS = "status"  # a status name: NOT_READY, EXECUTING, DONE, ERROR
-    SUB_STATUS = "sub_status"
-    SUB_COMMAND = "sub_command"
-    SUB_COMMAND_NAME = "sub_command_name"
-    SUB_RESULT = "sub_result"  # `<sub>.result.<name>`
-    SUB_REASON = "sub_reason"  # `<sub>.reason`
-    SUB_REASON_NAME = "sub_reason_name"
-    PLAN = "plan"  # `<plan>.<name>`: a step field or one of PLAN_PROPERTIES
-    TIME = "time"  # the cycles spent in the current state, an int
-    HELD = "held"  # the cycles a `for:` rule's `when` has held, an int; `name` its counter
-    ARG = "arg"  # a parameter of a function's body
-    LET = "let"
-    PREDICATE = "predicate"
-    FUNCTION = "function"
-
-
-class CallKind(StrEnum):
-    """What a call calls (`Call.kind`)."""
-
-    PREDICATE = "predicate"
-    BUILTIN = "builtin"
-    FUNCTION = "function"
-
-
-STATUS_NAMES = ("NOT_READY", "EXECUTING", "DONE", "ERROR")
-BUILTINS = ("abs", "min", "max")
-MAX_DEPTH = 100  # nesting levels of an expression tree (each operator, call, name, ...)
-INT_MIN, INT_MAX = -(2**63), 2**63 - 1  # an int is stored in 8 bytes (struct code `q`)
-
-
-def int_range_problem(value: object) -> str:
-    """'' when `value` is not an int beyond int64, else the message of E110."""
-    if isinstance(value, bool) or not isinstance(value, int) or INT_MIN <= value <= INT_MAX:
-        return ""
-    shown = str(value) if len(str(value)) <= 30 else f"{str(value)[:27]}..."
-    return f"integer {shown} is out of range: an int is 64-bit ({INT_MIN} to {INT_MAX})"
-
-
-INT_RANGE_HINT = "use a smaller number, or a float if the value is not a count"
-
-
-def text_problem_of(value: object, kind: Str) -> str:
-    """'' when `value` is a text that fits string type `kind`, else what is wrong with it."""
-    return text_problem(value, kind.size)
-
-
-# The reasons every controller that declares some has: none given, and a subordinate's
-# process lost (the runtime's safe state, `error_num` 1: rcs/loop.py LOST_SUBORDINATE).
-BUILTIN_REASONS = ("NONE", "LOST")
-
-# What every plan has besides its step fields (`route.step`, ...), and their types: the
-# current step (from 0), the number of steps, past the last step, the replans left.
-PLAN_PROPERTIES: dict[str, Type] = {"step": INT, "steps": INT, "done": BOOL, "replans_left": INT}
-
-
-# ---------------------------------------------------------------- typed tree
-
-
-@dataclass(frozen=True)
-class Expr:
-    """A typed expression node."""
-
-    type: Type
-
-
-@dataclass(frozen=True)
-class Const(Expr):
-    """A literal: a bool, an int, a float, a string, or an enumeration's value (its index,
-    `type` naming the enumeration)."""
-
-    value: bool | int | float | str
-
-
-@dataclass(frozen=True)
-class Ref(Expr):
-    """A resolved name, of a kind (RefKind)."""
-
-    kind: RefKind
-    name: str
-    owner: str = ""
-
-
-@dataclass(frozen=True)
-class Call(Expr):
-    """A call of a declared predicate, a function or a builtin."""
-
-    kind: CallKind
-    name: str
-    args: tuple[Expr, ...] = ()
-
-
-@dataclass(frozen=True)
-class Unary(Expr):
-    op: str  # "not", "-", "+"
-    operand: Expr
-
-
-@dataclass(frozen=True)
-class Binary(Expr):
-    op: str  # + - * / // %
-    left: Expr
-    right: Expr
-
-
-@dataclass(frozen=True)
-class BoolOp(Expr):
-    op: str  # "and", "or"
-    values: tuple[Expr, ...]
-
-
-@dataclass(frozen=True)
-class Compare(Expr):
-    left: Expr
-    ops: tuple[str, ...]
-    comparators: tuple[Expr, ...]
-
-
-@dataclass(frozen=True)
-class IfExp(Expr):
-    """`body if test else orelse`: both values of one type (int and float make a float)."""
-
-    test: Expr
-    body: Expr
-    orelse: Expr
-
+from .fold import fold
+from .nodes import (
+    BUILTIN_REASONS,
+    BUILTINS,
+    INT_RANGE_HINT,
+    MAX_DEPTH,
+    STATUS_NAMES,
+    Binary,
+    BoolOp,
+    Call,
+    CallKind,
+    Compare,
+    Const,
+    Expr,
+    IfExp,
+    Ref,
+    RefKind,
+    Unary,
+    int_range_problem,
+)
 
 # ---------------------------------------------------------------- scope
 
@@ -772,235 +653,3 @@ def _depth(node: ast.AST) -> int:
         deepest = max(deepest, level)
         todo.extend((child, level + 1) for child in ast.iter_child_nodes(at))
     return deepest
-
-
-# ---------------------------------------------------------------- constant folding
-
-# What each operator of the grammar computes (constant folding here, the analysis too).
-ARITHMETIC: dict[str, Callable[[Any, Any], Any]] = {
-    "+": operator.add,
-    "-": operator.sub,
-    "*": operator.mul,
-    "/": operator.truediv,
-    "//": operator.floordiv,
-    "%": operator.mod,
-}
-COMPARISONS: dict[str, Callable[[Any, Any], bool]] = {
-    "==": operator.eq,
-    "!=": operator.ne,
-    "<": operator.lt,
-    "<=": operator.le,
-    ">": operator.gt,
-    ">=": operator.ge,
-}
-_FOLD_BUILTIN: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}
-
-
-def fold(
-    tree: Expr,
-    constants: Mapping[str, bool | int | float],
-    predicates: Mapping[str, Expr] | None = None,
-) -> bool | int | float | None:
-    """The value of an expression that reads only literals and constants (and predicates
-    that do, when given), else None. Never raises: a division by 0 or an overflow is None."""
-    try:
-        value: bool | int | float | None = _fold(tree, constants, predicates or {}, 0)
-        return value
-    except (ArithmeticError, ValueError, RecursionError):
-        return None
-
-
-def _fold(e: Expr, constants: Mapping[str, Any], predicates: Mapping[str, Expr], depth: int) -> Any:
-    if depth > 2 * MAX_DEPTH:  # a predicate chain folded in: bounded like the parser
-        return None
-
-    def inner(x: Expr) -> Any:
-        return _fold(x, constants, predicates, depth + 1)
-
-    match e:
-        case Const():
-            return e.value
-        case Ref():
-            return constants.get(e.name) if e.kind == RefKind.CONST else None
-        case Call():
-            return _fold_call(e, predicates, inner)
-        case Unary():
-            return _fold_unary(e.op, inner(e.operand))
-        case Binary():
-            left, right = inner(e.left), inner(e.right)
-            return None if left is None or right is None else ARITHMETIC[e.op](left, right)
-        case BoolOp():
-            return _fold_bool(e, inner)
-        case IfExp():
-            test = inner(e.test)
-            return None if test is None else inner(e.body if test else e.orelse)
-        case Compare():
-            return _fold_compare(e.ops, [inner(x) for x in (e.left, *e.comparators)])
-    return None
-
-
-def _fold_unary(op: str, value: Any) -> Any:
-    if value is None:
-        return None
-    return (not value) if op == "not" else (-value if op == "-" else value)
-
-
-def _fold_compare(ops: tuple[str, ...], operands: list[Any]) -> bool | None:
-    """A chain of comparisons (`a < b <= c`): each pair, all of them."""
-    if None in operands:
-        return None
-    pairs = zip(operands, operands[1:], ops, strict=False)
-    return all(COMPARISONS[op](a, b) for a, b, op in pairs)
-
-
-def _fold_call(e: Call, predicates: Mapping[str, Expr], inner: Callable[[Expr], Any]) -> Any:
-    """A predicate's body folded where it is called; a builtin of folded arguments; a
-    function is folded where it is declared, not here."""
-    if e.kind == CallKind.PREDICATE:
-        body = predicates.get(e.name)
-        return None if body is None else inner(body)
-    if e.kind == CallKind.FUNCTION:
-        return None
-    args = [inner(a) for a in e.args]
-    return None if None in args else _FOLD_BUILTIN[e.name](*args)
-
-
-def _fold_bool(e: BoolOp, inner: Callable[[Expr], Any]) -> bool | None:
-    """`and`/`or` short-circuit on a decided operand: `or` is true as soon as one operand
-    is, `and` false as soon as one is; unknown when an undecided operand could decide."""
-    decided = e.op == "or"
-    unknown = False
-    for part in e.values:
-        value = inner(part)
-        if value is None:
-            unknown = True
-        elif bool(value) == decided:
-            return decided
-    return None if unknown else not decided
-
-
-# ---------------------------------------------------------------- printing
-
-_PRECEDENCE = {"if": 0, "or": 1, "and": 2, "not": 3, "cmp": 4, "+": 5, "-": 5}
-_PRECEDENCE.update({"*": 6, "/": 6, "//": 6, "%": 6, "neg": 7, "atom": 9})
-
-
-def to_python(expr: Expr, name_of: Callable[[Ref], str]) -> str:
-    """Python source for a typed tree; `name_of` maps each resolved name to its target text."""
-    return _Printer(name_of).text(expr)[0]
-
-
-def to_python_conjunct(expr: Expr, name_of: Callable[[Ref], str]) -> str:
-    """Python source for `expr` as one operand of `and` (parenthesised only if it needs it)."""
-    return _Printer(name_of).wrap(expr, _PRECEDENCE["and"])
-
-
-class _Printer:
-    def __init__(self, name_of: Callable[[Ref], str]):
-        self.name_of = name_of
-
-    def wrap(self, expr: Expr, minimum: int) -> str:
-        text, level = self.text(expr)
-        return f"({text})" if level < minimum else text
-
-    def text(self, expr: Expr) -> tuple[str, int]:
-        atom = _PRECEDENCE["atom"]
-        if isinstance(expr, Const):
-            if isinstance(expr.type, Enum):  # a module constant of the value's index
-                return expr.type.values[int(expr.value)], atom
-            return repr(expr.value), atom
-        if isinstance(expr, Ref):
-            return self.name_of(expr), atom
-        if isinstance(expr, Call):
-            args = ", ".join(self.wrap(a, 0) for a in expr.args)
-            callee = expr.name
-            if expr.kind == CallKind.PREDICATE:
-                callee = self.name_of(Ref(BOOL, RefKind.PREDICATE, expr.name))
-            elif expr.kind == CallKind.FUNCTION:
-                callee = self.name_of(Ref(expr.type, RefKind.FUNCTION, expr.name))
-            return f"{callee}({args})", atom
-        if isinstance(expr, Unary):
-            if expr.op == "not":
-                return f"not {self.wrap(expr.operand, _PRECEDENCE['not'])}", _PRECEDENCE["not"]
-            return f"{expr.op}{self.wrap(expr.operand, _PRECEDENCE['neg'])}", _PRECEDENCE["neg"]
-        if isinstance(expr, Binary):
-            level = _PRECEDENCE[expr.op]
-            left = self.wrap(expr.left, level)
-            right = self.wrap(expr.right, level + 1)  # left-associative
-            return f"{left} {expr.op} {right}", level
-        if isinstance(expr, BoolOp):
-            level = _PRECEDENCE[expr.op]
-            return f" {expr.op} ".join(self.wrap(v, level + 1) for v in expr.values), level
-        if isinstance(expr, IfExp):  # right-associative: `a if c else b if d else e`
-            body, test = self.wrap(expr.body, 1), self.wrap(expr.test, 1)
-            return f"{body} if {test} else {self.wrap(expr.orelse, 0)}", _PRECEDENCE["if"]
-        if isinstance(expr, Compare):
-            level = _PRECEDENCE["cmp"]
-            parts = [self.wrap(expr.left, level + 1)]
-            for op, comparator in zip(expr.ops, expr.comparators, strict=True):
-                parts += [op, self.wrap(comparator, level + 1)]
-            return " ".join(parts), level
-        raise TypeError(f"unknown expression node {expr!r}")
-
-
-def walk(expr: Expr) -> Iterator[Expr]:
-    """Every node of `expr`, each before its operands, in reading order."""
-    stack = [expr]
-    while stack:
-        node = stack.pop()
-        yield node
-        if isinstance(node, Call):
-            stack.extend(reversed(node.args))
-        elif isinstance(node, Unary):
-            stack.append(node.operand)
-        elif isinstance(node, Binary):
-            stack.extend((node.right, node.left))
-        elif isinstance(node, BoolOp):
-            stack.extend(reversed(node.values))
-        elif isinstance(node, Compare):
-            stack.extend(reversed((node.left, *node.comparators)))
-        elif isinstance(node, IfExp):
-            stack.extend((node.orelse, node.body, node.test))
-
-
-def refs(expr: Expr) -> list[Ref]:
-    """Every resolved name in `expr`, in reading order."""
-    return [node for node in walk(expr) if isinstance(node, Ref)]
-
-
-def enum_constants(expr: Expr) -> list[tuple[str, int]]:
-    """Every enumeration value `expr` names, as (value name, index), in reading order."""
-    return [
-        (node.type.values[int(node.value)], int(node.value))
-        for node in walk(expr)
-        if isinstance(node, Const) and isinstance(node.type, Enum)
-    ]
-
-
-def substitute(tree: Expr, values: Mapping[tuple[RefKind, str], Expr]) -> Expr:
-    """`tree` with each name `(kind, name)` in `values` replaced by its tree: a function's
-    body with its arguments, a guard with its table's `let` values (for the analysis)."""
-    if isinstance(tree, Ref):
-        return values.get((tree.kind, tree.name), tree)
-    if isinstance(tree, Call):
-        args = tuple(substitute(a, values) for a in tree.args)
-        return Call(tree.type, tree.kind, tree.name, args)
-    if isinstance(tree, Unary):
-        return Unary(tree.type, tree.op, substitute(tree.operand, values))
-    if isinstance(tree, Binary):
-        return Binary(
-            tree.type, tree.op, substitute(tree.left, values), substitute(tree.right, values)
-        )
-    if isinstance(tree, BoolOp):
-        return BoolOp(tree.type, tree.op, tuple(substitute(v, values) for v in tree.values))
-    if isinstance(tree, Compare):
-        comparators = tuple(substitute(c, values) for c in tree.comparators)
-        return Compare(tree.type, substitute(tree.left, values), tree.ops, comparators)
-    if isinstance(tree, IfExp):
-        return IfExp(
-            tree.type,
-            substitute(tree.test, values),
-            substitute(tree.body, values),
-            substitute(tree.orelse, values),
-        )
-    return tree

@@ -15,7 +15,7 @@ import ast
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-from .types import Annotation
+from ..types import Annotation
 
 Function = ast.FunctionDef | ast.AsyncFunctionDef
 

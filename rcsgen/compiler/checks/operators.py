@@ -14,10 +14,10 @@ from __future__ import annotations
 
 from string import Formatter
 
-from ..runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
-from .diagnostics import Diagnostics, known_names_hint
-from .model import Command, ControllerSpec, Located, Operators, Request, SystemSpec
-from .types import BOOL, Type
+from ...runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
+from ..diagnostics import Diagnostics, known_names_hint
+from ..front_end.model import Command, ControllerSpec, Located, Operators, Request, SystemSpec
+from ..types import BOOL, Type
 
 
 def access(operators: Operators, modules: list[str]) -> dict[str, dict[str, int]]:

@@ -15,10 +15,13 @@ import keyword
 from dataclasses import replace
 from pathlib import Path
 
-from ..runtime.contract import BUILTIN_COMMANDS
-from . import acknowledge, expr, hook_checks, model, naming, operators
-from .diagnostics import Diagnostics, Span, Subject, known_names_hint
-from .model import Command, ControllerSpec, Located, PlanVerb, Rule, SystemSpec
+from ...runtime.contract import BUILTIN_COMMANDS
+from .. import expressions as expr
+from ..diagnostics import Diagnostics, Span, Subject, known_names_hint
+from ..front_end import model
+from ..front_end.model import Command, ControllerSpec, Located, PlanVerb, Rule, SystemSpec
+from ..types import BOOL, FLOAT, INT, Enum, Str, Type, annotation_accepts, hook_words
+from . import acknowledge, hook_checks, naming, operators
 from .tables import (
     ENTRY_STATE,
     Action,
@@ -43,16 +46,6 @@ from .tables import (
     live,
     one_line,
     reachable,
-)
-from .types import (
-    BOOL,
-    FLOAT,
-    INT,
-    Enum,
-    Str,
-    Type,
-    annotation_accepts,
-    hook_words,
 )
 
 

@@ -14,8 +14,9 @@ import struct
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from ..runtime.contract import MODE_FIELDS, PERF_FIELDS, STATUS_FIELDS, field_names
-from . import ir, naming
+from ...runtime.contract import MODE_FIELDS, PERF_FIELDS, STATUS_FIELDS, field_names
+from .. import ir
+from ..checks import naming
 
 
 @dataclass(frozen=True)

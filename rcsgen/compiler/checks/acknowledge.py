@@ -16,9 +16,9 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from .codes import ACKNOWLEDGEABLE, Severity
-from .diagnostics import Diagnostic, Diagnostics, known_names_hint
-from .model import Allow, ControllerSpec
+from ..codes import ACKNOWLEDGEABLE, Severity
+from ..diagnostics import Diagnostic, Diagnostics, known_names_hint
+from ..front_end.model import Allow, ControllerSpec
 
 
 @dataclass

@@ -13,7 +13,7 @@ import struct
 from collections.abc import Iterable, Mapping
 from dataclasses import replace
 
-from ..runtime.contract import (
+from ...runtime.contract import (
     ANSWER_FIELDS,
     COMMAND_HEAD_FIELDS,
     HEADER,
@@ -23,21 +23,10 @@ from ..runtime.contract import (
     PROCESS_FIELDS,
     STATUS_FIELDS,
 )
-from . import expr, ir, module_io, naming, operators
-from .diagnostics import Span
-from .expr import RefKind
-from .model import (
-    ENTRY_STATE,
-    Command,
-    ControllerSpec,
-    Located,
-    Plan,
-    PlanVerb,
-    Typed,
-    duration_in_cycles,
-)
-from .module_io import align
-from .tables import (
+from .. import expressions as expr
+from .. import ir
+from ..checks import naming, operators
+from ..checks.tables import (
     Action,
     Assign,
     CallHook,
@@ -53,7 +42,21 @@ from .tables import (
     one_line,
     untimed,
 )
-from .types import BOOL, FLOAT, INT, Bool, Enum, Float, Int, Str, Type
+from ..diagnostics import Span
+from ..expressions import RefKind
+from ..front_end.model import (
+    ENTRY_STATE,
+    Command,
+    ControllerSpec,
+    Located,
+    Plan,
+    PlanVerb,
+    Typed,
+    duration_in_cycles,
+)
+from ..types import BOOL, FLOAT, INT, Bool, Enum, Float, Int, Str, Type
+from . import module_io
+from .module_io import align
 
 # What every controller module imports from the runtime contract, whatever its tables say.
 ALWAYS_IMPORTED = ("EXECUTING", "NO_RULE", "PERF", "STATUS")
