@@ -29,7 +29,6 @@ import sys
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
 
 from ...runtime.contract import (
     BUILTIN_COMMANDS,
@@ -42,7 +41,17 @@ from ...runtime.contract import (
 from ..diagnostics import Diagnostics, Span
 from ..expressions import BUILTIN_REASONS, BUILTINS, PLAN_PROPERTIES, STATUS_NAMES, Ref, RefKind
 from ..front_end.loader import span_of
-from ..front_end.model import Command, ControllerSpec, SystemSpec, Typed
+from ..front_end.model import (
+    Action,
+    CallHook,
+    Command,
+    ControllerSpec,
+    PlanAction,
+    Send,
+    SetWorld,
+    SystemSpec,
+    Typed,
+)
 from ..types import Enum, Type
 from .tables import TargetKind
 
@@ -443,20 +452,20 @@ def _written(spec: ControllerSpec) -> list[tuple[str, Command]]:
     return [(name, c) for name, c in spec.commands.items() if not c.generated]
 
 
-def _action_names(action: Any, top: Span) -> Iterator[NameUse]:
-    kind = type(action).__name__
-    if kind == "Send":
-        yield action.sub, LOWER, "controller mnemonic", action.span
-        yield action.command, UPPER, "command name", action.span
-        for name in action.args:
-            yield name, LOWER, "parameter name", action.arg_spans.get(name, action.span)
-    elif kind == "SetWorld":
-        for assign in action.assignments:
-            yield assign.target.value, TARGET, "assignment target", assign.target.span
-    elif kind == "CallHook":
-        yield action.hook, LOWER, "hook name", action.span
-    elif kind == "PlanAction":
-        yield action.plan, LOWER, "plan name", action.span
+def _action_names(action: Action, top: Span) -> Iterator[NameUse]:
+    match action:
+        case Send():
+            yield action.sub, LOWER, "controller mnemonic", action.span
+            yield action.command, UPPER, "command name", action.span
+            for name in action.args:
+                yield name, LOWER, "parameter name", action.arg_spans.get(name, action.span)
+        case SetWorld():
+            for assign in action.assignments:
+                yield assign.target.value, TARGET, "assignment target", assign.target.span
+        case CallHook():
+            yield action.hook, LOWER, "hook name", action.span
+        case PlanAction():
+            yield action.plan, LOWER, "plan name", action.span
 
 
 # The longest name (each part of a dotted one): it becomes part of file names such as
