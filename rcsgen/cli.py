@@ -26,12 +26,12 @@ from typing import TYPE_CHECKING, Any, NoReturn, TextIO
 import click
 from click.shell_completion import CompletionItem
 
-from .compiler import write
-from .compiler.acknowledge import WARNING_CODES
+from .compiler.back_end import write
+from .compiler.codes import CODES, WARNING_CODES
 from .compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
+from .compiler.front_end.loader import decode, read_bytes
 from .compiler.frontend import compile_paths, display_path
 from .compiler.ir import IRSystem
-from .compiler.loader import decode, read_bytes
 from .runtime import contract
 from .tools import config, runs
 from .tools.config import Config, ConfigError
@@ -219,11 +219,12 @@ def _codes(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) 
 def _complete_codes(
     ctx: click.Context, param: click.Parameter, incomplete: str
 ) -> list[CompletionItem]:
-    """Shell completion of --select/--ignore: the warning codes (after the last comma)."""
+    """Shell completion of --select/--ignore: the warning codes (after the last comma), each
+    with its title."""
     done, _, last = incomplete.rpartition(",")
     prefix = f"{done}," if done else ""
     return [
-        CompletionItem(prefix + code)
+        CompletionItem(prefix + code, help=CODES[code].title)
         for code in sorted(WARNING_CODES)
         if code.startswith(last.upper())
     ]
@@ -663,7 +664,7 @@ def _interrupt(signum: int, frame: object) -> None:
 
 
 def _system_name(system_dir: Path) -> str:
-    from .compiler.loader import load_file
+    from .compiler.front_end.loader import load_file
 
     data = load_file(system_dir / "system.yaml", "system.yaml")
     return str(data["system"]) if isinstance(data, dict) else system_dir.name

@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 from conftest import MINER, REPO, edit, rcsgen, snapshot
 
-from rcsgen.compiler.emit import RUFF_FORMAT_ARGS, ruff_binary
+from rcsgen.compiler.back_end.emit import RUFF_FORMAT_ARGS, ruff_binary
 
 OLD = 1_000_000_000 * 10**9  # 2001-09-09, in ns
 HOOKS_PACKAGE = "miner_hooks"  # co.yaml's `hooks_module: miner_hooks.co`

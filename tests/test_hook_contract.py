@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from conftest import REPO, rcsgen
 
 from rcsgen.cli import main
-from rcsgen.compiler.emit import MARKER
+from rcsgen.compiler.back_end.emit import MARKER
 from rcsgen.tools.harness import Harness
 
 HOOKED = REPO / "tests" / "cases" / "valid" / "hooked"

@@ -14,7 +14,7 @@ import pytest
 from click.testing import CliRunner
 
 from rcsgen.cli import main
-from rcsgen.compiler import emit
+from rcsgen.compiler.back_end import emit
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.tools.harness import Harness
 

@@ -19,10 +19,11 @@ import pytest
 from browser import load, needs_chromium
 from conftest import edit, rcsgen
 
-from rcsgen.compiler import expr
+from rcsgen.compiler import expressions as expr
+from rcsgen.compiler.back_end.emit import render_system
 from rcsgen.compiler.diagnostics import Diagnostics, Span
-from rcsgen.compiler.emit import render_system
 from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.types import BOOL, Str
 from rcsgen.runtime import contract, ctl, launcher
 from rcsgen.tools import trace_view, traces
 from rcsgen.tools.harness import Harness, generate, import_package
@@ -286,9 +287,9 @@ def test_string_literals_are_printed_as_constants() -> None:
     """A string literal reaches Python only through repr(): quotes, backslashes and code in
     it stay text."""
     diags = Diagnostics()
-    scope = expr.Scope(params={"p": expr.str_type(64)})
+    scope = expr.Scope(params={"p": Str(64)})
     for text in ("'a\"); import os; (\"'", "'\\\\x'", '"it\'s"', "'__import__(\"os\")'"):
-        tree = expr.compile_expr(f"p == {text}", Span("t"), scope, diags, expr.BOOL)
+        tree = expr.compile_expr(f"p == {text}", Span("t"), scope, diags, BOOL)
         assert tree is not None, diags
         python = expr.to_python(tree, lambda ref: "self.arg_p")
         literal = python.removeprefix("self.arg_p == ")

@@ -26,7 +26,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from ..compiler import emit
+from ..compiler.back_end import emit
 from ..compiler.diagnostics import SpecError
 from ..compiler.frontend import compile_paths
 from ..compiler.ir import IRSystem

@@ -17,10 +17,10 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+from ..compiler.back_end.write import Plan
 from ..compiler.diagnostics import Diagnostic, Span, SpecError
 from ..compiler.frontend import display_path
-from ..compiler.ir import IRCall, IRController, IRPlanAction, IRSystem
-from ..compiler.write import Plan
+from ..compiler.ir import IRCall, IRController, IRLoadPlan, IRSystem
 from .scenario import RunResult, Scenario, final_value, first_difference, read_trace
 
 
@@ -51,9 +51,8 @@ def _call_span(controller: IRController | None, rule: str, hook: str) -> Span | 
             if isinstance(action, IRCall) and action.hook == hook and action.span is not None:
                 return action.span
             if (
-                isinstance(action, IRPlanAction)
+                isinstance(action, IRLoadPlan)
                 and action.planner == hook
-                and action.action != "advance"
                 and action.span is not None
             ):
                 return action.span
@@ -73,6 +72,35 @@ def _generated_module(error: BaseException, package: Path | None) -> str | None:
             found = path.stem
         tb = tb.tb_next
     return found
+
+
+def _hooks_import(
+    error: BaseException, controller: IRController | None, package: Path | None
+) -> str:
+    """`file:line` where importing a controller's hooks module failed (the deepest line of
+    a module's own code, run by the import, outside the generated package), '' when the
+    error did not come from that import."""
+    if controller is None or not controller.hooks_module or package is None:
+        return ""
+    frames = list(traceback.walk_tb(error.__traceback__))
+    importing = [
+        index
+        for index, (frame, _) in enumerate(frames)
+        if Path(frame.f_code.co_filename).parent == package and frame.f_code.co_name == "<module>"
+    ]
+    if not importing:
+        return ""
+    after = [
+        (frame, line)
+        for frame, line in frames[importing[-1] + 1 :]
+        if frame.f_code.co_name == "<module>" and not frame.f_code.co_filename.startswith("<")
+    ]
+    if not after:  # the import statement itself failed: the module is not there
+        return (
+            f"{Path(frames[importing[-1]][0].f_code.co_filename).name}:{frames[importing[-1]][1]}"
+        )
+    frame, line = after[-1]
+    return f"{display_path(Path(frame.f_code.co_filename))}:{line}"
 
 
 def run_error(
@@ -108,6 +136,16 @@ def run_error(
     module = _generated_module(error, package)
     controller = _controller(system, module) if module else None
     text = f"{type(error).__name__}: {error}" if str(error) else type(error).__name__
+    failed_import = _hooks_import(error, controller, package)
+    if controller is not None and controller.hooks_module and failed_import:
+        return Diagnostic(
+            controller.hooks_module_span or _spec_span(controller, where),
+            "E422",
+            f"hooks module `{controller.hooks_module}` of `{controller.name}` failed to import "
+            f"({failed_import}, {when}): {text}",
+            "the module runs when the package starts: install what it imports, or fix the "
+            "line named; run again with -v for the Python traceback",
+        )
     subject = f"module `{module}`" if module else "the run"
     return Diagnostic(
         _spec_span(controller, where),

@@ -19,13 +19,21 @@ from pathlib import Path
 from typing import Any
 
 from ..compiler.diagnostics import Diagnostics, Span, SpecError, known_names_hint
-from ..compiler.expr import enum_values, int_range_problem, str_size, text_problem_of
+from ..compiler.expressions import int_range_problem, text_problem_of
+from ..compiler.front_end.loader import LocDict, key_span, load_file, span_of, value_span
+from ..compiler.front_end.model import exact_cycles
+from ..compiler.front_end.schema import check_document
 from ..compiler.frontend import SYSTEM_FILE, compile_paths, display_path
 from ..compiler.ir import IRController, IRProcess, IRSystem
-from ..compiler.loader import LocDict, key_span, load_file, span_of, value_span
-from ..compiler.model import exact_cycles
-from ..compiler.schema import check_document
-from .scenario import Event, Expected, OperatorScript, Scenario, ScriptedAnswer, find_system_dir
+from ..compiler.types import BOOL, FLOAT, INT, Bool, Enum, ReasonOf, Str, Type
+from .scenario_model import (
+    Event,
+    Expected,
+    OperatorScript,
+    Scenario,
+    ScriptedAnswer,
+    find_system_dir,
+)
 from .traces import whole_system
 
 DEFAULT_MAX_CYCLES = 1000
@@ -99,7 +107,7 @@ class _Checker:
     def __init__(self, data: LocDict, system: IRSystem, diags: Diagnostics, top: Span):
         self.data, self.system, self.diags, self.top = data, system, diags, top
         self.controllers = {c.name: c for c in system.controllers if c.buffers == c.name}
-        self.operators = {c.name: c for c in system.controllers if c.kind == "operator"}
+        self.operators = {c.name: c for c in system.controllers if c.is_operator}
         self.world = {f.name: f.type for f in system.world}
 
     def error(self, span: Span, code: str, message: str, hint: str = "") -> None:
@@ -135,7 +143,7 @@ class _Checker:
             return None
         return controller
 
-    def field(self, name: str, span: Span, what: str) -> str | None:
+    def field(self, name: str, span: Span, what: str) -> Type | None:
         """A world field's type; E409 when there is no such field."""
         kind = self.world.get(name)
         if kind is None:
@@ -147,10 +155,10 @@ class _Checker:
             )
         return kind
 
-    def figure(self, name: str, span: Span, run: _Run | None, what: str) -> str | None:
+    def figure(self, name: str, span: Span, run: _Run | None, what: str) -> Type | None:
         """The type of what a figure names: a world field's (E409), or a module's
-        `result.<name>` (E405/E414 for the module, E415 for the result), or `reason` for
-        `<module>.reason` (E415 when the module declares no reasons)."""
+        `result.<name>` (E405/E414 for the module, E415 for the result), or `ReasonOf` the
+        module for `<module>.reason` (E415 when the module declares no reasons)."""
         if "." not in name:
             return self.field(name, span, what)
         module, _, rest = name.partition(".")
@@ -166,7 +174,7 @@ class _Checker:
                     "declare `reasons:` on its commands, or expect its `status`",
                 )
                 return None
-            return "reason"
+            return ReasonOf(module)
         result = rest.removeprefix("result.")
         results = {r.name: r.type for r in controller.results}
         if result not in results:
@@ -189,30 +197,28 @@ class _Checker:
         self.error(span, "E408", f"`{shown}` is not a reason `{module}` can give", hint)
         return False
 
-    def value(self, value: Any, kind: str, span: Span, what: str) -> bool:
+    def value(self, value: Any, kind: Type, span: Span, what: str) -> bool:
         """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit; an
         enumeration: one of its value names; a string: one that fits its size)."""
         problem, hint = "", ""
-        names = enum_values(kind)
-        if names and value not in names:
+        if isinstance(kind, Enum) and value not in kind.values:
+            names = kind.values
             problem = f"{what} is an enum: give one of {', '.join(names)}, not `{_shown(value)}`"
             hint = known_names_hint("values", names, str(value))
-        elif names:
+        elif isinstance(kind, Enum):
             pass
-        elif str_size(kind):
+        elif isinstance(kind, Str):
             problem = text_problem_of(value, kind)
             problem = (
-                f"{what} is a string of at most {str_size(kind)} bytes: {problem}"
-                if problem
-                else ""
+                f"{what} is a string of at most {kind.size} bytes: {problem}" if problem else ""
             )
-        elif kind == "bool" and not isinstance(value, bool):
+        elif kind == BOOL and not isinstance(value, bool):
             problem = f"{what} is a bool: give true or false, not `{_shown(value)}`"
-        elif kind == "int" and (isinstance(value, bool) or not isinstance(value, int)):
+        elif kind == INT and (isinstance(value, bool) or not isinstance(value, int)):
             problem = f"{what} is an int: give a whole number, not `{_shown(value)}`"
-        elif kind == "float" and (isinstance(value, bool) or not isinstance(value, int | float)):
+        elif kind == FLOAT and (isinstance(value, bool) or not isinstance(value, int | float)):
             problem = f"{what} is a float: give a number, not `{_shown(value)}`"
-        elif kind == "int" and int_range_problem(value):
+        elif kind == INT and int_range_problem(value):
             problem = f"{what}: {int_range_problem(value)}"
         if problem:
             if isinstance(value, str) and value.lower() in ("yes", "no", "on", "off"):
@@ -334,25 +340,14 @@ class _Checker:
             if kind is None:
                 continue
             if isinstance(wanted, dict):
-                if kind in ("bool", "reason") or enum_values(kind) or str_size(kind):
-                    word = (
-                        "a reason"
-                        if kind == "reason"
-                        else "an enum"
-                        if enum_values(kind)
-                        else "a str"
-                        if str_size(kind)
-                        else "a bool"
-                    )
-                    expect = {"bool": "true or false", "reason": "one of its names"}
+                word = _UNRANGED.get(type(kind))
+                if word is not None:
                     self.error(
-                        span,
-                        "E415",
-                        f"`{name}` is {word}: expect {expect.get(kind, 'one value')}, not a range",
+                        span, "E415", f"`{name}` is {word[0]}: expect {word[1]}, not a range"
                     )
                     continue
                 found.append(self.bounds(name, wanted, span))
-            elif kind == "reason":
+            elif isinstance(kind, ReasonOf):
                 if self.reason(wanted, name.partition(".")[0], self.span(figures, name)):
                     found.append(Expected(name, span, value=wanted))
             elif self.value(wanted, kind, self.span(figures, name), f"expected `{name}`"):
@@ -418,7 +413,7 @@ class _Checker:
         controller = self.module(module, span, run, "command to module")
         if controller is None:
             return
-        if controller.kind == "operator":
+        if controller.is_operator:
             self.error(
                 span,
                 "E285",
@@ -477,7 +472,7 @@ class _Checker:
 
     def not_an_operator(self, found: IRController | None, span: Span, why: str) -> None:
         """E285 for an operator module where a scenario needs a controller's command."""
-        if found is not None and found.kind == "operator":
+        if found is not None and found.is_operator:
             self.error(
                 span,
                 "E285",
@@ -596,6 +591,16 @@ class _Checker:
 
 def _names(operators: list[IRController]) -> str:
     return " or ".join(f"`{o.name}`" for o in operators)
+
+
+# The types a figure cannot be expected in a range of: how a message names each, and what to
+# expect instead.
+_UNRANGED: dict[type[Type], tuple[str, str]] = {
+    ReasonOf: ("a reason", "one of its names"),
+    Enum: ("an enum", "one value"),
+    Str: ("a str", "one value"),
+    Bool: ("a bool", "true or false"),
+}
 
 
 def _shown(value: Any) -> str:
