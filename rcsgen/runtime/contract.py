@@ -8,8 +8,10 @@ verbatim into every generated package (as `<system>/rcs/contract.py`).
 from __future__ import annotations
 
 import numbers
+import sys
 from struct import Struct
-from typing import Any, NamedTuple
+from types import CodeType, ModuleType
+from typing import Any, NamedTuple, TypeVar
 
 # Status a module reports to its supervisor (QQ1.h `qq1_responses`), by code.
 NOT_READY = 0
@@ -213,10 +215,72 @@ PACE = Struct(struct_format(PACE_FIELDS))
 ANSWER = Struct(struct_format(ANSWER_FIELDS))
 
 
+# ---------------------------------------------------------------- one class per runtime
+
+# rcsgen's own runtime (`rcsgen.runtime`) and every generated package's copy of it (`<system>.
+# rcs`) can be loaded in one Python process: the monitor reads a package's layout with
+# rcsgen's console, the harness runs a package's modules and reports their errors. Each copy
+# would define its own `StaleRead`, `HookError`, `Record` ...: `except StaleRead` in one
+# would miss what the other raises. Each exception and record type is therefore `shared`:
+# the first copy to define it registers it, and a later copy whose definition is the same
+# (the same code, names and constants: the same runtime, whatever its file) takes the
+# registered class instead of its own. A different definition (a package of another rcsgen
+# version) keeps its own class.
+_SHARED = "_rcs_shared_types"
+_Class = TypeVar("_Class", bound=type)
+
+
+def shared(cls: _Class) -> _Class:
+    """The one class of this definition in the process (see above)."""
+    registry = sys.modules.get(_SHARED)
+    if registry is None:
+        registry = sys.modules[_SHARED] = ModuleType(_SHARED, "rcsgen runtime types, shared")
+    key = f"{cls.__qualname__}:{hash(_fingerprint(cls))}"
+    found: _Class = registry.__dict__.setdefault(key, cls)
+    return found
+
+
+def _fingerprint(value: object, depth: int = 0) -> object:
+    """What a class definition is made of, comparable across copies of the runtime: its
+    methods' byte code, names and constants (line numbers and file names left out)."""
+    if depth > 8:
+        return "..."
+    if isinstance(value, CodeType):
+        consts = tuple(_fingerprint(c, depth + 1) for c in value.co_consts)
+        return (value.co_code, value.co_names, value.co_varnames, consts)
+    if isinstance(value, type):
+        if depth and value.__module__ in ("builtins", "typing", "collections", "dataclasses"):
+            return value.__qualname__
+        return (
+            value.__qualname__,
+            tuple(
+                (name, _fingerprint(member, depth + 1))
+                for name, member in sorted(value.__dict__.items())
+                if name not in ("__module__", "__doc__", "__dict__", "__weakref__")
+            ),
+        )
+    code = getattr(value, "__code__", None) or getattr(
+        getattr(value, "__func__", None), "__code__", None
+    )
+    if isinstance(code, CodeType):
+        return _fingerprint(code, depth + 1)
+    if isinstance(value, property):
+        return tuple(_fingerprint(f, depth + 1) for f in (value.fget, value.fset))
+    if isinstance(value, str | bytes | int | float | bool | type(None)):
+        return value
+    if isinstance(value, tuple | list):
+        return tuple(_fingerprint(v, depth + 1) for v in value)
+    if isinstance(value, dict):
+        return tuple((k, _fingerprint(v, depth + 1)) for k, v in sorted(value.items(), key=str))
+    return type(value).__qualname__
+
+
+@shared
 class StaleRead(Exception):
     """A buffer could not be read whole: its writer kept writing (or died while writing)."""
 
 
+@shared
 class Record(NamedTuple):
     """A buffer for tools (harness, traces, operator consoles): its struct, offset, fields.
 
@@ -404,6 +468,7 @@ def _shown(value: object) -> str:
     return shown if len(shown) <= 60 else shown[:57] + "..."
 
 
+@shared
 class HookError(Exception):
     """A hook call that failed at run time, raised by generated code: the hook raised (the
     exception is the `__cause__`), or its result does not fit its `returns:`.

@@ -46,6 +46,7 @@ from .contract import (
     plan_slots,
     reason_name,
     result_values,
+    shared,
     status_text,
     text_problem,
 )
@@ -55,6 +56,7 @@ USAGE, FAILED = 2, 1
 POLL = 0.005  # seconds between two reads while waiting for the system
 
 
+@shared
 class CtlError(Exception):
     """A request the console refuses: one line for the operator, and an exit code."""
 

@@ -36,6 +36,7 @@ from .contract import (
     StaleRead,
     enum_code,
     enum_name,
+    shared,
 )
 from .ctl import field_code, parse_command, suggest, typed
 from .loop import (
@@ -505,6 +506,7 @@ def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[
     )
 
 
+@shared
 class ProcessLost(Exception):
     """A process of a lockstep run is gone."""
 

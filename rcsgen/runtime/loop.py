@@ -32,6 +32,7 @@ from .contract import (
     STARTING,
     STOPPED,
     field_names,
+    shared,
     struct_format,
 )
 from .transport import Local, Transport
@@ -40,6 +41,7 @@ _BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))  # seq, p
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
 
 
+@shared
 class RestartRefused(Exception):
     """A process cannot be restarted: a module of it keeps hook state a restart would lose."""
 
@@ -55,6 +57,7 @@ class Module(Protocol):
 ModuleClass = Callable[[memoryview, "dict[str, str] | None"], Module]
 
 
+@shared
 @dataclass(frozen=True)
 class ProcessPlan:
     """One process of a system as the spec declares it."""

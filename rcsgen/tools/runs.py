@@ -21,6 +21,7 @@ from ..compiler.diagnostics import Diagnostic, Span, SpecError
 from ..compiler.frontend import display_path
 from ..compiler.ir import IRCall, IRController, IRPlanAction, IRSystem
 from ..compiler.write import Plan
+from ..runtime.contract import HookError
 from .scenario import RunResult, Scenario, final_value, first_difference, read_trace
 
 
@@ -85,13 +86,13 @@ def run_error(
     """One diagnostic for an exception raised while cycle `cycle` ran (0: at start-up)."""
     where = fallback or Span("<run>")
     when = f"cycle {cycle}" if cycle else "start-up"
-    if type(error).__name__ == "HookError":  # the generated package's own contract class
-        module, hook, rule = error.module, error.hook, error.rule  # type: ignore[attr-defined]
+    if isinstance(error, HookError):  # one class in rcsgen and every package (contract.shared)
+        module, hook, rule = error.module, error.hook, error.rule
         controller = _controller(system, module)
         span = _call_span(controller, rule, hook) or _spec_span(controller, where)
-        problem = error.problem()  # type: ignore[attr-defined]
+        problem = error.problem()
         called = "made by `hooks_state`" if rule == "hooks_state" else f"rule {rule}"
-        if error.raised:  # type: ignore[attr-defined]
+        if error.raised:
             return Diagnostic(
                 span,
                 "E420",
@@ -105,10 +106,10 @@ def run_error(
         elif why:
             hint = "a planner returns a list of steps, each a tuple of the plan's step fields"
         return Diagnostic(span, "E421", f"{problem} ({called}, {when})", hint)
-    module = _generated_module(error, package)
-    controller = _controller(system, module) if module else None
+    failed_in = _generated_module(error, package)
+    controller = _controller(system, failed_in) if failed_in else None
     text = f"{type(error).__name__}: {error}" if str(error) else type(error).__name__
-    subject = f"module `{module}`" if module else "the run"
+    subject = f"module `{failed_in}`" if failed_in else "the run"
     return Diagnostic(
         _spec_span(controller, where),
         "E422",
@@ -119,7 +120,7 @@ def run_error(
 
 def details(error: BaseException) -> str:
     """The traceback `-v` shows: for a hook, the hook's own (where it raised)."""
-    cause = error.__cause__ if type(error).__name__ == "HookError" else error
+    cause = error.__cause__ if isinstance(error, HookError) else error
     if cause is None:
         return ""
     return "".join(traceback.format_exception(type(cause), cause, cause.__traceback__))
