@@ -86,9 +86,7 @@ def test_a_different_definition_keeps_its_own_class() -> None:
 
     def make(message: str) -> type:
         source = (
-            "class StaleRead(Exception):\n"
-            "    def describe(self):\n"
-            f"        return {message!r}\n"
+            f"class StaleRead(Exception):\n    def describe(self):\n        return {message!r}\n"
         )
         space: dict[str, object] = {"__name__": "other.rcs.contract"}
         exec(source, space)  # a definition as another copy of the runtime would make it

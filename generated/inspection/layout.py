@@ -329,6 +329,20 @@ COMMAND_NAMES = {
         ),
     ),
 }
+# Each command's parameters, in order: an operator gives every one of them (`ctl send`,
+# `--send`, a scenario), each checked against its slot's type (rcs/command.py). A command
+# not listed takes none.
+PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
+    "ws": {
+        "INSPECT_PART": ("program",),
+    },
+    "ms": {
+        "MEASURE_PART": ("program",),
+    },
+    "cmm": {
+        "INSPECT_FEATURE": ("number",),
+    },
+}
 STATE_NAMES = {
     "ws": (
         "NOP",

@@ -860,6 +860,31 @@ COMMAND_NAMES = {
     "wm": (NO_COMMAND_NAME, *("INIT", "HALT", "NEW_CUT")),
     "pp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN")),
 }
+# Each command's parameters, in order: an operator gives every one of them (`ctl send`,
+# `--send`, a scenario), each checked against its slot's type (rcs/command.py). A command
+# not listed takes none.
+PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
+    "sec": {
+        "MINE_COAL": ("depth", "offset"),
+        "BOX_CUT": ("depth",),
+    },
+    "sb": {
+        "BOX_CUT": ("depth",),
+        "CUT_TWO_PASSES": ("depth", "offset"),
+    },
+    "co": {
+        "REPOSITION": ("x", "y"),
+    },
+    "vg": {
+        "TRAM_TO_XY": ("x", "y"),
+    },
+    "oi": {
+        "ENTER_GOAL": ("x", "y"),
+    },
+    "pp": {
+        "PLAN": ("x", "y"),
+    },
+}
 STATE_NAMES = {
     "sec": ("NOP", "S0", "S1"),
     "sb": (

@@ -416,6 +416,20 @@ COMMAND_NAMES = {
     "sonar": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "atmosphere": (NO_COMMAND_NAME, *("INIT", "HALT")),
 }
+# Each command's parameters, in order: an operator gives every one of them (`ctl send`,
+# `--send`, a scenario), each checked against its slot's type (rcs/command.py). A command
+# not listed takes none.
+PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
+    "sm": {
+        "SUBMERGED_TRANSIT": ("x", "y"),
+    },
+    "helm": {
+        "ICE_MANEUVER": ("x", "y"),
+    },
+    "rudder": {
+        "GOTO_ANGLE": ("angle",),
+    },
+}
 STATE_NAMES = {
     "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "VENT"),
     "sm": ("NOP", "S0", "S1"),

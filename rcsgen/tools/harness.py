@@ -30,6 +30,7 @@ from ..compiler import emit
 from ..compiler.diagnostics import SpecError
 from ..compiler.frontend import compile_paths
 from ..compiler.ir import IRSystem
+from ..runtime.command import check_command, write_command
 from ..runtime.contract import enum_code, enum_name, plan_slots, result_values
 
 _unique = itertools.count(1)
@@ -122,23 +123,11 @@ class BlockView:
     _states_of: dict[str, str]
 
     def command(self, module: str, command: str, **args: Any) -> int:
-        """Write a new command to `module` (as its supervisor would); returns its number."""
-        record = self.layout.COMMAND_IN[module]
-        names = self.layout.COMMAND_NAMES[module]
-        if command not in names[1:]:
-            raise ValueError(f"{module} has no command {command!r}; it has {names[1:]}")
-        unknown = set(args) - {
-            f.removeprefix("arg_") for f in record.fields if f.startswith("arg_")
-        }
-        if unknown:
-            raise ValueError(f"{module} has no parameter(s) {sorted(unknown)}")
-        number = record.read(self.buf)["command_num"] + 1
-        values = {
-            f"arg_{k}": self.contract.enum_code(self.layout, module, f"arg_{k}", v)
-            for k, v in args.items()
-        }
-        record.write(self.buf, command_num=number, command=names.index(command), **values)
-        return int(number)
+        """Write a new command to `module` (as its supervisor would); returns its number.
+        Checked as an operator's command is (rcs/command.py): ValueError names what is
+        wrong, and nothing is written."""
+        checked = check_command(self.layout, module, command, args, client=True)
+        return write_command(self.layout, self.buf, checked)
 
     def sent(self, module: str) -> Sent:
         """What is in `module`'s command buffer: the last command its supervisor sent."""

@@ -24,7 +24,8 @@ from textual.css.query import NoMatches
 from textual.widgets import DataTable, Footer, Input, Static
 
 from ..runtime import contract
-from ..runtime.ctl import Command, Console, CtlError, parse_command
+from ..runtime.command import Command, parse_command
+from ..runtime.ctl import Console, CtlError
 
 COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
 COLUMNS = (

@@ -25,6 +25,8 @@ from ..compiler.ir import IRController, IRProcess, IRSystem
 from ..compiler.loader import LocDict, key_span, load_file, span_of, value_span
 from ..compiler.model import exact_cycles
 from ..compiler.schema import check_document
+from ..runtime.command import value_problem
+from ..runtime.contract import format_of_type
 from .scenario import Event, Expected, OperatorScript, Scenario, ScriptedAnswer, find_system_dir
 from .traces import whole_system
 
@@ -190,35 +192,33 @@ class _Checker:
         return False
 
     def value(self, value: Any, kind: str, span: Span, what: str) -> bool:
-        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit; an
-        enumeration: one of its value names; a string: one that fits its size)."""
-        problem, hint = "", ""
+        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit; a
+        float: a finite number; an enumeration: one of its value names; a string: one that
+        fits its size): the one contract a command's values meet (rcs/command.py), said
+        as a scenario's author reads it."""
         names = enum_values(kind)
-        if names and value not in names:
+        if not value_problem(value, format_of_type(kind), names):
+            return True
+        hint = ""
+        if names:
             problem = f"{what} is an enum: give one of {', '.join(names)}, not `{_shown(value)}`"
             hint = known_names_hint("values", names, str(value))
-        elif names:
-            pass
         elif str_size(kind):
-            problem = text_problem_of(value, kind)
-            problem = (
-                f"{what} is a string of at most {str_size(kind)} bytes: {problem}"
-                if problem
-                else ""
-            )
-        elif kind == "bool" and not isinstance(value, bool):
+            said = value_problem(value, format_of_type(kind))  # bytes that are not UTF-8 too
+            said = said if "not text" in said else text_problem_of(value, kind)
+            problem = f"{what} is a string of at most {str_size(kind)} bytes: {said}"
+        elif kind == "bool":
             problem = f"{what} is a bool: give true or false, not `{_shown(value)}`"
-        elif kind == "int" and (isinstance(value, bool) or not isinstance(value, int)):
-            problem = f"{what} is an int: give a whole number, not `{_shown(value)}`"
-        elif kind == "float" and (isinstance(value, bool) or not isinstance(value, int | float)):
-            problem = f"{what} is a float: give a number, not `{_shown(value)}`"
         elif kind == "int" and int_range_problem(value):
             problem = f"{what}: {int_range_problem(value)}"
-        if problem:
-            if isinstance(value, str) and value.lower() in ("yes", "no", "on", "off"):
-                hint = f"`{value}` is a string in YAML 1.2; write true or false"
-            self.error(span, "E408", problem, hint)
-        return not problem
+        elif kind == "int":
+            problem = f"{what} is an int: give a whole number, not `{_shown(value)}`"
+        else:
+            problem = f"{what} is a float: give a finite number, not `{_shown(value)}`"
+        if isinstance(value, str) and value.lower() in ("yes", "no", "on", "off"):
+            hint = f"`{value}` is a string in YAML 1.2; write true or false"
+        self.error(span, "E408", problem, hint)
+        return False
 
     # ------------------------------------------------------------ the file
 

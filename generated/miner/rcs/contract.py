@@ -250,7 +250,7 @@ def _fingerprint(value: object, depth: int = 0) -> object:
         consts = tuple(_fingerprint(c, depth + 1) for c in value.co_consts)
         return (value.co_code, value.co_names, value.co_varnames, consts)
     if isinstance(value, type):
-        if value.__module__ in ("builtins", "typing", "collections", "dataclasses"):
+        if depth and value.__module__ in ("builtins", "typing", "collections", "dataclasses"):
             return value.__qualname__
         return (
             value.__qualname__,

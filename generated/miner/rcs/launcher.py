@@ -29,6 +29,7 @@ from types import ModuleType
 from typing import Any, Self
 
 from .block import Block, BlockError
+from .command import Command, parse_command, parse_value, suggest, write_command
 from .contract import (
     DEAD,
     PROCESS_STATES,
@@ -37,8 +38,8 @@ from .contract import (
     StaleRead,
     enum_code,
     enum_name,
+    shared,
 )
-from .ctl import field_code, parse_command, suggest, typed
 from .loop import (
     DONE_REPLY,
     READY,
@@ -506,6 +507,7 @@ def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[
     )
 
 
+@shared
 class ProcessLost(Exception):
     """A process of a lockstep run is gone."""
 
@@ -767,36 +769,27 @@ def parse_world(layout: ModuleType, items: Sequence[str]) -> dict[str, object]:
             raise ValueError(f"--world: {item!r} is not FIELD=VALUE")
         if name not in layout.WORLD:
             raise ValueError("--world: " + suggest(name, list(layout.WORLD), "world field"))
-        record = layout.WORLD[name]
+        code = layout.WORLD[name].codes()[name]
         try:
             names = getattr(layout, "ENUMS", {}).get(("", name), ())
-            values[name] = typed(raw, field_code(record, name), name, names)
+            values[name] = parse_value(raw, code, names)
         except ValueError as error:
-            raise ValueError(f"--world: {error}") from None
+            raise ValueError(f"--world: {name} {error}") from None
     return values
 
 
-@dataclass(frozen=True)
-class Send:
-    """A command an operator gives a module: `sec.BOX_CUT:depth=1.5`."""
-
-    module: str
-    command: str
-    args: dict[str, object]
-
-
-def parse_send(layout: ModuleType, text: str) -> Send:
-    """Parse and check `MODULE.COMMAND[:NAME=VALUE,...]` against the layout."""
+def parse_send(layout: ModuleType, text: str) -> Command:
+    """Parse and check `MODULE.COMMAND[:NAME=VALUE,...]` against the layout (the one command
+    contract, rcs/command.py)."""
     head, _, rest = text.partition(":")
     module, _, command = head.partition(".")
     try:
-        found = parse_command(layout, module, command, [i for i in rest.split(",") if i])
+        return parse_command(layout, module, command, [i for i in rest.split(",") if i])
     except ValueError as error:
         raise ValueError(f"--send: {error}") from None
-    return Send(found.module, found.command, found.args)
 
 
-def give(send: Send, layout: ModuleType, buf: memoryview) -> int | None:
+def give(send: Command, layout: ModuleType, buf: memoryview) -> int | None:
     """Write `send` once its module has finished its last command; its number, or None."""
     status = _read(layout.STATUS_OUT[send.module], buf)
     record = layout.COMMAND_IN[send.module]
@@ -805,14 +798,10 @@ def give(send: Send, layout: ModuleType, buf: memoryview) -> int | None:
         return None
     if status["status"] not in (2, 3):  # DONE, ERROR
         return None
-    number: int = int(current["command_num"]) + 1  # type: ignore[call-overload]
-    code = layout.COMMAND_NAMES[send.module].index(send.command)
-    args = {f"arg_{k}": enum_code(layout, send.module, f"arg_{k}", v) for k, v in send.args.items()}
-    record.write(buf, command_num=number, command=code, **args)
-    return number
+    return write_command(layout, buf, send)
 
 
-def finished(send: Send, number: int, layout: ModuleType, buf: memoryview) -> str | None:
+def finished(send: Command, number: int, layout: ModuleType, buf: memoryview) -> str | None:
     """DONE or ERROR once the module reported on command `number`; else None."""
     status = _read(layout.STATUS_OUT[send.module], buf)
     if status and status["status_num"] == number and status["status"] in (2, 3):
@@ -878,7 +867,7 @@ def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
     return code
 
 
-def operate(launcher: Launcher, send: Send, until_done: bool, stop: Stop) -> int:
+def operate(launcher: Launcher, send: Command, until_done: bool, stop: Stop) -> int:
     """Give `send` once its module is ready, watch the processes, and with `until_done`
     stop when it reports: 0 for DONE, 1 for ERROR (or when every process ended first)."""
     layout = launcher.system.layout
