@@ -197,6 +197,28 @@ def _note(opts: Options, message: str) -> None:
         click.echo(message, err=opts.fmt != "text")
 
 
+def _output_dir(ctx: click.Context, param: click.Parameter, raw: str) -> Path:
+    """An output directory a command may fill: not the empty string (which would mean the
+    working directory) and not the working directory itself, whose files are the user's."""
+    if not raw.strip():
+        raise click.BadParameter("an empty path: name the output directory", ctx=ctx, param=param)
+    value = Path(raw)
+    if value.resolve() == Path.cwd().resolve():
+        raise click.BadParameter(
+            f"{raw!r} is the working directory: name a directory of its own (e.g. generated)",
+            ctx=ctx,
+            param=param,
+        )
+    return value
+
+
+def _output_file(ctx: click.Context, param: click.Parameter, raw: str | None) -> Path | None:
+    """An output file's path: not the empty string."""
+    if raw is not None and not raw.strip():
+        raise click.BadParameter("an empty path: name the file", ctx=ctx, param=param)
+    return None if raw is None else Path(raw)
+
+
 SPEC_PATHS = click.argument(
     "paths",
     nargs=-1,
@@ -368,9 +390,10 @@ def validate(paths: tuple[Path, ...], opts: Options) -> None:
 @click.option(
     "-o",
     "--output",
-    type=click.Path(path_type=Path),
-    default=Path("generated"),
+    type=click.Path(),
+    default="generated",
     show_default=True,
+    callback=_output_dir,
     help="Output directory; each system gets <output>/<system>/.",
 )
 @click.option("--check", is_flag=True, help="Write nothing; print a diff and exit 1 if stale.")
@@ -427,14 +450,16 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> 
 @click.option(
     "--trace",
     "trace_path",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=click.Path(dir_okay=False),
     default=None,
+    callback=_output_file,
     help="Trace file to write [default: traces/<scenario>.jsonl].",
 )
 @click.option(
     "--record",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=click.Path(dir_okay=False),
     default=None,
+    callback=_output_file,
     help="Re-record this golden trace file (review the diff before committing it).",
 )
 @click.option(
@@ -488,43 +513,51 @@ def run(
             line(f"cycle {h.cycles}/{spec.max_cycles}  {phases or 'every module idle'}")
 
     failed: tuple[Exception, int] | None = None
-    interrupted = False
+    # SIGINT and SIGTERM stop the run where it is (the processes and the segment too) and
+    # keep the trace so far; `caught` says which came, even if a hook swallowed it.
+    caught: list[int] = []
+
+    def interrupt(signum: int, frame: object) -> None:
+        caught.append(signum)
+        raise KeyboardInterrupt
+
+    trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
+    lines: list[str] = []
+    started: AnyHarness | None = None
     # With a machine format, stdout holds only the diagnostics: what hooks print goes to stderr.
     hooks_out = sys.stderr if opts.fmt != "text" else sys.stdout
-    signal.signal(signal.SIGTERM, _interrupt)  # stops like Ctrl-C: processes and segment
+    signal.signal(signal.SIGINT, interrupt)
+    signal.signal(signal.SIGTERM, interrupt)
     with tempfile.TemporaryDirectory(prefix="rcsgen-run-") as scratch:
         package = _package(system, generated, Path(scratch), session)
         with contextlib.redirect_stdout(hooks_out):
             try:
-                harness = scenarios.open_harness(spec, package, processes)
+                harness = started = scenarios.open_harness(spec, package, processes)
             except KeyboardInterrupt:  # what had started is stopped and removed already
-                click.echo("interrupted while starting: no trace written", err=True)
-                sys.exit(130)
+                caught.append(caught[0] if caught else signal.SIGINT)
             except Exception as error:  # a hook-state factory, or a module that cannot be made
-                failed = (error, 0)
+                if not caught:
+                    failed = (error, 0)
             else:
                 try:
-                    result = scenarios.run(spec, harness, progress)
+                    result = scenarios.run(spec, harness, progress, lines)
                     final_world = harness.world.snapshot()
                 except KeyboardInterrupt:
-                    interrupted = True
+                    caught.append(caught[0] if caught else signal.SIGINT)
                 except Exception as error:  # a hook, or a module's own code, in this cycle
-                    failed = (error, harness.cycles + 1)
+                    if not caught:  # (else a hook turned the interruption into its error)
+                        failed = (error, harness.cycles + 1)
                 finally:  # a second signal must not cut the stop short (the segment stays)
                     signal.signal(signal.SIGINT, signal.SIG_IGN)
                     signal.signal(signal.SIGTERM, signal.SIG_IGN)
                     harness.close()
-                    signal.signal(signal.SIGINT, signal.default_int_handler)
-                    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
     line.done()
-    if interrupted:
-        click.echo(f"interrupted at cycle {harness.cycles}: no trace written", err=True)
-        for summary_line in getattr(harness, "summary", list)():
-            click.echo(summary_line)
-        sys.exit(130)
+    if caught:
+        _interrupted(caught[0], spec.name, lines, trace_path, started)
     if failed is not None:
         _run_failed(failed[0], system, failed[1], package, session, verbose)
-    trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
     problems = Diagnostics()
     for path in [trace_path, *([record] if record is not None else [])]:
         try:
@@ -658,8 +691,35 @@ def _exec_package(system_dir: Path, generated: Path, argv: list[str]) -> NoRetur
     os.execve(sys.executable, [sys.executable, "-m", name, *argv], env)
 
 
-def _interrupt(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt
+def _interrupted(
+    signum: int, name: str, lines: list[str], trace_path: Path, harness: object
+) -> NoReturn:
+    """A run stopped by SIGINT or SIGTERM: the trace so far, ended by a line saying so, where
+    it was, and exit 130 or 143 (128 + the signal, as a shell reports it)."""
+    from .tools import scenario as scenarios
+
+    signal_name = signal.Signals(signum).name
+    if harness is None:
+        click.echo(
+            f"interrupted by {signal_name} while starting: no cycle ran, no trace written", err=True
+        )
+        sys.exit(128 + signum)
+    ran = len(lines)
+    try:
+        scenarios.write_trace(
+            trace_path, [*lines, scenarios.interrupted_line(ran + 1, signal_name)]
+        )
+        wrote = (
+            f"{trace_path} holds cycles 1-{ran} and a last line saying so"
+            if ran
+            else f"{trace_path} holds only a line saying so"
+        )
+    except OSError as error:
+        wrote = f"cannot write trace `{trace_path}`: {error.strerror or error}"
+    click.echo(f"interrupted by {signal_name} in cycle {ran + 1} of {name}: {wrote}", err=True)
+    for summary_line in getattr(harness, "summary", list)():
+        click.echo(summary_line)
+    sys.exit(128 + signum)
 
 
 def _system_name(system_dir: Path) -> str:
@@ -824,9 +884,10 @@ def graph_command(paths: tuple[Path, ...], picture: str, fmt: str, output: Path 
 @click.option(
     "-o",
     "--output",
-    type=click.Path(path_type=Path, file_okay=False),
-    default=Path("docs/reference"),
+    type=click.Path(file_okay=False),
+    default="docs/reference",
     show_default=True,
+    callback=_output_dir,
     help="Output directory; each system gets <output>/<system>/.",
 )
 @click.option("--check", is_flag=True, help="Write nothing; print a diff and exit 1 if stale.")

@@ -381,6 +381,9 @@ class IRController:
     # the enumeration values its expressions name: (value name, index), a module constant each
     enum_values: tuple[tuple[str, int], ...] = ()
     plans: tuple[IRPlan, ...] = ()  # its plans, in declaration order
+    # Each hook and planner its tables call: the seconds one call may run before it is
+    # interrupted (its `deadline:`, else the default), by name.
+    hook_deadlines: tuple[tuple[str, float], ...] = ()
     kind: str = "controller"  # or "operator": a person at a screen, answered, no table
     clients: tuple[str, ...] = ()  # an operator module's: whom it serves, one channel each
 

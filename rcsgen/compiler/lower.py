@@ -26,7 +26,15 @@ from ..runtime.contract import (
     kind_tokens,
 )
 from . import expr, ir, naming, operators
-from .model import ENTRY_STATE, Command, ControllerSpec, Typed, duration_in_cycles
+from .model import (
+    ENTRY_STATE,
+    Command,
+    ControllerSpec,
+    Located,
+    Typed,
+    duration_in_cycles,
+    duration_seconds,
+)
 from .tables import (
     Action,
     Assign,
@@ -194,7 +202,28 @@ class _ControllerLowering:
             ),
             kind=spec.kind,
             clients=c.clients,
+            hook_deadlines=self.hook_deadlines(rules),
         )
+
+    def hook_deadlines(self, rules: Iterable[CheckedRule]) -> tuple[tuple[str, float], ...]:
+        """The deadline of each hook and planner the tables call, by name (docs/spec.md
+        section 6): its `deadline:` in seconds, else DEFAULT_DEADLINE_PERIODS cycle periods
+        of the controller's process, and at least MIN_DEFAULT_DEADLINE."""
+        default = max(DEFAULT_DEADLINE_PERIODS * self.period, MIN_DEFAULT_DEADLINE)
+        found: dict[str, float] = {}
+        for rule in rules:
+            for action in rule.actions:
+                if isinstance(action, CallHook):
+                    found[action.hook.name] = self.seconds(action.hook.deadline, default)
+                elif isinstance(action, PlanAction) and action.kind != "advance":
+                    plan = action.plan
+                    found[plan.planner.value] = self.seconds(plan.deadline, default)
+        return tuple(sorted(found.items()))
+
+    def seconds(self, declared: Located | None, default: float) -> float:
+        if declared is None:
+            return round(default, 6)
+        return round(duration_seconds(declared.value, self.period), 6)
 
     def constants(self) -> tuple[tuple[str, str], ...]:
         """The spec's constants, then CYCLE_PERIOD if an expression reads it (its period)."""
@@ -368,6 +397,11 @@ class _ControllerLowering:
 
 
 _KIND_LETTER = {"float": "f", "int": "i", "bool": "b"}
+# A hook's or planner's deadline when it declares none: this many cycle periods of its
+# controller's process, and never less than MIN_DEFAULT_DEADLINE seconds (docs/decisions.md:
+# the deadline stops an endless hook; keeping time is the watchdog's).
+DEFAULT_DEADLINE_PERIODS = 5
+MIN_DEFAULT_DEADLINE = 1.0
 
 
 def kind_letter(kind: str) -> str:
@@ -386,8 +420,11 @@ def _value_mismatch(value: str, kind: str) -> str:
         return f"type({value}) is not int or not 0 <= {value} < {kind[1:]}"
     if kind.startswith("s"):  # a string that fits, never truncated
         return f"text_problem({value}, {kind[1:]})"
-    if kind == "f":
-        return f"type({value}) not in NUMBER and not is_real({value})"
+    if kind == "f":  # a finite number: NaN and the infinities fail the range
+        return (
+            f"(type({value}) not in NUMBER and not is_real({value})) "
+            f"or not -FLOAT_MAX <= {value} <= FLOAT_MAX"
+        )
     if kind == "i":
         return (
             f"(type({value}) is not int and not is_integer({value})) "
@@ -434,7 +471,7 @@ def _runtime_names(
             elif isinstance(action, CallHook):
                 used.add("HookError")
                 kinds = {t.type for t in action.targets}
-                used |= {"NUMBER", "is_real"} if "float" in kinds else set()
+                used |= {"NUMBER", "FLOAT_MAX", "is_real"} if "float" in kinds else set()
                 used |= {"INT_MIN", "INT_MAX", "is_integer"} if "int" in kinds else set()
                 used |= {"text_problem"} if any(expr.str_size(k) for k in kinds) else set()
     for tree in trees:

@@ -114,6 +114,7 @@ class Hook:
     args: list[Located]
     returns: list[Located]
     span: Span
+    deadline: Located | None = None  # a duration: how long one call may run
 
 
 @dataclass
@@ -129,6 +130,7 @@ class Plan:
     capacity: int
     replans: int
     span: Span
+    deadline: Located | None = None  # a duration: how long one call of the planner may run
 
 
 @dataclass
@@ -474,6 +476,9 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
                 _items(v, "args", key_span(hooks, k, top)),
                 _items(v, "returns", key_span(hooks, k, top)),
                 key_span(hooks, k, top),
+                Located(v["deadline"], value_span(v, "deadline", key_span(hooks, k, top)))
+                if "deadline" in v
+                else None,
             )
             for k, v in hooks.items()
         },
@@ -525,6 +530,7 @@ def _plan(name: str, raw: Any, span: Span) -> Plan:
         int(raw["capacity"]),
         int(raw.get("replans", 0)),
         span,
+        Located(raw["deadline"], value_span(raw, "deadline", span)) if "deadline" in raw else None,
     )
 
 
@@ -617,6 +623,16 @@ def duration_in_cycles(value: object, period: float) -> int:
             return int(float(number))
         seconds = float(number) / (1000 if unit == "ms" else 1)
     return max(1, math.ceil(seconds / period - 1e-9))
+
+
+def duration_seconds(value: object, period: float) -> float:
+    """A schema-valid duration in seconds (`20 cycles` of `period` seconds is 20 periods)."""
+    if isinstance(value, int | float):
+        return float(value)
+    number, unit = _DURATION.fullmatch(str(value).strip()).groups()  # type: ignore[union-attr]
+    if unit.startswith("cycle"):
+        return float(number) * period
+    return float(number) / (1000 if unit == "ms" else 1)
 
 
 def exact_cycles(value: object, period: float) -> tuple[int, bool]:

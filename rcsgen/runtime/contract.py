@@ -386,12 +386,14 @@ def enum_code(layout: object, owner: str, field: str, value: object) -> object:
 
 # ---------------------------------------------------------------- hook calls
 
-# What generated code accepts from a hook for a target of each type: any real number but a
-# bool for a float (an int, as in spec expressions; a numpy float), any integer but a bool
+# What generated code accepts from a hook for a target of each type: any finite real number
+# but a bool for a float (an int, as in spec expressions; a numpy float; never NaN or an
+# infinity, refused in the module whose hook returned it), any integer but a bool
 # within int64 for an int, exactly True or False for a bool. `type(x) in NUMBER` is the
 # fast path the generated check takes first; the functions below only when it fails.
 NUMBER = (float, int)
 INT_MIN, INT_MAX = -(2**63), 2**63 - 1
+FLOAT_MAX = sys.float_info.max  # a float target takes a finite number: -FLOAT_MAX..FLOAT_MAX
 
 
 def is_real(value: object) -> bool:
@@ -404,7 +406,7 @@ def is_integer(value: object) -> bool:
     return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
-_KIND_NAMES = {"f": "float", "i": "int", "b": "bool", "e": "enum index", "s": "str"}
+_KIND_NAMES = {"f": "finite float", "i": "int", "b": "bool", "e": "enum index", "s": "str"}
 
 
 def kind_tokens(kinds: str) -> list[str]:
@@ -433,7 +435,7 @@ _NOTHING = object()
 def _fits(value: object, kind: str) -> bool:
     """Whether `value` may go into a target of this kind (the check generated code makes)."""
     if kind == "f":
-        return is_real(value)
+        return is_real(value) and -FLOAT_MAX <= value <= FLOAT_MAX  # type: ignore[operator]
     if kind == "i":
         return (
             isinstance(value, numbers.Integral)
@@ -466,6 +468,28 @@ def plan_problem(steps: object, kinds: str, capacity: int) -> str:
 def _shown(value: object) -> str:
     shown = repr(value)
     return shown if len(shown) <= 60 else shown[:57] + "..."
+
+
+@shared
+class HookOverrun(BaseException):
+    """A hook ran past its deadline (rcs/deadline.py): raised inside it by the timer signal
+    (`interrupted`), or when it returned late anyway. A BaseException, so that a hook's own
+    `except Exception` does not swallow it."""
+
+    def __init__(self, deadline: float, took: float, interrupted: bool) -> None:
+        self.deadline, self.took, self.interrupted = deadline, took, interrupted
+        super().__init__(deadline, took, interrupted)
+
+    def __str__(self) -> str:
+        if self.interrupted:
+            return (
+                f"did not return within its deadline of {self.deadline:g} s: interrupted "
+                f"after {self.took:.3g} s"
+            )
+        return (
+            f"returned after {self.took:.3g} s, past its deadline of {self.deadline:g} s: "
+            "its result is refused"
+        )
 
 
 @shared
@@ -509,9 +533,12 @@ class HookError(Exception):
         who = f"hook `{self.hook}` of `{self.module}`"
         if self.why:
             return f"{who} {self.why}"
+        if isinstance(self.__cause__, HookOverrun):
+            return f"{who} {self.__cause__}"
         if self.raised:
             cause = self.__cause__
-            what = f"{type(cause).__name__}: {cause}" if cause is not None else "an exception"
+            what = f"{type(cause).__name__}: {cause}" if str(cause) else type(cause).__name__
+            what = what if cause is not None else "an exception"
             return f"{who} raised {what}"
         shown = repr(self.result)
         shown = shown if len(shown) <= 60 else shown[:57] + "..."

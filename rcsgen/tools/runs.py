@@ -2,7 +2,8 @@
 
 A hook that raises or returns values that do not fit its `returns:` makes the generated code
 raise `HookError` (`rcs.contract`), naming the module, the hook and the rule that called
-it; here it becomes one diagnostic at the spec's `call:` line with the cycle (E420, E421).
+it; here it becomes one diagnostic at the spec's `call:` line with the cycle (E420, E421;
+E423 for a hook interrupted at its deadline, or that returned past it).
 Anything else a module raises (an int overflowing its 64 bits, a division by a variable
 that was 0) is E422 at the module's spec. The Python traceback is kept for `-v`.
 After the run: an expectation not met (E416), a difference from a golden trace (E417), a
@@ -21,7 +22,7 @@ from ..compiler.diagnostics import Diagnostic, Span, SpecError
 from ..compiler.frontend import display_path
 from ..compiler.ir import IRCall, IRController, IRPlanAction, IRSystem
 from ..compiler.write import Plan
-from ..runtime.contract import HookError
+from ..runtime.contract import HookError, HookOverrun
 from .scenario import RunResult, Scenario, final_value, first_difference, read_trace
 
 
@@ -92,6 +93,14 @@ def run_error(
         span = _call_span(controller, rule, hook) or _spec_span(controller, where)
         problem = error.problem()
         called = "made by `hooks_state`" if rule == "hooks_state" else f"rule {rule}"
+        if isinstance(error.__cause__, HookOverrun):
+            return Diagnostic(
+                span,
+                "E423",
+                f"{problem} ({called}, {when})",
+                "make the hook return sooner, or declare a longer `deadline:` for it "
+                "(docs/spec.md section 6)",
+            )
         if error.raised:
             return Diagnostic(
                 span,

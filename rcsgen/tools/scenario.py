@@ -215,6 +215,14 @@ class RunResult:
     statuses: dict[str, Status] = field(default_factory=dict)  # every module's, at the end
 
 
+def interrupted_line(cycle: int, signal_name: str) -> str:
+    """The last line of a trace whose run was interrupted: the signal, and the cycle that
+    did not finish (the lines above are the cycles before it)."""
+    return json.dumps(
+        {"cycle": cycle, "interrupted": signal_name}, sort_keys=True, separators=(",", ":")
+    )
+
+
 def final_value(name: str, world: dict[str, Any], statuses: dict[str, Status]) -> Any:
     """What a figure names at the end of a run: a world field, `<module>.reason` (its name)
     or `<module>.result.<name>`; None when the run has no such value."""
@@ -280,12 +288,15 @@ def run(
     scenario: Scenario,
     harness: AnyHarness,
     on_cycle: Callable[[AnyHarness], None] | None = None,
+    trace: list[str] | None = None,
 ) -> RunResult:
-    """Run a scenario to its stop condition (or `max_cycles`) and collect its trace."""
+    """Run a scenario to its stop condition (or `max_cycles`) and collect its trace, a line
+    per cycle appended to `trace` as the run goes (so an interrupted run keeps what it
+    ran)."""
     pending = list(scenario.events)
     person = ScriptedPerson(scenario.operator) if scenario.operator is not None else None
     stop = scenario.stop_when_done
-    trace: list[str] = []
+    trace = [] if trace is None else trace
     phases: Counter[str] = Counter()
     while harness.cycles < scenario.max_cycles:
         while pending and pending[0].cycle <= harness.cycles + 1:
