@@ -594,26 +594,67 @@ def PACKAGE_COMMAND(command: Callable[..., None]) -> Callable[..., None]:  # noq
     return command
 
 
-@main.command(context_settings={"ignore_unknown_options": True})
+# `--help` is not click's for these two: after SYSTEM_DIR it is the package's (its options are
+# the ones that matter), before it this command's.
+PASS_THROUGH = {"ignore_unknown_options": True, "help_option_names": []}
+
+
+@main.command(context_settings=PASS_THROUGH)
 @PACKAGE_COMMAND
-def up(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
+@click.pass_context
+def up(ctx: click.Context, system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     """Start a built system: every process as its own OS process, paced, until Ctrl-C.
 
     OPTIONS go to `python -m <system>` (e.g. `--cycles 100`, `--restart`, `--shm NAME`,
-    one PROCESS, `--deploy FILE HOST` for one host of several, `--help`).
+    one PROCESS, `--deploy FILE HOST` for one host of several; `--help` lists them). The
+    package is checked first: one built from other specs than SYSTEM_DIR's is refused
+    (E418), as `rcsgen run --generated` refuses it.
     """
-    _exec_package(system_dir, generated, list(options))
+    _help_first(ctx, system_dir)
+    if not _wants_help(options):
+        _refuse_stale(system_dir, generated)
+    _exec_package(system_dir, generated, list(options), ctx)
 
 
-@main.command(context_settings={"ignore_unknown_options": True})
+@main.command(context_settings=PASS_THROUGH)
 @PACKAGE_COMMAND
-def ctl(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
+@click.pass_context
+def ctl(ctx: click.Context, system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     """Operate a running system: status, stop/run, step, simulate, slow, send, wait.
 
     OPTIONS go to `python -m <system> ctl` (e.g. `status --watch`, `send sb BOX_CUT
-    depth=1.5`, `step co 5`, `--help`): the console the generated package carries.
+    depth=1.5`, `step co 5`; `--help` lists them): the console the generated package carries.
     """
-    _exec_package(system_dir, generated, ["ctl", *options])
+    _help_first(ctx, system_dir)
+    _exec_package(system_dir, generated, ["ctl", *options], ctx)
+
+
+def _wants_help(options: tuple[str, ...] | list[str]) -> bool:
+    return any(o in ("-h", "--help") for o in options)
+
+
+def _help_first(ctx: click.Context, system_dir: Path) -> None:
+    """`rcsgen up --help` (no SYSTEM_DIR yet): this command's help."""
+    if str(system_dir) in ("-h", "--help"):
+        click.echo(ctx.get_help())
+        ctx.exit(0)
+
+
+def _refuse_stale(system_dir: Path, generated: Path) -> None:
+    """E418 (exit 1) unless `generated` holds exactly what SYSTEM_DIR's specs make; the specs'
+    errors (exit 1) if they do not build."""
+    if not (system_dir / "system.yaml").is_file():
+        return  # said by _exec_package
+    front = compile_paths([system_dir])
+    if report(Diagnostics(front.diagnostics.errors), Options()).fails:
+        fail("the specs do not build: nothing was started")
+    plan, problems = write.plan_build(front.systems, generated)
+    other = "--generated DIR where the package of these specs is"
+    stale = [runs.stale_package(plan, generated, s.name, other) for s in front.systems]
+    found = [*problems.errors, *(d for d in stale if d is not None)]
+    if found:
+        report(Diagnostics(found), Options())
+        fail("nothing was started")
 
 
 @main.command()
@@ -676,8 +717,11 @@ def monitor(
     app.run()
 
 
-def _exec_package(system_dir: Path, generated: Path, argv: list[str]) -> NoReturn:
-    """Replace this process by `python -m <system> ARGV`, the package and hooks on its path."""
+def _exec_package(
+    system_dir: Path, generated: Path, argv: list[str], ctx: click.Context | None = None
+) -> NoReturn:
+    """Replace this process by `python -m <system> ARGV`, the package and hooks on its path
+    (with `--help` in ARGV: this command's usage first, then the package's help)."""
     if not (system_dir / "system.yaml").is_file():
         click.echo(f"error: no system.yaml in {system_dir}", err=True)
         sys.exit(2)
@@ -688,6 +732,9 @@ def _exec_package(system_dir: Path, generated: Path, argv: list[str]) -> NoRetur
         sys.exit(1)
     path = [str(generated.resolve()), str(system_dir.resolve())]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([*path, *sys.path])}
+    if ctx is not None and _wants_help(argv):
+        click.echo(f"{ctx.get_usage()}\n(OPTIONS are `python -m {name}`'s, below)\n")
+        sys.stdout.flush()
     os.execve(sys.executable, [sys.executable, "-m", name, *argv], env)
 
 

@@ -517,6 +517,15 @@ ROLES: dict[str, dict[str, int]] = {
         "cmm_sim": 3,  # override
     },
 }
+# The run settings the hook-state factories read (`settings:`), each with what it chooses;
+# `--set`, a scenario's `settings:` and a harness may give only these.
+SETTINGS: dict[str, str] | None = {
+    "program": "The inspection program the station measures: programs/<name>.ipg (default programs/bracket.ipg).",
+    "part": "The part on the fixture, as the simulated CMM sees it: parts/<name>.part (default parts/nominal.part).",
+    "seed": "The seed of the simulated probe noise, a whole number (default 1).",
+}
+# Whether a controller has a `hooks_state` factory: without one no setting is read.
+READS_SETTINGS = True
 # What modules ask of the operator (`operators.requests`): open while the world field
 # `while` is true, answered by sending the command `answer`.
 REQUESTS: dict[str, dict[str, object]] = {}

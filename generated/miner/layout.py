@@ -1205,6 +1205,15 @@ ROLES: dict[str, dict[str, int]] = {
         "pp": 3,  # override
     },
 }
+# The run settings the hook-state factories read (`settings:`), each with what it chooses;
+# `--set`, a scenario's `settings:` and a harness may give only these.
+SETTINGS: dict[str, str] | None = {
+    "map": "The coal map the mine and the planner read: maps/<name>.map (default maps/box_cut.map).",
+    "seed": "The seed of the simulated noise and actuator error, a whole number (default 1).",
+    "shuttle_car": "'CAPACITY TRIP': a shuttle car of that many tonnes away that many cycles when full (default: a belt).",
+}
+# Whether a controller has a `hooks_state` factory: without one no setting is read.
+READS_SETTINGS = True
 # What modules ask of the operator (`operators.requests`): open while the world field
 # `while` is true, answered by sending the command `answer`.
 REQUESTS: dict[str, dict[str, object]] = {

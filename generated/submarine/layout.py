@@ -542,6 +542,14 @@ SIMULATORS = ("rudder_sim", "ship", "sonar", "atmosphere")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {}
+# The run settings the hook-state factories read (`settings:`), each with what it chooses;
+# `--set`, a scenario's `settings:` and a harness may give only these.
+SETTINGS: dict[str, str] | None = {
+    "route": "The mission's waypoints: maps/<name>.route (default maps/bering.route).",
+    "keels": "The ice keels the sonar simulator sees: maps/<name>.keels (default maps/bering.keels).",
+}
+# Whether a controller has a `hooks_state` factory: without one no setting is read.
+READS_SETTINGS = True
 # What modules ask of the operator (`operators.requests`): open while the world field
 # `while` is true, answered by sending the command `answer`.
 REQUESTS: dict[str, dict[str, object]] = {}

@@ -432,6 +432,7 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
                 for name in (c.channels if c.kind == "operator" else (c.name,))
             ],
             channels_of={c.name: c.channels for c in system.controllers},
+            factories=any(c.hooks_state for c in system.controllers),
         ),
     }
     files.update(runtime_files(root))

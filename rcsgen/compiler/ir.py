@@ -443,6 +443,9 @@ class IRSystem:
     # role -> module -> index in ACCESS_LEVELS, above monitor; empty: no access control
     access: dict[str, dict[str, int]] = field(default_factory=dict)
     requests: tuple[IRRequest, ...] = ()  # what modules ask of the operator
+    # The run settings its hook-state factories read (name, doc); None: not declared (any
+    # setting is taken when a controller has a factory, none otherwise)
+    settings: tuple[tuple[str, str], ...] | None = None
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

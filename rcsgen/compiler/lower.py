@@ -89,6 +89,7 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
             ir.IRRequest(r.name, r.doc, r.by.value, r.open_while.value, *r.answer.value.split("."))
             for r in spec.operators.requests.values()
         ),
+        settings=tuple(spec.settings.items()) if spec.settings is not None else None,
     )
 
 

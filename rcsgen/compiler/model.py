@@ -97,6 +97,8 @@ class SystemSpec:
     display: str  # the file's path as shown in diagnostics and headers
     span: Span
     operators: Operators = field(default_factory=Operators)  # roles and requests
+    # The run settings the hook-state factories read, name -> doc; None: not declared
+    settings: dict[str, str] | None = None
 
     @cached_property
     def world_types(self) -> dict[str, str]:
@@ -321,6 +323,9 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
         display=display,
         span=top,
         operators=build_operators(data, top),
+        settings={str(k): str((v or {}).get("doc", "")) for k, v in data["settings"].items()}
+        if isinstance(data.get("settings"), dict)
+        else None,
     )
 
 

@@ -143,6 +143,8 @@ LAYOUT_NAMES = frozenset(
         "PACING",
         "STAND_INS",
         "PARAMS",
+        "SETTINGS",
+        "READS_SETTINGS",
     }
 )
 # Suffixes of the attributes a controller keeps for each subordinate (`cc_status`, ...).

@@ -218,7 +218,9 @@ def golden_differences(golden: Path, trace: list[str], name: str) -> list[Diagno
     ]
 
 
-def stale_package(plan: Plan, generated: Path, system: str) -> Diagnostic | None:
+def stale_package(
+    plan: Plan, generated: Path, system: str, instead: str = "drop --generated to build in memory"
+) -> Diagnostic | None:
     """E418 naming the files of `generated/<system>` that differ from what the specs make."""
     root = generated / system
     changed = sorted(
@@ -234,5 +236,5 @@ def stale_package(plan: Plan, generated: Path, system: str) -> Diagnostic | None
         "E418",
         f"`{display_path(root)}` is stale: {shown} "
         f"{'differs' if len(changed) == 1 else 'differ'} from what the specs make",
-        f"run `rcsgen build -o {display_path(generated)}`, or drop --generated to build in memory",
+        f"run `rcsgen build -o {display_path(generated)}`, or {instead}",
     )

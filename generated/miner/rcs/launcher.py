@@ -26,7 +26,7 @@ import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
-from typing import Any, Self
+from typing import Any, NoReturn, Self
 
 from .block import Block, BlockError
 from .command import Command, parse_command, parse_value, suggest, write_command
@@ -51,6 +51,14 @@ from .loop import (
     run,
     serve,
     start,
+)
+from .startup import (
+    FAILURES,
+    START_FAILED,
+    ending,
+    parse_settings,
+    report_failure,
+    segment_problem,
 )
 from .transport import TransportError, check_endpoint
 
@@ -97,7 +105,7 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     """`python -m <system> PROCESS ...`: one process, as the launcher's child or by hand."""
     plan = system.plans[args.process]
     stop = Stop()
-    settings = dict(item.partition("=")[::2] for item in args.set)
+    settings = parse_settings(system.layout, args.set)  # checked already by `main`
     if args.child:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # the launcher decides when to stop
     signal.signal(signal.SIGTERM, stop)
@@ -109,10 +117,15 @@ def run_process(system: System, args: argparse.Namespace) -> int:
         except (BlockError, RestartRefused) as error:
             print(f"{args.process}: {error}", file=sys.stderr)
             return 1
+        except Exception as error:  # noqa: BLE001 - a hook-state factory: one line, and why
+            return report_failure(args.process, error, system.package)
         try:
             serve(process, sys.stdin.fileno(), sys.stdout.fileno())
         except OSError:  # the coordinator's end of the pipe is gone (BrokenPipeError)
             pass
+        except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
+            process.block.close()
+            return report_failure(args.process, error, system.package)
         except BaseException:
             process.block.close()
             raise
@@ -140,6 +153,8 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     except (BlockError, RestartRefused) as error:
         print(f"{args.process}: {error}", file=sys.stderr)
         return REFUSED if isinstance(error, RestartRefused) else 1
+    except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
+        return report_failure(args.process, error, system.package)
     report(system, args, process)
     if args.child and stop.orphaned:
         process.block.owner = True  # the launcher is gone: the last one out removes it
@@ -281,6 +296,7 @@ class Launcher:
         self.block: Block | None = None
         self.children: dict[str, Child] = {}
         self.events: list[str] = []  # what happened, for the summary
+        self.failed: list[str] = []  # processes that ended because a hook or module failed
         self.final: list[str] = []  # the summary, taken when the processes have stopped
 
     # ------------------------------------------------------------ lifecycle
@@ -354,8 +370,11 @@ class Launcher:
                 self.events.append(
                     f"{name} refused to restart: see its error above"
                     if refused
-                    else f"{name} died (exit {code})"
+                    else ending(name, code)
                 )
+                if code in FAILURES:  # a hook or a module failed: it would fail again
+                    self.failed.append(name)
+                    refused = True
                 if self.restart and not self.lockstep and not refused:
                     _close(child.popen)
                     child.popen = self._spawn(name, attach=True)
@@ -367,11 +386,16 @@ class Launcher:
         return ended
 
     def wait(self, stop: Stop, interval: float = 0.05) -> None:
-        """Watch the children until they have all ended or `stop` is requested."""
-        while self.children and not stop.requested:
+        """Watch the children until they have all ended or `stop` is requested (or one could
+        not start: the system cannot run without it)."""
+        while self.children and not stop.requested and not self.start_failed():
             self.poll()
             self.exchange()
             time.sleep(interval)
+
+    def start_failed(self) -> bool:
+        """A process ended because one of its modules could not be made (startup.py)."""
+        return any(e.endswith(f"(exit {START_FAILED}; its error is above)") for e in self.events)
 
     def exchange(self) -> None:
         """With Zenoh: mirror what the processes sent, send what was written here (an
@@ -599,7 +623,7 @@ def main(package: str, argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
-    parser = argparse.ArgumentParser(
+    parser = _OneLineParser(
         prog=f"python -m {package}",
         description=f"Run the {system.layout.SYSTEM} system: every process (the default), "
         "or one PROCESS.",
@@ -631,7 +655,7 @@ def main(package: str, argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--transport",
         choices=("shm", "zenoh"),
-        default="shm",
+        default=None,
         help="how processes exchange buffers: one shared-memory segment (one host), or "
         "Zenoh (each process its own block; hosts anywhere) [default: shm]",
     )
@@ -688,6 +712,13 @@ def main(package: str, argv: list[str] | None = None) -> int:
         help="start with this world field's value instead of its initial one (repeatable)",
     )
     args = parser.parse_args(argv)
+    for problem in (segment_problem(args.shm) if args.shm is not None else "",):
+        if problem:
+            parser.error(problem)
+    try:
+        parse_settings(system.layout, args.set)
+    except ValueError as error:
+        parser.error(str(error))
     host = None
     if args.deploy is not None:
         host = deployed(system, args, parser)
@@ -721,6 +752,7 @@ def main(package: str, argv: list[str] | None = None) -> int:
         parser.error(str(error))
     if args.world and (args.process is not None or args.attach):
         parser.error("--world goes with a launch of every process, which makes the segment")
+    args.transport = args.transport or "shm"
     if args.transport == "shm" and (args.listen or args.connect):
         parser.error("--listen and --connect go with --transport zenoh")
     for endpoint in (*args.listen, *args.connect):
@@ -735,6 +767,13 @@ def main(package: str, argv: list[str] | None = None) -> int:
     return launch(system, args, host)
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse, but a usage mistake is one line on stderr, exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
 def deployed(system: System, args: argparse.Namespace, parser: argparse.ArgumentParser) -> Any:
     """`--deploy FILE [HOST]`: the host's entry of the checked file, its endpoints and
     transport put in `args` (its one process in `args.process`); None after a located
@@ -743,7 +782,7 @@ def deployed(system: System, args: argparse.Namespace, parser: argparse.Argument
 
     from .deploy import DeployError, load
 
-    if args.listen or args.connect or args.transport != "shm":
+    if args.listen or args.connect or args.transport is not None:
         parser.error(
             "--deploy gives the transport and endpoints: no --transport, --listen, --connect"
         )
@@ -864,6 +903,12 @@ def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
         launcher.stop()
     for line in launcher.final:
         print(line)
+    if launcher.failed:  # a process stopped because a hook or a module failed
+        print(
+            f"{system.layout.SYSTEM}: {', '.join(launcher.failed)} stopped on a failure",
+            file=sys.stderr,
+        )
+        return code or 1
     return code
 
 
@@ -874,7 +919,7 @@ def operate(launcher: Launcher, send: Command, until_done: bool, stop: Stop) -> 
     assert launcher.block is not None
     buf = launcher.block.buf
     number = None
-    while launcher.children and not stop.requested:
+    while launcher.children and not stop.requested and not launcher.start_failed():
         launcher.poll()
         launcher.exchange()
         if number is None:

@@ -56,6 +56,7 @@ from .contract import (
     shared,
     status_text,
 )
+from .startup import segment_problem
 from .transport import TransportError, check_endpoint
 
 USAGE, FAILED = 2, 1
@@ -780,6 +781,8 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
         else:
             print("\n".join(access.matrix(layout.MODULES)))
         return 0
+    if not args.connect and segment_problem(args.shm):
+        raise usage(segment_problem(args.shm))
     try:
         console = Console(layout, args.shm, args.role, args.connect)
     except (BlockError, TransportError, ValueError) as error:
