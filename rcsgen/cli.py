@@ -679,8 +679,20 @@ def _refuse_stale(system_dir: Path, generated: Path) -> None:
     metavar="PROTO/HOST:PORT",
     help="Attach through Zenoh to a host of a system run with --transport zenoh.",
 )
+@click.option(
+    "--world",
+    "world",
+    default="",
+    metavar="FIELD,...",
+    help="The world fields shown under the modules [default: every one].",
+)
 def monitor(
-    system_dir: Path, generated: Path, shm: str | None, role: str | None, connect: tuple[str, ...]
+    system_dir: Path,
+    generated: Path,
+    shm: str | None,
+    role: str | None,
+    connect: tuple[str, ...],
+    world: str,
 ) -> None:
     """Watch and operate a running system in a live terminal screen (rcsgen[monitor]).
 
@@ -707,9 +719,13 @@ def monitor(
     layout = importlib.import_module(f"{import_package(package_dir.resolve()).__name__}.layout")
     segment = shm or f"rcs_{layout.SYSTEM}_{layout.LAYOUT_HASH[:8]}"
     from .runtime.ctl import CtlError
+    from .runtime.startup import segment_problem
 
+    if not connect and segment_problem(segment):
+        fail(segment_problem(segment), 2)
+    fields = tuple(f for f in world.split(",") if f) or None
     try:
-        app = Monitor(layout, segment, role=role, connect=connect)
+        app = Monitor(layout, segment, role=role, connect=connect, world=fields)
     except CtlError as error:
         fail(str(error), error.code)
     except (BlockError, TransportError, ValueError) as error:

@@ -32,6 +32,7 @@ from ..compiler.frontend import compile_paths
 from ..compiler.ir import IRSystem
 from ..runtime.command import check_command, write_command
 from ..runtime.contract import enum_code, enum_name, plan_slots, result_values
+from ..runtime.startup import settings_problem
 
 _unique = itertools.count(1)
 
@@ -212,6 +213,8 @@ class Harness(BlockView):
         unknown = sorted(set(simulate) - {m for plan in plans.values() for m in plan.stand_ins})
         if unknown:
             raise ValueError(f"no stand-in for {unknown}")
+        if settings_problem(self.layout, settings or {}):
+            raise ValueError(settings_problem(self.layout, settings or {}))
         self.block = importlib.import_module(f"{runtime}.block").Block(self.layout)
         self.buf = self.block.buf
         self.processes = {
@@ -336,6 +339,8 @@ class LaunchedHarness(BlockView):
         unknown = sorted(set(simulate) - {m for plan in plans.values() for m in plan.stand_ins})
         if unknown:
             raise ValueError(f"no stand-in for {unknown}")
+        if settings_problem(self.layout, settings or {}):
+            raise ValueError(settings_problem(self.layout, settings or {}))
         path = (str(package_dir.parent), *([str(hooks)] if hooks else []))
         system = launcher.System(package_dir.name, self.layout, plans, path)
         segment = f"rcsgen_run_{os.getpid()}_{next(self._segments)}"

@@ -248,6 +248,7 @@ class _Checker:
             str(k): (str(v).lower() if isinstance(v, bool) else str(v))
             for k, v in (data.get("settings") or {}).items()
         }
+        self.settings(data.get("settings") or {})
         return Scenario(
             name=str(data["scenario"]),
             title=str(data.get("title", "")),
@@ -265,6 +266,31 @@ class _Checker:
             expect=expected,
             operator=script,
         )
+
+    def settings(self, given: Any) -> None:
+        """E424 for a setting the system does not take (`settings:` in system.yaml), the one
+        check `--set` makes (rcs/startup.py)."""
+        declared = self.system.settings
+        factories = any(c.hooks_state for c in self.system.controllers)
+        for key in given:
+            span = key_span(given, key, self.span(self.data, "settings"))
+            if declared is not None and key not in dict(declared):
+                names = [name for name, _ in declared]
+                self.error(
+                    span,
+                    "E424",
+                    f"`{self.system.name}` has no setting `{key}`",
+                    known_names_hint("settings", names, str(key))
+                    or f"its settings: {', '.join(names) or 'none'} (system.yaml `settings:`)",
+                )
+            elif declared is None and not factories:
+                self.error(
+                    span,
+                    "E424",
+                    f"`{self.system.name}` reads no setting `{key}`: none of its controllers "
+                    "has a `hooks_state` factory",
+                    "remove `settings:`",
+                )
 
     def process(self) -> _Run | None:
         """The process the scenario runs and the stand-ins it uses (E410, E411)."""

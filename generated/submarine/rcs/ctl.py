@@ -344,7 +344,9 @@ class Console:
                 todo += self.layout.SUBORDINATES.get(sub, ())
         return found
 
-    def snapshot(self) -> dict[str, Any]:
+    def snapshot(self, world: Sequence[str] | None = None) -> dict[str, Any]:
+        """Everything the console shows, as plain data: the processes, every module's line,
+        the open requests and the world fields (`world`: those named, else all)."""
         processes = self.processes()
         return {
             "system": self.layout.SYSTEM,
@@ -354,7 +356,24 @@ class Console:
             "processes": processes,
             "modules": self.modules(processes),
             "requests": self.requests(),
+            "world": self.world(world),
         }
+
+    def world_names(self, names: Sequence[str]) -> list[str]:
+        """`names` checked against the world fields (usage error with a did-you-mean)."""
+        for name in names:
+            if name not in self.layout.WORLD:
+                raise usage(suggest(name, list(self.layout.WORLD), "world field"))
+        return list(names)
+
+    def world(self, names: Sequence[str] | None = None) -> dict[str, Any]:
+        """The world fields now (those named, else every one, in the layout's order), an
+        enumeration's by value name; None for a field that stayed unreadable (stale)."""
+        found: dict[str, Any] = {}
+        for name in self.world_names(names) if names is not None else self.layout.WORLD:
+            values = self.read(self.layout.WORLD[name])
+            found[name] = enum_name(self.layout, "", name, values[name]) if values else None
+        return found
 
     # ------------------------------------------------------------ requests
 
@@ -611,6 +630,11 @@ def render(snapshot: dict[str, Any]) -> list[str]:
         )
     for request in snapshot.get("requests", ()):
         lines.append(f"request {request['name']} from {request['by']}: {request['doc']}")
+    world = snapshot.get("world") or {}
+    if world:
+        fields: list[Sequence[str]] = [("world", "value")]
+        fields += [(name, "stale" if v is None else shown(v)) for name, v in world.items()]
+        lines += columns(fields)
     return lines
 
 
@@ -684,6 +708,14 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
         help="seconds between refreshes (0.01 to 3600)",
     )
     status.add_argument("--format", choices=("text", "json"), default="text")
+    status.add_argument(
+        "--world",
+        nargs="?",
+        const="",
+        default=None,
+        metavar="FIELD,...",
+        help="also the world fields now: every one, or those named (JSON has them all anyway)",
+    )
     for verb, text in (("stop", "hold MODULE's table (STOP)"), ("run", "RUN and AUTO again")):
         verbs.add_parser(verb, help=text).add_argument("module")
     step = verbs.add_parser("step", help="single-step MODULE N cycles (SINGLE)")
@@ -805,12 +837,16 @@ def attach(layout: ModuleType, endpoints: Sequence[str]) -> Any:
 def _verb(console: Console, args: argparse.Namespace, command: Command | None) -> int:
     verb = args.verb
     if verb == "status":
+        named = [n for n in (args.world or "").split(",") if n] or None
+        if named is not None:
+            console.world_names(named)  # a misspelt field: one line, exit 2
         while True:
-            snapshot = console.snapshot()
+            snapshot = console.snapshot(named)
             if args.format == "json":
                 text = json.dumps(snapshot, indent=2)
             else:
-                text = "\n".join(render(snapshot))
+                shown = snapshot if args.world is not None else {**snapshot, "world": {}}
+                text = "\n".join(render(shown))
             if not args.watch:
                 print(text)
                 return 0
