@@ -74,7 +74,8 @@ def test_a_failed_step_is_replanned_until_no_replans_are_left(exe: Harness) -> N
     ("wanted", "message"),
     [
         (5, "hook `plan_legs` of `exe` returned 5 steps, more than the plan's capacity "
-         "(a list of at most 4 steps, each a tuple (int, finite float, bool)) (rule GO/S0/1, cycle 1)"),
+         "(a list of at most 4 steps, each a tuple (int, finite float, bool)) "
+         "(rule GO/S0/1, cycle 1)"),
         (-1, "hook `plan_legs` of `exe` returned step 0 as (1, 2.0); a plan is a list of at "
          "most 4 steps, each a tuple (int, finite float, bool) (rule GO/S0/1, cycle 1)"),
     ],
