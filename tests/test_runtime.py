@@ -251,7 +251,8 @@ def test_a_process_whose_module_keeps_hook_state_is_not_restarted(
         lambda: launcher.poll() is not None and "p2" not in launcher.children,
         "p2 refusing to restart",
     )
-    assert [e for e in launcher.events if e.startswith("p2")] == [
+    # (under load the launcher may also see a process silent for a moment: not asked here)
+    assert [e for e in launcher.events if e.startswith("p2") and "beat" not in e] == [
         "p2 died (exit -9)",
         "p2 restarted",
         "p2 refused to restart: see its error above",

@@ -767,6 +767,9 @@ def records(layout: ModuleType) -> dict[str, object]:
         found[f"PROCESS_{name.upper()}"] = record
     for name, record in layout.PACING.items():
         found[f"PACE_{name.upper()}"] = record
+    for name, record in layout.OVERRIDE.items():
+        found[f"OVERRIDE_{name.upper()}"] = record
+    found["OVERRIDES"] = layout.OVERRIDES
     return found
 
 

@@ -463,8 +463,14 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
         assert not pc2_lost()
         hosts["pc2"].send_signal(signal.SIGSTOP)  # a partition: pc2 silent, its link open
         wait_for(pc2_lost, "pc1 reports pc2 lost")
-        vg = layout.STATUS_OUT["vg"].read(pc1.buf)
-        assert (vg["status"], vg["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
+        # halt_all: vg, co and sec in their safe state; co's HALT then runs vg's HALT table,
+        # and the root reports ERROR(LOST) (docs/semantics.md, "Fail safe")
+        wait_for(
+            lambda: layout.STATUS_OUT["sec"].read(pc1.buf)["status"] == contract.ERROR,
+            "the root, sec, reports ERROR",
+        )
+        sec = layout.STATUS_OUT["sec"].read(pc1.buf)
+        assert (sec["status"], sec["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
         hosts["pc2"].send_signal(signal.SIGCONT)
         wait_for(lambda: not pc2_lost(), "pc2 re-joins")
         hosts["pc2"].send_signal(signal.SIGKILL)
@@ -643,8 +649,12 @@ def test_a_cut_link_is_detected_contained_and_mended(
         for _ in range(2):  # cut and mended twice: the second cut finds a mended link
             running["relay"].send_signal(signal.SIGUSR1)  # the cable is pulled
             wait_for(pc2_lost_on_pc1, "pc1 reports pc2 lost")
-            vg = layout.STATUS_OUT["vg"].read(pc1.buf)
-            assert (vg["status"], vg["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
+            wait_for(  # halt_all: the root reports ERROR(LOST) (docs/semantics.md, "Fail safe")
+                lambda: layout.STATUS_OUT["sec"].read(pc1.buf)["status"] == contract.ERROR,
+                "the root, sec, reports ERROR",
+            )
+            sec = layout.STATUS_OUT["sec"].read(pc1.buf)
+            assert (sec["status"], sec["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
             wait_for(lambda: pc1_state_on_pc2() == contract.DEAD, "pc2 sees pc1's token go")
             assert all(each.poll() is None for each in running.values())  # nobody stopped
             for _ in range(10):  # while it is out, no way around it

@@ -13,6 +13,8 @@ from .layout import (
     CO_STATUS_AT,
     CR_COMMAND,
     CR_COMMAND_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     VG_COMMAND,
     VG_COMMAND_AT,
     WORLD_GOAL_X_AT,
@@ -33,6 +35,7 @@ from .rcs.contract import (
     is_real,
 )
 from .rcs.deadline import within
+from .rcs.override import held
 
 # Commands co accepts (the code written to its command buffer).
 INIT = 1
@@ -69,12 +72,13 @@ CC_CUSP = 7
 INPUTS = Struct("<QIdd44x???1xI80xQI468xQI484xQI1844xd8xd8xd8xd328xd8xd8xd24xd8xd8x?47xd")
 INPUTS_AT = 568
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
 WORLD_OUT_1_AT = 3584
+WORLD_HELD_1 = (OVERRIDE["goal_x"], OVERRIDE["goal_y"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -335,7 +339,10 @@ class CoController:
             SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
             self.cc_written = self.cc_command_num
         out = (self.world_goal_x, self.world_goal_y)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
@@ -496,7 +503,10 @@ class CoController:
             SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
             self.cc_written = self.cc_command_num
         out = (self.world_goal_x, self.world_goal_y)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes

@@ -9,6 +9,8 @@ import miner_hooks.haulage as hooks
 from .layout import (
     GAS_PERF_AT,
     GAS_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_COAL_MINED_AT,
     WORLD_LOOSE_COAL_TRUE_AT,
     WORLD_SHUTTLE_CAR_AWAY_AT,
@@ -28,6 +30,7 @@ from .rcs.contract import (
     is_real,
 )
 from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands gas accepts (the code written to its command buffer).
 INIT = 1
@@ -42,12 +45,17 @@ INPUTS_AT = 2648
 SEQS = Struct("<Q")
 SEQS_AT = 2648
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQ?")
 WORLD_VALUES_1 = Struct("<8xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
 WORLD_OUT_1_AT = 4144
+WORLD_HELD_1 = (
+    OVERRIDE["loose_coal_true"],
+    OVERRIDE["coal_mined"],
+    OVERRIDE["shuttle_car_away"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -108,6 +116,25 @@ class GasController:
         except BaseException as error:
             raise HookError("gas", "new_haulage", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_tail_in_position,
+            self.world_gather_on_cmd,
+            self.world_conveyor_on_cmd,
+            self.world_loose_coal_true,
+            self.world_coal_mined,
+            self.world_shuttle_car_away,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -203,7 +230,10 @@ class GasController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_loose_coal_true, self.world_coal_mined, self.world_shuttle_car_away)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
@@ -313,7 +343,10 @@ class GasController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_loose_coal_true, self.world_coal_mined, self.world_shuttle_car_away)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes

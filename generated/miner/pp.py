@@ -7,6 +7,8 @@ from time import perf_counter_ns
 import miner_hooks.pp as hooks
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     PP_PERF_AT,
     PP_STATUS_AT,
     WORLD_PATH_OK_AT,
@@ -30,6 +32,7 @@ from .rcs.contract import (
     is_real,
 )
 from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands pp accepts (the code written to its command buffer).
 INIT = 1
@@ -45,12 +48,18 @@ INPUTS_AT = 3368
 SEQS = Struct("<Q560xQ8xQ8xQ")
 SEQS_AT = 3368
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?7xQdQdQ?")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
 WORLD_OUT_1_AT = 3616
+WORLD_HELD_1 = (
+    OVERRIDE["path_ok"],
+    OVERRIDE["wp_x"],
+    OVERRIDE["wp_y"],
+    OVERRIDE["wp_last"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -112,6 +121,31 @@ class PpController:
         except BaseException as error:
             raise HookError("pp", "new_planner", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.arg_x,
+            self.arg_y,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_path_ok,
+            self.world_wp_x,
+            self.world_wp_y,
+            self.world_wp_last,
+            _,
+            self.world_pose_x,
+            _,
+            self.world_pose_y,
+            _,
+            self.world_heading,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -226,7 +260,10 @@ class PpController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_path_ok, self.world_wp_x, self.world_wp_y, self.world_wp_last)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_PATH_OK_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_WP_X_AT, s[1] | 1)  # odd before the value changes
@@ -366,7 +403,10 @@ class PpController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_path_ok, self.world_wp_x, self.world_wp_y, self.world_wp_last)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_PATH_OK_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_WP_X_AT, s[1] | 1)  # odd before the value changes

@@ -7,6 +7,8 @@ from time import perf_counter_ns
 import miner_hooks.sim as hooks
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     PSS_PERF_AT,
     PSS_STATUS_AT,
     WORLD_HEADING_AT,
@@ -28,6 +30,7 @@ from .rcs.contract import (
     is_real,
 )
 from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands pss accepts (the code written to its command buffer).
 INIT = 1
@@ -42,12 +45,13 @@ INPUTS_AT = 2888
 SEQS = Struct("<Q")
 SEQS_AT = 2888
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
 WORLD_OUT_1_AT = 3936
+WORLD_HELD_1 = (OVERRIDE["pose_x"], OVERRIDE["pose_y"], OVERRIDE["heading"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -109,6 +113,25 @@ class PssController:
         except BaseException as error:
             raise HookError("pss", "new_noise", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_true_x,
+            self.world_true_y,
+            self.world_true_heading,
+            self.world_pose_x,
+            self.world_pose_y,
+            self.world_heading,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -204,7 +227,10 @@ class PssController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_pose_x, self.world_pose_y, self.world_heading)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_POSE_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_POSE_Y_AT, s[1] | 1)  # odd before the value changes
@@ -314,7 +340,10 @@ class PssController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_pose_x, self.world_pose_y, self.world_heading)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_POSE_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_POSE_Y_AT, s[1] | 1)  # odd before the value changes

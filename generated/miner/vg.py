@@ -162,6 +162,34 @@ class VgController:
         self.var_facing: int = 0
         self.var_facing_turn: float = 0.0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            self.command_num,
+            self.command,
+            self.arg_x,
+            self.arg_y,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.tc_status_num,
+            self.tc_status,
+            _,
+            self.pp_status_num,
+            self.pp_status,
+            _,
+            self.world_wp_x,
+            _,
+            self.world_wp_y,
+            _,
+            self.world_wp_last,
+            self.world_pose_x,
+            self.world_pose_y,
+            self.world_heading,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:

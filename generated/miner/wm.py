@@ -7,6 +7,8 @@ from time import perf_counter_ns
 import miner_hooks.wm as hooks
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WM_PERF_AT,
     WM_STATUS_AT,
     WORLD_DEPTH_EST_AT,
@@ -27,6 +29,7 @@ from .rcs.contract import (
     is_real,
 )
 from .rcs.deadline import within
+from .rcs.override import held
 
 # Commands wm accepts (the code written to its command buffer).
 INIT = 1
@@ -38,12 +41,17 @@ NEW_CUT = 3
 INPUTS = Struct("<QI44x???1xI576x?47xd40xd8xd24x?15xd8xd")
 INPUTS_AT = 3256
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?7xQdQd")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
 WORLD_OUT_1_AT = 4032
+WORLD_HELD_1 = (
+    OVERRIDE["popped_out_of_shear"],
+    OVERRIDE["depth_est"],
+    OVERRIDE["drum_reach"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -190,7 +198,10 @@ class WmController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_popped_out_of_shear, self.world_depth_est, self.world_drum_reach)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(
                 buf, WORLD_POPPED_OUT_OF_SHEAR_AT, s[0] | 1
@@ -297,7 +308,10 @@ class WmController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_popped_out_of_shear, self.world_depth_est, self.world_drum_reach)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(
                 buf, WORLD_POPPED_OUT_OF_SHEAR_AT, s[0] | 1

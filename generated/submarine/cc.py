@@ -145,6 +145,25 @@ class CcController:
         self.plan_route: list[tuple[float, float]] = []  # plan route: no steps yet
         self.plan_route_steps = self.plan_route_replans_left = 0
         self.plan_route_go(0)
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.sm_status_num,
+            self.sm_status,
+            self.sm_error_num,
+            self.ec_status_num,
+            self.ec_status,
+            self.world_co_ppm,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:

@@ -10,6 +10,8 @@ from .layout import (
     HELM_PERF_AT,
     HELM_STATUS,
     HELM_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     RUDDER_COMMAND,
     RUDDER_COMMAND_AT,
     WORLD_COURSE_AT,
@@ -31,6 +33,7 @@ from .rcs.contract import (
     is_real,
 )
 from .rcs.deadline import within
+from .rcs.override import held
 
 # Commands helm accepts (the code written to its command buffer).
 INIT = 1
@@ -52,12 +55,13 @@ RUDDER_GOTO_ANGLE = 3
 INPUTS = Struct("<QIdd52x???1xI88xQI596xd24xd8xd8xd72xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 592
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 1368
+WORLD_HELD_1 = (OVERRIDE["course"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -307,7 +311,10 @@ class HelmController:
             SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq + 1)
             self.rudder_written = self.rudder_command_num
         out = (self.world_course,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_COURSE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -445,7 +452,10 @@ class HelmController:
             SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq + 1)
             self.rudder_written = self.rudder_command_num
         out = (self.world_course,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_COURSE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])

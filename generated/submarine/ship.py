@@ -7,6 +7,8 @@ from time import perf_counter_ns
 import submarine_hooks.sim as hooks
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     SHIP_PERF_AT,
     SHIP_STATUS_AT,
     WORLD_DEPTH_AT,
@@ -30,6 +32,7 @@ from .rcs.contract import (
     is_real,
 )
 from .rcs.deadline import within
+from .rcs.override import held
 
 # Commands ship accepts (the code written to its command buffer).
 INIT = 1
@@ -44,12 +47,19 @@ INPUTS_AT = 976
 SEQS = Struct("<Q")
 SEQS_AT = 976
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
 WORLD_OUT_1_AT = 1400
+WORLD_HELD_1 = (
+    OVERRIDE["pos_x"],
+    OVERRIDE["pos_y"],
+    OVERRIDE["heading"],
+    OVERRIDE["speed"],
+    OVERRIDE["depth"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -107,6 +117,27 @@ class ShipController:
         self.buf = buf
         self.cycle_start = 0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_speed_cmd,
+            self.world_depth_cmd,
+            self.world_pos_x,
+            self.world_pos_y,
+            self.world_heading,
+            self.world_speed,
+            self.world_depth,
+            self.world_rudder_angle,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -210,7 +241,10 @@ class ShipController:
             self.world_speed,
             self.world_depth,
         )
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_POS_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_POS_Y_AT, s[1] | 1)  # odd before the value changes
@@ -343,7 +377,10 @@ class ShipController:
             self.world_speed,
             self.world_depth,
         )
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_POS_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_POS_Y_AT, s[1] | 1)  # odd before the value changes

@@ -498,8 +498,20 @@ class _Controller:
         return self.builder.guard(rule.guard)
 
     def run(self) -> None:
+        spec = self.checked.spec
+        self.continued = {k for k, v in spec.on_lost.items() if v.value == "continue"}
+        self.handled = set(self.every_handles)  # subordinates some rule handles the ERROR of
         for command in self.checked.commands.values():
             _Table(self, command, self.table(command)).run()
+        for sub in sorted(self.continued - self.handled):
+            self.diags.error(
+                spec.on_lost[sub].span,
+                "E299",
+                f"`on_lost: continue` for `{sub}`, but no rule of `{spec.name}` handles "
+                f"{sub}.status == ERROR: its loss would go unnoticed",
+                f"add a rule such as `when: {sub}.status == ERROR` where `{spec.name}` waits "
+                "on it, or leave the default `halt_all`",
+            )
 
     def table(self, command: CheckedCommand) -> dict[str, list[_Rule]]:
         """The rules that can be tried (the checked states hold only those)."""
@@ -719,7 +731,19 @@ class _Table:
         controller = self.owner.checked.name
         for sub in self.tested[state]:
             guards = [r.guard for r in rules]
-            if sub not in self.owner.every_handles and not _fires_on_error(guards, sub):
+            handled = sub in self.owner.every_handles or _fires_on_error(guards, sub)
+            if handled:
+                self.owner.handled.add(sub)
+            elif sub in self.owner.continued:  # its loss must be handled here: an error
+                self.diags.error(
+                    self.states[state].span,
+                    "E299",
+                    f"{self.name} {state} waits on {sub}, whose loss `on_lost: continue` "
+                    f"leaves to these rules, but never handles {sub}.status == ERROR",
+                    f"add a rule such as `when: {sub}.status == ERROR`, or leave the default "
+                    "`on_lost: halt_all`",
+                )
+            else:
                 self.diags.warning(
                     self.states[state].span,
                     "W506",

@@ -58,6 +58,7 @@ def check_system(
     _check_stand_ins(system, by_name, diags)
     _check_world_writers(system, by_name, diags)
     _check_sensing(system, by_name, simulators | set(stand_ins.values()), diags)
+    _check_safe_values(system, diags)  # E279
     world = {name: f.type for name, f in system.world.items()}
     operators.check(system.operators, by_name, supervisors, world, diags)  # E245-E249
     clients = operators.check_modules(system, by_name, diags)  # E281-E284, W308
@@ -67,6 +68,7 @@ def check_system(
     acknowledge.check_allows(controllers, diags)  # E237-E239
     for spec in by_name.values():
         _check_echo_timeouts(spec, diags)
+        _check_on_lost(spec, diags)  # E299 (its rules: analysis.py)
         _check_world_access(spec, world, diags)
         naming.check_controller_names(spec, diags)
         contracts[spec.name] = _check_hooks_module(spec, system.directory, world, diags)
@@ -328,6 +330,18 @@ def _check_echo_timeouts(spec: ControllerSpec, diags: Diagnostics) -> None:
             )
 
 
+def _check_on_lost(spec: ControllerSpec, diags: Diagnostics) -> None:
+    subordinates = [s.value for s in spec.subordinates]
+    for name, policy in spec.on_lost.items():
+        if name not in subordinates:
+            diags.error(
+                policy.span,
+                "E299",
+                f"`on_lost` names `{name}`, which is not a subordinate of `{spec.name}`",
+                known_names_hint("subordinates", subordinates, name),
+            )
+
+
 def _check_world_writers(
     system: SystemSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics
 ) -> None:
@@ -393,6 +407,35 @@ def _check_sensing(
             )
 
 
+def _check_safe_values(system: SystemSpec, diags: Diagnostics) -> None:
+    """A `safe:` value belongs to an actuator, and is one its field can hold (E279)."""
+    for f in system.world.values():
+        if f.safe is None:
+            continue
+        at = f.safe_span or f.span
+        if not f.actuator:
+            diags.error(
+                at,
+                "E279",
+                f"world field `{f.name}` declares a safe value but is not an actuator",
+                "add `actuator: true` (the runtime then drives it to this value when its "
+                "writer is lost), or remove `safe:`",
+            )
+            continue
+        values = expr.enum_values(f.type)
+        if values and f.safe not in values:
+            diags.error(
+                at,
+                "E279",
+                f"safe value `{f.safe}` of `{f.name}` is not a value of {f.type}",
+                known_names_hint("values", values, str(f.safe)),
+            )
+        elif expr.str_size(f.type):
+            problem = expr.text_problem_of(f.safe, f.type)
+            if problem:
+                diags.error(at, "E279", f"safe value of `{f.name}`: {problem}")
+
+
 def _check_numbers(
     system: SystemSpec, controllers: list[ControllerSpec], diags: Diagnostics
 ) -> None:
@@ -400,6 +443,9 @@ def _check_numbers(
     float fits in a float."""
     values: list[tuple[str, object, Span]] = [
         (f.type, f.initial, f.initial_span or f.span) for f in system.world.values()
+    ]
+    values += [
+        (f.type, f.safe, f.safe_span or f.span) for f in system.world.values() if f.safe is not None
     ]
     for spec in controllers:
         values += [(v.type, v.initial, v.initial_span or v.span) for v in spec.locals.values()]

@@ -294,6 +294,8 @@ def _controller_context(
         slots.append(f"{s.name}_written")
         if s.echo_cycles:
             slots.append(f"{s.name}_sent_at")
+        if s.continue_on_lost:
+            slots.append(f"{s.name}_lost")
     slots += [f"world_{f.name}" for f in c.world_reads]
     slots += [f"var_{v.name}" for v in c.locals]
     if c.timed:
@@ -304,6 +306,11 @@ def _controller_context(
         slots += [f"plan_{plan.name}", naming.plan_attribute(plan.name, "done")]
         slots += [naming.plan_attribute(plan.name, f.name) for f in plan.fields]
     imports = {f"{up}_STATUS_AT", f"{up}_PERF_AT", *(n for names in world_seq_at for n in names)}
+    if world_outputs:  # a field under an override keeps its value (rcs/override.py)
+        imports |= {"OVERRIDE", "OVERRIDDEN_AT"}
+    world_names = [
+        [t.removeprefix("self.world_") for t in out.targets if t != "_"] for out in world_outputs
+    ]
     for s in c.subordinates:
         imports |= {f"{s.prefix}_COMMAND", f"{s.prefix}_COMMAND_AT"}
     inputs = _inputs(c, system, placement)
@@ -347,6 +354,7 @@ def _controller_context(
         "inputs": inputs,
         "world_outputs": world_outputs,
         "world_seq_at": world_seq_at,
+        "world_names": world_names,
         "system": system,
         "class_name": naming.class_name(c.name),
         "imports": sorted(imports, key=naming.import_order),
@@ -433,6 +441,11 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
             ],
             channels_of={c.name: c.channels for c in system.controllers},
             factories=any(c.hooks_state for c in system.controllers),
+            world_writers={
+                name: min(processes)
+                for name, processes in Placement.of(system).world_writers.items()
+                if processes
+            },
         ),
     }
     files.update(runtime_files(root))

@@ -113,6 +113,10 @@ class Layout:
     hash: str
     pacing: dict[str, Buffer] = field(default_factory=dict)  # each process's pacing record
     operators: dict[str, OperatorBuffers] = field(default_factory=dict)
+    # Overrides (rcs/override.py): the flag "some world field is under an override", then
+    # per world field its override record (state and value), after the world fields.
+    overrides: Buffer | None = None
+    override_fields: tuple[Buffer, ...] = ()
 
     def handshake(self, module: str, client: str) -> tuple[Buffer, Buffer]:
         """The command and status buffers through which `client` commands `module`: the
@@ -128,6 +132,8 @@ class Layout:
             found += [o.mode, o.perf]
             found += [b for c in o.channels.values() for b in (c.command, c.status, c.answer)]
         every = [*self.processes.values(), *self.pacing.values(), *found, *self.world]
+        every += [self.overrides] if self.overrides is not None else []
+        every += self.override_fields
         return sorted(every, key=lambda b: b.offset)
 
 
@@ -149,6 +155,10 @@ class IRWorldField:
     type: str
     initial: bool | int | float | str  # an enum's value name, a string's text
     doc: str
+    actuator: bool = False
+    # an actuator's safe value (an enum's value name, a string's text): `safe:`, or the
+    # type's zero (false, 0, 0.0, the first value, ""); None for a field that is no actuator
+    safe: bool | int | float | str | None = None
 
 
 @dataclass(frozen=True)
@@ -305,6 +315,9 @@ class IRSub:
     reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants, when a guard reads one
     results: tuple[IRParam, ...] = ()  # the results of it a guard or value reads
     channel: str = ""  # an operator module's channel to this supervisor (`op/fx`), if it is one
+    # `on_lost: continue`: while its process is lost, its status reads ERROR (reason LOST) and
+    # the supervisor's own rules handle it (the runtime sets `<sub>_lost`)
+    continue_on_lost: bool = False
 
     @property
     def key(self) -> str:

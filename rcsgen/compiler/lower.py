@@ -18,6 +18,8 @@ from ..runtime.contract import (
     COMMAND_HEAD_FIELDS,
     HEADER,
     MODE_FIELDS,
+    OVERRIDE_HEAD_FIELDS,
+    OVERRIDES_FIELDS,
     PACE_FIELDS,
     PERF_FIELDS,
     PROCESS_FIELDS,
@@ -258,7 +260,9 @@ class _ControllerLowering:
             if ("sub_result", name) in read
         )
         channel = ir.channel_key(sub, self.spec.name) if sub_spec.is_operator else ""
-        return ir.IRSub(sub, consts, params, echo, reasons, results, channel)
+        policy = self.spec.on_lost.get(sub)
+        continued = policy is not None and policy.value == "continue"
+        return ir.IRSub(sub, consts, params, echo, reasons, results, channel, continued)
 
     def reasons_passed(self) -> set[str]:
         """The subordinates whose reason a report passes up (`reason: <sub>.reason`)."""
@@ -516,7 +520,21 @@ def _param_slots(commands: Iterable[Command]) -> tuple[ir.IRParam, ...]:
 
 
 def _world_field(f: Typed) -> ir.IRWorldField:
-    return ir.IRWorldField(f.name, f.type, f.initial, f.doc)
+    safe = None
+    if f.actuator:
+        safe = f.safe if f.safe is not None else zero_value(f.type)
+    return ir.IRWorldField(f.name, f.type, f.initial, f.doc, f.actuator, safe)
+
+
+def zero_value(kind: str) -> bool | int | float | str:
+    """A type's zero: the default safe value of an actuator (false, 0, 0.0, an enumeration's
+    first value, the empty string)."""
+    values = expr.enum_values(kind)
+    if values:
+        return values[0]
+    if expr.str_size(kind):
+        return ""
+    return {"bool": False, "int": 0, "float": 0.0}[kind]
 
 
 # ---------------------------------------------------------------- layout
@@ -583,7 +601,26 @@ def plan_layout(
         buffer = _buffer(f"WORLD_{f.name.upper()}", at, [(f.name, format_of_type(f.type))], f.doc)
         world_buffers.append(buffer)
         at = align(at + buffer.size)
-    layout = ir.Layout(process_records, modules, tuple(world_buffers), at, "", pacing, operators)
+    # Overrides: one flag, then each world field's override record (rcs/override.py).
+    overrides = _buffer("OVERRIDES", at, OVERRIDES_FIELDS, "some world field is overridden")
+    at = align(at + overrides.size)
+    override_fields = []
+    for f in world:
+        fields = [*OVERRIDE_HEAD_FIELDS, (f.name, format_of_type(f.type))]
+        buffer = _buffer(f"OVERRIDE_{f.name.upper()}", at, fields, f"{f.name}'s override")
+        override_fields.append(buffer)
+        at = align(at + buffer.size)
+    layout = ir.Layout(
+        process_records,
+        modules,
+        tuple(world_buffers),
+        at,
+        "",
+        pacing,
+        operators,
+        overrides,
+        tuple(override_fields),
+    )
     return replace(layout, hash=layout_hash(system, layout))
 
 

@@ -46,6 +46,10 @@ class Typed:
     initial_span: Span | None = None  # where `initial:` gives the value (not for params)
     actuator: bool = False  # world fields: commands an actuator (W520)
     ground_truth: bool = False  # world fields: the simulation's truth, no sensor's (E280)
+    # world fields that command an actuator: the value it is driven to when the process that
+    # writes it is lost or stops (None: not given, the type's zero; E279 without `actuator`)
+    safe: bool | int | float | str | None = None
+    safe_span: Span | None = None
 
 
 @dataclass
@@ -261,6 +265,8 @@ class ControllerSpec:
     name_span: Span = field(default_factory=lambda: Span("?"))
     every_cycle: list[Rule] = field(default_factory=list)  # tried every cycle, any command
     echo_timeouts: dict[str, Located] = field(default_factory=dict)  # subordinate -> duration
+    # subordinate -> `halt_all` | `continue`: what the loss of its process does (E299)
+    on_lost: dict[str, Located] = field(default_factory=dict)
     hooks_state_on_restart: str = "refuse"  # or "reset": what a restart does with hook state
     hooks_state: Located | None = None  # factory of the state every hook call receives first
     functions: dict[str, Function] = field(default_factory=dict)  # pure, callable anywhere
@@ -293,6 +299,8 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
             value_span(spec, "initial", top),
             bool(spec.get("actuator", False)),
             bool(spec.get("ground_truth", False)),
+            spec.get("safe"),
+            value_span(spec, "safe", top) if "safe" in spec else None,
         )
         for name, spec in (data.get("world") or {}).items()
     }
@@ -517,6 +525,10 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
         echo_timeouts={
             k: Located(v, value_span(data["echo_timeouts"], k, top))
             for k, v in (data.get("echo_timeouts") or {}).items()
+        },
+        on_lost={
+            k: Located(v, value_span(data["on_lost"], k, top))
+            for k, v in (data.get("on_lost") or {}).items()
         },
         plans={
             k: _plan(k, v, key_span(data["plans"], k, top))

@@ -40,17 +40,21 @@ from .contract import (
     shared,
 )
 from .loop import (
+    _BEAT,
     DONE_REPLY,
     READY,
     STEP,
+    DuplicateProcess,
     Process,
     ProcessPlan,
     RestartRefused,
     Stop,
+    reaction,
     run,
     serve,
     start,
 )
+from .override import latch_safe
 from .startup import (
     FAILURES,
     START_FAILED,
@@ -62,6 +66,7 @@ from .startup import (
 from .transport import TransportError, check_endpoint
 
 STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
+STARTUP_TIMEOUT = 10.0  # seconds every process has to start running (the start-up barrier)
 REFUSED = 3  # the exit code of a process that refused to restart (the launcher gives up)
 
 
@@ -113,7 +118,7 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     if args.lockstep:
         try:
             process = start(plan, system.layout, args.shm, not args.attach, settings, args.simulate)
-        except (BlockError, RestartRefused) as error:
+        except (BlockError, RestartRefused, DuplicateProcess) as error:
             print(f"{args.process}: {error}", file=sys.stderr)
             return 1
         except Exception as error:  # noqa: BLE001 - a hook-state factory: one line, and why
@@ -149,7 +154,7 @@ def run_process(system: System, args: argparse.Namespace) -> int:
             simulate=args.simulate,
             stop=stop,
         )
-    except (BlockError, RestartRefused) as error:
+    except (BlockError, RestartRefused, DuplicateProcess) as error:
         print(f"{args.process}: {error}", file=sys.stderr)
         return REFUSED if isinstance(error, RestartRefused) else 1
     except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
@@ -297,6 +302,10 @@ class Launcher:
         self.events: list[str] = []  # what happened, for the summary
         self.failed: list[str] = []  # processes that ended because a hook or module failed
         self.final: list[str] = []  # the summary, taken when the processes have stopped
+        self.startup_timeout = STARTUP_TIMEOUT
+        self.lost: set[str] = set()  # processes silent past the heartbeat timeout (frozen)
+        self.trips: dict[str, int] = {}  # each process's watchdog trips, last seen
+        self.halted = ""  # why the system was halted (a loss that was not contained), if it was
 
     # ------------------------------------------------------------ lifecycle
 
@@ -319,11 +328,42 @@ class Launcher:
                 )
             for name in self.processes:
                 self.children[name] = Child(name, self._spawn(name, attach=True))
+            if not self.lockstep and self.net is None:
+                self.barrier()
         except BaseException:
             self.stop()
             raise
 
+    def barrier(self) -> None:
+        """Wait until every process has run a cycle (the start-up barrier); StartupFailed
+        naming each one that has not, within `startup_timeout` (and how it ended)."""
+        assert self.block is not None
+        layout, buf = self.system.layout, self.block.buf
+        deadline = time.monotonic() + self.startup_timeout
+        while True:
+            missing = [
+                n
+                for n in self.processes
+                if _BEAT.unpack_from(buf, layout.PROCESSES[n].offset)[4] < 1
+            ]
+            ended = {
+                n: c.popen.poll() for n, c in self.children.items() if c.popen.poll() is not None
+            }
+            if not missing:
+                return
+            if ended.keys() & set(missing) or time.monotonic() > deadline:
+                why = [
+                    f"{n} (exited {ended[n]})" if n in ended else f"{n} (no cycle yet)"
+                    for n in missing
+                ]
+                raise StartupFailed(
+                    f"the system did not become ready within {self.startup_timeout:g} s: "
+                    f"{', '.join(why)} did not start"
+                )
+            time.sleep(0.01)
+
     def _spawn(self, name: str, attach: bool) -> subprocess.Popen[bytes]:
+        self.trips[name] = 0  # a new process has tripped nothing yet
         command = [self.python, "-m", self.system.package, name, "--shm", self.segment, "--child"]
         if self.transport_name == "zenoh":  # its own block, a peer of the launcher's node
             command[5] = f"{self.segment}_{name}"
@@ -350,12 +390,16 @@ class Launcher:
 
     def poll(self) -> list[str]:
         """Check the children: each one that ended is reported (and marked DEAD in its
-        control record if it did not stop on its own); with `restart`, started again."""
+        control record if it did not stop on its own), with `restart` started again; each
+        one silent past the heartbeat timeout (frozen, starved) is reported lost, and each
+        watchdog trip; every such fault latches the actuators it leaves at their safe values
+        (rcs/loop.py `reaction`), and is printed the moment it is seen."""
         assert self.block is not None
         ended = []
         for name, child in list(self.children.items()):
             code = child.popen.poll()
             if code is None:
+                self._watch(name)
                 continue
             ended.append(name)
             record = self.system.layout.PROCESSES[name]
@@ -366,11 +410,13 @@ class Launcher:
                 else:
                     record.write(self.block.buf, state=DEAD)
                 refused = code == REFUSED and child.restarts > 0
-                self.events.append(
+                self._fault(
+                    name,
                     f"{name} refused to restart: see its error above"
                     if refused
-                    else ending(name, code)
+                    else ending(name, code),
                 )
+                self.lost.discard(name)
                 if code in FAILURES:  # a hook or a module failed: it would fail again
                     self.failed.append(name)
                     refused = True
@@ -378,11 +424,52 @@ class Launcher:
                     _close(child.popen)
                     child.popen = self._spawn(name, attach=True)
                     child.restarts += 1
-                    self.events.append(f"{name} restarted")
+                    self._event(f"{name} restarted")
                     continue
             _close(child.popen)
             del self.children[name]
         return ended
+
+    def _watch(self, name: str) -> None:
+        """A running child: lost when its heartbeat is older than the timeout (stretched by
+        its slow-down), found again when it beats; a new watchdog trip is a fault too."""
+        assert self.block is not None
+        layout, buf = self.system.layout, self.block.buf
+        _, _, _, trips, _, beat_ns = _BEAT.unpack_from(buf, layout.PROCESSES[name].offset)
+        if self.net is not None or self.lockstep:
+            return
+        slow = 1.0
+        if name in getattr(layout, "PACING", {}):
+            slow = max(1.0, float(_read(layout.PACING[name], buf).get("slow", 1.0) or 1.0))  # type: ignore[arg-type]
+        silent = (
+            beat_ns > 0 and time.monotonic_ns() - beat_ns > layout.HEARTBEAT_TIMEOUT * slow * 1e9
+        )
+        if silent and name not in self.lost:
+            self.lost.add(name)
+            age = (time.monotonic_ns() - beat_ns) / 1e9
+            self._fault(name, f"{name} lost: no heartbeat for {age:.2f} s (frozen or starved?)")
+        elif not silent and name in self.lost:
+            self.lost.discard(name)
+            self._event(f"{name} beats again (its latched outputs stay safe until a reset)")
+        if trips > self.trips.get(name, trips):
+            self._fault(name, f"{name} tripped its watchdog ({trips} trips)")
+        self.trips[name] = trips
+
+    def _fault(self, name: str, what: str) -> None:
+        """A fault of process `name`: printed now, in the summary, its reaction's actuators
+        latched safe (the last line of defence: it does not depend on the faulty process)."""
+        self._event(what)
+        todo = reaction(self.system.layout, name)
+        if self.block is not None and self.net is None:
+            latched = latch_safe(self.system.layout, self.block.buf, todo.latch, self.segment)
+            if latched:
+                self._event(f"latched safe: {', '.join(latched)}")
+        if not todo.contained and not self.halted:
+            self.halted = what
+
+    def _event(self, what: str) -> None:
+        self.events.append(what)
+        print(f"{self.system.layout.SYSTEM}: {what}", file=sys.stderr, flush=True)
 
     def wait(self, stop: Stop, interval: float = 0.05) -> None:
         """Watch the children until they have all ended or `stop` is requested (or one could
@@ -430,6 +517,8 @@ class Launcher:
             for name in self.processes:  # a killed process could not remove its own
                 unlink_quietly(f"{self.segment}_{name}")
         if self.block is not None:
+            if self.net is None:  # stopped: every actuator safe, whoever was left running
+                latch_safe(self.system.layout, self.block.buf, self.system.layout.SAFE_VALUES)
             self.final = [
                 *self.events,
                 *summary(self.system, self.block.buf, self.processes),
@@ -533,6 +622,10 @@ def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[
 @shared
 class ProcessLost(Exception):
     """A process of a lockstep run is gone."""
+
+
+class StartupFailed(Exception):
+    """Some process did not start running within the start-up timeout."""
 
 
 def free_port() -> int:
@@ -871,7 +964,7 @@ def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
     )
     try:
         launcher.start()
-    except (BlockError, TransportError) as error:
+    except (BlockError, TransportError, StartupFailed) as error:
         print(f"{system.layout.SYSTEM}: {error}", file=sys.stderr)
         return 1
     code = 0
@@ -930,5 +1023,8 @@ def operate(launcher: Launcher, send: Command, until_done: bool, stop: Stop) -> 
             if result is not None:
                 print(f"{send.module} {result} #{number}")
                 return 0 if result == "DONE" else 1
+        if until_done and launcher.halted:  # the outputs are latched safe: it cannot go on
+            print(f"{send.module} did not finish: the system halted ({launcher.halted})")
+            return 1
         time.sleep(0.01)
     return 1 if until_done else 0

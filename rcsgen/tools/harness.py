@@ -433,3 +433,13 @@ class World:
 
     def snapshot(self, names: list[str] | None = None) -> dict[str, Any]:
         return {n: self[n] for n in (names if names is not None else self._layout.WORLD)}
+
+    def overrides(self) -> dict[str, str]:
+        """The fields under an override: name -> FORCED or SAFE (latched); {} when none
+        (one byte read), so traces of systems without overrides are unchanged."""
+        at = getattr(self._layout, "OVERRIDDEN_AT", None)
+        if at is None or not self._buf[at]:
+            return {}
+        states = ("NONE", "FORCED", "SAFE")
+        held = {n: int(r.read(self._buf)["state"]) for n, r in self._layout.OVERRIDE.items()}
+        return {n: states[state] for n, state in held.items() if state}

@@ -257,6 +257,9 @@ def trace_line(harness: AnyHarness, world: list[str]) -> str:
         if status.plans:  # modules with plans only: each plan's step, steps and replans left
             modules[name]["plans"] = status.plans
     line = {"cycle": harness.cycles, "modules": modules, "world": harness.world.snapshot(world)}
+    held = harness.world.overrides()
+    if held:  # world fields forced or latched safe (only then: goldens keep their shape)
+        line["overrides"] = held
     return json.dumps(line, sort_keys=True, separators=(",", ":"))
 
 

@@ -385,6 +385,22 @@ def enum_code(layout: object, owner: str, field: str, value: object) -> object:
     raise ValueError(f"{value!r} is not one of {', '.join(names)}")
 
 
+# ---------------------------------------------------------------- overrides (fail safe)
+
+# A world field may be under an override: FORCED by an operator (`ctl force`), or latched at
+# its declared safe value (SAFE) when the process that writes it is lost, stopped or trips
+# its watchdog, until an explicit reset. Its writing module never overwrites it meanwhile:
+# every reader sees the override's value (rcs/override.py; docs/semantics.md, "Fail safe").
+OVERRIDE_STATES = ("NONE", "FORCED", "SAFE")
+NO_OVERRIDE, FORCED, SAFE = range(3)
+# The layout's OVERRIDES buffer: `any` is true while some field is under an override. It is
+# one byte, stored whole (never with `pack_into`, which zeroes before it stores), so a
+# generated module reads it without the seqlock: the one word its cycle pays for overrides.
+OVERRIDES_FIELDS = (("any", "?"),)
+# Each world field's override record: its state, then a value of the field's own type.
+OVERRIDE_HEAD_FIELDS = (("state", "Q"),)
+
+
 # ---------------------------------------------------------------- hook calls
 
 # What generated code accepts from a hook for a target of each type: any finite real number

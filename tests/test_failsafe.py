@@ -1,0 +1,666 @@
+"""Fail safe: overrides, safe outputs, liveness, the watchdog, start-up (docs/semantics.md).
+
+The system is `tests/fixtures/runtime/fleet`: a leader `lead` (process pl) commanding two
+vehicles, `v1` (pa) and `v2` (pb), each writing actuator fields. The in-process tests drive
+one process's modules through the harness; the fault tests run the three processes as real
+OS processes, inject a fault (kill -9, SIGSTOP, starvation, the launcher's death, a second
+copy, another layout) and wait, with generous bounded deadlines, for the actuator fields in
+the block to reach their safe values; nothing here asserts how fast (`make bench` does).
+"""
+
+from __future__ import annotations
+
+import importlib
+import itertools
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import pytest
+from conftest import wait_for
+
+from rcsgen.tools.harness import Harness, generate, import_package
+
+FLEET = Path(__file__).resolve().parent / "fixtures" / "runtime" / "fleet"
+
+
+@pytest.fixture(scope="module")
+def fleet() -> Iterator[Path]:
+    """The fleet system generated into a scratch directory: the package's directory."""
+    scratch, name = generate(FLEET)
+    yield scratch / name
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def package(fleet: Path) -> ModuleType:
+    return import_package(fleet, FLEET)
+
+
+def runtime(package: ModuleType, name: str) -> ModuleType:
+    return importlib.import_module(f"{package.__name__}.{name}")
+
+
+def world(layout: ModuleType, buf: memoryview, name: str) -> object:
+    return layout.WORLD[name].read(buf)[name]
+
+
+# ---------------------------------------------------------------- overrides
+
+
+def test_a_forced_field_keeps_its_value_whatever_its_writer_does(package: ModuleType) -> None:
+    """force: the block holds the forced value and the module that writes the field keeps
+    it (its rules still set their own); unforce: the field keeps the forced value until the
+    module sets it again, and then the module's value is written."""
+    override, layout = runtime(package, "rcs.override"), runtime(package, "layout")
+    h = Harness(package, "pa")
+    h.command("v1", "DRIVE")
+    h.cycle()
+    assert world(layout, h.buf, "v1_drive") == 1.0
+    override.force(layout, h.buf, "v1_drive", 0.25)
+    assert world(layout, h.buf, "v1_drive") == 0.25
+    h.command("v1", "DRIVE")  # a new command: S0 sets v1_drive = 1.0 again
+    h.cycle(3)
+    assert world(layout, h.buf, "v1_drive") == 0.25, "the writer overwrote a forced field"
+    assert world(layout, h.buf, "v1_note") == 1, "the fields not forced are written"
+    assert override.overrides(layout, h.buf) == {"v1_drive": ("FORCED", 0.25)}
+    override.unforce(layout, h.buf, "v1_drive")
+    assert override.overrides(layout, h.buf) == {}
+    assert h.buf[layout.OVERRIDDEN_AT] == 0
+    h.cycle()
+    assert world(layout, h.buf, "v1_drive") == 0.25, "released: kept until set again"
+    h.command("v1", "DRIVE")
+    h.cycle()
+    assert world(layout, h.buf, "v1_drive") == 1.0
+
+
+def test_a_field_clobbered_by_a_racing_writer_is_restored_next_cycle(package: ModuleType) -> None:
+    """A writer that wrote between the override and its own check (a freeze at the wrong
+    moment) is corrected on its next cycle: the override's value is written back."""
+    override, layout = runtime(package, "rcs.override"), runtime(package, "layout")
+    h = Harness(package, "pa")
+    h.command("v1", "DRIVE")
+    h.cycle()
+    override.force(layout, h.buf, "v1_drive", 0.5)
+    layout.WORLD["v1_drive"].write(h.buf, v1_drive=3.0)  # the racing write
+    h.cycle()
+    assert world(layout, h.buf, "v1_drive") == 0.5
+
+
+def test_latched_safe_values_stay_until_an_explicit_reset(package: ModuleType) -> None:
+    """latch_safe writes each actuator's declared safe value (the type's zero by default)
+    and latches it: the writer cannot change it, a force is refused, unforce is refused;
+    reset releases it and the module's next command drives it again."""
+    override, layout = runtime(package, "rcs.override"), runtime(package, "layout")
+    h = Harness(package, "pb")
+    h.command("v2", "DRIVE")
+    h.cycle()
+    assert (world(layout, h.buf, "v2_drive"), world(layout, h.buf, "v2_brake")) == (2.0, False)
+    assert layout.SAFE_VALUES == {"v1_drive": 0.0, "v2_drive": -0.5, "v2_brake": True}
+    assert override.latch_safe(layout, h.buf, ["v2_drive", "v2_brake"]) == ["v2_drive", "v2_brake"]
+    assert override.latch_safe(layout, h.buf, ["v2_drive"]) == [], "already latched"
+    h.command("v2", "DRIVE")
+    h.cycle(2)
+    assert (world(layout, h.buf, "v2_drive"), world(layout, h.buf, "v2_brake")) == (-0.5, True)
+    assert override.overrides(layout, h.buf) == {
+        "v2_drive": ("SAFE", -0.5),
+        "v2_brake": ("SAFE", True),
+    }
+    with pytest.raises(override.OverrideError, match="latched at its safe value: reset"):
+        override.force(layout, h.buf, "v2_drive", 1.0)
+    with pytest.raises(override.OverrideError, match="reset releases it"):
+        override.unforce(layout, h.buf, "v2_drive")
+    with pytest.raises(override.OverrideError, match="not an actuator"):
+        override.latch_safe(layout, h.buf, ["mode"])
+    assert override.reset(layout, h.buf, ["v2_drive"]) == ["v2_drive"]
+    assert h.buf[layout.OVERRIDDEN_AT] == 1, "v2_brake is still latched"
+    assert override.reset(layout, h.buf) == ["v2_brake"]
+    assert h.buf[layout.OVERRIDDEN_AT] == 0
+    h.cycle()
+    assert world(layout, h.buf, "v2_drive") == -0.5, "a reset does not restart the machine"
+    h.command("v2", "DRIVE")
+    h.cycle()
+    assert (world(layout, h.buf, "v2_drive"), world(layout, h.buf, "v2_brake")) == (2.0, False)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("v1_drive", "fast", "v1_drive holds a number, not 'fast'"),
+        ("v1_drive", True, "v1_drive holds a number, not True"),
+        ("v1_note", 1.5, "v1_note holds an int, not 1.5"),
+        ("v1_note", 2**63, "v1_note holds an int"),
+        ("v2_brake", 1, "v2_brake holds a bool, not 1"),
+        ("mode", "FAST", "'FAST' is not one of IDLE, TOGETHER, ALONE"),
+        ("mode", 7, "mode: 7 is not one of IDLE, TOGETHER, ALONE"),
+        ("nowhere", 1, "no world field 'nowhere'"),
+    ],
+)
+def test_an_override_the_field_cannot_hold_is_refused(
+    package: ModuleType, field: str, value: object, message: str
+) -> None:
+    override, layout = runtime(package, "rcs.override"), runtime(package, "layout")
+    block = runtime(package, "rcs.block").Block(layout)
+    with pytest.raises(override.OverrideError) as error:
+        override.force(layout, block.buf, field, value)
+    assert message in str(error.value)
+    assert override.overrides(layout, block.buf) == {}
+
+
+def test_an_enumeration_is_forced_by_name(package: ModuleType) -> None:
+    override, layout = runtime(package, "rcs.override"), runtime(package, "layout")
+    block = runtime(package, "rcs.block").Block(layout)
+    override.force(layout, block.buf, "mode", "ALONE")
+    assert world(layout, block.buf, "mode") == 2
+    assert override.overrides(layout, block.buf) == {"mode": ("FORCED", 2)}
+
+
+# ---------------------------------------------------------------- faults, in real processes
+
+_names = itertools.count(1)
+ACTUATORS_SAFE = {"v1_drive": 0.0, "v2_drive": -0.5, "v2_brake": True}
+DRIVING = {"v1_drive": 1.0, "v2_drive": 2.0, "v2_brake": False}
+
+
+def segment_name() -> str:
+    return f"rcsgen_fs_{os.getpid()}_{next(_names)}"
+
+
+def actuators(
+    layout: ModuleType, buf: memoryview, names: Iterable[str] = ACTUATORS_SAFE
+) -> dict[str, object]:
+    return {name: world(layout, buf, name) for name in names}
+
+
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    try:  # a zombie (exited, not yet reaped by its parent) is not alive
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().split(")")[-1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def pids(layout: ModuleType, buf: memoryview) -> list[int]:
+    return [int(layout.PROCESSES[p].read(buf)["pid"]) for p in layout.PROCESSES]
+
+
+def system_of(fleet: Path, package: ModuleType) -> object:
+    launcher = runtime(package, "rcs.launcher")
+    return launcher.System(
+        fleet.name,
+        runtime(package, "layout"),
+        {p: runtime(package, f"main_{p}").PLAN for p in ("pl", "pa", "pb")},
+        (str(fleet.parent), str(FLEET)),
+    )
+
+
+@pytest.fixture
+def convoy(fleet: Path, package: ModuleType) -> Iterator[Callable[..., Any]]:
+    """The fleet launched paced (three OS processes) and driving: lead in CONVOY S1, every
+    actuator commanded. At the end: stopped, nothing left in /dev/shm, no process alive."""
+    made: list[Any] = []
+    seen: list[int] = []
+
+    def launch(**options: object) -> Any:
+        launcher = runtime(package, "rcs.launcher").Launcher(
+            system_of(fleet, package), segment_name(), **options
+        )
+        made.append(launcher)
+        launcher.start()
+        layout, buf = runtime(package, "layout"), launcher.block.buf
+        seen.extend(pids(layout, buf))
+        record = layout.COMMAND_IN["lead"]
+        number = record.read(buf)["command_num"] + 1
+        record.write(buf, command_num=number, command=layout.COMMAND_NAMES["lead"].index("CONVOY"))
+        wait_for(lambda: actuators(layout, buf) == DRIVING, "the convoy driving")
+        return launcher
+
+    yield launch
+    for launcher in made:
+        segment = launcher.segment
+        launcher.stop()
+        assert not os.path.exists(f"/dev/shm/{segment}"), "segment left behind"
+    for pid in seen:
+        wait_for(lambda pid=pid: not alive(pid), f"process {pid} gone", deadline=10)
+
+
+def lead_status(layout: ModuleType, buf: memoryview) -> tuple[str, int]:
+    """lead's status by name and its error_num (1: LOST, the runtime's safe state)."""
+    values = layout.STATUS_OUT["lead"].read(buf)
+    contract = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.contract"]
+    return contract.STATUS_NAMES[values["status"]], int(values["error_num"])
+
+
+def lost_mask(layout: ModuleType, buf: memoryview, watcher: str) -> int:
+    return int(layout.PROCESSES[watcher].read(buf)["lost"])
+
+
+@pytest.mark.parametrize("fault", ["kill", "stop"])
+def test_a_dead_or_frozen_process_latches_every_actuator_and_halts_the_hierarchy(
+    convoy: Callable[..., Any], package: ModuleType, fault: str
+) -> None:
+    """kill -9 or SIGSTOP of pa (v1, on_lost: halt_all): the launcher and every other
+    process see it lost; every actuator of the system is latched at its safe value (v2's
+    too, though pb runs on), lead goes to its safe state (ERROR, LOST) though CONVOY's
+    table ignores it; a frozen process that runs again beats, is no longer lost, and its
+    outputs stay latched until an explicit reset."""
+    launcher = convoy()
+    layout, buf = runtime(package, "layout"), launcher.block.buf
+    override = runtime(package, "rcs.override")
+    pa = launcher.children["pa"].popen
+    pa.send_signal(signal.SIGKILL if fault == "kill" else signal.SIGSTOP)
+    wait_for(lambda: actuators(layout, buf) == ACTUATORS_SAFE, "every actuator safe", deadline=10)
+    wait_for(lambda: lost_mask(layout, buf, "pl") & 0b010, "pl reports pa lost")
+    wait_for(lambda: lead_status(layout, buf) == ("ERROR", 1), "lead ERROR(LOST)")
+    sent = layout.COMMAND_IN["v2"].read(buf)
+    assert layout.COMMAND_NAMES["v2"][sent["command"]] == "HALT", "lead halted v2 too"
+    assert set(override.overrides(layout, buf)) == set(ACTUATORS_SAFE)
+    wait_for(lambda: launcher.poll() is not None and launcher.halted, "the launcher saw it")
+    if fault == "kill":
+        assert "pa died (exit -9)" in launcher.events
+        return
+    assert any(e.startswith("pa lost: no heartbeat") for e in launcher.events)
+    pa.send_signal(signal.SIGCONT)
+    wait_for(lambda: not lost_mask(layout, buf, "pl") & 0b010, "pa beats again: not lost")
+    wait_for(
+        lambda: launcher.poll() is not None and "pa" not in launcher.lost, "nor for the launcher"
+    )
+    assert actuators(layout, buf) == ACTUATORS_SAFE, "latched: nothing un-safes them"
+    assert override.reset(layout, buf, segment=launcher.segment) == list(ACTUATORS_SAFE)
+    assert override.overrides(layout, buf) == {}
+
+
+def test_the_survivor_keeps_going_when_its_supervisor_continues_on_a_loss(
+    convoy: Callable[..., Any], package: ModuleType
+) -> None:
+    """kill -9 of pb (v2; lead declares on_lost: continue for it): only v2's actuators are
+    latched; lead's own rules see v2 ERROR(LOST) and carry on ALONE with v1 still driving."""
+    launcher = convoy()
+    layout, buf = runtime(package, "layout"), launcher.block.buf
+    launcher.children["pb"].popen.send_signal(signal.SIGKILL)
+    wait_for(lambda: world(layout, buf, "mode") == 2, "lead goes on ALONE")
+    assert actuators(layout, buf) == {"v1_drive": 1.0, "v2_drive": -0.5, "v2_brake": True}
+    assert lead_status(layout, buf) == ("EXECUTING", 0)
+    assert layout.STATE_NAMES["lead"][layout.STATUS_OUT["lead"].read(buf)["state"]] == "S2"
+    launcher.poll()
+    assert not launcher.halted, "a contained loss does not halt the system"
+
+
+def test_a_starved_process_trips_its_watchdog_and_latches_safe(
+    convoy: Callable[..., Any], package: ModuleType
+) -> None:
+    """CPU starvation of pa (stopped and continued in a duty cycle: 10 ms of CPU in every
+    150 ms, never silent as long as the heartbeat timeout): its watchdog counts the missed
+    periods and trips, and the trip latches every actuator safe."""
+    launcher = convoy()
+    layout, buf = runtime(package, "layout"), launcher.block.buf
+    pa = launcher.children["pa"].popen
+    end = time.monotonic() + 10
+    try:
+        while time.monotonic() < end and actuators(layout, buf) != ACTUATORS_SAFE:
+            pa.send_signal(signal.SIGSTOP)
+            time.sleep(0.15)
+            pa.send_signal(signal.SIGCONT)
+            time.sleep(0.01)
+    finally:
+        pa.send_signal(signal.SIGCONT)
+    assert actuators(layout, buf) == ACTUATORS_SAFE
+    assert layout.PROCESSES["pa"].read(buf)["watchdog_trips"] >= 1
+    wait_for(lambda: launcher.poll() is not None and launcher.halted, "the launcher saw it")
+
+
+def test_a_restarted_process_resumes_its_command_with_its_outputs_latched(
+    convoy: Callable[..., Any], package: ModuleType
+) -> None:
+    """--restart, pb killed mid-command: it is started again and resumes DRIVE from the
+    block; its actuators stay latched safe (a restart does not un-safe them) until a reset,
+    and a reset does not restart them: v2 drives again only when commanded again."""
+    launcher = convoy(restart=True)
+    layout, buf = runtime(package, "layout"), launcher.block.buf
+    override = runtime(package, "rcs.override")
+    launcher.children["pb"].popen.send_signal(signal.SIGKILL)
+    wait_for(lambda: launcher.poll() is not None and launcher.children["pb"].restarts, "restarted")
+    wait_for(lambda: layout.PROCESSES["pb"].read(buf)["heartbeat"] > 3, "the new pb running")
+    v2 = layout.STATUS_OUT["v2"].read(buf)
+    assert layout.STATE_NAMES["v2"][v2["state"]] == "S1", "v2 resumed DRIVE"
+    assert actuators(layout, buf, ["v2_drive", "v2_brake"]) == {"v2_drive": -0.5, "v2_brake": True}
+    override.reset(layout, buf, segment=launcher.segment)
+    time.sleep(0.1)  # five periods
+    assert actuators(layout, buf, ["v2_drive", "v2_brake"]) == {"v2_drive": -0.5, "v2_brake": True}
+    record = layout.COMMAND_IN["v2"]
+    record.write(
+        buf,
+        command_num=record.read(buf)["command_num"] + 1,
+        command=layout.COMMAND_NAMES["v2"].index("DRIVE"),
+    )
+    wait_for(lambda: actuators(layout, buf, ["v2_drive"]) == {"v2_drive": 2.0}, "v2 driving again")
+
+
+def test_a_second_copy_of_a_process_is_refused_naming_the_owner(
+    convoy: Callable[..., Any], package: ModuleType, fleet: Path
+) -> None:
+    launcher = convoy()
+    layout, buf = runtime(package, "layout"), launcher.block.buf
+    owner = launcher.children["pb"].popen.pid
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(fleet.parent), str(FLEET), *sys.path]))
+    second = subprocess.run(
+        [sys.executable, "-m", fleet.name, "pb", "--shm", launcher.segment, "--attach"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+    )
+    assert second.returncode == 1
+    assert f"process pb is already running (pid {owner}): a second copy is refused" in second.stderr
+    assert layout.PROCESSES["pb"].read(buf)["pid"] == owner
+    assert actuators(layout, buf) == DRIVING, "nothing disturbed"
+
+
+def test_a_process_that_never_starts_fails_the_start_up_barrier_by_name(
+    fleet: Path, package: ModuleType, tmp_path: Path
+) -> None:
+    """pb exits before its first cycle: the launcher says which process is missing and
+    how it ended, stops the others, and leaves no segment."""
+    wrapper = tmp_path / "python"
+    wrapper.write_text(
+        f'#!/bin/sh\ncase " $* " in *" pb "*) exit 7;; esac\nexec {sys.executable} "$@"\n'
+    )
+    wrapper.chmod(0o755)
+    launcher_module = runtime(package, "rcs.launcher")
+    launcher = launcher_module.Launcher(
+        system_of(fleet, package), segment_name(), python=str(wrapper)
+    )
+    with pytest.raises(launcher_module.StartupFailed, match=r"pb \(exited 7\) did not start"):
+        launcher.start()
+    assert not os.path.exists(f"/dev/shm/{launcher.segment}")
+    assert not launcher.children
+
+
+@pytest.mark.parametrize("frozen", [False, True])
+def test_when_the_launcher_dies_its_children_drive_every_actuator_safe_and_clean_up(
+    fleet: Path, package: ModuleType, frozen: bool
+) -> None:
+    """kill -9 of the launcher (`python -m fleet`): each child sees its pipe close, latches
+    every actuator safe (the last line of defence does not depend on the launcher), stops,
+    and the last one out removes the segment. With pa frozen first, the others still do it;
+    pa, continued, stops too."""
+    layout = runtime(package, "layout")
+    segment = segment_name()
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(fleet.parent), str(FLEET), *sys.path]))
+    launcher = subprocess.Popen(
+        [sys.executable, "-m", fleet.name, "--shm", segment],
+        env=env,
+        stderr=subprocess.DEVNULL,
+    )
+    block = None
+    try:
+        wait_for(lambda: os.path.exists(f"/dev/shm/{segment}"), "the segment made")
+        block = runtime(package, "rcs.block").Block(layout, segment, create=False)
+        buf = block.buf
+        wait_for(
+            lambda: all(layout.PROCESSES[p].read(buf)["heartbeat"] > 2 for p in layout.PROCESSES),
+            "running",
+        )
+        children = pids(layout, buf)
+        record = layout.COMMAND_IN["lead"]
+        record.write(
+            buf,
+            command_num=record.read(buf)["command_num"] + 1,
+            command=layout.COMMAND_NAMES["lead"].index("CONVOY"),
+        )
+        wait_for(lambda: actuators(layout, buf) == DRIVING, "the convoy driving")
+        pa = int(layout.PROCESSES["pa"].read(buf)["pid"])
+        if frozen:
+            os.kill(pa, signal.SIGSTOP)
+        launcher.send_signal(signal.SIGKILL)
+        launcher.wait(timeout=30)
+        wait_for(lambda: actuators(layout, buf) == ACTUATORS_SAFE, "every actuator safe")
+        if frozen:
+            os.kill(pa, signal.SIGCONT)
+        for pid in children:
+            wait_for(lambda pid=pid: not alive(pid), f"child {pid} gone", deadline=10)
+        wait_for(lambda: not os.path.exists(f"/dev/shm/{segment}"), "the segment removed")
+    finally:
+        if launcher.poll() is None:
+            launcher.kill()
+            launcher.wait()
+        if block is not None:
+            block.close()
+        runtime(package, "rcs.block").unlink(segment)
+
+
+# ---------------------------------------------------------------- tests that catch a broken runtime
+
+
+def test_the_watchdog_trips_on_the_declared_count_of_missed_periods_not_one_later(
+    package: ModuleType,
+) -> None:
+    """Five consecutive missed periods trip it (four do not); a stall is counted by its
+    length in periods (3 s at 0.1 s: 30 missed), and one cycle longer than three periods
+    trips it at once."""
+    loop = runtime(package, "rcs.loop")
+    now = [0.0]
+    pacer = loop.Pacer(0.1, clock=lambda: now[0], sleep=lambda s: None)
+    dog = loop.Watchdog()
+    trips = []
+    for _ in range(5):
+        now[0] = pacer.deadline + 0.01  # each cycle ends just past its boundary
+        pacer.wait()
+        trips.append(dog.trips(pacer, 50_000_000, 0.1))
+    assert trips == [False, False, False, False, True]
+    assert pacer.overruns == 5 and pacer.consecutive == 0, "a trip starts the count again"
+    now[0] = pacer.deadline + 3.0 - 0.01  # a 3 s stall
+    pacer.wait()
+    assert pacer.overruns == 5 + 30
+    assert dog.trips(pacer, 50_000_000, 0.1)
+    before = pacer.overruns
+    sleeps = iter([pacer.deadline - 0.05, pacer.deadline + 0.25])  # a stall while asleep
+    now[0] = next(sleeps)
+    pacer.sleep = lambda s: now.__setitem__(0, next(sleeps))
+    pacer.wait()
+    assert (pacer.overruns, pacer.consecutive) == (before + 2, 2), "counted in periods too"
+    pacer.sleep = lambda s: None
+    now[0] = pacer.deadline - 0.05
+    pacer.wait()  # on time again
+    assert pacer.consecutive == 0
+    assert not dog.trips(pacer, 290_000_000, 0.1)
+    assert dog.trips(pacer, 310_000_000, 0.1), "one cycle longer than three periods"
+
+
+def test_a_process_that_beats_again_is_no_longer_lost(package: ModuleType) -> None:
+    """check_liveness with a clock in hand: pa silent past the timeout is lost (lead in its
+    safe state, every actuator latched); pa beating again is no longer lost; the latches
+    stay."""
+    layout, override = runtime(package, "layout"), runtime(package, "rcs.override")
+    loop = runtime(package, "rcs.loop")
+    block = runtime(package, "rcs.block").Block(layout)
+    pl = loop.Process(runtime(package, "main_pl").PLAN, layout, block)
+    pa = layout.PROCESSES["pa"]
+    pa.write(block.buf, state=2, heartbeat=10, beat_ns=1_000_000_000)
+    pl.check_liveness(300_000_000, 1_200_000_000, ["pa"])
+    assert "pa" not in pl.lost
+    pl.check_liveness(300_000_000, 1_400_000_000, ["pa"])
+    assert pl.lost == {"pa"}
+    assert set(override.overrides(layout, block.buf)) == set(ACTUATORS_SAFE)
+    pa.write(block.buf, heartbeat=11, beat_ns=1_390_000_000)
+    pl.check_liveness(300_000_000, 1_400_000_000, ["pa"])
+    assert pl.lost == set()
+    pl.beat()
+    assert layout.PROCESSES["pl"].read(block.buf)["lost"] == 0
+    assert set(override.overrides(layout, block.buf)) == set(ACTUATORS_SAFE)
+
+
+def test_a_segment_without_rcsgen_s_header_is_refused_on_attach(package: ModuleType) -> None:
+    from multiprocessing import shared_memory
+
+    layout, block_module = runtime(package, "layout"), runtime(package, "rcs.block")
+    name = segment_name()
+    raw = block_module._untracked(shared_memory.SharedMemory, name, layout.SIZE)
+    try:
+        with pytest.raises(block_module.BlockError, match="is not an rcsgen block"):
+            block_module.Block(layout, name, create=False)
+    finally:
+        raw.close()
+        block_module.unlink(name)
+
+
+def seq_offsets(module: ModuleType) -> set[int]:
+    """The offsets of the sequence words a generated module checks around its read."""
+    offsets: set[int] = set()
+    fmt, at = module.SEQS.format.lstrip("<"), module.SEQS_AT
+    number = ""
+    for char in fmt:
+        if char.isdigit():
+            number += char
+            continue
+        if char == "x":
+            at += int(number or 1)
+        else:  # Q
+            offsets.add(at)
+            at += 8
+        number = ""
+    return offsets
+
+
+def test_every_input_another_process_writes_is_read_under_its_seqlock(package: ModuleType) -> None:
+    """The command of a module supervised from another process (v1, v2) or of a root (lead:
+    an operator's tool writes it), and the status of a subordinate in another process, are
+    each read with their sequence word checked."""
+    layout = runtime(package, "layout")
+    lead, v1 = runtime(package, "lead"), runtime(package, "v1")
+    assert seq_offsets(v1) == {layout.COMMAND_IN["v1"].offset}
+    assert seq_offsets(lead) == {
+        layout.COMMAND_IN["lead"].offset,
+        layout.STATUS_OUT["v1"].offset,
+        layout.STATUS_OUT["v2"].offset,
+    }
+
+
+class TornOnce:
+    """Stands for a module's INPUTS struct: its first read lands in the middle of a write
+    (the command's number from before the write, its code from after; the sequence word
+    read first still even), and the write completes before the module reads the sequence
+    words again. Every later read is a plain one."""
+
+    def __init__(self, real: Any, write: Callable[[], None]) -> None:
+        self.real, self.write, self.done = real, write, False
+
+    def unpack_from(self, buf: memoryview, at: int) -> tuple[Any, ...]:
+        before = self.real.unpack_from(buf, at)
+        if self.done:
+            return before  # type: ignore[no-any-return]
+        self.done = True
+        self.write()
+        after = self.real.unpack_from(buf, at)
+        changed = [i for i, (a, b) in enumerate(zip(before, after, strict=True)) if a != b]
+        torn = list(before)
+        torn[changed[-1]] = after[changed[-1]]  # a field written, its sequence word not yet
+        return tuple(torn)
+
+
+def test_a_generated_module_never_accepts_a_read_torn_by_a_write(package: ModuleType) -> None:
+    """A read that a write tore (the sequence word changed between the read and its second
+    look at it) is read again: lead takes the whole new command, never the torn mix."""
+    layout = runtime(package, "layout")
+    lead_module = runtime(package, "lead")
+    block = runtime(package, "rcs.block").Block(layout)
+    record, names = layout.COMMAND_IN["lead"], layout.COMMAND_NAMES["lead"]
+    record.write(block.buf, command_num=1, command=names.index("HALT"))
+    lead = lead_module.LeadController(block.buf)
+    assert (lead.command_num, lead.command) == (1, names.index("HALT"))
+
+    def write() -> None:  # an operator's command arrives meanwhile
+        record.write(block.buf, command_num=2, command=names.index("CONVOY"))
+
+    real = lead_module.INPUTS
+    lead_module.INPUTS = TornOnce(real, write)
+    try:
+        lead.pre_process()
+    finally:
+        lead_module.INPUTS = real
+    assert (lead.command_num, lead.command) == (2, names.index("CONVOY")), "a torn read accepted"
+    assert lead.stale_reads == 0, "read again, whole, within READ_TRIES"
+
+
+def test_a_first_read_that_stays_torn_leaves_the_module_stale_not_crashed(
+    package: ModuleType,
+) -> None:
+    """v2's status buffer left odd (its writer died mid-write) before lead is made: lead's
+    first read fails three times; lead is made, holds (no command taken, its table not run),
+    counts the stale reads, and runs once the buffer is whole again."""
+    layout, contract = runtime(package, "layout"), runtime(package, "rcs.contract")
+    block = runtime(package, "rcs.block").Block(layout)
+    buf, at = block.buf, layout.STATUS_OUT["v2"].offset
+    contract.SEQ.pack_into(buf, at, contract.SEQ.unpack_from(buf, at)[0] + 1)  # odd: mid-write
+    record = layout.COMMAND_IN["lead"]
+    record.write(buf, command_num=1, command=layout.COMMAND_NAMES["lead"].index("CONVOY"))
+    lead = runtime(package, "lead").LeadController(buf)
+    assert lead.stale_reads == 1
+    lead.run_cycle()
+    assert lead.stale_reads == 2
+    assert layout.COMMAND_IN["v1"].read(buf)["command_num"] == 0, "nothing sent while stale"
+    contract.SEQ.pack_into(buf, at, contract.SEQ.unpack_from(buf, at)[0] + 1)  # whole again
+    lead.run_cycle()
+    assert layout.COMMAND_NAMES["v1"][layout.COMMAND_IN["v1"].read(buf)["command"]] == "DRIVE"
+
+
+def test_a_trace_line_shows_the_overrides_only_while_there_are_some(package: ModuleType) -> None:
+    from rcsgen.tools.scenario import trace_line
+
+    override, layout = runtime(package, "rcs.override"), runtime(package, "layout")
+    h = Harness(package, "pb")
+    h.cycle()
+    assert "overrides" not in json.loads(trace_line(h, ["v2_drive"]))
+    override.latch_safe(layout, h.buf, ["v2_drive"])
+    override.force(layout, h.buf, "mode", "ALONE")
+    h.cycle()
+    assert json.loads(trace_line(h, ["v2_drive"]))["overrides"] == {
+        "mode": "FORCED",
+        "v2_drive": "SAFE",
+    }
+
+
+@pytest.mark.parametrize(
+    ("file", "old", "new", "code", "message"),
+    [
+        (
+            "lead.yaml",
+            "when: v2.status == ERROR and v1.status != ERROR",
+            "when: v2.status == DONE and v1.status != ERROR",
+            "E299",
+            "CONVOY S1 waits on v2, whose loss `on_lost: continue` leaves to these rules",
+        ),
+        ("lead.yaml", "  v2: continue", "  v3: continue", "E299", "`on_lost` names `v3`"),
+        (
+            "system.yaml",
+            "    initial: 0\n",
+            "    initial: 0\n    safe: 3\n",
+            "E279",
+            "not an actuator",
+        ),
+    ],
+)
+def test_a_policy_or_safe_value_that_cannot_hold_is_refused_at_build(
+    tmp_path: Path, file: str, old: str, new: str, code: str, message: str
+) -> None:
+    from rcsgen.compiler.frontend import compile_paths
+
+    spec = tmp_path / "fleet"
+    shutil.copytree(FLEET, spec)
+    text = (spec / file).read_text()
+    assert old in text
+    (spec / file).write_text(text.replace(old, new, 1))
+    found = [(d.code, d.message) for d in compile_paths([spec]).diagnostics.errors]
+    assert any(c == code and message in m for c, m in found), found
