@@ -39,6 +39,7 @@ EXPECTED_FILES = {
     "miner/rcs/loop.py",
     "miner/rcs/operator.py",
     "miner/rcs/override.py",
+    "miner/rcs/startup.py",
     "miner/rcs/transport.py",
     "miner/rcs/zenoh_transport.py",
     "miner/layout.py",
@@ -330,7 +331,7 @@ def test_rebuild_changes_only_what_changed(work: Path) -> None:
     edit(work / "specs/miner/co.yaml", "LOOSE_COAL_LIMIT: 4.0", "LOOSE_COAL_LIMIT: 5.0")
     result = rcsgen("build")
     assert result.exit_code == 0, result.output
-    assert "1 written, 0 deleted, 21 unchanged" in result.output
+    assert "1 written, 0 deleted, 22 unchanged" in result.output
     after = mtimes(work / "generated", files_only=True)
     assert {rel for rel in after if after[rel] != stamps[rel]} == {"miner/co.py"}
     assert "LOOSE_COAL_LIMIT = 5.0" in (work / "generated/miner/co.py").read_text()
@@ -412,7 +413,7 @@ def test_check_on_a_current_tree(work: Path) -> None:
     stamps = mtimes(work / "generated")
     result = rcsgen("build", "--check")
     assert result.exit_code == 0, result.output
-    assert result.stdout == "generated is current (22 files)\n"
+    assert result.stdout == "generated is current (23 files)\n"
     assert mtimes(work / "generated") == stamps
 
 

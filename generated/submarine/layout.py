@@ -481,6 +481,41 @@ OVERRIDE = {
 SAFE_VALUES: dict[str, object] = {}
 # The process whose modules write each actuator.
 ACTUATED_BY = {}
+# The modules that write each world field (a stand-in writes in its controller's place), for
+# `ctl force`: forcing a field takes it from them, which needs override on each.
+WORLD_WRITERS: dict[str, tuple[str, ...]] = {
+    "speed_cmd": ("sm",),
+    "depth_cmd": ("sm",),
+    "course": ("helm",),
+    "vent_flow": ("ec",),
+    "pos_x": ("ship",),
+    "pos_y": ("ship",),
+    "heading": ("ship",),
+    "speed": ("ship",),
+    "depth": ("ship",),
+    "rudder_angle": ("rudder_sim",),
+    "sonar_00": ("sonar",),
+    "sonar_01": ("sonar",),
+    "sonar_02": ("sonar",),
+    "sonar_03": ("sonar",),
+    "sonar_04": ("sonar",),
+    "sonar_05": ("sonar",),
+    "sonar_06": ("sonar",),
+    "sonar_07": ("sonar",),
+    "sonar_08": ("sonar",),
+    "sonar_09": ("sonar",),
+    "sonar_10": ("sonar",),
+    "sonar_11": ("sonar",),
+    "sonar_12": ("sonar",),
+    "sonar_13": ("sonar",),
+    "clearance": ("sonar",),
+    "min_clearance": ("sonar",),
+    "fire": ("atmosphere",),
+    "co_ppm": ("atmosphere",),
+}
+# The fields that are the simulation's truth (`ground_truth: true`): no operator can force
+# the real world, so `ctl force` takes them only while the modules writing them simulate.
+GROUND_TRUTH = ()
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "cc": (NO_COMMAND_NAME, *("INIT", "HALT", "RUN_MISSION")),

@@ -159,6 +159,7 @@ class IRWorldField:
     # an actuator's safe value (an enum's value name, a string's text): `safe:`, or the
     # type's zero (false, 0, 0.0, the first value, ""); None for a field that is no actuator
     safe: bool | int | float | str | None = None
+    ground_truth: bool = False  # the simulation's truth, which no sensor gives (E280)
 
 
 @dataclass(frozen=True)

@@ -523,7 +523,7 @@ def _world_field(f: Typed) -> ir.IRWorldField:
     safe = None
     if f.actuator:
         safe = f.safe if f.safe is not None else zero_value(f.type)
-    return ir.IRWorldField(f.name, f.type, f.initial, f.doc, f.actuator, safe)
+    return ir.IRWorldField(f.name, f.type, f.initial, f.doc, f.actuator, safe, f.ground_truth)
 
 
 def zero_value(kind: str) -> bool | int | float | str:

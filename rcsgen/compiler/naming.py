@@ -145,6 +145,8 @@ LAYOUT_NAMES = frozenset(
         "PARAMS",
         "SETTINGS",
         "READS_SETTINGS",
+        "WORLD_WRITERS",
+        "GROUND_TRUTH",
     }
 )
 # Suffixes of the attributes a controller keeps for each subordinate (`cc_status`, ...).

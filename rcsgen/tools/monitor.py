@@ -172,8 +172,10 @@ class Monitor(App[None]):
             for key, value in self.cells(module, prefix, row).items():
                 # Columns grow to their widest value: nothing is cut (`EXECUT`, `#1` of #11).
                 table.update_cell(module, key, value, update_width=True)
+        held = snapshot.get("overrides") or {}
         for name, value in snapshot["world"].items():
-            for key, cell in self.world_cells(name, value).items():
+            state = held.get(name, {}).get("state", "")
+            for key, cell in self.world_cells(name, value, state).items():
                 world.update_cell(name, key, cell, update_width=True)
         lines = []
         for name, proc in snapshot["processes"].items():
@@ -193,14 +195,15 @@ class Monitor(App[None]):
         ]
         self.query_one("#requests", Static).update("\n".join(asks))
 
-    def world_cells(self, name: str, value: Any) -> dict[str, Text]:
-        """A world field's row: its name, its value now (`stale` when unreadable)."""
+    def world_cells(self, name: str, value: Any, state: str = "") -> dict[str, Text]:
+        """A world field's row: its name, its value now (`stale` when unreadable) and its
+        override: FORCED (an operator's `ctl force`) or SAFE (latched at its safe value)."""
         shown = "stale" if value is None else shown_value(value)
-        style = "grey50" if value is None else ""
+        style = "grey50" if value is None else ("bold magenta" if state else "")
         return {
-            "field": Text(name),
+            "field": Text(name, style=style),
             "value": Text(shown, style=style),
-            "override": Text(""),
+            "override": Text(state, style="bold magenta" if state else ""),
         }
 
     def cells(self, module: str, prefix: str, row: dict[str, Any]) -> dict[str, Text]:

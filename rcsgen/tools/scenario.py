@@ -20,6 +20,7 @@ from typing import Any
 from ..compiler.diagnostics import Span, SpecError
 from ..compiler.frontend import SYSTEM_FILE, display_path, real_path
 from ..compiler.loader import decode, read_bytes
+from ..runtime import override
 from ..runtime.ctl import channel_requests, write_answer
 from .harness import AnyHarness, Harness, LaunchedHarness, Status
 
@@ -36,6 +37,8 @@ class Event:
     doc: str = ""
     overrides: str | None = None  # the supervisor it is written under (`overrides: true`)
     answer: tuple[str, str, str] | None = None  # (channel, DONE|ERROR, reason): `ctl answer`
+    force: dict[str, Any] = field(default_factory=dict)  # world fields forced: `ctl force`
+    unforce: list[str] = field(default_factory=list)  # world fields released: `ctl unforce`
 
 
 @dataclass(frozen=True)
@@ -264,6 +267,11 @@ def trace_line(harness: AnyHarness, world: list[str]) -> str:
 
 
 def _apply(harness: AnyHarness, event: Event) -> None:
+    segment = harness.launcher.segment if isinstance(harness, LaunchedHarness) else None
+    for name in event.unforce:  # as `ctl unforce`: the field's module writes it again
+        override.unforce(harness.layout, harness.buf, name, segment)
+    for name, value in event.force.items():  # as `ctl force`: its module keeps this value
+        override.force(harness.layout, harness.buf, name, value, segment)
     harness.world.update(event.world)
     for module, mode in event.mode.items():
         harness.set_mode(module, **mode)

@@ -393,6 +393,7 @@ class _Checker:
 
     def events(self, run: _Run | None, max_cycles: int) -> list[Event]:
         events = []
+        forced: set[str] = set()  # the fields forced by the events so far
         raw_events = self.data.get("events") or []
         last = 0
         for index, raw in enumerate(raw_events):
@@ -427,12 +428,55 @@ class _Checker:
                 if kind is not None:
                     self.value(value, kind, self.span(world, name), f"world field `{name}`")
                 event.world[name] = value
+            self.forcing(raw, event, where, forced)
             modes = raw.get("mode") or {}
             for module, mode in modes.items():
                 self.module(module, key_span(modes, module, where), run, "mode of module")
                 event.mode[module] = dict(mode)
             events.append(event)
         return sorted(events, key=lambda e: e.cycle)
+
+    def forcing(self, raw: LocDict, event: Event, where: Span, forced: set[str]) -> None:
+        """An event's `unforce:` then `force:` (as `ctl unforce`/`ctl force`): each field
+        known (E409), a forced value of its type (E408), ground truth forced only where
+        simulators write it, and a release only of what an earlier event forced (E425)."""
+        for index, name in enumerate(raw.get("unforce") or []):
+            span = self.span(raw["unforce"], index)
+            if self.field(name, span, "field") is None:
+                continue
+            if name not in forced:
+                self.error(
+                    span,
+                    "E425",
+                    f"`{name}` is not forced here: no earlier event forces it",
+                    "force it with an earlier event's `force:`, or remove the `unforce:`",
+                )
+            forced.discard(name)
+            event.unforce.append(name)
+        values = raw.get("force") or {}
+        for name, value in values.items():
+            span = key_span(values, name, where)
+            kind = self.field(name, span, "field")
+            if kind is None:
+                continue
+            self.value(value, kind, self.span(values, name), f"forced world field `{name}`")
+            writers = [
+                c for c in self.system.controllers if name in {w.name for w in c.world_writes}
+            ]
+            real = [c.name for c in writers if not c.simulator]
+            if self.ground_truth(name) and real:
+                self.error(
+                    span,
+                    "E425",
+                    f"`{name}` is ground truth, the world itself: no operator can force it where "
+                    f"{', '.join(real)} write{'s' if len(real) == 1 else ''} it for real",
+                    "force what a sensor reports (a field its simulator writes), not the truth",
+                )
+            forced.add(name)
+            event.force[name] = value
+
+    def ground_truth(self, name: str) -> bool:
+        return any(f.name == name and f.ground_truth for f in self.system.world)
 
     def command(self, raw: LocDict, event: Event, run: _Run | None, where: Span) -> None:
         """A command event: module, command, every parameter of its type, supervisor."""

@@ -28,6 +28,7 @@ from functools import partial
 from types import ModuleType
 from typing import Any, NoReturn
 
+from . import override
 from .block import Block, BlockError
 from .command import (
     Command,
@@ -357,6 +358,7 @@ class Console:
             "modules": self.modules(processes),
             "requests": self.requests(),
             "world": self.world(world),
+            "overrides": self.overrides(),
         }
 
     def world_names(self, names: Sequence[str]) -> list[str]:
@@ -459,6 +461,83 @@ class Console:
 
     def _stepped(self, perf: Any, number: int) -> bool:
         return bool(self.read(perf).get("single_step_num") == number)
+
+    # ------------------------------------------------------------ the world, forced
+
+    def field(self, name: str) -> str:
+        """`world.X` (or `X`) as a world field's name; a usage error naming the fields."""
+        field = name.removeprefix("world.")
+        if field not in self.layout.WORLD:
+            raise usage(suggest(field, list(self.layout.WORLD), "world field"))
+        return field
+
+    def _forcible(self, field: str, what: str) -> None:
+        """Refuse (exit 1) unless this console may force `field`: through the segment, by a
+        role with override on every module that writes it (on every module, for a field no
+        module writes), and for the simulation's truth only while its writers simulate."""
+        if self.attached is not None:
+            raise CtlError(f"{what} writes the segment: run ctl on the host that runs the system")
+        writers = getattr(self.layout, "WORLD_WRITERS", {}).get(field, ())
+        owners = [self._controller_of(w) for w in writers] or list(self.layout.MODE_IN)
+        for module in dict.fromkeys(owners):
+            self.access.require("override", module, what)
+        if field in getattr(self.layout, "GROUND_TRUTH", ()):
+            real = [m for m in owners if not self.read(self.layout.MODE_IN[m]).get("simulate")]
+            if real:
+                raise CtlError(
+                    f"refused: {field} is ground truth (the world itself, which no operator can "
+                    f"force) and {', '.join(real)} writing it run real, not simulated"
+                )
+
+    def _controller_of(self, module: str) -> str:
+        """A stand-in's controller (whose mode says whether it runs), else the module."""
+        stand_ins = {s: c for c, s in getattr(self.layout, "STAND_INS", {}).items()}
+        return str(stand_ins.get(module, module))
+
+    def force(self, field: str, raw: str) -> object:
+        """Force world field `field` (`world.X`) to the value `raw` says, PLC style: the
+        module that writes it writes the forced value until `unforce`. The value forced."""
+        field = self.field(field)
+        code = self.layout.WORLD[field].codes()[field]
+        names = getattr(self.layout, "ENUMS", {}).get(("", field), ())
+        try:
+            value = parse_value(raw, code, names)
+        except ValueError as error:
+            raise usage(f"world.{field} {error}") from None
+        self._forcible(field, f"forcing world.{field}")
+        try:
+            override.force(self.layout, self.buf, field, value, self.segment)
+        except override.OverrideError as error:
+            raise CtlError(f"refused: {error}") from None
+        return value
+
+    def unforce(self, field: str) -> None:
+        """Release the force on `field`: its module writes it again from its next cycle."""
+        field = self.field(field)
+        self._forcible(field, f"releasing world.{field}")
+        try:
+            override.unforce(self.layout, self.buf, field, self.segment)
+        except override.OverrideError as error:
+            raise CtlError(f"refused: {error}") from None
+
+    def reset(self, fields: Sequence[str]) -> list[str]:
+        """Release the SAFE latches of `fields` (every latched field when none is named): the
+        explicit reset after a latched stop. The fields released."""
+        names = [self.field(f) for f in fields] or list(self.overrides())
+        for field in names:
+            self._forcible(field, f"resetting world.{field}")
+        return override.reset(self.layout, self.buf, names, self.segment)
+
+    def overrides(self) -> dict[str, dict[str, Any]]:
+        """The world fields under an override now: field -> its state (FORCED or SAFE) and
+        value, an enumeration's by name."""
+        if not hasattr(self.layout, "OVERRIDE"):
+            return {}
+        found = override.overrides(self.layout, self.buf)
+        return {
+            field: {"state": state, "value": enum_name(self.layout, "", field, value)}
+            for field, (state, value) in found.items()
+        }
 
     def simulate(self, module: str, on: bool) -> None:
         stand_ins = getattr(self.layout, "STAND_INS", {})
@@ -631,10 +710,17 @@ def render(snapshot: dict[str, Any]) -> list[str]:
     for request in snapshot.get("requests", ()):
         lines.append(f"request {request['name']} from {request['by']}: {request['doc']}")
     world = snapshot.get("world") or {}
+    held = snapshot.get("overrides") or {}
     if world:
-        fields: list[Sequence[str]] = [("world", "value")]
-        fields += [(name, "stale" if v is None else shown(v)) for name, v in world.items()]
+        fields: list[Sequence[str]] = [("world", "value", "override")]
+        fields += [
+            (name, "stale" if v is None else shown(v), held.get(name, {}).get("state", ""))
+            for name, v in world.items()
+        ]
         lines += columns(fields)
+    for name, how in held.items():
+        if name not in world:  # always said, --world or not
+            lines.append(f"world.{name} {how['state']} at {shown(how['value'])}")
     return lines
 
 
@@ -753,6 +839,17 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
     answer.add_argument("request")
     answer.add_argument("status", nargs="?", choices=FINISHED, default=None)
     answer.add_argument("--reason", default="", help="with ERROR: why (one of the task's reasons)")
+    force = verbs.add_parser(
+        "force",
+        help="force a world field to a value (world.X=V): its writer keeps it until `unforce`",
+    )
+    force.add_argument("assignment", metavar="world.FIELD=VALUE")
+    unforce = verbs.add_parser("unforce", help="release a forced world field (world.X)")
+    unforce.add_argument("field", metavar="world.FIELD")
+    reset = verbs.add_parser(
+        "reset", help="release world fields latched at their safe value (all when none named)"
+    )
+    reset.add_argument("fields", nargs="*", metavar="world.FIELD")
     verbs.add_parser("roles", help="the access matrix: what each role may do to each module")
     for sub in verbs.choices.values():  # `ctl send ... --role crew` reads as well
         sub.add_argument("--role", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
@@ -845,8 +942,8 @@ def _verb(console: Console, args: argparse.Namespace, command: Command | None) -
             if args.format == "json":
                 text = json.dumps(snapshot, indent=2)
             else:
-                shown = snapshot if args.world is not None else {**snapshot, "world": {}}
-                text = "\n".join(render(shown))
+                view = snapshot if args.world is not None else {**snapshot, "world": {}}
+                text = "\n".join(render(view))
             if not args.watch:
                 print(text)
                 return 0
@@ -900,6 +997,19 @@ def _verb(console: Console, args: argparse.Namespace, command: Command | None) -
     elif verb == "answer":
         sent, number = console.answer(args.request)
         print(f"answered {args.request}: sent {sent} #{number}")
+    elif verb == "force":
+        field, equals, raw = args.assignment.partition("=")
+        if not equals:
+            raise usage(f"force: {args.assignment!r} is not world.FIELD=VALUE")
+        value = console.force(field, raw)
+        name = console.field(field)
+        print(f"world.{name} FORCED at {shown(value)}; `ctl unforce world.{name}` releases it")
+    elif verb == "unforce":
+        console.unforce(args.field)
+        print(f"world.{console.field(args.field)} released: its module writes it again")
+    elif verb == "reset":
+        released = console.reset(args.fields)
+        print(f"released: {', '.join(released)}" if released else "nothing was latched safe")
     elif verb == "wait":
         module, number = args.module, args.number
         if not _until(lambda: console.outcome(module, number) is not None, args.timeout):
