@@ -570,7 +570,13 @@ def run(
         _summarise(result, trace_path, record, machine=opts.fmt != "text", unmet=len(unmet))
     problems.extend(unmet)
     if golden is not None:
-        problems.extend(runs.golden_differences(golden, result.trace, spec.name))
+        differences = runs.golden_differences(golden, result.trace, spec.name)
+        problems.extend(differences)
+        if not differences and not opts.quiet:  # a match is said too: silence reads as skipped
+            click.echo(
+                f"golden    {golden}: identical, cycle for cycle ({len(result.trace)} lines)",
+                err=opts.fmt != "text",
+            )
     session.add(problems)
     session.finish()
 

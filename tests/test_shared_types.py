@@ -66,6 +66,9 @@ def test_every_exception_and_record_type_is_one_class_in_both_copies(package: Mo
         "transport.TransportError",
         "launcher.ProcessLost",
         "deploy.DeployError",
+        "launcher.StartupFailed",
+        "loop.DuplicateProcess",
+        "override.OverrideError",
     ):
         assert expected in checked
 

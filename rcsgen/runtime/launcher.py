@@ -353,7 +353,9 @@ class Launcher:
                 return
             if ended.keys() & set(missing) or time.monotonic() > deadline:
                 why = [
-                    f"{n} (exited {ended[n]})" if n in ended else f"{n} (no cycle yet)"
+                    f"{n} ({FAILURES.get(ended[n] or 0, 'exited')}, exit {ended[n]})"
+                    if n in ended
+                    else f"{n} (no cycle yet)"
                     for n in missing
                 ]
                 raise StartupFailed(
@@ -624,6 +626,7 @@ class ProcessLost(Exception):
     """A process of a lockstep run is gone."""
 
 
+@shared
 class StartupFailed(Exception):
     """Some process did not start running within the start-up timeout."""
 

@@ -114,6 +114,8 @@ class Monitor(App[None]):
         # name is a CtlError, reported by the caller).
         self.world_fields = self.ctl.world_names(world) if world else list(layout.WORLD)
         self.unreadable = ""  # why the last refresh could not read the segment, if it could not
+        self.drawn: dict[tuple[str, str, str], tuple[str, str]] = {}  # each cell as drawn
+        self.widths: dict[tuple[str, str], int] = {}  # each column's widest value so far
 
     def compose(self) -> ComposeResult:
         yield DataTable(id="modules", cursor_type="row", zebra_stripes=False)
@@ -170,13 +172,12 @@ class Monitor(App[None]):
         for module, prefix in self.rows:
             row = snapshot["modules"][module]
             for key, value in self.cells(module, prefix, row).items():
-                # Columns grow to their widest value: nothing is cut (`EXECUT`, `#1` of #11).
-                table.update_cell(module, key, value, update_width=True)
+                self.update(table, module, key, value)
         held = snapshot.get("overrides") or {}
         for name, value in snapshot["world"].items():
             state = held.get(name, {}).get("state", "")
             for key, cell in self.world_cells(name, value, state).items():
-                world.update_cell(name, key, cell, update_width=True)
+                self.update(world, name, key, cell)
         lines = []
         for name, proc in snapshot["processes"].items():
             age = proc.get("heartbeat_age_s")
@@ -194,6 +195,19 @@ class Monitor(App[None]):
             for r in self.open_requests
         ]
         self.query_one("#requests", Static).update("\n".join(asks))
+
+    def update(self, table: DataTable[Any], row: str, column: str, value: Text) -> None:
+        """Change a cell whose text or colour changed (only those: a redraw costs). Its
+        column grows to its widest value, so nothing is cut (`EXECUT`, `#1` of #11)."""
+        key = (table.id or "", row, column)
+        seen = (value.plain, str(value.style))
+        if self.drawn.get(key) == seen:
+            return
+        self.drawn[key] = seen
+        width = (table.id or "", column)
+        wider = value.cell_len > self.widths.get(width, 0)  # only then are widths measured again
+        self.widths[width] = max(self.widths.get(width, 0), value.cell_len)
+        table.update_cell(row, column, value, update_width=wider)
 
     def world_cells(self, name: str, value: Any, state: str = "") -> dict[str, Text]:
         """A world field's row: its name, its value now (`stale` when unreadable) and its

@@ -59,7 +59,8 @@ def suggest(name: str, choices: Sequence[str], what: str) -> str:
     """`no module 'cx' (did you mean 'co'?); modules: sb, co, ...`."""
     close = difflib.get_close_matches(name, list(choices), n=1)
     hint = f" (did you mean {close[0]!r}?)" if close else ""
-    return f"no {what} {name!r}{hint}; {what}s: {', '.join(choices) or 'none'}"
+    plural = f"{what}es" if what.endswith("s") else f"{what}s"
+    return f"no {what} {name!r}{hint}; {plural}: {', '.join(choices) or 'none'}"
 
 
 # ---------------------------------------------------------------- values

@@ -48,6 +48,7 @@ class RestartRefused(Exception):
     """A process cannot be restarted: a module of it keeps hook state a restart would lose."""
 
 
+@shared
 class DuplicateProcess(Exception):
     """A second copy of a process: its control record names a live owner."""
 

@@ -477,12 +477,11 @@ class Console:
         module writes), and for the simulation's truth only while its writers simulate."""
         if self.attached is not None:
             raise CtlError(f"{what} writes the segment: run ctl on the host that runs the system")
-        writers = getattr(self.layout, "WORLD_WRITERS", {}).get(field, ())
-        owners = [self._controller_of(w) for w in writers] or list(self.layout.MODE_IN)
-        for module in dict.fromkeys(owners):
+        writers = [self._controller_of(w) for w in self.layout.WORLD_WRITERS.get(field, ())]
+        for module in dict.fromkeys(writers or self.layout.MODE_IN):
             self.access.require("override", module, what)
-        if field in getattr(self.layout, "GROUND_TRUTH", ()):
-            real = [m for m in owners if not self.read(self.layout.MODE_IN[m]).get("simulate")]
+        if field in self.layout.GROUND_TRUTH:  # (one no module writes is the run's input)
+            real = [m for m in writers if not self.read(self.layout.MODE_IN[m]).get("simulate")]
             if real:
                 raise CtlError(
                     f"refused: {field} is ground truth (the world itself, which no operator can "
