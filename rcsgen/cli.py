@@ -197,6 +197,33 @@ def _note(opts: Options, message: str) -> None:
         click.echo(message, err=opts.fmt != "text")
 
 
+class Number(click.ParamType):
+    """A finite number within bounds (`nan`, `inf` and what lies outside are usage errors),
+    as every numeric option of the console is (rcs/ctl.py `number`)."""
+
+    name = "number"
+
+    def __init__(self, low: float, high: float, above: bool = False) -> None:
+        self.low, self.high, self.above = low, high, above
+
+    def convert(
+        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+    ) -> float:
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            number = float("nan")
+        lower = number > self.low if self.above else number >= self.low
+        if not (lower and number <= self.high):  # NaN fails both
+            bound = "more than" if self.above else "at least"
+            self.fail(
+                f"{value!r} is not a number {bound} {self.low:g} and at most {self.high:g}",
+                param,
+                ctx,
+            )
+        return number
+
+
 def _output_dir(ctx: click.Context, param: click.Parameter, raw: str) -> Path:
     """An output directory a command may fill: not the empty string (which would mean the
     working directory) and not the working directory itself, whose files are the user's."""
@@ -1021,7 +1048,13 @@ def _scaffolded(action: Callable[[], Any]) -> None:
     help="Where the system's directory goes.",
 )
 @click.option("--root", default="top", show_default=True, help="The root controller's mnemonic.")
-@click.option("--period", type=float, default=0.1, show_default=True, help="Cycle period, seconds.")
+@click.option(
+    "--period",
+    type=Number(0, 3600, above=True),
+    default=0.1,
+    show_default=True,
+    help="Cycle period, seconds.",
+)
 @click.option("--title", default="", help="One-line human name [default: the name].")
 def new_system(name: str, specs: Path, root: str, period: float, title: str) -> None:
     """SPECS/NAME/: system.yaml, the root controller and a first scenario."""
@@ -1108,8 +1141,10 @@ def _trace_system(specs: Path | None, found: list[Trace], required: bool) -> IRS
     show_default=True,
     help="World fields: bool and int ones, every one (floats drift every cycle), or none.",
 )
-@click.option("--from", "first", type=int, default=None, help="First cycle shown.")
-@click.option("--to", "last", type=int, default=None, help="Last cycle shown.")
+@click.option(
+    "--from", "first", type=click.IntRange(min=0), default=None, help="First cycle shown."
+)
+@click.option("--to", "last", type=click.IntRange(min=0), default=None, help="Last cycle shown.")
 @click.option(
     "--every-cycle", is_flag=True, help="Do not fold cycles that change alike into one entry."
 )
