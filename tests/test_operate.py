@@ -754,3 +754,57 @@ def test_every_special_case_has_a_driver() -> None:
         "help",
     }
     assert {c.values[0]["kind"] for c in SPECIAL} <= kinds
+
+
+# ---------------------------------------------------------------- small items
+
+
+def test_status_columns_fit_their_widest_value() -> None:
+    """`ctl status` text: a long command, status or number widens its column; the cells
+    after it stay in line, and nothing is cut."""
+    from rcsgen.runtime.ctl import render
+
+    row = {
+        "command": "INIT",
+        "command_num": 1,
+        "status": "DONE",
+        "status_num": 1,
+        "state": "NOP",
+        "run": "RUN",
+        "step": "AUTO",
+        "sim": "REAL",
+        "alive": True,
+        "heartbeat_age_s": 0.01,
+    }
+    long = {
+        **row,
+        "command": "INITIAL_APPROACH_FACE_AND_THEN_SOME",
+        "command_num": 123456789,
+        "status": "ERROR",
+        "reason": "MACHINE_FAULT_OF_A_LONG_NAME",
+    }
+    snapshot = {
+        "system": "s",
+        "segment": "seg",
+        "modules": {"a": row, "b": long, "c": row},
+        "processes": {},
+    }
+    lines = render(snapshot)
+    header, a, b, c = lines[1:5]
+    assert "INITIAL_APPROACH_FACE_AND_THEN_SOME" in b and "123456789" in b
+    assert "ERROR(MACHINE_FAULT_OF_A_LONG_NAME)" in b
+    for title in ("status", "state", "mode", "beat"):  # every column starts where its title does
+        at = header.index(title)
+        for line in (a, b, c):
+            assert line[at - 1] == " " and line[at] != " ", (title, line)
+
+
+def test_docs_say_a_scenario_runs_every_process_by_default() -> None:
+    """It runs all of them (process by process, as --processes runs them as OS processes);
+    docs/spec.md and the scenario schema once said the first."""
+    schema = json.loads((REPO / "rcsgen/compiler/schemas/scenario.schema.json").read_text())
+    said = schema["properties"]["process"]["description"]
+    assert "every process" in said and "the first" not in said
+    spec = (REPO / "docs" / "spec.md").read_text()
+    row = next(line for line in spec.splitlines() if line.startswith("| `process` |"))
+    assert "every process" in row and "the first" not in row
