@@ -808,9 +808,8 @@ def main(package: str, argv: list[str] | None = None) -> int:
         help="start with this world field's value instead of its initial one (repeatable)",
     )
     args = parser.parse_args(argv)
-    for problem in (segment_problem(args.shm) if args.shm is not None else "",):
-        if problem:
-            parser.error(problem)
+    if args.shm is not None and segment_problem(args.shm):
+        parser.error(segment_problem(args.shm))
     try:
         parse_settings(system.layout, args.set)
     except ValueError as error:
