@@ -354,7 +354,9 @@ class Launcher:
                 return
             if ended.keys() & set(missing) or time.monotonic() > deadline:
                 why = [
-                    f"{n} ({FAILURES.get(ended[n] or 0, 'exited')}, exit {ended[n]})"
+                    f"{n} ({FAILURES[ended[n] or 0]}, exit {ended[n]})"
+                    if n in ended and ended[n] in FAILURES
+                    else f"{n} (exited {ended[n]})"
                     if n in ended
                     else f"{n} (no cycle yet)"
                     for n in missing
