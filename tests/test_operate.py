@@ -391,7 +391,9 @@ def hooked(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 @pytest.mark.parametrize("case", [c for c in SPECIAL if c.values[0]["kind"] == "hook_run"])
-def test_a_hook_that_lies_or_hangs_fails_the_run(hooked: Path, case: dict[str, Any]) -> None:
+def test_a_hook_that_lies_or_hangs_fails_the_run(
+    hooked: Path, case: dict[str, Any], capfd: pytest.CaptureFixture[str]
+) -> None:
     hooks = hooked / "tiny_hooks" / "top.py"
     text = hooks.read_text()
     anchor = "    whole = int(level)\n"
@@ -413,13 +415,16 @@ def test_a_hook_that_lies_or_hangs_fails_the_run(hooked: Path, case: dict[str, A
         )
         code, out, err = done.returncode, done.stdout, done.stderr
     else:
-        result = CliRunner().invoke(rcsgen_main, ["run", "sys/scenarios/go.yaml"])
+        extra = ["--processes"] if case.get("processes") else []
+        result = CliRunner().invoke(rcsgen_main, ["run", "sys/scenarios/go.yaml", *extra])
         assert result.exception is None or isinstance(result.exception, SystemExit)
         code, out, err = result.exit_code, result.stdout, result.stderr
     assert code == case["exit"], err
     errors = [line for line in err.splitlines() if "error[" in line]
     assert len(errors) == 1 and case["says"] in errors[0], err
     assert "Traceback" not in out + err
+    if "child" in case:  # in lockstep the process that ran the hook says it (its stderr)
+        assert case["child"] in capfd.readouterr().err, err
 
 
 @pytest.fixture(scope="module")

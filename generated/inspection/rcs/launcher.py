@@ -564,7 +564,7 @@ class Coordinator:
                 except (BrokenPipeError, OSError):
                     reply = b""
                 if reply != DONE_REPLY:
-                    raise ProcessLost(f"process {name} stopped answering (it died?)")
+                    raise ProcessLost(stopped_answering(child))
             self.cycle += 1
 
 
@@ -622,6 +622,18 @@ def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[
     return lambda: (
         bool(lost & targets.keys()) or all(mirror.heartbeat(n) >= t for n, t in targets.items())
     )
+
+
+def stopped_answering(child: Child) -> str:
+    """Why a lockstep process gave no answer: the failure its exit code says (a hook, a
+    module: its own line is above), else that it died."""
+    try:
+        code = child.popen.wait(timeout=2.0)
+    except subprocess.TimeoutExpired:
+        code = None
+    if code in FAILURES:
+        return ending(f"process {child.name}", code)
+    return f"process {child.name} stopped answering (it died?)"
 
 
 @shared
