@@ -18,8 +18,8 @@ interpreter from running Python code - a long computation inside one C call (a b
 GIL), a signal blocked with `pthread_sigmask`, a process that replaced SIGALRM's handler
 for its own use (the deadline then only refuses the late result) - or a hook called
 outside the main thread, which only its late result can reveal. The watcher costs each
-hook call two reads of the clock, and wakes up every 20 ms at most; it only signals a hook
-that has overrun.
+hook call about 0.4 us (two reads of the clock), wakes up every 20 ms at most, and only
+signals a hook that has overrun.
 
 Standard library only: copied verbatim into every generated package.
 """
@@ -30,7 +30,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any, ClassVar, TypeVar
 
 from .contract import HookOverrun, shared
 
@@ -44,41 +44,41 @@ _clock = time.monotonic
 
 @shared
 class _Watch:
-    """The hook the main thread is running: when it began (0: none) and its deadline. One
-    per process (`shared`): every generated package in it has its copy of this module, and
-    only one of them can own SIGALRM and the watcher."""
+    """The hook the main thread is running, in `state`: when it began (0: none), its
+    deadline, when the watcher last signalled it. One per process (`shared`): every
+    generated package in it has its copy of this module, and only one of them can own
+    SIGALRM and the watcher. A list, so that a call changes items, never the class."""
 
-    began = 0.0
-    deadline = 0.0
-    signalled = 0.0  # the `began` of the call the watcher last signalled
+    state: ClassVar[list[float]] = [0.0, 0.0, 0.0]  # began, deadline, signalled
     watcher: threading.Thread | None = None
     armed = False  # SIGALRM's handler is ours: an overrun can be interrupted
+
+
+_STATE = _Watch.state
+BEGAN, DEADLINE, SIGNALLED = 0, 1, 2
+_get_ident = threading.get_ident
 
 
 def within(deadline: float, hook: Callable[..., _Result], *args: Any) -> _Result:
     """`hook(*args)`, interrupted with `HookOverrun` once it has run `deadline` seconds
     (in the main thread); `HookOverrun` too when it returns later than that anyway."""
-    if threading.get_ident() != _MAIN:
+    state = _STATE
+    if _get_ident() != _MAIN:  # no signal reaches it: only a late result is refused
         began = _clock()
         result = hook(*args)
-        _late(began, deadline)
-        return result
-    if _Watch.watcher is None:
-        _start()
-    _Watch.deadline = deadline
-    _Watch.began = began = _clock()
-    try:
-        result = hook(*args)
-    finally:
-        _Watch.began = 0.0
-    _late(began, deadline)
-    return result
-
-
-def _late(began: float, deadline: float) -> None:
+    else:
+        if _Watch.watcher is None:
+            _start()
+        state[DEADLINE] = deadline
+        state[BEGAN] = began = _clock()
+        try:
+            result = hook(*args)
+        finally:
+            state[BEGAN] = 0.0
     took = _clock() - began
     if took > deadline:
         raise HookOverrun(deadline, took, interrupted=False)
+    return result
 
 
 def _start() -> None:
@@ -92,15 +92,17 @@ def _start() -> None:
 
 
 def _watch() -> None:
+    state = _STATE
     while True:
-        time.sleep(min(TICK, _Watch.deadline / 4) if _Watch.deadline > 0 else TICK)
-        began = _Watch.began
+        deadline = state[DEADLINE]
+        time.sleep(min(TICK, deadline / 4) if deadline > 0 else TICK)
+        began = state[BEGAN]
         if not began or not _Watch.armed:
             continue
         now = _clock()
         # Signalled again every deadline until the hook gives up (it may catch the first).
-        if now - began > _Watch.deadline and now - max(_Watch.signalled, began) > _Watch.deadline:
-            _Watch.signalled = now
+        if now - began > state[DEADLINE] and now - max(state[SIGNALLED], began) > state[DEADLINE]:
+            state[SIGNALLED] = now
             try:
                 signal.pthread_kill(_MAIN, signal.SIGALRM)  # type: ignore[arg-type]
             except (OSError, ValueError):  # the main thread has ended: nothing to interrupt
@@ -109,6 +111,6 @@ def _watch() -> None:
 
 def _on_alarm(signum: int, frame: object) -> None:
     """SIGALRM in the main thread: interrupt the hook that overran (ignored otherwise)."""
-    began = _Watch.began
-    if began and _clock() - began > _Watch.deadline:
-        raise HookOverrun(_Watch.deadline, _clock() - began, interrupted=True)
+    began, deadline = _STATE[BEGAN], _STATE[DEADLINE]
+    if began and _clock() - began > deadline:
+        raise HookOverrun(deadline, _clock() - began, interrupted=True)
