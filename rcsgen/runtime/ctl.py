@@ -3,13 +3,15 @@
 The debug screen of the mining paper (4.1.1.1, Appendix D) as commands: `status` shows
 every module's command, status, state, the rule that fired, its modes and cycle times and
 its process's heartbeat; `stop`/`run`/`step`/`simulate` set a module's mode buffer; `slow`
-stretches the processes' cycle periods; `send` gives a module a command, its parameters
-checked against the layout; `wait` waits for a module to finish; `requests` lists what
-modules ask of the operator and `answer` answers (an operator module's channel: DONE or
-ERROR with a reason, in its answer record). It attaches to the segment by name (checking
-the layout hash) and needs only the package's layout: no hooks, no compiler. Every read is
-a consistent read and every write goes through `Record.write` (the seqlock); it writes
-only mode, pacing, command buffers and answer records. Bad input is one line on
+stretches the processes' cycle periods; `send` gives a module a command, checked by the
+one command contract (rcs/command.py) before anything is written; `wait` waits for a module
+to finish; `requests` lists what modules ask of the operator and `answer` answers (an
+operator module's channel: DONE or ERROR with a reason, in its answer record); `status
+--world` shows the world fields; `force`/`unforce` force a world field PLC style and
+`reset` releases fields latched safe (rcs/override.py). It attaches to the segment by name
+(checking the layout hash) and needs only the package's layout: no hooks, no compiler.
+Every read is a consistent read and every write goes through `Record.write` (the seqlock);
+it writes only mode, pacing, command buffers, answer and override records. Bad input is one line on
 stderr and exit 2 (usage) or 1 (the system refused or is not there). Standard library only:
 copied verbatim into every generated package.
 """
