@@ -430,8 +430,8 @@ def test_the_miner_as_two_free_running_processes_completes_the_box_cut() -> None
     [
         ("xx.BOX_CUT", "no module 'xx'"),
         ("sb.BOX_CUTT", "sb has no command 'BOX_CUTT'"),
-        ("sb.BOX_CUT:deep=1", "sb has no parameter 'deep'"),
-        ("sb.BOX_CUT:depth=deep", "'deep' is not a number"),
+        ("sb.BOX_CUT:deep=1", "sb.BOX_CUT has no parameter 'deep'"),
+        ("sb.BOX_CUT:depth=deep", "parameter depth is 'deep', not a finite number"),
     ],
 )
 def test_a_bad_send_is_one_line_and_exit_2(send: str, message: str) -> None:

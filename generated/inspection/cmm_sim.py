@@ -18,6 +18,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -28,6 +29,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands cmm_sim accepts (the code written to its command buffer).
@@ -61,6 +63,12 @@ S0 = 1
 # Constants.
 MOTION_CYCLES = 4
 OP_MEASURE = 4
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "probe": 2.5,
+}
 
 
 class CmmSimController:
@@ -107,8 +115,8 @@ class CmmSimController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_part(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_part, settings or {})
+        except BaseException as error:
             raise HookError("cmm_sim", "new_part", "hooks_state", 0) from error
         self.var_moving: int = 0
         self.resume()
@@ -396,10 +404,14 @@ class CmmSimController:
         ):
             # a measurement completes
             try:
-                returned = hooks.probe(self.hook_state, self.world_cmm_feature)
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+                returned = within(
+                    HOOK_DEADLINES["probe"], hooks.probe, self.hook_state, self.world_cmm_feature
+                )
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("cmm_sim", "probe", "every_cycle/2", self.cycles) from error
-            if type(returned) not in NUMBER and not is_real(returned):
+            if (
+                type(returned) not in NUMBER and not is_real(returned)
+            ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
                 raise HookError("cmm_sim", "probe", "every_cycle/2", self.cycles, returned, "f")
             self.world_cmm_reading = returned
             self.world_cmm_done_seq = self.world_cmm_seq

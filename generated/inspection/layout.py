@@ -308,6 +308,19 @@ OVERRIDE = {
 SAFE_VALUES: dict[str, object] = {}
 # The process whose modules write each actuator.
 ACTUATED_BY = {}
+# The modules that write each world field (a stand-in writes in its controller's place), for
+# `ctl force`: forcing a field takes it from them, which needs override on each.
+WORLD_WRITERS: dict[str, tuple[str, ...]] = {
+    "cmm_op": ("cmm",),
+    "cmm_feature": ("cmm",),
+    "cmm_seq": ("cmm",),
+    "cmm_done_seq": ("cmm_sim",),
+    "cmm_reading": ("cmm_sim",),
+    "cmm_alarm": ("cmm_sim",),
+}
+# The fields that are the simulation's truth (`ground_truth: true`): no operator can force
+# the real world, so `ctl force` takes them only while the modules writing them simulate.
+GROUND_TRUTH = ()
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "ws": (NO_COMMAND_NAME, *("INIT", "HALT", "INIT_FOR_INSPECT", "INSPECT_PART")),
@@ -361,6 +374,20 @@ COMMAND_NAMES = {
             "LOAD_PROBE",
         ),
     ),
+}
+# Each command's parameters, in order: an operator gives every one of them (`ctl send`,
+# `--send`, a scenario), each checked against its slot's type (rcs/command.py). A command
+# not listed takes none.
+PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
+    "ws": {
+        "INSPECT_PART": ("program",),
+    },
+    "ms": {
+        "MEASURE_PART": ("program",),
+    },
+    "cmm": {
+        "INSPECT_FEATURE": ("number",),
+    },
 }
 STATE_NAMES = {
     "ws": (
@@ -536,6 +563,15 @@ ROLES: dict[str, dict[str, int]] = {
         "cmm_sim": 3,  # override
     },
 }
+# The run settings the hook-state factories read (`settings:`), each with what it chooses;
+# `--set`, a scenario's `settings:` and a harness may give only these.
+SETTINGS: dict[str, str] | None = {
+    "program": "The inspection program the station measures: programs/<name>.ipg (default programs/bracket.ipg).",
+    "part": "The part on the fixture, as the simulated CMM sees it: parts/<name>.part (default parts/nominal.part).",
+    "seed": "The seed of the simulated probe noise, a whole number (default 1).",
+}
+# Whether a controller has a `hooks_state` factory: without one no setting is read.
+READS_SETTINGS = True
 # What modules ask of the operator (`operators.requests`): open while the world field
 # `while` is true, answered by sending the command `answer`.
 REQUESTS: dict[str, dict[str, object]] = {}

@@ -16,6 +16,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -26,6 +27,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands bas accepts (the code written to its command buffer).
@@ -56,6 +58,12 @@ S0 = 1
 UPPER_STOP = 30.0
 LOWER_STOP = -10.0
 RATE_ERROR = 0.1
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "turn_boom": 1.0,
+}
 
 
 class BasController:
@@ -96,8 +104,8 @@ class BasController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_actuator_error(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_actuator_error, settings or {})
+        except BaseException as error:
             raise HookError("bas", "new_actuator_error", "hooks_state", 0) from error
         self.resume()
         # Until a whole read (another process writes some inputs): the block's values as they
@@ -346,7 +354,9 @@ class BasController:
         """Rules tried every cycle, whatever the command."""
         if self.world_boom_rate_cmd != 0.0:
             try:
-                returned = hooks.turn_boom(
+                returned = within(
+                    HOOK_DEADLINES["turn_boom"],
+                    hooks.turn_boom,
                     self.hook_state,
                     self.world_boom_angle_true,
                     self.world_boom_rate_cmd,
@@ -354,9 +364,11 @@ class BasController:
                     LOWER_STOP,
                     UPPER_STOP,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("bas", "turn_boom", "every_cycle/1", self.cycles) from error
-            if type(returned) not in NUMBER and not is_real(returned):
+            if (
+                type(returned) not in NUMBER and not is_real(returned)
+            ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
                 raise HookError("bas", "turn_boom", "every_cycle/1", self.cycles, returned, "f")
             self.world_boom_angle_true = returned
 

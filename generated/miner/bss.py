@@ -16,6 +16,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -26,6 +27,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands bss accepts (the code written to its command buffer).
@@ -55,6 +57,12 @@ S0 = 1
 # Constants.
 LAG = 0.6
 NOISE = 0.1
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "noisy": 1.0,
+}
 
 
 class BssController:
@@ -96,8 +104,8 @@ class BssController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_noise(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_noise, settings or {})
+        except BaseException as error:
             raise HookError("bss", "new_noise", "hooks_state", 0) from error
         self.var_filtered: float = 0.0
         self.resume()
@@ -349,10 +357,14 @@ class BssController:
             self.world_boom_angle_true - self.var_filtered
         )
         try:
-            returned = hooks.noisy(self.hook_state, self.var_filtered, NOISE)
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+            returned = within(
+                HOOK_DEADLINES["noisy"], hooks.noisy, self.hook_state, self.var_filtered, NOISE
+            )
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("bss", "noisy", "every_cycle/1", self.cycles) from error
-        if type(returned) not in NUMBER and not is_real(returned):
+        if (
+            type(returned) not in NUMBER and not is_real(returned)
+        ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
             raise HookError("bss", "noisy", "every_cycle/1", self.cycles, returned, "f")
         self.world_boom_angle = returned
 

@@ -24,6 +24,7 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -33,6 +34,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import within
 from .rcs.override import held
 
 # Commands co accepts (the code written to its command buffer).
@@ -92,6 +94,14 @@ CUTTER_THRESHOLD = 60.0
 HEADING_LIMIT = 0.05
 MAX_APPROACH = 5.0
 APPROACH_DISTANCE = 0.5
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "co_goal_ahead": 1.0,
+    "co_position_for_cusp": 1.0,
+    "co_position_for_sump": 1.0,
+}
 
 
 class CoController:
@@ -599,18 +609,29 @@ class CoController:
                 self.state = S2
                 self.var_distance = MAX_APPROACH
                 try:
-                    returned = hooks.co_goal_ahead(
-                        self.world_pose_x, self.world_pose_y, self.world_heading, self.var_distance
+                    returned = within(
+                        HOOK_DEADLINES["co_goal_ahead"],
+                        hooks.co_goal_ahead,
+                        self.world_pose_x,
+                        self.world_pose_y,
+                        self.world_heading,
+                        self.var_distance,
                     )
-                except Exception as error:  # one error naming the module, hook, rule and cycle
+                except BaseException as error:  # one error naming the module, hook, rule and cycle
                     raise HookError(
                         "co", "co_goal_ahead", "INITIAL_APPROACH_FACE/S1/1", self.cycles
                     ) from error
                 if (
                     type(returned) is not tuple
                     or len(returned) != 2
-                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or (
+                        (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                    )
+                    or (
+                        (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                        or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                    )
                 ):
                     raise HookError(
                         "co",
@@ -727,18 +748,29 @@ class CoController:
                 self.state = S2
                 self.var_distance = APPROACH_DISTANCE
                 try:
-                    returned = hooks.co_goal_ahead(
-                        self.world_pose_x, self.world_pose_y, self.world_heading, self.var_distance
+                    returned = within(
+                        HOOK_DEADLINES["co_goal_ahead"],
+                        hooks.co_goal_ahead,
+                        self.world_pose_x,
+                        self.world_pose_y,
+                        self.world_heading,
+                        self.var_distance,
                     )
-                except Exception as error:  # one error naming the module, hook, rule and cycle
+                except BaseException as error:  # one error naming the module, hook, rule and cycle
                     raise HookError(
                         "co", "co_goal_ahead", "APPROACH_FACE/S1/1", self.cycles
                     ) from error
                 if (
                     type(returned) is not tuple
                     or len(returned) != 2
-                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or (
+                        (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                    )
+                    or (
+                        (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                        or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                    )
                 ):
                     raise HookError(
                         "co", "co_goal_ahead", "APPROACH_FACE/S1/1", self.cycles, returned, "ff"
@@ -773,18 +805,29 @@ class CoController:
             self.rule = 24  # SUMP_SHEAR_CUSP/S0/1
             self.state = S1
             try:
-                returned = hooks.co_position_for_sump(
-                    self.world_pose_x, self.world_pose_y, self.world_heading, self.world_sump_step
+                returned = within(
+                    HOOK_DEADLINES["co_position_for_sump"],
+                    hooks.co_position_for_sump,
+                    self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_heading,
+                    self.world_sump_step,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError(
                     "co", "co_position_for_sump", "SUMP_SHEAR_CUSP/S0/1", self.cycles
                 ) from error
             if (
                 type(returned) is not tuple
                 or len(returned) != 2
-                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or (
+                    (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                )
             ):
                 raise HookError(
                     "co",
@@ -821,21 +864,29 @@ class CoController:
                 self.rule = 26  # SUMP_SHEAR_CUSP/S2/1
                 self.state = S1
                 try:
-                    returned = hooks.co_position_for_sump(
+                    returned = within(
+                        HOOK_DEADLINES["co_position_for_sump"],
+                        hooks.co_position_for_sump,
                         self.world_pose_x,
                         self.world_pose_y,
                         self.world_heading,
                         self.world_sump_step,
                     )
-                except Exception as error:  # one error naming the module, hook, rule and cycle
+                except BaseException as error:  # one error naming the module, hook, rule and cycle
                     raise HookError(
                         "co", "co_position_for_sump", "SUMP_SHEAR_CUSP/S2/1", self.cycles
                     ) from error
                 if (
                     type(returned) is not tuple
                     or len(returned) != 2
-                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or (
+                        (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                    )
+                    or (
+                        (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                        or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                    )
                 ):
                     raise HookError(
                         "co",
@@ -884,18 +935,28 @@ class CoController:
             self.rule = 30  # SUMP_SHEAR_CUSP/S3/1
             self.state = S4
             try:
-                returned = hooks.co_position_for_cusp(
-                    self.world_pose_x, self.world_pose_y, self.world_heading
+                returned = within(
+                    HOOK_DEADLINES["co_position_for_cusp"],
+                    hooks.co_position_for_cusp,
+                    self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_heading,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError(
                     "co", "co_position_for_cusp", "SUMP_SHEAR_CUSP/S3/1", self.cycles
                 ) from error
             if (
                 type(returned) is not tuple
                 or len(returned) != 2
-                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or (
+                    (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                )
             ):
                 raise HookError(
                     "co",

@@ -16,6 +16,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -26,6 +27,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands css accepts (the code written to its command buffer).
@@ -54,6 +56,12 @@ S0 = 1
 
 # Constants.
 NOISE = 1.0
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "noisy": 1.0,
+}
 
 
 class CssController:
@@ -94,8 +102,8 @@ class CssController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_noise(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_noise, settings or {})
+        except BaseException as error:
             raise HookError("css", "new_noise", "hooks_state", 0) from error
         self.resume()
         # Until a whole read (another process writes some inputs): the block's values as they
@@ -343,10 +351,18 @@ class CssController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.noisy(self.hook_state, self.world_drum_current_true, NOISE)
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+            returned = within(
+                HOOK_DEADLINES["noisy"],
+                hooks.noisy,
+                self.hook_state,
+                self.world_drum_current_true,
+                NOISE,
+            )
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("css", "noisy", "every_cycle/1", self.cycles) from error
-        if type(returned) not in NUMBER and not is_real(returned):
+        if (
+            type(returned) not in NUMBER and not is_real(returned)
+        ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
             raise HookError("css", "noisy", "every_cycle/1", self.cycles, returned, "f")
         self.world_cutter_current = returned
 

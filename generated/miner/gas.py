@@ -18,6 +18,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -28,6 +29,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands gas accepts (the code written to its command buffer).
@@ -60,6 +62,12 @@ S0 = 1
 
 # Constants.
 GATHER_RATE = 0.6
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "haul": 1.0,
+}
 
 
 class GasController:
@@ -104,8 +112,8 @@ class GasController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_haulage(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_haulage, settings or {})
+        except BaseException as error:
             raise HookError("gas", "new_haulage", "hooks_state", 0) from error
         self.resume()
         # Until a whole read (another process writes some inputs): the block's values as they
@@ -377,7 +385,9 @@ class GasController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.haul(
+            returned = within(
+                HOOK_DEADLINES["haul"],
+                hooks.haul,
                 self.hook_state,
                 self.world_loose_coal_true,
                 self.world_coal_mined,
@@ -386,13 +396,19 @@ class GasController:
                 and self.world_tail_in_position,
                 GATHER_RATE,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("gas", "haul", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 3
-            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (
+                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
             or type(returned[2]) is not bool
         ):
             raise HookError("gas", "haul", "every_cycle/1", self.cycles, returned, "ffb")

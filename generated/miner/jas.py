@@ -27,6 +27,7 @@ from .rcs.contract import (
     HookError,
     is_integer,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands jas accepts (the code written to its command buffer).
@@ -56,6 +57,12 @@ S0 = 1
 # Constants.
 TRAVEL_CYCLES = 15
 TRAVEL_SPREAD = 3
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "travel_time": 1.0,
+}
 
 
 class JasController:
@@ -98,8 +105,8 @@ class JasController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_actuator_error(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_actuator_error, settings or {})
+        except BaseException as error:
             raise HookError("jas", "new_actuator_error", "hooks_state", 0) from error
         self.var_travel: int = 0
         self.var_stroke: int = 0
@@ -351,8 +358,14 @@ class JasController:
         if self.world_jack_down_cmd != self.world_jack_down and self.var_travel == 0:
             # a new stroke; how long it takes
             try:
-                returned = hooks.travel_time(self.hook_state, TRAVEL_CYCLES, TRAVEL_SPREAD)
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+                returned = within(
+                    HOOK_DEADLINES["travel_time"],
+                    hooks.travel_time,
+                    self.hook_state,
+                    TRAVEL_CYCLES,
+                    TRAVEL_SPREAD,
+                )
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("jas", "travel_time", "every_cycle/1", self.cycles) from error
             if (
                 type(returned) is not int and not is_integer(returned)

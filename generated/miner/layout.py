@@ -925,6 +925,68 @@ ACTUATED_BY = {
     "gather_on_cmd": "pc1",
     "conveyor_on_cmd": "pc1",
 }
+# The modules that write each world field (a stand-in writes in its controller's place), for
+# `ctl force`: forcing a field takes it from them, which needs override on each.
+WORLD_WRITERS: dict[str, tuple[str, ...]] = {
+    "tail_request": ("ct",),
+    "tail_in_position": ("oi",),
+    "operator_goal_x": ("oi",),
+    "operator_goal_y": ("oi",),
+    "goal_x": ("co",),
+    "goal_y": ("co",),
+    "path_ok": ("pp",),
+    "wp_x": ("pp",),
+    "wp_y": ("pp",),
+    "wp_last": ("pp",),
+    "boom_rate_cmd": ("bm",),
+    "drum_on_cmd": ("cd",),
+    "jack_down_cmd": ("sj",),
+    "left_tread_cmd": ("tc",),
+    "right_tread_cmd": ("tc",),
+    "pan_float_cmd": ("gh",),
+    "gather_on_cmd": ("gh",),
+    "conveyor_on_cmd": ("cv",),
+    "true_x": ("tas",),
+    "true_y": ("tas",),
+    "true_heading": ("tas",),
+    "boom_angle_true": ("bas",),
+    "drum_current_true": ("das",),
+    "jack_down": ("jas",),
+    "slip": ("mine",),
+    "pose_x": ("pss",),
+    "pose_y": ("pss",),
+    "heading": ("pss",),
+    "boom_angle": ("bss",),
+    "cutter_current": ("css",),
+    "loose_coal": ("lcs",),
+    "popped_out_of_shear": ("wm",),
+    "depth_est": ("wm",),
+    "drum_reach": ("wm",),
+    "sump_step": ("sb",),
+    "in_coal": ("mine",),
+    "face_x": ("mine",),
+    "depth_cut": ("mine",),
+    "loose_coal_true": ("mine", "gas", "cr_sim"),
+    "coal_mined": ("gas", "cr_sim"),
+    "shuttle_car_away": ("gas",),
+}
+# The fields that are the simulation's truth (`ground_truth: true`): no operator can force
+# the real world, so `ctl force` takes them only while the modules writing them simulate.
+GROUND_TRUTH = (
+    "true_x",
+    "true_y",
+    "true_heading",
+    "boom_angle_true",
+    "drum_current_true",
+    "slip",
+    "tread_stalled",
+    "in_coal",
+    "face_x",
+    "depth_cut",
+    "loose_coal_true",
+    "coal_mined",
+    "shuttle_car_away",
+)
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "sec": (NO_COMMAND_NAME, *("INIT", "HALT", "MINE_COAL", "BOX_CUT", "TRAM_TO_GOAL")),
@@ -984,6 +1046,31 @@ COMMAND_NAMES = {
     "lcs": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "wm": (NO_COMMAND_NAME, *("INIT", "HALT", "NEW_CUT")),
     "pp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN")),
+}
+# Each command's parameters, in order: an operator gives every one of them (`ctl send`,
+# `--send`, a scenario), each checked against its slot's type (rcs/command.py). A command
+# not listed takes none.
+PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
+    "sec": {
+        "MINE_COAL": ("depth", "offset"),
+        "BOX_CUT": ("depth",),
+    },
+    "sb": {
+        "BOX_CUT": ("depth",),
+        "CUT_TWO_PASSES": ("depth", "offset"),
+    },
+    "co": {
+        "REPOSITION": ("x", "y"),
+    },
+    "vg": {
+        "TRAM_TO_XY": ("x", "y"),
+    },
+    "oi": {
+        "ENTER_GOAL": ("x", "y"),
+    },
+    "pp": {
+        "PLAN": ("x", "y"),
+    },
 }
 STATE_NAMES = {
     "sec": ("NOP", "S0", "S1"),
@@ -1305,6 +1392,15 @@ ROLES: dict[str, dict[str, int]] = {
         "pp": 3,  # override
     },
 }
+# The run settings the hook-state factories read (`settings:`), each with what it chooses;
+# `--set`, a scenario's `settings:` and a harness may give only these.
+SETTINGS: dict[str, str] | None = {
+    "map": "The coal map the mine and the planner read: maps/<name>.map (default maps/box_cut.map).",
+    "seed": "The seed of the simulated noise and actuator error, a whole number (default 1).",
+    "shuttle_car": "'CAPACITY TRIP': a shuttle car of that many tonnes away that many cycles when full (default: a belt).",
+}
+# Whether a controller has a `hooks_state` factory: without one no setting is read.
+READS_SETTINGS = True
 # What modules ask of the operator (`operators.requests`): open while the world field
 # `while` is true, answered by sending the command `answer`.
 REQUESTS: dict[str, dict[str, object]] = {

@@ -20,6 +20,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -30,6 +31,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands mine accepts (the code written to its command buffer).
@@ -68,6 +70,13 @@ WORLD_HELD_2 = (
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "cut_coal": 1.0,
+    "slip": 1.0,
+}
 
 
 class MineController:
@@ -117,8 +126,8 @@ class MineController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_mine(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_mine, settings or {})
+        except BaseException as error:
             raise HookError("mine", "new_mine", "hooks_state", 0) from error
         self.var_cut: float = 0.0
         self.resume()
@@ -453,37 +462,52 @@ class MineController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.cut_coal(
+            returned = within(
+                HOOK_DEADLINES["cut_coal"],
+                hooks.cut_coal,
                 self.hook_state,
                 self.world_true_x,
                 self.world_true_y,
                 self.world_boom_angle_true,
                 self.world_drum_on_cmd,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("mine", "cut_coal", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 4
             or type(returned[0]) is not bool
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
-            or (type(returned[3]) not in NUMBER and not is_real(returned[3]))
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[3]) not in NUMBER and not is_real(returned[3]))
+                or not -FLOAT_MAX <= returned[3] <= FLOAT_MAX
+            )
         ):
             raise HookError("mine", "cut_coal", "every_cycle/1", self.cycles, returned, "bfff")
         self.world_in_coal, self.world_face_x, self.world_depth_cut, self.var_cut = returned
         self.world_loose_coal_true = self.world_loose_coal_true + self.var_cut
         try:
-            returned = hooks.slip(
+            returned = within(
+                HOOK_DEADLINES["slip"],
+                hooks.slip,
                 self.hook_state,
                 self.world_true_x,
                 self.world_boom_angle_true,
                 self.world_jack_down,
                 self.var_cut,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("mine", "slip", "every_cycle/1", self.cycles) from error
-        if type(returned) not in NUMBER and not is_real(returned):
+        if (
+            type(returned) not in NUMBER and not is_real(returned)
+        ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
             raise HookError("mine", "slip", "every_cycle/1", self.cycles, returned, "f")
         self.world_slip = returned
 

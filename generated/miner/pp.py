@@ -20,6 +20,7 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -30,6 +31,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands pp accepts (the code written to its command buffer).
@@ -62,6 +64,12 @@ WORLD_HELD_1 = (
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "plan": 1.0,
+}
 
 
 class PpController:
@@ -109,8 +117,8 @@ class PpController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_planner(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_planner, settings or {})
+        except BaseException as error:
             raise HookError("pp", "new_planner", "hooks_state", 0) from error
         self.resume()
         # Until a whole read (another process writes some inputs): the block's values as they
@@ -470,7 +478,9 @@ class PpController:
             self.rule = 3  # PLAN/S0/1
             self.state = S1
             try:
-                returned = hooks.plan(
+                returned = within(
+                    HOOK_DEADLINES["plan"],
+                    hooks.plan,
                     self.hook_state,
                     self.world_pose_x,
                     self.world_pose_y,
@@ -478,14 +488,20 @@ class PpController:
                     self.arg_x,
                     self.arg_y,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("pp", "plan", "PLAN/S0/1", self.cycles) from error
             if (
                 type(returned) is not tuple
                 or len(returned) != 4
                 or type(returned[0]) is not bool
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or (
+                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                    or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+                )
                 or type(returned[3]) is not bool
             ):
                 raise HookError("pp", "plan", "PLAN/S0/1", self.cycles, returned, "bffb")

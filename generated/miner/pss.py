@@ -18,6 +18,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -28,6 +29,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands pss accepts (the code written to its command buffer).
@@ -57,6 +59,12 @@ S0 = 1
 # Constants.
 NOISE = 0.002
 HEADING_NOISE = 0.0005
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "noisy_pose": 1.0,
+}
 
 
 class PssController:
@@ -101,8 +109,8 @@ class PssController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_noise(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_noise, settings or {})
+        except BaseException as error:
             raise HookError("pss", "new_noise", "hooks_state", 0) from error
         self.resume()
         # Until a whole read (another process writes some inputs): the block's values as they
@@ -374,7 +382,9 @@ class PssController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.noisy_pose(
+            returned = within(
+                HOOK_DEADLINES["noisy_pose"],
+                hooks.noisy_pose,
                 self.hook_state,
                 self.world_true_x,
                 self.world_true_y,
@@ -382,14 +392,23 @@ class PssController:
                 NOISE,
                 HEADING_NOISE,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("pss", "noisy_pose", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 3
-            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+            or (
+                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+            )
         ):
             raise HookError("pss", "noisy_pose", "every_cycle/1", self.cycles, returned, "fff")
         self.world_pose_x, self.world_pose_y, self.world_heading = returned

@@ -18,6 +18,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -28,6 +29,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands tas accepts (the code written to its command buffer).
@@ -56,6 +58,13 @@ S0 = 1
 
 # Constants.
 SPEED_ERROR = 0.05
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "advance": 1.0,
+    "slide": 1.0,
+}
 
 
 class TasController:
@@ -101,8 +110,8 @@ class TasController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_actuator_error(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_actuator_error, settings or {})
+        except BaseException as error:
             raise HookError("tas", "new_actuator_error", "hooks_state", 0) from error
         self.resume()
         # Until a whole read (another process writes some inputs): the block's values as they
@@ -380,7 +389,9 @@ class TasController:
             self.world_left_tread_cmd != 0 or self.world_right_tread_cmd != 0
         ):
             try:
-                returned = hooks.advance(
+                returned = within(
+                    HOOK_DEADLINES["advance"],
+                    hooks.advance,
                     self.hook_state,
                     self.world_true_x,
                     self.world_true_y,
@@ -389,14 +400,23 @@ class TasController:
                     self.world_right_tread_cmd,
                     SPEED_ERROR,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("tas", "advance", "every_cycle/1", self.cycles) from error
             if (
                 type(returned) is not tuple
                 or len(returned) != 3
-                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or (
+                    (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                    or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+                )
             ):
                 raise HookError("tas", "advance", "every_cycle/1", self.cycles, returned, "fff")
             self.world_true_x, self.world_true_y, self.world_true_heading = returned
@@ -404,20 +424,28 @@ class TasController:
         elif self.world_slip > 0.0:
             # the shear slides the standing machine outby (a roll in the seam floor)
             try:
-                returned = hooks.slide(
+                returned = within(
+                    HOOK_DEADLINES["slide"],
+                    hooks.slide,
                     self.hook_state,
                     self.world_true_x,
                     self.world_true_y,
                     self.world_true_heading,
                     self.world_slip,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("tas", "slide", "every_cycle/2", self.cycles) from error
             if (
                 type(returned) is not tuple
                 or len(returned) != 2
-                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or (
+                    (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                )
             ):
                 raise HookError("tas", "slide", "every_cycle/2", self.cycles, returned, "ff")
             self.world_true_x, self.world_true_y = returned

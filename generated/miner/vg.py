@@ -18,6 +18,7 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
+    FLOAT_MAX,
     INT_MAX,
     INT_MIN,
     NO_RULE,
@@ -31,6 +32,7 @@ from .rcs.contract import (
     is_integer,
     is_real,
 )
+from .rcs.deadline import within
 
 # Commands vg accepts (the code written to its command buffer).
 INIT = 1
@@ -89,6 +91,13 @@ GO_FORWARD = 1
 GO_REVERSE = 2
 GO_LEFT = 3
 GO_RIGHT = 4
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "align": 1.0,
+    "steer": 1.0,
+}
 
 
 class VgController:
@@ -525,14 +534,16 @@ class VgController:
         """Rules tried every cycle, whatever the command."""
         # where the waypoint is from this cycle's sensed pose (the moves below decide on it)
         try:
-            returned = hooks.steer(
+            returned = within(
+                HOOK_DEADLINES["steer"],
+                hooks.steer,
                 self.world_pose_x,
                 self.world_pose_y,
                 self.world_heading,
                 self.world_wp_x,
                 self.world_wp_y,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("vg", "steer", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
@@ -541,14 +552,20 @@ class VgController:
                 (type(returned[0]) is not int and not is_integer(returned[0]))
                 or not INT_MIN <= returned[0] <= INT_MAX
             )
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+            )
         ):
             raise HookError("vg", "steer", "every_cycle/1", self.cycles, returned, "iff")
         self.var_move, self.var_ahead, self.var_turn = returned
         try:
-            returned = hooks.align(self.world_heading)
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+            returned = within(HOOK_DEADLINES["align"], hooks.align, self.world_heading)
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("vg", "align", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
@@ -557,7 +574,10 @@ class VgController:
                 (type(returned[0]) is not int and not is_integer(returned[0]))
                 or not INT_MIN <= returned[0] <= INT_MAX
             )
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
         ):
             raise HookError("vg", "align", "every_cycle/1", self.cycles, returned, "if")
         self.var_facing, self.var_facing_turn = returned

@@ -18,6 +18,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -27,6 +28,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import within
 from .rcs.override import held
 
 # Commands wm accepts (the code written to its command buffer).
@@ -53,6 +55,12 @@ WORLD_HELD_1 = (
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "wm_estimate": 1.0,
+}
 
 
 class WmController:
@@ -345,7 +353,9 @@ class WmController:
         """Rules tried every cycle, whatever the command."""
         # estimate from this cycle's sensed values
         try:
-            returned = hooks.wm_estimate(
+            returned = within(
+                HOOK_DEADLINES["wm_estimate"],
+                hooks.wm_estimate,
                 self.world_pose_x,
                 self.world_boom_angle,
                 self.world_cutter_current,
@@ -355,17 +365,32 @@ class WmController:
                 self.var_shear_x,
                 self.world_popped_out_of_shear,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("wm", "wm_estimate", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 6
-            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+            or (
+                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+            )
             or type(returned[3]) is not bool
-            or (type(returned[4]) not in NUMBER and not is_real(returned[4]))
-            or (type(returned[5]) not in NUMBER and not is_real(returned[5]))
+            or (
+                (type(returned[4]) not in NUMBER and not is_real(returned[4]))
+                or not -FLOAT_MAX <= returned[4] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[5]) not in NUMBER and not is_real(returned[5]))
+                or not -FLOAT_MAX <= returned[5] <= FLOAT_MAX
+            )
         ):
             raise HookError("wm", "wm_estimate", "every_cycle/1", self.cycles, returned, "fffbff")
         (

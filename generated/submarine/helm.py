@@ -20,6 +20,7 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
+    FLOAT_MAX,
     INT_MAX,
     INT_MIN,
     NO_RULE,
@@ -31,6 +32,7 @@ from .rcs.contract import (
     is_integer,
     is_real,
 )
+from .rcs.deadline import within
 from .rcs.override import held
 
 # Commands helm accepts (the code written to its command buffer).
@@ -71,6 +73,13 @@ GAIN = 1.5
 RUDDER_MAX = 30.0
 COURSE_TOL = 1.5
 DEADBAND = 2.0
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "assess_ice": 5.0,
+    "course_to": 5.0,
+}
 
 
 def wrap(a: float) -> float:
@@ -480,7 +489,9 @@ class HelmController:
         """Rules tried every cycle, whatever the command."""
         # sensory processing, every cycle whatever the command
         try:
-            returned = hooks.assess_ice(
+            returned = within(
+                HOOK_DEADLINES["assess_ice"],
+                hooks.assess_ice,
                 self.world_course,
                 self.world_heading,
                 self.world_sonar_00,
@@ -498,7 +509,7 @@ class HelmController:
                 self.world_sonar_12,
                 self.world_sonar_13,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("helm", "assess_ice", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
@@ -507,7 +518,10 @@ class HelmController:
                 (type(returned[0]) is not int and not is_integer(returned[0]))
                 or not INT_MIN <= returned[0] <= INT_MAX
             )
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
         ):
             raise HookError("helm", "assess_ice", "every_cycle/1", self.cycles, returned, "if")
         self.var_ice_seen, self.var_avoid_heading = returned
@@ -559,12 +573,19 @@ class HelmController:
             self.rule = 5  # ICE_MANEUVER/S0/1
             self.state = S1
             try:
-                returned = hooks.course_to(
-                    self.arg_x, self.arg_y, self.world_pos_x, self.world_pos_y
+                returned = within(
+                    HOOK_DEADLINES["course_to"],
+                    hooks.course_to,
+                    self.arg_x,
+                    self.arg_y,
+                    self.world_pos_x,
+                    self.world_pos_y,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("helm", "course_to", "ICE_MANEUVER/S0/1", self.cycles) from error
-            if type(returned) not in NUMBER and not is_real(returned):
+            if (
+                type(returned) not in NUMBER and not is_real(returned)
+            ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
                 raise HookError(
                     "helm", "course_to", "ICE_MANEUVER/S0/1", self.cycles, returned, "f"
                 )
@@ -632,14 +653,21 @@ class HelmController:
                 self.rule = 12  # ICE_MANEUVER/S2/2
                 self.state = S1
                 try:
-                    returned = hooks.course_to(
-                        self.arg_x, self.arg_y, self.world_pos_x, self.world_pos_y
+                    returned = within(
+                        HOOK_DEADLINES["course_to"],
+                        hooks.course_to,
+                        self.arg_x,
+                        self.arg_y,
+                        self.world_pos_x,
+                        self.world_pos_y,
                     )
-                except Exception as error:  # one error naming the module, hook, rule and cycle
+                except BaseException as error:  # one error naming the module, hook, rule and cycle
                     raise HookError(
                         "helm", "course_to", "ICE_MANEUVER/S2/2", self.cycles
                     ) from error
-                if type(returned) not in NUMBER and not is_real(returned):
+                if (
+                    type(returned) not in NUMBER and not is_real(returned)
+                ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
                     raise HookError(
                         "helm", "course_to", "ICE_MANEUVER/S2/2", self.cycles, returned, "f"
                     )

@@ -481,6 +481,41 @@ OVERRIDE = {
 SAFE_VALUES: dict[str, object] = {}
 # The process whose modules write each actuator.
 ACTUATED_BY = {}
+# The modules that write each world field (a stand-in writes in its controller's place), for
+# `ctl force`: forcing a field takes it from them, which needs override on each.
+WORLD_WRITERS: dict[str, tuple[str, ...]] = {
+    "speed_cmd": ("sm",),
+    "depth_cmd": ("sm",),
+    "course": ("helm",),
+    "vent_flow": ("ec",),
+    "pos_x": ("ship",),
+    "pos_y": ("ship",),
+    "heading": ("ship",),
+    "speed": ("ship",),
+    "depth": ("ship",),
+    "rudder_angle": ("rudder_sim",),
+    "sonar_00": ("sonar",),
+    "sonar_01": ("sonar",),
+    "sonar_02": ("sonar",),
+    "sonar_03": ("sonar",),
+    "sonar_04": ("sonar",),
+    "sonar_05": ("sonar",),
+    "sonar_06": ("sonar",),
+    "sonar_07": ("sonar",),
+    "sonar_08": ("sonar",),
+    "sonar_09": ("sonar",),
+    "sonar_10": ("sonar",),
+    "sonar_11": ("sonar",),
+    "sonar_12": ("sonar",),
+    "sonar_13": ("sonar",),
+    "clearance": ("sonar",),
+    "min_clearance": ("sonar",),
+    "fire": ("atmosphere",),
+    "co_ppm": ("atmosphere",),
+}
+# The fields that are the simulation's truth (`ground_truth: true`): no operator can force
+# the real world, so `ctl force` takes them only while the modules writing them simulate.
+GROUND_TRUTH = ()
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "cc": (NO_COMMAND_NAME, *("INIT", "HALT", "RUN_MISSION")),
@@ -492,6 +527,20 @@ COMMAND_NAMES = {
     "ship": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sonar": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "atmosphere": (NO_COMMAND_NAME, *("INIT", "HALT")),
+}
+# Each command's parameters, in order: an operator gives every one of them (`ctl send`,
+# `--send`, a scenario), each checked against its slot's type (rcs/command.py). A command
+# not listed takes none.
+PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
+    "sm": {
+        "SUBMERGED_TRANSIT": ("x", "y"),
+    },
+    "helm": {
+        "ICE_MANEUVER": ("x", "y"),
+    },
+    "rudder": {
+        "GOTO_ANGLE": ("angle",),
+    },
 }
 STATE_NAMES = {
     "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "VENT"),
@@ -605,6 +654,14 @@ SIMULATORS = ("rudder_sim", "ship", "sonar", "atmosphere")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {}
+# The run settings the hook-state factories read (`settings:`), each with what it chooses;
+# `--set`, a scenario's `settings:` and a harness may give only these.
+SETTINGS: dict[str, str] | None = {
+    "route": "The mission's waypoints: maps/<name>.route (default maps/bering.route).",
+    "keels": "The ice keels the sonar simulator sees: maps/<name>.keels (default maps/bering.keels).",
+}
+# Whether a controller has a `hooks_state` factory: without one no setting is read.
+READS_SETTINGS = True
 # What modules ask of the operator (`operators.requests`): open while the world field
 # `while` is true, answered by sending the command `answer`.
 REQUESTS: dict[str, dict[str, object]] = {}

@@ -20,6 +20,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -30,6 +31,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import within
 from .rcs.override import held
 
 # Commands ship accepts (the code written to its command buffer).
@@ -67,6 +69,12 @@ TURN = 0.0065
 ACCEL = 0.1
 DEPTH_RATE = 1.0
 CYCLE_PERIOD = 1.0  # seconds per cycle of its process
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "advance": 5.0,
+}
 
 
 class ShipController:
@@ -426,19 +434,27 @@ class ShipController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.advance(
+            returned = within(
+                HOOK_DEADLINES["advance"],
+                hooks.advance,
                 self.world_pos_x,
                 self.world_pos_y,
                 self.world_heading,
                 self.world_speed * CYCLE_PERIOD,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("ship", "advance", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 2
-            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (
+                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
         ):
             raise HookError("ship", "advance", "every_cycle/1", self.cycles, returned, "ff")
         self.world_pos_x, self.world_pos_y = returned

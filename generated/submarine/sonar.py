@@ -31,6 +31,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -41,6 +42,7 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 from .rcs.override import held
 
 # Commands sonar accepts (the code written to its command buffer).
@@ -83,6 +85,12 @@ WORLD_HELD_1 = (
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "ping": 5.0,
+}
 
 
 class SonarController:
@@ -140,8 +148,8 @@ class SonarController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_ice(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_ice, settings or {})
+        except BaseException as error:
             raise HookError("sonar", "new_ice", "hooks_state", 0) from error
         self.resume()
         # Until a whole read (another process writes some inputs): the block's values as they
@@ -604,29 +612,79 @@ class SonarController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.ping(
-                self.hook_state, self.world_pos_x, self.world_pos_y, self.world_heading
+            returned = within(
+                HOOK_DEADLINES["ping"],
+                hooks.ping,
+                self.hook_state,
+                self.world_pos_x,
+                self.world_pos_y,
+                self.world_heading,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("sonar", "ping", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 15
-            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
-            or (type(returned[3]) not in NUMBER and not is_real(returned[3]))
-            or (type(returned[4]) not in NUMBER and not is_real(returned[4]))
-            or (type(returned[5]) not in NUMBER and not is_real(returned[5]))
-            or (type(returned[6]) not in NUMBER and not is_real(returned[6]))
-            or (type(returned[7]) not in NUMBER and not is_real(returned[7]))
-            or (type(returned[8]) not in NUMBER and not is_real(returned[8]))
-            or (type(returned[9]) not in NUMBER and not is_real(returned[9]))
-            or (type(returned[10]) not in NUMBER and not is_real(returned[10]))
-            or (type(returned[11]) not in NUMBER and not is_real(returned[11]))
-            or (type(returned[12]) not in NUMBER and not is_real(returned[12]))
-            or (type(returned[13]) not in NUMBER and not is_real(returned[13]))
-            or (type(returned[14]) not in NUMBER and not is_real(returned[14]))
+            or (
+                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[3]) not in NUMBER and not is_real(returned[3]))
+                or not -FLOAT_MAX <= returned[3] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[4]) not in NUMBER and not is_real(returned[4]))
+                or not -FLOAT_MAX <= returned[4] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[5]) not in NUMBER and not is_real(returned[5]))
+                or not -FLOAT_MAX <= returned[5] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[6]) not in NUMBER and not is_real(returned[6]))
+                or not -FLOAT_MAX <= returned[6] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[7]) not in NUMBER and not is_real(returned[7]))
+                or not -FLOAT_MAX <= returned[7] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[8]) not in NUMBER and not is_real(returned[8]))
+                or not -FLOAT_MAX <= returned[8] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[9]) not in NUMBER and not is_real(returned[9]))
+                or not -FLOAT_MAX <= returned[9] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[10]) not in NUMBER and not is_real(returned[10]))
+                or not -FLOAT_MAX <= returned[10] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[11]) not in NUMBER and not is_real(returned[11]))
+                or not -FLOAT_MAX <= returned[11] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[12]) not in NUMBER and not is_real(returned[12]))
+                or not -FLOAT_MAX <= returned[12] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[13]) not in NUMBER and not is_real(returned[13]))
+                or not -FLOAT_MAX <= returned[13] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[14]) not in NUMBER and not is_real(returned[14]))
+                or not -FLOAT_MAX <= returned[14] <= FLOAT_MAX
+            )
         ):
             raise HookError(
                 "sonar", "ping", "every_cycle/1", self.cycles, returned, "fffffffffffffff"

@@ -205,6 +205,7 @@ class IRWorldField:
     # an actuator's safe value (an enum's value name, a string's text): `safe:`, or the
     # type's zero (false, 0, 0.0, the first value, ""); None for a field that is no actuator
     safe: bool | int | float | str | None = None
+    ground_truth: bool = False  # the simulation's truth, which no sensor gives (E280)
 
 
 @dataclass(frozen=True)
@@ -477,6 +478,9 @@ class IRController:
     # the enumeration values its expressions name: (value name, index), a module constant each
     enum_values: tuple[tuple[str, int], ...] = ()
     plans: tuple[IRPlan, ...] = ()  # its plans, in declaration order
+    # Each hook and planner its tables call: the seconds one call may run before it is
+    # interrupted (its `deadline:`, else the default), by name.
+    hook_deadlines: tuple[tuple[str, float], ...] = ()
     kind: ModuleKind = ModuleKind.CONTROLLER  # OPERATOR: a person at a screen, no table
     clients: tuple[str, ...] = ()  # an operator module's: whom it serves, one channel each
     io: ModuleIO | None = None  # its reads and writes of the block (set once it is laid out)
@@ -545,6 +549,9 @@ class IRSystem:
     # several do): who latches it safe when it stops (rcs/override.py)
     actuated_by: dict[str, str] = field(default_factory=dict)
     name_span: Span = field(default_factory=lambda: Span("?"))  # where `system:` names it
+    # The run settings its hook-state factories read (name, doc); None: not declared (any
+    # setting is taken when a controller has a factory, none otherwise)
+    settings: tuple[tuple[str, str], ...] | None = None
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

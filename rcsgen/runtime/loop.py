@@ -32,6 +32,7 @@ from .contract import (
     STARTING,
     STOPPED,
     field_names,
+    shared,
     struct_format,
 )
 from .override import latch_safe
@@ -41,10 +42,12 @@ _BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))  # seq, p
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
 
 
+@shared
 class RestartRefused(Exception):
     """A process cannot be restarted: a module of it keeps hook state a restart would lose."""
 
 
+@shared
 class DuplicateProcess(Exception):
     """A second copy of a process: its control record names a live owner."""
 
@@ -60,6 +63,7 @@ class Module(Protocol):
 ModuleClass = Callable[[memoryview, "dict[str, str] | None"], Module]
 
 
+@shared
 @dataclass(frozen=True)
 class ProcessPlan:
     """One process of a system as the spec declares it."""

@@ -36,12 +36,14 @@ from .contract import (
     is_integer,
     is_real,
     next_odd,
+    shared,
     text_problem,
 )
 
 LOCK_WAIT = 0.2  # seconds a writer waits for the lock before it writes anyway (a frozen holder)
 
 
+@shared
 class OverrideError(ValueError):
     """An override that cannot be made: an unknown field, a value it cannot hold, a force on
     a latched field, an unforce of a field that is not forced."""

@@ -2,7 +2,8 @@
 
 A hook that raises or returns values that do not fit its `returns:` makes the generated code
 raise `HookError` (`rcs.contract`), naming the module, the hook and the rule that called
-it; here it becomes one diagnostic at the spec's `call:` line with the cycle (E420, E421).
+it; here it becomes one diagnostic at the spec's `call:` line with the cycle (E420, E421;
+E423 for a hook interrupted at its deadline, or that returned past it).
 Anything else a module raises (an int overflowing its 64 bits, a division by a variable
 that was 0) is E422 at the module's spec. The Python traceback is kept for `-v`.
 After the run: an expectation not met (E416), a difference from a golden trace (E417), a
@@ -21,6 +22,7 @@ from ..compiler.back_end.write import Plan
 from ..compiler.diagnostics import Diagnostic, Span, SpecError
 from ..compiler.frontend import display_path
 from ..compiler.ir import IRCall, IRController, IRLoadPlan, IRSystem
+from ..runtime.contract import HookError, HookOverrun
 from .scenario import RunResult, Scenario, final_value, first_difference, read_trace
 
 
@@ -113,13 +115,21 @@ def run_error(
     """One diagnostic for an exception raised while cycle `cycle` ran (0: at start-up)."""
     where = fallback or Span("<run>")
     when = f"cycle {cycle}" if cycle else "start-up"
-    if type(error).__name__ == "HookError":  # the generated package's own contract class
-        module, hook, rule = error.module, error.hook, error.rule  # type: ignore[attr-defined]
+    if isinstance(error, HookError):  # one class in rcsgen and every package (contract.shared)
+        module, hook, rule = error.module, error.hook, error.rule
         controller = _controller(system, module)
         span = _call_span(controller, rule, hook) or _spec_span(controller, where)
-        problem = error.problem()  # type: ignore[attr-defined]
+        problem = error.problem()
         called = "made by `hooks_state`" if rule == "hooks_state" else f"rule {rule}"
-        if error.raised:  # type: ignore[attr-defined]
+        if isinstance(error.__cause__, HookOverrun):
+            return Diagnostic(
+                span,
+                "E423",
+                f"{problem} ({called}, {when})",
+                "make the hook return sooner, or declare a longer `deadline:` for it "
+                "(docs/spec.md section 6)",
+            )
+        if error.raised:
             return Diagnostic(
                 span,
                 "E420",
@@ -133,8 +143,8 @@ def run_error(
         elif why:
             hint = "a planner returns a list of steps, each a tuple of the plan's step fields"
         return Diagnostic(span, "E421", f"{problem} ({called}, {when})", hint)
-    module = _generated_module(error, package)
-    controller = _controller(system, module) if module else None
+    failed_in = _generated_module(error, package)
+    controller = _controller(system, failed_in) if failed_in else None
     text = f"{type(error).__name__}: {error}" if str(error) else type(error).__name__
     failed_import = _hooks_import(error, controller, package)
     if controller is not None and controller.hooks_module and failed_import:
@@ -146,7 +156,7 @@ def run_error(
             "the module runs when the package starts: install what it imports, or fix the "
             "line named; run again with -v for the Python traceback",
         )
-    subject = f"module `{module}`" if module else "the run"
+    subject = f"module `{failed_in}`" if failed_in else "the run"
     return Diagnostic(
         _spec_span(controller, where),
         "E422",
@@ -157,7 +167,7 @@ def run_error(
 
 def details(error: BaseException) -> str:
     """The traceback `-v` shows: for a hook, the hook's own (where it raised)."""
-    cause = error.__cause__ if type(error).__name__ == "HookError" else error
+    cause = error.__cause__ if isinstance(error, HookError) else error
     if cause is None:
         return ""
     return "".join(traceback.format_exception(type(cause), cause, cause.__traceback__))
@@ -246,7 +256,9 @@ def golden_differences(golden: Path, trace: list[str], name: str) -> list[Diagno
     ]
 
 
-def stale_package(plan: Plan, generated: Path, system: str) -> Diagnostic | None:
+def stale_package(
+    plan: Plan, generated: Path, system: str, instead: str = "drop --generated to build in memory"
+) -> Diagnostic | None:
     """E418 naming the files of `generated/<system>` that differ from what the specs make."""
     root = generated / system
     changed = sorted(
@@ -262,5 +274,5 @@ def stale_package(plan: Plan, generated: Path, system: str) -> Diagnostic | None
         "E418",
         f"`{display_path(root)}` is stale: {shown} "
         f"{'differs' if len(changed) == 1 else 'differ'} from what the specs make",
-        f"run `rcsgen build -o {display_path(generated)}`, or drop --generated to build in memory",
+        f"run `rcsgen build -o {display_path(generated)}`, or {instead}",
     )

@@ -20,6 +20,7 @@ from typing import Any
 from ..compiler.diagnostics import SpecError
 from ..compiler.front_end.loader import decode, read_bytes
 from ..compiler.frontend import display_path
+from ..runtime import override
 from ..runtime.ctl import channel_requests, write_answer
 from .harness import AnyHarness, Harness, LaunchedHarness, Status
 from .scenario_check import check_scenario
@@ -119,6 +120,14 @@ class RunResult:
     statuses: dict[str, Status] = field(default_factory=dict)  # every module's, at the end
 
 
+def interrupted_line(cycle: int, signal_name: str) -> str:
+    """The last line of a trace whose run was interrupted: the signal, and the cycle that
+    did not finish (the lines above are the cycles before it)."""
+    return json.dumps(
+        {"cycle": cycle, "interrupted": signal_name}, sort_keys=True, separators=(",", ":")
+    )
+
+
 def final_value(name: str, world: dict[str, Any], statuses: dict[str, Status]) -> Any:
     """What a figure names at the end of a run: a world field, `<module>.reason` (its name)
     or `<module>.result.<name>`; None when the run has no such value."""
@@ -160,6 +169,11 @@ def trace_line(harness: AnyHarness, world: list[str]) -> str:
 
 
 def _apply(harness: AnyHarness, event: Event) -> None:
+    segment = harness.launcher.segment if isinstance(harness, LaunchedHarness) else None
+    for name in event.unforce:  # as `ctl unforce`: the field's module writes it again
+        override.unforce(harness.layout, harness.buf, name, segment)
+    for name, value in event.force.items():  # as `ctl force`: its module keeps this value
+        override.force(harness.layout, harness.buf, name, value, segment)
     harness.world.update(event.world)
     for module, mode in event.mode.items():
         harness.set_mode(module, **mode)
@@ -187,12 +201,15 @@ def run(
     scenario: Scenario,
     harness: AnyHarness,
     on_cycle: Callable[[AnyHarness], None] | None = None,
+    trace: list[str] | None = None,
 ) -> RunResult:
-    """Run a scenario to its stop condition (or `max_cycles`) and collect its trace."""
+    """Run a scenario to its stop condition (or `max_cycles`) and collect its trace, a line
+    per cycle appended to `trace` as the run goes (so an interrupted run keeps what it
+    ran)."""
     pending = list(scenario.events)
     person = ScriptedPerson(scenario.operator) if scenario.operator is not None else None
     stop = scenario.stop_when_done
-    trace: list[str] = []
+    trace = [] if trace is None else trace
     phases: Counter[str] = Counter()
     while harness.cycles < scenario.max_cycles:
         while pending and pending[0].cycle <= harness.cycles + 1:

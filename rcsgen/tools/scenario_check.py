@@ -25,7 +25,8 @@ from ..compiler.front_end.model import exact_cycles
 from ..compiler.front_end.schema import check_document
 from ..compiler.frontend import SYSTEM_FILE, compile_paths, display_path
 from ..compiler.ir import IRController, IRProcess, IRSystem
-from ..compiler.types import BOOL, FLOAT, INT, Bool, Enum, ReasonOf, Str, Type
+from ..compiler.types import BOOL, INT, Bool, Enum, ReasonOf, Str, Type
+from ..runtime.command import value_problem
 from .scenario_model import (
     Event,
     Expected,
@@ -198,33 +199,33 @@ class _Checker:
         return False
 
     def value(self, value: Any, kind: Type, span: Span, what: str) -> bool:
-        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit; an
-        enumeration: one of its value names; a string: one that fits its size)."""
-        problem, hint = "", ""
-        if isinstance(kind, Enum) and value not in kind.values:
-            names = kind.values
+        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit; a
+        float: a finite number; an enumeration: one of its value names; a string: one that
+        fits its size): the one contract a command's values meet (rcs/command.py), said
+        as a scenario's author reads it."""
+        names = kind.values if isinstance(kind, Enum) else ()
+        if not value_problem(value, kind.code, names):
+            return True
+        hint = ""
+        if names:
             problem = f"{what} is an enum: give one of {', '.join(names)}, not `{_shown(value)}`"
             hint = known_names_hint("values", names, str(value))
-        elif isinstance(kind, Enum):
-            pass
         elif isinstance(kind, Str):
-            problem = text_problem_of(value, kind)
-            problem = (
-                f"{what} is a string of at most {kind.size} bytes: {problem}" if problem else ""
-            )
-        elif kind == BOOL and not isinstance(value, bool):
+            said = value_problem(value, kind.code)  # bytes that are not UTF-8 too
+            said = said if "not text" in said else text_problem_of(value, kind)
+            problem = f"{what} is a string of at most {kind.size} bytes: {said}"
+        elif kind == BOOL:
             problem = f"{what} is a bool: give true or false, not `{_shown(value)}`"
-        elif kind == INT and (isinstance(value, bool) or not isinstance(value, int)):
-            problem = f"{what} is an int: give a whole number, not `{_shown(value)}`"
-        elif kind == FLOAT and (isinstance(value, bool) or not isinstance(value, int | float)):
-            problem = f"{what} is a float: give a number, not `{_shown(value)}`"
         elif kind == INT and int_range_problem(value):
             problem = f"{what}: {int_range_problem(value)}"
-        if problem:
-            if isinstance(value, str) and value.lower() in ("yes", "no", "on", "off"):
-                hint = f"`{value}` is a string in YAML 1.2; write true or false"
-            self.error(span, "E408", problem, hint)
-        return not problem
+        elif kind == INT:
+            problem = f"{what} is an int: give a whole number, not `{_shown(value)}`"
+        else:
+            problem = f"{what} is a float: give a finite number, not `{_shown(value)}`"
+        if isinstance(value, str) and value.lower() in ("yes", "no", "on", "off"):
+            hint = f"`{value}` is a string in YAML 1.2; write true or false"
+        self.error(span, "E408", problem, hint)
+        return False
 
     # ------------------------------------------------------------ the file
 
@@ -254,6 +255,7 @@ class _Checker:
             str(k): (str(v).lower() if isinstance(v, bool) else str(v))
             for k, v in (data.get("settings") or {}).items()
         }
+        self.settings(data.get("settings") or {})
         return Scenario(
             name=str(data["scenario"]),
             title=str(data.get("title", "")),
@@ -271,6 +273,31 @@ class _Checker:
             expect=expected,
             operator=script,
         )
+
+    def settings(self, given: Any) -> None:
+        """E424 for a setting the system does not take (`settings:` in system.yaml), the one
+        check `--set` makes (rcs/startup.py)."""
+        declared = self.system.settings
+        factories = any(c.hooks_state for c in self.system.controllers)
+        for key in given:
+            span = key_span(given, key, self.span(self.data, "settings"))
+            if declared is not None and key not in dict(declared):
+                names = [name for name, _ in declared]
+                self.error(
+                    span,
+                    "E424",
+                    f"`{self.system.name}` has no setting `{key}`",
+                    known_names_hint("settings", names, str(key))
+                    or f"its settings: {', '.join(names) or 'none'} (system.yaml `settings:`)",
+                )
+            elif declared is None and not factories:
+                self.error(
+                    span,
+                    "E424",
+                    f"`{self.system.name}` reads no setting `{key}`: none of its controllers "
+                    "has a `hooks_state` factory",
+                    "remove `settings:`",
+                )
 
     def process(self) -> _Run | None:
         """The process the scenario runs and the stand-ins it uses (E410, E411)."""
@@ -362,6 +389,7 @@ class _Checker:
 
     def events(self, run: _Run | None, max_cycles: int) -> list[Event]:
         events = []
+        forced: set[str] = set()  # the fields forced by the events so far
         raw_events = self.data.get("events") or []
         last = 0
         for index, raw in enumerate(raw_events):
@@ -396,12 +424,55 @@ class _Checker:
                 if kind is not None:
                     self.value(value, kind, self.span(world, name), f"world field `{name}`")
                 event.world[name] = value
+            self.forcing(raw, event, where, forced)
             modes = raw.get("mode") or {}
             for module, mode in modes.items():
                 self.module(module, key_span(modes, module, where), run, "mode of module")
                 event.mode[module] = dict(mode)
             events.append(event)
         return sorted(events, key=lambda e: e.cycle)
+
+    def forcing(self, raw: LocDict, event: Event, where: Span, forced: set[str]) -> None:
+        """An event's `unforce:` then `force:` (as `ctl unforce`/`ctl force`): each field
+        known (E409), a forced value of its type (E408), ground truth forced only where
+        simulators write it, and a release only of what an earlier event forced (E425)."""
+        for index, name in enumerate(raw.get("unforce") or []):
+            span = self.span(raw["unforce"], index)
+            if self.field(name, span, "field") is None:
+                continue
+            if name not in forced:
+                self.error(
+                    span,
+                    "E425",
+                    f"`{name}` is not forced here: no earlier event forces it",
+                    "force it with an earlier event's `force:`, or remove the `unforce:`",
+                )
+            forced.discard(name)
+            event.unforce.append(name)
+        values = raw.get("force") or {}
+        for name, value in values.items():
+            span = key_span(values, name, where)
+            kind = self.field(name, span, "field")
+            if kind is None:
+                continue
+            self.value(value, kind, self.span(values, name), f"forced world field `{name}`")
+            writers = [
+                c for c in self.system.controllers if name in {w.name for w in c.world_writes}
+            ]
+            real = [c.name for c in writers if not c.simulator]
+            if self.ground_truth(name) and real:
+                self.error(
+                    span,
+                    "E425",
+                    f"`{name}` is ground truth, the world itself: no operator can force it where "
+                    f"{', '.join(real)} write{'s' if len(real) == 1 else ''} it for real",
+                    "force what a sensor reports (a field its simulator writes), not the truth",
+                )
+            forced.add(name)
+            event.force[name] = value
+
+    def ground_truth(self, name: str) -> bool:
+        return any(f.name == name and f.ground_truth for f in self.system.world)
 
     def command(self, raw: LocDict, event: Event, run: _Run | None, where: Span) -> None:
         """A command event: module, command, every parameter of its type, supervisor."""

@@ -26,6 +26,8 @@ class Event:
     doc: str = ""
     overrides: str | None = None  # the supervisor it is written under (`overrides: true`)
     answer: tuple[str, str, str] | None = None  # (channel, DONE|ERROR, reason): `ctl answer`
+    force: dict[str, Any] = field(default_factory=dict)  # world fields forced: `ctl force`
+    unforce: list[str] = field(default_factory=list)  # world fields released: `ctl unforce`
 
 
 @dataclass(frozen=True)

@@ -26,9 +26,10 @@ import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
-from typing import Any, Self
+from typing import Any, NoReturn, Self
 
 from .block import Block, BlockError
+from .command import Command, parse_command, parse_value, suggest, write_command
 from .contract import (
     DEAD,
     PROCESS_STATES,
@@ -37,8 +38,8 @@ from .contract import (
     StaleRead,
     enum_code,
     enum_name,
+    shared,
 )
-from .ctl import field_code, parse_command, suggest, typed
 from .loop import (
     _BEAT,
     DONE_REPLY,
@@ -55,6 +56,14 @@ from .loop import (
     start,
 )
 from .override import latch_safe
+from .startup import (
+    FAILURES,
+    START_FAILED,
+    ending,
+    parse_settings,
+    report_failure,
+    segment_problem,
+)
 from .transport import TransportError, check_endpoint
 
 STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
@@ -101,7 +110,7 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     """`python -m <system> PROCESS ...`: one process, as the launcher's child or by hand."""
     plan = system.plans[args.process]
     stop = Stop()
-    settings = dict(item.partition("=")[::2] for item in args.set)
+    settings = parse_settings(system.layout, args.set)  # checked already by `main`
     if args.child:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # the launcher decides when to stop
     signal.signal(signal.SIGTERM, stop)
@@ -113,10 +122,15 @@ def run_process(system: System, args: argparse.Namespace) -> int:
         except (BlockError, RestartRefused, DuplicateProcess) as error:
             print(f"{args.process}: {error}", file=sys.stderr)
             return 1
+        except Exception as error:  # noqa: BLE001 - a hook-state factory: one line, and why
+            return report_failure(args.process, error, system.package)
         try:
             serve(process, sys.stdin.fileno(), sys.stdout.fileno())
         except OSError:  # the coordinator's end of the pipe is gone (BrokenPipeError)
             pass
+        except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
+            process.block.close()
+            return report_failure(args.process, error, system.package)
         except BaseException:
             process.block.close()
             raise
@@ -144,6 +158,8 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     except (BlockError, RestartRefused, DuplicateProcess) as error:
         print(f"{args.process}: {error}", file=sys.stderr)
         return REFUSED if isinstance(error, RestartRefused) else 1
+    except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
+        return report_failure(args.process, error, system.package)
     report(system, args, process)
     if args.child and stop.orphaned:
         process.block.owner = True  # the launcher is gone: the last one out removes it
@@ -285,6 +301,7 @@ class Launcher:
         self.block: Block | None = None
         self.children: dict[str, Child] = {}
         self.events: list[str] = []  # what happened, for the summary
+        self.failed: list[str] = []  # processes that ended because a hook or module failed
         self.final: list[str] = []  # the summary, taken when the processes have stopped
         self.startup_timeout = STARTUP_TIMEOUT
         self.lost: set[str] = set()  # processes silent past the heartbeat timeout (frozen)
@@ -337,7 +354,11 @@ class Launcher:
                 return
             if ended.keys() & set(missing) or time.monotonic() > deadline:
                 why = [
-                    f"{n} (exited {ended[n]})" if n in ended else f"{n} (no cycle yet)"
+                    f"{n} ({FAILURES[ended[n] or 0]}, exit {ended[n]})"
+                    if n in ended and ended[n] in FAILURES
+                    else f"{n} (exited {ended[n]})"
+                    if n in ended
+                    else f"{n} (no cycle yet)"
                     for n in missing
                 ]
                 raise StartupFailed(
@@ -398,9 +419,12 @@ class Launcher:
                     name,
                     f"{name} refused to restart: see its error above"
                     if refused
-                    else f"{name} died (exit {code})",
+                    else ending(name, code),
                 )
                 self.lost.discard(name)
+                if code in FAILURES:  # a hook or a module failed: it would fail again
+                    self.failed.append(name)
+                    refused = True
                 if self.restart and not self.lockstep and not refused:
                     _close(child.popen)
                     child.popen = self._spawn(name, attach=True)
@@ -453,11 +477,16 @@ class Launcher:
         print(f"{self.system.layout.SYSTEM}: {what}", file=sys.stderr, flush=True)
 
     def wait(self, stop: Stop, interval: float = 0.05) -> None:
-        """Watch the children until they have all ended or `stop` is requested."""
-        while self.children and not stop.requested:
+        """Watch the children until they have all ended or `stop` is requested (or one could
+        not start: the system cannot run without it)."""
+        while self.children and not stop.requested and not self.start_failed():
             self.poll()
             self.exchange()
             time.sleep(interval)
+
+    def start_failed(self) -> bool:
+        """A process ended because one of its modules could not be made (startup.py)."""
+        return any(e.endswith(f"(exit {START_FAILED}; its error is above)") for e in self.events)
 
     def exchange(self) -> None:
         """With Zenoh: mirror what the processes sent, send what was written here (an
@@ -535,7 +564,7 @@ class Coordinator:
                 except (BrokenPipeError, OSError):
                     reply = b""
                 if reply != DONE_REPLY:
-                    raise ProcessLost(f"process {name} stopped answering (it died?)")
+                    raise ProcessLost(stopped_answering(child))
             self.cycle += 1
 
 
@@ -595,10 +624,24 @@ def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[
     )
 
 
+def stopped_answering(child: Child) -> str:
+    """Why a lockstep process gave no answer: the failure its exit code says (a hook, a
+    module: its own line is above), else that it died."""
+    try:
+        code = child.popen.wait(timeout=2.0)
+    except subprocess.TimeoutExpired:
+        code = None
+    if code in FAILURES:
+        return ending(f"process {child.name}", code)
+    return f"process {child.name} stopped answering (it died?)"
+
+
+@shared
 class ProcessLost(Exception):
     """A process of a lockstep run is gone."""
 
 
+@shared
 class StartupFailed(Exception):
     """Some process did not start running within the start-up timeout."""
 
@@ -690,7 +733,7 @@ def main(package: str, argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
-    parser = argparse.ArgumentParser(
+    parser = _OneLineParser(
         prog=f"python -m {package}",
         description=f"Run the {system.layout.SYSTEM} system: every process (the default), "
         "or one PROCESS.",
@@ -722,7 +765,7 @@ def main(package: str, argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--transport",
         choices=("shm", "zenoh"),
-        default="shm",
+        default=None,
         help="how processes exchange buffers: one shared-memory segment (one host), or "
         "Zenoh (each process its own block; hosts anywhere) [default: shm]",
     )
@@ -779,6 +822,12 @@ def main(package: str, argv: list[str] | None = None) -> int:
         help="start with this world field's value instead of its initial one (repeatable)",
     )
     args = parser.parse_args(argv)
+    if args.shm is not None and segment_problem(args.shm):
+        parser.error(segment_problem(args.shm))
+    try:
+        parse_settings(system.layout, args.set)
+    except ValueError as error:
+        parser.error(str(error))
     host = None
     if args.deploy is not None:
         host = deployed(system, args, parser)
@@ -812,6 +861,7 @@ def main(package: str, argv: list[str] | None = None) -> int:
         parser.error(str(error))
     if args.world and (args.process is not None or args.attach):
         parser.error("--world goes with a launch of every process, which makes the segment")
+    args.transport = args.transport or "shm"
     if args.transport == "shm" and (args.listen or args.connect):
         parser.error("--listen and --connect go with --transport zenoh")
     for endpoint in (*args.listen, *args.connect):
@@ -826,6 +876,13 @@ def main(package: str, argv: list[str] | None = None) -> int:
     return launch(system, args, host)
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse, but a usage mistake is one line on stderr, exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
 def deployed(system: System, args: argparse.Namespace, parser: argparse.ArgumentParser) -> Any:
     """`--deploy FILE [HOST]`: the host's entry of the checked file, its endpoints and
     transport put in `args` (its one process in `args.process`); None after a located
@@ -834,7 +891,7 @@ def deployed(system: System, args: argparse.Namespace, parser: argparse.Argument
 
     from .deploy import DeployError, load
 
-    if args.listen or args.connect or args.transport != "shm":
+    if args.listen or args.connect or args.transport is not None:
         parser.error(
             "--deploy gives the transport and endpoints: no --transport, --listen, --connect"
         )
@@ -860,36 +917,27 @@ def parse_world(layout: ModuleType, items: Sequence[str]) -> dict[str, object]:
             raise ValueError(f"--world: {item!r} is not FIELD=VALUE")
         if name not in layout.WORLD:
             raise ValueError("--world: " + suggest(name, list(layout.WORLD), "world field"))
-        record = layout.WORLD[name]
+        code = layout.WORLD[name].codes()[name]
         try:
             names = getattr(layout, "ENUMS", {}).get(("", name), ())
-            values[name] = typed(raw, field_code(record, name), name, names)
+            values[name] = parse_value(raw, code, names)
         except ValueError as error:
-            raise ValueError(f"--world: {error}") from None
+            raise ValueError(f"--world: {name} {error}") from None
     return values
 
 
-@dataclass(frozen=True)
-class Send:
-    """A command an operator gives a module: `sec.BOX_CUT:depth=1.5`."""
-
-    module: str
-    command: str
-    args: dict[str, object]
-
-
-def parse_send(layout: ModuleType, text: str) -> Send:
-    """Parse and check `MODULE.COMMAND[:NAME=VALUE,...]` against the layout."""
+def parse_send(layout: ModuleType, text: str) -> Command:
+    """Parse and check `MODULE.COMMAND[:NAME=VALUE,...]` against the layout (the one command
+    contract, rcs/command.py)."""
     head, _, rest = text.partition(":")
     module, _, command = head.partition(".")
     try:
-        found = parse_command(layout, module, command, [i for i in rest.split(",") if i])
+        return parse_command(layout, module, command, [i for i in rest.split(",") if i])
     except ValueError as error:
         raise ValueError(f"--send: {error}") from None
-    return Send(found.module, found.command, found.args)
 
 
-def give(send: Send, layout: ModuleType, buf: memoryview) -> int | None:
+def give(send: Command, layout: ModuleType, buf: memoryview) -> int | None:
     """Write `send` once its module has finished its last command; its number, or None."""
     status = _read(layout.STATUS_OUT[send.module], buf)
     record = layout.COMMAND_IN[send.module]
@@ -898,14 +946,10 @@ def give(send: Send, layout: ModuleType, buf: memoryview) -> int | None:
         return None
     if status["status"] not in (2, 3):  # DONE, ERROR
         return None
-    number: int = int(current["command_num"]) + 1  # type: ignore[call-overload]
-    code = layout.COMMAND_NAMES[send.module].index(send.command)
-    args = {f"arg_{k}": enum_code(layout, send.module, f"arg_{k}", v) for k, v in send.args.items()}
-    record.write(buf, command_num=number, command=code, **args)
-    return number
+    return write_command(layout, buf, send)
 
 
-def finished(send: Send, number: int, layout: ModuleType, buf: memoryview) -> str | None:
+def finished(send: Command, number: int, layout: ModuleType, buf: memoryview) -> str | None:
     """DONE or ERROR once the module reported on command `number`; else None."""
     status = _read(layout.STATUS_OUT[send.module], buf)
     if status and status["status_num"] == number and status["status"] in (2, 3):
@@ -968,17 +1012,23 @@ def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
         launcher.stop()
     for line in launcher.final:
         print(line)
+    if launcher.failed:  # a process stopped because a hook or a module failed
+        print(
+            f"{system.layout.SYSTEM}: {', '.join(launcher.failed)} stopped on a failure",
+            file=sys.stderr,
+        )
+        return code or 1
     return code
 
 
-def operate(launcher: Launcher, send: Send, until_done: bool, stop: Stop) -> int:
+def operate(launcher: Launcher, send: Command, until_done: bool, stop: Stop) -> int:
     """Give `send` once its module is ready, watch the processes, and with `until_done`
     stop when it reports: 0 for DONE, 1 for ERROR (or when every process ended first)."""
     layout = launcher.system.layout
     assert launcher.block is not None
     buf = launcher.block.buf
     number = None
-    while launcher.children and not stop.requested:
+    while launcher.children and not stop.requested and not launcher.start_failed():
         launcher.poll()
         launcher.exchange()
         if number is None:

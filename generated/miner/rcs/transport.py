@@ -24,7 +24,7 @@ from types import ModuleType
 from typing import Protocol
 
 from .block import Block
-from .contract import DEAD, PROCESS, SEQ, Record, next_odd
+from .contract import DEAD, PROCESS, SEQ, Record, next_odd, shared
 
 # Before a record's bytes: the sender's incarnation (random per start).
 EPOCH = Struct("<Q")
@@ -39,6 +39,7 @@ STEP_KEY = "_step"  # lockstep requests to a process: rcs/<system>/<hash-8>/_ste
 PUSH_KEY = "_push"  # a node's pushes: rcs/<system>/<hash-8>/_push/<node>
 
 
+@shared
 class TransportError(Exception):
     """A transport that cannot start: zenoh missing, an endpoint that cannot be used."""
 

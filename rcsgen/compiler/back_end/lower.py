@@ -55,6 +55,7 @@ from ..front_end.model import (
     PlanVerb,
     Typed,
     duration_in_cycles,
+    duration_seconds,
 )
 from ..types import BOOL, FLOAT, INT, Bool, Enum, Float, Int, Str, Type
 from . import module_io
@@ -114,6 +115,7 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
             for f in world
             if f.actuator and placement.world_writers.get(f.name)
         },
+        settings=tuple(spec.settings.items()) if spec.settings is not None else None,
     )
 
 
@@ -187,6 +189,7 @@ class _ControllerLowering:
             plans=tuple(_plan(p) for p in spec.plans.values()),
             kind=spec.kind,
             clients=c.clients,
+            hook_deadlines=self.hook_deadlines(rules),
         )
 
     def every_cycle_counters(self) -> tuple[ir.IRCounter, ...]:
@@ -211,6 +214,26 @@ class _ControllerLowering:
             for a in r.actions
         )
         return _value(spec.hooks_module) if uses_hooks else None
+
+    def hook_deadlines(self, rules: Iterable[CheckedRule]) -> tuple[tuple[str, float], ...]:
+        """The deadline of each hook and planner the tables call, by name (docs/spec.md
+        section 6): its `deadline:` in seconds, else DEFAULT_DEADLINE_PERIODS cycle periods
+        of the controller's process, and at least MIN_DEFAULT_DEADLINE."""
+        default = max(DEFAULT_DEADLINE_PERIODS * self.period, MIN_DEFAULT_DEADLINE)
+        found: dict[str, float] = {}
+        for rule in rules:
+            for action in rule.actions:
+                if isinstance(action, CallHook):
+                    found[action.hook.name] = self.seconds(action.hook.deadline, default)
+                elif isinstance(action, PlanAction) and action.kind is not PlanVerb.ADVANCE:
+                    plan = action.plan
+                    found[plan.planner.value] = self.seconds(plan.deadline, default)
+        return tuple(sorted(found.items()))
+
+    def seconds(self, declared: Located | None, default: float) -> float:
+        if declared is None:
+            return round(default, 6)
+        return round(duration_seconds(declared.value, self.period), 6)
 
     def constants(self) -> tuple[tuple[str, str], ...]:
         """The spec's constants, then CYCLE_PERIOD if an expression reads it (its period)."""
@@ -427,6 +450,13 @@ class _ControllerLowering:
         return ir.IRExpr(tree, text, expr.to_python(tree, naming.attribute))
 
 
+# A hook's or planner's deadline when it declares none: this many cycle periods of its
+# controller's process, and never less than MIN_DEFAULT_DEADLINE seconds (docs/decisions.md:
+# the deadline stops an endless hook; keeping time is the watchdog's).
+DEFAULT_DEADLINE_PERIODS = 5
+MIN_DEFAULT_DEADLINE = 1.0
+
+
 def _value_mismatch(value: str, kind: Type) -> str:
     """A condition true when `value` cannot go into a target of this type (see contract)."""
     match kind:
@@ -434,8 +464,11 @@ def _value_mismatch(value: str, kind: Type) -> str:
             return f"type({value}) is not int or not 0 <= {value} < {len(values)}"
         case Str(size=size):  # a string that fits, never truncated
             return f"text_problem({value}, {size})"
-        case Float():
-            return f"type({value}) not in NUMBER and not is_real({value})"
+        case Float():  # a finite number: NaN and the infinities fail the range
+            return (
+                f"(type({value}) not in NUMBER and not is_real({value})) "
+                f"or not -FLOAT_MAX <= {value} <= FLOAT_MAX"
+            )
         case Int():
             return (
                 f"(type({value}) is not int and not is_integer({value})) "
@@ -483,7 +516,7 @@ def _runtime_names(
             elif isinstance(action, CallHook):
                 used.add("HookError")
                 kinds = {t.type for t in action.targets}
-                used |= {"NUMBER", "is_real"} if FLOAT in kinds else set()
+                used |= {"NUMBER", "FLOAT_MAX", "is_real"} if FLOAT in kinds else set()
                 used |= {"INT_MIN", "INT_MAX", "is_integer"} if INT in kinds else set()
                 used |= {"text_problem"} if any(isinstance(k, Str) for k in kinds) else set()
     for tree in trees:
@@ -566,7 +599,7 @@ def _world_field(f: Typed) -> ir.IRWorldField:
     safe = None
     if f.actuator:
         safe = f.safe if f.safe is not None else zero_value(f.type)
-    return ir.IRWorldField(f.name, f.type, f.initial, f.doc, f.actuator, safe)
+    return ir.IRWorldField(f.name, f.type, f.initial, f.doc, f.actuator, safe, f.ground_truth)
 
 
 def zero_value(kind: Type) -> bool | int | float | str:

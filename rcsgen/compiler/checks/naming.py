@@ -70,6 +70,8 @@ FIXED_MODULES = frozenset({"layout", "rcs", "__init__", "__main__", "hooks"})
 RUNTIME_NAMES = frozenset(
     {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "NO_RULE", "STATUS", "MODE", "PERF"}
     | {"INPUTS", "INPUTS_AT", "SEQS", "SEQS_AT", "SEQ", "READ_TRIES", "Struct"}
+    # the hook calls: their deadlines and the checks of their results
+    | {"HOOK_DEADLINES", "FACTORY_DEADLINE", "NUMBER", "INT_MIN", "INT_MAX", "FLOAT_MAX"}
 )
 # Prefixes of the attributes generated from spec names (world fields, params, locals).
 ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_")
@@ -156,6 +158,11 @@ LAYOUT_NAMES = frozenset(
         "PACE_FIELDS",
         "PACING",
         "STAND_INS",
+        "PARAMS",
+        "SETTINGS",
+        "READS_SETTINGS",
+        "WORLD_WRITERS",
+        "GROUND_TRUTH",
     }
 )
 # Suffixes of the attributes a controller keeps for each subordinate (`cc_status`, ...).

@@ -118,6 +118,8 @@ class SystemSpec:
     span: Span
     operators: Operators = field(default_factory=Operators)  # roles and requests
     name_span: Span = field(default_factory=lambda: Span("?"))  # where `system:` names it
+    # The run settings the hook-state factories read, name -> doc; None: not declared
+    settings: dict[str, str] | None = None
 
     @cached_property
     def world_types(self) -> dict[str, Type]:
@@ -135,6 +137,7 @@ class Hook:
     args: list[Located]
     returns: list[Located]
     span: Span
+    deadline: Located | None = None  # a duration: how long one call may run
 
 
 @dataclass
@@ -150,6 +153,7 @@ class Plan:
     capacity: int
     replans: int
     span: Span
+    deadline: Located | None = None  # a duration: how long one call of the planner may run
 
 
 @dataclass
@@ -354,6 +358,9 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
         span=top,
         operators=build_operators(data, top),
         name_span=value_span(data, "system", top),
+        settings={str(k): str((v or {}).get("doc", "")) for k, v in data["settings"].items()}
+        if isinstance(data.get("settings"), dict)
+        else None,
     )
 
 
@@ -540,8 +547,16 @@ def _optional(data: Any, key: str, top: Span) -> Located | None:
 
 
 def _hook(name: str, raw: Any, span: Span) -> Hook:
+    deadline = (
+        Located(raw["deadline"], value_span(raw, "deadline", span)) if "deadline" in raw else None
+    )
     return Hook(
-        name, raw.get("doc", ""), _items(raw, "args", span), _items(raw, "returns", span), span
+        name,
+        raw.get("doc", ""),
+        _items(raw, "args", span),
+        _items(raw, "returns", span),
+        span,
+        deadline,
     )
 
 
@@ -566,6 +581,7 @@ def _plan(name: str, raw: Any, span: Span) -> Plan:
         int(raw["capacity"]),
         int(raw.get("replans", 0)),
         span,
+        Located(raw["deadline"], value_span(raw, "deadline", span)) if "deadline" in raw else None,
     )
 
 
@@ -658,6 +674,16 @@ def duration_in_cycles(value: object, period: float) -> int:
             return int(float(number))
         seconds = float(number) / (1000 if unit == "ms" else 1)
     return max(1, math.ceil(seconds / period - 1e-9))
+
+
+def duration_seconds(value: object, period: float) -> float:
+    """A schema-valid duration in seconds (`20 cycles` of `period` seconds is 20 periods)."""
+    if isinstance(value, int | float):
+        return float(value)
+    number, unit = _DURATION.fullmatch(str(value).strip()).groups()  # type: ignore[union-attr]
+    if unit.startswith("cycle"):
+        return float(number) * period
+    return float(number) / (1000 if unit == "ms" else 1)
 
 
 def exact_cycles(value: object, period: float) -> tuple[int, bool]:
