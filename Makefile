@@ -87,13 +87,13 @@ MUTATE_CHILDREN ?= 1
 # is cached: a test that starts `python -m rcsgen` in mutants/ imports the trampolined package.
 MUTATE_ENV := EXPR_EXAMPLES=200 DIFF_EXAMPLES=5 PYTHONDONTWRITEBYTECODE=
 
-# The .pth file makes every Python of the venv import tests/mutation_site/rcsgen_mutation_site.py,
+# The .pth file makes every Python of the venv import tests/mutation_site/mutation_hooks.py,
 # which does nothing outside a mutation session.
 $(MUTATE_STAMP): pyproject.toml
 	$(PYTHON) -m venv $(MUTATE_VENV)
 	$(MUTATE_VENV)/bin/python -m pip install --quiet --upgrade pip
 	$(MUTATE_VENV)/bin/python -m pip install --quiet -e '.[dev,mutate]'
-	printf '%s\nimport rcsgen_mutation_site\n' '$(CURDIR)/tests/mutation_site' \
+	printf '%s\nimport mutation_hooks\n' '$(CURDIR)/tests/mutation_site' \
 		> "$$($(MUTATE_VENV)/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')/rcsgen_mutation.pth"
 	touch $(MUTATE_STAMP)
 

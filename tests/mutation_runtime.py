@@ -25,7 +25,7 @@ the copies stay plain Python, and each session gives them the runtime it tests:
   and each test is added to the tests of the functions it reached once its teardown is over
   (a system a fixture stops still counts for the test that started it).
 
-tests/mutation_site/rcsgen_mutation_site.py does the same in every Python process the tests
+tests/mutation_site/mutation_hooks.py does the same in every Python process the tests
 start: the mutate venv imports it at start-up, and the session's environment says which
 runtime the builds copy (`python -m rcsgen` started by a test builds what the test process
 builds) and, in the stats session, where the probes write.
@@ -124,11 +124,12 @@ def materialise(name: str, scratch: Path) -> Path:
     return runtime
 
 
-def sync_generated(runtime: Path) -> list[Path]:
-    """Make the runtime copies under the working copy's generated/ hold `runtime`'s files
-    (each under its own first line, the build's header); the files rewritten."""
+def sync_generated(runtime: Path, generated: Path) -> list[Path]:
+    """Make the runtime copies of the packages in `generated` hold `runtime`'s files (each
+    under its own first line, the build's header); the files rewritten."""
     written = []
-    for rcs in sorted((REPO / "generated").glob("*/rcs")):
+    for rcs in sorted(generated.glob("*/rcs")):
+        before = len(written)
         for source in sorted(runtime.glob("*.py")):
             copy = rcs / source.name
             if not copy.is_file():
@@ -141,7 +142,7 @@ def sync_generated(runtime: Path) -> list[Path]:
             if text != wanted:
                 copy.write_text(wanted, encoding="utf-8")
                 written.append(copy)
-        if written:  # a rewrite within the same second and size must not load old bytecode
+        if len(written) > before:  # a rewrite in the same second and size: no old bytecode
             shutil.rmtree(rcs / "__pycache__", ignore_errors=True)
     return written
 
@@ -156,11 +157,11 @@ def forget_generated_packages() -> None:
 
 
 def site() -> ModuleType:
-    """tests/mutation_site/rcsgen_mutation_site.py, which the mutate venv imports at start-up."""
-    module = sys.modules.get("rcsgen_mutation_site")
+    """tests/mutation_site/mutation_hooks.py, which the mutate venv imports at start-up."""
+    module = sys.modules.get("mutation_hooks")
     if module is None:
         raise pytest.UsageError(
-            "this venv does not import tests/mutation_site/rcsgen_mutation_site.py at start-up: "
+            "this venv does not import tests/mutation_site/mutation_hooks.py at start-up: "
             "run mutmut from the one `make mutate` installs (.venv-mutate)"
         )
     return module
@@ -204,7 +205,7 @@ class MutationSession:
         self.saved_spec = rcsgen.runtime.__spec__
         rcsgen.runtime.__spec__ = helper.runtime_spec(str(runtime))
         self._set_env(helper.RUNTIME_ENV, str(runtime))  # for `python -m rcsgen` in tests
-        sync_generated(runtime)
+        sync_generated(runtime, REPO / "generated")
         forget_generated_packages()
         self._set_env(helper.PROBE_ENV, None)
         if self.mutant == "stats":

@@ -42,14 +42,14 @@ SEPARATOR = "ǁ"  # mutmut's, between class and method in a mangled name
 
 _seen: set[str] = set()
 _pid = 0
-_out = None
 
 
 def hit(key: str) -> None:
-    """Record the first call of the function named `key` in this process."""
-    global _pid, _out
+    """Record the first call of the function named `key` in this process (a line appended
+    and the file closed again: a process may end at any moment, and leaves nothing open)."""
+    global _pid
     if os.getpid() != _pid:  # a forked child records its own calls
-        _pid, _out = os.getpid(), None
+        _pid = os.getpid()
         _seen.clear()
     if key in _seen:
         return
@@ -58,10 +58,8 @@ def hit(key: str) -> None:
     if not directory:
         return
     try:
-        if _out is None:
-            _out = open(os.path.join(directory, f"hits-{_pid}"), "a", encoding="utf-8")
-        _out.write(key + "\n")
-        _out.flush()
+        with open(os.path.join(directory, f"hits-{_pid}"), "a", encoding="utf-8") as out:
+            out.write(key + "\n")
     except OSError:
         pass  # the session is over: nobody reads the hits any more
 
@@ -191,5 +189,5 @@ def install() -> None:
         sys.meta_path.insert(0, RuntimeFinder(runtime))
 
 
-if __name__ == "rcsgen_mutation_site":  # imported by the venv's .pth file at start-up
+if __name__ == "mutation_hooks":  # imported by the venv's .pth file at start-up
     install()
