@@ -30,6 +30,11 @@ start: the mutate venv imports it at start-up, and the session's environment say
 runtime the builds copy (`python -m rcsgen` started by a test builds what the test process
 builds) and, in the stats session, where the probes write.
 
+A test that fails is run once more before its failure counts: the suite's multi-process tests
+wait on conditions with generous bounds, but a mutation campaign shares the machine for hours,
+and one starved run must neither stop mutmut's first sessions (which must pass whole) nor kill
+a mutant. A mutant that only sometimes makes a test fail may survive: the score errs low.
+
 The in-process `rcsgen.runtime` (what tests and the compiler import directly) is mutmut's
 trampolined copy, as for the compiler. A `python -m rcsgen` a test starts in the working copy
 runs the trampolined package too (elsewhere the mutate venv's editable install, unmutated).
@@ -187,7 +192,8 @@ class MutationSession:
         probe = "; probing the runtime copies for mutmut's stats" if self.probe else ""
         return (
             f"mutation testing (MUTANT_UNDER_TEST={self.mutant!r}): generated packages copy "
-            f"{what}{probe}; the architecture test accepts mutmut's trampoline imports"
+            f"{what}{probe}; the architecture test accepts mutmut's trampoline imports; "
+            f"a failing test runs {RETRIES} more time(s) before it counts"
         )
 
     def start(self) -> None:
@@ -277,6 +283,25 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
 
 def pytest_report_header(config: pytest.Config) -> str:
     return _session.describe() if _session else "mutation testing"
+
+
+RETRIES = 1  # a failing test runs once more before its failure counts
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> bool:
+    """Run a test, and once more when it fails; only the last run is reported."""
+    from _pytest.runner import runtestprotocol
+
+    item.ihook.pytest_runtest_logstart(nodeid=item.nodeid, location=item.location)
+    for attempt in range(RETRIES + 1):
+        reports = runtestprotocol(item, nextitem=nextitem, log=False)
+        if attempt == RETRIES or not any(report.failed for report in reports):
+            break
+    for report in reports:
+        item.ihook.pytest_runtest_logreport(report=report)
+    item.ihook.pytest_runtest_logfinish(nodeid=item.nodeid, location=item.location)
+    return True
 
 
 @pytest.hookimpl(hookwrapper=True)

@@ -1,8 +1,10 @@
 """Plausible one-line bugs in the runtime's safety paths, each pinned by a test of what the
 runtime promises (issue "Fail safe", "Tests that would catch a broken runtime"): a seqlock
-read that accepts a torn record, a cross-process command read without its seqlock, a watchdog
-that trips one overrun late, a lost process that beats again but stays lost, a segment
-without rcsgen's header accepted on attach.
+read that accepts a torn record (a tool's read, and a controller's), a cross-process command
+read without its seqlock, a watchdog that trips one overrun late, a segment without rcsgen's
+header accepted on attach. (A lost process that beats again but stays lost is caught by
+tests/test_zenoh.py, where pc2 re-joins; the torn-record stress of tests/test_runtime.py
+catches a tool's read that does not look again only by chance, once in ~100,000 reads.)
 
 Every test runs `tests/fixtures/runtime/duo` (a supervisor `top` in process p1 commanding an
 `arm` in process p2) through what a user or a tool sees: records, controllers run by the
@@ -193,44 +195,6 @@ def test_the_watchdog_trips_on_the_declared_overrun_not_one_later(
         sent = layout.COMMAND_IN["top"].read(process.block.buf)
         halted = layout.COMMAND_NAMES["top"][sent["command"]] == "HALT"
         assert halted == bool(trips)
-    finally:
-        process.block.close()
-
-
-# ---------------------------------------------------------------- liveness
-
-
-def test_a_lost_process_that_beats_again_is_no_longer_lost(package: ModuleType) -> None:
-    """p1 watches p2 (top supervises arm there). p2's last beat older than the heartbeat
-    timeout: p2 is lost (p1's control record says so, and top goes to its safe state);
-    p2 beating again: p2 is not lost any more."""
-    layout, loop = part(package, "layout"), part(package, "rcs.loop")
-    p2 = layout.PROCESSES["p2"]
-    seen: list[set[str]] = []
-    running = part(package, "rcs.contract").PROCESS_STATES.index("RUNNING")
-
-    def p2_beats(process: Any) -> bool:
-        """After each cycle of p1: p2's record as p2 would write it."""
-        seen.append(set(process.lost))
-        now = time.monotonic_ns()
-        if process.cycle == 1:
-            p2.write(process.block.buf, state=running, heartbeat=5, beat_ns=now - 10**10)
-        elif process.cycle == 3:
-            p2.write(process.block.buf, state=running, heartbeat=6, beat_ns=now)
-        return process.cycle >= 5
-
-    process = loop.run(
-        part(package, "main_p1").PLAN,
-        layout,
-        pace=False,
-        on_cycle=p2_beats,
-        heartbeat_timeout=5.0,
-    )
-    try:
-        assert seen == [set(), {"p2"}, {"p2"}, set(), set()]
-        assert layout.PROCESSES["p1"].read(process.block.buf)["lost"] == 0
-        status = layout.STATUS_OUT["top"].read(process.block.buf)
-        assert status["status"] == part(package, "rcs.contract").STATUS_NAMES.index("ERROR")
     finally:
         process.block.close()
 
