@@ -74,14 +74,16 @@ bench: $(BENCH_STAMP)
 # (tests/mutation_runtime.py says how). `make mutate` alone continues the whole campaign where
 # the last one stopped (work is kept in mutants/; bench/README.md gives its duration);
 # MUTANTS='rcsgen.tools.graph.*' (mutmut's name patterns, several allowed) runs just those,
-# again from scratch. The summary gives the score per package (compiler, tools, runtime) and
-# lists the mutants not killed; survivors judged equivalent are listed, with the reason, in
-# tests/mutation_equivalent.txt. Read one with `.venv-mutate/bin/mutmut show NAME` (or
-# `browse`). MUTATE_CHILDREN=1: the suite's multi-process tests are timing-sensitive, and
+# again from scratch; MUTATE_TESTS='tests/test_graph.py tests/test_reference.py' tries them
+# against those test files only (quick, and the score a lower bound). The summary gives the
+# score per package (compiler, tools, runtime) and lists the mutants not killed; survivors
+# judged equivalent are listed, with the reason, in tests/mutation_equivalent.txt. Read one
+# with `.venv-mutate/bin/mutmut show NAME` (or `browse`). MUTATE_CHILDREN=1: the suite's multi-process tests are timing-sensitive, and
 # runtime mutants rewrite the working copy's generated/ (a lock keeps more children correct).
 MUTATE_VENV := .venv-mutate
 MUTATE_STAMP := $(MUTATE_VENV)/.installed
 MUTANTS ?=
+MUTATE_TESTS ?=
 MUTATE_CHILDREN ?= 1
 # Fewer random examples than `make test`: every surviving mutant reruns the properties. Bytecode
 # is cached: a test that starts `python -m rcsgen` in mutants/ imports the trampolined package.
@@ -98,7 +100,7 @@ $(MUTATE_STAMP): pyproject.toml
 	touch $(MUTATE_STAMP)
 
 mutate: $(MUTATE_STAMP)
-	$(MUTATE_ENV) $(MUTATE_VENV)/bin/mutmut run --max-children $(MUTATE_CHILDREN) \
-		$(foreach m,$(MUTANTS),'$(m)')
+	$(MUTATE_ENV) RCSGEN_MUTATE_TESTS='$(MUTATE_TESTS)' $(MUTATE_VENV)/bin/mutmut run \
+		--max-children $(MUTATE_CHILDREN) $(foreach m,$(MUTANTS),'$(m)')
 	$(MUTATE_VENV)/bin/mutmut results --all true \
 		| $(MUTATE_VENV)/bin/python tests/mutation_summary.py $(foreach m,$(MUTANTS),'$(m)')

@@ -16,6 +16,7 @@ from rcsgen.cli import main
 
 if under_mutmut():  # `make mutate`: the runtime copies of generated packages hold the mutant
     from mutation_runtime import (  # noqa: F401
+        pytest_collection_modifyitems,
         pytest_report_header,
         pytest_runtest_protocol,
         pytest_runtest_teardown,

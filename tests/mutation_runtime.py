@@ -46,6 +46,7 @@ children stays correct; `make mutate` runs one child.
 from __future__ import annotations
 
 import fcntl
+import fnmatch
 import os
 import shutil
 import sys
@@ -194,6 +195,7 @@ class MutationSession:
             f"mutation testing (MUTANT_UNDER_TEST={self.mutant!r}): generated packages copy "
             f"{what}{probe}; the architecture test accepts mutmut's trampoline imports; "
             f"a failing test runs {RETRIES} more time(s) before it counts"
+            + (f"; only the tests in {os.environ[TESTS_ENV]}" if os.environ.get(TESTS_ENV) else "")
         )
 
     def start(self) -> None:
@@ -286,6 +288,20 @@ def pytest_report_header(config: pytest.Config) -> str:
 
 
 RETRIES = 1  # a failing test runs once more before its failure counts
+TESTS_ENV = "RCSGEN_MUTATE_TESTS"  # `make mutate MUTATE_TESTS=...`: test files to run (globs)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """With MUTATE_TESTS, mutants are tried against those test files only (a quick campaign
+    on one module: its score is then a lower bound). mutmut's stats session and its listing
+    of the tests are left whole, so its map of which tests reach which function stays whole."""
+    wanted = os.environ.get(TESTS_ENV, "").split()
+    if not wanted or os.environ.get("MUTANT_UNDER_TEST") in ("stats", "list_all_tests"):
+        return
+    keep = [i for i in items if any(fnmatch.fnmatch(i.nodeid.split("::")[0], w) for w in wanted)]
+    if len(keep) < len(items):
+        config.hook.pytest_deselected(items=[i for i in items if i not in keep])
+        items[:] = keep
 
 
 @pytest.hookimpl(tryfirst=True)
