@@ -63,6 +63,9 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent  # mutmut's working copy `mutants/` when under mutmut
 CHECKOUT = REPO.parent  # ... inside the checkout it was copied from
 RUNTIME_PREFIX = "rcsgen.runtime."
+# RCSGEN_MUTATE_CONTROL=1: leave the runtime copies as mutmut alone leaves them (the control of
+# an experiment: a runtime mutant killed only through the copies then survives).
+CONTROL_ENV = "RCSGEN_MUTATE_CONTROL"
 MARKER = "its runtime, copied from rcsgen/runtime/"  # the first line of every copied file
 
 
@@ -186,6 +189,8 @@ class MutationSession:
         self.read: dict[Path, int] = {}  # hits file -> bytes already read
 
     def describe(self) -> str:
+        if os.environ.get(CONTROL_ENV):
+            return "mutation testing, control run: the runtime copies are left as they are"
         if runtime_mutant(self.mutant):
             what = f"the runtime with {self.mutant}"
         else:
@@ -201,6 +206,8 @@ class MutationSession:
     def start(self) -> None:
         import rcsgen.runtime
 
+        if os.environ.get(CONTROL_ENV):  # as mutmut alone: the copies are not touched
+            return
         self.lock = open(REPO / ".rcsgen-mutation.lock", "a", encoding="utf-8")
         exclusive = runtime_mutant(self.mutant)
         fcntl.flock(self.lock, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)

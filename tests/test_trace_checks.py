@@ -167,15 +167,120 @@ def test_coverage_text_and_json_give_each_modules_counts(miner) -> None:
     fired = sum(1 for r in cd if r.cycles)
     shown = f"{100 * fired / len(cd):.1f}%"
     assert f"cd       {len(cd):>5} {fired:>5} {shown:>6}  1 trace(s)" in lines
-    assert text.endswith("\n") and "never fired:" in lines
+    assert text.endswith("\n") and lines[lines.index("never fired:") - 1] == ""
+    sec = lines.index("  sec", lines.index("never fired:"))
+    where = {(r.module, r.rule): r.where for r in result.rules}
+    assert where[("sec", "INIT/S1/1")].endswith("sec.yaml:6")
+    assert lines[sec + 1 : sec + 3] == [  # each with its spec line and guard, aligned
+        f"    INIT/S1/1          {where[('sec', 'INIT/S1/1')]}  sb.status == DONE",
+        f"    HALT/S0/1          {where[('sec', 'HALT/S0/1')]}  always",
+    ]
     cr_sim = next(line for line in lines if line.startswith("cr_sim "))
     assert cr_sim.endswith("  no trace")  # the stand-in did not run
     assert "  cr_sim  (not run by any trace)" in lines
-    data = json.loads(coverage.to_json(result))
+    text = coverage.to_json(result)
+    data = json.loads(text)
+    # stable for diffs: keys sorted, two-space indents, one trailing newline
+    assert text == json.dumps(data, indent=2, sort_keys=True) + "\n"
+    assert text.startswith('{\n  "fired": ')
     assert data["traces"] == [whole.name] and data["system"] == "miner"
     module = next(m for m in data["modules"] if m["module"] == "cd")
     assert module["ran_in"] == [whole.name]
     on = next(r for r in module["rules"] if r["rule"] == "ON/S0/1")
     assert (on["cycles"], on["traces"]) == (3, [whole.name])
-    assert on["where"].endswith(".yaml:" + on["where"].rsplit(":", 1)[1])
+    sec = next(m for m in data["modules"] if m["module"] == "sec")["rules"][0]
+    assert (sec["rule"], sec["doc"], sec["guard"]) == (
+        "INIT/S0/1",
+        "send INIT to every subordinate",
+        "always",
+    )
     assert coverage._percent(0, 0) == "-"
+
+
+# ---------------------------------------------------------------- lanes
+
+
+def test_an_operator_modules_channels_are_lanes_of_the_operator_module() -> None:
+    """The inspection workstation's operator `op` serves fx and tl: its trace rows `op/fx`
+    and `op/tl` are lanes in op's place in the execution order, with op's title and level
+    (below its deepest client), running op's tables."""
+    inspection = compile_paths([REPO / "specs" / "inspection"]).systems[0]
+    trace = traces.load(GOLDEN / "inspection" / "nominal_inspection.jsonl")
+    assert traces.module_of("op/fx") == "op" and traces.module_of("ws") == "ws"
+    lanes = traces.lanes(trace, inspection)
+    assert [lane.module for lane in lanes] == [
+        "ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim"
+    ]  # fmt: skip
+    by_row = {lane.module: lane for lane in lanes}
+    op = inspection.controller("op")
+    assert by_row["op/fx"] == traces.Lane("op/fx", op.title, 4, False, "op")
+    assert by_row["ws"] == traces.Lane("ws", "Inspection workstation", 1, False, "ws")
+    sim = by_row["cmm_sim"]
+    assert (sim.level, sim.simulator, sim.title) == (0, True, "CMM (simulated)")
+    assert traces.process_of(inspection, trace) is inspection.processes[0]
+
+
+# ---------------------------------------------------------------- the changes timeline
+
+
+def synthetic() -> traces.Trace:
+    """Three cycles of a module with a reason and results, and a sensor and a flag."""
+    rows = [
+        line(1, {"flag": False, "level": 0.5, "n": 1}, co=co(reason="NONE", result={"k": 0})),
+        line(
+            2,
+            {"flag": True, "level": 0.25, "n": 1},
+            co=co(
+                command="GO",
+                command_num=2,
+                status="ERROR",
+                status_num=2,
+                state="S1",
+                rule="GO/S0/1",
+                reason="REFUSED",
+                result={"k": 0, "m": None},
+            ),
+        ),
+        line(
+            4,
+            {"flag": True, "level": 0.25, "n": 2},
+            co=co(
+                command="GO",
+                command_num=2,
+                status="ERROR",
+                status_num=2,
+                state="S1",
+                reason="REFUSED",
+                result={"k": 3, "m": True},
+            ),
+        ),
+    ]
+    return traces.parse("\n".join(rows), "t")
+
+
+def test_changes_show_reasons_results_and_world_values_as_written() -> None:
+    from rcsgen.tools import changes
+
+    trace = synthetic()
+    lanes = traces.lanes(trace, None)
+    assert list(changes.timeline(trace, lanes, ["co"], world="all", merge=False)) == [
+        "cycle 1",
+        "  co     command INIT #1  status DONE #1  state NOP  result.k 0",
+        "  world  flag false  level 0.5  n 1",
+        "cycle 2",
+        "  co     command INIT #1 -> GO #2  status DONE #1 -> ERROR(REFUSED) #2  state NOP -> S1"
+        "  fired GO/S0/1",
+        "  world  flag false -> true  level 0.5 -> 0.25",
+        "cycle 4",
+        "  co     result.k 0 -> 3  result.m null -> true",
+        "  world  n 1 -> 2",
+    ]
+    discrete = list(changes.timeline(trace, lanes, ["co"], first=2, last=2))
+    assert discrete == [
+        "cycle 2",
+        "  co     command INIT #1 -> GO #2  status DONE #1 -> ERROR(REFUSED) #2  state NOP -> S1"
+        "  fired GO/S0/1",
+        "  world  flag false -> true",
+    ]
+    assert changes.world_fields(trace, "discrete") == ["flag", "n"]
+    assert list(changes.timeline(trace, lanes, [], world="none")) == []
