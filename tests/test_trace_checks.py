@@ -284,3 +284,19 @@ def test_changes_show_reasons_results_and_world_values_as_written() -> None:
     ]
     assert changes.world_fields(trace, "discrete") == ["flag", "n"]
     assert list(changes.timeline(trace, lanes, [], world="none")) == []
+
+
+def test_a_trace_the_specs_cannot_have_run_is_refused_with_the_reason(miner) -> None:
+    stand_in = traces.parse(line(1, None, cr_sim=co()), "t")  # a stand-in runs as cr, never alone
+    with pytest.raises(traces.TraceError) as caught:
+        traces.check_against(miner, stand_in)
+    assert str(caught.value) == "t: no process of system miner runs its modules"
+    other = traces.parse(line(1, None, zz=co()), "t")
+    with pytest.raises(traces.TraceError) as caught:
+        traces.check_against(miner, other)
+    assert str(caught.value) == (
+        "t: module `zz` is not in system miner: was the trace recorded from other specs?"
+    )
+    pc2 = miner.processes[1]
+    alone = traces.parse(line(1, None, **{m: co() for m in pc2.modules}), "t")
+    assert traces.check_against(miner, alone) is pc2  # exactly one process's modules
