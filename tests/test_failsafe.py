@@ -211,13 +211,13 @@ def pids(layout: ModuleType, buf: memoryview) -> list[int]:
     return [int(read(layout.PROCESSES[p], buf)["pid"]) for p in layout.PROCESSES]
 
 
-def system_of(fleet: Path, package: ModuleType) -> object:
+def system_of(fleet: Path, package: ModuleType, spec: Path = FLEET) -> object:
     launcher = runtime(package, "rcs.launcher")
     return launcher.System(
         fleet.name,
         runtime(package, "layout"),
         {p: runtime(package, f"main_{p}").PLAN for p in ("pl", "pa", "pb")},
-        (str(fleet.parent), str(FLEET)),
+        (str(fleet.parent), str(spec)),
     )
 
 
@@ -433,6 +433,245 @@ def restarted(launcher: Any, name: str) -> int:
     return new
 
 
+def status_of(layout: ModuleType, buf: memoryview, module: str) -> tuple[str, str, str, bool]:
+    """(its last command, its status, its state, whether it has echoed that command)."""
+    contract = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.contract"]
+    command, status = read(layout.COMMAND_IN[module], buf), read(layout.STATUS_OUT[module], buf)
+    return (
+        layout.COMMAND_NAMES[module][command["command"]],
+        contract.STATUS_NAMES[status["status"]],
+        layout.STATE_NAMES[module][status["state"]],
+        status["status_num"] == command["command_num"],
+    )
+
+
+@pytest.mark.parametrize(
+    ("victim", "point"),
+    [("pa", "before"), ("pa", "mid"), ("pa", "after"), ("pb", "before"), ("pb", "after")],
+)
+def test_a_restart_at_each_point_of_a_command_keeps_the_outputs_safe_and_the_mission_told(
+    convoy: Callable[..., Any], package: ModuleType, victim: str, point: str
+) -> None:
+    """--restart; a vehicle's process killed at each point of its DRIVE: `before` it has
+    seen it (its process frozen when lead sends it), `mid` (driving), `after` it reported
+    ERROR but before lead read it (pl frozen meanwhile; the vehicle's drive forced out of
+    range). Every time, the actuators it leaves are latched safe and stay so through the
+    restart and after a reset, and the mission never goes on silently:
+
+    - pa (v1, halt_all): every actuator latched; lead ends CONVOY with ERROR(LOST) and the
+      launcher has halted the system naming pa's death; the restarted v1 takes the last
+      command in its buffer, the HALT of lead's safe state, never the DRIVE;
+    - pb (v2, on_lost: continue): only v2's actuators latched; lead goes on ALONE with v1
+      driving (its rules, told v2 was lost); the restarted v2 resumes what its buffers
+      hold: the DRIVE it had not seen (run, its outputs still latched), or its ERROR, kept.
+
+    pb mid-command is test_a_restarted_process_resumes_its_command_with_its_outputs_latched.
+    """
+    launcher = convoy(restart=True, drive=point != "before")
+    layout, buf = runtime(package, "layout"), launcher.block.buf
+    override = runtime(package, "rcs.override")
+    vehicle = {"pa": "v1", "pb": "v2"}[victim]
+    process = launcher.children[victim].popen
+    pl = launcher.children["pl"].popen
+    if point == "before":
+        process.send_signal(signal.SIGSTOP)
+        convoy_command(layout, buf)
+        watch(launcher, lambda: status_of(layout, buf, vehicle)[0] == "DRIVE", "lead sends DRIVE")
+        assert not status_of(layout, buf, vehicle)[3], f"{vehicle} has not seen it"
+    elif point == "after":
+        pl.send_signal(signal.SIGSTOP)
+        field, out_of_range = {"v1": ("v1_drive", -1.0), "v2": ("v2_drive", 6.0)}[vehicle]
+        override.force(layout, buf, field, out_of_range, launcher.segment)
+        watch(
+            launcher,
+            lambda: status_of(layout, buf, vehicle) == ("DRIVE", "ERROR", "NOP", True),
+            f"{vehicle} reports ERROR",
+        )
+    process.send_signal(signal.SIGKILL)
+    if point == "after":
+        pl.send_signal(signal.SIGCONT)
+    restarted(launcher, victim)
+    if victim == "pa":
+        watch(launcher, lambda: lead_status(layout, buf) == ("ERROR", 1), "lead ERROR(LOST)")
+        watch(
+            launcher,
+            lambda: status_of(layout, buf, "v1") == ("HALT", "DONE", "NOP", True),
+            "the new v1 runs lead's HALT",
+        )
+        assert "pa died (exit -9)" in launcher.events and launcher.halted, seen(launcher)
+        expected = ACTUATORS_SAFE
+    else:
+        watch(launcher, lambda: world(layout, buf, "mode") == 2, "lead goes on ALONE")
+        assert lead_status(layout, buf) == ("EXECUTING", 0), seen(launcher)
+        resumed = ("EXECUTING", "S1") if point == "before" else ("ERROR", "NOP")
+        watch(
+            launcher,
+            lambda: status_of(layout, buf, "v2") == ("DRIVE", *resumed, True),
+            f"v2 resumed: DRIVE {resumed}",
+        )
+        assert not launcher.halted, seen(launcher)
+        expected = {"v1_drive": 1.0, "v2_drive": -0.5, "v2_brake": True}
+    assert actuators(layout, buf) == expected, seen(launcher)
+    latched = [f for f in ACTUATORS_SAFE if expected[f] == ACTUATORS_SAFE[f]]
+    assert override.overrides(layout, buf) == {f: ("SAFE", expected[f]) for f in latched}
+    assert override.reset(layout, buf, segment=launcher.segment) == latched
+    record = layout.PROCESSES[victim]
+    beat = read(record, buf)["heartbeat"]
+    watch(launcher, lambda: read(record, buf)["heartbeat"] > beat + 5, f"five cycles of {victim}")
+    assert actuators(layout, buf) == expected, "a reset moves nothing"
+
+
+# ---------------------------------------------------------------- the miner's restart rules
+
+MINER = Path(__file__).resolve().parent.parent / "specs" / "miner"
+
+
+@pytest.fixture(scope="module")
+def miner() -> Iterator[tuple[Path, ModuleType]]:
+    """specs/miner generated into a scratch directory: (the package's directory, it)."""
+    scratch, name = generate(MINER)
+    yield scratch / name, import_package(scratch / name, MINER)
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+@pytest.fixture
+def mining(miner: tuple[Path, ModuleType]) -> Iterator[Any]:
+    """The two-process miner launched paced with --restart, sent BOX_CUT and moving (an
+    actuator away from its safe value). At the end: stopped, nothing left, nobody alive."""
+    directory, package = miner
+    launcher_module, layout = runtime(package, "rcs.launcher"), runtime(package, "layout")
+    system = launcher_module.System(
+        directory.name,
+        layout,
+        {p: runtime(package, f"main_{p}").PLAN for p in layout.PROCESSES},
+        (str(directory.parent), str(MINER)),
+    )
+    launcher = launcher_module.Launcher(system, segment_name(), restart=True)
+    launcher.start()
+    try:
+        buf = launcher.block.buf
+        send = launcher_module.parse_send(layout, "sec.BOX_CUT:depth=1.5")
+        watch(launcher, lambda: launcher_module.give(send, layout, buf), "BOX_CUT sent")
+        watch(launcher, lambda: moving(layout, buf), "the miner moving", deadline=60)
+        yield launcher
+    finally:
+        started = [child.popen.pid for child in launcher.children.values()]
+        segment = launcher.segment
+        launcher.stop()
+        assert not os.path.exists(f"/dev/shm/{segment}"), "segment left behind"
+        for pid in started:
+            wait_for(lambda pid=pid: not alive(pid), f"process {pid} gone", deadline=10)
+
+
+def moving(layout: ModuleType, buf: memoryview) -> bool:
+    return any(world(layout, buf, f) != v for f, v in layout.SAFE_VALUES.items())
+
+
+def all_latched_safe(layout: ModuleType, buf: memoryview) -> bool:
+    override = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.override"]
+    held = override.overrides(layout, buf)
+    return held == {f: ("SAFE", v) for f, v in layout.SAFE_VALUES.items()} and not moving(
+        layout, buf
+    )
+
+
+def test_the_miner_s_pc1_refuses_a_restart_and_the_mission_ends_with_the_reason(
+    mining: Any, capfd: pytest.CaptureFixture[str]
+) -> None:
+    """pc1 (every controller, actuator and simulator) killed mid-BOX_CUT with --restart: the
+    launcher starts it again, and the new pc1 refuses, naming the simulator whose hook state
+    (the simulated mine) a restart would lose; the launcher stops restarting it. Every
+    actuator is latched safe, and the system is halted with the reason a `--send
+    --until-done` prints (test_a_killed_pc1_ends_the_operator_s_mission_with_the_reason)."""
+    launcher = mining
+    layout, buf = launcher.system.layout, launcher.block.buf
+    launcher.children["pc1"].popen.send_signal(signal.SIGKILL)
+    watch(launcher, lambda: "pc1" not in launcher.children, "the launcher gives pc1 up")
+    assert launcher.events[:2] == [
+        "pc1 died (exit -9)",
+        "latched safe: " + ", ".join(layout.SAFE_VALUES),
+    ]
+    assert "pc1 restarted" in launcher.events
+    assert "pc1 refused to restart: see its error above" in launcher.events
+    assert launcher.halted == "pc1 died (exit -9)"
+    refusal = capfd.readouterr().err
+    assert (
+        "pc1: bas keeps hook state outside the block, which a restart of process pc1 would lose"
+        in refusal
+    )
+    watch(launcher, lambda: all_latched_safe(layout, buf), "every actuator latched safe")
+    assert "pc2" in launcher.children, "pc2 runs on (its supervisors in their safe state)"
+    sec = read(layout.STATUS_OUT["sec"], buf)
+    assert sec["status"] != 2, "sec, in the dead pc1, never reports DONE"
+
+
+def test_the_miner_s_pc2_resumes_after_a_restart_and_mines_again_when_commanded(
+    mining: Any,
+) -> None:
+    """pc2 (the path planner, `hooks_state_on_restart: reset`) killed mid-BOX_CUT with
+    --restart: halt_all latches every actuator and sec, the root, ends BOX_CUT with
+    ERROR(LOST); the new pc2 starts, resumes, and every watcher sees it; the actuators stay
+    latched until the operator's reset, the reset moves nothing, and the next BOX_CUT the
+    operator sends moves the miner again."""
+    launcher = mining
+    layout, buf = launcher.system.layout, launcher.block.buf
+    contract = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.contract"]
+    override = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.override"]
+    launcher.children["pc2"].popen.send_signal(signal.SIGKILL)
+    restarted(launcher, "pc2")
+    watch(launcher, lambda: all_latched_safe(layout, buf), "every actuator latched safe")
+    sec = read(layout.STATUS_OUT["sec"], buf)
+    assert (contract.STATUS_NAMES[sec["status"]], sec["error_num"]) == ("ERROR", 1)
+    assert launcher.halted == "pc2 died (exit -9)"
+    assert override.reset(layout, buf, segment=launcher.segment) == list(layout.SAFE_VALUES)
+    cycles = read(layout.PROCESSES["pc1"], buf)["heartbeat"]
+    watch(launcher, lambda: read(layout.PROCESSES["pc1"], buf)["heartbeat"] > cycles + 5, "pc1")
+    assert not moving(layout, buf), "a reset moves nothing"
+    launcher_module = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.launcher"]
+    send = launcher_module.parse_send(layout, "sec.BOX_CUT:depth=1.5")
+    watch(launcher, lambda: launcher_module.give(send, layout, buf), "BOX_CUT sent again")
+    watch(launcher, lambda: moving(layout, buf), "the miner moving again", deadline=60)
+    assert read(layout.STATUS_OUT["sec"], buf)["status"] == 1, "sec EXECUTING its BOX_CUT"
+
+
+def test_a_killed_pc1_ends_the_operator_s_mission_with_the_reason(
+    miner: tuple[Path, ModuleType],
+) -> None:
+    """`python -m miner --restart --send sec.BOX_CUT:depth=1.5 --until-done`, pc1 killed
+    while the miner moves: the run does not wait for a mission that cannot finish; it
+    says why and exits 1."""
+    directory, package = miner
+    layout = runtime(package, "layout")
+    segment = segment_name()
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(directory.parent), str(MINER)]))
+    command = [sys.executable, "-m", directory.name, "--shm", segment, "--restart"]
+    command += ["--send", "sec.BOX_CUT:depth=1.5", "--until-done"]
+    run = subprocess.Popen(
+        command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    block = None
+    try:
+        wait_for(lambda: os.path.exists(f"/dev/shm/{segment}"), "the segment made")
+        block = runtime(package, "rcs.block").Block(layout, segment, create=False)
+        buf = block.buf
+        wait_for(lambda: moving(layout, buf), "the miner moving", deadline=60)
+        children = pids(layout, buf)
+        os.kill(int(read(layout.PROCESSES["pc1"], buf)["pid"]), signal.SIGKILL)
+        out, err = run.communicate(timeout=60)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.communicate()
+        if block is not None:
+            block.close()
+    assert run.returncode == 1, err
+    assert "sec did not finish: the system halted (pc1 died (exit -9))" in out
+    assert "miner: pc1 died (exit -9)" in err
+    for pid in children:
+        wait_for(lambda pid=pid: not alive(pid), f"process {pid} gone", deadline=10)
+    assert not os.path.exists(f"/dev/shm/{segment}")
+
+
 def test_a_second_copy_of_a_process_is_refused_naming_the_owner(
     convoy: Callable[..., Any], package: ModuleType, fleet: Path
 ) -> None:
@@ -471,6 +710,44 @@ def test_a_process_that_never_starts_fails_the_start_up_barrier_by_name(
         launcher.start()
     assert not os.path.exists(f"/dev/shm/{launcher.segment}")
     assert not launcher.children
+
+
+def test_the_start_up_barrier_waits_the_declared_startup_timeout_then_names_the_missing(
+    tmp_path: Path,
+) -> None:
+    """`startup_timeout: 1.5` in system.yaml reaches the layout and the launcher: pb hangs
+    before its first cycle (its interpreter never starts); after 1.5 s the launch fails
+    naming pb as not started, stops every process (pb too) and leaves no segment."""
+    spec = tmp_path / "fleet"
+    shutil.copytree(FLEET, spec)
+    text = (spec / "system.yaml").read_text()
+    (spec / "system.yaml").write_text(
+        text.replace("heartbeat_timeout: 1.0\n", "heartbeat_timeout: 1.0\nstartup_timeout: 1.5\n")
+    )
+    scratch, name = generate(spec)
+    try:
+        package = import_package(scratch / name, spec)
+        layout = runtime(package, "layout")
+        assert layout.STARTUP_TIMEOUT == 1.5
+        wrapper = tmp_path / "python"
+        hang = 'case " $* " in *" pb "*) exec sleep 60;; esac'  # pb: a start that never ends
+        wrapper.write_text(f'#!/bin/sh\n{hang}\nexec {sys.executable} "$@"\n')
+        wrapper.chmod(0o755)
+        launcher_module = runtime(package, "rcs.launcher")
+        launcher = launcher_module.Launcher(
+            system_of(scratch / name, package, spec), segment_name(), python=str(wrapper)
+        )
+        began = time.monotonic()
+        with pytest.raises(
+            launcher_module.StartupFailed,
+            match=r"not become ready within 1.5 s: pb \(no cycle yet\) did not start",
+        ):
+            launcher.start()
+        assert time.monotonic() - began >= 1.5
+        assert not os.path.exists(f"/dev/shm/{launcher.segment}")
+        assert not launcher.children
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
 
 
 @pytest.mark.parametrize("frozen", [False, True])
@@ -787,6 +1064,13 @@ def test_a_trace_line_shows_the_overrides_only_while_there_are_some(package: Mod
             "CONVOY S1 waits on v2, whose loss `on_lost: continue` leaves to these rules",
         ),
         ("lead.yaml", "  v2: continue", "  v3: continue", "E299", "`on_lost` names `v3`"),
+        (
+            "system.yaml",
+            "heartbeat_timeout: 1.0\n",
+            "heartbeat_timeout: 1.0\nstartup_timeout: 0\n",
+            "S005",
+            "`startup_timeout`: must be greater than 0",
+        ),
         (
             "system.yaml",
             "    initial: 0\n",

@@ -13,6 +13,7 @@ import struct
 from dataclasses import dataclass, field
 from functools import cached_property
 
+from ..runtime.contract import STARTUP_TIMEOUT
 from . import expr
 from .diagnostics import Span
 from .tables import RuleId
@@ -453,6 +454,7 @@ class IRSystem:
     # role -> module -> index in ACCESS_LEVELS, above monitor; empty: no access control
     access: dict[str, dict[str, int]] = field(default_factory=dict)
     requests: tuple[IRRequest, ...] = ()  # what modules ask of the operator
+    startup_timeout: float = STARTUP_TIMEOUT  # seconds the start-up barrier waits
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

@@ -33,6 +33,7 @@ from .contract import (
     DEAD,
     PROCESS_STATES,
     RUNNING,
+    STARTUP_TIMEOUT,
     STOPPED,
     StaleRead,
     enum_code,
@@ -58,7 +59,6 @@ from .override import latch_safe
 from .transport import TransportError, check_endpoint
 
 STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
-STARTUP_TIMEOUT = 10.0  # seconds every process has to start running (the start-up barrier)
 REFUSED = 3  # the exit code of a process that refused to restart (the launcher gives up)
 
 
@@ -286,7 +286,8 @@ class Launcher:
         self.children: dict[str, Child] = {}
         self.events: list[str] = []  # what happened, for the summary
         self.final: list[str] = []  # the summary, taken when the processes have stopped
-        self.startup_timeout = STARTUP_TIMEOUT
+        # the start-up barrier's: the spec's `startup_timeout` (a layout built before: 10 s)
+        self.startup_timeout = float(getattr(system.layout, "STARTUP_TIMEOUT", STARTUP_TIMEOUT))
         self.lost: set[str] = set()  # processes silent past the heartbeat timeout (frozen)
         self.trips: dict[str, int] = {}  # each process's watchdog trips, last seen
         self.halted = ""  # why the system was halted (a loss that was not contained), if it was
