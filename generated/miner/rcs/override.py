@@ -148,6 +148,12 @@ def reset(
     return released
 
 
+def mirrored(layout: ModuleType, buf: memoryview) -> None:
+    """A transport wrote an override record another host made (rcs/transport.py): raise or
+    lower the flag the generated modules look at, as a local override would."""
+    _update_any(layout, buf)
+
+
 def overrides(layout: ModuleType, buf: memoryview) -> dict[str, tuple[str, object]]:
     """Every field under an override: field -> (FORCED or SAFE, its value as stored)."""
     found: dict[str, tuple[str, object]] = {}

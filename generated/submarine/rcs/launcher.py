@@ -439,10 +439,11 @@ class Launcher:
 
     def _fault(self, name: str, what: str) -> None:
         """A fault of process `name`: printed now, in the summary, its reaction's actuators
-        latched safe (the last line of defence: it does not depend on the faulty process)."""
+        latched safe (the last line of defence: it does not depend on the faulty process;
+        with Zenoh the latches travel from the launcher's mirror to the writers' blocks)."""
         self._event(what)
         todo = reaction(self.system.layout, name)
-        if self.block is not None and self.net is None:
+        if self.block is not None:
             latched = latch_safe(self.system.layout, self.block.buf, todo.latch, self.segment)
             if latched:
                 self._event(f"latched safe: {', '.join(latched)}")
