@@ -750,14 +750,16 @@ def test_the_start_up_barrier_waits_the_declared_startup_timeout_then_names_the_
         shutil.rmtree(scratch, ignore_errors=True)
 
 
-@pytest.mark.parametrize("frozen", [False, True])
+@pytest.mark.parametrize("pa_is", ["running", "frozen", "stalled"])
 def test_when_the_launcher_dies_its_children_drive_every_actuator_safe_and_clean_up(
-    fleet: Path, package: ModuleType, frozen: bool
+    fleet: Path, package: ModuleType, pa_is: str
 ) -> None:
     """kill -9 of the launcher (`python -m fleet`): each child sees its pipe close, latches
     every actuator safe (the last line of defence does not depend on the launcher), stops,
     and the last one out removes the segment. With pa frozen first, the others still do it;
-    pa, continued, stops too."""
+    pa, continued, stops too. With pa blocked for good in its hook, pa latches from its
+    watcher's thread and, its loop never coming back, exits after STOP_GRACE: no child is
+    left, whatever a hook does."""
     layout = runtime(package, "layout")
     segment = segment_name()
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(fleet.parent), str(FLEET), *sys.path]))
@@ -784,15 +786,20 @@ def test_when_the_launcher_dies_its_children_drive_every_actuator_safe_and_clean
         )
         wait_for(lambda: actuators(layout, buf) == DRIVING, "the convoy driving")
         pa = int(read(layout.PROCESSES["pa"], buf)["pid"])
-        if frozen:
+        if pa_is == "frozen":
             os.kill(pa, signal.SIGSTOP)
+        elif pa_is == "stalled":
+            layout.WORLD["v1_stall"].write(buf, v1_stall=True)
+            beat = read(layout.PROCESSES["pa"], buf)["heartbeat"]
+            time.sleep(0.5)  # five periods: if pa still beats, it did not stall
+            assert read(layout.PROCESSES["pa"], buf)["heartbeat"] <= beat + 1, "pa stalled"
         launcher.send_signal(signal.SIGKILL)
         launcher.wait(timeout=30)
         wait_for(lambda: actuators(layout, buf) == ACTUATORS_SAFE, "every actuator safe")
-        if frozen:
+        if pa_is == "frozen":
             os.kill(pa, signal.SIGCONT)
-        for pid in children:
-            wait_for(lambda pid=pid: not alive(pid), f"child {pid} gone", deadline=10)
+        for pid in children:  # a stalled pa: STOP_GRACE (5 s), then it exits
+            wait_for(lambda pid=pid: not alive(pid), f"child {pid} gone", deadline=30)
         wait_for(lambda: not os.path.exists(f"/dev/shm/{segment}"), "the segment removed")
     finally:
         if launcher.poll() is None:
@@ -801,6 +808,78 @@ def test_when_the_launcher_dies_its_children_drive_every_actuator_safe_and_clean
         if block is not None:
             block.close()
         runtime(package, "rcs.block").unlink(segment)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="prctl is Linux's")
+def test_a_child_learns_its_launcher_died_even_when_its_pipe_stays_open(
+    fleet: Path, package: ModuleType
+) -> None:
+    """pa started by a stand-in launcher that hands the write end of pa's stdin pipe to
+    another process (as a fork of a launcher would hold it): when the stand-in dies no EOF
+    comes, and pa's parent-death signal tells it instead: every actuator latched safe, pa
+    gone, the segment removed (pa, orphaned, is the last one out)."""
+    layout, block_module = runtime(package, "layout"), runtime(package, "rcs.block")
+    segment = segment_name()
+    block = block_module.Block(layout, segment, create=True)
+    block.owner = False  # pa removes it
+    stand_in = (
+        "import subprocess, sys, time\n"
+        "child = subprocess.Popen(sys.argv[1:], stdin=subprocess.PIPE)\n"
+        "keeper = subprocess.Popen(['sleep', '120'], pass_fds=[child.stdin.fileno()])\n"
+        "print(child.pid, keeper.pid, flush=True)\n"
+        "time.sleep(120)\n"
+    )
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(fleet.parent), str(FLEET), *sys.path]))
+    pa = [sys.executable, "-m", fleet.name, "pa", "--shm", segment, "--attach", "--child"]
+    parent = subprocess.Popen(
+        [sys.executable, "-c", stand_in, *pa], env=env, stdout=subprocess.PIPE, text=True
+    )
+    assert parent.stdout is not None
+    child, keeper = (int(pid) for pid in parent.stdout.readline().split())
+    buf = block.buf
+    try:
+        wait_for(lambda: read(layout.PROCESSES["pa"], buf)["heartbeat"] > 2, "pa running")
+        record = layout.COMMAND_IN["v1"]
+        number = read(record, buf)["command_num"] + 1
+        record.write(buf, command_num=number, command=layout.COMMAND_NAMES["v1"].index("DRIVE"))
+        wait_for(lambda: world(layout, buf, "v1_drive") == 1.0, "v1 driving")
+        parent.kill()
+        parent.wait(10)
+        override = runtime(package, "rcs.override")
+        wait_for(
+            lambda: (
+                actuators(layout, buf) == ACTUATORS_SAFE
+                and set(override.overrides(layout, buf)) == set(ACTUATORS_SAFE)
+            ),
+            "every actuator latched safe",
+        )
+        wait_for(lambda: not alive(child), "pa gone", deadline=10)
+        wait_for(lambda: not os.path.exists(f"/dev/shm/{segment}"), "the segment removed")
+        assert alive(keeper), "the pipe's other end was open all along"
+    finally:
+        for pid in (child, keeper):
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        if parent.poll() is None:
+            parent.kill()
+            parent.wait()
+        parent.stdout.close()
+        block.close()
+        block_module.unlink(segment)
+
+
+def test_a_latch_corrects_a_value_a_racing_write_changed(package: ModuleType) -> None:
+    """latch_safe on a field already latched whose value a writer changed past its look at
+    the flag writes the safe value again (a stopping process has no next cycle to do it);
+    it is not counted as newly latched."""
+    override, layout = runtime(package, "rcs.override"), runtime(package, "layout")
+    block = runtime(package, "rcs.block").Block(layout)
+    assert override.latch_safe(layout, block.buf, ["v2_drive"]) == ["v2_drive"]
+    layout.WORLD["v2_drive"].write(block.buf, v2_drive=2.0)  # the racing write
+    assert override.latch_safe(layout, block.buf, ["v2_drive"]) == []
+    assert world(layout, block.buf, "v2_drive") == -0.5
 
 
 # ---------------------------------------------------------------- tests that catch a broken runtime

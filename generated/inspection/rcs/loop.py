@@ -14,6 +14,7 @@ clock. Standard library only: copied verbatim into every generated package.
 from __future__ import annotations
 
 import os
+import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping
@@ -426,11 +427,15 @@ def start(
 
 
 class Stop:
-    """A flag a signal handler sets to end `run` after the current cycle."""
+    """A flag a signal handler sets to end `run` after the current cycle; `run` names the
+    process it runs in it, and the caller sets `finished` when the process is done with (a
+    watcher of the launcher's death uses both: launcher.py)."""
 
     def __init__(self) -> None:
         self.requested = False
         self.orphaned = False  # the launcher went away (a child then removes the segment)
+        self.process: Process | None = None
+        self.finished = threading.Event()
 
     def __call__(self, *args: object) -> None:
         self.requested = True
@@ -466,6 +471,8 @@ def run(
     into the block before each cycle and what the process wrote is sent after it.
     """
     process = start(plan, layout, shm_name, create, settings, simulate)
+    if stop is not None:
+        stop.process = process
     try:
         net = transport(process) if transport is not None else Local()
     except BaseException:
