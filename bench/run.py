@@ -222,6 +222,16 @@ def section_targets(co, system, scaling, seqlock=None, lockstep=None, detection=
     if seqlock:
         counted, whole = seqlock["counted"], seqlock["record_read"]
         bad = counted["torn_accepted"] + counted["older_accepted"] + whole["torn_accepted"]
+        generated = seqlock.get("generated") or {}
+        add(
+            bool(generated)
+            and not generated["inconsistent_accepted"] + generated["older_accepted"]
+            and not generated["acted_before_first_whole_read"],
+            f"the generated code's read under the same stress (sec's command rewritten flat "
+            f"out): {generated.get('cycles', 0):,} cycles, "
+            f"{generated.get('inconsistent_accepted', 0) + generated.get('older_accepted', 0)} "
+            f"inconsistent copies accepted, {generated.get('stale', 0):,} stale",
+        )
         add(
             counted["reads"] >= TORN_READS_MIN and bad == 0,
             f"torn-read stress across two processes, ≥ {TORN_READS_MIN:,} reads, 0 inconsistent "
@@ -516,7 +526,7 @@ def section_seqlock(seqlock: dict) -> list[str]:
     def share(part: int, whole_: int) -> str:
         return f"{part / whole_:.1%}" if whole_ else "–"
 
-    return [
+    lines = [
         "## 5. Consistent reads across processes: the torn-read stress",
         "",
         "Two processes on the block of generated/miner (bench/bench_seqlock.py): a writer "
@@ -558,6 +568,30 @@ def section_seqlock(seqlock: dict) -> list[str]:
         "value, twice.",
         "",
     ]
+    generated = seqlock.get("generated")
+    if generated:
+        lines += [
+            "The generated code's own read (third pass): the writer rewrites the root sec's "
+            "command buffer (command number k, depth k, offset k) as an operator's tool does; "
+            "the reader runs generated/miner's sec cycle after cycle, which reads it with the "
+            "fast path (one look, the test inline, `read_inputs` out of line). After each "
+            "cycle its copies must tell one write, never older than one before; until its "
+            "first whole read it must hold (no command taken, the table held).",
+            "",
+            "| | count |",
+            "|---|--:|",
+            f"| cycles | {generated['cycles']:,} |",
+            f"| stale (the last whole read kept) | {generated['stale']:,} |",
+            f"| held before the first whole read | {generated['held_before_first_whole_read']:,} |",
+            f"| **acted before the first whole read** | "
+            f"**{generated['acted_before_first_whole_read']}** |",
+            f"| new commands taken | {generated['new_command_seen']:,} |",
+            f"| **inconsistent or older copies accepted** | "
+            f"**{generated['inconsistent_accepted'] + generated['older_accepted']}** |",
+            f"| writes by the other process | {generated['writes']:,} |",
+            "",
+        ]
+    return lines
 
 
 def section_lockstep(lockstep: dict) -> list[str]:
