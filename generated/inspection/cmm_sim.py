@@ -102,10 +102,10 @@ class CmmSimController:
         "world_set",
     )
 
-    # The hooks and planners it calls, each as a method (hook_<name>) through the runtime
-    # (rcs/deadline.py):
-    # interrupted past its deadline in seconds (its `deadline:`, else
-    # 5 cycle periods and at least 1 s); what it raises, or a result unlike its `returns:`, is a HookError.
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
     hook_probe = hook("cmm_sim", hooks, "probe", 2.5, "f")
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:

@@ -130,10 +130,10 @@ class MsController:
         "world_cmm_reading",
     )
 
-    # The hooks and planners it calls, each as a method (hook_<name>) through the runtime
-    # (rcs/deadline.py):
-    # interrupted past its deadline in seconds (its `deadline:`, else
-    # 5 cycle periods and at least 1 s); what it raises, or a result unlike its `returns:`, is a HookError.
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
     hook_judge = hook("ms", hooks, "judge", 2.5, "b")
     hook_program_features = hook("ms", hooks, "program_features", 2.5, "i")
 

@@ -91,10 +91,10 @@ class BasController:
         "world_set",
     )
 
-    # The hooks and planners it calls, each as a method (hook_<name>) through the runtime
-    # (rcs/deadline.py):
-    # interrupted past its deadline in seconds (its `deadline:`, else
-    # 5 cycle periods and at least 1 s); what it raises, or a result unlike its `returns:`, is a HookError.
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
     hook_turn_boom = hook("bas", hooks, "turn_boom", 1.0, "f")
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:

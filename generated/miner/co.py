@@ -141,10 +141,10 @@ class CoController:
         "world_sump_step",
     )
 
-    # The hooks and planners it calls, each as a method (hook_<name>) through the runtime
-    # (rcs/deadline.py):
-    # interrupted past its deadline in seconds (its `deadline:`, else
-    # 5 cycle periods and at least 1 s); what it raises, or a result unlike its `returns:`, is a HookError.
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
     hook_co_goal_ahead = hook("co", hooks, "co_goal_ahead", 1.0, "ff")
     hook_co_position_for_cusp = hook("co", hooks, "co_position_for_cusp", 1.0, "ff")
     hook_co_position_for_sump = hook("co", hooks, "co_position_for_sump", 1.0, "ff")

@@ -96,10 +96,10 @@ class TasController:
         "world_true_y",
     )
 
-    # The hooks and planners it calls, each as a method (hook_<name>) through the runtime
-    # (rcs/deadline.py):
-    # interrupted past its deadline in seconds (its `deadline:`, else
-    # 5 cycle periods and at least 1 s); what it raises, or a result unlike its `returns:`, is a HookError.
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
     hook_advance = hook("tas", hooks, "advance", 1.0, "fff")
     hook_slide = hook("tas", hooks, "slide", 1.0, "ff")
 
