@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import gc
 import importlib
+import shutil
 import struct
 import sys
 import tempfile
@@ -51,19 +52,34 @@ class Version:
     cycles: int = CYCLES
 
 
-def build_package(out: Path) -> Path:
-    """Generate the frozen co system into `out` and make `miner` and its hooks importable."""
+def build_package(out: Path, cross_process: bool = False) -> Path:
+    """Generate the frozen co system into `out` and make `miner` and its hooks importable.
+
+    `cross_process`: co alone in process pc1, its subordinates in pc2 (a copy of the spec
+    in `out`), so co reads their status and the world fields they write under the seqlock
+    (sequence words checked), as a supervisor in another process than its subordinates
+    does."""
     from rcsgen.compiler.back_end import emit
     from rcsgen.compiler.frontend import compile_paths
 
-    front = compile_paths([SPEC])
+    spec = SPEC
+    if cross_process:
+        spec = out / "co_spec_cross" / "miner"
+        shutil.copytree(SPEC, spec)
+        system = (spec / "system.yaml").read_text()
+        one = "processes:\n  pc1:\n    modules: [co, cr, vg, cc]\n"
+        if one not in system:
+            raise SystemExit("bench/co_spec/miner/system.yaml: its processes changed")
+        two = "processes:\n  pc1:\n    modules: [co]\n  pc2:\n    modules: [cr, vg, cc]\n"
+        (spec / "system.yaml").write_text(system.replace(one, two))
+    front = compile_paths([spec])
     if front.diagnostics.errors:
         raise SystemExit(f"bench/co_spec does not validate: {front.diagnostics.errors}")
     for rel, text in emit.render_all(front.systems).items():
         path = out / rel
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(text, encoding="utf-8")
-    sys.path[:0] = [str(out), str(SPEC), str(BENCH)]
+    sys.path[:0] = [str(out), str(spec), str(BENCH)]
     return out / "miner" / "co.py"
 
 

@@ -14,12 +14,19 @@ what a reader without the seqlock would take: those whose fields disagree are co
 plain torn reads.
 
 The reader runs the loop of `Record.read` inlined, to count its retries; a second, shorter
-pass calls `Record.read` itself (accepted, stale, torn). Both processes run flat out on the
-machine's two cores, sharing them with whatever else runs. Nothing here is timed but the
-rates; the segment is removed and the writer stopped (killed at worst) on the way out.
+pass calls `Record.read` itself (accepted, stale, torn). A third pass runs the generated
+code's own read: the writer rewrites the root sec's command buffer (command number k, depth
+k, offset k), as an operator's tool does, and the reader runs generated/miner's sec cycle
+after cycle, which reads its command with the generated fast path (one look, the test
+inline, the retries out of line); its copies must tell one write, never an older one.
+Both processes run flat out on the machine's two cores, sharing them with whatever else
+runs. Nothing here is timed but the rates; the segment is removed and the writer stopped
+(killed at worst) on the way out.
 
     python bench/bench_seqlock.py [--reads N] [--record-reads N] [--json PATH]
+    python bench/bench_seqlock.py [--generated-cycles N]
     python bench/bench_seqlock.py --writer SEGMENT     (the writer process; started by the reader)
+    python bench/bench_seqlock.py --command-writer SEGMENT   (the third pass's writer)
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ RECORD = "pc1"  # the process control record the writer rewrites
 STOP = "pc2"  # the reader stops the writer through this record's first field
 READS = 10_000_000
 RECORD_READS = 1_000_000
+GENERATED_CYCLES = 1_000_000  # cycles of the generated sec reading a command rewritten flat out
 I32 = 0xFFFFFFFF
 LAYOUT = "QIIQQQQQQQQ"  # the control record's fields (PROCESS_FIELDS), after its sequence word
 
@@ -83,6 +91,78 @@ def writer(segment: str) -> int:
         block.close()
     print(k)
     return 0
+
+
+def command_writer(segment: str) -> int:
+    """Rewrite sec's command buffer until the reader sets the stop word, as an operator's
+    tool writes it: write k is command number k, BOX_CUT, depth k and offset k."""
+    layout, contract, block_module = load()
+    block = block_module.Block(layout, segment, create=False)
+    buf = block.buf
+    stop_at = layout.PROCESSES[STOP].offset + 8
+    struct, at, seq_struct = layout.SEC_COMMAND, layout.SEC_COMMAND_AT, contract.SEQ
+    box_cut = layout.COMMAND_NAMES["sec"].index("BOX_CUT")
+    pack, pack_seq = struct.pack_into, seq_struct.pack_into
+    seq = seq_struct.unpack_from(buf, at)[0]
+    k = 0
+    try:
+        while True:
+            k += 1
+            seq += 1  # odd: being written, stored before any field changes
+            pack_seq(buf, at, seq)
+            pack(buf, at, seq, k, box_cut, float(k), float(k))
+            seq += 1  # even: whole
+            pack_seq(buf, at, seq)
+            if not k & 1023 and buf[stop_at]:
+                break
+    finally:
+        del buf
+        block.close()
+    print(k)
+    return 0
+
+
+def read_generated(buf, cycles: int) -> dict[str, int]:
+    """`cycles` cycles of the generated sec (generated/miner/sec.py), whose command another
+    process writes (so it reads it under the seqlock: the one look inline, the retries out
+    of line): after each, its copies of the command number, depth and offset must tell the
+    same write, never an older one than a copy before. Until its first whole read (a
+    construction whose read stayed torn) it must hold: no new command, the table held."""
+    import miner.sec
+
+    sec = miner.sec.SecController(buf)
+    run = sec.run_cycle
+    stale_before = stale = sec.stale_reads
+    whole_seen = stale == 0  # the constructor's read was whole
+    echoed = sec.status_num
+    inconsistent = went_back = changed = last = held = acted_torn = 0
+    for _ in range(cycles):
+        run()
+        if sec.stale_reads == stale:
+            whole_seen = True  # this cycle's read was whole
+        stale = sec.stale_reads
+        if not whole_seen:  # only torn reads so far: held, the block's command not taken
+            held += 1
+            if not sec.dont_run or sec.command_num != echoed or sec.rule:
+                acted_torn += 1
+            continue
+        k = sec.command_num
+        if not (k == sec.arg_depth == sec.arg_offset):
+            inconsistent += 1
+        elif k < last:
+            went_back += 1
+        elif k > last:
+            changed += 1
+            last = k
+    return {
+        "cycles": cycles,
+        "stale": sec.stale_reads - stale_before,
+        "held_before_first_whole_read": held,
+        "acted_before_first_whole_read": acted_torn,
+        "new_command_seen": changed,
+        "inconsistent_accepted": inconsistent,
+        "older_accepted": went_back,
+    }
 
 
 def read_counted(buf, record, contract, reads: int) -> dict[str, int]:
@@ -153,8 +233,9 @@ def read_records(buf, record, contract, reads: int) -> dict[str, int]:
     return {"reads": reads, "accepted": accepted, "stale": stale, "torn_accepted": torn}
 
 
-def stress(reads: int, record_reads: int) -> dict[str, object]:
+def stress(reads: int, record_reads: int, generated_cycles: int) -> dict[str, object]:
     layout, contract, block_module = load()
+    generated: dict[str, int | float] = {}
     segment = f"rcsgen_bench_seqlock_{os.getpid()}"
     block = block_module.Block(layout, segment, create=True)
     record = layout.PROCESSES[RECORD]
@@ -184,6 +265,26 @@ def stress(reads: int, record_reads: int) -> dict[str, object]:
         buf[stop_at] = 1
         out, _ = child.communicate(timeout=30)
         writes = int(out.strip() or 0)
+        if generated_cycles:
+            buf[stop_at] = 0
+            child = subprocess.Popen(
+                [sys.executable, __file__, "--command-writer", segment],
+                stdout=subprocess.PIPE,
+                text=True,
+                cwd=Path(__file__).parent,
+            )
+            deadline = time.monotonic() + 60
+            while layout.SEC_COMMAND.unpack_from(buf, layout.SEC_COMMAND_AT)[1] < 10:
+                if child.poll() is not None or time.monotonic() > deadline:
+                    raise SystemExit(f"the command writer did not start (exit {child.returncode})")
+                time.sleep(0.01)
+            begun = time.perf_counter()
+            generated = read_generated(buf, generated_cycles)
+            generated["seconds"] = time.perf_counter() - begun
+            buf[stop_at] = 1
+            out, _ = child.communicate(timeout=30)
+            generated["writes"] = int(out.strip() or 0)
+            generated["writer_exit"] = child.returncode
     finally:
         if child is not None and child.poll() is None:
             buf[stop_at] = 1
@@ -206,6 +307,7 @@ def stress(reads: int, record_reads: int) -> dict[str, object]:
         "writes_per_s_while_counted": (writes_middle - writes_before) / (middle - started),
         "writes_per_s_while_record_read": (writes_after - writes_middle) / (ended - middle),
         "writer_exit": child.returncode if child is not None else None,
+        "generated": generated,
     }
 
 
@@ -213,17 +315,25 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--reads", type=int, default=READS)
     parser.add_argument("--record-reads", type=int, default=RECORD_READS)
+    parser.add_argument("--generated-cycles", type=int, default=GENERATED_CYCLES)
     parser.add_argument("--writer", metavar="SEGMENT", help=argparse.SUPPRESS)
+    parser.add_argument("--command-writer", metavar="SEGMENT", help=argparse.SUPPRESS)
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
     if args.writer:
         return writer(args.writer)
+    if args.command_writer:
+        return command_writer(args.command_writer)
     started = time.perf_counter()
-    results = stress(args.reads, args.record_reads)
+    results = stress(args.reads, args.record_reads, args.generated_cycles)
     results["seconds"] = time.perf_counter() - started
     write_json(args.json, results)
     counted, whole = results["counted"], results["record_read"]
+    generated = results["generated"]
     ok = counted["torn_accepted"] == 0 and whole["torn_accepted"] == 0
+    bad = ("inconsistent_accepted", "older_accepted", "acted_before_first_whole_read")
+    ok = ok and not any(generated.get(key) for key in bad)
+    ok = ok and generated.get("writer_exit", 0) == 0
     return 0 if ok and results["writer_exit"] == 0 else 1
 
 

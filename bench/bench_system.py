@@ -118,34 +118,42 @@ def controllers(harness: Harness) -> list[tuple[str, object]]:
 
 
 class TimedHooks:
-    """Stands in for a hook module in a generated controller module (its `hooks` global):
-    each function the controller calls through it is timed (into `cycle.hooks`, the
-    current system cycle's). Calls inside the hook module do not pass through here, so
-    only what the controllers call is timed, once."""
+    """Times the hook functions the controllers call: each is replaced in its hook module by
+    a timed stand-in (generated code looks a hook up in its module at each call), until
+    `restore`. A call made while another is being timed (a hook calling another through its
+    module) is part of the outer one's time, so each controller's call is timed once."""
 
-    def __init__(self, module: types.ModuleType, cycle: CycleTimes) -> None:
-        self._module, self._cycle = module, cycle
+    def __init__(self, cycle: CycleTimes) -> None:
+        self.cycle, self.depth = cycle, 0
+        self.patched: list[tuple[types.ModuleType, str, object]] = []
 
-    def __getattr__(self, name: str):
-        function = getattr(self._module, name)
-        if not callable(function):
-            return function
-        key = f"{self._module.__name__}.{name}"
-        cycle, clock = self._cycle, wall_ns
+    def patch(self, module: types.ModuleType, name: str) -> None:
+        function = getattr(module, name, None)
+        if not callable(function) or any(m is module and n == name for m, n, _ in self.patched):
+            return
+        key = f"{module.__name__}.{name}"
+        cycle, clock, timer = self.cycle, wall_ns, self
 
         def timed(*args, **kwargs):
-            if not cycle.active:  # outside a cycle (e.g. a hook-state factory)
+            if not cycle.active or timer.depth:  # outside a cycle, or inside a timed call
                 return function(*args, **kwargs)
+            timer.depth += 1
             cycle.calls += 1
             start = clock()
             try:
                 return function(*args, **kwargs)
             finally:
                 took = clock() - start
+                timer.depth -= 1
                 cycle.hooks[key] = cycle.hooks.get(key, 0) + took
 
-        setattr(self, name, timed)  # resolve once
-        return timed
+        self.patched.append((module, name, function))
+        setattr(module, name, timed)
+
+    def restore(self) -> None:
+        for module, name, function in reversed(self.patched):
+            setattr(module, name, function)
+        self.patched.clear()
 
 
 class CycleTimes:
@@ -161,10 +169,13 @@ def hook_timing_cost(samples: int = 20_000) -> int:
     """What timing one hook call adds to the cycle of the module that makes it: the wrapper
     and its two readings of the clock (median of `samples`, less a plain call's)."""
     probe = types.ModuleType("probe")
-    probe.nothing = lambda: None
+    probe.nothing = plain = lambda: None
     cycle = CycleTimes()
     cycle.active = True
-    timed = TimedHooks(probe, cycle).nothing
+    timer = TimedHooks(cycle)
+    timer.patch(probe, "nothing")
+    timed = probe.nothing
+    timer.restore()
     clock = wall_ns
 
     def typical(function) -> float:
@@ -175,7 +186,7 @@ def hook_timing_cost(samples: int = 20_000) -> int:
             took.append(clock() - start)
         return statistics.median(took)
 
-    return max(0, round(typical(timed) - typical(probe.nothing)))
+    return max(0, round(typical(timed) - typical(plain)))
 
 
 def per_module(repeater: Repeater, cycles: int) -> tuple[dict[str, float], dict[str, float], int]:
@@ -191,7 +202,7 @@ def per_module(repeater: Repeater, cycles: int) -> tuple[dict[str, float], dict[
     hook_totals: dict[str, int] = {}
     counted = dropped = 0
     cycle_times = CycleTimes()
-    patched: dict[types.ModuleType, object] = {}
+    timer = TimedHooks(cycle_times)
 
     def instrumented(harness: Harness):
         steps = [(name, controller.run_cycle) for name, controller in controllers(harness)]
@@ -199,8 +210,11 @@ def per_module(repeater: Repeater, cycles: int) -> tuple[dict[str, float], dict[
             module = sys.modules[type(controller).__module__]
             hooks = getattr(module, "hooks", None)
             if isinstance(hooks, types.ModuleType):
-                patched[module] = hooks
-                module.hooks = TimedHooks(hooks, cycle_times)
+                # the hooks it calls: a method hook_<name> each (an older template named
+                # them in HOOK_DEADLINES)
+                called = {a[5:] for a in dir(type(controller)) if a.startswith("hook_")}
+                for name in sorted(called | set(getattr(module, "HOOK_DEADLINES", {}))):
+                    timer.patch(hooks, name)
         for name, _ in steps:
             totals.setdefault(name, 0)
         took = dict.fromkeys(totals, 0)
@@ -228,8 +242,7 @@ def per_module(repeater: Repeater, cycles: int) -> tuple[dict[str, float], dict[
     try:
         repeater.run(cycles, instrumented)
     finally:
-        for module, hooks in patched.items():
-            module.hooks = hooks
+        timer.restore()
     modules = {name: total / counted for name, total in totals.items()}
     return modules, {key: total / counted for key, total in hook_totals.items()}, dropped
 

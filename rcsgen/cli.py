@@ -481,7 +481,7 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> 
     type=click.Path(dir_okay=False),
     default=None,
     callback=_output_file,
-    help="Trace file to write [default: traces/<scenario>.jsonl].",
+    help="Trace file to write [default: traces/<scenario>.jsonl]; gzipped if it ends in .gz.",
 )
 @click.option(
     "--record",
@@ -1223,7 +1223,7 @@ def trace_show(trace_path: Path, output: Path | None, specs: Path | None) -> Non
     page = trace_view.render(
         found, lanes, system.name if system else None, system.cycle_period if system else None
     )
-    _write_or_print(page, output or trace_path.with_suffix(".html"))
+    _write_or_print(page, output or traces.beside(trace_path, ".html"))
 
 
 @trace_group.command("mine")
@@ -1284,4 +1284,4 @@ def trace_mine(
         click.echo(
             f"warning: the replayed cut differs from the trace at {result.mismatch}", err=True
         )
-    _write_or_print(page, output or trace_path.with_suffix(".mine.html"))
+    _write_or_print(page, output or traces.beside(trace_path, ".mine.html"))

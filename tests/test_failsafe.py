@@ -1100,7 +1100,7 @@ def test_a_generated_module_never_accepts_a_read_torn_by_a_write(package: Module
     real = lead_module.INPUTS
     lead_module.INPUTS = TornOnce(real, write)
     try:
-        lead.pre_process()
+        lead.run_cycle()  # its one look finds the read torn: read again, out of line
     finally:
         lead_module.INPUTS = real
     assert (lead.command_num, lead.command) == (2, names.index("CONVOY")), "a torn read accepted"
@@ -1184,3 +1184,43 @@ def test_a_policy_or_safe_value_that_cannot_hold_is_refused_at_build(
     (spec / file).write_text(text.replace(old, new, 1))
     found = [(d.code, d.message) for d in compile_paths([spec]).diagnostics.errors]
     assert any(c == code and message in m for c, m in found), found
+
+
+# ---------------------------------------------------------------- lockstep
+
+
+@pytest.mark.parametrize("fault", ["kill", "stop"])
+def test_lockstep_never_waits_for_a_lost_process_and_latches_every_actuator(
+    fleet: Path, package: ModuleType, fault: str
+) -> None:
+    """In lockstep, a process killed (kill -9) or stopped (SIGSTOP) between two cycles is
+    lost at the next step: ProcessLost, the step bounded (a stopped process by the
+    coordinator's timeout, here 2 s), every actuator of the block latched at its safe value
+    at once (v1's drive it had set too); closing leaves no child and no segment."""
+    from rcsgen.tools.harness import LaunchedHarness
+
+    override = runtime(package, "rcs.override")
+    h = LaunchedHarness(fleet, FLEET)
+    lost = sys.modules[type(h.coordinator).__module__].ProcessLost
+    pa = h.launcher.children["pa"].popen
+    segment = h.launcher.segment
+    try:
+        h.coordinator.timeout = 2.0
+        h.command("lead", "CONVOY")  # both vehicles drive
+        h.cycle(3)
+        driving = {name: h.world[name] for name in ("v1_drive", "v2_drive", "v2_brake")}
+        assert driving == {"v1_drive": 1.0, "v2_drive": 2.0, "v2_brake": False}
+        pa.send_signal(signal.SIGKILL if fault == "kill" else signal.SIGSTOP)
+        with pytest.raises(lost, match="did not answer within 2 s" if fault == "stop" else "pa"):
+            h.cycle(3)
+        safe = {"v1_drive": 0.0, "v2_drive": -0.5, "v2_brake": True}
+        assert {name: h.world[name] for name in safe} == safe
+        latched = override.overrides(h.layout, h.buf)
+        assert {name: latched[name][0] for name in safe} == dict.fromkeys(safe, "SAFE")
+    finally:
+        if fault == "stop":
+            pa.send_signal(signal.SIGCONT)  # its SIGTERM is then handled at once
+        h.close()
+    assert all(child.popen.poll() is not None for child in h.launcher.children.values())
+    assert pa.poll() is not None
+    assert not [p for p in Path("/dev/shm").glob(f"{segment}*")], "a segment left behind"

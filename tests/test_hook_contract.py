@@ -10,6 +10,7 @@ from __future__ import annotations
 import faulthandler
 import shutil
 from collections.abc import Iterator
+from fractions import Fraction
 from pathlib import Path
 
 import pytest
@@ -17,7 +18,6 @@ from click.testing import CliRunner
 from conftest import REPO, rcsgen
 
 from rcsgen.cli import main
-from rcsgen.compiler.back_end.emit import MARKER
 from rcsgen.tools.harness import Harness
 
 HOOKED = REPO / "tests" / "cases" / "valid" / "hooked"
@@ -167,17 +167,48 @@ def test_a_wrong_result_names_the_call_and_what_returns_needs(hooked: Path) -> N
     )
 
 
-def test_the_generated_code_checks_with_type_and_len_first() -> None:
-    """The check stays cheap: type() and len(); a checking function is called only for a
-    value whose type is not float or int (short-circuit), then one chained comparison that
-    NaN and the infinities fail."""
+@pytest.mark.parametrize(
+    ("kinds", "value", "fits"),
+    [
+        ("f", 1.5, True),
+        ("f", 2, True),  # an int, as in spec expressions
+        ("f", Fraction(1, 3), True),  # any real number
+        ("f", True, False),  # never a bool
+        ("f", float("nan"), False),
+        ("f", float("inf"), False),
+        ("f", "1.0", False),
+        ("i", 2**63 - 1, True),
+        ("i", 2**63, False),
+        ("i", 1.0, False),
+        ("i", False, False),
+        ("b", False, True),
+        ("b", 0, False),
+        ("e3", 2, True),
+        ("e3", 3, False),
+        ("e3", -1, False),
+        ("s4", "abcd", True),
+        ("s4", "abcde", False),
+        ("s4", "a\0", False),
+        ("ff", (1.0, 2), True),
+        ("ff", [1.0, 2.0], False),  # a tuple, exactly
+        ("ff", (1.0,), False),
+        ("ff", (1.0, 2.0, 3.0), False),
+        ("fi", (1.0, 2.5), False),
+    ],
+)
+def test_one_runtime_check_decides_what_fits_a_hooks_targets(
+    kinds: str, value: object, fits: bool
+) -> None:
+    """Every generated hook call checks its result with the runtime's `result_fits` (one
+    place for what a target of each type accepts), and the generated code names no check."""
+    from rcsgen.runtime.contract import result_fits
+
+    assert result_fits(kinds)(value) is fits
     text = (REPO / "generated" / "miner" / "co.py").read_text()
-    assert text.startswith(MARKER)
-    assert "or len(returned) != 2" in text
     assert (
-        "(type(returned[0]) not in NUMBER and not is_real(returned[0]))\n"
-        "                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX"
-    ) in text
+        'hook_co_position_for_sump = hook("co", hooks, "co_position_for_sump", 1.0, "ff")' in text
+    )
+    assert "returned" not in text and "is_real" not in text
 
 
 def test_other_numeric_types_that_are_numbers_are_accepted(hooked: Path) -> None:
@@ -243,7 +274,8 @@ def test_the_default_deadline_is_five_periods_and_at_least_a_second(hooked: Path
     text = rcsgen("build", "sys", "-o", "gen")
     assert text.exit_code == 0, text.output
     module = (hooked.parent / "gen" / "tiny" / "top.py").read_text()
-    assert '    "nudge": 1.0,\n    "split": 1.0,\n' in module
+    assert 'hook_nudge = hook("top", hooks, "nudge", 1.0, "f")' in module
+    assert 'hook_split = hook("top", hooks, "split", 1.0, "if")' in module
     top = hooked / "top.yaml"
     top.write_text(
         top.read_text().replace(
@@ -253,4 +285,4 @@ def test_the_default_deadline_is_five_periods_and_at_least_a_second(hooked: Path
     )
     assert rcsgen("build", "sys", "-o", "gen").exit_code == 0
     module = (hooked.parent / "gen" / "tiny" / "top.py").read_text()
-    assert '    "split": 3.0,\n' in module
+    assert 'hook_split = hook("top", hooks, "split", 3.0, "if")' in module

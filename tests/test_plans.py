@@ -101,9 +101,9 @@ def test_the_generated_executor_reads_like_a_hand_written_table() -> None:
         "                self.world_out = self.plan_legs_n",
         "                self.plan_legs_go(self.plan_legs_step + 1)  # advance: legs",
         "            self.plan_legs_replans_left = 2  # plan: legs, from no steps",
-        "                returned = within(",
-        '                    HOOK_DEADLINES["plan_legs"],',
-        "                    hooks.plan_legs,",
+        '    hook_plan_legs = hook("exe", hooks, "plan_legs", 1.0)',
+        '                self.hook_plan_legs("GO/S0/1", self.world_wanted, self.plan_legs_steps),'
+        ' "GO/S0/1"',
         '        problem = plan_problem(steps, "ifb", 4)',
     ):
         assert line in text.splitlines(), line

@@ -130,3 +130,58 @@ def test_run_of_a_bad_scenario_reports_it_and_writes_nothing(cwd: Path) -> None:
     assert result.exit_code == 1
     assert "error[S002]: unknown key `stop_when`" in result.stderr
     assert files_under(cwd) == before
+
+
+def test_a_trace_named_gz_is_written_gzipped_and_read_everywhere(cwd: Path) -> None:
+    """`--trace X.jsonl.gz` writes the trace gzip-compressed (reproducibly: no time in its
+    header); the trace tools and the golden comparison read it as they read plain JSON
+    Lines, known by its first bytes."""
+    import gzip
+
+    from rcsgen.tools import traces
+
+    scenario = SCENARIOS / "sump_shear_cusp.yaml"
+    result = rcsgen("run", scenario, "--generated", GENERATED, "--trace", "t.jsonl.gz")
+    assert result.exit_code == 0, result.output
+    golden = (GOLDEN / "sump_shear_cusp.jsonl").read_bytes()
+    packed = (cwd / "t.jsonl.gz").read_bytes()
+    assert gzip.decompress(packed) == golden and len(packed) * 10 < len(golden)
+    again = rcsgen("run", scenario, "--generated", GENERATED, "--trace", "u.jsonl.gz")
+    assert again.exit_code == 0 and (cwd / "u.jsonl.gz").read_bytes() == packed
+    plain, packed_trace = (
+        traces.load(GOLDEN / "sump_shear_cusp.jsonl"),
+        traces.load(cwd / "t.jsonl.gz"),
+    )
+    assert (packed_trace.cycles, packed_trace.columns, packed_trace.world) == (
+        plain.cycles,
+        plain.columns,
+        plain.world,
+    )
+    compared = rcsgen("run", scenario, "--generated", GENERATED, "--golden", "t.jsonl.gz")
+    assert compared.exit_code == 0, compared.output
+    assert "golden    t.jsonl.gz: identical, cycle for cycle" in compared.stdout
+    shown = rcsgen("trace", "show", "t.jsonl.gz", "--specs", MINER.parent)  # writes t.html
+    assert shown.exit_code == 0, shown.output
+    page = (cwd / "t.html").read_text(encoding="utf-8")
+    assert "t.jsonl.gz" in page and f'"n":{len(plain)}' in page
+
+
+def test_a_damaged_gzip_trace_is_one_line_not_a_traceback(cwd: Path) -> None:
+    """A `.jsonl.gz` cut short or corrupted: one line from the trace tools (exit 1)
+    and from the golden comparison (E419), never a traceback."""
+    import gzip
+
+    data = gzip.compress((GOLDEN / "pop_out.jsonl").read_bytes(), mtime=0)
+    (cwd / "cut.jsonl.gz").write_bytes(data[: len(data) // 2])
+    (cwd / "bad.jsonl.gz").write_bytes(data[:20] + b"\0" * 64 + data[84:])
+    for name in ("cut.jsonl.gz", "bad.jsonl.gz"):
+        shown = rcsgen("trace", "changes", name)
+        assert shown.exit_code == 1, shown.output
+        assert f"{name} is not a trace: a damaged gzip file" in shown.stderr
+        assert len(shown.stderr.strip().splitlines()) == 1
+        scenario = SCENARIOS / "pop_out.yaml"
+        compared = rcsgen("run", scenario, "--generated", GENERATED, "--golden", name)
+        assert compared.exit_code == 1, compared.output
+        assert "error[E419]: cannot read golden trace: not a trace: a damaged gzip" in (
+            compared.stderr
+        )

@@ -7,12 +7,16 @@ Every variant must leave the generated controller's trace (checked over the firs
 cycles of the closed loop); then all variants are timed on the same recorded inputs,
 interleaved, as in bench_co.py. An edit whose text is no longer in the generated code (the
 template changed) is reported as not applicable. The hand-written baseline and the minimal
-floor run in the same rounds, for the ratios.
+floor run in the same rounds, for the ratios. The co measured here is built with its
+subordinates in another process (bench_co.build_package's cross_process): it checks the
+sequence words of what they write, which the hand-written versions (all in one process) do
+not, so its ratios to them are conservative.
 
 Proposals adopted in the templates are no longer listed as proposals: one read for all
 inputs, one write for adjacent world fields, comparisons instead of max()/min() (148c872);
-run_cycle holding the four steps itself (formerly P2; R1 undoes it), and world outputs
-compared with the block's values instead of with what was last written (44fa027).
+run_cycle holding the four steps itself (44fa027), now their one copy; the seqlock read as
+one look with the test inline and the retries out of line (R1 undoes it); world outputs
+looked at only in a cycle in which a rule fired (R2 undoes it).
 
     python bench/prototypes/ablation.py [--cycles N] [--rounds R] [--json PATH]
 """
@@ -21,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import re
 import sys
 import tempfile
 from pathlib import Path
@@ -36,31 +41,58 @@ PEERS = ["handwritten", "minimal"]  # timed in the same rounds, for the ratios
 # Keys starting with R undo an adopted change, to show what it buys; they apply to the
 # generated code alone, and the proposals (P) go on from the generated code.
 STEPS = [
-    ("R1", "run_cycle calls the four step methods (the template before 44fa027)", "unfuse"),
+    ("R1", "the seqlock read as a loop: for/range, a tuple of the words, for/else", "loop"),
+    ("R2", "world outputs compared with the block every cycle, a rule fired or not", "compare"),
     (
         "P1",
         "predicates inlined into the guards that use them (no method call per use)",
         [("self.too_much_loose_coal()", "(self.world_loose_coal > LOOSE_COAL_LIMIT)")],
     ),
 ]
-FOUR_CALLS = """\
-    def run_cycle(self) -> None:
-        \"\"\"One cycle: the four steps, one call each.\"\"\"
-        self.pre_process()
-        self.check_if_new_command()
-        self.decision_process()
-        self.post_process()
+FAST_READ = re.compile(
+    r"        values = INPUTS.unpack_from\(buf, INPUTS_AT\)\n"
+    r"        if (?P<torn>(?:.|\n)*?):\n"
+    r"            self.read_inputs\(\).*\n"
+    r"        else:\n"
+    r"(?P<assign>(?:            .*\n)+?            \) = values\n)"
+)
+WORLD_GATE = (
+    "        # a rule fired (it may have set world outputs), or a field is forced or latched safe\n"
+    "        if self.rule or buf[OVERRIDDEN_AT]:\n"
+)
 
-"""
 
-
-def unfuse(source: str) -> str | None:
-    """run_cycle as four calls of the step methods (which the template still emits)."""
-    start = source.find("    def run_cycle(self) -> None:\n")
-    end = source.find("    def pre_process(self) -> None:\n")
-    if start < 0 or end < start or "self.pre_process()\n        self.check" in source:
+def loop(source: str) -> str | None:
+    """pre_process's read as the template wrote it before: every try in a for loop, the
+    sequence words gathered in a tuple, the stale count in the loop's else."""
+    found = FAST_READ.search(source)
+    if found is None or "SEQS.unpack_from(buf, SEQS_AT)" not in found["torn"]:
         return None
-    return source[:start] + FOUR_CALLS + source[end:]
+    torn = found["torn"]
+    indices = re.findall(r"values\[(\d+)\]", torn[: torn.index("SEQS.unpack_from")])
+    indices = list(dict.fromkeys(indices))  # each word once, in order
+    words = [f"seqs[{n}]" for n in range(len(indices))]
+    assign = "".join("    " + line + "\n" for line in found["assign"].splitlines())
+    replaced = (
+        "        for _ in range(READ_TRIES):\n"
+        "            values = INPUTS.unpack_from(buf, INPUTS_AT)\n"
+        f"            seqs = ({''.join(f'values[{i}], ' for i in indices)})\n"
+        f"            if not ({' | '.join(words)}) & 1 and {' and '.join(words)}"
+        " and SEQS.unpack_from(buf, SEQS_AT) == seqs:\n" + assign + "                break\n"
+        "        else:  # another process kept writing: keep the inputs of the last whole read\n"
+        "            self.stale_reads += 1\n"
+    )
+    return source[: found.start()] + replaced + source[found.end() :]
+
+
+def compare(source: str) -> str | None:
+    """The world outputs looked at every cycle: the gate removed, its block dedented."""
+    start = source.find(WORLD_GATE)
+    if start < 0:
+        return None
+    end = source.index("        last = perf_counter_ns() - cycle_start", start)
+    block = source[start + len(WORLD_GATE) : end]
+    return source[:start] + "".join(line[4:] + "\n" for line in block.splitlines()) + source[end:]
 
 
 def variants(generated: str) -> list[tuple[str, str, str | None]]:
@@ -70,8 +102,8 @@ def variants(generated: str) -> list[tuple[str, str, str | None]]:
     out = [("generated", "as generated today", source)]
     for key, description, edits in STEPS:
         changed: str | None = source
-        if edits == "unfuse":
-            changed = unfuse(source)
+        if isinstance(edits, str):
+            changed = {"loop": loop, "compare": compare}[edits](source)
         else:
             for old, new in edits:
                 changed = changed.replace(old, new) if changed and old in changed else None
@@ -97,7 +129,9 @@ def main() -> int:
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="rcsgen-bench-ablation-") as scratch:
-        generated = bench_co.build_package(Path(scratch)).read_text()
+        # co alone in its process: its subordinates' status and the world fields they
+        # write come from another process, read under the seqlock (the full guarantee)
+        generated = bench_co.build_package(Path(scratch), cross_process=True).read_text()
         steps = variants(generated)
         makers = {}
         for key, _, source in steps:

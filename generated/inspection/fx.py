@@ -55,7 +55,6 @@ class FxController:
         "buf",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -84,10 +83,9 @@ class FxController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -121,11 +119,8 @@ class FxController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
         (
@@ -141,7 +136,7 @@ class FxController:
         if self.op_status_num != self.op_command_num:
             self.op_status = EXECUTING  # until it echoes the last number sent
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
@@ -150,7 +145,7 @@ class FxController:
             self.error_num = REASON_NONE  # no reason yet
             self.ticks = 0  # a new command: its time in S0 starts
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -174,7 +169,7 @@ class FxController:
             elif command == UNLOAD_PART:
                 self.unload_part()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, FX_STATUS_AT, seq)  # odd before any field changes
@@ -227,9 +222,8 @@ class FxController:
         SEQ.pack_into(buf, FX_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """The inputs as they are in the block: all written in this module's process."""
         buf = self.buf
         (
             self.command_num,
@@ -241,99 +235,6 @@ class FxController:
             self.op_status_num,
             self.op_status,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        if self.op_status_num != self.op_command_num:
-            self.op_status = EXECUTING  # until it echoes the last number sent
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-            self.error_num = REASON_NONE  # no reason yet
-            self.ticks = 0  # a new command: its time in S0 starts
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == EQUIP_SETUP:
-                self.equip_setup()
-            elif command == PLACE_PART:
-                self.place_part()
-            elif command == REFIXTURE_PART:
-                self.refixture_part()
-            elif command == UNLOAD_PART:
-                self.unload_part()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, FX_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                FX_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, FX_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.op_command_num != self.op_written:  # a command was sent
-            seq, number = OP_FX_COMMAND.unpack_from(buf, OP_FX_COMMAND_AT)[:2]
-            if number != self.op_written:  # an operator's command came meanwhile:
-                self.op_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, OP_FX_COMMAND_AT, seq)
-            OP_FX_COMMAND.pack_into(
-                buf, OP_FX_COMMAND_AT, seq, self.op_command_num, self.op_command
-            )
-            SEQ.pack_into(buf, OP_FX_COMMAND_AT, seq + 1)
-            self.op_written = self.op_command_num
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, FX_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            FX_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, FX_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

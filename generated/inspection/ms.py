@@ -19,17 +19,14 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
-    INT_MAX,
-    INT_MIN,
     NO_RULE,
     NOP,
     PERF,
     SEQ,
     HookError,
     decode_text,
-    is_integer,
 )
-from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.deadline import FACTORY_DEADLINE, hook, within
 
 # Commands ms accepts (the code written to its command buffer).
 INIT = 1
@@ -81,13 +78,6 @@ NEXT = 5
 PROBING = 6
 JUDGED = 7
 
-# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
-# 5 cycle periods and at least 1 s).
-HOOK_DEADLINES = {
-    "judge": 2.5,
-    "program_features": 2.5,
-}
-
 
 class MsController:
     """The ms controller: its local buffers and the QQ1 cycle."""
@@ -106,7 +96,6 @@ class MsController:
         "cmm_written",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -141,9 +130,15 @@ class MsController:
         "world_cmm_reading",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_judge = hook("ms", hooks, "judge", 2.5, "b")
+    hook_program_features = hook("ms", hooks, "program_features", 2.5, "i")
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_program, settings or {})
         except BaseException as error:
@@ -153,7 +148,7 @@ class MsController:
         self.var_failed: int = 0
         self.var_in_tolerance: bool = False
         self.resume()
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -200,11 +195,8 @@ class MsController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
         (
@@ -231,7 +223,7 @@ class MsController:
         if self.cmm_status_num != self.cmm_command_num:
             self.cmm_status = EXECUTING  # until it echoes the last number sent
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
@@ -241,7 +233,7 @@ class MsController:
             self.result_measured = 0  # no result yet
             self.result_failed = 0  # no result yet
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -267,7 +259,7 @@ class MsController:
             elif command == MEASURE_PART:
                 self.measure_part()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, MS_STATUS_AT, seq)  # odd before any field changes
@@ -336,9 +328,8 @@ class MsController:
         SEQ.pack_into(buf, MS_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """The inputs as they are in the block: all written in this module's process."""
         buf = self.buf
         (
             self.command_num,
@@ -356,123 +347,6 @@ class MsController:
             self.world_cmm_reading,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
-        if self.tl_status_num != self.tl_command_num:
-            self.tl_status = EXECUTING  # until it echoes the last number sent
-            self.tl_error_num = TL_REASON_NONE  # no reason yet
-        elif self.tl_status != ERROR:
-            self.tl_error_num = TL_REASON_NONE  # a reason comes only with ERROR
-        if self.cmm_status_num != self.cmm_command_num:
-            self.cmm_status = EXECUTING  # until it echoes the last number sent
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-            self.error_num = REASON_NONE  # no reason yet
-            self.result_measured = 0  # no result yet
-            self.result_failed = 0  # no result yet
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == EQUIP_SETUP:
-                self.equip_setup()
-            elif command == CALIBRATE_CMM:
-                self.calibrate_cmm()
-            elif command == CALIBRATE_CAMERA:
-                self.calibrate_camera()
-            elif command == LOAD_PROBE:
-                self.load_probe()
-            elif command == MEASURE_PART:
-                self.measure_part()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, MS_STATUS_AT, seq)  # odd before any field changes
-            MS_STATUS.pack_into(
-                buf,
-                MS_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-                self.result_measured,
-                self.result_failed,
-            )
-            SEQ.pack_into(buf, MS_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.tl_command_num != self.tl_written:  # a command was sent
-            seq, number = TL_COMMAND.unpack_from(buf, TL_COMMAND_AT)[:2]
-            if number != self.tl_written:  # an operator's command came meanwhile:
-                self.tl_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, TL_COMMAND_AT, seq)
-            TL_COMMAND.pack_into(buf, TL_COMMAND_AT, seq, self.tl_command_num, self.tl_command)
-            SEQ.pack_into(buf, TL_COMMAND_AT, seq + 1)
-            self.tl_written = self.tl_command_num
-        if self.cmm_command_num != self.cmm_written:  # a command was sent
-            seq, number = CMM_COMMAND.unpack_from(buf, CMM_COMMAND_AT)[:2]
-            if number != self.cmm_written:  # an operator's command came meanwhile:
-                self.cmm_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CMM_COMMAND_AT, seq)
-            CMM_COMMAND.pack_into(
-                buf,
-                CMM_COMMAND_AT,
-                seq,
-                self.cmm_command_num,
-                self.cmm_command,
-                self.cmm_arg_number,
-            )
-            SEQ.pack_into(buf, CMM_COMMAND_AT, seq + 1)
-            self.cmm_written = self.cmm_command_num
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, MS_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            MS_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, MS_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -647,24 +521,9 @@ class MsController:
         if state == S0:
             self.rule = 21  # MEASURE_PART/S0/1
             self.state = NEXT
-            try:
-                returned = within(
-                    HOOK_DEADLINES["program_features"],
-                    hooks.program_features,
-                    self.hook_state,
-                    self.arg_program,
-                )
-            except BaseException as error:  # one error naming the module, hook, rule and cycle
-                raise HookError(
-                    "ms", "program_features", "MEASURE_PART/S0/1", self.cycles
-                ) from error
-            if (
-                type(returned) is not int and not is_integer(returned)
-            ) or not INT_MIN <= returned <= INT_MAX:
-                raise HookError(
-                    "ms", "program_features", "MEASURE_PART/S0/1", self.cycles, returned, "i"
-                )
-            self.var_features = returned
+            self.var_features = self.hook_program_features(
+                "MEASURE_PART/S0/1", self.hook_state, self.arg_program
+            )
             self.var_feature = 0
             self.var_failed = 0
 
@@ -686,21 +545,12 @@ class MsController:
                 # a reading; judging it is a hook, which a guard cannot call
                 self.rule = 24  # MEASURE_PART/PROBING/1
                 self.state = JUDGED
-                try:
-                    returned = within(
-                        HOOK_DEADLINES["judge"],
-                        hooks.judge,
-                        self.hook_state,
-                        self.var_feature,
-                        self.world_cmm_reading,
-                    )
-                except BaseException as error:  # one error naming the module, hook, rule and cycle
-                    raise HookError("ms", "judge", "MEASURE_PART/PROBING/1", self.cycles) from error
-                if type(returned) is not bool:
-                    raise HookError(
-                        "ms", "judge", "MEASURE_PART/PROBING/1", self.cycles, returned, "b"
-                    )
-                self.var_in_tolerance = returned
+                self.var_in_tolerance = self.hook_judge(
+                    "MEASURE_PART/PROBING/1",
+                    self.hook_state,
+                    self.var_feature,
+                    self.world_cmm_reading,
+                )
 
             elif self.cmm_status == ERROR:
                 self.rule = 25  # MEASURE_PART/PROBING/2

@@ -99,7 +99,6 @@ class WsController:
         "buf",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -138,32 +137,9 @@ class WsController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         self.var_measured: int = 0
         self.resume()
-        # Until a whole read (another process writes some inputs): the block's values as they
-        # are, no new command and the table held, so a first read that stays torn leaves the
-        # module stale (stale_reads counts it), never half-built.
-        (
-            _,
-            self.command_num,
-            self.command,
-            self.arg_program,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.ms_status_num,
-            self.ms_status,
-            self.ms_error_num,
-            self.ms_result_failed,
-            self.fx_status_num,
-            self.fx_status,
-            self.fx_error_num,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        self.arg_program = decode_text(self.arg_program)
-        self.command_num, self.dont_run = self.status_num, True
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -210,38 +186,32 @@ class WsController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.arg_program,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.ms_status_num,
-                    self.ms_status,
-                    self.ms_error_num,
-                    self.ms_result_failed,
-                    self.fx_status_num,
-                    self.fx_status,
-                    self.fx_error_num,
-                ) = values
-                self.arg_program = decode_text(self.arg_program)
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+            self.read_inputs()  # being written by another process: read again, out of line
+        else:
+            (
+                _,
+                self.command_num,
+                self.command,
+                self.arg_program,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.ms_status_num,
+                self.ms_status,
+                self.ms_error_num,
+                self.ms_result_failed,
+                self.fx_status_num,
+                self.fx_status,
+                self.fx_error_num,
+            ) = values
+            self.arg_program = decode_text(self.arg_program)
         if self.ms_status_num != self.ms_command_num:
             self.ms_status = EXECUTING  # until it echoes the last number sent
             self.ms_result_failed = 0  # no result yet
@@ -254,7 +224,7 @@ class WsController:
         elif self.fx_status != ERROR:
             self.fx_error_num = FX_REASON_NONE  # a reason comes only with ERROR
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
@@ -263,7 +233,7 @@ class WsController:
             self.error_num = REASON_NONE  # no reason yet
             self.result_accepted = False  # no result yet
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -283,7 +253,7 @@ class WsController:
             elif command == INSPECT_PART:
                 self.inspect_part()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, WS_STATUS_AT, seq)  # odd before any field changes
@@ -351,148 +321,44 @@ class WsController:
         SEQ.pack_into(buf, WS_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """pre_process's read when another process was writing an input: read again, up to
+        READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
+        the `first` read takes the block's values as they are, with no new command and the
+        table held, so a module is never half-built."""
         buf = self.buf
+        whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.arg_program,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.ms_status_num,
-                    self.ms_status,
-                    self.ms_error_num,
-                    self.ms_result_failed,
-                    self.fx_status_num,
-                    self.fx_status,
-                    self.fx_error_num,
-                ) = values
-                self.arg_program = decode_text(self.arg_program)
+            if not (
+                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
+            ):
+                whole = True
                 break
-        else:  # another process kept writing: keep the inputs of the last whole read
+        else:  # another process kept writing
             self.stale_reads += 1
-        if self.ms_status_num != self.ms_command_num:
-            self.ms_status = EXECUTING  # until it echoes the last number sent
-            self.ms_result_failed = 0  # no result yet
-            self.ms_error_num = MS_REASON_NONE  # no reason yet
-        elif self.ms_status != ERROR:
-            self.ms_error_num = MS_REASON_NONE  # a reason comes only with ERROR
-        if self.fx_status_num != self.fx_command_num:
-            self.fx_status = EXECUTING  # until it echoes the last number sent
-            self.fx_error_num = FX_REASON_NONE  # no reason yet
-        elif self.fx_status != ERROR:
-            self.fx_error_num = FX_REASON_NONE  # a reason comes only with ERROR
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-            self.error_num = REASON_NONE  # no reason yet
-            self.result_accepted = False  # no result yet
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == INIT_FOR_INSPECT:
-                self.init_for_inspect()
-            elif command == INSPECT_PART:
-                self.inspect_part()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, WS_STATUS_AT, seq)  # odd before any field changes
-            WS_STATUS.pack_into(
-                buf,
-                WS_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-                self.result_accepted,
-            )
-            SEQ.pack_into(buf, WS_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.ms_command_num != self.ms_written:  # a command was sent
-            seq, number = MS_COMMAND.unpack_from(buf, MS_COMMAND_AT)[:2]
-            if number != self.ms_written:  # an operator's command came meanwhile:
-                self.ms_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, MS_COMMAND_AT, seq)
-            MS_COMMAND.pack_into(
-                buf,
-                MS_COMMAND_AT,
-                seq,
-                self.ms_command_num,
-                self.ms_command,
-                encode_text(self.ms_arg_program, 32),
-            )
-            SEQ.pack_into(buf, MS_COMMAND_AT, seq + 1)
-            self.ms_written = self.ms_command_num
-        if self.fx_command_num != self.fx_written:  # a command was sent
-            seq, number = FX_COMMAND.unpack_from(buf, FX_COMMAND_AT)[:2]
-            if number != self.fx_written:  # an operator's command came meanwhile:
-                self.fx_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, FX_COMMAND_AT, seq)
-            FX_COMMAND.pack_into(buf, FX_COMMAND_AT, seq, self.fx_command_num, self.fx_command)
-            SEQ.pack_into(buf, FX_COMMAND_AT, seq + 1)
-            self.fx_written = self.fx_command_num
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, WS_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            WS_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, WS_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
+            if not first:
+                return
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.arg_program,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.ms_status_num,
+            self.ms_status,
+            self.ms_error_num,
+            self.ms_result_failed,
+            self.fx_status_num,
+            self.fx_status,
+            self.fx_error_num,
+        ) = values
+        self.arg_program = decode_text(self.arg_program)
+        if not whole:
+            self.command_num, self.dont_run = self.status_num, True
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

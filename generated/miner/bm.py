@@ -51,7 +51,6 @@ class BmController:
         "buf",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -76,9 +75,8 @@ class BmController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         self.resume()
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -101,11 +99,8 @@ class BmController:
         self.status_dirty = False
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
         (
@@ -119,14 +114,14 @@ class BmController:
             self.world_boom_angle,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -146,7 +141,7 @@ class BmController:
             elif command == LOWER:
                 self.lower()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, BM_STATUS_AT, seq)  # odd before any field changes
@@ -163,15 +158,17 @@ class BmController:
             SEQ.pack_into(buf, BM_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_boom_rate_cmd,)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_BOOM_RATE_CMD_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_BOOM_RATE_CMD_AT, (s[0] | 1) + 1)
+        # a rule fired (it may have set world outputs), or a field is forced or latched safe
+        if self.rule or buf[OVERRIDDEN_AT]:
+            out = (self.world_boom_rate_cmd,)
+            now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_1, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                SEQ.pack_into(buf, WORLD_BOOM_RATE_CMD_AT, s[0] | 1)  # odd before the value changes
+                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+                SEQ.pack_into(buf, WORLD_BOOM_RATE_CMD_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -197,9 +194,8 @@ class BmController:
         SEQ.pack_into(buf, BM_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """The inputs as they are in the block: all written in this module's process."""
         buf = self.buf
         (
             self.command_num,
@@ -211,89 +207,6 @@ class BmController:
             self.world_boom_rate_cmd,
             self.world_boom_angle,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == RAISE:
-                self.raise_()
-            elif command == LOWER:
-                self.lower()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, BM_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                BM_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, BM_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        out = (self.world_boom_rate_cmd,)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_BOOM_RATE_CMD_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_BOOM_RATE_CMD_AT, (s[0] | 1) + 1)
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, BM_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            BM_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, BM_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -20,21 +20,8 @@ from .layout import (
     WORLD_GOAL_X_AT,
     WORLD_GOAL_Y_AT,
 )
-from .rcs.contract import (
-    DONE,
-    ERROR,
-    EXECUTING,
-    FLOAT_MAX,
-    NO_RULE,
-    NOP,
-    NUMBER,
-    PERF,
-    SEQ,
-    STATUS,
-    HookError,
-    is_real,
-)
-from .rcs.deadline import within
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.deadline import hook
 from .rcs.override import held
 
 # Commands co accepts (the code written to its command buffer).
@@ -95,14 +82,6 @@ HEADING_LIMIT = 0.05
 MAX_APPROACH = 5.0
 APPROACH_DISTANCE = 0.5
 
-# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
-# 5 cycle periods and at least 1 s).
-HOOK_DEADLINES = {
-    "co_goal_ahead": 1.0,
-    "co_position_for_cusp": 1.0,
-    "co_position_for_sump": 1.0,
-}
-
 
 class CoController:
     """The co controller: its local buffers and the QQ1 cycle."""
@@ -123,7 +102,6 @@ class CoController:
         "cr_status",
         "cr_status_num",
         "cr_written",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -163,12 +141,19 @@ class CoController:
         "world_sump_step",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_co_goal_ahead = hook("co", hooks, "co_goal_ahead", 1.0, "ff")
+    hook_co_position_for_cusp = hook("co", hooks, "co_position_for_cusp", 1.0, "ff")
+    hook_co_position_for_sump = hook("co", hooks, "co_position_for_sump", 1.0, "ff")
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         self.var_distance: float = 0.0
         self.resume()
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -212,11 +197,8 @@ class CoController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
         (
@@ -253,14 +235,14 @@ class CoController:
         if self.cc_status_num != self.cc_command_num:
             self.cc_status = EXECUTING  # until it echoes the last number sent
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -286,7 +268,7 @@ class CoController:
             elif command == SUMP_SHEAR_CUSP:
                 self.sump_shear_cusp()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, CO_STATUS_AT, seq)  # odd before any field changes
@@ -338,17 +320,19 @@ class CoController:
             CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq, self.cc_command_num, self.cc_command)
             SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
             self.cc_written = self.cc_command_num
-        out = (self.world_goal_x, self.world_goal_y)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            SEQ.pack_into(buf, WORLD_GOAL_X_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, (s[1] | 1) + 1)
+        # a rule fired (it may have set world outputs), or a field is forced or latched safe
+        if self.rule or buf[OVERRIDDEN_AT]:
+            out = (self.world_goal_x, self.world_goal_y)
+            now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_1, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
+                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+                SEQ.pack_into(buf, WORLD_GOAL_X_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_GOAL_Y_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -374,9 +358,8 @@ class CoController:
         SEQ.pack_into(buf, CO_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """The inputs as they are in the block: all written in this module's process."""
         buf = self.buf
         (
             self.command_num,
@@ -405,138 +388,6 @@ class CoController:
             self.world_popped_out_of_shear,
             self.world_sump_step,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        if self.cr_status_num != self.cr_command_num:
-            self.cr_status = EXECUTING  # until it echoes the last number sent
-        if self.vg_status_num != self.vg_command_num:
-            self.vg_status = EXECUTING  # until it echoes the last number sent
-        if self.cc_status_num != self.cc_command_num:
-            self.cc_status = EXECUTING  # until it echoes the last number sent
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == INITIAL_APPROACH_FACE:
-                self.initial_approach_face()
-            elif command == REPOSITION:
-                self.reposition()
-            elif command == TRAM_TO_GOAL:
-                self.tram_to_goal()
-            elif command == APPROACH_FACE:
-                self.approach_face()
-            elif command == SUMP_SHEAR_CUSP:
-                self.sump_shear_cusp()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, CO_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                CO_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, CO_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.cr_command_num != self.cr_written:  # a command was sent
-            seq, number = CR_COMMAND.unpack_from(buf, CR_COMMAND_AT)[:2]
-            if number != self.cr_written:  # an operator's command came meanwhile:
-                self.cr_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CR_COMMAND_AT, seq)
-            CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq, self.cr_command_num, self.cr_command)
-            SEQ.pack_into(buf, CR_COMMAND_AT, seq + 1)
-            self.cr_written = self.cr_command_num
-        if self.vg_command_num != self.vg_written:  # a command was sent
-            seq, number = VG_COMMAND.unpack_from(buf, VG_COMMAND_AT)[:2]
-            if number != self.vg_written:  # an operator's command came meanwhile:
-                self.vg_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, VG_COMMAND_AT, seq)
-            VG_COMMAND.pack_into(
-                buf,
-                VG_COMMAND_AT,
-                seq,
-                self.vg_command_num,
-                self.vg_command,
-                self.vg_arg_x,
-                self.vg_arg_y,
-            )
-            SEQ.pack_into(buf, VG_COMMAND_AT, seq + 1)
-            self.vg_written = self.vg_command_num
-        if self.cc_command_num != self.cc_written:  # a command was sent
-            seq, number = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)[:2]
-            if number != self.cc_written:  # an operator's command came meanwhile:
-                self.cc_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CC_COMMAND_AT, seq)
-            CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq, self.cc_command_num, self.cc_command)
-            SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
-            self.cc_written = self.cc_command_num
-        out = (self.world_goal_x, self.world_goal_y)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-            SEQ.pack_into(buf, WORLD_GOAL_X_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_GOAL_Y_AT, (s[1] | 1) + 1)
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, CO_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            CO_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, CO_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
 
     def too_much_loose_coal(self) -> bool:
         """Predicate: world.loose_coal > LOOSE_COAL_LIMIT"""
@@ -608,40 +459,13 @@ class CoController:
                 self.rule = 6  # INITIAL_APPROACH_FACE/S1/1
                 self.state = S2
                 self.var_distance = MAX_APPROACH
-                try:
-                    returned = within(
-                        HOOK_DEADLINES["co_goal_ahead"],
-                        hooks.co_goal_ahead,
-                        self.world_pose_x,
-                        self.world_pose_y,
-                        self.world_heading,
-                        self.var_distance,
-                    )
-                except BaseException as error:  # one error naming the module, hook, rule and cycle
-                    raise HookError(
-                        "co", "co_goal_ahead", "INITIAL_APPROACH_FACE/S1/1", self.cycles
-                    ) from error
-                if (
-                    type(returned) is not tuple
-                    or len(returned) != 2
-                    or (
-                        (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
-                    )
-                    or (
-                        (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                        or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
-                    )
-                ):
-                    raise HookError(
-                        "co",
-                        "co_goal_ahead",
-                        "INITIAL_APPROACH_FACE/S1/1",
-                        self.cycles,
-                        returned,
-                        "ff",
-                    )
-                self.world_goal_x, self.world_goal_y = returned
+                self.world_goal_x, self.world_goal_y = self.hook_co_goal_ahead(
+                    "INITIAL_APPROACH_FACE/S1/1",
+                    self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_heading,
+                    self.var_distance,
+                )
                 self.vg_arg_x = self.world_goal_x
                 self.vg_arg_y = self.world_goal_y
                 self.vg_command = VG_TRAM_TO_XY
@@ -747,35 +571,13 @@ class CoController:
                 self.rule = 20  # APPROACH_FACE/S1/1
                 self.state = S2
                 self.var_distance = APPROACH_DISTANCE
-                try:
-                    returned = within(
-                        HOOK_DEADLINES["co_goal_ahead"],
-                        hooks.co_goal_ahead,
-                        self.world_pose_x,
-                        self.world_pose_y,
-                        self.world_heading,
-                        self.var_distance,
-                    )
-                except BaseException as error:  # one error naming the module, hook, rule and cycle
-                    raise HookError(
-                        "co", "co_goal_ahead", "APPROACH_FACE/S1/1", self.cycles
-                    ) from error
-                if (
-                    type(returned) is not tuple
-                    or len(returned) != 2
-                    or (
-                        (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
-                    )
-                    or (
-                        (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                        or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
-                    )
-                ):
-                    raise HookError(
-                        "co", "co_goal_ahead", "APPROACH_FACE/S1/1", self.cycles, returned, "ff"
-                    )
-                self.world_goal_x, self.world_goal_y = returned
+                self.world_goal_x, self.world_goal_y = self.hook_co_goal_ahead(
+                    "APPROACH_FACE/S1/1",
+                    self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_heading,
+                    self.var_distance,
+                )
                 self.vg_arg_x = self.world_goal_x
                 self.vg_arg_y = self.world_goal_y
                 self.vg_command = VG_TRAM_TO_XY
@@ -804,40 +606,13 @@ class CoController:
             # do a sump operation
             self.rule = 24  # SUMP_SHEAR_CUSP/S0/1
             self.state = S1
-            try:
-                returned = within(
-                    HOOK_DEADLINES["co_position_for_sump"],
-                    hooks.co_position_for_sump,
-                    self.world_pose_x,
-                    self.world_pose_y,
-                    self.world_heading,
-                    self.world_sump_step,
-                )
-            except BaseException as error:  # one error naming the module, hook, rule and cycle
-                raise HookError(
-                    "co", "co_position_for_sump", "SUMP_SHEAR_CUSP/S0/1", self.cycles
-                ) from error
-            if (
-                type(returned) is not tuple
-                or len(returned) != 2
-                or (
-                    (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                    or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
-                )
-                or (
-                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
-                )
-            ):
-                raise HookError(
-                    "co",
-                    "co_position_for_sump",
-                    "SUMP_SHEAR_CUSP/S0/1",
-                    self.cycles,
-                    returned,
-                    "ff",
-                )
-            self.world_goal_x, self.world_goal_y = returned
+            self.world_goal_x, self.world_goal_y = self.hook_co_position_for_sump(
+                "SUMP_SHEAR_CUSP/S0/1",
+                self.world_pose_x,
+                self.world_pose_y,
+                self.world_heading,
+                self.world_sump_step,
+            )
             self.cr_command = CR_SUMP
             self.cr_command_num += 1
             self.vg_arg_x = self.world_goal_x
@@ -863,40 +638,13 @@ class CoController:
                 # the drum popped out of the shear
                 self.rule = 26  # SUMP_SHEAR_CUSP/S2/1
                 self.state = S1
-                try:
-                    returned = within(
-                        HOOK_DEADLINES["co_position_for_sump"],
-                        hooks.co_position_for_sump,
-                        self.world_pose_x,
-                        self.world_pose_y,
-                        self.world_heading,
-                        self.world_sump_step,
-                    )
-                except BaseException as error:  # one error naming the module, hook, rule and cycle
-                    raise HookError(
-                        "co", "co_position_for_sump", "SUMP_SHEAR_CUSP/S2/1", self.cycles
-                    ) from error
-                if (
-                    type(returned) is not tuple
-                    or len(returned) != 2
-                    or (
-                        (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
-                    )
-                    or (
-                        (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                        or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
-                    )
-                ):
-                    raise HookError(
-                        "co",
-                        "co_position_for_sump",
-                        "SUMP_SHEAR_CUSP/S2/1",
-                        self.cycles,
-                        returned,
-                        "ff",
-                    )
-                self.world_goal_x, self.world_goal_y = returned
+                self.world_goal_x, self.world_goal_y = self.hook_co_position_for_sump(
+                    "SUMP_SHEAR_CUSP/S2/1",
+                    self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_heading,
+                    self.world_sump_step,
+                )
                 self.cc_command = CC_SHEAR_CORRECT
                 self.cc_command_num += 1
 
@@ -934,39 +682,9 @@ class CoController:
         ):
             self.rule = 30  # SUMP_SHEAR_CUSP/S3/1
             self.state = S4
-            try:
-                returned = within(
-                    HOOK_DEADLINES["co_position_for_cusp"],
-                    hooks.co_position_for_cusp,
-                    self.world_pose_x,
-                    self.world_pose_y,
-                    self.world_heading,
-                )
-            except BaseException as error:  # one error naming the module, hook, rule and cycle
-                raise HookError(
-                    "co", "co_position_for_cusp", "SUMP_SHEAR_CUSP/S3/1", self.cycles
-                ) from error
-            if (
-                type(returned) is not tuple
-                or len(returned) != 2
-                or (
-                    (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                    or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
-                )
-                or (
-                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
-                )
-            ):
-                raise HookError(
-                    "co",
-                    "co_position_for_cusp",
-                    "SUMP_SHEAR_CUSP/S3/1",
-                    self.cycles,
-                    returned,
-                    "ff",
-                )
-            self.world_goal_x, self.world_goal_y = returned
+            self.world_goal_x, self.world_goal_y = self.hook_co_position_for_cusp(
+                "SUMP_SHEAR_CUSP/S3/1", self.world_pose_x, self.world_pose_y, self.world_heading
+            )
             self.vg_arg_x = self.world_goal_x
             self.vg_arg_y = self.world_goal_y
             self.vg_command = VG_TRAM_TO_XY

@@ -70,7 +70,6 @@ class CrController:
         "cv_status",
         "cv_status_num",
         "cv_written",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -100,9 +99,8 @@ class CrController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         self.resume()
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -144,11 +142,8 @@ class CrController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
         (
@@ -174,14 +169,14 @@ class CrController:
         if self.ct_status_num != self.ct_command_num:
             self.ct_status = EXECUTING  # until it echoes the last number sent
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -203,7 +198,7 @@ class CrController:
             elif command == CUSP:
                 self.cusp()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, CR_STATUS_AT, seq)  # odd before any field changes
@@ -272,9 +267,8 @@ class CrController:
         SEQ.pack_into(buf, CR_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """The inputs as they are in the block: all written in this module's process."""
         buf = self.buf
         (
             self.command_num,
@@ -292,115 +286,6 @@ class CrController:
             self.world_tail_in_position,
             self.world_loose_coal,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        if self.gh_status_num != self.gh_command_num:
-            self.gh_status = EXECUTING  # until it echoes the last number sent
-        if self.cv_status_num != self.cv_command_num:
-            self.cv_status = EXECUTING  # until it echoes the last number sent
-        if self.ct_status_num != self.ct_command_num:
-            self.ct_status = EXECUTING  # until it echoes the last number sent
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == SUMP:
-                self.sump()
-            elif command == SHEAR:
-                self.shear()
-            elif command == CUSP:
-                self.cusp()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, CR_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                CR_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, CR_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.gh_command_num != self.gh_written:  # a command was sent
-            seq, number = GH_COMMAND.unpack_from(buf, GH_COMMAND_AT)[:2]
-            if number != self.gh_written:  # an operator's command came meanwhile:
-                self.gh_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, GH_COMMAND_AT, seq)
-            GH_COMMAND.pack_into(buf, GH_COMMAND_AT, seq, self.gh_command_num, self.gh_command)
-            SEQ.pack_into(buf, GH_COMMAND_AT, seq + 1)
-            self.gh_written = self.gh_command_num
-        if self.cv_command_num != self.cv_written:  # a command was sent
-            seq, number = CV_COMMAND.unpack_from(buf, CV_COMMAND_AT)[:2]
-            if number != self.cv_written:  # an operator's command came meanwhile:
-                self.cv_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CV_COMMAND_AT, seq)
-            CV_COMMAND.pack_into(buf, CV_COMMAND_AT, seq, self.cv_command_num, self.cv_command)
-            SEQ.pack_into(buf, CV_COMMAND_AT, seq + 1)
-            self.cv_written = self.cv_command_num
-        if self.ct_command_num != self.ct_written:  # a command was sent
-            seq, number = CT_COMMAND.unpack_from(buf, CT_COMMAND_AT)[:2]
-            if number != self.ct_written:  # an operator's command came meanwhile:
-                self.ct_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CT_COMMAND_AT, seq)
-            CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq, self.ct_command_num, self.ct_command)
-            SEQ.pack_into(buf, CT_COMMAND_AT, seq + 1)
-            self.ct_written = self.ct_command_num
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, CR_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            CR_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, CR_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

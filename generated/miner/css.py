@@ -16,18 +16,15 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
-    FLOAT_MAX,
     NO_RULE,
     NOP,
-    NUMBER,
     PERF,
     READ_TRIES,
     SEQ,
     STATUS,
     HookError,
-    is_real,
 )
-from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.deadline import FACTORY_DEADLINE, hook, within
 from .rcs.override import held
 
 # Commands css accepts (the code written to its command buffer).
@@ -57,12 +54,6 @@ S0 = 1
 # Constants.
 NOISE = 1.0
 
-# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
-# 5 cycle periods and at least 1 s).
-HOOK_DEADLINES = {
-    "noisy": 1.0,
-}
-
 
 class CssController:
     """The css controller: its local buffers and the QQ1 cycle."""
@@ -74,7 +65,6 @@ class CssController:
         "buf",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -96,32 +86,24 @@ class CssController:
         "status_seq",
         "world_cutter_current",
         "world_drum_current_true",
+        "world_set",
     )
+
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_noisy = hook("css", hooks, "noisy", 1.0, "f")
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
+        self.world_set = False  # an every_cycle rule set a world output
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_noise, settings or {})
         except BaseException as error:
             raise HookError("css", "new_noise", "hooks_state", 0) from error
         self.resume()
-        # Until a whole read (another process writes some inputs): the block's values as they
-        # are, no new command and the table held, so a first read that stays torn leaves the
-        # module stale (stale_reads counts it), never half-built.
-        (
-            _,
-            self.command_num,
-            self.command,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.world_drum_current_true,
-            self.world_cutter_current,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        self.command_num, self.dont_run = self.status_num, True
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -144,40 +126,34 @@ class CssController:
         self.status_dirty = False
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.world_drum_current_true,
-                    self.world_cutter_current,
-                ) = values
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+            self.read_inputs()  # being written by another process: read again, out of line
+        else:
+            (
+                _,
+                self.command_num,
+                self.command,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.world_drum_current_true,
+                self.world_cutter_current,
+            ) = values
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -194,7 +170,7 @@ class CssController:
             elif command == HALT:
                 self.halt()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, CSS_STATUS_AT, seq)  # odd before any field changes
@@ -211,15 +187,20 @@ class CssController:
             SEQ.pack_into(buf, CSS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_cutter_current,)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_CUTTER_CURRENT_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_CUTTER_CURRENT_AT, (s[0] | 1) + 1)
+        # a rule fired (it may have set world outputs), or a field is forced or latched safe
+        if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
+            self.world_set = False
+            out = (self.world_cutter_current,)
+            now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_1, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                SEQ.pack_into(
+                    buf, WORLD_CUTTER_CURRENT_AT, s[0] | 1
+                )  # odd before the value changes
+                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+                SEQ.pack_into(buf, WORLD_CUTTER_CURRENT_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -245,126 +226,44 @@ class CssController:
         SEQ.pack_into(buf, CSS_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """pre_process's read when another process was writing an input: read again, up to
+        READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
+        the `first` read takes the block's values as they are, with no new command and the
+        table held, so a module is never half-built."""
         buf = self.buf
+        whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.world_drum_current_true,
-                    self.world_cutter_current,
-                ) = values
+            if not (
+                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
+            ):
+                whole = True
                 break
-        else:  # another process kept writing: keep the inputs of the last whole read
+        else:  # another process kept writing
             self.stale_reads += 1
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, CSS_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                CSS_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, CSS_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        out = (self.world_cutter_current,)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_CUTTER_CURRENT_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_CUTTER_CURRENT_AT, (s[0] | 1) + 1)
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, CSS_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            CSS_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, CSS_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
+            if not first:
+                return
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_drum_current_true,
+            self.world_cutter_current,
+        ) = values
+        if not whole:
+            self.command_num, self.dont_run = self.status_num, True
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        try:
-            returned = within(
-                HOOK_DEADLINES["noisy"],
-                hooks.noisy,
-                self.hook_state,
-                self.world_drum_current_true,
-                NOISE,
-            )
-        except BaseException as error:  # one error naming the module, hook, rule and cycle
-            raise HookError("css", "noisy", "every_cycle/1", self.cycles) from error
-        if (
-            type(returned) not in NUMBER and not is_real(returned)
-        ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
-            raise HookError("css", "noisy", "every_cycle/1", self.cycles, returned, "f")
-        self.world_cutter_current = returned
+        self.world_set = True  # it sets world outputs
+        self.world_cutter_current = self.hook_noisy(
+            "every_cycle/1", self.hook_state, self.world_drum_current_true, NOISE
+        )
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

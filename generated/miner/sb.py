@@ -89,7 +89,6 @@ class SbController:
         "co_written",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -124,11 +123,10 @@ class SbController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         self.var_start_x: float = 0.0
         self.var_start_y: float = 0.0
         self.resume()
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -168,11 +166,8 @@ class SbController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
         (
@@ -199,14 +194,14 @@ class SbController:
         if self.wm_status_num != self.wm_command_num:
             self.wm_status = EXECUTING  # until it echoes the last number sent
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -228,7 +223,7 @@ class SbController:
             elif command == CUT_TWO_PASSES:
                 self.cut_two_passes()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, SB_STATUS_AT, seq)  # odd before any field changes
@@ -271,15 +266,17 @@ class SbController:
             WM_COMMAND.pack_into(buf, WM_COMMAND_AT, seq, self.wm_command_num, self.wm_command)
             SEQ.pack_into(buf, WM_COMMAND_AT, seq + 1)
             self.wm_written = self.wm_command_num
-        out = (self.world_sump_step,)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, (s[0] | 1) + 1)
+        # a rule fired (it may have set world outputs), or a field is forced or latched safe
+        if self.rule or buf[OVERRIDDEN_AT]:
+            out = (self.world_sump_step,)
+            now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_1, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, s[0] | 1)  # odd before the value changes
+                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+                SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -305,9 +302,8 @@ class SbController:
         SEQ.pack_into(buf, SB_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """The inputs as they are in the block: all written in this module's process."""
         buf = self.buf
         (
             self.command_num,
@@ -328,121 +324,6 @@ class SbController:
             self.world_drum_reach,
             self.world_sump_step,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        if self.co_status_num != self.co_command_num:
-            self.co_status = EXECUTING  # until it echoes the last number sent
-        if self.wm_status_num != self.wm_command_num:
-            self.wm_status = EXECUTING  # until it echoes the last number sent
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == TRAM_TO_GOAL:
-                self.tram_to_goal()
-            elif command == BOX_CUT:
-                self.box_cut()
-            elif command == CUT_TWO_PASSES:
-                self.cut_two_passes()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, SB_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                SB_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, SB_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.co_command_num != self.co_written:  # a command was sent
-            seq, number = CO_COMMAND.unpack_from(buf, CO_COMMAND_AT)[:2]
-            if number != self.co_written:  # an operator's command came meanwhile:
-                self.co_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CO_COMMAND_AT, seq)
-            CO_COMMAND.pack_into(
-                buf,
-                CO_COMMAND_AT,
-                seq,
-                self.co_command_num,
-                self.co_command,
-                self.co_arg_x,
-                self.co_arg_y,
-            )
-            SEQ.pack_into(buf, CO_COMMAND_AT, seq + 1)
-            self.co_written = self.co_command_num
-        if self.wm_command_num != self.wm_written:  # a command was sent
-            seq, number = WM_COMMAND.unpack_from(buf, WM_COMMAND_AT)[:2]
-            if number != self.wm_written:  # an operator's command came meanwhile:
-                self.wm_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, WM_COMMAND_AT, seq)
-            WM_COMMAND.pack_into(buf, WM_COMMAND_AT, seq, self.wm_command_num, self.wm_command)
-            SEQ.pack_into(buf, WM_COMMAND_AT, seq + 1)
-            self.wm_written = self.wm_command_num
-        out = (self.world_sump_step,)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, (s[0] | 1) + 1)
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, SB_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SB_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, SB_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -59,7 +59,6 @@ class SecController:
         "buf",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -89,26 +88,8 @@ class SecController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         self.resume()
-        # Until a whole read (another process writes some inputs): the block's values as they
-        # are, no new command and the table held, so a first read that stays torn leaves the
-        # module stale (stale_reads counts it), never half-built.
-        (
-            _,
-            self.command_num,
-            self.command,
-            self.arg_depth,
-            self.arg_offset,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.sb_status_num,
-            self.sb_status,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        self.command_num, self.dont_run = self.status_num, True
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -144,44 +125,38 @@ class SecController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.arg_depth,
-                    self.arg_offset,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.sb_status_num,
-                    self.sb_status,
-                ) = values
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+            self.read_inputs()  # being written by another process: read again, out of line
+        else:
+            (
+                _,
+                self.command_num,
+                self.command,
+                self.arg_depth,
+                self.arg_offset,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.sb_status_num,
+                self.sb_status,
+            ) = values
         if self.sb_status_num != self.sb_command_num:
             self.sb_status = EXECUTING  # until it echoes the last number sent
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -203,7 +178,7 @@ class SecController:
             elif command == TRAM_TO_GOAL:
                 self.tram_to_goal()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, SEC_STATUS_AT, seq)  # odd before any field changes
@@ -262,125 +237,39 @@ class SecController:
         SEQ.pack_into(buf, SEC_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """pre_process's read when another process was writing an input: read again, up to
+        READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
+        the `first` read takes the block's values as they are, with no new command and the
+        table held, so a module is never half-built."""
         buf = self.buf
+        whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.arg_depth,
-                    self.arg_offset,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.sb_status_num,
-                    self.sb_status,
-                ) = values
+            if not (
+                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
+            ):
+                whole = True
                 break
-        else:  # another process kept writing: keep the inputs of the last whole read
+        else:  # another process kept writing
             self.stale_reads += 1
-        if self.sb_status_num != self.sb_command_num:
-            self.sb_status = EXECUTING  # until it echoes the last number sent
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == MINE_COAL:
-                self.mine_coal()
-            elif command == BOX_CUT:
-                self.box_cut()
-            elif command == TRAM_TO_GOAL:
-                self.tram_to_goal()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, SEC_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                SEC_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, SEC_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.sb_command_num != self.sb_written:  # a command was sent
-            seq, number = SB_COMMAND.unpack_from(buf, SB_COMMAND_AT)[:2]
-            if number != self.sb_written:  # an operator's command came meanwhile:
-                self.sb_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, SB_COMMAND_AT, seq)
-            SB_COMMAND.pack_into(
-                buf,
-                SB_COMMAND_AT,
-                seq,
-                self.sb_command_num,
-                self.sb_command,
-                self.sb_arg_depth,
-                self.sb_arg_offset,
-            )
-            SEQ.pack_into(buf, SB_COMMAND_AT, seq + 1)
-            self.sb_written = self.sb_command_num
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, SEC_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SEC_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, SEC_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
+            if not first:
+                return
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.arg_depth,
+            self.arg_offset,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.sb_status_num,
+            self.sb_status,
+        ) = values
+        if not whole:
+            self.command_num, self.dont_run = self.status_num, True
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

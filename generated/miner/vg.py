@@ -18,21 +18,14 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
-    FLOAT_MAX,
-    INT_MAX,
-    INT_MIN,
     NO_RULE,
     NOP,
-    NUMBER,
     PERF,
     READ_TRIES,
     SEQ,
     STATUS,
-    HookError,
-    is_integer,
-    is_real,
 )
-from .rcs.deadline import within
+from .rcs.deadline import hook
 
 # Commands vg accepts (the code written to its command buffer).
 INIT = 1
@@ -92,13 +85,6 @@ GO_REVERSE = 2
 GO_LEFT = 3
 GO_RIGHT = 4
 
-# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
-# 5 cycle periods and at least 1 s).
-HOOK_DEADLINES = {
-    "align": 1.0,
-    "steer": 1.0,
-}
-
 
 class VgController:
     """The vg controller: its local buffers and the QQ1 cycle."""
@@ -109,7 +95,6 @@ class VgController:
         "buf",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -153,44 +138,22 @@ class VgController:
         "world_wp_y",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_align = hook("vg", hooks, "align", 1.0, "if")
+    hook_steer = hook("vg", hooks, "steer", 1.0, "iff")
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         self.var_move: int = 0
         self.var_ahead: float = 0.0
         self.var_turn: float = 0.0
         self.var_facing: int = 0
         self.var_facing_turn: float = 0.0
         self.resume()
-        # Until a whole read (another process writes some inputs): the block's values as they
-        # are, no new command and the table held, so a first read that stays torn leaves the
-        # module stale (stale_reads counts it), never half-built.
-        (
-            self.command_num,
-            self.command,
-            self.arg_x,
-            self.arg_y,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.tc_status_num,
-            self.tc_status,
-            _,
-            self.pp_status_num,
-            self.pp_status,
-            _,
-            self.world_wp_x,
-            _,
-            self.world_wp_y,
-            _,
-            self.world_wp_last,
-            self.world_pose_x,
-            self.world_pose_y,
-            self.world_heading,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        self.command_num, self.dont_run = self.status_num, True
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -230,69 +193,61 @@ class VgController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        if (
+            (values[10] | values[13] | values[15] | values[17]) & 1
+            or not (values[10] and values[13] and values[15] and values[17])
+            or SEQS.unpack_from(buf, SEQS_AT)
+            != (
                 values[10],
                 values[13],
                 values[15],
                 values[17],
             )
-            if (
-                not (seqs[0] | seqs[1] | seqs[2] | seqs[3]) & 1
-                and seqs[0]
-                and seqs[1]
-                and seqs[2]
-                and seqs[3]
-                and SEQS.unpack_from(buf, SEQS_AT) == seqs
-            ):
-                (
-                    self.command_num,
-                    self.command,
-                    self.arg_x,
-                    self.arg_y,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.tc_status_num,
-                    self.tc_status,
-                    _,
-                    self.pp_status_num,
-                    self.pp_status,
-                    _,
-                    self.world_wp_x,
-                    _,
-                    self.world_wp_y,
-                    _,
-                    self.world_wp_last,
-                    self.world_pose_x,
-                    self.world_pose_y,
-                    self.world_heading,
-                ) = values
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
+        ):
+            self.read_inputs()  # being written by another process: read again, out of line
+        else:
+            (
+                self.command_num,
+                self.command,
+                self.arg_x,
+                self.arg_y,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.tc_status_num,
+                self.tc_status,
+                _,
+                self.pp_status_num,
+                self.pp_status,
+                _,
+                self.world_wp_x,
+                _,
+                self.world_wp_y,
+                _,
+                self.world_wp_last,
+                self.world_pose_x,
+                self.world_pose_y,
+                self.world_heading,
+            ) = values
         if self.pp_status_num != self.pp_command_num:
             self.pp_status = EXECUTING  # until it echoes the last number sent
         if self.tc_status_num != self.tc_command_num:
             self.tc_status = EXECUTING  # until it echoes the last number sent
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -311,7 +266,7 @@ class VgController:
             elif command == TRAM_TO_XY:
                 self.tram_to_xy()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, VG_STATUS_AT, seq)  # odd before any field changes
@@ -379,208 +334,71 @@ class VgController:
         SEQ.pack_into(buf, VG_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """pre_process's read when another process was writing an input: read again, up to
+        READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
+        the `first` read takes the block's values as they are, with no new command and the
+        table held, so a module is never half-built."""
         buf = self.buf
+        whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (
-                values[10],
-                values[13],
-                values[15],
-                values[17],
-            )
-            if (
-                not (seqs[0] | seqs[1] | seqs[2] | seqs[3]) & 1
-                and seqs[0]
-                and seqs[1]
-                and seqs[2]
-                and seqs[3]
-                and SEQS.unpack_from(buf, SEQS_AT) == seqs
+            if not (
+                (values[10] | values[13] | values[15] | values[17]) & 1
+                or not (values[10] and values[13] and values[15] and values[17])
+                or SEQS.unpack_from(buf, SEQS_AT)
+                != (
+                    values[10],
+                    values[13],
+                    values[15],
+                    values[17],
+                )
             ):
-                (
-                    self.command_num,
-                    self.command,
-                    self.arg_x,
-                    self.arg_y,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.tc_status_num,
-                    self.tc_status,
-                    _,
-                    self.pp_status_num,
-                    self.pp_status,
-                    _,
-                    self.world_wp_x,
-                    _,
-                    self.world_wp_y,
-                    _,
-                    self.world_wp_last,
-                    self.world_pose_x,
-                    self.world_pose_y,
-                    self.world_heading,
-                ) = values
+                whole = True
                 break
-        else:  # another process kept writing: keep the inputs of the last whole read
+        else:  # another process kept writing
             self.stale_reads += 1
-        if self.pp_status_num != self.pp_command_num:
-            self.pp_status = EXECUTING  # until it echoes the last number sent
-        if self.tc_status_num != self.tc_command_num:
-            self.tc_status = EXECUTING  # until it echoes the last number sent
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == TRAM_TO_XY:
-                self.tram_to_xy()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, VG_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                VG_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, VG_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.pp_command_num != self.pp_written:  # a command was sent
-            seq, number = PP_COMMAND.unpack_from(buf, PP_COMMAND_AT)[:2]
-            if number != self.pp_written:  # an operator's command came meanwhile:
-                self.pp_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, PP_COMMAND_AT, seq)
-            PP_COMMAND.pack_into(
-                buf,
-                PP_COMMAND_AT,
-                seq,
-                self.pp_command_num,
-                self.pp_command,
-                self.pp_arg_x,
-                self.pp_arg_y,
-            )
-            SEQ.pack_into(buf, PP_COMMAND_AT, seq + 1)
-            self.pp_written = self.pp_command_num
-        if self.tc_command_num != self.tc_written:  # a command was sent
-            seq, number = TC_COMMAND.unpack_from(buf, TC_COMMAND_AT)[:2]
-            if number != self.tc_written:  # an operator's command came meanwhile:
-                self.tc_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, TC_COMMAND_AT, seq)
-            TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq, self.tc_command_num, self.tc_command)
-            SEQ.pack_into(buf, TC_COMMAND_AT, seq + 1)
-            self.tc_written = self.tc_command_num
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, VG_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            VG_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, VG_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
+            if not first:
+                return
+        (
+            self.command_num,
+            self.command,
+            self.arg_x,
+            self.arg_y,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.tc_status_num,
+            self.tc_status,
+            _,
+            self.pp_status_num,
+            self.pp_status,
+            _,
+            self.world_wp_x,
+            _,
+            self.world_wp_y,
+            _,
+            self.world_wp_last,
+            self.world_pose_x,
+            self.world_pose_y,
+            self.world_heading,
+        ) = values
+        if not whole:
+            self.command_num, self.dont_run = self.status_num, True
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         # where the waypoint is from this cycle's sensed pose (the moves below decide on it)
-        try:
-            returned = within(
-                HOOK_DEADLINES["steer"],
-                hooks.steer,
-                self.world_pose_x,
-                self.world_pose_y,
-                self.world_heading,
-                self.world_wp_x,
-                self.world_wp_y,
-            )
-        except BaseException as error:  # one error naming the module, hook, rule and cycle
-            raise HookError("vg", "steer", "every_cycle/1", self.cycles) from error
-        if (
-            type(returned) is not tuple
-            or len(returned) != 3
-            or (
-                (type(returned[0]) is not int and not is_integer(returned[0]))
-                or not INT_MIN <= returned[0] <= INT_MAX
-            )
-            or (
-                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
-                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
-            )
-        ):
-            raise HookError("vg", "steer", "every_cycle/1", self.cycles, returned, "iff")
-        self.var_move, self.var_ahead, self.var_turn = returned
-        try:
-            returned = within(HOOK_DEADLINES["align"], hooks.align, self.world_heading)
-        except BaseException as error:  # one error naming the module, hook, rule and cycle
-            raise HookError("vg", "align", "every_cycle/1", self.cycles) from error
-        if (
-            type(returned) is not tuple
-            or len(returned) != 2
-            or (
-                (type(returned[0]) is not int and not is_integer(returned[0]))
-                or not INT_MIN <= returned[0] <= INT_MAX
-            )
-            or (
-                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
-            )
-        ):
-            raise HookError("vg", "align", "every_cycle/1", self.cycles, returned, "if")
-        self.var_facing, self.var_facing_turn = returned
+        self.var_move, self.var_ahead, self.var_turn = self.hook_steer(
+            "every_cycle/1",
+            self.world_pose_x,
+            self.world_pose_y,
+            self.world_heading,
+            self.world_wp_x,
+            self.world_wp_y,
+        )
+        self.var_facing, self.var_facing_turn = self.hook_align("every_cycle/1", self.world_heading)
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

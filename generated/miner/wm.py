@@ -15,20 +15,8 @@ from .layout import (
     WORLD_DRUM_REACH_AT,
     WORLD_POPPED_OUT_OF_SHEAR_AT,
 )
-from .rcs.contract import (
-    DONE,
-    EXECUTING,
-    FLOAT_MAX,
-    NO_RULE,
-    NOP,
-    NUMBER,
-    PERF,
-    SEQ,
-    STATUS,
-    HookError,
-    is_real,
-)
-from .rcs.deadline import within
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.deadline import hook
 from .rcs.override import held
 
 # Commands wm accepts (the code written to its command buffer).
@@ -56,12 +44,6 @@ WORLD_HELD_1 = (
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 
-# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
-# 5 cycle periods and at least 1 s).
-HOOK_DEADLINES = {
-    "wm_estimate": 1.0,
-}
-
 
 class WmController:
     """The wm controller: its local buffers and the QQ1 cycle."""
@@ -70,7 +52,6 @@ class WmController:
         "buf",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -99,16 +80,23 @@ class WmController:
         "world_jack_down",
         "world_popped_out_of_shear",
         "world_pose_x",
+        "world_set",
     )
+
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_wm_estimate = hook("wm", hooks, "wm_estimate", 1.0, "fffbff")
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
+        self.world_set = False  # an every_cycle rule set a world output
         self.var_face0: float = -1000000000.0
         self.var_floor_x: float = -1000000000.0
         self.var_shear_x: float = 0.0
         self.resume()
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -131,11 +119,8 @@ class WmController:
         self.status_dirty = False
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
         (
@@ -154,14 +139,14 @@ class WmController:
             self.world_drum_reach,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -180,7 +165,7 @@ class WmController:
             elif command == NEW_CUT:
                 self.new_cut()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, WM_STATUS_AT, seq)  # odd before any field changes
@@ -197,23 +182,26 @@ class WmController:
             SEQ.pack_into(buf, WM_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
             self.status_dirty = False
-        out = (self.world_popped_out_of_shear, self.world_depth_est, self.world_drum_reach)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(
-                buf, WORLD_POPPED_OUT_OF_SHEAR_AT, s[0] | 1
-            )  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_DEPTH_EST_AT, s[1] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_DRUM_REACH_AT, s[2] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
-            )
-            SEQ.pack_into(buf, WORLD_POPPED_OUT_OF_SHEAR_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_DEPTH_EST_AT, (s[1] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_DRUM_REACH_AT, (s[2] | 1) + 1)
+        # a rule fired (it may have set world outputs), or a field is forced or latched safe
+        if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
+            self.world_set = False
+            out = (self.world_popped_out_of_shear, self.world_depth_est, self.world_drum_reach)
+            now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_1, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                SEQ.pack_into(
+                    buf, WORLD_POPPED_OUT_OF_SHEAR_AT, s[0] | 1
+                )  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_DEPTH_EST_AT, s[1] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_DRUM_REACH_AT, s[2] | 1)  # odd before the value changes
+                WORLD_OUT_1.pack_into(
+                    buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
+                )
+                SEQ.pack_into(buf, WORLD_POPPED_OUT_OF_SHEAR_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_DEPTH_EST_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_DRUM_REACH_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -239,9 +227,8 @@ class WmController:
         SEQ.pack_into(buf, WM_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """The inputs as they are in the block: all written in this module's process."""
         buf = self.buf
         (
             self.command_num,
@@ -259,140 +246,10 @@ class WmController:
             self.world_drum_reach,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == NEW_CUT:
-                self.new_cut()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, WM_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                WM_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, WM_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        out = (self.world_popped_out_of_shear, self.world_depth_est, self.world_drum_reach)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(
-                buf, WORLD_POPPED_OUT_OF_SHEAR_AT, s[0] | 1
-            )  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_DEPTH_EST_AT, s[1] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_DRUM_REACH_AT, s[2] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(
-                buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
-            )
-            SEQ.pack_into(buf, WORLD_POPPED_OUT_OF_SHEAR_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_DEPTH_EST_AT, (s[1] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_DRUM_REACH_AT, (s[2] | 1) + 1)
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, WM_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            WM_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, WM_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
-
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         # estimate from this cycle's sensed values
-        try:
-            returned = within(
-                HOOK_DEADLINES["wm_estimate"],
-                hooks.wm_estimate,
-                self.world_pose_x,
-                self.world_boom_angle,
-                self.world_cutter_current,
-                self.world_jack_down,
-                self.var_face0,
-                self.var_floor_x,
-                self.var_shear_x,
-                self.world_popped_out_of_shear,
-            )
-        except BaseException as error:  # one error naming the module, hook, rule and cycle
-            raise HookError("wm", "wm_estimate", "every_cycle/1", self.cycles) from error
-        if (
-            type(returned) is not tuple
-            or len(returned) != 6
-            or (
-                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
-                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
-            )
-            or type(returned[3]) is not bool
-            or (
-                (type(returned[4]) not in NUMBER and not is_real(returned[4]))
-                or not -FLOAT_MAX <= returned[4] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[5]) not in NUMBER and not is_real(returned[5]))
-                or not -FLOAT_MAX <= returned[5] <= FLOAT_MAX
-            )
-        ):
-            raise HookError("wm", "wm_estimate", "every_cycle/1", self.cycles, returned, "fffbff")
+        self.world_set = True  # it sets world outputs
         (
             self.var_face0,
             self.var_floor_x,
@@ -400,7 +257,17 @@ class WmController:
             self.world_popped_out_of_shear,
             self.world_depth_est,
             self.world_drum_reach,
-        ) = returned
+        ) = self.hook_wm_estimate(
+            "every_cycle/1",
+            self.world_pose_x,
+            self.world_boom_angle,
+            self.world_cutter_current,
+            self.world_jack_down,
+            self.var_face0,
+            self.var_floor_x,
+            self.var_shear_x,
+            self.world_popped_out_of_shear,
+        )
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -27,7 +27,7 @@ from .rcs.contract import (
     HookError,
     plan_problem,
 )
-from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.deadline import FACTORY_DEADLINE, hook, within
 
 # Commands cc accepts (the code written to its command buffer).
 INIT = 1
@@ -74,12 +74,6 @@ VENT = 5
 # Constants.
 CO_HIGH = 50.0
 
-# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
-# 5 cycle periods and at least 1 s).
-HOOK_DEADLINES = {
-    "plan_route": 5.0,
-}
-
 
 class CcController:
     """The cc controller: its local buffers and the QQ1 cycle."""
@@ -91,7 +85,6 @@ class CcController:
         "buf",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "ec_command",
@@ -134,9 +127,14 @@ class CcController:
         "world_co_ppm",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_plan_route = hook("cc", hooks, "plan_route", 5.0)
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_mission, settings or {})
         except BaseException as error:
@@ -145,26 +143,7 @@ class CcController:
         self.plan_route: list[tuple[float, float]] = []  # plan route: no steps yet
         self.plan_route_steps = self.plan_route_replans_left = 0
         self.plan_route_go(0)
-        # Until a whole read (another process writes some inputs): the block's values as they
-        # are, no new command and the table held, so a first read that stays torn leaves the
-        # module stale (stale_reads counts it), never half-built.
-        (
-            _,
-            self.command_num,
-            self.command,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.sm_status_num,
-            self.sm_status,
-            self.sm_error_num,
-            self.ec_status_num,
-            self.ec_status,
-            self.world_co_ppm,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        self.command_num, self.dont_run = self.status_num, True
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -212,35 +191,29 @@ class CcController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.sm_status_num,
-                    self.sm_status,
-                    self.sm_error_num,
-                    self.ec_status_num,
-                    self.ec_status,
-                    self.world_co_ppm,
-                ) = values
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+            self.read_inputs()  # being written by another process: read again, out of line
+        else:
+            (
+                _,
+                self.command_num,
+                self.command,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.sm_status_num,
+                self.sm_status,
+                self.sm_error_num,
+                self.ec_status_num,
+                self.ec_status,
+                self.world_co_ppm,
+            ) = values
         if self.sm_status_num != self.sm_command_num:
             self.sm_status = EXECUTING  # until it echoes the last number sent
             self.sm_error_num = SM_REASON_NONE  # no reason yet
@@ -249,7 +222,7 @@ class CcController:
         if self.ec_status_num != self.ec_command_num:
             self.ec_status = EXECUTING  # until it echoes the last number sent
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
@@ -257,7 +230,7 @@ class CcController:
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -275,7 +248,7 @@ class CcController:
             elif command == RUN_MISSION:
                 self.run_mission()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, CC_STATUS_AT, seq)  # odd before any field changes
@@ -346,141 +319,41 @@ class CcController:
         SEQ.pack_into(buf, CC_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """pre_process's read when another process was writing an input: read again, up to
+        READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
+        the `first` read takes the block's values as they are, with no new command and the
+        table held, so a module is never half-built."""
         buf = self.buf
+        whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.sm_status_num,
-                    self.sm_status,
-                    self.sm_error_num,
-                    self.ec_status_num,
-                    self.ec_status,
-                    self.world_co_ppm,
-                ) = values
+            if not (
+                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
+            ):
+                whole = True
                 break
-        else:  # another process kept writing: keep the inputs of the last whole read
+        else:  # another process kept writing
             self.stale_reads += 1
-        if self.sm_status_num != self.sm_command_num:
-            self.sm_status = EXECUTING  # until it echoes the last number sent
-            self.sm_error_num = SM_REASON_NONE  # no reason yet
-        elif self.sm_status != ERROR:
-            self.sm_error_num = SM_REASON_NONE  # a reason comes only with ERROR
-        if self.ec_status_num != self.ec_command_num:
-            self.ec_status = EXECUTING  # until it echoes the last number sent
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-            self.error_num = REASON_NONE  # no reason yet
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == RUN_MISSION:
-                self.run_mission()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, CC_STATUS_AT, seq)  # odd before any field changes
-            CC_STATUS.pack_into(
-                buf,
-                CC_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-                self.plan_route_step,
-                self.plan_route_steps,
-                self.plan_route_replans_left,
-            )
-            SEQ.pack_into(buf, CC_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.sm_command_num != self.sm_written:  # a command was sent
-            seq, number = SM_COMMAND.unpack_from(buf, SM_COMMAND_AT)[:2]
-            if number != self.sm_written:  # an operator's command came meanwhile:
-                self.sm_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, SM_COMMAND_AT, seq)
-            SM_COMMAND.pack_into(
-                buf,
-                SM_COMMAND_AT,
-                seq,
-                self.sm_command_num,
-                self.sm_command,
-                self.sm_arg_x,
-                self.sm_arg_y,
-            )
-            SEQ.pack_into(buf, SM_COMMAND_AT, seq + 1)
-            self.sm_written = self.sm_command_num
-        if self.ec_command_num != self.ec_written:  # a command was sent
-            seq, number = EC_COMMAND.unpack_from(buf, EC_COMMAND_AT)[:2]
-            if number != self.ec_written:  # an operator's command came meanwhile:
-                self.ec_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, EC_COMMAND_AT, seq)
-            EC_COMMAND.pack_into(buf, EC_COMMAND_AT, seq, self.ec_command_num, self.ec_command)
-            SEQ.pack_into(buf, EC_COMMAND_AT, seq + 1)
-            self.ec_written = self.ec_command_num
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, CC_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            CC_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, CC_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
+            if not first:
+                return
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.sm_status_num,
+            self.sm_status,
+            self.sm_error_num,
+            self.ec_status_num,
+            self.ec_status,
+            self.world_co_ppm,
+        ) = values
+        if not whole:
+            self.command_num, self.dont_run = self.status_num, True
 
     def plan_route_load(self, steps: object, rule: str) -> None:
         """Plan route: the planner's steps (x, y), at most 16, checked; step 0 is current."""
@@ -548,17 +421,12 @@ class CcController:
             self.state = S1
             self.plan_route_replans_left = 2  # plan: route, from no steps
             self.plan_route_load([], "RUN_MISSION/S0/1")
-            try:
-                returned = within(
-                    HOOK_DEADLINES["plan_route"],
-                    hooks.plan_route,
-                    self.hook_state,
-                    self.plan_route_step,
-                    self.plan_route_steps,
-                )
-            except BaseException as error:  # one error naming the module, planner, rule and cycle
-                raise HookError("cc", "plan_route", "RUN_MISSION/S0/1", self.cycles) from error
-            self.plan_route_load(returned, "RUN_MISSION/S0/1")
+            self.plan_route_load(
+                self.hook_plan_route(
+                    "RUN_MISSION/S0/1", self.hook_state, self.plan_route_step, self.plan_route_steps
+                ),
+                "RUN_MISSION/S0/1",
+            )
 
         elif state == S1:
             if not self.plan_route_done:
@@ -609,21 +477,15 @@ class CcController:
                         why="was not called: plan `route` has no replans left (2 declared)",
                     )
                 self.plan_route_replans_left -= 1
-                try:
-                    returned = within(
-                        HOOK_DEADLINES["plan_route"],
-                        hooks.plan_route,
+                self.plan_route_load(
+                    self.hook_plan_route(
+                        "RUN_MISSION/TRANSIT/3",
                         self.hook_state,
                         self.plan_route_step,
                         self.plan_route_steps,
-                    )
-                except (
-                    BaseException
-                ) as error:  # one error naming the module, planner, rule and cycle
-                    raise HookError(
-                        "cc", "plan_route", "RUN_MISSION/TRANSIT/3", self.cycles
-                    ) from error
-                self.plan_route_load(returned, "RUN_MISSION/TRANSIT/3")
+                    ),
+                    "RUN_MISSION/TRANSIT/3",
+                )
 
             elif self.sm_status == ERROR and self.sm_error_num == SM_REASON_BLOCKED:
                 # blocked, and no replans left

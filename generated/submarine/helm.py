@@ -16,23 +16,8 @@ from .layout import (
     RUDDER_COMMAND_AT,
     WORLD_COURSE_AT,
 )
-from .rcs.contract import (
-    DONE,
-    ERROR,
-    EXECUTING,
-    FLOAT_MAX,
-    INT_MAX,
-    INT_MIN,
-    NO_RULE,
-    NOP,
-    NUMBER,
-    PERF,
-    SEQ,
-    HookError,
-    is_integer,
-    is_real,
-)
-from .rcs.deadline import within
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ
+from .rcs.deadline import hook
 from .rcs.override import held
 
 # Commands helm accepts (the code written to its command buffer).
@@ -74,13 +59,6 @@ RUDDER_MAX = 30.0
 COURSE_TOL = 1.5
 DEADBAND = 2.0
 
-# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
-# 5 cycle periods and at least 1 s).
-HOOK_DEADLINES = {
-    "assess_ice": 5.0,
-    "course_to": 5.0,
-}
-
 
 def wrap(a: float) -> float:
     """Pure function: (a + 540.0) % 360.0 - 180.0"""
@@ -101,7 +79,6 @@ class HelmController:
         "buf",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -153,9 +130,15 @@ class HelmController:
         "world_sonar_13",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_assess_ice = hook("helm", hooks, "assess_ice", 5.0, "if")
+    hook_course_to = hook("helm", hooks, "course_to", 5.0, "f")
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
         self.var_ice_seen: int = 0
         self.var_avoid_heading: float = 0.0
         self.var_sent_angle: float = 0.0
@@ -163,7 +146,7 @@ class HelmController:
         self.held_ice_maneuver_s1_1 = 0  # cycles its rule's `when` has held in a row (for:)
         self.held_ice_maneuver_s2_4 = 0  # cycles its rule's `when` has held in a row (for:)
         self.resume()
-        self.pre_process()  # the command, the mode, subordinates' status, the world
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
@@ -205,11 +188,8 @@ class HelmController:
         self.status_dirty = True
 
     def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
         (
@@ -245,7 +225,7 @@ class HelmController:
         if self.rudder_status_num != self.rudder_command_num:
             self.rudder_status = EXECUTING  # until it echoes the last number sent
 
-        # check_if_new_command
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
             self.status_num = self.command_num
             self.state = S0
@@ -257,7 +237,7 @@ class HelmController:
             self.held_ice_maneuver_s1_1 = 0
             self.held_ice_maneuver_s2_4 = 0
 
-        # decision_process
+        # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
             self.rule = NO_RULE
             self.status_dirty = True
@@ -276,7 +256,7 @@ class HelmController:
             elif command == ICE_MANEUVER:
                 self.ice_maneuver()
 
-        # post_process
+        # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, HELM_STATUS_AT, seq)  # odd before any field changes
@@ -310,15 +290,17 @@ class HelmController:
             )
             SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq + 1)
             self.rudder_written = self.rudder_command_num
-        out = (self.world_course,)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_COURSE_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_COURSE_AT, (s[0] | 1) + 1)
+        # a rule fired (it may have set world outputs), or a field is forced or latched safe
+        if self.rule or buf[OVERRIDDEN_AT]:
+            out = (self.world_course,)
+            now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_1, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                SEQ.pack_into(buf, WORLD_COURSE_AT, s[0] | 1)  # odd before the value changes
+                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+                SEQ.pack_into(buf, WORLD_COURSE_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -344,9 +326,8 @@ class HelmController:
         SEQ.pack_into(buf, HELM_PERF_AT, seq + 1)
         self.perf_seq = seq + 1
 
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
+    def read_inputs(self, first: bool = False) -> None:
+        """The inputs as they are in the block: all written in this module's process."""
         buf = self.buf
         (
             self.command_num,
@@ -378,153 +359,29 @@ class HelmController:
             self.world_sonar_12,
             self.world_sonar_13,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        if self.rudder_status_num != self.rudder_command_num:
-            self.rudder_status = EXECUTING  # until it echoes the last number sent
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-            self.error_num = REASON_NONE  # no reason yet
-            self.result_at_goal = False  # no result yet
-            self.ticks = 0  # a new command: its time in S0 starts
-            self.held_ice_maneuver_s1_1 = 0
-            self.held_ice_maneuver_s2_4 = 0
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == ICE_MANEUVER:
-                self.ice_maneuver()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, HELM_STATUS_AT, seq)  # odd before any field changes
-            HELM_STATUS.pack_into(
-                buf,
-                HELM_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-                self.result_at_goal,
-            )
-            SEQ.pack_into(buf, HELM_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.rudder_command_num != self.rudder_written:  # a command was sent
-            seq, number = RUDDER_COMMAND.unpack_from(buf, RUDDER_COMMAND_AT)[:2]
-            if number != self.rudder_written:  # an operator's command came meanwhile:
-                self.rudder_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq)
-            RUDDER_COMMAND.pack_into(
-                buf,
-                RUDDER_COMMAND_AT,
-                seq,
-                self.rudder_command_num,
-                self.rudder_command,
-                self.rudder_arg_angle,
-            )
-            SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq + 1)
-            self.rudder_written = self.rudder_command_num
-        out = (self.world_course,)
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_COURSE_AT, s[0] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-            SEQ.pack_into(buf, WORLD_COURSE_AT, (s[0] | 1) + 1)
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, HELM_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            HELM_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, HELM_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         # sensory processing, every cycle whatever the command
-        try:
-            returned = within(
-                HOOK_DEADLINES["assess_ice"],
-                hooks.assess_ice,
-                self.world_course,
-                self.world_heading,
-                self.world_sonar_00,
-                self.world_sonar_01,
-                self.world_sonar_02,
-                self.world_sonar_03,
-                self.world_sonar_04,
-                self.world_sonar_05,
-                self.world_sonar_06,
-                self.world_sonar_07,
-                self.world_sonar_08,
-                self.world_sonar_09,
-                self.world_sonar_10,
-                self.world_sonar_11,
-                self.world_sonar_12,
-                self.world_sonar_13,
-            )
-        except BaseException as error:  # one error naming the module, hook, rule and cycle
-            raise HookError("helm", "assess_ice", "every_cycle/1", self.cycles) from error
-        if (
-            type(returned) is not tuple
-            or len(returned) != 2
-            or (
-                (type(returned[0]) is not int and not is_integer(returned[0]))
-                or not INT_MIN <= returned[0] <= INT_MAX
-            )
-            or (
-                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
-            )
-        ):
-            raise HookError("helm", "assess_ice", "every_cycle/1", self.cycles, returned, "if")
-        self.var_ice_seen, self.var_avoid_heading = returned
+        self.var_ice_seen, self.var_avoid_heading = self.hook_assess_ice(
+            "every_cycle/1",
+            self.world_course,
+            self.world_heading,
+            self.world_sonar_00,
+            self.world_sonar_01,
+            self.world_sonar_02,
+            self.world_sonar_03,
+            self.world_sonar_04,
+            self.world_sonar_05,
+            self.world_sonar_06,
+            self.world_sonar_07,
+            self.world_sonar_08,
+            self.world_sonar_09,
+            self.world_sonar_10,
+            self.world_sonar_11,
+            self.world_sonar_12,
+            self.world_sonar_13,
+        )
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -572,24 +429,9 @@ class HelmController:
             # Evt0 new command; compute the course
             self.rule = 5  # ICE_MANEUVER/S0/1
             self.state = S1
-            try:
-                returned = within(
-                    HOOK_DEADLINES["course_to"],
-                    hooks.course_to,
-                    self.arg_x,
-                    self.arg_y,
-                    self.world_pos_x,
-                    self.world_pos_y,
-                )
-            except BaseException as error:  # one error naming the module, hook, rule and cycle
-                raise HookError("helm", "course_to", "ICE_MANEUVER/S0/1", self.cycles) from error
-            if (
-                type(returned) not in NUMBER and not is_real(returned)
-            ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
-                raise HookError(
-                    "helm", "course_to", "ICE_MANEUVER/S0/1", self.cycles, returned, "f"
-                )
-            self.world_course = returned
+            self.world_course = self.hook_course_to(
+                "ICE_MANEUVER/S0/1", self.arg_x, self.arg_y, self.world_pos_x, self.world_pos_y
+            )
 
         elif state == S1:
             self.held_ice_maneuver_s1_1 = (
@@ -652,26 +494,9 @@ class HelmController:
                 # Evt2 ice problem clear; recompute the course to the goal
                 self.rule = 12  # ICE_MANEUVER/S2/2
                 self.state = S1
-                try:
-                    returned = within(
-                        HOOK_DEADLINES["course_to"],
-                        hooks.course_to,
-                        self.arg_x,
-                        self.arg_y,
-                        self.world_pos_x,
-                        self.world_pos_y,
-                    )
-                except BaseException as error:  # one error naming the module, hook, rule and cycle
-                    raise HookError(
-                        "helm", "course_to", "ICE_MANEUVER/S2/2", self.cycles
-                    ) from error
-                if (
-                    type(returned) not in NUMBER and not is_real(returned)
-                ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
-                    raise HookError(
-                        "helm", "course_to", "ICE_MANEUVER/S2/2", self.cycles, returned, "f"
-                    )
-                self.world_course = returned
+                self.world_course = self.hook_course_to(
+                    "ICE_MANEUVER/S2/2", self.arg_x, self.arg_y, self.world_pos_x, self.world_pos_y
+                )
 
             elif self.var_ice_seen != 0 and abs(avoid_order - self.var_sent_angle) > DEADBAND:
                 # steer the ice-avoiding heading

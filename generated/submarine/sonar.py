@@ -31,18 +31,15 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
-    FLOAT_MAX,
     NO_RULE,
     NOP,
-    NUMBER,
     PERF,
     READ_TRIES,
     SEQ,
     STATUS,
     HookError,
-    is_real,
 )
-from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.deadline import FACTORY_DEADLINE, hook, within
 from .rcs.override import held
 
 # Commands sonar accepts (the code written to its command buffer).
@@ -86,12 +83,6 @@ WORLD_HELD_1 = (
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 
-# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
-# 5 cycle periods and at least 1 s).
-HOOK_DEADLINES = {
-    "ping": 5.0,
-}
-
 
 class SonarController:
     """The sonar controller: its local buffers and the QQ1 cycle."""
@@ -103,7 +94,6 @@ class SonarController:
         "buf",
         "command",
         "command_num",
-        "cycle_start",
         "cycles",
         "dont_run",
         "error_num",
@@ -128,6 +118,7 @@ class SonarController:
         "world_min_clearance",
         "world_pos_x",
         "world_pos_y",
+        "world_set",
         "world_sonar_00",
         "world_sonar_01",
         "world_sonar_02",
@@ -144,17 +135,260 @@ class SonarController:
         "world_sonar_13",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_ping = hook("sonar", hooks, "ping", 5.0, "fffffffffffffff")
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.cycle_start = 0
+        self.world_set = False  # an every_cycle rule set a world output
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_ice, settings or {})
         except BaseException as error:
             raise HookError("sonar", "new_ice", "hooks_state", 0) from error
         self.resume()
-        # Until a whole read (another process writes some inputs): the block's values as they
-        # are, no new command and the table held, so a first read that stays torn leaves the
-        # module stale (stale_reads counts it), never half-built.
+        self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
+
+    def resume(self) -> None:
+        """Take up the buffers this module writes from the block: a restarted module keeps
+        its command-number handshake, and its sequence words go on from the block's."""
+        buf = self.buf
+        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
+            STATUS.unpack_from(buf, SONAR_STATUS_AT)
+        )
+        (
+            self.perf_seq,
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+            self.stale_reads,
+        ) = PERF.unpack_from(buf, SONAR_PERF_AT)
+        self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
+        self.perf_seq += self.perf_seq & 1
+        self.status_dirty = False
+
+    def run_cycle(self) -> None:
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+        # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
+        cycle_start = perf_counter_ns()
+        buf = self.buf
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+            self.read_inputs()  # being written by another process: read again, out of line
+        else:
+            (
+                _,
+                self.command_num,
+                self.command,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.world_pos_x,
+                self.world_pos_y,
+                self.world_heading,
+                self.world_sonar_00,
+                self.world_sonar_01,
+                self.world_sonar_02,
+                self.world_sonar_03,
+                self.world_sonar_04,
+                self.world_sonar_05,
+                self.world_sonar_06,
+                self.world_sonar_07,
+                self.world_sonar_08,
+                self.world_sonar_09,
+                self.world_sonar_10,
+                self.world_sonar_11,
+                self.world_sonar_12,
+                self.world_sonar_13,
+                self.world_clearance,
+                self.world_min_clearance,
+            ) = values
+
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
+        if self.command_num != self.status_num:
+            self.status_num = self.command_num
+            self.state = S0
+            self.status = EXECUTING
+            self.status_dirty = True
+
+        # 3. decision_process: run the command's state table, unless the mode holds it
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
+        ):
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            self.every_cycle()
+            command = self.command
+            if command == INIT:
+                self.init()
+            elif command == HALT:
+                self.halt()
+
+        # 4. post_process: write what changed, each buffer odd while it is written
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            SEQ.pack_into(buf, SONAR_STATUS_AT, seq)  # odd before any field changes
+            STATUS.pack_into(
+                buf,
+                SONAR_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+            )
+            SEQ.pack_into(buf, SONAR_STATUS_AT, seq + 1)
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        # a rule fired (it may have set world outputs), or a field is forced or latched safe
+        if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
+            self.world_set = False
+            out = (
+                self.world_sonar_00,
+                self.world_sonar_01,
+                self.world_sonar_02,
+                self.world_sonar_03,
+                self.world_sonar_04,
+                self.world_sonar_05,
+                self.world_sonar_06,
+                self.world_sonar_07,
+                self.world_sonar_08,
+                self.world_sonar_09,
+                self.world_sonar_10,
+                self.world_sonar_11,
+                self.world_sonar_12,
+                self.world_sonar_13,
+                self.world_clearance,
+                self.world_min_clearance,
+            )
+            now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_1, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                SEQ.pack_into(buf, WORLD_SONAR_00_AT, s[0] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_01_AT, s[1] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_02_AT, s[2] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_03_AT, s[3] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_04_AT, s[4] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_05_AT, s[5] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_06_AT, s[6] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_07_AT, s[7] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_08_AT, s[8] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_09_AT, s[9] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_10_AT, s[10] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_11_AT, s[11] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_12_AT, s[12] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_13_AT, s[13] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_CLEARANCE_AT, s[14] | 1)  # odd before the value changes
+                SEQ.pack_into(
+                    buf, WORLD_MIN_CLEARANCE_AT, s[15] | 1
+                )  # odd before the value changes
+                WORLD_OUT_1.pack_into(
+                    buf,
+                    WORLD_OUT_1_AT,
+                    s[0] | 1,
+                    out[0],
+                    s[1] | 1,
+                    out[1],
+                    s[2] | 1,
+                    out[2],
+                    s[3] | 1,
+                    out[3],
+                    s[4] | 1,
+                    out[4],
+                    s[5] | 1,
+                    out[5],
+                    s[6] | 1,
+                    out[6],
+                    s[7] | 1,
+                    out[7],
+                    s[8] | 1,
+                    out[8],
+                    s[9] | 1,
+                    out[9],
+                    s[10] | 1,
+                    out[10],
+                    s[11] | 1,
+                    out[11],
+                    s[12] | 1,
+                    out[12],
+                    s[13] | 1,
+                    out[13],
+                    s[14] | 1,
+                    out[14],
+                    s[15] | 1,
+                    out[15],
+                )
+                SEQ.pack_into(buf, WORLD_SONAR_00_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_01_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_02_AT, (s[2] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_03_AT, (s[3] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_04_AT, (s[4] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_05_AT, (s[5] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_06_AT, (s[6] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_07_AT, (s[7] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_08_AT, (s[8] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_09_AT, (s[9] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_10_AT, (s[10] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_11_AT, (s[11] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_12_AT, (s[12] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_13_AT, (s[13] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_CLEARANCE_AT, (s[14] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_MIN_CLEARANCE_AT, (s[15] | 1) + 1)
+        last = perf_counter_ns() - cycle_start
+        self.last_cycle_ns = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = last
+        self.cycles += 1
+        seq = self.perf_seq + 1
+        SEQ.pack_into(buf, SONAR_PERF_AT, seq)  # odd before any field changes
+        PERF.pack_into(
+            buf,
+            SONAR_PERF_AT,
+            seq,
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+            self.stale_reads,
+        )
+        SEQ.pack_into(buf, SONAR_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
+
+    def read_inputs(self, first: bool = False) -> None:
+        """pre_process's read when another process was writing an input: read again, up to
+        READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
+        the `first` read takes the block's values as they are, with no new command and the
+        table held, so a module is never half-built."""
+        buf = self.buf
+        whole = False
+        for _ in range(READ_TRIES):
+            values = INPUTS.unpack_from(buf, INPUTS_AT)
+            if not (
+                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
+            ):
+                whole = True
+                break
+        else:  # another process kept writing
+            self.stale_reads += 1
+            if not first:
+                return
         (
             _,
             self.command_num,
@@ -182,513 +416,13 @@ class SonarController:
             self.world_sonar_13,
             self.world_clearance,
             self.world_min_clearance,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        self.command_num, self.dont_run = self.status_num, True
-        self.pre_process()  # the command, the mode, subordinates' status, the world
-
-    def resume(self) -> None:
-        """Take up the buffers this module writes from the block: a restarted module keeps
-        its command-number handshake, and its sequence words go on from the block's."""
-        buf = self.buf
-        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
-            STATUS.unpack_from(buf, SONAR_STATUS_AT)
-        )
-        (
-            self.perf_seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        ) = PERF.unpack_from(buf, SONAR_PERF_AT)
-        self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
-        self.perf_seq += self.perf_seq & 1
-        self.status_dirty = False
-
-    def run_cycle(self) -> None:
-        """One cycle: read inputs, detect a new command, run its state table, write outputs.
-
-        The four steps below (pre_process, check_if_new_command, decision_process and
-        post_process), inlined: one call a cycle instead of five."""
-        # pre_process
-        cycle_start = perf_counter_ns()
-        buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.world_pos_x,
-                    self.world_pos_y,
-                    self.world_heading,
-                    self.world_sonar_00,
-                    self.world_sonar_01,
-                    self.world_sonar_02,
-                    self.world_sonar_03,
-                    self.world_sonar_04,
-                    self.world_sonar_05,
-                    self.world_sonar_06,
-                    self.world_sonar_07,
-                    self.world_sonar_08,
-                    self.world_sonar_09,
-                    self.world_sonar_10,
-                    self.world_sonar_11,
-                    self.world_sonar_12,
-                    self.world_sonar_13,
-                    self.world_clearance,
-                    self.world_min_clearance,
-                ) = values
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
-
-        # check_if_new_command
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-        # decision_process
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-
-        # post_process
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, SONAR_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                SONAR_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, SONAR_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        out = (
-            self.world_sonar_00,
-            self.world_sonar_01,
-            self.world_sonar_02,
-            self.world_sonar_03,
-            self.world_sonar_04,
-            self.world_sonar_05,
-            self.world_sonar_06,
-            self.world_sonar_07,
-            self.world_sonar_08,
-            self.world_sonar_09,
-            self.world_sonar_10,
-            self.world_sonar_11,
-            self.world_sonar_12,
-            self.world_sonar_13,
-            self.world_clearance,
-            self.world_min_clearance,
-        )
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_SONAR_00_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_01_AT, s[1] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_02_AT, s[2] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_03_AT, s[3] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_04_AT, s[4] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_05_AT, s[5] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_06_AT, s[6] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_07_AT, s[7] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_08_AT, s[8] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_09_AT, s[9] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_10_AT, s[10] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_11_AT, s[11] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_12_AT, s[12] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_13_AT, s[13] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_CLEARANCE_AT, s[14] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_MIN_CLEARANCE_AT, s[15] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(
-                buf,
-                WORLD_OUT_1_AT,
-                s[0] | 1,
-                out[0],
-                s[1] | 1,
-                out[1],
-                s[2] | 1,
-                out[2],
-                s[3] | 1,
-                out[3],
-                s[4] | 1,
-                out[4],
-                s[5] | 1,
-                out[5],
-                s[6] | 1,
-                out[6],
-                s[7] | 1,
-                out[7],
-                s[8] | 1,
-                out[8],
-                s[9] | 1,
-                out[9],
-                s[10] | 1,
-                out[10],
-                s[11] | 1,
-                out[11],
-                s[12] | 1,
-                out[12],
-                s[13] | 1,
-                out[13],
-                s[14] | 1,
-                out[14],
-                s[15] | 1,
-                out[15],
-            )
-            SEQ.pack_into(buf, WORLD_SONAR_00_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_01_AT, (s[1] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_02_AT, (s[2] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_03_AT, (s[3] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_04_AT, (s[4] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_05_AT, (s[5] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_06_AT, (s[6] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_07_AT, (s[7] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_08_AT, (s[8] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_09_AT, (s[9] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_10_AT, (s[10] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_11_AT, (s[11] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_12_AT, (s[12] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_13_AT, (s[13] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_CLEARANCE_AT, (s[14] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_MIN_CLEARANCE_AT, (s[15] | 1) + 1)
-        last = perf_counter_ns() - cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, SONAR_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SONAR_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, SONAR_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
-
-    def pre_process(self) -> None:
-        """Copy the command in, the mode, each subordinate's status and the world in."""
-        self.cycle_start = perf_counter_ns()
-        buf = self.buf
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            seqs = (values[0],)
-            if not (seqs[0]) & 1 and seqs[0] and SEQS.unpack_from(buf, SEQS_AT) == seqs:
-                (
-                    _,
-                    self.command_num,
-                    self.command,
-                    self.dont_run,
-                    self.single_step,
-                    self.simulate,
-                    self.single_step_num,
-                    self.world_pos_x,
-                    self.world_pos_y,
-                    self.world_heading,
-                    self.world_sonar_00,
-                    self.world_sonar_01,
-                    self.world_sonar_02,
-                    self.world_sonar_03,
-                    self.world_sonar_04,
-                    self.world_sonar_05,
-                    self.world_sonar_06,
-                    self.world_sonar_07,
-                    self.world_sonar_08,
-                    self.world_sonar_09,
-                    self.world_sonar_10,
-                    self.world_sonar_11,
-                    self.world_sonar_12,
-                    self.world_sonar_13,
-                    self.world_clearance,
-                    self.world_min_clearance,
-                ) = values
-                break
-        else:  # another process kept writing: keep the inputs of the last whole read
-            self.stale_reads += 1
-
-    def check_if_new_command(self) -> None:
-        """A command number that differs from the echoed status number is a new command."""
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-    def decision_process(self) -> None:
-        """Run the current command's state table, unless the mode holds the module."""
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-
-    def post_process(self) -> None:
-        """Write what changed (the status, the subordinates' commands, the world out), each
-        buffer odd while it is written, and the cycle time."""
-        buf = self.buf
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            SEQ.pack_into(buf, SONAR_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                SONAR_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            SEQ.pack_into(buf, SONAR_STATUS_AT, seq + 1)
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        out = (
-            self.world_sonar_00,
-            self.world_sonar_01,
-            self.world_sonar_02,
-            self.world_sonar_03,
-            self.world_sonar_04,
-            self.world_sonar_05,
-            self.world_sonar_06,
-            self.world_sonar_07,
-            self.world_sonar_08,
-            self.world_sonar_09,
-            self.world_sonar_10,
-            self.world_sonar_11,
-            self.world_sonar_12,
-            self.world_sonar_13,
-            self.world_clearance,
-            self.world_min_clearance,
-        )
-        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-            out = held(buf, WORLD_HELD_1, out, now)
-        if now != out:  # set this cycle
-            s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-            SEQ.pack_into(buf, WORLD_SONAR_00_AT, s[0] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_01_AT, s[1] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_02_AT, s[2] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_03_AT, s[3] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_04_AT, s[4] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_05_AT, s[5] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_06_AT, s[6] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_07_AT, s[7] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_08_AT, s[8] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_09_AT, s[9] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_10_AT, s[10] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_11_AT, s[11] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_12_AT, s[12] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_SONAR_13_AT, s[13] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_CLEARANCE_AT, s[14] | 1)  # odd before the value changes
-            SEQ.pack_into(buf, WORLD_MIN_CLEARANCE_AT, s[15] | 1)  # odd before the value changes
-            WORLD_OUT_1.pack_into(
-                buf,
-                WORLD_OUT_1_AT,
-                s[0] | 1,
-                out[0],
-                s[1] | 1,
-                out[1],
-                s[2] | 1,
-                out[2],
-                s[3] | 1,
-                out[3],
-                s[4] | 1,
-                out[4],
-                s[5] | 1,
-                out[5],
-                s[6] | 1,
-                out[6],
-                s[7] | 1,
-                out[7],
-                s[8] | 1,
-                out[8],
-                s[9] | 1,
-                out[9],
-                s[10] | 1,
-                out[10],
-                s[11] | 1,
-                out[11],
-                s[12] | 1,
-                out[12],
-                s[13] | 1,
-                out[13],
-                s[14] | 1,
-                out[14],
-                s[15] | 1,
-                out[15],
-            )
-            SEQ.pack_into(buf, WORLD_SONAR_00_AT, (s[0] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_01_AT, (s[1] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_02_AT, (s[2] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_03_AT, (s[3] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_04_AT, (s[4] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_05_AT, (s[5] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_06_AT, (s[6] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_07_AT, (s[7] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_08_AT, (s[8] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_09_AT, (s[9] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_10_AT, (s[10] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_11_AT, (s[11] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_12_AT, (s[12] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_SONAR_13_AT, (s[13] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_CLEARANCE_AT, (s[14] | 1) + 1)
-            SEQ.pack_into(buf, WORLD_MIN_CLEARANCE_AT, (s[15] | 1) + 1)
-        last = perf_counter_ns() - self.cycle_start
-        self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
-        seq = self.perf_seq + 1
-        SEQ.pack_into(buf, SONAR_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SONAR_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, SONAR_PERF_AT, seq + 1)
-        self.perf_seq = seq + 1
+        ) = values
+        if not whole:
+            self.command_num, self.dont_run = self.status_num, True
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        try:
-            returned = within(
-                HOOK_DEADLINES["ping"],
-                hooks.ping,
-                self.hook_state,
-                self.world_pos_x,
-                self.world_pos_y,
-                self.world_heading,
-            )
-        except BaseException as error:  # one error naming the module, hook, rule and cycle
-            raise HookError("sonar", "ping", "every_cycle/1", self.cycles) from error
-        if (
-            type(returned) is not tuple
-            or len(returned) != 15
-            or (
-                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
-                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[3]) not in NUMBER and not is_real(returned[3]))
-                or not -FLOAT_MAX <= returned[3] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[4]) not in NUMBER and not is_real(returned[4]))
-                or not -FLOAT_MAX <= returned[4] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[5]) not in NUMBER and not is_real(returned[5]))
-                or not -FLOAT_MAX <= returned[5] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[6]) not in NUMBER and not is_real(returned[6]))
-                or not -FLOAT_MAX <= returned[6] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[7]) not in NUMBER and not is_real(returned[7]))
-                or not -FLOAT_MAX <= returned[7] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[8]) not in NUMBER and not is_real(returned[8]))
-                or not -FLOAT_MAX <= returned[8] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[9]) not in NUMBER and not is_real(returned[9]))
-                or not -FLOAT_MAX <= returned[9] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[10]) not in NUMBER and not is_real(returned[10]))
-                or not -FLOAT_MAX <= returned[10] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[11]) not in NUMBER and not is_real(returned[11]))
-                or not -FLOAT_MAX <= returned[11] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[12]) not in NUMBER and not is_real(returned[12]))
-                or not -FLOAT_MAX <= returned[12] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[13]) not in NUMBER and not is_real(returned[13]))
-                or not -FLOAT_MAX <= returned[13] <= FLOAT_MAX
-            )
-            or (
-                (type(returned[14]) not in NUMBER and not is_real(returned[14]))
-                or not -FLOAT_MAX <= returned[14] <= FLOAT_MAX
-            )
-        ):
-            raise HookError(
-                "sonar", "ping", "every_cycle/1", self.cycles, returned, "fffffffffffffff"
-            )
+        self.world_set = True  # it sets world outputs
         (
             self.world_sonar_00,
             self.world_sonar_01,
@@ -705,7 +439,9 @@ class SonarController:
             self.world_sonar_12,
             self.world_sonar_13,
             self.world_clearance,
-        ) = returned
+        ) = self.hook_ping(
+            "every_cycle/1", self.hook_state, self.world_pos_x, self.world_pos_y, self.world_heading
+        )
         self.world_min_clearance = min(self.world_min_clearance, self.world_clearance)
 
     def init(self) -> None:

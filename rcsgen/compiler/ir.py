@@ -182,6 +182,7 @@ class ModuleIO:
     sub_values: dict[str, tuple[str, ...]] = field(default_factory=dict)
     input_texts: tuple[str, ...] = ()
     resume_texts: tuple[str, ...] = ()
+    world_set_rules: tuple[RuleId, ...] = ()  # every_cycle rules that raise the `world_set` flag
 
 
 # ---------------------------------------------------------------- system IR
@@ -281,8 +282,6 @@ class IRCall:
     args: tuple[str, ...]  # Python text of each argument (the hook state first, if any)
     targets: tuple[str, ...]  # attributes assigned from the hook's result
     kinds: str = ""  # each target's token in the result check (types.Type.hook_kind)
-    # Python condition true when `returned` does not fit the targets (cheap: type and len)
-    mismatch: str = ""
     span: Span | None = None  # where the spec calls it
 
 
@@ -481,7 +480,9 @@ class IRController:
     plans: tuple[IRPlan, ...] = ()  # its plans, in declaration order
     # Each hook and planner its tables call: the seconds one call may run before it is
     # interrupted (its `deadline:`, else the default), by name.
-    hook_deadlines: tuple[tuple[str, float], ...] = ()
+    # each hook and planner its tables call: (name, deadline in seconds, the kinds its result
+    # is checked against, or None: a planner's, checked by its plan, or a hook with no targets)
+    hook_calls: tuple[tuple[str, float, str | None], ...] = ()
     kind: ModuleKind = ModuleKind.CONTROLLER  # OPERATOR: a person at a screen, no table
     clients: tuple[str, ...] = ()  # an operator module's: whom it serves, one channel each
     io: ModuleIO | None = None  # its reads and writes of the block (set once it is laid out)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numbers
 import sys
+from collections.abc import Callable
 from struct import Struct
 from types import CodeType, ModuleType
 from typing import Any, NamedTuple, TypeVar
@@ -451,17 +452,52 @@ def _kind_words(token: str) -> str:
 _NOTHING = object()
 
 
-def _fits(value: object, kind: str) -> bool:
-    """Whether `value` may go into a target of this kind (the check generated code makes)."""
-    if kind == "f":
-        return is_real(value) and -FLOAT_MAX <= value <= FLOAT_MAX  # type: ignore[operator]
-    if kind == "i":
-        return (
-            isinstance(value, numbers.Integral)
-            and is_integer(value)
-            and (INT_MIN <= int(value) <= INT_MAX)
-        )
+def _float_fits(value: Any) -> bool:
+    return (type(value) in NUMBER or is_real(value)) and -FLOAT_MAX <= value <= FLOAT_MAX
+
+
+def _int_fits(value: Any) -> bool:
+    return (type(value) is int or is_integer(value)) and INT_MIN <= value <= INT_MAX
+
+
+def _bool_fits(value: object) -> bool:
     return type(value) is bool
+
+
+def kind_fits(token: str) -> Callable[[Any], bool]:
+    """Whether a value may go into a target of this kind token (f, i, b, e<n>, s<n>): the
+    one check of a hook's and a planner's results."""
+    if token == "f":
+        return _float_fits
+    if token == "i":
+        return _int_fits
+    if token == "b":
+        return _bool_fits
+    size = int(token[1:])
+    if token[0] == "e":  # the index of one of its values
+        return lambda value: type(value) is int and 0 <= value < size
+    if token[0] == "s":  # a string that fits, never truncated
+        return lambda value: not text_problem(value, size)
+    raise ValueError(f"unknown result kind {token!r}")
+
+
+def result_fits(kinds: str) -> Callable[[Any], bool]:
+    """Whether a hook's result fits targets of `kinds`: one value of its kind, or a tuple of
+    exactly that many values of theirs."""
+    tests = tuple(kind_fits(token) for token in kind_tokens(kinds))
+    if len(tests) == 1:
+        return tests[0]
+    count = len(tests)
+
+    def fits(result: Any) -> bool:
+        if type(result) is not tuple or len(result) != count:
+            return False
+        for test, value in zip(tests, result, strict=True):  # the lengths are equal
+            if not test(value):
+                return False
+        return True
+
+    return fits
 
 
 def plan_problem(steps: object, kinds: str, capacity: int) -> str:
@@ -478,7 +514,7 @@ def plan_problem(steps: object, kinds: str, capacity: int) -> str:
         if (
             not isinstance(step, tuple)
             or len(step) != len(kinds)
-            or not all(_fits(v, k) for v, k in zip(step, kinds, strict=True))
+            or not all(kind_fits(k)(v) for v, k in zip(step, kinds, strict=True))
         ):
             return f"returned step {index} as {_shown(step)}; a plan is {shape}"
     return ""

@@ -1,16 +1,18 @@
 """Deadline: a hook that runs too long is interrupted and reported, never left to hang.
 
-Generated code calls every hook as `within(seconds, hooks.name, *args)`: the hook's
-declared `deadline:` (else a few cycle periods). A watcher thread, started with the first
-call, looks every few milliseconds at the hook running in the main thread; once it has run
-past its deadline, the watcher sends the main thread a timer signal (SIGALRM) whose handler
-raises `HookOverrun` inside the hook, wherever it is: a Python loop, `time.sleep`, a wait
-on a lock or a socket (the call returns early with EINTR and the handler runs). The
-generated `except BaseException` turns it into the module's `HookError`, naming the hook,
-its rule, its cycle and the deadline. A hook that returns late anyway (it caught
-`HookOverrun` with a bare `except:`, or it ran outside the main thread) is refused when it
-returns: its result is never used. The same holds in the paced loop, in lockstep and in
-a harness, as long as hooks run in the main thread.
+Generated code calls every hook through `hook(...)`, one method of its controller class per
+hook (`self.hook_co_position_for_sump(rule, *args)`): `hooks.name(*args)` within the hook's
+declared `deadline:` (else a few cycle periods), any failure raised as the module's
+`HookError`, the result checked against its targets' kinds. A watcher thread, started with
+the first call, looks every few milliseconds at the hook running in the main thread; once
+it has run past its deadline, the watcher sends the main thread a timer signal (SIGALRM)
+whose handler raises `HookOverrun` inside the hook, wherever it is: a Python loop,
+`time.sleep`, a wait on a lock or a socket (the call returns early with EINTR and the
+handler runs). The call turns it into the module's `HookError`, naming the hook, its rule,
+its cycle and the deadline. A hook that returns late anyway (it caught `HookOverrun` with a
+bare `except:`, or it ran outside the main thread) is refused when it returns: its result
+is never used. The same holds in the paced loop, in lockstep and in a harness, as long as
+hooks run in the main thread.
 
 What it cannot interrupt, documented in docs/semantics.md: a hook that keeps the
 interpreter from running Python code - a long computation inside one C call (a big
@@ -30,9 +32,10 @@ import signal
 import threading
 import time
 from collections.abc import Callable
+from types import ModuleType
 from typing import Any, ClassVar, TypeVar
 
-from .contract import HookOverrun, shared
+from .contract import HookError, HookOverrun, result_fits, shared
 
 FACTORY_DEADLINE = 30.0  # seconds a `hooks_state` factory may take (a map to load, a file)
 TICK = 0.02  # seconds between two looks of the watcher (a quarter of a shorter deadline)
@@ -79,6 +82,46 @@ def within(deadline: float, hook: Callable[..., _Result], *args: Any) -> _Result
     if took > deadline:
         raise HookOverrun(deadline, took, interrupted=False)
     return result
+
+
+def hook(
+    module: str, hooks: ModuleType, name: str, deadline: float, kinds: str | None = None
+) -> Callable[..., Any]:
+    """Module `module`'s call of hook `name` of `hooks`, as a method of its controller class:
+    `self.name(rule, *args)` calls `hooks.name(*args)` (looked up at each call) within
+    `deadline` seconds; whatever it raises, an overrun too, is raised as a `HookError` naming
+    the module, the hook, `rule` and the module's cycle; a result that does not fit `kinds`
+    (None: the caller checks it, or ignores it) likewise. One frame for the whole call: the
+    deadline's bookkeeping is `within`'s, inlined."""
+    fits = None if kinds is None else result_fits(kinds)
+    state = _STATE
+
+    def call(owner: Any, rule: str, *args: Any) -> Any:
+        try:
+            function = getattr(hooks, name)
+            if _get_ident() != _MAIN:  # no signal reaches it: only a late result is refused
+                began = _clock()
+                result = function(*args)
+            else:
+                if _Watch.watcher is None:
+                    _start()
+                state[DEADLINE] = deadline
+                state[BEGAN] = began = _clock()
+                try:
+                    result = function(*args)
+                finally:
+                    state[BEGAN] = 0.0
+            took = _clock() - began
+            if took > deadline:
+                raise HookOverrun(deadline, took, interrupted=False)
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
+            raise HookError(module, name, rule, owner.cycles) from error
+        if fits is not None and not fits(result):
+            raise HookError(module, name, rule, owner.cycles, result, kinds or "")
+        return result
+
+    call.__name__ = call.__qualname__ = name
+    return call
 
 
 def _start() -> None:

@@ -17,11 +17,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..compiler.diagnostics import SpecError
+from ..compiler.diagnostics import Diagnostics, Span, SpecError
 from ..compiler.front_end.loader import decode, read_bytes
 from ..compiler.frontend import display_path
 from ..runtime import override
 from ..runtime.ctl import channel_requests, write_answer
+from . import traces
 from .harness import AnyHarness, Harness, LaunchedHarness, Status
 from .scenario_check import check_scenario
 from .scenario_model import (
@@ -280,11 +281,28 @@ def first_difference(expected: list[str], actual: list[str]) -> Mismatch | None:
     return None
 
 
+TRACE_LIMIT = 1 << 30  # bytes of text a trace (a golden one) may hold
+
+
 def read_trace(path: Path) -> list[str]:
+    """A trace file's lines (a golden trace's), plain or gzip-compressed; SpecError if it
+    cannot be read."""
     shown = display_path(path)
-    return decode(read_bytes(path, shown, 1 << 30), shown).splitlines()
+    data = read_bytes(path, shown, TRACE_LIMIT)
+    try:
+        data = traces.decompressed(data, TRACE_LIMIT)
+    except ValueError as error:
+        diags = Diagnostics()
+        diags.error(Span(shown), "E419", f"not a trace: {error}", "record it again")
+        raise SpecError(diags) from None
+    return decode(data, shown).splitlines()
 
 
 def write_trace(path: Path, lines: list[str]) -> None:
+    """Write a trace: JSON Lines, gzip-compressed when the name ends in `.gz`."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("".join(line + "\n" for line in lines), encoding="utf-8")
+    text = "".join(line + "\n" for line in lines)
+    if path.name.endswith(".gz"):
+        path.write_bytes(traces.compressed(text))
+    else:
+        path.write_text(text, encoding="utf-8")

@@ -13,10 +13,13 @@ from __future__ import annotations
 import html
 import json
 import math
+from collections.abc import Callable
 from importlib import resources
+from itertools import repeat
 from typing import Any
 
-from .traces import Lane, Trace, status_text
+from ..runtime import contract
+from .traces import Lane, Trace
 
 TEMPLATE = "trace_view.html"
 
@@ -35,16 +38,23 @@ class StringTable:
         return self.index[value]
 
 
-def runs(values: list[Any], numbers: list[int] | None, table: StringTable) -> list[int]:
-    """Run-length encoding, flat: start index, string index (and number) of each run."""
+def runs(
+    values: list[Any],
+    numbers: list[int] | None,
+    table: StringTable,
+    text: Callable[[Any], str] = str,
+) -> list[int]:
+    """Run-length encoding, flat: start index, string index (and number) of each run; a
+    value is made text (`text`) once per run, not once per cycle."""
     out: list[int] = []
     previous: tuple[Any, int | None] | None = None
-    for i, value in enumerate(values):
-        now = (value, numbers[i] if numbers is not None else None)
+    for i, now in enumerate(
+        zip(values, numbers if numbers is not None else repeat(None), strict=False)
+    ):
         if now != previous:
-            out += [i, table(str(value))]
-            if numbers is not None:
-                out.append(numbers[i])
+            out += [i, table(text(now[0]))]
+            if now[1] is not None:
+                out.append(now[1])
             previous = now
     return out
 
@@ -73,7 +83,10 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
                 "runs_as": lane.runs_as if lane.runs_as != lane.module else "",
                 "command": runs(col["command"], col["command_num"], table),
                 "status": runs(
-                    [status_text(col, i) for i in range(len(trace))], col["status_num"], table
+                    list(zip(col["status"], col.get("reason") or repeat(None), strict=False)),
+                    col["status_num"],
+                    table,
+                    lambda pair: contract.status_text(str(pair[0]), pair[1]),
                 ),
                 "state": runs(col["state"], None, table),
                 "rules": [x for pair in fired for x in pair],

@@ -1,17 +1,24 @@
 """Traces: a trace file (JSON Lines, one line per cycle) -> checked columns per module and world.
 
 `load` reads what `rcsgen run` writes and checks every line, so the viewers can trust it:
-a problem is a `TraceError` whose message is one line naming the file and line. `lanes`
+a problem is a `TraceError` whose message is one line naming the file and line. It reads
+line by line (a long trace is never held whole as text), plain or gzip-compressed
+(`.jsonl.gz`: `rcsgen run --trace X.jsonl.gz` writes one; known by its first bytes, not its
+name). `lanes`
 orders the modules as a system runs them (execution order, level, simulators, stand-ins)
 when the specs are at hand, and alphabetically otherwise.
 """
 
 from __future__ import annotations
 
+import gzip
+import io
 import json
+import zlib
+from collections.abc import Generator, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import IO, Any, cast
 
 from ..compiler.ir import IRProcess, IRSystem
 from ..runtime import contract
@@ -42,6 +49,9 @@ class Trace:
         return len(self.cycles)
 
 
+GZIP_MAGIC = b"\x1f\x8b"  # the first bytes of a gzip file (a `.jsonl.gz` trace)
+
+
 def load(path: Path) -> Trace:
     """Read and check a trace file; TraceError with a one-line message if it is not one."""
     shown = str(path)
@@ -49,24 +59,78 @@ def load(path: Path) -> Trace:
         raise TraceError(f"no trace file at {shown}")
     if not path.is_file():
         raise TraceError(f"{shown} is not a file")
+    lines = _lines(path, shown)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        raise TraceError(
-            f"{shown} is not a trace: cannot read it as UTF-8 text ({error})"
-        ) from None
-    return parse(text, shown)
+        return parse_lines(lines, shown)
+    except OSError as error:
+        raise TraceError(f"{shown} is not a trace: cannot read it ({error})") from None
+    finally:
+        lines.close()  # the file is closed however the reading ended
+
+
+def _lines(path: Path, shown: str) -> Generator[str, None, None]:
+    """The text lines of a trace file, one at a time, decompressed if it is gzip."""
+    with path.open("rb") as raw:
+        stream: IO[bytes] = raw
+        if raw.peek(len(GZIP_MAGIC))[: len(GZIP_MAGIC)] == GZIP_MAGIC:
+            stream = cast(IO[bytes], gzip.GzipFile(fileobj=raw, mode="rb"))
+        text = io.TextIOWrapper(stream, encoding="utf-8")
+        try:
+            for line in text:
+                yield line.rstrip("\n")
+        except UnicodeDecodeError as error:
+            raise TraceError(
+                f"{shown} is not a trace: cannot read it as UTF-8 text ({error})"
+            ) from None
+        except (gzip.BadGzipFile, EOFError, zlib.error) as error:
+            raise TraceError(f"{shown} is not a trace: a damaged gzip file ({error})") from None
+        finally:
+            text.detach()  # `raw` is closed by its own `with`
+
+
+def beside(path: Path, suffix: str) -> Path:
+    """A file next to a trace, named after it: `x.jsonl` and `x.jsonl.gz` give `x<suffix>`."""
+    name = path.name.removesuffix(".gz")
+    if name.endswith(".jsonl"):
+        return path.with_name(name.removesuffix(".jsonl") + suffix)
+    return path.with_name(name).with_suffix(suffix)
+
+
+def decompressed(data: bytes, limit: int) -> bytes:
+    """A trace file's bytes as text bytes: gunzipped if they are gzip (at most `limit`
+    bytes out; ValueError when it is larger or damaged), else as they are."""
+    if data[: len(GZIP_MAGIC)] != GZIP_MAGIC:
+        return data
+    inflate = zlib.decompressobj(wbits=31)  # 31: a gzip header and trailer
+    try:
+        out = inflate.decompress(data, limit + 1)
+    except zlib.error as error:
+        raise ValueError(f"a damaged gzip file ({error})") from None
+    if len(out) > limit:
+        raise ValueError(f"it holds more than {limit:,} bytes of text")
+    if not inflate.eof:
+        raise ValueError("a damaged gzip file (it ends before its data does)")
+    return out
+
+
+def compressed(text: str) -> bytes:
+    """`text` gzipped, reproducibly: no time or file name in the header."""
+    return gzip.compress(text.encode("utf-8"), mtime=0)
 
 
 def parse(text: str, shown: str = "<trace>") -> Trace:
-    lines = text.splitlines()
-    if not any(line.strip() for line in lines):
-        raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
+    """A trace from its text (see parse_lines)."""
+    return parse_lines(text.splitlines(), shown)
+
+
+def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
+    """Check a trace's lines, one at a time, into columns; TraceError naming the line."""
     cycles: list[int] = []
     columns: dict[str, dict[str, list[Any]]] = {}
     world: dict[str, list[Any]] = {}
     modules: list[str] = []
     interrupted = None
+    texts: dict[str, str] = {}  # each text value once: a long trace repeats a few names
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
@@ -116,13 +180,19 @@ def parse(text: str, shown: str = "<trace>") -> Trace:
             if "result" in values and not isinstance(values["result"], dict):
                 raise TraceError(f"{where}: module {module}'s `result` is not an object")
             for name in columns[module]:
-                columns[module][name].append(values[name])
+                value = values[name]  # one copy of each text (a state's name, a status)
+                columns[module][name].append(
+                    texts.setdefault(value, value) if type(value) is str else value
+                )
         fields = record.get("world") or {}
         if not isinstance(fields, dict) or sorted(fields) != list(world):
             raise TraceError(f"{where}: world fields differ from the first line's")
         for name, series in world.items():
-            series.append(fields[name])
+            value = fields[name]
+            series.append(texts.setdefault(value, value) if type(value) is str else value)
         cycles.append(record["cycle"])
+    if not cycles and interrupted is None:
+        raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
     if not cycles:
         raise TraceError(
             f"{shown} holds no cycle: its run was interrupted before its first one ended"

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -68,6 +69,9 @@ from .startup import (
 from .transport import TransportError, check_endpoint
 
 STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
+# Seconds a lockstep process may take over one segment before it counts as lost: well past
+# any segment whose hooks keep their deadlines (a hook's default is 1 s).
+LOCKSTEP_TIMEOUT = 20.0
 PR_SET_PDEATHSIG = 1  # prctl(2): the signal a child gets when its parent dies (Linux)
 REFUSED = 3  # the exit code of a process that refused to restart (the launcher gives up)
 
@@ -594,10 +598,14 @@ class Launcher:
 
 
 class Coordinator:
-    """Steps a launched system in lockstep: every segment of the execution order, in turn."""
+    """Steps a launched system in lockstep: every segment of the execution order, in turn.
 
-    def __init__(self, launcher: Launcher) -> None:
-        self.launcher = launcher
+    A process that does not answer a segment within `timeout` seconds (stopped, hung in C
+    code) is lost like one that died: every actuator of the block is latched at its safe
+    value at once, and ProcessLost is raised; a lockstep run never waits for good."""
+
+    def __init__(self, launcher: Launcher, timeout: float = LOCKSTEP_TIMEOUT) -> None:
+        self.launcher, self.timeout = launcher, timeout
         self.segments = launcher.system.segments()
         self.cycle = 0
         for child in launcher.children.values():  # each has started and sent its INITs
@@ -614,12 +622,33 @@ class Coordinator:
                 try:
                     child.popen.stdin.write(STEP.pack(b"s", first, last, end))
                     child.popen.stdin.flush()
-                    reply = child.popen.stdout.read(len(DONE_REPLY))
+                    reply = answer(child.popen.stdout.fileno(), self.timeout)
                 except (BrokenPipeError, OSError):
                     reply = b""
                 if reply != DONE_REPLY:
+                    self.lost()
+                    if reply is None:
+                        raise ProcessLost(
+                            f"process {name} did not answer within {self.timeout:g} s "
+                            "(stopped, or stuck where its hooks' deadlines cannot reach)"
+                        )
                     raise ProcessLost(stopped_answering(child))
             self.cycle += 1
+
+    def lost(self) -> None:
+        """A process is lost: every actuator safe now, latched (the launcher's stop does it
+        again, for whatever runs until then)."""
+        block = self.launcher.block
+        if block is not None:
+            layout = self.launcher.system.layout
+            latch_safe(layout, block.buf, getattr(layout, "SAFE_VALUES", {}), self.launcher.segment)
+
+
+def answer(fd: int, timeout: float) -> bytes | None:
+    """A lockstep process's one-byte answer on `fd`: b"" when its pipe closed (it died),
+    None when nothing came within `timeout` seconds."""
+    ready, _, _ = select.select([fd], [], [], timeout)
+    return os.read(fd, len(DONE_REPLY)) if ready else None
 
 
 class NetworkCoordinator:

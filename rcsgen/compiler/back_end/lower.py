@@ -58,7 +58,7 @@ from ..front_end.model import (
     duration_in_cycles,
     duration_seconds,
 )
-from ..types import BOOL, FLOAT, INT, Bool, Enum, Float, Int, Str, Type
+from ..types import BOOL, FLOAT, INT, Enum, Str, Type
 from . import module_io
 from .module_io import align
 
@@ -191,7 +191,7 @@ class _ControllerLowering:
             plans=tuple(_plan(p) for p in spec.plans.values()),
             kind=spec.kind,
             clients=c.clients,
-            hook_deadlines=self.hook_deadlines(rules),
+            hook_calls=self.hook_calls(rules),
         )
 
     def every_cycle_counters(self) -> tuple[ir.IRCounter, ...]:
@@ -217,20 +217,22 @@ class _ControllerLowering:
         )
         return _value(spec.hooks_module) if uses_hooks else None
 
-    def hook_deadlines(self, rules: Iterable[CheckedRule]) -> tuple[tuple[str, float], ...]:
-        """The deadline of each hook and planner the tables call, by name (docs/spec.md
-        section 6): its `deadline:` in seconds, else DEFAULT_DEADLINE_PERIODS cycle periods
-        of the controller's process, and at least MIN_DEFAULT_DEADLINE."""
+    def hook_calls(self, rules: Iterable[CheckedRule]) -> tuple[tuple[str, float, str | None], ...]:
+        """Each hook and planner the tables call, by name: its deadline (docs/spec.md section
+        6: its `deadline:` in seconds, else DEFAULT_DEADLINE_PERIODS cycle periods of the
+        controller's process, and at least MIN_DEFAULT_DEADLINE) and the kinds of its
+        `returns:` (None for a planner, whose plan is checked, or a hook with no targets)."""
         default = max(DEFAULT_DEADLINE_PERIODS * self.period, MIN_DEFAULT_DEADLINE)
-        found: dict[str, float] = {}
+        found: dict[str, tuple[float, str | None]] = {}
         for rule in rules:
             for action in rule.actions:
                 if isinstance(action, CallHook):
-                    found[action.hook.name] = self.seconds(action.hook.deadline, default)
+                    kinds = "".join(t.type.hook_kind for t in action.targets) or None
+                    found[action.hook.name] = (self.seconds(action.hook.deadline, default), kinds)
                 elif isinstance(action, PlanAction) and action.kind is not PlanVerb.ADVANCE:
                     plan = action.plan
-                    found[plan.planner.value] = self.seconds(plan.deadline, default)
-        return tuple(sorted(found.items()))
+                    found[plan.planner.value] = (self.seconds(plan.deadline, default), None)
+        return tuple((name, *found[name]) for name in sorted(found))
 
     def seconds(self, declared: Located | None, default: float) -> float:
         if declared is None:
@@ -384,7 +386,6 @@ class _ControllerLowering:
                     self.hook_arguments(action.args),
                     tuple(_attribute(t) for t in action.targets),
                     kinds="".join(kind.hook_kind for kind in kinds),
-                    mismatch=result_mismatch(kinds),
                     span=action.span,
                 )
         raise TypeError(f"unknown action {action!r}")
@@ -459,40 +460,6 @@ DEFAULT_DEADLINE_PERIODS = 5
 MIN_DEFAULT_DEADLINE = 1.0
 
 
-def _value_mismatch(value: str, kind: Type) -> str:
-    """A condition true when `value` cannot go into a target of this type (see contract)."""
-    match kind:
-        case Enum(values=values):  # the index of one of its values
-            return f"type({value}) is not int or not 0 <= {value} < {len(values)}"
-        case Str(size=size):  # a string that fits, never truncated
-            return f"text_problem({value}, {size})"
-        case Float():  # a finite number: NaN and the infinities fail the range
-            return (
-                f"(type({value}) not in NUMBER and not is_real({value})) "
-                f"or not -FLOAT_MAX <= {value} <= FLOAT_MAX"
-            )
-        case Int():
-            return (
-                f"(type({value}) is not int and not is_integer({value})) "
-                f"or not INT_MIN <= {value} <= INT_MAX"
-            )
-        case Bool():
-            return f"type({value}) is not bool"
-    raise TypeError(f"a hook cannot return a {kind}")
-
-
-def result_mismatch(kinds: tuple[Type, ...], name: str = "returned") -> str:
-    """The Python condition that a hook's result `name` does not fit targets of `kinds`:
-    one value of its type, or a tuple of exactly that many values of theirs."""
-    if not kinds:
-        return ""  # no targets: the result is ignored
-    if len(kinds) == 1:
-        return _value_mismatch(name, kinds[0])
-    parts = [f"type({name}) is not tuple", f"len({name}) != {len(kinds)}"]
-    parts += [f"{_value_mismatch(f'{name}[{i}]', k)}" for i, k in enumerate(kinds)]
-    return " or ".join(f"({p})" if " or " in p or " and " in p else p for p in parts)
-
-
 def _attribute(target: Target) -> str:
     return naming.target_attribute(target.kind, target.name)
 
@@ -515,12 +482,6 @@ def _runtime_names(
                 used |= {action.status, "NOP"}
             elif isinstance(action, PlanAction) and action.kind is not PlanVerb.ADVANCE:
                 used |= {"HookError", "plan_problem"}
-            elif isinstance(action, CallHook):
-                used.add("HookError")
-                kinds = {t.type for t in action.targets}
-                used |= {"NUMBER", "FLOAT_MAX", "is_real"} if FLOAT in kinds else set()
-                used |= {"INT_MIN", "INT_MAX", "is_integer"} if INT in kinds else set()
-                used |= {"text_problem"} if any(isinstance(k, Str) for k in kinds) else set()
     for tree in trees:
         used |= {ref.name for ref in expr.refs(tree) if ref.kind == RefKind.STATUS}
     return tuple(sorted(used, key=naming.import_order))

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from ...runtime.contract import MODE_FIELDS, PERF_FIELDS, STATUS_FIELDS, field_names
 from .. import ir
 from ..checks import naming
+from ..checks.tables import RuleId
 
 
 @dataclass(frozen=True)
@@ -154,6 +155,23 @@ def world_outputs(c: ir.IRController, layout: ir.Layout) -> tuple[ir.WorldRun, .
     return tuple(found)
 
 
+def world_set_rules(c: ir.IRController) -> tuple[RuleId, ...]:
+    """The every_cycle rules that set a world output. A table rule that fires records its
+    code (`rule`), which tells post_process to look at the world outputs; these records
+    none, so they raise a flag of their own (`world_set`)."""
+    if not c.world_writes:
+        return ()
+    return tuple(rule.id for rule in c.every_cycle if any(_sets_world(a) for a in rule.actions))
+
+
+def _sets_world(action: object) -> bool:
+    if isinstance(action, ir.IRSet):
+        return any(a.attribute.startswith("self.world_") for a in action.assignments)
+    if isinstance(action, ir.IRCall):
+        return any(t.startswith("self.world_") for t in action.targets)
+    return False
+
+
 def align(offset: int, to: int = 8) -> int:
     """`offset` rounded up to a multiple of `to`."""
     return -(-offset // to) * to
@@ -162,7 +180,9 @@ def align(offset: int, to: int = 8) -> int:
 def _slots(c: ir.IRController, targets: list[str]) -> tuple[str, ...]:
     """Every attribute of the generated class: its buffers' fields (`targets`), its
     subordinates', world fields, locals, time counters and plans."""
-    slots = ["buf", "cycle_start", *targets, "status_seq", "status_dirty", "perf_seq"]
+    slots = ["buf", *targets, "status_seq", "status_dirty", "perf_seq"]
+    if world_set_rules(c):
+        slots.append("world_set")
     if c.hooks_state:
         slots.append("hook_state")
     for s in c.subordinates:
@@ -225,6 +245,7 @@ def controller_io(c: ir.IRController, layout: ir.Layout, placement: Placement) -
         sub_values={name: _packed(fs) for name, fs in sub_fields.items()},
         input_texts=read.texts,
         resume_texts=resume_texts,
+        world_set_rules=world_set_rules(c),
     )
 
 

@@ -70,8 +70,8 @@ FIXED_MODULES = frozenset({"layout", "rcs", "__init__", "__main__", "hooks"})
 RUNTIME_NAMES = frozenset(
     {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "NO_RULE", "STATUS", "MODE", "PERF"}
     | {"INPUTS", "INPUTS_AT", "SEQS", "SEQS_AT", "SEQ", "READ_TRIES", "Struct"}
-    # the hook calls: their deadlines and the checks of their results
-    | {"HOOK_DEADLINES", "FACTORY_DEADLINE", "NUMBER", "INT_MIN", "INT_MAX", "FLOAT_MAX"}
+    # the hook calls: the helper that makes each a method, the factory's deadline
+    | {"hook", "within", "FACTORY_DEADLINE"}
 )
 # Prefixes of the attributes generated from spec names (world fields, params, locals).
 ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_")
@@ -100,6 +100,8 @@ CLASS_NAMES = frozenset(
         "__slots__",
         "every_cycle",  # method of the `every_cycle` rules
         "resume",
+        "read_inputs",  # pre_process's read again, when another process was writing
+        "world_set",  # an every_cycle rule set a world output
         "HOOK_STATE_ON_RESTART",
         "safe_state",
         "status_seq",
@@ -632,6 +634,13 @@ def _check_controller(
         method = command_method(name)
         if method not in FIXED_METHODS:  # those are check's E228
             names.claim(method, f"command `{name}`", command.span)
+    # each hook and planner is called through a method of its own, hook_<name>
+    for name, hook in spec.hooks.items():
+        names.claim(f"hook_{name}", f"hook `{name}`", hook.span, ("hook", name))
+    for plan in spec.plans.values():
+        planner = plan.planner
+        what = f"planner `{planner.value}`"
+        names.claim(f"hook_{planner.value}", what, planner.span, ("hook", planner.value))
 
 
 def _claim_attributes(
