@@ -197,7 +197,13 @@ def _note(opts: Options, message: str) -> None:
         click.echo(message, err=opts.fmt != "text")
 
 
-class Number(click.ParamType):
+if TYPE_CHECKING:  # generic in recent click's annotations; subscripted only for mypy
+    _FloatParam = click.ParamType[float, Any]
+else:
+    _FloatParam = click.ParamType
+
+
+class Number(_FloatParam):
     """A finite number within bounds (`nan`, `inf` and what lies outside are usage errors),
     as every numeric option of the console is (rcs/ctl.py `number`)."""
 
