@@ -6,7 +6,9 @@
               compiler and runtime (the contract generated code shares)
     tools     as the compiler, plus tools
     api       `rcsgen/__init__.py` and `rcsgen/api.py`: compiler, runtime, tools
-    cli       anything but `__main__`; click is its own dependency
+    cli       `rcsgen/cli.py` (the commands), `cli_trace.py` (the trace group) and
+              `terminal.py` (what they share):
+              anything but `__main__`; click is its own dependency
     __main__  cli
 
 Nothing but `rcsgen/__main__.py` imports `rcsgen.cli`. Every import counts, wherever it is
@@ -70,6 +72,8 @@ def layer_of(module: str) -> str | None:
         return "api"
     if parts[1] in ("runtime", "compiler", "tools", "cli"):
         return parts[1]
+    if parts[1] in ("terminal", "cli_trace"):  # what the commands share, a group of them
+        return "cli"
     return "main" if parts[1] == "__main__" else "unknown"
 
 

@@ -218,14 +218,14 @@ def test_a_code_reported_with_another_severity_is_an_internal_error() -> None:
 
 
 def test_completion_of_select_names_each_warning_with_its_title() -> None:
-    from rcsgen.cli import _complete_codes
+    from rcsgen.terminal import complete_codes
 
-    items = _complete_codes(None, None, "W50")  # type: ignore[arg-type]
+    items = complete_codes(None, None, "W50")  # type: ignore[arg-type]
     assert [(i.value, i.help) for i in items][:2] == [
         ("W501", "overlap in a first_match state"),
         ("W502", "exclusivity not provable"),
     ]
-    assert [i.value for i in _complete_codes(None, None, "W301,W30")][-1] == "W301,W309"  # type: ignore[arg-type]
+    assert [i.value for i in complete_codes(None, None, "W301,W30")][-1] == "W301,W309"  # type: ignore[arg-type]
 
 
 def test_corpus_cases_are_named_after_documented_codes() -> None:

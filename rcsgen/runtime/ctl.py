@@ -58,7 +58,7 @@ from .contract import (
     shared,
     status_text,
 )
-from .startup import segment_problem
+from .startup import default_segment, segment_problem
 from .transport import TransportError, check_endpoint
 
 USAGE, FAILED = 2, 1
@@ -765,7 +765,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
-    default = f"rcs_{layout.SYSTEM}_{layout.LAYOUT_HASH[:8]}"
+    default = default_segment(layout)
     top = _Parser(
         prog=f"python -m {package} ctl",
         description=f"Operate a running {layout.SYSTEM} system through its segment.",

@@ -80,6 +80,11 @@ def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleTy
     return package
 
 
+def import_layout(package_dir: Path) -> ModuleType:
+    """The `layout` module of the generated package in `package_dir` (all a console needs)."""
+    return importlib.import_module(f"{import_package(package_dir.resolve()).__name__}.layout")
+
+
 def _use_hooks_from(hooks_dir: Path) -> None:
     """Put `hooks_dir` first on sys.path and forget same-named hook modules imported from
     elsewhere (two copies of a spec directory must not share the first one's hooks)."""

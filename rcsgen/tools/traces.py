@@ -217,6 +217,20 @@ def check_against(system: IRSystem, trace: Trace) -> IRProcess:
     return process
 
 
+def recorded_by(systems: list[IRSystem], found: list[Trace]) -> tuple[IRSystem | None, str]:
+    """The first of `systems` that every trace of `found` fits (`check_against`), or None and
+    why not: the one system's reason, or '' when several systems each refused."""
+    problems = []
+    for system in systems:
+        try:
+            for one in found:
+                check_against(system, one)
+            return system, ""
+        except TraceError as error:
+            problems.append(str(error))
+    return None, problems[0] if len(problems) == 1 else ""
+
+
 def lanes(trace: Trace, system: IRSystem | None) -> list[Lane]:
     """The trace's modules in execution order with titles and levels, when `system` ran it;
     alphabetical and bare otherwise."""

@@ -59,6 +59,7 @@ from .override import latch_safe
 from .startup import (
     FAILURES,
     START_FAILED,
+    default_segment,
     ending,
     parse_settings,
     report_failure,
@@ -91,7 +92,7 @@ class System:
 
     @property
     def default_segment(self) -> str:
-        return f"rcs_{self.layout.SYSTEM}_{self.layout.LAYOUT_HASH[:8]}"
+        return default_segment(self.layout)
 
     def segments(self) -> list[tuple[str, int, int, bool]]:
         """The system's execution order as lockstep segments: (process, first, last, end)

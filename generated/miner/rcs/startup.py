@@ -39,6 +39,13 @@ FAILURES = {
 _SEGMENT = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,199}")
 
 
+def default_segment(layout: ModuleType) -> str:
+    """The segment a system runs over unless `--shm` names another: `rcs_<system>_<hash>`,
+    the first 8 characters of its layout's hash (the launcher, the console and the monitor
+    all find it by this name)."""
+    return f"rcs_{layout.SYSTEM}_{layout.LAYOUT_HASH[:8]}"
+
+
 def segment_problem(name: str) -> str:
     """'' when `name` can name a shared-memory segment, else what is wrong."""
     if _SEGMENT.fullmatch(name):
