@@ -11,7 +11,8 @@ bool, a whole number within 64 bits for an int, a finite number for a float (no 
 infinity), one of the value names for an enumeration, a text that fits its size (no NUL)
 for a string. A problem is a `ValueError` whose text names what is wrong in one line; the
 command line tools turn it into exit 2. `write_command` is the one writer of an operator's
-command: numbered after the last one, through the buffer's seqlock.
+command: numbered after the last one, through the buffer's seqlock; `outcome` is the one
+reading of how a module ended a command (DONE or ERROR, the named statuses).
 
 World fields given as text (`--world`, `ctl force`) are parsed and checked by the same
 `parse_value`. Standard library only: copied verbatim into every generated package.
@@ -22,12 +23,22 @@ from __future__ import annotations
 import difflib
 import math
 import re
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
-from .contract import INT_MAX, INT_MIN, enum_code, shared
+from .contract import (
+    DONE,
+    ERROR,
+    INT_MAX,
+    INT_MIN,
+    STATUS_NAMES,
+    StaleRead,
+    enum_code,
+    shared,
+)
 
 # What a number given as text may look like: ASCII digits only (Python's int() and float()
 # also take `1_000`, Unicode digits, `nan`, `infinity` and surrounding blanks).
@@ -245,15 +256,47 @@ def _all_given(where: str, params: Mapping[str, Any], given: Mapping[str, object
         raise ValueError(f"{where} needs parameter(s) {', '.join(missing)} ({where} {form})")
 
 
-def write_command(layout: ModuleType, buf: memoryview, command: Command) -> int:
+def write_command(layout: ModuleType, buf: memoryview, command: Command, tries: int = 20) -> int:
     """Write a checked command to its module's buffer, numbered after the last one, through
-    the seqlock; its number. StaleRead (contract) when the buffer cannot be read whole."""
+    the seqlock, retried briefly while the buffer is being written; its number. StaleRead
+    (contract) when the buffer cannot be read whole after `tries`."""
     record = layout.COMMAND_IN[command.module]
-    number = int(record.read(buf)["command_num"]) + 1
     code = layout.COMMAND_NAMES[command.module].index(command.command)
     args = {
         f"arg_{k}": enum_code(layout, command.module, f"arg_{k}", v)
         for k, v in command.args.items()
     }
+    for attempt in range(tries):
+        try:
+            number = int(record.read(buf)["command_num"]) + 1
+            break
+        except StaleRead:
+            if attempt == tries - 1:
+                raise
+            time.sleep(0.0005)
     record.write(buf, command_num=number, command=code, **args)
     return number
+
+
+def outcome(
+    command: Mapping[str, Any], status: Mapping[str, Any], number: int | None = None
+) -> str | None:
+    """How a module ended a command: DONE or ERROR once it reported on command `number`
+    (default: the one in its command buffer), from its `command` and `status` records as
+    read ({} when unreadable); None while it has not, or while `number` is not given yet.
+    ValueError when `number` was replaced by a later command before it finished (its
+    outcome is no longer in the status buffer). A module that has ended its last command
+    is ready for the next one (the launcher's `--send` waits for that)."""
+    if not command or not status:
+        return None
+    given = int(command["command_num"])
+    if number is not None and given > number:
+        raise ValueError(
+            f"command #{number} was replaced by #{given}: "
+            "its outcome is no longer in the status buffer"
+        )
+    if number is not None and given < number:
+        return None  # not given yet
+    if status["status_num"] != given or int(status["status"]) not in (DONE, ERROR):
+        return None
+    return STATUS_NAMES[int(status["status"])]

@@ -35,6 +35,7 @@ from .block import Block, BlockError
 from .command import (
     Command,
     check_command,
+    outcome,
     parse_command,
     parse_value,
     shown,
@@ -585,14 +586,11 @@ class Console:
         return self._write(command), notes
 
     def _write(self, command: Command) -> int:
-        """Write a checked `command` through the one writer (rcs/command.py), retrying
-        briefly while the buffer is being written; its number."""
-        for _ in range(20):
-            try:
-                return write_command(self.layout, self.buf, command)
-            except StaleRead:
-                time.sleep(0.0005)
-        raise CtlError(f"{command.module}'s command buffer cannot be read whole")
+        """Write a checked `command` through the one writer (rcs/command.py); its number."""
+        try:
+            return write_command(self.layout, self.buf, command)
+        except StaleRead:
+            raise CtlError(f"{command.module}'s command buffer cannot be read whole") from None
 
     def seen(self, module: str, number: int) -> bool:
         """Whether `module` has echoed command `number` (its status number caught up)."""
@@ -603,19 +601,10 @@ class Console:
         `number`); else None. CtlError when `number` was replaced before it finished."""
         command = self.read(self.layout.COMMAND_IN[module])
         status = self.read(self.layout.STATUS_OUT[module])
-        if not command or not status:
-            return None
-        if number is not None and int(command["command_num"]) > number:
-            raise CtlError(
-                f"{module}'s command #{number} was replaced by #{command['command_num']}: "
-                "its outcome is no longer in the status buffer"
-            )
-        if number is not None and int(command["command_num"]) < number:
-            return None  # not given yet
-        if status["status_num"] != command["command_num"]:
-            return None
-        name = _name(STATUS_NAMES, int(status["status"]))
-        return name if name in FINISHED else None
+        try:
+            return outcome(command, status, number)
+        except ValueError as replaced:
+            raise CtlError(f"{module}'s {replaced}") from None
 
 
 def request_names(layout: ModuleType) -> list[str]:

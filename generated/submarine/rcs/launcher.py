@@ -29,7 +29,14 @@ from types import ModuleType
 from typing import Any, NoReturn, Self
 
 from .block import Block, BlockError
-from .command import Command, parse_command, parse_value, suggest, write_command
+from .command import (
+    Command,
+    outcome,
+    parse_command,
+    parse_value,
+    suggest,
+    write_command,
+)
 from .contract import (
     DEAD,
     PROCESS_STATES,
@@ -772,7 +779,8 @@ def summary(system: System, buf: memoryview, processes: list[str]) -> Iterator[s
 
 
 def main(package: str, argv: list[str] | None = None) -> int:
-    """`python -m <system> [PROCESS] [options]`, or `python -m <system> ctl VERB ...`."""
+    """`python -m <system> [PROCESS] [options]`, or `python -m <system> ctl VERB ...`: the
+    arguments parsed and checked (`parse_args`), then one run (`dispatch`)."""
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["ctl"]:  # the operator's console needs only the layout
         from .ctl import main as ctl
@@ -788,147 +796,178 @@ def main(package: str, argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
-    parser = _OneLineParser(
-        prog=f"python -m {package}",
+    parsed = parse_args(system, argv)
+    if parsed is None:  # the deployment file is wrong: its located error is said
+        return 2
+    return dispatch(system, *parsed)
+
+
+def dispatch(system: System, args: argparse.Namespace, host: Any = None) -> int:
+    """One run of checked arguments: one PROCESS (a child of a launch, or a process started
+    by hand), or a launch of every process (of a deployment's `host`); its exit code."""
+    if args.process is not None:
+        own = f"_{args.process}" if args.transport == "zenoh" else ""
+        args.shm = args.shm or system.default_segment + own
+        return run_process(system, args)
+    return launch(system, args, host)
+
+
+def parser(system: System) -> argparse.ArgumentParser:
+    """The launcher's options (`python -m <system> --help`)."""
+    top = _OneLineParser(
+        prog=f"python -m {system.package}",
         description=f"Run the {system.layout.SYSTEM} system: every process (the default), "
         "or one PROCESS.",
     )
-    parser.add_argument(
+    top.add_argument(
         "process",
         nargs="?",
         metavar="PROCESS|HOST",
         help=f"run only this process ({', '.join(system.plans)}); with --deploy, this host's",
     )
-    parser.add_argument(
+    top.add_argument(
         "--deploy",
         default=None,
         metavar="FILE",
         help="a deployment file (JSON): run HOST's processes (default: the host named after "
         "this machine) with its endpoints, over Zenoh",
     )
-    parser.add_argument("--cycles", type=int, default=None, help="stop after this many cycles")
-    parser.add_argument("--fast", action="store_true", help="do not pace to the cycle period")
-    parser.add_argument(
+    top.add_argument("--cycles", type=int, default=None, help="stop after this many cycles")
+    top.add_argument("--fast", action="store_true", help="do not pace to the cycle period")
+    top.add_argument(
         "--shm", default=None, help=f"shared-memory segment [default: {system.default_segment}]"
     )
-    parser.add_argument("--attach", action="store_true", help="attach to a running segment")
-    parser.add_argument("--restart", action="store_true", help="restart a process that dies")
-    parser.add_argument(
+    top.add_argument("--attach", action="store_true", help="attach to a running segment")
+    top.add_argument("--restart", action="store_true", help="restart a process that dies")
+    top.add_argument(
         "--lockstep", action="store_true", help="step the processes in lockstep (no pacing)"
     )
-    parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
-    parser.add_argument(
+    top.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    top.add_argument(
         "--transport",
         choices=("shm", "zenoh"),
         default=None,
         help="how processes exchange buffers: one shared-memory segment (one host), or "
         "Zenoh (each process its own block; hosts anywhere) [default: shm]",
     )
-    parser.add_argument(
+    top.add_argument(
         "--listen",
         action="append",
         default=[],
         metavar="PROTO/HOST:PORT",
         help="with --transport zenoh: listen here for other hosts (repeatable)",
     )
-    parser.add_argument(
+    top.add_argument(
         "--connect",
         action="append",
         default=[],
         metavar="PROTO/HOST:PORT",
         help="with --transport zenoh: connect to a host listening here (repeatable)",
     )
-    parser.add_argument(
+    top.add_argument(
         "--send",
         default=None,
         metavar="MODULE.COMMAND[:NAME=VALUE,...]",
         help="once MODULE has finished INIT, send it this command (e.g. sec.BOX_CUT:depth=1.5)",
     )
-    parser.add_argument(
+    top.add_argument(
         "--report",
         default="",
         metavar="FIELD,...",
         help="world fields to print at the end of a run",
     )
-    parser.add_argument(
+    top.add_argument(
         "--until-done",
         action="store_true",
         help="with --send: stop when the module reports DONE (exit 0) or ERROR (exit 1)",
     )
-    parser.add_argument(
+    top.add_argument(
         "--set",
         action="append",
         default=[],
         metavar="KEY=VALUE",
         help="a run setting for the hook-state factories (repeatable)",
     )
-    parser.add_argument(
+    top.add_argument(
         "--simulate",
         action="append",
         default=[],
         metavar="MODULE",
         help="run this controller's stand-in in its place (repeatable)",
     )
-    parser.add_argument(
+    top.add_argument(
         "--world",
         action="append",
         default=[],
         metavar="FIELD=VALUE",
         help="start with this world field's value instead of its initial one (repeatable)",
     )
-    args = parser.parse_args(argv)
-    if args.shm is not None and segment_problem(args.shm):
-        parser.error(segment_problem(args.shm))
-    try:
-        parse_settings(system.layout, args.set)
-    except ValueError as error:
-        parser.error(str(error))
+    return top
+
+
+def parse_args(system: System, argv: list[str]) -> tuple[argparse.Namespace, Any] | None:
+    """The arguments of a start, each checked against the system (a usage mistake exits 2
+    with one line, argparse's way), and the deployment's host (None without --deploy); None
+    after a located error in the deployment file."""
+    usage = parser(system)
+    args = usage.parse_args(argv)
     host = None
-    if args.deploy is not None:
-        host = deployed(system, args, parser)
-        if host is None:
-            return 2
-    elif args.process is not None and args.process not in system.plans:
-        choices = ", ".join(repr(p) for p in system.plans)
-        parser.error(f"argument process: invalid choice: {args.process!r} (choose from {choices})")
+    try:
+        _check_settings(system, args)
+        if args.deploy is not None:
+            host = deployed(system, args)
+            if host is None:
+                return None
+        elif args.process is not None and args.process not in system.plans:
+            choices = ", ".join(repr(p) for p in system.plans)
+            raise ValueError(
+                f"argument process: invalid choice: {args.process!r} (choose from {choices})"
+            )
+        _check_run(system, args)
+        _check_transport(args)
+    except ValueError as error:
+        usage.error(str(error))
+    return args, host
+
+
+def _check_settings(system: System, args: argparse.Namespace) -> None:
+    if args.shm is not None and segment_problem(args.shm):
+        raise ValueError(segment_problem(args.shm))
+    parse_settings(system.layout, args.set)
+
+
+def _check_run(system: System, args: argparse.Namespace) -> None:
+    """--cycles, --simulate, --report, --send and --world against the system (the typed
+    values of the last three put in `args`)."""
     if args.cycles is not None and args.cycles < 0:
-        parser.error("--cycles must be 0 or more")
+        raise ValueError("--cycles must be 0 or more")
     switchable = {m for plan in system.plans.values() for m in plan.stand_ins}
     unknown = sorted(set(args.simulate) - switchable)
     if unknown:
-        parser.error(f"no stand-in for {unknown}; these have one: {sorted(switchable)}")
+        raise ValueError(f"no stand-in for {unknown}; these have one: {sorted(switchable)}")
     if args.until_done and args.send is None:
-        parser.error("--until-done goes with --send")
+        raise ValueError("--until-done goes with --send")
     args.report = [f for f in args.report.split(",") if f]
     unknown_fields = [f for f in args.report if f not in system.layout.WORLD]
     if unknown_fields:
-        parser.error(f"--report: no world field(s) {unknown_fields}")
+        raise ValueError(f"--report: no world field(s) {unknown_fields}")
     if args.send is not None:
-        try:
-            args.send = parse_send(system.layout, args.send)
-        except ValueError as error:
-            parser.error(str(error))
+        args.send = parse_send(system.layout, args.send)
         if args.process is not None or args.lockstep:
-            parser.error("--send goes with a launch of every process, not PROCESS or --lockstep")
-    try:
-        args.world = parse_world(system.layout, args.world)
-    except ValueError as error:
-        parser.error(str(error))
+            raise ValueError(
+                "--send goes with a launch of every process, not PROCESS or --lockstep"
+            )
+    args.world = parse_world(system.layout, args.world)
     if args.world and (args.process is not None or args.attach):
-        parser.error("--world goes with a launch of every process, which makes the segment")
+        raise ValueError("--world goes with a launch of every process, which makes the segment")
+
+
+def _check_transport(args: argparse.Namespace) -> None:
     args.transport = args.transport or "shm"
     if args.transport == "shm" and (args.listen or args.connect):
-        parser.error("--listen and --connect go with --transport zenoh")
+        raise ValueError("--listen and --connect go with --transport zenoh")
     for endpoint in (*args.listen, *args.connect):
-        try:
-            check_endpoint(endpoint)
-        except ValueError as error:
-            parser.error(str(error))
-    if args.process is not None:
-        own = f"_{args.process}" if args.transport == "zenoh" else ""
-        args.shm = args.shm or system.default_segment + own
-        return run_process(system, args)
-    return launch(system, args, host)
+        check_endpoint(endpoint)
 
 
 class _OneLineParser(argparse.ArgumentParser):
@@ -938,20 +977,20 @@ class _OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def deployed(system: System, args: argparse.Namespace, parser: argparse.ArgumentParser) -> Any:
+def deployed(system: System, args: argparse.Namespace) -> Any:
     """`--deploy FILE [HOST]`: the host's entry of the checked file, its endpoints and
     transport put in `args` (its one process in `args.process`); None after a located
-    error on stderr."""
+    error on stderr. ValueError: a usage mistake."""
     import socket
 
     from .deploy import DeployError, load
 
     if args.listen or args.connect or args.transport is not None:
-        parser.error(
+        raise ValueError(
             "--deploy gives the transport and endpoints: no --transport, --listen, --connect"
         )
     if args.lockstep:
-        parser.error("--lockstep steps the processes of one launch, not the hosts of --deploy")
+        raise ValueError("--lockstep steps the processes of one launch, not the hosts of --deploy")
     try:
         deployment = load(args.deploy, system.layout.SYSTEM, list(system.plans))
         host = deployment.host(args.process, socket.gethostname())
@@ -993,23 +1032,25 @@ def parse_send(layout: ModuleType, text: str) -> Command:
 
 
 def give(send: Command, layout: ModuleType, buf: memoryview) -> int | None:
-    """Write `send` once its module has finished its last command; its number, or None."""
-    status = _read(layout.STATUS_OUT[send.module], buf)
-    record = layout.COMMAND_IN[send.module]
-    current = _read(record, buf)
-    if not status or not current or status["status_num"] != current["command_num"]:
+    """Write `send` once its module has ended its last command (rcs/command.py, the one
+    writer and the one reading of an outcome); its number, or None while it is busy."""
+    record, status = layout.COMMAND_IN[send.module], layout.STATUS_OUT[send.module]
+    if outcome(_read(record, buf), _read(status, buf)) is None:
         return None
-    if status["status"] not in (2, 3):  # DONE, ERROR
+    try:
+        return write_command(layout, buf, send)
+    except StaleRead:  # being written: the next poll tries again
         return None
-    return write_command(layout, buf, send)
 
 
 def finished(send: Command, number: int, layout: ModuleType, buf: memoryview) -> str | None:
-    """DONE or ERROR once the module reported on command `number`; else None."""
-    status = _read(layout.STATUS_OUT[send.module], buf)
-    if status and status["status_num"] == number and status["status"] in (2, 3):
-        return "DONE" if status["status"] == 2 else "ERROR"
-    return None
+    """DONE or ERROR once the module reported on command `number`; else None (also when a
+    command given by someone else replaced it: its outcome is not this run's to say)."""
+    record, status = layout.COMMAND_IN[send.module], layout.STATUS_OUT[send.module]
+    try:
+        return outcome(_read(record, buf), _read(status, buf), number)
+    except ValueError:
+        return None
 
 
 def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
