@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from click.testing import CliRunner, Result
@@ -48,6 +52,20 @@ def wait_for(
             return value
         time.sleep(every)
     raise AssertionError(f"gave up waiting: {what}")
+
+
+def console_status(package_dir: Path, env: dict[str, str], segment: str) -> dict[str, Any]:
+    """What the console of a running system says (`python -m <system> ctl status --format
+    json` on `segment`); {} while it cannot say (no segment yet, or not every record)."""
+    done = subprocess.run(
+        [sys.executable, "-m", package_dir.name, "ctl", "--shm", segment, "status"]
+        + ["--format", "json"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    return json.loads(done.stdout) if done.returncode == 0 else {}  # type: ignore[no-any-return]
 
 
 def edit(path: Path, old: str, new: str) -> str:
@@ -100,15 +118,17 @@ def _our_segments() -> set[str]:
     return {p.name for p in found}
 
 
-def _children() -> list[str]:
-    """Processes whose parent is this test process (read from /proc), with their commands."""
+def children(parent: int | None = None) -> list[str]:
+    """Processes whose parent is `parent` (default: this test process), read from /proc,
+    with their commands."""
+    parent = os.getpid() if parent is None else parent
     found = []
     for stat in Path("/proc").glob("[0-9]*/stat"):
         try:
             fields = stat.read_text().rsplit(")", 1)[1].split()
         except (OSError, IndexError):
             continue
-        if int(fields[1]) == os.getpid():
+        if int(fields[1]) == parent:
             try:
                 found.append((stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode())
             except OSError:
@@ -124,5 +144,5 @@ def nothing_left_behind():
     yield
     left = _our_segments() - before
     assert not left, f"the suite left shared-memory segments behind: {sorted(left)}"
-    survivors = [c for c in _children() if "resource_tracker" not in c]
+    survivors = [c for c in children() if "resource_tracker" not in c]
     assert not survivors, f"child processes survived the suite: {survivors}"
