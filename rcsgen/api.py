@@ -44,7 +44,7 @@ def check(paths: StrPath | Iterable[StrPath], progress: Progress | None = None) 
 def validate(paths: StrPath | Iterable[StrPath], progress: Progress | None = None) -> Frontend:
     """As `check`, and the scenarios of each system that builds checked against it: their
     diagnostics follow the specs' in `.diagnostics`."""
-    from .tools.scenario_check import check_system_scenarios
+    from .tools.scenario.check import check_system_scenarios
 
     front = check(paths, progress)
     diags = front.diagnostics
@@ -66,7 +66,7 @@ def stale(system_dir: StrPath, generated: StrPath) -> tuple[Diagnostics, list[Di
     """What stands between a built package and a start: the errors of the specs in
     `system_dir` (when they do not build), else E418 for a package in `generated` that is
     not exactly what they make (and the output directory's problems)."""
-    from .tools import runs
+    from .tools.scenario import runs
 
     front = check(system_dir)
     errors = Diagnostics(front.diagnostics.errors)

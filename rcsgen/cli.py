@@ -45,8 +45,8 @@ from .terminal import (
     wants_help,
     write_or_print,
 )
-from .tools import runs
 from .tools.report import Options
+from .tools.scenario import runs
 
 
 @click.group(cls=Commands, context_settings={"help_option_names": ["-h", "--help"]})
@@ -150,7 +150,7 @@ def run(
     opts: Options,
 ) -> None:
     """Run a scenario on its system (built from the specs) and check its outcome."""
-    from .tools import scenario_session as session_of
+    from .tools.scenario import session as session_of
 
     session, not_run = Session(opts), "run failed: nothing was run"
     checked = session_of.check(scenario)

@@ -64,7 +64,8 @@ def trace_changes(
     specs: Path | None,
 ) -> None:
     """Print only what changed, cycle by cycle: commands, statuses, states, rules fired."""
-    from .tools import changes, traces
+    from .tools import traces
+    from .tools.traces import changes
 
     found = load_trace(trace_path)
     try:
@@ -97,7 +98,7 @@ def trace_changes(
 )
 def trace_coverage(trace_paths: tuple[Path, ...], specs: Path | None, fmt: str) -> None:
     """Which rules of which state tables fired in TRACES, and which never did."""
-    from .tools import coverage
+    from .tools.traces import coverage
 
     found = [load_trace(path) for path in trace_paths]
     system = trace_system(specs, found, required=True)
@@ -112,7 +113,8 @@ def trace_coverage(trace_paths: tuple[Path, ...], specs: Path | None, fmt: str) 
 @SPECS
 def trace_show(trace_path: Path, output: Path | None, specs: Path | None) -> None:
     """Write TRACE as one self-contained HTML page: swim-lanes, world plots, a cursor."""
-    from .tools import trace_view, traces
+    from .tools import traces
+    from .tools.traces import view as trace_view
 
     found = load_trace(trace_path)
     system = trace_system(specs, [found], required=False)
@@ -136,7 +138,7 @@ def trace_mine(
     trace_path: Path, output: Path | None, specs: Path | None, scenario: Path | None
 ) -> None:
     """Write a miner TRACE as an HTML replay of the machine in the mine (coal map, cut, pose)."""
-    from .tools import mine_view
+    from .tools.traces import mine as mine_view
 
     found = load_trace(trace_path)
     system = trace_system(specs, [found], required=True)

@@ -48,9 +48,9 @@ from .tools.report import (
 
 if TYPE_CHECKING:
     from .compiler.ir import IRSystem
-    from .tools.scenario import RunResult
-    from .tools.scenario_session import Ran
-    from .tools.traces import Trace
+    from .tools.scenario.run import RunResult
+    from .tools.scenario.session import Ran
+    from .tools.traces.read import Trace
 
 
 class Exit(Exception):
@@ -561,7 +561,7 @@ def interrupted(ran: Ran, signum: int, name: str, trace_path: Path) -> NoReturn:
     it was, and exit 130 or 143 (128 + the signal, as a shell reports it)."""
     import signal
 
-    from .tools.scenario_session import write_interrupted
+    from .tools.scenario.session import write_interrupted
 
     signal_name = signal.Signals(signum).name
     if ran.harness is None:

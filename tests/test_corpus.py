@@ -30,7 +30,7 @@ from rcsgen.compiler.back_end import write
 from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
 from rcsgen.compiler.front_end.loader import utf16_without_bom
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools.scenario_check import check_system_scenarios
+from rcsgen.tools.scenario import check_system_scenarios
 
 CASES = Path(__file__).resolve().parent / "cases"
 INVALID = sorted(p for p in (CASES / "invalid").iterdir() if p.is_dir())

@@ -16,7 +16,8 @@ from browser import load, needs_chromium
 from conftest import rcsgen
 
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools import mine_view, traces
+from rcsgen.tools.traces import mine as mine_view
+from rcsgen.tools.traces import read as traces
 
 REPO = Path(__file__).resolve().parent.parent
 MINER = REPO / "specs" / "miner"

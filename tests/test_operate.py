@@ -34,8 +34,8 @@ from click.testing import CliRunner
 from conftest import wait_for
 
 from rcsgen.cli import main as rcsgen_main
-from rcsgen.tools import traces
 from rcsgen.tools.harness import import_package
+from rcsgen.tools.traces import read as traces
 
 REPO = Path(__file__).resolve().parent.parent
 CASES = REPO / "tests" / "cases" / "running"

@@ -25,9 +25,10 @@ from rcsgen.compiler.diagnostics import Diagnostics, Span
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.types import BOOL, Str
 from rcsgen.runtime import command, contract, launcher
-from rcsgen.tools import trace_view, traces
 from rcsgen.tools.harness import Harness, generate, import_package
-from rcsgen.tools.scenario_check import check_scenario
+from rcsgen.tools.scenario import check_scenario
+from rcsgen.tools.traces import read as traces
+from rcsgen.tools.traces import view as trace_view
 
 TYPED = Path(__file__).resolve().parent / "cases" / "valid" / "typed"
 

@@ -1,7 +1,7 @@
 """Scenario model: what a checked scenario file says, for the runner and its checker.
 
-`scenario_check` makes a `Scenario` from a file (located diagnostics otherwise) and
-`scenario` runs it; both read these types, neither the other's code.
+`check` makes a `Scenario` from a file (located diagnostics otherwise) and
+`run` runs it; both read these types, neither the other's code.
 """
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..compiler.diagnostics import Span
-from ..compiler.frontend import SYSTEM_FILE, real_path
+from ...compiler.diagnostics import Span
+from ...compiler.frontend import SYSTEM_FILE, real_path
 
 
 @dataclass

@@ -18,12 +18,12 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-from ..compiler.back_end.write import Plan
-from ..compiler.diagnostics import Diagnostic, Span, SpecError
-from ..compiler.frontend import display_path
-from ..compiler.ir import IRCall, IRController, IRLoadPlan, IRSystem
-from ..runtime.contract import HookError, HookOverrun
-from .scenario import RunResult, Scenario, final_value, first_difference, read_trace
+from ...compiler.back_end.write import Plan
+from ...compiler.diagnostics import Diagnostic, Span, SpecError
+from ...compiler.frontend import display_path
+from ...compiler.ir import IRCall, IRController, IRLoadPlan, IRSystem
+from ...runtime.contract import HookError, HookOverrun
+from .run import RunResult, Scenario, final_value, first_difference, read_trace
 
 
 def _controller(system: IRSystem | None, name: str) -> IRController | None:

@@ -18,16 +18,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..compiler.diagnostics import Diagnostics, Span, SpecError, known_names_hint
-from ..compiler.expressions import int_range_problem, text_problem_of
-from ..compiler.front_end.loader import LocDict, key_span, load_file, span_of, value_span
-from ..compiler.front_end.model import exact_cycles
-from ..compiler.front_end.schema import check_document
-from ..compiler.frontend import SYSTEM_FILE, compile_paths, display_path
-from ..compiler.ir import IRController, IRProcess, IRSystem
-from ..compiler.types import BOOL, INT, Bool, Enum, ReasonOf, Str, Type
-from ..runtime.command import value_problem
-from .scenario_model import (
+from ...compiler.diagnostics import Diagnostics, Span, SpecError, known_names_hint
+from ...compiler.expressions import int_range_problem, text_problem_of
+from ...compiler.front_end.loader import LocDict, key_span, load_file, span_of, value_span
+from ...compiler.front_end.model import exact_cycles
+from ...compiler.front_end.schema import check_document
+from ...compiler.frontend import SYSTEM_FILE, compile_paths, display_path
+from ...compiler.ir import IRController, IRProcess, IRSystem
+from ...compiler.types import BOOL, INT, Bool, Enum, ReasonOf, Str, Type
+from ...runtime.command import value_problem
+from ..traces.read import whole_system
+from .model import (
     Event,
     Expected,
     OperatorScript,
@@ -35,7 +36,6 @@ from .scenario_model import (
     ScriptedAnswer,
     find_system_dir,
 )
-from .traces import whole_system
 
 DEFAULT_MAX_CYCLES = 1000
 _TYPE_WORDS = {"bool": "a bool (true or false)", "int": "an int", "float": "a float"}

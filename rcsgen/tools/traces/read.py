@@ -13,9 +13,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..compiler.ir import IRProcess, IRSystem
-from ..runtime import contract
-from .graph import levels
+from ...compiler.ir import IRProcess, IRSystem
+from ...runtime import contract
+from ..graph import levels
 
 FIELDS = ("command", "command_num", "status", "status_num", "state", "rule")
 # Only for modules that declare them, on every line or none: the reason's name and the

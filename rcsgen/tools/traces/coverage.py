@@ -10,8 +10,8 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 
-from ..compiler.ir import IRSystem
-from .traces import Trace, check_against, runs_as
+from ...compiler.ir import IRSystem
+from .read import Trace, check_against, runs_as
 
 
 @dataclass

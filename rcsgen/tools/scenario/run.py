@@ -17,14 +17,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..compiler.diagnostics import SpecError
-from ..compiler.front_end.loader import decode, read_bytes
-from ..compiler.frontend import display_path
-from ..runtime import override
-from ..runtime.ctl import channel_requests, write_answer
-from .harness import AnyHarness, Harness, LaunchedHarness, Status
-from .scenario_check import check_scenario
-from .scenario_model import (
+from ...compiler.diagnostics import SpecError
+from ...compiler.front_end.loader import decode, read_bytes
+from ...compiler.frontend import display_path
+from ...runtime import override
+from ...runtime.ctl import channel_requests, write_answer
+from ..harness import AnyHarness, Harness, LaunchedHarness, Status
+from .check import check_scenario
+from .model import (
     Event,
     Expected,
     OperatorScript,
@@ -73,7 +73,7 @@ class ScriptedPerson:
 
 def load_scenario(path: Path) -> Scenario:
     """Read and check a scenario file against its system (the specs above it): raises
-    SpecError with located diagnostics (the checks are in `scenario_check`)."""
+    SpecError with located diagnostics (the checks are in `check`)."""
     scenario, diags = check_scenario(path)
     if scenario is None or diags.errors:
         raise SpecError(diags)

@@ -23,9 +23,9 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from ..compiler.ir import IRController, IRSystem
-from .trace_view import StringTable, number, runs
-from .traces import Lane, Trace
+from ...compiler.ir import IRController, IRSystem
+from .view import StringTable, number, runs
+from .read import Lane, Trace
 
 TEMPLATE = "mine_view.html"
 REQUIRED = ("true_x", "true_y", "true_heading", "boom_angle_true", "drum_on_cmd")
@@ -59,7 +59,7 @@ def mine_controller(system: IRSystem) -> IRController:
 
 def import_hooks(system_dir: Path, module: str) -> ModuleType:
     """The system's hook module, imported as the generated package imports it."""
-    from .harness import _use_hooks_from  # the harness's rule: this system's hooks first
+    from ..harness import _use_hooks_from  # the harness's rule: this system's hooks first
 
     _use_hooks_from(system_dir.resolve())
     return importlib.import_module(module)
@@ -222,10 +222,10 @@ def page_for(
     """`rcsgen trace mine`: the page of a trace of `system` (in the specs under `specs`),
     with the map setting of the scenario that recorded it (`scenario`, else the system's
     `scenarios/<trace name>.yaml` when there is one). SpecError: that scenario is bad."""
-    from ..compiler.diagnostics import Diagnostics
-    from ..compiler.frontend import find_system_dirs
-    from .scenario import load_scenario
-    from .traces import lanes
+    from ...compiler.diagnostics import Diagnostics
+    from ...compiler.frontend import find_system_dirs
+    from ..scenario.run import load_scenario
+    from .read import lanes
 
     system_dir = next(
         d for d in find_system_dirs([specs], Diagnostics()) if d.name == system.source.split("/")[0]

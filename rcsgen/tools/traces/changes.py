@@ -17,7 +17,7 @@ import re
 from collections.abc import Iterator
 from typing import Any
 
-from .traces import Lane, Trace, status_text
+from .read import Lane, Trace, status_text
 
 WORLD_CHOICES = ("discrete", "all", "none")
 

@@ -16,7 +16,7 @@ import math
 from importlib import resources
 from typing import Any
 
-from .traces import Lane, Trace, status_text
+from .read import Lane, Trace, status_text
 
 TEMPLATE = "trace_view.html"
 

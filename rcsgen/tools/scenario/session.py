@@ -17,15 +17,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
-from ..compiler.back_end import write
-from ..compiler.diagnostics import Diagnostic, Diagnostics, Span
-from ..compiler.frontend import compile_paths, display_path
-from ..compiler.ir import IRSystem
+from ...compiler.back_end import write
+from ...compiler.diagnostics import Diagnostic, Diagnostics, Span
+from ...compiler.frontend import compile_paths, display_path
+from ...compiler.ir import IRSystem
+from ..harness import AnyHarness, write_package
 from . import runs
-from .harness import AnyHarness, write_package
-from .scenario import RunResult, interrupted_line, open_harness, run, write_trace
-from .scenario_check import check_scenario
-from .scenario_model import Scenario, find_system_dir
+from .check import check_scenario
+from .model import Scenario, find_system_dir
+from .run import RunResult, interrupted_line, open_harness, run, write_trace
 
 
 @dataclass
