@@ -285,8 +285,8 @@ def monitor(
     except ImportError:
         raise error("the monitor needs textual: pip install 'rcsgen[monitor]'") from None
     from .runtime.block import BlockError
-    from .runtime.ctl import CtlError
-    from .runtime.startup import default_segment, segment_problem
+    from .runtime.operate.ctl import CtlError
+    from .runtime.operate.startup import default_segment, segment_problem
     from .runtime.transport import TransportError
     from .tools.harness import import_layout
 

@@ -226,7 +226,7 @@ else:
 
 class Number(_FloatParam):
     """A finite number within bounds (`nan`, `inf` and what lies outside are usage errors),
-    as every numeric option of the console is (rcs/ctl.py `number`)."""
+    as every numeric option of the console is (rcs/operate/ctl.py `number`)."""
 
     name = "number"
 

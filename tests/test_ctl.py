@@ -1,4 +1,4 @@
-"""The operator's console, `python -m <system> ctl` (rcsgen/runtime/ctl.py), against running
+"""The operator's console, `python -m <system> ctl` (rcsgen/runtime/operate/ctl.py), against running
 systems: the duo fixture (a supervisor `top` in process p1 commanding an `arm` in p2) and the
 miner, each launched paced as real OS processes; every verb is run as a command line, and
 bad input must be one line on stderr with exit 2 (usage) or 1, never a traceback.

@@ -54,7 +54,7 @@ def runtime(package: ModuleType, name: str) -> ModuleType:
 @pytest.fixture
 def launched(duo: Path, package: ModuleType) -> Iterator[Callable[..., object]]:
     """Start the duo system paced, as two OS processes; stopped at the end of the test."""
-    launcher_module = runtime(package, "rcs.launcher")
+    launcher_module = runtime(package, "rcs.operate.launcher")
     made = []
 
     def launch(**options: object) -> object:

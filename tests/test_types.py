@@ -24,7 +24,8 @@ from rcsgen.compiler.back_end.emit import render_system
 from rcsgen.compiler.diagnostics import Diagnostics, Span
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.types import BOOL, Str
-from rcsgen.runtime import command, contract, launcher
+from rcsgen.runtime import contract
+from rcsgen.runtime.operate import command, launcher
 from rcsgen.tools.harness import Harness, generate, import_package
 from rcsgen.tools.scenario import check_scenario
 from rcsgen.tools.traces import read as traces

@@ -519,7 +519,10 @@ def test_a_latch_or_force_made_on_any_host_holds_on_the_host_that_writes_the_act
     every actuator itself, and pc2, back, receives pc1's latches."""
     layout = rcs(miner, "layout")
     block_module, override = rcs(miner, "rcs.block"), rcs(miner, "rcs.override")
-    launcher_module, zenoh_transport = rcs(miner, "rcs.launcher"), rcs(miner, "rcs.zenoh_transport")
+    launcher_module, zenoh_transport = (
+        rcs(miner, "rcs.operate.launcher"),
+        rcs(miner, "rcs.zenoh_transport"),
+    )
     hosts, segments = two_hosts["hosts"], two_hosts["segments"]
     safe = {f: ("SAFE", v) for f, v in layout.SAFE_VALUES.items()}
 

@@ -67,7 +67,7 @@ class Topic(Enum):
         "scenario files and runs",
         "`rcsgen/tools/scenario/check.py`, `runs.py`",
     )
-    DEPLOYMENT = ("deployment files (`--deploy`)", "`rcsgen/runtime/deploy.py`")
+    DEPLOYMENT = ("deployment files (`--deploy`)", "`rcsgen/runtime/operate/deploy.py`")
     ANALYSIS = ("static analysis of the tables", "`rcsgen/compiler/analysis/tables.py`")
     NAMES = ("names and text that reach generated code", "`rcsgen/compiler/checks/naming.py`")
     SAFETY = (

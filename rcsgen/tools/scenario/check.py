@@ -26,7 +26,7 @@ from ...compiler.front_end.schema import check_document
 from ...compiler.frontend import SYSTEM_FILE, compile_paths, display_path
 from ...compiler.ir import IRController, IRProcess, IRSystem
 from ...compiler.types import BOOL, INT, Bool, Enum, ReasonOf, Str, Type
-from ...runtime.command import value_problem
+from ...runtime.operate.command import value_problem
 from ..traces.read import whole_system
 from .model import (
     Event,
@@ -201,7 +201,7 @@ class _Checker:
     def value(self, value: Any, kind: Type, span: Span, what: str) -> bool:
         """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit; a
         float: a finite number; an enumeration: one of its value names; a string: one that
-        fits its size): the one contract a command's values meet (rcs/command.py), said
+        fits its size): the one contract a command's values meet (rcs/operate/command.py), said
         as a scenario's author reads it."""
         names = kind.values if isinstance(kind, Enum) else ()
         if not value_problem(value, kind.code, names):
@@ -276,7 +276,7 @@ class _Checker:
 
     def settings(self, given: Any) -> None:
         """E424 for a setting the system does not take (`settings:` in system.yaml), the one
-        check `--set` makes (rcs/startup.py)."""
+        check `--set` makes (rcs/operate/startup.py)."""
         declared = self.system.settings
         factories = any(c.hooks_state for c in self.system.controllers)
         for key in given:

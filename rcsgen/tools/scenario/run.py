@@ -21,7 +21,7 @@ from ...compiler.diagnostics import SpecError
 from ...compiler.front_end.loader import decode, read_bytes
 from ...compiler.frontend import display_path
 from ...runtime import override
-from ...runtime.ctl import channel_requests, write_answer
+from ...runtime.operate.ctl import channel_requests, write_answer
 from ..harness import AnyHarness, Harness, LaunchedHarness, Status
 from .check import check_scenario
 from .model import (

@@ -19,8 +19,8 @@ from pathlib import Path
 from traceback import walk_tb
 from types import ModuleType
 
+from ..contract import HookError
 from .command import suggest
-from .contract import HookError
 
 # Exit codes of a process (the launcher's summary says them in words); 3 is REFUSED, a
 # process that refused to restart (launcher.py).

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .contract import shared
-from .transport import check_endpoint
+from ..contract import shared
+from ..transport import check_endpoint
 
 HOST_KEYS = ("processes", "listen", "connect")
 TOP_KEYS = ("system", "hosts")

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Any
 
-from .contract import (
+from ..contract import (
     DONE,
     ERROR,
     INT_MAX,
