@@ -491,6 +491,7 @@ def test_pip_install_gives_a_working_rcsgen(tmp_path: Path, pristine: dict[str, 
     wheel cannot lean on files that only exist in a checkout.
     """
     source = tmp_path / "src"
+
     def ignore(directory: str, names: list[str]) -> set[str]:
         skipped = {".git", ".venv", "__pycache__", ".pytest_cache", ".ruff_cache"}
         if Path(directory) == REPO:  # the checkout's outputs (rcsgen/tools/traces/ is code)

@@ -698,6 +698,13 @@ def render(snapshot: dict[str, Any]) -> list[str]:
         )
     for request in snapshot.get("requests", ()):
         lines.append(f"request {request['name']} from {request['by']}: {request['doc']}")
+    return lines + _world_lines(snapshot)
+
+
+def _world_lines(snapshot: dict[str, Any]) -> list[str]:
+    """The world fields asked for (a table with their overrides), then every other field
+    forced or latched safe (always said, --world or not)."""
+    lines = []
     world = snapshot.get("world") or {}
     held = snapshot.get("overrides") or {}
     if world:
@@ -708,7 +715,7 @@ def render(snapshot: dict[str, Any]) -> list[str]:
         ]
         lines += columns(fields)
     for name, how in held.items():
-        if name not in world:  # always said, --world or not
+        if name not in world:
             lines.append(f"world.{name} {how['state']} at {shown(how['value'])}")
     return lines
 
@@ -921,90 +928,146 @@ def attach(layout: ModuleType, endpoints: Sequence[str]) -> Any:
 
 
 def _verb(console: Console, args: argparse.Namespace, command: Command | None) -> int:
-    verb = args.verb
-    if verb == "status":
-        named = [n for n in (args.world or "").split(",") if n] or None
-        if named is not None:
-            console.world_names(named)  # a misspelt field: one line, exit 2
-        while True:
-            snapshot = console.snapshot(named)
-            if args.format == "json":
-                text = json.dumps(snapshot, indent=2)
-            else:
-                view = snapshot if args.world is not None else {**snapshot, "world": {}}
-                text = "\n".join(render(view))
-            if not args.watch:
-                print(text)
-                return 0
-            print("\x1b[H\x1b[2J" + text, flush=True)
-            time.sleep(args.interval)
-    if verb == "stop":
-        console.set_mode(args.module, dont_run=True)
-        print(f"{args.module}: STOP")
-    elif verb == "run":
-        console.set_mode(args.module, dont_run=False, single_step=False)
-        print(f"{args.module}: RUN AUTO")
-    elif verb == "step":
-        console.step(args.module, args.count, args.timeout)
-        row = console.modules()[args.module]
-        print(
-            f"{args.module}: stepped {args.count} cycle(s), SINGLE: state {row.get('state')}, "
-            f"rule {row.get('rule') or '-'}; `run {args.module}` goes back to AUTO"
-        )
-    elif verb == "simulate":
-        console.simulate(args.module, args.switch == "on")
-        print(f"{args.module}: {'SIMU' if args.switch == 'on' else 'REAL'}")
-    elif verb == "slow":
-        names = console.slow(args.factor, args.process)
-        print(f"slow x{args.factor:g}: {', '.join(names)}")
-    elif verb == "send":
-        assert command is not None
-        began = time.perf_counter()
-        number, notes = console.send(command, args.override)
-        for note in notes:
-            print(note)
-        print(f"sent {command} #{number}")
-        if args.seen:
-            if not _until(lambda: console.seen(command.module, number), 10.0):
-                raise CtlError(f"{command.module} did not echo #{number} within 10 s")
-            took = (time.perf_counter() - began) * 1000
-            print(f"{command.module} saw #{number} after {took:.1f} ms")
-    elif verb == "requests":
-        found = console.requests()
+    """Run one checked verb on the console; its exit code."""
+    return _VERBS[args.verb](console, args, command)
+
+
+def _verb_status(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    named = [n for n in (args.world or "").split(",") if n] or None
+    if named is not None:
+        console.world_names(named)  # a misspelt field: one line, exit 2
+    while True:
+        snapshot = console.snapshot(named)
         if args.format == "json":
-            print(json.dumps(found, indent=2))
-        elif not found:
-            print("no requests")
-        for request in [] if args.format == "json" else found:
-            task = f"{request['task']} #{request['number']}: " if "task" in request else ""
-            print(f"{request['name']} from {request['by']}: {task}{request['doc']}")
-    elif verb == "answer" and args.request in getattr(console.layout, "ANSWERS", {}):
+            text = json.dumps(snapshot, indent=2)
+        else:
+            view = snapshot if args.world is not None else {**snapshot, "world": {}}
+            text = "\n".join(render(view))
+        if not args.watch:
+            print(text)
+            return 0
+        print("\x1b[H\x1b[2J" + text, flush=True)
+        time.sleep(args.interval)
+
+
+def _verb_stop(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    console.set_mode(args.module, dont_run=True)
+    print(f"{args.module}: STOP")
+    return 0
+
+
+def _verb_run(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    console.set_mode(args.module, dont_run=False, single_step=False)
+    print(f"{args.module}: RUN AUTO")
+    return 0
+
+
+def _verb_step(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    console.step(args.module, args.count, args.timeout)
+    row = console.modules()[args.module]
+    print(
+        f"{args.module}: stepped {args.count} cycle(s), SINGLE: state {row.get('state')}, "
+        f"rule {row.get('rule') or '-'}; `run {args.module}` goes back to AUTO"
+    )
+    return 0
+
+
+def _verb_simulate(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    console.simulate(args.module, args.switch == "on")
+    print(f"{args.module}: {'SIMU' if args.switch == 'on' else 'REAL'}")
+    return 0
+
+
+def _verb_slow(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    names = console.slow(args.factor, args.process)
+    print(f"slow x{args.factor:g}: {', '.join(names)}")
+    return 0
+
+
+def _verb_send(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    assert command is not None
+    began = time.perf_counter()
+    number, notes = console.send(command, args.override)
+    for note in notes:
+        print(note)
+    print(f"sent {command} #{number}")
+    if args.seen:
+        if not _until(lambda: console.seen(command.module, number), 10.0):
+            raise CtlError(f"{command.module} did not echo #{number} within 10 s")
+        took = (time.perf_counter() - began) * 1000
+        print(f"{command.module} saw #{number} after {took:.1f} ms")
+    return 0
+
+
+def _verb_requests(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    found = console.requests()
+    if args.format == "json":
+        print(json.dumps(found, indent=2))
+        return 0
+    if not found:
+        print("no requests")
+    for request in found:
+        task = f"{request['task']} #{request['number']}: " if "task" in request else ""
+        print(f"{request['name']} from {request['by']}: {task}{request['doc']}")
+    return 0
+
+
+def _verb_answer(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    if args.request in getattr(console.layout, "ANSWERS", {}):  # an operator module's channel
         status = args.status or "DONE"
         request = console.answer_channel(args.request, status, args.reason)
         why = f" ({args.reason})" if args.reason else ""
         print(f"answered {args.request}: {request['task']} #{request['number']} {status}{why}")
-    elif verb == "answer":
-        sent, number = console.answer(args.request)
-        print(f"answered {args.request}: sent {sent} #{number}")
-    elif verb == "force":
-        field, equals, raw = args.assignment.partition("=")
-        if not equals:
-            raise usage(f"force: {args.assignment!r} is not world.FIELD=VALUE")
-        value = console.force(field, raw)
-        name = console.field(field)
-        print(f"world.{name} FORCED at {shown(value)}; `ctl unforce world.{name}` releases it")
-    elif verb == "unforce":
-        console.unforce(args.field)
-        print(f"world.{console.field(args.field)} released: its module writes it again")
-    elif verb == "reset":
-        released = console.reset(args.fields)
-        print(f"released: {', '.join(released)}" if released else "nothing was latched safe")
-    elif verb == "wait":
-        module, number = args.module, args.number
-        if not _until(lambda: console.outcome(module, number) is not None, args.timeout):
-            raise CtlError(f"{module} did not finish within {args.timeout:g} s")
-        outcome = console.outcome(module, number)
-        row = console.modules()[module]
-        print(f"{module} {outcome} {row.get('command')} #{row.get('command_num')}")
-        return 0 if outcome == args.outcome else FAILED
+        return 0
+    sent, number = console.answer(args.request)
+    print(f"answered {args.request}: sent {sent} #{number}")
     return 0
+
+
+def _verb_force(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    field, equals, raw = args.assignment.partition("=")
+    if not equals:
+        raise usage(f"force: {args.assignment!r} is not world.FIELD=VALUE")
+    value = console.force(field, raw)
+    name = console.field(field)
+    print(f"world.{name} FORCED at {shown(value)}; `ctl unforce world.{name}` releases it")
+    return 0
+
+
+def _verb_unforce(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    console.unforce(args.field)
+    print(f"world.{console.field(args.field)} released: its module writes it again")
+    return 0
+
+
+def _verb_reset(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    released = console.reset(args.fields)
+    print(f"released: {', '.join(released)}" if released else "nothing was latched safe")
+    return 0
+
+
+def _verb_wait(console: Console, args: argparse.Namespace, command: Command | None) -> int:
+    module, number = args.module, args.number
+    if not _until(lambda: console.outcome(module, number) is not None, args.timeout):
+        raise CtlError(f"{module} did not finish within {args.timeout:g} s")
+    result = console.outcome(module, number)
+    row = console.modules()[module]
+    print(f"{module} {result} {row.get('command')} #{row.get('command_num')}")
+    return 0 if result == args.outcome else FAILED
+
+
+_VERBS: dict[str, Callable[[Console, argparse.Namespace, Command | None], int]] = {
+    "status": _verb_status,
+    "stop": _verb_stop,
+    "run": _verb_run,
+    "step": _verb_step,
+    "simulate": _verb_simulate,
+    "slow": _verb_slow,
+    "send": _verb_send,
+    "requests": _verb_requests,
+    "answer": _verb_answer,
+    "force": _verb_force,
+    "unforce": _verb_unforce,
+    "reset": _verb_reset,
+    "wait": _verb_wait,
+}

@@ -226,6 +226,14 @@ def run(
             on_cycle(harness)
         if stop is not None and not pending and _finished(harness, stop):
             break
+    return _result(scenario, harness, trace, phases)
+
+
+def _result(
+    scenario: Scenario, harness: AnyHarness, trace: list[str], phases: Counter[str]
+) -> RunResult:
+    """What a run that ended leaves: the stop module's status, cycle times, figures."""
+    stop = scenario.stop_when_done
     final = harness.status(stop).__dict__ if stop else {}
     modules = dict.fromkeys(m.split("/")[0] for m in harness.modules)  # an operator's once
     max_ns = {m: harness.performance(m)["max_cycle_ns"] for m in modules}

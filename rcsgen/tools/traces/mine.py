@@ -24,8 +24,8 @@ from types import ModuleType
 from typing import Any
 
 from ...compiler.ir import IRController, IRSystem
-from .view import StringTable, number, runs
 from .read import Lane, Trace
+from .view import StringTable, number, runs
 
 TEMPLATE = "mine_view.html"
 REQUIRED = ("true_x", "true_y", "true_heading", "boom_angle_true", "drum_on_cmd")

@@ -59,75 +59,92 @@ def load(path: Path) -> Trace:
 
 
 def parse(text: str, shown: str = "<trace>") -> Trace:
+    """The checked trace in `text` (read from `shown`); TraceError at its first bad line."""
     lines = text.splitlines()
     if not any(line.strip() for line in lines):
         raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
-    cycles: list[int] = []
-    columns: dict[str, dict[str, list[Any]]] = {}
-    world: dict[str, list[Any]] = {}
-    modules: list[str] = []
-    interrupted = None
+    trace = Trace(shown, [], [], {}, {})
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
         where = f"{shown}:{number}"
-        if interrupted is not None:
+        if trace.interrupted is not None:
             raise TraceError(f"{where}: a line after the one that says the run was interrupted")
-        try:
-            record = json.loads(line)
-        except json.JSONDecodeError as error:
-            raise TraceError(f"{where}: not a trace line: {error.msg}") from None
-        if not isinstance(record, dict) or not isinstance(record.get("cycle"), int):
-            raise TraceError(f"{where}: not a trace line (no `cycle` number)")
+        record = _record(line, where)
         if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
-            if sorted(record) != ["cycle", "interrupted"] or not isinstance(
-                record["interrupted"], str
-            ):
-                raise TraceError(
-                    f"{where}: not a trace line (an `interrupted` line has only it and `cycle`)"
-                )
-            interrupted = record["interrupted"]
+            trace.interrupted = _interruption(record, where)
             continue
-        found = record.get("modules")
-        if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
-            raise TraceError(f"{where}: not a trace line (no `modules` object)")
-        if cycles and record["cycle"] <= cycles[-1]:
-            raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
-        if not cycles:
-            modules = sorted(found)
-            columns = {
-                m: {f: [] for f in (*FIELDS, *(o for o in OPTIONAL if o in found[m]))}
-                for m in modules
-            }
-            world = {name: [] for name in sorted(record.get("world") or {})}
-        elif sorted(found) != modules:
-            extra = sorted(set(found) ^ set(modules))
-            raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
-        for module in modules:
-            values = found[module]
-            missing = [f for f in columns[module] if f not in values]
-            if missing:
-                raise TraceError(f"{where}: module {module} has no `{missing[0]}`")
-            extra = [f for f in OPTIONAL if f in values and f not in columns[module]]
-            if extra:
-                raise TraceError(
-                    f"{where}: module {module} has a `{extra[0]}` the first line does not have"
-                )
-            if "result" in values and not isinstance(values["result"], dict):
-                raise TraceError(f"{where}: module {module}'s `result` is not an object")
-            for name in columns[module]:
-                columns[module][name].append(values[name])
-        fields = record.get("world") or {}
-        if not isinstance(fields, dict) or sorted(fields) != list(world):
-            raise TraceError(f"{where}: world fields differ from the first line's")
-        for name, series in world.items():
-            series.append(fields[name])
-        cycles.append(record["cycle"])
-    if not cycles:
+        _append(trace, record, where)
+    if not trace.cycles:
         raise TraceError(
             f"{shown} holds no cycle: its run was interrupted before its first one ended"
         )
-    return Trace(shown, cycles, modules, columns, world, interrupted)
+    return trace
+
+
+def _record(line: str, where: str) -> dict[str, Any]:
+    """One line's JSON object, with its `cycle` number."""
+    try:
+        record = json.loads(line)
+    except json.JSONDecodeError as error:
+        raise TraceError(f"{where}: not a trace line: {error.msg}") from None
+    if not isinstance(record, dict) or not isinstance(record.get("cycle"), int):
+        raise TraceError(f"{where}: not a trace line (no `cycle` number)")
+    return record
+
+
+def _interruption(record: dict[str, Any], where: str) -> str:
+    """The signal an `interrupted` line names (it holds only that and `cycle`)."""
+    if sorted(record) != ["cycle", "interrupted"] or not isinstance(record["interrupted"], str):
+        raise TraceError(
+            f"{where}: not a trace line (an `interrupted` line has only it and `cycle`)"
+        )
+    return record["interrupted"]
+
+
+def _append(trace: Trace, record: dict[str, Any], where: str) -> None:
+    """One cycle's line added to the trace's columns, checked against the first line's."""
+    found = record.get("modules")
+    if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
+        raise TraceError(f"{where}: not a trace line (no `modules` object)")
+    cycles = trace.cycles
+    if cycles and record["cycle"] <= cycles[-1]:
+        raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
+    if not cycles:  # the first line says which modules, optional fields and world fields
+        trace.modules = sorted(found)
+        trace.columns = {
+            m: {f: [] for f in (*FIELDS, *(o for o in OPTIONAL if o in found[m]))}
+            for m in trace.modules
+        }
+        trace.world = {name: [] for name in sorted(record.get("world") or {})}
+    elif sorted(found) != trace.modules:
+        extra = sorted(set(found) ^ set(trace.modules))
+        raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
+    for module in trace.modules:
+        _append_module(trace.columns[module], module, found[module], where)
+    fields = record.get("world") or {}
+    if not isinstance(fields, dict) or sorted(fields) != list(trace.world):
+        raise TraceError(f"{where}: world fields differ from the first line's")
+    for name, series in trace.world.items():
+        series.append(fields[name])
+    cycles.append(record["cycle"])
+
+
+def _append_module(
+    columns: dict[str, list[Any]], module: str, values: dict[str, Any], where: str
+) -> None:
+    missing = [f for f in columns if f not in values]
+    if missing:
+        raise TraceError(f"{where}: module {module} has no `{missing[0]}`")
+    extra = [f for f in OPTIONAL if f in values and f not in columns]
+    if extra:
+        raise TraceError(
+            f"{where}: module {module} has a `{extra[0]}` the first line does not have"
+        )
+    if "result" in values and not isinstance(values["result"], dict):
+        raise TraceError(f"{where}: module {module}'s `result` is not an object")
+    for name in columns:
+        columns[name].append(values[name])
 
 
 def status_text(column: dict[str, list[Any]], i: int) -> str:

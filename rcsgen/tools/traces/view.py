@@ -56,6 +56,24 @@ def number(value: Any) -> float | None:
     return None
 
 
+def _plot(name: str, series: list[Any]) -> dict[str, Any]:
+    """One world field's plot: bool, int, text (an enumeration's names, a string's text, as
+    indices into `names`) or float."""
+    values: list[Any]
+    if all(isinstance(v, bool) for v in series):
+        kind, values = "bool", [int(v) for v in series]
+    elif all(isinstance(v, int) and not isinstance(v, bool) for v in series):
+        kind, values = "int", list(series)
+    elif all(isinstance(v, str) for v in series):
+        names = sorted(set(series))
+        return {"name": name, "type": "text", "values": [names.index(v) for v in series]} | {
+            "names": names
+        }
+    else:
+        kind, values = "float", [number(v) for v in series]
+    return {"name": name, "type": kind, "values": values}
+
+
 def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float | None) -> str:
     """The JSON the page draws, canonical (sorted keys), safe inside a <script> element."""
     table = StringTable()
@@ -79,23 +97,7 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
                 "rules": [x for pair in fired for x in pair],
             }
         )
-    world = []
-    for name, series in trace.world.items():
-        values: list[Any]
-        if all(isinstance(v, bool) for v in series):
-            kind, values = "bool", [int(v) for v in series]
-        elif all(isinstance(v, int) and not isinstance(v, bool) for v in series):
-            kind, values = "int", list(series)
-        elif all(isinstance(v, str) for v in series):  # an enumeration's names, a string's text
-            names = sorted(set(series))
-            world.append(
-                {"name": name, "type": "text", "values": [names.index(v) for v in series]}
-                | {"names": names}
-            )
-            continue
-        else:
-            kind, values = "float", [number(v) for v in series]
-        world.append({"name": name, "type": kind, "values": values})
+    world = [_plot(name, series) for name, series in trace.world.items()]
     data = {
         "source": trace.name,
         "system": system,

@@ -97,17 +97,7 @@ def value_problem(value: object, code: str, names: Sequence[str] = ()) -> str:
         hint = f" (did you mean {close[0]}?)" if close else ""
         return f"is {_repr(value)}, not {kind_words(code, names)}{hint}"
     if code.endswith("s"):
-        if not isinstance(value, str):
-            return f"is {_repr(value)}, not {kind_words(code)}"
-        try:
-            used = len(value.encode("utf-8"))
-        except UnicodeEncodeError:
-            return f"is {_repr(value)}: not text (it holds bytes that are not UTF-8)"
-        if "\0" in value:
-            return "holds the NUL character, which no string may"
-        if used > int(code[:-1]):
-            return f"is {_repr(value)}: {used} bytes of UTF-8, more than the {code[:-1]} it holds"
-        return ""
+        return _text_problem(value, code)
     if code == "?":
         return "" if type(value) is bool else f"is {_repr(value)}, not true or false"
     if isinstance(value, bool) or not isinstance(value, int | float):
@@ -122,6 +112,21 @@ def value_problem(value: object, code: str, names: Sequence[str] = ()) -> str:
         return "is NaN: not a number"
     if not -1.7976931348623157e308 <= value <= 1.7976931348623157e308:
         return f"is {_short(value)}: out of range (a float is finite)"
+    return ""
+
+
+def _text_problem(value: object, code: str) -> str:
+    """As `value_problem`, for a string field of struct `code` (`Ns`, N bytes)."""
+    if not isinstance(value, str):
+        return f"is {_repr(value)}, not {kind_words(code)}"
+    try:
+        used = len(value.encode("utf-8"))
+    except UnicodeEncodeError:
+        return f"is {_repr(value)}: not text (it holds bytes that are not UTF-8)"
+    if "\0" in value:
+        return "holds the NUL character, which no string may"
+    if used > int(code[:-1]):
+        return f"is {_repr(value)}: {used} bytes of UTF-8, more than the {code[:-1]} it holds"
     return ""
 
 
