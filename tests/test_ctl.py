@@ -7,7 +7,6 @@ bad input must be one line on stderr with exit 2 (usage) or 1, never a traceback
 from __future__ import annotations
 
 import importlib
-import itertools
 import json
 import os
 import shutil
@@ -19,17 +18,16 @@ from pathlib import Path
 from types import ModuleType
 
 import pytest
-from conftest import children, console_status, rcsgen, wait_for
+from conftest import rcsgen, wait_for
+from support.running import children, console_status, segment_names
 
 from rcsgen.tools.harness import generate, import_package
 
 DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
 REPO = Path(__file__).resolve().parent.parent
-_names = itertools.count(1)
 
 
-def segment_name() -> str:
-    return f"rcsgen_ctl_{os.getpid()}_{next(_names)}"
+segment_name = segment_names("ctl")
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
-import itertools
 import json
 import os
 import shutil
@@ -27,6 +26,7 @@ from typing import Any
 
 import pytest
 from conftest import wait_for
+from support.running import segment_names
 
 from rcsgen.tools.harness import Harness, generate, import_package
 
@@ -180,13 +180,11 @@ def test_an_enumeration_is_forced_by_name(package: ModuleType) -> None:
 
 # ---------------------------------------------------------------- faults, in real processes
 
-_names = itertools.count(1)
 ACTUATORS_SAFE = {"v1_drive": 0.0, "v2_drive": -0.5, "v2_brake": True}
 DRIVING = {"v1_drive": 1.0, "v2_drive": 2.0, "v2_brake": False}
 
 
-def segment_name() -> str:
-    return f"rcsgen_fs_{os.getpid()}_{next(_names)}"
+segment_name = segment_names("fs")
 
 
 def actuators(

@@ -12,8 +12,8 @@ import re
 from pathlib import Path
 
 import pytest
-from browser import load, needs_chromium
 from conftest import rcsgen
+from support.browser import load, needs_chromium
 
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.tools.traces import mine as mine_view

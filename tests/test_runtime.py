@@ -10,7 +10,6 @@ by generous deadlines; nothing here asserts how fast anything is (`make bench` m
 from __future__ import annotations
 
 import importlib
-import itertools
 import json
 import os
 import shutil
@@ -22,16 +21,15 @@ from pathlib import Path
 from types import ModuleType
 
 import pytest
-from conftest import console_status, wait_for
+from conftest import wait_for
+from support.running import console_status, segment_names
 
 from rcsgen.tools.harness import Harness, generate, import_package
 
 DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
-_names = itertools.count(1)
 
 
-def segment_name() -> str:
-    return f"rcsgen_rt_{os.getpid()}_{next(_names)}"
+segment_name = segment_names("rt")
 
 
 @pytest.fixture(scope="module")

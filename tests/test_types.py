@@ -16,8 +16,8 @@ import shutil
 from pathlib import Path
 
 import pytest
-from browser import load, needs_chromium
 from conftest import edit, rcsgen
+from support.browser import load, needs_chromium
 
 from rcsgen.compiler import expressions as expr
 from rcsgen.compiler.back_end.emit import render_system

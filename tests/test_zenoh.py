@@ -646,12 +646,12 @@ def test_the_monitor_attaches_through_zenoh(
 # ---------------------------------------------------------------- a cut link
 
 
-RELAY = ROOT / "tests" / "tcp_relay.py"
+RELAY = ROOT / "tests" / "support" / "tcp_relay.py"
 
 
 @pytest.fixture
 def through_a_relay() -> Iterator[dict[str, object]]:
-    """pc2 listening; pc1 reaching it only through a TCP relay (tests/tcp_relay.py), the
+    """pc2 listening; pc1 reaching it only through a TCP relay (tests/support/tcp_relay.py), the
     "network" that the test cuts and mends while both hosts keep running. pc1 does not
     listen, so pc2 has no other way to it."""
     pid = os.getpid()
