@@ -581,7 +581,7 @@ def help_first(ctx: click.Context, system_dir: Path) -> None:
     """`rcsgen up --help` (no SYSTEM_DIR yet): this command's help."""
     if str(system_dir) in ("-h", "--help"):
         click.echo(ctx.get_help())
-        ctx.exit(0)
+        raise Exit(0)
 
 
 def systems_in(paths: tuple[Path, ...]) -> list[IRSystem]:
