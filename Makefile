@@ -35,7 +35,7 @@ lint: $(STAMP)
 	$(PY) -m ruff check --isolated rcsgen/runtime  # vendored as is: ruff's defaults too
 	$(PY) -m ruff format --check rcsgen tests
 
-# Strict for rcsgen.compiler, rcsgen.runtime and the public API, plain for tools and cli;
+# mypy --strict over the whole package (compiler, runtime, API, tools and the command line);
 # generated/ is not checked (configuration: [tool.mypy] in pyproject.toml).
 typecheck: $(STAMP)
 	$(PY) -m mypy

@@ -62,7 +62,7 @@ class Duo:
         self.dir = self.scratch / name
         self.package = import_package(self.dir, DUO)
         self.layout = self.module("layout")
-        self.launcher = self.module("rcs.launcher")
+        self.launcher = self.module("rcs.operate.launcher")
         self.system = self.launcher.System(
             self.dir.name,
             self.layout,

@@ -14,7 +14,7 @@
    taking turns and ending each round in the same state (bench_lockstep.race).
 4. A chain of 16 controllers over 2, 4 and 8 hosts in lockstep, Zenoh against pipes.
 5. Detection on two free-running paced hosts (pc2 listening, pc1 connecting through a TCP
-   relay, tests/tcp_relay.py): time from a cut of the link (the relay delivers nothing
+   relay, tests/support/tcp_relay.py): time from a cut of the link (the relay delivers nothing
    more, closes nothing), from SIGSTOP of pc2 (a frozen host) and from SIGKILL of pc2 to
    pc1's control record saying pc2 is lost; from the link mended and from SIGCONT to pc2
    re-joined; and over a soak, pc1's overruns.

@@ -7,7 +7,8 @@
         print(diagnostic.render())
     built = rcsgen.build(["specs/"], "generated")  # all or nothing; SpecError on a problem
 
-`rcsgen.cli`'s `build` command runs the same steps, reporting as it goes.
+`rcsgen.cli`'s commands run the same steps, reporting as they go: `validate` (the specs and
+their scenarios), `build`, and what `up` checks before it starts a package (`stale`).
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .compiler.back_end import write
-from .compiler.diagnostics import Diagnostics, SpecError
-from .compiler.frontend import Frontend, compile_paths
+from .compiler.diagnostics import Diagnostic, Diagnostics, SpecError
+from .compiler.front_end.loader import load_file
+from .compiler.frontend import SYSTEM_FILE, Frontend, Progress, compile_paths
 
 StrPath = str | os.PathLike[str]
 
@@ -30,11 +32,51 @@ def _as_paths(paths: StrPath | Iterable[StrPath]) -> list[Path]:
     return [Path(path) for path in paths]
 
 
-def check(paths: StrPath | Iterable[StrPath]) -> Frontend:
+def check(paths: StrPath | Iterable[StrPath], progress: Progress | None = None) -> Frontend:
     """Load and check the systems in `paths` (spec directories, searched recursively, or files
     in a system directory): `.systems` holds the checked ones, `.diagnostics` every problem.
-    Bad specs never raise."""
-    return compile_paths(_as_paths(paths))
+    Bad specs never raise. `progress` hears what is being done, in a few words."""
+    if progress is None:
+        return compile_paths(_as_paths(paths))
+    return compile_paths(_as_paths(paths), progress)
+
+
+def validate(paths: StrPath | Iterable[StrPath], progress: Progress | None = None) -> Frontend:
+    """As `check`, and the scenarios of each system that builds checked against it: their
+    diagnostics follow the specs' in `.diagnostics`."""
+    from .tools.scenario.check import check_system_scenarios
+
+    front = check(paths, progress)
+    diags = front.diagnostics
+    for system in front.systems:
+        found = check_system_scenarios(front.directories[system.name], system)
+        diags = Diagnostics([*diags.items, *found.items], diags.acknowledged)
+    front.diagnostics = diags
+    return front
+
+
+def system_name(system_dir: StrPath) -> str:
+    """The name a system directory's `system.yaml` gives (its package's name); the
+    directory's name when that file does not say."""
+    data = load_file(Path(system_dir) / SYSTEM_FILE, SYSTEM_FILE)
+    return str(data["system"]) if isinstance(data, dict) else Path(system_dir).name
+
+
+def stale(system_dir: StrPath, generated: StrPath) -> tuple[Diagnostics, list[Diagnostic]]:
+    """What stands between a built package and a start: the errors of the specs in
+    `system_dir` (when they do not build), else E418 for a package in `generated` that is
+    not exactly what they make (and the output directory's problems)."""
+    from .tools.scenario import runs
+
+    front = check(system_dir)
+    errors = Diagnostics(front.diagnostics.errors)
+    if errors.items:
+        return errors, []
+    out = Path(generated)
+    plan, problems = write.plan_build(front.systems, out)
+    other = "--generated DIR where the package of these specs is"
+    found = [runs.stale_package(plan, out, s.name, other) for s in front.systems]
+    return errors, [*problems.errors, *(d for d in found if d is not None)]
 
 
 @dataclass(frozen=True)

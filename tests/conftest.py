@@ -1,4 +1,7 @@
-"""Shared fixtures for the CLI tests: a scratch copy of the foundation miner, its build."""
+"""The suite's fixtures (shared helpers that are not fixtures are in tests/support/) and its
+tiers: every test module belongs to one (TIERS; tests/README.md says what each is for), and
+each test carries its tier's marker, so `pytest -m unit` runs one tier.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +14,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner, Result
 from mutation_runtime import under_mutmut
+from support.running import children
 
 from rcsgen.cli import main
 
@@ -23,6 +27,95 @@ if under_mutmut():  # `make mutate`: the runtime copies of generated packages ho
         pytest_sessionfinish,
         pytest_sessionstart,
     )
+
+# Each tier, what it is for, and its modules (tests/README.md says more).
+TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "unit": (
+        "one stage or tool in process, on specs and files; no generated system runs",
+        (
+            "test_acknowledge",
+            "test_analysis",
+            "test_api",
+            "test_architecture",
+            "test_codes",
+            "test_config",
+            "test_corpus",
+            "test_files",
+            "test_graph",
+            "test_graph_render",
+            "test_loader",
+            "test_new",
+            "test_reference",
+            "test_report",
+            "test_schema",
+            "test_trace_checks",
+            "test_traces",
+            "test_validate",
+        ),
+    ),
+    "system": (
+        "a generated package built and run in one process (harness, scenarios, goldens)",
+        (
+            "test_build",
+            "test_co_appendix_c",
+            "test_fragments",
+            "test_golden",
+            "test_hook_contract",
+            "test_injection",
+            "test_inspection",
+            "test_language",
+            "test_mine_view",
+            "test_miner",
+            "test_operator",
+            "test_plans",
+            "test_results_visible",
+            "test_run",
+            "test_scenarios",
+            "test_semantics",
+            "test_shared_types",
+            "test_submarine",
+            "test_trace_view",
+            "test_tutorial",
+            "test_types",
+        ),
+    ),
+    "processes": (
+        "real OS processes over shared memory or Zenoh: faults, signals, the console",
+        (
+            "test_command_contract",
+            "test_ctl",
+            "test_deploy",
+            "test_failsafe",
+            "test_monitor",
+            "test_operate",
+            "test_runtime",
+            "test_runtime_mutants",
+            "test_zenoh",
+        ),
+    ),
+    "fuzz": (
+        "random inputs, a few hundred here and many more under `make fuzz`",
+        ("test_differential", "test_expr", "test_fuzz", "test_scenario_fuzz"),
+    ),
+    "suite": ("the suite's own machinery (`make mutate`)", ("test_mutation",)),
+}
+_TIER_OF = {module: tier for tier, (_, modules) in TIERS.items() for module in modules}
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    for tier, (purpose, _) in TIERS.items():
+        config.addinivalue_line("markers", f"{tier}: {purpose}")
+
+
+def pytest_itemcollected(item: pytest.Item) -> None:
+    module = Path(str(item.fspath)).stem
+    if module not in _TIER_OF:
+        raise pytest.UsageError(
+            f"tests/{module}.py is in no tier: add it to TIERS in tests/conftest.py "
+            "(tests/README.md says what each tier is for)"
+        )
+    item.add_marker(_TIER_OF[module])
+
 
 REPO = Path(__file__).resolve().parent.parent
 # The foundation issue's small miner, frozen as a fixture: the CLI tests mutate it.
@@ -100,22 +193,6 @@ def _our_segments() -> set[str]:
     return {p.name for p in found}
 
 
-def _children() -> list[str]:
-    """Processes whose parent is this test process (read from /proc), with their commands."""
-    found = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except (OSError, IndexError):
-            continue
-        if int(fields[1]) == os.getpid():
-            try:
-                found.append((stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode())
-            except OSError:
-                continue
-    return [command for command in found if command]
-
-
 @pytest.fixture(scope="session", autouse=True)
 def nothing_left_behind():
     """After the whole suite: no shared-memory segment of ours is left in /dev/shm, and no
@@ -124,5 +201,5 @@ def nothing_left_behind():
     yield
     left = _our_segments() - before
     assert not left, f"the suite left shared-memory segments behind: {sorted(left)}"
-    survivors = [c for c in _children() if "resource_tracker" not in c]
+    survivors = [c for c in children() if "resource_tracker" not in c]
     assert not survivors, f"child processes survived the suite: {survivors}"

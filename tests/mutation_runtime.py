@@ -127,7 +127,8 @@ def materialise(name: str, scratch: Path) -> Path:
     shutil.copytree(
         CHECKOUT / "rcsgen" / "runtime", runtime, ignore=shutil.ignore_patterns("__pycache__")
     )
-    file = name.rpartition(".")[0].rpartition(".")[2] + ".py"
+    module = name.rpartition(".")[0].removeprefix(RUNTIME_PREFIX)  # `loop`, `operate.ctl`
+    file = module.replace(".", "/") + ".py"
     mutated = apply_mutant(name, (runtime / file).read_text(encoding="utf-8"))
     (runtime / file).write_text(emit.format_files({file: mutated})[file], encoding="utf-8")
     return runtime
@@ -139,8 +140,8 @@ def sync_generated(runtime: Path, generated: Path) -> list[Path]:
     written = []
     for rcs in sorted(generated.glob("*/rcs")):
         before = len(written)
-        for source in sorted(runtime.glob("*.py")):
-            copy = rcs / source.name
+        for source in sorted(runtime.rglob("*.py")):
+            copy = rcs / source.relative_to(runtime)
             if not copy.is_file():
                 continue
             text = copy.read_text(encoding="utf-8")
@@ -152,7 +153,8 @@ def sync_generated(runtime: Path, generated: Path) -> list[Path]:
                 copy.write_text(wanted, encoding="utf-8")
                 written.append(copy)
         if len(written) > before:  # a rewrite in the same second and size: no old bytecode
-            shutil.rmtree(rcs / "__pycache__", ignore_errors=True)
+            for cache in [rcs / "__pycache__", rcs / "operate" / "__pycache__"]:
+                shutil.rmtree(cache, ignore_errors=True)
     return written
 
 

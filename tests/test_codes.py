@@ -19,8 +19,8 @@ from rcsgen.compiler.diagnostics import Diagnostics
 from rcsgen.compiler.front_end.loader import load_file
 from rcsgen.compiler.front_end.model import build_controller, build_system
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools.runs import golden_differences
-from rcsgen.tools.scenario_check import check_scenario
+from rcsgen.tools.scenario import check_scenario
+from rcsgen.tools.scenario.runs import golden_differences
 
 TINY = REPO / "tests" / "cases" / "valid" / "tiny"
 

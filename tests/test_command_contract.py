@@ -1,4 +1,4 @@
-"""The command contract (rcsgen/runtime/command.py), as a property: `ctl send` with random
+"""The command contract (rcsgen/runtime/operate/command.py), as a property: `ctl send` with random
 parameter text never writes anything invalid into the block.
 
 The fixture system (tests/fixtures/runtime/every_type) has one command, TAKE, with a
@@ -163,7 +163,7 @@ def system() -> Iterator[tuple[ModuleType, ModuleType, object, str]]:
 
 def ctl(package: ModuleType, *argv: str) -> tuple[int, str, str]:
     """The package's console in this process: its exit code, stdout and stderr."""
-    main = __import__(f"{package.__name__}.rcs.ctl", fromlist=["ctl"]).main
+    main = __import__(f"{package.__name__}.rcs.operate.ctl", fromlist=["ctl"]).main
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         code = main(package.__name__, list(argv))

@@ -30,7 +30,7 @@ from rcsgen.compiler.back_end import write
 from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
 from rcsgen.compiler.front_end.loader import utf16_without_bom
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools.scenario_check import check_system_scenarios
+from rcsgen.tools.scenario import check_system_scenarios
 
 CASES = Path(__file__).resolve().parent / "cases"
 INVALID = sorted(p for p in (CASES / "invalid").iterdir() if p.is_dir())
@@ -174,9 +174,10 @@ TESTS = Path(__file__).resolve().parent
 def test_the_registry_is_the_one_list_of_codes() -> None:
     """rcsgen/compiler/codes.py registers every code once, and each registered code is
     reported somewhere (a string literal like "E204" in rcsgen/, outside the registry),
-    documented in docs/diagnostics.md under its registered title, and tested by a case (a corpus
-    case named after it, a running-side case or a test that names it). Nothing is reported,
-    documented or selectable that is not registered; the docs' index is the registry's."""
+    documented in docs/diagnostics.md under its registered title, and tested by a case (a
+    corpus case named after it, a running-side case or a test that names it). Nothing is
+    reported, documented or selectable that is not registered; the docs' index is the
+    registry's."""
     from rcsgen.compiler.codes import CODES, WARNING_CODES, index_markdown
 
     package = TESTS.parent / "rcsgen"
@@ -217,14 +218,14 @@ def test_a_code_reported_with_another_severity_is_an_internal_error() -> None:
 
 
 def test_completion_of_select_names_each_warning_with_its_title() -> None:
-    from rcsgen.cli import _complete_codes
+    from rcsgen.terminal import complete_codes
 
-    items = _complete_codes(None, None, "W50")  # type: ignore[arg-type]
+    items = complete_codes(None, None, "W50")  # type: ignore[arg-type]
     assert [(i.value, i.help) for i in items][:2] == [
         ("W501", "overlap in a first_match state"),
         ("W502", "exclusivity not provable"),
     ]
-    assert [i.value for i in _complete_codes(None, None, "W301,W30")][-1] == "W301,W309"  # type: ignore[arg-type]
+    assert [i.value for i in complete_codes(None, None, "W301,W30")][-1] == "W301,W309"  # type: ignore[arg-type]
 
 
 def test_corpus_cases_are_named_after_documented_codes() -> None:

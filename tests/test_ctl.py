@@ -1,4 +1,4 @@
-"""The operator's console, `python -m <system> ctl` (rcsgen/runtime/ctl.py), against running
+"""The operator's console, `python -m <system> ctl` (rcsgen/runtime/operate/ctl.py), against running
 systems: the duo fixture (a supervisor `top` in process p1 commanding an `arm` in p2) and the
 miner, each launched paced as real OS processes; every verb is run as a command line, and
 bad input must be one line on stderr with exit 2 (usage) or 1, never a traceback.
@@ -7,7 +7,6 @@ bad input must be one line on stderr with exit 2 (usage) or 1, never a traceback
 from __future__ import annotations
 
 import importlib
-import itertools
 import json
 import os
 import shutil
@@ -20,16 +19,15 @@ from types import ModuleType
 
 import pytest
 from conftest import rcsgen, wait_for
+from support.running import children, console_status, segment_names
 
 from rcsgen.tools.harness import generate, import_package
 
 DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
 REPO = Path(__file__).resolve().parent.parent
-_names = itertools.count(1)
 
 
-def segment_name() -> str:
-    return f"rcsgen_ctl_{os.getpid()}_{next(_names)}"
+segment_name = segment_names("ctl")
 
 
 @pytest.fixture(scope="module")
@@ -193,7 +191,11 @@ def test_stop_step_and_run_a_module(running: Running) -> None:
     arm = running.module("arm")
     assert (arm["run"], arm["step"]) == ("RUN", "SINGLE")
     cycles = arm["cycles"]
-    time.sleep(0.3)  # 15 periods: the arm's table is held, its cycles still counted
+    held = wait_for(  # the arm's table is held, its cycles still counted
+        lambda: (arm := running.module("arm"))["cycles"] > cycles + 5 and arm,
+        "the held arm's cycles counted",
+    )
+    assert (held["run"], held["step"]) == ("RUN", "SINGLE")  # type: ignore[index]
     assert running.ctl("run", "arm").returncode == 0
     arm = running.module("arm")
     assert (arm["run"], arm["step"]) == ("RUN", "AUTO") and arm["cycles"] > cycles
@@ -209,14 +211,24 @@ def test_simulate_switches_to_the_stand_in_and_back(running: Running) -> None:
     assert refused.returncode == 2 and "top has no stand-in; these do: arm" in refused.stderr
 
 
+def beats(running: Running, process: str, at_least: int) -> int:
+    """The process's heartbeat (its cycles) once it is at least `at_least`, else 0."""
+    beat = int(running.json()["processes"].get(process, {}).get("heartbeat", 0))  # type: ignore[attr-defined]
+    return beat if beat >= at_least else 0
+
+
 def test_slow_stretches_the_period_of_every_process(running: Running) -> None:
     assert running.ctl("slow", "5").stdout.strip() == "slow x5: p1, p2"
     assert running.json()["processes"]["p1"]["slow"] == 5.0  # type: ignore[index]
-    time.sleep(0.3)  # the current sleep ends
-    before = running.json()["processes"]["p1"]["heartbeat"]  # type: ignore[index]
-    time.sleep(1.0)  # 50 cycles at full speed, 10 slowed (fewer still on a loaded host)
-    after = running.json()["processes"]["p1"]["heartbeat"]  # type: ignore[index]
-    assert after - before <= 20
+    beat = running.json()["processes"]["p1"]["heartbeat"]  # type: ignore[index]
+    wait_for(lambda: beats(running, "p1", beat + 2), "the slowed period begun")
+    start = time.monotonic()  # before the beat is read: cycle `first + 1` starts after it
+    first = beats(running, "p1", 0)
+    wait_for(lambda: beats(running, "p1", first + 10), "ten slowed cycles", deadline=30)
+    # The pacer keeps a grid of boundaries a period apart and never catches up in a burst,
+    # so ten cycles at the slowed 0.1 s (5 x 0.02 s) start at least 0.8 s after `start`
+    # however loaded the host is; at full speed they would take 0.2 s.
+    assert time.monotonic() - start >= 0.6
     assert running.ctl("slow", "1", "--process", "p1").stdout.strip() == "slow x1: p1"
 
 
@@ -227,7 +239,9 @@ def test_a_slowed_process_is_not_taken_for_lost(running: Running) -> None:
     assert running.ctl("send", "top", "RUN", "--seen").returncode == 0
     wait_for(lambda: running.module("arm")["status"] == "EXECUTING", "the arm held")
     assert running.ctl("slow", "30").returncode == 0
-    time.sleep(2.0)  # more than three slowed cycles
+    beat = running.json()["processes"]["p1"]["heartbeat"]  # type: ignore[index]
+    # more than three slowed cycles (0.6 s each, twice the heartbeat timeout) of p1
+    wait_for(lambda: beats(running, "p1", beat + 4), "four slowed cycles of p1", deadline=30)
     snapshot = running.json()
     top = snapshot["modules"]["top"]  # type: ignore[index]
     assert (top["status"], top["error_num"]) == ("EXECUTING", 0), top
@@ -489,7 +503,7 @@ def test_sigterm_stops_rcsgen_run_with_a_summary_and_no_segment_left() -> None:
     )
     shm = Path("/dev/shm")
     segments = wait_for(lambda: list(shm.glob(f"rcsgen_run_{run.pid}_*")), "the run's segment")
-    time.sleep(0.3)
+    wait_for(lambda: children(run.pid), "the run's processes started")
     run.terminate()
     out, err = run.communicate(timeout=60)
     if run.returncode == 0:  # it finished first: nothing to interrupt
@@ -500,6 +514,12 @@ def test_sigterm_stops_rcsgen_run_with_a_summary_and_no_segment_left() -> None:
         assert "interrupted by SIGTERM in cycle" in err
         assert any(line.startswith("pc1: stopped, ") for line in out.splitlines()), out
     assert not any(path.exists() for path in segments)  # type: ignore[attr-defined]
+
+
+def processes_running(package_dir: Path, env: dict[str, str], segment: str) -> bool:
+    """Whether every process of the system on `segment` says RUNNING in its control record."""
+    found = console_status(package_dir, env, segment).get("processes", {}).values()
+    return bool(found) and all(p["state"] == "RUNNING" for p in found)
 
 
 def test_a_killed_lockstep_launcher_leaves_no_segment(duo: Path) -> None:
@@ -515,7 +535,7 @@ def test_a_killed_lockstep_launcher_leaves_no_segment(duo: Path) -> None:
     )
     shm = Path("/dev/shm") / segment
     wait_for(shm.exists, "the segment")
-    time.sleep(0.3)
+    wait_for(lambda: processes_running(duo, env, segment), "p1 and p2 attached and running")
     run.kill()
     run.wait(timeout=30)
     wait_for(lambda: not shm.exists(), "the segment removed by the last process out")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from rcsgen.runtime.deploy import DeployError, load
+from rcsgen.runtime.operate.deploy import DeployError, load
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "generated" / "miner"

@@ -11,7 +11,7 @@ ERROR or EXECUTING, a stale number, or nothing), changes the world and issues ne
 Half the systems give `top` a plan (`legs`, two step fields, capacity 4, two replans) whose
 planner is a Python function of the system's hooks package, stepped through, replanned
 (guarded by `legs.replans_left > 0`) and read in guards and values.
-The same inputs drive tests/reference_interpreter.py, written from docs/semantics.md
+The same inputs drive tests/support/reference_interpreter.py, written from docs/semantics.md
 without rcsgen. Every cycle the two must agree on state, status, status number, each
 subordinate's command, number and arguments, the locals and the world.
 
@@ -34,7 +34,7 @@ from typing import Any
 import yaml
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
-from reference_interpreter import Block, Controller
+from support.reference_interpreter import Block, Controller
 from test_operator import Channel
 
 from rcsgen.tools.harness import Harness

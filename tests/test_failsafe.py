@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
-import itertools
 import json
 import os
 import shutil
@@ -27,6 +26,7 @@ from typing import Any
 
 import pytest
 from conftest import wait_for
+from support.running import segment_names
 
 from rcsgen.tools.harness import Harness, generate, import_package
 
@@ -180,13 +180,11 @@ def test_an_enumeration_is_forced_by_name(package: ModuleType) -> None:
 
 # ---------------------------------------------------------------- faults, in real processes
 
-_names = itertools.count(1)
 ACTUATORS_SAFE = {"v1_drive": 0.0, "v2_drive": -0.5, "v2_brake": True}
 DRIVING = {"v1_drive": 1.0, "v2_drive": 2.0, "v2_brake": False}
 
 
-def segment_name() -> str:
-    return f"rcsgen_fs_{os.getpid()}_{next(_names)}"
+segment_name = segment_names("fs")
 
 
 def actuators(
@@ -212,7 +210,7 @@ def pids(layout: ModuleType, buf: memoryview) -> list[int]:
 
 
 def system_of(fleet: Path, package: ModuleType, spec: Path = FLEET) -> object:
-    launcher = runtime(package, "rcs.launcher")
+    launcher = runtime(package, "rcs.operate.launcher")
     return launcher.System(
         fleet.name,
         runtime(package, "layout"),
@@ -229,7 +227,7 @@ def convoy(fleet: Path, package: ModuleType) -> Iterator[Callable[..., Any]]:
     seen: list[int] = []
 
     def launch(drive: bool = True, **options: object) -> Any:
-        launcher = runtime(package, "rcs.launcher").Launcher(
+        launcher = runtime(package, "rcs.operate.launcher").Launcher(
             system_of(fleet, package), segment_name(), **options
         )
         made.append(launcher)
@@ -539,7 +537,7 @@ def mining(miner: tuple[Path, ModuleType]) -> Iterator[Any]:
     """The two-process miner launched paced with --restart, sent BOX_CUT and moving (an
     actuator away from its safe value). At the end: stopped, nothing left, nobody alive."""
     directory, package = miner
-    launcher_module, layout = runtime(package, "rcs.launcher"), runtime(package, "layout")
+    launcher_module, layout = runtime(package, "rcs.operate.launcher"), runtime(package, "layout")
     system = launcher_module.System(
         directory.name,
         layout,
@@ -627,7 +625,7 @@ def test_the_miner_s_pc2_resumes_after_a_restart_and_mines_again_when_commanded(
     cycles = read(layout.PROCESSES["pc1"], buf)["heartbeat"]
     watch(launcher, lambda: read(layout.PROCESSES["pc1"], buf)["heartbeat"] > cycles + 5, "pc1")
     assert not moving(layout, buf), "a reset moves nothing"
-    launcher_module = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.launcher"]
+    launcher_module = sys.modules[layout.__name__.rsplit(".", 1)[0] + ".rcs.operate.launcher"]
     send = launcher_module.parse_send(layout, "sec.BOX_CUT:depth=1.5")
     watch(launcher, lambda: launcher_module.give(send, layout, buf), "BOX_CUT sent again")
     watch(launcher, lambda: moving(layout, buf), "the miner moving again", deadline=60)
@@ -715,7 +713,7 @@ def test_a_process_that_never_starts_fails_the_start_up_barrier_by_name(
         f'#!/bin/sh\ncase " $* " in *" pb "*) exit 7;; esac\nexec {sys.executable} "$@"\n'
     )
     wrapper.chmod(0o755)
-    launcher_module = runtime(package, "rcs.launcher")
+    launcher_module = runtime(package, "rcs.operate.launcher")
     launcher = launcher_module.Launcher(
         system_of(fleet, package), segment_name(), python=str(wrapper)
     )
@@ -747,7 +745,7 @@ def test_the_start_up_barrier_waits_the_declared_startup_timeout_then_names_the_
         hang = 'case " $* " in *" pb "*) exec sleep 60;; esac'  # pb: a start that never ends
         wrapper.write_text(f'#!/bin/sh\n{hang}\nexec {sys.executable} "$@"\n')
         wrapper.chmod(0o755)
-        launcher_module = runtime(package, "rcs.launcher")
+        launcher_module = runtime(package, "rcs.operate.launcher")
         launcher = launcher_module.Launcher(
             system_of(scratch / name, package, spec), segment_name(), python=str(wrapper)
         )

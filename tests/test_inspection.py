@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 import yaml
 from conftest import edit, rcsgen
-from workarounds import count, table
+from support.workarounds import count, table
 
 from rcsgen.tools.harness import import_package
 from rcsgen.tools.scenario import Scenario, load_scenario, open_harness, run
@@ -415,7 +415,7 @@ def test_docs_report_the_current_workaround_count():
     assert set(result.markers) <= {"time", "result", "expr", "reuse", "operator"}
     assert table(result) in doc, (
         "docs/inspection.md's workaround table is stale: update it from\n"
-        "  python tests/workarounds.py specs/inspection"
+        "  python tests/support/workarounds.py specs/inspection"
     )
 
 

@@ -12,11 +12,12 @@ import re
 from pathlib import Path
 
 import pytest
-from browser import load, needs_chromium
 from conftest import rcsgen
+from support.browser import load, needs_chromium
 
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools import mine_view, traces
+from rcsgen.tools.traces import mine as mine_view
+from rcsgen.tools.traces import read as traces
 
 REPO = Path(__file__).resolve().parent.parent
 MINER = REPO / "specs" / "miner"

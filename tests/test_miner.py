@@ -11,10 +11,11 @@ from pathlib import Path
 import yaml
 
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools import mine_view, traces
 from rcsgen.tools.harness import Harness
-from rcsgen.tools.mine_view import import_hooks
 from rcsgen.tools.scenario import load_scenario, open_harness, run
+from rcsgen.tools.traces import mine as mine_view
+from rcsgen.tools.traces import read as traces
+from rcsgen.tools.traces.mine import import_hooks
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIOS = ROOT / "specs" / "miner" / "scenarios"

@@ -34,8 +34,8 @@ from click.testing import CliRunner
 from conftest import wait_for
 
 from rcsgen.cli import main as rcsgen_main
-from rcsgen.tools import traces
 from rcsgen.tools.harness import import_package
+from rcsgen.tools.traces import read as traces
 
 REPO = Path(__file__).resolve().parent.parent
 CASES = REPO / "tests" / "cases" / "running"
@@ -71,7 +71,7 @@ class Miner:
 
     def ctl(self, *argv: str, shm: str | None = None) -> tuple[int, str, str]:
         """The package's console in this process: exit code, stdout, stderr."""
-        ctl_main = importlib.import_module(f"{self.package.__name__}.rcs.ctl").main
+        ctl_main = importlib.import_module(f"{self.package.__name__}.rcs.operate.ctl").main
         out, err = io.StringIO(), io.StringIO()
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             code = ctl_main(
@@ -247,7 +247,7 @@ def test_what_the_console_takes_reaches_the_block(miner: Miner) -> None:
 @pytest.fixture(scope="module")
 def launcher_main() -> Callable[..., tuple[int, str, str]]:
     package = import_package((REPO / "generated" / "miner").resolve(), MINER_SPECS)
-    main = importlib.import_module(f"{package.__name__}.rcs.launcher").main
+    main = importlib.import_module(f"{package.__name__}.rcs.operate.launcher").main
 
     def call(*argv: str) -> tuple[int, str, str]:
         out, err = io.StringIO(), io.StringIO()
@@ -767,7 +767,7 @@ def test_every_special_case_has_a_driver() -> None:
 def test_status_columns_fit_their_widest_value() -> None:
     """`ctl status` text: a long command, status or number widens its column; the cells
     after it stay in line, and nothing is cut."""
-    from rcsgen.runtime.ctl import render
+    from rcsgen.runtime.operate.ctl import render
 
     row = {
         "command": "INIT",

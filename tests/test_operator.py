@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from conftest import rcsgen
 
-from rcsgen.runtime.ctl import channel_requests, write_answer
+from rcsgen.runtime.operate.ctl import channel_requests, write_answer
 from rcsgen.tools.harness import Harness
 from rcsgen.tools.scenario import OperatorScript, ScriptedAnswer, load_scenario, run
 

@@ -14,8 +14,9 @@ import pytest
 from click.testing import CliRunner
 from conftest import REPO, rcsgen
 
-from rcsgen.cli import Progress, main
+from rcsgen.cli import main
 from rcsgen.compiler.diagnostics import Diagnostic, Span
+from rcsgen.terminal import Progress
 from rcsgen.tools.report import Options, to_github
 
 TINY = REPO / "tests" / "cases" / "valid" / "tiny"
@@ -412,7 +413,7 @@ def test_a_bug_is_one_line_and_exit_3(tiny: Path, monkeypatch) -> None:
     def broken(*args: object, **kwargs: object) -> None:
         raise KeyError("surprise")
 
-    monkeypatch.setattr("rcsgen.cli.compile_paths", broken)
+    monkeypatch.setattr("rcsgen.api.compile_paths", broken)
     result = CliRunner().invoke(main, ["validate", "sys"])
     assert result.exit_code == 3
     assert result.output == (
@@ -423,6 +424,6 @@ def test_a_bug_is_one_line_and_exit_3(tiny: Path, monkeypatch) -> None:
     def disk_full(*args: object, **kwargs: object) -> None:
         raise OSError(28, "No space left on device", "/tmp/x")
 
-    monkeypatch.setattr("rcsgen.cli.compile_paths", disk_full)
+    monkeypatch.setattr("rcsgen.api.compile_paths", disk_full)
     full = CliRunner().invoke(main, ["validate", "sys"])
     assert (full.exit_code, full.output) == (1, "error: No space left on device: `/tmp/x`\n")

@@ -17,10 +17,11 @@ from conftest import wait_for
 from test_ctl import Running
 
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools import changes, coverage, runs, trace_view, traces
 from rcsgen.tools.harness import Harness, generate, import_package
-from rcsgen.tools.scenario import load_scenario, open_harness, run, trace_line
-from rcsgen.tools.scenario_check import check_scenario
+from rcsgen.tools.scenario import check_scenario, load_scenario, open_harness, run, runs, trace_line
+from rcsgen.tools.traces import changes, coverage
+from rcsgen.tools.traces import read as traces
+from rcsgen.tools.traces import view as trace_view
 
 FIXTURE = Path(__file__).resolve().parent / "fixtures" / "language" / "results"
 REPO = Path(__file__).resolve().parent.parent

@@ -10,29 +10,26 @@ by generous deadlines; nothing here asserts how fast anything is (`make bench` m
 from __future__ import annotations
 
 import importlib
-import itertools
 import json
 import os
 import shutil
 import signal
 import subprocess
 import sys
-import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
 
 import pytest
 from conftest import wait_for
+from support.running import console_status, segment_names
 
 from rcsgen.tools.harness import Harness, generate, import_package
 
 DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
-_names = itertools.count(1)
 
 
-def segment_name() -> str:
-    return f"rcsgen_rt_{os.getpid()}_{next(_names)}"
+segment_name = segment_names("rt")
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +52,7 @@ def runtime(package: ModuleType, name: str) -> ModuleType:
 @pytest.fixture
 def launched(duo: Path, package: ModuleType) -> Iterator[Callable[..., object]]:
     """Start the duo system paced, as two OS processes; stopped at the end of the test."""
-    launcher_module = runtime(package, "rcs.launcher")
+    launcher_module = runtime(package, "rcs.operate.launcher")
     made = []
 
     def launch(**options: object) -> object:
@@ -229,7 +226,11 @@ def test_a_restarted_process_resumes_without_sending_init_again(
     wait_for(lambda: launcher.poll() or launcher.children["p1"].restarts, "p1 restarted")
     assert launcher.children["p1"].popen.pid != first
     wait_for(lambda: layout.PROCESSES["p1"].read(buf)["state"] == 2, "the restarted p1 running")
-    time.sleep(0.2)  # ten periods of the restarted p1
+    beat = layout.PROCESSES["p1"].read(buf)["heartbeat"]
+    wait_for(
+        lambda: layout.PROCESSES["p1"].read(buf)["heartbeat"] >= beat + 10,
+        "ten cycles of the restarted p1",
+    )
     assert layout.COMMAND_IN["top"].read(buf) == sent_before, "no INIT re-sent to top"
     top = status(layout, buf, "top")
     assert (top["status"], layout.STATE_NAMES["top"][top["state"]]) == (1, "S1"), top
@@ -342,6 +343,13 @@ def test_attaching_with_another_layout_refuses_naming_both(
         shutil.rmtree(scratch, ignore_errors=True)
 
 
+def cycled(package_dir: Path, env: dict[str, str], segment: str, cycles: int) -> bool:
+    """Whether every process of the system on `segment` has run `cycles` cycles (its
+    heartbeat, as the console reads it)."""
+    found = console_status(package_dir, env, segment).get("processes", {}).values()
+    return bool(found) and all(p["heartbeat"] >= cycles for p in found)
+
+
 def test_ctrl_c_stops_every_process_prints_a_summary_and_removes_the_segment(
     duo: Path,
 ) -> None:
@@ -358,7 +366,7 @@ def test_ctrl_c_stops_every_process_prints_a_summary_and_removes_the_segment(
     )
     shm = Path("/dev/shm") / segment
     wait_for(shm.exists, "the segment")
-    time.sleep(0.5)  # 25 cycles
+    wait_for(lambda: cycled(duo, env, segment, 5), "five cycles of each process")
     run.send_signal(signal.SIGINT)
     out, err = run.communicate(timeout=30)
     assert run.returncode == 0, err

@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
-import itertools
-import os
 import shutil
 import time
 from collections.abc import Iterator
@@ -26,15 +24,14 @@ from types import ModuleType
 from typing import Any
 
 import pytest
+from support.running import segment_names
 
 from rcsgen.tools.harness import Harness, generate, import_package
 
 DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
-_names = itertools.count(1)
 
 
-def segment_name() -> str:
-    return f"rcsgen_mut_{os.getpid()}_{next(_names)}"
+segment_name = segment_names("mut")
 
 
 @pytest.fixture(scope="module")

@@ -35,8 +35,7 @@ from hypothesis import strategies as st
 
 from rcsgen.cli import main
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools.scenario import open_harness, run
-from rcsgen.tools.scenario_check import check_scenario
+from rcsgen.tools.scenario import check_scenario, open_harness, run
 
 TINY = REPO / "tests" / "cases" / "valid" / "tiny"
 EXAMPLES = int(os.environ.get("SCENARIO_FUZZ_EXAMPLES", "200"))

@@ -25,7 +25,7 @@ from rcsgen.tools.harness import generate, import_package
 
 REPO = Path(__file__).resolve().parent.parent
 DUO = REPO / "tests" / "fixtures" / "runtime" / "duo"
-RECORD_TYPES = {("contract", "Record"), ("loop", "ProcessPlan"), ("command", "Command")}
+RECORD_TYPES = {("contract", "Record"), ("loop", "ProcessPlan"), ("operate.command", "Command")}
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +36,10 @@ def package() -> Iterator[ModuleType]:
 
 
 def runtime_modules() -> list[str]:
-    return sorted(m.name for m in pkgutil.iter_modules(rcsgen.runtime.__path__))
+    """Every module of the runtime, its folders' too (`loop`, `operate.ctl`)."""
+    prefix = "rcsgen.runtime."
+    found = pkgutil.walk_packages(rcsgen.runtime.__path__, prefix)
+    return sorted(m.name.removeprefix(prefix) for m in found if not m.ispkg)
 
 
 def test_every_exception_and_record_type_is_one_class_in_both_copies(package: ModuleType) -> None:
@@ -59,14 +62,14 @@ def test_every_exception_and_record_type_is_one_class_in_both_copies(package: Mo
         "contract.HookOverrun",
         "contract.Record",
         "block.BlockError",
-        "ctl.CtlError",
-        "command.Command",
+        "operate.ctl.CtlError",
+        "operate.command.Command",
         "loop.RestartRefused",
         "loop.ProcessPlan",
         "transport.TransportError",
-        "launcher.ProcessLost",
-        "deploy.DeployError",
-        "launcher.StartupFailed",
+        "operate.launcher.ProcessLost",
+        "operate.deploy.DeployError",
+        "operate.launcher.StartupFailed",
         "loop.DuplicateProcess",
         "override.OverrideError",
     ):

@@ -11,7 +11,8 @@ from pathlib import Path
 import pytest
 
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools import coverage, traces
+from rcsgen.tools.traces import coverage
+from rcsgen.tools.traces import read as traces
 
 REPO = Path(__file__).resolve().parent.parent
 GOLDEN = REPO / "tests" / "golden"
@@ -259,7 +260,7 @@ def synthetic() -> traces.Trace:
 
 
 def test_changes_show_reasons_results_and_world_values_as_written() -> None:
-    from rcsgen.tools import changes
+    from rcsgen.tools.traces import changes
 
     trace = synthetic()
     lanes = traces.lanes(trace, None)

@@ -13,7 +13,8 @@ import pytest
 from conftest import rcsgen
 
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools import changes, coverage, traces
+from rcsgen.tools.traces import changes, coverage
+from rcsgen.tools.traces import read as traces
 
 REPO = Path(__file__).resolve().parent.parent
 MINER = REPO / "specs" / "miner"

@@ -16,18 +16,20 @@ import shutil
 from pathlib import Path
 
 import pytest
-from browser import load, needs_chromium
 from conftest import edit, rcsgen
+from support.browser import load, needs_chromium
 
 from rcsgen.compiler import expressions as expr
 from rcsgen.compiler.back_end.emit import render_system
 from rcsgen.compiler.diagnostics import Diagnostics, Span
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.types import BOOL, Str
-from rcsgen.runtime import command, contract, launcher
-from rcsgen.tools import trace_view, traces
+from rcsgen.runtime import contract
+from rcsgen.runtime.operate import command, launcher
 from rcsgen.tools.harness import Harness, generate, import_package
-from rcsgen.tools.scenario_check import check_scenario
+from rcsgen.tools.scenario import check_scenario
+from rcsgen.tools.traces import read as traces
+from rcsgen.tools.traces import view as trace_view
 
 TYPED = Path(__file__).resolve().parent / "cases" / "valid" / "typed"
 

@@ -1050,7 +1050,7 @@ COMMAND_NAMES = {
     "pp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN")),
 }
 # Each command's parameters, in order: an operator gives every one of them (`ctl send`,
-# `--send`, a scenario), each checked against its slot's type (rcs/command.py). A command
+# `--send`, a scenario), each checked against its slot's type (rcs/operate/command.py). A command
 # not listed takes none.
 PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     "sec": {

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from .rcs.launcher import main
+from .rcs.operate.launcher import main
 
 if __name__ == "__main__":
     raise SystemExit(main(__package__))

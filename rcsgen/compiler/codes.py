@@ -52,7 +52,7 @@ class Topic(Enum):
     WORLD = ("ground truth and actuators (world fields)", "`rcsgen/compiler/checks/check.py`")
     OPERATORS = (
         "operator modules, their clients, roles on them and the scripted person",
-        "`rcsgen/compiler/checks/operators.py`, `check.py`, `rcsgen/tools/scenario_check.py`",
+        "`rcsgen/compiler/checks/operators.py`, `check.py`, `rcsgen/tools/scenario/check.py`",
     )
     PLANS = (
         "plans (planner and executor)",
@@ -65,9 +65,9 @@ class Topic(Enum):
     OUTPUT = ("writing the output", "`rcsgen/compiler/back_end/write.py`")
     SCENARIOS = (
         "scenario files and runs",
-        "`rcsgen/tools/scenario_check.py`, `runs.py`",
+        "`rcsgen/tools/scenario/check.py`, `runs.py`",
     )
-    DEPLOYMENT = ("deployment files (`--deploy`)", "`rcsgen/runtime/deploy.py`")
+    DEPLOYMENT = ("deployment files (`--deploy`)", "`rcsgen/runtime/operate/deploy.py`")
     ANALYSIS = ("static analysis of the tables", "`rcsgen/compiler/analysis/tables.py`")
     NAMES = ("names and text that reach generated code", "`rcsgen/compiler/checks/naming.py`")
     SAFETY = (

@@ -364,14 +364,7 @@ def picture(system: IRSystem, name: str) -> Graph:
     if name == "hierarchy":
         return hierarchy(system)
     if name == "order" or name.startswith("order:"):
-        what = name.partition(":")[2]
-        process = next((p for p in system.processes if p.name == what), None)
-        if process is not None or not what:
-            return execution_order(system, process or system.processes[0])
-        process = next((p for p in system.processes if what in p.modules), None)
-        if process is None:
-            raise GraphError(_unknown(system, name))
-        return execution_order(system, process, what)
+        return _order(system, name)
     controller_name, _, command = name.partition(".")
     controller = next((c for c in system.controllers if c.name == controller_name), None)
     if controller is None:
@@ -380,6 +373,18 @@ def picture(system: IRSystem, name: str) -> Graph:
         names = ", ".join(k.name for k in controller.commands)
         raise GraphError(f"unknown picture `{name}`: {controller.name} has the commands {names}")
     return states(controller, command or None)
+
+
+def _order(system: IRSystem, name: str) -> Graph:
+    """`order` (the first process), `order:<process>` or `order:<module>` (its round trip)."""
+    what = name.partition(":")[2]
+    process = next((p for p in system.processes if p.name == what), None)
+    if process is not None or not what:
+        return execution_order(system, process or system.processes[0])
+    process = next((p for p in system.processes if what in p.modules), None)
+    if process is None:
+        raise GraphError(_unknown(system, name))
+    return execution_order(system, process, what)
 
 
 def _unknown(system: IRSystem, name: str) -> str:

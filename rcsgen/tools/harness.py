@@ -30,9 +30,9 @@ from ..compiler.back_end import emit
 from ..compiler.diagnostics import SpecError
 from ..compiler.frontend import compile_paths
 from ..compiler.ir import IRSystem
-from ..runtime.command import check_command, write_command
 from ..runtime.contract import enum_code, enum_name, plan_slots, result_values
-from ..runtime.startup import settings_problem
+from ..runtime.operate.command import check_command, write_command
+from ..runtime.operate.startup import settings_problem
 
 _unique = itertools.count(1)
 
@@ -80,6 +80,11 @@ def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleTy
     return package
 
 
+def import_layout(package_dir: Path) -> ModuleType:
+    """The `layout` module of the generated package in `package_dir` (all a console needs)."""
+    return importlib.import_module(f"{import_package(package_dir.resolve()).__name__}.layout")
+
+
 def _use_hooks_from(hooks_dir: Path) -> None:
     """Put `hooks_dir` first on sys.path and forget same-named hook modules imported from
     elsewhere (two copies of a spec directory must not share the first one's hooks)."""
@@ -125,7 +130,7 @@ class BlockView:
 
     def command(self, module: str, command: str, **args: Any) -> int:
         """Write a new command to `module` (as its supervisor would); returns its number.
-        Checked as an operator's command is (rcs/command.py): ValueError names what is
+        Checked as an operator's command is (rcs/operate/command.py): ValueError names what is
         wrong, and nothing is written."""
         checked = check_command(self.layout, module, command, args, client=True)
         return write_command(self.layout, self.buf, checked)
@@ -331,7 +336,7 @@ class LaunchedHarness(BlockView):
         self.package = package
         self.layout = importlib.import_module(f"{package.__name__}.layout")
         self.contract = importlib.import_module(f"{package.__name__}.rcs.contract")
-        launcher = importlib.import_module(f"{package.__name__}.rcs.launcher")
+        launcher = importlib.import_module(f"{package.__name__}.rcs.operate.launcher")
         plans = {
             name: importlib.import_module(f"{package.__name__}.main_{name}").PLAN
             for name in self.layout.PROCESSES

@@ -5,7 +5,7 @@ every module as a row of a tree (supervisor above subordinate), with its command
 number, status and number, state, the last rule that fired, RUN/STOP SINGLE/AUTO SIMU/REAL,
 cycle times and its process's heartbeat, coloured by status (done green, executing yellow,
 error red, a dead or silent process grey). Keys act on the selected module through the
-runtime's console (`rcsgen.runtime.ctl.Console`): it reads with consistent reads and writes
+runtime's console (`rcsgen.runtime.operate.ctl.Console`): it reads with consistent reads and writes
 only mode, pacing and command buffers, so it never blocks a controller; the operator's role
 (`--role`) decides what the keys may do, and a refusal is shown, not a crash. What the
 modules ask of the operator is shown under the table; `a` answers it. textual is an
@@ -24,9 +24,9 @@ from textual.css.query import NoMatches
 from textual.widgets import DataTable, Footer, Input, Static
 
 from ..runtime import contract
-from ..runtime.command import Command, parse_command
-from ..runtime.command import shown as shown_value
-from ..runtime.ctl import Console, CtlError
+from ..runtime.operate.command import Command, parse_command
+from ..runtime.operate.command import shown as shown_value
+from ..runtime.operate.ctl import Console, CtlError
 
 COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
 WORLD_COLUMNS = ("field", "value", "override")

@@ -150,12 +150,27 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
     c = controller
     if c.is_operator:
         return operator_page(system, c, level)
-    out = [header(c.source), f"# {c.name}: {c.title}", ""]
+    out = [header(c.source), f"# {c.name}: {c.title}", "", " · ".join(_facts(system, c, level))]
+    out.append("")
+    if c.doc.strip():
+        out += [c.doc.strip(), ""]
+    out += _commands(c)
+    out += _subordinates(system, c)
+    out += _world(c)
+    out += _definitions(c)
+    out += _plans(c)
+    if c.every_cycle:
+        out += ["## Every cycle", "", "Tried first, every cycle, before the command's table.", ""]
+        out.append(rule_table([("every cycle", rule) for rule in c.every_cycle]))
+    out += ["## State tables", ""]
+    out += [command_section(c, command) for command in c.commands]
+    return "\n".join(out).rstrip("\n") + "\n"
+
+
+def _facts(system: IRSystem, c: IRController, level: int) -> list[str]:
+    """The page's line under its title: system, level, stand-in, supervisor, subordinates."""
     facts = [f"system [{system.name}]({INDEX})"]
-    if c.simulator:
-        facts.append("simulator")
-    else:
-        facts.append(f"level {level}")
+    facts.append("simulator" if c.simulator else f"level {level}")
     if c.buffers != c.name:
         facts.append(f"stands in for {link(c.buffers)} and its subtree")
     if c.supervisor:
@@ -163,10 +178,11 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
     if c.subordinates:
         facts.append("subordinates " + ", ".join(link(s.name) for s in c.subordinates))
     facts.append(f"spec `{c.source}`")
-    out += [" · ".join(facts), ""]
-    if c.doc.strip():
-        out += [c.doc.strip(), ""]
-    out += ["## Commands", "", "| code | command | parameters | states | description |"]
+    return facts
+
+
+def _commands(c: IRController) -> list[str]:
+    out = ["## Commands", "", "| code | command | parameters | states | description |"]
     out.append("|---:|---|---|---:|---|")
     for command in c.commands:
         params = ", ".join(f"{p.name}: {p.type.label}" for p in command.params)
@@ -177,58 +193,71 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
             f"{len(command.states)} | {cell(doc)} |"
         )
     out.append("")
-    if c.subordinates:
-        out += ["## Subordinates", "", "| subordinate | commands it takes | parameters |"]
-        out.append("|---|---|---|")
-        for sub in c.subordinates:
-            names = ", ".join(k.name for k in system.controller(sub.name).commands)
-            params = ", ".join(f"{p.name}: {p.type.label}" for p in sub.params)
-            out.append(f"| {link(sub.name)} | {names} | {params} |")
-        out.append("")
+    return out
+
+
+def _subordinates(system: IRSystem, c: IRController) -> list[str]:
+    if not c.subordinates:
+        return []
+    out = ["## Subordinates", "", "| subordinate | commands it takes | parameters |"]
+    out.append("|---|---|---|")
+    for sub in c.subordinates:
+        names = ", ".join(k.name for k in system.controller(sub.name).commands)
+        params = ", ".join(f"{p.name}: {p.type.label}" for p in sub.params)
+        out.append(f"| {link(sub.name)} | {names} | {params} |")
+    out.append("")
+    return out
+
+
+def _world(c: IRController) -> list[str]:
     writes = {w.name for w in c.world_writes}
     fields = [(w, "write") for w in c.world_writes]
     fields += [(w, "read") for w in c.world_reads if w.name not in writes]
-    if fields:
-        out += ["## World model", ""]
-        out += ["Read fields are copied in by pre_process, written ones out by post_process.", ""]
-        out += ["| field | type | access | description |", "|---|---|---|---|"]
-        for w, access in sorted(fields, key=lambda f: (f[1] != "read", f[0].name)):
-            out.append(f"| `world.{w.name}` | {w.type.label} | {access} | {cell(w.doc)} |")
-        out.append("")
-    if c.constants or c.predicates or c.locals or c.hooks or c.functions:
-        out += ["## Constants, predicates, locals, hooks", ""]
-        rows = [f"| constant | `{n}` | `{v}` | |" for n, v in c.constants]
-        rows += [f"| predicate | `{p.name}()` | `{cell(p.expr.text)}` | |" for p in c.predicates]
-        rows += [
-            f"| function | `{f.name}({', '.join(f'{p}: {t}' for p, t in f.params)})` "
-            f"-> {f.returns} | `{cell(f.body.text)}` | |"
-            for f in c.functions
-        ]
-        rows += [
-            f"| local | `{v.name}` | {v.type.label} = `{_initial(v.initial, v.type)}` | "
-            f"{cell(v.doc)} |"
-            for v in c.locals
-        ]
-        rows += [f"| hook | `{h}` | `{c.hooks_module}` | |" for h in c.hooks]
-        out += ["| kind | name | value | description |", "|---|---|---|---|", *rows, ""]
-    if c.plans:
-        out += ["## Plans", ""]
-        out += ["Made by `plan:`, stepped through by `advance:`, made again by `replan:`.", ""]
-        out += ["| plan | planner | steps | capacity | replans | description |"]
-        out += ["|---|---|---|---|---|---|"]
-        for p in c.plans:
-            steps = ", ".join(f"{f.name}: {f.type}" for f in p.fields)
-            out.append(
-                f"| `{p.name}` | `{p.planner}({', '.join(p.args)})` | {steps} | {p.capacity} "
-                f"| {p.replans} | {cell(p.doc)} |"
-            )
-        out.append("")
-    if c.every_cycle:
-        out += ["## Every cycle", "", "Tried first, every cycle, before the command's table.", ""]
-        out.append(rule_table([("every cycle", rule) for rule in c.every_cycle]))
-    out += ["## State tables", ""]
-    out += [command_section(c, command) for command in c.commands]
-    return "\n".join(out).rstrip("\n") + "\n"
+    if not fields:
+        return []
+    out = ["## World model", ""]
+    out += ["Read fields are copied in by pre_process, written ones out by post_process.", ""]
+    out += ["| field | type | access | description |", "|---|---|---|---|"]
+    for w, access in sorted(fields, key=lambda f: (f[1] != "read", f[0].name)):
+        out.append(f"| `world.{w.name}` | {w.type.label} | {access} | {cell(w.doc)} |")
+    out.append("")
+    return out
+
+
+def _definitions(c: IRController) -> list[str]:
+    if not (c.constants or c.predicates or c.locals or c.hooks or c.functions):
+        return []
+    rows = [f"| constant | `{n}` | `{v}` | |" for n, v in c.constants]
+    rows += [f"| predicate | `{p.name}()` | `{cell(p.expr.text)}` | |" for p in c.predicates]
+    rows += [
+        f"| function | `{f.name}({', '.join(f'{p}: {t}' for p, t in f.params)})` "
+        f"-> {f.returns} | `{cell(f.body.text)}` | |"
+        for f in c.functions
+    ]
+    rows += [
+        f"| local | `{v.name}` | {v.type.label} = `{_initial(v.initial, v.type)}` | {cell(v.doc)} |"
+        for v in c.locals
+    ]
+    rows += [f"| hook | `{h}` | `{c.hooks_module}` | |" for h in c.hooks]
+    out = ["## Constants, predicates, locals, hooks", ""]
+    return out + ["| kind | name | value | description |", "|---|---|---|---|", *rows, ""]
+
+
+def _plans(c: IRController) -> list[str]:
+    if not c.plans:
+        return []
+    out = ["## Plans", ""]
+    out += ["Made by `plan:`, stepped through by `advance:`, made again by `replan:`.", ""]
+    out += ["| plan | planner | steps | capacity | replans | description |"]
+    out += ["|---|---|---|---|---|---|"]
+    for p in c.plans:
+        steps = ", ".join(f"{f.name}: {f.type}" for f in p.fields)
+        out.append(
+            f"| `{p.name}` | `{p.planner}({', '.join(p.args)})` | {steps} | {p.capacity} "
+            f"| {p.replans} | {cell(p.doc)} |"
+        )
+    out.append("")
+    return out
 
 
 def index_page(system: IRSystem) -> str:

@@ -23,7 +23,7 @@ from ..compiler.back_end.emit import environment
 from ..compiler.diagnostics import Diagnostic, Span, did_you_mean
 from ..compiler.front_end import loader
 from ..compiler.frontend import compile_paths
-from .scenario_check import check_system_scenarios
+from .scenario.check import check_system_scenarios
 
 NAME = re.compile(r"^[a-z][a-z0-9_]*$")
 

@@ -153,7 +153,7 @@ def safe_source(path: str) -> str:
 
 # A generated file's path: derived only from validated identifiers (naming.LOWER).
 _OUTPUT_PATH = re.compile(
-    r"[a-z][a-z0-9_]*/(rcs/)?(__init__|__main__|[a-z][a-z0-9_]*)\.py", re.ASCII
+    r"[a-z][a-z0-9_]*/(rcs/(operate/)?)?(__init__|__main__|[a-z][a-z0-9_]*)\.py", re.ASCII
 )
 
 
@@ -277,14 +277,16 @@ def _layout_table(layout: ir.Layout) -> list[tuple[int, int, str, str]]:
 
 
 def runtime_files(root: str) -> dict[str, str]:
-    """The runtime, copied verbatim under a header into `<root>/rcs/` (stdlib only)."""
+    """The runtime, copied verbatim under a header into `<root>/rcs/` (stdlib only): what
+    runs every cycle at its top, the operator's tools in `operate/`, as in rcsgen/runtime/."""
     files = {}
-    for entry in sorted(resources.files(runtime).iterdir(), key=lambda e: e.name):
-        if entry.name.endswith(".py"):
-            header = (
-                f"{MARKER}: its runtime, copied from rcsgen/runtime/{entry.name}. Do not edit.\n"
-            )
-            files[f"{root}/{RUNTIME_PACKAGE}/{entry.name}"] = header + entry.read_text("utf-8")
+    top = resources.files(runtime)
+    for folder, prefix in ((top, ""), (top.joinpath("operate"), "operate/")):
+        for entry in sorted(folder.iterdir(), key=lambda e: e.name):
+            if entry.name.endswith(".py"):
+                name = prefix + entry.name
+                header = f"{MARKER}: its runtime, copied from rcsgen/runtime/{name}. Do not edit.\n"
+                files[f"{root}/{RUNTIME_PACKAGE}/{name}"] = header + entry.read_text("utf-8")
     return files
 
 

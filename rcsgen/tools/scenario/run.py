@@ -1,0 +1,316 @@
+"""Scenario: a scenario file -> a deterministic run of a generated system and its trace.
+
+A scenario names the commands an operator gives and the world changes that happen, by
+cycle number, and what to trace. Runs use the harness on a private block and no clock, so
+the same scenario gives the same trace on every machine. Traces are JSON Lines, one
+canonical line (sorted keys) per cycle: every module's command, command number, status,
+status number, state and the rule that fired (with its reason and results, for a module
+that declares them), and the world fields the scenario names. Never wall time.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ...compiler.diagnostics import Diagnostics, Span, SpecError
+from ...compiler.front_end.loader import decode, read_bytes
+from ...compiler.frontend import display_path
+from ...runtime import override
+from ...runtime.operate.ctl import channel_requests, write_answer
+from .. import traces
+from ..harness import AnyHarness, Harness, LaunchedHarness, Status
+from .check import check_scenario
+from .model import (
+    Event,
+    Expected,
+    OperatorScript,
+    Scenario,
+    ScriptedAnswer,
+    find_system_dir,
+)
+
+__all__ = ["Event", "Expected", "OperatorScript", "Scenario", "ScriptedAnswer", "find_system_dir"]
+
+
+class ScriptedPerson:
+    """An `OperatorScript` played before each cycle: one person per operator module takes
+    its open requests up one at a time, in the order they were asked (same cycle: in the
+    layout's channel order), and answers each `after` cycles after taking it up, writing
+    the answer record as `ctl answer` does; a request withdrawn meanwhile is dropped."""
+
+    def __init__(self, script: OperatorScript) -> None:
+        self.script = script
+        self.queues: dict[str, list[tuple[str, int]]] = {}  # operator -> (channel, number)
+        self.taken_up: dict[str, tuple[tuple[str, int], int]] = {}  # operator -> (head, at)
+
+    def before_cycle(self, harness: AnyHarness) -> None:
+        now = harness.cycles
+        requests = channel_requests(harness.layout, harness.buf)
+        open_now = {(r["name"], r["number"]): r for r in requests}
+        for request in requests:
+            queue = self.queues.setdefault(request["operator"], [])
+            key = (request["name"], request["number"])
+            if key not in queue and self.script.how(request) is not None:
+                queue.append(key)
+        for operator, queue in self.queues.items():
+            queue[:] = [key for key in queue if key in open_now]
+            while queue:
+                head = queue[0]
+                taken = self.taken_up.get(operator)
+                if taken is None or taken[0] != head:
+                    taken = self.taken_up[operator] = (head, now)
+                how = self.script.how(open_now[head])
+                assert how is not None
+                if now - taken[1] < how.after:
+                    break
+                write_answer(harness.layout, harness.buf, open_now[head], how.answer, how.reason)
+                queue.pop(0)
+
+
+def load_scenario(path: Path) -> Scenario:
+    """Read and check a scenario file against its system (the specs above it): raises
+    SpecError with located diagnostics (the checks are in `check`)."""
+    scenario, diags = check_scenario(path)
+    if scenario is None or diags.errors:
+        raise SpecError(diags)
+    return scenario
+
+
+def open_harness(
+    scenario: Scenario, package_dir: Path, processes: bool = False, transport: str = "shm"
+) -> AnyHarness:
+    """The harness a scenario runs on: its process (or every process), settings and
+    stand-ins, INIT sent. With `processes`, every process runs as its own OS process, in
+    lockstep (close the harness to stop them), over one segment or (`transport="zenoh"`)
+    each on its own block, connected through Zenoh."""
+    if processes:
+        return LaunchedHarness(
+            package_dir, scenario.system_dir, scenario.settings, scenario.simulate, transport
+        )
+    return Harness.load(
+        package_dir,
+        scenario.system_dir,
+        scenario.process,
+        send_init=True,
+        settings=scenario.settings,
+        simulate=scenario.simulate,
+    )
+
+
+# ---------------------------------------------------------------- running
+
+
+class ScenarioError(Exception):
+    """A scenario cannot go on as written: what happened, in one line."""
+
+
+@dataclass
+class RunResult:
+    scenario: Scenario
+    trace: list[str]
+    cycles: int
+    final: dict[str, Any]  # the stop module's last status
+    phase_cycles: Counter[str]  # cycles per command of the `phases` module
+    max_cycle_ns: dict[str, int]
+    figures: dict[str, Any]  # the summary's figures at the end
+    statuses: dict[str, Status] = field(default_factory=dict)  # every module's, at the end
+
+
+def interrupted_line(cycle: int, signal_name: str) -> str:
+    """The last line of a trace whose run was interrupted: the signal, and the cycle that
+    did not finish (the lines above are the cycles before it)."""
+    return json.dumps(
+        {"cycle": cycle, "interrupted": signal_name}, sort_keys=True, separators=(",", ":")
+    )
+
+
+def final_value(name: str, world: dict[str, Any], statuses: dict[str, Status]) -> Any:
+    """What a figure names at the end of a run: a world field, `<module>.reason` (its name)
+    or `<module>.result.<name>`; None when the run has no such value."""
+    module, dot, rest = name.partition(".")
+    if not dot:
+        return world.get(name)
+    status = statuses.get(module)
+    if status is None:
+        return None
+    if rest == "reason":
+        return status.reason
+    return status.results.get(rest.removeprefix("result."))
+
+
+def trace_line(harness: AnyHarness, world: list[str]) -> str:
+    """One canonical JSON line for the state of the system after the current cycle."""
+    modules = {}
+    for name in harness.modules:
+        sent, status = harness.sent(name), harness.status(name)
+        modules[name] = {
+            "command": sent.command,
+            "command_num": sent.number,
+            "status": status.status,
+            "status_num": status.number,
+            "state": status.state,
+            "rule": status.rule,
+        }
+        if status.reason is not None:  # only modules that declare reasons
+            modules[name]["reason"] = status.reason
+        if status.results:  # every result slot of the module (docs/decisions.md)
+            modules[name]["result"] = status.results
+        if status.plans:  # modules with plans only: each plan's step, steps and replans left
+            modules[name]["plans"] = status.plans
+    line = {"cycle": harness.cycles, "modules": modules, "world": harness.world.snapshot(world)}
+    held = harness.world.overrides()
+    if held:  # world fields forced or latched safe (only then: goldens keep their shape)
+        line["overrides"] = held
+    return json.dumps(line, sort_keys=True, separators=(",", ":"))
+
+
+def _apply(harness: AnyHarness, event: Event) -> None:
+    segment = harness.launcher.segment if isinstance(harness, LaunchedHarness) else None
+    for name in event.unforce:  # as `ctl unforce`: the field's module writes it again
+        override.unforce(harness.layout, harness.buf, name, segment)
+    for name, value in event.force.items():  # as `ctl force`: its module keeps this value
+        override.force(harness.layout, harness.buf, name, value, segment)
+    harness.world.update(event.world)
+    for module, mode in event.mode.items():
+        harness.set_mode(module, **mode)
+    if event.answer is not None:
+        channel, status, reason = event.answer
+        request = next(
+            (r for r in channel_requests(harness.layout, harness.buf) if r["name"] == channel),
+            None,
+        )
+        if request is None:
+            raise ScenarioError(
+                f"cycle {event.cycle}: `{channel}` has no open request to answer"
+                + (f" ({event.doc})" if event.doc else "")
+            )
+        write_answer(harness.layout, harness.buf, request, status, reason)
+    if event.command is not None:
+        module, name = event.command
+        # Under a supervisor (`overrides`) the command is written as an operator's: it stays
+        # until the supervisor's next send, numbered after it (docs/semantics.md §12). The
+        # supervisor's own memory is not touched: no running system could reach it.
+        harness.command(module, name, **event.args)
+
+
+def run(
+    scenario: Scenario,
+    harness: AnyHarness,
+    on_cycle: Callable[[AnyHarness], None] | None = None,
+    trace: list[str] | None = None,
+) -> RunResult:
+    """Run a scenario to its stop condition (or `max_cycles`) and collect its trace, a line
+    per cycle appended to `trace` as the run goes (so an interrupted run keeps what it
+    ran)."""
+    pending = list(scenario.events)
+    person = ScriptedPerson(scenario.operator) if scenario.operator is not None else None
+    stop = scenario.stop_when_done
+    trace = [] if trace is None else trace
+    phases: Counter[str] = Counter()
+    while harness.cycles < scenario.max_cycles:
+        while pending and pending[0].cycle <= harness.cycles + 1:
+            _apply(harness, pending.pop(0))
+        if person is not None:
+            person.before_cycle(harness)
+        harness.cycle()
+        trace.append(trace_line(harness, scenario.trace_world))
+        if scenario.phases_of is not None:
+            module = scenario.phases_of
+            busy = harness.status(module).status == "EXECUTING"
+            phases[harness.sent(module).command if busy else "idle"] += 1
+        if on_cycle is not None:
+            on_cycle(harness)
+        if stop is not None and not pending and _finished(harness, stop):
+            break
+    return _result(scenario, harness, trace, phases)
+
+
+def _result(
+    scenario: Scenario, harness: AnyHarness, trace: list[str], phases: Counter[str]
+) -> RunResult:
+    """What a run that ended leaves: the stop module's status, cycle times, figures."""
+    stop = scenario.stop_when_done
+    final = harness.status(stop).__dict__ if stop else {}
+    modules = dict.fromkeys(m.split("/")[0] for m in harness.modules)  # an operator's once
+    max_ns = {m: harness.performance(m)["max_cycle_ns"] for m in modules}
+    statuses = {m: harness.status(m) for m in harness.modules}
+    world = harness.world.snapshot([f for f in scenario.figures if "." not in f])
+    figures = {name: final_value(name, world, statuses) for name in scenario.figures}
+    return RunResult(scenario, trace, harness.cycles, final, phases, max_ns, figures, statuses)
+
+
+def _finished(harness: AnyHarness, module: str) -> bool:
+    status = harness.status(module)
+    return status.number == harness.sent(module).number and status.status in ("DONE", "ERROR")
+
+
+# ---------------------------------------------------------------- golden traces
+
+
+@dataclass
+class Mismatch:
+    """The first place two traces differ."""
+
+    cycle: int | None
+    field: str
+    expected: Any
+    actual: Any
+
+    def __str__(self) -> str:
+        where = f"cycle {self.cycle}" if self.cycle is not None else "trace"
+        return f"{where}: `{self.field}` expected {self.expected!r}, got {self.actual!r}"
+
+
+def _flatten(value: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(value, dict):
+        out: dict[str, Any] = {}
+        for key in sorted(value):
+            out.update(_flatten(value[key], f"{prefix}.{key}" if prefix else key))
+        return out
+    return {prefix: value}
+
+
+def first_difference(expected: list[str], actual: list[str]) -> Mismatch | None:
+    """The first differing cycle and field between two traces, or None when identical."""
+    for want_line, got_line in zip(expected, actual, strict=False):
+        if want_line == got_line:
+            continue
+        want, got = _flatten(json.loads(want_line)), _flatten(json.loads(got_line))
+        for key in sorted(set(want) | set(got)):
+            if want.get(key) != got.get(key):
+                return Mismatch(want.get("cycle"), key, want.get(key), got.get(key))
+    if len(expected) != len(actual):
+        return Mismatch(None, "length", f"{len(expected)} cycles", f"{len(actual)} cycles")
+    return None
+
+
+TRACE_LIMIT = 1 << 30  # bytes of text a trace (a golden one) may hold
+
+
+def read_trace(path: Path) -> list[str]:
+    """A trace file's lines (a golden trace's), plain or gzip-compressed; SpecError if it
+    cannot be read."""
+    shown = display_path(path)
+    data = read_bytes(path, shown, TRACE_LIMIT)
+    try:
+        data = traces.decompressed(data, TRACE_LIMIT)
+    except ValueError as error:
+        diags = Diagnostics()
+        diags.error(Span(shown), "E419", f"not a trace: {error}", "record it again")
+        raise SpecError(diags) from None
+    return decode(data, shown).splitlines()
+
+
+def write_trace(path: Path, lines: list[str]) -> None:
+    """Write a trace: JSON Lines, gzip-compressed when the name ends in `.gz`."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = "".join(line + "\n" for line in lines)
+    if path.name.endswith(".gz"):
+        path.write_bytes(traces.compressed(text))
+    else:
+        path.write_text(text, encoding="utf-8")

@@ -1,0 +1,43 @@
+"""Trace tools: a trace `rcsgen run` wrote -> what a person reads in it.
+
+In: trace files (JSON Lines, one line per cycle) and, when at hand, the IR of the system
+that recorded them. `read` reads and checks a trace (`TraceError`, one located line) and
+lays its modules out in execution order (`lanes`); on top of it, `changes` prints only what
+changed (`rcsgen trace changes`), `coverage` counts the table rules that fired (`rcsgen
+trace coverage`), `view` writes the HTML timeline (`rcsgen trace show`) and `mine` the
+miner's replay in its coal map (`rcsgen trace mine`); `assets/` holds their two pages.
+
+The names below are `read`'s, the package's entry points.
+"""
+
+from .read import (
+    Lane,
+    Trace,
+    TraceError,
+    beside,
+    check_against,
+    compressed,
+    decompressed,
+    lanes,
+    load,
+    parse,
+    recorded_by,
+    select,
+    whole_system,
+)
+
+__all__ = [
+    "Lane",
+    "Trace",
+    "TraceError",
+    "beside",
+    "check_against",
+    "compressed",
+    "decompressed",
+    "lanes",
+    "load",
+    "parse",
+    "recorded_by",
+    "select",
+    "whole_system",
+]

@@ -1,0 +1,131 @@
+"""Coverage: traces + the IR -> which rules of which state tables fired, and which never did.
+
+Every table rule (INIT and HALT too) is counted; `every_cycle` rules are not, since the
+status buffer records only table rules. A module that ran as its stand-in (`simulate:`)
+is credited to the stand-in's tables. Text for people, JSON for tools.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+from ...compiler.ir import IRSystem
+from .read import Trace, check_against, runs_as
+
+
+@dataclass
+class RuleCount:
+    module: str
+    rule: str  # the rule id, COMMAND/STATE/n
+    where: str  # file:line, the file as diagnostics show it
+    guard: str  # spec text; "always" for an unconditional rule
+    doc: str
+    cycles: int = 0  # cycles it fired in, over all traces
+    traces: list[str] = field(default_factory=list)  # the traces it fired in
+
+
+@dataclass
+class Coverage:
+    system: str
+    traces: list[str]
+    rules: list[RuleCount]  # in the system's order: controller by controller, code order
+    ran: dict[str, list[str]]  # controller -> the traces that ran it
+
+    @property
+    def fired(self) -> int:
+        return sum(1 for r in self.rules if r.cycles)
+
+    def modules(self) -> list[str]:
+        return list(dict.fromkeys(r.module for r in self.rules))
+
+
+def measure(system: IRSystem, traces: list[Trace]) -> Coverage:
+    """Count, for every table rule of `system`, the cycles and traces it fired in."""
+    counts: dict[tuple[str, str], RuleCount] = {}
+    for controller in system.controllers:
+        for rule in controller.table_rules():
+            guard = rule.guard.text if rule.guard is not None else "always"
+            where = f"{rule.span.file}:{rule.span.line}"
+            count = RuleCount(controller.name, str(rule.id), where, guard, rule.doc)
+            counts[(controller.name, str(rule.id))] = count
+    ran: dict[str, list[str]] = {c.name: [] for c in system.controllers}
+    for trace in traces:
+        process = check_against(system, trace)
+        for module, table in runs_as(process, trace).items():
+            ran[table].append(trace.name)
+            fired: dict[str, int] = {}
+            for rule_id in trace.columns[module]["rule"]:
+                if rule_id is not None:
+                    fired[rule_id] = fired.get(rule_id, 0) + 1
+            for rule_id, cycles in fired.items():
+                count = counts[(table, rule_id)]
+                count.cycles += cycles
+                count.traces.append(trace.name)
+    return Coverage(system.name, [t.name for t in traces], list(counts.values()), ran)
+
+
+def _percent(part: int, whole: int) -> str:
+    return f"{100 * part / whole:.1f}%" if whole else "-"
+
+
+def to_text(coverage: Coverage) -> str:
+    """A summary line, a table per module, then every rule that never fired with its guard."""
+    total = len(coverage.rules)
+    out = [
+        f"rule coverage of {coverage.system} over {len(coverage.traces)} trace(s): "
+        f"{coverage.fired} of {total} table rules fired ({_percent(coverage.fired, total)})",
+        "",
+        f"{'module':<8} {'rules':>5} {'fired':>5} {'':>6}  ran in",
+    ]
+    for module in coverage.modules():
+        rules = [r for r in coverage.rules if r.module == module]
+        fired = sum(1 for r in rules if r.cycles)
+        ran = len(coverage.ran[module])
+        where = f"{ran} trace(s)" if ran else "no trace"
+        out.append(
+            f"{module:<8} {len(rules):>5} {fired:>5} {_percent(fired, len(rules)):>6}  {where}"
+        )
+    never = [r for r in coverage.rules if not r.cycles]
+    if never:
+        out += ["", "never fired:"]
+        for module in coverage.modules():
+            missed = [r for r in never if r.module == module]
+            if not missed:
+                continue
+            note = "" if coverage.ran[module] else "  (not run by any trace)"
+            out.append(f"  {module}{note}")
+            width = max(len(r.rule) for r in missed)
+            for r in missed:
+                out.append(f"    {r.rule:<{width}}  {r.where}  {r.guard}")
+    return "\n".join(out) + "\n"
+
+
+def to_json(coverage: Coverage) -> str:
+    """One JSON object: the totals, and per module its rules with what fired where."""
+    data = {
+        "system": coverage.system,
+        "traces": coverage.traces,
+        "rules": len(coverage.rules),
+        "fired": coverage.fired,
+        "modules": [
+            {
+                "module": module,
+                "ran_in": coverage.ran[module],
+                "rules": [
+                    {
+                        "rule": r.rule,
+                        "where": r.where,
+                        "guard": r.guard,
+                        "doc": r.doc,
+                        "cycles": r.cycles,
+                        "traces": r.traces,
+                    }
+                    for r in coverage.rules
+                    if r.module == module
+                ],
+            }
+            for module in coverage.modules()
+        ],
+    }
+    return json.dumps(data, indent=2, sort_keys=True) + "\n"

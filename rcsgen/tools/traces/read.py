@@ -1,0 +1,359 @@
+"""Traces: a trace file (JSON Lines, one line per cycle) -> checked columns per module and world.
+
+`load` reads what `rcsgen run` writes and checks every line, so the viewers can trust it:
+a problem is a `TraceError` whose message is one line naming the file and line. It reads
+line by line (a long trace is never held whole as text), plain or gzip-compressed
+(`.jsonl.gz`: `rcsgen run --trace X.jsonl.gz` writes one; known by its first bytes, not its
+name). `lanes`
+orders the modules as a system runs them (execution order, level, simulators, stand-ins)
+when the specs are at hand, and alphabetically otherwise.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import json
+import zlib
+from collections.abc import Generator, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any, cast
+
+from ...compiler.ir import IRProcess, IRSystem
+from ...runtime import contract
+from ..graph import levels
+
+FIELDS = ("command", "command_num", "status", "status_num", "state", "rule")
+# Only for modules that declare them, on every line or none: the reason's name and the
+# result slots ({name: value}).
+OPTIONAL = ("reason", "result")
+
+
+class TraceError(Exception):
+    """A file that is not a readable trace, or one that does not fit the specs; one line."""
+
+
+@dataclass
+class Trace:
+    name: str  # the path as given
+    cycles: list[int]
+    modules: list[str]  # sorted, as every line holds them
+    columns: dict[str, dict[str, list[Any]]]  # module -> field -> one value per cycle
+    world: dict[str, list[Any]] = field(default_factory=dict)  # field -> one value per cycle
+    # The signal that interrupted the run (`rcsgen run` on SIGINT/SIGTERM writes the cycles
+    # it ran and a last line saying so); None for a run that ended.
+    interrupted: str | None = None
+
+    def __len__(self) -> int:
+        return len(self.cycles)
+
+
+GZIP_MAGIC = b"\x1f\x8b"  # the first bytes of a gzip file (a `.jsonl.gz` trace)
+
+
+def load(path: Path) -> Trace:
+    """Read and check a trace file; TraceError with a one-line message if it is not one."""
+    shown = str(path)
+    if not path.exists():
+        raise TraceError(f"no trace file at {shown}")
+    if not path.is_file():
+        raise TraceError(f"{shown} is not a file")
+    lines = _lines(path, shown)
+    try:
+        return parse_lines(lines, shown)
+    except OSError as error:
+        raise TraceError(f"{shown} is not a trace: cannot read it ({error})") from None
+    finally:
+        lines.close()  # the file is closed however the reading ended
+
+
+def _lines(path: Path, shown: str) -> Generator[str, None, None]:
+    """The text lines of a trace file, one at a time, decompressed if it is gzip."""
+    with path.open("rb") as raw:
+        stream: IO[bytes] = raw
+        if raw.peek(len(GZIP_MAGIC))[: len(GZIP_MAGIC)] == GZIP_MAGIC:
+            stream = cast(IO[bytes], gzip.GzipFile(fileobj=raw, mode="rb"))
+        text = io.TextIOWrapper(stream, encoding="utf-8")
+        try:
+            for line in text:
+                yield line.rstrip("\n")
+        except UnicodeDecodeError as error:
+            raise TraceError(
+                f"{shown} is not a trace: cannot read it as UTF-8 text ({error})"
+            ) from None
+        except (gzip.BadGzipFile, EOFError, zlib.error) as error:
+            raise TraceError(f"{shown} is not a trace: a damaged gzip file ({error})") from None
+        finally:
+            text.detach()  # `raw` is closed by its own `with`
+
+
+def beside(path: Path, suffix: str) -> Path:
+    """A file next to a trace, named after it: `x.jsonl` and `x.jsonl.gz` give `x<suffix>`."""
+    name = path.name.removesuffix(".gz")
+    if name.endswith(".jsonl"):
+        return path.with_name(name.removesuffix(".jsonl") + suffix)
+    return path.with_name(name).with_suffix(suffix)
+
+
+def decompressed(data: bytes, limit: int) -> bytes:
+    """A trace file's bytes as text bytes: gunzipped if they are gzip (at most `limit`
+    bytes out; ValueError when it is larger or damaged), else as they are."""
+    if data[: len(GZIP_MAGIC)] != GZIP_MAGIC:
+        return data
+    inflate = zlib.decompressobj(wbits=31)  # 31: a gzip header and trailer
+    try:
+        out = inflate.decompress(data, limit + 1)
+    except zlib.error as error:
+        raise ValueError(f"a damaged gzip file ({error})") from None
+    if len(out) > limit:
+        raise ValueError(f"it holds more than {limit:,} bytes of text")
+    if not inflate.eof:
+        raise ValueError("a damaged gzip file (it ends before its data does)")
+    return out
+
+
+def compressed(text: str) -> bytes:
+    """`text` gzipped, reproducibly: no time or file name in the header."""
+    return gzip.compress(text.encode("utf-8"), mtime=0)
+
+
+def parse(text: str, shown: str = "<trace>") -> Trace:
+    """A trace from its text (see parse_lines)."""
+    return parse_lines(text.splitlines(), shown)
+
+
+def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
+    """Check a trace's lines, one at a time, into columns; TraceError naming the line."""
+    trace = Trace(shown, [], [], {}, {})
+    texts: dict[str, str] = {}  # each text value once: a long trace repeats a few names
+    for number, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        where = f"{shown}:{number}"
+        if trace.interrupted is not None:
+            raise TraceError(f"{where}: a line after the one that says the run was interrupted")
+        record = _record(line, where)
+        if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
+            trace.interrupted = _interruption(record, where)
+            continue
+        _append(trace, record, where, texts)
+    if not trace.cycles and trace.interrupted is None:
+        raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
+    if not trace.cycles:
+        raise TraceError(
+            f"{shown} holds no cycle: its run was interrupted before its first one ended"
+        )
+    return trace
+
+
+def _one(texts: dict[str, str], value: Any) -> Any:
+    """One copy of each text (a state's name, a status): a long trace repeats a few."""
+    return texts.setdefault(value, value) if type(value) is str else value
+
+
+def _record(line: str, where: str) -> dict[str, Any]:
+    """One line's JSON object, with its `cycle` number."""
+    try:
+        record = json.loads(line)
+    except json.JSONDecodeError as error:
+        raise TraceError(f"{where}: not a trace line: {error.msg}") from None
+    if not isinstance(record, dict) or not isinstance(record.get("cycle"), int):
+        raise TraceError(f"{where}: not a trace line (no `cycle` number)")
+    return record
+
+
+def _interruption(record: dict[str, Any], where: str) -> str:
+    """The signal an `interrupted` line names (it holds only that and `cycle`)."""
+    if sorted(record) != ["cycle", "interrupted"] or not isinstance(record["interrupted"], str):
+        raise TraceError(
+            f"{where}: not a trace line (an `interrupted` line has only it and `cycle`)"
+        )
+    return record["interrupted"]
+
+
+def _append(trace: Trace, record: dict[str, Any], where: str, texts: dict[str, str]) -> None:
+    """One cycle's line added to the trace's columns, checked against the first line's."""
+    found = record.get("modules")
+    if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
+        raise TraceError(f"{where}: not a trace line (no `modules` object)")
+    cycles = trace.cycles
+    if cycles and record["cycle"] <= cycles[-1]:
+        raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
+    if not cycles:  # the first line says which modules, optional fields and world fields
+        trace.modules = sorted(found)
+        trace.columns = {
+            m: {f: [] for f in (*FIELDS, *(o for o in OPTIONAL if o in found[m]))}
+            for m in trace.modules
+        }
+        trace.world = {name: [] for name in sorted(record.get("world") or {})}
+    elif sorted(found) != trace.modules:
+        extra = sorted(set(found) ^ set(trace.modules))
+        raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
+    for module in trace.modules:
+        _append_module(trace.columns[module], module, found[module], where, texts)
+    fields = record.get("world") or {}
+    if not isinstance(fields, dict) or sorted(fields) != list(trace.world):
+        raise TraceError(f"{where}: world fields differ from the first line's")
+    for name, series in trace.world.items():
+        series.append(_one(texts, fields[name]))
+    cycles.append(record["cycle"])
+
+
+def _append_module(
+    columns: dict[str, list[Any]],
+    module: str,
+    values: dict[str, Any],
+    where: str,
+    texts: dict[str, str],
+) -> None:
+    missing = [f for f in columns if f not in values]
+    if missing:
+        raise TraceError(f"{where}: module {module} has no `{missing[0]}`")
+    extra = [f for f in OPTIONAL if f in values and f not in columns]
+    if extra:
+        raise TraceError(
+            f"{where}: module {module} has a `{extra[0]}` the first line does not have"
+        )
+    if "result" in values and not isinstance(values["result"], dict):
+        raise TraceError(f"{where}: module {module}'s `result` is not an object")
+    for name in columns:
+        columns[name].append(_one(texts, values[name]))
+
+
+def status_text(column: dict[str, list[Any]], i: int) -> str:
+    """A module's status at cycle index `i` as a person reads it: `ERROR(REFUSED)` when it
+    is in ERROR for a reason, the bare status otherwise."""
+    reason = column["reason"][i] if "reason" in column else None
+    return contract.status_text(str(column["status"][i]), reason)
+
+
+# ---------------------------------------------------------------- a trace beside its specs
+
+
+@dataclass(frozen=True)
+class Lane:
+    """A module as the viewers show it: in execution order, with its level and title."""
+
+    module: str
+    title: str = ""
+    level: int = 0  # 0: a simulator, or no specs at hand
+    simulator: bool = False
+    runs_as: str = ""  # the controller whose table it runs: itself, or its stand-in
+
+
+def module_of(row: str) -> str:
+    """The module a trace's row belongs to: itself, or the operator module of a channel
+    (`op/fx` -> `op`)."""
+    return row.split("/", 1)[0]
+
+
+def process_of(system: IRSystem, trace: Trace) -> IRProcess | None:
+    """What ran the trace: the one process whose modules it holds, else the whole system
+    (every process's modules, process by process: a scenario runs them all)."""
+    held = {module_of(m) for m in trace.modules}
+    for process in system.processes:
+        if held <= set(process.modules):
+            return process
+    whole = whole_system(system)
+    return whole if held <= set(whole.modules) else None
+
+
+def whole_system(system: IRSystem) -> IRProcess:
+    """Every process of `system` as one: modules in the order a whole-system run takes."""
+    first = system.processes[0]
+    return IRProcess(
+        name=system.name,
+        cycle_period=first.cycle_period,
+        doc=f"every process of {system.name}",
+        modules=tuple(m for p in system.processes for m in p.modules),
+        roots=tuple(m for p in system.processes for m in p.roots),
+        stand_ins={k: v for p in system.processes for k, v in p.stand_ins.items()},
+    )
+
+
+def runs_as(process: IRProcess, trace: Trace) -> dict[str, str]:
+    """Which controller's table each module of the trace ran: a controller whose subtree is
+    missing from the trace ran as its stand-in (`simulate:` in the scenario)."""
+    out = {m: module_of(m) for m in trace.modules}
+    for replaced, (stand_in, subtree) in process.stand_ins.items():
+        others = [m for m in subtree if m != replaced]
+        if replaced in out and others and not any(m in out for m in others):
+            out[replaced] = stand_in
+    return out
+
+
+def check_against(system: IRSystem, trace: Trace) -> IRProcess:
+    """The trace's process; TraceError when a module or a rule is not in the specs."""
+    names = {c.name for c in system.controllers}
+    unknown = [m for m in trace.modules if module_of(m) not in names]
+    if unknown:
+        raise TraceError(
+            f"{trace.name}: module `{unknown[0]}` is not in system {system.name}: "
+            "was the trace recorded from other specs?"
+        )
+    process = process_of(system, trace)
+    if process is None:
+        raise TraceError(f"{trace.name}: no process of system {system.name} runs its modules")
+    for module, controller in runs_as(process, trace).items():
+        known = {str(rule.id) for rule in system.controller(controller).table_rules()}
+        fired = {r for r in trace.columns[module]["rule"] if r is not None}
+        stale = sorted(fired - known)
+        if stale:
+            raise TraceError(
+                f"{trace.name}: {module} fired rule `{stale[0]}`, which {controller}'s tables "
+                f"do not have: the specs changed since the trace was recorded; run the "
+                "scenario again"
+            )
+    return process
+
+
+def recorded_by(systems: list[IRSystem], found: list[Trace]) -> tuple[IRSystem | None, str]:
+    """The first of `systems` that every trace of `found` fits (`check_against`), or None and
+    why not: the one system's reason, or '' when several systems each refused."""
+    problems = []
+    for system in systems:
+        try:
+            for one in found:
+                check_against(system, one)
+            return system, ""
+        except TraceError as error:
+            problems.append(str(error))
+    return None, problems[0] if len(problems) == 1 else ""
+
+
+def lanes(trace: Trace, system: IRSystem | None) -> list[Lane]:
+    """The trace's modules in execution order with titles and levels, when `system` ran it;
+    alphabetical and bare otherwise."""
+    if system is None:
+        return [Lane(m) for m in trace.modules]
+    process = check_against(system, trace)
+    level = levels(system)
+    ran = runs_as(process, trace)
+    out = []
+    for name in process.modules:
+        for module in [row for row in ran if module_of(row) == name]:  # an operator's channels
+            controller = system.controller(ran[module])
+            out.append(
+                Lane(
+                    module,
+                    controller.title,
+                    0 if controller.simulator and module == ran[module] else level[name],
+                    controller.simulator,
+                    ran[module],
+                )
+            )
+    return out
+
+
+def select(trace: Trace, wanted: list[str]) -> list[str]:
+    """The modules named (comma-separated lists allowed), checked; all when none."""
+    names = [n.strip() for item in wanted for n in item.split(",") if n.strip()]
+    for name in names:
+        if name not in trace.modules:
+            import difflib
+
+            close = difflib.get_close_matches(name, trace.modules, n=1)
+            hint = f"; did you mean `{close[0]}`?" if close else ""
+            raise TraceError(f"unknown module `{name}`: {trace.name} has no such module{hint}")
+    return names or list(trace.modules)

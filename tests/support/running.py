@@ -1,0 +1,54 @@
+"""Running systems seen from a test: the segments it names, what its console says.
+
+Every segment a test makes carries the test process's pid, so a check that nothing is left
+in /dev/shm looks only at its own entries, whatever other suites run beside it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+
+def segment_names(prefix: str) -> Callable[[], str]:
+    """A maker of fresh segment names for one test module: `rcsgen_<prefix>_<pid>_<n>`."""
+    numbers = itertools.count(1)
+    return lambda: f"rcsgen_{prefix}_{os.getpid()}_{next(numbers)}"
+
+
+def console_status(package_dir: Path, env: dict[str, str], segment: str) -> dict[str, Any]:
+    """What the console of a running system says (`python -m <system> ctl status --format
+    json` on `segment`); {} while it cannot say (no segment yet, or not every record)."""
+    done = subprocess.run(
+        [sys.executable, "-m", package_dir.name, "ctl", "--shm", segment, "status"]
+        + ["--format", "json"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    return json.loads(done.stdout) if done.returncode == 0 else {}  # type: ignore[no-any-return]
+
+
+def children(parent: int | None = None) -> list[str]:
+    """Processes whose parent is `parent` (default: this test process), read from /proc,
+    with their commands."""
+    parent = os.getpid() if parent is None else parent
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[1]) == parent:
+            try:
+                found.append((stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode())
+            except OSError:
+                continue
+    return [command for command in found if command]
