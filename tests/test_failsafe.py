@@ -295,7 +295,7 @@ def seen(launcher: Any) -> str:
 
 @pytest.mark.parametrize("fault", ["kill", "stop"])
 def test_a_dead_or_frozen_process_latches_every_actuator_and_halts_the_hierarchy(
-    convoy: Callable[..., Any], package: ModuleType, fault: str
+    convoy: Callable[..., Any], package: ModuleType, fleet: Path, fault: str
 ) -> None:
     """kill -9 or SIGSTOP of pa (v1, on_lost: halt_all): the launcher and every other
     process see it lost; every actuator of the system is latched at its safe value (v2's
@@ -314,8 +314,30 @@ def test_a_dead_or_frozen_process_latches_every_actuator_and_halts_the_hierarchy
     assert layout.COMMAND_NAMES["v2"][sent["command"]] == "HALT", "lead halted v2 too"
     assert set(override.overrides(layout, buf)) == set(ACTUATORS_SAFE)
     watch(launcher, lambda: launcher.halted, "the launcher saw it")
+    # ISO 13850: no reset un-safes an actuator while its controller is not back, whether
+    # all latches are named or only those of the survivor pb (v2_*: written by pb, alive)
+    latched = override.overrides(layout, buf)
+    for fields in (None, ["v2_drive", "v1_drive"]):
+        with pytest.raises(override.OverrideError, match=r"writer is lost \(v1_drive by pa\)"):
+            override.reset(layout, buf, fields, segment=launcher.segment)
+        assert override.overrides(layout, buf) == latched, "a refused reset releases nothing"
     if fault == "kill":
         assert "pa died (exit -9)" in launcher.events
+        # the operator's `ctl reset`: one line, exit 1 (refused), nothing released
+        path = os.pathsep.join([str(fleet.parent), str(FLEET), *sys.path])
+        reset = subprocess.run(
+            [sys.executable, "-m", fleet.name, "ctl", "--shm", launcher.segment, "reset"],
+            capture_output=True,
+            text=True,
+            env=dict(os.environ, PYTHONPATH=path),
+            timeout=60,
+        )
+        assert reset.returncode == 1, reset.stdout
+        assert reset.stderr.splitlines() == [
+            "ctl: error: refused: a reset cannot release an actuator whose writer is lost "
+            "(v1_drive by pa): restart pa first (or wait until it beats again)"
+        ]
+        assert override.overrides(layout, buf) == latched
         return
     assert any(e.startswith("pa lost: no heartbeat") for e in launcher.events)
     pa.send_signal(signal.SIGCONT)

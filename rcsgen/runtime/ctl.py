@@ -526,7 +526,10 @@ class Console:
         names = [self.field(f) for f in fields] or list(self.overrides())
         for field in names:
             self._forcible(field, f"resetting world.{field}")
-        return override.reset(self.layout, self.buf, names, self.segment)
+        try:
+            return override.reset(self.layout, self.buf, names, self.segment)
+        except override.OverrideError as error:
+            raise CtlError(f"refused: {error}") from None
 
     def overrides(self) -> dict[str, dict[str, Any]]:
         """The world fields under an override now: field -> its state (FORCED or SAFE) and

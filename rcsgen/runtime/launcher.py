@@ -30,6 +30,7 @@ from typing import Any, NoReturn, Self
 from .block import Block, BlockError
 from .command import Command, parse_command, parse_value, suggest, write_command
 from .contract import (
+    BEAT,
     DEAD,
     PROCESS_STATES,
     RUNNING,
@@ -41,7 +42,6 @@ from .contract import (
     shared,
 )
 from .loop import (
-    _BEAT,
     DONE_REPLY,
     READY,
     STEP,
@@ -397,7 +397,7 @@ class Launcher:
             missing = [
                 n
                 for n in self.processes
-                if _BEAT.unpack_from(buf, layout.PROCESSES[n].offset)[4] < 1
+                if BEAT.unpack_from(buf, layout.PROCESSES[n].offset)[4] < 1
             ]
             ended = {
                 n: c.popen.poll() for n, c in self.children.items() if c.popen.poll() is not None
@@ -492,7 +492,7 @@ class Launcher:
         its slow-down), found again when it beats; a new watchdog trip is a fault too."""
         assert self.block is not None
         layout, buf = self.system.layout, self.block.buf
-        _, _, _, trips, _, beat_ns = _BEAT.unpack_from(buf, layout.PROCESSES[name].offset)
+        _, _, _, trips, _, beat_ns = BEAT.unpack_from(buf, layout.PROCESSES[name].offset)
         if self.net is not None or self.lockstep:
             return
         slow = 1.0
