@@ -171,12 +171,12 @@ def writers_lost(
 ) -> dict[str, list[str]]:
     """The processes that write some of `fields` and are lost now (STOPPED, DEAD, or silent
     past the heartbeat timeout; `contract.silent`): process -> its fields, in order."""
-    actuated_by = getattr(layout, "ACTUATED_BY", {})
+    actuated_by: dict[str, str] = getattr(layout, "ACTUATED_BY", {})
     timeout_ns = int(layout.HEARTBEAT_TIMEOUT * 1e9)
     now_ns = time.monotonic_ns()
     lost: dict[str, list[str]] = {}
     for field in fields:
-        process = actuated_by.get(field)
+        process = actuated_by.get(field, "")
         if process in layout.PROCESSES and silent(layout, buf, process, timeout_ns, now_ns)[0]:
             lost.setdefault(process, []).append(field)
     return lost
