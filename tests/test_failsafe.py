@@ -972,6 +972,55 @@ def test_the_watchdog_trips_when_the_recent_cycles_ran_five_periods_late_in_all(
     assert dog.trips(pacer, 310_000_000, 0.1), "one cycle longer than three periods"
 
 
+def test_declared_watchdog_limits_reach_the_process_and_decide_its_trips(tmp_path: Path) -> None:
+    """`watchdog:` of a process in system.yaml: pa declares one cycle may last 6 periods and
+    10 periods of lateness may add up, so the 4-period cycle that trips the default limits
+    (the test below) does not trip pa; its PLAN carries the limits, the process it runs
+    uses them, and the limits left out keep their defaults."""
+    spec = tmp_path / "fleet"
+    shutil.copytree(FLEET, spec)
+    system = spec / "system.yaml"
+    text = system.read_text()
+    old = "  pa:\n    modules: [v1]\n"
+    assert old in text
+    system.write_text(text.replace(old, old + "    watchdog: {period_factor: 6, behind: 10}\n", 1))
+    scratch, name = generate(spec)
+    try:
+        package = import_package(scratch / name, spec)
+        layout, loop = runtime(package, "layout"), runtime(package, "rcs.loop")
+        plan = runtime(package, "main_pa").PLAN
+        assert plan.watchdog == {"behind": 10.0, "period_factor": 6.0}
+        assert runtime(package, "main_pb").PLAN.watchdog == {}
+        assert loop.Watchdog(**plan.watchdog) == loop.Watchdog(behind=10.0, period_factor=6.0)
+        assert (loop.Watchdog().window, loop.Watchdog().load_warning) == (10, 0.8)
+        period = plan.cycle_period
+        real = plan.classes["v1"]
+
+        class Slow:
+            def __init__(self, buf: memoryview, settings: dict[str, str] | None) -> None:
+                self.module, self.cycles = real(buf, settings), 0
+
+            def run_cycle(self) -> None:
+                self.cycles += 1
+                if self.cycles == 4:
+                    time.sleep(4 * period)
+                self.module.run_cycle()
+
+            def resume(self) -> None:
+                self.module.resume()
+
+        slow = dataclasses.replace(plan, classes={**plan.classes, "v1": Slow})
+        process = loop.run(slow, layout, cycles=6)
+        try:
+            record = layout.PROCESSES["pa"].read(process.block.buf)
+        finally:
+            process.block.close()
+        assert record["overruns"] >= 3, "the long cycle missed its periods"
+        assert record["watchdog_trips"] == 0, "within the declared limits"
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
 def test_a_paced_process_trips_from_its_second_cycle_on(package: ModuleType) -> None:
     """run: a first cycle four periods long (the start-up: cold code; the start-up barrier
     bounds it) does not trip the watchdog; the same cycle later does, once, and the trip

@@ -515,6 +515,8 @@ class IRProcess:
     roots: tuple[str, ...]  # modules of this process with no supervisor: INIT is sent to them
     # controller -> (its stand-in, the modules of this process it replaces: itself + subtree)
     stand_ins: dict[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
+    # its declared watchdog limits (rcs/loop.py Watchdog's fields); the rest keep their default
+    watchdog: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -79,6 +79,8 @@ class ProcessPlan:
     # controller -> (its stand-in, the modules of this process it replaces)
     stand_ins: Mapping[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
     classes: Mapping[str, ModuleClass] = field(default_factory=dict)
+    # The declared watchdog limits (system.yaml `watchdog:`): Watchdog's fields -> values
+    watchdog: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass
@@ -462,7 +464,7 @@ def run(
         raise
     period = plan.cycle_period if pace else 0.0
     pacer = Pacer(period)
-    dog = watchdog or Watchdog()
+    dog = watchdog or Watchdog(**plan.watchdog)  # type: ignore[arg-type]
     timeout = heartbeat_timeout if heartbeat_timeout is not None else layout.HEARTBEAT_TIMEOUT
     timeout_ns = int(timeout * 1e9)
     watched = process.watched()

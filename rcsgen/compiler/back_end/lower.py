@@ -76,7 +76,9 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         for c in checked.controllers.values()
     )
     processes = tuple(
-        ir.IRProcess(p.name, p.cycle_period, p.doc, p.modules, p.roots, dict(p.stand_ins))
+        ir.IRProcess(
+            p.name, p.cycle_period, p.doc, p.modules, p.roots, dict(p.stand_ins), dict(p.watchdog)
+        )
         for p in checked.processes
     )
     layout = plan_layout(spec.name, (p.name for p in processes), controllers, world)

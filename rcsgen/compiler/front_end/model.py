@@ -75,6 +75,8 @@ class Process:
     doc: str
     span: Span
     cycle_period: float | None = None  # its own period, if not the system's
+    # its declared watchdog limits (`watchdog:`), the runtime Watchdog's field -> value
+    watchdog: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -338,6 +340,10 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
             spec.get("doc", ""),
             key_span(data["processes"], name, top),
             float(spec["cycle_period"]) if "cycle_period" in spec else None,
+            {
+                str(k): int(v) if k == "window" else float(v)
+                for k, v in (spec.get("watchdog") or {}).items()
+            },
         )
         for name, spec in data["processes"].items()
     ]
