@@ -74,6 +74,10 @@ class Topic(Enum):
         "fail safe: actuators' safe values and `on_lost` policies",
         "`rcsgen/compiler/checks/check.py`, `analysis/tables.py`",
     )
+    ACCESS = (
+        "access: who holds each operator role, who shares the segment",
+        "`rcsgen/compiler/checks/operators.py`",
+    )
 
     @property
     def what(self) -> str:
@@ -311,6 +315,8 @@ _ALL = (
     error("E602", Topic.NAMES, "line break in a one-line text"),
     error("E801", Topic.SAFETY, "bad safe value of a world field"),
     error("E802", Topic.SAFETY, "bad `on_lost` policy"),
+    error("E810", Topic.ACCESS, "role anyone may claim beside roles with holders"),
+    warning("W811", Topic.ACCESS, "role holders who cannot open the segment"),
 )
 CODES: dict[str, Code] = {c.code: c for c in _ALL}
 # Every warning rcsgen reports (what --select and --ignore can name).

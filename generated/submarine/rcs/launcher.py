@@ -42,6 +42,7 @@ from .contract import (
     enum_name,
     shared,
 )
+from .ctl import Access, CtlError
 from .loop import (
     DONE_REPLY,
     READY,
@@ -869,6 +870,13 @@ def main(package: str, argv: list[str] | None = None) -> int:
         help="run this controller's stand-in in its place (repeatable)",
     )
     parser.add_argument(
+        "--role",
+        default=None,
+        help="act in this operator role (system.yaml `operators.roles`): refused unless you "
+        "hold it; --send then needs its command access (without --role, the user who starts "
+        "the system owns it)",
+    )
+    parser.add_argument(
         "--world",
         action="append",
         default=[],
@@ -909,6 +917,14 @@ def main(package: str, argv: list[str] | None = None) -> int:
             parser.error(str(error))
         if args.process is not None or args.lockstep:
             parser.error("--send goes with a launch of every process, not PROCESS or --lockstep")
+    if args.role is not None:
+        try:
+            access = Access(system.layout, args.role)
+            if args.send is not None:
+                access.require("command", args.send.module, f"--send {args.send}")
+        except CtlError as error:
+            print(f"{system.layout.SYSTEM}: {error}", file=sys.stderr)
+            return error.code
     try:
         args.world = parse_world(system.layout, args.world)
     except ValueError as error:
