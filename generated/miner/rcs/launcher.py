@@ -66,7 +66,7 @@ from .startup import (
     report_failure,
     segment_problem,
 )
-from .transport import TransportError, check_endpoint
+from .transport import PLAINTEXT, Security, TransportError, check_endpoint
 
 STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
 PR_SET_PDEATHSIG = 1  # prctl(2): the signal a child gets when its parent dies (Linux)
@@ -241,7 +241,7 @@ def network_options(system: System, args: argparse.Namespace) -> Any:
     from .zenoh_transport import Options
 
     lease_ms = max(100, int(system.layout.HEARTBEAT_TIMEOUT * 1000))
-    return Options(tuple(args.listen), tuple(args.connect), lease_ms)
+    return Options(tuple(args.listen), tuple(args.connect), lease_ms, args.security)
 
 
 def watch_the_launcher(stop: Stop, segment: str) -> None:
@@ -334,6 +334,7 @@ class Launcher:
         connect: Sequence[str] = (),
         processes: Sequence[str] | None = None,
         also_listen: Sequence[str] = (),
+        security: Security = PLAINTEXT,
     ) -> None:
         self.system = system
         self.segment = segment or system.default_segment
@@ -341,10 +342,11 @@ class Launcher:
         # the launcher's block mirrors them all: a local `ctl`, a harness and the summary
         # read it as they read the shared one. Its node listens where the processes connect.
         self.transport_name = transport
-        self.listen = listen or f"tcp/127.0.0.1:{free_port()}"
+        self.listen = listen or f"{'tls' if security.tls else 'tcp'}/127.0.0.1:{free_port()}"
         # A host of a deployment (`--deploy`): only its processes here, its node also
         # listening on the host's other endpoints and connecting to the other hosts.
         self.connect, self.also_listen = tuple(connect), tuple(also_listen)
+        self.security = security  # a deployment host's TLS and authentication, or none
         self.processes = list(system.plans) if processes is None else list(processes)
         self.net: Any = None
         self.lockstep, self.pace, self.cycles = lockstep, pace, cycles
@@ -378,7 +380,9 @@ class Launcher:
                 lease_ms = max(100, int(self.system.layout.HEARTBEAT_TIMEOUT * 1000))
                 self.net = ZenohTransport(
                     Mirror(self.system.layout, self.block),
-                    Options((self.listen, *self.also_listen), self.connect, lease_ms),
+                    Options(
+                        (self.listen, *self.also_listen), self.connect, lease_ms, self.security
+                    ),
                     block_when_congested=self.lockstep,
                 )
             for name in self.processes:
@@ -427,7 +431,9 @@ class Launcher:
         if self.transport_name == "zenoh":  # its own block, a peer of the launcher's node
             command[5] = f"{self.segment}_{name}"
             command += ["--transport", "zenoh", "--connect", self.listen]
-            command += ["--listen", "tcp/127.0.0.1:0"]
+            command += ["--listen", f"{'tls' if self.security.tls else 'tcp'}/127.0.0.1:0"]
+            if self.security != PLAINTEXT:  # paths only: no secret on a command line
+                command += ["--security", self.security.to_text()]
         else:
             command += ["--attach"] if attach else []
         command += ["--lockstep"] if self.lockstep else []
@@ -817,6 +823,8 @@ def main(package: str, argv: list[str] | None = None) -> int:
         "--lockstep", action="store_true", help="step the processes in lockstep (no pacing)"
     )
     parser.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    # a deployment host's TLS and authentication files, as its launcher passes them on
+    parser.add_argument("--security", default=None, help=argparse.SUPPRESS)
     parser.add_argument(
         "--transport",
         choices=("shm", "zenoh"),
@@ -884,6 +892,10 @@ def main(package: str, argv: list[str] | None = None) -> int:
         help="start with this world field's value instead of its initial one (repeatable)",
     )
     args = parser.parse_args(argv)
+    try:
+        args.security = Security.from_text(args.security) if args.security else PLAINTEXT
+    except ValueError as error:
+        parser.error(str(error))
     if args.shm is not None and segment_problem(args.shm):
         parser.error(segment_problem(args.shm))
     try:
@@ -974,6 +986,7 @@ def deployed(system: System, args: argparse.Namespace, parser: argparse.Argument
         print(error, file=sys.stderr)
         return None
     args.transport, args.listen, args.connect = "zenoh", list(host.listen), list(host.connect)
+    args.security = host.security
     args.process = host.processes[0] if len(host.processes) == 1 else None
     return host
 
@@ -1048,6 +1061,7 @@ def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
         connect=args.connect,
         processes=None if host is None else host.processes,
         also_listen=args.listen[1:],
+        security=args.security,
     )
     try:
         launcher.start()

@@ -3,29 +3,38 @@
 
 Where each process runs is configuration, not spec: `python -m <system> --deploy FILE
 [HOST]` runs the processes the file puts on HOST with the endpoints it gives that host,
-over Zenoh. The file is JSON because this module is vendored into every generated package,
-which needs nothing but Python (no YAML); positions are kept for every key and value, so a
-mistake is one line `FILE:LINE:COL: error[E43x]: ...`. Standard library only.
+over Zenoh, with its own TLS and user/password authentication when the host declares them
+(`tls`, `auth`: files, relative to the deployment file; docs/access.md). The file is JSON
+because this module is vendored into every generated package, which needs nothing but
+Python (no YAML); positions are kept for every key and value, so a mistake is one line
+`FILE:LINE:COL: error[E43x]: ...`. Standard library only.
 
     {"system": "miner",
      "hosts": {"vehicle": {"processes": ["pc1"], "listen": ["tcp/192.0.2.10:7447"],
                            "connect": ["tcp/192.0.2.20:7447"]},
                "planner": {"processes": ["pc2"], "listen": ["tcp/192.0.2.20:7447"]}}}
+
+A host's `"tls": {"root_ca": "ca.pem", "certificate": "planner.pem", "key": "planner.key"}`
+and `"auth": {"user": "planner", "password_file": "planner.pw", "users_file": "users.txt"}`.
 """
 
 from __future__ import annotations
 
 import difflib
 import json
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from .contract import shared
-from .transport import check_endpoint
+from .transport import Security, check_endpoint
 
-HOST_KEYS = ("processes", "listen", "connect")
+HOST_KEYS = ("processes", "listen", "connect", "tls", "auth")
+TLS_KEYS = ("root_ca", "certificate", "key")
+AUTH_KEYS = ("user", "password_file", "users_file")
+SECRETS = ("key", "password_file", "users_file")  # no one but their owner may read them
 TOP_KEYS = ("system", "hosts")
 UNREADABLE, UNKNOWN_HOST = "E430", "E437"
 
@@ -43,6 +52,7 @@ class Host:
     processes: tuple[str, ...]
     listen: tuple[str, ...]
     connect: tuple[str, ...]
+    security: Security = Security()  # its TLS and authentication; empty: plaintext, open
 
 
 @dataclass(frozen=True)
@@ -129,12 +139,49 @@ def check(root: Node, path: str, system: str, processes: list[str]) -> Deploymen
     placed: dict[str, str] = {}
     endpoints: dict[str, str] = {}
     hosts: dict[str, Host] = {}
+    here = os.path.dirname(os.path.abspath(path))
+
+    def files(host_node: Node, key: str, wanted: tuple[str, ...], host: str) -> dict[str, str]:
+        """A host's `tls` or `auth` object: each key given, each file readable (E440) and
+        each secret its owner's alone (E441); the paths made absolute."""
+        if key not in host_node.value:
+            return {}
+        node = host_node.value[key][1]
+        keys(node, wanted, f"`{key}` of host `{host}`")
+        found = {}
+        for item in wanted:
+            if item not in node.value:
+                raise fail(node, "E431", f"`{key}` of host `{host}` has no `{item}`")
+            value = node.value[item][1]
+            expect(value, str, "a string", f"`{key}.{item}` of host `{host}`")
+            found[item] = value.value
+            if item == "user":
+                continue
+            full = os.path.join(here, value.value)
+            try:
+                with open(full, "rb"):
+                    pass
+                mode = os.stat(full).st_mode & 0o777
+            except OSError as error:
+                raise fail(value, "E440", f"cannot read {value.value}: {error.strerror}") from None
+            if item in SECRETS and mode & 0o077:
+                raise fail(
+                    value,
+                    "E441",
+                    f"{value.value} holds a secret but others may read it (mode {mode:04o}): "
+                    f"chmod 600 {value.value}",
+                )
+            found[item] = full
+        return found
+
     for name, (name_node, host_node) in hosts_node.value.items():
         keys(host_node, HOST_KEYS, f"host `{name}`")
         if "processes" not in host_node.value:
             raise fail(host_node, "E431", f"host `{name}` has no `processes`")
         lists: dict[str, list[str]] = {}
-        for key in HOST_KEYS:
+        tls = files(host_node, "tls", TLS_KEYS, name)
+        auth = files(host_node, "auth", AUTH_KEYS, name)
+        for key in HOST_KEYS[:3]:
             if key not in host_node.value:
                 lists[key] = []
                 continue
@@ -164,6 +211,16 @@ def check(root: Node, path: str, system: str, processes: list[str]) -> Deploymen
                     check_endpoint(item.value)
                 except ValueError as error:
                     raise fail(item, "E435", str(error)) from None
+                if bool(tls) != item.value.startswith("tls/"):
+                    raise fail(
+                        item,
+                        "E442",
+                        f"host `{name}` declares `tls`, so its endpoints are tls/HOST:PORT, "
+                        f"not {item.value}"
+                        if tls
+                        else f"{item.value} is a TLS endpoint, but host `{name}` declares no "
+                        "`tls` (its certificate and key)",
+                    )
                 if key == "listen":
                     if item.value in endpoints:
                         raise fail(
@@ -185,7 +242,18 @@ def check(root: Node, path: str, system: str, processes: list[str]) -> Deploymen
             tuple(lists["processes"]),
             tuple(lists["listen"]),
             tuple(lists["connect"]),
+            Security(**tls, **auth),
         )
+    for flag, code, what in (("tls", "E442", "TLS"), ("auth", "E443", "authentication")):
+        some = [h for h in hosts.values() if getattr(h.security, flag)]
+        for host in hosts.values():
+            if some and not getattr(host.security, flag):
+                raise fail(
+                    hosts_node.value[host.name][0],
+                    code,
+                    f"host `{host.name}` declares no `{flag}`, while `{some[0].name}` does: "
+                    f"a host without {what} cannot join the others",
+                )
     missing = [p for p in processes if p not in placed]
     if missing:
         raise fail(
