@@ -176,12 +176,13 @@ def slow_plan(package: ModuleType, cycle: float) -> Any:
 def test_the_watchdog_trips_on_the_declared_overrun_not_one_later(
     package: ModuleType, cycles: int, trips: int
 ) -> None:
-    """Declared: 3 consecutive overruns trip the watchdog. Every cycle here runs past its
-    period (1.5 periods of work), so the third cycle trips it and HALT goes to the root;
-    two do not (a single long cycle cannot trip it: its limit is set far away)."""
+    """Declared: one period of lateness in all trips the watchdog (`behind`). Every cycle
+    here runs past its period (1.5 periods of work), so each next cycle starts half a
+    period late: the third cycle reaches the limit and trips it, and HALT goes to the
+    root; two do not (a single long cycle cannot trip it: its limit is set far away)."""
     layout, loop = part(package, "layout"), part(package, "rcs.loop")
     plan = part(package, "main_p1").PLAN
-    dog = loop.Watchdog(overruns=3, period_factor=1000.0)
+    dog = loop.Watchdog(behind=1.0, period_factor=1000.0)
     process = loop.run(
         slow_plan(package, 1.5 * plan.cycle_period),
         layout,
