@@ -3,9 +3,9 @@
 The miner on two "hosts" on 127.0.0.1, each from one deployment file: pc1 (every actuator)
 listens on tls/, pc2 (the path planner) connects; both show a certificate the test's own
 authority signed (mutual TLS) and the connecting one logs in with a user and password
-(Zenoh checks the password of the peer that connects, against the listener's users file). Certificates are made here with the
-`openssl` command (.ci/run installs it where missing); nothing is left behind: no process,
-no listening port, nothing in /dev/shm.
+(Zenoh checks the password of the peer that connects, against the listener's users file).
+Certificates are made here with the `openssl` command (.ci/run installs it where missing);
+nothing is left behind: no process, no listening port, nothing in /dev/shm.
 
 What a refused peer means for the machine: pc2 killed, pc1 latches every actuator safe and
 its root reports ERROR(LOST); a pc2 that comes back with a wrong password, or with a

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from .contract import shared
-from .transport import Security, check_endpoint
+from .transport import PLAINTEXT, Security, check_endpoint
 
 HOST_KEYS = ("processes", "listen", "connect", "tls", "auth")
 TLS_KEYS = ("root_ca", "certificate", "key")
@@ -52,7 +52,7 @@ class Host:
     processes: tuple[str, ...]
     listen: tuple[str, ...]
     connect: tuple[str, ...]
-    security: Security = Security()  # its TLS and authentication; empty: plaintext, open
+    security: Security = PLAINTEXT  # its TLS and authentication; PLAINTEXT: none, open
 
 
 @dataclass(frozen=True)
