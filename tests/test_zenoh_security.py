@@ -328,3 +328,32 @@ def test_a_refused_peer_is_never_heard_and_the_outputs_stay_safe(
         assert vehicle.wait(15) == 0
     finally:
         pc1.close()
+
+
+def test_a_secured_host_of_several_processes_hands_its_children_the_credentials(
+    pki: Path,
+) -> None:
+    """One host running pc1 and pc2 behind its launcher, on TLS with authentication: its
+    children connect to its node with the host's certificate and password (passed as
+    paths, `--security`), and the box cut ends DONE at its depth."""
+    port = free_port()
+    text = deployment(pki, port)
+    solo = {**text["hosts"]["vehicle"], "processes": ["pc1", "pc2"]}
+    solo["auth"] = {**solo["auth"], "user": "vehicle"}
+    path = pki / "solo.json"
+    path.write_text(json.dumps({"system": "miner", "hosts": {"solo": solo}}))
+    segment = f"rcsgen_tls_{os.getpid()}_solo"
+    done = subprocess.run(
+        [sys.executable, "-m", "miner", "--deploy", str(path), "solo", "--shm", segment]
+        + ["--fast", "--set", "map=maps/box_cut.map", "--set", "seed=7"]
+        + ["--send", "sec.BOX_CUT:depth=1.5", "--until-done", "--report", "depth_cut"],
+        cwd=PACKAGE.parent,
+        env={**os.environ, "PYTHONPATH": str(HOOKS)},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[:2] == ["sec DONE #2", "depth_cut = 1.5"], done.stdout
+    assert not [n for n in os.listdir("/dev/shm") if n.startswith(segment)]
+    assert not listening(port)
