@@ -293,7 +293,7 @@ def seen(launcher: Any) -> str:
 
 @pytest.mark.parametrize("fault", ["kill", "stop"])
 def test_a_dead_or_frozen_process_latches_every_actuator_and_halts_the_hierarchy(
-    convoy: Callable[..., Any], package: ModuleType, fault: str
+    convoy: Callable[..., Any], package: ModuleType, fleet: Path, fault: str
 ) -> None:
     """kill -9 or SIGSTOP of pa (v1, on_lost: halt_all): the launcher and every other
     process see it lost; every actuator of the system is latched at its safe value (v2's
@@ -312,8 +312,30 @@ def test_a_dead_or_frozen_process_latches_every_actuator_and_halts_the_hierarchy
     assert layout.COMMAND_NAMES["v2"][sent["command"]] == "HALT", "lead halted v2 too"
     assert set(override.overrides(layout, buf)) == set(ACTUATORS_SAFE)
     watch(launcher, lambda: launcher.halted, "the launcher saw it")
+    # ISO 13850: no reset un-safes an actuator while its controller is not back, whether
+    # all latches are named or only those of the survivor pb (v2_*: written by pb, alive)
+    latched = override.overrides(layout, buf)
+    for fields in (None, ["v2_drive", "v1_drive"]):
+        with pytest.raises(override.OverrideError, match=r"writer is lost \(v1_drive by pa\)"):
+            override.reset(layout, buf, fields, segment=launcher.segment)
+        assert override.overrides(layout, buf) == latched, "a refused reset releases nothing"
     if fault == "kill":
         assert "pa died (exit -9)" in launcher.events
+        # the operator's `ctl reset`: one line, exit 1 (refused), nothing released
+        path = os.pathsep.join([str(fleet.parent), str(FLEET), *sys.path])
+        reset = subprocess.run(
+            [sys.executable, "-m", fleet.name, "ctl", "--shm", launcher.segment, "reset"],
+            capture_output=True,
+            text=True,
+            env=dict(os.environ, PYTHONPATH=path),
+            timeout=60,
+        )
+        assert reset.returncode == 1, reset.stdout
+        assert reset.stderr.splitlines() == [
+            "ctl: error: refused: a reset cannot release an actuator whose writer is lost "
+            "(v1_drive by pa): restart pa first (or wait until it beats again)"
+        ]
+        assert override.overrides(layout, buf) == latched
         return
     assert any(e.startswith("pa lost: no heartbeat") for e in launcher.events)
     pa.send_signal(signal.SIGCONT)
@@ -947,6 +969,55 @@ def test_the_watchdog_trips_when_the_recent_cycles_ran_five_periods_late_in_all(
     assert not cycle()
     assert not dog.trips(pacer, 290_000_000, 0.1)
     assert dog.trips(pacer, 310_000_000, 0.1), "one cycle longer than three periods"
+
+
+def test_declared_watchdog_limits_reach_the_process_and_decide_its_trips(tmp_path: Path) -> None:
+    """`watchdog:` of a process in system.yaml: pa declares one cycle may last 6 periods and
+    10 periods of lateness may add up, so the 4-period cycle that trips the default limits
+    (the test below) does not trip pa; its PLAN carries the limits, the process it runs
+    uses them, and the limits left out keep their defaults."""
+    spec = tmp_path / "fleet"
+    shutil.copytree(FLEET, spec)
+    system = spec / "system.yaml"
+    text = system.read_text()
+    old = "  pa:\n    modules: [v1]\n"
+    assert old in text
+    system.write_text(text.replace(old, old + "    watchdog: {period_factor: 6, behind: 10}\n", 1))
+    scratch, name = generate(spec)
+    try:
+        package = import_package(scratch / name, spec)
+        layout, loop = runtime(package, "layout"), runtime(package, "rcs.loop")
+        plan = runtime(package, "main_pa").PLAN
+        assert plan.watchdog == {"behind": 10.0, "period_factor": 6.0}
+        assert runtime(package, "main_pb").PLAN.watchdog == {}
+        assert loop.Watchdog(**plan.watchdog) == loop.Watchdog(behind=10.0, period_factor=6.0)
+        assert (loop.Watchdog().window, loop.Watchdog().load_warning) == (10, 0.8)
+        period = plan.cycle_period
+        real = plan.classes["v1"]
+
+        class Slow:
+            def __init__(self, buf: memoryview, settings: dict[str, str] | None) -> None:
+                self.module, self.cycles = real(buf, settings), 0
+
+            def run_cycle(self) -> None:
+                self.cycles += 1
+                if self.cycles == 4:
+                    time.sleep(4 * period)
+                self.module.run_cycle()
+
+            def resume(self) -> None:
+                self.module.resume()
+
+        slow = dataclasses.replace(plan, classes={**plan.classes, "v1": Slow})
+        process = loop.run(slow, layout, cycles=6)
+        try:
+            record = layout.PROCESSES["pa"].read(process.block.buf)
+        finally:
+            process.block.close()
+        assert record["overruns"] >= 3, "the long cycle missed its periods"
+        assert record["watchdog_trips"] == 0, "within the declared limits"
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
 
 
 def test_a_paced_process_trips_from_its_second_cycle_on(package: ModuleType) -> None:

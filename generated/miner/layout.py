@@ -1394,6 +1394,12 @@ ROLES: dict[str, dict[str, int]] = {
         "pp": 3,  # override
     },
 }
+# Who holds each role (`users`, `groups`: OS names): role -> (users, groups). `--role` in a
+# role listed here is refused to anyone else; a role not listed, anyone may claim.
+ROLE_HOLDERS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {}
+# The OS group that shares the segment (`operators.segment_group`): created mode 0660 with
+# this group. None: mode 0600, its creator's alone (rcs/block.py).
+SEGMENT_GROUP: str | None = None
 # The run settings the hook-state factories read (`settings:`), each with what it chooses;
 # `--set`, a scenario's `settings:` and a harness may give only these.
 SETTINGS: dict[str, str] | None = {

@@ -8,7 +8,7 @@ selection (`--select`/`--ignore`, `[tool.rcsgen]`: `WARNING_CODES`) and its shel
 (the titles), the SARIF log's rules (title and level) and the index of
 `docs/diagnostics.md` (`index_markdown`; `python -m rcsgen.compiler.codes` prints it).
 `tests/test_corpus.py` proves every code is reported somewhere, documented under its title
-and tested by a case. The runtime's deployment check (E430-E439) is stdlib-only and cannot
+and tested by a case. The runtime's deployment check (E430-E443) is stdlib-only and cannot
 import this; its codes are registered here all the same.
 """
 
@@ -73,6 +73,10 @@ class Topic(Enum):
     SAFETY = (
         "fail safe: actuators' safe values and `on_lost` policies",
         "`rcsgen/compiler/checks/check.py`, `analysis/tables.py`",
+    )
+    ACCESS = (
+        "access: who holds each operator role, who shares the segment",
+        "`rcsgen/compiler/checks/operators.py`",
     )
 
     @property
@@ -293,6 +297,10 @@ _ALL = (
     error("E437", Topic.DEPLOYMENT, "unknown host"),
     error("E438", Topic.DEPLOYMENT, "host that no other can reach"),
     error("E439", Topic.DEPLOYMENT, "endpoint listened on twice"),
+    error("E440", Topic.DEPLOYMENT, "certificate, key or password file that cannot be read"),
+    error("E441", Topic.DEPLOYMENT, "key or password file others may read"),
+    error("E442", Topic.DEPLOYMENT, "TLS and endpoints that disagree"),
+    error("E443", Topic.DEPLOYMENT, "authentication on some hosts only"),
     error("E501", Topic.ANALYSIS, "nondeterministic state"),
     warning("W501", Topic.ANALYSIS, "overlap in a first_match state"),
     warning("W502", Topic.ANALYSIS, "exclusivity not provable", about="a rule"),
@@ -311,6 +319,8 @@ _ALL = (
     error("E602", Topic.NAMES, "line break in a one-line text"),
     error("E801", Topic.SAFETY, "bad safe value of a world field"),
     error("E802", Topic.SAFETY, "bad `on_lost` policy"),
+    error("E810", Topic.ACCESS, "role anyone may claim beside roles with holders"),
+    warning("W811", Topic.ACCESS, "role holders who cannot open the segment"),
 )
 CODES: dict[str, Code] = {c.code: c for c in _ALL}
 # Every warning rcsgen reports (what --select and --ignore can name).

@@ -516,6 +516,8 @@ class IRProcess:
     roots: tuple[str, ...]  # modules of this process with no supervisor: INIT is sent to them
     # controller -> (its stand-in, the modules of this process it replaces: itself + subtree)
     stand_ins: dict[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
+    # its declared watchdog limits (rcs/loop.py Watchdog's fields); the rest keep their default
+    watchdog: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -546,6 +548,9 @@ class IRSystem:
     sources: tuple[str, ...]  # every spec file the system was built from
     # role -> module -> index in ACCESS_LEVELS, above monitor; empty: no access control
     access: dict[str, dict[str, int]] = field(default_factory=dict)
+    # role -> (its users, its groups), for the roles that name who holds them
+    role_holders: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = field(default_factory=dict)
+    segment_group: str | None = None  # the OS group that shares the segment (mode 0660)
     requests: tuple[IRRequest, ...] = ()  # what modules ask of the operator
     # each actuator world field -> the process whose modules write it (the first by name when
     # several do): who latches it safe when it stops (rcs/override.py)

@@ -217,6 +217,24 @@ PERF = Struct(struct_format(PERF_FIELDS))
 PROCESS = Struct(struct_format(PROCESS_FIELDS))
 PACE = Struct(struct_format(PACE_FIELDS))
 ANSWER = Struct(struct_format(ANSWER_FIELDS))
+# A control record's head, read without its seqlock (each field is written whole): the
+# sequence word, pid, state, watchdog trips, heartbeat and beat_ns.
+BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))
+
+
+def silent(layout: Any, buf: Any, name: str, timeout_ns: int, now_ns: int) -> tuple[bool, int]:
+    """(whether process `name` is lost now: STOPPED, DEAD, or a heartbeat older than
+    `timeout_ns` stretched by its slow-down; its watchdog trips). One that has not beaten
+    yet is not: the start-up barrier covers it. The one test of a loss every watcher (the
+    processes, the launcher, a reset) shares."""
+    _, _, state, trips, _, beat_ns = BEAT.unpack_from(buf, layout.PROCESSES[name].offset)
+    if state in (STOPPED, DEAD):
+        return True, trips
+    slow = 1.0
+    pacing = getattr(layout, "PACING", {})
+    if name in pacing:  # one float, written whole: read without the seqlock
+        slow = max(1.0, PACE.unpack_from(buf, pacing[name].offset)[1])
+    return beat_ns > 0 and now_ns - beat_ns > timeout_ns * slow, trips
 
 
 # ---------------------------------------------------------------- one class per runtime

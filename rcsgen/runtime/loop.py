@@ -24,7 +24,7 @@ from typing import Protocol
 
 from .block import Block
 from .contract import (
-    DEAD,
+    BEAT,
     MODE_FIELDS,
     PACE,
     PROCESS,
@@ -35,12 +35,12 @@ from .contract import (
     STOPPED,
     field_names,
     shared,
+    silent,
     struct_format,
 )
 from .override import latch_safe
 from .transport import Local, Transport
 
-_BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))  # seq, pid .. beat_ns
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
 
 
@@ -79,6 +79,8 @@ class ProcessPlan:
     # controller -> (its stand-in, the modules of this process it replaces)
     stand_ins: Mapping[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
     classes: Mapping[str, ModuleClass] = field(default_factory=dict)
+    # The declared watchdog limits (system.yaml `watchdog:`): Watchdog's fields -> values
+    watchdog: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass
@@ -200,7 +202,7 @@ class Process:
         """A process whose control record names a live owner is running: refuse to be a
         second copy (two writers of every buffer it owns)."""
         record = self.layout.PROCESSES[self.plan.name]
-        _, pid, state, _, _, _ = _BEAT.unpack_from(self.block.buf, record.offset)
+        _, pid, state, _, _, _ = BEAT.unpack_from(self.block.buf, record.offset)
         if state in (STARTING, RUNNING) and pid and pid != os.getpid() and _alive(pid):
             raise DuplicateProcess(
                 f"process {self.plan.name} is already running (pid {pid}): a second copy is "
@@ -362,40 +364,19 @@ class Process:
         DEAD, and react (`react`); react again to each watchdog trip it reports. A lost
         process that beats again is no longer lost (its latches stay until a reset)."""
         buf = self.block.buf
-        pacing = getattr(self.layout, "PACING", {})
         for name in watched:
-            silent, trips = _silent(self.layout, buf, name, timeout_ns, now_ns, pacing)
-            if silent and name not in self.lost:
+            lost, trips = silent(self.layout, buf, name, timeout_ns, now_ns)
+            if lost and name not in self.lost:
                 self.lost.add(name)
                 self.react(name)
-            elif not silent and name in self.lost:
+            elif not lost and name in self.lost:
                 self.lost.discard(name)
                 self.recovered(name)
             if trips > self.tripped.get(name, trips):
                 self.react(name)
-            elif not silent and trips == self.tripped.get(name) and name not in self.lost:
+            elif not lost and trips == self.tripped.get(name) and name not in self.lost:
                 self.recovered(name)  # a trip is told for one cycle
             self.tripped[name] = trips
-
-
-def _silent(
-    layout: ModuleType,
-    buf: memoryview,
-    name: str,
-    timeout_ns: int,
-    now_ns: int,
-    pacing: dict[str, object],
-) -> tuple[bool, int]:
-    """(whether process `name` is lost: STOPPED, DEAD, or a heartbeat older than the timeout
-    stretched by its slow-down; its watchdog trips). One that has not beaten yet is not."""
-    record = layout.PROCESSES[name]
-    _, _, state, trips, _, beat_ns = _BEAT.unpack_from(buf, record.offset)
-    if state in (STOPPED, DEAD):
-        return True, trips
-    slow = 1.0
-    if name in pacing:  # one float, written whole: read without the seqlock
-        slow = max(1.0, PACE.unpack_from(buf, pacing[name].offset)[1])  # type: ignore[attr-defined]
-    return beat_ns > 0 and now_ns - beat_ns > timeout_ns * slow, trips
 
 
 def _alive(pid: int) -> bool:
@@ -483,7 +464,7 @@ def run(
         raise
     period = plan.cycle_period if pace else 0.0
     pacer = Pacer(period)
-    dog = watchdog or Watchdog()
+    dog = watchdog or Watchdog(**plan.watchdog)  # type: ignore[arg-type]
     timeout = heartbeat_timeout if heartbeat_timeout is not None else layout.HEARTBEAT_TIMEOUT
     timeout_ns = int(timeout * 1e9)
     watched = process.watched()

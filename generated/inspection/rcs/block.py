@@ -4,8 +4,11 @@
 A private in-process buffer, or a named `multiprocessing.shared_memory` segment that several
 processes attach to. The segment belongs to whoever created it (the launcher, or a process
 run on its own): no other process's death removes it, and Python's resource tracker is kept
-out of it, so a crashed creator does not unlink it under the processes still attached. An
-attaching process checks the header's layout hash first and refuses another layout.
+out of it, so a crashed creator does not unlink it under the processes still attached. It is
+created mode 0600 (its creator's alone), or 0660 with the group the system declares
+(`operators.segment_group`). An attaching process checks the segment's mode and owner first
+(nothing open to every user, no group but the declared one, no other owner unless the group
+is the declared one) and then the header's layout hash, and refuses another layout.
 Standard library only: copied verbatim into every generated package.
 """
 
@@ -66,9 +69,58 @@ class Block:
         assert self.shm.buf is not None  # None only once closed
         self.buf = self.shm.buf
         if create:
+            self._protect()
             layout.initialise(self.buf)
         else:
+            self._check_access()
             self._check_identity()
+
+    def _protect(self) -> None:
+        """Mode 0600, or 0660 with the declared group: no one else may open the segment."""
+        group = getattr(self.layout, "SEGMENT_GROUP", None)
+        path = _path(str(self.name))
+        try:
+            if group is not None:
+                os.chown(path, -1, _gid(group))
+            os.chmod(path, 0o660 if group is not None else 0o600)
+        except (KeyError, OSError) as error:
+            why = (
+                f"no group {group} on this host"
+                if isinstance(error, KeyError)
+                else f"you are not a member of group {group}"
+                if isinstance(error, PermissionError)
+                else str(error)
+            )
+            self._refuse(
+                f"segment {self.name!r}: cannot give it to the group {self.layout.SYSTEM} "
+                f"declares (operators.segment_group: {group}): {why}"
+            )
+
+    def _check_access(self) -> None:
+        """Refuse a segment open to every user, shared with another group than the declared
+        one, or owned by another user unless its group is the declared one (only a member
+        of a group, or root, can give a file to it)."""
+        group = getattr(self.layout, "SEGMENT_GROUP", None)
+        try:
+            found = os.stat(_path(str(self.name)))
+        except OSError:
+            return  # not a file this host shows (the name was unlinked meanwhile)
+        mode = found.st_mode & 0o777
+        declared = _gid(group) if group is not None and _has_group(group) else None
+        problem = ""
+        if mode & 0o007:
+            problem = f"is open to every user (mode {mode:04o})"
+        elif mode & 0o070 and found.st_gid != declared:
+            problem = f"is shared with group {group_name(found.st_gid)} (mode {mode:04o}), and " + (
+                f"the declared group is {group}" if group else "no group is declared"
+            )
+        elif found.st_uid != os.geteuid() and (declared is None or found.st_gid != declared):
+            problem = f"belongs to user {user_name(found.st_uid)}, not to you"
+        if problem:
+            self._refuse(
+                f"segment {self.name!r} {problem}: refused (docs/access.md); it is not one "
+                f"this system's launcher made, or its mode was changed"
+            )
 
     def _check_identity(self) -> None:
         layout, name = self.layout, self.name
@@ -104,6 +156,44 @@ class Block:
         self.owner = False
 
 
+def _path(name: str) -> str:
+    return f"/dev/shm/{name.lstrip('/')}"
+
+
+def _has_group(name: str) -> bool:
+    try:
+        _gid(name)
+    except KeyError:
+        return False
+    return True
+
+
+def _gid(name: str) -> int:
+    import grp
+
+    return grp.getgrnam(name).gr_gid
+
+
+def group_name(gid: int) -> str:
+    """A group's name, or its number when the host does not name it."""
+    import grp
+
+    try:
+        return grp.getgrgid(gid).gr_name
+    except KeyError:
+        return str(gid)
+
+
+def user_name(uid: int) -> str:
+    """A user's name, or its number when the host does not name it (a container's)."""
+    import pwd
+
+    try:
+        return pwd.getpwuid(uid).pw_name
+    except KeyError:
+        return str(uid)
+
+
 def unlink(name: str) -> bool:
     """Remove a named segment; False when it was already gone."""
     from multiprocessing import shared_memory
@@ -123,7 +213,7 @@ def unlink(name: str) -> bool:
 
 def exists(name: str) -> bool:
     """Whether a named segment exists (Linux keeps them in /dev/shm)."""
-    return os.path.exists(f"/dev/shm/{name.lstrip('/')}")
+    return os.path.exists(_path(name))
 
 
 def _untracked(

@@ -39,6 +39,7 @@ from .contract import (
     is_real,
     next_odd,
     shared,
+    silent,
     text_problem,
 )
 
@@ -141,10 +142,20 @@ def reset(
     segment: str | None = None,
 ) -> list[str]:
     """Release the SAFE latches of `fields` (all of them when None): the explicit reset after a
-    latched stop. The fields released, in order; forces are left alone."""
+    latched stop. The fields released, in order; forces are left alone. Refused, releasing
+    nothing, while the process that writes one of them is still lost (ISO 13850: a reset
+    cannot un-safe an actuator whose controller is not back)."""
     names = list(layout.OVERRIDE) if fields is None else list(fields)
     released = []
     with _locked(segment):
+        latched = [f for f in names if _state(_record(layout, f), buf)[0] == SAFE]
+        lost = writers_lost(layout, buf, latched)
+        if lost:
+            shown = "; ".join(f"{', '.join(fs)} by {p}" for p, fs in lost.items())
+            raise OverrideError(
+                f"a reset cannot release an actuator whose writer is lost ({shown}): "
+                f"restart {', '.join(lost)} first (or wait until it beats again)"
+            )
         for field in names:
             record = _record(layout, field)
             state, value = _state(record, buf)
@@ -153,6 +164,22 @@ def reset(
                 released.append(field)
         _update_any(layout, buf)
     return released
+
+
+def writers_lost(
+    layout: ModuleType, buf: memoryview, fields: Iterable[str]
+) -> dict[str, list[str]]:
+    """The processes that write some of `fields` and are lost now (STOPPED, DEAD, or silent
+    past the heartbeat timeout; `contract.silent`): process -> its fields, in order."""
+    actuated_by: dict[str, str] = getattr(layout, "ACTUATED_BY", {})
+    timeout_ns = int(layout.HEARTBEAT_TIMEOUT * 1e9)
+    now_ns = time.monotonic_ns()
+    lost: dict[str, list[str]] = {}
+    for field in fields:
+        process = actuated_by.get(field, "")
+        if process in layout.PROCESSES and silent(layout, buf, process, timeout_ns, now_ns)[0]:
+            lost.setdefault(process, []).append(field)
+    return lost
 
 
 def mirrored(layout: ModuleType, buf: memoryview) -> None:

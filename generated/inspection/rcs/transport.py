@@ -303,3 +303,47 @@ def check_endpoint(text: str) -> str:
     if not 0 <= int(port) <= 65535:
         raise ValueError(f"endpoint {text!r}: port {port} is not 0..65535")
     return text
+
+
+@dataclass(frozen=True)
+class Security:
+    """A Zenoh node's own TLS and user/password authentication, as files (a deployment
+    host's `tls` and `auth`, rcs/deploy.py): mutual TLS with `root_ca` as the one trusted
+    authority and `certificate`/`key` as this node's identity; `user` with the password in
+    `password_file`, and `users_file` (`user:password` lines) the credentials this node
+    accepts. Empty: none of it (plaintext, anyone may join). Paths only, never a secret:
+    the form a launcher hands its children (`--security`)."""
+
+    root_ca: str = ""
+    certificate: str = ""
+    key: str = ""
+    user: str = ""
+    password_file: str = ""
+    users_file: str = ""
+
+    @property
+    def tls(self) -> bool:
+        return bool(self.root_ca)
+
+    @property
+    def auth(self) -> bool:
+        return bool(self.user)
+
+    def to_text(self) -> str:
+        import json
+
+        return json.dumps({k: v for k, v in vars(self).items() if v}, sort_keys=True)
+
+    @classmethod
+    def from_text(cls, text: str) -> Security:
+        """The form `to_text` wrote; ValueError for anything else."""
+        import json
+
+        try:
+            values = json.loads(text)
+            return cls(**{str(k): str(v) for k, v in values.items()})
+        except (ValueError, TypeError, AttributeError):
+            raise ValueError(f"--security: not what a launcher passes: {text[:40]!r}") from None
+
+
+PLAINTEXT = Security()  # no TLS, no authentication: what a node has unless a deployment says

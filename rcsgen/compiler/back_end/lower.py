@@ -76,7 +76,9 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         for c in checked.controllers.values()
     )
     processes = tuple(
-        ir.IRProcess(p.name, p.cycle_period, p.doc, p.modules, p.roots, dict(p.stand_ins))
+        ir.IRProcess(
+            p.name, p.cycle_period, p.doc, p.modules, p.roots, dict(p.stand_ins), dict(p.watchdog)
+        )
         for p in checked.processes
     )
     layout = plan_layout(spec.name, (p.name for p in processes), controllers, world)
@@ -108,6 +110,14 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         access=operators.access(
             spec.operators, [c.name for c in controllers if c.buffers == c.name]
         ),
+        role_holders={
+            r.name: (tuple(u.value for u in r.users), tuple(g.value for g in r.groups))
+            for r in spec.operators.roles.values()
+            if r.members
+        },
+        segment_group=spec.operators.segment_group.value
+        if spec.operators.segment_group is not None
+        else None,
         requests=tuple(
             ir.IRRequest(r.name, r.doc, r.by.value, r.open_while.value, *r.answer.value.split("."))
             for r in spec.operators.requests.values()

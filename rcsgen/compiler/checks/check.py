@@ -113,7 +113,7 @@ def _process(
     }
     roots = tuple(m for m in modules if m not in ruled)
     period = p.cycle_period or system.cycle_period
-    return CheckedProcess(p.name, period, p.doc, modules, roots, replaces)
+    return CheckedProcess(p.name, period, p.doc, modules, roots, replaces, dict(p.watchdog))
 
 
 # ---------------------------------------------------------------- system-wide checks

@@ -164,6 +164,9 @@ LAYOUT_NAMES = frozenset(
         "PARAMS",
         "SETTINGS",
         "READS_SETTINGS",
+        "ROLES",
+        "ROLE_HOLDERS",
+        "SEGMENT_GROUP",
         "WORLD_WRITERS",
         "GROUND_TRUTH",
     }

@@ -77,6 +77,7 @@ def check(
                         f"an operator commands a module out of its supervisor's turn only by "
                         f"overriding it: grant `override` on `{module.value}` (and `{boss}`)",
                     )
+    _check_holders(operators, diags)
     for request in operators.requests.values():
         if request.by.value not in by_name:
             diags.error(
@@ -98,6 +99,43 @@ def check(
                 else "",
             )
         _check_answer(request, by_name, supervisors, diags)
+
+
+def _check_holders(operators: Operators, diags: Diagnostics) -> None:
+    """Once a role names who holds it, every role must (E810): a role anyone may claim
+    would hand its access to every user who can open the segment. Holders other than the
+    segment's creator need the segment's group to open it at all (W811)."""
+    roles = list(operators.roles.values())
+    held = [r for r in roles if r.members]
+    if not held:
+        return
+    for role in roles:
+        if not role.members:
+            diags.error(
+                role.span,
+                "E810",
+                f"role `{role.name}` names no `users` or `groups`, while `{held[0].name}` "
+                f"does: any user who can open the segment could claim `{role.name}`",
+                f"list who holds it (`users: [...]`, `groups: [...]`), as for `{held[0].name}`",
+            )
+    if operators.segment_group is not None:
+        return
+    users: list[str] = []
+    for role in held:
+        users += [u.value for u in role.users if u.value not in users]
+        if role.groups or len(users) > 1:
+            who = f"group `{role.groups[0].value}`" if role.groups else f"user `{users[-1]}`"
+            at = role.groups[0].span if role.groups else role.users[-1].span
+            diags.warning(
+                at,
+                "W811",
+                f"role `{role.name}` is held by {who}, but no `segment_group` is declared: "
+                f"the segment is mode 0600, its creator's alone, so no other user can open "
+                f"it to act in a role",
+                "declare `operators: {segment_group: GROUP}`, the OS group whose members "
+                "run the consoles (docs/access.md)",
+            )
+            return
 
 
 def _check_answer(

@@ -343,6 +343,7 @@ class CheckedProcess:
     roots: tuple[str, ...]  # modules with no supervisor
     # controller -> (its stand-in, the modules of this process it replaces: itself + subtree)
     stand_ins: Mapping[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
+    watchdog: Mapping[str, float] = field(default_factory=dict)  # its declared limits
 
 
 @dataclass(frozen=True)

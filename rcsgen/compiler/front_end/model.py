@@ -75,6 +75,8 @@ class Process:
     doc: str
     span: Span
     cycle_period: float | None = None  # its own period, if not the system's
+    # its declared watchdog limits (`watchdog:`), the runtime Watchdog's field -> value
+    watchdog: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -84,6 +86,13 @@ class Role:
     span: Span
     # level -> the modules it is granted on (Located names), or "all" (Located("all"))
     grants: dict[str, list[Located]] = field(default_factory=dict)
+    # who holds it: OS user and group names; neither: anyone who can open the segment
+    users: list[Located] = field(default_factory=list)
+    groups: list[Located] = field(default_factory=list)
+
+    @property
+    def members(self) -> bool:
+        return bool(self.users or self.groups)
 
 
 @dataclass(frozen=True)
@@ -100,6 +109,8 @@ class Request:
 class Operators:
     roles: dict[str, Role] = field(default_factory=dict)
     requests: dict[str, Request] = field(default_factory=dict)
+    # the OS group that shares the segment (mode 0660); None: its creator's alone (0600)
+    segment_group: Located | None = None
 
 
 @dataclass
@@ -338,6 +349,10 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
             spec.get("doc", ""),
             key_span(data["processes"], name, top),
             float(spec["cycle_period"]) if "cycle_period" in spec else None,
+            {
+                str(k): int(v) if k == "window" else float(v)
+                for k, v in (spec.get("watchdog") or {}).items()
+            },
         )
         for name, spec in data["processes"].items()
     ]
@@ -383,7 +398,19 @@ def build_operators(data: Any, top: Span) -> Operators:
                 grants[level] = [
                     Located(m, value_span(listed, i, span)) for i, m in enumerate(listed)
                 ]
-        roles[name] = Role(name, spec.get("doc", ""), span, grants)
+        members = {
+            key: [Located(n, value_span(spec[key], i, span)) for i, n in enumerate(spec[key])]
+            for key in ("users", "groups")
+            if key in spec
+        }
+        roles[name] = Role(
+            name,
+            spec.get("doc", ""),
+            span,
+            grants,
+            members.get("users", []),
+            members.get("groups", []),
+        )
     requests: dict[str, Request] = {}
     for name, spec in (section.get("requests") or {}).items():
         span = key_span(section["requests"], name, top)
@@ -395,7 +422,10 @@ def build_operators(data: Any, top: Span) -> Operators:
             Located(spec["while"], value_span(spec, "while", span)),
             Located(spec["answer"], value_span(spec, "answer", span)),
         )
-    return Operators(roles, requests)
+    group = None
+    if "segment_group" in section:
+        group = Located(section["segment_group"], value_span(section, "segment_group", top))
+    return Operators(roles, requests, group)
 
 
 def _typed(name: str, spec: Any, span: Span) -> Typed:

@@ -30,7 +30,7 @@ from types import ModuleType
 from typing import Any, NoReturn
 
 from .. import override
-from ..block import Block, BlockError
+from ..block import Block, BlockError, group_name, user_name
 from ..contract import (
     ACCESS_LEVELS,
     BUILTIN_COMMANDS,
@@ -155,7 +155,8 @@ def write_answer(
 class Access:
     """What the operator's role may do, module by module (the layout's ROLES, from the
     system file's `operators.roles`). A system that declares no roles restricts nothing;
-    one that does lets an operator without a role only monitor."""
+    one that does lets an operator without a role only monitor. A role that names who
+    holds it (ROLE_HOLDERS) is refused, exit 1, to a user who is not one of them."""
 
     def __init__(self, layout: ModuleType, role: str | None) -> None:
         self.roles: dict[str, dict[str, int]] = getattr(layout, "ROLES", {})
@@ -164,6 +165,10 @@ class Access:
             raise usage(f"{self.system} declares no operator roles; leave out --role")
         if role is not None and role not in self.roles:
             raise usage(suggest(role, list(self.roles), "role"))
+        if role is not None:
+            problem = holder_problem(layout, role)
+            if problem:
+                raise CtlError(f"refused: {problem}")
         self.role = role
 
     def level(self, module: str) -> int:
@@ -197,6 +202,33 @@ class Access:
             cells = [ACCESS_LEVELS[self.roles[r].get(module, 0)].ljust(width) for r in roles]
             lines.append((module.ljust(8) + "".join(cells)).rstrip())
         return lines
+
+
+def holder_problem(layout: ModuleType, role: str) -> str:
+    """'' when this process's user may act in `role`: the role names no holders, or the
+    user is one of its `users` or in one of its `groups` (the process's real, effective and
+    supplementary groups, as `id` lists them); else why not, in one line. The OS decides
+    who a user is: this keeps an honest operator to their role, it does not stop one who
+    can write the segment (docs/access.md)."""
+    holders = getattr(layout, "ROLE_HOLDERS", {}).get(role)
+    if holders is None:
+        return ""
+    users, groups = holders
+    me = user_name(os.geteuid())
+    mine = sorted({group_name(g) for g in {os.getgid(), os.getegid(), *os.getgroups()}})
+    if me in users or set(groups) & set(mine):
+        return ""
+    held = " and ".join(
+        part
+        for part in (
+            f"user(s) {', '.join(users)}" if users else "",
+            f"members of {', '.join(groups)}" if groups else "",
+        )
+        if part
+    )
+    return (
+        f"role {role} of {layout.SYSTEM} is held by {held}; you are {me} (groups {', '.join(mine)})"
+    )
 
 
 # ---------------------------------------------------------------- the console
@@ -527,7 +559,10 @@ class Console:
         names = [self.field(f) for f in fields] or list(self.overrides())
         for field in names:
             self._forcible(field, f"resetting world.{field}")
-        return override.reset(self.layout, self.buf, names, self.segment)
+        try:
+            return override.reset(self.layout, self.buf, names, self.segment)
+        except override.OverrideError as error:
+            raise CtlError(f"refused: {error}") from None
 
     def overrides(self) -> dict[str, dict[str, Any]]:
         """The world fields under an override now: field -> its state (FORCED or SAFE) and

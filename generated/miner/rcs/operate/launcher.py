@@ -31,6 +31,7 @@ from typing import Any, NoReturn, Self
 
 from ..block import Block, BlockError
 from ..contract import (
+    BEAT,
     DEAD,
     PROCESS_STATES,
     RUNNING,
@@ -42,7 +43,6 @@ from ..contract import (
     shared,
 )
 from ..loop import (
-    _BEAT,
     DONE_REPLY,
     READY,
     STEP,
@@ -57,7 +57,7 @@ from ..loop import (
     start,
 )
 from ..override import latch_safe
-from ..transport import TransportError, check_endpoint
+from ..transport import PLAINTEXT, Security, TransportError, check_endpoint
 from .command import (
     Command,
     outcome,
@@ -66,6 +66,7 @@ from .command import (
     suggest,
     write_command,
 )
+from .ctl import Access, CtlError
 from .startup import (
     FAILURES,
     START_FAILED,
@@ -252,7 +253,7 @@ def network_options(system: System, args: argparse.Namespace) -> Any:
     from ..zenoh_transport import Options
 
     lease_ms = max(100, int(system.layout.HEARTBEAT_TIMEOUT * 1000))
-    return Options(tuple(args.listen), tuple(args.connect), lease_ms)
+    return Options(tuple(args.listen), tuple(args.connect), lease_ms, args.security)
 
 
 def watch_the_launcher(stop: Stop, segment: str) -> None:
@@ -345,6 +346,7 @@ class Launcher:
         connect: Sequence[str] = (),
         processes: Sequence[str] | None = None,
         also_listen: Sequence[str] = (),
+        security: Security = PLAINTEXT,
     ) -> None:
         self.system = system
         self.segment = segment or system.default_segment
@@ -352,10 +354,11 @@ class Launcher:
         # the launcher's block mirrors them all: a local `ctl`, a harness and the summary
         # read it as they read the shared one. Its node listens where the processes connect.
         self.transport_name = transport
-        self.listen = listen or f"tcp/127.0.0.1:{free_port()}"
+        self.listen = listen or f"{'tls' if security.tls else 'tcp'}/127.0.0.1:{free_port()}"
         # A host of a deployment (`--deploy`): only its processes here, its node also
         # listening on the host's other endpoints and connecting to the other hosts.
         self.connect, self.also_listen = tuple(connect), tuple(also_listen)
+        self.security = security  # a deployment host's TLS and authentication, or none
         self.processes = list(system.plans) if processes is None else list(processes)
         self.net: Any = None
         self.lockstep, self.pace, self.cycles = lockstep, pace, cycles
@@ -389,7 +392,9 @@ class Launcher:
                 lease_ms = max(100, int(self.system.layout.HEARTBEAT_TIMEOUT * 1000))
                 self.net = ZenohTransport(
                     Mirror(self.system.layout, self.block),
-                    Options((self.listen, *self.also_listen), self.connect, lease_ms),
+                    Options(
+                        (self.listen, *self.also_listen), self.connect, lease_ms, self.security
+                    ),
                     block_when_congested=self.lockstep,
                 )
             for name in self.processes:
@@ -410,7 +415,7 @@ class Launcher:
             missing = [
                 n
                 for n in self.processes
-                if _BEAT.unpack_from(buf, layout.PROCESSES[n].offset)[4] < 1
+                if BEAT.unpack_from(buf, layout.PROCESSES[n].offset)[4] < 1
             ]
             ended = {
                 n: c.popen.poll() for n, c in self.children.items() if c.popen.poll() is not None
@@ -438,7 +443,9 @@ class Launcher:
         if self.transport_name == "zenoh":  # its own block, a peer of the launcher's node
             command[5] = f"{self.segment}_{name}"
             command += ["--transport", "zenoh", "--connect", self.listen]
-            command += ["--listen", "tcp/127.0.0.1:0"]
+            command += ["--listen", f"{'tls' if self.security.tls else 'tcp'}/127.0.0.1:0"]
+            if self.security != PLAINTEXT:  # paths only: no secret on a command line
+                command += ["--security", self.security.to_text()]
         else:
             command += ["--attach"] if attach else []
         command += ["--lockstep"] if self.lockstep else []
@@ -505,7 +512,7 @@ class Launcher:
         its slow-down), found again when it beats; a new watchdog trip is a fault too."""
         assert self.block is not None
         layout, buf = self.system.layout, self.block.buf
-        _, _, _, trips, _, beat_ns = _BEAT.unpack_from(buf, layout.PROCESSES[name].offset)
+        _, _, _, trips, _, beat_ns = BEAT.unpack_from(buf, layout.PROCESSES[name].offset)
         if self.net is not None or self.lockstep:
             return
         slow = 1.0
@@ -828,7 +835,25 @@ def main(package: str, argv: list[str] | None = None) -> int:
     parsed = parse_args(system, argv)
     if parsed is None:  # the deployment file is wrong: its located error is said
         return 2
+    refused = check_role(system, parsed[0])
+    if refused:
+        return refused
     return dispatch(system, *parsed)
+
+
+def check_role(system: System, args: argparse.Namespace) -> int:
+    """`--role R`: held by the user who runs this (system.yaml `operators.roles`), and with
+    --send its command access; 0, or the refusal's exit code after its one line."""
+    if args.role is None:
+        return 0
+    try:
+        access = Access(system.layout, args.role)
+        if args.send is not None:
+            access.require("command", args.send.module, f"--send {args.send}")
+    except CtlError as error:
+        print(f"{system.layout.SYSTEM}: {error}", file=sys.stderr)
+        return error.code
+    return 0
 
 
 def dispatch(system: System, args: argparse.Namespace, host: Any = None) -> int:
@@ -872,6 +897,8 @@ def parser(system: System) -> argparse.ArgumentParser:
         "--lockstep", action="store_true", help="step the processes in lockstep (no pacing)"
     )
     top.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    # a deployment host's TLS and authentication files, as its launcher passes them on
+    top.add_argument("--security", default=None, help=argparse.SUPPRESS)
     top.add_argument(
         "--transport",
         choices=("shm", "zenoh"),
@@ -925,6 +952,13 @@ def parser(system: System) -> argparse.ArgumentParser:
         help="run this controller's stand-in in its place (repeatable)",
     )
     top.add_argument(
+        "--role",
+        default=None,
+        help="act in this operator role (system.yaml `operators.roles`): refused unless you "
+        "hold it; --send then needs its command access (without --role, the user who starts "
+        "the system owns it)",
+    )
+    top.add_argument(
         "--world",
         action="append",
         default=[],
@@ -942,6 +976,7 @@ def parse_args(system: System, argv: list[str]) -> tuple[argparse.Namespace, Any
     args = usage.parse_args(argv)
     host = None
     try:
+        args.security = Security.from_text(args.security) if args.security else PLAINTEXT
         _check_settings(system, args)
         if args.deploy is not None:
             host = deployed(system, args)
@@ -1027,6 +1062,7 @@ def deployed(system: System, args: argparse.Namespace) -> Any:
         print(error, file=sys.stderr)
         return None
     args.transport, args.listen, args.connect = "zenoh", list(host.listen), list(host.connect)
+    args.security = host.security
     args.process = host.processes[0] if len(host.processes) == 1 else None
     return host
 
@@ -1103,6 +1139,7 @@ def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
         connect=args.connect,
         processes=None if host is None else host.processes,
         also_listen=args.listen[1:],
+        security=args.security,
     )
     try:
         launcher.start()

@@ -3,29 +3,38 @@
 
 Where each process runs is configuration, not spec: `python -m <system> --deploy FILE
 [HOST]` runs the processes the file puts on HOST with the endpoints it gives that host,
-over Zenoh. The file is JSON because this module is vendored into every generated package,
-which needs nothing but Python (no YAML); positions are kept for every key and value, so a
-mistake is one line `FILE:LINE:COL: error[E43x]: ...`. Standard library only.
+over Zenoh, with its own TLS and user/password authentication when the host declares them
+(`tls`, `auth`: files, relative to the deployment file; docs/access.md). The file is JSON
+because this module is vendored into every generated package, which needs nothing but
+Python (no YAML); positions are kept for every key and value, so a mistake is one line
+`FILE:LINE:COL: error[E43x]: ...`. Standard library only.
 
     {"system": "miner",
      "hosts": {"vehicle": {"processes": ["pc1"], "listen": ["tcp/192.0.2.10:7447"],
                            "connect": ["tcp/192.0.2.20:7447"]},
                "planner": {"processes": ["pc2"], "listen": ["tcp/192.0.2.20:7447"]}}}
+
+A host's `"tls": {"root_ca": "ca.pem", "certificate": "planner.pem", "key": "planner.key"}`
+and `"auth": {"user": "planner", "password_file": "planner.pw", "users_file": "users.txt"}`.
 """
 
 from __future__ import annotations
 
 import difflib
 import json
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ..contract import shared
-from ..transport import check_endpoint
+from ..transport import PLAINTEXT, Security, check_endpoint
 
-HOST_KEYS = ("processes", "listen", "connect")
+HOST_KEYS = ("processes", "listen", "connect", "tls", "auth")
+TLS_KEYS = ("root_ca", "certificate", "key")
+AUTH_KEYS = ("user", "password_file", "users_file")
+SECRETS = ("key", "password_file", "users_file")  # no one but their owner may read them
 TOP_KEYS = ("system", "hosts")
 UNREADABLE, UNKNOWN_HOST = "E430", "E437"
 
@@ -43,6 +52,7 @@ class Host:
     processes: tuple[str, ...]
     listen: tuple[str, ...]
     connect: tuple[str, ...]
+    security: Security = PLAINTEXT  # its TLS and authentication; PLAINTEXT: none, open
 
 
 @dataclass(frozen=True)
@@ -94,22 +104,122 @@ def load(path: str, system: str, processes: list[str]) -> Deployment:
     return check(_Parser(text).value(), path, system, processes)
 
 
-def check(root: Node, path: str, system: str, processes: list[str]) -> Deployment:
-    """The hosts of a parsed deployment file; the first mistake as a located DeployError."""
+class _Checker:
+    """The located checks of one deployment file (`path`), its relative paths resolved from
+    its directory."""
 
-    def fail(node: Node, code: str, message: str) -> DeployError:
-        return DeployError(f"{path}:{node.line}:{node.col}: error[{code}]: {message}")
+    def __init__(self, path: str) -> None:
+        self.path = path
+        self.here = os.path.dirname(os.path.abspath(path))
 
-    def keys(node: Node, allowed: tuple[str, ...], what: str) -> None:
-        expect(node, dict, "an object", what)
+    def fail(self, node: Node, code: str, message: str) -> DeployError:
+        return DeployError(f"{self.path}:{node.line}:{node.col}: error[{code}]: {message}")
+
+    def keys(self, node: Node, allowed: tuple[str, ...], what: str) -> None:
+        self.expect(node, dict, "an object", what)
         for key, (key_node, _) in node.value.items():
             if key not in allowed:
-                raise fail(key_node, "E431", f"unknown key `{key}` in {what}{_hint(key, allowed)}")
+                raise self.fail(
+                    key_node, "E431", f"unknown key `{key}` in {what}{_hint(key, allowed)}"
+                )
 
-    def expect(node: Node, kind: type, name: str, what: str) -> None:
+    def expect(self, node: Node, kind: type, name: str, what: str) -> None:
         if not isinstance(node.value, kind):
-            raise fail(node, "E432", f"{what} must be {name}, not {_kind(node.value)}")
+            raise self.fail(node, "E432", f"{what} must be {name}, not {_kind(node.value)}")
 
+    def files(
+        self, host_node: Node, key: str, wanted: tuple[str, ...], host: str
+    ) -> dict[str, str]:
+        """A host's `tls` or `auth` object: each key given, each file readable (E440) and
+        each secret its owner's alone (E441); the paths made absolute."""
+        if key not in host_node.value:
+            return {}
+        node = host_node.value[key][1]
+        self.keys(node, wanted, f"`{key}` of host `{host}`")
+        found = {}
+        for item in wanted:
+            if item not in node.value:
+                raise self.fail(node, "E431", f"`{key}` of host `{host}` has no `{item}`")
+            value = node.value[item][1]
+            self.expect(value, str, "a string", f"`{key}.{item}` of host `{host}`")
+            found[item] = value.value
+            if item == "user":
+                continue
+            full = os.path.join(self.here, value.value)
+            try:
+                with open(full, "rb"):
+                    pass
+                mode = os.stat(full).st_mode & 0o777
+            except OSError as error:
+                raise self.fail(
+                    value, "E440", f"cannot read {value.value}: {error.strerror}"
+                ) from None
+            if item in SECRETS and mode & 0o077:
+                raise self.fail(
+                    value,
+                    "E441",
+                    f"{value.value} holds a secret but others may read it (mode {mode:04o}): "
+                    f"chmod 600 {value.value}",
+                )
+            found[item] = full
+        return found
+
+    def item(
+        self,
+        item: Node,
+        key: str,
+        name: str,
+        tls: dict[str, str],
+        system: str,
+        processes: list[str],
+        placed: dict[str, str],
+        endpoints: dict[str, str],
+    ) -> None:
+        """One item of host `name`'s `processes`, `listen` or `connect` list, checked (and
+        recorded in `placed` or `endpoints`)."""
+        if key == "processes":
+            if item.value not in processes:
+                raise self.fail(
+                    item,
+                    "E433",
+                    f"`{system}` has no process `{item.value}`{_hint(item.value, processes)}",
+                )
+            if item.value in placed:
+                raise self.fail(
+                    item,
+                    "E434",
+                    f"process `{item.value}` is on host `{placed[item.value]}` already",
+                )
+            placed[item.value] = name
+            return
+        try:
+            check_endpoint(item.value)
+        except ValueError as error:
+            raise self.fail(item, "E435", str(error)) from None
+        if bool(tls) != item.value.startswith("tls/"):
+            raise self.fail(
+                item,
+                "E442",
+                f"host `{name}` declares `tls`, so its endpoints are tls/HOST:PORT, "
+                f"not {item.value}"
+                if tls
+                else f"{item.value} is a TLS endpoint, but host `{name}` declares no "
+                "`tls` (its certificate and key)",
+            )
+        if key == "listen":
+            if item.value in endpoints:
+                raise self.fail(
+                    item,
+                    "E439",
+                    f"host `{endpoints[item.value]}` listens on {item.value} already",
+                )
+            endpoints[item.value] = name
+
+
+def check(root: Node, path: str, system: str, processes: list[str]) -> Deployment:
+    """The hosts of a parsed deployment file; the first mistake as a located DeployError."""
+    checker = _Checker(path)
+    fail, keys, expect, files = checker.fail, checker.keys, checker.expect, checker.files
     keys(root, TOP_KEYS, "the deployment")
     for key in TOP_KEYS:
         if key not in root.value:
@@ -129,12 +239,15 @@ def check(root: Node, path: str, system: str, processes: list[str]) -> Deploymen
     placed: dict[str, str] = {}
     endpoints: dict[str, str] = {}
     hosts: dict[str, Host] = {}
+
     for name, (name_node, host_node) in hosts_node.value.items():
         keys(host_node, HOST_KEYS, f"host `{name}`")
         if "processes" not in host_node.value:
             raise fail(host_node, "E431", f"host `{name}` has no `processes`")
         lists: dict[str, list[str]] = {}
-        for key in HOST_KEYS:
+        tls = files(host_node, "tls", TLS_KEYS, name)
+        auth = files(host_node, "auth", AUTH_KEYS, name)
+        for key in HOST_KEYS[:3]:
             if key not in host_node.value:
                 lists[key] = []
                 continue
@@ -144,34 +257,7 @@ def check(root: Node, path: str, system: str, processes: list[str]) -> Deploymen
                 expect(item, str, "a string", f"an item of `{key}` of host `{name}`")
             lists[key] = [item.value for item in node.value]
             for item in node.value:
-                if key == "processes":
-                    if item.value not in processes:
-                        raise fail(
-                            item,
-                            "E433",
-                            f"`{system}` has no process `{item.value}`"
-                            f"{_hint(item.value, processes)}",
-                        )
-                    if item.value in placed:
-                        raise fail(
-                            item,
-                            "E434",
-                            f"process `{item.value}` is on host `{placed[item.value]}` already",
-                        )
-                    placed[item.value] = name
-                    continue
-                try:
-                    check_endpoint(item.value)
-                except ValueError as error:
-                    raise fail(item, "E435", str(error)) from None
-                if key == "listen":
-                    if item.value in endpoints:
-                        raise fail(
-                            item,
-                            "E439",
-                            f"host `{endpoints[item.value]}` listens on {item.value} already",
-                        )
-                    endpoints[item.value] = name
+                checker.item(item, key, name, tls, system, processes, placed, endpoints)
         if not lists["processes"]:
             raise fail(host_node, "E431", f"host `{name}` runs no process")
         if len(hosts_node.value) > 1 and not (lists["listen"] or lists["connect"]):
@@ -185,7 +271,18 @@ def check(root: Node, path: str, system: str, processes: list[str]) -> Deploymen
             tuple(lists["processes"]),
             tuple(lists["listen"]),
             tuple(lists["connect"]),
+            Security(**tls, **auth),
         )
+    for flag, code, what in (("tls", "E442", "TLS"), ("auth", "E443", "authentication")):
+        some = [h for h in hosts.values() if getattr(h.security, flag)]
+        for host in hosts.values():
+            if some and not getattr(host.security, flag):
+                raise fail(
+                    hosts_node.value[host.name][0],
+                    code,
+                    f"host `{host.name}` declares no `{flag}`, while `{some[0].name}` does: "
+                    f"a host without {what} cannot join the others",
+                )
     missing = [p for p in processes if p not in placed]
     if missing:
         raise fail(
