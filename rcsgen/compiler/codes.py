@@ -70,13 +70,13 @@ class Topic(Enum):
     DEPLOYMENT = ("deployment files (`--deploy`)", "`rcsgen/runtime/deploy.py`")
     ANALYSIS = ("static analysis of the tables", "`rcsgen/compiler/analysis/tables.py`")
     NAMES = ("names and text that reach generated code", "`rcsgen/compiler/checks/naming.py`")
-    INSTANCES = (
-        "instances of templates (a controller and its subtree written once)",
-        "`rcsgen/compiler/front_end/instances.py`",
-    )
     SAFETY = (
         "fail safe: actuators' safe values and `on_lost` policies",
         "`rcsgen/compiler/checks/check.py`, `analysis/tables.py`",
+    )
+    INSTANCES = (
+        "instances of templates (a controller and its subtree written once)",
+        "`rcsgen/compiler/front_end/instances.py`",
     )
 
     @property
@@ -313,16 +313,16 @@ _ALL = (
     warning("W520", Topic.WORLD, "actuator without a HALT that stops it"),
     error("E601", Topic.NAMES, "invalid identifier"),
     error("E602", Topic.NAMES, "line break in a one-line text"),
-    error("E701", Topic.INSTANCES, "unknown template"),
-    error("E702", Topic.INSTANCES, "unknown template parameter"),
-    error("E703", Topic.INSTANCES, "missing binding"),
-    error("E704", Topic.INSTANCES, "binding to an unknown world field"),
-    error("E705", Topic.INSTANCES, "binding or value of the wrong type"),
-    error("E706", Topic.INSTANCES, "name made twice by instances"),
-    error("E707", Topic.INSTANCES, "malformed template"),
-    error("E708", Topic.INSTANCES, "template controller uses an undeclared world field"),
     error("E801", Topic.SAFETY, "bad safe value of a world field"),
     error("E802", Topic.SAFETY, "bad `on_lost` policy"),
+    error("E901", Topic.INSTANCES, "unknown template"),
+    error("E902", Topic.INSTANCES, "unknown template parameter"),
+    error("E903", Topic.INSTANCES, "missing binding"),
+    error("E904", Topic.INSTANCES, "binding to an unknown world field"),
+    error("E905", Topic.INSTANCES, "binding or value of the wrong type"),
+    error("E906", Topic.INSTANCES, "name made twice by instances"),
+    error("E907", Topic.INSTANCES, "malformed template"),
+    error("E908", Topic.INSTANCES, "template controller uses an undeclared world field"),
 )
 CODES: dict[str, Code] = {c.code: c for c in _ALL}
 # Every warning rcsgen reports (what --select and --ignore can name).

@@ -17,9 +17,9 @@ are checked, their own fields, simulators and stand-ins are added to the system'
 before its schema check: every later stage sees ordinary controllers. The copies keep the
 spans of the template's text; `annotate` adds the instance to a diagnostic found there.
 
-Diagnostics: E701 unknown template, E702 unknown parameter, E703 missing binding, E704 binding
-to an unknown world field, E705 a value or binding of the wrong type, E706 a name two
-instances (or an instance and the system) both make, E707 a malformed template, E708 a
+Diagnostics: E901 unknown template, E902 unknown parameter, E903 missing binding, E904 binding
+to an unknown world field, E905 a value or binding of the wrong type, E906 a name two
+instances (or an instance and the system) both make, E907 a malformed template, E908 a
 template controller using a world field its template does not declare; a template's file that
 is no controller is E225, one named unlike its controller E222, as in a system directory.
 """
@@ -111,13 +111,13 @@ def _templates_in(directory: Path) -> list[str]:
 def load_template(
     directory: Path, name: str, at: Span, show: Callable[[Path], str], diags: Diagnostics
 ) -> Template | None:
-    """The template `<directory>/<name>/`, checked, or None after its problems (E701 when
+    """The template `<directory>/<name>/`, checked, or None after its problems (E901 when
     there is none)."""
     path = directory / name / FILE
     if not path.is_file():
         diags.error(
             at,
-            "E701",
+            "E901",
             f"no template `{name}`: there is no `{name}/{FILE}` beside system.yaml",
             known_names_hint("templates", _templates_in(directory), name),
         )
@@ -136,7 +136,7 @@ def load_template(
     if data["template"] != name:
         diags.error(
             value_span(data, "template", top),
-            "E707",
+            "E907",
             f"template `{data['template']}` is declared in directory `{name}/`",
             f"name it `{name}`: an instance finds its template by its directory",
         )
@@ -210,14 +210,14 @@ def _kind(data: object) -> str | None:
 
 
 def _template_ok(template: Template, data: LocDict, top: Span, diags: Diagnostics) -> bool:
-    """E707 and E708: the template's declarations against its controllers."""
+    """E907 and E908: the template's declarations against its controllers."""
     before = len(diags.errors)
     members = template.members
 
     def unknown(at: Span, what: str, name: str) -> None:
         diags.error(
             at,
-            "E707",
+            "E907",
             f"{what} `{name}` is not a controller of template `{template.name}`",
             known_names_hint("controllers", members, name),
         )
@@ -235,7 +235,7 @@ def _template_ok(template: Template, data: LocDict, top: Span, diags: Diagnostic
         if name in template.world:
             diags.error(
                 template.bind_spans[name],
-                "E707",
+                "E907",
                 f"`{name}` is both a world field of the template and a `bind:` parameter",
                 "a field is the instance's own (`world:`) or the system's (`bind:`), not both",
             )
@@ -244,7 +244,7 @@ def _template_ok(template: Template, data: LocDict, top: Span, diags: Diagnostic
         if default is not None and not _fits(str(spec["type"]), default):
             diags.error(
                 value_span(spec, "default", top),
-                "E707",
+                "E907",
                 f"the default of `{name}` is not {_words(str(spec['type']))}: {default!r}",
             )
     names = {*template.world, *template.bind}
@@ -253,7 +253,7 @@ def _template_ok(template: Template, data: LocDict, top: Span, diags: Diagnostic
         for key in [k for k in body.get("constants") or {} if k in template.constants]:
             diags.error(
                 key_span(body["constants"], key, at),
-                "E707",
+                "E907",
                 f"`{member}` declares constant `{key}`, a constant of its template",
                 f"remove it here: each instance gives `{key}` (template.yaml declares it)",
             )
@@ -263,7 +263,7 @@ def _template_ok(template: Template, data: LocDict, top: Span, diags: Diagnostic
                 if name not in names:
                     diags.error(
                         value_span(world[side], i, at),
-                        "E708",
+                        "E908",
                         f"world field `{name}` is not declared by template `{template.name}`",
                         known_names_hint("fields", names, str(name))
                         + "; a template declares its own fields (`world:`) and the ones each "
@@ -316,7 +316,7 @@ def expand_system(
 def _instance(
     name: str, spec: LocDict, template: Template, at: Span, system: LocDict, diags: Diagnostics
 ) -> Instance | None:
-    """One instance's parameters checked against its template (E702-E705)."""
+    """One instance's parameters checked against its template (E902-E905)."""
     before = len(diags.errors)
     where = f"template `{template.name}`"
     constants: dict[str, tuple[object, Span]] = {}
@@ -326,14 +326,14 @@ def _instance(
         if declared is None:
             diags.error(
                 key_span(given, key, at),
-                "E702",
+                "E902",
                 f"`{key}` is not a constant of {where}",
                 known_names_hint("constants", template.constants, key),
             )
         elif not _fits(str(declared["type"]), value):
             diags.error(
                 value_span(given, key, at),
-                "E705",
+                "E905",
                 f"`{key}` of {where} is {_words(str(declared['type']))}, not {value!r}",
             )
         else:
@@ -345,7 +345,7 @@ def _instance(
         elif key not in given:
             diags.error(
                 at,
-                "E703",
+                "E903",
                 f"instance `{name}` gives no value for constant `{key}` of {where}",
                 f"add `constants: {{{key}: ...}}` to it (template.yaml declares `{key}` "
                 "without a default)",
@@ -356,14 +356,14 @@ def _instance(
         if key not in template.bind:
             diags.error(
                 key_span(bound, key, at),
-                "E702",
+                "E902",
                 f"`{key}` is not a `bind:` parameter of {where}",
                 known_names_hint("parameters", template.bind, key),
             )
         elif target not in world:
             diags.error(
                 value_span(bound, key, at),
-                "E704",
+                "E904",
                 f"`{key}` is bound to `{target}`, which is not a world field of the system",
                 known_names_hint("world fields", world, str(target)),
             )
@@ -372,7 +372,7 @@ def _instance(
             if have != want:
                 diags.error(
                     value_span(bound, key, at),
-                    "E705",
+                    "E905",
                     f"`{key}` of {where} is {want.words}, but world field `{target}` is "
                     f"{have.words}",
                     f"bind it to a field of type {want} (declared at {template.bind_spans[key]})",
@@ -381,7 +381,7 @@ def _instance(
         if key not in bound:
             diags.error(
                 at,
-                "E703",
+                "E903",
                 f"instance `{name}` does not bind `{key}`, a world field of {where}",
                 f"add `bind: {{{key}: <a world field>}}` to it",
             )
@@ -398,7 +398,7 @@ def _instance(
 def _collisions(
     made: list[Instance], data: LocDict, directory: Path, diags: Diagnostics
 ) -> bool:
-    """E706 for each module or world field name an instance makes that is taken."""
+    """E906 for each module or world field name an instance makes that is taken."""
     before = len(diags.errors)
     modules = {p.stem: f"`{p.name}`" for p in sorted(directory.glob("*.yaml"))}
     fields = {str(f): "system.yaml's `world:`" for f in data.get("world") or {}}
@@ -410,7 +410,7 @@ def _collisions(
             if name in taken:
                 diags.error(
                     instance.span,
-                    "E706",
+                    "E906",
                     f"instance `{instance.name}` makes {kind} `{name}`, which {taken[name]} "
                     "already makes",
                     "rename the instance (or the other): each module and each field has one name",
