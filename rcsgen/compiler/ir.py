@@ -13,6 +13,7 @@ import struct
 from dataclasses import dataclass, field
 from functools import cached_property
 
+from ..runtime.contract import STARTUP_TIMEOUT
 from . import expressions as expr
 from .checks.tables import RuleId
 from .diagnostics import Span
@@ -571,6 +572,7 @@ class IRSystem:
     # The run settings its hook-state factories read (name, doc); None: not declared (any
     # setting is taken when a controller has a factory, none otherwise)
     settings: tuple[tuple[str, str], ...] | None = None
+    startup_timeout: float = STARTUP_TIMEOUT  # seconds the start-up barrier waits
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)
