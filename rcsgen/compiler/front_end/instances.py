@@ -247,8 +247,14 @@ def _template_ok(template: Template, data: LocDict, top: Span, diags: Diagnostic
                 "E907",
                 f"the default of `{name}` is not {_words(str(spec['type']))}: {default!r}",
             )
+    _members_ok(template, diags)
+    return len(diags.errors) == before
+
+
+def _members_ok(template: Template, diags: Diagnostics) -> None:
+    """E907 and E908: each controller of the template against its declarations."""
     names = {*template.world, *template.bind}
-    for member, (path, body) in members.items():
+    for member, (path, body) in template.members.items():
         at = span_of(body, Span(str(path)))
         for key in [k for k in body.get("constants") or {} if k in template.constants]:
             diags.error(
@@ -269,7 +275,6 @@ def _template_ok(template: Template, data: LocDict, top: Span, diags: Diagnostic
                         + "; a template declares its own fields (`world:`) and the ones each "
                         "instance binds (`bind:`) in template.yaml",
                     )
-    return len(diags.errors) == before
 
 
 def _fits(kind: str, value: object) -> bool:
@@ -318,6 +323,24 @@ def _instance(
 ) -> Instance | None:
     """One instance's parameters checked against its template (E902-E905)."""
     before = len(diags.errors)
+    constants = _given_constants(name, spec, template, at, diags)
+    bound = _given_bindings(name, spec, template, at, system, diags)
+    if len(diags.errors) > before:
+        return None
+    root = template.members[template.root][1]
+    title = str(spec.get("title") or f"{root['title']} ({name})")
+    instance = Instance(
+        name, template, at, title, constants, {str(k): str(v) for k, v in bound.items()}
+    )
+    instance.modules = {member: instance.module(member) for member in template.members}
+    instance.fields = {f: f"{name}_{f}" for f in template.world} | instance.bind
+    return instance
+
+
+def _given_constants(
+    name: str, spec: LocDict, template: Template, at: Span, diags: Diagnostics
+) -> dict[str, tuple[object, Span]]:
+    """The instance's value of each template constant, given or default (E902, E903, E905)."""
     where = f"template `{template.name}`"
     constants: dict[str, tuple[object, Span]] = {}
     given = spec.get("constants") or LocDict(at)
@@ -350,6 +373,15 @@ def _instance(
                 f"add `constants: {{{key}: ...}}` to it (template.yaml declares `{key}` "
                 "without a default)",
             )
+    return constants
+
+
+def _given_bindings(
+    name: str, spec: LocDict, template: Template, at: Span, system: LocDict, diags: Diagnostics
+) -> LocDict:
+    """The instance's `bind:`, each parameter checked against the system's world fields
+    (E902-E905)."""
+    where = f"template `{template.name}`"
     bound = spec.get("bind") or LocDict(at)
     world = system.get("world") or {}
     for key, target in bound.items():
@@ -385,19 +417,10 @@ def _instance(
                 f"instance `{name}` does not bind `{key}`, a world field of {where}",
                 f"add `bind: {{{key}: <a world field>}}` to it",
             )
-    if len(diags.errors) > before:
-        return None
-    root = template.members[template.root][1]
-    title = str(spec.get("title") or f"{root['title']} ({name})")
-    instance = Instance(name, template, at, title, constants, {str(k): str(v) for k, v in bound.items()})
-    instance.modules = {member: instance.module(member) for member in template.members}
-    instance.fields = {f: f"{name}_{f}" for f in template.world} | instance.bind
-    return instance
+    return bound
 
 
-def _collisions(
-    made: list[Instance], data: LocDict, directory: Path, diags: Diagnostics
-) -> bool:
+def _collisions(made: list[Instance], data: LocDict, directory: Path, diags: Diagnostics) -> bool:
     """E906 for each module or world field name an instance makes that is taken."""
     before = len(diags.errors)
     modules = {p.stem: f"`{p.name}`" for p in sorted(directory.glob("*.yaml"))}
@@ -485,7 +508,9 @@ def rename(data: LocDict, instance: Instance, member: str) -> LocDict:
     if member == template.root:
         out["title"] = LocStr(instance.title, span_of(data["title"], out.span))
     else:
-        out["title"] = LocStr(f"{data['title']} ({instance.name})", span_of(data["title"], out.span))
+        out["title"] = LocStr(
+            f"{data['title']} ({instance.name})", span_of(data["title"], out.span)
+        )
     _constants(out, instance)
     return out
 
@@ -611,4 +636,3 @@ def _with_instance(found: Diagnostic, made: list[Instance], templates: set[str])
     note = ", ".join(f"instance `{i.name}` ({i.span})" for i in mine[:3])
     note = f"in {note} of template `{mine[0].template.name}`"
     return replace(found, hint=f"{found.hint} ({note})" if found.hint else note)
-
