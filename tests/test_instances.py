@@ -53,3 +53,24 @@ def test_each_instance_s_constants_and_fields_reach_its_own_copy_only(fleet: Pat
     assert {f.name for f in system.world} == {"target", "on", "c1_pos", "c2_pos"}
     assert [f.name for f in controllers["c1_wheel"].world_writes] == ["c1_pos"]
     assert [f.name for f in controllers["c2"].world_reads] == ["target"]
+
+
+def test_an_instance_binds_a_field_another_instance_owns(fleet: Path) -> None:
+    """c2's `goal` bound to c1's own `pos` (a follower of the first cart): c2 reads `c1_pos`,
+    which c1's wheel writes; a misspelt one is E904 naming the instances' fields too."""
+    system_yaml = fleet / "system.yaml"
+    edit(
+        system_yaml,
+        "    constants: {SPEED: 2.0}\n    bind: {goal: target}",
+        "    constants: {SPEED: 2.0}\n    bind: {goal: c1_pos}",
+    )
+    front = compile_paths([fleet])
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics]
+    (system,) = front.systems
+    c2 = next(c for c in system.controllers if c.name == "c2")
+    assert [f.name for f in c2.world_reads] == ["c1_pos"]
+    edit(system_yaml, "bind: {goal: c1_pos}", "bind: {goal: c1_pso}")
+    found = compile_paths([fleet]).diagnostics
+    assert [(d.code, d.span.line, d.hint) for d in found] == [
+        ("E904", 21, "did you mean `c1_pos`?")
+    ]

@@ -298,17 +298,26 @@ def expand_system(
         return []
     top = span_of(data, Span("system.yaml"))
     templates: dict[str, Template | None] = {}
+    for name, spec in declared.items():
+        wanted = str(spec["template"])
+        if wanted not in templates:
+            where = value_span(spec, "template", key_span(declared, name, top))
+            templates[wanted] = load_template(directory, wanted, where, show, diags)
+    # What an instance may bind: the system's fields and every instance's own (a follower's
+    # `leader_x` bound to `alpha_x`); a name made twice is E906, below.
+    world: dict[str, Any] = {}
+    for name, spec in declared.items():
+        template = templates[str(spec["template"])]
+        if template is not None:
+            world |= {f"{name}_{f}": declaration for f, declaration in template.world.items()}
+    world |= dict(data.get("world") or {})
     made: list[Instance] = []
     for name, spec in declared.items():
         at = key_span(declared, name, top)
-        wanted = str(spec["template"])
-        if wanted not in templates:
-            where = value_span(spec, "template", at)
-            templates[wanted] = load_template(directory, wanted, where, show, diags)
-        template = templates[wanted]
+        template = templates[str(spec["template"])]
         if template is None:
             continue
-        instance = _instance(str(name), spec, template, at, data, diags)
+        instance = _instance(str(name), spec, template, at, world, diags)
         if instance is not None:
             made.append(instance)
     if _collisions(made, data, directory, diags):
@@ -319,12 +328,17 @@ def expand_system(
 
 
 def _instance(
-    name: str, spec: LocDict, template: Template, at: Span, system: LocDict, diags: Diagnostics
+    name: str,
+    spec: LocDict,
+    template: Template,
+    at: Span,
+    world: dict[str, Any],
+    diags: Diagnostics,
 ) -> Instance | None:
     """One instance's parameters checked against its template (E902-E905)."""
     before = len(diags.errors)
     constants = _given_constants(name, spec, template, at, diags)
-    bound = _given_bindings(name, spec, template, at, system, diags)
+    bound = _given_bindings(name, spec, template, at, world, diags)
     if len(diags.errors) > before:
         return None
     root = template.members[template.root][1]
@@ -377,13 +391,17 @@ def _given_constants(
 
 
 def _given_bindings(
-    name: str, spec: LocDict, template: Template, at: Span, system: LocDict, diags: Diagnostics
+    name: str,
+    spec: LocDict,
+    template: Template,
+    at: Span,
+    world: dict[str, Any],
+    diags: Diagnostics,
 ) -> LocDict:
     """The instance's `bind:`, each parameter checked against the system's world fields
     (E902-E905)."""
     where = f"template `{template.name}`"
     bound = spec.get("bind") or LocDict(at)
-    world = system.get("world") or {}
     for key, target in bound.items():
         if key not in template.bind:
             diags.error(
