@@ -6,6 +6,7 @@ one controller. Sub-directories (scenarios, hook packages) are not read here.
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -256,7 +257,8 @@ def _system_spec(
     if any(p.severity is Severity.ERROR for p in problems):
         return None
     before = len(diags.errors)
-    made += instances.expand_system(data, system_path.parent, display_path, diags)
+    if isinstance(data, LocDict):  # always, once schema-valid
+        made += instances.expand_system(data, system_path.parent, display_path, diags)
     if len(diags.errors) > before:
         return None
     return model.build_system(data, system_path.parent, shown)
@@ -299,7 +301,7 @@ def _controller_specs(
             diags,
             uses,
             used,
-            lambda expanded, i=instance, m=member: instances.rename(expanded, i, m),
+            functools.partial(_renamed, instance=instance, member=member),
         )
         if spec is not None:
             spec.display = f"{spec.display} (instance {instance.name})"  # (one key per module)
@@ -308,6 +310,10 @@ def _controller_specs(
     if len(diags.errors) == start:  # (a misspelt use would make it noise)
         fragments.report_unused(shared, used, diags)
     return controllers
+
+
+def _renamed(data: LocDict, instance: instances.Instance, member: str) -> LocDict:
+    return instances.rename(data, instance, member)
 
 
 def _controller_spec(

@@ -130,8 +130,8 @@ def load_template(
     if data is None:
         diags.error(Span(shown), "E013", f"`{FILE}` is empty", "declare the template here")
         return None
-    if not _schema(data, "template", shown, diags):
-        return None
+    if not _schema(data, "template", shown, diags) or not isinstance(data, LocDict):
+        return None  # the schema requires a mapping: a problem was reported
     top = span_of(data, Span(shown))
     if data["template"] != name:
         diags.error(
@@ -554,7 +554,7 @@ def _walk(
         out = LocDict(node.span)
         for key, value in node.items():
             if path[-1:] in (("echo_timeouts",), ("on_lost",)):
-                new_key = LocStr(subs.get(key, key), node.key_spans.get(key, node.span))
+                new_key: Any = LocStr(subs.get(key, key), node.key_spans.get(key, node.span))
             elif path[-1:] in (("constants",), ("locals",), ("functions",), ("hooks",)):
                 new_key = key
             else:
