@@ -15,13 +15,20 @@ from rcsgen.compiler.front_end.schema import check_document, schema_for
 SPECS = pathlib.Path(__file__).resolve().parent.parent / "specs"
 MINER = SPECS / "miner"
 # Every shipped spec as an editor sees it: fragments not expanded (`{use: ...}` states).
-EXAMPLES = sorted(p for p in SPECS.glob("*/*.yaml") if p.name != "fragments.yaml")
+# Every spec file: a system's, and a template's (specs/platoon/vehicle/) beside it.
+EXAMPLES = sorted(
+    p
+    for p in [*SPECS.glob("*/*.yaml"), *SPECS.glob("*/*/*.yaml")]
+    if p.name != "fragments.yaml" and p.parent.name != "scenarios"
+)
 SCENARIOS = sorted(SPECS.glob("*/scenarios/*.yaml"))
 
 
 def kind_of(path: pathlib.Path) -> str:
     if path.name == "system.yaml":
         return "system"
+    if path.name == "template.yaml":
+        return "template"
     first = path.read_text(encoding="utf-8").splitlines()[0]
     return "operator" if "operator.schema.json" in first else "controller"
 
@@ -57,7 +64,7 @@ def action(text: str) -> list:
 # ---------------------------------------------------------------- the schemas themselves
 
 
-@pytest.mark.parametrize("kind", ["system", "controller", "operator", "scenario"])
+@pytest.mark.parametrize("kind", ["system", "controller", "operator", "scenario", "template"])
 def test_schema_is_valid_draft_2020_12(kind):
     schema = schema_for(kind)
     Draft202012Validator.check_schema(schema)
@@ -65,7 +72,7 @@ def test_schema_is_valid_draft_2020_12(kind):
     assert schema["$id"] == f"https://rcsgen.dev/schema/v1/{kind}.schema.json"
 
 
-@pytest.mark.parametrize("kind", ["system", "controller", "operator", "scenario"])
+@pytest.mark.parametrize("kind", ["system", "controller", "operator", "scenario", "template"])
 def test_every_property_and_definition_has_a_description(kind):
     missing = []
 
@@ -84,6 +91,14 @@ def test_every_property_and_definition_has_a_description(kind):
     walk(schema, "#")
     missing += [f"#/$defs/{n}" for n, d in schema["$defs"].items() if "description" not in d]
     assert missing == []
+
+
+def test_the_template_schema_declares_world_fields_as_the_system_schema_does():
+    """template.schema.json carries copies of system.schema.json's definitions (an editor
+    reads one file): they must stay the same."""
+    system, template = schema_for("system")["$defs"], schema_for("template")["$defs"]
+    for name in ("mnemonic", "field_name", "value_type_name", "field"):
+        assert template[name] == system[name], name
 
 
 def test_schema_for_is_cached_and_rejects_unknown_kinds():

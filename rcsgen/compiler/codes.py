@@ -78,6 +78,10 @@ class Topic(Enum):
         "access: who holds each operator role, who shares the segment",
         "`rcsgen/compiler/checks/operators.py`",
     )
+    INSTANCES = (
+        "instances of templates (a controller and its subtree written once)",
+        "`rcsgen/compiler/front_end/instances.py`",
+    )
 
     @property
     def what(self) -> str:
@@ -321,6 +325,14 @@ _ALL = (
     error("E802", Topic.SAFETY, "bad `on_lost` policy"),
     error("E810", Topic.ACCESS, "role anyone may claim beside roles with holders"),
     warning("W811", Topic.ACCESS, "role holders who cannot open the segment"),
+    error("E901", Topic.INSTANCES, "unknown template"),
+    error("E902", Topic.INSTANCES, "unknown template parameter"),
+    error("E903", Topic.INSTANCES, "missing binding"),
+    error("E904", Topic.INSTANCES, "binding to an unknown world field"),
+    error("E905", Topic.INSTANCES, "binding or value of the wrong type"),
+    error("E906", Topic.INSTANCES, "name made twice by instances"),
+    error("E907", Topic.INSTANCES, "malformed template"),
+    error("E908", Topic.INSTANCES, "template controller uses an undeclared world field"),
 )
 CODES: dict[str, Code] = {c.code: c for c in _ALL}
 # Every warning rcsgen reports (what --select and --ignore can name).

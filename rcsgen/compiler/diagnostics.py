@@ -60,8 +60,10 @@ class Diagnostic:
     def severity(self) -> Severity:
         return severity_of(self.code)
 
-    def sort_key(self) -> tuple[Span, str, str]:
-        return (self.span, self.code, self.message)
+    def sort_key(self) -> tuple[Span, str, str, str]:
+        # The hint too: one finding in a template's text, once per instance, differs only in
+        # the instance its hint names; without it their order was the set's (hash seeded).
+        return (self.span, self.code, self.message, self.hint)
 
     def as_dict(self) -> dict[str, object]:
         """The JSON form (`--format json`): file, line, col, severity, code, message, hint

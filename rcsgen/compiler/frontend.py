@@ -6,6 +6,7 @@ one controller. Sub-directories (scenarios, hook packages) are not read here.
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -17,7 +18,7 @@ from .checks import acknowledge
 from .checks.check import check_system
 from .codes import Severity
 from .diagnostics import Diagnostics, Span, SpecError
-from .front_end import fragments, model
+from .front_end import fragments, instances, model
 from .front_end.loader import LocDict, PathProblem, load_file, path_problem
 from .front_end.schema import check_document
 from .ir import IRSystem
@@ -174,10 +175,12 @@ def load_system(
     """Load, schema-check, model and check one system directory."""
     first = len(diags.items)
     uses: list[fragments.Use] = []
+    made: list[instances.Instance] = []
     try:
-        return _load_system(directory, diags, progress, uses)
+        return _load_system(directory, diags, progress, uses, made)
     finally:
         fragments.annotate(diags, uses, first)
+        instances.annotate(diags, made, first)
 
 
 def _shared_fragments(directory: Path, diags: Diagnostics) -> dict[str, fragments.Fragment | None]:
@@ -202,13 +205,17 @@ def _shared_fragments(directory: Path, diags: Diagnostics) -> dict[str, fragment
 
 
 def _load_system(
-    directory: Path, diags: Diagnostics, progress: Progress, uses: list[fragments.Use]
+    directory: Path,
+    diags: Diagnostics,
+    progress: Progress,
+    uses: list[fragments.Use],
+    made: list[instances.Instance],
 ) -> IRSystem | None:
     progress(f"loading {display_path(directory)}")
     start, first = len(diags.errors), len(diags.items)
     system_path = directory / SYSTEM_FILE
-    system = _system_spec(system_path, diags)
-    controllers = _controller_specs(directory, diags, uses)
+    system = _system_spec(system_path, diags, made)
+    controllers = _controller_specs(directory, diags, uses, made)
     if system is None or len(diags.errors) > start:
         acknowledge.apply(controllers, diags, first, complete=False)
         return None
@@ -223,15 +230,21 @@ def _load_system(
     if len(diags.errors) > start:
         return None
     sources = {
-        c.display: source_path(directory / Path(c.display).name, directory) for c in controllers
+        c.display: c.instance.source
+        if c.instance
+        else source_path(directory / Path(c.display).name, directory)
+        for c in controllers
     }
     sources[system.display] = source_path(system_path, directory)
     return lower_system(checked, sources)
 
 
-def _system_spec(system_path: Path, diags: Diagnostics) -> model.SystemSpec | None:
+def _system_spec(
+    system_path: Path, diags: Diagnostics, made: list[instances.Instance]
+) -> model.SystemSpec | None:
     """The system's spec, read once (its name's span travels with it to the IR), or None
-    after its problems."""
+    after its problems; its instances (checked, their own world fields, simulators and
+    stand-ins added to the system's data) are appended to `made`."""
     loaded = len(diags.errors)
     data = _load(system_path, diags)
     if data is None and len(diags.errors) == loaded:
@@ -243,14 +256,23 @@ def _system_spec(system_path: Path, diags: Diagnostics) -> model.SystemSpec | No
     diags.extend(problems)
     if any(p.severity is Severity.ERROR for p in problems):
         return None
+    before = len(diags.errors)
+    if isinstance(data, LocDict):  # always, once schema-valid
+        made += instances.expand_system(data, system_path.parent, display_path, diags)
+    if len(diags.errors) > before:
+        return None
     return model.build_system(data, system_path.parent, shown)
 
 
 def _controller_specs(
-    directory: Path, diags: Diagnostics, uses: list[fragments.Use]
+    directory: Path,
+    diags: Diagnostics,
+    uses: list[fragments.Use],
+    made: list[instances.Instance],
 ) -> list[model.ControllerSpec]:
-    """Every controller and operator spec of the directory, fragments expanded (each use
-    appended to `uses`), schema-checked; W305 for a shared fragment nobody uses."""
+    """Every controller and operator spec of the directory, then of each instance, fragments
+    expanded (each use appended to `uses`), schema-checked; W305 for a shared fragment
+    nobody uses."""
     start = len(diags.errors)
     controllers = []
     shared = _shared_fragments(directory, diags)
@@ -268,9 +290,30 @@ def _controller_specs(
         spec = _controller_spec(path, data, shared, diags, uses, used)
         if spec is not None:
             controllers.append(spec)
+    for instance, member, path, data in instances.copies(made):
+        origin = model.InstanceOf(
+            instance.name, instance.template.name, member, source_path(path, directory)
+        )
+        spec = _controller_spec(
+            path,
+            data,
+            shared,
+            diags,
+            uses,
+            used,
+            functools.partial(_renamed, instance=instance, member=member),
+        )
+        if spec is not None:
+            spec.display = f"{spec.display} (instance {instance.name})"  # (one key per module)
+            spec.instance = origin
+            controllers.append(spec)
     if len(diags.errors) == start:  # (a misspelt use would make it noise)
         fragments.report_unused(shared, used, diags)
     return controllers
+
+
+def _renamed(data: LocDict, instance: instances.Instance, member: str) -> LocDict:
+    return instances.rename(data, instance, member)
 
 
 def _controller_spec(
@@ -280,11 +323,14 @@ def _controller_spec(
     diags: Diagnostics,
     uses: list[fragments.Use],
     used: set[str],
+    instance: Callable[[LocDict], LocDict] | None = None,
 ) -> model.ControllerSpec | None:
     """One controller's (or operator module's) spec from its loaded data, or None after its
-    problems (E225 for a file that is neither)."""
+    problems (E225 for a file that is neither); `instance` renames a template controller's
+    data, fragments expanded, as an instance's."""
     shown = display_path(path)
-    if isinstance(data, dict) and "operator" in data and "controller" not in data:
+    if isinstance(data, LocDict) and "operator" in data and "controller" not in data:
+        data = instance(data) if instance else data
         problems = check_document(data, "operator", shown)
         diags.extend(problems)
         if any(p.severity is Severity.ERROR for p in problems):
@@ -306,6 +352,8 @@ def _controller_spec(
     uses += made
     if not whole or len(diags.errors) > before:
         return None  # a use that failed leaves a table with a hole: no more about it
+    if instance is not None and isinstance(data, LocDict):
+        data = instance(data)
     problems = check_document(data, "controller", shown)
     diags.extend(problems)
     if any(p.severity is Severity.ERROR for p in problems):

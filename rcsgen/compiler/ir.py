@@ -443,6 +443,16 @@ class IRPlan:
 
 
 @dataclass(frozen=True)
+class IRInstance:
+    """A controller that is an instance's copy of a template's controller (docs/spec.md
+    section 18): the instance, the template, the controller's name there."""
+
+    instance: str
+    template: str
+    member: str
+
+
+@dataclass(frozen=True)
 class IRController:
     name: str
     title: str
@@ -486,10 +496,19 @@ class IRController:
     kind: ModuleKind = ModuleKind.CONTROLLER  # OPERATOR: a person at a screen, no table
     clients: tuple[str, ...] = ()  # an operator module's: whom it serves, one channel each
     io: ModuleIO | None = None  # its reads and writes of the block (set once it is laid out)
+    instance: IRInstance | None = None  # a template's controller, copied for an instance
 
     @property
     def is_operator(self) -> bool:
         return self.kind is ModuleKind.OPERATOR
+
+    @property
+    def origin(self) -> str:
+        """Its spec as a generated header names it: the file, and the instance it is of."""
+        if self.instance is None:
+            return self.source
+        i = self.instance
+        return f"{self.source}, `{i.member}` of template `{i.template}` as instance `{i.instance}`"
 
     @property
     def channels(self) -> tuple[str, ...]:

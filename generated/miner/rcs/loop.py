@@ -129,7 +129,14 @@ def reaction(layout: ModuleType, process: str) -> Reaction:
     placement, subordinates = layout.PLACEMENT, layout.SUBORDINATES
     supervisor = {sub: sup for sup, subs in subordinates.items() for sub in subs}
     continued = getattr(layout, "ON_LOST_CONTINUE", {})
-    mine = [m for m, p in placement.items() if p == process and m in layout.MODULES]
+    # A simulator (`simulators:`) stands for equipment and the world, commanded by nobody: it
+    # goes with the process that runs it and does not make the loss the whole system's.
+    simulators = set(getattr(layout, "SIMULATORS", ()))
+    mine = [
+        m
+        for m, p in placement.items()
+        if p == process and m in layout.MODULES and m not in simulators
+    ]
     outside = [
         (supervisor[m], m)
         for m in mine

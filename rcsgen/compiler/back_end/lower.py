@@ -202,6 +202,9 @@ class _ControllerLowering:
             kind=spec.kind,
             clients=c.clients,
             hook_calls=self.hook_calls(rules),
+            instance=ir.IRInstance(i.instance, i.template, i.member)
+            if (i := spec.instance)
+            else None,
         )
 
     def every_cycle_counters(self) -> tuple[ir.IRCounter, ...]:

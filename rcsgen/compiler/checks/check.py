@@ -145,7 +145,7 @@ def _index_controllers(
     by_name: dict[str, ControllerSpec] = {}
     for spec in controllers:
         stem = Path(spec.display).stem
-        if stem != spec.name:
+        if stem != spec.name and spec.instance is None:  # (an instance's: front_end/instances)
             diags.error(
                 spec.name_span,
                 "E222",

@@ -273,6 +273,18 @@ class Command:
     text: Located | None = None  # an operator's task: the instruction the screen shows
 
 
+@dataclass(frozen=True)
+class InstanceOf:
+    """Where a controller of an instance comes from (docs/spec.md section 18): the instance,
+    its template, the controller's name in the template and the template file's path as
+    generated headers name it."""
+
+    instance: str
+    template: str
+    member: str
+    source: str
+
+
 @dataclass
 class ControllerSpec:
     name: str
@@ -299,6 +311,7 @@ class ControllerSpec:
     functions: dict[str, Function] = field(default_factory=dict)  # pure, callable anywhere
     plans: dict[str, Plan] = field(default_factory=dict)  # stepped through by its tables
     kind: ModuleKind = ModuleKind.CONTROLLER  # OPERATOR: a person at a screen, no table
+    instance: InstanceOf | None = None  # a copy of a template's controller (section 18)
 
     @property
     def is_operator(self) -> bool:

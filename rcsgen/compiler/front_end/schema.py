@@ -22,7 +22,7 @@ from jsonschema.protocols import Validator
 
 from ..diagnostics import Diagnostic, Span, did_you_mean
 
-KINDS = ("system", "controller", "operator", "scenario")
+KINDS = ("system", "controller", "operator", "scenario", "template")
 
 # YAML tells 3 from 3.0, so an `int` must be written as an integer, unlike JSON Schema's default.
 _TYPES = Draft202012Validator.TYPE_CHECKER.redefine(

@@ -1,0 +1,76 @@
+"""Instances of a template (docs/spec.md section 18) beyond the corpus' cases: what is found in
+a template's text names the instance it was found in; each instance's parameters reach its
+own copy only."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from conftest import edit
+
+from rcsgen.compiler.frontend import compile_paths
+
+CASE = Path(__file__).resolve().parent / "cases" / "valid" / "instances"
+
+
+@pytest.fixture
+def fleet(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    shutil.copytree(CASE, tmp_path / "fleet")
+    monkeypatch.chdir(tmp_path)
+    return Path("fleet")
+
+
+def test_a_finding_in_a_template_names_each_instance_it_was_found_in(fleet: Path) -> None:
+    """A state of the template that can wait (W503) is found in each instance's copy: one
+    finding per instance, each at the template's line, each hint naming its instance and
+    where system.yaml declares it."""
+    edit(
+        fleet / "cart" / "wheel.yaml",
+        "        - when: n >= LIMIT\n          do: [report: ERROR]\n",
+        "",
+    )
+    found = [d for d in compile_paths([fleet]).diagnostics if d.code == "W503"]
+    assert [(d.span.file, d.span.line) for d in found] == [("fleet/cart/wheel.yaml", 14)] * 2
+    assert [d.hint.rsplit("(in ", 1)[1] for d in found] == [
+        "instance `c1` (fleet/system.yaml:14:3) of template `cart`)",
+        "instance `c2` (fleet/system.yaml:18:3) of template `cart`)",
+    ]
+
+
+def test_each_instance_s_constants_and_fields_reach_its_own_copy_only(fleet: Path) -> None:
+    """c1 and c2 give SPEED 1.0 and 2.0, take LIMIT's default, and own `c1_pos`, `c2_pos`:
+    each copy reads its own; the system binds both instances' `goal` to `target`."""
+    front = compile_paths([fleet])
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics]
+    (system,) = front.systems
+    controllers = {c.name: c for c in system.controllers}
+    assert sorted(controllers) == ["boss", "c1", "c1_wheel", "c2", "c2_wheel"]
+    constants = {n: dict(c.constants) for n, c in controllers.items()}
+    assert constants["c1"] == {"SPEED": "1.0"} and constants["c2"] == {"SPEED": "2.0"}
+    assert constants["c1_wheel"] == constants["c2_wheel"] == {"LIMIT": "3"}
+    assert {f.name for f in system.world} == {"target", "on", "c1_pos", "c2_pos"}
+    assert [f.name for f in controllers["c1_wheel"].world_writes] == ["c1_pos"]
+    assert [f.name for f in controllers["c2"].world_reads] == ["target"]
+
+
+def test_an_instance_binds_a_field_another_instance_owns(fleet: Path) -> None:
+    """c2's `goal` bound to c1's own `pos` (a follower of the first cart): c2 reads `c1_pos`,
+    which c1's wheel writes; a misspelt one is E904 naming the instances' fields too."""
+    system_yaml = fleet / "system.yaml"
+    edit(
+        system_yaml,
+        "    constants: {SPEED: 2.0}\n    bind: {goal: target}",
+        "    constants: {SPEED: 2.0}\n    bind: {goal: c1_pos}",
+    )
+    front = compile_paths([fleet])
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics]
+    (system,) = front.systems
+    c2 = next(c for c in system.controllers if c.name == "c2")
+    assert [f.name for f in c2.world_reads] == ["c1_pos"]
+    edit(system_yaml, "bind: {goal: c1_pos}", "bind: {goal: c1_pso}")
+    found = compile_paths([fleet]).diagnostics
+    assert [(d.code, d.span.line, d.hint) for d in found] == [
+        ("E904", 21, "did you mean `c1_pos`?")
+    ]
