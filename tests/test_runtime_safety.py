@@ -1,0 +1,466 @@
+"""The runtime's safety functions driven directly, each at its boundaries: the pacer and the
+watchdog on a fake clock, liveness on heartbeats written by hand, the reaction to a loss
+from the hierarchy and its policies, the control record's heartbeat, overrides and their
+latches, the seqlock of a tool's read and write (issue "Fail safe", "Tests that would catch
+a broken runtime"; `make mutate` measures how much of the runtime these pin down).
+
+The times are binary fractions (periods of 0.25 s, clocks at whole seconds), so that a
+boundary (a wake-up exactly one period late, a heartbeat exactly one timeout old) is hit
+exactly and `>` is told from `>=`. The system is `tests/fixtures/runtime/fleet`, as in
+tests/test_failsafe.py: `lead` (process pl) over `v1` (pa, halt_all) and `v2` (pb, whose
+loss lead's own rules handle: on_lost: continue). Nothing here starts a process or sleeps.
+"""
+
+from __future__ import annotations
+
+import importlib
+import shutil
+from collections.abc import Iterator
+from pathlib import Path
+from types import ModuleType, SimpleNamespace
+from typing import Any
+
+import pytest
+
+from rcsgen.tools.harness import generate, import_package
+
+FLEET = Path(__file__).resolve().parent / "fixtures" / "runtime" / "fleet"
+SAFE = {"v1_drive": 0.0, "v2_drive": -0.5, "v2_brake": True}
+
+
+@pytest.fixture(scope="module")
+def package() -> Iterator[ModuleType]:
+    scratch, name = generate(FLEET)
+    yield import_package(scratch / name, FLEET)
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+def part(package: ModuleType, name: str) -> ModuleType:
+    return importlib.import_module(f"{package.__name__}.{name}")
+
+
+class Clock:
+    """A fake monotonic clock and its sleep: `sleep(s)` moves it by `s` plus `oversleep`."""
+
+    def __init__(self, now: float = 100.0) -> None:
+        self.now, self.oversleep, self.slept = now, 0.0, []
+
+    def __call__(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.slept.append(seconds)
+        self.now += seconds + self.oversleep
+
+
+# ---------------------------------------------------------------- the pacer
+
+
+def test_the_pacer_sleeps_to_each_boundary_and_counts_a_late_wake_up(package: ModuleType) -> None:
+    """A cycle that ends before its boundary sleeps until it; a wake-up later than a tenth of
+    a period (by default) is a late wake-up, not an overrun; the schedule stays on the
+    boundaries."""
+    loop = part(package, "rcs.loop")
+    clock = Clock()
+    pacer = loop.Pacer(0.25, clock=clock, sleep=clock.sleep)
+    assert (pacer.overruns, pacer.late, pacer.deadline) == (0, 0, 100.25)
+    clock.now += 0.125  # a cycle of half a period
+    pacer.wait()
+    assert clock.slept == [0.125] and clock.now == 100.25
+    assert (pacer.overruns, pacer.late, pacer.deadline) == (0, 0, 100.5)
+    clock.oversleep = 0.03125  # 1/8 of a period late: more than a tenth
+    pacer.wait()
+    assert clock.slept[-1] == 0.25
+    assert (pacer.overruns, pacer.late, pacer.deadline) == (0, 1, 100.75)
+    assert pacer.behind(10) == 0.125, "remembered: 1/8 period late"
+    pacer.wait()
+    assert clock.slept[-1] == 0.25 - 0.03125, "the schedule stays on the boundaries"
+    assert (pacer.overruns, pacer.late) == (0, 2)
+    clock.oversleep = 0.0
+    clock.now = pacer.deadline  # a cycle that ends exactly on its boundary
+    pacer.wait()
+    assert (pacer.overruns, pacer.late) == (0, 2)
+    assert clock.slept[-1] == 0.0
+
+
+def test_a_wake_up_at_the_late_limit_is_not_late_and_one_period_late_is_an_overrun(
+    package: ModuleType,
+) -> None:
+    loop = part(package, "rcs.loop")
+    clock = Clock()
+    pacer = loop.Pacer(0.25, clock=clock, sleep=clock.sleep, late_after=0.25)
+    clock.oversleep = 0.0625  # exactly the limit (a quarter of a period)
+    pacer.wait()
+    assert (pacer.overruns, pacer.late, pacer.behind(10)) == (0, 0, 0)
+    clock.oversleep = 0.25  # exactly one period late: that boundary is missed
+    pacer.wait()
+    assert (pacer.overruns, pacer.late) == (1, 1)
+    assert pacer.deadline == 101.0, "the schedule goes on from the next boundary"
+    clock.oversleep = 0.625  # two and a half periods late
+    pacer.wait()
+    assert (pacer.overruns, pacer.late) == (3, 2)
+    assert pacer.deadline == 101.75
+
+
+def test_a_wake_up_a_hair_early_is_on_schedule(package: ModuleType) -> None:
+    """A sleep that ends before its boundary (a coarse clock) is neither late nor an overrun,
+    and the next boundary is one period on."""
+    loop = part(package, "rcs.loop")
+    clock = Clock()
+    pacer = loop.Pacer(0.25, clock=clock, sleep=clock.sleep)
+    clock.oversleep = -0.0625
+    pacer.wait()
+    assert (pacer.overruns, pacer.late, pacer.deadline) == (0, 0, 100.5)
+
+
+def test_a_stall_past_the_boundary_counts_each_period_it_missed(package: ModuleType) -> None:
+    """A cycle (or a freeze) that runs past its boundary does not sleep: each period boundary
+    it ran past is an overrun, the next boundary is a period from now, and its lateness is
+    remembered."""
+    loop = part(package, "rcs.loop")
+    clock = Clock()
+    pacer = loop.Pacer(0.25, clock=clock, sleep=clock.sleep)
+    clock.now = pacer.deadline + 0.625  # 2.5 periods past the boundary
+    pacer.wait()
+    assert clock.slept == []
+    assert pacer.overruns == 3
+    assert pacer.deadline == clock.now + 0.25
+    assert pacer.behind(10) == 2.5
+    clock.now = pacer.deadline + 0.125
+    pacer.wait()
+    assert pacer.overruns == 4, "overruns add up"
+    assert pacer.behind(10) == 3.0
+
+
+def test_lateness_older_than_the_window_is_forgotten(package: ModuleType) -> None:
+    """behind(window): the lateness of the cycles that started within the last `window`
+    periods, in periods; one that started exactly `window` periods ago is out."""
+    loop = part(package, "rcs.loop")
+    clock = Clock()
+    pacer = loop.Pacer(0.25, clock=clock, sleep=clock.sleep)
+    assert pacer.behind(10) == 0
+    clock.now = pacer.deadline + 0.5  # at 100.75: two periods late
+    pacer.wait()
+    clock.now = pacer.deadline + 0.25  # at 101.25: one period late
+    pacer.wait()
+    assert pacer.behind(10) == 3.0
+    pacer.now = 100.75 + 2.5 - 0.125  # the first within the window of 10 periods
+    assert pacer.behind(10) == 3.0
+    pacer.now = 100.75 + 2.5  # exactly 10 periods after the first
+    assert pacer.behind(10) == 1.0
+    assert pacer.behind(2) == 0.0
+    pacer.forget()
+    pacer.now = 101.25
+    assert pacer.behind(10) == 0
+
+
+def test_a_pacer_of_period_zero_never_sleeps(package: ModuleType) -> None:
+    loop = part(package, "rcs.loop")
+    clock = Clock()
+    pacer = loop.Pacer(0.0, clock=clock, sleep=clock.sleep)
+    clock.now += 5.0
+    pacer.wait()
+    assert (clock.slept, pacer.overruns, pacer.late) == ([], 0, 0)
+
+
+# ---------------------------------------------------------------- the watchdog
+
+
+def late_pacer(loop: ModuleType, periods: float) -> Any:
+    """A pacer of period 0.25 whose recent cycles started `periods` periods late in all."""
+    clock = Clock()
+    pacer = loop.Pacer(0.25, clock=clock, sleep=clock.sleep)
+    clock.now = pacer.deadline + periods * 0.25
+    pacer.wait()
+    return pacer
+
+
+def test_the_watchdog_trips_at_exactly_its_lateness_limit(package: ModuleType) -> None:
+    """Lateness of exactly `behind` periods in the window trips it (and starts the count
+    again); a little less does not."""
+    loop = part(package, "rcs.loop")
+    dog = loop.Watchdog()
+    assert not dog.trips(late_pacer(loop, 4.875), 0, 0.25)
+    pacer = late_pacer(loop, 5.0)
+    assert dog.trips(pacer, 0, 0.25)
+    assert pacer.behind(10) == 0, "a trip starts the count again"
+    assert not dog.trips(pacer, 0, 0.25)
+    assert loop.Watchdog(behind=2.0).trips(late_pacer(loop, 2.0), 0, 0.25)
+    for window, trips in ((1, False), (2, True)):
+        pacer = late_pacer(loop, 5.0)
+        pacer.now += 0.25  # a period later: the lateness is as old as a window of 1
+        assert loop.Watchdog(window=window).trips(pacer, 0, 0.25) is trips
+
+
+def test_the_watchdog_trips_on_a_cycle_one_nanosecond_past_its_limit(package: ModuleType) -> None:
+    loop = part(package, "rcs.loop")
+    pacer = late_pacer(loop, 0.0)
+    dog = loop.Watchdog()  # 3 periods of 0.25 s: 750 ms
+    assert not dog.trips(pacer, 750_000_000, 0.25)
+    assert dog.trips(pacer, 750_000_001, 0.25)
+    assert not dog.trips(pacer, 749_999_999, 0.25)
+    long = loop.Watchdog(period_factor=1000.0)  # 250 s
+    assert not long.trips(pacer, 250_000_000_000, 0.25)
+    assert long.trips(pacer, 250_000_000_001, 0.25)
+
+
+# ---------------------------------------------------------------- liveness
+
+
+def fleet_process(package: ModuleType, name: str = "pl") -> Any:
+    layout, loop = part(package, "layout"), part(package, "rcs.loop")
+    block = part(package, "rcs.block").Block(layout)
+    return loop.Process(part(package, f"main_{name}").PLAN, layout, block)
+
+
+def beats(package: ModuleType, process: Any, name: str, **fields: Any) -> None:
+    part(package, "layout").PROCESSES[name].write(process.block.buf, **fields)
+
+
+def latched(package: ModuleType, process: Any) -> dict[str, Any]:
+    override = part(package, "rcs.override")
+    return override.overrides(part(package, "layout"), process.block.buf)
+
+
+def test_a_heartbeat_exactly_one_timeout_old_is_alive_and_one_ns_older_is_lost(
+    package: ModuleType,
+) -> None:
+    """_silent: lost when STOPPED or DEAD whatever the beat, or when the beat is older than
+    the timeout; a process that has not beaten yet is not lost."""
+    layout, loop = part(package, "layout"), part(package, "rcs.loop")
+    pl = fleet_process(package)
+    buf, pacing = pl.block.buf, layout.PACING
+    timeout = 1_000_000_000
+    assert loop._silent(layout, buf, "pa", timeout, 10**12, pacing) == (False, 0), "no beat yet"
+    beats(package, pl, "pa", state=2, beat_ns=5_000_000_000, watchdog_trips=3)
+    assert loop._silent(layout, buf, "pa", timeout, 6_000_000_000, pacing) == (False, 3)
+    assert loop._silent(layout, buf, "pa", timeout, 6_000_000_001, pacing) == (True, 3)
+    for state in ("STOPPED", "DEAD"):
+        code = part(package, "rcs.contract").PROCESS_STATES.index(state)
+        beats(package, pl, "pa", state=code)
+        assert loop._silent(layout, buf, "pa", timeout, 5_000_000_000, pacing) == (True, 3)
+    beats(package, pl, "pa", state=2, beat_ns=1)
+    assert loop._silent(layout, buf, "pa", timeout, timeout + 1, pacing)[0] is False
+    assert loop._silent(layout, buf, "pa", timeout, timeout + 2, pacing)[0] is True
+
+
+def test_a_slowed_process_gets_its_timeout_stretched_and_no_less(package: ModuleType) -> None:
+    """An operator's slow-down (`ctl slow`) stretches the heartbeat timeout by its factor;
+    a factor below 1 (or a new block's 0) leaves it as declared; a system without pacing
+    records uses the timeout as declared."""
+    layout, loop = part(package, "layout"), part(package, "rcs.loop")
+    pl = fleet_process(package)
+    buf, pacing = pl.block.buf, layout.PACING
+    beats(package, pl, "pa", state=2, beat_ns=1_000_000_000)
+    at = 1_000_000_000 + 1_000_000_001  # one timeout and 1 ns later
+    for slow in (0.0, 0.5, 1.0):
+        layout.PACING["pa"].write(buf, slow=slow)
+        assert loop._silent(layout, buf, "pa", 1_000_000_000, at, pacing)[0] is True
+        assert loop._silent(layout, buf, "pa", 1_000_000_000, at, {})[0] is True
+    layout.PACING["pa"].write(buf, slow=3.0)
+    assert loop._silent(layout, buf, "pa", 1_000_000_000, 4_000_000_000, pacing)[0] is False
+    assert loop._silent(layout, buf, "pa", 1_000_000_000, 4_000_000_001, pacing)[0] is True
+    assert loop._silent(layout, buf, "pa", 1_000_000_000, 4_000_000_000, {})[0] is True
+    pl.check_liveness(1_000_000_000, 4_000_000_000, ["pa"])
+    assert pl.lost == set(), "check_liveness reads the layout's pacing records"
+    pl.check_liveness(1_000_000_000, 4_000_000_001, ["pa"])
+    assert pl.lost == {"pa"}
+
+
+def test_liveness_reacts_once_to_a_loss_and_tells_a_recovery(package: ModuleType) -> None:
+    """pl watching pb (lead handles v2's loss: on_lost continue): a lost pb is reacted to
+    once (its actuators latched, lead told v2 is lost), its recovery told once; a process
+    seen the first time with trips already counted is not reacted to."""
+    pl = fleet_process(package)
+    lead = pl.modules["lead"]
+    beats(package, pl, "pb", state=2, beat_ns=1_000_000_000, watchdog_trips=4)
+    pl.check_liveness(1_000_000_000, 1_500_000_000, ["pb"])
+    assert (pl.lost, lead.v2_lost, latched(package, pl)) == (set(), False, {})
+    pl.check_liveness(1_000_000_000, 2_000_000_001, ["pb"])
+    assert (pl.lost, lead.v2_lost) == ({"pb"}, True)
+    assert set(latched(package, pl)) == {"v2_drive", "v2_brake"}
+    part(package, "rcs.override").reset(part(package, "layout"), pl.block.buf)
+    pl.check_liveness(1_000_000_000, 2_000_000_002, ["pb"])
+    assert latched(package, pl) == {}, "a loss is reacted to once"
+    assert lead.v2_lost
+    pl.beat()
+    lost = part(package, "layout").PROCESSES["pl"].read(pl.block.buf)["lost"]
+    assert lost == 1 << 2, "pb is the third process"
+    beats(package, pl, "pb", beat_ns=2_000_000_000)
+    pl.check_liveness(1_000_000_000, 2_000_000_003, ["pb"])
+    assert (pl.lost, lead.v2_lost) == (set(), False)
+    pl.beat()
+    assert part(package, "layout").PROCESSES["pl"].read(pl.block.buf)["lost"] == 0
+
+
+def test_a_watchdog_trip_of_another_process_is_reacted_to_and_told_for_one_cycle(
+    package: ModuleType,
+) -> None:
+    """pb alive but reporting a new watchdog trip: pl latches pb's actuators and tells lead
+    for one check; the next check (no new trip) tells lead v2 is back."""
+    pl = fleet_process(package)
+    lead = pl.modules["lead"]
+    beats(package, pl, "pb", state=2, beat_ns=1_000_000_000, watchdog_trips=0)
+    pl.check_liveness(1_000_000_000, 1_100_000_000, ["pb"])
+    beats(package, pl, "pb", watchdog_trips=1)
+    pl.check_liveness(1_000_000_000, 1_200_000_000, ["pb"])
+    assert (pl.lost, lead.v2_lost) == (set(), True)
+    assert set(latched(package, pl)) == {"v2_drive", "v2_brake"}
+    pl.check_liveness(1_000_000_000, 1_300_000_000, ["pb"])
+    assert lead.v2_lost is False
+    beats(package, pl, "pb", watchdog_trips=2)
+    pl.check_liveness(1_000_000_000, 1_400_000_000, ["pb"])
+    assert lead.v2_lost is True
+
+
+def test_a_process_lost_while_its_trip_count_stays_stays_lost_to_its_supervisor(
+    package: ModuleType,
+) -> None:
+    pl = fleet_process(package)
+    lead = pl.modules["lead"]
+    beats(package, pl, "pb", state=2, beat_ns=1_000_000_000, watchdog_trips=1)
+    pl.check_liveness(1_000_000_000, 1_100_000_000, ["pb"])
+    pl.check_liveness(1_000_000_000, 2_100_000_000, ["pb"])
+    pl.check_liveness(1_000_000_000, 2_200_000_000, ["pb"])
+    assert (pl.lost, lead.v2_lost) == ({"pb"}, True)
+
+
+def test_the_loss_of_a_halt_all_process_puts_its_supervisor_in_the_safe_state(
+    package: ModuleType,
+) -> None:
+    """pa lost (v1: halt_all): every actuator latched, lead sends HALT to v1 and reports
+    ERROR (reason LOST); react returns the fields it latched now."""
+    layout = part(package, "layout")
+    pl = fleet_process(package)
+    before = layout.COMMAND_IN["v1"].read(pl.block.buf)["command_num"]
+    assert pl.react("pa") == ["v1_drive", "v2_drive", "v2_brake"]
+    assert pl.react("pa") == []
+    pl.run_cycle()
+    sent = layout.COMMAND_IN["v1"].read(pl.block.buf)
+    assert layout.COMMAND_NAMES["v1"][sent["command"]] == "HALT"
+    assert sent["command_num"] > before
+    status = layout.STATUS_OUT["lead"].read(pl.block.buf)
+    assert part(package, "rcs.contract").STATUS_NAMES[status["status"]] == "ERROR"
+    assert status["error_num"] == part(package, "rcs.loop").LOST_SUBORDINATE
+    assert latched(package, pl) == {f: ("SAFE", v) for f, v in SAFE.items()}
+
+
+# ---------------------------------------------------------------- the reaction to a loss
+
+
+def test_the_reaction_to_each_process_of_the_fleet(package: ModuleType) -> None:
+    layout, loop = part(package, "layout"), part(package, "rcs.loop")
+    everything = ("v1_drive", "v2_drive", "v2_brake")
+    assert loop.reaction(layout, "pa") == loop.Reaction(everything, ("lead",), (), False)
+    assert loop.reaction(layout, "pb") == loop.Reaction(
+        ("v2_drive", "v2_brake"), (), (("lead", "v2"),), True
+    )
+    assert loop.reaction(layout, "pl") == loop.Reaction(everything, (), (), False)
+
+
+def hierarchy(**extra: Any) -> SimpleNamespace:
+    """top (p1) > mid (p1) > low (p2) > low2 (p2); side (p3) alone; a stand-in placed in p2
+    that is not a module."""
+    return SimpleNamespace(
+        PLACEMENT={"top": "p1", "mid": "p1", "low": "p2", "low2": "p2", "side": "p3", "sim": "p2"},
+        SUBORDINATES={"top": ("mid",), "mid": ("low",), "low": ("low2",), "side": ()},
+        MODULES=("top", "mid", "low", "low2", "side"),
+        **extra,
+    )
+
+
+def test_a_halt_all_loss_puts_every_supervisor_up_the_chain_in_the_safe_state(
+    package: ModuleType,
+) -> None:
+    loop = part(package, "rcs.loop")
+    layout = hierarchy(SAFE_VALUES={"a": 0, "b": 1}, ACTUATED_BY={"a": "p2", "b": "p1"})
+    assert loop.reaction(layout, "p2") == loop.Reaction(("a", "b"), ("mid", "top"), (), False)
+    assert loop.reaction(layout, "p3") == loop.Reaction(("a", "b"), (), (), False)
+    bare = hierarchy()  # a layout without actuators or policies
+    assert loop.reaction(bare, "p2") == loop.Reaction((), ("mid", "top"), (), False)
+
+
+def test_a_contained_loss_latches_only_its_own_actuators(package: ModuleType) -> None:
+    """Every module of p2 hangs below a supervisor that continues on its loss: only p2's
+    actuators are latched, and that supervisor is told; not contained when one of p2's
+    modules hangs below a supervisor that does not continue."""
+    loop = part(package, "rcs.loop")
+    acts = {"SAFE_VALUES": {"a": 0, "b": 1}, "ACTUATED_BY": {"a": "p2", "b": "p1"}}
+    layout = hierarchy(ON_LOST_CONTINUE={"mid": ("low",)}, **acts)
+    assert loop.reaction(layout, "p2") == loop.Reaction(("a",), (), (("mid", "low"),), True)
+    other = hierarchy(ON_LOST_CONTINUE={"top": ("low",)}, **acts)
+    assert loop.reaction(other, "p2").contained is False
+
+
+def test_the_safe_chain_stops_at_the_lost_process_and_at_the_root(package: ModuleType) -> None:
+    """top (p2) > mid (p1) > low (p2): losing p2, mid goes safe; top, in the lost process
+    itself, is not asked to."""
+    loop = part(package, "rcs.loop")
+    layout = SimpleNamespace(
+        PLACEMENT={"top": "p2", "mid": "p1", "low": "p2"},
+        SUBORDINATES={"top": ("mid",), "mid": ("low",), "low": ()},
+        MODULES=("top", "mid", "low"),
+        SAFE_VALUES={},
+    )
+    assert loop.reaction(layout, "p2").safe == ("mid",)
+    layout.ON_LOST_CONTINUE = {"mid": ("low",)}
+    assert loop.reaction(layout, "p2").contained is False, "top hangs below nobody"
+
+
+# ---------------------------------------------------------------- the control record
+
+
+def test_each_beat_writes_the_control_record_whole_two_sequence_steps_on(
+    package: ModuleType,
+) -> None:
+    layout = part(package, "layout")
+    pl = fleet_process(package)
+    record = layout.PROCESSES["pl"]
+    first = record.seq(pl.block.buf)
+    assert first % 2 == 0 and first > 0
+    pl.cycle = 7
+    pl.lost = {"pa"}
+    pl.beat(now_ns=123_456)
+    assert record.seq(pl.block.buf) == first + 2
+    values = record.read(pl.block.buf)
+    assert (values["heartbeat"], values["beat_ns"], values["lost"]) == (7, 123_456, 1 << 1)
+    assert values["state"] == part(package, "rcs.contract").RUNNING
+    pl.lost = {"pa", "pb"}
+    pl.beat(state=part(package, "rcs.contract").STOPPED)
+    assert record.seq(pl.block.buf) == first + 4
+    values = record.read(pl.block.buf)
+    assert values["lost"] == 0b110
+    assert values["state"] == part(package, "rcs.contract").STOPPED
+    assert values["beat_ns"] > 123_456, "the clock's time when none is given"
+
+
+def test_safe_stop_latches_the_process_s_own_actuators_or_all_when_orphaned(
+    package: ModuleType,
+) -> None:
+    pb = fleet_process(package, "pb")
+    assert pb.safe_stop() == ["v2_drive", "v2_brake"]
+    assert set(latched(package, pb)) == {"v2_drive", "v2_brake"}
+    pa = fleet_process(package, "pa")
+    assert pa.safe_stop(everything=True) == ["v1_drive", "v2_drive", "v2_brake"]
+
+
+def test_init_and_halt_go_to_the_roots_with_the_next_command_number(package: ModuleType) -> None:
+    """send_init: INIT to every root; with only_idle a root that had a command keeps it.
+    halt_roots: HALT, numbered on."""
+    layout = part(package, "layout")
+    pl = fleet_process(package)
+    record, names = layout.COMMAND_IN["lead"], layout.COMMAND_NAMES["lead"]
+    pl.send_init()
+    assert (record.read(pl.block.buf)["command_num"], record.read(pl.block.buf)["command"]) == (
+        1,
+        names.index("INIT"),
+    )
+    pl.send_init(only_idle=True)
+    assert record.read(pl.block.buf)["command_num"] == 1, "a root that had a command"
+    pl.halt_roots()
+    assert (record.read(pl.block.buf)["command_num"], record.read(pl.block.buf)["command"]) == (
+        2,
+        names.index("HALT"),
+    )
+    pl.send_init()
+    assert record.read(pl.block.buf)["command_num"] == 3
