@@ -464,3 +464,203 @@ def test_init_and_halt_go_to_the_roots_with_the_next_command_number(package: Mod
     )
     pl.send_init()
     assert record.read(pl.block.buf)["command_num"] == 3
+
+
+# ---------------------------------------------------------------- overrides
+
+
+def fresh(package: ModuleType) -> tuple[ModuleType, ModuleType, memoryview]:
+    """The override module, the fleet's layout and a new private block's buffer."""
+    layout = part(package, "layout")
+    return part(package, "rcs.override"), layout, part(package, "rcs.block").Block(layout).buf
+
+
+def tear(package: ModuleType, record: Any, buf: memoryview) -> None:
+    """Leave `record` as a writer that died mid-write leaves it: its word odd."""
+    contract = part(package, "rcs.contract")
+    contract.SEQ.pack_into(buf, record.offset, contract.next_odd(record.seq(buf)))
+
+
+def test_held_replaces_what_a_module_writes_by_each_override_and_skips_a_torn_one(
+    package: ModuleType,
+) -> None:
+    """held: a forced field gets the forced value, a field without an override the module's
+    own, a field whose override record is being written (odd word, or a never-written 0)
+    keeps the block's value this cycle."""
+    override, layout, buf = fresh(package)
+    records = tuple(layout.OVERRIDE[f] for f in ("v1_drive", "v2_drive", "v2_brake"))
+    out, now = (1.0, 2.0, False), (0.5, 0.75, True)
+    assert override.held(buf, records, out, now) == out
+    override.force(layout, buf, "v1_drive", 0.25)
+    assert override.held(buf, records, out, now) == (0.25, 2.0, False)
+    override.latch_safe(layout, buf, ["v2_brake"])
+    assert override.held(buf, records, out, now) == (0.25, 2.0, True)
+    tear(package, layout.OVERRIDE["v1_drive"], buf)
+    assert override.held(buf, records, out, now) == (0.5, 2.0, True)
+    part(package, "rcs.contract").SEQ.pack_into(buf, layout.OVERRIDE["v2_drive"].offset, 0)
+    assert override.held(buf, records, out, now) == (0.5, 0.75, True)
+
+
+def test_an_override_record_a_writer_died_in_reads_as_its_fields(package: ModuleType) -> None:
+    """_state of a torn override record: its raw state and value (the next writer rewrites
+    it whole), so a latch or a reset still sees what it was."""
+    override, layout, buf = fresh(package)
+    override.latch_safe(layout, buf, ["v2_drive"])
+    record = layout.OVERRIDE["v2_drive"]
+    tear(package, record, buf)
+    assert override._state(record, buf) == (part(package, "rcs.contract").SAFE, -0.5)
+    assert override.overrides(layout, buf) == {"v2_drive": ("SAFE", -0.5)}
+    assert override.reset(layout, buf) == ["v2_drive"]
+    assert record.seq(buf) % 2 == 0, "rewritten whole"
+    assert override.overrides(layout, buf) == {}
+
+
+def test_a_text_override_record_is_written_and_read_as_text(package: ModuleType) -> None:
+    """An override of a string field stores its UTF-8 bytes NUL-padded and reads back the
+    text (a trailing `X` kept, invalid bytes replaced, never an error)."""
+    override, contract = part(package, "rcs.override"), part(package, "rcs.contract")
+    buf = memoryview(bytearray(64))
+    record = contract.Record(contract.Struct("<QQ16s"), 8, ("state", "name"))
+    override._write(record, buf, contract.FORCED, "höX")
+    assert record.seq(buf) == 2
+    assert override._state(record, buf) == (contract.FORCED, "höX")
+    record.struct.pack_into(buf, 8, 4, contract.SAFE, b"a\xff")
+    assert override._state(record, buf) == (contract.SAFE, "a\ufffd")
+    override._write(record, buf, contract.NO_OVERRIDE, "")
+    assert record.seq(buf) == 6
+    assert override._state(record, buf) == (contract.NO_OVERRIDE, "")
+
+
+def test_the_override_flag_is_exactly_one_byte_one_while_any_override_holds(
+    package: ModuleType,
+) -> None:
+    override, layout, buf = fresh(package)
+    at = layout.OVERRIDDEN_AT
+    override.force(layout, buf, "v1_note", 3)
+    assert buf[at] == 1
+    override.latch_safe(layout, buf, ["v2_brake"])
+    override.unforce(layout, buf, "v1_note")
+    assert buf[at] == 1, "v2_brake is still latched"
+    assert override.reset(layout, buf, ["v2_brake"]) == ["v2_brake"]
+    assert buf[at] == 0
+    buf[at] = 1  # a transport mirrored a record: the flag is recomputed from the records
+    override.mirrored(layout, buf)
+    assert buf[at] == 0
+    override._write(layout.OVERRIDE["mode"], buf, part(package, "rcs.contract").FORCED, 1)
+    override.mirrored(layout, buf)
+    assert buf[at] == 1
+
+
+def test_a_latch_goes_on_past_a_field_already_latched(package: ModuleType) -> None:
+    override, layout, buf = fresh(package)
+    assert override.latch_safe(layout, buf, ["v2_drive"]) == ["v2_drive"]
+    assert override.latch_safe(layout, buf, ["v2_drive", "v2_brake"]) == ["v2_brake"]
+    override.force(layout, buf, "v1_drive", 0.0)  # forced at its safe value: not latched
+    assert override.latch_safe(layout, buf, ["v1_drive"]) == ["v1_drive"]
+    assert override.overrides(layout, buf)["v1_drive"] == ("SAFE", 0.0)
+
+
+def test_unforce_of_a_field_not_forced_is_refused_and_changes_nothing(package: ModuleType) -> None:
+    override, layout, buf = fresh(package)
+    with pytest.raises(override.OverrideError, match=r"^v1_note is not forced$"):
+        override.unforce(layout, buf, "v1_note")
+    override.force(layout, buf, "v1_note", 4)
+    override.unforce(layout, buf, "v1_note")
+    assert override.overrides(layout, buf) == {}
+    assert layout.WORLD["v1_note"].read(buf)["v1_note"] == 4, "the forced value stays"
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "stored"),
+    [
+        ("v1_note", -(2**63), -(2**63)),
+        ("v1_note", 2**63 - 1, 2**63 - 1),
+        ("v1_drive", 2, 2.0),
+        ("mode", "IDLE", 0),
+        ("mode", "ALONE", 2),
+        ("v2_brake", False, False),
+    ],
+)
+def test_the_values_a_field_can_hold_are_forced(
+    package: ModuleType, field: str, value: object, stored: object
+) -> None:
+    override, layout, buf = fresh(package)
+    override.force(layout, buf, field, value)
+    found = layout.WORLD[field].read(buf)[field]
+    assert (found, type(found)) == (stored, type(stored))
+    assert override.overrides(layout, buf) == {field: ("FORCED", stored)}
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("v1_note", -(2**63) - 1, "v1_note holds an int, not"),
+        ("mode", 2, "mode: 2 is not one of IDLE, TOGETHER, ALONE"),
+        ("v2_brake", "yes", "v2_brake holds a bool, not 'yes'"),
+        ("v1_drive", None, "v1_drive holds a number, not None"),
+    ],
+)
+def test_a_value_a_field_cannot_hold_is_refused_by_name(
+    package: ModuleType, field: str, value: object, message: str
+) -> None:
+    override, layout, buf = fresh(package)
+    with pytest.raises(override.OverrideError, match=f"^{message}"):
+        override.force(layout, buf, field, value)
+
+
+# ---------------------------------------------------------------- a tool's read and write
+
+
+def tool_record(package: ModuleType) -> tuple[Any, memoryview]:
+    """A record (a counter, a 16-byte text, a float) at offset 8 of a 64-byte buffer."""
+    contract = part(package, "rcs.contract")
+    record = contract.Record(contract.Struct("<Qq16sd"), 8, ("n", "name", "x"))
+    return record, memoryview(bytearray(64))
+
+
+def test_a_record_never_written_is_stale_and_its_first_write_makes_it_whole(
+    package: ModuleType,
+) -> None:
+    contract = part(package, "rcs.contract")
+    record, buf = tool_record(package)
+    with pytest.raises(contract.StaleRead, match="at 8 is being written"):
+        record.read(buf)
+    record.write(buf, n=1, name="hé", x=0.5)
+    assert record.seq(buf) == 2
+    assert record.read(buf) == {"n": 1, "name": "hé", "x": 0.5}
+    record.write(buf, x=1.5)
+    assert record.seq(buf) == 4
+    assert record.read(buf) == {"n": 1, "name": "hé", "x": 1.5}, "the others kept"
+    assert bytes(buf[:8]) == bytes(8) and bytes(buf[48:]) == bytes(16), "nothing outside"
+
+
+def test_a_record_whose_writer_died_is_stale_until_rewritten_keeping_its_fields(
+    package: ModuleType,
+) -> None:
+    contract = part(package, "rcs.contract")
+    record, buf = tool_record(package)
+    record.write(buf, n=1, name="abcdefghijk", x=0.5)
+    tear(package, record, buf)
+    with pytest.raises(contract.StaleRead):
+        record.read(buf)
+    record.write(buf, n=2)
+    assert record.seq(buf) == 4
+    assert record.read(buf) == {"n": 2, "name": "abcdefghijk", "x": 0.5}
+
+
+def test_the_write_mark_is_odd_and_the_end_mark_one_more(package: ModuleType) -> None:
+    contract = part(package, "rcs.contract")
+    assert [contract.next_odd(s) for s in (0, 2, 3, 6)] == [1, 3, 3, 7]
+
+
+def test_a_record_refuses_unknown_fields_and_text_that_does_not_fit(package: ModuleType) -> None:
+    record, buf = tool_record(package)
+    with pytest.raises(KeyError, match=r"no field\(s\) \['zz'\] in a buffer of"):
+        record.write(buf, n=1, zz=2)
+    with pytest.raises(ValueError, match="is 17 bytes: more than the 16 it holds"):
+        record.write(buf, name="a" * 17)
+    with pytest.raises(ValueError):
+        record.write(buf, n="1")
+    record.write(buf, name="a" * 16)
+    assert record.read(buf)["name"] == "a" * 16
+    assert record.codes() == {"n": "q", "name": "16s", "x": "d"}
