@@ -664,3 +664,203 @@ def test_a_record_refuses_unknown_fields_and_text_that_does_not_fit(package: Mod
     record.write(buf, name="a" * 16)
     assert record.read(buf)["name"] == "a" * 16
     assert record.codes() == {"n": "q", "name": "16s", "x": "d"}
+
+
+# ---------------------------------------------------------------- start-up checks
+
+
+def test_a_segment_name_is_checked_and_each_mistake_said(package: ModuleType) -> None:
+    startup = part(package, "rcs.startup")
+    assert startup.segment_problem("a" * 200) == ""
+    assert startup.segment_problem("x_1.b-c") == ""
+    assert startup.segment_problem("") == "--shm: an empty segment name"
+    assert startup.segment_problem("a" * 201) == (
+        f"--shm: {'a' * 37!r}... is 201 characters: a segment name has at most 200"
+    )
+    assert startup.segment_problem("a/" + "b" * 38) == (
+        f"--shm: {'a/' + 'b' * 38!r} is not a segment name: letters, digits, `_`, `.` and `-` "
+        "only (no `/`), not starting with `.` or `-`"
+    )
+    assert startup.segment_problem("/" + "b" * 40).startswith(f"--shm: {'/' + 'b' * 36!r}... is")
+
+
+def test_run_settings_are_parsed_once_each_and_checked_against_the_spec(
+    package: ModuleType,
+) -> None:
+    startup = part(package, "rcs.startup")
+    declared = SimpleNamespace(SYSTEM="sys", SETTINGS=("speed", "depth"))
+    assert startup.parse_settings(declared, ["speed=a=b", "depth="]) == {
+        "speed": "a=b",
+        "depth": "",
+    }
+    for item, message in [
+        ("speed", "--set: 'speed' is not KEY=VALUE"),
+        ("=1", "--set: '=1' is not KEY=VALUE"),
+    ]:
+        with pytest.raises(ValueError, match=f"^{message}$"):
+            startup.parse_settings(declared, [item])
+    with pytest.raises(ValueError, match="^--set: setting speed is given twice$"):
+        startup.parse_settings(declared, ["speed=1", "speed=2"])
+    with pytest.raises(ValueError, match="^--set: sys has no setting 'sped'"):
+        startup.parse_settings(declared, ["sped=1"])
+    assert startup.settings_problem(declared, {"depth": "1"}) == ""
+    assert startup.settings_problem(declared, {"spee": "1"}) == (
+        "sys has no setting 'spee' (did you mean 'speed'?); settings: speed, depth"
+    )
+    assert startup.settings_problem(declared, {"speed": 1}) == (  # type: ignore[dict-item]
+        "setting 'speed': a setting and its value are text"
+    )
+    assert startup.settings_problem(declared, {2: "1"}).startswith("setting 2:")  # type: ignore[dict-item]
+    deaf = SimpleNamespace(SYSTEM="sys", READS_SETTINGS=False)
+    assert startup.settings_problem(deaf, {"k": "v"}) == (
+        "sys reads no setting 'k': none of its controllers has a `hooks_state` factory"
+    )
+    assert startup.settings_problem(SimpleNamespace(SYSTEM="old"), {"k": "v"}) == ""
+    assert startup.settings_problem(deaf, {}) == ""
+
+
+def test_a_failure_is_reported_in_one_line_with_the_exit_code_that_says_which(
+    package: ModuleType, capsys: pytest.CaptureFixture[str]
+) -> None:
+    startup, contract = part(package, "rcs.startup"), part(package, "rcs.contract")
+    hook = contract.HookError("v1", "drive", "DRIVE/S0/1", 4, result=None, kinds="f")
+    assert startup.report_failure("pa", hook, package.__name__) == startup.HOOK_FAILED
+    made = contract.HookError("v1", "factory", "hooks_state", 0, result=None, kinds="f")
+    assert startup.report_failure("pa", made, package.__name__) == startup.START_FAILED
+    assert startup.report_failure("pa", ZeroDivisionError(), package.__name__) == 5
+    assert startup.report_failure("pa", KeyError("k"), package.__name__) == 5
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        f"pa: {hook}",
+        f"pa: {made}",
+        "pa: failed: ZeroDivisionError",
+        "pa: failed: KeyError: 'k'",
+    ]
+    directory = Path(package.__file__ or "").parent.name  # what tracebacks show
+    with pytest.raises(AttributeError) as failed:
+        part(package, "v1").V1Controller.run_cycle(None)
+    assert startup.failed_module(failed.value, directory) == "v1"
+    assert startup.failed_module(failed.value, "elsewhere") is None
+    assert startup.report_failure("pa", failed.value, directory) == startup.MODULE_FAILED
+    with pytest.raises(TypeError) as failed_in_layout:
+        part(package, "layout").initialise(None)
+    assert startup.failed_module(failed_in_layout.value, directory) is None, "not a module"
+    assert capsys.readouterr().err.startswith("pa: module `v1` failed: AttributeError: ")
+    assert startup.ending("pa", startup.HOOK_FAILED) == (
+        "pa stopped: a hook failed (exit 4; its error is above)"
+    )
+    assert startup.ending("pa", -9) == "pa died (exit -9)"
+
+
+# ---------------------------------------------------------------- blocks and their segments
+
+_segments = iter(range(1, 1000))
+
+
+@pytest.fixture()
+def segment_name() -> Iterator[str]:
+    """A segment name of this test's own; whatever is left of it is removed."""
+    import os
+
+    name = f"Xrcsgen_rs_{os.getpid()}_{next(_segments)}"
+    yield name
+    from multiprocessing import shared_memory
+
+    try:
+        segment = shared_memory.SharedMemory(name=name)
+    except FileNotFoundError:
+        return
+    segment.close()
+    segment.unlink()
+
+
+def raw_segment(package: ModuleType, name: str, data: bytes) -> None:
+    """A segment holding `data`, made by something that is not rcsgen."""
+    from multiprocessing import shared_memory
+
+    blocks = part(package, "rcs.block")
+    segment = blocks._untracked(shared_memory.SharedMemory, name, len(data))
+    assert segment.buf is not None
+    segment.buf[: len(data)] = data
+    segment.close()
+
+
+def test_a_named_block_belongs_to_its_creator_alone(package: ModuleType, segment_name: str) -> None:
+    """A block made under a name (create is the default) is its creator's: an attached one
+    closes without removing it, a disowned one too; the creator's close removes it."""
+    layout, blocks = part(package, "layout"), part(package, "rcs.block")
+    created = blocks.Block(layout, segment_name)
+    assert blocks.exists(segment_name) and blocks.exists("/" + segment_name)
+    attached = blocks.Block(layout, segment_name, create=False)
+    assert attached.buf[: layout.SIZE] == created.buf[: layout.SIZE]
+    attached.close()
+    assert attached.shm is None
+    assert blocks.exists(segment_name), "an attached process never removes the segment"
+    created.disown()
+    created.close()
+    assert blocks.exists(segment_name), "disowned"
+    again = blocks.Block(layout, segment_name, create=False)
+    again.owner = True
+    again.close()
+    assert not blocks.exists(segment_name)
+    assert blocks.unlink(segment_name) is False, "already gone"
+    private = blocks.Block(layout)
+    assert (private.shm, private.owner) == (None, False)
+    private.close()
+
+
+def test_a_named_segment_is_made_once_and_attached_only_when_there(
+    package: ModuleType, segment_name: str
+) -> None:
+    layout, blocks = part(package, "layout"), part(package, "rcs.block")
+    with pytest.raises(blocks.BlockError, match=f"^no shared-memory segment '{segment_name}': is"):
+        blocks.Block(layout, segment_name, create=False)
+    created = blocks.Block(layout, segment_name)
+    try:
+        with pytest.raises(
+            blocks.BlockError, match=f"^shared-memory segment '{segment_name}' already"
+        ):
+            blocks.Block(layout, segment_name)
+    finally:
+        created.close()
+    raw_segment(package, segment_name, b"x")
+    assert blocks.unlink(segment_name) is True
+    assert not blocks.exists(segment_name)
+
+
+def test_a_segment_too_small_for_a_header_or_without_one_is_refused(
+    package: ModuleType, segment_name: str
+) -> None:
+    layout, blocks = part(package, "layout"), part(package, "rcs.block")
+    contract = part(package, "rcs.contract")
+    size = contract.HEADER.size
+    raw_segment(package, segment_name, bytes(size - 1))
+    with pytest.raises(blocks.BlockError, match=f"has {size - 1} bytes: it is not an rcsgen"):
+        blocks.Block(layout, segment_name, create=False)
+    blocks.unlink(segment_name)
+    raw_segment(package, segment_name, bytes(size))
+    with pytest.raises(blocks.BlockError, match=r"is not an rcsgen block \(no rcsgen header\)"):
+        blocks.Block(layout, segment_name, create=False)
+    assert blocks.exists(segment_name), "refused, not removed"
+
+
+@pytest.mark.parametrize("same", ["hash", "size"])
+def test_a_segment_of_another_layout_is_refused_naming_both(
+    package: ModuleType, segment_name: str, same: str
+) -> None:
+    """The header's layout hash and block size must both be this package's; the message
+    names what the segment holds (undecodable bytes shown, never an error) and what the
+    package has."""
+    layout, blocks = part(package, "layout"), part(package, "rcs.block")
+    contract = part(package, "rcs.contract")
+    found = layout.LAYOUT_HASH.encode() if same == "hash" else b"\xff" + bytes(31)
+    size = layout.SIZE + 8 if same == "hash" else layout.SIZE
+    header = contract.HEADER.pack(contract.MAGIC, found, b"otherX\xff", size)
+    raw_segment(package, segment_name, header + bytes(size - len(header)))
+    with pytest.raises(blocks.BlockError) as refused:
+        blocks.Block(layout, segment_name, create=False)
+    shown = layout.LAYOUT_HASH if same == "hash" else "\ufffd" + "\0" * 31
+    assert str(refused.value).startswith(
+        f"segment '{segment_name}' holds layout {shown} of system 'otherX\ufffd'; this "
+        f"package has layout {layout.LAYOUT_HASH} of system 'fleet'"
+    )
