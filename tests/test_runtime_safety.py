@@ -864,3 +864,346 @@ def test_a_segment_of_another_layout_is_refused_naming_both(
         f"segment '{segment_name}' holds layout {shown} of system 'otherX\ufffd'; this "
         f"package has layout {layout.LAYOUT_HASH} of system 'fleet'"
     )
+
+
+# ---------------------------------------------------------------- the paced loop, on a fake clock
+
+
+class FakeTime:
+    """What rcs/loop.py reads of `time`, on one fake clock in nanoseconds."""
+
+    def __init__(self) -> None:
+        self.ns = 10**12
+
+    def perf_counter_ns(self) -> int:
+        return self.ns
+
+    monotonic_ns = perf_counter_ns
+
+    def monotonic(self) -> float:
+        return self.ns / 1e9
+
+    def sleep(self, seconds: float) -> None:
+        self.ns += round(seconds * 1e9)
+
+
+def timed_plan(package: ModuleType, process: str, took: dict[int, int], **changes: Any) -> Any:
+    """`process`'s plan whose first module's cycle n takes took[n] ns of the fake clock
+    (`clock` is set by `fake_loop`)."""
+    import dataclasses
+
+    plan = part(package, f"main_{process}").PLAN
+    name = plan.modules[0]
+    real = plan.classes[name]
+
+    class Timed:
+        clock: FakeTime
+
+        def __init__(self, buf: memoryview, settings: dict[str, str] | None) -> None:
+            self.module, self.cycles, self.buf = real(buf, settings), 0, buf
+
+        def run_cycle(self) -> None:
+            self.cycles += 1
+            self.module.run_cycle()
+            Timed.clock.ns += took.get(self.cycles, 0)
+
+        def resume(self) -> None:
+            self.module.resume()
+
+    return dataclasses.replace(plan, classes={**plan.classes, name: Timed}, **changes), Timed
+
+
+@pytest.fixture()
+def fake_loop(package: ModuleType, monkeypatch: pytest.MonkeyPatch) -> Iterator[Any]:
+    """rcs/loop.py on a fake clock: its `time`, and every Pacer it makes."""
+    import functools
+
+    loop = part(package, "rcs.loop")
+    clock = FakeTime()
+    monkeypatch.setattr(loop, "time", clock)
+    monkeypatch.setattr(
+        loop, "Pacer", functools.partial(loop.Pacer, clock=clock.monotonic, sleep=clock.sleep)
+    )
+    yield loop, clock
+
+
+def test_a_paced_run_keeps_the_period_and_counts_each_cycle_s_time_and_load(
+    package: ModuleType, fake_loop: Any
+) -> None:
+    """Paced at 0.25 s: each cycle starts a period after the last; the control record gets
+    the last and longest cycle times, a load warning for a cycle longer than 0.8 periods
+    (exactly 0.8 is not), no overrun; the run ends STOPPED after the cycles asked for."""
+    loop, clock = fake_loop
+    layout = part(package, "layout")
+    plan, timed = timed_plan(
+        package,
+        "pl",
+        {1: 100_000_000, 2: 200_000_000, 3: 200_000_001, 4: 50_000_000},
+        cycle_period=0.25,
+    )
+    timed.clock = clock
+    began = clock.ns
+    starts: list[int] = []
+    process = loop.run(plan, layout, cycles=4, on_cycle=lambda p: starts.append(clock.ns) and False)
+    try:
+        record = layout.PROCESSES["pl"].read(process.block.buf)
+    finally:
+        process.block.close()
+    assert process.cycle == 4
+    assert starts == [
+        began + n * 250_000_000 + d
+        for n, d in enumerate((100_000_000, 200_000_000, 200_000_001, 50_000_000))
+    ]
+    assert (record["last_cycle_ns"], record["max_cycle_ns"]) == (50_000_000, 200_000_001)
+    assert (record["load_warnings"], record["overruns"], record["late_wakeups"]) == (1, 0, 0)
+    assert (record["watchdog_trips"], record["heartbeat"]) == (0, 4)
+    assert record["state"] == part(package, "rcs.contract").STOPPED
+    assert clock.ns == began + 4 * 250_000_000, "the last cycle waits for its period too"
+
+
+def test_an_unpaced_run_never_waits(package: ModuleType, fake_loop: Any) -> None:
+    loop, clock = fake_loop
+    layout = part(package, "layout")
+    plan, timed = timed_plan(package, "pl", {1: 10, 2: 10, 3: 10})
+    timed.clock = clock
+    began = clock.ns
+    process = loop.run(plan, layout, cycles=3, pace=False)
+    process.block.close()
+    assert clock.ns == began + 30
+    assert process.counters["load_warnings"] == 0
+
+
+def test_an_operator_s_slow_down_stretches_the_period(package: ModuleType, fake_loop: Any) -> None:
+    loop, clock = fake_loop
+    layout = part(package, "layout")
+    plan, timed = timed_plan(package, "pl", {}, cycle_period=0.25)
+    timed.clock = clock
+    starts: list[int] = []
+
+    def slow_from_the_second(process: Any) -> bool:
+        starts.append(clock.ns)
+        if process.cycle == 1:
+            layout.PACING["pl"].write(process.block.buf, slow=3.0)
+        return False
+
+    process = loop.run(plan, layout, cycles=4, on_cycle=slow_from_the_second)
+    process.block.close()
+    gaps = [b - a for a, b in zip(starts, starts[1:], strict=False)]
+    assert gaps == [250_000_000, 750_000_000, 750_000_000], "from the next boundary on"
+
+
+def test_a_paced_run_trips_its_watchdog_from_the_second_cycle_and_stops_safe(
+    package: ModuleType, fake_loop: Any
+) -> None:
+    """pl at 0.25 s: a first cycle of four periods is the start-up's; the third cycle, a
+    hair over three periods, trips the watchdog once (counted after its on_cycle): pl's
+    reaction latched (halt_all: every actuator) and HALT to its root."""
+    loop, clock = fake_loop
+    layout = part(package, "layout")
+    plan, timed = timed_plan(package, "pl", {1: 1_000_000_000, 3: 750_000_001}, cycle_period=0.25)
+    timed.clock = clock
+    trips: list[int] = []
+    process = loop.run(
+        plan, layout, cycles=4, on_cycle=lambda p: trips.append(p.counters["watchdog_trips"])
+    )
+    try:
+        sent = layout.COMMAND_IN["lead"].read(process.block.buf)
+        overridden = part(package, "rcs.override").overrides(layout, process.block.buf)
+    finally:
+        process.block.close()
+    assert trips == [0, 0, 0, 1]
+    assert process.counters["overruns"] == 4 + 3
+    assert layout.COMMAND_NAMES["lead"][sent["command"]] == "HALT"
+    assert sent["command_num"] == 2, "INIT, then HALT"
+    assert set(overridden) == set(SAFE)
+
+
+@pytest.mark.parametrize(("timeout", "lost"), [(None, True), (2.0, False)])
+def test_a_paced_run_watches_the_others_with_the_declared_timeout(
+    package: ModuleType, fake_loop: Any, timeout: float | None, lost: bool
+) -> None:
+    """pl's run checks pa's heartbeat after each cycle: one beat exactly 1 s and 1 ns old
+    is lost with the layout's timeout (1 s), not with one of 2 s given to run."""
+    loop, clock = fake_loop
+    layout = part(package, "layout")
+    plan, timed = timed_plan(package, "pl", {}, cycle_period=0.25)
+    timed.clock = clock
+
+    def beat_pa(process: Any) -> bool:
+        if process.cycle == 1:  # the next check is at the next boundary (no cycle time)
+            at = process.block.buf
+            layout.PROCESSES["pa"].write(
+                at, state=2, beat_ns=clock.ns + 250_000_000 - 1_000_000_001
+            )
+        return False
+
+    process = loop.run(plan, layout, cycles=2, on_cycle=beat_pa, heartbeat_timeout=timeout)
+    process.block.close()
+    assert (process.lost == {"pa"}) is lost
+
+
+@pytest.mark.parametrize("orphaned", [False, True])
+def test_a_stop_ends_the_run_after_its_cycle_with_the_outputs_safe(
+    package: ModuleType, fake_loop: Any, orphaned: bool
+) -> None:
+    """A stop requested during cycle 2 ends the run after it; pa's own actuator is latched
+    safe, every actuator when the launcher is gone (orphaned)."""
+    loop, clock = fake_loop
+    layout = part(package, "layout")
+    plan, timed = timed_plan(package, "pa", {}, cycle_period=0.25)
+    timed.clock = clock
+    stop = loop.Stop()
+    assert (stop.requested, stop.orphaned, stop.process) == (False, False, None)
+    stop.orphaned = orphaned
+
+    def request(process: Any) -> bool:
+        assert stop.process is process
+        if process.cycle == 2:
+            stop()
+        return False
+
+    process = loop.run(plan, layout, cycles=10, on_cycle=request, stop=stop)
+    overridden = part(package, "rcs.override").overrides(layout, process.block.buf)
+    process.block.close()
+    assert stop.requested and not stop.finished.is_set()
+    assert process.cycle == 2
+    assert set(overridden) == (set(SAFE) if orphaned else {"v1_drive"})
+
+
+def test_on_cycle_returning_true_ends_the_run_and_a_transport_carries_each_cycle(
+    package: ModuleType, fake_loop: Any
+) -> None:
+    loop, clock = fake_loop
+    layout = part(package, "layout")
+    plan, timed = timed_plan(package, "pl", {})
+    timed.clock = clock
+    calls: list[str] = []
+
+    class Net:
+        def __init__(self, process: Any) -> None:
+            calls.append(f"made {process.plan.name}")
+
+        def pull(self) -> None:
+            calls.append("pull")
+
+        def push(self) -> None:
+            calls.append("push")
+
+        def close(self) -> None:
+            calls.append("close")
+
+    process = loop.run(
+        plan, layout, cycles=5, pace=False, on_cycle=lambda p: p.cycle == 2, transport=Net
+    )
+    process.block.close()
+    assert process.cycle == 2
+    assert calls == ["made pl", "pull", "push", "pull", "push", "close"]
+
+
+# ---------------------------------------------------------------- lockstep, restarts
+
+
+def test_serve_runs_the_segments_it_is_sent_and_answers_each(package: ModuleType) -> None:
+    import os
+
+    loop, layout = part(package, "rcs.loop"), part(package, "layout")
+    pl = fleet_process(package)
+    requests, to_process = os.pipe()
+    from_process, replies = os.pipe()
+    try:
+        for step in ((0, 0, False), (0, 0, True), (0, 0, True)):
+            os.write(to_process, loop.STEP.pack(b"s", *step))
+        os.write(to_process, loop.STEP.pack(b"q", 0, 0, False))
+        loop.serve(pl, requests, replies)
+        assert os.read(from_process, 16) == loop.READY + loop.DONE_REPLY * 3
+        assert pl.cycle == 2
+        assert layout.PERFORMANCE["lead"].read(pl.block.buf)["cycles"] == 3
+        record = layout.PROCESSES["pl"].read(pl.block.buf)
+        assert (record["state"], record["heartbeat"]) == (loop.STOPPED, 2)
+        os.write(to_process, loop.STEP.pack(b"s", 0, 0, True)[:3])  # then the coordinator goes
+        os.close(to_process)
+        loop.serve(pl, requests, replies)
+        assert os.read(from_process, 16) == loop.READY
+        assert pl.cycle == 2
+    finally:
+        for fd in (requests, from_process, replies):
+            os.close(fd)
+
+
+def test_read_exactly_gathers_the_pieces_or_gives_none_at_the_end(package: ModuleType) -> None:
+    import os
+
+    loop = part(package, "rcs.loop")
+    r, w = os.pipe()
+    try:
+        os.write(w, b"ab")
+        os.write(w, b"cd")
+        assert loop._read_exactly(r, 3) == b"abc"
+        os.close(w)
+        assert loop._read_exactly(r, 2) is None
+    finally:
+        os.close(r)
+
+
+def test_a_second_copy_is_refused_only_while_a_live_other_owner_runs(package: ModuleType) -> None:
+    import os
+
+    loop, layout = part(package, "rcs.loop"), part(package, "layout")
+    contract = part(package, "rcs.contract")
+    block = part(package, "rcs.block").Block(layout)
+    plan = part(package, "main_pl").PLAN
+    record = layout.PROCESSES["pl"]
+    gone = 2**22 + 1  # above Linux's largest pid: no such process
+    for state, pid, refused in [
+        (contract.RUNNING, os.getppid(), True),
+        (contract.STARTING, os.getppid(), True),
+        (contract.STOPPED, os.getppid(), False),
+        (contract.RUNNING, os.getpid(), False),
+        (contract.RUNNING, gone, False),
+        (contract.RUNNING, 0, False),
+    ]:
+        record.write(block.buf, state=state, pid=pid)
+        if refused:
+            with pytest.raises(
+                loop.DuplicateProcess, match=f"process pl is already running \\(pid {pid}\\)"
+            ):
+                loop.Process(plan, layout, block, restarting=True)
+        else:
+            loop.Process(plan, layout, block, restarting=True)
+    assert loop._alive(os.getpid()) and not loop._alive(gone)
+
+
+def test_a_module_with_hook_state_refuses_a_restart_once_it_has_run(package: ModuleType) -> None:
+    import dataclasses
+
+    loop, layout = part(package, "rcs.loop"), part(package, "layout")
+    block = part(package, "rcs.block").Block(layout)
+    plan = part(package, "main_pa").PLAN
+
+    class Keeps(plan.classes["v1"]):  # type: ignore[misc,name-defined]
+        HOOK_STATE_ON_RESTART = "refuse"
+
+    keeping = dataclasses.replace(plan, classes={**plan.classes, "v1": Keeps})
+    loop.Process(keeping, layout, block, restarting=True)  # it never ran
+    layout.PERFORMANCE["v1"].write(block.buf, cycles=1)
+    loop.Process(plan, layout, block, restarting=True)  # a module whose state may restart
+    with pytest.raises(loop.RestartRefused, match="^v1 keeps hook state outside the block"):
+        loop.Process(keeping, layout, block, restarting=True)
+
+
+def test_start_makes_a_block_and_inits_only_idle_roots_on_a_restart(
+    package: ModuleType, segment_name: str
+) -> None:
+    loop, layout = part(package, "rcs.loop"), part(package, "layout")
+    plan = part(package, "main_pl").PLAN
+    first = loop.start(plan, layout, segment_name)
+    try:
+        assert first.block.owner
+        assert layout.COMMAND_IN["lead"].read(first.block.buf)["command_num"] == 1
+        first.beat(part(package, "rcs.contract").STOPPED)
+        again = loop.start(plan, layout, segment_name, create=False)
+        assert not again.block.owner
+        assert layout.COMMAND_IN["lead"].read(again.block.buf)["command_num"] == 1, "kept"
+        again.block.close()
+    finally:
+        first.block.close()
