@@ -24,6 +24,13 @@ if under_mutmut():  # `make mutate`: the runtime copies of generated packages ho
         pytest_sessionstart,
     )
 
+# `make mutate-templates` (tests/mutation_templates.py): builds render from a scratch copy of
+# the templates holding one mutant.
+if os.environ.get("RCSGEN_MUTATE_TEMPLATES"):
+    from rcsgen.compiler.back_end import emit
+
+    emit.template_dir = lambda: Path(os.environ["RCSGEN_MUTATE_TEMPLATES"])  # type: ignore[assignment]
+
 REPO = Path(__file__).resolve().parent.parent
 # The foundation issue's small miner, frozen as a fixture: the CLI tests mutate it.
 MINER = REPO / "tests" / "fixtures" / "foundation" / "miner"

@@ -16,6 +16,7 @@ import pytest
 from mutation_runtime import forget_generated_packages, runtime_mutant, sync_generated
 from mutation_summary import main as summary
 from mutation_summary import read_equivalent
+from mutation_templates import REGIONS, TEMPLATES, code_spans, mutants, region_lines
 
 HERE = Path(__file__).resolve().parent
 SITE = HERE / "mutation_site" / "mutation_hooks.py"
@@ -275,3 +276,45 @@ def test_probe_and_runtime_redirect_reach_the_processes_a_test_starts(tmp_path: 
     assert json.loads(done.stdout) == ["__init__.py", "only_here.py"]
     [file] = hits.iterdir()
     assert file.read_text(encoding="utf-8") == "rcsgen.runtime.thing.x_helper\n"
+
+
+# ---------------------------------------------------------------- the templates' mutants
+
+
+def test_template_mutants_change_python_text_only_one_thing_at_a_time() -> None:
+    """tests/mutation_templates.py: an operator is swapped, or a statement made `pass`,
+    outside Jinja tags and comments; docstrings are left alone."""
+    line = "        if a and {{ b and c }} and d:  # x and y"
+    assert [line[a:b] for a, b in code_spans(line)] == ["        if a and ", " and d:  "]
+    assert code_spans("{% if x and y %}") == []
+    text = (
+        "{% macro f() %}\n"
+        "    def f(self) -> None:\n"
+        '        """Docs and more."""\n'
+        "        self.n += 1  # and\n"
+        "        if self.a and {{ x }}:\n"
+        "{%- endmacro %}\n"
+    )
+    import mutation_templates
+
+    regions = mutation_templates.REGIONS
+    try:
+        mutation_templates.REGIONS = (("t", "    def f(self) -> None:", "{%- endmacro %}"),)
+        found = dict(mutants("t", text))
+    finally:
+        mutation_templates.REGIONS = regions
+    assert sorted(found) == [
+        "t:4:+= 1->+= 2@15",
+        "t:4:statement->pass",
+        "t:5:and->or@17",
+        "t:5:if self.->if not self.@8",
+    ]
+    assert found["t:4:statement->pass"].splitlines()[3] == "        pass"
+    assert found["t:5:and->or@17"].splitlines()[4] == "        if self.a or {{ x }}:"
+
+
+def test_the_template_regions_are_found_in_the_templates() -> None:
+    for name in {template for template, _, _ in REGIONS}:
+        text = (TEMPLATES / name).read_text(encoding="utf-8")
+        assert len(region_lines(name, text)) > 50
+        assert len(mutants(name, text)) > 50
