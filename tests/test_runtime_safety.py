@@ -1207,3 +1207,68 @@ def test_start_makes_a_block_and_inits_only_idle_roots_on_a_restart(
         again.block.close()
     finally:
         first.block.close()
+
+
+# ---------------------------------------------------------------- the generated modules' writes
+
+
+class Logged:
+    """A struct of a generated module whose stores are logged: (name, offset, first value)."""
+
+    def __init__(self, name: str, struct: Any, log: list[tuple[str, int, int]]) -> None:
+        self.name, self.struct, self.log = name, struct, log
+
+    def __getattr__(self, attribute: str) -> Any:
+        return getattr(self.struct, attribute)
+
+    def pack_into(self, buf: Any, offset: int, *values: Any) -> None:
+        self.log.append((self.name, offset, values[0]))
+        self.struct.pack_into(buf, offset, *values)
+
+
+def test_every_buffer_a_module_writes_is_marked_odd_alone_first_and_even_after(
+    package: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The seqlock of a generated module's writes (status, commands, world outputs, its
+    performance record): the sequence word is stored odd by itself before the store that
+    changes the fields (which zeroes its span first), and one more (even) after it."""
+    contract, layout = part(package, "rcs.contract"), part(package, "layout")
+    log: list[tuple[str, int, int]] = []
+    for name in ("lead", "v2"):
+        module = part(package, name)
+        for key, value in list(vars(module).items()):
+            if isinstance(value, contract.Struct):
+                monkeypatch.setattr(module, key, Logged(key, value, log))
+    pl, pb = fleet_process(package, "pl"), fleet_process(package, "pb")
+    layout.COMMAND_IN["lead"].write(pl.block.buf, command_num=2, command=3)  # CONVOY
+    layout.COMMAND_IN["v2"].write(pb.block.buf, command_num=1, command=3)  # DRIVE
+    for _ in range(2):
+        pl.run_cycle()
+        pb.run_cycle()
+    fields = [(n, at, s) for n, at, s in log if n != "SEQ"]
+    written = {"STATUS", "V1_COMMAND", "V2_COMMAND", "PERF", "WORLD_OUT_1"}
+    assert {n for n, _, _ in fields} >= written
+    for name, at, seq in fields:
+        marks = [s for n, o, s in log if n == "SEQ" and o == at]
+        i = log.index((name, at, seq))
+        before = [s for n, o, s in log[:i] if n == "SEQ" and o == at]
+        after = [s for n, o, s in log[i + 1 :] if n == "SEQ" and o == at]
+        assert seq % 2 == 1, f"{name} stores an even word with its fields"
+        assert before and before[-1] == seq, f"{name}: not marked odd alone first"
+        assert after and after[0] == seq + 1, f"{name}: not marked even after"
+        assert marks, name
+
+
+def test_a_supervisor_told_its_subordinate_is_lost_sees_it_in_error(package: ModuleType) -> None:
+    """lead (on_lost: continue for v2): while pb is lost, lead sees v2's status as ERROR and
+    its CONVOY rules go on alone; while pb is not, v2 is still EXECUTING for lead."""
+    layout = part(package, "layout")
+    pl = fleet_process(package)
+    names = layout.ENUMS[("", "mode")]
+    layout.COMMAND_IN["lead"].write(pl.block.buf, command_num=2, command=3)  # CONVOY
+    pl.run_cycle()
+    pl.run_cycle()
+    assert names[layout.WORLD["mode"].read(pl.block.buf)["mode"]] == "TOGETHER"
+    pl.react("pb")
+    pl.run_cycle()
+    assert names[layout.WORLD["mode"].read(pl.block.buf)["mode"]] == "ALONE"
