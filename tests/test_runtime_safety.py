@@ -1257,6 +1257,13 @@ def test_every_buffer_a_module_writes_is_marked_odd_alone_first_and_even_after(
         assert before and before[-1] == seq, f"{name}: not marked odd alone first"
         assert after and after[0] == seq + 1, f"{name}: not marked even after"
         assert marks, name
+    for at in {at for _, at, _ in fields}:  # each write moves the word on: no ABA
+        odd = [s for n, o, s in fields if o == at]
+        assert odd == sorted(set(odd)), f"the word at {at} repeats: {odd}"
+    for _ in range(3):  # lead in S1, waiting: nothing new to say
+        log.clear()
+        pl.run_cycle()
+    assert [n for n, _, _ in log if n not in ("SEQ", "PERF")] == [], "a status unchanged"
 
 
 def test_a_supervisor_told_its_subordinate_is_lost_sees_it_in_error(package: ModuleType) -> None:
