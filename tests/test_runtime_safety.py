@@ -1279,3 +1279,21 @@ def test_a_supervisor_told_its_subordinate_is_lost_sees_it_in_error(package: Mod
     pl.react("pb")
     pl.run_cycle()
     assert names[layout.WORLD["mode"].read(pl.block.buf)["mode"]] == "ALONE"
+
+
+def test_a_supervisor_numbers_its_next_command_after_an_operator_s(package: ModuleType) -> None:
+    """An operator commanded v1 directly (#7) after lead's DRIVE (#1): lead's next command
+    to v1 (HALT, its safe state) is numbered after the operator's (#8), so v1 takes it as
+    new."""
+    layout = part(package, "layout")
+    pl = fleet_process(package)
+    record, names = layout.COMMAND_IN["v1"], layout.COMMAND_NAMES["v1"]
+    layout.COMMAND_IN["lead"].write(pl.block.buf, command_num=2, command=3)  # CONVOY
+    pl.run_cycle()
+    pl.run_cycle()
+    assert record.read(pl.block.buf)["command_num"] == 1
+    record.write(pl.block.buf, command_num=7, command=names.index("DRIVE"))  # the operator
+    pl.react("pa")
+    pl.run_cycle()
+    sent = record.read(pl.block.buf)
+    assert (sent["command_num"], names[sent["command"]]) == (8, "HALT")
