@@ -219,3 +219,19 @@ def test_a_segment_whose_header_is_not_rcsgens_is_refused_on_attach(package: Mod
         attached.close()
     finally:
         created.close()
+
+
+# ---------------------------------------------------------------- an echo's time
+
+
+def test_an_echo_timeout_counts_from_the_command_not_from_the_start(package: ModuleType) -> None:
+    """echo_timeouts: arm may take 5 cycles to echo. top idles 3 cycles, then sends arm a
+    command (arm never runs here): top still waits 5 cycles after sending it, not 5 after
+    its start, before it sees arm in ERROR."""
+    h = Harness(package, "p1")
+    h.cycle(3)
+    h.command("top", "MOVE")
+    h.cycle(5)
+    assert h.status("top").status == "EXECUTING"
+    h.cycle(2)
+    assert h.status("top").status == "ERROR"
