@@ -1297,3 +1297,19 @@ def test_a_supervisor_numbers_its_next_command_after_an_operator_s(package: Modu
     pl.run_cycle()
     sent = record.read(pl.block.buf)
     assert (sent["command_num"], names[sent["command"]]) == (8, "HALT")
+
+
+def test_a_module_s_performance_record_keeps_its_last_shortest_and_longest_cycle(
+    package: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """On a fake clock, cycles of 30, 10 and 20 ns: the performance record says last 20,
+    shortest 10, longest 30, three cycles."""
+    layout = part(package, "layout")
+    pb = fleet_process(package, "pb")
+    readings = iter([1000, 1030, 2000, 2010, 3000, 3020])
+    monkeypatch.setattr(part(package, "v2"), "perf_counter_ns", lambda: next(readings))
+    for _ in range(3):
+        pb.run_cycle()
+    perf = layout.PERFORMANCE["v2"].read(pb.block.buf)
+    assert (perf["last_cycle_ns"], perf["min_cycle_ns"], perf["max_cycle_ns"]) == (20, 10, 30)
+    assert perf["cycles"] == 3
