@@ -13,7 +13,7 @@ from pathlib import Path
 from types import ModuleType
 
 import pytest
-from mutation_runtime import forget_generated_packages, runtime_mutant, sync_generated
+from mutation_runtime import forget_generated_packages, formatted, runtime_mutant, sync_generated
 from mutation_summary import main as summary
 from mutation_summary import read_equivalent
 from mutation_templates import REGIONS, TEMPLATES, code_spans, mutants, region_lines
@@ -318,3 +318,10 @@ def test_the_template_regions_are_found_in_the_templates() -> None:
         text = (TEMPLATES / name).read_text(encoding="utf-8")
         assert len(region_lines(name, text)) > 50
         assert len(mutants(name, text)) > 50
+
+
+def test_a_runtime_mutant_is_formatted_as_a_build_formats_the_runtime() -> None:
+    """materialise formats the mutated module with the compiler's own formatter (an import
+    of it that broke made every runtime mutant's session crash, which mutmut counted as a
+    kill)."""
+    assert formatted("loop.py", "x=( 1,2 )\n") == "x = (1, 2)\n"
