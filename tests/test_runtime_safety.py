@@ -1313,3 +1313,26 @@ def test_a_module_s_performance_record_keeps_its_last_shortest_and_longest_cycle
     perf = layout.PERFORMANCE["v2"].read(pb.block.buf)
     assert (perf["last_cycle_ns"], perf["min_cycle_ns"], perf["max_cycle_ns"]) == (20, 10, 30)
     assert perf["cycles"] == 3
+
+
+def test_a_restarted_module_writes_whole_over_a_buffer_its_predecessor_left_odd(
+    package: ModuleType,
+) -> None:
+    """v2's process died mid-write of v2's status and performance buffers (their words odd);
+    the restarted v2 takes its words up from the block and its next writes leave both whole
+    again, two sequence steps on."""
+    layout, plan = part(package, "layout"), part(package, "main_pb").PLAN
+    pb = fleet_process(package, "pb")
+    buf = pb.block.buf
+    layout.COMMAND_IN["v2"].write(buf, command_num=1, command=3)  # DRIVE
+    pb.run_cycle()
+    status, perf = layout.STATUS_OUT["v2"], layout.PERFORMANCE["v2"]
+    tear(package, status, buf)
+    tear(package, perf, buf)
+    odd = (status.seq(buf), perf.seq(buf))
+    again = part(package, "rcs.loop").Process(plan, layout, pb.block)
+    layout.COMMAND_IN["v2"].write(buf, command_num=2, command=3)
+    again.run_cycle()
+    assert status.read(buf)["status_num"] == 2
+    assert perf.read(buf)["cycles"] >= 1
+    assert (status.seq(buf), perf.seq(buf)) == (odd[0] + 3, odd[1] + 3)
