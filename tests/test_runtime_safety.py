@@ -338,7 +338,7 @@ def test_the_loss_of_a_halt_all_process_puts_its_supervisor_in_the_safe_state(
     pl.run_cycle()
     sent = layout.COMMAND_IN["v1"].read(pl.block.buf)
     assert layout.COMMAND_NAMES["v1"][sent["command"]] == "HALT"
-    assert sent["command_num"] == before + 1, "the next number"
+    assert sent["command_num"] == before + 2, "a HALT numbered on for each reaction"
     status = layout.STATUS_OUT["lead"].read(pl.block.buf)
     assert part(package, "rcs.contract").STATUS_NAMES[status["status"]] == "ERROR"
     assert status["error_num"] == part(package, "rcs.loop").LOST_SUBORDINATE
