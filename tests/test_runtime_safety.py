@@ -328,10 +328,15 @@ def test_a_process_lost_while_its_trip_count_stays_stays_lost_to_its_supervisor(
 def test_the_loss_of_a_halt_all_process_puts_its_supervisor_in_the_safe_state(
     package: ModuleType,
 ) -> None:
-    """pa lost (v1: halt_all): every actuator latched, lead sends HALT to v1 and reports
-    ERROR (reason LOST); react returns the fields it latched now."""
+    """pa lost while lead runs CONVOY (v1: halt_all): every actuator latched, lead leaves
+    its table, sends HALT to v1 and reports ERROR (reason LOST); react returns the fields
+    it latched now."""
     layout = part(package, "layout")
     pl = fleet_process(package)
+    layout.COMMAND_IN["lead"].write(pl.block.buf, command_num=2, command=3)  # CONVOY
+    pl.run_cycle()
+    pl.run_cycle()
+    assert layout.STATE_NAMES["lead"][layout.STATUS_OUT["lead"].read(pl.block.buf)["state"]] == "S1"
     before = layout.COMMAND_IN["v1"].read(pl.block.buf)["command_num"]
     assert pl.react("pa") == ["v1_drive", "v2_drive", "v2_brake"]
     assert pl.react("pa") == []
@@ -342,6 +347,7 @@ def test_the_loss_of_a_halt_all_process_puts_its_supervisor_in_the_safe_state(
     status = layout.STATUS_OUT["lead"].read(pl.block.buf)
     assert part(package, "rcs.contract").STATUS_NAMES[status["status"]] == "ERROR"
     assert status["error_num"] == part(package, "rcs.loop").LOST_SUBORDINATE
+    assert layout.STATE_NAMES["lead"][status["state"]] == "NOP", "its table left"
     assert latched(package, pl) == {f: ("SAFE", v) for f, v in SAFE.items()}
 
 
