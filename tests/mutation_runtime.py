@@ -355,5 +355,6 @@ def pytest_runtest_teardown(item: pytest.Item) -> Iterator[None]:
     from mutmut.utils.format_utils import strip_prefix
 
     test = strip_prefix(item.nodeid, prefix="mutants/")
+    _session.probe.forget()  # the next test's calls here are recorded for it too
     for function in _session.hits():
         state().tests_by_mangled_function_name[function].add(test)

@@ -325,3 +325,17 @@ def test_a_runtime_mutant_is_formatted_as_a_build_formats_the_runtime() -> None:
     of it that broke made every runtime mutant's session crash, which mutmut counted as a
     kill)."""
     assert formatted("loop.py", "x=( 1,2 )\n") == "x = (1, 2)\n"
+
+
+def test_after_forget_the_probe_reports_each_function_again(tmp_path: Path, monkeypatch) -> None:
+    """The test process forgets what it reported after each test, so every test that
+    reaches a runtime function is recorded for it (mutmut runs only those for its mutants),
+    not only the first test of the session."""
+    site = load_site()
+    monkeypatch.setenv(site.PROBE_ENV, str(tmp_path))
+    site.hit("rcsgen.runtime.loop.x_f")
+    site.hit("rcsgen.runtime.loop.x_f")
+    site.forget()
+    site.hit("rcsgen.runtime.loop.x_f")
+    [file] = tmp_path.iterdir()
+    assert file.read_text(encoding="utf-8").split() == ["rcsgen.runtime.loop.x_f"] * 2
