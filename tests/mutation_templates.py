@@ -15,7 +15,7 @@ A control run with the templates unchanged must pass first.
 The summary gives the score and lists the survivors; survivors judged equivalent are listed,
 with the reason, in tests/mutation_equivalent.txt under their key (`controller.py.j2:LINE:
 OLD->NEW`, as printed). Arguments: `--list` prints the mutants without running them;
-`--only TEXT` runs the mutants whose key contains TEXT.
+`--only TEXT` (several allowed) runs the mutants whose key contains one of them.
 """
 
 from __future__ import annotations
@@ -182,12 +182,12 @@ def run_tests(templates: Path) -> tuple[bool, str]:
 
 
 def main(args: list[str]) -> int:
-    only = args[args.index("--only") + 1] if "--only" in args else ""
+    only = [args[i + 1] for i, a in enumerate(args) if a == "--only"] or [""]
     found = [
         (key, name, text)
         for name in sorted({r[0] for r in REGIONS})
         for key, text in mutants(name, (TEMPLATES / name).read_text(encoding="utf-8"))
-        if only in key
+        if any(o in key for o in only)
     ]
     if "--list" in args:
         for key, _, _ in found:

@@ -1321,7 +1321,7 @@ def test_a_module_s_performance_record_keeps_its_last_shortest_and_longest_cycle
     assert perf["cycles"] == 3
 
 
-def test_a_restarted_module_writes_whole_over_a_buffer_its_predecessor_left_odd(
+def test_a_module_made_again_writes_whole_over_buffers_its_predecessor_left_odd(
     package: ModuleType,
 ) -> None:
     """v2's process died mid-write of v2's status and performance buffers (their words odd);
