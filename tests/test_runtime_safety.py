@@ -505,6 +505,11 @@ def test_held_replaces_what_a_module_writes_by_each_override_and_skips_a_torn_on
     assert override.held(buf, records, out, now) == (0.5, 2.0, True)
     part(package, "rcs.contract").SEQ.pack_into(buf, layout.OVERRIDE["v2_drive"].offset, 0)
     assert override.held(buf, records, out, now) == (0.5, 0.75, True)
+    _, layout, buf = fresh(package)
+    override.latch_safe(layout, buf, ["v1_drive"])  # latched at 0.0: held at 0.0
+    override.force(layout, buf, "v2_drive", 3.0)
+    override.unforce(layout, buf, "v2_drive")  # released: the record keeps 3.0, not held
+    assert override.held(buf, records, out, now) == (0.0, 2.0, False)
 
 
 def test_an_override_record_a_writer_died_in_reads_as_its_fields(package: ModuleType) -> None:
@@ -1342,3 +1347,36 @@ def test_a_module_made_again_writes_whole_over_buffers_its_predecessor_left_odd(
     assert status.read(buf)["status_num"] == 2
     assert perf.read(buf)["cycles"] >= 1
     assert (status.seq(buf), perf.seq(buf)) == (odd[0] + 3, odd[1] + 3)
+
+
+def test_a_layout_without_pacing_records_is_watched_with_the_declared_timeout(
+    package: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A package built before pacing records: check_liveness uses the timeout as it is."""
+    layout = part(package, "layout")
+    pl = fleet_process(package)
+    beats(package, pl, "pa", state=2, beat_ns=1_000_000_000)
+    layout.PACING["pa"].write(pl.block.buf, slow=3.0)
+    monkeypatch.delattr(layout, "PACING")
+    pl.check_liveness(1_000_000_000, 2_000_000_001, ["pa"])
+    assert pl.lost == {"pa"}
+
+
+def test_a_trip_count_that_starts_again_is_not_a_recovery_until_it_holds(
+    package: ModuleType,
+) -> None:
+    """pb trips (lead told v2 is lost for a cycle), then pb starts again with its trip count
+    back at 0: that check tells lead nothing new; the next, with the count unchanged, tells
+    it v2 is back."""
+    pl = fleet_process(package)
+    lead = pl.modules["lead"]
+    beats(package, pl, "pb", state=2, beat_ns=1_000_000_000, watchdog_trips=0)
+    pl.check_liveness(1_000_000_000, 1_100_000_000, ["pb"])
+    beats(package, pl, "pb", watchdog_trips=1)
+    pl.check_liveness(1_000_000_000, 1_200_000_000, ["pb"])
+    assert lead.v2_lost is True
+    beats(package, pl, "pb", watchdog_trips=0)
+    pl.check_liveness(1_000_000_000, 1_300_000_000, ["pb"])
+    assert lead.v2_lost is True
+    pl.check_liveness(1_000_000_000, 1_400_000_000, ["pb"])
+    assert lead.v2_lost is False
