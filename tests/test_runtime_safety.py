@@ -1380,3 +1380,67 @@ def test_a_trip_count_that_starts_again_is_not_a_recovery_until_it_holds(
     assert lead.v2_lost is True
     pl.check_liveness(1_000_000_000, 1_400_000_000, ["pb"])
     assert lead.v2_lost is False
+
+
+def test_override_writers_of_a_named_segment_take_its_lock(
+    package: ModuleType, segment_name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """force, unforce, latch_safe and reset of a named block each take the exclusive lock on
+    the segment's file (writers in several processes serialise on it)."""
+    import fcntl
+    import os
+
+    override, layout = part(package, "rcs.override"), part(package, "layout")
+    block = part(package, "rcs.block").Block(layout, segment_name)
+    locked: list[str] = []
+    real = fcntl.flock
+
+    def flock(fd: int, operation: int) -> None:
+        if operation == fcntl.LOCK_EX | fcntl.LOCK_NB:
+            locked.append(os.readlink(f"/proc/self/fd/{fd}"))
+        real(fd, operation)
+
+    monkeypatch.setattr(fcntl, "flock", flock)
+    try:
+        override.force(layout, block.buf, "v1_note", 1, segment=segment_name)
+        override.unforce(layout, block.buf, "v1_note", segment=segment_name)
+        override.latch_safe(layout, block.buf, ["v2_drive"], segment=segment_name)
+        override.reset(layout, block.buf, segment=segment_name)
+    finally:
+        block.close()
+    assert locked == [f"/dev/shm/{segment_name}"] * 4
+
+
+def test_refusals_of_a_latched_field_say_so_and_a_reset_releases_only_those_named(
+    package: ModuleType,
+) -> None:
+    override, layout, buf = fresh(package)
+    override.latch_safe(layout, buf, ["v2_drive", "v2_brake"])
+    with pytest.raises(
+        override.OverrideError, match=r"^v2_drive is latched at its safe value: reset it first$"
+    ):
+        override.force(layout, buf, "v2_drive", 1.0)
+    with pytest.raises(
+        override.OverrideError, match=r"^v2_drive is latched at its safe value: reset releases it$"
+    ):
+        override.unforce(layout, buf, "v2_drive")
+    assert override.reset(layout, buf, ["v2_drive"]) == ["v2_drive"]
+    assert override.overrides(layout, buf) == {"v2_brake": ("SAFE", True)}
+
+
+def test_unlink_of_a_segment_another_removed_meanwhile_says_it_was_gone(
+    package: ModuleType, segment_name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from multiprocessing import shared_memory
+
+    blocks = part(package, "rcs.block")
+    raw_segment(package, segment_name, b"x")
+
+    def gone(self: Any) -> None:
+        real_unlink(self)
+        raise FileNotFoundError(self.name)
+
+    real_unlink = shared_memory.SharedMemory.unlink
+    monkeypatch.setattr(shared_memory.SharedMemory, "unlink", gone)
+    assert blocks.unlink(segment_name) is False
+    assert not blocks.exists(segment_name)
