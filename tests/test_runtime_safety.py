@@ -866,13 +866,13 @@ def test_a_segment_of_another_layout_is_refused_naming_both(
     contract = part(package, "rcs.contract")
     found = layout.LAYOUT_HASH.encode() if same == "hash" else b"\xff" + bytes(31)
     size = layout.SIZE + 8 if same == "hash" else layout.SIZE
-    header = contract.HEADER.pack(contract.MAGIC, found, b"otherX\xff", size)
+    header = contract.HEADER.pack(contract.MAGIC, found, b"\xffotherX", size)
     raw_segment(package, segment_name, header + bytes(size - len(header)))
     with pytest.raises(blocks.BlockError) as refused:
         blocks.Block(layout, segment_name, create=False)
     shown = layout.LAYOUT_HASH if same == "hash" else "\ufffd" + "\0" * 31
     assert str(refused.value).startswith(
-        f"segment '{segment_name}' holds layout {shown} of system 'otherX\ufffd'; this "
+        f"segment '{segment_name}' holds layout {shown} of system '\ufffdotherX'; this "
         f"package has layout {layout.LAYOUT_HASH} of system 'fleet'"
     )
 
