@@ -609,6 +609,7 @@ def test_the_values_a_field_can_hold_are_forced(
         ("mode", 2, "mode: 2 is not one of IDLE, TOGETHER, ALONE"),
         ("v2_brake", "yes", "v2_brake holds a bool, not 'yes'"),
         ("v1_drive", None, "v1_drive holds a number, not None"),
+        ("nowhere", 1, "no world field 'nowhere'"),
     ],
 )
 def test_a_value_a_field_cannot_hold_is_refused_by_name(
