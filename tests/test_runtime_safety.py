@@ -1445,3 +1445,17 @@ def test_unlink_of_a_segment_another_removed_meanwhile_says_it_was_gone(
     monkeypatch.setattr(shared_memory.SharedMemory, "unlink", gone)
     assert blocks.unlink(segment_name) is False
     assert not blocks.exists(segment_name)
+
+
+def test_a_latch_rewrites_a_value_a_racing_writer_changed_and_refuses_a_non_actuator(
+    package: ModuleType,
+) -> None:
+    override, layout, buf = fresh(package)
+    assert override.latch_safe(layout, buf, ["v2_drive"]) == ["v2_drive"]
+    layout.WORLD["v2_drive"].write(buf, v2_drive=2.0)  # a writer past its look at the flag
+    assert override.latch_safe(layout, buf, ["v2_drive"]) == []
+    assert layout.WORLD["v2_drive"].read(buf)["v2_drive"] == -0.5
+    with pytest.raises(
+        override.OverrideError, match="^mode is not an actuator: it has no safe value$"
+    ):
+        override.latch_safe(layout, buf, ["mode"])
