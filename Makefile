@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint typecheck check build clean fuzz bench mutate complexity
+.PHONY: run test lint typecheck check build clean fuzz bench mutate mutate-templates complexity
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -109,3 +109,9 @@ mutate: $(MUTATE_STAMP)
 		--max-children $(MUTATE_CHILDREN) $(foreach m,$(MUTANTS),'$(m)')
 	$(MUTATE_VENV)/bin/mutmut results --all true \
 		| $(MUTATE_VENV)/bin/python tests/mutation_summary.py $(foreach m,$(MUTANTS),'$(m)')
+
+# The templates' safety code, which mutmut cannot reach (tests/mutation_templates.py): each
+# one-line mutant of controller.py.j2's seqlocks, overrides, loss, resume and safe state,
+# tried against the runtime's safety tests in a fresh pytest; prints the score and survivors.
+mutate-templates: $(STAMP)
+	$(PY) tests/mutation_templates.py

@@ -71,6 +71,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_plans",
             "test_results_visible",
             "test_run",
+            "test_runtime_safety",
             "test_scenarios",
             "test_semantics",
             "test_shared_types",
@@ -120,6 +121,13 @@ def pytest_itemcollected(item: pytest.Item) -> None:
         )
     item.add_marker(_TIER_OF[module])
 
+
+# `make mutate-templates` (tests/mutation_templates.py): builds render from a scratch copy of
+# the templates holding one mutant.
+if os.environ.get("RCSGEN_MUTATE_TEMPLATES"):
+    from rcsgen.compiler.back_end import emit
+
+    emit.template_dir = lambda: Path(os.environ["RCSGEN_MUTATE_TEMPLATES"])  # type: ignore[assignment]
 
 REPO = Path(__file__).resolve().parent.parent
 # The foundation issue's small miner, frozen as a fixture: the CLI tests mutate it.

@@ -119,10 +119,15 @@ def apply_mutant(name: str, source: str) -> str:
     return module.deep_replace(original, mutant.with_changes(name=cst.Name(function))).code  # type: ignore[union-attr]
 
 
+def formatted(file: str, text: str) -> str:
+    """`text`, a runtime module named `file`, formatted as a build formats it."""
+    from rcsgen.compiler.back_end import emit  # unmutated: a runtime mutant is active
+
+    return emit.format_files({file: text})[file]
+
+
 def materialise(name: str, scratch: Path) -> Path:
     """A copy of the checkout's runtime in `scratch` with mutant `name` applied; its path."""
-    from rcsgen.compiler import emit  # the unmutated compiler: a runtime mutant is active
-
     runtime = scratch / "runtime"
     shutil.copytree(
         CHECKOUT / "rcsgen" / "runtime", runtime, ignore=shutil.ignore_patterns("__pycache__")
@@ -130,7 +135,7 @@ def materialise(name: str, scratch: Path) -> Path:
     module = name.rpartition(".")[0].removeprefix(RUNTIME_PREFIX)  # `loop`, `operate.ctl`
     file = module.replace(".", "/") + ".py"
     mutated = apply_mutant(name, (runtime / file).read_text(encoding="utf-8"))
-    (runtime / file).write_text(emit.format_files({file: mutated})[file], encoding="utf-8")
+    (runtime / file).write_text(formatted(file, mutated), encoding="utf-8")
     return runtime
 
 
@@ -277,11 +282,25 @@ _session: MutationSession | None = None
 # ---------------------------------------------------------------- pytest hooks (conftest.py)
 
 
+SESSION_FAILED = 35  # mutmut's "suspicious": a session that could not start kills nothing
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_sessionstart(session: pytest.Session) -> None:
+    """Start the session's runtime. A failure here is the machinery's, not a test's: pytest
+    would end with an internal error, which mutmut counts as a kill, so the process ends
+    with mutmut's code for a suspicious result instead, its traceback on stderr."""
     global _session
     _session = MutationSession()
-    _session.start()
+    try:
+        _session.start()
+    except Exception:
+        import traceback
+
+        traceback.print_exc()
+        print(f"mutation session for {_session.mutant!r} could not start", file=sys.stderr)
+        sys.stderr.flush()
+        os._exit(SESSION_FAILED)
 
 
 @pytest.hookimpl(trylast=True)
@@ -338,5 +357,6 @@ def pytest_runtest_teardown(item: pytest.Item) -> Iterator[None]:
     from mutmut.utils.format_utils import strip_prefix
 
     test = strip_prefix(item.nodeid, prefix="mutants/")
+    _session.probe.forget()  # the next test's calls here are recorded for it too
     for function in _session.hits():
         state().tests_by_mangled_function_name[function].add(test)

@@ -13,9 +13,10 @@ from pathlib import Path
 from types import ModuleType
 
 import pytest
-from mutation_runtime import forget_generated_packages, runtime_mutant, sync_generated
+from mutation_runtime import forget_generated_packages, formatted, runtime_mutant, sync_generated
 from mutation_summary import main as summary
 from mutation_summary import read_equivalent
+from mutation_templates import REGIONS, TEMPLATES, code_spans, mutants, region_lines
 
 HERE = Path(__file__).resolve().parent
 SITE = HERE / "mutation_site" / "mutation_hooks.py"
@@ -107,9 +108,16 @@ def test_summary_of_nothing_run_says_so() -> None:
 
 
 def test_equivalent_list_names_real_mutants_with_reasons() -> None:
+    """mutmut's names, or make mutate-templates' keys of mutants it makes today."""
     listed = read_equivalent((HERE / "mutation_equivalent.txt").read_text(encoding="utf-8"))
+    templates = {
+        key
+        for name in {template for template, _, _ in REGIONS}
+        for key, _ in mutants(name, (TEMPLATES / name).read_text(encoding="utf-8"))
+    }
     for name, reason in listed.items():
-        assert name.startswith("rcsgen.") and "__mutmut_" in name, name
+        mutmut = name.startswith("rcsgen.") and "__mutmut_" in name
+        assert mutmut or name in templates, name
         assert len(reason) > 10, f"{name}: say why it cannot be killed"
 
 
@@ -275,3 +283,66 @@ def test_probe_and_runtime_redirect_reach_the_processes_a_test_starts(tmp_path: 
     assert json.loads(done.stdout) == ["__init__.py", "only_here.py"]
     [file] = hits.iterdir()
     assert file.read_text(encoding="utf-8") == "rcsgen.runtime.thing.x_helper\n"
+
+
+# ---------------------------------------------------------------- the templates' mutants
+
+
+def test_template_mutants_change_python_text_only_one_thing_at_a_time() -> None:
+    """tests/mutation_templates.py: an operator is swapped, or a statement made `pass`,
+    outside Jinja tags and comments; docstrings are left alone."""
+    line = "        if a and {{ b and c }} and d:  # x and y"
+    assert [line[a:b] for a, b in code_spans(line)] == ["        if a and ", " and d:  "]
+    assert code_spans("{% if x and y %}") == []
+    text = (
+        "{% macro f() %}\n"
+        "    def f(self) -> None:\n"
+        '        """Docs and more."""\n'
+        "        self.n += 1  # and\n"
+        "        if self.a and {{ x }}:\n"
+        "{%- endmacro %}\n"
+    )
+    import mutation_templates
+
+    regions = mutation_templates.REGIONS
+    try:
+        mutation_templates.REGIONS = (("t", "    def f(self) -> None:", "{%- endmacro %}"),)
+        found = dict(mutants("t", text))
+    finally:
+        mutation_templates.REGIONS = regions
+    assert sorted(found) == [
+        "t:4:+= 1->+= 2@15",
+        "t:4:statement->pass",
+        "t:5:and->or@17",
+        "t:5:if self.->if not self.@8",
+    ]
+    assert found["t:4:statement->pass"].splitlines()[3] == "        pass"
+    assert found["t:5:and->or@17"].splitlines()[4] == "        if self.a or {{ x }}:"
+
+
+def test_the_template_regions_are_found_in_the_templates() -> None:
+    for name in {template for template, _, _ in REGIONS}:
+        text = (TEMPLATES / name).read_text(encoding="utf-8")
+        assert len(region_lines(name, text)) > 50
+        assert len(mutants(name, text)) > 50
+
+
+def test_a_runtime_mutant_is_formatted_as_a_build_formats_the_runtime() -> None:
+    """materialise formats the mutated module with the compiler's own formatter (an import
+    of it that broke made every runtime mutant's session crash, which mutmut counted as a
+    kill)."""
+    assert formatted("loop.py", "x=( 1,2 )\n") == "x = (1, 2)\n"
+
+
+def test_after_forget_the_probe_reports_each_function_again(tmp_path: Path, monkeypatch) -> None:
+    """The test process forgets what it reported after each test, so every test that
+    reaches a runtime function is recorded for it (mutmut runs only those for its mutants),
+    not only the first test of the session."""
+    site = load_site()
+    monkeypatch.setenv(site.PROBE_ENV, str(tmp_path))
+    site.hit("rcsgen.runtime.loop.x_f")
+    site.hit("rcsgen.runtime.loop.x_f")
+    site.forget()
+    site.hit("rcsgen.runtime.loop.x_f")
+    [file] = tmp_path.iterdir()
+    assert file.read_text(encoding="utf-8").split() == ["rcsgen.runtime.loop.x_f"] * 2

@@ -1,7 +1,7 @@
 """Plausible one-line bugs in the runtime's safety paths, each pinned by a test of what the
 runtime promises (issue "Fail safe", "Tests that would catch a broken runtime"): a seqlock
 read that accepts a torn record (a tool's read, and a controller's), a cross-process command
-read without its seqlock, a watchdog that trips one overrun late, a segment without rcsgen's
+read without its seqlock, a watchdog that trips a cycle late, a segment without rcsgen's
 header accepted on attach. (A lost process that beats again but stays lost is caught by
 tests/test_zenoh.py, where pc2 re-joins; the torn-record stress of tests/test_runtime.py
 catches a tool's read that does not look again only by chance, once in ~100,000 reads.)
@@ -214,3 +214,19 @@ def test_a_segment_whose_header_is_not_rcsgens_is_refused_on_attach(package: Mod
         attached.close()
     finally:
         created.close()
+
+
+# ---------------------------------------------------------------- an echo's time
+
+
+def test_an_echo_timeout_counts_from_the_command_not_from_the_start(package: ModuleType) -> None:
+    """echo_timeouts: arm may take 5 cycles to echo. top idles 3 cycles, then sends arm a
+    command (arm never runs here): top still waits 5 cycles after sending it, not 5 after
+    its start, before it sees arm in ERROR."""
+    h = Harness(package, "p1")
+    h.cycle(3)
+    h.command("top", "MOVE")
+    h.cycle(5)
+    assert h.status("top").status == "EXECUTING"
+    h.cycle(2)
+    assert h.status("top").status == "ERROR"

@@ -180,6 +180,12 @@ def install_probe() -> None:
         sys.meta_path.insert(0, ProbeFinder())
 
 
+def forget() -> None:
+    """Record again the first call of each function from now on (the test process after
+    each test: every test that reaches a function counts for it, not only the first)."""
+    _seen.clear()
+
+
 def uninstall_probe() -> None:
     sys.meta_path[:] = [f for f in sys.meta_path if not isinstance(f, ProbeFinder)]
 
