@@ -13,6 +13,7 @@ import struct
 from dataclasses import dataclass, field
 from functools import cached_property
 
+from ..runtime.io_points import Device
 from . import expressions as expr
 from .checks.tables import RuleId
 from .diagnostics import Span
@@ -105,6 +106,7 @@ class Layout:
     # per world field its override record (state and value), after the world fields.
     overrides: Buffer | None = None
     override_fields: tuple[Buffer, ...] = ()
+    io: dict[str, Buffer] = field(default_factory=dict)  # each I/O device's record, last
 
     def handshake(self, module: str, client: str) -> tuple[Buffer, Buffer]:
         """The command and status buffers through which `client` commands `module`: the
@@ -122,6 +124,7 @@ class Layout:
         every = [*self.processes.values(), *self.pacing.values(), *found, *self.world]
         every += [self.overrides] if self.overrides is not None else []
         every += self.override_fields
+        every += self.io.values()
         return sorted(every, key=lambda b: b.offset)
 
 
@@ -514,6 +517,7 @@ class IRProcess:
     roots: tuple[str, ...]  # modules of this process with no supervisor: INIT is sent to them
     # controller -> (its stand-in, the modules of this process it replaces: itself + subtree)
     stand_ins: dict[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
+    io: tuple[str, ...] = ()  # the I/O devices it runs (read first, written last)
 
 
 @dataclass(frozen=True)
@@ -552,6 +556,10 @@ class IRSystem:
     # The run settings its hook-state factories read (name, doc); None: not declared (any
     # setting is taken when a controller has a factory, none otherwise)
     settings: tuple[tuple[str, str], ...] | None = None
+    # Fieldbus devices (the runtime's own declarations, rcs/io_points.py) and, for each, the
+    # controllers that read its inputs (they go to their safe state when it is lost)
+    io: tuple[Device, ...] = ()
+    io_dependents: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

@@ -15,7 +15,7 @@ import sys
 import tempfile
 import textwrap
 from collections.abc import Callable
-from dataclasses import fields, replace
+from dataclasses import MISSING, fields, is_dataclass, replace
 from importlib import resources
 from pathlib import Path
 
@@ -85,6 +85,23 @@ def pyliteral(value: object, kind: Type) -> str:
     return kind.literal(value)
 
 
+def pydeclaration(value: object) -> str:
+    """A frozen dataclass of the runtime (an I/O `Device` and its `Point`s) as the Python
+    that makes it: its class and the fields that differ from their defaults, by keyword."""
+    if isinstance(value, tuple):
+        items = [pydeclaration(v) for v in value]
+        return f"({items[0]},)" if len(items) == 1 else f"({', '.join(items)})"
+    if not is_dataclass(value) or isinstance(value, type):
+        return repr(value)
+    args = []
+    for f in fields(value):
+        item = getattr(value, f.name)
+        if f.default is not MISSING and item == f.default:
+            continue
+        args.append(f"{f.name}={pydeclaration(item)}")
+    return f"{type(value).__name__}({', '.join(args)})"
+
+
 def template_dir() -> Path:
     """Templates ship inside the wheel as rcsgen/templates; a checkout keeps them at the top."""
     packaged = resources.files("rcsgen") / "templates"
@@ -108,6 +125,7 @@ def environment() -> jinja2.Environment:
         comment_text=_one_line,
         pyliteral=pyliteral,
         pytuple=pytuple,
+        pydeclaration=pydeclaration,
         pystr=lambda text: repr(_one_line(text)),
     )
     env.tests.update(
