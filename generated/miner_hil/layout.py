@@ -858,7 +858,6 @@ IO_DEVICES = {
                 address=7,
                 output=False,
                 value_type="float",
-                register_type="uint16",
                 scale=0.1,
             ),
             Point(

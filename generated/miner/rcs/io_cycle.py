@@ -26,11 +26,13 @@ names (`io_modbus.py`, `io_opcua.py`), when the device is started.
 
 from __future__ import annotations
 
+import os
+import re
 import sys
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import ModuleType
 from typing import Any, Protocol
 
@@ -41,6 +43,7 @@ from .io_points import (
     LOST,
     MODBUS_TCP,
     ONLINE,
+    OPCUA,
     STOPPED,
     Device,
     IoRefused,
@@ -239,7 +242,7 @@ class IoModule:
         devices: dict[str, Device] = layout.IO_DEVICES
         self.records: dict[str, Record] = layout.IO_RECORDS
         name = process.plan.name
-        self.devices = [d for d in devices.values() if d.process == name]
+        self.devices = [relocated(d) for d in devices.values() if d.process == name]
         mine = set(process.plan.modules)
         self.watched = [
             d.name
@@ -327,6 +330,27 @@ class IoModule:
     def _write_record(self, name: str, state: int, counts: dict[str, int]) -> None:
         record = self.records[name]
         record.write(self.buf, state=state, **{f: counts[f] for f in DEVICE_FIELDS[1:]})
+
+
+def relocated(device: Device, environ: dict[str, str] | None = None) -> Device:
+    """`device`, at the address `RCSGEN_IO_<DEVICE>` gives instead of the declared one, if
+    set (HOST:PORT for Modbus TCP, the endpoint URL for OPC UA): the same build pointed at
+    a test bench's PLC or a simulator. ValueError, one line, for an address it cannot use."""
+    variable = f"RCSGEN_IO_{device.name.upper()}"
+    text = (os.environ if environ is None else environ).get(variable)
+    if text is None:
+        return device
+    if device.protocol == OPCUA:
+        found = re.match(r"^opc\.tcp://([^\s/:]+|\[[0-9A-Fa-f:.]+\]):([0-9]{1,5})(/\S*)?$", text)
+    else:
+        found = re.match(r"^([^\s:]+|\[[0-9A-Fa-f:.]+\]):([0-9]{1,5})$", text)
+    if found is None or not 0 < int(found[2]) < 65536:
+        want = "opc.tcp://HOST:PORT[/PATH]" if device.protocol == OPCUA else "HOST:PORT"
+        raise ValueError(
+            f"{variable}={text!r}: not an address of I/O device {device.name} ({want})"
+        )
+    url = text if device.protocol == OPCUA else ""
+    return replace(device, host=found[1].strip("[]"), port=int(found[2]), url=url)
 
 
 def key(device: str) -> str:
