@@ -398,9 +398,15 @@ def main() -> None:
 
 @main.command()
 @SPEC_PATHS
+@click.option(
+    "--connect",
+    is_flag=True,
+    help="Also connect to each declared I/O device and read every bound point (E458).",
+)
 @reporting
-def validate(paths: tuple[Path, ...], opts: Options) -> None:
-    """Check specs (schema and semantics) and their scenarios; report every problem found."""
+def validate(paths: tuple[Path, ...], connect: bool, opts: Options) -> None:
+    """Check specs (schema and semantics) and their scenarios; report every problem found.
+    With --connect, also ask each declared I/O device whether every bound point is there."""
     progress = Progress(opts)
     front = compile_paths(list(paths) or [Path("specs")], progress)
     progress.done()
@@ -408,6 +414,10 @@ def validate(paths: tuple[Path, ...], opts: Options) -> None:
     for system in front.systems:  # the scenarios of each system that builds
         found = check_system_scenarios(front.directories[system.name], system)
         diags = Diagnostics([*diags.items, *found.items], diags.acknowledged)
+        if connect and system.io:  # issue 27: the devices themselves (E458)
+            from .tools.io_connect import check_devices
+
+            diags = Diagnostics([*diags.items, *check_devices(system).items], diags.acknowledged)
     if report(diags, opts).fails:
         sys.exit(1)
     _note(opts, f"ok: {', '.join(s.name for s in front.systems)}")

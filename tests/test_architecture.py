@@ -50,6 +50,11 @@ OPTIONAL = {
     # the Zenoh transport, imported (inside a function, never eagerly) only when a process
     # is started with `--transport zenoh`
     ("rcsgen.runtime.zenoh_transport", "zenoh"),
+    # fieldbus I/O (issue 27), imported only when a process runs such a device; the soft PLC
+    # is a test bench's tool built on the same stack
+    ("rcsgen.runtime.io_modbus", "pymodbus"),
+    ("rcsgen.runtime.io_opcua", "asyncua"),
+    ("rcsgen.tools.softplc", "pymodbus"),
 }
 WHY = {
     "runtime": "it is copied into every generated package, which needs nothing but Python",

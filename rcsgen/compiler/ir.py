@@ -560,6 +560,8 @@ class IRSystem:
     # controllers that read its inputs (they go to their safe state when it is lost)
     io: tuple[Device, ...] = ()
     io_dependents: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    # where each device (its name) and each of its points (`device.field`) is declared
+    io_spans: dict[str, Span] = field(default_factory=dict)
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

@@ -141,7 +141,7 @@ class DeviceRunner:
             self._count("timeouts")
             self._failed(f"no answer in time: {error}", close=True)
             return
-        except Exception as error:  # a broken connection, a protocol error
+        except Exception as error:  # noqa: BLE001 - a broken connection, a protocol error
             self._count("errors")
             self._failed(f"{type(error).__name__}: {error}", close=True)
             return
@@ -167,7 +167,7 @@ class DeviceRunner:
         try:
             link = self.link_factory(self.device)
             link.connect()
-        except Exception as error:
+        except Exception as error:  # noqa: BLE001 - any failure to connect is a retry
             self._failed(f"cannot connect: {error}", close=False)
             return False
         self.link = link
@@ -189,7 +189,7 @@ class DeviceRunner:
         try:
             if link is not None:
                 link.close()
-        except Exception:  # closing a broken connection: nothing more to do
+        except Exception:  # noqa: BLE001, S110 - closing a broken connection: nothing to do
             pass
 
     def _where(self) -> str:
@@ -221,7 +221,7 @@ class DeviceRunner:
             try:
                 self.link.write(final)
                 self._count("writes")
-            except Exception:  # a device that is gone keeps what it had
+            except Exception:  # noqa: BLE001, S110 - a device that is gone keeps what it had
                 pass
         self._close_link()
 
@@ -248,14 +248,10 @@ class IoModule:
             for d in devices.values()
             if d.process != name and mine & set(layout.IO_DEPENDENTS.get(d.name, ()))
         ]
-        self.runners = {
-            d.name: DeviceRunner(d, link_factory, log, who=name) for d in self.devices
-        }
+        self.runners = {d.name: DeviceRunner(d, link_factory, log, who=name) for d in self.devices}
         self.lost: set[str] = set()
         self.copied = dict.fromkeys(self.runners, 0)  # the read last copied into the block
-        self.world = {
-            p.field: layout.WORLD[p.field] for d in self.devices for p in d.points
-        }
+        self.world = {p.field: layout.WORLD[p.field] for d in self.devices for p in d.points}
         for device in devices.values():
             process.reactions[key(device.name)] = device_reaction(layout, device.name)
         self.started_ns = time.monotonic_ns()
@@ -303,7 +299,9 @@ class IoModule:
                     for field, value in inputs.items():
                         if field not in forced:
                             self.world[field].write(self.buf, **{field: value})
-            self._write_record(name, LOST if name in self.lost else ONLINE if seq else CONNECTING, counts)
+            self._write_record(
+                name, LOST if name in self.lost else ONLINE if seq else CONNECTING, counts
+            )
         for name in self.watched:
             state = int(self.records[name].read(self.buf)["state"])  # type: ignore[call-overload]
             if state == LOST and name not in self.lost:
@@ -347,7 +345,9 @@ def relocated(device: Device, environ: dict[str, str] | None = None) -> Device:
         found = re.match(r"^([^\s:]+|\[[0-9A-Fa-f:.]+\]):([0-9]{1,5})$", text)
     if found is None or not 0 < int(found[2]) < 65536:
         want = "opc.tcp://HOST:PORT[/PATH]" if device.protocol == OPCUA else "HOST:PORT"
-        raise ValueError(f"{variable}={text!r}: not an address of I/O device {device.name} ({want})")
+        raise ValueError(
+            f"{variable}={text!r}: not an address of I/O device {device.name} ({want})"
+        )
     url = text if device.protocol == OPCUA else ""
     return replace(device, host=found[1].strip("[]"), port=int(found[2]), url=url)
 

@@ -31,7 +31,9 @@ MOST = {COIL: 1968, DISCRETE_INPUT: 2000, HOLDING_REGISTER: 123, INPUT_REGISTER:
 
 def _split(ranges: list[tuple[int, int]], most: int) -> list[tuple[int, int]]:
     return [
-        (start + at, min(most, count - at)) for start, count in ranges for at in range(0, count, most)
+        (start + at, min(most, count - at))
+        for start, count in ranges
+        for at in range(0, count, most)
     ]
 
 
@@ -96,12 +98,23 @@ class ModbusLink:
                 at = int(point.address) - start
                 words[at : at + point.registers] = raw
             if kind == COIL:
-                self._call(
-                    self.client.write_coils, start, [bool(w) for w in words], device_id=unit
-                )
+                self._call(self.client.write_coils, start, [bool(w) for w in words], device_id=unit)
             else:
                 self._call(self.client.write_registers, start, words, device_id=unit)
         return clipped
+
+    def read_point(self, point: Point) -> object:
+        """One point read on its own (outputs too): `validate --connect`'s probe."""
+        client, unit = self.client, self.device.unit
+        function = {
+            DISCRETE_INPUT: client.read_discrete_inputs,
+            INPUT_REGISTER: client.read_input_registers,
+            COIL: client.read_coils,
+            HOLDING_REGISTER: client.read_holding_registers,
+        }[point.kind]
+        answer = self._call(function, int(point.address), count=point.registers, device_id=unit)
+        raw = answer.bits if point.kind in (COIL, DISCRETE_INPUT) else answer.registers
+        return decode(point, list(raw[: point.registers]))
 
     def _in(self, kind: str, start: int, count: int) -> list[Point]:
         return [p for p in self.by_kind[kind] if start <= int(p.address) < start + count]

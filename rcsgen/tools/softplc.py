@@ -29,7 +29,14 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from ..runtime.io_points import COIL, DISCRETE_INPUT, HOLDING_REGISTER, INPUT_REGISTER, decode, encode
+from ..runtime.io_points import (
+    COIL,
+    DISCRETE_INPUT,
+    HOLDING_REGISTER,
+    INPUT_REGISTER,
+    decode,
+    encode,
+)
 from .harness import import_package
 
 # pymodbus function codes of the four tables (the datastore is addressed by them)
@@ -75,7 +82,9 @@ def _datastore(device: Any) -> Any:
     from pymodbus.simulator import DataType, SimData, SimDevice
 
     def table(kinds: tuple[str, ...], bits: bool) -> list[Any]:
-        end = max((int(p.address) + p.registers for p in device.points if p.kind in kinds), default=1)
+        end = max(
+            (int(p.address) + p.registers for p in device.points if p.kind in kinds), default=1
+        )
         if bits:
             return [SimData(0, count=end, values=False, datatype=DataType.BITS)]
         return [SimData(0, count=end, values=0, datatype=DataType.REGISTERS)]
@@ -141,7 +150,11 @@ async def _serve(args: argparse.Namespace, plant: Plant, device: Any) -> int:
 async def _publish(server: Any, plant: Plant, inputs: Any, unit: int) -> None:
     for point in inputs:
         words, _ = encode(point, plant.read(point.field))
-        values: list[Any] = [bool(w) for w in words] if point.registers == 1 and point.kind == DISCRETE_INPUT else words
+        values: list[Any] = (
+            [bool(w) for w in words]
+            if point.registers == 1 and point.kind == DISCRETE_INPUT
+            else words
+        )
         await server.async_setValues(unit, FUNCTION[point.kind], int(point.address), values)
 
 
@@ -158,16 +171,28 @@ async def _listening_port(server: Any, asked: int) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m rcsgen.tools.softplc", description=__doc__.split("\n")[0])
-    parser.add_argument("--plant", required=True, help="the generated package whose simulators run here")
+    parser = argparse.ArgumentParser(
+        prog="python -m rcsgen.tools.softplc", description=__doc__.split("\n")[0]
+    )
+    parser.add_argument(
+        "--plant", required=True, help="the generated package whose simulators run here"
+    )
     parser.add_argument("--hooks", help="the plant's spec directory (its hook modules)")
-    parser.add_argument("--io", required=True, help="the generated package that declares the device")
+    parser.add_argument(
+        "--io", required=True, help="the generated package that declares the device"
+    )
     parser.add_argument("--device", required=True, help="the device this PLC is")
     parser.add_argument("--host", default="127.0.0.1")
-    parser.add_argument("--port", type=int, help="default: the device's declared port (0: any free one)")
-    parser.add_argument("--period", type=float, help="seconds per PLC cycle (default: the device's poll period)")
+    parser.add_argument(
+        "--port", type=int, help="default: the device's declared port (0: any free one)"
+    )
+    parser.add_argument(
+        "--period", type=float, help="seconds per PLC cycle (default: the device's poll period)"
+    )
     parser.add_argument("--cycles", type=int, help="stop after this many cycles")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a run setting of the plant")
+    parser.add_argument(
+        "--set", action="append", default=[], metavar="KEY=VALUE", help="a run setting of the plant"
+    )
     parser.add_argument("--report", help="write the plant's world here (JSON) when stopped")
     parser.add_argument("--ready", help="write the port here once listening")
     args = parser.parse_args(argv)
@@ -175,7 +200,8 @@ def main(argv: list[str] | None = None) -> int:
         io = importlib.import_module(f"{import_package(Path(args.io).resolve()).__name__}.layout")
         devices = getattr(io, "IO_DEVICES", {})
         if args.device not in devices:
-            raise ValueError(f"{args.io} declares no I/O device {args.device!r} (it has: {sorted(devices) or 'none'})")
+            known = sorted(devices) or "none"
+            raise ValueError(f"{args.io} declares no I/O device {args.device!r} (it has: {known})")
         device = devices[args.device]
         settings = dict(item.split("=", 1) for item in args.set if "=" in item)
         bad = [item for item in args.set if "=" not in item]
@@ -185,7 +211,9 @@ def main(argv: list[str] | None = None) -> int:
         plant = Plant(import_package(Path(args.plant).resolve(), hooks), settings)
         missing = sorted(p.field for p in device.points if p.field not in plant.layout.WORLD)
         if missing:
-            raise ValueError(f"the plant has no world field(s) {missing} that device {args.device} binds")
+            raise ValueError(
+                f"the plant has no world field(s) {missing} that device {args.device} binds"
+            )
     except (ValueError, OSError, ImportError) as error:
         print(f"softplc: {error}", file=sys.stderr)
         return 2

@@ -104,6 +104,19 @@ class ModbusLink:
                 self._call(self.client.write_registers, start, words, device_id=unit)
         return clipped
 
+    def read_point(self, point: Point) -> object:
+        """One point read on its own (outputs too): `validate --connect`'s probe."""
+        client, unit = self.client, self.device.unit
+        function = {
+            DISCRETE_INPUT: client.read_discrete_inputs,
+            INPUT_REGISTER: client.read_input_registers,
+            COIL: client.read_coils,
+            HOLDING_REGISTER: client.read_holding_registers,
+        }[point.kind]
+        answer = self._call(function, int(point.address), count=point.registers, device_id=unit)
+        raw = answer.bits if point.kind in (COIL, DISCRETE_INPUT) else answer.registers
+        return decode(point, list(raw[: point.registers]))
+
     def _in(self, kind: str, start: int, count: int) -> list[Point]:
         return [p for p in self.by_kind[kind] if start <= int(p.address) < start + count]
 

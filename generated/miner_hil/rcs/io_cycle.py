@@ -142,7 +142,7 @@ class DeviceRunner:
             self._count("timeouts")
             self._failed(f"no answer in time: {error}", close=True)
             return
-        except Exception as error:  # a broken connection, a protocol error
+        except Exception as error:  # noqa: BLE001 - a broken connection, a protocol error
             self._count("errors")
             self._failed(f"{type(error).__name__}: {error}", close=True)
             return
@@ -168,7 +168,7 @@ class DeviceRunner:
         try:
             link = self.link_factory(self.device)
             link.connect()
-        except Exception as error:
+        except Exception as error:  # noqa: BLE001 - any failure to connect is a retry
             self._failed(f"cannot connect: {error}", close=False)
             return False
         self.link = link
@@ -190,7 +190,7 @@ class DeviceRunner:
         try:
             if link is not None:
                 link.close()
-        except Exception:  # closing a broken connection: nothing more to do
+        except Exception:  # noqa: BLE001, S110 - closing a broken connection: nothing to do
             pass
 
     def _where(self) -> str:
@@ -222,7 +222,7 @@ class DeviceRunner:
             try:
                 self.link.write(final)
                 self._count("writes")
-            except Exception:  # a device that is gone keeps what it had
+            except Exception:  # noqa: BLE001, S110 - a device that is gone keeps what it had
                 pass
         self._close_link()
 

@@ -150,7 +150,8 @@ def range_problem(point: Point, value: object) -> str:
         return f"{value!r} is not a number"
     low, high = raw_range(point)
     if not low <= value <= high:
-        return f"{value!r} is outside what a {point.register_type} register holds here ({low:g}..{high:g})"
+        held = f"{low:g}..{high:g}"
+        return f"{value!r} is outside what a {point.register_type} register holds here ({held})"
     return ""
 
 
@@ -163,7 +164,7 @@ def encode(point: Point, value: object) -> tuple[list[int], bool]:
     raw = (float(value) - point.offset) / point.scale  # type: ignore[arg-type]
     clipped = not low <= raw <= high
     raw = min(max(raw, low), high)
-    number: float | int = raw if code == "f" else int(round(raw))
+    number: float | int = raw if code == "f" else round(raw)
     if code != "f":
         number = min(max(int(number), int(low)), int(high))
     data = struct.pack(">" + code, number)
@@ -185,7 +186,7 @@ def decode(point: Point, words: list[int]) -> bool | int | float:
     raw = struct.unpack(">" + code, data)[0]
     value = raw * point.scale + point.offset
     if point.value_type == "int":
-        return int(round(value))
+        return round(value)
     if point.value_type == "bool":
         return bool(value)
     return float(value)

@@ -130,6 +130,10 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         settings=tuple(spec.settings.items()) if spec.settings is not None else None,
         io=devices,
         io_dependents=dict(checked.io.dependents),
+        io_spans={
+            **{d.name: d.span for d in spec.io.values()},
+            **{f"{d.name}.{p.field}": p.span for d in spec.io.values() for p in d.points},
+        },
     )
 
 

@@ -47,9 +47,7 @@ class CheckedIo:
     dependents: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
 
-def check(
-    system: SystemSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics
-) -> CheckedIo:
+def check(system: SystemSpec, by_name: dict[str, ControllerSpec], diags: Diagnostics) -> CheckedIo:
     """Check every device of `system.io`; the checked devices (those without errors)."""
     if not system.io:
         return CheckedIo()
@@ -62,55 +60,72 @@ def check(
         for item in spec.world_writes:
             writers.setdefault(item.value, []).append((spec.name, item.span))
     devices, dependents = [], {}
-    inputs: dict[str, tuple[str, Span]] = {}
-    endpoints: dict[tuple[str, int, int], str] = {}
-    for device in system.io.values():
+    seen = _Seen()
+    for declared in system.io.values():
         before = len(diags.errors)
-        points = [p for p in (_point(device, pt, system, diags) for pt in device.points) if p]
-        _check_writers(device, points, writers, inputs, diags)
-        _check_addresses(device, points, diags)
-        protocol = str(device.protocol.value)
-        host, port = _address(device, protocol, diags)
-        used = {r for p in points for r in readers.get(p.field, [])}
-        used |= {w for p in points for w, _ in writers.get(p.field, [])}
-        process = _process(device, system, process_of, used, diags)
-        poll, timeout = _timing(device, system, process, diags)
-        unit = int(device.unit.value) if device.unit is not None else 1
-        if device.unit is not None and protocol != MODBUS_TCP:
-            diags.error(device.unit.span, "E456", f"`unit:` of {protocol} device `{device.name}`",
-                        "a unit id is Modbus's; remove it")
-        where = (host, port, unit)
-        if host and where in endpoints:
-            diags.error(
-                device.address.span,
-                "E455",
-                f"device `{device.name}` is at the same address as device `{endpoints[where]}`",
-                "one device, one declaration: put both sets of points on one device",
-            )
-        endpoints.setdefault(where, device.name)
-        if len(diags.errors) > before:
+        device = _device(declared, system, process_of, readers, writers, seen, diags)
+        if device is None or len(diags.errors) > before:
             continue
-        devices.append(
-            Device(
-                device.name,
-                protocol,
-                host,
-                port,
-                process,
-                poll,
-                timeout,
-                tuple(points),
-                unit,
-                str(device.address.value) if protocol == OPCUA else "",
-            )
-        )
+        devices.append(device)
         dependents[device.name] = tuple(
-            sorted({r for p in points if not p.output for r in readers.get(p.field, [])})
+            sorted({r for p in device.inputs for r in readers.get(p.field, [])})
         )
     return CheckedIo(tuple(devices), dependents)
 
 
-def _point(device: IoDevice, point: IoPoint, system: SystemSpec, diags: Diagnostics) -> Point | None:
+@dataclass
+class _Seen:
+    """What the devices checked so far took: input fields, endpoints."""
+
+    inputs: dict[str, tuple[str, Span]] = field(default_factory=dict)
+    endpoints: dict[tuple[str, int, int], str] = field(default_factory=dict)
+
+
+def _device(
+    device: IoDevice,
+    system: SystemSpec,
+    process_of: dict[str, str],
+    readers: dict[str, list[str]],
+    writers: dict[str, list[tuple[str, Span]]],
+    seen: _Seen,
+    diags: Diagnostics,
+) -> Device | None:
+    """One device checked; None when a part of it could not be made."""
+    points = [p for p in (_point(device, pt, system, diags) for pt in device.points) if p]
+    _check_writers(device, points, writers, seen.inputs, diags)
+    _check_addresses(device, points, diags)
+    protocol = str(device.protocol.value)
+    host, port = _address(device, protocol, diags)
+    used = {r for p in points for r in readers.get(p.field, [])}
+    used |= {w for p in points for w, _ in writers.get(p.field, [])}
+    process = _process(device, system, process_of, used, diags)
+    poll, timeout = _timing(device, system, process, diags)
+    unit = int(device.unit.value) if device.unit is not None else 1
+    if device.unit is not None and protocol != MODBUS_TCP:
+        diags.error(
+            device.unit.span,
+            "E456",
+            f"`unit:` of {protocol} device `{device.name}`",
+            "a unit id is Modbus's; remove it",
+        )
+    where = (host, port, unit)
+    if host and where in seen.endpoints:
+        diags.error(
+            device.address.span,
+            "E455",
+            f"device `{device.name}` is at the same address as device `{seen.endpoints[where]}`",
+            "one device, one declaration: put both sets of points on one device",
+        )
+    seen.endpoints.setdefault(where, device.name)
+    url = str(device.address.value) if protocol == OPCUA else ""
+    return Device(
+        device.name, protocol, host, port, process, poll, timeout, tuple(points), unit, url
+    )
+
+
+def _point(
+    device: IoDevice, point: IoPoint, system: SystemSpec, diags: Diagnostics
+) -> Point | None:
     """The runtime's point for a declared one, or None after an error."""
     world = system.world.get(point.field)
     if world is None:
@@ -136,16 +151,25 @@ def _point(device: IoDevice, point: IoPoint, system: SystemSpec, diags: Diagnost
         diags.error(
             point.span,
             "E451",
-            f"`{point.field}` on device `{device.name}` needs exactly one point kind (given: {given})",
+            f"`{point.field}` on device `{device.name}` needs exactly one point kind "
+            f"(given: {given})",
             "Modbus: coil, discrete_input, holding_register or input_register; OPC UA: node",
         )
         return None
     kind, address = point.kinds[0].value
     at = point.kinds[0].span
     if (kind == NODE) != (protocol == OPCUA):
-        want = "node" if protocol == OPCUA else "coil, discrete_input, holding_register, input_register"
-        diags.error(at, "E451", f"a `{kind}` point on {protocol} device `{device.name}`",
-                    f"a {protocol} device's points are: {want}")
+        want = (
+            "node"
+            if protocol == OPCUA
+            else "coil, discrete_input, holding_register, input_register"
+        )
+        diags.error(
+            at,
+            "E451",
+            f"a `{kind}` point on {protocol} device `{device.name}`",
+            f"a {protocol} device's points are: {want}",
+        )
         return None
     value_type = _value_type(world)
     if value_type is None:
@@ -169,8 +193,12 @@ def _point(device: IoDevice, point: IoPoint, system: SystemSpec, diags: Diagnost
         )
         return None
     if point.direction is not None:
-        diags.error(point.direction.span, "E451", f"`direction:` on a Modbus {kind}",
-                    "a Modbus point's kind says its direction: remove `direction:`")
+        diags.error(
+            point.direction.span,
+            "E451",
+            f"`direction:` on a Modbus {kind}",
+            "a Modbus point's kind says its direction: remove `direction:`",
+        )
         return None
     if carries == "bool":
         extra = next(
@@ -178,8 +206,12 @@ def _point(device: IoDevice, point: IoPoint, system: SystemSpec, diags: Diagnost
             None,
         )
         if extra is not None:
-            diags.error(extra.span, "E451", f"register options on {kind} `{point.field}`",
-                        "type, scale, offset and word_order are for registers")
+            diags.error(
+                extra.span,
+                "E451",
+                f"register options on {kind} `{point.field}`",
+                "type, scale, offset and word_order are for registers",
+            )
             return None
         return Point(point.field, kind, int(address), output, value_type)
     return _register(device, point, world, kind, int(address), output, value_type, diags)
@@ -199,21 +231,45 @@ def _register(
     scale = float(point.scale.value) if point.scale else 1.0
     offset = float(point.offset.value) if point.offset else 0.0
     word_order = str(point.word_order.value) if point.word_order else "big"
+    if _register_problem(point, register_type, scale, offset, value_type, diags):
+        return None
+    made = Point(
+        point.field, kind, address, output, value_type, register_type, scale, offset, word_order
+    )
+    return made if _fits(device, point, world, made, diags) else None
+
+
+def _register_problem(
+    point: IoPoint,
+    register_type: str,
+    scale: float,
+    offset: float,
+    value_type: str,
+    diags: Diagnostics,
+) -> bool:
+    """Whether a register's options cannot carry the field (reported, E451)."""
     for option in (point.scale, point.offset):
         if option is not None and not math.isfinite(float(option.value)):
             diags.error(option.span, "E451", f"`{option.value}` is not a finite number")
-            return None
-    if scale == 0:
-        assert point.scale is not None
-        diags.error(point.scale.span, "E451", f"scale 0 on `{point.field}` loses every value",
-                    "field value = raw * scale + offset: give a non-zero scale")
-        return None
+            return True
+    if scale == 0 and point.scale is not None:
+        diags.error(
+            point.scale.span,
+            "E451",
+            f"scale 0 on `{point.field}` loses every value",
+            "field value = raw * scale + offset: give a non-zero scale",
+        )
+        return True
     if point.word_order is not None and REGISTER_TYPES[register_type][1] == 1:
-        diags.error(point.word_order.span, "E451",
-                    f"word order on a one-register {register_type} (`{point.field}`)",
-                    "word_order is for 32-bit types (int32, uint32, float32)")
-        return None
-    if value_type == "int" and (register_type == "float32" or not scale.is_integer() or not offset.is_integer()):
+        diags.error(
+            point.word_order.span,
+            "E451",
+            f"word order on a one-register {register_type} (`{point.field}`)",
+            "word_order is for 32-bit types (int32, uint32, float32)",
+        )
+        return True
+    whole = register_type != "float32" and scale.is_integer() and offset.is_integer()
+    if value_type == "int" and not whole:
         where = point.register_type or point.scale or point.offset or point.kinds[0]
         diags.error(
             where.span,
@@ -222,8 +278,14 @@ def _register(
             f"({register_type}, scale {scale:g}, offset {offset:g})",
             "an int field takes an integer register with a whole scale and offset",
         )
-        return None
-    made = Point(point.field, kind, address, output, value_type, register_type, scale, offset, word_order)
+        return True
+    return False
+
+
+def _fits(device: IoDevice, point: IoPoint, world: Typed, made: Point, diags: Diagnostics) -> bool:
+    """Whether the field's initial value (and an actuator's safe value) fit the register
+    (reported, E452)."""
+    output, kind, register_type = made.output, made.kind, made.register_type
     low, high = raw_range(made)
     values = [("initial", world.initial, world.initial_span)]
     if output and world.actuator:
@@ -237,25 +299,39 @@ def _register(
                 f"{kind} on device `{device.name}` ({low:g}..{high:g})",
                 "widen the register type or change the scale",
             )
-            return None
-    return made
+            return False
+    return True
 
 
 def _node(
     device: IoDevice, point: IoPoint, node: str, value_type: str, diags: Diagnostics
 ) -> Point | None:
-    extra = next((o for o in (point.register_type, point.scale, point.offset, point.word_order) if o), None)
+    extra = next(
+        (o for o in (point.register_type, point.scale, point.offset, point.word_order) if o), None
+    )
     if extra is not None:
-        diags.error(extra.span, "E451", f"register options on OPC UA node `{point.field}`",
-                    "an OPC UA node carries the field's own type")
+        diags.error(
+            extra.span,
+            "E451",
+            f"register options on OPC UA node `{point.field}`",
+            "an OPC UA node carries the field's own type",
+        )
         return None
     if point.direction is None:
-        diags.error(point.span, "E451", f"OPC UA point `{point.field}` has no `direction:`",
-                    "say `direction: in` (read from the node) or `direction: out` (written to it)")
+        diags.error(
+            point.span,
+            "E451",
+            f"OPC UA point `{point.field}` has no `direction:`",
+            "say `direction: in` (read from the node) or `direction: out` (written to it)",
+        )
         return None
     if not _NODE_ID.match(node):
-        diags.error(point.kinds[0].span, "E456", f"`{node}` is not an OPC UA node id",
-                    "e.g. ns=2;s=Drum.On or ns=2;i=1001")
+        diags.error(
+            point.kinds[0].span,
+            "E456",
+            f"`{node}` is not an OPC UA node id",
+            "e.g. ns=2;s=Drum.On or ns=2;i=1001",
+        )
         return None
     return Point(point.field, NODE, node, point.direction.value != IN, value_type)
 
@@ -294,9 +370,12 @@ def _check_writers(
             )
         other = inputs.get(point.field)
         if other is not None:
-            diags.error(span, "E453",
-                        f"`{point.field}` is an input of devices `{other[0]}` and `{device.name}`",
-                        "a field has one writer: read it from one device")
+            diags.error(
+                span,
+                "E453",
+                f"`{point.field}` is an input of devices `{other[0]}` and `{device.name}`",
+                "a field has one writer: read it from one device",
+            )
         inputs.setdefault(point.field, (device.name, span))
 
 
@@ -306,7 +385,8 @@ def _check_addresses(device: IoDevice, points: list[Point], diags: Diagnostics) 
     spans = {p.field: p.span for p in device.points}
     for point in points:
         cells: Iterable[object] = (
-            [point.address] if point.kind == NODE
+            [point.address]
+            if point.kind == NODE
             else range(int(point.address), int(point.address) + point.registers)
         )
         for cell in cells:
@@ -322,8 +402,9 @@ def _check_addresses(device: IoDevice, points: list[Point], diags: Diagnostics) 
                 break
             taken[(point.kind, cell)] = point.field
         if point.kind != NODE and int(point.address) + point.registers > 65536:
-            diags.error(spans[point.field], "E455",
-                        f"`{point.field}` runs past the last address (65535)")
+            diags.error(
+                spans[point.field], "E455", f"`{point.field}` runs past the last address (65535)"
+            )
 
 
 def _address(device: IoDevice, protocol: str, diags: Diagnostics) -> tuple[str, int]:
