@@ -174,9 +174,9 @@ TESTS = Path(__file__).resolve().parent
 def test_the_registry_is_the_one_list_of_codes() -> None:
     """rcsgen/compiler/codes.py registers every code once, and each registered code is
     reported somewhere (a string literal like "E204" in rcsgen/, outside the registry),
-    documented in docs/diagnostics.md under its registered title, and tested by a case (a
-    corpus case named after it, a running-side case or a test that names it). Nothing is reported, documented
-    or selectable that is not registered; the docs' index is the registry's."""
+    documented in docs/diagnostics.md under its registered title, and tested by a case (a corpus
+    case named after it, a running-side case or a test that names it). Nothing is reported,
+    documented or selectable that is not registered; the docs' index is the registry's."""
     from rcsgen.compiler.codes import CODES, WARNING_CODES, index_markdown
 
     package = TESTS.parent / "rcsgen"

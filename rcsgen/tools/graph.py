@@ -534,7 +534,9 @@ def to_dot(graph: Graph) -> str:
         attrs = DOT_SHAPES.get(node.kind, 'shape=box, style="filled"')
         if "label=" not in attrs:
             attrs += f", label={_dot_label(node.label)}"
-        return f'{indent}"{node.id}" [{attrs}, fillcolor="{_fill(node)}"];'
+        if "fillcolor=" not in attrs:  # the start dot is dark whatever its level
+            attrs += f', fillcolor="{_fill(node)}"'
+        return f'{indent}"{node.id}" [{attrs}];'
 
     children: dict[str | None, list[Cluster]] = {}
     for cluster in graph.clusters:
