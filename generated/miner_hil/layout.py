@@ -893,9 +893,10 @@ IO_DEVICES = {
 IO_RECORDS = {
     "plc": Record(Struct("<Qqqqqqqqqqq"), 3904, DEVICE_FIELDS),
 }
-# The controllers that read each device's inputs: lost with it (their safe state).
+# The controllers that read each device's inputs or write its outputs: lost with it (their
+# safe state).
 IO_DEPENDENTS: dict[str, tuple[str, ...]] = {
-    "plc": ("bm", "co", "cr", "ct", "pp", "sb", "sj", "vg", "wm"),
+    "plc": ("bm", "cd", "co", "cr", "ct", "cv", "gh", "pp", "sb", "sj", "tc", "vg", "wm"),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

@@ -12,10 +12,10 @@ refused connection) for longer than its declared `timeout` is lost, detected by 
 cycle after that: its input fields are stale (they keep their last values, `ctl status`
 marks them), and the process reacts as to a lost process (`loop.Process.react`): every
 actuator is latched at its safe value, so the outputs written to the devices that still
-answer are the safe values, and the controllers that read the device's inputs, with every
-controller above them, go to their safe state. Another process whose controllers read the
-device's inputs watches its record and reacts the same way. The thread reconnects by
-itself (logged); the latches stay until an operator's reset, as after any loss.
+answer are the safe values, and the controllers that read the device's inputs or write its
+outputs, with every controller above them, go to their safe state. Another process whose
+controllers depend on the device so watches its record and reacts the same way. The thread
+reconnects by itself (logged); the latches stay until an operator's reset, as after any loss.
 
 Each device's record in the block (`layout.IO_RECORDS`) holds its state and its counts of
 reads, writes, timeouts, retries, errors, reconnections and losses (`ctl status`, traces).
@@ -64,14 +64,22 @@ class Link(Protocol):
 
 
 def make_link(device: Device) -> Link:
-    """The link a device's protocol names; its library is imported only now."""
-    if device.protocol == MODBUS_TCP:
-        from .io_modbus import ModbusLink
+    """The link a device's protocol names; its library is imported only now. ImportError,
+    naming the extra to install, when the library is not there."""
+    extra = "modbus" if device.protocol == MODBUS_TCP else "opcua"
+    try:
+        if device.protocol == MODBUS_TCP:
+            from .io_modbus import ModbusLink
 
-        return ModbusLink(device)
-    from .io_opcua import OpcUaLink
+            return ModbusLink(device)
+        from .io_opcua import OpcUaLink
 
-    return OpcUaLink(device)
+        return OpcUaLink(device)
+    except ImportError as error:
+        raise ImportError(
+            f"I/O device {device.name} ({device.protocol}) needs {error.name or error}: "
+            f"pip install 'rcsgen[{extra}]'"
+        ) from None
 
 
 def _log(text: str) -> None:
@@ -101,6 +109,9 @@ class DeviceRunner:
         self.first = threading.Event()  # set after the first good exchange (or a stop)
         self.thread = threading.Thread(target=self._run, name=f"io-{device.name}", daemon=True)
         self.link: Link | None = None
+        # The first link, made by the caller's thread: the protocol library imported (and a
+        # missing one said) before the cycles start, not on the device's clock.
+        self.spare: Link | None = link_factory(device)
         self.ever_connected = False
         self.failed = False  # the last attempt failed (so the next connect is a retry)
 
@@ -157,23 +168,22 @@ class DeviceRunner:
             counts["round_trip_ns"] = now - began
             recovered = self.failed
             self.failed = False
-        if recovered and self.ever_connected:
-            self.log(f"{self.who}: I/O device {self.device.name} answers again")
+        if recovered:
+            self.log(f"{self.who}: I/O device {self.device.name} answers again ({self._where()})")
         self.first.set()
 
     def _connect(self) -> bool:
         if self.failed or self.ever_connected:
             self._count("retries")
         try:
-            link = self.link_factory(self.device)
+            link, self.spare = self.spare or self.link_factory(self.device), None
             link.connect()
         except Exception as error:  # noqa: BLE001 - any failure to connect is a retry
             self._failed(f"cannot connect: {error}", close=False)
             return False
         self.link = link
-        if self.ever_connected:
+        if self.ever_connected:  # logged once it answers again (a frozen device accepts)
             self._count("reconnects")
-            self.log(f"{self.who}: I/O device {self.device.name} reconnected ({self._where()})")
         self.ever_connected = True
         return True
 
@@ -241,19 +251,21 @@ class IoModule:
         devices: dict[str, Device] = layout.IO_DEVICES
         self.records: dict[str, Record] = layout.IO_RECORDS
         name = process.plan.name
-        self.devices = [relocated(d) for d in devices.values() if d.process == name]
+        self.devices = [relocated(devices[d]) for d in process.plan.io]
         mine = set(process.plan.modules)
+        reactions = {d: device_reaction(layout, d) for d in devices}
+        # devices run elsewhere whose loss puts a module of this process in its safe state
         self.watched = [
             d.name
             for d in devices.values()
-            if d.process != name and mine & set(layout.IO_DEPENDENTS.get(d.name, ()))
+            if d.name not in process.plan.io and mine & set(reactions[d.name].safe)
         ]
         self.runners = {d.name: DeviceRunner(d, link_factory, log, who=name) for d in self.devices}
         self.lost: set[str] = set()
         self.copied = dict.fromkeys(self.runners, 0)  # the read last copied into the block
         self.world = {p.field: layout.WORLD[p.field] for d in self.devices for p in d.points}
-        for device in devices.values():
-            process.reactions[key(device.name)] = device_reaction(layout, device.name)
+        for device, reaction in reactions.items():
+            process.reactions[key(device)] = reaction
         self.started_ns = time.monotonic_ns()
         self.log = log
 
@@ -369,8 +381,8 @@ class DeviceReaction:
 
 def device_reaction(layout: ModuleType, device: str) -> DeviceReaction:
     """What the loss of `device` asks: every actuator latched safe; the controllers that read
-    its inputs, with every controller above them, in their safe state (the `halt_all`
-    reaction to a lost process, for the controllers that depend on the device)."""
+    its inputs or write its outputs, with every controller above them, in their safe state
+    (the `halt_all` reaction to a lost process, for the controllers that depend on it)."""
     supervisor = {sub: sup for sup, subs in layout.SUBORDINATES.items() for sub in subs}
     safe: list[str] = []
     for module in layout.IO_DEPENDENTS.get(device, ()):

@@ -183,7 +183,7 @@ def decode(point: Point, words: list[int]) -> bool | int | float:
     if point.word_order == "little":
         ordered.reverse()
     data = b"".join(int(w & 0xFFFF).to_bytes(2, "big") for w in ordered)
-    raw = struct.unpack(">" + code, data)[0]
+    raw: float = struct.unpack(">" + code, data)[0]
     value = raw * point.scale + point.offset
     if point.value_type == "int":
         return round(value)
@@ -204,3 +204,27 @@ def blocks(points: tuple[Point, ...], kind: str, gap: int = 0) -> list[tuple[int
         else:
             merged.append([start, end])
     return [(start, end - start) for start, end in merged]
+
+
+def device_status(device: Device, values: dict[str, int], now_ns: int) -> dict[str, object]:
+    """A device's record as the console shows it (`ctl status`, its JSON, traces): its state
+    by name, where it is, its counts, how long ago it last answered well and how long that
+    exchange took; `stale`, the input fields it feeds that hold old values while it is lost
+    (or not yet heard from). `values`: the record's fields ({} when it stayed unreadable)."""
+    if not values:
+        return {"state": "?"}
+    state = int(values["state"])
+    last = int(values["last_ok_ns"])
+    silent = state in (LOST, CONNECTING) or (state == STOPPED and not last)
+    return {
+        "state": DEVICE_STATES[state] if 0 <= state < len(DEVICE_STATES) else str(state),
+        "protocol": device.protocol,
+        "address": device.url or f"{device.host}:{device.port}",
+        "process": device.process,
+        "poll_period_s": device.poll_period,
+        "timeout_s": device.timeout,
+        **{name: int(values[name]) for name in COUNTS},
+        "last_answer_age_s": round((now_ns - last) / 1e9, 3) if last else None,
+        "round_trip_ms": round(int(values["round_trip_ns"]) / 1e6, 3) if last else None,
+        "stale": [p.field for p in device.inputs] if silent else [],
+    }

@@ -10,6 +10,7 @@ retries are off: the I/O module counts and paces its retries itself.
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 from .io_points import (
@@ -43,6 +44,9 @@ class ModbusLink:
 
     def __init__(self, device: Device) -> None:
         from pymodbus.client import ModbusTcpClient
+
+        # pymodbus logs each failed request itself; the I/O module says what failed, once.
+        logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
 
         self.device = device
         self.client: Any = ModbusTcpClient(

@@ -10,6 +10,7 @@ exception answer (`IoRefused`), a request with no answer in the device's timeout
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 from .io_points import Device, IoRefused, IoTimeout, Point
@@ -20,6 +21,9 @@ class OpcUaLink:
 
     def __init__(self, device: Device) -> None:
         from asyncua.sync import Client
+
+        # asyncua logs its security and session notes itself; the I/O module says what failed.
+        logging.getLogger("asyncua").setLevel(logging.ERROR)
 
         self.device = device
         self.client: Any = Client(device.url, timeout=device.timeout)

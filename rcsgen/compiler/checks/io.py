@@ -67,9 +67,11 @@ def check(system: SystemSpec, by_name: dict[str, ControllerSpec], diags: Diagnos
         if device is None or len(diags.errors) > before:
             continue
         devices.append(device)
-        dependents[device.name] = tuple(
-            sorted({r for p in device.inputs for r in readers.get(p.field, [])})
-        )
+        # Lost with the device: the controllers that read its inputs (they decide on stale
+        # values) and those that write its outputs (their commands no longer reach it).
+        reading = {r for p in device.inputs for r in readers.get(p.field, [])}
+        writing = {w for p in device.outputs for w, _ in writers.get(p.field, [])}
+        dependents[device.name] = tuple(sorted(reading | writing))
     return CheckedIo(tuple(devices), dependents)
 
 
