@@ -298,6 +298,8 @@ PLACEMENT = {
 }
 # Seconds without a heartbeat after which a process is reported dead.
 HEARTBEAT_TIMEOUT = 10.0
+# Seconds every process of a launch has to run its first cycle (the start-up barrier).
+STARTUP_TIMEOUT = 10.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
     "cc": ("sm", "ec"),

@@ -13,6 +13,7 @@ import struct
 from dataclasses import dataclass, field
 from functools import cached_property
 
+from ..runtime.contract import STARTUP_TIMEOUT
 from ..runtime.io_points import Device
 from . import expressions as expr
 from .checks.tables import RuleId
@@ -556,8 +557,9 @@ class IRSystem:
     # The run settings its hook-state factories read (name, doc); None: not declared (any
     # setting is taken when a controller has a factory, none otherwise)
     settings: tuple[tuple[str, str], ...] | None = None
+    startup_timeout: float = STARTUP_TIMEOUT  # seconds the start-up barrier waits
     # Fieldbus devices (the runtime's own declarations, rcs/io_points.py) and, for each, the
-    # controllers that read its inputs (they go to their safe state when it is lost)
+    # controllers that read its inputs or write its outputs (safe state when it is lost)
     io: tuple[Device, ...] = ()
     io_dependents: dict[str, tuple[str, ...]] = field(default_factory=dict)
     # where each device (its name) and each of its points (`device.field`) is declared

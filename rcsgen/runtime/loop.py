@@ -3,17 +3,19 @@
 A generated `main_<process>.py` declares its `ProcessPlan` (modules in execution order,
 roots, stand-ins, controller classes); `Process` instantiates it over a block and runs one
 cycle at a time, writing the process's control record (its heartbeat) after each. `run`
-paces it (free-running: a `Pacer` holds the period; a watchdog halts the roots on repeated
-overruns; supervisors of modules in a process that stopped beating go to their safe state).
-`serve` runs it in lockstep for a coordinator instead (see `launcher.py`). The clock and
-sleep are parameters, so tests drive the loop with a fake clock. Standard library only:
-copied verbatim into every generated package.
+paces it (free-running: a `Pacer` holds the period; a watchdog halts the roots when the
+process falls too far behind its schedule; supervisors of modules in a process that stopped
+beating go to their safe state). `serve` runs it in lockstep for a coordinator instead (see
+`launcher.py`). The clock and sleep are parameters, so tests drive the loop with a fake
+clock. Standard library only: copied verbatim into every generated package.
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import time
+from collections import deque
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from struct import Struct
@@ -85,16 +87,20 @@ class ProcessPlan:
 class Watchdog:
     """When a paced process trips its watchdog, and when it warns of load."""
 
-    overruns: int = 5  # this many consecutive missed periods trip it
-    period_factor: float = 3.0  # so does one cycle longer than this many periods
+    behind: float = 5.0  # periods: the cycles of the last `window` periods this late in all
+    window: int = 10  # periods
+    period_factor: float = 3.0  # one cycle longer than this many periods trips it too
     load_warning: float = 0.8  # a cycle longer than this share of the period is counted
 
     def trips(self, pacer: Pacer, took_ns: int, period: float) -> bool:
         """Whether the cycle that took `took_ns` (and the wait after it) trips the watchdog:
-        `overruns` consecutive missed periods (a stall counts each period it missed), or one
-        cycle longer than `period_factor` periods. A trip starts the count again."""
-        if pacer.consecutive >= self.overruns or took_ns > self.period_factor * period * 1e9:
-            pacer.consecutive = 0
+        the cycles of the last `window` periods started `behind` periods late or more, in
+        all (`Pacer.behind`: a stall counts its length; a starved process, late now and on
+        time then, adds up), or the cycle took longer than `period_factor` periods. A trip
+        starts the count again."""
+        late = pacer.behind(self.window) >= self.behind
+        if late or took_ns > self.period_factor * period * 1e9:
+            pacer.forget()
             return True
         return False
 
@@ -435,11 +441,15 @@ def start(
 
 
 class Stop:
-    """A flag a signal handler sets to end `run` after the current cycle."""
+    """A flag a signal handler sets to end `run` after the current cycle; `run` names the
+    process it runs in it, and the caller sets `finished` when the process is done with (a
+    watcher of the launcher's death uses both: launcher.py)."""
 
     def __init__(self) -> None:
         self.requested = False
         self.orphaned = False  # the launcher went away (a child then removes the segment)
+        self.process: Process | None = None
+        self.finished = threading.Event()
 
     def __call__(self, *args: object) -> None:
         self.requested = True
@@ -464,8 +474,10 @@ def run(
     until `on_cycle` returns True or `stop` is requested. The caller closes its block.
 
     Paced, the period is stretched by the process's `slow` factor (its pacing record, set by
-    an operator) each cycle; the watchdog halts the roots after `watchdog.overruns`
-    consecutive overruns or one cycle longer than `watchdog.period_factor` periods, and
+    an operator) each cycle; the watchdog (from the second cycle on) latches the process's
+    reaction and halts the roots when the cycles of the last `watchdog.window` periods
+    started `watchdog.behind` periods late in all, or a cycle took longer than
+    `watchdog.period_factor` periods, and
     supervisors of modules in another process go to their safe state when its heartbeat is
     older than `heartbeat_timeout` seconds (`layout.HEARTBEAT_TIMEOUT` by default).
 
@@ -473,6 +485,8 @@ def run(
     into the block before each cycle and what the process wrote is sent after it.
     """
     process = start(plan, layout, shm_name, create, settings, simulate)
+    if stop is not None:
+        stop.process = process
     try:
         net = transport(process) if transport is not None else Local()
     except BaseException:
@@ -510,7 +524,9 @@ def run(
                     counters["load_warnings"] += 1
                 pacer.wait()
                 counters["overruns"], counters["late_wakeups"] = pacer.overruns, pacer.late
-                if dog.trips(pacer, took, period):  # its outputs safe, its roots halted
+                if process.cycle == 1:  # the start-up cycle: the start-up barrier bounds it
+                    pacer.forget()
+                elif dog.trips(pacer, took, period):  # its outputs safe, its roots halted
                     counters["watchdog_trips"] += 1
                     process.react(plan.name)
                     process.halt_roots()
@@ -528,9 +544,9 @@ def run(
 class Pacer:
     """Holds each cycle to the period on a monotonic clock; `period=0` runs as fast as possible.
 
-    Counts overruns (each period boundary a cycle ran past: the schedule restarts from now),
-    consecutive overruns, and late wake-ups (a sleep that ended more than `late_after` of a
-    period past its boundary)."""
+    Counts overruns (each period boundary a cycle or a stall ran past: the schedule goes on
+    from the next boundary), late wake-ups (a sleep that ended more than `late_after` of a
+    period past its boundary), and remembers how late each recent cycle started (`behind`)."""
 
     def __init__(
         self,
@@ -540,33 +556,45 @@ class Pacer:
         late_after: float = 0.1,
     ) -> None:
         self.period, self.clock, self.sleep = period, clock, sleep
-        self.deadline = clock() + period
-        self.overruns = self.consecutive = self.late = 0
+        self.now = clock()
+        self.deadline = self.now + period
+        self.overruns = self.late = 0
         self.late_after = late_after * period
+        self.lateness: deque[tuple[float, float]] = deque()  # (when, seconds late)
 
     def wait(self) -> None:
-        """Sleep until the next cycle boundary; count a cycle that ran past it."""
+        """Sleep until the next cycle boundary; count the boundaries a cycle or a stall
+        (frozen, starved) ran past, and remember how late the next cycle starts."""
         if self.period <= 0:
             return
         now = self.clock()
         if now <= self.deadline:
             self.sleep(self.deadline - now)
-            late = self.clock() - self.deadline
+            now = self.clock()
+            late = now - self.deadline
             if late > self.late_after:
                 self.late += 1
-            if late >= self.period:  # stalled asleep (frozen, starved): each period missed
-                missed = int(late // self.period)
-                self.overruns += missed
-                self.consecutive += missed
-                self.deadline += (missed + 1) * self.period
-            else:
-                self.deadline += self.period
-                self.consecutive = 0
+            missed = int(late // self.period) if late >= self.period else 0
+            self.deadline += (missed + 1) * self.period
         else:  # each period it missed is an overrun: a 3 s stall at 0.1 s is 30
-            missed = int((now - self.deadline) // self.period) + 1
-            self.overruns += missed
-            self.consecutive += missed
+            late = now - self.deadline
+            missed = int(late // self.period) + 1
             self.deadline = now + self.period
+        self.overruns += missed
+        self.now = now
+        if late > self.late_after:  # jitter below a tenth of a period is not remembered
+            self.lateness.append((now, late))
+
+    def behind(self, window: int) -> float:
+        """How late, in periods, the cycles of the last `window` periods started, in all."""
+        horizon = self.now - window * self.period
+        while self.lateness and self.lateness[0][0] <= horizon:
+            self.lateness.popleft()
+        return sum(late for _, late in self.lateness) / self.period
+
+    def forget(self) -> None:
+        """Start the count of recent lateness again (a trip, the start-up cycle)."""
+        self.lateness.clear()
 
 
 # ---------------------------------------------------------------- lockstep

@@ -32,6 +32,7 @@ from .contract import (
     SAFE,
     SEQ,
     Record,
+    StaleRead,
     encode_text,
     enum_code,
     is_integer,
@@ -112,7 +113,9 @@ def latch_safe(
     layout: ModuleType, buf: memoryview, fields: Iterable[str], segment: str | None = None
 ) -> list[str]:
     """Write each actuator's declared safe value and latch it (SAFE, a force too); the fields
-    latched now (not already), in order."""
+    latched now (not already), in order. A field already latched whose value a racing write
+    changed (its writer past its look at the flag) gets its safe value again: a process that
+    stops has no next cycle to correct it."""
     safe_values = layout.SAFE_VALUES
     chosen = list(fields)
     for field in chosen:
@@ -123,6 +126,8 @@ def latch_safe(
         for field in chosen:
             state, value = _state(_record(layout, field), buf)
             if state == SAFE and value == safe_values[field]:
+                if _world(layout, buf, field) != value:
+                    layout.WORLD[field].write(buf, **{field: value})
                 continue
             _set(layout, buf, field, SAFE, safe_values[field])
             latched.append(field)
@@ -148,6 +153,12 @@ def reset(
                 released.append(field)
         _update_any(layout, buf)
     return released
+
+
+def mirrored(layout: ModuleType, buf: memoryview) -> None:
+    """A transport wrote an override record another host made (rcs/transport.py): raise or
+    lower the flag the generated modules look at, as a local override would."""
+    _update_any(layout, buf)
 
 
 def overrides(layout: ModuleType, buf: memoryview) -> dict[str, tuple[str, object]]:
@@ -182,6 +193,14 @@ def _state(record: Record, buf: memoryview) -> tuple[int, object]:
     return int(raw[0]), value.rstrip(b"\0").decode("utf-8", "replace") if type(
         value
     ) is bytes else value
+
+
+def _world(layout: ModuleType, buf: memoryview, field: str) -> object:
+    """World field `field` as the block holds it; None while it is being written."""
+    try:
+        return layout.WORLD[field].read(buf)[field]
+    except StaleRead:
+        return None
 
 
 def _stored(layout: ModuleType, field: str, value: object) -> object:

@@ -32,6 +32,9 @@ BUILTIN_COMMANDS = ("INIT", "HALT")
 # What an operator role may do to a module, least to most (the second paper's Figure 29);
 # each includes the ones before it, and every role may monitor every module.
 ACCESS_LEVELS = ("monitor", "respond", "command", "override")
+# Seconds every process of a launch has to run its first cycle (the start-up barrier),
+# unless the system spec declares `startup_timeout`.
+STARTUP_TIMEOUT = 10.0
 
 # Buffers every module has, in the same shape: (field, struct code). A command buffer is
 # its head followed by one `arg_<name>` field per parameter of the module's commands.

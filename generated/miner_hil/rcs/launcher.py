@@ -34,6 +34,7 @@ from .contract import (
     DEAD,
     PROCESS_STATES,
     RUNNING,
+    STARTUP_TIMEOUT,
     STOPPED,
     StaleRead,
     enum_code,
@@ -67,7 +68,7 @@ from .startup import (
 from .transport import TransportError, check_endpoint
 
 STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
-STARTUP_TIMEOUT = 10.0  # seconds every process has to start running (the start-up barrier)
+PR_SET_PDEATHSIG = 1  # prctl(2): the signal a child gets when its parent dies (Linux)
 REFUSED = 3  # the exit code of a process that refused to restart (the launcher gives up)
 
 
@@ -141,8 +142,8 @@ def run_process(system: System, args: argparse.Namespace) -> int:
         return 0
     if not args.child:
         signal.signal(signal.SIGINT, stop)
-    else:  # the launcher's end (even a crash) closes our stdin: stop then
-        threading.Thread(target=_stop_on_eof, args=(stop,), daemon=True).start()
+    else:  # the launcher's end (even a crash): stop, the actuators safe
+        watch_the_launcher(stop, args.shm)
     try:
         process = run(
             plan,
@@ -160,6 +161,8 @@ def run_process(system: System, args: argparse.Namespace) -> int:
         return REFUSED if isinstance(error, RestartRefused) else 1
     except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
         return report_failure(args.process, error, system.package)
+    finally:
+        stop.finished.set()
     report(system, args, process)
     if args.child and stop.orphaned:
         process.block.owner = True  # the launcher is gone: the last one out removes it
@@ -185,8 +188,8 @@ def run_networked(
 
     plan, layout = system.plans[args.process], system.layout
     options = network_options(system, args)
-    if args.child:  # the launcher's end (even a crash) closes our stdin: stop then
-        threading.Thread(target=_stop_on_eof, args=(stop,), daemon=True).start()
+    if args.child:  # the launcher's end (even a crash): stop, the actuators safe
+        watch_the_launcher(stop, args.shm)
     else:
         signal.signal(signal.SIGINT, stop)
 
@@ -240,14 +243,63 @@ def network_options(system: System, args: argparse.Namespace) -> Any:
     return Options(tuple(args.listen), tuple(args.connect), lease_ms)
 
 
-def _stop_on_eof(stop: Stop) -> None:
+def watch_the_launcher(stop: Stop, segment: str) -> None:
+    """A free-running child learns that its launcher is gone in two ways: its stdin pipe
+    closes (the launcher's end, even a crash), and on Linux its parent-death signal (SIGHUP,
+    set with prctl), which comes too when the pipe stays open (a fork of the launcher holds
+    its end) or a hook took stdin. Either way every actuator is latched safe at once, from
+    a thread (the loop may be stuck in a hook), the loop is asked to stop, and a loop that
+    has not stopped within STOP_GRACE (a hook that never returns) is not waited for: the
+    segment is removed and the process exits, as a living launcher would have killed it."""
+    parent, gone = os.getppid(), threading.Event()
+
+    def hang_up(*_: object) -> None:
+        if os.getppid() != parent:  # not a stray SIGHUP, nor the spawning thread's end
+            gone.set()
+
+    if _die_with_parent(signal.SIGHUP, hang_up) and os.getppid() != parent:
+        gone.set()  # it died before the signal was asked for
+    threading.Thread(target=_read_to_eof, args=(gone,), daemon=True).start()
+    threading.Thread(target=_orphaned, args=(stop, gone, segment), daemon=True).start()
+
+
+def _die_with_parent(signum: int, handler: Callable[..., None]) -> bool:
+    """Ask the kernel for `signum` when our parent dies (Linux prctl PR_SET_PDEATHSIG),
+    handled by `handler`; False where there is no such thing."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        signal.signal(signum, handler)
+        return bool(libc.prctl(PR_SET_PDEATHSIG, signum, 0, 0, 0) == 0)
+    except (OSError, AttributeError, ValueError):  # no libc prctl; not the main thread
+        return False
+
+
+def _read_to_eof(gone: threading.Event) -> None:
     try:
         while os.read(0, 1):
             pass
     except OSError:
         pass
+    gone.set()
+
+
+def _orphaned(stop: Stop, gone: threading.Event, segment: str) -> None:
+    gone.wait()
     stop.orphaned = True
     stop()
+    process = stop.process
+    if process is not None and not stop.finished.is_set():
+        process.safe_stop(everything=True)  # the others may be gone too: every actuator
+    if not stop.finished.wait(STOP_GRACE):
+        print(
+            f"{segment}: the launcher is gone and the loop did not stop: exiting", file=sys.stderr
+        )
+        unlink_quietly(segment)
+        os._exit(1)
 
 
 # ---------------------------------------------------------------- the launcher
@@ -303,7 +355,8 @@ class Launcher:
         self.events: list[str] = []  # what happened, for the summary
         self.failed: list[str] = []  # processes that ended because a hook or module failed
         self.final: list[str] = []  # the summary, taken when the processes have stopped
-        self.startup_timeout = STARTUP_TIMEOUT
+        # the start-up barrier's: the spec's `startup_timeout` (a layout built before: 10 s)
+        self.startup_timeout = float(getattr(system.layout, "STARTUP_TIMEOUT", STARTUP_TIMEOUT))
         self.lost: set[str] = set()  # processes silent past the heartbeat timeout (frozen)
         self.trips: dict[str, int] = {}  # each process's watchdog trips, last seen
         self.halted = ""  # why the system was halted (a loss that was not contained), if it was
@@ -462,10 +515,11 @@ class Launcher:
 
     def _fault(self, name: str, what: str) -> None:
         """A fault of process `name`: printed now, in the summary, its reaction's actuators
-        latched safe (the last line of defence: it does not depend on the faulty process)."""
+        latched safe (the last line of defence: it does not depend on the faulty process;
+        with Zenoh the latches travel from the launcher's mirror to the writers' blocks)."""
         self._event(what)
         todo = reaction(self.system.layout, name)
-        if self.block is not None and self.net is None:
+        if self.block is not None:
             latched = latch_safe(self.system.layout, self.block.buf, todo.latch, self.segment)
             if latched:
                 self._event(f"latched safe: {', '.join(latched)}")

@@ -23,6 +23,7 @@ from ...runtime.contract import (
     PACE_FIELDS,
     PERF_FIELDS,
     PROCESS_FIELDS,
+    STARTUP_TIMEOUT,
     STATUS_FIELDS,
 )
 from ...runtime.io_points import DEVICE_FIELDS
@@ -109,6 +110,7 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         source=source,
         cycle_period=spec.cycle_period,
         heartbeat_timeout=spec.heartbeat_timeout or default_heartbeat_timeout(processes),
+        startup_timeout=spec.startup_timeout or STARTUP_TIMEOUT,
         world=world,
         controllers=controllers,
         processes=processes,

@@ -150,6 +150,7 @@ LAYOUT_NAMES = frozenset(
         "SYSTEM",
         "SOURCE",
         "HEARTBEAT_TIMEOUT",
+        "STARTUP_TIMEOUT",
         "SUBORDINATES",
         "LAYOUT_HASH",
         "PROCESSES",

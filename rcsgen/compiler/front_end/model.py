@@ -139,6 +139,7 @@ class SystemSpec:
     doc: str
     cycle_period: float
     heartbeat_timeout: float | None
+    startup_timeout: float | None
     world: dict[str, Typed]
     processes: list[Process]
     simulators: list[Located]
@@ -377,6 +378,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
         doc=data.get("doc", ""),
         cycle_period=float(data["cycle_period"]),
         heartbeat_timeout=float(data["heartbeat_timeout"]) if "heartbeat_timeout" in data else None,
+        startup_timeout=float(data["startup_timeout"]) if "startup_timeout" in data else None,
         world=world,
         processes=processes,
         simulators=_items(data, "simulators", top),
