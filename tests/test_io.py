@@ -518,3 +518,66 @@ def test_pulling_the_plc_s_plug_mid_shear_stops_the_machine_safe(tmp_path: Path)
     assert "pc1: I/O device plc lost: no good answer" in out, out
     assert "pc1: I/O device plc answers again" in out, out
     assert not os.path.exists(f"/dev/shm/{segment}")
+
+
+class Recording:
+    """A link that answers at once and keeps what it was asked to write."""
+
+    def __init__(self, device: Any) -> None:
+        self.written: list[dict[str, object]] = []
+
+    def connect(self) -> None:
+        pass
+
+    def read(self) -> dict[str, object]:
+        return {}
+
+    def write(self, values: dict[str, object]) -> int:
+        self.written.append(dict(values))
+        return 0
+
+    def close(self) -> None:
+        pass
+
+
+def test_a_device_thread_writes_latched_values_even_when_the_cycle_hands_nothing_new(
+    package: ModuleType,
+) -> None:
+    """The cycle handed the pump on; then the pump is latched safe in the block and the
+    process's loop hands nothing more (stuck in a hook, say): the device's own thread
+    writes the latched value at its next poll."""
+    cycle = runtime(package, "rcs.io_cycle")
+    device = runtime(package, "layout").IO_DEVICES["pumps"]
+    links: list[Recording] = []
+
+    def make(device: Any) -> Recording:
+        links.append(Recording(device))
+        return links[-1]
+
+    latched: dict[str, object] = {}
+    runner = cycle.DeviceRunner(device, make, log=lambda _: None, held=lambda: dict(latched))
+    runner.hand({"pump_on": True, "alarm": False})
+    runner.start()
+    try:
+        wait_for(lambda: any(links) and links[0].written, "a first write")
+        assert links[0].written[-1] == {"pump_on": True, "alarm": False}
+        latched.update(pump_on=False)  # as latch_safe leaves the block
+        wait_for(lambda: links[0].written[-1] == {"pump_on": False, "alarm": False}, "safe")
+    finally:
+        runner.stop()
+
+
+def test_the_execution_order_picture_shows_the_i_o_module_around_the_controllers() -> None:
+    """`rcsgen graph --picture order:p`: every full cycle of p reads its device first and
+    writes it last; q, which runs the other device, says its own; no I/O in a system
+    without devices (the miner)."""
+    text = rcsgen("graph", RIG, "--picture", "order:p", "--format", "mermaid").output
+    assert "[I/O in: tank] cell tank [I/O out: tank]" in text
+    cycle = text.split('subgraph o_cycle1["cycle 1"]')[1].split("end")[0]
+    steps = [line.split('["')[0].strip() for line in cycle.strip().splitlines()]
+    assert steps == ["x1_io_in", "x1_cell", "x1_tank", "x1_io_out"], steps
+    assert "[I/O in: pumps] pump [I/O out: pumps]" in rcsgen(
+        "graph", RIG, "--picture", "order:q", "--format", "mermaid"
+    ).output
+    miner = rcsgen("graph", ROOT / "specs" / "miner", "--picture", "order", "--format", "mermaid")
+    assert "I/O" not in miner.output

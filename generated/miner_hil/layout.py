@@ -779,7 +779,7 @@ IO_DEVICES = {
         port=5020,
         process="pc1",
         poll_period=0.05,
-        timeout=0.25,
+        timeout=0.5,
         points=(
             Point(field="drum_on_cmd", kind="coil", address=0, output=True, value_type="bool"),
             Point(field="jack_down_cmd", kind="coil", address=1, output=True, value_type="bool"),

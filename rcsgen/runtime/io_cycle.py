@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 from types import ModuleType
 from typing import Any, Protocol
 
-from .contract import Record
+from .contract import Record, StaleRead
 from .io_points import (
     CONNECTING,
     DEVICE_FIELDS,
@@ -96,8 +96,13 @@ class DeviceRunner:
         link_factory: Callable[[Device], Link] = make_link,
         log: Callable[[str], None] = _log,
         who: str = "",
+        held: Callable[[], dict[str, object]] | None = None,
     ) -> None:
         self.device, self.link_factory, self.log = device, link_factory, log
+        # The overrides of the block (field -> value) the thread writes over what the cycle
+        # handed it: an actuator latched safe reaches the device at the next poll, even when
+        # the process's loop is stuck (a hook that blocks) and hands nothing new.
+        self.held = held
         self.who = who or device.name
         self.lock = threading.Lock()
         self.counts: dict[str, int] = dict.fromkeys(DEVICE_FIELDS[1:], 0)
@@ -143,6 +148,10 @@ class DeviceRunner:
             values = link.read() if self.device.inputs else {}
             with self.lock:
                 outputs = self.outputs
+            if outputs is not None and self.held is not None:
+                overlay = self.held()
+                if overlay:
+                    outputs = {f: overlay.get(f, v) for f, v in outputs.items()}
             clipped = link.write(outputs) if outputs is not None and self.device.outputs else 0
         except IoRefused as error:
             self._count("errors")
@@ -260,7 +269,10 @@ class IoModule:
             for d in devices.values()
             if d.name not in process.plan.io and mine & set(reactions[d.name].safe)
         ]
-        self.runners = {d.name: DeviceRunner(d, link_factory, log, who=name) for d in self.devices}
+        self.runners = {
+            d.name: DeviceRunner(d, link_factory, log, who=name, held=self.held)
+            for d in self.devices
+        }
         self.lost: set[str] = set()
         self.copied = dict.fromkeys(self.runners, 0)  # the read last copied into the block
         self.world = {p.field: layout.WORLD[p.field] for d in self.devices for p in d.points}
@@ -268,6 +280,16 @@ class IoModule:
             process.reactions[key(device)] = reaction
         self.started_ns = time.monotonic_ns()
         self.log = log
+
+    def held(self) -> dict[str, object]:
+        """The block's overrides, field -> value (a device's thread reads them each poll);
+        {} while there are none (one byte read) or while one is being written."""
+        if not self.buf[self.layout.OVERRIDDEN_AT]:
+            return {}
+        try:
+            return {field: value for field, (_, value) in overrides(self.layout, self.buf).items()}
+        except StaleRead:  # an override being written: the next poll has it
+            return {}
 
     def start(self) -> None:
         """Start every device's thread and wait (each at most its timeout) for its first
