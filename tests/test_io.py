@@ -576,8 +576,9 @@ def test_the_execution_order_picture_shows_the_i_o_module_around_the_controllers
     cycle = text.split('subgraph o_cycle1["cycle 1"]')[1].split("end")[0]
     steps = [line.split('["')[0].strip() for line in cycle.strip().splitlines()]
     assert steps == ["x1_io_in", "x1_cell", "x1_tank", "x1_io_out"], steps
-    assert "[I/O in: pumps] pump [I/O out: pumps]" in rcsgen(
-        "graph", RIG, "--picture", "order:q", "--format", "mermaid"
-    ).output
+    assert (
+        "[I/O in: pumps] pump [I/O out: pumps]"
+        in rcsgen("graph", RIG, "--picture", "order:q", "--format", "mermaid").output
+    )
     miner = rcsgen("graph", ROOT / "specs" / "miner", "--picture", "order", "--format", "mermaid")
     assert "I/O" not in miner.output

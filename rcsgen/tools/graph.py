@@ -326,8 +326,8 @@ def execution_order(system: IRSystem, process: IRProcess, module: str | None = N
             steps.insert(0, ("io_in", ("I/O in", f"{devices}: inputs to the world"), 0))
             if cycle < cycles or running == in_order:
                 steps.append(("io_out", ("I/O out", f"{devices}: outputs to the device"), 0))
-        for name, label, depth in steps:
-            node = Node(f"x{cycle}_{name}", label, "step", f"o_cycle{cycle}", depth)
+        for name, text, depth in steps:
+            node = Node(f"x{cycle}_{name}", text, "step", f"o_cycle{cycle}", depth)
             nodes.append(node)
             if (previous, node.id) not in messages:
                 edges.append(Edge(previous, node.id, (), "then"))
