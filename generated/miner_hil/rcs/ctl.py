@@ -724,21 +724,23 @@ def render(snapshot: dict[str, Any]) -> list[str]:
         lines.append(device_line(name, device))
     for request in snapshot.get("requests", ()):
         lines.append(f"request {request['name']} from {request['by']}: {request['doc']}")
+    return lines + world_lines(snapshot)
+
+
+def world_lines(snapshot: dict[str, Any]) -> list[str]:
+    """The world table (`status --world`): each field's value, marked stale while the I/O
+    device it comes from is lost, and its override; then the overrides not in the table."""
     world = snapshot.get("world") or {}
     held = snapshot.get("overrides") or {}
     stale = {f: n for n, d in (snapshot.get("io") or {}).items() for f in d.get("stale", ())}
+    lines: list[str] = []
     if world:
         fields: list[Sequence[str]] = [("world", "value", "override")]
-        fields += [
-            (
-                name,
-                "stale"
-                if v is None
-                else shown(v) + (f" (stale: {stale[name]})" if name in stale else ""),
-                held.get(name, {}).get("state", ""),
-            )
-            for name, v in world.items()
-        ]
+        for name, v in world.items():
+            value = "stale" if v is None else shown(v)
+            if name in stale:
+                value += f" (stale: {stale[name]})"
+            fields.append((name, value, held.get(name, {}).get("state", "")))
         lines += columns(fields)
     for name, how in held.items():
         if name not in world:  # always said, --world or not
