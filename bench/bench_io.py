@@ -67,6 +67,7 @@ def percentile(values: list[float], share: float) -> float:
 def figures(values: list[float]) -> dict[str, float]:
     return {
         "median": statistics.median(values),
+        "min": min(values),
         "p99": percentile(values, 0.99),
         "max": max(values),
         "n": len(values),
