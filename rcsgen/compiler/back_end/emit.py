@@ -23,6 +23,7 @@ import jinja2
 
 from ... import runtime
 from ...runtime import contract
+from ...runtime.io_points import MODBUS_TCP, OPCUA
 from .. import ir
 from ..checks import naming
 from ..types import Enum, Type
@@ -202,7 +203,7 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
         f"{root}/__main__.py": env.get_template("package_main.py.j2").render(system=system),
         f"{root}/layout.py": _render_layout(system, env),
     }
-    files.update(runtime_files(root))
+    files.update(runtime_files(root, {d.protocol for d in system.io}))
     template = env.get_template("controller.py.j2")
     for c in system.controllers:
         if c.is_operator:
@@ -294,10 +295,19 @@ def _layout_table(layout: ir.Layout) -> list[tuple[int, int, str, str]]:
     ]
 
 
-def runtime_files(root: str) -> dict[str, str]:
-    """The runtime, copied verbatim under a header into `<root>/rcs/` (stdlib only)."""
+# The runtime's protocol links, each copied only into a package whose system declares a
+# device of its protocol: they import a protocol library (an extra), and a package without
+# such a device stays standard library only (io_cycle.py imports them only when needed).
+PROTOCOL_LINKS = {"io_modbus.py": MODBUS_TCP, "io_opcua.py": OPCUA}
+
+
+def runtime_files(root: str, protocols: set[str] | frozenset[str] = frozenset()) -> dict[str, str]:
+    """The runtime, copied verbatim under a header into `<root>/rcs/` (stdlib only, but for
+    the links of the fieldbus `protocols` the system uses)."""
     files = {}
     for entry in sorted(resources.files(runtime).iterdir(), key=lambda e: e.name):
+        if entry.name in PROTOCOL_LINKS and PROTOCOL_LINKS[entry.name] not in protocols:
+            continue
         if entry.name.endswith(".py"):
             header = (
                 f"{MARKER}: its runtime, copied from rcsgen/runtime/{entry.name}. Do not edit.\n"
