@@ -582,3 +582,26 @@ def test_the_execution_order_picture_shows_the_i_o_module_around_the_controllers
     )
     miner = rcsgen("graph", ROOT / "specs" / "miner", "--picture", "order", "--format", "mermaid")
     assert "I/O" not in miner.output
+
+
+def test_a_device_address_the_process_cannot_use_is_one_line_before_anything_starts(
+    rig: Path,
+) -> None:
+    """RCSGEN_IO_<DEVICE> that is not an address: `python -m rig` says so in one line (a
+    usage error, exit 2), before a segment or a process exists."""
+    segment = f"rcsgen_io_{os.getpid()}_{next(_names)}"
+    done = subprocess.run(
+        [sys.executable, "-m", "rig", "--shm", segment],
+        cwd=rig.parent,
+        env={**os.environ, "RCSGEN_IO_TANK": "garbage"},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip().splitlines()[-1] == (
+        "python -m rig: error: RCSGEN_IO_TANK='garbage': not an address of I/O device tank "
+        "(HOST:PORT)"
+    )
+    assert "Traceback" not in done.stderr
+    assert not os.path.exists(f"/dev/shm/{segment}")

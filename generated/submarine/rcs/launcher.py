@@ -41,6 +41,7 @@ from .contract import (
     enum_name,
     shared,
 )
+from .io_cycle import relocated
 from .loop import (
     _BEAT,
     DONE_REPLY,
@@ -880,6 +881,8 @@ def main(package: str, argv: list[str] | None = None) -> int:
         parser.error(segment_problem(args.shm))
     try:
         parse_settings(system.layout, args.set)
+        for device in getattr(system.layout, "IO_DEVICES", {}).values():
+            relocated(device)  # RCSGEN_IO_<DEVICE>, if set, is an address it can use
     except ValueError as error:
         parser.error(str(error))
     host = None
