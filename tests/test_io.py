@@ -604,3 +604,31 @@ def test_a_device_address_the_process_cannot_use_is_one_line_before_anything_sta
     )
     assert "Traceback" not in done.stderr
     assert not os.path.exists(f"/dev/shm/{segment}")
+
+
+def test_a_watched_device_record_left_torn_is_skipped_not_a_crash(
+    package: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """q watches `tank` (run by p) through its record. A record left mid-write (p killed
+    while writing it) cannot be read whole: q's cycle goes on without it (p's loss is the
+    process reaction's business), and a LOST record read whole is reacted to."""
+    with socket.socket() as unused:  # the pumps device nowhere: q's own device not needed
+        unused.bind(("127.0.0.1", 0))
+        monkeypatch.setenv("RCSGEN_IO_PUMPS", f"opc.tcp://127.0.0.1:{unused.getsockname()[1]}/x")
+    layout, contract = runtime(package, "layout"), runtime(package, "rcs.contract")
+    harness = Harness(package, "q")
+    try:
+        io = harness.processes["q"].io
+        assert io.watched == ["tank"]
+        record = layout.IO_RECORDS["tank"]
+        contract.SEQ.pack_into(harness.buf, record.offset, 7)  # odd: a writer mid-write
+        harness.cycle(2)
+        assert "tank" not in io.lost
+        contract.SEQ.pack_into(harness.buf, record.offset, 8)
+        record.write(harness.buf, **dict(record.read(harness.buf), state=2))  # LOST
+        harness.cycle()
+        assert "tank" in io.lost
+        held = runtime(package, "rcs.override").overrides(layout, harness.buf)
+        assert {f: state for f, (state, _) in held.items()} == dict.fromkeys(SAFE, "SAFE")
+    finally:
+        harness.close()

@@ -337,7 +337,10 @@ class IoModule:
                 name, LOST if name in self.lost else ONLINE if seq else CONNECTING, counts
             )
         for name in self.watched:
-            state = int(self.records[name].read(self.buf)["state"])  # type: ignore[call-overload]
+            try:
+                state = int(self.records[name].read(self.buf)["state"])  # type: ignore[call-overload]
+            except StaleRead:  # being written, or its writer died mid-write (a lost process)
+                continue
             if state == LOST and name not in self.lost:
                 self.lost.add(name)
                 self.process.react(key(name))
