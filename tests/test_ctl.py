@@ -378,7 +378,10 @@ def test_the_miner_walk_through_from_the_readme() -> None:
         assert not system.module("gh").get("skipped_by")
         assert system.module("sec")["command"] == system.module("sb")["command"] == "BOX_CUT"
         # ct asks for the conveyor tail; nobody but the console answers it
-        wait_for(lambda: system.json().get("requests"), "the tail request", 60)
+        try:
+            wait_for(lambda: system.json().get("requests"), "the tail request", 60)
+        except AssertionError as error:  # say what the system did instead (a trip? a halt?)
+            raise AssertionError(f"{error}\n{system.ctl('status').stdout}") from None
         listed = system.ctl("requests")
         assert listed.stdout.splitlines() == [
             "tail from ct: Put the conveyor tail over the haulage, then answer."

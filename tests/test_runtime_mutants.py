@@ -172,29 +172,29 @@ def slow_plan(package: ModuleType, cycle: float) -> Any:
     return dataclasses.replace(plan, classes={**plan.classes, "top": Slow})
 
 
-@pytest.mark.parametrize(("cycles", "trips"), [(2, 0), (3, 1)])
-def test_the_watchdog_trips_on_the_declared_overrun_not_one_later(
-    package: ModuleType, cycles: int, trips: int
-) -> None:
-    """Declared: 3 consecutive overruns trip the watchdog. Every cycle here runs past its
-    period (1.5 periods of work), so the third cycle trips it and HALT goes to the root;
-    two do not (a single long cycle cannot trip it: its limit is set far away)."""
+@pytest.mark.parametrize(("behind", "trips"), [(1000.0, False), (0.4, True)])
+def test_a_watchdog_trip_halts_the_root(package: ModuleType, behind: float, trips: bool) -> None:
+    """Every cycle here runs past its period (1.5 periods of work), so each starts at least
+    half a period late: with the limit at 0.4 periods of lateness in all the watchdog trips
+    and HALT goes to the root; with the limit far away it does not, and the root keeps its
+    command. (Where exactly the limit trips, on a scripted clock: test_failsafe's
+    test_the_watchdog_trips_when_the_recent_cycles_ran_five_periods_late_in_all.)"""
     layout, loop = part(package, "layout"), part(package, "rcs.loop")
     plan = part(package, "main_p1").PLAN
-    dog = loop.Watchdog(overruns=3, period_factor=1000.0)
+    dog = loop.Watchdog(behind=behind, period_factor=1000.0)
     process = loop.run(
         slow_plan(package, 1.5 * plan.cycle_period),
         layout,
-        cycles=cycles,
+        cycles=4,
         watchdog=dog,
         heartbeat_timeout=1000.0,
     )
     try:
-        assert process.counters["overruns"] == cycles
-        assert process.counters["watchdog_trips"] == trips
+        assert process.counters["overruns"] >= 3
+        assert (process.counters["watchdog_trips"] > 0) == trips
         sent = layout.COMMAND_IN["top"].read(process.block.buf)
         halted = layout.COMMAND_NAMES["top"][sent["command"]] == "HALT"
-        assert halted == bool(trips)
+        assert halted == trips
     finally:
         process.block.close()
 
