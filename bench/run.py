@@ -43,6 +43,7 @@ PARTS = {
     "lockstep": ("bench_lockstep.py", [], ["--cycles", "300", "--rounds", "1"]),
     "detection": ("bench_detection.py", [], ["--runs", "3"]),
     "failsafe": ("bench_failsafe.py", [], ["--runs", "3"]),
+    "io": ("bench_io.py", ["--runs", "5"], ["--runs", "2"]),
     "zenoh": (
         "bench_zenoh.py",
         [],
@@ -894,6 +895,52 @@ def section_cleanup(results: dict, problems: list[str]) -> list[str]:
     ]
 
 
+def section_io(io: dict) -> list[str]:
+    """Fieldbus I/O (issue 27): the I/O module's cost, the box cut in the loop, detection."""
+    hil, sim, found = io["hil"], io["simulated"], io["detection"]
+
+    def row(name: str, fig: dict) -> str:
+        return (
+            f"| {name} | {ns(fig['median'])} | {ns(fig['p99'])} | {ns(fig['max'])} | {fig['n']} |"
+        )
+
+    lost, goal = found["lost_s"], found["goal_s"]
+    return [
+        "## 9. Fieldbus I/O: Modbus TCP on loopback, hardware in the loop",
+        "",
+        f"bench/bench_io.py: miner_hil's `plc` ({io['points']} points, {io['inputs']} of them "
+        f"inputs, polled every {io['poll_period_s']:g} s) served by the soft PLC "
+        "(`python -m rcsgen.tools.softplc`, its own process, the miner's simulators behind "
+        f"it); the controllers paced at {io['cycle_period_s']:g} s. The I/O module's share of "
+        "a cycle: `before` copies the device's latest inputs into the world fields, `after` "
+        "hands the outputs to the device's thread; the round trip is that thread's poll "
+        "(every input read, every output written), off the cycle.",
+        "",
+        "| per cycle | median | p99 | max | samples |",
+        "|---|---:|---:|---:|---:|",
+        row("I/O module, `before` (inputs in)", io["before_ns"]),
+        row("I/O module, `after` (outputs out)", io["after_ns"]),
+        row("I/O module, both", io["both_ns"]),
+        row("the device's poll (round trip, its thread)", io["round_trip_ns"]),
+        row("box cut in the loop: the system's modules + I/O", hil["cycle_ns"]),
+        row("box cut simulated: the system's modules + simulators", sim["cycle_ns"]),
+        "",
+        f"The box cut in the loop ended {hil['status']} after {hil['cycles']} cycles in "
+        f"{hil['wall_s']:.1f} s (paced, real time, as the PLC runs); simulated, "
+        f"{sim['status']} after {sim['cycles']} cycles in {sim['wall_s']:.2f} s (flat out).",
+        "",
+        f"A device that stops answering (the PLC frozen, SIGSTOP, {found['runs']} runs under "
+        f"a paced `python -m miner_hil`): its record LOST after {lost['min']:.3f} / "
+        f"{lost['median']:.3f} / {lost['max']:.3f} s (min / median / max), every actuator "
+        f"latched safe after {found['safe_s']['median']:.3f} s (median). Goal: its timeout "
+        f"{found['timeout_s']:g} s + 1 cycle = {goal:g} s: "
+        f"{verdict(lost['max'] <= goal and found['safe_s']['max'] <= goal)}. Silence counts "
+        "from the last good answer, up to a poll before the freeze: so it can be under the "
+        "timeout from the freeze.",
+        "",
+    ]
+
+
 def section_failsafe(failsafe: dict) -> list[str]:
     goal = failsafe["goal_s"]
     lines = [
@@ -992,6 +1039,8 @@ def main() -> int:
         lines += section_failsafe(results["failsafe"])
     if results.get("zenoh"):
         lines += section_zenoh(results["zenoh"])
+    if results.get("io"):
+        lines += section_io(results["io"])
     lines += section_cleanup(results, problems)
     args.out.write_text("\n".join(lines).rstrip() + "\n")
     print(f"wrote {args.out} in {time.perf_counter() - started:.0f} s", file=sys.stderr)

@@ -41,9 +41,12 @@ def check(paths: StrPath | Iterable[StrPath], progress: Progress | None = None) 
     return compile_paths(_as_paths(paths), progress)
 
 
-def validate(paths: StrPath | Iterable[StrPath], progress: Progress | None = None) -> Frontend:
+def validate(
+    paths: StrPath | Iterable[StrPath], progress: Progress | None = None, connect: bool = False
+) -> Frontend:
     """As `check`, and the scenarios of each system that builds checked against it: their
-    diagnostics follow the specs' in `.diagnostics`."""
+    diagnostics follow the specs' in `.diagnostics`. With `connect`, each declared I/O
+    device is asked whether every bound point is there (E458)."""
     from .tools.scenario.check import check_system_scenarios
 
     front = check(paths, progress)
@@ -51,6 +54,10 @@ def validate(paths: StrPath | Iterable[StrPath], progress: Progress | None = Non
     for system in front.systems:
         found = check_system_scenarios(front.directories[system.name], system)
         diags = Diagnostics([*diags.items, *found.items], diags.acknowledged)
+        if connect and system.io:  # issue 27: the devices themselves
+            from .tools.io_connect import check_devices
+
+            diags = Diagnostics([*diags.items, *check_devices(system).items], diags.acknowledged)
     front.diagnostics = diags
     return front
 

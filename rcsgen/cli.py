@@ -57,11 +57,17 @@ def main() -> None:
 
 @main.command()
 @SPEC_PATHS
+@click.option(
+    "--connect",
+    is_flag=True,
+    help="Also connect to each declared I/O device and read every bound point (E458).",
+)
 @reporting
-def validate(paths: tuple[Path, ...], opts: Options) -> None:
-    """Check specs (schema and semantics) and their scenarios; report every problem found."""
+def validate(paths: tuple[Path, ...], connect: bool, opts: Options) -> None:
+    """Check specs (schema and semantics) and their scenarios; report every problem found.
+    With --connect, also ask each declared I/O device whether every bound point is there."""
     progress = Progress(opts)
-    front = api.validate(specs_or_default(paths), progress)
+    front = api.validate(specs_or_default(paths), progress, connect=connect)
     progress.done()
     if report(front.diagnostics, opts).fails:
         raise Exit(1)

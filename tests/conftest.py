@@ -89,6 +89,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_deploy",
             "test_access",
             "test_failsafe",
+            "test_io",
             "test_platoon",
             "test_monitor",
             "test_operate",

@@ -59,6 +59,12 @@ OPTIONAL = {
     # the Zenoh transport, imported (inside a function, never eagerly) only when a process
     # is started with `--transport zenoh`
     ("rcsgen.runtime.zenoh_transport", "zenoh"),
+    # fieldbus I/O (issue 27), imported only when a process runs such a device; the soft PLC
+    # is a test bench's tool built on the same stacks (their servers)
+    ("rcsgen.runtime.io_modbus", "pymodbus"),
+    ("rcsgen.runtime.io_opcua", "asyncua"),
+    ("rcsgen.tools.softplc", "pymodbus"),
+    ("rcsgen.tools.softplc", "asyncua"),
 }
 # What mutmut's trampolines import (see the module docstring).
 TRAMPOLINE = "mutmut.mutation.trampoline"

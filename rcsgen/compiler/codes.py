@@ -82,6 +82,10 @@ class Topic(Enum):
         "instances of templates (a controller and its subtree written once)",
         "`rcsgen/compiler/front_end/instances.py`",
     )
+    IO = (
+        "fieldbus I/O: devices and the world fields bound to their points (`io:`)",
+        "`rcsgen/compiler/checks/io.py`, `rcsgen/tools/io_connect.py` (`validate --connect`)",
+    )
 
     @property
     def what(self) -> str:
@@ -333,6 +337,15 @@ _ALL = (
     error("E906", Topic.INSTANCES, "name made twice by instances"),
     error("E907", Topic.INSTANCES, "malformed template"),
     error("E908", Topic.INSTANCES, "template controller uses an undeclared world field"),
+    error("E450", Topic.IO, "binding to an unknown world field"),
+    error("E451", Topic.IO, "point the field cannot be carried by"),
+    error("E452", Topic.IO, "value out of the point's range"),
+    error("E453", Topic.IO, "two writers of one field"),
+    error("E454", Topic.IO, "ground-truth field bound to I/O"),
+    error("E455", Topic.IO, "address conflict"),
+    error("E456", Topic.IO, "bad device address"),
+    error("E457", Topic.IO, "bad device process or timing"),
+    error("E458", Topic.IO, "device or point not there (`validate --connect`)"),
 )
 CODES: dict[str, Code] = {c.code: c for c in _ALL}
 # Every warning rcsgen reports (what --select and --ignore can name).

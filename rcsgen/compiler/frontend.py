@@ -55,9 +55,11 @@ def display_path(path: Path) -> str:
 
 
 def source_path(path: Path, system_dir: Path) -> str:
-    """A spec's path as generated headers name it: `<system dir>/<file>`, on any machine."""
+    """A spec's path as generated headers name it: `<system dir>/<file>`, on any machine. A
+    spec file that is a symbolic link (a variant system sharing another's controllers) is
+    named where it is linked, not where it points."""
     root = real_path(system_dir)
-    return f"{root.name}/{real_path(path).relative_to(root).as_posix()}"
+    return f"{root.name}/{(real_path(path.parent) / path.name).relative_to(root).as_posix()}"
 
 
 # Directories deeper than this below a path given on the command line are not searched.

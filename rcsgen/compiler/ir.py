@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 from ..runtime.contract import STARTUP_TIMEOUT
+from ..runtime.io_points import Device
 from . import expressions as expr
 from .checks.tables import RuleId
 from .diagnostics import Span
@@ -106,6 +107,7 @@ class Layout:
     # per world field its override record (state and value), after the world fields.
     overrides: Buffer | None = None
     override_fields: tuple[Buffer, ...] = ()
+    io: dict[str, Buffer] = field(default_factory=dict)  # each I/O device's record, last
 
     def handshake(self, module: str, client: str) -> tuple[Buffer, Buffer]:
         """The command and status buffers through which `client` commands `module`: the
@@ -123,6 +125,7 @@ class Layout:
         every = [*self.processes.values(), *self.pacing.values(), *found, *self.world]
         every += [self.overrides] if self.overrides is not None else []
         every += self.override_fields
+        every += self.io.values()
         return sorted(every, key=lambda b: b.offset)
 
 
@@ -537,6 +540,7 @@ class IRProcess:
     stand_ins: dict[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
     # its declared watchdog limits (rcs/loop.py Watchdog's fields); the rest keep their default
     watchdog: dict[str, float] = field(default_factory=dict)
+    io: tuple[str, ...] = ()  # the I/O devices it runs (read first, written last)
 
 
 @dataclass(frozen=True)
@@ -579,6 +583,12 @@ class IRSystem:
     # setting is taken when a controller has a factory, none otherwise)
     settings: tuple[tuple[str, str], ...] | None = None
     startup_timeout: float = STARTUP_TIMEOUT  # seconds the start-up barrier waits
+    # Fieldbus devices (the runtime's own declarations, rcs/io_points.py) and, for each, the
+    # controllers that read its inputs or write its outputs (safe state when it is lost)
+    io: tuple[Device, ...] = ()
+    io_dependents: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    # where each device (its name) and each of its points (`device.field`) is declared
+    io_spans: dict[str, Span] = field(default_factory=dict)
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

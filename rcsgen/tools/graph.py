@@ -307,7 +307,10 @@ def execution_order(system: IRSystem, process: IRProcess, module: str | None = N
     level = levels(system)
     cycles = max([1, *(h[4] for h in hops)])
     in_order = [m for m in process.modules if m in chain]
+    devices = ", ".join(process.io)
     order_text = " ".join(process.modules)
+    if process.io:  # the I/O module around the controllers (rcs/io_cycle.py)
+        order_text = f"[I/O in: {devices}] {order_text} [I/O out: {devices}]"
     note = Node("o_note", (f"{process.name} runs, every cycle:", *_wrap(order_text, 48)), "note")
     nodes = [note]
     edges: list[Edge] = []
@@ -318,9 +321,13 @@ def execution_order(system: IRSystem, process: IRProcess, module: str | None = N
     for cycle in range(1, cycles + 1):
         clusters.append(Cluster(f"o_cycle{cycle}", f"cycle {cycle}"))
         running = in_order if cycle < cycles else in_order[: in_order.index(last) + 1]
-        for name in running:
-            title = system.controller(name).title
-            node = Node(f"x{cycle}_{name}", (name, title), "step", f"o_cycle{cycle}", level[name])
+        steps = [(name, (name, system.controller(name).title), level[name]) for name in running]
+        if process.io:  # inputs read first; outputs written last (not in a cut-short cycle)
+            steps.insert(0, ("io_in", ("I/O in", f"{devices}: inputs to the world"), 0))
+            if cycle < cycles or running == in_order:
+                steps.append(("io_out", ("I/O out", f"{devices}: outputs to the device"), 0))
+        for name, text, depth in steps:
+            node = Node(f"x{cycle}_{name}", text, "step", f"o_cycle{cycle}", depth)
             nodes.append(node)
             if (previous, node.id) not in messages:
                 edges.append(Edge(previous, node.id, (), "then"))

@@ -271,6 +271,9 @@ class Harness(BlockView):
         return cls(import_package(Path(package_dir).resolve(), hooks), process, **options)
 
     def close(self) -> None:
+        for each in self.processes.values():  # fieldbus devices: their threads stopped
+            if each.io is not None:
+                each.io.close()
         if self._scratch is not None:
             shutil.rmtree(self._scratch, ignore_errors=True)
             self._scratch = None

@@ -39,6 +39,7 @@ from .contract import (
     silent,
     struct_format,
 )
+from .io_cycle import attach as attach_io
 from .override import latch_safe
 from .transport import Local, Transport
 
@@ -82,6 +83,7 @@ class ProcessPlan:
     classes: Mapping[str, ModuleClass] = field(default_factory=dict)
     # The declared watchdog limits (system.yaml `watchdog:`): Watchdog's fields -> values
     watchdog: Mapping[str, float] = field(default_factory=dict)
+    io: tuple[str, ...] = ()  # the I/O devices it runs: read first, written last (io_cycle.py)
 
 
 @dataclass
@@ -194,6 +196,7 @@ class Process:
         self.simulated: tuple[str, ...] = ()
         self.modules: dict[str, Module] = {}
         self.steps: tuple[Callable[[], None], ...] = ()
+        self.io_steps: tuple[tuple[Callable[[], None], ...], ...] = ((), ())
         self._choose(self._simulate_flags())
         # The control record: this process is its only writer (the launcher marks it dead).
         self.record = layout.PROCESSES[plan.name]
@@ -204,6 +207,10 @@ class Process:
         self.lost: set[str] = set()
         self.tripped: dict[str, int] = {}  # each other process's watchdog trips, last seen
         self.reactions = {name: reaction(layout, name) for name in layout.PROCESSES}
+        self.io = attach_io(self)  # None unless the system declares I/O this process touches
+        if self.io is not None:
+            self.io_steps = ((self.io.before,), (self.io.after,))
+            self._choose(self.simulated)
         self.beat()
 
     def _refuse_a_second_copy(self) -> None:
@@ -253,7 +260,8 @@ class Process:
             if self.modules and self.modules.get(name) is not module:
                 module.resume()
         self.simulated, self.modules = simulated, modules
-        self.steps = tuple(module.run_cycle for module in modules.values())
+        run = tuple(module.run_cycle for module in modules.values())
+        self.steps = (*self.io_steps[0], *run, *self.io_steps[1])
 
     # ------------------------------------------------------------ running
 
@@ -275,6 +283,9 @@ class Process:
             flags = self._simulate_flags()
             if flags != self.simulated:
                 self._choose(flags)
+        if first == 0:
+            for step in self.io_steps[0]:
+                step()
         for name in self.plan.modules[first : last + 1]:
             module = self.modules.get(name)
             if module is not None:
@@ -512,6 +523,8 @@ def run(
         # Stopped (Ctrl-C, SIGTERM, --cycles) or orphaned (the launcher died): the actuators
         # it writes (orphaned: every actuator, as the others may be gone too) go safe, latched.
         process.safe_stop(everything=stop is not None and stop.orphaned)
+        if process.io is not None:
+            process.io.close()  # the devices get the safe outputs once more
         process.beat(STOPPED)
         net.close()  # sends the STOPPED
     return process
@@ -596,9 +609,13 @@ def serve(process: Process, requests: int, replies: int) -> None:
             break
         process.run_modules(first, last)
         if end:
+            for step in process.io_steps[1]:
+                step()
             process.cycle += 1
             process.beat()
         os.write(replies, DONE_REPLY)
+    if process.io is not None:
+        process.io.close()
     process.beat(STOPPED)
 
 

@@ -15,7 +15,7 @@ import sys
 import tempfile
 import textwrap
 from collections.abc import Callable
-from dataclasses import fields, replace
+from dataclasses import MISSING, fields, is_dataclass, replace
 from importlib import resources
 from pathlib import Path
 
@@ -23,6 +23,7 @@ import jinja2
 
 from ... import runtime
 from ...runtime import contract
+from ...runtime.io_points import MODBUS_TCP, OPCUA
 from .. import ir
 from ..checks import naming
 from ..types import Enum, Type
@@ -85,6 +86,23 @@ def pyliteral(value: object, kind: Type) -> str:
     return kind.literal(value)
 
 
+def pydeclaration(value: object) -> str:
+    """A frozen dataclass of the runtime (an I/O `Device` and its `Point`s) as the Python
+    that makes it: its class and the fields that differ from their defaults, by keyword."""
+    if isinstance(value, tuple):
+        items = [pydeclaration(v) for v in value]
+        return f"({items[0]},)" if len(items) == 1 else f"({', '.join(items)})"
+    if not is_dataclass(value) or isinstance(value, type):
+        return repr(value)
+    args = []
+    for f in fields(value):
+        item = getattr(value, f.name)
+        if f.default is not MISSING and item == f.default:
+            continue
+        args.append(f"{f.name}={pydeclaration(item)}")
+    return f"{type(value).__name__}({', '.join(args)})"
+
+
 def template_dir() -> Path:
     """Templates ship inside the wheel as rcsgen/templates; a checkout keeps them at the top."""
     packaged = resources.files("rcsgen") / "templates"
@@ -108,6 +126,7 @@ def environment() -> jinja2.Environment:
         comment_text=_one_line,
         pyliteral=pyliteral,
         pytuple=pytuple,
+        pydeclaration=pydeclaration,
         pystr=lambda text: repr(_one_line(text)),
     )
     env.tests.update(
@@ -184,7 +203,7 @@ def _render_system(system: ir.IRSystem, env: jinja2.Environment) -> dict[str, st
         f"{root}/__main__.py": env.get_template("package_main.py.j2").render(system=system),
         f"{root}/layout.py": _render_layout(system, env),
     }
-    files.update(runtime_files(root))
+    files.update(runtime_files(root, {d.protocol for d in system.io}))
     template = env.get_template("controller.py.j2")
     for c in system.controllers:
         if c.is_operator:
@@ -276,13 +295,22 @@ def _layout_table(layout: ir.Layout) -> list[tuple[int, int, str, str]]:
     ]
 
 
-def runtime_files(root: str) -> dict[str, str]:
-    """The runtime, copied verbatim under a header into `<root>/rcs/` (stdlib only): what
-    runs every cycle at its top, the operator's tools in `operate/`, as in rcsgen/runtime/."""
+# The runtime's protocol links, each copied only into a package whose system declares a
+# device of its protocol: they import a protocol library (an extra), and a package without
+# such a device stays standard library only (io_cycle.py imports them only when needed).
+PROTOCOL_LINKS = {"io_modbus.py": MODBUS_TCP, "io_opcua.py": OPCUA}
+
+
+def runtime_files(root: str, protocols: set[str] | frozenset[str] = frozenset()) -> dict[str, str]:
+    """The runtime, copied verbatim under a header into `<root>/rcs/` (stdlib only, but for
+    the links of the fieldbus `protocols` the system uses): what runs every cycle at its
+    top, the operator's tools in `operate/`, as in rcsgen/runtime/."""
     files = {}
     top = resources.files(runtime)
     for folder, prefix in ((top, ""), (top.joinpath("operate"), "operate/")):
         for entry in sorted(folder.iterdir(), key=lambda e: e.name):
+            if entry.name in PROTOCOL_LINKS and PROTOCOL_LINKS[entry.name] not in protocols:
+                continue
             if entry.name.endswith(".py"):
                 name = prefix + entry.name
                 header = f"{MARKER}: its runtime, copied from rcsgen/runtime/{name}. Do not edit.\n"

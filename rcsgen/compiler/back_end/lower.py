@@ -26,6 +26,7 @@ from ...runtime.contract import (
     STARTUP_TIMEOUT,
     STATUS_FIELDS,
 )
+from ...runtime.io_points import DEVICE_FIELDS
 from .. import expressions as expr
 from .. import ir
 from ..checks import naming, operators
@@ -75,13 +76,23 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
         _ControllerLowering(c, checked, sources[c.spec.display]).lower()
         for c in checked.controllers.values()
     )
+    devices = checked.io.devices
     processes = tuple(
         ir.IRProcess(
-            p.name, p.cycle_period, p.doc, p.modules, p.roots, dict(p.stand_ins), dict(p.watchdog)
+            p.name,
+            p.cycle_period,
+            p.doc,
+            p.modules,
+            p.roots,
+            dict(p.stand_ins),
+            dict(p.watchdog),
+            tuple(d.name for d in devices if d.process == p.name),
         )
         for p in checked.processes
     )
-    layout = plan_layout(spec.name, (p.name for p in processes), controllers, world)
+    layout = plan_layout(
+        spec.name, (p.name for p in processes), controllers, world, [d.name for d in devices]
+    )
     placement = module_io.Placement.of(processes, controllers)
     controllers = tuple(
         replace(
@@ -128,6 +139,12 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
             if f.actuator and placement.world_writers.get(f.name)
         },
         settings=tuple(spec.settings.items()) if spec.settings is not None else None,
+        io=devices,
+        io_dependents=dict(checked.io.dependents),
+        io_spans={
+            **{d.name: d.span for d in spec.io.values()},
+            **{f"{d.name}.{p.field}": p.span for d in spec.io.values() for p in d.points},
+        },
     )
 
 
@@ -620,6 +637,7 @@ def plan_layout(
     processes: Iterable[str],
     controllers: Iterable[ir.IRController],
     world: Iterable[ir.IRWorldField],
+    devices: Iterable[str] = (),
 ) -> ir.Layout:
     """Place the header, each process's control record, every module's buffers, then the
     world fields, each buffer on 8 bytes, and hash the result.
@@ -671,6 +689,12 @@ def plan_layout(
         buffer = _buffer(f"OVERRIDE_{f.name.upper()}", at, fields, f"{f.name}'s override")
         override_fields.append(buffer)
         at = align(at + buffer.size)
+    # I/O devices (rcs/io_cycle.py): each one's record, its state and counts, after the rest.
+    io = {}
+    for name in devices:
+        shape = [(f, "q", 0) for f in DEVICE_FIELDS]
+        io[name] = _buffer(f"IO_{name.upper()}", at, shape, f"I/O device {name}")
+        at = align(at + io[name].size)
     layout = ir.Layout(
         process_records,
         modules,
@@ -681,6 +705,7 @@ def plan_layout(
         operators,
         overrides,
         tuple(override_fields),
+        io,
     )
     return replace(layout, hash=layout_hash(system, layout))
 

@@ -21,7 +21,7 @@ from ..diagnostics import Diagnostics, Span, Subject, known_names_hint
 from ..front_end import model
 from ..front_end.model import Command, ControllerSpec, Located, PlanVerb, Rule, SystemSpec
 from ..types import BOOL, FLOAT, INT, Enum, Str, Type, annotation_accepts, hook_words
-from . import acknowledge, hook_checks, naming, operators
+from . import acknowledge, hook_checks, io, naming, operators
 from .tables import (
     ENTRY_STATE,
     Action,
@@ -66,6 +66,7 @@ def check_system(
     _check_world_writers(system, stand_ins, by_name, diags)
     _check_sensing(system, by_name, simulators | named, diags)
     _check_safe_values(system, diags)  # E801
+    checked_io = io.check(system, by_name, diags)  # E450-E457
     world = {name: f.type for name, f in system.world.items()}
     operators.check(system.operators, by_name, supervisors, world, diags)  # E245-E249
     clients = operators.check_modules(system, by_name, diags)  # E281-E284, W308
@@ -93,7 +94,7 @@ def check_system(
         return None
     ruled = set(supervisors) | set(clients)  # modules commanded by another
     processes = tuple(_process(p, system, by_name, stand_ins, ruled) for p in system.processes)
-    return CheckedSystem(system, checked, processes)
+    return CheckedSystem(system, checked, processes, checked_io)
 
 
 def _process(

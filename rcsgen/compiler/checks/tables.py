@@ -18,6 +18,7 @@ from ..diagnostics import Span
 from ..front_end import model
 from ..front_end.model import ENTRY_STATE, Command, ControllerSpec, Hook, Rule, SystemSpec
 from ..types import BOOL, Type
+from .io import CheckedIo
 
 __all__ = ["ENTRY_STATE"]
 
@@ -351,6 +352,7 @@ class CheckedSystem:
     spec: SystemSpec
     controllers: Mapping[str, CheckedController]  # process order, then the stand-ins
     processes: tuple[CheckedProcess, ...]
+    io: CheckedIo = field(default_factory=CheckedIo)  # fieldbus devices, checked
 
     @property
     def name(self) -> str:

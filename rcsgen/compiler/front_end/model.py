@@ -113,6 +113,36 @@ class Operators:
     segment_group: Located | None = None
 
 
+@dataclass(frozen=True)
+class IoPoint:
+    """A world field bound to a point of a device, as written (checked in checks/io.py)."""
+
+    field: str
+    span: Span  # where the field is named under `points:`
+    kinds: tuple[Located, ...]  # the point kinds given (coil: 3, node: ...): one is right
+    register_type: Located | None = None
+    scale: Located | None = None
+    offset: Located | None = None
+    word_order: Located | None = None
+    direction: Located | None = None
+
+
+@dataclass(frozen=True)
+class IoDevice:
+    """A fieldbus device of the system's `io:` section, as written."""
+
+    name: str
+    span: Span
+    protocol: Located
+    address: Located
+    timeout: Located
+    points: tuple[IoPoint, ...]
+    unit: Located | None = None
+    process: Located | None = None
+    poll_period: Located | None = None
+    doc: str = ""
+
+
 @dataclass
 class SystemSpec:
     name: str
@@ -132,6 +162,7 @@ class SystemSpec:
     name_span: Span = field(default_factory=lambda: Span("?"))  # where `system:` names it
     # The run settings the hook-state factories read, name -> doc; None: not declared
     settings: dict[str, str] | None = None
+    io: dict[str, IoDevice] = field(default_factory=dict)  # fieldbus devices (docs/io.md)
 
     @cached_property
     def world_types(self) -> dict[str, Type]:
@@ -391,7 +422,53 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
         settings={str(k): str((v or {}).get("doc", "")) for k, v in data["settings"].items()}
         if isinstance(data.get("settings"), dict)
         else None,
+        io=build_io(data, top),
     )
+
+
+POINT_KINDS = ("coil", "discrete_input", "holding_register", "input_register", "node")
+
+
+def build_io(data: Any, top: Span) -> dict[str, IoDevice]:
+    """The `io:` section's devices from a schema-valid system document (none when absent)."""
+    section = data.get("io") or {}
+    devices = {}
+    for name, spec in section.items():
+        span = key_span(section, name, top)
+        points = tuple(
+            IoPoint(
+                field,
+                key_span(spec["points"], field, span),
+                tuple(_at(point, k, span) for k in POINT_KINDS if k in point),
+                _optional(point, "type", span),
+                _optional(point, "scale", span),
+                _optional(point, "offset", span),
+                _optional(point, "word_order", span),
+                _optional(point, "direction", span),
+            )
+            for field, point in spec["points"].items()
+        )
+        devices[name] = IoDevice(
+            name,
+            span,
+            _at(spec, "protocol", span),
+            _at(spec, "address", span),
+            _at(spec, "timeout", span),
+            points,
+            _optional(spec, "unit", span),
+            _optional(spec, "process", span),
+            _optional(spec, "poll_period", span),
+            str(spec.get("doc", "")),
+        )
+    return devices
+
+
+def _at(data: Any, key: str, top: Span) -> Located:
+    """`data[key]` with where it is written; a point kind keeps its name: (kind, value)."""
+    value = data[key]
+    if key in POINT_KINDS:
+        value = (key, value)
+    return Located(value, value_span(data, key, top))
 
 
 def build_operators(data: Any, top: Span) -> Operators:

@@ -41,6 +41,7 @@ from ..contract import (
     enum_name,
     shared,
 )
+from ..io_cycle import relocated
 from ..loop import (
     DONE_REPLY,
     READY,
@@ -997,6 +998,8 @@ def _check_settings(system: System, args: argparse.Namespace) -> None:
     if args.shm is not None and segment_problem(args.shm):
         raise ValueError(segment_problem(args.shm))
     parse_settings(system.layout, args.set)
+    for device in getattr(system.layout, "IO_DEVICES", {}).values():
+        relocated(device)  # RCSGEN_IO_<DEVICE>, if set, is an address it can use
 
 
 def _check_run(system: System, args: argparse.Namespace) -> None:

@@ -21,6 +21,7 @@ from ...compiler.diagnostics import Diagnostics, Span, SpecError
 from ...compiler.front_end.loader import decode, read_bytes
 from ...compiler.frontend import display_path
 from ...runtime import override
+from ...runtime.io_points import COUNTS, device_status
 from ...runtime.operate.ctl import channel_requests, write_answer
 from .. import traces
 from ..harness import AnyHarness, Harness, LaunchedHarness, Status
@@ -166,7 +167,17 @@ def trace_line(harness: AnyHarness, world: list[str]) -> str:
     held = harness.world.overrides()
     if held:  # world fields forced or latched safe (only then: goldens keep their shape)
         line["overrides"] = held
+    devices = getattr(harness.layout, "IO_DEVICES", None)
+    if devices:  # fieldbus I/O (only then): each device's state and counts
+        line["io"] = {name: io_counts(harness, name, device) for name, device in devices.items()}
     return json.dumps(line, sort_keys=True, separators=(",", ":"))
+
+
+def io_counts(harness: AnyHarness, name: str, device: Any) -> dict[str, Any]:
+    """A device's state and counts (rcs/io_points.py) for a trace line."""
+    values = dict(harness.layout.IO_RECORDS[name].read(harness.buf))
+    shown = device_status(device, values, 0)
+    return {key: shown[key] for key in ("state", *COUNTS, "stale")}
 
 
 def _apply(harness: AnyHarness, event: Event) -> None:

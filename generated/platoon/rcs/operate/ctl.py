@@ -50,6 +50,7 @@ from ..contract import (
     shared,
     status_text,
 )
+from ..io_points import device_status
 from ..transport import TransportError, check_endpoint
 from .command import (
     Command,
@@ -394,6 +395,17 @@ class Console:
             "requests": self.requests(),
             "world": self.world(world),
             "overrides": self.overrides(),
+            "io": self.devices(),
+        }
+
+    def devices(self) -> dict[str, dict[str, Any]]:
+        """Each fieldbus device's state, counts and stale inputs (rcs/io_points.py); {} for
+        a system that declares none."""
+        now = time.monotonic_ns()
+        records = getattr(self.layout, "IO_RECORDS", {})
+        return {
+            name: device_status(device, self.read(records[name]), now)
+            for name, device in getattr(self.layout, "IO_DEVICES", {}).items()
         }
 
     def world_names(self, names: Sequence[str]) -> list[str]:
@@ -732,28 +744,49 @@ def render(snapshot: dict[str, Any]) -> list[str]:
             f"overruns, {proc['late_wakeups']} late wake-ups, {proc['watchdog_trips']} "
             f"watchdog trips, slow x{proc['slow']:g}"
         )
+    for name, device in (snapshot.get("io") or {}).items():
+        lines.append(device_line(name, device))
     for request in snapshot.get("requests", ()):
         lines.append(f"request {request['name']} from {request['by']}: {request['doc']}")
-    return lines + _world_lines(snapshot)
+    return lines + world_lines(snapshot)
 
 
-def _world_lines(snapshot: dict[str, Any]) -> list[str]:
-    """The world fields asked for (a table with their overrides), then every other field
-    forced or latched safe (always said, --world or not)."""
-    lines = []
+def world_lines(snapshot: dict[str, Any]) -> list[str]:
+    """The world table (`status --world`): each field's value, marked stale while the I/O
+    device it comes from is lost, and its override; then the overrides not in the table."""
     world = snapshot.get("world") or {}
     held = snapshot.get("overrides") or {}
+    stale = {f: n for n, d in (snapshot.get("io") or {}).items() for f in d.get("stale", ())}
+    lines: list[str] = []
     if world:
         fields: list[Sequence[str]] = [("world", "value", "override")]
-        fields += [
-            (name, "stale" if v is None else shown(v), held.get(name, {}).get("state", ""))
-            for name, v in world.items()
-        ]
+        for name, v in world.items():
+            value = "stale" if v is None else shown(v)
+            if name in stale:
+                value += f" (stale: {stale[name]})"
+            fields.append((name, value, held.get(name, {}).get("state", "")))
         lines += columns(fields)
     for name, how in held.items():
         if name not in world:
             lines.append(f"world.{name} {how['state']} at {shown(how['value'])}")
     return lines
+
+
+def device_line(name: str, device: dict[str, Any]) -> str:
+    """One fieldbus device's line of the debug screen."""
+    if device.get("state") == "?":
+        return f"io {name}: record unreadable"
+    age, trip = device["last_answer_age_s"], device["round_trip_ms"]
+    heard = "never answered" if age is None else f"answered {age:.2f}s ago in {trip:g} ms"
+    counts = ", ".join(f"{device[c]} {c}" for c in ("reads", "writes", "timeouts", "retries"))
+    more = ", ".join(f"{device[c]} {c}" for c in ("errors", "reconnects", "losses"))
+    line = (
+        f"io {name}: {device['state'].lower()}, {device['protocol']} {device['address']} "
+        f"(run by {device['process']}), {heard}; {counts}; {more}"
+    )
+    if device["stale"]:
+        line += f"; stale: {', '.join(device['stale'])}"
+    return line
 
 
 # ---------------------------------------------------------------- command line
