@@ -1,0 +1,568 @@
+"""Properties: the explored model of one controller -> what holds, what does not and why.
+
+Each check reads the graph `model.explore` made (never the spec again) and returns
+`Finding`s with the shortest run that shows them. The composed figures (HALT reach k per
+leaf, ERROR to the root d) are added up in `system.py` from the per-controller bounds here.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections import deque
+from dataclasses import dataclass, field
+
+from ..diagnostics import Span
+from .adapter import DONE, ERROR, EXECUTING, Skeleton
+from .model import NOP, Edge, Graph, State
+
+INFINITE = sys.maxsize
+
+
+@dataclass
+class Finding:
+    """A property that does not hold (or cannot be decided) in one controller."""
+
+    code: str
+    controller: str
+    command: str | None
+    state: str | None
+    rule: int | None  # 1-based, as RuleId
+    span: Span
+    message: str
+    hint: str
+    trace: list[tuple[Edge, State]] = field(default_factory=list)
+    certain: bool = True  # every step of the trace was decided by the analysis
+    verdict: str = "violated"  # or "undecided"
+    replay: str = ""  # what the replay showed, once replayed
+    scenario: str = ""  # the scenario file written for it
+
+
+# ---------------------------------------------------------------- helpers
+
+
+def _certain(trace: list[tuple[Edge, State]]) -> bool:
+    return all(edge.certain for edge, _ in trace)
+
+
+def _rule_of(sk: Skeleton, rule_id: str) -> tuple[str | None, str | None, int | None, Span]:
+    """(command, state, index, span) of a rule id text."""
+    parts = rule_id.split("/")
+    if parts[0] == "every_cycle":
+        index = int(parts[1])
+        return None, None, index, sk.every[index - 1].span
+    command, state, index = parts[0], parts[1], int(parts[2])
+    return command, state, index, sk.tables[command][state][index - 1].span
+
+
+def _executing(graph: Graph) -> list[State]:
+    return [s for s in graph.edges if s.status == EXECUTING and s.command is not None]
+
+
+class Motion(dict[tuple[str, str], bool]):
+    """(module, command) -> whether it is a motion command (INIT and HALT never are)."""
+
+    def get(self, key: tuple[str, str], default: bool | None = True) -> bool:  # type: ignore[override]
+        if key[1] in ("INIT", "HALT"):
+            return False
+        return bool(super().get(key, True if default is None else default))
+
+
+def motion(sk_of: dict[str, Skeleton]) -> Motion:
+    """(module, command) -> whether it is a motion command: anything but INIT, HALT and a
+    stopping command (one that sets actuators to their safe values only and sends only
+    stopping commands, and does at least one of the two)."""
+    memo: dict[tuple[str, str], bool] = {}
+
+    def moving(module: str, command: str, depth: int = 0) -> bool:
+        if command in ("INIT", "HALT"):
+            return False
+        key = (module, command)
+        if key in memo:
+            return memo[key]
+        sk = sk_of.get(module)
+        if sk is None or sk.operator or depth > 50:
+            memo[key] = True
+            return True
+        memo[key] = True  # a cycle through itself is motion
+        rules = [r for rules in sk.tables.get(command, {}).values() for r in rules]
+        does = False
+        moves = False
+        for rule in rules:
+            for _, safe in rule.actuators:
+                does = True
+                moves |= not safe
+            for sub, cmd in rule.sends:
+                does = True
+                moves |= moving(sub, cmd, depth + 1)
+        memo[key] = moves or not does
+        return memo[key]
+
+    for module, sk in sk_of.items():
+        for command in sk.commands:
+            moving(module, command)
+    return Motion(memo)
+
+
+# ---------------------------------------------------------------- outcomes (the contract)
+
+
+def outcomes(graph: Graph) -> dict[str, tuple[str, ...]]:
+    """Per command: the statuses the controller can end it with."""
+    found: dict[str, set[str]] = {}
+    for s, edges in graph.edges.items():
+        for edge, t in edges:
+            if t.command is None:
+                continue
+            if edge.report:
+                found.setdefault(t.command, set()).add(edge.report)
+            if edge.safe_state:
+                found.setdefault(t.command, set()).add(ERROR)
+    return {c: tuple(x for x in (DONE, ERROR) if x in v) for c, v in found.items()}
+
+
+# ---------------------------------------------------------------- no motion after ERROR
+
+
+def motion_after_error(
+    graph: Graph, moving: dict[tuple[str, str], bool]
+) -> list[Finding]:
+    """Once a subordinate answered ERROR, nothing but a stopping command goes to any
+    subordinate and no actuator is set to a value that may not be safe, until a new command
+    arrives from above."""
+    sk = graph.skeleton
+    seen: set[tuple[str, str | None]] = set()
+    findings = []
+    for s in graph.edges:
+        for edge, t in graph.edges[s]:
+            if not t.errored or edge.new is not None or edge.safe_state:
+                continue
+            bad = [f"{sub}.{cmd}" for sub, cmd in edge.sends if moving.get((sub, cmd), True)]
+            bad += [f"world.{name}" for name in edge.unsafe]
+            if not bad or not edge.rules:
+                continue
+            rule_id = next(
+                (
+                    r
+                    for r in edge.rules
+                    if any(
+                        f"{x}.{y}" in bad
+                        for x, y in _rule_sends(sk, r)
+                    )
+                    or _rule_unsafe(sk, r)
+                ),
+                edge.rules[-1],
+            )
+            command, state, index, span = _rule_of(sk, rule_id)
+            if (rule_id, bad[0]) in seen:
+                continue
+            seen.add((rule_id, bad[0]))
+            trace = graph.path_to(s) + [(edge, t)]
+            failed = next(
+                (sub for e, _ in trace for sub, a in e.answers if a == ERROR), "a subordinate"
+            )
+            findings.append(
+                Finding(
+                    "W701",
+                    sk.name,
+                    command,
+                    state,
+                    index,
+                    span,
+                    f"no motion after ERROR is violated: after {failed} reported ERROR, "
+                    f"rule {rule_id} of {sk.name} still "
+                    + (f"sends {bad[0]}" if "." in bad[0] and not bad[0].startswith("world.")
+                       else f"sets {bad[0]}")
+                    + f", {len(trace)} cycle(s) into the command",
+                    f"handle {failed}.status == ERROR in every state that waits on it "
+                    "(send HALT or report ERROR)",
+                    trace,
+                    _certain(trace),
+                )
+            )
+    return findings
+
+
+def _rule_sends(sk: Skeleton, rule_id: str) -> tuple[tuple[str, str], ...]:
+    command, state, index, _ = _rule_of(sk, rule_id)
+    rule = sk.every[index - 1] if command is None else sk.tables[command][state][index - 1]  # type: ignore[index]
+    return rule.sends
+
+
+def _rule_unsafe(sk: Skeleton, rule_id: str) -> bool:
+    command, state, index, _ = _rule_of(sk, rule_id)
+    rule = sk.every[index - 1] if command is None else sk.tables[command][state][index - 1]  # type: ignore[index]
+    return any(not safe for _, safe in rule.actuators)
+
+
+# ---------------------------------------------------------------- latched stop
+
+
+def latched_stop(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+    """After HALT from above, no motion command and no unsafe actuator value until a new
+    command arrives."""
+    sk = graph.skeleton
+    findings, seen = [], set()
+    for s, edges in graph.edges.items():
+        for edge, t in edges:
+            if not t.halted:
+                continue
+            bad = [f"{sub}.{cmd}" for sub, cmd in edge.sends if moving.get((sub, cmd), True)]
+            bad += [f"world.{name}" for name in edge.unsafe]
+            if not bad or not edge.rules or bad[0] in seen:
+                continue
+            seen.add(bad[0])
+            command, state, index, span = _rule_of(sk, edge.rules[-1])
+            trace = graph.path_to(s) + [(edge, t)]
+            findings.append(
+                Finding(
+                    "W706",
+                    sk.name,
+                    command,
+                    state,
+                    index,
+                    span,
+                    f"latched stop is violated: after HALT, rule {edge.rules[-1]} of {sk.name} "
+                    f"{'sends' if not bad[0].startswith('world.') else 'sets'} {bad[0]} "
+                    "before any new command",
+                    "a HALT must stop everything below until the next command: guard the rule "
+                    "with the command it belongs to",
+                    trace,
+                    _certain(trace),
+                )
+            )
+    return findings
+
+
+# ---------------------------------------------------------------- every command finishes
+
+
+def finishing(graph: Graph) -> tuple[list[Finding], dict[str, list[str]], int]:
+    """A command can always still finish (report DONE or ERROR) without a new command,
+    assuming its subordinates finish theirs; the world conditions it needs are named.
+    Returns the findings, per command its assumptions, and the number of stuck states."""
+    sk = graph.skeleton
+    states = _executing(graph)
+    # backwards: which states can reach a report without a new command or a loss
+    back: dict[State, list[State]] = {}
+    good: set[State] = set()
+    for s in states:
+        for edge, t in graph.edges[s]:
+            if edge.new is not None or edge.lost is not None:
+                continue
+            if edge.report or edge.safe_state:
+                good.add(s)
+            elif t.status == EXECUTING:
+                back.setdefault(t, []).append(s)
+    todo = deque(good)
+    while todo:
+        t = todo.popleft()
+        for s in back.get(t, []):
+            if s not in good:
+                good.add(s)
+                todo.append(s)
+    stuck = [s for s in states if s not in good]
+    findings = []
+    by_command: dict[str, list[State]] = {}
+    for s in stuck:
+        by_command.setdefault(s.command or "", []).append(s)
+    for command, where in by_command.items():
+        first = min(where, key=lambda s: len(graph.path_to(s)))
+        trace = graph.path_to(first)
+        waits = [
+            sub
+            for sub, (sent, view, _) in zip(sk.subs, first.subs, strict=True)
+            if view in (DONE, ERROR) and sent is not None
+        ]
+        span = sk.state_spans.get((command, first.state), sk.spans.get(command, Span("?")))
+        deadlock = bool(waits) and any(
+            view == ERROR for _, view, _ in first.subs
+        )
+        shown = ", ".join(
+            f"{sub}.status={view}" for sub, (_, view, _) in zip(sk.subs, first.subs, strict=True)
+            if view != "NOT_READY"
+        )
+        findings.append(
+            Finding(
+                "W703" if deadlock else "W702",
+                sk.name,
+                command,
+                first.state,
+                None,
+                span,
+                (
+                    f"no handshake deadlock is violated: {sk.name} {command} waits in "
+                    f"{first.state} for an answer its subordinates will not give ({shown}); "
+                    f"{len(where)} state(s) of the model never finish"
+                    if deadlock
+                    else f"every command finishes is violated: {sk.name} {command} can get to "
+                    f"{first.state} ({shown or 'no subordinate'}"
+                    + (f"; process {', '.join(first.lost)} lost" if first.lost else "")
+                    + f") and then never report DONE or ERROR without a new command; "
+                    f"{len(where)} state(s) of the model never finish"
+                ),
+                "add a rule for that case (for a subordinate's ERROR: send HALT, report ERROR)",
+                trace,
+                _certain(trace),
+            )
+        )
+    assumptions = _assumptions(graph, states, good)
+    return findings, assumptions, len(stuck)
+
+
+def _assumptions(graph: Graph, states: list[State], good: set[State]) -> dict[str, list[str]]:
+    """Per command, the world conditions under which it finishes: in each group of states
+    it can go round in for ever (a strongly connected set, fair: every subordinate it waits
+    on answers or gets a new command), the guards of the rules that leave the group."""
+    sk = graph.skeleton
+    succ = {
+        s: [
+            (e, t)
+            for e, t in graph.edges[s]
+            if e.new is None and e.lost is None and t.status == EXECUTING and t in good
+        ]
+        for s in states
+        if s in good
+    }
+    found: dict[str, list[str]] = {}
+    for component in _sccs(succ):
+        members = set(component)
+        inner = [(s, e, t) for s in component for e, t in succ[s] if t in members]
+        if not inner:
+            continue
+        fair = all(
+            any(s.subs[i][1] != EXECUTING for s in component)
+            or any(sub == name for _, e, _ in inner for sub, _ in e.sends)
+            for i, name in enumerate(sk.subs)
+        )
+        timers = {s.state for s in component}
+        if len(timers) == 1 and any(s.ticks < max(sk.timers.get((s.command, s.state), (0,)))
+                                    for s in component):
+            fair = False  # time passes: the `after:` rule fires
+        if not fair:
+            continue
+        command = component[0].command or ""
+        exits = set()
+        for s in component:
+            for e, t in graph.edges[s]:
+                if e.new is None and e.lost is None and (t not in members or e.report):
+                    for rule_id in e.rules:
+                        c, st, index, _ = _rule_of(sk, rule_id)
+                        rule = (
+                            sk.every[index - 1] if c is None else sk.tables[c][st][index - 1]  # type: ignore[index]
+                        )
+                        if rule.text and ("world." in rule.text or rule.guard is not None):
+                            exits.add(f"in {st}: `{rule.text}`")
+        if exits:
+            found.setdefault(command, [])
+            found[command] += sorted(x for x in exits if x not in found[command])
+    return found
+
+
+def _sccs(succ: dict[State, list[tuple[Edge, State]]]) -> list[list[State]]:
+    """Tarjan's strongly connected components, iteratively."""
+    index: dict[State, int] = {}
+    low: dict[State, int] = {}
+    on: set[State] = set()
+    stack: list[State] = []
+    out: list[list[State]] = []
+    counter = 0
+    for root in succ:
+        if root in index:
+            continue
+        work = [(root, iter(succ[root]))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on.add(root)
+        while work:
+            v, it = work[-1]
+            advanced = False
+            for _, w in it:
+                if w not in succ:
+                    continue
+                if w not in index:
+                    index[w] = low[w] = counter
+                    counter += 1
+                    stack.append(w)
+                    on.add(w)
+                    work.append((w, iter(succ[w])))
+                    advanced = True
+                    break
+                if w in on:
+                    low[v] = min(low[v], index[w])
+            if advanced:
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                component = []
+                while True:
+                    w = stack.pop()
+                    on.discard(w)
+                    component.append(w)
+                    if w == v:
+                        break
+                out.append(component)
+    return out
+
+
+# ---------------------------------------------------------------- bounds
+
+
+def _worst(
+    graph: Graph, starts: list[tuple[Edge, State]], goal: object, stop: object
+) -> tuple[int, list[tuple[Edge, State]]]:
+    """The most cycles from a start edge (cycle 1) until an edge satisfies `goal`, along
+    edges without a new command or a loss; `stop(edge)` ends a path without the goal
+    (INFINITE). INFINITE too when the model can go round without it. Returns the bound and
+    a run that shows the worst (or the failure)."""
+    memo: dict[State, int] = {}
+    on_path: set[State] = set()
+    witness: dict[State, tuple[Edge, State] | None] = {}
+
+    def cost(edge: Edge, t: State) -> int:
+        if goal(edge):  # type: ignore[operator]
+            return 1
+        if stop(edge) or t.status != EXECUTING:  # type: ignore[operator]
+            return INFINITE
+        inner = worst(t)
+        return INFINITE if inner == INFINITE else inner + 1
+
+    def worst(s: State) -> int:
+        if s in memo:
+            return memo[s]
+        if s in on_path:
+            return INFINITE
+        on_path.add(s)
+        best, chosen = 0, None
+        for edge, t in graph.edges.get(s, []):
+            if edge.new is not None or edge.lost is not None:
+                continue
+            if t == s and any(v == EXECUTING and f for _, v, f in s.subs):
+                continue  # waiting for a subordinate's answer: its time, not this table's
+            c = cost(edge, t)
+            if c > best or chosen is None:
+                best, chosen = c, (edge, t)
+            if best == INFINITE:
+                break
+        on_path.discard(s)
+        memo[s] = best if chosen is not None else INFINITE
+        witness[s] = chosen
+        return memo[s]
+
+    sys.setrecursionlimit(max(10_000, sys.getrecursionlimit()))
+    result, run = 0, []
+    for edge, t in starts:
+        c = cost(edge, t)
+        if c > result or not run:
+            result, run = c, [(edge, t)]
+        if result == INFINITE:
+            break
+    if run:
+        at = run[-1][1]
+        while not goal(run[-1][0]) and at in witness and witness[at] is not None:  # type: ignore[operator]
+            step = witness[at]
+            assert step is not None
+            if step[1] in {t for _, t in run}:
+                run.append(step)
+                break
+            run.append(step)
+            at = step[1]
+    return result, run
+
+
+def halt_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]]]:
+    """Per subordinate: the most cycles from the controller reading HALT (cycle 1) until it
+    sends that subordinate HALT, over every state it can be in when HALT comes."""
+    starts = [(e, t) for s in graph.edges for e, t in graph.edges[s] if e.new == "HALT"]
+    found = {}
+    for sub in graph.skeleton.subs:
+        found[sub] = _worst(
+            graph,
+            starts,
+            lambda e, sub=sub: (sub, "HALT") in e.sends,
+            lambda e: False,
+        )
+    return found
+
+
+def actuators_safe(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]]]:
+    """Per actuator field the controller writes: the most cycles from reading HALT until it
+    sets the field to its safe value."""
+    starts = [(e, t) for s in graph.edges for e, t in graph.edges[s] if e.new == "HALT"]
+    return {
+        name: _worst(graph, starts, lambda e, n=name: n in e.safe, lambda e: False)
+        for name in graph.skeleton.actuators
+    }
+
+
+def error_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]]]:
+    """Per subordinate: the most cycles from the controller reading its ERROR (cycle 1)
+    until it reports ERROR itself; INFINITE when it may not (it handles the ERROR, or
+    waits)."""
+    found = {}
+    for sub in graph.skeleton.subs:
+        starts = [
+            (e, t)
+            for s in graph.edges
+            for e, t in graph.edges[s]
+            if (sub, ERROR) in e.answers and e.new is None and e.lost is None
+            and s.status == EXECUTING and s.subs[graph.skeleton.subs.index(sub)][2]
+        ]
+        if not starts:
+            continue
+        found[sub] = _worst(
+            graph,
+            starts,
+            lambda e: e.report == ERROR or e.safe_state,
+            lambda e: e.report == DONE,
+        )
+    return found
+
+
+def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+    """A command reports DONE only once every motion command it sent has been answered:
+    the supervisor waited for the echo (W708)."""
+    sk = graph.skeleton
+    findings, seen = [], set()
+    for s, edges in graph.edges.items():
+        if s.status != EXECUTING or s.command is None:
+            continue
+        for edge, t in edges:
+            if edge.report != DONE or edge.new is not None or not edge.rules:
+                continue
+            busy = [
+                f"{sub}.{sent}"
+                for sub, (sent, view, fresh) in zip(sk.subs, s.subs, strict=True)
+                if edge.views[sk.subs.index(sub)] == EXECUTING
+                and sent is not None
+                and moving.get((sub, sent), True)
+                and fresh
+                and (sub, sent) not in edge.sends
+            ]
+            if not busy or edge.rules[-1] in seen:
+                continue
+            seen.add(edge.rules[-1])
+            command, state, index, span = _rule_of(sk, edge.rules[-1])
+            trace = graph.path_to(s) + [(edge, t)]
+            findings.append(
+                Finding(
+                    "W708",
+                    sk.name,
+                    command,
+                    state,
+                    index,
+                    span,
+                    f"the handshake is violated: rule {edge.rules[-1]} of {sk.name} reports "
+                    f"DONE while {busy[0]} it sent is still executing (its echo with DONE or "
+                    "ERROR not seen)",
+                    f"wait for `{busy[0].split('.')[0]}.status == DONE` before reporting DONE",
+                    trace,
+                    _certain(trace),
+                )
+            )
+    return findings
+
+
+__all__ = ["INFINITE", "NOP", "Finding"]

@@ -1,0 +1,299 @@
+"""System: every controller of a system proven compositionally, bounds added up.
+
+Controllers are taken bottom-up (subordinates first). Each is explored over its
+subordinates' contracts - the statuses each can end each command with, read from its own
+explored model (so the cost grows with the widest controller, not the system) - and its
+properties checked (`properties.py`). Then the per-controller bounds are composed along the
+hierarchy with the execution order and the process split: HALT given to a controller reaches
+each leaf below it within k cycles, and an ERROR of a leaf reaches the root within d.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from .. import ir
+from . import properties as props
+from .adapter import DONE, ERROR, Skeleton, operator_outcomes, placement, skeleton
+from .lost import reaction_for
+from .model import Contract, Graph, Model, explore
+from .properties import INFINITE, Finding
+
+
+@dataclass
+class ControllerResult:
+    name: str
+    states: int
+    transitions: int
+    seconds: float
+    complete: bool
+    stuck: int = 0
+    assumptions: dict[str, list[str]] = field(default_factory=dict)
+    halt: dict[str, int] = field(default_factory=dict)  # sub -> cycle it gets HALT (1-based)
+    safe: dict[str, int] = field(default_factory=dict)  # actuator -> cycle it is safe
+    error: dict[str, int] = field(default_factory=dict)  # sub -> cycle ERROR is reported
+
+
+@dataclass
+class Bound:
+    """A composed bound from one controller to a leaf below it (or from a leaf up)."""
+
+    start: str
+    leaf: str
+    cycles: int  # INFINITE: not reached
+    path: tuple[str, ...]
+    safe: int | None = None  # the cycle the leaf's actuators are safe (HALT), if it has any
+    blocked: str = ""  # where it stops, when not reached
+
+
+@dataclass
+class SystemProof:
+    system: str
+    findings: list[Finding] = field(default_factory=list)
+    controllers: dict[str, ControllerResult] = field(default_factory=dict)
+    halt: list[Bound] = field(default_factory=list)
+    error: list[Bound] = field(default_factory=list)
+    reaction: str = ""
+    notes: list[str] = field(default_factory=list)
+    graphs: dict[str, Graph] = field(default_factory=dict)
+
+
+def order(system: ir.IRSystem) -> list[ir.IRController]:
+    """The controllers with tables, subordinates before their supervisors."""
+    children = {c.name: [s.name for s in c.subordinates] for c in system.controllers}
+    seen: set[str] = set()
+    out: list[ir.IRController] = []
+
+    def visit(name: str) -> None:
+        if name in seen:
+            return
+        seen.add(name)
+        for child in children.get(name, []):
+            visit(child)
+        out.append(system.controller(name))
+
+    for c in system.controllers:
+        visit(c.name)
+    return out
+
+
+def hop(place: dict[str, tuple[str, int]], sender: str, reader: str, hosts: dict[str, str]) -> int:
+    """Cycles a value written by `sender` in a cycle takes to be read by `reader`: 0 when the
+    reader runs after it in the same process, 1 when before it or in another process (its
+    next cycle), one more per host crossed where a deployment is given."""
+    if sender not in place or reader not in place:
+        return 1
+    (p1, a), (p2, b) = place[sender], place[reader]
+    if p1 == p2:
+        return 0 if b > a else 1
+    extra = 1 if hosts and hosts.get(p1) != hosts.get(p2) else 0
+    return 1 + extra
+
+
+def prove(
+    system: ir.IRSystem,
+    actuators: frozenset[str],
+    hosts: dict[str, str] | None = None,
+    limit: int = 400_000,
+) -> SystemProof:
+    """Explore every controller of `system` and check its properties."""
+    hosts = hosts or {}
+    place = placement(system)
+    reaction = reaction_for(system, place)
+    proof = SystemProof(system.name, reaction=reaction.name)
+    skeletons: dict[str, Skeleton] = {}
+    for c in system.controllers:
+        skeletons[c.name] = skeleton(system, c, actuators)
+    moving = props.motion(skeletons)
+    contracts: dict[str, Contract] = {}
+    stand_in = {c.buffers: c.name for c in system.controllers if c.buffers != c.name}
+    for c in order(system):
+        sk = skeletons[c.name]
+        if c.kind == "operator":
+            contracts[c.name] = Contract(operator_outcomes(c))
+            continue
+        subs = {}
+        for s in c.subordinates:
+            found = contracts.get(s.name, Contract({}))
+            merged = {k: set(v) for k, v in found.outcomes.items()}
+            if s.name in stand_in and stand_in[s.name] in contracts:
+                for k, v in contracts[stand_in[s.name]].outcomes.items():
+                    merged.setdefault(k, set()).update(v)
+            if s.echo_cycles:  # no echo in time reads as ERROR
+                for k in merged:
+                    merged[k].add(ERROR)
+            subs[s.name] = Contract(
+                {k: tuple(x for x in (DONE, ERROR) if x in v) for k, v in merged.items()}
+            )
+        began = time.perf_counter()
+        graph = explore(Model(sk, subs, reaction), limit=limit)
+        result = ControllerResult(
+            c.name,
+            len(graph.parent),
+            sum(len(v) for v in graph.edges.values()),
+            0.0,
+            graph.complete,
+        )
+        contracts[c.name] = Contract(props.outcomes(graph))
+        if not graph.complete:
+            proof.notes.append(
+                f"{c.name}: more than {limit} states; its properties are undecided"
+            )
+        else:
+            found = props.motion_after_error(graph, moving)
+            found += props.latched_stop(graph, moving)
+            finish, assumptions, stuck = props.finishing(graph)
+            found += finish
+            found += props.done_while_busy(graph, moving)
+            result.stuck, result.assumptions = stuck, assumptions
+            for sub, (k, run) in props.halt_latency(graph).items():
+                result.halt[sub] = k
+                if k == INFINITE:
+                    found.append(_unbounded_halt(sk, sub, run))
+            for name, (k, run) in props.actuators_safe(graph).items():
+                result.safe[name] = k
+                if k == INFINITE:
+                    found.append(_unsafe_halt(sk, name, run))
+            for sub, (k, run) in props.error_latency(graph).items():
+                result.error[sub] = k
+                if k == INFINITE:
+                    found.append(_error_swallowed(sk, sub, run))
+            for finding in found:
+                if sk.generated and finding.command in sk.generated and finding.code in (
+                    "W702",
+                    "W703",
+                ):
+                    continue
+                proof.findings.append(finding)
+        result.seconds = time.perf_counter() - began
+        proof.controllers[c.name] = result
+        proof.graphs[c.name] = graph
+    _compose(system, proof, place, hosts)
+    return proof
+
+
+def _run_span(sk: Skeleton, run: list[tuple[object, object]], command: str) -> tuple:
+    for edge, _ in reversed(run):
+        rules = getattr(edge, "rules", ())
+        if rules:
+            return props._rule_of(sk, rules[-1])
+    return command, None, None, sk.spans.get(command, next(iter(sk.spans.values())))
+
+
+def _unbounded_halt(sk: Skeleton, sub: str, run: list) -> Finding:
+    command, state, index, span = _run_span(sk, run, "HALT")
+    span = sk.spans.get("HALT", span)
+    return Finding(
+        "W704",
+        sk.name,
+        "HALT",
+        None,
+        None,
+        span,
+        f"HALT reach is violated: HALT given to {sk.name} may never reach {sub} "
+        "(its HALT table does not send it HALT within any bound)",
+        f"send `{sub}.HALT` in S0 of {sk.name}'s HALT table (or use the default table)",
+        run,
+        props._certain(run),
+    )
+
+
+def _unsafe_halt(sk: Skeleton, name: str, run: list) -> Finding:
+    span = sk.spans.get("HALT", next(iter(sk.spans.values())))
+    return Finding(
+        "W704",
+        sk.name,
+        "HALT",
+        None,
+        None,
+        span,
+        f"HALT reach is violated: HALT given to {sk.name} never sets actuator world.{name} "
+        "to its safe value",
+        f"declare HALT on {sk.name} and set world.{name} to its safe value in its S0",
+        run,
+        props._certain(run),
+    )
+
+
+def _error_swallowed(sk: Skeleton, sub: str, run: list) -> Finding:
+    first = run[0][1] if run else None
+    command = first.command if first is not None else None
+    state = first.state if first is not None else None
+    index = None
+    span = sk.state_spans.get((command, state)) or sk.spans.get(
+        command or "", next(iter(sk.spans.values()))
+    )
+    return Finding(
+        "W705",
+        sk.name,
+        command,
+        state,
+        index,
+        span,
+        f"ERROR reaches the root is violated: an ERROR from {sub} may never make {sk.name} "
+        "report ERROR (it is handled, or waited on for ever)",
+        f"report ERROR (after HALT where needed) when {sub}.status == ERROR",
+        run,
+        props._certain(run),
+    )
+
+
+def _compose(
+    system: ir.IRSystem,
+    proof: SystemProof,
+    place: dict[str, tuple[str, int]],
+    hosts: dict[str, str],
+) -> None:
+    """HALT k from each root to each leaf below it; ERROR d from each leaf to its root."""
+    children = {
+        c.name: [s.name for s in c.subordinates]
+        for c in system.controllers
+        if c.kind != "operator"
+    }
+    parent = {s: c for c, subs in children.items() for s in subs}
+    roots = [c.name for c in system.controllers if c.supervisor is None and c.name in place]
+
+    def down(start: str, at: str, arrive: int, path: tuple[str, ...]) -> None:
+        subs = children.get(at, [])
+        if not subs:
+            result = proof.controllers.get(at)
+            safe = None
+            if result is not None and result.safe:
+                worst = max(result.safe.values())
+                safe = INFINITE if worst == INFINITE else arrive + worst - 1
+            proof.halt.append(Bound(start, at, arrive, path, safe))
+            return
+        result = proof.controllers.get(at)
+        for sub in subs:
+            local = result.halt.get(sub, INFINITE) if result else INFINITE
+            if local == INFINITE or arrive == INFINITE:
+                leaf_arrive = INFINITE
+            else:
+                leaf_arrive = arrive + local - 1 + hop(place, at, sub, hosts)
+            down(start, sub, leaf_arrive, (*path, sub))
+
+    for root in roots:
+        down(root, root, 1, (root,))
+    leaves = [c for c in children if not children[c] and c in parent]
+    for leaf in leaves:
+        at, d, path, blocked = leaf, 1, (leaf,), ""
+        while at in parent:
+            up = parent[at]
+            result = proof.controllers.get(up)
+            local = result.error.get(at, INFINITE) if result else INFINITE
+            if local == INFINITE:
+                blocked = up
+                d = INFINITE
+                break
+            d = d + hop(place, at, up, hosts) + local - 1
+            at = up
+            path = (*path, at)
+        outcome = proof.controllers.get(leaf)
+        graph = proof.graphs.get(leaf)
+        if graph is not None and not any(
+            ERROR in v for v in props.outcomes(graph).values()
+        ):
+            continue  # the leaf never reports ERROR: nothing to carry up
+        proof.error.append(Bound(leaf, at, d, path, None, blocked))
+        del outcome
