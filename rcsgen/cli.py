@@ -781,6 +781,40 @@ def _write_or_print(text: str, output: Path | None) -> None:
     click.echo(f"wrote {output} ({len(text.encode('utf-8')):,} bytes)", err=True)
 
 
+@main.command()
+@SPEC_PATHS
+@click.option(
+    "--counterexamples",
+    "out",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=None,
+    help="Write each counter-example as a scenario here [default: <system>/counterexamples/].",
+)
+@click.option("--no-replay", is_flag=True, help="Do not replay counter-examples (all undecided).")
+@reporting
+def prove(paths: tuple[Path, ...], out: Path | None, no_replay: bool, opts: Options) -> None:
+    """Prove properties of the running hierarchy; print counter-examples as traces and
+    scenarios (exit 1 on a violated property, with --strict also on an undecided one)."""
+    from .tools.prove_report import run_prove
+
+    session = _Session(opts)
+    front = compile_paths(list(paths) or [Path("specs")])
+    session.add(front.diagnostics)
+    if session.fails:
+        session.finish("prove failed: the specs do not build")
+    lines, diags, violated = run_prove(front, out, not no_replay)
+    session.add(diags)
+    if opts.fmt == "text" and not opts.quiet:
+        for line in lines:
+            click.echo(line, err=True)
+    if violated:
+        session.finish()
+        click.echo(f"prove: {violated} property violation(s)", err=True)
+        sys.exit(1)
+    session.finish("prove: undecided findings fail with --strict")
+    _note(opts, f"proven: {', '.join(s.name for s in front.systems)}")
+
+
 @main.command("graph")
 @SPEC_PATHS
 @click.option(

@@ -35,6 +35,18 @@ ACKNOWLEDGEABLE = {
     "W511": "a state",
     "W512": "a rule",
 }
+# The findings of `rcsgen prove` (rcsgen/compiler/prove/): acknowledged like the others, but
+# only `prove` reports them, so only `prove` says when an acknowledgement of one is unused.
+PROVE_CODES = {
+    "W701": "a rule",
+    "W702": "a state",
+    "W703": "a state",
+    "W704": "a command",
+    "W705": "a state",
+    "W706": "a rule",
+    "W708": "a rule",
+}
+ACKNOWLEDGEABLE.update(PROVE_CODES)
 # Every warning rcsgen reports (what --select and --ignore can name).
 WARNING_CODES = frozenset({*ACKNOWLEDGEABLE, "W303", "W305", "W307", "W308", "W501", "W520"})
 
@@ -113,11 +125,17 @@ def check_allows(controllers: Iterable[ControllerSpec], diags: Diagnostics) -> N
 
 
 def apply(
-    controllers: Iterable[ControllerSpec], diags: Diagnostics, since: int, complete: bool
+    controllers: Iterable[ControllerSpec],
+    diags: Diagnostics,
+    since: int,
+    complete: bool,
+    checked: frozenset[str] | None = None,
 ) -> None:
     """Move the warnings from `diags.items[since:]` that an acknowledgement matches to
     `diags.acknowledged`. With `complete` (every check ran), an acknowledgement that matched
-    nothing is W303."""
+    nothing is W303 - of the codes in `checked` only (default: every code but `prove`'s)."""
+    if checked is None:
+        checked = frozenset(ACKNOWLEDGEABLE) - frozenset(PROVE_CODES)
     entries = [entry for spec in controllers for entry in _entries(spec)]
     if not entries:
         return
@@ -134,7 +152,7 @@ def apply(
     if not complete:
         return
     for entry in entries:
-        if entry.used or entry.allow.code.value not in ACKNOWLEDGEABLE:
+        if entry.used or entry.allow.code.value not in checked:
             continue
         code = entry.allow.code.value
         where = _where(entry)

@@ -350,8 +350,10 @@ def _assumptions(graph: Graph, states: list[State], good: set[State]) -> dict[st
                         rule = (
                             sk.every[index - 1] if c is None else sk.tables[c][st][index - 1]  # type: ignore[index]
                         )
-                        if rule.text and ("world." in rule.text or rule.guard is not None):
-                            exits.add(f"in {st}: `{rule.text}`")
+                        reads = rule.guard.order if rule.guard is not None else {}
+                        if rule.text and any(k[0] not in ("status", "command") for k in reads):
+                            where = f"in {st}" if st else "every cycle"
+                            exits.add(f"{where}: `{rule.text}`")
         if exits:
             found.setdefault(command, [])
             found[command] += sorted(x for x in exits if x not in found[command])
@@ -411,7 +413,7 @@ def _sccs(succ: dict[State, list[tuple[Edge, State]]]) -> list[list[State]]:
 
 
 def _worst(
-    graph: Graph, starts: list[tuple[Edge, State]], goal: object, stop: object
+    graph: Graph, starts: list[tuple[State, Edge, State]], goal: object, stop: object
 ) -> tuple[int, list[tuple[Edge, State]]]:
     """The most cycles from a start edge (cycle 1) until an edge satisfies `goal`, along
     edges without a new command or a loss; `stop(edge)` ends a path without the goal
@@ -453,10 +455,10 @@ def _worst(
 
     sys.setrecursionlimit(max(10_000, sys.getrecursionlimit()))
     result, run = 0, []
-    for edge, t in starts:
+    for source, edge, t in starts:
         c = cost(edge, t)
         if c > result or not run:
-            result, run = c, [(edge, t)]
+            result, run = c, [*graph.path_to(source), (edge, t)]
         if result == INFINITE:
             break
     if run:
@@ -475,7 +477,7 @@ def _worst(
 def halt_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]]]:
     """Per subordinate: the most cycles from the controller reading HALT (cycle 1) until it
     sends that subordinate HALT, over every state it can be in when HALT comes."""
-    starts = [(e, t) for s in graph.edges for e, t in graph.edges[s] if e.new == "HALT"]
+    starts = [(s, e, t) for s in graph.edges for e, t in graph.edges[s] if e.new == "HALT"]
     found = {}
     for sub in graph.skeleton.subs:
         found[sub] = _worst(
@@ -490,7 +492,7 @@ def halt_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]]
 def actuators_safe(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]]]:
     """Per actuator field the controller writes: the most cycles from reading HALT until it
     sets the field to its safe value."""
-    starts = [(e, t) for s in graph.edges for e, t in graph.edges[s] if e.new == "HALT"]
+    starts = [(s, e, t) for s in graph.edges for e, t in graph.edges[s] if e.new == "HALT"]
     return {
         name: _worst(graph, starts, lambda e, n=name: n in e.safe, lambda e: False)
         for name in graph.skeleton.actuators
@@ -504,11 +506,12 @@ def error_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]
     found = {}
     for sub in graph.skeleton.subs:
         starts = [
-            (e, t)
+            (s, e, t)
             for s in graph.edges
             for e, t in graph.edges[s]
             if (sub, ERROR) in e.answers and e.new is None and e.lost is None
             and s.status == EXECUTING and s.subs[graph.skeleton.subs.index(sub)][2]
+            and s.command not in graph.skeleton.generated  # QQ1's INIT/HALT wait for all DONE
         ]
         if not starts:
             continue

@@ -217,7 +217,8 @@ def _unsafe_halt(sk: Skeleton, name: str, run: list) -> Finding:
 
 
 def _error_swallowed(sk: Skeleton, sub: str, run: list) -> Finding:
-    first = run[0][1] if run else None
+    waiting = [t for e, t in run if (sub, ERROR) in e.answers]
+    first = waiting[-1] if waiting else (run[0][1] if run else None)
     command = first.command if first is not None else None
     state = first.state if first is not None else None
     index = None
