@@ -9,6 +9,7 @@ from pathlib import Path
 from ..compiler.diagnostics import Diagnostics
 from ..compiler.frontend import Frontend
 from ..compiler.prove import INFINITE, diagnostics, prove_front, trace_text
+from ..compiler.prove.handshake import prove_handshake
 from ..compiler.prove.system import SystemProof
 from .replay import replay_all
 
@@ -47,6 +48,7 @@ def run_prove(
 ) -> tuple[list[str], Diagnostics, int]:
     """Prove, replay, and report: (text lines, diagnostics, violated findings shown)."""
     result = prove_front(front)
+    proven, said = prove_handshake()
     first = diagnostics(result)
     acknowledged = {(d.span, d.code) for d in first.acknowledged}
     lines: list[str] = []
@@ -82,6 +84,9 @@ def run_prove(
             lines.append(f"  counter-example of {f.code} in {f.controller} ({f.verdict}):")
             lines.append(trace_text(proof, f))
         lines += [f"  note: {n}" for n in proof.notes]
+        if proven is False:
+            proof.notes.append(said)
+        lines.append(f"  handshake: {said}")
     diags = diagnostics(result)
     violated = sum(
         1
