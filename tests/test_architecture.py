@@ -49,6 +49,9 @@ OPTIONAL = {
     # the Zenoh transport, imported (inside a function, never eagerly) only when a process
     # is started with `--transport zenoh`
     ("rcsgen.runtime.zenoh_transport", "zenoh"),
+    # z3 (the optional extra rcsgen[prove]), imported inside a function of the prover's
+    # handshake proof only
+    ("rcsgen.compiler.prove.handshake", "z3"),
 }
 WHY = {
     "runtime": "it is copied into every generated package, which needs nothing but Python",

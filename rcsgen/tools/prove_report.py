@@ -54,9 +54,7 @@ def run_prove(
     lines: list[str] = []
     for proof, system in zip(result.proofs, front.systems, strict=True):
         directory = front.directories[system.name]
-        shown = {
-            i for i, f in enumerate(proof.findings) if (f.span, f.code) not in acknowledged
-        }
+        shown = {i for i, f in enumerate(proof.findings) if (f.span, f.code) not in acknowledged}
         if replay:
             target = out / system.name if out is not None else directory / "counterexamples"
             replay_all(proof, system, directory, target if shown else None, shown)
@@ -67,13 +65,14 @@ def run_prove(
             for f in proof.findings:
                 f.verdict = "undecided"
                 f.replay = "not replayed"
-        lines.append(f"{system.name}: {len(proof.controllers)} controllers ({proof.reaction} "
-                     "reaction to a lost process)")
+        lines.append(
+            f"{system.name}: {len(proof.controllers)} controllers ({proof.reaction} "
+            "reaction to a lost process)"
+        )
         for name, r in proof.controllers.items():
             lines.append(
                 f"  {name:<10} {r.states:>7} states {r.transitions:>8} transitions "
-                f"{r.seconds * 1000:>7.0f} ms"
-                + ("" if r.complete else "  (too large: undecided)")
+                f"{r.seconds * 1000:>7.0f} ms" + ("" if r.complete else "  (too large: undecided)")
             )
         lines += bounds_text(proof)
         for name, r in proof.controllers.items():

@@ -59,8 +59,7 @@ def events(system: ir.IRSystem, finding: Finding) -> tuple[list[dict[str, Any]],
             given = {k[1]: _value(v) for k, v in edge.valuation if k[0] == "param"}
             if params:
                 event["with"] = {
-                    str(p.name): given.get(p.name, False if p.type == "bool" else 0)
-                    for p in params
+                    str(p.name): given.get(p.name, False if p.type == "bool" else 0) for p in params
                 }
             if c.supervisor is not None:
                 event["overrides"] = True
@@ -124,8 +123,9 @@ class Replayer:
                     for sub, status in event.get("reply", {}).items():
                         reply(harness, sub, status)
                     if "command" in event:
-                        harness.command(module, event["command"].split(".")[1],
-                                        **event.get("with", {}))
+                        harness.command(
+                            module, event["command"].split(".")[1], **event.get("with", {})
+                        )
                 harness.cycle()
                 got = harness.status(module)
                 want_state = state.state
@@ -172,7 +172,8 @@ def replay_all(
             finding.verdict = "violated" if ok else "undecided"
             finding.replay = said
             if out_dir is not None:
-                base = f"{finding.controller}_{finding.code.lower()}_{(finding.command or 'x').lower()}"
+                command = (finding.command or "x").lower()
+                base = f"{finding.controller}_{finding.code.lower()}_{command}"
                 names[base] = names.get(base, 0) + 1
                 name = base if names[base] == 1 else f"{base}_{names[base]}"
                 out_dir.mkdir(parents=True, exist_ok=True)

@@ -107,8 +107,11 @@ def cycle_text(index: int, edge: Edge, state: State, subs: tuple[str, ...], who:
     did += [f"sets world.{n} unsafe" for n in edge.unsafe]
     if edge.report:
         did.append(f"reports {edge.report}")
-    shown = ", ".join(f"{k[1] if k[0] != 'world' else 'world.' + k[1]}={v}"
-                      for k, v in edge.valuation if k[0] not in ("status", "command", "time"))
+    shown = ", ".join(
+        f"{k[1] if k[0] != 'world' else 'world.' + k[1]}={v}"
+        for k, v in edge.valuation
+        if k[0] not in ("status", "command", "time")
+    )
     line = f"  cycle {index}: " + ("; ".join(parts) + " | " if parts else "")
     line += f"{who} {', '.join(did) if did else 'waits'} -> {state.state} {state.status}"
     return line + (f"  [{shown}]" if shown else "")

@@ -127,9 +127,7 @@ def builder_of(system: ir.IRSystem, c: ir.IRController) -> GuardBuilder:
         sub_commands,
         {s.name: _reasons(system.controller(s.name)) for s in c.subordinates},
     )
-    builder.functions = {
-        f.name: (tuple(p for p, _ in f.params), f.body.tree) for f in c.functions
-    }
+    builder.functions = {f.name: (tuple(p for p, _ in f.params), f.body.tree) for f in c.functions}
     builder.plans = {p.name: (p.capacity, p.replans) for p in c.plans}
     return builder
 
@@ -178,7 +176,9 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
                         acts.append((name, False))
         nxt = None if report else rule.next_state
         text = rule.guard.text if rule.guard is not None else ""
-        return RuleView(str(rule.id), rule.span, guard, text, tuple(sends), report, nxt, tuple(acts))
+        return RuleView(
+            str(rule.id), rule.span, guard, text, tuple(sends), report, nxt, tuple(acts)
+        )
 
     tables: dict[str, dict[str, list[RuleView]]] = {}
     timers: dict[tuple[str, str], tuple[int, ...]] = {}
@@ -212,6 +212,7 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
 
 # ---------------------------------------------------------------- the system around it
 
+
 def placement(system: ir.IRSystem) -> dict[str, tuple[str, int]]:
     """Each module that runs: (its process, its position in the lockstep order)."""
     found: dict[str, tuple[str, int]] = {}
@@ -239,6 +240,5 @@ def is_builtin(command: str) -> bool:
 def operator_outcomes(c: ir.IRController) -> dict[str, tuple[str, ...]]:
     """An operator module's tasks: a person answers DONE or ERROR; INIT/HALT withdraw: DONE."""
     return {
-        cmd.name: (DONE,) if cmd.name in BUILTIN_COMMANDS else (DONE, ERROR)
-        for cmd in c.commands
+        cmd.name: (DONE,) if cmd.name in BUILTIN_COMMANDS else (DONE, ERROR) for cmd in c.commands
     }

@@ -73,9 +73,11 @@ class FailSafeReaction(DirectReaction):
 
     def effect(self, supervisor: str, process: str) -> Effect:
         c = self.system.controller(supervisor)
-        hit = [s for s in c.subordinates if any(
-            self.process_of(m) == process for m in self.subtree(s.name)
-        )]
+        hit = [
+            s
+            for s in c.subordinates
+            if any(self.process_of(m) == process for m in self.subtree(s.name))
+        ]
         continuing = [s.name for s in hit if getattr(s, "on_lost", "halt_all") == "continue"]
         if hit and len(continuing) == len(hit):
             return Effect(False, tuple(continuing))

@@ -146,13 +146,9 @@ class Model:
             (sent, view if answer is None else answer, fresh)
             for (sent, view, fresh), answer in zip(s.subs, answers, strict=True)
         ]
-        answered = tuple(
-            (self.sk.subs[i], a) for i, a in enumerate(answers) if a is not None
-        )
+        answered = tuple((self.sk.subs[i], a) for i, a in enumerate(answers) if a is not None)
         # an ERROR counts for the current command only if it answers a command it sent
-        errored = s.errored or any(
-            a == ERROR and s.subs[i][2] for i, a in enumerate(answers)
-        )
+        errored = s.errored or any(a == ERROR and s.subs[i][2] for i, a in enumerate(answers))
         command, state, status, ticks, halted = s.command, s.state, s.status, s.ticks, s.halted
         lost_now = s.lost
         safe_state = False
@@ -181,8 +177,16 @@ class Model:
             (Edge(new, answered, lost, safe_state, *fields, step_views), target)
             if not safe_state
             else (
-                Edge(new, answered, lost, True, fields[0], (*pre_sends, *fields[1]),
-                     *fields[2:], step_views),
+                Edge(
+                    new,
+                    answered,
+                    lost,
+                    True,
+                    fields[0],
+                    (*pre_sends, *fields[1]),
+                    *fields[2:],
+                    step_views,
+                ),
                 target,
             )
             for fields, step_views, target in steps

@@ -109,7 +109,7 @@ def motion(sk_of: dict[str, Skeleton]) -> Motion:
 def outcomes(graph: Graph) -> dict[str, tuple[str, ...]]:
     """Per command: the statuses the controller can end it with."""
     found: dict[str, set[str]] = {}
-    for s, edges in graph.edges.items():
+    for edges in graph.edges.values():
         for edge, t in edges:
             if t.command is None:
                 continue
@@ -123,9 +123,7 @@ def outcomes(graph: Graph) -> dict[str, tuple[str, ...]]:
 # ---------------------------------------------------------------- no motion after ERROR
 
 
-def motion_after_error(
-    graph: Graph, moving: dict[tuple[str, str], bool]
-) -> list[Finding]:
+def motion_after_error(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
     """Once a subordinate answered ERROR, nothing but a stopping command goes to any
     subordinate and no actuator is set to a value that may not be safe, until a new command
     arrives from above."""
@@ -144,11 +142,7 @@ def motion_after_error(
                 (
                     r
                     for r in edge.rules
-                    if any(
-                        f"{x}.{y}" in bad
-                        for x, y in _rule_sends(sk, r)
-                    )
-                    or _rule_unsafe(sk, r)
+                    if any(f"{x}.{y}" in bad for x, y in _rule_sends(sk, r)) or _rule_unsafe(sk, r)
                 ),
                 edge.rules[-1],
             )
@@ -170,8 +164,11 @@ def motion_after_error(
                     span,
                     f"no motion after ERROR is violated: after {failed} reported ERROR, "
                     f"rule {rule_id} of {sk.name} still "
-                    + (f"sends {bad[0]}" if "." in bad[0] and not bad[0].startswith("world.")
-                       else f"sets {bad[0]}")
+                    + (
+                        f"sends {bad[0]}"
+                        if "." in bad[0] and not bad[0].startswith("world.")
+                        else f"sets {bad[0]}"
+                    )
                     + f", {len(trace)} cycle(s) into the command",
                     f"handle {failed}.status == ERROR in every state that waits on it "
                     "(send HALT or report ERROR)",
@@ -274,11 +271,10 @@ def finishing(graph: Graph) -> tuple[list[Finding], dict[str, list[str]], int]:
             if view in (DONE, ERROR) and sent is not None
         ]
         span = sk.state_spans.get((command, first.state), sk.spans.get(command, Span("?")))
-        deadlock = bool(waits) and any(
-            view == ERROR for _, view, _ in first.subs
-        )
+        deadlock = bool(waits) and any(view == ERROR for _, view, _ in first.subs)
         shown = ", ".join(
-            f"{sub}.status={view}" for sub, (_, view, _) in zip(sk.subs, first.subs, strict=True)
+            f"{sub}.status={view}"
+            for sub, (_, view, _) in zip(sk.subs, first.subs, strict=True)
             if view != "NOT_READY"
         )
         findings.append(
@@ -335,8 +331,9 @@ def _assumptions(graph: Graph, states: list[State], good: set[State]) -> dict[st
             for i, name in enumerate(sk.subs)
         )
         timers = {s.state for s in component}
-        if len(timers) == 1 and any(s.ticks < max(sk.timers.get((s.command, s.state), (0,)))
-                                    for s in component):
+        if len(timers) == 1 and any(
+            s.ticks < max(sk.timers.get((s.command, s.state), (0,))) for s in component
+        ):
             fair = False  # time passes: the `after:` rule fires
         if not fair:
             continue
@@ -509,8 +506,11 @@ def error_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]
             (s, e, t)
             for s in graph.edges
             for e, t in graph.edges[s]
-            if (sub, ERROR) in e.answers and e.new is None and e.lost is None
-            and s.status == EXECUTING and s.subs[graph.skeleton.subs.index(sub)][2]
+            if (sub, ERROR) in e.answers
+            and e.new is None
+            and e.lost is None
+            and s.status == EXECUTING
+            and s.subs[graph.skeleton.subs.index(sub)][2]
             and s.command not in graph.skeleton.generated  # QQ1's INIT/HALT wait for all DONE
         ]
         if not starts:

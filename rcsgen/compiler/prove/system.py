@@ -137,9 +137,7 @@ def prove(
         )
         contracts[c.name] = Contract(props.outcomes(graph))
         if not graph.complete:
-            proof.notes.append(
-                f"{c.name}: more than {limit} states; its properties are undecided"
-            )
+            proof.notes.append(f"{c.name}: more than {limit} states; its properties are undecided")
         else:
             found = props.motion_after_error(graph, moving)
             found += props.latched_stop(graph, moving)
@@ -160,9 +158,14 @@ def prove(
                 if k == INFINITE:
                     found.append(_error_swallowed(sk, sub, run))
             for finding in found:
-                if sk.generated and finding.command in sk.generated and finding.code in (
-                    "W702",
-                    "W703",
+                if (
+                    sk.generated
+                    and finding.command in sk.generated
+                    and finding.code
+                    in (
+                        "W702",
+                        "W703",
+                    )
                 ):
                     continue
                 proof.findings.append(finding)
@@ -248,9 +251,7 @@ def _compose(
 ) -> None:
     """HALT k from each root to each leaf below it; ERROR d from each leaf to its root."""
     children = {
-        c.name: [s.name for s in c.subordinates]
-        for c in system.controllers
-        if c.kind != "operator"
+        c.name: [s.name for s in c.subordinates] for c in system.controllers if c.kind != "operator"
     }
     parent = {s: c for c, subs in children.items() for s in subs}
     roots = [c.name for c in system.controllers if c.supervisor is None and c.name in place]
@@ -292,9 +293,7 @@ def _compose(
             path = (*path, at)
         outcome = proof.controllers.get(leaf)
         graph = proof.graphs.get(leaf)
-        if graph is not None and not any(
-            ERROR in v for v in props.outcomes(graph).values()
-        ):
+        if graph is not None and not any(ERROR in v for v in props.outcomes(graph).values()):
             continue  # the leaf never reports ERROR: nothing to carry up
         proof.error.append(Bound(leaf, at, d, path, None, blocked))
         del outcome
