@@ -89,11 +89,10 @@ class Skeleton:
             if rule.guard is None:
                 break
         else:
-            answer = solve(earlier, fixed=fixed) if earlier else None
-            if answer is None:
+            if not earlier:
                 out.append(Choice(None, True, ()))
-            elif answer.kind != "no":
-                out.append(Choice(None, answer.kind == "yes", tuple(answer.shown)))
+            elif (last := solve(earlier, fixed=fixed)).kind != "no":
+                out.append(Choice(None, last.kind == "yes", tuple(last.shown)))
         self._cache[key] = tuple(out)
         return self._cache[key]
 
@@ -189,7 +188,9 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
         for state in command.states:
             tables[command.name][state.name] = [view(r) for r in state.rules]
             state_spans[(command.name, state.name)] = state.span
-            found = sorted({t for r in state.rules for t in _thresholds(r.guard and r.guard.tree)})
+            found = sorted(
+                {t for r in state.rules for t in _thresholds(r.guard.tree if r.guard else None)}
+            )
             if found:
                 timers[(command.name, state.name)] = tuple(found)
     builder.lets = {}

@@ -57,6 +57,19 @@ class Edge(NamedTuple):
     views: tuple[str, ...]  # the status it read for each subordinate this cycle
 
 
+class Step(NamedTuple):
+    """What the controller's own cycle did, from a state the environment has set."""
+
+    rules: tuple[str, ...]
+    sends: tuple[tuple[str, str], ...]
+    report: str | None
+    unsafe: tuple[str, ...]
+    safe: tuple[str, ...]
+    certain: bool
+    valuation: tuple[tuple[Key, Any], ...]
+    views: tuple[str, ...]
+
+
 @dataclass
 class Graph:
     """The reachable states and their transitions."""
@@ -107,7 +120,7 @@ class Model:
         self.new_commands = new_commands
         self.sub_index = {s: i for i, s in enumerate(skeleton.subs)}
         self._news_seen: set[Any] = set()
-        self._steps: dict[Any, list[tuple[tuple[Any, ...], tuple[str, ...], State]]] = {}
+        self._steps: dict[Any, list[tuple[Step, State]]] = {}
 
     def initial(self) -> State:
         return State(None, NOP, NOT_READY, 0, tuple((None, NOT_READY, False) for _ in self.sk.subs))
@@ -174,22 +187,24 @@ class Model:
         if steps is None:
             steps = self._steps[pre] = self._step(*pre)
         return [
-            (Edge(new, answered, lost, safe_state, *fields, step_views), target)
-            if not safe_state
-            else (
+            (
                 Edge(
                     new,
                     answered,
                     lost,
-                    True,
-                    fields[0],
-                    (*pre_sends, *fields[1]),
-                    *fields[2:],
-                    step_views,
+                    safe_state,
+                    step.rules,
+                    (*pre_sends, *step.sends),
+                    step.report,
+                    step.unsafe,
+                    step.safe,
+                    step.certain,
+                    step.valuation,
+                    step.views,
                 ),
                 target,
             )
-            for fields, step_views, target in steps
+            for step, target in steps
         ]
 
     def _step(
@@ -202,7 +217,7 @@ class Model:
         lost_now: tuple[str, ...],
         errored: bool,
         halted: bool,
-    ) -> list[tuple[tuple[Any, ...], tuple[str, ...], State]]:
+    ) -> list[tuple[Step, State]]:
         """The controller's own cycle from a state the environment has set."""
         subs = list(subs_in)
         views = tuple(view for _, view, _ in subs)
@@ -211,7 +226,7 @@ class Model:
             fixed[("status", sub)] = view
             fixed[("command", sub)] = sent if sent is not None else "NONE"
         fixed[("time", "ticks")] = ticks
-        results: list[tuple[tuple[Any, ...], tuple[str, ...], State]] = []
+        results: list[tuple[Step, State]] = []
         every = self.sk.every
         every_choices = self.sk.choices(every, fixed) if every else (Choice(None, True, ()),)
         for first in every_choices:
@@ -252,7 +267,7 @@ class Model:
                     ticks2 = min(ticks + 1, max(limit))
                 else:
                     ticks2 = 0
-                fields = (
+                step = Step(
                     tuple(fired2),
                     tuple(sends2),
                     report2,
@@ -260,11 +275,12 @@ class Model:
                     tuple(safe2),
                     first.certain and second.certain,
                     (*first.valuation, *second.valuation),
+                    views,
                 )
                 target = State(
                     command, st2, stat2, ticks2, tuple(new_subs), lost_now, errored, halted
                 )
-                results.append((fields, views, target))
+                results.append((step, target))
         return results
 
     @staticmethod

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import sys
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from ..diagnostics import Span
-from .adapter import DONE, ERROR, EXECUTING, Skeleton
+from .adapter import DONE, ERROR, EXECUTING, RuleView, Skeleton
 from .model import NOP, Edge, Graph, State
 
 INFINITE = sys.maxsize
@@ -44,14 +45,23 @@ def _certain(trace: list[tuple[Edge, State]]) -> bool:
     return all(edge.certain for edge, _ in trace)
 
 
-def _rule_of(sk: Skeleton, rule_id: str) -> tuple[str | None, str | None, int | None, Span]:
-    """(command, state, index, span) of a rule id text."""
+def _rule_of(sk: Skeleton, rule_id: str) -> tuple[str | None, str | None, int, Span]:
+    """(command, state, index, span) of a rule id text; command and state are None for an
+    every_cycle rule."""
     parts = rule_id.split("/")
     if parts[0] == "every_cycle":
         index = int(parts[1])
         return None, None, index, sk.every[index - 1].span
     command, state, index = parts[0], parts[1], int(parts[2])
     return command, state, index, sk.tables[command][state][index - 1].span
+
+
+def rule_view(sk: Skeleton, rule_id: str) -> RuleView:
+    """The rule a rule id text names."""
+    parts = rule_id.split("/")
+    if parts[0] == "every_cycle":
+        return sk.every[int(parts[1]) - 1]
+    return sk.tables[parts[0]][parts[1]][int(parts[2]) - 1]
 
 
 def _executing(graph: Graph) -> list[State]:
@@ -180,15 +190,11 @@ def motion_after_error(graph: Graph, moving: dict[tuple[str, str], bool]) -> lis
 
 
 def _rule_sends(sk: Skeleton, rule_id: str) -> tuple[tuple[str, str], ...]:
-    command, state, index, _ = _rule_of(sk, rule_id)
-    rule = sk.every[index - 1] if command is None else sk.tables[command][state][index - 1]  # type: ignore[index]
-    return rule.sends
+    return rule_view(sk, rule_id).sends
 
 
 def _rule_unsafe(sk: Skeleton, rule_id: str) -> bool:
-    command, state, index, _ = _rule_of(sk, rule_id)
-    rule = sk.every[index - 1] if command is None else sk.tables[command][state][index - 1]  # type: ignore[index]
-    return any(not safe for _, safe in rule.actuators)
+    return any(not safe for _, safe in rule_view(sk, rule_id).actuators)
 
 
 # ---------------------------------------------------------------- latched stop
@@ -332,7 +338,7 @@ def _assumptions(graph: Graph, states: list[State], good: set[State]) -> dict[st
         )
         timers = {s.state for s in component}
         if len(timers) == 1 and any(
-            s.ticks < max(sk.timers.get((s.command, s.state), (0,))) for s in component
+            s.ticks < max(sk.timers.get((s.command or "", s.state), (0,))) for s in component
         ):
             fair = False  # time passes: the `after:` rule fires
         if not fair:
@@ -343,10 +349,8 @@ def _assumptions(graph: Graph, states: list[State], good: set[State]) -> dict[st
             for e, t in graph.edges[s]:
                 if e.new is None and e.lost is None and (t not in members or e.report):
                     for rule_id in e.rules:
-                        c, st, index, _ = _rule_of(sk, rule_id)
-                        rule = (
-                            sk.every[index - 1] if c is None else sk.tables[c][st][index - 1]  # type: ignore[index]
-                        )
+                        _, st, _, _ = _rule_of(sk, rule_id)
+                        rule = rule_view(sk, rule_id)
                         reads = rule.guard.order if rule.guard is not None else {}
                         if rule.text and any(k[0] not in ("status", "command") for k in reads):
                             where = f"in {st}" if st else "every cycle"
@@ -410,7 +414,10 @@ def _sccs(succ: dict[State, list[tuple[Edge, State]]]) -> list[list[State]]:
 
 
 def _worst(
-    graph: Graph, starts: list[tuple[State, Edge, State]], goal: object, stop: object
+    graph: Graph,
+    starts: list[tuple[State, Edge, State]],
+    goal: Callable[[Edge], bool],
+    stop: Callable[[Edge], bool],
 ) -> tuple[int, list[tuple[Edge, State]]]:
     """The most cycles from a start edge (cycle 1) until an edge satisfies `goal`, along
     edges without a new command or a loss; `stop(edge)` ends a path without the goal
@@ -421,9 +428,9 @@ def _worst(
     witness: dict[State, tuple[Edge, State] | None] = {}
 
     def cost(edge: Edge, t: State) -> int:
-        if goal(edge):  # type: ignore[operator]
+        if goal(edge):
             return 1
-        if stop(edge) or t.status != EXECUTING:  # type: ignore[operator]
+        if stop(edge) or t.status != EXECUTING:
             return INFINITE
         inner = worst(t)
         return INFINITE if inner == INFINITE else inner + 1
@@ -451,7 +458,7 @@ def _worst(
         return memo[s]
 
     sys.setrecursionlimit(max(10_000, sys.getrecursionlimit()))
-    result, run = 0, []
+    result, run = 0, list[tuple[Edge, State]]()
     for source, edge, t in starts:
         c = cost(edge, t)
         if c > result or not run:
@@ -460,7 +467,7 @@ def _worst(
             break
     if run:
         at = run[-1][1]
-        while not goal(run[-1][0]) and at in witness and witness[at] is not None:  # type: ignore[operator]
+        while not goal(run[-1][0]) and at in witness and witness[at] is not None:
             step = witness[at]
             assert step is not None
             if step[1] in {t for _, t in run}:
@@ -475,15 +482,25 @@ def halt_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]]
     """Per subordinate: the most cycles from the controller reading HALT (cycle 1) until it
     sends that subordinate HALT, over every state it can be in when HALT comes."""
     starts = [(s, e, t) for s in graph.edges for e, t in graph.edges[s] if e.new == "HALT"]
-    found = {}
-    for sub in graph.skeleton.subs:
-        found[sub] = _worst(
-            graph,
-            starts,
-            lambda e, sub=sub: (sub, "HALT") in e.sends,
-            lambda e: False,
-        )
-    return found
+    return {sub: _worst(graph, starts, _sends(sub, "HALT"), _never) for sub in graph.skeleton.subs}
+
+
+def _never(edge: Edge) -> bool:
+    return False
+
+
+def _sends(sub: str, command: str) -> Callable[[Edge], bool]:
+    def goal(edge: Edge) -> bool:
+        return (sub, command) in edge.sends
+
+    return goal
+
+
+def _sets_safe(name: str) -> Callable[[Edge], bool]:
+    def goal(edge: Edge) -> bool:
+        return name in edge.safe
+
+    return goal
 
 
 def actuators_safe(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]]]:
@@ -491,8 +508,7 @@ def actuators_safe(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]
     sets the field to its safe value."""
     starts = [(s, e, t) for s in graph.edges for e, t in graph.edges[s] if e.new == "HALT"]
     return {
-        name: _worst(graph, starts, lambda e, n=name: n in e.safe, lambda e: False)
-        for name in graph.skeleton.actuators
+        name: _worst(graph, starts, _sets_safe(name), _never) for name in graph.skeleton.actuators
     }
 
 

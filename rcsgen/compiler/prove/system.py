@@ -17,7 +17,7 @@ from .. import ir
 from . import properties as props
 from .adapter import DONE, ERROR, Skeleton, operator_outcomes, placement, skeleton
 from .lost import reaction_for
-from .model import Contract, Graph, Model, explore
+from .model import Contract, Edge, Graph, Model, State, explore
 from .properties import INFINITE, Finding
 
 
@@ -115,16 +115,19 @@ def prove(
             continue
         subs = {}
         for s in c.subordinates:
-            found = contracts.get(s.name, Contract({}))
-            merged = {k: set(v) for k, v in found.outcomes.items()}
+            known = contracts.get(s.name, Contract({}))
+            merged = {cmd: set(ends) for cmd, ends in known.outcomes.items()}
             if s.name in stand_in and stand_in[s.name] in contracts:
-                for k, v in contracts[stand_in[s.name]].outcomes.items():
-                    merged.setdefault(k, set()).update(v)
+                for cmd, more in contracts[stand_in[s.name]].outcomes.items():
+                    merged.setdefault(cmd, set()).update(more)
             if s.echo_cycles:  # no echo in time reads as ERROR
-                for k in merged:
-                    merged[k].add(ERROR)
+                for either in merged.values():
+                    either.add(ERROR)
             subs[s.name] = Contract(
-                {k: tuple(x for x in (DONE, ERROR) if x in v) for k, v in merged.items()}
+                {
+                    cmd: tuple(x for x in (DONE, ERROR) if x in either)
+                    for cmd, either in merged.items()
+                }
             )
         began = time.perf_counter()
         graph = explore(Model(sk, subs, reaction), limit=limit)
@@ -145,28 +148,22 @@ def prove(
             found += finish
             found += props.done_while_busy(graph, moving)
             result.stuck, result.assumptions = stuck, assumptions
-            for sub, (k, run) in props.halt_latency(graph).items():
-                result.halt[sub] = k
-                if k == INFINITE:
+            for sub, (cycles, run) in props.halt_latency(graph).items():
+                result.halt[sub] = cycles
+                if cycles == INFINITE:
                     found.append(_unbounded_halt(sk, sub, run))
-            for name, (k, run) in props.actuators_safe(graph).items():
-                result.safe[name] = k
-                if k == INFINITE:
-                    found.append(_unsafe_halt(sk, name, run))
-            for sub, (k, run) in props.error_latency(graph).items():
-                result.error[sub] = k
-                if k == INFINITE:
+            for field_name, (cycles, run) in props.actuators_safe(graph).items():
+                result.safe[field_name] = cycles
+                if cycles == INFINITE:
+                    found.append(_unsafe_halt(sk, field_name, run))
+            for sub, (cycles, run) in props.error_latency(graph).items():
+                result.error[sub] = cycles
+                if cycles == INFINITE:
                     found.append(_error_swallowed(sk, sub, run))
             for finding in found:
-                if (
-                    sk.generated
-                    and finding.command in sk.generated
-                    and finding.code
-                    in (
-                        "W702",
-                        "W703",
-                    )
-                ):
+                # rcsgen's default INIT/HALT wait for every subordinate's DONE (QQ1): a
+                # subordinate's ERROR leaves them waiting by design
+                if finding.command in sk.generated and finding.code in ("W702", "W703"):
                     continue
                 proof.findings.append(finding)
         result.seconds = time.perf_counter() - began
@@ -176,24 +173,17 @@ def prove(
     return proof
 
 
-def _run_span(sk: Skeleton, run: list[tuple[object, object]], command: str) -> tuple:
-    for edge, _ in reversed(run):
-        rules = getattr(edge, "rules", ())
-        if rules:
-            return props._rule_of(sk, rules[-1])
-    return command, None, None, sk.spans.get(command, next(iter(sk.spans.values())))
+Run = list[tuple[Edge, State]]
 
 
-def _unbounded_halt(sk: Skeleton, sub: str, run: list) -> Finding:
-    command, state, index, span = _run_span(sk, run, "HALT")
-    span = sk.spans.get("HALT", span)
+def _unbounded_halt(sk: Skeleton, sub: str, run: Run) -> Finding:
     return Finding(
         "W704",
         sk.name,
         "HALT",
         None,
         None,
-        span,
+        sk.spans.get("HALT", next(iter(sk.spans.values()))),
         f"HALT reach is violated: HALT given to {sk.name} may never reach {sub} "
         "(its HALT table does not send it HALT within any bound)",
         f"send `{sub}.HALT` in S0 of {sk.name}'s HALT table (or use the default table)",
@@ -202,7 +192,7 @@ def _unbounded_halt(sk: Skeleton, sub: str, run: list) -> Finding:
     )
 
 
-def _unsafe_halt(sk: Skeleton, name: str, run: list) -> Finding:
+def _unsafe_halt(sk: Skeleton, name: str, run: Run) -> Finding:
     span = sk.spans.get("HALT", next(iter(sk.spans.values())))
     return Finding(
         "W704",
@@ -219,13 +209,12 @@ def _unsafe_halt(sk: Skeleton, name: str, run: list) -> Finding:
     )
 
 
-def _error_swallowed(sk: Skeleton, sub: str, run: list) -> Finding:
+def _error_swallowed(sk: Skeleton, sub: str, run: Run) -> Finding:
     waiting = [t for e, t in run if (sub, ERROR) in e.answers]
     first = waiting[-1] if waiting else (run[0][1] if run else None)
     command = first.command if first is not None else None
     state = first.state if first is not None else None
-    index = None
-    span = sk.state_spans.get((command, state)) or sk.spans.get(
+    span = sk.state_spans.get((command or "", state or "")) or sk.spans.get(
         command or "", next(iter(sk.spans.values()))
     )
     return Finding(
@@ -233,7 +222,7 @@ def _error_swallowed(sk: Skeleton, sub: str, run: list) -> Finding:
         sk.name,
         command,
         state,
-        index,
+        None,
         span,
         f"ERROR reaches the root is violated: an ERROR from {sub} may never make {sk.name} "
         "report ERROR (it is handled, or waited on for ever)",
@@ -279,7 +268,8 @@ def _compose(
         down(root, root, 1, (root,))
     leaves = [c for c in children if not children[c] and c in parent]
     for leaf in leaves:
-        at, d, path, blocked = leaf, 1, (leaf,), ""
+        at, d, blocked = leaf, 1, ""
+        path: tuple[str, ...] = (leaf,)
         while at in parent:
             up = parent[at]
             result = proof.controllers.get(up)
@@ -291,9 +281,7 @@ def _compose(
             d = d + hop(place, at, up, hosts) + local - 1
             at = up
             path = (*path, at)
-        outcome = proof.controllers.get(leaf)
         graph = proof.graphs.get(leaf)
         if graph is not None and not any(ERROR in v for v in props.outcomes(graph).values()):
             continue  # the leaf never reports ERROR: nothing to carry up
         proof.error.append(Bound(leaf, at, d, path, None, blocked))
-        del outcome
