@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint typecheck check build clean fuzz bench mutate
+.PHONY: run test lint typecheck check build clean fuzz bench mutate complexity
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -40,6 +40,11 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(PY) -m mypy
 
+# Cyclomatic complexity (radon) of the package and of each part, and every function at 20
+# or more; the budget is at most 1.5 % of the functions there, none above 30.
+complexity: $(STAMP)
+	$(PY) tests/complexity_report.py
+
 build: $(STAMP)
 	$(VENV)/bin/rcsgen build specs/
 	$(VENV)/bin/rcsgen doc specs/
@@ -67,25 +72,40 @@ $(BENCH_STAMP): pyproject.toml bench/requirements.txt
 bench: $(BENCH_STAMP)
 	$(BENCH_VENV)/bin/python bench/run.py
 
-# Mutation testing (not part of `make test`): mutmut 3 in its own venv mutates the compiler
-# (rcsgen/compiler; [tool.mutmut] in pyproject.toml says why not rcsgen/runtime) and runs,
-# for each mutant, the tests that reach the mutated function. A whole-compiler run takes
-# hours, so MUTANTS defaults to the printer, emitter and checker; `make mutate
-# MUTANTS='rcsgen.compiler.*'` runs them all. Work is kept in mutants/: a rerun resumes.
-# Browse the survivors with `.venv-mutate/bin/mutmut browse` (or `results`, `show NAME`).
+# Mutation testing (not part of `make test`): mutmut 3, in its own venv, mutates the compiler,
+# the tools and the runtime ([tool.mutmut] in pyproject.toml) and runs, for each mutant, the
+# tests that reach the mutated function. The generated packages' runtime copies (`rcs/`) get
+# the runtime mutant under test, in the test process and in every process it starts
+# (tests/mutation_runtime.py says how). `make mutate` alone continues the whole campaign where
+# the last one stopped (work is kept in mutants/; bench/README.md gives its duration);
+# MUTANTS='rcsgen.tools.graph.*' (mutmut's name patterns, several allowed) runs just those,
+# again from scratch; MUTATE_TESTS='tests/test_graph.py tests/test_reference.py' tries them
+# against those test files only (quick, and the score a lower bound). The summary gives the
+# score per package (compiler, tools, runtime) and lists the mutants not killed; survivors
+# judged equivalent are listed, with the reason, in tests/mutation_equivalent.txt. Read one
+# with `.venv-mutate/bin/mutmut show NAME` (or `browse`). MUTATE_CHILDREN=1: the suite's multi-process tests are timing-sensitive, and
+# runtime mutants rewrite the working copy's generated/ (a lock keeps more children correct).
 MUTATE_VENV := .venv-mutate
 MUTATE_STAMP := $(MUTATE_VENV)/.installed
-MUTANTS ?= rcsgen.compiler.expr.* rcsgen.compiler.emit.* rcsgen.compiler.check.*
-# Fewer random examples than `make test`: every surviving mutant reruns the properties.
-MUTATE_ENV := EXPR_EXAMPLES=200 DIFF_EXAMPLES=5
+MUTANTS ?=
+MUTATE_TESTS ?=
+MUTATE_CHILDREN ?= 1
+# Fewer random examples than `make test`: every surviving mutant reruns the properties. Bytecode
+# is cached: a test that starts `python -m rcsgen` in mutants/ imports the trampolined package.
+MUTATE_ENV := EXPR_EXAMPLES=200 DIFF_EXAMPLES=5 PYTHONDONTWRITEBYTECODE=
 
+# The .pth file makes every Python of the venv import tests/mutation_site/mutation_hooks.py,
+# which does nothing outside a mutation session.
 $(MUTATE_STAMP): pyproject.toml
 	$(PYTHON) -m venv $(MUTATE_VENV)
 	$(MUTATE_VENV)/bin/python -m pip install --quiet --upgrade pip
-	$(MUTATE_VENV)/bin/python -m pip install --quiet -e '.[mutate]'
+	$(MUTATE_VENV)/bin/python -m pip install --quiet -e '.[dev,mutate]'
+	printf '%s\nimport mutation_hooks\n' '$(CURDIR)/tests/mutation_site' \
+		> "$$($(MUTATE_VENV)/bin/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')/rcsgen_mutation.pth"
 	touch $(MUTATE_STAMP)
 
 mutate: $(MUTATE_STAMP)
-	$(MUTATE_ENV) $(MUTATE_VENV)/bin/mutmut run $(foreach m,$(MUTANTS),'$(m)')
+	$(MUTATE_ENV) RCSGEN_MUTATE_TESTS='$(MUTATE_TESTS)' $(MUTATE_VENV)/bin/mutmut run \
+		--max-children $(MUTATE_CHILDREN) $(foreach m,$(MUTANTS),'$(m)')
 	$(MUTATE_VENV)/bin/mutmut results --all true \
 		| $(MUTATE_VENV)/bin/python tests/mutation_summary.py $(foreach m,$(MUTANTS),'$(m)')

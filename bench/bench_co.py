@@ -53,7 +53,7 @@ class Version:
 
 def build_package(out: Path) -> Path:
     """Generate the frozen co system into `out` and make `miner` and its hooks importable."""
-    from rcsgen.compiler import emit
+    from rcsgen.compiler.back_end import emit
     from rcsgen.compiler.frontend import compile_paths
 
     front = compile_paths([SPEC])

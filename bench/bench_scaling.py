@@ -45,7 +45,8 @@ FRONT_PHASES = {  # frontend-module name -> phase
 
 def worker(spec_dir: Path, out: Path) -> dict:
     """Time one build into `out` in this process (a fresh interpreter per measurement)."""
-    from rcsgen.compiler import emit, frontend, write
+    from rcsgen.compiler import frontend
+    from rcsgen.compiler.back_end import emit, write
     from rcsgen.compiler.diagnostics import Diagnostics
 
     phases = {phase: 0.0 for phase in FRONT_PHASES.values()}

@@ -41,6 +41,7 @@ PARTS = {
     "seqlock": ("bench_seqlock.py", [], ["--reads", "200000", "--record-reads", "50000"]),
     "lockstep": ("bench_lockstep.py", [], ["--cycles", "300", "--rounds", "1"]),
     "detection": ("bench_detection.py", [], ["--runs", "3"]),
+    "failsafe": ("bench_failsafe.py", [], ["--runs", "3"]),
     "zenoh": (
         "bench_zenoh.py",
         [],
@@ -837,6 +838,34 @@ def section_cleanup(results: dict, problems: list[str]) -> list[str]:
     ]
 
 
+def section_failsafe(failsafe: dict) -> list[str]:
+    goal = failsafe["goal_s"]
+    lines = [
+        "## Fail safe: detection and time to safe outputs",
+        "",
+        f"bench/bench_failsafe.py on the two-process {failsafe['system']} "
+        f"(`python -m miner --send sec.BOX_CUT:depth=1.5`, period "
+        f"{failsafe['cycle_period_s']:g} s, heartbeat_timeout {failsafe['heartbeat_timeout_s']:g} s): "
+        "once an actuator is commanded, one fault is injected; *detected* is the first "
+        "reaction visible in the block (a `lost` bit, a DEAD mark, a watchdog trip, a latch), "
+        "*safe* is every actuator at its safe value, latched. Starve: SIGSTOP 290 ms / SIGCONT "
+        f"10 ms, repeated (about 3 % of a CPU). Goal: both within 3 periods + the heartbeat "
+        f"timeout = {goal:g} s.",
+        "",
+        "| process | fault | runs | detected min / median / max (s) | safe min / median / max (s) | goal met |",
+        "|---|---|---:|---|---|---|",
+    ]
+    for case in failsafe["cases"]:
+        d, s = case["detected_s"], case["safe_s"]
+        lines.append(
+            f"| {case['target']} | {case['fault']} | {case['runs']} | "
+            f"{d['min']:.3f} / {d['median']:.3f} / {d['max']:.3f} | "
+            f"{s['min']:.3f} / {s['median']:.3f} / {s['max']:.3f} | "
+            f"{'yes' if s['max'] <= goal else 'no'} |"
+        )
+    return [*lines, ""]
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true")
@@ -877,6 +906,8 @@ def main() -> int:
         lines += section_lockstep(lockstep)
     if detection:
         lines += section_detection(detection)
+    if results.get("failsafe"):
+        lines += section_failsafe(results["failsafe"])
     if results.get("zenoh"):
         lines += section_zenoh(results["zenoh"])
     lines += section_cleanup(results, problems)

@@ -17,7 +17,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-from .compiler import write
+from .compiler.back_end import write
 from .compiler.diagnostics import Diagnostics, SpecError
 from .compiler.frontend import Frontend, compile_paths
 

@@ -26,12 +26,12 @@ from typing import TYPE_CHECKING, Any, NoReturn, TextIO
 import click
 from click.shell_completion import CompletionItem
 
-from .compiler import write
-from .compiler.acknowledge import WARNING_CODES
+from .compiler.back_end import write
+from .compiler.codes import CODES, WARNING_CODES
 from .compiler.diagnostics import Diagnostic, Diagnostics, Span, SpecError
+from .compiler.front_end.loader import decode, read_bytes
 from .compiler.frontend import compile_paths, display_path
 from .compiler.ir import IRSystem
-from .compiler.loader import decode, read_bytes
 from .runtime import contract
 from .tools import config, runs
 from .tools.config import Config, ConfigError
@@ -197,6 +197,55 @@ def _note(opts: Options, message: str) -> None:
         click.echo(message, err=opts.fmt != "text")
 
 
+class Number(click.ParamType):
+    """A finite number within bounds (`nan`, `inf` and what lies outside are usage errors),
+    as every numeric option of the console is (rcs/ctl.py `number`)."""
+
+    name = "number"
+
+    def __init__(self, low: float, high: float, above: bool = False) -> None:
+        self.low, self.high, self.above = low, high, above
+
+    def convert(
+        self, value: Any, param: click.Parameter | None, ctx: click.Context | None
+    ) -> float:
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            number = float("nan")
+        lower = number > self.low if self.above else number >= self.low
+        if not (lower and number <= self.high):  # NaN fails both
+            bound = "more than" if self.above else "at least"
+            self.fail(
+                f"{value!r} is not a number {bound} {self.low:g} and at most {self.high:g}",
+                param,
+                ctx,
+            )
+        return number
+
+
+def _output_dir(ctx: click.Context, param: click.Parameter, raw: str) -> Path:
+    """An output directory a command may fill: not the empty string (which would mean the
+    working directory) and not the working directory itself, whose files are the user's."""
+    if not raw.strip():
+        raise click.BadParameter("an empty path: name the output directory", ctx=ctx, param=param)
+    value = Path(raw)
+    if value.resolve() == Path.cwd().resolve():
+        raise click.BadParameter(
+            f"{raw!r} is the working directory: name a directory of its own (e.g. generated)",
+            ctx=ctx,
+            param=param,
+        )
+    return value
+
+
+def _output_file(ctx: click.Context, param: click.Parameter, raw: str | None) -> Path | None:
+    """An output file's path: not the empty string."""
+    if raw is not None and not raw.strip():
+        raise click.BadParameter("an empty path: name the file", ctx=ctx, param=param)
+    return None if raw is None else Path(raw)
+
+
 SPEC_PATHS = click.argument(
     "paths",
     nargs=-1,
@@ -219,11 +268,12 @@ def _codes(ctx: click.Context, param: click.Parameter, values: tuple[str, ...]) 
 def _complete_codes(
     ctx: click.Context, param: click.Parameter, incomplete: str
 ) -> list[CompletionItem]:
-    """Shell completion of --select/--ignore: the warning codes (after the last comma)."""
+    """Shell completion of --select/--ignore: the warning codes (after the last comma), each
+    with its title."""
     done, _, last = incomplete.rpartition(",")
     prefix = f"{done}," if done else ""
     return [
-        CompletionItem(prefix + code)
+        CompletionItem(prefix + code, help=CODES[code].title)
         for code in sorted(WARNING_CODES)
         if code.startswith(last.upper())
     ]
@@ -368,9 +418,10 @@ def validate(paths: tuple[Path, ...], opts: Options) -> None:
 @click.option(
     "-o",
     "--output",
-    type=click.Path(path_type=Path),
-    default=Path("generated"),
+    type=click.Path(),
+    default="generated",
     show_default=True,
+    callback=_output_dir,
     help="Output directory; each system gets <output>/<system>/.",
 )
 @click.option("--check", is_flag=True, help="Write nothing; print a diff and exit 1 if stale.")
@@ -427,14 +478,16 @@ def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> 
 @click.option(
     "--trace",
     "trace_path",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=click.Path(dir_okay=False),
     default=None,
+    callback=_output_file,
     help="Trace file to write [default: traces/<scenario>.jsonl].",
 )
 @click.option(
     "--record",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=click.Path(dir_okay=False),
     default=None,
+    callback=_output_file,
     help="Re-record this golden trace file (review the diff before committing it).",
 )
 @click.option(
@@ -488,43 +541,51 @@ def run(
             line(f"cycle {h.cycles}/{spec.max_cycles}  {phases or 'every module idle'}")
 
     failed: tuple[Exception, int] | None = None
-    interrupted = False
+    # SIGINT and SIGTERM stop the run where it is (the processes and the segment too) and
+    # keep the trace so far; `caught` says which came, even if a hook swallowed it.
+    caught: list[int] = []
+
+    def interrupt(signum: int, frame: object) -> None:
+        caught.append(signum)
+        raise KeyboardInterrupt
+
+    trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
+    lines: list[str] = []
+    started: AnyHarness | None = None
     # With a machine format, stdout holds only the diagnostics: what hooks print goes to stderr.
     hooks_out = sys.stderr if opts.fmt != "text" else sys.stdout
-    signal.signal(signal.SIGTERM, _interrupt)  # stops like Ctrl-C: processes and segment
+    signal.signal(signal.SIGINT, interrupt)
+    signal.signal(signal.SIGTERM, interrupt)
     with tempfile.TemporaryDirectory(prefix="rcsgen-run-") as scratch:
         package = _package(system, generated, Path(scratch), session)
         with contextlib.redirect_stdout(hooks_out):
             try:
-                harness = scenarios.open_harness(spec, package, processes)
+                harness = started = scenarios.open_harness(spec, package, processes)
             except KeyboardInterrupt:  # what had started is stopped and removed already
-                click.echo("interrupted while starting: no trace written", err=True)
-                sys.exit(130)
+                caught.append(caught[0] if caught else signal.SIGINT)
             except Exception as error:  # a hook-state factory, or a module that cannot be made
-                failed = (error, 0)
+                if not caught:
+                    failed = (error, 0)
             else:
                 try:
-                    result = scenarios.run(spec, harness, progress)
+                    result = scenarios.run(spec, harness, progress, lines)
                     final_world = harness.world.snapshot()
                 except KeyboardInterrupt:
-                    interrupted = True
+                    caught.append(caught[0] if caught else signal.SIGINT)
                 except Exception as error:  # a hook, or a module's own code, in this cycle
-                    failed = (error, harness.cycles + 1)
+                    if not caught:  # (else a hook turned the interruption into its error)
+                        failed = (error, harness.cycles + 1)
                 finally:  # a second signal must not cut the stop short (the segment stays)
                     signal.signal(signal.SIGINT, signal.SIG_IGN)
                     signal.signal(signal.SIGTERM, signal.SIG_IGN)
                     harness.close()
-                    signal.signal(signal.SIGINT, signal.default_int_handler)
-                    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
     line.done()
-    if interrupted:
-        click.echo(f"interrupted at cycle {harness.cycles}: no trace written", err=True)
-        for summary_line in getattr(harness, "summary", list)():
-            click.echo(summary_line)
-        sys.exit(130)
+    if caught:
+        _interrupted(caught[0], spec.name, lines, trace_path, started)
     if failed is not None:
         _run_failed(failed[0], system, failed[1], package, session, verbose)
-    trace_path = trace_path or Path("traces") / f"{spec.name}.jsonl"
     problems = Diagnostics()
     for path in [trace_path, *([record] if record is not None else [])]:
         try:
@@ -537,7 +598,13 @@ def run(
         _summarise(result, trace_path, record, machine=opts.fmt != "text", unmet=len(unmet))
     problems.extend(unmet)
     if golden is not None:
-        problems.extend(runs.golden_differences(golden, result.trace, spec.name))
+        differences = runs.golden_differences(golden, result.trace, spec.name)
+        problems.extend(differences)
+        if not differences and not opts.quiet:  # a match is said too: silence reads as skipped
+            click.echo(
+                f"golden    {golden}: identical, cycle for cycle ({len(result.trace)} lines)",
+                err=opts.fmt != "text",
+            )
     session.add(problems)
     session.finish()
 
@@ -561,26 +628,67 @@ def PACKAGE_COMMAND(command: Callable[..., None]) -> Callable[..., None]:  # noq
     return command
 
 
-@main.command(context_settings={"ignore_unknown_options": True})
+# `--help` is not click's for these two: after SYSTEM_DIR it is the package's (its options are
+# the ones that matter), before it this command's.
+PASS_THROUGH = {"ignore_unknown_options": True, "help_option_names": []}
+
+
+@main.command(context_settings=PASS_THROUGH)
 @PACKAGE_COMMAND
-def up(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
+@click.pass_context
+def up(ctx: click.Context, system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     """Start a built system: every process as its own OS process, paced, until Ctrl-C.
 
     OPTIONS go to `python -m <system>` (e.g. `--cycles 100`, `--restart`, `--shm NAME`,
-    one PROCESS, `--deploy FILE HOST` for one host of several, `--help`).
+    one PROCESS, `--deploy FILE HOST` for one host of several; `--help` lists them). The
+    package is checked first: one built from other specs than SYSTEM_DIR's is refused
+    (E418), as `rcsgen run --generated` refuses it.
     """
-    _exec_package(system_dir, generated, list(options))
+    _help_first(ctx, system_dir)
+    if not _wants_help(options):
+        _refuse_stale(system_dir, generated)
+    _exec_package(system_dir, generated, list(options), ctx)
 
 
-@main.command(context_settings={"ignore_unknown_options": True})
+@main.command(context_settings=PASS_THROUGH)
 @PACKAGE_COMMAND
-def ctl(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
+@click.pass_context
+def ctl(ctx: click.Context, system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     """Operate a running system: status, stop/run, step, simulate, slow, send, wait.
 
     OPTIONS go to `python -m <system> ctl` (e.g. `status --watch`, `send sb BOX_CUT
-    depth=1.5`, `step co 5`, `--help`): the console the generated package carries.
+    depth=1.5`, `step co 5`; `--help` lists them): the console the generated package carries.
     """
-    _exec_package(system_dir, generated, ["ctl", *options])
+    _help_first(ctx, system_dir)
+    _exec_package(system_dir, generated, ["ctl", *options], ctx)
+
+
+def _wants_help(options: tuple[str, ...] | list[str]) -> bool:
+    return any(o in ("-h", "--help") for o in options)
+
+
+def _help_first(ctx: click.Context, system_dir: Path) -> None:
+    """`rcsgen up --help` (no SYSTEM_DIR yet): this command's help."""
+    if str(system_dir) in ("-h", "--help"):
+        click.echo(ctx.get_help())
+        ctx.exit(0)
+
+
+def _refuse_stale(system_dir: Path, generated: Path) -> None:
+    """E418 (exit 1) unless `generated` holds exactly what SYSTEM_DIR's specs make; the specs'
+    errors (exit 1) if they do not build."""
+    if not (system_dir / "system.yaml").is_file():
+        return  # said by _exec_package
+    front = compile_paths([system_dir])
+    if report(Diagnostics(front.diagnostics.errors), Options()).fails:
+        fail("the specs do not build: nothing was started")
+    plan, problems = write.plan_build(front.systems, generated)
+    other = "--generated DIR where the package of these specs is"
+    stale = [runs.stale_package(plan, generated, s.name, other) for s in front.systems]
+    found = [*problems.errors, *(d for d in stale if d is not None)]
+    if found:
+        report(Diagnostics(found), Options())
+        fail("nothing was started")
 
 
 @main.command()
@@ -605,8 +713,20 @@ def ctl(system_dir: Path, generated: Path, options: tuple[str, ...]) -> None:
     metavar="PROTO/HOST:PORT",
     help="Attach through Zenoh to a host of a system run with --transport zenoh.",
 )
+@click.option(
+    "--world",
+    "world",
+    default="",
+    metavar="FIELD,...",
+    help="The world fields shown under the modules [default: every one].",
+)
 def monitor(
-    system_dir: Path, generated: Path, shm: str | None, role: str | None, connect: tuple[str, ...]
+    system_dir: Path,
+    generated: Path,
+    shm: str | None,
+    role: str | None,
+    connect: tuple[str, ...],
+    world: str,
 ) -> None:
     """Watch and operate a running system in a live terminal screen (rcsgen[monitor]).
 
@@ -633,9 +753,13 @@ def monitor(
     layout = importlib.import_module(f"{import_package(package_dir.resolve()).__name__}.layout")
     segment = shm or f"rcs_{layout.SYSTEM}_{layout.LAYOUT_HASH[:8]}"
     from .runtime.ctl import CtlError
+    from .runtime.startup import segment_problem
 
+    if not connect and segment_problem(segment):
+        fail(segment_problem(segment), 2)
+    fields = tuple(f for f in world.split(",") if f) or None
     try:
-        app = Monitor(layout, segment, role=role, connect=connect)
+        app = Monitor(layout, segment, role=role, connect=connect, world=fields)
     except CtlError as error:
         fail(str(error), error.code)
     except (BlockError, TransportError, ValueError) as error:
@@ -643,8 +767,11 @@ def monitor(
     app.run()
 
 
-def _exec_package(system_dir: Path, generated: Path, argv: list[str]) -> NoReturn:
-    """Replace this process by `python -m <system> ARGV`, the package and hooks on its path."""
+def _exec_package(
+    system_dir: Path, generated: Path, argv: list[str], ctx: click.Context | None = None
+) -> NoReturn:
+    """Replace this process by `python -m <system> ARGV`, the package and hooks on its path
+    (with `--help` in ARGV: this command's usage first, then the package's help)."""
     if not (system_dir / "system.yaml").is_file():
         click.echo(f"error: no system.yaml in {system_dir}", err=True)
         sys.exit(2)
@@ -655,15 +782,45 @@ def _exec_package(system_dir: Path, generated: Path, argv: list[str]) -> NoRetur
         sys.exit(1)
     path = [str(generated.resolve()), str(system_dir.resolve())]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([*path, *sys.path])}
+    if ctx is not None and _wants_help(argv):
+        click.echo(f"{ctx.get_usage()}\n(OPTIONS are `python -m {name}`'s, below)\n")
+        sys.stdout.flush()
     os.execve(sys.executable, [sys.executable, "-m", name, *argv], env)
 
 
-def _interrupt(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt
+def _interrupted(
+    signum: int, name: str, lines: list[str], trace_path: Path, harness: object
+) -> NoReturn:
+    """A run stopped by SIGINT or SIGTERM: the trace so far, ended by a line saying so, where
+    it was, and exit 130 or 143 (128 + the signal, as a shell reports it)."""
+    from .tools import scenario as scenarios
+
+    signal_name = signal.Signals(signum).name
+    if harness is None:
+        click.echo(
+            f"interrupted by {signal_name} while starting: no cycle ran, no trace written", err=True
+        )
+        sys.exit(128 + signum)
+    ran = len(lines)
+    try:
+        scenarios.write_trace(
+            trace_path, [*lines, scenarios.interrupted_line(ran + 1, signal_name)]
+        )
+        wrote = (
+            f"{trace_path} holds cycles 1-{ran} and a last line saying so"
+            if ran
+            else f"{trace_path} holds only a line saying so"
+        )
+    except OSError as error:
+        wrote = f"cannot write trace `{trace_path}`: {error.strerror or error}"
+    click.echo(f"interrupted by {signal_name} in cycle {ran + 1} of {name}: {wrote}", err=True)
+    for summary_line in getattr(harness, "summary", list)():
+        click.echo(summary_line)
+    sys.exit(128 + signum)
 
 
 def _system_name(system_dir: Path) -> str:
-    from .compiler.loader import load_file
+    from .compiler.front_end.loader import load_file
 
     data = load_file(system_dir / "system.yaml", "system.yaml")
     return str(data["system"]) if isinstance(data, dict) else system_dir.name
@@ -858,9 +1015,10 @@ def graph_command(paths: tuple[Path, ...], picture: str, fmt: str, output: Path 
 @click.option(
     "-o",
     "--output",
-    type=click.Path(path_type=Path, file_okay=False),
-    default=Path("docs/reference"),
+    type=click.Path(file_okay=False),
+    default="docs/reference",
     show_default=True,
+    callback=_output_dir,
     help="Output directory; each system gets <output>/<system>/.",
 )
 @click.option("--check", is_flag=True, help="Write nothing; print a diff and exit 1 if stale.")
@@ -925,7 +1083,13 @@ def _scaffolded(action: Callable[[], Any]) -> None:
     help="Where the system's directory goes.",
 )
 @click.option("--root", default="top", show_default=True, help="The root controller's mnemonic.")
-@click.option("--period", type=float, default=0.1, show_default=True, help="Cycle period, seconds.")
+@click.option(
+    "--period",
+    type=Number(0, 3600, above=True),
+    default=0.1,
+    show_default=True,
+    help="Cycle period, seconds.",
+)
 @click.option("--title", default="", help="One-line human name [default: the name].")
 def new_system(name: str, specs: Path, root: str, period: float, title: str) -> None:
     """SPECS/NAME/: system.yaml, the root controller and a first scenario."""
@@ -1012,8 +1176,10 @@ def _trace_system(specs: Path | None, found: list[Trace], required: bool) -> IRS
     show_default=True,
     help="World fields: bool and int ones, every one (floats drift every cycle), or none.",
 )
-@click.option("--from", "first", type=int, default=None, help="First cycle shown.")
-@click.option("--to", "last", type=int, default=None, help="Last cycle shown.")
+@click.option(
+    "--from", "first", type=click.IntRange(min=0), default=None, help="First cycle shown."
+)
+@click.option("--to", "last", type=click.IntRange(min=0), default=None, help="Last cycle shown.")
 @click.option(
     "--every-cycle", is_flag=True, help="Do not fold cycles that change alike into one entry."
 )

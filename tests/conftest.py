@@ -10,8 +10,19 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner, Result
+from mutation_runtime import under_mutmut
 
 from rcsgen.cli import main
+
+if under_mutmut():  # `make mutate`: the runtime copies of generated packages hold the mutant
+    from mutation_runtime import (  # noqa: F401
+        pytest_collection_modifyitems,
+        pytest_report_header,
+        pytest_runtest_protocol,
+        pytest_runtest_teardown,
+        pytest_sessionfinish,
+        pytest_sessionstart,
+    )
 
 REPO = Path(__file__).resolve().parent.parent
 # The foundation issue's small miner, frozen as a fixture: the CLI tests mutate it.

@@ -26,8 +26,9 @@ import pytest
 from click.testing import CliRunner, Result
 
 from rcsgen.cli import main
-from rcsgen.compiler import write
-from rcsgen.compiler.diagnostics import Diagnostic, Span
+from rcsgen.compiler.back_end import write
+from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
+from rcsgen.compiler.front_end.loader import utf16_without_bom
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.tools.scenario_check import check_system_scenarios
 
@@ -54,7 +55,10 @@ def expectations(case: Path) -> list[Expected]:
         if "__pycache__" in path.parts:
             continue
         rel = path.relative_to(case).as_posix()
-        text = path.read_bytes().decode("utf-8", errors="replace")  # E008 cases are not UTF-8
+        data = path.read_bytes()
+        encoding = "utf-16-be" if utf16_without_bom(data) == "big-endian" else "utf-16-le"
+        # E008 cases are not UTF-8 (one is UTF-16 without a byte-order mark)
+        text = data.decode(encoding if utf16_without_bom(data) else "utf-8", errors="replace")
         for number, line in enumerate(text.split("\n"), start=1):
             match = EXPECT.search(line)
             if match is None:
@@ -162,39 +166,70 @@ def test_corpus_shows_did_you_mean(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 CODE = re.compile(r"""["']([ESW]\d{3})["']""")
-DOC_ENTRY = re.compile(r"^### ([ESW]\d{3})\b", re.MULTILINE)
+DOC_ENTRY = re.compile(r"^### ([ESW]\d{3}) (.*)$", re.MULTILINE)
+MENTION = re.compile(r"\b([ESW]\d{3})\b")  # `"E204"`, `error[E430]`, `E216_...`
+TESTS = Path(__file__).resolve().parent
 
 
-def test_docs_list_every_code() -> None:
-    """docs/diagnostics.md has one entry per code the code base can emit, and no other.
+def test_the_registry_is_the_one_list_of_codes() -> None:
+    """rcsgen/compiler/codes.py registers every code once, and each registered code is
+    reported somewhere (a string literal like "E204" in rcsgen/, outside the registry),
+    documented in docs/diagnostics.md under its registered title, and tested by a case (a corpus
+    case named after it, a running-side case or a test that names it). Nothing is reported,
+    documented or selectable that is not registered; the docs' index is the registry's."""
+    from rcsgen.compiler.codes import CODES, WARNING_CODES, index_markdown
 
-    Codes are found by grepping rcsgen/ for string literals like "E204": whoever adds a code
-    (a checker, the analysis, scenarios) documents it in the same change.
-    """
-    package = Path(__file__).resolve().parent.parent / "rcsgen"
-    in_code = {c for p in package.rglob("*.py") for c in CODE.findall(p.read_text("utf-8"))}
+    package = TESTS.parent / "rcsgen"
+    registry = package / "compiler" / "codes.py"
+    reported = {
+        c for p in package.rglob("*.py") if p != registry for c in CODE.findall(p.read_text())
+    }
     doc = (package.parent / "docs" / "diagnostics.md").read_text(encoding="utf-8")
-    entries = DOC_ENTRY.findall(doc)
-    assert len(entries) == len(set(entries)), "a code is documented twice"
-    assert sorted(in_code - set(entries)) == [], "emitted but not documented"
-    assert sorted(set(entries) - in_code) == [], "documented but never emitted"
+    documented = dict(DOC_ENTRY.findall(doc))
+    tested = {case.name[:4].upper() for case in INVALID}
+    tested |= {c for p in TESTS.glob("test_*.py") for c in MENTION.findall(p.read_text())}
+    running = (CASES / "running").glob("*.yaml")  # the running side's cases (test_operate)
+    tested |= {c for p in running for c in MENTION.findall(p.read_text(encoding="utf-8"))}
+    assert len(DOC_ENTRY.findall(doc)) == len(documented), "a code is documented twice"
+    assert sorted(reported - set(CODES)) == [], "reported but not registered"
+    assert sorted(set(CODES) - reported) == [], "registered but never reported"
+    assert sorted(set(documented) ^ set(CODES)) == [], "documented or registered, not both"
+    titles = {code: c.title for code, c in CODES.items() if documented[code] != c.title}
+    assert titles == {}, "the registry's titles are the docs' headings"
+    assert sorted(set(CODES) - tested) == [], "registered but tested by no case"
+    assert WARNING_CODES == {c for c in documented if c.startswith("W")}
+    assert index_markdown() in doc, "docs/diagnostics.md's index is not the registry's"
 
 
-def test_every_documented_warning_can_be_selected_and_ignored() -> None:
-    """--select, --ignore and [tool.rcsgen] name warnings from WARNING_CODES: every warning
-    the docs list (so every one the code base emits) must be in it, or a user cannot turn
-    it off or on by name."""
-    from rcsgen.compiler.acknowledge import WARNING_CODES
+def test_a_code_reported_with_another_severity_is_an_internal_error() -> None:
+    """A reporting site takes its severity from the registry: a warning's code reported as
+    an error (or an unregistered code) fails where it is made, never reaches a user."""
+    diags = Diagnostics()
+    with pytest.raises(ValueError, match="W301 is a registered warning, reported as a error"):
+        diags.error(Span("x.yaml"), "W301", "message")
+    with pytest.raises(ValueError, match="E204 is a registered error, reported as a warning"):
+        diags.warning(Span("x.yaml"), "E204", "message")
+    with pytest.raises(ValueError, match="'E999' is not registered"):
+        Diagnostic(Span("x.yaml"), "E999", "message")
+    assert diags.items == []
+    diags.warning(Span("x.yaml"), "W301", "message")
+    assert [d.severity for d in diags] == ["warning"]
 
-    doc = (Path(__file__).resolve().parent.parent / "docs" / "diagnostics.md").read_text("utf-8")
-    warnings = {c for c in DOC_ENTRY.findall(doc) if c.startswith("W")}
-    assert sorted(warnings - WARNING_CODES) == [], "documented but not selectable"
-    assert sorted(WARNING_CODES - warnings) == [], "selectable but not documented"
+
+def test_completion_of_select_names_each_warning_with_its_title() -> None:
+    from rcsgen.cli import _complete_codes
+
+    items = _complete_codes(None, None, "W50")  # type: ignore[arg-type]
+    assert [(i.value, i.help) for i in items][:2] == [
+        ("W501", "overlap in a first_match state"),
+        ("W502", "exclusivity not provable"),
+    ]
+    assert [i.value for i in _complete_codes(None, None, "W301,W30")][-1] == "W301,W309"  # type: ignore[arg-type]
 
 
 def test_corpus_cases_are_named_after_documented_codes() -> None:
     doc = (CASES.parent.parent / "docs" / "diagnostics.md").read_text(encoding="utf-8")
-    documented = {c.lower() for c in DOC_ENTRY.findall(doc)}
+    documented = {c.lower() for c, _ in DOC_ENTRY.findall(doc)}
     assert {case.name[:4] for case in INVALID} <= documented
 
 

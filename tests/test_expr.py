@@ -1,4 +1,4 @@
-"""Expressions (compiler/expr.py): print, re-parse and evaluate random typed trees.
+"""Expressions (compiler/expressions/): print, re-parse and evaluate random typed trees.
 
 Hypothesis generates typed trees over the whole expression grammar - literals, `and`/`or`/
 `not`, comparisons (chains included) of numbers, booleans, statuses and subordinate
@@ -30,12 +30,9 @@ import pytest
 from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
-from rcsgen.compiler import naming
+from rcsgen.compiler.checks import naming
 from rcsgen.compiler.diagnostics import Diagnostics, Span
-from rcsgen.compiler.expr import (
-    BOOL,
-    FLOAT,
-    INT,
+from rcsgen.compiler.expressions import (
     Binary,
     BoolOp,
     Call,
@@ -43,12 +40,14 @@ from rcsgen.compiler.expr import (
     Const,
     Expr,
     Ref,
+    RefKind,
     Scope,
     Unary,
     compile_expr,
     to_python,
     to_python_conjunct,
 )
+from rcsgen.compiler.types import BOOL, FLOAT, INT, STATUS, CommandOf, Type
 
 EXAMPLES = int(os.environ.get("EXPR_EXAMPLES", "400"))
 DERANDOMIZE = os.environ.get("FUZZ_RANDOM", "") == ""
@@ -73,31 +72,31 @@ def scope() -> Scope:
 
 
 # Every name an expression can use, by type (the tree nodes `compile_expr` resolves them to).
-NAMES: dict[str, list[Ref]] = {
+NAMES: dict[Type, list[Ref]] = {
     kind: [
-        Ref(kind, "world", f"w{kind[0]}"),
-        Ref(kind, "param", f"p{kind[0]}"),
-        Ref(kind, "local", f"l{kind[0]}"),
-        Ref(kind, "const", f"C{kind[0].upper()}"),
+        Ref(kind, "world", f"w{str(kind)[0]}"),
+        Ref(kind, "param", f"p{str(kind)[0]}"),
+        Ref(kind, "local", f"l{str(kind)[0]}"),
+        Ref(kind, "const", f"C{str(kind)[0].upper()}"),
     ]
     for kind in (BOOL, INT, FLOAT)
 }
-STATUS_TYPE = "status"
+STATUS_TYPE = STATUS
 
 
-def command_type(sub: str) -> str:
-    return f"command of {sub}"
+def command_type(sub: str) -> Type:
+    return CommandOf(sub)
 
 
 # ---------------------------------------------------------------- typing rules (written here)
 
 
-def binary_type(op: str, left: str, right: str) -> str:
+def binary_type(op: str, left: Type, right: Type) -> Type:
     """`int op int` is an int except for `/`; anything with a float (or `/`) is a float."""
     return INT if (left, right) == (INT, INT) and op != "/" else FLOAT
 
 
-def call_type(args: tuple[Expr, ...]) -> str:
+def call_type(args: tuple[Expr, ...]) -> Type:
     return FLOAT if any(a.type == FLOAT for a in args) else INT
 
 
@@ -152,7 +151,7 @@ FLOAT_OPS = st.sampled_from([*ARITHMETIC, "/", "/"])  # `/` of ints is a float
 MIN_MAX = st.sampled_from(["min", "max"])
 
 
-def build(draw: st.DrawFn, kind: str, depth: int) -> Expr:
+def build(draw: st.DrawFn, kind: Type, depth: int) -> Expr:
     """A random tree of type `kind` (BOOL, INT or FLOAT), at most `depth` operators deep.
 
     Draws only from the strategies above (built once): a tree costs one draw per choice."""
@@ -212,7 +211,7 @@ def build(draw: st.DrawFn, kind: str, depth: int) -> Expr:
 
 
 @st.composite
-def trees(draw: st.DrawFn, kind: str | None = None, depth: int = 4) -> Expr:
+def trees(draw: st.DrawFn, kind: Type | None = None, depth: int = 4) -> Expr:
     return build(draw, kind or draw(TYPES), depth)
 
 
@@ -372,7 +371,7 @@ def controller(values: dict[Key, Any]) -> tuple[dict[str, Any], SimpleNamespace]
     return module, me
 
 
-def has_claimed_type(value: Any, kind: str) -> bool:
+def has_claimed_type(value: Any, kind: Type) -> bool:
     if kind == BOOL:
         return type(value) is bool
     if kind == INT:
@@ -517,7 +516,7 @@ def test_canonical_source_prints_as_written(source: str) -> None:
         ("-li", INT),
     ],
 )
-def test_arithmetic_types(source: str, kind: str) -> None:
+def test_arithmetic_types(source: str, kind: Type) -> None:
     tree = compile_expr(source, SPAN, scope(), Diagnostics())
     assert tree is not None and tree.type == kind
 
@@ -551,3 +550,27 @@ def test_a_rejected_operation_is_reported_where_it_is(
     assert [(d.span, d.code, d.message) for d in diags] == [
         (Span("expr.yaml", 3, col), code, message)
     ]
+
+
+# ---------------------------------------------------------------- folding and/or (mutants)
+
+
+@pytest.mark.parametrize(
+    ("op", "first", "want"),
+    [
+        ("and", False, False),  # decided by a false operand, whatever the other
+        ("and", True, None),  # true and unknown: unknown
+        ("or", True, True),  # decided by a true operand
+        ("or", False, None),  # false or unknown: unknown
+    ],
+)
+def test_and_or_fold_short_circuit_on_the_deciding_operand(op: str, first: bool, want: object):
+    """`and` is decided by a false operand, `or` by a true one, in either position: swapping
+    the two (a seeded one-line bug) or ignoring an unknown operand is caught here."""
+    from rcsgen.compiler.expressions import fold
+
+    unknown = Ref(BOOL, RefKind.WORLD, "wb")
+    for values in ((Const(BOOL, first), unknown), (unknown, Const(BOOL, first))):
+        assert fold(BoolOp(BOOL, op, values), {}) is want, (op, values)
+    both = (Const(BOOL, first), Const(BOOL, not first))
+    assert fold(BoolOp(BOOL, op, both), {}) is (op == "or")

@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_differential import DERANDOMIZE, Draw, drive, system_files, write_system
 
-from rcsgen.compiler import emit
+from rcsgen.compiler.back_end import emit
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.tools.harness import Harness
 

@@ -35,7 +35,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from rcsgen.cli import main
-from rcsgen.compiler import emit
+from rcsgen.compiler.back_end import emit
 from rcsgen.compiler.frontend import compile_paths
 
 REPO = Path(__file__).resolve().parent.parent

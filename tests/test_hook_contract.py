@@ -7,7 +7,9 @@ Uses tests/cases/valid/hooked: top's GO calls `nudge` (returns world.level, a fl
 
 from __future__ import annotations
 
+import faulthandler
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -15,7 +17,7 @@ from click.testing import CliRunner
 from conftest import REPO, rcsgen
 
 from rcsgen.cli import main
-from rcsgen.compiler.emit import MARKER
+from rcsgen.compiler.back_end.emit import MARKER
 from rcsgen.tools.harness import Harness
 
 HOOKED = REPO / "tests" / "cases" / "valid" / "hooked"
@@ -64,14 +66,14 @@ def test_the_hooked_system_runs(hooked: Path) -> None:
             "return whole, level - whole",
             "return level - whole, whole",
             "hook `split` of `top` returned (0.0, 1); its `returns:` needs a tuple of 2 values "
-            "(int, float)",
+            "(int, finite float)",
         ),
         (
             "return whole, level - whole",
             "values = whole, level - whole, 0  # (a literal tuple of 3 fails validation)\n"
             "    return values",
             "hook `split` of `top` returned (1, 0.0, 0); its `returns:` needs a tuple of 2 "
-            "values (int, float)",
+            "values (int, finite float)",
         ),
         (
             "return whole, level - whole",
@@ -86,10 +88,25 @@ def test_the_hooked_system_runs(hooked: Path) -> None:
         (
             "    return n * state[0]",
             "    return True",
-            "returned True; its `returns:` needs a float",
+            "returned True; its `returns:` needs a finite float",
+        ),
+        (
+            "return whole, level - whole",
+            'return whole, float("nan")',
+            "returned (1, nan); its `returns:` needs a tuple of 2 values (int, finite float)",
+        ),
+        (
+            "return whole, level - whole",
+            'return whole, -float("inf")',
+            "returned (1, -inf); its `returns:` needs a tuple of 2 values (int, finite float)",
+        ),
+        (
+            "return whole, level - whole",
+            "return whole, 10**400",
+            "returned (1, 1000000000",
         ),
     ],
-    ids=["order", "arity", "list", "int-overflow", "bool-for-float"],
+    ids=["order", "arity", "list", "int-overflow", "bool-for-float", "nan", "inf", "huge"],
 )
 def test_a_result_that_does_not_fit_is_a_hook_error(
     hooked: Path, old: str, new: str, problem: str
@@ -146,17 +163,21 @@ def test_a_wrong_result_names_the_call_and_what_returns_needs(hooked: Path) -> N
     assert ran.exit_code == 1
     assert (
         "sys/top.yaml:42:21: error[E421]: hook `split` of `top` returned 0.0; its `returns:` "
-        "needs a tuple of 2 values (int, float) (rule GO/S0/1, cycle 2)" in ran.output
+        "needs a tuple of 2 values (int, finite float) (rule GO/S0/1, cycle 2)" in ran.output
     )
 
 
 def test_the_generated_code_checks_with_type_and_len_first() -> None:
     """The check stays cheap: type() and len(); a checking function is called only for a
-    value whose type is not float or int (short-circuit)."""
+    value whose type is not float or int (short-circuit), then one chained comparison that
+    NaN and the infinities fail."""
     text = (REPO / "generated" / "miner" / "co.py").read_text()
     assert text.startswith(MARKER)
     assert "or len(returned) != 2" in text
-    assert "or (type(returned[0]) not in NUMBER and not is_real(returned[0]))" in text
+    assert (
+        "(type(returned[0]) not in NUMBER and not is_real(returned[0]))\n"
+        "                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX"
+    ) in text
 
 
 def test_other_numeric_types_that_are_numbers_are_accepted(hooked: Path) -> None:
@@ -170,3 +191,66 @@ def test_other_numeric_types_that_are_numbers_are_accepted(hooked: Path) -> None
         "from __future__ import annotations\n\nfrom fractions import Fraction\n",
     )
     run_go(hooked)
+
+
+# ---------------------------------------------------------------- hooks that lie or hang
+
+
+@pytest.fixture
+def bounded() -> Iterator[None]:
+    """A backstop for the tests of hooks that never return: should the deadline fail, the
+    test process dumps its threads and exits after two minutes instead of hanging."""
+    faulthandler.dump_traceback_later(120, exit=True)
+    yield
+    faulthandler.cancel_dump_traceback_later()
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        "    import time\n    time.sleep(3600)\n",  # blocked in a system call
+        "    while True:\n        try:\n            while True:\n                pass\n"
+        "        except BaseException:\n            pass\n",  # swallows the first interruption
+    ],
+    ids=["sleeps", "swallows"],
+)
+def test_a_hook_is_interrupted_wherever_it_waits(hooked: Path, body: str, bounded: None) -> None:
+    """In the harness (the main thread): interrupted in a sleep, and again and again while it
+    swallows the interruption, until it gives up; its result is never used."""
+    hooks_with(hooked, "    whole = int(level)\n", body + "    whole = int(level)\n")
+    top = hooked / "top.yaml"
+    top.write_text(
+        top.read_text().replace(
+            "    returns: [n, world.level]\n", "    returns: [n, world.level]\n    deadline: 0.1\n"
+        )
+    )
+    if "swallows" in body or "except BaseException" in body:
+        hooks_with(
+            hooked,
+            "        except BaseException:\n            pass\n",
+            "        except BaseException:\n            break\n",
+        )
+        hooks_with(hooked, "    while True:\n        try:", "    for _ in range(3):\n        try:")
+    with pytest.raises(Exception) as caught:
+        run_go(hooked)
+    assert type(caught.value).__name__ == "HookError"
+    assert "deadline of 0.1 s" in str(caught.value)
+
+
+def test_the_default_deadline_is_five_periods_and_at_least_a_second(hooked: Path) -> None:
+    """tiny runs at 0.1 s: 5 periods are 0.5 s, so a hook gets the 1 s floor; a declared
+    deadline in cycles is that many periods."""
+    text = rcsgen("build", "sys", "-o", "gen")
+    assert text.exit_code == 0, text.output
+    module = (hooked.parent / "gen" / "tiny" / "top.py").read_text()
+    assert '    "nudge": 1.0,\n    "split": 1.0,\n' in module
+    top = hooked / "top.yaml"
+    top.write_text(
+        top.read_text().replace(
+            "    returns: [n, world.level]\n",
+            "    returns: [n, world.level]\n    deadline: 30 cycles\n",
+        )
+    )
+    assert rcsgen("build", "sys", "-o", "gen").exit_code == 0
+    module = (hooked.parent / "gen" / "tiny" / "top.py").read_text()
+    assert '    "split": 3.0,\n' in module

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import pytest
 
-from rcsgen.compiler import emit
+from rcsgen.compiler.back_end import emit
+from rcsgen.compiler.checks.naming import LINE_BREAKS
 from rcsgen.compiler.diagnostics import Diagnostic
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.compiler.naming import LINE_BREAKS
 from rcsgen.tools.harness import Harness
 
 CANARY = "CANARY"

@@ -15,7 +15,7 @@ import pytest
 from conftest import REPO
 from test_analysis import at, found, spec  # noqa: F401  (the `spec` fixture)
 
-from rcsgen.compiler import emit
+from rcsgen.compiler.back_end import emit
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.tools.harness import Harness
 
@@ -377,7 +377,7 @@ def test_results_of_an_earlier_command_are_not_read_before_the_echo(results: Har
 
 def test_lost_is_the_runtime_s_safe_state_reason() -> None:
     """`LOST` names the error_num the runtime reports when a subordinate's process is lost."""
-    from rcsgen.compiler.expr import BUILTIN_REASONS
+    from rcsgen.compiler.expressions import BUILTIN_REASONS
     from rcsgen.runtime.loop import LOST_SUBORDINATE
 
     assert BUILTIN_REASONS.index("LOST") == LOST_SUBORDINATE
@@ -449,19 +449,21 @@ def test_a_conditional_expression_is_typed_and_printed_back(text: str, python: s
     """`a if c else b`: both values of one type (an int and a float make a float), printed
     with the parentheses Python needs and no others."""
     from rcsgen.compiler.diagnostics import Diagnostics, Span
-    from rcsgen.compiler.expr import Scope, compile_expr, to_python
+    from rcsgen.compiler.expressions import Scope, compile_expr, to_python
 
     diags = Diagnostics()
-    scope = Scope(locals={"x": "int", "b": "bool"})
+    from rcsgen.compiler.types import BOOL, INT
+
+    scope = Scope(locals={"x": INT, "b": BOOL})
     tree = compile_expr(text, Span("t", 1, 1), scope, diags)
     assert tree is not None, [d.message for d in diags]
-    assert (to_python(tree, lambda ref: ref.name), tree.type) == (python, kind)
+    assert (to_python(tree, lambda ref: ref.name), str(tree.type)) == (python, kind)
 
 
 def test_a_conditional_of_constants_folds() -> None:
     """`LIMIT if FAST else 1` with constants is a constant: a guard of it can be W302."""
     from rcsgen.compiler.diagnostics import Diagnostics, Span
-    from rcsgen.compiler.expr import Scope, compile_expr, fold
+    from rcsgen.compiler.expressions import Scope, compile_expr, fold
 
     constants = {"FAST": False, "LIMIT": 4}
     tree = compile_expr(

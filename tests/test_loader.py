@@ -11,7 +11,7 @@ import jsonschema
 import pytest
 
 from rcsgen.compiler.diagnostics import Diagnostic, Span, SpecError
-from rcsgen.compiler.loader import (
+from rcsgen.compiler.front_end.loader import (
     MAX_BYTES,
     MAX_DEPTH,
     LocDict,

@@ -83,7 +83,11 @@ def test_block_lists_and_a_new_root(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     ("args", "code", "message"),
     [
         (["system", "Lamp"], 2, "system name 'Lamp' is not a lower-case name"),
-        (["system", "lamp", "--period", "0"], 2, "--period must be a positive number"),
+        (
+            ["system", "lamp", "--period", "0"],
+            2,
+            "'0' is not a number more than 0 and at most 3600",
+        ),
         (["system", "demo"], 1, "specs/demo exists; rcsgen new writes only new files"),
         (["controller", "specs/demo", "top"], 1, "specs/demo/top.yaml exists"),
         (["controller", "specs/demo", "arm", "--supervisor", "tpo"], 1, "(did you mean `top`?)"),

@@ -203,8 +203,8 @@ def test_an_operator_file_with_a_table_is_refused_where_it_is_written(tmp_path):
 
 
 def test_the_inspection_operator_names_its_schema_for_editors_and_passes_it():
-    from rcsgen.compiler.loader import load_text
-    from rcsgen.compiler.schema import check_document
+    from rcsgen.compiler.front_end.loader import load_text
+    from rcsgen.compiler.front_end.schema import check_document
 
     path = Path(__file__).resolve().parent.parent / "specs" / "inspection" / "op.yaml"
     text = path.read_text(encoding="utf-8")

@@ -157,12 +157,74 @@ def test_swapping_two_modules_in_the_order_changes_the_bounds(tmp_path, miner):
     assert new[("sec", "bm")] == old[("sec", "bm")] + 1  # cc now reads co's HALT a cycle late
 
 
-def test_a_counter_example_the_code_does_not_follow_is_undecided(miner, tmp_path):
-    front, result = miner
+FLEET = Path(__file__).resolve().parent / "fixtures" / "runtime" / "fleet"
+
+
+def test_the_model_plays_the_runtimes_reaction_to_a_lost_process(tmp_path):
+    """prove/lost.py asks rcs/loop.py's `reaction` itself, over the tables the generated
+    layout holds: built from the IR, they are the layout's, for every shipped system and
+    the fleet (on_lost: continue); and the model plays what the runtime does."""
+    import importlib
+
+    from rcsgen.compiler.prove.lost import RuntimeReaction, layout_view
+    from rcsgen.runtime.loop import reaction
+    from rcsgen.tools.harness import import_package, write_package
+
+    front = compile_paths([SPECS, FLEET])
+    assert not front.diagnostics.errors
+    for system in front.systems:
+        package = import_package(write_package(system, tmp_path / "out"))
+        layout = importlib.import_module(f"{package.__name__}.layout")
+        view = layout_view(system)
+        for name in ("PLACEMENT", "SUBORDINATES", "ON_LOST_CONTINUE", "MODULES", "SAFE_VALUES"):
+            assert vars(view)[name] == getattr(layout, name), (system.name, name)
+        assert vars(view)["ACTUATED_BY"] == layout.ACTUATED_BY
+        model = RuntimeReaction(system)
+        for p in system.processes:
+            assert model.reactions[p.name] == reaction(layout, p.name)
+    fleet = next(s for s in front.systems if s.name == "fleet")
+    model = RuntimeReaction(fleet)
+    # v1's process: halt_all - the leader goes to its safe state, every actuator latched
+    hard = model.effect("lead", "pa")
+    assert hard.safe_state and not hard.errors
+    assert hard.latched == {"v1_drive", "v2_drive", "v2_brake"}
+    # v2's process: contained - the leader reads v2 as ERROR, only pb's actuators latched
+    soft = model.effect("lead", "pb")
+    assert not soft.safe_state and soft.errors == ("v2",)
+    assert soft.latched == {"v2_drive", "v2_brake"}
+    proof = prove_front(compile_paths([FLEET])).proofs[0]
+    graph = proof.graphs["lead"]
+    after_pa = [(e, t) for es in graph.edges.values() for e, t in es if e.lost == "pa"]
+    assert after_pa and all(e.safe_state for e, _ in after_pa)
+    assert all(t.status == "ERROR" and t.state == "NOP" for e, t in after_pa if e.new is None)
+    assert all(("v1", "HALT") in e.sends and ("v2", "HALT") in e.sends for e, _ in after_pa)
+    after_pb = [e for es in graph.edges.values() for e, t in es if "pb" in t.lost]
+    assert after_pb and not any(e.safe_state for e in after_pb if e.lost == "pb")
+    # while pb is lost the leader reads v2's status as ERROR, whatever it sends v2
+    assert all(e.views[1] == "ERROR" for e in after_pb)
+
+
+def test_a_counter_example_the_code_does_not_follow_is_undecided(tmp_path):
+    """The leader retries the vehicle whose process is lost (on_lost: continue): motion
+    after ERROR, found through the loss - which a lockstep replay cannot reproduce, so the
+    finding is undecided, never violated."""
+    directory = tmp_path / "fleet"
+    shutil.copytree(FLEET, directory)
+    _edit(
+        directory / "lead.yaml",
+        """      S2:
+        - when: v1.status == ERROR""",
+        """      S2:
+        - when: v2.status == ERROR and v1.status != ERROR
+          do:
+            - send: v2.DRIVE
+        - when: v1.status == ERROR""",
+    )
+    front, result = _proved(directory)
     proof = result.proofs[0]
     lost = [i for i, f in enumerate(proof.findings) if any(e.lost for e, _ in f.trace)]
-    assert lost  # vg: pp's process pc2 lost, then a new command waits for it
-    replay_all(proof, front.systems[0], front.directories["miner"], None, set(lost))
+    assert {proof.findings[i].code for i in lost} >= {"W701"}
+    replay_all(proof, front.systems[0], front.directories["fleet"], None, set(lost))
     for i in lost:
         assert proof.findings[i].verdict == "undecided"
         assert "lost" in proof.findings[i].replay
@@ -208,3 +270,144 @@ def test_the_handshake_invariant_is_proven_by_induction():
     # without numbering a send after an operator's command, an old echo can be believed
     broken, why = handshake.prove_handshake(renumber=False)
     assert broken is False and why
+
+
+# ---------------------------------------------------------------- small systems
+
+TINY_SYSTEM = """system: tiny
+title: Tiny system
+cycle_period: 0.1
+world:
+  pos: {type: float, initial: 0.0}
+  drive: {type: float, initial: 0.0, actuator: true}
+processes:
+  p:
+    modules: [top, sub]
+"""
+TINY_SUB = """controller: sub
+title: Sub
+world:
+  reads: [pos]
+  writes: [drive]
+commands:
+  MOVE:
+    states:
+      S0:
+        - do: [{set: {world.drive: 1.0}}]
+          next: S1
+      S1:
+        - when: world.pos > 1.0
+          do: [{set: {world.drive: 0.0}}, {report: DONE}]
+  HALT:
+    states:
+      S0:
+        - do: [{set: {world.drive: 0.0}}, {report: DONE}]
+"""
+
+
+def _tiny(tmp_path: Path, top: str, sub: str = TINY_SUB) -> Path:
+    directory = tmp_path / "tiny"
+    directory.mkdir()
+    (directory / "system.yaml").write_text(TINY_SYSTEM)
+    (directory / "sub.yaml").write_text(sub)
+    (directory / "top.yaml").write_text(
+        "controller: top\ntitle: Top\nsubordinates: [sub]\ncommands:\n" + top
+    )
+    return directory
+
+
+def test_a_command_that_goes_round_for_ever_is_w702(tmp_path):
+    directory = _tiny(
+        tmp_path,
+        """  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          next: S2
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+      S2:
+        - do: [send: sub.MOVE]
+          next: S3
+      S3:
+        - when: sub.status == DONE
+          next: S2
+""",
+    )
+    _, result = _proved(directory)
+    assert ("W702", "top.yaml") in _shown(result)
+    finding = next(f for f in result.proofs[0].findings if f.code == "W702")
+    assert finding.command == "GO" and "never report DONE or ERROR" in finding.message
+
+
+def test_motion_after_halt_is_w706(tmp_path):
+    directory = _tiny(
+        tmp_path,
+        """  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [report: DONE]
+  HALT:
+    states:
+      S0:
+        - do: [send: sub.HALT]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [send: sub.MOVE, report: DONE]
+""",
+    )
+    _, result = _proved(directory)
+    assert ("W706", "top.yaml") in _shown(result)
+    finding = next(f for f in result.proofs[0].findings if f.code == "W706")
+    assert finding.rule == 1 and finding.state == "S1" and "sub.MOVE" in finding.message
+
+
+def test_a_wait_on_a_world_field_only_an_idle_subordinate_writes_is_a_deadlock(tmp_path):
+    """W703 through a world field: GO waits for `world.ready`, which only the
+    subordinate's PREP sets; GO sent MOVE, so once MOVE is done nothing can set it."""
+    sub = TINY_SUB.replace("  writes: [drive]", "  writes: [drive, ready]") + (
+        """  PREP:
+    states:
+      S0:
+        - do: [{set: {world.ready: true}}, {report: DONE}]
+"""
+    )
+    top = """  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE and world.ready
+          do: [report: DONE]
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+"""
+    directory = _tiny(tmp_path, top, sub)
+    system = directory / "system.yaml"
+    system.write_text(
+        system.read_text().replace("world:\n", "world:\n  ready: {type: bool, initial: false}\n")
+    )
+    (directory / "top.yaml").write_text(
+        (directory / "top.yaml")
+        .read_text()
+        .replace("subordinates: [sub]\n", "subordinates: [sub]\nworld:\n  reads: [ready]\n")
+    )
+    _, result = _proved(directory)
+    found = [f for f in result.proofs[0].findings if f.code == "W703"]
+    assert len(found) == 1 and "world.ready" in found[0].message, found
+    assert found[0].state == "S1" and "sub.status=DONE" in found[0].message
+    # sent PREP instead, the wait is fine: PREP may still set it while it runs
+    (directory / "top.yaml").write_text(
+        (directory / "top.yaml").read_text().replace("send: sub.MOVE", "send: sub.PREP")
+    )
+    _, result = _proved(directory)
+    assert not [f for f in result.proofs[0].findings if f.code == "W703"]

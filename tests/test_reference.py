@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 from conftest import edit, rcsgen
 
+from rcsgen.compiler.back_end.write import unified_diff
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.compiler.write import unified_diff
 from rcsgen.tools import reference
 
 REPO = Path(__file__).resolve().parent.parent

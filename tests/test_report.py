@@ -183,7 +183,27 @@ SARIF_SUBSET = {
                                         "items": {
                                             "type": "object",
                                             "required": ["id"],
-                                            "properties": {"id": {"type": "string"}},
+                                            "properties": {
+                                                "id": {"type": "string"},
+                                                "shortDescription": {
+                                                    "type": "object",
+                                                    "required": ["text"],
+                                                    "properties": {"text": {"type": "string"}},
+                                                },
+                                                "defaultConfiguration": {
+                                                    "type": "object",
+                                                    "properties": {
+                                                        "level": {
+                                                            "enum": [
+                                                                "none",
+                                                                "note",
+                                                                "warning",
+                                                                "error",
+                                                            ]
+                                                        }
+                                                    },
+                                                },
+                                            },
                                         },
                                     },
                                 },
@@ -274,7 +294,11 @@ def test_sarif_is_a_valid_2_1_0_log(tiny: Path) -> None:
     assert run["tool"]["driver"]["name"] == "rcsgen"
     [error] = run["results"]
     assert (error["ruleId"], error["level"]) == ("E204", "error")
-    assert run["tool"]["driver"]["rules"][error["ruleIndex"]]["id"] == "E204"
+    rule = run["tool"]["driver"]["rules"][error["ruleIndex"]]
+    assert rule["id"] == "E204"
+    # the rule's title and level are the registry's (docs/diagnostics.md's heading)
+    assert rule["shortDescription"]["text"] == "undeclared command"
+    assert rule["defaultConfiguration"]["level"] == "error"
     where = error["locations"][0]["physicalLocation"]
     assert where["artifactLocation"]["uri"] == "sys/top.yaml"
     assert where["region"] == {"startLine": 27, "startColumn": 15}

@@ -251,7 +251,8 @@ def test_a_process_whose_module_keeps_hook_state_is_not_restarted(
         lambda: launcher.poll() is not None and "p2" not in launcher.children,
         "p2 refusing to restart",
     )
-    assert [e for e in launcher.events if e.startswith("p2")] == [
+    # (under load the launcher may also see a process silent for a moment: not asked here)
+    assert [e for e in launcher.events if e.startswith("p2") and "beat" not in e] == [
         "p2 died (exit -9)",
         "p2 restarted",
         "p2 refused to restart: see its error above",
@@ -429,8 +430,8 @@ def test_the_miner_as_two_free_running_processes_completes_the_box_cut() -> None
     [
         ("xx.BOX_CUT", "no module 'xx'"),
         ("sb.BOX_CUTT", "sb has no command 'BOX_CUTT'"),
-        ("sb.BOX_CUT:deep=1", "sb has no parameter 'deep'"),
-        ("sb.BOX_CUT:depth=deep", "'deep' is not a number"),
+        ("sb.BOX_CUT:deep=1", "sb.BOX_CUT has no parameter 'deep'"),
+        ("sb.BOX_CUT:depth=deep", "parameter depth is 'deep', not a finite number"),
     ],
 )
 def test_a_bad_send_is_one_line_and_exit_2(send: str, message: str) -> None:

@@ -9,8 +9,8 @@ import pytest
 from jsonschema import Draft202012Validator
 
 from rcsgen.compiler.diagnostics import Span
-from rcsgen.compiler.loader import load_text
-from rcsgen.compiler.schema import check_document, schema_for
+from rcsgen.compiler.front_end.loader import load_text
+from rcsgen.compiler.front_end.schema import check_document, schema_for
 
 SPECS = pathlib.Path(__file__).resolve().parent.parent / "specs"
 MINER = SPECS / "miner"

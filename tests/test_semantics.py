@@ -739,9 +739,9 @@ def test_pacer_sleeps_the_rest_of_each_period_and_counts_overruns(miner):
     assert pacer.deadline == pytest.approx(100.1)
     pacer.wait()  # 100.03: 0.07 left; woke at 100.101, on time
     pacer.wait()  # 100.25: past 100.2, an overrun; the next boundary is 100.35
-    assert (pacer.overruns, pacer.consecutive) == (1, 1)
+    assert (pacer.overruns, pacer.behind(10)) == (1, pytest.approx(0.5))
     pacer.wait()  # 100.30: 0.05 left; woke at 100.37, 0.02 late: a late wake-up
-    assert pacer.consecutive == 0
+    assert pacer.behind(10) == pytest.approx(0.7), "how late the recent cycles started"
     pacer.wait()  # 100.44: 0.01 left (the boundary is 100.45); woke on time
     assert slept == pytest.approx([0.07, 0.05, 0.01])
     assert (pacer.overruns, pacer.late) == (1, 1)
@@ -767,6 +767,9 @@ def records(layout: ModuleType) -> dict[str, object]:
         found[f"PROCESS_{name.upper()}"] = record
     for name, record in layout.PACING.items():
         found[f"PACE_{name.upper()}"] = record
+    for name, record in layout.OVERRIDE.items():
+        found[f"OVERRIDE_{name.upper()}"] = record
+    found["OVERRIDES"] = layout.OVERRIDES
     return found
 
 

@@ -19,11 +19,12 @@ import pytest
 from browser import load, needs_chromium
 from conftest import edit, rcsgen
 
-from rcsgen.compiler import expr
+from rcsgen.compiler import expressions as expr
+from rcsgen.compiler.back_end.emit import render_system
 from rcsgen.compiler.diagnostics import Diagnostics, Span
-from rcsgen.compiler.emit import render_system
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.runtime import contract, ctl, launcher
+from rcsgen.compiler.types import BOOL, Str
+from rcsgen.runtime import command, contract, launcher
 from rcsgen.tools import trace_view, traces
 from rcsgen.tools.harness import Harness, generate, import_package
 from rcsgen.tools.scenario_check import check_scenario
@@ -118,25 +119,26 @@ def test_a_hook_result_for_an_enum_is_an_index_of_its_values(typed: Path) -> Non
 def test_the_console_takes_names_and_refuses_what_does_not_fit(typed: Path) -> None:
     with Harness.build(typed) as h:
         layout = h.layout
-        sent = ctl.parse_command(layout, "top", "INSPECT", ["program=bracket", "side=RIGHT"])
+        sent = command.parse_command(layout, "top", "INSPECT", ["program=bracket", "side=RIGHT"])
         assert sent.args == {"program": "bracket", "side": "RIGHT"}
         with pytest.raises(ValueError) as long:
-            ctl.parse_command(layout, "top", "INSPECT", ["program=" + "x" * 17])
+            command.parse_command(layout, "top", "INSPECT", ["program=" + "x" * 17, "side=LEFT"])
         assert str(long.value) == (
-            "'xxxxxxxxxxxxxxxxx' is 17 bytes: more than the 16 it holds (program)"
+            "top.INSPECT: parameter program is 'xxxxxxxxxxxxxxxxx': 17 bytes of UTF-8, more "
+            "than the 16 it holds"
         )
         with pytest.raises(ValueError) as typo:
-            ctl.parse_command(layout, "top", "INSPECT", ["side=LEFTT"])
+            command.parse_command(layout, "top", "INSPECT", ["side=LEFTT"])
         assert str(typo.value) == (
-            "no value 'LEFTT' (did you mean 'LEFT'?); values: LEFT, RIGHT (side)"
+            "top.INSPECT: parameter side is 'LEFTT', not one of LEFT, RIGHT (did you mean LEFT?)"
         )
         assert launcher.parse_world(layout, ["side=RIGHT", "label=bore"]) == {
             "side": "RIGHT",
             "label": "bore",
         }
-        with pytest.raises(ValueError, match=r"^--world: .* is 17 bytes: more than the 16"):
+        with pytest.raises(ValueError, match=r"^--world: label is .*: 17 bytes of UTF-8, more"):
             launcher.parse_world(layout, ["label=" + "x" * 17])
-        with pytest.raises(ValueError, match=r"^--world: no value 'UP'; values: LEFT, RIGHT"):
+        with pytest.raises(ValueError, match=r"^--world: side is 'UP', not one of LEFT, RIGHT$"):
             launcher.parse_world(layout, ["side=UP"])
 
 
@@ -286,9 +288,9 @@ def test_string_literals_are_printed_as_constants() -> None:
     """A string literal reaches Python only through repr(): quotes, backslashes and code in
     it stay text."""
     diags = Diagnostics()
-    scope = expr.Scope(params={"p": expr.str_type(64)})
+    scope = expr.Scope(params={"p": Str(64)})
     for text in ("'a\"); import os; (\"'", "'\\\\x'", '"it\'s"', "'__import__(\"os\")'"):
-        tree = expr.compile_expr(f"p == {text}", Span("t"), scope, diags, expr.BOOL)
+        tree = expr.compile_expr(f"p == {text}", Span("t"), scope, diags, BOOL)
         assert tree is not None, diags
         python = expr.to_python(tree, lambda ref: "self.arg_p")
         literal = python.removeprefix("self.arg_p == ")
@@ -376,9 +378,10 @@ def test_the_console_of_a_running_system_sends_and_shows_names(tmp_path: Path) -
             typo = running.ctl("send", "top", "INSPECT", "program=x", "side=LEFTT")
             assert (long.returncode, typo.returncode) == (2, 2)
             assert long.stderr.splitlines() == [
-                "ctl: error: 'xxxxxxxxxxxxxxxxx' is 17 bytes: more than the 16 it holds (program)"
+                "ctl: error: top.INSPECT: parameter program is 'xxxxxxxxxxxxxxxxx': 17 bytes of "
+                "UTF-8, more than the 16 it holds"
             ]
-            assert "did you mean 'LEFT'?" in typo.stderr and len(typo.stderr.splitlines()) == 1
+            assert "(did you mean LEFT?)" in typo.stderr and len(typo.stderr.splitlines()) == 1
         finally:
             running.stop()
     finally:

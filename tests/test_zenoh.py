@@ -463,8 +463,14 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
         assert not pc2_lost()
         hosts["pc2"].send_signal(signal.SIGSTOP)  # a partition: pc2 silent, its link open
         wait_for(pc2_lost, "pc1 reports pc2 lost")
-        vg = layout.STATUS_OUT["vg"].read(pc1.buf)
-        assert (vg["status"], vg["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
+        # halt_all: vg, co and sec in their safe state; co's HALT then runs vg's HALT table,
+        # and the root reports ERROR(LOST) (docs/semantics.md, "Fail safe")
+        wait_for(
+            lambda: layout.STATUS_OUT["sec"].read(pc1.buf)["status"] == contract.ERROR,
+            "the root, sec, reports ERROR",
+        )
+        sec = layout.STATUS_OUT["sec"].read(pc1.buf)
+        assert (sec["status"], sec["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
         hosts["pc2"].send_signal(signal.SIGCONT)
         wait_for(lambda: not pc2_lost(), "pc2 re-joins")
         hosts["pc2"].send_signal(signal.SIGKILL)
@@ -479,6 +485,73 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
     rcs(miner, "rcs.block").unlink(segments["pc2"])
     assert shm_files() - before == set()
     assert listening(ports) == set()
+
+
+def test_a_latch_or_force_made_on_any_host_holds_on_the_host_that_writes_the_actuator(
+    miner: ModuleType, two_hosts: dict[str, object]
+) -> None:
+    """An operator's node on a third "host" (connected to pc2 only) sends BOX_CUT; while pc1
+    drives the miner, the operator forces boom_rate_cmd and then latches every actuator on
+    their own block: the override travels to pc1, whose modules hold the forced value and
+    then the safe values (the actuator fields in pc1's block, the writer's), and to pc2; a
+    reset there releases them on pc1. Then pc2 is cut off (SIGSTOP): pc1, the writer, latches
+    every actuator itself, and pc2, back, receives pc1's latches."""
+    layout = rcs(miner, "layout")
+    block_module, override = rcs(miner, "rcs.block"), rcs(miner, "rcs.override")
+    launcher_module, zenoh_transport = rcs(miner, "rcs.launcher"), rcs(miner, "rcs.zenoh_transport")
+    hosts, segments = two_hosts["hosts"], two_hosts["segments"]
+    safe = {f: ("SAFE", v) for f, v in layout.SAFE_VALUES.items()}
+
+    def attach(name: str) -> object:
+        def tries() -> object:
+            try:
+                return block_module.Block(layout, segments[name], create=False)
+            except block_module.BlockError:
+                return None
+
+        return wait_for(tries, f"{name}'s segment")
+
+    def world(block: object, field: str) -> object:
+        return layout.WORLD[field].read(block.buf)[field]
+
+    def moving(block: object) -> bool:
+        return any(world(block, f) != v for f, v in layout.SAFE_VALUES.items())
+
+    def at_safe(block: object) -> bool:
+        return override.overrides(layout, block.buf) == safe and not moving(block)
+
+    pc1, pc2 = attach("pc1"), attach("pc2")
+    at_pc2 = f"tcp/127.0.0.1:{two_hosts['ports']['pc2']}"
+    operator = zenoh_transport.Attached(layout, zenoh_transport.Options(connect=(at_pc2,)))
+    mine = operator.block.buf
+    try:
+        send = launcher_module.parse_send(layout, "sec.BOX_CUT:depth=1.5")
+        wait_for(lambda: launcher_module.give(send, layout, mine), "sec ready for BOX_CUT")
+        wait_for(lambda: moving(pc1), "pc1 drives the miner", deadline=60)
+        override.force(layout, mine, "boom_rate_cmd", 0.25)
+        wait_for(lambda: world(pc1, "boom_rate_cmd") == 0.25, "the force holds on pc1")
+        beat = layout.PROCESSES["pc1"].read(pc1.buf)["heartbeat"]
+        wait_for(lambda: layout.PROCESSES["pc1"].read(pc1.buf)["heartbeat"] > beat + 5, "pc1")
+        assert world(pc1, "boom_rate_cmd") == 0.25, "pc1's module does not overwrite it"
+        assert override.overrides(layout, pc1.buf) == {"boom_rate_cmd": ("FORCED", 0.25)}
+        override.latch_safe(layout, mine, layout.SAFE_VALUES)
+        wait_for(lambda: at_safe(pc1), "every actuator latched safe on pc1, the writer")
+        wait_for(lambda: override.overrides(layout, pc2.buf) == safe, "and mirrored on pc2")
+        beat = layout.PROCESSES["pc1"].read(pc1.buf)["heartbeat"]
+        wait_for(lambda: layout.PROCESSES["pc1"].read(pc1.buf)["heartbeat"] > beat + 5, "pc1")
+        assert at_safe(pc1), "held while pc1 runs its BOX_CUT"
+        assert override.reset(layout, mine) == list(layout.SAFE_VALUES)
+        wait_for(lambda: not override.overrides(layout, pc1.buf), "released on pc1")
+        assert not pc1.buf[layout.OVERRIDDEN_AT], "pc1's modules no longer look"
+        hosts["pc2"].send_signal(signal.SIGSTOP)  # pc1 loses its link to pc2
+        wait_for(lambda: at_safe(pc1), "pc1 latches every actuator it writes")
+        hosts["pc2"].send_signal(signal.SIGCONT)
+        wait_for(lambda: override.overrides(layout, pc2.buf) == safe, "pc2, back, sees them")
+    finally:
+        hosts["pc2"].send_signal(signal.SIGCONT)
+        operator.close()
+        pc1.close()
+        pc2.close()
 
 
 def test_one_command_runs_the_box_cut_with_the_path_planner_on_a_second_host() -> None:
@@ -605,8 +678,10 @@ def test_a_cut_link_is_detected_contained_and_mended(
     miner: ModuleType, through_a_relay: dict[str, object]
 ) -> None:
     """The link between the hosts goes silent (no connection closed, neither host stopped):
-    pc1 reports pc2 lost after its heartbeat timeout and vg goes to its safe state; pc2
-    sees pc1's token go (its control record DEAD in pc2's block). While the link is out
+    pc1 reports pc2 lost after its heartbeat timeout, vg goes to its safe state, and pc1,
+    which writes every actuator, latches them all at their safe values in its own block
+    (a process that loses its link latches what it writes); pc2 sees pc1's token go (its
+    control record DEAD in pc2's block). While the link is out
     nobody re-joins by another way; when it is back, both re-join. Afterwards nothing is
     left in /dev/shm, listening or running."""
     layout = rcs(miner, "layout")
@@ -634,6 +709,13 @@ def test_a_cut_link_is_detected_contained_and_mended(
     def pc1_state_on_pc2() -> int:
         return int(layout.PROCESSES["pc1"].read(pc2.buf)["state"])
 
+    override = rcs(miner, "rcs.override")
+
+    def latched_safe(block: object) -> bool:
+        safe = {f: ("SAFE", v) for f, v in layout.SAFE_VALUES.items()}
+        world = {f: layout.WORLD[f].read(block.buf)[f] for f in layout.SAFE_VALUES}
+        return override.overrides(layout, block.buf) == safe and world == layout.SAFE_VALUES
+
     try:
         wait_for(
             lambda: layout.STATUS_OUT["pp"].read(pc1.buf)["status"] == contract.DONE,
@@ -643,8 +725,13 @@ def test_a_cut_link_is_detected_contained_and_mended(
         for _ in range(2):  # cut and mended twice: the second cut finds a mended link
             running["relay"].send_signal(signal.SIGUSR1)  # the cable is pulled
             wait_for(pc2_lost_on_pc1, "pc1 reports pc2 lost")
-            vg = layout.STATUS_OUT["vg"].read(pc1.buf)
-            assert (vg["status"], vg["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
+            wait_for(  # halt_all: the root reports ERROR(LOST) (docs/semantics.md, "Fail safe")
+                lambda: layout.STATUS_OUT["sec"].read(pc1.buf)["status"] == contract.ERROR,
+                "the root, sec, reports ERROR",
+            )
+            sec = layout.STATUS_OUT["sec"].read(pc1.buf)
+            assert (sec["status"], sec["error_num"]) == (contract.ERROR, 1)  # LOST_SUBORDINATE
+            wait_for(lambda: latched_safe(pc1), "pc1 latches every actuator it writes")
             wait_for(lambda: pc1_state_on_pc2() == contract.DEAD, "pc2 sees pc1's token go")
             assert all(each.poll() is None for each in running.values())  # nobody stopped
             for _ in range(10):  # while it is out, no way around it

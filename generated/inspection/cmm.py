@@ -7,11 +7,14 @@ from time import perf_counter_ns
 from .layout import (
     CMM_PERF_AT,
     CMM_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_CMM_FEATURE_AT,
     WORLD_CMM_OP_AT,
     WORLD_CMM_SEQ_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.override import held
 
 # Commands cmm accepts (the code written to its command buffer).
 INIT = 1
@@ -26,12 +29,13 @@ INSPECT_FEATURE = 6
 INPUTS = Struct("<QIq44x???1xI400xq8xq8xq8xq24x?")
 INPUTS_AT = 760
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QqQqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
 WORLD_OUT_1_AT = 1224
+WORLD_HELD_1 = (OVERRIDE["cmm_op"], OVERRIDE["cmm_feature"], OVERRIDE["cmm_seq"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -176,7 +180,10 @@ class CmmController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_cmm_op, self.world_cmm_feature, self.world_cmm_seq)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_CMM_OP_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_CMM_FEATURE_AT, s[1] | 1)  # odd before the value changes
@@ -285,7 +292,10 @@ class CmmController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_cmm_op, self.world_cmm_feature, self.world_cmm_seq)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_CMM_OP_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_CMM_FEATURE_AT, s[1] | 1)  # odd before the value changes

@@ -9,6 +9,8 @@ import inspection_hooks.cmm as hooks
 from .layout import (
     CMM_SIM_PERF_AT,
     CMM_SIM_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_CMM_ALARM_AT,
     WORLD_CMM_DONE_SEQ_AT,
     WORLD_CMM_READING_AT,
@@ -16,6 +18,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -26,6 +29,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands cmm_sim accepts (the code written to its command buffer).
 INIT = 1
@@ -40,12 +45,17 @@ INPUTS_AT = 1104
 SEQS = Struct("<Q")
 SEQS_AT = 1104
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QqQdQ?")
 WORLD_VALUES_1 = Struct("<8xq8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
 WORLD_OUT_1_AT = 1272
+WORLD_HELD_1 = (
+    OVERRIDE["cmm_done_seq"],
+    OVERRIDE["cmm_reading"],
+    OVERRIDE["cmm_alarm"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -53,6 +63,12 @@ S0 = 1
 # Constants.
 MOTION_CYCLES = 4
 OP_MEASURE = 4
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "probe": 2.5,
+}
 
 
 class CmmSimController:
@@ -99,11 +115,31 @@ class CmmSimController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_part(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_part, settings or {})
+        except BaseException as error:
             raise HookError("cmm_sim", "new_part", "hooks_state", 0) from error
         self.var_moving: int = 0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_cmm_op,
+            self.world_cmm_feature,
+            self.world_cmm_seq,
+            self.world_cmm_done_seq,
+            self.world_cmm_reading,
+            self.world_cmm_alarm,
+            self.world_cmm_fault,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -200,7 +236,10 @@ class CmmSimController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_cmm_done_seq, self.world_cmm_reading, self.world_cmm_alarm)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_CMM_DONE_SEQ_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_CMM_READING_AT, s[1] | 1)  # odd before the value changes
@@ -311,7 +350,10 @@ class CmmSimController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_cmm_done_seq, self.world_cmm_reading, self.world_cmm_alarm)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_CMM_DONE_SEQ_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_CMM_READING_AT, s[1] | 1)  # odd before the value changes
@@ -362,10 +404,14 @@ class CmmSimController:
         ):
             # a measurement completes
             try:
-                returned = hooks.probe(self.hook_state, self.world_cmm_feature)
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+                returned = within(
+                    HOOK_DEADLINES["probe"], hooks.probe, self.hook_state, self.world_cmm_feature
+                )
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("cmm_sim", "probe", "every_cycle/2", self.cycles) from error
-            if type(returned) not in NUMBER and not is_real(returned):
+            if (
+                type(returned) not in NUMBER and not is_real(returned)
+            ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
                 raise HookError("cmm_sim", "probe", "every_cycle/2", self.cycles, returned, "f")
             self.world_cmm_reading = returned
             self.world_cmm_done_seq = self.world_cmm_seq

@@ -9,9 +9,11 @@ the module) and a mode buffer (written by an operator); an operator module owns 
 a performance buffer, and a channel per client: a command buffer (written by the client), a
 status buffer (written by the operator module) and an answer record (written by the
 answering side: the console, a scenario's scripted operator). World-model fields follow, one
-buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
-8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 1336 bytes.
+buffer each, then the overrides: a flag, and each world field's override record (its state,
+NONE, FORCED or SAFE, and its value; rcs/override.py).
+Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
+all values are little-endian `struct` fields with no implicit padding.
+The block is 1520 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -61,6 +63,14 @@ command buffers and world fields:
 | 1288 | 16 | WORLD_CMM_READING | cmm_reading |
 | 1304 | 9 | WORLD_CMM_ALARM | cmm_alarm |
 | 1320 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 1336 | 9 | OVERRIDES | any |
+| 1352 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 1376 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 1400 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 1424 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 1448 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 1472 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 1496 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
 """
 
 from __future__ import annotations
@@ -92,9 +102,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 1336
+SIZE = 1520
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "4d50202278acc898a49b13614ab8cb14"
+LAYOUT_HASH = "8f64727d2ad8865359c6e03d8e1b7642"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 168
 
@@ -194,6 +204,8 @@ PLACEMENT = {
 }
 # Seconds without a heartbeat after which a process is reported dead.
 HEARTBEAT_TIMEOUT = 5.0
+# Seconds every process of a launch has to run its first cycle (the start-up barrier).
+STARTUP_TIMEOUT = 10.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
     "ws": ("ms", "fx"),
@@ -204,6 +216,9 @@ SUBORDINATES = {
     "op": (),
     "cmm_sim": (),
 }
+# The subordinates whose loss a supervisor's own rules handle (`on_lost: continue`); every
+# other loss halts everything (`halt_all`: rcs/loop.py `reaction`).
+ON_LOST_CONTINUE: dict[str, tuple[str, ...]] = {}
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {}
 MODULES = ("ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim")
@@ -275,6 +290,39 @@ WORLD_INITIAL: dict[str, object] = {
     "cmm_alarm": False,
     "cmm_fault": False,
 }
+# Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
+# override's value; the module that writes it does not overwrite it meanwhile.
+OVERRIDES_AT = 1336
+OVERRIDDEN_AT = 1344  # `any`: one byte stored whole, read without the seqlock
+# (for tools to read; only rcs/override.py writes it, one byte at a time)
+OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
+OVERRIDE = {
+    "cmm_op": Record(Struct("<QQq"), 1352, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 1376, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 1400, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 1424, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 1448, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 1472, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 1496, ("state", "cmm_fault")),
+}
+# Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
+# runtime drives it, latched, when the process that writes it is lost, stops or trips.
+SAFE_VALUES: dict[str, object] = {}
+# The process whose modules write each actuator.
+ACTUATED_BY = {}
+# The modules that write each world field (a stand-in writes in its controller's place), for
+# `ctl force`: forcing a field takes it from them, which needs override on each.
+WORLD_WRITERS: dict[str, tuple[str, ...]] = {
+    "cmm_op": ("cmm",),
+    "cmm_feature": ("cmm",),
+    "cmm_seq": ("cmm",),
+    "cmm_done_seq": ("cmm_sim",),
+    "cmm_reading": ("cmm_sim",),
+    "cmm_alarm": ("cmm_sim",),
+}
+# The fields that are the simulation's truth (`ground_truth: true`): no operator can force
+# the real world, so `ctl force` takes them only while the modules writing them simulate.
+GROUND_TRUTH = ()
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "ws": (NO_COMMAND_NAME, *("INIT", "HALT", "INIT_FOR_INSPECT", "INSPECT_PART")),
@@ -328,6 +376,20 @@ COMMAND_NAMES = {
             "LOAD_PROBE",
         ),
     ),
+}
+# Each command's parameters, in order: an operator gives every one of them (`ctl send`,
+# `--send`, a scenario), each checked against its slot's type (rcs/command.py). A command
+# not listed takes none.
+PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
+    "ws": {
+        "INSPECT_PART": ("program",),
+    },
+    "ms": {
+        "MEASURE_PART": ("program",),
+    },
+    "cmm": {
+        "INSPECT_FEATURE": ("number",),
+    },
 }
 STATE_NAMES = {
     "ws": (
@@ -503,6 +565,15 @@ ROLES: dict[str, dict[str, int]] = {
         "cmm_sim": 3,  # override
     },
 }
+# The run settings the hook-state factories read (`settings:`), each with what it chooses;
+# `--set`, a scenario's `settings:` and a harness may give only these.
+SETTINGS: dict[str, str] | None = {
+    "program": "The inspection program the station measures: programs/<name>.ipg (default programs/bracket.ipg).",
+    "part": "The part on the fixture, as the simulated CMM sees it: parts/<name>.part (default parts/nominal.part).",
+    "seed": "The seed of the simulated probe noise, a whole number (default 1).",
+}
+# Whether a controller has a `hooks_state` factory: without one no setting is read.
+READS_SETTINGS = True
 # What modules ask of the operator (`operators.requests`): open while the world field
 # `while` is true, answered by sending the command `answer`.
 REQUESTS: dict[str, dict[str, object]] = {}
@@ -545,10 +616,12 @@ def initialise(buf: memoryview) -> None:
         MODE_IN,
         PERFORMANCE,
         WORLD,
+        OVERRIDE,
         ANSWERS,
     ):
         for record in records.values():
             SEQ.pack_into(buf, record.offset, FIRST_SEQ)
+    SEQ.pack_into(buf, OVERRIDES_AT, FIRST_SEQ)
     for name, value in WORLD_INITIAL.items():
         WORLD[name].write(buf, **{name: value})
     for name in SIMULATORS:

@@ -29,6 +29,7 @@ from .rcs.contract import (
     decode_text,
     is_integer,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 
 # Commands ms accepts (the code written to its command buffer).
 INIT = 1
@@ -79,6 +80,13 @@ S3 = 4
 NEXT = 5
 PROBING = 6
 JUDGED = 7
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "judge": 2.5,
+    "program_features": 2.5,
+}
 
 
 class MsController:
@@ -137,8 +145,8 @@ class MsController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_program(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_program, settings or {})
+        except BaseException as error:
             raise HookError("ms", "new_program", "hooks_state", 0) from error
         self.var_features: int = 0
         self.var_feature: int = 0
@@ -640,8 +648,13 @@ class MsController:
             self.rule = 21  # MEASURE_PART/S0/1
             self.state = NEXT
             try:
-                returned = hooks.program_features(self.hook_state, self.arg_program)
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+                returned = within(
+                    HOOK_DEADLINES["program_features"],
+                    hooks.program_features,
+                    self.hook_state,
+                    self.arg_program,
+                )
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError(
                     "ms", "program_features", "MEASURE_PART/S0/1", self.cycles
                 ) from error
@@ -674,10 +687,14 @@ class MsController:
                 self.rule = 24  # MEASURE_PART/PROBING/1
                 self.state = JUDGED
                 try:
-                    returned = hooks.judge(
-                        self.hook_state, self.var_feature, self.world_cmm_reading
+                    returned = within(
+                        HOOK_DEADLINES["judge"],
+                        hooks.judge,
+                        self.hook_state,
+                        self.var_feature,
+                        self.world_cmm_reading,
                     )
-                except Exception as error:  # one error naming the module, hook, rule and cycle
+                except BaseException as error:  # one error naming the module, hook, rule and cycle
                     raise HookError("ms", "judge", "MEASURE_PART/PROBING/1", self.cycles) from error
                 if type(returned) is not bool:
                     raise HookError(

@@ -141,6 +141,28 @@ class WsController:
         self.cycle_start = 0
         self.var_measured: int = 0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.arg_program,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.ms_status_num,
+            self.ms_status,
+            self.ms_error_num,
+            self.ms_result_failed,
+            self.fx_status_num,
+            self.fx_status,
+            self.fx_error_num,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.arg_program = decode_text(self.arg_program)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:

@@ -9,11 +9,14 @@ import miner_hooks.sim as hooks
 from .layout import (
     BAS_PERF_AT,
     BAS_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_BOOM_ANGLE_TRUE_AT,
 )
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -24,6 +27,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands bas accepts (the code written to its command buffer).
 INIT = 1
@@ -38,12 +43,13 @@ INPUTS_AT = 2048
 SEQS = Struct("<Q")
 SEQS_AT = 2048
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 3856
+WORLD_HELD_1 = (OVERRIDE["boom_angle_true"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -52,6 +58,12 @@ S0 = 1
 UPPER_STOP = 30.0
 LOWER_STOP = -10.0
 RATE_ERROR = 0.1
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "turn_boom": 1.0,
+}
 
 
 class BasController:
@@ -92,10 +104,25 @@ class BasController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_actuator_error(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_actuator_error, settings or {})
+        except BaseException as error:
             raise HookError("bas", "new_actuator_error", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_boom_rate_cmd,
+            self.world_boom_angle_true,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -187,7 +214,10 @@ class BasController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_boom_angle_true,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_BOOM_ANGLE_TRUE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -287,7 +317,10 @@ class BasController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_boom_angle_true,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_BOOM_ANGLE_TRUE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -321,7 +354,9 @@ class BasController:
         """Rules tried every cycle, whatever the command."""
         if self.world_boom_rate_cmd != 0.0:
             try:
-                returned = hooks.turn_boom(
+                returned = within(
+                    HOOK_DEADLINES["turn_boom"],
+                    hooks.turn_boom,
                     self.hook_state,
                     self.world_boom_angle_true,
                     self.world_boom_rate_cmd,
@@ -329,9 +364,11 @@ class BasController:
                     LOWER_STOP,
                     UPPER_STOP,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("bas", "turn_boom", "every_cycle/1", self.cycles) from error
-            if type(returned) not in NUMBER and not is_real(returned):
+            if (
+                type(returned) not in NUMBER and not is_real(returned)
+            ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
                 raise HookError("bas", "turn_boom", "every_cycle/1", self.cycles, returned, "f")
             self.world_boom_angle_true = returned
 

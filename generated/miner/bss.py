@@ -9,11 +9,14 @@ import miner_hooks.sim as hooks
 from .layout import (
     BSS_PERF_AT,
     BSS_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_BOOM_ANGLE_AT,
 )
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -24,6 +27,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands bss accepts (the code written to its command buffer).
 INIT = 1
@@ -38,12 +43,13 @@ INPUTS_AT = 2768
 SEQS = Struct("<Q")
 SEQS_AT = 2768
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 3984
+WORLD_HELD_1 = (OVERRIDE["boom_angle"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -51,6 +57,12 @@ S0 = 1
 # Constants.
 LAG = 0.6
 NOISE = 0.1
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "noisy": 1.0,
+}
 
 
 class BssController:
@@ -92,11 +104,26 @@ class BssController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_noise(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_noise, settings or {})
+        except BaseException as error:
             raise HookError("bss", "new_noise", "hooks_state", 0) from error
         self.var_filtered: float = 0.0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_boom_angle_true,
+            self.world_boom_angle,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -188,7 +215,10 @@ class BssController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_boom_angle,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_BOOM_ANGLE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -288,7 +318,10 @@ class BssController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_boom_angle,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_BOOM_ANGLE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -324,10 +357,14 @@ class BssController:
             self.world_boom_angle_true - self.var_filtered
         )
         try:
-            returned = hooks.noisy(self.hook_state, self.var_filtered, NOISE)
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+            returned = within(
+                HOOK_DEADLINES["noisy"], hooks.noisy, self.hook_state, self.var_filtered, NOISE
+            )
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("bss", "noisy", "every_cycle/1", self.cycles) from error
-        if type(returned) not in NUMBER and not is_real(returned):
+        if (
+            type(returned) not in NUMBER and not is_real(returned)
+        ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
             raise HookError("bss", "noisy", "every_cycle/1", self.cycles, returned, "f")
         self.world_boom_angle = returned
 

@@ -13,6 +13,8 @@ from .layout import (
     CO_STATUS_AT,
     CR_COMMAND,
     CR_COMMAND_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     VG_COMMAND,
     VG_COMMAND_AT,
     WORLD_GOAL_X_AT,
@@ -22,6 +24,7 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -31,6 +34,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import within
+from .rcs.override import held
 
 # Commands co accepts (the code written to its command buffer).
 INIT = 1
@@ -67,12 +72,13 @@ CC_CUSP = 7
 INPUTS = Struct("<QIdd44x???1xI80xQI468xQI484xQI1844xd8xd8xd8xd328xd8xd8xd24xd8xd8x?47xd")
 INPUTS_AT = 568
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
 WORLD_OUT_1_AT = 3584
+WORLD_HELD_1 = (OVERRIDE["goal_x"], OVERRIDE["goal_y"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -88,6 +94,14 @@ CUTTER_THRESHOLD = 60.0
 HEADING_LIMIT = 0.05
 MAX_APPROACH = 5.0
 APPROACH_DISTANCE = 0.5
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "co_goal_ahead": 1.0,
+    "co_position_for_cusp": 1.0,
+    "co_position_for_sump": 1.0,
+}
 
 
 class CoController:
@@ -325,7 +339,10 @@ class CoController:
             SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
             self.cc_written = self.cc_command_num
         out = (self.world_goal_x, self.world_goal_y)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
@@ -486,7 +503,10 @@ class CoController:
             SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
             self.cc_written = self.cc_command_num
         out = (self.world_goal_x, self.world_goal_y)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
@@ -589,18 +609,29 @@ class CoController:
                 self.state = S2
                 self.var_distance = MAX_APPROACH
                 try:
-                    returned = hooks.co_goal_ahead(
-                        self.world_pose_x, self.world_pose_y, self.world_heading, self.var_distance
+                    returned = within(
+                        HOOK_DEADLINES["co_goal_ahead"],
+                        hooks.co_goal_ahead,
+                        self.world_pose_x,
+                        self.world_pose_y,
+                        self.world_heading,
+                        self.var_distance,
                     )
-                except Exception as error:  # one error naming the module, hook, rule and cycle
+                except BaseException as error:  # one error naming the module, hook, rule and cycle
                     raise HookError(
                         "co", "co_goal_ahead", "INITIAL_APPROACH_FACE/S1/1", self.cycles
                     ) from error
                 if (
                     type(returned) is not tuple
                     or len(returned) != 2
-                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or (
+                        (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                    )
+                    or (
+                        (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                        or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                    )
                 ):
                     raise HookError(
                         "co",
@@ -717,18 +748,29 @@ class CoController:
                 self.state = S2
                 self.var_distance = APPROACH_DISTANCE
                 try:
-                    returned = hooks.co_goal_ahead(
-                        self.world_pose_x, self.world_pose_y, self.world_heading, self.var_distance
+                    returned = within(
+                        HOOK_DEADLINES["co_goal_ahead"],
+                        hooks.co_goal_ahead,
+                        self.world_pose_x,
+                        self.world_pose_y,
+                        self.world_heading,
+                        self.var_distance,
                     )
-                except Exception as error:  # one error naming the module, hook, rule and cycle
+                except BaseException as error:  # one error naming the module, hook, rule and cycle
                     raise HookError(
                         "co", "co_goal_ahead", "APPROACH_FACE/S1/1", self.cycles
                     ) from error
                 if (
                     type(returned) is not tuple
                     or len(returned) != 2
-                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or (
+                        (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                    )
+                    or (
+                        (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                        or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                    )
                 ):
                     raise HookError(
                         "co", "co_goal_ahead", "APPROACH_FACE/S1/1", self.cycles, returned, "ff"
@@ -763,18 +805,29 @@ class CoController:
             self.rule = 24  # SUMP_SHEAR_CUSP/S0/1
             self.state = S1
             try:
-                returned = hooks.co_position_for_sump(
-                    self.world_pose_x, self.world_pose_y, self.world_heading, self.world_sump_step
+                returned = within(
+                    HOOK_DEADLINES["co_position_for_sump"],
+                    hooks.co_position_for_sump,
+                    self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_heading,
+                    self.world_sump_step,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError(
                     "co", "co_position_for_sump", "SUMP_SHEAR_CUSP/S0/1", self.cycles
                 ) from error
             if (
                 type(returned) is not tuple
                 or len(returned) != 2
-                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or (
+                    (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                )
             ):
                 raise HookError(
                     "co",
@@ -811,21 +864,29 @@ class CoController:
                 self.rule = 26  # SUMP_SHEAR_CUSP/S2/1
                 self.state = S1
                 try:
-                    returned = hooks.co_position_for_sump(
+                    returned = within(
+                        HOOK_DEADLINES["co_position_for_sump"],
+                        hooks.co_position_for_sump,
                         self.world_pose_x,
                         self.world_pose_y,
                         self.world_heading,
                         self.world_sump_step,
                     )
-                except Exception as error:  # one error naming the module, hook, rule and cycle
+                except BaseException as error:  # one error naming the module, hook, rule and cycle
                     raise HookError(
                         "co", "co_position_for_sump", "SUMP_SHEAR_CUSP/S2/1", self.cycles
                     ) from error
                 if (
                     type(returned) is not tuple
                     or len(returned) != 2
-                    or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                    or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or (
+                        (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                        or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                    )
+                    or (
+                        (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                        or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                    )
                 ):
                     raise HookError(
                         "co",
@@ -874,18 +935,28 @@ class CoController:
             self.rule = 30  # SUMP_SHEAR_CUSP/S3/1
             self.state = S4
             try:
-                returned = hooks.co_position_for_cusp(
-                    self.world_pose_x, self.world_pose_y, self.world_heading
+                returned = within(
+                    HOOK_DEADLINES["co_position_for_cusp"],
+                    hooks.co_position_for_cusp,
+                    self.world_pose_x,
+                    self.world_pose_y,
+                    self.world_heading,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError(
                     "co", "co_position_for_cusp", "SUMP_SHEAR_CUSP/S3/1", self.cycles
                 ) from error
             if (
                 type(returned) is not tuple
                 or len(returned) != 2
-                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or (
+                    (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                )
             ):
                 raise HookError(
                     "co",

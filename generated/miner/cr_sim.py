@@ -7,10 +7,13 @@ from time import perf_counter_ns
 from .layout import (
     CR_PERF_AT,
     CR_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_COAL_MINED_AT,
     WORLD_LOOSE_COAL_TRUE_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.override import held
 
 # Commands cr_sim accepts (the code written to its command buffer).
 INIT = 1
@@ -24,12 +27,13 @@ CUSP = 5
 INPUTS = Struct("<QI44x???1xI2904xd8xd")
 INPUTS_AT = 1184
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
 WORLD_OUT_1_AT = 4144
+WORLD_HELD_1 = (OVERRIDE["loose_coal_true"], OVERRIDE["coal_mined"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -162,7 +166,10 @@ class CrSimController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_loose_coal_true, self.world_coal_mined)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
@@ -262,7 +269,10 @@ class CrSimController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_loose_coal_true, self.world_coal_mined)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes

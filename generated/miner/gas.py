@@ -9,6 +9,8 @@ import miner_hooks.haulage as hooks
 from .layout import (
     GAS_PERF_AT,
     GAS_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_COAL_MINED_AT,
     WORLD_LOOSE_COAL_TRUE_AT,
     WORLD_SHUTTLE_CAR_AWAY_AT,
@@ -16,6 +18,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -26,6 +29,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands gas accepts (the code written to its command buffer).
 INIT = 1
@@ -40,18 +45,29 @@ INPUTS_AT = 2648
 SEQS = Struct("<Q")
 SEQS_AT = 2648
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQ?")
 WORLD_VALUES_1 = Struct("<8xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
 WORLD_OUT_1_AT = 4144
+WORLD_HELD_1 = (
+    OVERRIDE["loose_coal_true"],
+    OVERRIDE["coal_mined"],
+    OVERRIDE["shuttle_car_away"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 
 # Constants.
 GATHER_RATE = 0.6
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "haul": 1.0,
+}
 
 
 class GasController:
@@ -96,10 +112,29 @@ class GasController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_haulage(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_haulage, settings or {})
+        except BaseException as error:
             raise HookError("gas", "new_haulage", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_tail_in_position,
+            self.world_gather_on_cmd,
+            self.world_conveyor_on_cmd,
+            self.world_loose_coal_true,
+            self.world_coal_mined,
+            self.world_shuttle_car_away,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -195,7 +230,10 @@ class GasController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_loose_coal_true, self.world_coal_mined, self.world_shuttle_car_away)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
@@ -305,7 +343,10 @@ class GasController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_loose_coal_true, self.world_coal_mined, self.world_shuttle_car_away)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
@@ -344,7 +385,9 @@ class GasController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.haul(
+            returned = within(
+                HOOK_DEADLINES["haul"],
+                hooks.haul,
                 self.hook_state,
                 self.world_loose_coal_true,
                 self.world_coal_mined,
@@ -353,13 +396,19 @@ class GasController:
                 and self.world_tail_in_position,
                 GATHER_RATE,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("gas", "haul", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 3
-            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (
+                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
             or type(returned[2]) is not bool
         ):
             raise HookError("gas", "haul", "every_cycle/1", self.cycles, returned, "ffb")

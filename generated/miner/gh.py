@@ -7,10 +7,13 @@ from time import perf_counter_ns
 from .layout import (
     GH_PERF_AT,
     GH_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_GATHER_ON_CMD_AT,
     WORLD_PAN_FLOAT_CMD_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.override import held
 
 # Commands gh accepts (the code written to its command buffer).
 INIT = 1
@@ -23,12 +26,13 @@ ON = 4
 INPUTS = Struct("<QI44x???1xI2400x?15x?")
 INPUTS_AT = 1304
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?7xQ?")
 WORLD_VALUES_1 = Struct("<8x?15x?")
 WORLD_SEQS_1 = Struct("<Q8xQ")
 WORLD_OUT_1_AT = 3760
+WORLD_HELD_1 = (OVERRIDE["pan_float_cmd"], OVERRIDE["gather_on_cmd"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -154,7 +158,10 @@ class GhController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_pan_float_cmd, self.world_gather_on_cmd)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_PAN_FLOAT_CMD_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_GATHER_ON_CMD_AT, s[1] | 1)  # odd before the value changes
@@ -251,7 +258,10 @@ class GhController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_pan_float_cmd, self.world_gather_on_cmd)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_PAN_FLOAT_CMD_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_GATHER_ON_CMD_AT, s[1] | 1)  # odd before the value changes

@@ -9,6 +9,8 @@ import miner_hooks.sim as hooks
 from .layout import (
     JAS_PERF_AT,
     JAS_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_JACK_DOWN_AT,
 )
 from .rcs.contract import (
@@ -25,6 +27,8 @@ from .rcs.contract import (
     HookError,
     is_integer,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands jas accepts (the code written to its command buffer).
 INIT = 1
@@ -39,12 +43,13 @@ INPUTS_AT = 2168
 SEQS = Struct("<Q")
 SEQS_AT = 2168
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 3888
+WORLD_HELD_1 = (OVERRIDE["jack_down"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -52,6 +57,12 @@ S0 = 1
 # Constants.
 TRAVEL_CYCLES = 15
 TRAVEL_SPREAD = 3
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "travel_time": 1.0,
+}
 
 
 class JasController:
@@ -94,12 +105,27 @@ class JasController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_actuator_error(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_actuator_error, settings or {})
+        except BaseException as error:
             raise HookError("jas", "new_actuator_error", "hooks_state", 0) from error
         self.var_travel: int = 0
         self.var_stroke: int = 0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_jack_down_cmd,
+            self.world_jack_down,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -191,7 +217,10 @@ class JasController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_jack_down,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_JACK_DOWN_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -291,7 +320,10 @@ class JasController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_jack_down,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_JACK_DOWN_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -326,8 +358,14 @@ class JasController:
         if self.world_jack_down_cmd != self.world_jack_down and self.var_travel == 0:
             # a new stroke; how long it takes
             try:
-                returned = hooks.travel_time(self.hook_state, TRAVEL_CYCLES, TRAVEL_SPREAD)
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+                returned = within(
+                    HOOK_DEADLINES["travel_time"],
+                    hooks.travel_time,
+                    self.hook_state,
+                    TRAVEL_CYCLES,
+                    TRAVEL_SPREAD,
+                )
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("jas", "travel_time", "every_cycle/1", self.cycles) from error
             if (
                 type(returned) is not int and not is_integer(returned)

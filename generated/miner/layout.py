@@ -6,9 +6,11 @@ then each process's control record (its heartbeat and counters) and pacing recor
 slow-down, written by an operator). Every module owns a command
 buffer (written by its supervisor), a status buffer and a performance buffer (written by
 the module) and a mode buffer (written by an operator). World-model fields follow, one
-buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
-8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 4192 bytes.
+buffer each, then the overrides: a flag, and each world field's override record (its state,
+NONE, FORCED or SAFE, and its value; rcs/override.py).
+Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
+all values are little-endian `struct` fields with no implicit padding.
+The block is 5240 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -167,6 +169,50 @@ command buffers and world fields:
 | 4144 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
 | 4160 | 16 | WORLD_COAL_MINED | coal_mined |
 | 4176 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
+| 4192 | 9 | OVERRIDES | any |
+| 4208 | 17 | OVERRIDE_TAIL_REQUEST | state, tail_request |
+| 4232 | 17 | OVERRIDE_TAIL_IN_POSITION | state, tail_in_position |
+| 4256 | 24 | OVERRIDE_OPERATOR_DELAY | state, operator_delay |
+| 4280 | 24 | OVERRIDE_OPERATOR_GOAL_X | state, operator_goal_x |
+| 4304 | 24 | OVERRIDE_OPERATOR_GOAL_Y | state, operator_goal_y |
+| 4328 | 24 | OVERRIDE_GOAL_X | state, goal_x |
+| 4352 | 24 | OVERRIDE_GOAL_Y | state, goal_y |
+| 4376 | 17 | OVERRIDE_PATH_OK | state, path_ok |
+| 4400 | 24 | OVERRIDE_WP_X | state, wp_x |
+| 4424 | 24 | OVERRIDE_WP_Y | state, wp_y |
+| 4448 | 17 | OVERRIDE_WP_LAST | state, wp_last |
+| 4472 | 24 | OVERRIDE_BOOM_RATE_CMD | state, boom_rate_cmd |
+| 4496 | 17 | OVERRIDE_DRUM_ON_CMD | state, drum_on_cmd |
+| 4520 | 17 | OVERRIDE_JACK_DOWN_CMD | state, jack_down_cmd |
+| 4544 | 24 | OVERRIDE_LEFT_TREAD_CMD | state, left_tread_cmd |
+| 4568 | 24 | OVERRIDE_RIGHT_TREAD_CMD | state, right_tread_cmd |
+| 4592 | 17 | OVERRIDE_PAN_FLOAT_CMD | state, pan_float_cmd |
+| 4616 | 17 | OVERRIDE_GATHER_ON_CMD | state, gather_on_cmd |
+| 4640 | 17 | OVERRIDE_CONVEYOR_ON_CMD | state, conveyor_on_cmd |
+| 4664 | 24 | OVERRIDE_TRUE_X | state, true_x |
+| 4688 | 24 | OVERRIDE_TRUE_Y | state, true_y |
+| 4712 | 24 | OVERRIDE_TRUE_HEADING | state, true_heading |
+| 4736 | 24 | OVERRIDE_BOOM_ANGLE_TRUE | state, boom_angle_true |
+| 4760 | 24 | OVERRIDE_DRUM_CURRENT_TRUE | state, drum_current_true |
+| 4784 | 17 | OVERRIDE_JACK_DOWN | state, jack_down |
+| 4808 | 24 | OVERRIDE_SLIP | state, slip |
+| 4832 | 17 | OVERRIDE_TREAD_STALLED | state, tread_stalled |
+| 4856 | 24 | OVERRIDE_POSE_X | state, pose_x |
+| 4880 | 24 | OVERRIDE_POSE_Y | state, pose_y |
+| 4904 | 24 | OVERRIDE_HEADING | state, heading |
+| 4928 | 24 | OVERRIDE_BOOM_ANGLE | state, boom_angle |
+| 4952 | 24 | OVERRIDE_CUTTER_CURRENT | state, cutter_current |
+| 4976 | 24 | OVERRIDE_LOOSE_COAL | state, loose_coal |
+| 5000 | 17 | OVERRIDE_POPPED_OUT_OF_SHEAR | state, popped_out_of_shear |
+| 5024 | 24 | OVERRIDE_DEPTH_EST | state, depth_est |
+| 5048 | 24 | OVERRIDE_DRUM_REACH | state, drum_reach |
+| 5072 | 24 | OVERRIDE_SUMP_STEP | state, sump_step |
+| 5096 | 17 | OVERRIDE_IN_COAL | state, in_coal |
+| 5120 | 24 | OVERRIDE_FACE_X | state, face_x |
+| 5144 | 24 | OVERRIDE_DEPTH_CUT | state, depth_cut |
+| 5168 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
+| 5192 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
+| 5216 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
 """
 
 from __future__ import annotations
@@ -195,9 +241,9 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 4192
+SIZE = 5240
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "42c60a3aab361bee64197473d0875ece"
+LAYOUT_HASH = "a0264cffbdce0a3562ab70c5bde417d1"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
@@ -514,6 +560,8 @@ PLACEMENT = {
 }
 # Seconds without a heartbeat after which a process is reported dead.
 HEARTBEAT_TIMEOUT = 1.0
+# Seconds every process of a launch has to run its first cycle (the start-up barrier).
+STARTUP_TIMEOUT = 10.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
     "sec": ("sb",),
@@ -544,6 +592,9 @@ SUBORDINATES = {
     "pp": (),
     "cr_sim": (),
 }
+# The subordinates whose loss a supervisor's own rules handle (`on_lost: continue`); every
+# other loss halts everything (`halt_all`: rcs/loop.py `reaction`).
+ON_LOST_CONTINUE: dict[str, tuple[str, ...]] = {}
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {
     "cr": "cr_sim",
@@ -800,6 +851,144 @@ WORLD_INITIAL: dict[str, object] = {
     "coal_mined": 0.0,
     "shuttle_car_away": False,
 }
+# Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
+# override's value; the module that writes it does not overwrite it meanwhile.
+OVERRIDES_AT = 4192
+OVERRIDDEN_AT = 4200  # `any`: one byte stored whole, read without the seqlock
+# (for tools to read; only rcs/override.py writes it, one byte at a time)
+OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
+OVERRIDE = {
+    "tail_request": Record(Struct("<QQ?"), 4208, ("state", "tail_request")),
+    "tail_in_position": Record(Struct("<QQ?"), 4232, ("state", "tail_in_position")),
+    "operator_delay": Record(Struct("<QQq"), 4256, ("state", "operator_delay")),
+    "operator_goal_x": Record(Struct("<QQd"), 4280, ("state", "operator_goal_x")),
+    "operator_goal_y": Record(Struct("<QQd"), 4304, ("state", "operator_goal_y")),
+    "goal_x": Record(Struct("<QQd"), 4328, ("state", "goal_x")),
+    "goal_y": Record(Struct("<QQd"), 4352, ("state", "goal_y")),
+    "path_ok": Record(Struct("<QQ?"), 4376, ("state", "path_ok")),
+    "wp_x": Record(Struct("<QQd"), 4400, ("state", "wp_x")),
+    "wp_y": Record(Struct("<QQd"), 4424, ("state", "wp_y")),
+    "wp_last": Record(Struct("<QQ?"), 4448, ("state", "wp_last")),
+    "boom_rate_cmd": Record(Struct("<QQd"), 4472, ("state", "boom_rate_cmd")),
+    "drum_on_cmd": Record(Struct("<QQ?"), 4496, ("state", "drum_on_cmd")),
+    "jack_down_cmd": Record(Struct("<QQ?"), 4520, ("state", "jack_down_cmd")),
+    "left_tread_cmd": Record(Struct("<QQq"), 4544, ("state", "left_tread_cmd")),
+    "right_tread_cmd": Record(Struct("<QQq"), 4568, ("state", "right_tread_cmd")),
+    "pan_float_cmd": Record(Struct("<QQ?"), 4592, ("state", "pan_float_cmd")),
+    "gather_on_cmd": Record(Struct("<QQ?"), 4616, ("state", "gather_on_cmd")),
+    "conveyor_on_cmd": Record(Struct("<QQ?"), 4640, ("state", "conveyor_on_cmd")),
+    "true_x": Record(Struct("<QQd"), 4664, ("state", "true_x")),
+    "true_y": Record(Struct("<QQd"), 4688, ("state", "true_y")),
+    "true_heading": Record(Struct("<QQd"), 4712, ("state", "true_heading")),
+    "boom_angle_true": Record(Struct("<QQd"), 4736, ("state", "boom_angle_true")),
+    "drum_current_true": Record(Struct("<QQd"), 4760, ("state", "drum_current_true")),
+    "jack_down": Record(Struct("<QQ?"), 4784, ("state", "jack_down")),
+    "slip": Record(Struct("<QQd"), 4808, ("state", "slip")),
+    "tread_stalled": Record(Struct("<QQ?"), 4832, ("state", "tread_stalled")),
+    "pose_x": Record(Struct("<QQd"), 4856, ("state", "pose_x")),
+    "pose_y": Record(Struct("<QQd"), 4880, ("state", "pose_y")),
+    "heading": Record(Struct("<QQd"), 4904, ("state", "heading")),
+    "boom_angle": Record(Struct("<QQd"), 4928, ("state", "boom_angle")),
+    "cutter_current": Record(Struct("<QQd"), 4952, ("state", "cutter_current")),
+    "loose_coal": Record(Struct("<QQd"), 4976, ("state", "loose_coal")),
+    "popped_out_of_shear": Record(Struct("<QQ?"), 5000, ("state", "popped_out_of_shear")),
+    "depth_est": Record(Struct("<QQd"), 5024, ("state", "depth_est")),
+    "drum_reach": Record(Struct("<QQd"), 5048, ("state", "drum_reach")),
+    "sump_step": Record(Struct("<QQd"), 5072, ("state", "sump_step")),
+    "in_coal": Record(Struct("<QQ?"), 5096, ("state", "in_coal")),
+    "face_x": Record(Struct("<QQd"), 5120, ("state", "face_x")),
+    "depth_cut": Record(Struct("<QQd"), 5144, ("state", "depth_cut")),
+    "loose_coal_true": Record(Struct("<QQd"), 5168, ("state", "loose_coal_true")),
+    "coal_mined": Record(Struct("<QQd"), 5192, ("state", "coal_mined")),
+    "shuttle_car_away": Record(Struct("<QQ?"), 5216, ("state", "shuttle_car_away")),
+}
+# Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
+# runtime drives it, latched, when the process that writes it is lost, stops or trips.
+SAFE_VALUES: dict[str, object] = {
+    "tail_request": False,
+    "boom_rate_cmd": 0.0,
+    "drum_on_cmd": False,
+    "jack_down_cmd": False,
+    "left_tread_cmd": 0,
+    "right_tread_cmd": 0,
+    "pan_float_cmd": False,
+    "gather_on_cmd": False,
+    "conveyor_on_cmd": False,
+}
+# The process whose modules write each actuator.
+ACTUATED_BY = {
+    "tail_request": "pc1",
+    "boom_rate_cmd": "pc1",
+    "drum_on_cmd": "pc1",
+    "jack_down_cmd": "pc1",
+    "left_tread_cmd": "pc1",
+    "right_tread_cmd": "pc1",
+    "pan_float_cmd": "pc1",
+    "gather_on_cmd": "pc1",
+    "conveyor_on_cmd": "pc1",
+}
+# The modules that write each world field (a stand-in writes in its controller's place), for
+# `ctl force`: forcing a field takes it from them, which needs override on each.
+WORLD_WRITERS: dict[str, tuple[str, ...]] = {
+    "tail_request": ("ct",),
+    "tail_in_position": ("oi",),
+    "operator_goal_x": ("oi",),
+    "operator_goal_y": ("oi",),
+    "goal_x": ("co",),
+    "goal_y": ("co",),
+    "path_ok": ("pp",),
+    "wp_x": ("pp",),
+    "wp_y": ("pp",),
+    "wp_last": ("pp",),
+    "boom_rate_cmd": ("bm",),
+    "drum_on_cmd": ("cd",),
+    "jack_down_cmd": ("sj",),
+    "left_tread_cmd": ("tc",),
+    "right_tread_cmd": ("tc",),
+    "pan_float_cmd": ("gh",),
+    "gather_on_cmd": ("gh",),
+    "conveyor_on_cmd": ("cv",),
+    "true_x": ("tas",),
+    "true_y": ("tas",),
+    "true_heading": ("tas",),
+    "boom_angle_true": ("bas",),
+    "drum_current_true": ("das",),
+    "jack_down": ("jas",),
+    "slip": ("mine",),
+    "pose_x": ("pss",),
+    "pose_y": ("pss",),
+    "heading": ("pss",),
+    "boom_angle": ("bss",),
+    "cutter_current": ("css",),
+    "loose_coal": ("lcs",),
+    "popped_out_of_shear": ("wm",),
+    "depth_est": ("wm",),
+    "drum_reach": ("wm",),
+    "sump_step": ("sb",),
+    "in_coal": ("mine",),
+    "face_x": ("mine",),
+    "depth_cut": ("mine",),
+    "loose_coal_true": ("mine", "gas", "cr_sim"),
+    "coal_mined": ("gas", "cr_sim"),
+    "shuttle_car_away": ("gas",),
+}
+# The fields that are the simulation's truth (`ground_truth: true`): no operator can force
+# the real world, so `ctl force` takes them only while the modules writing them simulate.
+GROUND_TRUTH = (
+    "true_x",
+    "true_y",
+    "true_heading",
+    "boom_angle_true",
+    "drum_current_true",
+    "slip",
+    "tread_stalled",
+    "in_coal",
+    "face_x",
+    "depth_cut",
+    "loose_coal_true",
+    "coal_mined",
+    "shuttle_car_away",
+)
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "sec": (NO_COMMAND_NAME, *("INIT", "HALT", "MINE_COAL", "BOX_CUT", "TRAM_TO_GOAL")),
@@ -859,6 +1048,31 @@ COMMAND_NAMES = {
     "lcs": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "wm": (NO_COMMAND_NAME, *("INIT", "HALT", "NEW_CUT")),
     "pp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN")),
+}
+# Each command's parameters, in order: an operator gives every one of them (`ctl send`,
+# `--send`, a scenario), each checked against its slot's type (rcs/command.py). A command
+# not listed takes none.
+PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
+    "sec": {
+        "MINE_COAL": ("depth", "offset"),
+        "BOX_CUT": ("depth",),
+    },
+    "sb": {
+        "BOX_CUT": ("depth",),
+        "CUT_TWO_PASSES": ("depth", "offset"),
+    },
+    "co": {
+        "REPOSITION": ("x", "y"),
+    },
+    "vg": {
+        "TRAM_TO_XY": ("x", "y"),
+    },
+    "oi": {
+        "ENTER_GOAL": ("x", "y"),
+    },
+    "pp": {
+        "PLAN": ("x", "y"),
+    },
 }
 STATE_NAMES = {
     "sec": ("NOP", "S0", "S1"),
@@ -1180,6 +1394,15 @@ ROLES: dict[str, dict[str, int]] = {
         "pp": 3,  # override
     },
 }
+# The run settings the hook-state factories read (`settings:`), each with what it chooses;
+# `--set`, a scenario's `settings:` and a harness may give only these.
+SETTINGS: dict[str, str] | None = {
+    "map": "The coal map the mine and the planner read: maps/<name>.map (default maps/box_cut.map).",
+    "seed": "The seed of the simulated noise and actuator error, a whole number (default 1).",
+    "shuttle_car": "'CAPACITY TRIP': a shuttle car of that many tonnes away that many cycles when full (default: a belt).",
+}
+# Whether a controller has a `hooks_state` factory: without one no setting is read.
+READS_SETTINGS = True
 # What modules ask of the operator (`operators.requests`): open while the world field
 # `while` is true, answered by sending the command `answer`.
 REQUESTS: dict[str, dict[str, object]] = {
@@ -1197,9 +1420,19 @@ def initialise(buf: memoryview) -> None:
     write in progress), set every world field to its initial value and flag the simulators."""
     buf[:SIZE] = bytes(SIZE)
     HEADER.pack_into(buf, 0, MAGIC, LAYOUT_HASH.encode(), SYSTEM.encode()[:32], SIZE)
-    for records in (PROCESSES, PACING, COMMAND_IN, STATUS_OUT, MODE_IN, PERFORMANCE, WORLD):
+    for records in (
+        PROCESSES,
+        PACING,
+        COMMAND_IN,
+        STATUS_OUT,
+        MODE_IN,
+        PERFORMANCE,
+        WORLD,
+        OVERRIDE,
+    ):
         for record in records.values():
             SEQ.pack_into(buf, record.offset, FIRST_SEQ)
+    SEQ.pack_into(buf, OVERRIDES_AT, FIRST_SEQ)
     for name, value in WORLD_INITIAL.items():
         WORLD[name].write(buf, **{name: value})
     for name in SIMULATORS:

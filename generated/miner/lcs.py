@@ -9,11 +9,14 @@ import miner_hooks.sim as hooks
 from .layout import (
     LCS_PERF_AT,
     LCS_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_LOOSE_COAL_AT,
 )
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -24,6 +27,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands lcs accepts (the code written to its command buffer).
 INIT = 1
@@ -38,18 +43,25 @@ INPUTS_AT = 3128
 SEQS = Struct("<Q")
 SEQS_AT = 3128
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 4016
+WORLD_HELD_1 = (OVERRIDE["loose_coal"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 
 # Constants.
 NOISE = 0.02
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "noisy": 1.0,
+}
 
 
 class LcsController:
@@ -91,11 +103,26 @@ class LcsController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_noise(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_noise, settings or {})
+        except BaseException as error:
             raise HookError("lcs", "new_noise", "hooks_state", 0) from error
         self.var_reading: float = 0.0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_loose_coal,
+            self.world_loose_coal_true,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -187,7 +214,10 @@ class LcsController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_loose_coal,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -287,7 +317,10 @@ class LcsController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_loose_coal,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LOOSE_COAL_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -320,10 +353,18 @@ class LcsController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.noisy(self.hook_state, self.world_loose_coal_true, NOISE)
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+            returned = within(
+                HOOK_DEADLINES["noisy"],
+                hooks.noisy,
+                self.hook_state,
+                self.world_loose_coal_true,
+                NOISE,
+            )
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("lcs", "noisy", "every_cycle/1", self.cycles) from error
-        if type(returned) not in NUMBER and not is_real(returned):
+        if (
+            type(returned) not in NUMBER and not is_real(returned)
+        ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
             raise HookError("lcs", "noisy", "every_cycle/1", self.cycles, returned, "f")
         self.var_reading = returned
         self.world_loose_coal = max(0.0, self.var_reading)

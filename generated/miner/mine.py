@@ -9,6 +9,8 @@ import miner_hooks.mine as hooks
 from .layout import (
     MINE_PERF_AT,
     MINE_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_DEPTH_CUT_AT,
     WORLD_FACE_X_AT,
     WORLD_IN_COAL_AT,
@@ -18,6 +20,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -28,6 +31,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands mine accepts (the code written to its command buffer).
 INIT = 1
@@ -42,22 +47,36 @@ INPUTS_AT = 2408
 SEQS = Struct("<Q")
 SEQS_AT = 2408
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 3904
+WORLD_HELD_1 = (OVERRIDE["slip"],)  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_2 = Struct("<Q?7xQdQdQd")
 WORLD_VALUES_2 = Struct("<8x?15xd8xd8xd")
 WORLD_SEQS_2 = Struct("<Q8xQ8xQ8xQ")
 WORLD_OUT_2_AT = 4096
+WORLD_HELD_2 = (
+    OVERRIDE["in_coal"],
+    OVERRIDE["face_x"],
+    OVERRIDE["depth_cut"],
+    OVERRIDE["loose_coal_true"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "cut_coal": 1.0,
+    "slip": 1.0,
+}
 
 
 class MineController:
@@ -107,11 +126,34 @@ class MineController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_mine(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_mine, settings or {})
+        except BaseException as error:
             raise HookError("mine", "new_mine", "hooks_state", 0) from error
         self.var_cut: float = 0.0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_drum_on_cmd,
+            self.world_true_x,
+            self.world_true_y,
+            self.world_boom_angle_true,
+            self.world_jack_down,
+            self.world_slip,
+            self.world_in_coal,
+            self.world_face_x,
+            self.world_depth_cut,
+            self.world_loose_coal_true,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -211,7 +253,10 @@ class MineController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_slip,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_SLIP_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -222,7 +267,10 @@ class MineController:
             self.world_depth_cut,
             self.world_loose_coal_true,
         )
-        if WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT) != out:  # set this cycle
+        now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_2, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
             SEQ.pack_into(buf, WORLD_IN_COAL_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_FACE_X_AT, s[1] | 1)  # odd before the value changes
@@ -347,7 +395,10 @@ class MineController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_slip,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_SLIP_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -358,7 +409,10 @@ class MineController:
             self.world_depth_cut,
             self.world_loose_coal_true,
         )
-        if WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT) != out:  # set this cycle
+        now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_2, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
             SEQ.pack_into(buf, WORLD_IN_COAL_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_FACE_X_AT, s[1] | 1)  # odd before the value changes
@@ -408,37 +462,52 @@ class MineController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.cut_coal(
+            returned = within(
+                HOOK_DEADLINES["cut_coal"],
+                hooks.cut_coal,
                 self.hook_state,
                 self.world_true_x,
                 self.world_true_y,
                 self.world_boom_angle_true,
                 self.world_drum_on_cmd,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("mine", "cut_coal", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 4
             or type(returned[0]) is not bool
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
-            or (type(returned[3]) not in NUMBER and not is_real(returned[3]))
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[3]) not in NUMBER and not is_real(returned[3]))
+                or not -FLOAT_MAX <= returned[3] <= FLOAT_MAX
+            )
         ):
             raise HookError("mine", "cut_coal", "every_cycle/1", self.cycles, returned, "bfff")
         self.world_in_coal, self.world_face_x, self.world_depth_cut, self.var_cut = returned
         self.world_loose_coal_true = self.world_loose_coal_true + self.var_cut
         try:
-            returned = hooks.slip(
+            returned = within(
+                HOOK_DEADLINES["slip"],
+                hooks.slip,
                 self.hook_state,
                 self.world_true_x,
                 self.world_boom_angle_true,
                 self.world_jack_down,
                 self.var_cut,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("mine", "slip", "every_cycle/1", self.cycles) from error
-        if type(returned) not in NUMBER and not is_real(returned):
+        if (
+            type(returned) not in NUMBER and not is_real(returned)
+        ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
             raise HookError("mine", "slip", "every_cycle/1", self.cycles, returned, "f")
         self.world_slip = returned
 

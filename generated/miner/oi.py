@@ -7,11 +7,14 @@ from time import perf_counter_ns
 from .layout import (
     OI_PERF_AT,
     OI_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_OPERATOR_GOAL_X_AT,
     WORLD_OPERATOR_GOAL_Y_AT,
     WORLD_TAIL_IN_POSITION_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.override import held
 
 # Commands oi accepts (the code written to its command buffer).
 INIT = 1
@@ -28,19 +31,21 @@ INPUTS_AT = 1912
 SEQS = Struct("<Q")
 SEQS_AT = 1912
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 3520
+WORLD_HELD_1 = (OVERRIDE["tail_in_position"],)  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_2 = Struct("<QdQd")
 WORLD_VALUES_2 = Struct("<8xd8xd")
 WORLD_SEQS_2 = Struct("<Q8xQ")
 WORLD_OUT_2_AT = 3552
+WORLD_HELD_2 = (OVERRIDE["operator_goal_x"], OVERRIDE["operator_goal_y"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -98,6 +103,27 @@ class OiController:
         self.var_answered: bool = False
         self.var_tail_x: float = 0.0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.arg_x,
+            self.arg_y,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_tail_request,
+            self.world_tail_in_position,
+            self.world_operator_delay,
+            self.world_operator_goal_x,
+            self.world_operator_goal_y,
+            self.world_true_x,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -199,13 +225,19 @@ class OiController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_tail_in_position,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_TAIL_IN_POSITION_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
             SEQ.pack_into(buf, WORLD_TAIL_IN_POSITION_AT, (s[0] | 1) + 1)
         out = (self.world_operator_goal_x, self.world_operator_goal_y)
-        if WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT) != out:  # set this cycle
+        now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_2, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
             SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
@@ -317,13 +349,19 @@ class OiController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_tail_in_position,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_TAIL_IN_POSITION_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
             SEQ.pack_into(buf, WORLD_TAIL_IN_POSITION_AT, (s[0] | 1) + 1)
         out = (self.world_operator_goal_x, self.world_operator_goal_y)
-        if WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT) != out:  # set this cycle
+        now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_2, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
             SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_Y_AT, s[1] | 1)  # odd before the value changes

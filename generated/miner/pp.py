@@ -7,6 +7,8 @@ from time import perf_counter_ns
 import miner_hooks.pp as hooks
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     PP_PERF_AT,
     PP_STATUS_AT,
     WORLD_PATH_OK_AT,
@@ -18,6 +20,7 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -28,6 +31,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands pp accepts (the code written to its command buffer).
 INIT = 1
@@ -43,16 +48,28 @@ INPUTS_AT = 3368
 SEQS = Struct("<Q560xQ8xQ8xQ")
 SEQS_AT = 3368
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?7xQdQdQ?")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
 WORLD_OUT_1_AT = 3616
+WORLD_HELD_1 = (
+    OVERRIDE["path_ok"],
+    OVERRIDE["wp_x"],
+    OVERRIDE["wp_y"],
+    OVERRIDE["wp_last"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "plan": 1.0,
+}
 
 
 class PpController:
@@ -100,10 +117,35 @@ class PpController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_planner(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_planner, settings or {})
+        except BaseException as error:
             raise HookError("pp", "new_planner", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.arg_x,
+            self.arg_y,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_path_ok,
+            self.world_wp_x,
+            self.world_wp_y,
+            self.world_wp_last,
+            _,
+            self.world_pose_x,
+            _,
+            self.world_pose_y,
+            _,
+            self.world_heading,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -218,7 +260,10 @@ class PpController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_path_ok, self.world_wp_x, self.world_wp_y, self.world_wp_last)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_PATH_OK_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_WP_X_AT, s[1] | 1)  # odd before the value changes
@@ -358,7 +403,10 @@ class PpController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_path_ok, self.world_wp_x, self.world_wp_y, self.world_wp_last)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_PATH_OK_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_WP_X_AT, s[1] | 1)  # odd before the value changes
@@ -430,7 +478,9 @@ class PpController:
             self.rule = 3  # PLAN/S0/1
             self.state = S1
             try:
-                returned = hooks.plan(
+                returned = within(
+                    HOOK_DEADLINES["plan"],
+                    hooks.plan,
                     self.hook_state,
                     self.world_pose_x,
                     self.world_pose_y,
@@ -438,14 +488,20 @@ class PpController:
                     self.arg_x,
                     self.arg_y,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("pp", "plan", "PLAN/S0/1", self.cycles) from error
             if (
                 type(returned) is not tuple
                 or len(returned) != 4
                 or type(returned[0]) is not bool
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or (
+                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                    or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+                )
                 or type(returned[3]) is not bool
             ):
                 raise HookError("pp", "plan", "PLAN/S0/1", self.cycles, returned, "bffb")

@@ -7,6 +7,8 @@ from time import perf_counter_ns
 import miner_hooks.sim as hooks
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     PSS_PERF_AT,
     PSS_STATUS_AT,
     WORLD_HEADING_AT,
@@ -16,6 +18,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -26,6 +29,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands pss accepts (the code written to its command buffer).
 INIT = 1
@@ -40,12 +45,13 @@ INPUTS_AT = 2888
 SEQS = Struct("<Q")
 SEQS_AT = 2888
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
 WORLD_OUT_1_AT = 3936
+WORLD_HELD_1 = (OVERRIDE["pose_x"], OVERRIDE["pose_y"], OVERRIDE["heading"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -53,6 +59,12 @@ S0 = 1
 # Constants.
 NOISE = 0.002
 HEADING_NOISE = 0.0005
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "noisy_pose": 1.0,
+}
 
 
 class PssController:
@@ -97,10 +109,29 @@ class PssController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_noise(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_noise, settings or {})
+        except BaseException as error:
             raise HookError("pss", "new_noise", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_true_x,
+            self.world_true_y,
+            self.world_true_heading,
+            self.world_pose_x,
+            self.world_pose_y,
+            self.world_heading,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -196,7 +227,10 @@ class PssController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_pose_x, self.world_pose_y, self.world_heading)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_POSE_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_POSE_Y_AT, s[1] | 1)  # odd before the value changes
@@ -306,7 +340,10 @@ class PssController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_pose_x, self.world_pose_y, self.world_heading)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_POSE_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_POSE_Y_AT, s[1] | 1)  # odd before the value changes
@@ -345,7 +382,9 @@ class PssController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.noisy_pose(
+            returned = within(
+                HOOK_DEADLINES["noisy_pose"],
+                hooks.noisy_pose,
                 self.hook_state,
                 self.world_true_x,
                 self.world_true_y,
@@ -353,14 +392,23 @@ class PssController:
                 NOISE,
                 HEADING_NOISE,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("pss", "noisy_pose", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 3
-            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+            or (
+                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+            )
         ):
             raise HookError("pss", "noisy_pose", "every_cycle/1", self.cycles, returned, "fff")
         self.world_pose_x, self.world_pose_y, self.world_heading = returned

@@ -7,6 +7,8 @@ from time import perf_counter_ns
 from .layout import (
     CO_COMMAND,
     CO_COMMAND_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     SB_PERF_AT,
     SB_STATUS_AT,
     WM_COMMAND,
@@ -14,6 +16,7 @@ from .layout import (
     WORLD_SUMP_STEP_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.override import held
 
 # Commands sb accepts (the code written to its command buffer).
 INIT = 1
@@ -41,12 +44,13 @@ WM_NEW_CUT = 3
 INPUTS = Struct("<QIdd44x???1xI96xQI2660xQI652xd8xd88xd8xd8xd")
 INPUTS_AT = 432
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 4080
+WORLD_HELD_1 = (OVERRIDE["sump_step"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -268,7 +272,10 @@ class SbController:
             SEQ.pack_into(buf, WM_COMMAND_AT, seq + 1)
             self.wm_written = self.wm_command_num
         out = (self.world_sump_step,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -404,7 +411,10 @@ class SbController:
             SEQ.pack_into(buf, WM_COMMAND_AT, seq + 1)
             self.wm_written = self.wm_command_num
         out = (self.world_sump_step,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])

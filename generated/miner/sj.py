@@ -5,11 +5,14 @@ from struct import Struct
 from time import perf_counter_ns
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     SJ_PERF_AT,
     SJ_STATUS_AT,
     WORLD_JACK_DOWN_CMD_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.override import held
 
 # Commands sj accepts (the code written to its command buffer).
 INIT = 1
@@ -22,12 +25,13 @@ RAISE = 4
 INPUTS = Struct("<QI44x???1xI2592x?175x?")
 INPUTS_AT = 1064
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 3712
+WORLD_HELD_1 = (OVERRIDE["jack_down_cmd"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -154,7 +158,10 @@ class SjController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_jack_down_cmd,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_JACK_DOWN_CMD_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -249,7 +256,10 @@ class SjController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_jack_down_cmd,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_JACK_DOWN_CMD_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])

@@ -7,6 +7,8 @@ from time import perf_counter_ns
 import miner_hooks.sim as hooks
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     TAS_PERF_AT,
     TAS_STATUS_AT,
     WORLD_TRUE_HEADING_AT,
@@ -16,6 +18,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -26,6 +29,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands tas accepts (the code written to its command buffer).
 INIT = 1
@@ -40,18 +45,26 @@ INPUTS_AT = 2288
 SEQS = Struct("<Q")
 SEQS_AT = 2288
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
 WORLD_OUT_1_AT = 3808
+WORLD_HELD_1 = (OVERRIDE["true_x"], OVERRIDE["true_y"], OVERRIDE["true_heading"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 
 # Constants.
 SPEED_ERROR = 0.05
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "advance": 1.0,
+    "slide": 1.0,
+}
 
 
 class TasController:
@@ -97,10 +110,30 @@ class TasController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_actuator_error(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_actuator_error, settings or {})
+        except BaseException as error:
             raise HookError("tas", "new_actuator_error", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_left_tread_cmd,
+            self.world_right_tread_cmd,
+            self.world_true_x,
+            self.world_true_y,
+            self.world_true_heading,
+            self.world_slip,
+            self.world_tread_stalled,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -197,7 +230,10 @@ class TasController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_true_x, self.world_true_y, self.world_true_heading)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_TRUE_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_TRUE_Y_AT, s[1] | 1)  # odd before the value changes
@@ -308,7 +344,10 @@ class TasController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_true_x, self.world_true_y, self.world_true_heading)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_TRUE_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_TRUE_Y_AT, s[1] | 1)  # odd before the value changes
@@ -350,7 +389,9 @@ class TasController:
             self.world_left_tread_cmd != 0 or self.world_right_tread_cmd != 0
         ):
             try:
-                returned = hooks.advance(
+                returned = within(
+                    HOOK_DEADLINES["advance"],
+                    hooks.advance,
                     self.hook_state,
                     self.world_true_x,
                     self.world_true_y,
@@ -359,14 +400,23 @@ class TasController:
                     self.world_right_tread_cmd,
                     SPEED_ERROR,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("tas", "advance", "every_cycle/1", self.cycles) from error
             if (
                 type(returned) is not tuple
                 or len(returned) != 3
-                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-                or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or (
+                    (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                    or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+                )
             ):
                 raise HookError("tas", "advance", "every_cycle/1", self.cycles, returned, "fff")
             self.world_true_x, self.world_true_y, self.world_true_heading = returned
@@ -374,20 +424,28 @@ class TasController:
         elif self.world_slip > 0.0:
             # the shear slides the standing machine outby (a roll in the seam floor)
             try:
-                returned = hooks.slide(
+                returned = within(
+                    HOOK_DEADLINES["slide"],
+                    hooks.slide,
                     self.hook_state,
                     self.world_true_x,
                     self.world_true_y,
                     self.world_true_heading,
                     self.world_slip,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("tas", "slide", "every_cycle/2", self.cycles) from error
             if (
                 type(returned) is not tuple
                 or len(returned) != 2
-                or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-                or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or (
+                    (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                    or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+                )
+                or (
+                    (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                    or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+                )
             ):
                 raise HookError("tas", "slide", "every_cycle/2", self.cycles, returned, "ff")
             self.world_true_x, self.world_true_y = returned

@@ -5,12 +5,15 @@ from struct import Struct
 from time import perf_counter_ns
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     TC_PERF_AT,
     TC_STATUS_AT,
     WORLD_LEFT_TREAD_CMD_AT,
     WORLD_RIGHT_TREAD_CMD_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.override import held
 
 # Commands tc accepts (the code written to its command buffer).
 INIT = 1
@@ -32,12 +35,13 @@ STOP = 13
 INPUTS = Struct("<QI44x???1xI1872xq8xq")
 INPUTS_AT = 1800
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ")
 WORLD_OUT_1_AT = 3728
+WORLD_HELD_1 = (OVERRIDE["left_tread_cmd"], OVERRIDE["right_tread_cmd"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -185,7 +189,10 @@ class TcController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_left_tread_cmd, self.world_right_tread_cmd)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LEFT_TREAD_CMD_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_RIGHT_TREAD_CMD_AT, s[1] | 1)  # odd before the value changes
@@ -301,7 +308,10 @@ class TcController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_left_tread_cmd, self.world_right_tread_cmd)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_LEFT_TREAD_CMD_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_RIGHT_TREAD_CMD_AT, s[1] | 1)  # odd before the value changes

@@ -18,6 +18,7 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
+    FLOAT_MAX,
     INT_MAX,
     INT_MIN,
     NO_RULE,
@@ -31,6 +32,7 @@ from .rcs.contract import (
     is_integer,
     is_real,
 )
+from .rcs.deadline import within
 
 # Commands vg accepts (the code written to its command buffer).
 INIT = 1
@@ -89,6 +91,13 @@ GO_FORWARD = 1
 GO_REVERSE = 2
 GO_LEFT = 3
 GO_RIGHT = 4
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "align": 1.0,
+    "steer": 1.0,
+}
 
 
 class VgController:
@@ -153,6 +162,34 @@ class VgController:
         self.var_facing: int = 0
         self.var_facing_turn: float = 0.0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            self.command_num,
+            self.command,
+            self.arg_x,
+            self.arg_y,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.tc_status_num,
+            self.tc_status,
+            _,
+            self.pp_status_num,
+            self.pp_status,
+            _,
+            self.world_wp_x,
+            _,
+            self.world_wp_y,
+            _,
+            self.world_wp_last,
+            self.world_pose_x,
+            self.world_pose_y,
+            self.world_heading,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -497,14 +534,16 @@ class VgController:
         """Rules tried every cycle, whatever the command."""
         # where the waypoint is from this cycle's sensed pose (the moves below decide on it)
         try:
-            returned = hooks.steer(
+            returned = within(
+                HOOK_DEADLINES["steer"],
+                hooks.steer,
                 self.world_pose_x,
                 self.world_pose_y,
                 self.world_heading,
                 self.world_wp_x,
                 self.world_wp_y,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("vg", "steer", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
@@ -513,14 +552,20 @@ class VgController:
                 (type(returned[0]) is not int and not is_integer(returned[0]))
                 or not INT_MIN <= returned[0] <= INT_MAX
             )
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+            )
         ):
             raise HookError("vg", "steer", "every_cycle/1", self.cycles, returned, "iff")
         self.var_move, self.var_ahead, self.var_turn = returned
         try:
-            returned = hooks.align(self.world_heading)
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+            returned = within(HOOK_DEADLINES["align"], hooks.align, self.world_heading)
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("vg", "align", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
@@ -529,7 +574,10 @@ class VgController:
                 (type(returned[0]) is not int and not is_integer(returned[0]))
                 or not INT_MIN <= returned[0] <= INT_MAX
             )
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
         ):
             raise HookError("vg", "align", "every_cycle/1", self.cycles, returned, "if")
         self.var_facing, self.var_facing_turn = returned

@@ -7,6 +7,8 @@ from time import perf_counter_ns
 import miner_hooks.wm as hooks
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WM_PERF_AT,
     WM_STATUS_AT,
     WORLD_DEPTH_EST_AT,
@@ -16,6 +18,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -25,6 +28,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import within
+from .rcs.override import held
 
 # Commands wm accepts (the code written to its command buffer).
 INIT = 1
@@ -36,15 +41,26 @@ NEW_CUT = 3
 INPUTS = Struct("<QI44x???1xI576x?47xd40xd8xd24x?15xd8xd")
 INPUTS_AT = 3256
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?7xQdQd")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
 WORLD_OUT_1_AT = 4032
+WORLD_HELD_1 = (
+    OVERRIDE["popped_out_of_shear"],
+    OVERRIDE["depth_est"],
+    OVERRIDE["drum_reach"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "wm_estimate": 1.0,
+}
 
 
 class WmController:
@@ -182,7 +198,10 @@ class WmController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_popped_out_of_shear, self.world_depth_est, self.world_drum_reach)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(
                 buf, WORLD_POPPED_OUT_OF_SHEAR_AT, s[0] | 1
@@ -289,7 +308,10 @@ class WmController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_popped_out_of_shear, self.world_depth_est, self.world_drum_reach)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(
                 buf, WORLD_POPPED_OUT_OF_SHEAR_AT, s[0] | 1
@@ -331,7 +353,9 @@ class WmController:
         """Rules tried every cycle, whatever the command."""
         # estimate from this cycle's sensed values
         try:
-            returned = hooks.wm_estimate(
+            returned = within(
+                HOOK_DEADLINES["wm_estimate"],
+                hooks.wm_estimate,
                 self.world_pose_x,
                 self.world_boom_angle,
                 self.world_cutter_current,
@@ -341,17 +365,32 @@ class WmController:
                 self.var_shear_x,
                 self.world_popped_out_of_shear,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("wm", "wm_estimate", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 6
-            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+            or (
+                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+            )
             or type(returned[3]) is not bool
-            or (type(returned[4]) not in NUMBER and not is_real(returned[4]))
-            or (type(returned[5]) not in NUMBER and not is_real(returned[5]))
+            or (
+                (type(returned[4]) not in NUMBER and not is_real(returned[4]))
+                or not -FLOAT_MAX <= returned[4] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[5]) not in NUMBER and not is_real(returned[5]))
+                or not -FLOAT_MAX <= returned[5] <= FLOAT_MAX
+            )
         ):
             raise HookError("wm", "wm_estimate", "every_cycle/1", self.cycles, returned, "fffbff")
         (

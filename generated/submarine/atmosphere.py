@@ -7,10 +7,13 @@ from time import perf_counter_ns
 from .layout import (
     ATMOSPHERE_PERF_AT,
     ATMOSPHERE_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     WORLD_CO_PPM_AT,
     WORLD_FIRE_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.override import held
 
 # Commands atmosphere accepts (the code written to its command buffer).
 INIT = 1
@@ -25,12 +28,13 @@ INPUTS_AT = 1216
 SEQS = Struct("<Q")
 SEQS_AT = 1216
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?7xQd")
 WORLD_VALUES_1 = Struct("<8x?15xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
 WORLD_OUT_1_AT = 1768
+WORLD_HELD_1 = (OVERRIDE["fire"], OVERRIDE["co_ppm"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -81,6 +85,22 @@ class AtmosphereController:
         self.cycle_start = 0
         self.held_every_cycle_1 = 0  # cycles its every_cycle rule's `when` has held (for:)
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_vent_flow,
+            self.world_fire,
+            self.world_co_ppm,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -173,7 +193,10 @@ class AtmosphereController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_fire, self.world_co_ppm)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_FIRE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_CO_PPM_AT, s[1] | 1)  # odd before the value changes
@@ -276,7 +299,10 @@ class AtmosphereController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_fire, self.world_co_ppm)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_FIRE_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_CO_PPM_AT, s[1] | 1)  # odd before the value changes

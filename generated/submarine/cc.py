@@ -27,6 +27,7 @@ from .rcs.contract import (
     HookError,
     plan_problem,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
 
 # Commands cc accepts (the code written to its command buffer).
 INIT = 1
@@ -72,6 +73,12 @@ VENT = 5
 
 # Constants.
 CO_HIGH = 50.0
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "plan_route": 5.0,
+}
 
 
 class CcController:
@@ -131,13 +138,32 @@ class CcController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_mission(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_mission, settings or {})
+        except BaseException as error:
             raise HookError("cc", "new_mission", "hooks_state", 0) from error
         self.resume()
         self.plan_route: list[tuple[float, float]] = []  # plan route: no steps yet
         self.plan_route_steps = self.plan_route_replans_left = 0
         self.plan_route_go(0)
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.sm_status_num,
+            self.sm_status,
+            self.sm_error_num,
+            self.ec_status_num,
+            self.ec_status,
+            self.world_co_ppm,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -523,10 +549,14 @@ class CcController:
             self.plan_route_replans_left = 2  # plan: route, from no steps
             self.plan_route_load([], "RUN_MISSION/S0/1")
             try:
-                returned = hooks.plan_route(
-                    self.hook_state, self.plan_route_step, self.plan_route_steps
+                returned = within(
+                    HOOK_DEADLINES["plan_route"],
+                    hooks.plan_route,
+                    self.hook_state,
+                    self.plan_route_step,
+                    self.plan_route_steps,
                 )
-            except Exception as error:  # one error naming the module, planner, rule and cycle
+            except BaseException as error:  # one error naming the module, planner, rule and cycle
                 raise HookError("cc", "plan_route", "RUN_MISSION/S0/1", self.cycles) from error
             self.plan_route_load(returned, "RUN_MISSION/S0/1")
 
@@ -580,10 +610,16 @@ class CcController:
                     )
                 self.plan_route_replans_left -= 1
                 try:
-                    returned = hooks.plan_route(
-                        self.hook_state, self.plan_route_step, self.plan_route_steps
+                    returned = within(
+                        HOOK_DEADLINES["plan_route"],
+                        hooks.plan_route,
+                        self.hook_state,
+                        self.plan_route_step,
+                        self.plan_route_steps,
                     )
-                except Exception as error:  # one error naming the module, planner, rule and cycle
+                except (
+                    BaseException
+                ) as error:  # one error naming the module, planner, rule and cycle
                     raise HookError(
                         "cc", "plan_route", "RUN_MISSION/TRANSIT/3", self.cycles
                     ) from error

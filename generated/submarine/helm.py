@@ -10,6 +10,8 @@ from .layout import (
     HELM_PERF_AT,
     HELM_STATUS,
     HELM_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     RUDDER_COMMAND,
     RUDDER_COMMAND_AT,
     WORLD_COURSE_AT,
@@ -18,6 +20,7 @@ from .rcs.contract import (
     DONE,
     ERROR,
     EXECUTING,
+    FLOAT_MAX,
     INT_MAX,
     INT_MIN,
     NO_RULE,
@@ -29,6 +32,8 @@ from .rcs.contract import (
     is_integer,
     is_real,
 )
+from .rcs.deadline import within
+from .rcs.override import held
 
 # Commands helm accepts (the code written to its command buffer).
 INIT = 1
@@ -50,12 +55,13 @@ RUDDER_GOTO_ANGLE = 3
 INPUTS = Struct("<QIdd52x???1xI88xQI596xd24xd8xd8xd72xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 592
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 1368
+WORLD_HELD_1 = (OVERRIDE["course"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -67,6 +73,13 @@ GAIN = 1.5
 RUDDER_MAX = 30.0
 COURSE_TOL = 1.5
 DEADBAND = 2.0
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "assess_ice": 5.0,
+    "course_to": 5.0,
+}
 
 
 def wrap(a: float) -> float:
@@ -298,7 +311,10 @@ class HelmController:
             SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq + 1)
             self.rudder_written = self.rudder_command_num
         out = (self.world_course,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_COURSE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -436,7 +452,10 @@ class HelmController:
             SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq + 1)
             self.rudder_written = self.rudder_command_num
         out = (self.world_course,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_COURSE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -470,7 +489,9 @@ class HelmController:
         """Rules tried every cycle, whatever the command."""
         # sensory processing, every cycle whatever the command
         try:
-            returned = hooks.assess_ice(
+            returned = within(
+                HOOK_DEADLINES["assess_ice"],
+                hooks.assess_ice,
                 self.world_course,
                 self.world_heading,
                 self.world_sonar_00,
@@ -488,7 +509,7 @@ class HelmController:
                 self.world_sonar_12,
                 self.world_sonar_13,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("helm", "assess_ice", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
@@ -497,7 +518,10 @@ class HelmController:
                 (type(returned[0]) is not int and not is_integer(returned[0]))
                 or not INT_MIN <= returned[0] <= INT_MAX
             )
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
         ):
             raise HookError("helm", "assess_ice", "every_cycle/1", self.cycles, returned, "if")
         self.var_ice_seen, self.var_avoid_heading = returned
@@ -549,12 +573,19 @@ class HelmController:
             self.rule = 5  # ICE_MANEUVER/S0/1
             self.state = S1
             try:
-                returned = hooks.course_to(
-                    self.arg_x, self.arg_y, self.world_pos_x, self.world_pos_y
+                returned = within(
+                    HOOK_DEADLINES["course_to"],
+                    hooks.course_to,
+                    self.arg_x,
+                    self.arg_y,
+                    self.world_pos_x,
+                    self.world_pos_y,
                 )
-            except Exception as error:  # one error naming the module, hook, rule and cycle
+            except BaseException as error:  # one error naming the module, hook, rule and cycle
                 raise HookError("helm", "course_to", "ICE_MANEUVER/S0/1", self.cycles) from error
-            if type(returned) not in NUMBER and not is_real(returned):
+            if (
+                type(returned) not in NUMBER and not is_real(returned)
+            ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
                 raise HookError(
                     "helm", "course_to", "ICE_MANEUVER/S0/1", self.cycles, returned, "f"
                 )
@@ -622,14 +653,21 @@ class HelmController:
                 self.rule = 12  # ICE_MANEUVER/S2/2
                 self.state = S1
                 try:
-                    returned = hooks.course_to(
-                        self.arg_x, self.arg_y, self.world_pos_x, self.world_pos_y
+                    returned = within(
+                        HOOK_DEADLINES["course_to"],
+                        hooks.course_to,
+                        self.arg_x,
+                        self.arg_y,
+                        self.world_pos_x,
+                        self.world_pos_y,
                     )
-                except Exception as error:  # one error naming the module, hook, rule and cycle
+                except BaseException as error:  # one error naming the module, hook, rule and cycle
                     raise HookError(
                         "helm", "course_to", "ICE_MANEUVER/S2/2", self.cycles
                     ) from error
-                if type(returned) not in NUMBER and not is_real(returned):
+                if (
+                    type(returned) not in NUMBER and not is_real(returned)
+                ) or not -FLOAT_MAX <= returned <= FLOAT_MAX:
                     raise HookError(
                         "helm", "course_to", "ICE_MANEUVER/S2/2", self.cycles, returned, "f"
                     )

@@ -6,9 +6,11 @@ then each process's control record (its heartbeat and counters) and pacing recor
 slow-down, written by an operator). Every module owns a command
 buffer (written by its supervisor), a status buffer and a performance buffer (written by
 the module) and a mode buffer (written by an operator). World-model fields follow, one
-buffer each. Every buffer starts with its sequence word (`seq`, the seqlock) and on an
-8-byte boundary; all values are little-endian `struct` fields with no implicit padding.
-The block is 1800 bytes.
+buffer each, then the overrides: a flag, and each world field's override record (its state,
+NONE, FORCED or SAFE, and its value; rcs/override.py).
+Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
+all values are little-endian `struct` fields with no implicit padding.
+The block is 2512 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -83,6 +85,36 @@ command buffers and world fields:
 | 1752 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
 | 1768 | 9 | WORLD_FIRE | fire |
 | 1784 | 16 | WORLD_CO_PPM | co_ppm |
+| 1800 | 9 | OVERRIDES | any |
+| 1816 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 1840 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 1864 | 24 | OVERRIDE_COURSE | state, course |
+| 1888 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 1912 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 1936 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 1960 | 24 | OVERRIDE_HEADING | state, heading |
+| 1984 | 24 | OVERRIDE_SPEED | state, speed |
+| 2008 | 24 | OVERRIDE_DEPTH | state, depth |
+| 2032 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 2056 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 2080 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 2104 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 2128 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 2152 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 2176 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 2200 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 2224 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 2248 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 2272 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 2296 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 2320 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 2344 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 2368 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 2392 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 2416 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 2440 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 2464 | 17 | OVERRIDE_FIRE | state, fire |
+| 2488 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
 """
 
 from __future__ import annotations
@@ -111,9 +143,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 1800
+SIZE = 2512
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "5f7fca7cae901c88c90a77d0e68636dc"
+LAYOUT_HASH = "34dc96507dd063b17dd830472fcb681c"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 168
 
@@ -266,6 +298,8 @@ PLACEMENT = {
 }
 # Seconds without a heartbeat after which a process is reported dead.
 HEARTBEAT_TIMEOUT = 10.0
+# Seconds every process of a launch has to run its first cycle (the start-up barrier).
+STARTUP_TIMEOUT = 10.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
     "cc": ("sm", "ec"),
@@ -278,6 +312,9 @@ SUBORDINATES = {
     "sonar": (),
     "atmosphere": (),
 }
+# The subordinates whose loss a supervisor's own rules handle (`on_lost: continue`); every
+# other loss halts everything (`halt_all`: rcs/loop.py `reaction`).
+ON_LOST_CONTINUE: dict[str, tuple[str, ...]] = {}
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {}
 MODULES = ("cc", "sm", "ec", "helm", "rudder", "rudder_sim", "ship", "sonar", "atmosphere")
@@ -404,6 +441,83 @@ WORLD_INITIAL: dict[str, object] = {
     "fire": False,
     "co_ppm": 0.0,
 }
+# Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
+# override's value; the module that writes it does not overwrite it meanwhile.
+OVERRIDES_AT = 1800
+OVERRIDDEN_AT = 1808  # `any`: one byte stored whole, read without the seqlock
+# (for tools to read; only rcs/override.py writes it, one byte at a time)
+OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
+OVERRIDE = {
+    "speed_cmd": Record(Struct("<QQd"), 1816, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 1840, ("state", "depth_cmd")),
+    "course": Record(Struct("<QQd"), 1864, ("state", "course")),
+    "vent_flow": Record(Struct("<QQd"), 1888, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 1912, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 1936, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 1960, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 1984, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 2008, ("state", "depth")),
+    "rudder_angle": Record(Struct("<QQd"), 2032, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 2056, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 2080, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 2104, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 2128, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 2152, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 2176, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 2200, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 2224, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 2248, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 2272, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 2296, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 2320, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 2344, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 2368, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 2392, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 2416, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 2440, ("state", "min_clearance")),
+    "fire": Record(Struct("<QQ?"), 2464, ("state", "fire")),
+    "co_ppm": Record(Struct("<QQd"), 2488, ("state", "co_ppm")),
+}
+# Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
+# runtime drives it, latched, when the process that writes it is lost, stops or trips.
+SAFE_VALUES: dict[str, object] = {}
+# The process whose modules write each actuator.
+ACTUATED_BY = {}
+# The modules that write each world field (a stand-in writes in its controller's place), for
+# `ctl force`: forcing a field takes it from them, which needs override on each.
+WORLD_WRITERS: dict[str, tuple[str, ...]] = {
+    "speed_cmd": ("sm",),
+    "depth_cmd": ("sm",),
+    "course": ("helm",),
+    "vent_flow": ("ec",),
+    "pos_x": ("ship",),
+    "pos_y": ("ship",),
+    "heading": ("ship",),
+    "speed": ("ship",),
+    "depth": ("ship",),
+    "rudder_angle": ("rudder_sim",),
+    "sonar_00": ("sonar",),
+    "sonar_01": ("sonar",),
+    "sonar_02": ("sonar",),
+    "sonar_03": ("sonar",),
+    "sonar_04": ("sonar",),
+    "sonar_05": ("sonar",),
+    "sonar_06": ("sonar",),
+    "sonar_07": ("sonar",),
+    "sonar_08": ("sonar",),
+    "sonar_09": ("sonar",),
+    "sonar_10": ("sonar",),
+    "sonar_11": ("sonar",),
+    "sonar_12": ("sonar",),
+    "sonar_13": ("sonar",),
+    "clearance": ("sonar",),
+    "min_clearance": ("sonar",),
+    "fire": ("atmosphere",),
+    "co_ppm": ("atmosphere",),
+}
+# The fields that are the simulation's truth (`ground_truth: true`): no operator can force
+# the real world, so `ctl force` takes them only while the modules writing them simulate.
+GROUND_TRUTH = ()
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "cc": (NO_COMMAND_NAME, *("INIT", "HALT", "RUN_MISSION")),
@@ -415,6 +529,20 @@ COMMAND_NAMES = {
     "ship": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sonar": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "atmosphere": (NO_COMMAND_NAME, *("INIT", "HALT")),
+}
+# Each command's parameters, in order: an operator gives every one of them (`ctl send`,
+# `--send`, a scenario), each checked against its slot's type (rcs/command.py). A command
+# not listed takes none.
+PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
+    "sm": {
+        "SUBMERGED_TRANSIT": ("x", "y"),
+    },
+    "helm": {
+        "ICE_MANEUVER": ("x", "y"),
+    },
+    "rudder": {
+        "GOTO_ANGLE": ("angle",),
+    },
 }
 STATE_NAMES = {
     "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "VENT"),
@@ -528,6 +656,14 @@ SIMULATORS = ("rudder_sim", "ship", "sonar", "atmosphere")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {}
+# The run settings the hook-state factories read (`settings:`), each with what it chooses;
+# `--set`, a scenario's `settings:` and a harness may give only these.
+SETTINGS: dict[str, str] | None = {
+    "route": "The mission's waypoints: maps/<name>.route (default maps/bering.route).",
+    "keels": "The ice keels the sonar simulator sees: maps/<name>.keels (default maps/bering.keels).",
+}
+# Whether a controller has a `hooks_state` factory: without one no setting is read.
+READS_SETTINGS = True
 # What modules ask of the operator (`operators.requests`): open while the world field
 # `while` is true, answered by sending the command `answer`.
 REQUESTS: dict[str, dict[str, object]] = {}
@@ -538,9 +674,19 @@ def initialise(buf: memoryview) -> None:
     write in progress), set every world field to its initial value and flag the simulators."""
     buf[:SIZE] = bytes(SIZE)
     HEADER.pack_into(buf, 0, MAGIC, LAYOUT_HASH.encode(), SYSTEM.encode()[:32], SIZE)
-    for records in (PROCESSES, PACING, COMMAND_IN, STATUS_OUT, MODE_IN, PERFORMANCE, WORLD):
+    for records in (
+        PROCESSES,
+        PACING,
+        COMMAND_IN,
+        STATUS_OUT,
+        MODE_IN,
+        PERFORMANCE,
+        WORLD,
+        OVERRIDE,
+    ):
         for record in records.values():
             SEQ.pack_into(buf, record.offset, FIRST_SEQ)
+    SEQ.pack_into(buf, OVERRIDES_AT, FIRST_SEQ)
     for name, value in WORLD_INITIAL.items():
         WORLD[name].write(buf, **{name: value})
     for name in SIMULATORS:

@@ -5,11 +5,14 @@ from struct import Struct
 from time import perf_counter_ns
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     RUDDER_SIM_PERF_AT,
     RUDDER_SIM_STATUS_AT,
     WORLD_RUDDER_ANGLE_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.override import held
 
 # Commands rudder_sim accepts (the code written to its command buffer).
 INIT = 1
@@ -23,12 +26,13 @@ ZERO_VOLT = 5
 INPUTS = Struct("<QI44x???1xI560xd8x?")
 INPUTS_AT = 864
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
 WORLD_OUT_1_AT = 1480
+WORLD_HELD_1 = (OVERRIDE["rudder_angle"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -163,7 +167,10 @@ class RudderSimController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_rudder_angle,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_RUDDER_ANGLE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
@@ -261,7 +268,10 @@ class RudderSimController:
             self.status_seq = seq + 1
             self.status_dirty = False
         out = (self.world_rudder_angle,)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_RUDDER_ANGLE_AT, s[0] | 1)  # odd before the value changes
             WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])

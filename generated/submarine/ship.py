@@ -7,6 +7,8 @@ from time import perf_counter_ns
 import submarine_hooks.sim as hooks
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     SHIP_PERF_AT,
     SHIP_STATUS_AT,
     WORLD_DEPTH_AT,
@@ -18,6 +20,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -28,6 +31,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import within
+from .rcs.override import held
 
 # Commands ship accepts (the code written to its command buffer).
 INIT = 1
@@ -42,12 +47,19 @@ INPUTS_AT = 976
 SEQS = Struct("<Q")
 SEQS_AT = 976
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
 WORLD_OUT_1_AT = 1400
+WORLD_HELD_1 = (
+    OVERRIDE["pos_x"],
+    OVERRIDE["pos_y"],
+    OVERRIDE["heading"],
+    OVERRIDE["speed"],
+    OVERRIDE["depth"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -57,6 +69,12 @@ TURN = 0.0065
 ACCEL = 0.1
 DEPTH_RATE = 1.0
 CYCLE_PERIOD = 1.0  # seconds per cycle of its process
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "advance": 5.0,
+}
 
 
 class ShipController:
@@ -99,6 +117,27 @@ class ShipController:
         self.buf = buf
         self.cycle_start = 0
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_speed_cmd,
+            self.world_depth_cmd,
+            self.world_pos_x,
+            self.world_pos_y,
+            self.world_heading,
+            self.world_speed,
+            self.world_depth,
+            self.world_rudder_angle,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -202,7 +241,10 @@ class ShipController:
             self.world_speed,
             self.world_depth,
         )
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_POS_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_POS_Y_AT, s[1] | 1)  # odd before the value changes
@@ -335,7 +377,10 @@ class ShipController:
             self.world_speed,
             self.world_depth,
         )
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_POS_X_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_POS_Y_AT, s[1] | 1)  # odd before the value changes
@@ -389,19 +434,27 @@ class ShipController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.advance(
+            returned = within(
+                HOOK_DEADLINES["advance"],
+                hooks.advance,
                 self.world_pos_x,
                 self.world_pos_y,
                 self.world_heading,
                 self.world_speed * CYCLE_PERIOD,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("ship", "advance", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 2
-            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+            or (
+                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
         ):
             raise HookError("ship", "advance", "every_cycle/1", self.cycles, returned, "ff")
         self.world_pos_x, self.world_pos_y = returned

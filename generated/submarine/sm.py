@@ -7,12 +7,15 @@ from time import perf_counter_ns
 from .layout import (
     HELM_COMMAND,
     HELM_COMMAND_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     SM_PERF_AT,
     SM_STATUS_AT,
     WORLD_DEPTH_CMD_AT,
     WORLD_SPEED_CMD_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.override import held
 
 # Commands sm accepts (the code written to its command buffer).
 INIT = 1
@@ -39,12 +42,13 @@ HELM_REASON_BLOCKED = 2
 INPUTS = Struct("<QIdd44x???1xI216xQII8x?687xd8xd40xd8xd24xd8xd")
 INPUTS_AT = 336
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
 WORLD_OUT_1_AT = 1336
+WORLD_HELD_1 = (OVERRIDE["speed_cmd"], OVERRIDE["depth_cmd"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -242,7 +246,10 @@ class SmController:
             SEQ.pack_into(buf, HELM_COMMAND_AT, seq + 1)
             self.helm_written = self.helm_command_num
         out = (self.world_speed_cmd, self.world_depth_cmd)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_SPEED_CMD_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_DEPTH_CMD_AT, s[1] | 1)  # odd before the value changes
@@ -373,7 +380,10 @@ class SmController:
             SEQ.pack_into(buf, HELM_COMMAND_AT, seq + 1)
             self.helm_written = self.helm_command_num
         out = (self.world_speed_cmd, self.world_depth_cmd)
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_SPEED_CMD_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_DEPTH_CMD_AT, s[1] | 1)  # odd before the value changes

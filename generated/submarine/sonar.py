@@ -7,6 +7,8 @@ from time import perf_counter_ns
 import submarine_hooks.sim as hooks
 
 from .layout import (
+    OVERRIDDEN_AT,
+    OVERRIDE,
     SONAR_PERF_AT,
     SONAR_STATUS_AT,
     WORLD_CLEARANCE_AT,
@@ -29,6 +31,7 @@ from .layout import (
 from .rcs.contract import (
     DONE,
     EXECUTING,
+    FLOAT_MAX,
     NO_RULE,
     NOP,
     NUMBER,
@@ -39,6 +42,8 @@ from .rcs.contract import (
     HookError,
     is_real,
 )
+from .rcs.deadline import FACTORY_DEADLINE, within
+from .rcs.override import held
 
 # Commands sonar accepts (the code written to its command buffer).
 INIT = 1
@@ -53,15 +58,39 @@ INPUTS_AT = 1096
 SEQS = Struct("<Q")
 SEQS_AT = 1096
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
-# word, stored odd on its own first and even again last), their values alone, and their
-# sequence words alone.
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQdQdQdQdQdQdQdQdQdQdQdQdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ")
 WORLD_OUT_1_AT = 1512
+WORLD_HELD_1 = (
+    OVERRIDE["sonar_00"],
+    OVERRIDE["sonar_01"],
+    OVERRIDE["sonar_02"],
+    OVERRIDE["sonar_03"],
+    OVERRIDE["sonar_04"],
+    OVERRIDE["sonar_05"],
+    OVERRIDE["sonar_06"],
+    OVERRIDE["sonar_07"],
+    OVERRIDE["sonar_08"],
+    OVERRIDE["sonar_09"],
+    OVERRIDE["sonar_10"],
+    OVERRIDE["sonar_11"],
+    OVERRIDE["sonar_12"],
+    OVERRIDE["sonar_13"],
+    OVERRIDE["clearance"],
+    OVERRIDE["min_clearance"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
+
+# Seconds each hook may run before it is interrupted and reported (its `deadline:`, else
+# 5 cycle periods and at least 1 s).
+HOOK_DEADLINES = {
+    "ping": 5.0,
+}
 
 
 class SonarController:
@@ -119,10 +148,42 @@ class SonarController:
         self.buf = buf
         self.cycle_start = 0
         try:
-            self.hook_state = hooks.new_ice(settings or {})
-        except Exception as error:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_ice, settings or {})
+        except BaseException as error:
             raise HookError("sonar", "new_ice", "hooks_state", 0) from error
         self.resume()
+        # Until a whole read (another process writes some inputs): the block's values as they
+        # are, no new command and the table held, so a first read that stays torn leaves the
+        # module stale (stale_reads counts it), never half-built.
+        (
+            _,
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.world_pos_x,
+            self.world_pos_y,
+            self.world_heading,
+            self.world_sonar_00,
+            self.world_sonar_01,
+            self.world_sonar_02,
+            self.world_sonar_03,
+            self.world_sonar_04,
+            self.world_sonar_05,
+            self.world_sonar_06,
+            self.world_sonar_07,
+            self.world_sonar_08,
+            self.world_sonar_09,
+            self.world_sonar_10,
+            self.world_sonar_11,
+            self.world_sonar_12,
+            self.world_sonar_13,
+            self.world_clearance,
+            self.world_min_clearance,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.command_num, self.dont_run = self.status_num, True
         self.pre_process()  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -248,7 +309,10 @@ class SonarController:
             self.world_clearance,
             self.world_min_clearance,
         )
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_SONAR_00_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_SONAR_01_AT, s[1] | 1)  # odd before the value changes
@@ -447,7 +511,10 @@ class SonarController:
             self.world_clearance,
             self.world_min_clearance,
         )
-        if WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT) != out:  # set this cycle
+        now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+        if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+            out = held(buf, WORLD_HELD_1, out, now)
+        if now != out:  # set this cycle
             s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
             SEQ.pack_into(buf, WORLD_SONAR_00_AT, s[0] | 1)  # odd before the value changes
             SEQ.pack_into(buf, WORLD_SONAR_01_AT, s[1] | 1)  # odd before the value changes
@@ -545,29 +612,79 @@ class SonarController:
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
         try:
-            returned = hooks.ping(
-                self.hook_state, self.world_pos_x, self.world_pos_y, self.world_heading
+            returned = within(
+                HOOK_DEADLINES["ping"],
+                hooks.ping,
+                self.hook_state,
+                self.world_pos_x,
+                self.world_pos_y,
+                self.world_heading,
             )
-        except Exception as error:  # one error naming the module, hook, rule and cycle
+        except BaseException as error:  # one error naming the module, hook, rule and cycle
             raise HookError("sonar", "ping", "every_cycle/1", self.cycles) from error
         if (
             type(returned) is not tuple
             or len(returned) != 15
-            or (type(returned[0]) not in NUMBER and not is_real(returned[0]))
-            or (type(returned[1]) not in NUMBER and not is_real(returned[1]))
-            or (type(returned[2]) not in NUMBER and not is_real(returned[2]))
-            or (type(returned[3]) not in NUMBER and not is_real(returned[3]))
-            or (type(returned[4]) not in NUMBER and not is_real(returned[4]))
-            or (type(returned[5]) not in NUMBER and not is_real(returned[5]))
-            or (type(returned[6]) not in NUMBER and not is_real(returned[6]))
-            or (type(returned[7]) not in NUMBER and not is_real(returned[7]))
-            or (type(returned[8]) not in NUMBER and not is_real(returned[8]))
-            or (type(returned[9]) not in NUMBER and not is_real(returned[9]))
-            or (type(returned[10]) not in NUMBER and not is_real(returned[10]))
-            or (type(returned[11]) not in NUMBER and not is_real(returned[11]))
-            or (type(returned[12]) not in NUMBER and not is_real(returned[12]))
-            or (type(returned[13]) not in NUMBER and not is_real(returned[13]))
-            or (type(returned[14]) not in NUMBER and not is_real(returned[14]))
+            or (
+                (type(returned[0]) not in NUMBER and not is_real(returned[0]))
+                or not -FLOAT_MAX <= returned[0] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[1]) not in NUMBER and not is_real(returned[1]))
+                or not -FLOAT_MAX <= returned[1] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[2]) not in NUMBER and not is_real(returned[2]))
+                or not -FLOAT_MAX <= returned[2] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[3]) not in NUMBER and not is_real(returned[3]))
+                or not -FLOAT_MAX <= returned[3] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[4]) not in NUMBER and not is_real(returned[4]))
+                or not -FLOAT_MAX <= returned[4] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[5]) not in NUMBER and not is_real(returned[5]))
+                or not -FLOAT_MAX <= returned[5] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[6]) not in NUMBER and not is_real(returned[6]))
+                or not -FLOAT_MAX <= returned[6] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[7]) not in NUMBER and not is_real(returned[7]))
+                or not -FLOAT_MAX <= returned[7] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[8]) not in NUMBER and not is_real(returned[8]))
+                or not -FLOAT_MAX <= returned[8] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[9]) not in NUMBER and not is_real(returned[9]))
+                or not -FLOAT_MAX <= returned[9] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[10]) not in NUMBER and not is_real(returned[10]))
+                or not -FLOAT_MAX <= returned[10] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[11]) not in NUMBER and not is_real(returned[11]))
+                or not -FLOAT_MAX <= returned[11] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[12]) not in NUMBER and not is_real(returned[12]))
+                or not -FLOAT_MAX <= returned[12] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[13]) not in NUMBER and not is_real(returned[13]))
+                or not -FLOAT_MAX <= returned[13] <= FLOAT_MAX
+            )
+            or (
+                (type(returned[14]) not in NUMBER and not is_real(returned[14]))
+                or not -FLOAT_MAX <= returned[14] <= FLOAT_MAX
+            )
         ):
             raise HookError(
                 "sonar", "ping", "every_cycle/1", self.cycles, returned, "fffffffffffffff"

@@ -12,6 +12,8 @@ import json
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field, replace
 
+from .codes import Severity, severity_of
+
 
 @dataclass(frozen=True, order=True)
 class Span:
@@ -39,16 +41,24 @@ class Subject:
 
 @dataclass(frozen=True)
 class Diagnostic:
-    """One located problem: `file:line:col: severity[CODE]: message`, then a hint."""
+    """One located problem: `file:line:col: severity[CODE]: message`, then a hint. Its
+    severity is its code's in the registry (`codes.CODES`): an unregistered code is an
+    internal error, raised where the diagnostic is made."""
 
     span: Span
     code: str
     message: str
     hint: str = ""
-    severity: str = "error"
     # What a warning is about (None: not acknowledgeable), and the reason it was acknowledged.
     subject: Subject | None = field(default=None, compare=False, repr=False)
     acknowledged: str = ""
+
+    def __post_init__(self) -> None:
+        severity_of(self.code)
+
+    @property
+    def severity(self) -> Severity:
+        return severity_of(self.code)
 
     def sort_key(self) -> tuple[Span, str, str]:
         return (self.span, self.code, self.message)
@@ -93,12 +103,23 @@ class Diagnostics:
     acknowledged: list[Diagnostic] = field(default_factory=list)
 
     def error(self, span: Span, code: str, message: str, hint: str = "") -> None:
-        self.items.append(Diagnostic(span, code, message, hint))
+        """Report an error; `code` must be an error's in the registry."""
+        self._add(Diagnostic(span, code, message, hint), Severity.ERROR)
 
     def warning(
         self, span: Span, code: str, message: str, hint: str = "", subject: Subject | None = None
     ) -> None:
-        self.items.append(Diagnostic(span, code, message, hint, "warning", subject))
+        """Report a warning (what it is about, if a spec can acknowledge it); `code` must be
+        a warning's in the registry."""
+        self._add(Diagnostic(span, code, message, hint, subject), Severity.WARNING)
+
+    def _add(self, diagnostic: Diagnostic, severity: Severity) -> None:
+        if diagnostic.severity is not severity:
+            raise ValueError(
+                f"internal error: {diagnostic.code} is a registered {diagnostic.severity}, "
+                f"reported as a {severity}"
+            )
+        self.items.append(diagnostic)
 
     def acknowledge(self, diagnostic: Diagnostic, reason: str) -> None:
         """Keep a warning as acknowledged, with the spec's reason."""
@@ -109,7 +130,7 @@ class Diagnostics:
 
     @property
     def errors(self) -> list[Diagnostic]:
-        return [d for d in self.items if d.severity == "error"]
+        return [d for d in self.items if d.severity is Severity.ERROR]
 
     def __iter__(self) -> Iterator[Diagnostic]:
         return iter(sorted(set(self.items), key=Diagnostic.sort_key))

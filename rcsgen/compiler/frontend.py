@@ -11,14 +11,16 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import acknowledge, fragments, model
-from .analysis import analyse_system
-from .check import check_system
+from .analysis.tables import analyse_system
+from .back_end.lower import lower_system
+from .checks import acknowledge
+from .checks.check import check_system
+from .codes import Severity
 from .diagnostics import Diagnostics, Span, SpecError
+from .front_end import fragments, model
+from .front_end.loader import LocDict, PathProblem, load_file, path_problem
+from .front_end.schema import check_document
 from .ir import IRSystem
-from .loader import LocDict, PathProblem, load_file, path_problem
-from .lower import lower_system
-from .schema import check_document
 
 SYSTEM_FILE = "system.yaml"
 
@@ -218,59 +220,8 @@ def _load_system(
     progress(f"loading {display_path(directory)}")
     start, first = len(diags.errors), len(diags.items)
     system_path = directory / SYSTEM_FILE
-    loaded = len(diags.errors)
-    data = _load(system_path, diags)
-    system: model.SystemSpec | None = None
-    if data is None and len(diags.errors) == loaded:
-        _empty(system_path, "system spec", diags)
-    elif data is not None:
-        shown = display_path(system_path)
-        problems = check_document(data, "system", shown)
-        diags.extend(problems)
-        if not any(p.severity == "error" for p in problems):
-            system = model.build_system(data, directory, shown)
-    controllers = []
-    shared = _shared_fragments(directory, diags)
-    used: set[str] = set()  # fragment names the controllers use
-    for entry in _entries(directory, diags):
-        path = Path(entry.path)
-        if not entry.name.endswith(".yaml") or entry.name in (SYSTEM_FILE, fragments.FILE):
-            continue
-        loaded = len(diags.errors)
-        data = _load(path, diags)
-        shown = display_path(path)
-        if data is None:
-            if len(diags.errors) == loaded:
-                _empty(path, "controller spec", diags)
-            continue
-        if isinstance(data, dict) and "operator" in data and "controller" not in data:
-            problems = check_document(data, "operator", shown)
-            diags.extend(problems)
-            if not any(p.severity == "error" for p in problems):
-                controllers.append(model.build_operator(data, shown))
-            continue
-        if not isinstance(data, dict) or "controller" not in data:
-            diags.error(
-                getattr(data, "span", Span(shown)),
-                "E225",
-                f"`{path.name}` is not a controller spec (no `controller:` or `operator:` key)",
-                "only system.yaml, fragments.yaml and controller or operator files belong "
-                "in a system directory",
-            )
-            continue
-        before = len(diags.errors)
-        used |= fragments.named(data)
-        made, whole = fragments.expand(data, shared, diags, Span(shown))
-        used |= {use.fragment.name for use in made}  # (also those used within fragments)
-        uses += made
-        if not whole or len(diags.errors) > before:
-            continue  # a use that failed leaves a table with a hole: no more about it
-        problems = check_document(data, "controller", shown)
-        diags.extend(problems)
-        if not any(p.severity == "error" for p in problems):
-            controllers.append(model.build_controller(data, shown))
-    if len(diags.errors) == start:  # (a misspelt use would make it noise)
-        fragments.report_unused(shared, used, diags)
+    system = _system_spec(system_path, diags)
+    controllers = _controller_specs(directory, diags, uses)
     if system is None or len(diags.errors) > start:
         acknowledge.apply(controllers, diags, first, complete=False)
         return None
@@ -293,6 +244,90 @@ def _load_system(
     return lower_system(checked, sources)
 
 
+def _system_spec(system_path: Path, diags: Diagnostics) -> model.SystemSpec | None:
+    """The system's spec, read once (its name's span travels with it to the IR), or None
+    after its problems."""
+    loaded = len(diags.errors)
+    data = _load(system_path, diags)
+    if data is None and len(diags.errors) == loaded:
+        _empty(system_path, "system spec", diags)
+    if data is None:
+        return None
+    shown = display_path(system_path)
+    problems = check_document(data, "system", shown)
+    diags.extend(problems)
+    if any(p.severity is Severity.ERROR for p in problems):
+        return None
+    return model.build_system(data, system_path.parent, shown)
+
+
+def _controller_specs(
+    directory: Path, diags: Diagnostics, uses: list[fragments.Use]
+) -> list[model.ControllerSpec]:
+    """Every controller and operator spec of the directory, fragments expanded (each use
+    appended to `uses`), schema-checked; W305 for a shared fragment nobody uses."""
+    start = len(diags.errors)
+    controllers = []
+    shared = _shared_fragments(directory, diags)
+    used: set[str] = set()  # fragment names the controllers use
+    for entry in _entries(directory, diags):
+        path = Path(entry.path)
+        if not entry.name.endswith(".yaml") or entry.name in (SYSTEM_FILE, fragments.FILE):
+            continue
+        loaded = len(diags.errors)
+        data = _load(path, diags)
+        if data is None:
+            if len(diags.errors) == loaded:
+                _empty(path, "controller spec", diags)
+            continue
+        spec = _controller_spec(path, data, shared, diags, uses, used)
+        if spec is not None:
+            controllers.append(spec)
+    if len(diags.errors) == start:  # (a misspelt use would make it noise)
+        fragments.report_unused(shared, used, diags)
+    return controllers
+
+
+def _controller_spec(
+    path: Path,
+    data: object,
+    shared: dict[str, fragments.Fragment | None],
+    diags: Diagnostics,
+    uses: list[fragments.Use],
+    used: set[str],
+) -> model.ControllerSpec | None:
+    """One controller's (or operator module's) spec from its loaded data, or None after its
+    problems (E225 for a file that is neither)."""
+    shown = display_path(path)
+    if isinstance(data, dict) and "operator" in data and "controller" not in data:
+        problems = check_document(data, "operator", shown)
+        diags.extend(problems)
+        if any(p.severity is Severity.ERROR for p in problems):
+            return None
+        return model.build_operator(data, shown)
+    if not isinstance(data, dict) or "controller" not in data:
+        diags.error(
+            getattr(data, "span", Span(shown)),
+            "E225",
+            f"`{path.name}` is not a controller spec (no `controller:` or `operator:` key)",
+            "only system.yaml, fragments.yaml and controller or operator files belong "
+            "in a system directory",
+        )
+        return None
+    before = len(diags.errors)
+    used |= fragments.named(data)
+    made, whole = fragments.expand(data, shared, diags, Span(shown))
+    used |= {use.fragment.name for use in made}  # (also those used within fragments)
+    uses += made
+    if not whole or len(diags.errors) > before:
+        return None  # a use that failed leaves a table with a hole: no more about it
+    problems = check_document(data, "controller", shown)
+    diags.extend(problems)
+    if any(p.severity is Severity.ERROR for p in problems):
+        return None
+    return model.build_controller(data, shown)
+
+
 def compile_paths(paths: list[Path], progress: Progress = _quiet) -> Frontend:
     """Run the front end over every system found in `paths`; never raises on bad input.
     `progress` is told what each long stage is doing."""
@@ -304,7 +339,7 @@ def compile_paths(paths: list[Path], progress: Progress = _quiet) -> Frontend:
             continue
         out.systems.append(system)
         out.directories.setdefault(system.name, directory)
-        span = _system_name_span(directory / SYSTEM_FILE)
+        span = system.name_span
         if system.name in names:
             out.diagnostics.error(
                 span,
@@ -315,15 +350,3 @@ def compile_paths(paths: list[Path], progress: Progress = _quiet) -> Frontend:
         else:
             names[system.name] = span
     return out
-
-
-def _system_name_span(path: Path) -> Span:
-    """Where a (valid) system file gives its name, as diagnostics show it."""
-    shown = display_path(path)
-    try:
-        data = load_file(path, shown)
-    except SpecError:
-        return Span(shown)
-    if not isinstance(data, LocDict):
-        return Span(shown)
-    return data.value_spans.get("system", Span(shown))

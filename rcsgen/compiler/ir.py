@@ -13,36 +13,25 @@ import struct
 from dataclasses import dataclass, field
 from functools import cached_property
 
-from . import expr
+from ..runtime.contract import STARTUP_TIMEOUT
+from . import expressions as expr
+from .checks.tables import RuleId
 from .diagnostics import Span
-from .tables import RuleId
-
-
-class _PyTypes(dict[str, str]):
-    """The Python annotation of each spec type: an enumeration's value is its index (int),
-    a string a str."""
-
-    def __missing__(self, kind: str) -> str:
-        if expr.enum_values(kind):
-            return "int"
-        if expr.str_size(kind):
-            return "str"
-        raise KeyError(kind)
-
-
-PY_TYPE = _PyTypes(bool="bool", int="int", float="float")
-
+from .front_end.model import ModuleKind, PlanVerb
+from .types import Type
 
 # ---------------------------------------------------------------- layout
 
 
 @dataclass(frozen=True)
 class Slot:
-    """One field of a buffer: name, struct code, offset in the whole block."""
+    """One field of a buffer: name, struct code, offset in the whole block, and the capacity
+    of the string it holds (0: not a string)."""
 
     name: str
     code: str
     offset: int
+    text: int = 0
 
 
 @dataclass(frozen=True)
@@ -113,6 +102,10 @@ class Layout:
     hash: str
     pacing: dict[str, Buffer] = field(default_factory=dict)  # each process's pacing record
     operators: dict[str, OperatorBuffers] = field(default_factory=dict)
+    # Overrides (rcs/override.py): the flag "some world field is under an override", then
+    # per world field its override record (state and value), after the world fields.
+    overrides: Buffer | None = None
+    override_fields: tuple[Buffer, ...] = ()
 
     def handshake(self, module: str, client: str) -> tuple[Buffer, Buffer]:
         """The command and status buffers through which `client` commands `module`: the
@@ -128,7 +121,67 @@ class Layout:
             found += [o.mode, o.perf]
             found += [b for c in o.channels.values() for b in (c.command, c.status, c.answer)]
         every = [*self.processes.values(), *self.pacing.values(), *found, *self.world]
+        every += [self.overrides] if self.overrides is not None else []
+        every += self.override_fields
         return sorted(every, key=lambda b: b.offset)
+
+
+# ---------------------------------------------------------------- a module's reads and writes
+
+
+@dataclass(frozen=True)
+class Gathered:
+    """Several buffer fields read or written with one `Struct`, the bytes between them
+    skipped: format, offset, the target of each value ("_" for a sequence word), the struct
+    of the sequence words alone (for the second read of a seqlock), if any, and the struct
+    of the values alone at the same offset (the sequence words skipped); the targets that
+    hold strings (decoded after a read), and each value as packed (a string encoded)."""
+
+    format: str
+    offset: int
+    targets: tuple[str, ...]
+    seq_indices: tuple[int, ...]
+    seq_format: str
+    seq_offset: int
+    values_format: str
+    texts: tuple[str, ...] = ()
+    packed: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class WorldRun:
+    """Adjacent world buffers a module writes with one struct, and the layout's names of
+    their offsets (where each sequence word is stored on its own)."""
+
+    gathered: Gathered
+    seq_at: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ModuleIO:
+    """What a generated module names about the block, all decided by `module_io`: the
+    prefix of its buffers' layout names, its imports, its class's attributes, its one read
+    of the inputs and its writes (each value as packed), the strings it decodes."""
+
+    own: str  # CO: CO_STATUS_AT, CO_PERF_AT, ... (a stand-in: its controller's)
+    imports: tuple[str, ...]  # from its package's layout
+    rcs_imports: tuple[str, ...] = ()  # from the runtime contract
+    slots: tuple[str, ...] = ()
+    inputs: Gathered | None = None
+    world_outputs: tuple[Gathered, ...] = ()
+    world_seq_at: tuple[tuple[str, ...], ...] = ()
+    world_values: tuple[tuple[str, ...], ...] = ()
+    world_names: tuple[tuple[str, ...], ...] = ()  # each run's fields: their override records
+    command_targets: tuple[str, ...] = ()
+    status_targets: tuple[str, ...] = ()
+    status_struct: str = "STATUS"  # its layout's own struct when it has results
+    status_values: tuple[str, ...] = ()
+    mode_targets: tuple[str, ...] = ()
+    perf_targets: tuple[str, ...] = ()
+    sub_targets: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    sub_values: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    input_texts: tuple[str, ...] = ()
+    resume_texts: tuple[str, ...] = ()
 
 
 # ---------------------------------------------------------------- system IR
@@ -146,22 +199,27 @@ class IRExpr:
 @dataclass(frozen=True)
 class IRWorldField:
     name: str
-    type: str
+    type: Type
     initial: bool | int | float | str  # an enum's value name, a string's text
     doc: str
+    actuator: bool = False
+    # an actuator's safe value (an enum's value name, a string's text): `safe:`, or the
+    # type's zero (false, 0, 0.0, the first value, ""); None for a field that is no actuator
+    safe: bool | int | float | str | None = None
+    ground_truth: bool = False  # the simulation's truth, which no sensor gives (E280)
 
 
 @dataclass(frozen=True)
 class IRParam:
     name: str
-    type: str
+    type: Type
     doc: str = ""
 
 
 @dataclass(frozen=True)
 class IRLocal:
     name: str
-    type: str
+    type: Type
     initial: bool | int | float | str  # an enum's value name, a string's text
     doc: str
 
@@ -177,11 +235,14 @@ class IRArg:
 
 @dataclass(frozen=True)
 class IRSend:
+    """`send: <sub>.<COMMAND>`: its arguments set, its command code and number written."""
+
     sub: str
     command: str
     command_const: str  # e.g. CR_SUMP
     args: tuple[IRArg, ...]
-    kind: str = "send"
+    command_attribute: str = ""  # where the command code goes: self.cr_command
+    number_attribute: str = ""  # the command number counted up: self.cr_command_num
 
 
 @dataclass(frozen=True)
@@ -193,29 +254,33 @@ class IRAssign:
 
 @dataclass(frozen=True)
 class IRSet:
+    """`set:` world fields, locals and results, in order."""
+
     assignments: tuple[IRAssign, ...]
-    kind: str = "set"
 
 
 @dataclass(frozen=True)
 class IRReport:
+    """`report: DONE` or `report: ERROR`, with a reason of its own or one passed up."""
+
     status: str  # DONE or ERROR
-    kind: str = "report"
     reason: str = ""  # the reason's constant (REASON_REFUSED), '' when none is given
     reason_name: str = ""  # as the spec names it (REFUSED, or fx.reason when passed up)
     reason_of: str = ""  # the subordinate whose reason is passed up, by name (fx)
     # with reason_of: its reason constants -> this controller's (FX_REASON_REFUSED,
     # REASON_REFUSED); any other code it reports is passed up as NONE
     reason_map: tuple[tuple[str, str], ...] = ()
+    reason_of_attribute: str = ""  # with reason_of: where its reason is read (self.fx_error_num)
 
 
 @dataclass(frozen=True)
 class IRCall:
+    """`call: <hook>`: the hook called, its result checked and assigned to the targets."""
+
     hook: str
     args: tuple[str, ...]  # Python text of each argument (the hook state first, if any)
     targets: tuple[str, ...]  # attributes assigned from the hook's result
-    kind: str = "call"
-    kinds: str = ""  # each target's type, one letter: f(loat), i(nt), b(ool)
+    kinds: str = ""  # each target's token in the result check (types.Type.hook_kind)
     # Python condition true when `returned` does not fit the targets (cheap: type and len)
     mismatch: str = ""
     span: Span | None = None  # where the spec calls it
@@ -223,17 +288,46 @@ class IRCall:
 
 @dataclass(frozen=True)
 class IRPlanAction:
-    """`plan:` / `replan:` (the planner called with `args`) or `advance:` of a plan."""
+    """An action on a plan (a base: IRLoadPlan or IRAdvance)."""
 
     plan: str
-    action: str  # "plan", "replan" or "advance"
-    planner: str
+
+    @property
+    def verb(self) -> PlanVerb:
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class IRLoadPlan(IRPlanAction):
+    """`plan:` / `replan:`: the planner called with `args`, its steps checked and loaded
+    (a replan counted against the plan's `replans`)."""
+
+    planner: str = ""
+    replan: bool = False
     args: tuple[str, ...] = ()  # Python text of each argument (the hook state first, if any)
-    kind: str = "plan_action"
     span: Span | None = None  # where the spec writes it
+    replans: int = 0  # the replans the plan declares
+    load: str = ""  # its load method: self.plan_route_load
+    replans_left: str = ""  # its counter: self.plan_route_replans_left
+
+    @property
+    def verb(self) -> PlanVerb:
+        return PlanVerb.REPLAN if self.replan else PlanVerb.PLAN
 
 
-IRAction = IRSend | IRSet | IRReport | IRCall | IRPlanAction
+@dataclass(frozen=True)
+class IRAdvance(IRPlanAction):
+    """`advance:`: the plan's next step becomes the current one."""
+
+    go: str = ""  # its method that makes a step current: self.plan_route_go
+    step: str = ""  # its current step: self.plan_route_step
+
+    @property
+    def verb(self) -> PlanVerb:
+        return PlanVerb.ADVANCE
+
+
+IRAction = IRSend | IRSet | IRReport | IRCall | IRLoadPlan | IRAdvance
 
 
 @dataclass(frozen=True)
@@ -271,8 +365,8 @@ class IRFunction:
     """A pure function, emitted as a module-level `def`."""
 
     name: str
-    params: tuple[tuple[str, str], ...]  # (name, type) in call order
-    returns: str
+    params: tuple[tuple[str, Type], ...]  # (name, type) in call order
+    returns: Type
     body: IRExpr
 
 
@@ -305,6 +399,9 @@ class IRSub:
     reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants, when a guard reads one
     results: tuple[IRParam, ...] = ()  # the results of it a guard or value reads
     channel: str = ""  # an operator module's channel to this supervisor (`op/fx`), if it is one
+    # `on_lost: continue`: while its process is lost, its status reads ERROR (reason LOST) and
+    # the supervisor's own rules handle it (the runtime sets `<sub>_lost`)
+    continue_on_lost: bool = False
 
     @property
     def key(self) -> str:
@@ -338,7 +435,7 @@ class IRPlan:
     @property
     def kinds(self) -> str:
         """Each field's type, one letter (f, i, b), as the runtime's plan check takes them."""
-        return "".join(t.type[0] for t in self.fields)
+        return "".join(t.type.hook_kind for t in self.fields)
 
     @property
     def status_fields(self) -> tuple[str, ...]:
@@ -371,6 +468,7 @@ class IRController:
     buffers: str  # whose command/status buffers it uses: itself, or the replaced one
     runtime_names: tuple[str, ...]  # what the module imports from the runtime contract
     hooks_state_span: Span | None = None  # where `hooks_state` names the factory
+    hooks_module_span: Span | None = None  # where `hooks_module` names the module
     timed: bool = False  # some table waits: the controller keeps `ticks`
     results: tuple[IRParam, ...] = ()  # its commands' results, one status slot per name
     reasons: tuple[tuple[str, int], ...] = ()  # its reasons' constants and codes (from 2)
@@ -381,8 +479,16 @@ class IRController:
     # the enumeration values its expressions name: (value name, index), a module constant each
     enum_values: tuple[tuple[str, int], ...] = ()
     plans: tuple[IRPlan, ...] = ()  # its plans, in declaration order
-    kind: str = "controller"  # or "operator": a person at a screen, answered, no table
+    # Each hook and planner its tables call: the seconds one call may run before it is
+    # interrupted (its `deadline:`, else the default), by name.
+    hook_deadlines: tuple[tuple[str, float], ...] = ()
+    kind: ModuleKind = ModuleKind.CONTROLLER  # OPERATOR: a person at a screen, no table
     clients: tuple[str, ...] = ()  # an operator module's: whom it serves, one channel each
+    io: ModuleIO | None = None  # its reads and writes of the block (set once it is laid out)
+
+    @property
+    def is_operator(self) -> bool:
+        return self.kind is ModuleKind.OPERATOR
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -440,6 +546,14 @@ class IRSystem:
     # role -> module -> index in ACCESS_LEVELS, above monitor; empty: no access control
     access: dict[str, dict[str, int]] = field(default_factory=dict)
     requests: tuple[IRRequest, ...] = ()  # what modules ask of the operator
+    # each actuator world field -> the process whose modules write it (the first by name when
+    # several do): who latches it safe when it stops (rcs/override.py)
+    actuated_by: dict[str, str] = field(default_factory=dict)
+    name_span: Span = field(default_factory=lambda: Span("?"))  # where `system:` names it
+    # The run settings its hook-state factories read (name, doc); None: not declared (any
+    # setting is taken when a controller has a factory, none otherwise)
+    settings: tuple[tuple[str, str], ...] | None = None
+    startup_timeout: float = STARTUP_TIMEOUT  # seconds the start-up barrier waits
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

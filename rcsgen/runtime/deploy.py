@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .contract import shared
 from .transport import check_endpoint
 
 HOST_KEYS = ("processes", "listen", "connect")
@@ -28,6 +29,7 @@ TOP_KEYS = ("system", "hosts")
 UNREADABLE, UNKNOWN_HOST = "E430", "E437"
 
 
+@shared
 class DeployError(Exception):
     """A deployment file that cannot be used: its one-line message names file:line:col."""
 

@@ -23,7 +23,8 @@ from types import ModuleType
 from typing import Protocol
 
 from .block import Block
-from .contract import DEAD, PROCESS, SEQ, Record, next_odd
+from .contract import DEAD, PROCESS, SEQ, Record, next_odd, shared
+from .override import mirrored
 
 # Before a record's bytes: the sender's incarnation (random per start).
 EPOCH = Struct("<Q")
@@ -32,12 +33,14 @@ EPOCH = Struct("<Q")
 # message (EPOCH and the record's bytes, whose size the layout gives).
 INDEX = Struct("<H")
 WORLD_OWNER = "_world"
+OVERRIDE_OWNER = "_override"  # a world field's override record: `_override/<field>`
 PROCESS_OWNER = "_process"
 ALIVE = "_alive"  # liveliness tokens: rcs/<system>/<hash-8>/_alive/<node>
 STEP_KEY = "_step"  # lockstep requests to a process: rcs/<system>/<hash-8>/_step/<process>
 PUSH_KEY = "_push"  # a node's pushes: rcs/<system>/<hash-8>/_push/<node>
 
 
+@shared
 class TransportError(Exception):
     """A transport that cannot start: zenoh missing, an endpoint that cannot be used."""
 
@@ -94,6 +97,8 @@ def records(layout: ModuleType) -> dict[str, Record]:
         found[f"{channel}/answer"] = record
     for name, record in layout.WORLD.items():
         found[f"{WORLD_OWNER}/{name}"] = record
+    for name, record in getattr(layout, "OVERRIDE", {}).items():
+        found[f"{OVERRIDE_OWNER}/{name}"] = record
     return found
 
 
@@ -101,8 +106,9 @@ def reads(layout: ModuleType, process: str | None, modules: tuple[str, ...] = ()
     """The key suffixes (Zenoh key expressions) a node subscribes to: everything for an
     observer (`process` None: a coordinator, a launcher, an operator's console); for a
     process, its modules' commands and modes, the status of each subordinate that runs
-    elsewhere, every world field (the layout does not say who reads which), every control
-    record (liveness) and its own pacing record."""
+    elsewhere, every world field (the layout does not say who reads which) and its override
+    (a latch or force made on any host holds on the host that writes the field), every
+    control record (liveness) and its own pacing record."""
     if process is None:
         return ["**"]
     wanted = [f"{m}/command" for m in modules] + [f"{m}/mode" for m in modules]
@@ -113,7 +119,8 @@ def reads(layout: ModuleType, process: str | None, modules: tuple[str, ...] = ()
         for sub in layout.SUBORDINATES.get(module, ()):
             if layout.PLACEMENT.get(sub) != process:
                 wanted.append(f"{sub}/status")
-    wanted += [f"{WORLD_OWNER}/*", f"{PROCESS_OWNER}/*/control", f"{PROCESS_OWNER}/{process}/pace"]
+    wanted += [f"{WORLD_OWNER}/*", f"{OVERRIDE_OWNER}/*"]
+    wanted += [f"{PROCESS_OWNER}/*/control", f"{PROCESS_OWNER}/{process}/pace"]
     return wanted
 
 
@@ -249,6 +256,8 @@ class Mirror:
             # seq, pid, state, watchdog_trips, heartbeat, beat_ns, ...
             values[5] = time.monotonic_ns() if now_ns is None else now_ns
         self._write(key, record, values[1:])
+        if key.startswith(OVERRIDE_OWNER):  # the flag the generated modules look at
+            mirrored(self.layout, self.block.buf)
         self.owned.discard(key)
         self.counters.applied += 1
         return True

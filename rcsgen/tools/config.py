@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..compiler.diagnostics import did_you_mean
-from ..compiler.loader import path_problem, read_bytes
+from ..compiler.front_end.loader import path_problem, read_bytes
 from .report import code_prefix_problem
 
 KEYS = {"select": "a list of warning codes", "ignore": "a list of warning codes"}

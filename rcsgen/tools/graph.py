@@ -21,7 +21,6 @@ import subprocess
 import textwrap
 from dataclasses import dataclass
 
-from ..compiler.expr import type_label
 from ..compiler.ir import (
     IRAction,
     IRCall,
@@ -172,7 +171,7 @@ def action_text(action: IRAction) -> str:
         reason = action.reason_name
         return f"report {action.status}" + (f" ({reason})" if reason else "")
     if isinstance(action, IRPlanAction):
-        return f"{action.action} {action.plan}"
+        return f"{action.verb} {action.plan}"
     assert isinstance(action, IRCall)
     return f"call {action.hook}"
 
@@ -252,7 +251,7 @@ def states(controller: IRController, command: str | None = None) -> Graph:
     for cmd in chosen:
         cluster = None if command is not None else f"c_{cmd.name}"
         if cluster is not None:
-            params = ", ".join(f"{p.name}: {type_label(p.type)}" for p in cmd.params)
+            params = ", ".join(f"{p.name}: {p.type.label}" for p in cmd.params)
             clusters.append(Cluster(cluster, cmd.name + (f"({params})" if params else "")))
         more_nodes, more_edges = _command_picture(cmd, cluster)
         nodes += more_nodes
@@ -535,7 +534,9 @@ def to_dot(graph: Graph) -> str:
         attrs = DOT_SHAPES.get(node.kind, 'shape=box, style="filled"')
         if "label=" not in attrs:
             attrs += f", label={_dot_label(node.label)}"
-        return f'{indent}"{node.id}" [{attrs}, fillcolor="{_fill(node)}"];'
+        if "fillcolor=" not in attrs:  # the start dot is dark whatever its level
+            attrs += f', fillcolor="{_fill(node)}"'
+        return f'{indent}"{node.id}" [{attrs}];'
 
     children: dict[str | None, list[Cluster]] = {}
     for cluster in graph.clusters:

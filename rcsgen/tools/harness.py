@@ -26,11 +26,13 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from ..compiler import emit
+from ..compiler.back_end import emit
 from ..compiler.diagnostics import SpecError
 from ..compiler.frontend import compile_paths
 from ..compiler.ir import IRSystem
+from ..runtime.command import check_command, write_command
 from ..runtime.contract import enum_code, enum_name, plan_slots, result_values
+from ..runtime.startup import settings_problem
 
 _unique = itertools.count(1)
 
@@ -122,23 +124,11 @@ class BlockView:
     _states_of: dict[str, str]
 
     def command(self, module: str, command: str, **args: Any) -> int:
-        """Write a new command to `module` (as its supervisor would); returns its number."""
-        record = self.layout.COMMAND_IN[module]
-        names = self.layout.COMMAND_NAMES[module]
-        if command not in names[1:]:
-            raise ValueError(f"{module} has no command {command!r}; it has {names[1:]}")
-        unknown = set(args) - {
-            f.removeprefix("arg_") for f in record.fields if f.startswith("arg_")
-        }
-        if unknown:
-            raise ValueError(f"{module} has no parameter(s) {sorted(unknown)}")
-        number = record.read(self.buf)["command_num"] + 1
-        values = {
-            f"arg_{k}": self.contract.enum_code(self.layout, module, f"arg_{k}", v)
-            for k, v in args.items()
-        }
-        record.write(self.buf, command_num=number, command=names.index(command), **values)
-        return int(number)
+        """Write a new command to `module` (as its supervisor would); returns its number.
+        Checked as an operator's command is (rcs/command.py): ValueError names what is
+        wrong, and nothing is written."""
+        checked = check_command(self.layout, module, command, args, client=True)
+        return write_command(self.layout, self.buf, checked)
 
     def sent(self, module: str) -> Sent:
         """What is in `module`'s command buffer: the last command its supervisor sent."""
@@ -223,6 +213,8 @@ class Harness(BlockView):
         unknown = sorted(set(simulate) - {m for plan in plans.values() for m in plan.stand_ins})
         if unknown:
             raise ValueError(f"no stand-in for {unknown}")
+        if settings_problem(self.layout, settings or {}):
+            raise ValueError(settings_problem(self.layout, settings or {}))
         self.block = importlib.import_module(f"{runtime}.block").Block(self.layout)
         self.buf = self.block.buf
         self.processes = {
@@ -347,6 +339,8 @@ class LaunchedHarness(BlockView):
         unknown = sorted(set(simulate) - {m for plan in plans.values() for m in plan.stand_ins})
         if unknown:
             raise ValueError(f"no stand-in for {unknown}")
+        if settings_problem(self.layout, settings or {}):
+            raise ValueError(settings_problem(self.layout, settings or {}))
         path = (str(package_dir.parent), *([str(hooks)] if hooks else []))
         system = launcher.System(package_dir.name, self.layout, plans, path)
         segment = f"rcsgen_run_{os.getpid()}_{next(self._segments)}"
@@ -439,3 +433,13 @@ class World:
 
     def snapshot(self, names: list[str] | None = None) -> dict[str, Any]:
         return {n: self[n] for n in (names if names is not None else self._layout.WORLD)}
+
+    def overrides(self) -> dict[str, str]:
+        """The fields under an override: name -> FORCED or SAFE (latched); {} when none
+        (one byte read), so traces of systems without overrides are unchanged."""
+        at = getattr(self._layout, "OVERRIDDEN_AT", None)
+        if at is None or not self._buf[at]:
+            return {}
+        states = ("NONE", "FORCED", "SAFE")
+        held = {n: int(r.read(self._buf)["state"]) for n, r in self._layout.OVERRIDE.items()}
+        return {n: states[state] for n, state in held.items() if state}

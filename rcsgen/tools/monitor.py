@@ -24,9 +24,12 @@ from textual.css.query import NoMatches
 from textual.widgets import DataTable, Footer, Input, Static
 
 from ..runtime import contract
-from ..runtime.ctl import Command, Console, CtlError, parse_command
+from ..runtime.command import Command, parse_command
+from ..runtime.command import shown as shown_value
+from ..runtime.ctl import Console, CtlError
 
 COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
+WORLD_COLUMNS = ("field", "value", "override")
 COLUMNS = (
     ("module", "module"),
     ("command", "command"),
@@ -69,6 +72,7 @@ class Monitor(App[None]):
     TITLE = "rcsgen monitor"
     CSS = """
     DataTable { height: 1fr; }
+    #world { height: auto; max-height: 12; }
     #processes { height: auto; color: $text-muted; }
     #requests { height: auto; color: $warning; text-style: bold; }
     #message { height: auto; }
@@ -95,6 +99,7 @@ class Monitor(App[None]):
         interval: float = 0.25,
         role: str | None = None,
         connect: tuple[str, ...] = (),
+        world: tuple[str, ...] | None = None,
     ) -> None:
         super().__init__()
         self.layout, self.interval = layout, interval
@@ -105,9 +110,16 @@ class Monitor(App[None]):
         self.closed = False
         self.rows = tree_order(layout)
         self.last_rule: dict[str, str] = {}
+        # The world fields shown under the modules: those named, else every one (a misspelt
+        # name is a CtlError, reported by the caller).
+        self.world_fields = self.ctl.world_names(world) if world else list(layout.WORLD)
+        self.unreadable = ""  # why the last refresh could not read the segment, if it could not
+        self.drawn: dict[tuple[str, str, str], tuple[str, str]] = {}  # each cell as drawn
+        self.widths: dict[tuple[str, str], int] = {}  # each column's widest value so far
 
     def compose(self) -> ComposeResult:
         yield DataTable(id="modules", cursor_type="row", zebra_stripes=False)
+        yield DataTable(id="world", cursor_type="none", zebra_stripes=False, show_cursor=False)
         yield Static(id="processes")
         yield Static(id="requests")
         yield Static(id="message")
@@ -118,11 +130,16 @@ class Monitor(App[None]):
         role = self.ctl.access.role
         who = f" as {role}" if role else (" (monitor only)" if self.ctl.access.roles else "")
         self.sub_title = f"{self.layout.SYSTEM} on {self.segment}{who}"
-        table = self.query_one(DataTable)
+        table = self.query_one("#modules", DataTable)
         for key, label in COLUMNS:
             table.add_column(label, key=key)
         for module, prefix in self.rows:
             table.add_row(*([prefix + module] + [""] * (len(COLUMNS) - 1)), key=module)
+        world = self.query_one("#world", DataTable)
+        for key in WORLD_COLUMNS:
+            world.add_column(key, key=key)
+        for name in self.world_fields:
+            world.add_row(name, "", "", key=name)
         self.refresh_rows()
         self.timer = self.set_interval(self.interval, self.refresh_rows)
 
@@ -134,17 +151,33 @@ class Monitor(App[None]):
     # ------------------------------------------------------------ the screen
 
     def refresh_rows(self) -> None:
+        """Read the segment and redraw. Never raises: a read that stays torn shows as
+        `stale`, and a segment that cannot be read at all is said under the table."""
         if self.closed:
             return
-        snapshot = self.ctl.snapshot()
         try:
-            table = self.query_one(DataTable)
+            snapshot = self.ctl.snapshot(self.world_fields)
+        except Exception as error:  # the segment went away, or a record stayed unreadable
+            self.unreadable = f"cannot read {self.segment}: {error}; showing the last values"
+            self.say(self.unreadable, error=True)
+            return
+        if self.unreadable:  # readable again
+            self.unreadable = ""
+            self.say("")
+        try:
+            table = self.query_one("#modules", DataTable)
+            world = self.query_one("#world", DataTable)
         except NoMatches:  # the app is shutting down: its widgets are gone
             return
         for module, prefix in self.rows:
             row = snapshot["modules"][module]
             for key, value in self.cells(module, prefix, row).items():
-                table.update_cell(module, key, value)
+                self.update(table, module, key, value)
+        held = snapshot.get("overrides") or {}
+        for name, value in snapshot["world"].items():
+            state = held.get(name, {}).get("state", "")
+            for key, cell in self.world_cells(name, value, state).items():
+                self.update(world, name, key, cell)
         lines = []
         for name, proc in snapshot["processes"].items():
             age = proc.get("heartbeat_age_s")
@@ -163,6 +196,30 @@ class Monitor(App[None]):
         ]
         self.query_one("#requests", Static).update("\n".join(asks))
 
+    def update(self, table: DataTable[Any], row: str, column: str, value: Text) -> None:
+        """Change a cell whose text or colour changed (only those: a redraw costs). Its
+        column grows to its widest value, so nothing is cut (`EXECUT`, `#1` of #11)."""
+        key = (table.id or "", row, column)
+        seen = (value.plain, str(value.style))
+        if self.drawn.get(key) == seen:
+            return
+        self.drawn[key] = seen
+        width = (table.id or "", column)
+        wider = value.cell_len > self.widths.get(width, 0)  # only then are widths measured again
+        self.widths[width] = max(self.widths.get(width, 0), value.cell_len)
+        table.update_cell(row, column, value, update_width=wider)
+
+    def world_cells(self, name: str, value: Any, state: str = "") -> dict[str, Text]:
+        """A world field's row: its name, its value now (`stale` when unreadable) and its
+        override: FORCED (an operator's `ctl force`) or SAFE (latched at its safe value)."""
+        shown = "stale" if value is None else shown_value(value)
+        style = "grey50" if value is None else ("bold magenta" if state else "")
+        return {
+            "field": Text(name, style=style),
+            "value": Text(shown, style=style),
+            "override": Text(state, style="bold magenta" if state else ""),
+        }
+
     def cells(self, module: str, prefix: str, row: dict[str, Any]) -> dict[str, Text]:
         rule = row.get("rule")
         if rule:
@@ -173,11 +230,12 @@ class Monitor(App[None]):
             style = COLOURS.get(str(row.get("status")), "")
         times = "/".join(str(row.get(f"{k}_cycle_us", "?")) for k in ("last", "min", "max"))
         age = row.get("heartbeat_age_s")
+        status = contract.status_text(str(row.get("status", "stale")), row.get("reason"))
         values = {
             "module": prefix + module,
             "command": str(row.get("command", "?")),
             "cnum": str(row.get("command_num", "?")),
-            "status": contract.status_text(str(row.get("status", "?")), row.get("reason")),
+            "status": status,
             "snum": str(row.get("status_num", "?")),
             "state": str(row.get("state", "?")),
             "rule": self.last_rule.get(module, "-"),
@@ -185,12 +243,12 @@ class Monitor(App[None]):
             if row.get("skipped_by")
             else f"{row.get('run', '?')} {row.get('step', '?')} {row.get('sim', '?')}",
             "cycle": times,
-            "beat": "dead" if not row.get("alive") else f"{age:.2f}s",
+            "beat": "dead" if not row.get("alive") or age is None else f"{age:.2f}s",
         }
         return {key: Text(value, style=style) for key, value in values.items()}
 
     def selected(self) -> str:
-        table = self.query_one(DataTable)
+        table = self.query_one("#modules", DataTable)
         key = table.coordinate_to_cell_key(table.cursor_coordinate).row_key.value
         return str(key)
 
@@ -245,13 +303,12 @@ class Monitor(App[None]):
         module = self.selected()
         form = self.query_one("#send", Input)
         form.add_class("open")
-        record = self.layout.COMMAND_IN[module]
-        params = [f.removeprefix("arg_") for f in record.fields if f.startswith("arg_")]
-        commands = ", ".join(self.layout.COMMAND_NAMES[module][1:])
-        form.placeholder = (
-            f"{module}: COMMAND [{' '.join(p + '=' for p in params)}] [--override]  "
-            f"commands: {commands}"
+        takes = self.layout.PARAMS.get(module, {})
+        commands = ", ".join(
+            " ".join([name, *(f"{p}=" for p in takes.get(name, ()))])
+            for name in self.layout.COMMAND_NAMES[module][1:]
         )
+        form.placeholder = f"{module}: COMMAND NAME=VALUE ... [--override]  commands: {commands}"
         form.value = ""
         form.focus()
         self.sending = module
@@ -305,7 +362,7 @@ class Monitor(App[None]):
     def action_close_send(self) -> None:
         form = self.query_one("#send", Input)
         form.remove_class("open")
-        self.query_one(DataTable).focus()
+        self.query_one("#modules", DataTable).focus()
 
     def on_input_submitted(self, event: Input.Submitted) -> None:
         answering, self.answering = getattr(self, "answering", None), None

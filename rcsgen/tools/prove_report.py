@@ -66,8 +66,7 @@ def run_prove(
                 f.verdict = "undecided"
                 f.replay = "not replayed"
         lines.append(
-            f"{system.name}: {len(proof.controllers)} controllers ({proof.reaction} "
-            "reaction to a lost process)"
+            f"{system.name}: {len(proof.controllers)} controllers; a lost process: {proof.reaction}"
         )
         for name, r in proof.controllers.items():
             lines.append(

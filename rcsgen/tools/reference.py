@@ -13,11 +13,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..compiler import write
+from ..compiler.back_end import write
+from ..compiler.back_end.emit import MARKER
 from ..compiler.diagnostics import Diagnostics
-from ..compiler.emit import MARKER
-from ..compiler.expr import enum_values, type_label
 from ..compiler.ir import IRCommand, IRController, IRRule, IRSystem
+from ..compiler.types import Enum, Type
 from . import graph
 
 INDEX = "README.md"  # code hosts show a folder's README.md when it is opened
@@ -76,13 +76,13 @@ def rule_table(rules: list[tuple[str, IRRule]], first_match: tuple[str, ...] = (
     return "\n".join(out) + "\n"
 
 
-def _initial(value: object, kind: str) -> str:
+def _initial(value: object, kind: Type) -> str:
     """An initial value as the spec writes it: an enumeration's by its name."""
-    return str(value) if enum_values(kind) else repr(value)
+    return str(value) if isinstance(kind, Enum) else repr(value)
 
 
 def command_section(controller: IRController, command: IRCommand) -> str:
-    params = ", ".join(f"{p.name}: {type_label(p.type)}" for p in command.params)
+    params = ", ".join(f"{p.name}: {p.type.label}" for p in command.params)
     out = [f"### {command.name}" + (f"({params})" if params else ""), ""]
     facts = [f"code {command.code}", f"`{controller.source}:{command.span.line}`"]
     if command.generated:
@@ -92,13 +92,11 @@ def command_section(controller: IRController, command: IRCommand) -> str:
         out += [command.doc.strip(), ""]
     if command.params:
         out += ["| parameter | type | description |", "|---|---|---|"]
-        out += [f"| `{p.name}` | {type_label(p.type)} | {cell(p.doc)} |" for p in command.params]
+        out += [f"| `{p.name}` | {p.type.label} | {cell(p.doc)} |" for p in command.params]
         out.append("")
     if command.results:
         out += ["| result | type | description |", "|---|---|---|"]
-        out += [
-            f"| `result.{r.name}` | {type_label(r.type)} | {cell(r.doc)} |" for r in command.results
-        ]
+        out += [f"| `result.{r.name}` | {r.type.label} | {cell(r.doc)} |" for r in command.results]
         out.append("")
     if command.reasons:
         out += ["It can fail for: " + ", ".join(f"`{r}`" for r in command.reasons) + ".", ""]
@@ -150,7 +148,7 @@ def operator_page(system: IRSystem, c: IRController, level: int) -> str:
 
 def controller_page(system: IRSystem, controller: IRController, level: int) -> str:
     c = controller
-    if c.kind == "operator":
+    if c.is_operator:
         return operator_page(system, c, level)
     out = [header(c.source), f"# {c.name}: {c.title}", ""]
     facts = [f"system [{system.name}]({INDEX})"]
@@ -171,7 +169,7 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
     out += ["## Commands", "", "| code | command | parameters | states | description |"]
     out.append("|---:|---|---|---:|---|")
     for command in c.commands:
-        params = ", ".join(f"{p.name}: {type_label(p.type)}" for p in command.params)
+        params = ", ".join(f"{p.name}: {p.type.label}" for p in command.params)
         anchor = command.name.lower()
         doc = command.doc.strip() + (" (generated)" if command.generated else "")
         out.append(
@@ -184,7 +182,7 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
         out.append("|---|---|---|")
         for sub in c.subordinates:
             names = ", ".join(k.name for k in system.controller(sub.name).commands)
-            params = ", ".join(f"{p.name}: {type_label(p.type)}" for p in sub.params)
+            params = ", ".join(f"{p.name}: {p.type.label}" for p in sub.params)
             out.append(f"| {link(sub.name)} | {names} | {params} |")
         out.append("")
     writes = {w.name for w in c.world_writes}
@@ -195,7 +193,7 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
         out += ["Read fields are copied in by pre_process, written ones out by post_process.", ""]
         out += ["| field | type | access | description |", "|---|---|---|---|"]
         for w, access in sorted(fields, key=lambda f: (f[1] != "read", f[0].name)):
-            out.append(f"| `world.{w.name}` | {type_label(w.type)} | {access} | {cell(w.doc)} |")
+            out.append(f"| `world.{w.name}` | {w.type.label} | {access} | {cell(w.doc)} |")
         out.append("")
     if c.constants or c.predicates or c.locals or c.hooks or c.functions:
         out += ["## Constants, predicates, locals, hooks", ""]
@@ -207,7 +205,7 @@ def controller_page(system: IRSystem, controller: IRController, level: int) -> s
             for f in c.functions
         ]
         rows += [
-            f"| local | `{v.name}` | {type_label(v.type)} = `{_initial(v.initial, v.type)}` | "
+            f"| local | `{v.name}` | {v.type.label} = `{_initial(v.initial, v.type)}` | "
             f"{cell(v.doc)} |"
             for v in c.locals
         ]
@@ -279,7 +277,7 @@ def index_page(system: IRSystem) -> str:
             if w.name in {f.name for f in c.world_reads} and c.name not in writers
         ]
         out.append(
-            f"| `{w.name}` | {type_label(w.type)} | `{_initial(w.initial, w.type)}` | "
+            f"| `{w.name}` | {w.type.label} | `{_initial(w.initial, w.type)}` | "
             f"{', '.join(writers)} | {', '.join(readers)} | {cell(w.doc)} |"
         )
     return "\n".join(out).rstrip("\n") + "\n"

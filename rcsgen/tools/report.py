@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
-from ..compiler.acknowledge import WARNING_CODES
+from ..compiler.codes import CODES, WARNING_CODES, Severity
 from ..compiler.diagnostics import Diagnostic, Diagnostics, to_json
 
 FORMATS = ("text", "json", "sarif", "github")
@@ -41,7 +41,7 @@ class Options:
 
     def shows(self, diagnostic: Diagnostic) -> bool:
         """Whether a diagnostic is reported (errors always are)."""
-        if diagnostic.severity == "error":
+        if diagnostic.severity is Severity.ERROR:
             return True
         code = diagnostic.code
         if self.select and not any(code.startswith(p) for p in self.select):
@@ -82,7 +82,7 @@ def shown(diags: Diagnostics, options: Options) -> tuple[list[Diagnostic], list[
 
 def outcome(diags: Diagnostics, options: Options) -> Outcome:
     active, _ = shown(diags, options)
-    errors = sum(d.severity == "error" for d in active)
+    errors = sum(d.severity is Severity.ERROR for d in active)
     warnings = len(active) - errors
     return Outcome(
         errors,
@@ -171,7 +171,7 @@ def to_sarif(diagnostics: Iterable[Diagnostic], version: str) -> str:
         result: dict[str, object] = {
             "ruleId": d.code,
             "ruleIndex": index[d.code],
-            "level": "error" if d.severity == "error" else "warning",
+            "level": str(d.severity),
             "message": {"text": text},
             "locations": [
                 {
@@ -194,7 +194,7 @@ def to_sarif(diagnostics: Iterable[Diagnostic], version: str) -> str:
                     "driver": {
                         "name": "rcsgen",
                         "version": version,
-                        "rules": [{"id": code, "help": {"text": _help(code)}} for code in codes],
+                        "rules": [_rule(code) for code in codes],
                     }
                 },
                 "columnKind": "unicodeCodePoints",
@@ -205,9 +205,15 @@ def to_sarif(diagnostics: Iterable[Diagnostic], version: str) -> str:
     return json.dumps(log, indent=2)
 
 
-def _help(code: str) -> str:
-    """Where a code is explained."""
-    return f"rcsgen's docs/diagnostics.md, section {code}"
+def _rule(code: str) -> dict[str, object]:
+    """A SARIF rule: the code, its title and level (the registry's), where it is explained."""
+    registered = CODES[code]
+    return {
+        "id": code,
+        "shortDescription": {"text": registered.title},
+        "defaultConfiguration": {"level": str(registered.severity)},
+        "help": {"text": f"rcsgen's docs/diagnostics.md, section {code}"},
+    }
 
 
 def _escape(text: str, property_value: bool = False) -> str:

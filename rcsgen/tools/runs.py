@@ -2,7 +2,8 @@
 
 A hook that raises or returns values that do not fit its `returns:` makes the generated code
 raise `HookError` (`rcs.contract`), naming the module, the hook and the rule that called
-it; here it becomes one diagnostic at the spec's `call:` line with the cycle (E420, E421).
+it; here it becomes one diagnostic at the spec's `call:` line with the cycle (E420, E421;
+E423 for a hook interrupted at its deadline, or that returned past it).
 Anything else a module raises (an int overflowing its 64 bits, a division by a variable
 that was 0) is E422 at the module's spec. The Python traceback is kept for `-v`.
 After the run: an expectation not met (E416), a difference from a golden trace (E417), a
@@ -17,10 +18,11 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+from ..compiler.back_end.write import Plan
 from ..compiler.diagnostics import Diagnostic, Span, SpecError
 from ..compiler.frontend import display_path
-from ..compiler.ir import IRCall, IRController, IRPlanAction, IRSystem
-from ..compiler.write import Plan
+from ..compiler.ir import IRCall, IRController, IRLoadPlan, IRSystem
+from ..runtime.contract import HookError, HookOverrun
 from .scenario import RunResult, Scenario, final_value, first_difference, read_trace
 
 
@@ -51,9 +53,8 @@ def _call_span(controller: IRController | None, rule: str, hook: str) -> Span | 
             if isinstance(action, IRCall) and action.hook == hook and action.span is not None:
                 return action.span
             if (
-                isinstance(action, IRPlanAction)
+                isinstance(action, IRLoadPlan)
                 and action.planner == hook
-                and action.action != "advance"
                 and action.span is not None
             ):
                 return action.span
@@ -75,6 +76,35 @@ def _generated_module(error: BaseException, package: Path | None) -> str | None:
     return found
 
 
+def _hooks_import(
+    error: BaseException, controller: IRController | None, package: Path | None
+) -> str:
+    """`file:line` where importing a controller's hooks module failed (the deepest line of
+    a module's own code, run by the import, outside the generated package), '' when the
+    error did not come from that import."""
+    if controller is None or not controller.hooks_module or package is None:
+        return ""
+    frames = list(traceback.walk_tb(error.__traceback__))
+    importing = [
+        index
+        for index, (frame, _) in enumerate(frames)
+        if Path(frame.f_code.co_filename).parent == package and frame.f_code.co_name == "<module>"
+    ]
+    if not importing:
+        return ""
+    after = [
+        (frame, line)
+        for frame, line in frames[importing[-1] + 1 :]
+        if frame.f_code.co_name == "<module>" and not frame.f_code.co_filename.startswith("<")
+    ]
+    if not after:  # the import statement itself failed: the module is not there
+        return (
+            f"{Path(frames[importing[-1]][0].f_code.co_filename).name}:{frames[importing[-1]][1]}"
+        )
+    frame, line = after[-1]
+    return f"{display_path(Path(frame.f_code.co_filename))}:{line}"
+
+
 def run_error(
     error: BaseException,
     system: IRSystem | None,
@@ -85,13 +115,21 @@ def run_error(
     """One diagnostic for an exception raised while cycle `cycle` ran (0: at start-up)."""
     where = fallback or Span("<run>")
     when = f"cycle {cycle}" if cycle else "start-up"
-    if type(error).__name__ == "HookError":  # the generated package's own contract class
-        module, hook, rule = error.module, error.hook, error.rule  # type: ignore[attr-defined]
+    if isinstance(error, HookError):  # one class in rcsgen and every package (contract.shared)
+        module, hook, rule = error.module, error.hook, error.rule
         controller = _controller(system, module)
         span = _call_span(controller, rule, hook) or _spec_span(controller, where)
-        problem = error.problem()  # type: ignore[attr-defined]
+        problem = error.problem()
         called = "made by `hooks_state`" if rule == "hooks_state" else f"rule {rule}"
-        if error.raised:  # type: ignore[attr-defined]
+        if isinstance(error.__cause__, HookOverrun):
+            return Diagnostic(
+                span,
+                "E423",
+                f"{problem} ({called}, {when})",
+                "make the hook return sooner, or declare a longer `deadline:` for it "
+                "(docs/spec.md section 6)",
+            )
+        if error.raised:
             return Diagnostic(
                 span,
                 "E420",
@@ -105,10 +143,20 @@ def run_error(
         elif why:
             hint = "a planner returns a list of steps, each a tuple of the plan's step fields"
         return Diagnostic(span, "E421", f"{problem} ({called}, {when})", hint)
-    module = _generated_module(error, package)
-    controller = _controller(system, module) if module else None
+    failed_in = _generated_module(error, package)
+    controller = _controller(system, failed_in) if failed_in else None
     text = f"{type(error).__name__}: {error}" if str(error) else type(error).__name__
-    subject = f"module `{module}`" if module else "the run"
+    failed_import = _hooks_import(error, controller, package)
+    if controller is not None and controller.hooks_module and failed_import:
+        return Diagnostic(
+            controller.hooks_module_span or _spec_span(controller, where),
+            "E422",
+            f"hooks module `{controller.hooks_module}` of `{controller.name}` failed to import "
+            f"({failed_import}, {when}): {text}",
+            "the module runs when the package starts: install what it imports, or fix the "
+            "line named; run again with -v for the Python traceback",
+        )
+    subject = f"module `{failed_in}`" if failed_in else "the run"
     return Diagnostic(
         _spec_span(controller, where),
         "E422",
@@ -119,7 +167,7 @@ def run_error(
 
 def details(error: BaseException) -> str:
     """The traceback `-v` shows: for a hook, the hook's own (where it raised)."""
-    cause = error.__cause__ if type(error).__name__ == "HookError" else error
+    cause = error.__cause__ if isinstance(error, HookError) else error
     if cause is None:
         return ""
     return "".join(traceback.format_exception(type(cause), cause, cause.__traceback__))
@@ -208,7 +256,9 @@ def golden_differences(golden: Path, trace: list[str], name: str) -> list[Diagno
     ]
 
 
-def stale_package(plan: Plan, generated: Path, system: str) -> Diagnostic | None:
+def stale_package(
+    plan: Plan, generated: Path, system: str, instead: str = "drop --generated to build in memory"
+) -> Diagnostic | None:
     """E418 naming the files of `generated/<system>` that differ from what the specs make."""
     root = generated / system
     changed = sorted(
@@ -224,5 +274,5 @@ def stale_package(plan: Plan, generated: Path, system: str) -> Diagnostic | None
         "E418",
         f"`{display_path(root)}` is stale: {shown} "
         f"{'differs' if len(changed) == 1 else 'differ'} from what the specs make",
-        f"run `rcsgen build -o {display_path(generated)}`, or drop --generated to build in memory",
+        f"run `rcsgen build -o {display_path(generated)}`, or {instead}",
     )

@@ -19,9 +19,9 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from ..compiler import loader
+from ..compiler.back_end.emit import environment
 from ..compiler.diagnostics import Diagnostic, Span, did_you_mean
-from ..compiler.emit import environment
+from ..compiler.front_end import loader
 from ..compiler.frontend import compile_paths
 from .scenario_check import check_system_scenarios
 

@@ -17,90 +17,23 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..compiler.diagnostics import Span, SpecError
-from ..compiler.frontend import SYSTEM_FILE, display_path, real_path
-from ..compiler.loader import decode, read_bytes
+from ..compiler.diagnostics import SpecError
+from ..compiler.front_end.loader import decode, read_bytes
+from ..compiler.frontend import display_path
+from ..runtime import override
 from ..runtime.ctl import channel_requests, write_answer
 from .harness import AnyHarness, Harness, LaunchedHarness, Status
+from .scenario_check import check_scenario
+from .scenario_model import (
+    Event,
+    Expected,
+    OperatorScript,
+    Scenario,
+    ScriptedAnswer,
+    find_system_dir,
+)
 
-
-@dataclass
-class Event:
-    """What happens before cycle `cycle` runs: a command to a module, world or mode changes."""
-
-    cycle: int
-    command: tuple[str, str] | None = None  # (module, COMMAND)
-    args: dict[str, Any] = field(default_factory=dict)
-    world: dict[str, Any] = field(default_factory=dict)
-    mode: dict[str, dict[str, Any]] = field(default_factory=dict)
-    doc: str = ""
-    overrides: str | None = None  # the supervisor it is written under (`overrides: true`)
-    answer: tuple[str, str, str] | None = None  # (channel, DONE|ERROR, reason): `ctl answer`
-    replies: dict[str, str] = field(default_factory=dict)  # module -> DONE|ERROR, scripted
-
-
-@dataclass(frozen=True)
-class Expected:
-    """One expected outcome (`expect:`): a final value, or bounds; where it is written."""
-
-    what: str  # "status", "cycles", a world field, `<module>.reason` or `<module>.result.<name>`
-    span: Span
-    value: Any = None  # an exact value (status name, number, bool), or None
-    low: float | None = None
-    high: float | None = None
-
-    def met(self, actual: Any) -> bool:
-        if self.value is not None:
-            if isinstance(self.value, bool) or isinstance(actual, bool):
-                return isinstance(actual, bool) and actual is bool(self.value)
-            if isinstance(self.value, str):
-                return str(actual) == str(self.value)
-            return isinstance(actual, int | float) and actual == self.value
-        if isinstance(actual, bool) or not isinstance(actual, int | float):
-            return False
-        return (self.low is None or actual >= self.low) and (
-            self.high is None or actual <= self.high
-        )
-
-    def wanted(self) -> str:
-        if self.value is not None:
-            shown = str(self.value).lower() if isinstance(self.value, bool) else self.value
-            return f"{shown}"
-        if self.low is not None and self.high is not None:
-            return f"between {self.low:g} and {self.high:g}"
-        return f"at least {self.low:g}" if self.low is not None else f"at most {self.high:g}"
-
-
-@dataclass(frozen=True)
-class ScriptedAnswer:
-    """How the scripted person answers the requests it matches (`operator:` of a scenario)."""
-
-    after: int  # cycles from taking the request up to the answer
-    answer: str  # DONE, ERROR or never
-    reason: str = ""  # with ERROR: one of the task's reasons ("": NONE)
-    operator: str | None = None  # None: any
-    task: str | None = None
-    client: str | None = None
-
-    def matches(self, request: dict[str, Any]) -> bool:
-        return (
-            self.operator in (None, request["operator"])
-            and self.task in (None, request["task"])
-            and self.client in (None, request["by"])
-        )
-
-
-@dataclass(frozen=True)
-class OperatorScript:
-    """The scripted person at the screen: answers by task and/or client, and a default."""
-
-    answers: tuple[ScriptedAnswer, ...] = ()
-    default: ScriptedAnswer | None = None  # None: unmatched requests are left to the console
-
-    def how(self, request: dict[str, Any]) -> ScriptedAnswer | None:
-        """How the person answers `request`; None: never (the console does)."""
-        found = next((a for a in self.answers if a.matches(request)), self.default)
-        return None if found is None or found.answer == "never" else found
+__all__ = ["Event", "Expected", "OperatorScript", "Scenario", "ScriptedAnswer", "find_system_dir"]
 
 
 class ScriptedPerson:
@@ -138,38 +71,9 @@ class ScriptedPerson:
                 queue.pop(0)
 
 
-@dataclass
-class Scenario:
-    name: str
-    title: str
-    path: Path
-    system_dir: Path
-    process: str | None
-    max_cycles: int
-    stop_when_done: str | None
-    trace_world: list[str]
-    events: list[Event]
-    settings: dict[str, str] = field(default_factory=dict)  # for the hook-state factories
-    simulate: tuple[str, ...] = ()  # controllers replaced by their stand-ins
-    phases_of: str | None = None  # the module whose commands are the run's phases
-    figures: list[str] = field(default_factory=list)  # world fields (or module.reason ...) shown
-    expect: list[Expected] = field(default_factory=list)  # empty: stop module DONE, if any
-    operator: OperatorScript | None = None  # the scripted person at the screen, if any
-
-
-def find_system_dir(path: Path) -> Path | None:
-    """The nearest directory above a scenario file that holds a system.yaml."""
-    for parent in real_path(path).parents:
-        if (parent / SYSTEM_FILE).is_file():
-            return parent
-    return None
-
-
 def load_scenario(path: Path) -> Scenario:
     """Read and check a scenario file against its system (the specs above it): raises
     SpecError with located diagnostics (the checks are in `scenario_check`)."""
-    from .scenario_check import check_scenario  # it builds the Scenario defined here
-
     scenario, diags = check_scenario(path)
     if scenario is None or diags.errors:
         raise SpecError(diags)
@@ -216,6 +120,14 @@ class RunResult:
     statuses: dict[str, Status] = field(default_factory=dict)  # every module's, at the end
 
 
+def interrupted_line(cycle: int, signal_name: str) -> str:
+    """The last line of a trace whose run was interrupted: the signal, and the cycle that
+    did not finish (the lines above are the cycles before it)."""
+    return json.dumps(
+        {"cycle": cycle, "interrupted": signal_name}, sort_keys=True, separators=(",", ":")
+    )
+
+
 def final_value(name: str, world: dict[str, Any], statuses: dict[str, Status]) -> Any:
     """What a figure names at the end of a run: a world field, `<module>.reason` (its name)
     or `<module>.result.<name>`; None when the run has no such value."""
@@ -250,10 +162,18 @@ def trace_line(harness: AnyHarness, world: list[str]) -> str:
         if status.plans:  # modules with plans only: each plan's step, steps and replans left
             modules[name]["plans"] = status.plans
     line = {"cycle": harness.cycles, "modules": modules, "world": harness.world.snapshot(world)}
+    held = harness.world.overrides()
+    if held:  # world fields forced or latched safe (only then: goldens keep their shape)
+        line["overrides"] = held
     return json.dumps(line, sort_keys=True, separators=(",", ":"))
 
 
 def _apply(harness: AnyHarness, event: Event) -> None:
+    segment = harness.launcher.segment if isinstance(harness, LaunchedHarness) else None
+    for name in event.unforce:  # as `ctl unforce`: the field's module writes it again
+        override.unforce(harness.layout, harness.buf, name, segment)
+    for name, value in event.force.items():  # as `ctl force`: its module keeps this value
+        override.force(harness.layout, harness.buf, name, value, segment)
     harness.world.update(event.world)
     for module, status in event.replies.items():
         reply(harness, module, status)
@@ -292,12 +212,15 @@ def run(
     scenario: Scenario,
     harness: AnyHarness,
     on_cycle: Callable[[AnyHarness], None] | None = None,
+    trace: list[str] | None = None,
 ) -> RunResult:
-    """Run a scenario to its stop condition (or `max_cycles`) and collect its trace."""
+    """Run a scenario to its stop condition (or `max_cycles`) and collect its trace, a line
+    per cycle appended to `trace` as the run goes (so an interrupted run keeps what it
+    ran)."""
     pending = list(scenario.events)
     person = ScriptedPerson(scenario.operator) if scenario.operator is not None else None
     stop = scenario.stop_when_done
-    trace: list[str] = []
+    trace = [] if trace is None else trace
     phases: Counter[str] = Counter()
     while harness.cycles < scenario.max_cycles:
         while pending and pending[0].cycle <= harness.cycles + 1:

@@ -19,13 +19,22 @@ from pathlib import Path
 from typing import Any
 
 from ..compiler.diagnostics import Diagnostics, Span, SpecError, known_names_hint
-from ..compiler.expr import enum_values, int_range_problem, str_size, text_problem_of
+from ..compiler.expressions import int_range_problem, text_problem_of
+from ..compiler.front_end.loader import LocDict, key_span, load_file, span_of, value_span
+from ..compiler.front_end.model import exact_cycles
+from ..compiler.front_end.schema import check_document
 from ..compiler.frontend import SYSTEM_FILE, compile_paths, display_path
 from ..compiler.ir import IRController, IRProcess, IRSystem
-from ..compiler.loader import LocDict, key_span, load_file, span_of, value_span
-from ..compiler.model import exact_cycles
-from ..compiler.schema import check_document
-from .scenario import Event, Expected, OperatorScript, Scenario, ScriptedAnswer, find_system_dir
+from ..compiler.types import BOOL, INT, Bool, Enum, ReasonOf, Str, Type
+from ..runtime.command import value_problem
+from .scenario_model import (
+    Event,
+    Expected,
+    OperatorScript,
+    Scenario,
+    ScriptedAnswer,
+    find_system_dir,
+)
 from .traces import whole_system
 
 DEFAULT_MAX_CYCLES = 1000
@@ -99,7 +108,7 @@ class _Checker:
     def __init__(self, data: LocDict, system: IRSystem, diags: Diagnostics, top: Span):
         self.data, self.system, self.diags, self.top = data, system, diags, top
         self.controllers = {c.name: c for c in system.controllers if c.buffers == c.name}
-        self.operators = {c.name: c for c in system.controllers if c.kind == "operator"}
+        self.operators = {c.name: c for c in system.controllers if c.is_operator}
         self.world = {f.name: f.type for f in system.world}
 
     def error(self, span: Span, code: str, message: str, hint: str = "") -> None:
@@ -135,7 +144,7 @@ class _Checker:
             return None
         return controller
 
-    def field(self, name: str, span: Span, what: str) -> str | None:
+    def field(self, name: str, span: Span, what: str) -> Type | None:
         """A world field's type; E409 when there is no such field."""
         kind = self.world.get(name)
         if kind is None:
@@ -147,10 +156,10 @@ class _Checker:
             )
         return kind
 
-    def figure(self, name: str, span: Span, run: _Run | None, what: str) -> str | None:
+    def figure(self, name: str, span: Span, run: _Run | None, what: str) -> Type | None:
         """The type of what a figure names: a world field's (E409), or a module's
-        `result.<name>` (E405/E414 for the module, E415 for the result), or `reason` for
-        `<module>.reason` (E415 when the module declares no reasons)."""
+        `result.<name>` (E405/E414 for the module, E415 for the result), or `ReasonOf` the
+        module for `<module>.reason` (E415 when the module declares no reasons)."""
         if "." not in name:
             return self.field(name, span, what)
         module, _, rest = name.partition(".")
@@ -166,7 +175,7 @@ class _Checker:
                     "declare `reasons:` on its commands, or expect its `status`",
                 )
                 return None
-            return "reason"
+            return ReasonOf(module)
         result = rest.removeprefix("result.")
         results = {r.name: r.type for r in controller.results}
         if result not in results:
@@ -189,36 +198,34 @@ class _Checker:
         self.error(span, "E408", f"`{shown}` is not a reason `{module}` can give", hint)
         return False
 
-    def value(self, value: Any, kind: str, span: Span, what: str) -> bool:
-        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit; an
-        enumeration: one of its value names; a string: one that fits its size)."""
-        problem, hint = "", ""
-        names = enum_values(kind)
-        if names and value not in names:
+    def value(self, value: Any, kind: Type, span: Span, what: str) -> bool:
+        """E408 unless `value` is of spec type `kind` (bool: true/false only; int: 64-bit; a
+        float: a finite number; an enumeration: one of its value names; a string: one that
+        fits its size): the one contract a command's values meet (rcs/command.py), said
+        as a scenario's author reads it."""
+        names = kind.values if isinstance(kind, Enum) else ()
+        if not value_problem(value, kind.code, names):
+            return True
+        hint = ""
+        if names:
             problem = f"{what} is an enum: give one of {', '.join(names)}, not `{_shown(value)}`"
             hint = known_names_hint("values", names, str(value))
-        elif names:
-            pass
-        elif str_size(kind):
-            problem = text_problem_of(value, kind)
-            problem = (
-                f"{what} is a string of at most {str_size(kind)} bytes: {problem}"
-                if problem
-                else ""
-            )
-        elif kind == "bool" and not isinstance(value, bool):
+        elif isinstance(kind, Str):
+            said = value_problem(value, kind.code)  # bytes that are not UTF-8 too
+            said = said if "not text" in said else text_problem_of(value, kind)
+            problem = f"{what} is a string of at most {kind.size} bytes: {said}"
+        elif kind == BOOL:
             problem = f"{what} is a bool: give true or false, not `{_shown(value)}`"
-        elif kind == "int" and (isinstance(value, bool) or not isinstance(value, int)):
-            problem = f"{what} is an int: give a whole number, not `{_shown(value)}`"
-        elif kind == "float" and (isinstance(value, bool) or not isinstance(value, int | float)):
-            problem = f"{what} is a float: give a number, not `{_shown(value)}`"
-        elif kind == "int" and int_range_problem(value):
+        elif kind == INT and int_range_problem(value):
             problem = f"{what}: {int_range_problem(value)}"
-        if problem:
-            if isinstance(value, str) and value.lower() in ("yes", "no", "on", "off"):
-                hint = f"`{value}` is a string in YAML 1.2; write true or false"
-            self.error(span, "E408", problem, hint)
-        return not problem
+        elif kind == INT:
+            problem = f"{what} is an int: give a whole number, not `{_shown(value)}`"
+        else:
+            problem = f"{what} is a float: give a finite number, not `{_shown(value)}`"
+        if isinstance(value, str) and value.lower() in ("yes", "no", "on", "off"):
+            hint = f"`{value}` is a string in YAML 1.2; write true or false"
+        self.error(span, "E408", problem, hint)
+        return False
 
     # ------------------------------------------------------------ the file
 
@@ -248,6 +255,7 @@ class _Checker:
             str(k): (str(v).lower() if isinstance(v, bool) else str(v))
             for k, v in (data.get("settings") or {}).items()
         }
+        self.settings(data.get("settings") or {})
         return Scenario(
             name=str(data["scenario"]),
             title=str(data.get("title", "")),
@@ -265,6 +273,31 @@ class _Checker:
             expect=expected,
             operator=script,
         )
+
+    def settings(self, given: Any) -> None:
+        """E424 for a setting the system does not take (`settings:` in system.yaml), the one
+        check `--set` makes (rcs/startup.py)."""
+        declared = self.system.settings
+        factories = any(c.hooks_state for c in self.system.controllers)
+        for key in given:
+            span = key_span(given, key, self.span(self.data, "settings"))
+            if declared is not None and key not in dict(declared):
+                names = [name for name, _ in declared]
+                self.error(
+                    span,
+                    "E424",
+                    f"`{self.system.name}` has no setting `{key}`",
+                    known_names_hint("settings", names, str(key))
+                    or f"its settings: {', '.join(names) or 'none'} (system.yaml `settings:`)",
+                )
+            elif declared is None and not factories:
+                self.error(
+                    span,
+                    "E424",
+                    f"`{self.system.name}` reads no setting `{key}`: none of its controllers "
+                    "has a `hooks_state` factory",
+                    "remove `settings:`",
+                )
 
     def process(self) -> _Run | None:
         """The process the scenario runs and the stand-ins it uses (E410, E411)."""
@@ -334,25 +367,14 @@ class _Checker:
             if kind is None:
                 continue
             if isinstance(wanted, dict):
-                if kind in ("bool", "reason") or enum_values(kind) or str_size(kind):
-                    word = (
-                        "a reason"
-                        if kind == "reason"
-                        else "an enum"
-                        if enum_values(kind)
-                        else "a str"
-                        if str_size(kind)
-                        else "a bool"
-                    )
-                    expect = {"bool": "true or false", "reason": "one of its names"}
+                word = _UNRANGED.get(type(kind))
+                if word is not None:
                     self.error(
-                        span,
-                        "E415",
-                        f"`{name}` is {word}: expect {expect.get(kind, 'one value')}, not a range",
+                        span, "E415", f"`{name}` is {word[0]}: expect {word[1]}, not a range"
                     )
                     continue
                 found.append(self.bounds(name, wanted, span))
-            elif kind == "reason":
+            elif isinstance(kind, ReasonOf):
                 if self.reason(wanted, name.partition(".")[0], self.span(figures, name)):
                     found.append(Expected(name, span, value=wanted))
             elif self.value(wanted, kind, self.span(figures, name), f"expected `{name}`"):
@@ -367,6 +389,7 @@ class _Checker:
 
     def events(self, run: _Run | None, max_cycles: int) -> list[Event]:
         events = []
+        forced: set[str] = set()  # the fields forced by the events so far
         raw_events = self.data.get("events") or []
         last = 0
         for index, raw in enumerate(raw_events):
@@ -405,12 +428,55 @@ class _Checker:
                 if kind is not None:
                     self.value(value, kind, self.span(world, name), f"world field `{name}`")
                 event.world[name] = value
+            self.forcing(raw, event, where, forced)
             modes = raw.get("mode") or {}
             for module, mode in modes.items():
                 self.module(module, key_span(modes, module, where), run, "mode of module")
                 event.mode[module] = dict(mode)
             events.append(event)
         return sorted(events, key=lambda e: e.cycle)
+
+    def forcing(self, raw: LocDict, event: Event, where: Span, forced: set[str]) -> None:
+        """An event's `unforce:` then `force:` (as `ctl unforce`/`ctl force`): each field
+        known (E409), a forced value of its type (E408), ground truth forced only where
+        simulators write it, and a release only of what an earlier event forced (E425)."""
+        for index, name in enumerate(raw.get("unforce") or []):
+            span = self.span(raw["unforce"], index)
+            if self.field(name, span, "field") is None:
+                continue
+            if name not in forced:
+                self.error(
+                    span,
+                    "E425",
+                    f"`{name}` is not forced here: no earlier event forces it",
+                    "force it with an earlier event's `force:`, or remove the `unforce:`",
+                )
+            forced.discard(name)
+            event.unforce.append(name)
+        values = raw.get("force") or {}
+        for name, value in values.items():
+            span = key_span(values, name, where)
+            kind = self.field(name, span, "field")
+            if kind is None:
+                continue
+            self.value(value, kind, self.span(values, name), f"forced world field `{name}`")
+            writers = [
+                c for c in self.system.controllers if name in {w.name for w in c.world_writes}
+            ]
+            real = [c.name for c in writers if not c.simulator]
+            if self.ground_truth(name) and real:
+                self.error(
+                    span,
+                    "E425",
+                    f"`{name}` is ground truth, the world itself: no operator can force it where "
+                    f"{', '.join(real)} write{'s' if len(real) == 1 else ''} it for real",
+                    "force what a sensor reports (a field its simulator writes), not the truth",
+                )
+            forced.add(name)
+            event.force[name] = value
+
+    def ground_truth(self, name: str) -> bool:
+        return any(f.name == name and f.ground_truth for f in self.system.world)
 
     def command(self, raw: LocDict, event: Event, run: _Run | None, where: Span) -> None:
         """A command event: module, command, every parameter of its type, supervisor."""
@@ -422,7 +488,7 @@ class _Checker:
         controller = self.module(module, span, run, "command to module")
         if controller is None:
             return
-        if controller.kind == "operator":
+        if controller.is_operator:
             self.error(
                 span,
                 "E285",
@@ -481,7 +547,7 @@ class _Checker:
 
     def not_an_operator(self, found: IRController | None, span: Span, why: str) -> None:
         """E285 for an operator module where a scenario needs a controller's command."""
-        if found is not None and found.kind == "operator":
+        if found is not None and found.is_operator:
             self.error(
                 span,
                 "E285",
@@ -600,6 +666,16 @@ class _Checker:
 
 def _names(operators: list[IRController]) -> str:
     return " or ".join(f"`{o.name}`" for o in operators)
+
+
+# The types a figure cannot be expected in a range of: how a message names each, and what to
+# expect instead.
+_UNRANGED: dict[type[Type], tuple[str, str]] = {
+    ReasonOf: ("a reason", "one of its names"),
+    Enum: ("an enum", "one value"),
+    Str: ("a str", "one value"),
+    Bool: ("a bool", "true or false"),
+}
 
 
 def _shown(value: Any) -> str:

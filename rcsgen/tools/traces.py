@@ -34,6 +34,9 @@ class Trace:
     modules: list[str]  # sorted, as every line holds them
     columns: dict[str, dict[str, list[Any]]]  # module -> field -> one value per cycle
     world: dict[str, list[Any]] = field(default_factory=dict)  # field -> one value per cycle
+    # The signal that interrupted the run (`rcsgen run` on SIGINT/SIGTERM writes the cycles
+    # it ran and a last line saying so); None for a run that ended.
+    interrupted: str | None = None
 
     def __len__(self) -> int:
         return len(self.cycles)
@@ -63,16 +66,28 @@ def parse(text: str, shown: str = "<trace>") -> Trace:
     columns: dict[str, dict[str, list[Any]]] = {}
     world: dict[str, list[Any]] = {}
     modules: list[str] = []
+    interrupted = None
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
         where = f"{shown}:{number}"
+        if interrupted is not None:
+            raise TraceError(f"{where}: a line after the one that says the run was interrupted")
         try:
             record = json.loads(line)
         except json.JSONDecodeError as error:
             raise TraceError(f"{where}: not a trace line: {error.msg}") from None
         if not isinstance(record, dict) or not isinstance(record.get("cycle"), int):
             raise TraceError(f"{where}: not a trace line (no `cycle` number)")
+        if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
+            if sorted(record) != ["cycle", "interrupted"] or not isinstance(
+                record["interrupted"], str
+            ):
+                raise TraceError(
+                    f"{where}: not a trace line (an `interrupted` line has only it and `cycle`)"
+                )
+            interrupted = record["interrupted"]
+            continue
         found = record.get("modules")
         if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
             raise TraceError(f"{where}: not a trace line (no `modules` object)")
@@ -108,7 +123,11 @@ def parse(text: str, shown: str = "<trace>") -> Trace:
         for name, series in world.items():
             series.append(fields[name])
         cycles.append(record["cycle"])
-    return Trace(shown, cycles, modules, columns, world)
+    if not cycles:
+        raise TraceError(
+            f"{shown} holds no cycle: its run was interrupted before its first one ended"
+        )
+    return Trace(shown, cycles, modules, columns, world, interrupted)
 
 
 def status_text(column: dict[str, list[Any]], i: int) -> str:

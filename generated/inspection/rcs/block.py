@@ -18,12 +18,13 @@ from contextlib import contextmanager
 from types import ModuleType
 from typing import TYPE_CHECKING
 
-from .contract import HEADER, MAGIC
+from .contract import HEADER, MAGIC, shared
 
 if TYPE_CHECKING:  # imported when a named block is used: it costs ~10 ms of start-up
     from multiprocessing import shared_memory
 
 
+@shared
 class BlockError(Exception):
     """A segment that cannot be used: missing, taken, too small, or of another layout."""
 

@@ -26,34 +26,49 @@ import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
-from typing import Any, Self
+from typing import Any, NoReturn, Self
 
 from .block import Block, BlockError
+from .command import Command, parse_command, parse_value, suggest, write_command
 from .contract import (
     DEAD,
     PROCESS_STATES,
     RUNNING,
+    STARTUP_TIMEOUT,
     STOPPED,
     StaleRead,
     enum_code,
     enum_name,
+    shared,
 )
-from .ctl import field_code, parse_command, suggest, typed
 from .loop import (
+    _BEAT,
     DONE_REPLY,
     READY,
     STEP,
+    DuplicateProcess,
     Process,
     ProcessPlan,
     RestartRefused,
     Stop,
+    reaction,
     run,
     serve,
     start,
 )
+from .override import latch_safe
+from .startup import (
+    FAILURES,
+    START_FAILED,
+    ending,
+    parse_settings,
+    report_failure,
+    segment_problem,
+)
 from .transport import TransportError, check_endpoint
 
 STOP_GRACE = 5.0  # seconds a process has to stop before it is killed
+PR_SET_PDEATHSIG = 1  # prctl(2): the signal a child gets when its parent dies (Linux)
 REFUSED = 3  # the exit code of a process that refused to restart (the launcher gives up)
 
 
@@ -96,7 +111,7 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     """`python -m <system> PROCESS ...`: one process, as the launcher's child or by hand."""
     plan = system.plans[args.process]
     stop = Stop()
-    settings = dict(item.partition("=")[::2] for item in args.set)
+    settings = parse_settings(system.layout, args.set)  # checked already by `main`
     if args.child:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # the launcher decides when to stop
     signal.signal(signal.SIGTERM, stop)
@@ -105,13 +120,18 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     if args.lockstep:
         try:
             process = start(plan, system.layout, args.shm, not args.attach, settings, args.simulate)
-        except (BlockError, RestartRefused) as error:
+        except (BlockError, RestartRefused, DuplicateProcess) as error:
             print(f"{args.process}: {error}", file=sys.stderr)
             return 1
+        except Exception as error:  # noqa: BLE001 - a hook-state factory: one line, and why
+            return report_failure(args.process, error, system.package)
         try:
             serve(process, sys.stdin.fileno(), sys.stdout.fileno())
         except OSError:  # the coordinator's end of the pipe is gone (BrokenPipeError)
             pass
+        except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
+            process.block.close()
+            return report_failure(args.process, error, system.package)
         except BaseException:
             process.block.close()
             raise
@@ -122,8 +142,8 @@ def run_process(system: System, args: argparse.Namespace) -> int:
         return 0
     if not args.child:
         signal.signal(signal.SIGINT, stop)
-    else:  # the launcher's end (even a crash) closes our stdin: stop then
-        threading.Thread(target=_stop_on_eof, args=(stop,), daemon=True).start()
+    else:  # the launcher's end (even a crash): stop, the actuators safe
+        watch_the_launcher(stop, args.shm)
     try:
         process = run(
             plan,
@@ -136,9 +156,13 @@ def run_process(system: System, args: argparse.Namespace) -> int:
             simulate=args.simulate,
             stop=stop,
         )
-    except (BlockError, RestartRefused) as error:
+    except (BlockError, RestartRefused, DuplicateProcess) as error:
         print(f"{args.process}: {error}", file=sys.stderr)
         return REFUSED if isinstance(error, RestartRefused) else 1
+    except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
+        return report_failure(args.process, error, system.package)
+    finally:
+        stop.finished.set()
     report(system, args, process)
     if args.child and stop.orphaned:
         process.block.owner = True  # the launcher is gone: the last one out removes it
@@ -164,8 +188,8 @@ def run_networked(
 
     plan, layout = system.plans[args.process], system.layout
     options = network_options(system, args)
-    if args.child:  # the launcher's end (even a crash) closes our stdin: stop then
-        threading.Thread(target=_stop_on_eof, args=(stop,), daemon=True).start()
+    if args.child:  # the launcher's end (even a crash): stop, the actuators safe
+        watch_the_launcher(stop, args.shm)
     else:
         signal.signal(signal.SIGINT, stop)
 
@@ -219,14 +243,63 @@ def network_options(system: System, args: argparse.Namespace) -> Any:
     return Options(tuple(args.listen), tuple(args.connect), lease_ms)
 
 
-def _stop_on_eof(stop: Stop) -> None:
+def watch_the_launcher(stop: Stop, segment: str) -> None:
+    """A free-running child learns that its launcher is gone in two ways: its stdin pipe
+    closes (the launcher's end, even a crash), and on Linux its parent-death signal (SIGHUP,
+    set with prctl), which comes too when the pipe stays open (a fork of the launcher holds
+    its end) or a hook took stdin. Either way every actuator is latched safe at once, from
+    a thread (the loop may be stuck in a hook), the loop is asked to stop, and a loop that
+    has not stopped within STOP_GRACE (a hook that never returns) is not waited for: the
+    segment is removed and the process exits, as a living launcher would have killed it."""
+    parent, gone = os.getppid(), threading.Event()
+
+    def hang_up(*_: object) -> None:
+        if os.getppid() != parent:  # not a stray SIGHUP, nor the spawning thread's end
+            gone.set()
+
+    if _die_with_parent(signal.SIGHUP, hang_up) and os.getppid() != parent:
+        gone.set()  # it died before the signal was asked for
+    threading.Thread(target=_read_to_eof, args=(gone,), daemon=True).start()
+    threading.Thread(target=_orphaned, args=(stop, gone, segment), daemon=True).start()
+
+
+def _die_with_parent(signum: int, handler: Callable[..., None]) -> bool:
+    """Ask the kernel for `signum` when our parent dies (Linux prctl PR_SET_PDEATHSIG),
+    handled by `handler`; False where there is no such thing."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        signal.signal(signum, handler)
+        return bool(libc.prctl(PR_SET_PDEATHSIG, signum, 0, 0, 0) == 0)
+    except (OSError, AttributeError, ValueError):  # no libc prctl; not the main thread
+        return False
+
+
+def _read_to_eof(gone: threading.Event) -> None:
     try:
         while os.read(0, 1):
             pass
     except OSError:
         pass
+    gone.set()
+
+
+def _orphaned(stop: Stop, gone: threading.Event, segment: str) -> None:
+    gone.wait()
     stop.orphaned = True
     stop()
+    process = stop.process
+    if process is not None and not stop.finished.is_set():
+        process.safe_stop(everything=True)  # the others may be gone too: every actuator
+    if not stop.finished.wait(STOP_GRACE):
+        print(
+            f"{segment}: the launcher is gone and the loop did not stop: exiting", file=sys.stderr
+        )
+        unlink_quietly(segment)
+        os._exit(1)
 
 
 # ---------------------------------------------------------------- the launcher
@@ -280,7 +353,13 @@ class Launcher:
         self.block: Block | None = None
         self.children: dict[str, Child] = {}
         self.events: list[str] = []  # what happened, for the summary
+        self.failed: list[str] = []  # processes that ended because a hook or module failed
         self.final: list[str] = []  # the summary, taken when the processes have stopped
+        # the start-up barrier's: the spec's `startup_timeout` (a layout built before: 10 s)
+        self.startup_timeout = float(getattr(system.layout, "STARTUP_TIMEOUT", STARTUP_TIMEOUT))
+        self.lost: set[str] = set()  # processes silent past the heartbeat timeout (frozen)
+        self.trips: dict[str, int] = {}  # each process's watchdog trips, last seen
+        self.halted = ""  # why the system was halted (a loss that was not contained), if it was
 
     # ------------------------------------------------------------ lifecycle
 
@@ -303,11 +382,46 @@ class Launcher:
                 )
             for name in self.processes:
                 self.children[name] = Child(name, self._spawn(name, attach=True))
+            if not self.lockstep and self.net is None:
+                self.barrier()
         except BaseException:
             self.stop()
             raise
 
+    def barrier(self) -> None:
+        """Wait until every process has run a cycle (the start-up barrier); StartupFailed
+        naming each one that has not, within `startup_timeout` (and how it ended)."""
+        assert self.block is not None
+        layout, buf = self.system.layout, self.block.buf
+        deadline = time.monotonic() + self.startup_timeout
+        while True:
+            missing = [
+                n
+                for n in self.processes
+                if _BEAT.unpack_from(buf, layout.PROCESSES[n].offset)[4] < 1
+            ]
+            ended = {
+                n: c.popen.poll() for n, c in self.children.items() if c.popen.poll() is not None
+            }
+            if not missing:
+                return
+            if ended.keys() & set(missing) or time.monotonic() > deadline:
+                why = [
+                    f"{n} ({FAILURES[ended[n] or 0]}, exit {ended[n]})"
+                    if n in ended and ended[n] in FAILURES
+                    else f"{n} (exited {ended[n]})"
+                    if n in ended
+                    else f"{n} (no cycle yet)"
+                    for n in missing
+                ]
+                raise StartupFailed(
+                    f"the system did not become ready within {self.startup_timeout:g} s: "
+                    f"{', '.join(why)} did not start"
+                )
+            time.sleep(0.01)
+
     def _spawn(self, name: str, attach: bool) -> subprocess.Popen[bytes]:
+        self.trips[name] = 0  # a new process has tripped nothing yet
         command = [self.python, "-m", self.system.package, name, "--shm", self.segment, "--child"]
         if self.transport_name == "zenoh":  # its own block, a peer of the launcher's node
             command[5] = f"{self.segment}_{name}"
@@ -334,12 +448,16 @@ class Launcher:
 
     def poll(self) -> list[str]:
         """Check the children: each one that ended is reported (and marked DEAD in its
-        control record if it did not stop on its own); with `restart`, started again."""
+        control record if it did not stop on its own), with `restart` started again; each
+        one silent past the heartbeat timeout (frozen, starved) is reported lost, and each
+        watchdog trip; every such fault latches the actuators it leaves at their safe values
+        (rcs/loop.py `reaction`), and is printed the moment it is seen."""
         assert self.block is not None
         ended = []
         for name, child in list(self.children.items()):
             code = child.popen.poll()
             if code is None:
+                self._watch(name)
                 continue
             ended.append(name)
             record = self.system.layout.PROCESSES[name]
@@ -350,27 +468,79 @@ class Launcher:
                 else:
                     record.write(self.block.buf, state=DEAD)
                 refused = code == REFUSED and child.restarts > 0
-                self.events.append(
+                self._fault(
+                    name,
                     f"{name} refused to restart: see its error above"
                     if refused
-                    else f"{name} died (exit {code})"
+                    else ending(name, code),
                 )
+                self.lost.discard(name)
+                if code in FAILURES:  # a hook or a module failed: it would fail again
+                    self.failed.append(name)
+                    refused = True
                 if self.restart and not self.lockstep and not refused:
                     _close(child.popen)
                     child.popen = self._spawn(name, attach=True)
                     child.restarts += 1
-                    self.events.append(f"{name} restarted")
+                    self._event(f"{name} restarted")
                     continue
             _close(child.popen)
             del self.children[name]
         return ended
 
+    def _watch(self, name: str) -> None:
+        """A running child: lost when its heartbeat is older than the timeout (stretched by
+        its slow-down), found again when it beats; a new watchdog trip is a fault too."""
+        assert self.block is not None
+        layout, buf = self.system.layout, self.block.buf
+        _, _, _, trips, _, beat_ns = _BEAT.unpack_from(buf, layout.PROCESSES[name].offset)
+        if self.net is not None or self.lockstep:
+            return
+        slow = 1.0
+        if name in getattr(layout, "PACING", {}):
+            slow = max(1.0, float(_read(layout.PACING[name], buf).get("slow", 1.0) or 1.0))  # type: ignore[arg-type]
+        silent = (
+            beat_ns > 0 and time.monotonic_ns() - beat_ns > layout.HEARTBEAT_TIMEOUT * slow * 1e9
+        )
+        if silent and name not in self.lost:
+            self.lost.add(name)
+            age = (time.monotonic_ns() - beat_ns) / 1e9
+            self._fault(name, f"{name} lost: no heartbeat for {age:.2f} s (frozen or starved?)")
+        elif not silent and name in self.lost:
+            self.lost.discard(name)
+            self._event(f"{name} beats again (its latched outputs stay safe until a reset)")
+        if trips > self.trips.get(name, trips):
+            self._fault(name, f"{name} tripped its watchdog ({trips} trips)")
+        self.trips[name] = trips
+
+    def _fault(self, name: str, what: str) -> None:
+        """A fault of process `name`: printed now, in the summary, its reaction's actuators
+        latched safe (the last line of defence: it does not depend on the faulty process;
+        with Zenoh the latches travel from the launcher's mirror to the writers' blocks)."""
+        self._event(what)
+        todo = reaction(self.system.layout, name)
+        if self.block is not None:
+            latched = latch_safe(self.system.layout, self.block.buf, todo.latch, self.segment)
+            if latched:
+                self._event(f"latched safe: {', '.join(latched)}")
+        if not todo.contained and not self.halted:
+            self.halted = what
+
+    def _event(self, what: str) -> None:
+        self.events.append(what)
+        print(f"{self.system.layout.SYSTEM}: {what}", file=sys.stderr, flush=True)
+
     def wait(self, stop: Stop, interval: float = 0.05) -> None:
-        """Watch the children until they have all ended or `stop` is requested."""
-        while self.children and not stop.requested:
+        """Watch the children until they have all ended or `stop` is requested (or one could
+        not start: the system cannot run without it)."""
+        while self.children and not stop.requested and not self.start_failed():
             self.poll()
             self.exchange()
             time.sleep(interval)
+
+    def start_failed(self) -> bool:
+        """A process ended because one of its modules could not be made (startup.py)."""
+        return any(e.endswith(f"(exit {START_FAILED}; its error is above)") for e in self.events)
 
     def exchange(self) -> None:
         """With Zenoh: mirror what the processes sent, send what was written here (an
@@ -406,6 +576,8 @@ class Launcher:
             for name in self.processes:  # a killed process could not remove its own
                 unlink_quietly(f"{self.segment}_{name}")
         if self.block is not None:
+            if self.net is None:  # stopped: every actuator safe, whoever was left running
+                latch_safe(self.system.layout, self.block.buf, self.system.layout.SAFE_VALUES)
             self.final = [
                 *self.events,
                 *summary(self.system, self.block.buf, self.processes),
@@ -446,7 +618,7 @@ class Coordinator:
                 except (BrokenPipeError, OSError):
                     reply = b""
                 if reply != DONE_REPLY:
-                    raise ProcessLost(f"process {name} stopped answering (it died?)")
+                    raise ProcessLost(stopped_answering(child))
             self.cycle += 1
 
 
@@ -506,8 +678,26 @@ def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[
     )
 
 
+def stopped_answering(child: Child) -> str:
+    """Why a lockstep process gave no answer: the failure its exit code says (a hook, a
+    module: its own line is above), else that it died."""
+    try:
+        code = child.popen.wait(timeout=2.0)
+    except subprocess.TimeoutExpired:
+        code = None
+    if code in FAILURES:
+        return ending(f"process {child.name}", code)
+    return f"process {child.name} stopped answering (it died?)"
+
+
+@shared
 class ProcessLost(Exception):
     """A process of a lockstep run is gone."""
+
+
+@shared
+class StartupFailed(Exception):
+    """Some process did not start running within the start-up timeout."""
 
 
 def free_port() -> int:
@@ -597,7 +787,7 @@ def main(package: str, argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
-    parser = argparse.ArgumentParser(
+    parser = _OneLineParser(
         prog=f"python -m {package}",
         description=f"Run the {system.layout.SYSTEM} system: every process (the default), "
         "or one PROCESS.",
@@ -629,7 +819,7 @@ def main(package: str, argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--transport",
         choices=("shm", "zenoh"),
-        default="shm",
+        default=None,
         help="how processes exchange buffers: one shared-memory segment (one host), or "
         "Zenoh (each process its own block; hosts anywhere) [default: shm]",
     )
@@ -686,6 +876,12 @@ def main(package: str, argv: list[str] | None = None) -> int:
         help="start with this world field's value instead of its initial one (repeatable)",
     )
     args = parser.parse_args(argv)
+    if args.shm is not None and segment_problem(args.shm):
+        parser.error(segment_problem(args.shm))
+    try:
+        parse_settings(system.layout, args.set)
+    except ValueError as error:
+        parser.error(str(error))
     host = None
     if args.deploy is not None:
         host = deployed(system, args, parser)
@@ -719,6 +915,7 @@ def main(package: str, argv: list[str] | None = None) -> int:
         parser.error(str(error))
     if args.world and (args.process is not None or args.attach):
         parser.error("--world goes with a launch of every process, which makes the segment")
+    args.transport = args.transport or "shm"
     if args.transport == "shm" and (args.listen or args.connect):
         parser.error("--listen and --connect go with --transport zenoh")
     for endpoint in (*args.listen, *args.connect):
@@ -733,6 +930,13 @@ def main(package: str, argv: list[str] | None = None) -> int:
     return launch(system, args, host)
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse, but a usage mistake is one line on stderr, exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
 def deployed(system: System, args: argparse.Namespace, parser: argparse.ArgumentParser) -> Any:
     """`--deploy FILE [HOST]`: the host's entry of the checked file, its endpoints and
     transport put in `args` (its one process in `args.process`); None after a located
@@ -741,7 +945,7 @@ def deployed(system: System, args: argparse.Namespace, parser: argparse.Argument
 
     from .deploy import DeployError, load
 
-    if args.listen or args.connect or args.transport != "shm":
+    if args.listen or args.connect or args.transport is not None:
         parser.error(
             "--deploy gives the transport and endpoints: no --transport, --listen, --connect"
         )
@@ -767,36 +971,27 @@ def parse_world(layout: ModuleType, items: Sequence[str]) -> dict[str, object]:
             raise ValueError(f"--world: {item!r} is not FIELD=VALUE")
         if name not in layout.WORLD:
             raise ValueError("--world: " + suggest(name, list(layout.WORLD), "world field"))
-        record = layout.WORLD[name]
+        code = layout.WORLD[name].codes()[name]
         try:
             names = getattr(layout, "ENUMS", {}).get(("", name), ())
-            values[name] = typed(raw, field_code(record, name), name, names)
+            values[name] = parse_value(raw, code, names)
         except ValueError as error:
-            raise ValueError(f"--world: {error}") from None
+            raise ValueError(f"--world: {name} {error}") from None
     return values
 
 
-@dataclass(frozen=True)
-class Send:
-    """A command an operator gives a module: `sec.BOX_CUT:depth=1.5`."""
-
-    module: str
-    command: str
-    args: dict[str, object]
-
-
-def parse_send(layout: ModuleType, text: str) -> Send:
-    """Parse and check `MODULE.COMMAND[:NAME=VALUE,...]` against the layout."""
+def parse_send(layout: ModuleType, text: str) -> Command:
+    """Parse and check `MODULE.COMMAND[:NAME=VALUE,...]` against the layout (the one command
+    contract, rcs/command.py)."""
     head, _, rest = text.partition(":")
     module, _, command = head.partition(".")
     try:
-        found = parse_command(layout, module, command, [i for i in rest.split(",") if i])
+        return parse_command(layout, module, command, [i for i in rest.split(",") if i])
     except ValueError as error:
         raise ValueError(f"--send: {error}") from None
-    return Send(found.module, found.command, found.args)
 
 
-def give(send: Send, layout: ModuleType, buf: memoryview) -> int | None:
+def give(send: Command, layout: ModuleType, buf: memoryview) -> int | None:
     """Write `send` once its module has finished its last command; its number, or None."""
     status = _read(layout.STATUS_OUT[send.module], buf)
     record = layout.COMMAND_IN[send.module]
@@ -805,14 +1000,10 @@ def give(send: Send, layout: ModuleType, buf: memoryview) -> int | None:
         return None
     if status["status"] not in (2, 3):  # DONE, ERROR
         return None
-    number: int = int(current["command_num"]) + 1  # type: ignore[call-overload]
-    code = layout.COMMAND_NAMES[send.module].index(send.command)
-    args = {f"arg_{k}": enum_code(layout, send.module, f"arg_{k}", v) for k, v in send.args.items()}
-    record.write(buf, command_num=number, command=code, **args)
-    return number
+    return write_command(layout, buf, send)
 
 
-def finished(send: Send, number: int, layout: ModuleType, buf: memoryview) -> str | None:
+def finished(send: Command, number: int, layout: ModuleType, buf: memoryview) -> str | None:
     """DONE or ERROR once the module reported on command `number`; else None."""
     status = _read(layout.STATUS_OUT[send.module], buf)
     if status and status["status_num"] == number and status["status"] in (2, 3):
@@ -844,7 +1035,7 @@ def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
     )
     try:
         launcher.start()
-    except (BlockError, TransportError) as error:
+    except (BlockError, TransportError, StartupFailed) as error:
         print(f"{system.layout.SYSTEM}: {error}", file=sys.stderr)
         return 1
     code = 0
@@ -875,17 +1066,23 @@ def launch(system: System, args: argparse.Namespace, host: Any = None) -> int:
         launcher.stop()
     for line in launcher.final:
         print(line)
+    if launcher.failed:  # a process stopped because a hook or a module failed
+        print(
+            f"{system.layout.SYSTEM}: {', '.join(launcher.failed)} stopped on a failure",
+            file=sys.stderr,
+        )
+        return code or 1
     return code
 
 
-def operate(launcher: Launcher, send: Send, until_done: bool, stop: Stop) -> int:
+def operate(launcher: Launcher, send: Command, until_done: bool, stop: Stop) -> int:
     """Give `send` once its module is ready, watch the processes, and with `until_done`
     stop when it reports: 0 for DONE, 1 for ERROR (or when every process ended first)."""
     layout = launcher.system.layout
     assert launcher.block is not None
     buf = launcher.block.buf
     number = None
-    while launcher.children and not stop.requested:
+    while launcher.children and not stop.requested and not launcher.start_failed():
         launcher.poll()
         launcher.exchange()
         if number is None:
@@ -897,5 +1094,8 @@ def operate(launcher: Launcher, send: Send, until_done: bool, stop: Stop) -> int
             if result is not None:
                 print(f"{send.module} {result} #{number}")
                 return 0 if result == "DONE" else 1
+        if until_done and launcher.halted:  # the outputs are latched safe: it cannot go on
+            print(f"{send.module} did not finish: the system halted ({launcher.halted})")
+            return 1
         time.sleep(0.01)
     return 1 if until_done else 0

@@ -4,13 +4,15 @@
 The debug screen of the mining paper (4.1.1.1, Appendix D) as commands: `status` shows
 every module's command, status, state, the rule that fired, its modes and cycle times and
 its process's heartbeat; `stop`/`run`/`step`/`simulate` set a module's mode buffer; `slow`
-stretches the processes' cycle periods; `send` gives a module a command, its parameters
-checked against the layout; `wait` waits for a module to finish; `requests` lists what
-modules ask of the operator and `answer` answers (an operator module's channel: DONE or
-ERROR with a reason, in its answer record). It attaches to the segment by name (checking
-the layout hash) and needs only the package's layout: no hooks, no compiler. Every read is
-a consistent read and every write goes through `Record.write` (the seqlock); it writes
-only mode, pacing, command buffers and answer records. Bad input is one line on
+stretches the processes' cycle periods; `send` gives a module a command, checked by the
+one command contract (rcs/command.py) before anything is written; `wait` waits for a module
+to finish; `requests` lists what modules ask of the operator and `answer` answers (an
+operator module's channel: DONE or ERROR with a reason, in its answer record); `status
+--world` shows the world fields; `force`/`unforce` force a world field PLC style and
+`reset` releases fields latched safe (rcs/override.py). It attaches to the segment by name
+(checking the layout hash) and needs only the package's layout: no hooks, no compiler.
+Every read is a consistent read and every write goes through `Record.write` (the seqlock);
+it writes only mode, pacing, command buffers, answer and override records. Bad input is one line on
 stderr and exit 2 (usage) or 1 (the system refused or is not there). Standard library only:
 copied verbatim into every generated package.
 """
@@ -18,19 +20,27 @@ copied verbatim into every generated package.
 from __future__ import annotations
 
 import argparse
-import difflib
 import importlib
 import json
 import os
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from functools import partial
 from types import ModuleType
 from typing import Any, NoReturn
 
+from . import override
 from .block import Block, BlockError
+from .command import (
+    Command,
+    check_command,
+    parse_command,
+    parse_value,
+    shown,
+    suggest,
+    write_command,
+)
 from .contract import (
     ACCESS_LEVELS,
     BUILTIN_COMMANDS,
@@ -42,20 +52,24 @@ from .contract import (
     RUNNING,
     STATUS_NAMES,
     StaleRead,
-    enum_code,
     enum_name,
     plan_slots,
     reason_name,
     result_values,
+    shared,
     status_text,
-    text_problem,
 )
+from .startup import segment_problem
 from .transport import TransportError, check_endpoint
 
 USAGE, FAILED = 2, 1
+MAX_SLOW = 1000.0  # the largest slow-down factor: 0.1 s periods stretched to 100 s
+MAX_STEPS = 1_000_000  # cycles one `step` may single-step
+MAX_WAIT = 86_400.0  # the longest time-out, seconds (a day)
 POLL = 0.005  # seconds between two reads while waiting for the system
 
 
+@shared
 class CtlError(Exception):
     """A request the console refuses: one line for the operator, and an exit code."""
 
@@ -66,83 +80,6 @@ class CtlError(Exception):
 
 def usage(message: str) -> CtlError:
     return CtlError(message, USAGE)
-
-
-def suggest(name: str, choices: Sequence[str], what: str) -> str:
-    """`no module 'cx' (did you mean 'co'?); modules: sb, co, ...`."""
-    close = difflib.get_close_matches(name, list(choices), n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
-    return f"no {what} {name!r}{hint}; {what}s: {', '.join(choices) or 'none'}"
-
-
-@dataclass(frozen=True)
-class Command:
-    """A command an operator gives a module, its parameters typed by the layout."""
-
-    module: str
-    command: str
-    args: dict[str, object]
-
-    def __str__(self) -> str:
-        args = " ".join(f"{k}={_shown(v)}" for k, v in self.args.items())
-        return f"{self.module}.{self.command}" + (f" {args}" if args else "")
-
-
-def parse_command(layout: ModuleType, module: str, command: str, items: Sequence[str]) -> Command:
-    """Check `MODULE COMMAND NAME=VALUE ...` against the layout; ValueError says what is wrong,
-    naming the module's commands or parameters (with a did-you-mean)."""
-    if module not in layout.COMMAND_IN:
-        raise ValueError(suggest(module, layout.MODULES, "module"))
-    commands = layout.COMMAND_NAMES[module][1:]
-    if command not in commands:
-        raise ValueError(f"{module} has " + suggest(command, commands, "command"))
-    record = layout.COMMAND_IN[module]
-    slots = {f.removeprefix("arg_"): f for f in record.fields if f.startswith("arg_")}
-    values: dict[str, object] = {}
-    for item in items:
-        name, equals, raw = item.partition("=")
-        if not equals:
-            raise ValueError(f"{item!r} is not NAME=VALUE")
-        if name not in slots:
-            raise ValueError(f"{module} has " + suggest(name, list(slots), "parameter"))
-        names = getattr(layout, "ENUMS", {}).get((module, slots[name]), ())
-        values[name] = typed(raw, field_code(record, slots[name]), name, names)
-    return Command(module, command, values)
-
-
-def field_code(record: Any, field: str) -> str:
-    """The struct code of a record's field: ? bool, q int (or an enum's code), d float, Ns a
-    string of N bytes."""
-    return str(record.codes()[field])
-
-
-def typed(raw: str, code: str, name: str = "", names: Sequence[str] = ()) -> object:
-    """`raw` as the struct `code` of a parameter or world field: ? bool, q int, d float, Ns a
-    string that fits N bytes (never truncated); with `names`, an enumeration's value name
-    (kept as the name: `Record.write` is given the code by `enum_code`)."""
-    where = f" ({name})" if name else ""
-    if names:
-        if raw not in names:
-            raise ValueError(f"{suggest(raw, list(names), 'value')}{where}")
-        return raw
-    if code.endswith("s"):
-        problem = text_problem(raw, int(code[:-1]))
-        if problem:
-            raise ValueError(f"{problem}{where}")
-        return raw
-    try:
-        if code == "?":
-            if raw not in ("true", "false"):
-                raise ValueError
-            return raw == "true"
-        return int(raw) if code == "q" else float(raw)
-    except ValueError:
-        kind = {"?": "true or false", "q": "an integer"}.get(code, "a number")
-        raise ValueError(f"{raw!r} is not {kind}{where}") from None
-
-
-def _shown(value: object) -> str:
-    return str(value).lower() if isinstance(value, bool) else str(value)
 
 
 # ---------------------------------------------------------------- operator modules' requests
@@ -181,7 +118,7 @@ def channel_requests(layout: ModuleType, buf: memoryview) -> list[dict[str, Any]
                     "number": number,
                     "doc": text.format(
                         **{
-                            k: _shown(enum_name(layout, operator, f"arg_{k}", v))
+                            k: shown(enum_name(layout, operator, f"arg_{k}", v))
                             for k, v in args.items()
                         }
                     ),
@@ -410,7 +347,9 @@ class Console:
                 todo += self.layout.SUBORDINATES.get(sub, ())
         return found
 
-    def snapshot(self) -> dict[str, Any]:
+    def snapshot(self, world: Sequence[str] | None = None) -> dict[str, Any]:
+        """Everything the console shows, as plain data: the processes, every module's line,
+        the open requests and the world fields (`world`: those named, else all)."""
         processes = self.processes()
         return {
             "system": self.layout.SYSTEM,
@@ -420,7 +359,25 @@ class Console:
             "processes": processes,
             "modules": self.modules(processes),
             "requests": self.requests(),
+            "world": self.world(world),
+            "overrides": self.overrides(),
         }
+
+    def world_names(self, names: Sequence[str]) -> list[str]:
+        """`names` checked against the world fields (usage error with a did-you-mean)."""
+        for name in names:
+            if name not in self.layout.WORLD:
+                raise usage(suggest(name, list(self.layout.WORLD), "world field"))
+        return list(names)
+
+    def world(self, names: Sequence[str] | None = None) -> dict[str, Any]:
+        """The world fields now (those named, else every one, in the layout's order), an
+        enumeration's by value name; None for a field that stayed unreadable (stale)."""
+        found: dict[str, Any] = {}
+        for name in self.world_names(names) if names is not None else self.layout.WORLD:
+            values = self.read(self.layout.WORLD[name])
+            found[name] = enum_name(self.layout, "", name, values[name]) if values else None
+        return found
 
     # ------------------------------------------------------------ requests
 
@@ -480,7 +437,7 @@ class Console:
         if not any(r["name"] == name for r in self.field_requests()):
             raise CtlError(f"{request['by']} is not asking for {name} now; nothing to answer")
         module, command = request["answer"]
-        sent = Command(module, command, {})
+        sent = check_command(self.layout, module, command, {})
         return sent, self._write(sent)
 
     # ------------------------------------------------------------ modes
@@ -506,6 +463,82 @@ class Console:
 
     def _stepped(self, perf: Any, number: int) -> bool:
         return bool(self.read(perf).get("single_step_num") == number)
+
+    # ------------------------------------------------------------ the world, forced
+
+    def field(self, name: str) -> str:
+        """`world.X` (or `X`) as a world field's name; a usage error naming the fields."""
+        field = name.removeprefix("world.")
+        if field not in self.layout.WORLD:
+            raise usage(suggest(field, list(self.layout.WORLD), "world field"))
+        return field
+
+    def _forcible(self, field: str, what: str) -> None:
+        """Refuse (exit 1) unless this console may force `field`: through the segment, by a
+        role with override on every module that writes it (on every module, for a field no
+        module writes), and for the simulation's truth only while its writers simulate."""
+        if self.attached is not None:
+            raise CtlError(f"{what} writes the segment: run ctl on the host that runs the system")
+        writers = [self._controller_of(w) for w in self.layout.WORLD_WRITERS.get(field, ())]
+        for module in dict.fromkeys(writers or self.layout.MODE_IN):
+            self.access.require("override", module, what)
+        if field in self.layout.GROUND_TRUTH:  # (one no module writes is the run's input)
+            real = [m for m in writers if not self.read(self.layout.MODE_IN[m]).get("simulate")]
+            if real:
+                raise CtlError(
+                    f"refused: {field} is ground truth (the world itself, which no operator can "
+                    f"force) and {', '.join(real)} writing it run real, not simulated"
+                )
+
+    def _controller_of(self, module: str) -> str:
+        """A stand-in's controller (whose mode says whether it runs), else the module."""
+        stand_ins = {s: c for c, s in getattr(self.layout, "STAND_INS", {}).items()}
+        return str(stand_ins.get(module, module))
+
+    def force(self, field: str, raw: str) -> object:
+        """Force world field `field` (`world.X`) to the value `raw` says, PLC style: the
+        module that writes it writes the forced value until `unforce`. The value forced."""
+        field = self.field(field)
+        code = self.layout.WORLD[field].codes()[field]
+        names = getattr(self.layout, "ENUMS", {}).get(("", field), ())
+        try:
+            value = parse_value(raw, code, names)
+        except ValueError as error:
+            raise usage(f"world.{field} {error}") from None
+        self._forcible(field, f"forcing world.{field}")
+        try:
+            override.force(self.layout, self.buf, field, value, self.segment)
+        except override.OverrideError as error:
+            raise CtlError(f"refused: {error}") from None
+        return value
+
+    def unforce(self, field: str) -> None:
+        """Release the force on `field`: its module writes it again from its next cycle."""
+        field = self.field(field)
+        self._forcible(field, f"releasing world.{field}")
+        try:
+            override.unforce(self.layout, self.buf, field, self.segment)
+        except override.OverrideError as error:
+            raise CtlError(f"refused: {error}") from None
+
+    def reset(self, fields: Sequence[str]) -> list[str]:
+        """Release the SAFE latches of `fields` (every latched field when none is named): the
+        explicit reset after a latched stop. The fields released."""
+        names = [self.field(f) for f in fields] or list(self.overrides())
+        for field in names:
+            self._forcible(field, f"resetting world.{field}")
+        return override.reset(self.layout, self.buf, names, self.segment)
+
+    def overrides(self) -> dict[str, dict[str, Any]]:
+        """The world fields under an override now: field -> its state (FORCED or SAFE) and
+        value, an enumeration's by name."""
+        if not hasattr(self.layout, "OVERRIDE"):
+            return {}
+        found = override.overrides(self.layout, self.buf)
+        return {
+            field: {"state": state, "value": enum_name(self.layout, "", field, value)}
+            for field, (state, value) in found.items()
+        }
 
     def simulate(self, module: str, on: bool) -> None:
         stand_ins = getattr(self.layout, "STAND_INS", {})
@@ -552,19 +585,14 @@ class Console:
         return self._write(command), notes
 
     def _write(self, command: Command) -> int:
-        """Write `command` to its module's buffer, numbered after the last one; the number."""
-        record = self.layout.COMMAND_IN[command.module]
-        current = self.read(record)
-        if not current:
-            raise CtlError(f"{command.module}'s command buffer cannot be read whole")
-        number = int(current["command_num"]) + 1
-        code = self.layout.COMMAND_NAMES[command.module].index(command.command)
-        args = {
-            f"arg_{k}": enum_code(self.layout, command.module, f"arg_{k}", v)
-            for k, v in command.args.items()
-        }
-        record.write(self.buf, command_num=number, command=code, **args)
-        return number
+        """Write a checked `command` through the one writer (rcs/command.py), retrying
+        briefly while the buffer is being written; its number."""
+        for _ in range(20):
+            try:
+                return write_command(self.layout, self.buf, command)
+            except StaleRead:
+                time.sleep(0.0005)
+        raise CtlError(f"{command.module}'s command buffer cannot be read whole")
 
     def seen(self, module: str, number: int) -> bool:
         """Whether `module` has echoed command `number` (its status number caught up)."""
@@ -612,30 +640,32 @@ def _until(condition: Callable[[], object], timeout: float | None) -> bool:
 
 
 COLUMNS = (
-    ("module", 6),
-    ("command", 17),
-    ("#", 4),
-    ("status", 9),
-    ("#", 4),
-    ("state", 10),
-    ("rule", 22),
-    ("mode", 16),
-    ("cycle us last/min/max", 22),
-    ("beat", 6),
+    "module",
+    "command",
+    "#",
+    "status",
+    "#",
+    "state",
+    "rule",
+    "mode",
+    "cycle us last/min/max",
+    "beat",
 )
+
+
+def columns(rows: Sequence[Sequence[str]]) -> list[str]:
+    """Rows of cells as lines, each column as wide as its widest cell: a long value widens
+    its column, it never pushes the cells after it out of line nor is it cut."""
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    return [
+        "  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)).rstrip() for row in rows
+    ]
 
 
 def render(snapshot: dict[str, Any]) -> list[str]:
     """The debug screen as text: one line per module, then one per process."""
     lines = [f"{snapshot['system']} on {snapshot['segment']}"]
-    shown = {
-        name: status_text(str(row.get("status", "?")), row.get("reason"))
-        for name, row in snapshot["modules"].items()
-    }
-    widths = [w for _, w in COLUMNS]
-    widths[3] = max([widths[3], *map(len, shown.values())])  # ERROR(MACHINE_FAULT)
-    titles = [title for title, _ in COLUMNS]
-    lines.append("  ".join(t.ljust(w) for t, w in zip(titles, widths, strict=True)).rstrip())
+    rows: list[Sequence[str]] = [COLUMNS]
     for name, row in snapshot["modules"].items():
         mode = f"{row.get('run', '?')} {row.get('step', '?')} {row.get('sim', '?')}"
         if row.get("skipped_by"):
@@ -643,22 +673,24 @@ def render(snapshot: dict[str, Any]) -> list[str]:
         times = "/".join(str(row.get(f"{k}_cycle_us", "?")) for k in ("last", "min", "max"))
         age = row.get("heartbeat_age_s")
         beat = "dead" if not row.get("alive") else f"{age:.2f}s"
-        cells = [
-            name,
-            str(row.get("command", "?")),
-            str(row.get("command_num", "?")),
-            shown[name],
-            str(row.get("status_num", "?")),
-            str(row.get("state", "?")),
-            str(row.get("rule") or "-"),
-            mode,
-            times,
-            beat,
-        ]
-        lines.append("  ".join(c.ljust(w) for c, w in zip(cells, widths, strict=True)).rstrip())
+        rows.append(
+            [
+                name,
+                str(row.get("command", "?")),
+                str(row.get("command_num", "?")),
+                status_text(str(row.get("status", "?")), row.get("reason")),
+                str(row.get("status_num", "?")),
+                str(row.get("state", "?")),
+                str(row.get("rule") or "-"),
+                mode,
+                times,
+                beat,
+            ]
+        )
+    lines += columns(rows)
     for name, row in snapshot["modules"].items():
         if row.get("results"):
-            values = ", ".join(f"{k} {_shown(v)}" for k, v in row["results"].items())
+            values = ", ".join(f"{k} {shown(v)}" for k, v in row["results"].items())
             lines.append(f"results {name}: {values}")
         for plan, at in (row.get("plans") or {}).items():
             lines.append(
@@ -678,10 +710,52 @@ def render(snapshot: dict[str, Any]) -> list[str]:
         )
     for request in snapshot.get("requests", ()):
         lines.append(f"request {request['name']} from {request['by']}: {request['doc']}")
+    world = snapshot.get("world") or {}
+    held = snapshot.get("overrides") or {}
+    if world:
+        fields: list[Sequence[str]] = [("world", "value", "override")]
+        fields += [
+            (name, "stale" if v is None else shown(v), held.get(name, {}).get("state", ""))
+            for name, v in world.items()
+        ]
+        lines += columns(fields)
+    for name, how in held.items():
+        if name not in world:  # always said, --world or not
+            lines.append(f"world.{name} {how['state']} at {shown(how['value'])}")
     return lines
 
 
 # ---------------------------------------------------------------- command line
+
+
+def number(
+    kind: type[int | float], low: float, high: float, above: bool = False
+) -> Callable[[str], Any]:
+    """An argparse type for a numeric option: a whole number (`int`) or a finite number
+    (`float`) from `low` (excluded with `above`) to `high`; anything else (`nan`, `inf`,
+    `-1`, `1e999`, `ten`) is a usage error naming the range."""
+    code = "q" if kind is int else "d"
+    lower = f"more than {_plain(low)}" if above else f"at least {_plain(low)}"
+    words = f"{'a whole number' if kind is int else 'a number'} {lower} and at most {_plain(high)}"
+
+    def parse(raw: str) -> Any:
+        try:
+            value = parse_value(raw, code)
+        except ValueError:
+            value = None
+        if not isinstance(value, int | float) or not (
+            (value > low if above else value >= low) and value <= high
+        ):
+            raise argparse.ArgumentTypeError(f"{raw!r} is not {words}")
+        return kind(value)
+
+    parse.__name__ = words
+    return parse
+
+
+def _plain(value: float) -> str:
+    """1000000, not 1e+06; 0.01 as it is."""
+    return str(int(value)) if value == int(value) else f"{value:g}"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -714,19 +788,37 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
     verbs = top.add_subparsers(dest="verb", required=True, parser_class=_Parser)
     status = verbs.add_parser("status", help="every module's debug-screen line")
     status.add_argument("--watch", action="store_true", help="refresh until Ctrl-C")
-    status.add_argument("--interval", type=float, default=0.5, help="seconds between refreshes")
+    status.add_argument(
+        "--interval",
+        type=number(float, 0.01, 3600),
+        default=0.5,
+        help="seconds between refreshes (0.01 to 3600)",
+    )
     status.add_argument("--format", choices=("text", "json"), default="text")
+    status.add_argument(
+        "--world",
+        nargs="?",
+        const="",
+        default=None,
+        metavar="FIELD,...",
+        help="also the world fields now: every one, or those named (JSON has them all anyway)",
+    )
     for verb, text in (("stop", "hold MODULE's table (STOP)"), ("run", "RUN and AUTO again")):
         verbs.add_parser(verb, help=text).add_argument("module")
     step = verbs.add_parser("step", help="single-step MODULE N cycles (SINGLE)")
     step.add_argument("module")
-    step.add_argument("count", nargs="?", type=int, default=1)
-    step.add_argument("--timeout", type=float, default=10.0, help="seconds per step")
+    step.add_argument("count", nargs="?", type=number(int, 1, MAX_STEPS), default=1)
+    step.add_argument(
+        "--timeout",
+        type=number(float, 0, MAX_WAIT, above=True),
+        default=10.0,
+        help="seconds per step",
+    )
     simulate = verbs.add_parser("simulate", help="run MODULE's stand-in in its place, or not")
     simulate.add_argument("module")
     simulate.add_argument("switch", choices=("on", "off"))
     slow = verbs.add_parser("slow", help="stretch the cycle periods by FACTOR (1: normal)")
-    slow.add_argument("factor", type=float)
+    slow.add_argument("factor", type=number(float, 1, MAX_SLOW))
     slow.add_argument("--process", action="append", default=[], help="only this (repeatable)")
     send = verbs.add_parser("send", help="give MODULE a COMMAND with NAME=VALUE parameters")
     send.add_argument("module")
@@ -748,16 +840,32 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
     answer.add_argument("request")
     answer.add_argument("status", nargs="?", choices=FINISHED, default=None)
     answer.add_argument("--reason", default="", help="with ERROR: why (one of the task's reasons)")
+    force = verbs.add_parser(
+        "force",
+        help="force a world field to a value (world.X=V): its writer keeps it until `unforce`",
+    )
+    force.add_argument("assignment", metavar="world.FIELD=VALUE")
+    unforce = verbs.add_parser("unforce", help="release a forced world field (world.X)")
+    unforce.add_argument("field", metavar="world.FIELD")
+    reset = verbs.add_parser(
+        "reset", help="release world fields latched at their safe value (all when none named)"
+    )
+    reset.add_argument("fields", nargs="*", metavar="world.FIELD")
     verbs.add_parser("roles", help="the access matrix: what each role may do to each module")
     for sub in verbs.choices.values():  # `ctl send ... --role crew` reads as well
         sub.add_argument("--role", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
     wait = verbs.add_parser("wait", help="wait until MODULE reports DONE or ERROR")
     wait.add_argument("module")
     wait.add_argument("outcome", choices=FINISHED)
-    wait.add_argument("--timeout", type=float, default=None)
+    wait.add_argument(
+        "--timeout",
+        type=number(float, 0, MAX_WAIT),
+        default=None,
+        help="give up after this many seconds (exit 1) [default: wait for ever]",
+    )
     wait.add_argument(
         "--number",
-        type=int,
+        type=number(int, 1, 2**64 - 1),
         default=None,
         help="the outcome of this command number (as `send` printed it), not the latest",
     )
@@ -796,10 +904,6 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
         raise usage(suggest(args.request, request_names(layout), "request"))
     if args.verb == "answer" and args.request in requests and (args.status or args.reason):
         raise usage(f"{args.request} is answered by its command alone: no DONE/ERROR/--reason")
-    if args.verb == "step" and args.count < 1:
-        raise usage("step: N must be 1 or more")
-    if args.verb == "slow" and args.factor < 1.0:
-        raise usage("slow: FACTOR must be 1 (normal speed) or more")
     if args.verb == "roles":  # from the layout alone: no running system needed
         access = Access(layout, args.role)
         if not access.roles:
@@ -807,6 +911,8 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
         else:
             print("\n".join(access.matrix(layout.MODULES)))
         return 0
+    if not args.connect and segment_problem(args.shm):
+        raise usage(segment_problem(args.shm))
     try:
         console = Console(layout, args.shm, args.role, args.connect)
     except (BlockError, TransportError, ValueError) as error:
@@ -829,12 +935,16 @@ def attach(layout: ModuleType, endpoints: Sequence[str]) -> Any:
 def _verb(console: Console, args: argparse.Namespace, command: Command | None) -> int:
     verb = args.verb
     if verb == "status":
+        named = [n for n in (args.world or "").split(",") if n] or None
+        if named is not None:
+            console.world_names(named)  # a misspelt field: one line, exit 2
         while True:
-            snapshot = console.snapshot()
+            snapshot = console.snapshot(named)
             if args.format == "json":
                 text = json.dumps(snapshot, indent=2)
             else:
-                text = "\n".join(render(snapshot))
+                view = snapshot if args.world is not None else {**snapshot, "world": {}}
+                text = "\n".join(render(view))
             if not args.watch:
                 print(text)
                 return 0
@@ -888,6 +998,19 @@ def _verb(console: Console, args: argparse.Namespace, command: Command | None) -
     elif verb == "answer":
         sent, number = console.answer(args.request)
         print(f"answered {args.request}: sent {sent} #{number}")
+    elif verb == "force":
+        field, equals, raw = args.assignment.partition("=")
+        if not equals:
+            raise usage(f"force: {args.assignment!r} is not world.FIELD=VALUE")
+        value = console.force(field, raw)
+        name = console.field(field)
+        print(f"world.{name} FORCED at {shown(value)}; `ctl unforce world.{name}` releases it")
+    elif verb == "unforce":
+        console.unforce(args.field)
+        print(f"world.{console.field(args.field)} released: its module writes it again")
+    elif verb == "reset":
+        released = console.reset(args.fields)
+        print(f"released: {', '.join(released)}" if released else "nothing was latched safe")
     elif verb == "wait":
         module, number = args.module, args.number
         if not _until(lambda: console.outcome(module, number) is not None, args.timeout):

@@ -9,8 +9,10 @@ verbatim into every generated package (as `<system>/rcs/contract.py`).
 from __future__ import annotations
 
 import numbers
+import sys
 from struct import Struct
-from typing import Any, NamedTuple
+from types import CodeType, ModuleType
+from typing import Any, NamedTuple, TypeVar
 
 # Status a module reports to its supervisor (QQ1.h `qq1_responses`), by code.
 NOT_READY = 0
@@ -30,6 +32,9 @@ BUILTIN_COMMANDS = ("INIT", "HALT")
 # What an operator role may do to a module, least to most (the second paper's Figure 29);
 # each includes the ones before it, and every role may monitor every module.
 ACCESS_LEVELS = ("monitor", "respond", "command", "override")
+# Seconds every process of a launch has to run its first cycle (the start-up barrier),
+# unless the system spec declares `startup_timeout`.
+STARTUP_TIMEOUT = 10.0
 
 # Buffers every module has, in the same shape: (field, struct code). A command buffer is
 # its head followed by one `arg_<name>` field per parameter of the module's commands.
@@ -214,10 +219,72 @@ PACE = Struct(struct_format(PACE_FIELDS))
 ANSWER = Struct(struct_format(ANSWER_FIELDS))
 
 
+# ---------------------------------------------------------------- one class per runtime
+
+# rcsgen's own runtime (`rcsgen.runtime`) and every generated package's copy of it (`<system>.
+# rcs`) can be loaded in one Python process: the monitor reads a package's layout with
+# rcsgen's console, the harness runs a package's modules and reports their errors. Each copy
+# would define its own `StaleRead`, `HookError`, `Record` ...: `except StaleRead` in one
+# would miss what the other raises. Each exception and record type is therefore `shared`:
+# the first copy to define it registers it, and a later copy whose definition is the same
+# (the same code, names and constants: the same runtime, whatever its file) takes the
+# registered class instead of its own. A different definition (a package of another rcsgen
+# version) keeps its own class.
+_SHARED = "_rcs_shared_types"
+_Class = TypeVar("_Class", bound=type)
+
+
+def shared(cls: _Class) -> _Class:
+    """The one class of this definition in the process (see above)."""
+    registry = sys.modules.get(_SHARED)
+    if registry is None:
+        registry = sys.modules[_SHARED] = ModuleType(_SHARED, "rcsgen runtime types, shared")
+    key = f"{cls.__qualname__}:{hash(_fingerprint(cls))}"
+    found: _Class = registry.__dict__.setdefault(key, cls)
+    return found
+
+
+def _fingerprint(value: object, depth: int = 0) -> object:
+    """What a class definition is made of, comparable across copies of the runtime: its
+    methods' byte code, names and constants (line numbers and file names left out)."""
+    if depth > 8:
+        return "..."
+    if isinstance(value, CodeType):
+        consts = tuple(_fingerprint(c, depth + 1) for c in value.co_consts)
+        return (value.co_code, value.co_names, value.co_varnames, consts)
+    if isinstance(value, type):
+        if depth and value.__module__ in ("builtins", "typing", "collections", "dataclasses"):
+            return value.__qualname__
+        return (
+            value.__qualname__,
+            tuple(
+                (name, _fingerprint(member, depth + 1))
+                for name, member in sorted(value.__dict__.items())
+                if name not in ("__module__", "__doc__", "__dict__", "__weakref__")
+            ),
+        )
+    code = getattr(value, "__code__", None) or getattr(
+        getattr(value, "__func__", None), "__code__", None
+    )
+    if isinstance(code, CodeType):
+        return _fingerprint(code, depth + 1)
+    if isinstance(value, property):
+        return tuple(_fingerprint(f, depth + 1) for f in (value.fget, value.fset))
+    if isinstance(value, str | bytes | int | float | bool | type(None)):
+        return value
+    if isinstance(value, tuple | list):
+        return tuple(_fingerprint(v, depth + 1) for v in value)
+    if isinstance(value, dict):
+        return tuple((k, _fingerprint(v, depth + 1)) for k, v in sorted(value.items(), key=str))
+    return type(value).__qualname__
+
+
+@shared
 class StaleRead(Exception):
     """A buffer could not be read whole: its writer kept writing (or died while writing)."""
 
 
+@shared
 class Record(NamedTuple):
     """A buffer for tools (harness, traces, operator consoles): its struct, offset, fields.
 
@@ -321,14 +388,32 @@ def enum_code(layout: object, owner: str, field: str, value: object) -> object:
     raise ValueError(f"{value!r} is not one of {', '.join(names)}")
 
 
+# ---------------------------------------------------------------- overrides (fail safe)
+
+# A world field may be under an override: FORCED by an operator (`ctl force`), or latched at
+# its declared safe value (SAFE) when the process that writes it is lost, stopped or trips
+# its watchdog, until an explicit reset. Its writing module never overwrites it meanwhile:
+# every reader sees the override's value (rcs/override.py; docs/semantics.md, "Fail safe").
+OVERRIDE_STATES = ("NONE", "FORCED", "SAFE")
+NO_OVERRIDE, FORCED, SAFE = range(3)
+# The layout's OVERRIDES buffer: `any` is true while some field is under an override. It is
+# one byte, stored whole (never with `pack_into`, which zeroes before it stores), so a
+# generated module reads it without the seqlock: the one word its cycle pays for overrides.
+OVERRIDES_FIELDS = (("any", "?"),)
+# Each world field's override record: its state, then a value of the field's own type.
+OVERRIDE_HEAD_FIELDS = (("state", "Q"),)
+
+
 # ---------------------------------------------------------------- hook calls
 
-# What generated code accepts from a hook for a target of each type: any real number but a
-# bool for a float (an int, as in spec expressions; a numpy float), any integer but a bool
+# What generated code accepts from a hook for a target of each type: any finite real number
+# but a bool for a float (an int, as in spec expressions; a numpy float; never NaN or an
+# infinity, refused in the module whose hook returned it), any integer but a bool
 # within int64 for an int, exactly True or False for a bool. `type(x) in NUMBER` is the
 # fast path the generated check takes first; the functions below only when it fails.
 NUMBER = (float, int)
 INT_MIN, INT_MAX = -(2**63), 2**63 - 1
+FLOAT_MAX = sys.float_info.max  # a float target takes a finite number: -FLOAT_MAX..FLOAT_MAX
 
 
 def is_real(value: object) -> bool:
@@ -341,7 +426,7 @@ def is_integer(value: object) -> bool:
     return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
-_KIND_NAMES = {"f": "float", "i": "int", "b": "bool", "e": "enum index", "s": "str"}
+_KIND_NAMES = {"f": "finite float", "i": "int", "b": "bool", "e": "enum index", "s": "str"}
 
 
 def kind_tokens(kinds: str) -> list[str]:
@@ -370,7 +455,7 @@ _NOTHING = object()
 def _fits(value: object, kind: str) -> bool:
     """Whether `value` may go into a target of this kind (the check generated code makes)."""
     if kind == "f":
-        return is_real(value)
+        return is_real(value) and -FLOAT_MAX <= value <= FLOAT_MAX  # type: ignore[operator]
     if kind == "i":
         return (
             isinstance(value, numbers.Integral)
@@ -405,6 +490,29 @@ def _shown(value: object) -> str:
     return shown if len(shown) <= 60 else shown[:57] + "..."
 
 
+@shared
+class HookOverrun(BaseException):
+    """A hook ran past its deadline (rcs/deadline.py): raised inside it by the timer signal
+    (`interrupted`), or when it returned late anyway. A BaseException, so that a hook's own
+    `except Exception` does not swallow it."""
+
+    def __init__(self, deadline: float, took: float, interrupted: bool) -> None:
+        self.deadline, self.took, self.interrupted = deadline, took, interrupted
+        super().__init__(deadline, took, interrupted)
+
+    def __str__(self) -> str:
+        if self.interrupted:
+            return (
+                f"did not return within its deadline of {self.deadline:g} s: interrupted "
+                f"after {self.took:.3g} s"
+            )
+        return (
+            f"returned after {self.took:.3g} s, past its deadline of {self.deadline:g} s: "
+            "its result is refused"
+        )
+
+
+@shared
 class HookError(Exception):
     """A hook call that failed at run time, raised by generated code: the hook raised (the
     exception is the `__cause__`), or its result does not fit its `returns:`.
@@ -445,9 +553,12 @@ class HookError(Exception):
         who = f"hook `{self.hook}` of `{self.module}`"
         if self.why:
             return f"{who} {self.why}"
+        if isinstance(self.__cause__, HookOverrun):
+            return f"{who} {self.__cause__}"
         if self.raised:
             cause = self.__cause__
-            what = f"{type(cause).__name__}: {cause}" if cause is not None else "an exception"
+            what = f"{type(cause).__name__}: {cause}" if str(cause) else type(cause).__name__
+            what = what if cause is not None else "an exception"
             return f"{who} raised {what}"
         shown = repr(self.result)
         shown = shown if len(shown) <= 60 else shown[:57] + "..."

@@ -4,17 +4,19 @@
 A generated `main_<process>.py` declares its `ProcessPlan` (modules in execution order,
 roots, stand-ins, controller classes); `Process` instantiates it over a block and runs one
 cycle at a time, writing the process's control record (its heartbeat) after each. `run`
-paces it (free-running: a `Pacer` holds the period; a watchdog halts the roots on repeated
-overruns; supervisors of modules in a process that stopped beating go to their safe state).
-`serve` runs it in lockstep for a coordinator instead (see `launcher.py`). The clock and
-sleep are parameters, so tests drive the loop with a fake clock. Standard library only:
-copied verbatim into every generated package.
+paces it (free-running: a `Pacer` holds the period; a watchdog halts the roots when the
+process falls too far behind its schedule; supervisors of modules in a process that stopped
+beating go to their safe state). `serve` runs it in lockstep for a coordinator instead (see
+`launcher.py`). The clock and sleep are parameters, so tests drive the loop with a fake
+clock. Standard library only: copied verbatim into every generated package.
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import time
+from collections import deque
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from struct import Struct
@@ -33,16 +35,24 @@ from .contract import (
     STARTING,
     STOPPED,
     field_names,
+    shared,
     struct_format,
 )
+from .override import latch_safe
 from .transport import Local, Transport
 
 _BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))  # seq, pid .. beat_ns
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
 
 
+@shared
 class RestartRefused(Exception):
     """A process cannot be restarted: a module of it keeps hook state a restart would lose."""
+
+
+@shared
+class DuplicateProcess(Exception):
+    """A second copy of a process: its control record names a live owner."""
 
 
 class Module(Protocol):
@@ -56,6 +66,7 @@ class Module(Protocol):
 ModuleClass = Callable[[memoryview, "dict[str, str] | None"], Module]
 
 
+@shared
 @dataclass(frozen=True)
 class ProcessPlan:
     """One process of a system as the spec declares it."""
@@ -75,9 +86,66 @@ class ProcessPlan:
 class Watchdog:
     """When a paced process trips its watchdog, and when it warns of load."""
 
-    overruns: int = 5  # this many consecutive overruns trip it
-    period_factor: float = 3.0  # so does one cycle longer than this many periods
+    behind: float = 5.0  # periods: the cycles of the last `window` periods this late in all
+    window: int = 10  # periods
+    period_factor: float = 3.0  # one cycle longer than this many periods trips it too
     load_warning: float = 0.8  # a cycle longer than this share of the period is counted
+
+    def trips(self, pacer: Pacer, took_ns: int, period: float) -> bool:
+        """Whether the cycle that took `took_ns` (and the wait after it) trips the watchdog:
+        the cycles of the last `window` periods started `behind` periods late or more, in
+        all (`Pacer.behind`: a stall counts its length; a starved process, late now and on
+        time then, adds up), or the cycle took longer than `period_factor` periods. A trip
+        starts the count again."""
+        late = pacer.behind(self.window) >= self.behind
+        if late or took_ns > self.period_factor * period * 1e9:
+            pacer.forget()
+            return True
+        return False
+
+
+@dataclass(frozen=True)
+class Reaction:
+    """What the loss of one process (dead, stopped, frozen, starved, or its watchdog
+    tripped) asks of everyone else (docs/semantics.md, "Fail safe").
+
+    Contained (every module of the process hangs below a supervisor that declared
+    `on_lost: continue` for it): only the actuators that process writes are latched safe,
+    and those supervisors see the subordinate's status ERROR (LOST) while it is lost.
+    Otherwise (`halt_all`, the default): every actuator of the system is latched safe, and
+    every controller that supervises one of its modules, with every controller above it,
+    goes to the safe state (HALT to its subordinates, ERROR with reason LOST)."""
+
+    latch: tuple[str, ...]
+    safe: tuple[str, ...]
+    told: tuple[tuple[str, str], ...]  # (supervisor, subordinate): `continue` rules handle it
+    contained: bool
+
+
+def reaction(layout: ModuleType, process: str) -> Reaction:
+    """The reaction to the loss of `process`, from the layout's hierarchy and policies."""
+    placement, subordinates = layout.PLACEMENT, layout.SUBORDINATES
+    supervisor = {sub: sup for sup, subs in subordinates.items() for sub in subs}
+    continued = getattr(layout, "ON_LOST_CONTINUE", {})
+    mine = [m for m, p in placement.items() if p == process and m in layout.MODULES]
+    outside = [
+        (supervisor[m], m)
+        for m in mine
+        if placement.get(supervisor.get(m, "")) not in (None, process)
+    ]
+    inside = [m for m in mine if placement.get(supervisor.get(m, "")) == process]
+    contained = bool(outside) and len(outside) + len(inside) == len(mine)
+    contained = contained and all(m in continued.get(s, ()) for s, m in outside)
+    actuated_by = getattr(layout, "ACTUATED_BY", {})
+    if contained:
+        latch = tuple(f for f, p in actuated_by.items() if p == process)
+        return Reaction(latch, (), tuple(outside), True)
+    safe: list[str] = []
+    for above, _ in outside:
+        while above and above not in safe and placement.get(above) != process:
+            safe.append(above)
+            above = supervisor.get(above, "")
+    return Reaction(tuple(getattr(layout, "SAFE_VALUES", {})), tuple(safe), (), False)
 
 
 class Process:
@@ -94,6 +162,7 @@ class Process:
     ) -> None:
         self.plan, self.layout, self.block = plan, layout, block
         if restarting:
+            self._refuse_a_second_copy()
             self._refuse_lost_hook_state()
         self.cycle = 0
         unknown = sorted(set(simulate) - set(plan.stand_ins))
@@ -124,7 +193,20 @@ class Process:
         self.counters = dict.fromkeys(field_names(PROCESS_FIELDS), 0)
         self.counters.update(pid=os.getpid(), state=STARTING)
         self.lost: set[str] = set()
+        self.tripped: dict[str, int] = {}  # each other process's watchdog trips, last seen
+        self.reactions = {name: reaction(layout, name) for name in layout.PROCESSES}
         self.beat()
+
+    def _refuse_a_second_copy(self) -> None:
+        """A process whose control record names a live owner is running: refuse to be a
+        second copy (two writers of every buffer it owns)."""
+        record = self.layout.PROCESSES[self.plan.name]
+        _, pid, state, _, _, _ = _BEAT.unpack_from(self.block.buf, record.offset)
+        if state in (STARTING, RUNNING) and pid and pid != os.getpid() and _alive(pid):
+            raise DuplicateProcess(
+                f"process {self.plan.name} is already running (pid {pid}): a second copy is "
+                "refused; stop that one first (or, if it is frozen, kill it)"
+            )
 
     def _refuse_lost_hook_state(self) -> None:
         """A module that ran before and keeps hook state outside the block (a simulator's
@@ -224,6 +306,40 @@ class Process:
             init = self.layout.COMMAND_NAMES[name].index("INIT")
             record.write(buf, command_num=number + 1, command=init)
 
+    def react(self, process: str, reason: int = 1) -> list[str]:
+        """The reaction to the loss (or trip) of `process`, for this process's part: latch
+        the actuators safe, put the supervisors here in their safe state, tell the ones with
+        `on_lost: continue`. The actuators latched now (not already)."""
+        todo = self.reactions[process]
+        latched = latch_safe(self.layout, self.block.buf, todo.latch, self.block.name)
+        for name in todo.safe:
+            module = self.modules.get(name)
+            safe_state = getattr(module, "safe_state", None)
+            if safe_state is not None:
+                safe_state(reason)
+        for supervisor, sub in todo.told:
+            module = self.modules.get(supervisor)
+            if module is not None:
+                setattr(module, f"{sub}_lost", True)
+        return latched
+
+    def recovered(self, process: str) -> None:
+        """`process` beats again: the supervisors told it was lost see its status again (the
+        latched actuators stay latched until a reset)."""
+        for supervisor, sub in self.reactions[process].told:
+            module = self.modules.get(supervisor)
+            if module is not None:
+                setattr(module, f"{sub}_lost", False)
+
+    def safe_stop(self, everything: bool = False) -> list[str]:
+        """This process stops (or has lost its launcher: `everything`): latch the actuators
+        it writes (every actuator of the system) at their safe values."""
+        actuated_by = getattr(self.layout, "ACTUATED_BY", {})
+        fields = [f for f, p in actuated_by.items() if everything or p == self.plan.name]
+        if everything:
+            fields = list(getattr(self.layout, "SAFE_VALUES", {}))
+        return latch_safe(self.layout, self.block.buf, fields, self.block.name)
+
     def halt_roots(self) -> None:
         """Send HALT to the root modules (the watchdog's safe stop)."""
         buf = self.block.buf
@@ -236,45 +352,62 @@ class Process:
 
     # ------------------------------------------------------------ liveness
 
-    def watched(self) -> dict[str, list[str]]:
-        """The other processes this one depends on -> the modules of this process that
-        supervise a module there (they go to their safe state if it is lost)."""
-        placement, subordinates = self.layout.PLACEMENT, self.layout.SUBORDINATES
-        watched: dict[str, list[str]] = {}
-        for name in self.plan.modules:
-            for sub in subordinates.get(name, ()):
-                elsewhere = placement[sub]
-                if elsewhere != self.plan.name:
-                    watched.setdefault(elsewhere, [])
-                    if name not in watched[elsewhere]:
-                        watched[elsewhere].append(name)
-        return watched
+    def watched(self) -> list[str]:
+        """The other processes: each one's loss asks something of this one (its supervisors'
+        safe state, or the actuators every survivor latches)."""
+        return [name for name in self.layout.PROCESSES if name != self.plan.name]
 
-    def check_liveness(self, timeout_ns: int, now_ns: int, watched: dict[str, list[str]]) -> None:
+    def check_liveness(self, timeout_ns: int, now_ns: int, watched: Iterable[str]) -> None:
         """Report a watched process lost when its heartbeat is older than `timeout_ns`
-        stretched by its slow-down (or it is marked dead), putting the supervisors of its
-        modules in their safe state; a process that beats again is no longer lost."""
+        stretched by its slow-down (a freeze, a starved CPU), or it is marked STOPPED or
+        DEAD, and react (`react`); react again to each watchdog trip it reports. A lost
+        process that beats again is no longer lost (its latches stay until a reset)."""
         buf = self.block.buf
         pacing = getattr(self.layout, "PACING", {})
-        for name, supervisors in watched.items():
-            record = self.layout.PROCESSES[name]
-            _, _, state, _, _, beat_ns = _BEAT.unpack_from(buf, record.offset)
-            if state in (STOPPED, DEAD):
-                silent = True
-            else:  # not started yet (no beat): not lost
-                slow = 1.0
-                if name in pacing:  # one float, written whole: read without the seqlock
-                    slow = max(1.0, PACE.unpack_from(buf, pacing[name].offset)[1])
-                silent = beat_ns > 0 and now_ns - beat_ns > timeout_ns * slow
+        for name in watched:
+            silent, trips = _silent(self.layout, buf, name, timeout_ns, now_ns, pacing)
             if silent and name not in self.lost:
                 self.lost.add(name)
-                for supervisor in supervisors:
-                    module = self.modules.get(supervisor)
-                    safe_state = getattr(module, "safe_state", None)
-                    if safe_state is not None:
-                        safe_state(LOST_SUBORDINATE)
+                self.react(name)
             elif not silent and name in self.lost:
                 self.lost.discard(name)
+                self.recovered(name)
+            if trips > self.tripped.get(name, trips):
+                self.react(name)
+            elif not silent and trips == self.tripped.get(name) and name not in self.lost:
+                self.recovered(name)  # a trip is told for one cycle
+            self.tripped[name] = trips
+
+
+def _silent(
+    layout: ModuleType,
+    buf: memoryview,
+    name: str,
+    timeout_ns: int,
+    now_ns: int,
+    pacing: dict[str, object],
+) -> tuple[bool, int]:
+    """(whether process `name` is lost: STOPPED, DEAD, or a heartbeat older than the timeout
+    stretched by its slow-down; its watchdog trips). One that has not beaten yet is not."""
+    record = layout.PROCESSES[name]
+    _, _, state, trips, _, beat_ns = _BEAT.unpack_from(buf, record.offset)
+    if state in (STOPPED, DEAD):
+        return True, trips
+    slow = 1.0
+    if name in pacing:  # one float, written whole: read without the seqlock
+        slow = max(1.0, PACE.unpack_from(buf, pacing[name].offset)[1])  # type: ignore[attr-defined]
+    return beat_ns > 0 and now_ns - beat_ns > timeout_ns * slow, trips
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process of this id exists (ours to signal or not)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def start(
@@ -298,11 +431,15 @@ def start(
 
 
 class Stop:
-    """A flag a signal handler sets to end `run` after the current cycle."""
+    """A flag a signal handler sets to end `run` after the current cycle; `run` names the
+    process it runs in it, and the caller sets `finished` when the process is done with (a
+    watcher of the launcher's death uses both: launcher.py)."""
 
     def __init__(self) -> None:
         self.requested = False
         self.orphaned = False  # the launcher went away (a child then removes the segment)
+        self.process: Process | None = None
+        self.finished = threading.Event()
 
     def __call__(self, *args: object) -> None:
         self.requested = True
@@ -327,8 +464,10 @@ def run(
     until `on_cycle` returns True or `stop` is requested. The caller closes its block.
 
     Paced, the period is stretched by the process's `slow` factor (its pacing record, set by
-    an operator) each cycle; the watchdog halts the roots after `watchdog.overruns`
-    consecutive overruns or one cycle longer than `watchdog.period_factor` periods, and
+    an operator) each cycle; the watchdog (from the second cycle on) latches the process's
+    reaction and halts the roots when the cycles of the last `watchdog.window` periods
+    started `watchdog.behind` periods late in all, or a cycle took longer than
+    `watchdog.period_factor` periods, and
     supervisors of modules in another process go to their safe state when its heartbeat is
     older than `heartbeat_timeout` seconds (`layout.HEARTBEAT_TIMEOUT` by default).
 
@@ -336,6 +475,8 @@ def run(
     into the block before each cycle and what the process wrote is sent after it.
     """
     process = start(plan, layout, shm_name, create, settings, simulate)
+    if stop is not None:
+        stop.process = process
     try:
         net = transport(process) if transport is not None else Local()
     except BaseException:
@@ -373,11 +514,16 @@ def run(
                     counters["load_warnings"] += 1
                 pacer.wait()
                 counters["overruns"], counters["late_wakeups"] = pacer.overruns, pacer.late
-                if pacer.consecutive >= dog.overruns or took > dog.period_factor * period * 1e9:
+                if process.cycle == 1:  # the start-up cycle: the start-up barrier bounds it
+                    pacer.forget()
+                elif dog.trips(pacer, took, period):  # its outputs safe, its roots halted
                     counters["watchdog_trips"] += 1
-                    pacer.consecutive = 0
+                    process.react(plan.name)
                     process.halt_roots()
     finally:
+        # Stopped (Ctrl-C, SIGTERM, --cycles) or orphaned (the launcher died): the actuators
+        # it writes (orphaned: every actuator, as the others may be gone too) go safe, latched.
+        process.safe_stop(everything=stop is not None and stop.orphaned)
         process.beat(STOPPED)
         net.close()  # sends the STOPPED
     return process
@@ -386,9 +532,9 @@ def run(
 class Pacer:
     """Holds each cycle to the period on a monotonic clock; `period=0` runs as fast as possible.
 
-    Counts overruns (a cycle that ran past its boundary: the schedule restarts from now),
-    consecutive overruns, and late wake-ups (a sleep that ended more than `late_after` of a
-    period past its boundary)."""
+    Counts overruns (each period boundary a cycle or a stall ran past: the schedule goes on
+    from the next boundary), late wake-ups (a sleep that ended more than `late_after` of a
+    period past its boundary), and remembers how late each recent cycle started (`behind`)."""
 
     def __init__(
         self,
@@ -398,25 +544,45 @@ class Pacer:
         late_after: float = 0.1,
     ) -> None:
         self.period, self.clock, self.sleep = period, clock, sleep
-        self.deadline = clock() + period
-        self.overruns = self.consecutive = self.late = 0
+        self.now = clock()
+        self.deadline = self.now + period
+        self.overruns = self.late = 0
         self.late_after = late_after * period
+        self.lateness: deque[tuple[float, float]] = deque()  # (when, seconds late)
 
     def wait(self) -> None:
-        """Sleep until the next cycle boundary; count a cycle that ran past it."""
+        """Sleep until the next cycle boundary; count the boundaries a cycle or a stall
+        (frozen, starved) ran past, and remember how late the next cycle starts."""
         if self.period <= 0:
             return
         now = self.clock()
         if now <= self.deadline:
             self.sleep(self.deadline - now)
-            if self.clock() - self.deadline > self.late_after:
+            now = self.clock()
+            late = now - self.deadline
+            if late > self.late_after:
                 self.late += 1
-            self.deadline += self.period
-            self.consecutive = 0
-        else:
-            self.overruns += 1
-            self.consecutive += 1
+            missed = int(late // self.period) if late >= self.period else 0
+            self.deadline += (missed + 1) * self.period
+        else:  # each period it missed is an overrun: a 3 s stall at 0.1 s is 30
+            late = now - self.deadline
+            missed = int(late // self.period) + 1
             self.deadline = now + self.period
+        self.overruns += missed
+        self.now = now
+        if late > self.late_after:  # jitter below a tenth of a period is not remembered
+            self.lateness.append((now, late))
+
+    def behind(self, window: int) -> float:
+        """How late, in periods, the cycles of the last `window` periods started, in all."""
+        horizon = self.now - window * self.period
+        while self.lateness and self.lateness[0][0] <= horizon:
+            self.lateness.popleft()
+        return sum(late for _, late in self.lateness) / self.period
+
+    def forget(self) -> None:
+        """Start the count of recent lateness again (a trip, the start-up cycle)."""
+        self.lateness.clear()
 
 
 # ---------------------------------------------------------------- lockstep

@@ -11,10 +11,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .. import acknowledge
+from ..checks import acknowledge
+from ..codes import PROVE_CODES
 from ..diagnostics import Diagnostic, Diagnostics, Subject
+from ..front_end.model import ControllerSpec
 from ..frontend import Frontend
-from ..model import ControllerSpec
 from .model import Edge, State
 from .properties import INFINITE, Finding
 from .system import SystemProof, prove
@@ -52,9 +53,8 @@ def prove_front(front: Frontend, hosts: dict[str, str] | None = None) -> ProveRe
     """Prove every system of a front end's output."""
     result = ProveResult()
     for system in front.systems:
-        spec, controllers = front.models[system.name]
-        actuators = frozenset(name for name, f in spec.world.items() if f.actuator)
-        result.proofs.append(prove(system, actuators, hosts))
+        _, controllers = front.models[system.name]
+        result.proofs.append(prove(system, hosts))
         result.specs[system.name] = controllers
     return result
 
@@ -76,7 +76,6 @@ def diagnostics(result: ProveResult) -> Diagnostics:
                     f.code,
                     text,
                     hint,
-                    "warning",
                     Subject(f.controller, f.command, f.state, f.rule),
                 )
             )
@@ -85,7 +84,7 @@ def diagnostics(result: ProveResult) -> Diagnostics:
             diags,
             since,
             complete=True,
-            checked=frozenset(acknowledge.PROVE_CODES),
+            checked=frozenset(PROVE_CODES),
         )
     return diags
 
@@ -95,6 +94,8 @@ def cycle_text(index: int, edge: Edge, state: State, subs: tuple[str, ...], who:
     parts = []
     if edge.lost:
         parts.append(f"process {edge.lost} lost")
+    if edge.recovered:
+        parts.append(f"process {edge.recovered} back")
     if edge.new:
         parts.append(f"{who} gets {edge.new}")
     parts += [f"{sub} answers {status}" for sub, status in edge.answers]

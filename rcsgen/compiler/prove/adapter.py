@@ -16,21 +16,19 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ...runtime.contract import BUILTIN_COMMANDS
-from .. import expr, ir
-from ..analysis import GuardBuilder
+from .. import expressions as expr
+from .. import ir
+from ..analysis.solver import Guard, Key, solve
+from ..analysis.tables import GuardBuilder
 from ..diagnostics import Span
-from ..solver import Guard, Key, solve
 
 NOT_READY, EXECUTING, DONE, ERROR = "NOT_READY", "EXECUTING", "DONE", "ERROR"
 
 
-def safe_value(field_: ir.IRWorldField) -> Any:
-    """The value an actuator field is safe at: zero/false (issue "Fail safe" lets a spec
-    declare it per field; read it here when the IR carries it)."""
-    declared = getattr(field_, "safe", None)
-    if declared is not None:
-        return declared
-    return {"bool": False, "int": 0, "float": 0.0}.get(field_.type, field_.initial)
+def safe_value(field_: ir.IRWorldField) -> bool | int | float | str | None:
+    """The value an actuator field is safe at, as the IR carries it (`safe:`, or its type's
+    zero): the value the runtime latches it at when a process is lost (rcs/override.py)."""
+    return field_.safe
 
 
 @dataclass(frozen=True)
@@ -48,6 +46,9 @@ class RuleView:
     # unknown) - a hook returning into an actuator counts as unknown
     actuators: tuple[tuple[str, bool], ...] = ()
     locals_set: tuple[tuple[str, Any], ...] = ()  # tracked locals set to a constant
+    # what its guard reads, predicates, functions and `let` values inlined: (RefKind, name)
+    reads: frozenset[tuple[str, str]] = frozenset()
+    world_sets: frozenset[str] = frozenset()  # world fields it sets (or a hook returns into)
 
 
 @dataclass
@@ -106,6 +107,22 @@ class Choice:
     valuation: tuple[tuple[Key, Any], ...]
 
 
+def _world_sets(rule: ir.IRRule) -> list[str]:
+    found = []
+    for action in rule.actions:
+        if isinstance(action, ir.IRSet):
+            found += [
+                a.target.removeprefix("world.")
+                for a in action.assignments
+                if a.target.startswith("world.")
+            ]
+        elif isinstance(action, ir.IRCall):
+            found += [
+                x.removeprefix("self.world_") for x in action.targets if x.startswith("self.world_")
+            ]
+    return found
+
+
 def _constant(literal: str) -> Any:
     return ast.literal_eval(literal.split("#", 1)[0].strip())
 
@@ -129,6 +146,22 @@ def builder_of(system: ir.IRSystem, c: ir.IRController) -> GuardBuilder:
     builder.functions = {f.name: (tuple(p for p, _ in f.params), f.body.tree) for f in c.functions}
     builder.plans = {p.name: (p.capacity, p.replans) for p in c.plans}
     return builder
+
+
+def reads_of(tree: expr.Expr | None, builder: GuardBuilder) -> frozenset[tuple[str, str]]:
+    """What an expression reads, (RefKind, name), through predicates, functions and `let`
+    values (a subordinate's status, command, reason or result by the subordinate's name)."""
+    found: set[tuple[str, str]] = set()
+    todo = [tree] if tree is not None else []
+    while todo:
+        for node in expr.walk(todo.pop()):
+            if isinstance(node, expr.Call) and node.kind == expr.CallKind.PREDICATE:
+                todo.append(builder.predicates[node.name])
+            elif (inlined := builder.inline(node)) is not None:
+                todo.append(inlined)
+            elif isinstance(node, expr.Ref) and node.kind is not expr.RefKind.ARG:
+                found.add((str(node.kind), node.owner or node.name))
+    return frozenset(found)
 
 
 def _thresholds(guard: expr.Expr | None) -> tuple[int, ...]:
@@ -176,7 +209,16 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
         nxt = None if report else rule.next_state
         text = rule.guard.text if rule.guard is not None else ""
         return RuleView(
-            str(rule.id), rule.span, guard, text, tuple(sends), report, nxt, tuple(acts)
+            str(rule.id),
+            rule.span,
+            guard,
+            text,
+            tuple(sends),
+            report,
+            nxt,
+            tuple(acts),
+            reads=reads_of(rule.guard.tree if rule.guard else None, builder),
+            world_sets=frozenset(_world_sets(rule)),
         )
 
     tables: dict[str, dict[str, list[RuleView]]] = {}

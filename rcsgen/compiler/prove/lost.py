@@ -1,42 +1,73 @@
-"""Lost: the runtime's reaction to a lost process, as the model plays it - one pluggable piece.
+"""Lost: the runtime's reaction to a lost process, as the model plays it.
 
-A process is lost when its heartbeat stops (docs/semantics.md, "Liveness"). The runtime then
-acts on the supervisors outside it whatever their tables say. Two reactions are written here:
+A process is lost when its heartbeat stops, it is stopped or dead, or its watchdog trips
+(docs/semantics.md, "Fail safe"). What every other process then does is decided by one
+function of the runtime, `rcs/loop.py` `reaction`, from the layout's hierarchy and
+policies. The model does not restate it: `RuntimeReaction` builds the same tables the
+generated layout holds (PLACEMENT, SUBORDINATES, ON_LOST_CONTINUE, SAFE_VALUES,
+ACTUATED_BY) from the IR and asks that function, so the proofs follow the runtime as it is.
 
-- `DirectReaction`, the runtime as it is on main: the supervisors of a module of the lost
-  process (in other processes) go to their safe state - HALT to every subordinate, state
-  NOP, status ERROR with reason LOST - and the supervisors above them learn of it only
-  through their tables (a subordinate's ERROR);
-- `FailSafeReaction`, the runtime as issue "Fail safe" describes it: every controller that
-  transitively supervises a module of the lost process goes to that safe state, unless it
-  declares `on_lost: continue` for the subordinate above that module, in which case it sees
-  that subordinate's ERROR (reason LOST) and its own rules handle it.
-
-`reaction_for` picks the one the IR describes: the fail-safe one once the IR's subordinates
-carry `on_lost`. The model asks only `candidates` (which processes can be lost, seen from a
-supervisor) and `effect` (what that does to it).
+Seen from one supervisor being explored, the loss of a process that runs a module below it
+has one of three effects (`Effect`): the supervisor goes to its safe state (`halt_all`:
+HALT to every subordinate, NOP, ERROR with reason LOST); or it reads some subordinates'
+status as ERROR for as long as the process is lost (`on_lost: continue`, the loss
+contained); and the actuators the reaction latches keep their safe values whatever the
+supervisor sets. A lost process stays lost in the model (a recovery changes nothing a
+property reads: the latches stay until an explicit reset, the safe state until a new
+command).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import ModuleType
 
+from ...runtime.loop import reaction
 from .. import ir
 
 
 @dataclass(frozen=True)
 class Effect:
     safe_state: bool  # the supervisor goes to the runtime's safe state
-    errors: tuple[str, ...] = ()  # subordinates whose status it now reads as ERROR (LOST)
+    errors: tuple[str, ...] = ()  # subordinates it reads as ERROR (LOST) while lost
+    latched: frozenset[str] = frozenset()  # actuator fields held at their safe values
 
 
-class DirectReaction:
-    """main's runtime: only the direct supervisors of the lost process's modules react."""
+def layout_view(system: ir.IRSystem) -> ModuleType:
+    """The part of the generated layout module `reaction` reads, from the IR (as
+    templates/layout.py.j2 writes it)."""
+    placement: dict[str, str] = {}
+    for process in system.processes:
+        for module in process.modules:
+            placement[module] = process.name
+            for channel in system.controller(module).channels:
+                placement[channel] = process.name
+    owners = [c for c in system.controllers if c.buffers == c.name]
+    view = ModuleType(f"{system.name}.layout (as prove reads it)")
+    vars(view).update(
+        PLACEMENT=placement,
+        SUBORDINATES={c.name: tuple(s.key for s in c.subordinates) for c in system.controllers},
+        ON_LOST_CONTINUE={
+            c.name: tuple(s.name for s in c.subordinates if s.continue_on_lost)
+            for c in system.controllers
+            if any(s.continue_on_lost for s in c.subordinates)
+        },
+        MODULES=tuple(n for c in owners for n in (c.channels if c.is_operator else (c.name,))),
+        SAFE_VALUES={f.name: f.safe for f in system.world if f.actuator},
+        ACTUATED_BY=dict(system.actuated_by),
+    )
+    return view
 
-    name = "direct"
 
-    def __init__(self, system: ir.IRSystem, placement: dict[str, tuple[str, int]]):
-        self.system, self.placement = system, placement
+class RuntimeReaction:
+    """The runtime's reaction to the loss of each process, seen from each supervisor."""
+
+    name = "rcs/loop.py reaction: halt_all, or on_lost: continue where declared"
+
+    def __init__(self, system: ir.IRSystem):
+        view = layout_view(system)
+        self.placement: dict[str, str] = vars(view)["PLACEMENT"]
+        self.reactions = {p.name: reaction(view, p.name) for p in system.processes}
         self.children = {c.name: [s.name for s in c.subordinates] for c in system.controllers}
 
     def subtree(self, module: str) -> list[str]:
@@ -48,10 +79,11 @@ class DirectReaction:
         return found
 
     def process_of(self, module: str) -> str | None:
-        return self.placement.get(module, (None, 0))[0]
+        return self.placement.get(module)
 
     def candidates(self, supervisor: str) -> tuple[str, ...]:
-        """The processes, other than the supervisor's, that run a module below it."""
+        """The processes, other than the supervisor's, that run a module below it: the
+        losses its model plays."""
         own = self.process_of(supervisor)
         found = {
             self.process_of(m)
@@ -61,31 +93,9 @@ class DirectReaction:
         return tuple(sorted(p for p in found if p is not None and p != own))
 
     def effect(self, supervisor: str, process: str) -> Effect:
-        direct = any(self.process_of(s) == process for s in self.children.get(supervisor, []))
-        return Effect(direct)
-
-
-class FailSafeReaction(DirectReaction):
-    """Issue "Fail safe": every transitive supervisor reacts; `on_lost: continue` per
-    subordinate hands the loss to the supervisor's own rules instead."""
-
-    name = "fail-safe"
-
-    def effect(self, supervisor: str, process: str) -> Effect:
-        c = self.system.controller(supervisor)
-        hit = [
-            s
-            for s in c.subordinates
-            if any(self.process_of(m) == process for m in self.subtree(s.name))
-        ]
-        continuing = [s.name for s in hit if getattr(s, "on_lost", "halt_all") == "continue"]
-        if hit and len(continuing) == len(hit):
-            return Effect(False, tuple(continuing))
-        return Effect(bool(hit))
-
-
-def reaction_for(system: ir.IRSystem, placement: dict[str, tuple[str, int]]) -> DirectReaction:
-    """The reaction of the runtime the IR was made for."""
-    if "on_lost" in getattr(ir.IRSub, "__dataclass_fields__", {}):
-        return FailSafeReaction(system, placement)
-    return DirectReaction(system, placement)
+        done = self.reactions[process]
+        return Effect(
+            supervisor in done.safe,
+            tuple(sub for sup, sub in done.told if sup == supervisor),
+            frozenset(done.latch),
+        )

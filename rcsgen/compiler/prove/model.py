@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 from itertools import product
 from typing import Any, NamedTuple
 
-from ..solver import Key
+from ..analysis.solver import Key
 from .adapter import DONE, ERROR, EXECUTING, NOT_READY, Choice, RuleView, Skeleton
-from .lost import DirectReaction
+from .lost import RuntimeReaction
 
 NOP = "NOP"
 LIMIT = 400_000  # the most states one model may have; more is "too large" (undecided)
@@ -55,6 +55,7 @@ class Edge(NamedTuple):
     certain: bool  # every guard choice was decided ("yes"), not only possible
     valuation: tuple[tuple[Key, Any], ...]  # atoms that make the choices so
     views: tuple[str, ...]  # the status it read for each subordinate this cycle
+    recovered: str | None = None  # a lost process back before this cycle
 
 
 class Step(NamedTuple):
@@ -109,7 +110,7 @@ class Model:
         self,
         skeleton: Skeleton,
         contracts: dict[str, Contract],
-        reaction: DirectReaction,
+        reaction: RuntimeReaction,
         new_commands: bool = True,
     ) -> None:
         self.sk = skeleton
@@ -119,70 +120,128 @@ class Model:
         self.effects = {p: reaction.effect(skeleton.name, p) for p in self.lossy}
         self.new_commands = new_commands
         self.sub_index = {s: i for i, s in enumerate(skeleton.subs)}
+        self.sub_process = tuple(reaction.process_of(s) for s in skeleton.subs)
         self._news_seen: set[Any] = set()
         self._steps: dict[Any, list[tuple[Step, State]]] = {}
+        self._lost: dict[tuple[str, ...], tuple[frozenset[str], tuple[int, ...]]] = {}
 
     def initial(self) -> State:
         return State(None, NOP, NOT_READY, 0, tuple((None, NOT_READY, False) for _ in self.sk.subs))
 
+    def lost_effects(self, lost: tuple[str, ...]) -> tuple[frozenset[str], tuple[int, ...]]:
+        """While the processes `lost` are lost: the actuator fields latched safe, and the
+        subordinates (by index) whose status reads ERROR (`on_lost: continue`)."""
+        found = self._lost.get(lost)
+        if found is None:
+            latched: set[str] = set()
+            told: set[int] = set()
+            for process in lost:
+                effect = self.effects[process]
+                latched |= effect.latched
+                told |= {self.sub_index[sub] for sub in effect.errors}
+            found = self._lost[lost] = (frozenset(latched), tuple(sorted(told)))
+        return found
+
     # ------------------------------------------------------------ one cycle
 
     def successors(self, s: State) -> list[tuple[Edge, State]]:
+        """Every cycle from `s`: a loss that puts the controller in its safe state; or the
+        subordinates' answers with a contained loss or a recovery (each combination); each
+        with or without a new command from above, then the controller's own cycle."""
         out: list[tuple[Edge, State]] = []
-        news: list[str | None] = [None]
-        if self.new_commands and (s.subs, s.lost) not in self._news_seen:
-            # a new command from above leads to the same states from every state with these
-            # subordinates: its edges are taken once
-            self._news_seen.add((s.subs, s.lost))
-            news += self.sk.commands
-        losses: list[str | None] = [None, *(p for p in self.lossy if p not in s.lost)]
+        events: list[tuple[str | None, str | None]] = [(None, None)]  # (lost, recovered)
+        halts = []
+        for process in self.lossy:
+            if process in s.lost:
+                events.append((None, process))
+            elif self.effects[process].safe_state:
+                halts.append(process)
+            elif self.effects[process].errors:
+                events.append((process, None))
         options = []
         for index, (sent, view, _) in enumerate(s.subs):
-            sub = self.sk.subs[index]
-            if view == EXECUTING and sent is not None and not self._in_lost(sub, s.lost):
-                options.append([None, *self.contracts[sub].of(sent)])
+            if view == EXECUTING and sent is not None and self.sub_process[index] not in s.lost:
+                options.append((None, *self.contracts[self.sk.subs[index]].of(sent)))
             else:
-                options.append([None])
-        for new in news:
-            for lost in losses:
-                for answers in product(*options):
-                    out += self._cycle(s, new, lost, answers)
+                options.append((None,))
+        for answers in product(*options):
+            subs = [
+                (sent, view if answer is None else answer, fresh)
+                for (sent, view, fresh), answer in zip(s.subs, answers, strict=True)
+            ]
+            answered = tuple((self.sk.subs[i], a) for i, a in enumerate(answers) if a is not None)
+            errored = s.errored or any(a == ERROR and s.subs[i][2] for i, a in enumerate(answers))
+            for lost, recovered in events:
+                out += self._environment(s, subs, answered, errored, lost, recovered)
+        for process in halts:  # last: the shortest runs show a loss only where it matters
+            out += self._safe_state(s, process)
         return out
 
-    def _in_lost(self, sub: str, lost: tuple[str, ...]) -> bool:
-        return self.reaction.process_of(sub) in lost
+    def _safe_state(self, s: State, process: str) -> list[tuple[Edge, State]]:
+        """`process` is lost and the runtime puts the controller in its safe state (HALT to
+        every subordinate, NOP, ERROR with reason LOST), whatever was answered; every
+        actuator is latched safe until a reset. The loss is not kept in the state: until the
+        process is back nothing below answers, which the model already allows (an answer
+        may come any cycle later), and after it the hierarchy goes on from here."""
+        told = self.lost_effects(s.lost)[1]  # still read as ERROR (LOST) while lost
+        subs = tuple(("HALT", ERROR if i in told else EXECUTING, True) for i in range(len(s.subs)))
+        env = ((), process, None, True, tuple((sub, "HALT") for sub in self.sk.subs))
+        pre = (s.command, NOP, ERROR, 0, subs, s.lost, s.errored, s.halted)
+        return self._edges(env, None, pre) + self._news(env, subs, s.lost)
 
-    def _cycle(
-        self, s: State, new: str | None, lost: str | None, answers: tuple[str | None, ...]
+    def _environment(
+        self,
+        s: State,
+        subs_in: list[tuple[str | None, str, bool]],
+        answered: tuple[tuple[str, str], ...],
+        errored: bool,
+        lost: str | None,
+        recovered: str | None,
     ) -> list[tuple[Edge, State]]:
-        subs = [
-            (sent, view if answer is None else answer, fresh)
-            for (sent, view, fresh), answer in zip(s.subs, answers, strict=True)
-        ]
-        answered = tuple((self.sk.subs[i], a) for i, a in enumerate(answers) if a is not None)
-        # an ERROR counts for the current command only if it answers a command it sent
-        errored = s.errored or any(a == ERROR and s.subs[i][2] for i, a in enumerate(answers))
-        command, state, status, ticks, halted = s.command, s.state, s.status, s.ticks, s.halted
+        """A contained loss or a recovery, then the cycle without and with a new command."""
+        subs = list(subs_in)
         lost_now = s.lost
-        safe_state = False
-        pre_sends: list[tuple[str, str]] = []
         if lost is not None:
             lost_now = tuple(sorted({*s.lost, lost}))
-            effect = self.effects[lost]
-            for sub in effect.errors:
+        if recovered is not None:  # its subordinates answer again (a new command, or the old)
+            lost_now = tuple(p for p in s.lost if p != recovered)
+            for sub in self.effects[recovered].errors:
                 i = self.sub_index[sub]
-                subs[i] = (subs[i][0], ERROR, subs[i][2])
-                errored = True
-            if effect.safe_state:  # HALT to every subordinate, NOP, ERROR (LOST)
-                safe_state = True
-                pre_sends = [(sub, "HALT") for sub in self.sk.subs]
-                subs = [("HALT", EXECUTING, True) for _ in subs]
-                state, status, ticks = NOP, ERROR, 0
-        if new is not None:  # check_if_new_command
-            command, state, status, ticks = new, "S0", EXECUTING, 0
-            halted, errored = new == "HALT", False
-            subs = [(sent, view, False) for sent, view, _ in subs]
-        pre = (command, state, status, ticks, tuple(subs), lost_now, errored, halted)
+                sent, _, fresh = subs[i]
+                subs[i] = (sent, NOT_READY if sent is None else EXECUTING, fresh)
+        for i in self.lost_effects(lost_now)[1]:  # read as ERROR (LOST) while lost
+            errored = errored or subs[i][2]
+            subs[i] = (subs[i][0], ERROR, subs[i][2])
+        env = (answered, lost, recovered, False, ())
+        frozen = tuple(subs)
+        pre = (s.command, s.state, s.status, s.ticks, frozen, lost_now, errored, s.halted)
+        return self._edges(env, None, pre) + self._news(env, frozen, lost_now)
+
+    def _news(
+        self,
+        env: tuple[Any, ...],
+        subs: tuple[tuple[str | None, str, bool], ...],
+        lost: tuple[str, ...],
+    ) -> list[tuple[Edge, State]]:
+        """A new command from above (check_if_new_command): it leads to the same states
+        from every state with these subordinates' commands and statuses, so its edges are
+        taken once."""
+        key = (tuple((sent, view) for sent, view, _ in subs), lost)
+        if not self.new_commands or key in self._news_seen:
+            return []
+        self._news_seen.add(key)
+        fresh = tuple((sent, view, False) for sent, view, _ in subs)
+        out: list[tuple[Edge, State]] = []
+        for new in self.sk.commands:
+            out += self._edges(
+                env, new, (new, "S0", EXECUTING, 0, fresh, lost, False, new == "HALT")
+            )
+        return out
+
+    def _edges(
+        self, env: tuple[Any, ...], new: str | None, pre: tuple[Any, ...]
+    ) -> list[tuple[Edge, State]]:
+        answered, lost, recovered, safe_state, pre_sends = env
         steps = self._steps.get(pre)
         if steps is None:
             steps = self._steps[pre] = self._step(*pre)
@@ -194,18 +253,27 @@ class Model:
                     lost,
                     safe_state,
                     step.rules,
-                    (*pre_sends, *step.sends),
+                    (*pre_sends, *step.sends) if pre_sends else step.sends,
                     step.report,
                     step.unsafe,
                     step.safe,
                     step.certain,
                     step.valuation,
                     step.views,
+                    recovered,
                 ),
                 target,
             )
             for step, target in steps
         ]
+
+    def _fixed(self, subs: tuple[tuple[str | None, str, bool], ...], ticks: int) -> dict[Key, Any]:
+        """The atoms a cycle fixes: each subordinate's status and last command, the time."""
+        fixed: dict[Key, Any] = {("time", "ticks"): ticks}
+        for sub, (sent, view, _) in zip(self.sk.subs, subs, strict=True):
+            fixed[("status", sub)] = view
+            fixed[("command", sub)] = sent if sent is not None else "NONE"
+        return fixed
 
     def _step(
         self,
@@ -213,35 +281,28 @@ class Model:
         state: str,
         status: str,
         ticks: int,
-        subs_in: tuple[tuple[str | None, str, bool], ...],
+        subs: tuple[tuple[str | None, str, bool], ...],
         lost_now: tuple[str, ...],
         errored: bool,
         halted: bool,
     ) -> list[tuple[Step, State]]:
-        """The controller's own cycle from a state the environment has set."""
-        subs = list(subs_in)
+        """The controller's own cycle from a state the environment has set: its every_cycle
+        rules, then its table (each way the guards can go)."""
         views = tuple(view for _, view, _ in subs)
-        fixed: dict[Key, Any] = {}
-        for sub, (sent, view, _) in zip(self.sk.subs, subs, strict=True):
-            fixed[("status", sub)] = view
-            fixed[("command", sub)] = sent if sent is not None else "NONE"
-        fixed[("time", "ticks")] = ticks
+        fixed = self._fixed(subs, ticks)
+        latched = self.lost_effects(lost_now)[0]
         results: list[tuple[Step, State]] = []
         every = self.sk.every
         every_choices = self.sk.choices(every, fixed) if every else (Choice(None, True, ()),)
         for first in every_choices:
-            sends: list[tuple[str, str]] = []
-            fired: list[str] = []
-            report: str | None = None
-            unsafe: list[str] = []
-            safe: list[str] = []
+            done = _Acts()
             st, stat = state, status
             local_fixed = dict(fixed)
             if first.rule is not None:
                 rule = every[first.rule]
-                self._act(rule, fired, sends, unsafe, safe, local_fixed)
+                done.act(rule, local_fixed)
                 if rule.report:
-                    report, st, stat = rule.report, NOP, rule.report
+                    done.report, st, stat = rule.report, NOP, rule.report
             table = None
             if command is not None and st != NOP and stat == EXECUTING:
                 table = self.sk.tables.get(command, {}).get(st)
@@ -249,55 +310,66 @@ class Model:
                 self.sk.choices(table, local_fixed) if table else (Choice(None, True, ()),)
             )
             for second in table_choices:
-                sends2, fired2 = list(sends), list(fired)
-                unsafe2, safe2 = list(unsafe), list(safe)
-                st2, stat2, report2 = st, stat, report
+                acts = done.copy()
+                st2, stat2 = st, stat
                 if table is not None and second.rule is not None:
                     rule = table[second.rule]
-                    self._act(rule, fired2, sends2, unsafe2, safe2, dict(local_fixed))
+                    acts.act(rule, dict(local_fixed))
                     if rule.report:
-                        report2, st2, stat2 = rule.report, NOP, rule.report
+                        acts.report, st2, stat2 = rule.report, NOP, rule.report
                     elif rule.next_state is not None:
                         st2 = rule.next_state
                 new_subs = list(subs)
-                for sub, cmd in sends2:
+                for sub, cmd in acts.sends:
                     new_subs[self.sub_index[sub]] = (cmd, EXECUTING, True)
                 limit = self.sk.timers.get((command, st2), ()) if command else ()
-                if st2 == st and limit and table is not None:
-                    ticks2 = min(ticks + 1, max(limit))
-                else:
-                    ticks2 = 0
+                timed = st2 == st and limit and table is not None
                 step = Step(
-                    tuple(fired2),
-                    tuple(sends2),
-                    report2,
-                    tuple(unsafe2),
-                    tuple(safe2),
+                    tuple(acts.fired),
+                    tuple(acts.sends),
+                    acts.report,
+                    tuple(n for n in acts.unsafe if n not in latched),
+                    tuple(acts.safe),
                     first.certain and second.certain,
                     (*first.valuation, *second.valuation),
                     views,
                 )
                 target = State(
-                    command, st2, stat2, ticks2, tuple(new_subs), lost_now, errored, halted
+                    command,
+                    st2,
+                    stat2,
+                    min(ticks + 1, max(limit)) if timed else 0,
+                    tuple(new_subs),
+                    lost_now,
+                    errored,
+                    halted,
                 )
                 results.append((step, target))
         return results
 
-    @staticmethod
-    def _act(
-        rule: RuleView,
-        fired: list[str],
-        sends: list[tuple[str, str]],
-        unsafe: list[str],
-        safe: list[str],
-        fixed: dict[Key, Any],
-    ) -> None:
-        fired.append(rule.id)
+
+@dataclass
+class _Acts:
+    """What the rules that fired in one cycle did, in order."""
+
+    fired: list[str] = field(default_factory=list)
+    sends: list[tuple[str, str]] = field(default_factory=list)
+    unsafe: list[str] = field(default_factory=list)
+    safe: list[str] = field(default_factory=list)
+    report: str | None = None
+
+    def copy(self) -> _Acts:
+        return _Acts(
+            list(self.fired), list(self.sends), list(self.unsafe), list(self.safe), self.report
+        )
+
+    def act(self, rule: RuleView, fixed: dict[Key, Any]) -> None:
+        self.fired.append(rule.id)
         for sub, cmd in rule.sends:
-            sends.append((sub, cmd))
+            self.sends.append((sub, cmd))
             fixed[("command", sub)] = cmd  # the local copy a later guard reads
         for name, is_safe in rule.actuators:
-            (safe if is_safe else unsafe).append(name)
+            (self.safe if is_safe else self.unsafe).append(name)
 
 
 def explore(model: Model, start: State | None = None, limit: int = LIMIT) -> Graph:

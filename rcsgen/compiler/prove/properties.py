@@ -64,6 +64,12 @@ def rule_view(sk: Skeleton, rule_id: str) -> RuleView:
     return sk.tables[parts[0]][parts[1]][int(parts[2]) - 1]
 
 
+def _quiet(edge: Edge) -> bool:
+    """A cycle the controller's table runs on its own: no new command from above, no
+    process lost or back (no property may count on a recovery)."""
+    return edge.new is None and edge.lost is None and edge.recovered is None
+
+
 def _executing(graph: Graph) -> list[State]:
     return [s for s in graph.edges if s.status == EXECUTING and s.command is not None]
 
@@ -133,37 +139,60 @@ def outcomes(graph: Graph) -> dict[str, tuple[str, ...]]:
 # ---------------------------------------------------------------- no motion after ERROR
 
 
+def _motion(edge: Edge, moving: dict[tuple[str, str], bool]) -> list[str]:
+    """What a cycle did that is motion: `sub.COMMAND` sent, `world.field` set unsafe."""
+    bad = [f"{sub}.{cmd}" for sub, cmd in edge.sends if moving.get((sub, cmd), True)]
+    return bad + [f"world.{name}" for name in edge.unsafe]
+
+
+def _culprit(sk: Skeleton, edge: Edge, bad: list[str]) -> str:
+    """The rule of a cycle that did the first of `bad`."""
+    for rule_id in edge.rules:
+        view = rule_view(sk, rule_id)
+        if any(f"{x}.{y}" in bad for x, y in view.sends):
+            return rule_id
+        if any(not safe for _, safe in view.actuators):
+            return rule_id
+    return edge.rules[-1]
+
+
+def _failed(sk: Skeleton, trace: list[tuple[Edge, State]]) -> str:
+    """The subordinate whose ERROR a run read first (answered, or its process lost)."""
+    for edge, _ in trace:
+        for sub, answer in edge.answers:
+            if answer == ERROR:
+                return sub
+        for sub, view in zip(sk.subs, edge.views, strict=True):
+            if view == ERROR:
+                return sub
+    return "a subordinate"
+
+
+def _did(what: str) -> str:
+    return f"sets {what}" if what.startswith("world.") else f"sends {what}"
+
+
 def motion_after_error(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
     """Once a subordinate answered ERROR, nothing but a stopping command goes to any
     subordinate and no actuator is set to a value that may not be safe, until a new command
     arrives from above."""
     sk = graph.skeleton
-    seen: set[tuple[str, str | None]] = set()
+    seen: set[tuple[str, str]] = set()
     findings = []
-    for s in graph.edges:
-        for edge, t in graph.edges[s]:
-            if not t.errored or edge.new is not None or edge.safe_state:
+    for s, edges in graph.edges.items():
+        for edge, t in edges:
+            if not t.errored or edge.new is not None or edge.safe_state or not edge.rules:
                 continue
-            bad = [f"{sub}.{cmd}" for sub, cmd in edge.sends if moving.get((sub, cmd), True)]
-            bad += [f"world.{name}" for name in edge.unsafe]
-            if not bad or not edge.rules:
+            bad = _motion(edge, moving)
+            if not bad:
                 continue
-            rule_id = next(
-                (
-                    r
-                    for r in edge.rules
-                    if any(f"{x}.{y}" in bad for x, y in _rule_sends(sk, r)) or _rule_unsafe(sk, r)
-                ),
-                edge.rules[-1],
-            )
-            command, state, index, span = _rule_of(sk, rule_id)
+            rule_id = _culprit(sk, edge, bad)
             if (rule_id, bad[0]) in seen:
                 continue
             seen.add((rule_id, bad[0]))
+            command, state, index, span = _rule_of(sk, rule_id)
             trace = graph.path_to(s) + [(edge, t)]
-            failed = next(
-                (sub for e, _ in trace for sub, a in e.answers if a == ERROR), "a subordinate"
-            )
+            failed = _failed(sk, trace)
             findings.append(
                 Finding(
                     "W701",
@@ -173,13 +202,8 @@ def motion_after_error(graph: Graph, moving: dict[tuple[str, str], bool]) -> lis
                     index,
                     span,
                     f"no motion after ERROR is violated: after {failed} reported ERROR, "
-                    f"rule {rule_id} of {sk.name} still "
-                    + (
-                        f"sends {bad[0]}"
-                        if "." in bad[0] and not bad[0].startswith("world.")
-                        else f"sets {bad[0]}"
-                    )
-                    + f", {len(trace)} cycle(s) into the command",
+                    f"rule {rule_id} of {sk.name} still {_did(bad[0])}, "
+                    f"{len(trace)} cycle(s) into the command",
                     f"handle {failed}.status == ERROR in every state that waits on it "
                     "(send HALT or report ERROR)",
                     trace,
@@ -187,14 +211,6 @@ def motion_after_error(graph: Graph, moving: dict[tuple[str, str], bool]) -> lis
                 )
             )
     return findings
-
-
-def _rule_sends(sk: Skeleton, rule_id: str) -> tuple[tuple[str, str], ...]:
-    return rule_view(sk, rule_id).sends
-
-
-def _rule_unsafe(sk: Skeleton, rule_id: str) -> bool:
-    return any(not safe for _, safe in rule_view(sk, rule_id).actuators)
 
 
 # ---------------------------------------------------------------- latched stop
@@ -207,14 +223,14 @@ def latched_stop(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Find
     findings, seen = [], set()
     for s, edges in graph.edges.items():
         for edge, t in edges:
-            if not t.halted:
+            if not t.halted or not edge.rules:
                 continue
-            bad = [f"{sub}.{cmd}" for sub, cmd in edge.sends if moving.get((sub, cmd), True)]
-            bad += [f"world.{name}" for name in edge.unsafe]
-            if not bad or not edge.rules or bad[0] in seen:
+            bad = _motion(edge, moving)
+            if not bad or bad[0] in seen:
                 continue
             seen.add(bad[0])
-            command, state, index, span = _rule_of(sk, edge.rules[-1])
+            rule_id = _culprit(sk, edge, bad)
+            command, state, index, span = _rule_of(sk, rule_id)
             trace = graph.path_to(s) + [(edge, t)]
             findings.append(
                 Finding(
@@ -224,9 +240,8 @@ def latched_stop(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Find
                     state,
                     index,
                     span,
-                    f"latched stop is violated: after HALT, rule {edge.rules[-1]} of {sk.name} "
-                    f"{'sends' if not bad[0].startswith('world.') else 'sets'} {bad[0]} "
-                    "before any new command",
+                    f"latched stop is violated: after HALT, rule {rule_id} of {sk.name} "
+                    f"{_did(bad[0])} before any new command",
                     "a HALT must stop everything below until the next command: guard the rule "
                     "with the command it belongs to",
                     trace,
@@ -239,18 +254,13 @@ def latched_stop(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Find
 # ---------------------------------------------------------------- every command finishes
 
 
-def finishing(graph: Graph) -> tuple[list[Finding], dict[str, list[str]], int]:
-    """A command can always still finish (report DONE or ERROR) without a new command,
-    assuming its subordinates finish theirs; the world conditions it needs are named.
-    Returns the findings, per command its assumptions, and the number of stuck states."""
-    sk = graph.skeleton
-    states = _executing(graph)
-    # backwards: which states can reach a report without a new command or a loss
+def _can_report(graph: Graph, states: list[State]) -> set[State]:
+    """The states that can reach a report without a new command or a loss."""
     back: dict[State, list[State]] = {}
     good: set[State] = set()
     for s in states:
         for edge, t in graph.edges[s]:
-            if edge.new is not None or edge.lost is not None:
+            if not _quiet(edge):
                 continue
             if edge.report or edge.safe_state:
                 good.add(s)
@@ -263,102 +273,183 @@ def finishing(graph: Graph) -> tuple[list[Finding], dict[str, list[str]], int]:
             if s not in good:
                 good.add(s)
                 todo.append(s)
+    return good
+
+
+def _views(sk: Skeleton, s: State) -> str:
+    return ", ".join(
+        f"{sub}.status={view}"
+        for sub, (_, view, _) in zip(sk.subs, s.subs, strict=True)
+        if view != "NOT_READY"
+    )
+
+
+def _stuck(graph: Graph, command: str, where: list[State]) -> Finding:
+    """W702 (or W703 when it waits on a subordinate's ERROR) for a command's stuck states."""
+    sk = graph.skeleton
+    first = min(where, key=lambda s: len(graph.path_to(s)))
+    trace = graph.path_to(first)
+    span = sk.state_spans.get((command, first.state), sk.spans.get(command, Span("?")))
+    waits = any(view in (DONE, ERROR) and sent is not None for sent, view, _ in first.subs)
+    deadlock = waits and any(view == ERROR for _, view, _ in first.subs)
+    shown = _views(sk, first)
+    if deadlock:
+        message = (
+            f"no handshake deadlock is violated: {sk.name} {command} waits in "
+            f"{first.state} for an answer its subordinates will not give ({shown})"
+        )
+    else:
+        lost = f"; process {', '.join(first.lost)} lost" if first.lost else ""
+        message = (
+            f"every command finishes is violated: {sk.name} {command} can get to "
+            f"{first.state} ({shown or 'no subordinate'}{lost}) and then never report DONE "
+            "or ERROR without a new command"
+        )
+    return Finding(
+        "W703" if deadlock else "W702",
+        sk.name,
+        command,
+        first.state,
+        None,
+        span,
+        f"{message}; {len(where)} state(s) of the model never finish",
+        "add a rule for that case (for a subordinate's ERROR: send HALT, report ERROR)",
+        trace,
+        _certain(trace),
+    )
+
+
+def finishing(
+    graph: Graph, quiet: Callable[[State], frozenset[str]] | None = None
+) -> tuple[list[Finding], dict[str, list[str]], int]:
+    """A command can always still finish (report DONE or ERROR) without a new command,
+    assuming its subordinates finish theirs; the world conditions it needs are named, and
+    a wait on world fields only idle subordinates could change is a deadlock (W703).
+    Returns the findings, per command its assumptions, and the number of stuck states."""
+    states = _executing(graph)
+    good = _can_report(graph, states)
     stuck = [s for s in states if s not in good]
-    findings = []
     by_command: dict[str, list[State]] = {}
     for s in stuck:
         by_command.setdefault(s.command or "", []).append(s)
-    for command, where in by_command.items():
-        first = min(where, key=lambda s: len(graph.path_to(s)))
-        trace = graph.path_to(first)
-        waits = [
-            sub
-            for sub, (sent, view, _) in zip(sk.subs, first.subs, strict=True)
-            if view in (DONE, ERROR) and sent is not None
-        ]
-        span = sk.state_spans.get((command, first.state), sk.spans.get(command, Span("?")))
-        deadlock = bool(waits) and any(view == ERROR for _, view, _ in first.subs)
-        shown = ", ".join(
-            f"{sub}.status={view}"
-            for sub, (_, view, _) in zip(sk.subs, first.subs, strict=True)
-            if view != "NOT_READY"
+    findings = [_stuck(graph, command, where) for command, where in by_command.items()]
+    assumptions: dict[str, list[str]] = {}
+    for loop in _loops(graph, states, good):
+        needs = assumptions.setdefault(loop.command, [])
+        needs += sorted(
+            x for x in {_exit_text(graph.skeleton, r) for r in loop.exits} if x and x not in needs
         )
-        findings.append(
-            Finding(
-                "W703" if deadlock else "W702",
-                sk.name,
-                command,
-                first.state,
-                None,
-                span,
-                (
-                    f"no handshake deadlock is violated: {sk.name} {command} waits in "
-                    f"{first.state} for an answer its subordinates will not give ({shown}); "
-                    f"{len(where)} state(s) of the model never finish"
-                    if deadlock
-                    else f"every command finishes is violated: {sk.name} {command} can get to "
-                    f"{first.state} ({shown or 'no subordinate'}"
-                    + (f"; process {', '.join(first.lost)} lost" if first.lost else "")
-                    + f") and then never report DONE or ERROR without a new command; "
-                    f"{len(where)} state(s) of the model never finish"
-                ),
-                "add a rule for that case (for a subordinate's ERROR: send HALT, report ERROR)",
-                trace,
-                _certain(trace),
-            )
-        )
-    assumptions = _assumptions(graph, states, good)
-    return findings, assumptions, len(stuck)
+        if quiet is not None:
+            found = _world_deadlock(graph, loop, quiet)
+            if found is not None and all(
+                f.state != found.state for f in findings if f.code == "W703"
+            ):
+                findings.append(found)
+    return findings, {c: n for c, n in assumptions.items() if n}, len(stuck)
 
 
-def _assumptions(graph: Graph, states: list[State], good: set[State]) -> dict[str, list[str]]:
-    """Per command, the world conditions under which it finishes: in each group of states
-    it can go round in for ever (a strongly connected set, fair: every subordinate it waits
-    on answers or gets a new command), the guards of the rules that leave the group."""
+@dataclass
+class _Loop:
+    """States a command can go round in for ever, and the rules that leave them."""
+
+    command: str
+    states: list[State]
+    exits: set[str]  # rule ids
+
+
+def _fair(sk: Skeleton, component: list[State], inner: list[tuple[State, Edge, State]]) -> bool:
+    """Whether the model can stay in `component` for ever: no subordinate it waits on
+    owes it an answer for ever (each is idle somewhere in it, or sent a command in it),
+    and time in a timed state does not run out."""
+    for i, name in enumerate(sk.subs):
+        if all(s.subs[i][1] == EXECUTING for s in component) and not any(
+            sub == name for _, e, _ in inner for sub, _ in e.sends
+        ):
+            return False
+    if len({s.state for s in component}) == 1 and any(
+        s.ticks < max(sk.timers.get((s.command or "", s.state), (0,))) for s in component
+    ):
+        return False  # time passes: the `after:` rule fires
+    return True
+
+
+def _loops(graph: Graph, states: list[State], good: set[State]) -> list[_Loop]:
+    """The groups of states (strongly connected, fair) a command can go round in for ever
+    without a new command, with the rules that leave each."""
     sk = graph.skeleton
     succ = {
-        s: [
-            (e, t)
-            for e, t in graph.edges[s]
-            if e.new is None and e.lost is None and t.status == EXECUTING and t in good
-        ]
+        s: [(e, t) for e, t in graph.edges[s] if _quiet(e) and t.status == EXECUTING and t in good]
         for s in states
         if s in good
     }
-    found: dict[str, list[str]] = {}
+    found = []
     for component in _sccs(succ):
         members = set(component)
         inner = [(s, e, t) for s in component for e, t in succ[s] if t in members]
-        if not inner:
+        if not inner or not _fair(sk, component, inner):
             continue
-        fair = all(
-            any(s.subs[i][1] != EXECUTING for s in component)
-            or any(sub == name for _, e, _ in inner for sub, _ in e.sends)
-            for i, name in enumerate(sk.subs)
-        )
-        timers = {s.state for s in component}
-        if len(timers) == 1 and any(
-            s.ticks < max(sk.timers.get((s.command or "", s.state), (0,))) for s in component
-        ):
-            fair = False  # time passes: the `after:` rule fires
-        if not fair:
-            continue
-        command = component[0].command or ""
-        exits = set()
-        for s in component:
-            for e, t in graph.edges[s]:
-                if e.new is None and e.lost is None and (t not in members or e.report):
-                    for rule_id in e.rules:
-                        _, st, _, _ = _rule_of(sk, rule_id)
-                        rule = rule_view(sk, rule_id)
-                        reads = rule.guard.order if rule.guard is not None else {}
-                        if rule.text and any(k[0] not in ("status", "command") for k in reads):
-                            where = f"in {st}" if st else "every cycle"
-                            exits.add(f"{where}: `{rule.text}`")
-        if exits:
-            found.setdefault(command, [])
-            found[command] += sorted(x for x in exits if x not in found[command])
+        exits = {
+            rule_id
+            for s in component
+            for e, t in graph.edges[s]
+            if _quiet(e) and (t not in members or e.report)
+            for rule_id in e.rules
+        }
+        found.append(_Loop(component[0].command or "", component, exits))
     return found
+
+
+# what a guard reads that changes without the world: time, counters, hooks' results, locals
+_CHANGING = {"time", "held", "local", "sub_result", "plan", "let"}
+
+
+def _exit_text(sk: Skeleton, rule_id: str) -> str:
+    """An exit rule's guard as a world condition (`in S2: `world.x``), or '' when it reads
+    no world field, local or hook result (only statuses and commands)."""
+    rule = rule_view(sk, rule_id)
+    reads = rule.guard.order if rule.guard is not None else {}
+    if not rule.text or all(k[0] in ("status", "command") for k in reads):
+        return ""
+    _, state, _, _ = _rule_of(sk, rule_id)
+    return f"{f'in {state}' if state else 'every cycle'}: `{rule.text}`"
+
+
+def _world_deadlock(
+    graph: Graph, loop: _Loop, quiet: Callable[[State], frozenset[str]]
+) -> Finding | None:
+    """W703 when every rule that leaves the loop waits on world fields that cannot change
+    there: only subordinates write them, and none is running a command that does."""
+    sk = graph.skeleton
+    waited: set[str] = set()
+    for rule_id in loop.exits:
+        rule = rule_view(sk, rule_id)
+        world = {name for kind, name in rule.reads if kind == "world"}
+        if not world or any(kind in _CHANGING for kind, _ in rule.reads):
+            return None
+        for s in loop.states:
+            if not world <= quiet(s):
+                return None
+        waited |= world
+    if not waited:
+        return None
+    first = min(loop.states, key=lambda s: len(graph.path_to(s)))
+    trace = graph.path_to(first)
+    fields = ", ".join(f"world.{n}" for n in sorted(waited))
+    return Finding(
+        "W703",
+        sk.name,
+        loop.command,
+        first.state,
+        None,
+        sk.state_spans.get((loop.command, first.state), sk.spans.get(loop.command, Span("?"))),
+        f"no handshake deadlock is violated: {sk.name} {loop.command} waits in {first.state} "
+        f"for {fields}, which only its subordinates write, and none of them is running a "
+        f"command that writes it ({_views(sk, first) or 'no subordinate commanded'})",
+        "send the command that makes the condition true before waiting on it, or report "
+        "ERROR when it is not",
+        trace,
+        _certain(trace),
+    )
 
 
 def _sccs(succ: dict[State, list[tuple[Edge, State]]]) -> list[list[State]]:
@@ -443,7 +534,7 @@ def _worst(
         on_path.add(s)
         best, chosen = 0, None
         for edge, t in graph.edges.get(s, []):
-            if edge.new is not None or edge.lost is not None:
+            if not _quiet(edge):
                 continue
             if t == s and any(v == EXECUTING and f for _, v, f in s.subs):
                 continue  # waiting for a subordinate's answer: its time, not this table's
@@ -523,8 +614,7 @@ def error_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]
             for s in graph.edges
             for e, t in graph.edges[s]
             if (sub, ERROR) in e.answers
-            and e.new is None
-            and e.lost is None
+            and _quiet(e)
             and s.status == EXECUTING
             and s.subs[graph.skeleton.subs.index(sub)][2]
             and s.command not in graph.skeleton.generated  # QQ1's INIT/HALT wait for all DONE

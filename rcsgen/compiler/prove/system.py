@@ -11,14 +11,16 @@ each leaf below it within k cycles, and an ERROR of a leaf reaches the root with
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from .. import ir
 from . import properties as props
 from .adapter import DONE, ERROR, Skeleton, operator_outcomes, placement, skeleton
-from .lost import reaction_for
-from .model import Contract, Edge, Graph, Model, State, explore
+from .lost import RuntimeReaction
+from .model import LIMIT, Contract, Edge, Graph, Model, State, explore
 from .properties import INFINITE, Finding
+from .world import quiet_fields, writers
 
 
 @dataclass
@@ -93,44 +95,26 @@ def hop(place: dict[str, tuple[str, int]], sender: str, reader: str, hosts: dict
 
 def prove(
     system: ir.IRSystem,
-    actuators: frozenset[str],
     hosts: dict[str, str] | None = None,
-    limit: int = 400_000,
+    limit: int = LIMIT,
 ) -> SystemProof:
     """Explore every controller of `system` and check its properties."""
     hosts = hosts or {}
     place = placement(system)
-    reaction = reaction_for(system, place)
+    reaction = RuntimeReaction(system)
     proof = SystemProof(system.name, reaction=reaction.name)
-    skeletons: dict[str, Skeleton] = {}
-    for c in system.controllers:
-        skeletons[c.name] = skeleton(system, c, actuators)
+    actuators = frozenset(f.name for f in system.world if f.actuator)
+    skeletons = {c.name: skeleton(system, c, actuators) for c in system.controllers}
     moving = props.motion(skeletons)
+    written = writers(system, skeletons)
     contracts: dict[str, Contract] = {}
-    stand_in = {c.buffers: c.name for c in system.controllers if c.buffers != c.name}
     for c in order(system):
         sk = skeletons[c.name]
-        if c.kind == "operator":
+        if c.is_operator:
             contracts[c.name] = Contract(operator_outcomes(c))
             continue
-        subs = {}
-        for s in c.subordinates:
-            known = contracts.get(s.name, Contract({}))
-            merged = {cmd: set(ends) for cmd, ends in known.outcomes.items()}
-            if s.name in stand_in and stand_in[s.name] in contracts:
-                for cmd, more in contracts[stand_in[s.name]].outcomes.items():
-                    merged.setdefault(cmd, set()).update(more)
-            if s.echo_cycles:  # no echo in time reads as ERROR
-                for either in merged.values():
-                    either.add(ERROR)
-            subs[s.name] = Contract(
-                {
-                    cmd: tuple(x for x in (DONE, ERROR) if x in either)
-                    for cmd, either in merged.items()
-                }
-            )
         began = time.perf_counter()
-        graph = explore(Model(sk, subs, reaction), limit=limit)
+        graph = explore(Model(sk, _contracts_of(system, c, contracts), reaction), limit=limit)
         result = ControllerResult(
             c.name,
             len(graph.parent),
@@ -142,25 +126,8 @@ def prove(
         if not graph.complete:
             proof.notes.append(f"{c.name}: more than {limit} states; its properties are undecided")
         else:
-            found = props.motion_after_error(graph, moving)
-            found += props.latched_stop(graph, moving)
-            finish, assumptions, stuck = props.finishing(graph)
-            found += finish
-            found += props.done_while_busy(graph, moving)
-            result.stuck, result.assumptions = stuck, assumptions
-            for sub, (cycles, run) in props.halt_latency(graph).items():
-                result.halt[sub] = cycles
-                if cycles == INFINITE:
-                    found.append(_unbounded_halt(sk, sub, run))
-            for field_name, (cycles, run) in props.actuators_safe(graph).items():
-                result.safe[field_name] = cycles
-                if cycles == INFINITE:
-                    found.append(_unsafe_halt(sk, field_name, run))
-            for sub, (cycles, run) in props.error_latency(graph).items():
-                result.error[sub] = cycles
-                if cycles == INFINITE:
-                    found.append(_error_swallowed(sk, sub, run))
-            for finding in found:
+            quiet = quiet_fields(system, written, c.name)
+            for finding in _check(graph, moving, quiet, result):
                 # rcsgen's default INIT/HALT wait for every subordinate's DONE (QQ1): a
                 # subordinate's ERROR leaves them waiting by design
                 if finding.command in sk.generated and finding.code in ("W702", "W703"):
@@ -171,6 +138,56 @@ def prove(
         proof.graphs[c.name] = graph
     _compose(system, proof, place, hosts)
     return proof
+
+
+def _contracts_of(
+    system: ir.IRSystem, c: ir.IRController, contracts: dict[str, Contract]
+) -> dict[str, Contract]:
+    """What each subordinate of `c` promises: the statuses its own model (and its
+    stand-in's, which may run in its place) can end each command with; ERROR too where an
+    echo is awaited only so long (`echo_cycles`)."""
+    stand_in = {x.buffers: x.name for x in system.controllers if x.buffers != x.name}
+    subs = {}
+    for s in c.subordinates:
+        merged: dict[str, set[str]] = {}
+        for name in (s.name, stand_in.get(s.name)):
+            for cmd, ends in contracts.get(name or "", Contract({})).outcomes.items():
+                merged.setdefault(cmd, set()).update(ends)
+        if s.echo_cycles:  # no echo in time reads as ERROR
+            for either in merged.values():
+                either.add(ERROR)
+        subs[s.name] = Contract(
+            {cmd: tuple(x for x in (DONE, ERROR) if x in either) for cmd, either in merged.items()}
+        )
+    return subs
+
+
+def _check(
+    graph: Graph,
+    moving: dict[tuple[str, str], bool],
+    quiet: Callable[[State], frozenset[str]],
+    result: ControllerResult,
+) -> list[Finding]:
+    """Every property of one explored controller; its bounds into `result`."""
+    sk = graph.skeleton
+    found = props.motion_after_error(graph, moving)
+    found += props.latched_stop(graph, moving)
+    finish, result.assumptions, result.stuck = props.finishing(graph, quiet)
+    found += finish
+    found += props.done_while_busy(graph, moving)
+    for sub, (cycles, run) in props.halt_latency(graph).items():
+        result.halt[sub] = cycles
+        if cycles == INFINITE:
+            found.append(_unbounded_halt(sk, sub, run))
+    for field_name, (cycles, run) in props.actuators_safe(graph).items():
+        result.safe[field_name] = cycles
+        if cycles == INFINITE:
+            found.append(_unsafe_halt(sk, field_name, run))
+    for sub, (cycles, run) in props.error_latency(graph).items():
+        result.error[sub] = cycles
+        if cycles == INFINITE:
+            found.append(_error_swallowed(sk, sub, run))
+    return found
 
 
 Run = list[tuple[Edge, State]]
@@ -240,34 +257,57 @@ def _compose(
 ) -> None:
     """HALT k from each root to each leaf below it; ERROR d from each leaf to its root."""
     children = {
-        c.name: [s.name for s in c.subordinates] for c in system.controllers if c.kind != "operator"
+        c.name: [s.name for s in c.subordinates] for c in system.controllers if not c.is_operator
     }
-    parent = {s: c for c, subs in children.items() for s in subs}
     roots = [c.name for c in system.controllers if c.supervisor is None and c.name in place]
-
-    def down(start: str, at: str, arrive: int, path: tuple[str, ...]) -> None:
-        subs = children.get(at, [])
-        if not subs:
-            result = proof.controllers.get(at)
-            safe = None
-            if result is not None and result.safe:
-                worst = max(result.safe.values())
-                safe = INFINITE if worst == INFINITE else arrive + worst - 1
-            proof.halt.append(Bound(start, at, arrive, path, safe))
-            return
-        result = proof.controllers.get(at)
-        for sub in subs:
-            local = result.halt.get(sub, INFINITE) if result else INFINITE
-            if local == INFINITE or arrive == INFINITE:
-                leaf_arrive = INFINITE
-            else:
-                leaf_arrive = arrive + local - 1 + hop(place, at, sub, hosts)
-            down(start, sub, leaf_arrive, (*path, sub))
-
     for root in roots:
-        down(root, root, 1, (root,))
-    leaves = [c for c in children if not children[c] and c in parent]
-    for leaf in leaves:
+        _halt_down(proof, children, place, hosts, root, root, 1, (root,))
+    _errors_up(proof, children, place, hosts)
+
+
+def _halt_down(
+    proof: SystemProof,
+    children: dict[str, list[str]],
+    place: dict[str, tuple[str, int]],
+    hosts: dict[str, str],
+    start: str,
+    at: str,
+    arrive: int,
+    path: tuple[str, ...],
+) -> None:
+    """The cycle HALT, read by `start` in cycle 1, is read by each leaf below `at` (which
+    reads it in cycle `arrive`), and the cycle the leaf's actuators are safe."""
+    result = proof.controllers.get(at)
+    subs = children.get(at, [])
+    if not subs:
+        safe = None
+        if result is not None and result.safe:
+            worst = max(result.safe.values())
+            safe = INFINITE if INFINITE in (worst, arrive) else arrive + worst - 1
+        proof.halt.append(Bound(start, at, arrive, path, safe))
+        return
+    for sub in subs:
+        local = result.halt.get(sub, INFINITE) if result else INFINITE
+        if INFINITE in (local, arrive):
+            reads = INFINITE
+        else:
+            reads = arrive + local - 1 + hop(place, at, sub, hosts)
+        _halt_down(proof, children, place, hosts, start, sub, reads, (*path, sub))
+
+
+def _errors_up(
+    proof: SystemProof,
+    children: dict[str, list[str]],
+    place: dict[str, tuple[str, int]],
+    hosts: dict[str, str],
+) -> None:
+    """The cycle an ERROR a leaf reports in cycle 1 is reported by its root, where every
+    supervisor on the way reports it (else where it stops)."""
+    parent = {s: c for c, subs in children.items() for s in subs}
+    for leaf in [c for c in children if not children[c] and c in parent]:
+        graph = proof.graphs.get(leaf)
+        if graph is not None and not any(ERROR in v for v in props.outcomes(graph).values()):
+            continue  # the leaf never reports ERROR: nothing to carry up
         at, d, blocked = leaf, 1, ""
         path: tuple[str, ...] = (leaf,)
         while at in parent:
@@ -275,13 +315,9 @@ def _compose(
             result = proof.controllers.get(up)
             local = result.error.get(at, INFINITE) if result else INFINITE
             if local == INFINITE:
-                blocked = up
-                d = INFINITE
+                blocked, d = up, INFINITE
                 break
             d = d + hop(place, at, up, hosts) + local - 1
             at = up
             path = (*path, at)
-        graph = proof.graphs.get(leaf)
-        if graph is not None and not any(ERROR in v for v in props.outcomes(graph).values()):
-            continue  # the leaf never reports ERROR: nothing to carry up
         proof.error.append(Bound(leaf, at, d, path, None, blocked))

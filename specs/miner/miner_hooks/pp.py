@@ -38,14 +38,25 @@ def new_planner(settings: dict[str, str]) -> Planner:
     rows = 1 + max((r for r, _ in surveyed.seam), default=0)
     columns = surveyed.columns
     reach = math.ceil(CLEARANCE / mine.CELL)
-    near = {
-        (r + dr, c + dc)
-        for r, c in surveyed.seam
-        for dr in range(-reach, reach + 1)
-        for dc in range(-reach, reach + 1)
-        if math.hypot(dr, dc) * mine.CELL < CLEARANCE
+    # The offsets of the cells within the clearance of a cell, nearest first, computed once:
+    # a cell is free when none of them is coal. (Growing every coal cell by them instead
+    # made a million set insertions, 200-300 ms of every start of the planner's process.)
+    disc = sorted(
+        (
+            (dr, dc)
+            for dr in range(-reach, reach + 1)
+            for dc in range(-reach, reach + 1)
+            if math.hypot(dr, dc) * mine.CELL < CLEARANCE
+        ),
+        key=lambda offset: math.hypot(*offset),
+    )
+    seam = surveyed.seam
+    free = {
+        (r, c)
+        for r in range(rows)
+        for c in range(columns)
+        if not any((r + dr, c + dc) in seam for dr, dc in disc)
     }
-    free = {(r, c) for r in range(rows) for c in range(columns)} - near
     return Planner(surveyed.x0, surveyed.y0, free)
 
 

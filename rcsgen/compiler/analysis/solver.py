@@ -1,0 +1,319 @@
+"""Solver: conjunctions of guards over finite domains -> a valuation that satisfies them, or no.
+
+Knows nothing of RCS: a `Guard` is a function of a valuation (a dict from atom keys to
+values) in Kleene's three-valued logic, with the domain of each atom it reads. Discrete
+atoms take the values of their domain; a numeric atom (a variable, or a linear form of
+several, compared with constants) takes one value per region its constants cut the number
+line into; an opaque atom is a free boolean. `solve` searches depth first in reading order
+and minimises the counter-example it finds; more than `LIMIT` valuations is "unknown".
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from enum import StrEnum
+from fractions import Fraction
+from itertools import pairwise, product
+from typing import Any
+
+LIMIT = 4096  # the most valuations one question may enumerate
+BOOL_DOMAIN = (False, True)
+
+
+class Number(StrEnum):
+    """The kinds of a numeric atom: whole numbers only, or any."""
+
+    INT = "int"
+    FLOAT = "float"
+
+
+INT, FLOAT = Number.INT, Number.FLOAT
+
+
+class Verdict(StrEnum):
+    """Whether a conjunction of guards can hold (`Answer.kind`)."""
+
+    YES = "yes"  # a valuation that can happen makes it hold, whatever the opaque atoms
+    MAYBE = "maybe"  # only for values rcsgen cannot show possible
+    NO = "no"
+    UNKNOWN = "unknown"  # more than LIMIT valuations
+
+
+Key = tuple[str, str]  # (kind, name): what an atom is, for the caller to interpret
+Valuation = dict[Key, Any]
+
+
+@dataclass
+class Guard:
+    """A guard ready to evaluate on a valuation, with the atoms it reads in reading order.
+
+    A numeric atom is a variable or a linear form of several (`("form", "x - y")`)
+    compared with constants; `numeric` holds its type and those constants, `forms` the
+    coefficients of each form. `opaque` atoms are comparisons no interval reasoning decides.
+    """
+
+    fn: Callable[[Valuation], Any]
+    domains: dict[Key, tuple[Any, ...]] = field(default_factory=dict)  # discrete atoms
+    numeric: dict[Key, tuple[Number, set[Fraction]]] = field(default_factory=dict)
+    forms: dict[Key, dict[Key, Fraction]] = field(default_factory=dict)
+    types: dict[Key, Number] = field(default_factory=dict)  # numeric variable -> its kind
+    opaque: dict[Key, None] = field(default_factory=dict)
+    order: dict[Key, None] = field(default_factory=dict)
+    # the least and greatest value a numeric variable can take, where it has bounds
+    bounds: dict[Key, tuple[Fraction, Fraction]] = field(default_factory=dict)
+    # relations between atoms that every possible valuation keeps, by name: False rules a
+    # valuation out, None is "not known yet" (an atom it reads is not set)
+    invariants: dict[str, Callable[[Valuation], bool | None]] = field(default_factory=dict)
+
+
+@dataclass
+class Linear:
+    """sum(coefficient * variable) + constant, exactly."""
+
+    coefficients: dict[Key, Fraction]
+    constant: Fraction
+
+    def minus(self, other: Linear) -> Linear:
+        out = dict(self.coefficients)
+        for key, c in other.coefficients.items():
+            out[key] = out.get(key, Fraction(0)) - c
+        return Linear({k: c for k, c in out.items() if c}, self.constant - other.constant)
+
+    def scaled(self, factor: Fraction) -> Linear:
+        return Linear(
+            {k: c * factor for k, c in self.coefficients.items() if c * factor},
+            self.constant * factor,
+        )
+
+
+# Guards are evaluated in Kleene's three-valued logic: an atom missing from a partial
+# valuation is None (unknown), and so is everything that depends on it.
+
+
+def kleene_not(value: Any) -> Any:
+    return None if value is None else not value
+
+
+def kleene_and(parts: list[Callable[[Valuation], Any]]) -> Callable[[Valuation], Any]:
+    return _kleene(parts, False)
+
+
+def kleene_or(parts: list[Callable[[Valuation], Any]]) -> Callable[[Valuation], Any]:
+    return _kleene(parts, True)
+
+
+def _kleene(parts: list[Callable[[Valuation], Any]], decides: bool) -> Callable[[Valuation], Any]:
+    """A conjunction (`decides` False: one false part decides) or a disjunction (True)."""
+
+    def combined(val: Valuation) -> bool | None:
+        unknown = False
+        for part in parts:
+            value = part(val)
+            if value is None:
+                unknown = True
+            elif bool(value) is decides:
+                return decides
+        return None if unknown else not decides
+
+    return combined
+
+
+def merge_atoms(into: Guard, atoms: Guard) -> None:
+    """Add the atoms `atoms` read to `into`, keeping reading order."""
+    into.order.update(atoms.order)
+    into.domains.update(atoms.domains)
+    into.forms.update(atoms.forms)
+    into.types.update(atoms.types)
+    into.opaque.update(atoms.opaque)
+    into.bounds.update(atoms.bounds)
+    into.invariants.update(atoms.invariants)
+    for key, (kind, constants) in atoms.numeric.items():
+        into.numeric.setdefault(key, (kind, set()))[1].update(constants)
+
+
+def samples(kind: Number, constants: Iterable[Fraction]) -> tuple[Any, ...]:
+    """One value per region the constants cut the number line into: the constants first."""
+    cs = sorted(set(constants))
+    if kind == INT:
+        points = [int(c) for c in cs if c.denominator == 1]
+        between = [math.ceil(cs[0]) - 1]
+        for index, c in enumerate(cs):
+            above = math.floor(c) + 1
+            if index + 1 == len(cs) or above < cs[index + 1]:
+                between.append(above)
+        return tuple(dict.fromkeys([*points, *between]))
+    middles: list[Fraction] = [cs[0] - 1, *((a + b) / 2 for a, b in pairwise(cs)), cs[-1] + 1]
+    return tuple(dict.fromkeys([*cs, *middles]))
+
+
+def independent(vectors: list[dict[Key, Fraction]]) -> bool:
+    """Whether the vectors are linearly independent (exact Gaussian elimination)."""
+    rows = [dict(v) for v in vectors]
+    for index, row in enumerate(rows):
+        if not row:
+            return False
+        pivot = min(row)
+        for other in rows[index + 1 :]:
+            if pivot in other:
+                factor = other[pivot] / row[pivot]
+                for key, c in row.items():
+                    value = other.get(key, Fraction(0)) - factor * c
+                    if value:
+                        other[key] = value
+                    else:
+                        other.pop(key, None)
+    return True
+
+
+# ---------------------------------------------------------------- deciding
+
+
+@dataclass
+class Answer:
+    """Whether a conjunction of guards (each wanted true or false) can hold.
+
+    kind: "yes" (a valuation that can happen makes it hold, whatever the opaque atoms),
+    "maybe" (it holds only for values rcsgen cannot show possible: opaque atoms, or linear
+    forms of integers or of related variables), "no", or "unknown" (more than LIMIT
+    valuations). `shown` is the counter-example without the atoms whose value does not
+    matter; `undecided` names the atoms a "maybe" depends on.
+    """
+
+    kind: Verdict
+    shown: list[tuple[Key, Any]] = field(default_factory=list)
+    size: int = 0
+    undecided: list[Key] = field(default_factory=list)
+
+
+Part = tuple[Guard | None, bool]  # a guard (None: no `when`, always true) that must be so
+_MINIMISE = 8  # the most candidate counter-examples minimised per question
+
+
+def solve(
+    parts: list[Part],
+    fixed: dict[Key, Any] | None = None,
+    allowed: dict[Key, tuple[Any, ...]] | None = None,
+) -> Answer:
+    """Search a valuation under which every guard of `parts` has the wanted truth value;
+    `fixed` pins atoms to one value, `allowed` narrows them to some values."""
+    if any(g is None and not wanted for g, wanted in parts):
+        return Answer(Verdict.NO)
+    guards = [(g, wanted) for g, wanted in parts if g is not None]
+    domains: dict[Key, tuple[Any, ...]] = {}
+    numeric: dict[Key, tuple[Number, set[Fraction]]] = {}
+    forms: dict[Key, dict[Key, Fraction]] = {}
+    types: dict[Key, Number] = {}
+    opaque: dict[Key, None] = {}
+    bounds: dict[Key, tuple[Fraction, Fraction]] = {}
+    invariants: dict[str, Callable[[Valuation], bool | None]] = {}
+    for g, _ in guards:
+        for key in g.order:
+            if key in g.opaque:
+                opaque.setdefault(key, None)
+            else:
+                domains.setdefault(key, ())
+        domains.update(g.domains)
+        forms.update(g.forms)
+        types.update(g.types)
+        bounds.update(g.bounds)
+        invariants.update(g.invariants)
+        for key, (kind, constants) in g.numeric.items():
+            numeric.setdefault(key, (kind, set()))[1].update(constants)
+    for key, (kind, constants) in numeric.items():
+        if key in bounds:  # only values within them, the bounds themselves included
+            low, high = bounds[key]
+            values = samples(kind, {*constants, low, high})
+            domains[key] = tuple(v for v in values if low <= v <= high)
+        else:
+            domains[key] = samples(kind, constants)
+    for key, value in (fixed or {}).items():
+        if key in domains:
+            domains[key] = (value,)
+    for key, values in (allowed or {}).items():
+        if key in domains:
+            domains[key] = tuple(v for v in domains[key] if v in values)
+    size = math.prod(len(d) for d in domains.values()) * 2 ** len(opaque)
+    if size > LIMIT:
+        return Answer(Verdict.UNKNOWN, size=size)
+    keys, okeys = list(domains), list(opaque)
+
+    def truth(val: dict[Key, Any]) -> bool | None:
+        """Whether every guard has its wanted value: True, False or None (not known yet).
+        A valuation no invariant allows is False: it cannot happen."""
+        if any(keeps(val) is False for keeps in invariants.values()):
+            return False
+        unknown = False
+        for g, wanted in guards:
+            value = g.fn(val)
+            if value is None:
+                unknown = True
+            elif bool(value) != wanted:
+                return False
+        return None if unknown else True
+
+    def always(val: dict[Key, Any], free: list[Key]) -> bool:
+        """Holds for every value of the `free` atoms and of the opaque atoms."""
+        rest = {k: v for k, v in val.items() if k not in free}
+        known = truth(rest)
+        if known is not None:
+            return known
+        for values in product(*(domains[k] for k in free)):
+            at = {**rest, **dict(zip(free, values, strict=True))}
+            for ov in product(BOOL_DOMAIN, repeat=len(okeys)):
+                if not truth({**at, **dict(zip(okeys, ov, strict=True))}):
+                    return False
+        return True
+
+    def uncertain(shown: Iterable[Key]) -> list[Key]:
+        """The forms that keep these numeric atoms from being set independently, if any."""
+        numeric_keys = [k for k in shown if k in numeric]
+        used = [k for k in numeric_keys if k in forms]
+        if not used:
+            return []
+        vectors = [forms.get(k, {k: Fraction(1)}) for k in numeric_keys]
+        integer = any(types.get(v) == INT for k in used for v in forms[k])
+        return used if integer or not independent(vectors) else []
+
+    maybe: list[Answer] = []
+    tries = 0
+
+    def search(index: int, val: dict[Key, Any]) -> Answer | None:
+        """Depth first over the atoms in reading order, pruning as soon as a guard is known."""
+        nonlocal tries
+        known = truth(val)
+        if known is False:
+            return None
+        if known is True:  # holds for every value of the atoms not set yet
+            if tries >= _MINIMISE:
+                return None
+            tries += 1
+            free: list[Key] = []
+            for key in reversed([k for k in keys if k in val]):  # keep the first mentioned
+                if always(val, [key, *free]):
+                    free.insert(0, key)
+            shown = [(k, val[k]) for k in keys if k in val and k not in free]
+            unsure = uncertain(k for k, _ in shown)
+            if not unsure:
+                return Answer(Verdict.YES, shown, size)
+            maybe.append(Answer(Verdict.MAYBE, shown, size, unsure))
+            return None
+        if index == len(keys):  # only opaque atoms are left undecided
+            for ov in product(BOOL_DOMAIN, repeat=len(okeys)):
+                at = {**val, **dict(zip(okeys, ov, strict=True))}
+                if truth(at):
+                    shown = [(k, at[k]) for k in [*keys, *okeys]]
+                    maybe.append(Answer(Verdict.MAYBE, shown, size, okeys))
+                    break
+            return None
+        key = keys[index]
+        for value in domains[key]:
+            val[key] = value
+            answer = search(index + 1, val)
+            del val[key]
+            if answer is not None:
+                return answer
+        return None
+
+    return search(0, {}) or (maybe[0] if maybe else Answer(Verdict.NO, size=size))

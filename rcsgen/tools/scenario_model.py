@@ -1,0 +1,122 @@
+"""Scenario model: what a checked scenario file says, for the runner and its checker.
+
+`scenario_check` makes a `Scenario` from a file (located diagnostics otherwise) and
+`scenario` runs it; both read these types, neither the other's code.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..compiler.diagnostics import Span
+from ..compiler.frontend import SYSTEM_FILE, real_path
+
+
+@dataclass
+class Event:
+    """What happens before cycle `cycle` runs: a command to a module, world or mode changes."""
+
+    cycle: int
+    command: tuple[str, str] | None = None  # (module, COMMAND)
+    args: dict[str, Any] = field(default_factory=dict)
+    world: dict[str, Any] = field(default_factory=dict)
+    mode: dict[str, dict[str, Any]] = field(default_factory=dict)
+    doc: str = ""
+    overrides: str | None = None  # the supervisor it is written under (`overrides: true`)
+    answer: tuple[str, str, str] | None = None  # (channel, DONE|ERROR, reason): `ctl answer`
+    force: dict[str, Any] = field(default_factory=dict)  # world fields forced: `ctl force`
+    unforce: list[str] = field(default_factory=list)  # world fields released: `ctl unforce`
+    replies: dict[str, str] = field(default_factory=dict)  # module -> DONE|ERROR, scripted
+
+
+@dataclass(frozen=True)
+class Expected:
+    """One expected outcome (`expect:`): a final value, or bounds; where it is written."""
+
+    what: str  # "status", "cycles", a world field, `<module>.reason` or `<module>.result.<name>`
+    span: Span
+    value: Any = None  # an exact value (status name, number, bool), or None
+    low: float | None = None
+    high: float | None = None
+
+    def met(self, actual: Any) -> bool:
+        if self.value is not None:
+            if isinstance(self.value, bool) or isinstance(actual, bool):
+                return isinstance(actual, bool) and actual is bool(self.value)
+            if isinstance(self.value, str):
+                return str(actual) == str(self.value)
+            return isinstance(actual, int | float) and actual == self.value
+        if isinstance(actual, bool) or not isinstance(actual, int | float):
+            return False
+        return (self.low is None or actual >= self.low) and (
+            self.high is None or actual <= self.high
+        )
+
+    def wanted(self) -> str:
+        if self.value is not None:
+            shown = str(self.value).lower() if isinstance(self.value, bool) else self.value
+            return f"{shown}"
+        if self.low is not None and self.high is not None:
+            return f"between {self.low:g} and {self.high:g}"
+        return f"at least {self.low:g}" if self.low is not None else f"at most {self.high:g}"
+
+
+@dataclass(frozen=True)
+class ScriptedAnswer:
+    """How the scripted person answers the requests it matches (`operator:` of a scenario)."""
+
+    after: int  # cycles from taking the request up to the answer
+    answer: str  # DONE, ERROR or never
+    reason: str = ""  # with ERROR: one of the task's reasons ("": NONE)
+    operator: str | None = None  # None: any
+    task: str | None = None
+    client: str | None = None
+
+    def matches(self, request: dict[str, Any]) -> bool:
+        return (
+            self.operator in (None, request["operator"])
+            and self.task in (None, request["task"])
+            and self.client in (None, request["by"])
+        )
+
+
+@dataclass(frozen=True)
+class OperatorScript:
+    """The scripted person at the screen: answers by task and/or client, and a default."""
+
+    answers: tuple[ScriptedAnswer, ...] = ()
+    default: ScriptedAnswer | None = None  # None: unmatched requests are left to the console
+
+    def how(self, request: dict[str, Any]) -> ScriptedAnswer | None:
+        """How the person answers `request`; None: never (the console does)."""
+        found = next((a for a in self.answers if a.matches(request)), self.default)
+        return None if found is None or found.answer == "never" else found
+
+
+@dataclass
+class Scenario:
+    name: str
+    title: str
+    path: Path
+    system_dir: Path
+    process: str | None
+    max_cycles: int
+    stop_when_done: str | None
+    trace_world: list[str]
+    events: list[Event]
+    settings: dict[str, str] = field(default_factory=dict)  # for the hook-state factories
+    simulate: tuple[str, ...] = ()  # controllers replaced by their stand-ins
+    phases_of: str | None = None  # the module whose commands are the run's phases
+    figures: list[str] = field(default_factory=list)  # world fields (or module.reason ...) shown
+    expect: list[Expected] = field(default_factory=list)  # empty: stop module DONE, if any
+    operator: OperatorScript | None = None  # the scripted person at the screen, if any
+
+
+def find_system_dir(path: Path) -> Path | None:
+    """The nearest directory above a scenario file that holds a system.yaml."""
+    for parent in real_path(path).parents:
+        if (parent / SYSTEM_FILE).is_file():
+            return parent
+    return None

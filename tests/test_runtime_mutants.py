@@ -1,0 +1,219 @@
+"""Plausible one-line bugs in the runtime's safety paths, each pinned by a test of what the
+runtime promises (issue "Fail safe", "Tests that would catch a broken runtime"): a seqlock
+read that accepts a torn record (a tool's read, and a controller's), a cross-process command
+read without its seqlock, a watchdog that trips one overrun late, a segment without rcsgen's
+header accepted on attach. (A lost process that beats again but stays lost is caught by
+tests/test_zenoh.py, where pc2 re-joins; the torn-record stress of tests/test_runtime.py
+catches a tool's read that does not look again only by chance, once in ~100,000 reads.)
+
+Every test runs `tests/fixtures/runtime/duo` (a supervisor `top` in process p1 commanding an
+`arm` in process p2) through what a user or a tool sees: records, controllers run by the
+harness, `loop.run`, blocks. A race is not waited for: the read that overlaps a write is made
+to happen, deterministically, by a struct that writes while it is read.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import itertools
+import os
+import shutil
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import pytest
+
+from rcsgen.tools.harness import Harness, generate, import_package
+
+DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
+_names = itertools.count(1)
+
+
+def segment_name() -> str:
+    return f"rcsgen_mut_{os.getpid()}_{next(_names)}"
+
+
+@pytest.fixture(scope="module")
+def package() -> Iterator[ModuleType]:
+    scratch, name = generate(DUO)
+    yield import_package(scratch / name, DUO)
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+def part(package: ModuleType, name: str) -> ModuleType:
+    return importlib.import_module(f"{package.__name__}.{name}")
+
+
+class WrittenWhileRead:
+    """A struct whose first read overlaps a write: the read takes the buffer's sequence word,
+    then `write()` changes the buffer (at `offset`), then the read takes the fields. It
+    returns what such a read returns: the word from before the write, the fields from after.
+    Later reads are plain."""
+
+    def __init__(self, struct: Any, offset: int, write: Any) -> None:
+        self.struct, self.offset, self.write, self.reads = struct, offset, write, 0
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.struct, name)
+
+    def unpack_from(self, buf: memoryview, offset: int = 0) -> tuple[Any, ...]:
+        self.reads += 1
+        if self.reads > 1:
+            return tuple(self.struct.unpack_from(buf, offset))
+        word = bytes(buf[self.offset : self.offset + 8])
+        self.write()
+        image = bytearray(buf)
+        image[self.offset : self.offset + 8] = word
+        return tuple(self.struct.unpack_from(image, offset))
+
+
+def dies_mid_write(package: ModuleType, record: Any, buf: memoryview, **values: Any) -> None:
+    """What a writer that dies mid-write leaves: the word odd, the fields `values`."""
+    contract = part(package, "rcs.contract")
+    odd = contract.next_odd(record.seq(buf))
+    fields = {**record.read(buf), **values}
+    contract.SEQ.pack_into(buf, record.offset, odd)
+    record.struct.pack_into(buf, record.offset, odd, *fields.values())
+
+
+# ---------------------------------------------------------------- consistent reads
+
+
+def test_a_record_read_that_a_write_overlaps_is_not_taken(package: ModuleType) -> None:
+    """A tool's read (ctl, the monitor, the harness) that a write overlaps looks at the
+    sequence word again: the half-written fields under the old word are never returned; a
+    writer that died there leaves the buffer stale (StaleRead) until a whole write."""
+    layout, contract = part(package, "layout"), part(package, "rcs.contract")
+    block = part(package, "rcs.block").Block(layout)
+    try:
+        record = layout.COMMAND_IN["arm"]
+        record.write(block.buf, command_num=1, command=1, arg_level=1.0)
+        torn = WrittenWhileRead(
+            record.struct,
+            record.offset,
+            lambda: dies_mid_write(package, record, block.buf, command_num=2, arg_level=2.0),
+        )
+        with pytest.raises(contract.StaleRead):
+            contract.Record(torn, record.offset, record.fields).read(block.buf)
+        record.write(block.buf, command_num=3, command=1, arg_level=3.0)
+        assert record.read(block.buf)["command_num"] == 3
+    finally:
+        block.close()
+
+
+def test_a_controller_input_read_that_a_write_overlaps_is_not_taken(
+    package: ModuleType, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """top (p1) reads arm's status, written by another process, under its seqlock: a read
+    that a write overlaps (arm's status starts to say DONE, and its writer dies) is not
+    taken. top keeps the inputs of its last whole read (arm EXECUTING) and counts a stale
+    read, instead of finishing on a status arm never wrote whole."""
+    h = Harness(package, "p1")  # top alone: arm's status comes from another process
+    h.command("top", "MOVE")
+    h.cycle()  # top sends POWER #1 and waits
+    arm = h.layout.STATUS_OUT["arm"]
+    done = h.contract.STATUS_NAMES.index("DONE")
+    top = part(package, "top")
+    torn = WrittenWhileRead(
+        top.INPUTS,
+        arm.offset,
+        lambda: dies_mid_write(package, arm, h.buf, status_num=1, status=done),
+    )
+    monkeypatch.setattr(top, "INPUTS", torn)
+    before = h.performance("top")["stale_reads"]
+    h.cycle()
+    assert torn.reads > 1, "the overlapped read was read again"
+    assert h.performance("top")["stale_reads"] == before + 1
+    assert h.status("top").status == "EXECUTING", "not finished on a torn DONE"
+    h.reply("arm", "DONE", 1)  # arm's status written whole
+    h.cycle()
+    assert h.status("top").status == "DONE"
+
+
+def test_a_command_from_another_process_is_read_under_its_seqlock(package: ModuleType) -> None:
+    """arm (p2) gets its commands from top (p1), another OS process: a command buffer left
+    odd (its writer died mid-write) is not taken; arm keeps its command, counts a stale read
+    each cycle, and takes the command once it is written whole."""
+    h = Harness(package, "p2")  # arm alone: its command comes from another process
+    layout, contract = h.layout, h.contract
+    record = layout.COMMAND_IN["arm"]
+    power = layout.COMMAND_NAMES["arm"].index("POWER")
+    record.write(h.buf, command_num=1, command=power, arg_level=0.5)
+    h.cycle()
+    assert (h.status("arm").number, h.world["arm_power"]) == (1, 0.5)
+    seq = record.seq(h.buf)
+    contract.SEQ.pack_into(h.buf, record.offset, contract.next_odd(seq))  # marked odd ...
+    record.struct.pack_into(h.buf, record.offset, contract.next_odd(seq), 2, power, 0.9)
+    before = h.performance("arm")["stale_reads"]  # ... written, and the writer died
+    h.cycle(3)
+    assert h.performance("arm")["stale_reads"] == before + 3
+    assert (h.status("arm").number, h.world["arm_power"]) == (1, 0.5), "not the torn command"
+    record.write(h.buf, command_num=2, command=power, arg_level=0.9)  # a whole write
+    h.cycle()
+    assert (h.status("arm").number, h.world["arm_power"]) == (2, 0.9)
+
+
+# ---------------------------------------------------------------- the watchdog
+
+
+def slow_plan(package: ModuleType, cycle: float) -> Any:
+    """p1's plan with top's every cycle taking `cycle` seconds at least."""
+    plan = part(package, "main_p1").PLAN
+
+    class Slow(plan.classes["top"]):  # type: ignore[misc,name-defined]
+        def run_cycle(self) -> None:
+            time.sleep(cycle)
+            super().run_cycle()
+
+    return dataclasses.replace(plan, classes={**plan.classes, "top": Slow})
+
+
+@pytest.mark.parametrize(("cycles", "trips"), [(2, 0), (3, 1)])
+def test_the_watchdog_trips_on_the_declared_overrun_not_one_later(
+    package: ModuleType, cycles: int, trips: int
+) -> None:
+    """Declared: 3 consecutive overruns trip the watchdog. Every cycle here runs past its
+    period (1.5 periods of work), so the third cycle trips it and HALT goes to the root;
+    two do not (a single long cycle cannot trip it: its limit is set far away)."""
+    layout, loop = part(package, "layout"), part(package, "rcs.loop")
+    plan = part(package, "main_p1").PLAN
+    dog = loop.Watchdog(overruns=3, period_factor=1000.0)
+    process = loop.run(
+        slow_plan(package, 1.5 * plan.cycle_period),
+        layout,
+        cycles=cycles,
+        watchdog=dog,
+        heartbeat_timeout=1000.0,
+    )
+    try:
+        assert process.counters["overruns"] == cycles
+        assert process.counters["watchdog_trips"] == trips
+        sent = layout.COMMAND_IN["top"].read(process.block.buf)
+        halted = layout.COMMAND_NAMES["top"][sent["command"]] == "HALT"
+        assert halted == bool(trips)
+    finally:
+        process.block.close()
+
+
+# ---------------------------------------------------------------- identity of a segment
+
+
+def test_a_segment_whose_header_is_not_rcsgens_is_refused_on_attach(package: ModuleType) -> None:
+    """A segment of the right size and layout hash, but whose first bytes are not rcsgen's
+    magic (something else wrote there): attaching refuses it as not an rcsgen block."""
+    layout, contract = part(package, "layout"), part(package, "rcs.contract")
+    blocks = part(package, "rcs.block")
+    created = blocks.Block(layout, segment_name(), create=True)
+    try:
+        created.buf[: len(contract.MAGIC)] = b"NOTRCS!!"
+        with pytest.raises(blocks.BlockError, match="is not an rcsgen block"):
+            blocks.Block(layout, created.name, create=False)
+        created.buf[: len(contract.MAGIC)] = contract.MAGIC  # the same segment, its header back
+        attached = blocks.Block(layout, created.name, create=False)
+        attached.close()
+    finally:
+        created.close()
