@@ -411,3 +411,80 @@ def test_a_wait_on_a_world_field_only_an_idle_subordinate_writes_is_a_deadlock(t
     )
     _, result = _proved(directory)
     assert not [f for f in result.proofs[0].findings if f.code == "W703"]
+
+
+LATCH_SYSTEM = """system: latch
+title: A supervisor that drives a lamp over a subordinate in another process
+cycle_period: 0.1
+world:
+  pos: {type: float, initial: 0.0}
+  drive: {type: float, initial: 0.0, actuator: true}
+  lamp: {type: bool, initial: false, actuator: true}
+processes:
+  a:
+    modules: [top]
+  b:
+    modules: [sub]
+"""
+LATCH_TOP = """controller: top
+title: Top
+subordinates: [sub]
+world:
+  writes: [lamp]
+commands:
+  GO:
+    states:
+      S0:
+        - do: [{set: {world.lamp: true}}, send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [{set: {world.lamp: false}}, report: DONE]
+        - when: sub.status == ERROR
+          do: [{set: {world.lamp: false}}, report: ERROR]
+  HALT:
+    states:
+      S0:
+        - do: [{set: {world.lamp: false}}, send: sub.HALT]
+          next: S1
+      S1:
+        - when: sub.status == DONE or sub.status == ERROR
+          do: [report: DONE]
+"""
+
+
+def test_a_latch_holds_until_an_explicit_reset(tmp_path):
+    """docs/semantics.md "Fail safe": under halt_all the loss of sub's process latches every
+    actuator of the system - the lamp top writes too - and only `ctl reset` releases it:
+    not the safe state's end, not a new command. The model keeps the latch, so a GO after the
+    loss lights no lamp until the reset; under `on_lost: continue` only b's actuators are
+    latched, none of which top writes."""
+    directory = tmp_path / "latch"
+    directory.mkdir()
+    (directory / "system.yaml").write_text(LATCH_SYSTEM)
+    (directory / "sub.yaml").write_text(TINY_SUB)
+    (directory / "top.yaml").write_text(LATCH_TOP)
+    _, result = _proved(directory)
+    graph = result.proofs[0].graphs["top"]
+    edges = [(s, e, t) for s, es in graph.edges.items() for e, t in es]
+    safe = [(s, e, t) for s, e, t in edges if e.safe_state]
+    assert safe and all(t.latched == {"lamp"} for _, _, t in safe)
+    latched_go = [e for s, e, _ in edges if s.latched and e.new == "GO" and not e.reset]
+    assert latched_go and not any("lamp" in e.unsafe for e in latched_go)
+    resets = [(s, t) for s, e, t in edges if e.reset]
+    assert resets and all(s.latched and not t.latched for s, t in resets)
+    # nothing but a reset releases: every edge from a latched state keeps it, or resets
+    assert all(t.latched >= s.latched for s, e, t in edges if not e.reset)
+    free_go = [e for s, e, _ in edges if not s.latched and e.new == "GO"]
+    assert any("lamp" in e.unsafe for e in free_go)  # unlatched, the lamp is the table's
+    # the loss is the supervisor's own business: nothing it writes is latched
+    (directory / "top.yaml").write_text(
+        LATCH_TOP.replace(
+            "subordinates: [sub]\n", "subordinates: [sub]\non_lost:\n  sub: continue\n"
+        )
+    )
+    _, result = _proved(directory)
+    graph = result.proofs[0].graphs["top"]
+    lost = [t for es in graph.edges.values() for e, t in es if e.lost == "b"]
+    assert lost and not any(e.safe_state for es in graph.edges.values() for e, _ in es)
+    assert all(not t.latched for es in graph.edges.values() for _, t in es)

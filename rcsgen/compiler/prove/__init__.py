@@ -96,6 +96,8 @@ def cycle_text(index: int, edge: Edge, state: State, subs: tuple[str, ...], who:
         parts.append(f"process {edge.lost} lost")
     if edge.recovered:
         parts.append(f"process {edge.recovered} back")
+    if edge.reset:
+        parts.append("the operator resets the latches")
     if edge.new:
         parts.append(f"{who} gets {edge.new}")
     parts += [f"{sub} answers {status}" for sub, status in edge.answers]

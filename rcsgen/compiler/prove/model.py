@@ -38,6 +38,9 @@ class State(NamedTuple):
     lost: tuple[str, ...] = ()
     errored: bool = False  # a subordinate answered ERROR during the current command
     halted: bool = False  # the current command from above is HALT
+    # actuator fields it writes that the runtime latched safe (a loss): held until an
+    # explicit reset, whatever it sets - a recovery or a new command does not release them
+    latched: frozenset[str] = frozenset()
 
 
 class Edge(NamedTuple):
@@ -56,6 +59,7 @@ class Edge(NamedTuple):
     valuation: tuple[tuple[Key, Any], ...]  # atoms that make the choices so
     views: tuple[str, ...]  # the status it read for each subordinate this cycle
     recovered: str | None = None  # a lost process back before this cycle
+    reset: bool = False  # the operator's explicit reset (`ctl reset`) released the latches
 
 
 class Step(NamedTuple):
@@ -121,6 +125,7 @@ class Model:
         self.new_commands = new_commands
         self.sub_index = {s: i for i, s in enumerate(skeleton.subs)}
         self.sub_process = tuple(reaction.process_of(s) for s in skeleton.subs)
+        self.writes = frozenset(skeleton.actuators)
         self._news_seen: set[Any] = set()
         self._steps: dict[Any, list[tuple[Step, State]]] = {}
         self._lost: dict[tuple[str, ...], tuple[frozenset[str], tuple[int, ...]]] = {}
@@ -129,15 +134,16 @@ class Model:
         return State(None, NOP, NOT_READY, 0, tuple((None, NOT_READY, False) for _ in self.sk.subs))
 
     def lost_effects(self, lost: tuple[str, ...]) -> tuple[frozenset[str], tuple[int, ...]]:
-        """While the processes `lost` are lost: the actuator fields latched safe, and the
-        subordinates (by index) whose status reads ERROR (`on_lost: continue`)."""
+        """While the processes `lost` are lost: the actuator fields it writes that their
+        losses latch safe, and the subordinates (by index) whose status reads ERROR
+        (`on_lost: continue`)."""
         found = self._lost.get(lost)
         if found is None:
             latched: set[str] = set()
             told: set[int] = set()
             for process in lost:
                 effect = self.effects[process]
-                latched |= effect.latched
+                latched |= effect.latched & self.writes
                 told |= {self.sub_index[sub] for sub in effect.errors}
             found = self._lost[lost] = (frozenset(latched), tuple(sorted(told)))
         return found
@@ -151,6 +157,8 @@ class Model:
         out: list[tuple[Edge, State]] = []
         events: list[tuple[str | None, str | None]] = [(None, None)]  # (lost, recovered)
         halts = []
+        if s.latched:  # the operator's explicit reset, any cycle after a latch
+            out += self._reset(s)
         for process in self.lossy:
             if process in s.lost:
                 events.append((None, process))
@@ -180,14 +188,26 @@ class Model:
     def _safe_state(self, s: State, process: str) -> list[tuple[Edge, State]]:
         """`process` is lost and the runtime puts the controller in its safe state (HALT to
         every subordinate, NOP, ERROR with reason LOST), whatever was answered; every
-        actuator is latched safe until a reset. The loss is not kept in the state: until the
-        process is back nothing below answers, which the model already allows (an answer
-        may come any cycle later), and after it the hierarchy goes on from here."""
+        actuator of the system is latched safe until an explicit reset (the ones it writes
+        are kept in the state). The loss itself is not kept: until the process is back
+        nothing below answers, which the model already allows (an answer may come any
+        cycle later), and after it the hierarchy goes on from here."""
         told = self.lost_effects(s.lost)[1]  # still read as ERROR (LOST) while lost
         subs = tuple(("HALT", ERROR if i in told else EXECUTING, True) for i in range(len(s.subs)))
-        env = ((), process, None, True, tuple((sub, "HALT") for sub in self.sk.subs))
-        pre = (s.command, NOP, ERROR, 0, subs, s.lost, s.errored, s.halted)
-        return self._edges(env, None, pre) + self._news(env, subs, s.lost)
+        latched = s.latched | (self.effects[process].latched & self.writes)
+        env = ((), process, None, True, tuple((sub, "HALT") for sub in self.sk.subs), False)
+        pre = (s.command, NOP, ERROR, 0, subs, s.lost, s.errored, s.halted, latched)
+        return self._edges(env, None, pre) + self._news(env, subs, s.lost, latched)
+
+    def _reset(self, s: State) -> list[tuple[Edge, State]]:
+        """The operator resets the latches (`ctl reset`, docs/semantics.md "Fail safe"):
+        the fields it writes are its own again from this cycle - even while a process is
+        still lost: `override.reset` releases every SAFE latch, and the reaction runs again
+        only on a new fault (a loss, a watchdog trip)."""
+        latched: frozenset[str] = frozenset()
+        env = ((), None, None, False, (), True)
+        pre = (s.command, s.state, s.status, s.ticks, s.subs, s.lost, s.errored, s.halted, latched)
+        return self._edges(env, None, pre) + self._news(env, s.subs, s.lost, latched)
 
     def _environment(
         self,
@@ -209,24 +229,27 @@ class Model:
                 i = self.sub_index[sub]
                 sent, _, fresh = subs[i]
                 subs[i] = (sent, NOT_READY if sent is None else EXECUTING, fresh)
-        for i in self.lost_effects(lost_now)[1]:  # read as ERROR (LOST) while lost
+        latched_now, told = self.lost_effects(lost_now)
+        for i in told:  # read as ERROR (LOST) while lost
             errored = errored or subs[i][2]
             subs[i] = (subs[i][0], ERROR, subs[i][2])
-        env = (answered, lost, recovered, False, ())
+        latched = s.latched | latched_now  # a recovery releases nothing: a reset does
+        env = (answered, lost, recovered, False, (), False)
         frozen = tuple(subs)
-        pre = (s.command, s.state, s.status, s.ticks, frozen, lost_now, errored, s.halted)
-        return self._edges(env, None, pre) + self._news(env, frozen, lost_now)
+        pre = (s.command, s.state, s.status, s.ticks, frozen, lost_now, errored, s.halted, latched)
+        return self._edges(env, None, pre) + self._news(env, frozen, lost_now, latched)
 
     def _news(
         self,
         env: tuple[Any, ...],
         subs: tuple[tuple[str | None, str, bool], ...],
         lost: tuple[str, ...],
+        latched: frozenset[str],
     ) -> list[tuple[Edge, State]]:
         """A new command from above (check_if_new_command): it leads to the same states
         from every state with these subordinates' commands and statuses, so its edges are
-        taken once."""
-        key = (tuple((sent, view) for sent, view, _ in subs), lost)
+        taken once. A new command releases no latch."""
+        key = (tuple((sent, view) for sent, view, _ in subs), lost, latched)
         if not self.new_commands or key in self._news_seen:
             return []
         self._news_seen.add(key)
@@ -234,14 +257,14 @@ class Model:
         out: list[tuple[Edge, State]] = []
         for new in self.sk.commands:
             out += self._edges(
-                env, new, (new, "S0", EXECUTING, 0, fresh, lost, False, new == "HALT")
+                env, new, (new, "S0", EXECUTING, 0, fresh, lost, False, new == "HALT", latched)
             )
         return out
 
     def _edges(
         self, env: tuple[Any, ...], new: str | None, pre: tuple[Any, ...]
     ) -> list[tuple[Edge, State]]:
-        answered, lost, recovered, safe_state, pre_sends = env
+        answered, lost, recovered, safe_state, pre_sends, reset = env
         steps = self._steps.get(pre)
         if steps is None:
             steps = self._steps[pre] = self._step(*pre)
@@ -261,6 +284,7 @@ class Model:
                     step.valuation,
                     step.views,
                     recovered,
+                    reset,
                 ),
                 target,
             )
@@ -285,12 +309,12 @@ class Model:
         lost_now: tuple[str, ...],
         errored: bool,
         halted: bool,
+        latched: frozenset[str],
     ) -> list[tuple[Step, State]]:
         """The controller's own cycle from a state the environment has set: its every_cycle
         rules, then its table (each way the guards can go)."""
         views = tuple(view for _, view, _ in subs)
         fixed = self._fixed(subs, ticks)
-        latched = self.lost_effects(lost_now)[0]
         results: list[tuple[Step, State]] = []
         every = self.sk.every
         every_choices = self.sk.choices(every, fixed) if every else (Choice(None, True, ()),)
@@ -343,6 +367,7 @@ class Model:
                     lost_now,
                     errored,
                     halted,
+                    latched,
                 )
                 results.append((step, target))
         return results

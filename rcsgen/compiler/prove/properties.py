@@ -66,8 +66,9 @@ def rule_view(sk: Skeleton, rule_id: str) -> RuleView:
 
 def _quiet(edge: Edge) -> bool:
     """A cycle the controller's table runs on its own: no new command from above, no
-    process lost or back (no property may count on a recovery)."""
-    return edge.new is None and edge.lost is None and edge.recovered is None
+    process lost or back, no reset of the latches (no property may count on a recovery or
+    on the operator)."""
+    return edge.new is None and edge.lost is None and edge.recovered is None and not edge.reset
 
 
 def _executing(graph: Graph) -> list[State]:
