@@ -634,6 +634,20 @@ def test_the_miner_s_pc2_resumes_after_a_restart_and_mines_again_when_commanded(
     assert read(layout.STATUS_OUT["sec"], buf)["status"] == 1, "sec EXECUTING its BOX_CUT"
 
 
+def attach_when_made(package: ModuleType, layout: Any, segment: str) -> Any:
+    """Attach to a segment another process is creating: its file exists a moment before its
+    header is written, and an attach in between is (rightly) refused as not an rcsgen block."""
+    block_module = runtime(package, "rcs.block")
+
+    def attached() -> Any:
+        try:
+            return block_module.Block(layout, segment, create=False)
+        except (FileNotFoundError, block_module.BlockError):
+            return None
+
+    return wait_for(attached, "the segment made")
+
+
 def test_a_killed_pc1_ends_the_operator_s_mission_with_the_reason(
     miner: tuple[Path, ModuleType],
 ) -> None:
@@ -651,8 +665,7 @@ def test_a_killed_pc1_ends_the_operator_s_mission_with_the_reason(
     )
     block = None
     try:
-        wait_for(lambda: os.path.exists(f"/dev/shm/{segment}"), "the segment made")
-        block = runtime(package, "rcs.block").Block(layout, segment, create=False)
+        block = attach_when_made(package, layout, segment)
         buf = block.buf
         wait_for(lambda: moving(layout, buf), "the miner moving", deadline=60)
         children = pids(layout, buf)
@@ -770,8 +783,7 @@ def test_when_the_launcher_dies_its_children_drive_every_actuator_safe_and_clean
     )
     block = None
     try:
-        wait_for(lambda: os.path.exists(f"/dev/shm/{segment}"), "the segment made")
-        block = runtime(package, "rcs.block").Block(layout, segment, create=False)
+        block = attach_when_made(package, layout, segment)
         buf = block.buf
         wait_for(
             lambda: all(read(layout.PROCESSES[p], buf)["heartbeat"] > 2 for p in layout.PROCESSES),
