@@ -488,3 +488,84 @@ def test_a_latch_holds_until_an_explicit_reset(tmp_path):
     lost = [t for es in graph.edges.values() for e, t in es if e.lost == "b"]
     assert lost and not any(e.safe_state for es in graph.edges.values() for e, _ in es)
     assert all(not t.latched for es in graph.edges.values() for _, t in es)
+
+
+def test_a_wait_that_goes_on_on_a_done_it_already_took_is_w707(tmp_path):
+    """S2 waits for sub's DONE again without sending it anything: the DONE S1 went on on
+    is stale (a `send:` left out); the same wait after a new send is fine."""
+    top = """  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          next: S2
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+      S2:
+        - when: sub.status == DONE
+          do: [report: DONE]
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+"""
+    _, result = _proved(_tiny(tmp_path, top))
+    found = [f for f in result.proofs[0].findings if f.code == "W707"]
+    assert [(f.state, f.rule) for f in found] == [("S2", 1)], found
+    assert "sub.MOVE" in found[0].message
+    fixed = top.replace(
+        "          next: S2\n", "          do: [send: sub.MOVE]\n          next: S2\n", 1
+    )
+    (tmp_path / "fixed").mkdir()
+    _, result = _proved(_tiny(tmp_path / "fixed", fixed))
+    assert not [f for f in result.proofs[0].findings if f.code == "W707"]
+
+
+def test_going_on_before_the_echo_is_w708(tmp_path):
+    """`sub.status != ERROR` is true while sub is EXECUTING: S1 goes on before MOVE's echo."""
+    top = """  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status != ERROR
+          next: S2
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+      S2:
+        - when: sub.status == DONE
+          do: [report: DONE]
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+"""
+    _, result = _proved(_tiny(tmp_path, top))
+    found = [f for f in result.proofs[0].findings if f.code == "W708"]
+    assert [(f.state, f.rule) for f in found] == [("S1", 1)], found
+    assert "goes on while sub.MOVE is still executing" in found[0].message
+
+
+def test_a_subordinate_before_its_supervisor_in_the_order_is_w704(tmp_path):
+    """HALT reach as fast as the process split allows: sub placed before top reads top's
+    HALT a cycle late - a finding at top, not only a larger bound."""
+    top = """  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [report: DONE]
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+"""
+    directory = _tiny(tmp_path, top)
+    _, result = _proved(directory)
+    assert not [f for f in result.proofs[0].findings if f.code == "W704"]
+    before = {b.leaf: b.cycles for b in result.proofs[0].halt}
+    _edit(directory / "system.yaml", "modules: [top, sub]", "modules: [sub, top]")
+    _, result = _proved(directory)
+    found = [f for f in result.proofs[0].findings if f.code == "W704"]
+    assert [(f.controller, f.command) for f in found] == [("top", "HALT")]
+    assert "sub runs before its supervisor top" in found[0].message
+    assert {b.leaf: b.cycles for b in result.proofs[0].halt} == {"sub": before["sub"] + 1}

@@ -314,6 +314,7 @@ _ALL = (
     warning("W704", Topic.PROVE, "HALT reach", about="a command"),
     warning("W705", Topic.PROVE, "ERROR reaches the root", about="a state"),
     warning("W706", Topic.PROVE, "latched stop", about="a rule"),
+    warning("W707", Topic.PROVE, "a stale DONE believed", about="a rule"),
     warning("W708", Topic.PROVE, "the handshake: wait for the echo", about="a rule"),
     error("E601", Topic.NAMES, "invalid identifier"),
     error("E602", Topic.NAMES, "line break in a one-line text"),

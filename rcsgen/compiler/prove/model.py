@@ -25,6 +25,7 @@ from .adapter import DONE, ERROR, EXECUTING, NOT_READY, Choice, RuleView, Skelet
 from .lost import RuntimeReaction
 
 NOP = "NOP"
+TAKEN = 2  # a subordinate's third item: its DONE already gone on on (truthy, like True)
 LIMIT = 400_000  # the most states one model may have; more is "too large" (undecided)
 
 
@@ -33,7 +34,8 @@ class State(NamedTuple):
     state: str  # table state, or NOP
     status: str
     ticks: int  # cycles in the state (capped at its largest `after:`), 0 when untimed
-    # per subordinate: (last sent, status read, sent during the current command)
+    # per subordinate: (last sent, status read, sent during the current command); the
+    # third is TAKEN (truthy) once a table rule has gone on on that command's DONE
     subs: tuple[tuple[str | None, str, bool], ...]
     lost: tuple[str, ...] = ()
     errored: bool = False  # a subordinate answered ERROR during the current command
@@ -60,6 +62,9 @@ class Edge(NamedTuple):
     views: tuple[str, ...]  # the status it read for each subordinate this cycle
     recovered: str | None = None  # a lost process back before this cycle
     reset: bool = False  # the operator's explicit reset (`ctl reset`) released the latches
+    # subordinates whose DONE the table rule that fired read, when that DONE was already
+    # taken by an earlier rule of this command, or answers a command of an earlier one
+    stale: tuple[str, ...] = ()
 
 
 class Step(NamedTuple):
@@ -73,6 +78,7 @@ class Step(NamedTuple):
     certain: bool
     valuation: tuple[tuple[Key, Any], ...]
     views: tuple[str, ...]
+    stale: tuple[str, ...] = ()
 
 
 @dataclass
@@ -285,6 +291,7 @@ class Model:
                     step.views,
                     recovered,
                     reset,
+                    step.stale,
                 ),
                 target,
             )
@@ -336,6 +343,8 @@ class Model:
             for second in table_choices:
                 acts = done.copy()
                 st2, stat2 = st, stat
+                new_subs = list(subs)
+                stale: tuple[str, ...] = ()
                 if table is not None and second.rule is not None:
                     rule = table[second.rule]
                     acts.act(rule, dict(local_fixed))
@@ -343,7 +352,7 @@ class Model:
                         acts.report, st2, stat2 = rule.report, NOP, rule.report
                     elif rule.next_state is not None:
                         st2 = rule.next_state
-                new_subs = list(subs)
+                    stale = self._taken(rule, new_subs)
                 for sub, cmd in acts.sends:
                     new_subs[self.sub_index[sub]] = (cmd, EXECUTING, True)
                 limit = self.sk.timers.get((command, st2), ()) if command else ()
@@ -357,6 +366,7 @@ class Model:
                     first.certain and second.certain,
                     (*first.valuation, *second.valuation),
                     views,
+                    stale,
                 )
                 target = State(
                     command,
@@ -371,6 +381,25 @@ class Model:
                 )
                 results.append((step, target))
         return results
+
+    def _taken(self, rule: RuleView, subs: list[tuple[str | None, str, bool]]) -> tuple[str, ...]:
+        """A table rule fired reading these subordinates' DONE: each is taken (in `subs`).
+        When it goes on (to another state, or reports): the ones whose DONE was stale - one
+        an earlier rule of this command went on on, or the answer to a command sent before
+        this command began - and a last "" when it read a new DONE too (else ())."""
+        read, stale = [], []
+        for i, sub in enumerate(self.sk.subs):
+            sent, view, fresh = subs[i]
+            if view != DONE or sent is None or ("sub_status", sub) not in rule.reads:
+                continue
+            read.append(sub)
+            if fresh == TAKEN or not fresh:
+                stale.append(sub)
+            subs[i] = (sent, view, TAKEN)  # type: ignore[assignment]
+        goes_on = rule.report is not None or rule.next_state is not None
+        if not goes_on or not stale:
+            return ()
+        return tuple(stale) if stale == read else (*stale, "")  # "": a new DONE read too
 
 
 @dataclass

@@ -610,25 +610,48 @@ def error_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]
     waits)."""
     found = {}
     for sub in graph.skeleton.subs:
-        starts = [
-            (s, e, t)
-            for s in graph.edges
-            for e, t in graph.edges[s]
-            if (sub, ERROR) in e.answers
-            and _quiet(e)
-            and s.status == EXECUTING
-            and s.subs[graph.skeleton.subs.index(sub)][2]
-            and s.command not in graph.skeleton.generated  # QQ1's INIT/HALT wait for all DONE
-        ]
-        if not starts:
-            continue
-        found[sub] = _worst(
-            graph,
-            starts,
-            lambda e: e.report == ERROR or e.safe_state,
-            lambda e: e.report == DONE,
-        )
+        starts = _error_starts(graph, sub)
+        if starts:
+            found[sub] = _worst(graph, starts, _reports_error, _reports_done)
     return found
+
+
+def _error_starts(graph: Graph, sub: str) -> list[tuple[State, Edge, State]]:
+    """The cycles in which the controller reads `sub`'s ERROR to a command it sent."""
+    index = graph.skeleton.subs.index(sub)
+    return [
+        (s, e, t)
+        for s in graph.edges
+        for e, t in graph.edges[s]
+        if (sub, ERROR) in e.answers
+        and _quiet(e)
+        and s.status == EXECUTING
+        and s.subs[index][2]
+        and s.command not in graph.skeleton.generated  # QQ1's INIT/HALT wait for all DONE
+    ]
+
+
+def _reports_error(edge: Edge) -> bool:
+    return edge.report == ERROR or edge.safe_state
+
+
+def _reports_done(edge: Edge) -> bool:
+    return edge.report == DONE
+
+
+def swallowed(graph: Graph, sub: str) -> list[list[tuple[Edge, State]]]:
+    """Per state of a command where `sub`'s ERROR may never make the controller report
+    ERROR: a run that shows it (one W705 each, so a second state that swallows it is not
+    hidden behind the first)."""
+    groups: dict[tuple[str | None, str], list[tuple[State, Edge, State]]] = {}
+    for start in _error_starts(graph, sub):
+        groups.setdefault((start[0].command, start[0].state), []).append(start)
+    runs = []
+    for _, starts in sorted(groups.items(), key=lambda kv: (kv[0][0] or "", kv[0][1])):
+        cycles, run = _worst(graph, starts, _reports_error, _reports_done)
+        if cycles == INFINITE:
+            runs.append(run)
+    return runs
 
 
 def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
@@ -676,3 +699,112 @@ def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[F
 
 
 __all__ = ["INFINITE", "NOP", "Finding"]
+
+
+def _stale(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], bool]) -> str:
+    """The subordinate whose stale DONE a rule went on on, when that is a slip: every DONE
+    it read was stale (it waited for nothing new), or a stale one answers a motion command
+    (a new motion was meant; a stale DONE of HALT or INIT only says it is stopped)."""
+    if not edge.stale or edge.new is not None or not edge.rules:
+        return ""
+    stale = [sub for sub in edge.stale if sub]
+    if "" not in edge.stale:
+        return stale[0]
+    for sub in stale:
+        sent = s.subs[sk.subs.index(sub)][0]
+        if sent is not None and moving.get((sub, sent), True):
+            return sub
+    return ""
+
+
+def stale_done(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+    """A table rule goes on on a subordinate's DONE only once per command sent: a DONE an
+    earlier rule of this command already went on on, or one that answers a command sent
+    before this command began, is stale (W707) - the wait did not wait (a send left out)."""
+    sk = graph.skeleton
+    findings, seen = [], set()
+    for s, edges in graph.edges.items():
+        for edge, t in edges:
+            sub = _stale(sk, s, edge, moving)
+            if not sub:
+                continue
+            rule_id = edge.rules[-1]
+            if rule_id in seen:
+                continue
+            seen.add(rule_id)
+            command, state, index, span = _rule_of(sk, rule_id)
+            sent = s.subs[sk.subs.index(sub)][0]
+            trace = graph.path_to(s) + [(edge, t)]
+            findings.append(
+                Finding(
+                    "W707",
+                    sk.name,
+                    command,
+                    state,
+                    index,
+                    span,
+                    f"a stale DONE is believed: rule {rule_id} of {sk.name} goes on on "
+                    f"{sub}.status == DONE, the answer to {sub}.{sent} it already went on on "
+                    "(or sent before this command began): nothing new was sent to wait for",
+                    f"send {sub} its command before waiting for `{sub}.status == DONE`",
+                    trace,
+                    _certain(trace),
+                )
+            )
+    return findings
+
+
+def _going_on(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], bool]) -> list[str]:
+    """The motion commands a table rule that fired leaves running although its guard reads
+    their subordinate's status: it went on before the echo (not to report ERROR, not on
+    another subordinate's ERROR, not re-commanding it)."""
+    if edge.new is not None or not edge.rules or edge.rules[-1].startswith("every_cycle"):
+        return []
+    if edge.report == ERROR or ERROR in edge.views:
+        return []
+    rule = rule_view(sk, edge.rules[-1])
+    sent_to = {sub for sub, _ in edge.sends}
+    return [
+        f"{sub}.{sent}"
+        for i, (sub, (sent, _, fresh)) in enumerate(zip(sk.subs, s.subs, strict=True))
+        if edge.views[i] == EXECUTING
+        and sent is not None
+        and fresh
+        and moving.get((sub, sent), True)
+        and ("sub_status", sub) in rule.reads
+        and sub not in sent_to
+    ]
+
+
+def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+    """A rule that reads a subordinate's status goes on (to another state) only once the
+    subordinate has answered the motion command it runs: it waited for the echo (W708)."""
+    sk = graph.skeleton
+    findings, seen = [], set()
+    for s, edges in graph.edges.items():
+        if s.status != EXECUTING or s.command is None:
+            continue
+        for edge, t in edges:
+            busy = _going_on(sk, s, edge, moving)
+            if not busy or edge.report == DONE or edge.rules[-1] in seen:
+                continue  # a DONE report is done_while_busy's
+            seen.add(edge.rules[-1])
+            command, state, index, span = _rule_of(sk, edge.rules[-1])
+            trace = graph.path_to(s) + [(edge, t)]
+            findings.append(
+                Finding(
+                    "W708",
+                    sk.name,
+                    command,
+                    state,
+                    index,
+                    span,
+                    f"the handshake is violated: rule {edge.rules[-1]} of {sk.name} reads "
+                    f"{busy[0].split('.')[0]}.status and goes on while {busy[0]} is still "
+                    "executing (its echo with DONE or ERROR not seen)",
+                    f"wait for `{busy[0].split('.')[0]}.status == DONE` before going on",
+                    trace,
+                    _certain(trace),
+                )
+            )
+    return findings

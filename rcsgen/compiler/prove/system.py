@@ -97,9 +97,12 @@ def prove(
     system: ir.IRSystem,
     hosts: dict[str, str] | None = None,
     limit: int = LIMIT,
+    only: str | None = None,
 ) -> SystemProof:
-    """Explore every controller of `system` and check its properties."""
+    """Explore every controller of `system` and check its properties (`only`: the
+    controller named and the ones below it, whose contracts it needs)."""
     hosts = hosts or {}
+    wanted = _below(system, only) if only else None
     place = placement(system)
     reaction = RuntimeReaction(system)
     proof = SystemProof(system.name, reaction=reaction.name)
@@ -109,6 +112,8 @@ def prove(
     written = writers(system, skeletons)
     contracts: dict[str, Contract] = {}
     for c in order(system):
+        if wanted is not None and c.name not in wanted:
+            continue
         sk = skeletons[c.name]
         if c.is_operator:
             contracts[c.name] = Contract(operator_outcomes(c))
@@ -137,7 +142,61 @@ def prove(
         proof.controllers[c.name] = result
         proof.graphs[c.name] = graph
     _compose(system, proof, place, hosts)
+    proof.findings += _late_order(system, skeletons, place)
     return proof
+
+
+def _below(system: ir.IRSystem, top: str) -> set[str]:
+    """`top` and every controller below it (stand-ins included)."""
+    children = {c.name: [s.name for s in c.subordinates] for c in system.controllers}
+    stand_in = {c.buffers: c.name for c in system.controllers if c.buffers != c.name}
+    found: set[str] = set()
+    todo = [top]
+    while todo:
+        at = todo.pop()
+        if at in found:
+            continue
+        found.add(at)
+        todo += children.get(at, [])
+        if at in stand_in:
+            todo.append(stand_in[at])
+    return found
+
+
+def _late_order(
+    system: ir.IRSystem, skeletons: dict[str, Skeleton], place: dict[str, tuple[str, int]]
+) -> list[Finding]:
+    """HALT reach as fast as the process split allows: within one process a supervisor
+    runs before its subordinates (command-first, docs/semantics.md section 9), so they read
+    its HALT in the cycle it sends it. A subordinate placed before it reads the HALT a cycle
+    later, and so does every leaf below it: W704, at the supervisor."""
+    found = []
+    for c in system.controllers:
+        if c.is_operator or c.name not in place:
+            continue
+        process, at = place[c.name]
+        for s in c.subordinates:
+            if s.name not in place or place[s.name] >= (process, at):
+                continue
+            if place[s.name][0] != process:
+                continue
+            sk = skeletons[c.name]
+            found.append(
+                Finding(
+                    "W704",
+                    c.name,
+                    "HALT",
+                    None,
+                    None,
+                    sk.spans.get("HALT", next(iter(sk.spans.values()))),
+                    f"HALT reach is violated: {s.name} runs before its supervisor {c.name} in "
+                    f"process {process}'s order (system.yaml), so it reads {c.name}'s HALT a "
+                    "cycle later than the process split allows, and so does every leaf below it",
+                    f"list {c.name} before {s.name} in `processes: {process}: modules:` "
+                    "(command-first)",
+                )
+            )
+    return found
 
 
 def _contracts_of(
@@ -175,6 +234,8 @@ def _check(
     finish, result.assumptions, result.stuck = props.finishing(graph, quiet)
     found += finish
     found += props.done_while_busy(graph, moving)
+    found += props.no_echo(graph, moving)
+    found += props.stale_done(graph, moving)
     for sub, (cycles, run) in props.halt_latency(graph).items():
         result.halt[sub] = cycles
         if cycles == INFINITE:
@@ -183,10 +244,14 @@ def _check(
         result.safe[field_name] = cycles
         if cycles == INFINITE:
             found.append(_unsafe_halt(sk, field_name, run))
-    for sub, (cycles, run) in props.error_latency(graph).items():
+    for sub, (cycles, _) in props.error_latency(graph).items():
         result.error[sub] = cycles
         if cycles == INFINITE:
-            found.append(_error_swallowed(sk, sub, run))
+            where: dict[tuple[str | None, str | None], Finding] = {}
+            for one in props.swallowed(graph, sub):
+                finding = _error_swallowed(sk, sub, one)
+                where.setdefault((finding.command, finding.state), finding)
+            found += where.values()
     return found
 
 
