@@ -71,8 +71,11 @@ def run_prove(
         for name, r in proof.controllers.items():
             lines.append(
                 f"  {name:<10} {r.states:>7} states {r.transitions:>8} transitions "
-                f"{r.seconds * 1000:>7.0f} ms" + ("" if r.complete else "  (too large: undecided)")
+                f"{r.seconds * 1000:>7.0f} ms ({r.cpu * 1000:.0f} ms CPU)"
+                + ("" if r.complete else "  (too large: undecided)")
             )
+        lines.append("  execution order (the HALT bounds below follow it):")
+        lines += [f"    {p.name}: {' > '.join(p.modules)}" for p in system.processes]
         lines += bounds_text(proof)
         for name, r in proof.controllers.items():
             for command, needs in r.assumptions.items():

@@ -639,19 +639,21 @@ def _reports_done(edge: Edge) -> bool:
     return edge.report == DONE
 
 
-def swallowed(graph: Graph, sub: str) -> list[list[tuple[Edge, State]]]:
-    """Per state of a command where `sub`'s ERROR may never make the controller report
-    ERROR: a run that shows it (one W705 each, so a second state that swallows it is not
-    hidden behind the first)."""
+def swallowed(graph: Graph, sub: str) -> list[tuple[str | None, str, list[tuple[Edge, State]]]]:
+    """Per state of a command in which `sub`'s ERROR may come and never make the
+    controller report ERROR: (command, state, a run that shows it) - one W705 each, so a
+    second state that swallows it is not hidden behind the first."""
     groups: dict[tuple[str | None, str], list[tuple[State, Edge, State]]] = {}
     for start in _error_starts(graph, sub):
         groups.setdefault((start[0].command, start[0].state), []).append(start)
-    runs = []
-    for _, starts in sorted(groups.items(), key=lambda kv: (kv[0][0] or "", kv[0][1])):
+    found = []
+    for (command, state), starts in sorted(
+        groups.items(), key=lambda kv: (kv[0][0] or "", kv[0][1])
+    ):
         cycles, run = _worst(graph, starts, _reports_error, _reports_done)
         if cycles == INFINITE:
-            runs.append(run)
-    return runs
+            found.append((command, state, run))
+    return found
 
 
 def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:

@@ -28,13 +28,14 @@ class ControllerResult:
     name: str
     states: int
     transitions: int
-    seconds: float
+    seconds: float  # wall clock
     complete: bool
     stuck: int = 0
     assumptions: dict[str, list[str]] = field(default_factory=dict)
     halt: dict[str, int] = field(default_factory=dict)  # sub -> cycle it gets HALT (1-based)
     safe: dict[str, int] = field(default_factory=dict)  # actuator -> cycle it is safe
     error: dict[str, int] = field(default_factory=dict)  # sub -> cycle ERROR is reported
+    cpu: float = 0.0  # CPU seconds of this process (the wall clock counts the others' load)
 
 
 @dataclass
@@ -118,7 +119,7 @@ def prove(
         if c.is_operator:
             contracts[c.name] = Contract(operator_outcomes(c))
             continue
-        began = time.perf_counter()
+        began, began_cpu = time.perf_counter(), time.process_time()
         graph = explore(Model(sk, _contracts_of(system, c, contracts), reaction), limit=limit)
         result = ControllerResult(
             c.name,
@@ -139,6 +140,7 @@ def prove(
                     continue
                 proof.findings.append(finding)
         result.seconds = time.perf_counter() - began
+        result.cpu = time.process_time() - began_cpu
         proof.controllers[c.name] = result
         proof.graphs[c.name] = graph
     _compose(system, proof, place, hosts)
@@ -248,9 +250,8 @@ def _check(
         result.error[sub] = cycles
         if cycles == INFINITE:
             where: dict[tuple[str | None, str | None], Finding] = {}
-            for one in props.swallowed(graph, sub):
-                finding = _error_swallowed(sk, sub, one)
-                where.setdefault((finding.command, finding.state), finding)
+            for command, state, one in props.swallowed(graph, sub):
+                where.setdefault((command, state), _error_swallowed(sk, sub, one, command, state))
             found += where.values()
     return found
 
@@ -291,11 +292,8 @@ def _unsafe_halt(sk: Skeleton, name: str, run: Run) -> Finding:
     )
 
 
-def _error_swallowed(sk: Skeleton, sub: str, run: Run) -> Finding:
-    waiting = [t for e, t in run if (sub, ERROR) in e.answers]
-    first = waiting[-1] if waiting else (run[0][1] if run else None)
-    command = first.command if first is not None else None
-    state = first.state if first is not None else None
+def _error_swallowed(sk: Skeleton, sub: str, run: Run, command: str | None, state: str) -> Finding:
+    """W705 at the state of `command` in which `sub`'s ERROR comes and is swallowed."""
     span = sk.state_spans.get((command or "", state or "")) or sk.spans.get(
         command or "", next(iter(sk.spans.values()))
     )
