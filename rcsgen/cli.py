@@ -948,10 +948,26 @@ def _write_or_print(text: str, output: Path | None) -> None:
     help="Write each counter-example as a scenario here [default: <system>/counterexamples/].",
 )
 @click.option("--no-replay", is_flag=True, help="Do not replay counter-examples (all undecided).")
+@click.option(
+    "--deploy",
+    "deploy_file",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="A deployment file of the one system given: the HALT and ERROR bounds count one "
+    "more cycle per host a command or a status crosses.",
+)
 @reporting
-def prove(paths: tuple[Path, ...], out: Path | None, no_replay: bool, opts: Options) -> None:
+def prove(
+    paths: tuple[Path, ...],
+    out: Path | None,
+    no_replay: bool,
+    deploy_file: Path | None,
+    opts: Options,
+) -> None:
     """Prove properties of the running hierarchy; print counter-examples as traces and
     scenarios (exit 1 on a violated property, with --strict also on an undecided one)."""
+    from .runtime.deploy import DeployError
+    from .runtime.deploy import load as load_deployment
     from .tools.prove_report import run_prove
 
     session = _Session(opts)
@@ -959,7 +975,20 @@ def prove(paths: tuple[Path, ...], out: Path | None, no_replay: bool, opts: Opti
     session.add(front.diagnostics)
     if session.fails:
         session.finish("prove failed: the specs do not build")
-    lines, diags, violated = run_prove(front, out, not no_replay)
+    hosts = None
+    if deploy_file is not None:
+        if len(front.systems) != 1:
+            fail(f"--deploy is the deployment of one system; the specs hold {len(front.systems)}")
+        system = front.systems[0]
+        try:
+            deployment = load_deployment(
+                str(deploy_file), system.name, [p.name for p in system.processes]
+            )
+        except DeployError as error:  # located, with its code (E430-E439), as `--deploy` runs
+            click.echo(str(error), err=True)
+            sys.exit(2)
+        hosts = {p: h.name for h in deployment.hosts.values() for p in h.processes}
+    lines, diags, violated = run_prove(front, out, not no_replay, hosts)
     session.add(diags)
     if opts.fmt == "text" and not opts.quiet:
         for line in lines:

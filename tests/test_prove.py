@@ -569,3 +569,27 @@ def test_a_subordinate_before_its_supervisor_in_the_order_is_w704(tmp_path):
     assert [(f.controller, f.command) for f in found] == [("top", "HALT")]
     assert "sub runs before its supervisor top" in found[0].message
     assert {b.leaf: b.cycles for b in result.proofs[0].halt} == {"sub": before["sub"] + 1}
+
+
+def test_a_deployment_adds_a_cycle_per_host_crossed(tmp_path):
+    """`rcsgen prove --deploy`: pp (pc2) on another host than pc1 reads vg's HALT one cycle
+    later again; a bad deployment file is its located error, exit 2."""
+    from click.testing import CliRunner
+
+    from rcsgen.cli import main
+
+    deploy = tmp_path / "deploy.json"
+    deploy.write_text(
+        '{"system": "miner", "hosts": {'
+        '"vehicle": {"processes": ["pc1"], "listen": ["tcp/192.0.2.10:7447"]},'
+        '"planner": {"processes": ["pc2"], "connect": ["tcp/192.0.2.10:7447"]}}}'
+    )
+    args = ["prove", str(SPECS / "miner"), "--no-replay"]
+    one = CliRunner().invoke(main, args)
+    two = CliRunner().invoke(main, [*args, "--deploy", str(deploy)])
+    assert one.exit_code == 0 and two.exit_code == 0, two.output
+    assert "pp       k=2 " in one.output and "pp       k=3 " in two.output
+    assert "tc       k=1 " in two.output  # on pc1 with its supervisors: no host crossed
+    deploy.write_text('{"system": "miner", "hosts": {"vehicle": {"processes": ["pc9"]}}}')
+    bad = CliRunner().invoke(main, [*args, "--deploy", str(deploy)])
+    assert bad.exit_code == 2 and "error[E43" in bad.output and "Traceback" not in bad.output

@@ -44,10 +44,11 @@ def bounds_text(proof: SystemProof) -> list[str]:
 
 
 def run_prove(
-    front: Frontend, out: Path | None, replay: bool
+    front: Frontend, out: Path | None, replay: bool, hosts: dict[str, str] | None = None
 ) -> tuple[list[str], Diagnostics, int]:
-    """Prove, replay, and report: (text lines, diagnostics, violated findings shown)."""
-    result = prove_front(front)
+    """Prove, replay, and report: (text lines, diagnostics, violated findings shown);
+    `hosts`: process -> host, from a deployment file (one more cycle per host crossed)."""
+    result = prove_front(front, hosts)
     proven, said = prove_handshake()
     first = diagnostics(result)
     acknowledged = {(d.span, d.code) for d in first.acknowledged}
