@@ -161,17 +161,9 @@ class Model:
         subordinates' answers with a contained loss or a recovery (each combination); each
         with or without a new command from above, then the controller's own cycle."""
         out: list[tuple[Edge, State]] = []
-        events: list[tuple[str | None, str | None]] = [(None, None)]  # (lost, recovered)
-        halts = []
         if s.latched:  # the operator's explicit reset, any cycle after a latch
             out += self._reset(s)
-        for process in self.lossy:
-            if process in s.lost:
-                events.append((None, process))
-            elif self.effects[process].safe_state:
-                halts.append(process)
-            elif self.effects[process].errors:
-                events.append((process, None))
+        events, halts = self._losses(s)
         options = []
         for index, (sent, view, _) in enumerate(s.subs):
             if view == EXECUTING and sent is not None and self.sub_process[index] not in s.lost:
@@ -190,6 +182,20 @@ class Model:
         for process in halts:  # last: the shortest runs show a loss only where it matters
             out += self._safe_state(s, process)
         return out
+
+    def _losses(self, s: State) -> tuple[list[tuple[str | None, str | None]], list[str]]:
+        """The environment's process events from `s`: (lost, recovered) pairs - none, a
+        contained loss, a recovery - and the losses that put it in its safe state."""
+        events: list[tuple[str | None, str | None]] = [(None, None)]
+        halts = []
+        for process in self.lossy:
+            if process in s.lost:
+                events.append((None, process))
+            elif self.effects[process].safe_state:
+                halts.append(process)
+            elif self.effects[process].errors:
+                events.append((process, None))
+        return events, halts
 
     def _safe_state(self, s: State, process: str) -> list[tuple[Edge, State]]:
         """`process` is lost and the runtime puts the controller in its safe state (HALT to
@@ -346,13 +352,9 @@ class Model:
                 new_subs = list(subs)
                 stale: tuple[str, ...] = ()
                 if table is not None and second.rule is not None:
-                    rule = table[second.rule]
-                    acts.act(rule, dict(local_fixed))
-                    if rule.report:
-                        acts.report, st2, stat2 = rule.report, NOP, rule.report
-                    elif rule.next_state is not None:
-                        st2 = rule.next_state
-                    stale = self._taken(rule, new_subs)
+                    st2, stat2, stale = self._fire(
+                        table[second.rule], acts, local_fixed, st, stat, new_subs
+                    )
                 for sub, cmd in acts.sends:
                     new_subs[self.sub_index[sub]] = (cmd, EXECUTING, True)
                 limit = self.sk.timers.get((command, st2), ()) if command else ()
@@ -381,6 +383,23 @@ class Model:
                 )
                 results.append((step, target))
         return results
+
+    def _fire(
+        self,
+        rule: RuleView,
+        acts: _Acts,
+        fixed: dict[Key, Any],
+        state: str,
+        status: str,
+        subs: list[tuple[str | None, str, bool]],
+    ) -> tuple[str, str, tuple[str, ...]]:
+        """The table rule that fires: its actions into `acts`; (state, status, stale DONEs)."""
+        acts.act(rule, dict(fixed))
+        if rule.report:
+            acts.report, state, status = rule.report, NOP, rule.report
+        elif rule.next_state is not None:
+            state = rule.next_state
+        return state, status, self._taken(rule, subs)
 
     def _taken(self, rule: RuleView, subs: list[tuple[str | None, str, bool]]) -> tuple[str, ...]:
         """A table rule fired reading these subordinates' DONE: each is taken (in `subs`).
