@@ -23,6 +23,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections import Counter
 from pathlib import Path
 
 from common import BENCH, machine, ns, ratio, verdict
@@ -44,6 +45,7 @@ PARTS = {
     "detection": ("bench_detection.py", [], ["--runs", "3"]),
     "failsafe": ("bench_failsafe.py", [], ["--runs", "3"]),
     "io": ("bench_io.py", ["--runs", "5"], ["--runs", "2"]),
+    "prove": ("bench_prove.py", [], ["--every", "6"]),
     "zenoh": (
         "bench_zenoh.py",
         [],
@@ -969,6 +971,88 @@ def section_failsafe(failsafe: dict) -> list[str]:
     return [*lines, ""]
 
 
+PROVE_WHOLE_MAX_S = 30.0  # `rcsgen prove specs/` on two cores (issue 23)
+PROVE_CONTROLLER_MAX_S = 1.0  # each supervisor
+
+
+def section_prove(prove: dict) -> list[str]:
+    whole = prove["whole"]
+    rows = prove["controllers"]
+    supervisors = [r for r in rows if r["subordinates"]]
+    worst = max(supervisors, key=lambda r: r["cpu_s"])
+    worst_wall = max(supervisors, key=lambda r: r["wall_s"])
+    ok = whole["cpu_s"] <= PROVE_WHOLE_MAX_S
+    lines = [
+        "## Prove: `rcsgen prove specs/`",
+        "",
+        "bench/bench_prove.py. The whole run is what a user types (counter-examples replayed, "
+        "written to a scratch directory); CPU is the child's user + system time, the wall "
+        "clock also counts what else the machine runs (see the load above).",
+        "",
+        f"- whole: {whole['wall_s']:.1f} s wall, {whole['cpu_s']:.1f} s CPU (exit "
+        f"{whole['exit']}); goal {PROVE_WHOLE_MAX_S:g} s: {'PASS' if ok else 'FAIL'}",
+        f"- slowest supervisor: {worst['system']} {worst['controller']}, "
+        f"{worst['cpu_s'] * 1000:.0f} ms CPU ({worst['states']} states); slowest on the wall "
+        f"clock {worst_wall['controller']} {worst_wall['wall_s'] * 1000:.0f} ms; goal "
+        f"{PROVE_CONTROLLER_MAX_S:g} s each: "
+        f"{'PASS' if worst['cpu_s'] <= PROVE_CONTROLLER_MAX_S else 'FAIL'} (CPU)",
+        "",
+        "| system | supervisor | subordinates | states | transitions | CPU ms | wall ms |",
+        "|---|---|---:|---:|---:|---:|---:|",
+    ]
+    for r in supervisors:
+        lines.append(
+            f"| {r['system']} | {r['controller']} | {r['subordinates']} | {r['states']} | "
+            f"{r['transitions']} | {r['cpu_s'] * 1000:.0f} | {r['wall_s'] * 1000:.0f} |"
+        )
+    seeds = prove["seeds"]
+    total = Counter()
+    for data in seeds["systems"].values():
+        for key, n in data["counts"].items():
+            total[key] += n
+    kinds = sorted({k.split(":")[0] for k in total})
+    verdicts = ("caught", "refused", "equivalent", "masked", "missed")
+    bugs = sum(n for k, n in total.items() if k.split(":")[1] in ("caught", "refused", "missed"))
+    found = sum(n for k, n in total.items() if k.split(":")[1] in ("caught", "refused"))
+    lines += [
+        "",
+        f"Seeded handshake bugs (rcsgen/tools/prove_seeds.py, every {seeds['every']}. seed of "
+        "each kind in each shipped system): *caught* by a new prove finding at the changed "
+        "controller, *refused* by the build's own checks, *equivalent* (no handshake bug: "
+        "the reason is listed), *masked* (the unchanged system already has that finding "
+        "there), *missed*. Catch rate over the bugs (caught + refused + missed): "
+        f"{found}/{bugs} = {100.0 * found / max(bugs, 1):.0f} %.",
+        "",
+        "| kind | " + " | ".join(verdicts) + " |",
+        "|---|" + "---:|" * len(verdicts),
+    ]
+    for kind in kinds:
+        lines.append(
+            f"| {kind} | " + " | ".join(str(total.get(f"{kind}:{v}", 0)) for v in verdicts) + " |"
+        )
+    for which in ("missed", "masked"):
+        for s in seeds[which]:
+            lines.append(
+                f"- {which}: {s['kind']} {s['where']}" + (f" ({s['why']})" if s["why"] else "")
+            )
+    miner = prove["miner"]
+    if miner:
+        lines += ["", "The miner's HALT bounds per leaf beside its execution order:", ""]
+        lines += [f"    {p}: {' > '.join(m)}" for p, m in miner["order"].items()]
+        lines += [
+            "",
+            "| from | leaf | k (cycle) | actuators safe by | via |",
+            "|---|---|---:|---|---|",
+        ]
+        for b in miner["halt"]:
+            safe = "-" if b["safe"] is None else b["safe"]
+            lines.append(
+                f"| {b['start']} | {b['leaf']} | {b['k'] if b['k'] is not None else 'never'} | "
+                f"{safe} | {' > '.join(b['path'])} |"
+            )
+    return [*lines, ""]
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true")
@@ -1041,6 +1125,8 @@ def main() -> int:
         lines += section_zenoh(results["zenoh"])
     if results.get("io"):
         lines += section_io(results["io"])
+    if results.get("prove"):
+        lines += section_prove(results["prove"])
     lines += section_cleanup(results, problems)
     args.out.write_text("\n".join(lines).rstrip() + "\n")
     print(f"wrote {args.out} in {time.perf_counter() - started:.0f} s", file=sys.stderr)

@@ -1,4 +1,5 @@
-"""Command line: `rcsgen validate | build | run | up | ctl | monitor | graph | doc | new | trace`.
+"""Command line: `rcsgen validate | build | run | up | ctl | monitor | graph | doc | new | trace
+| prove`.
 
 Each command parses its arguments, makes one call into the API (`rcsgen.api`) or a tool,
 and renders what came back; how a command ends (its exit code), reads the options it shares
@@ -15,6 +16,7 @@ from pathlib import Path
 import click
 
 from . import api
+from .cli_prove import prove
 from .cli_trace import trace_group
 from .compiler.back_end import write
 from .compiler.diagnostics import Diagnostics, SpecError
@@ -435,3 +437,4 @@ def new_controller(
 
 
 main.add_command(trace_group)  # rcsgen trace ...: rcsgen/cli_trace.py
+main.add_command(prove)  # rcsgen prove: rcsgen/cli_prove.py

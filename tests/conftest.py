@@ -69,6 +69,8 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_miner",
             "test_operator",
             "test_plans",
+            "test_prove",
+            "test_prove_seeds",
             "test_results_visible",
             "test_run",
             "test_runtime_safety",
@@ -101,7 +103,13 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
     ),
     "fuzz": (
         "random inputs, a few hundred here and many more under `make fuzz`",
-        ("test_differential", "test_expr", "test_fuzz", "test_scenario_fuzz"),
+        (
+            "test_differential",
+            "test_expr",
+            "test_fuzz",
+            "test_prove_differential",
+            "test_scenario_fuzz",
+        ),
     ),
     "suite": ("the suite's own machinery (`make mutate`)", ("test_mutation",)),
 }

@@ -70,6 +70,7 @@ class Topic(Enum):
     DEPLOYMENT = ("deployment files (`--deploy`)", "`rcsgen/runtime/operate/deploy.py`")
     ANALYSIS = ("static analysis of the tables", "`rcsgen/compiler/analysis/tables.py`")
     NAMES = ("names and text that reach generated code", "`rcsgen/compiler/checks/naming.py`")
+    PROVE = ("properties of the running hierarchy (`rcsgen prove`)", "`rcsgen/compiler/prove/`")
     SAFETY = (
         "fail safe: actuators' safe values and `on_lost` policies",
         "`rcsgen/compiler/checks/check.py`, `analysis/tables.py`",
@@ -323,6 +324,14 @@ _ALL = (
     warning("W511", Topic.ANALYSIS, "unneeded first_match", about="a state"),
     warning("W512", Topic.ANALYSIS, "rule that can never fire", about="a rule"),
     warning("W520", Topic.WORLD, "actuator without a HALT that stops it"),
+    warning("W701", Topic.PROVE, "no motion after ERROR", about="a rule"),
+    warning("W702", Topic.PROVE, "every command finishes", about="a state"),
+    warning("W703", Topic.PROVE, "no handshake deadlock", about="a state"),
+    warning("W704", Topic.PROVE, "HALT reach", about="a command"),
+    warning("W705", Topic.PROVE, "ERROR reaches the root", about="a state"),
+    warning("W706", Topic.PROVE, "latched stop", about="a rule"),
+    warning("W707", Topic.PROVE, "a stale DONE believed", about="a rule"),
+    warning("W708", Topic.PROVE, "the handshake: wait for the echo", about="a rule"),
     error("E601", Topic.NAMES, "invalid identifier"),
     error("E602", Topic.NAMES, "line break in a one-line text"),
     error("E801", Topic.SAFETY, "bad safe value of a world field"),
@@ -352,6 +361,9 @@ CODES: dict[str, Code] = {c.code: c for c in _ALL}
 WARNING_CODES = frozenset(c.code for c in _ALL if c.severity is Severity.WARNING)
 # The warnings a spec can acknowledge, each with what it is about (for W303's hint).
 ACKNOWLEDGEABLE = {c.code: c.about for c in _ALL if c.acknowledgeable}
+# The findings of `rcsgen prove` (rcsgen/compiler/prove/): acknowledged like the others, but
+# only `prove` reports them, so only `prove` says when an acknowledgement of one is unused.
+PROVE_CODES = {c.code: c.about for c in _ALL if c.topic is Topic.PROVE}
 
 
 def severity_of(code: str) -> Severity:

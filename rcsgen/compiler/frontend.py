@@ -33,6 +33,11 @@ class Frontend:
     systems: list[IRSystem] = field(default_factory=list)
     diagnostics: Diagnostics = field(default_factory=Diagnostics)
     directories: dict[str, Path] = field(default_factory=dict)  # system name -> its directory
+    # system name -> its model (system and controller specs): `prove` reads `allow:`,
+    # `actuator:` and `properties:` there, which the IR does not carry
+    models: dict[str, tuple[model.SystemSpec, list[model.ControllerSpec]]] = field(
+        default_factory=dict
+    )
 
 
 def real_path(path: Path) -> Path:
@@ -172,14 +177,18 @@ def _quiet(_: str) -> None:
 
 
 def load_system(
-    directory: Path, diags: Diagnostics, progress: Progress = _quiet
+    directory: Path,
+    diags: Diagnostics,
+    progress: Progress = _quiet,
+    models: dict[str, tuple[model.SystemSpec, list[model.ControllerSpec]]] | None = None,
 ) -> IRSystem | None:
-    """Load, schema-check, model and check one system directory."""
+    """Load, schema-check, model and check one system directory (its model kept in
+    `models`, when given, for the system that builds)."""
     first = len(diags.items)
     uses: list[fragments.Use] = []
     made: list[instances.Instance] = []
     try:
-        return _load_system(directory, diags, progress, uses, made)
+        return _load_system(directory, diags, progress, uses, made, models)
     finally:
         fragments.annotate(diags, uses, first)
         instances.annotate(diags, made, first)
@@ -212,6 +221,7 @@ def _load_system(
     progress: Progress,
     uses: list[fragments.Use],
     made: list[instances.Instance],
+    models: dict[str, tuple[model.SystemSpec, list[model.ControllerSpec]]] | None = None,
 ) -> IRSystem | None:
     progress(f"loading {display_path(directory)}")
     start, first = len(diags.errors), len(diags.items)
@@ -238,6 +248,8 @@ def _load_system(
         for c in controllers
     }
     sources[system.display] = source_path(system_path, directory)
+    if models is not None:
+        models[system.name] = (system, controllers)
     return lower_system(checked, sources)
 
 
@@ -369,7 +381,7 @@ def compile_paths(paths: list[Path], progress: Progress = _quiet) -> Frontend:
     out = Frontend()
     names: dict[str, Span] = {}
     for directory in find_system_dirs(paths, out.diagnostics):
-        system = load_system(directory, out.diagnostics, progress)
+        system = load_system(directory, out.diagnostics, progress, out.models)
         if system is None:
             continue
         out.systems.append(system)

@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from ..codes import ACKNOWLEDGEABLE, Severity
+from ..codes import ACKNOWLEDGEABLE, PROVE_CODES, Severity
 from ..diagnostics import Diagnostic, Diagnostics, known_names_hint
 from ..front_end.model import Allow, ControllerSpec
 
@@ -95,11 +95,17 @@ def check_allows(controllers: Iterable[ControllerSpec], diags: Diagnostics) -> N
 
 
 def apply(
-    controllers: Iterable[ControllerSpec], diags: Diagnostics, since: int, complete: bool
+    controllers: Iterable[ControllerSpec],
+    diags: Diagnostics,
+    since: int,
+    complete: bool,
+    checked: frozenset[str] | None = None,
 ) -> None:
     """Move the warnings from `diags.items[since:]` that an acknowledgement matches to
     `diags.acknowledged`. With `complete` (every check ran), an acknowledgement that matched
-    nothing is W303."""
+    nothing is W303 - of the codes in `checked` only (default: every code but `prove`'s)."""
+    if checked is None:
+        checked = frozenset(ACKNOWLEDGEABLE) - frozenset(PROVE_CODES)
     entries = [entry for spec in controllers for entry in _entries(spec)]
     if not entries:
         return
@@ -116,7 +122,7 @@ def apply(
     if not complete:
         return
     for entry in entries:
-        if entry.used or entry.allow.code.value not in ACKNOWLEDGEABLE:
+        if entry.used or entry.allow.code.value not in checked:
             continue
         code = entry.allow.code.value
         where = _where(entry)

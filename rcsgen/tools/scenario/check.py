@@ -417,6 +417,10 @@ class _Checker:
                 self.command(raw, event, run, where)
             if "answer" in raw:
                 self.answer(raw["answer"], event, self.span(raw, "answer"))
+            replies = raw.get("reply") or {}
+            for name, status in replies.items():
+                if self.module(name, key_span(replies, name, where), None, "reply to") is not None:
+                    event.replies[name] = str(status)
             world = raw.get("set") or {}
             for name, value in world.items():
                 span = key_span(world, name, where)

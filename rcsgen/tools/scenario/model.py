@@ -28,6 +28,7 @@ class Event:
     answer: tuple[str, str, str] | None = None  # (channel, DONE|ERROR, reason): `ctl answer`
     force: dict[str, Any] = field(default_factory=dict)  # world fields forced: `ctl force`
     unforce: list[str] = field(default_factory=list)  # world fields released: `ctl unforce`
+    replies: dict[str, str] = field(default_factory=dict)  # module -> DONE|ERROR, scripted
 
 
 @dataclass(frozen=True)

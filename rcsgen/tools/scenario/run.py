@@ -187,6 +187,8 @@ def _apply(harness: AnyHarness, event: Event) -> None:
     for name, value in event.force.items():  # as `ctl force`: its module keeps this value
         override.force(harness.layout, harness.buf, name, value, segment)
     harness.world.update(event.world)
+    for module, status in event.replies.items():
+        reply(harness, module, status)
     for module, mode in event.mode.items():
         harness.set_mode(module, **mode)
     if event.answer is not None:
@@ -207,6 +209,15 @@ def _apply(harness: AnyHarness, event: Event) -> None:
         # until the supervisor's next send, numbered after it (docs/semantics.md §12). The
         # supervisor's own memory is not touched: no running system could reach it.
         harness.command(module, name, **event.args)
+
+
+def reply(harness: AnyHarness, module: str, status: str) -> None:
+    """A scripted answer: `module`'s status buffer echoes the command it last received with
+    `status`; in one process the module takes it up as its own (so it does not echo that
+    command again), as a stand-in answering in its place would."""
+    harness.reply(module, status)
+    if isinstance(harness, Harness) and module in harness.modules:
+        harness.controller(module).resume()
 
 
 def run(

@@ -1,0 +1,393 @@
+"""Seeds: handshake bugs planted in a copy of a system, to measure whether `rcsgen prove`
+catches them (issue 23, item 6: trust the prover; tests/test_prove_seeds.py, bench/run.py).
+
+Five kinds, each enumerated over every place of a system's specs where it applies:
+
+- `drop-send`: one `send:` of a rule left out;
+- `drop-error-branch`: a rule that handles a subordinate's ERROR (`sub.status == ERROR` in
+  its guard) left out;
+- `swap-order`: a supervisor and a subordinate of it swapped in their process's execution
+  order (the subordinate then reads its commands a cycle late);
+- `forget-echo`: a wait for a subordinate's DONE (`sub.status == DONE`) that takes "not ERROR"
+  for done instead (`sub.status != ERROR`): it does not wait for the echo;
+- `remove-halt`: a controller's own HALT table left out (the default one, which sends HALT
+  below and sets no actuator, takes its place).
+
+A seed is *caught* when `prove` reports, at the controller it changed (for a swap: at the
+supervisor or in the system's HALT bounds), a finding the unchanged system does not have.
+The YAML is rewritten whole (comments are lost; what the compiler reads is kept).
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ..compiler import ir
+from ..compiler.prove import properties as props
+from ..compiler.prove.adapter import ERROR
+from ..compiler.prove.properties import Finding
+from ..compiler.prove.system import SystemProof, prove
+
+KINDS = ("drop-send", "drop-error-branch", "swap-order", "forget-echo", "remove-halt")
+
+
+@dataclass(frozen=True)
+class Seed:
+    kind: str
+    system: str  # the system's directory name
+    file: str  # the file it changes, in that directory
+    controller: str  # where prove must find it (for a swap: the supervisor)
+    command: str  # the command it changes ("" for a swap)
+    where: str  # what it changes, in words
+    text: str  # the file's new text
+
+    def plant(self, source: Path, target: Path) -> Path:
+        """A copy of the system directory `source` at `target`, with this seed in it."""
+        shutil.copytree(source, target, ignore=shutil.ignore_patterns("scenarios", "counter*"))
+        (target / self.file).write_text(self.text)
+        return target
+
+
+def _dump(data: dict[str, Any]) -> str:
+    return yaml.safe_dump(data, sort_keys=False, allow_unicode=True, width=100)
+
+
+def _load(path: Path) -> Any:
+    return yaml.safe_load(path.read_text())
+
+
+def _rules(spec: dict[str, Any]) -> Iterator[tuple[str, str, int, dict[str, Any]]]:
+    """(command, state, index, rule) of every rule written in a controller's tables (a
+    fragment's use is not a rule of its own)."""
+    for command, body in (spec.get("commands") or {}).items():
+        if not isinstance(body, dict):
+            continue
+        for state, rules in (body.get("states") or {}).items():
+            for index, rule in enumerate(rules or []):
+                if isinstance(rule, dict) and "use" not in rule:
+                    yield str(command), str(state), index, rule
+
+
+def _actions(rule: dict[str, Any]) -> list[Any]:
+    do = rule.get("do")
+    return list(do) if isinstance(do, list) else []
+
+
+def _send_of(action: Any) -> str | None:
+    if isinstance(action, dict) and "send" in action:
+        return str(action["send"])
+    return None
+
+
+def seeds(directory: Path) -> list[Seed]:
+    """Every seed of every kind the system in `directory` admits, in a stable order."""
+    found: list[Seed] = []
+    system = directory.name
+    specs: dict[str, tuple[Path, dict[str, Any]]] = {}
+    for path in sorted(directory.glob("*.yaml")):
+        data = _load(path)
+        if isinstance(data, dict) and "controller" in data:
+            specs[str(data["controller"])] = (path, data)
+    for name, (path, spec) in specs.items():
+        subs = [
+            str(s if isinstance(s, str) else next(iter(s))) for s in spec.get("subordinates") or []
+        ]
+        status = re.compile(
+            r"\b(" + "|".join(map(re.escape, subs)) + r")\.status\s*==\s*(DONE|ERROR)\b"
+        )
+        for command, state, index, rule in _rules(spec):
+            at = f"{name} {command}/{state}/{index + 1}"
+            for i, action in enumerate(_actions(rule)):
+                sent = _send_of(action)
+                if sent is None:
+                    continue
+                changed = _copy(spec)
+                target = changed["commands"][command]["states"][state][index]
+                del target["do"][i]
+                if not target["do"]:
+                    del target["do"]
+                found.append(
+                    Seed(
+                        "drop-send",
+                        system,
+                        path.name,
+                        name,
+                        command,
+                        f"{at}: send {sent} left out",
+                        _dump(changed),
+                    )
+                )
+            guard = str(rule.get("when", ""))
+            if subs and any(m.group(2) == "ERROR" for m in status.finditer(guard)):
+                changed = _copy(spec)
+                del changed["commands"][command]["states"][state][index]
+                found.append(
+                    Seed(
+                        "drop-error-branch",
+                        system,
+                        path.name,
+                        name,
+                        command,
+                        f"{at}: the ERROR branch `{guard}` left out",
+                        _dump(changed),
+                    )
+                )
+            for m in status.finditer(guard) if subs else ():
+                if m.group(2) != "DONE":
+                    continue
+                changed = _copy(spec)
+                new = guard[: m.start()] + f"{m.group(1)}.status != ERROR" + guard[m.end() :]
+                changed["commands"][command]["states"][state][index]["when"] = new
+                found.append(
+                    Seed(
+                        "forget-echo",
+                        system,
+                        path.name,
+                        name,
+                        command,
+                        f"{at}: `{m.group(0)}` read as `{m.group(1)}.status != ERROR`",
+                        _dump(changed),
+                    )
+                )
+        if "HALT" in (spec.get("commands") or {}):
+            changed = _copy(spec)
+            del changed["commands"]["HALT"]
+            found.append(
+                Seed(
+                    "remove-halt",
+                    system,
+                    path.name,
+                    name,
+                    "HALT",
+                    f"{name}: its HALT table left out",
+                    _dump(changed),
+                )
+            )
+    found += _swaps(directory, specs)
+    return found
+
+
+def _swaps(directory: Path, specs: dict[str, tuple[Path, dict[str, Any]]]) -> list[Seed]:
+    path = directory / "system.yaml"
+    system = _load(path)
+    found = []
+    for process, body in (system.get("processes") or {}).items():
+        modules = [str(m) for m in body.get("modules") or []]
+        for a, sup in enumerate(modules):
+            subs = specs.get(sup, (None, {}))[1].get("subordinates") or []
+            for sub in (str(s if isinstance(s, str) else next(iter(s))) for s in subs):
+                if sub not in modules:
+                    continue
+                b = modules.index(sub)
+                changed = _copy(system)
+                order = list(modules)
+                order[a], order[b] = order[b], order[a]
+                changed["processes"][process]["modules"] = order
+                found.append(
+                    Seed(
+                        "swap-order",
+                        directory.name,
+                        "system.yaml",
+                        sup,
+                        "",
+                        f"{process}: {sup} and {sub} swapped",
+                        _dump(changed),
+                    )
+                )
+    return found
+
+
+def _copy(data: Any) -> Any:
+    return yaml.safe_load(yaml.safe_dump(data))
+
+
+def equivalent(seed: Seed, spec: dict[str, Any], proof: SystemProof, system: ir.IRSystem) -> str:
+    """Why a seed is no handshake bug ('' when it is one), from the unchanged system's
+    spec (`spec`: the seed's controller file as loaded) and proof:
+
+    - `forget-echo` in a rule that sends that subordinate a new command: the new command
+      replaces the running one (an RCS command always may), so not waiting for that echo is
+      the design, not a slip;
+    - `drop-error-branch` where another rule of the same state also handles that
+      subordinate's ERROR (the model does not tell reasons apart, so it cannot tell which
+      branch an ERROR takes), or where the subordinate cannot end any command it is sent
+      with ERROR (its proven contract: nothing to handle);
+    - `remove-halt` of a HALT table that sets no actuator: the default table that takes its
+      place halts every subordinate and waits, which is at least as safe.
+    """
+    if seed.kind == "forget-echo":
+        return _echo_replaced(seed, spec)
+    if seed.kind == "drop-error-branch":
+        return _error_handled_elsewhere(seed, spec, proof, system)
+    if seed.kind == "remove-halt":
+        return _halt_sets_no_actuator(spec, system)
+    return ""
+
+
+def _echo_replaced(seed: Seed, spec: dict[str, Any]) -> str:
+    command, state, index, sub = _rule_at(seed)
+    rule = spec["commands"][command]["states"][state][index]
+    if any((_send_of(a) or "").split(".")[0] == sub for a in _actions(rule)):
+        return f"the rule sends {sub} a new command, which replaces the running one"
+    return ""
+
+
+def _error_handled_elsewhere(
+    seed: Seed, spec: dict[str, Any], proof: SystemProof, system: ir.IRSystem
+) -> str:
+    command, state, index, _ = _rule_at(seed)
+    rules = spec["commands"][command]["states"][state]
+    guard = str(rules[index].get("when", ""))
+    whys = []
+    for sub in sorted(set(re.findall(r"\b(\w+)\.status\s*==\s*ERROR\b", guard))):
+        why = _handled(seed, spec, proof, system, sub, rules, index, state)
+        if not why:
+            return ""
+        whys.append(why)
+    return "; ".join(whys)
+
+
+def _halt_sets_no_actuator(spec: dict[str, Any], system: ir.IRSystem) -> str:
+    actuators = {f.name for f in system.world if f.actuator}
+    halt = spec["commands"]["HALT"]
+    sets = {
+        str(k).removeprefix("world.")
+        for rules in (halt.get("states") or {}).values()
+        for r in rules or []
+        for a in _actions(r)
+        if isinstance(a, dict) and isinstance(a.get("set"), dict)
+        for k in a["set"]
+    }
+    if not sets & actuators:
+        return "its HALT sets no actuator: the default HALT table is at least as safe"
+    return ""
+
+
+def _handled(
+    seed: Seed,
+    spec: dict[str, Any],
+    proof: SystemProof,
+    system: ir.IRSystem,
+    sub: str,
+    rules: list[dict[str, Any]],
+    index: int,
+    state: str,
+) -> str:
+    """Why `sub`'s ERROR needs no branch `index` of `state` ('' when it does)."""
+    error = re.compile(rf"\b{re.escape(sub)}\.status\s*==\s*ERROR\b")
+    others = [
+        i + 1 for i, r in enumerate(rules) if i != index and error.search(str(r.get("when", "")))
+    ]
+    if others:
+        return f"rule {others[0]} of {state} handles {sub}'s ERROR too"
+    c = system.controller(seed.controller)
+    mine, graph = proof.graphs.get(seed.controller), proof.graphs.get(sub)
+    if mine is None or graph is None or sub not in mine.skeleton.subs:
+        return ""
+    if any(s.echo_cycles for s in c.subordinates if s.name == sub):
+        return ""  # no echo in time reads as ERROR
+    at = mine.skeleton.subs.index(sub)
+    command = seed.command
+    running = {
+        sent
+        for s in mine.edges
+        if s.command == command and s.state == state and (sent := s.subs[at][0]) is not None
+    }
+    ends = props.outcomes(graph)
+    if not running or any(ERROR in ends.get(cmd, (ERROR,)) for cmd in running):
+        return ""
+    return f"{sub} cannot end {', '.join(sorted(running))} with ERROR (its proven contract)"
+
+
+def _rule_at(seed: Seed) -> tuple[str, str, int, str]:
+    """(command, state, 0-based index, subordinate) a rule seed names in `where`."""
+    head, _, rest = seed.where.partition(": ")
+    command, state, number = head.split(" ", 1)[1].split("/")
+    sub = re.search(r"\b(\w+)\.status", rest)
+    return command, state, int(number) - 1, sub.group(1) if sub else ""
+
+
+def _key(f: Finding) -> tuple[str, str, str | None, str | None, int | None]:
+    return (f.code, f.controller, f.command, f.state, f.rule)
+
+
+def caught(seed: Seed, before: SystemProof, after: SystemProof) -> list[Finding]:
+    """The findings that catch `seed`: at the controller it changed, not found in the
+    unchanged system (each finding is told apart by code, command, state and rule)."""
+    old = {_key(f) for f in before.findings}
+    return [f for f in after.findings if f.controller == seed.controller and _key(f) not in old]
+
+
+# The findings each kind of seed is expected to cause.
+EXPECTED = {
+    "drop-send": ("W702", "W703", "W704", "W707"),
+    "drop-error-branch": ("W702", "W703", "W705"),
+    "swap-order": ("W704",),
+    "forget-echo": ("W708",),
+    "remove-halt": ("W704",),
+}
+
+
+def _masked(seed: Seed, before: SystemProof) -> str:
+    """The unchanged system's finding at the seed's place that the seed would cause too
+    (so it cannot show as new): '' when there is none."""
+    state = _rule_at(seed)[1] if seed.kind in ("drop-error-branch", "forget-echo") else None
+    for f in before.findings:
+        if f.controller != seed.controller or f.code not in EXPECTED[seed.kind]:
+            continue
+        if f.command == seed.command and state in (None, f.state):
+            return (
+                f"the unchanged system already has {f.code} at {f.controller} {f.command} {f.state}"
+            )
+    return ""
+
+
+@dataclass
+class Outcome:
+    seed: Seed
+    # "caught", "refused" (the build's own checks), "equivalent", "masked", "missed"
+    verdict: str
+    why: str  # the finding that caught it, the build's error, or why it is equivalent
+
+
+def trial(directory: Path, work: Path, every: int = 1) -> list[Outcome]:
+    """Plant each seed of the system in `directory` (every `every`-th of each kind, in
+    order: a sample) in a copy under `work`, and prove it: whether prove catches it."""
+    from ..compiler.frontend import compile_paths
+
+    front = compile_paths([directory])
+    assert not front.diagnostics.errors, "the unchanged system must build"
+    system = front.systems[0]
+    before = prove(system)
+    loaded = {p.name: _load(p) for p in directory.glob("*.yaml")}
+    out = []
+    chosen: dict[str, int] = {}
+    for n, seed in enumerate(seeds(directory)):
+        chosen[seed.kind] = chosen.get(seed.kind, -1) + 1
+        if chosen[seed.kind] % every:
+            continue
+        why = equivalent(seed, loaded[seed.file], before, system)
+        if why:
+            out.append(Outcome(seed, "equivalent", why))
+            continue
+        planted = seed.plant(directory, work / f"{n}" / directory.name)
+        mutant = compile_paths([planted])
+        if mutant.diagnostics.errors:
+            out.append(Outcome(seed, "refused", mutant.diagnostics.errors[0].code))
+        else:
+            found = caught(seed, before, prove(mutant.systems[0], only=seed.controller))
+            if found:
+                out.append(Outcome(seed, "caught", f"{found[0].code} {found[0].message}"))
+            elif masked := _masked(seed, before):
+                out.append(Outcome(seed, "masked", masked))
+            else:
+                out.append(Outcome(seed, "missed", ""))
+        shutil.rmtree(work / f"{n}")
+    return out

@@ -1,0 +1,77 @@
+"""Trust the prover: handshake bugs seeded into copies of every shipped system are caught
+(rcsgen/tools/prove_seeds.py; the whole enumeration runs in `make bench`, part "prove").
+
+A sample (every n-th seed of each kind, in each system) keeps the suite lean. Each seed
+is caught by a new finding at the controller it changed, refused by the build, or is no
+handshake bug (with its reason) or masked (the unchanged system already has that finding
+there). The seeds still missed are listed below with why; a miss not listed fails.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from rcsgen.tools.prove_seeds import KINDS, Seed, seeds, trial
+
+SPECS = Path(__file__).resolve().parents[1] / "specs"
+SAMPLE = {"inspection": 5, "miner": 10, "submarine": 5}  # every n-th seed of each kind
+
+# Seeds prove does not catch, each with why (docs/decisions.md, "what a seeded bug is").
+KNOWN_MISSES = {
+    # helm orders the rudder without waiting for it (it re-orders as the course changes): a
+    # steering order left out breaks no handshake property, only the steering
+    "helm ICE_MANEUVER/S1/1: send rudder.GOTO_ANGLE left out",
+    "helm ICE_MANEUVER/S1/2: send rudder.GOTO_ANGLE left out",
+    "helm ICE_MANEUVER/S1/3: send rudder.GOTO_ANGLE left out",
+    "helm ICE_MANEUVER/S2/3: send rudder.GOTO_ANGLE left out",
+    # the next state waits on a DONE of a command sent earlier and never awaited: the wait
+    # is not stale by the model's account (nothing went on on that DONE before)
+    "cc RUN_MISSION/TRANSIT/1: send sm.PREP_EMERGENCY_VENT left out",
+    "cc RUN_MISSION/PREP_VENT/1: send ec.EMERGENCY_VENT left out",
+    # withdrawing a sibling after an ERROR: without the HALT, the command waits for the
+    # sibling to finish and then reports ERROR - slower, no handshake broken
+    "ws INIT_FOR_INSPECT/S1/1: send ms.HALT left out",
+    "ws INIT_FOR_INSPECT/S1/2: send fx.HALT left out",
+    "ws INSPECT_PART/S1/1: send ms.HALT left out",
+    "ws INSPECT_PART/S1/2: send fx.HALT left out",
+}
+
+
+def test_every_kind_of_seed_is_planted_in_the_shipped_systems():
+    found: dict[str, list[Seed]] = {}
+    for system in ("inspection", "miner", "submarine"):
+        for seed in seeds(SPECS / system):
+            found.setdefault(seed.kind, []).append(seed)
+    assert set(found) == set(KINDS)
+    swaps = {s.where for s in found["swap-order"]}
+    assert "pc1: co and cc swapped" in swaps  # a supervisor and its subordinate, one process
+    assert all(
+        s.text != (SPECS / s.system / s.file).read_text() for ss in found.values() for s in ss
+    )
+
+
+MINER_GAP = pytest.mark.xfail(
+    strict=True,
+    reason="not yet caught on the miner (26 of 211 seeds, full run): a HALT to a sibling or "
+    "below left out where the next wait reads the old command's echo (sb's co.HALT), and a wait "
+    "for a HALT's echo read as 'not ERROR' (sb STOPPING/HALTING, vg STOPPING, co S3/S4)",
+)
+
+
+@pytest.mark.parametrize(
+    "system", ["inspection", pytest.param("miner", marks=MINER_GAP), "submarine"]
+)
+def test_seeded_handshake_bugs_are_caught(tmp_path, system):
+    outcomes = trial(SPECS / system, tmp_path, every=SAMPLE[system])
+    missed = {o.seed.where for o in outcomes if o.verdict == "missed"}
+    assert missed <= KNOWN_MISSES, sorted(missed - KNOWN_MISSES)
+    caught = [o for o in outcomes if o.verdict == "caught"]
+    assert len(caught) >= len(outcomes) // 2, [(o.seed.where, o.verdict) for o in outcomes]
+    for o in outcomes:
+        if o.verdict in ("equivalent", "masked", "refused"):
+            assert o.why, o.seed.where  # each says why
+        if o.seed.kind == "swap-order":  # by a property, not by a changed bound alone
+            assert o.verdict == "caught" and o.why.startswith("W704"), o
+            assert "runs before its supervisor" in o.why
