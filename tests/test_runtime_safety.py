@@ -14,6 +14,7 @@ loss lead's own rules handle: on_lost: continue). Nothing here starts a process 
 from __future__ import annotations
 
 import importlib
+import os
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
@@ -1466,3 +1467,22 @@ def test_a_latch_rewrites_a_value_a_racing_writer_changed_and_refuses_a_non_actu
         override.OverrideError, match="^mode is not an actuator: it has no safe value$"
     ):
         override.latch_safe(layout, buf, ["mode"])
+
+
+def test_an_empty_segment_is_refused_on_attach_and_can_be_removed(package: ModuleType) -> None:
+    """A segment file of size 0 (its creator has not sized it yet, or died first): attaching
+    is one BlockError saying so, not mmap's ValueError; `unlink` removes it."""
+    layout, blocks = part(package, "layout"), part(package, "rcs.block")
+    name = f"rcsgen_empty_{os.getpid()}"
+    path = f"/dev/shm/{name}"
+    with open(path, "wb"):
+        pass
+    try:
+        with pytest.raises(blocks.BlockError, match=f"segment '{name}' is empty: being created"):
+            blocks.Block(layout, name, create=False)
+        assert blocks.unlink(name) is True
+        assert not os.path.exists(path)
+        assert blocks.unlink(name) is False
+    finally:
+        if os.path.exists(path):
+            os.remove(path)

@@ -66,6 +66,11 @@ class Block:
                 raise BlockError(
                     f"no shared-memory segment {name!r}: is the system running?"
                 ) from None
+            except ValueError:  # an empty file: its creator has not sized it yet, or died
+                raise BlockError(
+                    f"shared-memory segment {name!r} is empty: being created (try again), or "
+                    f"left by a run that died before sizing it (remove /dev/shm/{name})"
+                ) from None
         assert self.shm.buf is not None  # None only once closed
         self.buf = self.shm.buf
         if create:
@@ -202,6 +207,12 @@ def unlink(name: str) -> bool:
         segment = _untracked(shared_memory.SharedMemory, name, 0)
     except FileNotFoundError:
         return False
+    except ValueError:  # empty: its creator died before sizing it; remove the file itself
+        try:
+            os.remove(_path(name))
+        except FileNotFoundError:
+            return False
+        return True
     segment.close()
     with _no_tracker():
         try:
