@@ -25,6 +25,9 @@ from rcsgen.tools.harness import generate, import_package
 
 REPO = Path(__file__).resolve().parent.parent
 DUO = REPO / "tests" / "fixtures" / "runtime" / "duo"
+RIG = REPO / "tests" / "fixtures" / "runtime" / "rig"  # declares a Modbus and an OPC UA device
+# the fieldbus links: copied only into a package whose system declares such a device
+LINKS = {"io_modbus": "pymodbus", "io_opcua": "asyncua"}
 RECORD_TYPES = {("contract", "Record"), ("loop", "ProcessPlan"), ("operate.command", "Command")}
 
 
@@ -35,6 +38,13 @@ def package() -> Iterator[ModuleType]:
     shutil.rmtree(scratch, ignore_errors=True)
 
 
+@pytest.fixture(scope="module")
+def rig() -> Iterator[ModuleType]:
+    scratch, name = generate(RIG)
+    yield import_package(scratch / name, RIG)
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
 def runtime_modules() -> list[str]:
     """Every module of the runtime, its folders' too (`loop`, `operate.ctl`)."""
     prefix = "rcsgen.runtime."
@@ -42,13 +52,18 @@ def runtime_modules() -> list[str]:
     return sorted(m.name.removeprefix(prefix) for m in found if not m.ispkg)
 
 
-def test_every_exception_and_record_type_is_one_class_in_both_copies(package: ModuleType) -> None:
+def test_every_exception_and_record_type_is_one_class_in_both_copies(
+    package: ModuleType, rig: ModuleType
+) -> None:
     checked = []
     for name in runtime_modules():
         if name == "zenoh_transport":
             pytest.importorskip("zenoh")
+        if name in LINKS:
+            pytest.importorskip(LINKS[name])
         ours = importlib.import_module(f"rcsgen.runtime.{name}")
-        theirs = importlib.import_module(f"{package.__name__}.rcs.{name}")
+        copy = rig if name in LINKS else package
+        theirs = importlib.import_module(f"{copy.__name__}.rcs.{name}")
         for cls_name, cls in vars(ours).items():
             if not inspect.isclass(cls) or not cls.__module__.endswith(f".{name}"):
                 continue  # not a class, or one imported from another module

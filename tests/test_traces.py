@@ -182,7 +182,7 @@ def test_coverage_counts_every_table_rule_of_the_miner(system):
     rules = {(r.module, r.rule): r for r in result.rules}
     pop = rules[("co", "SUMP_SHEAR_CUSP/S2/1")]
     assert pop.cycles == 1 and pop.traces == [str(GOLDEN / "pop_out.jsonl")]
-    assert pop.where.endswith("specs/miner/co.yaml:203")
+    assert pop.where.endswith("specs/miner/co.yaml:216")
     assert rules[("co", "SUMP_SHEAR_CUSP/S2/2")].traces == [
         str(GOLDEN / "late_tail.jsonl"),
         str(GOLDEN / "shuttle_car.jsonl"),
