@@ -26,7 +26,7 @@ from typing import Any
 
 import pytest
 from conftest import wait_for
-from support.running import segment_names
+from support.running import attached, segment_names
 
 from rcsgen.tools.harness import Harness, generate, import_package
 
@@ -657,15 +657,7 @@ def test_the_miner_s_pc2_resumes_after_a_restart_and_mines_again_when_commanded(
 def attach_when_made(package: ModuleType, layout: Any, segment: str) -> Any:
     """Attach to a segment another process is creating: its file exists a moment before its
     header is written, and an attach in between is (rightly) refused as not an rcsgen block."""
-    block_module = runtime(package, "rcs.block")
-
-    def attached() -> Any:
-        try:
-            return block_module.Block(layout, segment, create=False)
-        except (FileNotFoundError, block_module.BlockError):
-            return None
-
-    return wait_for(attached, "the segment made")
+    return wait_for(attached(runtime(package, "rcs.block"), layout, segment), "the segment made")
 
 
 def test_a_killed_pc1_ends_the_operator_s_mission_with_the_reason(

@@ -21,6 +21,7 @@ from types import ModuleType
 
 import pytest
 from conftest import wait_for
+from support.running import attached
 
 from rcsgen.tools.harness import import_package
 from rcsgen.tools.scenario import load_scenario, open_harness, read_trace, run
@@ -435,8 +436,7 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
     pc1's control record and vg goes to its safe state; pc2 continued re-joins; pc2 killed
     is lost again. Afterwards nothing is left behind."""
     layout = rcs(miner, "layout")
-    Block = rcs(miner, "rcs.block").Block
-    BlockError = rcs(miner, "rcs.block").BlockError
+    blocks = rcs(miner, "rcs.block")
     contract = rcs(miner, "rcs.contract")
     hosts = two_hosts["hosts"]
     segments = two_hosts["segments"]
@@ -444,13 +444,7 @@ def test_two_hosts_exchange_buffers_and_a_lost_host_puts_its_dependants_in_safe_
     before = shm_files()
 
     def attach(name: str) -> object:
-        def tries() -> object:
-            try:
-                return Block(layout, segments[name], create=False)
-            except BlockError:
-                return None
-
-        return wait_for(tries, f"{name}'s segment")
+        return wait_for(attached(blocks, layout, segments[name]), f"{name}'s segment")
 
     pc1, pc2 = attach("pc1"), attach("pc2")
     try:
@@ -527,13 +521,7 @@ def test_a_latch_or_force_made_on_any_host_holds_on_the_host_that_writes_the_act
     safe = {f: ("SAFE", v) for f, v in layout.SAFE_VALUES.items()}
 
     def attach(name: str) -> object:
-        def tries() -> object:
-            try:
-                return block_module.Block(layout, segments[name], create=False)
-            except block_module.BlockError:
-                return None
-
-        return wait_for(tries, f"{name}'s segment")
+        return wait_for(attached(block_module, layout, segments[name]), f"{name}'s segment")
 
     def world(block: object, field: str) -> object:
         return layout.WORLD[field].read(block.buf)[field]
@@ -716,13 +704,7 @@ def test_a_cut_link_is_detected_contained_and_mended(
     before = shm_files()
 
     def attach(name: str) -> object:
-        def tries() -> object:
-            try:
-                return block_module.Block(layout, segments[name], create=False)
-            except block_module.BlockError:
-                return None
-
-        return wait_for(tries, f"{name}'s segment")
+        return wait_for(attached(block_module, layout, segments[name]), f"{name}'s segment")
 
     pc1, pc2 = attach("pc1"), attach("pc2")
     lost_bit = 1 << list(layout.PROCESSES).index("pc2")

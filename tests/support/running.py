@@ -52,3 +52,17 @@ def children(parent: int | None = None) -> list[str]:
             except OSError:
                 continue
     return [command for command in found if command]
+
+
+def attached(block_module: Any, layout: Any, name: str) -> Callable[[], Any]:
+    """A try at attaching to segment `name` another process is creating (for `wait_for`):
+    the Block, or None while it is refused - no file yet, or not yet sized and headed (an
+    attach in between is rightly refused as no rcsgen block)."""
+
+    def tries() -> Any:
+        try:
+            return block_module.Block(layout, name, create=False)
+        except (FileNotFoundError, block_module.BlockError):
+            return None
+
+    return tries
