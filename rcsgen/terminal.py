@@ -516,6 +516,8 @@ def run_summary(
     for name, value in result.figures.items():
         figure = f"{value:.3f}" if isinstance(value, float) else str(value)
         yield f"{name.replace('_', ' '):<9} {figure}"
+    for line in result.device_checks:  # a run against soft PLCs: each fault's safe state
+        yield f"device    {line}"
     slowest = sorted(result.max_cycle_ns.items(), key=lambda item: -item[1])
     yield "max cycle time per module (us):"
     for row in range(0, len(slowest), 6):

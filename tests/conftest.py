@@ -92,6 +92,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_access",
             "test_failsafe",
             "test_io",
+            "test_io_scenario",
             "test_platoon",
             "test_monitor",
             "test_operate",

@@ -199,3 +199,53 @@ def test_validate_checks_every_scenario_of_a_system(tiny: Path) -> None:
 
 def test_the_miners_scenarios_validate_and_meet_their_expectations() -> None:
     assert rcsgen("validate", MINER, "--strict").exit_code == 0
+
+
+def test_device_faults_name_a_served_device_of_the_system_in_order(
+    tiny: Path, tmp_path: Path
+) -> None:
+    """E426: a device the system does not declare (a system without `io:` has none), a
+    plant that is not a spec directory, a fault to a device the scenario does not serve,
+    faults out of order (a replug of a device that is up, a second freeze); each at its
+    line, before anything starts (tests/test_io_scenario.py runs the faults)."""
+    (tiny / "scenarios" / "plc.yaml").write_text("scenario: plc\ndevices: {plc: {}}\n")
+    result = rcsgen("validate", "sys")
+    assert "sys/scenarios/plc.yaml:2:11: error[E426]: `tiny` declares no I/O: it has no " in (
+        result.output
+    ), result.output
+
+    hil = tmp_path / "hil"
+    shutil.copytree(REPO / "specs" / "miner_hil", hil, ignore=shutil.ignore_patterns("scenarios"))
+    (hil / "scenarios").mkdir()
+    (hil / "scenarios" / "faults.yaml").write_text(
+        "scenario: faults\n"
+        "devices:\n"
+        "  plx: {}\n"
+        "  plc: {plant: ../miner}\n"  # no ../miner next to this copy
+        "events:\n"
+        "  - cycle: 2\n"
+        "    device: {name: plc, do: replug}\n"
+        "  - cycle: 3\n"
+        "    device: {name: plc, do: freeze}\n"
+        "  - cycle: 4\n"
+        "    device: {name: plc, do: freeze}\n"
+    )
+    result = rcsgen("validate", "hil")
+    assert result.exit_code == 1
+    out = result.output
+    assert "hil/scenarios/faults.yaml:3:3: error[E426]: `miner_hil` has no I/O device `plx`" in out
+    assert "did you mean `plc`?" in out
+    assert "faults.yaml:4:16: error[E426]: plant `../miner` of device `plc` is not a spec " in out
+    # the plant refused, plc is not served: its faults say so (the first; the others alike)
+    assert "faults.yaml:7:13: error[E426]: device `plc` is not served by this scenario" in out
+
+    (hil / "scenarios" / "faults.yaml").write_text(
+        (hil / "scenarios" / "faults.yaml")
+        .read_text()
+        .replace("  plx: {}\n", "")
+        .replace("{plant: ../miner}", "{}")
+    )
+    out = rcsgen("validate", "hil").output
+    assert "faults.yaml:6:13: error[E426]: cannot replug device `plc` here: it is up" in out
+    assert "faults.yaml:10:13: error[E426]: cannot freeze device `plc` here: it is frozen" in out
+    assert out.count("E426") == 2, out

@@ -29,11 +29,18 @@ from ...compiler.types import BOOL, INT, Bool, Enum, ReasonOf, Str, Type
 from ...runtime.operate.command import value_problem
 from ..traces.read import whole_system
 from .model import (
+    DEVICE_ACTIONS,
+    FREEZE,
+    REPLUG,
+    THAW,
+    UNPLUG,
+    DeviceFault,
     Event,
     Expected,
     OperatorScript,
     Scenario,
     ScriptedAnswer,
+    SoftPlc,
     find_system_dir,
 )
 
@@ -249,6 +256,7 @@ class _Checker:
         for index, name in enumerate(report.get("figures") or []):
             self.figure(name, self.span(report["figures"], index), run, "report figure")
         expected = self.expectations(stop, run)
+        self.served = self.devices(system_dir)
         events = self.events(run, max_cycles)
         script = self.operator_script() if "operator" in data else None
         settings = {
@@ -272,6 +280,7 @@ class _Checker:
             figures=[str(f) for f in report.get("figures") or []],
             expect=expected,
             operator=script,
+            devices=self.served,
         )
 
     def settings(self, given: Any) -> None:
@@ -429,12 +438,96 @@ class _Checker:
                     self.value(value, kind, self.span(world, name), f"world field `{name}`")
                 event.world[name] = value
             self.forcing(raw, event, where, forced)
+            if "device" in raw:
+                event.device = self.device_fault(raw["device"], self.span(raw, "device"))
             modes = raw.get("mode") or {}
             for module, mode in modes.items():
                 self.module(module, key_span(modes, module, where), run, "mode of module")
                 event.mode[module] = dict(mode)
             events.append(event)
         return sorted(events, key=lambda e: e.cycle)
+
+    # ------------------------------------------------------------ devices
+
+    def devices(self, system_dir: Path) -> dict[str, SoftPlc]:
+        """`devices:`, the soft PLCs the run serves: each a device of the system's `io:`
+        (E426), its plant a spec directory (E426)."""
+        given = self.data.get("devices") or {}
+        declared = {d.name: d for d in self.system.io}
+        served: dict[str, SoftPlc] = {}
+        for name, how in given.items():
+            span = key_span(given, name, self.span(self.data, "devices"))
+            if name not in declared:
+                self.unknown_device(name, span)
+                continue
+            plant = None
+            if "plant" in (how or {}):
+                plant = (system_dir / str(how["plant"])).resolve()
+                if not (plant / SYSTEM_FILE).is_file():
+                    self.error(
+                        self.span(how, "plant"),
+                        "E426",
+                        f"plant `{how['plant']}` of device `{name}` is not a spec directory: "
+                        f"no {SYSTEM_FILE} in {display_path(plant)}",
+                        "name the directory of the system whose simulators run in the PLC, "
+                        "relative to this system's (e.g. ../miner)",
+                    )
+                    continue
+            served[str(name)] = SoftPlc(str(name), plant, span)
+        self.down: dict[str, str] = {}  # device -> the fault it is under, as events go
+        return served
+
+    def unknown_device(self, name: str, span: Span) -> None:
+        names = [d.name for d in self.system.io]
+        if not names:
+            self.error(
+                span,
+                "E426",
+                f"`{self.system.name}` declares no I/O: it has no device `{name}`",
+                "devices are declared under `io:` in system.yaml (docs/io.md)",
+            )
+        else:
+            self.error(
+                span,
+                "E426",
+                f"`{self.system.name}` has no I/O device `{name}`",
+                known_names_hint("devices", names, name),
+            )
+
+    def device_fault(self, raw: Any, span: Span) -> DeviceFault | None:
+        """An event's `device: {name, do}`: a device the scenario serves (E426), and an
+        action that follows from the one before (replug after unplug, thaw after freeze)."""
+        name, do = str(raw["name"]), str(raw["do"])
+        assert do in DEVICE_ACTIONS  # the schema's enum
+        if name not in self.served:
+            if name in {d.name for d in self.system.io}:
+                self.error(
+                    span,
+                    "E426",
+                    f"device `{name}` is not served by this scenario: no soft PLC to fault",
+                    f"add `devices: {{{name}: {{}}}}` (with its `plant:`) to the scenario",
+                )
+            else:
+                self.unknown_device(name, span)
+            return None
+        before = self.down.get(name)
+        needs = {REPLUG: UNPLUG, THAW: FREEZE}.get(do)
+        if before != needs:
+            said = (
+                f"it is {'unplugged' if before == UNPLUG else 'frozen'}" if before else ("it is up")
+            )
+            self.error(
+                span,
+                "E426",
+                f"cannot {do} device `{name}` here: {said}",
+                "a device is unplugged then replugged, frozen then thawed, in that order",
+            )
+            return None
+        if do in (UNPLUG, FREEZE):
+            self.down[name] = do
+        else:
+            self.down.pop(name, None)
+        return DeviceFault(name, do, span)
 
     def forcing(self, raw: LocDict, event: Event, where: Span, forced: set[str]) -> None:
         """An event's `unforce:` then `force:` (as `ctl unforce`/`ctl force`): each field

@@ -29,6 +29,36 @@ class Event:
     force: dict[str, Any] = field(default_factory=dict)  # world fields forced: `ctl force`
     unforce: list[str] = field(default_factory=list)  # world fields released: `ctl unforce`
     replies: dict[str, str] = field(default_factory=dict)  # module -> DONE|ERROR, scripted
+    device: DeviceFault | None = None  # a fault done to (or undone on) a soft PLC
+
+
+# What a device event does to the soft PLC serving the device (docs/io.md, "Scenarios"):
+# the plug pulled (the PLC killed: connections reset, none taken), put back (a PLC started
+# again on the same port), frozen (it accepts and answers nothing), thawed.
+UNPLUG, REPLUG, FREEZE, THAW = "unplug", "replug", "freeze", "thaw"
+DEVICE_ACTIONS = (UNPLUG, REPLUG, FREEZE, THAW)
+TAKES_DOWN = (UNPLUG, FREEZE)  # the actions after which the device must be lost in time
+
+
+@dataclass(frozen=True)
+class DeviceFault:
+    """`device: {name, do}` of an event, and where it is written (the fail-safe check that
+    follows a fault that takes the device down is reported there)."""
+
+    name: str
+    do: str  # one of DEVICE_ACTIONS
+    span: Span
+
+
+@dataclass(frozen=True)
+class SoftPlc:
+    """A device the run serves with a soft PLC (`devices:` of a scenario): the spec
+    directory of the plant whose simulators run in it (None: a PLC whose inputs hold the
+    initial values), and where it is declared."""
+
+    name: str
+    plant: Path | None
+    span: Span
 
 
 @dataclass(frozen=True)
@@ -112,6 +142,7 @@ class Scenario:
     figures: list[str] = field(default_factory=list)  # world fields (or module.reason ...) shown
     expect: list[Expected] = field(default_factory=list)  # empty: stop module DONE, if any
     operator: OperatorScript | None = None  # the scripted person at the screen, if any
+    devices: dict[str, SoftPlc] = field(default_factory=dict)  # served by soft PLCs, paced
 
 
 def find_system_dir(path: Path) -> Path | None:

@@ -10,12 +10,16 @@ that declares them), and the world fields the scenario names. Never wall time.
 
 from __future__ import annotations
 
+import importlib
 import json
+import math
+import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import Any, Protocol
 
 from ...compiler.diagnostics import Diagnostics, Span, SpecError
 from ...compiler.front_end.loader import decode, read_bytes
@@ -27,6 +31,8 @@ from .. import traces
 from ..harness import AnyHarness, Harness, LaunchedHarness, Status
 from .check import check_scenario
 from .model import (
+    TAKES_DOWN,
+    DeviceFault,
     Event,
     Expected,
     OperatorScript,
@@ -120,6 +126,10 @@ class RunResult:
     max_cycle_ns: dict[str, int]
     figures: dict[str, Any]  # the summary's figures at the end
     statuses: dict[str, Status] = field(default_factory=dict)  # every module's, at the end
+    # after each device fault: the safe state seen within its bound (a line for the
+    # summary), or not (where the fault is written, and what was missing)
+    device_checks: list[str] = field(default_factory=list)
+    device_failures: list[tuple[Span, str]] = field(default_factory=list)
 
 
 def interrupted_line(cycle: int, signal_name: str) -> str:
@@ -220,25 +230,112 @@ def reply(harness: AnyHarness, module: str, status: str) -> None:
         harness.controller(module).resume()
 
 
+class Devices(Protocol):
+    """The soft PLCs of a scenario's `devices:` (tools/scenario/devices.py's Bench)."""
+
+    def apply(self, name: str, do: str) -> None: ...
+
+    def not_safe_on_survivors(self, layout: ModuleType) -> list[str]: ...
+
+
+def cycle_period(harness: AnyHarness) -> float:
+    """The system's cycle period, seconds (its processes' shortest)."""
+    package = harness.layout.__name__.rsplit(".", 1)[0]
+    plans = [importlib.import_module(f"{package}.main_{p}").PLAN for p in harness.layout.PROCESSES]
+    return float(min(plan.cycle_period for plan in plans))
+
+
+class FaultWatch:
+    """After each device fault that takes a device down (unplug, freeze): the cycles until
+    the lost-device reaction is complete (devices.safe_check), within the device's timeout
+    + 1 cycle, in cycles of the paced run."""
+
+    def __init__(self, harness: AnyHarness, devices: Devices | None) -> None:
+        self.period, self.devices = cycle_period(harness), devices
+        self.open: list[tuple[DeviceFault, int, int]] = []  # fault, at cycle, bound
+        self.checks: list[str] = []
+        self.failures: list[tuple[Span, str]] = []
+
+    def fault(self, harness: AnyHarness, fault: DeviceFault) -> None:
+        if fault.do in TAKES_DOWN:
+            timeout = harness.layout.IO_DEVICES[fault.name].timeout
+            bound = math.ceil(timeout / self.period - 1e-9) + 1
+            self.open.append((fault, harness.cycles, bound))
+
+    def after_cycle(self, harness: AnyHarness) -> None:
+        from .devices import safe_check
+
+        still = []
+        for fault, at, bound in self.open:
+            missing = safe_check(harness, fault.name, self.devices)
+            after = harness.cycles - at
+            if not missing:
+                self.checks.append(
+                    f"{fault.name} {fault.do} before cycle {at + 1}: lost, inputs stale, "
+                    f"every actuator safe, on the devices up too, {after} cycles later "
+                    f"(bound {bound}: timeout + 1 cycle)"
+                )
+            elif after >= bound:
+                self.failures.append(
+                    (
+                        fault.span,
+                        f"{fault.do} of device `{fault.name}` before cycle {at + 1}: "
+                        f"{after} cycles later (its timeout + 1 cycle) {'; '.join(missing)}",
+                    )
+                )
+            else:
+                still.append((fault, at, bound))
+        self.open = still
+
+
+class Pace:
+    """Cycles at the system's period, on an absolute schedule (a late cycle is not caught up
+    with a burst): a run against devices keeps time as they do."""
+
+    def __init__(self, period: float) -> None:
+        self.period, self.next_at = period, time.monotonic()
+
+    def wait(self) -> None:
+        delay = self.next_at - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        else:
+            self.next_at = time.monotonic()
+        self.next_at += self.period
+
+
 def run(
     scenario: Scenario,
     harness: AnyHarness,
     on_cycle: Callable[[AnyHarness], None] | None = None,
     trace: list[str] | None = None,
+    devices: Devices | None = None,
 ) -> RunResult:
     """Run a scenario to its stop condition (or `max_cycles`) and collect its trace, a line
     per cycle appended to `trace` as the run goes (so an interrupted run keeps what it
-    ran)."""
+    ran). A scenario that serves devices (`devices`, its soft PLCs) runs paced, its device
+    events applied to them, and each fault that takes a device down is watched until the
+    safe state is complete or its bound has passed."""
     pending = list(scenario.events)
     person = ScriptedPerson(scenario.operator) if scenario.operator is not None else None
     stop = scenario.stop_when_done
     trace = [] if trace is None else trace
     phases: Counter[str] = Counter()
+    watch = FaultWatch(harness, devices) if scenario.devices else None
+    pace = Pace(watch.period) if watch is not None else None
     while harness.cycles < scenario.max_cycles:
         while pending and pending[0].cycle <= harness.cycles + 1:
-            _apply(harness, pending.pop(0))
+            event = pending.pop(0)
+            _apply(harness, event)
+            if event.device is not None and watch is not None:
+                if devices is None:
+                    raise ScenarioError(f"cycle {event.cycle}: device events need the soft PLCs")
+                devices.apply(event.device.name, event.device.do)
+                watch.fault(harness, event.device)
         if person is not None:
             person.before_cycle(harness)
+        if pace is not None:
+            pace.wait()
         harness.cycle()
         trace.append(trace_line(harness, scenario.trace_world))
         if scenario.phases_of is not None:
@@ -247,9 +344,23 @@ def run(
             phases[harness.sent(module).command if busy else "idle"] += 1
         if on_cycle is not None:
             on_cycle(harness)
-        if stop is not None and not pending and _finished(harness, stop):
+        if watch is not None:
+            watch.after_cycle(harness)
+        settled = watch is None or not watch.open
+        if stop is not None and not pending and settled and _finished(harness, stop):
             break
-    return _result(scenario, harness, trace, phases)
+    result = _result(scenario, harness, trace, phases)
+    if watch is not None:
+        result.device_checks, result.device_failures = watch.checks, watch.failures
+        result.device_failures += [
+            (
+                fault.span,
+                f"{fault.do} of device `{fault.name}` before cycle {at + 1}: the run "
+                f"ended {harness.cycles - at} cycles later, before its safe state was complete",
+            )
+            for fault, at, _ in watch.open
+        ]
+    return result
 
 
 def _result(

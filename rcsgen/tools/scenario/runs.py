@@ -23,6 +23,7 @@ from ...compiler.diagnostics import Diagnostic, Span, SpecError
 from ...compiler.frontend import display_path
 from ...compiler.ir import IRCall, IRController, IRLoadPlan, IRSystem
 from ...runtime.contract import HookError, HookOverrun
+from .devices import DeviceStartError
 from .run import RunResult, Scenario, final_value, first_difference, read_trace
 
 
@@ -115,6 +116,14 @@ def run_error(
     """One diagnostic for an exception raised while cycle `cycle` ran (0: at start-up)."""
     where = fallback or Span("<run>")
     when = f"cycle {cycle}" if cycle else "start-up"
+    if isinstance(error, DeviceStartError):
+        return Diagnostic(
+            error.plc.span,
+            "E428",
+            str(error),
+            "install what the soft PLC needs (`pip install 'rcsgen[modbus]'`, `[opcua]`); its "
+            "own error is the line quoted",
+        )
     if isinstance(error, HookError):  # one class in rcsgen and every package (contract.shared)
         module, hook, rule = error.module, error.hook, error.rule
         controller = _controller(system, module)
@@ -181,7 +190,16 @@ def unmet_expectations(
 ) -> list[Diagnostic]:
     """E416 for each expectation of the scenario the run did not meet, at its line; `world`
     holds the world fields at the end of the run."""
-    found = []
+    found = [
+        Diagnostic(
+            span,
+            "E427",
+            message,
+            "a lost device must drive the safe state within its timeout + 1 cycle "
+            "(docs/io.md, Faults)",
+        )
+        for span, message in result.device_failures
+    ]
     for expected in scenario.expect:
         if expected.what == "status":
             final = result.final

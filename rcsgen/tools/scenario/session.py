@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,9 +22,10 @@ from ...compiler.back_end import write
 from ...compiler.diagnostics import Diagnostic, Diagnostics, Span
 from ...compiler.frontend import compile_paths, display_path
 from ...compiler.ir import IRSystem
-from ..harness import AnyHarness, write_package
+from ..harness import AnyHarness, import_layout, write_package
 from . import runs
 from .check import check_scenario
+from .devices import Bench
 from .model import Scenario, find_system_dir
 from .run import RunResult, interrupted_line, open_harness, run, write_trace
 
@@ -103,8 +105,14 @@ def execute(
 
     signal.signal(signal.SIGINT, interrupt)
     signal.signal(signal.SIGTERM, interrupt)
-    with contextlib.redirect_stdout(hooks_out):
+    with (
+        contextlib.redirect_stdout(hooks_out),
+        tempfile.TemporaryDirectory(prefix="rcsgen-devices-") as scratch,
+    ):
+        bench = Bench(scenario, package_dir, Path(scratch)) if scenario.devices else None
         try:
+            if bench is not None:  # the soft PLCs first: the harness connects to them
+                bench.start(import_layout(package_dir))
             harness = ran.harness = open_harness(scenario, package_dir, processes)
         except KeyboardInterrupt:  # what had started is stopped and removed already
             caught.append(caught[0] if caught else signal.SIGINT)
@@ -113,7 +121,7 @@ def execute(
                 ran.failed = (error, 0)
         else:
             try:
-                ran.result = run(scenario, harness, on_cycle, ran.lines)
+                ran.result = run(scenario, harness, on_cycle, ran.lines, bench)
                 ran.final_world = harness.world.snapshot()
             except KeyboardInterrupt:
                 caught.append(caught[0] if caught else signal.SIGINT)
@@ -124,6 +132,11 @@ def execute(
                 signal.signal(signal.SIGINT, signal.SIG_IGN)
                 signal.signal(signal.SIGTERM, signal.SIG_IGN)
                 harness.close()
+        finally:
+            if bench is not None:  # after the harness: the devices' last writes are taken
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+                signal.signal(signal.SIGTERM, signal.SIG_IGN)
+                bench.close()
         signal.signal(signal.SIGINT, signal.default_int_handler)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
     ran.signal = caught[0] if caught else None

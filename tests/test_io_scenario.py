@@ -1,0 +1,113 @@
+"""Device faults in scenarios: `rcsgen run` against soft PLCs it starts (docs/io.md, "Scenarios").
+
+A scenario's `devices:` serves the system's fieldbus devices with soft PLCs (separate OS
+processes on free loopback ports), its run is paced at the cycle period, and its events
+unplug, replug, freeze and thaw them. After a fault that takes a device down the run checks,
+cycle by cycle, the lost-device reaction: the device LOST, its inputs stale, every actuator
+latched safe and held safe by the devices still up (read back from them), within the
+device's timeout + 1 cycle (E427 otherwise). Nothing is left: no PLC process, no port.
+The checks of the scenario file itself (E426) are in tests/test_scenarios.py.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from conftest import rcsgen
+from support.running import children
+
+ROOT = Path(__file__).resolve().parent.parent
+PLUG_PULL = ROOT / "specs" / "miner_hil" / "scenarios" / "plug_pull.yaml"
+RIG = Path(__file__).resolve().parent / "fixtures" / "runtime" / "rig"
+
+
+def softplcs() -> list[str]:
+    """This test process's soft PLC children (none may be left after a run)."""
+    return [c for c in children() if "rcsgen.tools.softplc" in c]
+
+
+def test_the_plug_pulled_mid_shear_stops_the_miner_safe_within_timeout_plus_one_cycle(
+    tmp_path: Path,
+) -> None:
+    """specs/miner_hil/scenarios/plug_pull.yaml: the box cut on the soft PLC, the plug pulled
+    while the drum shears down the face; the run's own check finds the PLC lost, its inputs
+    stale and every actuator latched safe within 0.5 s + 1 cycle (11 cycles of 0.05 s), and
+    the mission ends at the root with ERROR. The trace shows the same, cycle by cycle."""
+    trace = tmp_path / "plug_pull.jsonl"
+    result = rcsgen("run", PLUG_PULL, "--trace", trace)
+    assert result.exit_code == 0, result.output
+    assert "result    sec ERROR" in result.output
+    said = [line for line in result.output.splitlines() if line.startswith("device    ")]
+    assert len(said) == 1 and "plc unplug before cycle 115: lost, inputs stale" in said[0], said
+    lines = [json.loads(line) for line in trace.read_text().splitlines()]
+    before = lines[113]  # cycle 114, the last before the pull
+    assert (before["modules"]["co"]["command"], before["modules"]["co"]["state"]) == (
+        "SUMP_SHEAR_CUSP",
+        "S2",
+    )
+    assert before["world"]["drum_on_cmd"] is True and before["world"]["boom_rate_cmd"] < 0, (
+        "mid-shear: the drum on, the boom going down"
+    )
+    lost = next(line for line in lines if line["io"]["plc"]["state"] == "LOST")
+    assert lost["cycle"] - 114 <= 11, lost["cycle"]
+    assert "pose_x" in lost["io"]["plc"]["stale"] and "boom_angle" in lost["io"]["plc"]["stale"]
+    assert lost["overrides"]["drum_on_cmd"] == "SAFE" and lost["world"]["drum_on_cmd"] is False
+    assert lines[-1]["modules"]["sec"]["status"] == "ERROR"
+    assert softplcs() == []
+
+
+@pytest.fixture
+def rig(tmp_path: Path) -> Path:
+    """A copy of the rig (tank on Modbus TCP, pumps on OPC UA), to hold scenarios."""
+    copy = tmp_path / "rig"
+    shutil.copytree(RIG, copy)
+    (copy / "scenarios").mkdir()
+    return copy
+
+
+FREEZE = """
+scenario: {name}
+max_cycles: {cycles}
+devices: {{tank: {{}}, pumps: {{}}}}
+expect:
+  figures: {{pump_on: false, alarm: true, valve_cmd: 0.0}}
+events:
+  - cycle: 1
+    command: cell.RUN
+  - cycle: 20
+    device: {{name: tank, do: freeze}}
+"""
+
+
+def test_a_frozen_plc_s_survivor_holds_the_safe_values_and_a_run_too_short_is_e427(
+    rig: Path, tmp_path: Path
+) -> None:
+    """The tank PLC frozen (it accepts, answers nothing), thawed later: within 0.5 s + 1
+    cycle the tank is lost and the pumps' OPC UA server, still up, holds the pump off and
+    the alarm lit (read back from it); the tank answers again once thawed. The same fault in
+    a run that ends two cycles later cannot show the safe state: E427 at the fault."""
+    (rig / "scenarios" / "freeze.yaml").write_text(
+        FREEZE.format(name="freeze", cycles=45)
+        + "  - cycle: 30\n    device: {name: tank, do: thaw}\n"
+    )
+    trace = tmp_path / "freeze.jsonl"
+    result = rcsgen("run", rig / "scenarios" / "freeze.yaml", "--trace", trace)
+    assert result.exit_code == 0, result.output
+    assert "tank freeze before cycle 20: lost, inputs stale, every actuator safe, on the " in (
+        result.output
+    )
+    last = json.loads(trace.read_text().splitlines()[-1])
+    assert last["io"]["tank"]["state"] == "ONLINE" and last["io"]["tank"]["reconnects"] >= 1
+    assert last["overrides"] == dict.fromkeys(("alarm", "pump_on", "valve_cmd"), "SAFE")
+
+    (rig / "scenarios" / "short.yaml").write_text(FREEZE.format(name="short", cycles=22))
+    result = rcsgen("run", rig / "scenarios" / "short.yaml", "--trace", tmp_path / "short.jsonl")
+    assert result.exit_code == 1, result.output
+    assert "short.yaml:11:13: error[E427]: freeze of device `tank` before cycle 20: the run " in (
+        result.output
+    )
+    assert "before its safe state was complete" in result.output
+    assert softplcs() == []
