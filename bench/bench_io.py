@@ -1,14 +1,15 @@
-"""Part: fieldbus I/O over Modbus TCP on loopback (issue 27): what it costs, what it changes.
+"""Part: fieldbus I/O over Modbus TCP and OPC UA on loopback (issue 27): its cost, its effect.
 
 The soft PLC (`python -m rcsgen.tools.softplc`, its own OS process) serves miner_hil's `plc`
-device, the miner's actuator, sensor, mine and operator simulators behind it. Three figures:
+device (Modbus TCP) and `conveyor` device (OPC UA, the conveyor subsystem), the miner's
+actuator, sensor, mine and operator simulators behind both. Three figures:
 
 1. The I/O module's cost per cycle: miner_hil's pc1 in this process (the harness), paced
    at its period (0.05 s), the machine cutting; each cycle's `before` (the device's latest
    inputs copied into the world fields) and `after` (the outputs handed to the device's
-   thread) timed with perf_counter_ns: median and p99. The protocol runs on the device's
-   thread; its round trip per poll (every input read, every output written) is reported
-   from the device's record too.
+   thread), both devices, timed with perf_counter_ns: median and p99. The protocols run on
+   the devices' threads; each one's round trip per poll (every input read, every output
+   written) is reported from the device's record too.
 2. The box cut's cycle time with and without hardware in the loop: the whole system's
    modules per cycle, median and p99 (in one process: pc1 and pc2 run by the harness); the
    miner in simulation (its simulators in the cycle), and miner_hil with the simulators in
@@ -75,7 +76,7 @@ def figures(values: list[float]) -> dict[str, float]:
 
 
 class Plc:
-    """The soft PLC of miner_hil's `plc`, the miner's simulators behind it."""
+    """The soft PLC of miner_hil's `plc` and `conveyor`, the miner's simulators behind."""
 
     def __init__(self, scratch: Path, port: int = 0) -> None:
         ready = scratch / f"plc{next(_names)}.port"
@@ -85,18 +86,23 @@ class Plc:
                 "-m",
                 "rcsgen.tools.softplc",
                 *("--plant", str(GENERATED / "miner"), "--hooks", str(SPECS / "miner")),
-                *("--io", str(GENERATED / "miner_hil"), "--device", "plc"),
-                *("--port", str(port), "--ready", str(ready), "--set", "map=maps/box_cut.map"),
+                *("--io", str(GENERATED / "miner_hil"), "--device", "plc", "--port", str(port)),
+                *("--device", "conveyor", "--port", "0"),
+                *("--ready", str(ready), "--set", "map=maps/box_cut.map"),
             ],
             cwd=ROOT,
             start_new_session=True,
         )
-        wait_for(lambda: ready.is_file() and ready.read_text().endswith("\n"), "the PLC", 120)
-        self.port = int(ready.read_text())
+        wait_for(lambda: ready.is_file() and ready.read_text().count("\n") == 2, "the PLC", 120)
+        self.port, self.conveyor = (int(line) for line in ready.read_text().split())
 
     @property
-    def address(self) -> str:
-        return f"127.0.0.1:{self.port}"
+    def environ(self) -> dict[str, str]:
+        """Each device pointed at its server."""
+        return {
+            "RCSGEN_IO_PLC": f"127.0.0.1:{self.port}",
+            "RCSGEN_IO_CONVEYOR": f"opc.tcp://127.0.0.1:{self.conveyor}/miner",
+        }
 
     def stop(self) -> None:
         if self.popen.poll() is None:
@@ -145,28 +151,27 @@ def box_cut(harness: Harness, period: float | None, limit: int = 2000) -> dict[s
 def in_the_loop(scratch: Path) -> dict[str, Any]:
     """Figures 1 and 2: miner_hil in this process, bound to a PLC; the miner simulated."""
     plc = Plc(scratch)
-    os.environ["RCSGEN_IO_PLC"] = plc.address
+    os.environ.update(plc.environ)
     try:
         package = import_package(GENERATED / "miner_hil", SPECS / "miner_hil")
         harness = Harness(package, send_init=True, settings={"map": "maps/box_cut.map"})
         try:
             pc1 = harness.processes["pc1"]
             io, period = pc1.io, pc1.plan.cycle_period
-            runner = io.runners["plc"]
             before: list[float] = []
             after: list[float] = []
-            trips: list[float] = []
-            seen = 0
+            trips: dict[str, list[float]] = {name: [] for name in io.runners}
+            seen = dict.fromkeys(io.runners, 0)
 
             def timed_before() -> None:
-                nonlocal seen
                 began = time.perf_counter_ns()
                 io.before()
                 before.append(time.perf_counter_ns() - began)
-                seq, _, counts = runner.snapshot()  # a new exchange: its round trip
-                if seq != seen:
-                    seen = seq
-                    trips.append(float(counts["round_trip_ns"]))
+                for name, runner in io.runners.items():
+                    seq, _, counts = runner.snapshot()  # a new exchange: its round trip
+                    if seq != seen[name]:
+                        seen[name] = seq
+                        trips[name].append(float(counts["round_trip_ns"]))
 
             def timed_after() -> None:
                 began = time.perf_counter_ns()
@@ -180,8 +185,9 @@ def in_the_loop(scratch: Path) -> dict[str, Any]:
             harness.close()
     finally:
         plc.stop()
-        del os.environ["RCSGEN_IO_PLC"]
-    plc_device = harness.layout.IO_DEVICES["plc"]
+        for name in plc.environ:
+            del os.environ[name]
+    devices = harness.layout.IO_DEVICES
     miner = import_package(GENERATED / "miner", SPECS / "miner")
     simulated = Harness(miner, send_init=True, settings={"map": "maps/box_cut.map", "seed": "7"})
     try:
@@ -189,14 +195,20 @@ def in_the_loop(scratch: Path) -> dict[str, Any]:
     finally:
         simulated.close()
     return {
-        "points": len(plc_device.points),
-        "inputs": len(plc_device.inputs),
-        "poll_period_s": plc_device.poll_period,
+        "devices": {
+            name: {
+                "protocol": d.protocol,
+                "points": len(d.points),
+                "inputs": len(d.inputs),
+                "poll_period_s": d.poll_period,
+                "round_trip_ns": figures(trips[name]),
+            }
+            for name, d in devices.items()
+        },
         "cycle_period_s": period,
         "before_ns": figures(before),
         "after_ns": figures(after),
         "both_ns": figures([a + b for a, b in zip(before, after, strict=False)]),
-        "round_trip_ns": figures(trips),
         "hil": hil,
         "simulated": sim,
     }
@@ -212,7 +224,7 @@ def detection(scratch: Path, runs: int) -> dict[str, Any]:
     record = layout.IO_RECORDS["plc"]
     plc = Plc(scratch)
     segment = f"rcsgen_bench_io_{os.getpid()}"
-    env = {**os.environ, "RCSGEN_IO_PLC": plc.address, "PYTHONPATH": str(SPECS / "miner_hil")}
+    env = {**os.environ, **plc.environ, "PYTHONPATH": str(SPECS / "miner_hil")}
     system = subprocess.Popen(
         [sys.executable, "-m", "miner_hil", "--shm", segment],
         cwd=GENERATED,

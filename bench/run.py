@@ -907,15 +907,19 @@ def section_io(io: dict) -> list[str]:
         )
 
     lost, goal = found["lost_s"], found["goal_s"]
+    devices = "; ".join(
+        f"`{name}` ({d['protocol']}, {d['points']} points, {d['inputs']} of them inputs, "
+        f"polled every {d['poll_period_s']:g} s)"
+        for name, d in io["devices"].items()
+    )
     return [
-        "## 9. Fieldbus I/O: Modbus TCP on loopback, hardware in the loop",
+        "## 9. Fieldbus I/O: Modbus TCP and OPC UA on loopback, hardware in the loop",
         "",
-        f"bench/bench_io.py: miner_hil's `plc` ({io['points']} points, {io['inputs']} of them "
-        f"inputs, polled every {io['poll_period_s']:g} s) served by the soft PLC "
+        f"bench/bench_io.py: miner_hil's devices, {devices}, served by one soft PLC "
         "(`python -m rcsgen.tools.softplc`, its own process, the miner's simulators behind "
-        f"it); the controllers paced at {io['cycle_period_s']:g} s. The I/O module's share of "
-        "a cycle: `before` copies the device's latest inputs into the world fields, `after` "
-        "hands the outputs to the device's thread; the round trip is that thread's poll "
+        f"both); the controllers paced at {io['cycle_period_s']:g} s. The I/O module's share "
+        "of a cycle: `before` copies the devices' latest inputs into the world fields, `after` "
+        "hands the outputs to the devices' threads; a round trip is one device thread's poll "
         "(every input read, every output written), off the cycle.",
         "",
         "| per cycle | median | p99 | max | samples |",
@@ -923,7 +927,10 @@ def section_io(io: dict) -> list[str]:
         row("I/O module, `before` (inputs in)", io["before_ns"]),
         row("I/O module, `after` (outputs out)", io["after_ns"]),
         row("I/O module, both", io["both_ns"]),
-        row("the device's poll (round trip, its thread)", io["round_trip_ns"]),
+        *(
+            row(f"`{name}`'s poll ({d['protocol']} round trip, its thread)", d["round_trip_ns"])
+            for name, d in io["devices"].items()
+        ),
         row("box cut in the loop: the system's modules + I/O", hil["cycle_ns"]),
         row("box cut simulated: the system's modules + simulators", sim["cycle_ns"]),
         "",

@@ -70,8 +70,11 @@ class Plc:
         scratch: Path,
         port: int = 0,
         plant: tuple[str, ...] = ("--world", f"level={LEVEL}"),
+        also: tuple[tuple[str, int], ...] = (),
     ) -> None:
+        """`also`: more devices this PLC serves over the same plant, each (name, port)."""
         self.rig, self.device, self.scratch = rig, device, scratch
+        self.also = also
         self.ready = scratch / f"{device}.port"
         self.log = scratch / f"{device}.log"
         self.ready.unlink(missing_ok=True)
@@ -90,6 +93,7 @@ class Plc:
                     "--ready",
                     str(self.ready),
                     *plant,
+                    *(arg for name, at in also for arg in ("--device", name, "--port", str(at))),
                 ],
                 stdout=log,
                 stderr=subprocess.STDOUT,
@@ -99,13 +103,14 @@ class Plc:
     def wait(self) -> Plc:
         """Once it listens: the port it listens on known."""
         wait_for(self._listening, f"the {self.device} PLC listening", deadline=90, every=0.05)
-        self.port = int(self.ready.read_text())
+        self.port, *self.ports = (int(line) for line in self.ready.read_text().split())
         return self
 
     def _listening(self) -> bool:
         if self.popen.poll() is not None:
             raise AssertionError(f"the {self.device} PLC exited: {self.log.read_text()}")
-        return self.ready.is_file() and self.ready.read_text().endswith("\n")
+        lines = self.ready.read_text().splitlines(keepends=True) if self.ready.is_file() else []
+        return len(lines) == 1 + len(self.also) and lines[-1].endswith("\n")
 
     @property
     def address(self) -> str:
@@ -123,7 +128,8 @@ class Plc:
             except subprocess.TimeoutExpired:
                 self.popen.kill()
                 self.popen.wait(10)
-        wait_for(lambda: not port_open(self.port), f"port {self.port} closed", deadline=10)
+        for port in (self.port, *getattr(self, "ports", ())):
+            wait_for(lambda p=port: not port_open(p), f"port {port} closed", deadline=10)
 
 
 def port_open(port: int) -> bool:
@@ -389,12 +395,13 @@ GENERATED = ROOT / "generated"
 BOX_CUT = ("--send", "sec.BOX_CUT:depth=1.5", "--set", "map=maps/box_cut.map")
 
 
-def miner_plc(scratch: Path, port: int = 0) -> Plc:
-    """The soft PLC of miner_hil's `plc`: the miner's simulators (the committed package)
-    behind Modbus TCP."""
+def miner_plc(scratch: Path, port: int = 0, conveyor: int = 0) -> Plc:
+    """The soft PLC of miner_hil's `plc` and `conveyor`: the miner's simulators (the
+    committed package) behind Modbus TCP, the conveyor subsystem behind OPC UA."""
     plant = ("--plant", str(GENERATED / "miner"), "--hooks", str(ROOT / "specs" / "miner"))
     report = ("--report", str(scratch / "plant.json"), "--set", "map=maps/box_cut.map")
-    return Plc(GENERATED / "miner_hil", "plc", scratch, port, plant + report).wait()
+    also = (("conveyor", conveyor),)
+    return Plc(GENERATED / "miner_hil", "plc", scratch, port, plant + report, also).wait()
 
 
 def start_hil(plc: Plc, log: Path, *options: str) -> tuple[subprocess.Popen[bytes], str]:
@@ -403,6 +410,7 @@ def start_hil(plc: Plc, log: Path, *options: str) -> tuple[subprocess.Popen[byte
     env = {
         **os.environ,
         "RCSGEN_IO_PLC": plc.address,
+        "RCSGEN_IO_CONVEYOR": f"opc.tcp://127.0.0.1:{plc.ports[0]}/miner",
         "PYTHONPATH": str(ROOT / "specs" / "miner_hil"),
     }
     with log.open("ab") as out:
@@ -417,8 +425,9 @@ def start_hil(plc: Plc, log: Path, *options: str) -> tuple[subprocess.Popen[byte
 
 
 def test_the_box_cut_in_the_loop_ends_as_the_simulated_one(tmp_path: Path) -> None:
-    """miner_hil's controllers over Modbus TCP, the miner's simulators in a soft PLC (two
-    paced OS processes and a third for the PLC): the box cut completes (sec DONE) with the
+    """miner_hil's controllers over Modbus TCP and, for the conveyor subsystem, OPC UA, the
+    miner's simulators in a soft PLC serving both (two paced OS processes and a third for
+    the PLC): the box cut completes (sec DONE) with the
     simulation's outcome: the depth its golden trace ends at, the floor as clear as the
     scenario expects, the machine where the simulated one ends."""
     golden = json.loads((ROOT / "tests" / "golden" / "box_cut.jsonl").read_text().splitlines()[-1])
@@ -438,7 +447,7 @@ def test_the_box_cut_in_the_loop_ends_as_the_simulated_one(tmp_path: Path) -> No
         plc.stop()
     out = log.read_text()
     assert code == 0 and "sec DONE" in out, out
-    assert "I/O device plc lost" not in out, out
+    assert "I/O device plc lost" not in out and "I/O device conveyor lost" not in out, out
     assert not os.path.exists(f"/dev/shm/{segment}")
     plant = json.loads((tmp_path / "plant.json").read_text())
     assert plant["depth_cut"] == golden["world"]["depth_cut"] == 1.5
@@ -496,12 +505,12 @@ def test_pulling_the_plc_s_plug_mid_shear_stops_the_machine_safe(tmp_path: Path)
         assert console.modules()["sec"]["error_num"] == 1, "ERROR (LOST), the runtime's safe state"
         assert set(console.devices()["plc"]["stale"]) >= {"pose_x", "boom_angle", "jack_down"}
 
-        plc = miner_plc(tmp_path, port=plc.port)  # plugged in again
+        plc = miner_plc(tmp_path, port=plc.port, conveyor=plc.ports[0])  # plugged in again
         wait_for(lambda: console.devices()["plc"]["state"] == "ONLINE", "online again", 30)
         client = ModbusTcpClient("127.0.0.1", port=plc.port, timeout=2)
         try:
             assert client.connect()
-            wait_for(lambda: client.read_coils(0, count=6).bits[:6] == [False] * 6, "coils off")
+            wait_for(lambda: client.read_coils(0, count=4).bits[:4] == [False] * 4, "coils off")
             registers = client.read_holding_registers(0, count=3).registers
         finally:
             client.close()

@@ -3,10 +3,11 @@
 A scenario's `devices:` serves the system's fieldbus devices with soft PLCs (separate OS
 processes on free loopback ports), its run is paced at the cycle period, and its events
 unplug, replug, freeze and thaw them. After a fault that takes a device down the run checks,
-cycle by cycle, the lost-device reaction: the device LOST, its inputs stale, every actuator
-latched safe and held safe by the devices still up (read back from them), within the
-device's timeout + 1 cycle (E427 otherwise). Nothing is left: no PLC process, no port.
-The checks of the scenario file itself (E426) are in tests/test_scenarios.py.
+cycle by cycle, the lost-device reaction: the device LOST, its inputs stale and every
+actuator latched safe within the device's timeout + 1 cycle, then held safe by the devices
+still up (read back from them) by their next poll (E427 otherwise). Nothing is left: no
+PLC process, no port (the run waits for each to close). The checks of the scenario file
+itself (E426) are in tests/test_scenarios.py.
 """
 
 from __future__ import annotations
@@ -29,21 +30,33 @@ def softplcs() -> list[str]:
     return [c for c in children() if "rcsgen.tools.softplc" in c]
 
 
-def test_the_plug_pulled_mid_shear_stops_the_miner_safe_within_timeout_plus_one_cycle(
-    tmp_path: Path,
+@pytest.mark.parametrize(
+    ("scenario", "device", "stale", "survivor"),
+    [
+        ("plug_pull", "plc", ["pose_x", "boom_angle", "jack_down"], "conveyor"),
+        ("conveyor_lost", "conveyor", ["tail_in_position"], "plc"),
+    ],
+)
+def test_a_device_lost_mid_shear_stops_the_miner_safe_within_timeout_plus_one_cycle(
+    tmp_path: Path, scenario: str, device: str, stale: list[str], survivor: str
 ) -> None:
-    """specs/miner_hil/scenarios/plug_pull.yaml: the box cut on the soft PLC, the plug pulled
-    while the drum shears down the face; the run's own check finds the PLC lost, its inputs
-    stale and every actuator latched safe within 0.5 s + 1 cycle (11 cycles of 0.05 s), and
-    the mission ends at the root with ERROR. The trace shows the same, cycle by cycle."""
-    trace = tmp_path / "plug_pull.jsonl"
-    result = rcsgen("run", PLUG_PULL, "--trace", trace)
+    """specs/miner_hil/scenarios: the box cut on the soft PLC (the machine on Modbus TCP,
+    the conveyor on OPC UA, one plant), one device's server stopped while the drum shears
+    down the face: the run's own check finds the device lost, its inputs stale and every
+    actuator latched safe within 0.5 s + 1 cycle (11 cycles of 0.05 s), the other device
+    still up and holding the safe values, and the mission ends at the root with ERROR. The
+    trace shows the same, cycle by cycle."""
+    trace = tmp_path / f"{scenario}.jsonl"
+    result = rcsgen("run", PLUG_PULL.with_name(f"{scenario}.yaml"), "--trace", trace)
     assert result.exit_code == 0, result.output
     assert "result    sec ERROR" in result.output
     said = [line for line in result.output.splitlines() if line.startswith("device    ")]
-    assert len(said) == 1 and "plc unplug before cycle 115: lost, inputs stale" in said[0], said
+    assert len(said) == 1, said
+    assert f"{device} unplug before cycle 115: lost, inputs stale, every actuator latched " in (
+        said[0]
+    )
     lines = [json.loads(line) for line in trace.read_text().splitlines()]
-    before = lines[113]  # cycle 114, the last before the pull
+    before = lines[113]  # cycle 114, the last before the fault
     assert (before["modules"]["co"]["command"], before["modules"]["co"]["state"]) == (
         "SUMP_SHEAR_CUSP",
         "S2",
@@ -51,9 +64,11 @@ def test_the_plug_pulled_mid_shear_stops_the_miner_safe_within_timeout_plus_one_
     assert before["world"]["drum_on_cmd"] is True and before["world"]["boom_rate_cmd"] < 0, (
         "mid-shear: the drum on, the boom going down"
     )
-    lost = next(line for line in lines if line["io"]["plc"]["state"] == "LOST")
+    assert before["world"]["conveyor_on_cmd"] is True, "the conveyor running"
+    lost = next(line for line in lines if line["io"][device]["state"] == "LOST")
     assert lost["cycle"] - 114 <= 11, lost["cycle"]
-    assert "pose_x" in lost["io"]["plc"]["stale"] and "boom_angle" in lost["io"]["plc"]["stale"]
+    assert set(stale) <= set(lost["io"][device]["stale"])
+    assert lost["io"][survivor]["state"] == "ONLINE" and lost["io"][survivor]["stale"] == []
     assert lost["overrides"]["drum_on_cmd"] == "SAFE" and lost["world"]["drum_on_cmd"] is False
     assert lines[-1]["modules"]["sec"]["status"] == "ERROR"
     assert softplcs() == []
@@ -96,9 +111,10 @@ def test_a_frozen_plc_s_survivor_holds_the_safe_values_and_a_run_too_short_is_e4
     trace = tmp_path / "freeze.jsonl"
     result = rcsgen("run", rig / "scenarios" / "freeze.yaml", "--trace", trace)
     assert result.exit_code == 0, result.output
-    assert "tank freeze before cycle 20: lost, inputs stale, every actuator safe, on the " in (
+    assert "tank freeze before cycle 20: lost, inputs stale, every actuator latched safe " in (
         result.output
     )
+    assert "held safe by the devices up" in result.output
     last = json.loads(trace.read_text().splitlines()[-1])
     assert last["io"]["tank"]["state"] == "ONLINE" and last["io"]["tank"]["reconnects"] >= 1
     assert last["overrides"] == dict.fromkeys(("alarm", "pump_on", "valve_cmd"), "SAFE")

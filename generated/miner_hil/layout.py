@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 3992 bytes.
+The block is 4080 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -170,6 +170,7 @@ command buffers and world fields:
 | 3856 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
 | 3880 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
 | 3904 | 88 | IO_PLC | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns |
+| 3992 | 88 | IO_CONVEYOR | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns |
 """
 
 from __future__ import annotations
@@ -199,9 +200,9 @@ from .rcs.io_points import DEVICE_FIELDS, Device, Point
 
 SYSTEM = "miner_hil"
 SOURCE = "miner_hil/system.yaml"
-SIZE = 3992
+SIZE = 4080
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "75015118814e4a466f40168a19fa5ef8"
+LAYOUT_HASH = "68b41d60c25f6d167055ba9a36838231"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
@@ -785,8 +786,6 @@ IO_DEVICES = {
             Point(field="jack_down_cmd", kind="coil", address=1, output=True, value_type="bool"),
             Point(field="pan_float_cmd", kind="coil", address=2, output=True, value_type="bool"),
             Point(field="gather_on_cmd", kind="coil", address=3, output=True, value_type="bool"),
-            Point(field="conveyor_on_cmd", kind="coil", address=4, output=True, value_type="bool"),
-            Point(field="tail_request", kind="coil", address=5, output=True, value_type="bool"),
             Point(
                 field="boom_rate_cmd",
                 kind="holding_register",
@@ -811,13 +810,6 @@ IO_DEVICES = {
             ),
             Point(
                 field="jack_down", kind="discrete_input", address=0, output=False, value_type="bool"
-            ),
-            Point(
-                field="tail_in_position",
-                kind="discrete_input",
-                address=1,
-                output=False,
-                value_type="bool",
             ),
             Point(
                 field="pose_x",
@@ -889,16 +881,51 @@ IO_DEVICES = {
             ),
         ),
     ),
+    "conveyor": Device(
+        name="conveyor",
+        protocol="opcua",
+        host="127.0.0.1",
+        port=4850,
+        process="pc1",
+        poll_period=0.05,
+        timeout=0.5,
+        points=(
+            Point(
+                field="conveyor_on_cmd",
+                kind="node",
+                address="ns=2;s=Conveyor.On",
+                output=True,
+                value_type="bool",
+            ),
+            Point(
+                field="tail_request",
+                kind="node",
+                address="ns=2;s=Conveyor.TailRequest",
+                output=True,
+                value_type="bool",
+            ),
+            Point(
+                field="tail_in_position",
+                kind="node",
+                address="ns=2;s=Conveyor.TailInPosition",
+                output=False,
+                value_type="bool",
+            ),
+        ),
+        url="opc.tcp://127.0.0.1:4850/miner",
+    ),
 }
 # Each device's record: its state (rcs/io_points.py DEVICE_STATES) and counts, written by
 # the I/O module of the process that runs it.
 IO_RECORDS = {
     "plc": Record(Struct("<Qqqqqqqqqqq"), 3904, DEVICE_FIELDS),
+    "conveyor": Record(Struct("<Qqqqqqqqqqq"), 3992, DEVICE_FIELDS),
 }
 # The controllers that read each device's inputs or write its outputs: lost with it (their
 # safe state).
 IO_DEPENDENTS: dict[str, tuple[str, ...]] = {
-    "plc": ("bm", "cd", "co", "cr", "ct", "cv", "gh", "pp", "sb", "sj", "tc", "vg", "wm"),
+    "plc": ("bm", "cd", "co", "cr", "gh", "pp", "sb", "sj", "tc", "vg", "wm"),
+    "conveyor": ("cr", "ct", "cv"),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

@@ -50,7 +50,7 @@ PLAN = ProcessPlan(
         "wm": WmController,
     },
     # The I/O devices it runs: their inputs read before the modules, outputs written after.
-    io=("plc",),
+    io=("plc", "conveyor"),
 )
 
 

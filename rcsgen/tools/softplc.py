@@ -13,7 +13,14 @@ exercised both ways.
 It is a separate OS process, as a PLC is a separate machine: a test pulls the plug by
 killing it (SIGKILL) or freezing it (SIGSTOP). On SIGTERM or SIGINT it stops, writes the
 plant's world as JSON to `--report` if given, and exits 0. `--ready FILE` is written once
-the server listens (the port it listens on, for `--port 0`). Needs `rcsgen[modbus]`.
+the servers listen (the port each listens on, a line per device, for `--port 0`). Needs
+`rcsgen[modbus]`.
+
+One PLC can serve several devices of the I/O system over one plant (`--device` repeated,
+a `--port` each): a Modbus TCP device and an OPC UA device on one machine's simulators, as
+a PLC with both interfaces. `--control DIR` lets a test or a scenario unplug one of them
+(its server stopped, connections closed, new ones refused) while the plant and the other
+devices go on, and plug it in again on its port.
 
 A device declared `protocol: opcua` is served the same way by asyncua's server (needs
 `rcsgen[opcua]`): a variable of its field's type at each declared node id.
@@ -203,29 +210,64 @@ class OpcUaBank:
         await self.server.stop()
 
 
-async def _serve(args: argparse.Namespace, plant: Plant, device: Any) -> int:
-    bank = (OpcUaBank if device.protocol == OPCUA else ModbusBank)(device, args.host, args.port)
+def _bank(device: Any, host: str, port: int) -> ModbusBank | OpcUaBank:
+    return (OpcUaBank if device.protocol == OPCUA else ModbusBank)(device, host, port)
+
+
+class Served:
+    """One device this PLC serves: its bank while it is plugged in, None while unplugged
+    (`--control`), and the port it keeps for when it is plugged in again."""
+
+    def __init__(self, device: Any, host: str, port: int) -> None:
+        self.device, self.host, self.port = device, host, port
+        self.bank: ModbusBank | OpcUaBank | None = _bank(device, host, port)
+
+    async def start(self, plant: Plant) -> None:
+        assert self.bank is not None
+        self.port = await self.bank.start()
+        # The plant's values on every point, as a PLC has them before any poll.
+        for point in self.device.points:
+            await self.bank.put(point, plant.read(point.field))
+
+    async def control(self, wanted: str, plant: Plant) -> None:
+        """`unplug`: the server stopped (its connections closed, new ones refused); `replug`:
+        a server again on the same port, the plant's values on it."""
+        if wanted == "unplug" and self.bank is not None:
+            await self.bank.stop()
+            self.bank = None
+        elif wanted == "replug" and self.bank is None:
+            self.bank = _bank(self.device, self.host, self.port)
+            await self.start(plant)
+
+
+async def _serve(args: argparse.Namespace, plant: Plant, devices: list[Any]) -> int:
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
     for signum in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(signum, stop.set)
-    outputs, inputs = device.outputs, device.inputs
-    port = await bank.start()
-    # Start with the plant's values on every point, as a PLC has them before any poll.
-    for point in device.points:
-        await bank.put(point, plant.read(point.field))
+    served = [Served(d, args.host, port) for d, port in zip(devices, args.port, strict=True)]
+    for each in served:
+        await each.start(plant)
     if args.ready:
-        Path(args.ready).write_text(f"{port}\n", encoding="utf-8")
+        Path(args.ready).write_text("".join(f"{s.port}\n" for s in served), encoding="utf-8")
+    control = Path(args.control) if args.control else None
     period = args.period
     next_at = time.monotonic()
     cycles = 0
     try:
         while not stop.is_set() and (args.cycles is None or cycles < args.cycles):
-            for point in outputs:
-                plant.write(point.field, await bank.get(point))
+            for each in served:
+                if control is not None and (control / each.device.name).is_file():
+                    wanted = (control / each.device.name).read_text(encoding="utf-8").strip()
+                    await each.control(wanted, plant)
+                if each.bank is not None:  # the commands a device holds reach the plant
+                    for point in each.device.outputs:
+                        plant.write(point.field, await each.bank.get(point))
             plant.process.run_cycle()
-            for point in inputs:
-                await bank.put(point, plant.read(point.field))
+            for each in served:
+                if each.bank is not None:
+                    for point in each.device.inputs:
+                        await each.bank.put(point, plant.read(point.field))
             cycles += 1
             next_at += period
             delay = next_at - time.monotonic()
@@ -236,7 +278,9 @@ async def _serve(args: argparse.Namespace, plant: Plant, device: Any) -> int:
             except TimeoutError:
                 pass
     finally:
-        await bank.stop()
+        for each in served:
+            if each.bank is not None:
+                await each.bank.stop()
         if args.report:
             world = plant.world()
             world["_cycles"] = cycles
@@ -257,13 +301,29 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--io", required=True, help="the generated package that declares the device"
     )
-    parser.add_argument("--device", required=True, help="the device this PLC is")
+    parser.add_argument(
+        "--device",
+        required=True,
+        action="append",
+        help="a device this PLC serves (repeatable: one plant behind several devices)",
+    )
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument(
-        "--port", type=int, help="default: the device's declared port (0: any free one)"
+        "--port",
+        type=int,
+        action="append",
+        default=[],
+        help="the port of each --device, in their order (default: the declared one; 0: any)",
     )
     parser.add_argument(
-        "--period", type=float, help="seconds per PLC cycle (default: the device's poll period)"
+        "--period",
+        type=float,
+        help="seconds per PLC cycle (default: the devices' shortest poll period)",
+    )
+    parser.add_argument(
+        "--control",
+        help="a directory: a file named after a device holding `unplug` stops its server "
+        "(connections closed, new ones refused), `replug` starts it again on its port",
     )
     parser.add_argument("--cycles", type=int, help="stop after this many cycles")
     parser.add_argument(
@@ -277,15 +337,20 @@ def main(argv: list[str] | None = None) -> int:
         help="start the plant's world field FIELD at VALUE (repeatable)",
     )
     parser.add_argument("--report", help="write the plant's world here (JSON) when stopped")
-    parser.add_argument("--ready", help="write the port here once listening")
+    parser.add_argument(
+        "--ready", help="write the ports here once listening (a line per --device, in order)"
+    )
     args = parser.parse_args(argv)
     try:
         io = importlib.import_module(f"{import_package(Path(args.io).resolve()).__name__}.layout")
-        devices = getattr(io, "IO_DEVICES", {})
-        if args.device not in devices:
-            known = sorted(devices) or "none"
-            raise ValueError(f"{args.io} declares no I/O device {args.device!r} (it has: {known})")
-        device = devices[args.device]
+        declared = getattr(io, "IO_DEVICES", {})
+        unknown = [name for name in args.device if name not in declared]
+        if unknown:
+            known = sorted(declared) or "none"
+            raise ValueError(f"{args.io} declares no I/O device {unknown[0]!r} (it has: {known})")
+        devices = [declared[name] for name in dict.fromkeys(args.device)]
+        if len(args.port) > len(devices):
+            raise ValueError(f"{len(args.port)} --port for {len(devices)} --device")
         settings = dict(item.split("=", 1) for item in args.set if "=" in item)
         bad = [item for item in args.set if "=" not in item]
         if bad:
@@ -294,18 +359,18 @@ def main(argv: list[str] | None = None) -> int:
         plant = Plant(import_package(Path(args.plant or args.io).resolve(), hooks), settings)
         for item in args.world:
             plant.set(item)
-        missing = sorted(p.field for p in device.points if p.field not in plant.layout.WORLD)
-        if missing:
-            raise ValueError(
-                f"the plant has no world field(s) {missing} that device {args.device} binds"
-            )
+        for device in devices:
+            missing = sorted(p.field for p in device.points if p.field not in plant.layout.WORLD)
+            if missing:
+                raise ValueError(
+                    f"the plant has no world field(s) {missing} that device {device.name} binds"
+                )
     except (ValueError, OSError, ImportError) as error:
         print(f"softplc: {error}", file=sys.stderr)
         return 2
-    if args.port is None:
-        args.port = device.port
-    args.period = args.period or device.poll_period
-    return asyncio.run(_serve(args, plant, device))
+    args.port += [d.port for d in devices[len(args.port) :]]
+    args.period = args.period or min(d.poll_period for d in devices)
+    return asyncio.run(_serve(args, plant, devices))
 
 
 if __name__ == "__main__":

@@ -1,12 +1,14 @@
 """The soft PLCs a scenario runs against (`devices:`), and the faults its events do to them.
 
-A scenario that names devices gets, for each, a soft PLC (`python -m rcsgen.tools.softplc`)
-as its own OS process on a free loopback port, its plant's simulators in it, and the
-device pointed at it (`RCSGEN_IO_<DEVICE>`) for the harness the run opens afterwards. A
-device event pulls the plug (SIGKILL: connections reset, new ones refused), puts it back
-(a PLC started again on the same port; its plant starts over, as a PLC powered up again),
-freezes it (SIGSTOP: connections accepted, nothing answered) or thaws it. At the end every
-PLC is stopped (thawed first), its port closed, the environment as it was.
+A scenario that names devices gets soft PLCs (`python -m rcsgen.tools.softplc`), each its
+own OS process on free loopback ports, its plant's simulators in it (the devices of one
+plant share one PLC, as one machine's PLC with several interfaces), and each device
+pointed at its server (`RCSGEN_IO_<DEVICE>`) for the harness the run opens afterwards. A
+device event pulls its plug (its server stopped through the PLC's control directory:
+connections closed, new ones refused, while the PLC and its plant go on), puts it back (a
+server again on the same port), freezes the PLC serving it (SIGSTOP: connections accepted,
+nothing answered) or thaws it. At the end every PLC is stopped (thawed first), its ports
+closed, the environment as it was.
 """
 
 from __future__ import annotations
@@ -35,88 +37,116 @@ class DeviceStartError(Exception):
         self.plc = plc
 
 
+class Plc:
+    """One soft PLC process: the devices it serves (those of one plant share it, as one
+    machine's PLC with several interfaces), their ports, its control directory."""
+
+    def __init__(self, names: list[str], plant: Path | None, package: Path | None) -> None:
+        self.names, self.plant, self.package = names, plant, package
+        self.popen: subprocess.Popen[bytes] | None = None
+        self.ports: dict[str, int] = {}
+
+
 class Bench:
     """The scenario's soft PLCs: `start` before the harness opens, `apply` per device event,
     `close` after the harness closed (also after a failed start)."""
 
     def __init__(self, scenario: Scenario, package_dir: Path, scratch: Path) -> None:
         self.scenario, self.package_dir, self.scratch = scenario, package_dir, scratch
-        self.popens: dict[str, subprocess.Popen[bytes]] = {}
-        self.ports: dict[str, int] = {}
-        self.plants: dict[str, Path] = {}
+        self.plcs: dict[str, Plc] = {}  # device -> the PLC serving it
         self.saved: dict[str, str | None] = {}
         self.down: set[str] = set()  # the devices unplugged or frozen now
         self.probes: dict[str, Any] = {}  # device -> a link reading its outputs back
+        self.control = scratch / "control"
+        self.control.mkdir(parents=True, exist_ok=True)
 
     def start(self, layout: ModuleType) -> None:
         """Every PLC started side by side, then waited for; the devices pointed at them."""
-        devices = layout.IO_DEVICES
-        built: dict[Path, Path] = {}
-        for name, plc in self.scenario.devices.items():
-            if plc.plant is not None:
-                if plc.plant not in built:
-                    from ...compiler.frontend import compile_paths
+        by_plant: dict[Path, Plc] = {}
+        for name, wanted in self.scenario.devices.items():
+            if wanted.plant is None:  # a PLC of its own, its inputs at the initial values
+                self.plcs[name] = Plc([name], None, None)
+            elif wanted.plant in by_plant:
+                by_plant[wanted.plant].names.append(name)
+                self.plcs[name] = by_plant[wanted.plant]
+            else:
+                from ...compiler.frontend import compile_paths
 
-                    front = compile_paths([plc.plant])
-                    if not front.systems or front.diagnostics.errors:
-                        raise DeviceStartError(plc, f"its plant {plc.plant} does not build")
-                    built[plc.plant] = write_package(front.systems[0], self.scratch / name)
-                self.plants[name] = built[plc.plant]
-            self._spawn(name, 0)
-        for name, plc in self.scenario.devices.items():
-            self.ports[name] = self._wait(plc)
-            device = devices[name]
+                front = compile_paths([wanted.plant])
+                if not front.systems or front.diagnostics.errors:
+                    raise DeviceStartError(wanted, f"its plant {wanted.plant} does not build")
+                package = write_package(front.systems[0], self.scratch / name)
+                self.plcs[name] = by_plant[wanted.plant] = Plc([name], wanted.plant, package)
+        plcs = list(dict.fromkeys(self.plcs.values()))
+        for plc in plcs:
+            self._spawn(plc, [0] * len(plc.names))
+        for plc in plcs:
+            self._wait(plc)
+        for name, plc in self.plcs.items():
+            device = layout.IO_DEVICES[name]
             variable = f"RCSGEN_IO_{name.upper()}"
             self.saved.setdefault(variable, os.environ.get(variable))
             path = device.url.split("/", 3)[3] if device.url.count("/") >= 3 else ""
             os.environ[variable] = (
-                f"opc.tcp://127.0.0.1:{self.ports[name]}/{path}"
+                f"opc.tcp://127.0.0.1:{plc.ports[name]}/{path}"
                 if device.protocol == "opcua"
-                else f"127.0.0.1:{self.ports[name]}"
+                else f"127.0.0.1:{plc.ports[name]}"
             )
 
-    def _spawn(self, name: str, port: int) -> None:
-        plc = self.scenario.devices[name]
-        ready = self.scratch / f"{name}.port"
+    def _spawn(self, plc: Plc, ports: list[int]) -> None:
+        ready = self.scratch / f"{plc.names[0]}.port"
         ready.unlink(missing_ok=True)
         command = [sys.executable, "-m", "rcsgen.tools.softplc", "--io", str(self.package_dir)]
-        command += ["--device", name, "--port", str(port), "--ready", str(ready)]
-        if plc.plant is not None:
-            command += ["--plant", str(self.plants[name]), "--hooks", str(plc.plant)]
+        for name, port in zip(plc.names, ports, strict=True):
+            command += ["--device", name, "--port", str(port)]
+        command += ["--ready", str(ready), "--control", str(self.control)]
+        if plc.package is not None:
+            command += ["--plant", str(plc.package), "--hooks", str(plc.plant)]
         for key, value in self.scenario.settings.items():
             command += ["--set", f"{key}={value}"]
-        with (self.scratch / f"{name}.log").open("ab") as log:
-            self.popens[name] = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
+        with (self.scratch / f"{plc.names[0]}.log").open("ab") as log:
+            plc.popen = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
 
-    def _wait(self, plc: SoftPlc) -> int:
-        ready, popen = self.scratch / f"{plc.name}.port", self.popens[plc.name]
+    def _wait(self, plc: Plc) -> None:
+        ready, popen = self.scratch / f"{plc.names[0]}.port", plc.popen
+        assert popen is not None
+        first = self.scenario.devices[plc.names[0]]
         deadline = time.monotonic() + START_DEADLINE
         while time.monotonic() < deadline:
             if popen.poll() is not None:
-                said = (self.scratch / f"{plc.name}.log").read_text(errors="replace").strip()
-                raise DeviceStartError(plc, said.splitlines()[-1] if said else "it exited")
-            if ready.is_file() and ready.read_text().endswith("\n"):
-                return int(ready.read_text())
+                said = (self.scratch / f"{plc.names[0]}.log").read_text(errors="replace").strip()
+                raise DeviceStartError(first, said.splitlines()[-1] if said else "it exited")
+            lines = ready.read_text().splitlines(keepends=True) if ready.is_file() else []
+            if len(lines) == len(plc.names) and lines[-1].endswith("\n"):
+                plc.ports = {n: int(line) for n, line in zip(plc.names, lines, strict=True)}
+                return
             time.sleep(0.05)
-        raise DeviceStartError(plc, f"not listening after {START_DEADLINE:g} s")
+        raise DeviceStartError(first, f"not listening after {START_DEADLINE:g} s")
 
     def apply(self, name: str, do: str) -> None:
-        """A device event: the fault done (or undone) now."""
-        popen = self.popens[name]
-        self.down.discard(name)
-        if do in (UNPLUG, FREEZE):
-            self.down.add(name)
-            self._drop_probe(name)
-        if do == UNPLUG:
-            popen.kill()
-            popen.wait(30)
+        """A device event, done before this returns: `unplug` stops the device's server (its
+        connections closed, its port refusing; the PLC and its plant go on), `replug` starts
+        it again on its port; `freeze` stops the PLC process (every device it serves accepts
+        and answers nothing), `thaw` continues it."""
+        plc = self.plcs[name]
+        popen = plc.popen
+        assert popen is not None
+        if do in (UNPLUG, REPLUG):
+            order = self.control / name
+            order.with_suffix(".new").write_text(do, encoding="utf-8")
+            order.with_suffix(".new").replace(order)
+            _wait_port(plc.ports[name], open_=do == REPLUG)
         elif do == FREEZE:
             popen.send_signal(signal.SIGSTOP)
         elif do == THAW:
             popen.send_signal(signal.SIGCONT)
-        elif do == REPLUG:
-            self._spawn(name, self.ports[name])
-            self._wait(self.scenario.devices[name])
+        gone = [name] if do in (UNPLUG, REPLUG) else plc.names
+        if do in (UNPLUG, FREEZE):
+            self.down.update(gone)
+        else:
+            self.down.difference_update(gone)
+        for each in gone:
+            self._drop_probe(each)
 
     def not_safe_on_survivors(self, layout: ModuleType) -> list[str]:
         """The actuators bound to a device still up that it does not hold at their safe
@@ -159,21 +189,24 @@ class Bench:
 
     def close(self) -> None:
         """Every PLC stopped (thawed first: a frozen one handles SIGTERM once thawed), its
-        port closed; the environment as before."""
+        ports closed; the environment as before."""
         for name in list(self.probes):
             self._drop_probe(name)
-        for popen in self.popens.values():
-            if popen.poll() is None:
-                popen.send_signal(signal.SIGCONT)
-                popen.terminate()
-        for popen in self.popens.values():
+        plcs = [p for p in dict.fromkeys(self.plcs.values()) if p.popen is not None]
+        for plc in plcs:
+            assert plc.popen is not None
+            if plc.popen.poll() is None:
+                plc.popen.send_signal(signal.SIGCONT)
+                plc.popen.terminate()
+        for plc in plcs:
+            assert plc.popen is not None
             try:
-                popen.wait(20)
+                plc.popen.wait(20)
             except subprocess.TimeoutExpired:
-                popen.kill()
-                popen.wait(10)
-        for port in self.ports.values():
-            _closed(port)
+                plc.popen.kill()
+                plc.popen.wait(10)
+            for port in plc.ports.values():
+                _wait_port(port, open_=False)
         for variable, value in self.saved.items():
             if value is None:
                 os.environ.pop(variable, None)
@@ -181,21 +214,21 @@ class Bench:
                 os.environ[variable] = value
 
 
-def _closed(port: int, deadline: float = 10.0) -> None:
-    """Wait (bounded) until nothing listens on `port` on loopback any more."""
+def _wait_port(port: int, open_: bool, deadline: float = 10.0) -> None:
+    """Wait (bounded) until something listens on `port` on loopback (`open_`), or nothing."""
     end = time.monotonic() + deadline
     while time.monotonic() < end:
         with socket.socket() as probe:
             probe.settimeout(0.5)
-            if probe.connect_ex(("127.0.0.1", port)) != 0:
+            if (probe.connect_ex(("127.0.0.1", port)) == 0) == open_:
                 return
-        time.sleep(0.05)
+        time.sleep(0.02)
 
 
-def safe_check(harness: Any, name: str, bench: Any = None) -> list[str]:
-    """What is not yet as a lost device asks (empty: all of it): the device LOST, every input
-    field it feeds marked stale, every actuator of the system latched at its safe value, and
-    (with the `bench`) held at it by every device still up."""
+def safe_check(harness: Any, name: str) -> list[str]:
+    """What is not yet as a lost device asks of the block (empty: all of it): the device
+    LOST, every input field it feeds marked stale, every actuator of the system latched at
+    its safe value (what the devices still up hold: `Bench.not_safe_on_survivors`)."""
     from .run import io_counts
 
     layout = harness.layout
@@ -213,6 +246,4 @@ def safe_check(harness: Any, name: str, bench: Any = None) -> list[str]:
     for field, value in safe.items():
         if world[field] != value or held.get(field) != "SAFE":
             missing.append(f"`{field}` is {world[field]!r}, not latched at its safe {value!r}")
-    if not missing and bench is not None:  # the block is safe: then what the devices hold
-        missing = bench.not_safe_on_survivors(layout)
     return missing

@@ -245,46 +245,72 @@ def cycle_period(harness: AnyHarness) -> float:
     return float(min(plan.cycle_period for plan in plans))
 
 
+@dataclass
+class Watched:
+    """A fault being watched: when it was done, its two bounds (cycles after it), and the
+    cycle the block's part of the reaction was complete (None: not yet)."""
+
+    fault: DeviceFault
+    at: int  # the cycles run when it was done (it came before cycle at + 1)
+    bound: int  # the device LOST, its inputs stale, the actuators latched: timeout + 1 cycle
+    reach: int  # the survivors holding the safe values: + their poll and 1 cycle more
+    safe_after: int | None = None
+
+
 class FaultWatch:
-    """After each device fault that takes a device down (unplug, freeze): the cycles until
-    the lost-device reaction is complete (devices.safe_check), within the device's timeout
-    + 1 cycle, in cycles of the paced run."""
+    """After each device fault that takes a device down (unplug, freeze), in cycles of the
+    paced run: the device LOST, its inputs stale and every actuator latched at its safe
+    value within the device's timeout + 1 cycle (devices.safe_check); then the devices
+    still up holding those values (read back from them) by their next poll after the
+    latch, + 1 cycle for the read-back (the device threads write the latched values at
+    their own pace, never inside the cycle)."""
 
     def __init__(self, harness: AnyHarness, devices: Devices | None) -> None:
         self.period, self.devices = cycle_period(harness), devices
-        self.open: list[tuple[DeviceFault, int, int]] = []  # fault, at cycle, bound
+        self.open: list[Watched] = []
         self.checks: list[str] = []
         self.failures: list[tuple[Span, str]] = []
 
+    def cycles(self, seconds: float) -> int:
+        return math.ceil(seconds / self.period - 1e-9)
+
     def fault(self, harness: AnyHarness, fault: DeviceFault) -> None:
         if fault.do in TAKES_DOWN:
-            timeout = harness.layout.IO_DEVICES[fault.name].timeout
-            bound = math.ceil(timeout / self.period - 1e-9) + 1
-            self.open.append((fault, harness.cycles, bound))
+            devices = harness.layout.IO_DEVICES
+            bound = self.cycles(devices[fault.name].timeout) + 1
+            poll = max(d.poll_period for d in devices.values())
+            self.open.append(Watched(fault, harness.cycles, bound, bound + self.cycles(poll) + 1))
 
     def after_cycle(self, harness: AnyHarness) -> None:
         from .devices import safe_check
 
         still = []
-        for fault, at, bound in self.open:
-            missing = safe_check(harness, fault.name, self.devices)
-            after = harness.cycles - at
-            if not missing:
-                self.checks.append(
-                    f"{fault.name} {fault.do} before cycle {at + 1}: lost, inputs stale, "
-                    f"every actuator safe, on the devices up too, {after} cycles later "
-                    f"(bound {bound}: timeout + 1 cycle)"
-                )
-            elif after >= bound:
-                self.failures.append(
-                    (
-                        fault.span,
-                        f"{fault.do} of device `{fault.name}` before cycle {at + 1}: "
-                        f"{after} cycles later (its timeout + 1 cycle) {'; '.join(missing)}",
+        for watched in self.open:
+            fault, after = watched.fault, harness.cycles - watched.at
+            said = f"{fault.do} of device `{fault.name}` before cycle {watched.at + 1}"
+            if watched.safe_after is None:
+                missing = safe_check(harness, fault.name)
+                if not missing:
+                    watched.safe_after = after
+                elif after >= watched.bound:
+                    self.failures.append(
+                        (fault.span, f"{said}: {after} cycles later {'; '.join(missing)}")
                     )
-                )
-            else:
-                still.append((fault, at, bound))
+                    continue
+            if watched.safe_after is not None:
+                missing = self.devices.not_safe_on_survivors(harness.layout) if self.devices else []
+                if not missing:
+                    self.checks.append(
+                        f"{fault.name} {fault.do} before cycle {watched.at + 1}: lost, inputs "
+                        f"stale, every actuator latched safe {watched.safe_after} cycles later "
+                        f"(bound {watched.bound}: timeout + 1 cycle), held safe by the devices "
+                        f"up {after} cycles later (bound {watched.reach})"
+                    )
+                    continue
+                if after >= watched.reach:
+                    self.failures.append((fault.span, f"{said}: {'; '.join(missing)}"))
+                    continue
+            still.append(watched)
         self.open = still
 
 
@@ -354,11 +380,11 @@ def run(
         result.device_checks, result.device_failures = watch.checks, watch.failures
         result.device_failures += [
             (
-                fault.span,
-                f"{fault.do} of device `{fault.name}` before cycle {at + 1}: the run "
-                f"ended {harness.cycles - at} cycles later, before its safe state was complete",
+                w.fault.span,
+                f"{w.fault.do} of device `{w.fault.name}` before cycle {w.at + 1}: the run "
+                f"ended {harness.cycles - w.at} cycles later, before its safe state was complete",
             )
-            for fault, at, _ in watch.open
+            for w in watch.open
         ]
     return result
 
