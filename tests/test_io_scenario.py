@@ -52,8 +52,9 @@ def test_a_device_lost_mid_shear_stops_the_miner_safe_within_timeout_plus_one_cy
     assert "result    sec ERROR" in result.output
     said = [line for line in result.output.splitlines() if line.startswith("device    ")]
     assert len(said) == 1, said
-    assert f"{device} unplug before cycle 115: lost, inputs stale, every actuator latched " in (
-        said[0]
+    assert (
+        f"{device} unplug before cycle 115: lost, inputs stale, every actuator latched "
+        in (said[0])
     )
     lines = [json.loads(line) for line in trace.read_text().splitlines()]
     before = lines[113]  # cycle 114, the last before the fault
