@@ -10,6 +10,7 @@ import importlib
 from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import pytest
 
@@ -282,3 +283,79 @@ def test_an_operator_modules_requests_show_their_text_and_a_answers_them() -> No
         "(a: answer op/fx)" in shown
     )
     assert "tl asks op: LOAD_PROBE: Load probe 7 into the probe head, then answer." in shown
+
+
+async def until(pilot: Any, condition: Any, what: str, deadline: float = 30.0) -> None:
+    """Let the app run until `condition()` holds; fail naming `what` after `deadline` s."""
+    import time
+
+    end = time.monotonic() + deadline
+    while not condition():
+        if time.monotonic() > end:
+            raise AssertionError(f"gave up waiting: {what}")
+        await pilot.pause(0.05)
+
+
+def test_the_devices_panel_shows_each_device_up_then_lost_with_its_counts(
+    tmp_path: Path,
+) -> None:
+    """The rig on its two soft PLCs (tank on Modbus TCP, pumps on OPC UA): the devices
+    panel shows both up, with their reads and writes; the tank PLC frozen, its row turns
+    lost, its timeouts count and its last error says `timeout`, the pumps still up. What
+    the screen shows is checked as text from the SVG screenshot (kept in tmp_path)."""
+    import shutil
+    import signal
+
+    from test_io import RIG, Plc, Running, environment
+
+    scratch, name = generate(RIG)
+    rig = scratch / name
+    plcs = {device: Plc(rig, device, tmp_path) for device in ("tank", "pumps")}
+    running = None
+    try:
+        for plc in plcs.values():
+            plc.wait()
+        package = import_package(rig)
+        running = Running(rig, package, environment(plcs), tmp_path / "rig.log")
+        layout = running.layout
+
+        def cell(app: Monitor, device: str, column: str) -> str:
+            return str(app.query_one("#devices", DataTable).get_cell(device, column).plain)
+
+        async def drive() -> tuple[str, str]:
+            app = Monitor(layout, running.segment, interval=0.1)
+            async with app.run_test(size=(160, 40)) as pilot:
+                await until(
+                    pilot,
+                    lambda: (
+                        [cell(app, d, "state") for d in ("tank", "pumps")] == ["up", "up"]
+                        and int(cell(app, "tank", "reads")) > 0
+                    ),
+                    "both devices up",
+                )
+                assert int(cell(app, "pumps", "writes")) > 0 and cell(app, "pumps", "reads") == "0"
+                up = screen_text(app)
+                plcs["tank"].popen.send_signal(signal.SIGSTOP)
+                await until(pilot, lambda: cell(app, "tank", "state") == "lost", "tank lost")
+                await until(
+                    pilot, lambda: cell(app, "tank", "last_error") == "timeout", "the timeout"
+                )
+                assert int(cell(app, "tank", "timeouts")) >= 1
+                assert cell(app, "pumps", "state") == "up", "the other device still answers"
+                (tmp_path / "devices.svg").write_text(app.export_screenshot())
+                (tmp_path / "devices.txt").write_text(screen_text(app))
+                return up, screen_text(app)
+
+        up, lost = asyncio.run(drive())
+    finally:
+        if running is not None:
+            running.stop()
+        for plc in plcs.values():
+            plc.stop()
+        shutil.rmtree(scratch, ignore_errors=True)
+    tank = next(line for line in up.splitlines() if line.lstrip().startswith("tank "))
+    assert "modbus_tcp 127.0.0.1:" in tank and " up " in tank, tank
+    tank = next(line for line in lost.splitlines() if line.lstrip().startswith("tank "))
+    assert " lost " in tank and " timeout " in tank, tank
+    pumps = next(line for line in lost.splitlines() if line.lstrip().startswith("pumps "))
+    assert "opcua opc.tcp://127.0.0.1:" in pumps and " up " in pumps, pumps

@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4080 bytes.
+The block is 4096 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -169,8 +169,8 @@ command buffers and world fields:
 | 3832 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
 | 3856 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
 | 3880 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
-| 3904 | 88 | IO_PLC | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns |
-| 3992 | 88 | IO_CONVEYOR | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns |
+| 3904 | 96 | IO_PLC | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
+| 4000 | 96 | IO_CONVEYOR | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
 """
 
 from __future__ import annotations
@@ -200,9 +200,9 @@ from .rcs.io_points import DEVICE_FIELDS, Device, Point
 
 SYSTEM = "miner_hil"
 SOURCE = "miner_hil/system.yaml"
-SIZE = 4080
+SIZE = 4096
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "68b41d60c25f6d167055ba9a36838231"
+LAYOUT_HASH = "05e24c91d4809992e82df97355192fba"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
@@ -918,8 +918,8 @@ IO_DEVICES = {
 # Each device's record: its state (rcs/io_points.py DEVICE_STATES) and counts, written by
 # the I/O module of the process that runs it.
 IO_RECORDS = {
-    "plc": Record(Struct("<Qqqqqqqqqqq"), 3904, DEVICE_FIELDS),
-    "conveyor": Record(Struct("<Qqqqqqqqqqq"), 3992, DEVICE_FIELDS),
+    "plc": Record(Struct("<Qqqqqqqqqqqq"), 3904, DEVICE_FIELDS),
+    "conveyor": Record(Struct("<Qqqqqqqqqqqq"), 4000, DEVICE_FIELDS),
 }
 # The controllers that read each device's inputs or write its outputs: lost with it (their
 # safe state).

@@ -8,7 +8,8 @@ error red, a dead or silent process grey). Keys act on the selected module throu
 runtime's console (`rcsgen.runtime.operate.ctl.Console`): it reads with consistent reads and writes
 only mode, pacing and command buffers, so it never blocks a controller; the operator's role
 (`--role`) decides what the keys may do, and a refusal is shown, not a crash. What the
-modules ask of the operator is shown under the table; `a` answers it. textual is an
+modules ask of the operator is shown under the table; `a` answers it. A system with
+fieldbus devices gets a panel of them (monitor_devices.py). textual is an
 optional extra (`pip install rcsgen[monitor]`), imported only here.
 """
 
@@ -27,6 +28,7 @@ from ..runtime import contract
 from ..runtime.operate.command import Command, parse_command
 from ..runtime.operate.command import shown as shown_value
 from ..runtime.operate.ctl import Console, CtlError
+from .monitor_devices import DevicesPanel
 
 COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
 WORLD_COLUMNS = ("field", "value", "override")
@@ -73,6 +75,7 @@ class Monitor(App[None]):
     CSS = """
     DataTable { height: 1fr; }
     #world { height: auto; max-height: 12; }
+    #devices { height: auto; max-height: 8; }
     #processes { height: auto; color: $text-muted; }
     #requests { height: auto; color: $warning; text-style: bold; }
     #message { height: auto; }
@@ -120,6 +123,8 @@ class Monitor(App[None]):
     def compose(self) -> ComposeResult:
         yield DataTable(id="modules", cursor_type="row", zebra_stripes=False)
         yield DataTable(id="world", cursor_type="none", zebra_stripes=False, show_cursor=False)
+        if getattr(self.layout, "IO_DEVICES", None):  # fieldbus devices: their own panel
+            yield DevicesPanel(self.layout)
         yield Static(id="processes")
         yield Static(id="requests")
         yield Static(id="message")
@@ -187,6 +192,8 @@ class Monitor(App[None]):
                 f"overruns, slow x{proc.get('slow', 1.0):g}"
             )
         self.query_one("#processes", Static).update("   ".join(lines))
+        for panel in self.query(DevicesPanel):
+            panel.show(snapshot.get("io") or {})
         self.open_requests = snapshot["requests"]
         asks = [
             f"{r['by']} asks {r['operator']}: {r['task']}: {r['doc']} (a: answer {r['name']})"

@@ -240,6 +240,22 @@ class Served:
             await self.start(plant)
 
 
+async def _cycle(served: list[Served], plant: Plant, control: Path | None) -> None:
+    """One PLC cycle: each device's plug as `--control` orders, the commands the devices
+    hold into the plant, one cycle of its simulators, its sensed values onto the devices."""
+    for each in served:
+        if control is not None and (control / each.device.name).is_file():
+            await each.control((control / each.device.name).read_text("utf-8").strip(), plant)
+        if each.bank is not None:
+            for point in each.device.outputs:
+                plant.write(point.field, await each.bank.get(point))
+    plant.process.run_cycle()
+    for each in served:
+        if each.bank is not None:
+            for point in each.device.inputs:
+                await each.bank.put(point, plant.read(point.field))
+
+
 async def _serve(args: argparse.Namespace, plant: Plant, devices: list[Any]) -> int:
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
@@ -256,18 +272,7 @@ async def _serve(args: argparse.Namespace, plant: Plant, devices: list[Any]) -> 
     cycles = 0
     try:
         while not stop.is_set() and (args.cycles is None or cycles < args.cycles):
-            for each in served:
-                if control is not None and (control / each.device.name).is_file():
-                    wanted = (control / each.device.name).read_text(encoding="utf-8").strip()
-                    await each.control(wanted, plant)
-                if each.bank is not None:  # the commands a device holds reach the plant
-                    for point in each.device.outputs:
-                        plant.write(point.field, await each.bank.get(point))
-            plant.process.run_cycle()
-            for each in served:
-                if each.bank is not None:
-                    for point in each.device.inputs:
-                        await each.bank.put(point, plant.read(point.field))
+            await _cycle(served, plant, control)
             cycles += 1
             next_at += period
             delay = next_at - time.monotonic()
@@ -286,6 +291,19 @@ async def _serve(args: argparse.Namespace, plant: Plant, devices: list[Any]) -> 
             world["_cycles"] = cycles
             Path(args.report).write_text(json.dumps(world, sort_keys=True) + "\n", encoding="utf-8")
     return 0
+
+
+def _devices(args: argparse.Namespace, declared: dict[str, Any]) -> list[Any]:
+    """The devices `--device` names, each once, in order; ValueError for one not declared
+    or more ports than devices."""
+    unknown = [name for name in args.device if name not in declared]
+    if unknown:
+        known = sorted(declared) or "none"
+        raise ValueError(f"{args.io} declares no I/O device {unknown[0]!r} (it has: {known})")
+    devices = [declared[name] for name in dict.fromkeys(args.device)]
+    if len(args.port) > len(devices):
+        raise ValueError(f"{len(args.port)} --port for {len(devices)} --device")
+    return devices
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -343,14 +361,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         io = importlib.import_module(f"{import_package(Path(args.io).resolve()).__name__}.layout")
-        declared = getattr(io, "IO_DEVICES", {})
-        unknown = [name for name in args.device if name not in declared]
-        if unknown:
-            known = sorted(declared) or "none"
-            raise ValueError(f"{args.io} declares no I/O device {unknown[0]!r} (it has: {known})")
-        devices = [declared[name] for name in dict.fromkeys(args.device)]
-        if len(args.port) > len(devices):
-            raise ValueError(f"{len(args.port)} --port for {len(devices)} --device")
+        devices = _devices(args, getattr(io, "IO_DEVICES", {}))
         settings = dict(item.split("=", 1) for item in args.set if "=" in item)
         bad = [item for item in args.set if "=" not in item]
         if bad:
@@ -359,12 +370,12 @@ def main(argv: list[str] | None = None) -> int:
         plant = Plant(import_package(Path(args.plant or args.io).resolve(), hooks), settings)
         for item in args.world:
             plant.set(item)
-        for device in devices:
-            missing = sorted(p.field for p in device.points if p.field not in plant.layout.WORLD)
-            if missing:
-                raise ValueError(
-                    f"the plant has no world field(s) {missing} that device {device.name} binds"
-                )
+        missing = [(d.name, p.field) for d in devices for p in d.points]
+        missing = [(d, f) for d, f in missing if f not in plant.layout.WORLD]
+        if missing:
+            raise ValueError(
+                f"the plant has no world field {missing[0][1]!r} that device {missing[0][0]} binds"
+            )
     except (ValueError, OSError, ImportError) as error:
         print(f"softplc: {error}", file=sys.stderr)
         return 2

@@ -38,13 +38,18 @@ from typing import Any, Protocol
 
 from .contract import Record, StaleRead
 from .io_points import (
+    BROKEN,
+    CLIPPED,
     CONNECTING,
     DEVICE_FIELDS,
     LOST,
     MODBUS_TCP,
     ONLINE,
     OPCUA,
+    REFUSED,
     STOPPED,
+    TIMED_OUT,
+    UNCONNECTED,
     Device,
     IoRefused,
     IoTimeout,
@@ -155,15 +160,15 @@ class DeviceRunner:
                     outputs = {f: overlay.get(f, v) for f, v in outputs.items()}
             clipped = link.write(outputs) if outputs is not None and self.device.outputs else 0
         except IoRefused as error:
-            self._count("errors")
+            self._count("errors", REFUSED)
             self._failed(f"answered with an exception: {error}", close=False)
             return
         except IoTimeout as error:
-            self._count("timeouts")
+            self._count("timeouts", TIMED_OUT)
             self._failed(f"no answer in time: {error}", close=True)
             return
         except Exception as error:  # noqa: BLE001 - a broken connection, a protocol error
-            self._count("errors")
+            self._count("errors", BROKEN)
             self._failed(f"{type(error).__name__}: {error}", close=True)
             return
         now = time.monotonic_ns()
@@ -174,6 +179,8 @@ class DeviceRunner:
             counts["reads"] += 1 if self.device.inputs else 0
             counts["writes"] += 1 if outputs is not None and self.device.outputs else 0
             counts["errors"] += clipped
+            if clipped:
+                counts["last_error"] = CLIPPED
             counts["last_ok_ns"] = now
             counts["round_trip_ns"] = now - began
             recovered = self.failed
@@ -189,6 +196,8 @@ class DeviceRunner:
             link, self.spare = self.spare or self.link_factory(self.device), None
             link.connect()
         except Exception as error:  # noqa: BLE001 - any failure to connect is a retry
+            with self.lock:
+                self.counts["last_error"] = UNCONNECTED
             self._failed(f"cannot connect: {error}", close=False)
             return False
         self.link = link
@@ -215,9 +224,11 @@ class DeviceRunner:
     def _where(self) -> str:
         return self.device.url or f"{self.device.host}:{self.device.port}"
 
-    def _count(self, name: str) -> None:
+    def _count(self, name: str, error: int | None = None) -> None:
         with self.lock:
             self.counts[name] += 1
+            if error is not None:
+                self.counts["last_error"] = error
 
     # ------------------------------------------------------------ the cycle's side
 

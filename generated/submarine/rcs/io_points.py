@@ -56,7 +56,12 @@ WORD_ORDERS = ("big", "little")  # which 16-bit word of a 32-bit value comes fir
 # A device's state in its record (`layout.IO_RECORDS`, `ctl status`, traces).
 CONNECTING, ONLINE, LOST, STOPPED = 0, 1, 2, 3
 DEVICE_STATES = ("CONNECTING", "ONLINE", "LOST", "STOPPED")
-# A device record's fields after `seq` (all int64): its state, then the counts.
+# What went wrong last with a device (its record's `last_error`, by index): nothing yet, a
+# request unanswered in time, an exception code or bad status, no connection, a connection
+# broken or a protocol error, a value clipped to fit its register.
+ERROR_KINDS = ("none", "timeout", "exception", "cannot connect", "connection lost", "clipped")
+NO_ERROR, TIMED_OUT, REFUSED, UNCONNECTED, BROKEN, CLIPPED = range(len(ERROR_KINDS))
+# A device record's fields after `seq` (all int64): its state, the counts, the last error.
 DEVICE_FIELDS = (
     "state",
     "reads",
@@ -68,6 +73,7 @@ DEVICE_FIELDS = (
     "losses",
     "last_ok_ns",
     "round_trip_ns",
+    "last_error",
 )
 COUNTS = ("reads", "writes", "timeouts", "retries", "errors", "reconnects", "losses")
 
@@ -215,6 +221,7 @@ def device_status(device: Device, values: dict[str, int], now_ns: int) -> dict[s
         return {"state": "?"}
     state = int(values["state"])
     last = int(values["last_ok_ns"])
+    error = int(values["last_error"])
     silent = state in (LOST, CONNECTING) or (state == STOPPED and not last)
     return {
         "state": DEVICE_STATES[state] if 0 <= state < len(DEVICE_STATES) else str(state),
@@ -227,4 +234,5 @@ def device_status(device: Device, values: dict[str, int], now_ns: int) -> dict[s
         "last_answer_age_s": round((now_ns - last) / 1e9, 3) if last else None,
         "round_trip_ms": round(int(values["round_trip_ns"]) / 1e6, 3) if last else None,
         "stale": [p.field for p in device.inputs] if silent else [],
+        "last_error": ERROR_KINDS[error] if 0 <= error < len(ERROR_KINDS) else str(error),
     }

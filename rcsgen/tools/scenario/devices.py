@@ -223,27 +223,3 @@ def _wait_port(port: int, open_: bool, deadline: float = 10.0) -> None:
             if (probe.connect_ex(("127.0.0.1", port)) == 0) == open_:
                 return
         time.sleep(0.02)
-
-
-def safe_check(harness: Any, name: str) -> list[str]:
-    """What is not yet as a lost device asks of the block (empty: all of it): the device
-    LOST, every input field it feeds marked stale, every actuator of the system latched at
-    its safe value (what the devices still up hold: `Bench.not_safe_on_survivors`)."""
-    from .run import io_counts
-
-    layout = harness.layout
-    device = layout.IO_DEVICES[name]
-    shown = io_counts(harness, name, device)
-    missing = []
-    if shown["state"] != "LOST":
-        missing.append(f"device `{name}` is {shown['state']}, not LOST")
-    inputs = [p.field for p in device.inputs]
-    if sorted(shown["stale"]) != sorted(inputs):
-        missing.append(f"its inputs marked stale are {shown['stale']}, not {inputs}")
-    safe = dict(getattr(layout, "SAFE_VALUES", {}))
-    world = harness.world.snapshot(list(safe))
-    held = harness.world.overrides()
-    for field, value in safe.items():
-        if world[field] != value or held.get(field) != "SAFE":
-            missing.append(f"`{field}` is {world[field]!r}, not latched at its safe {value!r}")
-    return missing

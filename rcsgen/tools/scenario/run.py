@@ -240,9 +240,31 @@ class Devices(Protocol):
 
 def cycle_period(harness: AnyHarness) -> float:
     """The system's cycle period, seconds (its processes' shortest)."""
-    package = harness.layout.__name__.rsplit(".", 1)[0]
+    package = harness.layout.__actuator_.rsplit(".", 1)[0]
     plans = [importlib.import_module(f"{package}.main_{p}").PLAN for p in harness.layout.PROCESSES]
     return float(min(plan.cycle_period for plan in plans))
+
+
+def safe_check(harness: Any, name: str) -> list[str]:
+    """What is not yet as a lost device asks of the block (empty: all of it): the device
+    LOST, every input field it feeds marked stale, every actuator of the system latched at
+    its safe value (what the devices still up hold: `Bench.not_safe_on_survivors`)."""
+    layout = harness.layout
+    device = layout.IO_DEVICES[name]
+    shown = io_counts(harness, name, device)
+    missing = []
+    if shown["state"] != "LOST":
+        missing.append(f"device `{name}` is {shown['state']}, not LOST")
+    inputs = [p.field for p in device.inputs]
+    if sorted(shown["stale"]) != sorted(inputs):
+        missing.append(f"its inputs marked stale are {shown['stale']}, not {inputs}")
+    safe = dict(getattr(layout, "SAFE_VALUES", {}))
+    world = harness.world.snapshot(list(safe))
+    held = harness.world.overrides()
+    for actuator, value in safe.items():
+        if world[actuator] != value or held.get(actuator) != "SAFE":
+            missing.append(f"`{actuator}` is {world[actuator]!r}, not latched at safe {value!r}")
+    return missing
 
 
 @dataclass
@@ -270,6 +292,32 @@ class FaultWatch:
         self.open: list[Watched] = []
         self.checks: list[str] = []
         self.failures: list[tuple[Span, str]] = []
+        self.pace = Pace(self.period)
+
+    def event(self, harness: AnyHarness, event: Event) -> None:
+        """A device event: done to its soft PLC now, and watched if it takes it down."""
+        if event.device is None:
+            return
+        if self.devices is None:
+            raise ScenarioError(f"cycle {event.cycle}: device events need the soft PLCs")
+        self.devices.apply(event.device.name, event.device.do)
+        self.fault(harness, event.device)
+
+    def before_cycle(self) -> None:
+        self.pace.wait()
+
+    def finish(self, result: RunResult, harness: AnyHarness) -> None:
+        """What was seen, into the result; a fault still open when the run ended fails."""
+        result.device_checks, result.device_failures = self.checks, self.failures
+        for w in self.open:
+            result.device_failures.append(
+                (
+                    w.fault.span,
+                    f"{w.fault.do} of device `{w.fault.name}` before cycle {w.at + 1}: the run "
+                    f"ended {harness.cycles - w.at} cycles later, before its safe state was "
+                    "complete",
+                )
+            )
 
     def cycles(self, seconds: float) -> int:
         return math.ceil(seconds / self.period - 1e-9)
@@ -282,8 +330,6 @@ class FaultWatch:
             self.open.append(Watched(fault, harness.cycles, bound, bound + self.cycles(poll) + 1))
 
     def after_cycle(self, harness: AnyHarness) -> None:
-        from .devices import safe_check
-
         still = []
         for watched in self.open:
             fault, after = watched.fault, harness.cycles - watched.at
@@ -330,6 +376,24 @@ class Pace:
         self.next_at += self.period
 
 
+class Unwatched:
+    """A run without devices: nothing to apply to them, no pacing, nothing to watch."""
+
+    open: list[Watched] = []
+
+    def event(self, harness: AnyHarness, event: Event) -> None:
+        """(A device event needs `devices:`: the check refuses one without, E426.)"""
+
+    def before_cycle(self) -> None:
+        """Flat out: no clock."""
+
+    def after_cycle(self, harness: AnyHarness) -> None:
+        """Nothing watched."""
+
+    def finish(self, result: RunResult, harness: AnyHarness) -> None:
+        """Nothing to report."""
+
+
 def run(
     scenario: Scenario,
     harness: AnyHarness,
@@ -347,21 +411,15 @@ def run(
     stop = scenario.stop_when_done
     trace = [] if trace is None else trace
     phases: Counter[str] = Counter()
-    watch = FaultWatch(harness, devices) if scenario.devices else None
-    pace = Pace(watch.period) if watch is not None else None
+    watch = FaultWatch(harness, devices) if scenario.devices else Unwatched()
     while harness.cycles < scenario.max_cycles:
         while pending and pending[0].cycle <= harness.cycles + 1:
             event = pending.pop(0)
             _apply(harness, event)
-            if event.device is not None and watch is not None:
-                if devices is None:
-                    raise ScenarioError(f"cycle {event.cycle}: device events need the soft PLCs")
-                devices.apply(event.device.name, event.device.do)
-                watch.fault(harness, event.device)
+            watch.event(harness, event)
         if person is not None:
             person.before_cycle(harness)
-        if pace is not None:
-            pace.wait()
+        watch.before_cycle()
         harness.cycle()
         trace.append(trace_line(harness, scenario.trace_world))
         if scenario.phases_of is not None:
@@ -370,22 +428,11 @@ def run(
             phases[harness.sent(module).command if busy else "idle"] += 1
         if on_cycle is not None:
             on_cycle(harness)
-        if watch is not None:
-            watch.after_cycle(harness)
-        settled = watch is None or not watch.open
-        if stop is not None and not pending and settled and _finished(harness, stop):
+        watch.after_cycle(harness)
+        if stop is not None and not pending and not watch.open and _finished(harness, stop):
             break
     result = _result(scenario, harness, trace, phases)
-    if watch is not None:
-        result.device_checks, result.device_failures = watch.checks, watch.failures
-        result.device_failures += [
-            (
-                w.fault.span,
-                f"{w.fault.do} of device `{w.fault.name}` before cycle {w.at + 1}: the run "
-                f"ended {harness.cycles - w.at} cycles later, before its safe state was complete",
-            )
-            for w in watch.open
-        ]
+    watch.finish(result, harness)
     return result
 
 
