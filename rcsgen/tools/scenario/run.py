@@ -240,7 +240,7 @@ class Devices(Protocol):
 
 def cycle_period(harness: AnyHarness) -> float:
     """The system's cycle period, seconds (its processes' shortest)."""
-    package = harness.layout.__actuator_.rsplit(".", 1)[0]
+    package = harness.layout.__name__.rsplit(".", 1)[0]
     plans = [importlib.import_module(f"{package}.main_{p}").PLAN for p in harness.layout.PROCESSES]
     return float(min(plan.cycle_period for plan in plans))
 
