@@ -128,3 +128,25 @@ def test_a_frozen_plc_s_survivor_holds_the_safe_values_and_a_run_too_short_is_e4
     )
     assert "before its safe state was complete" in result.output
     assert softplcs() == []
+
+
+def test_a_soft_plc_that_cannot_start_is_e428_at_its_device(rig: Path) -> None:
+    """A plant whose world lacks the fields the device binds (the tiny system's, for the
+    rig's tank): its soft PLC exits at start; the run stops before cycle 1 with E428 at the
+    device, quoting the PLC's own line, and nothing is left running."""
+    import os
+
+    tiny = ROOT / "tests" / "cases" / "valid" / "tiny"
+    plant = os.path.relpath(tiny, rig)
+    (rig / "scenarios" / "bad_plant.yaml").write_text(
+        f"scenario: bad_plant\nmax_cycles: 5\ndevices:\n  tank: {{plant: {plant}}}\n"
+    )
+    result = rcsgen("run", rig / "scenarios" / "bad_plant.yaml", "--trace", rig / "t.jsonl")
+    assert result.exit_code == 1, result.output
+    assert "bad_plant.yaml:4:3: error[E428]: the soft PLC of device `tank` did not start: " in (
+        result.output
+    )
+    assert (
+        "softplc: the plant has no world field 'valve_cmd' that device tank binds" in result.output
+    )
+    assert softplcs() == []
