@@ -17,8 +17,11 @@ run: $(STAMP)
 	$(VENV)/bin/rcsgen build specs/ --strict
 	$(VENV)/bin/rcsgen run specs/miner/scenarios/box_cut.yaml
 
+# Two workers (pytest-xdist): the processes tier runs on one of them, one test after another,
+# while the other tiers share both (tests/README.md); TEST_WORKERS=0 runs in one process.
+TEST_WORKERS ?= 2
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q $(if $(filter 0,$(TEST_WORKERS)),,-n $(TEST_WORKERS) --dist loadgroup)
 
 # Longer fuzzing than `make test` does: 5,000 mutated specs through the front end (and every
 # 10th through `rcsgen build`), 200 random state tables run against the reference

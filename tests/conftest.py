@@ -120,6 +120,10 @@ _TIER_OF = {module: tier for tier, (_, modules) in TIERS.items() for module in m
 def pytest_configure(config: pytest.Config) -> None:
     for tier, (purpose, _) in TIERS.items():
         config.addinivalue_line("markers", f"{tier}: {purpose}")
+    # `make test` runs on two workers (pytest-xdist, --dist loadgroup): the processes tier
+    # is one group, so its tests run one after another on one worker, never two systems'
+    # watchdogs racing each other for the two cores; the other tiers share out module by module.
+    config.addinivalue_line("markers", "xdist_group(name): tests that run on one worker")
 
 
 def pytest_itemcollected(item: pytest.Item) -> None:
@@ -130,6 +134,8 @@ def pytest_itemcollected(item: pytest.Item) -> None:
             "(tests/README.md says what each tier is for)"
         )
     item.add_marker(_TIER_OF[module])
+    if _TIER_OF[module] == "processes":
+        item.add_marker(pytest.mark.xdist_group("processes"))
 
 
 # `make mutate-templates` (tests/mutation_templates.py): builds render from a scratch copy of
@@ -203,25 +209,63 @@ def work(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, pristine: dict[str, by
     return tmp_path
 
 
-def _our_segments() -> set[str]:
-    """Shared-memory segments this test run creates: named after its pid, or the default
-    segments of the systems it launches (`rcs_<system>_<layout hash>`)."""
+def _our_segments(systems: bool = True) -> set[str]:
+    """Shared-memory segments this test run creates: named after its pid, or (`systems`) the
+    default segments of the systems it launches (`rcs_<system>_<layout hash>`)."""
     shm = Path("/dev/shm")
     if not shm.is_dir():
         return set()
     found = set(shm.glob(f"rcsgen_*{os.getpid()}*"))
-    for system in ("miner", "duo", "pair"):
+    for system in ("miner", "duo", "pair") if systems else ():
         found |= set(shm.glob(f"rcs_{system}_*"))
     return {p.name for p in found}
 
 
+def _xdist_worker(config: pytest.Config) -> bool:
+    return hasattr(config, "workerinput")
+
+
 @pytest.fixture(scope="session", autouse=True)
-def nothing_left_behind():
+def nothing_left_behind(request: pytest.FixtureRequest):
     """After the whole suite: no shared-memory segment of ours is left in /dev/shm, and no
-    child process of the test run survives (every launched system was stopped)."""
-    before = _our_segments()
+    child process of the test run survives (every launched system was stopped). A worker of
+    a parallel run checks its own segments and children; the systems' default segments,
+    which another worker may hold at that moment, are checked once all workers have ended
+    (`pytest_sessionfinish`)."""
+    systems = not _xdist_worker(request.config)
+    before = _our_segments(systems)
     yield
-    left = _our_segments() - before
+    left = _our_segments(systems) - before
     assert not left, f"the suite left shared-memory segments behind: {sorted(left)}"
     survivors = [c for c in children() if "resource_tracker" not in c]
     assert not survivors, f"child processes survived the suite: {survivors}"
+
+
+
+def _parallel_controller(config: pytest.Config) -> bool:
+    """The pytest-xdist controller of a parallel run (it runs no test itself)."""
+    return not _xdist_worker(config) and getattr(config.option, "dist", "no") != "no"
+
+
+_SYSTEM_SEGMENTS_BEFORE: set[str] = set()
+
+
+def _note_system_segments(session: pytest.Session) -> None:
+    if _parallel_controller(session.config):
+        _SYSTEM_SEGMENTS_BEFORE.update(_our_segments())
+
+
+def _no_system_segment_left(session: pytest.Session, exitstatus: int) -> None:
+    """The controller of a parallel run: no system's default segment is left once every
+    worker has ended (a run in one process checks them in `nothing_left_behind`)."""
+    if not _parallel_controller(session.config):
+        return
+    left = _our_segments() - _SYSTEM_SEGMENTS_BEFORE
+    if left:
+        print(f"\nthe suite left shared-memory segments behind: {sorted(left)}")
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+if not under_mutmut():  # mutmut's own session hooks are imported above instead
+    pytest_sessionstart = _note_system_segments
+    pytest_sessionfinish = _no_system_segment_left
