@@ -1,5 +1,9 @@
 """Part 6: what lockstep costs: a system run as OS processes against the same in one process.
 
+Each launched system is run twice: stepped by the token ring (rcs/ring.py, "processes")
+and by the coordinator's request and answer per process ("request/reply", what lockstep
+was before the ring), side by side with the one-process version.
+
 1. The miner: generated/miner as its two processes (pc1, and pp alone in pc2), each an OS
    process over a shared segment stepped in lockstep by the launcher's coordinator
    (`LaunchedHarness`, what `rcsgen run --processes` uses), against the same package with
@@ -149,15 +153,20 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
 
     def open_versions() -> dict[str, object]:
         one = scenarios.open_harness(scenario, PACKAGE)
+        opened: dict[str, object] = {"one process": one}
         try:
-            launched = scenarios.open_harness(scenario, PACKAGE, processes=True)
+            opened["processes"] = scenarios.open_harness(scenario, PACKAGE, processes=True)
+            opened["request/reply"] = LaunchedHarness(
+                PACKAGE, scenario.system_dir, scenario.settings, scenario.simulate, ring=False
+            )
         except BaseException:
-            one.close()
+            for harness in opened.values():
+                harness.close()
             raise
         placement = one.layout.PLACEMENT
         for name in one.layout.PROCESSES:
             processes[name] = sum(1 for m in one.layout.MODULES if placement.get(m) == name)
-        return {"one process": one, "processes": launched}
+        return opened
 
     samples = race(open_versions, lambda: Driver(events, stop), cycles, rounds)
     return {
@@ -165,6 +174,7 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
         "processes": processes,
         "one_process_ns": stats(samples["one process"]),
         "processes_ns": stats(samples["processes"]),
+        "request_reply_ns": stats(samples["request/reply"]),
     }
 
 
@@ -182,13 +192,17 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
             run = scenarios.Event(cycle=1, command=(root, "RUN"))
 
             def open_versions(package_dir: Path = package_dir) -> dict[str, object]:
-                one = Harness.load(package_dir, send_init=True)
+                opened: dict[str, object] = {
+                    "one process": Harness.load(package_dir, send_init=True)
+                }
                 try:
-                    launched = LaunchedHarness(package_dir)
+                    opened["processes"] = LaunchedHarness(package_dir)
+                    opened["request/reply"] = LaunchedHarness(package_dir, ring=False)
                 except BaseException:
-                    one.close()
+                    for harness in opened.values():
+                        harness.close()
                     raise
-                return {"one process": one, "processes": launched}
+                return opened
 
             def driver(run: scenarios.Event = run, root: str = root) -> Driver:
                 return Driver([run], root)
@@ -201,6 +215,7 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
                     "modules": CHAIN,
                     "one_process_ns": stats(samples["one process"]),
                     "processes_ns": stats(samples["processes"]),
+                    "request_reply_ns": stats(samples["request/reply"]),
                 }
             )
             print(f"chain over {count} process(es) done", file=sys.stderr)

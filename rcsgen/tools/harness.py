@@ -332,6 +332,7 @@ class LaunchedHarness(BlockView):
         settings: dict[str, str] | None = None,
         simulate: tuple[str, ...] = (),
         transport: str = "shm",
+        ring: bool = True,
     ) -> None:
         package_dir = Path(package_dir).resolve()
         hooks = Path(hooks_dir).resolve() if hooks_dir is not None else None
@@ -360,6 +361,7 @@ class LaunchedHarness(BlockView):
             settings=settings_args,
             simulate=list(simulate),
             transport=transport,
+            ring=ring,  # False: the coordinator's request and answer (bench/bench_lockstep.py)
         )
         self.launcher.start()
         try:

@@ -7,8 +7,9 @@ cycle at a time, writing the process's control record (its heartbeat) after each
 paces it (free-running: a `Pacer` holds the period; a watchdog halts the roots when the
 process falls too far behind its schedule; supervisors of modules in a process that stopped
 beating go to their safe state). `serve` runs it in lockstep for a coordinator instead (see
-`launcher.py`). The clock and sleep are parameters, so tests drive the loop with a fake
-clock. Standard library only: copied verbatim into every generated package.
+`launcher.py`), `serve_ring` in its token ring (`ring.py`). The clock and sleep are
+parameters, so tests drive the loop with a fake clock. Standard library only: copied
+verbatim into every generated package.
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ from .contract import (
 )
 from .io_cycle import attach as attach_io
 from .override import latch_safe
+from .ring import Receiver, give, stop_on_control
 from .transport import Local, Transport
 
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
@@ -607,16 +609,38 @@ def serve(process: Process, requests: int, replies: int) -> None:
         op, first, last, end = STEP.unpack(message)
         if op != b"s":
             break
-        process.run_modules(first, last)
-        if end:
-            for step in process.io_steps[1]:
-                step()
-            process.cycle += 1
-            process.beat()
+        run_segment(process, first, last, end)
         os.write(replies, DONE_REPLY)
     if process.io is not None:
         process.io.close()
     process.beat(STOPPED)
+
+
+def serve_ring(
+    process: Process, control: int, replies: int, link: tuple[int, int], spin: float
+) -> None:
+    """Run `process` in a lockstep ring (rcs/ring.py): a whole cycle each time the token
+    comes on `link[0]`, then the token on to `link[1]`; until the coordinator writes on
+    (or closes) the `control` pipe."""
+    receiver, last = Receiver(link[0], spin), len(process.plan.modules) - 1
+    stop_on_control(control, link[0])
+    os.write(replies, READY)
+    while receiver.wait():
+        run_segment(process, 0, last, True)
+        give(link[1])
+    if process.io is not None:
+        process.io.close()
+    process.beat(STOPPED)
+
+
+def run_segment(process: Process, first: int, last: int, end: bool) -> None:
+    """One segment of a lockstep cycle; with `end`, the process's cycle ends (it beats)."""
+    process.run_modules(first, last)
+    if end:
+        for step in process.io_steps[1]:
+            step()
+        process.cycle += 1
+        process.beat()
 
 
 def _read_exactly(fd: int, size: int) -> bytes | None:
