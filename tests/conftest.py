@@ -48,6 +48,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_new",
             "test_reference",
             "test_report",
+            "test_ring",
             "test_schema",
             "test_trace_checks",
             "test_traces",
