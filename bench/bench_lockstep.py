@@ -14,6 +14,10 @@ was before the ring), side by side with the one-process version.
    and 8 processes, its root sent RUN again each time it is done, in lockstep, against the
    same chain in one process.
 
+3. The hand-off alone: N forked processes that do nothing but pass the token
+   (rcs/ring.py's Receiver and Waiter, what the launcher uses), against the same N
+   answering a request each through pipes: the floor of each design on this machine.
+
 Every system cycle is timed on its own on the wall clock (time.perf_counter_ns): lockstep
 is waiting for other processes, which CPU time would not see. The in-process and launched
 versions take turns every `CHUNK` cycles (in alternating order), so a burst of other work
@@ -30,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import os
 import shutil
 import statistics
 import sys
@@ -224,6 +229,89 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
     return results
 
 
+def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, object]]:
+    """The hand-off alone, N processes that run nothing: ring against request/reply."""
+    import os
+
+    from rcsgen.runtime import ring
+
+    def ring_cycle(count: int) -> list[int]:
+        links = ring.new_links(count + 1)
+        controls, pids = [], []
+        for at in range(count):
+            control, keep = os.pipe()
+            pid = os.fork()
+            if pid == 0:  # a member: take, hand on, until told to stop
+                os.close(keep)
+                receiver = ring.Receiver(links[at].read)
+                ring.stop_on_control(control, links[at].write)
+                while receiver.wait():
+                    ring.give(links[at + 1].write)
+                os._exit(0)
+            os.close(control)
+            controls.append(keep)
+            pids.append(pid)
+        waiter, taken = ring.Waiter(links[-1].read, ()), []
+        for _ in range(cycles):
+            began = wall_ns()
+            ring.give(links[0].write)
+            waiter.wait(10.0)
+            taken.append(wall_ns() - began)
+        for fd in controls:
+            os.close(fd)
+        for pid in pids:
+            os.waitpid(pid, 0)
+        ring.close_links(links)
+        return taken
+
+    def reply_cycle(count: int) -> list[int]:
+        ends, pids = [], []
+        for _ in range(count):
+            request, ask = os.pipe()
+            answer, tell = os.pipe()
+            pid = os.fork()
+            if pid == 0:  # a member: answer each request, until the pipe closes
+                os.close(ask)
+                os.close(answer)
+                while os.read(request, 1):
+                    os.write(tell, b"d")
+                os._exit(0)
+            os.close(request)
+            os.close(tell)
+            ends.append((ask, answer))
+            pids.append(pid)
+        taken = []
+        for _ in range(cycles):
+            began = wall_ns()
+            for ask, answer in ends:
+                os.write(ask, b"s")
+                os.read(answer, 1)
+            taken.append(wall_ns() - began)
+        for ask, answer in ends:
+            os.close(ask)
+            os.close(answer)
+        for pid in pids:
+            os.waitpid(pid, 0)
+        return taken
+
+    results = []
+    for count in counts:
+        samples: dict[str, list[int]] = {"ring": [], "request/reply": []}
+        for index in range(rounds):
+            order = [ring_cycle, reply_cycle][:: 1 if index % 2 == 0 else -1]
+            for run in order:
+                key = "ring" if run is ring_cycle else "request/reply"
+                samples[key] += run(count)
+        results.append(
+            {
+                "processes": count,
+                "ring_ns": stats(samples["ring"]),
+                "request_reply_ns": stats(samples["request/reply"]),
+            }
+        )
+    return results
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cycles", type=int, default=CYCLES)
@@ -237,6 +325,8 @@ def main() -> int:
         "chunk": CHUNK,
         "miner": miner(args.cycles, args.rounds),
         "chain": chain(SPLITS, args.cycles, args.rounds),
+        "cores": len(os.sched_getaffinity(0)),
+        "handoff": handoff(SPLITS, max(args.cycles, 2_000), args.rounds),
     }
     results["seconds"] = time.perf_counter() - started
     write_json(args.json, results)

@@ -665,8 +665,30 @@ def section_lockstep(lockstep: dict) -> list[str]:
         "member of the ring has a core of its own, a waiter spins 50 µs before it blocks "
         "(docs/decisions.md, \"Lockstep through a token ring\").",
         "",
+        *_handoff_rows(lockstep),
     ]
     return lines
+
+
+def _handoff_rows(lockstep: dict) -> list[str]:
+    if not lockstep.get("handoff"):
+        return []
+    lines = [
+        f"The hand-off alone ({lockstep['cores']} cores): N forked processes that run "
+        "nothing but pass the token on (rcs/ring.py), against the same N answering a "
+        "request each through pipes; wall time of a system cycle:",
+        "",
+        "| processes | ring (median) | ring (mean) | request/reply (median) "
+        "| request/reply (mean) |",
+        "|--:|--:|--:|--:|--:|",
+    ]
+    for h in lockstep["handoff"]:
+        a, b = h["ring_ns"], h["request_reply_ns"]
+        lines.append(
+            f"| {h['processes']} | {ns(a['median'])} | {ns(a['mean'])} | {ns(b['median'])} "
+            f"| {ns(b['mean'])} |"
+        )
+    return [*lines, ""]
 
 
 def _request_reply_rows(one: dict, reply: dict | None) -> list[str]:
