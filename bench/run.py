@@ -663,7 +663,7 @@ def section_lockstep(lockstep: dict) -> list[str]:
         "the scheduler waking a process blocked in poll(2), which depends on what else the "
         "machine is doing: compare lockstep figures of different runs with care. Where every "
         "member of the ring has a core of its own, a waiter spins 50 µs before it blocks "
-        "(docs/decisions.md, \"Lockstep through a token ring\").",
+        '(docs/decisions.md, "Lockstep through a token ring").',
         "",
         *_handoff_rows(lockstep),
     ]
@@ -998,14 +998,16 @@ def section_failsafe(failsafe: dict) -> list[str]:
         "",
         f"bench/bench_failsafe.py on the two-process {failsafe['system']} "
         f"(`python -m miner --send sec.BOX_CUT:depth=1.5`, period "
-        f"{failsafe['cycle_period_s']:g} s, heartbeat_timeout {failsafe['heartbeat_timeout_s']:g} s): "
+        f"{failsafe['cycle_period_s']:g} s, heartbeat_timeout "
+        f"{failsafe['heartbeat_timeout_s']:g} s): "
         "once an actuator is commanded, one fault is injected; *detected* is the first "
         "reaction visible in the block (a `lost` bit, a DEAD mark, a watchdog trip, a latch), "
         "*safe* is every actuator at its safe value, latched. Starve: SIGSTOP 290 ms / SIGCONT "
         f"10 ms, repeated (about 3 % of a CPU). Goal: both within 3 periods + the heartbeat "
         f"timeout = {goal:g} s.",
         "",
-        "| process | fault | runs | detected min / median / max (s) | safe min / median / max (s) | goal met |",
+        "| process | fault | runs | detected min / median / max (s) "
+        "| safe min / median / max (s) | goal met |",
         "|---|---|---:|---|---|---|",
     ]
     for case in failsafe["cases"]:
