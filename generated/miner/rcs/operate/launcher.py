@@ -7,8 +7,8 @@ process that dies is marked DEAD in its control record, so the supervisors of it
 go to their safe state; with `--restart` it is started again and resumes), and on Ctrl-C
 or SIGTERM stops them all, prints a summary per process and removes the segment. In
 lockstep (`--lockstep`, or `Launcher(lockstep=True)` from a test harness) a `Coordinator`
-steps the processes through pipes, one segment of the system's execution order at a time,
-so a multi-process run leaves the same trace as a one-process run. `python -m <system>
+steps the processes in the system's execution order, a token passed process to process
+(rcs/ring.py), so a multi-process run leaves the same trace as a one-process run. `python -m <system>
 PROCESS` runs one process (as the launcher's child, or by hand). Standard library only:
 copied verbatim into every generated package.
 """
