@@ -46,6 +46,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_instances",
             "test_loader",
             "test_new",
+            "test_periodicity",
             "test_reference",
             "test_report",
             "test_ring",

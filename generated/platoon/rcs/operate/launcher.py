@@ -8,9 +8,9 @@ go to their safe state; with `--restart` it is started again and resumes), and o
 or SIGTERM stops them all, prints a summary per process and removes the segment. In
 lockstep (`--lockstep`, or `Launcher(lockstep=True)` from a test harness) a `Coordinator`
 steps the processes in the system's execution order, a token passed process to process
-(rcs/ring.py), so a multi-process run leaves the same trace as a one-process run. `python -m <system>
-PROCESS` runs one process (as the launcher's child, or by hand). Standard library only:
-copied verbatim into every generated package.
+(rcs/ring.py), so a multi-process run leaves the same trace as a one-process run.
+`python -m <system> PROCESS` runs one process (as the launcher's child, or by hand).
+Standard library only: copied verbatim into every generated package.
 """
 
 from __future__ import annotations
@@ -198,6 +198,8 @@ def report(system: System, args: argparse.Namespace, process: Process) -> None:
         print(f"{args.process}: {process.cycle} cycles")
         for line in summary(system, process.block.buf, [args.process]):
             print(line)
+        if process.periodicity is not None and process.periodicity.period > 0:
+            print(process.periodicity.line())
 
 
 def run_networked(
