@@ -95,6 +95,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_failsafe",
             "test_io",
             "test_platoon",
+            "test_realtime",
             "test_monitor",
             "test_operate",
             "test_runtime",

@@ -43,6 +43,7 @@ from .contract import (
 )
 from .io_cycle import attach as attach_io
 from .override import latch_safe
+from .realtime import apply as apply_realtime
 from .ring import Receiver, give, stop_on_control
 from .transport import Local, Transport
 
@@ -87,6 +88,8 @@ class ProcessPlan:
     # The declared watchdog limits (system.yaml `watchdog:`): Watchdog's fields -> values
     watchdog: Mapping[str, float] = field(default_factory=dict)
     io: tuple[str, ...] = ()  # the I/O devices it runs: read first, written last (io_cycle.py)
+    # The declared real-time settings (system.yaml `realtime:`), applied as it starts
+    realtime: Mapping[str, object] = field(default_factory=dict)
 
 
 @dataclass
@@ -481,6 +484,7 @@ def run(
     if stop is not None:
         stop.process = process
     try:
+        start_realtime(process)
         net = transport(process) if transport is not None else Local()
     except BaseException:
         process.block.close()
@@ -533,6 +537,14 @@ def run(
         process.beat(STOPPED)
         net.close()  # sends the STOPPED
     return process
+
+
+def start_realtime(process: Process) -> None:
+    """The process's declared real-time settings applied (rcs/realtime.py): a line on
+    stderr for each refused; RealtimeRefused if they are required."""
+    if process.plan.realtime:
+        for line in apply_realtime(process.plan.name, process.plan.realtime):
+            _warn(line)
 
 
 def _warn(line: str) -> None:

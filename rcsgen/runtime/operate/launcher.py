@@ -56,8 +56,10 @@ from ..loop import (
     serve,
     serve_ring,
     start,
+    start_realtime,
 )
 from ..override import latch_safe
+from ..realtime import RealtimeRefused
 from ..ring import Link, Waiter, close_links, default_spin, new_links
 from ..ring import give as hand_on
 from ..transport import PLAINTEXT, Security, TransportError, check_endpoint
@@ -142,6 +144,12 @@ def run_process(system: System, args: argparse.Namespace) -> int:
         except Exception as error:  # noqa: BLE001 - a hook-state factory: one line, and why
             return report_failure(args.process, error, system.package)
         try:
+            start_realtime(process)
+        except RealtimeRefused as error:
+            print(error, file=sys.stderr)
+            process.block.close()
+            return 1
+        try:
             if args.ring:
                 read, write, spin = args.ring.split(",")
                 link = (int(read), int(write))
@@ -180,6 +188,9 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     except (BlockError, RestartRefused, DuplicateProcess) as error:
         print(f"{args.process}: {error}", file=sys.stderr)
         return REFUSED if isinstance(error, RestartRefused) else 1
+    except RealtimeRefused as error:  # its line says which setting and why
+        print(error, file=sys.stderr)
+        return 1
     except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
         return report_failure(args.process, error, system.package)
     finally:
