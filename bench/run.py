@@ -46,6 +46,7 @@ PARTS = {
     "failsafe": ("bench_failsafe.py", [], ["--runs", "3"]),
     "io": ("bench_io.py", ["--runs", "5"], ["--runs", "2"]),
     "prove": ("bench_prove.py", [], ["--every", "6"]),
+    "period": ("bench_period.py", [], ["--cycles", "100"]),
     "zenoh": (
         "bench_zenoh.py",
         [],
@@ -702,6 +703,45 @@ def _request_reply_rows(one: dict, reply: dict | None) -> list[str]:
     ]
 
 
+def section_period(p: dict) -> list[str]:
+    period_ms = p["period_s"] * 1e3
+    rows = [
+        ("quiet (the machine's own load only)", p["quiet"]),
+        (f"under {p['spinners']} busy loop(s), one per CPU", p["busy"]),
+        ("the same, `realtime: {gc: freeze, fifo_priority: 10}`", p["busy_realtime"]),
+    ]
+    lines = [
+        f"## 10. Periodicity: a {period_ms:g} ms period, quiet and under a busy loop",
+        "",
+        f"bench/bench_period.py: the Pacer and its Periodicity (what a free-running process "
+        f"uses, rcs/loop.py) holding {period_ms:g} ms over {p['cycles']:,} cycles of "
+        "~0.4 ms of Python work, in a forked child (the realtime settings stay with it). "
+        "Overruns: period boundaries a cycle or a stall ran past, as a share of the "
+        "wake-ups; lateness: how long past its boundary a wake-up came.",
+        "",
+        "| variant | overruns | lateness median | p99 | max | period error mean | max | refused |",
+        "|---|--:|--:|--:|--:|--:|--:|---|",
+    ]
+    for name, r in rows:
+        share = r["overruns"] / max(1, r["wake_ups"]) * 100
+        lines.append(
+            f"| {name} | {r['overruns']} ({share:.1f} %) | {ns(r['late_p50_us'] * 1e3)} "
+            f"| {ns(r['late_p99_us'] * 1e3)} | {ns(r['late_max_us'] * 1e3)} "
+            f"| {ns(r['period_error_mean_us'] * 1e3)} | {ns(r['period_error_max_us'] * 1e3)} "
+            f"| {'; '.join(r['refused']) or 'none'} |"
+        )
+    a = p["ablation"]
+    lines += [
+        "",
+        f"What the periodicity bookkeeping costs (ablation, Pacer.wait on a fake clock, the "
+        f"fastest of 5 rounds): {ns(a['without_ns'])} a wake-up without, "
+        f"{ns(a['with_ns'])} with: {ns(a['with_ns'] - a['without_ns'])} more, "
+        f"{(a['with_ns'] - a['without_ns']) / (p['period_s'] * 1e9) * 100:.3f} % of the period.",
+        "",
+    ]
+    return lines
+
+
 def section_detection(detection: dict) -> list[str]:
     lost, watched = detection["heartbeat_loss"], detection["heartbeat_loss_watched"]
     echo, stopped = detection["echo_in_process"], detection["echo_stopped"]
@@ -1175,6 +1215,8 @@ def main() -> int:
         lines += section_zenoh(results["zenoh"])
     if results.get("io"):
         lines += section_io(results["io"])
+    if results.get("period"):
+        lines += section_period(results["period"])
     if results.get("prove"):
         lines += section_prove(results["prove"])
     lines += section_cleanup(results, problems)
