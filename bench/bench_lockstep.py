@@ -15,7 +15,7 @@ was before the ring), side by side with the one-process version.
    same chain in one process.
 
 3. The hand-off alone: N forked processes that do nothing but pass the token
-   (rcs/ring.py's Receiver and Waiter, what the launcher uses), against the same N
+   (rcs/ring.py's Receiver and Return, what the launcher uses), against the same N
    answering a request each through pipes: the floor of each design on this machine.
 
 Every system cycle is timed on its own on the wall clock (time.perf_counter_ns): lockstep
@@ -251,12 +251,13 @@ def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str,
             os.close(control)
             controls.append(keep)
             pids.append(pid)
-        waiter, taken = ring.Waiter(links[-1].read, ()), []
+        waiter, taken = ring.Return(links[-1].read, ()), []
         for _ in range(cycles):
             began = wall_ns()
             ring.give(links[0].write)
             waiter.wait(10.0)
             taken.append(wall_ns() - began)
+        waiter.close()
         for fd in controls:
             os.close(fd)
         for pid in pids:

@@ -21,36 +21,61 @@ def links() -> Iterator[list[ring.Link]]:
     ring.close_links(made)
 
 
-def test_a_token_handed_on_is_taken_once(links: list[ring.Link]) -> None:
-    waiter = ring.Waiter(links[0].read, ())
-    assert not waiter.take()
-    ring.give(links[0].write)
-    assert waiter.wait(1.0) == links[0].read
-    assert not waiter.take()
+def test_the_token_back_wakes_the_coordinator(links: list[ring.Link]) -> None:
+    back = ring.Return(links[1].read, ())
+    try:
+        ring.give(links[1].write)
+        assert back.wait(10.0) == links[1].read
+        ring.give(links[1].write)  # a second cycle: one token each
+        assert back.wait(10.0) == links[1].read
+    finally:
+        back.close()
+        back.close()  # idempotent: the launcher's stop may call it again
 
 
-def test_the_coordinator_wait_times_out_or_sees_a_closed_answer_pipe(
+def test_the_coordinator_wait_times_out_then_sees_a_closed_answer_pipe(
     links: list[ring.Link],
 ) -> None:
     read, write = os.pipe()
+    back = ring.Return(links[1].read, (read,))
     try:
-        waiter = ring.Waiter(links[1].read, (read,))
-        assert waiter.wait(0.05) is None  # nothing came: the caller reports the holder
+        assert back.wait(0.05) is None  # nothing came: the caller reports the holder
         os.close(write)  # a process died: its answer pipe closes
         write = -1
-        ring.give(links[1].write)  # even with the token back, the death is reported
-        assert waiter.wait(1.0) == read
+        assert back.wait(10.0) == read  # woken by the watcher, not by a token
+        assert back.dead == read
     finally:
+        back.close()
         os.close(read)
         if write >= 0:
             os.close(write)
 
 
-def test_a_spinning_waiter_still_blocks_and_times_out(links: list[ring.Link]) -> None:
-    waiter = ring.Waiter(links[1].read, (), spin=1e-3)
-    assert waiter.wait(0.02) is None
-    ring.give(links[1].write)
-    assert waiter.wait(1.0) == links[1].read
+def test_a_late_wake_for_a_cycle_that_ended_is_not_taken_for_a_timeout(
+    links: list[ring.Link],
+) -> None:
+    """The watcher wakes the read with STOP as the deadline passes; if the token came
+    back just then, the STOP left behind must not end the next cycle early."""
+    back = ring.Return(links[1].read, ())
+    try:
+        os.write(links[1].write, ring.STOP)  # as a watcher firing too late would
+        ring.give(links[1].write)  # the token of the next cycle, in time
+        assert back.wait(10.0) == links[1].read
+        os.write(links[1].write, ring.STOP)  # a stale STOP alone: wait on for the token
+        threading.Timer(0.1, ring.give, (links[1].write,)).start()
+        assert back.wait(10.0) == links[1].read
+    finally:
+        back.close()
+
+
+def test_a_spinning_coordinator_still_blocks_and_times_out(links: list[ring.Link]) -> None:
+    back = ring.Return(links[1].read, (), spin=1e-3)
+    try:
+        assert back.wait(0.02) is None
+        ring.give(links[1].write)
+        assert back.wait(10.0) == links[1].read
+    finally:
+        back.close()
 
 
 @pytest.mark.parametrize("how", ["closed", "written"])

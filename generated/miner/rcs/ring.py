@@ -14,10 +14,11 @@ machine); a thread of its own blocks on its control pipe and, when the coordinat
 there or goes away (the pipe closes), puts STOP into the link, which ends the read. Where
 the machine has a core for every member of the ring, a waiter spins `spin` seconds first
 (the next one runs on a core of its own, and the token comes back sooner than the
-scheduler could wake a sleeper). The coordinator waits in poll(2), watching every
-process's answer pipe too (it closes when the process dies): a process killed holding the
-token is seen at once, one stopped when the token has not come back within the
-coordinator's timeout. Standard library only: copied verbatim into every generated package.
+scheduler could wake a sleeper). The coordinator waits for the token's return in a
+blocking read too; a thread of its own polls every process's answer pipe (it closes when
+the process dies) and the cycle's deadline, and wakes the read with STOP: a process killed
+holding the token is seen at once, one stopped when the token has not come back within
+the coordinator's timeout. Standard library only: copied verbatim into every generated package.
 """
 
 from __future__ import annotations
@@ -32,7 +33,8 @@ from dataclasses import dataclass
 
 WORD = struct.Struct("=Q")  # an eventfd takes 8 bytes (a pipe too: one token, one write)
 TOKEN = WORD.pack(1)
-STOP = WORD.pack(1 << 40)  # into a process's link: stop (a token added to it reads != 1 too)
+STOP_VALUE = 1 << 40
+STOP = WORD.pack(STOP_VALUE)  # into a link: stop, or wake (a token added to it reads != 1)
 SPIN = 50e-6  # seconds a waiter spins before it blocks, where every member has a core
 READABLE = select.POLLIN | select.POLLHUP | select.POLLERR
 
@@ -87,45 +89,72 @@ def give(fd: int) -> None:
     os.write(fd, TOKEN)
 
 
-class Waiter:
-    """Waits for the token on `fd`, or for any of `watch` to become readable."""
+class Return:
+    """The coordinator's end of the ring: the token's return read blocking on `fd` (the
+    cheapest wake-up: poll(2) there costs ~3 µs a cycle more); a thread of its own polls
+    the processes' answer pipes (`watch`: readable when a process dies) and the cycle's
+    deadline, and wakes the read with STOP. `close` ends the thread: before the launcher
+    closes any descriptor it watches."""
 
     def __init__(self, fd: int, watch: Sequence[int], spin: float = 0.0) -> None:
+        os.set_blocking(fd, True)  # only the coordinator reads the last link
         self.fd, self.spin_ns = fd, int(spin * 1e9)
+        self.deadline = float("inf")  # of the cycle under way (monotonic seconds)
+        self.dead: int | None = None  # the answer pipe that closed
         self.poller = select.poll()
-        for each in (fd, *watch):
-            self.poller.register(each, READABLE)
+        self.poller.register(fd, READABLE)
+        self._quit_read, self._quit_write = os.pipe()
+        watched = select.poll()
+        for each in (*watch, self._quit_read):
+            watched.register(each, READABLE)
+        self._thread = threading.Thread(
+            target=self._watch, args=(watched,), name="ring-return", daemon=True
+        )
+        self._thread.start()
 
-    def take(self) -> bool:
-        """The token, if it is here (without blocking)."""
-        try:
-            data = os.read(self.fd, len(TOKEN))
-        except BlockingIOError:
-            return False
-        if not data:  # pragma: no cover - a pipe link whose writers are all gone
-            raise EOFError("the ring is broken")
-        return True
-
-    def wait(self, timeout: float | None) -> int | None:
-        """`fd` once the token is taken; the watched descriptor that became readable first
-        (it has priority over the token: a death or a stop is never missed); None when
-        nothing came within `timeout` seconds (None: no limit)."""
-        if self.spin_ns:  # (without, poll(2) returns at once if the token is back)
+    def wait(self, timeout: float) -> int | None:
+        """`fd` once the token is back; the answer pipe of a process that died (it has
+        priority over the token); None when it has not come back within `timeout`."""
+        self.deadline = time.monotonic() + timeout
+        if self.spin_ns:
             end = time.monotonic_ns() + self.spin_ns
-            while time.monotonic_ns() < end:
-                if self.take():
-                    return self.fd
-        deadline = None if timeout is None else time.monotonic() + timeout
+            while not self.poller.poll(0) and time.monotonic_ns() < end:
+                pass
         while True:
-            left = -1 if deadline is None else max(0, int((deadline - time.monotonic()) * 1000))
-            ready = [fd for fd, _ in self.poller.poll(left)]
-            others = [fd for fd in ready if fd != self.fd]
-            if others:
-                return others[0]
-            if ready and self.take():
+            data = os.read(self.fd, WORD.size)
+            if self.dead is not None:
+                return self.dead
+            if data and WORD.unpack(data)[0] % STOP_VALUE:
+                self.deadline = float("inf")
                 return self.fd
-            if deadline is not None and time.monotonic() >= deadline:
+            if time.monotonic() >= self.deadline:
                 return None
+            # a STOP for a cycle that ended as the watcher woke: the token is still to come
+
+    def _watch(self, watched: select.poll) -> None:
+        fired = float("nan")
+        while True:
+            deadline = self.deadline
+            left = deadline - time.monotonic()
+            if left <= 0 and deadline != fired:  # the cycle under way is late: wake the read
+                fired = deadline
+                os.write(self.fd, STOP)
+            ms = 250 if left <= 0 or left > 0.25 else max(1, int(left * 1000) + 1)
+            for ready, events in watched.poll(ms):
+                if ready == self._quit_read or events & select.POLLNVAL:
+                    return
+                self.dead = ready  # a process's answer pipe closed (or spoke): it is lost
+                os.write(self.fd, STOP)
+                return
+
+    def close(self) -> None:
+        """End the watching thread (idempotent)."""
+        if self._quit_write >= 0:
+            os.write(self._quit_write, b"q")
+            self._thread.join(5.0)
+            os.close(self._quit_write)
+            os.close(self._quit_read)
+            self._quit_write = -1
 
 
 class Receiver:

@@ -61,7 +61,7 @@ from ..loop import (
 )
 from ..override import latch_safe
 from ..realtime import RealtimeRefused
-from ..ring import Link, Waiter, close_links, default_spin, new_links
+from ..ring import Link, Return, close_links, default_spin, new_links
 from ..ring import give as hand_on
 from ..transport import PLAINTEXT, Security, TransportError, check_endpoint
 from .command import (
@@ -405,6 +405,7 @@ class Launcher:
         self.lost: set[str] = set()  # processes silent past the heartbeat timeout (frozen)
         self.trips: dict[str, int] = {}  # each process's watchdog trips, last seen
         self.halted = ""  # why the system was halted (a loss that was not contained), if it was
+        self.on_stop: list[Callable[[], None]] = []  # first thing `stop` does (a coordinator's)
 
     # ------------------------------------------------------------ lifecycle
 
@@ -608,6 +609,8 @@ class Launcher:
     def stop(self) -> None:
         """Stop every process (closing its pipe, then SIGTERM, then SIGKILL after a grace
         period) and remove the segment."""
+        while self.on_stop:
+            self.on_stop.pop()()
         for child in self.children.values():
             _close_stdin(child.popen)
             if child.popen.poll() is None:
@@ -666,12 +669,13 @@ class Coordinator:
         for child in launcher.children.values():  # each has started and sent its INITs
             if child.popen.stdout is None or child.popen.stdout.read(len(READY)) != READY:
                 raise ProcessLost(f"process {child.name} did not start")
-        self.waiter: Waiter | None = None
+        self.waiter: Return | None = None
         if launcher.links:  # the ring: the token comes back on the last link
             self.answers = {
                 c.popen.stdout.fileno(): c for c in launcher.children.values() if c.popen.stdout
             }
-            self.waiter = Waiter(launcher.links[-1].read, list(self.answers), launcher.spin)
+            self.waiter = Return(launcher.links[-1].read, list(self.answers), launcher.spin)
+            launcher.on_stop.append(self.waiter.close)  # before it closes what is watched
             self.beats = self._beats()
 
     def step(self, cycles: int = 1) -> None:
