@@ -1,5 +1,9 @@
 """Part 6: what lockstep costs: a system run as OS processes against the same in one process.
 
+Each launched system is run twice: stepped by the token ring (rcs/ring.py, "processes")
+and by the coordinator's request and answer per process ("request/reply", what lockstep
+was before the ring), side by side with the one-process version.
+
 1. The miner: generated/miner as its two processes (pc1, and pp alone in pc2), each an OS
    process over a shared segment stepped in lockstep by the launcher's coordinator
    (`LaunchedHarness`, what `rcsgen run --processes` uses), against the same package with
@@ -9,6 +13,10 @@
 2. A synthetic chain (bench/synthetic.py, fan-out 1) of 16 controllers split over 1, 2, 4
    and 8 processes, its root sent RUN again each time it is done, in lockstep, against the
    same chain in one process.
+
+3. The hand-off alone: N forked processes that do nothing but pass the token
+   (rcs/ring.py's Receiver and Return, what the launcher uses), against the same N
+   answering a request each through pipes: the floor of each design on this machine.
 
 Every system cycle is timed on its own on the wall clock (time.perf_counter_ns): lockstep
 is waiting for other processes, which CPU time would not see. The in-process and launched
@@ -26,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import os
 import shutil
 import statistics
 import sys
@@ -149,15 +158,20 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
 
     def open_versions() -> dict[str, object]:
         one = scenarios.open_harness(scenario, PACKAGE)
+        opened: dict[str, object] = {"one process": one}
         try:
-            launched = scenarios.open_harness(scenario, PACKAGE, processes=True)
+            opened["processes"] = scenarios.open_harness(scenario, PACKAGE, processes=True)
+            opened["request/reply"] = LaunchedHarness(
+                PACKAGE, scenario.system_dir, scenario.settings, scenario.simulate, ring=False
+            )
         except BaseException:
-            one.close()
+            for harness in opened.values():
+                harness.close()
             raise
         placement = one.layout.PLACEMENT
         for name in one.layout.PROCESSES:
             processes[name] = sum(1 for m in one.layout.MODULES if placement.get(m) == name)
-        return {"one process": one, "processes": launched}
+        return opened
 
     samples = race(open_versions, lambda: Driver(events, stop), cycles, rounds)
     return {
@@ -165,6 +179,7 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
         "processes": processes,
         "one_process_ns": stats(samples["one process"]),
         "processes_ns": stats(samples["processes"]),
+        "request_reply_ns": stats(samples["request/reply"]),
     }
 
 
@@ -182,13 +197,17 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
             run = scenarios.Event(cycle=1, command=(root, "RUN"))
 
             def open_versions(package_dir: Path = package_dir) -> dict[str, object]:
-                one = Harness.load(package_dir, send_init=True)
+                opened: dict[str, object] = {
+                    "one process": Harness.load(package_dir, send_init=True)
+                }
                 try:
-                    launched = LaunchedHarness(package_dir)
+                    opened["processes"] = LaunchedHarness(package_dir)
+                    opened["request/reply"] = LaunchedHarness(package_dir, ring=False)
                 except BaseException:
-                    one.close()
+                    for harness in opened.values():
+                        harness.close()
                     raise
-                return {"one process": one, "processes": launched}
+                return opened
 
             def driver(run: scenarios.Event = run, root: str = root) -> Driver:
                 return Driver([run], root)
@@ -201,11 +220,96 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
                     "modules": CHAIN,
                     "one_process_ns": stats(samples["one process"]),
                     "processes_ns": stats(samples["processes"]),
+                    "request_reply_ns": stats(samples["request/reply"]),
                 }
             )
             print(f"chain over {count} process(es) done", file=sys.stderr)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+    return results
+
+
+def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, object]]:
+    """The hand-off alone, N processes that run nothing: ring against request/reply."""
+    import os
+
+    from rcsgen.runtime import ring
+
+    def ring_cycle(count: int) -> list[int]:
+        links = ring.new_links(count + 1)
+        controls, pids = [], []
+        for at in range(count):
+            control, keep = os.pipe()
+            pid = os.fork()
+            if pid == 0:  # a member: take, hand on, until told to stop
+                os.close(keep)
+                receiver = ring.Receiver(links[at].read)
+                ring.stop_on_control(control, links[at].write)
+                while receiver.wait():
+                    ring.give(links[at + 1].write)
+                os._exit(0)
+            os.close(control)
+            controls.append(keep)
+            pids.append(pid)
+        waiter, taken = ring.Return(links[-1].read, ()), []
+        for _ in range(cycles):
+            began = wall_ns()
+            ring.give(links[0].write)
+            waiter.wait(10.0)
+            taken.append(wall_ns() - began)
+        waiter.close()
+        for fd in controls:
+            os.close(fd)
+        for pid in pids:
+            os.waitpid(pid, 0)
+        ring.close_links(links)
+        return taken
+
+    def reply_cycle(count: int) -> list[int]:
+        ends, pids = [], []
+        for _ in range(count):
+            request, ask = os.pipe()
+            answer, tell = os.pipe()
+            pid = os.fork()
+            if pid == 0:  # a member: answer each request, until the pipe closes
+                os.close(ask)
+                os.close(answer)
+                while os.read(request, 1):
+                    os.write(tell, b"d")
+                os._exit(0)
+            os.close(request)
+            os.close(tell)
+            ends.append((ask, answer))
+            pids.append(pid)
+        taken = []
+        for _ in range(cycles):
+            began = wall_ns()
+            for ask, answer in ends:
+                os.write(ask, b"s")
+                os.read(answer, 1)
+            taken.append(wall_ns() - began)
+        for ask, answer in ends:
+            os.close(ask)
+            os.close(answer)
+        for pid in pids:
+            os.waitpid(pid, 0)
+        return taken
+
+    results = []
+    for count in counts:
+        samples: dict[str, list[int]] = {"ring": [], "request/reply": []}
+        for index in range(rounds):
+            order = [ring_cycle, reply_cycle][:: 1 if index % 2 == 0 else -1]
+            for run in order:
+                key = "ring" if run is ring_cycle else "request/reply"
+                samples[key] += run(count)
+        results.append(
+            {
+                "processes": count,
+                "ring_ns": stats(samples["ring"]),
+                "request_reply_ns": stats(samples["request/reply"]),
+            }
+        )
     return results
 
 
@@ -222,6 +326,8 @@ def main() -> int:
         "chunk": CHUNK,
         "miner": miner(args.cycles, args.rounds),
         "chain": chain(SPLITS, args.cycles, args.rounds),
+        "cores": len(os.sched_getaffinity(0)),
+        "handoff": handoff(SPLITS, max(args.cycles, 2_000), args.rounds),
     }
     results["seconds"] = time.perf_counter() - started
     write_json(args.json, results)

@@ -95,7 +95,7 @@ def echo(kind: str, where: str, count: int) -> None:
     )
     seen = 0
     while seen < count:
-        net.wait(lambda: command.read(block.buf)["command_num"] != seen, 30.0)
+        net.wait(lambda seen=seen: command.read(block.buf)["command_num"] != seen, 30.0)
         seen = command.read(block.buf)["command_num"]
         status.write(block.buf, status_num=seen)
         net.push()
@@ -136,7 +136,7 @@ def hops(count: int) -> dict[str, dict[str, float]]:
         try:
             rtts = []
             if net is not None:  # the echo's node is up when its token arrives
-                net.wait(lambda: len(net.joined) > 1, 30.0)  # itself and the echo
+                net.wait(lambda net=net: len(net.joined) > 1, 30.0)  # itself and the echo
                 time.sleep(0.5)
             for number in range(1, count + 51):
                 began = time.perf_counter_ns()
@@ -147,7 +147,8 @@ def hops(count: int) -> dict[str, dict[str, float]]:
                 else:
                     net.push()
                     if not net.wait(
-                        lambda n=number: status.read(block.buf)["status_num"] == n, 10.0
+                        lambda n=number, block=block: status.read(block.buf)["status_num"] == n,
+                        10.0,
                     ):
                         raise SystemExit(f"zenoh: no echo of #{number}")
                 if number > 50:  # the first ones warm up
@@ -334,7 +335,7 @@ def detection(runs: int, soak: float) -> dict[str, object]:
                     time.sleep(0.05)
             assert block is not None, "pc1 did not start"
 
-            def lost() -> bool:
+            def lost(block: object = block) -> bool:
                 try:
                     return bool(layout.PROCESSES["pc1"].read(block.buf)["lost"] & lost_bit)
                 except Exception:  # noqa: BLE001 - torn: not yet
@@ -348,7 +349,7 @@ def detection(runs: int, soak: float) -> dict[str, object]:
                     time.sleep(0.001)
                 return time.perf_counter() - began
 
-            until(lambda: layout.STATUS_OUT["pp"].read(block.buf)["status"] == 2)
+            until(lambda block=block: layout.STATUS_OUT["pp"].read(block.buf)["status"] == 2)
             if run == 0 and soak > 0:
                 time.sleep(soak)
                 record = layout.PROCESSES["pc1"].read(block.buf)

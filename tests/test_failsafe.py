@@ -1285,3 +1285,81 @@ def test_lockstep_never_waits_for_a_lost_process_and_latches_every_actuator(
     assert all(child.popen.poll() is not None for child in h.launcher.children.values())
     assert pa.poll() is not None
     assert not [p for p in Path("/dev/shm").glob(f"{segment}*")], "a segment left behind"
+
+
+def _eventfds() -> int:
+    fds = Path("/proc/self/fd")
+    return sum(1 for fd in fds.iterdir() if "eventfd" in _link(fd))
+
+
+def _link(path: Path) -> str:
+    try:
+        return os.readlink(path)
+    except OSError:  # closed meanwhile (the listing's own fd)
+        return ""
+
+
+@pytest.mark.parametrize("fault", ["kill", "stop"])
+def test_the_lockstep_ring_loses_a_process_holding_the_token(
+    fleet: Path, package: ModuleType, fault: str
+) -> None:
+    """The token ring (rcs/ring.py): the token handed to the ring's second process, which
+    is stopped (SIGSTOP) so it holds it, the first one having run its part of the cycle.
+    Killed then, it is lost at once (its answer pipe closes: not the timeout); left
+    stopped, within the coordinator's timeout (2 s here), named as the holder. Either way
+    every actuator is latched safe, the ring refuses another cycle, and closing leaves no
+    child, no segment and none of the ring's eventfds."""
+    import threading
+
+    from rcsgen.tools.harness import LaunchedHarness
+
+    eventfds = _eventfds()
+    h = LaunchedHarness(fleet, FLEET)
+    lost = sys.modules[type(h.coordinator).__module__].ProcessLost
+    first, victim = h.launcher.order[:2]
+    popen = h.launcher.children[victim].popen
+    segment = h.launcher.segment
+    beat = h.contract.BEAT
+    record = h.layout.PROCESSES[first]
+    errors: list[BaseException] = []
+
+    def step() -> None:
+        try:
+            h.cycle(1)
+        except BaseException as error:  # noqa: BLE001 - the test reads it
+            errors.append(error)
+
+    try:
+        assert _eventfds() == eventfds + len(h.launcher.order) + 1
+        h.coordinator.timeout = 2.0
+        h.command("lead", "CONVOY")
+        h.cycle(3)
+        popen.send_signal(signal.SIGSTOP)
+        ran = beat.unpack_from(h.buf, record.offset)[4]
+        stepping = threading.Thread(target=step, daemon=True)
+        stepping.start()
+        wait_for(
+            lambda: beat.unpack_from(h.buf, record.offset)[4] > ran,
+            f"{first} handing the token to {victim}",
+        )
+        if fault == "kill":
+            popen.send_signal(signal.SIGKILL)
+        stepping.join(30.0)
+        assert not stepping.is_alive()
+        assert len(errors) == 1 and isinstance(errors[0], lost), errors
+        if fault == "kill":
+            assert f"process {victim} stopped answering (it died?)" in str(errors[0])
+        else:
+            assert f"process {victim} did not answer within 2 s" in str(errors[0])
+        safe = {"v1_drive": 0.0, "v2_drive": -0.5, "v2_brake": True}
+        assert {name: h.world[name] for name in safe} == safe
+        with pytest.raises(lost, match=victim):
+            h.cycle(1)  # the ring is broken: no cycle after a loss
+    finally:
+        if fault == "stop":
+            popen.send_signal(signal.SIGCONT)
+        h.close()
+    assert popen.poll() is not None
+    assert all(child.popen.poll() is not None for child in h.launcher.children.values())
+    assert not [p for p in Path("/dev/shm").glob(f"{segment}*")], "a segment left behind"
+    assert _eventfds() == eventfds, "an eventfd of the ring left open"

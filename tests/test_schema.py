@@ -191,7 +191,9 @@ def test_s002_unknown_key_without_a_near_name_lists_the_allowed_keys():
     )
     assert d.message == "unknown key `x`"
     assert d.span == Span("x.yaml", 4, 31)
-    assert d.hint == "allowed keys here: `modules`, `doc`, `cycle_period` and `watchdog`"
+    assert d.hint == (
+        "allowed keys here: `modules`, `doc`, `cycle_period`, `watchdog` and `realtime`"
+    )
 
 
 def test_s002_inside_an_action():

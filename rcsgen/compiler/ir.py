@@ -541,6 +541,7 @@ class IRProcess:
     # its declared watchdog limits (rcs/loop.py Watchdog's fields); the rest keep their default
     watchdog: dict[str, float] = field(default_factory=dict)
     io: tuple[str, ...] = ()  # the I/O devices it runs (read first, written last)
+    realtime: dict[str, object] = field(default_factory=dict)  # rcs/realtime.py's settings
 
 
 @dataclass(frozen=True)

@@ -332,6 +332,8 @@ class LaunchedHarness(BlockView):
         settings: dict[str, str] | None = None,
         simulate: tuple[str, ...] = (),
         transport: str = "shm",
+        ring: bool = True,
+        spin: float | None = None,
     ) -> None:
         package_dir = Path(package_dir).resolve()
         hooks = Path(hooks_dir).resolve() if hooks_dir is not None else None
@@ -360,6 +362,8 @@ class LaunchedHarness(BlockView):
             settings=settings_args,
             simulate=list(simulate),
             transport=transport,
+            ring=ring,  # False: the coordinator's request and answer (bench/bench_lockstep.py)
+            spin=spin,  # seconds a ring member spins before it blocks (None: where cores allow)
         )
         self.launcher.start()
         try:

@@ -7,13 +7,15 @@ cycle at a time, writing the process's control record (its heartbeat) after each
 paces it (free-running: a `Pacer` holds the period; a watchdog halts the roots when the
 process falls too far behind its schedule; supervisors of modules in a process that stopped
 beating go to their safe state). `serve` runs it in lockstep for a coordinator instead (see
-`launcher.py`). The clock and sleep are parameters, so tests drive the loop with a fake
-clock. Standard library only: copied verbatim into every generated package.
+`launcher.py`), `serve_ring` in its token ring (`ring.py`). The clock and sleep are
+parameters, so tests drive the loop with a fake clock. Standard library only: copied
+verbatim into every generated package.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 import threading
 import time
 from collections import deque
@@ -41,6 +43,8 @@ from .contract import (
 )
 from .io_cycle import attach as attach_io
 from .override import latch_safe
+from .realtime import apply as apply_realtime
+from .ring import Receiver, give, stop_on_control
 from .transport import Local, Transport
 
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
@@ -84,6 +88,8 @@ class ProcessPlan:
     # The declared watchdog limits (system.yaml `watchdog:`): Watchdog's fields -> values
     watchdog: Mapping[str, float] = field(default_factory=dict)
     io: tuple[str, ...] = ()  # the I/O devices it runs: read first, written last (io_cycle.py)
+    # The declared real-time settings (system.yaml `realtime:`), applied as it starts
+    realtime: Mapping[str, object] = field(default_factory=dict)
 
 
 @dataclass
@@ -176,6 +182,7 @@ class Process:
             self._refuse_a_second_copy()
             self._refuse_lost_hook_state()
         self.cycle = 0
+        self.periodicity: Periodicity | None = None  # paced by `run`: how well it held
         unknown = sorted(set(simulate) - set(plan.stand_ins))
         if unknown:
             raise ValueError(f"no stand-in for {unknown}; these have one: {sorted(plan.stand_ins)}")
@@ -477,12 +484,14 @@ def run(
     if stop is not None:
         stop.process = process
     try:
+        start_realtime(process)
         net = transport(process) if transport is not None else Local()
     except BaseException:
         process.block.close()
         raise
     period = plan.cycle_period if pace else 0.0
-    pacer = Pacer(period)
+    process.periodicity = Periodicity(plan.name, period, _warn)
+    pacer = Pacer(period, periodicity=process.periodicity)
     dog = watchdog or Watchdog(**plan.watchdog)  # type: ignore[arg-type]
     timeout = heartbeat_timeout if heartbeat_timeout is not None else layout.HEARTBEAT_TIMEOUT
     timeout_ns = int(timeout * 1e9)
@@ -530,6 +539,18 @@ def run(
     return process
 
 
+def start_realtime(process: Process) -> None:
+    """The process's declared real-time settings applied (rcs/realtime.py): a line on
+    stderr for each refused; RealtimeRefused if they are required."""
+    if process.plan.realtime:
+        for line in apply_realtime(process.plan.name, process.plan.realtime):
+            _warn(line)
+
+
+def _warn(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
 class Pacer:
     """Holds each cycle to the period on a monotonic clock; `period=0` runs as fast as possible.
 
@@ -543,6 +564,7 @@ class Pacer:
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
         late_after: float = 0.1,
+        periodicity: Periodicity | None = None,
     ) -> None:
         self.period, self.clock, self.sleep = period, clock, sleep
         self.now = clock()
@@ -550,6 +572,7 @@ class Pacer:
         self.overruns = self.late = 0
         self.late_after = late_after * period
         self.lateness: deque[tuple[float, float]] = deque()  # (when, seconds late)
+        self.periodicity = periodicity
 
     def wait(self) -> None:
         """Sleep until the next cycle boundary; count the boundaries a cycle or a stall
@@ -570,6 +593,8 @@ class Pacer:
             missed = int(late // self.period) + 1
             self.deadline = now + self.period
         self.overruns += missed
+        if self.periodicity is not None:
+            self.periodicity.add(now, late, now - self.now - self.period)
         self.now = now
         if late > self.late_after:  # jitter below a tenth of a period is not remembered
             self.lateness.append((now, late))
@@ -584,6 +609,66 @@ class Pacer:
     def forget(self) -> None:
         """Start the count of recent lateness again (a trip, the start-up cycle)."""
         self.lateness.clear()
+
+
+class Periodicity:
+    """How well a paced process holds its period: each wake-up's lateness (the last
+    `window` kept, for the p99) and period error (the time since the previous wake-up minus
+    the period: the mean of its magnitude, and its largest), and throttled warnings: at
+    most one line every `every` seconds, when wake-ups came more than `warn_after` of a
+    period late, saying how many did since the last line."""
+
+    def __init__(
+        self,
+        name: str,
+        period: float,
+        warn: Callable[[str], None] | None = None,
+        warn_after: float = 0.5,
+        every: float = 10.0,
+        window: int = 4096,
+    ) -> None:
+        self.name, self.period, self.warn = name, period, warn
+        self.warn_after, self.every = warn_after * period, every
+        self.lateness: deque[float] = deque(maxlen=window)
+        self.count, self.error_sum, self.error_max, self.late_max = 0, 0.0, 0.0, 0.0
+        self.warned_at, self.unwarned, self.warnings = -every, 0, 0
+
+    def add(self, now: float, late: float, error: float) -> None:
+        self.count += 1
+        self.lateness.append(late)
+        error = abs(error)
+        self.error_sum += error
+        self.error_max = max(self.error_max, error)
+        self.late_max = max(self.late_max, late)
+        if late > self.warn_after:
+            self.unwarned += 1
+            if now - self.warned_at >= self.every and self.warn is not None:
+                self.warn(
+                    f"{self.name}: {self.unwarned} wake-up(s) more than "
+                    f"{self.warn_after * 1e3:g} ms late (the last {late * 1e3:.1f} ms, "
+                    f"period {self.period * 1e3:g} ms): loaded machine, or the period too "
+                    "short"
+                )
+                self.warned_at, self.unwarned, self.warnings = now, 0, self.warnings + 1
+
+    def p99(self) -> float:
+        """The 99th percentile of the kept wake-ups' lateness (seconds)."""
+        if not self.lateness:
+            return 0.0
+        ordered = sorted(self.lateness)
+        return ordered[min(len(ordered) - 1, int(0.99 * len(ordered)))]
+
+    def line(self) -> str:
+        """One line for a summary."""
+        if not self.count:
+            return f"{self.name}: periodicity: no paced wake-up"
+        mean = self.error_sum / self.count
+        return (
+            f"{self.name}: period error mean {mean * 1e6:.0f} µs, max "
+            f"{self.error_max * 1e6:.0f} µs; wake-up lateness p99 {self.p99() * 1e6:.0f} µs, "
+            f"max {self.late_max * 1e6:.0f} µs over {self.count} wake-ups "
+            f"(period {self.period * 1e3:g} ms)"
+        )
 
 
 # ---------------------------------------------------------------- lockstep
@@ -607,16 +692,38 @@ def serve(process: Process, requests: int, replies: int) -> None:
         op, first, last, end = STEP.unpack(message)
         if op != b"s":
             break
-        process.run_modules(first, last)
-        if end:
-            for step in process.io_steps[1]:
-                step()
-            process.cycle += 1
-            process.beat()
+        run_segment(process, first, last, end)
         os.write(replies, DONE_REPLY)
     if process.io is not None:
         process.io.close()
     process.beat(STOPPED)
+
+
+def serve_ring(
+    process: Process, control: int, replies: int, link: tuple[int, int], spin: float
+) -> None:
+    """Run `process` in a lockstep ring (rcs/ring.py): a whole cycle each time the token
+    comes on `link[0]`, then the token on to `link[1]`; until the coordinator writes on
+    (or closes) the `control` pipe."""
+    receiver, last = Receiver(link[0], spin), len(process.plan.modules) - 1
+    stop_on_control(control, link[0])
+    os.write(replies, READY)
+    while receiver.wait():
+        run_segment(process, 0, last, True)
+        give(link[1])
+    if process.io is not None:
+        process.io.close()
+    process.beat(STOPPED)
+
+
+def run_segment(process: Process, first: int, last: int, end: bool) -> None:
+    """One segment of a lockstep cycle; with `end`, the process's cycle ends (it beats)."""
+    process.run_modules(first, last)
+    if end:
+        for step in process.io_steps[1]:
+            step()
+        process.cycle += 1
+        process.beat()
 
 
 def _read_exactly(fd: int, size: int) -> bytes | None:

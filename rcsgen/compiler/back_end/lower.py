@@ -87,6 +87,7 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
             dict(p.stand_ins),
             dict(p.watchdog),
             tuple(d.name for d in devices if d.process == p.name),
+            dict(sorted(p.realtime.items())),
         )
         for p in checked.processes
     )

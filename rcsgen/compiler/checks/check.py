@@ -114,7 +114,9 @@ def _process(
     }
     roots = tuple(m for m in modules if m not in ruled)
     period = p.cycle_period or system.cycle_period
-    return CheckedProcess(p.name, period, p.doc, modules, roots, replaces, dict(p.watchdog))
+    return CheckedProcess(
+        p.name, period, p.doc, modules, roots, replaces, dict(p.watchdog), dict(p.realtime)
+    )
 
 
 # ---------------------------------------------------------------- system-wide checks

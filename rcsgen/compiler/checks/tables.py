@@ -345,6 +345,7 @@ class CheckedProcess:
     # controller -> (its stand-in, the modules of this process it replaces: itself + subtree)
     stand_ins: Mapping[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
     watchdog: Mapping[str, float] = field(default_factory=dict)  # its declared limits
+    realtime: Mapping[str, object] = field(default_factory=dict)  # its real-time settings
 
 
 @dataclass(frozen=True)

@@ -77,6 +77,8 @@ class Process:
     cycle_period: float | None = None  # its own period, if not the system's
     # its declared watchdog limits (`watchdog:`), the runtime Watchdog's field -> value
     watchdog: dict[str, float] = field(default_factory=dict)
+    # its opt-in real-time settings (`realtime:`, rcs/realtime.py)
+    realtime: dict[str, object] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -397,6 +399,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
                 str(k): int(v) if k == "window" else float(v)
                 for k, v in (spec.get("watchdog") or {}).items()
             },
+            dict(spec.get("realtime") or {}),
         )
         for name, spec in data["processes"].items()
     ]

@@ -7,10 +7,10 @@ process that dies is marked DEAD in its control record, so the supervisors of it
 go to their safe state; with `--restart` it is started again and resumes), and on Ctrl-C
 or SIGTERM stops them all, prints a summary per process and removes the segment. In
 lockstep (`--lockstep`, or `Launcher(lockstep=True)` from a test harness) a `Coordinator`
-steps the processes through pipes, one segment of the system's execution order at a time,
-so a multi-process run leaves the same trace as a one-process run. `python -m <system>
-PROCESS` runs one process (as the launcher's child, or by hand). Standard library only:
-copied verbatim into every generated package.
+steps the processes in the system's execution order, a token passed process to process
+(rcs/ring.py), so a multi-process run leaves the same trace as a one-process run.
+`python -m <system> PROCESS` runs one process (as the launcher's child, or by hand).
+Standard library only: copied verbatim into every generated package.
 """
 
 from __future__ import annotations
@@ -55,9 +55,14 @@ from ..loop import (
     reaction,
     run,
     serve,
+    serve_ring,
     start,
+    start_realtime,
 )
 from ..override import latch_safe
+from ..realtime import RealtimeRefused
+from ..ring import Link, Return, close_links, default_spin, new_links
+from ..ring import give as hand_on
 from ..transport import PLAINTEXT, Security, TransportError, check_endpoint
 from .command import (
     Command,
@@ -140,8 +145,19 @@ def run_process(system: System, args: argparse.Namespace) -> int:
         except Exception as error:  # noqa: BLE001 - a hook-state factory: one line, and why
             return report_failure(args.process, error, system.package)
         try:
-            serve(process, sys.stdin.fileno(), sys.stdout.fileno())
-        except OSError:  # the coordinator's end of the pipe is gone (BrokenPipeError)
+            start_realtime(process)
+        except RealtimeRefused as error:
+            print(error, file=sys.stderr)
+            process.block.close()
+            return 1
+        try:
+            if args.ring:
+                read, write, spin = args.ring.split(",")
+                link = (int(read), int(write))
+                serve_ring(process, sys.stdin.fileno(), sys.stdout.fileno(), link, float(spin))
+            else:
+                serve(process, sys.stdin.fileno(), sys.stdout.fileno())
+        except (OSError, EOFError):  # the coordinator's end of the pipe is gone (BrokenPipeError)
             pass
         except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
             process.block.close()
@@ -173,6 +189,9 @@ def run_process(system: System, args: argparse.Namespace) -> int:
     except (BlockError, RestartRefused, DuplicateProcess) as error:
         print(f"{args.process}: {error}", file=sys.stderr)
         return REFUSED if isinstance(error, RestartRefused) else 1
+    except RealtimeRefused as error:  # its line says which setting and why
+        print(error, file=sys.stderr)
+        return 1
     except Exception as error:  # noqa: BLE001 - a hook or module failed: one line, and why
         return report_failure(args.process, error, system.package)
     finally:
@@ -190,6 +209,8 @@ def report(system: System, args: argparse.Namespace, process: Process) -> None:
         print(f"{args.process}: {process.cycle} cycles")
         for line in summary(system, process.block.buf, [args.process]):
             print(line)
+        if process.periodicity is not None and process.periodicity.period > 0:
+            print(process.periodicity.line())
 
 
 def run_networked(
@@ -348,6 +369,8 @@ class Launcher:
         processes: Sequence[str] | None = None,
         also_listen: Sequence[str] = (),
         security: Security = PLAINTEXT,
+        ring: bool = True,
+        spin: float | None = None,
     ) -> None:
         self.system = system
         self.segment = segment or system.default_segment
@@ -363,6 +386,12 @@ class Launcher:
         self.processes = list(system.plans) if processes is None else list(processes)
         self.net: Any = None
         self.lockstep, self.pace, self.cycles = lockstep, pace, cycles
+        # Lockstep over one segment: the token ring (rcs/ring.py), or with `ring=False` the
+        # coordinator's request and answer per process (kept to measure one against the other)
+        self.ring = ring and lockstep and transport != "zenoh"
+        self.links: list[Link] = []  # the ring's: process i waits on i, hands on to i + 1
+        self.order = [name for name, *_ in system.segments()]
+        self.spin = default_spin(len(self.order) + 1) if spin is None else spin
         self.settings, self.simulate = list(settings), list(simulate)
         self.restart, self.python = restart, python
         self.world = dict(world or {})  # world fields to start from, over their initial values
@@ -376,6 +405,7 @@ class Launcher:
         self.lost: set[str] = set()  # processes silent past the heartbeat timeout (frozen)
         self.trips: dict[str, int] = {}  # each process's watchdog trips, last seen
         self.halted = ""  # why the system was halted (a loss that was not contained), if it was
+        self.on_stop: list[Callable[[], None]] = []  # first thing `stop` does (a coordinator's)
 
     # ------------------------------------------------------------ lifecycle
 
@@ -398,6 +428,7 @@ class Launcher:
                     ),
                     block_when_congested=self.lockstep,
                 )
+            self.links = new_links(len(self.order) + 1) if self.ring else []
             for name in self.processes:
                 self.children[name] = Child(name, self._spawn(name, attach=True))
             if not self.lockstep and self.net is None:
@@ -450,6 +481,11 @@ class Launcher:
         else:
             command += ["--attach"] if attach else []
         command += ["--lockstep"] if self.lockstep else []
+        ring: tuple[int, ...] = ()
+        if self.links:  # the fds keep their numbers in the child (pass_fds)
+            at = self.order.index(name)
+            ring = (self.links[at].read, self.links[at + 1].write)
+            command += ["--ring", f"{ring[0]},{ring[1]},{self.spin!r}"]
         command += [] if self.pace else ["--fast"]
         command += ["--cycles", str(self.cycles)] if self.cycles is not None else []
         for item in self.settings:
@@ -464,6 +500,7 @@ class Launcher:
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE if self.lockstep and self.net is None else None,
             env=env,
+            pass_fds=ring,
         )
 
     def poll(self) -> list[str]:
@@ -572,6 +609,8 @@ class Launcher:
     def stop(self) -> None:
         """Stop every process (closing its pipe, then SIGTERM, then SIGKILL after a grace
         period) and remove the segment."""
+        while self.on_stop:
+            self.on_stop.pop()()
         for child in self.children.values():
             _close_stdin(child.popen)
             if child.popen.poll() is None:
@@ -586,6 +625,8 @@ class Launcher:
                 self.events.append(f"{child.name} did not stop: killed")
             _close(child.popen)
         self.children.clear()
+        close_links(self.links)
+        self.links = []
         if self.net is not None:  # each process's last word (STOPPED) or its leaving
             names, mirror = self.processes, self.net.mirror
             self.net.wait(
@@ -624,12 +665,24 @@ class Coordinator:
         self.launcher, self.timeout = launcher, timeout
         self.segments = launcher.system.segments()
         self.cycle = 0
+        self.broken = ""  # why the ring was lost: no cycle after it
         for child in launcher.children.values():  # each has started and sent its INITs
             if child.popen.stdout is None or child.popen.stdout.read(len(READY)) != READY:
                 raise ProcessLost(f"process {child.name} did not start")
+        self.waiter: Return | None = None
+        if launcher.links:  # the ring: the token comes back on the last link
+            self.answers = {
+                c.popen.stdout.fileno(): c for c in launcher.children.values() if c.popen.stdout
+            }
+            self.waiter = Return(launcher.links[-1].read, list(self.answers), launcher.spin)
+            launcher.on_stop.append(self.waiter.close)  # before it closes what is watched
+            self.beats = self._beats()
 
     def step(self, cycles: int = 1) -> None:
         """Run `cycles` whole system cycles; raises ProcessLost if a process is gone."""
+        if self.waiter is not None:
+            self._ring(cycles)
+            return
         for _ in range(cycles):
             for name, first, last, end in self.segments:
                 child = self.launcher.children.get(name)
@@ -650,6 +703,45 @@ class Coordinator:
                         )
                     raise ProcessLost(stopped_answering(child))
             self.cycle += 1
+
+    def _ring(self, cycles: int) -> None:
+        """Cycles of the token ring: a process killed is lost as its answer pipe closes, one
+        stopped (or stuck) when the token has not come back within `timeout`."""
+        assert self.waiter is not None
+        first, done = self.launcher.links[0].write, self.launcher.links[-1].read
+        for _ in range(cycles):
+            if self.broken or len(self.launcher.children) != len(self.answers):
+                self.broken = self.broken or "a process of the ring is not running"
+                raise ProcessLost(self.broken)
+            hand_on(first)
+            woke = self.waiter.wait(self.timeout)
+            if woke == done:
+                self.cycle += 1
+                continue
+            self.lost()
+            if woke is None:
+                self.broken = (
+                    f"process {self._holder()} did not answer within {self.timeout:g} s "
+                    "(stopped, or stuck where its hooks' deadlines cannot reach)"
+                )
+            else:
+                self.broken = stopped_answering(self.answers[woke])
+            raise ProcessLost(self.broken)
+
+    def _beats(self) -> dict[str, int]:
+        block = self.launcher.block
+        assert block is not None
+        processes = self.launcher.system.layout.PROCESSES
+        return {n: BEAT.unpack_from(block.buf, processes[n].offset)[4] for n in processes}
+
+    def _holder(self) -> str:
+        """The process the token stopped at: the first in the ring not yet through this
+        cycle (each beats once a cycle, as it hands the token on)."""
+        beats = self._beats()
+        return next(
+            (n for n in self.launcher.order if beats[n] <= self.beats[n] + self.cycle),
+            self.launcher.order[-1],
+        )
 
     def lost(self) -> None:
         """A process is lost: every actuator safe now, latched (the launcher's stop does it
@@ -898,6 +990,8 @@ def parser(system: System) -> argparse.ArgumentParser:
         "--lockstep", action="store_true", help="step the processes in lockstep (no pacing)"
     )
     top.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
+    # a lockstep child's place in the token ring: READ_FD,WRITE_FD,SPIN (rcs/ring.py)
+    top.add_argument("--ring", default=None, help=argparse.SUPPRESS)
     # a deployment host's TLS and authentication files, as its launcher passes them on
     top.add_argument("--security", default=None, help=argparse.SUPPRESS)
     top.add_argument(

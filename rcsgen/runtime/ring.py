@@ -1,0 +1,194 @@
+"""Ring: the lockstep token, passed process to process (N+1 hand-offs a system cycle).
+
+A lockstep coordinator used to send each process a request and wait for its answer: 2N
+scheduler wake-ups a cycle, each one a context switch through the coordinator. Here the
+coordinator and the processes form a ring in the execution order: the coordinator hands the
+token to the first process, each process runs its cycle and hands it to the next, the last
+hands it back. Each link is an eventfd (Linux) or, where there is none, a pipe: handing the
+token is writing 8 bytes into the next one's link, taking it is reading them.
+
+A process waits for the token in a blocking read of its link (one system call, the
+cheapest wake-up: poll(2) then read costs ~3 µs more a hand-off on a loaded 2-core
+machine); a thread of its own blocks on its control pipe and, when the coordinator writes
+there or goes away (the pipe closes), puts STOP into the link, which ends the read. Where
+the machine has a core for every member of the ring, a waiter spins `spin` seconds first
+(the next one runs on a core of its own, and the token comes back sooner than the
+scheduler could wake a sleeper). The coordinator waits for the token's return in a
+blocking read too; a thread of its own polls every process's answer pipe (it closes when
+the process dies) and the cycle's deadline, and wakes the read with STOP: a process killed
+holding the token is seen at once, one stopped when the token has not come back within
+the coordinator's timeout. Standard library only: copied verbatim into every generated package.
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import struct
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+WORD = struct.Struct("=Q")  # an eventfd takes 8 bytes (a pipe too: one token, one write)
+TOKEN = WORD.pack(1)
+STOP_VALUE = 1 << 40
+STOP = WORD.pack(STOP_VALUE)  # into a link: stop, or wake (a token added to it reads != 1)
+SPIN = 50e-6  # seconds a waiter spins before it blocks, where every member has a core
+READABLE = select.POLLIN | select.POLLHUP | select.POLLERR
+
+
+@dataclass(frozen=True)
+class Link:
+    """One hand-off: the descriptor its receiver reads, the one its sender writes (the same
+    eventfd, or the two ends of a pipe)."""
+
+    read: int
+    write: int
+
+
+def new_links(count: int) -> list[Link]:
+    """`count` links, non-blocking, not inherited (the launcher passes each process its
+    own two)."""
+    links = []
+    for _ in range(count):
+        if hasattr(os, "eventfd"):
+            fd = os.eventfd(0, os.EFD_NONBLOCK | os.EFD_CLOEXEC)
+            links.append(Link(fd, fd))
+        else:  # pragma: no cover - not Linux
+            read, write = os.pipe()
+            os.set_blocking(read, False)
+            links.append(Link(read, write))
+    return links
+
+
+def close_links(links: Sequence[Link]) -> None:
+    for fd in sorted({fd for link in links for fd in (link.read, link.write)}):
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+
+
+def cores() -> int:
+    """The cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1  # pragma: no cover - not Linux
+
+
+def default_spin(members: int) -> float:
+    """Spin only where every member of the ring (the processes and the coordinator) has a
+    core: on fewer, a spinner takes the core the token holder needs."""
+    return SPIN if cores() > members else 0.0
+
+
+def give(fd: int) -> None:
+    """Hand the token on."""
+    os.write(fd, TOKEN)
+
+
+class Return:
+    """The coordinator's end of the ring: the token's return read blocking on `fd` (the
+    cheapest wake-up: poll(2) there costs ~3 µs a cycle more); a thread of its own polls
+    the processes' answer pipes (`watch`: readable when a process dies) and the cycle's
+    deadline, and wakes the read with STOP. `close` ends the thread: before the launcher
+    closes any descriptor it watches."""
+
+    def __init__(self, fd: int, watch: Sequence[int], spin: float = 0.0) -> None:
+        os.set_blocking(fd, True)  # only the coordinator reads the last link
+        self.fd, self.spin_ns = fd, int(spin * 1e9)
+        self.deadline = float("inf")  # of the cycle under way (monotonic seconds)
+        self.dead: int | None = None  # the answer pipe that closed
+        self.poller = select.poll()
+        self.poller.register(fd, READABLE)
+        self._quit_read, self._quit_write = os.pipe()
+        watched = select.poll()
+        for each in (*watch, self._quit_read):
+            watched.register(each, READABLE)
+        self._thread = threading.Thread(
+            target=self._watch, args=(watched,), name="ring-return", daemon=True
+        )
+        self._thread.start()
+
+    def wait(self, timeout: float) -> int | None:
+        """`fd` once the token is back; the answer pipe of a process that died (it has
+        priority over the token); None when it has not come back within `timeout`."""
+        self.deadline = time.monotonic() + timeout
+        if self.spin_ns:
+            end = time.monotonic_ns() + self.spin_ns
+            while not self.poller.poll(0) and time.monotonic_ns() < end:
+                pass
+        while True:
+            data = os.read(self.fd, WORD.size)
+            if self.dead is not None:
+                return self.dead
+            if data and WORD.unpack(data)[0] % STOP_VALUE:
+                self.deadline = float("inf")
+                return self.fd
+            if time.monotonic() >= self.deadline:
+                return None
+            # a STOP for a cycle that ended as the watcher woke: the token is still to come
+
+    def _watch(self, watched: select.poll) -> None:
+        fired = float("nan")
+        while True:
+            deadline = self.deadline
+            left = deadline - time.monotonic()
+            if left <= 0 and deadline != fired:  # the cycle under way is late: wake the read
+                fired = deadline
+                os.write(self.fd, STOP)
+            ms = 250 if left <= 0 or left > 0.25 else max(1, int(left * 1000) + 1)
+            for ready, events in watched.poll(ms):
+                if ready == self._quit_read or events & select.POLLNVAL:
+                    return
+                self.dead = ready  # a process's answer pipe closed (or spoke): it is lost
+                os.write(self.fd, STOP)
+                return
+
+    def close(self) -> None:
+        """End the watching thread (idempotent)."""
+        if self._quit_write >= 0:
+            os.write(self._quit_write, b"q")
+            self._thread.join(5.0)
+            os.close(self._quit_write)
+            os.close(self._quit_read)
+            self._quit_write = -1
+
+
+class Receiver:
+    """A process's end of its link: blocking reads (after a spin where cores are free)."""
+
+    def __init__(self, fd: int, spin: float = 0.0) -> None:
+        os.set_blocking(fd, True)  # only this process reads its link
+        self.fd, self.spin_ns = fd, int(spin * 1e9)
+        self.poller = select.poll()
+        self.poller.register(fd, READABLE)
+
+    def wait(self) -> bool:
+        """True with the token; False when told to stop (STOP, or the ring broken)."""
+        if self.spin_ns:
+            end = time.monotonic_ns() + self.spin_ns
+            while not self.poller.poll(0) and time.monotonic_ns() < end:
+                pass
+        data = os.read(self.fd, WORD.size)
+        return len(data) == WORD.size and WORD.unpack(data)[0] == 1
+
+
+def stop_on_control(control: int, link: int) -> threading.Thread:
+    """A thread that puts STOP into `link` once anything comes on `control` (b"q") or it
+    closes (the coordinator stops this process, or is gone)."""
+
+    def watch() -> None:
+        try:
+            os.read(control, 1)
+        except OSError:
+            pass
+        try:
+            os.write(link, STOP)
+        except OSError:  # pragma: no cover - the process is closing its link already
+            pass
+
+    thread = threading.Thread(target=watch, name="ring-control", daemon=True)
+    thread.start()
+    return thread
