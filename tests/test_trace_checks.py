@@ -356,3 +356,9 @@ def test_a_trace_the_specs_cannot_have_run_is_refused_with_the_reason(miner) -> 
     pc2 = miner.processes[1]
     alone = traces.parse(line(1, None, **{m: co() for m in pc2.modules}), "t")
     assert traces.check_against(miner, alone) is pc2  # exactly one process's modules
+    assert traces.recorded_by([miner], [alone, alone]) == (miner, "")
+    assert traces.recorded_by([miner], [alone, other]) == (
+        None,
+        "t: module `zz` is not in system miner: was the trace recorded from other specs?",
+    )
+    assert traces.recorded_by([miner, miner], [other]) == (None, "")  # each refused: no one reason
