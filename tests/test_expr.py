@@ -614,6 +614,14 @@ def test_fold_gives_the_value_of_what_reads_only_constants(source: str, want: ob
     assert value == want and type(value) is type(want), (source, value)
 
 
+def test_fold_takes_only_constants_for_known_not_a_field_of_the_same_name() -> None:
+    from rcsgen.compiler.expressions import fold
+
+    for kind in (RefKind.WORLD, RefKind.PARAM, RefKind.LOCAL):
+        assert fold(Ref(INT, kind, "CI"), CONSTANTS) is None, kind  # `world.CI`, not `CI`
+    assert fold(Ref(INT, RefKind.CONST, "CI"), CONSTANTS) == 3
+
+
 @pytest.mark.parametrize("op", ["/", "//", "%"])
 def test_fold_of_a_division_by_zero_is_no_value_not_an_error(op: str) -> None:
     from rcsgen.compiler.expressions import fold
