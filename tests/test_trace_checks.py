@@ -149,7 +149,7 @@ def test_an_interrupted_run_names_its_signal_on_the_last_line_only() -> None:
 def test_a_gzipped_trace_reads_as_its_text_within_a_limit() -> None:
     text = GOOD + "\n"
     packed = traces.compressed(text)
-    assert packed[:2] == b"\x1f\x8b" and packed == traces.compressed(text)  # no time in it
+    assert packed[:2] == b"\x1f\x8b" and packed[4:8] == bytes(4)  # no time in the header
     assert traces.decompressed(packed, len(text)) == text.encode("utf-8")
     assert traces.decompressed(text.encode(), 1) == text.encode()  # plain text: as it is
     with pytest.raises(ValueError, match=rf"^it holds more than {len(text) - 1:,} bytes"):
@@ -362,3 +362,18 @@ def test_a_trace_the_specs_cannot_have_run_is_refused_with_the_reason(miner) -> 
         "t: module `zz` is not in system miner: was the trace recorded from other specs?",
     )
     assert traces.recorded_by([miner, miner], [other]) == (None, "")  # each refused: no one reason
+
+
+def test_a_gzip_bomb_is_refused_without_inflating_it() -> None:
+    import gzip
+    import tracemalloc
+
+    bomb = gzip.compress(bytes(20_000_000), mtime=0)  # 20 MB of zeros in about 20 kB
+    tracemalloc.start()
+    try:
+        with pytest.raises(ValueError, match=r"^it holds more than 1,000 bytes of text$"):
+            traces.decompressed(bomb, 1000)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 1_000_000, f"{peak:,} bytes taken to refuse it"
