@@ -974,6 +974,28 @@ def test_samples_cover_every_region_once() -> None:
     )
 
 
+def _parity(flags: int) -> solver.Guard:
+    """A guard that only a look at every valuation of `flags` bools decides: their parity."""
+    keys = [("local", f"b{n}") for n in range(flags)]
+
+    def odd(val: solver.Valuation) -> bool | None:
+        return None if any(k not in val for k in keys) else sum(val[k] for k in keys) % 2 == 1
+
+    domains = dict.fromkeys(keys, solver.BOOL_DOMAIN)
+    return solver.Guard(odd, domains=domains, order=dict.fromkeys(keys))
+
+
+def test_the_solver_enumerates_up_to_its_limit_and_no_further() -> None:
+    assert solver.LIMIT == 2**12
+    at_limit = solver.solve([(_parity(12), True)])  # 4096 valuations: still searched
+    assert (at_limit.kind, at_limit.size) == (solver.Verdict.YES, solver.LIMIT)
+    assert sum(value for _, value in at_limit.shown) % 2 == 1
+    beyond = solver.solve([(_parity(13), True)])
+    assert (beyond.kind, beyond.size) == (solver.Verdict.UNKNOWN, 2 * solver.LIMIT)
+    never = solver.solve([(_parity(2), True), (_parity(2), False)])
+    assert (never.kind, never.size) == (solver.Verdict.NO, 4)
+
+
 # ---------------------------------------------------------------- the miner
 
 MINER = REPO / "specs" / "miner"

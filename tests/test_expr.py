@@ -574,3 +574,78 @@ def test_and_or_fold_short_circuit_on_the_deciding_operand(op: str, first: bool,
         assert fold(BoolOp(BOOL, op, values), {}) is want, (op, values)
     both = (Const(BOOL, first), Const(BOOL, not first))
     assert fold(BoolOp(BOOL, op, both), {}) is (op == "or")
+
+
+# ---------------------------------------------------------------- folding (mutants)
+
+
+@pytest.mark.parametrize(
+    ("source", "want"),
+    [
+        ("CI < 4 <= CI + 1", True),  # a chain: every pair holds
+        ("CI < 4 < CI", False),  # the second pair fails
+        ("1 <= CI == 3 != 2 > 1 >= 1", True),
+        ("CI > 3", False),
+        ("not CB", False),
+        ("-CI", -3),
+        ("+CF", 2.5),
+        ("CI // 2 + CI % 2 * 10 - 1 / 4", 10.75),
+        ("abs(-CI) + min(CI, 1) + max(CF, 0.5)", 6.5),
+        ("CI if CB else 0", 3),
+        ("CI if not CB else 0", 0),
+        ("ready() and CB", True),  # a predicate's folded body stands for its call
+        ("busy() or CB", True),  # no body: `or` is decided by its true operand
+        ("busy() and CB", None),
+        ("CI < world.wi", None),  # a world field is not known before the run
+        ("CI > 0 if world.wb else CI < 0", None),
+        ("-world.wi", None),
+        ("world.wi + 1 > 0", None),
+        ("abs(world.wi) > 0", None),
+    ],
+)
+def test_fold_gives_the_value_of_what_reads_only_constants(source: str, want: object) -> None:
+    from rcsgen.compiler.expressions import fold
+
+    diags = Diagnostics()
+    tree = compile_expr(source, Span("expr.yaml", 1, 1), scope(), diags)
+    assert tree is not None, list(diags)
+    ready = Compare(BOOL, Const(INT, 1), ("<",), (Const(INT, 2),))
+    value = fold(tree, CONSTANTS, {"ready": ready})
+    assert value == want and type(value) is type(want), (source, value)
+
+
+def test_fold_takes_only_constants_for_known_not_a_field_of_the_same_name() -> None:
+    from rcsgen.compiler.expressions import fold
+
+    for kind in (RefKind.WORLD, RefKind.PARAM, RefKind.LOCAL):
+        assert fold(Ref(INT, kind, "CI"), CONSTANTS) is None, kind  # `world.CI`, not `CI`
+    assert fold(Ref(INT, RefKind.CONST, "CI"), CONSTANTS) == 3
+
+
+@pytest.mark.parametrize("op", ["/", "//", "%"])
+def test_fold_of_a_division_by_zero_is_no_value_not_an_error(op: str) -> None:
+    from rcsgen.compiler.expressions import fold
+
+    zero = Binary(INT, "-", Ref(INT, RefKind.CONST, "CI"), Const(INT, 3))
+    assert fold(Binary(FLOAT, op, Const(INT, 1), zero), CONSTANTS) is None
+    assert (
+        fold(Binary(FLOAT, op, Const(INT, 7), Const(INT, 2)), CONSTANTS)
+        == {"/": 3.5, "//": 3, "%": 1}[op]
+    )
+
+
+def test_fold_follows_a_chain_of_predicates_and_gives_up_on_a_too_deep_one() -> None:
+    """Not at the exact bound: how deep Python lets it go depends on the stack it runs on
+    (mutmut's trampolines double it); beyond the bound it is no value, never an error."""
+    from rcsgen.compiler.expressions import MAX_DEPTH, CallKind, fold
+
+    def chain(links: int) -> dict[str, Expr]:
+        bodies: dict[str, Expr] = {
+            f"p{n}": Call(BOOL, CallKind.PREDICATE, f"p{n + 1}") for n in range(links)
+        }
+        bodies[f"p{links}"] = Const(BOOL, True)
+        return bodies
+
+    top = Call(BOOL, CallKind.PREDICATE, "p0")
+    assert fold(top, {}, chain(MAX_DEPTH // 2)) is True
+    assert fold(top, {}, chain(3 * MAX_DEPTH)) is None

@@ -107,6 +107,61 @@ def test_a_file_that_is_not_text_or_not_a_file_is_refused(tmp_path: Path) -> Non
         traces.load(tmp_path / "blank.jsonl")
 
 
+def test_a_trace_given_as_text_is_named_trace_in_its_errors() -> None:
+    with pytest.raises(traces.TraceError, match=r"^<trace> is empty: a trace has one JSON line"):
+        traces.parse("\n")
+    with pytest.raises(traces.TraceError, match=r"^<trace>:1: not a trace line"):
+        traces.parse("[]")
+
+
+@pytest.mark.parametrize(
+    ("name", "page"),
+    [
+        ("run.jsonl", "run.html"),
+        ("run.jsonl.gz", "run.html"),
+        ("run.txt", "run.html"),
+        ("run.txt.gz", "run.html"),
+        ("a.b.jsonl", "a.b.html"),
+    ],
+)
+def test_a_page_beside_a_trace_is_named_after_it(name: str, page: str) -> None:
+    assert traces.beside(Path("d") / name, ".html") == Path("d") / page
+
+
+def test_an_interrupted_run_names_its_signal_on_the_last_line_only() -> None:
+    stop = json.dumps({"cycle": 2, "interrupted": "SIGINT"})
+    assert traces.parse(GOOD + "\n" + stop, "t").interrupted == "SIGINT"
+    with pytest.raises(traces.TraceError, match=r"^t holds no cycle: its run was interrupted"):
+        traces.parse(stop, "t")
+    with pytest.raises(traces.TraceError, match=r"^t:3: a line after the one that says"):
+        traces.parse("\n".join([GOOD, stop, GOOD]), "t")
+    for bad in (
+        {"cycle": 2, "interrupted": 2},
+        {"cycle": 2, "interrupted": "SIGINT", "modules": {}},
+    ):
+        with pytest.raises(
+            traces.TraceError,
+            match=r"^t:2: not a trace line \(an `interrupted` line has only it and `cycle`\)$",
+        ):
+            traces.parse(GOOD + "\n" + json.dumps(bad), "t")
+
+
+def test_a_gzipped_trace_reads_as_its_text_within_a_limit() -> None:
+    text = GOOD + "\n"
+    packed = traces.compressed(text)
+    assert packed[:2] == b"\x1f\x8b" and packed[4:8] == bytes(4)  # no time in the header
+    assert traces.decompressed(packed, len(text)) == text.encode("utf-8")
+    assert traces.decompressed(text.encode(), 1) == text.encode()  # plain text: as it is
+    with pytest.raises(ValueError, match=rf"^it holds more than {len(text) - 1:,} bytes"):
+        traces.decompressed(packed, len(text) - 1)
+    with pytest.raises(ValueError, match=r"^a damaged gzip file \(it ends before its data"):
+        traces.decompressed(packed[:-12], len(text))
+    with pytest.raises(ValueError, match=r"^a damaged gzip file \(Error"):
+        traces.decompressed(packed[:10] + b"\xff" * 20, len(text))
+    accented = "é\n"
+    assert traces.decompressed(traces.compressed(accented), 10) == accented.encode("utf-8")
+
+
 def test_select_takes_lists_and_suggests_a_close_name() -> None:
     trace = traces.parse(line(1, None, co=co(), cc=co()), "t")
     assert traces.select(trace, []) == ["cc", "co"]
@@ -301,3 +356,24 @@ def test_a_trace_the_specs_cannot_have_run_is_refused_with_the_reason(miner) -> 
     pc2 = miner.processes[1]
     alone = traces.parse(line(1, None, **{m: co() for m in pc2.modules}), "t")
     assert traces.check_against(miner, alone) is pc2  # exactly one process's modules
+    assert traces.recorded_by([miner], [alone, alone]) == (miner, "")
+    assert traces.recorded_by([miner], [alone, other]) == (
+        None,
+        "t: module `zz` is not in system miner: was the trace recorded from other specs?",
+    )
+    assert traces.recorded_by([miner, miner], [other]) == (None, "")  # each refused: no one reason
+
+
+def test_a_gzip_bomb_is_refused_without_inflating_it() -> None:
+    import gzip
+    import tracemalloc
+
+    bomb = gzip.compress(bytes(20_000_000), mtime=0)  # 20 MB of zeros in about 20 kB
+    tracemalloc.start()
+    try:
+        with pytest.raises(ValueError, match=r"^it holds more than 1,000 bytes of text$"):
+            traces.decompressed(bomb, 1000)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 1_000_000, f"{peak:,} bytes taken to refuse it"
