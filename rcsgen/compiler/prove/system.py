@@ -110,6 +110,7 @@ def prove(
     actuators = frozenset(f.name for f in system.world if f.actuator)
     skeletons = {c.name: skeleton(system, c, actuators) for c in system.controllers}
     moving = props.motion(skeletons)
+    actuating = props.motion(skeletons, idle=False)
     written = writers(system, skeletons)
     contracts: dict[str, Contract] = {}
     for c in order(system):
@@ -133,7 +134,7 @@ def prove(
             proof.notes.append(f"{c.name}: more than {limit} states; its properties are undecided")
         else:
             quiet = quiet_fields(system, written, c.name)
-            for finding in _check(graph, moving, quiet, result):
+            for finding in _check(graph, moving, actuating, quiet, result):
                 # rcsgen's default INIT/HALT wait for every subordinate's DONE (QQ1): a
                 # subordinate's ERROR leaves them waiting by design
                 if finding.command in sk.generated and finding.code in ("W702", "W703"):
@@ -226,12 +227,14 @@ def _contracts_of(
 def _check(
     graph: Graph,
     moving: dict[tuple[str, str], bool],
+    actuating: dict[tuple[str, str], bool],
     quiet: Callable[[State], frozenset[str]],
     result: ControllerResult,
 ) -> list[Finding]:
     """Every property of one explored controller; its bounds into `result`."""
     sk = graph.skeleton
     found = props.motion_after_error(graph, moving)
+    found += props.not_withdrawn(graph, actuating)
     found += props.latched_stop(graph, moving)
     finish, result.assumptions, result.stuck = props.finishing(graph, quiet)
     found += finish
