@@ -672,12 +672,13 @@ def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[F
         for edge, t in edges:
             if edge.report != DONE or edge.new is not None or not edge.rules:
                 continue
+            reads = rule_view(sk, edge.rules[-1]).reads
             busy = [
                 f"{sub}.{sent}"
                 for sub, (sent, view, fresh) in zip(sk.subs, s.subs, strict=True)
                 if edge.views[sk.subs.index(sub)] == EXECUTING
                 and sent is not None
-                and moving.get((sub, sent), True)
+                and (moving.get((sub, sent), True) or ("sub_status", sub) in reads)
                 and fresh
                 and (sub, sent) not in edge.sends
             ]
@@ -767,20 +768,37 @@ def _going_on(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], 
     another subordinate's ERROR, not re-commanding it)."""
     if edge.new is not None or not edge.rules or edge.rules[-1].startswith("every_cycle"):
         return []
-    if edge.report == ERROR or ERROR in edge.views:
-        return []
+    failing = edge.report == ERROR or ERROR in edge.views
     rule = rule_view(sk, edge.rules[-1])
-    sent_to = {sub for sub, _ in edge.sends}
+    moves = any(moving.get(send, True) for send in edge.sends)
     return [
         f"{sub}.{sent}"
         for i, (sub, (sent, _, fresh)) in enumerate(zip(sk.subs, s.subs, strict=True))
         if edge.views[i] == EXECUTING
         and sent is not None
         and fresh
-        and moving.get((sub, sent), True)
         and ("sub_status", sub) in rule.reads
-        and sub not in sent_to
+        and _early(sub, sent, [c for x, c in edge.sends if x == sub], failing, moving, moves)
     ]
+
+
+def _early(
+    sub: str,
+    sent: str,
+    resent: list[str],
+    failing: bool,
+    moving: dict[tuple[str, str], bool],
+    moves: bool,
+) -> bool:
+    """Whether going on while `sub` still runs `sent` (the rule read its status) is too
+    early. A stopping command's echo is awaited even on the way to an ERROR: it says
+    everything below has stopped, and a rule that reads the status waits for exactly that.
+    Replacing the running command by a stopping one is right when the rule only stops
+    things (a preemption); by a motion command, or with motion sent anywhere (`moves`), on
+    a status read, it is the next step taken before the echo of the last."""
+    if failing:
+        return not resent and not moving.get((sub, sent), True)
+    return not resent or moves
 
 
 def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
