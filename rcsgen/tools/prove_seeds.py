@@ -229,7 +229,35 @@ def equivalent(seed: Seed, spec: dict[str, Any], proof: SystemProof, system: ir.
         return _error_handled_elsewhere(seed, spec, proof, system)
     if seed.kind == "remove-halt":
         return _halt_sets_no_actuator(spec, system)
+    if seed.kind == "drop-send":
+        return _halt_stops_nothing(seed, spec, proof)
     return ""
+
+
+def _halt_stops_nothing(seed: Seed, spec: dict[str, Any], proof: SystemProof) -> str:
+    """A HALT sent to a subordinate on its own ERROR, where that subordinate ends no command
+    it can be running there with an ERROR that leaves anything below it moving (its proven
+    contract, `SystemProof.loose`): the HALT stops nothing that is not stopped already."""
+    head, _, rest = seed.where.partition(": ")
+    sent = re.fullmatch(r"send (\w+)\.HALT left out", rest)
+    if sent is None:
+        return ""
+    sub = sent.group(1)
+    command, state, number = head.split(" ", 1)[1].split("/")
+    guard = str(spec["commands"][command]["states"][state][int(number) - 1].get("when", ""))
+    graph = proof.graphs.get(seed.controller)
+    if not re.search(rf"\b{sub}\.status\s*==\s*ERROR\b", guard) or graph is None:
+        return ""
+    at = graph.skeleton.subs.index(sub)
+    running = {
+        s.subs[at][0] for s in graph.edges if s.command == command and s.state == state
+    } - {None}
+    if not running or any((sub, cmd) in proof.loose for cmd in running):
+        return ""
+    return (
+        f"{sub} ends none of {', '.join(sorted(c for c in running if c))} with an ERROR that "
+        "leaves anything below it moving (its proven contract): the HALT stops nothing"
+    )
 
 
 def _echo_replaced(seed: Seed, spec: dict[str, Any], proof: SystemProof) -> str:

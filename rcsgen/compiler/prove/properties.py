@@ -838,20 +838,52 @@ def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
 # ---------------------------------------------------------------- withdrawn after ERROR
 
 
-def _running(sk: Skeleton, s: State, moving: dict[tuple[str, str], bool]) -> frozenset[str]:
-    """The subordinates running a motion command sent during the current command."""
+def _running(
+    sk: Skeleton,
+    s: State,
+    moving: dict[tuple[str, str], bool],
+    loose: frozenset[tuple[str, str]] = frozenset(),
+) -> frozenset[str]:
+    """The subordinates running a motion command sent during the current command, or that
+    ended one with an ERROR that may leave something below them moving (`loose`: their
+    own proven contract)."""
     return frozenset(
         sub
         for sub, (sent, view, fresh) in zip(sk.subs, s.subs, strict=True)
-        if view == EXECUTING and fresh and sent is not None and moving.get((sub, sent), True)
+        if fresh
+        and sent is not None
+        and (
+            (view == EXECUTING and moving.get((sub, sent), True))
+            or (view == ERROR and (sub, sent) in loose)
+        )
     )
 
 
-def not_withdrawn(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
+def loose_errors(
+    graph: Graph, moving: dict[tuple[str, str], bool], loose: frozenset[tuple[str, str]]
+) -> set[str]:
+    """The commands the controller may end with ERROR while a subordinate still runs a
+    motion command of it, or ended one with a loose ERROR and was not sent anything since:
+    part of its contract - a supervisor must then withdraw it (HALT) after its ERROR."""
+    found = set()
+    for edges in graph.edges.values():
+        for edge, t in edges:
+            if edge.report == ERROR and t.command and not edge.safe_state:
+                if _running(graph.skeleton, t, moving, loose):
+                    found.add(t.command)
+    return found
+
+
+def not_withdrawn(
+    graph: Graph,
+    moving: dict[tuple[str, str], bool],
+    loose: frozenset[tuple[str, str]] = frozenset(),
+) -> list[Finding]:
     """After a subordinate's ERROR, every other subordinate still running a motion command
     of this command is withdrawn (sent HALT, or another command) before the controller
     reports ERROR: an error stops the machine, it does not let the rest of the command run
-    out (W701, at the rule that read the ERROR). A command that handles the ERROR and
+    out (W701, at the rule that read the ERROR); the subordinate that erred too, when its
+    ERROR may leave something below it moving. A command that handles the ERROR and
     reports DONE is not concerned, nor the runtime's safe state (it halts everything)."""
     sk = graph.skeleton
     findings: list[Finding] = []
@@ -862,7 +894,7 @@ def not_withdrawn(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Fin
         for edge, t in edges:
             if not t.errored or not _quiet(edge) or edge.safe_state or not edge.rules:
                 continue
-            pending = _running(sk, t, moving) - {sub for sub, _ in edge.sends}
+            pending = _running(sk, t, moving, loose) - {sub for sub, _ in edge.sends}
             if not pending or edge.rules[-1] in seen:
                 continue
             run = _left_running(graph, t, pending, edge.report)
