@@ -239,10 +239,10 @@ def _halt_stops_nothing(seed: Seed, spec: dict[str, Any], proof: SystemProof) ->
     it can be running there with an ERROR that leaves anything below it moving (its proven
     contract, `SystemProof.loose`): the HALT stops nothing that is not stopped already."""
     head, _, rest = seed.where.partition(": ")
-    sent = re.fullmatch(r"send (\w+)\.HALT left out", rest)
-    if sent is None:
+    halt = re.fullmatch(r"send (\w+)\.HALT left out", rest)
+    if halt is None:
         return ""
-    sub = sent.group(1)
+    sub = halt.group(1)
     command, state, number = head.split(" ", 1)[1].split("/")
     guard = str(spec["commands"][command]["states"][state][int(number) - 1].get("when", ""))
     graph = proof.graphs.get(seed.controller)
@@ -250,12 +250,14 @@ def _halt_stops_nothing(seed: Seed, spec: dict[str, Any], proof: SystemProof) ->
         return ""
     at = graph.skeleton.subs.index(sub)
     running = {
-        s.subs[at][0] for s in graph.edges if s.command == command and s.state == state
-    } - {None}
+        sent
+        for s in graph.edges
+        if s.command == command and s.state == state and (sent := s.subs[at][0]) is not None
+    }
     if not running or any((sub, cmd) in proof.loose for cmd in running):
         return ""
     return (
-        f"{sub} ends none of {', '.join(sorted(c for c in running if c))} with an ERROR that "
+        f"{sub} ends none of {', '.join(sorted(running))} with an ERROR that "
         "leaves anything below it moving (its proven contract): the HALT stops nothing"
     )
 
