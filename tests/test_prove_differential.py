@@ -149,7 +149,8 @@ def _oracle(code: str, run: list[Cycle], length: int) -> bool:
     if code == "W708":  # reported DONE, or went on, while MOVE was unanswered
         for a, b in zip(cex, cex[1:], strict=False):
             busy = a.sent[0] == "MOVE" and a.answer == "EXECUTING" and b.replied is None
-            same = b.sent == a.sent  # not re-commanded
+            # not re-commanded, or re-commanded with motion (the next step before the echo)
+            same = b.sent == a.sent or b.sent[0] == "MOVE"
             if busy and same and not b.new and (b.status == "DONE" or b.state != a.state):
                 return True
         return False

@@ -31,7 +31,7 @@ import yaml
 
 from ..compiler import ir
 from ..compiler.prove import properties as props
-from ..compiler.prove.adapter import ERROR
+from ..compiler.prove.adapter import ERROR, EXECUTING, NOT_READY
 from ..compiler.prove.properties import Finding
 from ..compiler.prove.system import SystemProof, prove
 
@@ -212,9 +212,10 @@ def equivalent(seed: Seed, spec: dict[str, Any], proof: SystemProof, system: ir.
     """Why a seed is no handshake bug ('' when it is one), from the unchanged system's
     spec (`spec`: the seed's controller file as loaded) and proof:
 
-    - `forget-echo` in a rule that sends that subordinate a new command: the new command
-      replaces the running one (an RCS command always may), so not waiting for that echo is
-      the design, not a slip;
+    - `forget-echo` in a rule that only stops things, that subordinate among them: the
+      stopping command replaces the running one (a preemption, which is safe, and its echo
+      is still waited for); or where the subordinate has answered in every state of the
+      model in which the rule is tried (`!= ERROR` then reads as `== DONE`);
     - `drop-error-branch` where another rule of the same state also handles that
       subordinate's ERROR (the model does not tell reasons apart, so it cannot tell which
       branch an ERROR takes), or where the subordinate cannot end any command it is sent
@@ -223,19 +224,68 @@ def equivalent(seed: Seed, spec: dict[str, Any], proof: SystemProof, system: ir.
       place halts every subordinate and waits, which is at least as safe.
     """
     if seed.kind == "forget-echo":
-        return _echo_replaced(seed, spec)
+        return _echo_replaced(seed, spec, proof) or _echo_answered(seed, proof)
     if seed.kind == "drop-error-branch":
         return _error_handled_elsewhere(seed, spec, proof, system)
     if seed.kind == "remove-halt":
         return _halt_sets_no_actuator(spec, system)
+    if seed.kind == "drop-send":
+        return _halt_stops_nothing(seed, spec, proof)
     return ""
 
 
-def _echo_replaced(seed: Seed, spec: dict[str, Any]) -> str:
+def _halt_stops_nothing(seed: Seed, spec: dict[str, Any], proof: SystemProof) -> str:
+    """A HALT sent to a subordinate on its own ERROR, where that subordinate ends no command
+    it can be running there with an ERROR that leaves anything below it moving (its proven
+    contract, `SystemProof.loose`): the HALT stops nothing that is not stopped already."""
+    head, _, rest = seed.where.partition(": ")
+    halt = re.fullmatch(r"send (\w+)\.HALT left out", rest)
+    if halt is None:
+        return ""
+    sub = halt.group(1)
+    command, state, number = head.split(" ", 1)[1].split("/")
+    guard = str(spec["commands"][command]["states"][state][int(number) - 1].get("when", ""))
+    graph = proof.graphs.get(seed.controller)
+    if not re.search(rf"\b{sub}\.status\s*==\s*ERROR\b", guard) or graph is None:
+        return ""
+    at = graph.skeleton.subs.index(sub)
+    running = {
+        sent
+        for s in graph.edges
+        if s.command == command and s.state == state and (sent := s.subs[at][0]) is not None
+    }
+    if not running or any((sub, cmd) in proof.loose for cmd in running):
+        return ""
+    return (
+        f"{sub} ends none of {', '.join(sorted(running))} with an ERROR that "
+        "leaves anything below it moving (its proven contract): the HALT stops nothing"
+    )
+
+
+def _echo_replaced(seed: Seed, spec: dict[str, Any], proof: SystemProof) -> str:
+    """The rule only stops things, `sub` among them: a stopping command replaces the running
+    one at once (a preemption), which is safe, and its own echo is still waited for."""
     command, state, index, sub = _rule_at(seed)
     rule = spec["commands"][command]["states"][state][index]
-    if any((_send_of(a) or "").split(".")[0] == sub for a in _actions(rule)):
-        return f"the rule sends {sub} a new command, which replaces the running one"
+    sends = [s.split(".", 1) for a in _actions(rule) if (s := _send_of(a))]
+    moving = props.motion({name: graph.skeleton for name, graph in proof.graphs.items()})
+    if any(to == sub for to, _ in sends) and not any(moving.get((to, c)) for to, c in sends):
+        return f"the rule only stops things, {sub} among them: stopping it early is safe"
+    return ""
+
+
+def _echo_answered(seed: Seed, proof: SystemProof) -> str:
+    """The subordinate has answered in every state of the model in which the rule is tried
+    (nothing is sent to it there or since its answer): `== DONE` and `!= ERROR` then read
+    the same, so the seed changes nothing."""
+    command, state, _, sub = _rule_at(seed)
+    graph = proof.graphs.get(seed.controller)
+    if graph is None or sub not in graph.skeleton.subs:
+        return ""
+    at = graph.skeleton.subs.index(sub)
+    views = {s.subs[at][1] for s in graph.edges if s.command == command and s.state == state}
+    if views and not views & {EXECUTING, NOT_READY}:
+        return f"{sub} has always answered when {state} is tried: `!= ERROR` reads as `== DONE`"
     return ""
 
 

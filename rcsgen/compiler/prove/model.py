@@ -26,6 +26,7 @@ from .lost import RuntimeReaction
 
 NOP = "NOP"
 TAKEN = 2  # a subordinate's third item: its DONE already gone on on (truthy, like True)
+LEFT = 3  # the same: its answer awaited by a state left on an interrupt, never re-commanded
 LIMIT = 400_000  # the most states one model may have; more is "too large" (undecided)
 
 
@@ -355,6 +356,8 @@ class Model:
                     st2, stat2, stale = self._fire(
                         table[second.rule], acts, local_fixed, st, stat, new_subs
                     )
+                    if st2 not in (st, NOP):
+                        _leave(table, table[second.rule], self.sk.subs, new_subs)
                 for sub, cmd in acts.sends:
                     new_subs[self.sub_index[sub]] = (cmd, EXECUTING, True)
                 limit = self.sk.timers.get((command, st2), ()) if command else ()
@@ -412,13 +415,34 @@ class Model:
             if view != DONE or sent is None or ("sub_status", sub) not in rule.reads:
                 continue
             read.append(sub)
-            if fresh == TAKEN or not fresh:
+            if fresh in (TAKEN, LEFT) or not fresh:
                 stale.append(sub)
             subs[i] = (sent, view, TAKEN)  # type: ignore[assignment]
         goes_on = rule.report is not None or rule.next_state is not None
         if not goes_on or not stale:
             return ()
         return tuple(stale) if stale == read else (*stale, "")  # "": a new DONE read too
+
+
+def _leave(
+    table: list[RuleView],
+    rule: RuleView,
+    names: tuple[str, ...],
+    subs: list[tuple[str | None, str, bool]],
+) -> None:
+    """A state is left on an interrupt (`rule` reads no subordinate's status: a world
+    condition, a timer): the commands of this command its other rules awaited and that
+    were neither answered and taken nor sent anew are LEFT - their DONE, when it comes, is
+    the answer to the abandoned wait, not to anything a later state waits for."""
+    if any(kind == "sub_status" for kind, _ in rule.reads):
+        return
+    sent_to = {sub for sub, _ in rule.sends}
+    for i, name in enumerate(names):
+        sent, view, fresh = subs[i]
+        if fresh is not True or name in sent_to or view not in (EXECUTING, DONE):
+            continue
+        if any(("sub_status", name) in other.reads for other in table):
+            subs[i] = (sent, view, LEFT)  # type: ignore[assignment]
 
 
 @dataclass

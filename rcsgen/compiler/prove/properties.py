@@ -84,10 +84,13 @@ class Motion(dict[tuple[str, str], bool]):
         return bool(super().get(key, True if default is None else default))
 
 
-def motion(sk_of: dict[str, Skeleton]) -> Motion:
+def motion(sk_of: dict[str, Skeleton], idle: bool = True) -> Motion:
     """(module, command) -> whether it is a motion command: anything but INIT, HALT and a
     stopping command (one that sets actuators to their safe values only and sends only
-    stopping commands, and does at least one of the two)."""
+    stopping commands, and does at least one of the two). With `idle` False, a command that
+    does neither (a world model's bookkeeping) is not motion either, and one that sets a
+    world output that is no actuator (a machine's command register) is: what is left moves
+    something, itself or below."""
     memo: dict[tuple[str, str], bool] = {}
 
     def moving(module: str, command: str, depth: int = 0) -> bool:
@@ -108,10 +111,12 @@ def motion(sk_of: dict[str, Skeleton]) -> Motion:
             for _, safe in rule.actuators:
                 does = True
                 moves |= not safe
+            if not idle:  # an output that is no actuator (a machine's command register)
+                moves |= bool(rule.world_sets - {name for name, _ in rule.actuators})
             for sub, cmd in rule.sends:
                 does = True
                 moves |= moving(sub, cmd, depth + 1)
-        memo[key] = moves or not does
+        memo[key] = moves or (idle and not does)
         return memo[key]
 
     for module, sk in sk_of.items():
@@ -667,12 +672,13 @@ def done_while_busy(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[F
         for edge, t in edges:
             if edge.report != DONE or edge.new is not None or not edge.rules:
                 continue
+            reads = rule_view(sk, edge.rules[-1]).reads
             busy = [
                 f"{sub}.{sent}"
                 for sub, (sent, view, fresh) in zip(sk.subs, s.subs, strict=True)
                 if edge.views[sk.subs.index(sub)] == EXECUTING
                 and sent is not None
-                and moving.get((sub, sent), True)
+                and (moving.get((sub, sent), True) or ("sub_status", sub) in reads)
                 and fresh
                 and (sub, sent) not in edge.sends
             ]
@@ -762,20 +768,37 @@ def _going_on(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], 
     another subordinate's ERROR, not re-commanding it)."""
     if edge.new is not None or not edge.rules or edge.rules[-1].startswith("every_cycle"):
         return []
-    if edge.report == ERROR or ERROR in edge.views:
-        return []
+    failing = edge.report == ERROR or ERROR in edge.views
     rule = rule_view(sk, edge.rules[-1])
-    sent_to = {sub for sub, _ in edge.sends}
+    moves = any(moving.get(send, True) for send in edge.sends)
     return [
         f"{sub}.{sent}"
         for i, (sub, (sent, _, fresh)) in enumerate(zip(sk.subs, s.subs, strict=True))
         if edge.views[i] == EXECUTING
         and sent is not None
         and fresh
-        and moving.get((sub, sent), True)
         and ("sub_status", sub) in rule.reads
-        and sub not in sent_to
+        and _early(sub, sent, [c for x, c in edge.sends if x == sub], failing, moving, moves)
     ]
+
+
+def _early(
+    sub: str,
+    sent: str,
+    resent: list[str],
+    failing: bool,
+    moving: dict[tuple[str, str], bool],
+    moves: bool,
+) -> bool:
+    """Whether going on while `sub` still runs `sent` (the rule read its status) is too
+    early. A stopping command's echo is awaited even on the way to an ERROR: it says
+    everything below has stopped, and a rule that reads the status waits for exactly that.
+    Replacing the running command by a stopping one is right when the rule only stops
+    things (a preemption); by a motion command, or with motion sent anywhere (`moves`), on
+    a status read, it is the next step taken before the echo of the last."""
+    if failing:
+        return not resent and not moving.get((sub, sent), True)
+    return not resent or moves
 
 
 def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
@@ -810,3 +833,135 @@ def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
                 )
             )
     return findings
+
+
+# ---------------------------------------------------------------- withdrawn after ERROR
+
+
+def _running(
+    sk: Skeleton,
+    s: State,
+    moving: dict[tuple[str, str], bool],
+    loose: frozenset[tuple[str, str]] = frozenset(),
+) -> frozenset[str]:
+    """The subordinates running a motion command sent during the current command, or that
+    ended one with an ERROR that may leave something below them moving (`loose`: their
+    own proven contract)."""
+    return frozenset(
+        sub
+        for sub, (sent, view, fresh) in zip(sk.subs, s.subs, strict=True)
+        if fresh
+        and sent is not None
+        and (
+            (view == EXECUTING and moving.get((sub, sent), True))
+            or (view == ERROR and (sub, sent) in loose)
+        )
+    )
+
+
+def loose_errors(
+    graph: Graph, moving: dict[tuple[str, str], bool], loose: frozenset[tuple[str, str]]
+) -> set[str]:
+    """The commands the controller may end with ERROR while a subordinate still runs a
+    motion command of it, or ended one with a loose ERROR and was not sent anything since:
+    part of its contract - a supervisor must then withdraw it (HALT) after its ERROR."""
+    found = set()
+    for edges in graph.edges.values():
+        for edge, t in edges:
+            if edge.report == ERROR and t.command and not edge.safe_state:
+                if _running(graph.skeleton, t, moving, loose):
+                    found.add(t.command)
+    return found
+
+
+def not_withdrawn(
+    graph: Graph,
+    moving: dict[tuple[str, str], bool],
+    loose: frozenset[tuple[str, str]] = frozenset(),
+) -> list[Finding]:
+    """After a subordinate's ERROR, every other subordinate still running a motion command
+    of this command is withdrawn (sent HALT, or another command) before the controller
+    reports ERROR: an error stops the machine, it does not let the rest of the command run
+    out (W701, at the rule that read the ERROR); the subordinate that erred too, when its
+    ERROR may leave something below it moving. A command that handles the ERROR and
+    reports DONE is not concerned, nor the runtime's safe state (it halts everything)."""
+    sk = graph.skeleton
+    findings: list[Finding] = []
+    seen: set[str] = set()
+    for s, edges in graph.edges.items():
+        if s.errored or s.status != EXECUTING or s.command is None:
+            continue
+        for edge, t in edges:
+            if not t.errored or not _quiet(edge) or edge.safe_state or not edge.rules:
+                continue
+            pending = _running(sk, t, moving, loose) - {sub for sub, _ in edge.sends}
+            if not pending or edge.rules[-1] in seen:
+                continue
+            run = _left_running(graph, t, pending, edge.report)
+            if run is None:
+                continue
+            seen.add(edge.rules[-1])
+            left, tail = run
+            command, state, index, span = _rule_of(sk, edge.rules[-1])
+            trace = [*graph.path_to(s), (edge, t), *tail]
+            failed = _failed(sk, trace)
+            sent = t.subs[sk.subs.index(left)][0]
+            findings.append(
+                Finding(
+                    "W701",
+                    sk.name,
+                    command,
+                    state,
+                    index,
+                    span,
+                    f"no motion after ERROR is violated: after {failed} reported ERROR, "
+                    f"{sk.name} reports ERROR without withdrawing {left}.{sent}, which goes on "
+                    f"running (rule {edge.rules[-1]} read the ERROR)",
+                    f"send `{left}.HALT` where {failed}'s ERROR is read",
+                    trace,
+                    _certain(trace),
+                )
+            )
+    return findings
+
+
+_Pending = tuple[State, frozenset[str]]  # a state, and the subordinates not yet withdrawn
+
+
+def _left_running(
+    graph: Graph, start: State, pending: frozenset[str], report: str | None
+) -> tuple[str, list[tuple[Edge, State]]] | None:
+    """A run from `start` (subordinates `pending` still running motion) to an ERROR report
+    with one of them never sent anything since: (that subordinate, the run), else None."""
+    if report == ERROR:
+        return sorted(pending)[0], []
+    if report is not None:
+        return None
+    parent: dict[_Pending, tuple[_Pending, Edge] | None] = {(start, pending): None}
+    todo = deque([(start, pending)])
+    while todo:
+        at = todo.popleft()
+        s, left = at
+        for edge, t in graph.edges.get(s, []):
+            if not _quiet(edge) or edge.safe_state:
+                continue
+            still = left - {sub for sub, _ in edge.sends}
+            if not still:
+                continue
+            if edge.report == ERROR:
+                run = [(edge, t)]
+                back = parent[at]
+                here = s
+                while back is not None:
+                    (prev, _), prev_edge = back
+                    run.append((prev_edge, here))
+                    here = prev
+                    back = parent[back[0]]
+                return sorted(still)[0], list(reversed(run))
+            if edge.report is not None or t.status != EXECUTING:
+                continue
+            key = (t, still)
+            if key not in parent:
+                parent[key] = (at, edge)
+                todo.append(key)
+    return None

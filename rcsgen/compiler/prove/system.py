@@ -60,6 +60,9 @@ class SystemProof:
     reaction: str = ""
     notes: list[str] = field(default_factory=list)
     graphs: dict[str, Graph] = field(default_factory=dict)
+    # (module, command): it may end that command with ERROR while something below it still
+    # moves (its contract; a supervisor must withdraw it after that ERROR)
+    loose: set[tuple[str, str]] = field(default_factory=set)
 
 
 def order(system: ir.IRSystem) -> list[ir.IRController]:
@@ -110,8 +113,10 @@ def prove(
     actuators = frozenset(f.name for f in system.world if f.actuator)
     skeletons = {c.name: skeleton(system, c, actuators) for c in system.controllers}
     moving = props.motion(skeletons)
+    actuating = props.motion(skeletons, idle=False)
     written = writers(system, skeletons)
     contracts: dict[str, Contract] = {}
+    loose = proof.loose
     for c in order(system):
         if wanted is not None and c.name not in wanted:
             continue
@@ -129,11 +134,13 @@ def prove(
             graph.complete,
         )
         contracts[c.name] = Contract(props.outcomes(graph))
+        for cmd in props.loose_errors(graph, actuating, frozenset(loose)):
+            loose |= {(c.name, cmd), (c.buffers, cmd)}
         if not graph.complete:
             proof.notes.append(f"{c.name}: more than {limit} states; its properties are undecided")
         else:
             quiet = quiet_fields(system, written, c.name)
-            for finding in _check(graph, moving, quiet, result):
+            for finding in _check(graph, moving, actuating, frozenset(loose), quiet, result):
                 # rcsgen's default INIT/HALT wait for every subordinate's DONE (QQ1): a
                 # subordinate's ERROR leaves them waiting by design
                 if finding.command in sk.generated and finding.code in ("W702", "W703"):
@@ -226,12 +233,15 @@ def _contracts_of(
 def _check(
     graph: Graph,
     moving: dict[tuple[str, str], bool],
+    actuating: dict[tuple[str, str], bool],
+    loose: frozenset[tuple[str, str]],
     quiet: Callable[[State], frozenset[str]],
     result: ControllerResult,
 ) -> list[Finding]:
     """Every property of one explored controller; its bounds into `result`."""
     sk = graph.skeleton
     found = props.motion_after_error(graph, moving)
+    found += props.not_withdrawn(graph, actuating, loose)
     found += props.latched_stop(graph, moving)
     finish, result.assumptions, result.stuck = props.finishing(graph, quiet)
     found += finish
