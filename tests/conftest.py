@@ -71,6 +71,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_plans",
             "test_prove",
             "test_prove_seeds",
+            "test_reasons_survive",
             "test_results_visible",
             "test_run",
             "test_runtime_safety",
