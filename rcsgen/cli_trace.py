@@ -94,10 +94,11 @@ def trace_changes(
     type=click.Choice(["text", "json"]),
     default="text",
     show_default=True,
-    help="A summary and the rules that never fired, or one JSON object.",
+    help="A summary, the rules that never fired and the time per state, or one JSON object.",
 )
 def trace_coverage(trace_paths: tuple[Path, ...], specs: Path | None, fmt: str) -> None:
-    """Which rules of which state tables fired in TRACES, and which never did."""
+    """Which rules of which state tables fired in TRACES, which never did, and the time
+    each module spent in each state."""
     from .tools.traces import coverage
 
     found = [load_trace(path) for path in trace_paths]

@@ -504,7 +504,9 @@ def run_summary(
     yield f"scenario  {spec.name}: {spec.title}"
     if spec.stop_when_done:
         final = result.final
-        status = contract.status_text(final["status"], final.get("reason"))
+        status = contract.status_text(
+            final["status"], final.get("reason"), str(final.get("cause", ""))
+        )
         yield f"result    {spec.stop_when_done} {status} (state {final['state']})"
         for name, value in (final.get("results") or {}).items():
             yield f"          result.{name} {value}"  # as the figures below show values

@@ -35,6 +35,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
         (
             "test_acknowledge",
             "test_analysis",
+            "test_analysis_exact",
             "test_api",
             "test_architecture",
             "test_codes",
@@ -73,6 +74,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_plans",
             "test_prove",
             "test_prove_seeds",
+            "test_reasons_survive",
             "test_results_visible",
             "test_run",
             "test_runtime_safety",

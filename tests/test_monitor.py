@@ -192,7 +192,7 @@ def test_the_role_limits_the_keys_and_requests_are_answered_on_screen() -> None:
 
 def test_the_status_column_shows_why_a_module_is_in_error() -> None:
     """The results fixture, its operator refusing: the mission's and fixturing's status cells
-    read ERROR(OPERATOR_REFUSED) and ERROR(REFUSED), not a bare ERROR."""
+    read ERROR(OPERATOR_REFUSED <- fx: REFUSED) and ERROR(REFUSED), not a bare ERROR."""
     import shutil
 
     fixture = Path(__file__).resolve().parent / "fixtures" / "language" / "results"
@@ -218,7 +218,7 @@ def test_the_status_column_shows_why_a_module_is_in_error() -> None:
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     mission = next(line for line in text.splitlines() if "mission" in line)
-    assert "ERROR(OPERATOR_REFUSED)" in mission, text
+    assert "ERROR(OPERATOR_REFUSED <- fx: REFUSED)" in mission, text  # and why: fx refused
     fx = next(line for line in text.splitlines() if "└─ fx" in line)
     assert "ERROR(REFUSED)" in fx, text
 

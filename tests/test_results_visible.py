@@ -124,17 +124,17 @@ def test_changes_coverage_and_the_trace_view_show_reasons_and_results(
     lanes = traces.lanes(trace, system)
     text = "\n".join(changes.timeline(trace, lanes, trace.modules, world="none"))
     assert "fx       command CLAMP #1  status ERROR(REFUSED) #1" in text
-    assert "-> ERROR(OPERATOR_REFUSED) #" in text
+    assert "-> ERROR(OPERATOR_REFUSED <- fx: REFUSED) #" in text  # and what it came from
     assert "result.at_goal true -> false" in text  # the helm's HALT starts its results again
     assert "result.course_error 0.5 -> 0.0" in text
     covered = coverage.measure(system, [trace])
     fired = {(r.module, r.rule) for r in covered.rules if r.cycles}
     assert ("mission", "GO/S1/1") in fired and ("fx", "CLAMP/S0/2") in fired
     data = json.loads(trace_view.payload(trace, lanes, system.name, 0.1))
-    assert "ERROR(OPERATOR_REFUSED)" in data["strings"]
+    assert "ERROR(OPERATOR_REFUSED <- fx: REFUSED)" in data["strings"]
     mission = next(lane for lane in data["lanes"] if lane["module"] == "mission")
     codes = mission["status"][1::3]  # (start, string, number) per run
-    assert data["strings"][codes[-1]] == "ERROR(OPERATOR_REFUSED)"
+    assert data["strings"][codes[-1]] == "ERROR(OPERATOR_REFUSED <- fx: REFUSED)"
 
 
 def test_a_reason_or_result_missing_from_a_later_line_is_one_line_error() -> None:
@@ -270,13 +270,17 @@ def test_ctl_status_shows_the_reason_beside_an_error_and_the_results(package: Pa
         assert text.returncode == 0, text.stderr
         lines = text.stdout.splitlines()
         mission = next(line for line in lines if line.startswith("mission "))
-        assert mission.split()[1:5] == ["GO", "2", "ERROR(OPERATOR_REFUSED)", "2"], mission
+        # the mission's error with what it came from: fx's refusal (reasons survive)
+        assert mission.split()[1:3] == ["GO", "2"], mission
+        assert " ERROR(OPERATOR_REFUSED <- fx: REFUSED) " in mission, mission
         fx = next(line for line in lines if line.startswith("fx "))
         assert fx.split()[3] == "ERROR(REFUSED)", fx
         assert "results helm: at_goal true, course_error 0.5" in lines
         assert "results mission: legs 0" in lines
         snapshot = running.json()["modules"]
         assert snapshot["fx"]["reason"] == "REFUSED"  # type: ignore[index]
+        assert snapshot["mission"]["cause"] == "fx: REFUSED"  # type: ignore[index]
+        assert "cause" not in snapshot["fx"]  # type: ignore[operator]
         assert snapshot["helm"]["reason"] == "NONE"  # type: ignore[index]
         assert snapshot["helm"]["results"] == {"at_goal": True, "course_error": 0.5}  # type: ignore[index]
     finally:

@@ -199,6 +199,42 @@ def test_coverage_counts_every_table_rule_of_the_miner(system):
     assert {"rule", "where", "guard", "doc", "cycles", "traces"} == set(co["rules"][0])
 
 
+def test_coverage_gives_the_time_per_state_of_each_module() -> None:
+    """Issue 26, item 6 (the paper's support facility: % of execution time per state): every
+    traced cycle of a module is counted once, in the state (of its command) the trace shows."""
+    path = GOLDEN / "inspection" / "nominal_inspection.jsonl"
+    trace = traces.load(path)
+    system = compile_paths([REPO / "specs" / "inspection"]).systems[0]
+    result = coverage.measure(system, [trace])
+    ws = result.states["ws"]
+    assert sum(ws.values()) == len(trace.cycles)
+    column = trace.columns["ws"]
+    measuring = sum(
+        1
+        for command, state in zip(column["command"], column["state"], strict=True)
+        if (command, state) == ("INSPECT_PART", "MEASURING")
+    )
+    assert ws["INSPECT_PART/MEASURING"] == measuring > 0
+    assert ws["idle"] == column["state"].count("NOP")
+    assert max(ws, key=ws.__getitem__) == "INSPECT_PART/MEASURING"  # where ws spends most
+    text = coverage.to_text(result)
+    section = text.split("time per state", 1)[1].splitlines()
+    line = next(row for row in section if row.strip().startswith("INSPECT_PART/MEASURING"))
+    period = system.processes[0].cycle_period
+    assert line.split()[1:] == [
+        str(measuring),
+        f"{measuring * period:.1f}",
+        "s",
+        f"{100 * measuring / len(trace.cycles):.1f}%",
+    ]
+    data = json.loads(coverage.to_json(result))
+    spent = next(m for m in data["modules"] if m["module"] == "ws")["time_per_state"]
+    assert spent["INSPECT_PART/MEASURING"] == {
+        "cycles": measuring,
+        "seconds": round(measuring * period, 6),
+    }
+
+
 # ---------------------------------------------------------------- command line
 
 

@@ -6,11 +6,12 @@ from time import perf_counter_ns
 
 from .layout import (
     FX_PERF_AT,
+    FX_STATUS,
     FX_STATUS_AT,
     OP_FX_COMMAND,
     OP_FX_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
 
 # Commands fx accepts (the code written to its command buffer).
 INIT = 1
@@ -36,11 +37,16 @@ OP_UNLOAD_PART = 6
 OP_MOUNT_SPHERE = 7
 OP_ORIENT_PROBE = 8
 OP_LOAD_PROBE = 9
+# Why op may end a command in ERROR (its error_num).
+OP_REASON_NONE = 0
+OP_REASON_LOST = 1
+OP_REASON_REFUSED = 2
+OP_LINK = 6  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI392xQI")
-INPUTS_AT = 520
+INPUTS = Struct("<QI52x???1xI400xQII")
+INPUTS_AT = 536
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -53,6 +59,7 @@ class FxController:
 
     __slots__ = (
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -63,6 +70,7 @@ class FxController:
         "min_cycle_ns",
         "op_command",
         "op_command_num",
+        "op_error_num",
         "op_status",
         "op_status_num",
         "op_written",
@@ -91,9 +99,15 @@ class FxController:
         """Take up the buffers this module writes from the block: a restarted module keeps
         its command-number handshake, and its sequence words go on from the block's."""
         buf = self.buf
-        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
-            STATUS.unpack_from(buf, FX_STATUS_AT)
-        )
+        (
+            self.status_seq,
+            self.status_num,
+            self.status,
+            self.error_num,
+            self.state,
+            self.rule,
+            self.cause,
+        ) = FX_STATUS.unpack_from(buf, FX_STATUS_AT)
         (
             self.perf_seq,
             self.last_cycle_ns,
@@ -116,6 +130,7 @@ class FxController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -132,9 +147,13 @@ class FxController:
             self.single_step_num,
             self.op_status_num,
             self.op_status,
+            self.op_error_num,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.op_status_num != self.op_command_num:
             self.op_status = EXECUTING  # until it echoes the last number sent
+            self.op_error_num = OP_REASON_NONE  # no reason yet
+        elif self.op_status != ERROR:
+            self.op_error_num = OP_REASON_NONE  # a reason comes only with ERROR
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -143,6 +162,7 @@ class FxController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
             self.ticks = 0  # a new command: its time in S0 starts
 
         # 3. decision_process: run the command's state table, unless the mode holds it
@@ -173,7 +193,7 @@ class FxController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, FX_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            FX_STATUS.pack_into(
                 buf,
                 FX_STATUS_AT,
                 seq,
@@ -182,6 +202,7 @@ class FxController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.cause,
             )
             SEQ.pack_into(buf, FX_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -234,6 +255,7 @@ class FxController:
             self.single_step_num,
             self.op_status_num,
             self.op_status,
+            self.op_error_num,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def init(self) -> None:
@@ -251,6 +273,7 @@ class FxController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -267,6 +290,7 @@ class FxController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def equip_setup(self) -> None:
         """EQUIP_SETUP: Ask the operator to clear the table and mount the fixture plate (Figure 4)."""
@@ -284,10 +308,13 @@ class FxController:
                 self.rule = 6  # EQUIP_SETUP/S0_ASKING/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 7  # EQUIP_SETUP/S0_ASKING/2
+                # op's error: the cause of an ERROR this command reports
+                self.cause = caused(OP_LINK, self.op_error_num, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -322,10 +349,13 @@ class FxController:
                 self.rule = 10  # PLACE_PART/S0_ASKING/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 11  # PLACE_PART/S0_ASKING/2
+                # op's error: the cause of an ERROR this command reports
+                self.cause = caused(OP_LINK, self.op_error_num, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -360,10 +390,13 @@ class FxController:
                 self.rule = 14  # REFIXTURE_PART/S0_ASKING/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 15  # REFIXTURE_PART/S0_ASKING/2
+                # op's error: the cause of an ERROR this command reports
+                self.cause = caused(OP_LINK, self.op_error_num, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -398,10 +431,13 @@ class FxController:
                 self.rule = 18  # UNLOAD_PART/S0_ASKING/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 19  # UNLOAD_PART/S0_ASKING/2
+                # op's error: the cause of an ERROR this command reports
+                self.cause = caused(OP_LINK, self.op_error_num, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED

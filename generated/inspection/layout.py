@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 1520 bytes.
+The block is 1552 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -25,52 +25,52 @@ command buffers and world fields:
 | 80 | 88 | PROCESS_IWS | PROCESS_FIELDS |
 | 168 | 16 | PACE_IWS | PACE_FIELDS |
 | 184 | 52 | WS_COMMAND | command_num, command, arg_program |
-| 240 | 33 | WS_STATUS | STATUS_FIELDS |
-| 280 | 16 | WS_MODE | MODE_FIELDS |
-| 296 | 48 | WS_PERF | PERF_FIELDS |
-| 344 | 52 | MS_COMMAND | command_num, command, arg_program |
-| 400 | 48 | MS_STATUS | STATUS_FIELDS |
-| 448 | 16 | MS_MODE | MODE_FIELDS |
-| 464 | 48 | MS_PERF | PERF_FIELDS |
-| 512 | 20 | FX_COMMAND | command_num, command |
-| 536 | 32 | FX_STATUS | STATUS_FIELDS |
-| 568 | 16 | FX_MODE | MODE_FIELDS |
-| 584 | 48 | FX_PERF | PERF_FIELDS |
-| 632 | 20 | TL_COMMAND | command_num, command |
-| 656 | 32 | TL_STATUS | STATUS_FIELDS |
-| 688 | 16 | TL_MODE | MODE_FIELDS |
-| 704 | 48 | TL_PERF | PERF_FIELDS |
-| 752 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 784 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 816 | 16 | CMM_MODE | MODE_FIELDS |
-| 832 | 48 | CMM_PERF | PERF_FIELDS |
-| 880 | 16 | OP_MODE | MODE_FIELDS |
-| 896 | 48 | OP_PERF | PERF_FIELDS |
-| 944 | 20 | OP_FX_COMMAND | command_num, command |
-| 968 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 1000 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 1024 | 20 | OP_TL_COMMAND | command_num, command |
-| 1048 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 1080 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 1104 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 1128 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 1160 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1176 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1224 | 16 | WORLD_CMM_OP | cmm_op |
-| 1240 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1256 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1272 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1288 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1304 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1320 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 1336 | 9 | OVERRIDES | any |
-| 1352 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 1376 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 1400 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 1424 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 1448 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 1472 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 1496 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 240 | 41 | WS_STATUS | STATUS_FIELDS |
+| 288 | 16 | WS_MODE | MODE_FIELDS |
+| 304 | 48 | WS_PERF | PERF_FIELDS |
+| 352 | 52 | MS_COMMAND | command_num, command, arg_program |
+| 408 | 56 | MS_STATUS | STATUS_FIELDS |
+| 464 | 16 | MS_MODE | MODE_FIELDS |
+| 480 | 48 | MS_PERF | PERF_FIELDS |
+| 528 | 20 | FX_COMMAND | command_num, command |
+| 552 | 40 | FX_STATUS | STATUS_FIELDS |
+| 592 | 16 | FX_MODE | MODE_FIELDS |
+| 608 | 48 | FX_PERF | PERF_FIELDS |
+| 656 | 20 | TL_COMMAND | command_num, command |
+| 680 | 40 | TL_STATUS | STATUS_FIELDS |
+| 720 | 16 | TL_MODE | MODE_FIELDS |
+| 736 | 48 | TL_PERF | PERF_FIELDS |
+| 784 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 816 | 32 | CMM_STATUS | STATUS_FIELDS |
+| 848 | 16 | CMM_MODE | MODE_FIELDS |
+| 864 | 48 | CMM_PERF | PERF_FIELDS |
+| 912 | 16 | OP_MODE | MODE_FIELDS |
+| 928 | 48 | OP_PERF | PERF_FIELDS |
+| 976 | 20 | OP_FX_COMMAND | command_num, command |
+| 1000 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 1032 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 1056 | 20 | OP_TL_COMMAND | command_num, command |
+| 1080 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 1112 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 1136 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 1160 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 1192 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1208 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1256 | 16 | WORLD_CMM_OP | cmm_op |
+| 1272 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1288 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1304 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1320 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1336 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1352 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 1368 | 9 | OVERRIDES | any |
+| 1384 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 1408 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 1432 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 1456 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 1480 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 1504 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 1528 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
 """
 
 from __future__ import annotations
@@ -102,85 +102,89 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 1520
+SIZE = 1552
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "8f64727d2ad8865359c6e03d8e1b7642"
+LAYOUT_HASH = "191bcd0e9bd866a28bce693093591a55"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 168
 
 # ws: Inspection workstation
 WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
 WS_COMMAND_AT = 184
-WS_STATUS = Struct("<QQIIii?")  # seq, status_num, status, error_num, state, rule, result_accepted
+WS_STATUS = Struct(
+    "<QQIIii?Q"
+)  # seq, status_num, status, error_num, state, rule, result_accepted, cause
 WS_STATUS_AT = 240
-WS_MODE_AT = 280
-WS_PERF_AT = 296
+WS_MODE_AT = 288
+WS_PERF_AT = 304
 
 # ms: Measurement
 MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-MS_COMMAND_AT = 344
+MS_COMMAND_AT = 352
 MS_STATUS = Struct(
-    "<QQIIiiqq"
-)  # seq, status_num, status, error_num, state, rule, result_measured, result_failed
-MS_STATUS_AT = 400
-MS_MODE_AT = 448
-MS_PERF_AT = 464
+    "<QQIIiiqqQ"
+)  # seq, status_num, status, error_num, state, rule, result_measured, result_failed, cause
+MS_STATUS_AT = 408
+MS_MODE_AT = 464
+MS_PERF_AT = 480
 
 # fx: Fixturing (performed by the operator)
 FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 512
-FX_STATUS_AT = 536
-FX_MODE_AT = 568
-FX_PERF_AT = 584
+FX_COMMAND_AT = 528
+FX_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
+FX_STATUS_AT = 552
+FX_MODE_AT = 592
+FX_PERF_AT = 608
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 632
-TL_STATUS_AT = 656
-TL_MODE_AT = 688
-TL_PERF_AT = 704
+TL_COMMAND_AT = 656
+TL_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
+TL_STATUS_AT = 680
+TL_MODE_AT = 720
+TL_PERF_AT = 736
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 752
-CMM_STATUS_AT = 784
-CMM_MODE_AT = 816
-CMM_PERF_AT = 832
+CMM_COMMAND_AT = 784
+CMM_STATUS_AT = 816
+CMM_MODE_AT = 848
+CMM_PERF_AT = 864
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 1104
-CMM_SIM_STATUS_AT = 1128
-CMM_SIM_MODE_AT = 1160
-CMM_SIM_PERF_AT = 1176
+CMM_SIM_COMMAND_AT = 1136
+CMM_SIM_STATUS_AT = 1160
+CMM_SIM_MODE_AT = 1192
+CMM_SIM_PERF_AT = 1208
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 880
-OP_PERF_AT = 896
+OP_MODE_AT = 912
+OP_PERF_AT = 928
 OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_FX_COMMAND_AT = 944
-OP_FX_STATUS_AT = 968
-OP_FX_ANSWER_AT = 1000
+OP_FX_COMMAND_AT = 976
+OP_FX_STATUS_AT = 1000
+OP_FX_ANSWER_AT = 1032
 OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_TL_COMMAND_AT = 1024
-OP_TL_STATUS_AT = 1048
-OP_TL_ANSWER_AT = 1080
+OP_TL_COMMAND_AT = 1056
+OP_TL_STATUS_AT = 1080
+OP_TL_ANSWER_AT = 1112
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1224
+WORLD_CMM_OP_AT = 1256
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1240
+WORLD_CMM_FEATURE_AT = 1272
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1256
+WORLD_CMM_SEQ_AT = 1288
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1272
+WORLD_CMM_DONE_SEQ_AT = 1304
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1288
+WORLD_CMM_READING_AT = 1320
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1304
+WORLD_CMM_ALARM_AT = 1336
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1320
+WORLD_CMM_FAULT_AT = 1352
 
 
 PROCESSES = {
@@ -236,15 +240,28 @@ STATUS_OUT = {
     "ws": Record(
         WS_STATUS,
         WS_STATUS_AT,
-        ("status_num", "status", "error_num", "state", "rule", "result_accepted"),
+        ("status_num", "status", "error_num", "state", "rule", "result_accepted", "cause"),
     ),
     "ms": Record(
         MS_STATUS,
         MS_STATUS_AT,
-        ("status_num", "status", "error_num", "state", "rule", "result_measured", "result_failed"),
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "result_measured",
+            "result_failed",
+            "cause",
+        ),
     ),
-    "fx": Record(STATUS, FX_STATUS_AT, field_names(STATUS_FIELDS)),
-    "tl": Record(STATUS, TL_STATUS_AT, field_names(STATUS_FIELDS)),
+    "fx": Record(
+        FX_STATUS, FX_STATUS_AT, ("status_num", "status", "error_num", "state", "rule", "cause")
+    ),
+    "tl": Record(
+        TL_STATUS, TL_STATUS_AT, ("status_num", "status", "error_num", "state", "rule", "cause")
+    ),
     "cmm": Record(STATUS, CMM_STATUS_AT, field_names(STATUS_FIELDS)),
     "cmm_sim": Record(STATUS, CMM_SIM_STATUS_AT, field_names(STATUS_FIELDS)),
     "op/fx": Record(STATUS, OP_FX_STATUS_AT, field_names(STATUS_FIELDS)),
@@ -292,18 +309,18 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 1336
-OVERRIDDEN_AT = 1344  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 1368
+OVERRIDDEN_AT = 1376  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 1352, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 1376, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 1400, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 1424, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 1448, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 1472, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 1496, ("state", "cmm_fault")),
+    "cmm_op": Record(Struct("<QQq"), 1384, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 1408, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 1432, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 1456, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 1480, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 1504, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 1528, ("state", "cmm_fault")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -422,6 +439,9 @@ REASON_NAMES: dict[str, tuple[str, ...]] = {
     "tl": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
     "op": ("NONE", "LOST", "REFUSED"),
 }
+# The modules a link of a status buffer's `cause` numbers, from 1 (rcs/contract.py
+# cause_text; docs/semantics.md, "Reasons survive").
+CAUSE_MODULES = ("ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim")
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
     "ws": (

@@ -24,6 +24,7 @@ from .rcs.contract import (
     PERF,
     SEQ,
     HookError,
+    caused,
     decode_text,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
@@ -55,6 +56,7 @@ TL_REASON_NONE = 0
 TL_REASON_LOST = 1
 TL_REASON_REFUSED = 2
 TL_REASON_TIMED_OUT = 3
+TL_LINK = 4  # its number in the layout's CAUSE_MODULES
 
 # Commands ms sends to cmm.
 CMM_INIT = 1
@@ -63,11 +65,12 @@ CMM_HOME = 3
 CMM_CALIBRATE_PROBE = 4
 CMM_CALIBRATE_CAMERA = 5
 CMM_INSPECT_FEATURE = 6
+CMM_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s60x???1xI200xQII112xQI492xd")
-INPUTS_AT = 352
+INPUTS = Struct("<QI32s68x???1xI208xQII8xQ104xQI492xd")
+INPUTS_AT = 360
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -88,6 +91,7 @@ class MsController:
     __slots__ = (
         "arg_program",
         "buf",
+        "cause",
         "cmm_arg_number",
         "cmm_command",
         "cmm_command_num",
@@ -117,6 +121,7 @@ class MsController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "tl_cause",
         "tl_command",
         "tl_command_num",
         "tl_error_num",
@@ -163,6 +168,7 @@ class MsController:
             self.rule,
             self.result_measured,
             self.result_failed,
+            self.cause,
         ) = MS_STATUS.unpack_from(buf, MS_STATUS_AT)
         (
             self.perf_seq,
@@ -192,6 +198,7 @@ class MsController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -210,6 +217,7 @@ class MsController:
             self.tl_status_num,
             self.tl_status,
             self.tl_error_num,
+            self.tl_cause,
             self.cmm_status_num,
             self.cmm_status,
             self.world_cmm_reading,
@@ -218,8 +226,10 @@ class MsController:
         if self.tl_status_num != self.tl_command_num:
             self.tl_status = EXECUTING  # until it echoes the last number sent
             self.tl_error_num = TL_REASON_NONE  # no reason yet
+            self.tl_cause = 0
         elif self.tl_status != ERROR:
             self.tl_error_num = TL_REASON_NONE  # a reason comes only with ERROR
+            self.tl_cause = 0
         if self.cmm_status_num != self.cmm_command_num:
             self.cmm_status = EXECUTING  # until it echoes the last number sent
 
@@ -230,6 +240,7 @@ class MsController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
             self.result_measured = 0  # no result yet
             self.result_failed = 0  # no result yet
 
@@ -274,6 +285,7 @@ class MsController:
                 self.rule,
                 self.result_measured,
                 self.result_failed,
+                self.cause,
             )
             SEQ.pack_into(buf, MS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -342,6 +354,7 @@ class MsController:
             self.tl_status_num,
             self.tl_status,
             self.tl_error_num,
+            self.tl_cause,
             self.cmm_status_num,
             self.cmm_status,
             self.world_cmm_reading,
@@ -365,6 +378,7 @@ class MsController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -383,6 +397,7 @@ class MsController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def equip_setup(self) -> None:
         """EQUIP_SETUP: Power up and home the CMM."""
@@ -398,9 +413,12 @@ class MsController:
                 self.rule = 6  # EQUIP_SETUP/S1/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.cmm_status == ERROR:
                 self.rule = 7  # EQUIP_SETUP/S1/2
+                # cmm's error: the cause of an ERROR this command reports
+                self.cause = caused(CMM_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -425,6 +443,8 @@ class MsController:
 
             elif self.tl_status == ERROR:
                 self.rule = 10  # CALIBRATE_CMM/S1/2
+                # tl's error: the cause of an ERROR this command reports
+                self.cause = caused(TL_LINK, self.tl_error_num, self.tl_cause)
                 self.state = NOP
                 self.status = ERROR
                 # tl's reason, passed up by name (another: NONE)
@@ -443,6 +463,8 @@ class MsController:
 
             elif self.tl_status == ERROR:
                 self.rule = 12  # CALIBRATE_CMM/S2/2
+                # tl's error: the cause of an ERROR this command reports
+                self.cause = caused(TL_LINK, self.tl_error_num, self.tl_cause)
                 self.state = NOP
                 self.status = ERROR
                 # tl's reason, passed up by name (another: NONE)
@@ -457,9 +479,12 @@ class MsController:
                 self.rule = 13  # CALIBRATE_CMM/S3/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.cmm_status == ERROR:
                 self.rule = 14  # CALIBRATE_CMM/S3/2
+                # cmm's error: the cause of an ERROR this command reports
+                self.cause = caused(CMM_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -478,9 +503,12 @@ class MsController:
                 self.rule = 16  # CALIBRATE_CAMERA/S1/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.cmm_status == ERROR:
                 self.rule = 17  # CALIBRATE_CAMERA/S1/2
+                # cmm's error: the cause of an ERROR this command reports
+                self.cause = caused(CMM_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -501,9 +529,12 @@ class MsController:
                 self.rule = 19  # LOAD_PROBE/S1/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.tl_status == ERROR:
                 self.rule = 20  # LOAD_PROBE/S1/2
+                # tl's error: the cause of an ERROR this command reports
+                self.cause = caused(TL_LINK, self.tl_error_num, self.tl_cause)
                 self.state = NOP
                 self.status = ERROR
                 # tl's reason, passed up by name (another: NONE)
@@ -539,6 +570,7 @@ class MsController:
                 self.rule = 23  # MEASURE_PART/NEXT/2
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
         elif state == PROBING:
             if self.cmm_status == DONE:
@@ -554,6 +586,8 @@ class MsController:
 
             elif self.cmm_status == ERROR:
                 self.rule = 25  # MEASURE_PART/PROBING/2
+                # cmm's error: the cause of an ERROR this command reports
+                self.cause = caused(CMM_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT

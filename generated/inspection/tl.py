@@ -8,9 +8,10 @@ from .layout import (
     OP_TL_COMMAND,
     OP_TL_COMMAND_AT,
     TL_PERF_AT,
+    TL_STATUS,
     TL_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
 
 # Commands tl accepts (the code written to its command buffer).
 INIT = 1
@@ -35,11 +36,16 @@ OP_UNLOAD_PART = 6
 OP_MOUNT_SPHERE = 7
 OP_ORIENT_PROBE = 8
 OP_LOAD_PROBE = 9
+# Why op may end a command in ERROR (its error_num).
+OP_REASON_NONE = 0
+OP_REASON_LOST = 1
+OP_REASON_REFUSED = 2
+OP_LINK = 6  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI352xQI")
-INPUTS_AT = 640
+INPUTS = Struct("<QI52x???1xI352xQII")
+INPUTS_AT = 664
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -52,6 +58,7 @@ class TlController:
 
     __slots__ = (
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -62,6 +69,7 @@ class TlController:
         "min_cycle_ns",
         "op_command",
         "op_command_num",
+        "op_error_num",
         "op_status",
         "op_status_num",
         "op_written",
@@ -90,9 +98,15 @@ class TlController:
         """Take up the buffers this module writes from the block: a restarted module keeps
         its command-number handshake, and its sequence words go on from the block's."""
         buf = self.buf
-        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
-            STATUS.unpack_from(buf, TL_STATUS_AT)
-        )
+        (
+            self.status_seq,
+            self.status_num,
+            self.status,
+            self.error_num,
+            self.state,
+            self.rule,
+            self.cause,
+        ) = TL_STATUS.unpack_from(buf, TL_STATUS_AT)
         (
             self.perf_seq,
             self.last_cycle_ns,
@@ -115,6 +129,7 @@ class TlController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -131,9 +146,13 @@ class TlController:
             self.single_step_num,
             self.op_status_num,
             self.op_status,
+            self.op_error_num,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.op_status_num != self.op_command_num:
             self.op_status = EXECUTING  # until it echoes the last number sent
+            self.op_error_num = OP_REASON_NONE  # no reason yet
+        elif self.op_status != ERROR:
+            self.op_error_num = OP_REASON_NONE  # a reason comes only with ERROR
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -142,6 +161,7 @@ class TlController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
             self.ticks = 0  # a new command: its time in S0 starts
 
         # 3. decision_process: run the command's state table, unless the mode holds it
@@ -170,7 +190,7 @@ class TlController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, TL_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            TL_STATUS.pack_into(
                 buf,
                 TL_STATUS_AT,
                 seq,
@@ -179,6 +199,7 @@ class TlController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.cause,
             )
             SEQ.pack_into(buf, TL_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -231,6 +252,7 @@ class TlController:
             self.single_step_num,
             self.op_status_num,
             self.op_status,
+            self.op_error_num,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def init(self) -> None:
@@ -248,6 +270,7 @@ class TlController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -264,6 +287,7 @@ class TlController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def calibrate_sphere(self) -> None:
         """CALIBRATE_SPHERE: Ask the operator to mount the reference sphere and define the
@@ -283,10 +307,13 @@ class TlController:
                 self.rule = 6  # CALIBRATE_SPHERE/S0_ASKING/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 7  # CALIBRATE_SPHERE/S0_ASKING/2
+                # op's error: the cause of an ERROR this command reports
+                self.cause = caused(OP_LINK, self.op_error_num, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -321,10 +348,13 @@ class TlController:
                 self.rule = 10  # CALIBRATE_PROBE/S0_ASKING/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 11  # CALIBRATE_PROBE/S0_ASKING/2
+                # op's error: the cause of an ERROR this command reports
+                self.cause = caused(OP_LINK, self.op_error_num, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED
@@ -359,10 +389,13 @@ class TlController:
                 self.rule = 14  # LOAD_PROBE/S0_ASKING/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.op_status == ERROR:
                 # the operator refuses
                 self.rule = 15  # LOAD_PROBE/S0_ASKING/2
+                # op's error: the cause of an ERROR this command reports
+                self.cause = caused(OP_LINK, self.op_error_num, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_REFUSED

@@ -22,6 +22,7 @@ from .rcs.contract import (
     PERF,
     READ_TRIES,
     SEQ,
+    caused,
     decode_text,
     encode_text,
 )
@@ -53,6 +54,7 @@ MS_REASON_LOST = 1
 MS_REASON_MACHINE_FAULT = 2
 MS_REASON_REFUSED = 3
 MS_REASON_TIMED_OUT = 4
+MS_LINK = 2  # its number in the layout's CAUSE_MODULES
 
 # Commands ws sends to fx.
 FX_INIT = 1
@@ -66,10 +68,11 @@ FX_REASON_NONE = 0
 FX_REASON_LOST = 1
 FX_REASON_REFUSED = 2
 FX_REASON_TIMED_OUT = 3
+FX_LINK = 3  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI32s52x???1xI112xQII16xq96xQII")
+INPUTS = Struct("<QQI32s60x???1xI112xQII16xqQ96xQII8xQ")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -97,11 +100,13 @@ class WsController:
     __slots__ = (
         "arg_program",
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
         "dont_run",
         "error_num",
+        "fx_cause",
         "fx_command",
         "fx_command_num",
         "fx_error_num",
@@ -112,6 +117,7 @@ class WsController:
         "max_cycle_ns",
         "min_cycle_ns",
         "ms_arg_program",
+        "ms_cause",
         "ms_command",
         "ms_command_num",
         "ms_error_num",
@@ -153,6 +159,7 @@ class WsController:
             self.state,
             self.rule,
             self.result_accepted,
+            self.cause,
         ) = WS_STATUS.unpack_from(buf, WS_STATUS_AT)
         (
             self.perf_seq,
@@ -183,6 +190,7 @@ class WsController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -207,22 +215,28 @@ class WsController:
                 self.ms_status,
                 self.ms_error_num,
                 self.ms_result_failed,
+                self.ms_cause,
                 self.fx_status_num,
                 self.fx_status,
                 self.fx_error_num,
+                self.fx_cause,
             ) = values
             self.arg_program = decode_text(self.arg_program)
         if self.ms_status_num != self.ms_command_num:
             self.ms_status = EXECUTING  # until it echoes the last number sent
             self.ms_result_failed = 0  # no result yet
             self.ms_error_num = MS_REASON_NONE  # no reason yet
+            self.ms_cause = 0
         elif self.ms_status != ERROR:
             self.ms_error_num = MS_REASON_NONE  # a reason comes only with ERROR
+            self.ms_cause = 0
         if self.fx_status_num != self.fx_command_num:
             self.fx_status = EXECUTING  # until it echoes the last number sent
             self.fx_error_num = FX_REASON_NONE  # no reason yet
+            self.fx_cause = 0
         elif self.fx_status != ERROR:
             self.fx_error_num = FX_REASON_NONE  # a reason comes only with ERROR
+            self.fx_cause = 0
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -231,6 +245,7 @@ class WsController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
             self.result_accepted = False  # no result yet
 
         # 3. decision_process: run the command's state table, unless the mode holds it
@@ -267,6 +282,7 @@ class WsController:
                 self.state,
                 self.rule,
                 self.result_accepted,
+                self.cause,
             )
             SEQ.pack_into(buf, WS_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -352,9 +368,11 @@ class WsController:
             self.ms_status,
             self.ms_error_num,
             self.ms_result_failed,
+            self.ms_cause,
             self.fx_status_num,
             self.fx_status,
             self.fx_error_num,
+            self.fx_cause,
         ) = values
         self.arg_program = decode_text(self.arg_program)
         if not whole:
@@ -377,6 +395,7 @@ class WsController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -395,6 +414,7 @@ class WsController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def init_for_inspect(self) -> None:
         """INIT_FOR_INSPECT: Prepare the station (Figure 4): equipment set-up by MS and FX, then
@@ -415,6 +435,8 @@ class WsController:
                 # fixturing failed; withdraw measurement's set-up
                 self.rule = 6  # INIT_FOR_INSPECT/S1/1
                 self.state = FX_FAILED
+                # fx's error: the cause of an ERROR this command reports
+                self.cause = caused(FX_LINK, self.fx_error_num, self.fx_cause)
                 self.ms_command = MS_HALT
                 self.ms_command_num += 1
 
@@ -422,6 +444,8 @@ class WsController:
                 # measurement failed; withdraw fixturing's set-up
                 self.rule = 7  # INIT_FOR_INSPECT/S1/2
                 self.state = MS_FAILED
+                # ms's error: the cause of an ERROR this command reports
+                self.cause = caused(MS_LINK, self.ms_error_num, self.ms_cause)
                 self.fx_command = FX_HALT
                 self.fx_command_num += 1
 
@@ -440,6 +464,8 @@ class WsController:
 
             elif self.ms_status == ERROR:
                 self.rule = 10  # INIT_FOR_INSPECT/S2/2
+                # ms's error: the cause of an ERROR this command reports
+                self.cause = caused(MS_LINK, self.ms_error_num, self.ms_cause)
                 self.state = NOP
                 self.status = ERROR
                 # ms's reason, passed up by name (another: NONE)
@@ -455,9 +481,12 @@ class WsController:
                 self.rule = 11  # INIT_FOR_INSPECT/S3/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.ms_status == ERROR:
                 self.rule = 12  # INIT_FOR_INSPECT/S3/2
+                # ms's error: the cause of an ERROR this command reports
+                self.cause = caused(MS_LINK, self.ms_error_num, self.ms_cause)
                 self.state = NOP
                 self.status = ERROR
                 # ms's reason, passed up by name (another: NONE)
@@ -513,6 +542,8 @@ class WsController:
                 # fixturing failed; withdraw the probe loading
                 self.rule = 16  # INSPECT_PART/S1/1
                 self.state = FX_FAILED
+                # fx's error: the cause of an ERROR this command reports
+                self.cause = caused(FX_LINK, self.fx_error_num, self.fx_cause)
                 self.ms_command = MS_HALT
                 self.ms_command_num += 1
 
@@ -520,6 +551,8 @@ class WsController:
                 # measurement failed; withdraw the placing
                 self.rule = 17  # INSPECT_PART/S1/2
                 self.state = MS_FAILED
+                # ms's error: the cause of an ERROR this command reports
+                self.cause = caused(MS_LINK, self.ms_error_num, self.ms_cause)
                 self.fx_command = FX_HALT
                 self.fx_command_num += 1
 
@@ -534,6 +567,8 @@ class WsController:
         elif state == MEASURING:
             if self.ms_status == ERROR:
                 self.rule = 19  # INSPECT_PART/MEASURING/1
+                # ms's error: the cause of an ERROR this command reports
+                self.cause = caused(MS_LINK, self.ms_error_num, self.ms_cause)
                 self.state = NOP
                 self.status = ERROR
                 # ms's reason, passed up by name (another: NONE)
@@ -586,6 +621,8 @@ class WsController:
 
             elif self.fx_status == ERROR:
                 self.rule = 24  # INSPECT_PART/REFIXTURING/2
+                # fx's error: the cause of an ERROR this command reports
+                self.cause = caused(FX_LINK, self.fx_error_num, self.fx_cause)
                 self.state = NOP
                 self.status = ERROR
                 # fx's reason, passed up by name (another: NONE)
@@ -600,9 +637,12 @@ class WsController:
                 self.rule = 25  # INSPECT_PART/UNLOADING/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.fx_status == ERROR:
                 self.rule = 26  # INSPECT_PART/UNLOADING/2
+                # fx's error: the cause of an ERROR this command reports
+                self.cause = caused(FX_LINK, self.fx_error_num, self.fx_cause)
                 self.state = NOP
                 self.status = ERROR
                 # fx's reason, passed up by name (another: NONE)

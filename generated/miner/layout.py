@@ -1138,6 +1138,36 @@ STATE_NAMES = {
 # controllers and operator modules that declare reasons (docs/semantics.md, "Results and
 # reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {}
+# The modules a link of a status buffer's `cause` numbers, from 1 (rcs/contract.py
+# cause_text; docs/semantics.md, "Reasons survive").
+CAUSE_MODULES = (
+    "sec",
+    "sb",
+    "co",
+    "cc",
+    "bm",
+    "cd",
+    "sj",
+    "cr",
+    "gh",
+    "cv",
+    "ct",
+    "vg",
+    "tc",
+    "oi",
+    "bas",
+    "jas",
+    "tas",
+    "mine",
+    "das",
+    "gas",
+    "bss",
+    "pss",
+    "css",
+    "lcs",
+    "wm",
+    "pp",
+)
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
     "sec": (

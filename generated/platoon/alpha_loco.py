@@ -8,9 +8,10 @@ from .layout import (
     ALPHA_DRIVE_COMMAND,
     ALPHA_DRIVE_COMMAND_AT,
     ALPHA_LOCO_PERF_AT,
+    ALPHA_LOCO_STATUS,
     ALPHA_LOCO_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
 
 # Commands alpha_loco accepts (the code written to its command buffer).
 INIT = 1
@@ -28,11 +29,12 @@ ALPHA_DRIVE_INIT = 1
 ALPHA_DRIVE_HALT = 2
 ALPHA_DRIVE_SPEED = 3
 ALPHA_DRIVE_STOP = 4
+ALPHA_DRIVE_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QId44x???1xI88xQI1540xd24xd")
-INPUTS_AT = 840
+INPUTS = Struct("<QId52x???1xI88xQI1556xd24xd")
+INPUTS_AT = 864
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -58,6 +60,7 @@ class AlphaLocoController:
         "alpha_drive_written",
         "arg_goal",
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -97,9 +100,15 @@ class AlphaLocoController:
         """Take up the buffers this module writes from the block: a restarted module keeps
         its command-number handshake, and its sequence words go on from the block's."""
         buf = self.buf
-        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
-            STATUS.unpack_from(buf, ALPHA_LOCO_STATUS_AT)
-        )
+        (
+            self.status_seq,
+            self.status_num,
+            self.status,
+            self.error_num,
+            self.state,
+            self.rule,
+            self.cause,
+        ) = ALPHA_LOCO_STATUS.unpack_from(buf, ALPHA_LOCO_STATUS_AT)
         (
             self.perf_seq,
             self.last_cycle_ns,
@@ -124,6 +133,7 @@ class AlphaLocoController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -154,6 +164,7 @@ class AlphaLocoController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
             self.ticks = 0  # a new command: its time in S0 starts
             self.held_move_to_ahead_1 = 0
             self.held_move_to_back_1 = 0
@@ -182,7 +193,7 @@ class AlphaLocoController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, ALPHA_LOCO_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            ALPHA_LOCO_STATUS.pack_into(
                 buf,
                 ALPHA_LOCO_STATUS_AT,
                 seq,
@@ -191,6 +202,7 @@ class AlphaLocoController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.cause,
             )
             SEQ.pack_into(buf, ALPHA_LOCO_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -268,6 +280,7 @@ class AlphaLocoController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -284,6 +297,7 @@ class AlphaLocoController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def move_to(self) -> None:
         """MOVE_TO: Drive to a position along the axis of advance, forwards or backing up, and stop
@@ -334,6 +348,8 @@ class AlphaLocoController:
 
             elif self.alpha_drive_status == ERROR:
                 self.rule = 10  # MOVE_TO/AHEAD/3
+                # alpha_drive's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_DRIVE_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_IMMOBILE
@@ -359,6 +375,8 @@ class AlphaLocoController:
 
             elif self.alpha_drive_status == ERROR:
                 self.rule = 13  # MOVE_TO/BACK/3
+                # alpha_drive's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_DRIVE_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_IMMOBILE
@@ -368,9 +386,12 @@ class AlphaLocoController:
                 self.rule = 14  # MOVE_TO/STOPPING/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.alpha_drive_status == ERROR:
                 self.rule = 15  # MOVE_TO/STOPPING/2
+                # alpha_drive's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_DRIVE_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_IMMOBILE
@@ -396,8 +417,11 @@ class AlphaLocoController:
                 self.rule = 17  # STOP/S1/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.alpha_drive_status == ERROR:
                 self.rule = 18  # STOP/S1/2
+                # alpha_drive's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_DRIVE_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR

@@ -13,7 +13,17 @@ from .layout import (
     BRAVO_STATUS,
     BRAVO_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    caused,
+)
 
 # Commands bravo accepts (the code written to its command buffer).
 INIT = 1
@@ -37,20 +47,22 @@ BRAVO_LOCO_STOP = 4
 BRAVO_LOCO_REASON_NONE = 0
 BRAVO_LOCO_REASON_LOST = 1
 BRAVO_LOCO_REASON_IMMOBILE = 2
+BRAVO_LOCO_LINK = 11  # its number in the layout's CAUSE_MODULES
 
 # Commands bravo sends to bravo_rsta.
 BRAVO_RSTA_INIT = 1
 BRAVO_RSTA_HALT = 2
 BRAVO_RSTA_SCAN = 3
+BRAVO_RSTA_LINK = 13  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQId60x???1xI88xQII232xQI12x?d671xd")
-INPUTS_AT = 1592
+INPUTS = Struct("<QQId68x???1xI88xQII8xQ224xQI12x?d671xd")
+INPUTS_AT = 1624
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1592
+SEQS_AT = 1624
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -63,6 +75,7 @@ class BravoController:
     __slots__ = (
         "arg_x",
         "bravo_loco_arg_goal",
+        "bravo_loco_cause",
         "bravo_loco_command",
         "bravo_loco_command_num",
         "bravo_loco_error_num",
@@ -77,6 +90,7 @@ class BravoController:
         "bravo_rsta_status_num",
         "bravo_rsta_written",
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -122,6 +136,7 @@ class BravoController:
             self.rule,
             self.result_contact,
             self.result_enemy_x,
+            self.cause,
         ) = BRAVO_STATUS.unpack_from(buf, BRAVO_STATUS_AT)
         (
             self.perf_seq,
@@ -153,6 +168,7 @@ class BravoController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -176,6 +192,7 @@ class BravoController:
                 self.bravo_loco_status_num,
                 self.bravo_loco_status,
                 self.bravo_loco_error_num,
+                self.bravo_loco_cause,
                 self.bravo_rsta_status_num,
                 self.bravo_rsta_status,
                 self.bravo_rsta_result_contact,
@@ -185,8 +202,10 @@ class BravoController:
         if self.bravo_loco_status_num != self.bravo_loco_command_num:
             self.bravo_loco_status = EXECUTING  # until it echoes the last number sent
             self.bravo_loco_error_num = BRAVO_LOCO_REASON_NONE  # no reason yet
+            self.bravo_loco_cause = 0
         elif self.bravo_loco_status != ERROR:
             self.bravo_loco_error_num = BRAVO_LOCO_REASON_NONE  # a reason comes only with ERROR
+            self.bravo_loco_cause = 0
         if self.bravo_rsta_status_num != self.bravo_rsta_command_num:
             self.bravo_rsta_status = EXECUTING  # until it echoes the last number sent
             self.bravo_rsta_result_contact = False  # no result yet
@@ -199,6 +218,7 @@ class BravoController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
             self.result_contact = False  # no result yet
             self.result_enemy_x = 0.0  # no result yet
 
@@ -239,6 +259,7 @@ class BravoController:
                 self.rule,
                 self.result_contact,
                 self.result_enemy_x,
+                self.cause,
             )
             SEQ.pack_into(buf, BRAVO_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -329,6 +350,7 @@ class BravoController:
             self.bravo_loco_status_num,
             self.bravo_loco_status,
             self.bravo_loco_error_num,
+            self.bravo_loco_cause,
             self.bravo_rsta_status_num,
             self.bravo_rsta_status,
             self.bravo_rsta_result_contact,
@@ -355,6 +377,7 @@ class BravoController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -373,6 +396,7 @@ class BravoController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def goto(self) -> None:
         """GOTO: Move to the next overwatch position along the corridor (steps 13-15)."""
@@ -390,9 +414,14 @@ class BravoController:
                 self.var_cover_x = self.world_bravo_x
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.bravo_loco_status == ERROR:
                 self.rule = 7  # GOTO/S1/2
+                # bravo_loco's error: the cause of an ERROR this command reports
+                self.cause = caused(
+                    BRAVO_LOCO_LINK, self.bravo_loco_error_num, self.bravo_loco_cause
+                )
                 self.state = NOP
                 self.status = ERROR
                 # bravo_loco's reason, passed up by name (another: NONE)
@@ -417,6 +446,10 @@ class BravoController:
         elif state == S1:
             if self.bravo_loco_status == ERROR:
                 self.rule = 9  # OVERWATCH/S1/1
+                # bravo_loco's error: the cause of an ERROR this command reports
+                self.cause = caused(
+                    BRAVO_LOCO_LINK, self.bravo_loco_error_num, self.bravo_loco_cause
+                )
                 self.state = NOP
                 self.status = ERROR
                 # bravo_loco's reason, passed up by name (another: NONE)
@@ -427,6 +460,8 @@ class BravoController:
 
             elif self.bravo_rsta_status == ERROR:
                 self.rule = 10  # OVERWATCH/S1/2
+                # bravo_rsta's error: the cause of an ERROR this command reports
+                self.cause = caused(BRAVO_RSTA_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_SENSOR_FAULT
@@ -437,6 +472,7 @@ class BravoController:
                 self.result_enemy_x = self.bravo_rsta_result_enemy_x
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.bravo_rsta_status == DONE and not self.bravo_rsta_result_contact:
                 self.rule = 12  # OVERWATCH/S1/4
@@ -458,9 +494,14 @@ class BravoController:
                 self.rule = 14  # COVER/S1/1
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.bravo_loco_status == ERROR:
                 self.rule = 15  # COVER/S1/2
+                # bravo_loco's error: the cause of an ERROR this command reports
+                self.cause = caused(
+                    BRAVO_LOCO_LINK, self.bravo_loco_error_num, self.bravo_loco_cause
+                )
                 self.state = NOP
                 self.status = ERROR
                 # bravo_loco's reason, passed up by name (another: NONE)

@@ -11,7 +11,17 @@ from .layout import (
     SEC_COMMAND,
     SEC_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    caused,
+)
 
 # Commands pl accepts (the code written to its command buffer).
 INIT = 1
@@ -32,10 +42,11 @@ SEC_OVERWATCH = 4
 SEC_REASON_NONE = 0
 SEC_REASON_LOST = 1
 SEC_REASON_BOTH_LOST = 2
+SEC_LINK = 2  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQId60x???1xI88xQII8x?d??")
+INPUTS = Struct("<QQId68x???1xI88xQII8x?d??8xQ")
 INPUTS_AT = 392
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -55,6 +66,7 @@ class PlController:
     __slots__ = (
         "arg_objective",
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -70,6 +82,7 @@ class PlController:
         "result_mission_changed",
         "rule",
         "sec_arg_objective",
+        "sec_cause",
         "sec_command",
         "sec_command_num",
         "sec_error_num",
@@ -110,6 +123,7 @@ class PlController:
             self.result_mission_changed,
             self.result_enemy_x,
             self.result_alone,
+            self.cause,
         ) = PL_STATUS.unpack_from(buf, PL_STATUS_AT)
         (
             self.perf_seq,
@@ -135,6 +149,7 @@ class PlController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -162,6 +177,7 @@ class PlController:
                 self.sec_result_enemy_x,
                 self.sec_result_in_cover,
                 self.sec_result_alone,
+                self.sec_cause,
             ) = values
         if self.sec_status_num != self.sec_command_num:
             self.sec_status = EXECUTING  # until it echoes the last number sent
@@ -170,8 +186,10 @@ class PlController:
             self.sec_result_in_cover = False  # no result yet
             self.sec_result_alone = False  # no result yet
             self.sec_error_num = SEC_REASON_NONE  # no reason yet
+            self.sec_cause = 0
         elif self.sec_status != ERROR:
             self.sec_error_num = SEC_REASON_NONE  # a reason comes only with ERROR
+            self.sec_cause = 0
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -180,6 +198,7 @@ class PlController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
             self.result_mission_changed = False  # no result yet
             self.result_enemy_x = 0.0  # no result yet
             self.result_alone = False  # no result yet
@@ -218,6 +237,7 @@ class PlController:
                 self.result_mission_changed,
                 self.result_enemy_x,
                 self.result_alone,
+                self.cause,
             )
             SEQ.pack_into(buf, PL_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -297,6 +317,7 @@ class PlController:
             self.sec_result_enemy_x,
             self.sec_result_in_cover,
             self.sec_result_alone,
+            self.sec_cause,
         ) = values
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
@@ -316,6 +337,7 @@ class PlController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -332,6 +354,7 @@ class PlController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def establish_op(self) -> None:
         """ESTABLISH_OP: Establish an observation post on Dogwood Hill (section 6.1, steps 1-20)."""
@@ -346,6 +369,8 @@ class PlController:
         elif state == ADVANCE:
             if self.sec_status == ERROR:
                 self.rule = 6  # ESTABLISH_OP/ADVANCE/1
+                # sec's error: the cause of an ERROR this command reports
+                self.cause = caused(SEC_LINK, self.sec_error_num, self.sec_cause)
                 self.state = NOP
                 self.status = ERROR
                 # sec's reason, passed up by name (another: NONE)
@@ -359,6 +384,7 @@ class PlController:
                 self.result_alone = self.sec_result_alone
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.sec_result_contact and self.sec_result_in_cover:
                 # the spot report, both vehicles in cover; the mission changes (step 20)
@@ -372,6 +398,8 @@ class PlController:
         elif state == OVERWATCH:
             if self.sec_status == ERROR:
                 self.rule = 9  # ESTABLISH_OP/OVERWATCH/1
+                # sec's error: the cause of an ERROR this command reports
+                self.cause = caused(SEC_LINK, self.sec_error_num, self.sec_cause)
                 self.state = NOP
                 self.status = ERROR
                 # sec's reason, passed up by name (another: NONE)
@@ -385,3 +413,4 @@ class PlController:
                 self.result_enemy_x = self.sec_result_enemy_x
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause

@@ -13,7 +13,17 @@ from .layout import (
     SEC_STATUS,
     SEC_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    caused,
+)
 
 # Commands sec accepts (the code written to its command buffer).
 INIT = 1
@@ -32,6 +42,12 @@ ALPHA_HALT = 2
 ALPHA_GOTO = 3
 ALPHA_OVERWATCH = 4
 ALPHA_COVER = 5
+# Why alpha may end a command in ERROR (its error_num).
+ALPHA_REASON_NONE = 0
+ALPHA_REASON_LOST = 1
+ALPHA_REASON_IMMOBILE = 2
+ALPHA_REASON_SENSOR_FAULT = 3
+ALPHA_LINK = 3  # its number in the layout's CAUSE_MODULES
 
 # Commands sec sends to bravo.
 BRAVO_INIT = 1
@@ -39,15 +55,21 @@ BRAVO_HALT = 2
 BRAVO_GOTO = 3
 BRAVO_OVERWATCH = 4
 BRAVO_COVER = 5
+# Why bravo may end a command in ERROR (its error_num).
+BRAVO_REASON_NONE = 0
+BRAVO_REASON_LOST = 1
+BRAVO_REASON_IMMOBILE = 2
+BRAVO_REASON_SENSOR_FAULT = 3
+BRAVO_LINK = 10  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QId68x???1xI80xQQI13xd863xQQI13xd879xQd160xQd")
-INPUTS_AT = 544
+INPUTS = Struct("<QId76x???1xI80xQQII9xdQ871xQQII9xdQ887xQd160xQd")
+INPUTS_AT = 552
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q896xQ912xQ168xQ")
-SEQS_AT = 720
+SEQS = Struct("<Q912xQ928xQ168xQ")
+SEQS_AT = 736
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -69,8 +91,10 @@ class SecController:
 
     __slots__ = (
         "alpha_arg_x",
+        "alpha_cause",
         "alpha_command",
         "alpha_command_num",
+        "alpha_error_num",
         "alpha_lost",
         "alpha_result_enemy_x",
         "alpha_status",
@@ -78,14 +102,17 @@ class SecController:
         "alpha_written",
         "arg_objective",
         "bravo_arg_x",
+        "bravo_cause",
         "bravo_command",
         "bravo_command_num",
+        "bravo_error_num",
         "bravo_lost",
         "bravo_result_enemy_x",
         "bravo_status",
         "bravo_status_num",
         "bravo_written",
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -142,6 +169,7 @@ class SecController:
             self.result_in_cover,
             self.result_alone,
             self.result_reports,
+            self.cause,
         ) = SEC_STATUS.unpack_from(buf, SEC_STATUS_AT)
         (
             self.perf_seq,
@@ -173,6 +201,7 @@ class SecController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -182,14 +211,14 @@ class SecController:
         buf = self.buf
         values = INPUTS.unpack_from(buf, INPUTS_AT)
         if (
-            (values[7] | values[11] | values[15] | values[17]) & 1
-            or not (values[7] and values[11] and values[15] and values[17])
+            (values[7] | values[13] | values[19] | values[21]) & 1
+            or not (values[7] and values[13] and values[19] and values[21])
             or SEQS.unpack_from(buf, SEQS_AT)
             != (
                 values[7],
-                values[11],
-                values[15],
-                values[17],
+                values[13],
+                values[19],
+                values[21],
             )
         ):
             self.read_inputs()  # being written by another process: read again, out of line
@@ -205,11 +234,15 @@ class SecController:
                 _,
                 self.alpha_status_num,
                 self.alpha_status,
+                self.alpha_error_num,
                 self.alpha_result_enemy_x,
+                self.alpha_cause,
                 _,
                 self.bravo_status_num,
                 self.bravo_status,
+                self.bravo_error_num,
                 self.bravo_result_enemy_x,
+                self.bravo_cause,
                 _,
                 self.world_alpha_x,
                 _,
@@ -218,13 +251,27 @@ class SecController:
         if self.alpha_status_num != self.alpha_command_num:
             self.alpha_status = EXECUTING  # until it echoes the last number sent
             self.alpha_result_enemy_x = 0.0  # no result yet
+            self.alpha_error_num = ALPHA_REASON_NONE  # no reason yet
+            self.alpha_cause = 0
+        elif self.alpha_status != ERROR:
+            self.alpha_error_num = ALPHA_REASON_NONE  # a reason comes only with ERROR
+            self.alpha_cause = 0
         if self.alpha_lost:  # its process is lost: on_lost: continue, the rules decide
             self.alpha_status = ERROR
+            self.alpha_error_num = ALPHA_REASON_LOST
+            self.alpha_cause = 0
         if self.bravo_status_num != self.bravo_command_num:
             self.bravo_status = EXECUTING  # until it echoes the last number sent
             self.bravo_result_enemy_x = 0.0  # no result yet
+            self.bravo_error_num = BRAVO_REASON_NONE  # no reason yet
+            self.bravo_cause = 0
+        elif self.bravo_status != ERROR:
+            self.bravo_error_num = BRAVO_REASON_NONE  # a reason comes only with ERROR
+            self.bravo_cause = 0
         if self.bravo_lost:  # its process is lost: on_lost: continue, the rules decide
             self.bravo_status = ERROR
+            self.bravo_error_num = BRAVO_REASON_LOST
+            self.bravo_cause = 0
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -233,6 +280,7 @@ class SecController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
             self.result_contact = False  # no result yet
             self.result_enemy_x = 0.0  # no result yet
             self.result_in_cover = False  # no result yet
@@ -278,6 +326,7 @@ class SecController:
                 self.result_in_cover,
                 self.result_alone,
                 self.result_reports,
+                self.cause,
             )
             SEQ.pack_into(buf, SEC_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -349,14 +398,14 @@ class SecController:
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
             if not (
-                (values[7] | values[11] | values[15] | values[17]) & 1
-                or not (values[7] and values[11] and values[15] and values[17])
+                (values[7] | values[13] | values[19] | values[21]) & 1
+                or not (values[7] and values[13] and values[19] and values[21])
                 or SEQS.unpack_from(buf, SEQS_AT)
                 != (
                     values[7],
-                    values[11],
-                    values[15],
-                    values[17],
+                    values[13],
+                    values[19],
+                    values[21],
                 )
             ):
                 whole = True
@@ -376,11 +425,15 @@ class SecController:
             _,
             self.alpha_status_num,
             self.alpha_status,
+            self.alpha_error_num,
             self.alpha_result_enemy_x,
+            self.alpha_cause,
             _,
             self.bravo_status_num,
             self.bravo_status,
+            self.bravo_error_num,
             self.bravo_result_enemy_x,
+            self.bravo_cause,
             _,
             self.world_alpha_x,
             _,
@@ -406,6 +459,7 @@ class SecController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -424,6 +478,7 @@ class SecController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def sc_est_obs(self) -> None:
         """SC_EST_OBS: Establish an observation post at the objective by bounding overwatch (the
@@ -442,6 +497,8 @@ class SecController:
         elif state == A_BOUNDS:
             if self.alpha_status == ERROR and self.bravo_status == ERROR:
                 self.rule = 6  # SC_EST_OBS/A_BOUNDS/1
+                # alpha's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_LINK, self.alpha_error_num, self.alpha_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_BOTH_LOST
@@ -449,6 +506,8 @@ class SecController:
             elif self.alpha_status == ERROR:
                 self.rule = 7  # SC_EST_OBS/A_BOUNDS/2
                 self.state = B_ALONE
+                # alpha's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_LINK, self.alpha_error_num, self.alpha_cause)
                 self.alpha_command = ALPHA_HALT
                 self.alpha_command_num += 1
                 self.bravo_arg_x = min(self.arg_objective, self.world_bravo_x + LEAD)
@@ -459,6 +518,8 @@ class SecController:
             elif self.bravo_status == ERROR:
                 self.rule = 8  # SC_EST_OBS/A_BOUNDS/3
                 self.state = A_ALONE
+                # bravo's error: the cause of an ERROR this command reports
+                self.cause = caused(BRAVO_LINK, self.bravo_error_num, self.bravo_cause)
                 self.bravo_command = BRAVO_HALT
                 self.bravo_command_num += 1
                 self.result_alone = True
@@ -480,6 +541,7 @@ class SecController:
                 self.rule = 10  # SC_EST_OBS/A_BOUNDS/5
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.alpha_status == DONE:
                 # Alpha is set; Bravo moves (steps 15-17)
@@ -494,6 +556,8 @@ class SecController:
         elif state == B_BOUNDS:
             if self.alpha_status == ERROR and self.bravo_status == ERROR:
                 self.rule = 12  # SC_EST_OBS/B_BOUNDS/1
+                # alpha's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_LINK, self.alpha_error_num, self.alpha_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_BOTH_LOST
@@ -501,6 +565,8 @@ class SecController:
             elif self.bravo_status == ERROR:
                 self.rule = 13  # SC_EST_OBS/B_BOUNDS/2
                 self.state = A_ALONE
+                # bravo's error: the cause of an ERROR this command reports
+                self.cause = caused(BRAVO_LINK, self.bravo_error_num, self.bravo_cause)
                 self.bravo_command = BRAVO_HALT
                 self.bravo_command_num += 1
                 self.alpha_arg_x = min(self.arg_objective, self.world_alpha_x + LEAD)
@@ -511,6 +577,8 @@ class SecController:
             elif self.alpha_status == ERROR:
                 self.rule = 14  # SC_EST_OBS/B_BOUNDS/3
                 self.state = B_ALONE
+                # alpha's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_LINK, self.alpha_error_num, self.alpha_cause)
                 self.alpha_command = ALPHA_HALT
                 self.alpha_command_num += 1
                 self.result_alone = True
@@ -532,6 +600,7 @@ class SecController:
                 self.rule = 16  # SC_EST_OBS/B_BOUNDS/5
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.bravo_status == DONE:
                 self.rule = 17  # SC_EST_OBS/B_BOUNDS/6
@@ -545,6 +614,8 @@ class SecController:
         elif state == CONTACT:
             if self.alpha_status == ERROR and self.bravo_status == ERROR:
                 self.rule = 18  # SC_EST_OBS/CONTACT/1
+                # alpha's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_LINK, self.alpha_error_num, self.alpha_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_BOTH_LOST
@@ -561,6 +632,8 @@ class SecController:
         elif state == A_ALONE:
             if self.alpha_status == ERROR:
                 self.rule = 21  # SC_EST_OBS/A_ALONE/1
+                # alpha's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_LINK, self.alpha_error_num, self.alpha_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_BOTH_LOST
@@ -569,6 +642,7 @@ class SecController:
                 self.rule = 22  # SC_EST_OBS/A_ALONE/2
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.alpha_status == DONE:
                 self.rule = 23  # SC_EST_OBS/A_ALONE/3
@@ -579,6 +653,8 @@ class SecController:
         elif state == B_ALONE:
             if self.bravo_status == ERROR:
                 self.rule = 24  # SC_EST_OBS/B_ALONE/1
+                # bravo's error: the cause of an ERROR this command reports
+                self.cause = caused(BRAVO_LINK, self.bravo_error_num, self.bravo_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_BOTH_LOST
@@ -587,6 +663,7 @@ class SecController:
                 self.rule = 25  # SC_EST_OBS/B_ALONE/2
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.bravo_status == DONE:
                 self.rule = 26  # SC_EST_OBS/B_ALONE/3
@@ -611,6 +688,8 @@ class SecController:
         elif state == WATCH:
             if self.alpha_status == ERROR and self.bravo_status == ERROR:
                 self.rule = 28  # OVERWATCH/WATCH/1
+                # alpha's error: the cause of an ERROR this command reports
+                self.cause = caused(ALPHA_LINK, self.alpha_error_num, self.alpha_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_BOTH_LOST
@@ -619,6 +698,7 @@ class SecController:
                 self.rule = 29  # OVERWATCH/WATCH/2
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.alpha_status == DONE:
                 self.rule = 30  # OVERWATCH/WATCH/3

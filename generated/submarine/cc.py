@@ -25,6 +25,7 @@ from .rcs.contract import (
     READ_TRIES,
     SEQ,
     HookError,
+    caused,
     plan_problem,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
@@ -48,16 +49,18 @@ SM_PREP_EMERGENCY_VENT = 4
 SM_REASON_NONE = 0
 SM_REASON_LOST = 1
 SM_REASON_BLOCKED = 2
+SM_LINK = 2  # its number in the layout's CAUSE_MODULES
 
 # Commands cc sends to ec.
 EC_INIT = 1
 EC_HALT = 2
 EC_SUBMERGED_VENT = 3
 EC_EMERGENCY_VENT = 4
+EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI68x???1xI96xQII104xQI1284xd")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1292xd")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -83,6 +86,7 @@ class CcController:
 
     __slots__ = (
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -112,6 +116,7 @@ class CcController:
         "single_step_num",
         "sm_arg_x",
         "sm_arg_y",
+        "sm_cause",
         "sm_command",
         "sm_command_num",
         "sm_error_num",
@@ -159,6 +164,7 @@ class CcController:
             self.plan_route_step,
             self.plan_route_steps,
             self.plan_route_replans_left,
+            self.cause,
         ) = CC_STATUS.unpack_from(buf, CC_STATUS_AT)
         (
             self.perf_seq,
@@ -188,6 +194,7 @@ class CcController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -210,6 +217,7 @@ class CcController:
                 self.sm_status_num,
                 self.sm_status,
                 self.sm_error_num,
+                self.sm_cause,
                 self.ec_status_num,
                 self.ec_status,
                 self.world_co_ppm,
@@ -217,8 +225,10 @@ class CcController:
         if self.sm_status_num != self.sm_command_num:
             self.sm_status = EXECUTING  # until it echoes the last number sent
             self.sm_error_num = SM_REASON_NONE  # no reason yet
+            self.sm_cause = 0
         elif self.sm_status != ERROR:
             self.sm_error_num = SM_REASON_NONE  # a reason comes only with ERROR
+            self.sm_cause = 0
         if self.ec_status_num != self.ec_command_num:
             self.ec_status = EXECUTING  # until it echoes the last number sent
 
@@ -229,6 +239,7 @@ class CcController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
 
         # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -264,6 +275,7 @@ class CcController:
                 self.plan_route_step,
                 self.plan_route_steps,
                 self.plan_route_replans_left,
+                self.cause,
             )
             SEQ.pack_into(buf, CC_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -348,6 +360,7 @@ class CcController:
             self.sm_status_num,
             self.sm_status,
             self.sm_error_num,
+            self.sm_cause,
             self.ec_status_num,
             self.ec_status,
             self.world_co_ppm,
@@ -390,6 +403,7 @@ class CcController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -408,6 +422,7 @@ class CcController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def run_mission(self) -> None:
         """RUN_MISSION: Go to each waypoint of the route in turn (submerged transit, normal
@@ -445,6 +460,7 @@ class CcController:
                 self.rule = 7  # RUN_MISSION/S1/2
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
         elif state == TRANSIT:
             if self.world_co_ppm > CO_HIGH:
@@ -468,6 +484,8 @@ class CcController:
                 # ice blocks the leg; plan again around it, while replans are left
                 self.rule = 10  # RUN_MISSION/TRANSIT/3
                 self.state = S1
+                # sm's error: the cause of an ERROR this command reports
+                self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
                 if not self.plan_route_replans_left:  # replan: route, counted
                     raise HookError(
                         "cc",
@@ -490,6 +508,8 @@ class CcController:
             elif self.sm_status == ERROR and self.sm_error_num == SM_REASON_BLOCKED:
                 # blocked, and no replans left
                 self.rule = 11  # RUN_MISSION/TRANSIT/4
+                # sm's error: the cause of an ERROR this command reports
+                self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_BLOCKED
@@ -509,6 +529,8 @@ class CcController:
 
             elif self.sm_status == ERROR:
                 self.rule = 14  # RUN_MISSION/PREP_VENT/2
+                # sm's error: the cause of an ERROR this command reports
+                self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
                 self.state = NOP
                 self.status = ERROR
 
@@ -526,5 +548,7 @@ class CcController:
 
             elif self.ec_status == ERROR:
                 self.rule = 16  # RUN_MISSION/VENT/2
+                # ec's error: the cause of an ERROR this command reports
+                self.cause = caused(EC_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR

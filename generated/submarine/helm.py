@@ -16,7 +16,7 @@ from .layout import (
     RUDDER_COMMAND_AT,
     WORLD_COURSE_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
 from .rcs.deadline import hook
 from .rcs.override import held
 
@@ -34,18 +34,19 @@ REASON_BLOCKED = 2
 RUDDER_INIT = 1
 RUDDER_HALT = 2
 RUDDER_GOTO_ANGLE = 3
+RUDDER_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd52x???1xI88xQI596xd24xd8xd8xd72xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
-INPUTS_AT = 592
+INPUTS = Struct("<QIdd60x???1xI88xQI596xd24xd8xd8xd72xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS_AT = 608
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 1368
+WORLD_OUT_1_AT = 1392
 WORLD_HELD_1 = (OVERRIDE["course"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -77,6 +78,7 @@ class HelmController:
         "arg_x",
         "arg_y",
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -160,6 +162,7 @@ class HelmController:
             self.state,
             self.rule,
             self.result_at_goal,
+            self.cause,
         ) = HELM_STATUS.unpack_from(buf, HELM_STATUS_AT)
         (
             self.perf_seq,
@@ -185,6 +188,7 @@ class HelmController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -232,6 +236,7 @@ class HelmController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
             self.result_at_goal = False  # no result yet
             self.ticks = 0  # a new command: its time in S0 starts
             self.held_ice_maneuver_s1_1 = 0
@@ -270,6 +275,7 @@ class HelmController:
                 self.state,
                 self.rule,
                 self.result_at_goal,
+                self.cause,
             )
             SEQ.pack_into(buf, HELM_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -398,6 +404,7 @@ class HelmController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -414,6 +421,7 @@ class HelmController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def ice_maneuver(self) -> None:
         """ICE_MANEUVER: Steer towards the goal (x, y) avoiding ice keels; keeps executing (servo
@@ -478,6 +486,8 @@ class HelmController:
 
             elif self.rudder_status == ERROR:
                 self.rule = 10  # ICE_MANEUVER/S1/5
+                # rudder's error: the cause of an ERROR this command reports
+                self.cause = caused(RUDDER_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
 
@@ -487,6 +497,8 @@ class HelmController:
             )
             if self.rudder_status == ERROR:
                 self.rule = 11  # ICE_MANEUVER/S2/1
+                # rudder's error: the cause of an ERROR this command reports
+                self.cause = caused(RUDDER_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
 

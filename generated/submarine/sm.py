@@ -10,11 +10,12 @@ from .layout import (
     OVERRIDDEN_AT,
     OVERRIDE,
     SM_PERF_AT,
+    SM_STATUS,
     SM_STATUS_AT,
     WORLD_DEPTH_CMD_AT,
     WORLD_SPEED_CMD_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
 from .rcs.override import held
 
 # Commands sm accepts (the code written to its command buffer).
@@ -36,18 +37,19 @@ HELM_ICE_MANEUVER = 3
 HELM_REASON_NONE = 0
 HELM_REASON_LOST = 1
 HELM_REASON_BLOCKED = 2
+HELM_LINK = 4  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd44x???1xI216xQII8x?687xd8xd40xd8xd24xd8xd")
-INPUTS_AT = 336
+INPUTS = Struct("<QIdd52x???1xI216xQII8x?Q687xd8xd40xd8xd24xd8xd")
+INPUTS_AT = 344
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1336
+WORLD_OUT_1_AT = 1360
 WORLD_HELD_1 = (OVERRIDE["speed_cmd"], OVERRIDE["depth_cmd"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -71,6 +73,7 @@ class SmController:
         "arg_x",
         "arg_y",
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -78,6 +81,7 @@ class SmController:
         "error_num",
         "helm_arg_x",
         "helm_arg_y",
+        "helm_cause",
         "helm_command",
         "helm_command_num",
         "helm_error_num",
@@ -117,9 +121,15 @@ class SmController:
         """Take up the buffers this module writes from the block: a restarted module keeps
         its command-number handshake, and its sequence words go on from the block's."""
         buf = self.buf
-        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
-            STATUS.unpack_from(buf, SM_STATUS_AT)
-        )
+        (
+            self.status_seq,
+            self.status_num,
+            self.status,
+            self.error_num,
+            self.state,
+            self.rule,
+            self.cause,
+        ) = SM_STATUS.unpack_from(buf, SM_STATUS_AT)
         (
             self.perf_seq,
             self.last_cycle_ns,
@@ -144,6 +154,7 @@ class SmController:
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
+        self.cause = 0
         self.status_dirty = True
 
     def run_cycle(self) -> None:
@@ -164,6 +175,7 @@ class SmController:
             self.helm_status,
             self.helm_error_num,
             self.helm_result_at_goal,
+            self.helm_cause,
             self.world_speed_cmd,
             self.world_depth_cmd,
             self.world_pos_x,
@@ -175,8 +187,10 @@ class SmController:
             self.helm_status = EXECUTING  # until it echoes the last number sent
             self.helm_result_at_goal = False  # no result yet
             self.helm_error_num = HELM_REASON_NONE  # no reason yet
+            self.helm_cause = 0
         elif self.helm_status != ERROR:
             self.helm_error_num = HELM_REASON_NONE  # a reason comes only with ERROR
+            self.helm_cause = 0
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -185,6 +199,7 @@ class SmController:
             self.status = EXECUTING
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
 
         # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -210,7 +225,7 @@ class SmController:
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
             SEQ.pack_into(buf, SM_STATUS_AT, seq)  # odd before any field changes
-            STATUS.pack_into(
+            SM_STATUS.pack_into(
                 buf,
                 SM_STATUS_AT,
                 seq,
@@ -219,6 +234,7 @@ class SmController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.cause,
             )
             SEQ.pack_into(buf, SM_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -294,6 +310,7 @@ class SmController:
             self.helm_status,
             self.helm_error_num,
             self.helm_result_at_goal,
+            self.helm_cause,
             self.world_speed_cmd,
             self.world_depth_cmd,
             self.world_pos_x,
@@ -317,6 +334,7 @@ class SmController:
             self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
         """HALT: Halt all actions."""
@@ -333,6 +351,7 @@ class SmController:
             self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def submerged_transit(self) -> None:
         """SUBMERGED_TRANSIT: Transit submerged at standard speed and depth to the waypoint (x, y)."""
@@ -350,6 +369,8 @@ class SmController:
         elif state == S1:
             if self.helm_status == ERROR and self.helm_error_num != HELM_REASON_BLOCKED:
                 self.rule = 6  # SUBMERGED_TRANSIT/S1/1
+                # helm's error: the cause of an ERROR this command reports
+                self.cause = caused(HELM_LINK, self.helm_error_num, self.helm_cause)
                 self.state = NOP
                 self.status = ERROR
 
@@ -361,10 +382,13 @@ class SmController:
                 self.rule = 7  # SUBMERGED_TRANSIT/S1/2
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
             elif self.helm_status == ERROR and self.helm_error_num == HELM_REASON_BLOCKED:
                 # ice leaves no passage towards the waypoint
                 self.rule = 8  # SUBMERGED_TRANSIT/S1/3
+                # helm's error: the cause of an ERROR this command reports
+                self.cause = caused(HELM_LINK, self.helm_error_num, self.helm_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_BLOCKED
@@ -392,3 +416,4 @@ class SmController:
             self.rule = 10  # PREP_EMERGENCY_VENT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause

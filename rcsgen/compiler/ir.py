@@ -343,6 +343,9 @@ class IRRule:
     next_state: str | None  # None: stay (NOP after a report)
     code: int = 0  # what the status buffer's `rule` shows when it fires; 0: not recorded
     timing: str = ""  # its `after:`/`for:` as a comment shows them, with the cycles
+    # The subordinate whose ERROR its guard requires (`fx.status == ERROR` among its `and`
+    # terms): firing, it records that subordinate's link as the cause of a later ERROR.
+    cause_of: str = ""
 
 
 @dataclass(frozen=True)
@@ -404,6 +407,12 @@ class IRSub:
     # `on_lost: continue`: while its process is lost, its status reads ERROR (reason LOST) and
     # the supervisor's own rules handle it (the runtime sets `<sub>_lost`)
     continue_on_lost: bool = False
+    # Reasons survive (docs/semantics.md): its number in the layout's CAUSE_MODULES, and
+    # whether a rule of the supervisor records its link (then its reason, and its own cause
+    # when its status buffer has one, `chained`, are read with its status).
+    link: int = 0
+    caused: bool = False
+    chained: bool = False
 
     @property
     def key(self) -> str:
@@ -500,6 +509,9 @@ class IRController:
     clients: tuple[str, ...] = ()  # an operator module's: whom it serves, one channel each
     io: ModuleIO | None = None  # its reads and writes of the block (set once it is laid out)
     instance: IRInstance | None = None  # a template's controller, copied for an instance
+    # its status buffer has a `cause` field (a controller that declares reasons): the chain
+    # of subordinates' errors its ERROR comes from (docs/semantics.md, "Reasons survive")
+    cause: bool = False
 
     @property
     def is_operator(self) -> bool:

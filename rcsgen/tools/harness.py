@@ -61,6 +61,9 @@ class Status:
     results: dict[str, Any] = field(default_factory=dict)
     # each plan's step, number of steps and replans left (modules with plans only)
     plans: dict[str, dict[str, int]] = field(default_factory=dict)
+    # What its ERROR was passed up from (`fx: TIMED_OUT <- op: REFUSED`; docs/semantics.md,
+    # "Reasons survive"), '' for none.
+    cause: str = ""
 
 
 def import_package(package_dir: Path, hooks_dir: Path | None = None) -> ModuleType:
@@ -165,6 +168,9 @@ class BlockView:
             self.contract.reason_name(self.layout, module, status, values["error_num"]),
             result_values(self.layout, module, values),
             plan_slots(values),
+            self.contract.cause_text(self.layout, values.get("cause", 0))
+            if status == "ERROR"
+            else "",
         )
 
     def set_mode(self, module: str, **mode: Any) -> None:

@@ -237,7 +237,9 @@ class Monitor(App[None]):
             style = COLOURS.get(str(row.get("status")), "")
         times = "/".join(str(row.get(f"{k}_cycle_us", "?")) for k in ("last", "min", "max"))
         age = row.get("heartbeat_age_s")
-        status = contract.status_text(str(row.get("status", "stale")), row.get("reason"))
+        status = contract.status_text(
+            str(row.get("status", "stale")), row.get("reason"), str(row.get("cause", ""))
+        )
         values = {
             "module": prefix + module,
             "command": str(row.get("command", "?")),

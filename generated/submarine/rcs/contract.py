@@ -207,9 +207,68 @@ def reason_name(layout: object, module: str, status: str, error_num: int) -> str
     return str(names[error_num]) if 0 <= error_num < len(names) else f"?{error_num}"
 
 
-def status_text(status: str, reason: str | None) -> str:
-    """A status as a person reads it: `ERROR(REFUSED)` in ERROR for a reason, else bare."""
-    return f"{status}({reason})" if status == "ERROR" and reason not in (None, "NONE") else status
+def status_text(status: str, reason: str | None, cause: str = "") -> str:
+    """A status as a person reads it: `ERROR(REFUSED)` in ERROR for a reason, with the cause
+    it was passed up from (`ERROR(FIXTURING <- fx: TIMED_OUT <- op: REFUSED)`), else bare."""
+    if status != "ERROR":
+        return status
+    why = [r for r in (reason, cause) if r not in (None, "", "NONE")]
+    if not why:
+        return status
+    if cause and reason in (None, "", "NONE"):  # no reason of its own: only the cause
+        why = ["NONE", cause]
+    return f"{status}({' <- '.join(str(w) for w in why)})"
+
+
+# The cause of an ERROR (docs/semantics.md, "Reasons survive"): the subordinates' errors a
+# supervisor's ERROR comes from, nearest first, kept in its status buffer's `cause` field
+# (u64), beside its own `error_num`, and written with it under the status's sequence word.
+# Each link is 16 bits: the module's number in the layout's CAUSE_MODULES (from 1; 0: no
+# link) in the high byte, the reason's code in that module's REASON_NAMES in the low byte.
+CAUSE_LINKS = 4  # links a chain keeps; past them the root is kept and the one before dropped
+CAUSE_CODES = 256  # modules (and a module's reasons) a link can number
+_LINK = 0xFFFF
+
+
+def caused(module: int, reason: int, chain: int) -> int:
+    """The cause a supervisor records when its rule reads subordinate `module` in ERROR for
+    `reason` (its error_num; 0 if it declares none), `chain` that subordinate's own cause:
+    the subordinate's link first, then its chain. Full, the root cause survives: the link
+    next to it is dropped."""
+    links = [module << 8 | reason & 0xFF, *cause_links(chain)]
+    if len(links) > CAUSE_LINKS:
+        links = [*links[: CAUSE_LINKS - 1], links[-1]]
+    value = 0
+    for i, link in enumerate(links):
+        value |= link << 16 * i
+    return value
+
+
+def cause_links(chain: int) -> list[int]:
+    """A cause's links, nearest first (each `module << 8 | reason`)."""
+    links = []
+    while chain & _LINK:
+        links.append(chain & _LINK)
+        chain >>= 16
+    return links
+
+
+def cause_text(layout: object, chain: int) -> str:
+    """A cause as a person reads it: `fx: TIMED_OUT <- op: REFUSED` (a module that declares
+    no reasons is named alone), '' for none."""
+    modules = getattr(layout, "CAUSE_MODULES", ())
+    names = getattr(layout, "REASON_NAMES", {})
+    parts = []
+    for link in cause_links(chain):
+        number, code = link >> 8, link & 0xFF
+        module = modules[number - 1] if 0 < number <= len(modules) else f"?{number}"
+        reasons = names.get(module)
+        if reasons is None:
+            parts.append(module)
+        else:
+            reason = reasons[code] if code < len(reasons) else f"?{code}"
+            parts.append(f"{module}: {reason}")
+    return " <- ".join(parts)
 
 
 STATUS = Struct(struct_format(STATUS_FIELDS))

@@ -15,8 +15,11 @@ of a state both hold? can none hold? can this rule fire at all? - is decided by 
   integers only for an int variable). That decides comparisons of one variable exactly, and
   forms of several variables too when they are of floats and independent of each other in
   the question; otherwise a finding that needs them is "cannot prove" (W502);
-- any other comparison of numbers (a product of variables, `//`, `%`, abs/min/max of a
-  variable) is an opaque atom, free to be true or false: "cannot prove" as well.
+- `abs`, `min` and `max` are written as conditionals, and conditionals lifted above the
+  arithmetic around them, so their comparisons split into linear ones, decided as above
+  (`GuardBuilder.lifted`);
+- any other comparison of numbers (a product of variables, `//`, `%` of a variable) is an
+  opaque atom, free to be true or false: "cannot prove" as well.
 
 More than `LIMIT` valuations is "cannot prove" too, never a hang. Findings are diagnostics
 in the E5xx/W5xx range (`codes.Topic.ANALYSIS`), located at the rule, state, send or
@@ -101,6 +104,9 @@ _VARIABLES = {
 # Time (`after:`, `for:`) grows without bound while a table waits: a wait is one that stays
 # when every timer is past every bound, so completeness reads the timers at this value.
 _LATE = 2**62
+# The most conditionals a numeric operand may become once abs/min/max are written out
+# (GuardBuilder.lifted): each splits a comparison in two; past this it stays opaque.
+_LIFTED = 16
 
 
 # ---------------------------------------------------------------- guards
@@ -225,6 +231,56 @@ class GuardBuilder:
             e = inlined
         return e
 
+    def lifted(self, e: expr.Expr) -> expr.Expr:
+        """A numeric operand with `abs`, `min` and `max` written as the conditionals they are
+        (`abs(x)`: `x if x >= 0 else -x`) and every conditional lifted above the arithmetic
+        around it (`-(a if c else b)`: `-a if c else -b`), so that a comparison splits into
+        linear ones, each decided exactly; past `_LIFTED` conditionals, `e` as it was (an
+        opaque comparison)."""
+        opened = self.opened(e)
+        if opened.type not in NUMERIC:
+            return opened
+        done = self._lift(opened)
+        conditionals = sum(isinstance(n, expr.IfExp) for n in expr.walk(done))
+        return done if conditionals <= _LIFTED else opened
+
+    def _lift(self, e: expr.Expr) -> expr.Expr:
+        e = self.opened(e)
+        if isinstance(e, expr.Call) and e.kind == expr.CallKind.BUILTIN:
+            args = [self._lift(a) for a in e.args]
+            if e.name == "abs":
+                x = args[0]
+                zero = expr.Const(x.type, 0)
+                test = expr.Compare(BOOL, x, (">=",), (zero,))
+                return expr.IfExp(e.type, test, x, self._lift(expr.Unary(x.type, "-", x)))
+            chosen = args[0]
+            keep = "<=" if e.name == "min" else ">="  # the first of equal values, as Python
+            for other in args[1:]:
+                test = expr.Compare(BOOL, chosen, (keep,), (other,))
+                chosen = expr.IfExp(e.type, test, chosen, other)
+            return chosen
+        if isinstance(e, expr.Unary) and e.op in ("-", "+"):
+            x = self._lift(e.operand)
+            if isinstance(x, expr.IfExp):
+                body = self._lift(expr.Unary(e.type, e.op, x.body))
+                orelse = self._lift(expr.Unary(e.type, e.op, x.orelse))
+                return expr.IfExp(e.type, x.test, body, orelse)
+            return expr.Unary(e.type, e.op, x)
+        if isinstance(e, expr.Binary):
+            left, right = self._lift(e.left), self._lift(e.right)
+            if isinstance(left, expr.IfExp):
+                body = self._lift(expr.Binary(e.type, e.op, left.body, right))
+                orelse = self._lift(expr.Binary(e.type, e.op, left.orelse, right))
+                return expr.IfExp(e.type, left.test, body, orelse)
+            if isinstance(right, expr.IfExp):
+                body = self._lift(expr.Binary(e.type, e.op, left, right.body))
+                orelse = self._lift(expr.Binary(e.type, e.op, left, right.orelse))
+                return expr.IfExp(e.type, right.test, body, orelse)
+            return expr.Binary(e.type, e.op, left, right)
+        if isinstance(e, expr.IfExp):
+            return expr.IfExp(e.type, e.test, self._lift(e.body), self._lift(e.orelse))
+        return e
+
     def _fn(self, e: expr.Expr, g: Guard) -> Callable[[Valuation], Any]:
         inlined = self.inline(e)
         if inlined is not None:  # decided as if the body or value were written here
@@ -258,7 +314,7 @@ class GuardBuilder:
             chain = tuple(expr.Compare(BOOL, a, (op,), (b,)) for a, op, b in _pairs(e))
             return self._fn(expr.BoolOp(BOOL, "and", chain), g)
         if isinstance(e, expr.Compare):
-            left, right = self.opened(e.left), self.opened(e.comparators[0])
+            left, right = self.lifted(e.left), self.lifted(e.comparators[0])
             split = _split_conditional(expr.Compare(BOOL, left, e.ops, (right,)))
             if split is not None:  # `(a if c else b) > k`: `(a > k) if c else (b > k)`
                 return self._fn(split, g)

@@ -243,7 +243,7 @@ def _render_layout(system: ir.IRSystem, env: jinja2.Environment) -> str:
         system=system,
         layout=system.layout,
         owners=[c for c in owners if not c.is_operator],
-        with_results={c.name for c in owners if c.results or c.plans},
+        with_results={c.name for c in owners if c.results or c.plans or c.cause},
         table=_layout_table(system.layout),
         enums=_enum_fields(system),
         operators=[c for c in system.controllers if c.is_operator],
@@ -251,6 +251,7 @@ def _render_layout(system: ir.IRSystem, env: jinja2.Environment) -> str:
             name for c in owners for name in (c.channels if c.is_operator else (c.name,))
         ],
         channels_of={c.name: c.channels for c in system.controllers},
+        cause_modules=[c.name for c in owners],
         world_writers=system.actuated_by,
         factories=any(c.hooks_state for c in system.controllers),
     )

@@ -158,6 +158,8 @@ class _ControllerLowering:
     def __init__(self, checked: CheckedController, system: CheckedSystem, source: str):
         self.checked, self.system, self.source = checked, system, source
         self.spec = checked.spec
+        # reasons survive: a controller that declares reasons keeps the cause of its ERROR
+        self.cause = bool(reason_codes(self.spec)) and not self.spec.is_operator
         runs_in = checked.buffers  # a stand-in runs in its controller's process
         self.period = next(
             (p.cycle_period for p in system.processes if runs_in in p.modules),
@@ -223,6 +225,7 @@ class _ControllerLowering:
             instance=ir.IRInstance(i.instance, i.template, i.member)
             if (i := spec.instance)
             else None,
+            cause=self.cause,
         )
 
     def every_cycle_counters(self) -> tuple[ir.IRCounter, ...]:
@@ -304,7 +307,25 @@ class _ControllerLowering:
         channel = ir.channel_key(sub, self.spec.name) if sub_spec.is_operator else ""
         policy = self.spec.on_lost.get(sub)
         continued = policy is not None and policy.value == "continue"
-        return ir.IRSub(sub, consts, params, echo, reasons, results, channel, continued)
+        caused = self.cause and any(cause_of(r.guard) == sub for r in self.checked.rules())
+        if caused and not reasons:  # its link names its reason
+            reasons = tuple(
+                (naming.sub_reason_const(sub, r), code)
+                for r, code in reason_codes(sub_spec).items()
+            )
+        return ir.IRSub(
+            sub,
+            consts,
+            params,
+            echo,
+            reasons,
+            results,
+            channel,
+            continued,
+            link=cause_modules(self.system).index(sub) + 1,
+            caused=caused,
+            chained=caused and bool(reason_codes(sub_spec)) and not sub_spec.is_operator,
+        )
 
     def reasons_passed(self) -> set[str]:
         """The subordinates whose reason a report passes up (`reason: <sub>.reason`)."""
@@ -389,6 +410,7 @@ class _ControllerLowering:
             next_state=rule.next_state,
             code=code,
             timing=rule.timing,
+            cause_of=cause_of(rule.guard) if self.cause else "",
         )
 
     def action(self, action: Action) -> ir.IRAction:
@@ -535,6 +557,30 @@ def _trees(rules: Iterable[CheckedRule], predicates: Iterable[CheckedPredicate])
     return trees
 
 
+def cause_of(guard: expr.Expr | None) -> str:
+    """The subordinate whose ERROR `guard` requires, '' for none: the first of its `and`
+    terms that reads `<sub>.status == ERROR` (docs/semantics.md, "Reasons survive")."""
+    if guard is None:
+        return ""
+    terms = guard.values if isinstance(guard, expr.BoolOp) and guard.op == "and" else (guard,)
+    for term in terms:
+        if isinstance(term, expr.Compare) and term.ops == ("==",):
+            pair = (term.left, term.comparators[0])
+            subs = [
+                r.owner for r in pair if isinstance(r, expr.Ref) and r.kind == RefKind.SUB_STATUS
+            ]
+            error = [r for r in pair if isinstance(r, expr.Ref) and r.kind == RefKind.STATUS]
+            if subs and error and error[0].name == "ERROR":
+                return subs[0]
+    return ""
+
+
+def cause_modules(system: CheckedSystem) -> list[str]:
+    """The modules a cause's link numbers (from 1): every module with buffers of its own,
+    in the system's order (the layout's CAUSE_MODULES)."""
+    return [name for name, c in system.controllers.items() if c.buffers == name]
+
+
 def reason_codes(spec: ControllerSpec) -> dict[str, int]:
     """A controller's reasons and their codes in `error_num`: NONE 0, LOST 1, then its
     declared reasons from 2 (none at all when it declares none)."""
@@ -665,6 +711,8 @@ def plan_layout(
             continue
         results = [_typed(f"result_{r.name}", r.type) for r in c.results]
         results += [_typed(name, INT) for p in c.plans for name in p.status_fields]
+        if c.cause:  # the chain of subordinates' errors its ERROR comes from (rcs/contract.py)
+            results.append(("cause", "Q", 0))
         parts = {
             "command": ([*_shape(COMMAND_HEAD_FIELDS), *params], "command in"),
             "status": ([*_shape(STATUS_FIELDS), *results], "status out"),

@@ -115,6 +115,7 @@ def inputs(c: ir.IRController, layout: ir.Layout, placement: Placement) -> ir.Ga
         # status_num and status, and the reason and results its guards read
         # (docs/semantics.md, "Results and reasons")
         read = {"error_num"} if sub.reasons else set()
+        read |= {"cause"} if sub.chained else set()  # its own cause, to chain (reasons survive)
         read |= {f"result_{r.name}" for r in sub.results}
         fields += [
             Field.of(s, f"self.{sub.name}_{s.name}")
@@ -189,6 +190,7 @@ def _slots(c: ir.IRController, targets: list[str]) -> tuple[str, ...]:
         slots += [f"self.{s.name}_status_num", f"self.{s.name}_status"]
         slots += [f"{s.name}_result_{r.name}" for r in s.results]
         slots += [f"{s.name}_error_num"] if s.reasons else []
+        slots += [f"{s.name}_cause"] if s.chained else []
         slots.append(f"{s.name}_written")
         if s.echo_cycles:
             slots.append(f"{s.name}_sent_at")
@@ -320,6 +322,8 @@ def _runtime_names(
         names.add("READ_TRIES")
     if c.subordinates:  # safe_state halts them and reports ERROR
         names |= {"ERROR", "NOP"}
+    if any(s.caused for s in c.subordinates):  # a rule records a subordinate's error as cause
+        names |= {"ERROR", "caused"}
     return names
 
 

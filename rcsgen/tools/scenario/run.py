@@ -169,6 +169,8 @@ def trace_line(harness: AnyHarness, world: list[str]) -> str:
         }
         if status.reason is not None:  # only modules that declare reasons
             modules[name]["reason"] = status.reason
+        if status.cause:  # only while an ERROR has a cause: goldens keep their other lines
+            modules[name]["cause"] = status.cause
         if status.results:  # every result slot of the module (docs/decisions.md)
             modules[name]["result"] = status.results
         if status.plans:  # modules with plans only: each plan's step, steps and replans left

@@ -1,4 +1,6 @@
-"""Coverage: traces + the IR -> which rules of which state tables fired, and which never did.
+"""Coverage: traces + the IR -> which rules of which state tables fired, and which never did,
+and the time each module spent in each state of each command (the second paper's support
+facility: % of execution time per state).
 
 Every table rule (INIT and HALT too) is counted; `every_cycle` rules are not, since the
 status buffer records only table rules. A module that ran as its stand-in (`simulate:`)
@@ -31,6 +33,9 @@ class Coverage:
     traces: list[str]
     rules: list[RuleCount]  # in the system's order: controller by controller, code order
     ran: dict[str, list[str]]  # controller -> the traces that ran it
+    # controller -> `COMMAND/STATE` (`idle` for NOP) -> cycles it was there, over all traces
+    states: dict[str, dict[str, int]] = field(default_factory=dict)
+    periods: dict[str, float] = field(default_factory=dict)  # controller -> its cycle period, s
 
     @property
     def fired(self) -> int:
@@ -50,10 +55,17 @@ def measure(system: IRSystem, traces: list[Trace]) -> Coverage:
             count = RuleCount(controller.name, str(rule.id), where, guard, rule.doc)
             counts[(controller.name, str(rule.id))] = count
     ran: dict[str, list[str]] = {c.name: [] for c in system.controllers}
+    states: dict[str, dict[str, int]] = {}
+    periods = {m: p.cycle_period for p in system.processes for m in p.modules}
     for trace in traces:
         process = check_against(system, trace)
         for module, table in runs_as(process, trace).items():
             ran[table].append(trace.name)
+            columns = trace.columns[module]
+            spent = states.setdefault(table, {})
+            for command, state in zip(columns["command"], columns["state"], strict=True):
+                where = "idle" if state == "NOP" else f"{command}/{state}"
+                spent[where] = spent.get(where, 0) + 1
             fired: dict[str, int] = {}
             for rule_id in trace.columns[module]["rule"]:
                 if rule_id is not None:
@@ -62,7 +74,13 @@ def measure(system: IRSystem, traces: list[Trace]) -> Coverage:
                 count = counts[(table, rule_id)]
                 count.cycles += cycles
                 count.traces.append(trace.name)
-    return Coverage(system.name, [t.name for t in traces], list(counts.values()), ran)
+    periods = {
+        c.name: periods.get(c.name, periods.get(c.buffers, system.cycle_period))
+        for c in system.controllers
+    }
+    return Coverage(
+        system.name, [t.name for t in traces], list(counts.values()), ran, states, periods
+    )
 
 
 def _percent(part: int, whole: int) -> str:
@@ -98,7 +116,29 @@ def to_text(coverage: Coverage) -> str:
             width = max(len(r.rule) for r in missed)
             for r in missed:
                 out.append(f"    {r.rule:<{width}}  {r.where}  {r.guard}")
+    out += time_per_state(coverage)
     return "\n".join(out) + "\n"
+
+
+def time_per_state(coverage: Coverage) -> list[str]:
+    """Per module that ran, each state it spent cycles in (most first): the cycles, the
+    seconds at its cycle period, and the share of the module's traced cycles. A cycle
+    counts for the state a trace line shows, the one the module is in after that cycle."""
+    out = ["", "time per state (cycles, seconds, share of the module's traced cycles):"]
+    width = max((len(s) for spent in coverage.states.values() for s in spent), default=0)
+    for module in coverage.modules():
+        spent = coverage.states.get(module)
+        if not spent:
+            continue
+        total = sum(spent.values())
+        period = coverage.periods.get(module, 0.0)
+        out.append(f"  {module}")
+        for where, cycles in sorted(spent.items(), key=lambda item: (-item[1], item[0])):
+            seconds = f"{cycles * period:.1f} s"
+            out.append(
+                f"    {where:<{width}}  {cycles:>7}  {seconds:>9}  {_percent(cycles, total):>6}"
+            )
+    return out
 
 
 def to_json(coverage: Coverage) -> str:
@@ -112,6 +152,13 @@ def to_json(coverage: Coverage) -> str:
             {
                 "module": module,
                 "ran_in": coverage.ran[module],
+                "time_per_state": {
+                    where: {
+                        "cycles": cycles,
+                        "seconds": round(cycles * coverage.periods.get(module, 0.0), 6),
+                    }
+                    for where, cycles in coverage.states.get(module, {}).items()
+                },
                 "rules": [
                     {
                         "rule": r.rule,

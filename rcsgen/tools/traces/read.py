@@ -28,6 +28,9 @@ FIELDS = ("command", "command_num", "status", "status_num", "state", "rule")
 # Only for modules that declare them, on every line or none: the reason's name and the
 # result slots ({name: value}).
 OPTIONAL = ("reason", "result")
+# Only on the lines where a module with reasons is in ERROR with a cause (what it was passed
+# up from, docs/semantics.md "Reasons survive"): a column of those modules, '' elsewhere.
+SPARSE = "cause"
 
 
 class TraceError(Exception):
@@ -183,7 +186,11 @@ def _append(trace: Trace, record: dict[str, Any], where: str, texts: dict[str, s
     if not cycles:  # the first line says which modules, optional fields and world fields
         trace.modules = sorted(found)
         trace.columns = {
-            m: {f: [] for f in (*FIELDS, *(o for o in OPTIONAL if o in found[m]))}
+            m: {
+                f: []
+                for f in (*FIELDS, *(o for o in OPTIONAL if o in found[m]))
+                + ((SPARSE,) if "reason" in found[m] else ())
+            }
             for m in trace.modules
         }
         trace.world = {name: [] for name in sorted(record.get("world") or {})}
@@ -207,7 +214,7 @@ def _append_module(
     where: str,
     texts: dict[str, str],
 ) -> None:
-    missing = [f for f in columns if f not in values]
+    missing = [f for f in columns if f not in values and f != SPARSE]
     if missing:
         raise TraceError(f"{where}: module {module} has no `{missing[0]}`")
     extra = [f for f in OPTIONAL if f in values and f not in columns]
@@ -217,15 +224,18 @@ def _append_module(
         )
     if "result" in values and not isinstance(values["result"], dict):
         raise TraceError(f"{where}: module {module}'s `result` is not an object")
+    if SPARSE in values and SPARSE not in columns:
+        raise TraceError(f"{where}: module {module} has a `{SPARSE}` but declares no reasons")
     for name in columns:
-        columns[name].append(_one(texts, values[name]))
+        columns[name].append(_one(texts, values.get(name, "")))
 
 
 def status_text(column: dict[str, list[Any]], i: int) -> str:
     """A module's status at cycle index `i` as a person reads it: `ERROR(REFUSED)` when it
     is in ERROR for a reason, the bare status otherwise."""
     reason = column["reason"][i] if "reason" in column else None
-    return contract.status_text(str(column["status"][i]), reason)
+    cause = column[SPARSE][i] if SPARSE in column else ""
+    return contract.status_text(str(column["status"][i]), reason, str(cause))
 
 
 # ---------------------------------------------------------------- a trace beside its specs

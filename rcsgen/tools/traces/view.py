@@ -101,10 +101,17 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
                 "runs_as": lane.runs_as if lane.runs_as != lane.module else "",
                 "command": runs(col["command"], col["command_num"], table),
                 "status": runs(
-                    list(zip(col["status"], col.get("reason") or repeat(None), strict=False)),
+                    list(
+                        zip(
+                            col["status"],
+                            col.get("reason") or repeat(None),
+                            col.get("cause") or repeat(""),
+                            strict=False,
+                        )
+                    ),
                     col["status_num"],
                     table,
-                    lambda pair: contract.status_text(str(pair[0]), pair[1]),
+                    lambda row: contract.status_text(str(row[0]), row[1], str(row[2])),
                 ),
                 "state": runs(col["state"], None, table),
                 "rules": [x for pair in fired for x in pair],

@@ -43,6 +43,7 @@ from ..contract import (
     RUNNING,
     STATUS_NAMES,
     StaleRead,
+    cause_text,
     enum_name,
     plan_slots,
     reason_name,
@@ -342,6 +343,9 @@ class Console:
                 reason = reason_name(layout, name, row["status"], int(status["error_num"]))
                 if reason is not None:  # a module that declares reasons
                     row["reason"] = reason
+                cause = cause_text(layout, int(status.get("cause", 0)))
+                if cause and row["status"] == "ERROR":  # what its ERROR was passed up from
+                    row["cause"] = cause
                 row["state"] = _name(layout.STATE_NAMES[runs], int(status["state"]))
                 results = result_values(layout, name, status)
                 if results:
@@ -714,7 +718,7 @@ def render(snapshot: dict[str, Any]) -> list[str]:
                 name,
                 str(row.get("command", "?")),
                 str(row.get("command_num", "?")),
-                status_text(str(row.get("status", "?")), row.get("reason")),
+                status_text(str(row.get("status", "?")), row.get("reason"), row.get("cause", "")),
                 str(row.get("status_num", "?")),
                 str(row.get("state", "?")),
                 str(row.get("rule") or "-"),
