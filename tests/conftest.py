@@ -246,7 +246,6 @@ def nothing_left_behind(request: pytest.FixtureRequest):
     assert not survivors, f"child processes survived the suite: {survivors}"
 
 
-
 def _parallel_controller(config: pytest.Config) -> bool:
     """The pytest-xdist controller of a parallel run (it runs no test itself)."""
     return not _xdist_worker(config) and getattr(config.option, "dist", "no") != "no"
