@@ -546,10 +546,10 @@ def test_the_analysis_sees_through_let_functions_and_conditionals(tmp_path: Path
     ]
 
 
-def test_a_comparison_beyond_intervals_is_reported_undecidable_not_wrong(spec) -> None:  # noqa: F811
-    """A function the analysis cannot reason about (min/max of a variable) leaves the
-    question open: W502 for the overlap, and no W503 for a wait it cannot show; never a
-    made-up counter-example."""
+def test_a_comparison_through_min_is_decided_exactly(spec) -> None:  # noqa: F811
+    """min/max of a variable are decided exactly (issue 26 item 4): `min(level, 5) > 3`
+    and `level < 2` never hold at once (no W502), and the gap between them, where no rule
+    fires, is a wait (W503) shown with a level in it."""
     diags = spec(
         """
         GO:
@@ -568,7 +568,8 @@ def test_a_comparison_beyond_intervals_is_reported_undecidable_not_wrong(spec) -
             body: min(v, 5.0)
         """,
     )
-    assert [d.code for d in diags] == ["W502"]
+    assert [d.code for d in diags] == ["W503"]
+    assert "world.level" in diags[0].message, diags[0].message
 
 
 @pytest.mark.parametrize("fixture", ["timed", "results", "expressions"])

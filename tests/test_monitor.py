@@ -330,10 +330,11 @@ def test_the_devices_panel_shows_each_device_up_then_lost_with_its_counts(
                     lambda: (
                         [cell(app, d, "state") for d in ("tank", "pumps")] == ["up", "up"]
                         and int(cell(app, "tank", "reads")) > 0
+                        and int(cell(app, "pumps", "writes")) > 0
                     ),
-                    "both devices up",
+                    "both devices up, the tank read and the pumps written",
                 )
-                assert int(cell(app, "pumps", "writes")) > 0 and cell(app, "pumps", "reads") == "0"
+                assert cell(app, "pumps", "reads") == "0", "the pumps device has outputs only"
                 up = screen_text(app)
                 plcs["tank"].popen.send_signal(signal.SIGSTOP)
                 await until(pilot, lambda: cell(app, "tank", "state") == "lost", "tank lost")

@@ -16,9 +16,12 @@ import gc
 import os
 from collections.abc import Callable, Mapping
 
+from .contract import shared
+
 MCL_CURRENT, MCL_FUTURE = 1, 2  # mlockall(2)
 
 
+@shared
 class RealtimeRefused(Exception):
     """A `required` real-time setting was refused: the process does not run."""
 
