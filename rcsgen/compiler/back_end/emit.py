@@ -252,8 +252,19 @@ def _render_layout(system: ir.IRSystem, env: jinja2.Environment) -> str:
         ],
         channels_of={c.name: c.channels for c in system.controllers},
         world_writers=system.actuated_by,
+        writers_of=_writers_of(system),
         factories=any(c.hooks_state for c in system.controllers),
     )
+
+
+def _writers_of(system: ir.IRSystem) -> dict[str, list[str]]:
+    """The modules that write each world field, in the system's order of controllers (one
+    pass: asking every controller about every field grew as their product)."""
+    found: dict[str, list[str]] = {}
+    for c in system.controllers:
+        for w in c.world_writes:
+            found.setdefault(w.name, []).append(c.name)
+    return found
 
 
 def _enum_fields(system: ir.IRSystem) -> list[tuple[str, str, tuple[str, ...]]]:
