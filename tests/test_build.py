@@ -16,6 +16,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tempfile
 from importlib import resources
 from pathlib import Path
 
@@ -531,3 +532,37 @@ def test_pip_install_gives_a_working_rcsgen(tmp_path: Path, pristine: dict[str, 
     )
     assert done.returncode == 0, done.stderr
     assert snapshot(tmp_path / "out") == pristine
+
+
+def _scratch_dirs() -> set[str]:
+    from rcsgen.compiler.back_end.emit import scratch_root
+
+    root = Path(scratch_root() or tempfile.gettempdir())
+    return {p.name for p in root.glob("rcsgen-fmt-*")}
+
+
+def test_the_formatter_formats_every_path_and_leaves_no_scratch() -> None:
+    """One ruff run over flat scratch files: a generated file under a directory ruff would
+    skip by default (`build/`, `venv/`) is formatted like any other, each text comes back
+    under its own path, and the scratch directory is gone afterwards."""
+    from rcsgen.compiler.back_end.emit import format_files
+
+    before = _scratch_dirs()
+    files = {"s/build/a.py": "x=1\n", "s/venv/b.py": "y  =  [1,2]\n", "s/c.py": "z=3\n"}
+    assert format_files(files) == {
+        "s/build/a.py": "x = 1\n",
+        "s/c.py": "z = 3\n",
+        "s/venv/b.py": "y = [1, 2]\n",
+    }
+    assert _scratch_dirs() <= before
+
+
+def test_a_formatter_failure_names_the_generated_file() -> None:
+    """A generated file ruff cannot parse (a template bug) is named by its own path in the
+    error, not by its scratch name, and the scratch directory is removed all the same."""
+    from rcsgen.compiler.back_end.emit import format_files
+
+    before = _scratch_dirs()
+    with pytest.raises(RuntimeError, match=r"miner/broken\.py:1:5"):
+        format_files({"miner/fine.py": "x = 1\n", "miner/broken.py": "def (:\n"})
+    assert _scratch_dirs() <= before

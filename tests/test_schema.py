@@ -408,3 +408,104 @@ def test_a_use_of_a_fragment_is_a_state_for_editors_and_a_mistyped_one_is_flagge
     single = check(use.replace("{use: ask, with: {task: place}}", "{do: [report: DONE]}"))
     single = only(single, "S003")
     assert single.span.line == 6
+
+
+# ---------------------------------------------------------------- the compiled checks
+
+
+@pytest.mark.parametrize("kind", ["system", "controller", "operator", "scenario", "template"])
+def test_every_schema_compiles_to_the_fast_check(kind):
+    """A schema the compiled checks cannot take falls back to jsonschema alone (correct but
+    slow): every shipped schema must compile, or a build loses its speed unnoticed."""
+    from rcsgen.compiler.front_end.schema import fast_check
+
+    assert fast_check(kind) is not None
+
+
+def test_the_fast_check_refuses_a_keyword_it_does_not_implement():
+    from rcsgen.compiler.front_end.schema_fast import Unsupported, compile_schema
+
+    with pytest.raises(Unsupported, match="patternProperties"):
+        compile_schema({"type": "object", "patternProperties": {"^x": {"type": "string"}}})
+    with pytest.raises(Unsupported, match=r"\$ref"):
+        compile_schema({"$ref": "other.json#/x"})
+
+
+@pytest.mark.parametrize(
+    ("schema", "value", "valid"),
+    [
+        ({"type": "integer"}, True, False),  # YAML's `true` is not an int
+        ({"type": "integer"}, 3.0, False),  # nor is 3.0 (YAML tells them apart)
+        ({"type": "number"}, False, False),
+        ({"const": 1}, True, False),
+        ({"const": 1}, 1.0, True),
+        ({"enum": [0, "a"]}, False, False),
+        ({"uniqueItems": True}, [1, True], True),
+        ({"uniqueItems": True}, [1, 1.0], False),
+        ({"minimum": 0}, "text", True),  # a bound applies to numbers only
+        ({"pattern": "b"}, "abc", True),  # search, not match
+        ({"oneOf": [{"type": "number"}, {"type": "integer"}]}, 3, False),
+        ({"if": {"required": ["a"]}, "then": {"required": ["b"]}}, {"a": 1}, False),
+        ({"properties": {"a": True}, "additionalProperties": False}, {"a": 1, "b": 2}, False),
+        ({"dependentRequired": {"a": ["b"]}}, {"a": 1}, False),
+        ({"$defs": {"n": {"items": {"$ref": "#/$defs/n"}}}, "$ref": "#/$defs/n"}, [[[]]], True),
+    ],
+)
+def test_the_fast_check_agrees_with_jsonschema_on_edge_cases(schema, value, valid):
+    from rcsgen.compiler.front_end.schema import _Validator
+    from rcsgen.compiler.front_end.schema_fast import compile_schema
+
+    assert _Validator(schema).is_valid(value) is valid
+    assert compile_schema(schema)(value) is valid
+
+
+def _plain(node):
+    if isinstance(node, dict):
+        return {key: _plain(value) for key, value in node.items()}
+    return [_plain(value) for value in node] if isinstance(node, list) else node
+
+
+def _paths(node, path=()):
+    yield path
+    items = node.items() if isinstance(node, dict) else ()
+    items = enumerate(node) if isinstance(node, list) else items
+    for step, value in items:
+        yield from _paths(value, (*path, step))
+
+
+_ODD_VALUES = [1, True, None, "X", "ON", [], {}, 1.5, -1, 0, "a b", ["X"], {"zz_unknown": 1}]
+
+
+def test_the_fast_check_agrees_with_jsonschema_on_mutated_examples():
+    """Differential: every shipped spec and scenario, mutated at random (a value replaced, a
+    key or item removed, an unknown key added, an item repeated); the compiled check and
+    jsonschema must give the same verdict on each, valid and invalid alike."""
+    import copy
+    import random
+
+    from rcsgen.compiler.front_end.schema import _validator, fast_check
+
+    documents = [(_plain(load_text(p.read_text("utf-8"), p.name)), kind_of(p)) for p in EXAMPLES]
+    documents += [(_plain(load_text(p.read_text("utf-8"), p.name)), "scenario") for p in SCENARIOS]
+    rng = random.Random(24)
+    verdicts = {True: 0, False: 0}
+    for _ in range(160):
+        document, kind = rng.choice(documents)
+        mutant = copy.deepcopy(document)
+        *where, last = rng.choice(list(_paths(mutant))[1:])
+        parent = mutant
+        for step in where:
+            parent = parent[step]
+        operation = rng.randrange(4)
+        if operation == 0:
+            parent[last] = copy.deepcopy(rng.choice(_ODD_VALUES))
+        elif operation == 1:
+            del parent[last]
+        elif isinstance(parent, dict):
+            parent[f"zz_{rng.randrange(3)}"] = copy.deepcopy(rng.choice(_ODD_VALUES))
+        else:
+            parent.append(copy.deepcopy(parent[last]))
+        expected = _validator(kind).is_valid(mutant)
+        assert fast_check(kind)(mutant) is expected, (kind, where, last, operation)
+        verdicts[expected] += 1
+    assert min(verdicts.values()) >= 30, verdicts  # both verdicts exercised

@@ -109,6 +109,11 @@ class Layout:
     override_fields: tuple[Buffer, ...] = ()
     io: dict[str, Buffer] = field(default_factory=dict)  # each I/O device's record, last
 
+    @cached_property
+    def world_by_name(self) -> dict[str, Buffer]:
+        """Each world field's buffer by the field's name (made once: every module asks)."""
+        return {b.fields[0].name: b for b in self.world}
+
     def handshake(self, module: str, client: str) -> tuple[Buffer, Buffer]:
         """The command and status buffers through which `client` commands `module`: the
         module's own, or an operator module's channel to that client."""

@@ -253,8 +253,19 @@ def _render_layout(system: ir.IRSystem, env: jinja2.Environment) -> str:
         channels_of={c.name: c.channels for c in system.controllers},
         cause_modules=[c.name for c in owners],
         world_writers=system.actuated_by,
+        writers_of=_writers_of(system),
         factories=any(c.hooks_state for c in system.controllers),
     )
+
+
+def _writers_of(system: ir.IRSystem) -> dict[str, list[str]]:
+    """The modules that write each world field, in the system's order of controllers (one
+    pass: asking every controller about every field grew as their product)."""
+    found: dict[str, list[str]] = {}
+    for c in system.controllers:
+        for w in c.world_writes:
+            found.setdefault(w.name, []).append(c.name)
+    return found
 
 
 def _enum_fields(system: ir.IRSystem) -> list[tuple[str, str, tuple[str, ...]]]:
@@ -334,24 +345,41 @@ def ruff_binary() -> str:
         return str(Path(sys.executable).with_name("ruff"))
 
 
+def scratch_root() -> str | None:
+    """Where the formatter's scratch files go: a memory-backed filesystem when there is one
+    we may write (writing 1,000 files to a disk and removing them took seconds), else the
+    system's temporary directory."""
+    shm = "/dev/shm"
+    return shm if os.path.isdir(shm) and os.access(shm, os.W_OK | os.X_OK) else None
+
+
 def format_files(files: dict[str, str]) -> dict[str, str]:
-    """Format every file with the pinned ruff, in one run over a scratch directory."""
-    with tempfile.TemporaryDirectory(prefix="rcsgen-fmt-") as scratch:
-        base = Path(scratch)
-        for rel, text in files.items():
-            path = base / rel
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text, encoding="utf-8")
+    """Format every file with the pinned ruff, in one run over a flat scratch directory (one
+    file per input, named by its index: no tree to make, and no generated path a formatter
+    would skip as a build or virtualenv directory)."""
+    names = sorted(files)
+    with tempfile.TemporaryDirectory(prefix="rcsgen-fmt-", dir=scratch_root()) as scratch:
+        scratch_names = [f"{index:05d}{Path(rel).suffix}" for index, rel in enumerate(names)]
+        for rel, name in zip(names, scratch_names, strict=True):
+            with open(os.path.join(scratch, name), "w", encoding="utf-8") as out:
+                out.write(files[rel])
         done = subprocess.run(
-            [ruff_binary(), *RUFF_FORMAT_ARGS, "--quiet", "."],
-            cwd=base,
+            [ruff_binary(), *RUFF_FORMAT_ARGS, "."],  # not --quiet: it hides parse errors
+            cwd=scratch,
             capture_output=True,
             text=True,
             check=False,
         )
         if done.returncode != 0:
-            raise RuntimeError(f"ruff could not format the generated code:\n{done.stderr}")
-        return {rel: (base / rel).read_text(encoding="utf-8") for rel in sorted(files)}
+            problems = done.stderr
+            for rel, name in zip(names, scratch_names, strict=True):
+                problems = problems.replace(name, rel)
+            raise RuntimeError(f"ruff could not format the generated code:\n{problems}")
+        formatted = {}
+        for rel, name in zip(names, scratch_names, strict=True):
+            with open(os.path.join(scratch, name), encoding="utf-8") as source:
+                formatted[rel] = source.read()
+        return formatted
 
 
 def render_all(systems: list[ir.IRSystem]) -> dict[str, str]:

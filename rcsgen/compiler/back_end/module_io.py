@@ -124,7 +124,7 @@ def inputs(c: ir.IRController, layout: ir.Layout, placement: Placement) -> ir.Ga
         ]
         if placement.process_of[sub.name] != here:
             fields.append(Field(status.offset, "Q", None))
-    by_name = {b.fields[0].name: b for b in layout.world}
+    by_name = layout.world_by_name
     for f in c.world_reads:
         buffer = by_name[f.name]
         fields.append(Field.of(buffer.fields[0], f"self.world_{f.name}"))
@@ -138,7 +138,7 @@ def world_outputs(c: ir.IRController, layout: ir.Layout) -> tuple[ir.WorldRun, .
     (each its sequence word and value; only alignment padding lies between them, so packing
     never touches anyone else's field), with the layout's names of their buffers' offsets
     (where each sequence word is stored on its own)."""
-    by_name = {b.fields[0].name: b for b in layout.world}
+    by_name = layout.world_by_name
     buffers = sorted((by_name[f.name] for f in c.world_writes), key=lambda b: b.offset)
     runs: list[list[ir.Buffer]] = []
     for buffer in buffers:
