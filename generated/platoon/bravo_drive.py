@@ -74,6 +74,7 @@ class BravoDriveController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "var_steering",
         "world_bravo_brake",
         "world_bravo_steer",
         "world_bravo_throttle",
@@ -84,6 +85,7 @@ class BravoDriveController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.world_set = False  # an every_cycle rule set a world output
+        self.var_steering: bool = True
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -235,11 +237,12 @@ class BravoDriveController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        # keep to the corridor's centre line
-        self.world_set = True  # it sets world outputs
-        self.world_bravo_steer = max(
-            -STEER_LIMIT, min(STEER_LIMIT, STEER_GAIN * (CORRIDOR_Y - self.world_bravo_y))
-        )
+        if self.var_steering:
+            # keep to the corridor's centre line (not after HALT)
+            self.world_set = True  # it sets world outputs
+            self.world_bravo_steer = max(
+                -STEER_LIMIT, min(STEER_LIMIT, STEER_GAIN * (CORRIDOR_Y - self.world_bravo_y))
+            )
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -250,12 +253,14 @@ class BravoDriveController:
             self.status = DONE
 
     def halt(self) -> None:
-        """HALT: Close the throttle and brake."""
+        """HALT: Close the throttle and brake, centre the steering and hold it there."""
         state = self.state
         if state == S0:
             self.rule = 2  # HALT/S0/1
             self.world_bravo_throttle = 0.0
             self.world_bravo_brake = True
+            self.world_bravo_steer = 0.0
+            self.var_steering = False
             self.state = NOP
             self.status = DONE
 
@@ -266,6 +271,7 @@ class BravoDriveController:
             self.rule = 3  # SPEED/S0/1
             self.world_bravo_throttle = self.arg_throttle
             self.world_bravo_brake = False
+            self.var_steering = True
             self.state = NOP
             self.status = DONE
 
@@ -276,5 +282,6 @@ class BravoDriveController:
             self.rule = 4  # STOP/S0/1
             self.world_bravo_throttle = 0.0
             self.world_bravo_brake = True
+            self.var_steering = True
             self.state = NOP
             self.status = DONE

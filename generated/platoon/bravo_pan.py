@@ -217,11 +217,11 @@ class BravoPanController:
             self.status = DONE
 
     def halt(self) -> None:
-        """HALT: Hold the sensor head where it is."""
+        """HALT: Order the sensor head to its safe bearing (0, the axis of advance)."""
         state = self.state
         if state == S0:
             self.rule = 2  # HALT/S0/1
-            self.world_bravo_pan_cmd = self.world_bravo_pan
+            self.world_bravo_pan_cmd = 0.0
             self.state = NOP
             self.status = DONE
 

@@ -79,7 +79,9 @@ B_BOUNDS = 4
 CONTACT = 5
 A_ALONE = 6
 B_ALONE = 7
-WATCH = 8
+A_LOST = 8
+B_LOST = 9
+WATCH = 10
 
 # Constants.
 LEAD = 300.0
@@ -631,12 +633,13 @@ class SecController:
 
         elif state == A_ALONE:
             if self.alpha_status == ERROR:
+                # stop what Alpha's ERROR may have left moving below it, then report
                 self.rule = 21  # SC_EST_OBS/A_ALONE/1
+                self.state = A_LOST
                 # alpha's error: the cause of an ERROR this command reports
                 self.cause = caused(ALPHA_LINK, self.alpha_error_num, self.alpha_cause)
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_BOTH_LOST
+                self.alpha_command = ALPHA_HALT
+                self.alpha_command_num += 1
 
             elif self.alpha_status == DONE and self.world_alpha_x >= self.arg_objective - THERE:
                 self.rule = 22  # SC_EST_OBS/A_ALONE/2
@@ -652,12 +655,13 @@ class SecController:
 
         elif state == B_ALONE:
             if self.bravo_status == ERROR:
+                # stop what Bravo's ERROR may have left moving below it, then report
                 self.rule = 24  # SC_EST_OBS/B_ALONE/1
+                self.state = B_LOST
                 # bravo's error: the cause of an ERROR this command reports
                 self.cause = caused(BRAVO_LINK, self.bravo_error_num, self.bravo_cause)
-                self.state = NOP
-                self.status = ERROR
-                self.error_num = REASON_BOTH_LOST
+                self.bravo_command = BRAVO_HALT
+                self.bravo_command_num += 1
 
             elif self.bravo_status == DONE and self.world_bravo_x >= self.arg_objective - THERE:
                 self.rule = 25  # SC_EST_OBS/B_ALONE/2
@@ -671,13 +675,25 @@ class SecController:
                 self.bravo_command = BRAVO_GOTO
                 self.bravo_command_num += 1
 
+        elif state == A_LOST and self.alpha_status != EXECUTING:
+            self.rule = 27  # SC_EST_OBS/A_LOST/1
+            self.state = NOP
+            self.status = ERROR
+            self.error_num = REASON_BOTH_LOST
+
+        elif state == B_LOST and self.bravo_status != EXECUTING:
+            self.rule = 28  # SC_EST_OBS/B_LOST/1
+            self.state = NOP
+            self.status = ERROR
+            self.error_num = REASON_BOTH_LOST
+
     def overwatch(self) -> None:
         """OVERWATCH: The updated mission (step 20): remain in overwatch positions and report enemy
         activity; DONE after a reporting period, with the last report.
         """
         state = self.state
         if state == S0:
-            self.rule = 27  # OVERWATCH/S0/1
+            self.rule = 29  # OVERWATCH/S0/1
             self.state = WATCH
             self.alpha_command = ALPHA_OVERWATCH
             self.alpha_command_num += 1
@@ -687,7 +703,7 @@ class SecController:
 
         elif state == WATCH:
             if self.alpha_status == ERROR and self.bravo_status == ERROR:
-                self.rule = 28  # OVERWATCH/WATCH/1
+                self.rule = 30  # OVERWATCH/WATCH/1
                 # alpha's error: the cause of an ERROR this command reports
                 self.cause = caused(ALPHA_LINK, self.alpha_error_num, self.alpha_cause)
                 self.state = NOP
@@ -695,13 +711,13 @@ class SecController:
                 self.error_num = REASON_BOTH_LOST
 
             elif self.ticks >= 60:  # after: 60 cycles = 60 cycles
-                self.rule = 29  # OVERWATCH/WATCH/2
+                self.rule = 31  # OVERWATCH/WATCH/2
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
             elif self.alpha_status == DONE:
-                self.rule = 30  # OVERWATCH/WATCH/3
+                self.rule = 32  # OVERWATCH/WATCH/3
                 self.alpha_command = ALPHA_OVERWATCH
                 self.alpha_command_num += 1
                 self.result_enemy_x = self.alpha_result_enemy_x
@@ -709,7 +725,7 @@ class SecController:
                 self.result_reports = self.var_reports + 1
 
             elif self.bravo_status == DONE:
-                self.rule = 31  # OVERWATCH/WATCH/4
+                self.rule = 33  # OVERWATCH/WATCH/4
                 self.bravo_command = BRAVO_OVERWATCH
                 self.bravo_command_num += 1
                 self.result_enemy_x = self.bravo_result_enemy_x
