@@ -443,7 +443,9 @@ class HelmController:
 
         elif state == S1:
             self.held_ice_maneuver_s1_1 = (
-                self.held_ice_maneuver_s1_1 + 1 if self.var_ice_seen != 0 else 0
+                self.held_ice_maneuver_s1_1 + 1
+                if self.var_ice_seen != 0 and self.rudder_status != ERROR
+                else 0
             )
             if self.held_ice_maneuver_s1_1 > 5:  # for: 5 s = 5 cycles
                 # Evt1 the ice problem persists beyond the persistence time; avoid ice
@@ -458,6 +460,7 @@ class HelmController:
             elif (
                 abs(course_error) > COURSE_TOL
                 and abs(rudder_order - self.var_sent_angle) > DEADBAND
+                and self.rudder_status != ERROR
             ):
                 # Evt5 course error detected; order the rudder angle
                 self.rule = 7  # ICE_MANEUVER/S1/2
@@ -467,7 +470,11 @@ class HelmController:
                 self.var_sent_angle = rudder_order
                 self.result_at_goal = False
 
-            elif abs(course_error) <= COURSE_TOL and self.var_sent_angle != 0.0:
+            elif (
+                abs(course_error) <= COURSE_TOL
+                and self.var_sent_angle != 0.0
+                and self.rudder_status != ERROR
+            ):
                 # Evt4 course error in tolerance, rudder not centred; order zero rudder
                 self.rule = 8  # ICE_MANEUVER/S1/3
                 self.rudder_arg_angle = 0.0
@@ -485,6 +492,7 @@ class HelmController:
                 self.result_at_goal = True
 
             elif self.rudder_status == ERROR:
+                # a rudder ERROR wins over a new order (the orders above wait for it)
                 self.rule = 10  # ICE_MANEUVER/S1/5
                 # rudder's error: the cause of an ERROR this command reports
                 self.cause = caused(RUDDER_LINK, 0, 0)
