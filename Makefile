@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint typecheck check build clean fuzz bench mutate mutate-templates complexity
+.PHONY: run test lint typecheck prove check build clean fuzz bench mutate mutate-templates complexity
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -54,7 +54,12 @@ build: $(STAMP)
 
 # What CI runs, plus lint, the type check and the checks that generated/ and the generated
 # reference (docs/reference/) are current.
-check: lint typecheck test
+# Every shipped system's running-hierarchy properties (rcsgen prove, about 7 s): a violated
+# or undecided finding that no `allow:` acknowledges with its reason fails, before the tests.
+prove: $(STAMP)
+	$(VENV)/bin/rcsgen prove specs/ --strict -q
+
+check: lint typecheck prove test
 	$(VENV)/bin/rcsgen build specs/ --check --strict
 	$(VENV)/bin/rcsgen doc specs/ --check
 
