@@ -10,6 +10,7 @@ survivor goes on alone, driven by the section's own rules; nothing halts the sys
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import itertools
 import json
@@ -23,7 +24,8 @@ from typing import Any
 import pytest
 from conftest import wait_for
 
-from rcsgen.tools.harness import import_package
+from rcsgen.tools.harness import Harness, import_package
+from rcsgen.tools.scenario import load_scenario, open_harness, run
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "generated" / "platoon"
@@ -220,3 +222,59 @@ def test_the_monitor_puts_each_instance_under_its_supervisor(package: ModuleType
     assert list(rows)[:5] == ["pl", "sec", "alpha", "alpha_loco", "alpha_drive"]
     assert rows["alpha"] == "   ├─ " and rows["bravo"] == "   └─ "
     assert rows["bravo_loco"] == "      ├─ " and rows["bravo_pan"] == "         └─ "
+
+
+def test_a_halted_vehicle_holds_every_actuator_at_its_safe_value() -> None:
+    """lost_vehicle: the section halts Bravo (mobility kill). From the cycle its drive and pan
+    servos read that HALT, all four of Bravo's actuators are at their safe values and stay
+    there (drive centres and stops steering, pan orders bearing 0), while Alpha steers on."""
+    scenario = load_scenario(SPECS / "scenarios" / "lost_vehicle.yaml")
+    fields = [f"{v}_{name}" for v in ("alpha", "bravo") for name in SAFE]
+    scenario = dataclasses.replace(scenario, trace_world=fields)
+    harness = open_harness(scenario, PACKAGE)
+    try:
+        lines = [json.loads(line) for line in run(scenario, harness).trace]
+    finally:
+        harness.close()
+    halted = [
+        line["cycle"]
+        for line in lines
+        if line["modules"]["bravo_drive"]["command"] == "HALT"
+        and line["modules"]["bravo_pan"]["command"] == "HALT"
+    ]
+    assert halted, "the section never halted Bravo's servos"
+    before = [line for line in lines if line["cycle"] < halted[0]]
+    after = [line for line in lines if line["cycle"] >= halted[0]]
+    # Before the HALT Bravo steered and pointed its sensor: the check below can fail.
+    assert any(line["world"]["bravo_steer"] != 0.0 for line in before)
+    assert any(line["world"]["bravo_pan_cmd"] != 0.0 for line in before)
+    for line in after:
+        for name, safe in SAFE.items():
+            assert line["world"][f"bravo_{name}"] == safe, (line["cycle"], name)
+    assert any(line["world"]["alpha_steer"] != 0.0 for line in after), "Alpha stopped steering"
+
+
+def test_the_last_vehicle_erring_is_halted_before_the_section_reports_both_lost() -> None:
+    """Bravo lost, Alpha alone; then Alpha's ERROR: the section sends Alpha HALT (whatever its
+    ERROR left moving below it) and reports ERROR BOTH_LOST only on the HALT's echo."""
+    harness = Harness.load(PACKAGE, hooks_dir=SPECS)
+    try:
+        harness.command("sec", "SC_EST_OBS", objective=1200.0)
+        harness.step("sec")  # S0: Alpha bounds, Bravo watches
+        harness.reply("bravo", "ERROR")
+        harness.step("sec")
+        assert harness.status("sec").state == "A_ALONE"
+        goto = harness.sent("alpha")
+        harness.reply("alpha", "ERROR")
+        harness.step("sec")
+        halt = harness.sent("alpha")
+        assert halt.command == "HALT" and halt.number == goto.number + 1
+        assert harness.status("sec").status == "EXECUTING"  # waits for the HALT's echo
+        harness.step("sec")
+        assert harness.status("sec").status == "EXECUTING"
+        harness.reply("alpha", "DONE")
+        harness.step("sec")
+        status = harness.status("sec")
+        assert (status.status, status.reason) == ("ERROR", "BOTH_LOST")
+    finally:
+        harness.close()

@@ -405,3 +405,26 @@ def test_a_malformed_route_or_keel_line_is_named_with_its_line(hooks, tmp_path):
     keels.write_text("1 2 nan\n", encoding="utf-8")
     with pytest.raises(ValueError, match=r"k\.keels:1:"):
         sim.load_keels(keels)
+
+
+def test_helm_reports_a_rudder_error_instead_of_ordering_the_rudder_again() -> None:
+    """A rudder ERROR wins over a new order (helm.yaml): in the cycle helm reads the rudder's
+    ERROR while the course error has changed by more than the deadband (Evt5 would re-order),
+    helm reports ERROR and sends the rudder nothing new (it used to send GOTO_ANGLE again,
+    replacing the erred order, and the ERROR was lost)."""
+    harness = Harness.load(ROOT / "generated" / "submarine", hooks_dir=SUBMARINE)
+    try:
+        harness.world.update({"pos_x": 0.0, "pos_y": 0.0, "heading": 0.0})
+        harness.command("helm", "ICE_MANEUVER", x=0.0, y=10000.0)  # due north: course 0
+        harness.step("helm")  # S0: the course
+        harness.world.update({"heading": -10.0})
+        harness.step("helm")  # Evt5: 10 degrees off, order 15 degrees of rudder
+        first = harness.sent("rudder")
+        assert (first.command, first.args) == ("GOTO_ANGLE", {"angle": 15.0})
+        harness.reply("rudder", "ERROR")
+        harness.world.update({"heading": -5.0})  # Evt5 holds again: order 7.5 degrees
+        harness.step("helm")
+        assert harness.status("helm").status == "ERROR"
+        assert harness.sent("rudder") == first, "helm ordered the rudder after its ERROR"
+    finally:
+        harness.close()
