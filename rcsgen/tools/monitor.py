@@ -172,6 +172,8 @@ class Monitor(App[None]):
         try:
             table = self.query_one("#modules", DataTable)
             world = self.query_one("#world", DataTable)
+            processes = self.query_one("#processes", Static)
+            requests = self.query_one("#requests", Static)
         except NoMatches:  # the app is shutting down: its widgets are gone
             return
         for module, prefix in self.rows:
@@ -191,7 +193,7 @@ class Monitor(App[None]):
                 f"beat {'-' if age is None else f'{age:.2f}s'} ago, {proc.get('overruns')} "
                 f"overruns, slow x{proc.get('slow', 1.0):g}"
             )
-        self.query_one("#processes", Static).update("   ".join(lines))
+        processes.update("   ".join(lines))
         for panel in self.query(DevicesPanel):
             panel.show(snapshot.get("io") or {})
         self.open_requests = snapshot["requests"]
@@ -201,7 +203,7 @@ class Monitor(App[None]):
             else f"{r['by']} asks: {r['doc']} (a: answer {r['name']})"
             for r in self.open_requests
         ]
-        self.query_one("#requests", Static).update("\n".join(asks))
+        requests.update("\n".join(asks))
 
     def update(self, table: DataTable[Any], row: str, column: str, value: Text) -> None:
         """Change a cell whose text or colour changed (only those: a redraw costs). Its
