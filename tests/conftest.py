@@ -40,6 +40,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_architecture",
             "test_codes",
             "test_config",
+            "test_doc_sizes",
             "test_corpus",
             "test_files",
             "test_graph",
