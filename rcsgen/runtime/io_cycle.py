@@ -52,6 +52,7 @@ from .io_points import (
     Device,
     IoRefused,
     IoTimeout,
+    Point,
 )
 from .override import overrides
 
@@ -62,6 +63,8 @@ class Link(Protocol):
     def connect(self) -> None: ...
 
     def read(self) -> dict[str, object]: ...  # input field -> value
+
+    def read_point(self, point: Point) -> object: ...  # one point; IoRefused if it has none
 
     def write(self, values: dict[str, object]) -> int: ...  # the values clipped to fit
 

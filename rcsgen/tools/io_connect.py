@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from ..compiler.diagnostics import Diagnostics, Span
 from ..compiler.ir import IRSystem
-from ..runtime.io_cycle import relocated
-from ..runtime.io_points import MODBUS_TCP, Device, IoRefused, IoTimeout, Point
+from ..runtime.io_cycle import make_link, relocated
+from ..runtime.io_points import Device, IoRefused, IoTimeout, Point
 
 
 def check_devices(system: IRSystem) -> Diagnostics:
@@ -27,16 +27,9 @@ def check_devices(system: IRSystem) -> Diagnostics:
             continue
         where = device.url or f"{device.host}:{device.port}"
         try:
-            probe = _modbus_probe if device.protocol == MODBUS_TCP else _opcua_probe
-            refused = probe(device)
-        except ImportError as error:
-            extra = "modbus" if device.protocol == MODBUS_TCP else "opcua"
-            diags.error(
-                span,
-                "E458",
-                f"device `{device.name}`: {error}",
-                f"install the extra: pip install 'rcsgen[{extra}]'",
-            )
+            refused = _probe(device)
+        except ImportError as error:  # make_link's message names the extra to install
+            diags.error(span, "E458", f"device `{device.name}`: {error}")
             continue
         except (OSError, IoTimeout) as error:
             diags.error(
@@ -62,27 +55,9 @@ def _what(point: Point) -> str:
     return f"node {point.address}" if point.kind == "node" else f"{point.kind} {point.address}"
 
 
-def _modbus_probe(device: Device) -> list[tuple[Point, str]]:
-    from ..runtime.io_modbus import ModbusLink
-
-    link = ModbusLink(device)
-    link.connect()
-    refused = []
-    try:
-        for point in device.points:
-            try:
-                link.read_point(point)
-            except IoRefused as error:
-                refused.append((point, str(error)))
-    finally:
-        link.close()
-    return refused
-
-
-def _opcua_probe(device: Device) -> list[tuple[Point, str]]:
-    from ..runtime.io_opcua import OpcUaLink
-
-    link = OpcUaLink(device)
+def _probe(device: Device) -> list[tuple[Point, str]]:
+    """Each point of `device` read once over its protocol's link: the ones it refuses."""
+    link = make_link(device)
     link.connect()
     refused = []
     try:
