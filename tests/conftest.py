@@ -72,6 +72,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_mine_view",
             "test_miner",
             "test_operator",
+            "test_operator_results",
             "test_plans",
             "test_prove",
             "test_prove_seeds",

@@ -615,6 +615,10 @@ ANSWERS = {
     "op/fx": Record(ANSWER, OP_FX_ANSWER_AT, field_names(ANSWER_FIELDS)),
     "op/tl": Record(ANSWER, OP_TL_ANSWER_AT, field_names(ANSWER_FIELDS)),
 }
+# What a DONE answer to each task records (`results:`), checked before it is written and
+# again when the operator module reads it: each result's name and range (None: open); its
+# type is its answer slot's, an enumeration's values are in ENUMS.
+TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], ...]]] = {}
 # Each operator module's tasks: the instruction the screen shows (`{param}`: its value).
 INSTRUCTIONS = {
     "op": {

@@ -263,6 +263,8 @@ _ALL = (
     error("E288", Topic.OPERATORS, "reason the answer cannot give"),
     error("E289", Topic.OPERATORS, "unknown channel in a console answer"),
     warning("W308", Topic.OPERATORS, "operator module that serves no client"),
+    error("E910", Topic.OPERATORS, "a task result's range that no value or no answer fits"),
+    error("E911", Topic.OPERATORS, "scripted answer whose results do not fit the task"),
     warning("W301", Topic.TABLES, "rule that never fires", about="a rule"),
     warning("W302", Topic.TABLES, "rule whose guard is always false", about="a rule"),
     warning("W303", Topic.TABLES, "acknowledgement that matches nothing"),

@@ -223,6 +223,9 @@ class IRParam:
     name: str
     type: Type
     doc: str = ""
+    # an operator task's result: the range a DONE answer's value must lie in (None: open)
+    low: float | None = None
+    high: float | None = None
 
 
 @dataclass(frozen=True)
