@@ -253,6 +253,7 @@ _ALL = (
     error("E296", Topic.OPERATORS, "role granted `command` on an operator module"),
     error("E297", Topic.CYCLE_PERIOD, "`CYCLE_PERIOD` declared"),
     error("E298", Topic.FRAGMENTS, "fragment used within itself"),
+    error("E912", Topic.FRAGMENTS, "a list of actions given or used where it does not go"),
     error("E281", Topic.OPERATORS, "instruction text shows an unknown parameter"),
     error("E282", Topic.OPERATORS, "malformed instruction text"),
     error("E283", Topic.OPERATORS, "operator module as a simulator or stand-in"),
