@@ -202,7 +202,7 @@ def _copy(node: Any, values: dict[str, Any], names: dict[str, str]) -> Any:
         items = LocList(node.span)
         for i, item in enumerate(node):
             new = _copy(item, values, names)
-            if isinstance(item, str) and isinstance(new, list):  # `- $actions`: spliced in
+            if isinstance(item, str) and isinstance(new, LocList):  # `- $actions`: spliced in
                 for j, action in enumerate(new):
                     items.append(action)
                     items.item_spans.append(span_of(action, new.item_spans[j]))
@@ -308,7 +308,7 @@ def _action_lists_fit(
 ) -> bool:
     """A list of actions goes only where the fragment writes actions (or passes the value
     on), and where it writes actions it needs a list of mappings (E912)."""
-    found = {}
+    found: dict[tuple[str, str], object] = {}
     for param, where, text in positions(fragment.states):
         found.setdefault((param, where), text)
     for name, value in given.items():
