@@ -73,6 +73,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_miner",
             "test_operator",
             "test_operator_results",
+            "test_state_time",
             "test_plans",
             "test_prove",
             "test_prove_seeds",

@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 3752 bytes.
+The block is 4640 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -148,6 +148,22 @@ command buffers and world fields:
 | 3680 | 17 | OVERRIDE_BRAVO_CONTACT | state, bravo_contact |
 | 3704 | 24 | OVERRIDE_BRAVO_CONTACT_X | state, bravo_contact_x |
 | 3728 | 17 | OVERRIDE_BRAVO_STUCK | state, bravo_stuck |
+| 3752 | 72 | TIME_PL | state, since, NOP, S0, S1, ADVANCE, DECIDE, OVERWATCH |
+| 3824 | 112 | TIME_SEC | state, since, NOP, S0, S1, A_BOUNDS, B_BOUNDS, CONTACT, A_ALONE, B_ALONE, A_LOST, B_LOST, WATCH |
+| 3936 | 48 | TIME_ALPHA | state, since, NOP, S0, S1 |
+| 3984 | 72 | TIME_ALPHA_LOCO | state, since, NOP, S0, S1, AHEAD, BACK, STOPPING |
+| 4056 | 40 | TIME_ALPHA_DRIVE | state, since, NOP, S0 |
+| 4096 | 64 | TIME_ALPHA_RSTA | state, since, NOP, S0, S1, POINTING, WATCH |
+| 4160 | 48 | TIME_ALPHA_PAN | state, since, NOP, S0, S1 |
+| 4208 | 40 | TIME_ALPHA_MOTION | state, since, NOP, S0 |
+| 4248 | 40 | TIME_ALPHA_SENSOR | state, since, NOP, S0 |
+| 4288 | 48 | TIME_BRAVO | state, since, NOP, S0, S1 |
+| 4336 | 72 | TIME_BRAVO_LOCO | state, since, NOP, S0, S1, AHEAD, BACK, STOPPING |
+| 4408 | 40 | TIME_BRAVO_DRIVE | state, since, NOP, S0 |
+| 4448 | 64 | TIME_BRAVO_RSTA | state, since, NOP, S0, S1, POINTING, WATCH |
+| 4512 | 48 | TIME_BRAVO_PAN | state, since, NOP, S0, S1 |
+| 4560 | 40 | TIME_BRAVO_MOTION | state, since, NOP, S0 |
+| 4600 | 40 | TIME_BRAVO_SENSOR | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -179,9 +195,9 @@ from .rcs.contract import (
 
 SYSTEM = "platoon"
 SOURCE = "platoon/system.yaml"
-SIZE = 3752
+SIZE = 4640
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "231e877d63d7d721bbd540ddc5fc180d"
+LAYOUT_HASH = "595deb1cbf54ef7946da62bc3b020d5f"
 PROCESS_COMMAND_AT = 80
 PACE_COMMAND_AT = 168
 PROCESS_PA_AT = 184
@@ -791,6 +807,61 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
 GROUND_TRUTH = ("enemy_present", "enemy_x", "enemy_y")
+# Each controller's (and stand-in's) time in each state: its process's cycles spent in each
+# state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
+# (rcs/state_time.py) for `ctl status`.
+TIME_IN_STATE = {
+    "pl": Record(
+        Struct("<QqQQQQQQQ"),
+        3752,
+        ("state", "since", "NOP", "S0", "S1", "ADVANCE", "DECIDE", "OVERWATCH"),
+    ),
+    "sec": Record(
+        Struct("<QqQQQQQQQQQQQQ"),
+        3824,
+        (
+            "state",
+            "since",
+            "NOP",
+            "S0",
+            "S1",
+            "A_BOUNDS",
+            "B_BOUNDS",
+            "CONTACT",
+            "A_ALONE",
+            "B_ALONE",
+            "A_LOST",
+            "B_LOST",
+            "WATCH",
+        ),
+    ),
+    "alpha": Record(Struct("<QqQQQQ"), 3936, ("state", "since", "NOP", "S0", "S1")),
+    "alpha_loco": Record(
+        Struct("<QqQQQQQQQ"),
+        3984,
+        ("state", "since", "NOP", "S0", "S1", "AHEAD", "BACK", "STOPPING"),
+    ),
+    "alpha_drive": Record(Struct("<QqQQQ"), 4056, ("state", "since", "NOP", "S0")),
+    "alpha_rsta": Record(
+        Struct("<QqQQQQQQ"), 4096, ("state", "since", "NOP", "S0", "S1", "POINTING", "WATCH")
+    ),
+    "alpha_pan": Record(Struct("<QqQQQQ"), 4160, ("state", "since", "NOP", "S0", "S1")),
+    "alpha_motion": Record(Struct("<QqQQQ"), 4208, ("state", "since", "NOP", "S0")),
+    "alpha_sensor": Record(Struct("<QqQQQ"), 4248, ("state", "since", "NOP", "S0")),
+    "bravo": Record(Struct("<QqQQQQ"), 4288, ("state", "since", "NOP", "S0", "S1")),
+    "bravo_loco": Record(
+        Struct("<QqQQQQQQQ"),
+        4336,
+        ("state", "since", "NOP", "S0", "S1", "AHEAD", "BACK", "STOPPING"),
+    ),
+    "bravo_drive": Record(Struct("<QqQQQ"), 4408, ("state", "since", "NOP", "S0")),
+    "bravo_rsta": Record(
+        Struct("<QqQQQQQQ"), 4448, ("state", "since", "NOP", "S0", "S1", "POINTING", "WATCH")
+    ),
+    "bravo_pan": Record(Struct("<QqQQQQ"), 4512, ("state", "since", "NOP", "S0", "S1")),
+    "bravo_motion": Record(Struct("<QqQQQ"), 4560, ("state", "since", "NOP", "S0")),
+    "bravo_sensor": Record(Struct("<QqQQQ"), 4600, ("state", "since", "NOP", "S0")),
+}
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "pl": (NO_COMMAND_NAME, *("INIT", "HALT", "ESTABLISH_OP")),
@@ -1145,6 +1216,7 @@ def initialise(buf: memoryview) -> None:
         PERFORMANCE,
         WORLD,
         OVERRIDE,
+        TIME_IN_STATE,
         ANSWERS,
     ):
         for record in records.values():

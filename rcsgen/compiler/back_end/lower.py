@@ -701,6 +701,7 @@ def plan_layout(
 
     A stand-in (controller simulator) has no buffers of its own: it uses its controller's.
     """
+    controllers = tuple(controllers)
     at = align(HEADER.size)
     process_records, pacing = {}, {}
     for name in processes:
@@ -754,6 +755,17 @@ def plan_layout(
         shape = [(f, "q", 0) for f in DEVICE_FIELDS]
         io[name] = _buffer(f"IO_{name.upper()}", at, shape, f"I/O device {name}")
         at = align(at + io[name].size)
+    # Time in each state (rcs/state_time.py): per controller and stand-in, the state it is in
+    # and the process cycle it entered it, then the cycles of its process spent in each state
+    # code (NOP first) before that, after everything else.
+    state_time = {}
+    for c in controllers:
+        if c.is_operator:
+            continue
+        shape = [("state", "q", 0), ("since", "Q", 0)]
+        shape += [(state, "Q", 0) for state in ("NOP", *c.states)]
+        state_time[c.name] = _buffer(f"TIME_{c.name.upper()}", at, shape, f"{c.name} time in state")
+        at = align(at + state_time[c.name].size)
     layout = ir.Layout(
         process_records,
         modules,
@@ -765,6 +777,7 @@ def plan_layout(
         overrides,
         tuple(override_fields),
         io,
+        state_time,
     )
     return replace(layout, hash=layout_hash(system, layout))
 

@@ -294,8 +294,7 @@ def _arguments(
         diags.error(
             value_span(given, bad[0], at),
             "E269",
-            f"the value of `{bad[0]}` must be a name, an expression, a number or a list of "
-            "actions",
+            f"the value of `{bad[0]}` must be a name, an expression, a number or a list of actions",
         )
         return None
     if not _action_lists_fit(given, fragment, at, diags):

@@ -51,6 +51,7 @@ from ..contract import (
     status_text,
 )
 from ..io_points import device_status
+from ..state_time import shares, totals
 from ..transport import TransportError, check_endpoint
 from .command import (
     Command,
@@ -401,6 +402,7 @@ class Console:
                 row["run"] = "STOP" if mode["dont_run"] else "RUN"
                 row["step"] = "SINGLE" if mode["single_step"] else "AUTO"
                 row["sim"] = "SIMU" if mode["simulate"] else "REAL"
+            row.update(self.time_in_state(runs, proc))
             if perf:
                 for key in ("last", "min", "max"):
                     row[f"{key}_cycle_us"] = round(int(perf[f"{key}_cycle_ns"]) / 1000, 1)
@@ -426,6 +428,18 @@ class Console:
                 found.append(sub)
                 todo += self.layout.SUBORDINATES.get(sub, ())
         return found
+
+    def time_in_state(self, runs: str, process: dict[str, Any]) -> dict[str, Any]:
+        """The share of its cycles a controller (or the stand-in running in its place) has
+        spent in each state since start, in percent (rcs/state_time.py; `process`: its
+        process's control record, whose heartbeat closes the open interval), and how many
+        cycles were counted; {} for a module that has no clock."""
+        record = getattr(self.layout, "TIME_IN_STATE", {}).get(runs)
+        values = self.read(record) if record is not None else {}
+        if not values:
+            return {}
+        counts = totals(values, int(process.get("heartbeat") or 0))
+        return {"state_cycles": sum(counts.values()), "time_in_state": shares(counts)}
 
     def snapshot(self, world: Sequence[str] | None = None) -> dict[str, Any]:
         """Everything the console shows, as plain data: the processes, every module's line,
@@ -786,6 +800,7 @@ def render(snapshot: dict[str, Any]) -> list[str]:
                 f"plan {name}.{plan}: step {at['step']} of {at['steps']}, "
                 f"{at['replans_left']} replans left"
             )
+    lines += state_time_lines(snapshot)
     for name, proc in snapshot["processes"].items():
         if proc.get("state") == "?":
             lines.append(f"process {name}: control record unreadable")
@@ -802,6 +817,18 @@ def render(snapshot: dict[str, Any]) -> list[str]:
     for request in snapshot.get("requests", ()):
         lines.append(f"request {request['name']} from {request['by']}: {request['doc']}")
     return lines + world_lines(snapshot)
+
+
+def state_time_lines(snapshot: dict[str, Any]) -> list[str]:
+    """Time per state (the paper's % of execution time per state): for each controller that
+    has run, the share of its cycles since start spent in each state it has been in."""
+    lines = []
+    for name, row in snapshot["modules"].items():
+        shares = row.get("time_in_state")
+        if shares:
+            spent = ", ".join(f"{state} {share:g}%" for state, share in shares.items())
+            lines.append(f"time in state {name} ({row['state_cycles']} cycles): {spent}")
+    return lines
 
 
 def world_lines(snapshot: dict[str, Any]) -> list[str]:
