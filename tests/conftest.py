@@ -62,6 +62,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
         "a generated package built and run in one process (harness, scenarios, goldens)",
         (
             "test_build",
+            "test_cell",
             "test_co_appendix_c",
             "test_fragments",
             "test_golden",
