@@ -25,6 +25,7 @@ import sys
 from collections.abc import Mapping, Sequence
 from struct import Struct
 from time import perf_counter_ns
+from typing import ClassVar
 
 from .contract import (
     ANSWER,
@@ -218,7 +219,7 @@ class OperatorModule:
     # client, command, status and answer offsets (and, with results, the status and answer
     # structs)
     CHANNELS: tuple[tuple[str, int, int, int] | tuple[str, int, int, int, Struct, Struct], ...] = ()
-    RESULTS: dict[int, tuple[ResultCheck, ...]] = {}  # each task's results, by its code
+    RESULTS: ClassVar[dict[int, tuple[ResultCheck, ...]]] = {}  # each task's results, by code
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
