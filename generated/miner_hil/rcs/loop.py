@@ -276,7 +276,11 @@ class Process:
                 module.resume()
         self.simulated, self.modules = simulated, modules
         runs = {n: self.plan.stand_ins[n][0] if n in simulated else n for n in modules}
-        timed = {n: (self.clocks[runs[n]], m) for n, m in modules.items() if runs[n] in self.clocks}
+        timed = {
+            n: (self.clocks[runs[n]], m)
+            for n, m in modules.items()
+            if runs[n] in self.clocks and hasattr(m, "state")  # (a test's stand-in may not)
+        }
         running = {id(clock) for clock, _ in timed.values()}
         for clock, _ in self.timed.values():  # replaced by a stand-in, or back: no time now
             if id(clock) not in running:
