@@ -62,6 +62,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
         "a generated package built and run in one process (harness, scenarios, goldens)",
         (
             "test_build",
+            "test_cell",
             "test_co_appendix_c",
             "test_fragments",
             "test_golden",
@@ -72,6 +73,8 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_mine_view",
             "test_miner",
             "test_operator",
+            "test_operator_results",
+            "test_state_time",
             "test_plans",
             "test_prove",
             "test_prove_seeds",

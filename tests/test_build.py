@@ -43,6 +43,7 @@ EXPECTED_FILES = {
     "miner/rcs/override.py",
     "miner/rcs/realtime.py",  # opt-in real-time settings of a process (processes.P.realtime)
     "miner/rcs/ring.py",  # the lockstep token ring
+    "miner/rcs/state_time.py",  # time in each state, counted by the loop
     "miner/rcs/transport.py",
     "miner/rcs/zenoh_transport.py",
     "miner/rcs/operate/__init__.py",
@@ -349,7 +350,7 @@ def test_rebuild_changes_only_what_changed(work: Path) -> None:
     edit(work / "specs/miner/co.yaml", "LOOSE_COAL_LIMIT: 4.0", "LOOSE_COAL_LIMIT: 5.0")
     result = rcsgen("build")
     assert result.exit_code == 0, result.output
-    assert "1 written, 0 deleted, 27 unchanged" in result.output
+    assert "1 written, 0 deleted, 28 unchanged" in result.output
     after = mtimes(work / "generated", files_only=True)
     assert {rel for rel in after if after[rel] != stamps[rel]} == {"miner/co.py"}
     assert "LOOSE_COAL_LIMIT = 5.0" in (work / "generated/miner/co.py").read_text()
@@ -431,7 +432,7 @@ def test_check_on_a_current_tree(work: Path) -> None:
     stamps = mtimes(work / "generated")
     result = rcsgen("build", "--check")
     assert result.exit_code == 0, result.output
-    assert result.stdout == "generated is current (28 files)\n"
+    assert result.stdout == "generated is current (29 files)\n"
     assert mtimes(work / "generated") == stamps
 
 

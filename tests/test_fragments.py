@@ -344,3 +344,50 @@ def test_fragments_that_use_each_other_are_refused_where_the_cycle_closes(tmp_pa
     line = int(next(d for d in found if ":E298:" in d).split(":")[0])
     top = with_fragment(TWICE_USE, looped + TWICE).splitlines()
     assert "AGAIN: {use: twice" in top[line - 1]  # at the use that closes the cycle
+
+
+# ---------------------------------------------------------------- lists of actions
+
+CASES = Path(__file__).resolve().parent / "cases" / "valid"
+
+
+def _fx_trace(system: Path) -> list[dict]:
+    import json
+
+    from rcsgen.tools.scenario import load_scenario, run
+
+    scenario = load_scenario(system / "scenarios" / "go.yaml")
+    with Harness.build(system, send_init=True) as harness:
+        result = run(scenario, harness)
+    return [json.loads(line)["modules"]["fx"] for line in result.trace]
+
+
+def test_a_fragment_that_takes_lists_of_actions_runs_as_the_table_written_out():
+    """tests/cases/valid/fragment-actions writes the operator-results desk's CHECK through a
+    fragment whose `on_rework` is spliced into a `do:` list and `on_keep` is a whole `do:`:
+    cycle for cycle it runs as the hand-written table, but for its states' names."""
+    written = _fx_trace(CASES / "operator-results")
+    factored = _fx_trace(CASES / "fragment-actions")
+    renamed = {"S0_WAIT": "S1"}
+    for row in factored:
+        row["state"] = renamed.get(row["state"], row["state"])
+        row["rule"] = row["rule"] and row["rule"].replace("S0_WAIT", "S1")
+    assert factored == written and written[-1]["status"] == "DONE"
+    assert written[-1]["result"] == {"gap": 1.5, "reworked": True}
+
+
+def test_an_action_given_in_a_list_is_checked_where_it_is_written(tmp_path):
+    """A malformed action inside a list of actions is reported at the use, where it is
+    written, not at the fragment that splices it."""
+    system = tmp_path / "desk"
+    system.mkdir()
+    source = CASES / "fragment-actions"
+    for name in ("system.yaml", "op.yaml"):
+        (system / name).write_text((source / name).read_text())
+    text = (source / "fx.yaml").read_text()
+    bad = text.replace("on_rework: [{set: {result.reworked: true}}]", "on_rework: [{sett: 1}]")
+    assert bad != text
+    (system / "fx.yaml").write_text(bad)
+    diags = compile_paths([system]).diagnostics
+    line = bad.splitlines().index(next(x for x in bad.splitlines() if "sett" in x)) + 1
+    assert [(d.code, d.span.line) for d in diags.errors] == [("S006", line)]

@@ -285,6 +285,57 @@ def test_an_operator_modules_requests_show_their_text_and_a_answers_them() -> No
     assert "tl asks op: LOAD_PROBE: Load probe 7 into the probe head, then answer." in shown
 
 
+RESULTS_DESK = Path(__file__).resolve().parent / "cases" / "valid" / "operator-results"
+
+
+def test_the_answer_form_takes_a_tasks_results_and_refuses_what_does_not_fit() -> None:
+    """tests/cases/valid/operator-results run as OS processes: `a` on fx's row opens the form
+    showing what a DONE gives; a gap above its maximum is refused in one line and the
+    request stays open; the answer with fitting values closes it, and fx reads them."""
+    import shutil
+
+    scratch, name = generate(RESULTS_DESK)
+    package = scratch / name
+    layout = importlib.import_module(f"{import_package(package, RESULTS_DESK).__name__}.layout")
+    system = Running(package, RESULTS_DESK, layout)
+    good = "gap=1.5 verdict=REWORK count=3 ok=true note=fine"
+
+    async def drive() -> tuple[str, str, str]:
+        app = Monitor(layout, system.segment, interval=0.1)
+        async with app.run_test(size=(200, 40)) as pilot:
+            await until(
+                pilot, lambda: " asks op:" in str(app.query_one("#requests").render()), "fx asks op"
+            )
+            table = app.query_one(DataTable)
+            table.move_cursor(row=[m for m, _ in tree_order(layout)].index("fx"))
+            await pilot.press("a")
+            await pilot.pause(0.1)
+            form = str(app.query_one("#send", Input).placeholder)
+            await pilot.press(*["backspace"] * 4, *"DONE gap=9 verdict=KEEP count=1 ok=true note=x")
+            await pilot.press("enter")
+            await pilot.pause(0.1)
+            refused = str(app.query_one("#message").render())
+            await pilot.press("a", *["backspace"] * 4, *f"DONE {good}", "enter")
+            await pilot.pause(0.1)
+            return form, refused, str(app.query_one("#message").render())
+
+    try:
+        assert system.ctl("send", "fx", "CHECK").returncode == 0
+        form, refused, said = asyncio.run(drive())
+        wait_for(lambda: system.module("fx")["status"] == "DONE", "fx done", 30)
+        results = system.module("fx")["results"]
+    finally:
+        system.stop()
+        shutil.rmtree(scratch, ignore_errors=True)
+    assert form.startswith(
+        "op/fx MEASURE: DONE gap=0.0..5.0 verdict=KEEP|REWORK|SCRAP count=1..9 ok=true|false "
+        "note=text | ERROR [REASON]"
+    ), form
+    assert "result gap is 9.0: above its maximum 5.0" in refused, refused
+    assert said == f"answered op/fx: MEASURE #2 DONE {good}", said
+    assert results == {"gap": 1.5, "reworked": True}
+
+
 async def until(pilot: Any, condition: Any, what: str, deadline: float = 30.0) -> None:
     """Let the app run until `condition()` holds; fail naming `what` after `deadline` s."""
     import time

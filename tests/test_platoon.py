@@ -220,8 +220,12 @@ def test_the_monitor_puts_each_instance_under_its_supervisor(package: ModuleType
 
     rows = dict(tree_order(runtime(package, "layout")))
     assert list(rows)[:5] == ["pl", "sec", "alpha", "alpha_loco", "alpha_drive"]
-    assert rows["alpha"] == "   ├─ " and rows["bravo"] == "   └─ "
-    assert rows["bravo_loco"] == "      ├─ " and rows["bravo_pan"] == "         └─ "
+    # the section is the platoon's first subordinate; its last is the leader's channel
+    assert rows["alpha"] == "│  ├─ " and rows["bravo"] == "│  └─ "
+    assert rows["bravo_loco"] == "│     ├─ " and rows["bravo_pan"] == "│        └─ "
+    assert (
+        rows["ldr/pl"] == "└─ " and list(rows).index("ldr/pl") == list(rows).index("bravo_pan") + 1
+    )
 
 
 def test_a_halted_vehicle_holds_every_actuator_at_its_safe_value() -> None:

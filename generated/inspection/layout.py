@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 1552 bytes.
+The block is 1944 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -71,6 +71,12 @@ command buffers and world fields:
 | 1480 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
 | 1504 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
 | 1528 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 1552 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
+| 1656 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 1744 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 1800 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 1856 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
+| 1904 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -102,9 +108,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 1552
+SIZE = 1944
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "191bcd0e9bd866a28bce693093591a55"
+LAYOUT_HASH = "81d1eec29de58926045d942db9027b1a"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 168
 
@@ -340,6 +346,38 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
 GROUND_TRUTH = ()
+# Each controller's (and stand-in's) time in each state: its process's cycles spent in each
+# state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
+# (rcs/state_time.py) for `ctl status`.
+TIME_IN_STATE = {
+    "ws": Record(
+        Struct("<QqQQQQQQQQQQQ"),
+        1552,
+        (
+            "state",
+            "since",
+            "NOP",
+            "S0",
+            "S1",
+            "S2",
+            "S3",
+            "MS_FAILED",
+            "FX_FAILED",
+            "MEASURING",
+            "REFIXTURING",
+            "UNLOADING",
+        ),
+    ),
+    "ms": Record(
+        Struct("<QqQQQQQQQQQ"),
+        1656,
+        ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
+    ),
+    "fx": Record(Struct("<QqQQQQQ"), 1744, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 1800, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "cmm": Record(Struct("<QqQQQQ"), 1856, ("state", "since", "NOP", "S0", "S1")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 1904, ("state", "since", "NOP", "S0")),
+}
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "ws": (NO_COMMAND_NAME, *("INIT", "HALT", "INIT_FOR_INSPECT", "INSPECT_PART")),
@@ -615,6 +653,10 @@ ANSWERS = {
     "op/fx": Record(ANSWER, OP_FX_ANSWER_AT, field_names(ANSWER_FIELDS)),
     "op/tl": Record(ANSWER, OP_TL_ANSWER_AT, field_names(ANSWER_FIELDS)),
 }
+# What a DONE answer to each task records (`results:`), checked before it is written and
+# again when the operator module reads it: each result's name and range (None: open); its
+# type is its answer slot's, an enumeration's values are in ENUMS.
+TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], ...]]] = {}
 # Each operator module's tasks: the instruction the screen shows (`{param}`: its value).
 INSTRUCTIONS = {
     "op": {
@@ -643,6 +685,7 @@ def initialise(buf: memoryview) -> None:
         PERFORMANCE,
         WORLD,
         OVERRIDE,
+        TIME_IN_STATE,
         ANSWERS,
     ):
         for record in records.values():

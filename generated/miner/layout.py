@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 5240 bytes.
+The block is 6640 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -213,6 +213,33 @@ command buffers and world fields:
 | 5168 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
 | 5192 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
 | 5216 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
+| 5240 | 48 | TIME_SEC | state, since, NOP, S0, S1 |
+| 5288 | 144 | TIME_SB | state, since, NOP, S0, S1, S2, S3, STOPPING, HALTING, BOX_AT_FACE, BOX_SLICE, BOX_APPROACH, BACK_OUT, ACROSS, SLAB_AT_FACE, SLAB_SLICE, SLAB_APPROACH |
+| 5432 | 80 | TIME_CO | state, since, NOP, S0, S1, S2, S3, FAILED, S4 |
+| 5512 | 56 | TIME_CC | state, since, NOP, S0, S1, S2 |
+| 5568 | 48 | TIME_BM | state, since, NOP, S0, S1 |
+| 5616 | 40 | TIME_CD | state, since, NOP, S0 |
+| 5656 | 48 | TIME_SJ | state, since, NOP, S0, S1 |
+| 5704 | 56 | TIME_CR | state, since, NOP, S0, S1, S2 |
+| 5760 | 40 | TIME_GH | state, since, NOP, S0 |
+| 5800 | 40 | TIME_CV | state, since, NOP, S0 |
+| 5840 | 48 | TIME_CT | state, since, NOP, S0, S1 |
+| 5888 | 136 | TIME_VG | state, since, NOP, S0, S1, PLANNING, DECIDE, FORWARD, REVERSE, LEFT, RIGHT, STOPPING, ALIGN, ALIGN_LEFT, ALIGN_RIGHT, ALIGN_STOPPING |
+| 6024 | 48 | TIME_TC | state, since, NOP, S0, S0_MOVING |
+| 6072 | 40 | TIME_OI | state, since, NOP, S0 |
+| 6112 | 40 | TIME_BAS | state, since, NOP, S0 |
+| 6152 | 40 | TIME_JAS | state, since, NOP, S0 |
+| 6192 | 40 | TIME_TAS | state, since, NOP, S0 |
+| 6232 | 40 | TIME_MINE | state, since, NOP, S0 |
+| 6272 | 40 | TIME_DAS | state, since, NOP, S0 |
+| 6312 | 40 | TIME_GAS | state, since, NOP, S0 |
+| 6352 | 40 | TIME_BSS | state, since, NOP, S0 |
+| 6392 | 40 | TIME_PSS | state, since, NOP, S0 |
+| 6432 | 40 | TIME_CSS | state, since, NOP, S0 |
+| 6472 | 40 | TIME_LCS | state, since, NOP, S0 |
+| 6512 | 40 | TIME_WM | state, since, NOP, S0 |
+| 6552 | 48 | TIME_PP | state, since, NOP, S0, S1 |
+| 6600 | 40 | TIME_CR_SIM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -241,9 +268,9 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 5240
+SIZE = 6640
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "a0264cffbdce0a3562ab70c5bde417d1"
+LAYOUT_HASH = "b069ff1ca4ca26329a06f86fa10efd41"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
@@ -989,6 +1016,85 @@ GROUND_TRUTH = (
     "coal_mined",
     "shuttle_car_away",
 )
+# Each controller's (and stand-in's) time in each state: its process's cycles spent in each
+# state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
+# (rcs/state_time.py) for `ctl status`.
+TIME_IN_STATE = {
+    "sec": Record(Struct("<QqQQQQ"), 5240, ("state", "since", "NOP", "S0", "S1")),
+    "sb": Record(
+        Struct("<QqQQQQQQQQQQQQQQQQ"),
+        5288,
+        (
+            "state",
+            "since",
+            "NOP",
+            "S0",
+            "S1",
+            "S2",
+            "S3",
+            "STOPPING",
+            "HALTING",
+            "BOX_AT_FACE",
+            "BOX_SLICE",
+            "BOX_APPROACH",
+            "BACK_OUT",
+            "ACROSS",
+            "SLAB_AT_FACE",
+            "SLAB_SLICE",
+            "SLAB_APPROACH",
+        ),
+    ),
+    "co": Record(
+        Struct("<QqQQQQQQQQ"),
+        5432,
+        ("state", "since", "NOP", "S0", "S1", "S2", "S3", "FAILED", "S4"),
+    ),
+    "cc": Record(Struct("<QqQQQQQ"), 5512, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "bm": Record(Struct("<QqQQQQ"), 5568, ("state", "since", "NOP", "S0", "S1")),
+    "cd": Record(Struct("<QqQQQ"), 5616, ("state", "since", "NOP", "S0")),
+    "sj": Record(Struct("<QqQQQQ"), 5656, ("state", "since", "NOP", "S0", "S1")),
+    "cr": Record(Struct("<QqQQQQQ"), 5704, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "gh": Record(Struct("<QqQQQ"), 5760, ("state", "since", "NOP", "S0")),
+    "cv": Record(Struct("<QqQQQ"), 5800, ("state", "since", "NOP", "S0")),
+    "ct": Record(Struct("<QqQQQQ"), 5840, ("state", "since", "NOP", "S0", "S1")),
+    "vg": Record(
+        Struct("<QqQQQQQQQQQQQQQQQ"),
+        5888,
+        (
+            "state",
+            "since",
+            "NOP",
+            "S0",
+            "S1",
+            "PLANNING",
+            "DECIDE",
+            "FORWARD",
+            "REVERSE",
+            "LEFT",
+            "RIGHT",
+            "STOPPING",
+            "ALIGN",
+            "ALIGN_LEFT",
+            "ALIGN_RIGHT",
+            "ALIGN_STOPPING",
+        ),
+    ),
+    "tc": Record(Struct("<QqQQQQ"), 6024, ("state", "since", "NOP", "S0", "S0_MOVING")),
+    "oi": Record(Struct("<QqQQQ"), 6072, ("state", "since", "NOP", "S0")),
+    "bas": Record(Struct("<QqQQQ"), 6112, ("state", "since", "NOP", "S0")),
+    "jas": Record(Struct("<QqQQQ"), 6152, ("state", "since", "NOP", "S0")),
+    "tas": Record(Struct("<QqQQQ"), 6192, ("state", "since", "NOP", "S0")),
+    "mine": Record(Struct("<QqQQQ"), 6232, ("state", "since", "NOP", "S0")),
+    "das": Record(Struct("<QqQQQ"), 6272, ("state", "since", "NOP", "S0")),
+    "gas": Record(Struct("<QqQQQ"), 6312, ("state", "since", "NOP", "S0")),
+    "bss": Record(Struct("<QqQQQ"), 6352, ("state", "since", "NOP", "S0")),
+    "pss": Record(Struct("<QqQQQ"), 6392, ("state", "since", "NOP", "S0")),
+    "css": Record(Struct("<QqQQQ"), 6432, ("state", "since", "NOP", "S0")),
+    "lcs": Record(Struct("<QqQQQ"), 6472, ("state", "since", "NOP", "S0")),
+    "wm": Record(Struct("<QqQQQ"), 6512, ("state", "since", "NOP", "S0")),
+    "pp": Record(Struct("<QqQQQQ"), 6552, ("state", "since", "NOP", "S0", "S1")),
+    "cr_sim": Record(Struct("<QqQQQ"), 6600, ("state", "since", "NOP", "S0")),
+}
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "sec": (NO_COMMAND_NAME, *("INIT", "HALT", "MINE_COAL", "BOX_CUT", "TRAM_TO_GOAL")),
@@ -1465,6 +1571,7 @@ def initialise(buf: memoryview) -> None:
         PERFORMANCE,
         WORLD,
         OVERRIDE,
+        TIME_IN_STATE,
     ):
         for record in records.values():
             SEQ.pack_into(buf, record.offset, FIRST_SEQ)

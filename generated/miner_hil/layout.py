@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4096 bytes.
+The block is 5016 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -171,6 +171,21 @@ command buffers and world fields:
 | 3880 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
 | 3904 | 96 | IO_PLC | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
 | 4000 | 96 | IO_CONVEYOR | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
+| 4096 | 48 | TIME_SEC | state, since, NOP, S0, S1 |
+| 4144 | 144 | TIME_SB | state, since, NOP, S0, S1, S2, S3, STOPPING, HALTING, BOX_AT_FACE, BOX_SLICE, BOX_APPROACH, BACK_OUT, ACROSS, SLAB_AT_FACE, SLAB_SLICE, SLAB_APPROACH |
+| 4288 | 80 | TIME_CO | state, since, NOP, S0, S1, S2, S3, FAILED, S4 |
+| 4368 | 56 | TIME_CC | state, since, NOP, S0, S1, S2 |
+| 4424 | 48 | TIME_BM | state, since, NOP, S0, S1 |
+| 4472 | 40 | TIME_CD | state, since, NOP, S0 |
+| 4512 | 48 | TIME_SJ | state, since, NOP, S0, S1 |
+| 4560 | 56 | TIME_CR | state, since, NOP, S0, S1, S2 |
+| 4616 | 40 | TIME_GH | state, since, NOP, S0 |
+| 4656 | 40 | TIME_CV | state, since, NOP, S0 |
+| 4696 | 48 | TIME_CT | state, since, NOP, S0, S1 |
+| 4744 | 136 | TIME_VG | state, since, NOP, S0, S1, PLANNING, DECIDE, FORWARD, REVERSE, LEFT, RIGHT, STOPPING, ALIGN, ALIGN_LEFT, ALIGN_RIGHT, ALIGN_STOPPING |
+| 4880 | 48 | TIME_TC | state, since, NOP, S0, S0_MOVING |
+| 4928 | 40 | TIME_WM | state, since, NOP, S0 |
+| 4968 | 48 | TIME_PP | state, since, NOP, S0, S1 |
 """
 
 from __future__ import annotations
@@ -200,9 +215,9 @@ from .rcs.io_points import DEVICE_FIELDS, Device, Point
 
 SYSTEM = "miner_hil"
 SOURCE = "miner_hil/system.yaml"
-SIZE = 4096
+SIZE = 5016
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "05e24c91d4809992e82df97355192fba"
+LAYOUT_HASH = "cedada076002d18fc9e4f2dfd51deb17"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 168
 PROCESS_PC2_AT = 184
@@ -927,6 +942,73 @@ IO_DEPENDENTS: dict[str, tuple[str, ...]] = {
     "plc": ("bm", "cd", "co", "cr", "gh", "pp", "sb", "sj", "tc", "vg", "wm"),
     "conveyor": ("cr", "ct", "cv"),
 }
+# Each controller's (and stand-in's) time in each state: its process's cycles spent in each
+# state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
+# (rcs/state_time.py) for `ctl status`.
+TIME_IN_STATE = {
+    "sec": Record(Struct("<QqQQQQ"), 4096, ("state", "since", "NOP", "S0", "S1")),
+    "sb": Record(
+        Struct("<QqQQQQQQQQQQQQQQQQ"),
+        4144,
+        (
+            "state",
+            "since",
+            "NOP",
+            "S0",
+            "S1",
+            "S2",
+            "S3",
+            "STOPPING",
+            "HALTING",
+            "BOX_AT_FACE",
+            "BOX_SLICE",
+            "BOX_APPROACH",
+            "BACK_OUT",
+            "ACROSS",
+            "SLAB_AT_FACE",
+            "SLAB_SLICE",
+            "SLAB_APPROACH",
+        ),
+    ),
+    "co": Record(
+        Struct("<QqQQQQQQQQ"),
+        4288,
+        ("state", "since", "NOP", "S0", "S1", "S2", "S3", "FAILED", "S4"),
+    ),
+    "cc": Record(Struct("<QqQQQQQ"), 4368, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "bm": Record(Struct("<QqQQQQ"), 4424, ("state", "since", "NOP", "S0", "S1")),
+    "cd": Record(Struct("<QqQQQ"), 4472, ("state", "since", "NOP", "S0")),
+    "sj": Record(Struct("<QqQQQQ"), 4512, ("state", "since", "NOP", "S0", "S1")),
+    "cr": Record(Struct("<QqQQQQQ"), 4560, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "gh": Record(Struct("<QqQQQ"), 4616, ("state", "since", "NOP", "S0")),
+    "cv": Record(Struct("<QqQQQ"), 4656, ("state", "since", "NOP", "S0")),
+    "ct": Record(Struct("<QqQQQQ"), 4696, ("state", "since", "NOP", "S0", "S1")),
+    "vg": Record(
+        Struct("<QqQQQQQQQQQQQQQQQ"),
+        4744,
+        (
+            "state",
+            "since",
+            "NOP",
+            "S0",
+            "S1",
+            "PLANNING",
+            "DECIDE",
+            "FORWARD",
+            "REVERSE",
+            "LEFT",
+            "RIGHT",
+            "STOPPING",
+            "ALIGN",
+            "ALIGN_LEFT",
+            "ALIGN_RIGHT",
+            "ALIGN_STOPPING",
+        ),
+    ),
+    "tc": Record(Struct("<QqQQQQ"), 4880, ("state", "since", "NOP", "S0", "S0_MOVING")),
+    "wm": Record(Struct("<QqQQQ"), 4928, ("state", "since", "NOP", "S0")),
+    "pp": Record(Struct("<QqQQQQ"), 4968, ("state", "since", "NOP", "S0", "S1")),
+}
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "sec": (NO_COMMAND_NAME, *("INIT", "HALT", "MINE_COAL", "BOX_CUT", "TRAM_TO_GOAL")),
@@ -1332,6 +1414,7 @@ def initialise(buf: memoryview) -> None:
         PERFORMANCE,
         WORLD,
         OVERRIDE,
+        TIME_IN_STATE,
     ):
         for record in records.values():
             SEQ.pack_into(buf, record.offset, FIRST_SEQ)

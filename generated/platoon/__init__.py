@@ -6,6 +6,7 @@ CYCLE_PERIOD = 1.0
 PROCESSES = ("command", "pa", "pb")
 # The spec files this package was generated from, relative to the specs directory.
 SOURCES = (
+    "platoon/ldr.yaml",
     "platoon/pl.yaml",
     "platoon/sec.yaml",
     "platoon/system.yaml",

@@ -47,22 +47,22 @@ BRAVO_LOCO_STOP = 4
 BRAVO_LOCO_REASON_NONE = 0
 BRAVO_LOCO_REASON_LOST = 1
 BRAVO_LOCO_REASON_IMMOBILE = 2
-BRAVO_LOCO_LINK = 11  # its number in the layout's CAUSE_MODULES
+BRAVO_LOCO_LINK = 12  # its number in the layout's CAUSE_MODULES
 
 # Commands bravo sends to bravo_rsta.
 BRAVO_RSTA_INIT = 1
 BRAVO_RSTA_HALT = 2
 BRAVO_RSTA_SCAN = 3
-BRAVO_RSTA_LINK = 13  # its number in the layout's CAUSE_MODULES
+BRAVO_RSTA_LINK = 14  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQId68x???1xI88xQII8xQ224xQI12x?d671xd")
-INPUTS_AT = 1624
+INPUTS_AT = 1816
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1624
+SEQS_AT = 1816
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -5,15 +5,19 @@ The header comes first (the layout's hash: a process refuses to attach to anothe
 then each process's control record (its heartbeat and counters) and pacing record (its
 slow-down, written by an operator). Every module owns a command
 buffer (written by its supervisor), a status buffer and a performance buffer (written by
-the module) and a mode buffer (written by an operator). World-model fields follow, one
+the module) and a mode buffer (written by an operator); an operator module owns a mode and
+a performance buffer, and a channel per client: a command buffer (written by the client), a
+status buffer (written by the operator module) and an answer record (written by the
+answering side: the console, a scenario's scripted operator). World-model fields follow, one
 buffer each, then the overrides: a flag, and each world field's override record (its state,
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 3560 bytes.
+The block is 4640 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
-control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
+control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
+ANSWER_FIELDS);
 command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
@@ -25,120 +29,141 @@ command buffers and world fields:
 | 288 | 88 | PROCESS_PB | PROCESS_FIELDS |
 | 376 | 16 | PACE_PB | PACE_FIELDS |
 | 392 | 28 | PL_COMMAND | command_num, command, arg_objective |
-| 424 | 50 | PL_STATUS | STATUS_FIELDS |
-| 480 | 16 | PL_MODE | MODE_FIELDS |
-| 496 | 48 | PL_PERF | PERF_FIELDS |
-| 544 | 28 | SEC_COMMAND | command_num, command, arg_objective |
-| 576 | 59 | SEC_STATUS | STATUS_FIELDS |
-| 640 | 16 | SEC_MODE | MODE_FIELDS |
-| 656 | 48 | SEC_PERF | PERF_FIELDS |
-| 704 | 28 | ALPHA_COMMAND | command_num, command, arg_x |
-| 736 | 49 | ALPHA_STATUS | STATUS_FIELDS |
-| 792 | 16 | ALPHA_MODE | MODE_FIELDS |
-| 808 | 48 | ALPHA_PERF | PERF_FIELDS |
-| 856 | 28 | ALPHA_LOCO_COMMAND | command_num, command, arg_goal |
-| 888 | 40 | ALPHA_LOCO_STATUS | STATUS_FIELDS |
-| 928 | 16 | ALPHA_LOCO_MODE | MODE_FIELDS |
-| 944 | 48 | ALPHA_LOCO_PERF | PERF_FIELDS |
-| 992 | 28 | ALPHA_DRIVE_COMMAND | command_num, command, arg_throttle |
-| 1024 | 32 | ALPHA_DRIVE_STATUS | STATUS_FIELDS |
-| 1056 | 16 | ALPHA_DRIVE_MODE | MODE_FIELDS |
-| 1072 | 48 | ALPHA_DRIVE_PERF | PERF_FIELDS |
-| 1120 | 20 | ALPHA_RSTA_COMMAND | command_num, command |
-| 1144 | 41 | ALPHA_RSTA_STATUS | STATUS_FIELDS |
-| 1192 | 16 | ALPHA_RSTA_MODE | MODE_FIELDS |
-| 1208 | 48 | ALPHA_RSTA_PERF | PERF_FIELDS |
-| 1256 | 28 | ALPHA_PAN_COMMAND | command_num, command, arg_bearing |
-| 1288 | 32 | ALPHA_PAN_STATUS | STATUS_FIELDS |
-| 1320 | 16 | ALPHA_PAN_MODE | MODE_FIELDS |
-| 1336 | 48 | ALPHA_PAN_PERF | PERF_FIELDS |
-| 1384 | 20 | ALPHA_MOTION_COMMAND | command_num, command |
-| 1408 | 32 | ALPHA_MOTION_STATUS | STATUS_FIELDS |
-| 1440 | 16 | ALPHA_MOTION_MODE | MODE_FIELDS |
-| 1456 | 48 | ALPHA_MOTION_PERF | PERF_FIELDS |
-| 1504 | 20 | ALPHA_SENSOR_COMMAND | command_num, command |
-| 1528 | 32 | ALPHA_SENSOR_STATUS | STATUS_FIELDS |
-| 1560 | 16 | ALPHA_SENSOR_MODE | MODE_FIELDS |
-| 1576 | 48 | ALPHA_SENSOR_PERF | PERF_FIELDS |
-| 1624 | 28 | BRAVO_COMMAND | command_num, command, arg_x |
-| 1656 | 49 | BRAVO_STATUS | STATUS_FIELDS |
-| 1712 | 16 | BRAVO_MODE | MODE_FIELDS |
-| 1728 | 48 | BRAVO_PERF | PERF_FIELDS |
-| 1776 | 28 | BRAVO_LOCO_COMMAND | command_num, command, arg_goal |
-| 1808 | 40 | BRAVO_LOCO_STATUS | STATUS_FIELDS |
-| 1848 | 16 | BRAVO_LOCO_MODE | MODE_FIELDS |
-| 1864 | 48 | BRAVO_LOCO_PERF | PERF_FIELDS |
-| 1912 | 28 | BRAVO_DRIVE_COMMAND | command_num, command, arg_throttle |
-| 1944 | 32 | BRAVO_DRIVE_STATUS | STATUS_FIELDS |
-| 1976 | 16 | BRAVO_DRIVE_MODE | MODE_FIELDS |
-| 1992 | 48 | BRAVO_DRIVE_PERF | PERF_FIELDS |
-| 2040 | 20 | BRAVO_RSTA_COMMAND | command_num, command |
-| 2064 | 41 | BRAVO_RSTA_STATUS | STATUS_FIELDS |
-| 2112 | 16 | BRAVO_RSTA_MODE | MODE_FIELDS |
-| 2128 | 48 | BRAVO_RSTA_PERF | PERF_FIELDS |
-| 2176 | 28 | BRAVO_PAN_COMMAND | command_num, command, arg_bearing |
-| 2208 | 32 | BRAVO_PAN_STATUS | STATUS_FIELDS |
-| 2240 | 16 | BRAVO_PAN_MODE | MODE_FIELDS |
-| 2256 | 48 | BRAVO_PAN_PERF | PERF_FIELDS |
-| 2304 | 20 | BRAVO_MOTION_COMMAND | command_num, command |
-| 2328 | 32 | BRAVO_MOTION_STATUS | STATUS_FIELDS |
-| 2360 | 16 | BRAVO_MOTION_MODE | MODE_FIELDS |
-| 2376 | 48 | BRAVO_MOTION_PERF | PERF_FIELDS |
-| 2424 | 20 | BRAVO_SENSOR_COMMAND | command_num, command |
-| 2448 | 32 | BRAVO_SENSOR_STATUS | STATUS_FIELDS |
-| 2480 | 16 | BRAVO_SENSOR_MODE | MODE_FIELDS |
-| 2496 | 48 | BRAVO_SENSOR_PERF | PERF_FIELDS |
-| 2544 | 9 | WORLD_ENEMY_PRESENT | enemy_present |
-| 2560 | 16 | WORLD_ENEMY_X | enemy_x |
-| 2576 | 16 | WORLD_ENEMY_Y | enemy_y |
-| 2592 | 16 | WORLD_ALPHA_X | alpha_x |
-| 2608 | 16 | WORLD_ALPHA_Y | alpha_y |
-| 2624 | 16 | WORLD_ALPHA_SPEED | alpha_speed |
-| 2640 | 16 | WORLD_ALPHA_THROTTLE | alpha_throttle |
-| 2656 | 9 | WORLD_ALPHA_BRAKE | alpha_brake |
-| 2672 | 16 | WORLD_ALPHA_STEER | alpha_steer |
-| 2688 | 16 | WORLD_ALPHA_PAN_CMD | alpha_pan_cmd |
-| 2704 | 16 | WORLD_ALPHA_PAN | alpha_pan |
-| 2720 | 9 | WORLD_ALPHA_CONTACT | alpha_contact |
-| 2736 | 16 | WORLD_ALPHA_CONTACT_X | alpha_contact_x |
-| 2752 | 9 | WORLD_ALPHA_STUCK | alpha_stuck |
-| 2768 | 16 | WORLD_BRAVO_X | bravo_x |
-| 2784 | 16 | WORLD_BRAVO_Y | bravo_y |
-| 2800 | 16 | WORLD_BRAVO_SPEED | bravo_speed |
-| 2816 | 16 | WORLD_BRAVO_THROTTLE | bravo_throttle |
-| 2832 | 9 | WORLD_BRAVO_BRAKE | bravo_brake |
-| 2848 | 16 | WORLD_BRAVO_STEER | bravo_steer |
-| 2864 | 16 | WORLD_BRAVO_PAN_CMD | bravo_pan_cmd |
-| 2880 | 16 | WORLD_BRAVO_PAN | bravo_pan |
-| 2896 | 9 | WORLD_BRAVO_CONTACT | bravo_contact |
-| 2912 | 16 | WORLD_BRAVO_CONTACT_X | bravo_contact_x |
-| 2928 | 9 | WORLD_BRAVO_STUCK | bravo_stuck |
-| 2944 | 9 | OVERRIDES | any |
-| 2960 | 17 | OVERRIDE_ENEMY_PRESENT | state, enemy_present |
-| 2984 | 24 | OVERRIDE_ENEMY_X | state, enemy_x |
-| 3008 | 24 | OVERRIDE_ENEMY_Y | state, enemy_y |
-| 3032 | 24 | OVERRIDE_ALPHA_X | state, alpha_x |
-| 3056 | 24 | OVERRIDE_ALPHA_Y | state, alpha_y |
-| 3080 | 24 | OVERRIDE_ALPHA_SPEED | state, alpha_speed |
-| 3104 | 24 | OVERRIDE_ALPHA_THROTTLE | state, alpha_throttle |
-| 3128 | 17 | OVERRIDE_ALPHA_BRAKE | state, alpha_brake |
-| 3152 | 24 | OVERRIDE_ALPHA_STEER | state, alpha_steer |
-| 3176 | 24 | OVERRIDE_ALPHA_PAN_CMD | state, alpha_pan_cmd |
-| 3200 | 24 | OVERRIDE_ALPHA_PAN | state, alpha_pan |
-| 3224 | 17 | OVERRIDE_ALPHA_CONTACT | state, alpha_contact |
-| 3248 | 24 | OVERRIDE_ALPHA_CONTACT_X | state, alpha_contact_x |
-| 3272 | 17 | OVERRIDE_ALPHA_STUCK | state, alpha_stuck |
-| 3296 | 24 | OVERRIDE_BRAVO_X | state, bravo_x |
-| 3320 | 24 | OVERRIDE_BRAVO_Y | state, bravo_y |
-| 3344 | 24 | OVERRIDE_BRAVO_SPEED | state, bravo_speed |
-| 3368 | 24 | OVERRIDE_BRAVO_THROTTLE | state, bravo_throttle |
-| 3392 | 17 | OVERRIDE_BRAVO_BRAKE | state, bravo_brake |
-| 3416 | 24 | OVERRIDE_BRAVO_STEER | state, bravo_steer |
-| 3440 | 24 | OVERRIDE_BRAVO_PAN_CMD | state, bravo_pan_cmd |
-| 3464 | 24 | OVERRIDE_BRAVO_PAN | state, bravo_pan |
-| 3488 | 17 | OVERRIDE_BRAVO_CONTACT | state, bravo_contact |
-| 3512 | 24 | OVERRIDE_BRAVO_CONTACT_X | state, bravo_contact_x |
-| 3536 | 17 | OVERRIDE_BRAVO_STUCK | state, bravo_stuck |
+| 424 | 58 | PL_STATUS | STATUS_FIELDS |
+| 488 | 16 | PL_MODE | MODE_FIELDS |
+| 504 | 48 | PL_PERF | PERF_FIELDS |
+| 552 | 28 | SEC_COMMAND | command_num, command, arg_objective |
+| 584 | 59 | SEC_STATUS | STATUS_FIELDS |
+| 648 | 16 | SEC_MODE | MODE_FIELDS |
+| 664 | 48 | SEC_PERF | PERF_FIELDS |
+| 712 | 16 | LDR_MODE | MODE_FIELDS |
+| 728 | 48 | LDR_PERF | PERF_FIELDS |
+| 776 | 28 | LDR_PL_COMMAND | command_num, command, arg_enemy_x |
+| 808 | 48 | LDR_PL_STATUS | STATUS_FIELDS |
+| 856 | 40 | LDR_PL_ANSWER | ANSWER_FIELDS |
+| 896 | 28 | ALPHA_COMMAND | command_num, command, arg_x |
+| 928 | 49 | ALPHA_STATUS | STATUS_FIELDS |
+| 984 | 16 | ALPHA_MODE | MODE_FIELDS |
+| 1000 | 48 | ALPHA_PERF | PERF_FIELDS |
+| 1048 | 28 | ALPHA_LOCO_COMMAND | command_num, command, arg_goal |
+| 1080 | 40 | ALPHA_LOCO_STATUS | STATUS_FIELDS |
+| 1120 | 16 | ALPHA_LOCO_MODE | MODE_FIELDS |
+| 1136 | 48 | ALPHA_LOCO_PERF | PERF_FIELDS |
+| 1184 | 28 | ALPHA_DRIVE_COMMAND | command_num, command, arg_throttle |
+| 1216 | 32 | ALPHA_DRIVE_STATUS | STATUS_FIELDS |
+| 1248 | 16 | ALPHA_DRIVE_MODE | MODE_FIELDS |
+| 1264 | 48 | ALPHA_DRIVE_PERF | PERF_FIELDS |
+| 1312 | 20 | ALPHA_RSTA_COMMAND | command_num, command |
+| 1336 | 41 | ALPHA_RSTA_STATUS | STATUS_FIELDS |
+| 1384 | 16 | ALPHA_RSTA_MODE | MODE_FIELDS |
+| 1400 | 48 | ALPHA_RSTA_PERF | PERF_FIELDS |
+| 1448 | 28 | ALPHA_PAN_COMMAND | command_num, command, arg_bearing |
+| 1480 | 32 | ALPHA_PAN_STATUS | STATUS_FIELDS |
+| 1512 | 16 | ALPHA_PAN_MODE | MODE_FIELDS |
+| 1528 | 48 | ALPHA_PAN_PERF | PERF_FIELDS |
+| 1576 | 20 | ALPHA_MOTION_COMMAND | command_num, command |
+| 1600 | 32 | ALPHA_MOTION_STATUS | STATUS_FIELDS |
+| 1632 | 16 | ALPHA_MOTION_MODE | MODE_FIELDS |
+| 1648 | 48 | ALPHA_MOTION_PERF | PERF_FIELDS |
+| 1696 | 20 | ALPHA_SENSOR_COMMAND | command_num, command |
+| 1720 | 32 | ALPHA_SENSOR_STATUS | STATUS_FIELDS |
+| 1752 | 16 | ALPHA_SENSOR_MODE | MODE_FIELDS |
+| 1768 | 48 | ALPHA_SENSOR_PERF | PERF_FIELDS |
+| 1816 | 28 | BRAVO_COMMAND | command_num, command, arg_x |
+| 1848 | 49 | BRAVO_STATUS | STATUS_FIELDS |
+| 1904 | 16 | BRAVO_MODE | MODE_FIELDS |
+| 1920 | 48 | BRAVO_PERF | PERF_FIELDS |
+| 1968 | 28 | BRAVO_LOCO_COMMAND | command_num, command, arg_goal |
+| 2000 | 40 | BRAVO_LOCO_STATUS | STATUS_FIELDS |
+| 2040 | 16 | BRAVO_LOCO_MODE | MODE_FIELDS |
+| 2056 | 48 | BRAVO_LOCO_PERF | PERF_FIELDS |
+| 2104 | 28 | BRAVO_DRIVE_COMMAND | command_num, command, arg_throttle |
+| 2136 | 32 | BRAVO_DRIVE_STATUS | STATUS_FIELDS |
+| 2168 | 16 | BRAVO_DRIVE_MODE | MODE_FIELDS |
+| 2184 | 48 | BRAVO_DRIVE_PERF | PERF_FIELDS |
+| 2232 | 20 | BRAVO_RSTA_COMMAND | command_num, command |
+| 2256 | 41 | BRAVO_RSTA_STATUS | STATUS_FIELDS |
+| 2304 | 16 | BRAVO_RSTA_MODE | MODE_FIELDS |
+| 2320 | 48 | BRAVO_RSTA_PERF | PERF_FIELDS |
+| 2368 | 28 | BRAVO_PAN_COMMAND | command_num, command, arg_bearing |
+| 2400 | 32 | BRAVO_PAN_STATUS | STATUS_FIELDS |
+| 2432 | 16 | BRAVO_PAN_MODE | MODE_FIELDS |
+| 2448 | 48 | BRAVO_PAN_PERF | PERF_FIELDS |
+| 2496 | 20 | BRAVO_MOTION_COMMAND | command_num, command |
+| 2520 | 32 | BRAVO_MOTION_STATUS | STATUS_FIELDS |
+| 2552 | 16 | BRAVO_MOTION_MODE | MODE_FIELDS |
+| 2568 | 48 | BRAVO_MOTION_PERF | PERF_FIELDS |
+| 2616 | 20 | BRAVO_SENSOR_COMMAND | command_num, command |
+| 2640 | 32 | BRAVO_SENSOR_STATUS | STATUS_FIELDS |
+| 2672 | 16 | BRAVO_SENSOR_MODE | MODE_FIELDS |
+| 2688 | 48 | BRAVO_SENSOR_PERF | PERF_FIELDS |
+| 2736 | 9 | WORLD_ENEMY_PRESENT | enemy_present |
+| 2752 | 16 | WORLD_ENEMY_X | enemy_x |
+| 2768 | 16 | WORLD_ENEMY_Y | enemy_y |
+| 2784 | 16 | WORLD_ALPHA_X | alpha_x |
+| 2800 | 16 | WORLD_ALPHA_Y | alpha_y |
+| 2816 | 16 | WORLD_ALPHA_SPEED | alpha_speed |
+| 2832 | 16 | WORLD_ALPHA_THROTTLE | alpha_throttle |
+| 2848 | 9 | WORLD_ALPHA_BRAKE | alpha_brake |
+| 2864 | 16 | WORLD_ALPHA_STEER | alpha_steer |
+| 2880 | 16 | WORLD_ALPHA_PAN_CMD | alpha_pan_cmd |
+| 2896 | 16 | WORLD_ALPHA_PAN | alpha_pan |
+| 2912 | 9 | WORLD_ALPHA_CONTACT | alpha_contact |
+| 2928 | 16 | WORLD_ALPHA_CONTACT_X | alpha_contact_x |
+| 2944 | 9 | WORLD_ALPHA_STUCK | alpha_stuck |
+| 2960 | 16 | WORLD_BRAVO_X | bravo_x |
+| 2976 | 16 | WORLD_BRAVO_Y | bravo_y |
+| 2992 | 16 | WORLD_BRAVO_SPEED | bravo_speed |
+| 3008 | 16 | WORLD_BRAVO_THROTTLE | bravo_throttle |
+| 3024 | 9 | WORLD_BRAVO_BRAKE | bravo_brake |
+| 3040 | 16 | WORLD_BRAVO_STEER | bravo_steer |
+| 3056 | 16 | WORLD_BRAVO_PAN_CMD | bravo_pan_cmd |
+| 3072 | 16 | WORLD_BRAVO_PAN | bravo_pan |
+| 3088 | 9 | WORLD_BRAVO_CONTACT | bravo_contact |
+| 3104 | 16 | WORLD_BRAVO_CONTACT_X | bravo_contact_x |
+| 3120 | 9 | WORLD_BRAVO_STUCK | bravo_stuck |
+| 3136 | 9 | OVERRIDES | any |
+| 3152 | 17 | OVERRIDE_ENEMY_PRESENT | state, enemy_present |
+| 3176 | 24 | OVERRIDE_ENEMY_X | state, enemy_x |
+| 3200 | 24 | OVERRIDE_ENEMY_Y | state, enemy_y |
+| 3224 | 24 | OVERRIDE_ALPHA_X | state, alpha_x |
+| 3248 | 24 | OVERRIDE_ALPHA_Y | state, alpha_y |
+| 3272 | 24 | OVERRIDE_ALPHA_SPEED | state, alpha_speed |
+| 3296 | 24 | OVERRIDE_ALPHA_THROTTLE | state, alpha_throttle |
+| 3320 | 17 | OVERRIDE_ALPHA_BRAKE | state, alpha_brake |
+| 3344 | 24 | OVERRIDE_ALPHA_STEER | state, alpha_steer |
+| 3368 | 24 | OVERRIDE_ALPHA_PAN_CMD | state, alpha_pan_cmd |
+| 3392 | 24 | OVERRIDE_ALPHA_PAN | state, alpha_pan |
+| 3416 | 17 | OVERRIDE_ALPHA_CONTACT | state, alpha_contact |
+| 3440 | 24 | OVERRIDE_ALPHA_CONTACT_X | state, alpha_contact_x |
+| 3464 | 17 | OVERRIDE_ALPHA_STUCK | state, alpha_stuck |
+| 3488 | 24 | OVERRIDE_BRAVO_X | state, bravo_x |
+| 3512 | 24 | OVERRIDE_BRAVO_Y | state, bravo_y |
+| 3536 | 24 | OVERRIDE_BRAVO_SPEED | state, bravo_speed |
+| 3560 | 24 | OVERRIDE_BRAVO_THROTTLE | state, bravo_throttle |
+| 3584 | 17 | OVERRIDE_BRAVO_BRAKE | state, bravo_brake |
+| 3608 | 24 | OVERRIDE_BRAVO_STEER | state, bravo_steer |
+| 3632 | 24 | OVERRIDE_BRAVO_PAN_CMD | state, bravo_pan_cmd |
+| 3656 | 24 | OVERRIDE_BRAVO_PAN | state, bravo_pan |
+| 3680 | 17 | OVERRIDE_BRAVO_CONTACT | state, bravo_contact |
+| 3704 | 24 | OVERRIDE_BRAVO_CONTACT_X | state, bravo_contact_x |
+| 3728 | 17 | OVERRIDE_BRAVO_STUCK | state, bravo_stuck |
+| 3752 | 72 | TIME_PL | state, since, NOP, S0, S1, ADVANCE, DECIDE, OVERWATCH |
+| 3824 | 112 | TIME_SEC | state, since, NOP, S0, S1, A_BOUNDS, B_BOUNDS, CONTACT, A_ALONE, B_ALONE, A_LOST, B_LOST, WATCH |
+| 3936 | 48 | TIME_ALPHA | state, since, NOP, S0, S1 |
+| 3984 | 72 | TIME_ALPHA_LOCO | state, since, NOP, S0, S1, AHEAD, BACK, STOPPING |
+| 4056 | 40 | TIME_ALPHA_DRIVE | state, since, NOP, S0 |
+| 4096 | 64 | TIME_ALPHA_RSTA | state, since, NOP, S0, S1, POINTING, WATCH |
+| 4160 | 48 | TIME_ALPHA_PAN | state, since, NOP, S0, S1 |
+| 4208 | 40 | TIME_ALPHA_MOTION | state, since, NOP, S0 |
+| 4248 | 40 | TIME_ALPHA_SENSOR | state, since, NOP, S0 |
+| 4288 | 48 | TIME_BRAVO | state, since, NOP, S0, S1 |
+| 4336 | 72 | TIME_BRAVO_LOCO | state, since, NOP, S0, S1, AHEAD, BACK, STOPPING |
+| 4408 | 40 | TIME_BRAVO_DRIVE | state, since, NOP, S0 |
+| 4448 | 64 | TIME_BRAVO_RSTA | state, since, NOP, S0, S1, POINTING, WATCH |
+| 4512 | 48 | TIME_BRAVO_PAN | state, since, NOP, S0, S1 |
+| 4560 | 40 | TIME_BRAVO_MOTION | state, since, NOP, S0 |
+| 4600 | 40 | TIME_BRAVO_SENSOR | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -146,12 +171,15 @@ from __future__ import annotations
 from struct import Struct
 
 from .rcs.contract import (
+    ANSWER,
+    ANSWER_FIELDS,
     FIRST_SEQ,
     HEADER,
     MAGIC,
     MODE,
     MODE_FIELDS,
     NO_COMMAND_NAME,
+    OPERATOR_STATES,
     PACE,
     PACE_FIELDS,
     PERF,
@@ -167,9 +195,9 @@ from .rcs.contract import (
 
 SYSTEM = "platoon"
 SOURCE = "platoon/system.yaml"
-SIZE = 3560
+SIZE = 4640
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "04f9f0946f3d0f6edd7fdafab845bd8a"
+LAYOUT_HASH = "595deb1cbf54ef7946da62bc3b020d5f"
 PROCESS_COMMAND_AT = 80
 PACE_COMMAND_AT = 168
 PROCESS_PA_AT = 184
@@ -181,185 +209,197 @@ PACE_PB_AT = 376
 PL_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_objective
 PL_COMMAND_AT = 392
 PL_STATUS = Struct(
-    "<QQIIii?d?Q"
-)  # seq, status_num, status, error_num, state, rule, result_mission_changed, result_enemy_x, result_alone, cause
+    "<QQIIii?d?qQ"
+)  # seq, status_num, status, error_num, state, rule, result_mission_changed, result_enemy_x, result_alone, result_decision, cause
 PL_STATUS_AT = 424
-PL_MODE_AT = 480
-PL_PERF_AT = 496
+PL_MODE_AT = 488
+PL_PERF_AT = 504
 
 # sec: Section
 SEC_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_objective
-SEC_COMMAND_AT = 544
+SEC_COMMAND_AT = 552
 SEC_STATUS = Struct(
     "<QQIIii?d??qQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, result_in_cover, result_alone, result_reports, cause
-SEC_STATUS_AT = 576
-SEC_MODE_AT = 640
-SEC_PERF_AT = 656
+SEC_STATUS_AT = 584
+SEC_MODE_AT = 648
+SEC_PERF_AT = 664
 
 # alpha: Vehicle Alpha (George, the left corridor)
 ALPHA_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_x
-ALPHA_COMMAND_AT = 704
+ALPHA_COMMAND_AT = 896
 ALPHA_STATUS = Struct(
     "<QQIIii?dQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, cause
-ALPHA_STATUS_AT = 736
-ALPHA_MODE_AT = 792
-ALPHA_PERF_AT = 808
+ALPHA_STATUS_AT = 928
+ALPHA_MODE_AT = 984
+ALPHA_PERF_AT = 1000
 
 # alpha_loco: Locomotion (alpha)
 ALPHA_LOCO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_goal
-ALPHA_LOCO_COMMAND_AT = 856
+ALPHA_LOCO_COMMAND_AT = 1048
 ALPHA_LOCO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-ALPHA_LOCO_STATUS_AT = 888
-ALPHA_LOCO_MODE_AT = 928
-ALPHA_LOCO_PERF_AT = 944
+ALPHA_LOCO_STATUS_AT = 1080
+ALPHA_LOCO_MODE_AT = 1120
+ALPHA_LOCO_PERF_AT = 1136
 
 # alpha_drive: Locomotion servo (steering, throttle, brakes) (alpha)
 ALPHA_DRIVE_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_throttle
-ALPHA_DRIVE_COMMAND_AT = 992
-ALPHA_DRIVE_STATUS_AT = 1024
-ALPHA_DRIVE_MODE_AT = 1056
-ALPHA_DRIVE_PERF_AT = 1072
+ALPHA_DRIVE_COMMAND_AT = 1184
+ALPHA_DRIVE_STATUS_AT = 1216
+ALPHA_DRIVE_MODE_AT = 1248
+ALPHA_DRIVE_PERF_AT = 1264
 
 # alpha_rsta: RSTA mission package (alpha)
 ALPHA_RSTA_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_RSTA_COMMAND_AT = 1120
+ALPHA_RSTA_COMMAND_AT = 1312
 ALPHA_RSTA_STATUS = Struct(
     "<QQIIii?d"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x
-ALPHA_RSTA_STATUS_AT = 1144
-ALPHA_RSTA_MODE_AT = 1192
-ALPHA_RSTA_PERF_AT = 1208
+ALPHA_RSTA_STATUS_AT = 1336
+ALPHA_RSTA_MODE_AT = 1384
+ALPHA_RSTA_PERF_AT = 1400
 
 # alpha_pan: Sensor pointing servo (alpha)
 ALPHA_PAN_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_bearing
-ALPHA_PAN_COMMAND_AT = 1256
-ALPHA_PAN_STATUS_AT = 1288
-ALPHA_PAN_MODE_AT = 1320
-ALPHA_PAN_PERF_AT = 1336
+ALPHA_PAN_COMMAND_AT = 1448
+ALPHA_PAN_STATUS_AT = 1480
+ALPHA_PAN_MODE_AT = 1512
+ALPHA_PAN_PERF_AT = 1528
 
 # alpha_motion: Vehicle dynamics (simulated) (alpha)
 ALPHA_MOTION_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_MOTION_COMMAND_AT = 1384
-ALPHA_MOTION_STATUS_AT = 1408
-ALPHA_MOTION_MODE_AT = 1440
-ALPHA_MOTION_PERF_AT = 1456
+ALPHA_MOTION_COMMAND_AT = 1576
+ALPHA_MOTION_STATUS_AT = 1600
+ALPHA_MOTION_MODE_AT = 1632
+ALPHA_MOTION_PERF_AT = 1648
 
 # alpha_sensor: Sensor head (simulated) (alpha)
 ALPHA_SENSOR_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_SENSOR_COMMAND_AT = 1504
-ALPHA_SENSOR_STATUS_AT = 1528
-ALPHA_SENSOR_MODE_AT = 1560
-ALPHA_SENSOR_PERF_AT = 1576
+ALPHA_SENSOR_COMMAND_AT = 1696
+ALPHA_SENSOR_STATUS_AT = 1720
+ALPHA_SENSOR_MODE_AT = 1752
+ALPHA_SENSOR_PERF_AT = 1768
 
 # bravo: Vehicle Bravo (Jerry, the right corridor)
 BRAVO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_x
-BRAVO_COMMAND_AT = 1624
+BRAVO_COMMAND_AT = 1816
 BRAVO_STATUS = Struct(
     "<QQIIii?dQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, cause
-BRAVO_STATUS_AT = 1656
-BRAVO_MODE_AT = 1712
-BRAVO_PERF_AT = 1728
+BRAVO_STATUS_AT = 1848
+BRAVO_MODE_AT = 1904
+BRAVO_PERF_AT = 1920
 
 # bravo_loco: Locomotion (bravo)
 BRAVO_LOCO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_goal
-BRAVO_LOCO_COMMAND_AT = 1776
+BRAVO_LOCO_COMMAND_AT = 1968
 BRAVO_LOCO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-BRAVO_LOCO_STATUS_AT = 1808
-BRAVO_LOCO_MODE_AT = 1848
-BRAVO_LOCO_PERF_AT = 1864
+BRAVO_LOCO_STATUS_AT = 2000
+BRAVO_LOCO_MODE_AT = 2040
+BRAVO_LOCO_PERF_AT = 2056
 
 # bravo_drive: Locomotion servo (steering, throttle, brakes) (bravo)
 BRAVO_DRIVE_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_throttle
-BRAVO_DRIVE_COMMAND_AT = 1912
-BRAVO_DRIVE_STATUS_AT = 1944
-BRAVO_DRIVE_MODE_AT = 1976
-BRAVO_DRIVE_PERF_AT = 1992
+BRAVO_DRIVE_COMMAND_AT = 2104
+BRAVO_DRIVE_STATUS_AT = 2136
+BRAVO_DRIVE_MODE_AT = 2168
+BRAVO_DRIVE_PERF_AT = 2184
 
 # bravo_rsta: RSTA mission package (bravo)
 BRAVO_RSTA_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_RSTA_COMMAND_AT = 2040
+BRAVO_RSTA_COMMAND_AT = 2232
 BRAVO_RSTA_STATUS = Struct(
     "<QQIIii?d"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x
-BRAVO_RSTA_STATUS_AT = 2064
-BRAVO_RSTA_MODE_AT = 2112
-BRAVO_RSTA_PERF_AT = 2128
+BRAVO_RSTA_STATUS_AT = 2256
+BRAVO_RSTA_MODE_AT = 2304
+BRAVO_RSTA_PERF_AT = 2320
 
 # bravo_pan: Sensor pointing servo (bravo)
 BRAVO_PAN_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_bearing
-BRAVO_PAN_COMMAND_AT = 2176
-BRAVO_PAN_STATUS_AT = 2208
-BRAVO_PAN_MODE_AT = 2240
-BRAVO_PAN_PERF_AT = 2256
+BRAVO_PAN_COMMAND_AT = 2368
+BRAVO_PAN_STATUS_AT = 2400
+BRAVO_PAN_MODE_AT = 2432
+BRAVO_PAN_PERF_AT = 2448
 
 # bravo_motion: Vehicle dynamics (simulated) (bravo)
 BRAVO_MOTION_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_MOTION_COMMAND_AT = 2304
-BRAVO_MOTION_STATUS_AT = 2328
-BRAVO_MOTION_MODE_AT = 2360
-BRAVO_MOTION_PERF_AT = 2376
+BRAVO_MOTION_COMMAND_AT = 2496
+BRAVO_MOTION_STATUS_AT = 2520
+BRAVO_MOTION_MODE_AT = 2552
+BRAVO_MOTION_PERF_AT = 2568
 
 # bravo_sensor: Sensor head (simulated) (bravo)
 BRAVO_SENSOR_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_SENSOR_COMMAND_AT = 2424
-BRAVO_SENSOR_STATUS_AT = 2448
-BRAVO_SENSOR_MODE_AT = 2480
-BRAVO_SENSOR_PERF_AT = 2496
+BRAVO_SENSOR_COMMAND_AT = 2616
+BRAVO_SENSOR_STATUS_AT = 2640
+BRAVO_SENSOR_MODE_AT = 2672
+BRAVO_SENSOR_PERF_AT = 2688
+
+# ldr: Platoon leader (the OCU) (an operator module: a channel per client)
+LDR_MODE_AT = 712
+LDR_PERF_AT = 728
+LDR_PL_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_enemy_x
+LDR_PL_COMMAND_AT = 776
+LDR_PL_STATUS = Struct(
+    "<QQIIiiqd"
+)  # seq, status_num, status, error_num, state, rule, result_decision, result_post
+LDR_PL_STATUS_AT = 808
+LDR_PL_ANSWER = Struct("<QQIIqd")  # seq, command_num, status, reason, result_decision, result_post
+LDR_PL_ANSWER_AT = 856
 
 # World model.
 WORLD_ENEMY_PRESENT = Struct("<Q?")  # seq, enemy_present
-WORLD_ENEMY_PRESENT_AT = 2544
+WORLD_ENEMY_PRESENT_AT = 2736
 WORLD_ENEMY_X = Struct("<Qd")  # seq, enemy_x
-WORLD_ENEMY_X_AT = 2560
+WORLD_ENEMY_X_AT = 2752
 WORLD_ENEMY_Y = Struct("<Qd")  # seq, enemy_y
-WORLD_ENEMY_Y_AT = 2576
+WORLD_ENEMY_Y_AT = 2768
 WORLD_ALPHA_X = Struct("<Qd")  # seq, alpha_x
-WORLD_ALPHA_X_AT = 2592
+WORLD_ALPHA_X_AT = 2784
 WORLD_ALPHA_Y = Struct("<Qd")  # seq, alpha_y
-WORLD_ALPHA_Y_AT = 2608
+WORLD_ALPHA_Y_AT = 2800
 WORLD_ALPHA_SPEED = Struct("<Qd")  # seq, alpha_speed
-WORLD_ALPHA_SPEED_AT = 2624
+WORLD_ALPHA_SPEED_AT = 2816
 WORLD_ALPHA_THROTTLE = Struct("<Qd")  # seq, alpha_throttle
-WORLD_ALPHA_THROTTLE_AT = 2640
+WORLD_ALPHA_THROTTLE_AT = 2832
 WORLD_ALPHA_BRAKE = Struct("<Q?")  # seq, alpha_brake
-WORLD_ALPHA_BRAKE_AT = 2656
+WORLD_ALPHA_BRAKE_AT = 2848
 WORLD_ALPHA_STEER = Struct("<Qd")  # seq, alpha_steer
-WORLD_ALPHA_STEER_AT = 2672
+WORLD_ALPHA_STEER_AT = 2864
 WORLD_ALPHA_PAN_CMD = Struct("<Qd")  # seq, alpha_pan_cmd
-WORLD_ALPHA_PAN_CMD_AT = 2688
+WORLD_ALPHA_PAN_CMD_AT = 2880
 WORLD_ALPHA_PAN = Struct("<Qd")  # seq, alpha_pan
-WORLD_ALPHA_PAN_AT = 2704
+WORLD_ALPHA_PAN_AT = 2896
 WORLD_ALPHA_CONTACT = Struct("<Q?")  # seq, alpha_contact
-WORLD_ALPHA_CONTACT_AT = 2720
+WORLD_ALPHA_CONTACT_AT = 2912
 WORLD_ALPHA_CONTACT_X = Struct("<Qd")  # seq, alpha_contact_x
-WORLD_ALPHA_CONTACT_X_AT = 2736
+WORLD_ALPHA_CONTACT_X_AT = 2928
 WORLD_ALPHA_STUCK = Struct("<Q?")  # seq, alpha_stuck
-WORLD_ALPHA_STUCK_AT = 2752
+WORLD_ALPHA_STUCK_AT = 2944
 WORLD_BRAVO_X = Struct("<Qd")  # seq, bravo_x
-WORLD_BRAVO_X_AT = 2768
+WORLD_BRAVO_X_AT = 2960
 WORLD_BRAVO_Y = Struct("<Qd")  # seq, bravo_y
-WORLD_BRAVO_Y_AT = 2784
+WORLD_BRAVO_Y_AT = 2976
 WORLD_BRAVO_SPEED = Struct("<Qd")  # seq, bravo_speed
-WORLD_BRAVO_SPEED_AT = 2800
+WORLD_BRAVO_SPEED_AT = 2992
 WORLD_BRAVO_THROTTLE = Struct("<Qd")  # seq, bravo_throttle
-WORLD_BRAVO_THROTTLE_AT = 2816
+WORLD_BRAVO_THROTTLE_AT = 3008
 WORLD_BRAVO_BRAKE = Struct("<Q?")  # seq, bravo_brake
-WORLD_BRAVO_BRAKE_AT = 2832
+WORLD_BRAVO_BRAKE_AT = 3024
 WORLD_BRAVO_STEER = Struct("<Qd")  # seq, bravo_steer
-WORLD_BRAVO_STEER_AT = 2848
+WORLD_BRAVO_STEER_AT = 3040
 WORLD_BRAVO_PAN_CMD = Struct("<Qd")  # seq, bravo_pan_cmd
-WORLD_BRAVO_PAN_CMD_AT = 2864
+WORLD_BRAVO_PAN_CMD_AT = 3056
 WORLD_BRAVO_PAN = Struct("<Qd")  # seq, bravo_pan
-WORLD_BRAVO_PAN_AT = 2880
+WORLD_BRAVO_PAN_AT = 3072
 WORLD_BRAVO_CONTACT = Struct("<Q?")  # seq, bravo_contact
-WORLD_BRAVO_CONTACT_AT = 2896
+WORLD_BRAVO_CONTACT_AT = 3088
 WORLD_BRAVO_CONTACT_X = Struct("<Qd")  # seq, bravo_contact_x
-WORLD_BRAVO_CONTACT_X_AT = 2912
+WORLD_BRAVO_CONTACT_X_AT = 3104
 WORLD_BRAVO_STUCK = Struct("<Q?")  # seq, bravo_stuck
-WORLD_BRAVO_STUCK_AT = 2928
+WORLD_BRAVO_STUCK_AT = 3120
 
 
 PROCESSES = {
@@ -377,6 +417,8 @@ PACING = {
 PLACEMENT = {
     "pl": "command",
     "sec": "command",
+    "ldr": "command",
+    "ldr/pl": "command",
     "alpha": "pa",
     "alpha_loco": "pa",
     "alpha_drive": "pa",
@@ -398,8 +440,9 @@ HEARTBEAT_TIMEOUT = 10.0
 STARTUP_TIMEOUT = 10.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
-    "pl": ("sec",),
+    "pl": ("sec", "ldr/pl"),
     "sec": ("alpha", "bravo"),
+    "ldr": (),
     "alpha": ("alpha_loco", "alpha_rsta"),
     "alpha_loco": ("alpha_drive",),
     "alpha_drive": (),
@@ -425,6 +468,7 @@ STAND_INS = {}
 MODULES = (
     "pl",
     "sec",
+    "ldr/pl",
     "alpha",
     "alpha_loco",
     "alpha_drive",
@@ -477,6 +521,7 @@ COMMAND_IN = {
     "bravo_sensor": Record(
         BRAVO_SENSOR_COMMAND, BRAVO_SENSOR_COMMAND_AT, ("command_num", "command")
     ),
+    "ldr/pl": Record(LDR_PL_COMMAND, LDR_PL_COMMAND_AT, ("command_num", "command", "arg_enemy_x")),
 }
 STATUS_OUT = {
     "pl": Record(
@@ -491,6 +536,7 @@ STATUS_OUT = {
             "result_mission_changed",
             "result_enemy_x",
             "result_alone",
+            "result_decision",
             "cause",
         ),
     ),
@@ -567,6 +613,11 @@ STATUS_OUT = {
     "bravo_pan": Record(STATUS, BRAVO_PAN_STATUS_AT, field_names(STATUS_FIELDS)),
     "bravo_motion": Record(STATUS, BRAVO_MOTION_STATUS_AT, field_names(STATUS_FIELDS)),
     "bravo_sensor": Record(STATUS, BRAVO_SENSOR_STATUS_AT, field_names(STATUS_FIELDS)),
+    "ldr/pl": Record(
+        LDR_PL_STATUS,
+        LDR_PL_STATUS_AT,
+        ("status_num", "status", "error_num", "state", "rule", "result_decision", "result_post"),
+    ),
 }
 MODE_IN = {
     "pl": Record(MODE, PL_MODE_AT, field_names(MODE_FIELDS)),
@@ -585,6 +636,8 @@ MODE_IN = {
     "bravo_pan": Record(MODE, BRAVO_PAN_MODE_AT, field_names(MODE_FIELDS)),
     "bravo_motion": Record(MODE, BRAVO_MOTION_MODE_AT, field_names(MODE_FIELDS)),
     "bravo_sensor": Record(MODE, BRAVO_SENSOR_MODE_AT, field_names(MODE_FIELDS)),
+    "ldr": Record(MODE, LDR_MODE_AT, field_names(MODE_FIELDS)),
+    "ldr/pl": Record(MODE, LDR_MODE_AT, field_names(MODE_FIELDS)),
 }
 PERFORMANCE = {
     "pl": Record(PERF, PL_PERF_AT, field_names(PERF_FIELDS)),
@@ -603,6 +656,8 @@ PERFORMANCE = {
     "bravo_pan": Record(PERF, BRAVO_PAN_PERF_AT, field_names(PERF_FIELDS)),
     "bravo_motion": Record(PERF, BRAVO_MOTION_PERF_AT, field_names(PERF_FIELDS)),
     "bravo_sensor": Record(PERF, BRAVO_SENSOR_PERF_AT, field_names(PERF_FIELDS)),
+    "ldr": Record(PERF, LDR_PERF_AT, field_names(PERF_FIELDS)),
+    "ldr/pl": Record(PERF, LDR_PERF_AT, field_names(PERF_FIELDS)),
 }
 WORLD = {
     "enemy_present": Record(WORLD_ENEMY_PRESENT, WORLD_ENEMY_PRESENT_AT, ("enemy_present",)),
@@ -664,36 +719,36 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2944
-OVERRIDDEN_AT = 2952  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 3136
+OVERRIDDEN_AT = 3144  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "enemy_present": Record(Struct("<QQ?"), 2960, ("state", "enemy_present")),
-    "enemy_x": Record(Struct("<QQd"), 2984, ("state", "enemy_x")),
-    "enemy_y": Record(Struct("<QQd"), 3008, ("state", "enemy_y")),
-    "alpha_x": Record(Struct("<QQd"), 3032, ("state", "alpha_x")),
-    "alpha_y": Record(Struct("<QQd"), 3056, ("state", "alpha_y")),
-    "alpha_speed": Record(Struct("<QQd"), 3080, ("state", "alpha_speed")),
-    "alpha_throttle": Record(Struct("<QQd"), 3104, ("state", "alpha_throttle")),
-    "alpha_brake": Record(Struct("<QQ?"), 3128, ("state", "alpha_brake")),
-    "alpha_steer": Record(Struct("<QQd"), 3152, ("state", "alpha_steer")),
-    "alpha_pan_cmd": Record(Struct("<QQd"), 3176, ("state", "alpha_pan_cmd")),
-    "alpha_pan": Record(Struct("<QQd"), 3200, ("state", "alpha_pan")),
-    "alpha_contact": Record(Struct("<QQ?"), 3224, ("state", "alpha_contact")),
-    "alpha_contact_x": Record(Struct("<QQd"), 3248, ("state", "alpha_contact_x")),
-    "alpha_stuck": Record(Struct("<QQ?"), 3272, ("state", "alpha_stuck")),
-    "bravo_x": Record(Struct("<QQd"), 3296, ("state", "bravo_x")),
-    "bravo_y": Record(Struct("<QQd"), 3320, ("state", "bravo_y")),
-    "bravo_speed": Record(Struct("<QQd"), 3344, ("state", "bravo_speed")),
-    "bravo_throttle": Record(Struct("<QQd"), 3368, ("state", "bravo_throttle")),
-    "bravo_brake": Record(Struct("<QQ?"), 3392, ("state", "bravo_brake")),
-    "bravo_steer": Record(Struct("<QQd"), 3416, ("state", "bravo_steer")),
-    "bravo_pan_cmd": Record(Struct("<QQd"), 3440, ("state", "bravo_pan_cmd")),
-    "bravo_pan": Record(Struct("<QQd"), 3464, ("state", "bravo_pan")),
-    "bravo_contact": Record(Struct("<QQ?"), 3488, ("state", "bravo_contact")),
-    "bravo_contact_x": Record(Struct("<QQd"), 3512, ("state", "bravo_contact_x")),
-    "bravo_stuck": Record(Struct("<QQ?"), 3536, ("state", "bravo_stuck")),
+    "enemy_present": Record(Struct("<QQ?"), 3152, ("state", "enemy_present")),
+    "enemy_x": Record(Struct("<QQd"), 3176, ("state", "enemy_x")),
+    "enemy_y": Record(Struct("<QQd"), 3200, ("state", "enemy_y")),
+    "alpha_x": Record(Struct("<QQd"), 3224, ("state", "alpha_x")),
+    "alpha_y": Record(Struct("<QQd"), 3248, ("state", "alpha_y")),
+    "alpha_speed": Record(Struct("<QQd"), 3272, ("state", "alpha_speed")),
+    "alpha_throttle": Record(Struct("<QQd"), 3296, ("state", "alpha_throttle")),
+    "alpha_brake": Record(Struct("<QQ?"), 3320, ("state", "alpha_brake")),
+    "alpha_steer": Record(Struct("<QQd"), 3344, ("state", "alpha_steer")),
+    "alpha_pan_cmd": Record(Struct("<QQd"), 3368, ("state", "alpha_pan_cmd")),
+    "alpha_pan": Record(Struct("<QQd"), 3392, ("state", "alpha_pan")),
+    "alpha_contact": Record(Struct("<QQ?"), 3416, ("state", "alpha_contact")),
+    "alpha_contact_x": Record(Struct("<QQd"), 3440, ("state", "alpha_contact_x")),
+    "alpha_stuck": Record(Struct("<QQ?"), 3464, ("state", "alpha_stuck")),
+    "bravo_x": Record(Struct("<QQd"), 3488, ("state", "bravo_x")),
+    "bravo_y": Record(Struct("<QQd"), 3512, ("state", "bravo_y")),
+    "bravo_speed": Record(Struct("<QQd"), 3536, ("state", "bravo_speed")),
+    "bravo_throttle": Record(Struct("<QQd"), 3560, ("state", "bravo_throttle")),
+    "bravo_brake": Record(Struct("<QQ?"), 3584, ("state", "bravo_brake")),
+    "bravo_steer": Record(Struct("<QQd"), 3608, ("state", "bravo_steer")),
+    "bravo_pan_cmd": Record(Struct("<QQd"), 3632, ("state", "bravo_pan_cmd")),
+    "bravo_pan": Record(Struct("<QQd"), 3656, ("state", "bravo_pan")),
+    "bravo_contact": Record(Struct("<QQ?"), 3680, ("state", "bravo_contact")),
+    "bravo_contact_x": Record(Struct("<QQd"), 3704, ("state", "bravo_contact_x")),
+    "bravo_stuck": Record(Struct("<QQ?"), 3728, ("state", "bravo_stuck")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -717,6 +772,13 @@ ACTUATED_BY = {
     "bravo_brake": "pb",
     "bravo_steer": "pb",
     "bravo_pan_cmd": "pb",
+}
+# The fields that hold an enumeration's value, by (module, or "" for the world; field): the
+# value names, indexed by the code the field holds, for traces, displays and `ctl send`.
+ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
+    ("pl", "result_decision"): ("CONTINUE", "BYPASS", "HOLD", "NOT_ASKED"),
+    ("ldr", "result_decision"): ("CONTINUE", "BYPASS", "HOLD"),
+    ("ldr/pl", "result_decision"): ("CONTINUE", "BYPASS", "HOLD"),
 }
 # The modules that write each world field (a stand-in writes in its controller's place), for
 # `ctl force`: forcing a field takes it from them, which needs override on each.
@@ -745,6 +807,61 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
 GROUND_TRUTH = ("enemy_present", "enemy_x", "enemy_y")
+# Each controller's (and stand-in's) time in each state: its process's cycles spent in each
+# state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
+# (rcs/state_time.py) for `ctl status`.
+TIME_IN_STATE = {
+    "pl": Record(
+        Struct("<QqQQQQQQQ"),
+        3752,
+        ("state", "since", "NOP", "S0", "S1", "ADVANCE", "DECIDE", "OVERWATCH"),
+    ),
+    "sec": Record(
+        Struct("<QqQQQQQQQQQQQQ"),
+        3824,
+        (
+            "state",
+            "since",
+            "NOP",
+            "S0",
+            "S1",
+            "A_BOUNDS",
+            "B_BOUNDS",
+            "CONTACT",
+            "A_ALONE",
+            "B_ALONE",
+            "A_LOST",
+            "B_LOST",
+            "WATCH",
+        ),
+    ),
+    "alpha": Record(Struct("<QqQQQQ"), 3936, ("state", "since", "NOP", "S0", "S1")),
+    "alpha_loco": Record(
+        Struct("<QqQQQQQQQ"),
+        3984,
+        ("state", "since", "NOP", "S0", "S1", "AHEAD", "BACK", "STOPPING"),
+    ),
+    "alpha_drive": Record(Struct("<QqQQQ"), 4056, ("state", "since", "NOP", "S0")),
+    "alpha_rsta": Record(
+        Struct("<QqQQQQQQ"), 4096, ("state", "since", "NOP", "S0", "S1", "POINTING", "WATCH")
+    ),
+    "alpha_pan": Record(Struct("<QqQQQQ"), 4160, ("state", "since", "NOP", "S0", "S1")),
+    "alpha_motion": Record(Struct("<QqQQQ"), 4208, ("state", "since", "NOP", "S0")),
+    "alpha_sensor": Record(Struct("<QqQQQ"), 4248, ("state", "since", "NOP", "S0")),
+    "bravo": Record(Struct("<QqQQQQ"), 4288, ("state", "since", "NOP", "S0", "S1")),
+    "bravo_loco": Record(
+        Struct("<QqQQQQQQQ"),
+        4336,
+        ("state", "since", "NOP", "S0", "S1", "AHEAD", "BACK", "STOPPING"),
+    ),
+    "bravo_drive": Record(Struct("<QqQQQ"), 4408, ("state", "since", "NOP", "S0")),
+    "bravo_rsta": Record(
+        Struct("<QqQQQQQQ"), 4448, ("state", "since", "NOP", "S0", "S1", "POINTING", "WATCH")
+    ),
+    "bravo_pan": Record(Struct("<QqQQQQ"), 4512, ("state", "since", "NOP", "S0", "S1")),
+    "bravo_motion": Record(Struct("<QqQQQ"), 4560, ("state", "since", "NOP", "S0")),
+    "bravo_sensor": Record(Struct("<QqQQQ"), 4600, ("state", "since", "NOP", "S0")),
+}
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "pl": (NO_COMMAND_NAME, *("INIT", "HALT", "ESTABLISH_OP")),
@@ -763,6 +880,7 @@ COMMAND_NAMES = {
     "bravo_pan": (NO_COMMAND_NAME, *("INIT", "HALT", "POINT")),
     "bravo_motion": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "bravo_sensor": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "ldr/pl": (NO_COMMAND_NAME, *("INIT", "HALT", "SPOT_REPORT")),
 }
 # Each command's parameters, in order: an operator gives every one of them (`ctl send`,
 # `--send`, a scenario), each checked against its slot's type (rcs/operate/command.py). A command
@@ -798,9 +916,12 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     "bravo_pan": {
         "POINT": ("bearing",),
     },
+    "ldr/pl": {
+        "SPOT_REPORT": ("enemy_x",),
+    },
 }
 STATE_NAMES = {
-    "pl": ("NOP", "S0", "S1", "ADVANCE", "OVERWATCH"),
+    "pl": ("NOP", "S0", "S1", "ADVANCE", "DECIDE", "OVERWATCH"),
     "sec": (
         "NOP",
         "S0",
@@ -828,6 +949,7 @@ STATE_NAMES = {
     "bravo_pan": ("NOP", "S0", "S1"),
     "bravo_motion": ("NOP", "S0"),
     "bravo_sensor": ("NOP", "S0"),
+    "ldr/pl": OPERATOR_STATES,
 }
 # The reason each code of a status buffer's `error_num` names, indexed by code, for the
 # controllers and operator modules that declare reasons (docs/semantics.md, "Results and
@@ -845,6 +967,7 @@ REASON_NAMES: dict[str, tuple[str, ...]] = {
 CAUSE_MODULES = (
     "pl",
     "sec",
+    "ldr",
     "alpha",
     "alpha_loco",
     "alpha_drive",
@@ -872,6 +995,11 @@ RULES = {
         "ESTABLISH_OP/ADVANCE/1",
         "ESTABLISH_OP/ADVANCE/2",
         "ESTABLISH_OP/ADVANCE/3",
+        "ESTABLISH_OP/DECIDE/1",
+        "ESTABLISH_OP/DECIDE/2",
+        "ESTABLISH_OP/DECIDE/3",
+        "ESTABLISH_OP/DECIDE/4",
+        "ESTABLISH_OP/DECIDE/5",
         "ESTABLISH_OP/OVERWATCH/1",
         "ESTABLISH_OP/OVERWATCH/2",
     ),
@@ -1019,6 +1147,7 @@ RULES = {
     "bravo_pan": ("", "INIT/S0/1", "HALT/S0/1", "POINT/S0/1", "POINT/S1/1", "POINT/S1/2"),
     "bravo_motion": ("", "INIT/S0/1", "HALT/S0/1"),
     "bravo_sensor": ("", "INIT/S0/1", "HALT/S0/1"),
+    "ldr/pl": ("",),  # an operator module has no table
 }
 SIMULATORS = ("alpha_motion", "alpha_sensor", "bravo_motion", "bravo_sensor")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
@@ -1041,6 +1170,38 @@ READS_SETTINGS = False
 REQUESTS: dict[str, dict[str, object]] = {}
 
 
+# Operator modules (a person at a screen): each one's channels, `operator/client`.
+OPERATORS = {
+    "ldr": ("ldr/pl",),
+}
+# Each channel's answer record: written only by the answering side (`ctl answer`, a
+# scenario's scripted operator), read by the operator module.
+ANSWERS = {
+    "ldr/pl": Record(
+        LDR_PL_ANSWER,
+        LDR_PL_ANSWER_AT,
+        ("command_num", "status", "reason", "result_decision", "result_post"),
+    ),
+}
+# What a DONE answer to each task records (`results:`), checked before it is written and
+# again when the operator module reads it: each result's name and range (None: open); its
+# type is its answer slot's, an enumeration's values are in ENUMS.
+TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], ...]]] = {
+    "ldr": {
+        "SPOT_REPORT": (
+            ("decision", None, None),
+            ("post", 0.0, 5000.0),
+        ),
+    },
+}
+# Each operator module's tasks: the instruction the screen shows (`{param}`: its value).
+INSTRUCTIONS = {
+    "ldr": {
+        "SPOT_REPORT": "Spot report: an enemy position at {enemy_x} m along the axis; both vehicles hold overwatch positions. CONTINUE to the objective, BYPASS to a new observation post (post=m), or HOLD in overwatch and report?",
+    },
+}
+
+
 def initialise(buf: memoryview) -> None:
     """Zero the block, write the header, mark every buffer whole (a sequence word of 0 is a
     write in progress), set every world field to its initial value and flag the simulators."""
@@ -1055,6 +1216,8 @@ def initialise(buf: memoryview) -> None:
         PERFORMANCE,
         WORLD,
         OVERRIDE,
+        TIME_IN_STATE,
+        ANSWERS,
     ):
         for record in records.values():
             SEQ.pack_into(buf, record.offset, FIRST_SEQ)

@@ -5,6 +5,8 @@ from struct import Struct
 from time import perf_counter_ns
 
 from .layout import (
+    LDR_PL_COMMAND,
+    LDR_PL_COMMAND_AT,
     PL_PERF_AT,
     PL_STATUS,
     PL_STATUS_AT,
@@ -44,9 +46,15 @@ SEC_REASON_LOST = 1
 SEC_REASON_BOTH_LOST = 2
 SEC_LINK = 2  # its number in the layout's CAUSE_MODULES
 
+# Commands pl sends to ldr.
+LDR_INIT = 1
+LDR_HALT = 2
+LDR_SPOT_REPORT = 3
+LDR_LINK = 3  # its number in the layout's CAUSE_MODULES
+
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQId68x???1xI88xQII8x?d??8xQ")
+INPUTS = Struct("<QQId76x???1xI88xQII8x?d??8xQ173xQI12xqd")
 INPUTS_AT = 392
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -57,7 +65,14 @@ SEQS_AT = 392
 S0 = 1
 S1 = 2
 ADVANCE = 3
-OVERWATCH = 4
+DECIDE = 4
+OVERWATCH = 5
+
+# Enumeration values its tables name (a field holds its value's index).
+CONTINUE = 0
+BYPASS = 1
+HOLD = 2
+NOT_ASKED = 3
 
 
 class PlController:
@@ -73,11 +88,20 @@ class PlController:
         "dont_run",
         "error_num",
         "last_cycle_ns",
+        "ldr_arg_enemy_x",
+        "ldr_command",
+        "ldr_command_num",
+        "ldr_result_decision",
+        "ldr_result_post",
+        "ldr_status",
+        "ldr_status_num",
+        "ldr_written",
         "max_cycle_ns",
         "min_cycle_ns",
         "perf_seq",
         "perf_single_step_num",
         "result_alone",
+        "result_decision",
         "result_enemy_x",
         "result_mission_changed",
         "rule",
@@ -123,6 +147,7 @@ class PlController:
             self.result_mission_changed,
             self.result_enemy_x,
             self.result_alone,
+            self.result_decision,
             self.cause,
         ) = PL_STATUS.unpack_from(buf, PL_STATUS_AT)
         (
@@ -141,11 +166,17 @@ class PlController:
             buf, SEC_COMMAND_AT
         )
         self.sec_written = self.sec_command_num
+        _, self.ldr_command_num, self.ldr_command, self.ldr_arg_enemy_x = (
+            LDR_PL_COMMAND.unpack_from(buf, LDR_PL_COMMAND_AT)
+        )
+        self.ldr_written = self.ldr_command_num
 
     def safe_state(self, reason: int) -> None:
         """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
         self.sec_command = SEC_HALT
         self.sec_command_num += 1
+        self.ldr_command = LDR_HALT
+        self.ldr_command_num += 1
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
@@ -178,6 +209,10 @@ class PlController:
                 self.sec_result_in_cover,
                 self.sec_result_alone,
                 self.sec_cause,
+                self.ldr_status_num,
+                self.ldr_status,
+                self.ldr_result_decision,
+                self.ldr_result_post,
             ) = values
         if self.sec_status_num != self.sec_command_num:
             self.sec_status = EXECUTING  # until it echoes the last number sent
@@ -190,6 +225,10 @@ class PlController:
         elif self.sec_status != ERROR:
             self.sec_error_num = SEC_REASON_NONE  # a reason comes only with ERROR
             self.sec_cause = 0
+        if self.ldr_status_num != self.ldr_command_num:
+            self.ldr_status = EXECUTING  # until it echoes the last number sent
+            self.ldr_result_decision = 0  # no result yet
+            self.ldr_result_post = 0.0  # no result yet
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -202,6 +241,7 @@ class PlController:
             self.result_mission_changed = False  # no result yet
             self.result_enemy_x = 0.0  # no result yet
             self.result_alone = False  # no result yet
+            self.result_decision = 0  # no result yet
 
         # 3. decision_process: run the command's state table, unless the mode holds it
         if self.rule:  # the rule that fired last cycle is not news any more
@@ -237,6 +277,7 @@ class PlController:
                 self.result_mission_changed,
                 self.result_enemy_x,
                 self.result_alone,
+                self.result_decision,
                 self.cause,
             )
             SEQ.pack_into(buf, PL_STATUS_AT, seq + 1)
@@ -258,6 +299,22 @@ class PlController:
             )
             SEQ.pack_into(buf, SEC_COMMAND_AT, seq + 1)
             self.sec_written = self.sec_command_num
+        if self.ldr_command_num != self.ldr_written:  # a command was sent
+            seq, number = LDR_PL_COMMAND.unpack_from(buf, LDR_PL_COMMAND_AT)[:2]
+            if number != self.ldr_written:  # an operator's command came meanwhile:
+                self.ldr_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, LDR_PL_COMMAND_AT, seq)
+            LDR_PL_COMMAND.pack_into(
+                buf,
+                LDR_PL_COMMAND_AT,
+                seq,
+                self.ldr_command_num,
+                self.ldr_command,
+                self.ldr_arg_enemy_x,
+            )
+            SEQ.pack_into(buf, LDR_PL_COMMAND_AT, seq + 1)
+            self.ldr_written = self.ldr_command_num
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -318,6 +375,10 @@ class PlController:
             self.sec_result_in_cover,
             self.sec_result_alone,
             self.sec_cause,
+            self.ldr_status_num,
+            self.ldr_status,
+            self.ldr_result_decision,
+            self.ldr_result_post,
         ) = values
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
@@ -331,8 +392,10 @@ class PlController:
             self.state = S1
             self.sec_command = SEC_INIT
             self.sec_command_num += 1
+            self.ldr_command = LDR_INIT
+            self.ldr_command_num += 1
 
-        elif state == S1 and self.sec_status == DONE:
+        elif state == S1 and self.sec_status == DONE and self.ldr_status == DONE:
             # every subordinate is done
             self.rule = 2  # INIT/S1/1
             self.state = NOP
@@ -348,8 +411,10 @@ class PlController:
             self.state = S1
             self.sec_command = SEC_HALT
             self.sec_command_num += 1
+            self.ldr_command = LDR_HALT
+            self.ldr_command_num += 1
 
-        elif state == S1 and self.sec_status == DONE:
+        elif state == S1 and self.sec_status == DONE and self.ldr_status == DONE:
             # every subordinate is done
             self.rule = 4  # HALT/S1/1
             self.state = NOP
@@ -365,6 +430,7 @@ class PlController:
             self.sec_arg_objective = self.arg_objective
             self.sec_command = SEC_SC_EST_OBS
             self.sec_command_num += 1
+            self.result_decision = NOT_ASKED
 
         elif state == ADVANCE:
             if self.sec_status == ERROR:
@@ -387,17 +453,71 @@ class PlController:
                 self.cause = 0  # DONE has no cause
 
             elif self.sec_result_contact and self.sec_result_in_cover:
-                # the spot report, both vehicles in cover; the mission changes (step 20)
+                # the spot report, both vehicles in cover; the leader decides (step 20)
                 self.rule = 8  # ESTABLISH_OP/ADVANCE/3
+                self.state = DECIDE
+                self.result_enemy_x = self.sec_result_enemy_x
+                self.ldr_arg_enemy_x = self.sec_result_enemy_x
+                self.ldr_command = LDR_SPOT_REPORT
+                self.ldr_command_num += 1
+
+        elif state == DECIDE:
+            if self.sec_status == ERROR:
+                self.rule = 9  # ESTABLISH_OP/DECIDE/1
+                # sec's error: the cause of an ERROR this command reports
+                self.cause = caused(SEC_LINK, self.sec_error_num, self.sec_cause)
+                self.ldr_command = LDR_HALT
+                self.ldr_command_num += 1
+                self.state = NOP
+                self.status = ERROR
+                # sec's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    SEC_REASON_LOST: REASON_LOST,
+                    SEC_REASON_BOTH_LOST: REASON_BOTH_LOST,
+                }.get(self.sec_error_num, REASON_NONE)
+
+            elif self.ldr_status == DONE and self.ldr_result_decision == HOLD:
+                # the updated mission, remain in overwatch and report (step 20)
+                self.rule = 10  # ESTABLISH_OP/DECIDE/2
                 self.state = OVERWATCH
                 self.result_mission_changed = True
-                self.result_enemy_x = self.sec_result_enemy_x
+                self.result_decision = HOLD
+                self.sec_command = SEC_OVERWATCH
+                self.sec_command_num += 1
+
+            elif self.ldr_status == DONE and self.ldr_result_decision == BYPASS:
+                # bypass the enemy; the observation post moves to the leader's number
+                self.rule = 11  # ESTABLISH_OP/DECIDE/3
+                self.state = ADVANCE
+                self.result_mission_changed = True
+                self.result_decision = BYPASS
+                self.sec_arg_objective = self.ldr_result_post
+                self.sec_command = SEC_SC_EST_OBS
+                self.sec_command_num += 1
+
+            elif self.ldr_status == DONE and self.ldr_result_decision == CONTINUE:
+                # the advance goes on to the ordered post
+                self.rule = 12  # ESTABLISH_OP/DECIDE/4
+                self.state = ADVANCE
+                self.result_decision = CONTINUE
+                self.sec_arg_objective = self.arg_objective
+                self.sec_command = SEC_SC_EST_OBS
+                self.sec_command_num += 1
+
+            elif self.ldr_status == ERROR:
+                # no decision (the leader declined at the OCU); the standing order is to hold
+                self.rule = 13  # ESTABLISH_OP/DECIDE/5
+                self.state = OVERWATCH
+                # ldr's error: the cause of an ERROR this command reports
+                self.cause = caused(LDR_LINK, 0, 0)
+                self.result_mission_changed = True
+                self.result_decision = HOLD
                 self.sec_command = SEC_OVERWATCH
                 self.sec_command_num += 1
 
         elif state == OVERWATCH:
             if self.sec_status == ERROR:
-                self.rule = 9  # ESTABLISH_OP/OVERWATCH/1
+                self.rule = 14  # ESTABLISH_OP/OVERWATCH/1
                 # sec's error: the cause of an ERROR this command reports
                 self.cause = caused(SEC_LINK, self.sec_error_num, self.sec_cause)
                 self.state = NOP
@@ -409,7 +529,7 @@ class PlController:
                 }.get(self.sec_error_num, REASON_NONE)
 
             elif self.sec_status == DONE:
-                self.rule = 10  # ESTABLISH_OP/OVERWATCH/2
+                self.rule = 15  # ESTABLISH_OP/OVERWATCH/2
                 self.result_enemy_x = self.sec_result_enemy_x
                 self.state = NOP
                 self.status = DONE

@@ -47,7 +47,7 @@ ALPHA_REASON_NONE = 0
 ALPHA_REASON_LOST = 1
 ALPHA_REASON_IMMOBILE = 2
 ALPHA_REASON_SENSOR_FAULT = 3
-ALPHA_LINK = 3  # its number in the layout's CAUSE_MODULES
+ALPHA_LINK = 4  # its number in the layout's CAUSE_MODULES
 
 # Commands sec sends to bravo.
 BRAVO_INIT = 1
@@ -60,16 +60,16 @@ BRAVO_REASON_NONE = 0
 BRAVO_REASON_LOST = 1
 BRAVO_REASON_IMMOBILE = 2
 BRAVO_REASON_SENSOR_FAULT = 3
-BRAVO_LINK = 10  # its number in the layout's CAUSE_MODULES
+BRAVO_LINK = 11  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QId76x???1xI80xQQII9xdQ871xQQII9xdQ887xQd160xQd")
-INPUTS_AT = 552
+INPUTS = Struct("<QId76x???1xI264xQQII9xdQ871xQQII9xdQ887xQd160xQd")
+INPUTS_AT = 560
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q912xQ928xQ168xQ")
-SEQS_AT = 736
+SEQS_AT = 928
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2536 bytes.
+The block is 2992 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -115,6 +115,15 @@ command buffers and world fields:
 | 2464 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
 | 2488 | 17 | OVERRIDE_FIRE | state, fire |
 | 2512 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 2536 | 72 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, VENT |
+| 2608 | 48 | TIME_SM | state, since, NOP, S0, S1 |
+| 2656 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 2704 | 56 | TIME_HELM | state, since, NOP, S0, S1, S2 |
+| 2760 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 2832 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 2872 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 2912 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 2952 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -143,9 +152,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 2536
+SIZE = 2992
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "0d4d25c2e12df43fe945270c31794a01"
+LAYOUT_HASH = "5150afacc29fa0ddae7762957cf40a7e"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 168
 
@@ -524,6 +533,28 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
 GROUND_TRUTH = ()
+# Each controller's (and stand-in's) time in each state: its process's cycles spent in each
+# state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
+# (rcs/state_time.py) for `ctl status`.
+TIME_IN_STATE = {
+    "cc": Record(
+        Struct("<QqQQQQQQQ"),
+        2536,
+        ("state", "since", "NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "VENT"),
+    ),
+    "sm": Record(Struct("<QqQQQQ"), 2608, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 2656, ("state", "since", "NOP", "S0", "S1")),
+    "helm": Record(Struct("<QqQQQQQ"), 2704, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "rudder": Record(
+        Struct("<QqQQQQQQQ"),
+        2760,
+        ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
+    ),
+    "rudder_sim": Record(Struct("<QqQQQ"), 2832, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 2872, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 2912, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 2952, ("state", "since", "NOP", "S0")),
+}
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "cc": (NO_COMMAND_NAME, *("INIT", "HALT", "RUN_MISSION")),
@@ -698,6 +729,7 @@ def initialise(buf: memoryview) -> None:
         PERFORMANCE,
         WORLD,
         OVERRIDE,
+        TIME_IN_STATE,
     ):
         for record in records.values():
             SEQ.pack_into(buf, record.offset, FIRST_SEQ)

@@ -107,7 +107,10 @@ class Layout:
     # per world field its override record (state and value), after the world fields.
     overrides: Buffer | None = None
     override_fields: tuple[Buffer, ...] = ()
-    io: dict[str, Buffer] = field(default_factory=dict)  # each I/O device's record, last
+    io: dict[str, Buffer] = field(default_factory=dict)  # each I/O device's record
+    # Each controller's (and stand-in's) time in each state: a cycle count per state code,
+    # counted by the runtime's loop (rcs/state_time.py), last in the block
+    state_time: dict[str, Buffer] = field(default_factory=dict)
 
     @cached_property
     def world_by_name(self) -> dict[str, Buffer]:
@@ -131,6 +134,7 @@ class Layout:
         every += [self.overrides] if self.overrides is not None else []
         every += self.override_fields
         every += self.io.values()
+        every += self.state_time.values()
         return sorted(every, key=lambda b: b.offset)
 
 
@@ -223,6 +227,9 @@ class IRParam:
     name: str
     type: Type
     doc: str = ""
+    # an operator task's result: the range a DONE answer's value must lie in (None: open)
+    low: float | None = None
+    high: float | None = None
 
 
 @dataclass(frozen=True)

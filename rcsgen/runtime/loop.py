@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from struct import Struct
 from types import ModuleType
-from typing import Protocol
+from typing import Any, Protocol
 
 from .block import Block
 from .contract import (
@@ -44,6 +44,7 @@ from .io_cycle import attach as attach_io
 from .override import latch_safe
 from .realtime import apply as apply_realtime
 from .ring import Receiver, give, stop_on_control
+from .state_time import PAUSED, StateClock, clocks
 from .transport import Local, Transport
 
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
@@ -202,6 +203,13 @@ class Process:
         self.simulated: tuple[str, ...] = ()
         self.modules: dict[str, Module] = {}
         self.steps: tuple[Callable[[], None], ...] = ()
+        # time in state (rcs/state_time.py): each controller's and stand-in's clock, and the
+        # clock of each module running now (a stand-in's under its controller's name)
+        before = int(layout.PROCESSES[plan.name].read(buf)["heartbeat"]) if restarting else 0
+        self.clocks = clocks(
+            layout, buf, [*plan.modules, *(s for s, _ in plan.stand_ins.values())], before
+        )
+        self.timed: dict[str, tuple[StateClock, Any]] = {}
         self.io_steps: tuple[tuple[Callable[[], None], ...], ...] = ((), ())
         self._choose(self._simulate_flags())
         # The control record: this process is its only writer (the launcher marks it dead).
@@ -266,6 +274,17 @@ class Process:
             if self.modules and self.modules.get(name) is not module:
                 module.resume()
         self.simulated, self.modules = simulated, modules
+        runs = {n: self.plan.stand_ins[n][0] if n in simulated else n for n in modules}
+        timed = {
+            n: (self.clocks[runs[n]], m)
+            for n, m in modules.items()
+            if runs[n] in self.clocks and hasattr(m, "state")  # (a test's stand-in may not)
+        }
+        running = {id(clock) for clock, _ in timed.values()}
+        for clock, _ in self.timed.values():  # replaced by a stand-in, or back: no time now
+            if id(clock) not in running:
+                clock.enter(self.block.buf, PAUSED, self.cycle)
+        self.timed = timed
         run = tuple(module.run_cycle for module in modules.values())
         self.steps = (*self.io_steps[0], *run, *self.io_steps[1])
 
@@ -279,6 +298,9 @@ class Process:
                 self._choose(flags)
         for step in self.steps:
             step()
+        buf, cycle = self.block.buf, self.cycle
+        for clock, module in self.timed.values():
+            clock.tick(buf, module.state, cycle)
         self.cycle += 1
         self.beat()
 
@@ -296,6 +318,9 @@ class Process:
             module = self.modules.get(name)
             if module is not None:
                 module.run_cycle()
+                if name in self.timed:
+                    clock, timed = self.timed[name]
+                    clock.tick(self.block.buf, timed.state, self.cycle)
 
     def beat(self, state: int = RUNNING, now_ns: int | None = None) -> None:
         """Write the control record: the heartbeat, the counters, the state."""

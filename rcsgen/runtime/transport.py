@@ -99,6 +99,8 @@ def records(layout: ModuleType) -> dict[str, Record]:
         found[f"{WORLD_OWNER}/{name}"] = record
     for name, record in getattr(layout, "OVERRIDE", {}).items():
         found[f"{OVERRIDE_OWNER}/{name}"] = record
+    for module, record in getattr(layout, "TIME_IN_STATE", {}).items():  # `pl/time`
+        found[f"{module}/time"] = record
     return found
 
 

@@ -340,8 +340,10 @@ class Monitor(App[None]):
             form = self.query_one("#send", Input)
             form.add_class("open")
             reasons = ", ".join(request["reasons"]) or "none"
+            results = " ".join(f"{k}={v}" for k, v in (request.get("results") or {}).items())
+            done = f"DONE {results}" if results else "DONE"
             form.placeholder = (
-                f"{name} {request['task']}: DONE | ERROR [REASON]  reasons: {reasons}"
+                f"{name} {request['task']}: {done} | ERROR [REASON]  reasons: {reasons}"
             )
             form.value = "DONE"
             form.focus()
@@ -355,18 +357,24 @@ class Monitor(App[None]):
         self.act("", answer)
 
     def _answer(self, name: str, words: list[str]) -> None:
-        """The answer form submitted: `DONE`, or `ERROR [REASON]`."""
+        """The answer form submitted: `DONE [NAME=VALUE ...]` (the task's results), or
+        `ERROR [REASON]`; values that do not fit the task are refused in one line."""
         self.action_close_send()
         status = words[0].upper() if words else ""
-        if status not in ("DONE", "ERROR") or len(words) > 2:
-            self.say(f"answer {name} with DONE or ERROR [REASON]", error=True)
+        given = [w.partition("=") for w in words[1:]]
+        if status == "DONE" and all(eq and key for key, eq, _ in given):
+            results, reason = {key: value for key, _, value in given}, ""
+        elif status == "ERROR" and len(words) <= 2:
+            results, reason = {}, words[1] if len(words) == 2 else ""
+        else:
+            self.say(f"answer {name} with DONE [NAME=VALUE ...] or ERROR [REASON]", error=True)
             return
-        reason = words[1] if len(words) == 2 else ""
 
         def answer() -> str:
-            request = self.ctl.answer_channel(name, status, reason)
+            request = self.ctl.answer_channel(name, status, reason, results)
             why = f" ({reason})" if reason else ""
-            return f"answered {name}: {request['task']} #{request['number']} {status}{why}"
+            values = "".join(f" {k}={v}" for k, v in results.items())
+            return f"answered {name}: {request['task']} #{request['number']} {status}{why}{values}"
 
         self.act("", answer)
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from ..compiler.back_end import write
 from ..compiler.back_end.emit import MARKER
 from ..compiler.diagnostics import Diagnostics
-from ..compiler.ir import IRCommand, IRController, IRRule, IRSystem
+from ..compiler.ir import IRCommand, IRController, IRParam, IRRule, IRSystem
 from ..compiler.types import Enum, Type
 from . import graph
 
@@ -131,19 +131,35 @@ def operator_page(system: IRSystem, c: IRController, level: int) -> str:
         "",
         "## Tasks",
         "",
-        "| code | task | parameters | instruction on the screen | reasons | description |",
-        "|---:|---|---|---|---|---|",
+    ]
+    recorded = any(command.results for command in c.commands)  # a column only if any
+    out += [
+        "| code | task | parameters | instruction on the screen | reasons | "
+        + ("results (with DONE) | " if recorded else "")
+        + "description |",
+        "|---:|---|---|---|---|---|" + ("---|" if recorded else ""),
     ]
     for command in c.commands:
         if not command.text:
             continue
         params = ", ".join(f"{p.name}: {p.type}" for p in command.params)
         reasons = ", ".join(code(r) for r in command.reasons)
+        results = ", ".join(_result(r) for r in command.results)
         out.append(
             f"| {command.code} | {command.name} | {params} | {cell(command.text)} | "
-            f"{reasons} | {cell(command.doc.strip())} |"
+            f"{reasons} | "
+            + (f"{cell(results)} | " if recorded else "")
+            + f"{cell(command.doc.strip())} |"
         )
     return "\n".join(out).rstrip("\n") + "\n"
+
+
+def _result(r: IRParam) -> str:
+    """A task's result as the reference shows it: `post: float 0.0..5000.0`."""
+    bounds = ""
+    if r.low is not None or r.high is not None:
+        bounds = f" {'' if r.low is None else r.low}..{'' if r.high is None else r.high}"
+    return f"{r.name}: {r.type}{bounds}"
 
 
 def controller_page(system: IRSystem, controller: IRController, level: int) -> str:

@@ -146,6 +146,18 @@ def text_problem(value: object, size: int) -> str:
     return ""
 
 
+def range_problem(value: object, low: float | None, high: float | None) -> str:
+    """'' when a number lies in [low, high] (None: open on that side), else what is wrong, as
+    the end of a sentence that starts with the value's name (an operator task's result)."""
+    if not isinstance(value, int | float) or isinstance(value, bool):
+        return ""
+    if low is not None and value < low:
+        return f"is {value}: below its minimum {low}"
+    if high is not None and value > high:
+        return f"is {value}: above its maximum {high}"
+    return ""
+
+
 def encode_text(value: str, size: int) -> bytes:
     """`value` as a string field of `size` bytes, NUL-padded; ValueError if it does not fit
     (never truncated)."""

@@ -9,14 +9,23 @@ scenario's scripted operator) writes the channel's answer record, and nobody els
 Each cycle, for each channel: a new command number opens a request (INIT and HALT instead
 close whatever was open, and are DONE at once); an answer to the open request's command
 number becomes the channel's status, DONE or ERROR with its reason; an answer to an older
-command is ignored. A generated `<operator>.py` names its channels' offsets and subclasses
-`OperatorModule`. Standard library only: copied verbatim into every generated package.
+command is ignored. A task may declare results (what the person records: a measured value, a
+choice): a DONE answer carries them in the answer record, and the operator module copies
+them into the channel's status buffer with the DONE, so the client reads both in one cycle
+under one sequence word; an answer whose values do not fit the task (a type's value it
+cannot hold, out of its range) is refused, one line on stderr, and the request stays open.
+A generated `<operator>.py` names its channels' offsets and subclasses `OperatorModule`.
+Standard library only: copied verbatim into every generated package.
 """
 
 from __future__ import annotations
 
+import math
+import sys
+from collections.abc import Mapping, Sequence
 from struct import Struct
 from time import perf_counter_ns
+from typing import ClassVar
 
 from .contract import (
     ANSWER,
@@ -33,10 +42,16 @@ from .contract import (
     READ_TRIES,
     SEQ,
     STATUS,
+    field_codes,
+    range_problem,
     struct_format,
 )
 
 COMMAND_HEAD = Struct(struct_format(COMMAND_HEAD_FIELDS))  # seq, command_num, command
+# A task's results as the generated module declares them: each one's name, its slot (from
+# 0, in the answer record and the status buffer after their standard fields), its range
+# (None: open) and, for an enumeration, how many values it has (0: none).
+ResultCheck = tuple[str, int, float | None, float | None, int]
 WITHDRAW = tuple(range(1, len(BUILTIN_COMMANDS) + 1))  # INIT and HALT close a request
 _STALE = None
 
@@ -55,63 +70,141 @@ class Channel:
     """One client's channel: where its buffers are, and the status last written back."""
 
     __slots__ = (
+        "answer",
         "answer_at",
         "client",
         "command_at",
         "error_num",
+        "name",
+        "refused",
+        "results",
+        "shape",
         "state",
         "status",
         "status_at",
         "status_num",
         "status_seq",
+        "task",
+        "zero",
     )
 
-    def __init__(self, client: str, command_at: int, status_at: int, answer_at: int) -> None:
-        self.client = client
+    def __init__(
+        self,
+        client: str,
+        command_at: int,
+        status_at: int,
+        answer_at: int,
+        shape: Struct = STATUS,
+        answer: Struct = ANSWER,
+        name: str = "",
+    ) -> None:
+        self.client, self.name = client, name or client
         self.command_at, self.status_at, self.answer_at = command_at, status_at, answer_at
+        self.shape, self.answer = shape, answer  # with its results' slots, if it has any
         self.status_seq = self.status_num = self.status = self.error_num = self.state = 0
+        self.task = self.refused = 0
+        codes = field_codes(shape.format)[len(field_codes(STATUS.format)) :]
+        self.zero = tuple(_zero(code) for code in codes)  # a result before its answer
+        self.results = self.zero
 
     def resume(self, buf: memoryview) -> None:
         """Take up the status from the block (a restarted module keeps its handshake)."""
-        seq, self.status_num, self.status, self.error_num, self.state, _ = STATUS.unpack_from(
-            buf, self.status_at
+        seq, self.status_num, self.status, self.error_num, self.state, _, *results = (
+            self.shape.unpack_from(buf, self.status_at)
         )
+        self.results = tuple(results)
         self.status_seq = seq + (seq & 1)  # odd: its writer died mid-write
+        command = read_whole(buf, COMMAND_HEAD, self.command_at)
+        self.task = command[1] if command is not None and command[0] == self.status_num else 0
 
-    def step(self, buf: memoryview) -> bool | None:
+    def step(self, buf: memoryview, checks: Mapping[int, tuple[ResultCheck, ...]]) -> bool | None:
         """One cycle of this channel: whether the status changed (None: its command or
-        answer could not be read whole this cycle; nothing changed)."""
+        answer could not be read whole this cycle; nothing changed). `checks`: each task's
+        results, by its code."""
         command = read_whole(buf, COMMAND_HEAD, self.command_at)
         if command is None:
             return None
         number, code = command
         changed = False
         if number != self.status_num:  # a new command: a new request, or a withdrawal
-            self.status_num, self.error_num = number, 0
+            self.status_num, self.error_num, self.task = number, 0, code
+            self.results = self.zero
             if code in WITHDRAW:
                 self.status, self.state = DONE, NOP
             else:
                 self.status, self.state = EXECUTING, ASKING
             changed = True
         if self.state == ASKING:
-            answer = read_whole(buf, ANSWER, self.answer_at)
+            answer = read_whole(buf, self.answer, self.answer_at)
             if answer is None:
                 return True if changed else None
-            answered, status, reason = answer
+            answered, status, reason, *values = answer
             if answered == self.status_num and status in (DONE, ERROR):
-                self.status, self.state = status, NOP
+                recorded = self.results
+                if status == DONE:
+                    problem = _answer_problem(values, checks.get(self.task, ()))
+                    if problem:  # never reaches the client: the request stays open
+                        self.refuse(answered, problem)
+                        return changed
+                    kept = {check[1] for check in checks.get(self.task, ())}
+                    recorded = tuple(
+                        v if i in kept else z
+                        for i, (v, z) in enumerate(zip(values, self.zero, strict=True))
+                    )
+                self.status, self.state, self.results = status, NOP, recorded
                 self.error_num = reason if status == ERROR else 0
                 changed = True
         return changed
 
+    def refuse(self, answered: int, problem: str) -> None:
+        """An answer whose results do not fit its task: one line, once per answer."""
+        if self.refused != answered:
+            self.refused = answered
+            print(
+                f"{self.name}: the answer to #{answered} is refused: {problem}; the request "
+                "stays open",
+                file=sys.stderr,
+                flush=True,
+            )
+
     def write(self, buf: memoryview) -> None:
-        """Write the channel's status back, odd while it is written."""
+        """Write the channel's status (and results) back, odd while it is written."""
         seq = self.status_seq + 1
         SEQ.pack_into(buf, self.status_at, seq)  # odd before any field changes
         values = (self.status_num, self.status, self.error_num, self.state, NO_RULE)
-        STATUS.pack_into(buf, self.status_at, seq, *values)
+        self.shape.pack_into(buf, self.status_at, seq, *values, *self.results)
         SEQ.pack_into(buf, self.status_at, seq + 1)
         self.status_seq = seq + 1
+
+
+def _zero(code: str) -> object:
+    """A result slot's value before any answer: false, 0, 0.0, the empty text."""
+    if code == "?":
+        return False
+    if code == "q":
+        return 0
+    return 0.0 if code == "d" else b""
+
+
+def _answer_problem(values: Sequence[object], checks: tuple[ResultCheck, ...]) -> str:
+    """'' when an answer's result values fit its task, else what is wrong with the first
+    that does not (a value read from the answer record: of its slot's struct type)."""
+    for name, slot, low, high, count in checks:
+        value = values[slot]
+        if isinstance(value, bytes):
+            try:
+                value.decode("utf-8")
+            except UnicodeDecodeError:
+                return f"result {name} is not UTF-8 text"
+            continue
+        if isinstance(value, float) and not math.isfinite(value):
+            return f"result {name} is {value}, not a finite number"
+        if count and not (isinstance(value, int) and 0 <= value < count):
+            return f"result {name} is {value}, not one of its {count} values"
+        problem = range_problem(value, low, high)
+        if problem:
+            return f"result {name} {problem}"
+    return ""
 
 
 class OperatorModule:
@@ -123,11 +216,17 @@ class OperatorModule:
     NAME = ""
     MODE_AT = 0
     PERF_AT = 0
-    CHANNELS: tuple[tuple[str, int, int, int], ...] = ()
+    # client, command, status and answer offsets (and, with results, the status and answer
+    # structs)
+    CHANNELS: tuple[tuple[str, int, int, int] | tuple[str, int, int, int, Struct, Struct], ...] = ()
+    RESULTS: ClassVar[dict[int, tuple[ResultCheck, ...]]] = {}  # each task's results, by code
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
-        self.channels = tuple(Channel(*where) for where in self.CHANNELS)
+        self.channels = tuple(
+            Channel(*where, name=f"{self.NAME}/{where[0]}")  # type: ignore[misc]
+            for where in self.CHANNELS
+        )
         self.dont_run = self.single_step = False
         self.single_step_num = 0
         self.resume()
@@ -165,7 +264,7 @@ class OperatorModule:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             for channel in self.channels:
-                changed = channel.step(buf)
+                changed = channel.step(buf, self.RESULTS)
                 if changed is None:
                     self.stale_reads += 1
                 elif changed:

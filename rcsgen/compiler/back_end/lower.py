@@ -368,7 +368,10 @@ class _ControllerLowering:
                 for r in s.rules
             ),
             lets=tuple((let.name, self.expression(let.tree, let.text)) for let in command.lets),
-            results=tuple(ir.IRParam(r.name, r.type, r.doc) for r in source.results.values()),
+            results=tuple(
+                ir.IRParam(r.name, r.type, r.doc, _bound(r.low, r.type), _bound(r.high, r.type))
+                for r in source.results.values()
+            ),
             reasons=tuple(str(r.value) for r in source.reasons),
             text=str(source.text.value) if source.text else "",
         )
@@ -665,6 +668,13 @@ def _shape(fields: Iterable[tuple[str, str]]) -> list[FieldShape]:
     return [(name, code, 0) for name, code in fields]
 
 
+def _bound(given: Located | None, kind: Type) -> float | None:
+    """A task result's `min` or `max` as a number of its type (None: not given)."""
+    if given is None:
+        return None
+    return int(given.value) if kind == INT else float(given.value)
+
+
 def _typed(name: str, kind: Type) -> FieldShape:
     """A field that holds a value of spec type `kind`."""
     return name, kind.code, kind.size if isinstance(kind, Str) else 0
@@ -691,6 +701,7 @@ def plan_layout(
 
     A stand-in (controller simulator) has no buffers of its own: it uses its controller's.
     """
+    controllers = tuple(controllers)
     at = align(HEADER.size)
     process_records, pacing = {}, {}
     for name in processes:
@@ -744,6 +755,17 @@ def plan_layout(
         shape = [(f, "q", 0) for f in DEVICE_FIELDS]
         io[name] = _buffer(f"IO_{name.upper()}", at, shape, f"I/O device {name}")
         at = align(at + io[name].size)
+    # Time in each state (rcs/state_time.py): per controller and stand-in, the state it is in
+    # and the process cycle it entered it, then the cycles of its process spent in each state
+    # code (NOP first) before that, after everything else.
+    state_time = {}
+    for c in controllers:
+        if c.is_operator:
+            continue
+        shape = [("state", "q", 0), ("since", "Q", 0)]
+        shape += [(state, "Q", 0) for state in ("NOP", *c.states)]
+        state_time[c.name] = _buffer(f"TIME_{c.name.upper()}", at, shape, f"{c.name} time in state")
+        at = align(at + state_time[c.name].size)
     layout = ir.Layout(
         process_records,
         modules,
@@ -755,6 +777,7 @@ def plan_layout(
         overrides,
         tuple(override_fields),
         io,
+        state_time,
     )
     return replace(layout, hash=layout_hash(system, layout))
 
@@ -773,11 +796,13 @@ def _operator_buffers(
         own[part] = _buffer(f"{prefix}_{part.upper()}", at, _shape(shape), f"{c.name} {doc}")
         at = align(at + own[part].size)
     channels = {}
+    # what the person records with a DONE: in the answer record, copied to the status
+    results = [_typed(f"result_{r.name}", r.type) for r in c.results]
     for client in c.clients:
         parts = {
             "command": ([*_shape(COMMAND_HEAD_FIELDS), *params], f"{client}'s command in"),
-            "status": (_shape(STATUS_FIELDS), f"status out to {client}"),
-            "answer": (_shape(ANSWER_FIELDS), f"the answer to {client}'s request"),
+            "status": ([*_shape(STATUS_FIELDS), *results], f"status out to {client}"),
+            "answer": ([*_shape(ANSWER_FIELDS), *results], f"the answer to {client}'s request"),
         }
         made = {}
         for part, (fields, doc) in parts.items():

@@ -333,4 +333,6 @@ def operator_io(c: ir.IRController) -> ir.ModuleIO:
     imports = [f"{own}_MODE_AT", f"{own}_PERF_AT"]
     for client in c.clients:
         imports += [f"{own}_{client.upper()}_{part}_AT" for part in ("COMMAND", "STATUS", "ANSWER")]
+        if c.results:  # its status and answer records' own structs, with the results
+            imports += [f"{own}_{client.upper()}_{part}" for part in ("STATUS", "ANSWER")]
     return ir.ModuleIO(own=own, imports=tuple(sorted(imports)))

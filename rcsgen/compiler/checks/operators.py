@@ -16,8 +16,16 @@ from string import Formatter
 
 from ...runtime.contract import ACCESS_LEVELS, BUILTIN_COMMANDS
 from ..diagnostics import Diagnostics, known_names_hint
-from ..front_end.model import Command, ControllerSpec, Located, Operators, Request, SystemSpec
-from ..types import BOOL, Type
+from ..front_end.model import (
+    Command,
+    ControllerSpec,
+    Located,
+    Operators,
+    Request,
+    SystemSpec,
+    Typed,
+)
+from ..types import BOOL, FLOAT, INT, Type
 
 
 def access(operators: Operators, modules: list[str]) -> dict[str, dict[str, int]]:
@@ -233,6 +241,8 @@ def check_modules(
                 )
                 continue
             _check_text(name, command, command.text, diags)
+            for result in command.results.values():
+                _check_range(name, command, result, diags)
     for item in [*system.simulators, *system.stand_ins.values()]:
         if item.value in clients:
             diags.error(
@@ -287,3 +297,35 @@ def _check_text(module: str, command: Command, text: Located, diags: Diagnostics
                 known_names_hint(f"parameters of {command.name}", command.params, field)
                 or "declare it under `params:`, or write `{{` for a literal brace",
             )
+
+
+def _check_range(module: str, command: Command, result: Typed, diags: Diagnostics) -> None:
+    """A task result's `min` and `max` (E910): only on an int or a float, of its type (an
+    int's range whole), the least no greater than the greatest."""
+    where = f"result `{result.name}` of `{module}.{command.name}`"
+    given = [item for item in (result.low, result.high) if item is not None]
+    if given and result.type not in (INT, FLOAT):
+        diags.error(
+            given[0].span,
+            "E910",
+            f"{where} is a {result.type}: only an int or a float has a range",
+            "leave `min`/`max` out: an answer is checked against its type and values",
+        )
+        return
+    for item in given:
+        if result.type == INT and not float(item.value).is_integer():
+            diags.error(
+                item.span,
+                "E910",
+                f"{where} is an int, but its bound {item.value} is not a whole number",
+                "give an int result whole bounds",
+            )
+            return
+    low, high = result.low, result.high
+    if low is not None and high is not None and float(low.value) > float(high.value):
+        diags.error(
+            low.span,
+            "E910",
+            f"{where} has `min` {low.value} above its `max` {high.value}: no answer fits",
+            "swap them",
+        )

@@ -10,7 +10,12 @@ every later stage sees an ordinary table; the expanded nodes keep the spans of t
 fragment's text, and `annotate` adds the use's place to a diagnostic found there.
 Diagnostics: E265 unknown fragment, E266 wrong arguments, E267 undeclared `$param`,
 E268 expanded state name already used, E269 malformed fragment or use, E270 fragment
-declared twice, E298 fragments that use each other in a cycle, W305 fragment never used.
+declared twice, E298 fragments that use each other in a cycle, W305 fragment never used,
+E912 a list of actions given or used where it does not go.
+
+A parameter may also take a list of actions (`with: {on_done: [{send: ...}, {report: DONE}]}`):
+the fragment splices it where it writes `$on_done` as an item of a rule's `do:` list, or as
+the whole `do:` (`do: $on_done`), and may pass it on whole to a fragment it uses.
 """
 
 from __future__ import annotations
@@ -179,7 +184,7 @@ def _copy(node: Any, values: dict[str, Any], names: dict[str, str]) -> Any:
     if isinstance(node, str):
         whole = PLACEHOLDER.fullmatch(node)
         if whole and not isinstance(values[_param(whole)], str):
-            return values[_param(whole)]  # a number or bool keeps its type
+            return _clone(values[_param(whole)])  # a number, bool or list keeps its type
         text = PLACEHOLDER.sub(lambda m: _value_text(values[_param(m)]), node)
         return LocStr(text, node.span) if isinstance(node, LocStr) else text
     if isinstance(node, LocDict):
@@ -196,10 +201,66 @@ def _copy(node: Any, values: dict[str, Any], names: dict[str, str]) -> Any:
     if isinstance(node, LocList):
         items = LocList(node.span)
         for i, item in enumerate(node):
-            items.append(_copy(item, values, names))
+            new = _copy(item, values, names)
+            if isinstance(item, str) and isinstance(new, LocList):  # `- $actions`: spliced in
+                for j, action in enumerate(new):
+                    items.append(action)
+                    items.item_spans.append(span_of(action, new.item_spans[j]))
+                continue
+            items.append(new)
             items.item_spans.append(node.item_spans[i] if i < len(node.item_spans) else node.span)
         return items
     return node
+
+
+def _clone(node: Any) -> Any:
+    """A copy of loaded data, spans kept (a list of actions given to a use, copied into each
+    place the fragment splices it, so that no two places share one node)."""
+    if isinstance(node, LocDict):
+        out = LocDict(node.span)
+        for key, value in node.items():
+            out[key] = _clone(value)
+            out.key_spans[key] = node.key_spans.get(key, node.span)
+            out.value_spans[key] = node.value_spans.get(key, node.span)
+        return out
+    if isinstance(node, LocList):
+        items = LocList(node.span)
+        items.extend(_clone(item) for item in node)
+        items.item_spans = list(node.item_spans)
+        return items
+    return node
+
+
+# Where a fragment writes a parameter: as actions (an item of a `do:` list, or the whole
+# `do:`), passed on whole to a fragment it uses, or in text (anything else).
+ACTIONS, PASSED, TEXT = "actions", "passed", "text"
+
+
+def positions(node: object, inside: str = "") -> Iterator[tuple[str, str, object]]:
+    """(parameter, where it is written, the string) for each `$param` in a fragment's
+    states. `inside`: `do` for the value of a rule's `do:` and the items of its list."""
+    if isinstance(node, str):
+        whole = PLACEHOLDER.fullmatch(node)
+        if whole and inside == "do":
+            yield _param(whole), ACTIONS, node
+            return
+        for found in PLACEHOLDER.finditer(node):
+            yield _param(found), TEXT, node
+    elif isinstance(node, dict):
+        for key, value in node.items():
+            yield from positions(key)
+            if _is_use(node) and key == "with" and isinstance(value, dict):
+                for given in value.values():  # a use within the fragment: passed on whole
+                    whole = PLACEHOLDER.fullmatch(given) if isinstance(given, str) else None
+                    if whole:
+                        yield _param(whole), PASSED, given
+                    else:
+                        yield from positions(given)
+                continue
+            yield from positions(value, "do" if key == "do" else "")
+    elif isinstance(node, list):
+        for item in node:
+            yield from positions(item, inside)
 
 
 def _arguments(
@@ -228,15 +289,63 @@ def _arguments(
             f"add `{missing[0]}: ...` to `with:`",
         )
         return None
-    bad = [n for n, v in given.items() if not isinstance(v, str | int | float | bool)]
+    bad = [n for n, v in given.items() if not isinstance(v, str | int | float | bool | list)]
     if bad:
         diags.error(
             value_span(given, bad[0], at),
             "E269",
-            f"the value of `{bad[0]}` must be a name, an expression or a number",
+            f"the value of `{bad[0]}` must be a name, an expression, a number or a list of actions",
         )
         return None
+    if not _action_lists_fit(given, fragment, at, diags):
+        return None
     return dict(given)
+
+
+def _action_lists_fit(
+    given: dict[str, Any], fragment: Fragment, at: Span, diags: Diagnostics
+) -> bool:
+    """A list of actions goes only where the fragment writes actions (or passes the value
+    on), and where it writes actions it needs a list of mappings (E912)."""
+    found: dict[tuple[str, str], object] = {}
+    for param, where, text in positions(fragment.states):
+        found.setdefault((param, where), text)
+    for name, value in given.items():
+        span = value_span(given, name, at)
+        if isinstance(value, list):
+            text = found.get((name, TEXT))
+            if text is not None:
+                diags.error(
+                    span,
+                    "E912",
+                    f"`{name}` is a list of actions, but fragment `{fragment.name}` writes "
+                    f"`${name}` in text at {span_of(text, fragment.span)}",
+                    "give a name, an expression or a number, or splice it as `- $"
+                    + name
+                    + "` in a `do:` list",
+                )
+                return False
+            odd = next((a for a in value if not isinstance(a, dict)), None)
+            if odd is not None or not value:
+                diags.error(
+                    span_of(odd, span) if odd is not None else span,
+                    "E912",
+                    f"`{name}` must be a list of actions (`{{send: ...}}`, `{{set: ...}}`, ...)"
+                    + (f"; `{odd}` is not one" if odd is not None else ", not empty"),
+                    "write each action as a mapping, as in a rule's `do:`",
+                )
+                return False
+        elif (name, ACTIONS) in found:
+            text = found[(name, ACTIONS)]
+            diags.error(
+                span,
+                "E912",
+                f"fragment `{fragment.name}` puts `${name}` where actions go (at "
+                f"{span_of(text, fragment.span)}): `{name}` needs a list of actions",
+                f"write `{name}: [{{send: ...}}, ...]`",
+            )
+            return False
+    return True
 
 
 def named(data: object) -> set[str]:

@@ -66,6 +66,9 @@ class Typed:
     # writes it is lost or stops (None: not given, the type's zero; E801 without `actuator`)
     safe: bool | int | float | str | None = None
     safe_span: Span | None = None
+    # an operator task's results: the range an answer's value must lie in (`min`, `max`)
+    low: Located | None = None
+    high: Located | None = None
 
 
 @dataclass
@@ -523,9 +526,11 @@ def build_operators(data: Any, top: Span) -> Operators:
 
 def _typed(name: str, spec: Any, span: Span) -> Typed:
     initial = value_span(spec, "initial", span) if "initial" in spec else None
-    return Typed(
+    typed = Typed(
         name, declared_type(spec), spec.get("initial", False), spec.get("doc", ""), span, initial
     )
+    typed.low, typed.high = (_optional(spec, key, span) for key in ("min", "max"))
+    return typed
 
 
 def _action(raw: Any, span: Span) -> Action:

@@ -26,6 +26,7 @@ from ...compiler.front_end.schema import check_document
 from ...compiler.frontend import SYSTEM_FILE, compile_paths, display_path
 from ...compiler.ir import IRController, IRProcess, IRSystem
 from ...compiler.types import BOOL, INT, Bool, Enum, ReasonOf, Str, Type
+from ...runtime.contract import range_problem
 from ...runtime.operate.command import value_problem
 from ..traces.read import whole_system
 from .model import (
@@ -671,7 +672,9 @@ class _Checker:
             default = self.scripted(section["default"], self.span(section, "default"), False)
         if any(a is None for a in answers) or ("default" in section and default is None):
             return None
-        return OperatorScript(tuple(a for a in answers if a is not None), default)
+        script = OperatorScript(tuple(a for a in answers if a is not None), default)
+        self.default_results(script, self.span(section, "default") if default else span)
+        return script
 
     def scripted(self, raw: LocDict, where: Span, matching: bool) -> ScriptedAnswer | None:
         before = len(self.diags.errors)
@@ -713,9 +716,95 @@ class _Checker:
             default=self.system.cycle_period,
         )
         after = exact_cycles(raw["after"], period)[0] if "after" in raw else 0
+        asked = [tasks[task]] if task in tasks else list(tasks.values())
+        results = self.answer_results(raw, answer, asked, where, every=True)
         if len(self.diags.errors) > before:
             return None
-        return ScriptedAnswer(after, answer, reason, name, task, client)
+        return ScriptedAnswer(after, answer, reason, name, task, client, results)
+
+    def answer_results(
+        self, raw: LocDict, answer: str, tasks: list[Any], where: Span, every: bool
+    ) -> tuple[tuple[str, Any], ...]:
+        """The results an answer gives (E911): with DONE only; each a result of the tasks it
+        may answer, of its type (E408) and within its range; with `every`, all of each such
+        task's results (an event's answer is checked against the open task when it runs)."""
+        given = raw.get("results") or {}
+        span = self.span(raw, "results") if "results" in raw else where
+        if given and answer != "DONE":
+            self.error(
+                span,
+                "E911",
+                f"results given with {answer}: what the person records goes with DONE only",
+                "write `answer: DONE`, or leave `results:` out",
+            )
+            return ()
+        if answer != "DONE":
+            return ()
+        declared = {r.name: r for t in tasks for r in t.results}
+        for name in given:
+            if name not in declared:
+                self.error(
+                    key_span(given, name, span),
+                    "E911",
+                    f"`{name}` is not a result of "
+                    f"{' or '.join(t.name for t in tasks) or 'any task'}",
+                    known_names_hint("results", sorted(declared), name)
+                    or "a task records results under `results:` in its operator module",
+                )
+                return ()
+        for task in tasks if every else []:
+            missing = [r.name for r in task.results if r.name not in given]
+            if missing:
+                self.error(
+                    span,
+                    "E911",
+                    f"this answer DONE may answer {task.name}, which records "
+                    f"{', '.join(r.name for r in task.results)}: {', '.join(missing)} not given",
+                    "give every result under `results:`, or name the `task:` it answers",
+                )
+                return ()
+        for name, value in given.items():
+            for task in tasks:
+                result = next((r for r in task.results if r.name == name), None)
+                if result is None:
+                    continue
+                at = self.span(given, name)
+                if not self.value(value, result.type, at, f"result `{name}`"):
+                    return ()
+                problem = range_problem(value, result.low, result.high)
+                if problem:
+                    self.error(
+                        at,
+                        "E911",
+                        f"result `{name}` of {task.name} {problem}",
+                        "an answer out of its range is refused before it reaches the client",
+                    )
+                    return ()
+        return tuple(given.items())
+
+    def default_results(self, script: OperatorScript, span: Span) -> None:
+        """A default DONE records nothing: E911 when it may answer a task that records
+        results (one no earlier entry answers whatever its client)."""
+        default = script.default
+        if default is None or default.answer != "DONE":
+            return
+        covered = {
+            (a.operator, a.task) for a in script.answers if a.task is not None and a.client is None
+        }
+        for operator in self.operators.values():
+            if default.operator not in (None, operator.name):
+                continue
+            for task in operator.commands:
+                if not task.results or {(None, task.name), (operator.name, task.name)} & covered:
+                    continue
+                self.error(
+                    span,
+                    "E911",
+                    f"the default answer DONE records no results, but `{operator.name}."
+                    f"{task.name}` records {', '.join(r.name for r in task.results)}",
+                    f"script {task.name} in an entry of `answers:` with `results:`",
+                )
+                return
 
     def answer_reason(self, reason: str, answer: str, tasks: list[Any], span: Span) -> None:
         """A reason given with ERROR only, and one that a task it may answer declares (E288);
@@ -752,9 +841,10 @@ class _Checker:
                 known_names_hint("channels", sorted(channels), channel),
             )
             return
+        tasks = [c for c in channels[channel].commands if c.text]
         if reason:
-            tasks = [c for c in channels[channel].commands if c.text]
             self.answer_reason(reason, status, tasks, self.span(raw, "reason"))
+        event.answer_results = dict(self.answer_results(raw, status, tasks, span, every=False))
 
 
 def _names(operators: list[IRController]) -> str:

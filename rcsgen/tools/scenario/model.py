@@ -26,6 +26,7 @@ class Event:
     doc: str = ""
     overrides: str | None = None  # the supervisor it is written under (`overrides: true`)
     answer: tuple[str, str, str] | None = None  # (channel, DONE|ERROR, reason): `ctl answer`
+    answer_results: dict[str, Any] = field(default_factory=dict)  # with DONE: what is recorded
     force: dict[str, Any] = field(default_factory=dict)  # world fields forced: `ctl force`
     unforce: list[str] = field(default_factory=list)  # world fields released: `ctl unforce`
     replies: dict[str, str] = field(default_factory=dict)  # module -> DONE|ERROR, scripted
@@ -103,6 +104,7 @@ class ScriptedAnswer:
     operator: str | None = None  # None: any
     task: str | None = None
     client: str | None = None
+    results: tuple[tuple[str, Any], ...] = ()  # with DONE: what the person records
 
     def matches(self, request: dict[str, Any]) -> bool:
         return (

@@ -75,7 +75,15 @@ class ScriptedPerson:
                 assert how is not None
                 if now - taken[1] < how.after:
                     break
-                write_answer(harness.layout, harness.buf, open_now[head], how.answer, how.reason)
+                write_answer(
+                    harness.layout,
+                    harness.buf,
+                    open_now[head],
+                    how.answer,
+                    how.reason,
+                    dict(how.results),
+                    typed=True,
+                )
                 queue.pop(0)
 
 
@@ -214,7 +222,12 @@ def _apply(harness: AnyHarness, event: Event) -> None:
                 f"cycle {event.cycle}: `{channel}` has no open request to answer"
                 + (f" ({event.doc})" if event.doc else "")
             )
-        write_answer(harness.layout, harness.buf, request, status, reason)
+        try:
+            write_answer(
+                harness.layout, harness.buf, request, status, reason, event.answer_results, True
+            )
+        except ValueError as error:  # results that fit another task of the channel
+            raise ScenarioError(f"cycle {event.cycle}: `{channel}`: {error}") from None
     if event.command is not None:
         module, name = event.command
         # Under a supervisor (`overrides`) the command is written as an operator's: it stays

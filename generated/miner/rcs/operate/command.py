@@ -37,6 +37,7 @@ from ..contract import (
     STATUS_NAMES,
     StaleRead,
     enum_code,
+    range_problem,
     shared,
 )
 
@@ -165,6 +166,69 @@ def _repr(value: object) -> str:
 def _short(value: object) -> str:
     text = str(value)
     return text if len(text) <= 30 else text[:27] + "..."
+
+
+# ---------------------------------------------------------------- an answer's results
+
+
+def task_results(layout: ModuleType, operator: str, task: str) -> dict[str, tuple[Any, ...]]:
+    """What a DONE answer to `task` of operator module `operator` records: each result's
+    name -> (its struct code, an enumeration's value names, its least and greatest value)."""
+    declared = getattr(layout, "TASK_RESULTS", {}).get(operator, {}).get(task, ())
+    if not declared:
+        return {}
+    channel = layout.OPERATORS[operator][0]  # every channel of one operator: the same slots
+    codes = layout.ANSWERS[channel].codes()
+    enums = getattr(layout, "ENUMS", {})
+    return {
+        name: (str(codes[f"result_{name}"]), tuple(enums.get((channel, f"result_{name}"), ())))
+        + (low, high)
+        for name, low, high in declared
+    }
+
+
+def answer_results(
+    layout: ModuleType,
+    operator: str,
+    task: str,
+    given: Mapping[str, object],
+    typed: bool = False,
+) -> dict[str, object]:
+    """The answer record's result slots (`result_<name>` -> the value as the slot holds it)
+    for a DONE answer to `task` giving `given`: text a person typed (`NAME=VALUE`), or, with
+    `typed`, values as a scenario's YAML gives them. ValueError naming the first thing wrong:
+    a result the task does not record, one left out, a value of another type or out of its
+    range. Nothing is written anywhere: an answer that does not fit never reaches the rules."""
+    declared = task_results(layout, operator, task)
+    where = f"{operator}.{task}"
+    for name in given:
+        if name not in declared:
+            if not declared:
+                raise ValueError(f"{where} records no results: answer DONE alone")
+            raise ValueError(f"{where} records " + suggest(name, list(declared), "result"))
+    missing = [name for name in declared if name not in given]
+    if missing:
+        form = " ".join(f"{name}=..." for name in declared)
+        raise ValueError(f"{where} needs result(s) {', '.join(missing)} with DONE ({form})")
+    slots: dict[str, object] = {}
+    channel = layout.OPERATORS[operator][0]
+    for name, (code, names, low, high) in declared.items():
+        raw = given[name]
+        try:
+            if typed:
+                value = float(raw) if code == "d" and type(raw) is int else raw
+                problem = value_problem(value, code, names)
+                if problem:
+                    raise ValueError(problem)
+            else:
+                value = parse_value(str(raw), code, names)
+        except ValueError as error:
+            raise ValueError(f"{where}: result {name} {error}") from None
+        problem = range_problem(value, low, high)
+        if problem:
+            raise ValueError(f"{where}: result {name} {problem}")
+        slots[f"result_{name}"] = enum_code(layout, channel, f"result_{name}", value)
+    return slots
 
 
 # ---------------------------------------------------------------- commands

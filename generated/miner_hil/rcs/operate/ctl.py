@@ -25,7 +25,7 @@ import json
 import os
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 from types import ModuleType
 from typing import Any, NoReturn
@@ -52,15 +52,18 @@ from ..contract import (
     status_text,
 )
 from ..io_points import device_status
+from ..state_time import shares, totals
 from ..transport import TransportError, check_endpoint
 from .command import (
     Command,
+    answer_results,
     check_command,
     outcome,
     parse_command,
     parse_value,
     shown,
     suggest,
+    task_results,
     write_command,
 )
 from .startup import default_segment, segment_problem
@@ -127,18 +130,46 @@ def channel_requests(layout: ModuleType, buf: memoryview) -> list[dict[str, Any]
                     ),
                     "answer": "DONE|ERROR",
                     "reasons": list(layout.REASON_NAMES.get(operator, ())[2:]),
+                    "results": result_forms(layout, operator, task),
                 }
             )
     return found
 
 
+def result_forms(layout: ModuleType, operator: str, task: str) -> dict[str, str]:
+    """What a DONE answer to `task` gives, result by result, as a person types it:
+    `KEEP|REWORK`, `0.0..5.0` (a float's range), `int`, `true|false`, `text`."""
+    forms = {}
+    for name, (code, names, low, high) in task_results(layout, operator, task).items():
+        if names:
+            form = "|".join(names)
+        elif code == "?":
+            form = "true|false"
+        elif code.endswith("s"):
+            form = "text"
+        elif low is not None or high is not None:
+            form = f"{'' if low is None else low}..{'' if high is None else high}"
+        else:
+            form = "int" if code == "q" else "float"
+        forms[name] = form
+    return forms
+
+
 def write_answer(
-    layout: ModuleType, buf: memoryview, request: dict[str, Any], status: str, reason: str = ""
+    layout: ModuleType,
+    buf: memoryview,
+    request: dict[str, Any],
+    status: str,
+    reason: str = "",
+    results: Mapping[str, object] | None = None,
+    typed: bool = False,
 ) -> None:
-    """Answer an open channel request (one of `channel_requests`): DONE, or ERROR with one
-    of its reasons (none: NONE). ValueError for another status or an unknown reason. The
-    one writer of answer records: the console and a scenario's scripted operator both
-    answer here."""
+    """Answer an open channel request (one of `channel_requests`): DONE with the results the
+    task records (`results`: text as typed, or with `typed` values as a scenario gives
+    them), or ERROR with one of its reasons (none: NONE). ValueError for another status, an
+    unknown reason, or results that do not fit the task (`answer_results`): nothing is
+    written then. The one writer of answer records: the console and a scenario's scripted
+    operator both answer here."""
     if status not in FINISHED:
         raise ValueError(f"answer DONE or ERROR, not {status!r}")
     names = layout.REASON_NAMES.get(request["operator"], ())
@@ -146,9 +177,22 @@ def write_answer(
         raise ValueError(f"a reason goes with ERROR only; DONE needs none (got {reason!r})")
     if reason and reason not in request["reasons"]:
         raise ValueError(suggest(reason, request["reasons"], "reason") + f" of {request['task']}")
+    if status == "ERROR" and results:
+        raise ValueError(
+            f"results go with DONE only; an ERROR records none (got {', '.join(results)})"
+        )
+    slots = (
+        answer_results(layout, request["operator"], request["task"], results or {}, typed)
+        if status == "DONE"
+        else {}
+    )
     code = DONE if status == "DONE" else ERROR
     layout.ANSWERS[request["name"]].write(
-        buf, command_num=request["number"], status=code, reason=names.index(reason) if reason else 0
+        buf,
+        command_num=request["number"],
+        status=code,
+        reason=names.index(reason) if reason else 0,
+        **slots,
     )
 
 
@@ -359,6 +403,7 @@ class Console:
                 row["run"] = "STOP" if mode["dont_run"] else "RUN"
                 row["step"] = "SINGLE" if mode["single_step"] else "AUTO"
                 row["sim"] = "SIMU" if mode["simulate"] else "REAL"
+            row.update(self.time_in_state(runs, proc))
             if perf:
                 for key in ("last", "min", "max"):
                     row[f"{key}_cycle_us"] = round(int(perf[f"{key}_cycle_ns"]) / 1000, 1)
@@ -384,6 +429,18 @@ class Console:
                 found.append(sub)
                 todo += self.layout.SUBORDINATES.get(sub, ())
         return found
+
+    def time_in_state(self, runs: str, process: dict[str, Any]) -> dict[str, Any]:
+        """The share of its cycles a controller (or the stand-in running in its place) has
+        spent in each state since start, in percent (rcs/state_time.py; `process`: its
+        process's control record, whose heartbeat closes the open interval), and how many
+        cycles were counted; {} for a module that has no clock."""
+        record = getattr(self.layout, "TIME_IN_STATE", {}).get(runs)
+        values = self.read(record) if record is not None else {}
+        if not values:
+            return {}
+        counts = totals(values, int(process.get("heartbeat") or 0))
+        return {"state_cycles": sum(counts.values()), "time_in_state": shares(counts)}
 
     def snapshot(self, world: Sequence[str] | None = None) -> dict[str, Any]:
         """Everything the console shows, as plain data: the processes, every module's line,
@@ -458,9 +515,16 @@ class Console:
                 )
         return found
 
-    def answer_channel(self, name: str, status: str = "DONE", reason: str = "") -> dict[str, Any]:
+    def answer_channel(
+        self,
+        name: str,
+        status: str = "DONE",
+        reason: str = "",
+        results: Mapping[str, object] | None = None,
+    ) -> dict[str, Any]:
         """Answer the request open on channel `name` (`op/fx`; the role must respond to the
-        operator module): DONE, or ERROR with a reason. The request answered."""
+        operator module): DONE with the results its task records (as typed, `NAME=VALUE`),
+        or ERROR with a reason. The request answered."""
         operator = name.split("/")[0]
         self.access.require("respond", operator, f"answering {name}")
         request = next(
@@ -470,7 +534,7 @@ class Console:
             client = name.split("/", 1)[1]
             raise CtlError(f"{client} is asking nothing of {operator} now; nothing to answer")
         try:
-            write_answer(self.layout, self.buf, request, status, reason)
+            write_answer(self.layout, self.buf, request, status, reason, results)
         except ValueError as error:
             raise usage(str(error)) from None
         return request
@@ -737,6 +801,7 @@ def render(snapshot: dict[str, Any]) -> list[str]:
                 f"plan {name}.{plan}: step {at['step']} of {at['steps']}, "
                 f"{at['replans_left']} replans left"
             )
+    lines += state_time_lines(snapshot)
     for name, proc in snapshot["processes"].items():
         if proc.get("state") == "?":
             lines.append(f"process {name}: control record unreadable")
@@ -753,6 +818,18 @@ def render(snapshot: dict[str, Any]) -> list[str]:
     for request in snapshot.get("requests", ()):
         lines.append(f"request {request['name']} from {request['by']}: {request['doc']}")
     return lines + world_lines(snapshot)
+
+
+def state_time_lines(snapshot: dict[str, Any]) -> list[str]:
+    """Time per state (the paper's % of execution time per state): for each controller that
+    has run, the share of its cycles since start spent in each state it has been in."""
+    lines = []
+    for name, row in snapshot["modules"].items():
+        shares = row.get("time_in_state")
+        if shares:
+            spent = ", ".join(f"{state} {share:g}%" for state, share in shares.items())
+            lines.append(f"time in state {name} ({row['state_cycles']} cycles): {spent}")
+    return lines
 
 
 def world_lines(snapshot: dict[str, Any]) -> list[str]:
@@ -906,7 +983,13 @@ def parser(package: str, layout: ModuleType) -> argparse.ArgumentParser:
         "field's request by sending its answer command",
     )
     answer.add_argument("request")
-    answer.add_argument("status", nargs="?", choices=FINISHED, default=None)
+    answer.add_argument("status", nargs="?", default=None, help="DONE (default) or ERROR")
+    answer.add_argument(
+        "results",
+        nargs="*",
+        metavar="NAME=VALUE",
+        help="with DONE: what the person records, each result of the task (`ctl requests`)",
+    )
     answer.add_argument("--reason", default="", help="with ERROR: why (one of the task's reasons)")
     force = verbs.add_parser(
         "force",
@@ -970,8 +1053,16 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
     channels = getattr(layout, "ANSWERS", {})
     if args.verb == "answer" and args.request not in [*requests, *channels]:
         raise usage(suggest(args.request, request_names(layout), "request"))
-    if args.verb == "answer" and args.request in requests and (args.status or args.reason):
-        raise usage(f"{args.request} is answered by its command alone: no DONE/ERROR/--reason")
+    if args.verb == "answer":
+        _answer_arguments(args)
+    if (
+        args.verb == "answer"
+        and args.request in requests
+        and (args.status or args.reason or args.results)
+    ):
+        raise usage(
+            f"{args.request} is answered by its command alone: no DONE/ERROR/--reason/results"
+        )
     if args.verb == "roles":  # from the layout alone: no running system needed
         access = Access(layout, args.role)
         if not access.roles:
@@ -989,6 +1080,24 @@ def _run(layout: ModuleType, args: argparse.Namespace) -> int:
         return _verb(console, args, command)
     finally:
         console.close()
+
+
+def _answer_arguments(args: argparse.Namespace) -> None:
+    """`answer REQUEST [DONE|ERROR] [NAME=VALUE ...]`: a first word with `=` is a result
+    (DONE left out); any other status word is refused. Each result once."""
+    if args.status is not None and "=" in args.status:
+        args.results, args.status = [args.status, *args.results], None
+    if args.status is not None and args.status not in FINISHED:
+        raise usage(f"answer: {args.status!r} is neither DONE nor ERROR nor NAME=VALUE")
+    given: dict[str, str] = {}
+    for item in args.results:
+        name, equals, raw = item.partition("=")
+        if not equals or not name:
+            raise usage(f"answer: {item!r} is not NAME=VALUE")
+        if name in given:
+            raise usage(f"answer: result {name} is given twice")
+        given[name] = raw
+    args.results = given
 
 
 def attach(layout: ModuleType, endpoints: Sequence[str]) -> Any:
@@ -1082,15 +1191,21 @@ def _verb_requests(console: Console, args: argparse.Namespace, command: Command 
     for request in found:
         task = f"{request['task']} #{request['number']}: " if "task" in request else ""
         print(f"{request['name']} from {request['by']}: {task}{request['doc']}")
+        if request.get("results"):  # what a DONE answer gives
+            forms = " ".join(f"{k}={v}" for k, v in request["results"].items())
+            print(f"  answer: DONE {forms}")
     return 0
 
 
 def _verb_answer(console: Console, args: argparse.Namespace, command: Command | None) -> int:
     if args.request in getattr(console.layout, "ANSWERS", {}):  # an operator module's channel
         status = args.status or "DONE"
-        request = console.answer_channel(args.request, status, args.reason)
+        request = console.answer_channel(args.request, status, args.reason, args.results)
         why = f" ({args.reason})" if args.reason else ""
-        print(f"answered {args.request}: {request['task']} #{request['number']} {status}{why}")
+        given = "".join(f" {k}={v}" for k, v in args.results.items())
+        print(
+            f"answered {args.request}: {request['task']} #{request['number']} {status}{why}{given}"
+        )
         return 0
     sent, number = console.answer(args.request)
     print(f"answered {args.request}: sent {sent} #{number}")
