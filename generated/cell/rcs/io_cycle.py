@@ -53,6 +53,7 @@ from .io_points import (
     Device,
     IoRefused,
     IoTimeout,
+    Point,
 )
 from .override import overrides
 
@@ -63,6 +64,8 @@ class Link(Protocol):
     def connect(self) -> None: ...
 
     def read(self) -> dict[str, object]: ...  # input field -> value
+
+    def read_point(self, point: Point) -> object: ...  # one point; IoRefused if it has none
 
     def write(self, values: dict[str, object]) -> int: ...  # the values clipped to fit
 
