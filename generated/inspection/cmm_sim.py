@@ -59,7 +59,10 @@ S0 = 1
 
 # Constants.
 MOTION_CYCLES = 4
-OP_MEASURE = 4
+
+# Enumeration values its tables name (a field holds its value's index).
+NO_OPERATION = 0
+MEASUREMENT = 4
 
 
 class CmmSimController:
@@ -296,7 +299,7 @@ class CmmSimController:
 
         elif (
             not self.world_cmm_alarm
-            and self.world_cmm_op == OP_MEASURE
+            and self.world_cmm_op == MEASUREMENT
             and self.world_cmm_seq != self.world_cmm_done_seq
             and self.var_moving >= MOTION_CYCLES
         ):
@@ -310,7 +313,7 @@ class CmmSimController:
 
         elif (
             not self.world_cmm_alarm
-            and self.world_cmm_op != 0
+            and self.world_cmm_op != NO_OPERATION
             and self.world_cmm_seq != self.world_cmm_done_seq
             and self.var_moving >= MOTION_CYCLES
         ):
@@ -321,7 +324,7 @@ class CmmSimController:
 
         elif (
             not self.world_cmm_alarm
-            and self.world_cmm_op != 0
+            and self.world_cmm_op != NO_OPERATION
             and self.world_cmm_seq != self.world_cmm_done_seq
         ):
             # the machine moves

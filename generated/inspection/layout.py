@@ -327,6 +327,17 @@ OVERRIDE = {
 SAFE_VALUES: dict[str, object] = {}
 # The process whose modules write each actuator.
 ACTUATED_BY = {}
+# The fields that hold an enumeration's value, by (module, or "" for the world; field): the
+# value names, indexed by the code the field holds, for traces, displays and `ctl send`.
+ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
+    ("", "cmm_op"): (
+        "NO_OPERATION",
+        "HOMING",
+        "PROBE_CALIBRATION",
+        "CAMERA_CALIBRATION",
+        "MEASUREMENT",
+    ),
+}
 # The modules that write each world field (a stand-in writes in its controller's place), for
 # `ctl force`: forcing a field takes it from them, which needs override on each.
 WORLD_WRITERS: dict[str, tuple[str, ...]] = {
