@@ -21,7 +21,9 @@ SUBMARINE = ROOT / "specs" / "submarine"
 SCENARIOS = SUBMARINE / "scenarios"
 CO_HIGH = 50.0  # cc.yaml: the fire alarm
 CO_SAFE = 5.0  # ec.yaml: the atmosphere is acceptable
-HAVEN = 150.0  # sm.yaml: half the box around a waypoint
+HAVEN = 150.0  # sm.yaml ARRIVAL: half the box around a waypoint that counts as reached
+MOVING_HAVEN = 300.0  # sm.yaml HAVEN: half the side of the moving haven
+BAFFLE_TURN = 60.0  # helm.yaml: degrees to starboard to clear baffles
 
 
 def play(name: str, package: Path) -> tuple[dict, list[dict]]:
@@ -188,6 +190,10 @@ def fire_phases(lines: list[dict]) -> dict[str, tuple[int, int]]:
 
 
 def test_engine_room_fire_phases_and_their_cycles():
+    """Section 4.1.3 step by step: the alarm and "all hands on EABs"; the OOD's actions for
+    coming to periscope depth as Maneuver decomposes them (4.7.1: Clear_baffles, then
+    Slow_and_Change_Depth with Shift_To_EPM, asked of the EOOW, Figure 30), the periscope
+    raised; emergency ventilation; the EABs off and the transit resumed on the EPM."""
     final, lines = played("engine_room_fire")
     assert final["status"] == "DONE"
     scenario = load_scenario(SCENARIOS / "engine_room_fire.yaml")
@@ -198,11 +204,34 @@ def test_engine_room_fire_phases_and_their_cycles():
     alarm = next(line["cycle"] for line in lines if line["world"]["co_ppm"] > CO_HIGH) + 1
     assert alarm == fire_at + 2  # 40 ppm a cycle: above 50 after the fire's second cycle
     assert prep_from == alarm
-    # prepare: periscope depth at one-third, 102 m up at 1 m/s, then steady on course
+    assert at(lines, alarm)["world"]["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+    assert at(lines, alarm - 1)["world"]["announcement"] == ""
+    # clear baffles first: the helm turns BAFFLE_TURN to starboard at transit depth and speed
+    baffles = spans(lines, "sm", "BAFFLES")
+    assert len(baffles) == 1 and baffles[0][0] == prep_from
+    turned_from = at(lines, prep_from)["world"]["heading"]
+    turned_to = at(lines, baffles[0][1])["world"]["heading"]
+    assert BAFFLE_TURN - 5.0 <= (turned_to - turned_from) % 360.0 <= BAFFLE_TURN + 5.0
+    assert all(at(lines, c)["world"]["depth"] == 120.0 for c in range(*baffles[0]))
+    # then slow and come up, and shift propulsion: all stop (declutched) while the EOOW is
+    # asked CHANGE_TO_EPM; his report engages the EPM
+    slowing = spans(lines, "sm", "SLOWING")[0]
+    assert slowing[0] == baffles[0][1] + 1
+    asked = spans(lines, "eoow/prop", "ASKING")
+    assert len(asked) == 1 and asked[0][0] == slowing[0]
+    assert 20 <= asked[0][1] - asked[0][0] + 1 <= 22, "the scripted EOOW takes 20 s"
+    assert {at(lines, c)["world"]["shaft"] for c in range(asked[0][0], asked[0][1] + 1)} == {
+        "DISENGAGED"
+    }
+    assert at(lines, asked[0][1] + 2)["world"]["shaft"] == "EPM"
+    # prepared: periscope depth at one-third on the EPM, steady on course, periscope raised
     top = at(lines, prep_to)
     assert abs(top["world"]["depth"] - 18.0) < 1.0 and abs(top["world"]["speed"] - 2.6) < 0.1
+    assert top["world"]["periscope_raised"] and top["world"]["shaft"] == "EPM"
+    assert not any(
+        line["world"]["periscope_raised"] for line in lines if line["cycle"] < prep_to - 1
+    )
     assert helm_at_goal(lines)[prep_to - 1]
-    assert 102 <= prep_to - prep_from + 1 <= 110
     # ventilate: engineering lines up the diesel until the fire is out and CO is safe
     assert vent_from == prep_to + 1
     # (in VENT's last cycle cc sees the DONE engineering reported after securing: recirculate)
@@ -219,36 +248,107 @@ def test_engine_room_fire_phases_and_their_cycles():
     # the fire burned for the damage control party's 30 cycles
     burning = [line["cycle"] for line in lines if line["world"]["fire"]]
     assert burning == list(range(fire_at, fire_at + 30))
-    # resume: back to the transit to the same waypoint, standard speed and depth
+    # resume: EABs off, back to the transit to the same waypoint at depth, periscope down
     resumed = at(lines, vent_to + 1)
     assert resumed["modules"]["cc"]["state"] == "TRANSIT"
     assert resumed["world"]["vent_flow"] == 0.002
+    assert resumed["world"]["announcement"] == "SECURE FROM FIRE, EABS MAY BE REMOVED"
+    assert not resumed["world"]["periscope_raised"]
     assert commands_sent(lines, "sm") == [
         "INIT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT"
     ]  # fmt: skip
     assert commands_sent(lines, "ec") == [
         "INIT", "SUBMERGED_VENT", "EMERGENCY_VENT", "SUBMERGED_VENT", "SUBMERGED_VENT"
     ]  # fmt: skip
+    assert commands_sent(lines, "helm")[:4] == [
+        "INIT", "ICE_MANEUVER", "CLEAR_BAFFLES", "ICE_MANEUVER"
+    ]  # fmt: skip
+    assert commands_sent(lines, "prop") == ["INIT", "SHIFT_TO_EPM"]
+    # the EPM stays on the shaft (the main lube oil is not restored in the scenario): the
+    # resumed transit answers bells at ahead two-thirds on the EPM
     last = lines[-1]["world"]
-    assert last["depth"] == 120.0 and last["speed"] == 7.7
+    assert last["depth"] == 120.0 and last["speed"] == 5.1 and last["shaft"] == "EPM"
 
 
-def test_fire_under_ice_prepares_only_once_clear_of_the_ice():
-    """Both together: the fire breaks out short of two keels. Ship maneuver is not prepared
-    for emergency ventilation while Helm is avoiding ice (not steady on course); the ship
-    keeps clear of the keels at one-third speed, then ventilates and completes the mission."""
+def test_fire_under_ice_clears_baffles_only_as_far_as_the_ice_allows():
+    """Both together: the fire breaks out short of two keels. The turn to clear baffles
+    looks for ice along its heading and ends when it sees some; Helm's maneuver then keeps
+    the ship clear of the keels while it prepares, ventilates and completes the mission."""
     final, lines = played("fire_under_ice")
     assert final["status"] == "DONE"
     assert min(line["world"]["clearance"] for line in lines) >= 100.0
     phases = fire_phases(lines)
     prep_from, prep_to = phases["prep"]
-    avoiding = [(a, b) for a, b in spans(lines, "helm", "S2") if prep_from <= a and b <= prep_to]
-    assert avoiding, "Helm avoided ice while the ship was preparing"
-    assert prep_to > avoiding[-1][1], "prepared only after the ice was clear"
-    assert prep_to - prep_from + 1 > 110, "longer than in open sea"
-    assert all(at(lines, c)["world"]["speed"] <= 2.61 for c in range(avoiding[0][0], prep_to))
+    baffles = spans(lines, "sm", "BAFFLES")
+    assert len(baffles) == 1 and baffles[0][0] == prep_from
+    turned = (
+        at(lines, baffles[0][1])["world"]["heading"] - at(lines, prep_from)["world"]["heading"]
+    ) % 360.0
+    assert 0.0 < turned < BAFFLE_TURN - 5.0, "the turn ended early, on ice"
+    assert at(lines, prep_to)["world"]["periscope_raised"]
     assert lines[-1]["world"]["co_ppm"] <= CO_SAFE
     assert commands_sent(lines, "sm").count("SUBMERGED_TRANSIT") == len(route("bering.route")) + 1
+
+
+def haven_offsets(lines: list[dict]) -> list[float]:
+    """How far the ship is from its moving haven's centre (the larger of east and north),
+    in each cycle ship maneuver executes a transit."""
+    return [
+        max(abs(w["pos_x"] - w["haven_x"]), abs(w["pos_y"] - w["haven_y"]))
+        for line in lines
+        for w in [line["world"]]
+        if line["modules"]["sm"]["command"] == "SUBMERGED_TRANSIT"
+        and line["modules"]["sm"]["status"] == "EXECUTING"
+    ]
+
+
+@pytest.mark.parametrize(
+    "name", ["ice_transit", "ice_replan", "engine_room_fire", "fire_under_ice"]
+)
+def test_the_ship_stays_in_its_moving_haven_which_moves_along_the_leg(name):
+    """Figure 19: the moving haven is a box around the submarine that moves with the plan;
+    the ship may be anywhere in it, never outside. It moves towards the waypoint."""
+    final, lines = played(name)
+    assert final["status"] == "DONE"
+    offsets = haven_offsets(lines)
+    assert offsets and max(offsets) <= MOVING_HAVEN
+    transit = [
+        line["world"] for line in lines if line["modules"]["sm"]["command"] == "SUBMERGED_TRANSIT"
+    ]
+    moved = math.hypot(
+        transit[-1]["haven_x"] - transit[0]["haven_x"],
+        transit[-1]["haven_y"] - transit[0]["haven_y"],
+    )
+    assert moved > 1000.0, "the haven moves with the ship, it is no box at a waypoint"
+
+
+def test_a_ship_that_falls_out_of_its_moving_haven_fails_the_mission():
+    """lost_propulsion: the shaft comes off the turbines; the haven moves on at the ordered
+    speed, the coasting ship falls behind, and the cycle it is outside ship maneuver
+    reports ERROR OUT_OF_HAVEN, which the command controller passes up by name."""
+    final, lines = played("lost_propulsion")
+    assert final["status"] == "ERROR" and final["reason"] == "OUT_OF_HAVEN"
+    failed = next(line for line in lines if line["modules"]["sm"]["status"] == "ERROR")
+    # what sm compared: the ship's position of the cycle before (the ship runs after sm),
+    # the haven it moved on at the start of this cycle (its every-cycle rule)
+    ship, haven = at(lines, failed["cycle"] - 1)["world"], failed["world"]
+    off = max(abs(ship["pos_x"] - haven["haven_x"]), abs(ship["pos_y"] - haven["haven_y"]))
+    assert off > MOVING_HAVEN
+    assert all(offset <= MOVING_HAVEN for offset in haven_offsets(lines)[:-2])
+    assert failed["modules"]["sm"]["reason"] == "OUT_OF_HAVEN"
+    assert at(lines, failed["cycle"] + 1)["modules"]["cc"]["status"] == "ERROR"
+
+
+def test_the_access_matrix_is_figure_29s():
+    """Section 4.7.3: the OOD commands the mission; the EOOW only responds to requests
+    (CHANGE_TO_EPM); the helmsman may override helm and rudder; the BCP monitors."""
+    import yaml
+
+    roles = yaml.safe_load((SUBMARINE / "system.yaml").read_text())["operators"]["roles"]
+    assert roles["ood"].get("command") == ["cc"] and "respond" not in roles["ood"]
+    assert roles["eoow"] == {"doc": roles["eoow"]["doc"], "respond": ["eoow"]}
+    assert roles["helmsman"].get("override") == ["helm", "rudder"]
+    assert set(roles["bcp"]) == {"doc"}, "monitors only"
 
 
 # ---- the hooks' geometry
@@ -332,7 +432,7 @@ def test_a_blocked_leg_is_replanned_by_its_alternate_and_the_mission_completes()
     helm_errors = [ln for ln in lines if ln["modules"]["helm"]["rule"] == "ICE_MANEUVER/S2/4"]
     assert len(helm_errors) == 1, "Helm reports BLOCKED once"
     blocked = helm_errors[0]["cycle"]
-    assert at(lines, blocked + 1)["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/3"
+    assert at(lines, blocked + 1)["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/4"
     replanned = at(lines, blocked + 2)
     assert replanned["modules"]["cc"]["rule"] == "RUN_MISSION/TRANSIT/3"
     before = plan_of(at(lines, blocked + 1))
@@ -345,7 +445,7 @@ def test_a_blocked_leg_is_replanned_by_its_alternate_and_the_mission_completes()
         ln for ln in lines[blocked + 1 :] if ln["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S0/1"
     ]
     assert len(sent) == 2
-    done = [ln for ln in lines if ln["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/2"]
+    done = [ln for ln in lines if ln["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/3"]
     for line, (x, y) in zip(done, [waypoints[0], alternate, waypoints[2]], strict=True):
         assert abs(line["world"]["pos_x"] - x) < HAVEN and abs(line["world"]["pos_y"] - y) < HAVEN
     assert plan_of(lines[-1]) == {"replans_left": 1, "step": 2, "steps": 2}, "done"
@@ -362,7 +462,7 @@ def test_a_blocked_leg_fails_the_mission_once_no_replans_are_left():
     assert [plan_of(lines[i])["replans_left"] for i in replans] == [1, 0], "both replans used"
     assert all(plan_of(lines[i])["steps"] == 2 for i in replans), "the same waypoint again"
     assert cc[-1] == "RUN_MISSION/TRANSIT/4", "then blocked with no replans left: ERROR"
-    assert lines[-2]["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/3", "SM: BLOCKED"
+    assert lines[-2]["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/4", "SM: BLOCKED"
     assert min(ln["world"]["min_clearance"] for ln in lines) >= 100.0
 
 

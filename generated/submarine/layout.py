@@ -5,15 +5,19 @@ The header comes first (the layout's hash: a process refuses to attach to anothe
 then each process's control record (its heartbeat and counters) and pacing record (its
 slow-down, written by an operator). Every module owns a command
 buffer (written by its supervisor), a status buffer and a performance buffer (written by
-the module) and a mode buffer (written by an operator). World-model fields follow, one
+the module) and a mode buffer (written by an operator); an operator module owns a mode and
+a performance buffer, and a channel per client: a command buffer (written by the client), a
+status buffer (written by the operator module) and an answer record (written by the
+answering side: the console, a scenario's scripted operator). World-model fields follow, one
 buffer each, then the overrides: a flag, and each world field's override record (its state,
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2536 bytes.
+The block is 3088 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
-control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
+control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
+ANSWER_FIELDS);
 command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
@@ -40,81 +44,100 @@ command buffers and world fields:
 | 784 | 32 | RUDDER_STATUS | STATUS_FIELDS |
 | 816 | 16 | RUDDER_MODE | MODE_FIELDS |
 | 832 | 48 | RUDDER_PERF | PERF_FIELDS |
-| 880 | 20 | RUDDER_SIM_COMMAND | command_num, command |
-| 904 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
-| 936 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
-| 952 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
-| 1000 | 20 | SHIP_COMMAND | command_num, command |
-| 1024 | 32 | SHIP_STATUS | STATUS_FIELDS |
-| 1056 | 16 | SHIP_MODE | MODE_FIELDS |
-| 1072 | 48 | SHIP_PERF | PERF_FIELDS |
-| 1120 | 20 | SONAR_COMMAND | command_num, command |
-| 1144 | 32 | SONAR_STATUS | STATUS_FIELDS |
-| 1176 | 16 | SONAR_MODE | MODE_FIELDS |
-| 1192 | 48 | SONAR_PERF | PERF_FIELDS |
-| 1240 | 20 | ATMOSPHERE_COMMAND | command_num, command |
-| 1264 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
-| 1296 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
-| 1312 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
-| 1360 | 16 | WORLD_SPEED_CMD | speed_cmd |
-| 1376 | 16 | WORLD_DEPTH_CMD | depth_cmd |
-| 1392 | 16 | WORLD_COURSE | course |
-| 1408 | 16 | WORLD_VENT_FLOW | vent_flow |
-| 1424 | 16 | WORLD_POS_X | pos_x |
-| 1440 | 16 | WORLD_POS_Y | pos_y |
-| 1456 | 16 | WORLD_HEADING | heading |
-| 1472 | 16 | WORLD_SPEED | speed |
-| 1488 | 16 | WORLD_DEPTH | depth |
-| 1504 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 1520 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 1536 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 1552 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 1568 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 1584 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 1600 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 1616 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 1632 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 1648 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 1664 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 1680 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 1696 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 1712 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 1728 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 1744 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 1760 | 16 | WORLD_CLEARANCE | clearance |
-| 1776 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 1792 | 9 | WORLD_FIRE | fire |
-| 1808 | 16 | WORLD_CO_PPM | co_ppm |
-| 1824 | 9 | OVERRIDES | any |
-| 1840 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 1864 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 1888 | 24 | OVERRIDE_COURSE | state, course |
-| 1912 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 1936 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 1960 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 1984 | 24 | OVERRIDE_HEADING | state, heading |
-| 2008 | 24 | OVERRIDE_SPEED | state, speed |
-| 2032 | 24 | OVERRIDE_DEPTH | state, depth |
-| 2056 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 2080 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 2104 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 2128 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 2152 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 2176 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 2200 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 2224 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 2248 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 2272 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 2296 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 2320 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 2344 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 2368 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 2392 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 2416 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 2440 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 2464 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 2488 | 17 | OVERRIDE_FIRE | state, fire |
-| 2512 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 880 | 20 | PROP_COMMAND | command_num, command |
+| 904 | 40 | PROP_STATUS | STATUS_FIELDS |
+| 944 | 16 | PROP_MODE | MODE_FIELDS |
+| 960 | 48 | PROP_PERF | PERF_FIELDS |
+| 1008 | 16 | EOOW_MODE | MODE_FIELDS |
+| 1024 | 48 | EOOW_PERF | PERF_FIELDS |
+| 1072 | 20 | EOOW_PROP_COMMAND | command_num, command |
+| 1096 | 32 | EOOW_PROP_STATUS | STATUS_FIELDS |
+| 1128 | 24 | EOOW_PROP_ANSWER | ANSWER_FIELDS |
+| 1152 | 20 | RUDDER_SIM_COMMAND | command_num, command |
+| 1176 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
+| 1208 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
+| 1224 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
+| 1272 | 20 | SHIP_COMMAND | command_num, command |
+| 1296 | 32 | SHIP_STATUS | STATUS_FIELDS |
+| 1328 | 16 | SHIP_MODE | MODE_FIELDS |
+| 1344 | 48 | SHIP_PERF | PERF_FIELDS |
+| 1392 | 20 | SONAR_COMMAND | command_num, command |
+| 1416 | 32 | SONAR_STATUS | STATUS_FIELDS |
+| 1448 | 16 | SONAR_MODE | MODE_FIELDS |
+| 1464 | 48 | SONAR_PERF | PERF_FIELDS |
+| 1512 | 20 | ATMOSPHERE_COMMAND | command_num, command |
+| 1536 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
+| 1568 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
+| 1584 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
+| 1632 | 16 | WORLD_SPEED_CMD | speed_cmd |
+| 1648 | 16 | WORLD_DEPTH_CMD | depth_cmd |
+| 1664 | 16 | WORLD_HAVEN_X | haven_x |
+| 1680 | 16 | WORLD_HAVEN_Y | haven_y |
+| 1696 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
+| 1712 | 56 | WORLD_ANNOUNCEMENT | announcement |
+| 1768 | 16 | WORLD_SHAFT | shaft |
+| 1784 | 16 | WORLD_COURSE | course |
+| 1800 | 16 | WORLD_VENT_FLOW | vent_flow |
+| 1816 | 16 | WORLD_POS_X | pos_x |
+| 1832 | 16 | WORLD_POS_Y | pos_y |
+| 1848 | 16 | WORLD_HEADING | heading |
+| 1864 | 16 | WORLD_SPEED | speed |
+| 1880 | 16 | WORLD_DEPTH | depth |
+| 1896 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 1912 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 1928 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 1944 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 1960 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 1976 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 1992 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 2008 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 2024 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 2040 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 2056 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 2072 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 2088 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 2104 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 2120 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 2136 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 2152 | 16 | WORLD_CLEARANCE | clearance |
+| 2168 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 2184 | 9 | WORLD_FIRE | fire |
+| 2200 | 16 | WORLD_CO_PPM | co_ppm |
+| 2216 | 9 | OVERRIDES | any |
+| 2232 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 2256 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 2280 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 2304 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 2328 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 2352 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 2416 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 2440 | 24 | OVERRIDE_COURSE | state, course |
+| 2464 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 2488 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 2512 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 2536 | 24 | OVERRIDE_HEADING | state, heading |
+| 2560 | 24 | OVERRIDE_SPEED | state, speed |
+| 2584 | 24 | OVERRIDE_DEPTH | state, depth |
+| 2608 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 2632 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 2656 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 2680 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 2704 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 2728 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 2752 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 2776 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 2800 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 2824 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 2848 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 2872 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 2896 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 2920 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 2944 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 2968 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 2992 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3016 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3040 | 17 | OVERRIDE_FIRE | state, fire |
+| 3064 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
 """
 
 from __future__ import annotations
@@ -122,12 +145,15 @@ from __future__ import annotations
 from struct import Struct
 
 from .rcs.contract import (
+    ANSWER,
+    ANSWER_FIELDS,
     FIRST_SEQ,
     HEADER,
     MAGIC,
     MODE,
     MODE_FIELDS,
     NO_COMMAND_NAME,
+    OPERATOR_STATES,
     PACE,
     PACE_FIELDS,
     PERF,
@@ -143,9 +169,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 2536
+SIZE = 3088
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "0d4d25c2e12df43fe945270c31794a01"
+LAYOUT_HASH = "4914d684212067f2e9b96633d568b4a1"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 168
 
@@ -191,93 +217,119 @@ RUDDER_STATUS_AT = 784
 RUDDER_MODE_AT = 816
 RUDDER_PERF_AT = 832
 
+# prop: Propulsion
+PROP_COMMAND = Struct("<QQI")  # seq, command_num, command
+PROP_COMMAND_AT = 880
+PROP_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
+PROP_STATUS_AT = 904
+PROP_MODE_AT = 944
+PROP_PERF_AT = 960
+
 # rudder_sim: Rudder (simulated)
 RUDDER_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-RUDDER_SIM_COMMAND_AT = 880
-RUDDER_SIM_STATUS_AT = 904
-RUDDER_SIM_MODE_AT = 936
-RUDDER_SIM_PERF_AT = 952
+RUDDER_SIM_COMMAND_AT = 1152
+RUDDER_SIM_STATUS_AT = 1176
+RUDDER_SIM_MODE_AT = 1208
+RUDDER_SIM_PERF_AT = 1224
 
 # ship: Ship dynamics (simulated)
 SHIP_COMMAND = Struct("<QQI")  # seq, command_num, command
-SHIP_COMMAND_AT = 1000
-SHIP_STATUS_AT = 1024
-SHIP_MODE_AT = 1056
-SHIP_PERF_AT = 1072
+SHIP_COMMAND_AT = 1272
+SHIP_STATUS_AT = 1296
+SHIP_MODE_AT = 1328
+SHIP_PERF_AT = 1344
 
 # sonar: Sonar and ice (simulated)
 SONAR_COMMAND = Struct("<QQI")  # seq, command_num, command
-SONAR_COMMAND_AT = 1120
-SONAR_STATUS_AT = 1144
-SONAR_MODE_AT = 1176
-SONAR_PERF_AT = 1192
+SONAR_COMMAND_AT = 1392
+SONAR_STATUS_AT = 1416
+SONAR_MODE_AT = 1448
+SONAR_PERF_AT = 1464
 
 # atmosphere: Engine-room atmosphere and fire (simulated)
 ATMOSPHERE_COMMAND = Struct("<QQI")  # seq, command_num, command
-ATMOSPHERE_COMMAND_AT = 1240
-ATMOSPHERE_STATUS_AT = 1264
-ATMOSPHERE_MODE_AT = 1296
-ATMOSPHERE_PERF_AT = 1312
+ATMOSPHERE_COMMAND_AT = 1512
+ATMOSPHERE_STATUS_AT = 1536
+ATMOSPHERE_MODE_AT = 1568
+ATMOSPHERE_PERF_AT = 1584
+
+# eoow: Engineering Officer of the Watch (EOOW watchstation) (an operator module: a channel per client)
+EOOW_MODE_AT = 1008
+EOOW_PERF_AT = 1024
+EOOW_PROP_COMMAND = Struct("<QQI")  # seq, command_num, command
+EOOW_PROP_COMMAND_AT = 1072
+EOOW_PROP_STATUS_AT = 1096
+EOOW_PROP_ANSWER_AT = 1128
 
 # World model.
 WORLD_SPEED_CMD = Struct("<Qd")  # seq, speed_cmd
-WORLD_SPEED_CMD_AT = 1360
+WORLD_SPEED_CMD_AT = 1632
 WORLD_DEPTH_CMD = Struct("<Qd")  # seq, depth_cmd
-WORLD_DEPTH_CMD_AT = 1376
+WORLD_DEPTH_CMD_AT = 1648
+WORLD_HAVEN_X = Struct("<Qd")  # seq, haven_x
+WORLD_HAVEN_X_AT = 1664
+WORLD_HAVEN_Y = Struct("<Qd")  # seq, haven_y
+WORLD_HAVEN_Y_AT = 1680
+WORLD_PERISCOPE_RAISED = Struct("<Q?")  # seq, periscope_raised
+WORLD_PERISCOPE_RAISED_AT = 1696
+WORLD_ANNOUNCEMENT = Struct("<Q48s")  # seq, announcement
+WORLD_ANNOUNCEMENT_AT = 1712
+WORLD_SHAFT = Struct("<Qq")  # seq, shaft
+WORLD_SHAFT_AT = 1768
 WORLD_COURSE = Struct("<Qd")  # seq, course
-WORLD_COURSE_AT = 1392
+WORLD_COURSE_AT = 1784
 WORLD_VENT_FLOW = Struct("<Qd")  # seq, vent_flow
-WORLD_VENT_FLOW_AT = 1408
+WORLD_VENT_FLOW_AT = 1800
 WORLD_POS_X = Struct("<Qd")  # seq, pos_x
-WORLD_POS_X_AT = 1424
+WORLD_POS_X_AT = 1816
 WORLD_POS_Y = Struct("<Qd")  # seq, pos_y
-WORLD_POS_Y_AT = 1440
+WORLD_POS_Y_AT = 1832
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 1456
+WORLD_HEADING_AT = 1848
 WORLD_SPEED = Struct("<Qd")  # seq, speed
-WORLD_SPEED_AT = 1472
+WORLD_SPEED_AT = 1864
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
-WORLD_DEPTH_AT = 1488
+WORLD_DEPTH_AT = 1880
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 1504
+WORLD_RUDDER_ANGLE_AT = 1896
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 1520
+WORLD_RUDDER_JAMMED_AT = 1912
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 1536
+WORLD_SONAR_00_AT = 1928
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 1552
+WORLD_SONAR_01_AT = 1944
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 1568
+WORLD_SONAR_02_AT = 1960
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 1584
+WORLD_SONAR_03_AT = 1976
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 1600
+WORLD_SONAR_04_AT = 1992
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 1616
+WORLD_SONAR_05_AT = 2008
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 1632
+WORLD_SONAR_06_AT = 2024
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 1648
+WORLD_SONAR_07_AT = 2040
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 1664
+WORLD_SONAR_08_AT = 2056
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 1680
+WORLD_SONAR_09_AT = 2072
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 1696
+WORLD_SONAR_10_AT = 2088
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 1712
+WORLD_SONAR_11_AT = 2104
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 1728
+WORLD_SONAR_12_AT = 2120
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 1744
+WORLD_SONAR_13_AT = 2136
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 1760
+WORLD_CLEARANCE_AT = 2152
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 1776
+WORLD_MIN_CLEARANCE_AT = 2168
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 1792
+WORLD_FIRE_AT = 2184
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 1808
+WORLD_CO_PPM_AT = 2200
 
 
 PROCESSES = {
@@ -294,6 +346,9 @@ PLACEMENT = {
     "ec": "ship",
     "helm": "ship",
     "rudder": "ship",
+    "prop": "ship",
+    "eoow": "ship",
+    "eoow/prop": "ship",
     "rudder_sim": "ship",
     "ship": "ship",
     "sonar": "ship",
@@ -306,10 +361,12 @@ STARTUP_TIMEOUT = 10.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
     "cc": ("sm", "ec"),
-    "sm": ("helm",),
+    "sm": ("helm", "prop"),
     "ec": (),
     "helm": ("rudder",),
     "rudder": ("rudder_sim",),
+    "prop": ("eoow/prop",),
+    "eoow": (),
     "rudder_sim": (),
     "ship": (),
     "sonar": (),
@@ -320,17 +377,31 @@ SUBORDINATES = {
 ON_LOST_CONTINUE: dict[str, tuple[str, ...]] = {}
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {}
-MODULES = ("cc", "sm", "ec", "helm", "rudder", "rudder_sim", "ship", "sonar", "atmosphere")
+MODULES = (
+    "cc",
+    "sm",
+    "ec",
+    "helm",
+    "rudder",
+    "prop",
+    "eoow/prop",
+    "rudder_sim",
+    "ship",
+    "sonar",
+    "atmosphere",
+)
 COMMAND_IN = {
     "cc": Record(CC_COMMAND, CC_COMMAND_AT, ("command_num", "command")),
     "sm": Record(SM_COMMAND, SM_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
     "ec": Record(EC_COMMAND, EC_COMMAND_AT, ("command_num", "command")),
     "helm": Record(HELM_COMMAND, HELM_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
     "rudder": Record(RUDDER_COMMAND, RUDDER_COMMAND_AT, ("command_num", "command", "arg_angle")),
+    "prop": Record(PROP_COMMAND, PROP_COMMAND_AT, ("command_num", "command")),
     "rudder_sim": Record(RUDDER_SIM_COMMAND, RUDDER_SIM_COMMAND_AT, ("command_num", "command")),
     "ship": Record(SHIP_COMMAND, SHIP_COMMAND_AT, ("command_num", "command")),
     "sonar": Record(SONAR_COMMAND, SONAR_COMMAND_AT, ("command_num", "command")),
     "atmosphere": Record(ATMOSPHERE_COMMAND, ATMOSPHERE_COMMAND_AT, ("command_num", "command")),
+    "eoow/prop": Record(EOOW_PROP_COMMAND, EOOW_PROP_COMMAND_AT, ("command_num", "command")),
 }
 STATUS_OUT = {
     "cc": Record(
@@ -358,10 +429,14 @@ STATUS_OUT = {
         ("status_num", "status", "error_num", "state", "rule", "result_at_goal", "cause"),
     ),
     "rudder": Record(STATUS, RUDDER_STATUS_AT, field_names(STATUS_FIELDS)),
+    "prop": Record(
+        PROP_STATUS, PROP_STATUS_AT, ("status_num", "status", "error_num", "state", "rule", "cause")
+    ),
     "rudder_sim": Record(STATUS, RUDDER_SIM_STATUS_AT, field_names(STATUS_FIELDS)),
     "ship": Record(STATUS, SHIP_STATUS_AT, field_names(STATUS_FIELDS)),
     "sonar": Record(STATUS, SONAR_STATUS_AT, field_names(STATUS_FIELDS)),
     "atmosphere": Record(STATUS, ATMOSPHERE_STATUS_AT, field_names(STATUS_FIELDS)),
+    "eoow/prop": Record(STATUS, EOOW_PROP_STATUS_AT, field_names(STATUS_FIELDS)),
 }
 MODE_IN = {
     "cc": Record(MODE, CC_MODE_AT, field_names(MODE_FIELDS)),
@@ -369,10 +444,13 @@ MODE_IN = {
     "ec": Record(MODE, EC_MODE_AT, field_names(MODE_FIELDS)),
     "helm": Record(MODE, HELM_MODE_AT, field_names(MODE_FIELDS)),
     "rudder": Record(MODE, RUDDER_MODE_AT, field_names(MODE_FIELDS)),
+    "prop": Record(MODE, PROP_MODE_AT, field_names(MODE_FIELDS)),
     "rudder_sim": Record(MODE, RUDDER_SIM_MODE_AT, field_names(MODE_FIELDS)),
     "ship": Record(MODE, SHIP_MODE_AT, field_names(MODE_FIELDS)),
     "sonar": Record(MODE, SONAR_MODE_AT, field_names(MODE_FIELDS)),
     "atmosphere": Record(MODE, ATMOSPHERE_MODE_AT, field_names(MODE_FIELDS)),
+    "eoow": Record(MODE, EOOW_MODE_AT, field_names(MODE_FIELDS)),
+    "eoow/prop": Record(MODE, EOOW_MODE_AT, field_names(MODE_FIELDS)),
 }
 PERFORMANCE = {
     "cc": Record(PERF, CC_PERF_AT, field_names(PERF_FIELDS)),
@@ -380,14 +458,24 @@ PERFORMANCE = {
     "ec": Record(PERF, EC_PERF_AT, field_names(PERF_FIELDS)),
     "helm": Record(PERF, HELM_PERF_AT, field_names(PERF_FIELDS)),
     "rudder": Record(PERF, RUDDER_PERF_AT, field_names(PERF_FIELDS)),
+    "prop": Record(PERF, PROP_PERF_AT, field_names(PERF_FIELDS)),
     "rudder_sim": Record(PERF, RUDDER_SIM_PERF_AT, field_names(PERF_FIELDS)),
     "ship": Record(PERF, SHIP_PERF_AT, field_names(PERF_FIELDS)),
     "sonar": Record(PERF, SONAR_PERF_AT, field_names(PERF_FIELDS)),
     "atmosphere": Record(PERF, ATMOSPHERE_PERF_AT, field_names(PERF_FIELDS)),
+    "eoow": Record(PERF, EOOW_PERF_AT, field_names(PERF_FIELDS)),
+    "eoow/prop": Record(PERF, EOOW_PERF_AT, field_names(PERF_FIELDS)),
 }
 WORLD = {
     "speed_cmd": Record(WORLD_SPEED_CMD, WORLD_SPEED_CMD_AT, ("speed_cmd",)),
     "depth_cmd": Record(WORLD_DEPTH_CMD, WORLD_DEPTH_CMD_AT, ("depth_cmd",)),
+    "haven_x": Record(WORLD_HAVEN_X, WORLD_HAVEN_X_AT, ("haven_x",)),
+    "haven_y": Record(WORLD_HAVEN_Y, WORLD_HAVEN_Y_AT, ("haven_y",)),
+    "periscope_raised": Record(
+        WORLD_PERISCOPE_RAISED, WORLD_PERISCOPE_RAISED_AT, ("periscope_raised",)
+    ),
+    "announcement": Record(WORLD_ANNOUNCEMENT, WORLD_ANNOUNCEMENT_AT, ("announcement",)),
+    "shaft": Record(WORLD_SHAFT, WORLD_SHAFT_AT, ("shaft",)),
     "course": Record(WORLD_COURSE, WORLD_COURSE_AT, ("course",)),
     "vent_flow": Record(WORLD_VENT_FLOW, WORLD_VENT_FLOW_AT, ("vent_flow",)),
     "pos_x": Record(WORLD_POS_X, WORLD_POS_X_AT, ("pos_x",)),
@@ -419,6 +507,11 @@ WORLD = {
 WORLD_INITIAL: dict[str, object] = {
     "speed_cmd": 7.7,
     "depth_cmd": 120.0,
+    "haven_x": 0.0,
+    "haven_y": 0.0,
+    "periscope_raised": False,
+    "announcement": "",
+    "shaft": 0,
     "course": 0.0,
     "vent_flow": 0.002,
     "pos_x": 0.0,
@@ -449,51 +542,66 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 1824
-OVERRIDDEN_AT = 1832  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2216
+OVERRIDDEN_AT = 2224  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 1840, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 1864, ("state", "depth_cmd")),
-    "course": Record(Struct("<QQd"), 1888, ("state", "course")),
-    "vent_flow": Record(Struct("<QQd"), 1912, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 1936, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 1960, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 1984, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 2008, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 2032, ("state", "depth")),
-    "rudder_angle": Record(Struct("<QQd"), 2056, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 2080, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 2104, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 2128, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 2152, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 2176, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 2200, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 2224, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 2248, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 2272, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 2296, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 2320, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 2344, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 2368, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 2392, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 2416, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 2440, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 2464, ("state", "min_clearance")),
-    "fire": Record(Struct("<QQ?"), 2488, ("state", "fire")),
-    "co_ppm": Record(Struct("<QQd"), 2512, ("state", "co_ppm")),
+    "speed_cmd": Record(Struct("<QQd"), 2232, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 2256, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 2280, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 2304, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 2328, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 2352, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 2416, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 2440, ("state", "course")),
+    "vent_flow": Record(Struct("<QQd"), 2464, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 2488, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 2512, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 2536, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 2560, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 2584, ("state", "depth")),
+    "rudder_angle": Record(Struct("<QQd"), 2608, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 2632, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 2656, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 2680, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 2704, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 2728, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 2752, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 2776, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 2800, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 2824, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 2848, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 2872, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 2896, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 2920, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 2944, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 2968, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 2992, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3016, ("state", "min_clearance")),
+    "fire": Record(Struct("<QQ?"), 3040, ("state", "fire")),
+    "co_ppm": Record(Struct("<QQd"), 3064, ("state", "co_ppm")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
 SAFE_VALUES: dict[str, object] = {}
 # The process whose modules write each actuator.
 ACTUATED_BY = {}
+# The fields that hold an enumeration's value, by (module, or "" for the world; field): the
+# value names, indexed by the code the field holds, for traces, displays and `ctl send`.
+ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
+    ("", "shaft"): ("TURBINE", "DISENGAGED", "EPM"),
+}
 # The modules that write each world field (a stand-in writes in its controller's place), for
 # `ctl force`: forcing a field takes it from them, which needs override on each.
 WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "speed_cmd": ("sm",),
     "depth_cmd": ("sm",),
+    "haven_x": ("sm",),
+    "haven_y": ("sm",),
+    "periscope_raised": ("sm",),
+    "announcement": ("cc",),
+    "shaft": ("prop",),
     "course": ("helm",),
     "vent_flow": ("ec",),
     "pos_x": ("ship",),
@@ -523,18 +631,20 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
-GROUND_TRUTH = ()
+GROUND_TRUTH = ("rudder_jammed", "clearance", "min_clearance")
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "cc": (NO_COMMAND_NAME, *("INIT", "HALT", "RUN_MISSION")),
     "sm": (NO_COMMAND_NAME, *("INIT", "HALT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT")),
     "ec": (NO_COMMAND_NAME, *("INIT", "HALT", "SUBMERGED_VENT", "EMERGENCY_VENT")),
-    "helm": (NO_COMMAND_NAME, *("INIT", "HALT", "ICE_MANEUVER")),
+    "helm": (NO_COMMAND_NAME, *("INIT", "HALT", "ICE_MANEUVER", "CLEAR_BAFFLES")),
     "rudder": (NO_COMMAND_NAME, *("INIT", "HALT", "GOTO_ANGLE")),
+    "prop": (NO_COMMAND_NAME, *("INIT", "HALT", "SHIFT_TO_EPM")),
     "rudder_sim": (NO_COMMAND_NAME, *("INIT", "HALT", "PLUS_VOLT", "MINUS_VOLT", "ZERO_VOLT")),
     "ship": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sonar": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "atmosphere": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "eoow/prop": (NO_COMMAND_NAME, *("INIT", "HALT", "CHANGE_TO_EPM")),
 }
 # Each command's parameters, in order: an operator gives every one of them (`ctl send`,
 # `--send`, a scenario), each checked against its slot's type (rcs/operate/command.py). A command
@@ -542,6 +652,7 @@ COMMAND_NAMES = {
 PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     "sm": {
         "SUBMERGED_TRANSIT": ("x", "y"),
+        "PREP_EMERGENCY_VENT": ("x", "y"),
     },
     "helm": {
         "ICE_MANEUVER": ("x", "y"),
@@ -552,26 +663,42 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
 }
 STATE_NAMES = {
     "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "VENT"),
-    "sm": ("NOP", "S0", "S1"),
+    "sm": ("NOP", "S0", "S1", "BAFFLES", "SLOWING", "PROP_FAILED", "HELM_FAILED"),
     "ec": ("NOP", "S0", "S1"),
-    "helm": ("NOP", "S0", "S1", "S2"),
+    "helm": ("NOP", "S0", "S1", "S2", "CENTRING"),
     "rudder": ("NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
+    "prop": ("NOP", "S0", "S1", "ASKED"),
     "rudder_sim": ("NOP", "S0"),
     "ship": ("NOP", "S0"),
     "sonar": ("NOP", "S0"),
     "atmosphere": ("NOP", "S0"),
+    "eoow/prop": OPERATOR_STATES,
 }
 # The reason each code of a status buffer's `error_num` names, indexed by code, for the
 # controllers and operator modules that declare reasons (docs/semantics.md, "Results and
 # reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {
-    "cc": ("NONE", "LOST", "BLOCKED"),
-    "sm": ("NONE", "LOST", "BLOCKED"),
+    "cc": ("NONE", "LOST", "BLOCKED", "OUT_OF_HAVEN", "REFUSED"),
+    "sm": ("NONE", "LOST", "BLOCKED", "OUT_OF_HAVEN", "REFUSED"),
     "helm": ("NONE", "LOST", "BLOCKED"),
+    "prop": ("NONE", "LOST", "REFUSED"),
+    "eoow": ("NONE", "LOST", "REFUSED"),
 }
 # The modules a link of a status buffer's `cause` numbers, from 1 (rcs/contract.py
 # cause_text; docs/semantics.md, "Reasons survive").
-CAUSE_MODULES = ("cc", "sm", "ec", "helm", "rudder", "rudder_sim", "ship", "sonar", "atmosphere")
+CAUSE_MODULES = (
+    "cc",
+    "sm",
+    "ec",
+    "helm",
+    "rudder",
+    "prop",
+    "eoow",
+    "rudder_sim",
+    "ship",
+    "sonar",
+    "atmosphere",
+)
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
     "cc": (
@@ -588,6 +715,7 @@ RULES = {
         "RUN_MISSION/TRANSIT/3",
         "RUN_MISSION/TRANSIT/4",
         "RUN_MISSION/TRANSIT/5",
+        "RUN_MISSION/TRANSIT/6",
         "RUN_MISSION/PREP_VENT/1",
         "RUN_MISSION/PREP_VENT/2",
         "RUN_MISSION/VENT/1",
@@ -603,8 +731,15 @@ RULES = {
         "SUBMERGED_TRANSIT/S1/1",
         "SUBMERGED_TRANSIT/S1/2",
         "SUBMERGED_TRANSIT/S1/3",
+        "SUBMERGED_TRANSIT/S1/4",
         "PREP_EMERGENCY_VENT/S0/1",
-        "PREP_EMERGENCY_VENT/S1/1",
+        "PREP_EMERGENCY_VENT/BAFFLES/1",
+        "PREP_EMERGENCY_VENT/BAFFLES/2",
+        "PREP_EMERGENCY_VENT/SLOWING/1",
+        "PREP_EMERGENCY_VENT/SLOWING/2",
+        "PREP_EMERGENCY_VENT/SLOWING/3",
+        "PREP_EMERGENCY_VENT/PROP_FAILED/1",
+        "PREP_EMERGENCY_VENT/HELM_FAILED/1",
     ),
     "ec": (
         "",
@@ -630,6 +765,12 @@ RULES = {
         "ICE_MANEUVER/S2/2",
         "ICE_MANEUVER/S2/3",
         "ICE_MANEUVER/S2/4",
+        "CLEAR_BAFFLES/S0/1",
+        "CLEAR_BAFFLES/S1/1",
+        "CLEAR_BAFFLES/S1/2",
+        "CLEAR_BAFFLES/S1/3",
+        "CLEAR_BAFFLES/CENTRING/1",
+        "CLEAR_BAFFLES/CENTRING/2",
     ),
     "rudder": (
         "",
@@ -647,6 +788,16 @@ RULES = {
         "GOTO_ANGLE/STOPPING/1",
         "GOTO_ANGLE/STOPPING/2",
     ),
+    "prop": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "SHIFT_TO_EPM/S0/1",
+        "SHIFT_TO_EPM/ASKED/1",
+        "SHIFT_TO_EPM/ASKED/2",
+    ),
     "rudder_sim": (
         "",
         "INIT/S0/1",
@@ -660,11 +811,24 @@ RULES = {
     "ship": ("", "INIT/S0/1", "HALT/S0/1"),
     "sonar": ("", "INIT/S0/1", "HALT/S0/1"),
     "atmosphere": ("", "INIT/S0/1", "HALT/S0/1"),
+    "eoow/prop": ("",),  # an operator module has no table
 }
 SIMULATORS = ("rudder_sim", "ship", "sonar", "atmosphere")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
-ROLES: dict[str, dict[str, int]] = {}
+ROLES: dict[str, dict[str, int]] = {
+    "ood": {
+        "cc": 2,  # command
+    },
+    "eoow": {
+        "eoow": 1,  # respond
+    },
+    "helmsman": {
+        "helm": 3,  # override
+        "rudder": 3,  # override
+    },
+    "bcp": {},
+}
 # Who holds each role (`users`, `groups`: OS names): role -> (users, groups). `--role` in a
 # role listed here is refused to anyone else; a role not listed, anyone may claim.
 ROLE_HOLDERS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {}
@@ -684,6 +848,23 @@ READS_SETTINGS = True
 REQUESTS: dict[str, dict[str, object]] = {}
 
 
+# Operator modules (a person at a screen): each one's channels, `operator/client`.
+OPERATORS = {
+    "eoow": ("eoow/prop",),
+}
+# Each channel's answer record: written only by the answering side (`ctl answer`, a
+# scenario's scripted operator), read by the operator module.
+ANSWERS = {
+    "eoow/prop": Record(ANSWER, EOOW_PROP_ANSWER_AT, field_names(ANSWER_FIELDS)),
+}
+# Each operator module's tasks: the instruction the screen shows (`{param}`: its value).
+INSTRUCTIONS = {
+    "eoow": {
+        "CHANGE_TO_EPM": "CHANGE TO EPM: disengage the main turbine shaft, engage the EPM shaft, close the EPM breaker, then report.",
+    },
+}
+
+
 def initialise(buf: memoryview) -> None:
     """Zero the block, write the header, mark every buffer whole (a sequence word of 0 is a
     write in progress), set every world field to its initial value and flag the simulators."""
@@ -698,6 +879,7 @@ def initialise(buf: memoryview) -> None:
         PERFORMANCE,
         WORLD,
         OVERRIDE,
+        ANSWERS,
     ):
         for record in records.values():
             SEQ.pack_into(buf, record.offset, FIRST_SEQ)

@@ -27,19 +27,19 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI296xd8xd40xd8xd8xd8xd8xd8xd")
-INPUTS_AT = 1000
+INPUTS = Struct("<QQI44x???1xI296xd8xd112xq40xd8xd8xd8xd8xd8xd")
+INPUTS_AT = 1272
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1000
+SEQS_AT = 1272
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 1424
+WORLD_OUT_1_AT = 1816
 WORLD_HELD_1 = (
     OVERRIDE["pos_x"],
     OVERRIDE["pos_y"],
@@ -55,7 +55,12 @@ S0 = 1
 TURN = 0.0065
 ACCEL = 0.1
 DEPTH_RATE = 1.0
+EPM_MAX = 5.2
 CYCLE_PERIOD = 1.0  # seconds per cycle of its process
+
+# Enumeration values its tables name (a field holds its value's index).
+DISENGAGED = 1
+EPM = 2
 
 
 class ShipController:
@@ -90,6 +95,7 @@ class ShipController:
         "world_pos_y",
         "world_rudder_angle",
         "world_set",
+        "world_shaft",
         "world_speed",
         "world_speed_cmd",
     )
@@ -145,6 +151,7 @@ class ShipController:
                 self.single_step_num,
                 self.world_speed_cmd,
                 self.world_depth_cmd,
+                self.world_shaft,
                 self.world_pos_x,
                 self.world_pos_y,
                 self.world_heading,
@@ -286,6 +293,7 @@ class ShipController:
             self.single_step_num,
             self.world_speed_cmd,
             self.world_depth_cmd,
+            self.world_shaft,
             self.world_pos_x,
             self.world_pos_y,
             self.world_heading,
@@ -311,7 +319,17 @@ class ShipController:
         ) % 360.0
         self.world_speed = self.world_speed + max(
             -ACCEL * CYCLE_PERIOD,
-            min(ACCEL * CYCLE_PERIOD, self.world_speed_cmd - self.world_speed),
+            min(
+                ACCEL * CYCLE_PERIOD,
+                (
+                    0.0
+                    if self.world_shaft == DISENGAGED
+                    else min(self.world_speed_cmd, EPM_MAX)
+                    if self.world_shaft == EPM
+                    else self.world_speed_cmd
+                )
+                - self.world_speed,
+            ),
         )
         self.world_depth = self.world_depth + max(
             -DEPTH_RATE * CYCLE_PERIOD,
