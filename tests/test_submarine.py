@@ -528,3 +528,35 @@ def test_helm_reports_a_rudder_error_instead_of_ordering_the_rudder_again() -> N
         assert harness.sent("rudder") == first, "helm ordered the rudder after its ERROR"
     finally:
         harness.close()
+
+
+def test_fresh_water_run_off_sinks_the_ship_until_variable_ballast_is_blown():
+    """Section 4.1.2: lighter water at a fresh water run-off sinks the ship; the planes
+    (the ship's depth response) cannot hold it, so ship maneuver blows variable ballast
+    (4.1.1) while the depth is more than DEPTH_LIMIT off, and the depth is held again."""
+    final, lines = played("fresh_water_runoff")
+    assert final["status"] == "DONE"
+    scenario = load_scenario(SCENARIOS / "fresh_water_runoff.yaml")
+    drop, back = (e.cycle for e in scenario.events if "water_density" in e.world)
+    before = at(lines, drop - 1)["world"]
+    assert before["depth"] == 120.0 and before["ballast"] == 0.0
+    deepest = max(line["world"]["depth"] for line in lines)
+    assert 120.0 + 5.0 < deepest < 130.0, "sank past what the planes hold, not far"
+    blowing = [
+        line["cycle"] for line in lines if line["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/5"
+    ]
+    assert blowing and all(drop < c < back for c in blowing)
+    for c in blowing:  # blown only while more than DEPTH_LIMIT deeper than ordered
+        assert at(lines, c - 1)["world"]["depth"] > 125.0
+    held = [at(lines, c)["world"]["depth"] for c in range(blowing[-1] + 30, back)]
+    assert held and all(abs(d - 120.0) <= 1.0 for d in held)
+    after = [line["world"]["depth"] for line in lines if line["cycle"] > back + 30]
+    assert all(abs(d - 120.0) <= 1.0 for d in after), (
+        "the blown ballast is within the planes' reach"
+    )
+    assert min(line["world"]["below_keel"] for line in lines) == final_below_keel(lines)
+
+
+def final_below_keel(lines: list[dict]) -> float:
+    """The sea simulator's running minimum of the water under the keel, at the end."""
+    return lines[-1]["world"]["min_below_keel"]

@@ -14,6 +14,7 @@ SOURCES = (
     "submarine/prop.yaml",
     "submarine/rudder.yaml",
     "submarine/rudder_sim.yaml",
+    "submarine/sea.yaml",
     "submarine/ship.yaml",
     "submarine/sm.yaml",
     "submarine/sonar.yaml",

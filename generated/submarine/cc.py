@@ -70,7 +70,7 @@ EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1196x48s440xd")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1316x48s520xd")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -82,7 +82,7 @@ SEQS_AT = 184
 WORLD_OUT_1 = Struct("<Q48s")
 WORLD_VALUES_1 = Struct("<8x48s")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 1712
+WORLD_OUT_1_AT = 1832
 WORLD_HELD_1 = (OVERRIDE["announcement"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

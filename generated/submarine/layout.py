@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 3088 bytes.
+The block is 3408 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -65,79 +65,93 @@ command buffers and world fields:
 | 1416 | 32 | SONAR_STATUS | STATUS_FIELDS |
 | 1448 | 16 | SONAR_MODE | MODE_FIELDS |
 | 1464 | 48 | SONAR_PERF | PERF_FIELDS |
-| 1512 | 20 | ATMOSPHERE_COMMAND | command_num, command |
-| 1536 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
-| 1568 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
-| 1584 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
-| 1632 | 16 | WORLD_SPEED_CMD | speed_cmd |
-| 1648 | 16 | WORLD_DEPTH_CMD | depth_cmd |
-| 1664 | 16 | WORLD_HAVEN_X | haven_x |
-| 1680 | 16 | WORLD_HAVEN_Y | haven_y |
-| 1696 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
-| 1712 | 56 | WORLD_ANNOUNCEMENT | announcement |
-| 1768 | 16 | WORLD_SHAFT | shaft |
-| 1784 | 16 | WORLD_COURSE | course |
-| 1800 | 16 | WORLD_VENT_FLOW | vent_flow |
-| 1816 | 16 | WORLD_POS_X | pos_x |
-| 1832 | 16 | WORLD_POS_Y | pos_y |
-| 1848 | 16 | WORLD_HEADING | heading |
-| 1864 | 16 | WORLD_SPEED | speed |
-| 1880 | 16 | WORLD_DEPTH | depth |
-| 1896 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 1912 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 1928 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 1944 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 1960 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 1976 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 1992 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 2008 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 2024 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 2040 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 2056 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 2072 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 2088 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 2104 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 2120 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 2136 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 2152 | 16 | WORLD_CLEARANCE | clearance |
-| 2168 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 2184 | 9 | WORLD_FIRE | fire |
-| 2200 | 16 | WORLD_CO_PPM | co_ppm |
-| 2216 | 9 | OVERRIDES | any |
-| 2232 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 2256 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 2280 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 2304 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 2328 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 2352 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 2416 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 2440 | 24 | OVERRIDE_COURSE | state, course |
-| 2464 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 2488 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 2512 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 2536 | 24 | OVERRIDE_HEADING | state, heading |
-| 2560 | 24 | OVERRIDE_SPEED | state, speed |
-| 2584 | 24 | OVERRIDE_DEPTH | state, depth |
-| 2608 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 2632 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 2656 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 2680 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 2704 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 2728 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 2752 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 2776 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 2800 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 2824 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 2848 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 2872 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 2896 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 2920 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 2944 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 2968 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 2992 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3016 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3040 | 17 | OVERRIDE_FIRE | state, fire |
-| 3064 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 1512 | 20 | SEA_COMMAND | command_num, command |
+| 1536 | 32 | SEA_STATUS | STATUS_FIELDS |
+| 1568 | 16 | SEA_MODE | MODE_FIELDS |
+| 1584 | 48 | SEA_PERF | PERF_FIELDS |
+| 1632 | 20 | ATMOSPHERE_COMMAND | command_num, command |
+| 1656 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
+| 1688 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
+| 1704 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
+| 1752 | 16 | WORLD_SPEED_CMD | speed_cmd |
+| 1768 | 16 | WORLD_DEPTH_CMD | depth_cmd |
+| 1784 | 16 | WORLD_HAVEN_X | haven_x |
+| 1800 | 16 | WORLD_HAVEN_Y | haven_y |
+| 1816 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
+| 1832 | 56 | WORLD_ANNOUNCEMENT | announcement |
+| 1888 | 16 | WORLD_SHAFT | shaft |
+| 1904 | 16 | WORLD_COURSE | course |
+| 1920 | 16 | WORLD_BALLAST | ballast |
+| 1936 | 16 | WORLD_VENT_FLOW | vent_flow |
+| 1952 | 16 | WORLD_POS_X | pos_x |
+| 1968 | 16 | WORLD_POS_Y | pos_y |
+| 1984 | 16 | WORLD_HEADING | heading |
+| 2000 | 16 | WORLD_SPEED | speed |
+| 2016 | 16 | WORLD_DEPTH | depth |
+| 2032 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 2048 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 2064 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 2080 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 2096 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 2112 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 2128 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 2144 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 2160 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 2176 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 2192 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 2208 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 2224 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 2240 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 2256 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 2272 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 2288 | 16 | WORLD_CLEARANCE | clearance |
+| 2304 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 2320 | 16 | WORLD_WATER_DENSITY | water_density |
+| 2336 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
+| 2352 | 16 | WORLD_BELOW_KEEL | below_keel |
+| 2368 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
+| 2384 | 9 | WORLD_FIRE | fire |
+| 2400 | 16 | WORLD_CO_PPM | co_ppm |
+| 2416 | 9 | OVERRIDES | any |
+| 2432 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 2456 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 2480 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 2504 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 2528 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 2552 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 2616 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 2640 | 24 | OVERRIDE_COURSE | state, course |
+| 2664 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 2688 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 2712 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 2736 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 2760 | 24 | OVERRIDE_HEADING | state, heading |
+| 2784 | 24 | OVERRIDE_SPEED | state, speed |
+| 2808 | 24 | OVERRIDE_DEPTH | state, depth |
+| 2832 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 2856 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 2880 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 2904 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 2928 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 2952 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 2976 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3000 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3024 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3048 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3072 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3096 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3120 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3144 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3168 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3192 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3216 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3240 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3264 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3288 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3312 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 3336 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 3360 | 17 | OVERRIDE_FIRE | state, fire |
+| 3384 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
 """
 
 from __future__ import annotations
@@ -169,9 +183,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 3088
+SIZE = 3408
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "4914d684212067f2e9b96633d568b4a1"
+LAYOUT_HASH = "f1f635d1d5b12ca3c5420e65ac7b074f"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 168
 
@@ -246,12 +260,19 @@ SONAR_STATUS_AT = 1416
 SONAR_MODE_AT = 1448
 SONAR_PERF_AT = 1464
 
+# sea: Sea bottom and seawater (simulated)
+SEA_COMMAND = Struct("<QQI")  # seq, command_num, command
+SEA_COMMAND_AT = 1512
+SEA_STATUS_AT = 1536
+SEA_MODE_AT = 1568
+SEA_PERF_AT = 1584
+
 # atmosphere: Engine-room atmosphere and fire (simulated)
 ATMOSPHERE_COMMAND = Struct("<QQI")  # seq, command_num, command
-ATMOSPHERE_COMMAND_AT = 1512
-ATMOSPHERE_STATUS_AT = 1536
-ATMOSPHERE_MODE_AT = 1568
-ATMOSPHERE_PERF_AT = 1584
+ATMOSPHERE_COMMAND_AT = 1632
+ATMOSPHERE_STATUS_AT = 1656
+ATMOSPHERE_MODE_AT = 1688
+ATMOSPHERE_PERF_AT = 1704
 
 # eoow: Engineering Officer of the Watch (EOOW watchstation) (an operator module: a channel per client)
 EOOW_MODE_AT = 1008
@@ -263,73 +284,83 @@ EOOW_PROP_ANSWER_AT = 1128
 
 # World model.
 WORLD_SPEED_CMD = Struct("<Qd")  # seq, speed_cmd
-WORLD_SPEED_CMD_AT = 1632
+WORLD_SPEED_CMD_AT = 1752
 WORLD_DEPTH_CMD = Struct("<Qd")  # seq, depth_cmd
-WORLD_DEPTH_CMD_AT = 1648
+WORLD_DEPTH_CMD_AT = 1768
 WORLD_HAVEN_X = Struct("<Qd")  # seq, haven_x
-WORLD_HAVEN_X_AT = 1664
+WORLD_HAVEN_X_AT = 1784
 WORLD_HAVEN_Y = Struct("<Qd")  # seq, haven_y
-WORLD_HAVEN_Y_AT = 1680
+WORLD_HAVEN_Y_AT = 1800
 WORLD_PERISCOPE_RAISED = Struct("<Q?")  # seq, periscope_raised
-WORLD_PERISCOPE_RAISED_AT = 1696
+WORLD_PERISCOPE_RAISED_AT = 1816
 WORLD_ANNOUNCEMENT = Struct("<Q48s")  # seq, announcement
-WORLD_ANNOUNCEMENT_AT = 1712
+WORLD_ANNOUNCEMENT_AT = 1832
 WORLD_SHAFT = Struct("<Qq")  # seq, shaft
-WORLD_SHAFT_AT = 1768
+WORLD_SHAFT_AT = 1888
 WORLD_COURSE = Struct("<Qd")  # seq, course
-WORLD_COURSE_AT = 1784
+WORLD_COURSE_AT = 1904
+WORLD_BALLAST = Struct("<Qd")  # seq, ballast
+WORLD_BALLAST_AT = 1920
 WORLD_VENT_FLOW = Struct("<Qd")  # seq, vent_flow
-WORLD_VENT_FLOW_AT = 1800
+WORLD_VENT_FLOW_AT = 1936
 WORLD_POS_X = Struct("<Qd")  # seq, pos_x
-WORLD_POS_X_AT = 1816
+WORLD_POS_X_AT = 1952
 WORLD_POS_Y = Struct("<Qd")  # seq, pos_y
-WORLD_POS_Y_AT = 1832
+WORLD_POS_Y_AT = 1968
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 1848
+WORLD_HEADING_AT = 1984
 WORLD_SPEED = Struct("<Qd")  # seq, speed
-WORLD_SPEED_AT = 1864
+WORLD_SPEED_AT = 2000
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
-WORLD_DEPTH_AT = 1880
+WORLD_DEPTH_AT = 2016
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 1896
+WORLD_RUDDER_ANGLE_AT = 2032
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 1912
+WORLD_RUDDER_JAMMED_AT = 2048
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 1928
+WORLD_SONAR_00_AT = 2064
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 1944
+WORLD_SONAR_01_AT = 2080
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 1960
+WORLD_SONAR_02_AT = 2096
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 1976
+WORLD_SONAR_03_AT = 2112
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 1992
+WORLD_SONAR_04_AT = 2128
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 2008
+WORLD_SONAR_05_AT = 2144
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 2024
+WORLD_SONAR_06_AT = 2160
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 2040
+WORLD_SONAR_07_AT = 2176
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 2056
+WORLD_SONAR_08_AT = 2192
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 2072
+WORLD_SONAR_09_AT = 2208
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 2088
+WORLD_SONAR_10_AT = 2224
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 2104
+WORLD_SONAR_11_AT = 2240
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 2120
+WORLD_SONAR_12_AT = 2256
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 2136
+WORLD_SONAR_13_AT = 2272
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 2152
+WORLD_CLEARANCE_AT = 2288
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 2168
+WORLD_MIN_CLEARANCE_AT = 2304
+WORLD_WATER_DENSITY = Struct("<Qd")  # seq, water_density
+WORLD_WATER_DENSITY_AT = 2320
+WORLD_BOTTOM_DEPTH = Struct("<Qd")  # seq, bottom_depth
+WORLD_BOTTOM_DEPTH_AT = 2336
+WORLD_BELOW_KEEL = Struct("<Qd")  # seq, below_keel
+WORLD_BELOW_KEEL_AT = 2352
+WORLD_MIN_BELOW_KEEL = Struct("<Qd")  # seq, min_below_keel
+WORLD_MIN_BELOW_KEEL_AT = 2368
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 2184
+WORLD_FIRE_AT = 2384
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 2200
+WORLD_CO_PPM_AT = 2400
 
 
 PROCESSES = {
@@ -352,6 +383,7 @@ PLACEMENT = {
     "rudder_sim": "ship",
     "ship": "ship",
     "sonar": "ship",
+    "sea": "ship",
     "atmosphere": "ship",
 }
 # Seconds without a heartbeat after which a process is reported dead.
@@ -370,6 +402,7 @@ SUBORDINATES = {
     "rudder_sim": (),
     "ship": (),
     "sonar": (),
+    "sea": (),
     "atmosphere": (),
 }
 # The subordinates whose loss a supervisor's own rules handle (`on_lost: continue`); every
@@ -388,6 +421,7 @@ MODULES = (
     "rudder_sim",
     "ship",
     "sonar",
+    "sea",
     "atmosphere",
 )
 COMMAND_IN = {
@@ -400,6 +434,7 @@ COMMAND_IN = {
     "rudder_sim": Record(RUDDER_SIM_COMMAND, RUDDER_SIM_COMMAND_AT, ("command_num", "command")),
     "ship": Record(SHIP_COMMAND, SHIP_COMMAND_AT, ("command_num", "command")),
     "sonar": Record(SONAR_COMMAND, SONAR_COMMAND_AT, ("command_num", "command")),
+    "sea": Record(SEA_COMMAND, SEA_COMMAND_AT, ("command_num", "command")),
     "atmosphere": Record(ATMOSPHERE_COMMAND, ATMOSPHERE_COMMAND_AT, ("command_num", "command")),
     "eoow/prop": Record(EOOW_PROP_COMMAND, EOOW_PROP_COMMAND_AT, ("command_num", "command")),
 }
@@ -435,6 +470,7 @@ STATUS_OUT = {
     "rudder_sim": Record(STATUS, RUDDER_SIM_STATUS_AT, field_names(STATUS_FIELDS)),
     "ship": Record(STATUS, SHIP_STATUS_AT, field_names(STATUS_FIELDS)),
     "sonar": Record(STATUS, SONAR_STATUS_AT, field_names(STATUS_FIELDS)),
+    "sea": Record(STATUS, SEA_STATUS_AT, field_names(STATUS_FIELDS)),
     "atmosphere": Record(STATUS, ATMOSPHERE_STATUS_AT, field_names(STATUS_FIELDS)),
     "eoow/prop": Record(STATUS, EOOW_PROP_STATUS_AT, field_names(STATUS_FIELDS)),
 }
@@ -448,6 +484,7 @@ MODE_IN = {
     "rudder_sim": Record(MODE, RUDDER_SIM_MODE_AT, field_names(MODE_FIELDS)),
     "ship": Record(MODE, SHIP_MODE_AT, field_names(MODE_FIELDS)),
     "sonar": Record(MODE, SONAR_MODE_AT, field_names(MODE_FIELDS)),
+    "sea": Record(MODE, SEA_MODE_AT, field_names(MODE_FIELDS)),
     "atmosphere": Record(MODE, ATMOSPHERE_MODE_AT, field_names(MODE_FIELDS)),
     "eoow": Record(MODE, EOOW_MODE_AT, field_names(MODE_FIELDS)),
     "eoow/prop": Record(MODE, EOOW_MODE_AT, field_names(MODE_FIELDS)),
@@ -462,6 +499,7 @@ PERFORMANCE = {
     "rudder_sim": Record(PERF, RUDDER_SIM_PERF_AT, field_names(PERF_FIELDS)),
     "ship": Record(PERF, SHIP_PERF_AT, field_names(PERF_FIELDS)),
     "sonar": Record(PERF, SONAR_PERF_AT, field_names(PERF_FIELDS)),
+    "sea": Record(PERF, SEA_PERF_AT, field_names(PERF_FIELDS)),
     "atmosphere": Record(PERF, ATMOSPHERE_PERF_AT, field_names(PERF_FIELDS)),
     "eoow": Record(PERF, EOOW_PERF_AT, field_names(PERF_FIELDS)),
     "eoow/prop": Record(PERF, EOOW_PERF_AT, field_names(PERF_FIELDS)),
@@ -477,6 +515,7 @@ WORLD = {
     "announcement": Record(WORLD_ANNOUNCEMENT, WORLD_ANNOUNCEMENT_AT, ("announcement",)),
     "shaft": Record(WORLD_SHAFT, WORLD_SHAFT_AT, ("shaft",)),
     "course": Record(WORLD_COURSE, WORLD_COURSE_AT, ("course",)),
+    "ballast": Record(WORLD_BALLAST, WORLD_BALLAST_AT, ("ballast",)),
     "vent_flow": Record(WORLD_VENT_FLOW, WORLD_VENT_FLOW_AT, ("vent_flow",)),
     "pos_x": Record(WORLD_POS_X, WORLD_POS_X_AT, ("pos_x",)),
     "pos_y": Record(WORLD_POS_Y, WORLD_POS_Y_AT, ("pos_y",)),
@@ -501,6 +540,10 @@ WORLD = {
     "sonar_13": Record(WORLD_SONAR_13, WORLD_SONAR_13_AT, ("sonar_13",)),
     "clearance": Record(WORLD_CLEARANCE, WORLD_CLEARANCE_AT, ("clearance",)),
     "min_clearance": Record(WORLD_MIN_CLEARANCE, WORLD_MIN_CLEARANCE_AT, ("min_clearance",)),
+    "water_density": Record(WORLD_WATER_DENSITY, WORLD_WATER_DENSITY_AT, ("water_density",)),
+    "bottom_depth": Record(WORLD_BOTTOM_DEPTH, WORLD_BOTTOM_DEPTH_AT, ("bottom_depth",)),
+    "below_keel": Record(WORLD_BELOW_KEEL, WORLD_BELOW_KEEL_AT, ("below_keel",)),
+    "min_below_keel": Record(WORLD_MIN_BELOW_KEEL, WORLD_MIN_BELOW_KEEL_AT, ("min_below_keel",)),
     "fire": Record(WORLD_FIRE, WORLD_FIRE_AT, ("fire",)),
     "co_ppm": Record(WORLD_CO_PPM, WORLD_CO_PPM_AT, ("co_ppm",)),
 }
@@ -513,6 +556,7 @@ WORLD_INITIAL: dict[str, object] = {
     "announcement": "",
     "shaft": 0,
     "course": 0.0,
+    "ballast": 0.0,
     "vent_flow": 0.002,
     "pos_x": 0.0,
     "pos_y": 0.0,
@@ -537,50 +581,59 @@ WORLD_INITIAL: dict[str, object] = {
     "sonar_13": 900.0,
     "clearance": 900.0,
     "min_clearance": 900.0,
+    "water_density": 1025.0,
+    "bottom_depth": 250.0,
+    "below_keel": 130.0,
+    "min_below_keel": 130.0,
     "fire": False,
     "co_ppm": 0.0,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2216
-OVERRIDDEN_AT = 2224  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2416
+OVERRIDDEN_AT = 2424  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 2232, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 2256, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 2280, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 2304, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 2328, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 2352, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 2416, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 2440, ("state", "course")),
-    "vent_flow": Record(Struct("<QQd"), 2464, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 2488, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 2512, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 2536, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 2560, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 2584, ("state", "depth")),
-    "rudder_angle": Record(Struct("<QQd"), 2608, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 2632, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 2656, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 2680, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 2704, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 2728, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 2752, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 2776, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 2800, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 2824, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 2848, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 2872, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 2896, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 2920, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 2944, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 2968, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 2992, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3016, ("state", "min_clearance")),
-    "fire": Record(Struct("<QQ?"), 3040, ("state", "fire")),
-    "co_ppm": Record(Struct("<QQd"), 3064, ("state", "co_ppm")),
+    "speed_cmd": Record(Struct("<QQd"), 2432, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 2456, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 2480, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 2504, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 2528, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 2552, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 2616, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 2640, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 2664, ("state", "ballast")),
+    "vent_flow": Record(Struct("<QQd"), 2688, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 2712, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 2736, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 2760, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 2784, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 2808, ("state", "depth")),
+    "rudder_angle": Record(Struct("<QQd"), 2832, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 2856, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 2880, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 2904, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 2928, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 2952, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 2976, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3000, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3024, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3048, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3072, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3096, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3120, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3144, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3168, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3192, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3216, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3240, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3264, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3288, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3312, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 3336, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 3360, ("state", "fire")),
+    "co_ppm": Record(Struct("<QQd"), 3384, ("state", "co_ppm")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -603,6 +656,7 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "announcement": ("cc",),
     "shaft": ("prop",),
     "course": ("helm",),
+    "ballast": ("sm",),
     "vent_flow": ("ec",),
     "pos_x": ("ship",),
     "pos_y": ("ship",),
@@ -626,12 +680,22 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "sonar_13": ("sonar",),
     "clearance": ("sonar",),
     "min_clearance": ("sonar",),
+    "below_keel": ("sea",),
+    "min_below_keel": ("sea",),
     "fire": ("atmosphere",),
     "co_ppm": ("atmosphere",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
-GROUND_TRUTH = ("rudder_jammed", "clearance", "min_clearance")
+GROUND_TRUTH = (
+    "rudder_jammed",
+    "clearance",
+    "min_clearance",
+    "water_density",
+    "bottom_depth",
+    "below_keel",
+    "min_below_keel",
+)
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "cc": (NO_COMMAND_NAME, *("INIT", "HALT", "RUN_MISSION")),
@@ -643,6 +707,7 @@ COMMAND_NAMES = {
     "rudder_sim": (NO_COMMAND_NAME, *("INIT", "HALT", "PLUS_VOLT", "MINUS_VOLT", "ZERO_VOLT")),
     "ship": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sonar": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "sea": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "atmosphere": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "eoow/prop": (NO_COMMAND_NAME, *("INIT", "HALT", "CHANGE_TO_EPM")),
 }
@@ -671,6 +736,7 @@ STATE_NAMES = {
     "rudder_sim": ("NOP", "S0"),
     "ship": ("NOP", "S0"),
     "sonar": ("NOP", "S0"),
+    "sea": ("NOP", "S0"),
     "atmosphere": ("NOP", "S0"),
     "eoow/prop": OPERATOR_STATES,
 }
@@ -697,6 +763,7 @@ CAUSE_MODULES = (
     "rudder_sim",
     "ship",
     "sonar",
+    "sea",
     "atmosphere",
 )
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
@@ -732,6 +799,9 @@ RULES = {
         "SUBMERGED_TRANSIT/S1/2",
         "SUBMERGED_TRANSIT/S1/3",
         "SUBMERGED_TRANSIT/S1/4",
+        "SUBMERGED_TRANSIT/S1/5",
+        "SUBMERGED_TRANSIT/S1/6",
+        "SUBMERGED_TRANSIT/S1/7",
         "PREP_EMERGENCY_VENT/S0/1",
         "PREP_EMERGENCY_VENT/BAFFLES/1",
         "PREP_EMERGENCY_VENT/BAFFLES/2",
@@ -810,10 +880,11 @@ RULES = {
     ),
     "ship": ("", "INIT/S0/1", "HALT/S0/1"),
     "sonar": ("", "INIT/S0/1", "HALT/S0/1"),
+    "sea": ("", "INIT/S0/1", "HALT/S0/1"),
     "atmosphere": ("", "INIT/S0/1", "HALT/S0/1"),
     "eoow/prop": ("",),  # an operator module has no table
 }
-SIMULATORS = ("rudder_sim", "ship", "sonar", "atmosphere")
+SIMULATORS = ("rudder_sim", "ship", "sonar", "sea", "atmosphere")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {

@@ -27,7 +27,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI296xd8xd112xq40xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QQI44x???1xI416xd8xd112xq24xd24xd8xd8xd8xd8xd8xd280xd")
 INPUTS_AT = 1272
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -39,7 +39,7 @@ SEQS_AT = 1272
 WORLD_OUT_1 = Struct("<QdQdQdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 1816
+WORLD_OUT_1_AT = 1952
 WORLD_HELD_1 = (
     OVERRIDE["pos_x"],
     OVERRIDE["pos_y"],
@@ -56,6 +56,8 @@ TURN = 0.0065
 ACCEL = 0.1
 DEPTH_RATE = 1.0
 EPM_MAX = 5.2
+NOMINAL_DENSITY = 1025.0
+SINK = 0.05
 CYCLE_PERIOD = 1.0  # seconds per cycle of its process
 
 # Enumeration values its tables name (a field holds its value's index).
@@ -88,6 +90,7 @@ class ShipController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "world_ballast",
         "world_depth",
         "world_depth_cmd",
         "world_heading",
@@ -98,6 +101,7 @@ class ShipController:
         "world_shaft",
         "world_speed",
         "world_speed_cmd",
+        "world_water_density",
     )
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
@@ -152,12 +156,14 @@ class ShipController:
                 self.world_speed_cmd,
                 self.world_depth_cmd,
                 self.world_shaft,
+                self.world_ballast,
                 self.world_pos_x,
                 self.world_pos_y,
                 self.world_heading,
                 self.world_speed,
                 self.world_depth,
                 self.world_rudder_angle,
+                self.world_water_density,
             ) = values
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -294,12 +300,14 @@ class ShipController:
             self.world_speed_cmd,
             self.world_depth_cmd,
             self.world_shaft,
+            self.world_ballast,
             self.world_pos_x,
             self.world_pos_y,
             self.world_heading,
             self.world_speed,
             self.world_depth,
             self.world_rudder_angle,
+            self.world_water_density,
         ) = values
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
@@ -331,9 +339,15 @@ class ShipController:
                 - self.world_speed,
             ),
         )
-        self.world_depth = self.world_depth + max(
-            -DEPTH_RATE * CYCLE_PERIOD,
-            min(DEPTH_RATE * CYCLE_PERIOD, self.world_depth_cmd - self.world_depth),
+        self.world_depth = (
+            self.world_depth
+            + max(
+                -DEPTH_RATE * CYCLE_PERIOD,
+                min(DEPTH_RATE * CYCLE_PERIOD, self.world_depth_cmd - self.world_depth),
+            )
+            + SINK
+            * (NOMINAL_DENSITY - self.world_water_density - self.world_ballast)
+            * CYCLE_PERIOD
         )
 
     def init(self) -> None:

@@ -16,6 +16,7 @@ from .layout import (
     SM_PERF_AT,
     SM_STATUS,
     SM_STATUS_AT,
+    WORLD_BALLAST_AT,
     WORLD_DEPTH_CMD_AT,
     WORLD_HAVEN_X_AT,
     WORLD_HAVEN_Y_AT,
@@ -62,7 +63,7 @@ PROP_LINK = 6  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd52x???1xI216xQII8x?Q231xQII8xQ696xd8xd8xd8xd8x?71xq40xd8xd24xd8xd")
+INPUTS = Struct("<QIdd52x???1xI216xQII8x?Q231xQII8xQ816xd8xd8xd8xd8x?71xq24xd24xd8xd24xd8xd")
 INPUTS_AT = 344
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -70,7 +71,7 @@ INPUTS_AT = 344
 WORLD_OUT_1 = Struct("<QdQdQdQdQ?")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 1632
+WORLD_OUT_1_AT = 1752
 WORLD_HELD_1 = (
     OVERRIDE["speed_cmd"],
     OVERRIDE["depth_cmd"],
@@ -78,6 +79,14 @@ WORLD_HELD_1 = (
     OVERRIDE["haven_y"],
     OVERRIDE["periscope_raised"],
 )  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_2 = Struct("<Qd")
+WORLD_VALUES_2 = Struct("<8xd")
+WORLD_SEQS_2 = Struct("<Q")
+WORLD_OUT_2_AT = 1920
+WORLD_HELD_2 = (OVERRIDE["ballast"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -96,6 +105,8 @@ PERISCOPE_DEPTH = 18.0
 ARRIVAL = 150.0
 HAVEN = 300.0
 DEPTH_TOL = 1.0
+DEPTH_LIMIT = 5.0
+BALLAST_STEP = 2.0
 SPEED_TOL = 0.1
 CYCLE_PERIOD = 1.0  # seconds per cycle of its process
 
@@ -148,9 +159,11 @@ class SmController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "var_depth_reached",
         "var_goal_x",
         "var_goal_y",
         "var_haven_moving",
+        "world_ballast",
         "world_depth",
         "world_depth_cmd",
         "world_haven_x",
@@ -175,6 +188,7 @@ class SmController:
         self.world_set = False  # an every_cycle rule set a world output
         self.var_goal_x: float = 0.0
         self.var_goal_y: float = 0.0
+        self.var_depth_reached: bool = False
         self.var_haven_moving: bool = False
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -252,6 +266,7 @@ class SmController:
             self.world_haven_y,
             self.world_periscope_raised,
             self.world_shaft,
+            self.world_ballast,
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
@@ -390,6 +405,15 @@ class SmController:
                 SEQ.pack_into(buf, WORLD_HAVEN_X_AT, (s[2] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_HAVEN_Y_AT, (s[3] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_PERISCOPE_RAISED_AT, (s[4] | 1) + 1)
+            out = (self.world_ballast,)
+            now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_2, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
+                SEQ.pack_into(buf, WORLD_BALLAST_AT, s[0] | 1)  # odd before the value changes
+                WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0])
+                SEQ.pack_into(buf, WORLD_BALLAST_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -442,6 +466,7 @@ class SmController:
             self.world_haven_y,
             self.world_periscope_raised,
             self.world_shaft,
+            self.world_ballast,
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
@@ -503,7 +528,9 @@ class SmController:
     def submerged_transit(self) -> None:
         """SUBMERGED_TRANSIT: Transit submerged at standard speed (two-thirds on the EPM) and
         transit depth to the waypoint (x, y), never leaving the moving haven, which starts around
-        the submarine and moves towards the waypoint at the ordered speed.
+        the submarine and moves towards the waypoint at the ordered speed; blow or flood variable
+        ballast when the depth is more than DEPTH_LIMIT off the order (the sea's density
+        changed).
         """
         state = self.state
         if state == S0:
@@ -517,6 +544,7 @@ class SmController:
             self.var_goal_x = self.arg_x
             self.var_goal_y = self.arg_y
             self.var_haven_moving = True
+            self.var_depth_reached = abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL
             self.helm_arg_x = self.arg_x
             self.helm_arg_y = self.arg_y
             self.helm_command = HELM_ICE_MANEUVER
@@ -561,6 +589,24 @@ class SmController:
                 self.status = ERROR
                 self.error_num = REASON_BLOCKED
 
+            elif self.var_depth_reached and self.world_depth > self.world_depth_cmd + DEPTH_LIMIT:
+                # sinking (lighter water, 4.1.2) beyond what the planes hold; blow variable ballast
+                self.rule = 10  # SUBMERGED_TRANSIT/S1/5
+                self.world_ballast = self.world_ballast + BALLAST_STEP
+
+            elif self.var_depth_reached and self.world_depth < self.world_depth_cmd - DEPTH_LIMIT:
+                # rising beyond what the planes hold; flood variable ballast
+                self.rule = 11  # SUBMERGED_TRANSIT/S1/6
+                self.world_ballast = self.world_ballast - BALLAST_STEP
+
+            elif (
+                not self.var_depth_reached
+                and abs(self.world_depth - self.world_depth_cmd) < DEPTH_TOL
+            ):
+                # the ordered depth reached (after a change of depth)
+                self.rule = 12  # SUBMERGED_TRANSIT/S1/7
+                self.var_depth_reached = True
+
     def prep_emergency_vent(self) -> None:
         """PREP_EMERGENCY_VENT: Prepare for emergency ventilation (sections 4.1.3, 4.7.1): clear
         baffles; then slow to ahead one-third and come to periscope depth steering for the
@@ -570,7 +616,7 @@ class SmController:
         state = self.state
         if state == S0:
             # clear baffles (the haven stands still while the ship prepares)
-            self.rule = 10  # PREP_EMERGENCY_VENT/S0/1
+            self.rule = 13  # PREP_EMERGENCY_VENT/S0/1
             self.state = BAFFLES
             self.var_haven_moving = False
             self.helm_command = HELM_CLEAR_BAFFLES
@@ -579,7 +625,7 @@ class SmController:
         elif state == BAFFLES:
             if self.helm_status == DONE:
                 # baffles clear; slow and come up, back on course, shift to the EPM
-                self.rule = 11  # PREP_EMERGENCY_VENT/BAFFLES/1
+                self.rule = 14  # PREP_EMERGENCY_VENT/BAFFLES/1
                 self.state = SLOWING
                 self.world_speed_cmd = ONE_THIRD_SPEED
                 self.world_depth_cmd = PERISCOPE_DEPTH
@@ -591,7 +637,7 @@ class SmController:
                 self.prop_command_num += 1
 
             elif self.helm_status == ERROR:
-                self.rule = 12  # PREP_EMERGENCY_VENT/BAFFLES/2
+                self.rule = 15  # PREP_EMERGENCY_VENT/BAFFLES/2
                 # helm's error: the cause of an ERROR this command reports
                 self.cause = caused(HELM_LINK, self.helm_error_num, self.helm_cause)
                 self.state = NOP
@@ -600,7 +646,7 @@ class SmController:
         elif state == SLOWING:
             if self.prop_status == ERROR:
                 # the EOOW could not shift to the EPM; stop the helm's maneuver
-                self.rule = 13  # PREP_EMERGENCY_VENT/SLOWING/1
+                self.rule = 16  # PREP_EMERGENCY_VENT/SLOWING/1
                 self.state = PROP_FAILED
                 # prop's error: the cause of an ERROR this command reports
                 self.cause = caused(PROP_LINK, self.prop_error_num, self.prop_cause)
@@ -609,7 +655,7 @@ class SmController:
 
             elif self.helm_status == ERROR:
                 # the helm failed; withdraw the shift to the EPM
-                self.rule = 14  # PREP_EMERGENCY_VENT/SLOWING/2
+                self.rule = 17  # PREP_EMERGENCY_VENT/SLOWING/2
                 self.state = HELM_FAILED
                 # helm's error: the cause of an ERROR this command reports
                 self.cause = caused(HELM_LINK, self.helm_error_num, self.helm_cause)
@@ -623,7 +669,7 @@ class SmController:
                 and self.prop_status == DONE
             ):
                 # at periscope depth and one-third speed, helm on course, on the EPM; raise the periscope
-                self.rule = 15  # PREP_EMERGENCY_VENT/SLOWING/3
+                self.rule = 18  # PREP_EMERGENCY_VENT/SLOWING/3
                 self.world_periscope_raised = True
                 self.state = NOP
                 self.status = DONE
@@ -631,7 +677,7 @@ class SmController:
 
         elif state == PROP_FAILED and self.helm_status != EXECUTING:
             # the helm has stopped; fail for propulsion's reason
-            self.rule = 16  # PREP_EMERGENCY_VENT/PROP_FAILED/1
+            self.rule = 19  # PREP_EMERGENCY_VENT/PROP_FAILED/1
             self.state = NOP
             self.status = ERROR
             # prop's reason, passed up by name (another: NONE)
@@ -642,6 +688,6 @@ class SmController:
 
         elif state == HELM_FAILED and self.prop_status != EXECUTING:
             # propulsion has stopped (the request withdrawn); fail
-            self.rule = 17  # PREP_EMERGENCY_VENT/HELM_FAILED/1
+            self.rule = 20  # PREP_EMERGENCY_VENT/HELM_FAILED/1
             self.state = NOP
             self.status = ERROR
