@@ -560,3 +560,21 @@ def test_fresh_water_run_off_sinks_the_ship_until_variable_ballast_is_blown():
 def final_below_keel(lines: list[dict]) -> float:
     """The sea simulator's running minimum of the water under the keel, at the end."""
     return lines[-1]["world"]["min_below_keel"]
+
+
+def test_the_eoow_refusing_the_epm_fails_the_mission_with_his_reason():
+    """eoow_refuses: the EOOW answers CHANGE_TO_EPM with ERROR REFUSED. Propulsion clutches
+    the turbines in again and fails with his reason; ship maneuver halts the helm, waits for
+    it to stop, and passes the reason up; the command controller fails with it."""
+    final, lines = played("eoow_refuses")
+    assert final["status"] == "ERROR" and final["reason"] == "REFUSED"
+    refused = next(ln["cycle"] for ln in lines if ln["modules"]["prop"]["status"] == "ERROR")
+    assert at(lines, refused - 1)["world"]["shaft"] == "DISENGAGED"
+    assert at(lines, refused)["world"]["shaft"] == "TURBINE"
+    halted = at(lines, refused + 1)["modules"]
+    assert halted["sm"]["state"] == "PROP_FAILED" and halted["helm"]["command"] == "HALT"
+    sm_error = next(ln["cycle"] for ln in lines if ln["modules"]["sm"]["status"] == "ERROR")
+    assert at(lines, sm_error - 1)["modules"]["helm"]["status"] == "DONE", "after helm stopped"
+    assert at(lines, sm_error)["modules"]["sm"]["reason"] == "REFUSED"
+    assert lines[-1]["cycle"] == sm_error + 1
+    assert not any(ln["world"]["periscope_raised"] for ln in lines)
