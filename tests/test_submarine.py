@@ -578,3 +578,34 @@ def test_the_eoow_refusing_the_epm_fails_the_mission_with_his_reason():
     assert at(lines, sm_error)["modules"]["sm"]["reason"] == "REFUSED"
     assert lines[-1]["cycle"] == sm_error + 1
     assert not any(ln["world"]["periscope_raised"] for ln in lines)
+
+
+def fidelity_counts(page: Path) -> tuple[dict[str, int], str]:
+    """The verdicts of a case study's fidelity table, counted, and its summary line."""
+    import re
+    from collections import Counter
+
+    text = page.read_text(encoding="utf-8")
+    table = text[text.index("## Fidelity to") :]
+    summary = re.search(r"Of (\d+) rows: \*\*(.+?)\*\*", table)
+    assert summary, f"{page.name}: no 'Of N rows: **...**' summary under its fidelity table"
+    rows = [ln for ln in table[: summary.start()].splitlines() if re.match(r"\| \d+ \|", ln)]
+    verdicts = Counter(ln.rstrip(" |").split("|")[-1].strip().split(":")[0] for ln in rows)
+    assert set(verdicts) <= {"faithful", "simplified", "missing", "invented"}, verdicts
+    numbers = [int(ln.split("|")[1]) for ln in rows]
+    assert numbers == list(range(1, len(rows) + 1)), "rows numbered 1..N in order"
+    said = f"Of {len(rows)} rows: **" + ", ".join(
+        f"{verdicts[v]} {v}" for v in ("faithful", "simplified", "missing", "invented")
+    )
+    return dict(verdicts), said
+
+
+@pytest.mark.parametrize("page", ["submarine.md", "inspection.md"])
+def test_the_fidelity_tables_summaries_count_their_rows(page):
+    """The summary under each fidelity table is the table's own count of verdicts."""
+    path = ROOT / "docs" / page
+    verdicts, said = fidelity_counts(path)
+    assert said in path.read_text(encoding="utf-8"), (
+        f"docs/{page}: the summary should read {said}**"
+    )
+    assert verdicts["faithful"] > verdicts["simplified"]
