@@ -248,17 +248,28 @@ def test_engine_room_fire_phases_and_their_cycles():
     # the fire burned for the damage control party's 30 cycles
     burning = [line["cycle"] for line in lines if line["world"]["fire"]]
     assert burning == list(range(fire_at, fire_at + 30))
-    # resume: EABs off, back to the transit to the same waypoint at depth, periscope down
-    resumed = at(lines, vent_to + 1)
-    assert resumed["modules"]["cc"]["state"] == "TRANSIT"
-    assert resumed["world"]["vent_flow"] == 0.002
-    assert resumed["world"]["announcement"] == "SECURE FROM FIRE, EABS MAY BE REMOVED"
-    assert not resumed["world"]["periscope_raised"]
+    # (S4) EABs off; SM prepares to resume (periscope down, back to transit depth) while EC
+    # lines up for submerged ventilation; then (S1) the transit to the same waypoint
+    resuming = at(lines, vent_to + 1)
+    assert resuming["modules"]["cc"]["state"] == "RESUMING"
+    assert resuming["world"]["vent_flow"] == 0.002
+    assert resuming["world"]["announcement"] == "SECURE FROM FIRE, EABS MAY BE REMOVED"
+    assert not resuming["world"]["periscope_raised"]
+    (res_from, res_to), *_ = spans(lines, "cc", "RESUMING")
+    assert abs(at(lines, res_to)["world"]["depth"] - 120.0) < 1.0, "at transit depth"
+    assert at(lines, res_to + 1)["modules"]["cc"]["state"] == "S1"
+    assert at(lines, res_to + 2)["modules"]["cc"]["state"] == "TRANSIT"
+    # the bubble angle: bow up coming to periscope depth, bow down going back
+    assert at(lines, prep_to - 60)["world"]["bubble"] > 5.0
+    assert at(lines, res_from + 10)["world"]["bubble"] < -5.0
+    assert lines[-1]["world"]["bubble"] == 0.0
     assert commands_sent(lines, "sm") == [
-        "INIT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT"
+        "INIT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "PREP_SUBMERGED_TRANSIT",
+        "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT",
     ]  # fmt: skip
     assert commands_sent(lines, "ec") == [
-        "INIT", "SUBMERGED_VENT", "EMERGENCY_VENT", "SUBMERGED_VENT", "SUBMERGED_VENT"
+        "INIT", "SUBMERGED_VENT", "EMERGENCY_VENT", "SUBMERGED_VENT", "SUBMERGED_VENT",
+        "SUBMERGED_VENT",
     ]  # fmt: skip
     assert commands_sent(lines, "helm")[:4] == [
         "INIT", "ICE_MANEUVER", "CLEAR_BAFFLES", "ICE_MANEUVER"
@@ -288,6 +299,7 @@ def test_fire_under_ice_clears_baffles_only_as_far_as_the_ice_allows():
     assert at(lines, prep_to)["world"]["periscope_raised"]
     assert lines[-1]["world"]["co_ppm"] <= CO_SAFE
     assert commands_sent(lines, "sm").count("SUBMERGED_TRANSIT") == len(route("bering.route")) + 1
+    assert commands_sent(lines, "sm").count("PREP_SUBMERGED_TRANSIT") == 1
 
 
 def haven_offsets(lines: list[dict]) -> list[float]:

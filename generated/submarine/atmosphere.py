@@ -21,7 +21,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI240xd440x?15xd")
+INPUTS = Struct("<QQI44x???1xI240xd456x?15xd")
 INPUTS_AT = 1632
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -33,7 +33,7 @@ SEQS_AT = 1632
 WORLD_OUT_1 = Struct("<Q?7xQd")
 WORLD_VALUES_1 = Struct("<8x?15xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 2384
+WORLD_OUT_1_AT = 2400
 WORLD_HELD_1 = (OVERRIDE["fire"], OVERRIDE["co_ppm"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -53,6 +53,7 @@ SM_INIT = 1
 SM_HALT = 2
 SM_SUBMERGED_TRANSIT = 3
 SM_PREP_EMERGENCY_VENT = 4
+SM_PREP_SUBMERGED_TRANSIT = 5
 # Why sm may end a command in ERROR (its error_num).
 SM_REASON_NONE = 0
 SM_REASON_LOST = 1
@@ -70,7 +71,7 @@ EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1316x48s520xd")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1316x48s536xd")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -91,6 +92,7 @@ S1 = 2
 TRANSIT = 3
 PREP_VENT = 4
 VENT = 5
+RESUMING = 6
 
 # Constants.
 CO_HIGH = 50.0
@@ -590,13 +592,11 @@ class CcController:
 
         elif state == VENT:
             if self.ec_status == DONE:
-                # (S4) fire out, smoke and gas normal; EABs off; resume the transit to the same waypoint
+                # (S4) fire out, smoke and gas normal; EABs off; SM prepare for the submerged transit, EC submerged vent
                 self.rule = 16  # RUN_MISSION/VENT/1
-                self.state = TRANSIT
+                self.state = RESUMING
                 self.world_announcement = "SECURE FROM FIRE, EABS MAY BE REMOVED"
-                self.sm_arg_x = self.plan_route_x
-                self.sm_arg_y = self.plan_route_y
-                self.sm_command = SM_SUBMERGED_TRANSIT
+                self.sm_command = SM_PREP_SUBMERGED_TRANSIT
                 self.sm_command_num += 1
                 self.ec_command = EC_SUBMERGED_VENT
                 self.ec_command_num += 1
@@ -605,5 +605,16 @@ class CcController:
                 self.rule = 17  # RUN_MISSION/VENT/2
                 # ec's error: the cause of an ERROR this command reports
                 self.cause = caused(EC_LINK, 0, 0)
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == RESUMING:
+            if self.sm_status == DONE and self.ec_status == DONE:
+                # prepared; (S1) the transit to the same waypoint resumes
+                self.rule = 18  # RUN_MISSION/RESUMING/1
+                self.state = S1
+
+            elif self.sm_status == ERROR or self.ec_status == ERROR:
+                self.rule = 19  # RUN_MISSION/RESUMING/2
                 self.state = NOP
                 self.status = ERROR

@@ -22,7 +22,7 @@ EMERGENCY_VENT = 4
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI1392xd440x?15xd")
+INPUTS = Struct("<QI44x???1xI1392xd456x?15xd")
 INPUTS_AT = 488
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their

@@ -39,7 +39,7 @@ RUDDER_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd60x???1xI88xQI1108xd40xd8xd8xd72xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QIdd60x???1xI88xQI1108xd40xd8xd8xd88xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 608
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their

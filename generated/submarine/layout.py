@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 3408 bytes.
+The block is 3448 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -88,70 +88,72 @@ command buffers and world fields:
 | 1984 | 16 | WORLD_HEADING | heading |
 | 2000 | 16 | WORLD_SPEED | speed |
 | 2016 | 16 | WORLD_DEPTH | depth |
-| 2032 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 2048 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 2064 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 2080 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 2096 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 2112 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 2128 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 2144 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 2160 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 2176 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 2192 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 2208 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 2224 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 2240 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 2256 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 2272 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 2288 | 16 | WORLD_CLEARANCE | clearance |
-| 2304 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 2320 | 16 | WORLD_WATER_DENSITY | water_density |
-| 2336 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
-| 2352 | 16 | WORLD_BELOW_KEEL | below_keel |
-| 2368 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
-| 2384 | 9 | WORLD_FIRE | fire |
-| 2400 | 16 | WORLD_CO_PPM | co_ppm |
-| 2416 | 9 | OVERRIDES | any |
-| 2432 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 2456 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 2480 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 2504 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 2528 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 2552 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 2616 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 2640 | 24 | OVERRIDE_COURSE | state, course |
-| 2664 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 2688 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 2712 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 2736 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 2760 | 24 | OVERRIDE_HEADING | state, heading |
-| 2784 | 24 | OVERRIDE_SPEED | state, speed |
-| 2808 | 24 | OVERRIDE_DEPTH | state, depth |
-| 2832 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 2856 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 2880 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 2904 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 2928 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 2952 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 2976 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3000 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3024 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3048 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3072 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3096 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3120 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3144 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3168 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3192 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3216 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3240 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3264 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 3288 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 3312 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 3336 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 3360 | 17 | OVERRIDE_FIRE | state, fire |
-| 3384 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 2032 | 16 | WORLD_BUBBLE | bubble |
+| 2048 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 2064 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 2080 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 2096 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 2112 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 2128 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 2144 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 2160 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 2176 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 2192 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 2208 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 2224 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 2240 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 2256 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 2272 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 2288 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 2304 | 16 | WORLD_CLEARANCE | clearance |
+| 2320 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 2336 | 16 | WORLD_WATER_DENSITY | water_density |
+| 2352 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
+| 2368 | 16 | WORLD_BELOW_KEEL | below_keel |
+| 2384 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
+| 2400 | 9 | WORLD_FIRE | fire |
+| 2416 | 16 | WORLD_CO_PPM | co_ppm |
+| 2432 | 9 | OVERRIDES | any |
+| 2448 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 2472 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 2496 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 2520 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 2544 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 2568 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 2632 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 2656 | 24 | OVERRIDE_COURSE | state, course |
+| 2680 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 2704 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 2728 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 2752 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 2776 | 24 | OVERRIDE_HEADING | state, heading |
+| 2800 | 24 | OVERRIDE_SPEED | state, speed |
+| 2824 | 24 | OVERRIDE_DEPTH | state, depth |
+| 2848 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 2872 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 2896 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 2920 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 2944 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 2968 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 2992 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3016 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3040 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3064 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3088 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3112 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3136 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3160 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3184 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3208 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3232 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3256 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3280 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3304 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3328 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3352 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 3376 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 3400 | 17 | OVERRIDE_FIRE | state, fire |
+| 3424 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
 """
 
 from __future__ import annotations
@@ -183,9 +185,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 3408
+SIZE = 3448
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "f1f635d1d5b12ca3c5420e65ac7b074f"
+LAYOUT_HASH = "4f79e53b13385b4937349adf4827e485"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 168
 
@@ -313,54 +315,56 @@ WORLD_SPEED = Struct("<Qd")  # seq, speed
 WORLD_SPEED_AT = 2000
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
 WORLD_DEPTH_AT = 2016
+WORLD_BUBBLE = Struct("<Qd")  # seq, bubble
+WORLD_BUBBLE_AT = 2032
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 2032
+WORLD_RUDDER_ANGLE_AT = 2048
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 2048
+WORLD_RUDDER_JAMMED_AT = 2064
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 2064
+WORLD_SONAR_00_AT = 2080
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 2080
+WORLD_SONAR_01_AT = 2096
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 2096
+WORLD_SONAR_02_AT = 2112
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 2112
+WORLD_SONAR_03_AT = 2128
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 2128
+WORLD_SONAR_04_AT = 2144
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 2144
+WORLD_SONAR_05_AT = 2160
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 2160
+WORLD_SONAR_06_AT = 2176
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 2176
+WORLD_SONAR_07_AT = 2192
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 2192
+WORLD_SONAR_08_AT = 2208
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 2208
+WORLD_SONAR_09_AT = 2224
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 2224
+WORLD_SONAR_10_AT = 2240
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 2240
+WORLD_SONAR_11_AT = 2256
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 2256
+WORLD_SONAR_12_AT = 2272
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 2272
+WORLD_SONAR_13_AT = 2288
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 2288
+WORLD_CLEARANCE_AT = 2304
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 2304
+WORLD_MIN_CLEARANCE_AT = 2320
 WORLD_WATER_DENSITY = Struct("<Qd")  # seq, water_density
-WORLD_WATER_DENSITY_AT = 2320
+WORLD_WATER_DENSITY_AT = 2336
 WORLD_BOTTOM_DEPTH = Struct("<Qd")  # seq, bottom_depth
-WORLD_BOTTOM_DEPTH_AT = 2336
+WORLD_BOTTOM_DEPTH_AT = 2352
 WORLD_BELOW_KEEL = Struct("<Qd")  # seq, below_keel
-WORLD_BELOW_KEEL_AT = 2352
+WORLD_BELOW_KEEL_AT = 2368
 WORLD_MIN_BELOW_KEEL = Struct("<Qd")  # seq, min_below_keel
-WORLD_MIN_BELOW_KEEL_AT = 2368
+WORLD_MIN_BELOW_KEEL_AT = 2384
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 2384
+WORLD_FIRE_AT = 2400
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 2400
+WORLD_CO_PPM_AT = 2416
 
 
 PROCESSES = {
@@ -522,6 +526,7 @@ WORLD = {
     "heading": Record(WORLD_HEADING, WORLD_HEADING_AT, ("heading",)),
     "speed": Record(WORLD_SPEED, WORLD_SPEED_AT, ("speed",)),
     "depth": Record(WORLD_DEPTH, WORLD_DEPTH_AT, ("depth",)),
+    "bubble": Record(WORLD_BUBBLE, WORLD_BUBBLE_AT, ("bubble",)),
     "rudder_angle": Record(WORLD_RUDDER_ANGLE, WORLD_RUDDER_ANGLE_AT, ("rudder_angle",)),
     "rudder_jammed": Record(WORLD_RUDDER_JAMMED, WORLD_RUDDER_JAMMED_AT, ("rudder_jammed",)),
     "sonar_00": Record(WORLD_SONAR_00, WORLD_SONAR_00_AT, ("sonar_00",)),
@@ -563,6 +568,7 @@ WORLD_INITIAL: dict[str, object] = {
     "heading": 0.0,
     "speed": 7.7,
     "depth": 120.0,
+    "bubble": 0.0,
     "rudder_angle": 0.0,
     "rudder_jammed": False,
     "sonar_00": 900.0,
@@ -590,50 +596,51 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2416
-OVERRIDDEN_AT = 2424  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2432
+OVERRIDDEN_AT = 2440  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 2432, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 2456, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 2480, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 2504, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 2528, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 2552, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 2616, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 2640, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 2664, ("state", "ballast")),
-    "vent_flow": Record(Struct("<QQd"), 2688, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 2712, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 2736, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 2760, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 2784, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 2808, ("state", "depth")),
-    "rudder_angle": Record(Struct("<QQd"), 2832, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 2856, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 2880, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 2904, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 2928, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 2952, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 2976, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3000, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3024, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3048, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3072, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3096, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3120, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3144, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3168, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3192, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3216, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3240, ("state", "min_clearance")),
-    "water_density": Record(Struct("<QQd"), 3264, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 3288, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 3312, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 3336, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 3360, ("state", "fire")),
-    "co_ppm": Record(Struct("<QQd"), 3384, ("state", "co_ppm")),
+    "speed_cmd": Record(Struct("<QQd"), 2448, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 2472, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 2496, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 2520, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 2544, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 2568, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 2632, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 2656, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 2680, ("state", "ballast")),
+    "vent_flow": Record(Struct("<QQd"), 2704, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 2728, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 2752, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 2776, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 2800, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 2824, ("state", "depth")),
+    "bubble": Record(Struct("<QQd"), 2848, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 2872, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 2896, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 2920, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 2944, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 2968, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 2992, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3016, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3040, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3064, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3088, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3112, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3136, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3160, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3184, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3208, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3232, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3256, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3280, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3304, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3328, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3352, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 3376, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 3400, ("state", "fire")),
+    "co_ppm": Record(Struct("<QQd"), 3424, ("state", "co_ppm")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -663,6 +670,7 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "heading": ("ship",),
     "speed": ("ship",),
     "depth": ("ship",),
+    "bubble": ("ship",),
     "rudder_angle": ("rudder_sim",),
     "sonar_00": ("sonar",),
     "sonar_01": ("sonar",),
@@ -699,7 +707,10 @@ GROUND_TRUTH = (
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "cc": (NO_COMMAND_NAME, *("INIT", "HALT", "RUN_MISSION")),
-    "sm": (NO_COMMAND_NAME, *("INIT", "HALT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT")),
+    "sm": (
+        NO_COMMAND_NAME,
+        *("INIT", "HALT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "PREP_SUBMERGED_TRANSIT"),
+    ),
     "ec": (NO_COMMAND_NAME, *("INIT", "HALT", "SUBMERGED_VENT", "EMERGENCY_VENT")),
     "helm": (NO_COMMAND_NAME, *("INIT", "HALT", "ICE_MANEUVER", "CLEAR_BAFFLES")),
     "rudder": (NO_COMMAND_NAME, *("INIT", "HALT", "GOTO_ANGLE")),
@@ -727,7 +738,7 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     },
 }
 STATE_NAMES = {
-    "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "VENT"),
+    "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "VENT", "RESUMING"),
     "sm": ("NOP", "S0", "S1", "BAFFLES", "SLOWING", "PROP_FAILED", "HELM_FAILED"),
     "ec": ("NOP", "S0", "S1"),
     "helm": ("NOP", "S0", "S1", "S2", "CENTRING"),
@@ -787,6 +798,8 @@ RULES = {
         "RUN_MISSION/PREP_VENT/2",
         "RUN_MISSION/VENT/1",
         "RUN_MISSION/VENT/2",
+        "RUN_MISSION/RESUMING/1",
+        "RUN_MISSION/RESUMING/2",
     ),
     "sm": (
         "",
@@ -810,6 +823,8 @@ RULES = {
         "PREP_EMERGENCY_VENT/SLOWING/3",
         "PREP_EMERGENCY_VENT/PROP_FAILED/1",
         "PREP_EMERGENCY_VENT/HELM_FAILED/1",
+        "PREP_SUBMERGED_TRANSIT/S0/1",
+        "PREP_SUBMERGED_TRANSIT/S1/1",
     ),
     "ec": (
         "",

@@ -21,7 +21,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI440xd312xd8xd8xd")
+INPUTS = Struct("<QQI44x???1xI440xd328xd8xd8xd")
 INPUTS_AT = 1512
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -33,7 +33,7 @@ SEQS_AT = 1512
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 2352
+WORLD_OUT_1_AT = 2368
 WORLD_HELD_1 = (OVERRIDE["below_keel"], OVERRIDE["min_below_keel"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -32,6 +32,7 @@ INIT = 1
 HALT = 2
 SUBMERGED_TRANSIT = 3
 PREP_EMERGENCY_VENT = 4
+PREP_SUBMERGED_TRANSIT = 5
 
 # Why sm may end a command in ERROR (the error_num it reports).
 REASON_NONE = 0
@@ -317,6 +318,8 @@ class SmController:
                 self.submerged_transit()
             elif command == PREP_EMERGENCY_VENT:
                 self.prep_emergency_vent()
+            elif command == PREP_SUBMERGED_TRANSIT:
+                self.prep_submerged_transit()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
@@ -691,3 +694,23 @@ class SmController:
             self.rule = 20  # PREP_EMERGENCY_VENT/HELM_FAILED/1
             self.state = NOP
             self.status = ERROR
+
+    def prep_submerged_transit(self) -> None:
+        """PREP_SUBMERGED_TRANSIT: Prepare to resume the submerged transit (Figure 17's S4, "SM
+        prep. submg. transit"): lower the periscope and go back to transit depth at standard
+        speed (two-thirds on the EPM), steering on for the waypoint; DONE at transit depth.
+        """
+        state = self.state
+        if state == S0:
+            self.rule = 21  # PREP_SUBMERGED_TRANSIT/S0/1
+            self.state = S1
+            self.world_periscope_raised = False
+            self.world_depth_cmd = TRANSIT_DEPTH
+            self.world_speed_cmd = STANDARD_SPEED if self.world_shaft == TURBINE else EPM_SPEED
+
+        elif state == S1 and abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL:
+            # at transit depth
+            self.rule = 22  # PREP_SUBMERGED_TRANSIT/S1/1
+            self.state = NOP
+            self.status = DONE
+            self.cause = 0  # DONE has no cause
