@@ -232,8 +232,21 @@ def test_engine_room_fire_phases_and_their_cycles():
         line["world"]["periscope_raised"] for line in lines if line["cycle"] < prep_to - 1
     )
     assert helm_at_goal(lines)[prep_to - 1]
-    # ventilate: engineering lines up the diesel until the fire is out and CO is safe
-    assert vent_from == prep_to + 1
+    # line up (the BCP, one cycle: "prepared to emergency ventilate with the diesel"), then
+    # commence snorkeling: engineering runs the diesel until the fire is out and the
+    # analyzers read safe
+    (line_up,) = spans(lines, "cc", "LINE_UP")
+    assert line_up == (prep_to + 1, prep_to + 1) and vent_from == prep_to + 2
+    assert at(lines, line_up[0])["world"]["vent_lineup"] == "DIESEL_VENTILATION"
+    assert not at(lines, line_up[0])["world"]["diesel_running"]
+    assert all(at(lines, c)["world"]["diesel_running"] for c in range(vent_from, vent_to))
+    assert max(ln["world"]["smoke"] for ln in lines) > 100.0
+    assert (
+        min(ln["world"]["o2_pct"] for ln in lines)
+        < 20.5
+        < 20.8
+        < at(lines, vent_to)["world"]["o2_pct"]
+    )
     # (in VENT's last cycle cc sees the DONE engineering reported after securing: recirculate)
     assert {at(lines, c)["world"]["vent_flow"] for c in range(vent_from, vent_to)} == {0.05}
     assert all(at(lines, c)["world"]["depth"] == 18.0 for c in range(vent_from, vent_to + 1))
@@ -268,8 +281,8 @@ def test_engine_room_fire_phases_and_their_cycles():
         "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT",
     ]  # fmt: skip
     assert commands_sent(lines, "ec") == [
-        "INIT", "SUBMERGED_VENT", "EMERGENCY_VENT", "SUBMERGED_VENT", "SUBMERGED_VENT",
-        "SUBMERGED_VENT",
+        "INIT", "SUBMERGED_VENT", "LINE_UP_EMERGENCY_VENT", "EMERGENCY_VENT", "SUBMERGED_VENT",
+        "SUBMERGED_VENT", "SUBMERGED_VENT",
     ]  # fmt: skip
     assert commands_sent(lines, "helm")[:4] == [
         "INIT", "ICE_MANEUVER", "CLEAR_BAFFLES", "ICE_MANEUVER"

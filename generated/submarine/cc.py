@@ -66,12 +66,13 @@ SM_LINK = 2  # its number in the layout's CAUSE_MODULES
 EC_INIT = 1
 EC_HALT = 2
 EC_SUBMERGED_VENT = 3
-EC_EMERGENCY_VENT = 4
+EC_LINE_UP_EMERGENCY_VENT = 4
+EC_EMERGENCY_VENT = 5
 EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1316x48s536xd")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1316x48s536xd72xd")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -91,11 +92,13 @@ S0 = 1
 S1 = 2
 TRANSIT = 3
 PREP_VENT = 4
-VENT = 5
-RESUMING = 6
+LINE_UP = 5
+VENT = 6
+RESUMING = 7
 
 # Constants.
 CO_HIGH = 50.0
+SMOKE_HIGH = 10.0
 
 
 class CcController:
@@ -151,6 +154,7 @@ class CcController:
         "status_seq",
         "world_announcement",
         "world_co_ppm",
+        "world_smoke",
     )
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
@@ -242,6 +246,7 @@ class CcController:
                 self.ec_status_num,
                 self.ec_status,
                 self.world_announcement,
+                self.world_smoke,
                 self.world_co_ppm,
             ) = values
             self.world_announcement = decode_text(self.world_announcement)
@@ -398,6 +403,7 @@ class CcController:
             self.ec_status_num,
             self.ec_status,
             self.world_announcement,
+            self.world_smoke,
             self.world_co_ppm,
         ) = values
         self.world_announcement = decode_text(self.world_announcement)
@@ -499,7 +505,7 @@ class CcController:
                 self.cause = 0  # DONE has no cause
 
         elif state == TRANSIT:
-            if self.world_co_ppm > CO_HIGH:
+            if self.world_co_ppm > CO_HIGH or self.world_smoke > SMOKE_HIGH:
                 # (S2) smoke or gas high; all hands on EABs; SM prepare for emergency vent
                 self.rule = 8  # RUN_MISSION/TRANSIT/1
                 self.state = PREP_VENT
@@ -569,10 +575,10 @@ class CcController:
 
         elif state == PREP_VENT:
             if self.sm_status == DONE:
-                # (S3) SM done; EC emergency vent
+                # (S3) SM done, at periscope depth; EC line up to emergency ventilate with the diesel
                 self.rule = 14  # RUN_MISSION/PREP_VENT/1
-                self.state = VENT
-                self.ec_command = EC_EMERGENCY_VENT
+                self.state = LINE_UP
+                self.ec_command = EC_LINE_UP_EMERGENCY_VENT
                 self.ec_command_num += 1
 
             elif self.sm_status == ERROR:
@@ -590,10 +596,25 @@ class CcController:
                     SM_REASON_REFUSED: REASON_REFUSED,
                 }.get(self.sm_error_num, REASON_NONE)
 
+        elif state == LINE_UP:
+            if self.ec_status == DONE:
+                # prepared to emergency ventilate with the diesel; commence snorkeling (EC emergency vent)
+                self.rule = 16  # RUN_MISSION/LINE_UP/1
+                self.state = VENT
+                self.ec_command = EC_EMERGENCY_VENT
+                self.ec_command_num += 1
+
+            elif self.ec_status == ERROR:
+                self.rule = 17  # RUN_MISSION/LINE_UP/2
+                # ec's error: the cause of an ERROR this command reports
+                self.cause = caused(EC_LINK, 0, 0)
+                self.state = NOP
+                self.status = ERROR
+
         elif state == VENT:
             if self.ec_status == DONE:
                 # (S4) fire out, smoke and gas normal; EABs off; SM prepare for the submerged transit, EC submerged vent
-                self.rule = 16  # RUN_MISSION/VENT/1
+                self.rule = 18  # RUN_MISSION/VENT/1
                 self.state = RESUMING
                 self.world_announcement = "SECURE FROM FIRE, EABS MAY BE REMOVED"
                 self.sm_command = SM_PREP_SUBMERGED_TRANSIT
@@ -602,7 +623,7 @@ class CcController:
                 self.ec_command_num += 1
 
             elif self.ec_status == ERROR:
-                self.rule = 17  # RUN_MISSION/VENT/2
+                self.rule = 19  # RUN_MISSION/VENT/2
                 # ec's error: the cause of an ERROR this command reports
                 self.cause = caused(EC_LINK, 0, 0)
                 self.state = NOP
@@ -611,10 +632,10 @@ class CcController:
         elif state == RESUMING:
             if self.sm_status == DONE and self.ec_status == DONE:
                 # prepared; (S1) the transit to the same waypoint resumes
-                self.rule = 18  # RUN_MISSION/RESUMING/1
+                self.rule = 20  # RUN_MISSION/RESUMING/1
                 self.state = S1
 
             elif self.sm_status == ERROR or self.ec_status == ERROR:
-                self.rule = 19  # RUN_MISSION/RESUMING/2
+                self.rule = 21  # RUN_MISSION/RESUMING/2
                 self.state = NOP
                 self.status = ERROR

@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 3448 bytes.
+The block is 3648 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -112,48 +112,58 @@ command buffers and world fields:
 | 2368 | 16 | WORLD_BELOW_KEEL | below_keel |
 | 2384 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
 | 2400 | 9 | WORLD_FIRE | fire |
-| 2416 | 16 | WORLD_CO_PPM | co_ppm |
-| 2432 | 9 | OVERRIDES | any |
-| 2448 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 2472 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 2496 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 2520 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 2544 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 2568 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 2632 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 2656 | 24 | OVERRIDE_COURSE | state, course |
-| 2680 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 2704 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 2728 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 2752 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 2776 | 24 | OVERRIDE_HEADING | state, heading |
-| 2800 | 24 | OVERRIDE_SPEED | state, speed |
-| 2824 | 24 | OVERRIDE_DEPTH | state, depth |
-| 2848 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 2872 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 2896 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 2920 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 2944 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 2968 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 2992 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3016 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3040 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3064 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3088 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3112 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3136 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3160 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3184 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3208 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3232 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3256 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3280 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3304 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 3328 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 3352 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 3376 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 3400 | 17 | OVERRIDE_FIRE | state, fire |
-| 3424 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 2416 | 16 | WORLD_SMOKE | smoke |
+| 2432 | 16 | WORLD_O2_PCT | o2_pct |
+| 2448 | 16 | WORLD_CO2_PCT | co2_pct |
+| 2464 | 16 | WORLD_VENT_LINEUP | vent_lineup |
+| 2480 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
+| 2496 | 16 | WORLD_CO_PPM | co_ppm |
+| 2512 | 9 | OVERRIDES | any |
+| 2528 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 2552 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 2576 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 2600 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 2624 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 2648 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 2712 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 2736 | 24 | OVERRIDE_COURSE | state, course |
+| 2760 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 2784 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 2808 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 2832 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 2856 | 24 | OVERRIDE_HEADING | state, heading |
+| 2880 | 24 | OVERRIDE_SPEED | state, speed |
+| 2904 | 24 | OVERRIDE_DEPTH | state, depth |
+| 2928 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 2952 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 2976 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3000 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3024 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3048 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3072 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3096 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3120 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3144 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3168 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3192 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3216 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3240 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3264 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3288 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3312 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3336 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3360 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3384 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3408 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3432 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 3456 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 3480 | 17 | OVERRIDE_FIRE | state, fire |
+| 3504 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 3528 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 3552 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 3576 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 3600 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 3624 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
 """
 
 from __future__ import annotations
@@ -185,9 +195,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 3448
+SIZE = 3648
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "4f79e53b13385b4937349adf4827e485"
+LAYOUT_HASH = "439808e867549609a02d78bbc382fbb9"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 168
 
@@ -363,8 +373,18 @@ WORLD_MIN_BELOW_KEEL = Struct("<Qd")  # seq, min_below_keel
 WORLD_MIN_BELOW_KEEL_AT = 2384
 WORLD_FIRE = Struct("<Q?")  # seq, fire
 WORLD_FIRE_AT = 2400
+WORLD_SMOKE = Struct("<Qd")  # seq, smoke
+WORLD_SMOKE_AT = 2416
+WORLD_O2_PCT = Struct("<Qd")  # seq, o2_pct
+WORLD_O2_PCT_AT = 2432
+WORLD_CO2_PCT = Struct("<Qd")  # seq, co2_pct
+WORLD_CO2_PCT_AT = 2448
+WORLD_VENT_LINEUP = Struct("<Qq")  # seq, vent_lineup
+WORLD_VENT_LINEUP_AT = 2464
+WORLD_DIESEL_RUNNING = Struct("<Q?")  # seq, diesel_running
+WORLD_DIESEL_RUNNING_AT = 2480
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 2416
+WORLD_CO_PPM_AT = 2496
 
 
 PROCESSES = {
@@ -550,6 +570,11 @@ WORLD = {
     "below_keel": Record(WORLD_BELOW_KEEL, WORLD_BELOW_KEEL_AT, ("below_keel",)),
     "min_below_keel": Record(WORLD_MIN_BELOW_KEEL, WORLD_MIN_BELOW_KEEL_AT, ("min_below_keel",)),
     "fire": Record(WORLD_FIRE, WORLD_FIRE_AT, ("fire",)),
+    "smoke": Record(WORLD_SMOKE, WORLD_SMOKE_AT, ("smoke",)),
+    "o2_pct": Record(WORLD_O2_PCT, WORLD_O2_PCT_AT, ("o2_pct",)),
+    "co2_pct": Record(WORLD_CO2_PCT, WORLD_CO2_PCT_AT, ("co2_pct",)),
+    "vent_lineup": Record(WORLD_VENT_LINEUP, WORLD_VENT_LINEUP_AT, ("vent_lineup",)),
+    "diesel_running": Record(WORLD_DIESEL_RUNNING, WORLD_DIESEL_RUNNING_AT, ("diesel_running",)),
     "co_ppm": Record(WORLD_CO_PPM, WORLD_CO_PPM_AT, ("co_ppm",)),
 }
 WORLD_INITIAL: dict[str, object] = {
@@ -592,55 +617,65 @@ WORLD_INITIAL: dict[str, object] = {
     "below_keel": 130.0,
     "min_below_keel": 130.0,
     "fire": False,
+    "smoke": 0.0,
+    "o2_pct": 20.9,
+    "co2_pct": 0.5,
+    "vent_lineup": 0,
+    "diesel_running": False,
     "co_ppm": 0.0,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2432
-OVERRIDDEN_AT = 2440  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2512
+OVERRIDDEN_AT = 2520  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 2448, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 2472, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 2496, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 2520, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 2544, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 2568, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 2632, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 2656, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 2680, ("state", "ballast")),
-    "vent_flow": Record(Struct("<QQd"), 2704, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 2728, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 2752, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 2776, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 2800, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 2824, ("state", "depth")),
-    "bubble": Record(Struct("<QQd"), 2848, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 2872, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 2896, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 2920, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 2944, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 2968, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 2992, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3016, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3040, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3064, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3088, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3112, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3136, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3160, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3184, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3208, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3232, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3256, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3280, ("state", "min_clearance")),
-    "water_density": Record(Struct("<QQd"), 3304, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 3328, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 3352, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 3376, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 3400, ("state", "fire")),
-    "co_ppm": Record(Struct("<QQd"), 3424, ("state", "co_ppm")),
+    "speed_cmd": Record(Struct("<QQd"), 2528, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 2552, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 2576, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 2600, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 2624, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 2648, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 2712, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 2736, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 2760, ("state", "ballast")),
+    "vent_flow": Record(Struct("<QQd"), 2784, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 2808, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 2832, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 2856, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 2880, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 2904, ("state", "depth")),
+    "bubble": Record(Struct("<QQd"), 2928, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 2952, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 2976, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3000, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3024, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3048, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3072, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3096, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3120, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3144, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3168, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3192, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3216, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3240, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3264, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3288, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3312, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3336, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3360, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3384, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3408, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3432, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 3456, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 3480, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 3504, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 3528, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 3552, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 3576, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 3600, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 3624, ("state", "co_ppm")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -651,6 +686,7 @@ ACTUATED_BY = {}
 # value names, indexed by the code the field holds, for traces, displays and `ctl send`.
 ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
     ("", "shaft"): ("TURBINE", "DISENGAGED", "EPM"),
+    ("", "vent_lineup"): ("RECIRCULATION", "DIESEL_VENTILATION"),
 }
 # The modules that write each world field (a stand-in writes in its controller's place), for
 # `ctl force`: forcing a field takes it from them, which needs override on each.
@@ -691,6 +727,11 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "below_keel": ("sea",),
     "min_below_keel": ("sea",),
     "fire": ("atmosphere",),
+    "smoke": ("atmosphere",),
+    "o2_pct": ("atmosphere",),
+    "co2_pct": ("atmosphere",),
+    "vent_lineup": ("ec",),
+    "diesel_running": ("ec",),
     "co_ppm": ("atmosphere",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
@@ -711,7 +752,10 @@ COMMAND_NAMES = {
         NO_COMMAND_NAME,
         *("INIT", "HALT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "PREP_SUBMERGED_TRANSIT"),
     ),
-    "ec": (NO_COMMAND_NAME, *("INIT", "HALT", "SUBMERGED_VENT", "EMERGENCY_VENT")),
+    "ec": (
+        NO_COMMAND_NAME,
+        *("INIT", "HALT", "SUBMERGED_VENT", "LINE_UP_EMERGENCY_VENT", "EMERGENCY_VENT"),
+    ),
     "helm": (NO_COMMAND_NAME, *("INIT", "HALT", "ICE_MANEUVER", "CLEAR_BAFFLES")),
     "rudder": (NO_COMMAND_NAME, *("INIT", "HALT", "GOTO_ANGLE")),
     "prop": (NO_COMMAND_NAME, *("INIT", "HALT", "SHIFT_TO_EPM")),
@@ -738,7 +782,7 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     },
 }
 STATE_NAMES = {
-    "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "VENT", "RESUMING"),
+    "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "LINE_UP", "VENT", "RESUMING"),
     "sm": ("NOP", "S0", "S1", "BAFFLES", "SLOWING", "PROP_FAILED", "HELM_FAILED"),
     "ec": ("NOP", "S0", "S1"),
     "helm": ("NOP", "S0", "S1", "S2", "CENTRING"),
@@ -796,6 +840,8 @@ RULES = {
         "RUN_MISSION/TRANSIT/6",
         "RUN_MISSION/PREP_VENT/1",
         "RUN_MISSION/PREP_VENT/2",
+        "RUN_MISSION/LINE_UP/1",
+        "RUN_MISSION/LINE_UP/2",
         "RUN_MISSION/VENT/1",
         "RUN_MISSION/VENT/2",
         "RUN_MISSION/RESUMING/1",
@@ -831,6 +877,7 @@ RULES = {
         "INIT/S0/1",
         "HALT/S0/1",
         "SUBMERGED_VENT/S0/1",
+        "LINE_UP_EMERGENCY_VENT/S0/1",
         "EMERGENCY_VENT/S0/1",
         "EMERGENCY_VENT/S1/1",
     ),
