@@ -634,3 +634,38 @@ def test_the_fidelity_tables_summaries_count_their_rows(page):
         f"docs/{page}: the summary should read {said}**"
     )
     assert verdicts["faithful"] > verdicts["simplified"]
+
+
+def test_the_access_matrix_holds_at_the_console():
+    """Figure 29 on the running submarine (paced, as OS processes): the EOOW and the BCP may
+    not command the mission, the OOD may, but may not stop the helm; the helmsman may take
+    the rudder in manual override (an emergency turn), and the rudder answers him."""
+    import importlib
+
+    from conftest import wait_for
+    from test_ctl import Running
+
+    from rcsgen.tools.harness import import_package
+
+    package = ROOT / "generated" / "submarine"
+    layout = importlib.import_module(f"{import_package(package, SUBMARINE).__name__}.layout")
+    system = Running(package, SUBMARINE, layout)
+    try:
+        for role in ("eoow", "bcp"):
+            refused = system.ctl("--role", role, "send", "cc", "RUN_MISSION")
+            assert refused.returncode == 1 and "needs command on cc" in refused.stderr, role
+        stop = system.ctl("--role", "ood", "stop", "helm")
+        assert stop.returncode == 1 and "needs override on helm" in stop.stderr
+        sent = system.ctl("--role", "ood", "send", "cc", "RUN_MISSION", "--seen")
+        assert sent.returncode == 0, sent.stderr
+        wait_for(lambda: system.module("helm")["command"] == "ICE_MANEUVER", "the helm steering")
+        turn = system.ctl(
+            "--role", "helmsman", "send", "rudder", "GOTO_ANGLE", "angle=-20", "--override"
+        )
+        assert turn.returncode == 0, turn.stderr
+        wait_for(lambda: system.module("rudder")["args"] == {"angle": -20.0}, "his order")
+        assert system.module("helm")["run"] == "STOP", "the helm's orders are suspended"
+        wait_for(lambda: system.json()["world"]["rudder_angle"] <= -10.0, "the rudder turning")
+    finally:
+        out = system.stop()
+    assert "ship: stopped" in out
