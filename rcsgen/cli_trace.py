@@ -159,3 +159,34 @@ def trace_mine(
             f"warning: the replayed cut differs from the trace at {result.mismatch}", err=True
         )
     write_or_print(page, output or traces.beside(trace_path, ".mine.html"))
+
+
+@trace_group.command("sea")
+@TRACE
+@page_option("the trace's path with .sea.html")
+@SPECS
+@click.option(
+    "--scenario",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="The scenario that recorded TRACE, for its keel map and route settings [default: "
+    "the system's scenarios/<trace name>.yaml, as `rcsgen run` names traces].",
+)
+def trace_sea(
+    trace_path: Path, output: Path | None, specs: Path | None, scenario: Path | None
+) -> None:
+    """Write a submarine TRACE as an HTML replay of its transit among the ice keels."""
+    from .tools import traces
+    from .tools.traces import sea as sea_view
+
+    found = load_trace(trace_path)
+    system = trace_system(specs, [found], required=True)
+    assert system is not None
+    try:
+        page = sea_view.page_for(found, system, specs or Path("specs"), trace_path, scenario)
+    except SpecError as problem:
+        report(problem.diagnostics, Options())
+        raise Exit(1) from None
+    except sea_view.SeaError as problem:
+        raise error(str(problem)) from None
+    write_or_print(page, output or traces.beside(trace_path, ".sea.html"))

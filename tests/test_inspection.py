@@ -129,7 +129,9 @@ def test_nominal_init_for_inspect_then_the_part_is_accepted():
     assert names(fx)[1:] == ["EQUIP_SETUP", "PLACE_PART", "UNLOAD_PART"]
     assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": True})
     assert outcome(lines[-1], "ms") == ("DONE", "NONE", {"measured": 5, "failed": 0})
-    assert final["results"] == {"accepted": True} and final["reason"] == "NONE"
+    # the shop passes the verdict up; its lot counts stay 0 (no lot was ordered)
+    assert final["results"] == {"accepted": True, "passed": 0, "rejected": 0}
+    assert final["reason"] == "NONE"
     # one person serves both: each task asked through its client's channel, answered DONE
     tasks = {
         "op/fx": ["MOUNT_FIXTURE_PLATE", "PLACE_PART", "UNLOAD_PART"],
@@ -359,12 +361,57 @@ def test_a_missing_program_stops_the_run_in_one_line(tmp_path, monkeypatch):
     assert "nope.ipg: cannot read the inspection program" in lines[0]
 
 
+def test_the_guardian_orders_a_lot_and_the_shop_plans_its_jobs():
+    """Section 5.3.2: the shop obtains the order from the Guardian and plans the jobs; the
+    workcell converts each to the workstation's own command. A lot of two parts: the station
+    is prepared once, then each part inspected in turn, and the verdicts counted at the top."""
+    final, lines = played("guardian_lot")
+    assert final["status"] == "DONE"
+    assert names(commands_sent(lines, "shop")) == ["INIT", "INSPECT_LOT"]
+    assert names(commands_sent(lines, "wc")) == [
+        "INIT", "INIT_FOR_INSPECT", "INSPECT_PART", "INSPECT_PART"
+    ]  # fmt: skip
+    assert names(commands_sent(lines, "ws")) == [
+        "INIT", "INIT_FOR_INSPECT", "INSPECT_PART", "INSPECT_PART"
+    ]  # fmt: skip
+    jobs = [cycle for cycle, c in commands_sent(lines, "ws") if c == "INSPECT_PART"]
+    # each job goes down in the cycle the shop orders it (command-first), the second only
+    # once the first part's verdict has climbed back to the shop
+    assert jobs[0] > first(lines, "ws", "INIT_FOR_INSPECT", "DONE")
+    assert jobs[1] > first(lines, "wc", "INSPECT_PART", "DONE")
+    assert outcome(lines[-1], "shop")[:2] == ("DONE", "NONE")
+    assert lines[-1]["modules"]["shop"]["result"]["passed"] == 2
+    assert lines[-1]["modules"]["shop"]["result"]["rejected"] == 0
+    # the CMM's operation travels as a name, not a code
+    ops = {line["world"]["cmm_op"] for line in lines}
+    assert ops == {"NO_OPERATION", "HOMING", "PROBE_CALIBRATION", "CAMERA_CALIBRATION",
+                   "MEASUREMENT"}  # fmt: skip
+
+
+def test_the_verdict_and_reasons_climb_through_workcell_and_shop():
+    """The workcell and the shop pass the workstation's verdict and reasons up unchanged."""
+    for scenario, status, reason in [
+        ("nominal_inspection", "DONE", "NONE"),
+        ("machine_fault", "ERROR", "MACHINE_FAULT"),
+        ("operator_refuses", "ERROR", "REFUSED"),
+        ("slow_operator", "ERROR", "TIMED_OUT"),
+    ]:
+        final, lines = played(scenario)
+        last = lines[-1]["modules"]
+        assert (last["wc"]["status"], last["wc"]["reason"]) == (status, reason), scenario
+        assert (last["shop"]["status"], last["shop"]["reason"]) == (status, reason), scenario
+        if status == "DONE":
+            assert last["shop"]["result"]["accepted"] is last["ws"]["result"]["accepted"] is True
+
+
 # ---------------------------------------------------------------- the console
 
 
 def test_the_inspector_answers_and_refuses_at_the_console():
     """The workstation running paced as OS processes (`rcsgen up`'s launcher), nobody
-    scripted: the inspector prepares it, answers fixturing's request on the operator
+    scripted: the Guardian (the shop's operator interface, the only role that may command,
+    and only the shop) orders the station prepared; the inspector, who may not command,
+    answers fixturing's request on the operator
     module's channel, refuses tooling's with a reason; a console without a role may not
     answer, a wrong reason is refused, and the inspector may not stop a module."""
     from conftest import wait_for
@@ -373,7 +420,11 @@ def test_the_inspector_answers_and_refuses_at_the_console():
     layout = importlib.import_module(f"{import_package(PACKAGE, SYSTEM).__name__}.layout")
     system = Running(PACKAGE, SYSTEM, layout)
     try:
-        sent = system.ctl("--role", "inspector", "send", "ws", "INIT_FOR_INSPECT", "--seen")
+        below = system.ctl("--role", "guardian", "send", "ws", "INIT_FOR_INSPECT")
+        assert below.returncode == 1 and "ws is commanded by wc" in below.stderr, below.stderr
+        inspector = system.ctl("--role", "inspector", "send", "shop", "INIT_FOR_INSPECT")
+        assert inspector.returncode == 1 and "needs command on shop" in inspector.stderr
+        sent = system.ctl("--role", "guardian", "send", "shop", "INIT_FOR_INSPECT", "--seen")
         assert sent.returncode == 0, sent.stderr
         wait_for(lambda: system.json().get("requests"), "fixturing's request")
         listed = system.ctl("requests").stdout.splitlines()
@@ -398,7 +449,8 @@ def test_the_inspector_answers_and_refuses_at_the_console():
         )
         no = system.ctl("answer", "op/tl", "ERROR", "--reason", "REFUSED", "--role", "inspector")
         assert no.returncode == 0, no.stderr
-        wait_for(lambda: system.module("ws")["status"] == "ERROR", "the workstation stopped")
+        wait_for(lambda: system.module("shop")["status"] == "ERROR", "the shop's job failed")
+        assert system.module("ws")["status"] == "ERROR"
         assert system.module("op/tl")["status"] == "ERROR"
         assert system.ctl("requests").stdout == "no requests\n", "nothing left on the screen"
         again = system.ctl("answer", "op/fx", "--role", "inspector")

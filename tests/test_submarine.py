@@ -21,7 +21,9 @@ SUBMARINE = ROOT / "specs" / "submarine"
 SCENARIOS = SUBMARINE / "scenarios"
 CO_HIGH = 50.0  # cc.yaml: the fire alarm
 CO_SAFE = 5.0  # ec.yaml: the atmosphere is acceptable
-HAVEN = 150.0  # sm.yaml: half the box around a waypoint
+HAVEN = 150.0  # sm.yaml ARRIVAL: half the box around a waypoint that counts as reached
+MOVING_HAVEN = 300.0  # sm.yaml HAVEN: half the side of the moving haven
+BAFFLE_TURN = 60.0  # helm.yaml: degrees to starboard to clear baffles
 
 
 def play(name: str, package: Path) -> tuple[dict, list[dict]]:
@@ -188,6 +190,10 @@ def fire_phases(lines: list[dict]) -> dict[str, tuple[int, int]]:
 
 
 def test_engine_room_fire_phases_and_their_cycles():
+    """Section 4.1.3 step by step: the alarm and "all hands on EABs"; the OOD's actions for
+    coming to periscope depth as Maneuver decomposes them (4.7.1: Clear_baffles, then
+    Slow_and_Change_Depth with Shift_To_EPM, asked of the EOOW, Figure 30), the periscope
+    raised; emergency ventilation; the EABs off and the transit resumed on the EPM."""
     final, lines = played("engine_room_fire")
     assert final["status"] == "DONE"
     scenario = load_scenario(SCENARIOS / "engine_room_fire.yaml")
@@ -198,13 +204,49 @@ def test_engine_room_fire_phases_and_their_cycles():
     alarm = next(line["cycle"] for line in lines if line["world"]["co_ppm"] > CO_HIGH) + 1
     assert alarm == fire_at + 2  # 40 ppm a cycle: above 50 after the fire's second cycle
     assert prep_from == alarm
-    # prepare: periscope depth at one-third, 102 m up at 1 m/s, then steady on course
+    assert at(lines, alarm)["world"]["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+    assert at(lines, alarm - 1)["world"]["announcement"] == ""
+    # clear baffles first: the helm turns BAFFLE_TURN to starboard at transit depth and speed
+    baffles = spans(lines, "sm", "BAFFLES")
+    assert len(baffles) == 1 and baffles[0][0] == prep_from
+    turned_from = at(lines, prep_from)["world"]["heading"]
+    turned_to = at(lines, baffles[0][1])["world"]["heading"]
+    assert BAFFLE_TURN - 5.0 <= (turned_to - turned_from) % 360.0 <= BAFFLE_TURN + 5.0
+    assert all(at(lines, c)["world"]["depth"] == 120.0 for c in range(*baffles[0]))
+    # then slow and come up, and shift propulsion: all stop (declutched) while the EOOW is
+    # asked CHANGE_TO_EPM; his report engages the EPM
+    slowing = spans(lines, "sm", "SLOWING")[0]
+    assert slowing[0] == baffles[0][1] + 1
+    asked = spans(lines, "eoow/prop", "ASKING")
+    assert len(asked) == 1 and asked[0][0] == slowing[0]
+    assert 20 <= asked[0][1] - asked[0][0] + 1 <= 22, "the scripted EOOW takes 20 s"
+    assert {at(lines, c)["world"]["shaft"] for c in range(asked[0][0], asked[0][1] + 1)} == {
+        "DISENGAGED"
+    }
+    assert at(lines, asked[0][1] + 2)["world"]["shaft"] == "EPM"
+    # prepared: periscope depth at one-third on the EPM, steady on course, periscope raised
     top = at(lines, prep_to)
     assert abs(top["world"]["depth"] - 18.0) < 1.0 and abs(top["world"]["speed"] - 2.6) < 0.1
+    assert top["world"]["periscope_raised"] and top["world"]["shaft"] == "EPM"
+    assert not any(
+        line["world"]["periscope_raised"] for line in lines if line["cycle"] < prep_to - 1
+    )
     assert helm_at_goal(lines)[prep_to - 1]
-    assert 102 <= prep_to - prep_from + 1 <= 110
-    # ventilate: engineering lines up the diesel until the fire is out and CO is safe
-    assert vent_from == prep_to + 1
+    # line up (the BCP, one cycle: "prepared to emergency ventilate with the diesel"), then
+    # commence snorkeling: engineering runs the diesel until the fire is out and the
+    # analyzers read safe
+    (line_up,) = spans(lines, "cc", "LINE_UP")
+    assert line_up == (prep_to + 1, prep_to + 1) and vent_from == prep_to + 2
+    assert at(lines, line_up[0])["world"]["vent_lineup"] == "DIESEL_VENTILATION"
+    assert not at(lines, line_up[0])["world"]["diesel_running"]
+    assert all(at(lines, c)["world"]["diesel_running"] for c in range(vent_from, vent_to))
+    assert max(ln["world"]["smoke"] for ln in lines) > 100.0
+    assert (
+        min(ln["world"]["o2_pct"] for ln in lines)
+        < 20.5
+        < 20.8
+        < at(lines, vent_to)["world"]["o2_pct"]
+    )
     # (in VENT's last cycle cc sees the DONE engineering reported after securing: recirculate)
     assert {at(lines, c)["world"]["vent_flow"] for c in range(vent_from, vent_to)} == {0.05}
     assert all(at(lines, c)["world"]["depth"] == 18.0 for c in range(vent_from, vent_to + 1))
@@ -219,36 +261,119 @@ def test_engine_room_fire_phases_and_their_cycles():
     # the fire burned for the damage control party's 30 cycles
     burning = [line["cycle"] for line in lines if line["world"]["fire"]]
     assert burning == list(range(fire_at, fire_at + 30))
-    # resume: back to the transit to the same waypoint, standard speed and depth
-    resumed = at(lines, vent_to + 1)
-    assert resumed["modules"]["cc"]["state"] == "TRANSIT"
-    assert resumed["world"]["vent_flow"] == 0.002
+    # (S4) EABs off; SM prepares to resume (periscope down, back to transit depth) while EC
+    # lines up for submerged ventilation; then (S1) the transit to the same waypoint
+    resuming = at(lines, vent_to + 1)
+    assert resuming["modules"]["cc"]["state"] == "RESUMING"
+    assert resuming["world"]["vent_flow"] == 0.002
+    assert resuming["world"]["announcement"] == "SECURE FROM FIRE, EABS MAY BE REMOVED"
+    assert not resuming["world"]["periscope_raised"]
+    (res_from, res_to), *_ = spans(lines, "cc", "RESUMING")
+    assert abs(at(lines, res_to)["world"]["depth"] - 120.0) < 1.0, "at transit depth"
+    assert at(lines, res_to + 1)["modules"]["cc"]["state"] == "S1"
+    assert at(lines, res_to + 2)["modules"]["cc"]["state"] == "TRANSIT"
+    # the bubble angle: bow up coming to periscope depth, bow down going back
+    assert at(lines, prep_to - 60)["world"]["bubble"] > 5.0
+    assert at(lines, res_from + 10)["world"]["bubble"] < -5.0
+    assert lines[-1]["world"]["bubble"] == 0.0
     assert commands_sent(lines, "sm") == [
-        "INIT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT"
+        "INIT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "PREP_SUBMERGED_TRANSIT",
+        "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT",
     ]  # fmt: skip
     assert commands_sent(lines, "ec") == [
-        "INIT", "SUBMERGED_VENT", "EMERGENCY_VENT", "SUBMERGED_VENT", "SUBMERGED_VENT"
+        "INIT", "SUBMERGED_VENT", "LINE_UP_EMERGENCY_VENT", "EMERGENCY_VENT", "SUBMERGED_VENT",
+        "SUBMERGED_VENT", "SUBMERGED_VENT",
     ]  # fmt: skip
+    assert commands_sent(lines, "helm")[:4] == [
+        "INIT", "ICE_MANEUVER", "CLEAR_BAFFLES", "ICE_MANEUVER"
+    ]  # fmt: skip
+    assert commands_sent(lines, "prop") == ["INIT", "SHIFT_TO_EPM"]
+    # the EPM stays on the shaft (the main lube oil is not restored in the scenario): the
+    # resumed transit answers bells at ahead two-thirds on the EPM
     last = lines[-1]["world"]
-    assert last["depth"] == 120.0 and last["speed"] == 7.7
+    assert last["depth"] == 120.0 and last["speed"] == 5.1 and last["shaft"] == "EPM"
 
 
-def test_fire_under_ice_prepares_only_once_clear_of_the_ice():
-    """Both together: the fire breaks out short of two keels. Ship maneuver is not prepared
-    for emergency ventilation while Helm is avoiding ice (not steady on course); the ship
-    keeps clear of the keels at one-third speed, then ventilates and completes the mission."""
+def test_fire_under_ice_clears_baffles_only_as_far_as_the_ice_allows():
+    """Both together: the fire breaks out short of two keels. The turn to clear baffles
+    looks for ice along its heading and ends when it sees some; Helm's maneuver then keeps
+    the ship clear of the keels while it prepares, ventilates and completes the mission."""
     final, lines = played("fire_under_ice")
     assert final["status"] == "DONE"
     assert min(line["world"]["clearance"] for line in lines) >= 100.0
     phases = fire_phases(lines)
     prep_from, prep_to = phases["prep"]
-    avoiding = [(a, b) for a, b in spans(lines, "helm", "S2") if prep_from <= a and b <= prep_to]
-    assert avoiding, "Helm avoided ice while the ship was preparing"
-    assert prep_to > avoiding[-1][1], "prepared only after the ice was clear"
-    assert prep_to - prep_from + 1 > 110, "longer than in open sea"
-    assert all(at(lines, c)["world"]["speed"] <= 2.61 for c in range(avoiding[0][0], prep_to))
+    baffles = spans(lines, "sm", "BAFFLES")
+    assert len(baffles) == 1 and baffles[0][0] == prep_from
+    turned = (
+        at(lines, baffles[0][1])["world"]["heading"] - at(lines, prep_from)["world"]["heading"]
+    ) % 360.0
+    assert 0.0 < turned < BAFFLE_TURN - 5.0, "the turn ended early, on ice"
+    assert at(lines, prep_to)["world"]["periscope_raised"]
     assert lines[-1]["world"]["co_ppm"] <= CO_SAFE
     assert commands_sent(lines, "sm").count("SUBMERGED_TRANSIT") == len(route("bering.route")) + 1
+    assert commands_sent(lines, "sm").count("PREP_SUBMERGED_TRANSIT") == 1
+
+
+def haven_offsets(lines: list[dict]) -> list[float]:
+    """How far the ship is from its moving haven's centre (the larger of east and north),
+    in each cycle ship maneuver executes a transit."""
+    return [
+        max(abs(w["pos_x"] - w["haven_x"]), abs(w["pos_y"] - w["haven_y"]))
+        for line in lines
+        for w in [line["world"]]
+        if line["modules"]["sm"]["command"] == "SUBMERGED_TRANSIT"
+        and line["modules"]["sm"]["status"] == "EXECUTING"
+    ]
+
+
+@pytest.mark.parametrize(
+    "name", ["ice_transit", "ice_replan", "engine_room_fire", "fire_under_ice"]
+)
+def test_the_ship_stays_in_its_moving_haven_which_moves_along_the_leg(name):
+    """Figure 19: the moving haven is a box around the submarine that moves with the plan;
+    the ship may be anywhere in it, never outside. It moves towards the waypoint."""
+    final, lines = played(name)
+    assert final["status"] == "DONE"
+    offsets = haven_offsets(lines)
+    assert offsets and max(offsets) <= MOVING_HAVEN
+    transit = [
+        line["world"] for line in lines if line["modules"]["sm"]["command"] == "SUBMERGED_TRANSIT"
+    ]
+    moved = math.hypot(
+        transit[-1]["haven_x"] - transit[0]["haven_x"],
+        transit[-1]["haven_y"] - transit[0]["haven_y"],
+    )
+    assert moved > 1000.0, "the haven moves with the ship, it is no box at a waypoint"
+
+
+def test_a_ship_that_falls_out_of_its_moving_haven_fails_the_mission():
+    """lost_propulsion: the shaft comes off the turbines; the haven moves on at the ordered
+    speed, the coasting ship falls behind, and the cycle it is outside ship maneuver
+    reports ERROR OUT_OF_HAVEN, which the command controller passes up by name."""
+    final, lines = played("lost_propulsion")
+    assert final["status"] == "ERROR" and final["reason"] == "OUT_OF_HAVEN"
+    failed = next(line for line in lines if line["modules"]["sm"]["status"] == "ERROR")
+    # what sm compared: the ship's position of the cycle before (the ship runs after sm),
+    # the haven it moved on at the start of this cycle (its every-cycle rule)
+    ship, haven = at(lines, failed["cycle"] - 1)["world"], failed["world"]
+    off = max(abs(ship["pos_x"] - haven["haven_x"]), abs(ship["pos_y"] - haven["haven_y"]))
+    assert off > MOVING_HAVEN
+    assert all(offset <= MOVING_HAVEN for offset in haven_offsets(lines)[:-2])
+    assert failed["modules"]["sm"]["reason"] == "OUT_OF_HAVEN"
+    assert at(lines, failed["cycle"] + 1)["modules"]["cc"]["status"] == "ERROR"
+
+
+def test_the_access_matrix_is_figure_29s():
+    """Section 4.7.3: the OOD commands the mission; the EOOW only responds to requests
+    (CHANGE_TO_EPM); the helmsman may override helm and rudder; the BCP monitors."""
+    import yaml
+
+    roles = yaml.safe_load((SUBMARINE / "system.yaml").read_text())["operators"]["roles"]
+    assert roles["ood"].get("command") == ["cc"] and "respond" not in roles["ood"]
+    assert roles["eoow"] == {"doc": roles["eoow"]["doc"], "respond": ["eoow"]}
+    assert roles["helmsman"].get("override") == ["helm", "rudder"]
+    assert set(roles["bcp"]) == {"doc"}, "monitors only"
 
 
 # ---- the hooks' geometry
@@ -332,7 +457,7 @@ def test_a_blocked_leg_is_replanned_by_its_alternate_and_the_mission_completes()
     helm_errors = [ln for ln in lines if ln["modules"]["helm"]["rule"] == "ICE_MANEUVER/S2/4"]
     assert len(helm_errors) == 1, "Helm reports BLOCKED once"
     blocked = helm_errors[0]["cycle"]
-    assert at(lines, blocked + 1)["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/3"
+    assert at(lines, blocked + 1)["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/4"
     replanned = at(lines, blocked + 2)
     assert replanned["modules"]["cc"]["rule"] == "RUN_MISSION/TRANSIT/3"
     before = plan_of(at(lines, blocked + 1))
@@ -345,7 +470,7 @@ def test_a_blocked_leg_is_replanned_by_its_alternate_and_the_mission_completes()
         ln for ln in lines[blocked + 1 :] if ln["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S0/1"
     ]
     assert len(sent) == 2
-    done = [ln for ln in lines if ln["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/2"]
+    done = [ln for ln in lines if ln["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/3"]
     for line, (x, y) in zip(done, [waypoints[0], alternate, waypoints[2]], strict=True):
         assert abs(line["world"]["pos_x"] - x) < HAVEN and abs(line["world"]["pos_y"] - y) < HAVEN
     assert plan_of(lines[-1]) == {"replans_left": 1, "step": 2, "steps": 2}, "done"
@@ -362,7 +487,7 @@ def test_a_blocked_leg_fails_the_mission_once_no_replans_are_left():
     assert [plan_of(lines[i])["replans_left"] for i in replans] == [1, 0], "both replans used"
     assert all(plan_of(lines[i])["steps"] == 2 for i in replans), "the same waypoint again"
     assert cc[-1] == "RUN_MISSION/TRANSIT/4", "then blocked with no replans left: ERROR"
-    assert lines[-2]["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/3", "SM: BLOCKED"
+    assert lines[-2]["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/4", "SM: BLOCKED"
     assert min(ln["world"]["min_clearance"] for ln in lines) >= 100.0
 
 
@@ -428,3 +553,119 @@ def test_helm_reports_a_rudder_error_instead_of_ordering_the_rudder_again() -> N
         assert harness.sent("rudder") == first, "helm ordered the rudder after its ERROR"
     finally:
         harness.close()
+
+
+def test_fresh_water_run_off_sinks_the_ship_until_variable_ballast_is_blown():
+    """Section 4.1.2: lighter water at a fresh water run-off sinks the ship; the planes
+    (the ship's depth response) cannot hold it, so ship maneuver blows variable ballast
+    (4.1.1) while the depth is more than DEPTH_LIMIT off, and the depth is held again."""
+    final, lines = played("fresh_water_runoff")
+    assert final["status"] == "DONE"
+    scenario = load_scenario(SCENARIOS / "fresh_water_runoff.yaml")
+    drop, back = (e.cycle for e in scenario.events if "water_density" in e.world)
+    before = at(lines, drop - 1)["world"]
+    assert before["depth"] == 120.0 and before["ballast"] == 0.0
+    deepest = max(line["world"]["depth"] for line in lines)
+    assert 120.0 + 5.0 < deepest < 130.0, "sank past what the planes hold, not far"
+    blowing = [
+        line["cycle"] for line in lines if line["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/5"
+    ]
+    assert blowing and all(drop < c < back for c in blowing)
+    for c in blowing:  # blown only while more than DEPTH_LIMIT deeper than ordered
+        assert at(lines, c - 1)["world"]["depth"] > 125.0
+    held = [at(lines, c)["world"]["depth"] for c in range(blowing[-1] + 30, back)]
+    assert held and all(abs(d - 120.0) <= 1.0 for d in held)
+    after = [line["world"]["depth"] for line in lines if line["cycle"] > back + 30]
+    assert all(abs(d - 120.0) <= 1.0 for d in after), (
+        "the blown ballast is within the planes' reach"
+    )
+    assert min(line["world"]["below_keel"] for line in lines) == final_below_keel(lines)
+
+
+def final_below_keel(lines: list[dict]) -> float:
+    """The sea simulator's running minimum of the water under the keel, at the end."""
+    return lines[-1]["world"]["min_below_keel"]
+
+
+def test_the_eoow_refusing_the_epm_fails_the_mission_with_his_reason():
+    """eoow_refuses: the EOOW answers CHANGE_TO_EPM with ERROR REFUSED. Propulsion clutches
+    the turbines in again and fails with his reason; ship maneuver halts the helm, waits for
+    it to stop, and passes the reason up; the command controller fails with it."""
+    final, lines = played("eoow_refuses")
+    assert final["status"] == "ERROR" and final["reason"] == "REFUSED"
+    refused = next(ln["cycle"] for ln in lines if ln["modules"]["prop"]["status"] == "ERROR")
+    assert at(lines, refused - 1)["world"]["shaft"] == "DISENGAGED"
+    assert at(lines, refused)["world"]["shaft"] == "TURBINE"
+    halted = at(lines, refused + 1)["modules"]
+    assert halted["sm"]["state"] == "PROP_FAILED" and halted["helm"]["command"] == "HALT"
+    sm_error = next(ln["cycle"] for ln in lines if ln["modules"]["sm"]["status"] == "ERROR")
+    assert at(lines, sm_error - 1)["modules"]["helm"]["status"] == "DONE", "after helm stopped"
+    assert at(lines, sm_error)["modules"]["sm"]["reason"] == "REFUSED"
+    assert lines[-1]["cycle"] == sm_error + 1
+    assert not any(ln["world"]["periscope_raised"] for ln in lines)
+
+
+def fidelity_counts(page: Path) -> tuple[dict[str, int], str]:
+    """The verdicts of a case study's fidelity table, counted, and its summary line."""
+    import re
+    from collections import Counter
+
+    text = page.read_text(encoding="utf-8")
+    table = text[text.index("## Fidelity to") :]
+    summary = re.search(r"Of (\d+) rows: \*\*(.+?)\*\*", table)
+    assert summary, f"{page.name}: no 'Of N rows: **...**' summary under its fidelity table"
+    rows = [ln for ln in table[: summary.start()].splitlines() if re.match(r"\| \d+ \|", ln)]
+    verdicts = Counter(ln.rstrip(" |").split("|")[-1].strip().split(":")[0] for ln in rows)
+    assert set(verdicts) <= {"faithful", "simplified", "missing", "invented"}, verdicts
+    numbers = [int(ln.split("|")[1]) for ln in rows]
+    assert numbers == list(range(1, len(rows) + 1)), "rows numbered 1..N in order"
+    said = f"Of {len(rows)} rows: **" + ", ".join(
+        f"{verdicts[v]} {v}" for v in ("faithful", "simplified", "missing", "invented")
+    )
+    return dict(verdicts), said
+
+
+@pytest.mark.parametrize("page", ["submarine.md", "inspection.md"])
+def test_the_fidelity_tables_summaries_count_their_rows(page):
+    """The summary under each fidelity table is the table's own count of verdicts."""
+    path = ROOT / "docs" / page
+    verdicts, said = fidelity_counts(path)
+    assert said in path.read_text(encoding="utf-8"), (
+        f"docs/{page}: the summary should read {said}**"
+    )
+    assert verdicts["faithful"] > verdicts["simplified"]
+
+
+def test_the_access_matrix_holds_at_the_console():
+    """Figure 29 on the running submarine (paced, as OS processes): the EOOW and the BCP may
+    not command the mission, the OOD may, but may not stop the helm; the helmsman may take
+    the rudder in manual override (an emergency turn), and the rudder answers him."""
+    import importlib
+
+    from conftest import wait_for
+    from test_ctl import Running
+
+    from rcsgen.tools.harness import import_package
+
+    package = ROOT / "generated" / "submarine"
+    layout = importlib.import_module(f"{import_package(package, SUBMARINE).__name__}.layout")
+    system = Running(package, SUBMARINE, layout)
+    try:
+        for role in ("eoow", "bcp"):
+            refused = system.ctl("--role", role, "send", "cc", "RUN_MISSION")
+            assert refused.returncode == 1 and "needs command on cc" in refused.stderr, role
+        stop = system.ctl("--role", "ood", "stop", "helm")
+        assert stop.returncode == 1 and "needs override on helm" in stop.stderr
+        sent = system.ctl("--role", "ood", "send", "cc", "RUN_MISSION", "--seen")
+        assert sent.returncode == 0, sent.stderr
+        wait_for(lambda: system.module("helm")["command"] == "ICE_MANEUVER", "the helm steering")
+        turn = system.ctl(
+            "--role", "helmsman", "send", "rudder", "GOTO_ANGLE", "angle=-20", "--override"
+        )
+        assert turn.returncode == 0, turn.stderr
+        wait_for(lambda: system.module("rudder")["args"] == {"angle": -20.0}, "his order")
+        assert system.module("helm")["run"] == "STOP", "the helm's orders are suspended"
+        wait_for(lambda: system.json()["world"]["rudder_angle"] <= -10.0, "the rudder turning")
+    finally:
+        out = system.stop()
+    assert "ship: stopped" in out

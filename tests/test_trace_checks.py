@@ -265,12 +265,13 @@ def test_an_operator_modules_channels_are_lanes_of_the_operator_module() -> None
     assert traces.module_of("op/fx") == "op" and traces.module_of("ws") == "ws"
     lanes = traces.lanes(trace, inspection)
     assert [lane.module for lane in lanes] == [
-        "ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim"
+        "shop", "wc", "ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim"
     ]  # fmt: skip
     by_row = {lane.module: lane for lane in lanes}
     op = inspection.controller("op")
-    assert by_row["op/fx"] == traces.Lane("op/fx", op.title, 4, False, "op")
-    assert by_row["ws"] == traces.Lane("ws", "Inspection workstation", 1, False, "ws")
+    # shop 1, workcell 2, workstation 3, measurement 4, tooling 5: op below its deepest client
+    assert by_row["op/fx"] == traces.Lane("op/fx", op.title, 6, False, "op")
+    assert by_row["ws"] == traces.Lane("ws", "Inspection workstation", 3, False, "ws")
     sim = by_row["cmm_sim"]
     assert (sim.level, sim.simulator, sim.title) == (0, True, "CMM (simulated)")
     assert traces.process_of(inspection, trace) is inspection.processes[0]

@@ -11,7 +11,9 @@ SOURCES = (
     "inspection/fx.yaml",
     "inspection/ms.yaml",
     "inspection/op.yaml",
+    "inspection/shop.yaml",
     "inspection/system.yaml",
     "inspection/tl.yaml",
+    "inspection/wc.yaml",
     "inspection/ws.yaml",
 )

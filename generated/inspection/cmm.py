@@ -27,25 +27,26 @@ INSPECT_FEATURE = 6
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIq44x???1xI400xq8xq8xq8xq24x?")
-INPUTS_AT = 792
+INPUTS_AT = 1152
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QqQqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1256
+WORLD_OUT_1_AT = 1616
 WORLD_HELD_1 = (OVERRIDE["cmm_op"], OVERRIDE["cmm_feature"], OVERRIDE["cmm_seq"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 
-# Constants.
-OP_HOME = 1
-OP_CALIBRATE_PROBE = 2
-OP_CALIBRATE_CAMERA = 3
-OP_MEASURE = 4
+# Enumeration values its tables name (a field holds its value's index).
+NO_OPERATION = 0
+HOMING = 1
+PROBE_CALIBRATION = 2
+CAMERA_CALIBRATION = 3
+MEASUREMENT = 4
 
 
 class CmmController:
@@ -247,7 +248,7 @@ class CmmController:
         state = self.state
         if state == S0:
             self.rule = 2  # HALT/S0/1
-            self.world_cmm_op = 0
+            self.world_cmm_op = NO_OPERATION
             self.state = NOP
             self.status = DONE
 
@@ -257,20 +258,20 @@ class CmmController:
         if state == S0:
             self.rule = 3  # HOME/S0/1
             self.state = S1
-            self.world_cmm_op = OP_HOME
+            self.world_cmm_op = HOMING
             self.world_cmm_seq = self.world_cmm_seq + 1
 
         elif state == S1:
             if self.world_cmm_alarm:
                 # the machine alarms
                 self.rule = 4  # HOME/S1/1
-                self.world_cmm_op = 0
+                self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = ERROR
 
             elif not self.world_cmm_alarm and self.world_cmm_done_seq == self.world_cmm_seq:
                 self.rule = 5  # HOME/S1/2
-                self.world_cmm_op = 0
+                self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = DONE
 
@@ -280,20 +281,20 @@ class CmmController:
         if state == S0:
             self.rule = 6  # CALIBRATE_PROBE/S0/1
             self.state = S1
-            self.world_cmm_op = OP_CALIBRATE_PROBE
+            self.world_cmm_op = PROBE_CALIBRATION
             self.world_cmm_seq = self.world_cmm_seq + 1
 
         elif state == S1:
             if self.world_cmm_alarm:
                 # the machine alarms
                 self.rule = 7  # CALIBRATE_PROBE/S1/1
-                self.world_cmm_op = 0
+                self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = ERROR
 
             elif not self.world_cmm_alarm and self.world_cmm_done_seq == self.world_cmm_seq:
                 self.rule = 8  # CALIBRATE_PROBE/S1/2
-                self.world_cmm_op = 0
+                self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = DONE
 
@@ -305,20 +306,20 @@ class CmmController:
         if state == S0:
             self.rule = 9  # CALIBRATE_CAMERA/S0/1
             self.state = S1
-            self.world_cmm_op = OP_CALIBRATE_CAMERA
+            self.world_cmm_op = CAMERA_CALIBRATION
             self.world_cmm_seq = self.world_cmm_seq + 1
 
         elif state == S1:
             if self.world_cmm_alarm:
                 # the machine alarms
                 self.rule = 10  # CALIBRATE_CAMERA/S1/1
-                self.world_cmm_op = 0
+                self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = ERROR
 
             elif not self.world_cmm_alarm and self.world_cmm_done_seq == self.world_cmm_seq:
                 self.rule = 11  # CALIBRATE_CAMERA/S1/2
-                self.world_cmm_op = 0
+                self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = DONE
 
@@ -330,7 +331,7 @@ class CmmController:
         if state == S0:
             self.rule = 12  # INSPECT_FEATURE/S0/1
             self.state = S1
-            self.world_cmm_op = OP_MEASURE
+            self.world_cmm_op = MEASUREMENT
             self.world_cmm_seq = self.world_cmm_seq + 1
             self.world_cmm_feature = self.arg_number
 
@@ -338,12 +339,12 @@ class CmmController:
             if self.world_cmm_alarm:
                 # the machine alarms
                 self.rule = 13  # INSPECT_FEATURE/S1/1
-                self.world_cmm_op = 0
+                self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = ERROR
 
             elif not self.world_cmm_alarm and self.world_cmm_done_seq == self.world_cmm_seq:
                 self.rule = 14  # INSPECT_FEATURE/S1/2
-                self.world_cmm_op = 0
+                self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = DONE

@@ -36,18 +36,18 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI56xq8xq8xq8xq8xd8x?15x?")
-INPUTS_AT = 1136
+INPUTS_AT = 1496
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1136
+SEQS_AT = 1496
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QqQdQ?")
 WORLD_VALUES_1 = Struct("<8xq8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1304
+WORLD_OUT_1_AT = 1664
 WORLD_HELD_1 = (
     OVERRIDE["cmm_done_seq"],
     OVERRIDE["cmm_reading"],
@@ -59,7 +59,10 @@ S0 = 1
 
 # Constants.
 MOTION_CYCLES = 4
-OP_MEASURE = 4
+
+# Enumeration values its tables name (a field holds its value's index).
+NO_OPERATION = 0
+MEASUREMENT = 4
 
 
 class CmmSimController:
@@ -296,7 +299,7 @@ class CmmSimController:
 
         elif (
             not self.world_cmm_alarm
-            and self.world_cmm_op == OP_MEASURE
+            and self.world_cmm_op == MEASUREMENT
             and self.world_cmm_seq != self.world_cmm_done_seq
             and self.var_moving >= MOTION_CYCLES
         ):
@@ -310,7 +313,7 @@ class CmmSimController:
 
         elif (
             not self.world_cmm_alarm
-            and self.world_cmm_op != 0
+            and self.world_cmm_op != NO_OPERATION
             and self.world_cmm_seq != self.world_cmm_done_seq
             and self.var_moving >= MOTION_CYCLES
         ):
@@ -321,7 +324,7 @@ class CmmSimController:
 
         elif (
             not self.world_cmm_alarm
-            and self.world_cmm_op != 0
+            and self.world_cmm_op != NO_OPERATION
             and self.world_cmm_seq != self.world_cmm_done_seq
         ):
             # the machine moves

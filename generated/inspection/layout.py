@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 1944 bytes.
+The block is 2424 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -24,59 +24,69 @@ command buffers and world fields:
 |-------:|-----:|--------|--------------------|
 | 80 | 88 | PROCESS_IWS | PROCESS_FIELDS |
 | 168 | 16 | PACE_IWS | PACE_FIELDS |
-| 184 | 52 | WS_COMMAND | command_num, command, arg_program |
-| 240 | 41 | WS_STATUS | STATUS_FIELDS |
-| 288 | 16 | WS_MODE | MODE_FIELDS |
-| 304 | 48 | WS_PERF | PERF_FIELDS |
-| 352 | 52 | MS_COMMAND | command_num, command, arg_program |
-| 408 | 56 | MS_STATUS | STATUS_FIELDS |
-| 464 | 16 | MS_MODE | MODE_FIELDS |
-| 480 | 48 | MS_PERF | PERF_FIELDS |
-| 528 | 20 | FX_COMMAND | command_num, command |
-| 552 | 40 | FX_STATUS | STATUS_FIELDS |
-| 592 | 16 | FX_MODE | MODE_FIELDS |
-| 608 | 48 | FX_PERF | PERF_FIELDS |
-| 656 | 20 | TL_COMMAND | command_num, command |
-| 680 | 40 | TL_STATUS | STATUS_FIELDS |
-| 720 | 16 | TL_MODE | MODE_FIELDS |
-| 736 | 48 | TL_PERF | PERF_FIELDS |
-| 784 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 816 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 848 | 16 | CMM_MODE | MODE_FIELDS |
-| 864 | 48 | CMM_PERF | PERF_FIELDS |
-| 912 | 16 | OP_MODE | MODE_FIELDS |
-| 928 | 48 | OP_PERF | PERF_FIELDS |
-| 976 | 20 | OP_FX_COMMAND | command_num, command |
-| 1000 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 1032 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 1056 | 20 | OP_TL_COMMAND | command_num, command |
-| 1080 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 1112 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 1136 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 1160 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 1192 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1208 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1256 | 16 | WORLD_CMM_OP | cmm_op |
-| 1272 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1288 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1304 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1320 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1336 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1352 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 1368 | 9 | OVERRIDES | any |
-| 1384 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 1408 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 1432 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 1456 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 1480 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 1504 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 1528 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 1552 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
-| 1656 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 1744 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 1800 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 1856 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
-| 1904 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 184 | 60 | SHOP_COMMAND | command_num, command, arg_program, arg_parts |
+| 248 | 57 | SHOP_STATUS | STATUS_FIELDS |
+| 312 | 16 | SHOP_MODE | MODE_FIELDS |
+| 328 | 48 | SHOP_PERF | PERF_FIELDS |
+| 376 | 52 | WC_COMMAND | command_num, command, arg_program |
+| 432 | 41 | WC_STATUS | STATUS_FIELDS |
+| 480 | 16 | WC_MODE | MODE_FIELDS |
+| 496 | 48 | WC_PERF | PERF_FIELDS |
+| 544 | 52 | WS_COMMAND | command_num, command, arg_program |
+| 600 | 41 | WS_STATUS | STATUS_FIELDS |
+| 648 | 16 | WS_MODE | MODE_FIELDS |
+| 664 | 48 | WS_PERF | PERF_FIELDS |
+| 712 | 52 | MS_COMMAND | command_num, command, arg_program |
+| 768 | 56 | MS_STATUS | STATUS_FIELDS |
+| 824 | 16 | MS_MODE | MODE_FIELDS |
+| 840 | 48 | MS_PERF | PERF_FIELDS |
+| 888 | 20 | FX_COMMAND | command_num, command |
+| 912 | 40 | FX_STATUS | STATUS_FIELDS |
+| 952 | 16 | FX_MODE | MODE_FIELDS |
+| 968 | 48 | FX_PERF | PERF_FIELDS |
+| 1016 | 20 | TL_COMMAND | command_num, command |
+| 1040 | 40 | TL_STATUS | STATUS_FIELDS |
+| 1080 | 16 | TL_MODE | MODE_FIELDS |
+| 1096 | 48 | TL_PERF | PERF_FIELDS |
+| 1144 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 1176 | 32 | CMM_STATUS | STATUS_FIELDS |
+| 1208 | 16 | CMM_MODE | MODE_FIELDS |
+| 1224 | 48 | CMM_PERF | PERF_FIELDS |
+| 1272 | 16 | OP_MODE | MODE_FIELDS |
+| 1288 | 48 | OP_PERF | PERF_FIELDS |
+| 1336 | 20 | OP_FX_COMMAND | command_num, command |
+| 1360 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 1392 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 1416 | 20 | OP_TL_COMMAND | command_num, command |
+| 1440 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 1472 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 1496 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 1520 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 1552 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1568 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1616 | 16 | WORLD_CMM_OP | cmm_op |
+| 1632 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1648 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1664 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1680 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1696 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1712 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 1728 | 9 | OVERRIDES | any |
+| 1744 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 1768 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 1792 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 1816 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 1840 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 1864 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 1888 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 1912 | 72 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, COUNTED |
+| 1984 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 2032 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
+| 2136 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 2224 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 2280 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 2336 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
+| 2384 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -108,89 +118,109 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 1944
+SIZE = 2424
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "81d1eec29de58926045d942db9027b1a"
+LAYOUT_HASH = "8d9392a57370bcac1df939e99f5f19d6"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 168
 
+# shop: Shop
+SHOP_COMMAND = Struct("<QQI32sq")  # seq, command_num, command, arg_program, arg_parts
+SHOP_COMMAND_AT = 184
+SHOP_STATUS = Struct(
+    "<QQIIiiqq?Q"
+)  # seq, status_num, status, error_num, state, rule, result_passed, result_rejected, result_accepted, cause
+SHOP_STATUS_AT = 248
+SHOP_MODE_AT = 312
+SHOP_PERF_AT = 328
+
+# wc: Workcell
+WC_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
+WC_COMMAND_AT = 376
+WC_STATUS = Struct(
+    "<QQIIii?Q"
+)  # seq, status_num, status, error_num, state, rule, result_accepted, cause
+WC_STATUS_AT = 432
+WC_MODE_AT = 480
+WC_PERF_AT = 496
+
 # ws: Inspection workstation
 WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-WS_COMMAND_AT = 184
+WS_COMMAND_AT = 544
 WS_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_accepted, cause
-WS_STATUS_AT = 240
-WS_MODE_AT = 288
-WS_PERF_AT = 304
+WS_STATUS_AT = 600
+WS_MODE_AT = 648
+WS_PERF_AT = 664
 
 # ms: Measurement
 MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-MS_COMMAND_AT = 352
+MS_COMMAND_AT = 712
 MS_STATUS = Struct(
     "<QQIIiiqqQ"
 )  # seq, status_num, status, error_num, state, rule, result_measured, result_failed, cause
-MS_STATUS_AT = 408
-MS_MODE_AT = 464
-MS_PERF_AT = 480
+MS_STATUS_AT = 768
+MS_MODE_AT = 824
+MS_PERF_AT = 840
 
 # fx: Fixturing (performed by the operator)
 FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 528
+FX_COMMAND_AT = 888
 FX_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-FX_STATUS_AT = 552
-FX_MODE_AT = 592
-FX_PERF_AT = 608
+FX_STATUS_AT = 912
+FX_MODE_AT = 952
+FX_PERF_AT = 968
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 656
+TL_COMMAND_AT = 1016
 TL_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-TL_STATUS_AT = 680
-TL_MODE_AT = 720
-TL_PERF_AT = 736
+TL_STATUS_AT = 1040
+TL_MODE_AT = 1080
+TL_PERF_AT = 1096
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 784
-CMM_STATUS_AT = 816
-CMM_MODE_AT = 848
-CMM_PERF_AT = 864
+CMM_COMMAND_AT = 1144
+CMM_STATUS_AT = 1176
+CMM_MODE_AT = 1208
+CMM_PERF_AT = 1224
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 1136
-CMM_SIM_STATUS_AT = 1160
-CMM_SIM_MODE_AT = 1192
-CMM_SIM_PERF_AT = 1208
+CMM_SIM_COMMAND_AT = 1496
+CMM_SIM_STATUS_AT = 1520
+CMM_SIM_MODE_AT = 1552
+CMM_SIM_PERF_AT = 1568
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 912
-OP_PERF_AT = 928
+OP_MODE_AT = 1272
+OP_PERF_AT = 1288
 OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_FX_COMMAND_AT = 976
-OP_FX_STATUS_AT = 1000
-OP_FX_ANSWER_AT = 1032
+OP_FX_COMMAND_AT = 1336
+OP_FX_STATUS_AT = 1360
+OP_FX_ANSWER_AT = 1392
 OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_TL_COMMAND_AT = 1056
-OP_TL_STATUS_AT = 1080
-OP_TL_ANSWER_AT = 1112
+OP_TL_COMMAND_AT = 1416
+OP_TL_STATUS_AT = 1440
+OP_TL_ANSWER_AT = 1472
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1256
+WORLD_CMM_OP_AT = 1616
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1272
+WORLD_CMM_FEATURE_AT = 1632
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1288
+WORLD_CMM_SEQ_AT = 1648
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1304
+WORLD_CMM_DONE_SEQ_AT = 1664
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1320
+WORLD_CMM_READING_AT = 1680
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1336
+WORLD_CMM_ALARM_AT = 1696
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1352
+WORLD_CMM_FAULT_AT = 1712
 
 
 PROCESSES = {
@@ -202,6 +232,8 @@ PACING = {
 }
 # The process each module runs in (a stand-in runs in its controller's).
 PLACEMENT = {
+    "shop": "iws",
+    "wc": "iws",
     "ws": "iws",
     "ms": "iws",
     "fx": "iws",
@@ -218,6 +250,8 @@ HEARTBEAT_TIMEOUT = 5.0
 STARTUP_TIMEOUT = 10.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
+    "shop": ("wc",),
+    "wc": ("ws",),
     "ws": ("ms", "fx"),
     "ms": ("tl", "cmm"),
     "fx": ("op/fx",),
@@ -231,8 +265,12 @@ SUBORDINATES = {
 ON_LOST_CONTINUE: dict[str, tuple[str, ...]] = {}
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {}
-MODULES = ("ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim")
+MODULES = ("shop", "wc", "ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim")
 COMMAND_IN = {
+    "shop": Record(
+        SHOP_COMMAND, SHOP_COMMAND_AT, ("command_num", "command", "arg_program", "arg_parts")
+    ),
+    "wc": Record(WC_COMMAND, WC_COMMAND_AT, ("command_num", "command", "arg_program")),
     "ws": Record(WS_COMMAND, WS_COMMAND_AT, ("command_num", "command", "arg_program")),
     "ms": Record(MS_COMMAND, MS_COMMAND_AT, ("command_num", "command", "arg_program")),
     "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command")),
@@ -243,6 +281,26 @@ COMMAND_IN = {
     "op/tl": Record(OP_TL_COMMAND, OP_TL_COMMAND_AT, ("command_num", "command")),
 }
 STATUS_OUT = {
+    "shop": Record(
+        SHOP_STATUS,
+        SHOP_STATUS_AT,
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "result_passed",
+            "result_rejected",
+            "result_accepted",
+            "cause",
+        ),
+    ),
+    "wc": Record(
+        WC_STATUS,
+        WC_STATUS_AT,
+        ("status_num", "status", "error_num", "state", "rule", "result_accepted", "cause"),
+    ),
     "ws": Record(
         WS_STATUS,
         WS_STATUS_AT,
@@ -274,6 +332,8 @@ STATUS_OUT = {
     "op/tl": Record(STATUS, OP_TL_STATUS_AT, field_names(STATUS_FIELDS)),
 }
 MODE_IN = {
+    "shop": Record(MODE, SHOP_MODE_AT, field_names(MODE_FIELDS)),
+    "wc": Record(MODE, WC_MODE_AT, field_names(MODE_FIELDS)),
     "ws": Record(MODE, WS_MODE_AT, field_names(MODE_FIELDS)),
     "ms": Record(MODE, MS_MODE_AT, field_names(MODE_FIELDS)),
     "fx": Record(MODE, FX_MODE_AT, field_names(MODE_FIELDS)),
@@ -285,6 +345,8 @@ MODE_IN = {
     "op/tl": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
 }
 PERFORMANCE = {
+    "shop": Record(PERF, SHOP_PERF_AT, field_names(PERF_FIELDS)),
+    "wc": Record(PERF, WC_PERF_AT, field_names(PERF_FIELDS)),
     "ws": Record(PERF, WS_PERF_AT, field_names(PERF_FIELDS)),
     "ms": Record(PERF, MS_PERF_AT, field_names(PERF_FIELDS)),
     "fx": Record(PERF, FX_PERF_AT, field_names(PERF_FIELDS)),
@@ -315,24 +377,35 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 1368
-OVERRIDDEN_AT = 1376  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 1728
+OVERRIDDEN_AT = 1736  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 1384, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 1408, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 1432, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 1456, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 1480, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 1504, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 1528, ("state", "cmm_fault")),
+    "cmm_op": Record(Struct("<QQq"), 1744, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 1768, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 1792, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 1816, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 1840, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 1864, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 1888, ("state", "cmm_fault")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
 SAFE_VALUES: dict[str, object] = {}
 # The process whose modules write each actuator.
 ACTUATED_BY = {}
+# The fields that hold an enumeration's value, by (module, or "" for the world; field): the
+# value names, indexed by the code the field holds, for traces, displays and `ctl send`.
+ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
+    ("", "cmm_op"): (
+        "NO_OPERATION",
+        "HOMING",
+        "PROBE_CALIBRATION",
+        "CAMERA_CALIBRATION",
+        "MEASUREMENT",
+    ),
+}
 # The modules that write each world field (a stand-in writes in its controller's place), for
 # `ctl force`: forcing a field takes it from them, which needs override on each.
 WORLD_WRITERS: dict[str, tuple[str, ...]] = {
@@ -350,9 +423,15 @@ GROUND_TRUTH = ()
 # state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
+    "shop": Record(
+        Struct("<QqQQQQQQQ"),
+        1912,
+        ("state", "since", "NOP", "S0", "S1", "SETTING_UP", "INSPECTING", "COUNTED"),
+    ),
+    "wc": Record(Struct("<QqQQQQ"), 1984, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        1552,
+        2032,
         (
             "state",
             "since",
@@ -370,16 +449,18 @@ TIME_IN_STATE = {
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        1656,
+        2136,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 1744, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 1800, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "cmm": Record(Struct("<QqQQQQ"), 1856, ("state", "since", "NOP", "S0", "S1")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 1904, ("state", "since", "NOP", "S0")),
+    "fx": Record(Struct("<QqQQQQQ"), 2224, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 2280, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "cmm": Record(Struct("<QqQQQQ"), 2336, ("state", "since", "NOP", "S0", "S1")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 2384, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
+    "shop": (NO_COMMAND_NAME, *("INIT", "HALT", "INSPECT_LOT", "INIT_FOR_INSPECT", "INSPECT_PART")),
+    "wc": (NO_COMMAND_NAME, *("INIT", "HALT", "INIT_FOR_INSPECT", "INSPECT_PART")),
     "ws": (NO_COMMAND_NAME, *("INIT", "HALT", "INIT_FOR_INSPECT", "INSPECT_PART")),
     "ms": (
         NO_COMMAND_NAME,
@@ -436,6 +517,13 @@ COMMAND_NAMES = {
 # `--send`, a scenario), each checked against its slot's type (rcs/operate/command.py). A command
 # not listed takes none.
 PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
+    "shop": {
+        "INSPECT_LOT": ("program", "parts"),
+        "INSPECT_PART": ("program",),
+    },
+    "wc": {
+        "INSPECT_PART": ("program",),
+    },
     "ws": {
         "INSPECT_PART": ("program",),
     },
@@ -447,6 +535,8 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     },
 }
 STATE_NAMES = {
+    "shop": ("NOP", "S0", "S1", "SETTING_UP", "INSPECTING", "COUNTED"),
+    "wc": ("NOP", "S0", "S1"),
     "ws": (
         "NOP",
         "S0",
@@ -471,6 +561,8 @@ STATE_NAMES = {
 # controllers and operator modules that declare reasons (docs/semantics.md, "Results and
 # reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {
+    "shop": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
+    "wc": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ws": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ms": ("NONE", "LOST", "MACHINE_FAULT", "REFUSED", "TIMED_OUT"),
     "fx": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
@@ -479,9 +571,44 @@ REASON_NAMES: dict[str, tuple[str, ...]] = {
 }
 # The modules a link of a status buffer's `cause` numbers, from 1 (rcs/contract.py
 # cause_text; docs/semantics.md, "Reasons survive").
-CAUSE_MODULES = ("ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim")
+CAUSE_MODULES = ("shop", "wc", "ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim")
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
+    "shop": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "INSPECT_LOT/S0/1",
+        "INSPECT_LOT/SETTING_UP/1",
+        "INSPECT_LOT/SETTING_UP/2",
+        "INSPECT_LOT/SETTING_UP/3",
+        "INSPECT_LOT/INSPECTING/1",
+        "INSPECT_LOT/INSPECTING/2",
+        "INSPECT_LOT/INSPECTING/3",
+        "INSPECT_LOT/COUNTED/1",
+        "INSPECT_LOT/COUNTED/2",
+        "INIT_FOR_INSPECT/S0/1",
+        "INIT_FOR_INSPECT/S1/1",
+        "INIT_FOR_INSPECT/S1/2",
+        "INSPECT_PART/S0/1",
+        "INSPECT_PART/S1/1",
+        "INSPECT_PART/S1/2",
+    ),
+    "wc": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "INIT_FOR_INSPECT/S0/1",
+        "INIT_FOR_INSPECT/S1/1",
+        "INIT_FOR_INSPECT/S1/2",
+        "INSPECT_PART/S0/1",
+        "INSPECT_PART/S1/1",
+        "INSPECT_PART/S1/2",
+    ),
     "ws": (
         "",
         "INIT/S0/1",
@@ -610,10 +737,14 @@ SIMULATORS = ("cmm_sim",)
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {
     "inspector": {
-        "ws": 2,  # command
         "op": 1,  # respond
     },
+    "guardian": {
+        "shop": 2,  # command
+    },
     "engineer": {
+        "shop": 3,  # override
+        "wc": 3,  # override
         "ws": 3,  # override
         "ms": 3,  # override
         "fx": 3,  # override

@@ -20,7 +20,6 @@ from .rcs.contract import (
     NO_RULE,
     NOP,
     PERF,
-    READ_TRIES,
     SEQ,
     caused,
     decode_text,
@@ -54,7 +53,7 @@ MS_REASON_LOST = 1
 MS_REASON_MACHINE_FAULT = 2
 MS_REASON_REFUSED = 3
 MS_REASON_TIMED_OUT = 4
-MS_LINK = 2  # its number in the layout's CAUSE_MODULES
+MS_LINK = 4  # its number in the layout's CAUSE_MODULES
 
 # Commands ws sends to fx.
 FX_INIT = 1
@@ -68,16 +67,12 @@ FX_REASON_NONE = 0
 FX_REASON_LOST = 1
 FX_REASON_REFUSED = 2
 FX_REASON_TIMED_OUT = 3
-FX_LINK = 3  # its number in the layout's CAUSE_MODULES
+FX_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI32s60x???1xI112xQII16xqQ96xQII8xQ")
-INPUTS_AT = 184
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 184
+INPUTS = Struct("<QI32s60x???1xI112xQII16xqQ96xQII8xQ")
+INPUTS_AT = 552
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -198,30 +193,25 @@ class WsController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
-        values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
-            self.read_inputs()  # being written by another process: read again, out of line
-        else:
-            (
-                _,
-                self.command_num,
-                self.command,
-                self.arg_program,
-                self.dont_run,
-                self.single_step,
-                self.simulate,
-                self.single_step_num,
-                self.ms_status_num,
-                self.ms_status,
-                self.ms_error_num,
-                self.ms_result_failed,
-                self.ms_cause,
-                self.fx_status_num,
-                self.fx_status,
-                self.fx_error_num,
-                self.fx_cause,
-            ) = values
-            self.arg_program = decode_text(self.arg_program)
+        (
+            self.command_num,
+            self.command,
+            self.arg_program,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.ms_status_num,
+            self.ms_status,
+            self.ms_error_num,
+            self.ms_result_failed,
+            self.ms_cause,
+            self.fx_status_num,
+            self.fx_status,
+            self.fx_error_num,
+            self.fx_cause,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.arg_program = decode_text(self.arg_program)
         if self.ms_status_num != self.ms_command_num:
             self.ms_status = EXECUTING  # until it echoes the last number sent
             self.ms_result_failed = 0  # no result yet
@@ -338,25 +328,9 @@ class WsController:
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
-        """pre_process's read when another process was writing an input: read again, up to
-        READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
-        the `first` read takes the block's values as they are, with no new command and the
-        table held, so a module is never half-built."""
+        """The inputs as they are in the block: all written in this module's process."""
         buf = self.buf
-        whole = False
-        for _ in range(READ_TRIES):
-            values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (
-                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
-            ):
-                whole = True
-                break
-        else:  # another process kept writing
-            self.stale_reads += 1
-            if not first:
-                return
         (
-            _,
             self.command_num,
             self.command,
             self.arg_program,
@@ -373,10 +347,8 @@ class WsController:
             self.fx_status,
             self.fx_error_num,
             self.fx_cause,
-        ) = values
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
-        if not whole:
-            self.command_num, self.dont_run = self.status_num, True
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

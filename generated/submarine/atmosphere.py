@@ -9,8 +9,11 @@ from .layout import (
     ATMOSPHERE_STATUS_AT,
     OVERRIDDEN_AT,
     OVERRIDE,
+    WORLD_CO2_PCT_AT,
     WORLD_CO_PPM_AT,
     WORLD_FIRE_AT,
+    WORLD_O2_PCT_AT,
+    WORLD_SMOKE_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
 from .rcs.override import held
@@ -21,26 +24,44 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI104xd376x?15xd")
-INPUTS_AT = 1240
+INPUTS = Struct("<QQI44x???1xI240xd456x?15xd8xd8xd40xd")
+INPUTS_AT = 1632
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1240
+SEQS_AT = 1632
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_1 = Struct("<Q?7xQd")
-WORLD_VALUES_1 = Struct("<8x?15xd")
-WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1792
-WORLD_HELD_1 = (OVERRIDE["fire"], OVERRIDE["co_ppm"])  # their overrides
+WORLD_OUT_1 = Struct("<Q?7xQdQdQd")
+WORLD_VALUES_1 = Struct("<8x?15xd8xd8xd")
+WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
+WORLD_OUT_1_AT = 2400
+WORLD_HELD_1 = (
+    OVERRIDE["fire"],
+    OVERRIDE["smoke"],
+    OVERRIDE["o2_pct"],
+    OVERRIDE["co2_pct"],
+)  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_2 = Struct("<Qd")
+WORLD_VALUES_2 = Struct("<8xd")
+WORLD_SEQS_2 = Struct("<Q")
+WORLD_OUT_2_AT = 2496
+WORLD_HELD_2 = (OVERRIDE["co_ppm"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 
 # Constants.
 FIRE_CO = 40.0
+FIRE_SMOKE = 5.0
+FIRE_CO2 = 0.02
+FIRE_O2 = 0.03
+O2_NORMAL = 20.9
+CO2_NORMAL = 0.5
 
 
 def vented(co: float, made: float, flow: float) -> float:
@@ -74,9 +95,12 @@ class AtmosphereController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "world_co2_pct",
         "world_co_ppm",
         "world_fire",
+        "world_o2_pct",
         "world_set",
+        "world_smoke",
         "world_vent_flow",
     )
 
@@ -126,6 +150,9 @@ class AtmosphereController:
                 self.single_step_num,
                 self.world_vent_flow,
                 self.world_fire,
+                self.world_smoke,
+                self.world_o2_pct,
+                self.world_co2_pct,
                 self.world_co_ppm,
             ) = values
 
@@ -173,17 +200,41 @@ class AtmosphereController:
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
             self.world_set = False
-            out = (self.world_fire, self.world_co_ppm)
+            out = (self.world_fire, self.world_smoke, self.world_o2_pct, self.world_co2_pct)
             now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
                 SEQ.pack_into(buf, WORLD_FIRE_AT, s[0] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_CO_PPM_AT, s[1] | 1)  # odd before the value changes
-                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+                SEQ.pack_into(buf, WORLD_SMOKE_AT, s[1] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_O2_PCT_AT, s[2] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_CO2_PCT_AT, s[3] | 1)  # odd before the value changes
+                WORLD_OUT_1.pack_into(
+                    buf,
+                    WORLD_OUT_1_AT,
+                    s[0] | 1,
+                    out[0],
+                    s[1] | 1,
+                    out[1],
+                    s[2] | 1,
+                    out[2],
+                    s[3] | 1,
+                    out[3],
+                )
                 SEQ.pack_into(buf, WORLD_FIRE_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_CO_PPM_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SMOKE_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_O2_PCT_AT, (s[2] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_CO2_PCT_AT, (s[3] | 1) + 1)
+            out = (self.world_co_ppm,)
+            now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_2, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
+                SEQ.pack_into(buf, WORLD_CO_PPM_AT, s[0] | 1)  # odd before the value changes
+                WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0])
+                SEQ.pack_into(buf, WORLD_CO_PPM_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -237,6 +288,9 @@ class AtmosphereController:
             self.single_step_num,
             self.world_vent_flow,
             self.world_fire,
+            self.world_smoke,
+            self.world_o2_pct,
+            self.world_co2_pct,
             self.world_co_ppm,
         ) = values
         if not whole:
@@ -250,16 +304,37 @@ class AtmosphereController:
             self.world_set = True  # it sets world outputs
             self.world_fire = False
             self.world_co_ppm = vented(self.world_co_ppm, 0.0, self.world_vent_flow)
+            self.world_smoke = vented(self.world_smoke, 0.0, self.world_vent_flow)
+            self.world_co2_pct = CO2_NORMAL + vented(
+                self.world_co2_pct - CO2_NORMAL, 0.0, self.world_vent_flow
+            )
+            self.world_o2_pct = O2_NORMAL - vented(
+                O2_NORMAL - self.world_o2_pct, 0.0, self.world_vent_flow
+            )
 
         elif self.world_fire:
             # the fire burns; the damage control party fights it
             self.world_set = True  # it sets world outputs
             self.world_co_ppm = vented(self.world_co_ppm, FIRE_CO, self.world_vent_flow)
+            self.world_smoke = vented(self.world_smoke, FIRE_SMOKE, self.world_vent_flow)
+            self.world_co2_pct = CO2_NORMAL + vented(
+                self.world_co2_pct - CO2_NORMAL, FIRE_CO2, self.world_vent_flow
+            )
+            self.world_o2_pct = O2_NORMAL - vented(
+                O2_NORMAL - self.world_o2_pct, FIRE_O2, self.world_vent_flow
+            )
 
         elif self.world_co_ppm > 0.0:
-            # the ventilation line-up removes the gas
+            # the ventilation line-up removes the smoke and the gases (they came with the CO)
             self.world_set = True  # it sets world outputs
             self.world_co_ppm = vented(self.world_co_ppm, 0.0, self.world_vent_flow)
+            self.world_smoke = vented(self.world_smoke, 0.0, self.world_vent_flow)
+            self.world_co2_pct = CO2_NORMAL + vented(
+                self.world_co2_pct - CO2_NORMAL, 0.0, self.world_vent_flow
+            )
+            self.world_o2_pct = O2_NORMAL - vented(
+                O2_NORMAL - self.world_o2_pct, 0.0, self.world_vent_flow
+            )
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -12,8 +12,11 @@ from .layout import (
     CC_STATUS_AT,
     EC_COMMAND,
     EC_COMMAND_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
     SM_COMMAND,
     SM_COMMAND_AT,
+    WORLD_ANNOUNCEMENT_AT,
 )
 from .rcs.contract import (
     DONE,
@@ -26,9 +29,12 @@ from .rcs.contract import (
     SEQ,
     HookError,
     caused,
+    decode_text,
+    encode_text,
     plan_problem,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
+from .rcs.override import held
 
 # Commands cc accepts (the code written to its command buffer).
 INIT = 1
@@ -39,43 +45,60 @@ RUN_MISSION = 3
 REASON_NONE = 0
 REASON_LOST = 1
 REASON_BLOCKED = 2
+REASON_OUT_OF_HAVEN = 3
+REASON_REFUSED = 4
 
 # Commands cc sends to sm.
 SM_INIT = 1
 SM_HALT = 2
 SM_SUBMERGED_TRANSIT = 3
 SM_PREP_EMERGENCY_VENT = 4
+SM_PREP_SUBMERGED_TRANSIT = 5
 # Why sm may end a command in ERROR (its error_num).
 SM_REASON_NONE = 0
 SM_REASON_LOST = 1
 SM_REASON_BLOCKED = 2
+SM_REASON_OUT_OF_HAVEN = 3
+SM_REASON_REFUSED = 4
 SM_LINK = 2  # its number in the layout's CAUSE_MODULES
 
 # Commands cc sends to ec.
 EC_INIT = 1
 EC_HALT = 2
 EC_SUBMERGED_VENT = 3
-EC_EMERGENCY_VENT = 4
+EC_LINE_UP_EMERGENCY_VENT = 4
+EC_EMERGENCY_VENT = 5
 EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1292xd")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1316x48s536xd72xd")
 INPUTS_AT = 184
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
 SEQS_AT = 184
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_1 = Struct("<Q48s")
+WORLD_VALUES_1 = Struct("<8x48s")
+WORLD_SEQS_1 = Struct("<Q")
+WORLD_OUT_1_AT = 1832
+WORLD_HELD_1 = (OVERRIDE["announcement"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 TRANSIT = 3
 PREP_VENT = 4
-VENT = 5
+LINE_UP = 5
+VENT = 6
+RESUMING = 7
 
 # Constants.
 CO_HIGH = 50.0
+SMOKE_HIGH = 10.0
 
 
 class CcController:
@@ -129,7 +152,9 @@ class CcController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "world_announcement",
         "world_co_ppm",
+        "world_smoke",
     )
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
@@ -220,8 +245,11 @@ class CcController:
                 self.sm_cause,
                 self.ec_status_num,
                 self.ec_status,
+                self.world_announcement,
+                self.world_smoke,
                 self.world_co_ppm,
             ) = values
+            self.world_announcement = decode_text(self.world_announcement)
         if self.sm_status_num != self.sm_command_num:
             self.sm_status = EXECUTING  # until it echoes the last number sent
             self.sm_error_num = SM_REASON_NONE  # no reason yet
@@ -306,6 +334,17 @@ class CcController:
             EC_COMMAND.pack_into(buf, EC_COMMAND_AT, seq, self.ec_command_num, self.ec_command)
             SEQ.pack_into(buf, EC_COMMAND_AT, seq + 1)
             self.ec_written = self.ec_command_num
+        # a rule fired (it may have set world outputs), or a field is forced or latched safe
+        if self.rule or buf[OVERRIDDEN_AT]:
+            out = (encode_text(self.world_announcement, 48),)
+            now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_1, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                SEQ.pack_into(buf, WORLD_ANNOUNCEMENT_AT, s[0] | 1)  # odd before the value changes
+                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+                SEQ.pack_into(buf, WORLD_ANNOUNCEMENT_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -363,8 +402,11 @@ class CcController:
             self.sm_cause,
             self.ec_status_num,
             self.ec_status,
+            self.world_announcement,
+            self.world_smoke,
             self.world_co_ppm,
         ) = values
+        self.world_announcement = decode_text(self.world_announcement)
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
 
@@ -463,10 +505,13 @@ class CcController:
                 self.cause = 0  # DONE has no cause
 
         elif state == TRANSIT:
-            if self.world_co_ppm > CO_HIGH:
-                # (S2) smoke or gas high; SM prepare for emergency vent
+            if self.world_co_ppm > CO_HIGH or self.world_smoke > SMOKE_HIGH:
+                # (S2) smoke or gas high; all hands on EABs; SM prepare for emergency vent
                 self.rule = 8  # RUN_MISSION/TRANSIT/1
                 self.state = PREP_VENT
+                self.world_announcement = "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+                self.sm_arg_x = self.plan_route_x
+                self.sm_arg_y = self.plan_route_y
                 self.sm_command = SM_PREP_EMERGENCY_VENT
                 self.sm_command_num += 1
 
@@ -514,41 +559,83 @@ class CcController:
                 self.status = ERROR
                 self.error_num = REASON_BLOCKED
 
-            elif self.sm_status == ERROR or self.ec_status == ERROR:
+            elif self.sm_status == ERROR and self.sm_error_num == SM_REASON_OUT_OF_HAVEN:
+                # the submarine left its moving haven
                 self.rule = 12  # RUN_MISSION/TRANSIT/5
+                # sm's error: the cause of an ERROR this command reports
+                self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_OUT_OF_HAVEN
+
+            elif self.sm_status == ERROR or self.ec_status == ERROR:
+                self.rule = 13  # RUN_MISSION/TRANSIT/6
                 self.state = NOP
                 self.status = ERROR
 
         elif state == PREP_VENT:
             if self.sm_status == DONE:
-                # (S3) SM done; EC emergency vent
-                self.rule = 13  # RUN_MISSION/PREP_VENT/1
+                # (S3) SM done, at periscope depth; EC line up to emergency ventilate with the diesel
+                self.rule = 14  # RUN_MISSION/PREP_VENT/1
+                self.state = LINE_UP
+                self.ec_command = EC_LINE_UP_EMERGENCY_VENT
+                self.ec_command_num += 1
+
+            elif self.sm_status == ERROR:
+                # the ship could not prepare (the EOOW could not shift to the EPM)
+                self.rule = 15  # RUN_MISSION/PREP_VENT/2
+                # sm's error: the cause of an ERROR this command reports
+                self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
+                self.state = NOP
+                self.status = ERROR
+                # sm's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    SM_REASON_LOST: REASON_LOST,
+                    SM_REASON_BLOCKED: REASON_BLOCKED,
+                    SM_REASON_OUT_OF_HAVEN: REASON_OUT_OF_HAVEN,
+                    SM_REASON_REFUSED: REASON_REFUSED,
+                }.get(self.sm_error_num, REASON_NONE)
+
+        elif state == LINE_UP:
+            if self.ec_status == DONE:
+                # prepared to emergency ventilate with the diesel; commence snorkeling (EC emergency vent)
+                self.rule = 16  # RUN_MISSION/LINE_UP/1
                 self.state = VENT
                 self.ec_command = EC_EMERGENCY_VENT
                 self.ec_command_num += 1
 
-            elif self.sm_status == ERROR:
-                self.rule = 14  # RUN_MISSION/PREP_VENT/2
-                # sm's error: the cause of an ERROR this command reports
-                self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
+            elif self.ec_status == ERROR:
+                self.rule = 17  # RUN_MISSION/LINE_UP/2
+                # ec's error: the cause of an ERROR this command reports
+                self.cause = caused(EC_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
 
         elif state == VENT:
             if self.ec_status == DONE:
-                # (S4) fire out, smoke and gas normal; resume the transit to the same waypoint
-                self.rule = 15  # RUN_MISSION/VENT/1
-                self.state = TRANSIT
-                self.sm_arg_x = self.plan_route_x
-                self.sm_arg_y = self.plan_route_y
-                self.sm_command = SM_SUBMERGED_TRANSIT
+                # (S4) fire out, smoke and gas normal; EABs off; SM prepare for the submerged transit, EC submerged vent
+                self.rule = 18  # RUN_MISSION/VENT/1
+                self.state = RESUMING
+                self.world_announcement = "SECURE FROM FIRE, EABS MAY BE REMOVED"
+                self.sm_command = SM_PREP_SUBMERGED_TRANSIT
                 self.sm_command_num += 1
                 self.ec_command = EC_SUBMERGED_VENT
                 self.ec_command_num += 1
 
             elif self.ec_status == ERROR:
-                self.rule = 16  # RUN_MISSION/VENT/2
+                self.rule = 19  # RUN_MISSION/VENT/2
                 # ec's error: the cause of an ERROR this command reports
                 self.cause = caused(EC_LINK, 0, 0)
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == RESUMING:
+            if self.sm_status == DONE and self.ec_status == DONE:
+                # prepared; (S1) the transit to the same waypoint resumes
+                self.rule = 20  # RUN_MISSION/RESUMING/1
+                self.state = S1
+
+            elif self.sm_status == ERROR or self.ec_status == ERROR:
+                self.rule = 21  # RUN_MISSION/RESUMING/2
                 self.state = NOP
                 self.status = ERROR

@@ -9,7 +9,9 @@ from .layout import (
     EC_STATUS_AT,
     OVERRIDDEN_AT,
     OVERRIDE,
+    WORLD_DIESEL_RUNNING_AT,
     WORLD_VENT_FLOW_AT,
+    WORLD_VENT_LINEUP_AT,
 )
 from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
 from .rcs.override import held
@@ -18,11 +20,12 @@ from .rcs.override import held
 INIT = 1
 HALT = 2
 SUBMERGED_VENT = 3
-EMERGENCY_VENT = 4
+LINE_UP_EMERGENCY_VENT = 4
+EMERGENCY_VENT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI864xd376x?15xd")
+INPUTS = Struct("<QI44x???1xI1392xd456x?15xd8xd8xd8xq8x?15xd")
 INPUTS_AT = 488
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -30,8 +33,16 @@ INPUTS_AT = 488
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 1408
+WORLD_OUT_1_AT = 1936
 WORLD_HELD_1 = (OVERRIDE["vent_flow"],)  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_2 = Struct("<QqQ?")
+WORLD_VALUES_2 = Struct("<8xq8x?")
+WORLD_SEQS_2 = Struct("<Q8xQ")
+WORLD_OUT_2_AT = 2464
+WORLD_HELD_2 = (OVERRIDE["vent_lineup"], OVERRIDE["diesel_running"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -41,6 +52,13 @@ S1 = 2
 RECIRCULATE = 0.002
 EMERGENCY = 0.05
 CO_SAFE = 5.0
+SMOKE_SAFE = 5.0
+O2_SAFE = 19.5
+CO2_SAFE = 1.0
+
+# Enumeration values its tables name (a field holds its value's index).
+RECIRCULATION = 0
+DIESEL_VENTILATION = 1
 
 
 class EcController:
@@ -68,9 +86,14 @@ class EcController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "world_co2_pct",
         "world_co_ppm",
+        "world_diesel_running",
         "world_fire",
+        "world_o2_pct",
+        "world_smoke",
         "world_vent_flow",
+        "world_vent_lineup",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -112,6 +135,11 @@ class EcController:
             self.single_step_num,
             self.world_vent_flow,
             self.world_fire,
+            self.world_smoke,
+            self.world_o2_pct,
+            self.world_co2_pct,
+            self.world_vent_lineup,
+            self.world_diesel_running,
             self.world_co_ppm,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
@@ -139,6 +167,8 @@ class EcController:
                 self.halt()
             elif command == SUBMERGED_VENT:
                 self.submerged_vent()
+            elif command == LINE_UP_EMERGENCY_VENT:
+                self.line_up_emergency_vent()
             elif command == EMERGENCY_VENT:
                 self.emergency_vent()
 
@@ -170,6 +200,19 @@ class EcController:
                 SEQ.pack_into(buf, WORLD_VENT_FLOW_AT, s[0] | 1)  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
                 SEQ.pack_into(buf, WORLD_VENT_FLOW_AT, (s[0] | 1) + 1)
+            out = (self.world_vent_lineup, self.world_diesel_running)
+            now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_2, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
+                SEQ.pack_into(buf, WORLD_VENT_LINEUP_AT, s[0] | 1)  # odd before the value changes
+                SEQ.pack_into(
+                    buf, WORLD_DIESEL_RUNNING_AT, s[1] | 1
+                )  # odd before the value changes
+                WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+                SEQ.pack_into(buf, WORLD_VENT_LINEUP_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_DIESEL_RUNNING_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -207,6 +250,11 @@ class EcController:
             self.single_step_num,
             self.world_vent_flow,
             self.world_fire,
+            self.world_smoke,
+            self.world_o2_pct,
+            self.world_co2_pct,
+            self.world_vent_lineup,
+            self.world_diesel_running,
             self.world_co_ppm,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
@@ -232,24 +280,49 @@ class EcController:
         if state == S0:
             self.rule = 3  # SUBMERGED_VENT/S0/1
             self.world_vent_flow = RECIRCULATE
+            self.world_vent_lineup = RECIRCULATION
+            self.state = NOP
+            self.status = DONE
+
+    def line_up_emergency_vent(self) -> None:
+        """LINE_UP_EMERGENCY_VENT: Line up to emergency ventilate the engine room with the diesel
+        (4.1.3: "The BCP selects the ventilation lineup ... When the lineup is proper, the BCP
+        operator reports to the OOD 'Prepared to emergency ventilate the engine room with the
+        diesel.'").
+        """
+        state = self.state
+        if state == S0:
+            self.rule = 4  # LINE_UP_EMERGENCY_VENT/S0/1
+            self.world_vent_lineup = DIESEL_VENTILATION
             self.state = NOP
             self.status = DONE
 
     def emergency_vent(self) -> None:
-        """EMERGENCY_VENT: Emergency ventilate the engine room with the diesel until the fire is
-        reported out and the carbon monoxide is down to an acceptable level, then secure
-        (recirculate).
+        """EMERGENCY_VENT: "Commence snorkeling, using atmospheric analyzers" (4.7.1): start the
+        diesel and ventilate the engine room until the fire is reported out and the analyzers
+        read acceptable (CO, smoke, oxygen, carbon dioxide), then secure: recirculate.
         """
         state = self.state
         if state == S0:
-            # line up for emergency ventilation and commence snorkeling
-            self.rule = 4  # EMERGENCY_VENT/S0/1
+            # commence snorkeling (lined up for the diesel, if not yet)
+            self.rule = 5  # EMERGENCY_VENT/S0/1
             self.state = S1
+            self.world_vent_lineup = DIESEL_VENTILATION
+            self.world_diesel_running = True
             self.world_vent_flow = EMERGENCY
 
-        elif state == S1 and not self.world_fire and self.world_co_ppm <= CO_SAFE:
+        elif (
+            state == S1
+            and not self.world_fire
+            and self.world_co_ppm <= CO_SAFE
+            and self.world_smoke <= SMOKE_SAFE
+            and self.world_o2_pct >= O2_SAFE
+            and self.world_co2_pct <= CO2_SAFE
+        ):
             # fire out, smoke and gas normal; secure emergency ventilation, recirculate
-            self.rule = 5  # EMERGENCY_VENT/S1/1
+            self.rule = 6  # EMERGENCY_VENT/S1/1
             self.world_vent_flow = RECIRCULATE
+            self.world_vent_lineup = RECIRCULATION
+            self.world_diesel_running = False
             self.state = NOP
             self.status = DONE

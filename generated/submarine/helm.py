@@ -24,6 +24,7 @@ from .rcs.override import held
 INIT = 1
 HALT = 2
 ICE_MANEUVER = 3
+CLEAR_BAFFLES = 4
 
 # Why helm may end a command in ERROR (the error_num it reports).
 REASON_NONE = 0
@@ -38,7 +39,7 @@ RUDDER_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd60x???1xI88xQI596xd24xd8xd8xd72xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QIdd60x???1xI88xQI1108xd40xd8xd8xd88xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 608
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -46,19 +47,22 @@ INPUTS_AT = 608
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 1392
+WORLD_OUT_1_AT = 1904
 WORLD_HELD_1 = (OVERRIDE["course"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 S2 = 3
+CENTRING = 4
 
 # Constants.
 GAIN = 1.5
 RUDDER_MAX = 30.0
 COURSE_TOL = 1.5
 DEADBAND = 2.0
+BAFFLE_TURN = 60.0
+BAFFLE_TOL = 5.0
 
 
 def wrap(a: float) -> float:
@@ -110,6 +114,7 @@ class HelmController:
         "status_seq",
         "ticks",
         "var_avoid_heading",
+        "var_baffle_heading",
         "var_ice_seen",
         "var_sent_angle",
         "world_course",
@@ -144,6 +149,7 @@ class HelmController:
         self.var_ice_seen: int = 0
         self.var_avoid_heading: float = 0.0
         self.var_sent_angle: float = 0.0
+        self.var_baffle_heading: float = 0.0
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.held_ice_maneuver_s1_1 = 0  # cycles its rule's `when` has held in a row (for:)
         self.held_ice_maneuver_s2_4 = 0  # cycles its rule's `when` has held in a row (for:)
@@ -260,6 +266,8 @@ class HelmController:
                 self.halt()
             elif command == ICE_MANEUVER:
                 self.ice_maneuver()
+            elif command == CLEAR_BAFFLES:
+                self.clear_baffles()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
@@ -539,3 +547,65 @@ class HelmController:
             self.held_ice_maneuver_s2_4 = 0
         else:
             self.ticks += 1
+
+    def clear_baffles(self) -> None:
+        """CLEAR_BAFFLES: Clear baffles (section 4.1.3): turn BAFFLE_TURN degrees to starboard, so
+        the sonar hears the arc astern it cannot hear on a steady course, then centre the rudder;
+        the turn ends early when sensory processing sees ice on the way.
+        """
+        state = self.state
+        # Named values (let), computed once a cycle before the rules.
+        baffle_error = wrap(self.var_baffle_heading - self.world_heading)
+        baffle_order = order(baffle_error)
+        if state == S0:
+            # the heading that brings the baffles into the sonar's view, the desired course while turning (so sensory processing looks for ice along it)
+            self.rule = 15  # CLEAR_BAFFLES/S0/1
+            self.state = S1
+            self.var_baffle_heading = (self.world_heading + BAFFLE_TURN) % 360.0
+            self.world_course = self.var_baffle_heading
+
+        elif state == S1:
+            if self.rudder_status == ERROR:
+                self.rule = 16  # CLEAR_BAFFLES/S1/1
+                # rudder's error: the cause of an ERROR this command reports
+                self.cause = caused(RUDDER_LINK, 0, 0)
+                self.state = NOP
+                self.status = ERROR
+
+            elif (
+                abs(baffle_error) <= BAFFLE_TOL or self.var_ice_seen != 0
+            ) and self.rudder_status != ERROR:
+                # turned, the baffles are clear; or ice ahead, which the turn must not run into: end the turn there (ICE_MANEUVER, sent next, avoids the ice); centre the rudder
+                self.rule = 17  # CLEAR_BAFFLES/S1/2
+                self.state = CENTRING
+                self.rudder_arg_angle = 0.0
+                self.rudder_command = RUDDER_GOTO_ANGLE
+                self.rudder_command_num += 1
+                self.var_sent_angle = 0.0
+
+            elif (
+                abs(baffle_error) > BAFFLE_TOL
+                and self.var_ice_seen == 0
+                and abs(baffle_order - self.var_sent_angle) > DEADBAND
+                and self.rudder_status != ERROR
+            ):
+                # turn to starboard
+                self.rule = 18  # CLEAR_BAFFLES/S1/3
+                self.rudder_arg_angle = baffle_order
+                self.rudder_command = RUDDER_GOTO_ANGLE
+                self.rudder_command_num += 1
+                self.var_sent_angle = baffle_order
+
+        elif state == CENTRING:
+            if self.rudder_status == DONE:
+                self.rule = 19  # CLEAR_BAFFLES/CENTRING/1
+                self.state = NOP
+                self.status = DONE
+                self.cause = 0  # DONE has no cause
+
+            elif self.rudder_status == ERROR:
+                self.rule = 20  # CLEAR_BAFFLES/CENTRING/2
+                # rudder's error: the cause of an ERROR this command reports
+                self.cause = caused(RUDDER_LINK, 0, 0)
+                self.state = NOP
+                self.status = ERROR

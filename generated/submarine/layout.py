@@ -5,15 +5,19 @@ The header comes first (the layout's hash: a process refuses to attach to anothe
 then each process's control record (its heartbeat and counters) and pacing record (its
 slow-down, written by an operator). Every module owns a command
 buffer (written by its supervisor), a status buffer and a performance buffer (written by
-the module) and a mode buffer (written by an operator). World-model fields follow, one
+the module) and a mode buffer (written by an operator); an operator module owns a mode and
+a performance buffer, and a channel per client: a command buffer (written by the client), a
+status buffer (written by the operator module) and an answer record (written by the
+answering side: the console, a scenario's scripted operator). World-model fields follow, one
 buffer each, then the overrides: a flag, and each world field's override record (its state,
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2992 bytes.
+The block is 4256 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
-control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
+control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
+ANSWER_FIELDS);
 command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
@@ -40,90 +44,137 @@ command buffers and world fields:
 | 784 | 32 | RUDDER_STATUS | STATUS_FIELDS |
 | 816 | 16 | RUDDER_MODE | MODE_FIELDS |
 | 832 | 48 | RUDDER_PERF | PERF_FIELDS |
-| 880 | 20 | RUDDER_SIM_COMMAND | command_num, command |
-| 904 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
-| 936 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
-| 952 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
-| 1000 | 20 | SHIP_COMMAND | command_num, command |
-| 1024 | 32 | SHIP_STATUS | STATUS_FIELDS |
-| 1056 | 16 | SHIP_MODE | MODE_FIELDS |
-| 1072 | 48 | SHIP_PERF | PERF_FIELDS |
-| 1120 | 20 | SONAR_COMMAND | command_num, command |
-| 1144 | 32 | SONAR_STATUS | STATUS_FIELDS |
-| 1176 | 16 | SONAR_MODE | MODE_FIELDS |
-| 1192 | 48 | SONAR_PERF | PERF_FIELDS |
-| 1240 | 20 | ATMOSPHERE_COMMAND | command_num, command |
-| 1264 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
-| 1296 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
-| 1312 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
-| 1360 | 16 | WORLD_SPEED_CMD | speed_cmd |
-| 1376 | 16 | WORLD_DEPTH_CMD | depth_cmd |
-| 1392 | 16 | WORLD_COURSE | course |
-| 1408 | 16 | WORLD_VENT_FLOW | vent_flow |
-| 1424 | 16 | WORLD_POS_X | pos_x |
-| 1440 | 16 | WORLD_POS_Y | pos_y |
-| 1456 | 16 | WORLD_HEADING | heading |
-| 1472 | 16 | WORLD_SPEED | speed |
-| 1488 | 16 | WORLD_DEPTH | depth |
-| 1504 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 1520 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 1536 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 1552 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 1568 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 1584 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 1600 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 1616 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 1632 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 1648 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 1664 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 1680 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 1696 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 1712 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 1728 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 1744 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 1760 | 16 | WORLD_CLEARANCE | clearance |
-| 1776 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 1792 | 9 | WORLD_FIRE | fire |
-| 1808 | 16 | WORLD_CO_PPM | co_ppm |
-| 1824 | 9 | OVERRIDES | any |
-| 1840 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 1864 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 1888 | 24 | OVERRIDE_COURSE | state, course |
-| 1912 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 1936 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 1960 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 1984 | 24 | OVERRIDE_HEADING | state, heading |
-| 2008 | 24 | OVERRIDE_SPEED | state, speed |
-| 2032 | 24 | OVERRIDE_DEPTH | state, depth |
-| 2056 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 2080 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 2104 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 2128 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 2152 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 2176 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 2200 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 2224 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 2248 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 2272 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 2296 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 2320 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 2344 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 2368 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 2392 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 2416 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 2440 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 2464 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 2488 | 17 | OVERRIDE_FIRE | state, fire |
-| 2512 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 2536 | 72 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, VENT |
-| 2608 | 48 | TIME_SM | state, since, NOP, S0, S1 |
-| 2656 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 2704 | 56 | TIME_HELM | state, since, NOP, S0, S1, S2 |
-| 2760 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 2832 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 2872 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 2912 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 2952 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 880 | 20 | PROP_COMMAND | command_num, command |
+| 904 | 40 | PROP_STATUS | STATUS_FIELDS |
+| 944 | 16 | PROP_MODE | MODE_FIELDS |
+| 960 | 48 | PROP_PERF | PERF_FIELDS |
+| 1008 | 16 | EOOW_MODE | MODE_FIELDS |
+| 1024 | 48 | EOOW_PERF | PERF_FIELDS |
+| 1072 | 20 | EOOW_PROP_COMMAND | command_num, command |
+| 1096 | 32 | EOOW_PROP_STATUS | STATUS_FIELDS |
+| 1128 | 24 | EOOW_PROP_ANSWER | ANSWER_FIELDS |
+| 1152 | 20 | RUDDER_SIM_COMMAND | command_num, command |
+| 1176 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
+| 1208 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
+| 1224 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
+| 1272 | 20 | SHIP_COMMAND | command_num, command |
+| 1296 | 32 | SHIP_STATUS | STATUS_FIELDS |
+| 1328 | 16 | SHIP_MODE | MODE_FIELDS |
+| 1344 | 48 | SHIP_PERF | PERF_FIELDS |
+| 1392 | 20 | SONAR_COMMAND | command_num, command |
+| 1416 | 32 | SONAR_STATUS | STATUS_FIELDS |
+| 1448 | 16 | SONAR_MODE | MODE_FIELDS |
+| 1464 | 48 | SONAR_PERF | PERF_FIELDS |
+| 1512 | 20 | SEA_COMMAND | command_num, command |
+| 1536 | 32 | SEA_STATUS | STATUS_FIELDS |
+| 1568 | 16 | SEA_MODE | MODE_FIELDS |
+| 1584 | 48 | SEA_PERF | PERF_FIELDS |
+| 1632 | 20 | ATMOSPHERE_COMMAND | command_num, command |
+| 1656 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
+| 1688 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
+| 1704 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
+| 1752 | 16 | WORLD_SPEED_CMD | speed_cmd |
+| 1768 | 16 | WORLD_DEPTH_CMD | depth_cmd |
+| 1784 | 16 | WORLD_HAVEN_X | haven_x |
+| 1800 | 16 | WORLD_HAVEN_Y | haven_y |
+| 1816 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
+| 1832 | 56 | WORLD_ANNOUNCEMENT | announcement |
+| 1888 | 16 | WORLD_SHAFT | shaft |
+| 1904 | 16 | WORLD_COURSE | course |
+| 1920 | 16 | WORLD_BALLAST | ballast |
+| 1936 | 16 | WORLD_VENT_FLOW | vent_flow |
+| 1952 | 16 | WORLD_POS_X | pos_x |
+| 1968 | 16 | WORLD_POS_Y | pos_y |
+| 1984 | 16 | WORLD_HEADING | heading |
+| 2000 | 16 | WORLD_SPEED | speed |
+| 2016 | 16 | WORLD_DEPTH | depth |
+| 2032 | 16 | WORLD_BUBBLE | bubble |
+| 2048 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 2064 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 2080 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 2096 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 2112 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 2128 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 2144 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 2160 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 2176 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 2192 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 2208 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 2224 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 2240 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 2256 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 2272 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 2288 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 2304 | 16 | WORLD_CLEARANCE | clearance |
+| 2320 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 2336 | 16 | WORLD_WATER_DENSITY | water_density |
+| 2352 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
+| 2368 | 16 | WORLD_BELOW_KEEL | below_keel |
+| 2384 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
+| 2400 | 9 | WORLD_FIRE | fire |
+| 2416 | 16 | WORLD_SMOKE | smoke |
+| 2432 | 16 | WORLD_O2_PCT | o2_pct |
+| 2448 | 16 | WORLD_CO2_PCT | co2_pct |
+| 2464 | 16 | WORLD_VENT_LINEUP | vent_lineup |
+| 2480 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
+| 2496 | 16 | WORLD_CO_PPM | co_ppm |
+| 2512 | 9 | OVERRIDES | any |
+| 2528 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 2552 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 2576 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 2600 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 2624 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 2648 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 2712 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 2736 | 24 | OVERRIDE_COURSE | state, course |
+| 2760 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 2784 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 2808 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 2832 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 2856 | 24 | OVERRIDE_HEADING | state, heading |
+| 2880 | 24 | OVERRIDE_SPEED | state, speed |
+| 2904 | 24 | OVERRIDE_DEPTH | state, depth |
+| 2928 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 2952 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 2976 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3000 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3024 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3048 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3072 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3096 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3120 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3144 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3168 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3192 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3216 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3240 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3264 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3288 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3312 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3336 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3360 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3384 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3408 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3432 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 3456 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 3480 | 17 | OVERRIDE_FIRE | state, fire |
+| 3504 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 3528 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 3552 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 3576 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 3600 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 3624 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 3648 | 88 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, LINE_UP, VENT, RESUMING |
+| 3736 | 80 | TIME_SM | state, since, NOP, S0, S1, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 3816 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 3864 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
+| 3928 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 4000 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 4056 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 4096 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 4136 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 4176 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 4216 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -131,12 +182,15 @@ from __future__ import annotations
 from struct import Struct
 
 from .rcs.contract import (
+    ANSWER,
+    ANSWER_FIELDS,
     FIRST_SEQ,
     HEADER,
     MAGIC,
     MODE,
     MODE_FIELDS,
     NO_COMMAND_NAME,
+    OPERATOR_STATES,
     PACE,
     PACE_FIELDS,
     PERF,
@@ -152,9 +206,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 2992
+SIZE = 4256
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "5150afacc29fa0ddae7762957cf40a7e"
+LAYOUT_HASH = "5d8f92d5441873686ce3f1065a67e741"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 168
 
@@ -200,93 +254,148 @@ RUDDER_STATUS_AT = 784
 RUDDER_MODE_AT = 816
 RUDDER_PERF_AT = 832
 
+# prop: Propulsion
+PROP_COMMAND = Struct("<QQI")  # seq, command_num, command
+PROP_COMMAND_AT = 880
+PROP_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
+PROP_STATUS_AT = 904
+PROP_MODE_AT = 944
+PROP_PERF_AT = 960
+
 # rudder_sim: Rudder (simulated)
 RUDDER_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-RUDDER_SIM_COMMAND_AT = 880
-RUDDER_SIM_STATUS_AT = 904
-RUDDER_SIM_MODE_AT = 936
-RUDDER_SIM_PERF_AT = 952
+RUDDER_SIM_COMMAND_AT = 1152
+RUDDER_SIM_STATUS_AT = 1176
+RUDDER_SIM_MODE_AT = 1208
+RUDDER_SIM_PERF_AT = 1224
 
 # ship: Ship dynamics (simulated)
 SHIP_COMMAND = Struct("<QQI")  # seq, command_num, command
-SHIP_COMMAND_AT = 1000
-SHIP_STATUS_AT = 1024
-SHIP_MODE_AT = 1056
-SHIP_PERF_AT = 1072
+SHIP_COMMAND_AT = 1272
+SHIP_STATUS_AT = 1296
+SHIP_MODE_AT = 1328
+SHIP_PERF_AT = 1344
 
 # sonar: Sonar and ice (simulated)
 SONAR_COMMAND = Struct("<QQI")  # seq, command_num, command
-SONAR_COMMAND_AT = 1120
-SONAR_STATUS_AT = 1144
-SONAR_MODE_AT = 1176
-SONAR_PERF_AT = 1192
+SONAR_COMMAND_AT = 1392
+SONAR_STATUS_AT = 1416
+SONAR_MODE_AT = 1448
+SONAR_PERF_AT = 1464
+
+# sea: Sea bottom and seawater (simulated)
+SEA_COMMAND = Struct("<QQI")  # seq, command_num, command
+SEA_COMMAND_AT = 1512
+SEA_STATUS_AT = 1536
+SEA_MODE_AT = 1568
+SEA_PERF_AT = 1584
 
 # atmosphere: Engine-room atmosphere and fire (simulated)
 ATMOSPHERE_COMMAND = Struct("<QQI")  # seq, command_num, command
-ATMOSPHERE_COMMAND_AT = 1240
-ATMOSPHERE_STATUS_AT = 1264
-ATMOSPHERE_MODE_AT = 1296
-ATMOSPHERE_PERF_AT = 1312
+ATMOSPHERE_COMMAND_AT = 1632
+ATMOSPHERE_STATUS_AT = 1656
+ATMOSPHERE_MODE_AT = 1688
+ATMOSPHERE_PERF_AT = 1704
+
+# eoow: Engineering Officer of the Watch (EOOW watchstation) (an operator module: a channel per client)
+EOOW_MODE_AT = 1008
+EOOW_PERF_AT = 1024
+EOOW_PROP_COMMAND = Struct("<QQI")  # seq, command_num, command
+EOOW_PROP_COMMAND_AT = 1072
+EOOW_PROP_STATUS_AT = 1096
+EOOW_PROP_ANSWER_AT = 1128
 
 # World model.
 WORLD_SPEED_CMD = Struct("<Qd")  # seq, speed_cmd
-WORLD_SPEED_CMD_AT = 1360
+WORLD_SPEED_CMD_AT = 1752
 WORLD_DEPTH_CMD = Struct("<Qd")  # seq, depth_cmd
-WORLD_DEPTH_CMD_AT = 1376
+WORLD_DEPTH_CMD_AT = 1768
+WORLD_HAVEN_X = Struct("<Qd")  # seq, haven_x
+WORLD_HAVEN_X_AT = 1784
+WORLD_HAVEN_Y = Struct("<Qd")  # seq, haven_y
+WORLD_HAVEN_Y_AT = 1800
+WORLD_PERISCOPE_RAISED = Struct("<Q?")  # seq, periscope_raised
+WORLD_PERISCOPE_RAISED_AT = 1816
+WORLD_ANNOUNCEMENT = Struct("<Q48s")  # seq, announcement
+WORLD_ANNOUNCEMENT_AT = 1832
+WORLD_SHAFT = Struct("<Qq")  # seq, shaft
+WORLD_SHAFT_AT = 1888
 WORLD_COURSE = Struct("<Qd")  # seq, course
-WORLD_COURSE_AT = 1392
+WORLD_COURSE_AT = 1904
+WORLD_BALLAST = Struct("<Qd")  # seq, ballast
+WORLD_BALLAST_AT = 1920
 WORLD_VENT_FLOW = Struct("<Qd")  # seq, vent_flow
-WORLD_VENT_FLOW_AT = 1408
+WORLD_VENT_FLOW_AT = 1936
 WORLD_POS_X = Struct("<Qd")  # seq, pos_x
-WORLD_POS_X_AT = 1424
+WORLD_POS_X_AT = 1952
 WORLD_POS_Y = Struct("<Qd")  # seq, pos_y
-WORLD_POS_Y_AT = 1440
+WORLD_POS_Y_AT = 1968
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 1456
+WORLD_HEADING_AT = 1984
 WORLD_SPEED = Struct("<Qd")  # seq, speed
-WORLD_SPEED_AT = 1472
+WORLD_SPEED_AT = 2000
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
-WORLD_DEPTH_AT = 1488
+WORLD_DEPTH_AT = 2016
+WORLD_BUBBLE = Struct("<Qd")  # seq, bubble
+WORLD_BUBBLE_AT = 2032
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 1504
+WORLD_RUDDER_ANGLE_AT = 2048
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 1520
+WORLD_RUDDER_JAMMED_AT = 2064
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 1536
+WORLD_SONAR_00_AT = 2080
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 1552
+WORLD_SONAR_01_AT = 2096
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 1568
+WORLD_SONAR_02_AT = 2112
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 1584
+WORLD_SONAR_03_AT = 2128
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 1600
+WORLD_SONAR_04_AT = 2144
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 1616
+WORLD_SONAR_05_AT = 2160
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 1632
+WORLD_SONAR_06_AT = 2176
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 1648
+WORLD_SONAR_07_AT = 2192
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 1664
+WORLD_SONAR_08_AT = 2208
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 1680
+WORLD_SONAR_09_AT = 2224
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 1696
+WORLD_SONAR_10_AT = 2240
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 1712
+WORLD_SONAR_11_AT = 2256
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 1728
+WORLD_SONAR_12_AT = 2272
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 1744
+WORLD_SONAR_13_AT = 2288
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 1760
+WORLD_CLEARANCE_AT = 2304
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 1776
+WORLD_MIN_CLEARANCE_AT = 2320
+WORLD_WATER_DENSITY = Struct("<Qd")  # seq, water_density
+WORLD_WATER_DENSITY_AT = 2336
+WORLD_BOTTOM_DEPTH = Struct("<Qd")  # seq, bottom_depth
+WORLD_BOTTOM_DEPTH_AT = 2352
+WORLD_BELOW_KEEL = Struct("<Qd")  # seq, below_keel
+WORLD_BELOW_KEEL_AT = 2368
+WORLD_MIN_BELOW_KEEL = Struct("<Qd")  # seq, min_below_keel
+WORLD_MIN_BELOW_KEEL_AT = 2384
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 1792
+WORLD_FIRE_AT = 2400
+WORLD_SMOKE = Struct("<Qd")  # seq, smoke
+WORLD_SMOKE_AT = 2416
+WORLD_O2_PCT = Struct("<Qd")  # seq, o2_pct
+WORLD_O2_PCT_AT = 2432
+WORLD_CO2_PCT = Struct("<Qd")  # seq, co2_pct
+WORLD_CO2_PCT_AT = 2448
+WORLD_VENT_LINEUP = Struct("<Qq")  # seq, vent_lineup
+WORLD_VENT_LINEUP_AT = 2464
+WORLD_DIESEL_RUNNING = Struct("<Q?")  # seq, diesel_running
+WORLD_DIESEL_RUNNING_AT = 2480
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 1808
+WORLD_CO_PPM_AT = 2496
 
 
 PROCESSES = {
@@ -303,9 +412,13 @@ PLACEMENT = {
     "ec": "ship",
     "helm": "ship",
     "rudder": "ship",
+    "prop": "ship",
+    "eoow": "ship",
+    "eoow/prop": "ship",
     "rudder_sim": "ship",
     "ship": "ship",
     "sonar": "ship",
+    "sea": "ship",
     "atmosphere": "ship",
 }
 # Seconds without a heartbeat after which a process is reported dead.
@@ -315,13 +428,16 @@ STARTUP_TIMEOUT = 10.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
     "cc": ("sm", "ec"),
-    "sm": ("helm",),
+    "sm": ("helm", "prop"),
     "ec": (),
     "helm": ("rudder",),
     "rudder": ("rudder_sim",),
+    "prop": ("eoow/prop",),
+    "eoow": (),
     "rudder_sim": (),
     "ship": (),
     "sonar": (),
+    "sea": (),
     "atmosphere": (),
 }
 # The subordinates whose loss a supervisor's own rules handle (`on_lost: continue`); every
@@ -329,17 +445,33 @@ SUBORDINATES = {
 ON_LOST_CONTINUE: dict[str, tuple[str, ...]] = {}
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {}
-MODULES = ("cc", "sm", "ec", "helm", "rudder", "rudder_sim", "ship", "sonar", "atmosphere")
+MODULES = (
+    "cc",
+    "sm",
+    "ec",
+    "helm",
+    "rudder",
+    "prop",
+    "eoow/prop",
+    "rudder_sim",
+    "ship",
+    "sonar",
+    "sea",
+    "atmosphere",
+)
 COMMAND_IN = {
     "cc": Record(CC_COMMAND, CC_COMMAND_AT, ("command_num", "command")),
     "sm": Record(SM_COMMAND, SM_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
     "ec": Record(EC_COMMAND, EC_COMMAND_AT, ("command_num", "command")),
     "helm": Record(HELM_COMMAND, HELM_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
     "rudder": Record(RUDDER_COMMAND, RUDDER_COMMAND_AT, ("command_num", "command", "arg_angle")),
+    "prop": Record(PROP_COMMAND, PROP_COMMAND_AT, ("command_num", "command")),
     "rudder_sim": Record(RUDDER_SIM_COMMAND, RUDDER_SIM_COMMAND_AT, ("command_num", "command")),
     "ship": Record(SHIP_COMMAND, SHIP_COMMAND_AT, ("command_num", "command")),
     "sonar": Record(SONAR_COMMAND, SONAR_COMMAND_AT, ("command_num", "command")),
+    "sea": Record(SEA_COMMAND, SEA_COMMAND_AT, ("command_num", "command")),
     "atmosphere": Record(ATMOSPHERE_COMMAND, ATMOSPHERE_COMMAND_AT, ("command_num", "command")),
+    "eoow/prop": Record(EOOW_PROP_COMMAND, EOOW_PROP_COMMAND_AT, ("command_num", "command")),
 }
 STATUS_OUT = {
     "cc": Record(
@@ -367,10 +499,15 @@ STATUS_OUT = {
         ("status_num", "status", "error_num", "state", "rule", "result_at_goal", "cause"),
     ),
     "rudder": Record(STATUS, RUDDER_STATUS_AT, field_names(STATUS_FIELDS)),
+    "prop": Record(
+        PROP_STATUS, PROP_STATUS_AT, ("status_num", "status", "error_num", "state", "rule", "cause")
+    ),
     "rudder_sim": Record(STATUS, RUDDER_SIM_STATUS_AT, field_names(STATUS_FIELDS)),
     "ship": Record(STATUS, SHIP_STATUS_AT, field_names(STATUS_FIELDS)),
     "sonar": Record(STATUS, SONAR_STATUS_AT, field_names(STATUS_FIELDS)),
+    "sea": Record(STATUS, SEA_STATUS_AT, field_names(STATUS_FIELDS)),
     "atmosphere": Record(STATUS, ATMOSPHERE_STATUS_AT, field_names(STATUS_FIELDS)),
+    "eoow/prop": Record(STATUS, EOOW_PROP_STATUS_AT, field_names(STATUS_FIELDS)),
 }
 MODE_IN = {
     "cc": Record(MODE, CC_MODE_AT, field_names(MODE_FIELDS)),
@@ -378,10 +515,14 @@ MODE_IN = {
     "ec": Record(MODE, EC_MODE_AT, field_names(MODE_FIELDS)),
     "helm": Record(MODE, HELM_MODE_AT, field_names(MODE_FIELDS)),
     "rudder": Record(MODE, RUDDER_MODE_AT, field_names(MODE_FIELDS)),
+    "prop": Record(MODE, PROP_MODE_AT, field_names(MODE_FIELDS)),
     "rudder_sim": Record(MODE, RUDDER_SIM_MODE_AT, field_names(MODE_FIELDS)),
     "ship": Record(MODE, SHIP_MODE_AT, field_names(MODE_FIELDS)),
     "sonar": Record(MODE, SONAR_MODE_AT, field_names(MODE_FIELDS)),
+    "sea": Record(MODE, SEA_MODE_AT, field_names(MODE_FIELDS)),
     "atmosphere": Record(MODE, ATMOSPHERE_MODE_AT, field_names(MODE_FIELDS)),
+    "eoow": Record(MODE, EOOW_MODE_AT, field_names(MODE_FIELDS)),
+    "eoow/prop": Record(MODE, EOOW_MODE_AT, field_names(MODE_FIELDS)),
 }
 PERFORMANCE = {
     "cc": Record(PERF, CC_PERF_AT, field_names(PERF_FIELDS)),
@@ -389,21 +530,34 @@ PERFORMANCE = {
     "ec": Record(PERF, EC_PERF_AT, field_names(PERF_FIELDS)),
     "helm": Record(PERF, HELM_PERF_AT, field_names(PERF_FIELDS)),
     "rudder": Record(PERF, RUDDER_PERF_AT, field_names(PERF_FIELDS)),
+    "prop": Record(PERF, PROP_PERF_AT, field_names(PERF_FIELDS)),
     "rudder_sim": Record(PERF, RUDDER_SIM_PERF_AT, field_names(PERF_FIELDS)),
     "ship": Record(PERF, SHIP_PERF_AT, field_names(PERF_FIELDS)),
     "sonar": Record(PERF, SONAR_PERF_AT, field_names(PERF_FIELDS)),
+    "sea": Record(PERF, SEA_PERF_AT, field_names(PERF_FIELDS)),
     "atmosphere": Record(PERF, ATMOSPHERE_PERF_AT, field_names(PERF_FIELDS)),
+    "eoow": Record(PERF, EOOW_PERF_AT, field_names(PERF_FIELDS)),
+    "eoow/prop": Record(PERF, EOOW_PERF_AT, field_names(PERF_FIELDS)),
 }
 WORLD = {
     "speed_cmd": Record(WORLD_SPEED_CMD, WORLD_SPEED_CMD_AT, ("speed_cmd",)),
     "depth_cmd": Record(WORLD_DEPTH_CMD, WORLD_DEPTH_CMD_AT, ("depth_cmd",)),
+    "haven_x": Record(WORLD_HAVEN_X, WORLD_HAVEN_X_AT, ("haven_x",)),
+    "haven_y": Record(WORLD_HAVEN_Y, WORLD_HAVEN_Y_AT, ("haven_y",)),
+    "periscope_raised": Record(
+        WORLD_PERISCOPE_RAISED, WORLD_PERISCOPE_RAISED_AT, ("periscope_raised",)
+    ),
+    "announcement": Record(WORLD_ANNOUNCEMENT, WORLD_ANNOUNCEMENT_AT, ("announcement",)),
+    "shaft": Record(WORLD_SHAFT, WORLD_SHAFT_AT, ("shaft",)),
     "course": Record(WORLD_COURSE, WORLD_COURSE_AT, ("course",)),
+    "ballast": Record(WORLD_BALLAST, WORLD_BALLAST_AT, ("ballast",)),
     "vent_flow": Record(WORLD_VENT_FLOW, WORLD_VENT_FLOW_AT, ("vent_flow",)),
     "pos_x": Record(WORLD_POS_X, WORLD_POS_X_AT, ("pos_x",)),
     "pos_y": Record(WORLD_POS_Y, WORLD_POS_Y_AT, ("pos_y",)),
     "heading": Record(WORLD_HEADING, WORLD_HEADING_AT, ("heading",)),
     "speed": Record(WORLD_SPEED, WORLD_SPEED_AT, ("speed",)),
     "depth": Record(WORLD_DEPTH, WORLD_DEPTH_AT, ("depth",)),
+    "bubble": Record(WORLD_BUBBLE, WORLD_BUBBLE_AT, ("bubble",)),
     "rudder_angle": Record(WORLD_RUDDER_ANGLE, WORLD_RUDDER_ANGLE_AT, ("rudder_angle",)),
     "rudder_jammed": Record(WORLD_RUDDER_JAMMED, WORLD_RUDDER_JAMMED_AT, ("rudder_jammed",)),
     "sonar_00": Record(WORLD_SONAR_00, WORLD_SONAR_00_AT, ("sonar_00",)),
@@ -422,19 +576,35 @@ WORLD = {
     "sonar_13": Record(WORLD_SONAR_13, WORLD_SONAR_13_AT, ("sonar_13",)),
     "clearance": Record(WORLD_CLEARANCE, WORLD_CLEARANCE_AT, ("clearance",)),
     "min_clearance": Record(WORLD_MIN_CLEARANCE, WORLD_MIN_CLEARANCE_AT, ("min_clearance",)),
+    "water_density": Record(WORLD_WATER_DENSITY, WORLD_WATER_DENSITY_AT, ("water_density",)),
+    "bottom_depth": Record(WORLD_BOTTOM_DEPTH, WORLD_BOTTOM_DEPTH_AT, ("bottom_depth",)),
+    "below_keel": Record(WORLD_BELOW_KEEL, WORLD_BELOW_KEEL_AT, ("below_keel",)),
+    "min_below_keel": Record(WORLD_MIN_BELOW_KEEL, WORLD_MIN_BELOW_KEEL_AT, ("min_below_keel",)),
     "fire": Record(WORLD_FIRE, WORLD_FIRE_AT, ("fire",)),
+    "smoke": Record(WORLD_SMOKE, WORLD_SMOKE_AT, ("smoke",)),
+    "o2_pct": Record(WORLD_O2_PCT, WORLD_O2_PCT_AT, ("o2_pct",)),
+    "co2_pct": Record(WORLD_CO2_PCT, WORLD_CO2_PCT_AT, ("co2_pct",)),
+    "vent_lineup": Record(WORLD_VENT_LINEUP, WORLD_VENT_LINEUP_AT, ("vent_lineup",)),
+    "diesel_running": Record(WORLD_DIESEL_RUNNING, WORLD_DIESEL_RUNNING_AT, ("diesel_running",)),
     "co_ppm": Record(WORLD_CO_PPM, WORLD_CO_PPM_AT, ("co_ppm",)),
 }
 WORLD_INITIAL: dict[str, object] = {
     "speed_cmd": 7.7,
     "depth_cmd": 120.0,
+    "haven_x": 0.0,
+    "haven_y": 0.0,
+    "periscope_raised": False,
+    "announcement": "",
+    "shaft": 0,
     "course": 0.0,
+    "ballast": 0.0,
     "vent_flow": 0.002,
     "pos_x": 0.0,
     "pos_y": 0.0,
     "heading": 0.0,
     "speed": 7.7,
     "depth": 120.0,
+    "bubble": 0.0,
     "rudder_angle": 0.0,
     "rudder_jammed": False,
     "sonar_00": 900.0,
@@ -453,63 +623,101 @@ WORLD_INITIAL: dict[str, object] = {
     "sonar_13": 900.0,
     "clearance": 900.0,
     "min_clearance": 900.0,
+    "water_density": 1025.0,
+    "bottom_depth": 250.0,
+    "below_keel": 130.0,
+    "min_below_keel": 130.0,
     "fire": False,
+    "smoke": 0.0,
+    "o2_pct": 20.9,
+    "co2_pct": 0.5,
+    "vent_lineup": 0,
+    "diesel_running": False,
     "co_ppm": 0.0,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 1824
-OVERRIDDEN_AT = 1832  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2512
+OVERRIDDEN_AT = 2520  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 1840, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 1864, ("state", "depth_cmd")),
-    "course": Record(Struct("<QQd"), 1888, ("state", "course")),
-    "vent_flow": Record(Struct("<QQd"), 1912, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 1936, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 1960, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 1984, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 2008, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 2032, ("state", "depth")),
-    "rudder_angle": Record(Struct("<QQd"), 2056, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 2080, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 2104, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 2128, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 2152, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 2176, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 2200, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 2224, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 2248, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 2272, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 2296, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 2320, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 2344, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 2368, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 2392, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 2416, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 2440, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 2464, ("state", "min_clearance")),
-    "fire": Record(Struct("<QQ?"), 2488, ("state", "fire")),
-    "co_ppm": Record(Struct("<QQd"), 2512, ("state", "co_ppm")),
+    "speed_cmd": Record(Struct("<QQd"), 2528, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 2552, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 2576, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 2600, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 2624, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 2648, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 2712, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 2736, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 2760, ("state", "ballast")),
+    "vent_flow": Record(Struct("<QQd"), 2784, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 2808, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 2832, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 2856, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 2880, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 2904, ("state", "depth")),
+    "bubble": Record(Struct("<QQd"), 2928, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 2952, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 2976, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3000, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3024, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3048, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3072, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3096, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3120, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3144, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3168, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3192, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3216, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3240, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3264, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3288, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3312, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3336, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3360, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3384, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3408, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3432, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 3456, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 3480, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 3504, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 3528, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 3552, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 3576, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 3600, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 3624, ("state", "co_ppm")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
 SAFE_VALUES: dict[str, object] = {}
 # The process whose modules write each actuator.
 ACTUATED_BY = {}
+# The fields that hold an enumeration's value, by (module, or "" for the world; field): the
+# value names, indexed by the code the field holds, for traces, displays and `ctl send`.
+ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
+    ("", "shaft"): ("TURBINE", "DISENGAGED", "EPM"),
+    ("", "vent_lineup"): ("RECIRCULATION", "DIESEL_VENTILATION"),
+}
 # The modules that write each world field (a stand-in writes in its controller's place), for
 # `ctl force`: forcing a field takes it from them, which needs override on each.
 WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "speed_cmd": ("sm",),
     "depth_cmd": ("sm",),
+    "haven_x": ("sm",),
+    "haven_y": ("sm",),
+    "periscope_raised": ("sm",),
+    "announcement": ("cc",),
+    "shaft": ("prop",),
     "course": ("helm",),
+    "ballast": ("sm",),
     "vent_flow": ("ec",),
     "pos_x": ("ship",),
     "pos_y": ("ship",),
     "heading": ("ship",),
     "speed": ("ship",),
     "depth": ("ship",),
+    "bubble": ("ship",),
     "rudder_angle": ("rudder_sim",),
     "sonar_00": ("sonar",),
     "sonar_01": ("sonar",),
@@ -527,45 +735,88 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "sonar_13": ("sonar",),
     "clearance": ("sonar",),
     "min_clearance": ("sonar",),
+    "below_keel": ("sea",),
+    "min_below_keel": ("sea",),
     "fire": ("atmosphere",),
+    "smoke": ("atmosphere",),
+    "o2_pct": ("atmosphere",),
+    "co2_pct": ("atmosphere",),
+    "vent_lineup": ("ec",),
+    "diesel_running": ("ec",),
     "co_ppm": ("atmosphere",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
-GROUND_TRUTH = ()
+GROUND_TRUTH = (
+    "rudder_jammed",
+    "clearance",
+    "min_clearance",
+    "water_density",
+    "bottom_depth",
+    "below_keel",
+    "min_below_keel",
+)
 # Each controller's (and stand-in's) time in each state: its process's cycles spent in each
 # state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
     "cc": Record(
-        Struct("<QqQQQQQQQ"),
-        2536,
-        ("state", "since", "NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "VENT"),
+        Struct("<QqQQQQQQQQQ"),
+        3648,
+        (
+            "state",
+            "since",
+            "NOP",
+            "S0",
+            "S1",
+            "TRANSIT",
+            "PREP_VENT",
+            "LINE_UP",
+            "VENT",
+            "RESUMING",
+        ),
     ),
-    "sm": Record(Struct("<QqQQQQ"), 2608, ("state", "since", "NOP", "S0", "S1")),
-    "ec": Record(Struct("<QqQQQQ"), 2656, ("state", "since", "NOP", "S0", "S1")),
-    "helm": Record(Struct("<QqQQQQQ"), 2704, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "sm": Record(
+        Struct("<QqQQQQQQQQ"),
+        3736,
+        ("state", "since", "NOP", "S0", "S1", "BAFFLES", "SLOWING", "PROP_FAILED", "HELM_FAILED"),
+    ),
+    "ec": Record(Struct("<QqQQQQ"), 3816, ("state", "since", "NOP", "S0", "S1")),
+    "helm": Record(
+        Struct("<QqQQQQQQ"), 3864, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
+    ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        2760,
+        3928,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "rudder_sim": Record(Struct("<QqQQQ"), 2832, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 2872, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 2912, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 2952, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 4000, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 4056, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 4096, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 4136, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 4176, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 4216, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "cc": (NO_COMMAND_NAME, *("INIT", "HALT", "RUN_MISSION")),
-    "sm": (NO_COMMAND_NAME, *("INIT", "HALT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT")),
-    "ec": (NO_COMMAND_NAME, *("INIT", "HALT", "SUBMERGED_VENT", "EMERGENCY_VENT")),
-    "helm": (NO_COMMAND_NAME, *("INIT", "HALT", "ICE_MANEUVER")),
+    "sm": (
+        NO_COMMAND_NAME,
+        *("INIT", "HALT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "PREP_SUBMERGED_TRANSIT"),
+    ),
+    "ec": (
+        NO_COMMAND_NAME,
+        *("INIT", "HALT", "SUBMERGED_VENT", "LINE_UP_EMERGENCY_VENT", "EMERGENCY_VENT"),
+    ),
+    "helm": (NO_COMMAND_NAME, *("INIT", "HALT", "ICE_MANEUVER", "CLEAR_BAFFLES")),
     "rudder": (NO_COMMAND_NAME, *("INIT", "HALT", "GOTO_ANGLE")),
+    "prop": (NO_COMMAND_NAME, *("INIT", "HALT", "SHIFT_TO_EPM")),
     "rudder_sim": (NO_COMMAND_NAME, *("INIT", "HALT", "PLUS_VOLT", "MINUS_VOLT", "ZERO_VOLT")),
     "ship": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sonar": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "sea": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "atmosphere": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "eoow/prop": (NO_COMMAND_NAME, *("INIT", "HALT", "CHANGE_TO_EPM")),
 }
 # Each command's parameters, in order: an operator gives every one of them (`ctl send`,
 # `--send`, a scenario), each checked against its slot's type (rcs/operate/command.py). A command
@@ -573,6 +824,7 @@ COMMAND_NAMES = {
 PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     "sm": {
         "SUBMERGED_TRANSIT": ("x", "y"),
+        "PREP_EMERGENCY_VENT": ("x", "y"),
     },
     "helm": {
         "ICE_MANEUVER": ("x", "y"),
@@ -582,27 +834,45 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     },
 }
 STATE_NAMES = {
-    "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "VENT"),
-    "sm": ("NOP", "S0", "S1"),
+    "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "LINE_UP", "VENT", "RESUMING"),
+    "sm": ("NOP", "S0", "S1", "BAFFLES", "SLOWING", "PROP_FAILED", "HELM_FAILED"),
     "ec": ("NOP", "S0", "S1"),
-    "helm": ("NOP", "S0", "S1", "S2"),
+    "helm": ("NOP", "S0", "S1", "S2", "CENTRING"),
     "rudder": ("NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
+    "prop": ("NOP", "S0", "S1", "ASKED"),
     "rudder_sim": ("NOP", "S0"),
     "ship": ("NOP", "S0"),
     "sonar": ("NOP", "S0"),
+    "sea": ("NOP", "S0"),
     "atmosphere": ("NOP", "S0"),
+    "eoow/prop": OPERATOR_STATES,
 }
 # The reason each code of a status buffer's `error_num` names, indexed by code, for the
 # controllers and operator modules that declare reasons (docs/semantics.md, "Results and
 # reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {
-    "cc": ("NONE", "LOST", "BLOCKED"),
-    "sm": ("NONE", "LOST", "BLOCKED"),
+    "cc": ("NONE", "LOST", "BLOCKED", "OUT_OF_HAVEN", "REFUSED"),
+    "sm": ("NONE", "LOST", "BLOCKED", "OUT_OF_HAVEN", "REFUSED"),
     "helm": ("NONE", "LOST", "BLOCKED"),
+    "prop": ("NONE", "LOST", "REFUSED"),
+    "eoow": ("NONE", "LOST", "REFUSED"),
 }
 # The modules a link of a status buffer's `cause` numbers, from 1 (rcs/contract.py
 # cause_text; docs/semantics.md, "Reasons survive").
-CAUSE_MODULES = ("cc", "sm", "ec", "helm", "rudder", "rudder_sim", "ship", "sonar", "atmosphere")
+CAUSE_MODULES = (
+    "cc",
+    "sm",
+    "ec",
+    "helm",
+    "rudder",
+    "prop",
+    "eoow",
+    "rudder_sim",
+    "ship",
+    "sonar",
+    "sea",
+    "atmosphere",
+)
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
     "cc": (
@@ -619,10 +889,15 @@ RULES = {
         "RUN_MISSION/TRANSIT/3",
         "RUN_MISSION/TRANSIT/4",
         "RUN_MISSION/TRANSIT/5",
+        "RUN_MISSION/TRANSIT/6",
         "RUN_MISSION/PREP_VENT/1",
         "RUN_MISSION/PREP_VENT/2",
+        "RUN_MISSION/LINE_UP/1",
+        "RUN_MISSION/LINE_UP/2",
         "RUN_MISSION/VENT/1",
         "RUN_MISSION/VENT/2",
+        "RUN_MISSION/RESUMING/1",
+        "RUN_MISSION/RESUMING/2",
     ),
     "sm": (
         "",
@@ -634,14 +909,27 @@ RULES = {
         "SUBMERGED_TRANSIT/S1/1",
         "SUBMERGED_TRANSIT/S1/2",
         "SUBMERGED_TRANSIT/S1/3",
+        "SUBMERGED_TRANSIT/S1/4",
+        "SUBMERGED_TRANSIT/S1/5",
+        "SUBMERGED_TRANSIT/S1/6",
+        "SUBMERGED_TRANSIT/S1/7",
         "PREP_EMERGENCY_VENT/S0/1",
-        "PREP_EMERGENCY_VENT/S1/1",
+        "PREP_EMERGENCY_VENT/BAFFLES/1",
+        "PREP_EMERGENCY_VENT/BAFFLES/2",
+        "PREP_EMERGENCY_VENT/SLOWING/1",
+        "PREP_EMERGENCY_VENT/SLOWING/2",
+        "PREP_EMERGENCY_VENT/SLOWING/3",
+        "PREP_EMERGENCY_VENT/PROP_FAILED/1",
+        "PREP_EMERGENCY_VENT/HELM_FAILED/1",
+        "PREP_SUBMERGED_TRANSIT/S0/1",
+        "PREP_SUBMERGED_TRANSIT/S1/1",
     ),
     "ec": (
         "",
         "INIT/S0/1",
         "HALT/S0/1",
         "SUBMERGED_VENT/S0/1",
+        "LINE_UP_EMERGENCY_VENT/S0/1",
         "EMERGENCY_VENT/S0/1",
         "EMERGENCY_VENT/S1/1",
     ),
@@ -661,6 +949,12 @@ RULES = {
         "ICE_MANEUVER/S2/2",
         "ICE_MANEUVER/S2/3",
         "ICE_MANEUVER/S2/4",
+        "CLEAR_BAFFLES/S0/1",
+        "CLEAR_BAFFLES/S1/1",
+        "CLEAR_BAFFLES/S1/2",
+        "CLEAR_BAFFLES/S1/3",
+        "CLEAR_BAFFLES/CENTRING/1",
+        "CLEAR_BAFFLES/CENTRING/2",
     ),
     "rudder": (
         "",
@@ -678,6 +972,16 @@ RULES = {
         "GOTO_ANGLE/STOPPING/1",
         "GOTO_ANGLE/STOPPING/2",
     ),
+    "prop": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "SHIFT_TO_EPM/S0/1",
+        "SHIFT_TO_EPM/ASKED/1",
+        "SHIFT_TO_EPM/ASKED/2",
+    ),
     "rudder_sim": (
         "",
         "INIT/S0/1",
@@ -690,12 +994,26 @@ RULES = {
     ),
     "ship": ("", "INIT/S0/1", "HALT/S0/1"),
     "sonar": ("", "INIT/S0/1", "HALT/S0/1"),
+    "sea": ("", "INIT/S0/1", "HALT/S0/1"),
     "atmosphere": ("", "INIT/S0/1", "HALT/S0/1"),
+    "eoow/prop": ("",),  # an operator module has no table
 }
-SIMULATORS = ("rudder_sim", "ship", "sonar", "atmosphere")
+SIMULATORS = ("rudder_sim", "ship", "sonar", "sea", "atmosphere")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
-ROLES: dict[str, dict[str, int]] = {}
+ROLES: dict[str, dict[str, int]] = {
+    "ood": {
+        "cc": 2,  # command
+    },
+    "eoow": {
+        "eoow": 1,  # respond
+    },
+    "helmsman": {
+        "helm": 3,  # override
+        "rudder": 3,  # override
+    },
+    "bcp": {},
+}
 # Who holds each role (`users`, `groups`: OS names): role -> (users, groups). `--role` in a
 # role listed here is refused to anyone else; a role not listed, anyone may claim.
 ROLE_HOLDERS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {}
@@ -715,6 +1033,27 @@ READS_SETTINGS = True
 REQUESTS: dict[str, dict[str, object]] = {}
 
 
+# Operator modules (a person at a screen): each one's channels, `operator/client`.
+OPERATORS = {
+    "eoow": ("eoow/prop",),
+}
+# Each channel's answer record: written only by the answering side (`ctl answer`, a
+# scenario's scripted operator), read by the operator module.
+ANSWERS = {
+    "eoow/prop": Record(ANSWER, EOOW_PROP_ANSWER_AT, field_names(ANSWER_FIELDS)),
+}
+# What a DONE answer to each task records (`results:`), checked before it is written and
+# again when the operator module reads it: each result's name and range (None: open); its
+# type is its answer slot's, an enumeration's values are in ENUMS.
+TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], ...]]] = {}
+# Each operator module's tasks: the instruction the screen shows (`{param}`: its value).
+INSTRUCTIONS = {
+    "eoow": {
+        "CHANGE_TO_EPM": "CHANGE TO EPM: disengage the main turbine shaft, engage the EPM shaft, close the EPM breaker, then report.",
+    },
+}
+
+
 def initialise(buf: memoryview) -> None:
     """Zero the block, write the header, mark every buffer whole (a sequence word of 0 is a
     write in progress), set every world field to its initial value and flag the simulators."""
@@ -730,6 +1069,7 @@ def initialise(buf: memoryview) -> None:
         WORLD,
         OVERRIDE,
         TIME_IN_STATE,
+        ANSWERS,
     ):
         for record in records.values():
             SEQ.pack_into(buf, record.offset, FIRST_SEQ)

@@ -11,6 +11,7 @@ from .layout import (
     OVERRIDE,
     SHIP_PERF_AT,
     SHIP_STATUS_AT,
+    WORLD_BUBBLE_AT,
     WORLD_DEPTH_AT,
     WORLD_HEADING_AT,
     WORLD_POS_X_AT,
@@ -27,25 +28,26 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI296xd8xd40xd8xd8xd8xd8xd8xd")
-INPUTS_AT = 1000
+INPUTS = Struct("<QQI44x???1xI416xd8xd112xq24xd24xd8xd8xd8xd8xd8xd8xd280xd")
+INPUTS_AT = 1272
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1000
+SEQS_AT = 1272
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_1 = Struct("<QdQdQdQdQd")
-WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd")
-WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 1424
+WORLD_OUT_1 = Struct("<QdQdQdQdQdQd")
+WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd")
+WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ")
+WORLD_OUT_1_AT = 1952
 WORLD_HELD_1 = (
     OVERRIDE["pos_x"],
     OVERRIDE["pos_y"],
     OVERRIDE["heading"],
     OVERRIDE["speed"],
     OVERRIDE["depth"],
+    OVERRIDE["bubble"],
 )  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -55,7 +57,16 @@ S0 = 1
 TURN = 0.0065
 ACCEL = 0.1
 DEPTH_RATE = 1.0
+EPM_MAX = 5.2
+NOMINAL_DENSITY = 1025.0
+SINK = 0.05
+DEG = 57.29578
+BUBBLE_MAX = 15.0
 CYCLE_PERIOD = 1.0  # seconds per cycle of its process
+
+# Enumeration values its tables name (a field holds its value's index).
+DISENGAGED = 1
+EPM = 2
 
 
 class ShipController:
@@ -83,6 +94,9 @@ class ShipController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "var_last_depth",
+        "world_ballast",
+        "world_bubble",
         "world_depth",
         "world_depth_cmd",
         "world_heading",
@@ -90,8 +104,10 @@ class ShipController:
         "world_pos_y",
         "world_rudder_angle",
         "world_set",
+        "world_shaft",
         "world_speed",
         "world_speed_cmd",
+        "world_water_density",
     )
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
@@ -103,6 +119,7 @@ class ShipController:
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.world_set = False  # an every_cycle rule set a world output
+        self.var_last_depth: float = 120.0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -145,12 +162,16 @@ class ShipController:
                 self.single_step_num,
                 self.world_speed_cmd,
                 self.world_depth_cmd,
+                self.world_shaft,
+                self.world_ballast,
                 self.world_pos_x,
                 self.world_pos_y,
                 self.world_heading,
                 self.world_speed,
                 self.world_depth,
+                self.world_bubble,
                 self.world_rudder_angle,
+                self.world_water_density,
             ) = values
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -203,6 +224,7 @@ class ShipController:
                 self.world_heading,
                 self.world_speed,
                 self.world_depth,
+                self.world_bubble,
             )
             now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
@@ -214,6 +236,7 @@ class ShipController:
                 SEQ.pack_into(buf, WORLD_HEADING_AT, s[2] | 1)  # odd before the value changes
                 SEQ.pack_into(buf, WORLD_SPEED_AT, s[3] | 1)  # odd before the value changes
                 SEQ.pack_into(buf, WORLD_DEPTH_AT, s[4] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_BUBBLE_AT, s[5] | 1)  # odd before the value changes
                 WORLD_OUT_1.pack_into(
                     buf,
                     WORLD_OUT_1_AT,
@@ -227,12 +250,15 @@ class ShipController:
                     out[3],
                     s[4] | 1,
                     out[4],
+                    s[5] | 1,
+                    out[5],
                 )
                 SEQ.pack_into(buf, WORLD_POS_X_AT, (s[0] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_POS_Y_AT, (s[1] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_HEADING_AT, (s[2] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_SPEED_AT, (s[3] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_DEPTH_AT, (s[4] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_BUBBLE_AT, (s[5] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -286,12 +312,16 @@ class ShipController:
             self.single_step_num,
             self.world_speed_cmd,
             self.world_depth_cmd,
+            self.world_shaft,
+            self.world_ballast,
             self.world_pos_x,
             self.world_pos_y,
             self.world_heading,
             self.world_speed,
             self.world_depth,
+            self.world_bubble,
             self.world_rudder_angle,
+            self.world_water_density,
         ) = values
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
@@ -306,16 +336,42 @@ class ShipController:
             self.world_heading,
             self.world_speed * CYCLE_PERIOD,
         )
+        self.var_last_depth = self.world_depth
         self.world_heading = (
             self.world_heading + TURN * self.world_speed * self.world_rudder_angle * CYCLE_PERIOD
         ) % 360.0
         self.world_speed = self.world_speed + max(
             -ACCEL * CYCLE_PERIOD,
-            min(ACCEL * CYCLE_PERIOD, self.world_speed_cmd - self.world_speed),
+            min(
+                ACCEL * CYCLE_PERIOD,
+                (
+                    0.0
+                    if self.world_shaft == DISENGAGED
+                    else min(self.world_speed_cmd, EPM_MAX)
+                    if self.world_shaft == EPM
+                    else self.world_speed_cmd
+                )
+                - self.world_speed,
+            ),
         )
-        self.world_depth = self.world_depth + max(
-            -DEPTH_RATE * CYCLE_PERIOD,
-            min(DEPTH_RATE * CYCLE_PERIOD, self.world_depth_cmd - self.world_depth),
+        self.world_depth = (
+            self.world_depth
+            + max(
+                -DEPTH_RATE * CYCLE_PERIOD,
+                min(DEPTH_RATE * CYCLE_PERIOD, self.world_depth_cmd - self.world_depth),
+            )
+            + SINK
+            * (NOMINAL_DENSITY - self.world_water_density - self.world_ballast)
+            * CYCLE_PERIOD
+        )
+        self.world_bubble = max(
+            -BUBBLE_MAX,
+            min(
+                BUBBLE_MAX,
+                DEG
+                * (self.var_last_depth - self.world_depth)
+                / max(self.world_speed * CYCLE_PERIOD, 0.5),
+            ),
         )
 
     def init(self) -> None:

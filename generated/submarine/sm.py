@@ -4,18 +4,27 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import submarine_hooks.maneuver as hooks
+
 from .layout import (
     HELM_COMMAND,
     HELM_COMMAND_AT,
     OVERRIDDEN_AT,
     OVERRIDE,
+    PROP_COMMAND,
+    PROP_COMMAND_AT,
     SM_PERF_AT,
     SM_STATUS,
     SM_STATUS_AT,
+    WORLD_BALLAST_AT,
     WORLD_DEPTH_CMD_AT,
+    WORLD_HAVEN_X_AT,
+    WORLD_HAVEN_Y_AT,
+    WORLD_PERISCOPE_RAISED_AT,
     WORLD_SPEED_CMD_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
+from .rcs.deadline import hook
 from .rcs.override import held
 
 # Commands sm accepts (the code written to its command buffer).
@@ -23,47 +32,87 @@ INIT = 1
 HALT = 2
 SUBMERGED_TRANSIT = 3
 PREP_EMERGENCY_VENT = 4
+PREP_SUBMERGED_TRANSIT = 5
 
 # Why sm may end a command in ERROR (the error_num it reports).
 REASON_NONE = 0
 REASON_LOST = 1
 REASON_BLOCKED = 2
+REASON_OUT_OF_HAVEN = 3
+REASON_REFUSED = 4
 
 # Commands sm sends to helm.
 HELM_INIT = 1
 HELM_HALT = 2
 HELM_ICE_MANEUVER = 3
+HELM_CLEAR_BAFFLES = 4
 # Why helm may end a command in ERROR (its error_num).
 HELM_REASON_NONE = 0
 HELM_REASON_LOST = 1
 HELM_REASON_BLOCKED = 2
 HELM_LINK = 4  # its number in the layout's CAUSE_MODULES
 
+# Commands sm sends to prop.
+PROP_INIT = 1
+PROP_HALT = 2
+PROP_SHIFT_TO_EPM = 3
+# Why prop may end a command in ERROR (its error_num).
+PROP_REASON_NONE = 0
+PROP_REASON_LOST = 1
+PROP_REASON_REFUSED = 2
+PROP_LINK = 6  # its number in the layout's CAUSE_MODULES
+
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd52x???1xI216xQII8x?Q687xd8xd40xd8xd24xd8xd")
+INPUTS = Struct("<QIdd52x???1xI216xQII8x?Q231xQII8xQ816xd8xd8xd8xd8x?71xq24xd24xd8xd24xd8xd")
 INPUTS_AT = 344
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_1 = Struct("<QdQd")
-WORLD_VALUES_1 = Struct("<8xd8xd")
-WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1360
-WORLD_HELD_1 = (OVERRIDE["speed_cmd"], OVERRIDE["depth_cmd"])  # their overrides
+WORLD_OUT_1 = Struct("<QdQdQdQdQ?")
+WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8x?")
+WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
+WORLD_OUT_1_AT = 1752
+WORLD_HELD_1 = (
+    OVERRIDE["speed_cmd"],
+    OVERRIDE["depth_cmd"],
+    OVERRIDE["haven_x"],
+    OVERRIDE["haven_y"],
+    OVERRIDE["periscope_raised"],
+)  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_2 = Struct("<Qd")
+WORLD_VALUES_2 = Struct("<8xd")
+WORLD_SEQS_2 = Struct("<Q")
+WORLD_OUT_2_AT = 1920
+WORLD_HELD_2 = (OVERRIDE["ballast"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
+BAFFLES = 3
+SLOWING = 4
+PROP_FAILED = 5
+HELM_FAILED = 6
 
 # Constants.
 STANDARD_SPEED = 7.7
+EPM_SPEED = 5.1
 ONE_THIRD_SPEED = 2.6
 TRANSIT_DEPTH = 120.0
 PERISCOPE_DEPTH = 18.0
-HAVEN = 150.0
+ARRIVAL = 150.0
+HAVEN = 300.0
 DEPTH_TOL = 1.0
+DEPTH_LIMIT = 5.0
+BALLAST_STEP = 2.0
 SPEED_TOL = 0.1
+CYCLE_PERIOD = 1.0  # seconds per cycle of its process
+
+# Enumeration values its tables name (a field holds its value's index).
+TURBINE = 0
 
 
 class SmController:
@@ -94,6 +143,13 @@ class SmController:
         "min_cycle_ns",
         "perf_seq",
         "perf_single_step_num",
+        "prop_cause",
+        "prop_command",
+        "prop_command_num",
+        "prop_error_num",
+        "prop_status",
+        "prop_status_num",
+        "prop_written",
         "rule",
         "simulate",
         "single_step",
@@ -104,16 +160,37 @@ class SmController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "var_depth_reached",
+        "var_goal_x",
+        "var_goal_y",
+        "var_haven_moving",
+        "world_ballast",
         "world_depth",
         "world_depth_cmd",
+        "world_haven_x",
+        "world_haven_y",
+        "world_periscope_raised",
         "world_pos_x",
         "world_pos_y",
+        "world_set",
+        "world_shaft",
         "world_speed",
         "world_speed_cmd",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_haven_step = hook("sm", hooks, "haven_step", 5.0, "ff")
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.world_set = False  # an every_cycle rule set a world output
+        self.var_goal_x: float = 0.0
+        self.var_goal_y: float = 0.0
+        self.var_depth_reached: bool = False
+        self.var_haven_moving: bool = False
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -146,11 +223,15 @@ class SmController:
             HELM_COMMAND.unpack_from(buf, HELM_COMMAND_AT)
         )
         self.helm_written = self.helm_command_num
+        _, self.prop_command_num, self.prop_command = PROP_COMMAND.unpack_from(buf, PROP_COMMAND_AT)
+        self.prop_written = self.prop_command_num
 
     def safe_state(self, reason: int) -> None:
         """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
         self.helm_command = HELM_HALT
         self.helm_command_num += 1
+        self.prop_command = PROP_HALT
+        self.prop_command_num += 1
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
@@ -176,8 +257,17 @@ class SmController:
             self.helm_error_num,
             self.helm_result_at_goal,
             self.helm_cause,
+            self.prop_status_num,
+            self.prop_status,
+            self.prop_error_num,
+            self.prop_cause,
             self.world_speed_cmd,
             self.world_depth_cmd,
+            self.world_haven_x,
+            self.world_haven_y,
+            self.world_periscope_raised,
+            self.world_shaft,
+            self.world_ballast,
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
@@ -191,6 +281,13 @@ class SmController:
         elif self.helm_status != ERROR:
             self.helm_error_num = HELM_REASON_NONE  # a reason comes only with ERROR
             self.helm_cause = 0
+        if self.prop_status_num != self.prop_command_num:
+            self.prop_status = EXECUTING  # until it echoes the last number sent
+            self.prop_error_num = PROP_REASON_NONE  # no reason yet
+            self.prop_cause = 0
+        elif self.prop_status != ERROR:
+            self.prop_error_num = PROP_REASON_NONE  # a reason comes only with ERROR
+            self.prop_cause = 0
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -211,6 +308,7 @@ class SmController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
+            self.every_cycle()
             command = self.command
             if command == INIT:
                 self.init()
@@ -220,6 +318,8 @@ class SmController:
                 self.submerged_transit()
             elif command == PREP_EMERGENCY_VENT:
                 self.prep_emergency_vent()
+            elif command == PREP_SUBMERGED_TRANSIT:
+                self.prep_submerged_transit()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
@@ -256,9 +356,27 @@ class SmController:
             )
             SEQ.pack_into(buf, HELM_COMMAND_AT, seq + 1)
             self.helm_written = self.helm_command_num
+        if self.prop_command_num != self.prop_written:  # a command was sent
+            seq, number = PROP_COMMAND.unpack_from(buf, PROP_COMMAND_AT)[:2]
+            if number != self.prop_written:  # an operator's command came meanwhile:
+                self.prop_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, PROP_COMMAND_AT, seq)
+            PROP_COMMAND.pack_into(
+                buf, PROP_COMMAND_AT, seq, self.prop_command_num, self.prop_command
+            )
+            SEQ.pack_into(buf, PROP_COMMAND_AT, seq + 1)
+            self.prop_written = self.prop_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
-        if self.rule or buf[OVERRIDDEN_AT]:
-            out = (self.world_speed_cmd, self.world_depth_cmd)
+        if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
+            self.world_set = False
+            out = (
+                self.world_speed_cmd,
+                self.world_depth_cmd,
+                self.world_haven_x,
+                self.world_haven_y,
+                self.world_periscope_raised,
+            )
             now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_1, out, now)
@@ -266,9 +384,39 @@ class SmController:
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
                 SEQ.pack_into(buf, WORLD_SPEED_CMD_AT, s[0] | 1)  # odd before the value changes
                 SEQ.pack_into(buf, WORLD_DEPTH_CMD_AT, s[1] | 1)  # odd before the value changes
-                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+                SEQ.pack_into(buf, WORLD_HAVEN_X_AT, s[2] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_HAVEN_Y_AT, s[3] | 1)  # odd before the value changes
+                SEQ.pack_into(
+                    buf, WORLD_PERISCOPE_RAISED_AT, s[4] | 1
+                )  # odd before the value changes
+                WORLD_OUT_1.pack_into(
+                    buf,
+                    WORLD_OUT_1_AT,
+                    s[0] | 1,
+                    out[0],
+                    s[1] | 1,
+                    out[1],
+                    s[2] | 1,
+                    out[2],
+                    s[3] | 1,
+                    out[3],
+                    s[4] | 1,
+                    out[4],
+                )
                 SEQ.pack_into(buf, WORLD_SPEED_CMD_AT, (s[0] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_DEPTH_CMD_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_HAVEN_X_AT, (s[2] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_HAVEN_Y_AT, (s[3] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_PERISCOPE_RAISED_AT, (s[4] | 1) + 1)
+            out = (self.world_ballast,)
+            now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_2, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
+                SEQ.pack_into(buf, WORLD_BALLAST_AT, s[0] | 1)  # odd before the value changes
+                WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0])
+                SEQ.pack_into(buf, WORLD_BALLAST_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -311,13 +459,36 @@ class SmController:
             self.helm_error_num,
             self.helm_result_at_goal,
             self.helm_cause,
+            self.prop_status_num,
+            self.prop_status,
+            self.prop_error_num,
+            self.prop_cause,
             self.world_speed_cmd,
             self.world_depth_cmd,
+            self.world_haven_x,
+            self.world_haven_y,
+            self.world_periscope_raised,
+            self.world_shaft,
+            self.world_ballast,
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
             self.world_depth,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
+
+    def every_cycle(self) -> None:
+        """Rules tried every cycle, whatever the command."""
+        if self.var_haven_moving:
+            # the moving haven moves along the leg at the speed of advance
+            self.world_set = True  # it sets world outputs
+            self.world_haven_x, self.world_haven_y = self.hook_haven_step(
+                "every_cycle/1",
+                self.world_haven_x,
+                self.world_haven_y,
+                self.var_goal_x,
+                self.var_goal_y,
+                self.world_speed_cmd * CYCLE_PERIOD,
+            )
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -328,8 +499,10 @@ class SmController:
             self.state = S1
             self.helm_command = HELM_INIT
             self.helm_command_num += 1
+            self.prop_command = PROP_INIT
+            self.prop_command_num += 1
 
-        elif state == S1 and self.helm_status == DONE:
+        elif state == S1 and self.helm_status == DONE and self.prop_status == DONE:
             # every subordinate is done
             self.rule = 2  # INIT/S1/1
             self.state = NOP
@@ -345,8 +518,10 @@ class SmController:
             self.state = S1
             self.helm_command = HELM_HALT
             self.helm_command_num += 1
+            self.prop_command = PROP_HALT
+            self.prop_command_num += 1
 
-        elif state == S1 and self.helm_status == DONE:
+        elif state == S1 and self.helm_status == DONE and self.prop_status == DONE:
             # every subordinate is done
             self.rule = 4  # HALT/S1/1
             self.state = NOP
@@ -354,13 +529,25 @@ class SmController:
             self.cause = 0  # DONE has no cause
 
     def submerged_transit(self) -> None:
-        """SUBMERGED_TRANSIT: Transit submerged at standard speed and depth to the waypoint (x, y)."""
+        """SUBMERGED_TRANSIT: Transit submerged at standard speed (two-thirds on the EPM) and
+        transit depth to the waypoint (x, y), never leaving the moving haven, which starts around
+        the submarine and moves towards the waypoint at the ordered speed; blow or flood variable
+        ballast when the depth is more than DEPTH_LIMIT off the order (the sea's density
+        changed).
+        """
         state = self.state
         if state == S0:
             self.rule = 5  # SUBMERGED_TRANSIT/S0/1
             self.state = S1
-            self.world_speed_cmd = STANDARD_SPEED
+            self.world_speed_cmd = STANDARD_SPEED if self.world_shaft == TURBINE else EPM_SPEED
             self.world_depth_cmd = TRANSIT_DEPTH
+            self.world_periscope_raised = False
+            self.world_haven_x = self.world_pos_x
+            self.world_haven_y = self.world_pos_y
+            self.var_goal_x = self.arg_x
+            self.var_goal_y = self.arg_y
+            self.var_haven_moving = True
+            self.var_depth_reached = abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL
             self.helm_arg_x = self.arg_x
             self.helm_arg_y = self.arg_y
             self.helm_command = HELM_ICE_MANEUVER
@@ -375,45 +562,155 @@ class SmController:
                 self.status = ERROR
 
             elif (
-                abs(self.world_pos_x - self.arg_x) < HAVEN
-                and abs(self.world_pos_y - self.arg_y) < HAVEN
+                abs(self.world_pos_x - self.world_haven_x) > HAVEN
+                or abs(self.world_pos_y - self.world_haven_y) > HAVEN
+            ):
+                # the submarine has left its moving haven
+                self.rule = 7  # SUBMERGED_TRANSIT/S1/2
+                self.var_haven_moving = False
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_OUT_OF_HAVEN
+
+            elif (
+                abs(self.world_pos_x - self.arg_x) < ARRIVAL
+                and abs(self.world_pos_y - self.arg_y) < ARRIVAL
             ):
                 # inside the box around the waypoint
-                self.rule = 7  # SUBMERGED_TRANSIT/S1/2
+                self.rule = 8  # SUBMERGED_TRANSIT/S1/3
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
             elif self.helm_status == ERROR and self.helm_error_num == HELM_REASON_BLOCKED:
                 # ice leaves no passage towards the waypoint
-                self.rule = 8  # SUBMERGED_TRANSIT/S1/3
+                self.rule = 9  # SUBMERGED_TRANSIT/S1/4
                 # helm's error: the cause of an ERROR this command reports
                 self.cause = caused(HELM_LINK, self.helm_error_num, self.helm_cause)
+                self.var_haven_moving = False
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_BLOCKED
 
+            elif self.var_depth_reached and self.world_depth > self.world_depth_cmd + DEPTH_LIMIT:
+                # sinking (lighter water, 4.1.2) beyond what the planes hold; blow variable ballast
+                self.rule = 10  # SUBMERGED_TRANSIT/S1/5
+                self.world_ballast = self.world_ballast + BALLAST_STEP
+
+            elif self.var_depth_reached and self.world_depth < self.world_depth_cmd - DEPTH_LIMIT:
+                # rising beyond what the planes hold; flood variable ballast
+                self.rule = 11  # SUBMERGED_TRANSIT/S1/6
+                self.world_ballast = self.world_ballast - BALLAST_STEP
+
+            elif (
+                not self.var_depth_reached
+                and abs(self.world_depth - self.world_depth_cmd) < DEPTH_TOL
+            ):
+                # the ordered depth reached (after a change of depth)
+                self.rule = 12  # SUBMERGED_TRANSIT/S1/7
+                self.var_depth_reached = True
+
     def prep_emergency_vent(self) -> None:
-        """PREP_EMERGENCY_VENT: Come to periscope depth at ahead one-third, steady on course
-        (Section 4.1.3: slowing and changing depth), keeping the helm's maneuver towards the
-        waypoint.
+        """PREP_EMERGENCY_VENT: Prepare for emergency ventilation (sections 4.1.3, 4.7.1): clear
+        baffles; then slow to ahead one-third and come to periscope depth steering for the
+        waypoint (x, y) while propulsion shifts to the EPM; at periscope depth, on course and on
+        the EPM, raise the periscope.
         """
         state = self.state
         if state == S0:
-            # slow and come up
-            self.rule = 9  # PREP_EMERGENCY_VENT/S0/1
-            self.state = S1
-            self.world_speed_cmd = ONE_THIRD_SPEED
-            self.world_depth_cmd = PERISCOPE_DEPTH
+            # clear baffles (the haven stands still while the ship prepares)
+            self.rule = 13  # PREP_EMERGENCY_VENT/S0/1
+            self.state = BAFFLES
+            self.var_haven_moving = False
+            self.helm_command = HELM_CLEAR_BAFFLES
+            self.helm_command_num += 1
 
-        elif (
-            state == S1
-            and abs(self.world_depth - PERISCOPE_DEPTH) < DEPTH_TOL
-            and abs(self.world_speed - ONE_THIRD_SPEED) < SPEED_TOL
-            and self.helm_result_at_goal
-        ):
-            # at periscope depth and one-third speed, helm on course
-            self.rule = 10  # PREP_EMERGENCY_VENT/S1/1
+        elif state == BAFFLES:
+            if self.helm_status == DONE:
+                # baffles clear; slow and come up, back on course, shift to the EPM
+                self.rule = 14  # PREP_EMERGENCY_VENT/BAFFLES/1
+                self.state = SLOWING
+                self.world_speed_cmd = ONE_THIRD_SPEED
+                self.world_depth_cmd = PERISCOPE_DEPTH
+                self.helm_arg_x = self.arg_x
+                self.helm_arg_y = self.arg_y
+                self.helm_command = HELM_ICE_MANEUVER
+                self.helm_command_num += 1
+                self.prop_command = PROP_SHIFT_TO_EPM
+                self.prop_command_num += 1
+
+            elif self.helm_status == ERROR:
+                self.rule = 15  # PREP_EMERGENCY_VENT/BAFFLES/2
+                # helm's error: the cause of an ERROR this command reports
+                self.cause = caused(HELM_LINK, self.helm_error_num, self.helm_cause)
+                self.state = NOP
+                self.status = ERROR
+
+        elif state == SLOWING:
+            if self.prop_status == ERROR:
+                # the EOOW could not shift to the EPM; stop the helm's maneuver
+                self.rule = 16  # PREP_EMERGENCY_VENT/SLOWING/1
+                self.state = PROP_FAILED
+                # prop's error: the cause of an ERROR this command reports
+                self.cause = caused(PROP_LINK, self.prop_error_num, self.prop_cause)
+                self.helm_command = HELM_HALT
+                self.helm_command_num += 1
+
+            elif self.helm_status == ERROR:
+                # the helm failed; withdraw the shift to the EPM
+                self.rule = 17  # PREP_EMERGENCY_VENT/SLOWING/2
+                self.state = HELM_FAILED
+                # helm's error: the cause of an ERROR this command reports
+                self.cause = caused(HELM_LINK, self.helm_error_num, self.helm_cause)
+                self.prop_command = PROP_HALT
+                self.prop_command_num += 1
+
+            elif (
+                abs(self.world_depth - PERISCOPE_DEPTH) < DEPTH_TOL
+                and abs(self.world_speed - ONE_THIRD_SPEED) < SPEED_TOL
+                and self.helm_result_at_goal
+                and self.prop_status == DONE
+            ):
+                # at periscope depth and one-third speed, helm on course, on the EPM; raise the periscope
+                self.rule = 18  # PREP_EMERGENCY_VENT/SLOWING/3
+                self.world_periscope_raised = True
+                self.state = NOP
+                self.status = DONE
+                self.cause = 0  # DONE has no cause
+
+        elif state == PROP_FAILED and self.helm_status != EXECUTING:
+            # the helm has stopped; fail for propulsion's reason
+            self.rule = 19  # PREP_EMERGENCY_VENT/PROP_FAILED/1
+            self.state = NOP
+            self.status = ERROR
+            # prop's reason, passed up by name (another: NONE)
+            self.error_num = {
+                PROP_REASON_LOST: REASON_LOST,
+                PROP_REASON_REFUSED: REASON_REFUSED,
+            }.get(self.prop_error_num, REASON_NONE)
+
+        elif state == HELM_FAILED and self.prop_status != EXECUTING:
+            # propulsion has stopped (the request withdrawn); fail
+            self.rule = 20  # PREP_EMERGENCY_VENT/HELM_FAILED/1
+            self.state = NOP
+            self.status = ERROR
+
+    def prep_submerged_transit(self) -> None:
+        """PREP_SUBMERGED_TRANSIT: Prepare to resume the submerged transit (Figure 17's S4, "SM
+        prep. submg. transit"): lower the periscope and go back to transit depth at standard
+        speed (two-thirds on the EPM), steering on for the waypoint; DONE at transit depth.
+        """
+        state = self.state
+        if state == S0:
+            self.rule = 21  # PREP_SUBMERGED_TRANSIT/S0/1
+            self.state = S1
+            self.world_periscope_raised = False
+            self.world_depth_cmd = TRANSIT_DEPTH
+            self.world_speed_cmd = STANDARD_SPEED if self.world_shaft == TURBINE else EPM_SPEED
+
+        elif state == S1 and abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL:
+            # at transit depth
+            self.rule = 22  # PREP_SUBMERGED_TRANSIT/S1/1
             self.state = NOP
             self.status = DONE
             self.cause = 0  # DONE has no cause

@@ -1,0 +1,226 @@
+"""Sea view: a submarine trace + its keel map and route -> an HTML replay of the transit.
+
+The second paper's animation (section 4.9) and Figure 19, from a recorded run: the ice
+keels, the planned route (each waypoint, and its alternate), the track the submarine sailed
+among the keels, and, cycle by cycle, the submarine at its traced position and heading with
+its moving haven around it, the command controller's, ship maneuver's and the helm's
+commands and states, and the announcement; play/pause, a cycle slider.
+
+The scene is drawn on the server, as SVG in the page, so that what a person sees (where the
+track runs, whether it crosses a keel) is in the file itself; the script only moves the
+submarine and its haven and fills the panel. The keels and the route are the run's: the
+simulators' and the mission planner's own hooks (their hook state factories) load them from
+the system directory with the scenario's settings.
+"""
+
+from __future__ import annotations
+
+import ast
+import html
+import json
+import math
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from ...compiler.ir import IRController, IRSystem
+from .mine import import_hooks
+from .read import Trace
+from .view import StringTable, number, runs
+
+TEMPLATE = "sea_view.html"
+REQUIRED = ("pos_x", "pos_y")
+SHOWN = ("heading", "haven_x", "haven_y", "clearance", "speed", "depth", "announcement")
+PANEL = ("cc", "sm", "helm", "prop")  # the controllers whose commands the panel shows
+WIDTH = 760  # pixels of the plan view's larger side
+MARGIN = 400.0  # metres around everything drawn
+
+
+class SeaError(Exception):
+    """A trace or system the sea view cannot draw; one line."""
+
+
+def _factory_of(system: IRSystem, hook: str) -> IRController:
+    for controller in system.controllers:
+        if controller.hooks_state and hook in controller.hooks and controller.hooks_module:
+            return controller
+    raise SeaError(
+        f"system {system.name} has no ice keels to draw: the sea view needs a simulator whose "
+        f"hooks keep the keels (hooks_state) and ping them (a `{hook}` hook)"
+    )
+
+
+@dataclass
+class Scene:
+    """What the run sailed among, in metres (x east, y north)."""
+
+    keels: list[tuple[float, float, float]]  # (x, y, radius)
+    route: list[tuple[float, float]]
+    alternates: list[tuple[float, float]]
+    haven: float | None  # half the side of the moving haven, if the system declares one
+
+
+def scene(system: IRSystem, system_dir: Path, settings: dict[str, str]) -> Scene:
+    """The keels (the sonar simulator's hook state) and the route (the mission planner's)."""
+    sonar = _factory_of(system, "ping")
+    assert sonar.hooks_module is not None and sonar.hooks_state is not None
+    hooks: ModuleType = import_hooks(system_dir, sonar.hooks_module)
+    keels = [
+        (float(x), float(y), float(r)) for x, y, r in getattr(hooks, sonar.hooks_state)(settings)
+    ]
+    route: list[tuple[float, float]] = []
+    alternates: list[tuple[float, float]] = []
+    for controller in system.controllers:
+        if controller.plans and controller.hooks_state and controller.hooks_module:
+            planner = import_hooks(system_dir, controller.hooks_module)
+            mission = getattr(planner, controller.hooks_state)(settings)
+            route = [(float(x), float(y)) for x, y in getattr(mission, "route", [])]
+            alternates = [
+                (float(x), float(y)) for x, y in getattr(mission, "alternates", {}).values()
+            ]
+    haven = next(
+        (
+            float(ast.literal_eval(literal))
+            for controller in system.controllers
+            for name, literal in controller.constants
+            if name == "HAVEN"
+        ),
+        None,
+    )
+    return Scene(keels, route, alternates, haven)
+
+
+@dataclass
+class Frame:
+    """Metres to pixels: x east to the right, y north up."""
+
+    x0: float
+    y1: float
+    scale: float
+    width: int
+    height: int
+
+    def px(self, x: float, y: float) -> tuple[float, float]:
+        return round((x - self.x0) * self.scale, 1), round((self.y1 - y) * self.scale, 1)
+
+
+def frame(trace: Trace, found: Scene) -> Frame:
+    xs = [*trace.world["pos_x"], *(k[0] for k in found.keels), *(p[0] for p in found.route)]
+    ys = [*trace.world["pos_y"], *(k[1] for k in found.keels), *(p[1] for p in found.route)]
+    reach = max([k[2] for k in found.keels] + [0.0])
+    x0, x1 = min(xs) - MARGIN - reach, max(xs) + MARGIN + reach
+    y0, y1 = min(ys) - MARGIN - reach, max(ys) + MARGIN + reach
+    scale = WIDTH / max(x1 - x0, y1 - y0)
+    return Frame(x0, y1, scale, math.ceil((x1 - x0) * scale), math.ceil((y1 - y0) * scale))
+
+
+def svg(trace: Trace, found: Scene, f: Frame) -> str:
+    """The plan view: keels, route, track; the submarine and its haven, moved by the script."""
+    out = [
+        f'<svg id="sea" width="{f.width}" height="{f.height}" viewBox="0 0 {f.width} {f.height}">'
+    ]
+    out.append(f'<rect class="water" width="{f.width}" height="{f.height}"/>')
+    out.append('<g id="keels">')
+    for x, y, r in found.keels:
+        cx, cy = f.px(x, y)
+        out.append(f'<circle class="keel" cx="{cx}" cy="{cy}" r="{round(r * f.scale, 1)}"/>')
+    out.append("</g>")
+    points = " ".join(f"{px},{py}" for px, py in (f.px(*p) for p in found.route))
+    out.append(f'<polyline id="route" points="{points}"/>')
+    for x, y in found.route:
+        cx, cy = f.px(x, y)
+        out.append(f'<circle class="waypoint" cx="{cx}" cy="{cy}" r="4"/>')
+    for x, y in found.alternates:
+        cx, cy = f.px(x, y)
+        out.append(f'<circle class="alternate" cx="{cx}" cy="{cy}" r="4"/>')
+    track = " ".join(
+        f"{px},{py}"
+        for px, py in (
+            f.px(x, y) for x, y in zip(trace.world["pos_x"], trace.world["pos_y"], strict=True)
+        )
+    )
+    out.append(f'<polyline id="track" points="{track}"/>')
+    side = round(2 * (found.haven or 0.0) * f.scale, 1)
+    out.append(f'<rect id="haven" width="{side}" height="{side}"/>')
+    out.append('<g id="ship"><path d="M 0 -9 L 5 6 L 0 3 L -5 6 Z"/></g>')
+    out.append("</svg>")
+    return "".join(out)
+
+
+def payload(trace: Trace, system: IRSystem, found: Scene, f: Frame, scenario: str) -> str:
+    table = StringTable()
+    world: dict[str, list[Any]] = {}
+    for name in (*REQUIRED, *SHOWN):
+        if name in trace.world:
+            series = trace.world[name]
+            if name == "announcement":
+                world[name] = runs(series, None, table)
+            else:
+                world[name] = [number(v) for v in series]
+    controllers = [
+        {
+            "module": name,
+            "command": runs(trace.columns[name]["command"], None, table),
+            "state": runs(trace.columns[name]["state"], None, table),
+            "status": runs(trace.columns[name]["status"], None, table),
+        }
+        for name in PANEL
+        if name in trace.columns
+    ]
+    data = {
+        "source": trace.name,
+        "system": system.name,
+        "scenario": scenario,
+        "n": len(trace),
+        "cycles": trace.cycles,
+        "frame": {"x0": f.x0, "y1": f.y1, "scale": f.scale},
+        "haven": found.haven,
+        "world": world,
+        "controllers": controllers,
+        "strings": table.values,
+    }
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return text.replace("</", "<\\/")
+
+
+def render(
+    trace: Trace, system: IRSystem, system_dir: Path, settings: dict[str, str], scenario: str = ""
+) -> str:
+    """The page of a submarine trace."""
+    missing = [name for name in REQUIRED if name not in trace.world]
+    if missing:
+        raise SeaError(
+            f"{trace.name} lacks the world fields the sea view needs: {', '.join(missing)}; "
+            "add them to the scenario's `trace: world:` list and run it again"
+        )
+    found = scene(system, system_dir, settings)
+    f = frame(trace, found)
+    template = resources.files(__package__).joinpath("assets", TEMPLATE).read_text("utf-8")
+    title = f"{trace.name} · {system.name}: the transit among the ice"
+    page = template.replace("{{TITLE}}", html.escape(title)).replace(
+        "{{SVG}}", svg(trace, found, f)
+    )
+    return page.replace("{{DATA}}", payload(trace, system, found, f, scenario))
+
+
+def page_for(
+    trace: Trace, system: IRSystem, specs: Path, trace_path: Path, scenario: Path | None
+) -> str:
+    """`rcsgen trace sea`: the page of a trace of `system`, with the keel map and route
+    settings of the scenario that recorded it (`scenario`, else the system's
+    `scenarios/<trace name>.yaml` when there is one). SpecError: that scenario is bad."""
+    from ...compiler.diagnostics import Diagnostics
+    from ...compiler.frontend import find_system_dirs
+    from ..scenario.run import load_scenario
+
+    system_dir = next(
+        d for d in find_system_dirs([specs], Diagnostics()) if d.name == system.source.split("/")[0]
+    )
+    if scenario is None:
+        guess = system_dir / "scenarios" / f"{trace_path.stem}.yaml"
+        scenario = guess if guess.is_file() else None
+    settings = load_scenario(scenario).settings if scenario is not None else {}
+    name = scenario.stem if scenario is not None else ""
+    return render(trace, system, system_dir, settings, name)

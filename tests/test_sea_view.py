@@ -1,0 +1,161 @@
+"""`rcsgen trace sea`: the second paper's animation (4.9) and Figure 19, replayed from a
+submarine trace, its keel map and its route.
+
+The plan view is drawn into the page as SVG, so what a person sees is checked in the file:
+every keel of the run's map where it is, the route's waypoints and alternates, the track
+the submarine sailed, clear of every keel as drawn, and the moving haven around the ship.
+The page is also loaded in headless Chromium, at a cycle and playing.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+import pytest
+from conftest import rcsgen
+from support.browser import load, needs_chromium
+
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.tools.traces import read as traces
+from rcsgen.tools.traces import sea as sea_view
+
+REPO = Path(__file__).resolve().parent.parent
+SUBMARINE = REPO / "specs" / "submarine"
+GOLDEN = REPO / "tests" / "golden" / "submarine"
+
+
+@pytest.fixture(scope="module")
+def system():
+    return compile_paths([SUBMARINE]).systems[0]
+
+
+def circles(page: str, kind: str) -> list[tuple[float, float, float]]:
+    found = re.findall(
+        rf'<circle class="{kind}" cx="([-\d.]+)" cy="([-\d.]+)" r="([\d.]+)"/>', page
+    )
+    return [(float(x), float(y), float(r)) for x, y, r in found]
+
+
+def polyline(page: str, name: str) -> list[tuple[float, float]]:
+    points = re.search(rf'<polyline id="{name}" points="([^"]*)"/>', page)
+    assert points, f"no polyline {name}"
+    return [tuple(map(float, p.split(","))) for p in points.group(1).split()]  # type: ignore[misc]
+
+
+def data(page: str) -> dict:
+    return json.loads(
+        re.search(r'id="sea-data" type="application/json">(.*?)</script>', page).group(1)
+    )
+
+
+def keel_file(name: str) -> list[tuple[float, float, float]]:
+    rows = []
+    for line in (SUBMARINE / "maps" / name).read_text().splitlines():
+        words = line.split("#", 1)[0].split()
+        if words:
+            rows.append(tuple(map(float, words)))
+    return rows  # type: ignore[return-value]
+
+
+def test_the_transit_is_drawn_among_the_keels_it_kept_clear_of(system):
+    trace = traces.load(GOLDEN / "ice_transit.jsonl")
+    settings = {"route": "maps/bering.route", "keels": "maps/bering.keels"}
+    page = sea_view.render(trace, system, SUBMARINE, settings, "ice_transit")
+    keels, d = circles(page, "keel"), data(page)
+    scale, x0, y1 = d["frame"]["scale"], d["frame"]["x0"], d["frame"]["y1"]
+    # every keel of the run's map, where the map puts it, at its size
+    expected = [
+        ((x - x0) * scale, (y1 - y) * scale, r * scale) for x, y, r in keel_file("bering.keels")
+    ]
+    assert len(keels) == len(expected) > 5
+    for (cx, cy, r), (ex, ey, er) in zip(keels, expected, strict=True):
+        assert abs(cx - ex) <= 0.1 and abs(cy - ey) <= 0.1 and abs(r - er) <= 0.1
+    # the route: its waypoints, and the dashed line through them
+    route = [
+        line.split("#")[0].split()
+        for line in (SUBMARINE / "maps" / "bering.route").read_text().splitlines()
+    ]
+    waypoints = [w for w in route if w]
+    assert len(circles(page, "waypoint")) == len(waypoints) == len(polyline(page, "route"))
+    # the track: one point a cycle, north up (the ship sails north: y on the page falls)
+    track = polyline(page, "track")
+    assert len(track) == len(trace)
+    assert track[-1][1] < track[0][1]
+    # as drawn, it crosses no keel, and passes the nearest one by about the measured clearance
+    nearest = (
+        min(math.dist((px, py), (cx, cy)) - r for px, py in track for cx, cy, r in keels) / scale
+    )
+    assert nearest > 100.0
+    assert abs(nearest - min(trace.world["min_clearance"])) < 2.0  # pixel rounding
+    # the moving haven: a box of the spec's size, moved by the page per cycle
+    assert d["haven"] == 300.0
+    assert re.search(rf'<rect id="haven" width="{round(600 * scale, 1)}"', page)
+    assert len(d["world"]["haven_x"]) == len(trace)
+
+
+def test_cli_writes_the_view_beside_the_trace_and_the_same_bytes_twice(tmp_path, monkeypatch):
+    monkeypatch.chdir(REPO)
+    copy = tmp_path / "fire_under_ice.jsonl"
+    copy.write_bytes((GOLDEN / "fire_under_ice.jsonl").read_bytes())
+    result = rcsgen("trace", "sea", copy)
+    assert result.exit_code == 0, result.output
+    page = (tmp_path / "fire_under_ice.sea.html").read_text(encoding="utf-8")
+    d = data(page)
+    assert d["scenario"] == "fire_under_ice"
+    assert [c["module"] for c in d["controllers"]] == ["cc", "sm", "helm", "prop"]
+    assert "ENGINE ROOM FIRE, ALL HANDS ON EABS" in d["strings"]
+    assert rcsgen("trace", "sea", copy, "-o", tmp_path / "again.html").exit_code == 0
+    assert (tmp_path / "again.html").read_text(encoding="utf-8") == page
+
+
+def test_cli_refuses_a_trace_without_the_position_in_one_line(tmp_path, monkeypatch):
+    monkeypatch.chdir(REPO)
+    records = [json.loads(line) for line in (GOLDEN / "rudder_jam.jsonl").read_text().splitlines()]
+    for record in records:
+        del record["world"]["pos_x"]
+    path = tmp_path / "rudder_jam.jsonl"
+    path.write_text("".join(json.dumps(r) + "\n" for r in records), encoding="utf-8")
+    result = rcsgen("trace", "sea", path)
+    assert result.exit_code == 1 and result.output.count("\n") == 1
+    assert result.output.startswith(
+        f"error: {path} lacks the world fields the sea view needs: pos_x"
+    )
+
+
+def test_a_system_without_keels_is_refused():
+    chain = compile_paths([REPO / "tests" / "fixtures" / "semantics" / "chain"]).systems[0]
+    with pytest.raises(sea_view.SeaError, match="has no ice keels to draw"):
+        sea_view.scene(chain, REPO, {})
+
+
+@needs_chromium
+def test_the_view_in_a_browser_shows_the_ship_at_a_cycle_and_plays(tmp_path, system):
+    trace = traces.load(GOLDEN / "engine_room_fire.jsonl")
+    settings = {"route": "maps/open_sea.route", "keels": "maps/open_sea.keels"}
+    path = tmp_path / "engine_room_fire.sea.html"
+    path.write_text(sea_view.render(trace, system, SUBMARINE, settings), encoding="utf-8")
+    still = load(f"{path.as_uri()}#cycle=300", tmp_path, "engine_room_fire_sea_300")
+    body = still.body()
+    assert still.console == [], still.console
+    assert body.get("data-ready") == "1" and body["data-cycle"] == "300"
+    assert "ENGINE ROOM FIRE, ALL HANDS ON EABS" in still.dom  # the announcement, in the fire
+    assert re.search(
+        r'<g id="ship" transform="translate\([-\d.]+ [-\d.]+\) rotate\([-\d.]+\)"', still.dom
+    )
+    assert re.search(
+        r'<rect id="haven" width="[\d.]+" height="[\d.]+" x="[-\d.]+" y="[-\d.]+"', still.dom
+    )
+    # the panel: at cycle 300 the ship is slowing, on the EPM the EOOW engaged at 229
+    assert "<td>sm</td><td>PREP_EMERGENCY_VENT</td><td>SLOWING</td>" in still.dom
+    assert (
+        '<td>prop</td><td>SHIFT_TO_EPM</td><td>NOP</td><td class="st-DONE">DONE</td>' in still.dom
+    )
+    assert still.screenshot is not None and still.screenshot.stat().st_size > 10_000
+    played = load(
+        f"{path.as_uri()}#play", tmp_path, "sea_playing", budget_ms=1500, screenshot=False
+    )
+    assert played.console == [], played.console
+    assert int(played.body()["data-cycle"]) > 20
