@@ -90,6 +90,28 @@ def test_cycles_must_increase_and_modules_stay(tmp_path):
         traces.load(tmp_path / "missing.jsonl")
 
 
+def test_a_module_unchanged_since_its_last_line_is_read_as_a_changed_one(tmp_path):
+    """The reader reuses a module's checked values while its object repeats (most modules,
+    most cycles): the columns must still hold one value per cycle, the same as a plain read,
+    and a line where the object changes is checked again whole."""
+    records = lines_of(GOLDEN / "sump_shear_cusp.jsonl")[:40]
+    loaded = traces.load(write_lines(tmp_path / "a.jsonl", records))
+    for module in loaded.modules:
+        for name, column in loaded.columns[module].items():
+            plain = [r["modules"][module].get(name, "") for r in records]
+            assert column == plain, (module, name)
+    for name, series in loaded.world.items():
+        assert series == [r["world"][name] for r in records], name
+    records[30]["modules"]["co"] = dict(records[29]["modules"]["co"])
+    del records[31]["modules"]["co"]["state"]  # co repeats at 31, then loses a field
+    with pytest.raises(traces.TraceError, match=r":32: module co has no `state`"):
+        traces.load(write_lines(tmp_path / "b.jsonl", records))
+    records = lines_of(GOLDEN / "sump_shear_cusp.jsonl")[:3]
+    records[2]["world"]["zz_unknown"] = 1
+    with pytest.raises(traces.TraceError, match=r":3: world fields differ"):
+        traces.load(write_lines(tmp_path / "c.jsonl", records))
+
+
 def test_lanes_follow_the_execution_order_with_levels(system, pop_out):
     lanes = traces.lanes(pop_out, system)
     assert [lane.module for lane in lanes] == [m for p in system.processes for m in p.modules]

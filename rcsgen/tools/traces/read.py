@@ -130,6 +130,7 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
     """Check a trace's lines, one at a time, into columns; TraceError naming the line."""
     trace = Trace(shown, [], [], {}, {})
     texts: dict[str, str] = {}  # each text value once: a long trace repeats a few names
+    last: dict[str, tuple[dict[str, Any], list[Any]]] = {}  # module -> its last line, checked
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
@@ -140,7 +141,7 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
         if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
             trace.interrupted = _interruption(record, where)
             continue
-        _append(trace, record, where, texts)
+        _append(trace, record, where, texts, last)
     if not trace.cycles and trace.interrupted is None:
         raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
     if not trace.cycles:
@@ -175,8 +176,16 @@ def _interruption(record: dict[str, Any], where: str) -> str:
     return record["interrupted"]
 
 
-def _append(trace: Trace, record: dict[str, Any], where: str, texts: dict[str, str]) -> None:
-    """One cycle's line added to the trace's columns, checked against the first line's."""
+def _append(
+    trace: Trace,
+    record: dict[str, Any],
+    where: str,
+    texts: dict[str, str],
+    last: dict[str, tuple[dict[str, Any], list[Any]]],
+) -> None:
+    """One cycle's line added to the trace's columns, checked against the first line's. A
+    module whose object equals its previous line's (most modules, most cycles) passed the
+    same checks then: its values are appended again as they were, unchecked and uncopied."""
     found = record.get("modules")
     if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
         raise TraceError(f"{where}: not a trace line (no `modules` object)")
@@ -198,9 +207,17 @@ def _append(trace: Trace, record: dict[str, Any], where: str, texts: dict[str, s
         extra = sorted(set(found) ^ set(trace.modules))
         raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
     for module in trace.modules:
-        _append_module(trace.columns[module], module, found[module], where, texts)
+        values, columns = found[module], trace.columns[module]
+        previous = last.get(module)
+        if previous is not None and previous[0] == values:
+            for series, value in zip(columns.values(), previous[1], strict=True):
+                series.append(value)
+            continue
+        _append_module(columns, module, values, where, texts)
+        last[module] = (values, [series[-1] for series in columns.values()])
     fields = record.get("world") or {}
-    if not isinstance(fields, dict) or sorted(fields) != list(trace.world):
+    # (keys compared as sets: the world's are the first line's, sorted, each once)
+    if not isinstance(fields, dict) or fields.keys() != trace.world.keys():
         raise TraceError(f"{where}: world fields differ from the first line's")
     for name, series in trace.world.items():
         series.append(_one(texts, fields[name]))
