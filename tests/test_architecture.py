@@ -611,7 +611,7 @@ def test_the_command_line_starts_without_the_heavy_libraries() -> None:
     import subprocess
 
     heavy = ("jinja2", "jsonschema", "z3", "textual", "ruff")
-    probe = "import sys, rcsgen.cli; print(' '.join(m for m in %r if m in sys.modules))" % (heavy,)
+    probe = f"import sys, rcsgen.cli; print(*(m for m in {heavy!r} if m in sys.modules))"
     done = subprocess.run(
         [sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=120
     )
