@@ -129,8 +129,7 @@ def parse(text: str, shown: str = "<trace>") -> Trace:
 def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
     """Check a trace's lines, one at a time, into columns; TraceError naming the line."""
     trace = Trace(shown, [], [], {}, {})
-    texts: dict[str, str] = {}  # each text value once: a long trace repeats a few names
-    last: dict[str, tuple[dict[str, Any], list[Any]]] = {}  # module -> its last line, checked
+    reader = _Reader(trace)
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
@@ -141,7 +140,8 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
         if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
             trace.interrupted = _interruption(record, where)
             continue
-        _append(trace, record, where, texts, last)
+        reader.append(record, where)
+    reader.columns()
     if not trace.cycles and trace.interrupted is None:
         raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
     if not trace.cycles:
@@ -149,11 +149,6 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
             f"{shown} holds no cycle: its run was interrupted before its first one ended"
         )
     return trace
-
-
-def _one(texts: dict[str, str], value: Any) -> Any:
-    """One copy of each text (a state's name, a status): a long trace repeats a few."""
-    return texts.setdefault(value, value) if type(value) is str else value
 
 
 def _record(line: str, where: str) -> dict[str, Any]:
@@ -176,23 +171,54 @@ def _interruption(record: dict[str, Any], where: str) -> str:
     return record["interrupted"]
 
 
-def _append(
-    trace: Trace,
-    record: dict[str, Any],
-    where: str,
-    texts: dict[str, str],
-    last: dict[str, tuple[dict[str, Any], list[Any]]],
-) -> None:
-    """One cycle's line added to the trace's columns, checked against the first line's. A
-    module whose object equals its previous line's (most modules, most cycles) passed the
-    same checks then: its values are appended again as they were, unchecked and uncopied."""
-    found = record.get("modules")
-    if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
-        raise TraceError(f"{where}: not a trace line (no `modules` object)")
-    cycles = trace.cycles
-    if cycles and record["cycle"] <= cycles[-1]:
-        raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
-    if not cycles:  # the first line says which modules, optional fields and world fields
+class _Reader:
+    """A trace's lines into its columns, checked against the first line's. A module's values
+    are kept as runs (its checked values, how many cycles in a row) and written out as
+    columns at the end: most modules repeat their last line's object in most cycles (98 %
+    of them in a long run), and such a line passed the same checks then, so it only makes
+    its run one cycle longer (no checks, no per-cycle copies of its values)."""
+
+    def __init__(self, trace: Trace) -> None:
+        self.trace = trace
+        self.texts: dict[str, str] = {}  # each text value once: a trace repeats a few names
+        self.last: dict[str, dict[str, Any]] = {}  # module -> its object on the last line
+        self.runs: dict[str, list[list[Any]]] = {}  # module -> [values, cycles] per run
+
+    def append(self, record: dict[str, Any], where: str) -> None:
+        """One cycle's line."""
+        trace = self.trace
+        found = record.get("modules")
+        if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
+            raise TraceError(f"{where}: not a trace line (no `modules` object)")
+        cycles = trace.cycles
+        if cycles and record["cycle"] <= cycles[-1]:
+            raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
+        if not cycles:  # the first line says which modules, optional fields and world fields
+            self._first(record, found)
+        elif found.keys() != self.last.keys():  # (the modules' names, each once: as sets)
+            extra = sorted(set(found) ^ set(trace.modules))
+            raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
+        last, runs = self.last, self.runs
+        for module in trace.modules:
+            values = found[module]
+            if values == last[module]:
+                runs[module][-1][1] += 1
+                continue
+            checked = _checked(trace.columns[module], module, values, where, self.texts)
+            runs[module].append([checked, 1])
+            last[module] = values
+        fields = record.get("world") or {}
+        # (keys compared as sets: the world's are the first line's, sorted, each once)
+        if not isinstance(fields, dict) or fields.keys() != trace.world.keys():
+            raise TraceError(f"{where}: world fields differ from the first line's")
+        texts = self.texts
+        for name, series in trace.world.items():
+            value = fields[name]
+            series.append(texts.setdefault(value, value) if type(value) is str else value)
+        cycles.append(record["cycle"])
+
+    def _first(self, record: dict[str, Any], found: dict[str, Any]) -> None:
+        trace = self.trace
         trace.modules = sorted(found)
         trace.columns = {
             m: {
@@ -203,34 +229,26 @@ def _append(
             for m in trace.modules
         }
         trace.world = {name: [] for name in sorted(record.get("world") or {})}
-    elif sorted(found) != trace.modules:
-        extra = sorted(set(found) ^ set(trace.modules))
-        raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
-    for module in trace.modules:
-        values, columns = found[module], trace.columns[module]
-        previous = last.get(module)
-        if previous is not None and previous[0] == values:
-            for series, value in zip(columns.values(), previous[1], strict=True):
-                series.append(value)
-            continue
-        _append_module(columns, module, values, where, texts)
-        last[module] = (values, [series[-1] for series in columns.values()])
-    fields = record.get("world") or {}
-    # (keys compared as sets: the world's are the first line's, sorted, each once)
-    if not isinstance(fields, dict) or fields.keys() != trace.world.keys():
-        raise TraceError(f"{where}: world fields differ from the first line's")
-    for name, series in trace.world.items():
-        series.append(_one(texts, fields[name]))
-    cycles.append(record["cycle"])
+        self.last = {m: {"": object()} for m in trace.modules}  # (equal to no object)
+        self.runs = {m: [] for m in trace.modules}
+
+    def columns(self) -> None:
+        """The runs written out as the trace's columns: one value per cycle."""
+        for module, runs in self.runs.items():
+            columns = list(self.trace.columns[module].values())
+            for values, count in runs:
+                for series, value in zip(columns, values, strict=True):
+                    series += [value] * count
 
 
-def _append_module(
+def _checked(
     columns: dict[str, list[Any]],
     module: str,
     values: dict[str, Any],
     where: str,
     texts: dict[str, str],
-) -> None:
+) -> list[Any]:
+    """A module's values on one line, checked, in the order of its columns."""
     missing = [f for f in columns if f not in values and f != SPARSE]
     if missing:
         raise TraceError(f"{where}: module {module} has no `{missing[0]}`")
@@ -243,8 +261,11 @@ def _append_module(
         raise TraceError(f"{where}: module {module}'s `result` is not an object")
     if SPARSE in values and SPARSE not in columns:
         raise TraceError(f"{where}: module {module} has a `{SPARSE}` but declares no reasons")
+    out = []
     for name in columns:
-        columns[name].append(_one(texts, values.get(name, "")))
+        value = values.get(name, "")
+        out.append(texts.setdefault(value, value) if type(value) is str else value)
+    return out
 
 
 def status_text(column: dict[str, list[Any]], i: int) -> str:
