@@ -312,3 +312,21 @@ def test_docs_report_the_current_coverage_of_the_scenarios(system):
         "docs/miner.md's coverage section is stale: update it from\n"
         "  rcsgen trace coverage tests/golden/*.jsonl"
     )
+
+
+def test_starts_mark_every_change_and_the_page_looks_only_there(pop_out):
+    """Trace.starts holds, per module, the cycles where its line's object changed: its
+    values change nowhere else, and the page's run-length encoding from those cycles alone
+    is the one made by looking at every cycle."""
+    from rcsgen.tools.traces import view
+
+    for module in pop_out.modules:
+        starts, col = pop_out.starts[module], pop_out.columns[module]
+        assert starts[0] == 0 and starts == sorted(set(starts))
+        rows = list(zip(*col.values(), strict=True))
+        changed = [i for i in range(1, len(rows)) if rows[i] != rows[i - 1]]
+        assert set(changed) <= set(starts), module
+        for name, numbers in (("command", col["command_num"]), ("state", None)):
+            every = view.runs(col[name], numbers, view.StringTable())
+            only = view.runs(col[name], numbers, view.StringTable(), str, starts)
+            assert every == only, (module, name)

@@ -47,6 +47,10 @@ class Trace:
     # The signal that interrupted the run (`rcsgen run` on SIGINT/SIGTERM writes the cycles
     # it ran and a last line saying so); None for a run that ended.
     interrupted: str | None = None
+    # module -> the indices of the cycles whose line holds another object for it than the
+    # line before (0 first): its values change nowhere else, so a viewer that looks for
+    # changes need only look there. Empty: not known (look at every cycle).
+    starts: dict[str, list[int]] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.cycles)
@@ -233,10 +237,15 @@ class _Reader:
         self.runs = {m: [] for m in trace.modules}
 
     def columns(self) -> None:
-        """The runs written out as the trace's columns: one value per cycle."""
+        """The runs written out as the trace's columns (one value per cycle), and where each
+        module's runs start (`Trace.starts`)."""
         for module, runs in self.runs.items():
             columns = list(self.trace.columns[module].values())
+            starts = self.trace.starts[module] = []
+            at = 0
             for values, count in runs:
+                starts.append(at)
+                at += count
                 for series, value in zip(columns, values, strict=True):
                     series += [value] * count
 
