@@ -330,3 +330,34 @@ def test_starts_mark_every_change_and_the_page_looks_only_there(pop_out):
             every = view.runs(col[name], numbers, view.StringTable())
             only = view.runs(col[name], numbers, view.StringTable(), str, starts)
             assert every == only, (module, name)
+
+
+def test_a_line_repeating_the_modules_text_reads_as_if_decoded_whole(tmp_path):
+    """The reader decodes only the rest of a line whose `"modules":{...}` text is the last
+    line's (three lines in four of a long run): the golden trace as written (compact) must
+    give what the same lines give spaced out (never taken that way); odd shapes (a `world`
+    key nested in a module's result, a second `modules` key, a broken rest) decoded whole."""
+    compact = GOLDEN / "around_pillar.jsonl"
+    records = lines_of(compact)
+    fast = traces.load(compact)
+    slow = traces.load(write_lines(tmp_path / "spaced.jsonl", records))
+    assert (fast.cycles, fast.modules, fast.world) == (slow.cycles, slow.modules, slow.world)
+    assert fast.columns == slow.columns and fast.starts == slow.starts
+
+    def compact_lines(rows):
+        text = "".join(json.dumps(r, separators=(",", ":")) + "\n" for r in rows)
+        (tmp_path / "odd.jsonl").write_text(text, encoding="utf-8")
+        return tmp_path / "odd.jsonl"
+
+    rows = [dict(records[i]) for i in range(4)]
+    rows[2]["modules"] = rows[1]["modules"]  # the same text twice, then a bad world
+    rows[2]["world"] = []
+    with pytest.raises(traces.TraceError, match=r":3: world fields differ"):
+        traces.load(compact_lines(rows))
+    rows = [dict(records[i]) for i in range(3)]
+    rows[2]["modules"] = rows[1]["modules"]
+    text = compact_lines(rows).read_text("utf-8").splitlines()
+    text[2] = text[2][:-1] + ',"modules":{}}'  # a second `modules` key: JSON keeps the last
+    (tmp_path / "twice.jsonl").write_text("\n".join(text) + "\n", encoding="utf-8")
+    with pytest.raises(traces.TraceError, match=r":3: modules differ"):
+        traces.load(tmp_path / "twice.jsonl")

@@ -134,13 +134,14 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
     """Check a trace's lines, one at a time, into columns; TraceError naming the line."""
     trace = Trace(shown, [], [], {}, {})
     reader = _Reader(trace)
+    memo = _Modules()
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
         where = f"{shown}:{number}"
         if trace.interrupted is not None:
             raise TraceError(f"{where}: a line after the one that says the run was interrupted")
-        record = _record(line, where)
+        record = memo.reuse(line) or memo.remember(line, _record(line, where))
         if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
             trace.interrupted = _interruption(record, where)
             continue
@@ -166,6 +167,52 @@ def _record(line: str, where: str) -> dict[str, Any]:
     return record
 
 
+class _Modules:
+    """The `modules` object of the last line read whole, and its text: a line whose modules
+    text is the same (three lines in four of a long run) has only the rest decoded.
+
+    `rcsgen run` writes `{"cycle":N,"modules":{...},"world":{...}}`. In JSON a `"` inside
+    a string is always escaped, so `},"world":{` is a key `world` of some object after an
+    object value, and `,"modules":` right after the cycle's digits is the line's own key:
+    when the text between them is balanced (the rest then decodes as an object without
+    it), it is the whole `modules` member. Any other shape is decoded whole."""
+
+    def __init__(self) -> None:
+        self.text: str | None = None  # `"modules":{...}` of the last line decoded whole
+        self.modules: Any = None  # what it decoded to
+
+    @staticmethod
+    def _split(line: str) -> tuple[int, int] | None:
+        start, end = line.find(',"modules":'), line.find('},"world":{')
+        if 0 < start < end and line.startswith('{"cycle":') and line[9:start].isdigit():
+            return start, end
+        return None
+
+    def reuse(self, line: str) -> dict[str, Any] | None:
+        """The line's record, its `modules` the last one's, if its text is the same."""
+        split = self._split(line) if self.text is not None else None
+        if split is None:
+            return None
+        start, end = split
+        if line[start + 1 : end + 1] != self.text:
+            return None
+        try:
+            record = json.loads(line[: start + 1] + line[end + 2 :])
+        except json.JSONDecodeError:
+            return None
+        if not isinstance(record, dict) or "modules" in record:
+            return None
+        record["modules"] = self.modules
+        return record
+
+    def remember(self, line: str, record: dict[str, Any]) -> dict[str, Any]:
+        """A record decoded whole (from `line`), its modules kept for the next line."""
+        split = self._split(line)
+        self.text = None if split is None else line[split[0] + 1 : split[1] + 1]
+        self.modules = record.get("modules")
+        return record
+
+
 def _interruption(record: dict[str, Any], where: str) -> str:
     """The signal an `interrupted` line names (it holds only that and `cycle`)."""
     if sorted(record) != ["cycle", "interrupted"] or not isinstance(record["interrupted"], str):
@@ -187,14 +234,21 @@ class _Reader:
         self.texts: dict[str, str] = {}  # each text value once: a trace repeats a few names
         self.last: dict[str, dict[str, Any]] = {}  # module -> its object on the last line
         self.runs: dict[str, list[list[Any]]] = {}  # module -> [values, cycles] per run
+        self.found: object = None  # the last line's `modules` object, checked
 
     def append(self, record: dict[str, Any], where: str) -> None:
         """One cycle's line."""
         trace = self.trace
-        found = record.get("modules")
+        found, cycles = record.get("modules"), trace.cycles
+        if found is self.found:  # the last line's modules (_Modules.reuse): checked then
+            if record["cycle"] <= cycles[-1]:
+                raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
+            for run in self.runs.values():  # every run one cycle longer
+                run[-1][1] += 1
+            self._world(record, where)
+            return
         if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
             raise TraceError(f"{where}: not a trace line (no `modules` object)")
-        cycles = trace.cycles
         if cycles and record["cycle"] <= cycles[-1]:
             raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
         if not cycles:  # the first line says which modules, optional fields and world fields
@@ -211,6 +265,11 @@ class _Reader:
             checked = _checked(trace.columns[module], module, values, where, self.texts)
             runs[module].append([checked, 1])
             last[module] = values
+        self.found = found
+        self._world(record, where)
+
+    def _world(self, record: dict[str, Any], where: str) -> None:
+        trace = self.trace
         fields = record.get("world") or {}
         # (keys compared as sets: the world's are the first line's, sorted, each once)
         if not isinstance(fields, dict) or fields.keys() != trace.world.keys():
@@ -219,7 +278,7 @@ class _Reader:
         for name, series in trace.world.items():
             value = fields[name]
             series.append(texts.setdefault(value, value) if type(value) is str else value)
-        cycles.append(record["cycle"])
+        trace.cycles.append(record["cycle"])
 
     def _first(self, record: dict[str, Any], found: dict[str, Any]) -> None:
         trace = self.trace
