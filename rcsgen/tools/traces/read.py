@@ -234,7 +234,7 @@ class _Reader:
         self.texts: dict[str, str] = {}  # each text value once: a trace repeats a few names
         self.last: dict[str, dict[str, Any]] = {}  # module -> its object on the last line
         self.runs: dict[str, list[list[Any]]] = {}  # module -> [values, cycles] per run
-        self.found: object = None  # the last line's `modules` object, checked
+        self.found: object = object()  # the last line's `modules` object, checked (none yet)
 
     def append(self, record: dict[str, Any], where: str) -> None:
         """One cycle's line."""
