@@ -1016,6 +1016,7 @@ def section_scaling(scaling: dict) -> list[str]:
     ]
     names = {
         "build_s": "build",
+        "build_cpu_s": "build, CPU (ruff's included)",
         "cli_build_s": "CLI `rcsgen build`",
         "front_s": "front end",
         "render_s": "render",
