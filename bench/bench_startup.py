@@ -1,4 +1,6 @@
-"""Part 4: start-up. How long importing a generated system takes, against the peers.
+"""Part 4: start-up. How long importing a generated system takes, against the peers; and
+whole commands: `rcsgen validate specs/`, and a generated process started, run one cycle
+and stopped (CPU seconds and peak RSS from the kernel's accounting of each finished child).
 
 Each target is a `python -c "import ..."` in a fresh interpreter, run in interleaved
 rounds; its cost is the median wall time less the median of `python -c pass` (the bare
@@ -58,6 +60,53 @@ def targets(co_package: Path) -> list[dict]:
     ]
 
 
+def commands() -> list[dict]:
+    """(key, title, argv, PYTHONPATH) of every whole command timed: the CLI's `validate`, and
+    each process of the generated miner started, run for one cycle and stopped, as the
+    launcher starts it (`python -m miner pc2 --cycles 1 --fast`: its planner built)."""
+    miner = [str(ROOT / "generated"), str(ROOT / "specs" / "miner")]
+    python, rcsgen = sys.executable, str(Path(sys.executable).with_name("rcsgen"))
+    segment = f"rcsbench_startup_{os.getpid()}"
+    return [
+        {
+            "key": "validate",
+            "title": "`rcsgen validate specs/`",
+            "argv": [rcsgen, "validate", "specs/"],
+            "path": [],
+        },
+        *(
+            {
+                "key": process,
+                "title": f"`python -m miner {process} --cycles 1 --fast` (start, one cycle, stop)",
+                "argv": [python, "-m", "miner", process, "--cycles", "1", "--fast"]
+                + ["--shm", f"{segment}_{process}"],
+                "path": miner,
+            }
+            for process in ("pc1", "pc2")
+        ),
+    ]
+
+
+def run_command(command: dict) -> dict[str, float]:
+    """One whole command in a fresh process: CPU seconds (user + system, from the kernel's
+    accounting of the finished child), wall seconds and peak RSS (MiB)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(command["path"]))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    start = time.perf_counter()
+    child = subprocess.Popen(
+        command["argv"], env=env, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    _, status, usage = os.wait4(child.pid, 0)
+    child.returncode = os.waitstatus_to_exitcode(status)
+    if child.returncode != 0:
+        raise SystemExit(f"{' '.join(command['argv'])} failed ({child.returncode})")
+    return {
+        "cpu_s": usage.ru_utime + usage.ru_stime,
+        "wall_s": time.perf_counter() - start,
+        "rss_mib": usage.ru_maxrss / 1024,
+    }
+
+
 def run(target: dict, importtime: bool = False) -> tuple[float, str]:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(target["path"]))
     env.pop("PYTHONDONTWRITEBYTECODE", None)
@@ -101,6 +150,13 @@ def main() -> int:
             for target in all_targets:
                 walls[target["key"]].append(run(target)[0])
         rows = {t["key"]: import_times(run(t, importtime=True)[1]) for t in all_targets}
+    whole = commands()
+    for command in whole:  # warm-up: bytecode compiled once
+        run_command(command)
+    runs: dict[str, list[dict[str, float]]] = {c["key"]: [] for c in whole}
+    for _ in range(args.rounds):
+        for command in whole:
+            runs[command["key"]].append(run_command(command))
     bare = statistics.median(walls["python"])
     bare_us = top_level_us(rows["python"])
     results = []
@@ -134,6 +190,21 @@ def main() -> int:
                     "typing",
                 )
             },
+            "commands": [
+                {
+                    "key": c["key"],
+                    "title": c["title"],
+                    **{
+                        figure: {
+                            "median": statistics.median(r[figure] for r in runs[c["key"]]),
+                            "min": min(r[figure] for r in runs[c["key"]]),
+                            "max": max(r[figure] for r in runs[c["key"]]),
+                        }
+                        for figure in ("cpu_s", "wall_s", "rss_mib")
+                    },
+                }
+                for c in whole
+            ],
             "seconds": time.perf_counter() - started,
         },
     )

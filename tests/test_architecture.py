@@ -601,3 +601,18 @@ def test_walk_finds_imports_everywhere(tmp_path: Path) -> None:
 def _imports_of(package: Path, module: str) -> Iterator[Import]:
     imports, _ = find_imports(package)
     return (i for i in imports if i.source == module)
+
+
+def test_the_command_line_starts_without_the_heavy_libraries() -> None:
+    """`rcsgen validate` must answer in about a second (issue 24): importing the command line
+    (what every command pays before it runs) loads no template engine, no JSON Schema
+    library, no solver and no terminal UI; the commands that need one import it themselves.
+    Checked in a fresh interpreter, as a user starts the command."""
+    import subprocess
+
+    heavy = ("jinja2", "jsonschema", "z3", "textual", "ruff")
+    probe = f"import sys, rcsgen.cli; print(*(m for m in {heavy!r} if m in sys.modules))"
+    done = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=120
+    )
+    assert done.stdout.split() == [], f"imported at start-up: {done.stdout.strip()}"

@@ -352,6 +352,33 @@ def test_the_planner_goes_straight_in_line_and_around_pillars_otherwise():
     assert pp_hooks.plan(planner, 0.0, 0.0, 0.0, 20.0, 5.0)[0] is False, "inside solid coal"
 
 
+def test_the_planners_free_cells_are_those_clear_of_coal_by_its_clearance():
+    """new_planner finds free cells with bit masks (a row of coal per integer): on every
+    shipped map the result must be the definition, cell by cell: no coal cell within
+    CLEARANCE of the cell's own (distance between cell indices times the cell size)."""
+    import math
+
+    for name in ("maps/box_cut.map", "maps/roll.map", "maps/two_pass.map"):
+        planner = pp_hooks.new_planner({"map": name})
+        seam = mine_hooks.load_map(mine_hooks.SYSTEM_DIR / name).seam
+        rows = 1 + max(r for r, _ in seam)
+        columns = 1 + max(c for _, c in seam)
+        reach = math.ceil(pp_hooks.CLEARANCE / mine_hooks.CELL)
+        expected = {
+            (r, c)
+            for r in range(rows)
+            for c in range(columns)
+            if not any(
+                (r + dr, c + dc) in seam
+                for dr in range(-reach, reach + 1)
+                for dc in range(-reach, reach + 1)
+                if math.hypot(dr, dc) * mine_hooks.CELL < pp_hooks.CLEARANCE
+            )
+        }
+        assert planner.free == expected, name
+        assert 0 < len(expected) < rows * columns, "some cells free, some not"
+
+
 def test_guidance_trams_around_the_pillar_to_a_goal_in_the_next_entry():
     final, lines = played("around_pillar")
     assert final["status"] == "DONE"

@@ -90,6 +90,28 @@ def test_cycles_must_increase_and_modules_stay(tmp_path):
         traces.load(tmp_path / "missing.jsonl")
 
 
+def test_a_module_unchanged_since_its_last_line_is_read_as_a_changed_one(tmp_path):
+    """The reader reuses a module's checked values while its object repeats (most modules,
+    most cycles): the columns must still hold one value per cycle, the same as a plain read,
+    and a line where the object changes is checked again whole."""
+    records = lines_of(GOLDEN / "sump_shear_cusp.jsonl")[:40]
+    loaded = traces.load(write_lines(tmp_path / "a.jsonl", records))
+    for module in loaded.modules:
+        for name, column in loaded.columns[module].items():
+            plain = [r["modules"][module].get(name, "") for r in records]
+            assert column == plain, (module, name)
+    for name, series in loaded.world.items():
+        assert series == [r["world"][name] for r in records], name
+    records[30]["modules"]["co"] = dict(records[29]["modules"]["co"])
+    del records[31]["modules"]["co"]["state"]  # co repeats at 31, then loses a field
+    with pytest.raises(traces.TraceError, match=r":32: module co has no `state`"):
+        traces.load(write_lines(tmp_path / "b.jsonl", records))
+    records = lines_of(GOLDEN / "sump_shear_cusp.jsonl")[:3]
+    records[2]["world"]["zz_unknown"] = 1
+    with pytest.raises(traces.TraceError, match=r":3: world fields differ"):
+        traces.load(write_lines(tmp_path / "c.jsonl", records))
+
+
 def test_lanes_follow_the_execution_order_with_levels(system, pop_out):
     lanes = traces.lanes(pop_out, system)
     assert [lane.module for lane in lanes] == [m for p in system.processes for m in p.modules]
@@ -290,3 +312,52 @@ def test_docs_report_the_current_coverage_of_the_scenarios(system):
         "docs/miner.md's coverage section is stale: update it from\n"
         "  rcsgen trace coverage tests/golden/*.jsonl"
     )
+
+
+def test_starts_mark_every_change_and_the_page_looks_only_there(pop_out):
+    """Trace.starts holds, per module, the cycles where its line's object changed: its
+    values change nowhere else, and the page's run-length encoding from those cycles alone
+    is the one made by looking at every cycle."""
+    from rcsgen.tools.traces import view
+
+    for module in pop_out.modules:
+        starts, col = pop_out.starts[module], pop_out.columns[module]
+        assert starts[0] == 0 and starts == sorted(set(starts))
+        rows = list(zip(*col.values(), strict=True))
+        changed = [i for i in range(1, len(rows)) if rows[i] != rows[i - 1]]
+        assert set(changed) <= set(starts), module
+        for name, numbers in (("command", col["command_num"]), ("state", None)):
+            every = view.runs(col[name], numbers, view.StringTable())
+            only = view.runs(col[name], numbers, view.StringTable(), str, starts)
+            assert every == only, (module, name)
+
+
+def test_a_line_repeating_the_modules_text_reads_as_if_decoded_whole(tmp_path):
+    """The reader decodes only the rest of a line whose `"modules":{...}` text is the last
+    line's (three lines in four of a long run): the golden trace as written (compact) must
+    give what the same lines give spaced out (never taken that way); odd shapes (a `world`
+    key nested in a module's result, a second `modules` key, a broken rest) decoded whole."""
+    compact = GOLDEN / "around_pillar.jsonl"
+    records = lines_of(compact)
+    fast = traces.load(compact)
+    slow = traces.load(write_lines(tmp_path / "spaced.jsonl", records))
+    assert (fast.cycles, fast.modules, fast.world) == (slow.cycles, slow.modules, slow.world)
+    assert fast.columns == slow.columns and fast.starts == slow.starts
+
+    def compact_lines(rows):
+        text = "".join(json.dumps(r, separators=(",", ":")) + "\n" for r in rows)
+        (tmp_path / "odd.jsonl").write_text(text, encoding="utf-8")
+        return tmp_path / "odd.jsonl"
+
+    rows = [dict(records[i]) for i in range(4)]
+    rows[2]["modules"] = rows[1]["modules"]  # the same text twice, then a bad world
+    rows[2]["world"] = []
+    with pytest.raises(traces.TraceError, match=r":3: world fields differ"):
+        traces.load(compact_lines(rows))
+    rows = [dict(records[i]) for i in range(3)]
+    rows[2]["modules"] = rows[1]["modules"]
+    text = compact_lines(rows).read_text("utf-8").splitlines()
+    text[2] = text[2][:-1] + ',"modules":{}}'  # a second `modules` key: JSON keeps the last
+    (tmp_path / "twice.jsonl").write_text("\n".join(text) + "\n", encoding="utf-8")
+    with pytest.raises(traces.TraceError, match=r":3: modules differ"):
+        traces.load(tmp_path / "twice.jsonl")

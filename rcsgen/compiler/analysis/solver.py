@@ -238,11 +238,12 @@ def solve(
     if size > LIMIT:
         return Answer(Verdict.UNKNOWN, size=size)
     keys, okeys = list(domains), list(opaque)
+    keeping = tuple(invariants.values())  # (most questions have none: no generator then)
 
     def truth(val: dict[Key, Any]) -> bool | None:
         """Whether every guard has its wanted value: True, False or None (not known yet).
         A valuation no invariant allows is False: it cannot happen."""
-        if any(keeps(val) is False for keeps in invariants.values()):
+        if keeping and any(keeps(val) is False for keeps in keeping):
             return False
         unknown = False
         for g, wanted in guards:

@@ -72,8 +72,9 @@ def lower_system(checked: CheckedSystem, sources: Mapping[str, str]) -> ir.IRSys
     generated headers name it by (relative to the specs root)."""
     spec = checked.spec
     world = tuple(_world_field(f) for f in spec.world.values())
+    links = {name: link for link, name in enumerate(cause_modules(checked), start=1)}
     controllers = tuple(
-        _ControllerLowering(c, checked, sources[c.spec.display]).lower()
+        _ControllerLowering(c, checked, sources[c.spec.display], links).lower()
         for c in checked.controllers.values()
     )
     devices = checked.io.devices
@@ -155,8 +156,15 @@ def default_heartbeat_timeout(processes: Iterable[ir.IRProcess]) -> float:
 
 
 class _ControllerLowering:
-    def __init__(self, checked: CheckedController, system: CheckedSystem, source: str):
+    def __init__(
+        self,
+        checked: CheckedController,
+        system: CheckedSystem,
+        source: str,
+        links: Mapping[str, int],
+    ):
         self.checked, self.system, self.source = checked, system, source
+        self.links = links  # module -> its link number in a cause (cause_modules, from 1)
         self.spec = checked.spec
         # reasons survive: a controller that declares reasons keeps the cause of its ERROR
         self.cause = bool(reason_codes(self.spec)) and not self.spec.is_operator
@@ -322,7 +330,7 @@ class _ControllerLowering:
             results,
             channel,
             continued,
-            link=cause_modules(self.system).index(sub) + 1,
+            link=self.links[sub],
             caused=caused,
             chained=caused and bool(reason_codes(sub_spec)) and not sub_spec.is_operator,
         )

@@ -12,6 +12,7 @@ from __future__ import annotations
 import ast
 import builtins
 import keyword
+from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 
@@ -80,9 +81,12 @@ def check_system(
     order = [m for p in system.processes for m in (a.value for a in p.modules)]
     replaced_by = {stand_in: name for name, stand_in in stand_ins.items()}
     checked: dict[str, CheckedController] = {}
+    periods = process_periods(system)  # (once: a lookup per module, not a scan)
     for name in [*order, *sorted(replaced_by)]:
         buffers = replaced_by.get(name, name)  # a stand-in runs in its controller's buffers
-        checker = _ControllerChecker(by_name[name], by_name, system, diags, contracts[name])
+        checker = _ControllerChecker(
+            by_name[name], by_name, system, diags, contracts[name], periods
+        )
         checked[name] = checker.check(
             supervisors.get(buffers),
             name in simulators or name in replaced_by,
@@ -134,12 +138,15 @@ def _check_module(
     return hook_checks.check_hooks_module(spec, system.directory, world, diags)
 
 
-def process_period(system: SystemSpec, module: str) -> float:
-    """The cycle period of the process that runs `module` (the system's if it runs in none)."""
+def process_periods(system: SystemSpec) -> dict[str, float]:
+    """The cycle period of each module a process runs (the first process that names it); a
+    module no process runs has the system's."""
+    periods: dict[str, float] = {}
     for process in system.processes:
-        if any(m.value == module for m in process.modules):
-            return process.cycle_period or system.cycle_period
-    return system.cycle_period
+        period = process.cycle_period or system.cycle_period
+        for m in process.modules:
+            periods.setdefault(m.value, period)
+    return periods
 
 
 def _index_controllers(
@@ -689,14 +696,16 @@ class _ControllerChecker:
         system: SystemSpec,
         diags: Diagnostics,
         contracts: hook_checks.HookContracts | None = None,
+        periods: Mapping[str, float] | None = None,
     ):
         self.spec, self.by_name, self.system, self.diags = spec, by_name, system, diags
+        self.periods = process_periods(system) if periods is None else periods
         self.contracts = contracts or {}  # hook -> its parameters' annotated types
         self.checked_calls: set[str] = set()  # hooks whose arguments were compared
         self.subs = [s.value for s in spec.subordinates]
         self.predicate_trees: dict[str, expr.Expr] = {}  # for folding guards (set by check)
         self.writable = {w.value for w in spec.world_writes}
-        self.period = process_period(system, spec.name)  # a stand-in's: check() sets it
+        self.period = self.process_period(spec.name)  # a stand-in's: check() sets it
         self.base_scope = expr.Scope(
             world=system.world_types,
             world_access=frozenset(a.value for a in [*spec.world_reads, *spec.world_writes]),
@@ -714,6 +723,10 @@ class _ControllerChecker:
             },
         )
         self.command: Command | None = None  # the command whose table is being checked
+
+    def process_period(self, module: str) -> float:
+        """The cycle period of the process that runs `module` (the system's if none does)."""
+        return self.periods.get(module, self.system.cycle_period)
 
     def subject(self, rule: CheckedRule) -> Subject:
         """What a finding about `rule` is about, for acknowledgements."""
@@ -742,7 +755,7 @@ class _ControllerChecker:
         clients: tuple[str, ...] = (),
     ) -> CheckedController:
         spec = self.spec
-        self.period = process_period(self.system, buffers)
+        self.period = self.process_period(buffers)
         self.base_scope = replace(
             self.base_scope, constants={**self.base_scope.constants, **self.given_constants()}
         )

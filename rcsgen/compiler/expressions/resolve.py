@@ -10,6 +10,7 @@ against a `Scope` and typed.
 from __future__ import annotations
 
 import ast
+import functools
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -619,6 +620,9 @@ def _parse(text: str, span: Span, diags: Diagnostics) -> ast.Expression | None:
             "silently drop the rest of it: put the comment on a line of its own, outside",
         )
         return None
+    tree = _parsed(text.strip())
+    if tree is not None:
+        return tree
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
@@ -638,6 +642,19 @@ def _parse(text: str, span: Span, diags: Diagnostics) -> ast.Expression | None:
         )
         return None
     return tree
+
+
+@functools.lru_cache(maxsize=8192)
+def _parsed(text: str) -> ast.Expression | None:
+    """The syntax tree of a well-formed expression text within MAX_DEPTH, else None (then
+    `_parse` finds and reports the problem). Cached: a system repeats its guards and values
+    (one parse of `x.status == DONE` for all its rules); the trees are only read, never
+    changed."""
+    try:
+        tree = ast.parse(text, mode="eval")
+    except (SyntaxError, RecursionError, MemoryError, ValueError):
+        return None
+    return tree if _depth(tree.body) <= MAX_DEPTH else None
 
 
 def _ascii_text(char: str) -> bool:

@@ -50,7 +50,7 @@ class LocStr(str):
     span: Span
 
     def __new__(cls, value: str, span: Span) -> LocStr:
-        self = super().__new__(cls, value)
+        self = str.__new__(cls, value)
         self.span = span
         return self
 
@@ -109,6 +109,13 @@ def key_span(container: object, key: str, fallback: Span) -> Span:
     return spans.get(key, fallback) if isinstance(spans, dict) else fallback
 
 
+# A plain scalar that is a name (a letter or `_`, then letters, digits, `_` and `.`) and none
+# of the core schema's words is a string: no pattern of _plain_value can match it.
+_WORD = re.compile(
+    r"(?!(?:true|True|TRUE|false|False|FALSE|null|Null|NULL)\Z)[A-Za-z_][A-Za-z0-9_.]*"
+).fullmatch
+
+
 def _plain_value(text: str) -> object:
     """Type a plain scalar by the YAML 1.2 core schema; NaN/Inf come back non-finite."""
     if text in ("true", "True", "TRUE"):
@@ -161,8 +168,12 @@ class _Builder:
         return Span(self.path, mark.line + 1, mark.column + 1)
 
     def feed(self, event: yaml.Event) -> None:
-        span = self.span(event.start_mark)
-        if isinstance(event, yaml.DocumentStartEvent):
+        mark = event.start_mark
+        span = Span(self.path, mark.line + 1, mark.column + 1) if mark else Span(self.path)
+        if type(event) is yaml.ScalarEvent:  # most events: first, and checked inline
+            tagged = event.tag is not None or event.anchor is not None
+            self.scalar(event, span, tagged and self.check_node(event, span))
+        elif isinstance(event, yaml.DocumentStartEvent):
             self.documents += 1
             if self.documents > 1:
                 hint = "a spec is a single document; remove this `---` and what follows"
@@ -199,7 +210,7 @@ class _Builder:
     def scalar(self, event: yaml.ScalarEvent, span: Span, reported: bool) -> None:
         text = event.value
         plain = not event.style  # any quoted or block scalar is a string (libyaml says "")
-        value = _plain_value(text) if plain else text
+        value = _plain_value(text) if plain and not _WORD(text) else text
         at_key = not reported and bool(self.stack) and self.stack[-1].at_key()
         if at_key and plain and text == "<<":
             self.diags.error(span, "E005", _NO_SHARING, _NO_SHARING_HINT)

@@ -14,25 +14,16 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
 from importlib.resources import files
-from typing import Any, cast
-
-from jsonschema import Draft202012Validator, validators
-from jsonschema.exceptions import ValidationError, best_match
-from jsonschema.protocols import Validator
+from typing import TYPE_CHECKING, Any, cast
 
 from ..diagnostics import Diagnostic, Span, did_you_mean
 from .schema_fast import Check, Unsupported, compile_schema
 
-KINDS = ("system", "controller", "operator", "scenario", "template")
+if TYPE_CHECKING:
+    from jsonschema.exceptions import ValidationError
+    from jsonschema.protocols import Validator
 
-# YAML tells 3 from 3.0, so an `int` must be written as an integer, unlike JSON Schema's default.
-_TYPES = Draft202012Validator.TYPE_CHECKER.redefine(
-    "integer", lambda _checker, value: isinstance(value, int) and not isinstance(value, bool)
-)
-# (`extend` is untyped in the jsonschema stubs.)
-_Validator: type[Validator] = validators.extend(  # type: ignore[no-untyped-call]
-    Draft202012Validator, type_checker=_TYPES
-)
+KINDS = ("system", "controller", "operator", "scenario", "template")
 
 _EXPECTED = {"object": "a mapping", "array": "a list", "string": "a string", "null": "nothing"}
 _EXPECTED |= {"number": "a number", "integer": "an integer", "boolean": "a boolean"}
@@ -61,8 +52,26 @@ def schema_for(kind: str) -> dict[str, Any]:
 
 
 @cache
+def validator_class() -> type[Validator]:
+    """Draft 2020-12 as YAML needs it: 3 and 3.0 differ, so an `int` must be written as an
+    integer, unlike JSON Schema's default. jsonschema is imported here, on the first
+    invalid document (a valid one never needs it: the compiled test answers; ~0.1 s of
+    every command's start-up otherwise)."""
+    from jsonschema import Draft202012Validator, validators
+
+    types = Draft202012Validator.TYPE_CHECKER.redefine(
+        "integer", lambda _checker, value: isinstance(value, int) and not isinstance(value, bool)
+    )
+    # (`extend` is untyped in the jsonschema stubs.)
+    extended: type[Validator] = validators.extend(  # type: ignore[no-untyped-call]
+        Draft202012Validator, type_checker=types
+    )
+    return extended
+
+
+@cache
 def _validator(kind: str) -> Validator:
-    return _Validator(schema_for(kind))
+    return validator_class()(schema_for(kind))
 
 
 @cache
@@ -321,6 +330,8 @@ def _composite(error: ValidationError, data: object, file: str, span: Span) -> l
     branches = schema.get(str(error.validator), [])
     forms = [b["required"][0] for b in branches if len(b.get("required", [])) == 1]
     if len(forms) != len(branches) or not forms:
+        from jsonschema.exceptions import best_match
+
         best = best_match(error.context)
         return _diagnose(best, data, file) if best else [Diagnostic(span, "S006", error.message)]
     if error.validator == "anyOf":

@@ -47,6 +47,10 @@ class Trace:
     # The signal that interrupted the run (`rcsgen run` on SIGINT/SIGTERM writes the cycles
     # it ran and a last line saying so); None for a run that ended.
     interrupted: str | None = None
+    # module -> the indices of the cycles whose line holds another object for it than the
+    # line before (0 first): its values change nowhere else, so a viewer that looks for
+    # changes need only look there. Empty: not known (look at every cycle).
+    starts: dict[str, list[int]] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.cycles)
@@ -129,18 +133,20 @@ def parse(text: str, shown: str = "<trace>") -> Trace:
 def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
     """Check a trace's lines, one at a time, into columns; TraceError naming the line."""
     trace = Trace(shown, [], [], {}, {})
-    texts: dict[str, str] = {}  # each text value once: a long trace repeats a few names
+    reader = _Reader(trace)
+    memo = _Modules()
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
         where = f"{shown}:{number}"
         if trace.interrupted is not None:
             raise TraceError(f"{where}: a line after the one that says the run was interrupted")
-        record = _record(line, where)
+        record = memo.reuse(line) or memo.remember(line, _record(line, where))
         if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
             trace.interrupted = _interruption(record, where)
             continue
-        _append(trace, record, where, texts)
+        reader.append(record, where)
+    reader.columns()
     if not trace.cycles and trace.interrupted is None:
         raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
     if not trace.cycles:
@@ -148,11 +154,6 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
             f"{shown} holds no cycle: its run was interrupted before its first one ended"
         )
     return trace
-
-
-def _one(texts: dict[str, str], value: Any) -> Any:
-    """One copy of each text (a state's name, a status): a long trace repeats a few."""
-    return texts.setdefault(value, value) if type(value) is str else value
 
 
 def _record(line: str, where: str) -> dict[str, Any]:
@@ -166,6 +167,52 @@ def _record(line: str, where: str) -> dict[str, Any]:
     return record
 
 
+class _Modules:
+    """The `modules` object of the last line read whole, and its text: a line whose modules
+    text is the same (three lines in four of a long run) has only the rest decoded.
+
+    `rcsgen run` writes `{"cycle":N,"modules":{...},"world":{...}}`. In JSON a `"` inside
+    a string is always escaped, so `},"world":{` is a key `world` of some object after an
+    object value, and `,"modules":` right after the cycle's digits is the line's own key:
+    when the text between them is balanced (the rest then decodes as an object without
+    it), it is the whole `modules` member. Any other shape is decoded whole."""
+
+    def __init__(self) -> None:
+        self.text: str | None = None  # `"modules":{...}` of the last line decoded whole
+        self.modules: Any = None  # what it decoded to
+
+    @staticmethod
+    def _split(line: str) -> tuple[int, int] | None:
+        start, end = line.find(',"modules":'), line.find('},"world":{')
+        if 0 < start < end and line.startswith('{"cycle":') and line[9:start].isdigit():
+            return start, end
+        return None
+
+    def reuse(self, line: str) -> dict[str, Any] | None:
+        """The line's record, its `modules` the last one's, if its text is the same."""
+        split = self._split(line) if self.text is not None else None
+        if split is None:
+            return None
+        start, end = split
+        if line[start + 1 : end + 1] != self.text:
+            return None
+        try:
+            record = json.loads(line[: start + 1] + line[end + 2 :])
+        except json.JSONDecodeError:
+            return None
+        if not isinstance(record, dict) or "modules" in record:
+            return None
+        record["modules"] = self.modules
+        return record
+
+    def remember(self, line: str, record: dict[str, Any]) -> dict[str, Any]:
+        """A record decoded whole (from `line`), its modules kept for the next line."""
+        split = self._split(line)
+        self.text = None if split is None else line[split[0] + 1 : split[1] + 1]
+        self.modules = record.get("modules")
+        return record
+
+
 def _interruption(record: dict[str, Any], where: str) -> str:
     """The signal an `interrupted` line names (it holds only that and `cycle`)."""
     if sorted(record) != ["cycle", "interrupted"] or not isinstance(record["interrupted"], str):
@@ -175,15 +222,66 @@ def _interruption(record: dict[str, Any], where: str) -> str:
     return record["interrupted"]
 
 
-def _append(trace: Trace, record: dict[str, Any], where: str, texts: dict[str, str]) -> None:
-    """One cycle's line added to the trace's columns, checked against the first line's."""
-    found = record.get("modules")
-    if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
-        raise TraceError(f"{where}: not a trace line (no `modules` object)")
-    cycles = trace.cycles
-    if cycles and record["cycle"] <= cycles[-1]:
-        raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
-    if not cycles:  # the first line says which modules, optional fields and world fields
+class _Reader:
+    """A trace's lines into its columns, checked against the first line's. A module's values
+    are kept as runs (its checked values, how many cycles in a row) and written out as
+    columns at the end: most modules repeat their last line's object in most cycles (98 %
+    of them in a long run), and such a line passed the same checks then, so it only makes
+    its run one cycle longer (no checks, no per-cycle copies of its values)."""
+
+    def __init__(self, trace: Trace) -> None:
+        self.trace = trace
+        self.texts: dict[str, str] = {}  # each text value once: a trace repeats a few names
+        self.last: dict[str, dict[str, Any]] = {}  # module -> its object on the last line
+        self.runs: dict[str, list[list[Any]]] = {}  # module -> [values, cycles] per run
+        self.found: object = object()  # the last line's `modules` object, checked (none yet)
+
+    def append(self, record: dict[str, Any], where: str) -> None:
+        """One cycle's line."""
+        trace = self.trace
+        found, cycles = record.get("modules"), trace.cycles
+        if found is self.found:  # the last line's modules (_Modules.reuse): checked then
+            if record["cycle"] <= cycles[-1]:
+                raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
+            for run in self.runs.values():  # every run one cycle longer
+                run[-1][1] += 1
+            self._world(record, where)
+            return
+        if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
+            raise TraceError(f"{where}: not a trace line (no `modules` object)")
+        if cycles and record["cycle"] <= cycles[-1]:
+            raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
+        if not cycles:  # the first line says which modules, optional fields and world fields
+            self._first(record, found)
+        elif found.keys() != self.last.keys():  # (the modules' names, each once: as sets)
+            extra = sorted(set(found) ^ set(trace.modules))
+            raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
+        last, runs = self.last, self.runs
+        for module in trace.modules:
+            values = found[module]
+            if values == last[module]:
+                runs[module][-1][1] += 1
+                continue
+            checked = _checked(trace.columns[module], module, values, where, self.texts)
+            runs[module].append([checked, 1])
+            last[module] = values
+        self.found = found
+        self._world(record, where)
+
+    def _world(self, record: dict[str, Any], where: str) -> None:
+        trace = self.trace
+        fields = record.get("world") or {}
+        # (keys compared as sets: the world's are the first line's, sorted, each once)
+        if not isinstance(fields, dict) or fields.keys() != trace.world.keys():
+            raise TraceError(f"{where}: world fields differ from the first line's")
+        texts = self.texts
+        for name, series in trace.world.items():
+            value = fields[name]
+            series.append(texts.setdefault(value, value) if type(value) is str else value)
+        trace.cycles.append(record["cycle"])
+
+    def _first(self, record: dict[str, Any], found: dict[str, Any]) -> None:
+        trace = self.trace
         trace.modules = sorted(found)
         trace.columns = {
             m: {
@@ -194,26 +292,31 @@ def _append(trace: Trace, record: dict[str, Any], where: str, texts: dict[str, s
             for m in trace.modules
         }
         trace.world = {name: [] for name in sorted(record.get("world") or {})}
-    elif sorted(found) != trace.modules:
-        extra = sorted(set(found) ^ set(trace.modules))
-        raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
-    for module in trace.modules:
-        _append_module(trace.columns[module], module, found[module], where, texts)
-    fields = record.get("world") or {}
-    if not isinstance(fields, dict) or sorted(fields) != list(trace.world):
-        raise TraceError(f"{where}: world fields differ from the first line's")
-    for name, series in trace.world.items():
-        series.append(_one(texts, fields[name]))
-    cycles.append(record["cycle"])
+        self.last = {m: {"": object()} for m in trace.modules}  # (equal to no object)
+        self.runs = {m: [] for m in trace.modules}
+
+    def columns(self) -> None:
+        """The runs written out as the trace's columns (one value per cycle), and where each
+        module's runs start (`Trace.starts`)."""
+        for module, runs in self.runs.items():
+            columns = list(self.trace.columns[module].values())
+            starts = self.trace.starts[module] = []
+            at = 0
+            for values, count in runs:
+                starts.append(at)
+                at += count
+                for series, value in zip(columns, values, strict=True):
+                    series += [value] * count
 
 
-def _append_module(
+def _checked(
     columns: dict[str, list[Any]],
     module: str,
     values: dict[str, Any],
     where: str,
     texts: dict[str, str],
-) -> None:
+) -> list[Any]:
+    """A module's values on one line, checked, in the order of its columns."""
     missing = [f for f in columns if f not in values and f != SPARSE]
     if missing:
         raise TraceError(f"{where}: module {module} has no `{missing[0]}`")
@@ -226,8 +329,11 @@ def _append_module(
         raise TraceError(f"{where}: module {module}'s `result` is not an object")
     if SPARSE in values and SPARSE not in columns:
         raise TraceError(f"{where}: module {module} has a `{SPARSE}` but declares no reasons")
+    out = []
     for name in columns:
-        columns[name].append(_one(texts, values.get(name, "")))
+        value = values.get(name, "")
+        out.append(texts.setdefault(value, value) if type(value) is str else value)
+    return out
 
 
 def status_text(column: dict[str, list[Any]], i: int) -> str:

@@ -13,10 +13,9 @@ from __future__ import annotations
 import html
 import json
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from importlib import resources
-from itertools import repeat
-from typing import Any
+from typing import Any, overload
 
 from ...runtime import contract
 from .read import Lane, Trace
@@ -39,24 +38,50 @@ class StringTable:
 
 
 def runs(
-    values: list[Any],
+    values: Sequence[Any],
     numbers: list[int] | None,
     table: StringTable,
     text: Callable[[Any], str] = str,
+    starts: list[int] | None = None,
 ) -> list[int]:
     """Run-length encoding, flat: start index, string index (and number) of each run; a
-    value is made text (`text`) once per run, not once per cycle."""
+    value is made text (`text`) once per run, not once per cycle. `starts`: the only cycles
+    where the values may change (`Trace.starts`), so the others are not looked at."""
     out: list[int] = []
     previous: tuple[Any, int | None] | None = None
-    for i, now in enumerate(
-        zip(values, numbers if numbers is not None else repeat(None), strict=False)
-    ):
+    for i in starts if starts else range(len(values)):
+        now = (values[i], numbers[i] if numbers is not None else None)
         if now != previous:
             out += [i, table(text(now[0]))]
             if now[1] is not None:
                 out.append(now[1])
             previous = now
     return out
+
+
+class _StatusRows(Sequence[tuple[Any, Any, Any]]):
+    """A module's (status, reason, cause) at each cycle, made when asked for: `runs` looks
+    at the cycles where they may change only."""
+
+    def __init__(self, col: dict[str, list[Any]]) -> None:
+        self.status = col["status"]
+        self.reason, self.cause = col.get("reason"), col.get("cause")
+
+    def __len__(self) -> int:
+        return len(self.status)
+
+    @overload
+    def __getitem__(self, i: int) -> tuple[Any, Any, Any]: ...
+    @overload
+    def __getitem__(self, i: slice) -> Sequence[tuple[Any, Any, Any]]: ...
+    def __getitem__(self, i: int | slice) -> Any:
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        return (
+            self.status[i],
+            self.reason[i] if self.reason else None,
+            self.cause[i] if self.cause else "",
+        )
 
 
 def number(value: Any) -> float | None:
@@ -79,8 +104,10 @@ def _plot(name: str, series: list[Any]) -> dict[str, Any]:
         return {"name": name, "type": "text", "values": [names.index(v) for v in series]} | {
             "names": names
         }
-    else:
-        kind, values = "float", [number(v) for v in series]
+    else:  # (number() inline: a plot has a value per cycle)
+        finite = math.isfinite
+        kind = "float"
+        values = [float(v) if isinstance(v, int | float) and finite(v) else None for v in series]
     return {"name": name, "type": kind, "values": values}
 
 
@@ -90,7 +117,7 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
     consecutive = all(b == a + 1 for a, b in zip(trace.cycles, trace.cycles[1:], strict=False))
     lane_data = []
     for lane in lanes:
-        col = trace.columns[lane.module]
+        col, starts = trace.columns[lane.module], trace.starts.get(lane.module)
         fired = [[i, table(r)] for i, r in enumerate(col["rule"]) if r is not None]
         lane_data.append(
             {
@@ -99,21 +126,15 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
                 "level": lane.level,
                 "simulator": lane.simulator,
                 "runs_as": lane.runs_as if lane.runs_as != lane.module else "",
-                "command": runs(col["command"], col["command_num"], table),
+                "command": runs(col["command"], col["command_num"], table, str, starts),
                 "status": runs(
-                    list(
-                        zip(
-                            col["status"],
-                            col.get("reason") or repeat(None),
-                            col.get("cause") or repeat(""),
-                            strict=False,
-                        )
-                    ),
+                    _StatusRows(col),
                     col["status_num"],
                     table,
                     lambda row: contract.status_text(str(row[0]), row[1], str(row[2])),
+                    starts,
                 ),
-                "state": runs(col["state"], None, table),
+                "state": runs(col["state"], None, table, str, starts),
                 "rules": [x for pair in fired for x in pair],
             }
         )

@@ -38,25 +38,29 @@ def new_planner(settings: dict[str, str]) -> Planner:
     rows = 1 + max((r for r, _ in surveyed.seam), default=0)
     columns = surveyed.columns
     reach = math.ceil(CLEARANCE / mine.CELL)
-    # The offsets of the cells within the clearance of a cell, nearest first, computed once:
-    # a cell is free when none of them is coal. (Growing every coal cell by them instead
-    # made a million set insertions, 200-300 ms of every start of the planner's process.)
-    disc = sorted(
-        (
-            (dr, dc)
-            for dr in range(-reach, reach + 1)
-            for dc in range(-reach, reach + 1)
-            if math.hypot(dr, dc) * mine.CELL < CLEARANCE
-        ),
-        key=lambda offset: math.hypot(*offset),
-    )
-    seam = surveyed.seam
-    free = {
-        (r, c)
-        for r in range(rows)
-        for c in range(columns)
-        if not any((r + dr, c + dc) in seam for dr, dc in disc)
-    }
+    # The offsets of the cells within the clearance of a cell: a cell is free when none of
+    # them is coal. Each row of coal is one integer, bit c + reach for column c, so a row's
+    # blocked cells are the OR of its neighbour rows shifted by each offset: a few thousand
+    # integer operations. (Testing every cell's offsets in sets took 40-50 ms of every start
+    # of the planner's process; growing every coal cell by them, a million set insertions.)
+    disc = [
+        (dr, dc)
+        for dr in range(-reach, reach + 1)
+        for dc in range(-reach, reach + 1)
+        if math.hypot(dr, dc) * mine.CELL < CLEARANCE
+    ]
+    coal: dict[int, int] = {}
+    for r, c in surveyed.seam:
+        if c >= -reach:  # (a cell further left is no cell's neighbour)
+            coal[r] = coal.get(r, 0) | 1 << (c + reach)
+    everything = (1 << columns) - 1
+    free = set()
+    for r in range(rows):
+        blocked = 0
+        for dr, dc in disc:
+            blocked |= coal.get(r + dr, 0) >> (dc + reach)
+        open_cells = ~blocked & everything
+        free.update((r, c) for c in range(columns) if open_cells >> c & 1)
     return Planner(surveyed.x0, surveyed.y0, free)
 
 
