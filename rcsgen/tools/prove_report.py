@@ -81,6 +81,12 @@ def run_prove(
         for name, r in proof.controllers.items():
             for command, needs in r.assumptions.items():
                 lines.append(f"  {name} {command} finishes if eventually " + "; or ".join(needs))
+        for prop, holds in proof.properties:
+            lines.append(
+                f"  property {prop.name} ({prop.controller}): "
+                + ("holds" if holds else "does not hold (W709)")
+                + f": {prop.text}"
+            )
         for i in sorted(shown):
             f = proof.findings[i]
             lines.append(f"  counter-example of {f.code} in {f.controller} ({f.verdict}):")

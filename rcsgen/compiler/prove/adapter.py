@@ -49,6 +49,8 @@ class RuleView:
     # what its guard reads, predicates, functions and `let` values inlined: (RefKind, name)
     reads: frozenset[tuple[str, str]] = frozenset()
     world_sets: frozenset[str] = frozenset()  # world fields it sets (or a hook returns into)
+    # what it writes, as a property's `writes(...)` names it: a local, `world.<field>`
+    assigns: frozenset[str] = frozenset()
 
 
 @dataclass
@@ -121,6 +123,21 @@ def _world_sets(rule: ir.IRRule) -> list[str]:
                 x.removeprefix("self.world_") for x in action.targets if x.startswith("self.world_")
             ]
     return found
+
+
+def _assigns(rule: ir.IRRule) -> frozenset[str]:
+    """The locals (by name) and world fields (`world.<field>`) a rule's actions write."""
+    found: set[str] = set()
+    for action in rule.actions:
+        if isinstance(action, ir.IRSet):
+            found |= {a.target for a in action.assignments}
+        elif isinstance(action, ir.IRCall):
+            for target in action.targets:
+                if target.startswith("self.world_"):
+                    found.add("world." + target.removeprefix("self.world_"))
+                elif target.startswith("self.var_"):
+                    found.add(target.removeprefix("self.var_"))
+    return frozenset(found)
 
 
 def _constant(literal: str) -> Any:
@@ -219,6 +236,7 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
             tuple(acts),
             reads=reads_of(rule.guard.tree if rule.guard else None, builder),
             world_sets=frozenset(_world_sets(rule)),
+            assigns=_assigns(rule),
         )
 
     tables: dict[str, dict[str, list[RuleView]]] = {}

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 from .. import ir
 from . import properties as props
+from . import user
 from .adapter import DONE, ERROR, Skeleton, operator_outcomes, placement, skeleton
 from .lost import RuntimeReaction
 from .model import LIMIT, Contract, Edge, Graph, Model, State, explore
@@ -63,6 +64,8 @@ class SystemProof:
     # (module, command): it may end that command with ERROR while something below it still
     # moves (its contract; a supervisor must withdraw it after that ERROR)
     loose: set[tuple[str, str]] = field(default_factory=set)
+    # the engineer's own properties checked, each with whether it holds in every run
+    properties: list[tuple[ir.IRProperty, bool]] = field(default_factory=list)
 
 
 def order(system: ir.IRSystem) -> list[ir.IRController]:
@@ -146,6 +149,11 @@ def prove(
                 if finding.command in sk.generated and finding.code in ("W702", "W703"):
                     continue
                 proof.findings.append(finding)
+            for prop in system.properties:
+                if prop.controller == c.name:
+                    found = user.check(graph, prop, system)
+                    proof.findings += [found] if found else []
+                    proof.properties.append((prop, found is None))
         result.seconds = time.perf_counter() - began
         result.cpu = time.process_time() - began_cpu
         proof.controllers[c.name] = result
