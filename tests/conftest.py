@@ -74,6 +74,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_operator",
             "test_plans",
             "test_prove",
+            "test_prove_properties",
             "test_prove_seeds",
             "test_reasons_survive",
             "test_results_visible",

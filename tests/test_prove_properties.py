@@ -1,0 +1,238 @@
+"""`rcsgen prove`: the engineer's own properties (`properties:`, docs/spec.md section 19).
+
+A violated property yields its counter-example, written as a scenario that `rcsgen run`
+replays to the violation; one that holds yields nothing; the monitor behind `safe(...)`
+follows what the supervisor set; the paper's properties shipped with helm and cr catch the
+seeds prove used to miss. The bad inputs (E710-E714) have a corpus case each
+(tests/cases/invalid/e71*).
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from rcsgen.cli import main
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.prove import prove_front
+from rcsgen.compiler.prove.system import prove
+from rcsgen.tools.prove_seeds import caught, seeds
+
+SPECS = Path(__file__).resolve().parents[1] / "specs"
+
+SYSTEM = """system: tiny
+title: Tiny system
+cycle_period: 0.1
+
+world:
+  valve:
+    type: bool
+    initial: false
+    actuator: true
+
+processes:
+  p:
+    modules: [top, sub]
+"""
+SUB = """controller: sub
+title: Sub controller
+
+commands:
+  MOVE:
+    states:
+      S0:
+        - next: S1
+      S1:
+        - do:
+            - report: DONE
+"""
+TOP = """controller: top
+title: Top controller
+subordinates: [sub]
+
+world:
+  writes: [valve]
+
+commands:
+  INIT:
+    states:
+      S0:
+        - do:
+            - send: sub.INIT
+            - set: {world.valve: false}
+          next: S1
+      S1:
+        - when: sub.status == DONE or sub.status == ERROR
+          do:
+            - report: DONE
+  HALT:
+    states:
+      S0:
+        - do:
+            - send: sub.HALT
+            - set: {world.valve: false}
+          next: S1
+      S1:
+        - when: sub.status == DONE or sub.status == ERROR
+          do:
+            - report: DONE
+  GO:
+    states:
+      S0:
+        - do:
+            - send: sub.MOVE
+            - set: {world.valve: true}
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do:
+            - set: {world.valve: false}
+            - report: DONE
+        - when: sub.status == ERROR
+          do:
+            - set: {world.valve: false}
+            - report: ERROR
+"""
+
+
+def _system(tmp_path: Path, properties: str, top: str = TOP) -> Path:
+    directory = tmp_path / "tiny"
+    directory.mkdir()
+    (directory / "system.yaml").write_text(SYSTEM)
+    (directory / "sub.yaml").write_text(SUB)
+    (directory / "top.yaml").write_text(top + "\nproperties:\n" + properties)
+    return directory
+
+
+def _findings(directory: Path):
+    front = compile_paths([directory])
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
+    proof = prove_front(front).proofs[0]
+    return proof, [f for f in proof.findings if f.code == "W709"]
+
+
+def test_a_violated_response_is_a_counter_example_that_rcsgen_run_replays(tmp_path):
+    """sub takes two cycles to finish MOVE and may take any number more: `within: 1`
+    cannot be promised. The shortest run is printed and written, and `rcsgen run` follows
+    it to the cycle the response was due."""
+    directory = _system(
+        tmp_path,
+        """  - name: quick
+    doc: top is done at most one cycle after it sends MOVE (it is not).
+    whenever: sent(sub.MOVE)
+    within: 1
+    then: top.status == DONE
+""",
+    )
+    runner = CliRunner()
+    proved = runner.invoke(main, ["prove", str(directory), "--format", "json"])
+    assert proved.exit_code == 1, proved.output
+    found = [d for d in json.loads(proved.stdout) if d["code"] == "W709"]
+    assert len(found) == 1, proved.stdout
+    assert "property `quick` is violated" in found[0]["message"]
+    assert "held in cycle 1" in found[0]["message"] and "by cycle 2" in found[0]["message"]
+    assert found[0]["file"].endswith("top.yaml")
+    scenario = next((directory / "counterexamples").glob("top_w709_*.yaml"))
+    trace = tmp_path / "t.jsonl"
+    ran = runner.invoke(main, ["run", str(scenario), "--trace", str(trace)])
+    assert ran.exit_code == 0, ran.output
+    cycles = [json.loads(line) for line in trace.read_text().splitlines()]
+    top = [c for c in cycles if "top" in json.dumps(c)]
+    assert len(top) >= 2
+    assert '"status": "EXECUTING"' in json.dumps(top[-1]).split('"top"')[1][:400]
+
+
+def test_a_property_that_holds_yields_no_finding_and_is_reported_held(tmp_path):
+    """(Without its own INIT table, top's default INIT reports DONE with the valve GO
+    opened: the first property found that.)"""
+    directory = _system(
+        tmp_path,
+        """  - name: valve_closed_when_done
+    doc: Whenever top reports, its valve is closed.
+    always: top.status != DONE or safe(world.valve)
+  - name: move_follows_go
+    whenever: top.command == GO and top.state == S1
+    then: sub.command == MOVE
+""",
+    )
+    proof, found = _findings(directory)
+    assert found == []
+    assert [(p.name, holds) for p, holds in proof.properties] == [
+        ("valve_closed_when_done", True),
+        ("move_follows_go", True),
+    ]
+
+
+def test_safe_follows_what_the_supervisor_set(tmp_path):
+    """The same invariant over a table that reports DONE with the valve left open: the
+    monitor carries the value set two cycles before to the report."""
+    top = TOP.replace(
+        """        - when: sub.status == DONE
+          do:
+            - set: {world.valve: false}
+            - report: DONE""",
+        """        - when: sub.status == DONE
+          do:
+            - report: DONE""",
+    )
+    directory = _system(
+        tmp_path,
+        """  - name: valve_closed_when_done
+    always: top.status != DONE or safe(world.valve)
+""",
+        top,
+    )
+    proof, found = _findings(directory)
+    assert len(found) == 1
+    f = found[0]
+    assert (f.command, f.state, f.rule) == ("GO", "S1", 1)  # at the rule that reports
+    assert f.trace[0][0].new == "GO" and f.trace[-1][0].report == "DONE"
+    assert [(p.name, holds) for p, holds in proof.properties] == [("valve_closed_when_done", False)]
+
+
+def test_a_new_command_from_above_ends_an_open_obligation(tmp_path):
+    """`whenever ... within` counts the supervisor's own cycles: a new command from above
+    is a new decision, so a response interrupted by one is not owed (here every run that
+    does not answer within 3 cycles is one where sub is still moving: still violated)."""
+    directory = _system(
+        tmp_path,
+        """  - name: answered
+    whenever: sent(sub.MOVE)
+    within: 3
+    then: top.status != EXECUTING
+""",
+    )
+    _, found = _findings(directory)
+    assert len(found) == 1
+    trace = found[0].trace
+    assert len(trace) == 4  # the cycle MOVE is sent and three more
+    assert all(edge.new is None for edge, _ in trace[1:])
+
+
+SEEDS = {
+    "submarine": [
+        "helm ICE_MANEUVER/S1/1: send rudder.GOTO_ANGLE left out",
+        "helm ICE_MANEUVER/S1/2: send rudder.GOTO_ANGLE left out",
+        "helm ICE_MANEUVER/S1/3: send rudder.GOTO_ANGLE left out",
+        "helm ICE_MANEUVER/S2/3: send rudder.GOTO_ANGLE left out",
+    ],
+    "miner": ["cr SUMP/S0/1: send ct.POSITION_TAIL left out"],
+}
+
+
+@pytest.mark.parametrize("system", sorted(SEEDS))
+def test_the_papers_properties_catch_the_seeds_handshake_properties_missed(system):
+    directory = SPECS / system
+    before = prove(compile_paths([directory]).systems[0])
+    planted = {s.where: s for s in seeds(directory)}
+    for where in SEEDS[system]:
+        seed = planted[where]
+        with tempfile.TemporaryDirectory() as work:
+            mutant = compile_paths([seed.plant(directory, Path(work) / system)])
+            assert not mutant.diagnostics.errors
+            found = caught(seed, before, prove(mutant.systems[0], only=seed.controller))
+        assert [f.code for f in found] == ["W709"], (where, [f.message for f in found])
