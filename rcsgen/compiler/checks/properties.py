@@ -41,6 +41,18 @@ class _Names:
         self.specs = {c.name: c for c in controllers}
         self.world = system.world
 
+    def aliases(self, owner: str | None) -> dict[str, str]:
+        """An instance's controllers by their names in its template, for a property
+        written in one of its template's files."""
+        mine = self.specs[owner].instance if owner else None
+        if mine is None:
+            return {}
+        return {
+            c.instance.member: c.name
+            for c in self.specs.values()
+            if c.instance is not None and c.instance.instance == mine.instance
+        }
+
     def subs(self, name: str) -> list[str]:
         return [str(s.value) for s in self.specs[name].subordinates]
 
@@ -54,8 +66,11 @@ class _Names:
 class _Reader:
     """One expression of a property -> IRPropExpr, the modules it names collected."""
 
-    def __init__(self, names: _Names, span: Span, diags: Diagnostics) -> None:
+    def __init__(
+        self, names: _Names, span: Span, diags: Diagnostics, alias: dict[str, str] | None = None
+    ) -> None:
         self.names, self.span, self.diags = names, span, diags
+        self.alias = alias or {}  # a template's names -> its instance's (section 18)
         self.modules: dict[str, Span] = {}  # module named -> where
         self.own: dict[str, Span] = {}  # modules whose `.state` is read (must be the scope)
         self.subs: dict[str, Span] = {}  # modules sent to (must be subordinates)
@@ -118,7 +133,7 @@ class _Reader:
     def field(self, node: ast.Attribute, value: ast.Name) -> IRPropAtom:
         if not isinstance(node.value, ast.Name):
             raise self.fail(node, "E713", "a property reads `<module>.<field>`, not a deeper name")
-        module, attr = node.value.id, node.attr
+        module, attr = self.alias.get(node.value.id, node.value.id), node.attr
         self.module(node.value, module)
         if attr not in _FIELDS:
             raise self.fail(
@@ -169,7 +184,7 @@ class _Reader:
             return atom
         if not isinstance(arg, ast.Attribute) or not isinstance(arg.value, ast.Name):
             raise self.fail(arg, "E713", f"`{name}(...)` takes a dotted name")
-        owner, attr = arg.value.id, arg.attr
+        owner, attr = self.alias.get(arg.value.id, arg.value.id), arg.attr
         if name == "sent":
             self.module(arg.value, owner)
             self.subs.setdefault(owner, self.at(arg))
@@ -273,7 +288,7 @@ def _within(prop: UserProperty, diags: Diagnostics) -> int:
 def _one(
     names: _Names, prop: UserProperty, owner: str | None, diags: Diagnostics
 ) -> IRProperty | None:
-    reader = _Reader(names, prop.span, diags)
+    reader = _Reader(names, prop.span, diags, names.aliases(owner))
     try:
         within = _within(prop, diags)
         if prop.always is not None:
@@ -327,7 +342,7 @@ def check_properties(
     owned += [(p, c.name) for c in controllers for p in c.properties]
     for prop, owner in owned:
         name = str(prop.name.value)
-        if name in seen:
+        if name in seen and seen[name] != prop.name.span:  # not an instance's copy
             diags.error(
                 prop.name.span,
                 "E714",
