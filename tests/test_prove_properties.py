@@ -248,3 +248,49 @@ def _findings_of(directory: Path, only: str | None = None):
     assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
     name = only or ("helm" if directory.name.startswith("submarine") else "cr")
     return prove(front.systems[0], only=name).findings
+
+
+TIMED = TOP.replace(
+    """      S1:
+        - when: sub.status == DONE
+          do:
+            - set: {world.valve: false}
+            - report: DONE""",
+    """      S1:
+        - doc: the valve opened too long ago; count it
+          when: sub.status == EXECUTING
+          for: 3 cycles
+          do:
+            - set: {n: 1}
+        - when: sub.status == DONE
+          do:
+            - set: {world.valve: false}
+            - report: DONE""",
+).replace("commands:\n", "locals:\n  n:\n    type: int\n    initial: 0\n\ncommands:\n", 1)
+NEVER_COUNTED = """  - name: never_counted
+    always: not writes(n)
+"""
+
+
+def test_a_run_that_fires_a_for_rule_too_early_is_undecided_by_z3(tmp_path):
+    """The model lets a `for: 3 cycles` rule fire in the first cycle of its state (its
+    counter is free there): z3 finds that run impossible, so the finding is undecided with
+    why, never violated - before any replay."""
+    pytest.importorskip("z3")
+    proof, found = _findings(_system(tmp_path, NEVER_COUNTED, TIMED))
+    assert len(found) == 1
+    f = found[0]
+    assert len(f.trace) < 5  # the shortest run: too short for the counter to pass 3
+    assert f.verdict == "undecided" and not f.certain
+    assert "impossible under its hold times (z3)" in f.replay
+    assert "GO/S1/1 (for: 3 cycles)" in f.replay
+    assert not any("z3" in n for n in proof.notes)
+
+
+def test_without_z3_the_hold_times_are_not_checked_and_prove_says_so(tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "z3", None)  # `import z3` raises ImportError
+    proof, found = _findings(_system(tmp_path, NEVER_COUNTED, TIMED))
+    assert len(found) == 1 and found[0].replay == ""  # left to the replay
+    assert any("need z3: install rcsgen[prove]" in n for n in proof.notes), proof.notes

@@ -16,7 +16,12 @@ import pytest
 from rcsgen.tools.prove_seeds import KINDS, Seed, seeds, trial
 
 SPECS = Path(__file__).resolve().parents[1] / "specs"
-SAMPLE = {"inspection": 5, "miner": 10, "platoon": 6, "submarine": 5}  # every n-th seed of each kind
+SAMPLE = {
+    "inspection": 5,
+    "miner": 10,
+    "platoon": 6,
+    "submarine": 5,
+}  # every n-th seed of each kind
 
 # Seeds prove does not catch, each with why (docs/decisions.md, "what a seeded bug is").
 # helm's dropped steering orders and cr's dropped tail request are caught by the properties

@@ -51,6 +51,7 @@ class RuleView:
     world_sets: frozenset[str] = frozenset()  # world fields it sets (or a hook returns into)
     # what it writes, as a property's `writes(...)` names it: a local, `world.<field>`
     assigns: frozenset[str] = frozenset()
+    hold: int | None = None  # `for:` N cycles: it fires once its `when` held more than N
 
 
 @dataclass
@@ -181,6 +182,19 @@ def reads_of(tree: expr.Expr | None, builder: GuardBuilder) -> frozenset[tuple[s
     return frozenset(found)
 
 
+def _hold(guard: expr.Expr | None) -> int | None:
+    """The cycles a `for:` rule's `when` must have held (its guard's `held > N`)."""
+    for node in expr.walk(guard) if guard is not None else ():
+        if (
+            isinstance(node, expr.Compare)
+            and isinstance(node.left, expr.Ref)
+            and node.left.kind == expr.RefKind.HELD
+            and isinstance(node.comparators[0], expr.Const)
+        ):
+            return int(node.comparators[0].value)
+    return None
+
+
 def _thresholds(guard: expr.Expr | None) -> tuple[int, ...]:
     """The cycle counts a rule's `after:` compares the time in its state with."""
     if guard is None:
@@ -237,6 +251,7 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
             reads=reads_of(rule.guard.tree if rule.guard else None, builder),
             world_sets=frozenset(_world_sets(rule)),
             assigns=_assigns(rule),
+            hold=_hold(rule.guard.tree if rule.guard else None),
         )
 
     tables: dict[str, dict[str, list[RuleView]]] = {}

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 from .. import ir
 from . import properties as props
-from . import user
+from . import timers, user
 from .adapter import DONE, ERROR, Skeleton, operator_outcomes, placement, skeleton
 from .lost import RuntimeReaction
 from .model import LIMIT, Contract, Edge, Graph, Model, State, explore
@@ -160,7 +160,25 @@ def prove(
         proof.graphs[c.name] = graph
     _compose(system, proof, place, hosts)
     proof.findings += _late_order(system, skeletons, place)
+    _hold_times(proof)
     return proof
+
+
+def _hold_times(proof: SystemProof) -> None:
+    """Each finding whose run fires a `for:` rule before its `when` can have held long
+    enough is undecided, with why (z3, `timers.py`); without z3, one note says so."""
+    missing = ""
+    for f in proof.findings:
+        graph = proof.graphs.get(f.controller)
+        if graph is None or not f.trace:
+            continue
+        possible, why = timers.feasible(graph.skeleton, f.trace)
+        if possible is False:
+            f.certain, f.verdict, f.replay = False, "undecided", why
+        elif possible is None:
+            missing = why
+    if missing:
+        proof.notes.append(missing)
 
 
 def _below(system: ir.IRSystem, top: str) -> set[str]:
