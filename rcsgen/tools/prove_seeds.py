@@ -464,11 +464,11 @@ def trial(directory: Path, work: Path, every: int = 1) -> list[Outcome]:
     alias = instance_names(front, system.name)
     out = []
     chosen: dict[str, int] = {}
-    for n, planted in enumerate(seeds(directory)):
-        chosen[planted.kind] = chosen.get(planted.kind, -1) + 1
-        if chosen[planted.kind] % every:
+    for n, written in enumerate(seeds(directory)):
+        chosen[written.kind] = chosen.get(written.kind, -1) + 1
+        if chosen[written.kind] % every:
             continue
-        seed = replace(planted, controller=alias.get(planted.controller, planted.controller))
+        seed = replace(written, controller=alias.get(written.controller, written.controller))
         why = equivalent(seed, loaded[seed.file], before, system)
         if why:
             out.append(Outcome(seed, "equivalent", why))

@@ -30,6 +30,9 @@ NO_STATE = "NOP"  # `<module>.state == NOP`: no table running (after a report)
 _FIELDS = {"state": PropKind.STATE, "command": PropKind.COMMAND, "status": PropKind.STATUS}
 
 
+_START = ast.Name("", lineno=1, col_offset=0)  # an error at the property itself
+
+
 class _Fail(Exception):
     """Internal: stop at a property's first error."""
 
@@ -231,7 +234,7 @@ def _scope(reader: _Reader, owner: str | None, span: Span) -> str:
         where = f"{owner} and its direct subordinates" if owner else "one supervisor"
         shown = ", ".join(sorted(named)) or "no module"
         raise reader.fail(
-            ast.Name(lineno=1, col_offset=0),
+            _START,
             "E711",
             f"this property names {shown}: not in the view of {where}; a property over "
             "modules no single supervisor sees is global, and `rcsgen prove` checks "
@@ -262,7 +265,7 @@ def _local(reader: _Reader, spec: ControllerSpec, atom: IRPropAtom, at: Span) ->
 
 def _expression(reader: _Reader, raw: Located) -> IRPropExpr:
     if not isinstance(raw.value, str | bool):
-        raise reader.fail(ast.Name(lineno=1, col_offset=0), "E713", "a property is a condition")
+        raise reader.fail(_START, "E713", "a property is a condition")
     tree = _parse(str(raw.value), raw.span, reader.diags)
     if tree is None:
         raise _Fail()
@@ -338,7 +341,7 @@ def check_properties(
     names = _Names(system, controllers)
     found: list[IRProperty] = []
     seen: dict[str, Span] = {}
-    owned = [(p, None) for p in system.properties]
+    owned: list[tuple[UserProperty, str | None]] = [(p, None) for p in system.properties]
     owned += [(p, c.name) for c in controllers for p in c.properties]
     for prop, owner in owned:
         name = str(prop.name.value)
