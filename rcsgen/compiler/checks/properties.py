@@ -219,17 +219,7 @@ def _scope(reader: _Reader, owner: str | None, span: Span) -> str:
     one controller whose view covers every module named (E711 when none does)."""
     names = reader.names
     named = set(reader.modules)
-    candidates = [owner] if owner else [c for c in names.specs if not names.specs[c].is_operator]
-    fits = [
-        c
-        for c in candidates
-        if named <= {c, *names.subs(c)}
-        and set(reader.own) <= {c}
-        and set(reader.subs) <= set(names.subs(c))
-        and (named or owner)
-    ]
-    if owner is None and len(fits) > 1:
-        fits = [c for c in fits if c in named] or fits
+    fits = _fits(reader, owner)
     if not fits or (owner is None and len(fits) > 1):
         where = f"{owner} and its direct subordinates" if owner else "one supervisor"
         shown = ", ".join(sorted(named)) or "no module"
@@ -246,6 +236,24 @@ def _scope(reader: _Reader, owner: str | None, span: Span) -> str:
     for atom, at in reader.local:
         _local(reader, names.specs[scope], atom, at)
     return scope
+
+
+def _fits(reader: _Reader, owner: str | None) -> list[str]:
+    """The supervisors whose view covers what the property names (the named one first
+    chosen among several: `rudder.status` alone is rudder's own, not helm's view of it)."""
+    names, named = reader.names, set(reader.modules)
+    candidates = [owner] if owner else [c for c in names.specs if not names.specs[c].is_operator]
+    fits = [
+        c
+        for c in candidates
+        if named <= {c, *names.subs(c)}
+        and set(reader.own) <= {c}
+        and set(reader.subs) <= set(names.subs(c))
+        and (named or owner)
+    ]
+    if owner is None and len(fits) > 1:
+        fits = [c for c in fits if c in named] or fits
+    return fits
 
 
 def _local(reader: _Reader, spec: ControllerSpec, atom: IRPropAtom, at: Span) -> None:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .handshake import EXTRA
+from .handshake import EXTRA, z3_or_none
 from .model import NOP, Edge, State
 from .properties import rule_view
 
@@ -39,9 +39,8 @@ def feasible(sk: Any, trace: Run) -> tuple[bool | None, str]:
     (None, how to get z3) without z3."""
     if not timed(sk, trace):
         return True, ""
-    try:
-        import z3
-    except ImportError:
+    z3 = z3_or_none()
+    if z3 is None:
         return None, f"the hold times (`for:`) of counter-examples need z3: install {EXTRA}"
     solver = z3.Solver()
     counters: dict[str, Any] = {}  # rule id -> its counter after the last cycle it ran
@@ -52,24 +51,9 @@ def feasible(sk: Any, trace: Run) -> tuple[bool | None, str]:
             counters = {}  # check_if_new_command resets every counter
         command = after.command if edge.new is not None else (before.command if before else None)
         state = "S0" if edge.new is not None else (before.state if before else NOP)
-        fired = [r for r in edge.rules if not r.startswith("every_cycle")]
         table = sk.tables.get(command or "", {}).get(state, []) if not edge.safe_state else []
-        last = fired[-1] if fired else None
-        ids = [rule.id for rule in table]
-        tried = ids.index(last) if last in ids else len(ids)  # the rules tried before it
-        for position, rule in enumerate(table):
-            if rule.hold is None:
-                continue
-            held = z3.Bool(f"when_{index}_{rule.id}")
-            previous = counters.get(rule.id, z3.IntVal(0))
-            counter = z3.Int(f"held_{index}_{rule.id}")
-            solver.add(counter == z3.If(held, previous + 1, 0))  # every cycle the state runs
-            counters[rule.id] = counter
-            if rule.id == last:
-                solver.add(held, counter > rule.hold)
-                fired_late.append(f"{rule.id} (for: {rule.hold} cycles) in cycle {index}")
-            elif position < tried:
-                solver.add(z3.Not(z3.And(held, counter > rule.hold)))  # tried, did not fire
+        fired = [r for r in edge.rules if not r.startswith("every_cycle")]
+        fired_late += _cycle(z3, solver, counters, table, fired[-1] if fired else None, index)
         before = after
     if solver.check() == z3.unsat:
         return False, (
@@ -78,3 +62,28 @@ def feasible(sk: Any, trace: Run) -> tuple[bool | None, str]:
             + " fires before its `when` can have held that long"
         )
     return True, ""
+
+
+def _cycle(
+    z3: Any, solver: Any, counters: dict[str, Any], table: list[Any], last: str | None, index: int
+) -> list[str]:
+    """One cycle of a state's table: every `for:` counter of it counts (generated code:
+    at the top of the state's block), the rule that fired had its counter above its hold,
+    the ones tried before it did not fire. Returns the `for:` rule that fired, if any."""
+    ids = [rule.id for rule in table]
+    tried = ids.index(last) if last in ids else len(ids)  # the rules tried before it
+    fired = []
+    for position, rule in enumerate(table):
+        if rule.hold is None:
+            continue
+        held = z3.Bool(f"when_{index}_{rule.id}")
+        previous = counters.get(rule.id, z3.IntVal(0))
+        counter = z3.Int(f"held_{index}_{rule.id}")
+        solver.add(counter == z3.If(held, previous + 1, 0))
+        counters[rule.id] = counter
+        if rule.id == last:
+            solver.add(held, counter > rule.hold)
+            fired.append(f"{rule.id} (for: {rule.hold} cycles) in cycle {index}")
+        elif position < tried:
+            solver.add(z3.Not(z3.And(held, counter > rule.hold)))  # tried, did not fire
+    return fired
