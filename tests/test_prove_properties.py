@@ -294,3 +294,26 @@ def test_without_z3_the_hold_times_are_not_checked_and_prove_says_so(tmp_path, m
     proof, found = _findings(_system(tmp_path, NEVER_COUNTED, TIMED))
     assert len(found) == 1 and found[0].replay == ""  # left to the replay
     assert any("need z3: install rcsgen[prove]" in n for n in proof.notes), proof.notes
+
+
+def test_the_hold_time_is_counted_as_the_generated_code_counts_it(tmp_path):
+    """`for: 3 cycles` fires once its `when` held more than 3 cycles in a row: the same run
+    with waiting cycles in S1 put before the firing is possible with 3 of them (S1 runs 4
+    cycles) and impossible with 1 (2 cycles)."""
+    pytest.importorskip("z3")
+    from rcsgen.compiler.prove import timers
+
+    proof, found = _findings(_system(tmp_path, NEVER_COUNTED, TIMED))
+    graph = proof.graphs["top"]
+    trace = found[0].trace
+    wait = next(
+        (e, t)
+        for edges in graph.edges.values()
+        for e, t in edges
+        if t.command == "GO" and t.state == "S1" and not e.rules and e.new is None
+    )
+    assert trace[-1][0].rules == ("GO/S1/1",) and trace[-2][1].state == "S1"
+    longer = [*trace[:-1], wait, wait, wait, trace[-1]]
+    assert timers.feasible(graph.skeleton, longer) == (True, "")
+    shorter = [*trace[:-1], wait, trace[-1]]
+    assert timers.feasible(graph.skeleton, shorter)[0] is False
