@@ -8,6 +8,9 @@ targets are reported as PASS/FAIL lines; they do not change the exit status.
     python bench/run.py [--quick] [--out bench/RESULTS.md]
 
 `--quick` runs every part briefly (a smoke test of the benchmark, not a measurement).
+`--parts a,b` runs some parts only: their sections replace the same sections of an
+existing report (each dated), and the rest of it is kept (`python bench/run.py --parts
+prove` refreshes the prove figures alone).
 """
 
 from __future__ import annotations
