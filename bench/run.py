@@ -1127,7 +1127,7 @@ def section_prove(prove: dict) -> list[str]:
     ]
     for s in prove.get("systems", []):
         held = ", ".join(
-            f"{name} ({where}): {'holds' if ok else 'VIOLATED'}"
+            f"{name} ({where}): {({True: 'holds', False: 'VIOLATED'}).get(ok, 'undecided')}"
             for name, where, ok in s["properties"]
         )
         lines.append(

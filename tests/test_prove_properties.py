@@ -317,3 +317,23 @@ def test_the_hold_time_is_counted_as_the_generated_code_counts_it(tmp_path):
     assert timers.feasible(graph.skeleton, longer) == (True, "")
     shorter = [*trace[:-1], wait, trace[-1]]
     assert timers.feasible(graph.skeleton, shorter)[0] is False
+
+
+def test_a_property_too_large_to_decide_is_undecided_never_held(tmp_path):
+    """The monitor multiplies the model's states (a response due within 50 cycles keeps up
+    to 50 more per state): past the limit the property is undecided, with a note."""
+    directory = _system(
+        tmp_path,
+        """  - name: slow
+    whenever: sent(sub.MOVE)
+    within: 50
+    then: top.status == DONE
+""",
+    )
+    front = compile_paths([directory])
+    full = prove(front.systems[0])
+    states = sum(r.states for r in full.controllers.values())
+    small = prove(front.systems[0], limit=states + 5)
+    assert [(p.name, held) for p, held in small.properties] == [("slow", None)]
+    assert any("property slow: more than" in n for n in small.notes)
+    assert [(p.name, held) for p, held in full.properties] == [("slow", False)]

@@ -84,7 +84,9 @@ def run_prove(
         for prop, holds in proof.properties:
             lines.append(
                 f"  property {prop.name} ({prop.controller}): "
-                + ("holds" if holds else "does not hold (W709)")
+                + {True: "holds", False: "does not hold (W709)", None: "undecided (too large)"}[
+                    holds
+                ]
                 + f": {prop.text}"
             )
         for i in sorted(shown):

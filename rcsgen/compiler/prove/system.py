@@ -64,8 +64,9 @@ class SystemProof:
     # (module, command): it may end that command with ERROR while something below it still
     # moves (its contract; a supervisor must withdraw it after that ERROR)
     loose: set[tuple[str, str]] = field(default_factory=set)
-    # the engineer's own properties checked, each with whether it holds in every run
-    properties: list[tuple[ir.IRProperty, bool]] = field(default_factory=list)
+    # the engineer's own properties checked, each with whether it holds in every run (None:
+    # undecided, the model with its monitor too large)
+    properties: list[tuple[ir.IRProperty, bool | None]] = field(default_factory=list)
 
 
 def order(system: ir.IRSystem) -> list[ir.IRController]:
@@ -151,9 +152,7 @@ def prove(
                 proof.findings.append(finding)
             for prop in system.properties:
                 if prop.controller == c.name:
-                    found = user.check(graph, prop, system)
-                    proof.findings += [found] if found else []
-                    proof.properties.append((prop, found is None))
+                    _user(proof, graph, prop, system, limit)
         result.seconds = time.perf_counter() - began
         result.cpu = time.process_time() - began_cpu
         proof.controllers[c.name] = result
@@ -162,6 +161,21 @@ def prove(
     proof.findings += _late_order(system, skeletons, place)
     _hold_times(proof)
     return proof
+
+
+def _user(
+    proof: SystemProof, graph: Graph, prop: ir.IRProperty, system: ir.IRSystem, limit: int
+) -> None:
+    """One of the spec's own properties checked on the explored model (W709), or a note
+    when the model with its monitor is too large to decide it."""
+    try:
+        found = user.check(graph, prop, system, limit)
+    except user.TooLarge:
+        proof.notes.append(f"property {prop.name}: more than {limit} states with its monitor")
+        proof.properties.append((prop, None))
+        return
+    proof.findings += [found] if found else []
+    proof.properties.append((prop, found is None))
 
 
 def _hold_times(proof: SystemProof) -> None:

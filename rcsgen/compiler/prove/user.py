@@ -22,7 +22,7 @@ from collections import deque
 
 from .. import ir
 from ..ir import IRPropAtom, IRProperty, IRPropExpr, PropKind
-from .model import Edge, Graph, State
+from .model import LIMIT, Edge, Graph, State
 from .properties import Finding, _certain, _rule_of, rule_view
 
 Monitor = tuple[frozenset[str], int]  # (actuators named not at their safe value, cycles left)
@@ -113,9 +113,15 @@ def _initial_unsafe(system: ir.IRSystem, tracked: frozenset[str]) -> frozenset[s
     return frozenset(f.name for f in system.world if f.name in tracked and f.initial != f.safe)
 
 
-def check(graph: Graph, prop: IRProperty, system: ir.IRSystem) -> Finding | None:
+class TooLarge(Exception):
+    """The model with the property's monitor has more than LIMIT states: undecided."""
+
+
+def check(
+    graph: Graph, prop: IRProperty, system: ir.IRSystem, limit: int = LIMIT
+) -> Finding | None:
     """The shortest run of the model that breaks `prop`, as a W709 finding; None when it
-    holds in every run (or the model is incomplete: the caller says so)."""
+    holds in every run; TooLarge when the model and its monitor are too large to say."""
     tracked = _tracked(prop)
     start = (graph.initial, (_initial_unsafe(system, tracked), OPEN))
     parent: dict[tuple[State, Monitor], tuple[tuple[State, Monitor], Edge] | None] = {start: None}
@@ -130,6 +136,8 @@ def check(graph: Graph, prop: IRProperty, system: ir.IRSystem) -> Finding | None
                 return _finding(graph, prop, _path(parent, at) + [(edge, t)])
             key = (t, (after, still))
             if key not in parent:
+                if len(parent) >= limit:
+                    raise TooLarge(prop.name)
                 parent[key] = (at, edge)
                 todo.append(key)
     return None
