@@ -337,3 +337,46 @@ def test_a_property_too_large_to_decide_is_undecided_never_held(tmp_path):
     assert [(p.name, held) for p, held in small.properties] == [("slow", None)]
     assert any("property slow: more than" in n for n in small.notes)
     assert [(p.name, held) for p, held in full.properties] == [("slow", False)]
+
+
+def test_export_smv_writes_the_explored_model_and_the_properties(tmp_path):
+    """`--export smv`: one module per controller; its transition relation is the explored
+    model's (every cycle leads to the cycles leaving its target), each atom holds in the
+    cycles that make it true, and the spec's own property is an LTLSPEC with prove's
+    meaning (here: started by sending MOVE, due by the next cycle unless a new command)."""
+    directory = _system(
+        tmp_path,
+        """  - name: quick
+    whenever: sent(sub.MOVE)
+    within: 1
+    then: top.status == DONE
+""",
+    )
+    out = tmp_path / "smv"
+    ran = CliRunner().invoke(
+        main, ["prove", str(directory), "--no-replay", "--export", "smv", "--export-dir", str(out)]
+    )
+    assert ran.exit_code == 0, ran.output  # not replayed: undecided
+    text = (out / "tiny" / "top.smv").read_text()
+    assert sorted(p.name for p in (out / "tiny").iterdir()) == ["sub.smv", "top.smv"]
+    proof, _ = _findings(directory)
+    graph = proof.graphs["top"]
+    cycles = [c for s in graph.edges for c in graph.edges[s]]
+    assert f"  c : 0..{len(cycles)};" in text
+    nexts = {}
+    for line in text.splitlines():
+        if match := re.fullmatch(r"    c (?:=|in) \{?([\d, ]+)\}? : \{([\d, ]+)\};", line):
+            for source in map(int, match.group(1).split(", ")):
+                nexts[source] = {int(x) for x in match.group(2).split(", ")}
+    number = {id(c): i for i, c in enumerate(cycles, start=1)}  # equal cycles leave apart
+    for i, (_, target) in enumerate(cycles, start=1):
+        assert nexts[i] == {number[id(c)] for c in graph.edges[target]}
+    sent = re.search(r"  sent_sub_MOVE := c in \{([\d, ]+)\};", text)
+    assert sent is not None
+    assert {int(x) for x in sent.group(1).split(", ")} == {
+        i for i, (e, _) in enumerate(cycles, start=1) if ("sub", "MOVE") in e.sends
+    }
+    assert (
+        "LTLSPEC NAME quick := G ((c != 0 & !runtime & sent_sub_MOVE) -> "
+        "(status_DONE | X (runtime | new_command | status_DONE)));" in text
+    )

@@ -11,6 +11,7 @@ from ..compiler.frontend import Frontend
 from ..compiler.prove import INFINITE, diagnostics, prove_front, trace_text
 from ..compiler.prove.handshake import prove_handshake
 from ..compiler.prove.system import SystemProof
+from .prove_smv import write_smv
 from .replay import replay_all
 
 
@@ -44,11 +45,19 @@ def bounds_text(proof: SystemProof) -> list[str]:
 
 
 def run_prove(
-    front: Frontend, out: Path | None, replay: bool, hosts: dict[str, str] | None = None
+    front: Frontend,
+    out: Path | None,
+    replay: bool,
+    hosts: dict[str, str] | None = None,
+    smv: Path | None = None,
 ) -> tuple[list[str], Diagnostics, int]:
     """Prove, replay, and report: (text lines, diagnostics, violated findings shown);
-    `hosts`: process -> host, from a deployment file (one more cycle per host crossed)."""
+    `hosts`: process -> host, from a deployment file (one more cycle per host crossed);
+    `smv`: write each controller's model as SMV into `smv/<system>/` (`--export smv`)."""
     result = prove_front(front, hosts)
+    if smv is not None:
+        for proof, system in zip(result.proofs, front.systems, strict=True):
+            write_smv(proof, system.properties, smv / system.name)
     proven, said = prove_handshake()
     first = diagnostics(result)
     acknowledged = {(d.span, d.code) for d in first.acknowledged}
