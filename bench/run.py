@@ -8,6 +8,9 @@ targets are reported as PASS/FAIL lines; they do not change the exit status.
     python bench/run.py [--quick] [--out bench/RESULTS.md]
 
 `--quick` runs every part briefly (a smoke test of the benchmark, not a measurement).
+`--parts a,b` runs some parts only: their sections replace the same sections of an
+existing report (each dated), and the rest of it is kept (`python bench/run.py --parts
+prove` refreshes the prove figures alone).
 """
 
 from __future__ import annotations
@@ -1216,7 +1219,36 @@ def section_prove(prove: dict) -> list[str]:
             f"| {r['system']} | {r['controller']} | {r['subordinates']} | {r['states']} | "
             f"{r['transitions']} | {r['cpu_s'] * 1000:.0f} | {r['wall_s'] * 1000:.0f} |"
         )
+    lines += [
+        "",
+        "Per system, proven alone in one process (every controller, the bounds composed, the "
+        "spec's own properties checked; no replay):",
+        "",
+        "| system | controllers | states | CPU s | wall s | its own properties |",
+        "|---|---:|---:|---:|---:|---|",
+    ]
+    for s in prove.get("systems", []):
+        held = ", ".join(
+            f"{name} ({where}): {({True: 'holds', False: 'VIOLATED'}).get(ok, 'undecided')}"
+            for name, where, ok in s["properties"]
+        )
+        lines.append(
+            f"| {s['system']} | {s['controllers']} | {s['states']} | {s['cpu_s']:.2f} | "
+            f"{s['wall_s']:.2f} | {held or '-'} |"
+        )
     seeds = prove["seeds"]
+    lines += ["", "| system | caught | refused | equivalent | masked | missed | catch rate | s |"]
+    lines += ["|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for name, data in seeds["systems"].items():
+        n = Counter()
+        for key, count in data["counts"].items():
+            n[key.split(":")[1]] += count
+        bugs = n["caught"] + n["refused"] + n["missed"]
+        lines.append(
+            f"| {name} | {n['caught']} | {n['refused']} | {n['equivalent']} | {n['masked']} | "
+            f"{n['missed']} | {100.0 * (bugs - n['missed']) / max(bugs, 1):.1f} % | "
+            f"{data['seconds']:.0f} |"
+        )
     total = Counter()
     for data in seeds["systems"].values():
         for key, n in data["counts"].items():
@@ -1262,6 +1294,42 @@ def section_prove(prove: dict) -> list[str]:
                 f"{safe} | {' > '.join(b['path'])} |"
             )
     return [*lines, ""]
+
+
+KEPT = ("# ", "## Targets", "## Problems", "## Clean-up")  # a subset's run keeps the old ones
+
+
+def _sections(text: str) -> list[tuple[str, str]]:
+    """(heading, whole section text) of each `## ` section, the head as ("", ...)."""
+    found: list[tuple[str, list[str]]] = [("", [])]
+    for line in text.splitlines():
+        if line.startswith("## "):
+            found.append((line, []))
+        found[-1][1].append(line)
+    return [(heading, "\n".join(body).rstrip() + "\n") for heading, body in found]
+
+
+def splice(old: str, new: str, when: datetime.datetime) -> str:
+    """The report of a run of some parts (`--parts`) put into the full one: each of its
+    sections replaces the old section of the same title (up to a colon), or goes before
+    the clean-up section; the machine, targets and clean-up stay the full run's."""
+
+    def title(heading: str) -> str:
+        return heading.split(":")[0]
+
+    fresh = {
+        title(h): body + f"\n(This section: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC.)\n"
+        for h, body in _sections(new)
+        if h and not h.startswith(KEPT)
+    }
+    out = []
+    for heading, body in _sections(old):
+        if heading.startswith("## Clean-up"):
+            out += fresh.values()
+            fresh = {}
+        out.append(fresh.pop(title(heading), body) if heading else body)
+    out += fresh.values()
+    return "\n".join(part.rstrip() + "\n" for part in out)
 
 
 def main() -> int:
@@ -1353,7 +1421,10 @@ def main() -> int:
     if results.get("prove"):
         lines += section_prove(results["prove"])
     lines += section_cleanup(results, problems)
-    args.out.write_text("\n".join(lines).rstrip() + "\n")
+    text = "\n".join(lines).rstrip() + "\n"
+    if args.saved is None and set(results) != set(PARTS) and args.out.is_file():
+        text = splice(args.out.read_text(), text, started_at)  # a subset: its sections only
+    args.out.write_text(text)
     print(f"wrote {args.out} in {time.perf_counter() - started:.0f} s", file=sys.stderr)
     return 1 if problems or (co and not co["traces_identical"]) else 0
 

@@ -35,12 +35,28 @@ from .tools.report import Options
     help="A deployment file of the one system given: the HALT and ERROR bounds count one "
     "more cycle per host a command or a status crosses.",
 )
+@click.option(
+    "--export",
+    type=click.Choice(["smv"]),
+    default=None,
+    help="Also write each controller's explored model, with the spec's own properties, as "
+    "a NuSMV/nuXmv model into --export-dir/<system>/.",
+)
+@click.option(
+    "--export-dir",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("smv"),
+    show_default=True,
+    help="Where --export writes (one directory per system).",
+)
 @reporting
 def prove(
     paths: tuple[Path, ...],
     out: Path | None,
     no_replay: bool,
     deploy_file: Path | None,
+    export: str | None,
+    export_dir: Path,
     opts: Options,
 ) -> None:
     """Prove properties of the running hierarchy; print counter-examples as traces and
@@ -53,7 +69,8 @@ def prove(
     if session.fails:
         session.finish("prove failed: the specs do not build")
     hosts = None if deploy_file is None else _hosts(front.systems, deploy_file)
-    lines, diags, violated = run_prove(front, out, not no_replay, hosts)
+    smv = export_dir if export == "smv" else None
+    lines, diags, violated = run_prove(front, out, not no_replay, hosts, smv)
     session.add(diags)
     if opts.fmt == "text" and not opts.quiet:
         for line in lines:

@@ -77,6 +77,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_state_time",
             "test_plans",
             "test_prove",
+            "test_prove_properties",
             "test_prove_seeds",
             "test_reasons_survive",
             "test_results_visible",

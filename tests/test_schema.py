@@ -83,7 +83,11 @@ def test_every_property_and_definition_has_a_description(kind):
                 if "description" not in sub and not where.endswith("/if"):
                     missing.append(f"{where}/{name}")
             for key, sub in node.items():
-                walk(sub, f"{where}/{key}")
+                if key == "properties" and isinstance(sub, dict):  # names -> schemas (one
+                    for name, inner in sub.items():  # may be named `properties` itself)
+                        walk(inner, f"{where}/properties/{name}")
+                else:
+                    walk(sub, f"{where}/{key}")
         elif isinstance(node, list):
             for index, sub in enumerate(node):
                 walk(sub, f"{where}/{index}")

@@ -338,6 +338,12 @@ _ALL = (
     warning("W706", Topic.PROVE, "latched stop", about="a rule"),
     warning("W707", Topic.PROVE, "a stale DONE believed", about="a rule"),
     warning("W708", Topic.PROVE, "the handshake: wait for the echo", about="a rule"),
+    warning("W709", Topic.PROVE, "a property of the spec's own", about="a rule"),
+    error("E710", Topic.PROVE, "unknown name in a property"),
+    error("E711", Topic.PROVE, "property outside one supervisor's view (global)"),
+    error("E712", Topic.PROVE, "bad `within` of a property"),
+    error("E713", Topic.PROVE, "property expression of a form prove cannot check"),
+    error("E714", Topic.PROVE, "two properties with one name"),
     error("E601", Topic.NAMES, "invalid identifier"),
     error("E602", Topic.NAMES, "line break in a one-line text"),
     error("E801", Topic.SAFETY, "bad safe value of a world field"),
@@ -369,7 +375,9 @@ WARNING_CODES = frozenset(c.code for c in _ALL if c.severity is Severity.WARNING
 ACKNOWLEDGEABLE = {c.code: c.about for c in _ALL if c.acknowledgeable}
 # The findings of `rcsgen prove` (rcsgen/compiler/prove/): acknowledged like the others, but
 # only `prove` reports them, so only `prove` says when an acknowledgement of one is unused.
-PROVE_CODES = {c.code: c.about for c in _ALL if c.topic is Topic.PROVE}
+PROVE_CODES = {
+    c.code: c.about for c in _ALL if c.topic is Topic.PROVE and c.severity is Severity.WARNING
+}
 
 
 def severity_of(code: str) -> Severity:

@@ -9,13 +9,14 @@ from __future__ import annotations
 import functools
 import os
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from .analysis.tables import analyse_system
 from .back_end.lower import lower_system
 from .checks import acknowledge
 from .checks.check import check_system
+from .checks.properties import check_properties
 from .codes import Severity
 from .diagnostics import Diagnostics, Span, SpecError
 from .front_end import fragments, instances, model
@@ -238,6 +239,7 @@ def _load_system(
         return None
     progress(f"analysing the state tables of {system.name}")
     analyse_system(checked, diags)  # E5xx/W5xx, with counter-examples
+    properties = check_properties(system, controllers, diags)  # E710-E714
     acknowledge.apply(controllers, diags, first, complete=True)  # allow: and first_match
     if len(diags.errors) > start:
         return None
@@ -250,7 +252,8 @@ def _load_system(
     sources[system.display] = source_path(system_path, directory)
     if models is not None:
         models[system.name] = (system, controllers)
-    return lower_system(checked, sources)
+    lowered = lower_system(checked, sources)
+    return replace(lowered, properties=properties) if properties else lowered
 
 
 def _system_spec(

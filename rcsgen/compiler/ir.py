@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass, field
+from enum import StrEnum
 from functools import cached_property
 
 from ..runtime.contract import STARTUP_TIMEOUT
@@ -220,6 +221,58 @@ class IRWorldField:
     # type's zero (false, 0, 0.0, the first value, ""); None for a field that is no actuator
     safe: bool | int | float | str | None = None
     ground_truth: bool = False  # the simulation's truth, which no sensor gives (E280)
+
+
+class PropKind(StrEnum):
+    """What an atom of a user's property reads in a cycle of its supervisor's model
+    (docs/spec.md section 19)."""
+
+    STATE = "state"  # <supervisor>.state == <state>: its table state after the cycle
+    COMMAND = "command"  # <supervisor>.command == <COMMAND>: the command it executes
+    STATUS = "status"  # <supervisor>.status == <STATUS>: its status after the cycle
+    SUB_STATUS = "sub_status"  # <sub>.status == <STATUS>: as the supervisor reads it
+    SUB_COMMAND = "sub_command"  # <sub>.command == <COMMAND>: the last one sent to it
+    SENT = "sent"  # sent(<sub>.<COMMAND>): sent to it in this cycle
+    WRITES = "writes"  # writes(<local>) / writes(world.<field>): a rule that fired sets it
+    SAFE = "safe"  # safe(world.<actuator>): the value last set is its safe value
+
+
+@dataclass(frozen=True)
+class IRPropAtom:
+    kind: PropKind
+    module: str  # the supervisor or the subordinate it is about ('' for WRITES and SAFE)
+    value: str  # the state, command or status compared with; the command sent; the name
+
+
+@dataclass(frozen=True)
+class IRPropExpr:
+    """A property's condition: an atom, `not`, `and`, `or`, or a constant."""
+
+    op: str  # "atom", "not", "and", "or", "true", "false"
+    atom: IRPropAtom | None = None
+    args: tuple[IRPropExpr, ...] = ()
+
+    def atoms(self) -> list[IRPropAtom]:
+        found = [self.atom] if self.atom is not None else []
+        for arg in self.args:
+            found += arg.atoms()
+        return found
+
+
+@dataclass(frozen=True)
+class IRProperty:
+    """A property of the engineer's own, checked by `rcsgen prove` in the model of
+    `controller` (the supervisor whose view it is stated in): `then` holds in every
+    cycle (`whenever` None), or in the cycle `whenever` holds or one of `within` after."""
+
+    name: str
+    controller: str
+    span: Span
+    text: str  # as written, for messages
+    then: IRPropExpr
+    whenever: IRPropExpr | None = None
+    within: int = 0
+    doc: str = ""
 
 
 @dataclass(frozen=True)
@@ -614,6 +667,8 @@ class IRSystem:
     io_dependents: dict[str, tuple[str, ...]] = field(default_factory=dict)
     # where each device (its name) and each of its points (`device.field`) is declared
     io_spans: dict[str, Span] = field(default_factory=dict)
+    # the engineer's own properties (`properties:`), for `rcsgen prove` only
+    properties: tuple[IRProperty, ...] = ()
 
     def controller(self, name: str) -> IRController:
         return next(c for c in self.controllers if c.name == name)

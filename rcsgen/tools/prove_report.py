@@ -11,6 +11,7 @@ from ..compiler.frontend import Frontend
 from ..compiler.prove import INFINITE, diagnostics, prove_front, trace_text
 from ..compiler.prove.handshake import prove_handshake
 from ..compiler.prove.system import SystemProof
+from .prove_smv import write_smv
 from .replay import replay_all
 
 
@@ -44,11 +45,19 @@ def bounds_text(proof: SystemProof) -> list[str]:
 
 
 def run_prove(
-    front: Frontend, out: Path | None, replay: bool, hosts: dict[str, str] | None = None
+    front: Frontend,
+    out: Path | None,
+    replay: bool,
+    hosts: dict[str, str] | None = None,
+    smv: Path | None = None,
 ) -> tuple[list[str], Diagnostics, int]:
     """Prove, replay, and report: (text lines, diagnostics, violated findings shown);
-    `hosts`: process -> host, from a deployment file (one more cycle per host crossed)."""
+    `hosts`: process -> host, from a deployment file (one more cycle per host crossed);
+    `smv`: write each controller's model as SMV into `smv/<system>/` (`--export smv`)."""
     result = prove_front(front, hosts)
+    if smv is not None:
+        for proof, system in zip(result.proofs, front.systems, strict=True):
+            write_smv(proof, system.properties, smv / system.name)
     proven, said = prove_handshake()
     first = diagnostics(result)
     acknowledged = {(d.span, d.code) for d in first.acknowledged}
@@ -81,6 +90,14 @@ def run_prove(
         for name, r in proof.controllers.items():
             for command, needs in r.assumptions.items():
                 lines.append(f"  {name} {command} finishes if eventually " + "; or ".join(needs))
+        for prop, holds in proof.properties:
+            lines.append(
+                f"  property {prop.name} ({prop.controller}): "
+                + {True: "holds", False: "does not hold (W709)", None: "undecided (too large)"}[
+                    holds
+                ]
+                + f": {prop.text}"
+            )
         for i in sorted(shown):
             f = proof.findings[i]
             lines.append(f"  counter-example of {f.code} in {f.controller} ({f.verdict}):")

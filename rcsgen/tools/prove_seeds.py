@@ -23,7 +23,7 @@ from __future__ import annotations
 import re
 import shutil
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -91,7 +91,7 @@ def seeds(directory: Path) -> list[Seed]:
     found: list[Seed] = []
     system = directory.name
     specs: dict[str, tuple[Path, dict[str, Any]]] = {}
-    for path in sorted(directory.glob("*.yaml")):
+    for path in _spec_files(directory):
         data = _load(path)
         if isinstance(data, dict) and "controller" in data:
             specs[str(data["controller"])] = (path, data)
@@ -117,7 +117,7 @@ def seeds(directory: Path) -> list[Seed]:
                     Seed(
                         "drop-send",
                         system,
-                        path.name,
+                        _rel(directory, path),
                         name,
                         command,
                         f"{at}: send {sent} left out",
@@ -132,7 +132,7 @@ def seeds(directory: Path) -> list[Seed]:
                     Seed(
                         "drop-error-branch",
                         system,
-                        path.name,
+                        _rel(directory, path),
                         name,
                         command,
                         f"{at}: the ERROR branch `{guard}` left out",
@@ -149,7 +149,7 @@ def seeds(directory: Path) -> list[Seed]:
                     Seed(
                         "forget-echo",
                         system,
-                        path.name,
+                        _rel(directory, path),
                         name,
                         command,
                         f"{at}: `{m.group(0)}` read as `{m.group(1)}.status != ERROR`",
@@ -163,7 +163,7 @@ def seeds(directory: Path) -> list[Seed]:
                 Seed(
                     "remove-halt",
                     system,
-                    path.name,
+                    _rel(directory, path),
                     name,
                     "HALT",
                     f"{name}: its HALT table left out",
@@ -171,6 +171,38 @@ def seeds(directory: Path) -> list[Seed]:
                 )
             )
     found += _swaps(directory, specs)
+    return found
+
+
+def _spec_files(directory: Path) -> list[Path]:
+    """The system's YAML files, and its templates' (a directory beside system.yaml that
+    holds a template.yaml: a seed in a template's controller is in every instance)."""
+    found = sorted(directory.glob("*.yaml"))
+    for template in sorted(directory.glob("*/template.yaml")):
+        found += sorted(p for p in template.parent.glob("*.yaml") if p != template)
+    return found
+
+
+def _instance_sub(subs: tuple[str, ...], name: str) -> str:
+    """A subordinate as a seed in a template's file names it -> as its instance's
+    controller has it (`<instance>_<member>`, docs/spec.md section 18)."""
+    if name in subs:
+        return name
+    found = [s for s in subs if s.endswith(f"_{name}")]
+    return found[0] if len(found) == 1 else name
+
+
+def _rel(directory: Path, path: Path) -> str:
+    return path.relative_to(directory).as_posix()
+
+
+def instance_names(front: Any, system: str) -> dict[str, str]:
+    """A template's controller (its name in the template) -> its first instance's name:
+    where a seed planted in the template is proven and must be caught."""
+    found: dict[str, str] = {}
+    for c in front.models[system][1]:
+        if c.instance is not None:
+            found.setdefault(c.instance.member, c.name)
     return found
 
 
@@ -248,6 +280,9 @@ def _halt_stops_nothing(seed: Seed, spec: dict[str, Any], proof: SystemProof) ->
     graph = proof.graphs.get(seed.controller)
     if not re.search(rf"\b{sub}\.status\s*==\s*ERROR\b", guard) or graph is None:
         return ""
+    sub = _instance_sub(graph.skeleton.subs, sub)
+    if sub not in graph.skeleton.subs:
+        return ""
     at = graph.skeleton.subs.index(sub)
     running = {
         sent
@@ -268,6 +303,10 @@ def _echo_replaced(seed: Seed, spec: dict[str, Any], proof: SystemProof) -> str:
     command, state, index, sub = _rule_at(seed)
     rule = spec["commands"][command]["states"][state][index]
     sends = [s.split(".", 1) for a in _actions(rule) if (s := _send_of(a))]
+    mine = proof.graphs.get(seed.controller)
+    if mine is not None:
+        sub = _instance_sub(mine.skeleton.subs, sub)
+        sends = [[_instance_sub(mine.skeleton.subs, to), c] for to, c in sends]
     moving = props.motion({name: graph.skeleton for name, graph in proof.graphs.items()})
     if any(to == sub for to, _ in sends) and not any(moving.get((to, c)) for to, c in sends):
         return f"the rule only stops things, {sub} among them: stopping it early is safe"
@@ -280,7 +319,10 @@ def _echo_answered(seed: Seed, proof: SystemProof) -> str:
     the same, so the seed changes nothing."""
     command, state, _, sub = _rule_at(seed)
     graph = proof.graphs.get(seed.controller)
-    if graph is None or sub not in graph.skeleton.subs:
+    if graph is None:
+        return ""
+    sub = _instance_sub(graph.skeleton.subs, sub)
+    if sub not in graph.skeleton.subs:
         return ""
     at = graph.skeleton.subs.index(sub)
     views = {s.subs[at][1] for s in graph.edges if s.command == command and s.state == state}
@@ -338,7 +380,9 @@ def _handled(
     if others:
         return f"rule {others[0]} of {state} handles {sub}'s ERROR too"
     c = system.controller(seed.controller)
-    mine, graph = proof.graphs.get(seed.controller), proof.graphs.get(sub)
+    mine = proof.graphs.get(seed.controller)
+    sub = _instance_sub(mine.skeleton.subs, sub) if mine is not None else sub
+    graph = proof.graphs.get(sub)
     if mine is None or graph is None or sub not in mine.skeleton.subs:
         return ""
     if any(s.echo_cycles for s in c.subordinates if s.name == sub):
@@ -416,13 +460,15 @@ def trial(directory: Path, work: Path, every: int = 1) -> list[Outcome]:
     assert not front.diagnostics.errors, "the unchanged system must build"
     system = front.systems[0]
     before = prove(system)
-    loaded = {p.name: _load(p) for p in directory.glob("*.yaml")}
+    loaded = {_rel(directory, p): _load(p) for p in _spec_files(directory)}
+    alias = instance_names(front, system.name)
     out = []
     chosen: dict[str, int] = {}
-    for n, seed in enumerate(seeds(directory)):
-        chosen[seed.kind] = chosen.get(seed.kind, -1) + 1
-        if chosen[seed.kind] % every:
+    for n, written in enumerate(seeds(directory)):
+        chosen[written.kind] = chosen.get(written.kind, -1) + 1
+        if chosen[written.kind] % every:
             continue
+        seed = replace(written, controller=alias.get(written.controller, written.controller))
         why = equivalent(seed, loaded[seed.file], before, system)
         if why:
             out.append(Outcome(seed, "equivalent", why))

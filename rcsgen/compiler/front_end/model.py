@@ -168,6 +168,7 @@ class SystemSpec:
     # The run settings the hook-state factories read, name -> doc; None: not declared
     settings: dict[str, str] | None = None
     io: dict[str, IoDevice] = field(default_factory=dict)  # fieldbus devices (docs/io.md)
+    properties: list[UserProperty] = field(default_factory=list)  # checked by `rcsgen prove`
 
     @cached_property
     def world_types(self) -> dict[str, Type]:
@@ -265,6 +266,37 @@ Action = Send | SetWorld | Report | CallHook | PlanAction
 
 
 @dataclass
+class UserProperty:
+    """A property of the engineer's own (`properties:`, docs/spec.md section 19): `always`
+    an invariant; else `whenever` a trigger, `then` its response `within` cycles."""
+
+    name: Located
+    doc: str
+    span: Span
+    always: Located | None = None
+    whenever: Located | None = None
+    then: Located | None = None
+    within: Located | None = None
+
+
+def build_properties(data: Any, top: Span) -> list[UserProperty]:
+    """The `properties:` of a schema-valid system or controller document."""
+    items = data.get("properties") or []
+    found = []
+    for index, raw in enumerate(items):
+        at = value_span(items, index, top)
+        found.append(
+            UserProperty(
+                Located(raw["name"], value_span(raw, "name", at)),
+                str(raw.get("doc", "")),
+                at,
+                *(_optional(raw, key, at) for key in ("always", "whenever", "then", "within")),
+            )
+        )
+    return found
+
+
+@dataclass
 class Allow:
     """An acknowledgement: a warning that is intended here, and why (`allow:`)."""
 
@@ -348,6 +380,7 @@ class ControllerSpec:
     plans: dict[str, Plan] = field(default_factory=dict)  # stepped through by its tables
     kind: ModuleKind = ModuleKind.CONTROLLER  # OPERATOR: a person at a screen, no table
     instance: InstanceOf | None = None  # a copy of a template's controller (section 18)
+    properties: list[UserProperty] = field(default_factory=list)  # checked by `rcsgen prove`
 
     @property
     def is_operator(self) -> bool:
@@ -429,6 +462,7 @@ def build_system(data: Any, directory: Path, display: str) -> SystemSpec:
         if isinstance(data.get("settings"), dict)
         else None,
         io=build_io(data, top),
+        properties=build_properties(data, top),
     )
 
 
@@ -668,6 +702,7 @@ def build_controller(data: Any, display: str) -> ControllerSpec:
             k: _plan(k, v, key_span(data["plans"], k, top))
             for k, v in (data.get("plans") or {}).items()
         },
+        properties=build_properties(data, top),
     )
 
 

@@ -29,6 +29,7 @@ CODES = {
     "W705": "ERROR reaches the root: a subordinate's ERROR that is never reported up",
     "W706": "latched stop: a motion command or unsafe actuator value after HALT",
     "W708": "handshake: DONE reported before the echo of a motion command sent",
+    "W709": "a property of the spec's own (`properties:`) that does not hold",
 }
 PROPERTIES = {
     "W701": "no motion after ERROR",
@@ -38,6 +39,7 @@ PROPERTIES = {
     "W705": "ERROR reaches the root",
     "W706": "latched stop",
     "W708": "the handshake (waiting for the echo)",
+    "W709": "the spec's own properties",
 }
 
 __all__ = ["CODES", "Finding", "INFINITE", "ProveResult", "SystemProof", "prove_front"]

@@ -49,6 +49,9 @@ class RuleView:
     # what its guard reads, predicates, functions and `let` values inlined: (RefKind, name)
     reads: frozenset[tuple[str, str]] = frozenset()
     world_sets: frozenset[str] = frozenset()  # world fields it sets (or a hook returns into)
+    # what it writes, as a property's `writes(...)` names it: a local, `world.<field>`
+    assigns: frozenset[str] = frozenset()
+    hold: int | None = None  # `for:` N cycles: it fires once its `when` held more than N
 
 
 @dataclass
@@ -123,6 +126,21 @@ def _world_sets(rule: ir.IRRule) -> list[str]:
     return found
 
 
+def _assigns(rule: ir.IRRule) -> frozenset[str]:
+    """The locals (by name) and world fields (`world.<field>`) a rule's actions write."""
+    found: set[str] = set()
+    for action in rule.actions:
+        if isinstance(action, ir.IRSet):
+            found |= {a.target for a in action.assignments}
+        elif isinstance(action, ir.IRCall):
+            for target in action.targets:
+                if target.startswith("self.world_"):
+                    found.add("world." + target.removeprefix("self.world_"))
+                elif target.startswith("self.var_"):
+                    found.add(target.removeprefix("self.var_"))
+    return frozenset(found)
+
+
 def _constant(literal: str) -> Any:
     return ast.literal_eval(literal.split("#", 1)[0].strip())
 
@@ -162,6 +180,19 @@ def reads_of(tree: expr.Expr | None, builder: GuardBuilder) -> frozenset[tuple[s
             elif isinstance(node, expr.Ref) and node.kind is not expr.RefKind.ARG:
                 found.add((str(node.kind), node.owner or node.name))
     return frozenset(found)
+
+
+def _hold(guard: expr.Expr | None) -> int | None:
+    """The cycles a `for:` rule's `when` must have held (its guard's `held > N`)."""
+    for node in expr.walk(guard) if guard is not None else ():
+        if (
+            isinstance(node, expr.Compare)
+            and isinstance(node.left, expr.Ref)
+            and node.left.kind == expr.RefKind.HELD
+            and isinstance(node.comparators[0], expr.Const)
+        ):
+            return int(node.comparators[0].value)
+    return None
 
 
 def _thresholds(guard: expr.Expr | None) -> tuple[int, ...]:
@@ -219,6 +250,8 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
             tuple(acts),
             reads=reads_of(rule.guard.tree if rule.guard else None, builder),
             world_sets=frozenset(_world_sets(rule)),
+            assigns=_assigns(rule),
+            hold=_hold(rule.guard.tree if rule.guard else None),
         )
 
     tables: dict[str, dict[str, list[RuleView]]] = {}

@@ -28,6 +28,15 @@ def available() -> bool:
     return True
 
 
+def z3_or_none() -> Any:
+    """The z3 module, or None without the extra (the prover's one import of it)."""
+    try:
+        import z3
+    except ImportError:
+        return None
+    return z3
+
+
 def prove_handshake(renumber: bool = True) -> tuple[bool | None, str]:
     """(True, how) when the invariant is proven, (False, the counter-example) when a
     transition breaks it, (None, why) when z3 is not installed. `renumber=False` proves

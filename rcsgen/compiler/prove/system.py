@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 from .. import ir
 from . import properties as props
+from . import timers, user
 from .adapter import DONE, ERROR, Skeleton, operator_outcomes, placement, skeleton
 from .lost import RuntimeReaction
 from .model import LIMIT, Contract, Edge, Graph, Model, State, explore
@@ -63,6 +64,9 @@ class SystemProof:
     # (module, command): it may end that command with ERROR while something below it still
     # moves (its contract; a supervisor must withdraw it after that ERROR)
     loose: set[tuple[str, str]] = field(default_factory=set)
+    # the engineer's own properties checked, each with whether it holds in every run (None:
+    # undecided, the model with its monitor too large)
+    properties: list[tuple[ir.IRProperty, bool | None]] = field(default_factory=list)
 
 
 def order(system: ir.IRSystem) -> list[ir.IRController]:
@@ -146,13 +150,49 @@ def prove(
                 if finding.command in sk.generated and finding.code in ("W702", "W703"):
                     continue
                 proof.findings.append(finding)
+            for prop in system.properties:
+                if prop.controller == c.name:
+                    _user(proof, graph, prop, system, limit)
         result.seconds = time.perf_counter() - began
         result.cpu = time.process_time() - began_cpu
         proof.controllers[c.name] = result
         proof.graphs[c.name] = graph
     _compose(system, proof, place, hosts)
     proof.findings += _late_order(system, skeletons, place)
+    _hold_times(proof)
     return proof
+
+
+def _user(
+    proof: SystemProof, graph: Graph, prop: ir.IRProperty, system: ir.IRSystem, limit: int
+) -> None:
+    """One of the spec's own properties checked on the explored model (W709), or a note
+    when the model with its monitor is too large to decide it."""
+    try:
+        found = user.check(graph, prop, system, limit)
+    except user.TooLarge:
+        proof.notes.append(f"property {prop.name}: more than {limit} states with its monitor")
+        proof.properties.append((prop, None))
+        return
+    proof.findings += [found] if found else []
+    proof.properties.append((prop, found is None))
+
+
+def _hold_times(proof: SystemProof) -> None:
+    """Each finding whose run fires a `for:` rule before its `when` can have held long
+    enough is undecided, with why (z3, `timers.py`); without z3, one note says so."""
+    missing = ""
+    for f in proof.findings:
+        graph = proof.graphs.get(f.controller)
+        if graph is None or not f.trace:
+            continue
+        possible, why = timers.feasible(graph.skeleton, f.trace)
+        if possible is False:
+            f.certain, f.verdict, f.replay = False, "undecided", why
+        elif possible is None:
+            missing = why
+    if missing:
+        proof.notes.append(missing)
 
 
 def _below(system: ir.IRSystem, top: str) -> set[str]:

@@ -1,0 +1,189 @@
+"""User properties: the engineer's own `properties:` -> checked in their supervisor's model.
+
+A property (`ir.IRProperty`, resolved by `checks/properties.py`) is read on the cycles of
+the explored model of the supervisor it is stated over, with a small monitor beside each
+model state: which actuators it names are not at their safe value (the last value the
+supervisor set, or the field's initial value; a latched field is safe), and how many more
+cycles an open `whenever` may wait for its `then`. The search is breadth first over model
+state and monitor, so a counter-example is a shortest run, replayed like every other.
+
+The meaning of one cycle (docs/spec.md section 19): a module's state, command and status
+are the ones after the cycle; a subordinate's status is what the supervisor read in it, its
+command the last one sent to it; `sent` and `writes` are what the rules that fired did. An
+invariant is checked on every cycle but the runtime's safe state (the runtime acts there,
+not the table). An obligation is started by any cycle but one where a process is lost or
+back, or the operator resets the latches, and ends, met or not, at such a cycle or at a new
+command from above (a new decision): no property counts on a recovery or on the operator.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+from .. import ir
+from ..ir import IRPropAtom, IRProperty, IRPropExpr, PropKind
+from .model import LIMIT, Edge, Graph, State
+from .properties import Finding, _certain, _rule_of, rule_view
+
+Monitor = tuple[frozenset[str], int]  # (actuators named not at their safe value, cycles left)
+OPEN = 0  # cycles left when no obligation is open
+
+
+class _Cycle:
+    """One cycle of the model as a property reads it."""
+
+    def __init__(self, graph: Graph, edge: Edge, target: State, unsafe: frozenset[str]):
+        self.sk, self.edge, self.t, self.unsafe = graph.skeleton, edge, target, unsafe
+
+    def atom(self, a: IRPropAtom) -> bool:
+        t, edge, sk = self.t, self.edge, self.sk
+        if a.kind is PropKind.STATE:
+            return t.state == a.value
+        if a.kind is PropKind.COMMAND:
+            return (t.command or "NONE") == a.value
+        if a.kind is PropKind.STATUS:
+            return t.status == a.value
+        if a.kind is PropKind.SENT:
+            return (a.module, a.value) in edge.sends
+        if a.kind is PropKind.WRITES:
+            return any(a.value in rule_view(sk, r).assigns for r in edge.rules)
+        if a.kind is PropKind.SAFE:
+            return a.value.removeprefix("world.") not in self.unsafe
+        index = sk.subs.index(a.module)
+        if a.kind is PropKind.SUB_STATUS:
+            return edge.views[index] == a.value
+        return (t.subs[index][0] or "NONE") == a.value  # SUB_COMMAND
+
+    def holds(self, e: IRPropExpr) -> bool:
+        if e.op == "atom":
+            assert e.atom is not None
+            return self.atom(e.atom)
+        if e.op == "not":
+            return not self.holds(e.args[0])
+        if e.op == "and":
+            return all(self.holds(x) for x in e.args)
+        if e.op == "or":
+            return any(self.holds(x) for x in e.args)
+        return e.op == "true"
+
+
+def _tracked(prop: IRProperty) -> frozenset[str]:
+    atoms = [*prop.then.atoms(), *(prop.whenever.atoms() if prop.whenever else [])]
+    return frozenset(a.value.removeprefix("world.") for a in atoms if a.kind is PropKind.SAFE)
+
+
+def _unsafe_after(
+    unsafe: frozenset[str], edge: Edge, t: State, tracked: frozenset[str]
+) -> frozenset[str]:
+    """The tracked actuators not at their safe value after a cycle: set unsafe by a rule
+    that fired (unsafe wins over safe in one cycle), else as before unless set safe or
+    latched by the runtime."""
+    if not tracked:
+        return unsafe
+    now = (unsafe - set(edge.safe) - t.latched) | (set(edge.unsafe) & tracked)
+    return frozenset(now - t.latched)
+
+
+def _quiet(edge: Edge) -> bool:
+    return edge.lost is None and edge.recovered is None and not edge.reset and not edge.safe_state
+
+
+def _step(prop: IRProperty, cycle: _Cycle, left: int) -> tuple[bool, int]:
+    """(violated in this cycle, cycles left of the open obligation after it)."""
+    if prop.whenever is None:
+        return (not cycle.edge.safe_state and not cycle.holds(prop.then)), OPEN
+    edge = cycle.edge
+    if left and (not _quiet(edge) or edge.new is not None):
+        left = OPEN  # a loss, a recovery, a reset, a new command: a new situation
+    if left:
+        if cycle.holds(prop.then):
+            left = OPEN
+        elif left == 1:
+            return True, OPEN
+        else:
+            left -= 1
+    if not left and _quiet(edge) and cycle.holds(prop.whenever) and not cycle.holds(prop.then):
+        if prop.within == 0:
+            return True, OPEN
+        left = prop.within
+    return False, left
+
+
+def _initial_unsafe(system: ir.IRSystem, tracked: frozenset[str]) -> frozenset[str]:
+    return frozenset(f.name for f in system.world if f.name in tracked and f.initial != f.safe)
+
+
+class TooLarge(Exception):
+    """The model with the property's monitor has more than LIMIT states: undecided."""
+
+
+def check(
+    graph: Graph, prop: IRProperty, system: ir.IRSystem, limit: int = LIMIT
+) -> Finding | None:
+    """The shortest run of the model that breaks `prop`, as a W709 finding; None when it
+    holds in every run; TooLarge when the model and its monitor are too large to say."""
+    tracked = _tracked(prop)
+    start = (graph.initial, (_initial_unsafe(system, tracked), OPEN))
+    parent: dict[tuple[State, Monitor], tuple[tuple[State, Monitor], Edge] | None] = {start: None}
+    todo = deque([start])
+    while todo:
+        at = todo.popleft()
+        s, (unsafe, left) = at
+        for edge, t in graph.edges.get(s, []):
+            after = _unsafe_after(unsafe, edge, t, tracked)
+            bad, still = _step(prop, _Cycle(graph, edge, t, after), left)
+            if bad:
+                return _finding(graph, prop, _path(parent, at) + [(edge, t)])
+            key = (t, (after, still))
+            if key not in parent:
+                if len(parent) >= limit:
+                    raise TooLarge(prop.name)
+                parent[key] = (at, edge)
+                todo.append(key)
+    return None
+
+
+def _path(parent: dict, at: tuple[State, Monitor]) -> list[tuple[Edge, State]]:  # type: ignore[type-arg]
+    run: list[tuple[Edge, State]] = []
+    while (back := parent[at]) is not None:
+        previous, edge = back
+        run.append((edge, at[0]))
+        at = previous
+    return list(reversed(run))
+
+
+def _trigger(graph: Graph, prop: IRProperty, trace: list[tuple[Edge, State]]) -> int:
+    """The cycle (1-based) whose `whenever` the violation leaves unanswered."""
+    if prop.whenever is None:
+        return len(trace)
+    return len(trace) - prop.within
+
+
+def _finding(graph: Graph, prop: IRProperty, trace: list[tuple[Edge, State]]) -> Finding:
+    sk = graph.skeleton
+    edge, last = trace[-1]
+    table = [r for r in edge.rules if not r.startswith("every_cycle")] or list(edge.rules)
+    if (prop.whenever is None or prop.within == 0) and table:
+        command, state, index, span = _rule_of(sk, table[-1])
+        detail = f"in cycle {len(trace)} rule {table[-1]} of {sk.name} breaks it"
+    else:
+        at = _trigger(graph, prop, trace)
+        command, state, index, span = trace[at - 1][1].command, None, None, prop.span
+        detail = (
+            f"it held in cycle {at} and the response did not follow by cycle {len(trace)}"
+            if prop.whenever is not None
+            else f"it fails in cycle {len(trace)}"
+        )
+    return Finding(
+        "W709",
+        sk.name,
+        command,
+        state,
+        index,
+        span,
+        f"property `{prop.name}` is violated: {prop.text}; {detail}",
+        "the counter-example shows the cycles: fix the rule, or the property if it says more "
+        "than the paper does",
+        trace,
+        _certain(trace),
+    )
