@@ -755,6 +755,8 @@ def records(layout: ModuleType) -> dict[str, object]:
         found[f"PACE_{name.upper()}"] = record
     for name, record in layout.OVERRIDE.items():
         found[f"OVERRIDE_{name.upper()}"] = record
+    for name, record in layout.TIME_IN_STATE.items():
+        found[f"TIME_{name.upper()}"] = record
     found["OVERRIDES"] = layout.OVERRIDES
     return found
 
