@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 3560 bytes.
+The block is 3728 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -18,127 +18,127 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 88 | PROCESS_COMMAND | PROCESS_FIELDS |
-| 168 | 16 | PACE_COMMAND | PACE_FIELDS |
-| 184 | 88 | PROCESS_PA | PROCESS_FIELDS |
-| 272 | 16 | PACE_PA | PACE_FIELDS |
-| 288 | 88 | PROCESS_PB | PROCESS_FIELDS |
-| 376 | 16 | PACE_PB | PACE_FIELDS |
-| 392 | 28 | PL_COMMAND | command_num, command, arg_objective |
-| 424 | 50 | PL_STATUS | STATUS_FIELDS |
-| 480 | 16 | PL_MODE | MODE_FIELDS |
-| 496 | 48 | PL_PERF | PERF_FIELDS |
-| 544 | 28 | SEC_COMMAND | command_num, command, arg_objective |
-| 576 | 59 | SEC_STATUS | STATUS_FIELDS |
-| 640 | 16 | SEC_MODE | MODE_FIELDS |
-| 656 | 48 | SEC_PERF | PERF_FIELDS |
-| 704 | 28 | ALPHA_COMMAND | command_num, command, arg_x |
-| 736 | 49 | ALPHA_STATUS | STATUS_FIELDS |
-| 792 | 16 | ALPHA_MODE | MODE_FIELDS |
-| 808 | 48 | ALPHA_PERF | PERF_FIELDS |
-| 856 | 28 | ALPHA_LOCO_COMMAND | command_num, command, arg_goal |
-| 888 | 40 | ALPHA_LOCO_STATUS | STATUS_FIELDS |
-| 928 | 16 | ALPHA_LOCO_MODE | MODE_FIELDS |
-| 944 | 48 | ALPHA_LOCO_PERF | PERF_FIELDS |
-| 992 | 28 | ALPHA_DRIVE_COMMAND | command_num, command, arg_throttle |
-| 1024 | 32 | ALPHA_DRIVE_STATUS | STATUS_FIELDS |
-| 1056 | 16 | ALPHA_DRIVE_MODE | MODE_FIELDS |
-| 1072 | 48 | ALPHA_DRIVE_PERF | PERF_FIELDS |
-| 1120 | 20 | ALPHA_RSTA_COMMAND | command_num, command |
-| 1144 | 41 | ALPHA_RSTA_STATUS | STATUS_FIELDS |
-| 1192 | 16 | ALPHA_RSTA_MODE | MODE_FIELDS |
-| 1208 | 48 | ALPHA_RSTA_PERF | PERF_FIELDS |
-| 1256 | 28 | ALPHA_PAN_COMMAND | command_num, command, arg_bearing |
-| 1288 | 32 | ALPHA_PAN_STATUS | STATUS_FIELDS |
-| 1320 | 16 | ALPHA_PAN_MODE | MODE_FIELDS |
-| 1336 | 48 | ALPHA_PAN_PERF | PERF_FIELDS |
-| 1384 | 20 | ALPHA_MOTION_COMMAND | command_num, command |
-| 1408 | 32 | ALPHA_MOTION_STATUS | STATUS_FIELDS |
-| 1440 | 16 | ALPHA_MOTION_MODE | MODE_FIELDS |
-| 1456 | 48 | ALPHA_MOTION_PERF | PERF_FIELDS |
-| 1504 | 20 | ALPHA_SENSOR_COMMAND | command_num, command |
-| 1528 | 32 | ALPHA_SENSOR_STATUS | STATUS_FIELDS |
-| 1560 | 16 | ALPHA_SENSOR_MODE | MODE_FIELDS |
-| 1576 | 48 | ALPHA_SENSOR_PERF | PERF_FIELDS |
-| 1624 | 28 | BRAVO_COMMAND | command_num, command, arg_x |
-| 1656 | 49 | BRAVO_STATUS | STATUS_FIELDS |
-| 1712 | 16 | BRAVO_MODE | MODE_FIELDS |
-| 1728 | 48 | BRAVO_PERF | PERF_FIELDS |
-| 1776 | 28 | BRAVO_LOCO_COMMAND | command_num, command, arg_goal |
-| 1808 | 40 | BRAVO_LOCO_STATUS | STATUS_FIELDS |
-| 1848 | 16 | BRAVO_LOCO_MODE | MODE_FIELDS |
-| 1864 | 48 | BRAVO_LOCO_PERF | PERF_FIELDS |
-| 1912 | 28 | BRAVO_DRIVE_COMMAND | command_num, command, arg_throttle |
-| 1944 | 32 | BRAVO_DRIVE_STATUS | STATUS_FIELDS |
-| 1976 | 16 | BRAVO_DRIVE_MODE | MODE_FIELDS |
-| 1992 | 48 | BRAVO_DRIVE_PERF | PERF_FIELDS |
-| 2040 | 20 | BRAVO_RSTA_COMMAND | command_num, command |
-| 2064 | 41 | BRAVO_RSTA_STATUS | STATUS_FIELDS |
-| 2112 | 16 | BRAVO_RSTA_MODE | MODE_FIELDS |
-| 2128 | 48 | BRAVO_RSTA_PERF | PERF_FIELDS |
-| 2176 | 28 | BRAVO_PAN_COMMAND | command_num, command, arg_bearing |
-| 2208 | 32 | BRAVO_PAN_STATUS | STATUS_FIELDS |
-| 2240 | 16 | BRAVO_PAN_MODE | MODE_FIELDS |
-| 2256 | 48 | BRAVO_PAN_PERF | PERF_FIELDS |
-| 2304 | 20 | BRAVO_MOTION_COMMAND | command_num, command |
-| 2328 | 32 | BRAVO_MOTION_STATUS | STATUS_FIELDS |
-| 2360 | 16 | BRAVO_MOTION_MODE | MODE_FIELDS |
-| 2376 | 48 | BRAVO_MOTION_PERF | PERF_FIELDS |
-| 2424 | 20 | BRAVO_SENSOR_COMMAND | command_num, command |
-| 2448 | 32 | BRAVO_SENSOR_STATUS | STATUS_FIELDS |
-| 2480 | 16 | BRAVO_SENSOR_MODE | MODE_FIELDS |
-| 2496 | 48 | BRAVO_SENSOR_PERF | PERF_FIELDS |
-| 2544 | 9 | WORLD_ENEMY_PRESENT | enemy_present |
-| 2560 | 16 | WORLD_ENEMY_X | enemy_x |
-| 2576 | 16 | WORLD_ENEMY_Y | enemy_y |
-| 2592 | 16 | WORLD_ALPHA_X | alpha_x |
-| 2608 | 16 | WORLD_ALPHA_Y | alpha_y |
-| 2624 | 16 | WORLD_ALPHA_SPEED | alpha_speed |
-| 2640 | 16 | WORLD_ALPHA_THROTTLE | alpha_throttle |
-| 2656 | 9 | WORLD_ALPHA_BRAKE | alpha_brake |
-| 2672 | 16 | WORLD_ALPHA_STEER | alpha_steer |
-| 2688 | 16 | WORLD_ALPHA_PAN_CMD | alpha_pan_cmd |
-| 2704 | 16 | WORLD_ALPHA_PAN | alpha_pan |
-| 2720 | 9 | WORLD_ALPHA_CONTACT | alpha_contact |
-| 2736 | 16 | WORLD_ALPHA_CONTACT_X | alpha_contact_x |
-| 2752 | 9 | WORLD_ALPHA_STUCK | alpha_stuck |
-| 2768 | 16 | WORLD_BRAVO_X | bravo_x |
-| 2784 | 16 | WORLD_BRAVO_Y | bravo_y |
-| 2800 | 16 | WORLD_BRAVO_SPEED | bravo_speed |
-| 2816 | 16 | WORLD_BRAVO_THROTTLE | bravo_throttle |
-| 2832 | 9 | WORLD_BRAVO_BRAKE | bravo_brake |
-| 2848 | 16 | WORLD_BRAVO_STEER | bravo_steer |
-| 2864 | 16 | WORLD_BRAVO_PAN_CMD | bravo_pan_cmd |
-| 2880 | 16 | WORLD_BRAVO_PAN | bravo_pan |
-| 2896 | 9 | WORLD_BRAVO_CONTACT | bravo_contact |
-| 2912 | 16 | WORLD_BRAVO_CONTACT_X | bravo_contact_x |
-| 2928 | 9 | WORLD_BRAVO_STUCK | bravo_stuck |
-| 2944 | 9 | OVERRIDES | any |
-| 2960 | 17 | OVERRIDE_ENEMY_PRESENT | state, enemy_present |
-| 2984 | 24 | OVERRIDE_ENEMY_X | state, enemy_x |
-| 3008 | 24 | OVERRIDE_ENEMY_Y | state, enemy_y |
-| 3032 | 24 | OVERRIDE_ALPHA_X | state, alpha_x |
-| 3056 | 24 | OVERRIDE_ALPHA_Y | state, alpha_y |
-| 3080 | 24 | OVERRIDE_ALPHA_SPEED | state, alpha_speed |
-| 3104 | 24 | OVERRIDE_ALPHA_THROTTLE | state, alpha_throttle |
-| 3128 | 17 | OVERRIDE_ALPHA_BRAKE | state, alpha_brake |
-| 3152 | 24 | OVERRIDE_ALPHA_STEER | state, alpha_steer |
-| 3176 | 24 | OVERRIDE_ALPHA_PAN_CMD | state, alpha_pan_cmd |
-| 3200 | 24 | OVERRIDE_ALPHA_PAN | state, alpha_pan |
-| 3224 | 17 | OVERRIDE_ALPHA_CONTACT | state, alpha_contact |
-| 3248 | 24 | OVERRIDE_ALPHA_CONTACT_X | state, alpha_contact_x |
-| 3272 | 17 | OVERRIDE_ALPHA_STUCK | state, alpha_stuck |
-| 3296 | 24 | OVERRIDE_BRAVO_X | state, bravo_x |
-| 3320 | 24 | OVERRIDE_BRAVO_Y | state, bravo_y |
-| 3344 | 24 | OVERRIDE_BRAVO_SPEED | state, bravo_speed |
-| 3368 | 24 | OVERRIDE_BRAVO_THROTTLE | state, bravo_throttle |
-| 3392 | 17 | OVERRIDE_BRAVO_BRAKE | state, bravo_brake |
-| 3416 | 24 | OVERRIDE_BRAVO_STEER | state, bravo_steer |
-| 3440 | 24 | OVERRIDE_BRAVO_PAN_CMD | state, bravo_pan_cmd |
-| 3464 | 24 | OVERRIDE_BRAVO_PAN | state, bravo_pan |
-| 3488 | 17 | OVERRIDE_BRAVO_CONTACT | state, bravo_contact |
-| 3512 | 24 | OVERRIDE_BRAVO_CONTACT_X | state, bravo_contact_x |
-| 3536 | 17 | OVERRIDE_BRAVO_STUCK | state, bravo_stuck |
+| 80 | 144 | PROCESS_COMMAND | PROCESS_FIELDS |
+| 224 | 16 | PACE_COMMAND | PACE_FIELDS |
+| 240 | 144 | PROCESS_PA | PROCESS_FIELDS |
+| 384 | 16 | PACE_PA | PACE_FIELDS |
+| 400 | 144 | PROCESS_PB | PROCESS_FIELDS |
+| 544 | 16 | PACE_PB | PACE_FIELDS |
+| 560 | 28 | PL_COMMAND | command_num, command, arg_objective |
+| 592 | 50 | PL_STATUS | STATUS_FIELDS |
+| 648 | 16 | PL_MODE | MODE_FIELDS |
+| 664 | 48 | PL_PERF | PERF_FIELDS |
+| 712 | 28 | SEC_COMMAND | command_num, command, arg_objective |
+| 744 | 59 | SEC_STATUS | STATUS_FIELDS |
+| 808 | 16 | SEC_MODE | MODE_FIELDS |
+| 824 | 48 | SEC_PERF | PERF_FIELDS |
+| 872 | 28 | ALPHA_COMMAND | command_num, command, arg_x |
+| 904 | 49 | ALPHA_STATUS | STATUS_FIELDS |
+| 960 | 16 | ALPHA_MODE | MODE_FIELDS |
+| 976 | 48 | ALPHA_PERF | PERF_FIELDS |
+| 1024 | 28 | ALPHA_LOCO_COMMAND | command_num, command, arg_goal |
+| 1056 | 40 | ALPHA_LOCO_STATUS | STATUS_FIELDS |
+| 1096 | 16 | ALPHA_LOCO_MODE | MODE_FIELDS |
+| 1112 | 48 | ALPHA_LOCO_PERF | PERF_FIELDS |
+| 1160 | 28 | ALPHA_DRIVE_COMMAND | command_num, command, arg_throttle |
+| 1192 | 32 | ALPHA_DRIVE_STATUS | STATUS_FIELDS |
+| 1224 | 16 | ALPHA_DRIVE_MODE | MODE_FIELDS |
+| 1240 | 48 | ALPHA_DRIVE_PERF | PERF_FIELDS |
+| 1288 | 20 | ALPHA_RSTA_COMMAND | command_num, command |
+| 1312 | 41 | ALPHA_RSTA_STATUS | STATUS_FIELDS |
+| 1360 | 16 | ALPHA_RSTA_MODE | MODE_FIELDS |
+| 1376 | 48 | ALPHA_RSTA_PERF | PERF_FIELDS |
+| 1424 | 28 | ALPHA_PAN_COMMAND | command_num, command, arg_bearing |
+| 1456 | 32 | ALPHA_PAN_STATUS | STATUS_FIELDS |
+| 1488 | 16 | ALPHA_PAN_MODE | MODE_FIELDS |
+| 1504 | 48 | ALPHA_PAN_PERF | PERF_FIELDS |
+| 1552 | 20 | ALPHA_MOTION_COMMAND | command_num, command |
+| 1576 | 32 | ALPHA_MOTION_STATUS | STATUS_FIELDS |
+| 1608 | 16 | ALPHA_MOTION_MODE | MODE_FIELDS |
+| 1624 | 48 | ALPHA_MOTION_PERF | PERF_FIELDS |
+| 1672 | 20 | ALPHA_SENSOR_COMMAND | command_num, command |
+| 1696 | 32 | ALPHA_SENSOR_STATUS | STATUS_FIELDS |
+| 1728 | 16 | ALPHA_SENSOR_MODE | MODE_FIELDS |
+| 1744 | 48 | ALPHA_SENSOR_PERF | PERF_FIELDS |
+| 1792 | 28 | BRAVO_COMMAND | command_num, command, arg_x |
+| 1824 | 49 | BRAVO_STATUS | STATUS_FIELDS |
+| 1880 | 16 | BRAVO_MODE | MODE_FIELDS |
+| 1896 | 48 | BRAVO_PERF | PERF_FIELDS |
+| 1944 | 28 | BRAVO_LOCO_COMMAND | command_num, command, arg_goal |
+| 1976 | 40 | BRAVO_LOCO_STATUS | STATUS_FIELDS |
+| 2016 | 16 | BRAVO_LOCO_MODE | MODE_FIELDS |
+| 2032 | 48 | BRAVO_LOCO_PERF | PERF_FIELDS |
+| 2080 | 28 | BRAVO_DRIVE_COMMAND | command_num, command, arg_throttle |
+| 2112 | 32 | BRAVO_DRIVE_STATUS | STATUS_FIELDS |
+| 2144 | 16 | BRAVO_DRIVE_MODE | MODE_FIELDS |
+| 2160 | 48 | BRAVO_DRIVE_PERF | PERF_FIELDS |
+| 2208 | 20 | BRAVO_RSTA_COMMAND | command_num, command |
+| 2232 | 41 | BRAVO_RSTA_STATUS | STATUS_FIELDS |
+| 2280 | 16 | BRAVO_RSTA_MODE | MODE_FIELDS |
+| 2296 | 48 | BRAVO_RSTA_PERF | PERF_FIELDS |
+| 2344 | 28 | BRAVO_PAN_COMMAND | command_num, command, arg_bearing |
+| 2376 | 32 | BRAVO_PAN_STATUS | STATUS_FIELDS |
+| 2408 | 16 | BRAVO_PAN_MODE | MODE_FIELDS |
+| 2424 | 48 | BRAVO_PAN_PERF | PERF_FIELDS |
+| 2472 | 20 | BRAVO_MOTION_COMMAND | command_num, command |
+| 2496 | 32 | BRAVO_MOTION_STATUS | STATUS_FIELDS |
+| 2528 | 16 | BRAVO_MOTION_MODE | MODE_FIELDS |
+| 2544 | 48 | BRAVO_MOTION_PERF | PERF_FIELDS |
+| 2592 | 20 | BRAVO_SENSOR_COMMAND | command_num, command |
+| 2616 | 32 | BRAVO_SENSOR_STATUS | STATUS_FIELDS |
+| 2648 | 16 | BRAVO_SENSOR_MODE | MODE_FIELDS |
+| 2664 | 48 | BRAVO_SENSOR_PERF | PERF_FIELDS |
+| 2712 | 9 | WORLD_ENEMY_PRESENT | enemy_present |
+| 2728 | 16 | WORLD_ENEMY_X | enemy_x |
+| 2744 | 16 | WORLD_ENEMY_Y | enemy_y |
+| 2760 | 16 | WORLD_ALPHA_X | alpha_x |
+| 2776 | 16 | WORLD_ALPHA_Y | alpha_y |
+| 2792 | 16 | WORLD_ALPHA_SPEED | alpha_speed |
+| 2808 | 16 | WORLD_ALPHA_THROTTLE | alpha_throttle |
+| 2824 | 9 | WORLD_ALPHA_BRAKE | alpha_brake |
+| 2840 | 16 | WORLD_ALPHA_STEER | alpha_steer |
+| 2856 | 16 | WORLD_ALPHA_PAN_CMD | alpha_pan_cmd |
+| 2872 | 16 | WORLD_ALPHA_PAN | alpha_pan |
+| 2888 | 9 | WORLD_ALPHA_CONTACT | alpha_contact |
+| 2904 | 16 | WORLD_ALPHA_CONTACT_X | alpha_contact_x |
+| 2920 | 9 | WORLD_ALPHA_STUCK | alpha_stuck |
+| 2936 | 16 | WORLD_BRAVO_X | bravo_x |
+| 2952 | 16 | WORLD_BRAVO_Y | bravo_y |
+| 2968 | 16 | WORLD_BRAVO_SPEED | bravo_speed |
+| 2984 | 16 | WORLD_BRAVO_THROTTLE | bravo_throttle |
+| 3000 | 9 | WORLD_BRAVO_BRAKE | bravo_brake |
+| 3016 | 16 | WORLD_BRAVO_STEER | bravo_steer |
+| 3032 | 16 | WORLD_BRAVO_PAN_CMD | bravo_pan_cmd |
+| 3048 | 16 | WORLD_BRAVO_PAN | bravo_pan |
+| 3064 | 9 | WORLD_BRAVO_CONTACT | bravo_contact |
+| 3080 | 16 | WORLD_BRAVO_CONTACT_X | bravo_contact_x |
+| 3096 | 9 | WORLD_BRAVO_STUCK | bravo_stuck |
+| 3112 | 9 | OVERRIDES | any |
+| 3128 | 17 | OVERRIDE_ENEMY_PRESENT | state, enemy_present |
+| 3152 | 24 | OVERRIDE_ENEMY_X | state, enemy_x |
+| 3176 | 24 | OVERRIDE_ENEMY_Y | state, enemy_y |
+| 3200 | 24 | OVERRIDE_ALPHA_X | state, alpha_x |
+| 3224 | 24 | OVERRIDE_ALPHA_Y | state, alpha_y |
+| 3248 | 24 | OVERRIDE_ALPHA_SPEED | state, alpha_speed |
+| 3272 | 24 | OVERRIDE_ALPHA_THROTTLE | state, alpha_throttle |
+| 3296 | 17 | OVERRIDE_ALPHA_BRAKE | state, alpha_brake |
+| 3320 | 24 | OVERRIDE_ALPHA_STEER | state, alpha_steer |
+| 3344 | 24 | OVERRIDE_ALPHA_PAN_CMD | state, alpha_pan_cmd |
+| 3368 | 24 | OVERRIDE_ALPHA_PAN | state, alpha_pan |
+| 3392 | 17 | OVERRIDE_ALPHA_CONTACT | state, alpha_contact |
+| 3416 | 24 | OVERRIDE_ALPHA_CONTACT_X | state, alpha_contact_x |
+| 3440 | 17 | OVERRIDE_ALPHA_STUCK | state, alpha_stuck |
+| 3464 | 24 | OVERRIDE_BRAVO_X | state, bravo_x |
+| 3488 | 24 | OVERRIDE_BRAVO_Y | state, bravo_y |
+| 3512 | 24 | OVERRIDE_BRAVO_SPEED | state, bravo_speed |
+| 3536 | 24 | OVERRIDE_BRAVO_THROTTLE | state, bravo_throttle |
+| 3560 | 17 | OVERRIDE_BRAVO_BRAKE | state, bravo_brake |
+| 3584 | 24 | OVERRIDE_BRAVO_STEER | state, bravo_steer |
+| 3608 | 24 | OVERRIDE_BRAVO_PAN_CMD | state, bravo_pan_cmd |
+| 3632 | 24 | OVERRIDE_BRAVO_PAN | state, bravo_pan |
+| 3656 | 17 | OVERRIDE_BRAVO_CONTACT | state, bravo_contact |
+| 3680 | 24 | OVERRIDE_BRAVO_CONTACT_X | state, bravo_contact_x |
+| 3704 | 17 | OVERRIDE_BRAVO_STUCK | state, bravo_stuck |
 """
 
 from __future__ import annotations
@@ -167,199 +167,199 @@ from .rcs.contract import (
 
 SYSTEM = "platoon"
 SOURCE = "platoon/system.yaml"
-SIZE = 3560
+SIZE = 3728
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "04f9f0946f3d0f6edd7fdafab845bd8a"
+LAYOUT_HASH = "8dde45f93685f17dd2eb5eb096fa4734"
 PROCESS_COMMAND_AT = 80
-PACE_COMMAND_AT = 168
-PROCESS_PA_AT = 184
-PACE_PA_AT = 272
-PROCESS_PB_AT = 288
-PACE_PB_AT = 376
+PACE_COMMAND_AT = 224
+PROCESS_PA_AT = 240
+PACE_PA_AT = 384
+PROCESS_PB_AT = 400
+PACE_PB_AT = 544
 
 # pl: Platoon
 PL_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_objective
-PL_COMMAND_AT = 392
+PL_COMMAND_AT = 560
 PL_STATUS = Struct(
     "<QQIIii?d?Q"
 )  # seq, status_num, status, error_num, state, rule, result_mission_changed, result_enemy_x, result_alone, cause
-PL_STATUS_AT = 424
-PL_MODE_AT = 480
-PL_PERF_AT = 496
+PL_STATUS_AT = 592
+PL_MODE_AT = 648
+PL_PERF_AT = 664
 
 # sec: Section
 SEC_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_objective
-SEC_COMMAND_AT = 544
+SEC_COMMAND_AT = 712
 SEC_STATUS = Struct(
     "<QQIIii?d??qQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, result_in_cover, result_alone, result_reports, cause
-SEC_STATUS_AT = 576
-SEC_MODE_AT = 640
-SEC_PERF_AT = 656
+SEC_STATUS_AT = 744
+SEC_MODE_AT = 808
+SEC_PERF_AT = 824
 
 # alpha: Vehicle Alpha (George, the left corridor)
 ALPHA_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_x
-ALPHA_COMMAND_AT = 704
+ALPHA_COMMAND_AT = 872
 ALPHA_STATUS = Struct(
     "<QQIIii?dQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, cause
-ALPHA_STATUS_AT = 736
-ALPHA_MODE_AT = 792
-ALPHA_PERF_AT = 808
+ALPHA_STATUS_AT = 904
+ALPHA_MODE_AT = 960
+ALPHA_PERF_AT = 976
 
 # alpha_loco: Locomotion (alpha)
 ALPHA_LOCO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_goal
-ALPHA_LOCO_COMMAND_AT = 856
+ALPHA_LOCO_COMMAND_AT = 1024
 ALPHA_LOCO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-ALPHA_LOCO_STATUS_AT = 888
-ALPHA_LOCO_MODE_AT = 928
-ALPHA_LOCO_PERF_AT = 944
+ALPHA_LOCO_STATUS_AT = 1056
+ALPHA_LOCO_MODE_AT = 1096
+ALPHA_LOCO_PERF_AT = 1112
 
 # alpha_drive: Locomotion servo (steering, throttle, brakes) (alpha)
 ALPHA_DRIVE_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_throttle
-ALPHA_DRIVE_COMMAND_AT = 992
-ALPHA_DRIVE_STATUS_AT = 1024
-ALPHA_DRIVE_MODE_AT = 1056
-ALPHA_DRIVE_PERF_AT = 1072
+ALPHA_DRIVE_COMMAND_AT = 1160
+ALPHA_DRIVE_STATUS_AT = 1192
+ALPHA_DRIVE_MODE_AT = 1224
+ALPHA_DRIVE_PERF_AT = 1240
 
 # alpha_rsta: RSTA mission package (alpha)
 ALPHA_RSTA_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_RSTA_COMMAND_AT = 1120
+ALPHA_RSTA_COMMAND_AT = 1288
 ALPHA_RSTA_STATUS = Struct(
     "<QQIIii?d"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x
-ALPHA_RSTA_STATUS_AT = 1144
-ALPHA_RSTA_MODE_AT = 1192
-ALPHA_RSTA_PERF_AT = 1208
+ALPHA_RSTA_STATUS_AT = 1312
+ALPHA_RSTA_MODE_AT = 1360
+ALPHA_RSTA_PERF_AT = 1376
 
 # alpha_pan: Sensor pointing servo (alpha)
 ALPHA_PAN_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_bearing
-ALPHA_PAN_COMMAND_AT = 1256
-ALPHA_PAN_STATUS_AT = 1288
-ALPHA_PAN_MODE_AT = 1320
-ALPHA_PAN_PERF_AT = 1336
+ALPHA_PAN_COMMAND_AT = 1424
+ALPHA_PAN_STATUS_AT = 1456
+ALPHA_PAN_MODE_AT = 1488
+ALPHA_PAN_PERF_AT = 1504
 
 # alpha_motion: Vehicle dynamics (simulated) (alpha)
 ALPHA_MOTION_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_MOTION_COMMAND_AT = 1384
-ALPHA_MOTION_STATUS_AT = 1408
-ALPHA_MOTION_MODE_AT = 1440
-ALPHA_MOTION_PERF_AT = 1456
+ALPHA_MOTION_COMMAND_AT = 1552
+ALPHA_MOTION_STATUS_AT = 1576
+ALPHA_MOTION_MODE_AT = 1608
+ALPHA_MOTION_PERF_AT = 1624
 
 # alpha_sensor: Sensor head (simulated) (alpha)
 ALPHA_SENSOR_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_SENSOR_COMMAND_AT = 1504
-ALPHA_SENSOR_STATUS_AT = 1528
-ALPHA_SENSOR_MODE_AT = 1560
-ALPHA_SENSOR_PERF_AT = 1576
+ALPHA_SENSOR_COMMAND_AT = 1672
+ALPHA_SENSOR_STATUS_AT = 1696
+ALPHA_SENSOR_MODE_AT = 1728
+ALPHA_SENSOR_PERF_AT = 1744
 
 # bravo: Vehicle Bravo (Jerry, the right corridor)
 BRAVO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_x
-BRAVO_COMMAND_AT = 1624
+BRAVO_COMMAND_AT = 1792
 BRAVO_STATUS = Struct(
     "<QQIIii?dQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, cause
-BRAVO_STATUS_AT = 1656
-BRAVO_MODE_AT = 1712
-BRAVO_PERF_AT = 1728
+BRAVO_STATUS_AT = 1824
+BRAVO_MODE_AT = 1880
+BRAVO_PERF_AT = 1896
 
 # bravo_loco: Locomotion (bravo)
 BRAVO_LOCO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_goal
-BRAVO_LOCO_COMMAND_AT = 1776
+BRAVO_LOCO_COMMAND_AT = 1944
 BRAVO_LOCO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-BRAVO_LOCO_STATUS_AT = 1808
-BRAVO_LOCO_MODE_AT = 1848
-BRAVO_LOCO_PERF_AT = 1864
+BRAVO_LOCO_STATUS_AT = 1976
+BRAVO_LOCO_MODE_AT = 2016
+BRAVO_LOCO_PERF_AT = 2032
 
 # bravo_drive: Locomotion servo (steering, throttle, brakes) (bravo)
 BRAVO_DRIVE_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_throttle
-BRAVO_DRIVE_COMMAND_AT = 1912
-BRAVO_DRIVE_STATUS_AT = 1944
-BRAVO_DRIVE_MODE_AT = 1976
-BRAVO_DRIVE_PERF_AT = 1992
+BRAVO_DRIVE_COMMAND_AT = 2080
+BRAVO_DRIVE_STATUS_AT = 2112
+BRAVO_DRIVE_MODE_AT = 2144
+BRAVO_DRIVE_PERF_AT = 2160
 
 # bravo_rsta: RSTA mission package (bravo)
 BRAVO_RSTA_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_RSTA_COMMAND_AT = 2040
+BRAVO_RSTA_COMMAND_AT = 2208
 BRAVO_RSTA_STATUS = Struct(
     "<QQIIii?d"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x
-BRAVO_RSTA_STATUS_AT = 2064
-BRAVO_RSTA_MODE_AT = 2112
-BRAVO_RSTA_PERF_AT = 2128
+BRAVO_RSTA_STATUS_AT = 2232
+BRAVO_RSTA_MODE_AT = 2280
+BRAVO_RSTA_PERF_AT = 2296
 
 # bravo_pan: Sensor pointing servo (bravo)
 BRAVO_PAN_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_bearing
-BRAVO_PAN_COMMAND_AT = 2176
-BRAVO_PAN_STATUS_AT = 2208
-BRAVO_PAN_MODE_AT = 2240
-BRAVO_PAN_PERF_AT = 2256
+BRAVO_PAN_COMMAND_AT = 2344
+BRAVO_PAN_STATUS_AT = 2376
+BRAVO_PAN_MODE_AT = 2408
+BRAVO_PAN_PERF_AT = 2424
 
 # bravo_motion: Vehicle dynamics (simulated) (bravo)
 BRAVO_MOTION_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_MOTION_COMMAND_AT = 2304
-BRAVO_MOTION_STATUS_AT = 2328
-BRAVO_MOTION_MODE_AT = 2360
-BRAVO_MOTION_PERF_AT = 2376
+BRAVO_MOTION_COMMAND_AT = 2472
+BRAVO_MOTION_STATUS_AT = 2496
+BRAVO_MOTION_MODE_AT = 2528
+BRAVO_MOTION_PERF_AT = 2544
 
 # bravo_sensor: Sensor head (simulated) (bravo)
 BRAVO_SENSOR_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_SENSOR_COMMAND_AT = 2424
-BRAVO_SENSOR_STATUS_AT = 2448
-BRAVO_SENSOR_MODE_AT = 2480
-BRAVO_SENSOR_PERF_AT = 2496
+BRAVO_SENSOR_COMMAND_AT = 2592
+BRAVO_SENSOR_STATUS_AT = 2616
+BRAVO_SENSOR_MODE_AT = 2648
+BRAVO_SENSOR_PERF_AT = 2664
 
 # World model.
 WORLD_ENEMY_PRESENT = Struct("<Q?")  # seq, enemy_present
-WORLD_ENEMY_PRESENT_AT = 2544
+WORLD_ENEMY_PRESENT_AT = 2712
 WORLD_ENEMY_X = Struct("<Qd")  # seq, enemy_x
-WORLD_ENEMY_X_AT = 2560
+WORLD_ENEMY_X_AT = 2728
 WORLD_ENEMY_Y = Struct("<Qd")  # seq, enemy_y
-WORLD_ENEMY_Y_AT = 2576
+WORLD_ENEMY_Y_AT = 2744
 WORLD_ALPHA_X = Struct("<Qd")  # seq, alpha_x
-WORLD_ALPHA_X_AT = 2592
+WORLD_ALPHA_X_AT = 2760
 WORLD_ALPHA_Y = Struct("<Qd")  # seq, alpha_y
-WORLD_ALPHA_Y_AT = 2608
+WORLD_ALPHA_Y_AT = 2776
 WORLD_ALPHA_SPEED = Struct("<Qd")  # seq, alpha_speed
-WORLD_ALPHA_SPEED_AT = 2624
+WORLD_ALPHA_SPEED_AT = 2792
 WORLD_ALPHA_THROTTLE = Struct("<Qd")  # seq, alpha_throttle
-WORLD_ALPHA_THROTTLE_AT = 2640
+WORLD_ALPHA_THROTTLE_AT = 2808
 WORLD_ALPHA_BRAKE = Struct("<Q?")  # seq, alpha_brake
-WORLD_ALPHA_BRAKE_AT = 2656
+WORLD_ALPHA_BRAKE_AT = 2824
 WORLD_ALPHA_STEER = Struct("<Qd")  # seq, alpha_steer
-WORLD_ALPHA_STEER_AT = 2672
+WORLD_ALPHA_STEER_AT = 2840
 WORLD_ALPHA_PAN_CMD = Struct("<Qd")  # seq, alpha_pan_cmd
-WORLD_ALPHA_PAN_CMD_AT = 2688
+WORLD_ALPHA_PAN_CMD_AT = 2856
 WORLD_ALPHA_PAN = Struct("<Qd")  # seq, alpha_pan
-WORLD_ALPHA_PAN_AT = 2704
+WORLD_ALPHA_PAN_AT = 2872
 WORLD_ALPHA_CONTACT = Struct("<Q?")  # seq, alpha_contact
-WORLD_ALPHA_CONTACT_AT = 2720
+WORLD_ALPHA_CONTACT_AT = 2888
 WORLD_ALPHA_CONTACT_X = Struct("<Qd")  # seq, alpha_contact_x
-WORLD_ALPHA_CONTACT_X_AT = 2736
+WORLD_ALPHA_CONTACT_X_AT = 2904
 WORLD_ALPHA_STUCK = Struct("<Q?")  # seq, alpha_stuck
-WORLD_ALPHA_STUCK_AT = 2752
+WORLD_ALPHA_STUCK_AT = 2920
 WORLD_BRAVO_X = Struct("<Qd")  # seq, bravo_x
-WORLD_BRAVO_X_AT = 2768
+WORLD_BRAVO_X_AT = 2936
 WORLD_BRAVO_Y = Struct("<Qd")  # seq, bravo_y
-WORLD_BRAVO_Y_AT = 2784
+WORLD_BRAVO_Y_AT = 2952
 WORLD_BRAVO_SPEED = Struct("<Qd")  # seq, bravo_speed
-WORLD_BRAVO_SPEED_AT = 2800
+WORLD_BRAVO_SPEED_AT = 2968
 WORLD_BRAVO_THROTTLE = Struct("<Qd")  # seq, bravo_throttle
-WORLD_BRAVO_THROTTLE_AT = 2816
+WORLD_BRAVO_THROTTLE_AT = 2984
 WORLD_BRAVO_BRAKE = Struct("<Q?")  # seq, bravo_brake
-WORLD_BRAVO_BRAKE_AT = 2832
+WORLD_BRAVO_BRAKE_AT = 3000
 WORLD_BRAVO_STEER = Struct("<Qd")  # seq, bravo_steer
-WORLD_BRAVO_STEER_AT = 2848
+WORLD_BRAVO_STEER_AT = 3016
 WORLD_BRAVO_PAN_CMD = Struct("<Qd")  # seq, bravo_pan_cmd
-WORLD_BRAVO_PAN_CMD_AT = 2864
+WORLD_BRAVO_PAN_CMD_AT = 3032
 WORLD_BRAVO_PAN = Struct("<Qd")  # seq, bravo_pan
-WORLD_BRAVO_PAN_AT = 2880
+WORLD_BRAVO_PAN_AT = 3048
 WORLD_BRAVO_CONTACT = Struct("<Q?")  # seq, bravo_contact
-WORLD_BRAVO_CONTACT_AT = 2896
+WORLD_BRAVO_CONTACT_AT = 3064
 WORLD_BRAVO_CONTACT_X = Struct("<Qd")  # seq, bravo_contact_x
-WORLD_BRAVO_CONTACT_X_AT = 2912
+WORLD_BRAVO_CONTACT_X_AT = 3080
 WORLD_BRAVO_STUCK = Struct("<Q?")  # seq, bravo_stuck
-WORLD_BRAVO_STUCK_AT = 2928
+WORLD_BRAVO_STUCK_AT = 3096
 
 
 PROCESSES = {
@@ -664,36 +664,36 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2944
-OVERRIDDEN_AT = 2952  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 3112
+OVERRIDDEN_AT = 3120  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "enemy_present": Record(Struct("<QQ?"), 2960, ("state", "enemy_present")),
-    "enemy_x": Record(Struct("<QQd"), 2984, ("state", "enemy_x")),
-    "enemy_y": Record(Struct("<QQd"), 3008, ("state", "enemy_y")),
-    "alpha_x": Record(Struct("<QQd"), 3032, ("state", "alpha_x")),
-    "alpha_y": Record(Struct("<QQd"), 3056, ("state", "alpha_y")),
-    "alpha_speed": Record(Struct("<QQd"), 3080, ("state", "alpha_speed")),
-    "alpha_throttle": Record(Struct("<QQd"), 3104, ("state", "alpha_throttle")),
-    "alpha_brake": Record(Struct("<QQ?"), 3128, ("state", "alpha_brake")),
-    "alpha_steer": Record(Struct("<QQd"), 3152, ("state", "alpha_steer")),
-    "alpha_pan_cmd": Record(Struct("<QQd"), 3176, ("state", "alpha_pan_cmd")),
-    "alpha_pan": Record(Struct("<QQd"), 3200, ("state", "alpha_pan")),
-    "alpha_contact": Record(Struct("<QQ?"), 3224, ("state", "alpha_contact")),
-    "alpha_contact_x": Record(Struct("<QQd"), 3248, ("state", "alpha_contact_x")),
-    "alpha_stuck": Record(Struct("<QQ?"), 3272, ("state", "alpha_stuck")),
-    "bravo_x": Record(Struct("<QQd"), 3296, ("state", "bravo_x")),
-    "bravo_y": Record(Struct("<QQd"), 3320, ("state", "bravo_y")),
-    "bravo_speed": Record(Struct("<QQd"), 3344, ("state", "bravo_speed")),
-    "bravo_throttle": Record(Struct("<QQd"), 3368, ("state", "bravo_throttle")),
-    "bravo_brake": Record(Struct("<QQ?"), 3392, ("state", "bravo_brake")),
-    "bravo_steer": Record(Struct("<QQd"), 3416, ("state", "bravo_steer")),
-    "bravo_pan_cmd": Record(Struct("<QQd"), 3440, ("state", "bravo_pan_cmd")),
-    "bravo_pan": Record(Struct("<QQd"), 3464, ("state", "bravo_pan")),
-    "bravo_contact": Record(Struct("<QQ?"), 3488, ("state", "bravo_contact")),
-    "bravo_contact_x": Record(Struct("<QQd"), 3512, ("state", "bravo_contact_x")),
-    "bravo_stuck": Record(Struct("<QQ?"), 3536, ("state", "bravo_stuck")),
+    "enemy_present": Record(Struct("<QQ?"), 3128, ("state", "enemy_present")),
+    "enemy_x": Record(Struct("<QQd"), 3152, ("state", "enemy_x")),
+    "enemy_y": Record(Struct("<QQd"), 3176, ("state", "enemy_y")),
+    "alpha_x": Record(Struct("<QQd"), 3200, ("state", "alpha_x")),
+    "alpha_y": Record(Struct("<QQd"), 3224, ("state", "alpha_y")),
+    "alpha_speed": Record(Struct("<QQd"), 3248, ("state", "alpha_speed")),
+    "alpha_throttle": Record(Struct("<QQd"), 3272, ("state", "alpha_throttle")),
+    "alpha_brake": Record(Struct("<QQ?"), 3296, ("state", "alpha_brake")),
+    "alpha_steer": Record(Struct("<QQd"), 3320, ("state", "alpha_steer")),
+    "alpha_pan_cmd": Record(Struct("<QQd"), 3344, ("state", "alpha_pan_cmd")),
+    "alpha_pan": Record(Struct("<QQd"), 3368, ("state", "alpha_pan")),
+    "alpha_contact": Record(Struct("<QQ?"), 3392, ("state", "alpha_contact")),
+    "alpha_contact_x": Record(Struct("<QQd"), 3416, ("state", "alpha_contact_x")),
+    "alpha_stuck": Record(Struct("<QQ?"), 3440, ("state", "alpha_stuck")),
+    "bravo_x": Record(Struct("<QQd"), 3464, ("state", "bravo_x")),
+    "bravo_y": Record(Struct("<QQd"), 3488, ("state", "bravo_y")),
+    "bravo_speed": Record(Struct("<QQd"), 3512, ("state", "bravo_speed")),
+    "bravo_throttle": Record(Struct("<QQd"), 3536, ("state", "bravo_throttle")),
+    "bravo_brake": Record(Struct("<QQ?"), 3560, ("state", "bravo_brake")),
+    "bravo_steer": Record(Struct("<QQd"), 3584, ("state", "bravo_steer")),
+    "bravo_pan_cmd": Record(Struct("<QQd"), 3608, ("state", "bravo_pan_cmd")),
+    "bravo_pan": Record(Struct("<QQd"), 3632, ("state", "bravo_pan")),
+    "bravo_contact": Record(Struct("<QQ?"), 3656, ("state", "bravo_contact")),
+    "bravo_contact_x": Record(Struct("<QQd"), 3680, ("state", "bravo_contact_x")),
+    "bravo_stuck": Record(Struct("<QQ?"), 3704, ("state", "bravo_stuck")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.

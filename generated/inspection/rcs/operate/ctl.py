@@ -45,6 +45,8 @@ from ..contract import (
     StaleRead,
     cause_text,
     enum_name,
+    periodicity,
+    periodicity_line,
     plan_slots,
     reason_name,
     result_values,
@@ -310,6 +312,7 @@ class Console:
                 "watchdog_trips": values["watchdog_trips"],
                 "load_warnings": values["load_warnings"],
                 "slow": slow,
+                **timing(values),
             }
         return found
 
@@ -748,11 +751,53 @@ def render(snapshot: dict[str, Any]) -> list[str]:
             f"overruns, {proc['late_wakeups']} late wake-ups, {proc['watchdog_trips']} "
             f"watchdog trips, slow x{proc['slow']:g}"
         )
+    lines += periodicity_lines(snapshot)
     for name, device in (snapshot.get("io") or {}).items():
         lines.append(device_line(name, device))
     for request in snapshot.get("requests", ()):
         lines.append(f"request {request['name']} from {request['by']}: {request['doc']}")
     return lines + world_lines(snapshot)
+
+
+# ---------------------------------------------------------------- periodicity
+
+
+def timing(values: dict[str, Any]) -> dict[str, Any]:
+    """A control record's timing for the console: the process's cycle time (last, max)
+    and how well it holds its period (contract.periodicity: None when not paced)."""
+    return {
+        "last_cycle_us": round(int(values["last_cycle_ns"]) / 1e3, 1),
+        "max_cycle_us": round(int(values["max_cycle_ns"]) / 1e3, 1),
+        "periodicity": periodicity(values),
+    }
+
+
+def slowest_modules(modules: dict[str, dict[str, Any]]) -> dict[str, tuple[str, float]]:
+    """Per process, its module with the longest cycle so far, and that cycle (µs)."""
+    slowest: dict[str, tuple[str, float]] = {}
+    for module, row in modules.items():
+        took, process = row.get("max_cycle_us"), str(row.get("process", ""))
+        if took is not None and took >= slowest.get(process, ("", -1.0))[1]:
+            slowest[process] = (module, float(took))
+    return slowest
+
+
+def periodicity_lines(snapshot: dict[str, Any]) -> list[str]:
+    """The debug screen's periodicity section: per process its period error, wake-up
+    lateness and throttled warnings (or that it is not paced), its cycle time, and the
+    execution time of its slowest module (each module's own is in the table above)."""
+    slowest = slowest_modules(snapshot["modules"])
+    lines = []
+    for name, proc in snapshot["processes"].items():
+        if proc.get("state") == "?":
+            continue
+        line = f"periodicity {periodicity_line(name, proc.get('periodicity'))}"
+        line += f"; cycle last {proc['last_cycle_us']:g} µs, max {proc['max_cycle_us']:g} µs"
+        if name in slowest:
+            module, took = slowest[name]
+            line += f"; slowest module {module} (max {took:g} µs)"
+        lines.append(line)
+    return lines
 
 
 def world_lines(snapshot: dict[str, Any]) -> list[str]:
