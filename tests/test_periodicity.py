@@ -142,3 +142,37 @@ def test_the_status_section_names_each_process_its_figures_and_slowest_module() 
         "periodicity p2: periodicity: no paced wake-up; cycle last 5 µs, max 9 µs; slowest "
         "module c (max 4 µs)",
     ]
+
+
+def test_a_paced_run_ends_its_trace_with_a_timing_record_that_trace_show_prints() -> None:
+    """A scenario run against devices is paced (scenario/run.py `Pace`): it measures its
+    wake-ups as a process does and its trace ends with one timing record, which the trace
+    reader keeps apart from the cycles, `trace show` puts in its title and the comparison
+    with a golden trace leaves out."""
+    from rcsgen.tools import traces
+    from rcsgen.tools.scenario.run import Pace, first_difference
+    from rcsgen.tools.traces import view
+
+    pace = Pace(0.005)
+    assert pace.line(0) is None  # nothing paced yet
+    for _ in range(6):
+        pace.wait()
+    record = pace.line(6)
+    assert record is not None and traces.is_timing(record)
+    cycle = '{"cycle":%d,"modules":{"m":{"command":"INIT","command_num":1,"rule":null,'
+    cycle += '"state":"NOP","status":"DONE","status_num":1}},"world":{}}'
+    lines = [cycle % n for n in range(1, 7)]
+    assert not any(traces.is_timing(line) for line in lines)
+    trace = traces.parse("\n".join([*lines, record]))
+    assert len(trace) == 6 and trace.periodicity is not None
+    assert trace.periodicity["wakeups"] == 5 and trace.periodicity["period_ms"] == 5.0
+    assert 0 <= trace.periodicity["lateness_p99_us"] <= trace.periodicity["lateness_max_us"]
+    page = view.render(trace, traces.lanes(trace, None))
+    assert "paced: period error mean" in page and "over 5 wake-ups (period 5 ms)" in page
+    assert first_difference(lines, [*lines, record]) is None  # timing is never the same
+    with pytest.raises(traces.TraceError, match="a cycle after the run's timing record"):
+        traces.parse("\n".join([*lines[:3], record, *lines[3:]]))
+    with pytest.raises(traces.TraceError, match="after the cycles"):
+        traces.parse("\n".join([record, *lines]))
+    interrupted = traces.parse("\n".join([*lines, record, '{"cycle":7,"interrupted":"SIGINT"}']))
+    assert interrupted.interrupted == "SIGINT" and interrupted.periodicity is not None

@@ -526,7 +526,8 @@ def run(
                     counters["load_warnings"] += 1
                 pacer.wait()
                 counters["overruns"], counters["late_wakeups"] = pacer.overruns, pacer.late
-                counters.update(zip(periodicity_names, measured.fields(), strict=True))
+                if not measured.count % measured.REFRESH:  # with its p99: one snapshot
+                    counters.update(zip(periodicity_names, measured.fields(), strict=True))
                 if process.cycle == 1:  # the start-up cycle: the start-up barrier bounds it
                     pacer.forget()
                 elif dog.trips(pacer, took, period):  # its outputs safe, its roots halted
@@ -629,9 +630,10 @@ class Periodicity:
     Cheap enough for every cycle: a wake-up costs a bucket index and two counts (no sort);
     the p99 is taken from the histogram every `REFRESH` wake-ups, as the upper edge of its
     bucket (1 µs wide below 32 µs, then 16 buckets an octave: within 1/16 of the value),
-    never above the largest lateness seen. `fields()` gives the figures the control record
-    carries (contract.PERIODICITY_FIELDS), so `ctl status`, the monitor and the launcher's
-    summary show what the process measured."""
+    never above the largest lateness seen; `run` copies the figures into the control
+    record at the same moments (and when the process stops), one snapshot of them all.
+    `fields()` gives the figures the control record carries (contract.PERIODICITY_FIELDS),
+    so `ctl status`, the monitor and the launcher's summary show what the process measured."""
 
     REFRESH = 16  # wake-ups between two p99s taken from the histogram
 
