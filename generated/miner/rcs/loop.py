@@ -779,20 +779,29 @@ def serve_ring(
     stop_on_control(control, link[0])
     os.write(replies, READY)
     while receiver.wait():
-        run_segment(process, 0, last, True)
+        run_segment(process, 0, last, True, time.perf_counter_ns())
         give(link[1])
     if process.io is not None:
         process.io.close()
     process.beat(STOPPED)
 
 
-def run_segment(process: Process, first: int, last: int, end: bool) -> None:
-    """One segment of a lockstep cycle; with `end`, the process's cycle ends (it beats)."""
+def run_segment(
+    process: Process, first: int, last: int, end: bool, began: int | None = None
+) -> None:
+    """One segment of a lockstep cycle; with `end`, the process's cycle ends (it beats).
+    A whole cycle `began` (perf_counter_ns) is timed: its last and longest cycle time go
+    into the control record as a free-running cycle's do (from the token to the beat)."""
     process.run_modules(first, last)
     if end:
         for step in process.io_steps[1]:
             step()
         process.cycle += 1
+        if began is not None:
+            counters = process.counters
+            took = counters["last_cycle_ns"] = time.perf_counter_ns() - began
+            if took > counters["max_cycle_ns"]:
+                counters["max_cycle_ns"] = took
         process.beat()
 
 
