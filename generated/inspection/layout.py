@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 1608 bytes.
+The block is 1632 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -22,55 +22,55 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 144 | PROCESS_IWS | PROCESS_FIELDS |
-| 224 | 16 | PACE_IWS | PACE_FIELDS |
-| 240 | 52 | WS_COMMAND | command_num, command, arg_program |
-| 296 | 41 | WS_STATUS | STATUS_FIELDS |
-| 344 | 16 | WS_MODE | MODE_FIELDS |
-| 360 | 48 | WS_PERF | PERF_FIELDS |
-| 408 | 52 | MS_COMMAND | command_num, command, arg_program |
-| 464 | 56 | MS_STATUS | STATUS_FIELDS |
-| 520 | 16 | MS_MODE | MODE_FIELDS |
-| 536 | 48 | MS_PERF | PERF_FIELDS |
-| 584 | 20 | FX_COMMAND | command_num, command |
-| 608 | 40 | FX_STATUS | STATUS_FIELDS |
-| 648 | 16 | FX_MODE | MODE_FIELDS |
-| 664 | 48 | FX_PERF | PERF_FIELDS |
-| 712 | 20 | TL_COMMAND | command_num, command |
-| 736 | 40 | TL_STATUS | STATUS_FIELDS |
-| 776 | 16 | TL_MODE | MODE_FIELDS |
-| 792 | 48 | TL_PERF | PERF_FIELDS |
-| 840 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 872 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 904 | 16 | CMM_MODE | MODE_FIELDS |
-| 920 | 48 | CMM_PERF | PERF_FIELDS |
-| 968 | 16 | OP_MODE | MODE_FIELDS |
-| 984 | 48 | OP_PERF | PERF_FIELDS |
-| 1032 | 20 | OP_FX_COMMAND | command_num, command |
-| 1056 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 1088 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 1112 | 20 | OP_TL_COMMAND | command_num, command |
-| 1136 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 1168 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 1192 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 1216 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 1248 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1264 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1312 | 16 | WORLD_CMM_OP | cmm_op |
-| 1328 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1344 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1360 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1376 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1392 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1408 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 1424 | 9 | OVERRIDES | any |
-| 1440 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 1464 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 1488 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 1512 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 1536 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 1560 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 1584 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 80 | 168 | PROCESS_IWS | PROCESS_FIELDS |
+| 248 | 16 | PACE_IWS | PACE_FIELDS |
+| 264 | 52 | WS_COMMAND | command_num, command, arg_program |
+| 320 | 41 | WS_STATUS | STATUS_FIELDS |
+| 368 | 16 | WS_MODE | MODE_FIELDS |
+| 384 | 48 | WS_PERF | PERF_FIELDS |
+| 432 | 52 | MS_COMMAND | command_num, command, arg_program |
+| 488 | 56 | MS_STATUS | STATUS_FIELDS |
+| 544 | 16 | MS_MODE | MODE_FIELDS |
+| 560 | 48 | MS_PERF | PERF_FIELDS |
+| 608 | 20 | FX_COMMAND | command_num, command |
+| 632 | 40 | FX_STATUS | STATUS_FIELDS |
+| 672 | 16 | FX_MODE | MODE_FIELDS |
+| 688 | 48 | FX_PERF | PERF_FIELDS |
+| 736 | 20 | TL_COMMAND | command_num, command |
+| 760 | 40 | TL_STATUS | STATUS_FIELDS |
+| 800 | 16 | TL_MODE | MODE_FIELDS |
+| 816 | 48 | TL_PERF | PERF_FIELDS |
+| 864 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 896 | 32 | CMM_STATUS | STATUS_FIELDS |
+| 928 | 16 | CMM_MODE | MODE_FIELDS |
+| 944 | 48 | CMM_PERF | PERF_FIELDS |
+| 992 | 16 | OP_MODE | MODE_FIELDS |
+| 1008 | 48 | OP_PERF | PERF_FIELDS |
+| 1056 | 20 | OP_FX_COMMAND | command_num, command |
+| 1080 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 1112 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 1136 | 20 | OP_TL_COMMAND | command_num, command |
+| 1160 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 1192 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 1216 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 1240 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 1272 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1288 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1336 | 16 | WORLD_CMM_OP | cmm_op |
+| 1352 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1368 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1384 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1400 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1416 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1432 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 1448 | 9 | OVERRIDES | any |
+| 1464 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 1488 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 1512 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 1536 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 1560 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 1584 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 1608 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
 """
 
 from __future__ import annotations
@@ -102,89 +102,89 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 1608
+SIZE = 1632
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "1fc449c07a73a9ef04c1944df7ef4d4c"
+LAYOUT_HASH = "f7b538d3fe2f1bdddd28001e27228471"
 PROCESS_IWS_AT = 80
-PACE_IWS_AT = 224
+PACE_IWS_AT = 248
 
 # ws: Inspection workstation
 WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-WS_COMMAND_AT = 240
+WS_COMMAND_AT = 264
 WS_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_accepted, cause
-WS_STATUS_AT = 296
-WS_MODE_AT = 344
-WS_PERF_AT = 360
+WS_STATUS_AT = 320
+WS_MODE_AT = 368
+WS_PERF_AT = 384
 
 # ms: Measurement
 MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-MS_COMMAND_AT = 408
+MS_COMMAND_AT = 432
 MS_STATUS = Struct(
     "<QQIIiiqqQ"
 )  # seq, status_num, status, error_num, state, rule, result_measured, result_failed, cause
-MS_STATUS_AT = 464
-MS_MODE_AT = 520
-MS_PERF_AT = 536
+MS_STATUS_AT = 488
+MS_MODE_AT = 544
+MS_PERF_AT = 560
 
 # fx: Fixturing (performed by the operator)
 FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 584
+FX_COMMAND_AT = 608
 FX_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-FX_STATUS_AT = 608
-FX_MODE_AT = 648
-FX_PERF_AT = 664
+FX_STATUS_AT = 632
+FX_MODE_AT = 672
+FX_PERF_AT = 688
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 712
+TL_COMMAND_AT = 736
 TL_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-TL_STATUS_AT = 736
-TL_MODE_AT = 776
-TL_PERF_AT = 792
+TL_STATUS_AT = 760
+TL_MODE_AT = 800
+TL_PERF_AT = 816
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 840
-CMM_STATUS_AT = 872
-CMM_MODE_AT = 904
-CMM_PERF_AT = 920
+CMM_COMMAND_AT = 864
+CMM_STATUS_AT = 896
+CMM_MODE_AT = 928
+CMM_PERF_AT = 944
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 1192
-CMM_SIM_STATUS_AT = 1216
-CMM_SIM_MODE_AT = 1248
-CMM_SIM_PERF_AT = 1264
+CMM_SIM_COMMAND_AT = 1216
+CMM_SIM_STATUS_AT = 1240
+CMM_SIM_MODE_AT = 1272
+CMM_SIM_PERF_AT = 1288
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 968
-OP_PERF_AT = 984
+OP_MODE_AT = 992
+OP_PERF_AT = 1008
 OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_FX_COMMAND_AT = 1032
-OP_FX_STATUS_AT = 1056
-OP_FX_ANSWER_AT = 1088
+OP_FX_COMMAND_AT = 1056
+OP_FX_STATUS_AT = 1080
+OP_FX_ANSWER_AT = 1112
 OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_TL_COMMAND_AT = 1112
-OP_TL_STATUS_AT = 1136
-OP_TL_ANSWER_AT = 1168
+OP_TL_COMMAND_AT = 1136
+OP_TL_STATUS_AT = 1160
+OP_TL_ANSWER_AT = 1192
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1312
+WORLD_CMM_OP_AT = 1336
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1328
+WORLD_CMM_FEATURE_AT = 1352
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1344
+WORLD_CMM_SEQ_AT = 1368
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1360
+WORLD_CMM_DONE_SEQ_AT = 1384
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1376
+WORLD_CMM_READING_AT = 1400
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1392
+WORLD_CMM_ALARM_AT = 1416
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1408
+WORLD_CMM_FAULT_AT = 1432
 
 
 PROCESSES = {
@@ -309,18 +309,18 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 1424
-OVERRIDDEN_AT = 1432  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 1448
+OVERRIDDEN_AT = 1456  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 1440, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 1464, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 1488, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 1512, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 1536, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 1560, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 1584, ("state", "cmm_fault")),
+    "cmm_op": Record(Struct("<QQq"), 1464, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 1488, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 1512, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 1536, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 1560, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 1584, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 1608, ("state", "cmm_fault")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.

@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 5352 bytes.
+The block is 5400 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -18,201 +18,201 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 144 | PROCESS_PC1 | PROCESS_FIELDS |
-| 224 | 16 | PACE_PC1 | PACE_FIELDS |
-| 240 | 144 | PROCESS_PC2 | PROCESS_FIELDS |
-| 384 | 16 | PACE_PC2 | PACE_FIELDS |
-| 400 | 36 | SEC_COMMAND | command_num, command, arg_depth, arg_offset |
-| 440 | 32 | SEC_STATUS | STATUS_FIELDS |
-| 472 | 16 | SEC_MODE | MODE_FIELDS |
-| 488 | 48 | SEC_PERF | PERF_FIELDS |
-| 536 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
-| 576 | 32 | SB_STATUS | STATUS_FIELDS |
-| 608 | 16 | SB_MODE | MODE_FIELDS |
-| 624 | 48 | SB_PERF | PERF_FIELDS |
-| 672 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
-| 712 | 32 | CO_STATUS | STATUS_FIELDS |
-| 744 | 16 | CO_MODE | MODE_FIELDS |
-| 760 | 48 | CO_PERF | PERF_FIELDS |
-| 808 | 20 | CC_COMMAND | command_num, command |
-| 832 | 32 | CC_STATUS | STATUS_FIELDS |
-| 864 | 16 | CC_MODE | MODE_FIELDS |
-| 880 | 48 | CC_PERF | PERF_FIELDS |
-| 928 | 20 | BM_COMMAND | command_num, command |
-| 952 | 32 | BM_STATUS | STATUS_FIELDS |
-| 984 | 16 | BM_MODE | MODE_FIELDS |
-| 1000 | 48 | BM_PERF | PERF_FIELDS |
-| 1048 | 20 | CD_COMMAND | command_num, command |
-| 1072 | 32 | CD_STATUS | STATUS_FIELDS |
-| 1104 | 16 | CD_MODE | MODE_FIELDS |
-| 1120 | 48 | CD_PERF | PERF_FIELDS |
-| 1168 | 20 | SJ_COMMAND | command_num, command |
-| 1192 | 32 | SJ_STATUS | STATUS_FIELDS |
-| 1224 | 16 | SJ_MODE | MODE_FIELDS |
-| 1240 | 48 | SJ_PERF | PERF_FIELDS |
-| 1288 | 20 | CR_COMMAND | command_num, command |
-| 1312 | 32 | CR_STATUS | STATUS_FIELDS |
-| 1344 | 16 | CR_MODE | MODE_FIELDS |
-| 1360 | 48 | CR_PERF | PERF_FIELDS |
-| 1408 | 20 | GH_COMMAND | command_num, command |
-| 1432 | 32 | GH_STATUS | STATUS_FIELDS |
-| 1464 | 16 | GH_MODE | MODE_FIELDS |
-| 1480 | 48 | GH_PERF | PERF_FIELDS |
-| 1528 | 20 | CV_COMMAND | command_num, command |
-| 1552 | 32 | CV_STATUS | STATUS_FIELDS |
-| 1584 | 16 | CV_MODE | MODE_FIELDS |
-| 1600 | 48 | CV_PERF | PERF_FIELDS |
-| 1648 | 20 | CT_COMMAND | command_num, command |
-| 1672 | 32 | CT_STATUS | STATUS_FIELDS |
-| 1704 | 16 | CT_MODE | MODE_FIELDS |
-| 1720 | 48 | CT_PERF | PERF_FIELDS |
-| 1768 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
-| 1808 | 32 | VG_STATUS | STATUS_FIELDS |
-| 1840 | 16 | VG_MODE | MODE_FIELDS |
-| 1856 | 48 | VG_PERF | PERF_FIELDS |
-| 1904 | 20 | TC_COMMAND | command_num, command |
-| 1928 | 32 | TC_STATUS | STATUS_FIELDS |
-| 1960 | 16 | TC_MODE | MODE_FIELDS |
-| 1976 | 48 | TC_PERF | PERF_FIELDS |
-| 2024 | 36 | OI_COMMAND | command_num, command, arg_x, arg_y |
-| 2064 | 32 | OI_STATUS | STATUS_FIELDS |
-| 2096 | 16 | OI_MODE | MODE_FIELDS |
-| 2112 | 48 | OI_PERF | PERF_FIELDS |
-| 2160 | 20 | BAS_COMMAND | command_num, command |
-| 2184 | 32 | BAS_STATUS | STATUS_FIELDS |
-| 2216 | 16 | BAS_MODE | MODE_FIELDS |
-| 2232 | 48 | BAS_PERF | PERF_FIELDS |
-| 2280 | 20 | JAS_COMMAND | command_num, command |
-| 2304 | 32 | JAS_STATUS | STATUS_FIELDS |
-| 2336 | 16 | JAS_MODE | MODE_FIELDS |
-| 2352 | 48 | JAS_PERF | PERF_FIELDS |
-| 2400 | 20 | TAS_COMMAND | command_num, command |
-| 2424 | 32 | TAS_STATUS | STATUS_FIELDS |
-| 2456 | 16 | TAS_MODE | MODE_FIELDS |
-| 2472 | 48 | TAS_PERF | PERF_FIELDS |
-| 2520 | 20 | MINE_COMMAND | command_num, command |
-| 2544 | 32 | MINE_STATUS | STATUS_FIELDS |
-| 2576 | 16 | MINE_MODE | MODE_FIELDS |
-| 2592 | 48 | MINE_PERF | PERF_FIELDS |
-| 2640 | 20 | DAS_COMMAND | command_num, command |
-| 2664 | 32 | DAS_STATUS | STATUS_FIELDS |
-| 2696 | 16 | DAS_MODE | MODE_FIELDS |
-| 2712 | 48 | DAS_PERF | PERF_FIELDS |
-| 2760 | 20 | GAS_COMMAND | command_num, command |
-| 2784 | 32 | GAS_STATUS | STATUS_FIELDS |
-| 2816 | 16 | GAS_MODE | MODE_FIELDS |
-| 2832 | 48 | GAS_PERF | PERF_FIELDS |
-| 2880 | 20 | BSS_COMMAND | command_num, command |
-| 2904 | 32 | BSS_STATUS | STATUS_FIELDS |
-| 2936 | 16 | BSS_MODE | MODE_FIELDS |
-| 2952 | 48 | BSS_PERF | PERF_FIELDS |
-| 3000 | 20 | PSS_COMMAND | command_num, command |
-| 3024 | 32 | PSS_STATUS | STATUS_FIELDS |
-| 3056 | 16 | PSS_MODE | MODE_FIELDS |
-| 3072 | 48 | PSS_PERF | PERF_FIELDS |
-| 3120 | 20 | CSS_COMMAND | command_num, command |
-| 3144 | 32 | CSS_STATUS | STATUS_FIELDS |
-| 3176 | 16 | CSS_MODE | MODE_FIELDS |
-| 3192 | 48 | CSS_PERF | PERF_FIELDS |
-| 3240 | 20 | LCS_COMMAND | command_num, command |
-| 3264 | 32 | LCS_STATUS | STATUS_FIELDS |
-| 3296 | 16 | LCS_MODE | MODE_FIELDS |
-| 3312 | 48 | LCS_PERF | PERF_FIELDS |
-| 3360 | 20 | WM_COMMAND | command_num, command |
-| 3384 | 32 | WM_STATUS | STATUS_FIELDS |
-| 3416 | 16 | WM_MODE | MODE_FIELDS |
-| 3432 | 48 | WM_PERF | PERF_FIELDS |
-| 3480 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
-| 3520 | 32 | PP_STATUS | STATUS_FIELDS |
-| 3552 | 16 | PP_MODE | MODE_FIELDS |
-| 3568 | 48 | PP_PERF | PERF_FIELDS |
-| 3616 | 9 | WORLD_TAIL_REQUEST | tail_request |
-| 3632 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
-| 3648 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 3664 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
-| 3680 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
-| 3696 | 16 | WORLD_GOAL_X | goal_x |
-| 3712 | 16 | WORLD_GOAL_Y | goal_y |
-| 3728 | 9 | WORLD_PATH_OK | path_ok |
-| 3744 | 16 | WORLD_WP_X | wp_x |
-| 3760 | 16 | WORLD_WP_Y | wp_y |
-| 3776 | 9 | WORLD_WP_LAST | wp_last |
-| 3792 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
-| 3808 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
-| 3824 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
-| 3840 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
-| 3856 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
-| 3872 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
-| 3888 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
-| 3904 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
-| 3920 | 16 | WORLD_TRUE_X | true_x |
-| 3936 | 16 | WORLD_TRUE_Y | true_y |
-| 3952 | 16 | WORLD_TRUE_HEADING | true_heading |
-| 3968 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
-| 3984 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
-| 4000 | 9 | WORLD_JACK_DOWN | jack_down |
-| 4016 | 16 | WORLD_SLIP | slip |
-| 4032 | 9 | WORLD_TREAD_STALLED | tread_stalled |
-| 4048 | 16 | WORLD_POSE_X | pose_x |
-| 4064 | 16 | WORLD_POSE_Y | pose_y |
-| 4080 | 16 | WORLD_HEADING | heading |
-| 4096 | 16 | WORLD_BOOM_ANGLE | boom_angle |
-| 4112 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
-| 4128 | 16 | WORLD_LOOSE_COAL | loose_coal |
-| 4144 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 4160 | 16 | WORLD_DEPTH_EST | depth_est |
-| 4176 | 16 | WORLD_DRUM_REACH | drum_reach |
-| 4192 | 16 | WORLD_SUMP_STEP | sump_step |
-| 4208 | 9 | WORLD_IN_COAL | in_coal |
-| 4224 | 16 | WORLD_FACE_X | face_x |
-| 4240 | 16 | WORLD_DEPTH_CUT | depth_cut |
-| 4256 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
-| 4272 | 16 | WORLD_COAL_MINED | coal_mined |
-| 4288 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
-| 4304 | 9 | OVERRIDES | any |
-| 4320 | 17 | OVERRIDE_TAIL_REQUEST | state, tail_request |
-| 4344 | 17 | OVERRIDE_TAIL_IN_POSITION | state, tail_in_position |
-| 4368 | 24 | OVERRIDE_OPERATOR_DELAY | state, operator_delay |
-| 4392 | 24 | OVERRIDE_OPERATOR_GOAL_X | state, operator_goal_x |
-| 4416 | 24 | OVERRIDE_OPERATOR_GOAL_Y | state, operator_goal_y |
-| 4440 | 24 | OVERRIDE_GOAL_X | state, goal_x |
-| 4464 | 24 | OVERRIDE_GOAL_Y | state, goal_y |
-| 4488 | 17 | OVERRIDE_PATH_OK | state, path_ok |
-| 4512 | 24 | OVERRIDE_WP_X | state, wp_x |
-| 4536 | 24 | OVERRIDE_WP_Y | state, wp_y |
-| 4560 | 17 | OVERRIDE_WP_LAST | state, wp_last |
-| 4584 | 24 | OVERRIDE_BOOM_RATE_CMD | state, boom_rate_cmd |
-| 4608 | 17 | OVERRIDE_DRUM_ON_CMD | state, drum_on_cmd |
-| 4632 | 17 | OVERRIDE_JACK_DOWN_CMD | state, jack_down_cmd |
-| 4656 | 24 | OVERRIDE_LEFT_TREAD_CMD | state, left_tread_cmd |
-| 4680 | 24 | OVERRIDE_RIGHT_TREAD_CMD | state, right_tread_cmd |
-| 4704 | 17 | OVERRIDE_PAN_FLOAT_CMD | state, pan_float_cmd |
-| 4728 | 17 | OVERRIDE_GATHER_ON_CMD | state, gather_on_cmd |
-| 4752 | 17 | OVERRIDE_CONVEYOR_ON_CMD | state, conveyor_on_cmd |
-| 4776 | 24 | OVERRIDE_TRUE_X | state, true_x |
-| 4800 | 24 | OVERRIDE_TRUE_Y | state, true_y |
-| 4824 | 24 | OVERRIDE_TRUE_HEADING | state, true_heading |
-| 4848 | 24 | OVERRIDE_BOOM_ANGLE_TRUE | state, boom_angle_true |
-| 4872 | 24 | OVERRIDE_DRUM_CURRENT_TRUE | state, drum_current_true |
-| 4896 | 17 | OVERRIDE_JACK_DOWN | state, jack_down |
-| 4920 | 24 | OVERRIDE_SLIP | state, slip |
-| 4944 | 17 | OVERRIDE_TREAD_STALLED | state, tread_stalled |
-| 4968 | 24 | OVERRIDE_POSE_X | state, pose_x |
-| 4992 | 24 | OVERRIDE_POSE_Y | state, pose_y |
-| 5016 | 24 | OVERRIDE_HEADING | state, heading |
-| 5040 | 24 | OVERRIDE_BOOM_ANGLE | state, boom_angle |
-| 5064 | 24 | OVERRIDE_CUTTER_CURRENT | state, cutter_current |
-| 5088 | 24 | OVERRIDE_LOOSE_COAL | state, loose_coal |
-| 5112 | 17 | OVERRIDE_POPPED_OUT_OF_SHEAR | state, popped_out_of_shear |
-| 5136 | 24 | OVERRIDE_DEPTH_EST | state, depth_est |
-| 5160 | 24 | OVERRIDE_DRUM_REACH | state, drum_reach |
-| 5184 | 24 | OVERRIDE_SUMP_STEP | state, sump_step |
-| 5208 | 17 | OVERRIDE_IN_COAL | state, in_coal |
-| 5232 | 24 | OVERRIDE_FACE_X | state, face_x |
-| 5256 | 24 | OVERRIDE_DEPTH_CUT | state, depth_cut |
-| 5280 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
-| 5304 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
-| 5328 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
+| 80 | 168 | PROCESS_PC1 | PROCESS_FIELDS |
+| 248 | 16 | PACE_PC1 | PACE_FIELDS |
+| 264 | 168 | PROCESS_PC2 | PROCESS_FIELDS |
+| 432 | 16 | PACE_PC2 | PACE_FIELDS |
+| 448 | 36 | SEC_COMMAND | command_num, command, arg_depth, arg_offset |
+| 488 | 32 | SEC_STATUS | STATUS_FIELDS |
+| 520 | 16 | SEC_MODE | MODE_FIELDS |
+| 536 | 48 | SEC_PERF | PERF_FIELDS |
+| 584 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
+| 624 | 32 | SB_STATUS | STATUS_FIELDS |
+| 656 | 16 | SB_MODE | MODE_FIELDS |
+| 672 | 48 | SB_PERF | PERF_FIELDS |
+| 720 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
+| 760 | 32 | CO_STATUS | STATUS_FIELDS |
+| 792 | 16 | CO_MODE | MODE_FIELDS |
+| 808 | 48 | CO_PERF | PERF_FIELDS |
+| 856 | 20 | CC_COMMAND | command_num, command |
+| 880 | 32 | CC_STATUS | STATUS_FIELDS |
+| 912 | 16 | CC_MODE | MODE_FIELDS |
+| 928 | 48 | CC_PERF | PERF_FIELDS |
+| 976 | 20 | BM_COMMAND | command_num, command |
+| 1000 | 32 | BM_STATUS | STATUS_FIELDS |
+| 1032 | 16 | BM_MODE | MODE_FIELDS |
+| 1048 | 48 | BM_PERF | PERF_FIELDS |
+| 1096 | 20 | CD_COMMAND | command_num, command |
+| 1120 | 32 | CD_STATUS | STATUS_FIELDS |
+| 1152 | 16 | CD_MODE | MODE_FIELDS |
+| 1168 | 48 | CD_PERF | PERF_FIELDS |
+| 1216 | 20 | SJ_COMMAND | command_num, command |
+| 1240 | 32 | SJ_STATUS | STATUS_FIELDS |
+| 1272 | 16 | SJ_MODE | MODE_FIELDS |
+| 1288 | 48 | SJ_PERF | PERF_FIELDS |
+| 1336 | 20 | CR_COMMAND | command_num, command |
+| 1360 | 32 | CR_STATUS | STATUS_FIELDS |
+| 1392 | 16 | CR_MODE | MODE_FIELDS |
+| 1408 | 48 | CR_PERF | PERF_FIELDS |
+| 1456 | 20 | GH_COMMAND | command_num, command |
+| 1480 | 32 | GH_STATUS | STATUS_FIELDS |
+| 1512 | 16 | GH_MODE | MODE_FIELDS |
+| 1528 | 48 | GH_PERF | PERF_FIELDS |
+| 1576 | 20 | CV_COMMAND | command_num, command |
+| 1600 | 32 | CV_STATUS | STATUS_FIELDS |
+| 1632 | 16 | CV_MODE | MODE_FIELDS |
+| 1648 | 48 | CV_PERF | PERF_FIELDS |
+| 1696 | 20 | CT_COMMAND | command_num, command |
+| 1720 | 32 | CT_STATUS | STATUS_FIELDS |
+| 1752 | 16 | CT_MODE | MODE_FIELDS |
+| 1768 | 48 | CT_PERF | PERF_FIELDS |
+| 1816 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
+| 1856 | 32 | VG_STATUS | STATUS_FIELDS |
+| 1888 | 16 | VG_MODE | MODE_FIELDS |
+| 1904 | 48 | VG_PERF | PERF_FIELDS |
+| 1952 | 20 | TC_COMMAND | command_num, command |
+| 1976 | 32 | TC_STATUS | STATUS_FIELDS |
+| 2008 | 16 | TC_MODE | MODE_FIELDS |
+| 2024 | 48 | TC_PERF | PERF_FIELDS |
+| 2072 | 36 | OI_COMMAND | command_num, command, arg_x, arg_y |
+| 2112 | 32 | OI_STATUS | STATUS_FIELDS |
+| 2144 | 16 | OI_MODE | MODE_FIELDS |
+| 2160 | 48 | OI_PERF | PERF_FIELDS |
+| 2208 | 20 | BAS_COMMAND | command_num, command |
+| 2232 | 32 | BAS_STATUS | STATUS_FIELDS |
+| 2264 | 16 | BAS_MODE | MODE_FIELDS |
+| 2280 | 48 | BAS_PERF | PERF_FIELDS |
+| 2328 | 20 | JAS_COMMAND | command_num, command |
+| 2352 | 32 | JAS_STATUS | STATUS_FIELDS |
+| 2384 | 16 | JAS_MODE | MODE_FIELDS |
+| 2400 | 48 | JAS_PERF | PERF_FIELDS |
+| 2448 | 20 | TAS_COMMAND | command_num, command |
+| 2472 | 32 | TAS_STATUS | STATUS_FIELDS |
+| 2504 | 16 | TAS_MODE | MODE_FIELDS |
+| 2520 | 48 | TAS_PERF | PERF_FIELDS |
+| 2568 | 20 | MINE_COMMAND | command_num, command |
+| 2592 | 32 | MINE_STATUS | STATUS_FIELDS |
+| 2624 | 16 | MINE_MODE | MODE_FIELDS |
+| 2640 | 48 | MINE_PERF | PERF_FIELDS |
+| 2688 | 20 | DAS_COMMAND | command_num, command |
+| 2712 | 32 | DAS_STATUS | STATUS_FIELDS |
+| 2744 | 16 | DAS_MODE | MODE_FIELDS |
+| 2760 | 48 | DAS_PERF | PERF_FIELDS |
+| 2808 | 20 | GAS_COMMAND | command_num, command |
+| 2832 | 32 | GAS_STATUS | STATUS_FIELDS |
+| 2864 | 16 | GAS_MODE | MODE_FIELDS |
+| 2880 | 48 | GAS_PERF | PERF_FIELDS |
+| 2928 | 20 | BSS_COMMAND | command_num, command |
+| 2952 | 32 | BSS_STATUS | STATUS_FIELDS |
+| 2984 | 16 | BSS_MODE | MODE_FIELDS |
+| 3000 | 48 | BSS_PERF | PERF_FIELDS |
+| 3048 | 20 | PSS_COMMAND | command_num, command |
+| 3072 | 32 | PSS_STATUS | STATUS_FIELDS |
+| 3104 | 16 | PSS_MODE | MODE_FIELDS |
+| 3120 | 48 | PSS_PERF | PERF_FIELDS |
+| 3168 | 20 | CSS_COMMAND | command_num, command |
+| 3192 | 32 | CSS_STATUS | STATUS_FIELDS |
+| 3224 | 16 | CSS_MODE | MODE_FIELDS |
+| 3240 | 48 | CSS_PERF | PERF_FIELDS |
+| 3288 | 20 | LCS_COMMAND | command_num, command |
+| 3312 | 32 | LCS_STATUS | STATUS_FIELDS |
+| 3344 | 16 | LCS_MODE | MODE_FIELDS |
+| 3360 | 48 | LCS_PERF | PERF_FIELDS |
+| 3408 | 20 | WM_COMMAND | command_num, command |
+| 3432 | 32 | WM_STATUS | STATUS_FIELDS |
+| 3464 | 16 | WM_MODE | MODE_FIELDS |
+| 3480 | 48 | WM_PERF | PERF_FIELDS |
+| 3528 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
+| 3568 | 32 | PP_STATUS | STATUS_FIELDS |
+| 3600 | 16 | PP_MODE | MODE_FIELDS |
+| 3616 | 48 | PP_PERF | PERF_FIELDS |
+| 3664 | 9 | WORLD_TAIL_REQUEST | tail_request |
+| 3680 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
+| 3696 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 3712 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
+| 3728 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
+| 3744 | 16 | WORLD_GOAL_X | goal_x |
+| 3760 | 16 | WORLD_GOAL_Y | goal_y |
+| 3776 | 9 | WORLD_PATH_OK | path_ok |
+| 3792 | 16 | WORLD_WP_X | wp_x |
+| 3808 | 16 | WORLD_WP_Y | wp_y |
+| 3824 | 9 | WORLD_WP_LAST | wp_last |
+| 3840 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 3856 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 3872 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 3888 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 3904 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 3920 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 3936 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 3952 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 3968 | 16 | WORLD_TRUE_X | true_x |
+| 3984 | 16 | WORLD_TRUE_Y | true_y |
+| 4000 | 16 | WORLD_TRUE_HEADING | true_heading |
+| 4016 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 4032 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 4048 | 9 | WORLD_JACK_DOWN | jack_down |
+| 4064 | 16 | WORLD_SLIP | slip |
+| 4080 | 9 | WORLD_TREAD_STALLED | tread_stalled |
+| 4096 | 16 | WORLD_POSE_X | pose_x |
+| 4112 | 16 | WORLD_POSE_Y | pose_y |
+| 4128 | 16 | WORLD_HEADING | heading |
+| 4144 | 16 | WORLD_BOOM_ANGLE | boom_angle |
+| 4160 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
+| 4176 | 16 | WORLD_LOOSE_COAL | loose_coal |
+| 4192 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 4208 | 16 | WORLD_DEPTH_EST | depth_est |
+| 4224 | 16 | WORLD_DRUM_REACH | drum_reach |
+| 4240 | 16 | WORLD_SUMP_STEP | sump_step |
+| 4256 | 9 | WORLD_IN_COAL | in_coal |
+| 4272 | 16 | WORLD_FACE_X | face_x |
+| 4288 | 16 | WORLD_DEPTH_CUT | depth_cut |
+| 4304 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
+| 4320 | 16 | WORLD_COAL_MINED | coal_mined |
+| 4336 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
+| 4352 | 9 | OVERRIDES | any |
+| 4368 | 17 | OVERRIDE_TAIL_REQUEST | state, tail_request |
+| 4392 | 17 | OVERRIDE_TAIL_IN_POSITION | state, tail_in_position |
+| 4416 | 24 | OVERRIDE_OPERATOR_DELAY | state, operator_delay |
+| 4440 | 24 | OVERRIDE_OPERATOR_GOAL_X | state, operator_goal_x |
+| 4464 | 24 | OVERRIDE_OPERATOR_GOAL_Y | state, operator_goal_y |
+| 4488 | 24 | OVERRIDE_GOAL_X | state, goal_x |
+| 4512 | 24 | OVERRIDE_GOAL_Y | state, goal_y |
+| 4536 | 17 | OVERRIDE_PATH_OK | state, path_ok |
+| 4560 | 24 | OVERRIDE_WP_X | state, wp_x |
+| 4584 | 24 | OVERRIDE_WP_Y | state, wp_y |
+| 4608 | 17 | OVERRIDE_WP_LAST | state, wp_last |
+| 4632 | 24 | OVERRIDE_BOOM_RATE_CMD | state, boom_rate_cmd |
+| 4656 | 17 | OVERRIDE_DRUM_ON_CMD | state, drum_on_cmd |
+| 4680 | 17 | OVERRIDE_JACK_DOWN_CMD | state, jack_down_cmd |
+| 4704 | 24 | OVERRIDE_LEFT_TREAD_CMD | state, left_tread_cmd |
+| 4728 | 24 | OVERRIDE_RIGHT_TREAD_CMD | state, right_tread_cmd |
+| 4752 | 17 | OVERRIDE_PAN_FLOAT_CMD | state, pan_float_cmd |
+| 4776 | 17 | OVERRIDE_GATHER_ON_CMD | state, gather_on_cmd |
+| 4800 | 17 | OVERRIDE_CONVEYOR_ON_CMD | state, conveyor_on_cmd |
+| 4824 | 24 | OVERRIDE_TRUE_X | state, true_x |
+| 4848 | 24 | OVERRIDE_TRUE_Y | state, true_y |
+| 4872 | 24 | OVERRIDE_TRUE_HEADING | state, true_heading |
+| 4896 | 24 | OVERRIDE_BOOM_ANGLE_TRUE | state, boom_angle_true |
+| 4920 | 24 | OVERRIDE_DRUM_CURRENT_TRUE | state, drum_current_true |
+| 4944 | 17 | OVERRIDE_JACK_DOWN | state, jack_down |
+| 4968 | 24 | OVERRIDE_SLIP | state, slip |
+| 4992 | 17 | OVERRIDE_TREAD_STALLED | state, tread_stalled |
+| 5016 | 24 | OVERRIDE_POSE_X | state, pose_x |
+| 5040 | 24 | OVERRIDE_POSE_Y | state, pose_y |
+| 5064 | 24 | OVERRIDE_HEADING | state, heading |
+| 5088 | 24 | OVERRIDE_BOOM_ANGLE | state, boom_angle |
+| 5112 | 24 | OVERRIDE_CUTTER_CURRENT | state, cutter_current |
+| 5136 | 24 | OVERRIDE_LOOSE_COAL | state, loose_coal |
+| 5160 | 17 | OVERRIDE_POPPED_OUT_OF_SHEAR | state, popped_out_of_shear |
+| 5184 | 24 | OVERRIDE_DEPTH_EST | state, depth_est |
+| 5208 | 24 | OVERRIDE_DRUM_REACH | state, drum_reach |
+| 5232 | 24 | OVERRIDE_SUMP_STEP | state, sump_step |
+| 5256 | 17 | OVERRIDE_IN_COAL | state, in_coal |
+| 5280 | 24 | OVERRIDE_FACE_X | state, face_x |
+| 5304 | 24 | OVERRIDE_DEPTH_CUT | state, depth_cut |
+| 5328 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
+| 5352 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
+| 5376 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
 """
 
 from __future__ import annotations
@@ -241,283 +241,283 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 5352
+SIZE = 5400
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "5de863775fe634d12ce837beb62e36a3"
+LAYOUT_HASH = "d341cf0b9d77ff19c345522ce80a1258"
 PROCESS_PC1_AT = 80
-PACE_PC1_AT = 224
-PROCESS_PC2_AT = 240
-PACE_PC2_AT = 384
+PACE_PC1_AT = 248
+PROCESS_PC2_AT = 264
+PACE_PC2_AT = 432
 
 # sec: Section
 SEC_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
-SEC_COMMAND_AT = 400
-SEC_STATUS_AT = 440
-SEC_MODE_AT = 472
-SEC_PERF_AT = 488
+SEC_COMMAND_AT = 448
+SEC_STATUS_AT = 488
+SEC_MODE_AT = 520
+SEC_PERF_AT = 536
 
 # sb: Shift boss
 SB_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
-SB_COMMAND_AT = 536
-SB_STATUS_AT = 576
-SB_MODE_AT = 608
-SB_PERF_AT = 624
+SB_COMMAND_AT = 584
+SB_STATUS_AT = 624
+SB_MODE_AT = 656
+SB_PERF_AT = 672
 
 # co: Continuous miner operation coordinator
 CO_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-CO_COMMAND_AT = 672
-CO_STATUS_AT = 712
-CO_MODE_AT = 744
-CO_PERF_AT = 760
+CO_COMMAND_AT = 720
+CO_STATUS_AT = 760
+CO_MODE_AT = 792
+CO_PERF_AT = 808
 
 # cc: Coal cutting
 CC_COMMAND = Struct("<QQI")  # seq, command_num, command
-CC_COMMAND_AT = 808
-CC_STATUS_AT = 832
-CC_MODE_AT = 864
-CC_PERF_AT = 880
+CC_COMMAND_AT = 856
+CC_STATUS_AT = 880
+CC_MODE_AT = 912
+CC_PERF_AT = 928
 
 # bm: Boom
 BM_COMMAND = Struct("<QQI")  # seq, command_num, command
-BM_COMMAND_AT = 928
-BM_STATUS_AT = 952
-BM_MODE_AT = 984
-BM_PERF_AT = 1000
+BM_COMMAND_AT = 976
+BM_STATUS_AT = 1000
+BM_MODE_AT = 1032
+BM_PERF_AT = 1048
 
 # cd: Cutter drum
 CD_COMMAND = Struct("<QQI")  # seq, command_num, command
-CD_COMMAND_AT = 1048
-CD_STATUS_AT = 1072
-CD_MODE_AT = 1104
-CD_PERF_AT = 1120
+CD_COMMAND_AT = 1096
+CD_STATUS_AT = 1120
+CD_MODE_AT = 1152
+CD_PERF_AT = 1168
 
 # sj: Stabilization jack
 SJ_COMMAND = Struct("<QQI")  # seq, command_num, command
-SJ_COMMAND_AT = 1168
-SJ_STATUS_AT = 1192
-SJ_MODE_AT = 1224
-SJ_PERF_AT = 1240
+SJ_COMMAND_AT = 1216
+SJ_STATUS_AT = 1240
+SJ_MODE_AT = 1272
+SJ_PERF_AT = 1288
 
 # cr: Coal removal
 CR_COMMAND = Struct("<QQI")  # seq, command_num, command
-CR_COMMAND_AT = 1288
-CR_STATUS_AT = 1312
-CR_MODE_AT = 1344
-CR_PERF_AT = 1360
+CR_COMMAND_AT = 1336
+CR_STATUS_AT = 1360
+CR_MODE_AT = 1392
+CR_PERF_AT = 1408
 
 # gh: Gathering head
 GH_COMMAND = Struct("<QQI")  # seq, command_num, command
-GH_COMMAND_AT = 1408
-GH_STATUS_AT = 1432
-GH_MODE_AT = 1464
-GH_PERF_AT = 1480
+GH_COMMAND_AT = 1456
+GH_STATUS_AT = 1480
+GH_MODE_AT = 1512
+GH_PERF_AT = 1528
 
 # cv: Conveyor
 CV_COMMAND = Struct("<QQI")  # seq, command_num, command
-CV_COMMAND_AT = 1528
-CV_STATUS_AT = 1552
-CV_MODE_AT = 1584
-CV_PERF_AT = 1600
+CV_COMMAND_AT = 1576
+CV_STATUS_AT = 1600
+CV_MODE_AT = 1632
+CV_PERF_AT = 1648
 
 # ct: Conveyor tail (operator)
 CT_COMMAND = Struct("<QQI")  # seq, command_num, command
-CT_COMMAND_AT = 1648
-CT_STATUS_AT = 1672
-CT_MODE_AT = 1704
-CT_PERF_AT = 1720
+CT_COMMAND_AT = 1696
+CT_STATUS_AT = 1720
+CT_MODE_AT = 1752
+CT_PERF_AT = 1768
 
 # vg: Vehicle guidance
 VG_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-VG_COMMAND_AT = 1768
-VG_STATUS_AT = 1808
-VG_MODE_AT = 1840
-VG_PERF_AT = 1856
+VG_COMMAND_AT = 1816
+VG_STATUS_AT = 1856
+VG_MODE_AT = 1888
+VG_PERF_AT = 1904
 
 # tc: Tram
 TC_COMMAND = Struct("<QQI")  # seq, command_num, command
-TC_COMMAND_AT = 1904
-TC_STATUS_AT = 1928
-TC_MODE_AT = 1960
-TC_PERF_AT = 1976
+TC_COMMAND_AT = 1952
+TC_STATUS_AT = 1976
+TC_MODE_AT = 2008
+TC_PERF_AT = 2024
 
 # oi: Operator interface (scripted operator)
 OI_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-OI_COMMAND_AT = 2024
-OI_STATUS_AT = 2064
-OI_MODE_AT = 2096
-OI_PERF_AT = 2112
+OI_COMMAND_AT = 2072
+OI_STATUS_AT = 2112
+OI_MODE_AT = 2144
+OI_PERF_AT = 2160
 
 # bas: Boom actuator (simulated)
 BAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-BAS_COMMAND_AT = 2160
-BAS_STATUS_AT = 2184
-BAS_MODE_AT = 2216
-BAS_PERF_AT = 2232
+BAS_COMMAND_AT = 2208
+BAS_STATUS_AT = 2232
+BAS_MODE_AT = 2264
+BAS_PERF_AT = 2280
 
 # jas: Stabilization jack actuator (simulated)
 JAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-JAS_COMMAND_AT = 2280
-JAS_STATUS_AT = 2304
-JAS_MODE_AT = 2336
-JAS_PERF_AT = 2352
+JAS_COMMAND_AT = 2328
+JAS_STATUS_AT = 2352
+JAS_MODE_AT = 2384
+JAS_PERF_AT = 2400
 
 # tas: Tread actuators (simulated)
 TAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-TAS_COMMAND_AT = 2400
-TAS_STATUS_AT = 2424
-TAS_MODE_AT = 2456
-TAS_PERF_AT = 2472
+TAS_COMMAND_AT = 2448
+TAS_STATUS_AT = 2472
+TAS_MODE_AT = 2504
+TAS_PERF_AT = 2520
 
 # mine: Mine (simulated environment)
 MINE_COMMAND = Struct("<QQI")  # seq, command_num, command
-MINE_COMMAND_AT = 2520
-MINE_STATUS_AT = 2544
-MINE_MODE_AT = 2576
-MINE_PERF_AT = 2592
+MINE_COMMAND_AT = 2568
+MINE_STATUS_AT = 2592
+MINE_MODE_AT = 2624
+MINE_PERF_AT = 2640
 
 # das: Cutter drum motor (simulated)
 DAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-DAS_COMMAND_AT = 2640
-DAS_STATUS_AT = 2664
-DAS_MODE_AT = 2696
-DAS_PERF_AT = 2712
+DAS_COMMAND_AT = 2688
+DAS_STATUS_AT = 2712
+DAS_MODE_AT = 2744
+DAS_PERF_AT = 2760
 
 # gas: Gathering head and conveyor (simulated)
 GAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-GAS_COMMAND_AT = 2760
-GAS_STATUS_AT = 2784
-GAS_MODE_AT = 2816
-GAS_PERF_AT = 2832
+GAS_COMMAND_AT = 2808
+GAS_STATUS_AT = 2832
+GAS_MODE_AT = 2864
+GAS_PERF_AT = 2880
 
 # bss: Boom angle sensor (simulated)
 BSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-BSS_COMMAND_AT = 2880
-BSS_STATUS_AT = 2904
-BSS_MODE_AT = 2936
-BSS_PERF_AT = 2952
+BSS_COMMAND_AT = 2928
+BSS_STATUS_AT = 2952
+BSS_MODE_AT = 2984
+BSS_PERF_AT = 3000
 
 # pss: Pose sensor (simulated)
 PSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-PSS_COMMAND_AT = 3000
-PSS_STATUS_AT = 3024
-PSS_MODE_AT = 3056
-PSS_PERF_AT = 3072
+PSS_COMMAND_AT = 3048
+PSS_STATUS_AT = 3072
+PSS_MODE_AT = 3104
+PSS_PERF_AT = 3120
 
 # css: Cutter current sensor (simulated)
 CSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-CSS_COMMAND_AT = 3120
-CSS_STATUS_AT = 3144
-CSS_MODE_AT = 3176
-CSS_PERF_AT = 3192
+CSS_COMMAND_AT = 3168
+CSS_STATUS_AT = 3192
+CSS_MODE_AT = 3224
+CSS_PERF_AT = 3240
 
 # lcs: Loose coal sensor (simulated)
 LCS_COMMAND = Struct("<QQI")  # seq, command_num, command
-LCS_COMMAND_AT = 3240
-LCS_STATUS_AT = 3264
-LCS_MODE_AT = 3296
-LCS_PERF_AT = 3312
+LCS_COMMAND_AT = 3288
+LCS_STATUS_AT = 3312
+LCS_MODE_AT = 3344
+LCS_PERF_AT = 3360
 
 # wm: World modelling (estimates from the sensors)
 WM_COMMAND = Struct("<QQI")  # seq, command_num, command
-WM_COMMAND_AT = 3360
-WM_STATUS_AT = 3384
-WM_MODE_AT = 3416
-WM_PERF_AT = 3432
+WM_COMMAND_AT = 3408
+WM_STATUS_AT = 3432
+WM_MODE_AT = 3464
+WM_PERF_AT = 3480
 
 # pp: Path planner
 PP_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-PP_COMMAND_AT = 3480
-PP_STATUS_AT = 3520
-PP_MODE_AT = 3552
-PP_PERF_AT = 3568
+PP_COMMAND_AT = 3528
+PP_STATUS_AT = 3568
+PP_MODE_AT = 3600
+PP_PERF_AT = 3616
 
 # World model.
 WORLD_TAIL_REQUEST = Struct("<Q?")  # seq, tail_request
-WORLD_TAIL_REQUEST_AT = 3616
+WORLD_TAIL_REQUEST_AT = 3664
 WORLD_TAIL_IN_POSITION = Struct("<Q?")  # seq, tail_in_position
-WORLD_TAIL_IN_POSITION_AT = 3632
+WORLD_TAIL_IN_POSITION_AT = 3680
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 3648
+WORLD_OPERATOR_DELAY_AT = 3696
 WORLD_OPERATOR_GOAL_X = Struct("<Qd")  # seq, operator_goal_x
-WORLD_OPERATOR_GOAL_X_AT = 3664
+WORLD_OPERATOR_GOAL_X_AT = 3712
 WORLD_OPERATOR_GOAL_Y = Struct("<Qd")  # seq, operator_goal_y
-WORLD_OPERATOR_GOAL_Y_AT = 3680
+WORLD_OPERATOR_GOAL_Y_AT = 3728
 WORLD_GOAL_X = Struct("<Qd")  # seq, goal_x
-WORLD_GOAL_X_AT = 3696
+WORLD_GOAL_X_AT = 3744
 WORLD_GOAL_Y = Struct("<Qd")  # seq, goal_y
-WORLD_GOAL_Y_AT = 3712
+WORLD_GOAL_Y_AT = 3760
 WORLD_PATH_OK = Struct("<Q?")  # seq, path_ok
-WORLD_PATH_OK_AT = 3728
+WORLD_PATH_OK_AT = 3776
 WORLD_WP_X = Struct("<Qd")  # seq, wp_x
-WORLD_WP_X_AT = 3744
+WORLD_WP_X_AT = 3792
 WORLD_WP_Y = Struct("<Qd")  # seq, wp_y
-WORLD_WP_Y_AT = 3760
+WORLD_WP_Y_AT = 3808
 WORLD_WP_LAST = Struct("<Q?")  # seq, wp_last
-WORLD_WP_LAST_AT = 3776
+WORLD_WP_LAST_AT = 3824
 WORLD_BOOM_RATE_CMD = Struct("<Qd")  # seq, boom_rate_cmd
-WORLD_BOOM_RATE_CMD_AT = 3792
+WORLD_BOOM_RATE_CMD_AT = 3840
 WORLD_DRUM_ON_CMD = Struct("<Q?")  # seq, drum_on_cmd
-WORLD_DRUM_ON_CMD_AT = 3808
+WORLD_DRUM_ON_CMD_AT = 3856
 WORLD_JACK_DOWN_CMD = Struct("<Q?")  # seq, jack_down_cmd
-WORLD_JACK_DOWN_CMD_AT = 3824
+WORLD_JACK_DOWN_CMD_AT = 3872
 WORLD_LEFT_TREAD_CMD = Struct("<Qq")  # seq, left_tread_cmd
-WORLD_LEFT_TREAD_CMD_AT = 3840
+WORLD_LEFT_TREAD_CMD_AT = 3888
 WORLD_RIGHT_TREAD_CMD = Struct("<Qq")  # seq, right_tread_cmd
-WORLD_RIGHT_TREAD_CMD_AT = 3856
+WORLD_RIGHT_TREAD_CMD_AT = 3904
 WORLD_PAN_FLOAT_CMD = Struct("<Q?")  # seq, pan_float_cmd
-WORLD_PAN_FLOAT_CMD_AT = 3872
+WORLD_PAN_FLOAT_CMD_AT = 3920
 WORLD_GATHER_ON_CMD = Struct("<Q?")  # seq, gather_on_cmd
-WORLD_GATHER_ON_CMD_AT = 3888
+WORLD_GATHER_ON_CMD_AT = 3936
 WORLD_CONVEYOR_ON_CMD = Struct("<Q?")  # seq, conveyor_on_cmd
-WORLD_CONVEYOR_ON_CMD_AT = 3904
+WORLD_CONVEYOR_ON_CMD_AT = 3952
 WORLD_TRUE_X = Struct("<Qd")  # seq, true_x
-WORLD_TRUE_X_AT = 3920
+WORLD_TRUE_X_AT = 3968
 WORLD_TRUE_Y = Struct("<Qd")  # seq, true_y
-WORLD_TRUE_Y_AT = 3936
+WORLD_TRUE_Y_AT = 3984
 WORLD_TRUE_HEADING = Struct("<Qd")  # seq, true_heading
-WORLD_TRUE_HEADING_AT = 3952
+WORLD_TRUE_HEADING_AT = 4000
 WORLD_BOOM_ANGLE_TRUE = Struct("<Qd")  # seq, boom_angle_true
-WORLD_BOOM_ANGLE_TRUE_AT = 3968
+WORLD_BOOM_ANGLE_TRUE_AT = 4016
 WORLD_DRUM_CURRENT_TRUE = Struct("<Qd")  # seq, drum_current_true
-WORLD_DRUM_CURRENT_TRUE_AT = 3984
+WORLD_DRUM_CURRENT_TRUE_AT = 4032
 WORLD_JACK_DOWN = Struct("<Q?")  # seq, jack_down
-WORLD_JACK_DOWN_AT = 4000
+WORLD_JACK_DOWN_AT = 4048
 WORLD_SLIP = Struct("<Qd")  # seq, slip
-WORLD_SLIP_AT = 4016
+WORLD_SLIP_AT = 4064
 WORLD_TREAD_STALLED = Struct("<Q?")  # seq, tread_stalled
-WORLD_TREAD_STALLED_AT = 4032
+WORLD_TREAD_STALLED_AT = 4080
 WORLD_POSE_X = Struct("<Qd")  # seq, pose_x
-WORLD_POSE_X_AT = 4048
+WORLD_POSE_X_AT = 4096
 WORLD_POSE_Y = Struct("<Qd")  # seq, pose_y
-WORLD_POSE_Y_AT = 4064
+WORLD_POSE_Y_AT = 4112
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 4080
+WORLD_HEADING_AT = 4128
 WORLD_BOOM_ANGLE = Struct("<Qd")  # seq, boom_angle
-WORLD_BOOM_ANGLE_AT = 4096
+WORLD_BOOM_ANGLE_AT = 4144
 WORLD_CUTTER_CURRENT = Struct("<Qd")  # seq, cutter_current
-WORLD_CUTTER_CURRENT_AT = 4112
+WORLD_CUTTER_CURRENT_AT = 4160
 WORLD_LOOSE_COAL = Struct("<Qd")  # seq, loose_coal
-WORLD_LOOSE_COAL_AT = 4128
+WORLD_LOOSE_COAL_AT = 4176
 WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 4144
+WORLD_POPPED_OUT_OF_SHEAR_AT = 4192
 WORLD_DEPTH_EST = Struct("<Qd")  # seq, depth_est
-WORLD_DEPTH_EST_AT = 4160
+WORLD_DEPTH_EST_AT = 4208
 WORLD_DRUM_REACH = Struct("<Qd")  # seq, drum_reach
-WORLD_DRUM_REACH_AT = 4176
+WORLD_DRUM_REACH_AT = 4224
 WORLD_SUMP_STEP = Struct("<Qd")  # seq, sump_step
-WORLD_SUMP_STEP_AT = 4192
+WORLD_SUMP_STEP_AT = 4240
 WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
-WORLD_IN_COAL_AT = 4208
+WORLD_IN_COAL_AT = 4256
 WORLD_FACE_X = Struct("<Qd")  # seq, face_x
-WORLD_FACE_X_AT = 4224
+WORLD_FACE_X_AT = 4272
 WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
-WORLD_DEPTH_CUT_AT = 4240
+WORLD_DEPTH_CUT_AT = 4288
 WORLD_LOOSE_COAL_TRUE = Struct("<Qd")  # seq, loose_coal_true
-WORLD_LOOSE_COAL_TRUE_AT = 4256
+WORLD_LOOSE_COAL_TRUE_AT = 4304
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
-WORLD_COAL_MINED_AT = 4272
+WORLD_COAL_MINED_AT = 4320
 WORLD_SHUTTLE_CAR_AWAY = Struct("<Q?")  # seq, shuttle_car_away
-WORLD_SHUTTLE_CAR_AWAY_AT = 4288
+WORLD_SHUTTLE_CAR_AWAY_AT = 4336
 
 
 PROCESSES = {
@@ -853,54 +853,54 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 4304
-OVERRIDDEN_AT = 4312  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 4352
+OVERRIDDEN_AT = 4360  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "tail_request": Record(Struct("<QQ?"), 4320, ("state", "tail_request")),
-    "tail_in_position": Record(Struct("<QQ?"), 4344, ("state", "tail_in_position")),
-    "operator_delay": Record(Struct("<QQq"), 4368, ("state", "operator_delay")),
-    "operator_goal_x": Record(Struct("<QQd"), 4392, ("state", "operator_goal_x")),
-    "operator_goal_y": Record(Struct("<QQd"), 4416, ("state", "operator_goal_y")),
-    "goal_x": Record(Struct("<QQd"), 4440, ("state", "goal_x")),
-    "goal_y": Record(Struct("<QQd"), 4464, ("state", "goal_y")),
-    "path_ok": Record(Struct("<QQ?"), 4488, ("state", "path_ok")),
-    "wp_x": Record(Struct("<QQd"), 4512, ("state", "wp_x")),
-    "wp_y": Record(Struct("<QQd"), 4536, ("state", "wp_y")),
-    "wp_last": Record(Struct("<QQ?"), 4560, ("state", "wp_last")),
-    "boom_rate_cmd": Record(Struct("<QQd"), 4584, ("state", "boom_rate_cmd")),
-    "drum_on_cmd": Record(Struct("<QQ?"), 4608, ("state", "drum_on_cmd")),
-    "jack_down_cmd": Record(Struct("<QQ?"), 4632, ("state", "jack_down_cmd")),
-    "left_tread_cmd": Record(Struct("<QQq"), 4656, ("state", "left_tread_cmd")),
-    "right_tread_cmd": Record(Struct("<QQq"), 4680, ("state", "right_tread_cmd")),
-    "pan_float_cmd": Record(Struct("<QQ?"), 4704, ("state", "pan_float_cmd")),
-    "gather_on_cmd": Record(Struct("<QQ?"), 4728, ("state", "gather_on_cmd")),
-    "conveyor_on_cmd": Record(Struct("<QQ?"), 4752, ("state", "conveyor_on_cmd")),
-    "true_x": Record(Struct("<QQd"), 4776, ("state", "true_x")),
-    "true_y": Record(Struct("<QQd"), 4800, ("state", "true_y")),
-    "true_heading": Record(Struct("<QQd"), 4824, ("state", "true_heading")),
-    "boom_angle_true": Record(Struct("<QQd"), 4848, ("state", "boom_angle_true")),
-    "drum_current_true": Record(Struct("<QQd"), 4872, ("state", "drum_current_true")),
-    "jack_down": Record(Struct("<QQ?"), 4896, ("state", "jack_down")),
-    "slip": Record(Struct("<QQd"), 4920, ("state", "slip")),
-    "tread_stalled": Record(Struct("<QQ?"), 4944, ("state", "tread_stalled")),
-    "pose_x": Record(Struct("<QQd"), 4968, ("state", "pose_x")),
-    "pose_y": Record(Struct("<QQd"), 4992, ("state", "pose_y")),
-    "heading": Record(Struct("<QQd"), 5016, ("state", "heading")),
-    "boom_angle": Record(Struct("<QQd"), 5040, ("state", "boom_angle")),
-    "cutter_current": Record(Struct("<QQd"), 5064, ("state", "cutter_current")),
-    "loose_coal": Record(Struct("<QQd"), 5088, ("state", "loose_coal")),
-    "popped_out_of_shear": Record(Struct("<QQ?"), 5112, ("state", "popped_out_of_shear")),
-    "depth_est": Record(Struct("<QQd"), 5136, ("state", "depth_est")),
-    "drum_reach": Record(Struct("<QQd"), 5160, ("state", "drum_reach")),
-    "sump_step": Record(Struct("<QQd"), 5184, ("state", "sump_step")),
-    "in_coal": Record(Struct("<QQ?"), 5208, ("state", "in_coal")),
-    "face_x": Record(Struct("<QQd"), 5232, ("state", "face_x")),
-    "depth_cut": Record(Struct("<QQd"), 5256, ("state", "depth_cut")),
-    "loose_coal_true": Record(Struct("<QQd"), 5280, ("state", "loose_coal_true")),
-    "coal_mined": Record(Struct("<QQd"), 5304, ("state", "coal_mined")),
-    "shuttle_car_away": Record(Struct("<QQ?"), 5328, ("state", "shuttle_car_away")),
+    "tail_request": Record(Struct("<QQ?"), 4368, ("state", "tail_request")),
+    "tail_in_position": Record(Struct("<QQ?"), 4392, ("state", "tail_in_position")),
+    "operator_delay": Record(Struct("<QQq"), 4416, ("state", "operator_delay")),
+    "operator_goal_x": Record(Struct("<QQd"), 4440, ("state", "operator_goal_x")),
+    "operator_goal_y": Record(Struct("<QQd"), 4464, ("state", "operator_goal_y")),
+    "goal_x": Record(Struct("<QQd"), 4488, ("state", "goal_x")),
+    "goal_y": Record(Struct("<QQd"), 4512, ("state", "goal_y")),
+    "path_ok": Record(Struct("<QQ?"), 4536, ("state", "path_ok")),
+    "wp_x": Record(Struct("<QQd"), 4560, ("state", "wp_x")),
+    "wp_y": Record(Struct("<QQd"), 4584, ("state", "wp_y")),
+    "wp_last": Record(Struct("<QQ?"), 4608, ("state", "wp_last")),
+    "boom_rate_cmd": Record(Struct("<QQd"), 4632, ("state", "boom_rate_cmd")),
+    "drum_on_cmd": Record(Struct("<QQ?"), 4656, ("state", "drum_on_cmd")),
+    "jack_down_cmd": Record(Struct("<QQ?"), 4680, ("state", "jack_down_cmd")),
+    "left_tread_cmd": Record(Struct("<QQq"), 4704, ("state", "left_tread_cmd")),
+    "right_tread_cmd": Record(Struct("<QQq"), 4728, ("state", "right_tread_cmd")),
+    "pan_float_cmd": Record(Struct("<QQ?"), 4752, ("state", "pan_float_cmd")),
+    "gather_on_cmd": Record(Struct("<QQ?"), 4776, ("state", "gather_on_cmd")),
+    "conveyor_on_cmd": Record(Struct("<QQ?"), 4800, ("state", "conveyor_on_cmd")),
+    "true_x": Record(Struct("<QQd"), 4824, ("state", "true_x")),
+    "true_y": Record(Struct("<QQd"), 4848, ("state", "true_y")),
+    "true_heading": Record(Struct("<QQd"), 4872, ("state", "true_heading")),
+    "boom_angle_true": Record(Struct("<QQd"), 4896, ("state", "boom_angle_true")),
+    "drum_current_true": Record(Struct("<QQd"), 4920, ("state", "drum_current_true")),
+    "jack_down": Record(Struct("<QQ?"), 4944, ("state", "jack_down")),
+    "slip": Record(Struct("<QQd"), 4968, ("state", "slip")),
+    "tread_stalled": Record(Struct("<QQ?"), 4992, ("state", "tread_stalled")),
+    "pose_x": Record(Struct("<QQd"), 5016, ("state", "pose_x")),
+    "pose_y": Record(Struct("<QQd"), 5040, ("state", "pose_y")),
+    "heading": Record(Struct("<QQd"), 5064, ("state", "heading")),
+    "boom_angle": Record(Struct("<QQd"), 5088, ("state", "boom_angle")),
+    "cutter_current": Record(Struct("<QQd"), 5112, ("state", "cutter_current")),
+    "loose_coal": Record(Struct("<QQd"), 5136, ("state", "loose_coal")),
+    "popped_out_of_shear": Record(Struct("<QQ?"), 5160, ("state", "popped_out_of_shear")),
+    "depth_est": Record(Struct("<QQd"), 5184, ("state", "depth_est")),
+    "drum_reach": Record(Struct("<QQd"), 5208, ("state", "drum_reach")),
+    "sump_step": Record(Struct("<QQd"), 5232, ("state", "sump_step")),
+    "in_coal": Record(Struct("<QQ?"), 5256, ("state", "in_coal")),
+    "face_x": Record(Struct("<QQd"), 5280, ("state", "face_x")),
+    "depth_cut": Record(Struct("<QQd"), 5304, ("state", "depth_cut")),
+    "loose_coal_true": Record(Struct("<QQd"), 5328, ("state", "loose_coal_true")),
+    "coal_mined": Record(Struct("<QQd"), 5352, ("state", "coal_mined")),
+    "shuttle_car_away": Record(Struct("<QQ?"), 5376, ("state", "shuttle_car_away")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.

@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4208 bytes.
+The block is 4256 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -18,159 +18,159 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 144 | PROCESS_PC1 | PROCESS_FIELDS |
-| 224 | 16 | PACE_PC1 | PACE_FIELDS |
-| 240 | 144 | PROCESS_PC2 | PROCESS_FIELDS |
-| 384 | 16 | PACE_PC2 | PACE_FIELDS |
-| 400 | 36 | SEC_COMMAND | command_num, command, arg_depth, arg_offset |
-| 440 | 32 | SEC_STATUS | STATUS_FIELDS |
-| 472 | 16 | SEC_MODE | MODE_FIELDS |
-| 488 | 48 | SEC_PERF | PERF_FIELDS |
-| 536 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
-| 576 | 32 | SB_STATUS | STATUS_FIELDS |
-| 608 | 16 | SB_MODE | MODE_FIELDS |
-| 624 | 48 | SB_PERF | PERF_FIELDS |
-| 672 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
-| 712 | 32 | CO_STATUS | STATUS_FIELDS |
-| 744 | 16 | CO_MODE | MODE_FIELDS |
-| 760 | 48 | CO_PERF | PERF_FIELDS |
-| 808 | 20 | CC_COMMAND | command_num, command |
-| 832 | 32 | CC_STATUS | STATUS_FIELDS |
-| 864 | 16 | CC_MODE | MODE_FIELDS |
-| 880 | 48 | CC_PERF | PERF_FIELDS |
-| 928 | 20 | BM_COMMAND | command_num, command |
-| 952 | 32 | BM_STATUS | STATUS_FIELDS |
-| 984 | 16 | BM_MODE | MODE_FIELDS |
-| 1000 | 48 | BM_PERF | PERF_FIELDS |
-| 1048 | 20 | CD_COMMAND | command_num, command |
-| 1072 | 32 | CD_STATUS | STATUS_FIELDS |
-| 1104 | 16 | CD_MODE | MODE_FIELDS |
-| 1120 | 48 | CD_PERF | PERF_FIELDS |
-| 1168 | 20 | SJ_COMMAND | command_num, command |
-| 1192 | 32 | SJ_STATUS | STATUS_FIELDS |
-| 1224 | 16 | SJ_MODE | MODE_FIELDS |
-| 1240 | 48 | SJ_PERF | PERF_FIELDS |
-| 1288 | 20 | CR_COMMAND | command_num, command |
-| 1312 | 32 | CR_STATUS | STATUS_FIELDS |
-| 1344 | 16 | CR_MODE | MODE_FIELDS |
-| 1360 | 48 | CR_PERF | PERF_FIELDS |
-| 1408 | 20 | GH_COMMAND | command_num, command |
-| 1432 | 32 | GH_STATUS | STATUS_FIELDS |
-| 1464 | 16 | GH_MODE | MODE_FIELDS |
-| 1480 | 48 | GH_PERF | PERF_FIELDS |
-| 1528 | 20 | CV_COMMAND | command_num, command |
-| 1552 | 32 | CV_STATUS | STATUS_FIELDS |
-| 1584 | 16 | CV_MODE | MODE_FIELDS |
-| 1600 | 48 | CV_PERF | PERF_FIELDS |
-| 1648 | 20 | CT_COMMAND | command_num, command |
-| 1672 | 32 | CT_STATUS | STATUS_FIELDS |
-| 1704 | 16 | CT_MODE | MODE_FIELDS |
-| 1720 | 48 | CT_PERF | PERF_FIELDS |
-| 1768 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
-| 1808 | 32 | VG_STATUS | STATUS_FIELDS |
-| 1840 | 16 | VG_MODE | MODE_FIELDS |
-| 1856 | 48 | VG_PERF | PERF_FIELDS |
-| 1904 | 20 | TC_COMMAND | command_num, command |
-| 1928 | 32 | TC_STATUS | STATUS_FIELDS |
-| 1960 | 16 | TC_MODE | MODE_FIELDS |
-| 1976 | 48 | TC_PERF | PERF_FIELDS |
-| 2024 | 20 | WM_COMMAND | command_num, command |
-| 2048 | 32 | WM_STATUS | STATUS_FIELDS |
-| 2080 | 16 | WM_MODE | MODE_FIELDS |
-| 2096 | 48 | WM_PERF | PERF_FIELDS |
-| 2144 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
-| 2184 | 32 | PP_STATUS | STATUS_FIELDS |
-| 2216 | 16 | PP_MODE | MODE_FIELDS |
-| 2232 | 48 | PP_PERF | PERF_FIELDS |
-| 2280 | 9 | WORLD_TAIL_REQUEST | tail_request |
-| 2296 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
-| 2312 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 2328 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
-| 2344 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
-| 2360 | 16 | WORLD_GOAL_X | goal_x |
-| 2376 | 16 | WORLD_GOAL_Y | goal_y |
-| 2392 | 9 | WORLD_PATH_OK | path_ok |
-| 2408 | 16 | WORLD_WP_X | wp_x |
-| 2424 | 16 | WORLD_WP_Y | wp_y |
-| 2440 | 9 | WORLD_WP_LAST | wp_last |
-| 2456 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
-| 2472 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
-| 2488 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
-| 2504 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
-| 2520 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
-| 2536 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
-| 2552 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
-| 2568 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
-| 2584 | 16 | WORLD_TRUE_X | true_x |
-| 2600 | 16 | WORLD_TRUE_Y | true_y |
-| 2616 | 16 | WORLD_TRUE_HEADING | true_heading |
-| 2632 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
-| 2648 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
-| 2664 | 9 | WORLD_JACK_DOWN | jack_down |
-| 2680 | 16 | WORLD_SLIP | slip |
-| 2696 | 9 | WORLD_TREAD_STALLED | tread_stalled |
-| 2712 | 16 | WORLD_POSE_X | pose_x |
-| 2728 | 16 | WORLD_POSE_Y | pose_y |
-| 2744 | 16 | WORLD_HEADING | heading |
-| 2760 | 16 | WORLD_BOOM_ANGLE | boom_angle |
-| 2776 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
-| 2792 | 16 | WORLD_LOOSE_COAL | loose_coal |
-| 2808 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 2824 | 16 | WORLD_DEPTH_EST | depth_est |
-| 2840 | 16 | WORLD_DRUM_REACH | drum_reach |
-| 2856 | 16 | WORLD_SUMP_STEP | sump_step |
-| 2872 | 9 | WORLD_IN_COAL | in_coal |
-| 2888 | 16 | WORLD_FACE_X | face_x |
-| 2904 | 16 | WORLD_DEPTH_CUT | depth_cut |
-| 2920 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
-| 2936 | 16 | WORLD_COAL_MINED | coal_mined |
-| 2952 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
-| 2968 | 9 | OVERRIDES | any |
-| 2984 | 17 | OVERRIDE_TAIL_REQUEST | state, tail_request |
-| 3008 | 17 | OVERRIDE_TAIL_IN_POSITION | state, tail_in_position |
-| 3032 | 24 | OVERRIDE_OPERATOR_DELAY | state, operator_delay |
-| 3056 | 24 | OVERRIDE_OPERATOR_GOAL_X | state, operator_goal_x |
-| 3080 | 24 | OVERRIDE_OPERATOR_GOAL_Y | state, operator_goal_y |
-| 3104 | 24 | OVERRIDE_GOAL_X | state, goal_x |
-| 3128 | 24 | OVERRIDE_GOAL_Y | state, goal_y |
-| 3152 | 17 | OVERRIDE_PATH_OK | state, path_ok |
-| 3176 | 24 | OVERRIDE_WP_X | state, wp_x |
-| 3200 | 24 | OVERRIDE_WP_Y | state, wp_y |
-| 3224 | 17 | OVERRIDE_WP_LAST | state, wp_last |
-| 3248 | 24 | OVERRIDE_BOOM_RATE_CMD | state, boom_rate_cmd |
-| 3272 | 17 | OVERRIDE_DRUM_ON_CMD | state, drum_on_cmd |
-| 3296 | 17 | OVERRIDE_JACK_DOWN_CMD | state, jack_down_cmd |
-| 3320 | 24 | OVERRIDE_LEFT_TREAD_CMD | state, left_tread_cmd |
-| 3344 | 24 | OVERRIDE_RIGHT_TREAD_CMD | state, right_tread_cmd |
-| 3368 | 17 | OVERRIDE_PAN_FLOAT_CMD | state, pan_float_cmd |
-| 3392 | 17 | OVERRIDE_GATHER_ON_CMD | state, gather_on_cmd |
-| 3416 | 17 | OVERRIDE_CONVEYOR_ON_CMD | state, conveyor_on_cmd |
-| 3440 | 24 | OVERRIDE_TRUE_X | state, true_x |
-| 3464 | 24 | OVERRIDE_TRUE_Y | state, true_y |
-| 3488 | 24 | OVERRIDE_TRUE_HEADING | state, true_heading |
-| 3512 | 24 | OVERRIDE_BOOM_ANGLE_TRUE | state, boom_angle_true |
-| 3536 | 24 | OVERRIDE_DRUM_CURRENT_TRUE | state, drum_current_true |
-| 3560 | 17 | OVERRIDE_JACK_DOWN | state, jack_down |
-| 3584 | 24 | OVERRIDE_SLIP | state, slip |
-| 3608 | 17 | OVERRIDE_TREAD_STALLED | state, tread_stalled |
-| 3632 | 24 | OVERRIDE_POSE_X | state, pose_x |
-| 3656 | 24 | OVERRIDE_POSE_Y | state, pose_y |
-| 3680 | 24 | OVERRIDE_HEADING | state, heading |
-| 3704 | 24 | OVERRIDE_BOOM_ANGLE | state, boom_angle |
-| 3728 | 24 | OVERRIDE_CUTTER_CURRENT | state, cutter_current |
-| 3752 | 24 | OVERRIDE_LOOSE_COAL | state, loose_coal |
-| 3776 | 17 | OVERRIDE_POPPED_OUT_OF_SHEAR | state, popped_out_of_shear |
-| 3800 | 24 | OVERRIDE_DEPTH_EST | state, depth_est |
-| 3824 | 24 | OVERRIDE_DRUM_REACH | state, drum_reach |
-| 3848 | 24 | OVERRIDE_SUMP_STEP | state, sump_step |
-| 3872 | 17 | OVERRIDE_IN_COAL | state, in_coal |
-| 3896 | 24 | OVERRIDE_FACE_X | state, face_x |
-| 3920 | 24 | OVERRIDE_DEPTH_CUT | state, depth_cut |
-| 3944 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
-| 3968 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
-| 3992 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
-| 4016 | 96 | IO_PLC | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
-| 4112 | 96 | IO_CONVEYOR | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
+| 80 | 168 | PROCESS_PC1 | PROCESS_FIELDS |
+| 248 | 16 | PACE_PC1 | PACE_FIELDS |
+| 264 | 168 | PROCESS_PC2 | PROCESS_FIELDS |
+| 432 | 16 | PACE_PC2 | PACE_FIELDS |
+| 448 | 36 | SEC_COMMAND | command_num, command, arg_depth, arg_offset |
+| 488 | 32 | SEC_STATUS | STATUS_FIELDS |
+| 520 | 16 | SEC_MODE | MODE_FIELDS |
+| 536 | 48 | SEC_PERF | PERF_FIELDS |
+| 584 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
+| 624 | 32 | SB_STATUS | STATUS_FIELDS |
+| 656 | 16 | SB_MODE | MODE_FIELDS |
+| 672 | 48 | SB_PERF | PERF_FIELDS |
+| 720 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
+| 760 | 32 | CO_STATUS | STATUS_FIELDS |
+| 792 | 16 | CO_MODE | MODE_FIELDS |
+| 808 | 48 | CO_PERF | PERF_FIELDS |
+| 856 | 20 | CC_COMMAND | command_num, command |
+| 880 | 32 | CC_STATUS | STATUS_FIELDS |
+| 912 | 16 | CC_MODE | MODE_FIELDS |
+| 928 | 48 | CC_PERF | PERF_FIELDS |
+| 976 | 20 | BM_COMMAND | command_num, command |
+| 1000 | 32 | BM_STATUS | STATUS_FIELDS |
+| 1032 | 16 | BM_MODE | MODE_FIELDS |
+| 1048 | 48 | BM_PERF | PERF_FIELDS |
+| 1096 | 20 | CD_COMMAND | command_num, command |
+| 1120 | 32 | CD_STATUS | STATUS_FIELDS |
+| 1152 | 16 | CD_MODE | MODE_FIELDS |
+| 1168 | 48 | CD_PERF | PERF_FIELDS |
+| 1216 | 20 | SJ_COMMAND | command_num, command |
+| 1240 | 32 | SJ_STATUS | STATUS_FIELDS |
+| 1272 | 16 | SJ_MODE | MODE_FIELDS |
+| 1288 | 48 | SJ_PERF | PERF_FIELDS |
+| 1336 | 20 | CR_COMMAND | command_num, command |
+| 1360 | 32 | CR_STATUS | STATUS_FIELDS |
+| 1392 | 16 | CR_MODE | MODE_FIELDS |
+| 1408 | 48 | CR_PERF | PERF_FIELDS |
+| 1456 | 20 | GH_COMMAND | command_num, command |
+| 1480 | 32 | GH_STATUS | STATUS_FIELDS |
+| 1512 | 16 | GH_MODE | MODE_FIELDS |
+| 1528 | 48 | GH_PERF | PERF_FIELDS |
+| 1576 | 20 | CV_COMMAND | command_num, command |
+| 1600 | 32 | CV_STATUS | STATUS_FIELDS |
+| 1632 | 16 | CV_MODE | MODE_FIELDS |
+| 1648 | 48 | CV_PERF | PERF_FIELDS |
+| 1696 | 20 | CT_COMMAND | command_num, command |
+| 1720 | 32 | CT_STATUS | STATUS_FIELDS |
+| 1752 | 16 | CT_MODE | MODE_FIELDS |
+| 1768 | 48 | CT_PERF | PERF_FIELDS |
+| 1816 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
+| 1856 | 32 | VG_STATUS | STATUS_FIELDS |
+| 1888 | 16 | VG_MODE | MODE_FIELDS |
+| 1904 | 48 | VG_PERF | PERF_FIELDS |
+| 1952 | 20 | TC_COMMAND | command_num, command |
+| 1976 | 32 | TC_STATUS | STATUS_FIELDS |
+| 2008 | 16 | TC_MODE | MODE_FIELDS |
+| 2024 | 48 | TC_PERF | PERF_FIELDS |
+| 2072 | 20 | WM_COMMAND | command_num, command |
+| 2096 | 32 | WM_STATUS | STATUS_FIELDS |
+| 2128 | 16 | WM_MODE | MODE_FIELDS |
+| 2144 | 48 | WM_PERF | PERF_FIELDS |
+| 2192 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
+| 2232 | 32 | PP_STATUS | STATUS_FIELDS |
+| 2264 | 16 | PP_MODE | MODE_FIELDS |
+| 2280 | 48 | PP_PERF | PERF_FIELDS |
+| 2328 | 9 | WORLD_TAIL_REQUEST | tail_request |
+| 2344 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
+| 2360 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 2376 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
+| 2392 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
+| 2408 | 16 | WORLD_GOAL_X | goal_x |
+| 2424 | 16 | WORLD_GOAL_Y | goal_y |
+| 2440 | 9 | WORLD_PATH_OK | path_ok |
+| 2456 | 16 | WORLD_WP_X | wp_x |
+| 2472 | 16 | WORLD_WP_Y | wp_y |
+| 2488 | 9 | WORLD_WP_LAST | wp_last |
+| 2504 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 2520 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 2536 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 2552 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 2568 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 2584 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 2600 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 2616 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 2632 | 16 | WORLD_TRUE_X | true_x |
+| 2648 | 16 | WORLD_TRUE_Y | true_y |
+| 2664 | 16 | WORLD_TRUE_HEADING | true_heading |
+| 2680 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 2696 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 2712 | 9 | WORLD_JACK_DOWN | jack_down |
+| 2728 | 16 | WORLD_SLIP | slip |
+| 2744 | 9 | WORLD_TREAD_STALLED | tread_stalled |
+| 2760 | 16 | WORLD_POSE_X | pose_x |
+| 2776 | 16 | WORLD_POSE_Y | pose_y |
+| 2792 | 16 | WORLD_HEADING | heading |
+| 2808 | 16 | WORLD_BOOM_ANGLE | boom_angle |
+| 2824 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
+| 2840 | 16 | WORLD_LOOSE_COAL | loose_coal |
+| 2856 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 2872 | 16 | WORLD_DEPTH_EST | depth_est |
+| 2888 | 16 | WORLD_DRUM_REACH | drum_reach |
+| 2904 | 16 | WORLD_SUMP_STEP | sump_step |
+| 2920 | 9 | WORLD_IN_COAL | in_coal |
+| 2936 | 16 | WORLD_FACE_X | face_x |
+| 2952 | 16 | WORLD_DEPTH_CUT | depth_cut |
+| 2968 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
+| 2984 | 16 | WORLD_COAL_MINED | coal_mined |
+| 3000 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
+| 3016 | 9 | OVERRIDES | any |
+| 3032 | 17 | OVERRIDE_TAIL_REQUEST | state, tail_request |
+| 3056 | 17 | OVERRIDE_TAIL_IN_POSITION | state, tail_in_position |
+| 3080 | 24 | OVERRIDE_OPERATOR_DELAY | state, operator_delay |
+| 3104 | 24 | OVERRIDE_OPERATOR_GOAL_X | state, operator_goal_x |
+| 3128 | 24 | OVERRIDE_OPERATOR_GOAL_Y | state, operator_goal_y |
+| 3152 | 24 | OVERRIDE_GOAL_X | state, goal_x |
+| 3176 | 24 | OVERRIDE_GOAL_Y | state, goal_y |
+| 3200 | 17 | OVERRIDE_PATH_OK | state, path_ok |
+| 3224 | 24 | OVERRIDE_WP_X | state, wp_x |
+| 3248 | 24 | OVERRIDE_WP_Y | state, wp_y |
+| 3272 | 17 | OVERRIDE_WP_LAST | state, wp_last |
+| 3296 | 24 | OVERRIDE_BOOM_RATE_CMD | state, boom_rate_cmd |
+| 3320 | 17 | OVERRIDE_DRUM_ON_CMD | state, drum_on_cmd |
+| 3344 | 17 | OVERRIDE_JACK_DOWN_CMD | state, jack_down_cmd |
+| 3368 | 24 | OVERRIDE_LEFT_TREAD_CMD | state, left_tread_cmd |
+| 3392 | 24 | OVERRIDE_RIGHT_TREAD_CMD | state, right_tread_cmd |
+| 3416 | 17 | OVERRIDE_PAN_FLOAT_CMD | state, pan_float_cmd |
+| 3440 | 17 | OVERRIDE_GATHER_ON_CMD | state, gather_on_cmd |
+| 3464 | 17 | OVERRIDE_CONVEYOR_ON_CMD | state, conveyor_on_cmd |
+| 3488 | 24 | OVERRIDE_TRUE_X | state, true_x |
+| 3512 | 24 | OVERRIDE_TRUE_Y | state, true_y |
+| 3536 | 24 | OVERRIDE_TRUE_HEADING | state, true_heading |
+| 3560 | 24 | OVERRIDE_BOOM_ANGLE_TRUE | state, boom_angle_true |
+| 3584 | 24 | OVERRIDE_DRUM_CURRENT_TRUE | state, drum_current_true |
+| 3608 | 17 | OVERRIDE_JACK_DOWN | state, jack_down |
+| 3632 | 24 | OVERRIDE_SLIP | state, slip |
+| 3656 | 17 | OVERRIDE_TREAD_STALLED | state, tread_stalled |
+| 3680 | 24 | OVERRIDE_POSE_X | state, pose_x |
+| 3704 | 24 | OVERRIDE_POSE_Y | state, pose_y |
+| 3728 | 24 | OVERRIDE_HEADING | state, heading |
+| 3752 | 24 | OVERRIDE_BOOM_ANGLE | state, boom_angle |
+| 3776 | 24 | OVERRIDE_CUTTER_CURRENT | state, cutter_current |
+| 3800 | 24 | OVERRIDE_LOOSE_COAL | state, loose_coal |
+| 3824 | 17 | OVERRIDE_POPPED_OUT_OF_SHEAR | state, popped_out_of_shear |
+| 3848 | 24 | OVERRIDE_DEPTH_EST | state, depth_est |
+| 3872 | 24 | OVERRIDE_DRUM_REACH | state, drum_reach |
+| 3896 | 24 | OVERRIDE_SUMP_STEP | state, sump_step |
+| 3920 | 17 | OVERRIDE_IN_COAL | state, in_coal |
+| 3944 | 24 | OVERRIDE_FACE_X | state, face_x |
+| 3968 | 24 | OVERRIDE_DEPTH_CUT | state, depth_cut |
+| 3992 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
+| 4016 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
+| 4040 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
+| 4064 | 96 | IO_PLC | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
+| 4160 | 96 | IO_CONVEYOR | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
 """
 
 from __future__ import annotations
@@ -200,206 +200,206 @@ from .rcs.io_points import DEVICE_FIELDS, Device, Point
 
 SYSTEM = "miner_hil"
 SOURCE = "miner_hil/system.yaml"
-SIZE = 4208
+SIZE = 4256
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "8017e8e5e1735f0f81653c6cee35e5d8"
+LAYOUT_HASH = "0a52394464ed64cacaefa7b1e4acf239"
 PROCESS_PC1_AT = 80
-PACE_PC1_AT = 224
-PROCESS_PC2_AT = 240
-PACE_PC2_AT = 384
+PACE_PC1_AT = 248
+PROCESS_PC2_AT = 264
+PACE_PC2_AT = 432
 
 # sec: Section
 SEC_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
-SEC_COMMAND_AT = 400
-SEC_STATUS_AT = 440
-SEC_MODE_AT = 472
-SEC_PERF_AT = 488
+SEC_COMMAND_AT = 448
+SEC_STATUS_AT = 488
+SEC_MODE_AT = 520
+SEC_PERF_AT = 536
 
 # sb: Shift boss
 SB_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
-SB_COMMAND_AT = 536
-SB_STATUS_AT = 576
-SB_MODE_AT = 608
-SB_PERF_AT = 624
+SB_COMMAND_AT = 584
+SB_STATUS_AT = 624
+SB_MODE_AT = 656
+SB_PERF_AT = 672
 
 # co: Continuous miner operation coordinator
 CO_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-CO_COMMAND_AT = 672
-CO_STATUS_AT = 712
-CO_MODE_AT = 744
-CO_PERF_AT = 760
+CO_COMMAND_AT = 720
+CO_STATUS_AT = 760
+CO_MODE_AT = 792
+CO_PERF_AT = 808
 
 # cc: Coal cutting
 CC_COMMAND = Struct("<QQI")  # seq, command_num, command
-CC_COMMAND_AT = 808
-CC_STATUS_AT = 832
-CC_MODE_AT = 864
-CC_PERF_AT = 880
+CC_COMMAND_AT = 856
+CC_STATUS_AT = 880
+CC_MODE_AT = 912
+CC_PERF_AT = 928
 
 # bm: Boom
 BM_COMMAND = Struct("<QQI")  # seq, command_num, command
-BM_COMMAND_AT = 928
-BM_STATUS_AT = 952
-BM_MODE_AT = 984
-BM_PERF_AT = 1000
+BM_COMMAND_AT = 976
+BM_STATUS_AT = 1000
+BM_MODE_AT = 1032
+BM_PERF_AT = 1048
 
 # cd: Cutter drum
 CD_COMMAND = Struct("<QQI")  # seq, command_num, command
-CD_COMMAND_AT = 1048
-CD_STATUS_AT = 1072
-CD_MODE_AT = 1104
-CD_PERF_AT = 1120
+CD_COMMAND_AT = 1096
+CD_STATUS_AT = 1120
+CD_MODE_AT = 1152
+CD_PERF_AT = 1168
 
 # sj: Stabilization jack
 SJ_COMMAND = Struct("<QQI")  # seq, command_num, command
-SJ_COMMAND_AT = 1168
-SJ_STATUS_AT = 1192
-SJ_MODE_AT = 1224
-SJ_PERF_AT = 1240
+SJ_COMMAND_AT = 1216
+SJ_STATUS_AT = 1240
+SJ_MODE_AT = 1272
+SJ_PERF_AT = 1288
 
 # cr: Coal removal
 CR_COMMAND = Struct("<QQI")  # seq, command_num, command
-CR_COMMAND_AT = 1288
-CR_STATUS_AT = 1312
-CR_MODE_AT = 1344
-CR_PERF_AT = 1360
+CR_COMMAND_AT = 1336
+CR_STATUS_AT = 1360
+CR_MODE_AT = 1392
+CR_PERF_AT = 1408
 
 # gh: Gathering head
 GH_COMMAND = Struct("<QQI")  # seq, command_num, command
-GH_COMMAND_AT = 1408
-GH_STATUS_AT = 1432
-GH_MODE_AT = 1464
-GH_PERF_AT = 1480
+GH_COMMAND_AT = 1456
+GH_STATUS_AT = 1480
+GH_MODE_AT = 1512
+GH_PERF_AT = 1528
 
 # cv: Conveyor
 CV_COMMAND = Struct("<QQI")  # seq, command_num, command
-CV_COMMAND_AT = 1528
-CV_STATUS_AT = 1552
-CV_MODE_AT = 1584
-CV_PERF_AT = 1600
+CV_COMMAND_AT = 1576
+CV_STATUS_AT = 1600
+CV_MODE_AT = 1632
+CV_PERF_AT = 1648
 
 # ct: Conveyor tail (operator)
 CT_COMMAND = Struct("<QQI")  # seq, command_num, command
-CT_COMMAND_AT = 1648
-CT_STATUS_AT = 1672
-CT_MODE_AT = 1704
-CT_PERF_AT = 1720
+CT_COMMAND_AT = 1696
+CT_STATUS_AT = 1720
+CT_MODE_AT = 1752
+CT_PERF_AT = 1768
 
 # vg: Vehicle guidance
 VG_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-VG_COMMAND_AT = 1768
-VG_STATUS_AT = 1808
-VG_MODE_AT = 1840
-VG_PERF_AT = 1856
+VG_COMMAND_AT = 1816
+VG_STATUS_AT = 1856
+VG_MODE_AT = 1888
+VG_PERF_AT = 1904
 
 # tc: Tram
 TC_COMMAND = Struct("<QQI")  # seq, command_num, command
-TC_COMMAND_AT = 1904
-TC_STATUS_AT = 1928
-TC_MODE_AT = 1960
-TC_PERF_AT = 1976
+TC_COMMAND_AT = 1952
+TC_STATUS_AT = 1976
+TC_MODE_AT = 2008
+TC_PERF_AT = 2024
 
 # wm: World modelling (estimates from the sensors)
 WM_COMMAND = Struct("<QQI")  # seq, command_num, command
-WM_COMMAND_AT = 2024
-WM_STATUS_AT = 2048
-WM_MODE_AT = 2080
-WM_PERF_AT = 2096
+WM_COMMAND_AT = 2072
+WM_STATUS_AT = 2096
+WM_MODE_AT = 2128
+WM_PERF_AT = 2144
 
 # pp: Path planner
 PP_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-PP_COMMAND_AT = 2144
-PP_STATUS_AT = 2184
-PP_MODE_AT = 2216
-PP_PERF_AT = 2232
+PP_COMMAND_AT = 2192
+PP_STATUS_AT = 2232
+PP_MODE_AT = 2264
+PP_PERF_AT = 2280
 
 # World model.
 WORLD_TAIL_REQUEST = Struct("<Q?")  # seq, tail_request
-WORLD_TAIL_REQUEST_AT = 2280
+WORLD_TAIL_REQUEST_AT = 2328
 WORLD_TAIL_IN_POSITION = Struct("<Q?")  # seq, tail_in_position
-WORLD_TAIL_IN_POSITION_AT = 2296
+WORLD_TAIL_IN_POSITION_AT = 2344
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 2312
+WORLD_OPERATOR_DELAY_AT = 2360
 WORLD_OPERATOR_GOAL_X = Struct("<Qd")  # seq, operator_goal_x
-WORLD_OPERATOR_GOAL_X_AT = 2328
+WORLD_OPERATOR_GOAL_X_AT = 2376
 WORLD_OPERATOR_GOAL_Y = Struct("<Qd")  # seq, operator_goal_y
-WORLD_OPERATOR_GOAL_Y_AT = 2344
+WORLD_OPERATOR_GOAL_Y_AT = 2392
 WORLD_GOAL_X = Struct("<Qd")  # seq, goal_x
-WORLD_GOAL_X_AT = 2360
+WORLD_GOAL_X_AT = 2408
 WORLD_GOAL_Y = Struct("<Qd")  # seq, goal_y
-WORLD_GOAL_Y_AT = 2376
+WORLD_GOAL_Y_AT = 2424
 WORLD_PATH_OK = Struct("<Q?")  # seq, path_ok
-WORLD_PATH_OK_AT = 2392
+WORLD_PATH_OK_AT = 2440
 WORLD_WP_X = Struct("<Qd")  # seq, wp_x
-WORLD_WP_X_AT = 2408
+WORLD_WP_X_AT = 2456
 WORLD_WP_Y = Struct("<Qd")  # seq, wp_y
-WORLD_WP_Y_AT = 2424
+WORLD_WP_Y_AT = 2472
 WORLD_WP_LAST = Struct("<Q?")  # seq, wp_last
-WORLD_WP_LAST_AT = 2440
+WORLD_WP_LAST_AT = 2488
 WORLD_BOOM_RATE_CMD = Struct("<Qd")  # seq, boom_rate_cmd
-WORLD_BOOM_RATE_CMD_AT = 2456
+WORLD_BOOM_RATE_CMD_AT = 2504
 WORLD_DRUM_ON_CMD = Struct("<Q?")  # seq, drum_on_cmd
-WORLD_DRUM_ON_CMD_AT = 2472
+WORLD_DRUM_ON_CMD_AT = 2520
 WORLD_JACK_DOWN_CMD = Struct("<Q?")  # seq, jack_down_cmd
-WORLD_JACK_DOWN_CMD_AT = 2488
+WORLD_JACK_DOWN_CMD_AT = 2536
 WORLD_LEFT_TREAD_CMD = Struct("<Qq")  # seq, left_tread_cmd
-WORLD_LEFT_TREAD_CMD_AT = 2504
+WORLD_LEFT_TREAD_CMD_AT = 2552
 WORLD_RIGHT_TREAD_CMD = Struct("<Qq")  # seq, right_tread_cmd
-WORLD_RIGHT_TREAD_CMD_AT = 2520
+WORLD_RIGHT_TREAD_CMD_AT = 2568
 WORLD_PAN_FLOAT_CMD = Struct("<Q?")  # seq, pan_float_cmd
-WORLD_PAN_FLOAT_CMD_AT = 2536
+WORLD_PAN_FLOAT_CMD_AT = 2584
 WORLD_GATHER_ON_CMD = Struct("<Q?")  # seq, gather_on_cmd
-WORLD_GATHER_ON_CMD_AT = 2552
+WORLD_GATHER_ON_CMD_AT = 2600
 WORLD_CONVEYOR_ON_CMD = Struct("<Q?")  # seq, conveyor_on_cmd
-WORLD_CONVEYOR_ON_CMD_AT = 2568
+WORLD_CONVEYOR_ON_CMD_AT = 2616
 WORLD_TRUE_X = Struct("<Qd")  # seq, true_x
-WORLD_TRUE_X_AT = 2584
+WORLD_TRUE_X_AT = 2632
 WORLD_TRUE_Y = Struct("<Qd")  # seq, true_y
-WORLD_TRUE_Y_AT = 2600
+WORLD_TRUE_Y_AT = 2648
 WORLD_TRUE_HEADING = Struct("<Qd")  # seq, true_heading
-WORLD_TRUE_HEADING_AT = 2616
+WORLD_TRUE_HEADING_AT = 2664
 WORLD_BOOM_ANGLE_TRUE = Struct("<Qd")  # seq, boom_angle_true
-WORLD_BOOM_ANGLE_TRUE_AT = 2632
+WORLD_BOOM_ANGLE_TRUE_AT = 2680
 WORLD_DRUM_CURRENT_TRUE = Struct("<Qd")  # seq, drum_current_true
-WORLD_DRUM_CURRENT_TRUE_AT = 2648
+WORLD_DRUM_CURRENT_TRUE_AT = 2696
 WORLD_JACK_DOWN = Struct("<Q?")  # seq, jack_down
-WORLD_JACK_DOWN_AT = 2664
+WORLD_JACK_DOWN_AT = 2712
 WORLD_SLIP = Struct("<Qd")  # seq, slip
-WORLD_SLIP_AT = 2680
+WORLD_SLIP_AT = 2728
 WORLD_TREAD_STALLED = Struct("<Q?")  # seq, tread_stalled
-WORLD_TREAD_STALLED_AT = 2696
+WORLD_TREAD_STALLED_AT = 2744
 WORLD_POSE_X = Struct("<Qd")  # seq, pose_x
-WORLD_POSE_X_AT = 2712
+WORLD_POSE_X_AT = 2760
 WORLD_POSE_Y = Struct("<Qd")  # seq, pose_y
-WORLD_POSE_Y_AT = 2728
+WORLD_POSE_Y_AT = 2776
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 2744
+WORLD_HEADING_AT = 2792
 WORLD_BOOM_ANGLE = Struct("<Qd")  # seq, boom_angle
-WORLD_BOOM_ANGLE_AT = 2760
+WORLD_BOOM_ANGLE_AT = 2808
 WORLD_CUTTER_CURRENT = Struct("<Qd")  # seq, cutter_current
-WORLD_CUTTER_CURRENT_AT = 2776
+WORLD_CUTTER_CURRENT_AT = 2824
 WORLD_LOOSE_COAL = Struct("<Qd")  # seq, loose_coal
-WORLD_LOOSE_COAL_AT = 2792
+WORLD_LOOSE_COAL_AT = 2840
 WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 2808
+WORLD_POPPED_OUT_OF_SHEAR_AT = 2856
 WORLD_DEPTH_EST = Struct("<Qd")  # seq, depth_est
-WORLD_DEPTH_EST_AT = 2824
+WORLD_DEPTH_EST_AT = 2872
 WORLD_DRUM_REACH = Struct("<Qd")  # seq, drum_reach
-WORLD_DRUM_REACH_AT = 2840
+WORLD_DRUM_REACH_AT = 2888
 WORLD_SUMP_STEP = Struct("<Qd")  # seq, sump_step
-WORLD_SUMP_STEP_AT = 2856
+WORLD_SUMP_STEP_AT = 2904
 WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
-WORLD_IN_COAL_AT = 2872
+WORLD_IN_COAL_AT = 2920
 WORLD_FACE_X = Struct("<Qd")  # seq, face_x
-WORLD_FACE_X_AT = 2888
+WORLD_FACE_X_AT = 2936
 WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
-WORLD_DEPTH_CUT_AT = 2904
+WORLD_DEPTH_CUT_AT = 2952
 WORLD_LOOSE_COAL_TRUE = Struct("<Qd")  # seq, loose_coal_true
-WORLD_LOOSE_COAL_TRUE_AT = 2920
+WORLD_LOOSE_COAL_TRUE_AT = 2968
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
-WORLD_COAL_MINED_AT = 2936
+WORLD_COAL_MINED_AT = 2984
 WORLD_SHUTTLE_CAR_AWAY = Struct("<Q?")  # seq, shuttle_car_away
-WORLD_SHUTTLE_CAR_AWAY_AT = 2952
+WORLD_SHUTTLE_CAR_AWAY_AT = 3000
 
 
 PROCESSES = {
@@ -655,54 +655,54 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2968
-OVERRIDDEN_AT = 2976  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 3016
+OVERRIDDEN_AT = 3024  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "tail_request": Record(Struct("<QQ?"), 2984, ("state", "tail_request")),
-    "tail_in_position": Record(Struct("<QQ?"), 3008, ("state", "tail_in_position")),
-    "operator_delay": Record(Struct("<QQq"), 3032, ("state", "operator_delay")),
-    "operator_goal_x": Record(Struct("<QQd"), 3056, ("state", "operator_goal_x")),
-    "operator_goal_y": Record(Struct("<QQd"), 3080, ("state", "operator_goal_y")),
-    "goal_x": Record(Struct("<QQd"), 3104, ("state", "goal_x")),
-    "goal_y": Record(Struct("<QQd"), 3128, ("state", "goal_y")),
-    "path_ok": Record(Struct("<QQ?"), 3152, ("state", "path_ok")),
-    "wp_x": Record(Struct("<QQd"), 3176, ("state", "wp_x")),
-    "wp_y": Record(Struct("<QQd"), 3200, ("state", "wp_y")),
-    "wp_last": Record(Struct("<QQ?"), 3224, ("state", "wp_last")),
-    "boom_rate_cmd": Record(Struct("<QQd"), 3248, ("state", "boom_rate_cmd")),
-    "drum_on_cmd": Record(Struct("<QQ?"), 3272, ("state", "drum_on_cmd")),
-    "jack_down_cmd": Record(Struct("<QQ?"), 3296, ("state", "jack_down_cmd")),
-    "left_tread_cmd": Record(Struct("<QQq"), 3320, ("state", "left_tread_cmd")),
-    "right_tread_cmd": Record(Struct("<QQq"), 3344, ("state", "right_tread_cmd")),
-    "pan_float_cmd": Record(Struct("<QQ?"), 3368, ("state", "pan_float_cmd")),
-    "gather_on_cmd": Record(Struct("<QQ?"), 3392, ("state", "gather_on_cmd")),
-    "conveyor_on_cmd": Record(Struct("<QQ?"), 3416, ("state", "conveyor_on_cmd")),
-    "true_x": Record(Struct("<QQd"), 3440, ("state", "true_x")),
-    "true_y": Record(Struct("<QQd"), 3464, ("state", "true_y")),
-    "true_heading": Record(Struct("<QQd"), 3488, ("state", "true_heading")),
-    "boom_angle_true": Record(Struct("<QQd"), 3512, ("state", "boom_angle_true")),
-    "drum_current_true": Record(Struct("<QQd"), 3536, ("state", "drum_current_true")),
-    "jack_down": Record(Struct("<QQ?"), 3560, ("state", "jack_down")),
-    "slip": Record(Struct("<QQd"), 3584, ("state", "slip")),
-    "tread_stalled": Record(Struct("<QQ?"), 3608, ("state", "tread_stalled")),
-    "pose_x": Record(Struct("<QQd"), 3632, ("state", "pose_x")),
-    "pose_y": Record(Struct("<QQd"), 3656, ("state", "pose_y")),
-    "heading": Record(Struct("<QQd"), 3680, ("state", "heading")),
-    "boom_angle": Record(Struct("<QQd"), 3704, ("state", "boom_angle")),
-    "cutter_current": Record(Struct("<QQd"), 3728, ("state", "cutter_current")),
-    "loose_coal": Record(Struct("<QQd"), 3752, ("state", "loose_coal")),
-    "popped_out_of_shear": Record(Struct("<QQ?"), 3776, ("state", "popped_out_of_shear")),
-    "depth_est": Record(Struct("<QQd"), 3800, ("state", "depth_est")),
-    "drum_reach": Record(Struct("<QQd"), 3824, ("state", "drum_reach")),
-    "sump_step": Record(Struct("<QQd"), 3848, ("state", "sump_step")),
-    "in_coal": Record(Struct("<QQ?"), 3872, ("state", "in_coal")),
-    "face_x": Record(Struct("<QQd"), 3896, ("state", "face_x")),
-    "depth_cut": Record(Struct("<QQd"), 3920, ("state", "depth_cut")),
-    "loose_coal_true": Record(Struct("<QQd"), 3944, ("state", "loose_coal_true")),
-    "coal_mined": Record(Struct("<QQd"), 3968, ("state", "coal_mined")),
-    "shuttle_car_away": Record(Struct("<QQ?"), 3992, ("state", "shuttle_car_away")),
+    "tail_request": Record(Struct("<QQ?"), 3032, ("state", "tail_request")),
+    "tail_in_position": Record(Struct("<QQ?"), 3056, ("state", "tail_in_position")),
+    "operator_delay": Record(Struct("<QQq"), 3080, ("state", "operator_delay")),
+    "operator_goal_x": Record(Struct("<QQd"), 3104, ("state", "operator_goal_x")),
+    "operator_goal_y": Record(Struct("<QQd"), 3128, ("state", "operator_goal_y")),
+    "goal_x": Record(Struct("<QQd"), 3152, ("state", "goal_x")),
+    "goal_y": Record(Struct("<QQd"), 3176, ("state", "goal_y")),
+    "path_ok": Record(Struct("<QQ?"), 3200, ("state", "path_ok")),
+    "wp_x": Record(Struct("<QQd"), 3224, ("state", "wp_x")),
+    "wp_y": Record(Struct("<QQd"), 3248, ("state", "wp_y")),
+    "wp_last": Record(Struct("<QQ?"), 3272, ("state", "wp_last")),
+    "boom_rate_cmd": Record(Struct("<QQd"), 3296, ("state", "boom_rate_cmd")),
+    "drum_on_cmd": Record(Struct("<QQ?"), 3320, ("state", "drum_on_cmd")),
+    "jack_down_cmd": Record(Struct("<QQ?"), 3344, ("state", "jack_down_cmd")),
+    "left_tread_cmd": Record(Struct("<QQq"), 3368, ("state", "left_tread_cmd")),
+    "right_tread_cmd": Record(Struct("<QQq"), 3392, ("state", "right_tread_cmd")),
+    "pan_float_cmd": Record(Struct("<QQ?"), 3416, ("state", "pan_float_cmd")),
+    "gather_on_cmd": Record(Struct("<QQ?"), 3440, ("state", "gather_on_cmd")),
+    "conveyor_on_cmd": Record(Struct("<QQ?"), 3464, ("state", "conveyor_on_cmd")),
+    "true_x": Record(Struct("<QQd"), 3488, ("state", "true_x")),
+    "true_y": Record(Struct("<QQd"), 3512, ("state", "true_y")),
+    "true_heading": Record(Struct("<QQd"), 3536, ("state", "true_heading")),
+    "boom_angle_true": Record(Struct("<QQd"), 3560, ("state", "boom_angle_true")),
+    "drum_current_true": Record(Struct("<QQd"), 3584, ("state", "drum_current_true")),
+    "jack_down": Record(Struct("<QQ?"), 3608, ("state", "jack_down")),
+    "slip": Record(Struct("<QQd"), 3632, ("state", "slip")),
+    "tread_stalled": Record(Struct("<QQ?"), 3656, ("state", "tread_stalled")),
+    "pose_x": Record(Struct("<QQd"), 3680, ("state", "pose_x")),
+    "pose_y": Record(Struct("<QQd"), 3704, ("state", "pose_y")),
+    "heading": Record(Struct("<QQd"), 3728, ("state", "heading")),
+    "boom_angle": Record(Struct("<QQd"), 3752, ("state", "boom_angle")),
+    "cutter_current": Record(Struct("<QQd"), 3776, ("state", "cutter_current")),
+    "loose_coal": Record(Struct("<QQd"), 3800, ("state", "loose_coal")),
+    "popped_out_of_shear": Record(Struct("<QQ?"), 3824, ("state", "popped_out_of_shear")),
+    "depth_est": Record(Struct("<QQd"), 3848, ("state", "depth_est")),
+    "drum_reach": Record(Struct("<QQd"), 3872, ("state", "drum_reach")),
+    "sump_step": Record(Struct("<QQd"), 3896, ("state", "sump_step")),
+    "in_coal": Record(Struct("<QQ?"), 3920, ("state", "in_coal")),
+    "face_x": Record(Struct("<QQd"), 3944, ("state", "face_x")),
+    "depth_cut": Record(Struct("<QQd"), 3968, ("state", "depth_cut")),
+    "loose_coal_true": Record(Struct("<QQd"), 3992, ("state", "loose_coal_true")),
+    "coal_mined": Record(Struct("<QQd"), 4016, ("state", "coal_mined")),
+    "shuttle_car_away": Record(Struct("<QQ?"), 4040, ("state", "shuttle_car_away")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -918,8 +918,8 @@ IO_DEVICES = {
 # Each device's record: its state (rcs/io_points.py DEVICE_STATES) and counts, written by
 # the I/O module of the process that runs it.
 IO_RECORDS = {
-    "plc": Record(Struct("<Qqqqqqqqqqqq"), 4016, DEVICE_FIELDS),
-    "conveyor": Record(Struct("<Qqqqqqqqqqqq"), 4112, DEVICE_FIELDS),
+    "plc": Record(Struct("<Qqqqqqqqqqqq"), 4064, DEVICE_FIELDS),
+    "conveyor": Record(Struct("<Qqqqqqqqqqqq"), 4160, DEVICE_FIELDS),
 }
 # The controllers that read each device's inputs or write its outputs: lost with it (their
 # safe state).

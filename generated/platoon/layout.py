@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 3728 bytes.
+The block is 3800 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -18,127 +18,127 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 144 | PROCESS_COMMAND | PROCESS_FIELDS |
-| 224 | 16 | PACE_COMMAND | PACE_FIELDS |
-| 240 | 144 | PROCESS_PA | PROCESS_FIELDS |
-| 384 | 16 | PACE_PA | PACE_FIELDS |
-| 400 | 144 | PROCESS_PB | PROCESS_FIELDS |
-| 544 | 16 | PACE_PB | PACE_FIELDS |
-| 560 | 28 | PL_COMMAND | command_num, command, arg_objective |
-| 592 | 50 | PL_STATUS | STATUS_FIELDS |
-| 648 | 16 | PL_MODE | MODE_FIELDS |
-| 664 | 48 | PL_PERF | PERF_FIELDS |
-| 712 | 28 | SEC_COMMAND | command_num, command, arg_objective |
-| 744 | 59 | SEC_STATUS | STATUS_FIELDS |
-| 808 | 16 | SEC_MODE | MODE_FIELDS |
-| 824 | 48 | SEC_PERF | PERF_FIELDS |
-| 872 | 28 | ALPHA_COMMAND | command_num, command, arg_x |
-| 904 | 49 | ALPHA_STATUS | STATUS_FIELDS |
-| 960 | 16 | ALPHA_MODE | MODE_FIELDS |
-| 976 | 48 | ALPHA_PERF | PERF_FIELDS |
-| 1024 | 28 | ALPHA_LOCO_COMMAND | command_num, command, arg_goal |
-| 1056 | 40 | ALPHA_LOCO_STATUS | STATUS_FIELDS |
-| 1096 | 16 | ALPHA_LOCO_MODE | MODE_FIELDS |
-| 1112 | 48 | ALPHA_LOCO_PERF | PERF_FIELDS |
-| 1160 | 28 | ALPHA_DRIVE_COMMAND | command_num, command, arg_throttle |
-| 1192 | 32 | ALPHA_DRIVE_STATUS | STATUS_FIELDS |
-| 1224 | 16 | ALPHA_DRIVE_MODE | MODE_FIELDS |
-| 1240 | 48 | ALPHA_DRIVE_PERF | PERF_FIELDS |
-| 1288 | 20 | ALPHA_RSTA_COMMAND | command_num, command |
-| 1312 | 41 | ALPHA_RSTA_STATUS | STATUS_FIELDS |
-| 1360 | 16 | ALPHA_RSTA_MODE | MODE_FIELDS |
-| 1376 | 48 | ALPHA_RSTA_PERF | PERF_FIELDS |
-| 1424 | 28 | ALPHA_PAN_COMMAND | command_num, command, arg_bearing |
-| 1456 | 32 | ALPHA_PAN_STATUS | STATUS_FIELDS |
-| 1488 | 16 | ALPHA_PAN_MODE | MODE_FIELDS |
-| 1504 | 48 | ALPHA_PAN_PERF | PERF_FIELDS |
-| 1552 | 20 | ALPHA_MOTION_COMMAND | command_num, command |
-| 1576 | 32 | ALPHA_MOTION_STATUS | STATUS_FIELDS |
-| 1608 | 16 | ALPHA_MOTION_MODE | MODE_FIELDS |
-| 1624 | 48 | ALPHA_MOTION_PERF | PERF_FIELDS |
-| 1672 | 20 | ALPHA_SENSOR_COMMAND | command_num, command |
-| 1696 | 32 | ALPHA_SENSOR_STATUS | STATUS_FIELDS |
-| 1728 | 16 | ALPHA_SENSOR_MODE | MODE_FIELDS |
-| 1744 | 48 | ALPHA_SENSOR_PERF | PERF_FIELDS |
-| 1792 | 28 | BRAVO_COMMAND | command_num, command, arg_x |
-| 1824 | 49 | BRAVO_STATUS | STATUS_FIELDS |
-| 1880 | 16 | BRAVO_MODE | MODE_FIELDS |
-| 1896 | 48 | BRAVO_PERF | PERF_FIELDS |
-| 1944 | 28 | BRAVO_LOCO_COMMAND | command_num, command, arg_goal |
-| 1976 | 40 | BRAVO_LOCO_STATUS | STATUS_FIELDS |
-| 2016 | 16 | BRAVO_LOCO_MODE | MODE_FIELDS |
-| 2032 | 48 | BRAVO_LOCO_PERF | PERF_FIELDS |
-| 2080 | 28 | BRAVO_DRIVE_COMMAND | command_num, command, arg_throttle |
-| 2112 | 32 | BRAVO_DRIVE_STATUS | STATUS_FIELDS |
-| 2144 | 16 | BRAVO_DRIVE_MODE | MODE_FIELDS |
-| 2160 | 48 | BRAVO_DRIVE_PERF | PERF_FIELDS |
-| 2208 | 20 | BRAVO_RSTA_COMMAND | command_num, command |
-| 2232 | 41 | BRAVO_RSTA_STATUS | STATUS_FIELDS |
-| 2280 | 16 | BRAVO_RSTA_MODE | MODE_FIELDS |
-| 2296 | 48 | BRAVO_RSTA_PERF | PERF_FIELDS |
-| 2344 | 28 | BRAVO_PAN_COMMAND | command_num, command, arg_bearing |
-| 2376 | 32 | BRAVO_PAN_STATUS | STATUS_FIELDS |
-| 2408 | 16 | BRAVO_PAN_MODE | MODE_FIELDS |
-| 2424 | 48 | BRAVO_PAN_PERF | PERF_FIELDS |
-| 2472 | 20 | BRAVO_MOTION_COMMAND | command_num, command |
-| 2496 | 32 | BRAVO_MOTION_STATUS | STATUS_FIELDS |
-| 2528 | 16 | BRAVO_MOTION_MODE | MODE_FIELDS |
-| 2544 | 48 | BRAVO_MOTION_PERF | PERF_FIELDS |
-| 2592 | 20 | BRAVO_SENSOR_COMMAND | command_num, command |
-| 2616 | 32 | BRAVO_SENSOR_STATUS | STATUS_FIELDS |
-| 2648 | 16 | BRAVO_SENSOR_MODE | MODE_FIELDS |
-| 2664 | 48 | BRAVO_SENSOR_PERF | PERF_FIELDS |
-| 2712 | 9 | WORLD_ENEMY_PRESENT | enemy_present |
-| 2728 | 16 | WORLD_ENEMY_X | enemy_x |
-| 2744 | 16 | WORLD_ENEMY_Y | enemy_y |
-| 2760 | 16 | WORLD_ALPHA_X | alpha_x |
-| 2776 | 16 | WORLD_ALPHA_Y | alpha_y |
-| 2792 | 16 | WORLD_ALPHA_SPEED | alpha_speed |
-| 2808 | 16 | WORLD_ALPHA_THROTTLE | alpha_throttle |
-| 2824 | 9 | WORLD_ALPHA_BRAKE | alpha_brake |
-| 2840 | 16 | WORLD_ALPHA_STEER | alpha_steer |
-| 2856 | 16 | WORLD_ALPHA_PAN_CMD | alpha_pan_cmd |
-| 2872 | 16 | WORLD_ALPHA_PAN | alpha_pan |
-| 2888 | 9 | WORLD_ALPHA_CONTACT | alpha_contact |
-| 2904 | 16 | WORLD_ALPHA_CONTACT_X | alpha_contact_x |
-| 2920 | 9 | WORLD_ALPHA_STUCK | alpha_stuck |
-| 2936 | 16 | WORLD_BRAVO_X | bravo_x |
-| 2952 | 16 | WORLD_BRAVO_Y | bravo_y |
-| 2968 | 16 | WORLD_BRAVO_SPEED | bravo_speed |
-| 2984 | 16 | WORLD_BRAVO_THROTTLE | bravo_throttle |
-| 3000 | 9 | WORLD_BRAVO_BRAKE | bravo_brake |
-| 3016 | 16 | WORLD_BRAVO_STEER | bravo_steer |
-| 3032 | 16 | WORLD_BRAVO_PAN_CMD | bravo_pan_cmd |
-| 3048 | 16 | WORLD_BRAVO_PAN | bravo_pan |
-| 3064 | 9 | WORLD_BRAVO_CONTACT | bravo_contact |
-| 3080 | 16 | WORLD_BRAVO_CONTACT_X | bravo_contact_x |
-| 3096 | 9 | WORLD_BRAVO_STUCK | bravo_stuck |
-| 3112 | 9 | OVERRIDES | any |
-| 3128 | 17 | OVERRIDE_ENEMY_PRESENT | state, enemy_present |
-| 3152 | 24 | OVERRIDE_ENEMY_X | state, enemy_x |
-| 3176 | 24 | OVERRIDE_ENEMY_Y | state, enemy_y |
-| 3200 | 24 | OVERRIDE_ALPHA_X | state, alpha_x |
-| 3224 | 24 | OVERRIDE_ALPHA_Y | state, alpha_y |
-| 3248 | 24 | OVERRIDE_ALPHA_SPEED | state, alpha_speed |
-| 3272 | 24 | OVERRIDE_ALPHA_THROTTLE | state, alpha_throttle |
-| 3296 | 17 | OVERRIDE_ALPHA_BRAKE | state, alpha_brake |
-| 3320 | 24 | OVERRIDE_ALPHA_STEER | state, alpha_steer |
-| 3344 | 24 | OVERRIDE_ALPHA_PAN_CMD | state, alpha_pan_cmd |
-| 3368 | 24 | OVERRIDE_ALPHA_PAN | state, alpha_pan |
-| 3392 | 17 | OVERRIDE_ALPHA_CONTACT | state, alpha_contact |
-| 3416 | 24 | OVERRIDE_ALPHA_CONTACT_X | state, alpha_contact_x |
-| 3440 | 17 | OVERRIDE_ALPHA_STUCK | state, alpha_stuck |
-| 3464 | 24 | OVERRIDE_BRAVO_X | state, bravo_x |
-| 3488 | 24 | OVERRIDE_BRAVO_Y | state, bravo_y |
-| 3512 | 24 | OVERRIDE_BRAVO_SPEED | state, bravo_speed |
-| 3536 | 24 | OVERRIDE_BRAVO_THROTTLE | state, bravo_throttle |
-| 3560 | 17 | OVERRIDE_BRAVO_BRAKE | state, bravo_brake |
-| 3584 | 24 | OVERRIDE_BRAVO_STEER | state, bravo_steer |
-| 3608 | 24 | OVERRIDE_BRAVO_PAN_CMD | state, bravo_pan_cmd |
-| 3632 | 24 | OVERRIDE_BRAVO_PAN | state, bravo_pan |
-| 3656 | 17 | OVERRIDE_BRAVO_CONTACT | state, bravo_contact |
-| 3680 | 24 | OVERRIDE_BRAVO_CONTACT_X | state, bravo_contact_x |
-| 3704 | 17 | OVERRIDE_BRAVO_STUCK | state, bravo_stuck |
+| 80 | 168 | PROCESS_COMMAND | PROCESS_FIELDS |
+| 248 | 16 | PACE_COMMAND | PACE_FIELDS |
+| 264 | 168 | PROCESS_PA | PROCESS_FIELDS |
+| 432 | 16 | PACE_PA | PACE_FIELDS |
+| 448 | 168 | PROCESS_PB | PROCESS_FIELDS |
+| 616 | 16 | PACE_PB | PACE_FIELDS |
+| 632 | 28 | PL_COMMAND | command_num, command, arg_objective |
+| 664 | 50 | PL_STATUS | STATUS_FIELDS |
+| 720 | 16 | PL_MODE | MODE_FIELDS |
+| 736 | 48 | PL_PERF | PERF_FIELDS |
+| 784 | 28 | SEC_COMMAND | command_num, command, arg_objective |
+| 816 | 59 | SEC_STATUS | STATUS_FIELDS |
+| 880 | 16 | SEC_MODE | MODE_FIELDS |
+| 896 | 48 | SEC_PERF | PERF_FIELDS |
+| 944 | 28 | ALPHA_COMMAND | command_num, command, arg_x |
+| 976 | 49 | ALPHA_STATUS | STATUS_FIELDS |
+| 1032 | 16 | ALPHA_MODE | MODE_FIELDS |
+| 1048 | 48 | ALPHA_PERF | PERF_FIELDS |
+| 1096 | 28 | ALPHA_LOCO_COMMAND | command_num, command, arg_goal |
+| 1128 | 40 | ALPHA_LOCO_STATUS | STATUS_FIELDS |
+| 1168 | 16 | ALPHA_LOCO_MODE | MODE_FIELDS |
+| 1184 | 48 | ALPHA_LOCO_PERF | PERF_FIELDS |
+| 1232 | 28 | ALPHA_DRIVE_COMMAND | command_num, command, arg_throttle |
+| 1264 | 32 | ALPHA_DRIVE_STATUS | STATUS_FIELDS |
+| 1296 | 16 | ALPHA_DRIVE_MODE | MODE_FIELDS |
+| 1312 | 48 | ALPHA_DRIVE_PERF | PERF_FIELDS |
+| 1360 | 20 | ALPHA_RSTA_COMMAND | command_num, command |
+| 1384 | 41 | ALPHA_RSTA_STATUS | STATUS_FIELDS |
+| 1432 | 16 | ALPHA_RSTA_MODE | MODE_FIELDS |
+| 1448 | 48 | ALPHA_RSTA_PERF | PERF_FIELDS |
+| 1496 | 28 | ALPHA_PAN_COMMAND | command_num, command, arg_bearing |
+| 1528 | 32 | ALPHA_PAN_STATUS | STATUS_FIELDS |
+| 1560 | 16 | ALPHA_PAN_MODE | MODE_FIELDS |
+| 1576 | 48 | ALPHA_PAN_PERF | PERF_FIELDS |
+| 1624 | 20 | ALPHA_MOTION_COMMAND | command_num, command |
+| 1648 | 32 | ALPHA_MOTION_STATUS | STATUS_FIELDS |
+| 1680 | 16 | ALPHA_MOTION_MODE | MODE_FIELDS |
+| 1696 | 48 | ALPHA_MOTION_PERF | PERF_FIELDS |
+| 1744 | 20 | ALPHA_SENSOR_COMMAND | command_num, command |
+| 1768 | 32 | ALPHA_SENSOR_STATUS | STATUS_FIELDS |
+| 1800 | 16 | ALPHA_SENSOR_MODE | MODE_FIELDS |
+| 1816 | 48 | ALPHA_SENSOR_PERF | PERF_FIELDS |
+| 1864 | 28 | BRAVO_COMMAND | command_num, command, arg_x |
+| 1896 | 49 | BRAVO_STATUS | STATUS_FIELDS |
+| 1952 | 16 | BRAVO_MODE | MODE_FIELDS |
+| 1968 | 48 | BRAVO_PERF | PERF_FIELDS |
+| 2016 | 28 | BRAVO_LOCO_COMMAND | command_num, command, arg_goal |
+| 2048 | 40 | BRAVO_LOCO_STATUS | STATUS_FIELDS |
+| 2088 | 16 | BRAVO_LOCO_MODE | MODE_FIELDS |
+| 2104 | 48 | BRAVO_LOCO_PERF | PERF_FIELDS |
+| 2152 | 28 | BRAVO_DRIVE_COMMAND | command_num, command, arg_throttle |
+| 2184 | 32 | BRAVO_DRIVE_STATUS | STATUS_FIELDS |
+| 2216 | 16 | BRAVO_DRIVE_MODE | MODE_FIELDS |
+| 2232 | 48 | BRAVO_DRIVE_PERF | PERF_FIELDS |
+| 2280 | 20 | BRAVO_RSTA_COMMAND | command_num, command |
+| 2304 | 41 | BRAVO_RSTA_STATUS | STATUS_FIELDS |
+| 2352 | 16 | BRAVO_RSTA_MODE | MODE_FIELDS |
+| 2368 | 48 | BRAVO_RSTA_PERF | PERF_FIELDS |
+| 2416 | 28 | BRAVO_PAN_COMMAND | command_num, command, arg_bearing |
+| 2448 | 32 | BRAVO_PAN_STATUS | STATUS_FIELDS |
+| 2480 | 16 | BRAVO_PAN_MODE | MODE_FIELDS |
+| 2496 | 48 | BRAVO_PAN_PERF | PERF_FIELDS |
+| 2544 | 20 | BRAVO_MOTION_COMMAND | command_num, command |
+| 2568 | 32 | BRAVO_MOTION_STATUS | STATUS_FIELDS |
+| 2600 | 16 | BRAVO_MOTION_MODE | MODE_FIELDS |
+| 2616 | 48 | BRAVO_MOTION_PERF | PERF_FIELDS |
+| 2664 | 20 | BRAVO_SENSOR_COMMAND | command_num, command |
+| 2688 | 32 | BRAVO_SENSOR_STATUS | STATUS_FIELDS |
+| 2720 | 16 | BRAVO_SENSOR_MODE | MODE_FIELDS |
+| 2736 | 48 | BRAVO_SENSOR_PERF | PERF_FIELDS |
+| 2784 | 9 | WORLD_ENEMY_PRESENT | enemy_present |
+| 2800 | 16 | WORLD_ENEMY_X | enemy_x |
+| 2816 | 16 | WORLD_ENEMY_Y | enemy_y |
+| 2832 | 16 | WORLD_ALPHA_X | alpha_x |
+| 2848 | 16 | WORLD_ALPHA_Y | alpha_y |
+| 2864 | 16 | WORLD_ALPHA_SPEED | alpha_speed |
+| 2880 | 16 | WORLD_ALPHA_THROTTLE | alpha_throttle |
+| 2896 | 9 | WORLD_ALPHA_BRAKE | alpha_brake |
+| 2912 | 16 | WORLD_ALPHA_STEER | alpha_steer |
+| 2928 | 16 | WORLD_ALPHA_PAN_CMD | alpha_pan_cmd |
+| 2944 | 16 | WORLD_ALPHA_PAN | alpha_pan |
+| 2960 | 9 | WORLD_ALPHA_CONTACT | alpha_contact |
+| 2976 | 16 | WORLD_ALPHA_CONTACT_X | alpha_contact_x |
+| 2992 | 9 | WORLD_ALPHA_STUCK | alpha_stuck |
+| 3008 | 16 | WORLD_BRAVO_X | bravo_x |
+| 3024 | 16 | WORLD_BRAVO_Y | bravo_y |
+| 3040 | 16 | WORLD_BRAVO_SPEED | bravo_speed |
+| 3056 | 16 | WORLD_BRAVO_THROTTLE | bravo_throttle |
+| 3072 | 9 | WORLD_BRAVO_BRAKE | bravo_brake |
+| 3088 | 16 | WORLD_BRAVO_STEER | bravo_steer |
+| 3104 | 16 | WORLD_BRAVO_PAN_CMD | bravo_pan_cmd |
+| 3120 | 16 | WORLD_BRAVO_PAN | bravo_pan |
+| 3136 | 9 | WORLD_BRAVO_CONTACT | bravo_contact |
+| 3152 | 16 | WORLD_BRAVO_CONTACT_X | bravo_contact_x |
+| 3168 | 9 | WORLD_BRAVO_STUCK | bravo_stuck |
+| 3184 | 9 | OVERRIDES | any |
+| 3200 | 17 | OVERRIDE_ENEMY_PRESENT | state, enemy_present |
+| 3224 | 24 | OVERRIDE_ENEMY_X | state, enemy_x |
+| 3248 | 24 | OVERRIDE_ENEMY_Y | state, enemy_y |
+| 3272 | 24 | OVERRIDE_ALPHA_X | state, alpha_x |
+| 3296 | 24 | OVERRIDE_ALPHA_Y | state, alpha_y |
+| 3320 | 24 | OVERRIDE_ALPHA_SPEED | state, alpha_speed |
+| 3344 | 24 | OVERRIDE_ALPHA_THROTTLE | state, alpha_throttle |
+| 3368 | 17 | OVERRIDE_ALPHA_BRAKE | state, alpha_brake |
+| 3392 | 24 | OVERRIDE_ALPHA_STEER | state, alpha_steer |
+| 3416 | 24 | OVERRIDE_ALPHA_PAN_CMD | state, alpha_pan_cmd |
+| 3440 | 24 | OVERRIDE_ALPHA_PAN | state, alpha_pan |
+| 3464 | 17 | OVERRIDE_ALPHA_CONTACT | state, alpha_contact |
+| 3488 | 24 | OVERRIDE_ALPHA_CONTACT_X | state, alpha_contact_x |
+| 3512 | 17 | OVERRIDE_ALPHA_STUCK | state, alpha_stuck |
+| 3536 | 24 | OVERRIDE_BRAVO_X | state, bravo_x |
+| 3560 | 24 | OVERRIDE_BRAVO_Y | state, bravo_y |
+| 3584 | 24 | OVERRIDE_BRAVO_SPEED | state, bravo_speed |
+| 3608 | 24 | OVERRIDE_BRAVO_THROTTLE | state, bravo_throttle |
+| 3632 | 17 | OVERRIDE_BRAVO_BRAKE | state, bravo_brake |
+| 3656 | 24 | OVERRIDE_BRAVO_STEER | state, bravo_steer |
+| 3680 | 24 | OVERRIDE_BRAVO_PAN_CMD | state, bravo_pan_cmd |
+| 3704 | 24 | OVERRIDE_BRAVO_PAN | state, bravo_pan |
+| 3728 | 17 | OVERRIDE_BRAVO_CONTACT | state, bravo_contact |
+| 3752 | 24 | OVERRIDE_BRAVO_CONTACT_X | state, bravo_contact_x |
+| 3776 | 17 | OVERRIDE_BRAVO_STUCK | state, bravo_stuck |
 """
 
 from __future__ import annotations
@@ -167,199 +167,199 @@ from .rcs.contract import (
 
 SYSTEM = "platoon"
 SOURCE = "platoon/system.yaml"
-SIZE = 3728
+SIZE = 3800
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "8dde45f93685f17dd2eb5eb096fa4734"
+LAYOUT_HASH = "d70febbf81ea631a44d6039778010265"
 PROCESS_COMMAND_AT = 80
-PACE_COMMAND_AT = 224
-PROCESS_PA_AT = 240
-PACE_PA_AT = 384
-PROCESS_PB_AT = 400
-PACE_PB_AT = 544
+PACE_COMMAND_AT = 248
+PROCESS_PA_AT = 264
+PACE_PA_AT = 432
+PROCESS_PB_AT = 448
+PACE_PB_AT = 616
 
 # pl: Platoon
 PL_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_objective
-PL_COMMAND_AT = 560
+PL_COMMAND_AT = 632
 PL_STATUS = Struct(
     "<QQIIii?d?Q"
 )  # seq, status_num, status, error_num, state, rule, result_mission_changed, result_enemy_x, result_alone, cause
-PL_STATUS_AT = 592
-PL_MODE_AT = 648
-PL_PERF_AT = 664
+PL_STATUS_AT = 664
+PL_MODE_AT = 720
+PL_PERF_AT = 736
 
 # sec: Section
 SEC_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_objective
-SEC_COMMAND_AT = 712
+SEC_COMMAND_AT = 784
 SEC_STATUS = Struct(
     "<QQIIii?d??qQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, result_in_cover, result_alone, result_reports, cause
-SEC_STATUS_AT = 744
-SEC_MODE_AT = 808
-SEC_PERF_AT = 824
+SEC_STATUS_AT = 816
+SEC_MODE_AT = 880
+SEC_PERF_AT = 896
 
 # alpha: Vehicle Alpha (George, the left corridor)
 ALPHA_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_x
-ALPHA_COMMAND_AT = 872
+ALPHA_COMMAND_AT = 944
 ALPHA_STATUS = Struct(
     "<QQIIii?dQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, cause
-ALPHA_STATUS_AT = 904
-ALPHA_MODE_AT = 960
-ALPHA_PERF_AT = 976
+ALPHA_STATUS_AT = 976
+ALPHA_MODE_AT = 1032
+ALPHA_PERF_AT = 1048
 
 # alpha_loco: Locomotion (alpha)
 ALPHA_LOCO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_goal
-ALPHA_LOCO_COMMAND_AT = 1024
+ALPHA_LOCO_COMMAND_AT = 1096
 ALPHA_LOCO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-ALPHA_LOCO_STATUS_AT = 1056
-ALPHA_LOCO_MODE_AT = 1096
-ALPHA_LOCO_PERF_AT = 1112
+ALPHA_LOCO_STATUS_AT = 1128
+ALPHA_LOCO_MODE_AT = 1168
+ALPHA_LOCO_PERF_AT = 1184
 
 # alpha_drive: Locomotion servo (steering, throttle, brakes) (alpha)
 ALPHA_DRIVE_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_throttle
-ALPHA_DRIVE_COMMAND_AT = 1160
-ALPHA_DRIVE_STATUS_AT = 1192
-ALPHA_DRIVE_MODE_AT = 1224
-ALPHA_DRIVE_PERF_AT = 1240
+ALPHA_DRIVE_COMMAND_AT = 1232
+ALPHA_DRIVE_STATUS_AT = 1264
+ALPHA_DRIVE_MODE_AT = 1296
+ALPHA_DRIVE_PERF_AT = 1312
 
 # alpha_rsta: RSTA mission package (alpha)
 ALPHA_RSTA_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_RSTA_COMMAND_AT = 1288
+ALPHA_RSTA_COMMAND_AT = 1360
 ALPHA_RSTA_STATUS = Struct(
     "<QQIIii?d"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x
-ALPHA_RSTA_STATUS_AT = 1312
-ALPHA_RSTA_MODE_AT = 1360
-ALPHA_RSTA_PERF_AT = 1376
+ALPHA_RSTA_STATUS_AT = 1384
+ALPHA_RSTA_MODE_AT = 1432
+ALPHA_RSTA_PERF_AT = 1448
 
 # alpha_pan: Sensor pointing servo (alpha)
 ALPHA_PAN_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_bearing
-ALPHA_PAN_COMMAND_AT = 1424
-ALPHA_PAN_STATUS_AT = 1456
-ALPHA_PAN_MODE_AT = 1488
-ALPHA_PAN_PERF_AT = 1504
+ALPHA_PAN_COMMAND_AT = 1496
+ALPHA_PAN_STATUS_AT = 1528
+ALPHA_PAN_MODE_AT = 1560
+ALPHA_PAN_PERF_AT = 1576
 
 # alpha_motion: Vehicle dynamics (simulated) (alpha)
 ALPHA_MOTION_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_MOTION_COMMAND_AT = 1552
-ALPHA_MOTION_STATUS_AT = 1576
-ALPHA_MOTION_MODE_AT = 1608
-ALPHA_MOTION_PERF_AT = 1624
+ALPHA_MOTION_COMMAND_AT = 1624
+ALPHA_MOTION_STATUS_AT = 1648
+ALPHA_MOTION_MODE_AT = 1680
+ALPHA_MOTION_PERF_AT = 1696
 
 # alpha_sensor: Sensor head (simulated) (alpha)
 ALPHA_SENSOR_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_SENSOR_COMMAND_AT = 1672
-ALPHA_SENSOR_STATUS_AT = 1696
-ALPHA_SENSOR_MODE_AT = 1728
-ALPHA_SENSOR_PERF_AT = 1744
+ALPHA_SENSOR_COMMAND_AT = 1744
+ALPHA_SENSOR_STATUS_AT = 1768
+ALPHA_SENSOR_MODE_AT = 1800
+ALPHA_SENSOR_PERF_AT = 1816
 
 # bravo: Vehicle Bravo (Jerry, the right corridor)
 BRAVO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_x
-BRAVO_COMMAND_AT = 1792
+BRAVO_COMMAND_AT = 1864
 BRAVO_STATUS = Struct(
     "<QQIIii?dQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, cause
-BRAVO_STATUS_AT = 1824
-BRAVO_MODE_AT = 1880
-BRAVO_PERF_AT = 1896
+BRAVO_STATUS_AT = 1896
+BRAVO_MODE_AT = 1952
+BRAVO_PERF_AT = 1968
 
 # bravo_loco: Locomotion (bravo)
 BRAVO_LOCO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_goal
-BRAVO_LOCO_COMMAND_AT = 1944
+BRAVO_LOCO_COMMAND_AT = 2016
 BRAVO_LOCO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-BRAVO_LOCO_STATUS_AT = 1976
-BRAVO_LOCO_MODE_AT = 2016
-BRAVO_LOCO_PERF_AT = 2032
+BRAVO_LOCO_STATUS_AT = 2048
+BRAVO_LOCO_MODE_AT = 2088
+BRAVO_LOCO_PERF_AT = 2104
 
 # bravo_drive: Locomotion servo (steering, throttle, brakes) (bravo)
 BRAVO_DRIVE_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_throttle
-BRAVO_DRIVE_COMMAND_AT = 2080
-BRAVO_DRIVE_STATUS_AT = 2112
-BRAVO_DRIVE_MODE_AT = 2144
-BRAVO_DRIVE_PERF_AT = 2160
+BRAVO_DRIVE_COMMAND_AT = 2152
+BRAVO_DRIVE_STATUS_AT = 2184
+BRAVO_DRIVE_MODE_AT = 2216
+BRAVO_DRIVE_PERF_AT = 2232
 
 # bravo_rsta: RSTA mission package (bravo)
 BRAVO_RSTA_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_RSTA_COMMAND_AT = 2208
+BRAVO_RSTA_COMMAND_AT = 2280
 BRAVO_RSTA_STATUS = Struct(
     "<QQIIii?d"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x
-BRAVO_RSTA_STATUS_AT = 2232
-BRAVO_RSTA_MODE_AT = 2280
-BRAVO_RSTA_PERF_AT = 2296
+BRAVO_RSTA_STATUS_AT = 2304
+BRAVO_RSTA_MODE_AT = 2352
+BRAVO_RSTA_PERF_AT = 2368
 
 # bravo_pan: Sensor pointing servo (bravo)
 BRAVO_PAN_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_bearing
-BRAVO_PAN_COMMAND_AT = 2344
-BRAVO_PAN_STATUS_AT = 2376
-BRAVO_PAN_MODE_AT = 2408
-BRAVO_PAN_PERF_AT = 2424
+BRAVO_PAN_COMMAND_AT = 2416
+BRAVO_PAN_STATUS_AT = 2448
+BRAVO_PAN_MODE_AT = 2480
+BRAVO_PAN_PERF_AT = 2496
 
 # bravo_motion: Vehicle dynamics (simulated) (bravo)
 BRAVO_MOTION_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_MOTION_COMMAND_AT = 2472
-BRAVO_MOTION_STATUS_AT = 2496
-BRAVO_MOTION_MODE_AT = 2528
-BRAVO_MOTION_PERF_AT = 2544
+BRAVO_MOTION_COMMAND_AT = 2544
+BRAVO_MOTION_STATUS_AT = 2568
+BRAVO_MOTION_MODE_AT = 2600
+BRAVO_MOTION_PERF_AT = 2616
 
 # bravo_sensor: Sensor head (simulated) (bravo)
 BRAVO_SENSOR_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_SENSOR_COMMAND_AT = 2592
-BRAVO_SENSOR_STATUS_AT = 2616
-BRAVO_SENSOR_MODE_AT = 2648
-BRAVO_SENSOR_PERF_AT = 2664
+BRAVO_SENSOR_COMMAND_AT = 2664
+BRAVO_SENSOR_STATUS_AT = 2688
+BRAVO_SENSOR_MODE_AT = 2720
+BRAVO_SENSOR_PERF_AT = 2736
 
 # World model.
 WORLD_ENEMY_PRESENT = Struct("<Q?")  # seq, enemy_present
-WORLD_ENEMY_PRESENT_AT = 2712
+WORLD_ENEMY_PRESENT_AT = 2784
 WORLD_ENEMY_X = Struct("<Qd")  # seq, enemy_x
-WORLD_ENEMY_X_AT = 2728
+WORLD_ENEMY_X_AT = 2800
 WORLD_ENEMY_Y = Struct("<Qd")  # seq, enemy_y
-WORLD_ENEMY_Y_AT = 2744
+WORLD_ENEMY_Y_AT = 2816
 WORLD_ALPHA_X = Struct("<Qd")  # seq, alpha_x
-WORLD_ALPHA_X_AT = 2760
+WORLD_ALPHA_X_AT = 2832
 WORLD_ALPHA_Y = Struct("<Qd")  # seq, alpha_y
-WORLD_ALPHA_Y_AT = 2776
+WORLD_ALPHA_Y_AT = 2848
 WORLD_ALPHA_SPEED = Struct("<Qd")  # seq, alpha_speed
-WORLD_ALPHA_SPEED_AT = 2792
+WORLD_ALPHA_SPEED_AT = 2864
 WORLD_ALPHA_THROTTLE = Struct("<Qd")  # seq, alpha_throttle
-WORLD_ALPHA_THROTTLE_AT = 2808
+WORLD_ALPHA_THROTTLE_AT = 2880
 WORLD_ALPHA_BRAKE = Struct("<Q?")  # seq, alpha_brake
-WORLD_ALPHA_BRAKE_AT = 2824
+WORLD_ALPHA_BRAKE_AT = 2896
 WORLD_ALPHA_STEER = Struct("<Qd")  # seq, alpha_steer
-WORLD_ALPHA_STEER_AT = 2840
+WORLD_ALPHA_STEER_AT = 2912
 WORLD_ALPHA_PAN_CMD = Struct("<Qd")  # seq, alpha_pan_cmd
-WORLD_ALPHA_PAN_CMD_AT = 2856
+WORLD_ALPHA_PAN_CMD_AT = 2928
 WORLD_ALPHA_PAN = Struct("<Qd")  # seq, alpha_pan
-WORLD_ALPHA_PAN_AT = 2872
+WORLD_ALPHA_PAN_AT = 2944
 WORLD_ALPHA_CONTACT = Struct("<Q?")  # seq, alpha_contact
-WORLD_ALPHA_CONTACT_AT = 2888
+WORLD_ALPHA_CONTACT_AT = 2960
 WORLD_ALPHA_CONTACT_X = Struct("<Qd")  # seq, alpha_contact_x
-WORLD_ALPHA_CONTACT_X_AT = 2904
+WORLD_ALPHA_CONTACT_X_AT = 2976
 WORLD_ALPHA_STUCK = Struct("<Q?")  # seq, alpha_stuck
-WORLD_ALPHA_STUCK_AT = 2920
+WORLD_ALPHA_STUCK_AT = 2992
 WORLD_BRAVO_X = Struct("<Qd")  # seq, bravo_x
-WORLD_BRAVO_X_AT = 2936
+WORLD_BRAVO_X_AT = 3008
 WORLD_BRAVO_Y = Struct("<Qd")  # seq, bravo_y
-WORLD_BRAVO_Y_AT = 2952
+WORLD_BRAVO_Y_AT = 3024
 WORLD_BRAVO_SPEED = Struct("<Qd")  # seq, bravo_speed
-WORLD_BRAVO_SPEED_AT = 2968
+WORLD_BRAVO_SPEED_AT = 3040
 WORLD_BRAVO_THROTTLE = Struct("<Qd")  # seq, bravo_throttle
-WORLD_BRAVO_THROTTLE_AT = 2984
+WORLD_BRAVO_THROTTLE_AT = 3056
 WORLD_BRAVO_BRAKE = Struct("<Q?")  # seq, bravo_brake
-WORLD_BRAVO_BRAKE_AT = 3000
+WORLD_BRAVO_BRAKE_AT = 3072
 WORLD_BRAVO_STEER = Struct("<Qd")  # seq, bravo_steer
-WORLD_BRAVO_STEER_AT = 3016
+WORLD_BRAVO_STEER_AT = 3088
 WORLD_BRAVO_PAN_CMD = Struct("<Qd")  # seq, bravo_pan_cmd
-WORLD_BRAVO_PAN_CMD_AT = 3032
+WORLD_BRAVO_PAN_CMD_AT = 3104
 WORLD_BRAVO_PAN = Struct("<Qd")  # seq, bravo_pan
-WORLD_BRAVO_PAN_AT = 3048
+WORLD_BRAVO_PAN_AT = 3120
 WORLD_BRAVO_CONTACT = Struct("<Q?")  # seq, bravo_contact
-WORLD_BRAVO_CONTACT_AT = 3064
+WORLD_BRAVO_CONTACT_AT = 3136
 WORLD_BRAVO_CONTACT_X = Struct("<Qd")  # seq, bravo_contact_x
-WORLD_BRAVO_CONTACT_X_AT = 3080
+WORLD_BRAVO_CONTACT_X_AT = 3152
 WORLD_BRAVO_STUCK = Struct("<Q?")  # seq, bravo_stuck
-WORLD_BRAVO_STUCK_AT = 3096
+WORLD_BRAVO_STUCK_AT = 3168
 
 
 PROCESSES = {
@@ -664,36 +664,36 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 3112
-OVERRIDDEN_AT = 3120  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 3184
+OVERRIDDEN_AT = 3192  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "enemy_present": Record(Struct("<QQ?"), 3128, ("state", "enemy_present")),
-    "enemy_x": Record(Struct("<QQd"), 3152, ("state", "enemy_x")),
-    "enemy_y": Record(Struct("<QQd"), 3176, ("state", "enemy_y")),
-    "alpha_x": Record(Struct("<QQd"), 3200, ("state", "alpha_x")),
-    "alpha_y": Record(Struct("<QQd"), 3224, ("state", "alpha_y")),
-    "alpha_speed": Record(Struct("<QQd"), 3248, ("state", "alpha_speed")),
-    "alpha_throttle": Record(Struct("<QQd"), 3272, ("state", "alpha_throttle")),
-    "alpha_brake": Record(Struct("<QQ?"), 3296, ("state", "alpha_brake")),
-    "alpha_steer": Record(Struct("<QQd"), 3320, ("state", "alpha_steer")),
-    "alpha_pan_cmd": Record(Struct("<QQd"), 3344, ("state", "alpha_pan_cmd")),
-    "alpha_pan": Record(Struct("<QQd"), 3368, ("state", "alpha_pan")),
-    "alpha_contact": Record(Struct("<QQ?"), 3392, ("state", "alpha_contact")),
-    "alpha_contact_x": Record(Struct("<QQd"), 3416, ("state", "alpha_contact_x")),
-    "alpha_stuck": Record(Struct("<QQ?"), 3440, ("state", "alpha_stuck")),
-    "bravo_x": Record(Struct("<QQd"), 3464, ("state", "bravo_x")),
-    "bravo_y": Record(Struct("<QQd"), 3488, ("state", "bravo_y")),
-    "bravo_speed": Record(Struct("<QQd"), 3512, ("state", "bravo_speed")),
-    "bravo_throttle": Record(Struct("<QQd"), 3536, ("state", "bravo_throttle")),
-    "bravo_brake": Record(Struct("<QQ?"), 3560, ("state", "bravo_brake")),
-    "bravo_steer": Record(Struct("<QQd"), 3584, ("state", "bravo_steer")),
-    "bravo_pan_cmd": Record(Struct("<QQd"), 3608, ("state", "bravo_pan_cmd")),
-    "bravo_pan": Record(Struct("<QQd"), 3632, ("state", "bravo_pan")),
-    "bravo_contact": Record(Struct("<QQ?"), 3656, ("state", "bravo_contact")),
-    "bravo_contact_x": Record(Struct("<QQd"), 3680, ("state", "bravo_contact_x")),
-    "bravo_stuck": Record(Struct("<QQ?"), 3704, ("state", "bravo_stuck")),
+    "enemy_present": Record(Struct("<QQ?"), 3200, ("state", "enemy_present")),
+    "enemy_x": Record(Struct("<QQd"), 3224, ("state", "enemy_x")),
+    "enemy_y": Record(Struct("<QQd"), 3248, ("state", "enemy_y")),
+    "alpha_x": Record(Struct("<QQd"), 3272, ("state", "alpha_x")),
+    "alpha_y": Record(Struct("<QQd"), 3296, ("state", "alpha_y")),
+    "alpha_speed": Record(Struct("<QQd"), 3320, ("state", "alpha_speed")),
+    "alpha_throttle": Record(Struct("<QQd"), 3344, ("state", "alpha_throttle")),
+    "alpha_brake": Record(Struct("<QQ?"), 3368, ("state", "alpha_brake")),
+    "alpha_steer": Record(Struct("<QQd"), 3392, ("state", "alpha_steer")),
+    "alpha_pan_cmd": Record(Struct("<QQd"), 3416, ("state", "alpha_pan_cmd")),
+    "alpha_pan": Record(Struct("<QQd"), 3440, ("state", "alpha_pan")),
+    "alpha_contact": Record(Struct("<QQ?"), 3464, ("state", "alpha_contact")),
+    "alpha_contact_x": Record(Struct("<QQd"), 3488, ("state", "alpha_contact_x")),
+    "alpha_stuck": Record(Struct("<QQ?"), 3512, ("state", "alpha_stuck")),
+    "bravo_x": Record(Struct("<QQd"), 3536, ("state", "bravo_x")),
+    "bravo_y": Record(Struct("<QQd"), 3560, ("state", "bravo_y")),
+    "bravo_speed": Record(Struct("<QQd"), 3584, ("state", "bravo_speed")),
+    "bravo_throttle": Record(Struct("<QQd"), 3608, ("state", "bravo_throttle")),
+    "bravo_brake": Record(Struct("<QQ?"), 3632, ("state", "bravo_brake")),
+    "bravo_steer": Record(Struct("<QQd"), 3656, ("state", "bravo_steer")),
+    "bravo_pan_cmd": Record(Struct("<QQd"), 3680, ("state", "bravo_pan_cmd")),
+    "bravo_pan": Record(Struct("<QQd"), 3704, ("state", "bravo_pan")),
+    "bravo_contact": Record(Struct("<QQ?"), 3728, ("state", "bravo_contact")),
+    "bravo_contact_x": Record(Struct("<QQd"), 3752, ("state", "bravo_contact_x")),
+    "bravo_stuck": Record(Struct("<QQ?"), 3776, ("state", "bravo_stuck")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.

@@ -61,11 +61,11 @@ EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1292xd")
-INPUTS_AT = 240
+INPUTS_AT = 264
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 240
+SEQS_AT = 264
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

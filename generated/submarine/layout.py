@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2592 bytes.
+The block is 2616 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -18,103 +18,103 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 144 | PROCESS_SHIP | PROCESS_FIELDS |
-| 224 | 16 | PACE_SHIP | PACE_FIELDS |
-| 240 | 20 | CC_COMMAND | command_num, command |
-| 264 | 64 | CC_STATUS | STATUS_FIELDS |
-| 328 | 16 | CC_MODE | MODE_FIELDS |
-| 344 | 48 | CC_PERF | PERF_FIELDS |
-| 392 | 36 | SM_COMMAND | command_num, command, arg_x, arg_y |
-| 432 | 40 | SM_STATUS | STATUS_FIELDS |
-| 472 | 16 | SM_MODE | MODE_FIELDS |
-| 488 | 48 | SM_PERF | PERF_FIELDS |
-| 536 | 20 | EC_COMMAND | command_num, command |
-| 560 | 32 | EC_STATUS | STATUS_FIELDS |
-| 592 | 16 | EC_MODE | MODE_FIELDS |
-| 608 | 48 | EC_PERF | PERF_FIELDS |
-| 656 | 36 | HELM_COMMAND | command_num, command, arg_x, arg_y |
-| 696 | 41 | HELM_STATUS | STATUS_FIELDS |
-| 744 | 16 | HELM_MODE | MODE_FIELDS |
-| 760 | 48 | HELM_PERF | PERF_FIELDS |
-| 808 | 28 | RUDDER_COMMAND | command_num, command, arg_angle |
-| 840 | 32 | RUDDER_STATUS | STATUS_FIELDS |
-| 872 | 16 | RUDDER_MODE | MODE_FIELDS |
-| 888 | 48 | RUDDER_PERF | PERF_FIELDS |
-| 936 | 20 | RUDDER_SIM_COMMAND | command_num, command |
-| 960 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
-| 992 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
-| 1008 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
-| 1056 | 20 | SHIP_COMMAND | command_num, command |
-| 1080 | 32 | SHIP_STATUS | STATUS_FIELDS |
-| 1112 | 16 | SHIP_MODE | MODE_FIELDS |
-| 1128 | 48 | SHIP_PERF | PERF_FIELDS |
-| 1176 | 20 | SONAR_COMMAND | command_num, command |
-| 1200 | 32 | SONAR_STATUS | STATUS_FIELDS |
-| 1232 | 16 | SONAR_MODE | MODE_FIELDS |
-| 1248 | 48 | SONAR_PERF | PERF_FIELDS |
-| 1296 | 20 | ATMOSPHERE_COMMAND | command_num, command |
-| 1320 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
-| 1352 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
-| 1368 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
-| 1416 | 16 | WORLD_SPEED_CMD | speed_cmd |
-| 1432 | 16 | WORLD_DEPTH_CMD | depth_cmd |
-| 1448 | 16 | WORLD_COURSE | course |
-| 1464 | 16 | WORLD_VENT_FLOW | vent_flow |
-| 1480 | 16 | WORLD_POS_X | pos_x |
-| 1496 | 16 | WORLD_POS_Y | pos_y |
-| 1512 | 16 | WORLD_HEADING | heading |
-| 1528 | 16 | WORLD_SPEED | speed |
-| 1544 | 16 | WORLD_DEPTH | depth |
-| 1560 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 1576 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 1592 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 1608 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 1624 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 1640 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 1656 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 1672 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 1688 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 1704 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 1720 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 1736 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 1752 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 1768 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 1784 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 1800 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 1816 | 16 | WORLD_CLEARANCE | clearance |
-| 1832 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 1848 | 9 | WORLD_FIRE | fire |
-| 1864 | 16 | WORLD_CO_PPM | co_ppm |
-| 1880 | 9 | OVERRIDES | any |
-| 1896 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 1920 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 1944 | 24 | OVERRIDE_COURSE | state, course |
-| 1968 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 1992 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 2016 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 2040 | 24 | OVERRIDE_HEADING | state, heading |
-| 2064 | 24 | OVERRIDE_SPEED | state, speed |
-| 2088 | 24 | OVERRIDE_DEPTH | state, depth |
-| 2112 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 2136 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 2160 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 2184 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 2208 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 2232 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 2256 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 2280 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 2304 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 2328 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 2352 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 2376 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 2400 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 2424 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 2448 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 2472 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 2496 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 2520 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 2544 | 17 | OVERRIDE_FIRE | state, fire |
-| 2568 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 80 | 168 | PROCESS_SHIP | PROCESS_FIELDS |
+| 248 | 16 | PACE_SHIP | PACE_FIELDS |
+| 264 | 20 | CC_COMMAND | command_num, command |
+| 288 | 64 | CC_STATUS | STATUS_FIELDS |
+| 352 | 16 | CC_MODE | MODE_FIELDS |
+| 368 | 48 | CC_PERF | PERF_FIELDS |
+| 416 | 36 | SM_COMMAND | command_num, command, arg_x, arg_y |
+| 456 | 40 | SM_STATUS | STATUS_FIELDS |
+| 496 | 16 | SM_MODE | MODE_FIELDS |
+| 512 | 48 | SM_PERF | PERF_FIELDS |
+| 560 | 20 | EC_COMMAND | command_num, command |
+| 584 | 32 | EC_STATUS | STATUS_FIELDS |
+| 616 | 16 | EC_MODE | MODE_FIELDS |
+| 632 | 48 | EC_PERF | PERF_FIELDS |
+| 680 | 36 | HELM_COMMAND | command_num, command, arg_x, arg_y |
+| 720 | 41 | HELM_STATUS | STATUS_FIELDS |
+| 768 | 16 | HELM_MODE | MODE_FIELDS |
+| 784 | 48 | HELM_PERF | PERF_FIELDS |
+| 832 | 28 | RUDDER_COMMAND | command_num, command, arg_angle |
+| 864 | 32 | RUDDER_STATUS | STATUS_FIELDS |
+| 896 | 16 | RUDDER_MODE | MODE_FIELDS |
+| 912 | 48 | RUDDER_PERF | PERF_FIELDS |
+| 960 | 20 | RUDDER_SIM_COMMAND | command_num, command |
+| 984 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
+| 1016 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
+| 1032 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
+| 1080 | 20 | SHIP_COMMAND | command_num, command |
+| 1104 | 32 | SHIP_STATUS | STATUS_FIELDS |
+| 1136 | 16 | SHIP_MODE | MODE_FIELDS |
+| 1152 | 48 | SHIP_PERF | PERF_FIELDS |
+| 1200 | 20 | SONAR_COMMAND | command_num, command |
+| 1224 | 32 | SONAR_STATUS | STATUS_FIELDS |
+| 1256 | 16 | SONAR_MODE | MODE_FIELDS |
+| 1272 | 48 | SONAR_PERF | PERF_FIELDS |
+| 1320 | 20 | ATMOSPHERE_COMMAND | command_num, command |
+| 1344 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
+| 1376 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
+| 1392 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
+| 1440 | 16 | WORLD_SPEED_CMD | speed_cmd |
+| 1456 | 16 | WORLD_DEPTH_CMD | depth_cmd |
+| 1472 | 16 | WORLD_COURSE | course |
+| 1488 | 16 | WORLD_VENT_FLOW | vent_flow |
+| 1504 | 16 | WORLD_POS_X | pos_x |
+| 1520 | 16 | WORLD_POS_Y | pos_y |
+| 1536 | 16 | WORLD_HEADING | heading |
+| 1552 | 16 | WORLD_SPEED | speed |
+| 1568 | 16 | WORLD_DEPTH | depth |
+| 1584 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 1600 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 1616 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 1632 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 1648 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 1664 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 1680 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 1696 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 1712 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 1728 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 1744 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 1760 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 1776 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 1792 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 1808 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 1824 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 1840 | 16 | WORLD_CLEARANCE | clearance |
+| 1856 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 1872 | 9 | WORLD_FIRE | fire |
+| 1888 | 16 | WORLD_CO_PPM | co_ppm |
+| 1904 | 9 | OVERRIDES | any |
+| 1920 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 1944 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 1968 | 24 | OVERRIDE_COURSE | state, course |
+| 1992 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 2016 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 2040 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 2064 | 24 | OVERRIDE_HEADING | state, heading |
+| 2088 | 24 | OVERRIDE_SPEED | state, speed |
+| 2112 | 24 | OVERRIDE_DEPTH | state, depth |
+| 2136 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 2160 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 2184 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 2208 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 2232 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 2256 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 2280 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 2304 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 2328 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 2352 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 2376 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 2400 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 2424 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 2448 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 2472 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 2496 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 2520 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 2544 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 2568 | 17 | OVERRIDE_FIRE | state, fire |
+| 2592 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
 """
 
 from __future__ import annotations
@@ -143,141 +143,141 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 2592
+SIZE = 2616
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "aa9555c6c76d90e1a580e44ddad14d87"
+LAYOUT_HASH = "0e80632f5e46fa7cc8056cc7a5d2cb08"
 PROCESS_SHIP_AT = 80
-PACE_SHIP_AT = 224
+PACE_SHIP_AT = 248
 
 # cc: Command controller
 CC_COMMAND = Struct("<QQI")  # seq, command_num, command
-CC_COMMAND_AT = 240
+CC_COMMAND_AT = 264
 CC_STATUS = Struct(
     "<QQIIiiqqqQ"
 )  # seq, status_num, status, error_num, state, rule, plan_route_step, plan_route_steps, plan_route_replans_left, cause
-CC_STATUS_AT = 264
-CC_MODE_AT = 328
-CC_PERF_AT = 344
+CC_STATUS_AT = 288
+CC_MODE_AT = 352
+CC_PERF_AT = 368
 
 # sm: Ship maneuver
 SM_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-SM_COMMAND_AT = 392
+SM_COMMAND_AT = 416
 SM_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-SM_STATUS_AT = 432
-SM_MODE_AT = 472
-SM_PERF_AT = 488
+SM_STATUS_AT = 456
+SM_MODE_AT = 496
+SM_PERF_AT = 512
 
 # ec: Engineering system controller
 EC_COMMAND = Struct("<QQI")  # seq, command_num, command
-EC_COMMAND_AT = 536
-EC_STATUS_AT = 560
-EC_MODE_AT = 592
-EC_PERF_AT = 608
+EC_COMMAND_AT = 560
+EC_STATUS_AT = 584
+EC_MODE_AT = 616
+EC_PERF_AT = 632
 
 # helm: Helm
 HELM_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-HELM_COMMAND_AT = 656
+HELM_COMMAND_AT = 680
 HELM_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_at_goal, cause
-HELM_STATUS_AT = 696
-HELM_MODE_AT = 744
-HELM_PERF_AT = 760
+HELM_STATUS_AT = 720
+HELM_MODE_AT = 768
+HELM_PERF_AT = 784
 
 # rudder: Rudder
 RUDDER_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_angle
-RUDDER_COMMAND_AT = 808
-RUDDER_STATUS_AT = 840
-RUDDER_MODE_AT = 872
-RUDDER_PERF_AT = 888
+RUDDER_COMMAND_AT = 832
+RUDDER_STATUS_AT = 864
+RUDDER_MODE_AT = 896
+RUDDER_PERF_AT = 912
 
 # rudder_sim: Rudder (simulated)
 RUDDER_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-RUDDER_SIM_COMMAND_AT = 936
-RUDDER_SIM_STATUS_AT = 960
-RUDDER_SIM_MODE_AT = 992
-RUDDER_SIM_PERF_AT = 1008
+RUDDER_SIM_COMMAND_AT = 960
+RUDDER_SIM_STATUS_AT = 984
+RUDDER_SIM_MODE_AT = 1016
+RUDDER_SIM_PERF_AT = 1032
 
 # ship: Ship dynamics (simulated)
 SHIP_COMMAND = Struct("<QQI")  # seq, command_num, command
-SHIP_COMMAND_AT = 1056
-SHIP_STATUS_AT = 1080
-SHIP_MODE_AT = 1112
-SHIP_PERF_AT = 1128
+SHIP_COMMAND_AT = 1080
+SHIP_STATUS_AT = 1104
+SHIP_MODE_AT = 1136
+SHIP_PERF_AT = 1152
 
 # sonar: Sonar and ice (simulated)
 SONAR_COMMAND = Struct("<QQI")  # seq, command_num, command
-SONAR_COMMAND_AT = 1176
-SONAR_STATUS_AT = 1200
-SONAR_MODE_AT = 1232
-SONAR_PERF_AT = 1248
+SONAR_COMMAND_AT = 1200
+SONAR_STATUS_AT = 1224
+SONAR_MODE_AT = 1256
+SONAR_PERF_AT = 1272
 
 # atmosphere: Engine-room atmosphere and fire (simulated)
 ATMOSPHERE_COMMAND = Struct("<QQI")  # seq, command_num, command
-ATMOSPHERE_COMMAND_AT = 1296
-ATMOSPHERE_STATUS_AT = 1320
-ATMOSPHERE_MODE_AT = 1352
-ATMOSPHERE_PERF_AT = 1368
+ATMOSPHERE_COMMAND_AT = 1320
+ATMOSPHERE_STATUS_AT = 1344
+ATMOSPHERE_MODE_AT = 1376
+ATMOSPHERE_PERF_AT = 1392
 
 # World model.
 WORLD_SPEED_CMD = Struct("<Qd")  # seq, speed_cmd
-WORLD_SPEED_CMD_AT = 1416
+WORLD_SPEED_CMD_AT = 1440
 WORLD_DEPTH_CMD = Struct("<Qd")  # seq, depth_cmd
-WORLD_DEPTH_CMD_AT = 1432
+WORLD_DEPTH_CMD_AT = 1456
 WORLD_COURSE = Struct("<Qd")  # seq, course
-WORLD_COURSE_AT = 1448
+WORLD_COURSE_AT = 1472
 WORLD_VENT_FLOW = Struct("<Qd")  # seq, vent_flow
-WORLD_VENT_FLOW_AT = 1464
+WORLD_VENT_FLOW_AT = 1488
 WORLD_POS_X = Struct("<Qd")  # seq, pos_x
-WORLD_POS_X_AT = 1480
+WORLD_POS_X_AT = 1504
 WORLD_POS_Y = Struct("<Qd")  # seq, pos_y
-WORLD_POS_Y_AT = 1496
+WORLD_POS_Y_AT = 1520
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 1512
+WORLD_HEADING_AT = 1536
 WORLD_SPEED = Struct("<Qd")  # seq, speed
-WORLD_SPEED_AT = 1528
+WORLD_SPEED_AT = 1552
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
-WORLD_DEPTH_AT = 1544
+WORLD_DEPTH_AT = 1568
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 1560
+WORLD_RUDDER_ANGLE_AT = 1584
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 1576
+WORLD_RUDDER_JAMMED_AT = 1600
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 1592
+WORLD_SONAR_00_AT = 1616
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 1608
+WORLD_SONAR_01_AT = 1632
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 1624
+WORLD_SONAR_02_AT = 1648
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 1640
+WORLD_SONAR_03_AT = 1664
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 1656
+WORLD_SONAR_04_AT = 1680
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 1672
+WORLD_SONAR_05_AT = 1696
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 1688
+WORLD_SONAR_06_AT = 1712
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 1704
+WORLD_SONAR_07_AT = 1728
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 1720
+WORLD_SONAR_08_AT = 1744
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 1736
+WORLD_SONAR_09_AT = 1760
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 1752
+WORLD_SONAR_10_AT = 1776
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 1768
+WORLD_SONAR_11_AT = 1792
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 1784
+WORLD_SONAR_12_AT = 1808
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 1800
+WORLD_SONAR_13_AT = 1824
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 1816
+WORLD_CLEARANCE_AT = 1840
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 1832
+WORLD_MIN_CLEARANCE_AT = 1856
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 1848
+WORLD_FIRE_AT = 1872
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 1864
+WORLD_CO_PPM_AT = 1888
 
 
 PROCESSES = {
@@ -449,40 +449,40 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 1880
-OVERRIDDEN_AT = 1888  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 1904
+OVERRIDDEN_AT = 1912  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 1896, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 1920, ("state", "depth_cmd")),
-    "course": Record(Struct("<QQd"), 1944, ("state", "course")),
-    "vent_flow": Record(Struct("<QQd"), 1968, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 1992, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 2016, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 2040, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 2064, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 2088, ("state", "depth")),
-    "rudder_angle": Record(Struct("<QQd"), 2112, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 2136, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 2160, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 2184, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 2208, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 2232, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 2256, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 2280, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 2304, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 2328, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 2352, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 2376, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 2400, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 2424, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 2448, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 2472, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 2496, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 2520, ("state", "min_clearance")),
-    "fire": Record(Struct("<QQ?"), 2544, ("state", "fire")),
-    "co_ppm": Record(Struct("<QQd"), 2568, ("state", "co_ppm")),
+    "speed_cmd": Record(Struct("<QQd"), 1920, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 1944, ("state", "depth_cmd")),
+    "course": Record(Struct("<QQd"), 1968, ("state", "course")),
+    "vent_flow": Record(Struct("<QQd"), 1992, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 2016, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 2040, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 2064, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 2088, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 2112, ("state", "depth")),
+    "rudder_angle": Record(Struct("<QQd"), 2136, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 2160, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 2184, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 2208, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 2232, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 2256, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 2280, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 2304, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 2328, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 2352, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 2376, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 2400, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 2424, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 2448, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 2472, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 2496, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 2520, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 2544, ("state", "min_clearance")),
+    "fire": Record(Struct("<QQ?"), 2568, ("state", "fire")),
+    "co_ppm": Record(Struct("<QQd"), 2592, ("state", "co_ppm")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.

@@ -42,14 +42,14 @@ HELM_LINK = 4  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd52x???1xI216xQII8x?Q687xd8xd40xd8xd24xd8xd")
-INPUTS_AT = 400
+INPUTS_AT = 424
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 1416
+WORLD_OUT_1_AT = 1440
 WORLD_HELD_1 = (OVERRIDE["speed_cmd"], OVERRIDE["depth_cmd"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -76,7 +76,7 @@ OPERATOR_STATES = ("NOP", "ASKING")
 ASKING = 1
 # The block's header, at offset 0: what a process checks before it attaches. The layout hash
 # covers every buffer, field, type and offset and the system's name.
-MAGIC = b"RCSBLK02"  # 02: the control record carries the periodicity figures
+MAGIC = b"RCSBLK02"  # 02: the control record carries periodicity and network counts
 HEADER = Struct("<8s32s32sQ")  # magic, layout hash (hex), system name, block size
 HEADER_FIELDS = ("magic", "layout_hash", "system", "size")
 
@@ -106,7 +106,11 @@ PERIODICITY_FIELDS = (
     ("lateness_max_ns", "Q"),
     ("lateness_warnings", "Q"),  # the throttled warning lines it wrote
 )
-PROCESS_FIELDS = _BEAT_AND_COUNTS + PERIODICITY_FIELDS
+# What a process on the network (Zenoh) did with the records it received from its peers:
+# applied, dropped as late or out of order, refused as malformed (not whole records of this
+# layout); all 0 on shared memory. Its log names the peer of each malformed push.
+NETWORK_FIELDS = (("net_applied", "Q"), ("net_late", "Q"), ("net_malformed", "Q"))
+PROCESS_FIELDS = _BEAT_AND_COUNTS + PERIODICITY_FIELDS + NETWORK_FIELDS
 # Each process's pacing record: written by operator tools (`ctl slow`), read by the paced loop
 # every cycle. `slow` stretches the process's cycle period by that factor (the slow-down of
 # the mining paper's debug screen, 4.1.1.1); 0 (a new block) or 1 runs at the declared period.

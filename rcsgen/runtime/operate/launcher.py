@@ -229,7 +229,9 @@ def run_networked(
 
     def connect(process: Process) -> ZenohTransport:
         mirror = Mirror(layout, process.block, args.process)
-        return ZenohTransport(mirror, options, args.process, plan.modules, args.lockstep)
+        net = ZenohTransport(mirror, options, args.process, plan.modules, args.lockstep)
+        net.report = process.counters  # what it received, in its control record
+        return net
 
     try:
         if args.lockstep:

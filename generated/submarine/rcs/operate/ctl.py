@@ -39,12 +39,14 @@ from ..contract import (
     ERROR,
     EXECUTING,
     FINISHED,
+    NETWORK_FIELDS,
     PROCESS_STATES,
     RUNNING,
     STATUS_NAMES,
     StaleRead,
     cause_text,
     enum_name,
+    field_names,
     periodicity,
     periodicity_line,
     plan_slots,
@@ -752,6 +754,7 @@ def render(snapshot: dict[str, Any]) -> list[str]:
             f"watchdog trips, slow x{proc['slow']:g}"
         )
     lines += periodicity_lines(snapshot)
+    lines += network_lines(snapshot)
     for name, device in (snapshot.get("io") or {}).items():
         lines.append(device_line(name, device))
     for request in snapshot.get("requests", ()):
@@ -769,7 +772,26 @@ def timing(values: dict[str, Any]) -> dict[str, Any]:
         "last_cycle_us": round(int(values["last_cycle_ns"]) / 1e3, 1),
         "max_cycle_us": round(int(values["max_cycle_ns"]) / 1e3, 1),
         "periodicity": periodicity(values),
+        # what it received over the network (Zenoh): all 0 on shared memory
+        "network": {k.removeprefix("net_"): int(values[k]) for k in NETWORK_NAMES},
     }
+
+
+NETWORK_NAMES = field_names(NETWORK_FIELDS)
+
+
+def network_lines(snapshot: dict[str, Any]) -> list[str]:
+    """Per process on the network, what it did with the records its peers sent: applied,
+    dropped as late or out of order, refused as malformed (its log names the peer)."""
+    lines = []
+    for name, proc in snapshot["processes"].items():
+        net = proc.get("network") or {}
+        if any(net.values()):
+            lines.append(
+                f"network {name}: received {net['applied']} records applied, {net['late']} "
+                f"late or out of order (dropped), {net['malformed']} malformed (refused)"
+            )
+    return lines
 
 
 def slowest_modules(modules: dict[str, dict[str, Any]]) -> dict[str, tuple[str, float]]:
