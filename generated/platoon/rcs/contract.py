@@ -330,6 +330,20 @@ def periodicity_line(name: str, figures: dict[str, Any] | None) -> str:
     )
 
 
+def network_line(name: str, values: Any) -> str | None:
+    """What process `name` did with the records its peers sent over the network, from its
+    control record's NETWORK_FIELDS (`net_` names, or the same without); None if nothing
+    came (shared memory)."""
+    counts = [int(values.get(k, values.get(k.removeprefix("net_"), 0))) for k, _ in NETWORK_FIELDS]
+    if not any(counts):
+        return None
+    applied, late, malformed = counts
+    return (
+        f"{name}: received {applied} records applied, {late} late or out of order "
+        f"(dropped), {malformed} malformed (refused)"
+    )
+
+
 def silent(layout: Any, buf: Any, name: str, timeout_ns: int, now_ns: int) -> tuple[bool, int]:
     """(whether process `name` is lost now: STOPPED, DEAD, or a heartbeat older than
     `timeout_ns` stretched by its slow-down; its watchdog trips). One that has not beaten

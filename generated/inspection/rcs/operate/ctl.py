@@ -47,6 +47,7 @@ from ..contract import (
     cause_text,
     enum_name,
     field_names,
+    network_line,
     periodicity,
     periodicity_line,
     plan_slots,
@@ -785,12 +786,9 @@ def network_lines(snapshot: dict[str, Any]) -> list[str]:
     dropped as late or out of order, refused as malformed (its log names the peer)."""
     lines = []
     for name, proc in snapshot["processes"].items():
-        net = proc.get("network") or {}
-        if any(net.values()):
-            lines.append(
-                f"network {name}: received {net['applied']} records applied, {net['late']} "
-                f"late or out of order (dropped), {net['malformed']} malformed (refused)"
-            )
+        line = network_line(name, proc.get("network") or {})
+        if line is not None:
+            lines.append(f"network {line}")
     return lines
 
 

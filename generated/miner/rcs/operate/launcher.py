@@ -40,6 +40,7 @@ from ..contract import (
     StaleRead,
     enum_code,
     enum_name,
+    network_line,
     periodicity,
     periodicity_line,
     shared,
@@ -897,6 +898,9 @@ def summary(system: System, buf: memoryview, processes: list[str]) -> Iterator[s
         figures = periodicity(record)
         if figures is not None:  # paced: how well it held its period
             yield f"  {periodicity_line(name, figures)}"
+        network = network_line(name, record)
+        if network is not None:  # on Zenoh: what it received from its peers
+            yield f"  {network}"
         modules = system.plans[name].modules
         cells, stale = [], 0
         for module in modules:
