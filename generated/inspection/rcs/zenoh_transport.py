@@ -437,4 +437,12 @@ def _matcher(patterns: list[str]) -> Callable[[str], bool]:
 
     parts = ["/".join(chunk(c) for c in pattern.split("/")) for pattern in patterns]
     regex = re.compile("(?:" + "|".join(parts) + ")" + "\\Z")
-    return lambda key: regex.match(key) is not None
+    known: dict[str, bool] = {}  # a layout has a few hundred keys: each matched once
+
+    def matches(key: str) -> bool:
+        found = known.get(key)
+        if found is None:
+            found = known[key] = regex.match(key) is not None
+        return found
+
+    return matches
