@@ -753,7 +753,8 @@ def section_period(p: dict) -> list[str]:
         extra = a["published_ns"] - a["without_ns"]
         lines[-1] += (
             f" With the figures copied into the control record every 16 wake-ups, as run() "
-            f"does (the longer record packed every cycle): {ns(a['published_ns'])}, {ns(extra)} more than without, "
+            f"does (the longer record packed every cycle): {ns(a['published_ns'])}, "
+            f"{ns(extra)} more than without, "
             f"{extra / (p['period_s'] * 1e9) * 100:.3f} % of the period."
         )
     return [*lines, ""]
