@@ -664,10 +664,8 @@ class Periodicity:
         self.histogram[bucket] += 1
         error = abs(error)
         self.error_sum += error
-        if error > self.error_max:
-            self.error_max = error
-        if late > self.late_max:
-            self.late_max = late
+        self.error_max = max(self.error_max, error)
+        self.late_max = max(self.late_max, late)
         if not self.count % self.REFRESH:
             self.p99_s = self.quantile(0.99)
         if late > self.warn_after:
@@ -725,7 +723,7 @@ def lateness_bucket(late: float) -> int:
     last bucket."""
     us = int(late * 1e6)
     if us < 32:
-        return us if us > 0 else 0
+        return max(0, us)
     shift = us.bit_length() - 5
     return min(LATENESS_BUCKETS - 1, 16 * shift + (us >> shift))
 
@@ -800,8 +798,7 @@ def run_segment(
         if began is not None:
             counters = process.counters
             took = counters["last_cycle_ns"] = time.perf_counter_ns() - began
-            if took > counters["max_cycle_ns"]:
-                counters["max_cycle_ns"] = took
+            counters["max_cycle_ns"] = max(counters["max_cycle_ns"], took)
         process.beat()
 
 
