@@ -455,6 +455,10 @@ def test_the_miner_walk_through_from_the_readme() -> None:
     finally:
         out = system.stop()
     assert "pc1: stopped" in out and "pc2: stopped" in out
+    # the launcher's summary: each paced process's periodicity, from its control record
+    for name in ("pc1", "pc2"):
+        line = next(x for x in out.splitlines() if x.startswith(f"  {name}: period error mean"))
+        assert "wake-up lateness p99" in line and "(period 100 ms)" in line, line
 
 
 def test_the_access_matrix_and_a_bad_role() -> None:
