@@ -318,6 +318,8 @@ class Process:
         self.record_seq = seq + 1
 
     def _lost_mask(self) -> int:
+        if not self.lost:  # nearly always: no list built for a beat
+            return 0
         names = list(self.layout.PROCESSES)
         return sum(1 << names.index(name) for name in self.lost)
 
