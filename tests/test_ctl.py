@@ -119,6 +119,30 @@ def test_status_shows_every_module_and_process_as_text_and_json(running: Running
     assert snapshot["processes"]["p1"]["heartbeat_age_s"] < 5  # type: ignore[index]
 
 
+def test_status_shows_how_well_each_process_holds_its_period(running: Running) -> None:
+    """Each paced process's control record carries its periodicity (issue 24 item 4): the
+    text status has a line per process, the JSON the figures, consistent with each other
+    and with the duo's 20 ms period."""
+    wait_for(
+        lambda: all(
+            (p.get("periodicity") or {}).get("wakeups", 0) >= 20
+            for p in running.json()["processes"].values()  # type: ignore[attr-defined]
+        ),
+        "20 paced wake-ups measured in each process",
+    )
+    for name, proc in running.json()["processes"].items():  # type: ignore[attr-defined]
+        figures = proc["periodicity"]
+        assert figures["period_ms"] == 20.0, name
+        assert 0 <= figures["period_error_mean_us"] <= figures["period_error_max_us"], figures
+        assert 0 <= figures["lateness_p99_us"] <= figures["lateness_max_us"], figures
+        assert 0 < proc["last_cycle_us"] <= proc["max_cycle_us"], proc
+    lines = running.ctl("status").stdout.splitlines()
+    for name, module in (("p1", "top"), ("p2", "arm")):
+        line = next(x for x in lines if x.startswith(f"periodicity {name}: "))
+        assert "period error mean" in line and "wake-up lateness p99" in line, line
+        assert "(period 20 ms)" in line and f"slowest module {module} (max" in line, line
+
+
 def test_a_reader_that_goes_away_ends_status_watch_quietly(running: Running) -> None:
     """`ctl status --watch | head`: when the reader closes the pipe, ctl ends with 0 and
     no BrokenPipeError traceback."""
@@ -314,6 +338,23 @@ def test_a_segment_of_another_layout_is_refused(duo: Path, package: ModuleType) 
     assert len(done.stderr.splitlines()) == 1
 
 
+def test_a_block_of_another_layout_version_is_refused_naming_both(
+    duo: Path, package: ModuleType
+) -> None:
+    """A segment left by a runtime of another layout version (RCSBLK01: the control record
+    without the periodicity figures) is refused with one line naming both versions."""
+    block = importlib.import_module(f"{package.__name__}.rcs.block")
+    layout = importlib.import_module(f"{package.__name__}.layout")
+    theirs = block.Block(layout, segment_name(), create=True)
+    try:
+        theirs.buf[:8] = b"RCSBLK01"
+        with pytest.raises(block.BlockError) as refused:
+            block.Block(layout, theirs.name, create=False)
+    finally:
+        theirs.close()
+    assert "layout version 01 (this package's runtime has 02)" in str(refused.value)
+
+
 def test_rcsgen_ctl_runs_the_console_of_a_built_system(
     running: Running, duo: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -414,6 +455,10 @@ def test_the_miner_walk_through_from_the_readme() -> None:
     finally:
         out = system.stop()
     assert "pc1: stopped" in out and "pc2: stopped" in out
+    # the launcher's summary: each paced process's periodicity, from its control record
+    for name in ("pc1", "pc2"):
+        line = next(x for x in out.splitlines() if x.startswith(f"  {name}: period error mean"))
+        assert "wake-up lateness p99" in line and "(period 100 ms)" in line, line
 
 
 def test_the_access_matrix_and_a_bad_role() -> None:

@@ -20,6 +20,8 @@ import pytest
 from conftest import rcsgen
 from support.running import children
 
+from rcsgen.tools import traces
+
 ROOT = Path(__file__).resolve().parent.parent
 PLUG_PULL = ROOT / "specs" / "miner_hil" / "scenarios" / "plug_pull.yaml"
 RIG = Path(__file__).resolve().parent / "fixtures" / "runtime" / "rig"
@@ -56,7 +58,14 @@ def test_a_device_lost_mid_shear_stops_the_miner_safe_within_timeout_plus_one_cy
         f"{device} unplug before cycle 115: lost, inputs stale, every actuator latched "
         in (said[0])
     )
-    lines = [json.loads(line) for line in trace.read_text().splitlines()]
+    text = trace.read_text().splitlines()
+    # a paced run: its trace ends with how well it held its period (issue 24 item 4)
+    assert traces.is_timing(text[-1]), text[-1]
+    timing = json.loads(text[-1])
+    assert timing["cycle"] == len(text) - 1 and timing["periodicity"]["period_ms"] == 50.0
+    assert timing["periodicity"]["wakeups"] == len(text) - 2  # the first cycle starts it
+    assert traces.parse("\n".join(text)).periodicity == timing["periodicity"]
+    lines = [json.loads(line) for line in text[:-1]]
     # The fault comes at a fixed cycle (115): at the machine's pace that is mid-shear (the
     # boom going down, the conveyor running); on a starved host the plant, paced on its own,
     # may be a few cycles off, so this asks only that the drum is cutting in a
@@ -114,7 +123,9 @@ def test_a_frozen_plc_s_survivor_holds_the_safe_values_and_a_run_too_short_is_e4
         result.output
     )
     assert "held safe by the devices up" in result.output
-    last = json.loads(trace.read_text().splitlines()[-1])
+    *cycles, timing = trace.read_text().splitlines()
+    assert traces.is_timing(timing) and json.loads(timing)["periodicity"]["wakeups"] == 44
+    last = json.loads(cycles[-1])
     assert last["io"]["tank"]["state"] == "ONLINE" and last["io"]["tank"]["reconnects"] >= 1
     assert last["overrides"] == dict.fromkeys(("alarm", "pump_on", "valve_cmd"), "SAFE")
 

@@ -77,7 +77,7 @@ def screen_text(app: Monitor) -> str:
 
 
 def test_keys_and_the_send_form_operate_the_running_system(
-    running: Running, layout: ModuleType
+    running: Running, layout: ModuleType, tmp_path: Path
 ) -> None:
     async def drive() -> str:
         app = Monitor(layout, running.segment, interval=0.1)
@@ -135,11 +135,49 @@ def test_keys_and_the_send_form_operate_the_running_system(
             await pilot.pause(0.05)  # let the key\'s action run, even on a busy host
             assert running.json()["processes"]["p1"]["slow"] == 1.0  # type: ignore[index]
             await pilot.pause(0.3)
+            # the periodicity panel (issue 24 item 4): each process paced at 20 ms
+            panel = app.query_one("#periodicity", DataTable)
+            await until(
+                pilot,
+                lambda: all(
+                    panel.get_cell(p, "wakeups").plain not in ("", "-", "0") for p in ("p1", "p2")
+                ),
+                "the wake-ups of both processes on the panel",
+            )
+            (tmp_path / "periodicity.svg").write_text(app.export_screenshot())
             return screen_text(app)
 
     text = asyncio.run(drive())
     assert "top" in text and "└─ arm" in text and "POWER" in text
     assert "p1: running" in text
+    assert "lateness p99/max us" in text and "slowest module (max us)" in text, text
+    for name, module in (("p1", "top"), ("p2", "arm")):
+        row = next(line for line in text.splitlines() if line.lstrip().startswith(f"{name} "))
+        assert " 20 ms " in row and f" {module} (" in row, row
+
+
+def test_the_periodicity_panel_marks_a_process_that_wakes_up_late_in_red() -> None:
+    from rcsgen.tools.monitor_periodicity import row_of
+
+    figures = {
+        "period_ms": 10.0,
+        "wakeups": 100,
+        "period_error_mean_us": 40.0,
+        "period_error_max_us": 3900.0,
+        "lateness_p99_us": 6000.0,
+        "lateness_max_us": 7000.0,
+        "lateness_warnings": 1,
+    }
+    proc = {"periodicity": figures, "last_cycle_us": 50.5, "max_cycle_us": 80.0}
+    late = row_of("p1", proc, ("b", 35.5))
+    assert late["lateness"].plain == "6000/7000" and str(late["lateness"].style) == "bold red"
+    assert late["slowest"].plain == "b (35.5)" and late["warnings"].plain == "1"
+    on_time = row_of("p1", {**proc, "periodicity": {**figures, "lateness_p99_us": 400.0}}, None)
+    assert str(on_time["lateness"].style) == "" and on_time["slowest"].plain == "-"
+    unpaced = row_of("p2", {**proc, "periodicity": None}, None)
+    assert unpaced["period"].plain == "not paced" and unpaced["cycle"].plain == "50.5/80.0"
+    unreadable = row_of("p3", {"state": "?"}, None)
+    assert unreadable["lateness"].plain == "?"
 
 
 def test_the_role_limits_the_keys_and_requests_are_answered_on_screen() -> None:

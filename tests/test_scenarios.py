@@ -89,6 +89,10 @@ def test_an_override_under_a_supervisor_in_init_runs_alike_in_one_process_and_in
         alone = run(scenario, one).trace
     with open_harness(scenario, package, processes=True) as launched:
         lockstep = run(scenario, launched).trace
+        # each process of the ring times its cycle (token to beat) into its control record
+        for name in launched.layout.PROCESSES:
+            record = launched.process_record(name)
+            assert 0 < record["last_cycle_ns"] <= record["max_cycle_ns"], (name, record)
     cycle_2 = json.loads(alone[1])["modules"]
     assert cycle_2["top"]["command"] == "INIT" and cycle_2["sub"]["command_num"] == 2
     assert alone == lockstep

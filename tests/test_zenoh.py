@@ -282,6 +282,56 @@ def test_a_node_of_another_layout_is_named_and_ignored(miner: ModuleType) -> Non
     assert layout.WORLD["pose_x"].read(ours_block.buf)["pose_x"] == 0.0
 
 
+def test_a_malformed_push_is_counted_per_peer_never_applied_and_said_once(
+    miner: ModuleType,
+) -> None:
+    """A push that is not whole records of this layout, injected on loopback under a
+    peer's name: counted for that peer and in the process's control-record counters (what
+    `ctl status` shows), nothing of it applied, one line naming the peer (a second within
+    10 s counted, not said again); the peer's good push after it is applied."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    Block, zt = rcs(miner, "rcs.block").Block, rcs(miner, "rcs.zenoh_transport")
+    ctl = rcs(miner, "rcs.operate.ctl")
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    said: list[str] = []
+    ours_block, theirs_block = Block(layout), Block(layout)
+    ours = zt.ZenohTransport(
+        transport.Mirror(layout, ours_block, "pc1"),
+        zt.Options(listen=(endpoint,)),
+        "pc1",
+        log=said.append,
+    )
+    report = dict.fromkeys(ctl.NETWORK_NAMES, 0)
+    ours.report = report
+    theirs = zt.ZenohTransport(
+        transport.Mirror(layout, theirs_block, "pc2"), zt.Options(connect=(endpoint,)), "pc2"
+    )
+    try:
+        assert ours.wait(lambda: "pc2" in ours.joined, 10.0)
+        ours.wait(lambda: "pc2" in ours.synced, 2.0)  # pc2's first (full) push, if any
+        before = bytes(ours_block.buf)
+        key = f"{zt.prefix(layout)}/{transport.PUSH_KEY}/pc2"
+        for garbage in (b"\x07\x00not a record", b"\xff" * 40):
+            theirs.session.put(key, garbage)
+        assert ours.wait(lambda: ours.peers.get("pc2", {}).get("malformed") == 2, 10.0)
+        assert bytes(ours_block.buf) == before, "nothing of a malformed push is applied"
+        layout.WORLD["pose_x"].write(theirs_block.buf, pose_x=5.0)
+        theirs.push()
+        assert ours.wait(lambda: layout.WORLD["pose_x"].read(ours_block.buf)["pose_x"] == 5.0, 10.0)
+    finally:
+        theirs.close()
+        ours.close()
+    assert len(said) == 1, said
+    assert said[0].startswith("pc1: a malformed push from pc2 (14 bytes, not whole records")
+    assert said[0].endswith("refused whole, nothing applied (1 from pc2 so far)")
+    assert ours.peers["pc2"]["malformed"] == 2 and ours.peers["pc2"]["applied"] >= 1
+    assert report["net_malformed"] == 2 and report["net_applied"] >= 1
+    lines = ctl.network_lines(
+        {"processes": {"pc1": {"network": {k.removeprefix("net_"): v for k, v in report.items()}}}}
+    )
+    assert len(lines) == 1 and lines[0].endswith(", 2 malformed (refused)"), lines
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [

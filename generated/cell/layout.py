@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 1000 bytes.
+The block is 1080 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -18,33 +18,33 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 88 | PROCESS_CELL | PROCESS_FIELDS |
-| 168 | 16 | PACE_CELL | PACE_FIELDS |
-| 184 | 28 | SUP_COMMAND | command_num, command, arg_moves |
-| 216 | 48 | SUP_STATUS | STATUS_FIELDS |
-| 264 | 16 | SUP_MODE | MODE_FIELDS |
-| 280 | 48 | SUP_PERF | PERF_FIELDS |
-| 328 | 28 | PLN_COMMAND | command_num, command, arg_step |
-| 360 | 40 | PLN_STATUS | STATUS_FIELDS |
-| 400 | 16 | PLN_MODE | MODE_FIELDS |
-| 416 | 48 | PLN_PERF | PERF_FIELDS |
-| 464 | 28 | EXE_COMMAND | command_num, command, arg_x |
-| 496 | 32 | EXE_STATUS | STATUS_FIELDS |
-| 528 | 16 | EXE_MODE | MODE_FIELDS |
-| 544 | 48 | EXE_PERF | PERF_FIELDS |
-| 592 | 20 | ARM_COMMAND | command_num, command |
-| 616 | 32 | ARM_STATUS | STATUS_FIELDS |
-| 648 | 16 | ARM_MODE | MODE_FIELDS |
-| 664 | 48 | ARM_PERF | PERF_FIELDS |
-| 712 | 16 | WORLD_ARM_X | arm_x |
-| 728 | 16 | WORLD_ARM_SPEED | arm_speed |
-| 744 | 9 | OVERRIDES | any |
-| 760 | 24 | OVERRIDE_ARM_X | state, arm_x |
-| 784 | 24 | OVERRIDE_ARM_SPEED | state, arm_speed |
-| 808 | 72 | TIME_SUP | state, since, NOP, S0, S1, FIRST, MOVING, LAST |
-| 880 | 40 | TIME_PLN | state, since, NOP, S0 |
-| 920 | 40 | TIME_EXE | state, since, NOP, S0 |
-| 960 | 40 | TIME_ARM | state, since, NOP, S0 |
+| 80 | 168 | PROCESS_CELL | PROCESS_FIELDS |
+| 248 | 16 | PACE_CELL | PACE_FIELDS |
+| 264 | 28 | SUP_COMMAND | command_num, command, arg_moves |
+| 296 | 48 | SUP_STATUS | STATUS_FIELDS |
+| 344 | 16 | SUP_MODE | MODE_FIELDS |
+| 360 | 48 | SUP_PERF | PERF_FIELDS |
+| 408 | 28 | PLN_COMMAND | command_num, command, arg_step |
+| 440 | 40 | PLN_STATUS | STATUS_FIELDS |
+| 480 | 16 | PLN_MODE | MODE_FIELDS |
+| 496 | 48 | PLN_PERF | PERF_FIELDS |
+| 544 | 28 | EXE_COMMAND | command_num, command, arg_x |
+| 576 | 32 | EXE_STATUS | STATUS_FIELDS |
+| 608 | 16 | EXE_MODE | MODE_FIELDS |
+| 624 | 48 | EXE_PERF | PERF_FIELDS |
+| 672 | 20 | ARM_COMMAND | command_num, command |
+| 696 | 32 | ARM_STATUS | STATUS_FIELDS |
+| 728 | 16 | ARM_MODE | MODE_FIELDS |
+| 744 | 48 | ARM_PERF | PERF_FIELDS |
+| 792 | 16 | WORLD_ARM_X | arm_x |
+| 808 | 16 | WORLD_ARM_SPEED | arm_speed |
+| 824 | 9 | OVERRIDES | any |
+| 840 | 24 | OVERRIDE_ARM_X | state, arm_x |
+| 864 | 24 | OVERRIDE_ARM_SPEED | state, arm_speed |
+| 888 | 72 | TIME_SUP | state, since, NOP, S0, S1, FIRST, MOVING, LAST |
+| 960 | 40 | TIME_PLN | state, since, NOP, S0 |
+| 1000 | 40 | TIME_EXE | state, since, NOP, S0 |
+| 1040 | 40 | TIME_ARM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -73,49 +73,49 @@ from .rcs.contract import (
 
 SYSTEM = "cell"
 SOURCE = "cell/system.yaml"
-SIZE = 1000
+SIZE = 1080
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "80ff0329409a7968323ac492dfd262fb"
+LAYOUT_HASH = "4f129c99dd269d97513bd8c0ac222d2e"
 PROCESS_CELL_AT = 80
-PACE_CELL_AT = 168
+PACE_CELL_AT = 248
 
 # sup: Cell supervisor
 SUP_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_moves
-SUP_COMMAND_AT = 184
+SUP_COMMAND_AT = 264
 SUP_STATUS = Struct(
     "<QQIIiiqq"
 )  # seq, status_num, status, error_num, state, rule, result_made, result_waited
-SUP_STATUS_AT = 216
-SUP_MODE_AT = 264
-SUP_PERF_AT = 280
+SUP_STATUS_AT = 296
+SUP_MODE_AT = 344
+SUP_PERF_AT = 360
 
 # pln: Planner (W1)
 PLN_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_step
-PLN_COMMAND_AT = 328
+PLN_COMMAND_AT = 408
 PLN_STATUS = Struct("<QQIIiid")  # seq, status_num, status, error_num, state, rule, result_x
-PLN_STATUS_AT = 360
-PLN_MODE_AT = 400
-PLN_PERF_AT = 416
+PLN_STATUS_AT = 440
+PLN_MODE_AT = 480
+PLN_PERF_AT = 496
 
 # exe: Executor (W2)
 EXE_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_x
-EXE_COMMAND_AT = 464
-EXE_STATUS_AT = 496
-EXE_MODE_AT = 528
-EXE_PERF_AT = 544
+EXE_COMMAND_AT = 544
+EXE_STATUS_AT = 576
+EXE_MODE_AT = 608
+EXE_PERF_AT = 624
 
 # arm: Arm (simulated)
 ARM_COMMAND = Struct("<QQI")  # seq, command_num, command
-ARM_COMMAND_AT = 592
-ARM_STATUS_AT = 616
-ARM_MODE_AT = 648
-ARM_PERF_AT = 664
+ARM_COMMAND_AT = 672
+ARM_STATUS_AT = 696
+ARM_MODE_AT = 728
+ARM_PERF_AT = 744
 
 # World model.
 WORLD_ARM_X = Struct("<Qd")  # seq, arm_x
-WORLD_ARM_X_AT = 712
+WORLD_ARM_X_AT = 792
 WORLD_ARM_SPEED = Struct("<Qd")  # seq, arm_speed
-WORLD_ARM_SPEED_AT = 728
+WORLD_ARM_SPEED_AT = 808
 
 
 PROCESSES = {
@@ -191,13 +191,13 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 744
-OVERRIDDEN_AT = 752  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 824
+OVERRIDDEN_AT = 832  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "arm_x": Record(Struct("<QQd"), 760, ("state", "arm_x")),
-    "arm_speed": Record(Struct("<QQd"), 784, ("state", "arm_speed")),
+    "arm_x": Record(Struct("<QQd"), 840, ("state", "arm_x")),
+    "arm_speed": Record(Struct("<QQd"), 864, ("state", "arm_speed")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -222,11 +222,11 @@ GROUND_TRUTH = ()
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
     "sup": Record(
-        Struct("<QqQQQQQQQ"), 808, ("state", "since", "NOP", "S0", "S1", "FIRST", "MOVING", "LAST")
+        Struct("<QqQQQQQQQ"), 888, ("state", "since", "NOP", "S0", "S1", "FIRST", "MOVING", "LAST")
     ),
-    "pln": Record(Struct("<QqQQQ"), 880, ("state", "since", "NOP", "S0")),
-    "exe": Record(Struct("<QqQQQ"), 920, ("state", "since", "NOP", "S0")),
-    "arm": Record(Struct("<QqQQQ"), 960, ("state", "since", "NOP", "S0")),
+    "pln": Record(Struct("<QqQQQ"), 960, ("state", "since", "NOP", "S0")),
+    "exe": Record(Struct("<QqQQQ"), 1000, ("state", "since", "NOP", "S0")),
+    "arm": Record(Struct("<QqQQQ"), 1040, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

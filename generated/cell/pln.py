@@ -19,7 +19,7 @@ PLAN = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIq52x???1xI")
-INPUTS_AT = 336
+INPUTS_AT = 416
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -33,11 +33,11 @@ EXE_MOVE = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQIq60x???1xI88xQI12xd104xQI")
-INPUTS_AT = 184
+INPUTS_AT = 264
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 184
+SEQS_AT = 264
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

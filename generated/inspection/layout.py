@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2424 bytes.
+The block is 2504 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -22,71 +22,71 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 88 | PROCESS_IWS | PROCESS_FIELDS |
-| 168 | 16 | PACE_IWS | PACE_FIELDS |
-| 184 | 60 | SHOP_COMMAND | command_num, command, arg_program, arg_parts |
-| 248 | 57 | SHOP_STATUS | STATUS_FIELDS |
-| 312 | 16 | SHOP_MODE | MODE_FIELDS |
-| 328 | 48 | SHOP_PERF | PERF_FIELDS |
-| 376 | 52 | WC_COMMAND | command_num, command, arg_program |
-| 432 | 41 | WC_STATUS | STATUS_FIELDS |
-| 480 | 16 | WC_MODE | MODE_FIELDS |
-| 496 | 48 | WC_PERF | PERF_FIELDS |
-| 544 | 52 | WS_COMMAND | command_num, command, arg_program |
-| 600 | 41 | WS_STATUS | STATUS_FIELDS |
-| 648 | 16 | WS_MODE | MODE_FIELDS |
-| 664 | 48 | WS_PERF | PERF_FIELDS |
-| 712 | 52 | MS_COMMAND | command_num, command, arg_program |
-| 768 | 56 | MS_STATUS | STATUS_FIELDS |
-| 824 | 16 | MS_MODE | MODE_FIELDS |
-| 840 | 48 | MS_PERF | PERF_FIELDS |
-| 888 | 20 | FX_COMMAND | command_num, command |
-| 912 | 40 | FX_STATUS | STATUS_FIELDS |
-| 952 | 16 | FX_MODE | MODE_FIELDS |
-| 968 | 48 | FX_PERF | PERF_FIELDS |
-| 1016 | 20 | TL_COMMAND | command_num, command |
-| 1040 | 40 | TL_STATUS | STATUS_FIELDS |
-| 1080 | 16 | TL_MODE | MODE_FIELDS |
-| 1096 | 48 | TL_PERF | PERF_FIELDS |
-| 1144 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 1176 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 1208 | 16 | CMM_MODE | MODE_FIELDS |
-| 1224 | 48 | CMM_PERF | PERF_FIELDS |
-| 1272 | 16 | OP_MODE | MODE_FIELDS |
-| 1288 | 48 | OP_PERF | PERF_FIELDS |
-| 1336 | 20 | OP_FX_COMMAND | command_num, command |
-| 1360 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 1392 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 1416 | 20 | OP_TL_COMMAND | command_num, command |
-| 1440 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 1472 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 1496 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 1520 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 1552 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1568 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1616 | 16 | WORLD_CMM_OP | cmm_op |
-| 1632 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1648 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1664 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1680 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1696 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1712 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 1728 | 9 | OVERRIDES | any |
-| 1744 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 1768 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 1792 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 1816 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 1840 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 1864 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 1888 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 1912 | 72 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, COUNTED |
-| 1984 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 2032 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
-| 2136 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 2224 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 2280 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 2336 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
-| 2384 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 80 | 168 | PROCESS_IWS | PROCESS_FIELDS |
+| 248 | 16 | PACE_IWS | PACE_FIELDS |
+| 264 | 60 | SHOP_COMMAND | command_num, command, arg_program, arg_parts |
+| 328 | 57 | SHOP_STATUS | STATUS_FIELDS |
+| 392 | 16 | SHOP_MODE | MODE_FIELDS |
+| 408 | 48 | SHOP_PERF | PERF_FIELDS |
+| 456 | 52 | WC_COMMAND | command_num, command, arg_program |
+| 512 | 41 | WC_STATUS | STATUS_FIELDS |
+| 560 | 16 | WC_MODE | MODE_FIELDS |
+| 576 | 48 | WC_PERF | PERF_FIELDS |
+| 624 | 52 | WS_COMMAND | command_num, command, arg_program |
+| 680 | 41 | WS_STATUS | STATUS_FIELDS |
+| 728 | 16 | WS_MODE | MODE_FIELDS |
+| 744 | 48 | WS_PERF | PERF_FIELDS |
+| 792 | 52 | MS_COMMAND | command_num, command, arg_program |
+| 848 | 56 | MS_STATUS | STATUS_FIELDS |
+| 904 | 16 | MS_MODE | MODE_FIELDS |
+| 920 | 48 | MS_PERF | PERF_FIELDS |
+| 968 | 20 | FX_COMMAND | command_num, command |
+| 992 | 40 | FX_STATUS | STATUS_FIELDS |
+| 1032 | 16 | FX_MODE | MODE_FIELDS |
+| 1048 | 48 | FX_PERF | PERF_FIELDS |
+| 1096 | 20 | TL_COMMAND | command_num, command |
+| 1120 | 40 | TL_STATUS | STATUS_FIELDS |
+| 1160 | 16 | TL_MODE | MODE_FIELDS |
+| 1176 | 48 | TL_PERF | PERF_FIELDS |
+| 1224 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 1256 | 32 | CMM_STATUS | STATUS_FIELDS |
+| 1288 | 16 | CMM_MODE | MODE_FIELDS |
+| 1304 | 48 | CMM_PERF | PERF_FIELDS |
+| 1352 | 16 | OP_MODE | MODE_FIELDS |
+| 1368 | 48 | OP_PERF | PERF_FIELDS |
+| 1416 | 20 | OP_FX_COMMAND | command_num, command |
+| 1440 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 1472 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 1496 | 20 | OP_TL_COMMAND | command_num, command |
+| 1520 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 1552 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 1576 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 1600 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 1632 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1648 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1696 | 16 | WORLD_CMM_OP | cmm_op |
+| 1712 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1728 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1744 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1760 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1776 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1792 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 1808 | 9 | OVERRIDES | any |
+| 1824 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 1848 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 1872 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 1896 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 1920 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 1944 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 1968 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 1992 | 72 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, COUNTED |
+| 2064 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 2112 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
+| 2216 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 2304 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 2360 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 2416 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
+| 2464 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -118,109 +118,109 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 2424
+SIZE = 2504
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "8d9392a57370bcac1df939e99f5f19d6"
+LAYOUT_HASH = "b3eca887b621fd01352e3cf2b20cc4a3"
 PROCESS_IWS_AT = 80
-PACE_IWS_AT = 168
+PACE_IWS_AT = 248
 
 # shop: Shop
 SHOP_COMMAND = Struct("<QQI32sq")  # seq, command_num, command, arg_program, arg_parts
-SHOP_COMMAND_AT = 184
+SHOP_COMMAND_AT = 264
 SHOP_STATUS = Struct(
     "<QQIIiiqq?Q"
 )  # seq, status_num, status, error_num, state, rule, result_passed, result_rejected, result_accepted, cause
-SHOP_STATUS_AT = 248
-SHOP_MODE_AT = 312
-SHOP_PERF_AT = 328
+SHOP_STATUS_AT = 328
+SHOP_MODE_AT = 392
+SHOP_PERF_AT = 408
 
 # wc: Workcell
 WC_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-WC_COMMAND_AT = 376
+WC_COMMAND_AT = 456
 WC_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_accepted, cause
-WC_STATUS_AT = 432
-WC_MODE_AT = 480
-WC_PERF_AT = 496
+WC_STATUS_AT = 512
+WC_MODE_AT = 560
+WC_PERF_AT = 576
 
 # ws: Inspection workstation
 WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-WS_COMMAND_AT = 544
+WS_COMMAND_AT = 624
 WS_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_accepted, cause
-WS_STATUS_AT = 600
-WS_MODE_AT = 648
-WS_PERF_AT = 664
+WS_STATUS_AT = 680
+WS_MODE_AT = 728
+WS_PERF_AT = 744
 
 # ms: Measurement
 MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-MS_COMMAND_AT = 712
+MS_COMMAND_AT = 792
 MS_STATUS = Struct(
     "<QQIIiiqqQ"
 )  # seq, status_num, status, error_num, state, rule, result_measured, result_failed, cause
-MS_STATUS_AT = 768
-MS_MODE_AT = 824
-MS_PERF_AT = 840
+MS_STATUS_AT = 848
+MS_MODE_AT = 904
+MS_PERF_AT = 920
 
 # fx: Fixturing (performed by the operator)
 FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 888
+FX_COMMAND_AT = 968
 FX_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-FX_STATUS_AT = 912
-FX_MODE_AT = 952
-FX_PERF_AT = 968
+FX_STATUS_AT = 992
+FX_MODE_AT = 1032
+FX_PERF_AT = 1048
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 1016
+TL_COMMAND_AT = 1096
 TL_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-TL_STATUS_AT = 1040
-TL_MODE_AT = 1080
-TL_PERF_AT = 1096
+TL_STATUS_AT = 1120
+TL_MODE_AT = 1160
+TL_PERF_AT = 1176
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 1144
-CMM_STATUS_AT = 1176
-CMM_MODE_AT = 1208
-CMM_PERF_AT = 1224
+CMM_COMMAND_AT = 1224
+CMM_STATUS_AT = 1256
+CMM_MODE_AT = 1288
+CMM_PERF_AT = 1304
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 1496
-CMM_SIM_STATUS_AT = 1520
-CMM_SIM_MODE_AT = 1552
-CMM_SIM_PERF_AT = 1568
+CMM_SIM_COMMAND_AT = 1576
+CMM_SIM_STATUS_AT = 1600
+CMM_SIM_MODE_AT = 1632
+CMM_SIM_PERF_AT = 1648
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 1272
-OP_PERF_AT = 1288
+OP_MODE_AT = 1352
+OP_PERF_AT = 1368
 OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_FX_COMMAND_AT = 1336
-OP_FX_STATUS_AT = 1360
-OP_FX_ANSWER_AT = 1392
+OP_FX_COMMAND_AT = 1416
+OP_FX_STATUS_AT = 1440
+OP_FX_ANSWER_AT = 1472
 OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_TL_COMMAND_AT = 1416
-OP_TL_STATUS_AT = 1440
-OP_TL_ANSWER_AT = 1472
+OP_TL_COMMAND_AT = 1496
+OP_TL_STATUS_AT = 1520
+OP_TL_ANSWER_AT = 1552
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1616
+WORLD_CMM_OP_AT = 1696
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1632
+WORLD_CMM_FEATURE_AT = 1712
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1648
+WORLD_CMM_SEQ_AT = 1728
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1664
+WORLD_CMM_DONE_SEQ_AT = 1744
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1680
+WORLD_CMM_READING_AT = 1760
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1696
+WORLD_CMM_ALARM_AT = 1776
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1712
+WORLD_CMM_FAULT_AT = 1792
 
 
 PROCESSES = {
@@ -377,18 +377,18 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 1728
-OVERRIDDEN_AT = 1736  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 1808
+OVERRIDDEN_AT = 1816  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 1744, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 1768, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 1792, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 1816, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 1840, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 1864, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 1888, ("state", "cmm_fault")),
+    "cmm_op": Record(Struct("<QQq"), 1824, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 1848, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 1872, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 1896, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 1920, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 1944, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 1968, ("state", "cmm_fault")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -425,13 +425,13 @@ GROUND_TRUTH = ()
 TIME_IN_STATE = {
     "shop": Record(
         Struct("<QqQQQQQQQ"),
-        1912,
+        1992,
         ("state", "since", "NOP", "S0", "S1", "SETTING_UP", "INSPECTING", "COUNTED"),
     ),
-    "wc": Record(Struct("<QqQQQQ"), 1984, ("state", "since", "NOP", "S0", "S1")),
+    "wc": Record(Struct("<QqQQQQ"), 2064, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        2032,
+        2112,
         (
             "state",
             "since",
@@ -449,13 +449,13 @@ TIME_IN_STATE = {
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        2136,
+        2216,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 2224, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 2280, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "cmm": Record(Struct("<QqQQQQ"), 2336, ("state", "since", "NOP", "S0", "S1")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 2384, ("state", "since", "NOP", "S0")),
+    "fx": Record(Struct("<QqQQQQQ"), 2304, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 2360, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "cmm": Record(Struct("<QqQQQQ"), 2416, ("state", "since", "NOP", "S0", "S1")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 2464, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

@@ -55,11 +55,11 @@ WC_LINK = 2  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI32sq76x???1xI112xQII8x?Q")
-INPUTS_AT = 184
+INPUTS_AT = 264
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 184
+SEQS_AT = 264
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

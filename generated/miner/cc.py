@@ -46,7 +46,7 @@ SJ_RAISE = 4
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI80xQI108xQI108xQI")
-INPUTS_AT = 704
+INPUTS_AT = 864
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

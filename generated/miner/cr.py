@@ -42,7 +42,7 @@ CT_POSITION_TAIL = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI80xQI108xQI108xQI1948x?495xd")
-INPUTS_AT = 1184
+INPUTS_AT = 1344
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -25,14 +25,14 @@ CUSP = 5
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI2904xd8xd")
-INPUTS_AT = 1184
+INPUTS_AT = 1344
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 4144
+WORLD_OUT_1_AT = 4304
 WORLD_HELD_1 = (OVERRIDE["loose_coal_true"], OVERRIDE["coal_mined"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

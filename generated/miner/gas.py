@@ -36,18 +36,18 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI808x?255x?15x?351xd8xd8x?")
-INPUTS_AT = 2648
+INPUTS_AT = 2808
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2648
+SEQS_AT = 2808
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQ?")
 WORLD_VALUES_1 = Struct("<8xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 4144
+WORLD_OUT_1_AT = 4304
 WORLD_HELD_1 = (
     OVERRIDE["loose_coal_true"],
     OVERRIDE["coal_mined"],

@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 6640 bytes.
+The block is 6800 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -18,228 +18,228 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 88 | PROCESS_PC1 | PROCESS_FIELDS |
-| 168 | 16 | PACE_PC1 | PACE_FIELDS |
-| 184 | 88 | PROCESS_PC2 | PROCESS_FIELDS |
-| 272 | 16 | PACE_PC2 | PACE_FIELDS |
-| 288 | 36 | SEC_COMMAND | command_num, command, arg_depth, arg_offset |
-| 328 | 32 | SEC_STATUS | STATUS_FIELDS |
-| 360 | 16 | SEC_MODE | MODE_FIELDS |
-| 376 | 48 | SEC_PERF | PERF_FIELDS |
-| 424 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
-| 464 | 32 | SB_STATUS | STATUS_FIELDS |
-| 496 | 16 | SB_MODE | MODE_FIELDS |
-| 512 | 48 | SB_PERF | PERF_FIELDS |
-| 560 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
-| 600 | 32 | CO_STATUS | STATUS_FIELDS |
-| 632 | 16 | CO_MODE | MODE_FIELDS |
-| 648 | 48 | CO_PERF | PERF_FIELDS |
-| 696 | 20 | CC_COMMAND | command_num, command |
-| 720 | 32 | CC_STATUS | STATUS_FIELDS |
-| 752 | 16 | CC_MODE | MODE_FIELDS |
-| 768 | 48 | CC_PERF | PERF_FIELDS |
-| 816 | 20 | BM_COMMAND | command_num, command |
-| 840 | 32 | BM_STATUS | STATUS_FIELDS |
-| 872 | 16 | BM_MODE | MODE_FIELDS |
-| 888 | 48 | BM_PERF | PERF_FIELDS |
-| 936 | 20 | CD_COMMAND | command_num, command |
-| 960 | 32 | CD_STATUS | STATUS_FIELDS |
-| 992 | 16 | CD_MODE | MODE_FIELDS |
-| 1008 | 48 | CD_PERF | PERF_FIELDS |
-| 1056 | 20 | SJ_COMMAND | command_num, command |
-| 1080 | 32 | SJ_STATUS | STATUS_FIELDS |
-| 1112 | 16 | SJ_MODE | MODE_FIELDS |
-| 1128 | 48 | SJ_PERF | PERF_FIELDS |
-| 1176 | 20 | CR_COMMAND | command_num, command |
-| 1200 | 32 | CR_STATUS | STATUS_FIELDS |
-| 1232 | 16 | CR_MODE | MODE_FIELDS |
-| 1248 | 48 | CR_PERF | PERF_FIELDS |
-| 1296 | 20 | GH_COMMAND | command_num, command |
-| 1320 | 32 | GH_STATUS | STATUS_FIELDS |
-| 1352 | 16 | GH_MODE | MODE_FIELDS |
-| 1368 | 48 | GH_PERF | PERF_FIELDS |
-| 1416 | 20 | CV_COMMAND | command_num, command |
-| 1440 | 32 | CV_STATUS | STATUS_FIELDS |
-| 1472 | 16 | CV_MODE | MODE_FIELDS |
-| 1488 | 48 | CV_PERF | PERF_FIELDS |
-| 1536 | 20 | CT_COMMAND | command_num, command |
-| 1560 | 32 | CT_STATUS | STATUS_FIELDS |
-| 1592 | 16 | CT_MODE | MODE_FIELDS |
-| 1608 | 48 | CT_PERF | PERF_FIELDS |
-| 1656 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
-| 1696 | 32 | VG_STATUS | STATUS_FIELDS |
-| 1728 | 16 | VG_MODE | MODE_FIELDS |
-| 1744 | 48 | VG_PERF | PERF_FIELDS |
-| 1792 | 20 | TC_COMMAND | command_num, command |
-| 1816 | 32 | TC_STATUS | STATUS_FIELDS |
-| 1848 | 16 | TC_MODE | MODE_FIELDS |
-| 1864 | 48 | TC_PERF | PERF_FIELDS |
-| 1912 | 36 | OI_COMMAND | command_num, command, arg_x, arg_y |
-| 1952 | 32 | OI_STATUS | STATUS_FIELDS |
-| 1984 | 16 | OI_MODE | MODE_FIELDS |
-| 2000 | 48 | OI_PERF | PERF_FIELDS |
-| 2048 | 20 | BAS_COMMAND | command_num, command |
-| 2072 | 32 | BAS_STATUS | STATUS_FIELDS |
-| 2104 | 16 | BAS_MODE | MODE_FIELDS |
-| 2120 | 48 | BAS_PERF | PERF_FIELDS |
-| 2168 | 20 | JAS_COMMAND | command_num, command |
-| 2192 | 32 | JAS_STATUS | STATUS_FIELDS |
-| 2224 | 16 | JAS_MODE | MODE_FIELDS |
-| 2240 | 48 | JAS_PERF | PERF_FIELDS |
-| 2288 | 20 | TAS_COMMAND | command_num, command |
-| 2312 | 32 | TAS_STATUS | STATUS_FIELDS |
-| 2344 | 16 | TAS_MODE | MODE_FIELDS |
-| 2360 | 48 | TAS_PERF | PERF_FIELDS |
-| 2408 | 20 | MINE_COMMAND | command_num, command |
-| 2432 | 32 | MINE_STATUS | STATUS_FIELDS |
-| 2464 | 16 | MINE_MODE | MODE_FIELDS |
-| 2480 | 48 | MINE_PERF | PERF_FIELDS |
-| 2528 | 20 | DAS_COMMAND | command_num, command |
-| 2552 | 32 | DAS_STATUS | STATUS_FIELDS |
-| 2584 | 16 | DAS_MODE | MODE_FIELDS |
-| 2600 | 48 | DAS_PERF | PERF_FIELDS |
-| 2648 | 20 | GAS_COMMAND | command_num, command |
-| 2672 | 32 | GAS_STATUS | STATUS_FIELDS |
-| 2704 | 16 | GAS_MODE | MODE_FIELDS |
-| 2720 | 48 | GAS_PERF | PERF_FIELDS |
-| 2768 | 20 | BSS_COMMAND | command_num, command |
-| 2792 | 32 | BSS_STATUS | STATUS_FIELDS |
-| 2824 | 16 | BSS_MODE | MODE_FIELDS |
-| 2840 | 48 | BSS_PERF | PERF_FIELDS |
-| 2888 | 20 | PSS_COMMAND | command_num, command |
-| 2912 | 32 | PSS_STATUS | STATUS_FIELDS |
-| 2944 | 16 | PSS_MODE | MODE_FIELDS |
-| 2960 | 48 | PSS_PERF | PERF_FIELDS |
-| 3008 | 20 | CSS_COMMAND | command_num, command |
-| 3032 | 32 | CSS_STATUS | STATUS_FIELDS |
-| 3064 | 16 | CSS_MODE | MODE_FIELDS |
-| 3080 | 48 | CSS_PERF | PERF_FIELDS |
-| 3128 | 20 | LCS_COMMAND | command_num, command |
-| 3152 | 32 | LCS_STATUS | STATUS_FIELDS |
-| 3184 | 16 | LCS_MODE | MODE_FIELDS |
-| 3200 | 48 | LCS_PERF | PERF_FIELDS |
-| 3248 | 20 | WM_COMMAND | command_num, command |
-| 3272 | 32 | WM_STATUS | STATUS_FIELDS |
-| 3304 | 16 | WM_MODE | MODE_FIELDS |
-| 3320 | 48 | WM_PERF | PERF_FIELDS |
-| 3368 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
-| 3408 | 32 | PP_STATUS | STATUS_FIELDS |
-| 3440 | 16 | PP_MODE | MODE_FIELDS |
-| 3456 | 48 | PP_PERF | PERF_FIELDS |
-| 3504 | 9 | WORLD_TAIL_REQUEST | tail_request |
-| 3520 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
-| 3536 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 3552 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
-| 3568 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
-| 3584 | 16 | WORLD_GOAL_X | goal_x |
-| 3600 | 16 | WORLD_GOAL_Y | goal_y |
-| 3616 | 9 | WORLD_PATH_OK | path_ok |
-| 3632 | 16 | WORLD_WP_X | wp_x |
-| 3648 | 16 | WORLD_WP_Y | wp_y |
-| 3664 | 9 | WORLD_WP_LAST | wp_last |
-| 3680 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
-| 3696 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
-| 3712 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
-| 3728 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
-| 3744 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
-| 3760 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
-| 3776 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
-| 3792 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
-| 3808 | 16 | WORLD_TRUE_X | true_x |
-| 3824 | 16 | WORLD_TRUE_Y | true_y |
-| 3840 | 16 | WORLD_TRUE_HEADING | true_heading |
-| 3856 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
-| 3872 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
-| 3888 | 9 | WORLD_JACK_DOWN | jack_down |
-| 3904 | 16 | WORLD_SLIP | slip |
-| 3920 | 9 | WORLD_TREAD_STALLED | tread_stalled |
-| 3936 | 16 | WORLD_POSE_X | pose_x |
-| 3952 | 16 | WORLD_POSE_Y | pose_y |
-| 3968 | 16 | WORLD_HEADING | heading |
-| 3984 | 16 | WORLD_BOOM_ANGLE | boom_angle |
-| 4000 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
-| 4016 | 16 | WORLD_LOOSE_COAL | loose_coal |
-| 4032 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 4048 | 16 | WORLD_DEPTH_EST | depth_est |
-| 4064 | 16 | WORLD_DRUM_REACH | drum_reach |
-| 4080 | 16 | WORLD_SUMP_STEP | sump_step |
-| 4096 | 9 | WORLD_IN_COAL | in_coal |
-| 4112 | 16 | WORLD_FACE_X | face_x |
-| 4128 | 16 | WORLD_DEPTH_CUT | depth_cut |
-| 4144 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
-| 4160 | 16 | WORLD_COAL_MINED | coal_mined |
-| 4176 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
-| 4192 | 9 | OVERRIDES | any |
-| 4208 | 17 | OVERRIDE_TAIL_REQUEST | state, tail_request |
-| 4232 | 17 | OVERRIDE_TAIL_IN_POSITION | state, tail_in_position |
-| 4256 | 24 | OVERRIDE_OPERATOR_DELAY | state, operator_delay |
-| 4280 | 24 | OVERRIDE_OPERATOR_GOAL_X | state, operator_goal_x |
-| 4304 | 24 | OVERRIDE_OPERATOR_GOAL_Y | state, operator_goal_y |
-| 4328 | 24 | OVERRIDE_GOAL_X | state, goal_x |
-| 4352 | 24 | OVERRIDE_GOAL_Y | state, goal_y |
-| 4376 | 17 | OVERRIDE_PATH_OK | state, path_ok |
-| 4400 | 24 | OVERRIDE_WP_X | state, wp_x |
-| 4424 | 24 | OVERRIDE_WP_Y | state, wp_y |
-| 4448 | 17 | OVERRIDE_WP_LAST | state, wp_last |
-| 4472 | 24 | OVERRIDE_BOOM_RATE_CMD | state, boom_rate_cmd |
-| 4496 | 17 | OVERRIDE_DRUM_ON_CMD | state, drum_on_cmd |
-| 4520 | 17 | OVERRIDE_JACK_DOWN_CMD | state, jack_down_cmd |
-| 4544 | 24 | OVERRIDE_LEFT_TREAD_CMD | state, left_tread_cmd |
-| 4568 | 24 | OVERRIDE_RIGHT_TREAD_CMD | state, right_tread_cmd |
-| 4592 | 17 | OVERRIDE_PAN_FLOAT_CMD | state, pan_float_cmd |
-| 4616 | 17 | OVERRIDE_GATHER_ON_CMD | state, gather_on_cmd |
-| 4640 | 17 | OVERRIDE_CONVEYOR_ON_CMD | state, conveyor_on_cmd |
-| 4664 | 24 | OVERRIDE_TRUE_X | state, true_x |
-| 4688 | 24 | OVERRIDE_TRUE_Y | state, true_y |
-| 4712 | 24 | OVERRIDE_TRUE_HEADING | state, true_heading |
-| 4736 | 24 | OVERRIDE_BOOM_ANGLE_TRUE | state, boom_angle_true |
-| 4760 | 24 | OVERRIDE_DRUM_CURRENT_TRUE | state, drum_current_true |
-| 4784 | 17 | OVERRIDE_JACK_DOWN | state, jack_down |
-| 4808 | 24 | OVERRIDE_SLIP | state, slip |
-| 4832 | 17 | OVERRIDE_TREAD_STALLED | state, tread_stalled |
-| 4856 | 24 | OVERRIDE_POSE_X | state, pose_x |
-| 4880 | 24 | OVERRIDE_POSE_Y | state, pose_y |
-| 4904 | 24 | OVERRIDE_HEADING | state, heading |
-| 4928 | 24 | OVERRIDE_BOOM_ANGLE | state, boom_angle |
-| 4952 | 24 | OVERRIDE_CUTTER_CURRENT | state, cutter_current |
-| 4976 | 24 | OVERRIDE_LOOSE_COAL | state, loose_coal |
-| 5000 | 17 | OVERRIDE_POPPED_OUT_OF_SHEAR | state, popped_out_of_shear |
-| 5024 | 24 | OVERRIDE_DEPTH_EST | state, depth_est |
-| 5048 | 24 | OVERRIDE_DRUM_REACH | state, drum_reach |
-| 5072 | 24 | OVERRIDE_SUMP_STEP | state, sump_step |
-| 5096 | 17 | OVERRIDE_IN_COAL | state, in_coal |
-| 5120 | 24 | OVERRIDE_FACE_X | state, face_x |
-| 5144 | 24 | OVERRIDE_DEPTH_CUT | state, depth_cut |
-| 5168 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
-| 5192 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
-| 5216 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
-| 5240 | 48 | TIME_SEC | state, since, NOP, S0, S1 |
-| 5288 | 144 | TIME_SB | state, since, NOP, S0, S1, S2, S3, STOPPING, HALTING, BOX_AT_FACE, BOX_SLICE, BOX_APPROACH, BACK_OUT, ACROSS, SLAB_AT_FACE, SLAB_SLICE, SLAB_APPROACH |
-| 5432 | 80 | TIME_CO | state, since, NOP, S0, S1, S2, S3, FAILED, S4 |
-| 5512 | 56 | TIME_CC | state, since, NOP, S0, S1, S2 |
-| 5568 | 48 | TIME_BM | state, since, NOP, S0, S1 |
-| 5616 | 40 | TIME_CD | state, since, NOP, S0 |
-| 5656 | 48 | TIME_SJ | state, since, NOP, S0, S1 |
-| 5704 | 56 | TIME_CR | state, since, NOP, S0, S1, S2 |
-| 5760 | 40 | TIME_GH | state, since, NOP, S0 |
-| 5800 | 40 | TIME_CV | state, since, NOP, S0 |
-| 5840 | 48 | TIME_CT | state, since, NOP, S0, S1 |
-| 5888 | 136 | TIME_VG | state, since, NOP, S0, S1, PLANNING, DECIDE, FORWARD, REVERSE, LEFT, RIGHT, STOPPING, ALIGN, ALIGN_LEFT, ALIGN_RIGHT, ALIGN_STOPPING |
-| 6024 | 48 | TIME_TC | state, since, NOP, S0, S0_MOVING |
-| 6072 | 40 | TIME_OI | state, since, NOP, S0 |
-| 6112 | 40 | TIME_BAS | state, since, NOP, S0 |
-| 6152 | 40 | TIME_JAS | state, since, NOP, S0 |
-| 6192 | 40 | TIME_TAS | state, since, NOP, S0 |
-| 6232 | 40 | TIME_MINE | state, since, NOP, S0 |
-| 6272 | 40 | TIME_DAS | state, since, NOP, S0 |
-| 6312 | 40 | TIME_GAS | state, since, NOP, S0 |
-| 6352 | 40 | TIME_BSS | state, since, NOP, S0 |
-| 6392 | 40 | TIME_PSS | state, since, NOP, S0 |
-| 6432 | 40 | TIME_CSS | state, since, NOP, S0 |
-| 6472 | 40 | TIME_LCS | state, since, NOP, S0 |
-| 6512 | 40 | TIME_WM | state, since, NOP, S0 |
-| 6552 | 48 | TIME_PP | state, since, NOP, S0, S1 |
-| 6600 | 40 | TIME_CR_SIM | state, since, NOP, S0 |
+| 80 | 168 | PROCESS_PC1 | PROCESS_FIELDS |
+| 248 | 16 | PACE_PC1 | PACE_FIELDS |
+| 264 | 168 | PROCESS_PC2 | PROCESS_FIELDS |
+| 432 | 16 | PACE_PC2 | PACE_FIELDS |
+| 448 | 36 | SEC_COMMAND | command_num, command, arg_depth, arg_offset |
+| 488 | 32 | SEC_STATUS | STATUS_FIELDS |
+| 520 | 16 | SEC_MODE | MODE_FIELDS |
+| 536 | 48 | SEC_PERF | PERF_FIELDS |
+| 584 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
+| 624 | 32 | SB_STATUS | STATUS_FIELDS |
+| 656 | 16 | SB_MODE | MODE_FIELDS |
+| 672 | 48 | SB_PERF | PERF_FIELDS |
+| 720 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
+| 760 | 32 | CO_STATUS | STATUS_FIELDS |
+| 792 | 16 | CO_MODE | MODE_FIELDS |
+| 808 | 48 | CO_PERF | PERF_FIELDS |
+| 856 | 20 | CC_COMMAND | command_num, command |
+| 880 | 32 | CC_STATUS | STATUS_FIELDS |
+| 912 | 16 | CC_MODE | MODE_FIELDS |
+| 928 | 48 | CC_PERF | PERF_FIELDS |
+| 976 | 20 | BM_COMMAND | command_num, command |
+| 1000 | 32 | BM_STATUS | STATUS_FIELDS |
+| 1032 | 16 | BM_MODE | MODE_FIELDS |
+| 1048 | 48 | BM_PERF | PERF_FIELDS |
+| 1096 | 20 | CD_COMMAND | command_num, command |
+| 1120 | 32 | CD_STATUS | STATUS_FIELDS |
+| 1152 | 16 | CD_MODE | MODE_FIELDS |
+| 1168 | 48 | CD_PERF | PERF_FIELDS |
+| 1216 | 20 | SJ_COMMAND | command_num, command |
+| 1240 | 32 | SJ_STATUS | STATUS_FIELDS |
+| 1272 | 16 | SJ_MODE | MODE_FIELDS |
+| 1288 | 48 | SJ_PERF | PERF_FIELDS |
+| 1336 | 20 | CR_COMMAND | command_num, command |
+| 1360 | 32 | CR_STATUS | STATUS_FIELDS |
+| 1392 | 16 | CR_MODE | MODE_FIELDS |
+| 1408 | 48 | CR_PERF | PERF_FIELDS |
+| 1456 | 20 | GH_COMMAND | command_num, command |
+| 1480 | 32 | GH_STATUS | STATUS_FIELDS |
+| 1512 | 16 | GH_MODE | MODE_FIELDS |
+| 1528 | 48 | GH_PERF | PERF_FIELDS |
+| 1576 | 20 | CV_COMMAND | command_num, command |
+| 1600 | 32 | CV_STATUS | STATUS_FIELDS |
+| 1632 | 16 | CV_MODE | MODE_FIELDS |
+| 1648 | 48 | CV_PERF | PERF_FIELDS |
+| 1696 | 20 | CT_COMMAND | command_num, command |
+| 1720 | 32 | CT_STATUS | STATUS_FIELDS |
+| 1752 | 16 | CT_MODE | MODE_FIELDS |
+| 1768 | 48 | CT_PERF | PERF_FIELDS |
+| 1816 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
+| 1856 | 32 | VG_STATUS | STATUS_FIELDS |
+| 1888 | 16 | VG_MODE | MODE_FIELDS |
+| 1904 | 48 | VG_PERF | PERF_FIELDS |
+| 1952 | 20 | TC_COMMAND | command_num, command |
+| 1976 | 32 | TC_STATUS | STATUS_FIELDS |
+| 2008 | 16 | TC_MODE | MODE_FIELDS |
+| 2024 | 48 | TC_PERF | PERF_FIELDS |
+| 2072 | 36 | OI_COMMAND | command_num, command, arg_x, arg_y |
+| 2112 | 32 | OI_STATUS | STATUS_FIELDS |
+| 2144 | 16 | OI_MODE | MODE_FIELDS |
+| 2160 | 48 | OI_PERF | PERF_FIELDS |
+| 2208 | 20 | BAS_COMMAND | command_num, command |
+| 2232 | 32 | BAS_STATUS | STATUS_FIELDS |
+| 2264 | 16 | BAS_MODE | MODE_FIELDS |
+| 2280 | 48 | BAS_PERF | PERF_FIELDS |
+| 2328 | 20 | JAS_COMMAND | command_num, command |
+| 2352 | 32 | JAS_STATUS | STATUS_FIELDS |
+| 2384 | 16 | JAS_MODE | MODE_FIELDS |
+| 2400 | 48 | JAS_PERF | PERF_FIELDS |
+| 2448 | 20 | TAS_COMMAND | command_num, command |
+| 2472 | 32 | TAS_STATUS | STATUS_FIELDS |
+| 2504 | 16 | TAS_MODE | MODE_FIELDS |
+| 2520 | 48 | TAS_PERF | PERF_FIELDS |
+| 2568 | 20 | MINE_COMMAND | command_num, command |
+| 2592 | 32 | MINE_STATUS | STATUS_FIELDS |
+| 2624 | 16 | MINE_MODE | MODE_FIELDS |
+| 2640 | 48 | MINE_PERF | PERF_FIELDS |
+| 2688 | 20 | DAS_COMMAND | command_num, command |
+| 2712 | 32 | DAS_STATUS | STATUS_FIELDS |
+| 2744 | 16 | DAS_MODE | MODE_FIELDS |
+| 2760 | 48 | DAS_PERF | PERF_FIELDS |
+| 2808 | 20 | GAS_COMMAND | command_num, command |
+| 2832 | 32 | GAS_STATUS | STATUS_FIELDS |
+| 2864 | 16 | GAS_MODE | MODE_FIELDS |
+| 2880 | 48 | GAS_PERF | PERF_FIELDS |
+| 2928 | 20 | BSS_COMMAND | command_num, command |
+| 2952 | 32 | BSS_STATUS | STATUS_FIELDS |
+| 2984 | 16 | BSS_MODE | MODE_FIELDS |
+| 3000 | 48 | BSS_PERF | PERF_FIELDS |
+| 3048 | 20 | PSS_COMMAND | command_num, command |
+| 3072 | 32 | PSS_STATUS | STATUS_FIELDS |
+| 3104 | 16 | PSS_MODE | MODE_FIELDS |
+| 3120 | 48 | PSS_PERF | PERF_FIELDS |
+| 3168 | 20 | CSS_COMMAND | command_num, command |
+| 3192 | 32 | CSS_STATUS | STATUS_FIELDS |
+| 3224 | 16 | CSS_MODE | MODE_FIELDS |
+| 3240 | 48 | CSS_PERF | PERF_FIELDS |
+| 3288 | 20 | LCS_COMMAND | command_num, command |
+| 3312 | 32 | LCS_STATUS | STATUS_FIELDS |
+| 3344 | 16 | LCS_MODE | MODE_FIELDS |
+| 3360 | 48 | LCS_PERF | PERF_FIELDS |
+| 3408 | 20 | WM_COMMAND | command_num, command |
+| 3432 | 32 | WM_STATUS | STATUS_FIELDS |
+| 3464 | 16 | WM_MODE | MODE_FIELDS |
+| 3480 | 48 | WM_PERF | PERF_FIELDS |
+| 3528 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
+| 3568 | 32 | PP_STATUS | STATUS_FIELDS |
+| 3600 | 16 | PP_MODE | MODE_FIELDS |
+| 3616 | 48 | PP_PERF | PERF_FIELDS |
+| 3664 | 9 | WORLD_TAIL_REQUEST | tail_request |
+| 3680 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
+| 3696 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 3712 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
+| 3728 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
+| 3744 | 16 | WORLD_GOAL_X | goal_x |
+| 3760 | 16 | WORLD_GOAL_Y | goal_y |
+| 3776 | 9 | WORLD_PATH_OK | path_ok |
+| 3792 | 16 | WORLD_WP_X | wp_x |
+| 3808 | 16 | WORLD_WP_Y | wp_y |
+| 3824 | 9 | WORLD_WP_LAST | wp_last |
+| 3840 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 3856 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 3872 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 3888 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 3904 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 3920 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 3936 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 3952 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 3968 | 16 | WORLD_TRUE_X | true_x |
+| 3984 | 16 | WORLD_TRUE_Y | true_y |
+| 4000 | 16 | WORLD_TRUE_HEADING | true_heading |
+| 4016 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 4032 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 4048 | 9 | WORLD_JACK_DOWN | jack_down |
+| 4064 | 16 | WORLD_SLIP | slip |
+| 4080 | 9 | WORLD_TREAD_STALLED | tread_stalled |
+| 4096 | 16 | WORLD_POSE_X | pose_x |
+| 4112 | 16 | WORLD_POSE_Y | pose_y |
+| 4128 | 16 | WORLD_HEADING | heading |
+| 4144 | 16 | WORLD_BOOM_ANGLE | boom_angle |
+| 4160 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
+| 4176 | 16 | WORLD_LOOSE_COAL | loose_coal |
+| 4192 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 4208 | 16 | WORLD_DEPTH_EST | depth_est |
+| 4224 | 16 | WORLD_DRUM_REACH | drum_reach |
+| 4240 | 16 | WORLD_SUMP_STEP | sump_step |
+| 4256 | 9 | WORLD_IN_COAL | in_coal |
+| 4272 | 16 | WORLD_FACE_X | face_x |
+| 4288 | 16 | WORLD_DEPTH_CUT | depth_cut |
+| 4304 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
+| 4320 | 16 | WORLD_COAL_MINED | coal_mined |
+| 4336 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
+| 4352 | 9 | OVERRIDES | any |
+| 4368 | 17 | OVERRIDE_TAIL_REQUEST | state, tail_request |
+| 4392 | 17 | OVERRIDE_TAIL_IN_POSITION | state, tail_in_position |
+| 4416 | 24 | OVERRIDE_OPERATOR_DELAY | state, operator_delay |
+| 4440 | 24 | OVERRIDE_OPERATOR_GOAL_X | state, operator_goal_x |
+| 4464 | 24 | OVERRIDE_OPERATOR_GOAL_Y | state, operator_goal_y |
+| 4488 | 24 | OVERRIDE_GOAL_X | state, goal_x |
+| 4512 | 24 | OVERRIDE_GOAL_Y | state, goal_y |
+| 4536 | 17 | OVERRIDE_PATH_OK | state, path_ok |
+| 4560 | 24 | OVERRIDE_WP_X | state, wp_x |
+| 4584 | 24 | OVERRIDE_WP_Y | state, wp_y |
+| 4608 | 17 | OVERRIDE_WP_LAST | state, wp_last |
+| 4632 | 24 | OVERRIDE_BOOM_RATE_CMD | state, boom_rate_cmd |
+| 4656 | 17 | OVERRIDE_DRUM_ON_CMD | state, drum_on_cmd |
+| 4680 | 17 | OVERRIDE_JACK_DOWN_CMD | state, jack_down_cmd |
+| 4704 | 24 | OVERRIDE_LEFT_TREAD_CMD | state, left_tread_cmd |
+| 4728 | 24 | OVERRIDE_RIGHT_TREAD_CMD | state, right_tread_cmd |
+| 4752 | 17 | OVERRIDE_PAN_FLOAT_CMD | state, pan_float_cmd |
+| 4776 | 17 | OVERRIDE_GATHER_ON_CMD | state, gather_on_cmd |
+| 4800 | 17 | OVERRIDE_CONVEYOR_ON_CMD | state, conveyor_on_cmd |
+| 4824 | 24 | OVERRIDE_TRUE_X | state, true_x |
+| 4848 | 24 | OVERRIDE_TRUE_Y | state, true_y |
+| 4872 | 24 | OVERRIDE_TRUE_HEADING | state, true_heading |
+| 4896 | 24 | OVERRIDE_BOOM_ANGLE_TRUE | state, boom_angle_true |
+| 4920 | 24 | OVERRIDE_DRUM_CURRENT_TRUE | state, drum_current_true |
+| 4944 | 17 | OVERRIDE_JACK_DOWN | state, jack_down |
+| 4968 | 24 | OVERRIDE_SLIP | state, slip |
+| 4992 | 17 | OVERRIDE_TREAD_STALLED | state, tread_stalled |
+| 5016 | 24 | OVERRIDE_POSE_X | state, pose_x |
+| 5040 | 24 | OVERRIDE_POSE_Y | state, pose_y |
+| 5064 | 24 | OVERRIDE_HEADING | state, heading |
+| 5088 | 24 | OVERRIDE_BOOM_ANGLE | state, boom_angle |
+| 5112 | 24 | OVERRIDE_CUTTER_CURRENT | state, cutter_current |
+| 5136 | 24 | OVERRIDE_LOOSE_COAL | state, loose_coal |
+| 5160 | 17 | OVERRIDE_POPPED_OUT_OF_SHEAR | state, popped_out_of_shear |
+| 5184 | 24 | OVERRIDE_DEPTH_EST | state, depth_est |
+| 5208 | 24 | OVERRIDE_DRUM_REACH | state, drum_reach |
+| 5232 | 24 | OVERRIDE_SUMP_STEP | state, sump_step |
+| 5256 | 17 | OVERRIDE_IN_COAL | state, in_coal |
+| 5280 | 24 | OVERRIDE_FACE_X | state, face_x |
+| 5304 | 24 | OVERRIDE_DEPTH_CUT | state, depth_cut |
+| 5328 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
+| 5352 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
+| 5376 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
+| 5400 | 48 | TIME_SEC | state, since, NOP, S0, S1 |
+| 5448 | 144 | TIME_SB | state, since, NOP, S0, S1, S2, S3, STOPPING, HALTING, BOX_AT_FACE, BOX_SLICE, BOX_APPROACH, BACK_OUT, ACROSS, SLAB_AT_FACE, SLAB_SLICE, SLAB_APPROACH |
+| 5592 | 80 | TIME_CO | state, since, NOP, S0, S1, S2, S3, FAILED, S4 |
+| 5672 | 56 | TIME_CC | state, since, NOP, S0, S1, S2 |
+| 5728 | 48 | TIME_BM | state, since, NOP, S0, S1 |
+| 5776 | 40 | TIME_CD | state, since, NOP, S0 |
+| 5816 | 48 | TIME_SJ | state, since, NOP, S0, S1 |
+| 5864 | 56 | TIME_CR | state, since, NOP, S0, S1, S2 |
+| 5920 | 40 | TIME_GH | state, since, NOP, S0 |
+| 5960 | 40 | TIME_CV | state, since, NOP, S0 |
+| 6000 | 48 | TIME_CT | state, since, NOP, S0, S1 |
+| 6048 | 136 | TIME_VG | state, since, NOP, S0, S1, PLANNING, DECIDE, FORWARD, REVERSE, LEFT, RIGHT, STOPPING, ALIGN, ALIGN_LEFT, ALIGN_RIGHT, ALIGN_STOPPING |
+| 6184 | 48 | TIME_TC | state, since, NOP, S0, S0_MOVING |
+| 6232 | 40 | TIME_OI | state, since, NOP, S0 |
+| 6272 | 40 | TIME_BAS | state, since, NOP, S0 |
+| 6312 | 40 | TIME_JAS | state, since, NOP, S0 |
+| 6352 | 40 | TIME_TAS | state, since, NOP, S0 |
+| 6392 | 40 | TIME_MINE | state, since, NOP, S0 |
+| 6432 | 40 | TIME_DAS | state, since, NOP, S0 |
+| 6472 | 40 | TIME_GAS | state, since, NOP, S0 |
+| 6512 | 40 | TIME_BSS | state, since, NOP, S0 |
+| 6552 | 40 | TIME_PSS | state, since, NOP, S0 |
+| 6592 | 40 | TIME_CSS | state, since, NOP, S0 |
+| 6632 | 40 | TIME_LCS | state, since, NOP, S0 |
+| 6672 | 40 | TIME_WM | state, since, NOP, S0 |
+| 6712 | 48 | TIME_PP | state, since, NOP, S0, S1 |
+| 6760 | 40 | TIME_CR_SIM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -268,283 +268,283 @@ from .rcs.contract import (
 
 SYSTEM = "miner"
 SOURCE = "miner/system.yaml"
-SIZE = 6640
+SIZE = 6800
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "b069ff1ca4ca26329a06f86fa10efd41"
+LAYOUT_HASH = "b1683113285a792773e713026250e877"
 PROCESS_PC1_AT = 80
-PACE_PC1_AT = 168
-PROCESS_PC2_AT = 184
-PACE_PC2_AT = 272
+PACE_PC1_AT = 248
+PROCESS_PC2_AT = 264
+PACE_PC2_AT = 432
 
 # sec: Section
 SEC_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
-SEC_COMMAND_AT = 288
-SEC_STATUS_AT = 328
-SEC_MODE_AT = 360
-SEC_PERF_AT = 376
+SEC_COMMAND_AT = 448
+SEC_STATUS_AT = 488
+SEC_MODE_AT = 520
+SEC_PERF_AT = 536
 
 # sb: Shift boss
 SB_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
-SB_COMMAND_AT = 424
-SB_STATUS_AT = 464
-SB_MODE_AT = 496
-SB_PERF_AT = 512
+SB_COMMAND_AT = 584
+SB_STATUS_AT = 624
+SB_MODE_AT = 656
+SB_PERF_AT = 672
 
 # co: Continuous miner operation coordinator
 CO_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-CO_COMMAND_AT = 560
-CO_STATUS_AT = 600
-CO_MODE_AT = 632
-CO_PERF_AT = 648
+CO_COMMAND_AT = 720
+CO_STATUS_AT = 760
+CO_MODE_AT = 792
+CO_PERF_AT = 808
 
 # cc: Coal cutting
 CC_COMMAND = Struct("<QQI")  # seq, command_num, command
-CC_COMMAND_AT = 696
-CC_STATUS_AT = 720
-CC_MODE_AT = 752
-CC_PERF_AT = 768
+CC_COMMAND_AT = 856
+CC_STATUS_AT = 880
+CC_MODE_AT = 912
+CC_PERF_AT = 928
 
 # bm: Boom
 BM_COMMAND = Struct("<QQI")  # seq, command_num, command
-BM_COMMAND_AT = 816
-BM_STATUS_AT = 840
-BM_MODE_AT = 872
-BM_PERF_AT = 888
+BM_COMMAND_AT = 976
+BM_STATUS_AT = 1000
+BM_MODE_AT = 1032
+BM_PERF_AT = 1048
 
 # cd: Cutter drum
 CD_COMMAND = Struct("<QQI")  # seq, command_num, command
-CD_COMMAND_AT = 936
-CD_STATUS_AT = 960
-CD_MODE_AT = 992
-CD_PERF_AT = 1008
+CD_COMMAND_AT = 1096
+CD_STATUS_AT = 1120
+CD_MODE_AT = 1152
+CD_PERF_AT = 1168
 
 # sj: Stabilization jack
 SJ_COMMAND = Struct("<QQI")  # seq, command_num, command
-SJ_COMMAND_AT = 1056
-SJ_STATUS_AT = 1080
-SJ_MODE_AT = 1112
-SJ_PERF_AT = 1128
+SJ_COMMAND_AT = 1216
+SJ_STATUS_AT = 1240
+SJ_MODE_AT = 1272
+SJ_PERF_AT = 1288
 
 # cr: Coal removal
 CR_COMMAND = Struct("<QQI")  # seq, command_num, command
-CR_COMMAND_AT = 1176
-CR_STATUS_AT = 1200
-CR_MODE_AT = 1232
-CR_PERF_AT = 1248
+CR_COMMAND_AT = 1336
+CR_STATUS_AT = 1360
+CR_MODE_AT = 1392
+CR_PERF_AT = 1408
 
 # gh: Gathering head
 GH_COMMAND = Struct("<QQI")  # seq, command_num, command
-GH_COMMAND_AT = 1296
-GH_STATUS_AT = 1320
-GH_MODE_AT = 1352
-GH_PERF_AT = 1368
+GH_COMMAND_AT = 1456
+GH_STATUS_AT = 1480
+GH_MODE_AT = 1512
+GH_PERF_AT = 1528
 
 # cv: Conveyor
 CV_COMMAND = Struct("<QQI")  # seq, command_num, command
-CV_COMMAND_AT = 1416
-CV_STATUS_AT = 1440
-CV_MODE_AT = 1472
-CV_PERF_AT = 1488
+CV_COMMAND_AT = 1576
+CV_STATUS_AT = 1600
+CV_MODE_AT = 1632
+CV_PERF_AT = 1648
 
 # ct: Conveyor tail (operator)
 CT_COMMAND = Struct("<QQI")  # seq, command_num, command
-CT_COMMAND_AT = 1536
-CT_STATUS_AT = 1560
-CT_MODE_AT = 1592
-CT_PERF_AT = 1608
+CT_COMMAND_AT = 1696
+CT_STATUS_AT = 1720
+CT_MODE_AT = 1752
+CT_PERF_AT = 1768
 
 # vg: Vehicle guidance
 VG_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-VG_COMMAND_AT = 1656
-VG_STATUS_AT = 1696
-VG_MODE_AT = 1728
-VG_PERF_AT = 1744
+VG_COMMAND_AT = 1816
+VG_STATUS_AT = 1856
+VG_MODE_AT = 1888
+VG_PERF_AT = 1904
 
 # tc: Tram
 TC_COMMAND = Struct("<QQI")  # seq, command_num, command
-TC_COMMAND_AT = 1792
-TC_STATUS_AT = 1816
-TC_MODE_AT = 1848
-TC_PERF_AT = 1864
+TC_COMMAND_AT = 1952
+TC_STATUS_AT = 1976
+TC_MODE_AT = 2008
+TC_PERF_AT = 2024
 
 # oi: Operator interface (scripted operator)
 OI_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-OI_COMMAND_AT = 1912
-OI_STATUS_AT = 1952
-OI_MODE_AT = 1984
-OI_PERF_AT = 2000
+OI_COMMAND_AT = 2072
+OI_STATUS_AT = 2112
+OI_MODE_AT = 2144
+OI_PERF_AT = 2160
 
 # bas: Boom actuator (simulated)
 BAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-BAS_COMMAND_AT = 2048
-BAS_STATUS_AT = 2072
-BAS_MODE_AT = 2104
-BAS_PERF_AT = 2120
+BAS_COMMAND_AT = 2208
+BAS_STATUS_AT = 2232
+BAS_MODE_AT = 2264
+BAS_PERF_AT = 2280
 
 # jas: Stabilization jack actuator (simulated)
 JAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-JAS_COMMAND_AT = 2168
-JAS_STATUS_AT = 2192
-JAS_MODE_AT = 2224
-JAS_PERF_AT = 2240
+JAS_COMMAND_AT = 2328
+JAS_STATUS_AT = 2352
+JAS_MODE_AT = 2384
+JAS_PERF_AT = 2400
 
 # tas: Tread actuators (simulated)
 TAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-TAS_COMMAND_AT = 2288
-TAS_STATUS_AT = 2312
-TAS_MODE_AT = 2344
-TAS_PERF_AT = 2360
+TAS_COMMAND_AT = 2448
+TAS_STATUS_AT = 2472
+TAS_MODE_AT = 2504
+TAS_PERF_AT = 2520
 
 # mine: Mine (simulated environment)
 MINE_COMMAND = Struct("<QQI")  # seq, command_num, command
-MINE_COMMAND_AT = 2408
-MINE_STATUS_AT = 2432
-MINE_MODE_AT = 2464
-MINE_PERF_AT = 2480
+MINE_COMMAND_AT = 2568
+MINE_STATUS_AT = 2592
+MINE_MODE_AT = 2624
+MINE_PERF_AT = 2640
 
 # das: Cutter drum motor (simulated)
 DAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-DAS_COMMAND_AT = 2528
-DAS_STATUS_AT = 2552
-DAS_MODE_AT = 2584
-DAS_PERF_AT = 2600
+DAS_COMMAND_AT = 2688
+DAS_STATUS_AT = 2712
+DAS_MODE_AT = 2744
+DAS_PERF_AT = 2760
 
 # gas: Gathering head and conveyor (simulated)
 GAS_COMMAND = Struct("<QQI")  # seq, command_num, command
-GAS_COMMAND_AT = 2648
-GAS_STATUS_AT = 2672
-GAS_MODE_AT = 2704
-GAS_PERF_AT = 2720
+GAS_COMMAND_AT = 2808
+GAS_STATUS_AT = 2832
+GAS_MODE_AT = 2864
+GAS_PERF_AT = 2880
 
 # bss: Boom angle sensor (simulated)
 BSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-BSS_COMMAND_AT = 2768
-BSS_STATUS_AT = 2792
-BSS_MODE_AT = 2824
-BSS_PERF_AT = 2840
+BSS_COMMAND_AT = 2928
+BSS_STATUS_AT = 2952
+BSS_MODE_AT = 2984
+BSS_PERF_AT = 3000
 
 # pss: Pose sensor (simulated)
 PSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-PSS_COMMAND_AT = 2888
-PSS_STATUS_AT = 2912
-PSS_MODE_AT = 2944
-PSS_PERF_AT = 2960
+PSS_COMMAND_AT = 3048
+PSS_STATUS_AT = 3072
+PSS_MODE_AT = 3104
+PSS_PERF_AT = 3120
 
 # css: Cutter current sensor (simulated)
 CSS_COMMAND = Struct("<QQI")  # seq, command_num, command
-CSS_COMMAND_AT = 3008
-CSS_STATUS_AT = 3032
-CSS_MODE_AT = 3064
-CSS_PERF_AT = 3080
+CSS_COMMAND_AT = 3168
+CSS_STATUS_AT = 3192
+CSS_MODE_AT = 3224
+CSS_PERF_AT = 3240
 
 # lcs: Loose coal sensor (simulated)
 LCS_COMMAND = Struct("<QQI")  # seq, command_num, command
-LCS_COMMAND_AT = 3128
-LCS_STATUS_AT = 3152
-LCS_MODE_AT = 3184
-LCS_PERF_AT = 3200
+LCS_COMMAND_AT = 3288
+LCS_STATUS_AT = 3312
+LCS_MODE_AT = 3344
+LCS_PERF_AT = 3360
 
 # wm: World modelling (estimates from the sensors)
 WM_COMMAND = Struct("<QQI")  # seq, command_num, command
-WM_COMMAND_AT = 3248
-WM_STATUS_AT = 3272
-WM_MODE_AT = 3304
-WM_PERF_AT = 3320
+WM_COMMAND_AT = 3408
+WM_STATUS_AT = 3432
+WM_MODE_AT = 3464
+WM_PERF_AT = 3480
 
 # pp: Path planner
 PP_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-PP_COMMAND_AT = 3368
-PP_STATUS_AT = 3408
-PP_MODE_AT = 3440
-PP_PERF_AT = 3456
+PP_COMMAND_AT = 3528
+PP_STATUS_AT = 3568
+PP_MODE_AT = 3600
+PP_PERF_AT = 3616
 
 # World model.
 WORLD_TAIL_REQUEST = Struct("<Q?")  # seq, tail_request
-WORLD_TAIL_REQUEST_AT = 3504
+WORLD_TAIL_REQUEST_AT = 3664
 WORLD_TAIL_IN_POSITION = Struct("<Q?")  # seq, tail_in_position
-WORLD_TAIL_IN_POSITION_AT = 3520
+WORLD_TAIL_IN_POSITION_AT = 3680
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 3536
+WORLD_OPERATOR_DELAY_AT = 3696
 WORLD_OPERATOR_GOAL_X = Struct("<Qd")  # seq, operator_goal_x
-WORLD_OPERATOR_GOAL_X_AT = 3552
+WORLD_OPERATOR_GOAL_X_AT = 3712
 WORLD_OPERATOR_GOAL_Y = Struct("<Qd")  # seq, operator_goal_y
-WORLD_OPERATOR_GOAL_Y_AT = 3568
+WORLD_OPERATOR_GOAL_Y_AT = 3728
 WORLD_GOAL_X = Struct("<Qd")  # seq, goal_x
-WORLD_GOAL_X_AT = 3584
+WORLD_GOAL_X_AT = 3744
 WORLD_GOAL_Y = Struct("<Qd")  # seq, goal_y
-WORLD_GOAL_Y_AT = 3600
+WORLD_GOAL_Y_AT = 3760
 WORLD_PATH_OK = Struct("<Q?")  # seq, path_ok
-WORLD_PATH_OK_AT = 3616
+WORLD_PATH_OK_AT = 3776
 WORLD_WP_X = Struct("<Qd")  # seq, wp_x
-WORLD_WP_X_AT = 3632
+WORLD_WP_X_AT = 3792
 WORLD_WP_Y = Struct("<Qd")  # seq, wp_y
-WORLD_WP_Y_AT = 3648
+WORLD_WP_Y_AT = 3808
 WORLD_WP_LAST = Struct("<Q?")  # seq, wp_last
-WORLD_WP_LAST_AT = 3664
+WORLD_WP_LAST_AT = 3824
 WORLD_BOOM_RATE_CMD = Struct("<Qd")  # seq, boom_rate_cmd
-WORLD_BOOM_RATE_CMD_AT = 3680
+WORLD_BOOM_RATE_CMD_AT = 3840
 WORLD_DRUM_ON_CMD = Struct("<Q?")  # seq, drum_on_cmd
-WORLD_DRUM_ON_CMD_AT = 3696
+WORLD_DRUM_ON_CMD_AT = 3856
 WORLD_JACK_DOWN_CMD = Struct("<Q?")  # seq, jack_down_cmd
-WORLD_JACK_DOWN_CMD_AT = 3712
+WORLD_JACK_DOWN_CMD_AT = 3872
 WORLD_LEFT_TREAD_CMD = Struct("<Qq")  # seq, left_tread_cmd
-WORLD_LEFT_TREAD_CMD_AT = 3728
+WORLD_LEFT_TREAD_CMD_AT = 3888
 WORLD_RIGHT_TREAD_CMD = Struct("<Qq")  # seq, right_tread_cmd
-WORLD_RIGHT_TREAD_CMD_AT = 3744
+WORLD_RIGHT_TREAD_CMD_AT = 3904
 WORLD_PAN_FLOAT_CMD = Struct("<Q?")  # seq, pan_float_cmd
-WORLD_PAN_FLOAT_CMD_AT = 3760
+WORLD_PAN_FLOAT_CMD_AT = 3920
 WORLD_GATHER_ON_CMD = Struct("<Q?")  # seq, gather_on_cmd
-WORLD_GATHER_ON_CMD_AT = 3776
+WORLD_GATHER_ON_CMD_AT = 3936
 WORLD_CONVEYOR_ON_CMD = Struct("<Q?")  # seq, conveyor_on_cmd
-WORLD_CONVEYOR_ON_CMD_AT = 3792
+WORLD_CONVEYOR_ON_CMD_AT = 3952
 WORLD_TRUE_X = Struct("<Qd")  # seq, true_x
-WORLD_TRUE_X_AT = 3808
+WORLD_TRUE_X_AT = 3968
 WORLD_TRUE_Y = Struct("<Qd")  # seq, true_y
-WORLD_TRUE_Y_AT = 3824
+WORLD_TRUE_Y_AT = 3984
 WORLD_TRUE_HEADING = Struct("<Qd")  # seq, true_heading
-WORLD_TRUE_HEADING_AT = 3840
+WORLD_TRUE_HEADING_AT = 4000
 WORLD_BOOM_ANGLE_TRUE = Struct("<Qd")  # seq, boom_angle_true
-WORLD_BOOM_ANGLE_TRUE_AT = 3856
+WORLD_BOOM_ANGLE_TRUE_AT = 4016
 WORLD_DRUM_CURRENT_TRUE = Struct("<Qd")  # seq, drum_current_true
-WORLD_DRUM_CURRENT_TRUE_AT = 3872
+WORLD_DRUM_CURRENT_TRUE_AT = 4032
 WORLD_JACK_DOWN = Struct("<Q?")  # seq, jack_down
-WORLD_JACK_DOWN_AT = 3888
+WORLD_JACK_DOWN_AT = 4048
 WORLD_SLIP = Struct("<Qd")  # seq, slip
-WORLD_SLIP_AT = 3904
+WORLD_SLIP_AT = 4064
 WORLD_TREAD_STALLED = Struct("<Q?")  # seq, tread_stalled
-WORLD_TREAD_STALLED_AT = 3920
+WORLD_TREAD_STALLED_AT = 4080
 WORLD_POSE_X = Struct("<Qd")  # seq, pose_x
-WORLD_POSE_X_AT = 3936
+WORLD_POSE_X_AT = 4096
 WORLD_POSE_Y = Struct("<Qd")  # seq, pose_y
-WORLD_POSE_Y_AT = 3952
+WORLD_POSE_Y_AT = 4112
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 3968
+WORLD_HEADING_AT = 4128
 WORLD_BOOM_ANGLE = Struct("<Qd")  # seq, boom_angle
-WORLD_BOOM_ANGLE_AT = 3984
+WORLD_BOOM_ANGLE_AT = 4144
 WORLD_CUTTER_CURRENT = Struct("<Qd")  # seq, cutter_current
-WORLD_CUTTER_CURRENT_AT = 4000
+WORLD_CUTTER_CURRENT_AT = 4160
 WORLD_LOOSE_COAL = Struct("<Qd")  # seq, loose_coal
-WORLD_LOOSE_COAL_AT = 4016
+WORLD_LOOSE_COAL_AT = 4176
 WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 4032
+WORLD_POPPED_OUT_OF_SHEAR_AT = 4192
 WORLD_DEPTH_EST = Struct("<Qd")  # seq, depth_est
-WORLD_DEPTH_EST_AT = 4048
+WORLD_DEPTH_EST_AT = 4208
 WORLD_DRUM_REACH = Struct("<Qd")  # seq, drum_reach
-WORLD_DRUM_REACH_AT = 4064
+WORLD_DRUM_REACH_AT = 4224
 WORLD_SUMP_STEP = Struct("<Qd")  # seq, sump_step
-WORLD_SUMP_STEP_AT = 4080
+WORLD_SUMP_STEP_AT = 4240
 WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
-WORLD_IN_COAL_AT = 4096
+WORLD_IN_COAL_AT = 4256
 WORLD_FACE_X = Struct("<Qd")  # seq, face_x
-WORLD_FACE_X_AT = 4112
+WORLD_FACE_X_AT = 4272
 WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
-WORLD_DEPTH_CUT_AT = 4128
+WORLD_DEPTH_CUT_AT = 4288
 WORLD_LOOSE_COAL_TRUE = Struct("<Qd")  # seq, loose_coal_true
-WORLD_LOOSE_COAL_TRUE_AT = 4144
+WORLD_LOOSE_COAL_TRUE_AT = 4304
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
-WORLD_COAL_MINED_AT = 4160
+WORLD_COAL_MINED_AT = 4320
 WORLD_SHUTTLE_CAR_AWAY = Struct("<Q?")  # seq, shuttle_car_away
-WORLD_SHUTTLE_CAR_AWAY_AT = 4176
+WORLD_SHUTTLE_CAR_AWAY_AT = 4336
 
 
 PROCESSES = {
@@ -880,54 +880,54 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 4192
-OVERRIDDEN_AT = 4200  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 4352
+OVERRIDDEN_AT = 4360  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "tail_request": Record(Struct("<QQ?"), 4208, ("state", "tail_request")),
-    "tail_in_position": Record(Struct("<QQ?"), 4232, ("state", "tail_in_position")),
-    "operator_delay": Record(Struct("<QQq"), 4256, ("state", "operator_delay")),
-    "operator_goal_x": Record(Struct("<QQd"), 4280, ("state", "operator_goal_x")),
-    "operator_goal_y": Record(Struct("<QQd"), 4304, ("state", "operator_goal_y")),
-    "goal_x": Record(Struct("<QQd"), 4328, ("state", "goal_x")),
-    "goal_y": Record(Struct("<QQd"), 4352, ("state", "goal_y")),
-    "path_ok": Record(Struct("<QQ?"), 4376, ("state", "path_ok")),
-    "wp_x": Record(Struct("<QQd"), 4400, ("state", "wp_x")),
-    "wp_y": Record(Struct("<QQd"), 4424, ("state", "wp_y")),
-    "wp_last": Record(Struct("<QQ?"), 4448, ("state", "wp_last")),
-    "boom_rate_cmd": Record(Struct("<QQd"), 4472, ("state", "boom_rate_cmd")),
-    "drum_on_cmd": Record(Struct("<QQ?"), 4496, ("state", "drum_on_cmd")),
-    "jack_down_cmd": Record(Struct("<QQ?"), 4520, ("state", "jack_down_cmd")),
-    "left_tread_cmd": Record(Struct("<QQq"), 4544, ("state", "left_tread_cmd")),
-    "right_tread_cmd": Record(Struct("<QQq"), 4568, ("state", "right_tread_cmd")),
-    "pan_float_cmd": Record(Struct("<QQ?"), 4592, ("state", "pan_float_cmd")),
-    "gather_on_cmd": Record(Struct("<QQ?"), 4616, ("state", "gather_on_cmd")),
-    "conveyor_on_cmd": Record(Struct("<QQ?"), 4640, ("state", "conveyor_on_cmd")),
-    "true_x": Record(Struct("<QQd"), 4664, ("state", "true_x")),
-    "true_y": Record(Struct("<QQd"), 4688, ("state", "true_y")),
-    "true_heading": Record(Struct("<QQd"), 4712, ("state", "true_heading")),
-    "boom_angle_true": Record(Struct("<QQd"), 4736, ("state", "boom_angle_true")),
-    "drum_current_true": Record(Struct("<QQd"), 4760, ("state", "drum_current_true")),
-    "jack_down": Record(Struct("<QQ?"), 4784, ("state", "jack_down")),
-    "slip": Record(Struct("<QQd"), 4808, ("state", "slip")),
-    "tread_stalled": Record(Struct("<QQ?"), 4832, ("state", "tread_stalled")),
-    "pose_x": Record(Struct("<QQd"), 4856, ("state", "pose_x")),
-    "pose_y": Record(Struct("<QQd"), 4880, ("state", "pose_y")),
-    "heading": Record(Struct("<QQd"), 4904, ("state", "heading")),
-    "boom_angle": Record(Struct("<QQd"), 4928, ("state", "boom_angle")),
-    "cutter_current": Record(Struct("<QQd"), 4952, ("state", "cutter_current")),
-    "loose_coal": Record(Struct("<QQd"), 4976, ("state", "loose_coal")),
-    "popped_out_of_shear": Record(Struct("<QQ?"), 5000, ("state", "popped_out_of_shear")),
-    "depth_est": Record(Struct("<QQd"), 5024, ("state", "depth_est")),
-    "drum_reach": Record(Struct("<QQd"), 5048, ("state", "drum_reach")),
-    "sump_step": Record(Struct("<QQd"), 5072, ("state", "sump_step")),
-    "in_coal": Record(Struct("<QQ?"), 5096, ("state", "in_coal")),
-    "face_x": Record(Struct("<QQd"), 5120, ("state", "face_x")),
-    "depth_cut": Record(Struct("<QQd"), 5144, ("state", "depth_cut")),
-    "loose_coal_true": Record(Struct("<QQd"), 5168, ("state", "loose_coal_true")),
-    "coal_mined": Record(Struct("<QQd"), 5192, ("state", "coal_mined")),
-    "shuttle_car_away": Record(Struct("<QQ?"), 5216, ("state", "shuttle_car_away")),
+    "tail_request": Record(Struct("<QQ?"), 4368, ("state", "tail_request")),
+    "tail_in_position": Record(Struct("<QQ?"), 4392, ("state", "tail_in_position")),
+    "operator_delay": Record(Struct("<QQq"), 4416, ("state", "operator_delay")),
+    "operator_goal_x": Record(Struct("<QQd"), 4440, ("state", "operator_goal_x")),
+    "operator_goal_y": Record(Struct("<QQd"), 4464, ("state", "operator_goal_y")),
+    "goal_x": Record(Struct("<QQd"), 4488, ("state", "goal_x")),
+    "goal_y": Record(Struct("<QQd"), 4512, ("state", "goal_y")),
+    "path_ok": Record(Struct("<QQ?"), 4536, ("state", "path_ok")),
+    "wp_x": Record(Struct("<QQd"), 4560, ("state", "wp_x")),
+    "wp_y": Record(Struct("<QQd"), 4584, ("state", "wp_y")),
+    "wp_last": Record(Struct("<QQ?"), 4608, ("state", "wp_last")),
+    "boom_rate_cmd": Record(Struct("<QQd"), 4632, ("state", "boom_rate_cmd")),
+    "drum_on_cmd": Record(Struct("<QQ?"), 4656, ("state", "drum_on_cmd")),
+    "jack_down_cmd": Record(Struct("<QQ?"), 4680, ("state", "jack_down_cmd")),
+    "left_tread_cmd": Record(Struct("<QQq"), 4704, ("state", "left_tread_cmd")),
+    "right_tread_cmd": Record(Struct("<QQq"), 4728, ("state", "right_tread_cmd")),
+    "pan_float_cmd": Record(Struct("<QQ?"), 4752, ("state", "pan_float_cmd")),
+    "gather_on_cmd": Record(Struct("<QQ?"), 4776, ("state", "gather_on_cmd")),
+    "conveyor_on_cmd": Record(Struct("<QQ?"), 4800, ("state", "conveyor_on_cmd")),
+    "true_x": Record(Struct("<QQd"), 4824, ("state", "true_x")),
+    "true_y": Record(Struct("<QQd"), 4848, ("state", "true_y")),
+    "true_heading": Record(Struct("<QQd"), 4872, ("state", "true_heading")),
+    "boom_angle_true": Record(Struct("<QQd"), 4896, ("state", "boom_angle_true")),
+    "drum_current_true": Record(Struct("<QQd"), 4920, ("state", "drum_current_true")),
+    "jack_down": Record(Struct("<QQ?"), 4944, ("state", "jack_down")),
+    "slip": Record(Struct("<QQd"), 4968, ("state", "slip")),
+    "tread_stalled": Record(Struct("<QQ?"), 4992, ("state", "tread_stalled")),
+    "pose_x": Record(Struct("<QQd"), 5016, ("state", "pose_x")),
+    "pose_y": Record(Struct("<QQd"), 5040, ("state", "pose_y")),
+    "heading": Record(Struct("<QQd"), 5064, ("state", "heading")),
+    "boom_angle": Record(Struct("<QQd"), 5088, ("state", "boom_angle")),
+    "cutter_current": Record(Struct("<QQd"), 5112, ("state", "cutter_current")),
+    "loose_coal": Record(Struct("<QQd"), 5136, ("state", "loose_coal")),
+    "popped_out_of_shear": Record(Struct("<QQ?"), 5160, ("state", "popped_out_of_shear")),
+    "depth_est": Record(Struct("<QQd"), 5184, ("state", "depth_est")),
+    "drum_reach": Record(Struct("<QQd"), 5208, ("state", "drum_reach")),
+    "sump_step": Record(Struct("<QQd"), 5232, ("state", "sump_step")),
+    "in_coal": Record(Struct("<QQ?"), 5256, ("state", "in_coal")),
+    "face_x": Record(Struct("<QQd"), 5280, ("state", "face_x")),
+    "depth_cut": Record(Struct("<QQd"), 5304, ("state", "depth_cut")),
+    "loose_coal_true": Record(Struct("<QQd"), 5328, ("state", "loose_coal_true")),
+    "coal_mined": Record(Struct("<QQd"), 5352, ("state", "coal_mined")),
+    "shuttle_car_away": Record(Struct("<QQ?"), 5376, ("state", "shuttle_car_away")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -1020,10 +1020,10 @@ GROUND_TRUTH = (
 # state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
-    "sec": Record(Struct("<QqQQQQ"), 5240, ("state", "since", "NOP", "S0", "S1")),
+    "sec": Record(Struct("<QqQQQQ"), 5400, ("state", "since", "NOP", "S0", "S1")),
     "sb": Record(
         Struct("<QqQQQQQQQQQQQQQQQQ"),
-        5288,
+        5448,
         (
             "state",
             "since",
@@ -1046,20 +1046,20 @@ TIME_IN_STATE = {
     ),
     "co": Record(
         Struct("<QqQQQQQQQQ"),
-        5432,
+        5592,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "FAILED", "S4"),
     ),
-    "cc": Record(Struct("<QqQQQQQ"), 5512, ("state", "since", "NOP", "S0", "S1", "S2")),
-    "bm": Record(Struct("<QqQQQQ"), 5568, ("state", "since", "NOP", "S0", "S1")),
-    "cd": Record(Struct("<QqQQQ"), 5616, ("state", "since", "NOP", "S0")),
-    "sj": Record(Struct("<QqQQQQ"), 5656, ("state", "since", "NOP", "S0", "S1")),
-    "cr": Record(Struct("<QqQQQQQ"), 5704, ("state", "since", "NOP", "S0", "S1", "S2")),
-    "gh": Record(Struct("<QqQQQ"), 5760, ("state", "since", "NOP", "S0")),
-    "cv": Record(Struct("<QqQQQ"), 5800, ("state", "since", "NOP", "S0")),
-    "ct": Record(Struct("<QqQQQQ"), 5840, ("state", "since", "NOP", "S0", "S1")),
+    "cc": Record(Struct("<QqQQQQQ"), 5672, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "bm": Record(Struct("<QqQQQQ"), 5728, ("state", "since", "NOP", "S0", "S1")),
+    "cd": Record(Struct("<QqQQQ"), 5776, ("state", "since", "NOP", "S0")),
+    "sj": Record(Struct("<QqQQQQ"), 5816, ("state", "since", "NOP", "S0", "S1")),
+    "cr": Record(Struct("<QqQQQQQ"), 5864, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "gh": Record(Struct("<QqQQQ"), 5920, ("state", "since", "NOP", "S0")),
+    "cv": Record(Struct("<QqQQQ"), 5960, ("state", "since", "NOP", "S0")),
+    "ct": Record(Struct("<QqQQQQ"), 6000, ("state", "since", "NOP", "S0", "S1")),
     "vg": Record(
         Struct("<QqQQQQQQQQQQQQQQQ"),
-        5888,
+        6048,
         (
             "state",
             "since",
@@ -1079,21 +1079,21 @@ TIME_IN_STATE = {
             "ALIGN_STOPPING",
         ),
     ),
-    "tc": Record(Struct("<QqQQQQ"), 6024, ("state", "since", "NOP", "S0", "S0_MOVING")),
-    "oi": Record(Struct("<QqQQQ"), 6072, ("state", "since", "NOP", "S0")),
-    "bas": Record(Struct("<QqQQQ"), 6112, ("state", "since", "NOP", "S0")),
-    "jas": Record(Struct("<QqQQQ"), 6152, ("state", "since", "NOP", "S0")),
-    "tas": Record(Struct("<QqQQQ"), 6192, ("state", "since", "NOP", "S0")),
-    "mine": Record(Struct("<QqQQQ"), 6232, ("state", "since", "NOP", "S0")),
-    "das": Record(Struct("<QqQQQ"), 6272, ("state", "since", "NOP", "S0")),
-    "gas": Record(Struct("<QqQQQ"), 6312, ("state", "since", "NOP", "S0")),
-    "bss": Record(Struct("<QqQQQ"), 6352, ("state", "since", "NOP", "S0")),
-    "pss": Record(Struct("<QqQQQ"), 6392, ("state", "since", "NOP", "S0")),
-    "css": Record(Struct("<QqQQQ"), 6432, ("state", "since", "NOP", "S0")),
-    "lcs": Record(Struct("<QqQQQ"), 6472, ("state", "since", "NOP", "S0")),
-    "wm": Record(Struct("<QqQQQ"), 6512, ("state", "since", "NOP", "S0")),
-    "pp": Record(Struct("<QqQQQQ"), 6552, ("state", "since", "NOP", "S0", "S1")),
-    "cr_sim": Record(Struct("<QqQQQ"), 6600, ("state", "since", "NOP", "S0")),
+    "tc": Record(Struct("<QqQQQQ"), 6184, ("state", "since", "NOP", "S0", "S0_MOVING")),
+    "oi": Record(Struct("<QqQQQ"), 6232, ("state", "since", "NOP", "S0")),
+    "bas": Record(Struct("<QqQQQ"), 6272, ("state", "since", "NOP", "S0")),
+    "jas": Record(Struct("<QqQQQ"), 6312, ("state", "since", "NOP", "S0")),
+    "tas": Record(Struct("<QqQQQ"), 6352, ("state", "since", "NOP", "S0")),
+    "mine": Record(Struct("<QqQQQ"), 6392, ("state", "since", "NOP", "S0")),
+    "das": Record(Struct("<QqQQQ"), 6432, ("state", "since", "NOP", "S0")),
+    "gas": Record(Struct("<QqQQQ"), 6472, ("state", "since", "NOP", "S0")),
+    "bss": Record(Struct("<QqQQQ"), 6512, ("state", "since", "NOP", "S0")),
+    "pss": Record(Struct("<QqQQQ"), 6552, ("state", "since", "NOP", "S0")),
+    "css": Record(Struct("<QqQQQ"), 6592, ("state", "since", "NOP", "S0")),
+    "lcs": Record(Struct("<QqQQQ"), 6632, ("state", "since", "NOP", "S0")),
+    "wm": Record(Struct("<QqQQQ"), 6672, ("state", "since", "NOP", "S0")),
+    "pp": Record(Struct("<QqQQQQ"), 6712, ("state", "since", "NOP", "S0", "S1")),
+    "cr_sim": Record(Struct("<QqQQQ"), 6760, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

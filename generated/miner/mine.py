@@ -38,18 +38,18 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI1224x?111xd8xd24xd24x?15xd184x?15xd8xd8xd")
-INPUTS_AT = 2408
+INPUTS_AT = 2568
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2408
+SEQS_AT = 2568
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3904
+WORLD_OUT_1_AT = 4064
 WORLD_HELD_1 = (OVERRIDE["slip"],)  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -57,7 +57,7 @@ WORLD_HELD_1 = (OVERRIDE["slip"],)  # their overrides
 WORLD_OUT_2 = Struct("<Q?7xQdQdQd")
 WORLD_VALUES_2 = Struct("<8x?15xd8xd8xd")
 WORLD_SEQS_2 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_2_AT = 4096
+WORLD_OUT_2_AT = 4256
 WORLD_HELD_2 = (
     OVERRIDE["in_coal"],
     OVERRIDE["face_x"],

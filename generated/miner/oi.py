@@ -25,18 +25,18 @@ TAIL_IN_POSITION = 4
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQIdd44x???1xI1512x?15x?15xq8xd8xd232xd")
-INPUTS_AT = 1912
+INPUTS_AT = 2072
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1912
+SEQS_AT = 2072
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 3520
+WORLD_OUT_1_AT = 3680
 WORLD_HELD_1 = (OVERRIDE["tail_in_position"],)  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -44,7 +44,7 @@ WORLD_HELD_1 = (OVERRIDE["tail_in_position"],)  # their overrides
 WORLD_OUT_2 = Struct("<QdQd")
 WORLD_VALUES_2 = Struct("<8xd8xd")
 WORLD_SEQS_2 = Struct("<Q8xQ")
-WORLD_OUT_2_AT = 3552
+WORLD_OUT_2_AT = 3712
 WORLD_HELD_2 = (OVERRIDE["operator_goal_x"], OVERRIDE["operator_goal_y"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -42,14 +42,14 @@ WM_NEW_CUT = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd44x???1xI96xQI2660xQI652xd8xd88xd8xd8xd")
-INPUTS_AT = 432
+INPUTS_AT = 592
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 4080
+WORLD_OUT_1_AT = 4240
 WORLD_HELD_1 = (OVERRIDE["sump_step"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -36,18 +36,18 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI1376xq8xq56xd8xd8xd56xd8x?")
-INPUTS_AT = 2288
+INPUTS_AT = 2448
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2288
+SEQS_AT = 2448
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 3808
+WORLD_OUT_1_AT = 3968
 WORLD_HELD_1 = (OVERRIDE["true_x"], OVERRIDE["true_y"], OVERRIDE["true_heading"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

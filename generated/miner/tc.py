@@ -33,14 +33,14 @@ STOP = 13
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI1872xq8xq")
-INPUTS_AT = 1800
+INPUTS_AT = 1960
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 3728
+WORLD_OUT_1_AT = 3888
 WORLD_HELD_1 = (OVERRIDE["left_tread_cmd"], OVERRIDE["right_tread_cmd"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -55,11 +55,11 @@ TC_STOP = 13
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd44x???1xI80xQI1572xQQI204xQdQdQ?271xd8xd8xd")
-INPUTS_AT = 1664
+INPUTS_AT = 1824
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q216xQ8xQ8xQ")
-SEQS_AT = 3408
+SEQS_AT = 3568
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -57,14 +57,14 @@ CC_CUSP = 7
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd44x???1xI80xQI468xQI484xQI508xd8xd8xd8xd328xd8xd8xd24xd8xd8x?47xd")
-INPUTS_AT = 568
+INPUTS_AT = 728
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 2248
+WORLD_OUT_1_AT = 2408
 WORLD_HELD_1 = (OVERRIDE["goal_x"], OVERRIDE["goal_y"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -22,14 +22,14 @@ ON = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI976x?")
-INPUTS_AT = 1424
+INPUTS_AT = 1584
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?")
 WORLD_VALUES_1 = Struct("<8x?")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2456
+WORLD_OUT_1_AT = 2616
 WORLD_HELD_1 = (OVERRIDE["conveyor_on_cmd"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -24,14 +24,14 @@ ON = 4
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI1064x?15x?")
-INPUTS_AT = 1304
+INPUTS_AT = 1464
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?7xQ?")
 WORLD_VALUES_1 = Struct("<8x?15x?")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 2424
+WORLD_OUT_1_AT = 2584
 WORLD_HELD_1 = (OVERRIDE["pan_float_cmd"], OVERRIDE["gather_on_cmd"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 5016 bytes.
+The block is 5176 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -18,174 +18,174 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 88 | PROCESS_PC1 | PROCESS_FIELDS |
-| 168 | 16 | PACE_PC1 | PACE_FIELDS |
-| 184 | 88 | PROCESS_PC2 | PROCESS_FIELDS |
-| 272 | 16 | PACE_PC2 | PACE_FIELDS |
-| 288 | 36 | SEC_COMMAND | command_num, command, arg_depth, arg_offset |
-| 328 | 32 | SEC_STATUS | STATUS_FIELDS |
-| 360 | 16 | SEC_MODE | MODE_FIELDS |
-| 376 | 48 | SEC_PERF | PERF_FIELDS |
-| 424 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
-| 464 | 32 | SB_STATUS | STATUS_FIELDS |
-| 496 | 16 | SB_MODE | MODE_FIELDS |
-| 512 | 48 | SB_PERF | PERF_FIELDS |
-| 560 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
-| 600 | 32 | CO_STATUS | STATUS_FIELDS |
-| 632 | 16 | CO_MODE | MODE_FIELDS |
-| 648 | 48 | CO_PERF | PERF_FIELDS |
-| 696 | 20 | CC_COMMAND | command_num, command |
-| 720 | 32 | CC_STATUS | STATUS_FIELDS |
-| 752 | 16 | CC_MODE | MODE_FIELDS |
-| 768 | 48 | CC_PERF | PERF_FIELDS |
-| 816 | 20 | BM_COMMAND | command_num, command |
-| 840 | 32 | BM_STATUS | STATUS_FIELDS |
-| 872 | 16 | BM_MODE | MODE_FIELDS |
-| 888 | 48 | BM_PERF | PERF_FIELDS |
-| 936 | 20 | CD_COMMAND | command_num, command |
-| 960 | 32 | CD_STATUS | STATUS_FIELDS |
-| 992 | 16 | CD_MODE | MODE_FIELDS |
-| 1008 | 48 | CD_PERF | PERF_FIELDS |
-| 1056 | 20 | SJ_COMMAND | command_num, command |
-| 1080 | 32 | SJ_STATUS | STATUS_FIELDS |
-| 1112 | 16 | SJ_MODE | MODE_FIELDS |
-| 1128 | 48 | SJ_PERF | PERF_FIELDS |
-| 1176 | 20 | CR_COMMAND | command_num, command |
-| 1200 | 32 | CR_STATUS | STATUS_FIELDS |
-| 1232 | 16 | CR_MODE | MODE_FIELDS |
-| 1248 | 48 | CR_PERF | PERF_FIELDS |
-| 1296 | 20 | GH_COMMAND | command_num, command |
-| 1320 | 32 | GH_STATUS | STATUS_FIELDS |
-| 1352 | 16 | GH_MODE | MODE_FIELDS |
-| 1368 | 48 | GH_PERF | PERF_FIELDS |
-| 1416 | 20 | CV_COMMAND | command_num, command |
-| 1440 | 32 | CV_STATUS | STATUS_FIELDS |
-| 1472 | 16 | CV_MODE | MODE_FIELDS |
-| 1488 | 48 | CV_PERF | PERF_FIELDS |
-| 1536 | 20 | CT_COMMAND | command_num, command |
-| 1560 | 32 | CT_STATUS | STATUS_FIELDS |
-| 1592 | 16 | CT_MODE | MODE_FIELDS |
-| 1608 | 48 | CT_PERF | PERF_FIELDS |
-| 1656 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
-| 1696 | 32 | VG_STATUS | STATUS_FIELDS |
-| 1728 | 16 | VG_MODE | MODE_FIELDS |
-| 1744 | 48 | VG_PERF | PERF_FIELDS |
-| 1792 | 20 | TC_COMMAND | command_num, command |
-| 1816 | 32 | TC_STATUS | STATUS_FIELDS |
-| 1848 | 16 | TC_MODE | MODE_FIELDS |
-| 1864 | 48 | TC_PERF | PERF_FIELDS |
-| 1912 | 20 | WM_COMMAND | command_num, command |
-| 1936 | 32 | WM_STATUS | STATUS_FIELDS |
-| 1968 | 16 | WM_MODE | MODE_FIELDS |
-| 1984 | 48 | WM_PERF | PERF_FIELDS |
-| 2032 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
-| 2072 | 32 | PP_STATUS | STATUS_FIELDS |
-| 2104 | 16 | PP_MODE | MODE_FIELDS |
-| 2120 | 48 | PP_PERF | PERF_FIELDS |
-| 2168 | 9 | WORLD_TAIL_REQUEST | tail_request |
-| 2184 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
-| 2200 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
-| 2216 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
-| 2232 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
-| 2248 | 16 | WORLD_GOAL_X | goal_x |
-| 2264 | 16 | WORLD_GOAL_Y | goal_y |
-| 2280 | 9 | WORLD_PATH_OK | path_ok |
-| 2296 | 16 | WORLD_WP_X | wp_x |
-| 2312 | 16 | WORLD_WP_Y | wp_y |
-| 2328 | 9 | WORLD_WP_LAST | wp_last |
-| 2344 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
-| 2360 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
-| 2376 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
-| 2392 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
-| 2408 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
-| 2424 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
-| 2440 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
-| 2456 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
-| 2472 | 16 | WORLD_TRUE_X | true_x |
-| 2488 | 16 | WORLD_TRUE_Y | true_y |
-| 2504 | 16 | WORLD_TRUE_HEADING | true_heading |
-| 2520 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
-| 2536 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
-| 2552 | 9 | WORLD_JACK_DOWN | jack_down |
-| 2568 | 16 | WORLD_SLIP | slip |
-| 2584 | 9 | WORLD_TREAD_STALLED | tread_stalled |
-| 2600 | 16 | WORLD_POSE_X | pose_x |
-| 2616 | 16 | WORLD_POSE_Y | pose_y |
-| 2632 | 16 | WORLD_HEADING | heading |
-| 2648 | 16 | WORLD_BOOM_ANGLE | boom_angle |
-| 2664 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
-| 2680 | 16 | WORLD_LOOSE_COAL | loose_coal |
-| 2696 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
-| 2712 | 16 | WORLD_DEPTH_EST | depth_est |
-| 2728 | 16 | WORLD_DRUM_REACH | drum_reach |
-| 2744 | 16 | WORLD_SUMP_STEP | sump_step |
-| 2760 | 9 | WORLD_IN_COAL | in_coal |
-| 2776 | 16 | WORLD_FACE_X | face_x |
-| 2792 | 16 | WORLD_DEPTH_CUT | depth_cut |
-| 2808 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
-| 2824 | 16 | WORLD_COAL_MINED | coal_mined |
-| 2840 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
-| 2856 | 9 | OVERRIDES | any |
-| 2872 | 17 | OVERRIDE_TAIL_REQUEST | state, tail_request |
-| 2896 | 17 | OVERRIDE_TAIL_IN_POSITION | state, tail_in_position |
-| 2920 | 24 | OVERRIDE_OPERATOR_DELAY | state, operator_delay |
-| 2944 | 24 | OVERRIDE_OPERATOR_GOAL_X | state, operator_goal_x |
-| 2968 | 24 | OVERRIDE_OPERATOR_GOAL_Y | state, operator_goal_y |
-| 2992 | 24 | OVERRIDE_GOAL_X | state, goal_x |
-| 3016 | 24 | OVERRIDE_GOAL_Y | state, goal_y |
-| 3040 | 17 | OVERRIDE_PATH_OK | state, path_ok |
-| 3064 | 24 | OVERRIDE_WP_X | state, wp_x |
-| 3088 | 24 | OVERRIDE_WP_Y | state, wp_y |
-| 3112 | 17 | OVERRIDE_WP_LAST | state, wp_last |
-| 3136 | 24 | OVERRIDE_BOOM_RATE_CMD | state, boom_rate_cmd |
-| 3160 | 17 | OVERRIDE_DRUM_ON_CMD | state, drum_on_cmd |
-| 3184 | 17 | OVERRIDE_JACK_DOWN_CMD | state, jack_down_cmd |
-| 3208 | 24 | OVERRIDE_LEFT_TREAD_CMD | state, left_tread_cmd |
-| 3232 | 24 | OVERRIDE_RIGHT_TREAD_CMD | state, right_tread_cmd |
-| 3256 | 17 | OVERRIDE_PAN_FLOAT_CMD | state, pan_float_cmd |
-| 3280 | 17 | OVERRIDE_GATHER_ON_CMD | state, gather_on_cmd |
-| 3304 | 17 | OVERRIDE_CONVEYOR_ON_CMD | state, conveyor_on_cmd |
-| 3328 | 24 | OVERRIDE_TRUE_X | state, true_x |
-| 3352 | 24 | OVERRIDE_TRUE_Y | state, true_y |
-| 3376 | 24 | OVERRIDE_TRUE_HEADING | state, true_heading |
-| 3400 | 24 | OVERRIDE_BOOM_ANGLE_TRUE | state, boom_angle_true |
-| 3424 | 24 | OVERRIDE_DRUM_CURRENT_TRUE | state, drum_current_true |
-| 3448 | 17 | OVERRIDE_JACK_DOWN | state, jack_down |
-| 3472 | 24 | OVERRIDE_SLIP | state, slip |
-| 3496 | 17 | OVERRIDE_TREAD_STALLED | state, tread_stalled |
-| 3520 | 24 | OVERRIDE_POSE_X | state, pose_x |
-| 3544 | 24 | OVERRIDE_POSE_Y | state, pose_y |
-| 3568 | 24 | OVERRIDE_HEADING | state, heading |
-| 3592 | 24 | OVERRIDE_BOOM_ANGLE | state, boom_angle |
-| 3616 | 24 | OVERRIDE_CUTTER_CURRENT | state, cutter_current |
-| 3640 | 24 | OVERRIDE_LOOSE_COAL | state, loose_coal |
-| 3664 | 17 | OVERRIDE_POPPED_OUT_OF_SHEAR | state, popped_out_of_shear |
-| 3688 | 24 | OVERRIDE_DEPTH_EST | state, depth_est |
-| 3712 | 24 | OVERRIDE_DRUM_REACH | state, drum_reach |
-| 3736 | 24 | OVERRIDE_SUMP_STEP | state, sump_step |
-| 3760 | 17 | OVERRIDE_IN_COAL | state, in_coal |
-| 3784 | 24 | OVERRIDE_FACE_X | state, face_x |
-| 3808 | 24 | OVERRIDE_DEPTH_CUT | state, depth_cut |
-| 3832 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
-| 3856 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
-| 3880 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
-| 3904 | 96 | IO_PLC | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
-| 4000 | 96 | IO_CONVEYOR | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
-| 4096 | 48 | TIME_SEC | state, since, NOP, S0, S1 |
-| 4144 | 144 | TIME_SB | state, since, NOP, S0, S1, S2, S3, STOPPING, HALTING, BOX_AT_FACE, BOX_SLICE, BOX_APPROACH, BACK_OUT, ACROSS, SLAB_AT_FACE, SLAB_SLICE, SLAB_APPROACH |
-| 4288 | 80 | TIME_CO | state, since, NOP, S0, S1, S2, S3, FAILED, S4 |
-| 4368 | 56 | TIME_CC | state, since, NOP, S0, S1, S2 |
-| 4424 | 48 | TIME_BM | state, since, NOP, S0, S1 |
-| 4472 | 40 | TIME_CD | state, since, NOP, S0 |
-| 4512 | 48 | TIME_SJ | state, since, NOP, S0, S1 |
-| 4560 | 56 | TIME_CR | state, since, NOP, S0, S1, S2 |
-| 4616 | 40 | TIME_GH | state, since, NOP, S0 |
-| 4656 | 40 | TIME_CV | state, since, NOP, S0 |
-| 4696 | 48 | TIME_CT | state, since, NOP, S0, S1 |
-| 4744 | 136 | TIME_VG | state, since, NOP, S0, S1, PLANNING, DECIDE, FORWARD, REVERSE, LEFT, RIGHT, STOPPING, ALIGN, ALIGN_LEFT, ALIGN_RIGHT, ALIGN_STOPPING |
-| 4880 | 48 | TIME_TC | state, since, NOP, S0, S0_MOVING |
-| 4928 | 40 | TIME_WM | state, since, NOP, S0 |
-| 4968 | 48 | TIME_PP | state, since, NOP, S0, S1 |
+| 80 | 168 | PROCESS_PC1 | PROCESS_FIELDS |
+| 248 | 16 | PACE_PC1 | PACE_FIELDS |
+| 264 | 168 | PROCESS_PC2 | PROCESS_FIELDS |
+| 432 | 16 | PACE_PC2 | PACE_FIELDS |
+| 448 | 36 | SEC_COMMAND | command_num, command, arg_depth, arg_offset |
+| 488 | 32 | SEC_STATUS | STATUS_FIELDS |
+| 520 | 16 | SEC_MODE | MODE_FIELDS |
+| 536 | 48 | SEC_PERF | PERF_FIELDS |
+| 584 | 36 | SB_COMMAND | command_num, command, arg_depth, arg_offset |
+| 624 | 32 | SB_STATUS | STATUS_FIELDS |
+| 656 | 16 | SB_MODE | MODE_FIELDS |
+| 672 | 48 | SB_PERF | PERF_FIELDS |
+| 720 | 36 | CO_COMMAND | command_num, command, arg_x, arg_y |
+| 760 | 32 | CO_STATUS | STATUS_FIELDS |
+| 792 | 16 | CO_MODE | MODE_FIELDS |
+| 808 | 48 | CO_PERF | PERF_FIELDS |
+| 856 | 20 | CC_COMMAND | command_num, command |
+| 880 | 32 | CC_STATUS | STATUS_FIELDS |
+| 912 | 16 | CC_MODE | MODE_FIELDS |
+| 928 | 48 | CC_PERF | PERF_FIELDS |
+| 976 | 20 | BM_COMMAND | command_num, command |
+| 1000 | 32 | BM_STATUS | STATUS_FIELDS |
+| 1032 | 16 | BM_MODE | MODE_FIELDS |
+| 1048 | 48 | BM_PERF | PERF_FIELDS |
+| 1096 | 20 | CD_COMMAND | command_num, command |
+| 1120 | 32 | CD_STATUS | STATUS_FIELDS |
+| 1152 | 16 | CD_MODE | MODE_FIELDS |
+| 1168 | 48 | CD_PERF | PERF_FIELDS |
+| 1216 | 20 | SJ_COMMAND | command_num, command |
+| 1240 | 32 | SJ_STATUS | STATUS_FIELDS |
+| 1272 | 16 | SJ_MODE | MODE_FIELDS |
+| 1288 | 48 | SJ_PERF | PERF_FIELDS |
+| 1336 | 20 | CR_COMMAND | command_num, command |
+| 1360 | 32 | CR_STATUS | STATUS_FIELDS |
+| 1392 | 16 | CR_MODE | MODE_FIELDS |
+| 1408 | 48 | CR_PERF | PERF_FIELDS |
+| 1456 | 20 | GH_COMMAND | command_num, command |
+| 1480 | 32 | GH_STATUS | STATUS_FIELDS |
+| 1512 | 16 | GH_MODE | MODE_FIELDS |
+| 1528 | 48 | GH_PERF | PERF_FIELDS |
+| 1576 | 20 | CV_COMMAND | command_num, command |
+| 1600 | 32 | CV_STATUS | STATUS_FIELDS |
+| 1632 | 16 | CV_MODE | MODE_FIELDS |
+| 1648 | 48 | CV_PERF | PERF_FIELDS |
+| 1696 | 20 | CT_COMMAND | command_num, command |
+| 1720 | 32 | CT_STATUS | STATUS_FIELDS |
+| 1752 | 16 | CT_MODE | MODE_FIELDS |
+| 1768 | 48 | CT_PERF | PERF_FIELDS |
+| 1816 | 36 | VG_COMMAND | command_num, command, arg_x, arg_y |
+| 1856 | 32 | VG_STATUS | STATUS_FIELDS |
+| 1888 | 16 | VG_MODE | MODE_FIELDS |
+| 1904 | 48 | VG_PERF | PERF_FIELDS |
+| 1952 | 20 | TC_COMMAND | command_num, command |
+| 1976 | 32 | TC_STATUS | STATUS_FIELDS |
+| 2008 | 16 | TC_MODE | MODE_FIELDS |
+| 2024 | 48 | TC_PERF | PERF_FIELDS |
+| 2072 | 20 | WM_COMMAND | command_num, command |
+| 2096 | 32 | WM_STATUS | STATUS_FIELDS |
+| 2128 | 16 | WM_MODE | MODE_FIELDS |
+| 2144 | 48 | WM_PERF | PERF_FIELDS |
+| 2192 | 36 | PP_COMMAND | command_num, command, arg_x, arg_y |
+| 2232 | 32 | PP_STATUS | STATUS_FIELDS |
+| 2264 | 16 | PP_MODE | MODE_FIELDS |
+| 2280 | 48 | PP_PERF | PERF_FIELDS |
+| 2328 | 9 | WORLD_TAIL_REQUEST | tail_request |
+| 2344 | 9 | WORLD_TAIL_IN_POSITION | tail_in_position |
+| 2360 | 16 | WORLD_OPERATOR_DELAY | operator_delay |
+| 2376 | 16 | WORLD_OPERATOR_GOAL_X | operator_goal_x |
+| 2392 | 16 | WORLD_OPERATOR_GOAL_Y | operator_goal_y |
+| 2408 | 16 | WORLD_GOAL_X | goal_x |
+| 2424 | 16 | WORLD_GOAL_Y | goal_y |
+| 2440 | 9 | WORLD_PATH_OK | path_ok |
+| 2456 | 16 | WORLD_WP_X | wp_x |
+| 2472 | 16 | WORLD_WP_Y | wp_y |
+| 2488 | 9 | WORLD_WP_LAST | wp_last |
+| 2504 | 16 | WORLD_BOOM_RATE_CMD | boom_rate_cmd |
+| 2520 | 9 | WORLD_DRUM_ON_CMD | drum_on_cmd |
+| 2536 | 9 | WORLD_JACK_DOWN_CMD | jack_down_cmd |
+| 2552 | 16 | WORLD_LEFT_TREAD_CMD | left_tread_cmd |
+| 2568 | 16 | WORLD_RIGHT_TREAD_CMD | right_tread_cmd |
+| 2584 | 9 | WORLD_PAN_FLOAT_CMD | pan_float_cmd |
+| 2600 | 9 | WORLD_GATHER_ON_CMD | gather_on_cmd |
+| 2616 | 9 | WORLD_CONVEYOR_ON_CMD | conveyor_on_cmd |
+| 2632 | 16 | WORLD_TRUE_X | true_x |
+| 2648 | 16 | WORLD_TRUE_Y | true_y |
+| 2664 | 16 | WORLD_TRUE_HEADING | true_heading |
+| 2680 | 16 | WORLD_BOOM_ANGLE_TRUE | boom_angle_true |
+| 2696 | 16 | WORLD_DRUM_CURRENT_TRUE | drum_current_true |
+| 2712 | 9 | WORLD_JACK_DOWN | jack_down |
+| 2728 | 16 | WORLD_SLIP | slip |
+| 2744 | 9 | WORLD_TREAD_STALLED | tread_stalled |
+| 2760 | 16 | WORLD_POSE_X | pose_x |
+| 2776 | 16 | WORLD_POSE_Y | pose_y |
+| 2792 | 16 | WORLD_HEADING | heading |
+| 2808 | 16 | WORLD_BOOM_ANGLE | boom_angle |
+| 2824 | 16 | WORLD_CUTTER_CURRENT | cutter_current |
+| 2840 | 16 | WORLD_LOOSE_COAL | loose_coal |
+| 2856 | 9 | WORLD_POPPED_OUT_OF_SHEAR | popped_out_of_shear |
+| 2872 | 16 | WORLD_DEPTH_EST | depth_est |
+| 2888 | 16 | WORLD_DRUM_REACH | drum_reach |
+| 2904 | 16 | WORLD_SUMP_STEP | sump_step |
+| 2920 | 9 | WORLD_IN_COAL | in_coal |
+| 2936 | 16 | WORLD_FACE_X | face_x |
+| 2952 | 16 | WORLD_DEPTH_CUT | depth_cut |
+| 2968 | 16 | WORLD_LOOSE_COAL_TRUE | loose_coal_true |
+| 2984 | 16 | WORLD_COAL_MINED | coal_mined |
+| 3000 | 9 | WORLD_SHUTTLE_CAR_AWAY | shuttle_car_away |
+| 3016 | 9 | OVERRIDES | any |
+| 3032 | 17 | OVERRIDE_TAIL_REQUEST | state, tail_request |
+| 3056 | 17 | OVERRIDE_TAIL_IN_POSITION | state, tail_in_position |
+| 3080 | 24 | OVERRIDE_OPERATOR_DELAY | state, operator_delay |
+| 3104 | 24 | OVERRIDE_OPERATOR_GOAL_X | state, operator_goal_x |
+| 3128 | 24 | OVERRIDE_OPERATOR_GOAL_Y | state, operator_goal_y |
+| 3152 | 24 | OVERRIDE_GOAL_X | state, goal_x |
+| 3176 | 24 | OVERRIDE_GOAL_Y | state, goal_y |
+| 3200 | 17 | OVERRIDE_PATH_OK | state, path_ok |
+| 3224 | 24 | OVERRIDE_WP_X | state, wp_x |
+| 3248 | 24 | OVERRIDE_WP_Y | state, wp_y |
+| 3272 | 17 | OVERRIDE_WP_LAST | state, wp_last |
+| 3296 | 24 | OVERRIDE_BOOM_RATE_CMD | state, boom_rate_cmd |
+| 3320 | 17 | OVERRIDE_DRUM_ON_CMD | state, drum_on_cmd |
+| 3344 | 17 | OVERRIDE_JACK_DOWN_CMD | state, jack_down_cmd |
+| 3368 | 24 | OVERRIDE_LEFT_TREAD_CMD | state, left_tread_cmd |
+| 3392 | 24 | OVERRIDE_RIGHT_TREAD_CMD | state, right_tread_cmd |
+| 3416 | 17 | OVERRIDE_PAN_FLOAT_CMD | state, pan_float_cmd |
+| 3440 | 17 | OVERRIDE_GATHER_ON_CMD | state, gather_on_cmd |
+| 3464 | 17 | OVERRIDE_CONVEYOR_ON_CMD | state, conveyor_on_cmd |
+| 3488 | 24 | OVERRIDE_TRUE_X | state, true_x |
+| 3512 | 24 | OVERRIDE_TRUE_Y | state, true_y |
+| 3536 | 24 | OVERRIDE_TRUE_HEADING | state, true_heading |
+| 3560 | 24 | OVERRIDE_BOOM_ANGLE_TRUE | state, boom_angle_true |
+| 3584 | 24 | OVERRIDE_DRUM_CURRENT_TRUE | state, drum_current_true |
+| 3608 | 17 | OVERRIDE_JACK_DOWN | state, jack_down |
+| 3632 | 24 | OVERRIDE_SLIP | state, slip |
+| 3656 | 17 | OVERRIDE_TREAD_STALLED | state, tread_stalled |
+| 3680 | 24 | OVERRIDE_POSE_X | state, pose_x |
+| 3704 | 24 | OVERRIDE_POSE_Y | state, pose_y |
+| 3728 | 24 | OVERRIDE_HEADING | state, heading |
+| 3752 | 24 | OVERRIDE_BOOM_ANGLE | state, boom_angle |
+| 3776 | 24 | OVERRIDE_CUTTER_CURRENT | state, cutter_current |
+| 3800 | 24 | OVERRIDE_LOOSE_COAL | state, loose_coal |
+| 3824 | 17 | OVERRIDE_POPPED_OUT_OF_SHEAR | state, popped_out_of_shear |
+| 3848 | 24 | OVERRIDE_DEPTH_EST | state, depth_est |
+| 3872 | 24 | OVERRIDE_DRUM_REACH | state, drum_reach |
+| 3896 | 24 | OVERRIDE_SUMP_STEP | state, sump_step |
+| 3920 | 17 | OVERRIDE_IN_COAL | state, in_coal |
+| 3944 | 24 | OVERRIDE_FACE_X | state, face_x |
+| 3968 | 24 | OVERRIDE_DEPTH_CUT | state, depth_cut |
+| 3992 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
+| 4016 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
+| 4040 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
+| 4064 | 96 | IO_PLC | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
+| 4160 | 96 | IO_CONVEYOR | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
+| 4256 | 48 | TIME_SEC | state, since, NOP, S0, S1 |
+| 4304 | 144 | TIME_SB | state, since, NOP, S0, S1, S2, S3, STOPPING, HALTING, BOX_AT_FACE, BOX_SLICE, BOX_APPROACH, BACK_OUT, ACROSS, SLAB_AT_FACE, SLAB_SLICE, SLAB_APPROACH |
+| 4448 | 80 | TIME_CO | state, since, NOP, S0, S1, S2, S3, FAILED, S4 |
+| 4528 | 56 | TIME_CC | state, since, NOP, S0, S1, S2 |
+| 4584 | 48 | TIME_BM | state, since, NOP, S0, S1 |
+| 4632 | 40 | TIME_CD | state, since, NOP, S0 |
+| 4672 | 48 | TIME_SJ | state, since, NOP, S0, S1 |
+| 4720 | 56 | TIME_CR | state, since, NOP, S0, S1, S2 |
+| 4776 | 40 | TIME_GH | state, since, NOP, S0 |
+| 4816 | 40 | TIME_CV | state, since, NOP, S0 |
+| 4856 | 48 | TIME_CT | state, since, NOP, S0, S1 |
+| 4904 | 136 | TIME_VG | state, since, NOP, S0, S1, PLANNING, DECIDE, FORWARD, REVERSE, LEFT, RIGHT, STOPPING, ALIGN, ALIGN_LEFT, ALIGN_RIGHT, ALIGN_STOPPING |
+| 5040 | 48 | TIME_TC | state, since, NOP, S0, S0_MOVING |
+| 5088 | 40 | TIME_WM | state, since, NOP, S0 |
+| 5128 | 48 | TIME_PP | state, since, NOP, S0, S1 |
 """
 
 from __future__ import annotations
@@ -215,206 +215,206 @@ from .rcs.io_points import DEVICE_FIELDS, Device, Point
 
 SYSTEM = "miner_hil"
 SOURCE = "miner_hil/system.yaml"
-SIZE = 5016
+SIZE = 5176
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "cedada076002d18fc9e4f2dfd51deb17"
+LAYOUT_HASH = "d6ce0e72c36ce957a5d9d51bfad2ae3c"
 PROCESS_PC1_AT = 80
-PACE_PC1_AT = 168
-PROCESS_PC2_AT = 184
-PACE_PC2_AT = 272
+PACE_PC1_AT = 248
+PROCESS_PC2_AT = 264
+PACE_PC2_AT = 432
 
 # sec: Section
 SEC_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
-SEC_COMMAND_AT = 288
-SEC_STATUS_AT = 328
-SEC_MODE_AT = 360
-SEC_PERF_AT = 376
+SEC_COMMAND_AT = 448
+SEC_STATUS_AT = 488
+SEC_MODE_AT = 520
+SEC_PERF_AT = 536
 
 # sb: Shift boss
 SB_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_offset
-SB_COMMAND_AT = 424
-SB_STATUS_AT = 464
-SB_MODE_AT = 496
-SB_PERF_AT = 512
+SB_COMMAND_AT = 584
+SB_STATUS_AT = 624
+SB_MODE_AT = 656
+SB_PERF_AT = 672
 
 # co: Continuous miner operation coordinator
 CO_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-CO_COMMAND_AT = 560
-CO_STATUS_AT = 600
-CO_MODE_AT = 632
-CO_PERF_AT = 648
+CO_COMMAND_AT = 720
+CO_STATUS_AT = 760
+CO_MODE_AT = 792
+CO_PERF_AT = 808
 
 # cc: Coal cutting
 CC_COMMAND = Struct("<QQI")  # seq, command_num, command
-CC_COMMAND_AT = 696
-CC_STATUS_AT = 720
-CC_MODE_AT = 752
-CC_PERF_AT = 768
+CC_COMMAND_AT = 856
+CC_STATUS_AT = 880
+CC_MODE_AT = 912
+CC_PERF_AT = 928
 
 # bm: Boom
 BM_COMMAND = Struct("<QQI")  # seq, command_num, command
-BM_COMMAND_AT = 816
-BM_STATUS_AT = 840
-BM_MODE_AT = 872
-BM_PERF_AT = 888
+BM_COMMAND_AT = 976
+BM_STATUS_AT = 1000
+BM_MODE_AT = 1032
+BM_PERF_AT = 1048
 
 # cd: Cutter drum
 CD_COMMAND = Struct("<QQI")  # seq, command_num, command
-CD_COMMAND_AT = 936
-CD_STATUS_AT = 960
-CD_MODE_AT = 992
-CD_PERF_AT = 1008
+CD_COMMAND_AT = 1096
+CD_STATUS_AT = 1120
+CD_MODE_AT = 1152
+CD_PERF_AT = 1168
 
 # sj: Stabilization jack
 SJ_COMMAND = Struct("<QQI")  # seq, command_num, command
-SJ_COMMAND_AT = 1056
-SJ_STATUS_AT = 1080
-SJ_MODE_AT = 1112
-SJ_PERF_AT = 1128
+SJ_COMMAND_AT = 1216
+SJ_STATUS_AT = 1240
+SJ_MODE_AT = 1272
+SJ_PERF_AT = 1288
 
 # cr: Coal removal
 CR_COMMAND = Struct("<QQI")  # seq, command_num, command
-CR_COMMAND_AT = 1176
-CR_STATUS_AT = 1200
-CR_MODE_AT = 1232
-CR_PERF_AT = 1248
+CR_COMMAND_AT = 1336
+CR_STATUS_AT = 1360
+CR_MODE_AT = 1392
+CR_PERF_AT = 1408
 
 # gh: Gathering head
 GH_COMMAND = Struct("<QQI")  # seq, command_num, command
-GH_COMMAND_AT = 1296
-GH_STATUS_AT = 1320
-GH_MODE_AT = 1352
-GH_PERF_AT = 1368
+GH_COMMAND_AT = 1456
+GH_STATUS_AT = 1480
+GH_MODE_AT = 1512
+GH_PERF_AT = 1528
 
 # cv: Conveyor
 CV_COMMAND = Struct("<QQI")  # seq, command_num, command
-CV_COMMAND_AT = 1416
-CV_STATUS_AT = 1440
-CV_MODE_AT = 1472
-CV_PERF_AT = 1488
+CV_COMMAND_AT = 1576
+CV_STATUS_AT = 1600
+CV_MODE_AT = 1632
+CV_PERF_AT = 1648
 
 # ct: Conveyor tail (operator)
 CT_COMMAND = Struct("<QQI")  # seq, command_num, command
-CT_COMMAND_AT = 1536
-CT_STATUS_AT = 1560
-CT_MODE_AT = 1592
-CT_PERF_AT = 1608
+CT_COMMAND_AT = 1696
+CT_STATUS_AT = 1720
+CT_MODE_AT = 1752
+CT_PERF_AT = 1768
 
 # vg: Vehicle guidance
 VG_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-VG_COMMAND_AT = 1656
-VG_STATUS_AT = 1696
-VG_MODE_AT = 1728
-VG_PERF_AT = 1744
+VG_COMMAND_AT = 1816
+VG_STATUS_AT = 1856
+VG_MODE_AT = 1888
+VG_PERF_AT = 1904
 
 # tc: Tram
 TC_COMMAND = Struct("<QQI")  # seq, command_num, command
-TC_COMMAND_AT = 1792
-TC_STATUS_AT = 1816
-TC_MODE_AT = 1848
-TC_PERF_AT = 1864
+TC_COMMAND_AT = 1952
+TC_STATUS_AT = 1976
+TC_MODE_AT = 2008
+TC_PERF_AT = 2024
 
 # wm: World modelling (estimates from the sensors)
 WM_COMMAND = Struct("<QQI")  # seq, command_num, command
-WM_COMMAND_AT = 1912
-WM_STATUS_AT = 1936
-WM_MODE_AT = 1968
-WM_PERF_AT = 1984
+WM_COMMAND_AT = 2072
+WM_STATUS_AT = 2096
+WM_MODE_AT = 2128
+WM_PERF_AT = 2144
 
 # pp: Path planner
 PP_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-PP_COMMAND_AT = 2032
-PP_STATUS_AT = 2072
-PP_MODE_AT = 2104
-PP_PERF_AT = 2120
+PP_COMMAND_AT = 2192
+PP_STATUS_AT = 2232
+PP_MODE_AT = 2264
+PP_PERF_AT = 2280
 
 # World model.
 WORLD_TAIL_REQUEST = Struct("<Q?")  # seq, tail_request
-WORLD_TAIL_REQUEST_AT = 2168
+WORLD_TAIL_REQUEST_AT = 2328
 WORLD_TAIL_IN_POSITION = Struct("<Q?")  # seq, tail_in_position
-WORLD_TAIL_IN_POSITION_AT = 2184
+WORLD_TAIL_IN_POSITION_AT = 2344
 WORLD_OPERATOR_DELAY = Struct("<Qq")  # seq, operator_delay
-WORLD_OPERATOR_DELAY_AT = 2200
+WORLD_OPERATOR_DELAY_AT = 2360
 WORLD_OPERATOR_GOAL_X = Struct("<Qd")  # seq, operator_goal_x
-WORLD_OPERATOR_GOAL_X_AT = 2216
+WORLD_OPERATOR_GOAL_X_AT = 2376
 WORLD_OPERATOR_GOAL_Y = Struct("<Qd")  # seq, operator_goal_y
-WORLD_OPERATOR_GOAL_Y_AT = 2232
+WORLD_OPERATOR_GOAL_Y_AT = 2392
 WORLD_GOAL_X = Struct("<Qd")  # seq, goal_x
-WORLD_GOAL_X_AT = 2248
+WORLD_GOAL_X_AT = 2408
 WORLD_GOAL_Y = Struct("<Qd")  # seq, goal_y
-WORLD_GOAL_Y_AT = 2264
+WORLD_GOAL_Y_AT = 2424
 WORLD_PATH_OK = Struct("<Q?")  # seq, path_ok
-WORLD_PATH_OK_AT = 2280
+WORLD_PATH_OK_AT = 2440
 WORLD_WP_X = Struct("<Qd")  # seq, wp_x
-WORLD_WP_X_AT = 2296
+WORLD_WP_X_AT = 2456
 WORLD_WP_Y = Struct("<Qd")  # seq, wp_y
-WORLD_WP_Y_AT = 2312
+WORLD_WP_Y_AT = 2472
 WORLD_WP_LAST = Struct("<Q?")  # seq, wp_last
-WORLD_WP_LAST_AT = 2328
+WORLD_WP_LAST_AT = 2488
 WORLD_BOOM_RATE_CMD = Struct("<Qd")  # seq, boom_rate_cmd
-WORLD_BOOM_RATE_CMD_AT = 2344
+WORLD_BOOM_RATE_CMD_AT = 2504
 WORLD_DRUM_ON_CMD = Struct("<Q?")  # seq, drum_on_cmd
-WORLD_DRUM_ON_CMD_AT = 2360
+WORLD_DRUM_ON_CMD_AT = 2520
 WORLD_JACK_DOWN_CMD = Struct("<Q?")  # seq, jack_down_cmd
-WORLD_JACK_DOWN_CMD_AT = 2376
+WORLD_JACK_DOWN_CMD_AT = 2536
 WORLD_LEFT_TREAD_CMD = Struct("<Qq")  # seq, left_tread_cmd
-WORLD_LEFT_TREAD_CMD_AT = 2392
+WORLD_LEFT_TREAD_CMD_AT = 2552
 WORLD_RIGHT_TREAD_CMD = Struct("<Qq")  # seq, right_tread_cmd
-WORLD_RIGHT_TREAD_CMD_AT = 2408
+WORLD_RIGHT_TREAD_CMD_AT = 2568
 WORLD_PAN_FLOAT_CMD = Struct("<Q?")  # seq, pan_float_cmd
-WORLD_PAN_FLOAT_CMD_AT = 2424
+WORLD_PAN_FLOAT_CMD_AT = 2584
 WORLD_GATHER_ON_CMD = Struct("<Q?")  # seq, gather_on_cmd
-WORLD_GATHER_ON_CMD_AT = 2440
+WORLD_GATHER_ON_CMD_AT = 2600
 WORLD_CONVEYOR_ON_CMD = Struct("<Q?")  # seq, conveyor_on_cmd
-WORLD_CONVEYOR_ON_CMD_AT = 2456
+WORLD_CONVEYOR_ON_CMD_AT = 2616
 WORLD_TRUE_X = Struct("<Qd")  # seq, true_x
-WORLD_TRUE_X_AT = 2472
+WORLD_TRUE_X_AT = 2632
 WORLD_TRUE_Y = Struct("<Qd")  # seq, true_y
-WORLD_TRUE_Y_AT = 2488
+WORLD_TRUE_Y_AT = 2648
 WORLD_TRUE_HEADING = Struct("<Qd")  # seq, true_heading
-WORLD_TRUE_HEADING_AT = 2504
+WORLD_TRUE_HEADING_AT = 2664
 WORLD_BOOM_ANGLE_TRUE = Struct("<Qd")  # seq, boom_angle_true
-WORLD_BOOM_ANGLE_TRUE_AT = 2520
+WORLD_BOOM_ANGLE_TRUE_AT = 2680
 WORLD_DRUM_CURRENT_TRUE = Struct("<Qd")  # seq, drum_current_true
-WORLD_DRUM_CURRENT_TRUE_AT = 2536
+WORLD_DRUM_CURRENT_TRUE_AT = 2696
 WORLD_JACK_DOWN = Struct("<Q?")  # seq, jack_down
-WORLD_JACK_DOWN_AT = 2552
+WORLD_JACK_DOWN_AT = 2712
 WORLD_SLIP = Struct("<Qd")  # seq, slip
-WORLD_SLIP_AT = 2568
+WORLD_SLIP_AT = 2728
 WORLD_TREAD_STALLED = Struct("<Q?")  # seq, tread_stalled
-WORLD_TREAD_STALLED_AT = 2584
+WORLD_TREAD_STALLED_AT = 2744
 WORLD_POSE_X = Struct("<Qd")  # seq, pose_x
-WORLD_POSE_X_AT = 2600
+WORLD_POSE_X_AT = 2760
 WORLD_POSE_Y = Struct("<Qd")  # seq, pose_y
-WORLD_POSE_Y_AT = 2616
+WORLD_POSE_Y_AT = 2776
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 2632
+WORLD_HEADING_AT = 2792
 WORLD_BOOM_ANGLE = Struct("<Qd")  # seq, boom_angle
-WORLD_BOOM_ANGLE_AT = 2648
+WORLD_BOOM_ANGLE_AT = 2808
 WORLD_CUTTER_CURRENT = Struct("<Qd")  # seq, cutter_current
-WORLD_CUTTER_CURRENT_AT = 2664
+WORLD_CUTTER_CURRENT_AT = 2824
 WORLD_LOOSE_COAL = Struct("<Qd")  # seq, loose_coal
-WORLD_LOOSE_COAL_AT = 2680
+WORLD_LOOSE_COAL_AT = 2840
 WORLD_POPPED_OUT_OF_SHEAR = Struct("<Q?")  # seq, popped_out_of_shear
-WORLD_POPPED_OUT_OF_SHEAR_AT = 2696
+WORLD_POPPED_OUT_OF_SHEAR_AT = 2856
 WORLD_DEPTH_EST = Struct("<Qd")  # seq, depth_est
-WORLD_DEPTH_EST_AT = 2712
+WORLD_DEPTH_EST_AT = 2872
 WORLD_DRUM_REACH = Struct("<Qd")  # seq, drum_reach
-WORLD_DRUM_REACH_AT = 2728
+WORLD_DRUM_REACH_AT = 2888
 WORLD_SUMP_STEP = Struct("<Qd")  # seq, sump_step
-WORLD_SUMP_STEP_AT = 2744
+WORLD_SUMP_STEP_AT = 2904
 WORLD_IN_COAL = Struct("<Q?")  # seq, in_coal
-WORLD_IN_COAL_AT = 2760
+WORLD_IN_COAL_AT = 2920
 WORLD_FACE_X = Struct("<Qd")  # seq, face_x
-WORLD_FACE_X_AT = 2776
+WORLD_FACE_X_AT = 2936
 WORLD_DEPTH_CUT = Struct("<Qd")  # seq, depth_cut
-WORLD_DEPTH_CUT_AT = 2792
+WORLD_DEPTH_CUT_AT = 2952
 WORLD_LOOSE_COAL_TRUE = Struct("<Qd")  # seq, loose_coal_true
-WORLD_LOOSE_COAL_TRUE_AT = 2808
+WORLD_LOOSE_COAL_TRUE_AT = 2968
 WORLD_COAL_MINED = Struct("<Qd")  # seq, coal_mined
-WORLD_COAL_MINED_AT = 2824
+WORLD_COAL_MINED_AT = 2984
 WORLD_SHUTTLE_CAR_AWAY = Struct("<Q?")  # seq, shuttle_car_away
-WORLD_SHUTTLE_CAR_AWAY_AT = 2840
+WORLD_SHUTTLE_CAR_AWAY_AT = 3000
 
 
 PROCESSES = {
@@ -670,54 +670,54 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2856
-OVERRIDDEN_AT = 2864  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 3016
+OVERRIDDEN_AT = 3024  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "tail_request": Record(Struct("<QQ?"), 2872, ("state", "tail_request")),
-    "tail_in_position": Record(Struct("<QQ?"), 2896, ("state", "tail_in_position")),
-    "operator_delay": Record(Struct("<QQq"), 2920, ("state", "operator_delay")),
-    "operator_goal_x": Record(Struct("<QQd"), 2944, ("state", "operator_goal_x")),
-    "operator_goal_y": Record(Struct("<QQd"), 2968, ("state", "operator_goal_y")),
-    "goal_x": Record(Struct("<QQd"), 2992, ("state", "goal_x")),
-    "goal_y": Record(Struct("<QQd"), 3016, ("state", "goal_y")),
-    "path_ok": Record(Struct("<QQ?"), 3040, ("state", "path_ok")),
-    "wp_x": Record(Struct("<QQd"), 3064, ("state", "wp_x")),
-    "wp_y": Record(Struct("<QQd"), 3088, ("state", "wp_y")),
-    "wp_last": Record(Struct("<QQ?"), 3112, ("state", "wp_last")),
-    "boom_rate_cmd": Record(Struct("<QQd"), 3136, ("state", "boom_rate_cmd")),
-    "drum_on_cmd": Record(Struct("<QQ?"), 3160, ("state", "drum_on_cmd")),
-    "jack_down_cmd": Record(Struct("<QQ?"), 3184, ("state", "jack_down_cmd")),
-    "left_tread_cmd": Record(Struct("<QQq"), 3208, ("state", "left_tread_cmd")),
-    "right_tread_cmd": Record(Struct("<QQq"), 3232, ("state", "right_tread_cmd")),
-    "pan_float_cmd": Record(Struct("<QQ?"), 3256, ("state", "pan_float_cmd")),
-    "gather_on_cmd": Record(Struct("<QQ?"), 3280, ("state", "gather_on_cmd")),
-    "conveyor_on_cmd": Record(Struct("<QQ?"), 3304, ("state", "conveyor_on_cmd")),
-    "true_x": Record(Struct("<QQd"), 3328, ("state", "true_x")),
-    "true_y": Record(Struct("<QQd"), 3352, ("state", "true_y")),
-    "true_heading": Record(Struct("<QQd"), 3376, ("state", "true_heading")),
-    "boom_angle_true": Record(Struct("<QQd"), 3400, ("state", "boom_angle_true")),
-    "drum_current_true": Record(Struct("<QQd"), 3424, ("state", "drum_current_true")),
-    "jack_down": Record(Struct("<QQ?"), 3448, ("state", "jack_down")),
-    "slip": Record(Struct("<QQd"), 3472, ("state", "slip")),
-    "tread_stalled": Record(Struct("<QQ?"), 3496, ("state", "tread_stalled")),
-    "pose_x": Record(Struct("<QQd"), 3520, ("state", "pose_x")),
-    "pose_y": Record(Struct("<QQd"), 3544, ("state", "pose_y")),
-    "heading": Record(Struct("<QQd"), 3568, ("state", "heading")),
-    "boom_angle": Record(Struct("<QQd"), 3592, ("state", "boom_angle")),
-    "cutter_current": Record(Struct("<QQd"), 3616, ("state", "cutter_current")),
-    "loose_coal": Record(Struct("<QQd"), 3640, ("state", "loose_coal")),
-    "popped_out_of_shear": Record(Struct("<QQ?"), 3664, ("state", "popped_out_of_shear")),
-    "depth_est": Record(Struct("<QQd"), 3688, ("state", "depth_est")),
-    "drum_reach": Record(Struct("<QQd"), 3712, ("state", "drum_reach")),
-    "sump_step": Record(Struct("<QQd"), 3736, ("state", "sump_step")),
-    "in_coal": Record(Struct("<QQ?"), 3760, ("state", "in_coal")),
-    "face_x": Record(Struct("<QQd"), 3784, ("state", "face_x")),
-    "depth_cut": Record(Struct("<QQd"), 3808, ("state", "depth_cut")),
-    "loose_coal_true": Record(Struct("<QQd"), 3832, ("state", "loose_coal_true")),
-    "coal_mined": Record(Struct("<QQd"), 3856, ("state", "coal_mined")),
-    "shuttle_car_away": Record(Struct("<QQ?"), 3880, ("state", "shuttle_car_away")),
+    "tail_request": Record(Struct("<QQ?"), 3032, ("state", "tail_request")),
+    "tail_in_position": Record(Struct("<QQ?"), 3056, ("state", "tail_in_position")),
+    "operator_delay": Record(Struct("<QQq"), 3080, ("state", "operator_delay")),
+    "operator_goal_x": Record(Struct("<QQd"), 3104, ("state", "operator_goal_x")),
+    "operator_goal_y": Record(Struct("<QQd"), 3128, ("state", "operator_goal_y")),
+    "goal_x": Record(Struct("<QQd"), 3152, ("state", "goal_x")),
+    "goal_y": Record(Struct("<QQd"), 3176, ("state", "goal_y")),
+    "path_ok": Record(Struct("<QQ?"), 3200, ("state", "path_ok")),
+    "wp_x": Record(Struct("<QQd"), 3224, ("state", "wp_x")),
+    "wp_y": Record(Struct("<QQd"), 3248, ("state", "wp_y")),
+    "wp_last": Record(Struct("<QQ?"), 3272, ("state", "wp_last")),
+    "boom_rate_cmd": Record(Struct("<QQd"), 3296, ("state", "boom_rate_cmd")),
+    "drum_on_cmd": Record(Struct("<QQ?"), 3320, ("state", "drum_on_cmd")),
+    "jack_down_cmd": Record(Struct("<QQ?"), 3344, ("state", "jack_down_cmd")),
+    "left_tread_cmd": Record(Struct("<QQq"), 3368, ("state", "left_tread_cmd")),
+    "right_tread_cmd": Record(Struct("<QQq"), 3392, ("state", "right_tread_cmd")),
+    "pan_float_cmd": Record(Struct("<QQ?"), 3416, ("state", "pan_float_cmd")),
+    "gather_on_cmd": Record(Struct("<QQ?"), 3440, ("state", "gather_on_cmd")),
+    "conveyor_on_cmd": Record(Struct("<QQ?"), 3464, ("state", "conveyor_on_cmd")),
+    "true_x": Record(Struct("<QQd"), 3488, ("state", "true_x")),
+    "true_y": Record(Struct("<QQd"), 3512, ("state", "true_y")),
+    "true_heading": Record(Struct("<QQd"), 3536, ("state", "true_heading")),
+    "boom_angle_true": Record(Struct("<QQd"), 3560, ("state", "boom_angle_true")),
+    "drum_current_true": Record(Struct("<QQd"), 3584, ("state", "drum_current_true")),
+    "jack_down": Record(Struct("<QQ?"), 3608, ("state", "jack_down")),
+    "slip": Record(Struct("<QQd"), 3632, ("state", "slip")),
+    "tread_stalled": Record(Struct("<QQ?"), 3656, ("state", "tread_stalled")),
+    "pose_x": Record(Struct("<QQd"), 3680, ("state", "pose_x")),
+    "pose_y": Record(Struct("<QQd"), 3704, ("state", "pose_y")),
+    "heading": Record(Struct("<QQd"), 3728, ("state", "heading")),
+    "boom_angle": Record(Struct("<QQd"), 3752, ("state", "boom_angle")),
+    "cutter_current": Record(Struct("<QQd"), 3776, ("state", "cutter_current")),
+    "loose_coal": Record(Struct("<QQd"), 3800, ("state", "loose_coal")),
+    "popped_out_of_shear": Record(Struct("<QQ?"), 3824, ("state", "popped_out_of_shear")),
+    "depth_est": Record(Struct("<QQd"), 3848, ("state", "depth_est")),
+    "drum_reach": Record(Struct("<QQd"), 3872, ("state", "drum_reach")),
+    "sump_step": Record(Struct("<QQd"), 3896, ("state", "sump_step")),
+    "in_coal": Record(Struct("<QQ?"), 3920, ("state", "in_coal")),
+    "face_x": Record(Struct("<QQd"), 3944, ("state", "face_x")),
+    "depth_cut": Record(Struct("<QQd"), 3968, ("state", "depth_cut")),
+    "loose_coal_true": Record(Struct("<QQd"), 3992, ("state", "loose_coal_true")),
+    "coal_mined": Record(Struct("<QQd"), 4016, ("state", "coal_mined")),
+    "shuttle_car_away": Record(Struct("<QQ?"), 4040, ("state", "shuttle_car_away")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -933,8 +933,8 @@ IO_DEVICES = {
 # Each device's record: its state (rcs/io_points.py DEVICE_STATES) and counts, written by
 # the I/O module of the process that runs it.
 IO_RECORDS = {
-    "plc": Record(Struct("<Qqqqqqqqqqqq"), 3904, DEVICE_FIELDS),
-    "conveyor": Record(Struct("<Qqqqqqqqqqqq"), 4000, DEVICE_FIELDS),
+    "plc": Record(Struct("<Qqqqqqqqqqqq"), 4064, DEVICE_FIELDS),
+    "conveyor": Record(Struct("<Qqqqqqqqqqqq"), 4160, DEVICE_FIELDS),
 }
 # The controllers that read each device's inputs or write its outputs: lost with it (their
 # safe state).
@@ -946,10 +946,10 @@ IO_DEPENDENTS: dict[str, tuple[str, ...]] = {
 # state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
-    "sec": Record(Struct("<QqQQQQ"), 4096, ("state", "since", "NOP", "S0", "S1")),
+    "sec": Record(Struct("<QqQQQQ"), 4256, ("state", "since", "NOP", "S0", "S1")),
     "sb": Record(
         Struct("<QqQQQQQQQQQQQQQQQQ"),
-        4144,
+        4304,
         (
             "state",
             "since",
@@ -972,20 +972,20 @@ TIME_IN_STATE = {
     ),
     "co": Record(
         Struct("<QqQQQQQQQQ"),
-        4288,
+        4448,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "FAILED", "S4"),
     ),
-    "cc": Record(Struct("<QqQQQQQ"), 4368, ("state", "since", "NOP", "S0", "S1", "S2")),
-    "bm": Record(Struct("<QqQQQQ"), 4424, ("state", "since", "NOP", "S0", "S1")),
-    "cd": Record(Struct("<QqQQQ"), 4472, ("state", "since", "NOP", "S0")),
-    "sj": Record(Struct("<QqQQQQ"), 4512, ("state", "since", "NOP", "S0", "S1")),
-    "cr": Record(Struct("<QqQQQQQ"), 4560, ("state", "since", "NOP", "S0", "S1", "S2")),
-    "gh": Record(Struct("<QqQQQ"), 4616, ("state", "since", "NOP", "S0")),
-    "cv": Record(Struct("<QqQQQ"), 4656, ("state", "since", "NOP", "S0")),
-    "ct": Record(Struct("<QqQQQQ"), 4696, ("state", "since", "NOP", "S0", "S1")),
+    "cc": Record(Struct("<QqQQQQQ"), 4528, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "bm": Record(Struct("<QqQQQQ"), 4584, ("state", "since", "NOP", "S0", "S1")),
+    "cd": Record(Struct("<QqQQQ"), 4632, ("state", "since", "NOP", "S0")),
+    "sj": Record(Struct("<QqQQQQ"), 4672, ("state", "since", "NOP", "S0", "S1")),
+    "cr": Record(Struct("<QqQQQQQ"), 4720, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "gh": Record(Struct("<QqQQQ"), 4776, ("state", "since", "NOP", "S0")),
+    "cv": Record(Struct("<QqQQQ"), 4816, ("state", "since", "NOP", "S0")),
+    "ct": Record(Struct("<QqQQQQ"), 4856, ("state", "since", "NOP", "S0", "S1")),
     "vg": Record(
         Struct("<QqQQQQQQQQQQQQQQQ"),
-        4744,
+        4904,
         (
             "state",
             "since",
@@ -1005,9 +1005,9 @@ TIME_IN_STATE = {
             "ALIGN_STOPPING",
         ),
     ),
-    "tc": Record(Struct("<QqQQQQ"), 4880, ("state", "since", "NOP", "S0", "S0_MOVING")),
-    "wm": Record(Struct("<QqQQQ"), 4928, ("state", "since", "NOP", "S0")),
-    "pp": Record(Struct("<QqQQQQ"), 4968, ("state", "since", "NOP", "S0", "S1")),
+    "tc": Record(Struct("<QqQQQQ"), 5040, ("state", "since", "NOP", "S0", "S0_MOVING")),
+    "wm": Record(Struct("<QqQQQ"), 5088, ("state", "since", "NOP", "S0")),
+    "pp": Record(Struct("<QqQQQQ"), 5128, ("state", "since", "NOP", "S0", "S1")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

@@ -39,18 +39,18 @@ PLAN = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQIdd44x???1xI168x?15xd8xd8x?271xd8xd8xd")
-INPUTS_AT = 2032
+INPUTS_AT = 2192
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2032
+SEQS_AT = 2192
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?7xQdQdQ?")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2280
+WORLD_OUT_1_AT = 2440
 WORLD_HELD_1 = (
     OVERRIDE["path_ok"],
     OVERRIDE["wp_x"],

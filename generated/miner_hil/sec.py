@@ -39,11 +39,11 @@ SB_CUT_TWO_PASSES = 5
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQIdd44x???1xI96xQI")
-INPUTS_AT = 288
+INPUTS_AT = 448
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 288
+SEQS_AT = 448
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -27,14 +27,14 @@ NEW_CUT = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI576x?47xd40xd8xd24x?15xd8xd")
-INPUTS_AT = 1920
+INPUTS_AT = 2080
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?7xQdQd")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 2696
+WORLD_OUT_1_AT = 2856
 WORLD_HELD_1 = (
     OVERRIDE["popped_out_of_shear"],
     OVERRIDE["depth_est"],

@@ -58,11 +58,11 @@ ALPHA_RSTA_LINK = 7  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQId68x???1xI88xQII8xQ224xQI12x?d1415xd")
-INPUTS_AT = 896
+INPUTS_AT = 1136
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 896
+SEQS_AT = 1136
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

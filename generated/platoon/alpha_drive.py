@@ -25,14 +25,14 @@ STOP = 4
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId44x???1xI1544xd24xd8x?15xd")
-INPUTS_AT = 1192
+INPUTS_AT = 1432
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQ?7xQd")
 WORLD_VALUES_1 = Struct("<8xd8x?15xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 2832
+WORLD_OUT_1_AT = 3072
 WORLD_HELD_1 = (
     OVERRIDE["alpha_throttle"],
     OVERRIDE["alpha_brake"],

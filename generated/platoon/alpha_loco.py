@@ -34,7 +34,7 @@ ALPHA_DRIVE_LINK = 6  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId52x???1xI88xQI1556xd24xd")
-INPUTS_AT = 1056
+INPUTS_AT = 1296
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -22,14 +22,14 @@ POINT = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId44x???1xI1360xd8xd")
-INPUTS_AT = 1456
+INPUTS_AT = 1696
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2880
+WORLD_OUT_1_AT = 3120
 WORLD_HELD_1 = (OVERRIDE["alpha_pan_cmd"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -29,7 +29,7 @@ ALPHA_PAN_POINT = 3
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI60x???1xI88xQI1292xd8xd104x?15xd")
-INPUTS_AT = 1320
+INPUTS_AT = 1560
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -25,14 +25,14 @@ STOP = 4
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId44x???1xI800xd24xd8x?15xd")
-INPUTS_AT = 2112
+INPUTS_AT = 2352
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQ?7xQd")
 WORLD_VALUES_1 = Struct("<8xd8x?15xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 3008
+WORLD_OUT_1_AT = 3248
 WORLD_HELD_1 = (
     OVERRIDE["bravo_throttle"],
     OVERRIDE["bravo_brake"],

@@ -34,7 +34,7 @@ BRAVO_DRIVE_LINK = 13  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId52x???1xI88xQI812xd24xd")
-INPUTS_AT = 1976
+INPUTS_AT = 2216
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

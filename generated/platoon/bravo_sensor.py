@@ -26,18 +26,18 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI56x?15xd8xd184xd8xd8xd56xd8xd8x?15xd")
-INPUTS_AT = 2616
+INPUTS_AT = 2856
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 2616
+SEQS_AT = 2856
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQ?7xQd")
 WORLD_VALUES_1 = Struct("<8xd8x?15xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 3072
+WORLD_OUT_1_AT = 3312
 WORLD_HELD_1 = (
     OVERRIDE["bravo_pan"],
     OVERRIDE["bravo_contact"],

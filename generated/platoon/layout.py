@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4640 bytes.
+The block is 4880 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -22,148 +22,148 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 88 | PROCESS_COMMAND | PROCESS_FIELDS |
-| 168 | 16 | PACE_COMMAND | PACE_FIELDS |
-| 184 | 88 | PROCESS_PA | PROCESS_FIELDS |
-| 272 | 16 | PACE_PA | PACE_FIELDS |
-| 288 | 88 | PROCESS_PB | PROCESS_FIELDS |
-| 376 | 16 | PACE_PB | PACE_FIELDS |
-| 392 | 28 | PL_COMMAND | command_num, command, arg_objective |
-| 424 | 58 | PL_STATUS | STATUS_FIELDS |
-| 488 | 16 | PL_MODE | MODE_FIELDS |
-| 504 | 48 | PL_PERF | PERF_FIELDS |
-| 552 | 28 | SEC_COMMAND | command_num, command, arg_objective |
-| 584 | 59 | SEC_STATUS | STATUS_FIELDS |
-| 648 | 16 | SEC_MODE | MODE_FIELDS |
-| 664 | 48 | SEC_PERF | PERF_FIELDS |
-| 712 | 16 | LDR_MODE | MODE_FIELDS |
-| 728 | 48 | LDR_PERF | PERF_FIELDS |
-| 776 | 28 | LDR_PL_COMMAND | command_num, command, arg_enemy_x |
-| 808 | 48 | LDR_PL_STATUS | STATUS_FIELDS |
-| 856 | 40 | LDR_PL_ANSWER | ANSWER_FIELDS |
-| 896 | 28 | ALPHA_COMMAND | command_num, command, arg_x |
-| 928 | 49 | ALPHA_STATUS | STATUS_FIELDS |
-| 984 | 16 | ALPHA_MODE | MODE_FIELDS |
-| 1000 | 48 | ALPHA_PERF | PERF_FIELDS |
-| 1048 | 28 | ALPHA_LOCO_COMMAND | command_num, command, arg_goal |
-| 1080 | 40 | ALPHA_LOCO_STATUS | STATUS_FIELDS |
-| 1120 | 16 | ALPHA_LOCO_MODE | MODE_FIELDS |
-| 1136 | 48 | ALPHA_LOCO_PERF | PERF_FIELDS |
-| 1184 | 28 | ALPHA_DRIVE_COMMAND | command_num, command, arg_throttle |
-| 1216 | 32 | ALPHA_DRIVE_STATUS | STATUS_FIELDS |
-| 1248 | 16 | ALPHA_DRIVE_MODE | MODE_FIELDS |
-| 1264 | 48 | ALPHA_DRIVE_PERF | PERF_FIELDS |
-| 1312 | 20 | ALPHA_RSTA_COMMAND | command_num, command |
-| 1336 | 41 | ALPHA_RSTA_STATUS | STATUS_FIELDS |
-| 1384 | 16 | ALPHA_RSTA_MODE | MODE_FIELDS |
-| 1400 | 48 | ALPHA_RSTA_PERF | PERF_FIELDS |
-| 1448 | 28 | ALPHA_PAN_COMMAND | command_num, command, arg_bearing |
-| 1480 | 32 | ALPHA_PAN_STATUS | STATUS_FIELDS |
-| 1512 | 16 | ALPHA_PAN_MODE | MODE_FIELDS |
-| 1528 | 48 | ALPHA_PAN_PERF | PERF_FIELDS |
-| 1576 | 20 | ALPHA_MOTION_COMMAND | command_num, command |
-| 1600 | 32 | ALPHA_MOTION_STATUS | STATUS_FIELDS |
-| 1632 | 16 | ALPHA_MOTION_MODE | MODE_FIELDS |
-| 1648 | 48 | ALPHA_MOTION_PERF | PERF_FIELDS |
-| 1696 | 20 | ALPHA_SENSOR_COMMAND | command_num, command |
-| 1720 | 32 | ALPHA_SENSOR_STATUS | STATUS_FIELDS |
-| 1752 | 16 | ALPHA_SENSOR_MODE | MODE_FIELDS |
-| 1768 | 48 | ALPHA_SENSOR_PERF | PERF_FIELDS |
-| 1816 | 28 | BRAVO_COMMAND | command_num, command, arg_x |
-| 1848 | 49 | BRAVO_STATUS | STATUS_FIELDS |
-| 1904 | 16 | BRAVO_MODE | MODE_FIELDS |
-| 1920 | 48 | BRAVO_PERF | PERF_FIELDS |
-| 1968 | 28 | BRAVO_LOCO_COMMAND | command_num, command, arg_goal |
-| 2000 | 40 | BRAVO_LOCO_STATUS | STATUS_FIELDS |
-| 2040 | 16 | BRAVO_LOCO_MODE | MODE_FIELDS |
-| 2056 | 48 | BRAVO_LOCO_PERF | PERF_FIELDS |
-| 2104 | 28 | BRAVO_DRIVE_COMMAND | command_num, command, arg_throttle |
-| 2136 | 32 | BRAVO_DRIVE_STATUS | STATUS_FIELDS |
-| 2168 | 16 | BRAVO_DRIVE_MODE | MODE_FIELDS |
-| 2184 | 48 | BRAVO_DRIVE_PERF | PERF_FIELDS |
-| 2232 | 20 | BRAVO_RSTA_COMMAND | command_num, command |
-| 2256 | 41 | BRAVO_RSTA_STATUS | STATUS_FIELDS |
-| 2304 | 16 | BRAVO_RSTA_MODE | MODE_FIELDS |
-| 2320 | 48 | BRAVO_RSTA_PERF | PERF_FIELDS |
-| 2368 | 28 | BRAVO_PAN_COMMAND | command_num, command, arg_bearing |
-| 2400 | 32 | BRAVO_PAN_STATUS | STATUS_FIELDS |
-| 2432 | 16 | BRAVO_PAN_MODE | MODE_FIELDS |
-| 2448 | 48 | BRAVO_PAN_PERF | PERF_FIELDS |
-| 2496 | 20 | BRAVO_MOTION_COMMAND | command_num, command |
-| 2520 | 32 | BRAVO_MOTION_STATUS | STATUS_FIELDS |
-| 2552 | 16 | BRAVO_MOTION_MODE | MODE_FIELDS |
-| 2568 | 48 | BRAVO_MOTION_PERF | PERF_FIELDS |
-| 2616 | 20 | BRAVO_SENSOR_COMMAND | command_num, command |
-| 2640 | 32 | BRAVO_SENSOR_STATUS | STATUS_FIELDS |
-| 2672 | 16 | BRAVO_SENSOR_MODE | MODE_FIELDS |
-| 2688 | 48 | BRAVO_SENSOR_PERF | PERF_FIELDS |
-| 2736 | 9 | WORLD_ENEMY_PRESENT | enemy_present |
-| 2752 | 16 | WORLD_ENEMY_X | enemy_x |
-| 2768 | 16 | WORLD_ENEMY_Y | enemy_y |
-| 2784 | 16 | WORLD_ALPHA_X | alpha_x |
-| 2800 | 16 | WORLD_ALPHA_Y | alpha_y |
-| 2816 | 16 | WORLD_ALPHA_SPEED | alpha_speed |
-| 2832 | 16 | WORLD_ALPHA_THROTTLE | alpha_throttle |
-| 2848 | 9 | WORLD_ALPHA_BRAKE | alpha_brake |
-| 2864 | 16 | WORLD_ALPHA_STEER | alpha_steer |
-| 2880 | 16 | WORLD_ALPHA_PAN_CMD | alpha_pan_cmd |
-| 2896 | 16 | WORLD_ALPHA_PAN | alpha_pan |
-| 2912 | 9 | WORLD_ALPHA_CONTACT | alpha_contact |
-| 2928 | 16 | WORLD_ALPHA_CONTACT_X | alpha_contact_x |
-| 2944 | 9 | WORLD_ALPHA_STUCK | alpha_stuck |
-| 2960 | 16 | WORLD_BRAVO_X | bravo_x |
-| 2976 | 16 | WORLD_BRAVO_Y | bravo_y |
-| 2992 | 16 | WORLD_BRAVO_SPEED | bravo_speed |
-| 3008 | 16 | WORLD_BRAVO_THROTTLE | bravo_throttle |
-| 3024 | 9 | WORLD_BRAVO_BRAKE | bravo_brake |
-| 3040 | 16 | WORLD_BRAVO_STEER | bravo_steer |
-| 3056 | 16 | WORLD_BRAVO_PAN_CMD | bravo_pan_cmd |
-| 3072 | 16 | WORLD_BRAVO_PAN | bravo_pan |
-| 3088 | 9 | WORLD_BRAVO_CONTACT | bravo_contact |
-| 3104 | 16 | WORLD_BRAVO_CONTACT_X | bravo_contact_x |
-| 3120 | 9 | WORLD_BRAVO_STUCK | bravo_stuck |
-| 3136 | 9 | OVERRIDES | any |
-| 3152 | 17 | OVERRIDE_ENEMY_PRESENT | state, enemy_present |
-| 3176 | 24 | OVERRIDE_ENEMY_X | state, enemy_x |
-| 3200 | 24 | OVERRIDE_ENEMY_Y | state, enemy_y |
-| 3224 | 24 | OVERRIDE_ALPHA_X | state, alpha_x |
-| 3248 | 24 | OVERRIDE_ALPHA_Y | state, alpha_y |
-| 3272 | 24 | OVERRIDE_ALPHA_SPEED | state, alpha_speed |
-| 3296 | 24 | OVERRIDE_ALPHA_THROTTLE | state, alpha_throttle |
-| 3320 | 17 | OVERRIDE_ALPHA_BRAKE | state, alpha_brake |
-| 3344 | 24 | OVERRIDE_ALPHA_STEER | state, alpha_steer |
-| 3368 | 24 | OVERRIDE_ALPHA_PAN_CMD | state, alpha_pan_cmd |
-| 3392 | 24 | OVERRIDE_ALPHA_PAN | state, alpha_pan |
-| 3416 | 17 | OVERRIDE_ALPHA_CONTACT | state, alpha_contact |
-| 3440 | 24 | OVERRIDE_ALPHA_CONTACT_X | state, alpha_contact_x |
-| 3464 | 17 | OVERRIDE_ALPHA_STUCK | state, alpha_stuck |
-| 3488 | 24 | OVERRIDE_BRAVO_X | state, bravo_x |
-| 3512 | 24 | OVERRIDE_BRAVO_Y | state, bravo_y |
-| 3536 | 24 | OVERRIDE_BRAVO_SPEED | state, bravo_speed |
-| 3560 | 24 | OVERRIDE_BRAVO_THROTTLE | state, bravo_throttle |
-| 3584 | 17 | OVERRIDE_BRAVO_BRAKE | state, bravo_brake |
-| 3608 | 24 | OVERRIDE_BRAVO_STEER | state, bravo_steer |
-| 3632 | 24 | OVERRIDE_BRAVO_PAN_CMD | state, bravo_pan_cmd |
-| 3656 | 24 | OVERRIDE_BRAVO_PAN | state, bravo_pan |
-| 3680 | 17 | OVERRIDE_BRAVO_CONTACT | state, bravo_contact |
-| 3704 | 24 | OVERRIDE_BRAVO_CONTACT_X | state, bravo_contact_x |
-| 3728 | 17 | OVERRIDE_BRAVO_STUCK | state, bravo_stuck |
-| 3752 | 72 | TIME_PL | state, since, NOP, S0, S1, ADVANCE, DECIDE, OVERWATCH |
-| 3824 | 112 | TIME_SEC | state, since, NOP, S0, S1, A_BOUNDS, B_BOUNDS, CONTACT, A_ALONE, B_ALONE, A_LOST, B_LOST, WATCH |
-| 3936 | 48 | TIME_ALPHA | state, since, NOP, S0, S1 |
-| 3984 | 72 | TIME_ALPHA_LOCO | state, since, NOP, S0, S1, AHEAD, BACK, STOPPING |
-| 4056 | 40 | TIME_ALPHA_DRIVE | state, since, NOP, S0 |
-| 4096 | 64 | TIME_ALPHA_RSTA | state, since, NOP, S0, S1, POINTING, WATCH |
-| 4160 | 48 | TIME_ALPHA_PAN | state, since, NOP, S0, S1 |
-| 4208 | 40 | TIME_ALPHA_MOTION | state, since, NOP, S0 |
-| 4248 | 40 | TIME_ALPHA_SENSOR | state, since, NOP, S0 |
-| 4288 | 48 | TIME_BRAVO | state, since, NOP, S0, S1 |
-| 4336 | 72 | TIME_BRAVO_LOCO | state, since, NOP, S0, S1, AHEAD, BACK, STOPPING |
-| 4408 | 40 | TIME_BRAVO_DRIVE | state, since, NOP, S0 |
-| 4448 | 64 | TIME_BRAVO_RSTA | state, since, NOP, S0, S1, POINTING, WATCH |
-| 4512 | 48 | TIME_BRAVO_PAN | state, since, NOP, S0, S1 |
-| 4560 | 40 | TIME_BRAVO_MOTION | state, since, NOP, S0 |
-| 4600 | 40 | TIME_BRAVO_SENSOR | state, since, NOP, S0 |
+| 80 | 168 | PROCESS_COMMAND | PROCESS_FIELDS |
+| 248 | 16 | PACE_COMMAND | PACE_FIELDS |
+| 264 | 168 | PROCESS_PA | PROCESS_FIELDS |
+| 432 | 16 | PACE_PA | PACE_FIELDS |
+| 448 | 168 | PROCESS_PB | PROCESS_FIELDS |
+| 616 | 16 | PACE_PB | PACE_FIELDS |
+| 632 | 28 | PL_COMMAND | command_num, command, arg_objective |
+| 664 | 58 | PL_STATUS | STATUS_FIELDS |
+| 728 | 16 | PL_MODE | MODE_FIELDS |
+| 744 | 48 | PL_PERF | PERF_FIELDS |
+| 792 | 28 | SEC_COMMAND | command_num, command, arg_objective |
+| 824 | 59 | SEC_STATUS | STATUS_FIELDS |
+| 888 | 16 | SEC_MODE | MODE_FIELDS |
+| 904 | 48 | SEC_PERF | PERF_FIELDS |
+| 952 | 16 | LDR_MODE | MODE_FIELDS |
+| 968 | 48 | LDR_PERF | PERF_FIELDS |
+| 1016 | 28 | LDR_PL_COMMAND | command_num, command, arg_enemy_x |
+| 1048 | 48 | LDR_PL_STATUS | STATUS_FIELDS |
+| 1096 | 40 | LDR_PL_ANSWER | ANSWER_FIELDS |
+| 1136 | 28 | ALPHA_COMMAND | command_num, command, arg_x |
+| 1168 | 49 | ALPHA_STATUS | STATUS_FIELDS |
+| 1224 | 16 | ALPHA_MODE | MODE_FIELDS |
+| 1240 | 48 | ALPHA_PERF | PERF_FIELDS |
+| 1288 | 28 | ALPHA_LOCO_COMMAND | command_num, command, arg_goal |
+| 1320 | 40 | ALPHA_LOCO_STATUS | STATUS_FIELDS |
+| 1360 | 16 | ALPHA_LOCO_MODE | MODE_FIELDS |
+| 1376 | 48 | ALPHA_LOCO_PERF | PERF_FIELDS |
+| 1424 | 28 | ALPHA_DRIVE_COMMAND | command_num, command, arg_throttle |
+| 1456 | 32 | ALPHA_DRIVE_STATUS | STATUS_FIELDS |
+| 1488 | 16 | ALPHA_DRIVE_MODE | MODE_FIELDS |
+| 1504 | 48 | ALPHA_DRIVE_PERF | PERF_FIELDS |
+| 1552 | 20 | ALPHA_RSTA_COMMAND | command_num, command |
+| 1576 | 41 | ALPHA_RSTA_STATUS | STATUS_FIELDS |
+| 1624 | 16 | ALPHA_RSTA_MODE | MODE_FIELDS |
+| 1640 | 48 | ALPHA_RSTA_PERF | PERF_FIELDS |
+| 1688 | 28 | ALPHA_PAN_COMMAND | command_num, command, arg_bearing |
+| 1720 | 32 | ALPHA_PAN_STATUS | STATUS_FIELDS |
+| 1752 | 16 | ALPHA_PAN_MODE | MODE_FIELDS |
+| 1768 | 48 | ALPHA_PAN_PERF | PERF_FIELDS |
+| 1816 | 20 | ALPHA_MOTION_COMMAND | command_num, command |
+| 1840 | 32 | ALPHA_MOTION_STATUS | STATUS_FIELDS |
+| 1872 | 16 | ALPHA_MOTION_MODE | MODE_FIELDS |
+| 1888 | 48 | ALPHA_MOTION_PERF | PERF_FIELDS |
+| 1936 | 20 | ALPHA_SENSOR_COMMAND | command_num, command |
+| 1960 | 32 | ALPHA_SENSOR_STATUS | STATUS_FIELDS |
+| 1992 | 16 | ALPHA_SENSOR_MODE | MODE_FIELDS |
+| 2008 | 48 | ALPHA_SENSOR_PERF | PERF_FIELDS |
+| 2056 | 28 | BRAVO_COMMAND | command_num, command, arg_x |
+| 2088 | 49 | BRAVO_STATUS | STATUS_FIELDS |
+| 2144 | 16 | BRAVO_MODE | MODE_FIELDS |
+| 2160 | 48 | BRAVO_PERF | PERF_FIELDS |
+| 2208 | 28 | BRAVO_LOCO_COMMAND | command_num, command, arg_goal |
+| 2240 | 40 | BRAVO_LOCO_STATUS | STATUS_FIELDS |
+| 2280 | 16 | BRAVO_LOCO_MODE | MODE_FIELDS |
+| 2296 | 48 | BRAVO_LOCO_PERF | PERF_FIELDS |
+| 2344 | 28 | BRAVO_DRIVE_COMMAND | command_num, command, arg_throttle |
+| 2376 | 32 | BRAVO_DRIVE_STATUS | STATUS_FIELDS |
+| 2408 | 16 | BRAVO_DRIVE_MODE | MODE_FIELDS |
+| 2424 | 48 | BRAVO_DRIVE_PERF | PERF_FIELDS |
+| 2472 | 20 | BRAVO_RSTA_COMMAND | command_num, command |
+| 2496 | 41 | BRAVO_RSTA_STATUS | STATUS_FIELDS |
+| 2544 | 16 | BRAVO_RSTA_MODE | MODE_FIELDS |
+| 2560 | 48 | BRAVO_RSTA_PERF | PERF_FIELDS |
+| 2608 | 28 | BRAVO_PAN_COMMAND | command_num, command, arg_bearing |
+| 2640 | 32 | BRAVO_PAN_STATUS | STATUS_FIELDS |
+| 2672 | 16 | BRAVO_PAN_MODE | MODE_FIELDS |
+| 2688 | 48 | BRAVO_PAN_PERF | PERF_FIELDS |
+| 2736 | 20 | BRAVO_MOTION_COMMAND | command_num, command |
+| 2760 | 32 | BRAVO_MOTION_STATUS | STATUS_FIELDS |
+| 2792 | 16 | BRAVO_MOTION_MODE | MODE_FIELDS |
+| 2808 | 48 | BRAVO_MOTION_PERF | PERF_FIELDS |
+| 2856 | 20 | BRAVO_SENSOR_COMMAND | command_num, command |
+| 2880 | 32 | BRAVO_SENSOR_STATUS | STATUS_FIELDS |
+| 2912 | 16 | BRAVO_SENSOR_MODE | MODE_FIELDS |
+| 2928 | 48 | BRAVO_SENSOR_PERF | PERF_FIELDS |
+| 2976 | 9 | WORLD_ENEMY_PRESENT | enemy_present |
+| 2992 | 16 | WORLD_ENEMY_X | enemy_x |
+| 3008 | 16 | WORLD_ENEMY_Y | enemy_y |
+| 3024 | 16 | WORLD_ALPHA_X | alpha_x |
+| 3040 | 16 | WORLD_ALPHA_Y | alpha_y |
+| 3056 | 16 | WORLD_ALPHA_SPEED | alpha_speed |
+| 3072 | 16 | WORLD_ALPHA_THROTTLE | alpha_throttle |
+| 3088 | 9 | WORLD_ALPHA_BRAKE | alpha_brake |
+| 3104 | 16 | WORLD_ALPHA_STEER | alpha_steer |
+| 3120 | 16 | WORLD_ALPHA_PAN_CMD | alpha_pan_cmd |
+| 3136 | 16 | WORLD_ALPHA_PAN | alpha_pan |
+| 3152 | 9 | WORLD_ALPHA_CONTACT | alpha_contact |
+| 3168 | 16 | WORLD_ALPHA_CONTACT_X | alpha_contact_x |
+| 3184 | 9 | WORLD_ALPHA_STUCK | alpha_stuck |
+| 3200 | 16 | WORLD_BRAVO_X | bravo_x |
+| 3216 | 16 | WORLD_BRAVO_Y | bravo_y |
+| 3232 | 16 | WORLD_BRAVO_SPEED | bravo_speed |
+| 3248 | 16 | WORLD_BRAVO_THROTTLE | bravo_throttle |
+| 3264 | 9 | WORLD_BRAVO_BRAKE | bravo_brake |
+| 3280 | 16 | WORLD_BRAVO_STEER | bravo_steer |
+| 3296 | 16 | WORLD_BRAVO_PAN_CMD | bravo_pan_cmd |
+| 3312 | 16 | WORLD_BRAVO_PAN | bravo_pan |
+| 3328 | 9 | WORLD_BRAVO_CONTACT | bravo_contact |
+| 3344 | 16 | WORLD_BRAVO_CONTACT_X | bravo_contact_x |
+| 3360 | 9 | WORLD_BRAVO_STUCK | bravo_stuck |
+| 3376 | 9 | OVERRIDES | any |
+| 3392 | 17 | OVERRIDE_ENEMY_PRESENT | state, enemy_present |
+| 3416 | 24 | OVERRIDE_ENEMY_X | state, enemy_x |
+| 3440 | 24 | OVERRIDE_ENEMY_Y | state, enemy_y |
+| 3464 | 24 | OVERRIDE_ALPHA_X | state, alpha_x |
+| 3488 | 24 | OVERRIDE_ALPHA_Y | state, alpha_y |
+| 3512 | 24 | OVERRIDE_ALPHA_SPEED | state, alpha_speed |
+| 3536 | 24 | OVERRIDE_ALPHA_THROTTLE | state, alpha_throttle |
+| 3560 | 17 | OVERRIDE_ALPHA_BRAKE | state, alpha_brake |
+| 3584 | 24 | OVERRIDE_ALPHA_STEER | state, alpha_steer |
+| 3608 | 24 | OVERRIDE_ALPHA_PAN_CMD | state, alpha_pan_cmd |
+| 3632 | 24 | OVERRIDE_ALPHA_PAN | state, alpha_pan |
+| 3656 | 17 | OVERRIDE_ALPHA_CONTACT | state, alpha_contact |
+| 3680 | 24 | OVERRIDE_ALPHA_CONTACT_X | state, alpha_contact_x |
+| 3704 | 17 | OVERRIDE_ALPHA_STUCK | state, alpha_stuck |
+| 3728 | 24 | OVERRIDE_BRAVO_X | state, bravo_x |
+| 3752 | 24 | OVERRIDE_BRAVO_Y | state, bravo_y |
+| 3776 | 24 | OVERRIDE_BRAVO_SPEED | state, bravo_speed |
+| 3800 | 24 | OVERRIDE_BRAVO_THROTTLE | state, bravo_throttle |
+| 3824 | 17 | OVERRIDE_BRAVO_BRAKE | state, bravo_brake |
+| 3848 | 24 | OVERRIDE_BRAVO_STEER | state, bravo_steer |
+| 3872 | 24 | OVERRIDE_BRAVO_PAN_CMD | state, bravo_pan_cmd |
+| 3896 | 24 | OVERRIDE_BRAVO_PAN | state, bravo_pan |
+| 3920 | 17 | OVERRIDE_BRAVO_CONTACT | state, bravo_contact |
+| 3944 | 24 | OVERRIDE_BRAVO_CONTACT_X | state, bravo_contact_x |
+| 3968 | 17 | OVERRIDE_BRAVO_STUCK | state, bravo_stuck |
+| 3992 | 72 | TIME_PL | state, since, NOP, S0, S1, ADVANCE, DECIDE, OVERWATCH |
+| 4064 | 112 | TIME_SEC | state, since, NOP, S0, S1, A_BOUNDS, B_BOUNDS, CONTACT, A_ALONE, B_ALONE, A_LOST, B_LOST, WATCH |
+| 4176 | 48 | TIME_ALPHA | state, since, NOP, S0, S1 |
+| 4224 | 72 | TIME_ALPHA_LOCO | state, since, NOP, S0, S1, AHEAD, BACK, STOPPING |
+| 4296 | 40 | TIME_ALPHA_DRIVE | state, since, NOP, S0 |
+| 4336 | 64 | TIME_ALPHA_RSTA | state, since, NOP, S0, S1, POINTING, WATCH |
+| 4400 | 48 | TIME_ALPHA_PAN | state, since, NOP, S0, S1 |
+| 4448 | 40 | TIME_ALPHA_MOTION | state, since, NOP, S0 |
+| 4488 | 40 | TIME_ALPHA_SENSOR | state, since, NOP, S0 |
+| 4528 | 48 | TIME_BRAVO | state, since, NOP, S0, S1 |
+| 4576 | 72 | TIME_BRAVO_LOCO | state, since, NOP, S0, S1, AHEAD, BACK, STOPPING |
+| 4648 | 40 | TIME_BRAVO_DRIVE | state, since, NOP, S0 |
+| 4688 | 64 | TIME_BRAVO_RSTA | state, since, NOP, S0, S1, POINTING, WATCH |
+| 4752 | 48 | TIME_BRAVO_PAN | state, since, NOP, S0, S1 |
+| 4800 | 40 | TIME_BRAVO_MOTION | state, since, NOP, S0 |
+| 4840 | 40 | TIME_BRAVO_SENSOR | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -195,211 +195,211 @@ from .rcs.contract import (
 
 SYSTEM = "platoon"
 SOURCE = "platoon/system.yaml"
-SIZE = 4640
+SIZE = 4880
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "595deb1cbf54ef7946da62bc3b020d5f"
+LAYOUT_HASH = "0d6a08412b48668d651358889fb7586a"
 PROCESS_COMMAND_AT = 80
-PACE_COMMAND_AT = 168
-PROCESS_PA_AT = 184
-PACE_PA_AT = 272
-PROCESS_PB_AT = 288
-PACE_PB_AT = 376
+PACE_COMMAND_AT = 248
+PROCESS_PA_AT = 264
+PACE_PA_AT = 432
+PROCESS_PB_AT = 448
+PACE_PB_AT = 616
 
 # pl: Platoon
 PL_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_objective
-PL_COMMAND_AT = 392
+PL_COMMAND_AT = 632
 PL_STATUS = Struct(
     "<QQIIii?d?qQ"
 )  # seq, status_num, status, error_num, state, rule, result_mission_changed, result_enemy_x, result_alone, result_decision, cause
-PL_STATUS_AT = 424
-PL_MODE_AT = 488
-PL_PERF_AT = 504
+PL_STATUS_AT = 664
+PL_MODE_AT = 728
+PL_PERF_AT = 744
 
 # sec: Section
 SEC_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_objective
-SEC_COMMAND_AT = 552
+SEC_COMMAND_AT = 792
 SEC_STATUS = Struct(
     "<QQIIii?d??qQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, result_in_cover, result_alone, result_reports, cause
-SEC_STATUS_AT = 584
-SEC_MODE_AT = 648
-SEC_PERF_AT = 664
+SEC_STATUS_AT = 824
+SEC_MODE_AT = 888
+SEC_PERF_AT = 904
 
 # alpha: Vehicle Alpha (George, the left corridor)
 ALPHA_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_x
-ALPHA_COMMAND_AT = 896
+ALPHA_COMMAND_AT = 1136
 ALPHA_STATUS = Struct(
     "<QQIIii?dQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, cause
-ALPHA_STATUS_AT = 928
-ALPHA_MODE_AT = 984
-ALPHA_PERF_AT = 1000
+ALPHA_STATUS_AT = 1168
+ALPHA_MODE_AT = 1224
+ALPHA_PERF_AT = 1240
 
 # alpha_loco: Locomotion (alpha)
 ALPHA_LOCO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_goal
-ALPHA_LOCO_COMMAND_AT = 1048
+ALPHA_LOCO_COMMAND_AT = 1288
 ALPHA_LOCO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-ALPHA_LOCO_STATUS_AT = 1080
-ALPHA_LOCO_MODE_AT = 1120
-ALPHA_LOCO_PERF_AT = 1136
+ALPHA_LOCO_STATUS_AT = 1320
+ALPHA_LOCO_MODE_AT = 1360
+ALPHA_LOCO_PERF_AT = 1376
 
 # alpha_drive: Locomotion servo (steering, throttle, brakes) (alpha)
 ALPHA_DRIVE_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_throttle
-ALPHA_DRIVE_COMMAND_AT = 1184
-ALPHA_DRIVE_STATUS_AT = 1216
-ALPHA_DRIVE_MODE_AT = 1248
-ALPHA_DRIVE_PERF_AT = 1264
+ALPHA_DRIVE_COMMAND_AT = 1424
+ALPHA_DRIVE_STATUS_AT = 1456
+ALPHA_DRIVE_MODE_AT = 1488
+ALPHA_DRIVE_PERF_AT = 1504
 
 # alpha_rsta: RSTA mission package (alpha)
 ALPHA_RSTA_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_RSTA_COMMAND_AT = 1312
+ALPHA_RSTA_COMMAND_AT = 1552
 ALPHA_RSTA_STATUS = Struct(
     "<QQIIii?d"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x
-ALPHA_RSTA_STATUS_AT = 1336
-ALPHA_RSTA_MODE_AT = 1384
-ALPHA_RSTA_PERF_AT = 1400
+ALPHA_RSTA_STATUS_AT = 1576
+ALPHA_RSTA_MODE_AT = 1624
+ALPHA_RSTA_PERF_AT = 1640
 
 # alpha_pan: Sensor pointing servo (alpha)
 ALPHA_PAN_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_bearing
-ALPHA_PAN_COMMAND_AT = 1448
-ALPHA_PAN_STATUS_AT = 1480
-ALPHA_PAN_MODE_AT = 1512
-ALPHA_PAN_PERF_AT = 1528
+ALPHA_PAN_COMMAND_AT = 1688
+ALPHA_PAN_STATUS_AT = 1720
+ALPHA_PAN_MODE_AT = 1752
+ALPHA_PAN_PERF_AT = 1768
 
 # alpha_motion: Vehicle dynamics (simulated) (alpha)
 ALPHA_MOTION_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_MOTION_COMMAND_AT = 1576
-ALPHA_MOTION_STATUS_AT = 1600
-ALPHA_MOTION_MODE_AT = 1632
-ALPHA_MOTION_PERF_AT = 1648
+ALPHA_MOTION_COMMAND_AT = 1816
+ALPHA_MOTION_STATUS_AT = 1840
+ALPHA_MOTION_MODE_AT = 1872
+ALPHA_MOTION_PERF_AT = 1888
 
 # alpha_sensor: Sensor head (simulated) (alpha)
 ALPHA_SENSOR_COMMAND = Struct("<QQI")  # seq, command_num, command
-ALPHA_SENSOR_COMMAND_AT = 1696
-ALPHA_SENSOR_STATUS_AT = 1720
-ALPHA_SENSOR_MODE_AT = 1752
-ALPHA_SENSOR_PERF_AT = 1768
+ALPHA_SENSOR_COMMAND_AT = 1936
+ALPHA_SENSOR_STATUS_AT = 1960
+ALPHA_SENSOR_MODE_AT = 1992
+ALPHA_SENSOR_PERF_AT = 2008
 
 # bravo: Vehicle Bravo (Jerry, the right corridor)
 BRAVO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_x
-BRAVO_COMMAND_AT = 1816
+BRAVO_COMMAND_AT = 2056
 BRAVO_STATUS = Struct(
     "<QQIIii?dQ"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x, cause
-BRAVO_STATUS_AT = 1848
-BRAVO_MODE_AT = 1904
-BRAVO_PERF_AT = 1920
+BRAVO_STATUS_AT = 2088
+BRAVO_MODE_AT = 2144
+BRAVO_PERF_AT = 2160
 
 # bravo_loco: Locomotion (bravo)
 BRAVO_LOCO_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_goal
-BRAVO_LOCO_COMMAND_AT = 1968
+BRAVO_LOCO_COMMAND_AT = 2208
 BRAVO_LOCO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-BRAVO_LOCO_STATUS_AT = 2000
-BRAVO_LOCO_MODE_AT = 2040
-BRAVO_LOCO_PERF_AT = 2056
+BRAVO_LOCO_STATUS_AT = 2240
+BRAVO_LOCO_MODE_AT = 2280
+BRAVO_LOCO_PERF_AT = 2296
 
 # bravo_drive: Locomotion servo (steering, throttle, brakes) (bravo)
 BRAVO_DRIVE_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_throttle
-BRAVO_DRIVE_COMMAND_AT = 2104
-BRAVO_DRIVE_STATUS_AT = 2136
-BRAVO_DRIVE_MODE_AT = 2168
-BRAVO_DRIVE_PERF_AT = 2184
+BRAVO_DRIVE_COMMAND_AT = 2344
+BRAVO_DRIVE_STATUS_AT = 2376
+BRAVO_DRIVE_MODE_AT = 2408
+BRAVO_DRIVE_PERF_AT = 2424
 
 # bravo_rsta: RSTA mission package (bravo)
 BRAVO_RSTA_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_RSTA_COMMAND_AT = 2232
+BRAVO_RSTA_COMMAND_AT = 2472
 BRAVO_RSTA_STATUS = Struct(
     "<QQIIii?d"
 )  # seq, status_num, status, error_num, state, rule, result_contact, result_enemy_x
-BRAVO_RSTA_STATUS_AT = 2256
-BRAVO_RSTA_MODE_AT = 2304
-BRAVO_RSTA_PERF_AT = 2320
+BRAVO_RSTA_STATUS_AT = 2496
+BRAVO_RSTA_MODE_AT = 2544
+BRAVO_RSTA_PERF_AT = 2560
 
 # bravo_pan: Sensor pointing servo (bravo)
 BRAVO_PAN_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_bearing
-BRAVO_PAN_COMMAND_AT = 2368
-BRAVO_PAN_STATUS_AT = 2400
-BRAVO_PAN_MODE_AT = 2432
-BRAVO_PAN_PERF_AT = 2448
+BRAVO_PAN_COMMAND_AT = 2608
+BRAVO_PAN_STATUS_AT = 2640
+BRAVO_PAN_MODE_AT = 2672
+BRAVO_PAN_PERF_AT = 2688
 
 # bravo_motion: Vehicle dynamics (simulated) (bravo)
 BRAVO_MOTION_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_MOTION_COMMAND_AT = 2496
-BRAVO_MOTION_STATUS_AT = 2520
-BRAVO_MOTION_MODE_AT = 2552
-BRAVO_MOTION_PERF_AT = 2568
+BRAVO_MOTION_COMMAND_AT = 2736
+BRAVO_MOTION_STATUS_AT = 2760
+BRAVO_MOTION_MODE_AT = 2792
+BRAVO_MOTION_PERF_AT = 2808
 
 # bravo_sensor: Sensor head (simulated) (bravo)
 BRAVO_SENSOR_COMMAND = Struct("<QQI")  # seq, command_num, command
-BRAVO_SENSOR_COMMAND_AT = 2616
-BRAVO_SENSOR_STATUS_AT = 2640
-BRAVO_SENSOR_MODE_AT = 2672
-BRAVO_SENSOR_PERF_AT = 2688
+BRAVO_SENSOR_COMMAND_AT = 2856
+BRAVO_SENSOR_STATUS_AT = 2880
+BRAVO_SENSOR_MODE_AT = 2912
+BRAVO_SENSOR_PERF_AT = 2928
 
 # ldr: Platoon leader (the OCU) (an operator module: a channel per client)
-LDR_MODE_AT = 712
-LDR_PERF_AT = 728
+LDR_MODE_AT = 952
+LDR_PERF_AT = 968
 LDR_PL_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_enemy_x
-LDR_PL_COMMAND_AT = 776
+LDR_PL_COMMAND_AT = 1016
 LDR_PL_STATUS = Struct(
     "<QQIIiiqd"
 )  # seq, status_num, status, error_num, state, rule, result_decision, result_post
-LDR_PL_STATUS_AT = 808
+LDR_PL_STATUS_AT = 1048
 LDR_PL_ANSWER = Struct("<QQIIqd")  # seq, command_num, status, reason, result_decision, result_post
-LDR_PL_ANSWER_AT = 856
+LDR_PL_ANSWER_AT = 1096
 
 # World model.
 WORLD_ENEMY_PRESENT = Struct("<Q?")  # seq, enemy_present
-WORLD_ENEMY_PRESENT_AT = 2736
+WORLD_ENEMY_PRESENT_AT = 2976
 WORLD_ENEMY_X = Struct("<Qd")  # seq, enemy_x
-WORLD_ENEMY_X_AT = 2752
+WORLD_ENEMY_X_AT = 2992
 WORLD_ENEMY_Y = Struct("<Qd")  # seq, enemy_y
-WORLD_ENEMY_Y_AT = 2768
+WORLD_ENEMY_Y_AT = 3008
 WORLD_ALPHA_X = Struct("<Qd")  # seq, alpha_x
-WORLD_ALPHA_X_AT = 2784
+WORLD_ALPHA_X_AT = 3024
 WORLD_ALPHA_Y = Struct("<Qd")  # seq, alpha_y
-WORLD_ALPHA_Y_AT = 2800
+WORLD_ALPHA_Y_AT = 3040
 WORLD_ALPHA_SPEED = Struct("<Qd")  # seq, alpha_speed
-WORLD_ALPHA_SPEED_AT = 2816
+WORLD_ALPHA_SPEED_AT = 3056
 WORLD_ALPHA_THROTTLE = Struct("<Qd")  # seq, alpha_throttle
-WORLD_ALPHA_THROTTLE_AT = 2832
+WORLD_ALPHA_THROTTLE_AT = 3072
 WORLD_ALPHA_BRAKE = Struct("<Q?")  # seq, alpha_brake
-WORLD_ALPHA_BRAKE_AT = 2848
+WORLD_ALPHA_BRAKE_AT = 3088
 WORLD_ALPHA_STEER = Struct("<Qd")  # seq, alpha_steer
-WORLD_ALPHA_STEER_AT = 2864
+WORLD_ALPHA_STEER_AT = 3104
 WORLD_ALPHA_PAN_CMD = Struct("<Qd")  # seq, alpha_pan_cmd
-WORLD_ALPHA_PAN_CMD_AT = 2880
+WORLD_ALPHA_PAN_CMD_AT = 3120
 WORLD_ALPHA_PAN = Struct("<Qd")  # seq, alpha_pan
-WORLD_ALPHA_PAN_AT = 2896
+WORLD_ALPHA_PAN_AT = 3136
 WORLD_ALPHA_CONTACT = Struct("<Q?")  # seq, alpha_contact
-WORLD_ALPHA_CONTACT_AT = 2912
+WORLD_ALPHA_CONTACT_AT = 3152
 WORLD_ALPHA_CONTACT_X = Struct("<Qd")  # seq, alpha_contact_x
-WORLD_ALPHA_CONTACT_X_AT = 2928
+WORLD_ALPHA_CONTACT_X_AT = 3168
 WORLD_ALPHA_STUCK = Struct("<Q?")  # seq, alpha_stuck
-WORLD_ALPHA_STUCK_AT = 2944
+WORLD_ALPHA_STUCK_AT = 3184
 WORLD_BRAVO_X = Struct("<Qd")  # seq, bravo_x
-WORLD_BRAVO_X_AT = 2960
+WORLD_BRAVO_X_AT = 3200
 WORLD_BRAVO_Y = Struct("<Qd")  # seq, bravo_y
-WORLD_BRAVO_Y_AT = 2976
+WORLD_BRAVO_Y_AT = 3216
 WORLD_BRAVO_SPEED = Struct("<Qd")  # seq, bravo_speed
-WORLD_BRAVO_SPEED_AT = 2992
+WORLD_BRAVO_SPEED_AT = 3232
 WORLD_BRAVO_THROTTLE = Struct("<Qd")  # seq, bravo_throttle
-WORLD_BRAVO_THROTTLE_AT = 3008
+WORLD_BRAVO_THROTTLE_AT = 3248
 WORLD_BRAVO_BRAKE = Struct("<Q?")  # seq, bravo_brake
-WORLD_BRAVO_BRAKE_AT = 3024
+WORLD_BRAVO_BRAKE_AT = 3264
 WORLD_BRAVO_STEER = Struct("<Qd")  # seq, bravo_steer
-WORLD_BRAVO_STEER_AT = 3040
+WORLD_BRAVO_STEER_AT = 3280
 WORLD_BRAVO_PAN_CMD = Struct("<Qd")  # seq, bravo_pan_cmd
-WORLD_BRAVO_PAN_CMD_AT = 3056
+WORLD_BRAVO_PAN_CMD_AT = 3296
 WORLD_BRAVO_PAN = Struct("<Qd")  # seq, bravo_pan
-WORLD_BRAVO_PAN_AT = 3072
+WORLD_BRAVO_PAN_AT = 3312
 WORLD_BRAVO_CONTACT = Struct("<Q?")  # seq, bravo_contact
-WORLD_BRAVO_CONTACT_AT = 3088
+WORLD_BRAVO_CONTACT_AT = 3328
 WORLD_BRAVO_CONTACT_X = Struct("<Qd")  # seq, bravo_contact_x
-WORLD_BRAVO_CONTACT_X_AT = 3104
+WORLD_BRAVO_CONTACT_X_AT = 3344
 WORLD_BRAVO_STUCK = Struct("<Q?")  # seq, bravo_stuck
-WORLD_BRAVO_STUCK_AT = 3120
+WORLD_BRAVO_STUCK_AT = 3360
 
 
 PROCESSES = {
@@ -719,36 +719,36 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 3136
-OVERRIDDEN_AT = 3144  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 3376
+OVERRIDDEN_AT = 3384  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "enemy_present": Record(Struct("<QQ?"), 3152, ("state", "enemy_present")),
-    "enemy_x": Record(Struct("<QQd"), 3176, ("state", "enemy_x")),
-    "enemy_y": Record(Struct("<QQd"), 3200, ("state", "enemy_y")),
-    "alpha_x": Record(Struct("<QQd"), 3224, ("state", "alpha_x")),
-    "alpha_y": Record(Struct("<QQd"), 3248, ("state", "alpha_y")),
-    "alpha_speed": Record(Struct("<QQd"), 3272, ("state", "alpha_speed")),
-    "alpha_throttle": Record(Struct("<QQd"), 3296, ("state", "alpha_throttle")),
-    "alpha_brake": Record(Struct("<QQ?"), 3320, ("state", "alpha_brake")),
-    "alpha_steer": Record(Struct("<QQd"), 3344, ("state", "alpha_steer")),
-    "alpha_pan_cmd": Record(Struct("<QQd"), 3368, ("state", "alpha_pan_cmd")),
-    "alpha_pan": Record(Struct("<QQd"), 3392, ("state", "alpha_pan")),
-    "alpha_contact": Record(Struct("<QQ?"), 3416, ("state", "alpha_contact")),
-    "alpha_contact_x": Record(Struct("<QQd"), 3440, ("state", "alpha_contact_x")),
-    "alpha_stuck": Record(Struct("<QQ?"), 3464, ("state", "alpha_stuck")),
-    "bravo_x": Record(Struct("<QQd"), 3488, ("state", "bravo_x")),
-    "bravo_y": Record(Struct("<QQd"), 3512, ("state", "bravo_y")),
-    "bravo_speed": Record(Struct("<QQd"), 3536, ("state", "bravo_speed")),
-    "bravo_throttle": Record(Struct("<QQd"), 3560, ("state", "bravo_throttle")),
-    "bravo_brake": Record(Struct("<QQ?"), 3584, ("state", "bravo_brake")),
-    "bravo_steer": Record(Struct("<QQd"), 3608, ("state", "bravo_steer")),
-    "bravo_pan_cmd": Record(Struct("<QQd"), 3632, ("state", "bravo_pan_cmd")),
-    "bravo_pan": Record(Struct("<QQd"), 3656, ("state", "bravo_pan")),
-    "bravo_contact": Record(Struct("<QQ?"), 3680, ("state", "bravo_contact")),
-    "bravo_contact_x": Record(Struct("<QQd"), 3704, ("state", "bravo_contact_x")),
-    "bravo_stuck": Record(Struct("<QQ?"), 3728, ("state", "bravo_stuck")),
+    "enemy_present": Record(Struct("<QQ?"), 3392, ("state", "enemy_present")),
+    "enemy_x": Record(Struct("<QQd"), 3416, ("state", "enemy_x")),
+    "enemy_y": Record(Struct("<QQd"), 3440, ("state", "enemy_y")),
+    "alpha_x": Record(Struct("<QQd"), 3464, ("state", "alpha_x")),
+    "alpha_y": Record(Struct("<QQd"), 3488, ("state", "alpha_y")),
+    "alpha_speed": Record(Struct("<QQd"), 3512, ("state", "alpha_speed")),
+    "alpha_throttle": Record(Struct("<QQd"), 3536, ("state", "alpha_throttle")),
+    "alpha_brake": Record(Struct("<QQ?"), 3560, ("state", "alpha_brake")),
+    "alpha_steer": Record(Struct("<QQd"), 3584, ("state", "alpha_steer")),
+    "alpha_pan_cmd": Record(Struct("<QQd"), 3608, ("state", "alpha_pan_cmd")),
+    "alpha_pan": Record(Struct("<QQd"), 3632, ("state", "alpha_pan")),
+    "alpha_contact": Record(Struct("<QQ?"), 3656, ("state", "alpha_contact")),
+    "alpha_contact_x": Record(Struct("<QQd"), 3680, ("state", "alpha_contact_x")),
+    "alpha_stuck": Record(Struct("<QQ?"), 3704, ("state", "alpha_stuck")),
+    "bravo_x": Record(Struct("<QQd"), 3728, ("state", "bravo_x")),
+    "bravo_y": Record(Struct("<QQd"), 3752, ("state", "bravo_y")),
+    "bravo_speed": Record(Struct("<QQd"), 3776, ("state", "bravo_speed")),
+    "bravo_throttle": Record(Struct("<QQd"), 3800, ("state", "bravo_throttle")),
+    "bravo_brake": Record(Struct("<QQ?"), 3824, ("state", "bravo_brake")),
+    "bravo_steer": Record(Struct("<QQd"), 3848, ("state", "bravo_steer")),
+    "bravo_pan_cmd": Record(Struct("<QQd"), 3872, ("state", "bravo_pan_cmd")),
+    "bravo_pan": Record(Struct("<QQd"), 3896, ("state", "bravo_pan")),
+    "bravo_contact": Record(Struct("<QQ?"), 3920, ("state", "bravo_contact")),
+    "bravo_contact_x": Record(Struct("<QQd"), 3944, ("state", "bravo_contact_x")),
+    "bravo_stuck": Record(Struct("<QQ?"), 3968, ("state", "bravo_stuck")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -813,12 +813,12 @@ GROUND_TRUTH = ("enemy_present", "enemy_x", "enemy_y")
 TIME_IN_STATE = {
     "pl": Record(
         Struct("<QqQQQQQQQ"),
-        3752,
+        3992,
         ("state", "since", "NOP", "S0", "S1", "ADVANCE", "DECIDE", "OVERWATCH"),
     ),
     "sec": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        3824,
+        4064,
         (
             "state",
             "since",
@@ -835,32 +835,32 @@ TIME_IN_STATE = {
             "WATCH",
         ),
     ),
-    "alpha": Record(Struct("<QqQQQQ"), 3936, ("state", "since", "NOP", "S0", "S1")),
+    "alpha": Record(Struct("<QqQQQQ"), 4176, ("state", "since", "NOP", "S0", "S1")),
     "alpha_loco": Record(
         Struct("<QqQQQQQQQ"),
-        3984,
+        4224,
         ("state", "since", "NOP", "S0", "S1", "AHEAD", "BACK", "STOPPING"),
     ),
-    "alpha_drive": Record(Struct("<QqQQQ"), 4056, ("state", "since", "NOP", "S0")),
+    "alpha_drive": Record(Struct("<QqQQQ"), 4296, ("state", "since", "NOP", "S0")),
     "alpha_rsta": Record(
-        Struct("<QqQQQQQQ"), 4096, ("state", "since", "NOP", "S0", "S1", "POINTING", "WATCH")
+        Struct("<QqQQQQQQ"), 4336, ("state", "since", "NOP", "S0", "S1", "POINTING", "WATCH")
     ),
-    "alpha_pan": Record(Struct("<QqQQQQ"), 4160, ("state", "since", "NOP", "S0", "S1")),
-    "alpha_motion": Record(Struct("<QqQQQ"), 4208, ("state", "since", "NOP", "S0")),
-    "alpha_sensor": Record(Struct("<QqQQQ"), 4248, ("state", "since", "NOP", "S0")),
-    "bravo": Record(Struct("<QqQQQQ"), 4288, ("state", "since", "NOP", "S0", "S1")),
+    "alpha_pan": Record(Struct("<QqQQQQ"), 4400, ("state", "since", "NOP", "S0", "S1")),
+    "alpha_motion": Record(Struct("<QqQQQ"), 4448, ("state", "since", "NOP", "S0")),
+    "alpha_sensor": Record(Struct("<QqQQQ"), 4488, ("state", "since", "NOP", "S0")),
+    "bravo": Record(Struct("<QqQQQQ"), 4528, ("state", "since", "NOP", "S0", "S1")),
     "bravo_loco": Record(
         Struct("<QqQQQQQQQ"),
-        4336,
+        4576,
         ("state", "since", "NOP", "S0", "S1", "AHEAD", "BACK", "STOPPING"),
     ),
-    "bravo_drive": Record(Struct("<QqQQQ"), 4408, ("state", "since", "NOP", "S0")),
+    "bravo_drive": Record(Struct("<QqQQQ"), 4648, ("state", "since", "NOP", "S0")),
     "bravo_rsta": Record(
-        Struct("<QqQQQQQQ"), 4448, ("state", "since", "NOP", "S0", "S1", "POINTING", "WATCH")
+        Struct("<QqQQQQQQ"), 4688, ("state", "since", "NOP", "S0", "S1", "POINTING", "WATCH")
     ),
-    "bravo_pan": Record(Struct("<QqQQQQ"), 4512, ("state", "since", "NOP", "S0", "S1")),
-    "bravo_motion": Record(Struct("<QqQQQ"), 4560, ("state", "since", "NOP", "S0")),
-    "bravo_sensor": Record(Struct("<QqQQQ"), 4600, ("state", "since", "NOP", "S0")),
+    "bravo_pan": Record(Struct("<QqQQQQ"), 4752, ("state", "since", "NOP", "S0", "S1")),
+    "bravo_motion": Record(Struct("<QqQQQ"), 4800, ("state", "since", "NOP", "S0")),
+    "bravo_sensor": Record(Struct("<QqQQQ"), 4840, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

@@ -55,11 +55,11 @@ LDR_LINK = 3  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQId76x???1xI88xQII8x?d??8xQ173xQI12xqd")
-INPUTS_AT = 392
+INPUTS_AT = 632
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 392
+SEQS_AT = 632
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -65,11 +65,11 @@ BRAVO_LINK = 11  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId76x???1xI264xQQII9xdQ871xQQII9xdQ887xQd160xQd")
-INPUTS_AT = 560
+INPUTS_AT = 800
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q912xQ928xQ168xQ")
-SEQS_AT = 928
+SEQS_AT = 1168
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -73,18 +73,18 @@ EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1316x48s536xd72xd")
-INPUTS_AT = 184
+INPUTS_AT = 264
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 184
+SEQS_AT = 264
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q48s")
 WORLD_VALUES_1 = Struct("<8x48s")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 1832
+WORLD_OUT_1_AT = 1912
 WORLD_HELD_1 = (OVERRIDE["announcement"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

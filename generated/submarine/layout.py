@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4256 bytes.
+The block is 4336 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -22,159 +22,159 @@ command buffers and world fields:
 
 | offset | size | buffer | fields after `seq` |
 |-------:|-----:|--------|--------------------|
-| 80 | 88 | PROCESS_SHIP | PROCESS_FIELDS |
-| 168 | 16 | PACE_SHIP | PACE_FIELDS |
-| 184 | 20 | CC_COMMAND | command_num, command |
-| 208 | 64 | CC_STATUS | STATUS_FIELDS |
-| 272 | 16 | CC_MODE | MODE_FIELDS |
-| 288 | 48 | CC_PERF | PERF_FIELDS |
-| 336 | 36 | SM_COMMAND | command_num, command, arg_x, arg_y |
-| 376 | 40 | SM_STATUS | STATUS_FIELDS |
-| 416 | 16 | SM_MODE | MODE_FIELDS |
-| 432 | 48 | SM_PERF | PERF_FIELDS |
-| 480 | 20 | EC_COMMAND | command_num, command |
-| 504 | 32 | EC_STATUS | STATUS_FIELDS |
-| 536 | 16 | EC_MODE | MODE_FIELDS |
-| 552 | 48 | EC_PERF | PERF_FIELDS |
-| 600 | 36 | HELM_COMMAND | command_num, command, arg_x, arg_y |
-| 640 | 41 | HELM_STATUS | STATUS_FIELDS |
-| 688 | 16 | HELM_MODE | MODE_FIELDS |
-| 704 | 48 | HELM_PERF | PERF_FIELDS |
-| 752 | 28 | RUDDER_COMMAND | command_num, command, arg_angle |
-| 784 | 32 | RUDDER_STATUS | STATUS_FIELDS |
-| 816 | 16 | RUDDER_MODE | MODE_FIELDS |
-| 832 | 48 | RUDDER_PERF | PERF_FIELDS |
-| 880 | 20 | PROP_COMMAND | command_num, command |
-| 904 | 40 | PROP_STATUS | STATUS_FIELDS |
-| 944 | 16 | PROP_MODE | MODE_FIELDS |
-| 960 | 48 | PROP_PERF | PERF_FIELDS |
-| 1008 | 16 | EOOW_MODE | MODE_FIELDS |
-| 1024 | 48 | EOOW_PERF | PERF_FIELDS |
-| 1072 | 20 | EOOW_PROP_COMMAND | command_num, command |
-| 1096 | 32 | EOOW_PROP_STATUS | STATUS_FIELDS |
-| 1128 | 24 | EOOW_PROP_ANSWER | ANSWER_FIELDS |
-| 1152 | 20 | RUDDER_SIM_COMMAND | command_num, command |
-| 1176 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
-| 1208 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
-| 1224 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
-| 1272 | 20 | SHIP_COMMAND | command_num, command |
-| 1296 | 32 | SHIP_STATUS | STATUS_FIELDS |
-| 1328 | 16 | SHIP_MODE | MODE_FIELDS |
-| 1344 | 48 | SHIP_PERF | PERF_FIELDS |
-| 1392 | 20 | SONAR_COMMAND | command_num, command |
-| 1416 | 32 | SONAR_STATUS | STATUS_FIELDS |
-| 1448 | 16 | SONAR_MODE | MODE_FIELDS |
-| 1464 | 48 | SONAR_PERF | PERF_FIELDS |
-| 1512 | 20 | SEA_COMMAND | command_num, command |
-| 1536 | 32 | SEA_STATUS | STATUS_FIELDS |
-| 1568 | 16 | SEA_MODE | MODE_FIELDS |
-| 1584 | 48 | SEA_PERF | PERF_FIELDS |
-| 1632 | 20 | ATMOSPHERE_COMMAND | command_num, command |
-| 1656 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
-| 1688 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
-| 1704 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
-| 1752 | 16 | WORLD_SPEED_CMD | speed_cmd |
-| 1768 | 16 | WORLD_DEPTH_CMD | depth_cmd |
-| 1784 | 16 | WORLD_HAVEN_X | haven_x |
-| 1800 | 16 | WORLD_HAVEN_Y | haven_y |
-| 1816 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
-| 1832 | 56 | WORLD_ANNOUNCEMENT | announcement |
-| 1888 | 16 | WORLD_SHAFT | shaft |
-| 1904 | 16 | WORLD_COURSE | course |
-| 1920 | 16 | WORLD_BALLAST | ballast |
-| 1936 | 16 | WORLD_VENT_FLOW | vent_flow |
-| 1952 | 16 | WORLD_POS_X | pos_x |
-| 1968 | 16 | WORLD_POS_Y | pos_y |
-| 1984 | 16 | WORLD_HEADING | heading |
-| 2000 | 16 | WORLD_SPEED | speed |
-| 2016 | 16 | WORLD_DEPTH | depth |
-| 2032 | 16 | WORLD_BUBBLE | bubble |
-| 2048 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 2064 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 2080 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 2096 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 2112 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 2128 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 2144 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 2160 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 2176 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 2192 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 2208 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 2224 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 2240 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 2256 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 2272 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 2288 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 2304 | 16 | WORLD_CLEARANCE | clearance |
-| 2320 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 2336 | 16 | WORLD_WATER_DENSITY | water_density |
-| 2352 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
-| 2368 | 16 | WORLD_BELOW_KEEL | below_keel |
-| 2384 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
-| 2400 | 9 | WORLD_FIRE | fire |
-| 2416 | 16 | WORLD_SMOKE | smoke |
-| 2432 | 16 | WORLD_O2_PCT | o2_pct |
-| 2448 | 16 | WORLD_CO2_PCT | co2_pct |
-| 2464 | 16 | WORLD_VENT_LINEUP | vent_lineup |
-| 2480 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
-| 2496 | 16 | WORLD_CO_PPM | co_ppm |
-| 2512 | 9 | OVERRIDES | any |
-| 2528 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 2552 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 2576 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 2600 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 2624 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 2648 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 2712 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 2736 | 24 | OVERRIDE_COURSE | state, course |
-| 2760 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 2784 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 2808 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 2832 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 2856 | 24 | OVERRIDE_HEADING | state, heading |
-| 2880 | 24 | OVERRIDE_SPEED | state, speed |
-| 2904 | 24 | OVERRIDE_DEPTH | state, depth |
-| 2928 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 2952 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 2976 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 3000 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 3024 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 3048 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 3072 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3096 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3120 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3144 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3168 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3192 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3216 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3240 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3264 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3288 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3312 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3336 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3360 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3384 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 3408 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 3432 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 3456 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 3480 | 17 | OVERRIDE_FIRE | state, fire |
-| 3504 | 24 | OVERRIDE_SMOKE | state, smoke |
-| 3528 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
-| 3552 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
-| 3576 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
-| 3600 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
-| 3624 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 3648 | 88 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, LINE_UP, VENT, RESUMING |
-| 3736 | 80 | TIME_SM | state, since, NOP, S0, S1, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
-| 3816 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 3864 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
-| 3928 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 4000 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
-| 4056 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 4096 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 4136 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 4176 | 40 | TIME_SEA | state, since, NOP, S0 |
-| 4216 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 80 | 168 | PROCESS_SHIP | PROCESS_FIELDS |
+| 248 | 16 | PACE_SHIP | PACE_FIELDS |
+| 264 | 20 | CC_COMMAND | command_num, command |
+| 288 | 64 | CC_STATUS | STATUS_FIELDS |
+| 352 | 16 | CC_MODE | MODE_FIELDS |
+| 368 | 48 | CC_PERF | PERF_FIELDS |
+| 416 | 36 | SM_COMMAND | command_num, command, arg_x, arg_y |
+| 456 | 40 | SM_STATUS | STATUS_FIELDS |
+| 496 | 16 | SM_MODE | MODE_FIELDS |
+| 512 | 48 | SM_PERF | PERF_FIELDS |
+| 560 | 20 | EC_COMMAND | command_num, command |
+| 584 | 32 | EC_STATUS | STATUS_FIELDS |
+| 616 | 16 | EC_MODE | MODE_FIELDS |
+| 632 | 48 | EC_PERF | PERF_FIELDS |
+| 680 | 36 | HELM_COMMAND | command_num, command, arg_x, arg_y |
+| 720 | 41 | HELM_STATUS | STATUS_FIELDS |
+| 768 | 16 | HELM_MODE | MODE_FIELDS |
+| 784 | 48 | HELM_PERF | PERF_FIELDS |
+| 832 | 28 | RUDDER_COMMAND | command_num, command, arg_angle |
+| 864 | 32 | RUDDER_STATUS | STATUS_FIELDS |
+| 896 | 16 | RUDDER_MODE | MODE_FIELDS |
+| 912 | 48 | RUDDER_PERF | PERF_FIELDS |
+| 960 | 20 | PROP_COMMAND | command_num, command |
+| 984 | 40 | PROP_STATUS | STATUS_FIELDS |
+| 1024 | 16 | PROP_MODE | MODE_FIELDS |
+| 1040 | 48 | PROP_PERF | PERF_FIELDS |
+| 1088 | 16 | EOOW_MODE | MODE_FIELDS |
+| 1104 | 48 | EOOW_PERF | PERF_FIELDS |
+| 1152 | 20 | EOOW_PROP_COMMAND | command_num, command |
+| 1176 | 32 | EOOW_PROP_STATUS | STATUS_FIELDS |
+| 1208 | 24 | EOOW_PROP_ANSWER | ANSWER_FIELDS |
+| 1232 | 20 | RUDDER_SIM_COMMAND | command_num, command |
+| 1256 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
+| 1288 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
+| 1304 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
+| 1352 | 20 | SHIP_COMMAND | command_num, command |
+| 1376 | 32 | SHIP_STATUS | STATUS_FIELDS |
+| 1408 | 16 | SHIP_MODE | MODE_FIELDS |
+| 1424 | 48 | SHIP_PERF | PERF_FIELDS |
+| 1472 | 20 | SONAR_COMMAND | command_num, command |
+| 1496 | 32 | SONAR_STATUS | STATUS_FIELDS |
+| 1528 | 16 | SONAR_MODE | MODE_FIELDS |
+| 1544 | 48 | SONAR_PERF | PERF_FIELDS |
+| 1592 | 20 | SEA_COMMAND | command_num, command |
+| 1616 | 32 | SEA_STATUS | STATUS_FIELDS |
+| 1648 | 16 | SEA_MODE | MODE_FIELDS |
+| 1664 | 48 | SEA_PERF | PERF_FIELDS |
+| 1712 | 20 | ATMOSPHERE_COMMAND | command_num, command |
+| 1736 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
+| 1768 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
+| 1784 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
+| 1832 | 16 | WORLD_SPEED_CMD | speed_cmd |
+| 1848 | 16 | WORLD_DEPTH_CMD | depth_cmd |
+| 1864 | 16 | WORLD_HAVEN_X | haven_x |
+| 1880 | 16 | WORLD_HAVEN_Y | haven_y |
+| 1896 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
+| 1912 | 56 | WORLD_ANNOUNCEMENT | announcement |
+| 1968 | 16 | WORLD_SHAFT | shaft |
+| 1984 | 16 | WORLD_COURSE | course |
+| 2000 | 16 | WORLD_BALLAST | ballast |
+| 2016 | 16 | WORLD_VENT_FLOW | vent_flow |
+| 2032 | 16 | WORLD_POS_X | pos_x |
+| 2048 | 16 | WORLD_POS_Y | pos_y |
+| 2064 | 16 | WORLD_HEADING | heading |
+| 2080 | 16 | WORLD_SPEED | speed |
+| 2096 | 16 | WORLD_DEPTH | depth |
+| 2112 | 16 | WORLD_BUBBLE | bubble |
+| 2128 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 2144 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 2160 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 2176 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 2192 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 2208 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 2224 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 2240 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 2256 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 2272 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 2288 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 2304 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 2320 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 2336 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 2352 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 2368 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 2384 | 16 | WORLD_CLEARANCE | clearance |
+| 2400 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 2416 | 16 | WORLD_WATER_DENSITY | water_density |
+| 2432 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
+| 2448 | 16 | WORLD_BELOW_KEEL | below_keel |
+| 2464 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
+| 2480 | 9 | WORLD_FIRE | fire |
+| 2496 | 16 | WORLD_SMOKE | smoke |
+| 2512 | 16 | WORLD_O2_PCT | o2_pct |
+| 2528 | 16 | WORLD_CO2_PCT | co2_pct |
+| 2544 | 16 | WORLD_VENT_LINEUP | vent_lineup |
+| 2560 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
+| 2576 | 16 | WORLD_CO_PPM | co_ppm |
+| 2592 | 9 | OVERRIDES | any |
+| 2608 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 2632 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 2656 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 2680 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 2704 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 2728 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 2792 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 2816 | 24 | OVERRIDE_COURSE | state, course |
+| 2840 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 2864 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 2888 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 2912 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 2936 | 24 | OVERRIDE_HEADING | state, heading |
+| 2960 | 24 | OVERRIDE_SPEED | state, speed |
+| 2984 | 24 | OVERRIDE_DEPTH | state, depth |
+| 3008 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 3032 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 3056 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3080 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3104 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3128 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3152 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3176 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3200 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3224 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3248 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3272 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3296 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3320 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3344 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3368 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3392 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3416 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3440 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3464 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3488 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3512 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 3536 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 3560 | 17 | OVERRIDE_FIRE | state, fire |
+| 3584 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 3608 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 3632 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 3656 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 3680 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 3704 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 3728 | 88 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, LINE_UP, VENT, RESUMING |
+| 3816 | 80 | TIME_SM | state, since, NOP, S0, S1, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 3896 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 3944 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
+| 4008 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 4080 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 4136 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 4176 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 4216 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 4256 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 4296 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -206,196 +206,196 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 4256
+SIZE = 4336
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "5d8f92d5441873686ce3f1065a67e741"
+LAYOUT_HASH = "533ca14e75c02d5cd4dcfb03157b7b88"
 PROCESS_SHIP_AT = 80
-PACE_SHIP_AT = 168
+PACE_SHIP_AT = 248
 
 # cc: Command controller
 CC_COMMAND = Struct("<QQI")  # seq, command_num, command
-CC_COMMAND_AT = 184
+CC_COMMAND_AT = 264
 CC_STATUS = Struct(
     "<QQIIiiqqqQ"
 )  # seq, status_num, status, error_num, state, rule, plan_route_step, plan_route_steps, plan_route_replans_left, cause
-CC_STATUS_AT = 208
-CC_MODE_AT = 272
-CC_PERF_AT = 288
+CC_STATUS_AT = 288
+CC_MODE_AT = 352
+CC_PERF_AT = 368
 
 # sm: Ship maneuver
 SM_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-SM_COMMAND_AT = 336
+SM_COMMAND_AT = 416
 SM_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-SM_STATUS_AT = 376
-SM_MODE_AT = 416
-SM_PERF_AT = 432
+SM_STATUS_AT = 456
+SM_MODE_AT = 496
+SM_PERF_AT = 512
 
 # ec: Engineering system controller
 EC_COMMAND = Struct("<QQI")  # seq, command_num, command
-EC_COMMAND_AT = 480
-EC_STATUS_AT = 504
-EC_MODE_AT = 536
-EC_PERF_AT = 552
+EC_COMMAND_AT = 560
+EC_STATUS_AT = 584
+EC_MODE_AT = 616
+EC_PERF_AT = 632
 
 # helm: Helm
 HELM_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
-HELM_COMMAND_AT = 600
+HELM_COMMAND_AT = 680
 HELM_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_at_goal, cause
-HELM_STATUS_AT = 640
-HELM_MODE_AT = 688
-HELM_PERF_AT = 704
+HELM_STATUS_AT = 720
+HELM_MODE_AT = 768
+HELM_PERF_AT = 784
 
 # rudder: Rudder
 RUDDER_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_angle
-RUDDER_COMMAND_AT = 752
-RUDDER_STATUS_AT = 784
-RUDDER_MODE_AT = 816
-RUDDER_PERF_AT = 832
+RUDDER_COMMAND_AT = 832
+RUDDER_STATUS_AT = 864
+RUDDER_MODE_AT = 896
+RUDDER_PERF_AT = 912
 
 # prop: Propulsion
 PROP_COMMAND = Struct("<QQI")  # seq, command_num, command
-PROP_COMMAND_AT = 880
+PROP_COMMAND_AT = 960
 PROP_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-PROP_STATUS_AT = 904
-PROP_MODE_AT = 944
-PROP_PERF_AT = 960
+PROP_STATUS_AT = 984
+PROP_MODE_AT = 1024
+PROP_PERF_AT = 1040
 
 # rudder_sim: Rudder (simulated)
 RUDDER_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-RUDDER_SIM_COMMAND_AT = 1152
-RUDDER_SIM_STATUS_AT = 1176
-RUDDER_SIM_MODE_AT = 1208
-RUDDER_SIM_PERF_AT = 1224
+RUDDER_SIM_COMMAND_AT = 1232
+RUDDER_SIM_STATUS_AT = 1256
+RUDDER_SIM_MODE_AT = 1288
+RUDDER_SIM_PERF_AT = 1304
 
 # ship: Ship dynamics (simulated)
 SHIP_COMMAND = Struct("<QQI")  # seq, command_num, command
-SHIP_COMMAND_AT = 1272
-SHIP_STATUS_AT = 1296
-SHIP_MODE_AT = 1328
-SHIP_PERF_AT = 1344
+SHIP_COMMAND_AT = 1352
+SHIP_STATUS_AT = 1376
+SHIP_MODE_AT = 1408
+SHIP_PERF_AT = 1424
 
 # sonar: Sonar and ice (simulated)
 SONAR_COMMAND = Struct("<QQI")  # seq, command_num, command
-SONAR_COMMAND_AT = 1392
-SONAR_STATUS_AT = 1416
-SONAR_MODE_AT = 1448
-SONAR_PERF_AT = 1464
+SONAR_COMMAND_AT = 1472
+SONAR_STATUS_AT = 1496
+SONAR_MODE_AT = 1528
+SONAR_PERF_AT = 1544
 
 # sea: Sea bottom and seawater (simulated)
 SEA_COMMAND = Struct("<QQI")  # seq, command_num, command
-SEA_COMMAND_AT = 1512
-SEA_STATUS_AT = 1536
-SEA_MODE_AT = 1568
-SEA_PERF_AT = 1584
+SEA_COMMAND_AT = 1592
+SEA_STATUS_AT = 1616
+SEA_MODE_AT = 1648
+SEA_PERF_AT = 1664
 
 # atmosphere: Engine-room atmosphere and fire (simulated)
 ATMOSPHERE_COMMAND = Struct("<QQI")  # seq, command_num, command
-ATMOSPHERE_COMMAND_AT = 1632
-ATMOSPHERE_STATUS_AT = 1656
-ATMOSPHERE_MODE_AT = 1688
-ATMOSPHERE_PERF_AT = 1704
+ATMOSPHERE_COMMAND_AT = 1712
+ATMOSPHERE_STATUS_AT = 1736
+ATMOSPHERE_MODE_AT = 1768
+ATMOSPHERE_PERF_AT = 1784
 
 # eoow: Engineering Officer of the Watch (EOOW watchstation) (an operator module: a channel per client)
-EOOW_MODE_AT = 1008
-EOOW_PERF_AT = 1024
+EOOW_MODE_AT = 1088
+EOOW_PERF_AT = 1104
 EOOW_PROP_COMMAND = Struct("<QQI")  # seq, command_num, command
-EOOW_PROP_COMMAND_AT = 1072
-EOOW_PROP_STATUS_AT = 1096
-EOOW_PROP_ANSWER_AT = 1128
+EOOW_PROP_COMMAND_AT = 1152
+EOOW_PROP_STATUS_AT = 1176
+EOOW_PROP_ANSWER_AT = 1208
 
 # World model.
 WORLD_SPEED_CMD = Struct("<Qd")  # seq, speed_cmd
-WORLD_SPEED_CMD_AT = 1752
+WORLD_SPEED_CMD_AT = 1832
 WORLD_DEPTH_CMD = Struct("<Qd")  # seq, depth_cmd
-WORLD_DEPTH_CMD_AT = 1768
+WORLD_DEPTH_CMD_AT = 1848
 WORLD_HAVEN_X = Struct("<Qd")  # seq, haven_x
-WORLD_HAVEN_X_AT = 1784
+WORLD_HAVEN_X_AT = 1864
 WORLD_HAVEN_Y = Struct("<Qd")  # seq, haven_y
-WORLD_HAVEN_Y_AT = 1800
+WORLD_HAVEN_Y_AT = 1880
 WORLD_PERISCOPE_RAISED = Struct("<Q?")  # seq, periscope_raised
-WORLD_PERISCOPE_RAISED_AT = 1816
+WORLD_PERISCOPE_RAISED_AT = 1896
 WORLD_ANNOUNCEMENT = Struct("<Q48s")  # seq, announcement
-WORLD_ANNOUNCEMENT_AT = 1832
+WORLD_ANNOUNCEMENT_AT = 1912
 WORLD_SHAFT = Struct("<Qq")  # seq, shaft
-WORLD_SHAFT_AT = 1888
+WORLD_SHAFT_AT = 1968
 WORLD_COURSE = Struct("<Qd")  # seq, course
-WORLD_COURSE_AT = 1904
+WORLD_COURSE_AT = 1984
 WORLD_BALLAST = Struct("<Qd")  # seq, ballast
-WORLD_BALLAST_AT = 1920
+WORLD_BALLAST_AT = 2000
 WORLD_VENT_FLOW = Struct("<Qd")  # seq, vent_flow
-WORLD_VENT_FLOW_AT = 1936
+WORLD_VENT_FLOW_AT = 2016
 WORLD_POS_X = Struct("<Qd")  # seq, pos_x
-WORLD_POS_X_AT = 1952
+WORLD_POS_X_AT = 2032
 WORLD_POS_Y = Struct("<Qd")  # seq, pos_y
-WORLD_POS_Y_AT = 1968
+WORLD_POS_Y_AT = 2048
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 1984
+WORLD_HEADING_AT = 2064
 WORLD_SPEED = Struct("<Qd")  # seq, speed
-WORLD_SPEED_AT = 2000
+WORLD_SPEED_AT = 2080
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
-WORLD_DEPTH_AT = 2016
+WORLD_DEPTH_AT = 2096
 WORLD_BUBBLE = Struct("<Qd")  # seq, bubble
-WORLD_BUBBLE_AT = 2032
+WORLD_BUBBLE_AT = 2112
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 2048
+WORLD_RUDDER_ANGLE_AT = 2128
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 2064
+WORLD_RUDDER_JAMMED_AT = 2144
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 2080
+WORLD_SONAR_00_AT = 2160
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 2096
+WORLD_SONAR_01_AT = 2176
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 2112
+WORLD_SONAR_02_AT = 2192
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 2128
+WORLD_SONAR_03_AT = 2208
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 2144
+WORLD_SONAR_04_AT = 2224
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 2160
+WORLD_SONAR_05_AT = 2240
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 2176
+WORLD_SONAR_06_AT = 2256
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 2192
+WORLD_SONAR_07_AT = 2272
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 2208
+WORLD_SONAR_08_AT = 2288
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 2224
+WORLD_SONAR_09_AT = 2304
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 2240
+WORLD_SONAR_10_AT = 2320
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 2256
+WORLD_SONAR_11_AT = 2336
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 2272
+WORLD_SONAR_12_AT = 2352
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 2288
+WORLD_SONAR_13_AT = 2368
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 2304
+WORLD_CLEARANCE_AT = 2384
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 2320
+WORLD_MIN_CLEARANCE_AT = 2400
 WORLD_WATER_DENSITY = Struct("<Qd")  # seq, water_density
-WORLD_WATER_DENSITY_AT = 2336
+WORLD_WATER_DENSITY_AT = 2416
 WORLD_BOTTOM_DEPTH = Struct("<Qd")  # seq, bottom_depth
-WORLD_BOTTOM_DEPTH_AT = 2352
+WORLD_BOTTOM_DEPTH_AT = 2432
 WORLD_BELOW_KEEL = Struct("<Qd")  # seq, below_keel
-WORLD_BELOW_KEEL_AT = 2368
+WORLD_BELOW_KEEL_AT = 2448
 WORLD_MIN_BELOW_KEEL = Struct("<Qd")  # seq, min_below_keel
-WORLD_MIN_BELOW_KEEL_AT = 2384
+WORLD_MIN_BELOW_KEEL_AT = 2464
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 2400
+WORLD_FIRE_AT = 2480
 WORLD_SMOKE = Struct("<Qd")  # seq, smoke
-WORLD_SMOKE_AT = 2416
+WORLD_SMOKE_AT = 2496
 WORLD_O2_PCT = Struct("<Qd")  # seq, o2_pct
-WORLD_O2_PCT_AT = 2432
+WORLD_O2_PCT_AT = 2512
 WORLD_CO2_PCT = Struct("<Qd")  # seq, co2_pct
-WORLD_CO2_PCT_AT = 2448
+WORLD_CO2_PCT_AT = 2528
 WORLD_VENT_LINEUP = Struct("<Qq")  # seq, vent_lineup
-WORLD_VENT_LINEUP_AT = 2464
+WORLD_VENT_LINEUP_AT = 2544
 WORLD_DIESEL_RUNNING = Struct("<Q?")  # seq, diesel_running
-WORLD_DIESEL_RUNNING_AT = 2480
+WORLD_DIESEL_RUNNING_AT = 2560
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 2496
+WORLD_CO_PPM_AT = 2576
 
 
 PROCESSES = {
@@ -637,56 +637,56 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2512
-OVERRIDDEN_AT = 2520  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2592
+OVERRIDDEN_AT = 2600  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 2528, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 2552, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 2576, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 2600, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 2624, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 2648, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 2712, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 2736, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 2760, ("state", "ballast")),
-    "vent_flow": Record(Struct("<QQd"), 2784, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 2808, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 2832, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 2856, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 2880, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 2904, ("state", "depth")),
-    "bubble": Record(Struct("<QQd"), 2928, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 2952, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 2976, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 3000, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 3024, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 3048, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 3072, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3096, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3120, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3144, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3168, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3192, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3216, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3240, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3264, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3288, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3312, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3336, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3360, ("state", "min_clearance")),
-    "water_density": Record(Struct("<QQd"), 3384, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 3408, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 3432, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 3456, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 3480, ("state", "fire")),
-    "smoke": Record(Struct("<QQd"), 3504, ("state", "smoke")),
-    "o2_pct": Record(Struct("<QQd"), 3528, ("state", "o2_pct")),
-    "co2_pct": Record(Struct("<QQd"), 3552, ("state", "co2_pct")),
-    "vent_lineup": Record(Struct("<QQq"), 3576, ("state", "vent_lineup")),
-    "diesel_running": Record(Struct("<QQ?"), 3600, ("state", "diesel_running")),
-    "co_ppm": Record(Struct("<QQd"), 3624, ("state", "co_ppm")),
+    "speed_cmd": Record(Struct("<QQd"), 2608, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 2632, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 2656, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 2680, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 2704, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 2728, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 2792, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 2816, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 2840, ("state", "ballast")),
+    "vent_flow": Record(Struct("<QQd"), 2864, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 2888, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 2912, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 2936, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 2960, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 2984, ("state", "depth")),
+    "bubble": Record(Struct("<QQd"), 3008, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 3032, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 3056, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3080, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3104, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3128, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3152, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3176, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3200, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3224, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3248, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3272, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3296, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3320, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3344, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3368, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3392, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3416, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3440, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3464, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3488, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3512, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 3536, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 3560, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 3584, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 3608, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 3632, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 3656, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 3680, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 3704, ("state", "co_ppm")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -762,7 +762,7 @@ GROUND_TRUTH = (
 TIME_IN_STATE = {
     "cc": Record(
         Struct("<QqQQQQQQQQQ"),
-        3648,
+        3728,
         (
             "state",
             "since",
@@ -778,24 +778,24 @@ TIME_IN_STATE = {
     ),
     "sm": Record(
         Struct("<QqQQQQQQQQ"),
-        3736,
+        3816,
         ("state", "since", "NOP", "S0", "S1", "BAFFLES", "SLOWING", "PROP_FAILED", "HELM_FAILED"),
     ),
-    "ec": Record(Struct("<QqQQQQ"), 3816, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 3896, ("state", "since", "NOP", "S0", "S1")),
     "helm": Record(
-        Struct("<QqQQQQQQ"), 3864, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
+        Struct("<QqQQQQQQ"), 3944, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
     ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        3928,
+        4008,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "prop": Record(Struct("<QqQQQQQ"), 4000, ("state", "since", "NOP", "S0", "S1", "ASKED")),
-    "rudder_sim": Record(Struct("<QqQQQ"), 4056, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 4096, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 4136, ("state", "since", "NOP", "S0")),
-    "sea": Record(Struct("<QqQQQ"), 4176, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 4216, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 4080, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 4136, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 4176, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 4216, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 4256, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 4296, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

@@ -65,14 +65,14 @@ PROP_LINK = 6  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd52x???1xI216xQII8x?Q231xQII8xQ816xd8xd8xd8xd8x?71xq24xd24xd8xd24xd8xd")
-INPUTS_AT = 344
+INPUTS_AT = 424
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQdQdQ?")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 1752
+WORLD_OUT_1_AT = 1832
 WORLD_HELD_1 = (
     OVERRIDE["speed_cmd"],
     OVERRIDE["depth_cmd"],
@@ -86,7 +86,7 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<Qd")
 WORLD_VALUES_2 = Struct("<8xd")
 WORLD_SEQS_2 = Struct("<Q")
-WORLD_OUT_2_AT = 1920
+WORLD_OUT_2_AT = 2000
 WORLD_HELD_2 = (OVERRIDE["ballast"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

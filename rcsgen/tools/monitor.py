@@ -9,7 +9,8 @@ runtime's console (`rcsgen.runtime.operate.ctl.Console`): it reads with consiste
 only mode, pacing and command buffers, so it never blocks a controller; the operator's role
 (`--role`) decides what the keys may do, and a refusal is shown, not a crash. What the
 modules ask of the operator is shown under the table; `a` answers it. A system with
-fieldbus devices gets a panel of them (monitor_devices.py). textual is an
+fieldbus devices gets a panel of them (monitor_devices.py); every system a panel of how
+well each process holds its period (monitor_periodicity.py). textual is an
 optional extra (`pip install rcsgen[monitor]`), imported only here.
 """
 
@@ -29,6 +30,7 @@ from ..runtime.operate.command import Command, parse_command
 from ..runtime.operate.command import shown as shown_value
 from ..runtime.operate.ctl import Console, CtlError
 from .monitor_devices import DevicesPanel
+from .monitor_periodicity import PeriodicityPanel
 
 COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
 WORLD_COLUMNS = ("field", "value", "override")
@@ -76,6 +78,7 @@ class Monitor(App[None]):
     DataTable { height: 1fr; }
     #world { height: auto; max-height: 12; }
     #devices { height: auto; max-height: 8; }
+    #periodicity { height: auto; max-height: 10; }
     #processes { height: auto; color: $text-muted; }
     #requests { height: auto; color: $warning; text-style: bold; }
     #message { height: auto; }
@@ -125,6 +128,7 @@ class Monitor(App[None]):
         yield DataTable(id="world", cursor_type="none", zebra_stripes=False, show_cursor=False)
         if getattr(self.layout, "IO_DEVICES", None):  # fieldbus devices: their own panel
             yield DevicesPanel(self.layout)
+        yield PeriodicityPanel(self.layout)
         yield Static(id="processes")
         yield Static(id="requests")
         yield Static(id="message")
@@ -196,6 +200,8 @@ class Monitor(App[None]):
         processes.update("   ".join(lines))
         for panel in self.query(DevicesPanel):
             panel.show(snapshot.get("io") or {})
+        for timing in self.query(PeriodicityPanel):
+            timing.show(snapshot)
         self.open_requests = snapshot["requests"]
         asks = [
             f"{r['by']} asks {r['operator']}: {r['task']}: {r['doc']} (a: answer {r['name']})"

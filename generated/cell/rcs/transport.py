@@ -169,6 +169,13 @@ class Mirror:
             layout_format += (f"{offset - at}x" if offset > at else "") + "Q"
             at = offset + SEQ.size
         self._seqs = Struct(layout_format)
+        # each record's message size (its sender's epoch and the record), in the same order
+        self._sizes = tuple(EPOCH.size + self.records[k].struct.size for k in ordered)
+        # each record's bytes in the block, in the same order
+        self._spans = tuple(
+            (self.records[k].offset, self.records[k].offset + self.records[k].struct.size)
+            for k in ordered
+        )
         self.known = list(self._seqs.unpack_from(fresh, self._start))  # as last sent/mirrored
         self.owned: set[str] = set()  # keys whose current value this node wrote
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
@@ -190,18 +197,19 @@ class Mirror:
     def unpack(self, payload: bytes) -> list[tuple[str, bytes]] | None:
         """The messages of a push, or None (counted) if any part is not a record of this
         layout: a push is applied whole or not at all."""
-        found, at = [], 0
-        while at < len(payload):
-            if at + INDEX.size > len(payload):
+        found, at, total = [], 0, len(payload)
+        keys, sizes, count, step = self._keys, self._sizes, len(self._keys), INDEX.size
+        while at < total:
+            if at + step > total:
                 break
             (index,) = INDEX.unpack_from(payload, at)
-            if index >= len(self._keys):
+            if index >= count:
                 break
-            key = self._keys[index]
-            end = at + INDEX.size + EPOCH.size + self.records[key].struct.size
-            if end > len(payload):
+            start = at + step
+            end = start + sizes[index]
+            if end > total:
                 break
-            found.append((key, payload[at + INDEX.size : end]))
+            found.append((keys[index], payload[start:end]))
             at = end
         else:
             return found
@@ -211,17 +219,21 @@ class Mirror:
     def _changed(self, everything: bool) -> Iterator[tuple[str, bytes]]:
         buf, epoch = self.block.buf, EPOCH.pack(self.epoch)
         seqs, known, keys = self._seqs.unpack_from(buf, self._start), self.known, self._keys
-        if seqs == tuple(known) and not everything:
-            return
+        if everything:
+            owned = self.owned
+            candidates = [i for i, seq in enumerate(seqs) if seq != known[i] or keys[i] in owned]
+        else:  # one comprehension over every record's word, the loop over the changed only
+            candidates = [
+                i for i, (seq, was) in enumerate(zip(seqs, known, strict=True)) if seq != was
+            ]
         last_ones = []
-        for i, seq in enumerate(seqs):
-            key = keys[i]
-            if seq == known[i] and not (everything and key in self.owned):
-                continue
+        spans = self._spans
+        for i in candidates:
+            seq, key = seqs[i], keys[i]
             if seq % 2:  # being written (a writer died mid-write): not whole, not sent
                 continue
-            record = self.records[key]
-            data = bytes(buf[record.offset : record.offset + record.struct.size])
+            start, end = spans[i]
+            data = bytes(buf[start:end])
             if SEQ.unpack_from(data, 0)[0] != seq:
                 continue
             known[i] = seq

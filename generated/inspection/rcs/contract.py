@@ -77,13 +77,13 @@ OPERATOR_STATES = ("NOP", "ASKING")
 ASKING = 1
 # The block's header, at offset 0: what a process checks before it attaches. The layout hash
 # covers every buffer, field, type and offset and the system's name.
-MAGIC = b"RCSBLK01"
+MAGIC = b"RCSBLK02"  # 02: the control record carries periodicity and network counts
 HEADER = Struct("<8s32s32sQ")  # magic, layout hash (hex), system name, block size
 HEADER_FIELDS = ("magic", "layout_hash", "system", "size")
 
 # Each process's control record: written by the process every cycle (its heartbeat), read by
 # the launcher, the other processes (liveness) and operator tools.
-PROCESS_FIELDS = (
+_BEAT_AND_COUNTS = (
     ("pid", "Q"),
     ("state", "I"),  # PROCESS_STATES
     ("watchdog_trips", "I"),
@@ -96,6 +96,22 @@ PROCESS_FIELDS = (
     ("max_cycle_ns", "Q"),
     ("lost", "Q"),  # bit i: process i (layout order) is reported dead
 )
+# How well a paced process holds its period (rcs/loop.py `Periodicity`), at the end of its
+# control record; all 0 in a process that is not paced (lockstep, flat out).
+PERIODICITY_FIELDS = (
+    ("period_ns", "Q"),  # the declared period it paces at
+    ("wakeups", "Q"),  # paced wake-ups measured
+    ("period_error_sum_ns", "Q"),  # |time between two wake-ups - the period|, summed
+    ("period_error_max_ns", "Q"),
+    ("lateness_p99_ns", "Q"),  # of the last 4096 wake-ups (refreshed every 16)
+    ("lateness_max_ns", "Q"),
+    ("lateness_warnings", "Q"),  # the throttled warning lines it wrote
+)
+# What a process on the network (Zenoh) did with the records it received from its peers:
+# applied, dropped as late or out of order, refused as malformed (not whole records of this
+# layout); all 0 on shared memory. Its log names the peer of each malformed push.
+NETWORK_FIELDS = (("net_applied", "Q"), ("net_late", "Q"), ("net_malformed", "Q"))
+PROCESS_FIELDS = _BEAT_AND_COUNTS + PERIODICITY_FIELDS + NETWORK_FIELDS
 # Each process's pacing record: written by operator tools (`ctl slow`), read by the paced loop
 # every cycle. `slow` stretches the process's cycle period by that factor (the slow-down of
 # the mining paper's debug screen, 4.1.1.1); 0 (a new block) or 1 runs at the declared period.
@@ -292,6 +308,52 @@ ANSWER = Struct(struct_format(ANSWER_FIELDS))
 # A control record's head, read without its seqlock (each field is written whole): the
 # sequence word, pid, state, watchdog trips, heartbeat and beat_ns.
 BEAT = Struct("<Q" + "".join(code for _, code in PROCESS_FIELDS[:5]))
+
+
+def periodicity(values: Any) -> dict[str, Any] | None:
+    """A control record's periodicity figures in µs (period error mean and max, wake-up
+    lateness p99 and max), with the wake-ups and warnings counted; None if not paced."""
+    wakeups = int(values.get("wakeups", 0))
+    if not wakeups or not values.get("period_ns"):
+        return None
+    us = {k: round(int(values[f"{k}_ns"]) / 1e3, 1) for k in _PERIODICITY_NS}
+    return {
+        "period_ms": int(values["period_ns"]) / 1e6,
+        "wakeups": wakeups,
+        "period_error_mean_us": round(int(values["period_error_sum_ns"]) / wakeups / 1e3, 1),
+        **{f"{k}_us": v for k, v in us.items() if k != "period_error_sum"},
+        "lateness_warnings": int(values["lateness_warnings"]),
+    }
+
+
+_PERIODICITY_NS = ("period_error_sum", "period_error_max", "lateness_p99", "lateness_max")
+
+
+def periodicity_line(name: str, figures: dict[str, Any] | None) -> str:
+    """One line of a summary or status for `periodicity`'s figures of process `name`."""
+    if figures is None:
+        return f"{name}: periodicity: no paced wake-up"
+    return (
+        f"{name}: period error mean {figures['period_error_mean_us']:g} µs, max "
+        f"{figures['period_error_max_us']:g} µs; wake-up lateness p99 "
+        f"{figures['lateness_p99_us']:g} µs, max {figures['lateness_max_us']:g} µs over "
+        f"{figures['wakeups']} wake-ups (period {figures['period_ms']:g} ms), "
+        f"{figures['lateness_warnings']} lateness warning(s)"
+    )
+
+
+def network_line(name: str, values: Any) -> str | None:
+    """What process `name` did with the records its peers sent over the network, from its
+    control record's NETWORK_FIELDS (`net_` names, or the same without); None if nothing
+    came (shared memory)."""
+    counts = [int(values.get(k, values.get(k.removeprefix("net_"), 0))) for k, _ in NETWORK_FIELDS]
+    if not any(counts):
+        return None
+    applied, late, malformed = counts
+    return (
+        f"{name}: received {applied} records applied, {late} late or out of order "
+        f"(dropped), {malformed} malformed (refused)"
+    )
 
 
 def silent(layout: Any, buf: Any, name: str, timeout_ns: int, now_ns: int) -> tuple[bool, int]:

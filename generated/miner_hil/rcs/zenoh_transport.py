@@ -48,6 +48,7 @@ DEFAULT_PORT = 7447  # Zenoh's own default
 # the latest value of each (what a reader on one machine sees, reading once a cycle), so a
 # `--fast` process does not flood the network. Paced at the miner's 0.1 s, every cycle goes.
 MIN_PUSH_INTERVAL = 0.005
+WARN_EVERY = 10.0  # seconds: at most one line a peer about its malformed pushes
 
 
 @dataclass(frozen=True)
@@ -141,6 +142,11 @@ class ZenohTransport:
         self.republish = False
         self.log = log or (lambda text: print(text, file=sys.stderr))
         self._warned: set[str] = set()
+        # What came from each peer (the sender of a push): applied, late, malformed
+        self.peers: dict[str, dict[str, int]] = {}
+        self._told: dict[str, float] = {}  # when a peer's malformed push was last said
+        # The process's control-record counters (contract.NETWORK_FIELDS), kept current
+        self.report: dict[str, int] | None = None
         self._congestion = (
             zenoh.CongestionControl.BLOCK if block_when_congested else zenoh.CongestionControl.DROP
         )
@@ -209,12 +215,9 @@ class ZenohTransport:
         mirror = self.mirror
         for kind, key, payload in arrived:
             if kind == "push":  # a sender's cycle, whole: applied whole, in the order sent
-                records = mirror.unpack(payload)
-                for record, message in records or ():
-                    if self._wanted(record):
-                        mirror.apply(record, message)
                 sender, _, full = key[len(self._pushes) :].partition("/")
-                if full == FULL and records is not None:
+                whole = self._push(sender, payload)
+                if full == FULL and whole:
                     self.synced.add(sender)
             elif kind == "step":
                 self.steps.append(payload)
@@ -240,6 +243,35 @@ class ZenohTransport:
                         f"{payload.decode()}, not {self.prefix.split('/')[2]}: ignored "
                         "(rebuild every host from the same specs)"
                     )
+
+    def _push(self, sender: str, payload: bytes) -> bool:
+        """One push from `sender`: its records applied whole, or refused whole (malformed,
+        said in one line at most every WARN_EVERY seconds per peer); counted per peer.
+        Whether it was whole."""
+        mirror, counters = self.mirror, self.mirror.counters
+        before = (counters.applied, counters.late, counters.malformed)
+        records = mirror.unpack(payload)
+        for record, message in records or ():
+            if self._wanted(record):
+                mirror.apply(record, message)
+        peer = self.peers.setdefault(sender, dict.fromkeys(("applied", "late", "malformed"), 0))
+        after = (counters.applied, counters.late, counters.malformed)
+        for name, old, new in zip(peer, before, after, strict=True):
+            peer[name] += new - old
+        if records is None:
+            now = time.monotonic()
+            if now - self._told.get(sender, -WARN_EVERY) >= WARN_EVERY:
+                self._told[sender] = now
+                self.log(
+                    f"{self.node}: a malformed push from {sender} ({len(payload)} bytes, not "
+                    f"whole records of layout {mirror.layout.LAYOUT_HASH[:8]}): refused "
+                    f"whole, nothing applied ({peer['malformed']} from {sender} so far)"
+                )
+        if self.report is not None:
+            report = self.report
+            report["net_applied"], report["net_late"] = after[0], after[1]
+            report["net_malformed"] = after[2]
+        return records is not None
 
     def push(self, last: bool = False) -> None:
         """Send every record this node wrote since the last push (everything it wrote, when
@@ -405,4 +437,12 @@ def _matcher(patterns: list[str]) -> Callable[[str], bool]:
 
     parts = ["/".join(chunk(c) for c in pattern.split("/")) for pattern in patterns]
     regex = re.compile("(?:" + "|".join(parts) + ")" + "\\Z")
-    return lambda key: regex.match(key) is not None
+    known: dict[str, bool] = {}  # a layout has a few hundred keys: each matched once
+
+    def matches(key: str) -> bool:
+        found = known.get(key)
+        if found is None:
+            found = known[key] = regex.match(key) is not None
+        return found
+
+    return matches

@@ -132,6 +132,12 @@ class Block:
         if self.shm is not None and self.shm.size < HEADER.size:
             self._refuse(f"segment {name!r} has {self.shm.size} bytes: it is not an rcsgen block")
         magic, found, system, size = HEADER.unpack_from(self.buf, 0)
+        if magic != MAGIC and magic[:6] == MAGIC[:6]:  # another layout version's block
+            self._refuse(
+                f"segment {name!r} is a block of layout version {magic[6:].decode('ascii', '?')}"
+                f" (this package's runtime has {MAGIC[6:].decode()}): rebuild and restart "
+                "every process from the same rcsgen"
+            )
         if magic != MAGIC:
             self._refuse(f"segment {name!r} is not an rcsgen block (no rcsgen header)")
         found_hash = found.decode("ascii", "replace")

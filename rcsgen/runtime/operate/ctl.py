@@ -38,12 +38,17 @@ from ..contract import (
     ERROR,
     EXECUTING,
     FINISHED,
+    NETWORK_FIELDS,
     PROCESS_STATES,
     RUNNING,
     STATUS_NAMES,
     StaleRead,
     cause_text,
     enum_name,
+    field_names,
+    network_line,
+    periodicity,
+    periodicity_line,
     plan_slots,
     reason_name,
     result_values,
@@ -353,6 +358,7 @@ class Console:
                 "watchdog_trips": values["watchdog_trips"],
                 "load_warnings": values["load_warnings"],
                 "slow": slow,
+                **timing(values),
             }
         return found
 
@@ -812,6 +818,8 @@ def render(snapshot: dict[str, Any]) -> list[str]:
             f"overruns, {proc['late_wakeups']} late wake-ups, {proc['watchdog_trips']} "
             f"watchdog trips, slow x{proc['slow']:g}"
         )
+    lines += periodicity_lines(snapshot)
+    lines += network_lines(snapshot)
     for name, device in (snapshot.get("io") or {}).items():
         lines.append(device_line(name, device))
     for request in snapshot.get("requests", ()):
@@ -828,6 +836,63 @@ def state_time_lines(snapshot: dict[str, Any]) -> list[str]:
         if shares:
             spent = ", ".join(f"{state} {share:g}%" for state, share in shares.items())
             lines.append(f"time in state {name} ({row['state_cycles']} cycles): {spent}")
+    return lines
+
+
+# ---------------------------------------------------------------- periodicity
+
+
+def timing(values: dict[str, Any]) -> dict[str, Any]:
+    """A control record's timing for the console: the process's cycle time (last, max)
+    and how well it holds its period (contract.periodicity: None when not paced)."""
+    return {
+        "last_cycle_us": round(int(values["last_cycle_ns"]) / 1e3, 1),
+        "max_cycle_us": round(int(values["max_cycle_ns"]) / 1e3, 1),
+        "periodicity": periodicity(values),
+        # what it received over the network (Zenoh): all 0 on shared memory
+        "network": {k.removeprefix("net_"): int(values[k]) for k in NETWORK_NAMES},
+    }
+
+
+NETWORK_NAMES = field_names(NETWORK_FIELDS)
+
+
+def network_lines(snapshot: dict[str, Any]) -> list[str]:
+    """Per process on the network, what it did with the records its peers sent: applied,
+    dropped as late or out of order, refused as malformed (its log names the peer)."""
+    lines = []
+    for name, proc in snapshot["processes"].items():
+        line = network_line(name, proc.get("network") or {})
+        if line is not None:
+            lines.append(f"network {line}")
+    return lines
+
+
+def slowest_modules(modules: dict[str, dict[str, Any]]) -> dict[str, tuple[str, float]]:
+    """Per process, its module with the longest cycle so far, and that cycle (µs)."""
+    slowest: dict[str, tuple[str, float]] = {}
+    for module, row in modules.items():
+        took, process = row.get("max_cycle_us"), str(row.get("process", ""))
+        if took is not None and took >= slowest.get(process, ("", -1.0))[1]:
+            slowest[process] = (module, float(took))
+    return slowest
+
+
+def periodicity_lines(snapshot: dict[str, Any]) -> list[str]:
+    """The debug screen's periodicity section: per process its period error, wake-up
+    lateness and throttled warnings (or that it is not paced), its cycle time, and the
+    execution time of its slowest module (each module's own is in the table above)."""
+    slowest = slowest_modules(snapshot["modules"])
+    lines = []
+    for name, proc in snapshot["processes"].items():
+        if proc.get("state") == "?":
+            continue
+        line = f"periodicity {periodicity_line(name, proc.get('periodicity'))}"
+        line += f"; cycle last {proc['last_cycle_us']:g} µs, max {proc['max_cycle_us']:g} µs"
+        if name in slowest:
+            module, took = slowest[name]
+            line += f"; slowest module {module} (max {took:g} µs)"
+        lines.append(line)
     return lines
 
 

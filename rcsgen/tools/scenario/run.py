@@ -25,7 +25,9 @@ from ...compiler.diagnostics import Diagnostics, Span, SpecError
 from ...compiler.front_end.loader import decode, read_bytes
 from ...compiler.frontend import display_path
 from ...runtime import override
+from ...runtime.contract import PERIODICITY_FIELDS, field_names, periodicity
 from ...runtime.io_points import COUNTS, device_status
+from ...runtime.loop import Periodicity
 from ...runtime.operate.ctl import channel_requests, write_answer
 from .. import traces
 from ..harness import AnyHarness, Harness, LaunchedHarness, Status
@@ -334,6 +336,10 @@ class FaultWatch:
                 )
             )
 
+    def timing(self, cycle: int) -> str | None:
+        """The trace's timing record of the paced run."""
+        return self.pace.line(cycle)
+
     def cycles(self, seconds: float) -> int:
         return math.ceil(seconds / self.period - 1e-9)
 
@@ -377,18 +383,37 @@ class FaultWatch:
 
 class Pace:
     """Cycles at the system's period, on an absolute schedule (a late cycle is not caught up
-    with a burst): a run against devices keeps time as they do."""
+    with a burst): a run against devices keeps time as they do. How well it held (each
+    wake-up's lateness and period error) is measured as a paced process measures it
+    (rcs/loop.py `Periodicity`), for the trace's last line."""
 
     def __init__(self, period: float) -> None:
         self.period, self.next_at = period, time.monotonic()
+        self.periodicity = Periodicity("run", period)
+        self.woke: float | None = None
 
     def wait(self) -> None:
         delay = self.next_at - time.monotonic()
         if delay > 0:
             time.sleep(delay)
+            now = time.monotonic()
         else:
-            self.next_at = time.monotonic()
+            now = self.next_at = time.monotonic()
+        if self.woke is not None:  # the first cycle starts the schedule: nothing to measure
+            self.periodicity.add(now, now - self.next_at, now - self.woke - self.period)
+        self.woke = now
         self.next_at += self.period
+
+    def line(self, cycle: int) -> str | None:
+        """The trace's timing record (traces.TIMING), None before two paced cycles."""
+        if not self.periodicity.count:
+            return None
+        self.periodicity.p99()
+        names = field_names(PERIODICITY_FIELDS)
+        figures = periodicity(dict(zip(names, self.periodicity.fields(), strict=True)))
+        return json.dumps(
+            {"cycle": cycle, traces.TIMING: figures}, sort_keys=True, separators=(",", ":")
+        )
 
 
 class Unwatched:
@@ -407,6 +432,10 @@ class Unwatched:
 
     def finish(self, result: RunResult, harness: AnyHarness) -> None:
         """Nothing to report."""
+
+    def timing(self, cycle: int) -> str | None:
+        """Not paced: no timing record (golden traces keep their shape)."""
+        return None
 
 
 def run(
@@ -446,6 +475,9 @@ def run(
         watch.after_cycle(harness)
         if stop is not None and not pending and not watch.open and _finished(harness, stop):
             break
+    timing = watch.timing(harness.cycles)
+    if timing is not None:
+        trace.append(timing)
     result = _result(scenario, harness, trace, phases)
     watch.finish(result, harness)
     return result
@@ -497,7 +529,10 @@ def _flatten(value: Any, prefix: str = "") -> dict[str, Any]:
 
 
 def first_difference(expected: list[str], actual: list[str]) -> Mismatch | None:
-    """The first differing cycle and field between two traces, or None when identical."""
+    """The first differing cycle and field between two traces, or None when identical;
+    a timing record (`traces.is_timing`) is left out of both."""
+    expected = [line for line in expected if not traces.is_timing(line)]
+    actual = [line for line in actual if not traces.is_timing(line)]
     for want_line, got_line in zip(expected, actual, strict=False):
         if want_line == got_line:
             continue

@@ -11,6 +11,7 @@ The names below are `read`'s, the package's entry points.
 """
 
 from .read import (
+    TIMING,
     Lane,
     Trace,
     TraceError,
@@ -18,6 +19,7 @@ from .read import (
     check_against,
     compressed,
     decompressed,
+    is_timing,
     lanes,
     load,
     parse,
@@ -27,6 +29,7 @@ from .read import (
 )
 
 __all__ = [
+    "TIMING",
     "Lane",
     "Trace",
     "TraceError",
@@ -34,6 +37,7 @@ __all__ = [
     "check_against",
     "compressed",
     "decompressed",
+    "is_timing",
     "lanes",
     "load",
     "parse",

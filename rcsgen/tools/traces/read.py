@@ -33,6 +33,18 @@ OPTIONAL = ("reason", "result")
 SPARSE = "cause"
 
 
+# A paced run's trace ends with one record of how well the run held its period (after the
+# cycles, before an `interrupted` line): `{"cycle": N, "periodicity": {...}}`, the figures
+# of `ctl status` (contract.periodicity). Timing is never the same twice: comparisons with
+# a golden trace leave it out (scenario/run.py `first_difference`).
+TIMING = "periodicity"
+
+
+def is_timing(line: str) -> bool:
+    """Whether a trace line is the timing record (its keys sorted: cycle, periodicity)."""
+    return line.partition(",")[2].startswith(f'"{TIMING}":')
+
+
 class TraceError(Exception):
     """A file that is not a readable trace, or one that does not fit the specs; one line."""
 
@@ -51,6 +63,8 @@ class Trace:
     # line before (0 first): its values change nowhere else, so a viewer that looks for
     # changes need only look there. Empty: not known (look at every cycle).
     starts: dict[str, list[int]] = field(default_factory=dict)
+    # How well a paced run held its period (its timing record, TIMING); None if not paced.
+    periodicity: dict[str, Any] | None = None
 
     def __len__(self) -> int:
         return len(self.cycles)
@@ -142,6 +156,11 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
         if trace.interrupted is not None:
             raise TraceError(f"{where}: a line after the one that says the run was interrupted")
         record = memo.reuse(line) or memo.remember(line, _record(line, where))
+        if trace.periodicity is not None and "interrupted" not in record:
+            raise TraceError(f"{where}: a cycle after the run's timing record")
+        if TIMING in record:  # after the cycles of a paced run: how well it held its period
+            trace.periodicity = _timing(record, where, trace)
+            continue
         if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
             trace.interrupted = _interruption(record, where)
             continue
@@ -211,6 +230,17 @@ class _Modules:
         self.text = None if split is None else line[split[0] + 1 : split[1] + 1]
         self.modules = record.get("modules")
         return record
+
+
+def _timing(record: dict[str, Any], where: str, trace: Trace) -> dict[str, Any]:
+    """The figures of a timing record (it holds only them and `cycle`, after a cycle)."""
+    figures = record[TIMING]
+    if sorted(record) != ["cycle", TIMING] or not isinstance(figures, dict) or not trace.cycles:
+        raise TraceError(
+            f"{where}: not a trace line (a `{TIMING}` record has only it and `cycle`, "
+            "after the cycles)"
+        )
+    return figures
 
 
 def _interruption(record: dict[str, Any], where: str) -> str:

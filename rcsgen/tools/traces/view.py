@@ -139,7 +139,7 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
             }
         )
     world = [_plot(name, series) for name, series in trace.world.items()]
-    data = {
+    data: dict[str, Any] = {
         "source": trace.name,
         "system": system,
         "period": period,
@@ -150,6 +150,8 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
         "lanes": lane_data,
         "world": world,
     }
+    if trace.periodicity is not None:  # a paced run: how well it held its period
+        data["periodicity"] = trace.periodicity
     text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return text.replace("</", "<\\/")
 
@@ -160,5 +162,7 @@ def render(
     """The page: the template with the trace's title and data filled in."""
     template = resources.files(__package__).joinpath("assets", TEMPLATE).read_text("utf-8")
     title = f"{trace.name} · {len(trace):,} cycles" + (f" · {system}" if system else "")
+    if trace.periodicity is not None:  # a paced run: the figures `ctl status` shows
+        title += " · " + contract.periodicity_line("paced", trace.periodicity)
     page = template.replace("{{TITLE}}", html.escape(title))
     return page.replace("{{DATA}}", payload(trace, lanes, system, period))

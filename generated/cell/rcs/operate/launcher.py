@@ -40,6 +40,9 @@ from ..contract import (
     StaleRead,
     enum_code,
     enum_name,
+    network_line,
+    periodicity,
+    periodicity_line,
     shared,
 )
 from ..io_cycle import relocated
@@ -208,9 +211,7 @@ def report(system: System, args: argparse.Namespace, process: Process) -> None:
     if not args.child:
         print(f"{args.process}: {process.cycle} cycles")
         for line in summary(system, process.block.buf, [args.process]):
-            print(line)
-        if process.periodicity is not None and process.periodicity.period > 0:
-            print(process.periodicity.line())
+            print(line)  # with its periodicity line (paced), from its control record
 
 
 def run_networked(
@@ -230,7 +231,9 @@ def run_networked(
 
     def connect(process: Process) -> ZenohTransport:
         mirror = Mirror(layout, process.block, args.process)
-        return ZenohTransport(mirror, options, args.process, plan.modules, args.lockstep)
+        net = ZenohTransport(mirror, options, args.process, plan.modules, args.lockstep)
+        net.report = process.counters  # what it received, in its control record
+        return net
 
     try:
         if args.lockstep:
@@ -892,6 +895,12 @@ def summary(system: System, buf: memoryview, processes: list[str]) -> Iterator[s
             f"overruns, {record['late_wakeups']} late wake-ups, {record['watchdog_trips']} "
             f"watchdog trips, {record['load_warnings']} load warnings"
         )
+        figures = periodicity(record)
+        if figures is not None:  # paced: how well it held its period
+            yield f"  {periodicity_line(name, figures)}"
+        network = network_line(name, record)
+        if network is not None:  # on Zenoh: what it received from its peers
+            yield f"  {network}"
         modules = system.plans[name].modules
         cells, stale = [], 0
         for module in modules:
