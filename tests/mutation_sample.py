@@ -1,0 +1,689 @@
+"""`make mutate-sample`: a stratified, seeded sample of one-line mutants of the compiler and the
+tools, each tried against the tests that run its line, in bounded time on a shared machine.
+
+A full mutmut run (`make mutate`) over the compiler and the tools is hours on two shared cores.
+This script measures the same thing on a deterministic sample, and says how sure the figure is:
+
+1. **Which tests run which line.** The fast tiers (TESTS: the unit tier and the quick fuzz
+   files) run once in process with a line tracer on every file of rcsgen/compiler and
+   rcsgen/tools (this file is also the pytest plugin that records it: `-p mutation_sample`).
+   For each line it keeps the tests that ran it, and each test's own time.
+2. **The mutants.** Every module's one-line mutants, from its syntax tree (OPERATORS: an
+   arithmetic or comparison operator swapped, `and`/`or` swapped, a `not` or a unary minus
+   dropped, a number plus one, True/False flipped, a string changed, a returned value replaced
+   by None, `break`/`continue` swapped); docstrings, annotations and f-strings are left alone.
+3. **The sample.** Per module, a fixed-seed random sample (proportional to the module's
+   mutants, at least MIN_PER_MODULE), so the same sources give the same mutants every run.
+4. **Each mutant** is written into a scratch copy of the tracked tree (never this worktree),
+   and the tests that ran its lines (fastest first, up to BUDGET seconds of their own time)
+   run in a fresh pytest with `-x`: a failure, an error, a crash or a timeout kills it. A
+   mutant no test reaches counts as surviving. Mutants listed in tests/mutation_equivalent.txt
+   (under the key printed) are counted apart and left out of the score.
+
+The summary prints, per module, package (compiler, tools) and overall: mutants in the module,
+tried, killed, survived, equivalent and the score with a 95 % interval (Wilson's for a module;
+for a package and overall, the stratified estimate weighting each module by its mutants, with
+the finite-population correction). The score is a lower bound: only the lines' own tests in
+the fast tiers are tried, the system and processes tiers never; a survivor may still be killed
+there. Survivors are listed with their key, so a test can be written or an equivalence argued.
+
+Arguments: `--per-module N` / `--total N` (sample size), `--seed S`, `--budget SECONDS`,
+`--only TEXT` (modules whose path contains TEXT), `--list` (print the sample, run nothing),
+`--cover FILE` (reuse a coverage map from an earlier run of the same sources), `--json FILE`
+(write every result).
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import hashlib
+import json
+import math
+import os
+import random
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+EQUIVALENT = HERE / "mutation_equivalent.txt"
+PACKAGES = ("rcsgen/compiler", "rcsgen/tools")
+# The fast tiers, as `make test` runs them: the unit tier, and the fuzz tier's quick files
+# (fewer random examples: each mutant reruns the properties that reach it).
+TESTS = (
+    "-m",
+    "unit or fuzz",
+    "--ignore=tests/test_fuzz.py",
+    "--ignore=tests/test_differential.py",
+    "--ignore=tests/test_prove_differential.py",
+)
+TEST_ENV = {"EXPR_EXAMPLES": "200", "DIFF_EXAMPLES": "5"}
+SEED = 25
+TOTAL = 400
+MIN_PER_MODULE = 3
+BUDGET = 30.0  # seconds of the selected tests' own time per mutant, fastest first
+COVER_ENV = "RCSGEN_MUTATION_COVER"
+
+SWAPS: dict[type, type] = {
+    ast.Add: ast.Sub,
+    ast.Sub: ast.Add,
+    ast.Mult: ast.Div,
+    ast.Div: ast.Mult,
+    ast.FloorDiv: ast.Div,
+    ast.Mod: ast.FloorDiv,
+    ast.Pow: ast.Mult,
+    ast.BitOr: ast.BitAnd,
+    ast.BitAnd: ast.BitOr,
+    ast.BitXor: ast.BitOr,
+    ast.LShift: ast.RShift,
+    ast.RShift: ast.LShift,
+    ast.Lt: ast.LtE,
+    ast.LtE: ast.Lt,
+    ast.Gt: ast.GtE,
+    ast.GtE: ast.Gt,
+    ast.Eq: ast.NotEq,
+    ast.NotEq: ast.Eq,
+    ast.Is: ast.IsNot,
+    ast.IsNot: ast.Is,
+    ast.In: ast.NotIn,
+    ast.NotIn: ast.In,
+    ast.And: ast.Or,
+    ast.Or: ast.And,
+}
+OPERATORS = (
+    "binop",
+    "augassign",
+    "compare",
+    "boolop",
+    "not",
+    "neg",
+    "number",
+    "bool",
+    "string",
+    "return",
+    "break",
+)
+
+
+# --- 1. which tests run which line -------------------------------------------------------------
+
+
+class _Recorder:
+    """The pytest plugin of the coverage run (active when COVER_ENV names the output file)."""
+
+    def __init__(self, out: Path) -> None:
+        self.out = out
+        roots = tuple(str(REPO / p) + os.sep for p in PACKAGES)
+        self.files = {str(p): str(p.relative_to(REPO)) for p in _modules(roots)}
+        self.lines: dict[str, dict[int, set[int]]] = defaultdict(lambda: defaultdict(set))
+        self.tests: list[list[Any]] = []  # [nodeid, seconds, passed]
+        self.hit: set[tuple[str, int]] = set()
+
+    def _global(self, frame: Any, event: str, arg: Any) -> Any:
+        rel = self.files.get(frame.f_code.co_filename)
+        if rel is None:
+            return None
+        hit = self.hit
+
+        def local(frame: Any, event: str, arg: Any) -> Any:
+            if event == "line":
+                hit.add((rel, frame.f_lineno))
+            return local
+
+        hit.add((rel, frame.f_lineno))
+        return local
+
+    def pytest_runtest_protocol(self, item: Any, nextitem: Any) -> None:
+        self.hit = set()
+        self.started = time.perf_counter()
+        self.passed = True
+        sys.settrace(self._global)
+
+    def pytest_runtest_logreport(self, report: Any) -> None:
+        if report.failed:
+            self.passed = False
+        if report.when == "teardown":
+            sys.settrace(None)
+            index = len(self.tests)
+            self.tests.append([report.nodeid, time.perf_counter() - self.started, self.passed])
+            if self.passed:
+                for rel, line in self.hit:
+                    self.lines[rel][line].add(index)
+
+    def pytest_sessionfinish(self, session: Any) -> None:
+        sys.settrace(None)
+        lines = {rel: {str(n): sorted(t) for n, t in by.items()} for rel, by in self.lines.items()}
+        self.out.write_text(json.dumps({"tests": self.tests, "lines": lines}))
+
+
+def pytest_configure(config: Any) -> None:
+    if os.environ.get(COVER_ENV):
+        config.pluginmanager.register(_Recorder(Path(os.environ[COVER_ENV])), "mutation_cover")
+
+
+def _modules(roots: tuple[str, ...]) -> list[Path]:
+    return sorted(p.resolve() for root in roots for p in Path(root).rglob("*.py"))
+
+
+def cover(tree: Path, out: Path) -> None:
+    """The coverage run, in the scratch copy `tree`; the map is written to `out`."""
+    env = _env(tree) | {COVER_ENV: str(out)}
+    cmd = [
+        sys.executable,
+        "-m",
+        "pytest",
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "-p",
+        "no:xdist",
+        "-p",
+        "mutation_sample",
+        *TESTS,
+        "tests/",
+    ]
+    started = time.monotonic()
+    done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
+    tail = done.stdout.strip().splitlines()[-1:] or [""]
+    print(f"coverage run: {time.monotonic() - started:.0f} s, {tail[0]}", flush=True)
+    if not out.exists():
+        sys.exit(f"the coverage run wrote no map:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}")
+
+
+def _env(tree: Path) -> dict[str, str]:
+    env = dict(os.environ) | TEST_ENV
+    env["PYTHONPATH"] = os.pathsep.join([str(tree), str(tree / "tests")])
+    env.pop("PYTEST_ADDOPTS", None)
+    return env
+
+
+# --- 2. the mutants ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Mutant:
+    path: str  # relative to the repository
+    line: int
+    last: int  # last line of the mutated node
+    kind: str
+    old: str
+    new: str
+    start: tuple[int, int]  # (line, byte column) of the replaced text
+    end: tuple[int, int]
+
+    @property
+    def module(self) -> str:
+        return self.path.removesuffix(".py").replace("/", ".")
+
+    def key(self, n: int) -> str:
+        """Its name in tests/mutation_equivalent.txt: path:line:old->new, #n if repeated."""
+        base = f"{self.path}:{self.line}:{_short(self.old)}->{_short(self.new)}"
+        return base if n == 0 else f"{base}#{n}"
+
+
+def _short(text: str) -> str:
+    one = " ".join(text.split())
+    return one if len(one) <= 60 else one[:57] + "..."
+
+
+def _skipped(tree: ast.Module) -> set[int]:
+    """ids of nodes no mutant may touch: docstrings, annotations, f-strings, TYPE_CHECKING."""
+    skip: set[int] = set()
+
+    def all_of(node: ast.AST | None) -> None:
+        if node is not None:
+            skip.update(id(n) for n in ast.walk(node))
+
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if (
+            isinstance(body, list)
+            and body
+            and isinstance(body[0], ast.Expr)
+            and isinstance(body[0].value, ast.Constant)
+            and isinstance(body[0].value.value, str)
+        ):
+            all_of(body[0])
+        if isinstance(node, (ast.arg, ast.AnnAssign)):
+            all_of(node.annotation)
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            all_of(node.returns)
+        if isinstance(node, ast.JoinedStr):
+            all_of(node)
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            all_of(node)
+        if isinstance(node, ast.Assign) and any(
+            isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets
+        ):
+            all_of(node)
+    return skip
+
+
+def _swapped(node: ast.AST) -> ast.AST | None:
+    import copy
+
+    new = copy.copy(node)
+    if isinstance(node, (ast.BinOp, ast.AugAssign, ast.BoolOp)):
+        to = SWAPS.get(type(node.op))
+        if to is None:
+            return None
+        new.op = to()  # type: ignore[attr-defined]
+        return new
+    return None
+
+
+def mutants_of(path: Path, root: Path = REPO) -> list[Mutant]:
+    """Every mutant of one module, in the order of their place in it."""
+    source = path.read_bytes()
+    tree = ast.parse(source)
+    lines = source.split(b"\n")
+    skip = _skipped(tree)
+    rel = str(path.relative_to(root))
+    found: list[Mutant] = []
+
+    def segment(node: ast.AST) -> str:
+        return ast.get_source_segment(source.decode(), node) or ""
+
+    def add(
+        kind: str,
+        node: ast.AST,
+        new: str,
+        start: tuple[int, int] | None = None,
+        end: tuple[int, int] | None = None,
+        old: str | None = None,
+    ) -> None:
+        s = start or (node.lineno, node.col_offset)  # type: ignore[attr-defined]
+        e = end or (node.end_lineno, node.end_col_offset)  # type: ignore[attr-defined]
+        text = old if old is not None else _slice(lines, s, e)
+        if text != new:
+            found.append(Mutant(rel, s[0], e[0], kind, text, new, s, e))
+
+    for node in ast.walk(tree):
+        if id(node) in skip or not hasattr(node, "lineno"):
+            continue
+        if isinstance(node, ast.BinOp) and (new := _swapped(node)) is not None:
+            add("binop", node, f"({ast.unparse(new)})")
+        elif isinstance(node, ast.AugAssign):
+            if (new := _swapped(node)) is not None:
+                add("augassign", node, ast.unparse(new))
+            add("augassign", node, ast.unparse(ast.Assign([node.target], node.value, lineno=0)))
+        elif isinstance(node, ast.BoolOp) and (new := _swapped(node)) is not None:
+            add("boolop", node, f"({ast.unparse(new)})")
+        elif isinstance(node, ast.Compare):
+            for i, op in enumerate(node.ops):
+                to = SWAPS.get(type(op))
+                if to is not None:
+                    ops = list(node.ops)
+                    ops[i] = to()
+                    add(
+                        "compare",
+                        node,
+                        f"({ast.unparse(ast.Compare(node.left, ops, node.comparators))})",
+                    )
+        elif isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.Not, ast.USub)):
+            kind = "not" if isinstance(node.op, ast.Not) else "neg"
+            add(kind, node, f"({ast.unparse(node.operand)})")
+        elif isinstance(node, ast.Constant):
+            value = node.value
+            if isinstance(value, bool):
+                add("bool", node, repr(not value))
+            elif isinstance(value, (int, float)) and not isinstance(value, bool):
+                add("number", node, repr(value + 1))
+            elif isinstance(value, str):
+                add("string", node, repr(f"XX{value}XX"))
+        elif (
+            isinstance(node, ast.Return)
+            and node.value is not None
+            and not (isinstance(node.value, ast.Constant) and node.value.value is None)
+        ):
+            add("return", node.value, "None")
+        elif isinstance(node, ast.Break):
+            add("break", node, "continue")
+        elif isinstance(node, ast.Continue):
+            add("break", node, "break")
+    found.sort(key=lambda m: (m.start, m.kind, m.new))
+    return found
+
+
+def compiles(m: Mutant, root: Path = REPO) -> bool:
+    try:
+        compile(apply((root / m.path).read_bytes(), m), m.path, "exec")
+    except SyntaxError:
+        return False
+    return True
+
+
+def _slice(lines: list[bytes], start: tuple[int, int], end: tuple[int, int]) -> str:
+    (l1, c1), (l2, c2) = start, end
+    if l1 == l2:
+        return lines[l1 - 1][c1:c2].decode()
+    parts = [lines[l1 - 1][c1:], *lines[l1 : l2 - 1], lines[l2 - 1][:c2]]
+    return b"\n".join(parts).decode()
+
+
+def apply(source: bytes, m: Mutant) -> bytes:
+    lines = source.split(b"\n")
+    (l1, c1), (l2, c2) = m.start, m.end
+    head = b"\n".join(lines[: l1 - 1] + [lines[l1 - 1][:c1]])
+    tail = b"\n".join([lines[l2 - 1][c2:]] + lines[l2:])
+    return head + m.new.encode() + tail
+
+
+# --- 3. the sample -----------------------------------------------------------------------------
+
+
+def sample(
+    every: dict[str, list[Mutant]],
+    total: int,
+    least: int,
+    seed: int,
+    per_module: int | None,
+    root: Path = REPO,
+) -> dict[str, list[Mutant]]:
+    """A fixed-seed sample per module: `per_module` each, or proportional to `total`."""
+    population = sum(len(ms) for ms in every.values()) or 1
+    chosen = {}
+    for path, ms in every.items():
+        want = (
+            per_module
+            if per_module is not None
+            else max(least, round(total * len(ms) / population))
+        )
+        digest = hashlib.sha256(f"{seed}:{path}".encode()).digest()
+        rng = random.Random(int.from_bytes(digest[:8], "big"))
+        order = rng.sample(ms, len(ms))
+        picked: list[Mutant] = []
+        for m in order:  # the first `want` of a fixed shuffle that are valid Python
+            if len(picked) == want:
+                break
+            if compiles(m, root):
+                picked.append(m)
+        chosen[path] = sorted(picked, key=lambda m: m.start)
+    return chosen
+
+
+# --- 4. each mutant ----------------------------------------------------------------------------
+
+
+@dataclass
+class Result:
+    path: str
+    key: str
+    kind: str
+    outcome: str  # killed, survived, no tests, equivalent
+    tests: int
+    seconds: float
+    detail: str = ""
+
+
+def scratch() -> Path:
+    """A copy of the tracked tree (the mutants are written there, never here)."""
+    tree = Path(tempfile.mkdtemp(prefix="rcsgen-mutate-"))
+    files = (
+        subprocess.run(
+            ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
+            cwd=REPO,
+            capture_output=True,
+            check=True,
+        )
+        .stdout.decode()
+        .split("\0")
+    )
+    for name in filter(None, files):
+        src = REPO / name
+        if src.is_file():
+            dst = tree / name
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, dst)
+    return tree
+
+
+def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
+    tests = cover_map["tests"]
+    by_line = cover_map["lines"].get(m.path, {})
+    ids = sorted(
+        {t for n in range(m.line, m.last + 1) for t in by_line.get(str(n), ())},
+        key=lambda t: (tests[t][1], t),
+    )
+    chosen, spent = [], 0.0
+    for t in ids:
+        if chosen and spent + tests[t][1] > budget:
+            break
+        chosen.append(tests[t][0])
+        spent += tests[t][1]
+    return chosen
+
+
+def attempt(tree: Path, m: Mutant, key: str, nodeids: list[str], n: int) -> Result:
+    if not nodeids:
+        return Result(m.path, key, m.kind, "no tests", 0, 0.0)
+    target = tree / m.path
+    original = target.read_bytes()
+    stat = target.stat()
+    started = time.monotonic()
+    try:
+        target.write_bytes(apply(original, m))
+        # a distinct mtime, so no cached bytecode of the original (or another mutant) is used
+        os.utime(target, ns=(stat.st_atime_ns, stat.st_mtime_ns + (n + 1) * 1_000_000_000))
+        cmd = [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-x",
+            "-q",
+            "-p",
+            "no:cacheprovider",
+            "-p",
+            "no:xdist",
+            "--no-header",
+            "-o",
+            "addopts=",
+            *nodeids,
+        ]
+        try:
+            done = subprocess.run(
+                cmd, cwd=tree, env=_env(tree), capture_output=True, text=True, timeout=TIMEOUT
+            )
+            code = done.returncode
+            lines = done.stdout.strip().splitlines()
+            detail = lines[-1] if lines else ""
+        except subprocess.TimeoutExpired:
+            code, detail = -1, f"timeout after {TIMEOUT:.0f} s"
+    finally:
+        target.write_bytes(original)
+        os.utime(target, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+    seconds = time.monotonic() - started
+    if code == 0:
+        outcome = "survived"
+    elif code in (-1, 1, 2, 3):  # a test failed, or collection broke, or pytest crashed
+        outcome = "killed"
+    else:  # 4: usage error, 5: no tests ran -- a fault of this script, not a kill
+        outcome = "error"
+    return Result(m.path, key, m.kind, outcome, len(nodeids), seconds, detail)
+
+
+TIMEOUT = 120.0
+
+
+# --- the summary -------------------------------------------------------------------------------
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    if n == 0:
+        return (0.0, 1.0)
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def stratified(rows: list[tuple[int, int, int]]) -> tuple[float, float, float] | None:
+    """rows: (mutants in the module, tried, killed) -> (estimate, low, high) at 95 %."""
+    rows = [r for r in rows if r[1] > 0]
+    population = sum(r[0] for r in rows)
+    if not population:
+        return None
+    estimate = sum(big * k / n for big, n, k in rows) / population
+    variance = 0.0
+    for big, n, k in rows:
+        w, p = big / population, k / n
+        fpc = (big - n) / (big - 1) if big > 1 else 0.0
+        variance += w * w * fpc * p * (1 - p) / max(n - 1, 1)
+    half = 1.96 * math.sqrt(variance)
+    return (estimate, max(0.0, estimate - half), min(1.0, estimate + half))
+
+
+def read_equivalent() -> dict[str, str]:
+    found = {}
+    for line in EQUIVALENT.read_text().splitlines():
+        name, _, reason = line.partition("  #")
+        if name.strip() and not name.startswith("#"):
+            found[name.strip()] = reason.strip()
+    return found
+
+
+def summary(every: dict[str, list[Mutant]], results: list[Result]) -> str:
+    by_path: dict[str, list[Result]] = defaultdict(list)
+    for r in results:
+        by_path[r.path].append(r)
+    out = [
+        "| module | mutants | tried | killed | survived | equivalent | score (95 % interval) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    strata: dict[str, list[tuple[int, int, int]]] = defaultdict(list)
+    totals: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0, 0, 0])
+    for path in sorted(every):
+        rs = by_path.get(path, [])
+        killed = sum(r.outcome == "killed" for r in rs)
+        survived = sum(r.outcome in ("survived", "no tests") for r in rs)
+        equivalent = sum(r.outcome == "equivalent" for r in rs)
+        tried = killed + survived
+        package = "compiler" if path.startswith("rcsgen/compiler/") else "tools"
+        for name in (package, "all"):
+            strata[name].append((len(every[path]), tried, killed))
+            t = totals[name]
+            for i, v in enumerate((len(every[path]), tried, killed, survived, equivalent)):
+                t[i] += v
+        score = f"{100 * killed / tried:.0f} % ({_pct(wilson(killed, tried))})" if tried else "—"
+        module = path.removeprefix("rcsgen/").removesuffix(".py")
+        out.append(
+            f"| `{module}` | {len(every[path])} | {tried} | {killed} | {survived} "
+            f"| {equivalent} | {score} |"
+        )
+    for name in ("compiler", "tools", "all"):
+        big, tried, killed, survived, equivalent = totals[name]
+        est = stratified(strata[name])
+        score = (
+            "—"
+            if est is None
+            else (f"**{100 * est[0]:.1f} %** ({_pct(est[1:])}; raw {killed}/{tried})")
+        )
+        out.append(
+            f"| **{name}** | {big} | {tried} | {killed} | {survived} | {equivalent} | {score} |"
+        )
+    return "\n".join(out)
+
+
+def _pct(interval: tuple[float, ...]) -> str:
+    return f"{100 * interval[0]:.0f}–{100 * interval[1]:.0f} %"
+
+
+def main(argv: list[str] | None = None) -> int:
+    global TIMEOUT
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--total", type=int, default=TOTAL)
+    parser.add_argument("--per-module", type=int)
+    parser.add_argument("--least", type=int, default=MIN_PER_MODULE)
+    parser.add_argument("--seed", type=int, default=SEED)
+    parser.add_argument("--budget", type=float, default=BUDGET)
+    parser.add_argument("--timeout", type=float, default=TIMEOUT)
+    parser.add_argument("--only", action="append", default=[])
+    parser.add_argument("--list", action="store_true")
+    parser.add_argument("--cover", type=Path)
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args(argv)
+    TIMEOUT = args.timeout
+
+    roots = tuple(str(REPO / p) for p in PACKAGES)
+    every = {}
+    for path in _modules(roots):
+        rel = str(path.relative_to(REPO))
+        if args.only and not any(o in rel for o in args.only):
+            continue
+        ms = mutants_of(path)
+        if ms:
+            every[rel] = ms
+    chosen = sample(every, args.total, args.least, args.seed, args.per_module)
+    keys: dict[Mutant, str] = {}
+    for ms in every.values():
+        seen: dict[str, int] = defaultdict(int)
+        for m in ms:
+            base = m.key(0)
+            keys[m] = m.key(seen[base])
+            seen[base] += 1
+    count = sum(len(ms) for ms in chosen.values())
+    print(
+        f"{sum(len(ms) for ms in every.values())} mutants in {len(every)} modules; "
+        f"{count} sampled (seed {args.seed})",
+        flush=True,
+    )
+    if args.list:
+        for ms in chosen.values():
+            for m in ms:
+                print(f"{keys[m]}  [{m.kind}]")
+        return 0
+
+    started = time.monotonic()
+    tree = scratch()
+    try:
+        cover_file = args.cover
+        if cover_file is None or not cover_file.exists():
+            cover_file = cover_file or tree / "cover.json"
+            cover(tree, cover_file)
+        cover_map = json.loads(cover_file.read_text())
+        equivalent = read_equivalent()
+        results = []
+        done = 0
+        for ms in chosen.values():
+            for m in ms:
+                key = keys[m]
+                done += 1
+                if key in equivalent:
+                    results.append(
+                        Result(m.path, key, m.kind, "equivalent", 0, 0.0, equivalent[key])
+                    )
+                    continue
+                r = attempt(tree, m, key, selection(m, cover_map, args.budget), done)
+                results.append(r)
+                mark = {"killed": ".", "survived": "S", "no tests": "n", "error": "E"}[r.outcome]
+                print(mark, end="" if done % 60 else "\n", flush=True)
+        print(flush=True)
+    finally:
+        shutil.rmtree(tree, ignore_errors=True)
+    elapsed = time.monotonic() - started
+    if args.json:
+        args.json.write_text(json.dumps([asdict(r) for r in results], indent=1))
+    print(summary(every, results))
+    print(
+        f"\n{len(results)} mutants in {elapsed / 60:.1f} min; a lower bound: only the fast "
+        "tiers' tests that run each mutant's lines were tried."
+    )
+    for outcome in ("survived", "no tests", "error"):
+        rs = [r for r in results if r.outcome == outcome]
+        if rs:
+            print(f"\n{outcome} ({len(rs)}):")
+            for r in rs:
+                print(f"  {r.key}  [{r.kind}] {r.detail}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
