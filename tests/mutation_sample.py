@@ -4,9 +4,11 @@ tools, each tried against the tests that run its line, in bounded time on a shar
 A full mutmut run (`make mutate`) over the compiler and the tools is hours on two shared cores.
 This script measures the same thing on a deterministic sample, and says how sure the figure is:
 
-1. **Which tests run which line.** The fast tiers (TESTS: the unit tier and the quick fuzz
-   files) run once in process with a line tracer on every file of rcsgen/compiler and
-   rcsgen/tools (this file is also the pytest plugin that records it: `-p mutation_sample`).
+1. **Which tests run which line.** The fast tiers (test_files(): the unit tier, the quick
+   fuzz files and five system files) run once in process with a line tracer on every file
+   of rcsgen/compiler and rcsgen/tools (this file is also the pytest plugin that records
+   it: `-p mutation_sample`). A line run at import (a table, a default) belongs to every
+   test that runs its module.
    For each line it keeps the tests that ran it, and each test's own time.
 2. **The mutants.** Every module's one-line mutants, from its syntax tree (OPERATORS: an
    arithmetic or comparison operator swapped, `and`/`or` swapped, a `not` or a unary minus
@@ -43,6 +45,7 @@ import math
 import os
 import random
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -56,15 +59,12 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 EQUIVALENT = HERE / "mutation_equivalent.txt"
 PACKAGES = ("rcsgen/compiler", "rcsgen/tools")
-# The fast tiers, as `make test` runs them: the unit tier, and the fuzz tier's quick files
-# (fewer random examples: each mutant reruns the properties that reach it).
-TESTS = (
-    "-m",
-    "unit or fuzz",
-    "--ignore=tests/test_fuzz.py",
-    "--ignore=tests/test_differential.py",
-    "--ignore=tests/test_prove_differential.py",
-)
+# The tests tried: the unit and fuzz tiers (but the long fuzzers), and the system tier's files
+# that are the only ones reaching a module in process (prove, its seeds, the trace and mine
+# views, the scenarios' devices). The processes tier never: the monitor, softplc, io_connect
+# and replay run in other processes there, where no tracer sees them.
+SLOW = ("test_fuzz", "test_differential", "test_prove_differential")
+SYSTEM = ("test_prove", "test_prove_seeds", "test_trace_view", "test_mine_view", "test_scenarios")
 TEST_ENV = {"EXPR_EXAMPLES": "200", "DIFF_EXAMPLES": "5"}
 SEED = 25
 TOTAL = 300
@@ -187,8 +187,7 @@ def cover(tree: Path, out: Path) -> None:
         "no:xdist",
         "-p",
         "mutation_sample",
-        *TESTS,
-        "tests/",
+        *test_files(),
     ]
     started = time.monotonic()
     done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
@@ -200,6 +199,13 @@ def cover(tree: Path, out: Path) -> None:
     sys.stdout.flush()
     if not out.exists():
         sys.exit(f"the coverage run wrote no map:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}")
+
+
+def test_files() -> list[str]:
+    from conftest import TIERS
+
+    names = [n for tier in ("unit", "fuzz") for n in TIERS[tier][1] if n not in SLOW]
+    return [f"tests/{n}.py" for n in sorted(names + list(SYSTEM))]
 
 
 def _env(tree: Path) -> dict[str, str]:
@@ -222,6 +228,7 @@ class Mutant:
     new: str
     start: tuple[int, int]  # (line, byte column) of the replaced text
     end: tuple[int, int]
+    toplevel: bool = False  # run when the module is imported, before any test
 
     @property
     def module(self) -> str:
@@ -271,6 +278,19 @@ def _skipped(tree: ast.Module) -> set[int]:
     return skip
 
 
+def _in_functions(tree: ast.Module) -> set[int]:
+    """ids of nodes that run when a function is called (not when its module is imported:
+    a default value or a decorator runs at import)."""
+    inside: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            for statement in node.body:
+                inside.update(id(n) for n in ast.walk(statement))
+        elif isinstance(node, ast.Lambda):
+            inside.update(id(n) for n in ast.walk(node.body))
+    return inside
+
+
 def _swapped(node: ast.AST) -> ast.AST | None:
     import copy
 
@@ -290,6 +310,7 @@ def mutants_of(path: Path, root: Path = REPO) -> list[Mutant]:
     tree = ast.parse(source)
     lines = source.split(b"\n")
     skip = _skipped(tree)
+    inside = _in_functions(tree)
     rel = str(path.relative_to(root))
     found: list[Mutant] = []
 
@@ -308,7 +329,7 @@ def mutants_of(path: Path, root: Path = REPO) -> list[Mutant]:
         e = end or (node.end_lineno, node.end_col_offset)  # type: ignore[attr-defined]
         text = old if old is not None else _slice(lines, s, e)
         if text != new:
-            found.append(Mutant(rel, s[0], e[0], kind, text, new, s, e))
+            found.append(Mutant(rel, s[0], e[0], kind, text, new, s, e, id(node) not in inside))
 
     for node in ast.walk(tree):
         if id(node) in skip or not hasattr(node, "lineno"):
@@ -453,10 +474,11 @@ def scratch() -> Path:
 def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
     tests = cover_map["tests"]
     by_line = cover_map["lines"].get(m.path, {})
-    ids = sorted(
-        {t for n in range(m.line, m.last + 1) for t in by_line.get(str(n), ())},
-        key=lambda t: (tests[t][1], t),
-    )
+    if m.toplevel:  # run at import, before any test: every test that runs the module
+        lines = list(by_line)
+    else:
+        lines = [str(n) for n in range(m.line, m.last + 1)]
+    ids = sorted({t for n in lines for t in by_line.get(n, ())}, key=lambda t: (tests[t][1], t))
     chosen, spent = [], 0.0
     for t in ids:
         if chosen and spent + tests[t][1] > budget:
@@ -557,44 +579,43 @@ def read_equivalent() -> dict[str, str]:
 
 
 def summary(every: dict[str, list[Mutant]], results: list[Result]) -> str:
+    """The table: per module, then per package and overall. `unreached` mutants (no test
+    tried runs their lines) count as survivors in the score, as mutmut counts them; the
+    last column is the score of the reached ones alone."""
     by_path: dict[str, list[Result]] = defaultdict(list)
     for r in results:
         by_path[r.path].append(r)
     out = [
-        "| module | mutants | tried | killed | survived | equivalent | score (95 % interval) |",
-        "|---|---|---|---|---|---|---|",
+        "| module | mutants | tried | killed | survived | unreached | equivalent "
+        "| score (95 % interval) | of reached |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     strata: dict[str, list[tuple[int, int, int]]] = defaultdict(list)
-    totals: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0, 0, 0])
+    totals: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0, 0, 0, 0])
     for path in sorted(every):
         rs = by_path.get(path, [])
         killed = sum(r.outcome == "killed" for r in rs)
-        survived = sum(r.outcome in ("survived", "no tests") for r in rs)
+        survived = sum(r.outcome == "survived" for r in rs)
+        unreached = sum(r.outcome == "no tests" for r in rs)
         equivalent = sum(r.outcome == "equivalent" for r in rs)
-        tried = killed + survived
+        tried = killed + survived + unreached
         package = "compiler" if path.startswith("rcsgen/compiler/") else "tools"
+        row = (len(every[path]), tried, killed, survived, unreached, equivalent)
         for name in (package, "all"):
             strata[name].append((len(every[path]), tried, killed))
-            t = totals[name]
-            for i, v in enumerate((len(every[path]), tried, killed, survived, equivalent)):
-                t[i] += v
+            totals[name] = [a + b for a, b in zip(totals[name], row, strict=True)]
         score = f"{100 * killed / tried:.0f} % ({_pct(wilson(killed, tried))})" if tried else "—"
+        reached = f"{100 * killed / (tried - unreached):.0f} %" if tried > unreached else "—"
         module = path.removeprefix("rcsgen/").removesuffix(".py")
-        out.append(
-            f"| `{module}` | {len(every[path])} | {tried} | {killed} | {survived} "
-            f"| {equivalent} | {score} |"
-        )
+        cells = " | ".join(str(v) for v in row)
+        out.append(f"| `{module}` | {cells} | {score} | {reached} |")
     for name in ("compiler", "tools", "all"):
-        big, tried, killed, survived, equivalent = totals[name]
+        big, tried, killed, survived, unreached, equivalent = totals[name]
         est = stratified(strata[name])
-        score = (
-            "—"
-            if est is None
-            else (f"**{100 * est[0]:.1f} %** ({_pct(est[1:])}; raw {killed}/{tried})")
-        )
-        out.append(
-            f"| **{name}** | {big} | {tried} | {killed} | {survived} | {equivalent} | {score} |"
-        )
+        score = "—" if est is None else f"**{100 * est[0]:.1f} %** ({_pct(est[1:])})"
+        reached = f"{100 * killed / (tried - unreached):.1f} %" if tried > unreached else "—"
+        cells = " | ".join(str(v) for v in totals[name])
+        out.append(f"| **{name}** | {cells} | {score}; raw {killed}/{tried} | {reached} |")
     return "\n".join(out)
 
 
@@ -648,6 +669,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     started = time.monotonic()
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit("stopped by SIGTERM"))  # cleans up
     tree = scratch()
     try:
         cover_file = args.cover
