@@ -634,6 +634,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--timeout", type=float, default=TIMEOUT)
     parser.add_argument("--only", action="append", default=[])
     parser.add_argument("--list", action="store_true")
+    parser.add_argument("--minutes", type=float, help="stop trying mutants after this long")
     parser.add_argument("--cover", type=Path)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
@@ -678,16 +679,21 @@ def main(argv: list[str] | None = None) -> int:
             cover(tree, cover_file)
         cover_map = json.loads(cover_file.read_text())
         equivalent = read_equivalent()
-        results = []
-        done = 0
-        for ms in chosen.values():
-            for m in ms:
+        # one seeded order across the modules: a run stopped early (--minutes, SIGTERM)
+        # has tried a sample of every module, not the first modules whole
+        order = [m for ms in chosen.values() for m in ms]
+        random.Random(args.seed).shuffle(order)
+        deadline = started + 60 * args.minutes if args.minutes else None
+        results: list[Result] = []
+        try:
+            for done, m in enumerate(order, 1):
+                if deadline is not None and time.monotonic() > deadline:
+                    print(f"\nstopped at the {args.minutes:.0f}-minute limit", flush=True)
+                    break
                 key = keys[m]
-                done += 1
                 if key in equivalent:
-                    results.append(
-                        Result(m.path, key, m.kind, "equivalent", 0, 0.0, equivalent[key])
-                    )
+                    why = equivalent[key]
+                    results.append(Result(m.path, key, m.kind, "equivalent", 0, 0.0, why))
                     continue
                 r = attempt(tree, m, key, selection(m, cover_map, args.budget), done)
                 results.append(r)
@@ -695,6 +701,8 @@ def main(argv: list[str] | None = None) -> int:
                     print(".", end="", flush=True)
                 else:
                     print(f"\n{r.outcome}: {key}  [{m.kind}] {r.detail}", flush=True)
+        except (KeyboardInterrupt, SystemExit):
+            print("\nstopped: the summary covers the mutants tried so far", flush=True)
         print(flush=True)
     finally:
         shutil.rmtree(tree, ignore_errors=True)
@@ -703,7 +711,8 @@ def main(argv: list[str] | None = None) -> int:
         args.json.write_text(json.dumps([asdict(r) for r in results], indent=1))
     print(summary(every, results))
     print(
-        f"\n{len(results)} mutants in {elapsed / 60:.1f} min; a lower bound: only the fast "
+        f"\n{len(results)} of {len(order)} sampled mutants in {elapsed / 60:.1f} min; a lower "
+        "bound: only the fast "
         "tiers' tests that run each mutant's lines were tried."
     )
     for outcome in ("survived", "no tests", "error"):
