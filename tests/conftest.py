@@ -41,6 +41,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_codes",
             "test_config",
             "test_doc_sizes",
+            "test_emit",
             "test_corpus",
             "test_files",
             "test_graph",

@@ -1363,6 +1363,9 @@ def overlap(spec, first: str, second: str) -> str | None:
         ("world.level / 2.0 > 0.5", True),
         ("world.level > 7 // 2", False),  # 3
         ("world.level > 7 % 6", True),  # 1
+        ("2.0 * world.level > 3.0", True),  # level > 1.5
+        ("world.level * 2.0 > 5.0", False),  # level > 2.5
+        ("world.level * 2.0 > 3.0", True),
     ],
 )
 def test_linear_forms_keep_their_exact_coefficients(spec, first: str, overlaps: bool) -> None:
@@ -1370,3 +1373,26 @@ def test_linear_forms_keep_their_exact_coefficients(spec, first: str, overlaps: 
     exact one, so the rules overlap just when Python's arithmetic says they can."""
     spec("GO:\n  states:\n    S0:\n      - do: [report: DONE]\n")
     assert (overlap(spec, first, "world.level <= 2.0") is not None) is overlaps
+
+
+def test_a_rule_that_never_fires_is_not_told_to_wait_for_what_it_sends(spec) -> None:
+    """W505 (sent but never waited for) is about rules that can fire: one whose guard no
+    valuation makes true is reported as such, and its send is not."""
+    diags = spec(
+        """
+        GO:
+          states:
+            S0:
+              - when: world.level > 3.0 and world.level < 2.0
+                do: [send: b.GO]
+                next: S1
+              - when: not (world.level > 3.0 and world.level < 2.0)
+                do: [send: a.GO]
+                next: S1
+            S1:
+              - when: a.status == DONE
+                do: [report: DONE]
+        """
+    )
+    assert "W505" not in codes(diags), found(diags)
+    assert any("rule 1 of GO S0" in d.message for d in diags), found(diags)
