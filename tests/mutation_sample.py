@@ -19,15 +19,16 @@ This script measures the same thing on a deterministic sample, and says how sure
 4. **Each mutant** is written into a scratch copy of the tracked tree (never this worktree),
    and the tests that ran its lines (fastest first, up to BUDGET seconds of their own time)
    run in a fresh pytest with `-x`: a failure, an error, a crash or a timeout kills it. A
-   mutant no test reaches counts as surviving. Mutants listed in tests/mutation_equivalent.txt
-   (under the key printed) are counted apart and left out of the score.
+   mutant no test reaches counts as surviving. Mutants listed in
+   tests/mutation_sample_equivalent.txt (under the key printed) are counted apart and left
+   out of the score.
 
 The summary prints, per module, package (compiler, tools) and overall: mutants in the module,
 tried, killed, survived, equivalent and the score with a 95 % interval (Wilson's for a module;
 for a package and overall, the stratified estimate weighting each module by its mutants, with
 the finite-population correction). The score is a lower bound: only the lines' own tests in
-the fast tiers are tried, the system and processes tiers never; a survivor may still be killed
-there. Survivors are listed with their key, so a test can be written or an equivalence argued.
+the fast tiers (and five system files) are tried, the processes tier never; a survivor may
+still be killed there. Survivors are listed with their key, so a test can be written or an equivalence argued.
 
 Arguments: `--per-module N` / `--total N` (sample size), `--seed S`, `--budget SECONDS`,
 `--only TEXT` (modules whose path contains TEXT), `--list` (print the sample, run nothing),
@@ -57,7 +58,7 @@ from typing import Any
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-EQUIVALENT = HERE / "mutation_equivalent.txt"
+EQUIVALENT = HERE / "mutation_sample_equivalent.txt"
 PACKAGES = ("rcsgen/compiler", "rcsgen/tools")
 # The tests tried: the unit and fuzz tiers (but the long fuzzers), and the system tier's files
 # that are the only ones reaching a module in process (prove, its seeds, the trace and mine
@@ -235,7 +236,7 @@ class Mutant:
         return self.path.removesuffix(".py").replace("/", ".")
 
     def key(self, n: int) -> str:
-        """Its name in tests/mutation_equivalent.txt: path:line:old->new, #n if repeated."""
+        """Its name in tests/mutation_sample_equivalent.txt: path:line:old->new, #n if repeated."""
         base = f"{self.path}:{self.line}:{_short(self.old)}->{_short(self.new)}"
         return base if n == 0 else f"{base}#{n}"
 

@@ -1366,6 +1366,8 @@ def overlap(spec, first: str, second: str) -> str | None:
         ("2.0 * world.level > 3.0", True),  # level > 1.5
         ("world.level * 2.0 > 5.0", False),  # level > 2.5
         ("world.level * 2.0 > 3.0", True),
+        ("-world.level != -1.0", True),  # a negative lead keeps != as it is
+        ("-world.level == -3.0", False),
     ],
 )
 def test_linear_forms_keep_their_exact_coefficients(spec, first: str, overlaps: bool) -> None:

@@ -89,6 +89,10 @@ def test_a_controllers_picture_holds_init_and_halt_and_every_cycle_rules(system)
         "ENTER_GOAL(x: float, y: float)",
         "TAIL_IN_POSITION",
     ]
+    for whole in (picture, oi):  # every command's states drawn, each edge between two of them
+        ids = {n.id for n in whole.nodes}
+        assert all(e.source in ids and e.target in ids for e in whole.edges), whole.name
+        assert {c.id for c in whole.clusters} <= {n.cluster for n in whole.nodes}
 
 
 def test_labels_are_escaped_for_mermaid_and_dot(system):
