@@ -28,7 +28,8 @@ tried, killed, survived, equivalent and the score with a 95 % interval (Wilson's
 for a package and overall, the stratified estimate weighting each module by its mutants, with
 the finite-population correction). The score is a lower bound: only the lines' own tests in
 the fast tiers (and five system files) are tried, the processes tier never; a survivor may
-still be killed there. Survivors are listed with their key, so a test can be written or an equivalence argued.
+still be killed there. Survivors are listed with their key, so a test can be written or an
+equivalence argued.
 
 Arguments: `--per-module N` / `--total N` (sample size), `--seed S`, `--budget SECONDS`,
 `--only TEXT` (modules whose path contains TEXT), `--list` (print the sample, run nothing),
