@@ -474,13 +474,22 @@ def scratch() -> Path:
 
 
 def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
+    """The tests a mutant is tried against: those that run its lines, fastest first, until
+    their own times add up to `budget`. A line run at import (a table, a default) is run
+    by every test that uses the module: those that run most of the module come first (the
+    tests of the module itself), then the fastest."""
     tests = cover_map["tests"]
     by_line = cover_map["lines"].get(m.path, {})
-    if m.toplevel:  # run at import, before any test: every test that runs the module
-        lines = list(by_line)
+    if m.toplevel:
+        breadth: dict[int, int] = defaultdict(int)
+        for ids_of_line in by_line.values():
+            for t in ids_of_line:
+                breadth[t] += 1
+        ids = sorted(breadth, key=lambda t: (-breadth[t], tests[t][1], t))
     else:
         lines = [str(n) for n in range(m.line, m.last + 1)]
-    ids = sorted({t for n in lines for t in by_line.get(n, ())}, key=lambda t: (tests[t][1], t))
+        found = {t for n in lines for t in by_line.get(n, ())}
+        ids = sorted(found, key=lambda t: (tests[t][1], t))
     chosen, spent = [], 0.0
     for t in ids:
         if chosen and spent + tests[t][1] > budget:
@@ -637,6 +646,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", action="append", default=[])
     parser.add_argument("--list", action="store_true")
     parser.add_argument("--minutes", type=float, help="stop trying mutants after this long")
+    parser.add_argument("--keys", type=Path, help="try only the sampled mutants listed here")
     parser.add_argument("--cover", type=Path)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
@@ -685,6 +695,9 @@ def main(argv: list[str] | None = None) -> int:
         # has tried a sample of every module, not the first modules whole
         order = [m for ms in chosen.values() for m in ms]
         random.Random(args.seed).shuffle(order)
+        if args.keys:  # e.g. the survivors of a run, tried again after new tests
+            wanted = {line.strip() for line in args.keys.read_text().splitlines()}
+            order = [m for m in order if keys[m] in wanted]
         deadline = started + 60 * args.minutes if args.minutes else None
         results: list[Result] = []
         try:
