@@ -489,14 +489,26 @@ def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
     else:
         lines = [str(n) for n in range(m.line, m.last + 1)]
         found = {t for n in lines for t in by_line.get(n, ())}
-        ids = sorted(found, key=lambda t: (tests[t][1], t))
+        # tests named after a word of the mutated text first (`echo_timeouts` ->
+        # test_invalid_case[e244-echo-timeout-...], "E216" -> ...[e216-...]), then the fastest
+        words = _words(m.old)
+        ids = sorted(found, key=lambda t: (-len(words & _words(tests[t][0])), tests[t][1], t))
     chosen, spent = [], 0.0
-    for t in ids:
+    for t in ids:  # in that order, each that still fits in the budget
         if chosen and spent + tests[t][1] > budget:
-            break
+            continue
         chosen.append(tests[t][0])
         spent += tests[t][1]
     return chosen
+
+
+def _words(text: str) -> set[str]:
+    """The lower-case words of a text or a test id, split at anything not a letter or digit,
+    and their singulars: `echo_timeouts` -> {echo, timeouts, timeout}."""
+    import re
+
+    found = {w for w in re.split(r"[^a-z0-9]+", text.lower()) if len(w) >= 3}
+    return found | {w[:-1] for w in found if w.endswith("s") and len(w) > 3}
 
 
 def attempt(tree: Path, m: Mutant, key: str, nodeids: list[str], n: int) -> Result:
