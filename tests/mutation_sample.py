@@ -451,9 +451,8 @@ class Result:
     detail: str = ""
 
 
-def scratch() -> Path:
-    """A copy of the tracked tree (the mutants are written there, never here)."""
-    tree = Path(tempfile.mkdtemp(prefix="rcsgen-mutate-"))
+def scratch(tree: Path) -> None:
+    """A copy of the tracked tree into `tree` (the mutants are written there, never here)."""
     files = (
         subprocess.run(
             ["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
@@ -470,7 +469,6 @@ def scratch() -> Path:
             dst = tree / name
             dst.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(src, dst)
-    return tree
 
 
 def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
@@ -695,8 +693,9 @@ def main(argv: list[str] | None = None) -> int:
 
     started = time.monotonic()
     signal.signal(signal.SIGTERM, lambda *_: sys.exit("stopped by SIGTERM"))  # cleans up
-    tree = scratch()
+    tree = Path(tempfile.mkdtemp(prefix="rcsgen-mutate-"))
     try:
+        scratch(tree)
         cover_file = args.cover
         if cover_file is None or not cover_file.exists():
             cover_file = cover_file or tree / "cover.json"
