@@ -33,8 +33,11 @@ equivalence argued.
 
 Arguments: `--per-module N` / `--total N` (sample size), `--seed S`, `--budget SECONDS`,
 `--only TEXT` (modules whose path contains TEXT), `--list` (print the sample, run nothing),
-`--cover FILE` (reuse a coverage map from an earlier run of the same sources), `--json FILE`
-(write every result).
+`--cover FILE` (keep the map of which tests run which line there, and reuse it while the
+modules and the tests are unchanged), `--json FILE` (write every result), `--minutes M`
+(stop trying mutants after M minutes: they are tried in one seeded order across the modules,
+so what was tried is still a sample of each), `--keys FILE` (try only these keys, e.g. the
+survivors of a run after new tests).
 """
 
 from __future__ import annotations
@@ -69,7 +72,7 @@ SLOW = ("test_fuzz", "test_differential", "test_prove_differential")
 SYSTEM = ("test_prove", "test_prove_seeds", "test_trace_view", "test_mine_view", "test_scenarios")
 TEST_ENV = {"EXPR_EXAMPLES": "200", "DIFF_EXAMPLES": "5"}
 SEED = 25
-TOTAL = 300
+TOTAL = 200
 MIN_PER_MODULE = 3
 BUDGET = 30.0  # seconds of the selected tests' own time per mutant, fastest first
 COVER_ENV = "RCSGEN_MUTATION_COVER"
@@ -208,6 +211,15 @@ def test_files() -> list[str]:
 
     names = [n for tier in ("unit", "fuzz") for n in TIERS[tier][1] if n not in SLOW]
     return [f"tests/{n}.py" for n in sorted(names + list(SYSTEM))]
+
+
+def sources_digest() -> str:
+    """What a coverage map depends on: the modules mutated and the tests."""
+    paths = _modules(tuple(str(REPO / p) for p in PACKAGES)) + sorted(HERE.rglob("*.py"))
+    h = hashlib.sha256()
+    for path in paths:
+        h.update(str(path.relative_to(REPO)).encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()
 
 
 def _env(tree: Path) -> dict[str, str]:
@@ -696,11 +708,13 @@ def main(argv: list[str] | None = None) -> int:
     tree = Path(tempfile.mkdtemp(prefix="rcsgen-mutate-"))
     try:
         scratch(tree)
-        cover_file = args.cover
-        if cover_file is None or not cover_file.exists():
-            cover_file = cover_file or tree / "cover.json"
+        cover_file = args.cover or tree / "cover.json"
+        digest = sources_digest()
+        cover_map = json.loads(cover_file.read_text()) if cover_file.exists() else {}
+        if cover_map.get("digest") != digest:  # none yet, or the sources or tests changed
             cover(tree, cover_file)
-        cover_map = json.loads(cover_file.read_text())
+            cover_map = json.loads(cover_file.read_text()) | {"digest": digest}
+            cover_file.write_text(json.dumps(cover_map))
         equivalent = read_equivalent()
         # one seeded order across the modules: a run stopped early (--minutes, SIGTERM)
         # has tried a sample of every module, not the first modules whole
