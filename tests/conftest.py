@@ -53,6 +53,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_reference",
             "test_report",
             "test_ring",
+            "test_scenario_model",
             "test_schema",
             "test_trace_checks",
             "test_traces",
