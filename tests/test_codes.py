@@ -15,7 +15,7 @@ from conftest import REPO
 
 from rcsgen.compiler.back_end import write
 from rcsgen.compiler.checks.check import check_system
-from rcsgen.compiler.diagnostics import Diagnostics
+from rcsgen.compiler.diagnostics import Diagnostics, known_names_hint
 from rcsgen.compiler.front_end.loader import load_file
 from rcsgen.compiler.front_end.model import build_controller, build_system
 from rcsgen.compiler.frontend import compile_paths
@@ -79,8 +79,6 @@ def test_e419_a_golden_trace_that_is_not_a_trace(tmp_path: Path) -> None:
 
 
 def test_a_hint_names_the_near_name_else_the_declared_ones() -> None:
-    from rcsgen.compiler.diagnostics import known_names_hint
-
     assert known_names_hint("plans", ["legs", "route"], "leg") == "did you mean `legs`?"
     assert known_names_hint("plans", ["legs", "route"], "xyz") == "declared plans: `legs`, `route`"
     assert known_names_hint("plans", [], "xyz") == "no plans is declared"
