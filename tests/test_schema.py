@@ -466,6 +466,9 @@ def test_the_fast_check_refuses_a_keyword_it_does_not_implement():
         ({"if": {"required": ["a"]}, "then": {"required": ["b"]}}, {"a": 1}, False),
         ({"properties": {"a": True}, "additionalProperties": False}, {"a": 1, "b": 2}, False),
         ({"dependentRequired": {"a": ["b"]}}, {"a": 1}, False),
+        ({"propertyNames": {"pattern": "^[a-z]+$"}}, {"ab": 1, "c": 2}, True),
+        ({"propertyNames": {"pattern": "^[a-z]+$"}}, {"ab": 1, "C": 2}, False),
+        ({"propertyNames": {"pattern": "^[a-z]+$"}}, "not an object", True),
         ({"$defs": {"n": {"items": {"$ref": "#/$defs/n"}}}, "$ref": "#/$defs/n"}, [[[]]], True),
     ],
 )
