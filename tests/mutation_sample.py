@@ -554,6 +554,8 @@ def attempt(tree: Path, m: Mutant, key: str, nodeids: list[str], n: int) -> Resu
             code = done.returncode
             lines = done.stdout.strip().splitlines()
             detail = lines[-1] if lines else ""
+            if code == 4 and "while loading conftest" in done.stdout + done.stderr:
+                code, detail = 2, "the mutant breaks the import of the package"
         except subprocess.TimeoutExpired:
             code, detail = -1, f"timeout after {TIMEOUT:.0f} s"
     finally:
