@@ -138,7 +138,20 @@ def test_an_acknowledgement_that_matches_nothing_is_w303(check) -> None:
     diags = check(WAITS, allow=allow)
     [w303] = [d for d in diags if d.code == "W303"]
     assert w303.message == "the acknowledgement of W505 in GO S2 matches no finding"
+    assert w303.hint == (
+        "remove it if the finding is gone; W505 is about a rule: acknowledge it on the rule, "
+        "or on the command with `states:`"
+    )
     assert rcsgen("validate", "--strict", "sys").exit_code == 1
+
+
+def test_a_stale_acknowledgement_of_a_state_finding_says_where_it_goes(check) -> None:
+    allow = "  allow:\n    - {code: W508, states: [S2], reason: kept for later}"
+    [w303] = [d for d in check(WAITS, allow=allow) if d.code == "W303"]
+    assert w303.hint == (
+        "remove it if the finding is gone; W508 is about a state: acknowledge it on the "
+        "command, with `states:`"
+    )
 
 
 def test_errors_cannot_be_acknowledged(check) -> None:

@@ -12,6 +12,7 @@ import itertools
 import operator
 import random
 import re
+import shutil
 import textwrap
 from collections import Counter
 from pathlib import Path
@@ -1309,3 +1310,91 @@ def test_decisions_agree_with_brute_force() -> None:
         assert answer.kind in ("yes", "no"), (texts, wanted, answer)
         assert (answer.kind == "yes") == truth, (texts, wanted, answer)
     assert kinds["yes"] > 50 and kinds["no"] > 50, kinds
+
+
+def test_a_reason_is_read_only_with_an_error_and_shown_by_its_name(spec) -> None:
+    """A subordinate's reason comes only with its ERROR (NONE otherwise): the valuation
+    that fires both rules says the status that goes with the reason, by their names."""
+    spec("GO:\n  states:\n    S0:\n      - do: [report: DONE]\n")
+    assert overlap(spec, "a.reason == JAMMED", "not world.cold") == (
+        "rules 1 and 2 of GO S1 can both fire: "
+        "both hold when a.status=ERROR, a.reason=JAMMED, world.cold=false"
+    )
+    # no valuation has a reason with a status other than ERROR
+    assert overlap(spec, "a.reason == JAMMED", "a.status != ERROR") is None
+    assert overlap(spec, "a.reason == NONE", "a.status == DONE") is not None
+
+
+def overlap(spec, first: str, second: str) -> str | None:
+    """The E501/W501 message of two rules with these guards, None if they cannot both fire
+    (a.GO may end in ERROR for the reason JAMMED)."""
+    shutil.rmtree("sys")
+    directory = make(
+        Path("."),
+        f"""
+        GO:
+          states:
+            S0:
+              - do: [send: a.GO]
+                next: S1
+            S1:
+              - when: {first}
+                do: [report: DONE]
+              - when: {second}
+                next: S0
+        """,
+    )
+    leaf = directory / "a.yaml"
+    leaf.write_text(leaf.read_text().replace("  GO:\n", "  GO:\n    reasons: [JAMMED]\n"))
+    front = compile_paths([directory])
+    diags = [*front.diagnostics, *front.diagnostics.acknowledged]
+    assert not [d for d in diags if d.severity == "error" and d.code != "E501"], diags
+    return next((d.message for d in diags if d.code in ("E501", "W501")), None)
+
+
+@pytest.mark.parametrize(
+    ("first", "overlaps"),
+    [
+        ("+world.level > 3.0", False),  # a unary plus scales by one
+        ("+world.level > 1.5", True),
+        ("-world.level < -3.0", False),  # a unary minus by minus one
+        ("-world.level < -1.5", True),
+        ("world.level / 2.0 > 1.0", False),  # level > 2
+        ("world.level / 2.0 > 0.5", True),
+        ("world.level > 7 // 2", False),  # 3
+        ("world.level > 7 % 6", True),  # 1
+        ("2.0 * world.level > 3.0", True),  # level > 1.5
+        ("world.level * 2.0 > 5.0", False),  # level > 2.5
+        ("world.level * 2.0 > 3.0", True),
+        ("-world.level != -1.0", True),  # a negative lead keeps != as it is
+        ("-world.level == -3.0", False),
+    ],
+)
+def test_linear_forms_keep_their_exact_coefficients(spec, first: str, overlaps: bool) -> None:
+    """Each of these against `world.level <= 2.0`: the bound the analysis derives is the
+    exact one, so the rules overlap just when Python's arithmetic says they can."""
+    spec("GO:\n  states:\n    S0:\n      - do: [report: DONE]\n")
+    assert (overlap(spec, first, "world.level <= 2.0") is not None) is overlaps
+
+
+def test_a_rule_that_never_fires_is_not_told_to_wait_for_what_it_sends(spec) -> None:
+    """W505 (sent but never waited for) is about rules that can fire: one whose guard no
+    valuation makes true is reported as such, and its send is not."""
+    diags = spec(
+        """
+        GO:
+          states:
+            S0:
+              - when: world.level > 3.0 and world.level < 2.0
+                do: [send: b.GO]
+                next: S1
+              - when: not (world.level > 3.0 and world.level < 2.0)
+                do: [send: a.GO]
+                next: S1
+            S1:
+              - when: a.status == DONE
+                do: [report: DONE]
+        """
+    )
+    assert "W505" not in codes(diags), found(diags)
+    assert any("rule 1 of GO S0" in d.message for d in diags), found(diags)

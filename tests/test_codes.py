@@ -15,7 +15,7 @@ from conftest import REPO
 
 from rcsgen.compiler.back_end import write
 from rcsgen.compiler.checks.check import check_system
-from rcsgen.compiler.diagnostics import Diagnostics
+from rcsgen.compiler.diagnostics import Diagnostics, known_names_hint
 from rcsgen.compiler.front_end.loader import load_file
 from rcsgen.compiler.front_end.model import build_controller, build_system
 from rcsgen.compiler.frontend import compile_paths
@@ -76,3 +76,13 @@ def test_e419_a_golden_trace_that_is_not_a_trace(tmp_path: Path) -> None:
     missing = golden_differences(tmp_path / "absent.jsonl", ['{"cycle": 0}'], "go")
     assert [d.code for d in missing] == ["E419"]
     assert "absent.jsonl" in missing[0].span.file
+
+
+def test_a_hint_names_the_near_name_else_the_declared_ones() -> None:
+    assert known_names_hint("plans", ["legs", "route"], "leg") == "did you mean `legs`?"
+    assert known_names_hint("plans", ["legs", "route"], "xyz") == "declared plans: `legs`, `route`"
+    assert known_names_hint("plans", [], "xyz") == "no plans is declared"
+    many = [f"n{i}" for i in range(10)]
+    assert known_names_hint("locals", many) == (
+        "declared locals: " + ", ".join(f"`n{i}`" for i in range(8)) + " and 2 more"
+    )

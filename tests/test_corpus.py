@@ -153,6 +153,7 @@ def test_corpus_shows_did_you_mean(monkeypatch: pytest.MonkeyPatch) -> None:
         "e206-undefined-state--typo",
         "e211-unknown-module--typo",
         "e271-reason-passed-from-a-non-subordinate--typo",
+        "e292-undeclared-plan--typo",
         "s002-unknown-key--typo-title",
         "s005-invalid-value--type-typo",
     ):
@@ -163,6 +164,16 @@ def test_corpus_shows_did_you_mean(monkeypatch: pytest.MonkeyPatch) -> None:
     assert hints["e204-undeclared-command--typo"] == ["did you mean `MOVE`?"]
     assert hints["s005-invalid-value--type-typo"] == ["did you mean `float`?"]
     assert hints["e271-reason-passed-from-a-non-subordinate--typo"] == ["did you mean `sub`?"]
+    assert hints["e292-undeclared-plan--typo"] == ["did you mean `legs`?"]
+
+
+def test_corpus_hints_say_what_to_do(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where no name is near, the hint says the fix."""
+    [e215] = run_front_end(CASES / "invalid" / "e215-hooks-without-module", monkeypatch)
+    assert (
+        e215.hint
+        == "add `hooks_module: <package>.<module>`, a Python module in the system directory"
+    )
 
 
 CODE = re.compile(r"""["']([ESW]\d{3})["']""")

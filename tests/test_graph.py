@@ -44,6 +44,13 @@ def test_hierarchy_has_every_module_by_level_with_simulators_and_stand_ins(syste
     assert ("m_co", "m_cc") in commands and ("m_vg", "m_tc") in commands
     assert ("m_cr_sim", "m_cr") in {(e.source, e.target) for e in picture.edges}
     assert [c.id for c in picture.clusters] == ["p_pc1", "p_pc1_sim", "p_pc2"]
+    # in dot, a stand-in is a plain dashed box, a simulator a rounded dashed one
+    shapes = {
+        line.split('"')[1]: line for line in graph.to_dot(picture).splitlines() if "[shape=" in line
+    }
+    assert 'shape=box, style="filled,dashed"' in shapes["m_cr_sim"]
+    assert 'shape=box, style="rounded,filled,dashed"' in shapes["m_mine"]
+    assert 'shape=box, style="rounded,filled"' in shapes["m_co"]
 
 
 def test_hierarchy_mermaid_colours_levels_and_marks_simulators(system):
@@ -89,6 +96,10 @@ def test_a_controllers_picture_holds_init_and_halt_and_every_cycle_rules(system)
         "ENTER_GOAL(x: float, y: float)",
         "TAIL_IN_POSITION",
     ]
+    for whole in (picture, oi):  # every command's states drawn, each edge between two of them
+        ids = {n.id for n in whole.nodes}
+        assert all(e.source in ids and e.target in ids for e in whole.edges), whole.name
+        assert {c.id for c in whole.clusters} <= {n.cluster for n in whole.nodes}
 
 
 def test_labels_are_escaped_for_mermaid_and_dot(system):

@@ -372,3 +372,14 @@ def test_every_diagnostic_names_the_display_path(tmp_path, content: bytes):
     diags = file_diagnostics(spec, display)
     assert diags and all(d.span.file == display for d in diags)
     assert all(d.severity == "error" for d in diags)
+
+
+def test_a_key_longer_than_yaml_allows_says_so_where_it_starts() -> None:
+    """PyYAML gives up on a plain key over 1,024 characters with `could not find expected
+    ':'`; the report says what is wrong instead, at the key."""
+    [d] = diagnostics("a: 1\n" + "k" * 1100 + ": 2\n")
+    assert (str(d.span), d.code) == (f"{PATH}:2:1", "E001")
+    assert d.message == "a key of 1,100 characters: YAML allows a key of at most 1,024"
+    assert d.hint.startswith("keys are names: shorten it")
+    [short] = diagnostics("a: 1\nb c\nd: 2\n")  # any other scanner error keeps its words
+    assert "a key of" not in short.message

@@ -132,3 +132,15 @@ def test_replay_in_a_browser_shows_the_cut_and_plays(tmp_path, system):
     played = load(f"{path.as_uri()}#play", tmp_path, "playing", budget_ms=1500, screenshot=False)
     assert played.console == [], played.console
     assert int(played.body()["data-cycle"]) > 20  # 1.5 s of virtual time at 4x: it moved
+
+
+def test_text_from_the_run_cannot_close_the_pages_script(system):
+    """The page's data is JSON inside a <script> element: a scenario name (or any string of
+    the run) holding `</script>` is escaped there, and reads back the same."""
+    trace = traces.load(GOLDEN / "box_cut.jsonl")
+    name = "cut</script><script>alert(1)</script>"
+    page, _ = mine_view.render(trace, traces.lanes(trace, system), system, MINER, SETTINGS, name)
+    template = page.split('id="mine-data" type="application/json">', 1)
+    data = template[1].split("</script>", 1)[0]
+    assert "</" not in data
+    assert json.loads(data)["scenario"] == name

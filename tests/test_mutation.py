@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import mutation_sample
 import pytest
 from mutation_runtime import forget_generated_packages, formatted, runtime_mutant, sync_generated
 from mutation_summary import main as summary
@@ -346,3 +347,76 @@ def test_after_forget_the_probe_reports_each_function_again(tmp_path: Path, monk
     site.hit("rcsgen.runtime.loop.x_f")
     [file] = tmp_path.iterdir()
     assert file.read_text(encoding="utf-8").split() == ["rcsgen.runtime.loop.x_f"] * 2
+
+
+# ---------------------------------------------------------------- `make mutate-sample`
+
+SAMPLE_SOURCE = '''\
+"""A docstring is never mutated."""
+from __future__ import annotations
+
+
+def f(a: int, b: int = 2) -> bool:
+    """Nor is this one."""
+    total = 0
+    for x in range(a):
+        if x < b and not x == 3:
+            total += x * 2
+            continue
+    return total > -1 or f"{a + 1}" == "s"
+'''
+
+
+def sample_module(tmp_path: Path) -> Path:
+    path = tmp_path / "pkg" / "m.py"
+    path.parent.mkdir()
+    path.write_text(SAMPLE_SOURCE, encoding="utf-8")
+    return path
+
+
+def test_the_sample_mutants_change_one_thing_and_leave_docstrings_annotations_alone(
+    tmp_path: Path,
+) -> None:
+    path = sample_module(tmp_path)
+    found = {m.key(0): m for m in mutation_sample.mutants_of(path, tmp_path)}
+    assert {
+        "pkg/m.py:7:0->1",
+        "pkg/m.py:9:x < b->(x <= b)",
+        "pkg/m.py:9:x < b and not x == 3->(x < b or not x == 3)",
+        "pkg/m.py:9:not x == 3->(x == 3)",
+        "pkg/m.py:10:total += x * 2->total -= x * 2",
+        "pkg/m.py:10:total += x * 2->total = x * 2",
+        "pkg/m.py:10:x * 2->(x / 2)",
+        "pkg/m.py:11:continue->break",
+        'pkg/m.py:12:total > -1 or f"{a + 1}" == "s"->None',
+        "pkg/m.py:12:-1->(1)",
+    } <= set(found)
+    # nothing in the docstrings, the annotations, the default's annotation or the f-string
+    assert not [k for k in found if ":1:" in k or ":6:" in k or "int" in k or "a + 1->" in k]
+    source = path.read_bytes()
+    mutated = mutation_sample.apply(source, found["pkg/m.py:9:x < b->(x <= b)"])
+    assert mutated.decode().splitlines()[8] == "        if (x <= b) and not x == 3:"
+    assert mutated.count(b"\n") == source.count(b"\n")
+
+
+def test_the_sample_is_the_same_for_the_same_seed_and_valid_python(tmp_path: Path) -> None:
+    path = sample_module(tmp_path)
+    every = {"pkg/m.py": mutation_sample.mutants_of(path, tmp_path)}
+    first = mutation_sample.sample(every, 0, 4, 25, None, tmp_path)
+    assert first == mutation_sample.sample(every, 0, 4, 25, None, tmp_path)
+    assert len(first["pkg/m.py"]) == 4
+    assert first != mutation_sample.sample(every, 0, 4, 26, None, tmp_path)
+    for m in first["pkg/m.py"]:
+        compile(mutation_sample.apply(path.read_bytes(), m), "m.py", "exec")
+
+
+def test_the_sample_scores_carry_their_interval() -> None:
+    low, high = mutation_sample.wilson(9, 10)
+    assert 0.55 < low < 0.6 and 0.98 < high <= 1.0
+    assert mutation_sample.wilson(0, 0) == (0.0, 1.0)
+    # two modules, 100 and 300 mutants: the estimate weights each by its mutants
+    estimate, low, high = mutation_sample.stratified([(100, 10, 5), (300, 10, 10)])
+    assert estimate == pytest.approx((100 * 0.5 + 300 * 1.0) / 400)
+    assert low < estimate < high
+    # every mutant tried: no sampling error left
+    assert mutation_sample.stratified([(10, 10, 7)]) == pytest.approx((0.7, 0.7, 0.7))

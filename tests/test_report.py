@@ -15,8 +15,8 @@ from click.testing import CliRunner
 from conftest import REPO, rcsgen
 
 from rcsgen.cli import main
-from rcsgen.compiler.diagnostics import Diagnostic, Span
-from rcsgen.terminal import Progress
+from rcsgen.compiler.diagnostics import Diagnostic, Diagnostics, Span
+from rcsgen.terminal import Progress, report
 from rcsgen.tools.report import Options, to_github
 
 TINY = REPO / "tests" / "cases" / "valid" / "tiny"
@@ -427,3 +427,16 @@ def test_a_bug_is_one_line_and_exit_3(tiny: Path, monkeypatch) -> None:
     monkeypatch.setattr("rcsgen.api.compile_paths", disk_full)
     full = CliRunner().invoke(main, ["validate", "sys"])
     assert (full.exit_code, full.output) == (1, "error: No space left on device: `/tmp/x`\n")
+
+
+def test_a_report_is_plain_text_unless_colour_is_asked_for(capsys) -> None:
+    """The reports made inside commands (`rcsgen up` on a stale package, `rcsgen doc` on bad
+    specs) use the default options: no escape codes in a log or a pipe."""
+    diags = Diagnostics()
+    diags.error(Span("a.yaml", 2, 3), "E204", "undeclared command `GO`", "declare it")
+    assert report(diags, Options()).fails
+    plain = capsys.readouterr().err
+    assert "a.yaml:2:3: error[E204]: undeclared command `GO`" in plain
+    assert "\x1b[" not in plain
+    report(diags, Options(color=True))
+    assert "\x1b[" in capsys.readouterr().err

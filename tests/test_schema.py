@@ -239,6 +239,23 @@ def test_s003_initial_value_must_match_the_declared_type():
     ]
 
 
+def test_s003_a_yaml_11_boolean_word_is_a_string_and_says_so():
+    """`initial: yes` is the string "yes" in YAML 1.2, never true: refused with the fix."""
+    diags = check("""\
+        controller: co
+        title: T
+        locals:
+          b: {type: bool, initial: yes}
+          c: {type: bool, initial: maybe}
+        commands: {}
+        """)
+    yes, maybe = sorted(diags, key=lambda d: d.span.line)
+    assert yes.message == "`initial`: expected a boolean, got a string `yes`"
+    assert yes.hint == "`yes` is a string in YAML 1.2 (not a boolean): write true or false"
+    assert maybe.message == "`initial`: expected a boolean, got a string `maybe`"
+    assert "YAML 1.2" not in maybe.hint
+
+
 def test_s003_list_item_and_empty_document():
     d = only(check("controller: co\ntitle: T\nsubordinates: [cr, 7]\ncommands: {}\n"), "S003")
     assert d.message == "item 2 of `subordinates`: expected a string, got an integer `7`"
@@ -453,6 +470,9 @@ def test_the_fast_check_refuses_a_keyword_it_does_not_implement():
         ({"if": {"required": ["a"]}, "then": {"required": ["b"]}}, {"a": 1}, False),
         ({"properties": {"a": True}, "additionalProperties": False}, {"a": 1, "b": 2}, False),
         ({"dependentRequired": {"a": ["b"]}}, {"a": 1}, False),
+        ({"propertyNames": {"pattern": "^[a-z]+$"}}, {"ab": 1, "c": 2}, True),
+        ({"propertyNames": {"pattern": "^[a-z]+$"}}, {"ab": 1, "C": 2}, False),
+        ({"propertyNames": {"pattern": "^[a-z]+$"}}, "not an object", True),
         ({"$defs": {"n": {"items": {"$ref": "#/$defs/n"}}}, "$ref": "#/$defs/n"}, [[[]]], True),
     ],
 )

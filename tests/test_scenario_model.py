@@ -1,0 +1,56 @@
+"""What a scenario's `expect:` means and how a failure says it, on values, in process: the
+bounds are inclusive, a bool is no number, and a figure names a world field, a module's
+reason or one of its results (`<module>.result.<name>`)."""
+
+from __future__ import annotations
+
+import pytest
+
+from rcsgen.compiler.diagnostics import Span
+from rcsgen.tools.harness import Status
+from rcsgen.tools.scenario.model import Expected
+from rcsgen.tools.scenario.run import final_value
+
+AT = Span("s.yaml", 3, 5)
+
+
+@pytest.mark.parametrize(
+    ("expected", "wanted"),
+    [
+        (Expected("depth", AT, low=1.0), "at least 1"),
+        (Expected("depth", AT, high=2.5), "at most 2.5"),
+        (Expected("depth", AT, low=1.0, high=2.5), "between 1 and 2.5"),
+        (Expected("done", AT, value=True), "true"),
+        (Expected("status", AT, value="DONE"), "DONE"),
+        (Expected("cycles", AT, value=12), "12"),
+    ],
+)
+def test_a_failure_says_what_was_wanted(expected: Expected, wanted: str) -> None:
+    assert expected.wanted() == wanted
+
+
+def test_bounds_are_inclusive_and_a_bool_is_no_number() -> None:
+    between = Expected("depth", AT, low=1.0, high=2.5)
+    assert [between.met(v) for v in (0.99, 1, 1.0, 2.5, 2.51)] == [False, True, True, True, False]
+    assert not between.met(True) and not between.met("2")
+    assert Expected("depth", AT, low=1.0).met(1e9) and not Expected("depth", AT, high=1.0).met(2)
+    assert Expected("done", AT, value=True).met(True)
+    assert not Expected("done", AT, value=True).met(1)
+    assert Expected("status", AT, value="DONE").met("DONE")
+    assert not Expected("status", AT, value="DONE").met("ERROR")
+
+
+def test_a_figure_names_a_world_field_a_reason_or_a_result() -> None:
+    world = {"depth": 1.5}
+    statuses = {
+        "helm": Status("DONE", 3, "NOP", 0, reason="NONE", results={"at_goal": True}),
+        "cc": Status("ERROR", 2, "NOP", 1, reason="BLOCKED"),
+    }
+    assert final_value("depth", world, statuses) == 1.5
+    assert final_value("helm.result.at_goal", world, statuses) is True
+    assert final_value("cc.reason", world, statuses) == "BLOCKED"
+    assert final_value("helm.reason", world, statuses) == "NONE"
+    # what the run does not have is None, never another value
+    assert final_value("speed", world, statuses) is None
+    assert final_value("cc.result.at_goal", world, statuses) is None
+    assert final_value("sm.result.at_goal", world, statuses) is None
