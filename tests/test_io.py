@@ -641,3 +641,28 @@ def test_a_watched_device_record_left_torn_is_skipped_not_a_crash(
         assert {f: state for f, (state, _) in held.items()} == dict.fromkeys(SAFE, "SAFE")
     finally:
         harness.close()
+
+
+def test_a_soft_plc_without_its_protocol_library_says_which_extra_in_one_line(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The soft PLC finds a missing protocol library before any server starts (it was a
+    traceback from inside asyncua's import, seen when `make bench`'s venv lacked it)."""
+    import importlib.util
+    from types import SimpleNamespace
+
+    from rcsgen.runtime.io_points import MODBUS_TCP, OPCUA
+    from rcsgen.tools import softplc
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "asyncua" else real(name)
+    )
+    modbus = SimpleNamespace(name="plc", protocol=MODBUS_TCP)
+    conveyor = SimpleNamespace(name="conveyor", protocol=OPCUA)
+    softplc._libraries_there([modbus])  # pymodbus is there: nothing said
+    with pytest.raises(ImportError) as refused:
+        softplc._libraries_there([modbus, conveyor])
+    assert str(refused.value) == (
+        f"device conveyor ({OPCUA}) needs asyncua: pip install 'rcsgen[opcua]'"
+    )

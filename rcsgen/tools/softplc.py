@@ -31,6 +31,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import importlib
+import importlib.util
 import json
 import logging
 import signal
@@ -256,6 +257,20 @@ async def _cycle(served: list[Served], plant: Plant, control: Path | None) -> No
                 await each.bank.put(point, plant.read(point.field))
 
 
+def _libraries_there(devices: list[Any]) -> None:
+    """ImportError, one line naming the extra, for a device whose protocol library is not
+    installed: found before any server starts, not as a traceback from inside one."""
+    for device in devices:
+        package, extra = (
+            ("asyncua", "opcua") if device.protocol == OPCUA else ("pymodbus", "modbus")
+        )
+        if importlib.util.find_spec(package) is None:
+            raise ImportError(
+                f"device {device.name} ({device.protocol}) needs {package}: "
+                f"pip install 'rcsgen[{extra}]'"
+            )
+
+
 async def _serve(args: argparse.Namespace, plant: Plant, devices: list[Any]) -> int:
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
@@ -376,6 +391,7 @@ def main(argv: list[str] | None = None) -> int:
             raise ValueError(
                 f"the plant has no world field {missing[0][1]!r} that device {missing[0][0]} binds"
             )
+        _libraries_there(devices)
     except (ValueError, OSError, ImportError) as error:
         print(f"softplc: {error}", file=sys.stderr)
         return 2
