@@ -1,7 +1,7 @@
 """Part 5: consistent reads across two processes, under stress: the seqlock's torn-read test.
 
 A writer process rewrites one multi-field buffer of the generated miner's block as fast as
-it can: the control record of process pc1 (its sequence word and 11 fields, 88 bytes),
+it can: the control record of process pc1 (its sequence word and its PROCESS_FIELDS),
 the way `Process.beat` and the generated post_process write a buffer (the word odd on its
 own, then the word and every field in one `pack_into`, then the word even), every field
 telling the same number k. A reader process (this one) reads it with the seqlock of
@@ -48,7 +48,15 @@ READS = 10_000_000
 RECORD_READS = 1_000_000
 GENERATED_CYCLES = 1_000_000  # cycles of the generated sec reading a command rewritten flat out
 I32 = 0xFFFFFFFF
-LAYOUT = "QIIQQQQQQQQ"  # the control record's fields (PROCESS_FIELDS), after its sequence word
+
+
+def field_codes(record) -> str:
+    """The control record's field codes after its sequence word (PROCESS_FIELDS: 64-bit
+    `Q` and 32-bit `I` only, which `expected` fills)."""
+    codes = record.struct.format.lstrip("<")[1:]
+    if set(codes) - {"Q", "I"}:
+        raise SystemExit(f"the control record is now {record.struct.format!r}: Q and I only")
+    return codes
 
 
 def load() -> tuple[ModuleType, ModuleType, ModuleType]:
@@ -74,6 +82,7 @@ def writer(segment: str) -> int:
     record, stop_at = layout.PROCESSES[RECORD], layout.PROCESSES[STOP].offset + 8
     struct, at, seq_struct = record.struct, record.offset, contract.SEQ
     pack, pack_seq = struct.pack_into, seq_struct.pack_into
+    codes = field_codes(record)
     seq = seq_struct.unpack_from(buf, at)[0]
     k = 0
     try:
@@ -81,7 +90,7 @@ def writer(segment: str) -> int:
             k += 1
             seq += 1  # odd: being written, stored before any field changes
             pack_seq(buf, at, seq)
-            pack(buf, at, seq, k, k & I32, k & I32, k, k, k, k, k, k, k, k)
+            pack(buf, at, seq, *expected(k, codes))
             seq += 1  # even: whole
             pack_seq(buf, at, seq)
             if not k & 1023 and buf[stop_at]:
@@ -169,8 +178,7 @@ def read_counted(buf, record, contract, reads: int) -> dict[str, int]:
     """`reads` reads with Record.read's loop, inlined to count what it does."""
     struct, at, seq_struct, tries = record.struct, record.offset, contract.SEQ, contract.READ_TRIES
     unpack, unpack_seq = struct.unpack_from, seq_struct.unpack_from
-    if struct.format.lstrip("<") != "Q" + LAYOUT:
-        raise SystemExit(f"the control record is now {struct.format!r}: update LAYOUT")
+    codes = field_codes(record)
     accepted = after_retry = retries = stale = torn_accepted = went_back = last = 0
     attempts = plain_torn = plain_odd = 0
     for _ in range(reads):
@@ -178,9 +186,8 @@ def read_counted(buf, record, contract, reads: int) -> dict[str, int]:
             seq, *values = unpack(buf, at)
             attempts += 1
             k = values[0]
-            t = k & I32
             # whole: every field tells the same write (k > 0: the writer never wrote 0)
-            whole = k > 0 and values == [k, t, t, k, k, k, k, k, k, k, k]  # LAYOUT's fields
+            whole = k > 0 and tuple(values) == expected(k, codes)
             if not whole:
                 plain_torn += 1  # a reader without the seqlock would have taken this
             elif seq & 1:

@@ -113,8 +113,9 @@ def system_cycle(harness: Harness):
 
 
 def controllers(harness: Harness) -> list[tuple[str, object]]:
-    """The controllers the harness runs, every process's, in the system's order."""
-    return [(name, harness.controller(name)) for name in harness.modules]
+    """The controllers the harness runs, every process's, in the system's order (an
+    operator module's channels, `op/client`, are the person's, not a controller)."""
+    return [(name, harness.controller(name)) for name in harness.modules if "/" not in name]
 
 
 class TimedHooks:

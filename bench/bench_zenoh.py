@@ -303,7 +303,7 @@ def detection(runs: int, soak: float) -> dict[str, object]:
         names = {p: f"rcsgen_bench_zenoh_{os.getpid()}_{run}_{p}" for p in ports}
         base = [sys.executable, "-m", "miner"]
         relay = subprocess.Popen(
-            [sys.executable, str(ROOT / "tests" / "tcp_relay.py"), str(ports["pc2"])],
+            [sys.executable, str(ROOT / "tests" / "support" / "tcp_relay.py"), str(ports["pc2"])],
             stdout=subprocess.PIPE,
             text=True,
         )
