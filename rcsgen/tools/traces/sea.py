@@ -211,16 +211,7 @@ def page_for(
     """`rcsgen trace sea`: the page of a trace of `system`, with the keel map and route
     settings of the scenario that recorded it (`scenario`, else the system's
     `scenarios/<trace name>.yaml` when there is one). SpecError: that scenario is bad."""
-    from ...compiler.diagnostics import Diagnostics
-    from ...compiler.frontend import find_system_dirs
-    from ..scenario.run import load_scenario
+    from .recording import recording_scenario
 
-    system_dir = next(
-        d for d in find_system_dirs([specs], Diagnostics()) if d.name == system.source.split("/")[0]
-    )
-    if scenario is None:
-        guess = system_dir / "scenarios" / f"{trace_path.stem}.yaml"
-        scenario = guess if guess.is_file() else None
-    settings = load_scenario(scenario).settings if scenario is not None else {}
-    name = scenario.stem if scenario is not None else ""
+    system_dir, settings, name = recording_scenario(system, specs, trace_path, scenario)
     return render(trace, system, system_dir, settings, name)
