@@ -15,7 +15,8 @@ from types import ModuleType
 from typing import Any
 
 from rich.text import Text
-from textual.widgets import DataTable
+
+from .monitor_rows import RowsPanel
 
 COLUMNS = (
     ("device", "device"),
@@ -65,26 +66,14 @@ def row_of(name: str, device: dict[str, Any]) -> dict[str, Text]:
     }
 
 
-class DevicesPanel(DataTable[Text]):
+class DevicesPanel(RowsPanel):
     """One row per device of the layout; `show` redraws from a console snapshot's `io`."""
 
     def __init__(self, layout: ModuleType) -> None:
-        super().__init__(id="devices", cursor_type="none", show_cursor=False, zebra_stripes=False)
-        self.names = list(getattr(layout, "IO_DEVICES", {}))
-        self.drawn: dict[tuple[str, str], str] = {}
-
-    def on_mount(self) -> None:
-        for key, label in COLUMNS:
-            self.add_column(label, key=key)
-        for name in self.names:
-            self.add_row(*(Text(name), *(Text("") for _ in COLUMNS[1:])), key=name)
+        super().__init__("devices", list(getattr(layout, "IO_DEVICES", {})), COLUMNS)
 
     def show(self, io: dict[str, dict[str, Any]]) -> None:
         """Each device's row from its record as the console read it (a record that stayed
         unreadable shows `?`)."""
         for name in self.names:
-            for key, cell in row_of(name, io.get(name) or {"state": "?"}).items():
-                drawn = f"{cell.plain}|{cell.style}"
-                if self.drawn.get((name, key)) != drawn:
-                    self.drawn[(name, key)] = drawn
-                    self.update_cell(name, key, cell, update_width=True)
+            self.draw(name, row_of(name, io.get(name) or {"state": "?"}))

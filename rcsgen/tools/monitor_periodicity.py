@@ -17,9 +17,9 @@ from types import ModuleType
 from typing import Any
 
 from rich.text import Text
-from textual.widgets import DataTable
 
 from ..runtime.operate.ctl import slowest_modules
+from .monitor_rows import RowsPanel
 
 COLUMNS = (
     ("process", "process"),
@@ -64,30 +64,15 @@ def row_of(name: str, proc: dict[str, Any], slowest: tuple[str, float] | None) -
     }
 
 
-class PeriodicityPanel(DataTable[Text]):
+class PeriodicityPanel(RowsPanel):
     """One row per process of the layout; `show` redraws from a console snapshot."""
 
     def __init__(self, layout: ModuleType) -> None:
-        super().__init__(
-            id="periodicity", cursor_type="none", show_cursor=False, zebra_stripes=False
-        )
-        self.names = list(layout.PROCESSES)
-        self.drawn: dict[tuple[str, str], str] = {}
-
-    def on_mount(self) -> None:
-        for key, label in COLUMNS:
-            self.add_column(label, key=key)
-        for name in self.names:
-            self.add_row(*(Text(name), *(Text("") for _ in COLUMNS[1:])), key=name)
+        super().__init__("periodicity", list(layout.PROCESSES), COLUMNS)
 
     def show(self, snapshot: dict[str, Any]) -> None:
         """Each process's row from its control record as the console read it."""
         slowest = slowest_modules(snapshot.get("modules") or {})
         processes = snapshot.get("processes") or {}
         for name in self.names:
-            cells = row_of(name, processes.get(name) or {"state": "?"}, slowest.get(name))
-            for key, cell in cells.items():
-                drawn = f"{cell.plain}|{cell.style}"
-                if self.drawn.get((name, key)) != drawn:
-                    self.drawn[(name, key)] = drawn
-                    self.update_cell(name, key, cell, update_width=True)
+            self.draw(name, row_of(name, processes.get(name) or {"state": "?"}, slowest.get(name)))
