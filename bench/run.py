@@ -759,10 +759,13 @@ def section_lockstep(lockstep: dict) -> list[str]:
         "In lockstep the ring costs N+1 hand-offs a system cycle (the coordinator to the "
         "first process, each to the next, the last back), request/reply 2N (each process "
         "woken by its request, the coordinator by each answer). Each hand-off is mostly "
-        "the scheduler waking a process blocked in poll(2), which depends on what else the "
-        "machine is doing: compare lockstep figures of different runs with care. Where every "
-        "member of the ring has a core of its own, a waiter spins 50 µs before it blocks "
-        '(docs/decisions.md, "Lockstep through a token ring").',
+        "the scheduler waking a process blocked in a read, which depends on what else the "
+        "machine is doing (on a quiet virtual machine the idle CPU it wakes on is halted: "
+        "25-30 µs a hand-off, against a few µs on a busy one): compare lockstep figures of "
+        "different runs with care. While a core is free (the kernel's runnable count), the "
+        "member that takes the token nudges the next one, which spins for it instead of "
+        'being woken (docs/decisions.md, "Lockstep through a token ring"); the bare '
+        "hand-off below nudges nobody.",
         "",
         *_handoff_rows(lockstep),
     ]

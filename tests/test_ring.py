@@ -111,6 +111,78 @@ def test_a_token_added_to_a_stop_is_still_a_stop(links: list[ring.Link]) -> None
     assert not receiver.wait()
 
 
-def test_spinning_only_where_every_member_has_a_core() -> None:
-    assert ring.default_spin(ring.cores()) == 0.0
-    assert ring.default_spin(ring.cores() - 1) == ring.SPIN
+def test_spinning_wherever_there_are_two_cores() -> None:
+    """One member spins at a time (the holder's successor): two cores are enough."""
+    assert ring.default_spin() == (ring.SPIN if ring.cores() >= 2 else 0.0)
+
+
+def _pending(fd: int) -> int:
+    """What a link holds, taken out of it (0 when nothing)."""
+    os.set_blocking(fd, False)
+    try:
+        return ring.WORD.unpack(os.read(fd, ring.WORD.size))[0]
+    except BlockingIOError:
+        return 0
+
+
+def test_a_nudge_is_not_a_token(links: list[ring.Link]) -> None:
+    """A nudged process spins, then waits on for the token; a nudge that came with the
+    token is the token; a nudge with a stop is a stop."""
+    receiver = ring.Receiver(links[0].read, spin=1e-3)
+    os.write(links[0].write, ring.WAKE)
+    threading.Timer(0.05, ring.give, (links[0].write,)).start()
+    assert receiver.wait()  # the token, after the nudge's spin ran out
+    os.write(links[0].write, ring.WAKE)
+    ring.give(links[0].write)
+    assert receiver.wait()
+    os.write(links[0].write, ring.WAKE)
+    os.write(links[0].write, ring.STOP)
+    assert not receiver.wait()
+    ring.give(links[0].write)
+    ring.give(links[0].write)  # two tokens: the ring is broken
+    assert not receiver.wait()
+
+
+def test_a_nudged_coordinator_waits_on_for_the_token_and_still_times_out(
+    links: list[ring.Link],
+) -> None:
+    back = ring.Return(links[1].read, (), spin=1e-3)
+    try:
+        os.write(links[1].write, ring.WAKE)
+        assert back.wait(0.05) is None  # a nudge alone is no token back
+        os.write(links[1].write, ring.WAKE)
+        threading.Timer(0.02, ring.give, (links[1].write,)).start()
+        assert back.wait(10.0) == links[1].read
+    finally:
+        back.close()
+
+
+@pytest.mark.parametrize("free", [True, False])
+def test_a_member_nudges_the_next_only_while_a_core_is_free(
+    links: list[ring.Link], monkeypatch: pytest.MonkeyPatch, free: bool
+) -> None:
+    monkeypatch.setattr(ring.Load, "core_free", lambda self: free)
+    nudge = ring.Nudge(links[0].write, spin=1e-3)
+    try:
+        nudge()
+        assert _pending(links[0].read) == (ring.WAKE_VALUE if free else 0)
+    finally:
+        nudge.close()
+    idle = ring.Nudge(links[0].write, spin=0.0)  # spinning off: never a nudge
+    idle()
+    assert _pending(links[0].read) == 0
+
+
+def test_a_core_is_free_while_the_runnable_tasks_fit_the_cores(tmp_path) -> None:
+    """/proc/loadavg's fourth field is running/total (the kernel's runnable count)."""
+    load = ring.Load()
+    try:
+        cores = load.cores
+        for running, free in ((cores, True), (cores + 1, False)):
+            os.close(load.fd)
+            path = tmp_path / f"loadavg{running}"
+            path.write_text(f"0.50 0.40 0.30 {running}/321 4242\n")
+            load.fd = os.open(path, os.O_RDONLY)
+            assert load.core_free() is free
+    finally:
+        load.close()

@@ -47,7 +47,7 @@ from .contract import (
 from .io_cycle import attach as attach_io
 from .override import latch_safe
 from .realtime import apply as apply_realtime
-from .ring import Receiver, give, stop_on_control
+from .ring import Nudge, Receiver, give, stop_on_control
 from .state_time import PAUSED, StateClock, clocks
 from .transport import Local, Transport
 
@@ -799,13 +799,17 @@ def serve_ring(
 ) -> None:
     """Run `process` in a lockstep ring (rcs/ring.py): a whole cycle each time the token
     comes on `link[0]`, then the token on to `link[1]`; until the coordinator writes on
-    (or closes) the `control` pipe."""
+    (or closes) the `control` pipe. With the token, it nudges the next member, which then
+    spins for it (where `spin` > 0 and a core is free)."""
     receiver, last = Receiver(link[0], spin), len(process.plan.modules) - 1
+    nudge = Nudge(link[1], spin)
     stop_on_control(control, link[0])
     os.write(replies, READY)
     while receiver.wait():
+        nudge()
         run_segment(process, 0, last, True, time.perf_counter_ns())
         give(link[1])
+    nudge.close()
     if process.io is not None:
         process.io.close()
     process.beat(STOPPED)

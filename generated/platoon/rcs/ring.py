@@ -11,14 +11,23 @@ token is writing 8 bytes into the next one's link, taking it is reading them.
 A process waits for the token in a blocking read of its link (one system call, the
 cheapest wake-up: poll(2) then read costs ~3 µs more a hand-off on a loaded 2-core
 machine); a thread of its own blocks on its control pipe and, when the coordinator writes
-there or goes away (the pipe closes), puts STOP into the link, which ends the read. Where
-the machine has a core for every member of the ring, a waiter spins `spin` seconds first
-(the next one runs on a core of its own, and the token comes back sooner than the
-scheduler could wake a sleeper). The coordinator waits for the token's return in a
-blocking read too; a thread of its own polls every process's answer pipe (it closes when
-the process dies) and the cycle's deadline, and wakes the read with STOP: a process killed
-holding the token is seen at once, one stopped when the token has not come back within
-the coordinator's timeout. Standard library only: copied verbatim into every generated package.
+there or goes away (the pipe closes), puts STOP into the link, which ends the read.
+
+A blocked process is woken by the scheduler, and where the core it wakes on was idle that
+is the slow part of a hand-off: a virtual machine's idle CPU is halted, and waking it costs
+25-50 µs (the quiet 2-core host measured 30 µs a hand-off, the same ring 4 µs while other
+work kept both CPUs busy). So the member that takes the token nudges the next one (WAKE
+into its link, `Nudge`): woken while the token holder works, the next one spins until the
+token comes (at most `spin` seconds), on the core the holder leaves free, and takes it
+without a wake-up. Only one member spins at a time (the holder's successor), so the ring
+needs two cores, not a core per member; and a member nudges only while a core is free for
+the spinner (the kernel's count of runnable tasks, /proc/loadavg, looked at every
+`Nudge.CHECK` nudges): on a busy machine a spinner would take the time of the holder, or
+of someone else's work. The coordinator waits for the token's return in a blocking read
+too; a thread of its own polls every process's answer pipe (it closes when the process
+dies) and the cycle's deadline, and wakes the read with STOP: a process killed holding
+the token is seen at once, one stopped when the token has not come back within the
+coordinator's timeout. Standard library only: copied verbatim into every generated package.
 """
 
 from __future__ import annotations
@@ -32,10 +41,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 WORD = struct.Struct("=Q")  # an eventfd takes 8 bytes (a pipe too: one token, one write)
+# What a link carries: an eventfd adds what is written until it is read, so each kind has
+# its own bits: a read tells a token, nudges and a stop apart however they came together.
+TOKEN_MASK = (1 << 20) - 1  # the tokens (exactly one is a token; more is a broken ring)
 TOKEN = WORD.pack(1)
+WAKE_VALUE = 1 << 20
+WAKE = WORD.pack(WAKE_VALUE)  # the token is near: spin for it (Nudge)
+WAKE_MASK = TOKEN_MASK * WAKE_VALUE  # the nudges
 STOP_VALUE = 1 << 40
-STOP = WORD.pack(STOP_VALUE)  # into a link: stop, or wake (a token added to it reads != 1)
-SPIN = 50e-6  # seconds a waiter spins before it blocks, where every member has a core
+STOP = WORD.pack(STOP_VALUE)  # into a link: stop, or wake (a token added to it is a stop)
+SPIN = 2e-3  # the longest a nudged member spins for the token (then it blocks)
 READABLE = select.POLLIN | select.POLLHUP | select.POLLERR
 
 
@@ -78,10 +93,72 @@ def cores() -> int:
     return os.cpu_count() or 1  # pragma: no cover - not Linux
 
 
-def default_spin(members: int) -> float:
-    """Spin only where every member of the ring (the processes and the coordinator) has a
-    core: on fewer, a spinner takes the core the token holder needs."""
-    return SPIN if cores() > members else 0.0
+def default_spin() -> float:
+    """Spin where the machine has two cores (one for the token holder, one for its nudged
+    successor: one member spins at a time); whether one is free is looked at as it runs."""
+    return SPIN if cores() >= 2 else 0.0
+
+
+class Load:
+    """Whether a core is free for a spinner now: the kernel's count of runnable tasks (the
+    fourth field of /proc/loadavg, `running/total`; the reader and the token holder among
+    them) against the cores. Where there is no /proc/loadavg, never (nobody spins)."""
+
+    def __init__(self) -> None:
+        try:
+            self.fd = os.open("/proc/loadavg", os.O_RDONLY | os.O_CLOEXEC)
+        except OSError:  # pragma: no cover - not Linux
+            self.fd = -1
+        self.cores = cores()
+
+    def core_free(self) -> bool:
+        if self.fd < 0:  # pragma: no cover - not Linux
+            return False
+        try:
+            fields = os.pread(self.fd, 128, 0).split()
+            return int(fields[3].split(b"/")[0]) <= self.cores
+        except (OSError, IndexError, ValueError):  # pragma: no cover - an odd kernel
+            return False
+
+    def close(self) -> None:
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
+
+
+class Nudge:
+    """A member's nudge to the next one as it takes the token (WAKE into the next one's
+    link: it spins for the token instead of being woken by the scheduler when it comes).
+    Only where `spin` > 0, and only while a core is free for the spinner (`Load`, looked at
+    every CHECK nudges: a read of /proc/loadavg costs ~7 µs, a nudge a write of ~1 µs)."""
+
+    CHECK = 8
+
+    def __init__(self, fd: int, spin: float) -> None:
+        self.fd, self.count, self.free = fd, 0, False
+        self.load = Load() if spin > 0 else None
+
+    def __call__(self) -> None:
+        load = self.load
+        if load is None:
+            return
+        if not self.count % self.CHECK:
+            self.free = load.core_free()
+        self.count += 1
+        if self.free:
+            os.write(self.fd, WAKE)
+
+    def close(self) -> None:
+        if self.load is not None:
+            self.load.close()
+
+
+def spin_for(poller: select.poll, spin_ns: int) -> None:
+    """Spin until the link polled is readable, at most `spin_ns` (a nudged waiter),
+    yielding each turn: a spinner that shares a CPU with the token holder lets it run."""
+    end = time.monotonic_ns() + spin_ns
+    while not poller.poll(0) and time.monotonic_ns() < end:
+        os.sched_yield()
 
 
 def give(fd: int) -> None:
@@ -114,22 +191,23 @@ class Return:
 
     def wait(self, timeout: float) -> int | None:
         """`fd` once the token is back; the answer pipe of a process that died (it has
-        priority over the token); None when it has not come back within `timeout`."""
+        priority over the token); None when it has not come back within `timeout`. Nudged
+        by the last process (WAKE), it spins for the token where it may."""
         self.deadline = time.monotonic() + timeout
-        if self.spin_ns:
-            end = time.monotonic_ns() + self.spin_ns
-            while not self.poller.poll(0) and time.monotonic_ns() < end:
-                pass
         while True:
             data = os.read(self.fd, WORD.size)
             if self.dead is not None:
                 return self.dead
-            if data and WORD.unpack(data)[0] % STOP_VALUE:
+            value = WORD.unpack(data)[0] if len(data) == WORD.size else 0
+            if value & TOKEN_MASK:
                 self.deadline = float("inf")
                 return self.fd
             if time.monotonic() >= self.deadline:
                 return None
-            # a STOP for a cycle that ended as the watcher woke: the token is still to come
+            if value & WAKE_MASK and self.spin_ns:
+                spin_for(self.poller, self.spin_ns)
+            # a nudge, or a STOP for a cycle that ended as the watcher woke: the token is
+            # still to come
 
     def _watch(self, watched: select.poll) -> None:
         fired = float("nan")
@@ -158,7 +236,7 @@ class Return:
 
 
 class Receiver:
-    """A process's end of its link: blocking reads (after a spin where cores are free)."""
+    """A process's end of its link: blocking reads (nudged, a spin first)."""
 
     def __init__(self, fd: int, spin: float = 0.0) -> None:
         os.set_blocking(fd, True)  # only this process reads its link
@@ -167,13 +245,20 @@ class Receiver:
         self.poller.register(fd, READABLE)
 
     def wait(self) -> bool:
-        """True with the token; False when told to stop (STOP, or the ring broken)."""
-        if self.spin_ns:
-            end = time.monotonic_ns() + self.spin_ns
-            while not self.poller.poll(0) and time.monotonic_ns() < end:
-                pass
-        data = os.read(self.fd, WORD.size)
-        return len(data) == WORD.size and WORD.unpack(data)[0] == 1
+        """True with the token; False when told to stop (STOP, or the ring broken: a short
+        read, more than one token). Nudged (WAKE alone), it spins for the token first."""
+        while True:
+            data = os.read(self.fd, WORD.size)
+            if len(data) != WORD.size:
+                return False
+            value = WORD.unpack(data)[0]
+            tokens = value & TOKEN_MASK
+            if value >= STOP_VALUE or tokens > 1:
+                return False
+            if tokens:
+                return True
+            if self.spin_ns:
+                spin_for(self.poller, self.spin_ns)
 
 
 def stop_on_control(control: int, link: int) -> threading.Thread:

@@ -63,7 +63,7 @@ from ..loop import (
 )
 from ..override import latch_safe
 from ..realtime import RealtimeRefused
-from ..ring import Link, Return, close_links, default_spin, new_links
+from ..ring import Link, Nudge, Return, close_links, default_spin, new_links
 from ..ring import give as hand_on
 from ..transport import PLAINTEXT, Security, TransportError, check_endpoint
 from .command import (
@@ -393,7 +393,7 @@ class Launcher:
         self.ring = ring and lockstep and transport != "zenoh"
         self.links: list[Link] = []  # the ring's: process i waits on i, hands on to i + 1
         self.order = [name for name, *_ in system.segments()]
-        self.spin = default_spin(len(self.order) + 1) if spin is None else spin
+        self.spin = default_spin() if spin is None else spin
         self.settings, self.simulate = list(settings), list(simulate)
         self.restart, self.python = restart, python
         self.world = dict(world or {})  # world fields to start from, over their initial values
@@ -678,6 +678,8 @@ class Coordinator:
             }
             self.waiter = Return(launcher.links[-1].read, list(self.answers), launcher.spin)
             launcher.on_stop.append(self.waiter.close)  # before it closes what is watched
+            self.nudge = Nudge(launcher.links[0].write, launcher.spin)  # the first, when back
+            launcher.on_stop.append(self.nudge.close)
             self.beats = self._beats()
 
     def step(self, cycles: int = 1) -> None:
@@ -719,6 +721,7 @@ class Coordinator:
             woke = self.waiter.wait(self.timeout)
             if woke == done:
                 self.cycle += 1
+                self.nudge()  # the first process spins for the next cycle's token
                 continue
             self.lost()
             if woke is None:
