@@ -107,6 +107,32 @@ def test_a_node_sends_only_what_it_wrote_and_its_control_record_last(miner: Modu
     assert [k for k, _ in mirror.changed(everything=True)] == sent  # for a node that joined
 
 
+def test_performance_buffers_wait_for_a_slow_push_and_then_go_as_they_are_then(
+    miner: ModuleType,
+) -> None:
+    """A module's performance buffer changes every cycle and only people read it: a push
+    that is not `slow` leaves it for later, and the later one sends its latest value."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    block = rcs(miner, "rcs.block").Block(layout)
+    mirror = transport.Mirror(layout, block, "pc2")
+    perf = layout.PERFORMANCE["pp"]
+    perf.write(block.buf, cycles=1)
+    layout.STATUS_OUT["pp"].write(block.buf, status_num=1, status=2)
+    assert [k for k, _ in mirror.changed(slow=False)] == ["pp/status"]
+    perf.write(block.buf, cycles=2)
+    assert [k for k, _ in mirror.changed(slow=False)] == []
+    ((key, message),) = mirror.changed()  # slow: what waited, as it is now
+    assert key == "pp/perf"
+    receiver = transport.Mirror(layout, rcs(miner, "rcs.block").Block(layout), "pc1")
+    assert receiver.apply(key, message)
+    assert perf.read(receiver.block.buf)["cycles"] == 2
+    # a node that joined gets everything this one wrote, its performance buffers too
+    assert sorted(k for k, _ in mirror.changed(everything=True, slow=False)) == [
+        "pp/perf",
+        "pp/status",
+    ]
+
+
 def test_a_late_or_out_of_order_message_is_dropped_and_counted(miner: ModuleType) -> None:
     layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
     Block = rcs(miner, "rcs.block").Block

@@ -7,7 +7,11 @@ and a receiving mirror of pc2 does what `pull` does with the payload (`Mirror.un
 network, no threads): if they are small against a hop (bench_zenoh.py: ~200 µs), the hop
 is the transport's and its threads', not the encoding.
 
-    python bench/prototypes/zenoh_encoding.py [--cycles N]
+With `--slow-every N` only every Nth push carries the performance buffers (as a push of
+rcs/zenoh_transport.py does at most every PERF_INTERVAL: about every 100th in lockstep);
+with `--observer` the receiver applies every record, as a lockstep coordinator's mirror does.
+
+    python bench/prototypes/zenoh_encoding.py [--cycles N] [--slow-every N] [--observer]
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ from rcsgen.tools import scenario as scenarios  # noqa: E402
 from rcsgen.tools.harness import import_package  # noqa: E402
 
 
-def measure(cycles: int) -> dict[str, float]:
+def measure(cycles: int, slow_every: int = 1, observer: bool = False) -> dict[str, float]:
     package = import_package(PACKAGE, HOOKS)
     layout, block_mod, transport, zt = modules(package)
     scenario = scenarios.load_scenario(lockstep.SCENARIO)
@@ -40,14 +44,14 @@ def measure(cycles: int) -> dict[str, float]:
         sender = transport.Mirror(layout, harness.block, "pc1")
         far = block_mod.Block(layout)
         receiver = transport.Mirror(layout, far, "pc2")
-        wanted = zt._matcher(transport.reads(layout, "pc2", ("pp",)))
+        wanted = zt._matcher(transport.reads(layout, None if observer else "pc2", ("pp",)))
         send, receive, sizes, records = [], [], [], []
-        for _ in range(cycles):
+        for cycle in range(cycles):
             driver.before(harness)
             harness.cycle()
             driver.after(harness)
             began = time.perf_counter_ns()
-            messages = sender.changed()
+            messages = sender.changed(slow=not cycle % slow_every)
             found = time.perf_counter_ns()
             payload = sender.pack(messages)
             sent = time.perf_counter_ns()
@@ -72,6 +76,8 @@ def measure(cycles: int) -> dict[str, float]:
         harness.close()
     return {
         "cycles": cycles,
+        "slow_every": slow_every,
+        "observer": observer,
         "records_per_push": statistics.median(records),
         "bytes_per_push": statistics.median(sizes),
         "send_us": statistics.median(send) / 1e3,
@@ -84,8 +90,10 @@ def measure(cycles: int) -> dict[str, float]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cycles", type=int, default=3_000)
+    parser.add_argument("--slow-every", type=int, default=1)
+    parser.add_argument("--observer", action="store_true")
     args = parser.parse_args()
-    print(json.dumps(measure(args.cycles), indent=1))
+    print(json.dumps(measure(args.cycles, args.slow_every, args.observer), indent=1))
     return 0
 
 

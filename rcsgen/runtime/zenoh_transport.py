@@ -47,6 +47,11 @@ DEFAULT_PORT = 7447  # Zenoh's own default
 # the latest value of each (what a reader on one machine sees, reading once a cycle), so a
 # `--fast` process does not flood the network. Paced at the miner's 0.1 s, every cycle goes.
 MIN_PUSH_INTERVAL = 0.005
+# The modules' performance buffers (cycle counts and times, for people: ctl, the monitor)
+# change every cycle; they go with a push at most this often (and with the last and a full
+# push). At the miner's 0.1 s every push carries them; a lockstep or `--fast` process sends
+# its controllers' records every cycle and these ~10 times a second.
+PERF_INTERVAL = 0.1
 WARN_EVERY = 10.0  # seconds: at most one line a peer about its malformed pushes
 
 
@@ -149,7 +154,7 @@ class ZenohTransport:
         self._congestion = (
             zenoh.CongestionControl.BLOCK if block_when_congested else zenoh.CongestionControl.DROP
         )
-        self._lockstep, self._next_push = block_when_congested, 0.0
+        self._lockstep, self._next_push, self._next_perf = block_when_congested, 0.0, 0.0
         self._zenoh = zenoh
         config = zenoh.Config()
         for key, value in config_json(options).items():
@@ -276,13 +281,16 @@ class ZenohTransport:
         """Send every record this node wrote since the last push (everything it wrote, when
         a node joined since). The `last` push, as the node leaves, waits rather than drops
         when the network is congested: its STOPPED must arrive before its token goes."""
+        now = time.monotonic()
         if not (last or self.republish or self._lockstep):
-            now = time.monotonic()
             if now < self._next_push:  # faster than the network should carry: coalesce
                 return
             self._next_push = now + MIN_PUSH_INTERVAL
         everything, self.republish = self.republish, False
-        messages = self.mirror.changed(everything)
+        slow = last or now >= self._next_perf
+        if slow:
+            self._next_perf = now + PERF_INTERVAL
+        messages = self.mirror.changed(everything, slow)
         if not messages:
             return
         payload = self.mirror.pack(messages)

@@ -177,18 +177,24 @@ class Mirror:
             for k in ordered
         )
         self.known = list(self._seqs.unpack_from(fresh, self._start))  # as last sent/mirrored
+        # A module's performance buffer changes every cycle it runs (its cycle count and
+        # times) and is read by people (ctl, the monitor), never by a controller: the
+        # pushes of a fast process carry it only when `slow` is asked (zenoh_transport).
+        self._fast = tuple(not key.endswith("/perf") for key in ordered)
         self.owned: set[str] = set()  # keys whose current value this node wrote
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
         self.counters = Counters()
         self._control = {f"{PROCESS_OWNER}/{p}/control" for p in layout.PROCESSES}
         self._own = f"{PROCESS_OWNER}/{node}/control"  # only this process writes it
 
-    def changed(self, everything: bool = False) -> list[tuple[str, bytes]]:
+    def changed(self, everything: bool = False, slow: bool = True) -> list[tuple[str, bytes]]:
         """(key suffix, message) of each record this node wrote since it was last sent (with
         `everything`, of each record whose value this node wrote, to bring a node that
         joined up to date); control records last, so a receiver that has a process's
-        control record of cycle N has everything that process wrote up to cycle N."""
-        return list(self._changed(everything))
+        control record of cycle N has everything that process wrote up to cycle N. Without
+        `slow`, the performance buffers are left for a later push (their latest values
+        then): everything else is as above."""
+        return list(self._changed(everything, slow))
 
     def pack(self, messages: list[tuple[str, bytes]]) -> bytes:
         """A push as one payload: each message after its record's index."""
@@ -216,15 +222,21 @@ class Mirror:
         self.counters.malformed += 1
         return None
 
-    def _changed(self, everything: bool) -> Iterator[tuple[str, bytes]]:
+    def _changed(self, everything: bool, slow: bool) -> Iterator[tuple[str, bytes]]:
         buf, epoch = self.block.buf, EPOCH.pack(self.epoch)
         seqs, known, keys = self._seqs.unpack_from(buf, self._start), self.known, self._keys
         if everything:
             owned = self.owned
             candidates = [i for i, seq in enumerate(seqs) if seq != known[i] or keys[i] in owned]
-        else:  # one comprehension over every record's word, the loop over the changed only
+        elif slow:  # one comprehension over every record's word, the loop over the changed only
             candidates = [
                 i for i, (seq, was) in enumerate(zip(seqs, known, strict=True)) if seq != was
+            ]
+        else:
+            candidates = [
+                i
+                for i, (seq, was, fast) in enumerate(zip(seqs, known, self._fast, strict=True))
+                if seq != was and fast
             ]
         last_ones = []
         spans = self._spans
