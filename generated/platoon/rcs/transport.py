@@ -278,11 +278,13 @@ class Mirror:
             self.counters.malformed += 1
             return False
         self.last[key] = (epoch, seq)
-        values = list(record.struct.unpack_from(payload, EPOCH.size))
         if key in self._control:
+            values = list(record.struct.unpack_from(payload, EPOCH.size))
             # seq, pid, state, watchdog_trips, heartbeat, beat_ns, ...
             values[5] = time.monotonic_ns() if now_ns is None else now_ns
-        self._write(key, record, values[1:])
+            self._write(key, record, values[1:])
+        else:  # its fields' bytes as they came (the same struct, no padding): no unpacking
+            self._copy(key, record, payload)
         if key.startswith(OVERRIDE_OWNER):  # the flag the generated modules look at
             mirrored(self.layout, self.block.buf)
         self.owned.discard(key)
@@ -301,6 +303,15 @@ class Mirror:
         self._write(key, record, values[1:])
         self.last.pop(key, None)
         self.counters.lost.append(process)
+
+    def _copy(self, key: str, record: Record, message: bytes) -> None:
+        """A message's record bytes after its sequence word, into the block (seqlock)."""
+        buf, at = self.block.buf, record.offset
+        seq = next_odd(record.seq(buf))
+        SEQ.pack_into(buf, at, seq)  # odd before any field changes
+        buf[at + SEQ.size : at + record.struct.size] = message[EPOCH.size + SEQ.size :]
+        SEQ.pack_into(buf, at, seq + 1)
+        self.known[self._index[key]] = seq + 1
 
     def _write(self, key: str, record: Record, values: list[object]) -> None:
         buf = self.block.buf
