@@ -28,6 +28,7 @@ the in-process and launched versions must be in the same state (every module's s
 command, and the world): lockstep leaves the same trace as one process.
 
     python bench/bench_lockstep.py [--cycles N] [--rounds R] [--json PATH]
+        [--parts miner,chain,handoff] [--splits 1,2,4,8]
 """
 
 from __future__ import annotations
@@ -318,17 +319,23 @@ def main() -> int:
     parser.add_argument("--cycles", type=int, default=CYCLES)
     parser.add_argument("--rounds", type=int, default=ROUNDS)
     parser.add_argument("--json", default=None)
+    parser.add_argument("--parts", default="miner,chain,handoff", help="some of these only")
+    parser.add_argument("--splits", default=",".join(map(str, SPLITS)), help="chain: processes")
     args = parser.parse_args()
+    parts, splits = args.parts.split(","), tuple(int(n) for n in args.splits.split(","))
     started = time.perf_counter()
-    results = {
+    results: dict[str, object] = {
         "cycles_per_round": args.cycles,
         "rounds": args.rounds,
         "chunk": CHUNK,
-        "miner": miner(args.cycles, args.rounds),
-        "chain": chain(SPLITS, args.cycles, args.rounds),
         "cores": len(os.sched_getaffinity(0)),
-        "handoff": handoff(SPLITS, max(args.cycles, 2_000), args.rounds),
     }
+    if "miner" in parts:
+        results["miner"] = miner(args.cycles, args.rounds)
+    if "chain" in parts:
+        results["chain"] = chain(splits, args.cycles, args.rounds)
+    if "handoff" in parts:
+        results["handoff"] = handoff(splits, max(args.cycles, 2_000), args.rounds)
     results["seconds"] = time.perf_counter() - started
     write_json(args.json, results)
     return 0
