@@ -64,7 +64,8 @@ def test_load_gives_columns_per_module_and_world(pop_out):
         ("", "is empty: a trace has one JSON line per cycle"),
         ("not json\n", ":1: not a trace line: Expecting value"),
         ('{"a": 1}\n', ":1: not a trace line (no `cycle` number)"),
-        ('{"cycle": 1}\n', ":1: not a trace line (no `modules` object)"),
+        # (a line of changes only, with no full line before it to change)
+        ('{"cycle": 1}\n', ":1: not a trace line (no `modules` object, nor a full line before"),
         (
             '{"cycle": 1, "modules": {"co": {"command": "INIT"}}}\n',
             "module co has no `command_num`",

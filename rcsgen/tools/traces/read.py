@@ -1,5 +1,9 @@
 """Traces: a trace file (JSON Lines, one line per cycle) -> checked columns per module and world.
 
+A trace is stored as `stored` says: a full line now and then, and in between only what
+changed; a change line is read as the full line it stands for (a trace of full lines only
+reads as well).
+
 `load` reads what `rcsgen run` writes and checks every line, so the viewers can trust it:
 a problem is a `TraceError` whose message is one line naming the file and line. It reads
 line by line (a long trace is never held whole as text), plain or gzip-compressed
@@ -23,6 +27,7 @@ from typing import IO, Any, cast
 from ...compiler.ir import IRProcess, IRSystem
 from ...runtime import contract
 from ..graph import levels
+from .stored import CHANGED, REMOVED, Expansion, is_delta
 
 FIELDS = ("command", "command_num", "status", "status_num", "state", "rule")
 # Only for modules that declare them, on every line or none: the reason's name and the
@@ -149,6 +154,7 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
     trace = Trace(shown, [], [], {}, {})
     reader = _Reader(trace)
     memo = _Modules()
+    expansion = Expansion()
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
@@ -156,6 +162,15 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
         if trace.interrupted is not None:
             raise TraceError(f"{where}: a line after the one that says the run was interrupted")
         record = memo.reuse(line) or memo.remember(line, _record(line, where))
+        world: Iterable[str] | None = None  # the world fields that may have changed (all)
+        if is_delta(record):
+            world = _changed_world(record)
+            try:
+                record = expansion.record(record)
+            except ValueError as error:
+                raise TraceError(f"{where}: not a trace line ({error})") from None
+        elif "modules" in record:
+            expansion.record(record)  # (the base of the change lines after it)
         if trace.periodicity is not None and "interrupted" not in record:
             raise TraceError(f"{where}: a cycle after the run's timing record")
         if TIMING in record:  # after the cycles of a paced run: how well it held its period
@@ -164,7 +179,7 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
         if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
             trace.interrupted = _interruption(record, where)
             continue
-        reader.append(record, where)
+        reader.append(record, where, world)
     reader.columns()
     if not trace.cycles and trace.interrupted is None:
         raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
@@ -254,60 +269,70 @@ def _interruption(record: dict[str, Any], where: str) -> str:
 
 class _Reader:
     """A trace's lines into its columns, checked against the first line's. A module's values
-    are kept as runs (its checked values, how many cycles in a row) and written out as
-    columns at the end: most modules repeat their last line's object in most cycles (98 %
-    of them in a long run), and such a line passed the same checks then, so it only makes
-    its run one cycle longer (no checks, no per-cycle copies of its values)."""
+    and a world field's value are kept as runs (the checked values and the index of the
+    cycle they start in) and written out as columns at the end: most modules repeat their
+    last line's object in most cycles (98 % of them in a long run), and such a line passed
+    the same checks then, so it costs nothing (no checks, no per-cycle copies); a change
+    line says which world fields changed, so only those are looked at."""
 
     def __init__(self, trace: Trace) -> None:
         self.trace = trace
         self.texts: dict[str, str] = {}  # each text value once: a trace repeats a few names
         self.last: dict[str, dict[str, Any]] = {}  # module -> its object on the last line
-        self.runs: dict[str, list[list[Any]]] = {}  # module -> [values, cycles] per run
+        self.runs: dict[str, list[tuple[list[Any], int]]] = {}  # module -> (values, start)
         self.found: object = object()  # the last line's `modules` object, checked (none yet)
+        self.world: dict[str, Any] = {}  # field -> its value on the last line
+        self.world_runs: dict[str, list[tuple[Any, int]]] = {}  # field -> (value, start)
 
-    def append(self, record: dict[str, Any], where: str) -> None:
-        """One cycle's line."""
+    def append(self, record: dict[str, Any], where: str, world: Iterable[str] | None) -> None:
+        """One cycle's line (its full record); `world`: the world fields that may differ from
+        the last line's (None: any)."""
         trace = self.trace
         found, cycles = record.get("modules"), trace.cycles
-        if found is self.found:  # the last line's modules (_Modules.reuse): checked then
-            if record["cycle"] <= cycles[-1]:
-                raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
-            for run in self.runs.values():  # every run one cycle longer
-                run[-1][1] += 1
-            self._world(record, where)
-            return
-        if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
-            raise TraceError(f"{where}: not a trace line (no `modules` object)")
         if cycles and record["cycle"] <= cycles[-1]:
             raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
-        if not cycles:  # the first line says which modules, optional fields and world fields
+        if found is not self.found:  # (else the last line's modules, checked then)
+            self._modules(record, found, where)
+        self._world(record, where, world)
+
+    def _modules(self, record: dict[str, Any], found: Any, where: str) -> None:
+        trace = self.trace
+        if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
+            raise TraceError(f"{where}: not a trace line (no `modules` object)")
+        if not trace.cycles:  # the first line says which modules, optional fields, world fields
             self._first(record, found)
         elif found.keys() != self.last.keys():  # (the modules' names, each once: as sets)
             extra = sorted(set(found) ^ set(trace.modules))
             raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
-        last, runs = self.last, self.runs
+        last, runs, at = self.last, self.runs, len(trace.cycles)
         for module in trace.modules:
             values = found[module]
-            if values == last[module]:
-                runs[module][-1][1] += 1
+            if values is last[module] or values == last[module]:
                 continue
             checked = _checked(trace.columns[module], module, values, where, self.texts)
-            runs[module].append([checked, 1])
+            runs[module].append((checked, at))
             last[module] = values
         self.found = found
-        self._world(record, where)
 
-    def _world(self, record: dict[str, Any], where: str) -> None:
+    def _world(self, record: dict[str, Any], where: str, names: Iterable[str] | None) -> None:
         trace = self.trace
         fields = record.get("world") or {}
         # (keys compared as sets: the world's are the first line's, sorted, each once)
-        if not isinstance(fields, dict) or fields.keys() != trace.world.keys():
+        if not isinstance(fields, dict) or (
+            fields.keys() != self.world.keys()
+            if names is None
+            else not fields.keys() <= self.world.keys()
+        ):
             raise TraceError(f"{where}: world fields differ from the first line's")
-        texts = self.texts
-        for name, series in trace.world.items():
-            value = fields[name]
-            series.append(texts.setdefault(value, value) if type(value) is str else value)
+        texts, last, runs, at = self.texts, self.world, self.world_runs, len(trace.cycles)
+        for name in last if names is None else names:
+            value, before = fields[name], last[name]
+            if value is before or (type(value) is type(before) and value == before):
+                continue
+            if type(value) is str:
+                value = texts.setdefault(value, value)
+            runs[name].append((value, at))
+            last[name] = value
         trace.cycles.append(record["cycle"])
 
     def _first(self, record: dict[str, Any], found: dict[str, Any]) -> None:
@@ -321,22 +346,42 @@ class _Reader:
             }
             for m in trace.modules
         }
-        trace.world = {name: [] for name in sorted(record.get("world") or {})}
+        names = sorted(record.get("world") or {})
+        trace.world = {name: [] for name in names}
         self.last = {m: {"": object()} for m in trace.modules}  # (equal to no object)
         self.runs = {m: [] for m in trace.modules}
+        self.world = dict.fromkeys(names, _NOTHING)
+        self.world_runs = {name: [] for name in names}
 
     def columns(self) -> None:
         """The runs written out as the trace's columns (one value per cycle), and where each
         module's runs start (`Trace.starts`)."""
+        total = len(self.trace.cycles)
         for module, runs in self.runs.items():
             columns = list(self.trace.columns[module].values())
-            starts = self.trace.starts[module] = []
-            at = 0
-            for values, count in runs:
-                starts.append(at)
-                at += count
+            self.trace.starts[module] = [at for _, at in runs]
+            for (values, at), end in zip(runs, [*(at for _, at in runs[1:]), total], strict=True):
                 for series, value in zip(columns, values, strict=True):
-                    series += [value] * count
+                    series += [value] * (end - at)
+        for name, changes in self.world_runs.items():
+            series = self.trace.world[name]
+            for (value, at), end in zip(
+                changes, [*(at for _, at in changes[1:]), total], strict=True
+            ):
+                series += [value] * (end - at)
+
+
+_NOTHING = object()  # a world field's value before the first line (equal to no value)
+
+
+def _changed_world(record: dict[str, Any]) -> Iterable[str] | None:
+    """The world fields a change line changes, or None (look at all) when it removes
+    anything or its `world` is not an object (the checks then say what is wrong)."""
+    changed = record.get(CHANGED, {})
+    if REMOVED in record or type(changed) is not dict:
+        return None
+    world = changed.get("world", {})
+    return list(world) if type(world) is dict else None
 
 
 def _checked(
