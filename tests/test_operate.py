@@ -35,6 +35,7 @@ from conftest import wait_for
 
 from rcsgen.cli import main as rcsgen_main
 from rcsgen.tools.harness import import_package
+from rcsgen.tools.scenario import read_trace
 from rcsgen.tools.traces import read as traces
 
 REPO = Path(__file__).resolve().parent.parent
@@ -368,7 +369,7 @@ def test_interrupted_run_keeps_its_trace(case: dict[str, Any], tmp_path: Path) -
     err = "".join(line for line in seen if not line.startswith("  cycle "))
     assert run.returncode == case["exit"], err
     assert "Traceback" not in out + err
-    lines = trace.read_text(encoding="utf-8").splitlines()
+    lines = read_trace(trace)
     last = json.loads(lines[-1])
     assert last == {"cycle": len(lines), "interrupted": case["signal"]}, last
     assert f"interrupted by {case['signal']} in cycle {len(lines)} of forever" in err, err
@@ -707,7 +708,7 @@ def test_a_scenario_forces_a_field_and_its_trace_shows_it(
             rcsgen_main, ["run", "sys/scenarios/forced.yaml", "--trace", str(trace), *processes]
         )
         assert result.exit_code == 0, result.output
-        lines = [json.loads(line) for line in trace.read_text().splitlines()]
+        lines = [json.loads(line) for line in read_trace(trace)]
         assert [line.get("overrides") for line in lines[3:7]] == [{"level": "FORCED"}] * 4
         assert all(line["world"]["level"] == 7.5 for line in lines[3:7])
         assert all("overrides" not in line for line in lines[7:])

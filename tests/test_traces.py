@@ -13,6 +13,7 @@ import pytest
 from conftest import rcsgen
 
 from rcsgen.compiler.frontend import compile_paths
+from rcsgen.tools.scenario import read_trace
 from rcsgen.tools.traces import changes, coverage
 from rcsgen.tools.traces import read as traces
 
@@ -34,7 +35,7 @@ def pop_out():
 
 
 def lines_of(path: Path) -> list[dict]:
-    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines()]
+    return [json.loads(line) for line in read_trace(path)]  # (full lines)
 
 
 def write_lines(path: Path, records: list[dict]) -> Path:

@@ -559,13 +559,19 @@ def read_trace(path: Path) -> list[str]:
         diags = Diagnostics()
         diags.error(Span(shown), "E419", f"not a trace: {error}", "record it again")
         raise SpecError(diags) from None
-    return decode(data, shown).splitlines()
+    try:  # as stored, a full line now and then and the changes in between (traces.stored)
+        return list(traces.expanded(decode(data, shown).splitlines()))
+    except ValueError as error:
+        diags = Diagnostics()
+        diags.error(Span(shown), "E419", f"not a trace: {error}", "record it again")
+        raise SpecError(diags) from None
 
 
 def write_trace(path: Path, lines: list[str]) -> None:
-    """Write a trace: JSON Lines, gzip-compressed when the name ends in `.gz`."""
+    """Write a trace as stored (traces.stored: a full line every KEYFRAME cycles, the
+    changes in between), gzip-compressed when the name ends in `.gz`."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = "".join(line + "\n" for line in lines)
+    text = "".join(line + "\n" for line in traces.condensed(lines))
     if path.name.endswith(".gz"):
         path.write_bytes(traces.compressed(text))
     else:

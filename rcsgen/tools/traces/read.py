@@ -21,13 +21,14 @@ import json
 import zlib
 from collections.abc import Generator, Iterable
 from dataclasses import dataclass, field
+from itertools import chain, repeat
 from pathlib import Path
 from typing import IO, Any, cast
 
 from ...compiler.ir import IRProcess, IRSystem
 from ...runtime import contract
 from ..graph import levels
-from .stored import CHANGED, REMOVED, Expansion, is_delta
+from .stored import CHANGED, REMOVED, applied, is_delta, without
 
 FIELDS = ("command", "command_num", "status", "status_num", "state", "rule")
 # Only for modules that declare them, on every line or none: the reason's name and the
@@ -75,6 +76,7 @@ class Trace:
         return len(self.cycles)
 
 
+FULL = '"modules":{'  # a full line's second member (`{"cycle":N,"modules":{...`)
 GZIP_MAGIC = b"\x1f\x8b"  # the first bytes of a gzip file (a `.jsonl.gz` trace)
 
 
@@ -154,23 +156,16 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
     trace = Trace(shown, [], [], {}, {})
     reader = _Reader(trace)
     memo = _Modules()
-    expansion = Expansion()
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
         where = f"{shown}:{number}"
         if trace.interrupted is not None:
             raise TraceError(f"{where}: a line after the one that says the run was interrupted")
-        record = memo.reuse(line) or memo.remember(line, _record(line, where))
-        world: Iterable[str] | None = None  # the world fields that may have changed (all)
-        if is_delta(record):
-            world = _changed_world(record)
-            try:
-                record = expansion.record(record)
-            except ValueError as error:
-                raise TraceError(f"{where}: not a trace line ({error})") from None
-        elif "modules" in record:
-            expansion.record(record)  # (the base of the change lines after it)
+        if line.startswith(FULL, line.find(",") + 1):  # (else not a full line: not decoded twice)
+            record = memo.reuse(line) or memo.remember(line, _record(line, where))
+        else:
+            record = _record(line, where)
         if trace.periodicity is not None and "interrupted" not in record:
             raise TraceError(f"{where}: a cycle after the run's timing record")
         if TIMING in record:  # after the cycles of a paced run: how well it held its period
@@ -179,7 +174,10 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
         if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
             trace.interrupted = _interruption(record, where)
             continue
-        reader.append(record, where, world)
+        if is_delta(record):  # what changed since the line before
+            reader.change(record, where)
+        else:
+            reader.append(record, where)
     reader.columns()
     if not trace.cycles and trace.interrupted is None:
         raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
@@ -280,32 +278,92 @@ class _Reader:
         self.texts: dict[str, str] = {}  # each text value once: a trace repeats a few names
         self.last: dict[str, dict[str, Any]] = {}  # module -> its object on the last line
         self.runs: dict[str, list[tuple[list[Any], int]]] = {}  # module -> (values, start)
-        self.found: object = object()  # the last line's `modules` object, checked (none yet)
+        self.found: Any = object()  # the last line's `modules` object, checked (none yet)
         self.world: dict[str, Any] = {}  # field -> its value on the last line
         self.world_runs: dict[str, list[tuple[Any, int]]] = {}  # field -> (value, start)
 
-    def append(self, record: dict[str, Any], where: str, world: Iterable[str] | None) -> None:
-        """One cycle's line (its full record); `world`: the world fields that may differ from
-        the last line's (None: any)."""
-        trace = self.trace
-        found, cycles = record.get("modules"), trace.cycles
-        if cycles and record["cycle"] <= cycles[-1]:
-            raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
+    def append(self, record: dict[str, Any], where: str) -> None:
+        """One cycle's full line."""
+        found = record.get("modules")
+        self._cycle(record, where)
         if found is not self.found:  # (else the last line's modules, checked then)
             self._modules(record, found, where)
-        self._world(record, where, world)
+        self._world(record.get("world") or {}, where, None, record["cycle"])
 
-    def _modules(self, record: dict[str, Any], found: Any, where: str) -> None:
+    def change(self, record: dict[str, Any], where: str) -> None:
+        """One cycle's change line (traces.stored): the last line's values with its changes."""
+        if not self.trace.cycles:
+            raise TraceError(
+                f"{where}: not a trace line (no `modules` object, nor a full line before it "
+                "to change)"
+            )
+        self._cycle(record, where)
+        changed, removed = record.get(CHANGED, {}), record.get(REMOVED, [])
+        if type(changed) is not dict or type(removed) is not list:
+            raise TraceError(
+                f"{where}: not a trace line (`{CHANGED}` is not an object or `{REMOVED}` not "
+                "a list)"
+            )
+        found, world = self.found, changed.get("world", {})
+        if "modules" in changed:
+            modules = changed["modules"]
+            found = applied(found, modules) if type(modules) is dict else modules
+        for path in removed:
+            found = self._removed(found, path, where)
+        if found is not self.found:  # (the modules changed: only those, unless any removed)
+            named = changed["modules"] if type(changed.get("modules")) is dict else None
+            self._modules(record, found, where, None if removed or named is None else named)
+        if type(world) is not dict:
+            raise TraceError(f"{where}: world fields differ from the first line's")
+        self._world(world, where, world, record["cycle"])
+
+    def _cycle(self, record: dict[str, Any], where: str) -> None:
+        cycles = self.trace.cycles
+        if cycles and record["cycle"] <= cycles[-1]:
+            raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
+
+    def _removed(self, found: Any, path: Any, where: str) -> Any:
+        """The modules without the member at `path` (a removed world field is an error; what
+        the reader does not read, e.g. `overrides`, is not looked at)."""
+        if type(path) is not list or not path or not all(type(p) is str for p in path):
+            raise TraceError(
+                f"{where}: not a trace line (`{REMOVED}` holds {json.dumps(path)}, not a path)"
+            )
+        if path[0] == "world":
+            raise TraceError(f"{where}: world fields differ from the first line's")
+        if path[0] != "modules" or len(path) < 2:
+            return found
+        try:
+            return without(found, path[1:])
+        except KeyError:
+            gone = ".".join(path)
+            raise TraceError(
+                f"{where}: not a trace line (`{REMOVED}` names {gone}, which is not there)"
+            ) from None
+
+    def _modules(
+        self, record: dict[str, Any], found: Any, where: str, names: Iterable[str] | None = None
+    ) -> None:
+        """A line's modules: all of them (`names` None: a full line's), or the modules named
+        (those a change line changes: the others are the last line's objects)."""
         trace = self.trace
-        if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
-            raise TraceError(f"{where}: not a trace line (no `modules` object)")
-        if not trace.cycles:  # the first line says which modules, optional fields, world fields
-            self._first(record, found)
-        elif found.keys() != self.last.keys():  # (the modules' names, each once: as sets)
-            extra = sorted(set(found) ^ set(trace.modules))
-            raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
+        if names is not None and found.keys() == self.last.keys():
+            modules: Iterable[str] = names
+            if not all(isinstance(found[m], dict) for m in names):
+                raise TraceError(f"{where}: not a trace line (no `modules` object)")
+        else:
+            if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
+                raise TraceError(f"{where}: not a trace line (no `modules` object)")
+            if not trace.cycles:  # the first line: which modules, optional and world fields
+                self._first(record, found)
+            elif found.keys() != self.last.keys():  # (the modules' names, each once: as sets)
+                extra = sorted(set(found) ^ set(trace.modules))
+                raise TraceError(
+                    f"{where}: modules differ from the first line's ({', '.join(extra)})"
+                )
+            modules = trace.modules  # (after the first line has said which)
         last, runs, at = self.last, self.runs, len(trace.cycles)
-        for module in trace.modules:
+        for module in modules:
             values = found[module]
             if values is last[module] or values == last[module]:
                 continue
@@ -314,9 +372,10 @@ class _Reader:
             last[module] = values
         self.found = found
 
-    def _world(self, record: dict[str, Any], where: str, names: Iterable[str] | None) -> None:
+    def _world(self, fields: Any, where: str, names: Iterable[str] | None, cycle: int) -> None:
+        """The world fields of a line: all of them (`names` None: a full line's), or a change
+        line's (`names`: its changed fields, `fields` itself)."""
         trace = self.trace
-        fields = record.get("world") or {}
         # (keys compared as sets: the world's are the first line's, sorted, each once)
         if not isinstance(fields, dict) or (
             fields.keys() != self.world.keys()
@@ -325,7 +384,15 @@ class _Reader:
         ):
             raise TraceError(f"{where}: world fields differ from the first line's")
         texts, last, runs, at = self.texts, self.world, self.world_runs, len(trace.cycles)
-        for name in last if names is None else names:
+        if names is not None:  # a change line: each value it names is a change
+            for name, value in fields.items():
+                runs[name].append(
+                    (texts.setdefault(value, value) if type(value) is str else value, at)
+                )
+            last.update(fields)
+            trace.cycles.append(cycle)
+            return
+        for name in last:
             value, before = fields[name], last[name]
             if value is before or (type(value) is type(before) and value == before):
                 continue
@@ -333,7 +400,7 @@ class _Reader:
                 value = texts.setdefault(value, value)
             runs[name].append((value, at))
             last[name] = value
-        trace.cycles.append(record["cycle"])
+        trace.cycles.append(cycle)
 
     def _first(self, record: dict[str, Any], found: dict[str, Any]) -> None:
         trace = self.trace
@@ -356,32 +423,30 @@ class _Reader:
     def columns(self) -> None:
         """The runs written out as the trace's columns (one value per cycle), and where each
         module's runs start (`Trace.starts`)."""
-        total = len(self.trace.cycles)
+        trace, total = self.trace, len(self.trace.cycles)
         for module, runs in self.runs.items():
-            columns = list(self.trace.columns[module].values())
-            self.trace.starts[module] = [at for _, at in runs]
-            for (values, at), end in zip(runs, [*(at for _, at in runs[1:]), total], strict=True):
-                for series, value in zip(columns, values, strict=True):
-                    series += [value] * (end - at)
+            starts = trace.starts[module] = [at for _, at in runs]
+            lengths = _lengths(starts, total)
+            for index, series in enumerate(trace.columns[module].values()):
+                series[:] = _spread([values[index] for values, _ in runs], lengths)
         for name, changes in self.world_runs.items():
-            series = self.trace.world[name]
-            for (value, at), end in zip(
-                changes, [*(at for _, at in changes[1:]), total], strict=True
-            ):
-                series += [value] * (end - at)
+            lengths = _lengths([at for _, at in changes], total)
+            trace.world[name][:] = _spread([value for value, _ in changes], lengths)
+
+
+def _lengths(starts: list[int], total: int) -> list[int]:
+    """How many cycles each run lasts, from where each starts (of `total` cycles)."""
+    return [end - at for at, end in zip(starts, [*starts[1:], total], strict=True)]
+
+
+def _spread(values: list[Any], lengths: list[int]) -> list[Any]:
+    """Each value repeated for its run's length: a column, one value per cycle."""
+    if len(values) == sum(lengths):  # (a value every cycle: a world field always moving)
+        return values
+    return list(chain.from_iterable(map(repeat, values, lengths)))
 
 
 _NOTHING = object()  # a world field's value before the first line (equal to no value)
-
-
-def _changed_world(record: dict[str, Any]) -> Iterable[str] | None:
-    """The world fields a change line changes, or None (look at all) when it removes
-    anything or its `world` is not an object (the checks then say what is wrong)."""
-    changed = record.get(CHANGED, {})
-    if REMOVED in record or type(changed) is not dict:
-        return None
-    world = changed.get("world", {})
-    return list(world) if type(world) is dict else None
 
 
 def _checked(
