@@ -178,7 +178,7 @@ def run(
             session.add(stale)
             session.finish(not_run)
         progress = cycle_progress(line, spec.max_cycles)
-        ran = session_of.execute(spec, package, processes, progress, hooks_out)
+        ran = session_of.execute(spec, package, processes, progress, hooks_out, trace_path)
     line.done()
     if ran.signal is not None:
         interrupted(ran, ran.signal, spec.name, trace_path)

@@ -379,6 +379,39 @@ def test_interrupted_run_keeps_its_trace(case: dict[str, Any], tmp_path: Path) -
     nothing_left(before)
 
 
+def test_a_killed_run_keeps_a_readable_trace_up_to_its_last_cycle(tmp_path: Path) -> None:
+    """`rcsgen run` killed outright (SIGKILL: nothing of it runs after) once its trace file
+    has grown: the file, written as the run goes, reads as the cycles that finished (every
+    line whole, cycle 1 on, no gap; the trace tools and the golden reader agree), with no
+    line saying it was interrupted (no one was left to write it)."""
+    before = ours()
+    trace = tmp_path / "forever.jsonl"
+    argv = [sys.executable, "-m", "rcsgen", "run", str(TICKER / "scenarios" / "forever.yaml")]
+    argv += ["--trace", str(trace)]
+    with subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) as run:
+        try:
+            # (a busy host may take a while to start it: a generous bound, then kill at once)
+            wait_for(
+                lambda: trace.is_file() and trace.read_bytes().count(b"\n") >= 3, "3 cycles", BOUND
+            )
+            run.kill()
+            run.wait(timeout=BOUND)
+        finally:
+            if run.poll() is None:
+                run.kill()
+                run.wait()
+    assert run.returncode == -signal.SIGKILL
+    text = trace.read_text(encoding="utf-8")
+    assert text.endswith("\n"), text[-200:]  # (flushed a whole line at a time)
+    loaded = traces.load(trace)
+    assert loaded.interrupted is None and len(loaded) >= 3
+    assert loaded.cycles == list(range(1, len(loaded) + 1))
+    full = [json.loads(line) for line in read_trace(trace)]
+    assert [line["cycle"] for line in full] == loaded.cycles
+    assert all("modules" in line for line in full)  # each line expands to its whole cycle
+    nothing_left(before)
+
+
 @pytest.fixture
 def hooked(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     shutil.copytree(HOOKED, tmp_path / "sys", ignore=shutil.ignore_patterns("__pycache__"))

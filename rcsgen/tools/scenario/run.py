@@ -19,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Protocol
+from typing import Any, Protocol, TextIO
 
 from ...compiler.diagnostics import Diagnostics, Span, SpecError
 from ...compiler.front_end.loader import decode, read_bytes
@@ -565,6 +565,38 @@ def read_trace(path: Path) -> list[str]:
         diags = Diagnostics()
         diags.error(Span(shown), "E419", f"not a trace: {error}", "record it again")
         raise SpecError(diags) from None
+
+
+class LiveTrace(list[str]):
+    """A run's trace lines, each also written to the file at `path` as it comes (stored,
+    flushed at once; the file made at the first cycle): a run killed outright (SIGKILL, a
+    crash, the power) leaves a readable trace up to its last finished cycle. Not for a `.gz`
+    trace (a gzip stream cut short is not readable); a file that cannot be written is left
+    to the write at the end to report (E419). `rcsgen run` still writes the whole trace
+    when the run ends."""
+
+    def __init__(self, path: Path) -> None:
+        super().__init__()
+        self.path, self.condenser = path, traces.Condenser()
+        self.out: TextIO | None = None
+        self.failed = path.name.endswith(".gz")
+
+    def append(self, line: str) -> None:
+        super().append(line)
+        if self.failed:
+            return
+        try:
+            if self.out is None:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+                self.out = self.path.open("w", encoding="utf-8")
+            self.out.write(self.condenser.line(line) + "\n")
+            self.out.flush()
+        except OSError:
+            self.failed = True
+
+    def close(self) -> None:
+        if self.out is not None:
+            self.out.close()
 
 
 def write_trace(path: Path, lines: list[str]) -> None:

@@ -28,10 +28,11 @@ from .read import (
     select,
     whole_system,
 )
-from .stored import KEYFRAME, condensed, expanded
+from .stored import KEYFRAME, Condenser, condensed, expanded
 
 __all__ = [
     "KEYFRAME",
+    "Condenser",
     "TIMING",
     "Lane",
     "Trace",

@@ -85,18 +85,28 @@ def without(base: dict[str, Any], path: list[str]) -> dict[str, Any]:
 
 def condensed(lines: Iterable[str], keyframe: int = KEYFRAME) -> Iterator[str]:
     """Full trace lines as stored: a keyframe, then change lines (see the module's doc)."""
-    last: dict[str, Any] | None = None
-    for line in lines:
+    condenser = Condenser(keyframe)
+    return (condenser.line(line) for line in lines)
+
+
+class Condenser:
+    """Full lines to stored lines one at a time, as `condensed` makes them: for a trace
+    written as its run goes."""
+
+    def __init__(self, keyframe: int = KEYFRAME) -> None:
+        self.keyframe = keyframe
+        self.last: dict[str, Any] | None = None  # the last full record
+
+    def line(self, line: str) -> str:
+        """The stored line for the next full line (a line without `modules`, the timing
+        record or an `interrupted` line, as it is)."""
         record = json.loads(line)
         if "modules" not in record:
-            yield line  # the timing record, an `interrupted` line
-            continue
-        cycle = record["cycle"]
-        if last is None or cycle % keyframe == 0:
-            yield line
-        else:
-            yield delta_line(last, record)
-        last = record
+            return line
+        last, self.last = self.last, record
+        if last is None or record["cycle"] % self.keyframe == 0:
+            return line
+        return delta_line(last, record)
 
 
 def delta_line(last: dict[str, Any], record: dict[str, Any]) -> str:
