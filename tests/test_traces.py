@@ -276,6 +276,24 @@ def test_cli_changes_and_coverage(monkeypatch):
     assert json.loads(as_json.output)["traces"] == ["tests/golden/box_cut.jsonl"]
 
 
+def test_cli_lines_prints_every_cycle_whole(monkeypatch, tmp_path):
+    """`rcsgen trace lines` expands a stored trace: each cycle a whole line, as the golden
+    comparison reads it; `-o` writes them to a file (which reads as the same trace)."""
+    monkeypatch.chdir(REPO)
+    shown = rcsgen("trace", "lines", "tests/golden/pop_out.jsonl")
+    assert shown.exit_code == 0, shown.output
+    assert shown.stdout.splitlines() == read_trace(GOLDEN / "pop_out.jsonl")
+    whole = tmp_path / "whole.jsonl"
+    written = rcsgen("trace", "lines", "tests/golden/pop_out.jsonl", "-o", whole)
+    assert written.exit_code == 0 and whole.read_text(encoding="utf-8") == shown.stdout
+    again, before = traces.load(whole), traces.load(GOLDEN / "pop_out.jsonl")
+    assert (again.cycles, again.columns, again.world) == (
+        before.cycles,
+        before.columns,
+        before.world,
+    )
+
+
 @pytest.mark.parametrize(
     ("args", "code", "message"),
     [
@@ -284,6 +302,8 @@ def test_cli_changes_and_coverage(monkeypatch):
         (["changes", "tests/golden/pop_out.jsonl", "-m", "cx"], 2, "error: unknown module `cx`"),
         (["coverage", "missing.jsonl"], 1, "error: no trace file at missing.jsonl"),
         (["show", "README.md"], 1, "error: README.md:1: not a trace line"),
+        (["lines", "missing.jsonl"], 1, "error: no trace file at missing.jsonl"),
+        (["lines", "README.md"], 1, "error: README.md is not a trace: Expecting value"),
     ],
 )
 def test_cli_bad_input_is_one_line(monkeypatch, args, code, message):

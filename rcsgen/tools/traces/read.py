@@ -28,7 +28,7 @@ from typing import IO, Any, cast
 from ...compiler.ir import IRProcess, IRSystem
 from ...runtime import contract
 from ..graph import levels
-from .stored import CHANGED, REMOVED, applied, is_delta, without
+from .stored import CHANGED, REMOVED, applied, expanded, is_delta, without
 
 FIELDS = ("command", "command_num", "status", "status_num", "state", "rule")
 # Only for modules that declare them, on every line or none: the reason's name and the
@@ -94,6 +94,26 @@ def load(path: Path) -> Trace:
         raise TraceError(f"{shown} is not a trace: cannot read it ({error})") from None
     finally:
         lines.close()  # the file is closed however the reading ended
+
+
+def full_lines(path: Path) -> list[str]:
+    """A trace file's lines, each a whole cycle (a stored trace expanded, `stored`): what
+    `rcsgen run` wrote before it stored only the changes, for `jq`, `diff` or a script;
+    TraceError with a one-line message if it cannot be read."""
+    shown = str(path)
+    if not path.is_file():
+        raise TraceError(
+            f"no trace file at {shown}" if not path.exists() else f"{shown} is not a file"
+        )
+    lines = _lines(path, shown)
+    try:
+        return list(expanded(lines))
+    except ValueError as error:
+        raise TraceError(f"{shown} is not a trace: {error}") from None
+    except OSError as error:
+        raise TraceError(f"{shown} is not a trace: cannot read it ({error})") from None
+    finally:
+        lines.close()
 
 
 def _lines(path: Path, shown: str) -> Generator[str, None, None]:
