@@ -48,7 +48,6 @@ from .terminal import (
     write_or_print,
 )
 from .tools.report import Options
-from .tools.scenario import runs
 
 
 @click.group(cls=Commands, context_settings={"help_option_names": ["-h", "--help"]})
@@ -158,6 +157,7 @@ def run(
     opts: Options,
 ) -> None:
     """Run a scenario on its system (built from the specs) and check its outcome."""
+    from .tools.scenario import runs
     from .tools.scenario import session as session_of
 
     session, not_run = Session(opts), "run failed: nothing was run"

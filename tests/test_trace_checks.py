@@ -62,8 +62,8 @@ GOOD = line(1, {"a": 1, "b": True}, co=co())
         ('{"cycle": 2, "changed": {"world": {"c": 1}}}', "t:2: world fields differ"),
         ('{"cycle": 2, "removed": [["world", "a"]]}', "t:2: world fields differ"),
         (
-            '{"cycle": 2, "removed": [["world", "z"]]}',
-            "t:2: not a trace line (`removed` names world.z, which is not there)",
+            '{"cycle": 2, "removed": [["modules", "co", "zz"]]}',
+            "t:2: not a trace line (`removed` names modules.co.zz, which is not there)",
         ),
         ('{"cycle": 2, "removed": [["modules", "co", "rule"]]}', "t:2: module co has no `rule`"),
         ('{"cycle": 2, "removed": ["a"]}', 't:2: not a trace line (`removed` holds "a", not a'),

@@ -559,12 +559,14 @@ def read_trace(path: Path) -> list[str]:
         diags = Diagnostics()
         diags.error(Span(shown), "E419", f"not a trace: {error}", "record it again")
         raise SpecError(diags) from None
+    lines: list[str] = []
     try:  # as stored, a full line now and then and the changes in between (traces.stored)
-        return list(traces.expanded(decode(data, shown).splitlines()))
-    except ValueError as error:
+        lines.extend(traces.expanded(decode(data, shown).splitlines()))
+    except ValueError as error:  # (at the line after the last one expanded)
         diags = Diagnostics()
-        diags.error(Span(shown), "E419", f"not a trace: {error}", "record it again")
+        diags.error(Span(shown, len(lines) + 1), "E419", f"not a trace: {error}", "record it again")
         raise SpecError(diags) from None
+    return lines
 
 
 class LiveTrace(list[str]):
