@@ -1330,7 +1330,7 @@ def _sections(text: str) -> list[tuple[str, str]]:
     return [(heading, "\n".join(body).rstrip() + "\n") for heading, body in found]
 
 
-def splice(old: str, new: str, when: datetime.datetime) -> str:
+def splice(old: str, new: str, when: datetime.datetime, load: tuple[float, float]) -> str:
     """The report of a run of some parts (`--parts`) put into the full one: each of its
     sections replaces the old section of the same title (up to a colon), or goes before
     the clean-up section; the machine, targets and clean-up stay the full run's."""
@@ -1339,7 +1339,8 @@ def splice(old: str, new: str, when: datetime.datetime) -> str:
         return heading.split(":")[0]
 
     fresh = {
-        title(h): body + f"\n(This section: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC.)\n"
+        title(h): body + f"\n(This section: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC, "
+        f"load average {load[0]:.2f} before, {load[1]:.2f} after.)\n"
         for h, body in _sections(new)
         if h and not h.startswith(KEPT)
     }
@@ -1444,7 +1445,7 @@ def main() -> int:
     lines += section_cleanup(results, problems)
     text = "\n".join(lines).rstrip() + "\n"
     if args.saved is None and set(results) != set(PARTS) and args.out.is_file():
-        text = splice(args.out.read_text(), text, started_at)  # a subset: its sections only
+        text = splice(args.out.read_text(), text, started_at, load)  # a subset: its sections
     args.out.write_text(text)
     print(f"wrote {args.out} in {time.perf_counter() - started:.0f} s", file=sys.stderr)
     return 1 if problems or (co and not co["traces_identical"]) else 0
