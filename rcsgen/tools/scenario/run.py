@@ -15,7 +15,7 @@ import json
 import math
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
@@ -580,18 +580,20 @@ class LiveTrace(list[str]):
     def __init__(self, path: Path) -> None:
         super().__init__()
         self.path, self.condenser = path, traces.Condenser()
+        self.stored: list[str] = []  # the lines as stored, one per line (for the final write)
         self.out: TextIO | None = None
         self.failed = path.name.endswith(".gz")
 
     def append(self, line: str) -> None:
         super().append(line)
+        self.stored.append(self.condenser.line(line))
         if self.failed:
             return
         try:
             if self.out is None:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
                 self.out = self.path.open("w", encoding="utf-8")
-            self.out.write(self.condenser.line(line) + "\n")
+            self.out.write(self.stored[-1] + "\n")
             self.out.flush()
         except OSError:
             self.failed = True
@@ -605,7 +607,10 @@ def write_trace(path: Path, lines: list[str]) -> None:
     """Write a trace as stored (traces.stored: a full line every KEYFRAME cycles, the
     changes in between), gzip-compressed when the name ends in `.gz`."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = "".join(line + "\n" for line in traces.condensed(lines))
+    stored: Iterable[str] = traces.condensed(lines)
+    if isinstance(lines, LiveTrace) and len(lines.stored) == len(lines):
+        stored = lines.stored  # (condensed already, cycle by cycle)
+    text = "".join(line + "\n" for line in stored)
     if path.name.endswith(".gz"):
         path.write_bytes(traces.compressed(text))
     else:
