@@ -1,7 +1,9 @@
 """Part 11: the trace tools: `rcsgen trace show` of a 20,000-cycle trace; the goldens' size.
 
 The long trace is tests/golden/around_pillar.jsonl's cycles repeated (renumbered) up to
-20,000 cycles, written plain and gzipped into a scratch directory. For each:
+20,000 cycles, written into a scratch directory three ways: as `rcsgen run` writes it (a
+full line every KEYFRAME cycles, the changes in between: traces/stored.py), the same
+gzipped, and every line full (a trace written before that format). For each:
 
 - `rcsgen trace show TRACE -o PAGE` as a user runs it (the specs of specs/ read to find the
   system that recorded it), each run a fresh process: its CPU seconds (user + system) and
@@ -10,8 +12,9 @@ The long trace is tests/golden/around_pillar.jsonl's cycles repeated (renumbered
 - in one fresh worker interpreter, the same command's steps timed apart (CPU): the imports,
   reading the trace (`traces.load`), checking the specs (`trace_system`), the page (`render`).
 
-The golden traces (tests/golden/**/*.jsonl): their bytes as stored, and gzipped as
-`rcsgen run --trace X.jsonl.gz` writes them (`read.compressed`).
+The golden traces (tests/golden/**/*.jsonl): their bytes as stored, their full lines
+(`traces.expanded`: what the stored form stands for) as text and gzipped, and the stored
+form gzipped as `rcsgen run --trace X.jsonl.gz` writes it (`read.compressed`).
 
     python bench/bench_traces.py [--cycles N] [--runs R] [--json PATH]
 """
@@ -27,6 +30,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from common import ROOT, write_json
@@ -36,20 +40,31 @@ RUNS = 5
 SOURCE = ROOT / "tests" / "golden" / "around_pillar.jsonl"
 
 
-def long_trace(cycles: int, path: Path, packed: Path) -> Path:
-    """SOURCE's cycle lines over and over, numbered 1..cycles, written plain to `path` and
-    gzipped to `packed`, line by line: this process must stay small, as the kernel counts
-    a child's peak RSS from before its exec (the parent's pages it started with)."""
-    lines = [line for line in SOURCE.read_text("utf-8").splitlines() if '"interrupted"' not in line]
+def long_trace(cycles: int, path: Path, packed: Path, full: Path) -> Path:
+    """SOURCE's cycles over and over, numbered 1..cycles, written as stored to `path`, the
+    same gzipped to `packed` and as full lines to `full`, line by line: this process must
+    stay small, as the kernel counts a child's peak RSS from before its exec (the parent's
+    pages it started with)."""
+    from rcsgen.tools.traces import condensed, expanded
+
+    text = SOURCE.read_text("utf-8").splitlines()
+    lines = [line for line in expanded(text) if '"interrupted"' not in line]
+
+    def renumbered() -> Iterator[str]:
+        for n in range(cycles):
+            line = lines[n % len(lines)]
+            yield f'{{"cycle":{n + 1}{line[line.index(",") :]}'
+
+    with full.open("w", encoding="utf-8") as out:
+        for line in renumbered():
+            out.write(line + "\n")
     with (
         path.open("w", encoding="utf-8") as out,
         gzip.GzipFile(packed, "wb", mtime=0) as gz,
     ):
-        for n in range(cycles):
-            line = lines[n % len(lines)]
-            text = f'{{"cycle":{n + 1}{line[line.index(",") :]}\n'
-            out.write(text)
-            gz.write(text.encode("utf-8"))
+        for line in condensed(renumbered()):
+            out.write(line + "\n")
+            gz.write((line + "\n").encode("utf-8"))
     return path
 
 
@@ -100,21 +115,25 @@ def worker(trace: Path) -> dict[str, float]:
 
 
 def goldens() -> dict[str, int]:
-    """The golden traces: their bytes as stored (a `.jsonl.gz` one gzipped), as text, and as
-    text gzipped the way `rcsgen run --trace X.jsonl.gz` writes a trace."""
+    """The golden traces: their bytes as stored (a `.jsonl.gz` one gzipped); their full lines
+    as text and gzipped; the stored form gzipped the way `rcsgen run --trace X.jsonl.gz`
+    writes a trace."""
+    from rcsgen.tools.traces import expanded
     from rcsgen.tools.traces.read import compressed, decompressed
 
     folder = ROOT / "tests" / "golden"
     files = sorted([*folder.rglob("*.jsonl"), *folder.rglob("*.jsonl.gz")])
     stored = [path.read_bytes() for path in files]
     texts = [decompressed(data, 1 << 30).decode("utf-8") for data in stored]
+    full = ["".join(f"{line}\n" for line in expanded(text.splitlines())) for text in texts]
     return {
         "files": len(files),
         "gzipped_files": sum(path.name.endswith(".gz") for path in files),
         "cycles": sum(text.count("\n") for text in texts),
         "stored_bytes": sum(len(data) for data in stored),
-        "bytes": sum(len(text.encode("utf-8")) for text in texts),
-        "gzipped_bytes": sum(len(compressed(text)) for text in texts),
+        "bytes": sum(len(text.encode("utf-8")) for text in full),
+        "gzipped_bytes": sum(len(compressed(text)) for text in full),
+        "stored_gzipped_bytes": sum(len(compressed(text)) for text in texts),
     }
 
 
@@ -135,9 +154,9 @@ def main() -> int:
     started = time.perf_counter()
     results = {}
     with tempfile.TemporaryDirectory(prefix="rcsgen-bench-traces-") as scratch:
-        packed = Path(scratch) / "long.jsonl.gz"
-        plain = long_trace(args.cycles, Path(scratch) / "long.jsonl", packed)
-        for key, trace in (("plain", plain), ("gzip", packed)):
+        packed, full = Path(scratch) / "long.jsonl.gz", Path(scratch) / "full.jsonl"
+        plain = long_trace(args.cycles, Path(scratch) / "long.jsonl", packed, full)
+        for key, trace in (("plain", plain), ("gzip", packed), ("full", full)):
             page = Path(scratch) / f"{key}.html"
             show_run(trace, page)  # warm-up: bytecode, the page cache
             runs = [show_run(trace, page) for _ in range(args.runs)]

@@ -365,15 +365,23 @@ def tools_targets(startup, traces, add) -> list[str]:
         add(
             stored >= GOLDEN_SHRINK_MIN,
             f"golden traces stored ≥ {GOLDEN_SHRINK_MIN:g}× smaller than their text: "
-            f"{stored:.1f}× ({g['gzipped_files']} of {g['files']} stored gzipped, "
-            f"{g['stored_bytes'] / 2**20:.1f} MiB; all gzipped: "
-            f"{g['gzipped_bytes'] / 2**20:.2f} MiB, "
-            f"{g['bytes'] / max(1, g['gzipped_bytes']):.0f}×) (section 11)",
+            f"{stored:.1f}× ({g['stored_bytes'] / 2**20:.1f} MiB as stored, "
+            f"{g['bytes'] / 2**20:.1f} MiB of full lines; {g['gzipped_files']} of "
+            f"{g['files']} stored gzipped) (section 11)",
         )
     return []
 
 
+TRACE_KINDS = {
+    "plain": "as `rcsgen run` writes it (`.jsonl`)",
+    "gzip": "the same gzipped (`.jsonl.gz`)",
+    "full": "every line full (`.jsonl`, before the stored form)",
+}
+
+
 def section_traces(traces: dict) -> list[str]:
+    from rcsgen.tools.traces import KEYFRAME
+
     lines = [
         "## 11. Trace tools",
         "",
@@ -388,7 +396,7 @@ def section_traces(traces: dict) -> list[str]:
     for key, r in traces["show"].items():
         st = r["steps_s"]
         lines.append(
-            f"| {'plain `.jsonl`' if key == 'plain' else 'gzipped `.jsonl.gz`'} "
+            f"| {TRACE_KINDS.get(key, key)} "
             f"| {r['bytes'] / 2**20:.1f} MiB "
             f"| {r['cpu_s']['median']:.2f} s ({r['cpu_s']['min']:.2f}–{r['cpu_s']['max']:.2f}) "
             f"| {r['wall_s']['median']:.2f} s | {r['rss_mib']['median']:.0f} MiB "
@@ -399,10 +407,16 @@ def section_traces(traces: dict) -> list[str]:
     lines += [
         "",
         f"The golden traces (tests/golden/, {g['files']} files of which {g['gzipped_files']} "
-        f"gzipped, {g['cycles']:,} cycles): {g['stored_bytes']:,} bytes as stored; "
-        f"{g['bytes']:,} bytes of JSON Lines text (~{g['bytes'] / g['cycles']:,.0f} bytes a "
-        f"cycle); {g['gzipped_bytes']:,} bytes were each gzipped as `rcsgen run --trace "
-        f"X.jsonl.gz` writes one ({g['bytes'] / max(1, g['gzipped_bytes']):.0f}× smaller).",
+        f"gzipped, {g['cycles']:,} cycles): {g['stored_bytes']:,} bytes as stored (a full "
+        f"line every {KEYFRAME} cycles, the changes in between; "
+        f"{g['bytes'] / max(1, g['stored_bytes']):.1f}× smaller than their full lines); "
+        f"{g['bytes']:,} bytes of full lines (~{g['bytes'] / g['cycles']:,.0f} bytes a "
+        f"cycle), {g['gzipped_bytes']:,} gzipped "
+        f"({g['bytes'] / max(1, g['gzipped_bytes']):.0f}×); the stored form gzipped as "
+        f"`rcsgen run --trace X.jsonl.gz` writes one: "
+        f"{g.get('stored_gzipped_bytes', 0):,} bytes "
+        f"({g['bytes'] / max(1, g.get('stored_gzipped_bytes', 0)):.0f}× smaller than the full "
+        "lines).",
         "",
     ]
     return lines
@@ -1319,7 +1333,7 @@ def _sections(text: str) -> list[tuple[str, str]]:
     return [(heading, "\n".join(body).rstrip() + "\n") for heading, body in found]
 
 
-def splice(old: str, new: str, when: datetime.datetime) -> str:
+def splice(old: str, new: str, when: datetime.datetime, load: tuple[float, float]) -> str:
     """The report of a run of some parts (`--parts`) put into the full one: each of its
     sections replaces the old section of the same title (up to a colon), or goes before
     the clean-up section; the machine, targets and clean-up stay the full run's."""
@@ -1328,7 +1342,8 @@ def splice(old: str, new: str, when: datetime.datetime) -> str:
         return heading.split(":")[0]
 
     fresh = {
-        title(h): body + f"\n(This section: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC.)\n"
+        title(h): body + f"\n(This section: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC, "
+        f"load average {load[0]:.2f} before, {load[1]:.2f} after.)\n"
         for h, body in _sections(new)
         if h and not h.startswith(KEPT)
     }
@@ -1433,7 +1448,7 @@ def main() -> int:
     lines += section_cleanup(results, problems)
     text = "\n".join(lines).rstrip() + "\n"
     if args.saved is None and set(results) != set(PARTS) and args.out.is_file():
-        text = splice(args.out.read_text(), text, started_at)  # a subset: its sections only
+        text = splice(args.out.read_text(), text, started_at, load)  # a subset: its sections
     args.out.write_text(text)
     print(f"wrote {args.out} in {time.perf_counter() - started:.0f} s", file=sys.stderr)
     return 1 if problems or (co and not co["traces_identical"]) else 0

@@ -48,7 +48,6 @@ from .terminal import (
     write_or_print,
 )
 from .tools.report import Options
-from .tools.scenario import runs
 
 
 @click.group(cls=Commands, context_settings={"help_option_names": ["-h", "--help"]})
@@ -158,6 +157,7 @@ def run(
     opts: Options,
 ) -> None:
     """Run a scenario on its system (built from the specs) and check its outcome."""
+    from .tools.scenario import runs
     from .tools.scenario import session as session_of
 
     session, not_run = Session(opts), "run failed: nothing was run"
@@ -178,7 +178,7 @@ def run(
             session.add(stale)
             session.finish(not_run)
         progress = cycle_progress(line, spec.max_cycles)
-        ran = session_of.execute(spec, package, processes, progress, hooks_out)
+        ran = session_of.execute(spec, package, processes, progress, hooks_out, trace_path)
     line.done()
     if ran.signal is not None:
         interrupted(ran, ran.signal, spec.name, trace_path)

@@ -1,4 +1,4 @@
-"""`rcsgen trace changes | coverage | show | mine`: the commands that read traces.
+"""`rcsgen trace changes | lines | coverage | show | mine`: the commands that read traces.
 
 A group of its own, registered on `rcsgen.cli.main`; each command parses, loads its traces
 (and the specs that recorded them, `terminal.trace_system`), calls one tool and renders.
@@ -81,6 +81,27 @@ def trace_changes(
         for status, fg in colour.items():
             line = line.replace(f"-> {status} ", f"-> {click.style(status, fg=fg)} ")
         click.echo(line)
+
+
+@trace_group.command("lines")
+@TRACE
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, dir_okay=False),
+    default=None,
+    help="Write them to this file [default: stdout].",
+)
+def trace_lines(trace_path: Path, output: Path | None) -> None:
+    """Print TRACE's cycles as whole lines, one JSON object each (a trace is stored as a
+    whole line every 200 cycles and the changes in between): for jq, diff or a script."""
+    from .tools import traces
+
+    try:
+        found = traces.full_lines(trace_path)
+    except traces.TraceError as problem:
+        raise error(str(problem)) from None
+    write_or_print("".join(f"{line}\n" for line in found), output)
 
 
 @trace_group.command("coverage")

@@ -621,6 +621,24 @@ def load_trace(path: Path) -> Trace:
         raise error(str(problem)) from None
 
 
+def _recorded_by_named(paths: list[Path], found: list[Trace]) -> IRSystem | None:
+    """The system that recorded the traces, checking only the systems whose files name every
+    module they hold (`recording.systems_naming`), in order; None if none of them builds
+    and fits (the caller then checks every system, and says what is wrong)."""
+    from .tools import traces
+    from .tools.traces.read import module_of
+    from .tools.traces.recording import systems_naming
+
+    modules = {module_of(m) for one in found for m in one.modules}
+    for directory in systems_naming(paths, modules):
+        front = api.check([directory])
+        if not front.diagnostics.errors:
+            fits, _ = traces.recorded_by(front.systems, found)
+            if fits is not None:
+                return fits
+    return None
+
+
 def trace_system(specs: Path | None, found: list[Trace], required: bool) -> IRSystem | None:
     """The system that recorded the traces, from --specs (or specs/ when it is there): its
     execution order, levels, titles and rules. None when no specs are at hand and they are
@@ -633,7 +651,11 @@ def trace_system(specs: Path | None, found: list[Trace], required: bool) -> IRSy
                 "no specs/ here: name the specs the trace was recorded from with --specs", 2
             )
         return None
-    systems = systems_in((specs,) if specs is not None else ())
+    paths = (specs,) if specs is not None else ()
+    fits = _recorded_by_named(specs_or_default(paths), found)
+    if fits is not None:
+        return fits
+    systems = systems_in(paths)  # every system: what is wrong with the specs, or the trace
     fits, problem = traces.recorded_by(systems, found)
     if fits is not None or (specs is None and not required):
         return fits  # (None: a trace of other specs, shown without them)

@@ -8,12 +8,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from rcsgen.tools.scenario import read_trace
+
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = ROOT / "tests" / "golden" / "cell" / "plan_ahead.jsonl"
 
 
 def lines() -> list[dict]:
-    return [json.loads(line)["modules"] for line in GOLDEN.read_text().splitlines()]
+    return [json.loads(line)["modules"] for line in read_trace(GOLDEN)]
 
 
 def test_each_move_after_the_first_is_planned_while_the_one_before_is_made():

@@ -72,7 +72,8 @@ def test_e419_a_golden_trace_that_is_not_a_trace(tmp_path: Path) -> None:
     golden.write_text("this is not JSON\n", encoding="utf-8")
     found = golden_differences(golden, ['{"cycle": 0}'], "go")
     assert [d.code for d in found] == ["E419"]
-    assert found[0].message.startswith("golden trace is not a trace")
+    assert found[0].message.startswith("cannot read golden trace: not a trace: Expecting value")
+    assert found[0].span.line == 1  # (the line that does not read)
     missing = golden_differences(tmp_path / "absent.jsonl", ['{"cycle": 0}'], "go")
     assert [d.code for d in missing] == ["E419"]
     assert "absent.jsonl" in missing[0].span.file

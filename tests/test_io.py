@@ -35,6 +35,7 @@ import pytest
 from conftest import rcsgen, wait_for
 
 from rcsgen.tools.harness import Harness, generate, import_package
+from rcsgen.tools.scenario import read_trace
 
 RIG = Path(__file__).resolve().parent / "fixtures" / "runtime" / "rig"
 LEVEL = 1.25  # what the tank PLC's level sensor reads: the pump drains, the valve fills
@@ -430,7 +431,7 @@ def test_the_box_cut_in_the_loop_ends_as_the_simulated_one(tmp_path: Path) -> No
     the PLC): the box cut completes (sec DONE) with the
     simulation's outcome: the depth its golden trace ends at, the floor as clear as the
     scenario expects, the machine where the simulated one ends."""
-    golden = json.loads((ROOT / "tests" / "golden" / "box_cut.jsonl").read_text().splitlines()[-1])
+    golden = json.loads(read_trace(ROOT / "tests" / "golden" / "box_cut.jsonl")[-1])
     scenario = (ROOT / "specs" / "miner" / "scenarios" / "box_cut.yaml").read_text()
     floor = float(scenario.split("loose_coal_true: {max: ")[1].split("}")[0])
     plc = miner_plc(tmp_path)

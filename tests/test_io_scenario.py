@@ -21,6 +21,7 @@ from conftest import rcsgen
 from support.running import children
 
 from rcsgen.tools import traces
+from rcsgen.tools.scenario import read_trace
 
 ROOT = Path(__file__).resolve().parent.parent
 PLUG_PULL = ROOT / "specs" / "miner_hil" / "scenarios" / "plug_pull.yaml"
@@ -58,7 +59,7 @@ def test_a_device_lost_mid_shear_stops_the_miner_safe_within_timeout_plus_one_cy
         f"{device} unplug before cycle 115: lost, inputs stale, every actuator latched "
         in (said[0])
     )
-    text = trace.read_text().splitlines()
+    text = read_trace(trace)
     # a paced run: its trace ends with how well it held its period (issue 24 item 4)
     assert traces.is_timing(text[-1]), text[-1]
     timing = json.loads(text[-1])
@@ -123,7 +124,7 @@ def test_a_frozen_plc_s_survivor_holds_the_safe_values_and_a_run_too_short_is_e4
         result.output
     )
     assert "held safe by the devices up" in result.output
-    *cycles, timing = trace.read_text().splitlines()
+    *cycles, timing = read_trace(trace)
     assert traces.is_timing(timing) and json.loads(timing)["periodicity"]["wakeups"] == 44
     last = json.loads(cycles[-1])
     assert last["io"]["tank"]["state"] == "ONLINE" and last["io"]["tank"]["reconnects"] >= 1

@@ -16,6 +16,7 @@ from conftest import rcsgen
 from support.browser import load, needs_chromium
 
 from rcsgen.compiler.frontend import compile_paths
+from rcsgen.tools.scenario import read_trace
 from rcsgen.tools.traces import mine as mine_view
 from rcsgen.tools.traces import read as traces
 
@@ -60,7 +61,7 @@ def test_replay_ends_where_the_run_ended_and_cuts_only_the_face(hooks):
 
 
 def test_replay_notices_a_trace_of_another_map(hooks, tmp_path):
-    lines = (GOLDEN / "sump_shear_cusp.jsonl").read_text(encoding="utf-8").splitlines()
+    lines = read_trace(GOLDEN / "sump_shear_cusp.jsonl")
     records = [json.loads(line) for line in lines]
     for record in records[80:]:
         record["world"]["depth_cut"] = 9.0
@@ -105,7 +106,7 @@ def rcsgen_page(trace: Path, tmp_path: Path) -> str:
 
 def test_cli_refuses_a_trace_without_the_fields(tmp_path, monkeypatch):
     monkeypatch.chdir(REPO)
-    records = [json.loads(line) for line in (GOLDEN / "box_cut.jsonl").read_text().splitlines()]
+    records = [json.loads(line) for line in read_trace(GOLDEN / "box_cut.jsonl")]
     for record in records:
         del record["world"]["true_x"]
     path = tmp_path / "box_cut.jsonl"

@@ -35,6 +35,7 @@ from conftest import wait_for
 
 from rcsgen.cli import main as rcsgen_main
 from rcsgen.tools.harness import import_package
+from rcsgen.tools.scenario import read_trace
 from rcsgen.tools.traces import read as traces
 
 REPO = Path(__file__).resolve().parent.parent
@@ -368,13 +369,46 @@ def test_interrupted_run_keeps_its_trace(case: dict[str, Any], tmp_path: Path) -
     err = "".join(line for line in seen if not line.startswith("  cycle "))
     assert run.returncode == case["exit"], err
     assert "Traceback" not in out + err
-    lines = trace.read_text(encoding="utf-8").splitlines()
+    lines = read_trace(trace)
     last = json.loads(lines[-1])
     assert last == {"cycle": len(lines), "interrupted": case["signal"]}, last
     assert f"interrupted by {case['signal']} in cycle {len(lines)} of forever" in err, err
     loaded = traces.load(trace)  # the trace tools read it: every cycle, and the interruption
     assert loaded.interrupted == case["signal"] and loaded.cycles == list(range(1, len(lines)))
     assert len(lines) > 1, "no cycle ran before the signal"
+    nothing_left(before)
+
+
+def test_a_killed_run_keeps_a_readable_trace_up_to_its_last_cycle(tmp_path: Path) -> None:
+    """`rcsgen run` killed outright (SIGKILL: nothing of it runs after) once its trace file
+    has grown: the file, written as the run goes, reads as the cycles that finished (every
+    line whole, cycle 1 on, no gap; the trace tools and the golden reader agree), with no
+    line saying it was interrupted (no one was left to write it)."""
+    before = ours()
+    trace = tmp_path / "forever.jsonl"
+    argv = [sys.executable, "-m", "rcsgen", "run", str(TICKER / "scenarios" / "forever.yaml")]
+    argv += ["--trace", str(trace)]
+    with subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) as run:
+        try:
+            # (a busy host may take a while to start it: a generous bound, then kill at once)
+            wait_for(
+                lambda: trace.is_file() and trace.read_bytes().count(b"\n") >= 3, "3 cycles", BOUND
+            )
+            run.kill()
+            run.wait(timeout=BOUND)
+        finally:
+            if run.poll() is None:
+                run.kill()
+                run.wait()
+    assert run.returncode == -signal.SIGKILL
+    text = trace.read_text(encoding="utf-8")
+    assert text.endswith("\n"), text[-200:]  # (flushed a whole line at a time)
+    loaded = traces.load(trace)
+    assert loaded.interrupted is None and len(loaded) >= 3
+    assert loaded.cycles == list(range(1, len(loaded) + 1))
+    full = [json.loads(line) for line in read_trace(trace)]
+    assert [line["cycle"] for line in full] == loaded.cycles
+    assert all("modules" in line for line in full)  # each line expands to its whole cycle
     nothing_left(before)
 
 
@@ -707,7 +741,7 @@ def test_a_scenario_forces_a_field_and_its_trace_shows_it(
             rcsgen_main, ["run", "sys/scenarios/forced.yaml", "--trace", str(trace), *processes]
         )
         assert result.exit_code == 0, result.output
-        lines = [json.loads(line) for line in trace.read_text().splitlines()]
+        lines = [json.loads(line) for line in read_trace(trace)]
         assert [line.get("overrides") for line in lines[3:7]] == [{"level": "FORCED"}] * 4
         assert all(line["world"]["level"] == 7.5 for line in lines[3:7])
         assert all("overrides" not in line for line in lines[7:])

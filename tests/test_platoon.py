@@ -25,7 +25,7 @@ import pytest
 from conftest import wait_for
 
 from rcsgen.tools.harness import Harness, import_package
-from rcsgen.tools.scenario import load_scenario, open_harness, run
+from rcsgen.tools.scenario import load_scenario, open_harness, read_trace, run
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "generated" / "platoon"
@@ -207,7 +207,7 @@ def test_each_instance_is_modules_of_its_own_in_the_layout_code_graph_and_traces
         assert edge in graph.output
     assert 'm_bravo["bravo<br/>Vehicle Bravo (Jerry, the right corridor)"]' in graph.output
     golden = ROOT / "tests" / "golden" / "platoon" / "lost_vehicle.jsonl"
-    lines = [json.loads(line) for line in golden.read_text(encoding="utf-8").splitlines()]
+    lines = [json.loads(line) for line in read_trace(golden)]
     assert all(set(line["modules"]) == set(layout.MODULES) for line in lines)
     immobile = [line["cycle"] for line in lines if line["modules"]["bravo"]["reason"] == "IMMOBILE"]
     assert immobile[:1] == [126], "Bravo's locomotion's reason, passed up by Bravo"

@@ -11,6 +11,7 @@ import pytest
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove import INFINITE, diagnostics, prove_front
 from rcsgen.tools.replay import replay_all
+from rcsgen.tools.scenario import read_trace
 
 SPECS = Path(__file__).resolve().parents[1] / "specs"
 
@@ -245,7 +246,7 @@ def test_the_written_scenario_runs(tmp_path):
     scenario = next((directory / "counterexamples").glob("co_w708_*.yaml"))
     ran = runner.invoke(main, ["run", str(scenario), "--trace", str(tmp_path / "t.jsonl")])
     assert ran.exit_code == 0, ran.output
-    last = (tmp_path / "t.jsonl").read_text().splitlines()[-1]
+    last = read_trace(tmp_path / "t.jsonl")[-1]
     assert '"co":{' in last and '"status":"DONE"' in last.split('"co":{')[1].split("}")[0]
 
 

@@ -21,6 +21,7 @@ from rcsgen.cli import main
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove import prove_front
 from rcsgen.compiler.prove.system import prove
+from rcsgen.tools.scenario import read_trace
 
 SPECS = Path(__file__).resolve().parents[1] / "specs"
 
@@ -140,7 +141,7 @@ def test_a_violated_response_is_a_counter_example_that_rcsgen_run_replays(tmp_pa
     trace = tmp_path / "t.jsonl"
     ran = runner.invoke(main, ["run", str(scenario), "--trace", str(trace)])
     assert ran.exit_code == 0, ran.output
-    cycles = [json.loads(line) for line in trace.read_text().splitlines()]
+    cycles = [json.loads(line) for line in read_trace(trace)]
     top = [c for c in cycles if "top" in json.dumps(c)]
     assert len(top) >= 2
     assert '"status": "EXECUTING"' in json.dumps(top[-1]).split('"top"')[1][:400]

@@ -25,6 +25,7 @@ from conftest import wait_for
 from support.running import console_status, segment_names
 
 from rcsgen.tools.harness import Harness, generate, import_package
+from rcsgen.tools.scenario import read_trace
 
 DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
 
@@ -427,7 +428,7 @@ def test_the_miner_as_two_free_running_processes_completes_the_box_cut() -> None
     lines = done.stdout.splitlines()
     assert lines[0] == "sec DONE #2", done.stdout
     assert lines[1] == "depth_cut = 1.5"
-    golden = (REPO / "tests" / "golden" / "box_cut.jsonl").read_text().splitlines()[-1]
+    golden = read_trace(REPO / "tests" / "golden" / "box_cut.jsonl")[-1]
     one_process = json.loads(golden)["world"]["coal_mined"]
     assert float(lines[2].split(" = ")[1]) == pytest.approx(one_process)
     assert any(line.startswith("pc2: stopped, ") for line in lines)

@@ -19,6 +19,7 @@ from conftest import rcsgen
 from support.browser import load, needs_chromium
 
 from rcsgen.compiler.frontend import compile_paths
+from rcsgen.tools.scenario import read_trace
 from rcsgen.tools.traces import read as traces
 from rcsgen.tools.traces import sea as sea_view
 
@@ -113,7 +114,7 @@ def test_cli_writes_the_view_beside_the_trace_and_the_same_bytes_twice(tmp_path,
 
 def test_cli_refuses_a_trace_without_the_position_in_one_line(tmp_path, monkeypatch):
     monkeypatch.chdir(REPO)
-    records = [json.loads(line) for line in (GOLDEN / "rudder_jam.jsonl").read_text().splitlines()]
+    records = [json.loads(line) for line in read_trace(GOLDEN / "rudder_jam.jsonl")]
     for record in records:
         del record["world"]["pos_x"]
     path = tmp_path / "rudder_jam.jsonl"

@@ -58,6 +58,26 @@ GOOD = line(1, {"a": 1, "b": True}, co=co())
         ('{"cycle": 2, "modules": {"co": 1}}', "t:2: not a trace line (no `modules` object)"),
         ('{"cycle": "2", "modules": {}}', "t:2: not a trace line (no `cycle` number)"),
         ("[1, 2]", "t:2: not a trace line (no `cycle` number)"),
+        # Change lines (traces.stored): checked as the full line they stand for.
+        ('{"cycle": 2, "changed": {"world": {"c": 1}}}', "t:2: world fields differ"),
+        ('{"cycle": 2, "removed": [["world", "a"]]}', "t:2: world fields differ"),
+        (
+            '{"cycle": 2, "removed": [["modules", "co", "zz"]]}',
+            "t:2: not a trace line (`removed` names modules.co.zz, which is not there)",
+        ),
+        ('{"cycle": 2, "removed": [["modules", "co", "rule"]]}', "t:2: module co has no `rule`"),
+        ('{"cycle": 2, "removed": ["a"]}', 't:2: not a trace line (`removed` holds "a", not a'),
+        ('{"cycle": 2, "changed": 5}', "t:2: not a trace line (`changed` is not an object"),
+        ('{"cycle": 1, "changed": {}}', "t:2: cycle 1 after cycle 1"),
+        (
+            '{"cycle": 2, "changed": {"modules": {"co": {"reason": "NONE"}}}}',
+            "t:2: module co has a `reason` the first line does not have",
+        ),
+        (
+            '{"cycle": 2, "changed": {"modules": {"co": {"rule": "X", "state": null}},'
+            ' "world": {"a": 2, "b": false}}}',
+            "",
+        ),
     ],
 )
 def test_a_line_that_disagrees_with_the_first_is_one_located_error(

@@ -13,7 +13,8 @@ import pytest
 from conftest import rcsgen
 
 from rcsgen.compiler.frontend import compile_paths
-from rcsgen.tools.traces import changes, coverage
+from rcsgen.tools.scenario import read_trace
+from rcsgen.tools.traces import changes, coverage, stored
 from rcsgen.tools.traces import read as traces
 
 REPO = Path(__file__).resolve().parent.parent
@@ -34,7 +35,7 @@ def pop_out():
 
 
 def lines_of(path: Path) -> list[dict]:
-    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines()]
+    return [json.loads(line) for line in read_trace(path)]  # (full lines)
 
 
 def write_lines(path: Path, records: list[dict]) -> Path:
@@ -64,7 +65,8 @@ def test_load_gives_columns_per_module_and_world(pop_out):
         ("", "is empty: a trace has one JSON line per cycle"),
         ("not json\n", ":1: not a trace line: Expecting value"),
         ('{"a": 1}\n', ":1: not a trace line (no `cycle` number)"),
-        ('{"cycle": 1}\n', ":1: not a trace line (no `modules` object)"),
+        # (a line of changes only, with no full line before it to change)
+        ('{"cycle": 1}\n', ":1: not a trace line (no `modules` object, nor a full line before"),
         (
             '{"cycle": 1, "modules": {"co": {"command": "INIT"}}}\n',
             "module co has no `command_num`",
@@ -274,6 +276,24 @@ def test_cli_changes_and_coverage(monkeypatch):
     assert json.loads(as_json.output)["traces"] == ["tests/golden/box_cut.jsonl"]
 
 
+def test_cli_lines_prints_every_cycle_whole(monkeypatch, tmp_path):
+    """`rcsgen trace lines` expands a stored trace: each cycle a whole line, as the golden
+    comparison reads it; `-o` writes them to a file (which reads as the same trace)."""
+    monkeypatch.chdir(REPO)
+    shown = rcsgen("trace", "lines", "tests/golden/pop_out.jsonl")
+    assert shown.exit_code == 0, shown.output
+    assert shown.stdout.splitlines() == read_trace(GOLDEN / "pop_out.jsonl")
+    whole = tmp_path / "whole.jsonl"
+    written = rcsgen("trace", "lines", "tests/golden/pop_out.jsonl", "-o", whole)
+    assert written.exit_code == 0 and whole.read_text(encoding="utf-8") == shown.stdout
+    again, before = traces.load(whole), traces.load(GOLDEN / "pop_out.jsonl")
+    assert (again.cycles, again.columns, again.world) == (
+        before.cycles,
+        before.columns,
+        before.world,
+    )
+
+
 @pytest.mark.parametrize(
     ("args", "code", "message"),
     [
@@ -282,6 +302,8 @@ def test_cli_changes_and_coverage(monkeypatch):
         (["changes", "tests/golden/pop_out.jsonl", "-m", "cx"], 2, "error: unknown module `cx`"),
         (["coverage", "missing.jsonl"], 1, "error: no trace file at missing.jsonl"),
         (["show", "README.md"], 1, "error: README.md:1: not a trace line"),
+        (["lines", "missing.jsonl"], 1, "error: no trace file at missing.jsonl"),
+        (["lines", "README.md"], 1, "error: README.md is not a trace: Expecting value"),
     ],
 )
 def test_cli_bad_input_is_one_line(monkeypatch, args, code, message):
@@ -361,3 +383,69 @@ def test_a_line_repeating_the_modules_text_reads_as_if_decoded_whole(tmp_path):
     (tmp_path / "twice.jsonl").write_text("\n".join(text) + "\n", encoding="utf-8")
     with pytest.raises(traces.TraceError, match=r":3: modules differ"):
         traces.load(tmp_path / "twice.jsonl")
+
+
+# ---------------------------------------------------------------- the stored form
+
+
+def _line(cycle: int, modules: dict, world: dict, **more) -> str:
+    return stored.dumps({"cycle": cycle, "modules": modules, "world": world, **more})
+
+
+def test_the_stored_form_expands_to_every_line_byte_for_byte():
+    """Full lines -> stored -> full lines is the identity, whatever changes: a value, its
+    type alone (1, 1.0, true), null, a member of a nested object, a member that appears or
+    goes (`cause`, `overrides`), a nested object replaced by a value; the first line and
+    every KEYFRAME-th cycle are full lines, a cycle where nothing changed is its number, and
+    a line without modules (a timing record) is kept as it is."""
+    co = {"command": "GO", "command_num": 1, "rule": None, "state": "S1", "status": "DONE"}
+    co |= {"status_num": 1, "reason": "NONE", "result": {"n": 0}}
+    rows = [
+        _line(1, {"co": co}, {"a": 1, "b": "x"}),
+        _line(2, {"co": co}, {"a": 1, "b": "x"}),  # nothing changed
+        _line(3, {"co": co | {"rule": "GO/S1/1"}}, {"a": 1.0, "b": "x"}),  # 1 -> 1.0
+        _line(4, {"co": co | {"cause": "cd"}}, {"a": True, "b": None}),
+        _line(5, {"co": co | {"result": {"n": 1, "m": 2}}}, {"a": True, "b": None}),
+        _line(6, {"co": co | {"result": {"n": 3}}}, {"a": 0, "b": None}, overrides={"a": "SAFE"}),
+        _line(7, {"co": co | {"result": 5}}, {"a": 0, "b": "é"}),
+        _line(8, {"co": co | {"result": {}}}, {"a": 0, "b": "é"}),
+        '{"cycle":8,"periodicity":{"period_ms":50.0}}',
+    ]
+    kept = list(stored.condensed(rows, keyframe=4))
+    assert list(stored.expanded(kept)) == rows
+    assert kept[0] == rows[0] and kept[3] == rows[3] and kept[7] == rows[7]  # cycles 1, 4, 8
+    assert kept[1] == '{"cycle":2}' and kept[8] == rows[8]
+    assert (
+        kept[2] == '{"cycle":3,"changed":{"modules":{"co":{"rule":"GO/S1/1"}},"world":{"a":1.0}}}'
+    )
+    assert json.loads(kept[4])["removed"] == [["modules", "co", "cause"]]
+    assert json.loads(kept[5]) == {
+        "cycle": 6,
+        "changed": {
+            "modules": {"co": {"result": {"n": 3}}},
+            "overrides": {"a": "SAFE"},
+            "world": {"a": 0},
+        },
+        "removed": [["modules", "co", "result", "m"]],
+    }
+    assert json.loads(kept[6])["removed"] == [["overrides"]]
+    # read alike (the reader refuses a `result` that is not an object: up to cycle 6)
+    a, b = traces.parse_lines(rows[:6], "t"), traces.parse_lines(kept[:6], "t")
+    assert (a.cycles, a.columns, a.world, a.starts) == (b.cycles, b.columns, b.world, b.starts)
+
+
+def test_every_golden_is_stored_in_the_stored_form_and_expands_to_whole_cycles():
+    """A golden re-recorded comes out exactly as committed only if the committed one is in
+    the stored form (condensed from its own expansion), and every line it expands to is a
+    whole cycle; stored, the goldens are at least 10x smaller than their full lines."""
+    stored_bytes = full_bytes = 0
+    for path in sorted(GOLDEN.rglob("*.jsonl")):
+        kept = path.read_text(encoding="utf-8").splitlines()
+        full = read_trace(path)
+        assert list(stored.condensed(full)) == kept, path
+        records = [json.loads(line) for line in full]
+        assert [r["cycle"] for r in records] == list(range(1, len(records) + 1)), path
+        assert all({"modules", "world"} <= r.keys() for r in records), path
+        stored_bytes += sum(len(line) + 1 for line in kept)
+        full_bytes += sum(len(line) + 1 for line in full)
+    assert full_bytes >= 10 * stored_bytes, (full_bytes, stored_bytes)

@@ -27,7 +27,7 @@ from rcsgen.compiler.types import BOOL, Str
 from rcsgen.runtime import contract
 from rcsgen.runtime.operate import command, launcher
 from rcsgen.tools.harness import Harness, generate, import_package
-from rcsgen.tools.scenario import check_scenario
+from rcsgen.tools.scenario import check_scenario, read_trace
 from rcsgen.tools.traces import read as traces
 from rcsgen.tools.traces import view as trace_view
 
@@ -336,7 +336,7 @@ def test_a_scenario_sets_sends_traces_and_expects_by_name(typed: Path) -> None:
     trace = typed.parent / "good.jsonl"
     ran = rcsgen("run", typed / "scenarios" / "good.yaml", "--trace", trace)
     assert ran.exit_code == 0, ran.output
-    lines = [json.loads(line) for line in trace.read_text(encoding="utf-8").splitlines()]
+    lines = [json.loads(line) for line in read_trace(trace)]
     assert lines[0]["world"] == {"side": "LEFT", "label": "é"}
     assert lines[-1]["world"] == {"side": "RIGHT", "label": "flange@1"}
     edit(typed / "scenarios" / "good.yaml", "side: RIGHT, label", "side: LEFT, label")

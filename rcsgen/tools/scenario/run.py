@@ -15,11 +15,11 @@ import json
 import math
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Protocol
+from typing import Any, Protocol, TextIO
 
 from ...compiler.diagnostics import Diagnostics, Span, SpecError
 from ...compiler.front_end.loader import decode, read_bytes
@@ -559,13 +559,58 @@ def read_trace(path: Path) -> list[str]:
         diags = Diagnostics()
         diags.error(Span(shown), "E419", f"not a trace: {error}", "record it again")
         raise SpecError(diags) from None
-    return decode(data, shown).splitlines()
+    lines: list[str] = []
+    try:  # as stored, a full line now and then and the changes in between (traces.stored)
+        lines.extend(traces.expanded(decode(data, shown).splitlines()))
+    except ValueError as error:  # (at the line after the last one expanded)
+        diags = Diagnostics()
+        diags.error(Span(shown, len(lines) + 1), "E419", f"not a trace: {error}", "record it again")
+        raise SpecError(diags) from None
+    return lines
+
+
+class LiveTrace(list[str]):
+    """A run's trace lines, each also written to the file at `path` as it comes (stored,
+    flushed at once; the file made at the first cycle): a run killed outright (SIGKILL, a
+    crash, the power) leaves a readable trace up to its last finished cycle. Not for a `.gz`
+    trace (a gzip stream cut short is not readable); a file that cannot be written is left
+    to the write at the end to report (E419). `rcsgen run` still writes the whole trace
+    when the run ends."""
+
+    def __init__(self, path: Path) -> None:
+        super().__init__()
+        self.path, self.condenser = path, traces.Condenser()
+        self.stored: list[str] = []  # the lines as stored, one per line (for the final write)
+        self.out: TextIO | None = None
+        self.failed = path.name.endswith(".gz")
+
+    def append(self, line: str) -> None:
+        super().append(line)
+        self.stored.append(self.condenser.line(line))
+        if self.failed:
+            return
+        try:
+            if self.out is None:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+                self.out = self.path.open("w", encoding="utf-8")
+            self.out.write(self.stored[-1] + "\n")
+            self.out.flush()
+        except OSError:
+            self.failed = True
+
+    def close(self) -> None:
+        if self.out is not None:
+            self.out.close()
 
 
 def write_trace(path: Path, lines: list[str]) -> None:
-    """Write a trace: JSON Lines, gzip-compressed when the name ends in `.gz`."""
+    """Write a trace as stored (traces.stored: a full line every KEYFRAME cycles, the
+    changes in between), gzip-compressed when the name ends in `.gz`."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = "".join(line + "\n" for line in lines)
+    stored: Iterable[str] = traces.condensed(lines)
+    if isinstance(lines, LiveTrace) and len(lines.stored) == len(lines):
+        stored = lines.stored  # (condensed already, cycle by cycle)
+    text = "".join(line + "\n" for line in stored)
     if path.name.endswith(".gz"):
         path.write_bytes(traces.compressed(text))
     else:

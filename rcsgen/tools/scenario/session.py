@@ -27,7 +27,7 @@ from . import runs
 from .check import check_scenario
 from .devices import Bench
 from .model import Scenario, find_system_dir
-from .run import RunResult, interrupted_line, open_harness, run, write_trace
+from .run import LiveTrace, RunResult, interrupted_line, open_harness, run, write_trace
 
 
 @dataclass
@@ -91,12 +91,30 @@ def execute(
     processes: bool,
     on_cycle: Callable[[AnyHarness], None],
     hooks_out: TextIO,
+    live: Path | None = None,
 ) -> Ran:
     """Run `scenario` on the package (with `processes`, every process as its own OS process,
     in lockstep), what the hooks print going to `hooks_out`. SIGINT and SIGTERM stop the
     run where it is (the processes and the segment too) and keep the trace so far; `signal`
-    says which came, even if a hook swallowed it. A second signal cannot cut the stop short."""
-    ran = Ran(lines=[])
+    says which came, even if a hook swallowed it. A second signal cannot cut the stop short.
+    `live`: the trace file, written as the run goes (`LiveTrace`; not a `.gz` one)."""
+    lines = LiveTrace(live) if live is not None else []
+    try:
+        return _execute(scenario, package_dir, processes, on_cycle, hooks_out, lines)
+    finally:
+        if isinstance(lines, LiveTrace):
+            lines.close()
+
+
+def _execute(
+    scenario: Scenario,
+    package_dir: Path,
+    processes: bool,
+    on_cycle: Callable[[AnyHarness], None],
+    hooks_out: TextIO,
+    lines: list[str],
+) -> Ran:
+    ran = Ran(lines=lines)
     caught: list[int] = []
 
     def interrupt(signum: int, frame: object) -> None:

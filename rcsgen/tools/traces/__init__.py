@@ -1,13 +1,14 @@
 """Trace tools: a trace `rcsgen run` wrote -> what a person reads in it.
 
-In: trace files (JSON Lines, one line per cycle) and, when at hand, the IR of the system
-that recorded them. `read` reads and checks a trace (`TraceError`, one located line) and
-lays its modules out in execution order (`lanes`); on top of it, `changes` prints only what
+In: trace files (JSON Lines, one line per cycle: a full line now and then, the changes in
+between, as `stored` says) and, when at hand, the IR of the system that recorded them.
+`read` reads and checks a trace (`TraceError`, one located line) and lays its modules out
+in execution order (`lanes`); on top of it, `changes` prints only what
 changed (`rcsgen trace changes`), `coverage` counts the table rules that fired (`rcsgen
 trace coverage`), `view` writes the HTML timeline (`rcsgen trace show`) and `mine` the
 miner's replay in its coal map (`rcsgen trace mine`); `assets/` holds their two pages.
 
-The names below are `read`'s, the package's entry points.
+The names below are `read`'s and `stored`'s, the package's entry points.
 """
 
 from .read import (
@@ -19,6 +20,7 @@ from .read import (
     check_against,
     compressed,
     decompressed,
+    full_lines,
     is_timing,
     lanes,
     load,
@@ -27,8 +29,11 @@ from .read import (
     select,
     whole_system,
 )
+from .stored import KEYFRAME, Condenser, condensed, expanded
 
 __all__ = [
+    "KEYFRAME",
+    "Condenser",
     "TIMING",
     "Lane",
     "Trace",
@@ -36,7 +41,10 @@ __all__ = [
     "beside",
     "check_against",
     "compressed",
+    "condensed",
     "decompressed",
+    "expanded",
+    "full_lines",
     "is_timing",
     "lanes",
     "load",

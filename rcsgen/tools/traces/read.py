@@ -1,5 +1,9 @@
 """Traces: a trace file (JSON Lines, one line per cycle) -> checked columns per module and world.
 
+A trace is stored as `stored` says: a full line now and then, and in between only what
+changed; a change line is read as the full line it stands for (a trace of full lines only
+reads as well).
+
 `load` reads what `rcsgen run` writes and checks every line, so the viewers can trust it:
 a problem is a `TraceError` whose message is one line naming the file and line. It reads
 line by line (a long trace is never held whole as text), plain or gzip-compressed
@@ -15,14 +19,16 @@ import gzip
 import io
 import json
 import zlib
-from collections.abc import Generator, Iterable
+from collections.abc import Generator, Iterable, Iterator
 from dataclasses import dataclass, field
+from itertools import chain, repeat
 from pathlib import Path
 from typing import IO, Any, cast
 
 from ...compiler.ir import IRProcess, IRSystem
 from ...runtime import contract
 from ..graph import levels
+from .stored import CHANGED, REMOVED, applied, expanded, is_delta, without
 
 FIELDS = ("command", "command_num", "status", "status_num", "state", "rule")
 # Only for modules that declare them, on every line or none: the reason's name and the
@@ -70,6 +76,7 @@ class Trace:
         return len(self.cycles)
 
 
+FULL = '"modules":{'  # a full line's second member (`{"cycle":N,"modules":{...`)
 GZIP_MAGIC = b"\x1f\x8b"  # the first bytes of a gzip file (a `.jsonl.gz` trace)
 
 
@@ -87,6 +94,26 @@ def load(path: Path) -> Trace:
         raise TraceError(f"{shown} is not a trace: cannot read it ({error})") from None
     finally:
         lines.close()  # the file is closed however the reading ended
+
+
+def full_lines(path: Path) -> list[str]:
+    """A trace file's lines, each a whole cycle (a stored trace expanded, `stored`): what
+    `rcsgen run` wrote before it stored only the changes, for `jq`, `diff` or a script;
+    TraceError with a one-line message if it cannot be read."""
+    shown = str(path)
+    if not path.is_file():
+        raise TraceError(
+            f"no trace file at {shown}" if not path.exists() else f"{shown} is not a file"
+        )
+    lines = _lines(path, shown)
+    try:
+        return list(expanded(lines))
+    except ValueError as error:
+        raise TraceError(f"{shown} is not a trace: {error}") from None
+    except OSError as error:
+        raise TraceError(f"{shown} is not a trace: cannot read it ({error})") from None
+    finally:
+        lines.close()
 
 
 def _lines(path: Path, shown: str) -> Generator[str, None, None]:
@@ -148,14 +175,9 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
     """Check a trace's lines, one at a time, into columns; TraceError naming the line."""
     trace = Trace(shown, [], [], {}, {})
     reader = _Reader(trace)
-    memo = _Modules()
-    for number, line in enumerate(lines, start=1):
-        if not line.strip():
-            continue
-        where = f"{shown}:{number}"
+    for where, record in _records(lines, shown):
         if trace.interrupted is not None:
             raise TraceError(f"{where}: a line after the one that says the run was interrupted")
-        record = memo.reuse(line) or memo.remember(line, _record(line, where))
         if trace.periodicity is not None and "interrupted" not in record:
             raise TraceError(f"{where}: a cycle after the run's timing record")
         if TIMING in record:  # after the cycles of a paced run: how well it held its period
@@ -164,7 +186,10 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
         if "interrupted" in record:  # the run's last word: stopped by a signal in this cycle
             trace.interrupted = _interruption(record, where)
             continue
-        reader.append(record, where)
+        if is_delta(record):  # what changed since the line before
+            reader.change(record, where)
+        else:
+            reader.append(record, where)
     reader.columns()
     if not trace.cycles and trace.interrupted is None:
         raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
@@ -173,6 +198,55 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
             f"{shown} holds no cycle: its run was interrupted before its first one ended"
         )
     return trace
+
+
+BATCH = 256  # change lines decoded in one go (one JSON array: a third less time than one by one)
+
+
+def _records(lines: Iterable[str], shown: str) -> Iterator[tuple[str, dict[str, Any]]]:
+    """Each non-blank line's place (`file:line`) and record, in order. A full line whose
+    `modules` text is the last one's has only the rest decoded (`_Modules`); the other lines
+    (change lines, mostly) are decoded BATCH at a time, and one by one only where a batch
+    does not decode (to name the line)."""
+    memo = _Modules()
+    batch: list[tuple[int, str]] = []
+    for number, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        if (
+            line.startswith('{"cycle":')
+            and line.endswith("}")
+            and not line.startswith(FULL, line.find(",") + 1)
+        ):  # (a line of rcsgen's shape: one that is not JSON alone cannot hide in the batch)
+            batch.append((number, line))
+            if len(batch) >= BATCH:
+                yield from _decoded(batch, shown)
+                batch = []
+            continue
+        if batch:
+            yield from _decoded(batch, shown)
+            batch = []
+        where = f"{shown}:{number}"
+        if line.startswith(FULL, line.find(",") + 1):  # (else not a full line: decoded once)
+            yield where, memo.reuse(line) or memo.remember(line, _record(line, where))
+        else:
+            yield where, _record(line, where)
+    yield from _decoded(batch, shown)
+
+
+def _decoded(batch: list[tuple[int, str]], shown: str) -> Iterator[tuple[str, dict[str, Any]]]:
+    """A batch of lines' places and records (checked as `_record` checks one)."""
+    try:
+        records = json.loads(f"[{','.join(line for _, line in batch)}]")
+    except json.JSONDecodeError:
+        records = None  # (one of them is not JSON, or is more than one value: which?)
+    if records is None or len(records) != len(batch):
+        records = [_record(line, f"{shown}:{number}") for number, line in batch]
+    for (number, line), record in zip(batch, records, strict=True):
+        where = f"{shown}:{number}"
+        if type(record) is not dict or type(record.get("cycle")) is not int:
+            _record(line, where)  # (raises, naming the line)
+        yield where, record
 
 
 def _record(line: str, where: str) -> dict[str, Any]:
@@ -254,61 +328,141 @@ def _interruption(record: dict[str, Any], where: str) -> str:
 
 class _Reader:
     """A trace's lines into its columns, checked against the first line's. A module's values
-    are kept as runs (its checked values, how many cycles in a row) and written out as
-    columns at the end: most modules repeat their last line's object in most cycles (98 %
-    of them in a long run), and such a line passed the same checks then, so it only makes
-    its run one cycle longer (no checks, no per-cycle copies of its values)."""
+    and a world field's value are kept as runs (the checked values and the index of the
+    cycle they start in) and written out as columns at the end: most modules repeat their
+    last line's object in most cycles (98 % of them in a long run), and such a line passed
+    the same checks then, so it costs nothing (no checks, no per-cycle copies); a change
+    line says which world fields changed, so only those are looked at."""
 
     def __init__(self, trace: Trace) -> None:
         self.trace = trace
         self.texts: dict[str, str] = {}  # each text value once: a trace repeats a few names
         self.last: dict[str, dict[str, Any]] = {}  # module -> its object on the last line
-        self.runs: dict[str, list[list[Any]]] = {}  # module -> [values, cycles] per run
-        self.found: object = object()  # the last line's `modules` object, checked (none yet)
+        self.runs: dict[str, list[tuple[list[Any], int]]] = {}  # module -> (values, start)
+        self.found: Any = object()  # the last line's `modules` object, checked (none yet)
+        self.world: dict[str, Any] = {}  # field -> its value on the last line
+        # field -> its values where they change, and the index of the cycle each starts in
+        self.world_values: dict[str, list[Any]] = {}
+        self.world_starts: dict[str, list[int]] = {}
 
     def append(self, record: dict[str, Any], where: str) -> None:
-        """One cycle's line."""
-        trace = self.trace
-        found, cycles = record.get("modules"), trace.cycles
-        if found is self.found:  # the last line's modules (_Modules.reuse): checked then
-            if record["cycle"] <= cycles[-1]:
-                raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
-            for run in self.runs.values():  # every run one cycle longer
-                run[-1][1] += 1
-            self._world(record, where)
-            return
-        if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
-            raise TraceError(f"{where}: not a trace line (no `modules` object)")
+        """One cycle's full line."""
+        found = record.get("modules")
+        self._cycle(record, where)
+        if found is not self.found:  # (else the last line's modules, checked then)
+            self._modules(record, found, where)
+        self._world(record.get("world") or {}, where, None, record["cycle"])
+
+    def change(self, record: dict[str, Any], where: str) -> None:
+        """One cycle's change line (traces.stored): the last line's values with its changes."""
+        if not self.trace.cycles:
+            raise TraceError(
+                f"{where}: not a trace line (no `modules` object, nor a full line before it "
+                "to change)"
+            )
+        self._cycle(record, where)
+        changed, removed = record.get(CHANGED, {}), record.get(REMOVED, [])
+        if type(changed) is not dict or type(removed) is not list:
+            raise TraceError(
+                f"{where}: not a trace line (`{CHANGED}` is not an object or `{REMOVED}` not "
+                "a list)"
+            )
+        found, world = self.found, changed.get("world", {})
+        if "modules" in changed:
+            modules = changed["modules"]
+            found = applied(found, modules) if type(modules) is dict else modules
+        for path in removed:
+            found = self._removed(found, path, where)
+        if found is not self.found:  # (the modules changed: only those, unless any removed)
+            named = changed["modules"] if type(changed.get("modules")) is dict else None
+            self._modules(record, found, where, None if removed or named is None else named)
+        if type(world) is not dict:
+            raise TraceError(f"{where}: world fields differ from the first line's")
+        self._world(world, where, world, record["cycle"])
+
+    def _cycle(self, record: dict[str, Any], where: str) -> None:
+        cycles = self.trace.cycles
         if cycles and record["cycle"] <= cycles[-1]:
             raise TraceError(f"{where}: cycle {record['cycle']} after cycle {cycles[-1]}")
-        if not cycles:  # the first line says which modules, optional fields and world fields
-            self._first(record, found)
-        elif found.keys() != self.last.keys():  # (the modules' names, each once: as sets)
-            extra = sorted(set(found) ^ set(trace.modules))
-            raise TraceError(f"{where}: modules differ from the first line's ({', '.join(extra)})")
-        last, runs = self.last, self.runs
-        for module in trace.modules:
+
+    def _removed(self, found: Any, path: Any, where: str) -> Any:
+        """The modules without the member at `path` (a removed world field is an error; what
+        the reader does not read, e.g. `overrides`, is not looked at)."""
+        if type(path) is not list or not path or not all(type(p) is str for p in path):
+            raise TraceError(
+                f"{where}: not a trace line (`{REMOVED}` holds {json.dumps(path)}, not a path)"
+            )
+        if path[0] == "world":
+            raise TraceError(f"{where}: world fields differ from the first line's")
+        if path[0] != "modules" or len(path) < 2:
+            return found
+        try:
+            return without(found, path[1:])
+        except KeyError:
+            gone = ".".join(path)
+            raise TraceError(
+                f"{where}: not a trace line (`{REMOVED}` names {gone}, which is not there)"
+            ) from None
+
+    def _modules(
+        self, record: dict[str, Any], found: Any, where: str, names: Iterable[str] | None = None
+    ) -> None:
+        """A line's modules: all of them (`names` None: a full line's), or the modules named
+        (those a change line changes: the others are the last line's objects)."""
+        trace = self.trace
+        if names is not None and found.keys() == self.last.keys():
+            modules: Iterable[str] = names
+            if not all(isinstance(found[m], dict) for m in names):
+                raise TraceError(f"{where}: not a trace line (no `modules` object)")
+        else:
+            if not isinstance(found, dict) or not all(isinstance(v, dict) for v in found.values()):
+                raise TraceError(f"{where}: not a trace line (no `modules` object)")
+            if not trace.cycles:  # the first line: which modules, optional and world fields
+                self._first(record, found)
+            elif found.keys() != self.last.keys():  # (the modules' names, each once: as sets)
+                extra = sorted(set(found) ^ set(trace.modules))
+                raise TraceError(
+                    f"{where}: modules differ from the first line's ({', '.join(extra)})"
+                )
+            modules = trace.modules  # (after the first line has said which)
+        last, runs, at = self.last, self.runs, len(trace.cycles)
+        for module in modules:
             values = found[module]
-            if values == last[module]:
-                runs[module][-1][1] += 1
+            if values is last[module] or values == last[module]:
                 continue
             checked = _checked(trace.columns[module], module, values, where, self.texts)
-            runs[module].append([checked, 1])
+            runs[module].append((checked, at))
             last[module] = values
         self.found = found
-        self._world(record, where)
 
-    def _world(self, record: dict[str, Any], where: str) -> None:
+    def _world(self, fields: Any, where: str, names: Iterable[str] | None, cycle: int) -> None:
+        """The world fields of a line: all of them (`names` None: a full line's), or a change
+        line's (`names`: its changed fields, `fields` itself)."""
         trace = self.trace
-        fields = record.get("world") or {}
         # (keys compared as sets: the world's are the first line's, sorted, each once)
-        if not isinstance(fields, dict) or fields.keys() != trace.world.keys():
+        if not isinstance(fields, dict) or (
+            fields.keys() != self.world.keys()
+            if names is None
+            else not fields.keys() <= self.world.keys()
+        ):
             raise TraceError(f"{where}: world fields differ from the first line's")
-        texts = self.texts
-        for name, series in trace.world.items():
-            value = fields[name]
-            series.append(texts.setdefault(value, value) if type(value) is str else value)
-        trace.cycles.append(record["cycle"])
+        texts, last, at = self.texts, self.world, len(trace.cycles)
+        values, starts = self.world_values, self.world_starts
+        if names is not None:  # a change line: each value it names is a change
+            for name, value in fields.items():
+                values[name].append(texts.setdefault(value, value) if type(value) is str else value)
+                starts[name].append(at)
+            last.update(fields)
+            trace.cycles.append(cycle)
+            return
+        for name in last:
+            value, before = fields[name], last[name]
+            if value is before or (type(value) is type(before) and value == before):
+                continue
+            values[name].append(texts.setdefault(value, value) if type(value) is str else value)
+            starts[name].append(at)
+            last[name] = value
+        trace.cycles.append(cycle)
 
     def _first(self, record: dict[str, Any], found: dict[str, Any]) -> None:
         trace = self.trace
@@ -321,22 +475,44 @@ class _Reader:
             }
             for m in trace.modules
         }
-        trace.world = {name: [] for name in sorted(record.get("world") or {})}
+        names = sorted(record.get("world") or {})
+        trace.world = {name: [] for name in names}
         self.last = {m: {"": object()} for m in trace.modules}  # (equal to no object)
         self.runs = {m: [] for m in trace.modules}
+        self.world = dict.fromkeys(names, _NOTHING)
+        self.world_values = {name: [] for name in names}
+        self.world_starts = {name: [] for name in names}
 
     def columns(self) -> None:
         """The runs written out as the trace's columns (one value per cycle), and where each
         module's runs start (`Trace.starts`)."""
+        trace, total = self.trace, len(self.trace.cycles)
         for module, runs in self.runs.items():
-            columns = list(self.trace.columns[module].values())
-            starts = self.trace.starts[module] = []
-            at = 0
-            for values, count in runs:
-                starts.append(at)
-                at += count
-                for series, value in zip(columns, values, strict=True):
-                    series += [value] * count
+            starts = trace.starts[module] = [at for _, at in runs]
+            lengths = _lengths(starts, total)
+            for index, series in enumerate(trace.columns[module].values()):
+                series[:] = _spread([values[index] for values, _ in runs], lengths)
+        for name, values in self.world_values.items():  # (a field moving every cycle: as is)
+            trace.world[name] = (
+                values
+                if len(values) == total
+                else _spread(values, _lengths(self.world_starts[name], total))
+            )
+
+
+def _lengths(starts: list[int], total: int) -> list[int]:
+    """How many cycles each run lasts, from where each starts (of `total` cycles)."""
+    return [end - at for at, end in zip(starts, [*starts[1:], total], strict=True)]
+
+
+def _spread(values: list[Any], lengths: list[int]) -> list[Any]:
+    """Each value repeated for its run's length: a column, one value per cycle."""
+    if len(values) == sum(lengths):  # (a value every cycle: a world field always moving)
+        return values
+    return list(chain.from_iterable(map(repeat, values, lengths)))
+
+
+_NOTHING = object()  # a world field's value before the first line (equal to no value)
 
 
 def _checked(
@@ -443,7 +619,9 @@ def check_against(system: IRSystem, trace: Trace) -> IRProcess:
         raise TraceError(f"{trace.name}: no process of system {system.name} runs its modules")
     for module, controller in runs_as(process, trace).items():
         known = {str(rule.id) for rule in system.controller(controller).table_rules()}
-        fired = {r for r in trace.columns[module]["rule"] if r is not None}
+        rules, starts = trace.columns[module]["rule"], trace.starts.get(module)
+        fired = {rules[i] for i in starts} if starts else set(rules)  # (a run's rule is one)
+        fired.discard(None)
         stale = sorted(fired - known)
         if stale:
             raise TraceError(

@@ -59,6 +59,19 @@ def runs(
     return out
 
 
+def _fired(rules: list[Any], starts: list[int] | None, table: StringTable) -> list[list[int]]:
+    """[cycle index, rule] where a rule fired; `starts`: the only indices where the values
+    may change (`Trace.starts`), so a run of cycles is looked at once."""
+    if not starts:
+        return [[i, table(r)] for i, r in enumerate(rules) if r is not None]
+    out = []
+    for at, end in zip(starts, [*starts[1:], len(rules)], strict=True):
+        rule = rules[at]
+        if rule is not None:
+            out += [[i, table(rule)] for i in range(at, end)]
+    return out
+
+
 class _StatusRows(Sequence[tuple[Any, Any, Any]]):
     """A module's (status, reason, cause) at each cycle, made when asked for: `runs` looks
     at the cycles where they may change only."""
@@ -95,20 +108,32 @@ def _plot(name: str, series: list[Any]) -> dict[str, Any]:
     """One world field's plot: bool, int, text (an enumeration's names, a string's text, as
     indices into `names`) or float."""
     values: list[Any]
-    if all(isinstance(v, bool) for v in series):
+    types = set(map(type, series))  # (one pass in C: what the series holds)
+    if types <= {bool}:
         kind, values = "bool", [int(v) for v in series]
-    elif all(isinstance(v, int) and not isinstance(v, bool) for v in series):
+    elif types == {int}:
         kind, values = "int", list(series)
-    elif all(isinstance(v, str) for v in series):
+    elif types == {str}:
         names = sorted(set(series))
-        return {"name": name, "type": "text", "values": [names.index(v) for v in series]} | {
+        index = {v: i for i, v in enumerate(names)}
+        return {"name": name, "type": "text", "values": [index[v] for v in series]} | {
             "names": names
         }
+    elif types == {float} and _finite(series):  # (the usual float: every value as it is)
+        kind, values = "float", list(series)
     else:  # (number() inline: a plot has a value per cycle)
         finite = math.isfinite
         kind = "float"
         values = [float(v) if isinstance(v, int | float) and finite(v) else None for v in series]
     return {"name": name, "type": kind, "values": values}
+
+
+def _finite(series: list[float]) -> bool:
+    """Whether every float of `series` is finite (no NaN, no infinity)."""
+    try:
+        return math.isfinite(math.fsum(series))
+    except (OverflowError, ValueError):  # (an infinity, or a sum too large: look one by one)
+        return all(map(math.isfinite, series))
 
 
 def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float | None) -> str:
@@ -118,7 +143,7 @@ def payload(trace: Trace, lanes: list[Lane], system: str | None, period: float |
     lane_data = []
     for lane in lanes:
         col, starts = trace.columns[lane.module], trace.starts.get(lane.module)
-        fired = [[i, table(r)] for i, r in enumerate(col["rule"]) if r is not None]
+        fired = _fired(col["rule"], starts, table)
         lane_data.append(
             {
                 "module": lane.module,
