@@ -420,6 +420,22 @@ def test_the_shop_plans_the_next_part_while_the_workcell_inspects_this_one():
     assert final["results"]["scheduled"] == 10, "5 features a part, two parts"
 
 
+def test_a_lot_by_a_program_that_does_not_exist_is_refused_by_the_planner():
+    """unknown_program: the Guardian mistypes the program; the job planner, planning part
+    0 while the station is prepared, reports ERROR NO_PROGRAM in its first cycles; the shop
+    halts the workcell's set-up (the operator's request is withdrawn) and fails the lot
+    with the planner's reason once the workcell has stopped; no part was placed."""
+    final, lines = played("unknown_program")
+    assert final["status"] == "ERROR" and final["reason"] == "NO_PROGRAM"
+    refused = first(lines, "jp", "PLAN_JOB", "ERROR")
+    halted = at_cycle(lines, refused + 1)["modules"]
+    assert halted["shop"]["state"] == "PLAN_FAILED" and halted["wc"]["command"] == "HALT"
+    assert halted["op/fx"]["state"] == "NOP", "the operator's request withdrawn"
+    failed = next(ln["cycle"] for ln in lines if ln["modules"]["shop"]["status"] == "ERROR")
+    assert at_cycle(lines, failed - 1)["modules"]["wc"]["status"] == "DONE", "after wc stopped"
+    assert "PLACE_PART" not in names(commands_sent(lines, "fx"))
+
+
 def at_cycle(lines: list[dict], cycle: int) -> dict:
     assert lines[cycle - 1]["cycle"] == cycle
     return lines[cycle - 1]

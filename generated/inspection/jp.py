@@ -11,7 +11,7 @@ from .layout import (
     JP_STATUS,
     JP_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, decode_text
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, decode_text
 from .rcs.deadline import hook
 
 # Commands jp accepts (the code written to its command buffer).
@@ -19,9 +19,14 @@ INIT = 1
 HALT = 2
 PLAN_JOB = 3
 
+# Why jp may end a command in ERROR (the error_num it reports).
+REASON_NONE = 0
+REASON_LOST = 1
+REASON_NO_PROGRAM = 2
+
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32sq60x???1xI")
+INPUTS = Struct("<QI32sq68x???1xI")
 INPUTS_AT = 472
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -36,6 +41,7 @@ class JpController:
         "arg_part",
         "arg_program",
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -88,6 +94,7 @@ class JpController:
             self.rule,
             self.result_part,
             self.result_features,
+            self.cause,
         ) = JP_STATUS.unpack_from(buf, JP_STATUS_AT)
         (
             self.perf_seq,
@@ -125,6 +132,8 @@ class JpController:
             self.state = S0
             self.status = EXECUTING
             self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
             self.result_part = 0  # no result yet
             self.result_features = 0  # no result yet
             self.ticks = 0  # a new command: its time in S0 starts
@@ -162,6 +171,7 @@ class JpController:
                 self.rule,
                 self.result_part,
                 self.result_features,
+                self.cause,
             )
             SEQ.pack_into(buf, JP_STATUS_AT, seq + 1)
             self.status_seq = seq + 1
@@ -224,7 +234,8 @@ class JpController:
 
     def plan_job(self) -> None:
         """PLAN_JOB: Plan part `part`'s Inspect_part job by `program`: its feature schedule, in 5 s;
-        DONE with the part and the schedule's length.
+        DONE with the part and the schedule's length; ERROR NO_PROGRAM when there is no such
+        program.
         """
         state = self.state
         if state == S0:
@@ -233,13 +244,21 @@ class JpController:
             self.state = PLANNING
             self.var_features = self.hook_schedule("PLAN_JOB/S0/1", self.arg_program)
 
-        elif state == PLANNING and self.ticks >= 10:  # after: 5 s = 10 cycles
-            # the schedule is made
-            self.rule = 4  # PLAN_JOB/PLANNING/1
-            self.result_part = self.arg_part
-            self.result_features = self.var_features
-            self.state = NOP
-            self.status = DONE
+        elif state == PLANNING:
+            if self.var_features <= 0:
+                # no such inspection program (a name mistyped at the Guardian)
+                self.rule = 4  # PLAN_JOB/PLANNING/1
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_NO_PROGRAM
+
+            elif self.var_features > 0 and self.ticks >= 10:  # after: 5 s = 10 cycles
+                # the schedule is made
+                self.rule = 5  # PLAN_JOB/PLANNING/2
+                self.result_part = self.arg_part
+                self.result_features = self.var_features
+                self.state = NOP
+                self.status = DONE
 
         if self.state != state:  # a new state, or the command ended: time starts again
             self.ticks = 0

@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2760 bytes.
+The block is 2768 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -29,69 +29,69 @@ command buffers and world fields:
 | 400 | 16 | SHOP_MODE | MODE_FIELDS |
 | 416 | 48 | SHOP_PERF | PERF_FIELDS |
 | 464 | 60 | JP_COMMAND | command_num, command, arg_program, arg_part |
-| 528 | 48 | JP_STATUS | STATUS_FIELDS |
-| 576 | 16 | JP_MODE | MODE_FIELDS |
-| 592 | 48 | JP_PERF | PERF_FIELDS |
-| 640 | 52 | WC_COMMAND | command_num, command, arg_program |
-| 696 | 41 | WC_STATUS | STATUS_FIELDS |
-| 744 | 16 | WC_MODE | MODE_FIELDS |
-| 760 | 48 | WC_PERF | PERF_FIELDS |
-| 808 | 52 | WS_COMMAND | command_num, command, arg_program |
-| 864 | 41 | WS_STATUS | STATUS_FIELDS |
-| 912 | 16 | WS_MODE | MODE_FIELDS |
-| 928 | 48 | WS_PERF | PERF_FIELDS |
-| 976 | 52 | MS_COMMAND | command_num, command, arg_program |
-| 1032 | 56 | MS_STATUS | STATUS_FIELDS |
-| 1088 | 16 | MS_MODE | MODE_FIELDS |
-| 1104 | 48 | MS_PERF | PERF_FIELDS |
-| 1152 | 20 | FX_COMMAND | command_num, command |
-| 1176 | 40 | FX_STATUS | STATUS_FIELDS |
-| 1216 | 16 | FX_MODE | MODE_FIELDS |
-| 1232 | 48 | FX_PERF | PERF_FIELDS |
-| 1280 | 20 | TL_COMMAND | command_num, command |
-| 1304 | 40 | TL_STATUS | STATUS_FIELDS |
-| 1344 | 16 | TL_MODE | MODE_FIELDS |
-| 1360 | 48 | TL_PERF | PERF_FIELDS |
-| 1408 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 1440 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 1472 | 16 | CMM_MODE | MODE_FIELDS |
-| 1488 | 48 | CMM_PERF | PERF_FIELDS |
-| 1536 | 16 | OP_MODE | MODE_FIELDS |
-| 1552 | 48 | OP_PERF | PERF_FIELDS |
-| 1600 | 20 | OP_FX_COMMAND | command_num, command |
-| 1624 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 1656 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 1680 | 20 | OP_TL_COMMAND | command_num, command |
-| 1704 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 1736 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 1760 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 1784 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 1816 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1832 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1880 | 16 | WORLD_CMM_OP | cmm_op |
-| 1896 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1912 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1928 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1944 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1960 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1976 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 1992 | 9 | OVERRIDES | any |
-| 2008 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 2032 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 2056 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 2080 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 2104 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 2128 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 2152 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 2176 | 96 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, PLAN_FAILED |
-| 2272 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
-| 2320 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 2368 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
-| 2472 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 2560 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 2616 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 2672 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
-| 2720 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 528 | 56 | JP_STATUS | STATUS_FIELDS |
+| 584 | 16 | JP_MODE | MODE_FIELDS |
+| 600 | 48 | JP_PERF | PERF_FIELDS |
+| 648 | 52 | WC_COMMAND | command_num, command, arg_program |
+| 704 | 41 | WC_STATUS | STATUS_FIELDS |
+| 752 | 16 | WC_MODE | MODE_FIELDS |
+| 768 | 48 | WC_PERF | PERF_FIELDS |
+| 816 | 52 | WS_COMMAND | command_num, command, arg_program |
+| 872 | 41 | WS_STATUS | STATUS_FIELDS |
+| 920 | 16 | WS_MODE | MODE_FIELDS |
+| 936 | 48 | WS_PERF | PERF_FIELDS |
+| 984 | 52 | MS_COMMAND | command_num, command, arg_program |
+| 1040 | 56 | MS_STATUS | STATUS_FIELDS |
+| 1096 | 16 | MS_MODE | MODE_FIELDS |
+| 1112 | 48 | MS_PERF | PERF_FIELDS |
+| 1160 | 20 | FX_COMMAND | command_num, command |
+| 1184 | 40 | FX_STATUS | STATUS_FIELDS |
+| 1224 | 16 | FX_MODE | MODE_FIELDS |
+| 1240 | 48 | FX_PERF | PERF_FIELDS |
+| 1288 | 20 | TL_COMMAND | command_num, command |
+| 1312 | 40 | TL_STATUS | STATUS_FIELDS |
+| 1352 | 16 | TL_MODE | MODE_FIELDS |
+| 1368 | 48 | TL_PERF | PERF_FIELDS |
+| 1416 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 1448 | 32 | CMM_STATUS | STATUS_FIELDS |
+| 1480 | 16 | CMM_MODE | MODE_FIELDS |
+| 1496 | 48 | CMM_PERF | PERF_FIELDS |
+| 1544 | 16 | OP_MODE | MODE_FIELDS |
+| 1560 | 48 | OP_PERF | PERF_FIELDS |
+| 1608 | 20 | OP_FX_COMMAND | command_num, command |
+| 1632 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 1664 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 1688 | 20 | OP_TL_COMMAND | command_num, command |
+| 1712 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 1744 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 1768 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 1792 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 1824 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1840 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1888 | 16 | WORLD_CMM_OP | cmm_op |
+| 1904 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1920 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1936 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1952 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1968 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1984 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 2000 | 9 | OVERRIDES | any |
+| 2016 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 2040 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 2064 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 2088 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 2112 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 2136 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 2160 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 2184 | 96 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, PLAN_FAILED |
+| 2280 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
+| 2328 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 2376 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
+| 2480 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 2568 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 2624 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 2680 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
+| 2728 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -123,9 +123,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 2760
+SIZE = 2768
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "26fcb38edafab16c7c9927bc0610d70b"
+LAYOUT_HASH = "0702a53866217131f8eb72a5b9653e92"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 248
 
@@ -143,99 +143,99 @@ SHOP_PERF_AT = 416
 JP_COMMAND = Struct("<QQI32sq")  # seq, command_num, command, arg_program, arg_part
 JP_COMMAND_AT = 464
 JP_STATUS = Struct(
-    "<QQIIiiqq"
-)  # seq, status_num, status, error_num, state, rule, result_part, result_features
+    "<QQIIiiqqQ"
+)  # seq, status_num, status, error_num, state, rule, result_part, result_features, cause
 JP_STATUS_AT = 528
-JP_MODE_AT = 576
-JP_PERF_AT = 592
+JP_MODE_AT = 584
+JP_PERF_AT = 600
 
 # wc: Workcell
 WC_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-WC_COMMAND_AT = 640
+WC_COMMAND_AT = 648
 WC_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_accepted, cause
-WC_STATUS_AT = 696
-WC_MODE_AT = 744
-WC_PERF_AT = 760
+WC_STATUS_AT = 704
+WC_MODE_AT = 752
+WC_PERF_AT = 768
 
 # ws: Inspection workstation
 WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-WS_COMMAND_AT = 808
+WS_COMMAND_AT = 816
 WS_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_accepted, cause
-WS_STATUS_AT = 864
-WS_MODE_AT = 912
-WS_PERF_AT = 928
+WS_STATUS_AT = 872
+WS_MODE_AT = 920
+WS_PERF_AT = 936
 
 # ms: Measurement
 MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-MS_COMMAND_AT = 976
+MS_COMMAND_AT = 984
 MS_STATUS = Struct(
     "<QQIIiiqqQ"
 )  # seq, status_num, status, error_num, state, rule, result_measured, result_failed, cause
-MS_STATUS_AT = 1032
-MS_MODE_AT = 1088
-MS_PERF_AT = 1104
+MS_STATUS_AT = 1040
+MS_MODE_AT = 1096
+MS_PERF_AT = 1112
 
 # fx: Fixturing (performed by the operator)
 FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 1152
+FX_COMMAND_AT = 1160
 FX_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-FX_STATUS_AT = 1176
-FX_MODE_AT = 1216
-FX_PERF_AT = 1232
+FX_STATUS_AT = 1184
+FX_MODE_AT = 1224
+FX_PERF_AT = 1240
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 1280
+TL_COMMAND_AT = 1288
 TL_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-TL_STATUS_AT = 1304
-TL_MODE_AT = 1344
-TL_PERF_AT = 1360
+TL_STATUS_AT = 1312
+TL_MODE_AT = 1352
+TL_PERF_AT = 1368
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 1408
-CMM_STATUS_AT = 1440
-CMM_MODE_AT = 1472
-CMM_PERF_AT = 1488
+CMM_COMMAND_AT = 1416
+CMM_STATUS_AT = 1448
+CMM_MODE_AT = 1480
+CMM_PERF_AT = 1496
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 1760
-CMM_SIM_STATUS_AT = 1784
-CMM_SIM_MODE_AT = 1816
-CMM_SIM_PERF_AT = 1832
+CMM_SIM_COMMAND_AT = 1768
+CMM_SIM_STATUS_AT = 1792
+CMM_SIM_MODE_AT = 1824
+CMM_SIM_PERF_AT = 1840
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 1536
-OP_PERF_AT = 1552
+OP_MODE_AT = 1544
+OP_PERF_AT = 1560
 OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_FX_COMMAND_AT = 1600
-OP_FX_STATUS_AT = 1624
-OP_FX_ANSWER_AT = 1656
+OP_FX_COMMAND_AT = 1608
+OP_FX_STATUS_AT = 1632
+OP_FX_ANSWER_AT = 1664
 OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_TL_COMMAND_AT = 1680
-OP_TL_STATUS_AT = 1704
-OP_TL_ANSWER_AT = 1736
+OP_TL_COMMAND_AT = 1688
+OP_TL_STATUS_AT = 1712
+OP_TL_ANSWER_AT = 1744
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1880
+WORLD_CMM_OP_AT = 1888
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1896
+WORLD_CMM_FEATURE_AT = 1904
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1912
+WORLD_CMM_SEQ_AT = 1920
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1928
+WORLD_CMM_DONE_SEQ_AT = 1936
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1944
+WORLD_CMM_READING_AT = 1952
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1960
+WORLD_CMM_ALARM_AT = 1968
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1976
+WORLD_CMM_FAULT_AT = 1984
 
 
 PROCESSES = {
@@ -318,7 +318,16 @@ STATUS_OUT = {
     "jp": Record(
         JP_STATUS,
         JP_STATUS_AT,
-        ("status_num", "status", "error_num", "state", "rule", "result_part", "result_features"),
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "result_part",
+            "result_features",
+            "cause",
+        ),
     ),
     "wc": Record(
         WC_STATUS,
@@ -403,18 +412,18 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 1992
-OVERRIDDEN_AT = 2000  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2000
+OVERRIDDEN_AT = 2008  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 2008, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 2032, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 2056, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 2080, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 2104, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 2128, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 2152, ("state", "cmm_fault")),
+    "cmm_op": Record(Struct("<QQq"), 2016, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 2040, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 2064, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 2088, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 2112, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 2136, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 2160, ("state", "cmm_fault")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -451,7 +460,7 @@ GROUND_TRUTH = ()
 TIME_IN_STATE = {
     "shop": Record(
         Struct("<QqQQQQQQQQQQ"),
-        2176,
+        2184,
         (
             "state",
             "since",
@@ -466,11 +475,11 @@ TIME_IN_STATE = {
             "PLAN_FAILED",
         ),
     ),
-    "jp": Record(Struct("<QqQQQQ"), 2272, ("state", "since", "NOP", "S0", "PLANNING")),
-    "wc": Record(Struct("<QqQQQQ"), 2320, ("state", "since", "NOP", "S0", "S1")),
+    "jp": Record(Struct("<QqQQQQ"), 2280, ("state", "since", "NOP", "S0", "PLANNING")),
+    "wc": Record(Struct("<QqQQQQ"), 2328, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        2368,
+        2376,
         (
             "state",
             "since",
@@ -488,13 +497,13 @@ TIME_IN_STATE = {
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        2472,
+        2480,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 2560, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 2616, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "cmm": Record(Struct("<QqQQQQ"), 2672, ("state", "since", "NOP", "S0", "S1")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 2720, ("state", "since", "NOP", "S0")),
+    "fx": Record(Struct("<QqQQQQQ"), 2568, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 2624, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "cmm": Record(Struct("<QqQQQQ"), 2680, ("state", "since", "NOP", "S0", "S1")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 2728, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -615,7 +624,8 @@ STATE_NAMES = {
 # controllers and operator modules that declare reasons (docs/semantics.md, "Results and
 # reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {
-    "shop": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
+    "shop": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT", "NO_PROGRAM"),
+    "jp": ("NONE", "LOST", "NO_PROGRAM"),
     "wc": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ws": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ms": ("NONE", "LOST", "MACHINE_FAULT", "REFUSED", "TIMED_OUT"),
@@ -657,7 +667,14 @@ RULES = {
         "INSPECT_PART/S1/1",
         "INSPECT_PART/S1/2",
     ),
-    "jp": ("", "INIT/S0/1", "HALT/S0/1", "PLAN_JOB/S0/1", "PLAN_JOB/PLANNING/1"),
+    "jp": (
+        "",
+        "INIT/S0/1",
+        "HALT/S0/1",
+        "PLAN_JOB/S0/1",
+        "PLAN_JOB/PLANNING/1",
+        "PLAN_JOB/PLANNING/2",
+    ),
     "wc": (
         "",
         "INIT/S0/1",

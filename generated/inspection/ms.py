@@ -70,7 +70,7 @@ CMM_LINK = 8  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32s68x???1xI208xQII8xQ104xQI492xd")
-INPUTS_AT = 984
+INPUTS_AT = 992
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -40,6 +40,7 @@ REASON_LOST = 1
 REASON_REFUSED = 2
 REASON_TIMED_OUT = 3
 REASON_MACHINE_FAULT = 4
+REASON_NO_PROGRAM = 5
 
 # Commands shop sends to wc.
 WC_INIT = 1
@@ -58,11 +59,15 @@ WC_LINK = 3  # its number in the layout's CAUSE_MODULES
 JP_INIT = 1
 JP_HALT = 2
 JP_PLAN_JOB = 3
+# Why jp may end a command in ERROR (its error_num).
+JP_REASON_NONE = 0
+JP_REASON_LOST = 1
+JP_REASON_NO_PROGRAM = 2
 JP_LINK = 2  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI32sq84x???1xI120xQI20xq128xQII8x?Q")
+INPUTS = Struct("<QQI32sq84x???1xI120xQII16xqQ128xQII8x?Q")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -95,8 +100,10 @@ class ShopController:
         "error_num",
         "jp_arg_part",
         "jp_arg_program",
+        "jp_cause",
         "jp_command",
         "jp_command_num",
+        "jp_error_num",
         "jp_result_features",
         "jp_status",
         "jp_status_num",
@@ -215,7 +222,9 @@ class ShopController:
                 self.single_step_num,
                 self.jp_status_num,
                 self.jp_status,
+                self.jp_error_num,
                 self.jp_result_features,
+                self.jp_cause,
                 self.wc_status_num,
                 self.wc_status,
                 self.wc_error_num,
@@ -234,6 +243,11 @@ class ShopController:
         if self.jp_status_num != self.jp_command_num:
             self.jp_status = EXECUTING  # until it echoes the last number sent
             self.jp_result_features = 0  # no result yet
+            self.jp_error_num = JP_REASON_NONE  # no reason yet
+            self.jp_cause = 0
+        elif self.jp_status != ERROR:
+            self.jp_error_num = JP_REASON_NONE  # a reason comes only with ERROR
+            self.jp_cause = 0
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -380,7 +394,9 @@ class ShopController:
             self.single_step_num,
             self.jp_status_num,
             self.jp_status,
+            self.jp_error_num,
             self.jp_result_features,
+            self.jp_cause,
             self.wc_status_num,
             self.wc_status,
             self.wc_error_num,
@@ -479,7 +495,7 @@ class ShopController:
                 self.rule = 8  # INSPECT_LOT/SETTING_UP/2
                 self.state = PLAN_FAILED
                 # jp's error: the cause of an ERROR this command reports
-                self.cause = caused(JP_LINK, 0, 0)
+                self.cause = caused(JP_LINK, self.jp_error_num, self.jp_cause)
                 self.wc_command = WC_HALT
                 self.wc_command_num += 1
 
@@ -503,7 +519,7 @@ class ShopController:
                 self.rule = 11  # INSPECT_LOT/INSPECTING/2
                 self.state = PLAN_FAILED
                 # jp's error: the cause of an ERROR this command reports
-                self.cause = caused(JP_LINK, 0, 0)
+                self.cause = caused(JP_LINK, self.jp_error_num, self.jp_cause)
                 self.wc_command = WC_HALT
                 self.wc_command_num += 1
 
@@ -591,10 +607,15 @@ class ShopController:
             }.get(self.wc_error_num, REASON_NONE)
 
         elif state == PLAN_FAILED and self.wc_status != EXECUTING:
-            # the workcell has stopped; fail
+            # the workcell has stopped; fail for the planner's reason
             self.rule = 20  # INSPECT_LOT/PLAN_FAILED/1
             self.state = NOP
             self.status = ERROR
+            # jp's reason, passed up by name (another: NONE)
+            self.error_num = {
+                JP_REASON_LOST: REASON_LOST,
+                JP_REASON_NO_PROGRAM: REASON_NO_PROGRAM,
+            }.get(self.jp_error_num, REASON_NONE)
 
     def init_for_inspect(self) -> None:
         """INIT_FOR_INSPECT: A single job from the Guardian, prepare the station (initForInspect,
