@@ -366,7 +366,8 @@ def test_a_ship_that_falls_out_of_its_moving_haven_fails_the_mission():
 
 def test_the_access_matrix_is_figure_29s():
     """Section 4.7.3: the OOD commands the mission and makes the depth decision asked of
-    him (DEPTH_CASUALTY); the EOOW only responds to requests (CHANGE_TO_EPM); the helmsman may override helm and rudder; the BCP monitors."""
+    him (DEPTH_CASUALTY); the EOOW only responds to requests (CHANGE_TO_EPM); the
+    helmsman may override helm and rudder; the BCP monitors."""
     import yaml
 
     roles = yaml.safe_load((SUBMARINE / "system.yaml").read_text())["operators"]["roles"]
