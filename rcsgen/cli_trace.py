@@ -1,4 +1,5 @@
-"""`rcsgen trace changes | lines | coverage | show | mine`: the commands that read traces.
+"""`rcsgen trace changes | lines | coverage | show | mine | sea | station`: the commands that read
+traces.
 
 A group of its own, registered on `rcsgen.cli.main`; each command parses, loads its traces
 (and the specs that recorded them, `terminal.trace_system`), calls one tool and renders.
@@ -211,3 +212,22 @@ def trace_sea(
     except sea_view.SeaError as problem:
         raise error(str(problem)) from None
     write_or_print(page, output or traces.beside(trace_path, ".sea.html"))
+
+
+@trace_group.command("station")
+@TRACE
+@page_option("the trace's path with .station.html")
+@SPECS
+def trace_station(trace_path: Path, output: Path | None, specs: Path | None) -> None:
+    """Write an inspection-workstation TRACE as an HTML replay of the part on the CMM."""
+    from .tools import traces
+    from .tools.traces import station as station_view
+
+    found = load_trace(trace_path)
+    system = trace_system(specs, [found], required=True)
+    assert system is not None
+    try:
+        page = station_view.render(found, system)
+    except station_view.StationError as problem:
+        raise error(str(problem)) from None
+    write_or_print(page, output or traces.beside(trace_path, ".station.html"))

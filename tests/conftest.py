@@ -87,6 +87,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_runtime_safety",
             "test_scenarios",
             "test_sea_view",
+            "test_station_view",
             "test_semantics",
             "test_shared_types",
             "test_submarine",

@@ -130,7 +130,7 @@ def test_nominal_init_for_inspect_then_the_part_is_accepted():
     assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": True})
     assert outcome(lines[-1], "ms") == ("DONE", "NONE", {"measured": 5, "failed": 0})
     # the shop passes the verdict up; its lot counts stay 0 (no lot was ordered)
-    assert final["results"] == {"accepted": True, "passed": 0, "rejected": 0}
+    assert final["results"] == {"accepted": True, "passed": 0, "rejected": 0, "scheduled": 0}
     assert final["reason"] == "NONE"
     # one person serves both: each task asked through its client's channel, answered DONE
     tasks = {
@@ -386,6 +386,59 @@ def test_the_guardian_orders_a_lot_and_the_shop_plans_its_jobs():
     ops = {line["world"]["cmm_op"] for line in lines}
     assert ops == {"NO_OPERATION", "HOMING", "PROBE_CALIBRATION", "CAMERA_CALIBRATION",
                    "MEASUREMENT"}  # fmt: skip
+
+
+def test_the_shop_plans_the_next_part_while_the_workcell_inspects_this_one():
+    """Section 5.2.1 (W1/W2): the job planner `jp` plans part k+1's job in the very cycles
+    the workcell inspects part k, and part 0's while the station is prepared; a part's job
+    goes down only once its plan is made, with the part the plan is for."""
+    final, lines = played("guardian_lot")
+    assert final["status"] == "DONE"
+    plans = [cycle for cycle, c in commands_sent(lines, "jp") if c == "PLAN_JOB"]
+    assert len(plans) == 2, "one plan per part"
+
+    def busy(module: str, command: str) -> set[int]:
+        return {
+            ln["cycle"]
+            for ln in lines
+            if ln["modules"][module]["command"] == command
+            and ln["modules"][module]["status"] == "EXECUTING"
+        }
+
+    planning = busy("jp", "PLAN_JOB")
+    setting_up, inspecting = busy("wc", "INIT_FOR_INSPECT"), busy("wc", "INSPECT_PART")
+    first_plan = {c for c in planning if c < plans[1]}
+    second_plan = planning - first_plan
+    assert first_plan and first_plan <= setting_up, "part 0 planned during the set-up"
+    assert second_plan and second_plan <= inspecting, "part 1 planned while part 0 is inspected"
+    assert len(second_plan) == 11, "a cycle to read the program, then 5 s (10 cycles)"
+    jobs = [cycle for cycle, c in commands_sent(lines, "wc") if c == "INSPECT_PART"]
+    assert jobs[0] == plans[1], "part 0's inspection and part 1's planning start together"
+    for job, part in zip(jobs, (0, 1), strict=True):
+        plan = at_cycle(lines, job - 1)["modules"]["jp"]
+        assert plan["status"] == "DONE" and plan["result"]["part"] == part
+    assert final["results"]["scheduled"] == 10, "5 features a part, two parts"
+
+
+def test_a_lot_by_a_program_that_does_not_exist_is_refused_by_the_planner():
+    """unknown_program: the Guardian mistypes the program; the job planner, planning part
+    0 while the station is prepared, reports ERROR NO_PROGRAM in its first cycles; the shop
+    halts the workcell's set-up (the operator's request is withdrawn) and fails the lot
+    with the planner's reason once the workcell has stopped; no part was placed."""
+    final, lines = played("unknown_program")
+    assert final["status"] == "ERROR" and final["reason"] == "NO_PROGRAM"
+    refused = first(lines, "jp", "PLAN_JOB", "ERROR")
+    halted = at_cycle(lines, refused + 1)["modules"]
+    assert halted["shop"]["state"] == "PLAN_FAILED" and halted["wc"]["command"] == "HALT"
+    assert halted["op/fx"]["state"] == "NOP", "the operator's request withdrawn"
+    failed = next(ln["cycle"] for ln in lines if ln["modules"]["shop"]["status"] == "ERROR")
+    assert at_cycle(lines, failed - 1)["modules"]["wc"]["status"] == "DONE", "after wc stopped"
+    assert "PLACE_PART" not in names(commands_sent(lines, "fx"))
+
+
+def at_cycle(lines: list[dict], cycle: int) -> dict:
+    assert lines[cycle - 1]["cycle"] == cycle
+    return lines[cycle - 1]
 
 
 def test_the_verdict_and_reasons_climb_through_workcell_and_shop():

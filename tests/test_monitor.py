@@ -452,3 +452,63 @@ def test_the_devices_panel_shows_each_device_up_then_lost_with_its_counts(
     assert " lost " in tank and " timeout " in tank, tank
     pumps = next(line for line in lost.splitlines() if line.lstrip().startswith("pumps "))
     assert "opcua opc.tcp://127.0.0.1:" in pumps and " up " in pumps, pumps
+
+
+def test_the_time_per_state_panel_shows_each_controllers_share_of_cycles_per_state(
+    running: Running, layout: ModuleType, tmp_path: Path
+) -> None:
+    """Issue 26 (the paper's "% of execution time per state"): a row per controller, its
+    cycles since start and the share of them in each state, largest first, summing to 100,
+    the state it is in now in bold; top sent RUN has S1 among its states, and the share of
+    the state it is in grows. Read from the screen (the SVG screenshot, kept in tmp_path)
+    and the panel's cells. A watchdog tripped on a busy host may halt top out of S1: the
+    test then follows the state top is in (NOP), as the panel does."""
+
+    def shares(app: Monitor, module: str) -> dict[str, float]:
+        text = app.query_one("#state_time", DataTable).get_cell(module, "states").plain
+        if text in ("", "-"):
+            return {}
+        pairs = [part.rsplit(" ", 1) for part in text.split("  ")]
+        return {state: float(share.rstrip("%")) for state, share in pairs}
+
+    def bold(app: Monitor, module: str) -> list[str]:
+        cell = app.query_one("#state_time", DataTable).get_cell(module, "states")
+        return [cell.plain[s.start : s.end] for s in cell.spans if "bold" in str(s.style)]
+
+    def now(app: Monitor, module: str) -> str:
+        return str(app.query_one("#modules", DataTable).get_cell(module, "state").plain)
+
+    async def drive() -> tuple[str, dict[str, float], dict[str, float]]:
+        app = Monitor(layout, running.segment, interval=0.1)
+        async with app.run_test(size=(150, 30)) as pilot:
+            panel = app.query_one("#state_time", DataTable)
+            assert [str(key.value) for key in panel.rows] == ["top", "arm"]
+            await until(pilot, lambda: all(shares(app, m) for m in ("top", "arm")), "both counted")
+            sent = running.ctl("send", "top", "RUN")
+            assert sent.returncode == 0, sent.stderr
+            await until(pilot, lambda: "S1" in shares(app, "top"), "top's S1 counted")
+            await until(
+                pilot,
+                lambda: [b.rsplit(" ", 1)[0] for b in bold(app, "top")] == [now(app, "top")],
+                "the state top is in, in bold",
+            )
+            first, state = shares(app, "top"), now(app, "top")
+            await until(
+                pilot,
+                lambda: (
+                    now(app, "top") != state
+                    or shares(app, "top").get(state, 0.0) > first.get(state, 0.0) + 0.5
+                ),
+                f"the share of {state}, the state top is in, growing from {first}",
+            )
+            (tmp_path / "state_time.svg").write_text(app.export_screenshot())
+            return screen_text(app), first, shares(app, "top")
+
+    text, first, later = asyncio.run(drive())
+    assert "% of cycles per state since start" in text, text
+    row = next(ln for ln in text.splitlines() if ln.lstrip().startswith("top ") and "%" in ln)
+    assert "S1 " in row and "NOP " in row, row
+    for figures in (first, later):
+        assert abs(sum(figures.values()) - 100.0) <= 0.5, figures
+        assert list(figures.values()) == sorted(figures.values(), reverse=True), "largest first"
+    assert later != first

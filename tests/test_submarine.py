@@ -365,12 +365,14 @@ def test_a_ship_that_falls_out_of_its_moving_haven_fails_the_mission():
 
 
 def test_the_access_matrix_is_figure_29s():
-    """Section 4.7.3: the OOD commands the mission; the EOOW only responds to requests
-    (CHANGE_TO_EPM); the helmsman may override helm and rudder; the BCP monitors."""
+    """Section 4.7.3: the OOD commands the mission and makes the depth decision asked of
+    him (DEPTH_CASUALTY); the EOOW only responds to requests (CHANGE_TO_EPM); the
+    helmsman may override helm and rudder; the BCP monitors."""
     import yaml
 
     roles = yaml.safe_load((SUBMARINE / "system.yaml").read_text())["operators"]["roles"]
-    assert roles["ood"].get("command") == ["cc"] and "respond" not in roles["ood"]
+    assert roles["ood"].get("command") == ["cc"]
+    assert roles["ood"].get("respond") == ["ood"], "the OOD answers DEPTH_CASUALTY (4.7.3)"
     assert roles["eoow"] == {"doc": roles["eoow"]["doc"], "respond": ["eoow"]}
     assert roles["helmsman"].get("override") == ["helm", "rudder"]
     assert set(roles["bcp"]) == {"doc"}, "monitors only"
@@ -603,6 +605,69 @@ def test_the_eoow_refusing_the_epm_fails_the_mission_with_his_reason():
     assert at(lines, sm_error)["modules"]["sm"]["reason"] == "REFUSED"
     assert lines[-1]["cycle"] == sm_error + 1
     assert not any(ln["world"]["periscope_raised"] for ln in lines)
+
+
+def depth_casualty(lines: list[dict]) -> tuple[int, int]:
+    """(the cycle ship maneuver asks the OOD, the cycle his answer is in the trace)."""
+    asked = next(ln["cycle"] for ln in lines if ln["modules"]["ood/sm"]["state"] == "ASKING")
+    answered = next(
+        ln["cycle"]
+        for ln in lines
+        if ln["cycle"] > asked and ln["modules"]["ood/sm"]["status"] != "EXECUTING"
+    )
+    return asked, answered
+
+
+def test_a_depth_the_ballast_cannot_hold_is_the_ood_s_choice_and_he_chooses_the_planes():
+    """Section 4.7.3: a salinity disturbance the depth controller cannot hold. Ship maneuver
+    blows its variable ballast to the tanks' limit (20 kg/m3), and only then, the ship
+    still sinking more than 5 m below its order, asks the OOD (DEPTH_CASUALTY, the depth on
+    his screen) and waits in DEPTH_ASKED; his choice, the planes, is the task's result, read
+    by ship maneuver in the cycle his DONE reaches it, which goes back to S1 with full
+    planes in that cycle (no completion state), and full planes bring the depth back."""
+    final, lines = played("salinity_planes")
+    assert final["status"] == "DONE"
+    asked, answered = depth_casualty(lines)
+    before = at(lines, asked - 1)["world"]
+    assert before["ballast"] == 20.0 and before["depth"] > 125.0, "ballast spent, still sinking"
+    assert at(lines, asked)["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/8"
+    assert at(lines, asked)["modules"]["sm"]["state"] == "DEPTH_ASKED"
+    channel = at(lines, answered)["modules"]["ood/sm"]
+    assert channel["status"] == "DONE" and channel["result"] == {"choice": "PLANES"}
+    assert answered - asked >= 10, "he answers 10 s after taking the request up"
+    assert all(at(lines, c)["world"]["planes"] == "NORMAL" for c in range(1, answered + 1))
+    chose = at(lines, answered + 1)
+    assert chose["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/DEPTH_ASKED/3"
+    assert chose["modules"]["sm"]["state"] == "S1" and chose["world"]["planes"] == "FULL"
+    deepest = max(ln["world"]["depth"] for ln in lines)
+    assert deepest == max(at(lines, c)["world"]["depth"] for c in range(asked, answered + 2))
+    held = [ln["world"]["depth"] for ln in lines if answered + 60 <= ln["cycle"]]
+    assert held and all(abs(d - 120.0) <= 1.5 for d in held)
+    assert not any(ln["world"]["mbt_blown"] for ln in lines)
+    assert all(ln["modules"]["ood/sm"]["state"] == "NOP" for ln in lines[: asked - 1])
+
+
+def test_the_ood_s_last_resort_blows_the_main_ballast_tanks_and_the_ship_surfaces():
+    """Section 4.7.3: "Blowing MBTs may be the last resort that disallows the submarine to
+    re-submerge". The OOD chooses MBT_BLOW: in the cycle his answer reaches ship maneuver
+    the tanks are blown and the helm halted; once it has stopped the transit fails with
+    SURFACED, which cc passes up; the ship rises to the surface."""
+    final, lines = played("salinity_mbt_blow")
+    assert final["status"] == "ERROR" and final["reason"] == "SURFACED"
+    asked, answered = depth_casualty(lines)
+    assert at(lines, answered)["modules"]["ood/sm"]["result"] == {"choice": "MBT_BLOW"}
+    assert not at(lines, answered)["world"]["mbt_blown"]
+    blown = at(lines, answered + 1)
+    assert blown["world"]["mbt_blown"] and blown["world"]["depth_cmd"] == 0.0
+    assert blown["modules"]["sm"]["state"] == "SURFACING"
+    assert blown["modules"]["helm"]["command"] == "HALT"
+    failed = next(ln["cycle"] for ln in lines if ln["modules"]["sm"]["status"] == "ERROR")
+    assert at(lines, failed - 1)["modules"]["helm"]["status"] == "DONE", "after the helm stopped"
+    assert at(lines, failed)["modules"]["sm"]["reason"] == "SURFACED"
+    assert at(lines, failed + 1)["modules"]["cc"]["reason"] == "SURFACED"
+    depths = [ln["world"]["depth"] for ln in lines if ln["cycle"] > answered]
+    assert depths == sorted(depths, reverse=True) and depths[-1] == 0.0, "rises to the surface"
+    assert all(ln["world"]["planes"] == "NORMAL" for ln in lines)
 
 
 def fidelity_counts(page: Path) -> tuple[dict[str, int], str]:

@@ -9,6 +9,7 @@ SOURCES = (
     "inspection/cmm.yaml",
     "inspection/cmm_sim.yaml",
     "inspection/fx.yaml",
+    "inspection/jp.yaml",
     "inspection/ms.yaml",
     "inspection/op.yaml",
     "inspection/shop.yaml",

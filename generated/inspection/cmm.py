@@ -27,14 +27,14 @@ INSPECT_FEATURE = 6
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIq44x???1xI400xq8xq8xq8xq24x?")
-INPUTS_AT = 1232
+INPUTS_AT = 1424
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QqQqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1696
+WORLD_OUT_1_AT = 1888
 WORLD_HELD_1 = (OVERRIDE["cmm_op"], OVERRIDE["cmm_feature"], OVERRIDE["cmm_seq"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

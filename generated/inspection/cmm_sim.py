@@ -36,18 +36,18 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI56xq8xq8xq8xq8xd8x?15x?")
-INPUTS_AT = 1576
+INPUTS_AT = 1768
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1576
+SEQS_AT = 1768
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QqQdQ?")
 WORLD_VALUES_1 = Struct("<8xq8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1744
+WORLD_OUT_1_AT = 1936
 WORLD_HELD_1 = (
     OVERRIDE["cmm_done_seq"],
     OVERRIDE["cmm_reading"],

@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2504 bytes.
+The block is 2768 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -25,68 +25,73 @@ command buffers and world fields:
 | 80 | 168 | PROCESS_IWS | PROCESS_FIELDS |
 | 248 | 16 | PACE_IWS | PACE_FIELDS |
 | 264 | 60 | SHOP_COMMAND | command_num, command, arg_program, arg_parts |
-| 328 | 57 | SHOP_STATUS | STATUS_FIELDS |
-| 392 | 16 | SHOP_MODE | MODE_FIELDS |
-| 408 | 48 | SHOP_PERF | PERF_FIELDS |
-| 456 | 52 | WC_COMMAND | command_num, command, arg_program |
-| 512 | 41 | WC_STATUS | STATUS_FIELDS |
-| 560 | 16 | WC_MODE | MODE_FIELDS |
-| 576 | 48 | WC_PERF | PERF_FIELDS |
-| 624 | 52 | WS_COMMAND | command_num, command, arg_program |
-| 680 | 41 | WS_STATUS | STATUS_FIELDS |
-| 728 | 16 | WS_MODE | MODE_FIELDS |
-| 744 | 48 | WS_PERF | PERF_FIELDS |
-| 792 | 52 | MS_COMMAND | command_num, command, arg_program |
-| 848 | 56 | MS_STATUS | STATUS_FIELDS |
-| 904 | 16 | MS_MODE | MODE_FIELDS |
-| 920 | 48 | MS_PERF | PERF_FIELDS |
-| 968 | 20 | FX_COMMAND | command_num, command |
-| 992 | 40 | FX_STATUS | STATUS_FIELDS |
-| 1032 | 16 | FX_MODE | MODE_FIELDS |
-| 1048 | 48 | FX_PERF | PERF_FIELDS |
-| 1096 | 20 | TL_COMMAND | command_num, command |
-| 1120 | 40 | TL_STATUS | STATUS_FIELDS |
-| 1160 | 16 | TL_MODE | MODE_FIELDS |
-| 1176 | 48 | TL_PERF | PERF_FIELDS |
-| 1224 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 1256 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 1288 | 16 | CMM_MODE | MODE_FIELDS |
-| 1304 | 48 | CMM_PERF | PERF_FIELDS |
-| 1352 | 16 | OP_MODE | MODE_FIELDS |
-| 1368 | 48 | OP_PERF | PERF_FIELDS |
-| 1416 | 20 | OP_FX_COMMAND | command_num, command |
-| 1440 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 1472 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 1496 | 20 | OP_TL_COMMAND | command_num, command |
-| 1520 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 1552 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 1576 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 1600 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 1632 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1648 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1696 | 16 | WORLD_CMM_OP | cmm_op |
-| 1712 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1728 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1744 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1760 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1776 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1792 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 1808 | 9 | OVERRIDES | any |
-| 1824 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 1848 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 1872 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 1896 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 1920 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 1944 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 1968 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 1992 | 72 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, COUNTED |
-| 2064 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 2112 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
-| 2216 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 2304 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 2360 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 2416 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
-| 2464 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 328 | 65 | SHOP_STATUS | STATUS_FIELDS |
+| 400 | 16 | SHOP_MODE | MODE_FIELDS |
+| 416 | 48 | SHOP_PERF | PERF_FIELDS |
+| 464 | 60 | JP_COMMAND | command_num, command, arg_program, arg_part |
+| 528 | 56 | JP_STATUS | STATUS_FIELDS |
+| 584 | 16 | JP_MODE | MODE_FIELDS |
+| 600 | 48 | JP_PERF | PERF_FIELDS |
+| 648 | 52 | WC_COMMAND | command_num, command, arg_program |
+| 704 | 41 | WC_STATUS | STATUS_FIELDS |
+| 752 | 16 | WC_MODE | MODE_FIELDS |
+| 768 | 48 | WC_PERF | PERF_FIELDS |
+| 816 | 52 | WS_COMMAND | command_num, command, arg_program |
+| 872 | 41 | WS_STATUS | STATUS_FIELDS |
+| 920 | 16 | WS_MODE | MODE_FIELDS |
+| 936 | 48 | WS_PERF | PERF_FIELDS |
+| 984 | 52 | MS_COMMAND | command_num, command, arg_program |
+| 1040 | 56 | MS_STATUS | STATUS_FIELDS |
+| 1096 | 16 | MS_MODE | MODE_FIELDS |
+| 1112 | 48 | MS_PERF | PERF_FIELDS |
+| 1160 | 20 | FX_COMMAND | command_num, command |
+| 1184 | 40 | FX_STATUS | STATUS_FIELDS |
+| 1224 | 16 | FX_MODE | MODE_FIELDS |
+| 1240 | 48 | FX_PERF | PERF_FIELDS |
+| 1288 | 20 | TL_COMMAND | command_num, command |
+| 1312 | 40 | TL_STATUS | STATUS_FIELDS |
+| 1352 | 16 | TL_MODE | MODE_FIELDS |
+| 1368 | 48 | TL_PERF | PERF_FIELDS |
+| 1416 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 1448 | 32 | CMM_STATUS | STATUS_FIELDS |
+| 1480 | 16 | CMM_MODE | MODE_FIELDS |
+| 1496 | 48 | CMM_PERF | PERF_FIELDS |
+| 1544 | 16 | OP_MODE | MODE_FIELDS |
+| 1560 | 48 | OP_PERF | PERF_FIELDS |
+| 1608 | 20 | OP_FX_COMMAND | command_num, command |
+| 1632 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 1664 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 1688 | 20 | OP_TL_COMMAND | command_num, command |
+| 1712 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 1744 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 1768 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 1792 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 1824 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1840 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1888 | 16 | WORLD_CMM_OP | cmm_op |
+| 1904 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1920 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1936 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1952 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1968 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1984 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 2000 | 9 | OVERRIDES | any |
+| 2016 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 2040 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 2064 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 2088 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 2112 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 2136 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 2160 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 2184 | 96 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, PLAN_FAILED |
+| 2280 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
+| 2328 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 2376 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
+| 2480 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 2568 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 2624 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 2680 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
+| 2728 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -118,9 +123,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 2504
+SIZE = 2768
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "b3eca887b621fd01352e3cf2b20cc4a3"
+LAYOUT_HASH = "0702a53866217131f8eb72a5b9653e92"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 248
 
@@ -128,99 +133,109 @@ PACE_IWS_AT = 248
 SHOP_COMMAND = Struct("<QQI32sq")  # seq, command_num, command, arg_program, arg_parts
 SHOP_COMMAND_AT = 264
 SHOP_STATUS = Struct(
-    "<QQIIiiqq?Q"
-)  # seq, status_num, status, error_num, state, rule, result_passed, result_rejected, result_accepted, cause
+    "<QQIIiiqqq?Q"
+)  # seq, status_num, status, error_num, state, rule, result_passed, result_rejected, result_scheduled, result_accepted, cause
 SHOP_STATUS_AT = 328
-SHOP_MODE_AT = 392
-SHOP_PERF_AT = 408
+SHOP_MODE_AT = 400
+SHOP_PERF_AT = 416
+
+# jp: Job planner (W1)
+JP_COMMAND = Struct("<QQI32sq")  # seq, command_num, command, arg_program, arg_part
+JP_COMMAND_AT = 464
+JP_STATUS = Struct(
+    "<QQIIiiqqQ"
+)  # seq, status_num, status, error_num, state, rule, result_part, result_features, cause
+JP_STATUS_AT = 528
+JP_MODE_AT = 584
+JP_PERF_AT = 600
 
 # wc: Workcell
 WC_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-WC_COMMAND_AT = 456
+WC_COMMAND_AT = 648
 WC_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_accepted, cause
-WC_STATUS_AT = 512
-WC_MODE_AT = 560
-WC_PERF_AT = 576
+WC_STATUS_AT = 704
+WC_MODE_AT = 752
+WC_PERF_AT = 768
 
 # ws: Inspection workstation
 WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-WS_COMMAND_AT = 624
+WS_COMMAND_AT = 816
 WS_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_accepted, cause
-WS_STATUS_AT = 680
-WS_MODE_AT = 728
-WS_PERF_AT = 744
+WS_STATUS_AT = 872
+WS_MODE_AT = 920
+WS_PERF_AT = 936
 
 # ms: Measurement
 MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-MS_COMMAND_AT = 792
+MS_COMMAND_AT = 984
 MS_STATUS = Struct(
     "<QQIIiiqqQ"
 )  # seq, status_num, status, error_num, state, rule, result_measured, result_failed, cause
-MS_STATUS_AT = 848
-MS_MODE_AT = 904
-MS_PERF_AT = 920
+MS_STATUS_AT = 1040
+MS_MODE_AT = 1096
+MS_PERF_AT = 1112
 
 # fx: Fixturing (performed by the operator)
 FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 968
+FX_COMMAND_AT = 1160
 FX_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-FX_STATUS_AT = 992
-FX_MODE_AT = 1032
-FX_PERF_AT = 1048
+FX_STATUS_AT = 1184
+FX_MODE_AT = 1224
+FX_PERF_AT = 1240
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 1096
+TL_COMMAND_AT = 1288
 TL_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-TL_STATUS_AT = 1120
-TL_MODE_AT = 1160
-TL_PERF_AT = 1176
+TL_STATUS_AT = 1312
+TL_MODE_AT = 1352
+TL_PERF_AT = 1368
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 1224
-CMM_STATUS_AT = 1256
-CMM_MODE_AT = 1288
-CMM_PERF_AT = 1304
+CMM_COMMAND_AT = 1416
+CMM_STATUS_AT = 1448
+CMM_MODE_AT = 1480
+CMM_PERF_AT = 1496
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 1576
-CMM_SIM_STATUS_AT = 1600
-CMM_SIM_MODE_AT = 1632
-CMM_SIM_PERF_AT = 1648
+CMM_SIM_COMMAND_AT = 1768
+CMM_SIM_STATUS_AT = 1792
+CMM_SIM_MODE_AT = 1824
+CMM_SIM_PERF_AT = 1840
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 1352
-OP_PERF_AT = 1368
+OP_MODE_AT = 1544
+OP_PERF_AT = 1560
 OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_FX_COMMAND_AT = 1416
-OP_FX_STATUS_AT = 1440
-OP_FX_ANSWER_AT = 1472
+OP_FX_COMMAND_AT = 1608
+OP_FX_STATUS_AT = 1632
+OP_FX_ANSWER_AT = 1664
 OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_TL_COMMAND_AT = 1496
-OP_TL_STATUS_AT = 1520
-OP_TL_ANSWER_AT = 1552
+OP_TL_COMMAND_AT = 1688
+OP_TL_STATUS_AT = 1712
+OP_TL_ANSWER_AT = 1744
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1696
+WORLD_CMM_OP_AT = 1888
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1712
+WORLD_CMM_FEATURE_AT = 1904
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1728
+WORLD_CMM_SEQ_AT = 1920
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1744
+WORLD_CMM_DONE_SEQ_AT = 1936
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1760
+WORLD_CMM_READING_AT = 1952
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1776
+WORLD_CMM_ALARM_AT = 1968
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1792
+WORLD_CMM_FAULT_AT = 1984
 
 
 PROCESSES = {
@@ -233,6 +248,7 @@ PACING = {
 # The process each module runs in (a stand-in runs in its controller's).
 PLACEMENT = {
     "shop": "iws",
+    "jp": "iws",
     "wc": "iws",
     "ws": "iws",
     "ms": "iws",
@@ -250,7 +266,8 @@ HEARTBEAT_TIMEOUT = 5.0
 STARTUP_TIMEOUT = 10.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
-    "shop": ("wc",),
+    "shop": ("wc", "jp"),
+    "jp": (),
     "wc": ("ws",),
     "ws": ("ms", "fx"),
     "ms": ("tl", "cmm"),
@@ -265,11 +282,12 @@ SUBORDINATES = {
 ON_LOST_CONTINUE: dict[str, tuple[str, ...]] = {}
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {}
-MODULES = ("shop", "wc", "ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim")
+MODULES = ("shop", "jp", "wc", "ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim")
 COMMAND_IN = {
     "shop": Record(
         SHOP_COMMAND, SHOP_COMMAND_AT, ("command_num", "command", "arg_program", "arg_parts")
     ),
+    "jp": Record(JP_COMMAND, JP_COMMAND_AT, ("command_num", "command", "arg_program", "arg_part")),
     "wc": Record(WC_COMMAND, WC_COMMAND_AT, ("command_num", "command", "arg_program")),
     "ws": Record(WS_COMMAND, WS_COMMAND_AT, ("command_num", "command", "arg_program")),
     "ms": Record(MS_COMMAND, MS_COMMAND_AT, ("command_num", "command", "arg_program")),
@@ -292,7 +310,22 @@ STATUS_OUT = {
             "rule",
             "result_passed",
             "result_rejected",
+            "result_scheduled",
             "result_accepted",
+            "cause",
+        ),
+    ),
+    "jp": Record(
+        JP_STATUS,
+        JP_STATUS_AT,
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "result_part",
+            "result_features",
             "cause",
         ),
     ),
@@ -333,6 +366,7 @@ STATUS_OUT = {
 }
 MODE_IN = {
     "shop": Record(MODE, SHOP_MODE_AT, field_names(MODE_FIELDS)),
+    "jp": Record(MODE, JP_MODE_AT, field_names(MODE_FIELDS)),
     "wc": Record(MODE, WC_MODE_AT, field_names(MODE_FIELDS)),
     "ws": Record(MODE, WS_MODE_AT, field_names(MODE_FIELDS)),
     "ms": Record(MODE, MS_MODE_AT, field_names(MODE_FIELDS)),
@@ -346,6 +380,7 @@ MODE_IN = {
 }
 PERFORMANCE = {
     "shop": Record(PERF, SHOP_PERF_AT, field_names(PERF_FIELDS)),
+    "jp": Record(PERF, JP_PERF_AT, field_names(PERF_FIELDS)),
     "wc": Record(PERF, WC_PERF_AT, field_names(PERF_FIELDS)),
     "ws": Record(PERF, WS_PERF_AT, field_names(PERF_FIELDS)),
     "ms": Record(PERF, MS_PERF_AT, field_names(PERF_FIELDS)),
@@ -377,18 +412,18 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 1808
-OVERRIDDEN_AT = 1816  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2000
+OVERRIDDEN_AT = 2008  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 1824, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 1848, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 1872, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 1896, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 1920, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 1944, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 1968, ("state", "cmm_fault")),
+    "cmm_op": Record(Struct("<QQq"), 2016, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 2040, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 2064, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 2088, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 2112, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 2136, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 2160, ("state", "cmm_fault")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -424,14 +459,27 @@ GROUND_TRUTH = ()
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
     "shop": Record(
-        Struct("<QqQQQQQQQ"),
-        1992,
-        ("state", "since", "NOP", "S0", "S1", "SETTING_UP", "INSPECTING", "COUNTED"),
+        Struct("<QqQQQQQQQQQQ"),
+        2184,
+        (
+            "state",
+            "since",
+            "NOP",
+            "S0",
+            "S1",
+            "SETTING_UP",
+            "INSPECTING",
+            "NEXT_PART",
+            "LAST",
+            "PLANNER_STOPPING",
+            "PLAN_FAILED",
+        ),
     ),
-    "wc": Record(Struct("<QqQQQQ"), 2064, ("state", "since", "NOP", "S0", "S1")),
+    "jp": Record(Struct("<QqQQQQ"), 2280, ("state", "since", "NOP", "S0", "PLANNING")),
+    "wc": Record(Struct("<QqQQQQ"), 2328, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        2112,
+        2376,
         (
             "state",
             "since",
@@ -449,17 +497,18 @@ TIME_IN_STATE = {
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        2216,
+        2480,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 2304, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 2360, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "cmm": Record(Struct("<QqQQQQ"), 2416, ("state", "since", "NOP", "S0", "S1")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 2464, ("state", "since", "NOP", "S0")),
+    "fx": Record(Struct("<QqQQQQQ"), 2568, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 2624, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "cmm": Record(Struct("<QqQQQQ"), 2680, ("state", "since", "NOP", "S0", "S1")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 2728, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "shop": (NO_COMMAND_NAME, *("INIT", "HALT", "INSPECT_LOT", "INIT_FOR_INSPECT", "INSPECT_PART")),
+    "jp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN_JOB")),
     "wc": (NO_COMMAND_NAME, *("INIT", "HALT", "INIT_FOR_INSPECT", "INSPECT_PART")),
     "ws": (NO_COMMAND_NAME, *("INIT", "HALT", "INIT_FOR_INSPECT", "INSPECT_PART")),
     "ms": (
@@ -521,6 +570,9 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
         "INSPECT_LOT": ("program", "parts"),
         "INSPECT_PART": ("program",),
     },
+    "jp": {
+        "PLAN_JOB": ("program", "part"),
+    },
     "wc": {
         "INSPECT_PART": ("program",),
     },
@@ -535,7 +587,18 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     },
 }
 STATE_NAMES = {
-    "shop": ("NOP", "S0", "S1", "SETTING_UP", "INSPECTING", "COUNTED"),
+    "shop": (
+        "NOP",
+        "S0",
+        "S1",
+        "SETTING_UP",
+        "INSPECTING",
+        "NEXT_PART",
+        "LAST",
+        "PLANNER_STOPPING",
+        "PLAN_FAILED",
+    ),
+    "jp": ("NOP", "S0", "PLANNING"),
     "wc": ("NOP", "S0", "S1"),
     "ws": (
         "NOP",
@@ -561,7 +624,8 @@ STATE_NAMES = {
 # controllers and operator modules that declare reasons (docs/semantics.md, "Results and
 # reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {
-    "shop": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
+    "shop": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT", "NO_PROGRAM"),
+    "jp": ("NONE", "LOST", "NO_PROGRAM"),
     "wc": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ws": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ms": ("NONE", "LOST", "MACHINE_FAULT", "REFUSED", "TIMED_OUT"),
@@ -571,7 +635,7 @@ REASON_NAMES: dict[str, tuple[str, ...]] = {
 }
 # The modules a link of a status buffer's `cause` numbers, from 1 (rcs/contract.py
 # cause_text; docs/semantics.md, "Reasons survive").
-CAUSE_MODULES = ("shop", "wc", "ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim")
+CAUSE_MODULES = ("shop", "jp", "wc", "ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim")
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
     "shop": (
@@ -581,20 +645,35 @@ RULES = {
         "HALT/S0/1",
         "HALT/S1/1",
         "INSPECT_LOT/S0/1",
+        "INSPECT_LOT/S0/2",
         "INSPECT_LOT/SETTING_UP/1",
         "INSPECT_LOT/SETTING_UP/2",
         "INSPECT_LOT/SETTING_UP/3",
         "INSPECT_LOT/INSPECTING/1",
         "INSPECT_LOT/INSPECTING/2",
         "INSPECT_LOT/INSPECTING/3",
-        "INSPECT_LOT/COUNTED/1",
-        "INSPECT_LOT/COUNTED/2",
+        "INSPECT_LOT/INSPECTING/4",
+        "INSPECT_LOT/NEXT_PART/1",
+        "INSPECT_LOT/NEXT_PART/2",
+        "INSPECT_LOT/LAST/1",
+        "INSPECT_LOT/LAST/2",
+        "INSPECT_LOT/LAST/3",
+        "INSPECT_LOT/PLANNER_STOPPING/1",
+        "INSPECT_LOT/PLAN_FAILED/1",
         "INIT_FOR_INSPECT/S0/1",
         "INIT_FOR_INSPECT/S1/1",
         "INIT_FOR_INSPECT/S1/2",
         "INSPECT_PART/S0/1",
         "INSPECT_PART/S1/1",
         "INSPECT_PART/S1/2",
+    ),
+    "jp": (
+        "",
+        "INIT/S0/1",
+        "HALT/S0/1",
+        "PLAN_JOB/S0/1",
+        "PLAN_JOB/PLANNING/1",
+        "PLAN_JOB/PLANNING/2",
     ),
     "wc": (
         "",
@@ -744,6 +823,7 @@ ROLES: dict[str, dict[str, int]] = {
     },
     "engineer": {
         "shop": 3,  # override
+        "jp": 3,  # override
         "wc": 3,  # override
         "ws": 3,  # override
         "ms": 3,  # override

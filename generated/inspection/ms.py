@@ -56,7 +56,7 @@ TL_REASON_NONE = 0
 TL_REASON_LOST = 1
 TL_REASON_REFUSED = 2
 TL_REASON_TIMED_OUT = 3
-TL_LINK = 6  # its number in the layout's CAUSE_MODULES
+TL_LINK = 7  # its number in the layout's CAUSE_MODULES
 
 # Commands ms sends to cmm.
 CMM_INIT = 1
@@ -65,12 +65,12 @@ CMM_HOME = 3
 CMM_CALIBRATE_PROBE = 4
 CMM_CALIBRATE_CAMERA = 5
 CMM_INSPECT_FEATURE = 6
-CMM_LINK = 7  # its number in the layout's CAUSE_MODULES
+CMM_LINK = 8  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32s68x???1xI208xQII8xQ104xQI492xd")
-INPUTS_AT = 800
+INPUTS_AT = 992
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -5,6 +5,8 @@ from struct import Struct
 from time import perf_counter_ns
 
 from .layout import (
+    JP_COMMAND,
+    JP_COMMAND_AT,
     SHOP_PERF_AT,
     SHOP_STATUS,
     SHOP_STATUS_AT,
@@ -38,6 +40,7 @@ REASON_LOST = 1
 REASON_REFUSED = 2
 REASON_TIMED_OUT = 3
 REASON_MACHINE_FAULT = 4
+REASON_NO_PROGRAM = 5
 
 # Commands shop sends to wc.
 WC_INIT = 1
@@ -50,11 +53,21 @@ WC_REASON_LOST = 1
 WC_REASON_REFUSED = 2
 WC_REASON_TIMED_OUT = 3
 WC_REASON_MACHINE_FAULT = 4
-WC_LINK = 2  # its number in the layout's CAUSE_MODULES
+WC_LINK = 3  # its number in the layout's CAUSE_MODULES
+
+# Commands shop sends to jp.
+JP_INIT = 1
+JP_HALT = 2
+JP_PLAN_JOB = 3
+# Why jp may end a command in ERROR (its error_num).
+JP_REASON_NONE = 0
+JP_REASON_LOST = 1
+JP_REASON_NO_PROGRAM = 2
+JP_LINK = 2  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI32sq76x???1xI112xQII8x?Q")
+INPUTS = Struct("<QQI32sq84x???1xI120xQII16xqQ128xQII8x?Q")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -66,7 +79,10 @@ S0 = 1
 S1 = 2
 SETTING_UP = 3
 INSPECTING = 4
-COUNTED = 5
+NEXT_PART = 5
+LAST = 6
+PLANNER_STOPPING = 7
+PLAN_FAILED = 8
 
 
 class ShopController:
@@ -82,6 +98,16 @@ class ShopController:
         "cycles",
         "dont_run",
         "error_num",
+        "jp_arg_part",
+        "jp_arg_program",
+        "jp_cause",
+        "jp_command",
+        "jp_command_num",
+        "jp_error_num",
+        "jp_result_features",
+        "jp_status",
+        "jp_status_num",
+        "jp_written",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -90,6 +116,7 @@ class ShopController:
         "result_accepted",
         "result_passed",
         "result_rejected",
+        "result_scheduled",
         "rule",
         "simulate",
         "single_step",
@@ -102,6 +129,7 @@ class ShopController:
         "status_seq",
         "var_bad",
         "var_good",
+        "var_scheduled",
         "wc_arg_program",
         "wc_cause",
         "wc_command",
@@ -117,6 +145,7 @@ class ShopController:
         self.buf = buf
         self.var_good: int = 0
         self.var_bad: int = 0
+        self.var_scheduled: int = 0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -133,6 +162,7 @@ class ShopController:
             self.rule,
             self.result_passed,
             self.result_rejected,
+            self.result_scheduled,
             self.result_accepted,
             self.cause,
         ) = SHOP_STATUS.unpack_from(buf, SHOP_STATUS_AT)
@@ -152,12 +182,19 @@ class ShopController:
             buf, WC_COMMAND_AT
         )
         self.wc_written = self.wc_command_num
+        _, self.jp_command_num, self.jp_command, self.jp_arg_program, self.jp_arg_part = (
+            JP_COMMAND.unpack_from(buf, JP_COMMAND_AT)
+        )
+        self.jp_written = self.jp_command_num
         self.wc_arg_program = decode_text(self.wc_arg_program)
+        self.jp_arg_program = decode_text(self.jp_arg_program)
 
     def safe_state(self, reason: int) -> None:
         """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
         self.wc_command = WC_HALT
         self.wc_command_num += 1
+        self.jp_command = JP_HALT
+        self.jp_command_num += 1
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
@@ -183,6 +220,11 @@ class ShopController:
                 self.single_step,
                 self.simulate,
                 self.single_step_num,
+                self.jp_status_num,
+                self.jp_status,
+                self.jp_error_num,
+                self.jp_result_features,
+                self.jp_cause,
                 self.wc_status_num,
                 self.wc_status,
                 self.wc_error_num,
@@ -198,6 +240,14 @@ class ShopController:
         elif self.wc_status != ERROR:
             self.wc_error_num = WC_REASON_NONE  # a reason comes only with ERROR
             self.wc_cause = 0
+        if self.jp_status_num != self.jp_command_num:
+            self.jp_status = EXECUTING  # until it echoes the last number sent
+            self.jp_result_features = 0  # no result yet
+            self.jp_error_num = JP_REASON_NONE  # no reason yet
+            self.jp_cause = 0
+        elif self.jp_status != ERROR:
+            self.jp_error_num = JP_REASON_NONE  # a reason comes only with ERROR
+            self.jp_cause = 0
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -209,6 +259,7 @@ class ShopController:
             self.cause = 0  # nor a cause
             self.result_passed = 0  # no result yet
             self.result_rejected = 0  # no result yet
+            self.result_scheduled = 0  # no result yet
             self.result_accepted = False  # no result yet
 
         # 3. decision_process: run the command's state table, unless the mode holds it
@@ -248,6 +299,7 @@ class ShopController:
                 self.rule,
                 self.result_passed,
                 self.result_rejected,
+                self.result_scheduled,
                 self.result_accepted,
                 self.cause,
             )
@@ -270,6 +322,23 @@ class ShopController:
             )
             SEQ.pack_into(buf, WC_COMMAND_AT, seq + 1)
             self.wc_written = self.wc_command_num
+        if self.jp_command_num != self.jp_written:  # a command was sent
+            seq, number = JP_COMMAND.unpack_from(buf, JP_COMMAND_AT)[:2]
+            if number != self.jp_written:  # an operator's command came meanwhile:
+                self.jp_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, JP_COMMAND_AT, seq)
+            JP_COMMAND.pack_into(
+                buf,
+                JP_COMMAND_AT,
+                seq,
+                self.jp_command_num,
+                self.jp_command,
+                encode_text(self.jp_arg_program, 32),
+                self.jp_arg_part,
+            )
+            SEQ.pack_into(buf, JP_COMMAND_AT, seq + 1)
+            self.jp_written = self.jp_command_num
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -323,6 +392,11 @@ class ShopController:
             self.single_step,
             self.simulate,
             self.single_step_num,
+            self.jp_status_num,
+            self.jp_status,
+            self.jp_error_num,
+            self.jp_result_features,
+            self.jp_cause,
             self.wc_status_num,
             self.wc_status,
             self.wc_error_num,
@@ -342,8 +416,10 @@ class ShopController:
             self.state = S1
             self.wc_command = WC_INIT
             self.wc_command_num += 1
+            self.jp_command = JP_INIT
+            self.jp_command_num += 1
 
-        elif state == S1 and self.wc_status == DONE:
+        elif state == S1 and self.wc_status == DONE and self.jp_status == DONE:
             # every subordinate is done
             self.rule = 2  # INIT/S1/1
             self.state = NOP
@@ -359,8 +435,10 @@ class ShopController:
             self.state = S1
             self.wc_command = WC_HALT
             self.wc_command_num += 1
+            self.jp_command = JP_HALT
+            self.jp_command_num += 1
 
-        elif state == S1 and self.wc_status == DONE:
+        elif state == S1 and self.wc_status == DONE and self.jp_status == DONE:
             # every subordinate is done
             self.rule = 4  # HALT/S1/1
             self.state = NOP
@@ -368,66 +446,141 @@ class ShopController:
             self.cause = 0  # DONE has no cause
 
     def inspect_lot(self) -> None:
-        """INSPECT_LOT: The Guardian's order for a lot: prepare the station, then inspect `parts`
-        parts by `program`, one job after the other; DONE with the counts of parts passed and
-        rejected.
+        """INSPECT_LOT: The Guardian's order for a lot: prepare the station while the job planner
+        plans the first part's job; then inspect `parts` parts by `program`, one job after the
+        other, each part's job planned while the part before it is inspected; DONE with the
+        counts of parts passed and rejected, and the features scheduled.
         """
         state = self.state
         if state == S0:
-            self.rule = 5  # INSPECT_LOT/S0/1
-            self.state = SETTING_UP
-            self.var_good = 0
-            self.var_bad = 0
-            self.result_passed = 0
-            self.result_rejected = 0
-            self.wc_command = WC_INIT_FOR_INSPECT
-            self.wc_command_num += 1
-
-        elif state == SETTING_UP:
-            if self.wc_status == DONE and self.arg_parts > 0:
-                # the station is ready; the first part's job
-                self.rule = 6  # INSPECT_LOT/SETTING_UP/1
-                self.state = INSPECTING
-                self.wc_arg_program = self.arg_program
-                self.wc_command = WC_INSPECT_PART
+            if self.arg_parts > 0:
+                # W2 prepares the station while W1 plans part 0's job
+                self.rule = 5  # INSPECT_LOT/S0/1
+                self.state = SETTING_UP
+                self.var_good = 0
+                self.var_bad = 0
+                self.var_scheduled = 0
+                self.result_passed = 0
+                self.result_rejected = 0
+                self.result_scheduled = 0
+                self.wc_command = WC_INIT_FOR_INSPECT
                 self.wc_command_num += 1
+                self.jp_arg_program = self.arg_program
+                self.jp_arg_part = 0
+                self.jp_command = JP_PLAN_JOB
+                self.jp_command_num += 1
 
-            elif self.wc_status == DONE and self.arg_parts <= 0:
+            elif self.arg_parts <= 0:
                 # an empty lot
-                self.rule = 7  # INSPECT_LOT/SETTING_UP/2
+                self.rule = 6  # INSPECT_LOT/S0/2
+                self.result_passed = 0
+                self.result_rejected = 0
+                self.result_scheduled = 0
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
-            elif self.wc_status == ERROR:
-                self.rule = 8  # INSPECT_LOT/SETTING_UP/3
+        elif state == SETTING_UP:
+            if self.wc_status == ERROR:
+                # the station could not be prepared; withdraw the planning
+                self.rule = 7  # INSPECT_LOT/SETTING_UP/1
+                self.state = PLANNER_STOPPING
                 # wc's error: the cause of an ERROR this command reports
                 self.cause = caused(WC_LINK, self.wc_error_num, self.wc_cause)
-                self.state = NOP
-                self.status = ERROR
-                # wc's reason, passed up by name (another: NONE)
-                self.error_num = {
-                    WC_REASON_LOST: REASON_LOST,
-                    WC_REASON_REFUSED: REASON_REFUSED,
-                    WC_REASON_TIMED_OUT: REASON_TIMED_OUT,
-                    WC_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
-                }.get(self.wc_error_num, REASON_NONE)
+                self.jp_command = JP_HALT
+                self.jp_command_num += 1
+
+            elif self.jp_status == ERROR:
+                # the planning failed; stop the set-up
+                self.rule = 8  # INSPECT_LOT/SETTING_UP/2
+                self.state = PLAN_FAILED
+                # jp's error: the cause of an ERROR this command reports
+                self.cause = caused(JP_LINK, self.jp_error_num, self.jp_cause)
+                self.wc_command = WC_HALT
+                self.wc_command_num += 1
+
+            elif self.wc_status == DONE and self.jp_status == DONE:
+                # the station is ready and part 0 planned
+                self.rule = 9  # INSPECT_LOT/SETTING_UP/3
+                self.state = NEXT_PART
 
         elif state == INSPECTING:
-            if self.wc_status == DONE and self.wc_result_accepted:
-                self.rule = 9  # INSPECT_LOT/INSPECTING/1
-                self.state = COUNTED
+            if self.wc_status == ERROR:
+                # the inspection failed; withdraw the planning
+                self.rule = 10  # INSPECT_LOT/INSPECTING/1
+                self.state = PLANNER_STOPPING
+                # wc's error: the cause of an ERROR this command reports
+                self.cause = caused(WC_LINK, self.wc_error_num, self.wc_cause)
+                self.jp_command = JP_HALT
+                self.jp_command_num += 1
+
+            elif self.jp_status == ERROR:
+                # the planning failed; stop the inspection
+                self.rule = 11  # INSPECT_LOT/INSPECTING/2
+                self.state = PLAN_FAILED
+                # jp's error: the cause of an ERROR this command reports
+                self.cause = caused(JP_LINK, self.jp_error_num, self.jp_cause)
+                self.wc_command = WC_HALT
+                self.wc_command_num += 1
+
+            elif self.wc_status == DONE and self.jp_status == DONE and self.wc_result_accepted:
+                # the part accepted, the next one planned
+                self.rule = 12  # INSPECT_LOT/INSPECTING/3
+                self.state = NEXT_PART
                 self.var_good = self.var_good + 1
                 self.result_passed = self.var_good
 
-            elif self.wc_status == DONE and not self.wc_result_accepted:
-                self.rule = 10  # INSPECT_LOT/INSPECTING/2
-                self.state = COUNTED
+            elif self.wc_status == DONE and self.jp_status == DONE and not self.wc_result_accepted:
+                # the part rejected, the next one planned
+                self.rule = 13  # INSPECT_LOT/INSPECTING/4
+                self.state = NEXT_PART
                 self.var_bad = self.var_bad + 1
                 self.result_rejected = self.var_bad
 
+        elif state == NEXT_PART:
+            if self.var_good + self.var_bad + 1 < self.arg_parts:
+                # W2 inspects the planned part while W1 plans the one after it
+                self.rule = 14  # INSPECT_LOT/NEXT_PART/1
+                self.state = INSPECTING
+                self.var_scheduled = self.var_scheduled + self.jp_result_features
+                self.result_scheduled = self.var_scheduled
+                self.wc_arg_program = self.arg_program
+                self.wc_command = WC_INSPECT_PART
+                self.wc_command_num += 1
+                self.jp_arg_program = self.arg_program
+                self.jp_arg_part = self.var_good + self.var_bad + 1
+                self.jp_command = JP_PLAN_JOB
+                self.jp_command_num += 1
+
+            elif self.var_good + self.var_bad + 1 == self.arg_parts:
+                # the last part; nothing more to plan
+                self.rule = 15  # INSPECT_LOT/NEXT_PART/2
+                self.state = LAST
+                self.var_scheduled = self.var_scheduled + self.jp_result_features
+                self.result_scheduled = self.var_scheduled
+                self.wc_arg_program = self.arg_program
+                self.wc_command = WC_INSPECT_PART
+                self.wc_command_num += 1
+
+        elif state == LAST:
+            if self.wc_status == DONE and self.wc_result_accepted:
+                self.rule = 16  # INSPECT_LOT/LAST/1
+                self.var_good = self.var_good + 1
+                self.result_passed = self.var_good
+                self.state = NOP
+                self.status = DONE
+                self.cause = 0  # DONE has no cause
+
+            elif self.wc_status == DONE and not self.wc_result_accepted:
+                self.rule = 17  # INSPECT_LOT/LAST/2
+                self.var_bad = self.var_bad + 1
+                self.result_rejected = self.var_bad
+                self.state = NOP
+                self.status = DONE
+                self.cause = 0  # DONE has no cause
+
             elif self.wc_status == ERROR:
-                self.rule = 11  # INSPECT_LOT/INSPECTING/3
+                self.rule = 18  # INSPECT_LOT/LAST/3
                 # wc's error: the cause of an ERROR this command reports
                 self.cause = caused(WC_LINK, self.wc_error_num, self.wc_cause)
                 self.state = NOP
@@ -440,21 +593,29 @@ class ShopController:
                     WC_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
                 }.get(self.wc_error_num, REASON_NONE)
 
-        elif state == COUNTED:
-            if self.var_good + self.var_bad < self.arg_parts:
-                # the next part's job
-                self.rule = 12  # INSPECT_LOT/COUNTED/1
-                self.state = INSPECTING
-                self.wc_arg_program = self.arg_program
-                self.wc_command = WC_INSPECT_PART
-                self.wc_command_num += 1
+        elif state == PLANNER_STOPPING and self.jp_status != EXECUTING:
+            # the planner has stopped; fail for the workcell's reason
+            self.rule = 19  # INSPECT_LOT/PLANNER_STOPPING/1
+            self.state = NOP
+            self.status = ERROR
+            # wc's reason, passed up by name (another: NONE)
+            self.error_num = {
+                WC_REASON_LOST: REASON_LOST,
+                WC_REASON_REFUSED: REASON_REFUSED,
+                WC_REASON_TIMED_OUT: REASON_TIMED_OUT,
+                WC_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+            }.get(self.wc_error_num, REASON_NONE)
 
-            elif self.var_good + self.var_bad >= self.arg_parts:
-                # every part of the lot inspected
-                self.rule = 13  # INSPECT_LOT/COUNTED/2
-                self.state = NOP
-                self.status = DONE
-                self.cause = 0  # DONE has no cause
+        elif state == PLAN_FAILED and self.wc_status != EXECUTING:
+            # the workcell has stopped; fail for the planner's reason
+            self.rule = 20  # INSPECT_LOT/PLAN_FAILED/1
+            self.state = NOP
+            self.status = ERROR
+            # jp's reason, passed up by name (another: NONE)
+            self.error_num = {
+                JP_REASON_LOST: REASON_LOST,
+                JP_REASON_NO_PROGRAM: REASON_NO_PROGRAM,
+            }.get(self.jp_error_num, REASON_NONE)
 
     def init_for_inspect(self) -> None:
         """INIT_FOR_INSPECT: A single job from the Guardian, prepare the station (initForInspect,
@@ -462,20 +623,20 @@ class ShopController:
         """
         state = self.state
         if state == S0:
-            self.rule = 14  # INIT_FOR_INSPECT/S0/1
+            self.rule = 21  # INIT_FOR_INSPECT/S0/1
             self.state = S1
             self.wc_command = WC_INIT_FOR_INSPECT
             self.wc_command_num += 1
 
         elif state == S1:
             if self.wc_status == DONE:
-                self.rule = 15  # INIT_FOR_INSPECT/S1/1
+                self.rule = 22  # INIT_FOR_INSPECT/S1/1
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
             elif self.wc_status == ERROR:
-                self.rule = 16  # INIT_FOR_INSPECT/S1/2
+                self.rule = 23  # INIT_FOR_INSPECT/S1/2
                 # wc's error: the cause of an ERROR this command reports
                 self.cause = caused(WC_LINK, self.wc_error_num, self.wc_cause)
                 self.state = NOP
@@ -492,7 +653,7 @@ class ShopController:
         """INSPECT_PART: A single job from the Guardian, inspect one part (Inspect_part, Figure 39)."""
         state = self.state
         if state == S0:
-            self.rule = 17  # INSPECT_PART/S0/1
+            self.rule = 24  # INSPECT_PART/S0/1
             self.state = S1
             self.wc_arg_program = self.arg_program
             self.wc_command = WC_INSPECT_PART
@@ -500,14 +661,14 @@ class ShopController:
 
         elif state == S1:
             if self.wc_status == DONE:
-                self.rule = 18  # INSPECT_PART/S1/1
+                self.rule = 25  # INSPECT_PART/S1/1
                 self.result_accepted = self.wc_result_accepted
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
             elif self.wc_status == ERROR:
-                self.rule = 19  # INSPECT_PART/S1/2
+                self.rule = 26  # INSPECT_PART/S1/2
                 # wc's error: the cause of an ERROR this command reports
                 self.cause = caused(WC_LINK, self.wc_error_num, self.wc_cause)
                 self.state = NOP

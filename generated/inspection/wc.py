@@ -48,12 +48,12 @@ WS_REASON_LOST = 1
 WS_REASON_REFUSED = 2
 WS_REASON_TIMED_OUT = 3
 WS_REASON_MACHINE_FAULT = 4
-WS_LINK = 3  # its number in the layout's CAUSE_MODULES
+WS_LINK = 4  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32s60x???1xI112xQII8x?Q")
-INPUTS_AT = 464
+INPUTS_AT = 656
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

@@ -53,7 +53,7 @@ MS_REASON_LOST = 1
 MS_REASON_MACHINE_FAULT = 2
 MS_REASON_REFUSED = 3
 MS_REASON_TIMED_OUT = 4
-MS_LINK = 4  # its number in the layout's CAUSE_MODULES
+MS_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # Commands ws sends to fx.
 FX_INIT = 1
@@ -67,12 +67,12 @@ FX_REASON_NONE = 0
 FX_REASON_LOST = 1
 FX_REASON_REFUSED = 2
 FX_REASON_TIMED_OUT = 3
-FX_LINK = 5  # its number in the layout's CAUSE_MODULES
+FX_LINK = 6  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32s60x???1xI112xQII16xqQ96xQII8xQ")
-INPUTS_AT = 632
+INPUTS_AT = 824
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1

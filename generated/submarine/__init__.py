@@ -11,6 +11,7 @@ SOURCES = (
     "submarine/ec.yaml",
     "submarine/eoow.yaml",
     "submarine/helm.yaml",
+    "submarine/ood.yaml",
     "submarine/prop.yaml",
     "submarine/rudder.yaml",
     "submarine/rudder_sim.yaml",

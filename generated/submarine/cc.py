@@ -46,7 +46,8 @@ REASON_NONE = 0
 REASON_LOST = 1
 REASON_BLOCKED = 2
 REASON_OUT_OF_HAVEN = 3
-REASON_REFUSED = 4
+REASON_SURFACED = 4
+REASON_REFUSED = 5
 
 # Commands cc sends to sm.
 SM_INIT = 1
@@ -59,7 +60,8 @@ SM_REASON_NONE = 0
 SM_REASON_LOST = 1
 SM_REASON_BLOCKED = 2
 SM_REASON_OUT_OF_HAVEN = 3
-SM_REASON_REFUSED = 4
+SM_REASON_SURFACED = 4
+SM_REASON_REFUSED = 5
 SM_LINK = 2  # its number in the layout's CAUSE_MODULES
 
 # Commands cc sends to ec.
@@ -72,7 +74,7 @@ EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1316x48s536xd72xd")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1492x48s568xd72xd")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -84,7 +86,7 @@ SEQS_AT = 264
 WORLD_OUT_1 = Struct("<Q48s")
 WORLD_VALUES_1 = Struct("<8x48s")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 1912
+WORLD_OUT_1_AT = 2088
 WORLD_HELD_1 = (OVERRIDE["announcement"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -559,14 +561,24 @@ class CcController:
                 self.status = ERROR
                 self.error_num = REASON_BLOCKED
 
-            elif self.sm_status == ERROR and self.sm_error_num == SM_REASON_OUT_OF_HAVEN:
-                # the submarine left its moving haven
+            elif self.sm_status == ERROR and (
+                self.sm_error_num == SM_REASON_OUT_OF_HAVEN
+                or self.sm_error_num == SM_REASON_SURFACED
+            ):
+                # the submarine left its moving haven, or surfaced on the OOD's MBT blow
                 self.rule = 12  # RUN_MISSION/TRANSIT/5
                 # sm's error: the cause of an ERROR this command reports
                 self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
                 self.state = NOP
                 self.status = ERROR
-                self.error_num = REASON_OUT_OF_HAVEN
+                # sm's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    SM_REASON_LOST: REASON_LOST,
+                    SM_REASON_BLOCKED: REASON_BLOCKED,
+                    SM_REASON_OUT_OF_HAVEN: REASON_OUT_OF_HAVEN,
+                    SM_REASON_SURFACED: REASON_SURFACED,
+                    SM_REASON_REFUSED: REASON_REFUSED,
+                }.get(self.sm_error_num, REASON_NONE)
 
             elif self.sm_status == ERROR or self.ec_status == ERROR:
                 self.rule = 13  # RUN_MISSION/TRANSIT/6
@@ -593,6 +605,7 @@ class CcController:
                     SM_REASON_LOST: REASON_LOST,
                     SM_REASON_BLOCKED: REASON_BLOCKED,
                     SM_REASON_OUT_OF_HAVEN: REASON_OUT_OF_HAVEN,
+                    SM_REASON_SURFACED: REASON_SURFACED,
                     SM_REASON_REFUSED: REASON_REFUSED,
                 }.get(self.sm_error_num, REASON_NONE)
 

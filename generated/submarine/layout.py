@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4336 bytes.
+The block is 4624 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -53,128 +53,137 @@ command buffers and world fields:
 | 1152 | 20 | EOOW_PROP_COMMAND | command_num, command |
 | 1176 | 32 | EOOW_PROP_STATUS | STATUS_FIELDS |
 | 1208 | 24 | EOOW_PROP_ANSWER | ANSWER_FIELDS |
-| 1232 | 20 | RUDDER_SIM_COMMAND | command_num, command |
-| 1256 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
-| 1288 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
-| 1304 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
-| 1352 | 20 | SHIP_COMMAND | command_num, command |
-| 1376 | 32 | SHIP_STATUS | STATUS_FIELDS |
-| 1408 | 16 | SHIP_MODE | MODE_FIELDS |
-| 1424 | 48 | SHIP_PERF | PERF_FIELDS |
-| 1472 | 20 | SONAR_COMMAND | command_num, command |
-| 1496 | 32 | SONAR_STATUS | STATUS_FIELDS |
-| 1528 | 16 | SONAR_MODE | MODE_FIELDS |
-| 1544 | 48 | SONAR_PERF | PERF_FIELDS |
-| 1592 | 20 | SEA_COMMAND | command_num, command |
-| 1616 | 32 | SEA_STATUS | STATUS_FIELDS |
-| 1648 | 16 | SEA_MODE | MODE_FIELDS |
-| 1664 | 48 | SEA_PERF | PERF_FIELDS |
-| 1712 | 20 | ATMOSPHERE_COMMAND | command_num, command |
-| 1736 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
-| 1768 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
-| 1784 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
-| 1832 | 16 | WORLD_SPEED_CMD | speed_cmd |
-| 1848 | 16 | WORLD_DEPTH_CMD | depth_cmd |
-| 1864 | 16 | WORLD_HAVEN_X | haven_x |
-| 1880 | 16 | WORLD_HAVEN_Y | haven_y |
-| 1896 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
-| 1912 | 56 | WORLD_ANNOUNCEMENT | announcement |
-| 1968 | 16 | WORLD_SHAFT | shaft |
-| 1984 | 16 | WORLD_COURSE | course |
-| 2000 | 16 | WORLD_BALLAST | ballast |
-| 2016 | 16 | WORLD_VENT_FLOW | vent_flow |
-| 2032 | 16 | WORLD_POS_X | pos_x |
-| 2048 | 16 | WORLD_POS_Y | pos_y |
-| 2064 | 16 | WORLD_HEADING | heading |
-| 2080 | 16 | WORLD_SPEED | speed |
-| 2096 | 16 | WORLD_DEPTH | depth |
-| 2112 | 16 | WORLD_BUBBLE | bubble |
-| 2128 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 2144 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 2160 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 2176 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 2192 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 2208 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 2224 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 2240 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 2256 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 2272 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 2288 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 2304 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 2320 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 2336 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 2352 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 2368 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 2384 | 16 | WORLD_CLEARANCE | clearance |
-| 2400 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 2416 | 16 | WORLD_WATER_DENSITY | water_density |
-| 2432 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
-| 2448 | 16 | WORLD_BELOW_KEEL | below_keel |
-| 2464 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
-| 2480 | 9 | WORLD_FIRE | fire |
-| 2496 | 16 | WORLD_SMOKE | smoke |
-| 2512 | 16 | WORLD_O2_PCT | o2_pct |
-| 2528 | 16 | WORLD_CO2_PCT | co2_pct |
-| 2544 | 16 | WORLD_VENT_LINEUP | vent_lineup |
-| 2560 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
-| 2576 | 16 | WORLD_CO_PPM | co_ppm |
-| 2592 | 9 | OVERRIDES | any |
-| 2608 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 2632 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 2656 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 2680 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 2704 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 2728 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 2792 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 2816 | 24 | OVERRIDE_COURSE | state, course |
-| 2840 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 2864 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 2888 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 2912 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 2936 | 24 | OVERRIDE_HEADING | state, heading |
-| 2960 | 24 | OVERRIDE_SPEED | state, speed |
-| 2984 | 24 | OVERRIDE_DEPTH | state, depth |
-| 3008 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 3032 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 3056 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 3080 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 3104 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 3128 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 3152 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3176 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3200 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3224 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3248 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3272 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3296 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3320 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3344 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3368 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3392 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3416 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3440 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3464 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 3488 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 3512 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 3536 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 3560 | 17 | OVERRIDE_FIRE | state, fire |
-| 3584 | 24 | OVERRIDE_SMOKE | state, smoke |
-| 3608 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
-| 3632 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
-| 3656 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
-| 3680 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
-| 3704 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 3728 | 88 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, LINE_UP, VENT, RESUMING |
-| 3816 | 80 | TIME_SM | state, since, NOP, S0, S1, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
-| 3896 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 3944 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
-| 4008 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 4080 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
-| 4136 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 4176 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 4216 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 4256 | 40 | TIME_SEA | state, since, NOP, S0 |
-| 4296 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 1232 | 16 | OOD_MODE | MODE_FIELDS |
+| 1248 | 48 | OOD_PERF | PERF_FIELDS |
+| 1296 | 36 | OOD_SM_COMMAND | command_num, command, arg_depth, arg_ordered |
+| 1336 | 40 | OOD_SM_STATUS | STATUS_FIELDS |
+| 1376 | 32 | OOD_SM_ANSWER | ANSWER_FIELDS |
+| 1408 | 20 | RUDDER_SIM_COMMAND | command_num, command |
+| 1432 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
+| 1464 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
+| 1480 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
+| 1528 | 20 | SHIP_COMMAND | command_num, command |
+| 1552 | 32 | SHIP_STATUS | STATUS_FIELDS |
+| 1584 | 16 | SHIP_MODE | MODE_FIELDS |
+| 1600 | 48 | SHIP_PERF | PERF_FIELDS |
+| 1648 | 20 | SONAR_COMMAND | command_num, command |
+| 1672 | 32 | SONAR_STATUS | STATUS_FIELDS |
+| 1704 | 16 | SONAR_MODE | MODE_FIELDS |
+| 1720 | 48 | SONAR_PERF | PERF_FIELDS |
+| 1768 | 20 | SEA_COMMAND | command_num, command |
+| 1792 | 32 | SEA_STATUS | STATUS_FIELDS |
+| 1824 | 16 | SEA_MODE | MODE_FIELDS |
+| 1840 | 48 | SEA_PERF | PERF_FIELDS |
+| 1888 | 20 | ATMOSPHERE_COMMAND | command_num, command |
+| 1912 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
+| 1944 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
+| 1960 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
+| 2008 | 16 | WORLD_SPEED_CMD | speed_cmd |
+| 2024 | 16 | WORLD_DEPTH_CMD | depth_cmd |
+| 2040 | 16 | WORLD_HAVEN_X | haven_x |
+| 2056 | 16 | WORLD_HAVEN_Y | haven_y |
+| 2072 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
+| 2088 | 56 | WORLD_ANNOUNCEMENT | announcement |
+| 2144 | 16 | WORLD_SHAFT | shaft |
+| 2160 | 16 | WORLD_COURSE | course |
+| 2176 | 16 | WORLD_BALLAST | ballast |
+| 2192 | 16 | WORLD_PLANES | planes |
+| 2208 | 9 | WORLD_MBT_BLOWN | mbt_blown |
+| 2224 | 16 | WORLD_VENT_FLOW | vent_flow |
+| 2240 | 16 | WORLD_POS_X | pos_x |
+| 2256 | 16 | WORLD_POS_Y | pos_y |
+| 2272 | 16 | WORLD_HEADING | heading |
+| 2288 | 16 | WORLD_SPEED | speed |
+| 2304 | 16 | WORLD_DEPTH | depth |
+| 2320 | 16 | WORLD_BUBBLE | bubble |
+| 2336 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 2352 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 2368 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 2384 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 2400 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 2416 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 2432 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 2448 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 2464 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 2480 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 2496 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 2512 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 2528 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 2544 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 2560 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 2576 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 2592 | 16 | WORLD_CLEARANCE | clearance |
+| 2608 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 2624 | 16 | WORLD_WATER_DENSITY | water_density |
+| 2640 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
+| 2656 | 16 | WORLD_BELOW_KEEL | below_keel |
+| 2672 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
+| 2688 | 9 | WORLD_FIRE | fire |
+| 2704 | 16 | WORLD_SMOKE | smoke |
+| 2720 | 16 | WORLD_O2_PCT | o2_pct |
+| 2736 | 16 | WORLD_CO2_PCT | co2_pct |
+| 2752 | 16 | WORLD_VENT_LINEUP | vent_lineup |
+| 2768 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
+| 2784 | 16 | WORLD_CO_PPM | co_ppm |
+| 2800 | 9 | OVERRIDES | any |
+| 2816 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 2840 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 2864 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 2888 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 2912 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 2936 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 3000 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 3024 | 24 | OVERRIDE_COURSE | state, course |
+| 3048 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 3072 | 24 | OVERRIDE_PLANES | state, planes |
+| 3096 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
+| 3120 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 3144 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 3168 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 3192 | 24 | OVERRIDE_HEADING | state, heading |
+| 3216 | 24 | OVERRIDE_SPEED | state, speed |
+| 3240 | 24 | OVERRIDE_DEPTH | state, depth |
+| 3264 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 3288 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 3312 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3336 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3360 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3384 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3408 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3432 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3456 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3480 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3504 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3528 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3552 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3576 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3600 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3624 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3648 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3672 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3696 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3720 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3744 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3768 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 3792 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 3816 | 17 | OVERRIDE_FIRE | state, fire |
+| 3840 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 3864 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 3888 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 3912 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 3936 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 3960 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 3984 | 88 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, LINE_UP, VENT, RESUMING |
+| 4072 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 4184 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 4232 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
+| 4296 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 4368 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 4424 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 4464 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 4504 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 4544 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 4584 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -206,9 +215,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 4336
+SIZE = 4624
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "533ca14e75c02d5cd4dcfb03157b7b88"
+LAYOUT_HASH = "85ca8f4106986390d7858437b8735cff"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 248
 
@@ -264,38 +273,38 @@ PROP_PERF_AT = 1040
 
 # rudder_sim: Rudder (simulated)
 RUDDER_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-RUDDER_SIM_COMMAND_AT = 1232
-RUDDER_SIM_STATUS_AT = 1256
-RUDDER_SIM_MODE_AT = 1288
-RUDDER_SIM_PERF_AT = 1304
+RUDDER_SIM_COMMAND_AT = 1408
+RUDDER_SIM_STATUS_AT = 1432
+RUDDER_SIM_MODE_AT = 1464
+RUDDER_SIM_PERF_AT = 1480
 
 # ship: Ship dynamics (simulated)
 SHIP_COMMAND = Struct("<QQI")  # seq, command_num, command
-SHIP_COMMAND_AT = 1352
-SHIP_STATUS_AT = 1376
-SHIP_MODE_AT = 1408
-SHIP_PERF_AT = 1424
+SHIP_COMMAND_AT = 1528
+SHIP_STATUS_AT = 1552
+SHIP_MODE_AT = 1584
+SHIP_PERF_AT = 1600
 
 # sonar: Sonar and ice (simulated)
 SONAR_COMMAND = Struct("<QQI")  # seq, command_num, command
-SONAR_COMMAND_AT = 1472
-SONAR_STATUS_AT = 1496
-SONAR_MODE_AT = 1528
-SONAR_PERF_AT = 1544
+SONAR_COMMAND_AT = 1648
+SONAR_STATUS_AT = 1672
+SONAR_MODE_AT = 1704
+SONAR_PERF_AT = 1720
 
 # sea: Sea bottom and seawater (simulated)
 SEA_COMMAND = Struct("<QQI")  # seq, command_num, command
-SEA_COMMAND_AT = 1592
-SEA_STATUS_AT = 1616
-SEA_MODE_AT = 1648
-SEA_PERF_AT = 1664
+SEA_COMMAND_AT = 1768
+SEA_STATUS_AT = 1792
+SEA_MODE_AT = 1824
+SEA_PERF_AT = 1840
 
 # atmosphere: Engine-room atmosphere and fire (simulated)
 ATMOSPHERE_COMMAND = Struct("<QQI")  # seq, command_num, command
-ATMOSPHERE_COMMAND_AT = 1712
-ATMOSPHERE_STATUS_AT = 1736
-ATMOSPHERE_MODE_AT = 1768
-ATMOSPHERE_PERF_AT = 1784
+ATMOSPHERE_COMMAND_AT = 1888
+ATMOSPHERE_STATUS_AT = 1912
+ATMOSPHERE_MODE_AT = 1944
+ATMOSPHERE_PERF_AT = 1960
 
 # eoow: Engineering Officer of the Watch (EOOW watchstation) (an operator module: a channel per client)
 EOOW_MODE_AT = 1088
@@ -305,97 +314,111 @@ EOOW_PROP_COMMAND_AT = 1152
 EOOW_PROP_STATUS_AT = 1176
 EOOW_PROP_ANSWER_AT = 1208
 
+# ood: Officer of the Deck (OOD watchstation) (an operator module: a channel per client)
+OOD_MODE_AT = 1232
+OOD_PERF_AT = 1248
+OOD_SM_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_ordered
+OOD_SM_COMMAND_AT = 1296
+OOD_SM_STATUS = Struct("<QQIIiiq")  # seq, status_num, status, error_num, state, rule, result_choice
+OOD_SM_STATUS_AT = 1336
+OOD_SM_ANSWER = Struct("<QQIIq")  # seq, command_num, status, reason, result_choice
+OOD_SM_ANSWER_AT = 1376
+
 # World model.
 WORLD_SPEED_CMD = Struct("<Qd")  # seq, speed_cmd
-WORLD_SPEED_CMD_AT = 1832
+WORLD_SPEED_CMD_AT = 2008
 WORLD_DEPTH_CMD = Struct("<Qd")  # seq, depth_cmd
-WORLD_DEPTH_CMD_AT = 1848
+WORLD_DEPTH_CMD_AT = 2024
 WORLD_HAVEN_X = Struct("<Qd")  # seq, haven_x
-WORLD_HAVEN_X_AT = 1864
+WORLD_HAVEN_X_AT = 2040
 WORLD_HAVEN_Y = Struct("<Qd")  # seq, haven_y
-WORLD_HAVEN_Y_AT = 1880
+WORLD_HAVEN_Y_AT = 2056
 WORLD_PERISCOPE_RAISED = Struct("<Q?")  # seq, periscope_raised
-WORLD_PERISCOPE_RAISED_AT = 1896
+WORLD_PERISCOPE_RAISED_AT = 2072
 WORLD_ANNOUNCEMENT = Struct("<Q48s")  # seq, announcement
-WORLD_ANNOUNCEMENT_AT = 1912
+WORLD_ANNOUNCEMENT_AT = 2088
 WORLD_SHAFT = Struct("<Qq")  # seq, shaft
-WORLD_SHAFT_AT = 1968
+WORLD_SHAFT_AT = 2144
 WORLD_COURSE = Struct("<Qd")  # seq, course
-WORLD_COURSE_AT = 1984
+WORLD_COURSE_AT = 2160
 WORLD_BALLAST = Struct("<Qd")  # seq, ballast
-WORLD_BALLAST_AT = 2000
+WORLD_BALLAST_AT = 2176
+WORLD_PLANES = Struct("<Qq")  # seq, planes
+WORLD_PLANES_AT = 2192
+WORLD_MBT_BLOWN = Struct("<Q?")  # seq, mbt_blown
+WORLD_MBT_BLOWN_AT = 2208
 WORLD_VENT_FLOW = Struct("<Qd")  # seq, vent_flow
-WORLD_VENT_FLOW_AT = 2016
+WORLD_VENT_FLOW_AT = 2224
 WORLD_POS_X = Struct("<Qd")  # seq, pos_x
-WORLD_POS_X_AT = 2032
+WORLD_POS_X_AT = 2240
 WORLD_POS_Y = Struct("<Qd")  # seq, pos_y
-WORLD_POS_Y_AT = 2048
+WORLD_POS_Y_AT = 2256
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 2064
+WORLD_HEADING_AT = 2272
 WORLD_SPEED = Struct("<Qd")  # seq, speed
-WORLD_SPEED_AT = 2080
+WORLD_SPEED_AT = 2288
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
-WORLD_DEPTH_AT = 2096
+WORLD_DEPTH_AT = 2304
 WORLD_BUBBLE = Struct("<Qd")  # seq, bubble
-WORLD_BUBBLE_AT = 2112
+WORLD_BUBBLE_AT = 2320
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 2128
+WORLD_RUDDER_ANGLE_AT = 2336
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 2144
+WORLD_RUDDER_JAMMED_AT = 2352
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 2160
+WORLD_SONAR_00_AT = 2368
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 2176
+WORLD_SONAR_01_AT = 2384
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 2192
+WORLD_SONAR_02_AT = 2400
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 2208
+WORLD_SONAR_03_AT = 2416
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 2224
+WORLD_SONAR_04_AT = 2432
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 2240
+WORLD_SONAR_05_AT = 2448
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 2256
+WORLD_SONAR_06_AT = 2464
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 2272
+WORLD_SONAR_07_AT = 2480
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 2288
+WORLD_SONAR_08_AT = 2496
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 2304
+WORLD_SONAR_09_AT = 2512
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 2320
+WORLD_SONAR_10_AT = 2528
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 2336
+WORLD_SONAR_11_AT = 2544
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 2352
+WORLD_SONAR_12_AT = 2560
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 2368
+WORLD_SONAR_13_AT = 2576
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 2384
+WORLD_CLEARANCE_AT = 2592
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 2400
+WORLD_MIN_CLEARANCE_AT = 2608
 WORLD_WATER_DENSITY = Struct("<Qd")  # seq, water_density
-WORLD_WATER_DENSITY_AT = 2416
+WORLD_WATER_DENSITY_AT = 2624
 WORLD_BOTTOM_DEPTH = Struct("<Qd")  # seq, bottom_depth
-WORLD_BOTTOM_DEPTH_AT = 2432
+WORLD_BOTTOM_DEPTH_AT = 2640
 WORLD_BELOW_KEEL = Struct("<Qd")  # seq, below_keel
-WORLD_BELOW_KEEL_AT = 2448
+WORLD_BELOW_KEEL_AT = 2656
 WORLD_MIN_BELOW_KEEL = Struct("<Qd")  # seq, min_below_keel
-WORLD_MIN_BELOW_KEEL_AT = 2464
+WORLD_MIN_BELOW_KEEL_AT = 2672
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 2480
+WORLD_FIRE_AT = 2688
 WORLD_SMOKE = Struct("<Qd")  # seq, smoke
-WORLD_SMOKE_AT = 2496
+WORLD_SMOKE_AT = 2704
 WORLD_O2_PCT = Struct("<Qd")  # seq, o2_pct
-WORLD_O2_PCT_AT = 2512
+WORLD_O2_PCT_AT = 2720
 WORLD_CO2_PCT = Struct("<Qd")  # seq, co2_pct
-WORLD_CO2_PCT_AT = 2528
+WORLD_CO2_PCT_AT = 2736
 WORLD_VENT_LINEUP = Struct("<Qq")  # seq, vent_lineup
-WORLD_VENT_LINEUP_AT = 2544
+WORLD_VENT_LINEUP_AT = 2752
 WORLD_DIESEL_RUNNING = Struct("<Q?")  # seq, diesel_running
-WORLD_DIESEL_RUNNING_AT = 2560
+WORLD_DIESEL_RUNNING_AT = 2768
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 2576
+WORLD_CO_PPM_AT = 2784
 
 
 PROCESSES = {
@@ -415,6 +438,8 @@ PLACEMENT = {
     "prop": "ship",
     "eoow": "ship",
     "eoow/prop": "ship",
+    "ood": "ship",
+    "ood/sm": "ship",
     "rudder_sim": "ship",
     "ship": "ship",
     "sonar": "ship",
@@ -428,12 +453,13 @@ STARTUP_TIMEOUT = 10.0
 # Each controller's subordinates (the hierarchy), for liveness and operator tools.
 SUBORDINATES = {
     "cc": ("sm", "ec"),
-    "sm": ("helm", "prop"),
+    "sm": ("helm", "prop", "ood/sm"),
     "ec": (),
     "helm": ("rudder",),
     "rudder": ("rudder_sim",),
     "prop": ("eoow/prop",),
     "eoow": (),
+    "ood": (),
     "rudder_sim": (),
     "ship": (),
     "sonar": (),
@@ -453,6 +479,7 @@ MODULES = (
     "rudder",
     "prop",
     "eoow/prop",
+    "ood/sm",
     "rudder_sim",
     "ship",
     "sonar",
@@ -472,6 +499,9 @@ COMMAND_IN = {
     "sea": Record(SEA_COMMAND, SEA_COMMAND_AT, ("command_num", "command")),
     "atmosphere": Record(ATMOSPHERE_COMMAND, ATMOSPHERE_COMMAND_AT, ("command_num", "command")),
     "eoow/prop": Record(EOOW_PROP_COMMAND, EOOW_PROP_COMMAND_AT, ("command_num", "command")),
+    "ood/sm": Record(
+        OOD_SM_COMMAND, OOD_SM_COMMAND_AT, ("command_num", "command", "arg_depth", "arg_ordered")
+    ),
 }
 STATUS_OUT = {
     "cc": Record(
@@ -508,6 +538,11 @@ STATUS_OUT = {
     "sea": Record(STATUS, SEA_STATUS_AT, field_names(STATUS_FIELDS)),
     "atmosphere": Record(STATUS, ATMOSPHERE_STATUS_AT, field_names(STATUS_FIELDS)),
     "eoow/prop": Record(STATUS, EOOW_PROP_STATUS_AT, field_names(STATUS_FIELDS)),
+    "ood/sm": Record(
+        OOD_SM_STATUS,
+        OOD_SM_STATUS_AT,
+        ("status_num", "status", "error_num", "state", "rule", "result_choice"),
+    ),
 }
 MODE_IN = {
     "cc": Record(MODE, CC_MODE_AT, field_names(MODE_FIELDS)),
@@ -523,6 +558,8 @@ MODE_IN = {
     "atmosphere": Record(MODE, ATMOSPHERE_MODE_AT, field_names(MODE_FIELDS)),
     "eoow": Record(MODE, EOOW_MODE_AT, field_names(MODE_FIELDS)),
     "eoow/prop": Record(MODE, EOOW_MODE_AT, field_names(MODE_FIELDS)),
+    "ood": Record(MODE, OOD_MODE_AT, field_names(MODE_FIELDS)),
+    "ood/sm": Record(MODE, OOD_MODE_AT, field_names(MODE_FIELDS)),
 }
 PERFORMANCE = {
     "cc": Record(PERF, CC_PERF_AT, field_names(PERF_FIELDS)),
@@ -538,6 +575,8 @@ PERFORMANCE = {
     "atmosphere": Record(PERF, ATMOSPHERE_PERF_AT, field_names(PERF_FIELDS)),
     "eoow": Record(PERF, EOOW_PERF_AT, field_names(PERF_FIELDS)),
     "eoow/prop": Record(PERF, EOOW_PERF_AT, field_names(PERF_FIELDS)),
+    "ood": Record(PERF, OOD_PERF_AT, field_names(PERF_FIELDS)),
+    "ood/sm": Record(PERF, OOD_PERF_AT, field_names(PERF_FIELDS)),
 }
 WORLD = {
     "speed_cmd": Record(WORLD_SPEED_CMD, WORLD_SPEED_CMD_AT, ("speed_cmd",)),
@@ -551,6 +590,8 @@ WORLD = {
     "shaft": Record(WORLD_SHAFT, WORLD_SHAFT_AT, ("shaft",)),
     "course": Record(WORLD_COURSE, WORLD_COURSE_AT, ("course",)),
     "ballast": Record(WORLD_BALLAST, WORLD_BALLAST_AT, ("ballast",)),
+    "planes": Record(WORLD_PLANES, WORLD_PLANES_AT, ("planes",)),
+    "mbt_blown": Record(WORLD_MBT_BLOWN, WORLD_MBT_BLOWN_AT, ("mbt_blown",)),
     "vent_flow": Record(WORLD_VENT_FLOW, WORLD_VENT_FLOW_AT, ("vent_flow",)),
     "pos_x": Record(WORLD_POS_X, WORLD_POS_X_AT, ("pos_x",)),
     "pos_y": Record(WORLD_POS_Y, WORLD_POS_Y_AT, ("pos_y",)),
@@ -598,6 +639,8 @@ WORLD_INITIAL: dict[str, object] = {
     "shaft": 0,
     "course": 0.0,
     "ballast": 0.0,
+    "planes": 0,
+    "mbt_blown": False,
     "vent_flow": 0.002,
     "pos_x": 0.0,
     "pos_y": 0.0,
@@ -637,56 +680,58 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2592
-OVERRIDDEN_AT = 2600  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2800
+OVERRIDDEN_AT = 2808  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 2608, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 2632, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 2656, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 2680, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 2704, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 2728, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 2792, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 2816, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 2840, ("state", "ballast")),
-    "vent_flow": Record(Struct("<QQd"), 2864, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 2888, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 2912, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 2936, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 2960, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 2984, ("state", "depth")),
-    "bubble": Record(Struct("<QQd"), 3008, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 3032, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 3056, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 3080, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 3104, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 3128, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 3152, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3176, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3200, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3224, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3248, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3272, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3296, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3320, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3344, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3368, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3392, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3416, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3440, ("state", "min_clearance")),
-    "water_density": Record(Struct("<QQd"), 3464, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 3488, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 3512, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 3536, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 3560, ("state", "fire")),
-    "smoke": Record(Struct("<QQd"), 3584, ("state", "smoke")),
-    "o2_pct": Record(Struct("<QQd"), 3608, ("state", "o2_pct")),
-    "co2_pct": Record(Struct("<QQd"), 3632, ("state", "co2_pct")),
-    "vent_lineup": Record(Struct("<QQq"), 3656, ("state", "vent_lineup")),
-    "diesel_running": Record(Struct("<QQ?"), 3680, ("state", "diesel_running")),
-    "co_ppm": Record(Struct("<QQd"), 3704, ("state", "co_ppm")),
+    "speed_cmd": Record(Struct("<QQd"), 2816, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 2840, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 2864, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 2888, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 2912, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 2936, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 3000, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 3024, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 3048, ("state", "ballast")),
+    "planes": Record(Struct("<QQq"), 3072, ("state", "planes")),
+    "mbt_blown": Record(Struct("<QQ?"), 3096, ("state", "mbt_blown")),
+    "vent_flow": Record(Struct("<QQd"), 3120, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 3144, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 3168, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 3192, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 3216, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 3240, ("state", "depth")),
+    "bubble": Record(Struct("<QQd"), 3264, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 3288, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 3312, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3336, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3360, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3384, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3408, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3432, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3456, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3480, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3504, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3528, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3552, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3576, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3600, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3624, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3648, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3672, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3696, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3720, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3744, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3768, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 3792, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 3816, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 3840, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 3864, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 3888, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 3912, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 3936, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 3960, ("state", "co_ppm")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -696,7 +741,10 @@ ACTUATED_BY = {}
 # The fields that hold an enumeration's value, by (module, or "" for the world; field): the
 # value names, indexed by the code the field holds, for traces, displays and `ctl send`.
 ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
+    ("ood", "result_choice"): ("PLANES", "MBT_BLOW"),
+    ("ood/sm", "result_choice"): ("PLANES", "MBT_BLOW"),
     ("", "shaft"): ("TURBINE", "DISENGAGED", "EPM"),
+    ("", "planes"): ("NORMAL", "FULL"),
     ("", "vent_lineup"): ("RECIRCULATION", "DIESEL_VENTILATION"),
 }
 # The modules that write each world field (a stand-in writes in its controller's place), for
@@ -711,6 +759,8 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "shaft": ("prop",),
     "course": ("helm",),
     "ballast": ("sm",),
+    "planes": ("sm",),
+    "mbt_blown": ("sm",),
     "vent_flow": ("ec",),
     "pos_x": ("ship",),
     "pos_y": ("ship",),
@@ -762,7 +812,7 @@ GROUND_TRUTH = (
 TIME_IN_STATE = {
     "cc": Record(
         Struct("<QqQQQQQQQQQ"),
-        3728,
+        3984,
         (
             "state",
             "since",
@@ -777,25 +827,39 @@ TIME_IN_STATE = {
         ),
     ),
     "sm": Record(
-        Struct("<QqQQQQQQQQ"),
-        3816,
-        ("state", "since", "NOP", "S0", "S1", "BAFFLES", "SLOWING", "PROP_FAILED", "HELM_FAILED"),
+        Struct("<QqQQQQQQQQQQQQ"),
+        4072,
+        (
+            "state",
+            "since",
+            "NOP",
+            "S0",
+            "S1",
+            "DEPTH_ASKED",
+            "WITHDRAWING",
+            "SURFACING",
+            "OOD_FAILED",
+            "BAFFLES",
+            "SLOWING",
+            "PROP_FAILED",
+            "HELM_FAILED",
+        ),
     ),
-    "ec": Record(Struct("<QqQQQQ"), 3896, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 4184, ("state", "since", "NOP", "S0", "S1")),
     "helm": Record(
-        Struct("<QqQQQQQQ"), 3944, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
+        Struct("<QqQQQQQQ"), 4232, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
     ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        4008,
+        4296,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "prop": Record(Struct("<QqQQQQQ"), 4080, ("state", "since", "NOP", "S0", "S1", "ASKED")),
-    "rudder_sim": Record(Struct("<QqQQQ"), 4136, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 4176, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 4216, ("state", "since", "NOP", "S0")),
-    "sea": Record(Struct("<QqQQQ"), 4256, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 4296, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 4368, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 4424, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 4464, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 4504, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 4544, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 4584, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -817,6 +881,7 @@ COMMAND_NAMES = {
     "sea": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "atmosphere": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "eoow/prop": (NO_COMMAND_NAME, *("INIT", "HALT", "CHANGE_TO_EPM")),
+    "ood/sm": (NO_COMMAND_NAME, *("INIT", "HALT", "DEPTH_CASUALTY")),
 }
 # Each command's parameters, in order: an operator gives every one of them (`ctl send`,
 # `--send`, a scenario), each checked against its slot's type (rcs/operate/command.py). A command
@@ -832,10 +897,25 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     "rudder": {
         "GOTO_ANGLE": ("angle",),
     },
+    "ood/sm": {
+        "DEPTH_CASUALTY": ("depth", "ordered"),
+    },
 }
 STATE_NAMES = {
     "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "LINE_UP", "VENT", "RESUMING"),
-    "sm": ("NOP", "S0", "S1", "BAFFLES", "SLOWING", "PROP_FAILED", "HELM_FAILED"),
+    "sm": (
+        "NOP",
+        "S0",
+        "S1",
+        "DEPTH_ASKED",
+        "WITHDRAWING",
+        "SURFACING",
+        "OOD_FAILED",
+        "BAFFLES",
+        "SLOWING",
+        "PROP_FAILED",
+        "HELM_FAILED",
+    ),
     "ec": ("NOP", "S0", "S1"),
     "helm": ("NOP", "S0", "S1", "S2", "CENTRING"),
     "rudder": ("NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
@@ -846,16 +926,18 @@ STATE_NAMES = {
     "sea": ("NOP", "S0"),
     "atmosphere": ("NOP", "S0"),
     "eoow/prop": OPERATOR_STATES,
+    "ood/sm": OPERATOR_STATES,
 }
 # The reason each code of a status buffer's `error_num` names, indexed by code, for the
 # controllers and operator modules that declare reasons (docs/semantics.md, "Results and
 # reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {
-    "cc": ("NONE", "LOST", "BLOCKED", "OUT_OF_HAVEN", "REFUSED"),
-    "sm": ("NONE", "LOST", "BLOCKED", "OUT_OF_HAVEN", "REFUSED"),
+    "cc": ("NONE", "LOST", "BLOCKED", "OUT_OF_HAVEN", "SURFACED", "REFUSED"),
+    "sm": ("NONE", "LOST", "BLOCKED", "OUT_OF_HAVEN", "SURFACED", "REFUSED"),
     "helm": ("NONE", "LOST", "BLOCKED"),
     "prop": ("NONE", "LOST", "REFUSED"),
     "eoow": ("NONE", "LOST", "REFUSED"),
+    "ood": ("NONE", "LOST", "REFUSED"),
 }
 # The modules a link of a status buffer's `cause` numbers, from 1 (rcs/contract.py
 # cause_text; docs/semantics.md, "Reasons survive").
@@ -867,6 +949,7 @@ CAUSE_MODULES = (
     "rudder",
     "prop",
     "eoow",
+    "ood",
     "rudder_sim",
     "ship",
     "sonar",
@@ -913,6 +996,14 @@ RULES = {
         "SUBMERGED_TRANSIT/S1/5",
         "SUBMERGED_TRANSIT/S1/6",
         "SUBMERGED_TRANSIT/S1/7",
+        "SUBMERGED_TRANSIT/S1/8",
+        "SUBMERGED_TRANSIT/DEPTH_ASKED/1",
+        "SUBMERGED_TRANSIT/DEPTH_ASKED/2",
+        "SUBMERGED_TRANSIT/DEPTH_ASKED/3",
+        "SUBMERGED_TRANSIT/DEPTH_ASKED/4",
+        "SUBMERGED_TRANSIT/WITHDRAWING/1",
+        "SUBMERGED_TRANSIT/SURFACING/1",
+        "SUBMERGED_TRANSIT/OOD_FAILED/1",
         "PREP_EMERGENCY_VENT/S0/1",
         "PREP_EMERGENCY_VENT/BAFFLES/1",
         "PREP_EMERGENCY_VENT/BAFFLES/2",
@@ -997,6 +1088,7 @@ RULES = {
     "sea": ("", "INIT/S0/1", "HALT/S0/1"),
     "atmosphere": ("", "INIT/S0/1", "HALT/S0/1"),
     "eoow/prop": ("",),  # an operator module has no table
+    "ood/sm": ("",),  # an operator module has no table
 }
 SIMULATORS = ("rudder_sim", "ship", "sonar", "sea", "atmosphere")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
@@ -1004,6 +1096,7 @@ SIMULATORS = ("rudder_sim", "ship", "sonar", "sea", "atmosphere")
 ROLES: dict[str, dict[str, int]] = {
     "ood": {
         "cc": 2,  # command
+        "ood": 1,  # respond
     },
     "eoow": {
         "eoow": 1,  # respond
@@ -1036,20 +1129,31 @@ REQUESTS: dict[str, dict[str, object]] = {}
 # Operator modules (a person at a screen): each one's channels, `operator/client`.
 OPERATORS = {
     "eoow": ("eoow/prop",),
+    "ood": ("ood/sm",),
 }
 # Each channel's answer record: written only by the answering side (`ctl answer`, a
 # scenario's scripted operator), read by the operator module.
 ANSWERS = {
     "eoow/prop": Record(ANSWER, EOOW_PROP_ANSWER_AT, field_names(ANSWER_FIELDS)),
+    "ood/sm": Record(
+        OOD_SM_ANSWER, OOD_SM_ANSWER_AT, ("command_num", "status", "reason", "result_choice")
+    ),
 }
 # What a DONE answer to each task records (`results:`), checked before it is written and
 # again when the operator module reads it: each result's name and range (None: open); its
 # type is its answer slot's, an enumeration's values are in ENUMS.
-TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], ...]]] = {}
+TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], ...]]] = {
+    "ood": {
+        "DEPTH_CASUALTY": (("choice", None, None),),
+    },
+}
 # Each operator module's tasks: the instruction the screen shows (`{param}`: its value).
 INSTRUCTIONS = {
     "eoow": {
         "CHANGE_TO_EPM": "CHANGE TO EPM: disengage the main turbine shaft, engage the EPM shaft, close the EPM breaker, then report.",
+    },
+    "ood": {
+        "DEPTH_CASUALTY": "DEPTH NOT HELD: {depth} m ordered {ordered} m, variable ballast spent. Choose PLANES (full sail and stern planes) or MBT_BLOW (surface; no re-submerging).",
     },
 }
 

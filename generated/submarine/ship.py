@@ -28,19 +28,19 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI416xd8xd112xq24xd24xd8xd8xd8xd8xd8xd8xd280xd")
-INPUTS_AT = 1352
+INPUTS = Struct("<QQI44x???1xI416xd8xd112xq24xd8xq8x?31xd8xd8xd8xd8xd8xd8xd280xd")
+INPUTS_AT = 1528
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1352
+SEQS_AT = 1528
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<QdQdQdQdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2032
+WORLD_OUT_1_AT = 2240
 WORLD_HELD_1 = (
     OVERRIDE["pos_x"],
     OVERRIDE["pos_y"],
@@ -57,6 +57,8 @@ S0 = 1
 TURN = 0.0065
 ACCEL = 0.1
 DEPTH_RATE = 1.0
+FULL_PLANES_RATE = 2.0
+MBT_RISE = 3.0
 EPM_MAX = 5.2
 NOMINAL_DENSITY = 1025.0
 SINK = 0.05
@@ -66,7 +68,13 @@ CYCLE_PERIOD = 1.0  # seconds per cycle of its process
 
 # Enumeration values its tables name (a field holds its value's index).
 DISENGAGED = 1
+FULL = 1
 EPM = 2
+
+
+def clamp(x: float, limit: float) -> float:
+    """Pure function: max(-limit, min(limit, x))"""
+    return max(-limit, min(limit, x))
 
 
 class ShipController:
@@ -100,6 +108,8 @@ class ShipController:
         "world_depth",
         "world_depth_cmd",
         "world_heading",
+        "world_mbt_blown",
+        "world_planes",
         "world_pos_x",
         "world_pos_y",
         "world_rudder_angle",
@@ -164,6 +174,8 @@ class ShipController:
                 self.world_depth_cmd,
                 self.world_shaft,
                 self.world_ballast,
+                self.world_planes,
+                self.world_mbt_blown,
                 self.world_pos_x,
                 self.world_pos_y,
                 self.world_heading,
@@ -314,6 +326,8 @@ class ShipController:
             self.world_depth_cmd,
             self.world_shaft,
             self.world_ballast,
+            self.world_planes,
+            self.world_mbt_blown,
             self.world_pos_x,
             self.world_pos_y,
             self.world_heading,
@@ -355,10 +369,12 @@ class ShipController:
             ),
         )
         self.world_depth = (
-            self.world_depth
-            + max(
-                -DEPTH_RATE * CYCLE_PERIOD,
-                min(DEPTH_RATE * CYCLE_PERIOD, self.world_depth_cmd - self.world_depth),
+            max(0.0, self.world_depth - MBT_RISE * CYCLE_PERIOD)
+            if self.world_mbt_blown
+            else self.world_depth
+            + clamp(
+                self.world_depth_cmd - self.world_depth,
+                (FULL_PLANES_RATE if self.world_planes == FULL else DEPTH_RATE) * CYCLE_PERIOD,
             )
             + SINK
             * (NOMINAL_DENSITY - self.world_water_density - self.world_ballast)

@@ -9,6 +9,8 @@ import submarine_hooks.maneuver as hooks
 from .layout import (
     HELM_COMMAND,
     HELM_COMMAND_AT,
+    OOD_SM_COMMAND,
+    OOD_SM_COMMAND_AT,
     OVERRIDDEN_AT,
     OVERRIDE,
     PROP_COMMAND,
@@ -20,7 +22,9 @@ from .layout import (
     WORLD_DEPTH_CMD_AT,
     WORLD_HAVEN_X_AT,
     WORLD_HAVEN_Y_AT,
+    WORLD_MBT_BLOWN_AT,
     WORLD_PERISCOPE_RAISED_AT,
+    WORLD_PLANES_AT,
     WORLD_SPEED_CMD_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
@@ -39,7 +43,8 @@ REASON_NONE = 0
 REASON_LOST = 1
 REASON_BLOCKED = 2
 REASON_OUT_OF_HAVEN = 3
-REASON_REFUSED = 4
+REASON_SURFACED = 4
+REASON_REFUSED = 5
 
 # Commands sm sends to helm.
 HELM_INIT = 1
@@ -62,9 +67,21 @@ PROP_REASON_LOST = 1
 PROP_REASON_REFUSED = 2
 PROP_LINK = 6  # its number in the layout's CAUSE_MODULES
 
+# Commands sm sends to ood.
+OOD_INIT = 1
+OOD_HALT = 2
+OOD_DEPTH_CASUALTY = 3
+# Why ood may end a command in ERROR (its error_num).
+OOD_REASON_NONE = 0
+OOD_REASON_LOST = 1
+OOD_REASON_REFUSED = 2
+OOD_LINK = 8  # its number in the layout's CAUSE_MODULES
+
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd52x???1xI216xQII8x?Q231xQII8xQ816xd8xd8xd8xd8x?71xq24xd24xd8xd24xd8xd")
+INPUTS = Struct(
+    "<QIdd52x???1xI216xQII8x?Q231xQII8xQ320xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd8xd"
+)
 INPUTS_AT = 424
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -72,7 +89,7 @@ INPUTS_AT = 424
 WORLD_OUT_1 = Struct("<QdQdQdQdQ?")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 1832
+WORLD_OUT_1_AT = 2008
 WORLD_HELD_1 = (
     OVERRIDE["speed_cmd"],
     OVERRIDE["depth_cmd"],
@@ -83,19 +100,23 @@ WORLD_HELD_1 = (
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_2 = Struct("<Qd")
-WORLD_VALUES_2 = Struct("<8xd")
-WORLD_SEQS_2 = Struct("<Q")
-WORLD_OUT_2_AT = 2000
-WORLD_HELD_2 = (OVERRIDE["ballast"],)  # their overrides
+WORLD_OUT_2 = Struct("<QdQqQ?")
+WORLD_VALUES_2 = Struct("<8xd8xq8x?")
+WORLD_SEQS_2 = Struct("<Q8xQ8xQ")
+WORLD_OUT_2_AT = 2176
+WORLD_HELD_2 = (OVERRIDE["ballast"], OVERRIDE["planes"], OVERRIDE["mbt_blown"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
-BAFFLES = 3
-SLOWING = 4
-PROP_FAILED = 5
-HELM_FAILED = 6
+DEPTH_ASKED = 3
+WITHDRAWING = 4
+SURFACING = 5
+OOD_FAILED = 6
+BAFFLES = 7
+SLOWING = 8
+PROP_FAILED = 9
+HELM_FAILED = 10
 
 # Constants.
 STANDARD_SPEED = 7.7
@@ -108,11 +129,16 @@ HAVEN = 300.0
 DEPTH_TOL = 1.0
 DEPTH_LIMIT = 5.0
 BALLAST_STEP = 2.0
+BALLAST_MAX = 20.0
 SPEED_TOL = 0.1
 CYCLE_PERIOD = 1.0  # seconds per cycle of its process
 
 # Enumeration values its tables name (a field holds its value's index).
+NORMAL = 0
+PLANES = 0
 TURBINE = 0
+FULL = 1
+MBT_BLOW = 1
 
 
 class SmController:
@@ -141,6 +167,15 @@ class SmController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "ood_arg_depth",
+        "ood_arg_ordered",
+        "ood_command",
+        "ood_command_num",
+        "ood_error_num",
+        "ood_result_choice",
+        "ood_status",
+        "ood_status_num",
+        "ood_written",
         "perf_seq",
         "perf_single_step_num",
         "prop_cause",
@@ -169,7 +204,9 @@ class SmController:
         "world_depth_cmd",
         "world_haven_x",
         "world_haven_y",
+        "world_mbt_blown",
         "world_periscope_raised",
+        "world_planes",
         "world_pos_x",
         "world_pos_y",
         "world_set",
@@ -225,6 +262,10 @@ class SmController:
         self.helm_written = self.helm_command_num
         _, self.prop_command_num, self.prop_command = PROP_COMMAND.unpack_from(buf, PROP_COMMAND_AT)
         self.prop_written = self.prop_command_num
+        _, self.ood_command_num, self.ood_command, self.ood_arg_depth, self.ood_arg_ordered = (
+            OOD_SM_COMMAND.unpack_from(buf, OOD_SM_COMMAND_AT)
+        )
+        self.ood_written = self.ood_command_num
 
     def safe_state(self, reason: int) -> None:
         """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
@@ -232,6 +273,8 @@ class SmController:
         self.helm_command_num += 1
         self.prop_command = PROP_HALT
         self.prop_command_num += 1
+        self.ood_command = OOD_HALT
+        self.ood_command_num += 1
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
@@ -261,6 +304,10 @@ class SmController:
             self.prop_status,
             self.prop_error_num,
             self.prop_cause,
+            self.ood_status_num,
+            self.ood_status,
+            self.ood_error_num,
+            self.ood_result_choice,
             self.world_speed_cmd,
             self.world_depth_cmd,
             self.world_haven_x,
@@ -268,6 +315,8 @@ class SmController:
             self.world_periscope_raised,
             self.world_shaft,
             self.world_ballast,
+            self.world_planes,
+            self.world_mbt_blown,
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
@@ -288,6 +337,12 @@ class SmController:
         elif self.prop_status != ERROR:
             self.prop_error_num = PROP_REASON_NONE  # a reason comes only with ERROR
             self.prop_cause = 0
+        if self.ood_status_num != self.ood_command_num:
+            self.ood_status = EXECUTING  # until it echoes the last number sent
+            self.ood_result_choice = 0  # no result yet
+            self.ood_error_num = OOD_REASON_NONE  # no reason yet
+        elif self.ood_status != ERROR:
+            self.ood_error_num = OOD_REASON_NONE  # a reason comes only with ERROR
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -367,6 +422,23 @@ class SmController:
             )
             SEQ.pack_into(buf, PROP_COMMAND_AT, seq + 1)
             self.prop_written = self.prop_command_num
+        if self.ood_command_num != self.ood_written:  # a command was sent
+            seq, number = OOD_SM_COMMAND.unpack_from(buf, OOD_SM_COMMAND_AT)[:2]
+            if number != self.ood_written:  # an operator's command came meanwhile:
+                self.ood_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, OOD_SM_COMMAND_AT, seq)
+            OOD_SM_COMMAND.pack_into(
+                buf,
+                OOD_SM_COMMAND_AT,
+                seq,
+                self.ood_command_num,
+                self.ood_command,
+                self.ood_arg_depth,
+                self.ood_arg_ordered,
+            )
+            SEQ.pack_into(buf, OOD_SM_COMMAND_AT, seq + 1)
+            self.ood_written = self.ood_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
             self.world_set = False
@@ -408,15 +480,21 @@ class SmController:
                 SEQ.pack_into(buf, WORLD_HAVEN_X_AT, (s[2] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_HAVEN_Y_AT, (s[3] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_PERISCOPE_RAISED_AT, (s[4] | 1) + 1)
-            out = (self.world_ballast,)
+            out = (self.world_ballast, self.world_planes, self.world_mbt_blown)
             now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_2, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
                 SEQ.pack_into(buf, WORLD_BALLAST_AT, s[0] | 1)  # odd before the value changes
-                WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0])
+                SEQ.pack_into(buf, WORLD_PLANES_AT, s[1] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_MBT_BLOWN_AT, s[2] | 1)  # odd before the value changes
+                WORLD_OUT_2.pack_into(
+                    buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
+                )
                 SEQ.pack_into(buf, WORLD_BALLAST_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_PLANES_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_MBT_BLOWN_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -463,6 +541,10 @@ class SmController:
             self.prop_status,
             self.prop_error_num,
             self.prop_cause,
+            self.ood_status_num,
+            self.ood_status,
+            self.ood_error_num,
+            self.ood_result_choice,
             self.world_speed_cmd,
             self.world_depth_cmd,
             self.world_haven_x,
@@ -470,6 +552,8 @@ class SmController:
             self.world_periscope_raised,
             self.world_shaft,
             self.world_ballast,
+            self.world_planes,
+            self.world_mbt_blown,
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
@@ -501,8 +585,15 @@ class SmController:
             self.helm_command_num += 1
             self.prop_command = PROP_INIT
             self.prop_command_num += 1
+            self.ood_command = OOD_INIT
+            self.ood_command_num += 1
 
-        elif state == S1 and self.helm_status == DONE and self.prop_status == DONE:
+        elif (
+            state == S1
+            and self.helm_status == DONE
+            and self.prop_status == DONE
+            and self.ood_status == DONE
+        ):
             # every subordinate is done
             self.rule = 2  # INIT/S1/1
             self.state = NOP
@@ -520,8 +611,15 @@ class SmController:
             self.helm_command_num += 1
             self.prop_command = PROP_HALT
             self.prop_command_num += 1
+            self.ood_command = OOD_HALT
+            self.ood_command_num += 1
 
-        elif state == S1 and self.helm_status == DONE and self.prop_status == DONE:
+        elif (
+            state == S1
+            and self.helm_status == DONE
+            and self.prop_status == DONE
+            and self.ood_status == DONE
+        ):
             # every subordinate is done
             self.rule = 4  # HALT/S1/1
             self.state = NOP
@@ -533,7 +631,8 @@ class SmController:
         transit depth to the waypoint (x, y), never leaving the moving haven, which starts around
         the submarine and moves towards the waypoint at the ordered speed; blow or flood variable
         ballast when the depth is more than DEPTH_LIMIT off the order (the sea's density
-        changed).
+        changed); with the variable ballast spent, ask the OOD: full planes, or blow the main
+        ballast tanks and surface (ERROR SURFACED: the transit cannot go on submerged).
         """
         state = self.state
         if state == S0:
@@ -592,12 +691,20 @@ class SmController:
                 self.status = ERROR
                 self.error_num = REASON_BLOCKED
 
-            elif self.var_depth_reached and self.world_depth > self.world_depth_cmd + DEPTH_LIMIT:
+            elif (
+                self.var_depth_reached
+                and self.world_depth > self.world_depth_cmd + DEPTH_LIMIT
+                and self.world_ballast < BALLAST_MAX
+            ):
                 # sinking (lighter water, 4.1.2) beyond what the planes hold; blow variable ballast
                 self.rule = 10  # SUBMERGED_TRANSIT/S1/5
                 self.world_ballast = self.world_ballast + BALLAST_STEP
 
-            elif self.var_depth_reached and self.world_depth < self.world_depth_cmd - DEPTH_LIMIT:
+            elif (
+                self.var_depth_reached
+                and self.world_depth < self.world_depth_cmd - DEPTH_LIMIT
+                and self.world_ballast > -BALLAST_MAX
+            ):
                 # rising beyond what the planes hold; flood variable ballast
                 self.rule = 11  # SUBMERGED_TRANSIT/S1/6
                 self.world_ballast = self.world_ballast - BALLAST_STEP
@@ -610,6 +717,82 @@ class SmController:
                 self.rule = 12  # SUBMERGED_TRANSIT/S1/7
                 self.var_depth_reached = True
 
+            elif (
+                self.var_depth_reached
+                and self.world_depth > self.world_depth_cmd + DEPTH_LIMIT
+                and self.world_planes == NORMAL
+            ):
+                # still sinking with the variable ballast spent (4.7.3): the depth controller cannot hold the depth; ask the OOD to choose between the planes and an MBT blow
+                self.rule = 13  # SUBMERGED_TRANSIT/S1/8
+                self.state = DEPTH_ASKED
+                self.ood_arg_depth = self.world_depth
+                self.ood_arg_ordered = self.world_depth_cmd
+                self.ood_command = OOD_DEPTH_CASUALTY
+                self.ood_command_num += 1
+
+        elif state == DEPTH_ASKED:
+            if (
+                self.helm_status == ERROR
+                or abs(self.world_pos_x - self.world_haven_x) > HAVEN
+                or abs(self.world_pos_y - self.world_haven_y) > HAVEN
+                or abs(self.world_pos_x - self.arg_x) < ARRIVAL
+                and abs(self.world_pos_y - self.arg_y) < ARRIVAL
+            ):
+                # the helm failed, the ship left its moving haven, or it reached the waypoint's box while the OOD decides: withdraw his request; S1 then reports it
+                self.rule = 14  # SUBMERGED_TRANSIT/DEPTH_ASKED/1
+                self.state = WITHDRAWING
+                self.ood_command = OOD_HALT
+                self.ood_command_num += 1
+
+            elif self.ood_status == DONE and self.ood_result_choice == MBT_BLOW:
+                # the OOD chose to blow the main ballast tanks (the last resort): surface; the transit cannot go on submerged, the helm stops
+                self.rule = 15  # SUBMERGED_TRANSIT/DEPTH_ASKED/2
+                self.state = SURFACING
+                self.world_mbt_blown = True
+                self.world_depth_cmd = 0.0
+                self.var_haven_moving = False
+                self.helm_command = HELM_HALT
+                self.helm_command_num += 1
+
+            elif self.ood_status == DONE and self.ood_result_choice == PLANES:
+                # the OOD chose the planes (the normally selected option); full sail and stern planes
+                self.rule = 16  # SUBMERGED_TRANSIT/DEPTH_ASKED/3
+                self.state = S1
+                self.world_planes = FULL
+
+            elif self.ood_status == ERROR:
+                # the OOD refused to choose; the depth cannot be held, the helm stops
+                self.rule = 17  # SUBMERGED_TRANSIT/DEPTH_ASKED/4
+                self.state = OOD_FAILED
+                # ood's error: the cause of an ERROR this command reports
+                self.cause = caused(OOD_LINK, self.ood_error_num, 0)
+                self.var_haven_moving = False
+                self.helm_command = HELM_HALT
+                self.helm_command_num += 1
+
+        elif state == WITHDRAWING and self.ood_status != EXECUTING:
+            # the request withdrawn; back to S1, which reports what ended the leg
+            self.rule = 18  # SUBMERGED_TRANSIT/WITHDRAWING/1
+            self.state = S1
+
+        elif state == SURFACING and self.helm_status != EXECUTING:
+            # the helm has stopped; the transit fails, surfaced
+            self.rule = 19  # SUBMERGED_TRANSIT/SURFACING/1
+            self.state = NOP
+            self.status = ERROR
+            self.error_num = REASON_SURFACED
+
+        elif state == OOD_FAILED and self.helm_status != EXECUTING:
+            # the helm has stopped; fail for the OOD's reason
+            self.rule = 20  # SUBMERGED_TRANSIT/OOD_FAILED/1
+            self.state = NOP
+            self.status = ERROR
+            # ood's reason, passed up by name (another: NONE)
+            self.error_num = {
+                OOD_REASON_LOST: REASON_LOST,
+                OOD_REASON_REFUSED: REASON_REFUSED,
+            }.get(self.ood_error_num, REASON_NONE)
+
     def prep_emergency_vent(self) -> None:
         """PREP_EMERGENCY_VENT: Prepare for emergency ventilation (sections 4.1.3, 4.7.1): clear
         baffles; then slow to ahead one-third and come to periscope depth steering for the
@@ -619,7 +802,7 @@ class SmController:
         state = self.state
         if state == S0:
             # clear baffles (the haven stands still while the ship prepares)
-            self.rule = 13  # PREP_EMERGENCY_VENT/S0/1
+            self.rule = 21  # PREP_EMERGENCY_VENT/S0/1
             self.state = BAFFLES
             self.var_haven_moving = False
             self.helm_command = HELM_CLEAR_BAFFLES
@@ -628,7 +811,7 @@ class SmController:
         elif state == BAFFLES:
             if self.helm_status == DONE:
                 # baffles clear; slow and come up, back on course, shift to the EPM
-                self.rule = 14  # PREP_EMERGENCY_VENT/BAFFLES/1
+                self.rule = 22  # PREP_EMERGENCY_VENT/BAFFLES/1
                 self.state = SLOWING
                 self.world_speed_cmd = ONE_THIRD_SPEED
                 self.world_depth_cmd = PERISCOPE_DEPTH
@@ -640,7 +823,7 @@ class SmController:
                 self.prop_command_num += 1
 
             elif self.helm_status == ERROR:
-                self.rule = 15  # PREP_EMERGENCY_VENT/BAFFLES/2
+                self.rule = 23  # PREP_EMERGENCY_VENT/BAFFLES/2
                 # helm's error: the cause of an ERROR this command reports
                 self.cause = caused(HELM_LINK, self.helm_error_num, self.helm_cause)
                 self.state = NOP
@@ -649,7 +832,7 @@ class SmController:
         elif state == SLOWING:
             if self.prop_status == ERROR:
                 # the EOOW could not shift to the EPM; stop the helm's maneuver
-                self.rule = 16  # PREP_EMERGENCY_VENT/SLOWING/1
+                self.rule = 24  # PREP_EMERGENCY_VENT/SLOWING/1
                 self.state = PROP_FAILED
                 # prop's error: the cause of an ERROR this command reports
                 self.cause = caused(PROP_LINK, self.prop_error_num, self.prop_cause)
@@ -658,7 +841,7 @@ class SmController:
 
             elif self.helm_status == ERROR:
                 # the helm failed; withdraw the shift to the EPM
-                self.rule = 17  # PREP_EMERGENCY_VENT/SLOWING/2
+                self.rule = 25  # PREP_EMERGENCY_VENT/SLOWING/2
                 self.state = HELM_FAILED
                 # helm's error: the cause of an ERROR this command reports
                 self.cause = caused(HELM_LINK, self.helm_error_num, self.helm_cause)
@@ -672,7 +855,7 @@ class SmController:
                 and self.prop_status == DONE
             ):
                 # at periscope depth and one-third speed, helm on course, on the EPM; raise the periscope
-                self.rule = 18  # PREP_EMERGENCY_VENT/SLOWING/3
+                self.rule = 26  # PREP_EMERGENCY_VENT/SLOWING/3
                 self.world_periscope_raised = True
                 self.state = NOP
                 self.status = DONE
@@ -680,7 +863,7 @@ class SmController:
 
         elif state == PROP_FAILED and self.helm_status != EXECUTING:
             # the helm has stopped; fail for propulsion's reason
-            self.rule = 19  # PREP_EMERGENCY_VENT/PROP_FAILED/1
+            self.rule = 27  # PREP_EMERGENCY_VENT/PROP_FAILED/1
             self.state = NOP
             self.status = ERROR
             # prop's reason, passed up by name (another: NONE)
@@ -691,7 +874,7 @@ class SmController:
 
         elif state == HELM_FAILED and self.prop_status != EXECUTING:
             # propulsion has stopped (the request withdrawn); fail
-            self.rule = 20  # PREP_EMERGENCY_VENT/HELM_FAILED/1
+            self.rule = 28  # PREP_EMERGENCY_VENT/HELM_FAILED/1
             self.state = NOP
             self.status = ERROR
 
@@ -702,7 +885,7 @@ class SmController:
         """
         state = self.state
         if state == S0:
-            self.rule = 21  # PREP_SUBMERGED_TRANSIT/S0/1
+            self.rule = 29  # PREP_SUBMERGED_TRANSIT/S0/1
             self.state = S1
             self.world_periscope_raised = False
             self.world_depth_cmd = TRANSIT_DEPTH
@@ -710,7 +893,7 @@ class SmController:
 
         elif state == S1 and abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL:
             # at transit depth
-            self.rule = 22  # PREP_SUBMERGED_TRANSIT/S1/1
+            self.rule = 30  # PREP_SUBMERGED_TRANSIT/S1/1
             self.state = NOP
             self.status = DONE
             self.cause = 0  # DONE has no cause

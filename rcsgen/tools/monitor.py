@@ -10,7 +10,8 @@ only mode, pacing and command buffers, so it never blocks a controller; the oper
 (`--role`) decides what the keys may do, and a refusal is shown, not a crash. What the
 modules ask of the operator is shown under the table; `a` answers it. A system with
 fieldbus devices gets a panel of them (monitor_devices.py); every system a panel of how
-well each process holds its period (monitor_periodicity.py). textual is an
+well each process holds its period (monitor_periodicity.py), and one of each controller's
+time per state since start (monitor_state_time.py). textual is an
 optional extra (`pip install rcsgen[monitor]`), imported only here.
 """
 
@@ -31,6 +32,7 @@ from ..runtime.operate.command import shown as shown_value
 from ..runtime.operate.ctl import Console, CtlError
 from .monitor_devices import DevicesPanel
 from .monitor_periodicity import PeriodicityPanel
+from .monitor_state_time import StateTimePanel
 
 COLOURS = {"DONE": "green", "EXECUTING": "yellow", "ERROR": "bold red"}
 WORLD_COLUMNS = ("field", "value", "override")
@@ -79,6 +81,7 @@ class Monitor(App[None]):
     #world { height: auto; max-height: 12; }
     #devices { height: auto; max-height: 8; }
     #periodicity { height: auto; max-height: 10; }
+    #state_time { height: auto; max-height: 12; }
     #processes { height: auto; color: $text-muted; }
     #requests { height: auto; color: $warning; text-style: bold; }
     #message { height: auto; }
@@ -129,6 +132,7 @@ class Monitor(App[None]):
         if getattr(self.layout, "IO_DEVICES", None):  # fieldbus devices: their own panel
             yield DevicesPanel(self.layout)
         yield PeriodicityPanel(self.layout)
+        yield StateTimePanel(self.layout, [module for module, _ in self.rows])
         yield Static(id="processes")
         yield Static(id="requests")
         yield Static(id="message")
@@ -202,6 +206,8 @@ class Monitor(App[None]):
             panel.show(snapshot.get("io") or {})
         for timing in self.query(PeriodicityPanel):
             timing.show(snapshot)
+        for states in self.query(StateTimePanel):
+            states.show(snapshot)
         self.open_requests = snapshot["requests"]
         asks = [
             f"{r['by']} asks {r['operator']}: {r['task']}: {r['doc']} (a: answer {r['name']})"

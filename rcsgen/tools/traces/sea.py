@@ -8,7 +8,8 @@ commands and states, and the announcement; play/pause, a cycle slider.
 
 The scene is drawn on the server, as SVG in the page, so that what a person sees (where the
 track runs, whether it crosses a keel) is in the file itself; the script only moves the
-submarine and its haven and fills the panel. The keels and the route are the run's: the
+submarine and its haven and fills the panel. The page's shell (player, slider, clock) is
+the replay views' common part (player.py). The keels and the route are the run's: the
 simulators' and the mission planner's own hooks (their hook state factories) load them from
 the system directory with the scenario's settings.
 """
@@ -16,21 +17,18 @@ the system directory with the scenario's settings.
 from __future__ import annotations
 
 import ast
-import html
-import json
 import math
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 from ...compiler.ir import IRController, IRSystem
+from . import player
 from .mine import import_hooks
 from .read import Trace
 from .view import StringTable, number, runs
 
-TEMPLATE = "sea_view.html"
 REQUIRED = ("pos_x", "pos_y")
 SHOWN = ("heading", "haven_x", "haven_y", "clearance", "speed", "depth", "announcement")
 PANEL = ("cc", "sm", "helm", "prop")  # the controllers whose commands the panel shows
@@ -149,7 +147,9 @@ def svg(trace: Trace, found: Scene, f: Frame) -> str:
     return "".join(out)
 
 
-def payload(trace: Trace, system: IRSystem, found: Scene, f: Frame, scenario: str) -> str:
+def payload(
+    trace: Trace, system: IRSystem, found: Scene, f: Frame, scenario: str
+) -> dict[str, Any]:
     table = StringTable()
     world: dict[str, list[Any]] = {}
     for name in (*REQUIRED, *SHOWN):
@@ -181,8 +181,7 @@ def payload(trace: Trace, system: IRSystem, found: Scene, f: Frame, scenario: st
         "controllers": controllers,
         "strings": table.values,
     }
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return text.replace("</", "<\\/")
+    return data
 
 
 def render(
@@ -197,12 +196,9 @@ def render(
         )
     found = scene(system, system_dir, settings)
     f = frame(trace, found)
-    template = resources.files(__package__).joinpath("assets", TEMPLATE).read_text("utf-8")
     title = f"{trace.name} · {system.name}: the transit among the ice"
-    page = template.replace("{{TITLE}}", html.escape(title)).replace(
-        "{{SVG}}", svg(trace, found, f)
-    )
-    return page.replace("{{DATA}}", payload(trace, system, found, f, scenario))
+    data = payload(trace, system, found, f, scenario)
+    return player.page("sea", title, {"SVG": svg(trace, found, f)}, data)
 
 
 def page_for(
