@@ -55,7 +55,7 @@ def spans(lines: list[dict], module: str, command: str) -> list[tuple[int, int]]
 def test_the_time_line_has_a_bar_per_feature_and_the_planner_inside_the_first_part(system):
     trace = traces.load(GOLDEN / "guardian_lot.jsonl")
     page = station_view.render(trace, system)
-    lines = [json.loads(ln) for ln in (GOLDEN / "guardian_lot.jsonl").read_text().splitlines()]
+    lines = [json.loads(ln) for ln in traces.full_lines(GOLDEN / "guardian_lot.jsonl")]
     features = bars(page, "INSPECT_FEATURE")
     assert [(f, last) for _, f, last in features] == spans(lines, "cmm", "INSPECT_FEATURE")
     assert len(features) == 10 and {lane for lane, _, _ in features} == {"CMM"}, "5 a part"
