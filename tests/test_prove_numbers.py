@@ -127,3 +127,62 @@ def test_without_z3_the_numbers_are_not_checked_and_prove_says_so(tmp_path, monk
     proof, f = _done_early(_system(tmp_path))
     assert len(f.trace) == 2 and f.replay == ""  # the model's shortest run, left to the replay
     assert sum("need z3: install rcsgen[prove]" in n for n in proof.notes) == 1, proof.notes
+
+
+RETRY_SUB = """controller: sub
+title: Sub controller
+
+locals:
+  ok:
+    type: bool
+    initial: true
+    doc: The clamp closes.
+
+commands:
+  CLAMP:
+    reasons: [REFUSED, JAMMED]
+    states:
+      S0:
+        - when: ok
+          do:
+            - report: DONE
+        - when: not ok
+          do:
+            - {report: ERROR, reason: REFUSED}
+"""
+RETRY_TOP = """controller: top
+title: Top controller
+subordinates: [sub]
+
+commands:
+  GO:
+    first_match: [S1]
+    states:
+      S0:
+        - do:
+            - send: sub.CLAMP
+          next: S1
+      S1:
+        - doc: a refusal is retried (the bug W701 names)
+          when: sub.status == ERROR and sub.reason == REFUSED
+          do:
+            - send: sub.CLAMP
+        - when: sub.status == ERROR
+          do:
+            - report: ERROR
+        - when: sub.status == DONE
+          do:
+            - report: DONE
+"""
+
+
+def test_a_replay_scripts_the_reason_the_model_chose_for_an_error(tmp_path):
+    """The run retries only on REFUSED: its scenario scripts `ERROR(REFUSED)`, so the
+    generated code takes the retry and the finding is violated, not undecided."""
+    directory = _system(tmp_path, RETRY_TOP)
+    (directory / "sub.yaml").write_text(RETRY_SUB)
+    out = CliRunner().invoke(main, ["prove", str(directory), "--select", "W701"])
+    line = next(x for x in out.output.splitlines() if "warning[W701]" in x)
+    assert "is violated" in line and "replayed in the generated code" in line, out.output
+    written = (directory / "counterexamples" / "top_w701_go.yaml").read_text()
+    assert "sub: ERROR(REFUSED)" in written, written
