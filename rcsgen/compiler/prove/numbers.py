@@ -289,8 +289,9 @@ def search(z3: Any, graph: Graph, trace: Run, also: Any = None) -> Run | None:
         return None
     target = trace[-2][1] if len(trace) > 1 else graph.initial
     last = _alike(graph, target, trace[-1])
+    last = [c for c in last if _alone(z3, graph, target, c)]
     distance = _distances(graph, target)
-    if graph.initial not in distance:
+    if not last or graph.initial not in distance:
         return None
     budget = [BUDGET]
     for length in range(len(trace) - 1, len(trace) + EXTRA_CYCLES):
@@ -382,6 +383,19 @@ def _close(
     if ok and (also is None or also(candidate)):
         return candidate
     return None
+
+
+def _alone(z3: Any, graph: Graph, start: State, cycle: tuple[Edge, State]) -> bool:
+    """Whether the cycle is possible from `start` with every local and parameter free: if
+    not, no run reaches it (what it reads contradicts itself in that one cycle)."""
+    encoder = Encoder(z3, graph)
+    encoder.locals = {
+        n: encoder._fresh(kind) for n, (kind, _) in graph.skeleton.locals_init.items()
+    }
+    encoder.before = start
+    solver = z3.Solver()
+    solver.add(*encoder.cycle(*cycle))
+    return bool(solver.check() != z3.unsat)
 
 
 def _alike(graph: Graph, start: State, cycle: tuple[Edge, State]) -> list[tuple[Edge, State]]:
