@@ -79,6 +79,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_state_time",
             "test_plans",
             "test_prove",
+            "test_prove_numbers",
             "test_prove_properties",
             "test_prove_seeds",
             "test_reasons_survive",

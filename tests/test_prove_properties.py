@@ -381,3 +381,27 @@ def test_export_smv_writes_the_explored_model_and_the_properties(tmp_path):
         "LTLSPEC NAME quick := G ((c != 0 & !runtime & sent_sub_MOVE) -> "
         "(status_DONE | X (runtime | new_command | status_DONE)));" in text
     )
+
+
+def test_a_template_property_names_the_instance_that_states_it():
+    """loco's properties, written in the vehicle template as `loco.status ...`, read for
+    alpha's locomotion as `alpha_loco.status ...`: a report names the controller that broke
+    it, not the template (its subordinates were already the instance's)."""
+    front = compile_paths([SPECS / "platoon"])
+    assert not front.diagnostics.errors
+    texts = {
+        (p.name, p.controller): p.text
+        for system in front.systems
+        for p in system.properties
+        if p.name == "giving_up_closes_the_throttle"
+    }
+    assert set(texts) == {
+        ("giving_up_closes_the_throttle", "alpha_loco"),
+        ("giving_up_closes_the_throttle", "bravo_loco"),
+    }
+    for (_, instance), text in texts.items():
+        vehicle = instance.removesuffix("_loco")
+        assert text == (
+            f"always {instance}.status != ERROR or {vehicle}_drive.command != SPEED "
+            f"or {vehicle}_drive.status == ERROR"
+        ), text

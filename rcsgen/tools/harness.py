@@ -149,11 +149,15 @@ class BlockView:
         name = self.layout.COMMAND_NAMES[module][values["command"]]
         return Sent(name, values["command_num"], args)
 
-    def reply(self, module: str, status: str, number: int | None = None) -> None:
-        """Write `module`'s status as if it had run: by default echoing its command number."""
+    def reply(self, module: str, status: str, number: int | None = None, reason: str = "") -> None:
+        """Write `module`'s status as if it had run: by default echoing its command number;
+        an ERROR with `reason` (one of the module's reason names) gives that reason."""
         echoed = self.sent(module).number if number is None else number
         code = self.contract.STATUS_NAMES.index(status)
-        self.layout.STATUS_OUT[module].write(self.buf, status_num=echoed, status=code)
+        fields: dict[str, int] = {"status_num": echoed, "status": code}
+        if reason:
+            fields["error_num"] = list(self.layout.REASON_NAMES[module]).index(reason)
+        self.layout.STATUS_OUT[module].write(self.buf, **fields)
 
     def status(self, module: str) -> Status:
         values = self.layout.STATUS_OUT[module].read(self.buf)

@@ -65,8 +65,14 @@ def events(system: ir.IRSystem, finding: Finding) -> tuple[list[dict[str, Any]],
                 }
             if c.supervisor is not None:
                 event["overrides"] = True
-        if edge.answers:
-            event["reply"] = {str(sub): str(status) for sub, status in edge.answers}
+        if edge.answers:  # an ERROR with the reason the model chose where a rule read it
+            reasons = {str(k[1]): str(v) for k, v in edge.valuation if k[0] == "reason"}
+            event["reply"] = {
+                str(sub): f"{status}({reasons[sub]})"
+                if status == "ERROR" and reasons.get(sub, "NONE") not in ("NONE", "LOST")
+                else str(status)
+                for sub, status in edge.answers
+            }
         world = {str(k[1]): _value(v) for k, v in edge.valuation if k[0] == "world"}
         if world:
             event["set"] = world

@@ -17,6 +17,7 @@ comparison of them could not be decided and is refused (E713) rather than half-c
 from __future__ import annotations
 
 import ast
+import re
 
 from ..diagnostics import Diagnostics, Span, did_you_mean
 from ..expressions.nodes import STATUS_NAMES
@@ -322,12 +323,20 @@ def _one(
         str(prop.name.value),
         scope,
         prop.name.span,
-        " ".join(text.split()),
+        _named(" ".join(text.split()), names.aliases(owner)),
         _at(then, scope),
         _at(whenever, scope) if whenever is not None else None,
         within,
         prop.doc,
     )
+
+
+def _named(text: str, aliases: dict[str, str]) -> str:
+    """A template's property text with each of its modules (`loco.status`) named as the
+    instance's (`alpha_loco.status`): a report names the controller that broke it."""
+    if not aliases:
+        return text
+    return re.sub(r"\b(\w+)(?=\.)", lambda m: aliases.get(m.group(1), m.group(1)), text)
 
 
 _OF_SUB = {PropKind.STATUS: PropKind.SUB_STATUS, PropKind.COMMAND: PropKind.SUB_COMMAND}

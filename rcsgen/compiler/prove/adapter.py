@@ -12,7 +12,7 @@ here but this file.
 from __future__ import annotations
 
 import ast
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ...runtime.contract import BUILTIN_COMMANDS
@@ -52,6 +52,11 @@ class RuleView:
     # what it writes, as a property's `writes(...)` names it: a local, `world.<field>`
     assigns: frozenset[str] = frozenset()
     hold: int | None = None  # `for:` N cycles: it fires once its `when` held more than N
+    # its guard's typed tree, predicates, functions and `let` values inlined (None: none),
+    # and what its actions write, in order: (local name or `world.<field>`, the value's tree;
+    # None where a hook returns it) - what z3 reads of a run's numbers (`numbers.py`)
+    tree: expr.Expr | None = None
+    writes: tuple[tuple[str, expr.Expr | None], ...] = ()
 
 
 @dataclass
@@ -71,6 +76,9 @@ class Skeleton:
     actuators: tuple[str, ...]  # actuator fields it writes
     operator: bool = False
     tasks_outcomes: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    # each local's type and initial value (an enum's as its index), for `numbers.py`
+    locals_init: dict[str, tuple[Any, Any]] = field(default_factory=dict)
+    constants: dict[str, Any] = field(default_factory=dict)  # name -> value
     _cache: dict[Any, tuple[Choice, ...]] = field(default_factory=dict)
 
     def choices(self, rules: list[RuleView], fixed: dict[Key, Any]) -> tuple[Choice, ...]:
@@ -182,6 +190,55 @@ def reads_of(tree: expr.Expr | None, builder: GuardBuilder) -> frozenset[tuple[s
     return frozenset(found)
 
 
+def expanded(tree: expr.Expr, builder: GuardBuilder) -> expr.Expr:
+    """`tree` with every predicate, function call and `let` value inlined."""
+    if isinstance(tree, expr.Call) and tree.kind == expr.CallKind.PREDICATE:
+        return expanded(builder.predicates[tree.name], builder)
+    if (inlined := builder.inline(tree)) is not None:
+        return expanded(inlined, builder)
+    if isinstance(tree, expr.Call):
+        return replace(tree, args=tuple(expanded(a, builder) for a in tree.args))
+    if isinstance(tree, expr.Unary):
+        return replace(tree, operand=expanded(tree.operand, builder))
+    if isinstance(tree, expr.Binary):
+        return replace(tree, left=expanded(tree.left, builder), right=expanded(tree.right, builder))
+    if isinstance(tree, expr.BoolOp):
+        return replace(tree, values=tuple(expanded(v, builder) for v in tree.values))
+    if isinstance(tree, expr.Compare):
+        return replace(
+            tree,
+            left=expanded(tree.left, builder),
+            comparators=tuple(expanded(c, builder) for c in tree.comparators),
+        )
+    if isinstance(tree, expr.IfExp):
+        return replace(
+            tree,
+            test=expanded(tree.test, builder),
+            body=expanded(tree.body, builder),
+            orelse=expanded(tree.orelse, builder),
+        )
+    return tree
+
+
+def _writes(rule: ir.IRRule, builder: GuardBuilder) -> tuple[tuple[str, expr.Expr | None], ...]:
+    """What a rule's actions write, in order: (local or `world.<field>`, value tree or None)."""
+    found: list[tuple[str, expr.Expr | None]] = []
+    for action in rule.actions:
+        if isinstance(action, ir.IRSet):
+            found += [
+                (a.target, expanded(a.value.tree, builder))
+                for a in action.assignments
+                if not a.target.startswith("result.")
+            ]
+        elif isinstance(action, ir.IRCall):
+            for target in action.targets:
+                if target.startswith("self.world_"):
+                    found.append(("world." + target.removeprefix("self.world_"), None))
+                elif target.startswith("self.var_"):
+                    found.append((target.removeprefix("self.var_"), None))
+    return tuple(found)
+
+
 def _hold(guard: expr.Expr | None) -> int | None:
     """The cycles a `for:` rule's `when` must have held (its guard's `held > N`)."""
     for node in expr.walk(guard) if guard is not None else ():
@@ -252,6 +309,8 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
             world_sets=frozenset(_world_sets(rule)),
             assigns=_assigns(rule),
             hold=_hold(rule.guard.tree if rule.guard else None),
+            tree=expanded(rule.guard.tree, builder) if rule.guard is not None else None,
+            writes=_writes(rule, builder),
         )
 
     tables: dict[str, dict[str, list[RuleView]]] = {}
@@ -283,7 +342,17 @@ def skeleton(system: ir.IRSystem, c: ir.IRController, actuator_names: frozenset[
         timers,
         writes,
         operator=c.kind == "operator",
+        locals_init={v.name: (v.type, _initial(v.type, v.initial)) for v in c.locals},
+        constants=dict(builder.constants),
     )
+
+
+def _initial(kind: Any, value: Any) -> Any:
+    """A local's initial value as an expression's constant holds it (an enum's index)."""
+    values = getattr(kind, "values", None)
+    if values is not None and isinstance(value, str) and value in values:
+        return values.index(value)
+    return value
 
 
 # ---------------------------------------------------------------- the system around it

@@ -15,9 +15,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from .. import ir
+from . import numbers, timers, user
 from . import properties as props
-from . import timers, user
 from .adapter import DONE, ERROR, Skeleton, operator_outcomes, placement, skeleton
+from .handshake import EXTRA, z3_or_none
 from .lost import RuntimeReaction
 from .model import LIMIT, Contract, Edge, Graph, Model, State, explore
 from .properties import INFINITE, Finding
@@ -179,20 +180,63 @@ def _user(
 
 
 def _hold_times(proof: SystemProof) -> None:
-    """Each finding whose run fires a `for:` rule before its `when` can have held long
-    enough is undecided, with why (z3, `timers.py`); without z3, one note says so."""
+    """Each finding whose run cannot happen - a `for:` rule fired before its `when` can
+    have held long enough (`timers.py`), or guards over locals, parameters and world values
+    no values make true together (`numbers.py`) - is looked for again, longer; when no
+    possible run is found it is undecided, with why (z3). Without z3, one note says so."""
     missing = ""
     for f in proof.findings:
         graph = proof.graphs.get(f.controller)
         if graph is None or not f.trace:
             continue
-        possible, why = timers.feasible(graph.skeleton, f.trace)
-        if possible is False:
+        why = _impossible(graph, f)
+        if why is None:
+            missing = f"counter-examples' hold times (`for:`) and numbers need z3: install {EXTRA}"
+        elif why:
             f.certain, f.verdict, f.replay = False, "undecided", why
-        elif possible is None:
-            missing = why
     if missing:
         proof.notes.append(missing)
+
+
+# The properties whose violation is the last cycle of a run from a state that holds all it
+# needs (flags of the state, not of the path): another run to that cycle shows it as well.
+SEARCHED = frozenset({"W701", "W702", "W703", "W706", "W707", "W708"})
+
+
+def _impossible(graph: Graph, f: Finding) -> str | None:
+    """'' when the finding's run is possible (or one found for it instead, put in its
+    place); why not when no possible run was found; None without z3 where it was needed."""
+    sk = graph.skeleton
+    held, why = timers.feasible(sk, f.trace)
+    if held is None:
+        return None
+    counted = numbers.numeric(sk, f.trace)
+    if held and not counted:
+        return ""
+    z3 = z3_or_none()
+    if z3 is None:
+        return None
+    if held and numbers.feasible(z3, graph, f.trace):
+        return ""
+    if held:
+        why = "impossible with the values its guards read (z3: locals, parameters, world values)"
+    if f.code in SEARCHED and _shortest_form(graph, f.trace):
+        other = numbers.search(
+            z3, graph, f.trace, lambda run: timers.feasible(sk, run)[0] is not False
+        )
+        if other is not None:
+            f.trace, f.certain = other, props._certain(other)
+            return ""
+        longest = len(f.trace) - 1 + numbers.EXTRA_CYCLES
+        why += f"; no possible run to that cycle up to {longest} cycles"
+    return why
+
+
+def _shortest_form(graph: Graph, trace: list[tuple[Edge, State]]) -> bool:
+    """Whether the run is the model's shortest one to its last cycle's start, then that
+    cycle (so the finding is about that cycle, whatever the path to it)."""
+    start = trace[-2][1] if len(trace) > 1 else graph.initial
+    return graph.path_to(start) == trace[:-1]
 
 
 def _below(system: ir.IRSystem, top: str) -> set[str]:

@@ -429,7 +429,8 @@ class _Checker:
                 self.answer(raw["answer"], event, self.span(raw, "answer"))
             replies = raw.get("reply") or {}
             for name, status in replies.items():
-                if self.module(name, key_span(replies, name, where), None, "reply to") is not None:
+                found = self.module(name, key_span(replies, name, where), None, "reply to")
+                if found is not None and self.reply_reason(found, str(status), replies, name):
                     event.replies[name] = str(status)
             world = raw.get("set") or {}
             for name, value in world.items():
@@ -805,6 +806,23 @@ class _Checker:
                     f"script {task.name} in an entry of `answers:` with `results:`",
                 )
                 return
+
+    def reply_reason(
+        self, controller: IRController, status: str, replies: dict[str, Any], name: str
+    ) -> bool:
+        """A scripted ERROR's reason (`ERROR(BLOCKED)`): one the module declares (E408)."""
+        reason = status.partition("(")[2].rstrip(")")
+        declared = [r for r, _ in controller.reasons]
+        if not reason or reason in declared or reason == "LOST":
+            return True
+        self.error(
+            self.span(replies, name),
+            "E408",
+            f"reply to `{name}`: `{reason}` is not a reason of {name}",
+            known_names_hint("reasons", declared, reason)
+            or f"declare it under a command of {name}",
+        )
+        return False
 
     def answer_reason(self, reason: str, answer: str, tasks: list[Any], span: Span) -> None:
         """A reason given with ERROR only, and one that a task it may answer declares (E288);

@@ -240,9 +240,11 @@ def _apply(harness: AnyHarness, event: Event) -> None:
 
 def reply(harness: AnyHarness, module: str, status: str) -> None:
     """A scripted answer: `module`'s status buffer echoes the command it last received with
-    `status`; in one process the module takes it up as its own (so it does not echo that
-    command again), as a stand-in answering in its place would."""
-    harness.reply(module, status)
+    `status` (`ERROR(REASON)`: with that reason); in one process the module takes it up as
+    its own (so it does not echo that command again), as a stand-in answering in its place
+    would."""
+    name, _, reason = status.partition("(")
+    harness.reply(module, name, reason=reason.rstrip(")"))
     if isinstance(harness, Harness) and module in harness.modules:
         harness.controller(module).resume()
 
