@@ -75,7 +75,6 @@ from .command import (
     suggest,
     write_command,
 )
-from .ctl import Access, CtlError
 from .startup import (
     FAILURES,
     START_FAILED,
@@ -100,17 +99,13 @@ class System:
 
     package: str
     layout: ModuleType
-    plans: dict[str, ProcessPlan]
+    plans: Mapping[str, ProcessPlan]
     path: tuple[str, ...] = ()  # where the processes find the package and its hooks
 
     @classmethod
     def load(cls, package: str) -> System:
         layout = importlib.import_module(f"{package}.layout")
-        plans = {
-            name: importlib.import_module(f"{package}.main_{name}").PLAN
-            for name in layout.PROCESSES
-        }
-        return cls(package, layout, plans)
+        return cls(package, layout, Plans(package, tuple(layout.PROCESSES)))
 
     @property
     def default_segment(self) -> str:
@@ -124,6 +119,32 @@ class System:
         for name, plan in self.plans.items():
             found.append((name, 0, len(plan.modules) - 1, True))
         return found
+
+
+class Plans(Mapping[str, ProcessPlan]):
+    """Each process's plan by name, its module (`main_<process>`, which imports the
+    process's controllers and their hooks) imported when the plan is first asked for: a
+    process started alone imports its own modules only, not every process's."""
+
+    def __init__(self, package: str, names: tuple[str, ...]) -> None:
+        self.package, self.names, self.loaded = package, names, dict[str, ProcessPlan]()
+
+    def __getitem__(self, name: str) -> ProcessPlan:
+        if name not in self.loaded:
+            if name not in self.names:
+                raise KeyError(name)
+            plan: ProcessPlan = importlib.import_module(f"{self.package}.main_{name}").PLAN
+            self.loaded[name] = plan
+        return self.loaded[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.names)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.names
 
 
 # ---------------------------------------------------------------- one process
@@ -948,6 +969,8 @@ def check_role(system: System, args: argparse.Namespace) -> int:
     --send its command access; 0, or the refusal's exit code after its one line."""
     if args.role is None:
         return 0
+    from .ctl import Access, CtlError  # the operator's console: only for a role
+
     try:
         access = Access(system.layout, args.role)
         if args.send is not None:
@@ -1111,7 +1134,10 @@ def _check_run(system: System, args: argparse.Namespace) -> None:
     values of the last three put in `args`)."""
     if args.cycles is not None and args.cycles < 0:
         raise ValueError("--cycles must be 0 or more")
-    switchable = {m for plan in system.plans.values() for m in plan.stand_ins}
+    # Only when asked: it imports every process's plan (and with it, its controllers).
+    switchable = (
+        {m for plan in system.plans.values() for m in plan.stand_ins} if args.simulate else set()
+    )
     unknown = sorted(set(args.simulate) - switchable)
     if unknown:
         raise ValueError(f"no stand-in for {unknown}; these have one: {sorted(switchable)}")
