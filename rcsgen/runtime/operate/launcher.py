@@ -19,14 +19,13 @@ import importlib
 import os
 import select
 import signal
-import subprocess
 import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
-from typing import Any, NoReturn, Self
+from typing import TYPE_CHECKING, Any, NoReturn, Self
 
 from ..block import Block, BlockError
 from ..contract import (
@@ -44,7 +43,6 @@ from ..contract import (
     periodicity_line,
     shared,
 )
-from ..io_cycle import relocated
 from ..loop import (
     DONE_REPLY,
     READY,
@@ -74,6 +72,10 @@ from .command import (
     suggest,
     write_command,
 )
+
+if TYPE_CHECKING:  # imported where the launcher starts processes: ~5 ms a process's start
+    import subprocess
+
 from .startup import (
     FAILURES,
     START_FAILED,
@@ -493,6 +495,8 @@ class Launcher:
             time.sleep(0.01)
 
     def _spawn(self, name: str, attach: bool) -> subprocess.Popen[bytes]:
+        import subprocess
+
         self.trips[name] = 0  # a new process has tripped nothing yet
         command = [self.python, "-m", self.system.package, name, "--shm", self.segment, "--child"]
         if self.transport_name == "zenoh":  # its own block, a peer of the launcher's node
@@ -638,6 +642,8 @@ class Launcher:
             _close_stdin(child.popen)
             if child.popen.poll() is None:
                 child.popen.terminate()
+        import subprocess
+
         deadline = time.monotonic() + STOP_GRACE
         for child in self.children.values():
             try:
@@ -841,6 +847,8 @@ def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[
 def stopped_answering(child: Child) -> str:
     """Why a lockstep process gave no answer: the failure its exit code says (a hook, a
     module: its own line is above), else that it died."""
+    import subprocess
+
     try:
         code = child.popen.wait(timeout=2.0)
     except subprocess.TimeoutExpired:
@@ -1125,6 +1133,8 @@ def _check_settings(system: System, args: argparse.Namespace) -> None:
         raise ValueError(segment_problem(args.shm))
     parse_settings(system.layout, args.set)
     for device in getattr(system.layout, "IO_DEVICES", {}).values():
+        from ..io_cycle import relocated  # only a system with I/O imports it
+
         relocated(device)  # RCSGEN_IO_<DEVICE>, if set, is an address it can use
 
 
@@ -1166,10 +1176,26 @@ def _check_transport(args: argparse.Namespace) -> None:
 
 
 class _OneLineParser(argparse.ArgumentParser):
-    """argparse, but a usage mistake is one line on stderr, exit 2."""
+    """argparse, but a usage mistake is one line on stderr, exit 2; its help as wide as the
+    terminal, found without `shutil` (which argparse would import: ~4 ms a process's start)."""
+
+    def __init__(self, **options: Any) -> None:
+        super().__init__(**options, formatter_class=_help_formatter)
 
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _help_formatter(prog: str) -> argparse.HelpFormatter:
+    """argparse's formatter at the width `shutil.get_terminal_size` would give it."""
+    try:
+        width = int(os.environ["COLUMNS"])
+    except (KeyError, ValueError):
+        try:
+            width = os.get_terminal_size(sys.__stdout__.fileno()).columns  # type: ignore[union-attr]
+        except (AttributeError, ValueError, OSError):
+            width = 80
+    return argparse.HelpFormatter(prog, width=max(width, 1) - 2)
 
 
 def deployed(system: System, args: argparse.Namespace) -> Any:
