@@ -18,7 +18,6 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-from .compiler.back_end import write
 from .compiler.diagnostics import Diagnostic, Diagnostics, SpecError
 from .compiler.front_end.loader import load_file
 from .compiler.frontend import SYSTEM_FILE, Frontend, Progress, compile_paths
@@ -73,6 +72,7 @@ def stale(system_dir: StrPath, generated: StrPath) -> tuple[Diagnostics, list[Di
     """What stands between a built package and a start: the errors of the specs in
     `system_dir` (when they do not build), else E418 for a package in `generated` that is
     not exactly what they make (and the output directory's problems)."""
+    from .compiler.back_end import write
     from .tools.scenario import runs
 
     front = check(system_dir)
@@ -106,6 +106,8 @@ def build(
     All or nothing, like `rcsgen build`: on any error (or any warning, with `strict`) it
     raises SpecError carrying every diagnostic and writes nothing.
     """
+    from .compiler.back_end import write  # (rendering: not needed to check)
+
     front = check(paths)
     if front.diagnostics.errors or (strict and len(front.diagnostics)):
         raise SpecError(front.diagnostics)

@@ -10,7 +10,6 @@ block here: `@main.command()`, its options, and a body of a few lines.
 from __future__ import annotations
 
 import sys
-import tempfile
 from pathlib import Path
 
 import click
@@ -18,7 +17,6 @@ import click
 from . import api
 from .cli_prove import prove
 from .cli_trace import trace_group
-from .compiler.back_end import write
 from .compiler.diagnostics import Diagnostics, SpecError
 from .terminal import (
     CHECK,
@@ -82,6 +80,8 @@ def validate(paths: tuple[Path, ...], connect: bool, opts: Options) -> None:
 @reporting
 def build(paths: tuple[Path, ...], output: Path, check: bool, opts: Options) -> None:
     """Generate the Python packages of the systems found in SPECS (default: specs/)."""
+    from .compiler.back_end import write  # here: `validate` does not render
+
     session, progress, failed = Session(opts), Progress(opts), "build failed: nothing was written"
     front = api.check(specs_or_default(paths), progress)
     session.add(front.diagnostics)
@@ -157,6 +157,8 @@ def run(
     opts: Options,
 ) -> None:
     """Run a scenario on its system (built from the specs) and check its outcome."""
+    import tempfile
+
     from .tools.scenario import runs
     from .tools.scenario import session as session_of
 
@@ -367,6 +369,7 @@ def graph_command(paths: tuple[Path, ...], picture: str, fmt: str, output: Path 
 @CHECK
 def doc_command(paths: tuple[Path, ...], output: Path, check: bool) -> None:
     """Write the Markdown reference of the systems in SPECS: one page per controller."""
+    from .compiler.back_end import write
     from .tools import reference
 
     systems = systems_in(paths)

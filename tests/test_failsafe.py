@@ -1077,11 +1077,9 @@ def test_a_process_that_beats_again_is_no_longer_lost(package: ModuleType) -> No
 
 
 def test_a_segment_without_rcsgen_s_header_is_refused_on_attach(package: ModuleType) -> None:
-    from multiprocessing import shared_memory
-
     layout, block_module = runtime(package, "layout"), runtime(package, "rcs.block")
     name = segment_name()
-    raw = block_module._untracked(shared_memory.SharedMemory, name, layout.SIZE)
+    raw = block_module.Segment(name, layout.SIZE)
     try:
         with pytest.raises(block_module.BlockError, match="is not an rcsgen block"):
             block_module.Block(layout, name, create=False)

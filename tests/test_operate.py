@@ -847,3 +847,34 @@ def test_docs_say_a_scenario_runs_every_process_by_default() -> None:
     spec = (REPO / "docs" / "spec.md").read_text()
     row = next(line for line in spec.splitlines() if line.startswith("| `process` |"))
     assert "every process" in row and "the first" not in row
+
+
+def test_a_process_started_alone_imports_its_own_modules_only() -> None:
+    """Issue 24 (a process's start): `python -m miner pc2` imports pc2's plan and its one
+    controller, not pc1's plan or controllers, the operator console or multiprocessing (the
+    segment is mapped directly); the run is whole (one cycle) and leaves no segment."""
+    segment = f"{PREFIX}_alone"
+    code = (
+        "import sys\n"
+        "from miner.rcs.operate.launcher import main\n"
+        f"code = main('miner', ['pc2', '--cycles', '1', '--fast', '--shm', {segment!r}])\n"
+        "print(' '.join(sorted(sys.modules)))\n"
+        "sys.exit(code)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        env=miner_env(),
+        capture_output=True,
+        text=True,
+        timeout=BOUND,
+    )
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0] == "pc2: 1 cycles"
+    modules = set(lines[-1].split())
+    assert {"miner.main_pc2", "miner.pp", "miner.layout"} <= modules
+    pc1_only = {"miner.main_pc1", "miner.co", "miner.sec", "miner.mine", "miner.cr_sim"}
+    assert not modules & pc1_only, "another process's plan or controllers were imported"
+    assert "miner.rcs.operate.ctl" not in modules
+    assert not {m for m in modules if m == "multiprocessing" or m.startswith("multiprocessing.")}
+    assert not os.path.exists(f"/dev/shm/{segment}")

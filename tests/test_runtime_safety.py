@@ -784,25 +784,18 @@ def segment_name() -> Iterator[str]:
 
     name = f"Xrcsgen_rs_{os.getpid()}_{next(_segments)}"
     yield name
-    from multiprocessing import shared_memory
-
     try:
-        segment = shared_memory.SharedMemory(name=name)
+        os.unlink(f"/dev/shm/{name}")
     except FileNotFoundError:
         return
-    segment.close()
-    segment.unlink()
 
 
 def raw_segment(package: ModuleType, name: str, data: bytes) -> None:
-    """A segment holding `data`, made by something that is not rcsgen."""
-    from multiprocessing import shared_memory
-
-    blocks = part(package, "rcs.block")
-    segment = blocks._untracked(shared_memory.SharedMemory, name, len(data))
-    assert segment.buf is not None
-    segment.buf[: len(data)] = data
-    segment.close()
+    """A segment holding `data`, made by something that is not rcsgen (mode 0600, as
+    `shm_open` makes one)."""
+    fd = os.open(f"/dev/shm/{name}", os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    with open(fd, "wb") as segment:
+        segment.write(data)
 
 
 def test_a_named_block_belongs_to_its_creator_alone(package: ModuleType, segment_name: str) -> None:
@@ -1440,17 +1433,15 @@ def test_refusals_of_a_latched_field_say_so_and_a_reset_releases_only_those_name
 def test_unlink_of_a_segment_another_removed_meanwhile_says_it_was_gone(
     package: ModuleType, segment_name: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from multiprocessing import shared_memory
-
     blocks = part(package, "rcs.block")
     raw_segment(package, segment_name, b"x")
 
-    def gone(self: Any) -> None:
-        real_unlink(self)
-        raise FileNotFoundError(self.name)
+    def gone(path: str) -> None:
+        real_unlink(path)
+        raise FileNotFoundError(path)
 
-    real_unlink = shared_memory.SharedMemory.unlink
-    monkeypatch.setattr(shared_memory.SharedMemory, "unlink", gone)
+    real_unlink = blocks.os.unlink
+    monkeypatch.setattr(blocks.os, "unlink", gone)
     assert blocks.unlink(segment_name) is False
     assert not blocks.exists(segment_name)
 

@@ -464,6 +464,10 @@ def test_the_fast_check_refuses_a_keyword_it_does_not_implement():
         ({"enum": [0, "a"]}, False, False),
         ({"uniqueItems": True}, [1, True], True),
         ({"uniqueItems": True}, [1, 1.0], False),
+        ({"uniqueItems": True}, [{"a": [1, 2]}, {"a": [1, 2.0]}], False),  # by hashed keys
+        ({"uniqueItems": True}, [{"a": 1}, {"a": True}, {"b": 1}], True),
+        ({"uniqueItems": True}, [[1, "a"], ["a", 1], None, False, 0], True),
+        ({"uniqueItems": True}, ["x", "y", "x"], False),
         ({"minimum": 0}, "text", True),  # a bound applies to numbers only
         ({"pattern": "b"}, "abc", True),  # search, not match
         ({"oneOf": [{"type": "number"}, {"type": "integer"}]}, 3, False),

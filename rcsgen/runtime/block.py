@@ -1,9 +1,12 @@
 """Block: a layout (and a segment name) -> the memory the modules exchange their buffers through.
 
-A private in-process buffer, or a named `multiprocessing.shared_memory` segment that several
-processes attach to. The segment belongs to whoever created it (the launcher, or a process
-run on its own): no other process's death removes it, and Python's resource tracker is kept
-out of it, so a crashed creator does not unlink it under the processes still attached. It is
+A private in-process buffer, or a named POSIX shared-memory segment (a file in /dev/shm,
+mapped) that several processes attach to. The segment belongs to whoever created it (the
+launcher, or a process run on its own): no other process's death removes it (no resource
+tracker is involved, so a crashed creator does not unlink it under the processes still
+attached). The file is mapped directly rather than through `multiprocessing.shared_memory`,
+whose imports (multiprocessing, secrets, hashlib, pickle, socket) cost a process ~25 ms of
+its start for nothing it uses. It is
 created mode 0600 (its creator's alone), or 0660 with the group the system declares
 (`operators.segment_group`). An attaching process checks the segment's mode and owner first
 (nothing open to every user, no group but the declared one, no other owner unless the group
@@ -13,17 +16,11 @@ Standard library only: copied verbatim into every generated package.
 
 from __future__ import annotations
 
+import mmap
 import os
-import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
 from types import ModuleType
-from typing import TYPE_CHECKING
 
 from .contract import HEADER, MAGIC, shared
-
-if TYPE_CHECKING:  # imported when a named block is used: it costs ~10 ms of start-up
-    from multiprocessing import shared_memory
 
 
 @shared
@@ -32,7 +29,7 @@ class BlockError(Exception):
 
 
 class Block:
-    """The shared block: a private in-process buffer, or a named `shared_memory` segment.
+    """The shared block: a private in-process buffer, or a named shared-memory `Segment`.
 
     `create=True` makes a new segment (refusing a name already taken) and initialises it
     from the layout; `create=False` attaches to one and checks its layout hash. Only the
@@ -41,18 +38,16 @@ class Block:
     def __init__(self, layout: ModuleType, name: str | None = None, create: bool = True) -> None:
         self.layout = layout
         self.name = name
-        self.shm: shared_memory.SharedMemory | None = None
+        self.shm: Segment | None = None
         self.owner = create and name is not None
         self.buf: memoryview
         if name is None:
             self.buf = memoryview(bytearray(layout.SIZE))
             layout.initialise(self.buf)
             return
-        from multiprocessing import shared_memory
-
         if create:
             try:
-                self.shm = _untracked(shared_memory.SharedMemory, name, layout.SIZE)
+                self.shm = Segment(name, layout.SIZE)
             except FileExistsError:
                 raise BlockError(
                     f"shared-memory segment {name!r} already exists: another run of "
@@ -60,7 +55,7 @@ class Block:
                 ) from None
         else:
             try:
-                self.shm = _untracked(shared_memory.SharedMemory, name, 0)
+                self.shm = Segment(name)
             except FileNotFoundError:
                 raise BlockError(
                     f"no shared-memory segment {name!r}: is the system running?"
@@ -70,7 +65,6 @@ class Block:
                     f"shared-memory segment {name!r} is empty: being created (try again), or "
                     f"left by a run that died before sizing it (remove /dev/shm/{name})"
                 ) from None
-        assert self.shm.buf is not None  # None only once closed
         self.buf = self.shm.buf
         if create:
             self._protect()
@@ -206,24 +200,10 @@ def user_name(uid: int) -> str:
 
 def unlink(name: str) -> bool:
     """Remove a named segment; False when it was already gone."""
-    from multiprocessing import shared_memory
-
     try:
-        segment = _untracked(shared_memory.SharedMemory, name, 0)
+        os.unlink(_path(name))
     except FileNotFoundError:
         return False
-    except ValueError:  # empty: its creator died before sizing it; remove the file itself
-        try:
-            os.remove(_path(name))
-        except FileNotFoundError:
-            return False
-        return True
-    segment.close()
-    with _no_tracker():
-        try:
-            segment.unlink()
-        except FileNotFoundError:
-            return False
     return True
 
 
@@ -232,35 +212,35 @@ def exists(name: str) -> bool:
     return os.path.exists(_path(name))
 
 
-def _untracked(
-    factory: type[shared_memory.SharedMemory], name: str, size: int
-) -> shared_memory.SharedMemory:
-    """Create (size > 0) or attach to (size 0) a segment without the resource tracker.
+class Segment:
+    """A named POSIX shared-memory segment, mapped: `size` > 0 creates it (mode 0600,
+    refusing a name already taken: FileExistsError), 0 attaches to it (FileNotFoundError
+    when there is none; ValueError when it is empty, its creator not having sized it yet).
+    What `shm_open(3)` does on Linux: a file in /dev/shm, opened without following a
+    symbolic link. `close` unmaps it; only `unlink` removes it."""
 
-    Python's tracker unlinks every segment a process created or attached to when that
-    process ends, under the processes still using it. Python 3.13 has `track=False`; before
-    it, registration is suppressed for the duration of the call.
-    """
-    create = size > 0
-    if sys.version_info >= (3, 13):
-        return factory(name=name, create=create, size=size, track=False)  # type: ignore[call-arg,unused-ignore]
-    with _no_tracker():
-        return factory(name=name, create=create, size=size)
+    def __init__(self, name: str, size: int = 0) -> None:
+        self.name = name
+        flags = os.O_RDWR | os.O_NOFOLLOW | os.O_CLOEXEC
+        fd = os.open(_path(name), flags | (os.O_CREAT | os.O_EXCL if size else 0), 0o600)
+        try:
+            if size:
+                try:
+                    os.ftruncate(fd, size)
+                except OSError:  # no room: the name is not left behind, empty
+                    os.unlink(_path(name))
+                    raise
+            else:
+                size = os.fstat(fd).st_size
+                if size == 0:
+                    raise ValueError(f"shared-memory segment {name!r} is empty")
+            self.size = size
+            self._map = mmap.mmap(fd, size)
+        finally:
+            os.close(fd)  # the mapping stays
+        self.buf = memoryview(self._map)
 
-
-@contextmanager
-def _no_tracker() -> Iterator[None]:
-    """Keep Python's resource tracker from registering or unregistering a segment."""
-    from multiprocessing import resource_tracker
-
-    register, unregister = resource_tracker.register, resource_tracker.unregister
-    resource_tracker.register = resource_tracker.unregister = _nothing
-    try:
-        yield
-    finally:
-        resource_tracker.register = register
-        resource_tracker.unregister = unregister
-
-
-def _nothing(*args: object, **kwargs: object) -> None:
-    return None
+    def close(self) -> None:
+        """Unmap the segment (the file stays): the view is released first."""
+        self.buf.release()
+        self._map.close()

@@ -10,7 +10,6 @@ Standard library only: copied verbatim into every generated package.
 
 from __future__ import annotations
 
-import ctypes
 import gc
 import os
 from collections.abc import Callable, Mapping
@@ -80,6 +79,8 @@ def _fifo(priority: object) -> str:
 def _mlockall(wanted: object) -> str:
     if not wanted:
         return ""
+    import ctypes  # here: only a process that asks for it pays its import
+
     try:
         libc = ctypes.CDLL(None, use_errno=True)
         if libc.mlockall(MCL_CURRENT | MCL_FUTURE) != 0:

@@ -163,7 +163,7 @@ def _moved(diagnostic: Diagnostic, trial: Path, real: Path) -> Diagnostic:
         rel = Path(diagnostic.span.file).resolve().relative_to(trial.resolve())
     except ValueError:
         return diagnostic
-    return replace(diagnostic, span=replace(diagnostic.span, file=(real / rel).as_posix()))
+    return replace(diagnostic, span=diagnostic.span._replace(file=(real / rel).as_posix()))
 
 
 def _load(text: str, path: Path) -> Any:

@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from struct import Struct
 from types import ModuleType
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from .block import Block
 from .contract import (
@@ -44,12 +44,14 @@ from .contract import (
     silent,
     struct_format,
 )
-from .io_cycle import attach as attach_io
 from .override import latch_safe
 from .realtime import apply as apply_realtime
 from .ring import Nudge, Receiver, give, stop_on_control
 from .state_time import PAUSED, StateClock, clocks
 from .transport import Local, Transport
+
+if TYPE_CHECKING:  # io_cycle is imported by a process that has I/O: ~5 ms of the others' start
+    from .io_cycle import IoModule
 
 LOST_SUBORDINATE = 1  # error_num of a supervisor whose subordinate's process was lost
 
@@ -225,7 +227,11 @@ class Process:
         self.lost: set[str] = set()
         self.tripped: dict[str, int] = {}  # each other process's watchdog trips, last seen
         self.reactions = {name: reaction(layout, name) for name in layout.PROCESSES}
-        self.io = attach_io(self)  # None unless the system declares I/O this process touches
+        self.io: IoModule | None = None  # unless the system declares I/O this process touches
+        if getattr(layout, "IO_DEVICES", None):
+            from .io_cycle import attach as attach_io
+
+            self.io = attach_io(self)
         if self.io is not None:
             self.io_steps = ((self.io.before,), (self.io.after,))
             self._choose(self.simulated)

@@ -63,7 +63,32 @@ def equal(one: object, two: object) -> bool:
 
 
 def _unique(items: list[object]) -> bool:
-    return all(not equal(a, b) for i, a in enumerate(items) for b in items[i + 1 :])
+    """No two items `equal`: by their hashable keys (linear: a system's module list grows
+    with the system); pairwise when a NaN (equal to nothing, itself too) or a value Python
+    cannot hash makes keys unfit."""
+    try:
+        return len({_key(item) for item in items}) == len(items)
+    except (_NotANumber, TypeError):  # TypeError: a value Python cannot hash
+        return all(not equal(a, b) for i, a in enumerate(items) for b in items[i + 1 :])
+
+
+class _NotANumber(Exception):
+    pass
+
+
+def _key(value: object) -> object:
+    """A hashable key equal for two values just when they are `equal`."""
+    if isinstance(value, bool):
+        return ("bool", value)
+    if isinstance(value, str):
+        return ("str", value)
+    if isinstance(value, dict):
+        return ("object", frozenset((k, _key(v)) for k, v in value.items()))
+    if isinstance(value, list):
+        return ("array", tuple(_key(v) for v in value))
+    if isinstance(value, float) and value != value:
+        raise _NotANumber
+    return ("other", value)  # numbers (1 and 1.0 alike), None
 
 
 class _Compiler:

@@ -20,14 +20,13 @@ import importlib
 import os
 import select
 import signal
-import subprocess
 import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from types import ModuleType
-from typing import Any, NoReturn, Self
+from typing import TYPE_CHECKING, Any, NoReturn, Self
 
 from ..block import Block, BlockError
 from ..contract import (
@@ -45,7 +44,6 @@ from ..contract import (
     periodicity_line,
     shared,
 )
-from ..io_cycle import relocated
 from ..loop import (
     DONE_REPLY,
     READY,
@@ -75,7 +73,10 @@ from .command import (
     suggest,
     write_command,
 )
-from .ctl import Access, CtlError
+
+if TYPE_CHECKING:  # imported where the launcher starts processes: ~5 ms a process's start
+    import subprocess
+
 from .startup import (
     FAILURES,
     START_FAILED,
@@ -100,17 +101,13 @@ class System:
 
     package: str
     layout: ModuleType
-    plans: dict[str, ProcessPlan]
+    plans: Mapping[str, ProcessPlan]
     path: tuple[str, ...] = ()  # where the processes find the package and its hooks
 
     @classmethod
     def load(cls, package: str) -> System:
         layout = importlib.import_module(f"{package}.layout")
-        plans = {
-            name: importlib.import_module(f"{package}.main_{name}").PLAN
-            for name in layout.PROCESSES
-        }
-        return cls(package, layout, plans)
+        return cls(package, layout, Plans(package, tuple(layout.PROCESSES)))
 
     @property
     def default_segment(self) -> str:
@@ -124,6 +121,32 @@ class System:
         for name, plan in self.plans.items():
             found.append((name, 0, len(plan.modules) - 1, True))
         return found
+
+
+class Plans(Mapping[str, ProcessPlan]):
+    """Each process's plan by name, its module (`main_<process>`, which imports the
+    process's controllers and their hooks) imported when the plan is first asked for: a
+    process started alone imports its own modules only, not every process's."""
+
+    def __init__(self, package: str, names: tuple[str, ...]) -> None:
+        self.package, self.names, self.loaded = package, names, dict[str, ProcessPlan]()
+
+    def __getitem__(self, name: str) -> ProcessPlan:
+        if name not in self.loaded:
+            if name not in self.names:
+                raise KeyError(name)
+            plan: ProcessPlan = importlib.import_module(f"{self.package}.main_{name}").PLAN
+            self.loaded[name] = plan
+        return self.loaded[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.names)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.names
 
 
 # ---------------------------------------------------------------- one process
@@ -473,6 +496,8 @@ class Launcher:
             time.sleep(0.01)
 
     def _spawn(self, name: str, attach: bool) -> subprocess.Popen[bytes]:
+        import subprocess
+
         self.trips[name] = 0  # a new process has tripped nothing yet
         command = [self.python, "-m", self.system.package, name, "--shm", self.segment, "--child"]
         if self.transport_name == "zenoh":  # its own block, a peer of the launcher's node
@@ -618,6 +643,8 @@ class Launcher:
             _close_stdin(child.popen)
             if child.popen.poll() is None:
                 child.popen.terminate()
+        import subprocess
+
         deadline = time.monotonic() + STOP_GRACE
         for child in self.children.values():
             try:
@@ -824,6 +851,8 @@ def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[
 def stopped_answering(child: Child) -> str:
     """Why a lockstep process gave no answer: the failure its exit code says (a hook, a
     module: its own line is above), else that it died."""
+    import subprocess
+
     try:
         code = child.popen.wait(timeout=2.0)
     except subprocess.TimeoutExpired:
@@ -951,6 +980,8 @@ def check_role(system: System, args: argparse.Namespace) -> int:
     --send its command access; 0, or the refusal's exit code after its one line."""
     if args.role is None:
         return 0
+    from .ctl import Access, CtlError  # the operator's console: only for a role
+
     try:
         access = Access(system.layout, args.role)
         if args.send is not None:
@@ -1106,6 +1137,8 @@ def _check_settings(system: System, args: argparse.Namespace) -> None:
         raise ValueError(segment_problem(args.shm))
     parse_settings(system.layout, args.set)
     for device in getattr(system.layout, "IO_DEVICES", {}).values():
+        from ..io_cycle import relocated  # only a system with I/O imports it
+
         relocated(device)  # RCSGEN_IO_<DEVICE>, if set, is an address it can use
 
 
@@ -1114,7 +1147,10 @@ def _check_run(system: System, args: argparse.Namespace) -> None:
     values of the last three put in `args`)."""
     if args.cycles is not None and args.cycles < 0:
         raise ValueError("--cycles must be 0 or more")
-    switchable = {m for plan in system.plans.values() for m in plan.stand_ins}
+    # Only when asked: it imports every process's plan (and with it, its controllers).
+    switchable = (
+        {m for plan in system.plans.values() for m in plan.stand_ins} if args.simulate else set()
+    )
     unknown = sorted(set(args.simulate) - switchable)
     if unknown:
         raise ValueError(f"no stand-in for {unknown}; these have one: {sorted(switchable)}")
@@ -1144,10 +1180,26 @@ def _check_transport(args: argparse.Namespace) -> None:
 
 
 class _OneLineParser(argparse.ArgumentParser):
-    """argparse, but a usage mistake is one line on stderr, exit 2."""
+    """argparse, but a usage mistake is one line on stderr, exit 2; its help as wide as the
+    terminal, found without `shutil` (which argparse would import: ~4 ms a process's start)."""
+
+    def __init__(self, **options: Any) -> None:
+        super().__init__(**options, formatter_class=_help_formatter)
 
     def error(self, message: str) -> NoReturn:
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _help_formatter(prog: str) -> argparse.HelpFormatter:
+    """argparse's formatter at the width `shutil.get_terminal_size` would give it."""
+    try:
+        width = int(os.environ["COLUMNS"])
+    except (KeyError, ValueError):
+        try:
+            width = os.get_terminal_size(sys.__stdout__.fileno()).columns  # type: ignore[union-attr]
+        except (AttributeError, ValueError, OSError):
+            width = 80
+    return argparse.HelpFormatter(prog, width=max(width, 1) - 2)
 
 
 def deployed(system: System, args: argparse.Namespace) -> Any:

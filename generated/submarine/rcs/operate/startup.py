@@ -16,8 +16,6 @@ from __future__ import annotations
 import re
 import sys
 from collections.abc import Mapping, Sequence
-from pathlib import Path
-from traceback import walk_tb
 from types import ModuleType
 
 from ..contract import HookError
@@ -111,6 +109,9 @@ def report_failure(process: str, error: BaseException, package: str) -> int:
 
 def failed_module(error: BaseException, package: str) -> str | None:
     """The generated module of `package` the innermost frame of the traceback is in."""
+    from pathlib import Path  # here: a process that never fails does not import them
+    from traceback import walk_tb
+
     found = None
     for frame, _ in walk_tb(error.__traceback__):
         path = Path(frame.f_code.co_filename)
