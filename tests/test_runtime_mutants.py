@@ -29,6 +29,7 @@ from support.running import segment_names
 from rcsgen.tools.harness import Harness, generate, import_package
 
 DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
+MINER = Path(__file__).resolve().parent.parent / "specs" / "miner"
 
 
 segment_name = segment_names("mut")
@@ -152,6 +153,61 @@ def test_a_command_from_another_process_is_read_under_its_seqlock(package: Modul
     record.write(h.buf, command_num=2, command=power, arg_level=0.9)  # a whole write
     h.cycle()
     assert (h.status("arm").number, h.world["arm_power"]) == (2, 0.9)
+
+
+class Recorded:
+    """A struct whose every `pack_into` is followed by a snapshot of the whole run it
+    writes (each field's sequence word and value, as a reader would unpack them)."""
+
+    def __init__(self, struct: Any, buf: memoryview, at: int) -> None:
+        self.struct, self.buf, self.at = struct, buf, at
+        self.snapshots: list[tuple[Any, ...]] = []
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.struct, name)
+
+    def pack_into(self, buf: memoryview, offset: int, *values: Any) -> None:
+        if not self.snapshots:
+            self.snapshots.append(self.struct.unpack_from(self.buf, self.at))
+        self.struct.pack_into(buf, offset, *values)
+        self.snapshots.append(self.struct.unpack_from(self.buf, self.at))
+
+
+def test_a_world_write_of_adjacent_fields_changes_no_value_while_its_word_is_even(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The miner's pss writes three adjacent world fields (pose_x, pose_y, heading), each
+    with its sequence word, in three stores of the whole run (every word odd, the values,
+    every word even): after each store, a field whose word is even holds the value it held
+    under that word before (what a reader's seqlock takes as one write), and the values
+    written are the module's."""
+    with Harness.build(MINER, "pc1") as h:
+        pss = importlib.import_module(f"{h.package.__name__}.pss")
+        recorded = Recorded(pss.WORLD_OUT_1, h.buf, pss.WORLD_OUT_1_AT)
+        monkeypatch.setattr(pss, "WORLD_OUT_1", recorded)
+        seen: dict[tuple[int, int], Any] = {}  # (field, even word) -> its value
+        for cycle in range(5):
+            h.world.update({"true_x": 1.0 + cycle, "true_y": 2.0 - cycle, "true_heading": 0.1 * cycle})
+            recorded.snapshots.clear()
+            h.step("pss")
+            assert len(recorded.snapshots) == 4, "three stores of the run a cycle"
+            for before, after in zip(recorded.snapshots, recorded.snapshots[1:]):
+                for field in range(3):
+                    word, value = after[2 * field], after[2 * field + 1]
+                    if word % 2 == 0:
+                        assert seen.setdefault((field, word), value) == value, (
+                            f"cycle {cycle}: field {field} changed under even word {word}"
+                        )
+                    if value != before[2 * field + 1]:  # changed in this store: odd around it
+                        assert before[2 * field] % 2 and word % 2, (
+                            f"cycle {cycle}: field {field} changed in the store that made its "
+                            f"word {before[2 * field]} -> {word}"
+                        )
+            last = recorded.snapshots[-1]
+            assert all(last[2 * f] % 2 == 0 for f in range(3)), "every word even at the end"
+            world = h.world
+            assert (last[1], last[3], last[5]) == (world["pose_x"], world["pose_y"], world["heading"])
+            assert abs(world["pose_x"] - (1.0 + cycle)) < 0.01, "the noisy true pose"
 
 
 # ---------------------------------------------------------------- the watchdog
