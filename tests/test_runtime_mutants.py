@@ -187,11 +187,13 @@ def test_a_world_write_of_adjacent_fields_changes_no_value_while_its_word_is_eve
         monkeypatch.setattr(pss, "WORLD_OUT_1", recorded)
         seen: dict[tuple[int, int], Any] = {}  # (field, even word) -> its value
         for cycle in range(5):
-            h.world.update({"true_x": 1.0 + cycle, "true_y": 2.0 - cycle, "true_heading": 0.1 * cycle})
+            h.world.update(
+                {"true_x": 1.0 + cycle, "true_y": 2.0 - cycle, "true_heading": 0.1 * cycle}
+            )
             recorded.snapshots.clear()
             h.step("pss")
             assert len(recorded.snapshots) == 4, "three stores of the run a cycle"
-            for before, after in zip(recorded.snapshots, recorded.snapshots[1:]):
+            for before, after in zip(recorded.snapshots, recorded.snapshots[1:], strict=False):
                 for field in range(3):
                     word, value = after[2 * field], after[2 * field + 1]
                     if word % 2 == 0:
@@ -206,7 +208,11 @@ def test_a_world_write_of_adjacent_fields_changes_no_value_while_its_word_is_eve
             last = recorded.snapshots[-1]
             assert all(last[2 * f] % 2 == 0 for f in range(3)), "every word even at the end"
             world = h.world
-            assert (last[1], last[3], last[5]) == (world["pose_x"], world["pose_y"], world["heading"])
+            assert (last[1], last[3], last[5]) == (
+                world["pose_x"],
+                world["pose_y"],
+                world["heading"],
+            )
             assert abs(world["pose_x"] - (1.0 + cycle)) < 0.01, "the noisy true pose"
 
 

@@ -650,7 +650,7 @@ def result_fits(kinds: str) -> Callable[[Any], bool]:
     def fits(result: Any) -> bool:
         if type(result) is not tuple or len(result) != count:
             return False
-        for is_float, test, value in zip(floats, tests, result):  # the lengths are equal
+        for is_float, test, value in zip(floats, tests, result, strict=True):
             if is_float and type(value) is float:
                 if not low <= value <= high:  # inf, -inf or nan
                     return False
