@@ -155,59 +155,72 @@ def test_a_command_from_another_process_is_read_under_its_seqlock(package: Modul
     assert (h.status("arm").number, h.world["arm_power"]) == (2, 0.9)
 
 
-class Recorded:
-    """A struct whose every `pack_into` is followed by a snapshot of the whole run it
-    writes (each field's sequence word and value, as a reader would unpack them)."""
+class Stepped:
+    """A struct whose `pack_into` stores as CPython's does, one step at a time: it first
+    fills its whole span with zeros, then stores the values in address order (8-byte words
+    here: sequence words and floats). After each 8-byte store the run of world fields at
+    `at` is recorded (each field's sequence word and value, as a reader would see them)."""
 
-    def __init__(self, struct: Any, buf: memoryview, at: int) -> None:
-        self.struct, self.buf, self.at = struct, buf, at
-        self.snapshots: list[tuple[Any, ...]] = []
+    def __init__(self, struct: Any, run: Any, buf: memoryview, at: int, seen: list[Any]) -> None:
+        self.struct, self.run, self.buf, self.at, self.seen = struct, run, buf, at, seen
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.struct, name)
 
     def pack_into(self, buf: memoryview, offset: int, *values: Any) -> None:
-        if not self.snapshots:
-            self.snapshots.append(self.struct.unpack_from(self.buf, self.at))
-        self.struct.pack_into(buf, offset, *values)
-        self.snapshots.append(self.struct.unpack_from(self.buf, self.at))
+        image = bytearray(self.struct.size)
+        self.struct.pack_into(image, 0, *values)
+        steps = [bytes(8)] * (len(image) // 8) + [
+            bytes(image[i : i + 8]) for i in range(0, len(image), 8)
+        ]
+        for n, chunk in enumerate(steps):
+            at = offset + 8 * (n % (len(image) // 8))
+            buf[at : at + 8] = chunk
+            if self.at <= at < self.at + self.run.size:
+                self.seen.append(self.run.unpack_from(self.buf, self.at))
+
+
+def whole(word: int) -> bool:
+    """What a reader's seqlock accepts: an even word, not 0."""
+    return word != 0 and word % 2 == 0
 
 
 def test_a_world_write_of_adjacent_fields_changes_no_value_while_its_word_is_even(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """The miner's pss writes three adjacent world fields (pose_x, pose_y, heading), each
-    with its sequence word, in three stores of the whole run (every word odd, the values,
-    every word even): after each store, a field whose word is even holds the value it held
-    under that word before (what a reader's seqlock takes as one write), and the values
-    written are the module's."""
+    with its sequence word. Its stores are stepped as CPython makes them (a span zero-filled,
+    then each 8-byte word in address order): after every step, a field whose word is whole
+    (even, not 0) holds the value it held under that word before, a value changes only in
+    a step with its word not whole before and after, and the values written are pss's."""
     with Harness.build(MINER, "pc1") as h:
         pss = importlib.import_module(f"{h.package.__name__}.pss")
-        recorded = Recorded(pss.WORLD_OUT_1, h.buf, pss.WORLD_OUT_1_AT)
-        monkeypatch.setattr(pss, "WORLD_OUT_1", recorded)
-        seen: dict[tuple[int, int], Any] = {}  # (field, even word) -> its value
+        run, at, seen = pss.WORLD_OUT_1, pss.WORLD_OUT_1_AT, []
+        monkeypatch.setattr(pss, "WORLD_OUT_1", Stepped(run, run, h.buf, at, seen))
+        monkeypatch.setattr(pss, "SEQ", Stepped(pss.SEQ, run, h.buf, at, seen))
+        under: dict[tuple[int, int], Any] = {}  # (field, whole word) -> its value
         for cycle in range(5):
             h.world.update(
                 {"true_x": 1.0 + cycle, "true_y": 2.0 - cycle, "true_heading": 0.1 * cycle}
             )
-            recorded.snapshots.clear()
+            seen[:] = [run.unpack_from(h.buf, at)]
             h.step("pss")
-            assert len(recorded.snapshots) == 4, "three stores of the run a cycle"
-            for before, after in zip(recorded.snapshots, recorded.snapshots[1:], strict=False):
+            assert len(seen) > 12, "the run's words and values stored, step by step"
+            for before, after in zip(seen, seen[1:], strict=False):
                 for field in range(3):
                     word, value = after[2 * field], after[2 * field + 1]
-                    if word % 2 == 0:
-                        assert seen.setdefault((field, word), value) == value, (
-                            f"cycle {cycle}: field {field} changed under even word {word}"
+                    if whole(word):
+                        assert under.setdefault((field, word), value) == value, (
+                            f"cycle {cycle}: field {field} reads {value} under word {word}, "
+                            f"which it read as {under[field, word]}"
                         )
-                    if value != before[2 * field + 1]:  # changed in this store: odd around it
-                        assert before[2 * field] % 2 and word % 2, (
-                            f"cycle {cycle}: field {field} changed in the store that made its "
-                            f"word {before[2 * field]} -> {word}"
+                    if value != before[2 * field + 1]:  # changed in this step
+                        assert not whole(before[2 * field]) and not whole(word), (
+                            f"cycle {cycle}: field {field} changed while its word was "
+                            f"{before[2 * field]} -> {word}"
                         )
-            last = recorded.snapshots[-1]
-            assert all(last[2 * f] % 2 == 0 for f in range(3)), "every word even at the end"
-            world = h.world
+            last, world = seen[-1], h.world
+            assert all(whole(last[2 * f]) for f in range(3)), "every word whole at the end"
             assert (last[1], last[3], last[5]) == (
                 world["pose_x"],
                 world["pose_y"],

@@ -243,8 +243,8 @@ class MineController:
                 out = held(buf, WORLD_HELD_2, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
-                # every word odd (the values as they are), the new values, every word even (the
-                # values as just written): no value changes while its word is even
+                # every word odd at once (the values as they are), then the new values; each word
+                # even again on its own (a pack_into zero-fills its span first: never with a word)
                 WORLD_OUT_2.pack_into(
                     buf,
                     WORLD_OUT_2_AT,
@@ -269,18 +269,10 @@ class MineController:
                     s[3] | 1,
                     out[3],
                 )
-                WORLD_OUT_2.pack_into(
-                    buf,
-                    WORLD_OUT_2_AT,
-                    (s[0] | 1) + 1,
-                    out[0],
-                    (s[1] | 1) + 1,
-                    out[1],
-                    (s[2] | 1) + 1,
-                    out[2],
-                    (s[3] | 1) + 1,
-                    out[3],
-                )
+                SEQ.pack_into(buf, WORLD_IN_COAL_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_FACE_X_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_DEPTH_CUT_AT, (s[2] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[3] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)

@@ -206,8 +206,8 @@ class AtmosphereController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                # every word odd (the values as they are), the new values, every word even (the
-                # values as just written): no value changes while its word is even
+                # every word odd at once (the values as they are), then the new values; each word
+                # even again on its own (a pack_into zero-fills its span first: never with a word)
                 WORLD_OUT_1.pack_into(
                     buf,
                     WORLD_OUT_1_AT,
@@ -232,18 +232,10 @@ class AtmosphereController:
                     s[3] | 1,
                     out[3],
                 )
-                WORLD_OUT_1.pack_into(
-                    buf,
-                    WORLD_OUT_1_AT,
-                    (s[0] | 1) + 1,
-                    out[0],
-                    (s[1] | 1) + 1,
-                    out[1],
-                    (s[2] | 1) + 1,
-                    out[2],
-                    (s[3] | 1) + 1,
-                    out[3],
-                )
+                SEQ.pack_into(buf, WORLD_FIRE_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SMOKE_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_O2_PCT_AT, (s[2] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_CO2_PCT_AT, (s[3] | 1) + 1)
             out = (self.world_co_ppm,)
             now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value

@@ -171,13 +171,12 @@ class SeaController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                # every word odd (the values as they are), the new values, every word even (the
-                # values as just written): no value changes while its word is even
+                # every word odd at once (the values as they are), then the new values; each word
+                # even again on its own (a pack_into zero-fills its span first: never with a word)
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, now[0], s[1] | 1, now[1])
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-                WORLD_OUT_1.pack_into(
-                    buf, WORLD_OUT_1_AT, (s[0] | 1) + 1, out[0], (s[1] | 1) + 1, out[1]
-                )
+                SEQ.pack_into(buf, WORLD_BELOW_KEEL_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_MIN_BELOW_KEEL_AT, (s[1] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)

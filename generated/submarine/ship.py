@@ -231,8 +231,8 @@ class ShipController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                # every word odd (the values as they are), the new values, every word even (the
-                # values as just written): no value changes while its word is even
+                # every word odd at once (the values as they are), then the new values; each word
+                # even again on its own (a pack_into zero-fills its span first: never with a word)
                 WORLD_OUT_1.pack_into(
                     buf,
                     WORLD_OUT_1_AT,
@@ -265,22 +265,12 @@ class ShipController:
                     s[5] | 1,
                     out[5],
                 )
-                WORLD_OUT_1.pack_into(
-                    buf,
-                    WORLD_OUT_1_AT,
-                    (s[0] | 1) + 1,
-                    out[0],
-                    (s[1] | 1) + 1,
-                    out[1],
-                    (s[2] | 1) + 1,
-                    out[2],
-                    (s[3] | 1) + 1,
-                    out[3],
-                    (s[4] | 1) + 1,
-                    out[4],
-                    (s[5] | 1) + 1,
-                    out[5],
-                )
+                SEQ.pack_into(buf, WORLD_POS_X_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_POS_Y_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_HEADING_AT, (s[2] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SPEED_AT, (s[3] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_DEPTH_AT, (s[4] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_BUBBLE_AT, (s[5] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)

@@ -276,8 +276,8 @@ class SonarController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                # every word odd (the values as they are), the new values, every word even (the
-                # values as just written): no value changes while its word is even
+                # every word odd at once (the values as they are), then the new values; each word
+                # even again on its own (a pack_into zero-fills its span first: never with a word)
                 WORLD_OUT_1.pack_into(
                     buf,
                     WORLD_OUT_1_AT,
@@ -350,42 +350,22 @@ class SonarController:
                     s[15] | 1,
                     out[15],
                 )
-                WORLD_OUT_1.pack_into(
-                    buf,
-                    WORLD_OUT_1_AT,
-                    (s[0] | 1) + 1,
-                    out[0],
-                    (s[1] | 1) + 1,
-                    out[1],
-                    (s[2] | 1) + 1,
-                    out[2],
-                    (s[3] | 1) + 1,
-                    out[3],
-                    (s[4] | 1) + 1,
-                    out[4],
-                    (s[5] | 1) + 1,
-                    out[5],
-                    (s[6] | 1) + 1,
-                    out[6],
-                    (s[7] | 1) + 1,
-                    out[7],
-                    (s[8] | 1) + 1,
-                    out[8],
-                    (s[9] | 1) + 1,
-                    out[9],
-                    (s[10] | 1) + 1,
-                    out[10],
-                    (s[11] | 1) + 1,
-                    out[11],
-                    (s[12] | 1) + 1,
-                    out[12],
-                    (s[13] | 1) + 1,
-                    out[13],
-                    (s[14] | 1) + 1,
-                    out[14],
-                    (s[15] | 1) + 1,
-                    out[15],
-                )
+                SEQ.pack_into(buf, WORLD_SONAR_00_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_01_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_02_AT, (s[2] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_03_AT, (s[3] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_04_AT, (s[4] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_05_AT, (s[5] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_06_AT, (s[6] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_07_AT, (s[7] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_08_AT, (s[8] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_09_AT, (s[9] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_10_AT, (s[10] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_11_AT, (s[11] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_12_AT, (s[12] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_SONAR_13_AT, (s[13] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_CLEARANCE_AT, (s[14] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_MIN_CLEARANCE_AT, (s[15] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
