@@ -477,12 +477,16 @@ def section_co(co: dict, ablation: list | None) -> list[str]:
             "The generated co.py with a change made to it, traces checked, timed like the "
             "table above in rounds of their own, with the baseline and the floor for the "
             "ratios. An R step undoes a change the template has adopted (what it buys is the "
-            "step's ratio to the generated row, inverted); P steps are proposals, each on "
-            "top of the ones above it. Here co runs with its subordinates in another process "
-            "(its reads of their status under the seqlock, which the same-process baseline and "
-            "floor do not pay): R1 undoes the read's fast path (one look, the test inline, the "
-            "retries out of line), R2 the rule gate on the world outputs (compared every cycle "
-            "instead).",
+            "step's ratio to the generated row, inverted); a G step drops a guarantee the "
+            "hand-written versions do not give (what it costs, likewise); P steps are "
+            "proposals, each on top of the ones above it. Here co runs with its subordinates "
+            "in another process (its reads of their status under the seqlock, which the "
+            "same-process baseline and floor do not pay): R1 undoes the read's fast path (one "
+            "look, the test inline, the retries out of line), R2 the rule gate on the world "
+            "outputs (compared every cycle instead), R3 the predicates printed inline; G2 "
+            "does not write the status again in the cycle after a rule fired (G1, the second "
+            "read of the command's sequence word, applies to the same-process build: "
+            "`ablation.py --same-process`).",
             "",
             "| step | change | ns/cycle | × the step before | × baseline | × floor |",
             "|---|---|--:|--:|--:|--:|",
@@ -491,17 +495,19 @@ def section_co(co: dict, ablation: list | None) -> list[str]:
             if not step["applied"]:
                 lines.append(
                     f"| {step['key']} | {step['change']} "
-                    "| not applicable: the template changed | | | |"
+                    "| not applicable: the template changed, or not in this build of co "
+                    "| | | |"
                 )
                 continue
-            # the step it is measured against: the generated code for an R step, else the
-            # last proposal (or the generated code) above it
+            # the step it is measured against: the generated code for an R or G step, else
+            # the last proposal (or the generated code) above it
+            undone = ("R", "G")
             earlier = [
                 other
                 for other in applied[: applied.index(step)]
-                if not other["key"].startswith("R") or step["key"].startswith("R")
+                if not other["key"].startswith(undone) or step["key"].startswith(undone)
             ]
-            if step["key"].startswith("R"):
+            if step["key"].startswith(undone):
                 earlier = [other for other in earlier if other["key"] == "generated"]
             before = earlier[-1] if earlier else None
             gain = (
