@@ -1322,16 +1322,19 @@ def _sections(text: str) -> list[tuple[str, str]]:
     return [(heading, "\n".join(body).rstrip() + "\n") for heading, body in found]
 
 
-def splice(old: str, new: str, when: datetime.datetime) -> str:
+def splice(old: str, new: str, when: datetime.datetime, load: str = "") -> str:
     """The report of a run of some parts (`--parts`) put into the full one: each of its
     sections replaces the old section of the same title (up to a colon), or goes before
-    the clean-up section; the machine, targets and clean-up stay the full run's."""
+    the clean-up section; the machine, targets and clean-up stay the full run's, so each
+    section says when it was measured and under what load (the full run's may differ)."""
 
     def title(heading: str) -> str:
         return heading.split(":")[0]
 
+    under = f", {load}" if load else ""
     fresh = {
-        title(h): body + f"\n(This section: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC.)\n"
+        title(h): body
+        + f"\n(This section: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC{under}.)\n"
         for h, body in _sections(new)
         if h and not h.startswith(KEPT)
     }
@@ -1435,8 +1438,9 @@ def main() -> int:
         lines += section_prove(results["prove"])
     lines += section_cleanup(results, problems)
     text = "\n".join(lines).rstrip() + "\n"
-    if args.saved is None and set(results) != set(PARTS) and args.out.is_file():
-        text = splice(args.out.read_text(), text, started_at)  # a subset: its sections only
+    if set(results) != set(PARTS) and args.out.is_file():  # a subset: its sections only
+        under = "" if args.saved else f"load average {load_before:.1f} before (1 min)"
+        text = splice(args.out.read_text(), text, started_at, under)
     args.out.write_text(text)
     print(f"wrote {args.out} in {time.perf_counter() - started:.0f} s", file=sys.stderr)
     return 1 if problems or (co and not co["traces_identical"]) else 0
