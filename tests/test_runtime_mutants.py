@@ -156,10 +156,12 @@ def test_a_command_from_another_process_is_read_under_its_seqlock(package: Modul
 
 
 class Stepped:
-    """A struct whose `pack_into` stores as CPython's does, one step at a time: it first
-    fills its whole span with zeros, then stores the values in address order (8-byte words
-    here: sequence words and floats). After each 8-byte store the run of world fields at
-    `at` is recorded (each field's sequence word and value, as a reader would see them)."""
+    """A struct whose `pack_into` stores as CPython's may reach another core: it first
+    fills its whole span with zeros (glibc's memset stores overlapping vectors, the last
+    one first: here the span's 8-byte words from the last to the first), then stores the
+    values in address order (8-byte words here: sequence words and floats). After each
+    8-byte store the run of world fields at `at` is recorded (each field's sequence word
+    and value, as a reader would see them)."""
 
     def __init__(self, struct: Any, run: Any, buf: memoryview, at: int, seen: list[Any]) -> None:
         self.struct, self.run, self.buf, self.at, self.seen = struct, run, buf, at, seen
@@ -170,11 +172,11 @@ class Stepped:
     def pack_into(self, buf: memoryview, offset: int, *values: Any) -> None:
         image = bytearray(self.struct.size)
         self.struct.pack_into(image, 0, *values)
-        steps = [bytes(8)] * (len(image) // 8) + [
-            bytes(image[i : i + 8]) for i in range(0, len(image), 8)
-        ]
-        for n, chunk in enumerate(steps):
-            at = offset + 8 * (n % (len(image) // 8))
+        words = range(0, len(image), 8)
+        steps = [(i, bytes(8)) for i in reversed(words)]  # zero-filled, last word first
+        steps += [(i, bytes(image[i : i + 8])) for i in words]  # then stored in order
+        for i, chunk in steps:
+            at = offset + i
             buf[at : at + 8] = chunk
             if self.at <= at < self.at + self.run.size:
                 self.seen.append(self.run.unpack_from(self.buf, self.at))
@@ -189,10 +191,13 @@ def test_a_world_write_of_adjacent_fields_changes_no_value_while_its_word_is_eve
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """The miner's pss writes three adjacent world fields (pose_x, pose_y, heading), each
-    with its sequence word. Its stores are stepped as CPython makes them (a span zero-filled,
-    then each 8-byte word in address order): after every step, a field whose word is whole
-    (even, not 0) holds the value it held under that word before, a value changes only in
-    a step with its word not whole before and after, and the values written are pss's."""
+    with its sequence word. Its stores are stepped as they may reach another core (a span
+    zero-filled from its end, then each 8-byte word in address order): after every step,
+    a field whose word is whole (even, not 0) holds the value it held under that word
+    before, a value changes only in a step with its word not whole before and after, and
+    the values written are pss's. So each word is made odd on its own before any store
+    of the run: a store of the whole run with the words odd and the values as they are
+    would zero a value before its word."""
     with Harness.build(MINER, "pc1") as h:
         pss = importlib.import_module(f"{h.package.__name__}.pss")
         run, at, seen = pss.WORLD_OUT_1, pss.WORLD_OUT_1_AT, []

@@ -171,9 +171,10 @@ class CrSimController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                # every word odd at once (the values as they are), then the new values; each word
-                # even again on its own (a pack_into zero-fills its span first: never with a word)
-                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, now[0], s[1] | 1, now[1])
+                SEQ.pack_into(
+                    buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1
+                )  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[0] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)

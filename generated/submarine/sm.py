@@ -382,22 +382,13 @@ class SmController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                # every word odd at once (the values as they are), then the new values; each word
-                # even again on its own (a pack_into zero-fills its span first: never with a word)
-                WORLD_OUT_1.pack_into(
-                    buf,
-                    WORLD_OUT_1_AT,
-                    s[0] | 1,
-                    now[0],
-                    s[1] | 1,
-                    now[1],
-                    s[2] | 1,
-                    now[2],
-                    s[3] | 1,
-                    now[3],
-                    s[4] | 1,
-                    now[4],
-                )
+                SEQ.pack_into(buf, WORLD_SPEED_CMD_AT, s[0] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_DEPTH_CMD_AT, s[1] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_HAVEN_X_AT, s[2] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_HAVEN_Y_AT, s[3] | 1)  # odd before the value changes
+                SEQ.pack_into(
+                    buf, WORLD_PERISCOPE_RAISED_AT, s[4] | 1
+                )  # odd before the value changes
                 WORLD_OUT_1.pack_into(
                     buf,
                     WORLD_OUT_1_AT,

@@ -276,44 +276,24 @@ class SonarController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                # every word odd at once (the values as they are), then the new values; each word
-                # even again on its own (a pack_into zero-fills its span first: never with a word)
-                WORLD_OUT_1.pack_into(
-                    buf,
-                    WORLD_OUT_1_AT,
-                    s[0] | 1,
-                    now[0],
-                    s[1] | 1,
-                    now[1],
-                    s[2] | 1,
-                    now[2],
-                    s[3] | 1,
-                    now[3],
-                    s[4] | 1,
-                    now[4],
-                    s[5] | 1,
-                    now[5],
-                    s[6] | 1,
-                    now[6],
-                    s[7] | 1,
-                    now[7],
-                    s[8] | 1,
-                    now[8],
-                    s[9] | 1,
-                    now[9],
-                    s[10] | 1,
-                    now[10],
-                    s[11] | 1,
-                    now[11],
-                    s[12] | 1,
-                    now[12],
-                    s[13] | 1,
-                    now[13],
-                    s[14] | 1,
-                    now[14],
-                    s[15] | 1,
-                    now[15],
-                )
+                SEQ.pack_into(buf, WORLD_SONAR_00_AT, s[0] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_01_AT, s[1] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_02_AT, s[2] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_03_AT, s[3] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_04_AT, s[4] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_05_AT, s[5] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_06_AT, s[6] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_07_AT, s[7] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_08_AT, s[8] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_09_AT, s[9] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_10_AT, s[10] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_11_AT, s[11] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_12_AT, s[12] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_SONAR_13_AT, s[13] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_CLEARANCE_AT, s[14] | 1)  # odd before the value changes
+                SEQ.pack_into(
+                    buf, WORLD_MIN_CLEARANCE_AT, s[15] | 1
+                )  # odd before the value changes
                 WORLD_OUT_1.pack_into(
                     buf,
                     WORLD_OUT_1_AT,
