@@ -491,12 +491,16 @@ def section_co(co: dict, ablation: list | None) -> list[str]:
             "The generated co.py with a change made to it, traces checked, timed like the "
             "table above in rounds of their own, with the baseline and the floor for the "
             "ratios. An R step undoes a change the template has adopted (what it buys is the "
-            "step's ratio to the generated row, inverted); P steps are proposals, each on "
-            "top of the ones above it. Here co runs with its subordinates in another process "
-            "(its reads of their status under the seqlock, which the same-process baseline and "
-            "floor do not pay): R1 undoes the read's fast path (one look, the test inline, the "
-            "retries out of line), R2 the rule gate on the world outputs (compared every cycle "
-            "instead).",
+            "step's ratio to the generated row, inverted); a G step drops a guarantee the "
+            "hand-written versions do not give (what it costs, likewise); P steps are "
+            "proposals, each on top of the ones above it. Here co runs with its subordinates "
+            "in another process (its reads of their status under the seqlock, which the "
+            "same-process baseline and floor do not pay): R1 undoes the read's fast path (one "
+            "look, the test inline, the retries out of line), R2 the rule gate on the world "
+            "outputs (compared every cycle instead), R3 the predicates printed inline; G2 "
+            "does not write the status again in the cycle after a rule fired (G1, the second "
+            "read of the command's sequence word, applies to the same-process build: "
+            "`ablation.py --same-process`).",
             "",
             "| step | change | ns/cycle | × the step before | × baseline | × floor |",
             "|---|---|--:|--:|--:|--:|",
@@ -505,17 +509,19 @@ def section_co(co: dict, ablation: list | None) -> list[str]:
             if not step["applied"]:
                 lines.append(
                     f"| {step['key']} | {step['change']} "
-                    "| not applicable: the template changed | | | |"
+                    "| not applicable: the template changed, or not in this build of co "
+                    "| | | |"
                 )
                 continue
-            # the step it is measured against: the generated code for an R step, else the
-            # last proposal (or the generated code) above it
+            # the step it is measured against: the generated code for an R or G step, else
+            # the last proposal (or the generated code) above it
+            undone = ("R", "G")
             earlier = [
                 other
                 for other in applied[: applied.index(step)]
-                if not other["key"].startswith("R") or step["key"].startswith("R")
+                if not other["key"].startswith(undone) or step["key"].startswith(undone)
             ]
-            if step["key"].startswith("R"):
+            if step["key"].startswith(undone):
                 earlier = [other for other in earlier if other["key"] == "generated"]
             before = earlier[-1] if earlier else None
             gain = (
@@ -1333,17 +1339,19 @@ def _sections(text: str) -> list[tuple[str, str]]:
     return [(heading, "\n".join(body).rstrip() + "\n") for heading, body in found]
 
 
-def splice(old: str, new: str, when: datetime.datetime, load: tuple[float, float]) -> str:
+def splice(old: str, new: str, when: datetime.datetime, load: tuple[float, float] | None) -> str:
     """The report of a run of some parts (`--parts`) put into the full one: each of its
     sections replaces the old section of the same title (up to a colon), or goes before
-    the clean-up section; the machine, targets and clean-up stay the full run's."""
+    the clean-up section; the machine, targets and clean-up stay the full run's, so each
+    section says when it was measured and under what load (the full run's may differ)."""
 
     def title(heading: str) -> str:
         return heading.split(":")[0]
 
+    under = f", load average {load[0]:.2f} before, {load[1]:.2f} after" if load else ""
     fresh = {
-        title(h): body + f"\n(This section: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC, "
-        f"load average {load[0]:.2f} before, {load[1]:.2f} after.)\n"
+        title(h): body
+        + f"\n(This section: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC{under}.)\n"
         for h, body in _sections(new)
         if h and not h.startswith(KEPT)
     }
@@ -1447,8 +1455,8 @@ def main() -> int:
         lines += section_prove(results["prove"])
     lines += section_cleanup(results, problems)
     text = "\n".join(lines).rstrip() + "\n"
-    if args.saved is None and set(results) != set(PARTS) and args.out.is_file():
-        text = splice(args.out.read_text(), text, started_at, load)  # a subset: its sections
+    if set(results) != set(PARTS) and args.out.is_file():  # a subset: its sections only
+        text = splice(args.out.read_text(), text, started_at, None if args.saved else load)
     args.out.write_text(text)
     print(f"wrote {args.out} in {time.perf_counter() - started:.0f} s", file=sys.stderr)
     return 1 if problems or (co and not co["traces_identical"]) else 0

@@ -649,3 +649,32 @@ def test_fold_follows_a_chain_of_predicates_and_gives_up_on_a_too_deep_one() -> 
     top = Call(BOOL, CallKind.PREDICATE, "p0")
     assert fold(top, {}, chain(MAX_DEPTH // 2)) is True
     assert fold(top, {}, chain(3 * MAX_DEPTH)) is None
+
+
+def test_predicates_given_to_the_printer_are_printed_where_they_are_called() -> None:
+    """A guard calling a predicate is printed with the predicate's expression in its place
+    (a unit in parentheses, as the call was; predicates it calls likewise); a predicate the
+    printer was not given stays a method call."""
+    from rcsgen.compiler.expressions import CallKind
+
+    loose = Compare(BOOL, Ref(FLOAT, RefKind.WORLD, "loose_coal"), (">",), (Const(FLOAT, 4.0),))
+    halted = Ref(BOOL, RefKind.WORLD, "halted")
+    bodies: dict[str, Expr] = {
+        "too_much": loose,
+        "stop": BoolOp(BOOL, "or", (Call(BOOL, CallKind.PREDICATE, "too_much"), halted)),
+    }
+    guard = BoolOp(
+        BOOL,
+        "and",
+        (
+            Unary(BOOL, "not", Call(BOOL, CallKind.PREDICATE, "stop")),
+            Ref(BOOL, RefKind.WORLD, "on"),
+        ),
+    )
+    assert to_python(guard, naming.attribute, bodies) == (
+        "not ((self.world_loose_coal > 4.0) or self.world_halted) and self.world_on"
+    )
+    assert to_python(guard, naming.attribute) == "not self.stop() and self.world_on"
+    assert to_python_conjunct(
+        Call(BOOL, CallKind.PREDICATE, "too_much"), naming.attribute, bodies
+    ) == ("(self.world_loose_coal > 4.0)")

@@ -29,6 +29,7 @@ from support.running import segment_names
 from rcsgen.tools.harness import Harness, generate, import_package
 
 DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
+MINER = Path(__file__).resolve().parent.parent / "specs" / "miner"
 
 
 segment_name = segment_names("mut")
@@ -152,6 +153,85 @@ def test_a_command_from_another_process_is_read_under_its_seqlock(package: Modul
     record.write(h.buf, command_num=2, command=power, arg_level=0.9)  # a whole write
     h.cycle()
     assert (h.status("arm").number, h.world["arm_power"]) == (2, 0.9)
+
+
+class Stepped:
+    """A struct whose `pack_into` stores as CPython's may reach another core: it first
+    fills its whole span with zeros (glibc's memset stores overlapping vectors, the last
+    one first: here the span's 8-byte words from the last to the first), then stores the
+    values in address order (8-byte words here: sequence words and floats). After each
+    8-byte store the run of world fields at `at` is recorded (each field's sequence word
+    and value, as a reader would see them)."""
+
+    def __init__(self, struct: Any, run: Any, buf: memoryview, at: int, seen: list[Any]) -> None:
+        self.struct, self.run, self.buf, self.at, self.seen = struct, run, buf, at, seen
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.struct, name)
+
+    def pack_into(self, buf: memoryview, offset: int, *values: Any) -> None:
+        image = bytearray(self.struct.size)
+        self.struct.pack_into(image, 0, *values)
+        words = range(0, len(image), 8)
+        steps = [(i, bytes(8)) for i in reversed(words)]  # zero-filled, last word first
+        steps += [(i, bytes(image[i : i + 8])) for i in words]  # then stored in order
+        for i, chunk in steps:
+            at = offset + i
+            buf[at : at + 8] = chunk
+            if self.at <= at < self.at + self.run.size:
+                self.seen.append(self.run.unpack_from(self.buf, self.at))
+
+
+def whole(word: int) -> bool:
+    """What a reader's seqlock accepts: an even word, not 0."""
+    return word != 0 and word % 2 == 0
+
+
+def test_a_world_write_of_adjacent_fields_changes_no_value_while_its_word_is_even(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The miner's pss writes three adjacent world fields (pose_x, pose_y, heading), each
+    with its sequence word. Its stores are stepped as they may reach another core (a span
+    zero-filled from its end, then each 8-byte word in address order): after every step,
+    a field whose word is whole (even, not 0) holds the value it held under that word
+    before, a value changes only in a step with its word not whole before and after, and
+    the values written are pss's. So each word is made odd on its own before any store
+    of the run: a store of the whole run with the words odd and the values as they are
+    would zero a value before its word."""
+    with Harness.build(MINER, "pc1") as h:
+        pss = importlib.import_module(f"{h.package.__name__}.pss")
+        run, at, seen = pss.WORLD_OUT_1, pss.WORLD_OUT_1_AT, []
+        monkeypatch.setattr(pss, "WORLD_OUT_1", Stepped(run, run, h.buf, at, seen))
+        monkeypatch.setattr(pss, "SEQ", Stepped(pss.SEQ, run, h.buf, at, seen))
+        under: dict[tuple[int, int], Any] = {}  # (field, whole word) -> its value
+        for cycle in range(5):
+            h.world.update(
+                {"true_x": 1.0 + cycle, "true_y": 2.0 - cycle, "true_heading": 0.1 * cycle}
+            )
+            seen[:] = [run.unpack_from(h.buf, at)]
+            h.step("pss")
+            assert len(seen) > 12, "the run's words and values stored, step by step"
+            for before, after in zip(seen, seen[1:], strict=False):
+                for field in range(3):
+                    word, value = after[2 * field], after[2 * field + 1]
+                    if whole(word):
+                        assert under.setdefault((field, word), value) == value, (
+                            f"cycle {cycle}: field {field} reads {value} under word {word}, "
+                            f"which it read as {under[field, word]}"
+                        )
+                    if value != before[2 * field + 1]:  # changed in this step
+                        assert not whole(before[2 * field]) and not whole(word), (
+                            f"cycle {cycle}: field {field} changed while its word was "
+                            f"{before[2 * field]} -> {word}"
+                        )
+            last, world = seen[-1], h.world
+            assert all(whole(last[2 * f]) for f in range(3)), "every word whole at the end"
+            assert (last[1], last[3], last[5]) == (
+                world["pose_x"],
+                world["pose_y"],
+                world["heading"],
+            )
+            assert abs(world["pose_x"] - (1.0 + cycle)) < 0.01, "the noisy true pose"
 
 
 # ---------------------------------------------------------------- the watchdog

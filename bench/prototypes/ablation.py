@@ -16,9 +16,14 @@ Proposals adopted in the templates are no longer listed as proposals: one read f
 inputs, one write for adjacent world fields, comparisons instead of max()/min() (148c872);
 run_cycle holding the four steps itself (44fa027), now their one copy; the seqlock read as
 one look with the test inline and the retries out of line (R1 undoes it); world outputs
-looked at only in a cycle in which a rule fired (R2 undoes it).
+looked at only in a cycle in which a rule fired (R2 undoes it); predicates printed inline
+in the guards that call them (R3 undoes it). G steps drop a guarantee the hand-written
+versions do not give, to show what it costs: G1 the second read of the command's sequence
+word (co's command comes from an operator in another process), G2 the status written
+again in the cycle after a rule fired (so that its `rule` shows only the cycle's rule).
+`--same-process` builds co with its subordinates in its process, as bench_co.py times it.
 
-    python bench/prototypes/ablation.py [--cycles N] [--rounds R] [--json PATH]
+    python bench/prototypes/ablation.py [--cycles N] [--rounds R] [--json PATH] [--same-process]
 """
 
 from __future__ import annotations
@@ -38,15 +43,49 @@ from common import summary, write_json  # noqa: E402
 PEERS = ["handwritten", "minimal"]  # timed in the same rounds, for the ratios
 
 # (key, what the template would do, [(old text, new text), ...] or a function of the source)
-# Keys starting with R undo an adopted change, to show what it buys; they apply to the
+# Keys starting with R undo an adopted change, to show what it buys; G drops a guarantee
+# the hand-written versions do not give, to show what it costs; both apply to the
 # generated code alone, and the proposals (P) go on from the generated code.
 STEPS = [
     ("R1", "the seqlock read as a loop: for/range, a tuple of the words, for/else", "loop"),
     ("R2", "world outputs compared with the block every cycle, a rule fired or not", "compare"),
     (
+        "G1",
+        "the command's sequence word not read again (a guarantee dropped: what it costs)",
+        "unchecked",
+    ),
+    (
+        "G2",
+        "the status not written again the cycle after a rule fired (a guarantee dropped)",
+        "norule",
+    ),
+    (
+        "R3",
+        "predicates called as methods from the guards that use them",
+        [
+            ("(self.world_loose_coal > LOOSE_COAL_LIMIT)", "self.too_much_loose_coal()"),
+            (
+                "elif self.world_loose_coal > LOOSE_COAL_LIMIT:",
+                "elif self.too_much_loose_coal():",
+            ),
+        ],
+    ),
+    (
         "P1",
-        "predicates inlined into the guards that use them (no method call per use)",
-        [("self.too_much_loose_coal()", "(self.world_loose_coal > LOOSE_COAL_LIMIT)")],
+        "the performance buffer packed from locals (no attribute read back)",
+        [
+            (
+                "        self.cycles += 1\n",
+                "        self.cycles = cycles = self.cycles + 1\n",
+            ),
+            (
+                "            seq,\n            self.last_cycle_ns,\n"
+                "            self.min_cycle_ns,\n            self.max_cycle_ns,\n"
+                "            self.cycles,\n",
+                "            seq,\n            last,\n            self.min_cycle_ns,\n"
+                "            self.max_cycle_ns,\n            cycles,\n",
+            ),
+        ],
     ),
 ]
 FAST_READ = re.compile(
@@ -95,6 +134,36 @@ def compare(source: str) -> str | None:
     return source[:start] + "".join(line[4:] + "\n" for line in block.splitlines()) + source[end:]
 
 
+UNCHECKED = re.compile(r"        if values\[0\] & 1 or not values\[0\] or SEQS.unpack_from.*:\n")
+
+
+def unchecked(source: str) -> str | None:
+    """The fast path's test without the second read of the sequence word (one input
+    buffer written by another process: the command's): only odd/zero is looked at."""
+    found = UNCHECKED.search(source)
+    if found is None:
+        return None
+    return (
+        source[: found.start()]
+        + "        if values[0] & 1 or not values[0]:\n"
+        + source[found.end() :]
+    )
+
+
+def norule(source: str) -> str | None:
+    """The rule that fired last cycle is forgotten without writing the status again: the
+    status keeps showing it until the next write (what recording the rule costs is that
+    write in the cycle after a rule fired)."""
+    clear = (
+        "        if self.rule:  # the rule that fired last cycle is not news any more\n"
+        "            self.rule = NO_RULE\n"
+        "            self.status_dirty = True\n"
+    )
+    if clear not in source:
+        return None
+    return source.replace(clear, "        self.rule = NO_RULE\n")
+
+
 def variants(generated: str) -> list[tuple[str, str, str | None]]:
     """(key, description, source or None if the edit no longer applies), cumulative."""
     source = generated.replace("from .layout import", "from miner.layout import")
@@ -103,12 +172,13 @@ def variants(generated: str) -> list[tuple[str, str, str | None]]:
     for key, description, edits in STEPS:
         changed: str | None = source
         if isinstance(edits, str):
-            changed = {"loop": loop, "compare": compare}[edits](source)
+            edit = {"loop": loop, "compare": compare, "unchecked": unchecked, "norule": norule}
+            changed = edit[edits](source)
         else:
             for old, new in edits:
                 changed = changed.replace(old, new) if changed and old in changed else None
         out.append((key, description, changed))
-        if not key.startswith("R"):
+        if key.startswith("P"):
             source = changed or source
     return out
 
@@ -127,11 +197,18 @@ def main() -> int:
     parser.add_argument("--cycles", type=int, default=bench_co.CYCLES)
     parser.add_argument("--rounds", type=int, default=bench_co.ROUNDS)
     parser.add_argument("--json", default=None)
+    parser.add_argument(
+        "--same-process",
+        action="store_true",
+        help="co with its subordinates in its process (as bench_co.py times it): only its "
+        "command is read under the seqlock",
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="rcsgen-bench-ablation-") as scratch:
         # co alone in its process: its subordinates' status and the world fields they
         # write come from another process, read under the seqlock (the full guarantee)
-        generated = bench_co.build_package(Path(scratch), cross_process=True).read_text()
+        cross = not args.same_process
+        generated = bench_co.build_package(Path(scratch), cross_process=cross).read_text()
         steps = variants(generated)
         makers = {}
         for key, _, source in steps:

@@ -648,13 +648,13 @@ class CoController:
                 self.cc_command = CC_SHEAR_CORRECT
                 self.cc_command_num += 1
 
-            elif self.too_much_loose_coal():
+            elif self.world_loose_coal > LOOSE_COAL_LIMIT:
                 # too much loose coal (conveyor tail not in position) pauses the shear
                 self.rule = 27  # SUMP_SHEAR_CUSP/S2/2
                 self.cc_command = CC_HALT
                 self.cc_command_num += 1
 
-            elif not self.too_much_loose_coal() and self.cc_command == CC_HALT:
+            elif not (self.world_loose_coal > LOOSE_COAL_LIMIT) and self.cc_command == CC_HALT:
                 # continue with the shear
                 self.rule = 28  # SUMP_SHEAR_CUSP/S2/3
                 self.cc_command = CC_SHEAR

@@ -166,6 +166,8 @@ class _ControllerLowering:
         self.checked, self.system, self.source = checked, system, source
         self.links = links  # module -> its link number in a cause (cause_modules, from 1)
         self.spec = checked.spec
+        # each predicate's expression, printed where a guard or a value calls it
+        self.inline = {p.name: p.tree for p in checked.predicates.values()}
         # reasons survive: a controller that declares reasons keeps the cause of its ERROR
         self.cause = bool(reason_codes(self.spec)) and not self.spec.is_operator
         runs_in = checked.buffers  # a stand-in runs in its controller's process
@@ -403,14 +405,14 @@ class _ControllerLowering:
         if not rule.unconditional and rule.guard is not None:
             text = rule.guard_text or ""
             guard = self.expression(rule.guard, text)
-            operand = expr.to_python_conjunct(rule.guard, naming.attribute)
+            operand = expr.to_python_conjunct(rule.guard, naming.attribute, self.inline)
             if rule.hold is not None:
                 # its counter already counts the cycles `when` held: test only the timers
                 rest = untimed(rule.guard)[1]
                 tested = rest[0] if len(rest) == 1 else expr.BoolOp(BOOL, "and", rest)
-                python = expr.to_python(tested, naming.attribute)
+                python = expr.to_python(tested, naming.attribute, self.inline)
                 guard = ir.IRExpr(rule.guard, text, python)
-                operand = expr.to_python_conjunct(tested, naming.attribute)
+                operand = expr.to_python_conjunct(tested, naming.attribute, self.inline)
         return ir.IRRule(
             id=rule.id,
             span=rule.span,
@@ -511,10 +513,10 @@ class _ControllerLowering:
     def hook_arguments(self, args: tuple[expr.Expr, ...]) -> tuple[str, ...]:
         """A hook's or a planner's arguments as Python: the hook state first, if any."""
         state = ("self.hook_state",) if self.spec.hooks_state else ()
-        return state + tuple(expr.to_python(a, naming.attribute) for a in args)
+        return state + tuple(expr.to_python(a, naming.attribute, self.inline) for a in args)
 
     def expression(self, tree: expr.Expr, text: str) -> ir.IRExpr:
-        return ir.IRExpr(tree, text, expr.to_python(tree, naming.attribute))
+        return ir.IRExpr(tree, text, expr.to_python(tree, naming.attribute, self.inline))
 
 
 # A hook's or planner's deadline when it declares none: this many cycle periods of its

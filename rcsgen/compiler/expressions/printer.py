@@ -1,11 +1,14 @@
 """Printer: a typed tree -> its Python text, parenthesised only where Python needs it.
 
-`name_of` says what each resolved name is in the generated module (`naming.attribute`).
+`name_of` says what each resolved name is in the generated module (`naming.attribute`);
+`predicates` (name -> tree), when given, are printed where they are called, as their
+expression, instead of as a method call: a guard is tried every cycle, and a call costs
+more than the comparison it makes (about 5 % of co's cycle; bench/prototypes/ablation.py).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 from ..types import BOOL, Enum
 from .nodes import Binary, BoolOp, Call, CallKind, Compare, Const, Expr, IfExp, Ref, RefKind, Unary
@@ -16,19 +19,25 @@ _PRECEDENCE = {"if": 0, "or": 1, "and": 2, "not": 3, "cmp": 4, "+": 5, "-": 5}
 _PRECEDENCE.update({"*": 6, "/": 6, "//": 6, "%": 6, "neg": 7, "atom": 9})
 
 
-def to_python(expr: Expr, name_of: Callable[[Ref], str]) -> str:
-    """Python source for a typed tree; `name_of` maps each resolved name to its target text."""
-    return _Printer(name_of).text(expr)[0]
+def to_python(
+    expr: Expr, name_of: Callable[[Ref], str], predicates: Mapping[str, Expr] | None = None
+) -> str:
+    """Python source for a typed tree; `name_of` maps each resolved name to its target text,
+    `predicates` are printed inline where they are called."""
+    return _Printer(name_of, predicates).text(expr)[0]
 
 
-def to_python_conjunct(expr: Expr, name_of: Callable[[Ref], str]) -> str:
+def to_python_conjunct(
+    expr: Expr, name_of: Callable[[Ref], str], predicates: Mapping[str, Expr] | None = None
+) -> str:
     """Python source for `expr` as one operand of `and` (parenthesised only if it needs it)."""
-    return _Printer(name_of).wrap(expr, _PRECEDENCE["and"])
+    return _Printer(name_of, predicates).wrap(expr, _PRECEDENCE["and"])
 
 
 class _Printer:
-    def __init__(self, name_of: Callable[[Ref], str]):
+    def __init__(self, name_of: Callable[[Ref], str], predicates: Mapping[str, Expr] | None):
         self.name_of = name_of
+        self.predicates = predicates or {}
 
     def wrap(self, expr: Expr, minimum: int) -> str:
         text, level = self.text(expr)
@@ -43,6 +52,9 @@ class _Printer:
         if isinstance(expr, Ref):
             return self.name_of(expr), atom
         if isinstance(expr, Call):
+            if expr.kind == CallKind.PREDICATE and expr.name in self.predicates:
+                # a unit, in parentheses, as its call was (no cycle of predicates: E229)
+                return f"({self.text(self.predicates[expr.name])[0]})", atom
             args = ", ".join(self.wrap(a, 0) for a in expr.args)
             callee = expr.name
             if expr.kind == CallKind.PREDICATE:

@@ -105,13 +105,6 @@ def _wedge(mine: Mine, x: float, column: int) -> float:
     return rise / SEAM_HEIGHT
 
 
-def _covered(mine: Mine, x: float, y: float) -> list[tuple[int, int]]:
-    """The coal cells under the drum, row by row (the map's own order)."""
-    rows = _span(y - DRUM_HALF_WIDTH, y + DRUM_HALF_WIDTH, mine.y0)
-    columns = _span(x - DRUM_RADIUS, x + DRUM_RADIUS, mine.x0)
-    return [(r, c) for r in rows for c in columns if (r, c) in mine.seam]
-
-
 def face(mine: Mine, y: float) -> float:
     """The inby distance of the first standing coal in the drum's band across the entry."""
     rows = _span(y - DRUM_HALF_WIDTH, y + DRUM_HALF_WIDTH, mine.y0)
@@ -135,21 +128,28 @@ def _cut_to_floor(mine: Mine, r: int, c: int) -> None:
 def cut_coal(
     mine: Mine, x: float, y: float, boom_angle: float, drum_on: bool
 ) -> tuple[bool, float, float, float]:
-    """Cut what the drum overlaps: (in contact, face position, depth cut, tonnes cut)."""
+    """Cut what the drum overlaps: (in contact, face position, depth cut, tonnes cut).
+
+    The cells under the drum are visited row by row (the map's own order, so the tonnes
+    add up in the same order); the level the drum's round bottom reaches over a column is
+    the same in every row, so it is worked out once a column, not once a cell."""
     height = (boom_angle - FLOOR_ANGLE) / (ROOF_ANGLE - FLOOR_ANGLE)
     bottom = max(0.0, min(1.0, height) * (1.0 - DRUM_HEIGHT))
+    levels = []  # (column, the level the drum cuts it down to)
+    for c in _span(x - DRUM_RADIUS, x + DRUM_RADIUS, mine.x0):
+        level = min(1.0, bottom + _wedge(mine, x, c))
+        levels.append((c, 0.0 if level < CUT_THROUGH else level))
+    seam = mine.seam
     contact, tonnes = False, 0.0
-    for cell in _covered(mine, x, y):
-        standing = mine.seam[cell]
-        level = min(1.0, bottom + _wedge(mine, x, cell[1]))
-        if level < CUT_THROUGH:
-            level = 0.0
-        if standing > level:
-            contact = True
-            if drum_on:
-                tonnes += (standing - level) * TONNES_PER_CELL
-                mine.seam[cell] = level
-                if level <= FACE_MIN:
-                    _cut_to_floor(mine, *cell)
+    for r in _span(y - DRUM_HALF_WIDTH, y + DRUM_HALF_WIDTH, mine.y0):
+        for c, level in levels:
+            standing = seam.get((r, c))  # None: no coal cell there
+            if standing is not None and standing > level:
+                contact = True
+                if drum_on:
+                    tonnes += (standing - level) * TONNES_PER_CELL
+                    seam[r, c] = level
+                    if level <= FACE_MIN:
+                        _cut_to_floor(mine, r, c)
     now = face(mine, y)
     return contact, round(now, 6), round(now - mine.first_face, 6), round(tonnes, 6)

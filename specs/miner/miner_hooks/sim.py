@@ -59,12 +59,21 @@ def new_noise(settings: dict[str, str]) -> random.Random:
 
 
 def noisy(rng: random.Random, value: float, amplitude: float) -> float:
-    """`value` plus uniform noise in [-amplitude, amplitude]."""
-    return round(value + rng.uniform(-amplitude, amplitude), 6)
+    """`value` plus uniform noise in [-amplitude, amplitude]: `rng.uniform(-amplitude,
+    amplitude)` written out as the standard library computes it (a + (b - a) * random()),
+    the same numbers without a call per sample (the sensors call it every cycle)."""
+    return round(value + (-amplitude + (amplitude + amplitude) * rng.random()), 6)
 
 
 def noisy_pose(
     rng: random.Random, x: float, y: float, heading: float, noise: float, heading_noise: float
 ) -> tuple[float, float, float]:
-    """The true pose as a pose sensor reports it."""
-    return noisy(rng, x, noise), noisy(rng, y, noise), noisy(rng, heading, heading_noise)
+    """The true pose as a pose sensor reports it: `noisy` on x, y and heading, in that order,
+    written out (one call instead of seven)."""
+    sample = rng.random
+    spread = noise + noise
+    return (
+        round(x + (-noise + spread * sample()), 6),
+        round(y + (-noise + spread * sample()), 6),
+        round(heading + (-heading_noise + (heading_noise + heading_noise) * sample()), 6),
+    )
