@@ -958,21 +958,33 @@ def main(package: str, argv: list[str] | None = None) -> int:
         return ctl(package, argv[1:])
     try:
         system = System.load(package)
-    except ImportError as error:  # most often: the hook modules are not on the path
-        missing = f"module {error.name!r}" if error.name else str(error)
-        print(
-            f"{package}: cannot import {missing}; put the directory that holds the system's "
-            "hook modules (the spec directory) on PYTHONPATH",
-            file=sys.stderr,
-        )
-        return 1
+    except ImportError as error:
+        return cannot_import(package, error)
     parsed = parse_args(system, argv)
     if parsed is None:  # the deployment file is wrong: its located error is said
         return 2
     refused = check_role(system, parsed[0])
     if refused:
         return refused
+    process = parsed[0].process  # its plan only; a launch imports every plan before starting
+    try:
+        for name in [process] if process is not None else list(system.plans):
+            system.plans[name]
+    except ImportError as error:
+        return cannot_import(package, error)
     return dispatch(system, *parsed)
+
+
+def cannot_import(package: str, error: ImportError) -> int:
+    """One line for a package or a plan that does not import (most often: the hook modules
+    are not on the path), and the exit code 1."""
+    missing = f"module {error.name!r}" if error.name else str(error)
+    print(
+        f"{package}: cannot import {missing}; put the directory that holds the system's "
+        "hook modules (the spec directory) on PYTHONPATH",
+        file=sys.stderr,
+    )
+    return 1
 
 
 def check_role(system: System, args: argparse.Namespace) -> int:
