@@ -34,7 +34,9 @@ equivalence argued.
 Arguments: `--per-module N` / `--total N` (sample size), `--seed S`, `--budget SECONDS`,
 `--only TEXT` (modules whose path contains TEXT), `--list` (print the sample, run nothing),
 `--cover FILE` (keep the map of which tests run which line there, and reuse it while the
-modules and the tests are unchanged), `--json FILE` (write every result), `--minutes M`
+modules and the tests are unchanged), `--add TESTFILE` (repeatable, with `--cover`: the map
+kept, only these test files traced again and merged in, after tests were added or changed;
+a changed module still wants the whole run), `--json FILE` (write every result), `--minutes M`
 (stop trying mutants after M minutes: they are tried in one seeded order across the modules,
 so what was tried is still a sample of each), `--keys FILE` (try only these keys, e.g. the
 survivors of a run after new tests).
@@ -178,8 +180,9 @@ def _modules(roots: tuple[str, ...]) -> list[Path]:
     return sorted(p.resolve() for root in roots for p in Path(root).rglob("*.py"))
 
 
-def cover(tree: Path, out: Path) -> None:
-    """The coverage run, in the scratch copy `tree`; the map is written to `out`."""
+def cover(tree: Path, out: Path, files: list[str] | None = None) -> None:
+    """The coverage run, in the scratch copy `tree`; the map is written to `out`. `files`:
+    these test files only (test_files(), the whole fast selection, else)."""
     env = _env(tree) | {COVER_ENV: str(out)}
     cmd = [
         sys.executable,
@@ -192,7 +195,7 @@ def cover(tree: Path, out: Path) -> None:
         "no:xdist",
         "-p",
         "mutation_sample",
-        *test_files(),
+        *(files if files is not None else test_files()),
     ]
     started = time.monotonic()
     done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
@@ -204,6 +207,26 @@ def cover(tree: Path, out: Path) -> None:
     sys.stdout.flush()
     if not out.exists():
         sys.exit(f"the coverage run wrote no map:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}")
+
+
+def merged(base: dict[str, Any], added: dict[str, Any], files: list[str]) -> dict[str, Any]:
+    """`base` with the tests of `files` (traced again, or new) taken from `added`: a map
+    kept current after a few test files changed, without the whole coverage run again."""
+    names = tuple(f"{f}::" for f in files)
+    keep = [i for i, t in enumerate(base["tests"]) if not t[0].startswith(names)]
+    renumber = {old: new for new, old in enumerate(keep)}
+    tests = [base["tests"][i] for i in keep]
+    shift = len(tests)
+    tests += added["tests"]
+    lines: dict[str, dict[str, list[int]]] = {}
+    for rel in sorted(set(base["lines"]) | set(added["lines"])):
+        by: dict[str, set[int]] = defaultdict(set)
+        for n, ids in base["lines"].get(rel, {}).items():
+            by[n].update(renumber[i] for i in ids if i in renumber)
+        for n, ids in added["lines"].get(rel, {}).items():
+            by[n].update(i + shift for i in ids)
+        lines[rel] = {n: sorted(ids) for n, ids in by.items() if ids}
+    return {"tests": tests, "lines": lines}
 
 
 def test_files() -> list[str]:
@@ -672,6 +695,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--minutes", type=float, help="stop trying mutants after this long")
     parser.add_argument("--keys", type=Path, help="try only the sampled mutants listed here")
     parser.add_argument("--cover", type=Path)
+    parser.add_argument(
+        "--add",
+        action="append",
+        default=[],
+        metavar="TESTFILE",
+        help="with --cover: trace only this test file (new or changed) into the kept map",
+    )
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
     TIMEOUT = args.timeout
@@ -713,6 +743,12 @@ def main(argv: list[str] | None = None) -> int:
         cover_file = args.cover or tree / "cover.json"
         digest = sources_digest()
         cover_map = json.loads(cover_file.read_text()) if cover_file.exists() else {}
+        if args.add and cover_map and cover_map.get("digest") != digest:
+            # a few test files changed or were added: only they are traced again
+            cover(tree, tree / "added.json", args.add)
+            added = json.loads((tree / "added.json").read_text())
+            cover_map = merged(cover_map, added, args.add) | {"digest": digest}
+            cover_file.write_text(json.dumps(cover_map))
         if cover_map.get("digest") != digest:  # none yet, or the sources or tests changed
             cover(tree, cover_file)
             cover_map = json.loads(cover_file.read_text()) | {"digest": digest}

@@ -420,3 +420,22 @@ def test_the_sample_scores_carry_their_interval() -> None:
     assert low < estimate < high
     # every mutant tried: no sampling error left
     assert mutation_sample.stratified([(10, 10, 7)]) == pytest.approx((0.7, 0.7, 0.7))
+
+
+def test_a_kept_map_takes_a_retraced_test_file_in_place_of_its_old_tests() -> None:
+    base = {
+        "tests": [["tests/test_a.py::t1", 1.0, True], ["tests/test_b.py::t2", 2.0, True]],
+        "lines": {"m.py": {"3": [0, 1], "4": [1]}, "n.py": {"9": [1]}},
+    }
+    added = {
+        "tests": [["tests/test_b.py::t2", 0.5, True], ["tests/test_b.py::t3", 0.1, True]],
+        "lines": {"m.py": {"5": [1]}, "o.py": {"1": [0, 1]}},
+    }
+    got = mutation_sample.merged(base, added, ["tests/test_b.py"])
+    assert [t[0] for t in got["tests"]] == [
+        "tests/test_a.py::t1",
+        "tests/test_b.py::t2",
+        "tests/test_b.py::t3",
+    ]
+    # test_b's old lines are gone (line 4 and n.py ran only under it), its new ones are in
+    assert got["lines"] == {"m.py": {"3": [0], "5": [2]}, "n.py": {}, "o.py": {"1": [1, 2]}}
