@@ -74,6 +74,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_language",
             "test_mine_view",
             "test_miner",
+            "test_monitor_screen",
             "test_operator",
             "test_operator_results",
             "test_state_time",

@@ -71,7 +71,14 @@ PACKAGES = ("rcsgen/compiler", "rcsgen/tools")
 # views, the scenarios' devices). The processes tier never: the monitor, softplc, io_connect
 # and replay run in other processes there, where no tracer sees them.
 SLOW = ("test_fuzz", "test_differential", "test_prove_differential")
-SYSTEM = ("test_prove", "test_prove_seeds", "test_trace_view", "test_mine_view", "test_scenarios")
+SYSTEM = (
+    "test_prove",
+    "test_prove_seeds",
+    "test_trace_view",
+    "test_mine_view",
+    "test_scenarios",
+    "test_monitor_screen",
+)
 TEST_ENV = {"EXPR_EXAMPLES": "200", "DIFF_EXAMPLES": "5"}
 SEED = 25
 TOTAL = 200
