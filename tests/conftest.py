@@ -90,6 +90,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_sea_view",
             "test_semantics",
             "test_shared_types",
+            "test_softplc",
             "test_submarine",
             "test_trace_view",
             "test_tutorial",

@@ -78,6 +78,7 @@ SYSTEM = (
     "test_mine_view",
     "test_scenarios",
     "test_monitor_screen",
+    "test_softplc",
 )
 TEST_ENV = {"EXPR_EXAMPLES": "200", "DIFF_EXAMPLES": "5"}
 SEED = 25

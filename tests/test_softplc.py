@@ -1,0 +1,292 @@
+"""The soft PLC (rcsgen/tools/softplc.py), `validate --connect`'s probe (tools/io_connect.py)
+and a scenario's device bench (tools/scenario/devices.py) in this process, against the rig
+(tests/fixtures/runtime/rig): its `tank` device served by the PLC's Modbus bank on a free
+loopback port, in an event loop of the test's own. test_io.py and test_io_scenario.py run
+the same tools as the separate OS processes they are in use; here their logic runs where a
+line tracer sees it (`make mutate-sample` maps these tests), in a few seconds. A bank, a
+server and a port opened here are closed before a test ends.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import importlib
+import json
+import shutil
+import socket
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import replace
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import pytest
+
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.ir import IRSystem
+from rcsgen.runtime.io_cycle import make_link, relocated
+from rcsgen.runtime.io_points import INPUT_REGISTER, Point
+from rcsgen.tools import io_connect, softplc
+from rcsgen.tools.harness import generate, import_package
+
+pytest.importorskip("pymodbus")
+
+RIG = Path(__file__).resolve().parent / "fixtures" / "runtime" / "rig"
+
+
+@pytest.fixture(scope="module")
+def rig() -> Iterator[Path]:
+    scratch, name = generate(RIG)
+    yield scratch / name
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def layout(rig: Path) -> ModuleType:
+    return importlib.import_module(f"{import_package(rig, RIG).__name__}.layout")
+
+
+@pytest.fixture(scope="module")
+def system() -> IRSystem:
+    front = compile_paths([RIG])
+    assert not front.diagnostics.errors
+    return front.systems[0]
+
+
+def free_port() -> int:
+    with socket.socket() as unused:
+        unused.bind(("127.0.0.1", 0))
+        return int(unused.getsockname()[1])
+
+
+def listening(port: int) -> bool:
+    with socket.socket() as probe:
+        probe.settimeout(0.5)
+        return probe.connect_ex(("127.0.0.1", port)) == 0
+
+
+async def until(ok: Callable[[], bool], what: str, limit: float = 30) -> None:
+    end = time.monotonic() + limit
+    while not ok():
+        assert time.monotonic() < end, f"not seen within {limit:g} s: {what}"
+        await asyncio.sleep(0.02)
+
+
+def serve(
+    rig: Path,
+    tmp_path: Path,
+    device: str,
+    client: Callable[[int, Path], Any],
+    world: tuple[str, ...] = ("level=1.25",),
+) -> tuple[Any, dict[str, Any]]:
+    """The rig's PLC serving `device` on a free port in this process's event loop, cycling
+    every 20 ms, while `client(port, control)` runs in a thread; then the PLC stopped (its
+    finally: the bank shut, the report written). (client's result, the report)."""
+    package = import_package(rig, RIG)
+    layout = importlib.import_module(f"{package.__name__}.layout")
+    plant = softplc.Plant(package, {})
+    for item in world:
+        plant.set(item)
+    ready, report, control = tmp_path / "ready", tmp_path / "report.json", tmp_path / "control"
+    control.mkdir(exist_ok=True)
+    args = argparse.Namespace(
+        host="127.0.0.1",
+        port=[0],
+        ready=str(ready),
+        control=str(control),
+        period=0.02,
+        cycles=None,
+        report=str(report),
+    )
+
+    async def run() -> Any:
+        serving = asyncio.create_task(softplc._serve(args, plant, [layout.IO_DEVICES[device]]))
+        try:
+            await until(lambda: ready.is_file() and ready.read_text().endswith("\n"), "ready")
+            port = int(ready.read_text())
+            return await asyncio.to_thread(client, port, control)
+        finally:
+            serving.cancel()
+            with pytest.raises(asyncio.CancelledError):
+                await serving
+
+    got = asyncio.run(run())
+    return got, json.loads(report.read_text())
+
+
+def test_the_plc_carries_commands_into_its_plant_and_the_plants_values_out(
+    rig: Path, layout: ModuleType, tmp_path: Path
+) -> None:
+    declared = layout.IO_DEVICES["tank"]
+    level, valve = (
+        next(p for p in declared.points if p.field == f) for f in ("level", "valve_cmd")
+    )
+
+    def client(port: int, control: Path) -> tuple[object, object]:
+        link = make_link(replace(declared, port=port))
+        link.connect()
+        try:
+            first = link.read_point(level)
+            link.write({"valve_cmd": 42.5})
+            end = time.monotonic() + 30
+            while link.read_point(valve) != pytest.approx(42.5) and time.monotonic() < end:
+                time.sleep(0.02)
+            time.sleep(0.2)  # several PLC cycles: the command is in the plant's world
+            return first, link.read_point(valve)
+        finally:
+            link.close()
+
+    (first, held), world = serve(rig, tmp_path, "tank", client, ("level=1.25",))
+    assert first == pytest.approx(1.25)  # the plant's value on the point before any poll
+    assert held == pytest.approx(42.5)
+    assert world["valve_cmd"] == pytest.approx(42.5)  # the command crossed into the plant
+    assert world["level"] == pytest.approx(1.25) and world["_cycles"] > 1
+
+
+def test_an_unplugged_device_refuses_connections_and_comes_back_on_its_port(
+    rig: Path, layout: ModuleType, tmp_path: Path
+) -> None:
+    def client(port: int, control: Path) -> list[bool]:
+        seen = [listening(port)]
+        for order in ("unplug", "replug"):
+            (control / "tank").write_text(order)
+            end = time.monotonic() + 30
+            while listening(port) != (order == "replug") and time.monotonic() < end:
+                time.sleep(0.02)
+            seen.append(listening(port))
+        return seen
+
+    seen, _ = serve(rig, tmp_path, "tank", client)
+    assert seen == [True, False, True]
+
+
+def test_validate_connect_names_a_device_that_does_not_answer_and_a_point_it_lacks(
+    rig: Path, system: IRSystem, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    tank = next(d for d in system.io if d.name == "tank")
+    missing = Point("level", INPUT_REGISTER, 40, False, "float", scale=0.01)
+    lacking = replace(
+        system,
+        io=tuple(replace(d, points=(*d.points, missing)) if d is tank else d for d in system.io),
+    )
+    dead = free_port()
+
+    def client(port: int, control: Path) -> tuple[list[str], list[str]]:
+        monkeypatch.setenv("RCSGEN_IO_TANK", f"127.0.0.1:{port}")
+        monkeypatch.setenv("RCSGEN_IO_PUMPS", f"opc.tcp://127.0.0.1:{dead}/rig")
+        every = io_connect.check_devices(system)
+        some = io_connect.check_devices(lacking)
+        return [d.render() for d in every], [d.render() for d in some]
+
+    (every, some), _ = serve(rig, tmp_path, "tank", client)
+    # the tank's PLC has every point it declares; the pumps' OPC UA server is not there
+    assert len(every) == 1, every
+    assert (
+        "E458" in every[0]
+        and f"device `pumps` does not answer at opc.tcp://127.0.0.1:{dead}/rig" in every[0]
+    )
+    assert "RCSGEN_IO_PUMPS=... points the check elsewhere" in every[0]
+    refused = [d for d in some if "tank" in d]
+    assert len(refused) == 1, some
+    assert "has no input_register 40 for `level`" in refused[0], refused[0]
+    assert "system.yaml:" in refused[0]
+
+    monkeypatch.setenv("RCSGEN_IO_TANK", "not an address")
+    monkeypatch.setenv("RCSGEN_IO_PUMPS", f"opc.tcp://127.0.0.1:{dead}/rig")
+    said = [d.render() for d in io_connect.check_devices(system)]
+    assert any(
+        "RCSGEN_IO_TANK='not an address': not an address of I/O device tank (HOST:PORT)" in s
+        for s in said
+    ), said
+
+
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["--device", "nope"], "declares no I/O device 'nope' (it has: ['pumps', 'tank'])"),
+        (["--device", "tank", "--port", "1", "--port", "2"], "2 --port for 1 --device"),
+        (["--device", "tank", "--set", "novalue"], "--set 'novalue': expected KEY=VALUE"),
+        (
+            ["--device", "tank", "--world", "level"],
+            "--world 'level': expected FIELD=VALUE, FIELD a world field",
+        ),
+        (
+            ["--device", "tank", "--world", "levl=1"],
+            "--world 'levl=1': expected FIELD=VALUE, FIELD a world field",
+        ),
+        (["--device", "tank", "--world", "level=abc"], "--world 'level=abc': 'abc' is not a value"),
+        (
+            ["--device", "tank", "--world", 'level="x"'],
+            """--world 'level="x"': '"x"' is not a number or a bool""",
+        ),
+    ],
+)
+def test_the_plc_refuses_a_bad_argument_in_one_line(
+    rig: Path, argv: list[str], said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert softplc.main(["--io", str(rig), "--hooks", str(RIG), *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("softplc: ") and said in err, err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_the_plc_runs_its_cycles_and_reports_its_plants_world(
+    rig: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    ready, report = tmp_path / "ready", tmp_path / "report.json"
+    code = softplc.main(
+        [
+            "--io",
+            str(rig),
+            "--hooks",
+            str(RIG),
+            "--device",
+            "tank",
+            "--port",
+            "0",
+            "--cycles",
+            "3",
+            "--world",
+            "level=2.5",
+            "--world",
+            "valve_cmd=7",
+            "--ready",
+            str(ready),
+            "--report",
+            str(report),
+        ]
+    )
+    assert code == 0, capsys.readouterr().err
+    assert int(ready.read_text()) > 0 and ready.read_text().count("\n") == 1
+    world = json.loads(report.read_text())
+    assert world["_cycles"] == 3
+    assert world["level"] == pytest.approx(2.5)
+    assert world["valve_cmd"] == pytest.approx(7.0)
+
+
+def test_the_plc_names_the_extra_a_devices_protocol_needs(monkeypatch: pytest.MonkeyPatch) -> None:
+    class Device:
+        name, protocol = "pumps", "opcua"
+
+    monkeypatch.setattr(softplc.importlib.util, "find_spec", lambda name: None)
+    with pytest.raises(
+        ImportError, match=r"device pumps \(opcua\) needs asyncua: pip install 'rcsgen\[opcua\]'"
+    ):
+        softplc._libraries_there([Device()])
+    Device.protocol = "modbus_tcp"
+    with pytest.raises(ImportError, match=r"needs pymodbus: pip install 'rcsgen\[modbus\]'"):
+        softplc._libraries_there([Device()])
+
+
+def test_relocated_takes_the_address_from_the_environment(layout: ModuleType) -> None:
+    tank, pumps = layout.IO_DEVICES["tank"], layout.IO_DEVICES["pumps"]
+    moved = relocated(tank, {"RCSGEN_IO_TANK": "10.0.0.2:5020"})
+    assert (moved.host, moved.port, moved.url) == ("10.0.0.2", 5020, "")
+    assert relocated(tank, {}) is tank
+    url = "opc.tcp://[::1]:4840/rig"
+    moved = relocated(pumps, {"RCSGEN_IO_PUMPS": url})
+    assert (moved.host, moved.port, moved.url) == ("::1", 4840, url)
+    with pytest.raises(ValueError, match="not an address of I/O device tank"):
+        relocated(tank, {"RCSGEN_IO_TANK": "10.0.0.2:0"})
