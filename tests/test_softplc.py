@@ -13,6 +13,7 @@ import argparse
 import asyncio
 import importlib
 import json
+import os
 import shutil
 import socket
 import time
@@ -290,3 +291,112 @@ def test_relocated_takes_the_address_from_the_environment(layout: ModuleType) ->
     assert (moved.host, moved.port, moved.url) == ("::1", 4840, url)
     with pytest.raises(ValueError, match="not an address of I/O device tank"):
         relocated(tank, {"RCSGEN_IO_TANK": "10.0.0.2:0"})
+
+
+# ------------------------------------------------------------ a scenario's device bench
+
+
+def scenario_with(devices: dict[str, Path | None], settings: dict[str, str] | None = None) -> Any:
+    from rcsgen.compiler.diagnostics import Span
+    from rcsgen.tools.scenario.model import Scenario, SoftPlc
+
+    where = RIG / "scenarios" / "bench.yaml"
+    return Scenario(
+        name="bench",
+        title="the bench",
+        path=where,
+        system_dir=RIG,
+        process=None,
+        max_cycles=10,
+        stop_when_done=None,
+        trace_world=[],
+        events=[],
+        settings=settings or {},
+        devices={name: SoftPlc(name, plant, Span(where)) for name, plant in devices.items()},
+    )
+
+
+def open_valve(layout: ModuleType) -> None:
+    """A client opens the tank's valve on its PLC (wherever RCSGEN_IO_TANK points)."""
+    link = make_link(relocated(layout.IO_DEVICES["tank"]))
+    link.connect()
+    try:
+        link.write({"valve_cmd": 50.0})
+    finally:
+        link.close()
+
+
+def test_a_scenarios_bench_serves_each_device_and_pulls_its_plug_and_freezes_it(
+    rig: Path, layout: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two PLCs of their own (no plant): each device pointed at its PLC's port for the run,
+    unplugged (port closed) and plugged in again, its PLC frozen and thawed, the devices
+    down tracked; the outputs read back against the safe values; at the end every PLC
+    stopped, its port closed, the environment as it was."""
+    from rcsgen.tools.scenario.devices import Bench
+
+    monkeypatch.setenv("RCSGEN_IO_TANK", "10.1.1.1:502")
+    monkeypatch.delenv("RCSGEN_IO_PUMPS", raising=False)
+    bench = Bench(scenario_with({"tank": None, "pumps": None}), rig, tmp_path)
+    try:
+        bench.start(layout)
+        tank, pumps = bench.plcs["tank"], bench.plcs["pumps"]
+        assert tank is not pumps and tank.names == ["tank"]
+        port, url = tank.ports["tank"], pumps.ports["pumps"]
+        assert os.environ["RCSGEN_IO_TANK"] == f"127.0.0.1:{port}"
+        assert os.environ["RCSGEN_IO_PUMPS"] == f"opc.tcp://127.0.0.1:{url}/rig"
+        assert listening(port) and listening(url)
+        # a fresh PLC holds its outputs at the initial values, the safe ones here; a valve
+        # opened by a client is read back as not safe
+        assert bench.not_safe_on_survivors(layout) == []
+        open_valve(layout)
+        assert bench.not_safe_on_survivors(layout) == [
+            "device `tank` holds `valve_cmd` 50.0, not its safe 0.0"
+        ]
+        bench.apply("tank", "unplug")
+        assert not listening(port) and bench.down == {"tank"}
+        bench.apply("tank", "replug")
+        assert listening(port) and bench.down == set()
+        bench.apply("tank", "freeze")
+        assert bench.down == {"tank"}
+        assert bench.not_safe_on_survivors(layout) == []  # a frozen device is not asked
+        bench.apply("tank", "thaw")
+        assert bench.down == set()
+        open_valve(layout)  # answering again: read back again
+        assert len(bench.not_safe_on_survivors(layout)) == 1
+    finally:
+        bench.close()
+    assert os.environ["RCSGEN_IO_TANK"] == "10.1.1.1:502"
+    assert "RCSGEN_IO_PUMPS" not in os.environ
+    assert not listening(port) and not listening(url)
+    for plc in (tank, pumps):
+        assert plc.popen is not None and plc.popen.poll() is not None
+
+
+def test_a_bench_says_which_plc_did_not_start_and_why(
+    rig: Path, layout: ModuleType, tmp_path: Path
+) -> None:
+    from rcsgen.tools.scenario.devices import Bench, DeviceStartError
+
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "system.yaml").write_text("system: broken\n")
+    bench = Bench(scenario_with({"tank": broken}), rig, tmp_path / "one")
+    with pytest.raises(DeviceStartError) as error:
+        bench.start(layout)
+    bench.close()
+    assert str(error.value) == (
+        f"the soft PLC of device `tank` did not start: its plant {broken} does not build"
+    )
+    # a PLC that exits at once: what it said last is the reason
+    nothing = tmp_path / "nothing"
+    bench = Bench(scenario_with({"tank": None}), nothing, tmp_path / "two")
+    try:
+        with pytest.raises(DeviceStartError) as error:
+            bench.start(layout)
+    finally:
+        bench.close()
+    assert str(error.value) == (
+        "the soft PLC of device `tank` did not start: softplc: [Errno 2] No such file or "
+        f"directory: '{nothing}/__init__.py'"
+    )
