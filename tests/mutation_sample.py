@@ -531,9 +531,19 @@ def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
         lines = [str(n) for n in range(m.line, m.last + 1)]
         found = {t for n in lines for t in by_line.get(n, ())}
         # tests named after a word of the mutated text first (`echo_timeouts` ->
-        # test_invalid_case[e244-echo-timeout-...], "E216" -> ...[e216-...]), then the fastest
+        # test_invalid_case[e244-echo-timeout-...], "E216" -> ...[e216-...]), then the
+        # fastest of each test file before the second fastest of any (a file is one
+        # aspect: the corpus's hundred quick cases do not crowd out the one file that
+        # compares the generated code), each rank fastest first
         words = _words(m.old)
-        ids = sorted(found, key=lambda t: (-len(words & _words(tests[t][0])), tests[t][1], t))
+        rank: dict[int, int] = {}
+        seen: dict[str, int] = defaultdict(int)
+        for t in sorted(found, key=lambda t: (tests[t][1], t)):
+            module = tests[t][0].partition("::")[0]
+            rank[t], seen[module] = seen[module], seen[module] + 1
+        ids = sorted(
+            found, key=lambda t: (-len(words & _words(tests[t][0])), rank[t], tests[t][1], t)
+        )
     chosen, spent = [], 0.0
     for t in ids:  # in that order, each that still fits in the budget
         if chosen and spent + tests[t][1] > budget:

@@ -439,3 +439,27 @@ def test_a_kept_map_takes_a_retraced_test_file_in_place_of_its_old_tests() -> No
     ]
     # test_b's old lines are gone (line 4 and n.py ran only under it), its new ones are in
     assert got["lines"] == {"m.py": {"3": [0], "5": [2]}, "n.py": {}, "o.py": {"1": [1, 2]}}
+
+
+def test_a_mutant_is_tried_against_one_test_of_each_file_before_a_second_of_any() -> None:
+    cover_map = {
+        "tests": [
+            ["tests/test_a.py::one", 0.1, True],
+            ["tests/test_a.py::two", 0.2, True],
+            ["tests/test_a.py::three", 0.3, True],
+            ["tests/test_b.py::slow", 1.0, True],
+            ["tests/test_c.py::elsewhere", 0.01, True],
+        ],
+        "lines": {"pkg/m.py": {"7": [0, 1, 2, 3], "8": [4]}},
+    }
+    m = mutation_sample.Mutant("pkg/m.py", 7, 7, "compare", "x < b", "(x <= b)", (7, 4), (7, 9))
+    assert mutation_sample.selection(m, cover_map, 1.2) == [
+        "tests/test_a.py::one",
+        "tests/test_b.py::slow",
+    ]
+    assert mutation_sample.selection(m, cover_map, 10) == [
+        "tests/test_a.py::one",
+        "tests/test_b.py::slow",
+        "tests/test_a.py::two",
+        "tests/test_a.py::three",
+    ]
