@@ -26,10 +26,11 @@ import pytest
 pytest.importorskip("textual")
 
 from rich.text import Text  # noqa: E402
+from test_monitor import screen_text  # noqa: E402
 from textual.pilot import Pilot  # noqa: E402
 from textual.widgets import DataTable, Input, Static  # noqa: E402
 
-from rcsgen.tools import monitor_devices  # noqa: E402
+from rcsgen.tools import monitor_devices, monitor_periodicity  # noqa: E402
 from rcsgen.tools.harness import Harness, generate, import_package  # noqa: E402
 from rcsgen.tools.monitor import COLUMNS, Monitor  # noqa: E402
 
@@ -133,6 +134,14 @@ def test_the_tree_shows_each_modules_command_status_and_mode_coloured_by_status(
             last, low, high = (float(t) for t in cells["cycle"].plain.split("/"))
             assert 0 < low <= high and low <= last <= high
             assert cells["beat"].plain.endswith("s") and cells["beat"].plain != "dead"
+        # the screen as a person reads it: the headers, the tree, the keys in the footer
+        text = screen_text(app)
+        for header in ("module", "command", "status", "state", "last rule fired", "mode"):
+            assert header in text, header
+        assert "cycle us last/min/max" in text and "└─ arm" in text
+        for key in ("stop", "run", "step", "simulate", "slower", "faster", "send command"):
+            assert key in text, key
+        assert "answer request" in text and "quit" in text
         processes = str(app.query_one("#processes").render())
         assert "p1: running, 5 cycles, beat " in processes, processes
         assert "0 overruns, slow x1" in processes and "p2: running, 5 cycles" in processes
@@ -332,7 +341,7 @@ def test_a_devices_row_reads_up_stale_or_lost_as_an_operator_reads_it() -> None:
 def test_the_devices_panel_draws_a_row_per_declared_device_and_a_missing_one_as_unknown() -> None:
     layout = SimpleNamespace(IO_DEVICES={"tank": object(), "pumps": object()})
 
-    async def run() -> dict[str, dict[str, str]]:
+    async def run() -> tuple[dict[str, dict[str, str]], str]:
         from textual.app import App, ComposeResult
 
         class One(App[None]):
@@ -342,13 +351,65 @@ def test_the_devices_panel_draws_a_row_per_declared_device_and_a_missing_one_as_
         app = One()
         async with app.run_test(size=(160, 10)) as pilot:
             panel = app.query_one(monitor_devices.DevicesPanel)
-            panel.show({"tank": {"state": "LOST"}})
-            await pilot.pause(0.01)
-            return {
+            panel.show({"tank": {"state": "LOST", "last_error": LONG_ERROR}})
+            await pilot.pause(0.05)
+            rows = {
                 name: {key: panel.get_cell(name, key).plain for key, _ in monitor_devices.COLUMNS}
                 for name in ("tank", "pumps")
             }
+            return rows, screen_text(app)  # type: ignore[arg-type]
 
-    rows = asyncio.run(run())
+    rows, text = asyncio.run(run())
     assert rows["tank"]["state"] == "lost" and rows["tank"]["device"] == "tank"
     assert rows["pumps"]["state"] == "?" and rows["pumps"]["answered"] == "never"
+    # every header whole, and a cell wider than its header grows the column, never cut
+    for _, label in monitor_devices.COLUMNS:
+        assert label in text, label
+    assert LONG_ERROR in text, text
+
+
+LONG_ERROR = "connection refused by 127.0.0.1:1502 (errno 111)"
+
+
+def test_a_process_row_shows_its_period_and_turns_red_when_it_wakes_up_late() -> None:
+    figures = {
+        "period_ms": 20.0,
+        "wakeups": 500,
+        "period_error_mean_us": 12.5,
+        "period_error_max_us": 480.0,
+        "lateness_p99_us": 9000.0,
+        "lateness_max_us": 15000.0,
+        "lateness_warnings": 2,
+    }
+    proc = {"state": "RUNNING", "last_cycle_us": 40, "max_cycle_us": 95, "periodicity": figures}
+    cells = monitor_periodicity.row_of("p1", proc, ("arm", 80.5))
+    assert {k: v.plain for k, v in cells.items()} == {
+        "process": "p1",
+        "period": "20 ms",
+        "wakeups": "500",
+        "error": "12.5/480",
+        "lateness": "9000/15000",
+        "warnings": "2",
+        "cycle": "40/95",
+        "slowest": "arm (80.5)",
+    }
+    assert cells["lateness"].style == cells["process"].style == ""  # p99 under half the period
+    late = monitor_periodicity.row_of(
+        "p1", proc | {"periodicity": figures | {"lateness_p99_us": 10001.0}}, None
+    )
+    assert late["lateness"].style == late["process"].style == "bold red"
+    assert late["period"].style == "" and late["slowest"].plain == "-"
+    flat = monitor_periodicity.row_of("p2", {"state": "RUNNING"}, None)
+    assert {k: v.plain for k, v in flat.items()} == {
+        "process": "p2",
+        "period": "not paced",
+        "wakeups": "-",
+        "error": "-",
+        "lateness": "-",
+        "warnings": "-",
+        "cycle": "?/?",
+        "slowest": "-",
+    }
+    gone = monitor_periodicity.row_of("p3", {"state": "?"}, ("arm", 1.0))
+    assert all(v.plain == "?" and v.style == "grey50" for k, v in gone.items() if k != "process")
+    assert gone["process"].plain == "p3"
