@@ -79,12 +79,13 @@ def serve(
     rig: Path,
     tmp_path: Path,
     device: str,
-    client: Callable[[int, Path], Any],
+    client: Callable[..., Any],
     world: tuple[str, ...] = ("level=1.25",),
 ) -> tuple[Any, dict[str, Any]]:
-    """The rig's PLC serving `device` on a free port in this process's event loop, cycling
-    every 20 ms, while `client(port, control)` runs in a thread; then the PLC stopped (its
-    finally: the bank shut, the report written). (client's result, the report)."""
+    """The rig's PLC serving `device` (names, space-separated) on free ports in this
+    process's event loop, cycling every 20 ms, while `client(port, ..., control)` runs in a
+    thread; then the PLC stopped (its finally: the bank shut, the report written).
+    (client's result, the report)."""
     package = import_package(rig, RIG)
     layout = importlib.import_module(f"{package.__name__}.layout")
     plant = softplc.Plant(package, {})
@@ -92,9 +93,10 @@ def serve(
         plant.set(item)
     ready, report, control = tmp_path / "ready", tmp_path / "report.json", tmp_path / "control"
     control.mkdir(exist_ok=True)
+    names = device.split()
     args = argparse.Namespace(
         host="127.0.0.1",
-        port=[0],
+        port=[0] * len(names),
         ready=str(ready),
         control=str(control),
         period=0.02,
@@ -103,11 +105,14 @@ def serve(
     )
 
     async def run() -> Any:
-        serving = asyncio.create_task(softplc._serve(args, plant, [layout.IO_DEVICES[device]]))
+        devices = [layout.IO_DEVICES[name] for name in names]
+        serving = asyncio.create_task(softplc._serve(args, plant, devices))
         try:
-            await until(lambda: ready.is_file() and ready.read_text().endswith("\n"), "ready")
-            port = int(ready.read_text())
-            return await asyncio.to_thread(client, port, control)
+            await until(
+                lambda: ready.is_file() and ready.read_text().count("\n") == len(names), "ready"
+            )
+            ports = [int(line) for line in ready.read_text().split()]
+            return await asyncio.to_thread(client, *ports, control)
         finally:
             serving.cancel()
             with pytest.raises(asyncio.CancelledError):
@@ -146,6 +151,37 @@ def test_the_plc_carries_commands_into_its_plant_and_the_plants_values_out(
     assert world["level"] == pytest.approx(1.25) and world["_cycles"] > 1
 
 
+def test_an_opc_ua_device_is_served_at_its_endpoints_path_and_its_nodes_written_through(
+    rig: Path, layout: ModuleType, system: IRSystem, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The pumps (OPC UA, `opc.tcp://.../rig`) and the tank (Modbus) on one PLC: the client
+    reaches the nodes at the declared endpoint path, its writes reach the plant; both
+    devices answer `validate --connect` with every point."""
+    declared = layout.IO_DEVICES["pumps"]
+
+    def client(tank: int, pumps: int, control: Path) -> tuple[list[str], object]:
+        url = f"opc.tcp://127.0.0.1:{pumps}/rig"
+        link = make_link(replace(declared, port=pumps, url=url))
+        link.connect()
+        try:
+            link.write({"pump_on": True, "alarm": False})
+            alarm = next(p for p in declared.points if p.field == "alarm")
+            end = time.monotonic() + 30
+            while link.read_point(alarm) is not False and time.monotonic() < end:
+                time.sleep(0.02)
+            time.sleep(0.2)  # several PLC cycles
+            held = link.read_point(alarm)
+        finally:
+            link.close()
+        monkeypatch.setenv("RCSGEN_IO_TANK", f"127.0.0.1:{tank}")
+        monkeypatch.setenv("RCSGEN_IO_PUMPS", url)
+        return [d.render() for d in io_connect.check_devices(system)], held
+
+    (said, held), world = serve(rig, tmp_path, "tank pumps", client)
+    assert said == [] and held is False
+    assert world["pump_on"] is True and world["alarm"] is False
+
+
 def test_an_unplugged_device_refuses_connections_and_comes_back_on_its_port(
     rig: Path, layout: ModuleType, tmp_path: Path
 ) -> None:
@@ -174,7 +210,10 @@ def test_validate_connect_names_a_device_that_does_not_answer_and_a_point_it_lac
     )
     dead = free_port()
 
+    served: list[int] = []
+
     def client(port: int, control: Path) -> tuple[list[str], list[str]]:
+        served.append(port)
         monkeypatch.setenv("RCSGEN_IO_TANK", f"127.0.0.1:{port}")
         monkeypatch.setenv("RCSGEN_IO_PUMPS", f"opc.tcp://127.0.0.1:{dead}/rig")
         every = io_connect.check_devices(system)
@@ -191,14 +230,18 @@ def test_validate_connect_names_a_device_that_does_not_answer_and_a_point_it_lac
     assert "RCSGEN_IO_PUMPS=... points the check elsewhere" in every[0]
     refused = [d for d in some if "tank" in d]
     assert len(refused) == 1, some
-    assert "has no input_register 40 for `level`" in refused[0], refused[0]
+    assert (
+        f"device `tank` at 127.0.0.1:{served[0]} has no input_register 40 for `level`: "
+        in (refused[0])
+    ), refused[0]
     assert "system.yaml:" in refused[0]
 
     monkeypatch.setenv("RCSGEN_IO_TANK", "not an address")
     monkeypatch.setenv("RCSGEN_IO_PUMPS", f"opc.tcp://127.0.0.1:{dead}/rig")
     said = [d.render() for d in io_connect.check_devices(system)]
     assert any(
-        "RCSGEN_IO_TANK='not an address': not an address of I/O device tank (HOST:PORT)" in s
+        "error[E458]: RCSGEN_IO_TANK='not an address': not an address of I/O device tank "
+        "(HOST:PORT)" in s
         for s in said
     ), said
 
@@ -231,6 +274,21 @@ def test_the_plc_refuses_a_bad_argument_in_one_line(
     err = capsys.readouterr().err
     assert err.startswith("softplc: ") and said in err, err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_the_plc_refuses_a_plant_without_a_field_its_device_binds(
+    rig: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    duo = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
+    scratch, name = generate(duo)
+    try:
+        argv = ["--io", str(rig), "--device", "tank", "--plant", str(scratch / name)]
+        assert softplc.main([*argv, "--hooks", str(duo)]) == 2
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    assert capsys.readouterr().err == (
+        "softplc: the plant has no world field 'level' that device tank binds\n"
+    )
 
 
 def test_the_plc_runs_its_cycles_and_reports_its_plants_world(
