@@ -5,7 +5,7 @@ A full mutmut run (`make mutate`) over the compiler and the tools is hours on tw
 This script measures the same thing on a deterministic sample, and says how sure the figure is:
 
 1. **Which tests run which line.** The fast tiers (test_files(): the unit tier, the quick
-   fuzz files and five system files) run once in process with a line tracer on every file
+   fuzz files and the system files in SYSTEM) run once in process with a line tracer on every file
    of rcsgen/compiler and rcsgen/tools (this file is also the pytest plugin that records
    it: `-p mutation_sample`). A line run at import (a table, a default) belongs to every
    test that runs its module.
@@ -27,7 +27,7 @@ The summary prints, per module, package (compiler, tools) and overall: mutants i
 tried, killed, survived, equivalent and the score with a 95 % interval (Wilson's for a module;
 for a package and overall, the stratified estimate weighting each module by its mutants, with
 the finite-population correction). The score is a lower bound: only the lines' own tests in
-the fast tiers (and five system files) are tried, the processes tier never; a survivor may
+the fast tiers (and the system files in SYSTEM) are tried, the processes tier never; a survivor may
 still be killed there. Survivors are listed with their key, so a test can be written or an
 equivalence argued.
 
@@ -68,8 +68,10 @@ EQUIVALENT = HERE / "mutation_sample_equivalent.txt"
 PACKAGES = ("rcsgen/compiler", "rcsgen/tools")
 # The tests tried: the unit and fuzz tiers (but the long fuzzers), and the system tier's files
 # that are the only ones reaching a module in process (prove, its seeds, the trace and mine
-# views, the scenarios' devices). The processes tier never: the monitor, softplc, io_connect
-# and replay run in other processes there, where no tracer sees them.
+# views, the scenarios; the monitor's screen against a system run in the test process; the
+# soft PLC, validate --connect and a scenario's device bench in process). The processes tier
+# never: there the monitor, softplc and io_connect run in other processes, where no tracer
+# sees them (test_monitor_screen and test_softplc run their logic in process instead).
 SLOW = ("test_fuzz", "test_differential", "test_prove_differential")
 SYSTEM = (
     "test_prove",
