@@ -509,9 +509,11 @@ def scratch(tree: Path) -> None:
         .split("\0")
     )
     for name in filter(None, files):
-        src = REPO / name
-        if src.is_file():
-            dst = tree / name
+        src, dst = REPO / name, tree / name
+        if src.is_symlink():  # as a link (specs/miner_hil's specs, hooks and maps are)
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            os.symlink(os.readlink(src), dst)
+        elif src.is_file():
             dst.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(src, dst)
 
