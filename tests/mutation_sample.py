@@ -538,16 +538,25 @@ def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
         # test_invalid_case[e244-echo-timeout-...], "E216" -> ...[e216-...]), then the
         # fastest of each test file before the second fastest of any (a file is one
         # aspect: the corpus's hundred quick cases do not crowd out the one file that
-        # compares the generated code), each rank fastest first
+        # compares the generated code)
+        # and within a rank, the files that run most of the module first (its own tests)
         words = _words(m.old)
         rank: dict[int, int] = {}
         seen: dict[str, int] = defaultdict(int)
         for t in sorted(found, key=lambda t: (tests[t][1], t)):
             module = tests[t][0].partition("::")[0]
             rank[t], seen[module] = seen[module], seen[module] + 1
-        ids = sorted(
-            found, key=lambda t: (-len(words & _words(tests[t][0])), rank[t], tests[t][1], t)
-        )
+        reach: dict[str, set[str]] = defaultdict(set)
+        for n, ids_of_line in by_line.items():
+            for t in ids_of_line:
+                reach[tests[t][0].partition("::")[0]].add(n)
+
+        def order(t: int) -> tuple[int, int, int, float, int]:
+            file = tests[t][0].partition("::")[0]
+            named = len(words & _words(tests[t][0]))
+            return (-named, rank[t], -len(reach[file]), tests[t][1], t)
+
+        ids = sorted(found, key=order)
     chosen, spent = [], 0.0
     for t in ids:  # in that order, each that still fits in the budget
         if chosen and spent + tests[t][1] > budget:

@@ -463,3 +463,9 @@ def test_a_mutant_is_tried_against_one_test_of_each_file_before_a_second_of_any(
         "tests/test_a.py::two",
         "tests/test_a.py::three",
     ]
+    # test_b runs more of the module (line 9 too): its test comes first among the fastest
+    cover_map["lines"]["pkg/m.py"]["9"] = [3]
+    assert mutation_sample.selection(m, cover_map, 1.2) == [
+        "tests/test_b.py::slow",
+        "tests/test_a.py::one",
+    ]
