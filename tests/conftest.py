@@ -47,6 +47,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_generated_current",
             "test_graph",
             "test_graph_render",
+            "test_hook_annotations",
             "test_instances",
             "test_loader",
             "test_new",
