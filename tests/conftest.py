@@ -36,6 +36,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_acknowledge",
             "test_analysis",
             "test_analysis_exact",
+            "test_analysis_plans",
             "test_api",
             "test_architecture",
             "test_codes",
