@@ -458,3 +458,15 @@ def test_a_bench_says_which_plc_did_not_start_and_why(
         "the soft PLC of device `tank` did not start: softplc: [Errno 2] No such file or "
         f"directory: '{nothing}/__init__.py'"
     )
+
+
+def test_the_plcs_help_says_what_it_is(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as done:
+        softplc.main(["--help"])
+    assert done.value.code == 0
+    said = capsys.readouterr().out
+    assert said.startswith("usage: python -m rcsgen.tools.softplc ")
+    described = (
+        "A soft PLC: a system's simulators behind a Modbus TCP server, for hardware in the loop."
+    )
+    assert described in " ".join(said.split())  # however wide the terminal wraps it
