@@ -121,8 +121,9 @@ mutate: $(MUTATE_STAMP)
 # A bounded measure of the compiler and the tools (tests/mutation_sample.py, bench/README.md):
 # a fixed-seed stratified sample of one-line mutants, each against the fast tiers' tests that
 # run its lines, in a scratch copy of the tree; prints per module, per package and overall
-# the score with its 95 % interval. About 25 min to map the tests' lines, then mutants for
-# --minutes (the default run fits in an hour here); MUTATE_SAMPLE='--total 300' etc.
+# the score with its 95 % interval. 25-45 min to map the tests' lines (keep the map with
+# --cover FILE; --add TESTFILE traces only new or changed test files into it), then mutants
+# for --minutes (the default run fits in an hour on a quiet machine); MUTATE_SAMPLE='--total 300' etc.
 MUTATE_SAMPLE ?= --minutes 30
 mutate-sample: $(STAMP)
 	nice -n 10 $(PY) tests/mutation_sample.py $(MUTATE_SAMPLE)

@@ -5,7 +5,7 @@ A full mutmut run (`make mutate`) over the compiler and the tools is hours on tw
 This script measures the same thing on a deterministic sample, and says how sure the figure is:
 
 1. **Which tests run which line.** The fast tiers (test_files(): the unit tier, the quick
-   fuzz files and five system files) run once in process with a line tracer on every file
+   fuzz files and the system files in SYSTEM) run once in process with a line tracer on every file
    of rcsgen/compiler and rcsgen/tools (this file is also the pytest plugin that records
    it: `-p mutation_sample`). A line run at import (a table, a default) belongs to every
    test that runs its module.
@@ -27,14 +27,16 @@ The summary prints, per module, package (compiler, tools) and overall: mutants i
 tried, killed, survived, equivalent and the score with a 95 % interval (Wilson's for a module;
 for a package and overall, the stratified estimate weighting each module by its mutants, with
 the finite-population correction). The score is a lower bound: only the lines' own tests in
-the fast tiers (and five system files) are tried, the processes tier never; a survivor may
+the fast tiers (and the system files in SYSTEM) are tried, the processes tier never; a survivor may
 still be killed there. Survivors are listed with their key, so a test can be written or an
 equivalence argued.
 
 Arguments: `--per-module N` / `--total N` (sample size), `--seed S`, `--budget SECONDS`,
 `--only TEXT` (modules whose path contains TEXT), `--list` (print the sample, run nothing),
 `--cover FILE` (keep the map of which tests run which line there, and reuse it while the
-modules and the tests are unchanged), `--json FILE` (write every result), `--minutes M`
+modules and the tests are unchanged), `--add TESTFILE` (repeatable, with `--cover`: the map
+kept, only these test files traced again and merged in, after tests were added or changed;
+a changed module still wants the whole run), `--json FILE` (write every result), `--minutes M`
 (stop trying mutants after M minutes: they are tried in one seeded order across the modules,
 so what was tried is still a sample of each), `--keys FILE` (try only these keys, e.g. the
 survivors of a run after new tests).
@@ -66,10 +68,20 @@ EQUIVALENT = HERE / "mutation_sample_equivalent.txt"
 PACKAGES = ("rcsgen/compiler", "rcsgen/tools")
 # The tests tried: the unit and fuzz tiers (but the long fuzzers), and the system tier's files
 # that are the only ones reaching a module in process (prove, its seeds, the trace and mine
-# views, the scenarios' devices). The processes tier never: the monitor, softplc, io_connect
-# and replay run in other processes there, where no tracer sees them.
+# views, the scenarios; the monitor's screen against a system run in the test process; the
+# soft PLC, validate --connect and a scenario's device bench in process). The processes tier
+# never: there the monitor, softplc and io_connect run in other processes, where no tracer
+# sees them (test_monitor_screen and test_softplc run their logic in process instead).
 SLOW = ("test_fuzz", "test_differential", "test_prove_differential")
-SYSTEM = ("test_prove", "test_prove_seeds", "test_trace_view", "test_mine_view", "test_scenarios")
+SYSTEM = (
+    "test_prove",
+    "test_prove_seeds",
+    "test_trace_view",
+    "test_mine_view",
+    "test_scenarios",
+    "test_monitor_screen",
+    "test_softplc",
+)
 TEST_ENV = {"EXPR_EXAMPLES": "200", "DIFF_EXAMPLES": "5"}
 SEED = 25
 TOTAL = 200
@@ -178,8 +190,9 @@ def _modules(roots: tuple[str, ...]) -> list[Path]:
     return sorted(p.resolve() for root in roots for p in Path(root).rglob("*.py"))
 
 
-def cover(tree: Path, out: Path) -> None:
-    """The coverage run, in the scratch copy `tree`; the map is written to `out`."""
+def cover(tree: Path, out: Path, files: list[str] | None = None) -> None:
+    """The coverage run, in the scratch copy `tree`; the map is written to `out`. `files`:
+    these test files only (test_files(), the whole fast selection, else)."""
     env = _env(tree) | {COVER_ENV: str(out)}
     cmd = [
         sys.executable,
@@ -192,7 +205,7 @@ def cover(tree: Path, out: Path) -> None:
         "no:xdist",
         "-p",
         "mutation_sample",
-        *test_files(),
+        *(files if files is not None else test_files()),
     ]
     started = time.monotonic()
     done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
@@ -204,6 +217,26 @@ def cover(tree: Path, out: Path) -> None:
     sys.stdout.flush()
     if not out.exists():
         sys.exit(f"the coverage run wrote no map:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}")
+
+
+def merged(base: dict[str, Any], added: dict[str, Any], files: list[str]) -> dict[str, Any]:
+    """`base` with the tests of `files` (traced again, or new) taken from `added`: a map
+    kept current after a few test files changed, without the whole coverage run again."""
+    names = tuple(f"{f}::" for f in files)
+    keep = [i for i, t in enumerate(base["tests"]) if not t[0].startswith(names)]
+    renumber = {old: new for new, old in enumerate(keep)}
+    tests = [base["tests"][i] for i in keep]
+    shift = len(tests)
+    tests += added["tests"]
+    lines: dict[str, dict[str, list[int]]] = {}
+    for rel in sorted(set(base["lines"]) | set(added["lines"])):
+        by: dict[str, set[int]] = defaultdict(set)
+        for n, ids in base["lines"].get(rel, {}).items():
+            by[n].update(renumber[i] for i in ids if i in renumber)
+        for n, ids in added["lines"].get(rel, {}).items():
+            by[n].update(i + shift for i in ids)
+        lines[rel] = {n: sorted(ids) for n, ids in by.items() if ids}
+    return {"tests": tests, "lines": lines}
 
 
 def test_files() -> list[str]:
@@ -476,9 +509,11 @@ def scratch(tree: Path) -> None:
         .split("\0")
     )
     for name in filter(None, files):
-        src = REPO / name
-        if src.is_file():
-            dst = tree / name
+        src, dst = REPO / name, tree / name
+        if src.is_symlink():  # as a link (specs/miner_hil's specs, hooks and maps are)
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            os.symlink(os.readlink(src), dst)
+        elif src.is_file():
             dst.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(src, dst)
 
@@ -500,9 +535,28 @@ def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
         lines = [str(n) for n in range(m.line, m.last + 1)]
         found = {t for n in lines for t in by_line.get(n, ())}
         # tests named after a word of the mutated text first (`echo_timeouts` ->
-        # test_invalid_case[e244-echo-timeout-...], "E216" -> ...[e216-...]), then the fastest
+        # test_invalid_case[e244-echo-timeout-...], "E216" -> ...[e216-...]), then the
+        # fastest of each test file before the second fastest of any (a file is one
+        # aspect: the corpus's hundred quick cases do not crowd out the one file that
+        # compares the generated code)
+        # and within a rank, the files that run most of the module first (its own tests)
         words = _words(m.old)
-        ids = sorted(found, key=lambda t: (-len(words & _words(tests[t][0])), tests[t][1], t))
+        rank: dict[int, int] = {}
+        seen: dict[str, int] = defaultdict(int)
+        for t in sorted(found, key=lambda t: (tests[t][1], t)):
+            module = tests[t][0].partition("::")[0]
+            rank[t], seen[module] = seen[module], seen[module] + 1
+        reach: dict[str, set[str]] = defaultdict(set)
+        for n, ids_of_line in by_line.items():
+            for t in ids_of_line:
+                reach[tests[t][0].partition("::")[0]].add(n)
+
+        def order(t: int) -> tuple[int, int, int, float, int]:
+            file = tests[t][0].partition("::")[0]
+            named = len(words & _words(tests[t][0]))
+            return (-named, rank[t], -len(reach[file]), tests[t][1], t)
+
+        ids = sorted(found, key=order)
     chosen, spent = [], 0.0
     for t in ids:  # in that order, each that still fits in the budget
         if chosen and spent + tests[t][1] > budget:
@@ -672,6 +726,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--minutes", type=float, help="stop trying mutants after this long")
     parser.add_argument("--keys", type=Path, help="try only the sampled mutants listed here")
     parser.add_argument("--cover", type=Path)
+    parser.add_argument(
+        "--add",
+        action="append",
+        default=[],
+        metavar="TESTFILE",
+        help="with --cover: trace only this test file (new or changed) into the kept map",
+    )
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
     TIMEOUT = args.timeout
@@ -713,6 +774,12 @@ def main(argv: list[str] | None = None) -> int:
         cover_file = args.cover or tree / "cover.json"
         digest = sources_digest()
         cover_map = json.loads(cover_file.read_text()) if cover_file.exists() else {}
+        if args.add and cover_map and cover_map.get("digest") != digest:
+            # a few test files changed or were added: only they are traced again
+            cover(tree, tree / "added.json", args.add)
+            added = json.loads((tree / "added.json").read_text())
+            cover_map = merged(cover_map, added, args.add) | {"digest": digest}
+            cover_file.write_text(json.dumps(cover_map))
         if cover_map.get("digest") != digest:  # none yet, or the sources or tests changed
             cover(tree, cover_file)
             cover_map = json.loads(cover_file.read_text()) | {"digest": digest}

@@ -6,7 +6,10 @@ a YAML comment: `# expect: E204` means a diagnostic E204 on that line, `# expect
 also pins the column, `# expect: E221 E222` expects two codes there. The test runs the front
 end on the case directory and asserts the reported (file, line, code) set equals the expected
 set: an extra diagnostic fails the case as surely as a missing one, so each case is kept
-minimal. Nothing may raise.
+minimal. Nothing may raise. The messages and hints themselves, word for word, are what a
+person reads: each case's are recorded in `cases/invalid_messages.json` and compared too
+(`python tests/test_corpus.py` records them again after a change meant, to be reviewed as
+a diff).
 
 Warnings of the static analysis (W5xx) are compared only in cases that expect one: they
 judge tables, not mistakes, and a case is about its one mistake.
@@ -106,6 +109,39 @@ def run_front_end(
     return found
 
 
+# The rendered diagnostics of every invalid case (message and hint, where), as a person
+# reads them: `python tests/test_corpus.py` records them again after a reviewed change.
+MESSAGES = CASES / "invalid_messages.json"
+
+
+def said(diags: list[Diagnostic]) -> list[str]:
+    return sorted(d.render() for d in diags)
+
+
+_recorded: dict[str, list[str]] = {}
+
+
+def _messages() -> dict[str, list[str]]:
+    if not _recorded:
+        _recorded.update(json.loads(MESSAGES.read_text(encoding="utf-8")))
+    return _recorded
+
+
+def record_messages() -> None:
+    """Every invalid case's messages, as test_invalid_case compares them, into MESSAGES."""
+    found = {}
+    for case in INVALID:
+        want = expectations(case)
+        with pytest.MonkeyPatch.context() as monkeypatch:
+            diags = run_front_end(case, monkeypatch, run=any(e.code in RUN_CODES for e in want))
+        analysis = any(ANALYSIS_WARNING.fullmatch(e.code) for e in want)
+        found[case.name] = said(
+            [d for d in diags if analysis or not ANALYSIS_WARNING.fullmatch(d.code)]
+        )
+    text = json.dumps(found, indent=1, sort_keys=True, ensure_ascii=False) + "\n"
+    MESSAGES.write_text(text, encoding="utf-8")
+
+
 def test_corpus_size() -> None:
     """At least 100 bad specs, covering at least 40 kinds of mistake."""
     kinds = {case.name.split("--")[0] for case in INVALID}
@@ -131,6 +167,12 @@ def test_invalid_case(case: Path, monkeypatch: pytest.MonkeyPatch) -> None:
         assert (case / d.span.file).is_file(), d.render()
         assert d.span.line >= 1 and d.span.col >= 1, d.render()
         assert d.message and "Traceback" not in d.message
+    # what a person reads, word for word: each message and hint as recorded
+    recorded = _messages().get(case.name)
+    assert said(compared) == recorded, (
+        f"{case.name}: the messages differ from {MESSAGES.name} (if the change is meant, "
+        "record them again: python tests/test_corpus.py, and review the diff)"
+    )
 
 
 @pytest.mark.parametrize("case", VALID, ids=[c.name for c in VALID])
@@ -298,3 +340,7 @@ def test_build_json_keeps_stdout_for_the_array(
     assert failed.exit_code == 1
     assert [d["code"] for d in json.loads(failed.stdout)] == ["E204"]
     assert "nothing was written" in failed.stderr and not (tmp_path / "out2").exists()
+
+
+if __name__ == "__main__":
+    record_messages()

@@ -420,3 +420,52 @@ def test_the_sample_scores_carry_their_interval() -> None:
     assert low < estimate < high
     # every mutant tried: no sampling error left
     assert mutation_sample.stratified([(10, 10, 7)]) == pytest.approx((0.7, 0.7, 0.7))
+
+
+def test_a_kept_map_takes_a_retraced_test_file_in_place_of_its_old_tests() -> None:
+    base = {
+        "tests": [["tests/test_a.py::t1", 1.0, True], ["tests/test_b.py::t2", 2.0, True]],
+        "lines": {"m.py": {"3": [0, 1], "4": [1]}, "n.py": {"9": [1]}},
+    }
+    added = {
+        "tests": [["tests/test_b.py::t2", 0.5, True], ["tests/test_b.py::t3", 0.1, True]],
+        "lines": {"m.py": {"5": [1]}, "o.py": {"1": [0, 1]}},
+    }
+    got = mutation_sample.merged(base, added, ["tests/test_b.py"])
+    assert [t[0] for t in got["tests"]] == [
+        "tests/test_a.py::t1",
+        "tests/test_b.py::t2",
+        "tests/test_b.py::t3",
+    ]
+    # test_b's old lines are gone (line 4 and n.py ran only under it), its new ones are in
+    assert got["lines"] == {"m.py": {"3": [0], "5": [2]}, "n.py": {}, "o.py": {"1": [1, 2]}}
+
+
+def test_a_mutant_is_tried_against_one_test_of_each_file_before_a_second_of_any() -> None:
+    cover_map = {
+        "tests": [
+            ["tests/test_a.py::one", 0.1, True],
+            ["tests/test_a.py::two", 0.2, True],
+            ["tests/test_a.py::three", 0.3, True],
+            ["tests/test_b.py::slow", 1.0, True],
+            ["tests/test_c.py::elsewhere", 0.01, True],
+        ],
+        "lines": {"pkg/m.py": {"7": [0, 1, 2, 3], "8": [4]}},
+    }
+    m = mutation_sample.Mutant("pkg/m.py", 7, 7, "compare", "x < b", "(x <= b)", (7, 4), (7, 9))
+    assert mutation_sample.selection(m, cover_map, 1.2) == [
+        "tests/test_a.py::one",
+        "tests/test_b.py::slow",
+    ]
+    assert mutation_sample.selection(m, cover_map, 10) == [
+        "tests/test_a.py::one",
+        "tests/test_b.py::slow",
+        "tests/test_a.py::two",
+        "tests/test_a.py::three",
+    ]
+    # test_b runs more of the module (line 9 too): its test comes first among the fastest
+    cover_map["lines"]["pkg/m.py"]["9"] = [3]
+    assert mutation_sample.selection(m, cover_map, 1.2) == [
+        "tests/test_b.py::slow",
+        "tests/test_a.py::one",
+    ]

@@ -1,0 +1,472 @@
+"""The soft PLC (rcsgen/tools/softplc.py), `validate --connect`'s probe (tools/io_connect.py)
+and a scenario's device bench (tools/scenario/devices.py) in this process, against the rig
+(tests/fixtures/runtime/rig): its `tank` device served by the PLC's Modbus bank on a free
+loopback port, in an event loop of the test's own. test_io.py and test_io_scenario.py run
+the same tools as the separate OS processes they are in use; here their logic runs where a
+line tracer sees it (`make mutate-sample` maps these tests), in a few seconds. A bank, a
+server and a port opened here are closed before a test ends.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import importlib
+import json
+import os
+import shutil
+import socket
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import replace
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import pytest
+
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.ir import IRSystem
+from rcsgen.runtime.io_cycle import make_link, relocated
+from rcsgen.runtime.io_points import INPUT_REGISTER, Point
+from rcsgen.tools import io_connect, softplc
+from rcsgen.tools.harness import generate, import_package
+
+pytest.importorskip("pymodbus")
+
+RIG = Path(__file__).resolve().parent / "fixtures" / "runtime" / "rig"
+
+
+@pytest.fixture(scope="module")
+def rig() -> Iterator[Path]:
+    scratch, name = generate(RIG)
+    yield scratch / name
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def layout(rig: Path) -> ModuleType:
+    return importlib.import_module(f"{import_package(rig, RIG).__name__}.layout")
+
+
+@pytest.fixture(scope="module")
+def system() -> IRSystem:
+    front = compile_paths([RIG])
+    assert not front.diagnostics.errors
+    return front.systems[0]
+
+
+def free_port() -> int:
+    with socket.socket() as unused:
+        unused.bind(("127.0.0.1", 0))
+        return int(unused.getsockname()[1])
+
+
+def listening(port: int) -> bool:
+    with socket.socket() as probe:
+        probe.settimeout(0.5)
+        return probe.connect_ex(("127.0.0.1", port)) == 0
+
+
+async def until(ok: Callable[[], bool], what: str, limit: float = 30) -> None:
+    end = time.monotonic() + limit
+    while not ok():
+        assert time.monotonic() < end, f"not seen within {limit:g} s: {what}"
+        await asyncio.sleep(0.02)
+
+
+def serve(
+    rig: Path,
+    tmp_path: Path,
+    device: str,
+    client: Callable[..., Any],
+    world: tuple[str, ...] = ("level=1.25",),
+) -> tuple[Any, dict[str, Any]]:
+    """The rig's PLC serving `device` (names, space-separated) on free ports in this
+    process's event loop, cycling every 20 ms, while `client(port, ..., control)` runs in a
+    thread; then the PLC stopped (its finally: the bank shut, the report written).
+    (client's result, the report)."""
+    package = import_package(rig, RIG)
+    layout = importlib.import_module(f"{package.__name__}.layout")
+    plant = softplc.Plant(package, {})
+    for item in world:
+        plant.set(item)
+    ready, report, control = tmp_path / "ready", tmp_path / "report.json", tmp_path / "control"
+    control.mkdir(exist_ok=True)
+    names = device.split()
+    args = argparse.Namespace(
+        host="127.0.0.1",
+        port=[0] * len(names),
+        ready=str(ready),
+        control=str(control),
+        period=0.02,
+        cycles=None,
+        report=str(report),
+    )
+
+    async def run() -> Any:
+        devices = [layout.IO_DEVICES[name] for name in names]
+        serving = asyncio.create_task(softplc._serve(args, plant, devices))
+        try:
+            await until(
+                lambda: ready.is_file() and ready.read_text().count("\n") == len(names), "ready"
+            )
+            ports = [int(line) for line in ready.read_text().split()]
+            return await asyncio.to_thread(client, *ports, control)
+        finally:
+            serving.cancel()
+            with pytest.raises(asyncio.CancelledError):
+                await serving
+
+    got = asyncio.run(run())
+    return got, json.loads(report.read_text())
+
+
+def test_the_plc_carries_commands_into_its_plant_and_the_plants_values_out(
+    rig: Path, layout: ModuleType, tmp_path: Path
+) -> None:
+    declared = layout.IO_DEVICES["tank"]
+    level, valve = (
+        next(p for p in declared.points if p.field == f) for f in ("level", "valve_cmd")
+    )
+
+    def client(port: int, control: Path) -> tuple[object, object]:
+        link = make_link(replace(declared, port=port))
+        link.connect()
+        try:
+            first = link.read_point(level)
+            link.write({"valve_cmd": 42.5})
+            end = time.monotonic() + 30
+            while link.read_point(valve) != pytest.approx(42.5) and time.monotonic() < end:
+                time.sleep(0.02)
+            time.sleep(0.2)  # several PLC cycles: the command is in the plant's world
+            return first, link.read_point(valve)
+        finally:
+            link.close()
+
+    (first, held), world = serve(rig, tmp_path, "tank", client, ("level=1.25",))
+    assert first == pytest.approx(1.25)  # the plant's value on the point before any poll
+    assert held == pytest.approx(42.5)
+    assert world["valve_cmd"] == pytest.approx(42.5)  # the command crossed into the plant
+    assert world["level"] == pytest.approx(1.25) and world["_cycles"] > 1
+
+
+def test_an_opc_ua_device_is_served_at_its_endpoints_path_and_its_nodes_written_through(
+    rig: Path, layout: ModuleType, system: IRSystem, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The pumps (OPC UA, `opc.tcp://.../rig`) and the tank (Modbus) on one PLC: the client
+    reaches the nodes at the declared endpoint path, its writes reach the plant; both
+    devices answer `validate --connect` with every point."""
+    declared = layout.IO_DEVICES["pumps"]
+
+    def client(tank: int, pumps: int, control: Path) -> tuple[list[str], object]:
+        url = f"opc.tcp://127.0.0.1:{pumps}/rig"
+        link = make_link(replace(declared, port=pumps, url=url))
+        link.connect()
+        try:
+            link.write({"pump_on": True, "alarm": False})
+            alarm = next(p for p in declared.points if p.field == "alarm")
+            end = time.monotonic() + 30
+            while link.read_point(alarm) is not False and time.monotonic() < end:
+                time.sleep(0.02)
+            time.sleep(0.2)  # several PLC cycles
+            held = link.read_point(alarm)
+        finally:
+            link.close()
+        monkeypatch.setenv("RCSGEN_IO_TANK", f"127.0.0.1:{tank}")
+        monkeypatch.setenv("RCSGEN_IO_PUMPS", url)
+        return [d.render() for d in io_connect.check_devices(system)], held
+
+    (said, held), world = serve(rig, tmp_path, "tank pumps", client)
+    assert said == [] and held is False
+    assert world["pump_on"] is True and world["alarm"] is False
+
+
+def test_an_unplugged_device_refuses_connections_and_comes_back_on_its_port(
+    rig: Path, layout: ModuleType, tmp_path: Path
+) -> None:
+    def client(port: int, control: Path) -> list[bool]:
+        seen = [listening(port)]
+        for order in ("unplug", "replug"):
+            (control / "tank").write_text(order)
+            end = time.monotonic() + 30
+            while listening(port) != (order == "replug") and time.monotonic() < end:
+                time.sleep(0.02)
+            seen.append(listening(port))
+        return seen
+
+    seen, _ = serve(rig, tmp_path, "tank", client)
+    assert seen == [True, False, True]
+
+
+def test_validate_connect_names_a_device_that_does_not_answer_and_a_point_it_lacks(
+    rig: Path, system: IRSystem, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    tank = next(d for d in system.io if d.name == "tank")
+    missing = Point("level", INPUT_REGISTER, 40, False, "float", scale=0.01)
+    lacking = replace(
+        system,
+        io=tuple(replace(d, points=(*d.points, missing)) if d is tank else d for d in system.io),
+    )
+    dead = free_port()
+
+    served: list[int] = []
+
+    def client(port: int, control: Path) -> tuple[list[str], list[str]]:
+        served.append(port)
+        monkeypatch.setenv("RCSGEN_IO_TANK", f"127.0.0.1:{port}")
+        monkeypatch.setenv("RCSGEN_IO_PUMPS", f"opc.tcp://127.0.0.1:{dead}/rig")
+        every = io_connect.check_devices(system)
+        some = io_connect.check_devices(lacking)
+        return [d.render() for d in every], [d.render() for d in some]
+
+    (every, some), _ = serve(rig, tmp_path, "tank", client)
+    # the tank's PLC has every point it declares; the pumps' OPC UA server is not there
+    assert len(every) == 1, every
+    assert (
+        "E458" in every[0]
+        and f"device `pumps` does not answer at opc.tcp://127.0.0.1:{dead}/rig" in every[0]
+    )
+    assert "RCSGEN_IO_PUMPS=... points the check elsewhere" in every[0]
+    refused = [d for d in some if "tank" in d]
+    assert len(refused) == 1, some
+    assert (
+        f"device `tank` at 127.0.0.1:{served[0]} has no input_register 40 for `level`: "
+        in (refused[0])
+    ), refused[0]
+    assert "system.yaml:" in refused[0]
+
+    monkeypatch.setenv("RCSGEN_IO_TANK", "not an address")
+    monkeypatch.setenv("RCSGEN_IO_PUMPS", f"opc.tcp://127.0.0.1:{dead}/rig")
+    said = [d.render() for d in io_connect.check_devices(system)]
+    assert any(
+        "error[E458]: RCSGEN_IO_TANK='not an address': not an address of I/O device tank "
+        "(HOST:PORT)" in s
+        for s in said
+    ), said
+
+
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["--device", "nope"], "declares no I/O device 'nope' (it has: ['pumps', 'tank'])"),
+        (["--device", "tank", "--port", "1", "--port", "2"], "2 --port for 1 --device"),
+        (["--device", "tank", "--set", "novalue"], "--set 'novalue': expected KEY=VALUE"),
+        (
+            ["--device", "tank", "--world", "level"],
+            "--world 'level': expected FIELD=VALUE, FIELD a world field",
+        ),
+        (
+            ["--device", "tank", "--world", "levl=1"],
+            "--world 'levl=1': expected FIELD=VALUE, FIELD a world field",
+        ),
+        (["--device", "tank", "--world", "level=abc"], "--world 'level=abc': 'abc' is not a value"),
+        (
+            ["--device", "tank", "--world", 'level="x"'],
+            """--world 'level="x"': '"x"' is not a number or a bool""",
+        ),
+    ],
+)
+def test_the_plc_refuses_a_bad_argument_in_one_line(
+    rig: Path, argv: list[str], said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert softplc.main(["--io", str(rig), "--hooks", str(RIG), *argv]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("softplc: ") and said in err, err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_the_plc_refuses_a_plant_without_a_field_its_device_binds(
+    rig: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    duo = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
+    scratch, name = generate(duo)
+    try:
+        argv = ["--io", str(rig), "--device", "tank", "--plant", str(scratch / name)]
+        assert softplc.main([*argv, "--hooks", str(duo)]) == 2
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    assert capsys.readouterr().err == (
+        "softplc: the plant has no world field 'level' that device tank binds\n"
+    )
+
+
+def test_the_plc_runs_its_cycles_and_reports_its_plants_world(
+    rig: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    ready, report = tmp_path / "ready", tmp_path / "report.json"
+    code = softplc.main(
+        [
+            "--io",
+            str(rig),
+            "--hooks",
+            str(RIG),
+            "--device",
+            "tank",
+            "--port",
+            "0",
+            "--cycles",
+            "3",
+            "--world",
+            "level=2.5",
+            "--world",
+            "valve_cmd=7",
+            "--ready",
+            str(ready),
+            "--report",
+            str(report),
+        ]
+    )
+    assert code == 0, capsys.readouterr().err
+    assert int(ready.read_text()) > 0 and ready.read_text().count("\n") == 1
+    world = json.loads(report.read_text())
+    assert world["_cycles"] == 3
+    assert world["level"] == pytest.approx(2.5)
+    assert world["valve_cmd"] == pytest.approx(7.0)
+
+
+def test_the_plc_names_the_extra_a_devices_protocol_needs(monkeypatch: pytest.MonkeyPatch) -> None:
+    class Device:
+        name, protocol = "pumps", "opcua"
+
+    monkeypatch.setattr(softplc.importlib.util, "find_spec", lambda name: None)
+    with pytest.raises(
+        ImportError, match=r"device pumps \(opcua\) needs asyncua: pip install 'rcsgen\[opcua\]'"
+    ):
+        softplc._libraries_there([Device()])
+    Device.protocol = "modbus_tcp"
+    with pytest.raises(ImportError, match=r"needs pymodbus: pip install 'rcsgen\[modbus\]'"):
+        softplc._libraries_there([Device()])
+
+
+def test_relocated_takes_the_address_from_the_environment(layout: ModuleType) -> None:
+    tank, pumps = layout.IO_DEVICES["tank"], layout.IO_DEVICES["pumps"]
+    moved = relocated(tank, {"RCSGEN_IO_TANK": "10.0.0.2:5020"})
+    assert (moved.host, moved.port, moved.url) == ("10.0.0.2", 5020, "")
+    assert relocated(tank, {}) is tank
+    url = "opc.tcp://[::1]:4840/rig"
+    moved = relocated(pumps, {"RCSGEN_IO_PUMPS": url})
+    assert (moved.host, moved.port, moved.url) == ("::1", 4840, url)
+    with pytest.raises(ValueError, match="not an address of I/O device tank"):
+        relocated(tank, {"RCSGEN_IO_TANK": "10.0.0.2:0"})
+
+
+# ------------------------------------------------------------ a scenario's device bench
+
+
+def scenario_with(devices: dict[str, Path | None], settings: dict[str, str] | None = None) -> Any:
+    from rcsgen.compiler.diagnostics import Span
+    from rcsgen.tools.scenario.model import Scenario, SoftPlc
+
+    where = RIG / "scenarios" / "bench.yaml"
+    return Scenario(
+        name="bench",
+        title="the bench",
+        path=where,
+        system_dir=RIG,
+        process=None,
+        max_cycles=10,
+        stop_when_done=None,
+        trace_world=[],
+        events=[],
+        settings=settings or {},
+        devices={name: SoftPlc(name, plant, Span(where)) for name, plant in devices.items()},
+    )
+
+
+def open_valve(layout: ModuleType) -> None:
+    """A client opens the tank's valve on its PLC (wherever RCSGEN_IO_TANK points)."""
+    link = make_link(relocated(layout.IO_DEVICES["tank"]))
+    link.connect()
+    try:
+        link.write({"valve_cmd": 50.0})
+    finally:
+        link.close()
+
+
+def test_a_scenarios_bench_serves_each_device_and_pulls_its_plug_and_freezes_it(
+    rig: Path, layout: ModuleType, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two PLCs of their own (no plant): each device pointed at its PLC's port for the run,
+    unplugged (port closed) and plugged in again, its PLC frozen and thawed, the devices
+    down tracked; the outputs read back against the safe values; at the end every PLC
+    stopped, its port closed, the environment as it was."""
+    from rcsgen.tools.scenario.devices import Bench
+
+    monkeypatch.setenv("RCSGEN_IO_TANK", "10.1.1.1:502")
+    monkeypatch.delenv("RCSGEN_IO_PUMPS", raising=False)
+    bench = Bench(scenario_with({"tank": None, "pumps": None}), rig, tmp_path)
+    try:
+        bench.start(layout)
+        tank, pumps = bench.plcs["tank"], bench.plcs["pumps"]
+        assert tank is not pumps and tank.names == ["tank"]
+        port, url = tank.ports["tank"], pumps.ports["pumps"]
+        assert os.environ["RCSGEN_IO_TANK"] == f"127.0.0.1:{port}"
+        assert os.environ["RCSGEN_IO_PUMPS"] == f"opc.tcp://127.0.0.1:{url}/rig"
+        assert listening(port) and listening(url)
+        # a fresh PLC holds its outputs at the initial values, the safe ones here; a valve
+        # opened by a client is read back as not safe
+        assert bench.not_safe_on_survivors(layout) == []
+        open_valve(layout)
+        assert bench.not_safe_on_survivors(layout) == [
+            "device `tank` holds `valve_cmd` 50.0, not its safe 0.0"
+        ]
+        bench.apply("tank", "unplug")
+        assert not listening(port) and bench.down == {"tank"}
+        bench.apply("tank", "replug")
+        assert listening(port) and bench.down == set()
+        bench.apply("tank", "freeze")
+        assert bench.down == {"tank"}
+        assert bench.not_safe_on_survivors(layout) == []  # a frozen device is not asked
+        bench.apply("tank", "thaw")
+        assert bench.down == set()
+        open_valve(layout)  # answering again: read back again
+        assert len(bench.not_safe_on_survivors(layout)) == 1
+    finally:
+        bench.close()
+    assert os.environ["RCSGEN_IO_TANK"] == "10.1.1.1:502"
+    assert "RCSGEN_IO_PUMPS" not in os.environ
+    assert not listening(port) and not listening(url)
+    for plc in (tank, pumps):
+        assert plc.popen is not None and plc.popen.poll() is not None
+
+
+def test_a_bench_says_which_plc_did_not_start_and_why(
+    rig: Path, layout: ModuleType, tmp_path: Path
+) -> None:
+    from rcsgen.tools.scenario.devices import Bench, DeviceStartError
+
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "system.yaml").write_text("system: broken\n")
+    bench = Bench(scenario_with({"tank": broken}), rig, tmp_path / "one")
+    with pytest.raises(DeviceStartError) as error:
+        bench.start(layout)
+    bench.close()
+    assert str(error.value) == (
+        f"the soft PLC of device `tank` did not start: its plant {broken} does not build"
+    )
+    # a PLC that exits at once: what it said last is the reason
+    nothing = tmp_path / "nothing"
+    bench = Bench(scenario_with({"tank": None}), nothing, tmp_path / "two")
+    try:
+        with pytest.raises(DeviceStartError) as error:
+            bench.start(layout)
+    finally:
+        bench.close()
+    assert str(error.value) == (
+        "the soft PLC of device `tank` did not start: softplc: [Errno 2] No such file or "
+        f"directory: '{nothing}/__init__.py'"
+    )
+
+
+def test_the_plcs_help_says_what_it_is(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as done:
+        softplc.main(["--help"])
+    assert done.value.code == 0
+    said = capsys.readouterr().out
+    assert said.startswith("usage: python -m rcsgen.tools.softplc ")
+    described = (
+        "A soft PLC: a system's simulators behind a Modbus TCP server, for hardware in the loop."
+    )
+    assert described in " ".join(said.split())  # however wide the terminal wraps it
