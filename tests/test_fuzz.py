@@ -14,7 +14,7 @@ For every mutated system:
 - for every BUILD_EVERY-th example, `rcsgen build` runs through the CLI in-process on a
   copy whose output directory holds a previous build: a failed build leaves it byte-identical.
 
-The test runs FUZZ_EXAMPLES examples (150 by default, derandomized for CI);
+The test runs FUZZ_EXAMPLES examples (80 by default, derandomized for CI);
 `make fuzz` runs 5,000 with fresh randomness and prints a summary.
 """
 
@@ -43,7 +43,7 @@ TINY = REPO / "tests" / "cases" / "valid" / "tiny"
 CHAIN = REPO / "tests" / "fixtures" / "semantics" / "chain"
 MINER = REPO / "specs" / "miner"  # 20 times slower to check than the others: drawn less
 SEEDS = [TINY, TINY, TINY, CHAIN, CHAIN, CHAIN, MINER]
-EXAMPLES = int(os.environ.get("FUZZ_EXAMPLES", "150"))
+EXAMPLES = int(os.environ.get("FUZZ_EXAMPLES", "80"))
 DERANDOMIZE = os.environ.get("FUZZ_RANDOM", "") == ""
 BUILD_EVERY = 10
 
