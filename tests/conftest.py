@@ -182,14 +182,22 @@ def wait_for(
     condition: Callable[[], object], what: str, deadline: float = 20.0, every: float = 0.01
 ) -> object:
     """Poll `condition` until it is true (its value); fail naming `what` after `deadline`
-    seconds: how the tests of running systems wait, never asserting on wall-clock time."""
+    seconds: how the tests of running systems wait, never asserting on wall-clock time. A
+    record caught mid-write (StaleRead: its writer was descheduled between the sequence
+    word's two stores, or died) is not yet: polled again, and named if it never settles."""
+    from rcsgen.runtime.contract import StaleRead  # one class for every package's copy
+
     end = time.monotonic() + deadline
+    stale: StaleRead | None = None
     while time.monotonic() < end:
-        value = condition()
+        try:
+            value = condition()
+        except StaleRead as error:
+            stale, value = error, None
         if value:
             return value
         time.sleep(every)
-    raise AssertionError(f"gave up waiting: {what}")
+    raise AssertionError(f"gave up waiting: {what}" + (f" (last read: {stale})" if stale else ""))
 
 
 def edit(path: Path, old: str, new: str) -> str:

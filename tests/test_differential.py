@@ -21,7 +21,7 @@ record of `top`'s channel, the generated operator module runs after `top`, and t
 reference feeds `top` the channel status that docs/semantics.md section 21 says the
 operator module reports (the model of tests/test_operator.py).
 
-DIFF_EXAMPLES (default 15) examples run in the tests; `make fuzz` runs more.
+DIFF_EXAMPLES (default 25) examples run in the tests; `make fuzz` runs more.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from test_operator import Channel
 
 from rcsgen.tools.harness import Harness
 
-EXAMPLES = int(os.environ.get("DIFF_EXAMPLES", "15"))
+EXAMPLES = int(os.environ.get("DIFF_EXAMPLES", "25"))
 DERANDOMIZE = os.environ.get("FUZZ_RANDOM", "") == ""
 CYCLES = 200
 REPLIES = ("DONE", "DONE", "ERROR", "EXECUTING")

@@ -186,3 +186,7 @@ def test_a_replay_scripts_the_reason_the_model_chose_for_an_error(tmp_path):
     assert "is violated" in line and "replayed in the generated code" in line, out.output
     written = (directory / "counterexamples" / "top_w701_go.yaml").read_text()
     assert "sub: ERROR(REFUSED)" in written, written
+    # and `rcsgen run` takes the scenario as written: the reason is one sub can give
+    ran = CliRunner().invoke(main, ["run", str(directory / "counterexamples" / "top_w701_go.yaml")])
+    assert "E408" not in ran.output and "Traceback" not in ran.output, ran.output
+    assert "run failed: nothing was run" not in ran.output, ran.output

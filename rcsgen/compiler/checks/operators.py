@@ -308,7 +308,7 @@ def _check_range(module: str, command: Command, result: Typed, diags: Diagnostic
         diags.error(
             given[0].span,
             "E910",
-            f"{where} is a {result.type}: only an int or a float has a range",
+            f"{where} has the type {result.type}: only an int or a float has a range",
             "leave `min`/`max` out: an answer is checked against its type and values",
         )
         return

@@ -430,7 +430,7 @@ class _Checker:
             replies = raw.get("reply") or {}
             for name, status in replies.items():
                 found = self.module(name, key_span(replies, name, where), None, "reply to")
-                if found is not None and self.reply_reason(found, str(status), replies, name):
+                if found is not None and self.reply_reason(str(status), replies, name):
                     event.replies[name] = str(status)
             world = raw.get("set") or {}
             for name, value in world.items():
@@ -807,22 +807,10 @@ class _Checker:
                 )
                 return
 
-    def reply_reason(
-        self, controller: IRController, status: str, replies: dict[str, Any], name: str
-    ) -> bool:
-        """A scripted ERROR's reason (`ERROR(BLOCKED)`): one the module declares (E408)."""
+    def reply_reason(self, status: str, replies: dict[str, Any], name: str) -> bool:
+        """A scripted ERROR's reason (`ERROR(BLOCKED)`): one the module can give (E408)."""
         reason = status.partition("(")[2].rstrip(")")
-        declared = [r for r, _ in controller.reasons]
-        if not reason or reason in declared or reason == "LOST":
-            return True
-        self.error(
-            self.span(replies, name),
-            "E408",
-            f"reply to `{name}`: `{reason}` is not a reason of {name}",
-            known_names_hint("reasons", declared, reason)
-            or f"declare it under a command of {name}",
-        )
-        return False
+        return not reason or self.reason(reason, name, self.span(replies, name))
 
     def answer_reason(self, reason: str, answer: str, tasks: list[Any], span: Span) -> None:
         """A reason given with ERROR only, and one that a task it may answer declares (E288);
