@@ -41,6 +41,7 @@ from types import ModuleType
 from bench_lockstep import CHAIN, Driver, race, stats
 from common import ROOT, write_json
 
+from rcsgen.runtime import contract
 from rcsgen.tools import scenario as scenarios
 from rcsgen.tools.harness import Harness, LaunchedHarness, generate, import_package
 
@@ -343,11 +344,18 @@ def detection(runs: int, soak: float) -> dict[str, object]:
 
             def until(condition, limit: float = 30.0) -> float:
                 began = time.perf_counter()
-                while not condition():
+                while not settled(condition):
                     if time.perf_counter() - began > limit:
                         raise SystemExit("detection: gave up waiting")
                     time.sleep(0.001)
                 return time.perf_counter() - began
+
+            def settled(condition) -> bool:
+                """The condition, or False for a record caught mid-write (polled again)."""
+                try:
+                    return bool(condition())
+                except contract.StaleRead:
+                    return False
 
             until(lambda block=block: layout.STATUS_OUT["pp"].read(block.buf)["status"] == 2)
             if run == 0 and soak > 0:
