@@ -12,7 +12,26 @@ import json
 from importlib import resources
 from typing import Any
 
+from .read import Trace
+from .view import StringTable, runs
+
 SHELL = "replay_shell.html"
+
+
+def panel(trace: Trace, names: tuple[str, ...], table: StringTable) -> list[dict[str, Any]]:
+    """The HUD's controllers (those of `names` the trace has), each its command, state and
+    status as runs of the page's string table."""
+    return [
+        {
+            "module": name,
+            **{
+                key: runs(trace.columns[name][key], None, table)
+                for key in ("command", "state", "status")
+            },
+        }
+        for name in names
+        if name in trace.columns
+    ]
 
 
 def _asset(name: str) -> str:

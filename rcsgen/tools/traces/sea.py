@@ -159,16 +159,7 @@ def payload(
                 world[name] = runs(series, None, table)
             else:
                 world[name] = [number(v) for v in series]
-    controllers = [
-        {
-            "module": name,
-            "command": runs(trace.columns[name]["command"], None, table),
-            "state": runs(trace.columns[name]["state"], None, table),
-            "status": runs(trace.columns[name]["status"], None, table),
-        }
-        for name in PANEL
-        if name in trace.columns
-    ]
+    controllers = player.panel(trace, PANEL, table)
     data = {
         "source": trace.name,
         "system": system.name,

@@ -151,16 +151,7 @@ def timeline(trace: Trace, found: list[Bar]) -> str:
 def payload(trace: Trace, system: IRSystem) -> dict[str, Any]:
     table = StringTable()
     found = station(trace)
-    controllers = [
-        {
-            "module": name,
-            "command": runs(trace.columns[name]["command"], None, table),
-            "state": runs(trace.columns[name]["state"], None, table),
-            "status": runs(trace.columns[name]["status"], None, table),
-        }
-        for name in PANEL
-        if name in trace.columns
-    ]
+    controllers = player.panel(trace, PANEL, table)
     results = {
         f"{module}.{name}": runs(
             [(r or {}).get(name) for r in trace.columns[module]["result"]], None, table
