@@ -16,7 +16,6 @@ import re
 import shutil
 import subprocess
 import sys
-import tempfile
 from importlib import resources
 from pathlib import Path
 
@@ -535,35 +534,43 @@ def test_pip_install_gives_a_working_rcsgen(tmp_path: Path, pristine: dict[str, 
     assert snapshot(tmp_path / "out") == pristine
 
 
-def _scratch_dirs() -> set[str]:
-    from rcsgen.compiler.back_end.emit import scratch_root
+def _own_scratch(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> Path:
+    """The formatter's scratch root for this test alone (a build on another worker makes its
+    own `rcsgen-fmt-*` in the shared one meanwhile): what is left in it is this test's."""
+    from rcsgen.compiler.back_end import emit
 
-    root = Path(scratch_root() or tempfile.gettempdir())
-    return {p.name for p in root.glob("rcsgen-fmt-*")}
+    root = tmp_path / "scratch"
+    root.mkdir()
+    monkeypatch.setattr(emit, "scratch_root", lambda: str(root))
+    return root
 
 
-def test_the_formatter_formats_every_path_and_leaves_no_scratch() -> None:
+def test_the_formatter_formats_every_path_and_leaves_no_scratch(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
     """One ruff run over flat scratch files: a generated file under a directory ruff would
     skip by default (`build/`, `venv/`) is formatted like any other, each text comes back
     under its own path, and the scratch directory is gone afterwards."""
     from rcsgen.compiler.back_end.emit import format_files
 
-    before = _scratch_dirs()
+    scratch = _own_scratch(monkeypatch, tmp_path)
     files = {"s/build/a.py": "x=1\n", "s/venv/b.py": "y  =  [1,2]\n", "s/c.py": "z=3\n"}
     assert format_files(files) == {
         "s/build/a.py": "x = 1\n",
         "s/c.py": "z = 3\n",
         "s/venv/b.py": "y = [1, 2]\n",
     }
-    assert _scratch_dirs() <= before
+    assert list(scratch.iterdir()) == []
 
 
-def test_a_formatter_failure_names_the_generated_file() -> None:
+def test_a_formatter_failure_names_the_generated_file(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
     """A generated file ruff cannot parse (a template bug) is named by its own path in the
     error, not by its scratch name, and the scratch directory is removed all the same."""
     from rcsgen.compiler.back_end.emit import format_files
 
-    before = _scratch_dirs()
+    scratch = _own_scratch(monkeypatch, tmp_path)
     with pytest.raises(RuntimeError, match=r"miner/broken\.py:1:5"):
         format_files({"miner/fine.py": "x = 1\n", "miner/broken.py": "def (:\n"})
-    assert _scratch_dirs() <= before
+    assert list(scratch.iterdir()) == []
