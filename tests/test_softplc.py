@@ -24,6 +24,7 @@ from types import ModuleType
 from typing import Any
 
 import pytest
+from conftest import wait_for
 
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.ir import IRSystem
@@ -83,8 +84,8 @@ def serve(
     world: tuple[str, ...] = ("level=1.25",),
 ) -> tuple[Any, dict[str, Any]]:
     """The rig's PLC serving `device` (names, space-separated) on free ports in this
-    process's event loop, cycling every 20 ms, while `client(port, ..., control)` runs in a
-    thread; then the PLC stopped (its finally: the bank shut, the report written).
+    process's event loop, cycling every 20 ms, while `client(port, ..., control, plant)` runs
+    in a thread; then the PLC stopped (its finally: the bank shut, the report written).
     (client's result, the report)."""
     package = import_package(rig, RIG)
     layout = importlib.import_module(f"{package.__name__}.layout")
@@ -112,7 +113,7 @@ def serve(
                 lambda: ready.is_file() and ready.read_text().count("\n") == len(names), "ready"
             )
             ports = [int(line) for line in ready.read_text().split()]
-            return await asyncio.to_thread(client, *ports, control)
+            return await asyncio.to_thread(client, *ports, control, plant)
         finally:
             serving.cancel()
             with pytest.raises(asyncio.CancelledError):
@@ -130,16 +131,20 @@ def test_the_plc_carries_commands_into_its_plant_and_the_plants_values_out(
         next(p for p in declared.points if p.field == f) for f in ("level", "valve_cmd")
     )
 
-    def client(port: int, control: Path) -> tuple[object, object]:
+    def client(port: int, control: Path, plant: softplc.Plant) -> tuple[object, object]:
         link = make_link(replace(declared, port=port))
         link.connect()
         try:
             first = link.read_point(level)
             link.write({"valve_cmd": 42.5})
-            end = time.monotonic() + 30
-            while link.read_point(valve) != pytest.approx(42.5) and time.monotonic() < end:
-                time.sleep(0.02)
-            time.sleep(0.2)  # several PLC cycles: the command is in the plant's world
+            wait_for(
+                lambda: (
+                    link.read_point(valve) == pytest.approx(42.5)
+                    and plant.read("valve_cmd") == pytest.approx(42.5)
+                ),
+                "the command on its point and in the plant's world",
+                deadline=30,
+            )
             return first, link.read_point(valve)
         finally:
             link.close()
@@ -159,17 +164,24 @@ def test_an_opc_ua_device_is_served_at_its_endpoints_path_and_its_nodes_written_
     devices answer `validate --connect` with every point."""
     declared = layout.IO_DEVICES["pumps"]
 
-    def client(tank: int, pumps: int, control: Path) -> tuple[list[str], object]:
+    def client(
+        tank: int, pumps: int, control: Path, plant: softplc.Plant
+    ) -> tuple[list[str], object]:
         url = f"opc.tcp://127.0.0.1:{pumps}/rig"
         link = make_link(replace(declared, port=pumps, url=url))
         link.connect()
         try:
             link.write({"pump_on": True, "alarm": False})
             alarm = next(p for p in declared.points if p.field == "alarm")
-            end = time.monotonic() + 30
-            while link.read_point(alarm) is not False and time.monotonic() < end:
-                time.sleep(0.02)
-            time.sleep(0.2)  # several PLC cycles
+            wait_for(
+                lambda: (
+                    link.read_point(alarm) is False
+                    and plant.read("pump_on") is True
+                    and plant.read("alarm") is False
+                ),
+                "the writes on their nodes and in the plant's world",
+                deadline=30,
+            )
             held = link.read_point(alarm)
         finally:
             link.close()
@@ -185,7 +197,7 @@ def test_an_opc_ua_device_is_served_at_its_endpoints_path_and_its_nodes_written_
 def test_an_unplugged_device_refuses_connections_and_comes_back_on_its_port(
     rig: Path, layout: ModuleType, tmp_path: Path
 ) -> None:
-    def client(port: int, control: Path) -> list[bool]:
+    def client(port: int, control: Path, _plant: softplc.Plant) -> list[bool]:
         seen = [listening(port)]
         for order in ("unplug", "replug"):
             (control / "tank").write_text(order)
@@ -212,7 +224,7 @@ def test_validate_connect_names_a_device_that_does_not_answer_and_a_point_it_lac
 
     served: list[int] = []
 
-    def client(port: int, control: Path) -> tuple[list[str], list[str]]:
+    def client(port: int, control: Path, _plant: softplc.Plant) -> tuple[list[str], list[str]]:
         served.append(port)
         monkeypatch.setenv("RCSGEN_IO_TANK", f"127.0.0.1:{port}")
         monkeypatch.setenv("RCSGEN_IO_PUMPS", f"opc.tcp://127.0.0.1:{dead}/rig")
