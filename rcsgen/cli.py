@@ -36,6 +36,7 @@ from .terminal import (
     note,
     output_dir_option,
     output_file,
+    page_option,
     report,
     reporting,
     run_summary,
@@ -341,13 +342,7 @@ def monitor(
     show_default=True,
     help="Mermaid and DOT are text; SVG is drawn by Graphviz's dot.",
 )
-@click.option(
-    "-o",
-    "--output",
-    type=click.Path(path_type=Path, dir_okay=False),
-    default=None,
-    help="Write to this file [default: stdout].",
-)
+@page_option("stdout", "Write to this file")
 def graph_command(paths: tuple[Path, ...], picture: str, fmt: str, output: Path | None) -> None:
     """Draw the hierarchy, a state graph or the execution order of the system in SPECS."""
     from .tools import graph

@@ -86,13 +86,7 @@ def trace_changes(
 
 @trace_group.command("lines")
 @TRACE
-@click.option(
-    "-o",
-    "--output",
-    type=click.Path(path_type=Path, dir_okay=False),
-    default=None,
-    help="Write them to this file [default: stdout].",
-)
+@page_option("stdout", "Write them to this file")
 def trace_lines(trace_path: Path, output: Path | None) -> None:
     """Print TRACE's cycles as whole lines, one JSON object each (a trace is stored as a
     whole line every 200 cycles and the changes in between): for jq, diff or a script."""

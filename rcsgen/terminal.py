@@ -451,14 +451,16 @@ def output_dir_option(
     )
 
 
-def page_option(default: str) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+def page_option(
+    default: str, what: str = "The page to write"
+) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
     """-o/--output: the one file a command writes."""
     return click.option(
         "-o",
         "--output",
         type=click.Path(path_type=Path, dir_okay=False),
         default=None,
-        help=f"The page to write [default: {default}].",
+        help=f"{what} [default: {default}].",
     )
 
 
