@@ -618,9 +618,16 @@ def load_trace(path: Path) -> Trace:
     from .tools import traces
 
     try:
-        return traces.load(path)
+        found = traces.load(path)
     except traces.TraceError as problem:
         raise error(str(problem)) from None
+    if found.interrupted == traces.CUT:
+        click.echo(
+            f"note: {path}'s last line was written only in part (its run was killed "
+            f"while writing it): its {len(found):,} whole cycles are read",
+            err=True,
+        )
+    return found
 
 
 def _recorded_by_named(paths: list[Path], found: list[Trace]) -> IRSystem | None:

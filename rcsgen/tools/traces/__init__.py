@@ -12,6 +12,7 @@ The names below are `read`'s and `stored`'s, the package's entry points.
 """
 
 from .read import (
+    CUT,
     TIMING,
     Lane,
     Trace,
@@ -32,6 +33,7 @@ from .read import (
 from .stored import KEYFRAME, Condenser, condensed, expanded
 
 __all__ = [
+    "CUT",
     "KEYFRAME",
     "Condenser",
     "TIMING",

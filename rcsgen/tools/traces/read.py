@@ -63,7 +63,8 @@ class Trace:
     columns: dict[str, dict[str, list[Any]]]  # module -> field -> one value per cycle
     world: dict[str, list[Any]] = field(default_factory=dict)  # field -> one value per cycle
     # The signal that interrupted the run (`rcsgen run` on SIGINT/SIGTERM writes the cycles
-    # it ran and a last line saying so); None for a run that ended.
+    # it ran and a last line saying so), or CUT for a trace whose run was killed while it
+    # wrote the last line; None for a run that ended.
     interrupted: str | None = None
     # module -> the indices of the cycles whose line holds another object for it than the
     # line before (0 first): its values change nowhere else, so a viewer that looks for
@@ -87,25 +88,29 @@ def load(path: Path) -> Trace:
         raise TraceError(f"no trace file at {shown}")
     if not path.is_file():
         raise TraceError(f"{shown} is not a file")
-    lines = _lines(path, shown)
+    lines = _Lines(path, shown)
     try:
-        return parse_lines(lines, shown)
+        trace = parse_lines(lines, shown)
     except OSError as error:
         raise TraceError(f"{shown} is not a trace: cannot read it ({error})") from None
     finally:
         lines.close()  # the file is closed however the reading ended
+    if lines.cut and trace.interrupted is None:
+        trace.interrupted = CUT
+    return trace
 
 
 def full_lines(path: Path) -> list[str]:
     """A trace file's lines, each a whole cycle (a stored trace expanded, `stored`): what
     `rcsgen run` wrote before it stored only the changes, for `jq`, `diff` or a script;
-    TraceError with a one-line message if it cannot be read."""
+    TraceError with a one-line message if it cannot be read. A last line written only in
+    part is left out (`_Lines`)."""
     shown = str(path)
     if not path.is_file():
         raise TraceError(
             f"no trace file at {shown}" if not path.exists() else f"{shown} is not a file"
         )
-    lines = _lines(path, shown)
+    lines = _Lines(path, shown)
     try:
         return list(expanded(lines))
     except ValueError as error:
@@ -116,24 +121,51 @@ def full_lines(path: Path) -> list[str]:
         lines.close()
 
 
-def _lines(path: Path, shown: str) -> Generator[str, None, None]:
-    """The text lines of a trace file, one at a time, decompressed if it is gzip."""
-    with path.open("rb") as raw:
-        stream: IO[bytes] = raw
-        if raw.peek(len(GZIP_MAGIC))[: len(GZIP_MAGIC)] == GZIP_MAGIC:
-            stream = cast(IO[bytes], gzip.GzipFile(fileobj=raw, mode="rb"))
-        text = io.TextIOWrapper(stream, encoding="utf-8")
+class _Lines:
+    """The text lines of a trace file, one at a time, decompressed if it is gzip. A last line
+    that has no newline and is not JSON (`rcsgen run` killed outright while writing it: the
+    trace it writes as it goes, `LiveTrace`) is left out and `cut` says so: the cycles before
+    it are whole and readable, as an interrupted run's trace must be."""
+
+    def __init__(self, path: Path, shown: str) -> None:
+        self.cut = False
+        self._read = self._lines(path, shown)
+
+    def __iter__(self) -> Iterator[str]:
+        return self._read
+
+    def close(self) -> None:
+        self._read.close()
+
+    def _lines(self, path: Path, shown: str) -> Generator[str, None, None]:
+        with path.open("rb") as raw:
+            stream: IO[bytes] = raw
+            if raw.peek(len(GZIP_MAGIC))[: len(GZIP_MAGIC)] == GZIP_MAGIC:
+                stream = cast(IO[bytes], gzip.GzipFile(fileobj=raw, mode="rb"))
+            text = io.TextIOWrapper(stream, encoding="utf-8")
+            try:
+                for line in text:
+                    if line.endswith("\n") or not self._cut_short(line):
+                        yield line.rstrip("\n")
+            except UnicodeDecodeError as error:
+                raise TraceError(
+                    f"{shown} is not a trace: cannot read it as UTF-8 text ({error})"
+                ) from None
+            except (gzip.BadGzipFile, EOFError, zlib.error) as error:
+                raise TraceError(f"{shown} is not a trace: a damaged gzip file ({error})") from None
+            finally:
+                text.detach()  # `raw` is closed by its own `with`
+
+    def _cut_short(self, last: str) -> bool:
+        """Whether the file's last line (it has no newline) was written only in part."""
         try:
-            for line in text:
-                yield line.rstrip("\n")
-        except UnicodeDecodeError as error:
-            raise TraceError(
-                f"{shown} is not a trace: cannot read it as UTF-8 text ({error})"
-            ) from None
-        except (gzip.BadGzipFile, EOFError, zlib.error) as error:
-            raise TraceError(f"{shown} is not a trace: a damaged gzip file ({error})") from None
-        finally:
-            text.detach()  # `raw` is closed by its own `with`
+            json.loads(last)
+        except json.JSONDecodeError:
+            self.cut = True
+        return self.cut
+
+
+CUT = "cut short (the run was killed while writing its last line)"  # Trace.interrupted
 
 
 def beside(path: Path, suffix: str) -> Path:
