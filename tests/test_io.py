@@ -264,6 +264,12 @@ def test_a_lost_device_drives_the_safe_state_and_the_survivor_gets_safe_outputs(
         running.wait(
             lambda: all(d["state"] == "ONLINE" for d in running.devices().values()), "online"
         )
+        # where each device is, as its process reaches it: the address RCSGEN_IO_<DEVICE>
+        # gave (the PLC's free port), not the one the spec declares (1502, 4841)
+        assert {n: d["address"] for n, d in running.devices().items()} == {
+            n: plc.address for n, plc in plcs.items()
+        }
+        assert not {p.port for p in plcs.values()} & {1502, 4841}
         running.wait(lambda: on_tank(plcs["tank"]) == 50.0, "the valve open on the PLC")
         on = {"pump_on": True, "alarm": False}
         running.wait(lambda: on_pumps(plcs["pumps"]) == on, "the pump on, on the PLC")
@@ -286,7 +292,7 @@ def test_a_lost_device_drives_the_safe_state_and_the_survivor_gets_safe_outputs(
         assert running.devices()[other]["state"] == "ONLINE", "the other device still answers"
         if device == "tank":  # the level is stale: the screen says so, in the world table too
             screen = "\n".join(running.console_render())
-            assert "io tank: lost, modbus_tcp" in screen
+            assert f"io tank: lost, modbus_tcp {plcs['tank'].address}" in screen
             assert "(stale: tank)" in screen
             off = {"pump_on": False, "alarm": True}
             running.wait(lambda: on_pumps(plcs["pumps"]) == off, "the pump safe on its PLC")

@@ -10,7 +10,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 5176 bytes.
+The block is 5432 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS);
@@ -169,23 +169,23 @@ command buffers and world fields:
 | 3992 | 24 | OVERRIDE_LOOSE_COAL_TRUE | state, loose_coal_true |
 | 4016 | 24 | OVERRIDE_COAL_MINED | state, coal_mined |
 | 4040 | 17 | OVERRIDE_SHUTTLE_CAR_AWAY | state, shuttle_car_away |
-| 4064 | 96 | IO_PLC | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
-| 4160 | 96 | IO_CONVEYOR | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error |
-| 4256 | 48 | TIME_SEC | state, since, NOP, S0, S1 |
-| 4304 | 144 | TIME_SB | state, since, NOP, S0, S1, S2, S3, STOPPING, HALTING, BOX_AT_FACE, BOX_SLICE, BOX_APPROACH, BACK_OUT, ACROSS, SLAB_AT_FACE, SLAB_SLICE, SLAB_APPROACH |
-| 4448 | 80 | TIME_CO | state, since, NOP, S0, S1, S2, S3, FAILED, S4 |
-| 4528 | 56 | TIME_CC | state, since, NOP, S0, S1, S2 |
-| 4584 | 48 | TIME_BM | state, since, NOP, S0, S1 |
-| 4632 | 40 | TIME_CD | state, since, NOP, S0 |
-| 4672 | 48 | TIME_SJ | state, since, NOP, S0, S1 |
-| 4720 | 56 | TIME_CR | state, since, NOP, S0, S1, S2 |
-| 4776 | 40 | TIME_GH | state, since, NOP, S0 |
-| 4816 | 40 | TIME_CV | state, since, NOP, S0 |
-| 4856 | 48 | TIME_CT | state, since, NOP, S0, S1 |
-| 4904 | 136 | TIME_VG | state, since, NOP, S0, S1, PLANNING, DECIDE, FORWARD, REVERSE, LEFT, RIGHT, STOPPING, ALIGN, ALIGN_LEFT, ALIGN_RIGHT, ALIGN_STOPPING |
-| 5040 | 48 | TIME_TC | state, since, NOP, S0, S0_MOVING |
-| 5088 | 40 | TIME_WM | state, since, NOP, S0 |
-| 5128 | 48 | TIME_PP | state, since, NOP, S0, S1 |
+| 4064 | 224 | IO_PLC | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error, address |
+| 4288 | 224 | IO_CONVEYOR | state, reads, writes, timeouts, retries, errors, reconnects, losses, last_ok_ns, round_trip_ns, last_error, address |
+| 4512 | 48 | TIME_SEC | state, since, NOP, S0, S1 |
+| 4560 | 144 | TIME_SB | state, since, NOP, S0, S1, S2, S3, STOPPING, HALTING, BOX_AT_FACE, BOX_SLICE, BOX_APPROACH, BACK_OUT, ACROSS, SLAB_AT_FACE, SLAB_SLICE, SLAB_APPROACH |
+| 4704 | 80 | TIME_CO | state, since, NOP, S0, S1, S2, S3, FAILED, S4 |
+| 4784 | 56 | TIME_CC | state, since, NOP, S0, S1, S2 |
+| 4840 | 48 | TIME_BM | state, since, NOP, S0, S1 |
+| 4888 | 40 | TIME_CD | state, since, NOP, S0 |
+| 4928 | 48 | TIME_SJ | state, since, NOP, S0, S1 |
+| 4976 | 56 | TIME_CR | state, since, NOP, S0, S1, S2 |
+| 5032 | 40 | TIME_GH | state, since, NOP, S0 |
+| 5072 | 40 | TIME_CV | state, since, NOP, S0 |
+| 5112 | 48 | TIME_CT | state, since, NOP, S0, S1 |
+| 5160 | 136 | TIME_VG | state, since, NOP, S0, S1, PLANNING, DECIDE, FORWARD, REVERSE, LEFT, RIGHT, STOPPING, ALIGN, ALIGN_LEFT, ALIGN_RIGHT, ALIGN_STOPPING |
+| 5296 | 48 | TIME_TC | state, since, NOP, S0, S0_MOVING |
+| 5344 | 40 | TIME_WM | state, since, NOP, S0 |
+| 5384 | 48 | TIME_PP | state, since, NOP, S0, S1 |
 """
 
 from __future__ import annotations
@@ -215,9 +215,9 @@ from .rcs.io_points import DEVICE_FIELDS, Device, Point
 
 SYSTEM = "miner_hil"
 SOURCE = "miner_hil/system.yaml"
-SIZE = 5176
+SIZE = 5432
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "d6ce0e72c36ce957a5d9d51bfad2ae3c"
+LAYOUT_HASH = "1f8288d1424067fb1be1b94a49ad9a73"
 PROCESS_PC1_AT = 80
 PACE_PC1_AT = 248
 PROCESS_PC2_AT = 264
@@ -930,11 +930,11 @@ IO_DEVICES = {
         url="opc.tcp://127.0.0.1:4850/miner",
     ),
 }
-# Each device's record: its state (rcs/io_points.py DEVICE_STATES) and counts, written by
-# the I/O module of the process that runs it.
+# Each device's record: its state (rcs/io_points.py DEVICE_STATES), counts and address,
+# written by the I/O module of the process that runs it.
 IO_RECORDS = {
-    "plc": Record(Struct("<Qqqqqqqqqqqq"), 4064, DEVICE_FIELDS),
-    "conveyor": Record(Struct("<Qqqqqqqqqqqq"), 4160, DEVICE_FIELDS),
+    "plc": Record(Struct("<Qqqqqqqqqqqq128s"), 4064, DEVICE_FIELDS),
+    "conveyor": Record(Struct("<Qqqqqqqqqqqq128s"), 4288, DEVICE_FIELDS),
 }
 # The controllers that read each device's inputs or write its outputs: lost with it (their
 # safe state).
@@ -946,10 +946,10 @@ IO_DEPENDENTS: dict[str, tuple[str, ...]] = {
 # state since start, by state code as STATE_NAMES names it (NOP first), counted by the loop
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
-    "sec": Record(Struct("<QqQQQQ"), 4256, ("state", "since", "NOP", "S0", "S1")),
+    "sec": Record(Struct("<QqQQQQ"), 4512, ("state", "since", "NOP", "S0", "S1")),
     "sb": Record(
         Struct("<QqQQQQQQQQQQQQQQQQ"),
-        4304,
+        4560,
         (
             "state",
             "since",
@@ -972,20 +972,20 @@ TIME_IN_STATE = {
     ),
     "co": Record(
         Struct("<QqQQQQQQQQ"),
-        4448,
+        4704,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "FAILED", "S4"),
     ),
-    "cc": Record(Struct("<QqQQQQQ"), 4528, ("state", "since", "NOP", "S0", "S1", "S2")),
-    "bm": Record(Struct("<QqQQQQ"), 4584, ("state", "since", "NOP", "S0", "S1")),
-    "cd": Record(Struct("<QqQQQ"), 4632, ("state", "since", "NOP", "S0")),
-    "sj": Record(Struct("<QqQQQQ"), 4672, ("state", "since", "NOP", "S0", "S1")),
-    "cr": Record(Struct("<QqQQQQQ"), 4720, ("state", "since", "NOP", "S0", "S1", "S2")),
-    "gh": Record(Struct("<QqQQQ"), 4776, ("state", "since", "NOP", "S0")),
-    "cv": Record(Struct("<QqQQQ"), 4816, ("state", "since", "NOP", "S0")),
-    "ct": Record(Struct("<QqQQQQ"), 4856, ("state", "since", "NOP", "S0", "S1")),
+    "cc": Record(Struct("<QqQQQQQ"), 4784, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "bm": Record(Struct("<QqQQQQ"), 4840, ("state", "since", "NOP", "S0", "S1")),
+    "cd": Record(Struct("<QqQQQ"), 4888, ("state", "since", "NOP", "S0")),
+    "sj": Record(Struct("<QqQQQQ"), 4928, ("state", "since", "NOP", "S0", "S1")),
+    "cr": Record(Struct("<QqQQQQQ"), 4976, ("state", "since", "NOP", "S0", "S1", "S2")),
+    "gh": Record(Struct("<QqQQQ"), 5032, ("state", "since", "NOP", "S0")),
+    "cv": Record(Struct("<QqQQQ"), 5072, ("state", "since", "NOP", "S0")),
+    "ct": Record(Struct("<QqQQQQ"), 5112, ("state", "since", "NOP", "S0", "S1")),
     "vg": Record(
         Struct("<QqQQQQQQQQQQQQQQQ"),
-        4904,
+        5160,
         (
             "state",
             "since",
@@ -1005,9 +1005,9 @@ TIME_IN_STATE = {
             "ALIGN_STOPPING",
         ),
     ),
-    "tc": Record(Struct("<QqQQQQ"), 5040, ("state", "since", "NOP", "S0", "S0_MOVING")),
-    "wm": Record(Struct("<QqQQQ"), 5088, ("state", "since", "NOP", "S0")),
-    "pp": Record(Struct("<QqQQQQ"), 5128, ("state", "since", "NOP", "S0", "S1")),
+    "tc": Record(Struct("<QqQQQQ"), 5296, ("state", "since", "NOP", "S0", "S0_MOVING")),
+    "wm": Record(Struct("<QqQQQ"), 5344, ("state", "since", "NOP", "S0")),
+    "pp": Record(Struct("<QqQQQQ"), 5384, ("state", "since", "NOP", "S0", "S1")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

@@ -61,7 +61,9 @@ DEVICE_STATES = ("CONNECTING", "ONLINE", "LOST", "STOPPED")
 # broken or a protocol error, a value clipped to fit its register.
 ERROR_KINDS = ("none", "timeout", "exception", "cannot connect", "connection lost", "clipped")
 NO_ERROR, TIMED_OUT, REFUSED, UNCONNECTED, BROKEN, CLIPPED = range(len(ERROR_KINDS))
-# A device record's fields after `seq` (all int64): its state, the counts, the last error.
+# A device record's fields after `seq`: its state, the counts, the last error (int64
+# each), then the address the process that runs it uses (ADDRESS_BYTES of UTF-8: the
+# declared one, or the one `RCSGEN_IO_<DEVICE>` gave it, which a console cannot know).
 DEVICE_FIELDS = (
     "state",
     "reads",
@@ -74,7 +76,10 @@ DEVICE_FIELDS = (
     "last_ok_ns",
     "round_trip_ns",
     "last_error",
+    "address",
 )
+ADDRESS_BYTES = 128
+TALLIES = DEVICE_FIELDS[1:-1]  # what a device's thread keeps (all but its state and address)
 COUNTS = ("reads", "writes", "timeouts", "retries", "errors", "reconnects", "losses")
 
 
@@ -212,11 +217,27 @@ def blocks(points: tuple[Point, ...], kind: str, gap: int = 0) -> list[tuple[int
     return [(start, end - start) for start, end in merged]
 
 
+def where(device: Device) -> str:
+    """A device's address as a person writes it: its OPC UA endpoint URL, or HOST:PORT."""
+    return device.url or f"{device.host}:{device.port}"
+
+
+def shown_address(device: Device) -> str:
+    """`where(device)` as its record holds it: whole if it fits ADDRESS_BYTES, else cut
+    (at a character) and marked with `...`."""
+    text = where(device)
+    if len(text.encode("utf-8")) <= ADDRESS_BYTES:
+        return text
+    cut = text.encode("utf-8")[: ADDRESS_BYTES - 3].decode("utf-8", "ignore")
+    return cut + "..."
+
+
 def device_status(device: Device, values: dict[str, int], now_ns: int) -> dict[str, object]:
     """A device's record as the console shows it (`ctl status`, its JSON, traces): its state
-    by name, where it is, its counts, how long ago it last answered well and how long that
-    exchange took; `stale`, the input fields it feeds that hold old values while it is lost
-    (or not yet heard from). `values`: the record's fields ({} when it stayed unreadable)."""
+    by name, where it is (the address its process uses, from the record), its counts, how
+    long ago it last answered well and how long that exchange took; `stale`, the input
+    fields it feeds that hold old values while it is lost (or not yet heard from).
+    `values`: the record's fields ({} when it stayed unreadable)."""
     if not values:
         return {"state": "?"}
     state = int(values["state"])
@@ -226,7 +247,7 @@ def device_status(device: Device, values: dict[str, int], now_ns: int) -> dict[s
     return {
         "state": DEVICE_STATES[state] if 0 <= state < len(DEVICE_STATES) else str(state),
         "protocol": device.protocol,
-        "address": device.url or f"{device.host}:{device.port}",
+        "address": str(values.get("address") or "") or where(device),
         "process": device.process,
         "poll_period_s": device.poll_period,
         "timeout_s": device.timeout,

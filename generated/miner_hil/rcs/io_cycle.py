@@ -41,19 +41,20 @@ from .io_points import (
     BROKEN,
     CLIPPED,
     CONNECTING,
-    DEVICE_FIELDS,
     LOST,
     MODBUS_TCP,
     ONLINE,
     OPCUA,
     REFUSED,
     STOPPED,
+    TALLIES,
     TIMED_OUT,
     UNCONNECTED,
     Device,
     IoRefused,
     IoTimeout,
     Point,
+    shown_address,
 )
 from .override import overrides
 
@@ -114,7 +115,7 @@ class DeviceRunner:
         self.held = held
         self.who = who or device.name
         self.lock = threading.Lock()
-        self.counts: dict[str, int] = dict.fromkeys(DEVICE_FIELDS[1:], 0)
+        self.counts: dict[str, int] = dict.fromkeys(TALLIES, 0)
         self.state = CONNECTING
         self.inputs: dict[str, object] | None = None
         self.inputs_seq = 0  # how many good reads there have been
@@ -311,6 +312,8 @@ class IoModule:
         exchange, so the first cycle reads the devices rather than the initial values."""
         for runner in self.runners.values():
             self._write_record(runner.device.name, CONNECTING, runner.counts)
+            address = shown_address(runner.device)  # (RCSGEN_IO_<DEVICE>'s, if it was set)
+            self.records[runner.device.name].write(self.buf, address=address)
             runner.start()
         for runner in self.runners.values():
             runner.first.wait(runner.device.timeout)
@@ -380,7 +383,7 @@ class IoModule:
 
     def _write_record(self, name: str, state: int, counts: dict[str, int]) -> None:
         record = self.records[name]
-        record.write(self.buf, state=state, **{f: counts[f] for f in DEVICE_FIELDS[1:]})
+        record.write(self.buf, state=state, **{f: counts[f] for f in TALLIES})
 
 
 def relocated(device: Device, environ: dict[str, str] | None = None) -> Device:

@@ -26,7 +26,7 @@ from ...runtime.contract import (
     STARTUP_TIMEOUT,
     STATUS_FIELDS,
 )
-from ...runtime.io_points import DEVICE_FIELDS
+from ...runtime.io_points import ADDRESS_BYTES, DEVICE_FIELDS
 from .. import expressions as expr
 from .. import ir
 from ..checks import naming, operators
@@ -762,7 +762,8 @@ def plan_layout(
     # I/O devices (rcs/io_cycle.py): each one's record, its state and counts, after the rest.
     io = {}
     for name in devices:
-        shape = [(f, "q", 0) for f in DEVICE_FIELDS]
+        shape = [(f, "q", 0) for f in DEVICE_FIELDS[:-1]]
+        shape.append((DEVICE_FIELDS[-1], f"{ADDRESS_BYTES}s", ADDRESS_BYTES))  # its address
         io[name] = _buffer(f"IO_{name.upper()}", at, shape, f"I/O device {name}")
         at = align(at + io[name].size)
     # Time in each state (rcs/state_time.py): per controller and stand-in, the state it is in
