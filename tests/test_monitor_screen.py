@@ -136,6 +136,8 @@ def test_the_tree_shows_each_modules_command_status_and_mode_coloured_by_status(
             """Both processes beating on the screen (what was shown kept, at that moment)."""
             seen.update(top=row(app, "top"), arm=row(app, "arm"))
             seen["processes"] = str(app.query_one("#processes").render())
+            world = app.query_one("#world", DataTable)
+            seen["arm_power"] = [world.get_cell("arm_power", k) for k in ("value", "override")]
             beats = all(seen[m]["beat"].plain != "dead" for m in ("top", "arm"))
             return beats and all(f"{p}: running" in seen["processes"] for p in ("p1", "p2"))
 
@@ -165,10 +167,8 @@ def test_the_tree_shows_each_modules_command_status_and_mode_coloured_by_status(
         for process in ("p1", "p2"):
             line = rf"{process}: running, \d+ cycles, beat \d+\.\d\ds ago, 0 overruns, slow x1"
             assert re.search(line, seen["processes"]), seen["processes"]
-        # the world table: every field, its value, no override
-        world = app.query_one("#world", DataTable)
-        assert world.get_cell("arm_power", "value").plain == "0.0"
-        assert world.get_cell("arm_power", "override").plain == ""
+        # the world table (as drawn while both beat): every field, its value, no override
+        assert [cell.plain for cell in seen["arm_power"]] == ["0.0", ""]
         # a command under way: the arm's HOLD stays in S1, EXECUTING in yellow, the rule
         # that fired kept; the top's RUN waits on it
         await pilot.press("c", *"RUN", "enter")
@@ -187,6 +187,25 @@ def test_the_tree_shows_each_modules_command_status_and_mode_coloured_by_status(
         )
         assert row(app, "arm")["status"].style == "grey50"
         assert row(app, "top")["beat"].plain == "dead"
+        # the arm's power is the last value p2 wrote: nobody keeps it current, the world
+        # table says so (grey, and why), as `ctl status --world` does
+        power = app.query_one("#world", DataTable)
+
+        def power_stale() -> bool:
+            return str(power.get_cell("arm_power", "value").plain) == "1.0 (stale: p2 lost)"
+
+        await until(pilot, power_stale, "arm_power shown stale")
+        assert power.get_cell("arm_power", "value").style == "grey50"
+        # (the arm's stand-in, which would write sim_power, runs in p2 too)
+        assert power.get_cell("sim_power", "value").plain == "0.0 (stale: p2 lost)"
+        from rcsgen.runtime.operate import ctl
+
+        console = ctl.Console(harness.layout, segment)
+        try:
+            lines = ctl.world_lines(console.snapshot())
+        finally:
+            console.close()
+        assert any(re.fullmatch(r"arm_power +1\.0 \(stale: p2 lost\) *", x) for x in lines), lines
 
     drive(harness, segment, steps)
 

@@ -188,10 +188,10 @@ class Monitor(App[None]):
             row = snapshot["modules"][module]
             for key, value in self.cells(module, prefix, row).items():
                 self.update(table, module, key, value)
-        held = snapshot.get("overrides") or {}
+        held, stale = snapshot.get("overrides") or {}, snapshot.get("stale") or {}
         for name, value in snapshot["world"].items():
             state = held.get(name, {}).get("state", "")
-            for key, cell in self.world_cells(name, value, state).items():
+            for key, cell in self.world_cells(name, value, state, stale.get(name, "")).items():
                 self.update(world, name, key, cell)
         lines = []
         for name, proc in snapshot["processes"].items():
@@ -230,11 +230,16 @@ class Monitor(App[None]):
         self.widths[width] = max(self.widths.get(width, 0), value.cell_len)
         table.update_cell(row, column, value, update_width=wider)
 
-    def world_cells(self, name: str, value: Any, state: str = "") -> dict[str, Text]:
-        """A world field's row: its name, its value now (`stale` when unreadable) and its
-        override: FORCED (an operator's `ctl force`) or SAFE (latched at its safe value)."""
+    def world_cells(
+        self, name: str, value: Any, state: str = "", stale: str = ""
+    ) -> dict[str, Text]:
+        """A world field's row: its name, its value now (`stale` when unreadable; grey and
+        `(stale: why)` while nothing keeps it current, `Console.stale`) and its override:
+        FORCED (an operator's `ctl force`) or SAFE (latched at its safe value)."""
         shown = "stale" if value is None else shown_value(value)
-        style = "grey50" if value is None else ("bold magenta" if state else "")
+        if stale:
+            shown += f" (stale: {stale})"
+        style = "grey50" if value is None or stale else ("bold magenta" if state else "")
         return {
             "field": Text(name, style=style),
             "value": Text(shown, style=style),
