@@ -22,6 +22,7 @@ import subprocess
 import sys
 import threading
 import time
+import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +35,7 @@ from click.testing import CliRunner
 from conftest import wait_for
 
 from rcsgen.cli import main as rcsgen_main
+from rcsgen.compiler.diagnostics import SpecError
 from rcsgen.tools.harness import import_package
 from rcsgen.tools.scenario import read_trace
 from rcsgen.tools.traces import read as traces
@@ -379,21 +381,33 @@ def test_interrupted_run_keeps_its_trace(case: dict[str, Any], tmp_path: Path) -
     nothing_left(before)
 
 
-def test_a_killed_run_keeps_a_readable_trace_up_to_its_last_cycle(tmp_path: Path) -> None:
+@pytest.mark.parametrize("name", ["forever.jsonl", "forever.jsonl.gz"])
+def test_a_killed_run_keeps_a_readable_trace_up_to_its_last_cycle(
+    tmp_path: Path, name: str
+) -> None:
     """`rcsgen run` killed outright (SIGKILL: nothing of it runs after) once its trace file
     has grown: the file, written as the run goes, reads as the cycles that finished (every
     line whole, cycle 1 on, no gap; the trace tools and the golden reader agree), with no
-    line saying it was interrupted (no one was left to write it)."""
+    line saying it was interrupted (no one was left to write it). A `.gz` trace too: a
+    gzip stream flushed at each cycle and never ended, which the trace tools read (the
+    golden reader refuses it: a golden must be whole)."""
     before = ours()
-    trace = tmp_path / "forever.jsonl"
+    trace = tmp_path / name
     argv = [sys.executable, "-m", "rcsgen", "run", str(TICKER / "scenarios" / "forever.yaml")]
     argv += ["--trace", str(trace)]
+
+    def cycles() -> int:
+        if not trace.is_file():
+            return 0
+        data = trace.read_bytes()
+        if name.endswith(".gz"):
+            data = zlib.decompressobj(wbits=31).decompress(data)
+        return data.count(b"\n")
+
     with subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) as run:
         try:
             # (a busy host may take a while to start it: a generous bound, then kill at once)
-            wait_for(
-                lambda: trace.is_file() and trace.read_bytes().count(b"\n") >= 3, "3 cycles", BOUND
-            )
+            wait_for(lambda: cycles() >= 3, "3 cycles", BOUND)
             run.kill()
             run.wait(timeout=BOUND)
         finally:
@@ -401,14 +415,24 @@ def test_a_killed_run_keeps_a_readable_trace_up_to_its_last_cycle(tmp_path: Path
                 run.kill()
                 run.wait()
     assert run.returncode == -signal.SIGKILL
-    text = trace.read_text(encoding="utf-8")
+    data = trace.read_bytes()
+    if name.endswith(".gz"):
+        inflate = zlib.decompressobj(wbits=31)
+        data = inflate.decompress(data)
+        assert not inflate.eof, "the stream was ended: nobody was left to end it"
+    text = data.decode("utf-8")
     assert text.endswith("\n"), text[-200:]  # (flushed a whole line at a time)
     loaded = traces.load(trace)
     assert loaded.interrupted is None and len(loaded) >= 3
     assert loaded.cycles == list(range(1, len(loaded) + 1))
-    full = [json.loads(line) for line in read_trace(trace)]
+    full = [json.loads(line) for line in traces.full_lines(trace)]
     assert [line["cycle"] for line in full] == loaded.cycles
     assert all("modules" in line for line in full)  # each line expands to its whole cycle
+    if name.endswith(".gz"):
+        with pytest.raises(SpecError, match="ends before its data does"):
+            read_trace(trace)
+    else:
+        assert read_trace(trace) == traces.full_lines(trace)
     nothing_left(before)
 
 

@@ -14,6 +14,7 @@ from click.testing import CliRunner
 
 from rcsgen.cli import main
 from rcsgen.tools import traces
+from rcsgen.tools.scenario.run import LiveTrace, write_trace
 
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = ROOT / "tests" / "golden" / "cell" / "plan_ahead.jsonl"
@@ -71,3 +72,37 @@ def test_a_damaged_line_before_the_last_is_still_an_error(whole: Path) -> None:
     whole.write_text("".join(lines), encoding="utf-8")
     with pytest.raises(traces.TraceError, match=r"run\.jsonl:4: not a trace line"):
         traces.load(whole)
+
+
+def test_a_gzip_trace_written_as_the_run_goes_reads_wherever_it_stops(tmp_path: Path) -> None:
+    """A `.jsonl.gz` trace is written as the run goes (a gzip stream flushed at each cycle):
+    cut anywhere, as a kill would leave it, it reads as the cycles whose lines are whole;
+    ended (the write at the end), it is the ordinary gzip file, every cycle."""
+    lines = traces.full_lines(GOLDEN)
+    path = tmp_path / "run.jsonl.gz"
+    live = LiveTrace(path)
+    sizes = []
+    for line in lines:
+        live.append(line)
+        assert live.out is not None
+        sizes.append(live.out.tell())  # (the file as it is after each cycle's flush)
+    live.close()
+    data = path.read_bytes()
+    cycles = [json.loads(line)["cycle"] for line in lines]
+    for n, size in enumerate(sizes, start=1):  # stopped right after a cycle's flush
+        path.write_bytes(data[:size])
+        assert traces.load(path).cycles == cycles[:n]
+        assert traces.load(path).interrupted is None
+    for size in ((sizes[4] + sizes[5]) // 2, (sizes[-2] + sizes[-1]) // 2):  # inside a line
+        path.write_bytes(data[:size])
+        loaded = traces.load(path)
+        assert loaded.cycles == cycles[: len(loaded)] and len(loaded) < len(cycles)
+    path.write_bytes(data[: sizes[0] // 2])  # inside the first line
+    with pytest.raises(traces.TraceError, match="holds no cycle: its run was interrupted"):
+        traces.load(path)
+    path.write_bytes(data[:10])  # (the header alone: nothing written yet)
+    with pytest.raises(traces.TraceError, match="is empty"):
+        traces.load(path)
+    write_trace(path, live)
+    assert traces.read.decompressed(path.read_bytes(), 1 << 30).decode().count("\n") == len(lines)
+    assert traces.load(path).cycles == cycles

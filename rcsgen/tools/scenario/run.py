@@ -14,12 +14,13 @@ import importlib
 import json
 import math
 import time
+import zlib
 from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Protocol, TextIO
+from typing import Any, BinaryIO, Protocol
 
 from ...compiler.diagnostics import Diagnostics, Span, SpecError
 from ...compiler.front_end.loader import decode, read_bytes
@@ -574,8 +575,9 @@ def read_trace(path: Path) -> list[str]:
 class LiveTrace(list[str]):
     """A run's trace lines, each also written to the file at `path` as it comes (stored,
     flushed at once; the file made at the first cycle): a run killed outright (SIGKILL, a
-    crash, the power) leaves a readable trace up to its last finished cycle. Not for a `.gz`
-    trace (a gzip stream cut short is not readable); a file that cannot be written is left
+    crash, the power) leaves a readable trace up to its last finished cycle. A `.gz` trace
+    is one gzip stream flushed to a whole line each cycle (zlib's sync flush: the readers
+    take a stream that stops there, `traces.read`). A file that cannot be written is left
     to the write at the end to report (E419). `rcsgen run` still writes the whole trace
     when the run ends."""
 
@@ -583,19 +585,23 @@ class LiveTrace(list[str]):
         super().__init__()
         self.path, self.condenser = path, traces.Condenser()
         self.stored: list[str] = []  # the lines as stored, one per line (for the final write)
-        self.out: TextIO | None = None
-        self.failed = path.name.endswith(".gz")
+        self.out: BinaryIO | None = None
+        self.failed = False
+        self.deflate = zlib.compressobj(wbits=31) if path.name.endswith(".gz") else None
 
     def append(self, line: str) -> None:
         super().append(line)
         self.stored.append(self.condenser.line(line))
         if self.failed:
             return
+        data = (self.stored[-1] + "\n").encode("utf-8")
+        if self.deflate is not None:
+            data = self.deflate.compress(data) + self.deflate.flush(zlib.Z_SYNC_FLUSH)
         try:
             if self.out is None:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
-                self.out = self.path.open("w", encoding="utf-8")
-            self.out.write(self.stored[-1] + "\n")
+                self.out = self.path.open("wb")
+            self.out.write(data)
             self.out.flush()
         except OSError:
             self.failed = True

@@ -97,7 +97,7 @@ def execute(
     in lockstep), what the hooks print going to `hooks_out`. SIGINT and SIGTERM stop the
     run where it is (the processes and the segment too) and keep the trace so far; `signal`
     says which came, even if a hook swallowed it. A second signal cannot cut the stop short.
-    `live`: the trace file, written as the run goes (`LiveTrace`; not a `.gz` one)."""
+    `live`: the trace file, written as the run goes (`LiveTrace`)."""
     lines = LiveTrace(live) if live is not None else []
     try:
         return _execute(scenario, package_dir, processes, on_cycle, hooks_out, lines)

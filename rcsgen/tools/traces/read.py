@@ -90,14 +90,11 @@ def load(path: Path) -> Trace:
         raise TraceError(f"{shown} is not a file")
     lines = _Lines(path, shown)
     try:
-        trace = parse_lines(lines, shown)
+        return parse_lines(lines, shown)
     except OSError as error:
         raise TraceError(f"{shown} is not a trace: cannot read it ({error})") from None
     finally:
         lines.close()  # the file is closed however the reading ended
-    if lines.cut and trace.interrupted is None:
-        trace.interrupted = CUT
-    return trace
 
 
 def full_lines(path: Path) -> list[str]:
@@ -141,7 +138,7 @@ class _Lines:
         with path.open("rb") as raw:
             stream: IO[bytes] = raw
             if raw.peek(len(GZIP_MAGIC))[: len(GZIP_MAGIC)] == GZIP_MAGIC:
-                stream = cast(IO[bytes], gzip.GzipFile(fileobj=raw, mode="rb"))
+                stream = cast(IO[bytes], io.BufferedReader(_Inflating(raw)))
             text = io.TextIOWrapper(stream, encoding="utf-8")
             try:
                 for line in text:
@@ -151,7 +148,7 @@ class _Lines:
                 raise TraceError(
                     f"{shown} is not a trace: cannot read it as UTF-8 text ({error})"
                 ) from None
-            except (gzip.BadGzipFile, EOFError, zlib.error) as error:
+            except zlib.error as error:
                 raise TraceError(f"{shown} is not a trace: a damaged gzip file ({error})") from None
             finally:
                 text.detach()  # `raw` is closed by its own `with`
@@ -163,6 +160,32 @@ class _Lines:
         except json.JSONDecodeError:
             self.cut = True
         return self.cut
+
+
+class _Inflating(io.RawIOBase):
+    """A gzip file's text bytes (every member in turn). A stream that stops before its end
+    gives what it holds: `rcsgen run` writes a `.jsonl.gz` trace as it goes, flushed whole
+    lines at a time (`LiveTrace`), so a run killed outright leaves its cycles readable;
+    the last line, if cut, is then left out as in a plain trace (`_Lines`)."""
+
+    def __init__(self, raw: IO[bytes]) -> None:
+        super().__init__()
+        self.raw, self.inflate, self.out = raw, zlib.decompressobj(wbits=31), b""
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer: Any) -> int:
+        while not self.out:
+            data = self.inflate.unused_data or self.raw.read(1 << 16)
+            if not data:
+                return 0  # the end of the file, whole or not
+            if self.inflate.eof:  # the member before ended: another one follows
+                self.inflate = zlib.decompressobj(wbits=31)
+            self.out = self.inflate.decompress(data)
+        size = min(len(buffer), len(self.out))
+        buffer[:size], self.out = self.out[:size], self.out[size:]
+        return size
 
 
 CUT = "cut short (the run was killed while writing its last line)"  # Trace.interrupted
@@ -223,6 +246,8 @@ def parse_lines(lines: Iterable[str], shown: str = "<trace>") -> Trace:
         else:
             reader.append(record, where)
     reader.columns()
+    if getattr(lines, "cut", False) and trace.interrupted is None:  # (`_Lines`)
+        trace.interrupted = CUT
     if not trace.cycles and trace.interrupted is None:
         raise TraceError(f"{shown} is empty: a trace has one JSON line per cycle")
     if not trace.cycles:

@@ -451,7 +451,7 @@ class Console:
     def snapshot(self, world: Sequence[str] | None = None) -> dict[str, Any]:
         """Everything the console shows, as plain data: the processes, every module's line,
         the open requests and the world fields (`world`: those named, else all)."""
-        processes = self.processes()
+        processes, devices = self.processes(), self.devices()
         return {
             "system": self.layout.SYSTEM,
             "segment": self.segment,
@@ -462,8 +462,29 @@ class Console:
             "requests": self.requests(),
             "world": self.world(world),
             "overrides": self.overrides(),
-            "io": self.devices(),
+            "io": devices,
+            "stale": self.stale(processes, devices),
         }
+
+    def stale(
+        self, processes: dict[str, dict[str, Any]], devices: dict[str, dict[str, Any]]
+    ) -> dict[str, str]:
+        """The world fields whose values nobody keeps current, and why: the I/O device that
+        feeds one is lost (its name), or every module that writes one runs in a process
+        that is not running (`pc2 lost`, `pc2 stopped`): the value is the last one written."""
+        found = {f: name for name, device in devices.items() for f in device.get("stale", ())}
+        placement = dict(getattr(self.layout, "PLACEMENT", {}))
+        for module, stand_in in getattr(self.layout, "STAND_INS", {}).items():
+            placement.setdefault(stand_in, placement.get(module, ""))  # (runs in its place)
+        for field, writers in getattr(self.layout, "WORLD_WRITERS", {}).items():
+            homes = {str(placement.get(module, "")) for module in writers}
+            if field in found or not writers or "" in homes:
+                continue  # (a device's input, or written where no process is said)
+            down = sorted(p for p in homes if not processes.get(p, {}).get("alive"))
+            if len(down) == len(homes):
+                state = str(processes.get(down[0], {}).get("state", "?"))
+                found[field] = f"{down[0]} {'lost' if state == 'RUNNING' else state.lower()}"
+        return found
 
     def devices(self) -> dict[str, dict[str, Any]]:
         """Each fieldbus device's state, counts and stale inputs (rcs/io_points.py); {} for
@@ -898,11 +919,12 @@ def periodicity_lines(snapshot: dict[str, Any]) -> list[str]:
 
 
 def world_lines(snapshot: dict[str, Any]) -> list[str]:
-    """The world table (`status --world`): each field's value, marked stale while the I/O
-    device it comes from is lost, and its override; then the overrides not in the table."""
+    """The world table (`status --world`): each field's value, marked stale while nothing
+    keeps it current (`Console.stale`: its I/O device or its writers' process lost), and its
+    override; then the overrides not in the table."""
     world = snapshot.get("world") or {}
     held = snapshot.get("overrides") or {}
-    stale = {f: n for n, d in (snapshot.get("io") or {}).items() for f in d.get("stale", ())}
+    stale = snapshot.get("stale") or {}
     lines: list[str] = []
     if world:
         fields: list[Sequence[str]] = [("world", "value", "override")]
