@@ -167,7 +167,10 @@ class ZenohTransport:
         self._cut = len(self.prefix) + 1
         self._step = f"{STEP_KEY}/{process}"
         self._pushes = f"{PUSH_KEY}/"
+        # Every message is sent express (not held for batching: Zenoh >= 1.0 otherwise
+        # queues a small message in the hope of more), through a publisher declared once.
         self._publisher: Any = None
+        self._steppers: dict[str, Any] = {}
         # One subscriber for the system's whole prefix, filtered here by what this node
         # reads: one zenoh-python thread then delivers everything in the order each sender
         # sent it (a push whole, a coordinator's records before its step request). Several
@@ -298,23 +301,29 @@ class ZenohTransport:
         if last or everything:  # never dropped; a full push says so in its key
             block = self._zenoh.CongestionControl.BLOCK
             self.session.put(
-                key + (f"/{FULL}" if everything else ""), payload, congestion_control=block
+                key + (f"/{FULL}" if everything else ""),
+                payload,
+                congestion_control=block,
+                express=True,
             )
         else:
             if self._publisher is None:
                 self._publisher = self.session.declare_publisher(
-                    key, congestion_control=self._congestion
+                    key, congestion_control=self._congestion, express=True
                 )
             self._publisher.put(payload)
         self.mirror.counters.sent += len(messages)
 
     def send_step(self, process: str, request: bytes) -> None:
         """A lockstep request to `process` (after this node's own records: same link, in order)."""
-        self.session.put(
-            f"{self.prefix}/{STEP_KEY}/{process}",
-            request,
-            congestion_control=self._zenoh.CongestionControl.BLOCK,
-        )
+        publisher = self._steppers.get(process)
+        if publisher is None:
+            publisher = self._steppers[process] = self.session.declare_publisher(
+                f"{self.prefix}/{STEP_KEY}/{process}",
+                congestion_control=self._zenoh.CongestionControl.BLOCK,
+                express=True,
+            )
+        publisher.put(request)
 
     def wait(self, ready: Callable[[], bool], timeout: float | None) -> bool:
         """Pull until `ready()` holds (True) or `timeout` seconds pass (False)."""

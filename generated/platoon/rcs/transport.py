@@ -19,6 +19,8 @@ import os
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from itertools import compress
+from operator import and_, ne
 from struct import Struct
 from types import ModuleType
 from typing import Protocol
@@ -181,6 +183,7 @@ class Mirror:
         # times) and is read by people (ctl, the monitor), never by a controller: the
         # pushes of a fast process carry it only when `slow` is asked (zenoh_transport).
         self._fast = tuple(not key.endswith("/perf") for key in ordered)
+        self._indices = range(len(ordered))
         self.owned: set[str] = set()  # keys whose current value this node wrote
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
         self.counters = Counters()
@@ -228,16 +231,11 @@ class Mirror:
         if everything:
             owned = self.owned
             candidates = [i for i, seq in enumerate(seqs) if seq != known[i] or keys[i] in owned]
-        elif slow:  # one comprehension over every record's word, the loop over the changed only
-            candidates = [
-                i for i, (seq, was) in enumerate(zip(seqs, known, strict=True)) if seq != was
-            ]
+        elif slow:  # every record's word compared in C (map, compress), the loop over the changed
+            candidates = list(compress(self._indices, map(ne, seqs, known)))
         else:
-            candidates = [
-                i
-                for i, (seq, was, fast) in enumerate(zip(seqs, known, self._fast, strict=True))
-                if seq != was and fast
-            ]
+            changed = map(and_, map(ne, seqs, known), self._fast)
+            candidates = list(compress(self._indices, changed))
         last_ones = []
         spans = self._spans
         for i in candidates:
