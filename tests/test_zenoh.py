@@ -107,6 +107,26 @@ def test_a_node_sends_only_what_it_wrote_and_its_control_record_last(miner: Modu
     assert [k for k, _ in mirror.changed(everything=True)] == sent  # for a node that joined
 
 
+def test_a_record_caught_mid_write_is_left_for_the_push_after_its_writer_ends(
+    miner: ModuleType,
+) -> None:
+    """A record whose sequence word is odd (its writer, a console on this host, is between
+    its two words) is not sent torn: it goes, whole, once the word is even again."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    block = rcs(miner, "rcs.block").Block(layout)
+    mirror = transport.Mirror(layout, block, "pc2")
+    status, seq = layout.STATUS_OUT["pp"], transport.SEQ
+    status.write(block.buf, status_num=1, status=2)
+    word = seq.unpack_from(block.buf, status.offset)[0]
+    seq.pack_into(block.buf, status.offset, word + 1)  # a writer began
+    assert mirror.changed() == []
+    seq.pack_into(block.buf, status.offset, word + 2)  # and ended
+    ((key, message),) = mirror.changed()
+    assert key == "pp/status"
+    assert seq.unpack_from(message, transport.EPOCH.size)[0] == word + 2
+    assert mirror.changed() == []
+
+
 def test_performance_buffers_wait_for_a_slow_push_and_then_go_as_they_are_then(
     miner: ModuleType,
 ) -> None:

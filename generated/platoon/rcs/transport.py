@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass, field
+from itertools import compress
+from operator import and_, ne
 from struct import Struct
 from types import ModuleType
 from typing import Protocol
@@ -181,6 +182,7 @@ class Mirror:
         # times) and is read by people (ctl, the monitor), never by a controller: the
         # pushes of a fast process carry it only when `slow` is asked (zenoh_transport).
         self._fast = tuple(not key.endswith("/perf") for key in ordered)
+        self._indices = range(len(ordered))
         self.owned: set[str] = set()  # keys whose current value this node wrote
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
         self.counters = Counters()
@@ -194,7 +196,27 @@ class Mirror:
         control record of cycle N has everything that process wrote up to cycle N. Without
         `slow`, the performance buffers are left for a later push (their latest values
         then): everything else is as above."""
-        return list(self._changed(everything, slow))
+        buf, epoch = self.block.buf, EPOCH.pack(self.epoch)
+        seqs, known = self._seqs.unpack_from(buf, self._start), self.known
+        keys, spans, owned, control = self._keys, self._spans, self.owned, self._control
+        found: list[tuple[str, bytes]] = []
+        last_ones: list[tuple[str, bytes]] = []
+        for i in self._candidates(seqs, everything, slow):
+            seq = seqs[i]
+            if seq % 2:  # being written (a writer died mid-write): not whole, not sent
+                continue
+            start, end = spans[i]
+            message = epoch + buf[start:end]  # one copy, straight from the block
+            # the seqlock's read: the word the same before and after the copy (else it is
+            # being rewritten: it goes with a later push)
+            if SEQ.unpack_from(buf, start)[0] != seq:
+                continue
+            known[i] = seq
+            key = keys[i]
+            owned.add(key)
+            (last_ones if key in control else found).append((key, message))
+        found += last_ones
+        return found
 
     def pack(self, messages: list[tuple[str, bytes]]) -> bytes:
         """A push as one payload: each message after its record's index."""
@@ -222,40 +244,17 @@ class Mirror:
         self.counters.malformed += 1
         return None
 
-    def _changed(self, everything: bool, slow: bool) -> Iterator[tuple[str, bytes]]:
-        buf, epoch = self.block.buf, EPOCH.pack(self.epoch)
-        seqs, known, keys = self._seqs.unpack_from(buf, self._start), self.known, self._keys
+    def _candidates(self, seqs: tuple[int, ...], everything: bool, slow: bool) -> list[int]:
+        """The indices of the records whose sequence word moved since they were last sent or
+        mirrored (with `everything`, also those whose value this node wrote; without
+        `slow`, not the performance buffers)."""
+        known = self.known
         if everything:
-            owned = self.owned
-            candidates = [i for i, seq in enumerate(seqs) if seq != known[i] or keys[i] in owned]
-        elif slow:  # one comprehension over every record's word, the loop over the changed only
-            candidates = [
-                i for i, (seq, was) in enumerate(zip(seqs, known, strict=True)) if seq != was
-            ]
-        else:
-            candidates = [
-                i
-                for i, (seq, was, fast) in enumerate(zip(seqs, known, self._fast, strict=True))
-                if seq != was and fast
-            ]
-        last_ones = []
-        spans = self._spans
-        for i in candidates:
-            seq, key = seqs[i], keys[i]
-            if seq % 2:  # being written (a writer died mid-write): not whole, not sent
-                continue
-            start, end = spans[i]
-            data = bytes(buf[start:end])
-            if SEQ.unpack_from(data, 0)[0] != seq:
-                continue
-            known[i] = seq
-            self.owned.add(key)
-            message = epoch + data
-            if key in self._control:
-                last_ones.append((key, message))
-            else:
-                yield key, message
-        yield from last_ones
+            owned, keys = self.owned, self._keys
+            return [i for i, seq in enumerate(seqs) if seq != known[i] or keys[i] in owned]
+        if slow:  # every record's word compared in C (map, compress), the loop over the changed
+            return list(compress(self._indices, map(ne, seqs, known)))
+        return list(compress(self._indices, map(and_, map(ne, seqs, known), self._fast)))
 
     def apply(self, key: str, payload: bytes, now_ns: int | None = None) -> bool:
         """Mirror one message into the block; False when it is dropped (late, out of

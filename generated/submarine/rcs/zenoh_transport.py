@@ -17,6 +17,7 @@ is made: a system run on shared memory needs nothing but Python.
 from __future__ import annotations
 
 import json
+import queue
 import sys
 import threading
 import time
@@ -137,8 +138,11 @@ class ZenohTransport:
         layout = mirror.layout
         self.prefix = prefix(layout)
         self.node = process if process is not None else f"_observer_{mirror.epoch:016x}"
-        self.inbox: deque[tuple[str, str, bytes]] = deque()
-        self.cond = threading.Condition()
+        # What Zenoh's threads delivered, in order: a SimpleQueue (put and a timed get in C:
+        # no Python Condition on either side of the hand-off), and what `wait` took from it
+        # while blocking, for the next `pull`.
+        self.inbox: queue.SimpleQueue[tuple[str, str, bytes]] = queue.SimpleQueue()
+        self._taken: list[tuple[str, str, bytes]] = []
         self.steps: deque[bytes] = deque()
         self.lost: set[str] = set()
         self.joined: set[str] = set()
@@ -168,7 +172,10 @@ class ZenohTransport:
         self._cut = len(self.prefix) + 1
         self._step = f"{STEP_KEY}/{process}"
         self._pushes = f"{PUSH_KEY}/"
+        # Every message is sent express (not held for batching: Zenoh >= 1.0 otherwise
+        # queues a small message in the hope of more), through a publisher declared once.
         self._publisher: Any = None
+        self._steppers: dict[str, Any] = {}
         # One subscriber for the system's whole prefix, filtered here by what this node
         # reads: one zenoh-python thread then delivers everything in the order each sender
         # sent it (a push whole, a coordinator's records before its step request). Several
@@ -196,9 +203,7 @@ class ZenohTransport:
             self._arrived("step", "", sample.payload.to_bytes())
 
     def _arrived(self, kind: str, key: str, payload: bytes) -> None:
-        with self.cond:
-            self.inbox.append((kind, key, payload))
-            self.cond.notify_all()
+        self.inbox.put((kind, key, payload))
 
     def _token(self, sample: Any) -> None:
         parts = str(sample.key_expr).split("/")  # rcs, system, hash-8, _alive, node
@@ -214,9 +219,10 @@ class ZenohTransport:
     def pull(self) -> None:
         """Apply everything that arrived, in order: records into the block, step requests
         to `steps`, tokens to liveness (a lost process is marked DEAD)."""
-        with self.cond:
-            arrived = list(self.inbox)
-            self.inbox.clear()
+        arrived, self._taken = self._taken, []
+        inbox = self.inbox
+        while not inbox.empty():  # this thread is its only reader
+            arrived.append(inbox.get_nowait())
         mirror = self.mirror
         for kind, key, payload in arrived:
             if kind == "push":  # a sender's cycle, whole: applied whole, in the order sent
@@ -299,23 +305,29 @@ class ZenohTransport:
         if last or everything:  # never dropped; a full push says so in its key
             block = self._zenoh.CongestionControl.BLOCK
             self.session.put(
-                key + (f"/{FULL}" if everything else ""), payload, congestion_control=block
+                key + (f"/{FULL}" if everything else ""),
+                payload,
+                congestion_control=block,
+                express=True,
             )
         else:
             if self._publisher is None:
                 self._publisher = self.session.declare_publisher(
-                    key, congestion_control=self._congestion
+                    key, congestion_control=self._congestion, express=True
                 )
             self._publisher.put(payload)
         self.mirror.counters.sent += len(messages)
 
     def send_step(self, process: str, request: bytes) -> None:
         """A lockstep request to `process` (after this node's own records: same link, in order)."""
-        self.session.put(
-            f"{self.prefix}/{STEP_KEY}/{process}",
-            request,
-            congestion_control=self._zenoh.CongestionControl.BLOCK,
-        )
+        publisher = self._steppers.get(process)
+        if publisher is None:
+            publisher = self._steppers[process] = self.session.declare_publisher(
+                f"{self.prefix}/{STEP_KEY}/{process}",
+                congestion_control=self._zenoh.CongestionControl.BLOCK,
+                express=True,
+            )
+        publisher.put(request)
 
     def wait(self, ready: Callable[[], bool], timeout: float | None) -> bool:
         """Pull until `ready()` holds (True) or `timeout` seconds pass (False)."""
@@ -326,13 +338,13 @@ class ZenohTransport:
                 self.push()
             if ready():
                 return True
-            with self.cond:
-                if self.inbox:
-                    continue
-                left = None if deadline is None else deadline - time.monotonic()
-                if left is not None and left <= 0:
-                    return False
-                self.cond.wait(0.2 if left is None else min(left, 0.2))
+            left = None if deadline is None else deadline - time.monotonic()
+            if left is not None and left <= 0:
+                return False
+            try:  # the next message wakes this thread at once (at most 0.2 s: a stop)
+                self._taken.append(self.inbox.get(timeout=0.2 if left is None else min(left, 0.2)))
+            except queue.Empty:
+                pass
 
     def close(self) -> None:
         """Leave: send what is left (a process's STOPPED), then the token goes (the others
