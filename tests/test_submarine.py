@@ -670,6 +670,31 @@ def test_the_ood_s_last_resort_blows_the_main_ballast_tanks_and_the_ship_surface
     assert all(ln["world"]["planes"] == "NORMAL" for ln in lines)
 
 
+def test_the_ood_refusing_to_choose_fails_the_transit_with_his_reason_up_to_cc():
+    """Section 4.7.3, the other answer to a system request: the OOD answers DEPTH_CASUALTY
+    with ERROR REFUSED (`ood_refuses`). In the cycle his refusal reaches ship maneuver the
+    helm is halted (no planes, no MBT blow: the depth is not held); once the helm has
+    stopped, sm fails with REFUSED, and the next cycle cc fails with it, the chain naming
+    where it came from."""
+    final, lines = played("ood_refuses")
+    assert final["status"] == "ERROR" and final["reason"] == "REFUSED"
+    asked, answered = depth_casualty(lines)
+    refused = at(lines, answered)["modules"]["ood/sm"]
+    assert refused["status"] == "ERROR" and refused["command"] == "DEPTH_CASUALTY"
+    assert at(lines, answered)["modules"]["sm"]["state"] == "DEPTH_ASKED"
+    halted = at(lines, answered + 1)
+    assert halted["modules"]["sm"]["state"] == "OOD_FAILED"
+    assert halted["modules"]["helm"]["command"] == "HALT"
+    failed = next(ln["cycle"] for ln in lines if ln["modules"]["sm"]["status"] == "ERROR")
+    assert at(lines, failed - 1)["modules"]["helm"]["status"] == "DONE", "after the helm stopped"
+    assert at(lines, failed)["modules"]["sm"]["reason"] == "REFUSED"
+    top = at(lines, failed + 1)["modules"]["cc"]
+    assert top["status"] == "ERROR" and top["reason"] == "REFUSED"
+    assert top["cause"] == "sm: REFUSED <- ood: REFUSED"
+    assert all(at(lines, c)["modules"]["cc"]["status"] == "EXECUTING" for c in range(7, failed + 1))
+    assert all(ln["world"]["planes"] == "NORMAL" and not ln["world"]["mbt_blown"] for ln in lines)
+
+
 def fidelity_counts(page: Path) -> tuple[dict[str, int], str]:
     """The verdicts of a case study's fidelity table, counted, and its summary line."""
     import re

@@ -564,8 +564,9 @@ class CcController:
             elif self.sm_status == ERROR and (
                 self.sm_error_num == SM_REASON_OUT_OF_HAVEN
                 or self.sm_error_num == SM_REASON_SURFACED
+                or self.sm_error_num == SM_REASON_REFUSED
             ):
-                # the submarine left its moving haven, or surfaced on the OOD's MBT blow
+                # the submarine left its moving haven, surfaced on the OOD's MBT blow, or the OOD refused to choose for a depth the controller cannot hold: pass the reason up
                 self.rule = 12  # RUN_MISSION/TRANSIT/5
                 # sm's error: the cause of an ERROR this command reports
                 self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
