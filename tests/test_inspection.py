@@ -436,6 +436,34 @@ def test_a_lot_by_a_program_that_does_not_exist_is_refused_by_the_planner():
     assert "PLACE_PART" not in names(commands_sent(lines, "fx"))
 
 
+def test_the_planner_failing_mid_inspection_stops_the_station_safe_and_says_why():
+    """planner_fails: the PDM system stops answering (cycle 54) while the job planner plans
+    part 1 and the workcell inspects part 0 (W1 while W2, section 5.2.1). The planner fails
+    with PDM_DOWN; the next cycle the shop halts the workcell, and the HALT reaches every
+    level below in that cycle: both operator requests are withdrawn and the CMM is ordered
+    nothing; once the workcell has stopped the lot fails with the planner's reason, its
+    cause naming the planner."""
+    final, lines = played("planner_fails")
+    assert final["status"] == "ERROR" and final["reason"] == "PDM_DOWN"
+    failed = first(lines, "jp", "PLAN_JOB", "ERROR")
+    before = at_cycle(lines, failed)
+    assert not before["world"]["pdm_online"] and at_cycle(lines, failed - 1)["world"]["pdm_online"]
+    assert before["modules"]["wc"]["command"] == "INSPECT_PART", "mid-inspection"
+    assert before["modules"]["wc"]["status"] == "EXECUTING"
+    assert before["modules"]["jp"]["reason"] == "PDM_DOWN"
+    halted = at_cycle(lines, failed + 1)["modules"]
+    assert halted["shop"]["state"] == "PLAN_FAILED"
+    for module in ("wc", "ws", "ms", "fx", "tl", "cmm"):
+        assert halted[module]["command"] == "HALT", module
+    assert halted["op/fx"]["state"] == "NOP" and halted["op/tl"]["state"] == "NOP", "withdrawn"
+    assert all(ln["world"]["cmm_op"] == "NO_OPERATION" for ln in lines[failed - 1 :])
+    stopped = next(ln["cycle"] for ln in lines if ln["modules"]["shop"]["status"] == "ERROR")
+    assert at_cycle(lines, stopped - 1)["modules"]["wc"]["status"] == "DONE", "after wc stopped"
+    top = at_cycle(lines, stopped)["modules"]["shop"]
+    assert top["reason"] == "PDM_DOWN" and top["cause"] == "jp: PDM_DOWN"
+    assert "MEASURE_PART" not in names(commands_sent(lines, "ms")), "no part measured unclamped"
+
+
 def at_cycle(lines: list[dict], cycle: int) -> dict:
     assert lines[cycle - 1]["cycle"] == cycle
     return lines[cycle - 1]

@@ -41,6 +41,7 @@ REASON_REFUSED = 2
 REASON_TIMED_OUT = 3
 REASON_MACHINE_FAULT = 4
 REASON_NO_PROGRAM = 5
+REASON_PDM_DOWN = 6
 
 # Commands shop sends to wc.
 WC_INIT = 1
@@ -63,6 +64,7 @@ JP_PLAN_JOB = 3
 JP_REASON_NONE = 0
 JP_REASON_LOST = 1
 JP_REASON_NO_PROGRAM = 2
+JP_REASON_PDM_DOWN = 3
 JP_LINK = 2  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
@@ -615,6 +617,7 @@ class ShopController:
             self.error_num = {
                 JP_REASON_LOST: REASON_LOST,
                 JP_REASON_NO_PROGRAM: REASON_NO_PROGRAM,
+                JP_REASON_PDM_DOWN: REASON_PDM_DOWN,
             }.get(self.jp_error_num, REASON_NONE)
 
     def init_for_inspect(self) -> None:
