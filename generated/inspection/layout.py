@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2808 bytes.
+The block is 2824 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -85,15 +85,15 @@ command buffers and world fields:
 | 2152 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
 | 2176 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
 | 2200 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
-| 2224 | 96 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, PLAN_FAILED |
-| 2320 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
-| 2368 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 2416 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
-| 2520 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 2608 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 2664 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 2720 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
-| 2768 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 2224 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
+| 2336 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
+| 2384 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 2432 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
+| 2536 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 2624 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 2680 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 2736 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
+| 2784 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -125,9 +125,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 2808
+SIZE = 2824
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "81c667788837066c9bb6217044b3528e"
+LAYOUT_HASH = "feff25c0e3308082e17cf01323bff0c0"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 248
 
@@ -466,7 +466,7 @@ GROUND_TRUTH = ()
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
     "shop": Record(
-        Struct("<QqQQQQQQQQQQ"),
+        Struct("<QqQQQQQQQQQQQQ"),
         2224,
         (
             "state",
@@ -479,14 +479,16 @@ TIME_IN_STATE = {
             "NEXT_PART",
             "LAST",
             "PLANNER_STOPPING",
+            "JOB_FAILED",
+            "REPLANNING",
             "PLAN_FAILED",
         ),
     ),
-    "jp": Record(Struct("<QqQQQQ"), 2320, ("state", "since", "NOP", "S0", "PLANNING")),
-    "wc": Record(Struct("<QqQQQQ"), 2368, ("state", "since", "NOP", "S0", "S1")),
+    "jp": Record(Struct("<QqQQQQ"), 2336, ("state", "since", "NOP", "S0", "PLANNING")),
+    "wc": Record(Struct("<QqQQQQ"), 2384, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        2416,
+        2432,
         (
             "state",
             "since",
@@ -504,13 +506,13 @@ TIME_IN_STATE = {
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        2520,
+        2536,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 2608, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 2664, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "cmm": Record(Struct("<QqQQQQ"), 2720, ("state", "since", "NOP", "S0", "S1")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 2768, ("state", "since", "NOP", "S0")),
+    "fx": Record(Struct("<QqQQQQQ"), 2624, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 2680, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "cmm": Record(Struct("<QqQQQQ"), 2736, ("state", "since", "NOP", "S0", "S1")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 2784, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -603,6 +605,8 @@ STATE_NAMES = {
         "NEXT_PART",
         "LAST",
         "PLANNER_STOPPING",
+        "JOB_FAILED",
+        "REPLANNING",
         "PLAN_FAILED",
     ),
     "jp": ("NOP", "S0", "PLANNING"),
@@ -665,7 +669,12 @@ RULES = {
         "INSPECT_LOT/LAST/1",
         "INSPECT_LOT/LAST/2",
         "INSPECT_LOT/LAST/3",
+        "INSPECT_LOT/LAST/4",
         "INSPECT_LOT/PLANNER_STOPPING/1",
+        "INSPECT_LOT/JOB_FAILED/1",
+        "INSPECT_LOT/JOB_FAILED/2",
+        "INSPECT_LOT/REPLANNING/1",
+        "INSPECT_LOT/REPLANNING/2",
         "INSPECT_LOT/PLAN_FAILED/1",
         "INIT_FOR_INSPECT/S0/1",
         "INIT_FOR_INSPECT/S1/1",
