@@ -200,9 +200,14 @@ def test_engine_room_fire_phases_and_their_cycles():
     fire_at = next(e.cycle for e in scenario.events if e.world.get("fire"))
     phases = fire_phases(lines)
     (prep_from, prep_to), (vent_from, vent_to) = phases["prep"], phases["vent"]
-    # the alarm: cc (which runs before the atmosphere) sees the CO of the cycle before
-    alarm = next(line["cycle"] for line in lines if line["world"]["co_ppm"] > CO_HIGH) + 1
-    assert alarm == fire_at + 2  # 40 ppm a cycle: above 50 after the fire's second cycle
+    # the alarm (section 4.2): the ventilation sensor's CO (the atmosphere, last in the
+    # cycle) is above 50 after the fire's second cycle; the engineering node (after cc)
+    # infers the contamination the next cycle; cc reads its report the cycle after
+    high = next(line["cycle"] for line in lines if line["world"]["co_ppm"] > CO_HIGH)
+    assert high == fire_at + 1  # 40 ppm a cycle
+    contaminated = [ln["cycle"] for ln in lines if ln["world"]["engine_room_contaminated"]]
+    assert contaminated[0] == high + 1
+    alarm = contaminated[0] + 1
     assert prep_from == alarm
     assert at(lines, alarm)["world"]["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
     assert at(lines, alarm - 1)["world"]["announcement"] == ""

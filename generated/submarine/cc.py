@@ -74,7 +74,7 @@ EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1492x48s568xd72xd")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1492x48s664x?")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -97,10 +97,6 @@ PREP_VENT = 4
 LINE_UP = 5
 VENT = 6
 RESUMING = 7
-
-# Constants.
-CO_HIGH = 50.0
-SMOKE_HIGH = 10.0
 
 
 class CcController:
@@ -155,8 +151,7 @@ class CcController:
         "status_num",
         "status_seq",
         "world_announcement",
-        "world_co_ppm",
-        "world_smoke",
+        "world_engine_room_contaminated",
     )
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
@@ -248,8 +243,7 @@ class CcController:
                 self.ec_status_num,
                 self.ec_status,
                 self.world_announcement,
-                self.world_smoke,
-                self.world_co_ppm,
+                self.world_engine_room_contaminated,
             ) = values
             self.world_announcement = decode_text(self.world_announcement)
         if self.sm_status_num != self.sm_command_num:
@@ -405,8 +399,7 @@ class CcController:
             self.ec_status_num,
             self.ec_status,
             self.world_announcement,
-            self.world_smoke,
-            self.world_co_ppm,
+            self.world_engine_room_contaminated,
         ) = values
         self.world_announcement = decode_text(self.world_announcement)
         if not whole:
@@ -507,7 +500,7 @@ class CcController:
                 self.cause = 0  # DONE has no cause
 
         elif state == TRANSIT:
-            if self.world_co_ppm > CO_HIGH or self.world_smoke > SMOKE_HIGH:
+            if self.world_engine_room_contaminated:
                 # (S2) smoke or gas high; all hands on EABs; SM prepare for emergency vent
                 self.rule = 8  # RUN_MISSION/TRANSIT/1
                 self.state = PREP_VENT

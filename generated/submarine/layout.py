@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4624 bytes.
+The block is 4664 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -125,65 +125,67 @@ command buffers and world fields:
 | 2752 | 16 | WORLD_VENT_LINEUP | vent_lineup |
 | 2768 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
 | 2784 | 16 | WORLD_CO_PPM | co_ppm |
-| 2800 | 9 | OVERRIDES | any |
-| 2816 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 2840 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 2864 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 2888 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 2912 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 2936 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 3000 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 3024 | 24 | OVERRIDE_COURSE | state, course |
-| 3048 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 3072 | 24 | OVERRIDE_PLANES | state, planes |
-| 3096 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
-| 3120 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 3144 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 3168 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 3192 | 24 | OVERRIDE_HEADING | state, heading |
-| 3216 | 24 | OVERRIDE_SPEED | state, speed |
-| 3240 | 24 | OVERRIDE_DEPTH | state, depth |
-| 3264 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 3288 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 3312 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 3336 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 3360 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 3384 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 3408 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3432 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3456 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3480 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3504 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3528 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3552 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3576 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3600 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3624 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3648 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3672 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3696 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3720 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 3744 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 3768 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 3792 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 3816 | 17 | OVERRIDE_FIRE | state, fire |
-| 3840 | 24 | OVERRIDE_SMOKE | state, smoke |
-| 3864 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
-| 3888 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
-| 3912 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
-| 3936 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
-| 3960 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 3984 | 88 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, LINE_UP, VENT, RESUMING |
-| 4072 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
-| 4184 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 4232 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
-| 4296 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 4368 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
-| 4424 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 4464 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 4504 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 4544 | 40 | TIME_SEA | state, since, NOP, S0 |
-| 4584 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 2800 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
+| 2816 | 9 | OVERRIDES | any |
+| 2832 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 2856 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 2880 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 2904 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 2928 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 2952 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 3016 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 3040 | 24 | OVERRIDE_COURSE | state, course |
+| 3064 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 3088 | 24 | OVERRIDE_PLANES | state, planes |
+| 3112 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
+| 3136 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 3160 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 3184 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 3208 | 24 | OVERRIDE_HEADING | state, heading |
+| 3232 | 24 | OVERRIDE_SPEED | state, speed |
+| 3256 | 24 | OVERRIDE_DEPTH | state, depth |
+| 3280 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 3304 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 3328 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3352 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3376 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3400 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3424 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3448 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3472 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3496 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3520 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3544 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3568 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3592 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3616 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3640 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3664 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3688 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3712 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3736 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3760 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3784 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 3808 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 3832 | 17 | OVERRIDE_FIRE | state, fire |
+| 3856 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 3880 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 3904 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 3928 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 3952 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 3976 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 4000 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
+| 4024 | 88 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, LINE_UP, VENT, RESUMING |
+| 4112 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 4224 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 4272 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
+| 4336 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 4408 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 4464 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 4504 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 4544 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 4584 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 4624 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -215,9 +217,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 4624
+SIZE = 4664
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "85ca8f4106986390d7858437b8735cff"
+LAYOUT_HASH = "84e3fcada41e7562240b043beb894ee4"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 248
 
@@ -419,6 +421,8 @@ WORLD_DIESEL_RUNNING = Struct("<Q?")  # seq, diesel_running
 WORLD_DIESEL_RUNNING_AT = 2768
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
 WORLD_CO_PPM_AT = 2784
+WORLD_ENGINE_ROOM_CONTAMINATED = Struct("<Q?")  # seq, engine_room_contaminated
+WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2800
 
 
 PROCESSES = {
@@ -628,6 +632,11 @@ WORLD = {
     "vent_lineup": Record(WORLD_VENT_LINEUP, WORLD_VENT_LINEUP_AT, ("vent_lineup",)),
     "diesel_running": Record(WORLD_DIESEL_RUNNING, WORLD_DIESEL_RUNNING_AT, ("diesel_running",)),
     "co_ppm": Record(WORLD_CO_PPM, WORLD_CO_PPM_AT, ("co_ppm",)),
+    "engine_room_contaminated": Record(
+        WORLD_ENGINE_ROOM_CONTAMINATED,
+        WORLD_ENGINE_ROOM_CONTAMINATED_AT,
+        ("engine_room_contaminated",),
+    ),
 }
 WORLD_INITIAL: dict[str, object] = {
     "speed_cmd": 7.7,
@@ -677,61 +686,63 @@ WORLD_INITIAL: dict[str, object] = {
     "vent_lineup": 0,
     "diesel_running": False,
     "co_ppm": 0.0,
+    "engine_room_contaminated": False,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2800
-OVERRIDDEN_AT = 2808  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2816
+OVERRIDDEN_AT = 2824  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 2816, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 2840, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 2864, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 2888, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 2912, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 2936, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 3000, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 3024, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 3048, ("state", "ballast")),
-    "planes": Record(Struct("<QQq"), 3072, ("state", "planes")),
-    "mbt_blown": Record(Struct("<QQ?"), 3096, ("state", "mbt_blown")),
-    "vent_flow": Record(Struct("<QQd"), 3120, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 3144, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 3168, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 3192, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 3216, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 3240, ("state", "depth")),
-    "bubble": Record(Struct("<QQd"), 3264, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 3288, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 3312, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 3336, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 3360, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 3384, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 3408, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3432, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3456, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3480, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3504, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3528, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3552, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3576, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3600, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3624, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3648, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3672, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3696, ("state", "min_clearance")),
-    "water_density": Record(Struct("<QQd"), 3720, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 3744, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 3768, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 3792, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 3816, ("state", "fire")),
-    "smoke": Record(Struct("<QQd"), 3840, ("state", "smoke")),
-    "o2_pct": Record(Struct("<QQd"), 3864, ("state", "o2_pct")),
-    "co2_pct": Record(Struct("<QQd"), 3888, ("state", "co2_pct")),
-    "vent_lineup": Record(Struct("<QQq"), 3912, ("state", "vent_lineup")),
-    "diesel_running": Record(Struct("<QQ?"), 3936, ("state", "diesel_running")),
-    "co_ppm": Record(Struct("<QQd"), 3960, ("state", "co_ppm")),
+    "speed_cmd": Record(Struct("<QQd"), 2832, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 2856, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 2880, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 2904, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 2928, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 2952, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 3016, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 3040, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 3064, ("state", "ballast")),
+    "planes": Record(Struct("<QQq"), 3088, ("state", "planes")),
+    "mbt_blown": Record(Struct("<QQ?"), 3112, ("state", "mbt_blown")),
+    "vent_flow": Record(Struct("<QQd"), 3136, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 3160, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 3184, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 3208, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 3232, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 3256, ("state", "depth")),
+    "bubble": Record(Struct("<QQd"), 3280, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 3304, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 3328, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3352, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3376, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3400, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3424, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3448, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3472, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3496, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3520, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3544, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3568, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3592, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3616, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3640, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3664, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3688, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3712, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3736, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3760, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3784, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 3808, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 3832, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 3856, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 3880, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 3904, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 3928, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 3952, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 3976, ("state", "co_ppm")),
+    "engine_room_contaminated": Record(Struct("<QQ?"), 4000, ("state", "engine_room_contaminated")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -794,6 +805,7 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "vent_lineup": ("ec",),
     "diesel_running": ("ec",),
     "co_ppm": ("atmosphere",),
+    "engine_room_contaminated": ("ec",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
@@ -812,7 +824,7 @@ GROUND_TRUTH = (
 TIME_IN_STATE = {
     "cc": Record(
         Struct("<QqQQQQQQQQQ"),
-        3984,
+        4024,
         (
             "state",
             "since",
@@ -828,7 +840,7 @@ TIME_IN_STATE = {
     ),
     "sm": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        4072,
+        4112,
         (
             "state",
             "since",
@@ -845,21 +857,21 @@ TIME_IN_STATE = {
             "HELM_FAILED",
         ),
     ),
-    "ec": Record(Struct("<QqQQQQ"), 4184, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 4224, ("state", "since", "NOP", "S0", "S1")),
     "helm": Record(
-        Struct("<QqQQQQQQ"), 4232, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
+        Struct("<QqQQQQQQ"), 4272, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
     ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        4296,
+        4336,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "prop": Record(Struct("<QqQQQQQ"), 4368, ("state", "since", "NOP", "S0", "S1", "ASKED")),
-    "rudder_sim": Record(Struct("<QqQQQ"), 4424, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 4464, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 4504, ("state", "since", "NOP", "S0")),
-    "sea": Record(Struct("<QqQQQ"), 4544, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 4584, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 4408, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 4464, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 4504, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 4544, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 4584, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 4624, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
