@@ -392,9 +392,9 @@ def hooks():
 
     sys.path.insert(0, str(SUBMARINE))
     try:
-        from submarine_hooks import helm, mission, sim
+        from submarine_hooks import helm, mission, sea, sim
 
-        yield helm, mission, sim
+        yield helm, mission, sim, sea
     finally:
         sys.path.remove(str(SUBMARINE))
         for name in [m for m in sys.modules if m.startswith("submarine_hooks")]:
@@ -402,7 +402,7 @@ def hooks():
 
 
 def test_sonar_beams_meet_a_keel_ahead(hooks):
-    _, _, sim = hooks
+    _, _, sim, _ = hooks
     keels = [(0.0, 500.0, 100.0)]  # 500 m north, radius 100
     *ranges, clearance = sim.ping(keels, 0.0, 0.0, 0.0)
     assert len(ranges) == 14
@@ -419,7 +419,7 @@ def test_sonar_beams_meet_a_keel_ahead(hooks):
 
 
 def test_ice_assessment_blocks_the_course_and_recommends_a_clear_heading(hooks):
-    helm, _, sim = hooks
+    helm, _, sim, _ = hooks
     keels = [(0.0, 500.0, 100.0)]
     ranges = sim.ping(keels, 0.0, 0.0, 0.0)[:14]
     seen, avoid = helm.assess_ice(0.0, 0.0, *ranges)
@@ -435,7 +435,7 @@ def test_ice_assessment_blocks_the_course_and_recommends_a_clear_heading(hooks):
 
 
 def test_course_and_waypoints(hooks):
-    helm, mission, sim = hooks
+    helm, mission, sim, _ = hooks
     assert helm.course_to(100.0, 0.0, 0.0, 0.0) == 90.0
     assert helm.course_to(0.0, -100.0, 0.0, 0.0) == 180.0
     assert helm.course_to(-100.0, 100.0, 0.0, 0.0) == 315.0
@@ -521,7 +521,7 @@ def test_a_jammed_rudder_s_error_climbs_one_level_a_cycle():
 
 
 def test_a_malformed_route_or_keel_line_is_named_with_its_line(hooks, tmp_path):
-    _, mission, sim = hooks
+    _, mission, sim, _ = hooks
     route = tmp_path / "r.route"
     route.write_text("# a comment\n10 20  # first\n\n30 forty\n", encoding="utf-8")
     with pytest.raises(ValueError, match=r"r\.route:4: expected `X Y` \(numbers\), got '30 forty'"):
@@ -587,6 +587,44 @@ def test_fresh_water_run_off_sinks_the_ship_until_variable_ballast_is_blown():
         "the blown ballast is within the planes' reach"
     )
     assert min(line["world"]["below_keel"] for line in lines) == final_below_keel(lines)
+
+
+def test_the_sea_bottom_is_a_fractal_profile_made_before_the_run(hooks):
+    """Section 4.6.5: "The ice keel and sea bottom profiles were generated using fractals,
+    which allowed a complex structure of indefinite size and extent without the need for
+    long and complex mappings. They are generated prior to test runs." The bottom is fixed
+    by the run's seed before the run (the same seed, the same bottom; another, another),
+    defined everywhere, rough at every scale (the mean change over a distance grows with
+    it, from 125 m to 4 km, roughly as a power: fractal, not smooth and not white), and the
+    sea simulator's water under the keel is that bottom under the traced position."""
+    *_, sea = hooks
+    bottom = sea.new_bottom({})
+    assert bottom == sea.new_bottom({"bottom_seed": "1"})
+    other = sea.new_bottom({"bottom_seed": "2"})
+    points = [(x * 97.0, y * 89.0) for x in range(-30, 30) for y in range(0, 100, 3)]
+    assert any(bottom.depth(x, y) != other.depth(x, y) for x, y in points)
+    far = [bottom.depth(x + 1e6, y - 3e6) for x, y in points[:50]]
+    assert all(sea.MEAN_DEPTH - sea.RELIEF <= d <= sea.MEAN_DEPTH + sea.RELIEF for d in far)
+
+    def change(d: float) -> float:
+        return sum(abs(bottom.depth(x, y + d) - bottom.depth(x, y)) for x, y in points) / len(
+            points
+        )
+
+    scales = [change(d) for d in (125.0, 250.0, 500.0, 1000.0, 2000.0, 4000.0)]
+    assert scales == sorted(scales) and scales[0] > 0.2
+    ratios = [b / a for a, b in zip(scales, scales[1:], strict=False)]
+    assert all(1.3 < r < 2.1 for r in ratios), ratios  # 2**H, H about 0.5-1
+    with pytest.raises(ValueError, match="bottom_seed must be a whole number"):
+        sea.new_bottom({"bottom_seed": "x"})
+    _, lines = played("salinity_planes")
+    for line in lines[::50]:
+        w = line["world"]
+        assert w["below_keel"] + w["depth"] == pytest.approx(
+            bottom.depth(w["pos_x"], w["pos_y"]), abs=1e-6
+        )
+    under = [ln["world"]["below_keel"] + ln["world"]["depth"] for ln in lines]
+    assert max(under) - min(under) > 10.0, "not a flat bottom"
 
 
 def final_below_keel(lines: list[dict]) -> float:

@@ -678,7 +678,7 @@ WORLD_INITIAL: dict[str, object] = {
     "water_density": 1025.0,
     "bottom_depth": 250.0,
     "below_keel": 130.0,
-    "min_below_keel": 130.0,
+    "min_below_keel": 1000.0,
     "fire": False,
     "smoke": 0.0,
     "o2_pct": 20.9,
@@ -796,6 +796,7 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "sonar_13": ("sonar",),
     "clearance": ("sonar",),
     "min_clearance": ("sonar",),
+    "bottom_depth": ("sea",),
     "below_keel": ("sea",),
     "min_below_keel": ("sea",),
     "fire": ("atmosphere",),
@@ -1130,6 +1131,7 @@ SEGMENT_GROUP: str | None = None
 SETTINGS: dict[str, str] | None = {
     "route": "The mission's waypoints: maps/<name>.route (default maps/bering.route).",
     "keels": "The ice keels the sonar simulator sees: maps/<name>.keels (default maps/bering.keels).",
+    "bottom_seed": "The seed of the fractal sea bottom, generated before the run: a whole number (default 1).",
 }
 # Whether a controller has a `hooks_state` factory: without one no setting is read.
 READS_SETTINGS = True
