@@ -237,11 +237,23 @@ def test_engine_room_fire_phases_and_their_cycles():
         line["world"]["periscope_raised"] for line in lines if line["cycle"] < prep_to - 1
     )
     assert helm_at_goal(lines)[prep_to - 1]
-    # line up (the BCP, one cycle: "prepared to emergency ventilate with the diesel"), then
-    # commence snorkeling: engineering runs the diesel until the fire is out and the
-    # analyzers read safe
+    # the word from the damage control party, relayed by the EOOW (4.1.3: "The fire is out,
+    # the reflash watch is stationed"): asked once the ship is prepared, answered in 2 s
+    (report,) = spans(lines, "cc", "FIRE_REPORT")
+    assert report[0] == prep_to + 1
+    (asked_out,) = spans(lines, "eoow/cc", "ASKING")
+    assert (
+        asked_out[0] == report[0]
+        and at(lines, asked_out[0])["modules"]["eoow/cc"]["command"] == "FIRE_OUT"
+    )
+    assert not any(at(lines, c)["world"]["fire"] for c in range(*asked_out)), "the fire is out"
+    assert at(lines, asked_out[1] + 1)["modules"]["eoow/cc"]["status"] == "DONE"
+    # line up (the BCP, one cycle: "prepared to emergency ventilate with the diesel") only
+    # after the word, then commence snorkeling: engineering runs the diesel until the fire
+    # is out and the analyzers read safe
     (line_up,) = spans(lines, "cc", "LINE_UP")
-    assert line_up == (prep_to + 1, prep_to + 1) and vent_from == prep_to + 2
+    assert line_up == (report[1] + 1, report[1] + 1) and vent_from == report[1] + 2
+    assert at(lines, report[1])["world"]["vent_lineup"] != "DIESEL_VENTILATION"
     assert at(lines, line_up[0])["world"]["vent_lineup"] == "DIESEL_VENTILATION"
     assert not at(lines, line_up[0])["world"]["diesel_running"]
     assert all(at(lines, c)["world"]["diesel_running"] for c in range(vent_from, vent_to))
