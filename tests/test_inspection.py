@@ -436,6 +436,79 @@ def test_a_lot_by_a_program_that_does_not_exist_is_refused_by_the_planner():
     assert "PLACE_PART" not in names(commands_sent(lines, "fx"))
 
 
+def test_the_planner_failing_mid_inspection_stops_the_station_safe_and_says_why():
+    """planner_fails: the PDM system stops answering (cycle 54) while the job planner plans
+    part 1 and the workcell inspects part 0 (W1 while W2, section 5.2.1). The planner fails
+    with PDM_DOWN; the next cycle the shop halts the workcell, and the HALT reaches every
+    level below in that cycle: both operator requests are withdrawn and the CMM is ordered
+    nothing; once the workcell has stopped the lot fails with the planner's reason, its
+    cause naming the planner."""
+    final, lines = played("planner_fails")
+    assert final["status"] == "ERROR" and final["reason"] == "PDM_DOWN"
+    failed = first(lines, "jp", "PLAN_JOB", "ERROR")
+    before = at_cycle(lines, failed)
+    assert not before["world"]["pdm_online"] and at_cycle(lines, failed - 1)["world"]["pdm_online"]
+    assert before["modules"]["wc"]["command"] == "INSPECT_PART", "mid-inspection"
+    assert before["modules"]["wc"]["status"] == "EXECUTING"
+    assert before["modules"]["jp"]["reason"] == "PDM_DOWN"
+    halted = at_cycle(lines, failed + 1)["modules"]
+    assert halted["shop"]["state"] == "PLAN_FAILED"
+    for module in ("wc", "ws", "ms", "fx", "tl", "cmm"):
+        assert halted[module]["command"] == "HALT", module
+    assert halted["op/fx"]["state"] == "NOP" and halted["op/tl"]["state"] == "NOP", "withdrawn"
+    assert all(ln["world"]["cmm_op"] == "NO_OPERATION" for ln in lines[failed - 1 :])
+    stopped = next(ln["cycle"] for ln in lines if ln["modules"]["shop"]["status"] == "ERROR")
+    assert at_cycle(lines, stopped - 1)["modules"]["wc"]["status"] == "DONE", "after wc stopped"
+    top = at_cycle(lines, stopped)["modules"]["shop"]
+    assert top["reason"] == "PDM_DOWN" and top["cause"] == "jp: PDM_DOWN"
+    assert "MEASURE_PART" not in names(commands_sent(lines, "ms")), "no part measured unclamped"
+
+
+def test_a_failed_part_job_is_planned_again_and_the_lot_completes():
+    """Section 5.2.3: "The EX may report errors caused by executing earlier generated
+    schedules. The planner will correspondingly replan." lot_replanned: the inspector
+    refuses part 0 (cycle 51) while the planner plans part 1. The workcell fails part 0's
+    job; the shop halts the planner (JOB_FAILED), plans part 0's job again (REPLANNING),
+    and re-issues it with part 1's planning; the lot is done, both parts passed."""
+    final, lines = played("lot_replanned")
+    assert final["status"] == "DONE"
+    result = lines[-1]["modules"]["shop"]["result"]
+    assert result["passed"] == 2 and result["rejected"] == 0
+    failed = first(lines, "wc", "INSPECT_PART", "ERROR")
+    assert at_cycle(lines, failed)["modules"]["jp"]["status"] == "EXECUTING", "mid-planning"
+    stopping = at_cycle(lines, failed + 1)["modules"]
+    assert stopping["shop"]["state"] == "JOB_FAILED" and stopping["jp"]["command"] == "HALT"
+    sent = [(c, n) for c, n in commands_sent(lines, "jp") if c > failed]
+    assert sent[:2] == [(failed + 1, "HALT"), (failed + 2, "PLAN_JOB")], "planned again"
+    replanned = at_cycle(lines, failed + 2)["modules"]["shop"]
+    assert replanned["state"] == "REPLANNING" and replanned["status"] == "EXECUTING"
+    again = [c for c, n in commands_sent(lines, "wc") if c > failed and n == "INSPECT_PART"]
+    assert len(again) == 2, "part 0 again, then part 1"
+    assert all(ln["modules"]["shop"]["status"] != "ERROR" for ln in lines)
+
+
+def test_a_job_replanned_too_often_raises_the_error_flag_to_the_superior():
+    """Section 5.2.3: "If the planner has replanned a particular task for too many times
+    (beyond the designed threshold), an error flag will be generated for the superior
+    node." lot_replanned_too_often: the inspector refuses part 0 twice; planned again once
+    (REPLANS), the second failure halts the planner and fails the lot with the reason and
+    its chain down to the operator."""
+    final, lines = played("lot_replanned_too_often")
+    assert final["status"] == "ERROR" and final["reason"] == "REFUSED"
+    failures = [
+        ln["cycle"]
+        for prev, ln in zip(lines, lines[1:], strict=False)
+        if ln["modules"]["wc"]["status"] == "ERROR" and prev["modules"]["wc"]["status"] != "ERROR"
+    ]
+    assert len(failures) == 2
+    assert at_cycle(lines, failures[0] + 2)["modules"]["shop"]["state"] == "REPLANNING"
+    assert at_cycle(lines, failures[1] + 1)["modules"]["shop"]["state"] == "JOB_FAILED"
+    top = at_cycle(lines, failures[1] + 2)["modules"]["shop"]
+    assert top["status"] == "ERROR" and top["reason"] == "REFUSED"
+    assert top["cause"] == "wc: REFUSED <- ws: REFUSED <- fx: REFUSED <- op: REFUSED"
+    assert sum(1 for _, n in commands_sent(lines, "wc") if n == "INSPECT_PART") == 2
+
+
 def at_cycle(lines: list[dict], cycle: int) -> dict:
     assert lines[cycle - 1]["cycle"] == cycle
     return lines[cycle - 1]

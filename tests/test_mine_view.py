@@ -127,12 +127,35 @@ def test_replay_in_a_browser_shows_the_cut_and_plays(tmp_path, system):
     assert still.console == [], still.console
     assert body.get("data-ready") == "1" and "data-error" not in body
     assert body["data-cycle"] == "140" and int(body["data-cut-cells"]) > 20
+    # the shared player's controls and clock (the system's 0.1 s cycle: 14.0 s)
+    assert '<button id="prev"' in still.dom and '<select id="speed">' in still.dom
+    assert re.search(r'<span id="clock">cycle 140 of \d+ · 14\.0 s</span>', still.dom)
+    assert '<option value="4" selected="">4×</option>' in still.dom  # the mine's default speed
     assert '<g id="machine"' in still.dom and '<g id="machine-section"' in still.dom
     assert 'class="drum"' in still.dom and 'class="cells"' in still.dom
     assert still.screenshot is not None and still.screenshot.stat().st_size > 20_000
     played = load(f"{path.as_uri()}#play", tmp_path, "playing", budget_ms=1500, screenshot=False)
     assert played.console == [], played.console
     assert int(played.body()["data-cycle"]) > 20  # 1.5 s of virtual time at 4x: it moved
+    assert played.body()["data-playing"] == "1"
+
+
+def test_the_mine_view_is_on_the_replay_views_shared_shell(system):
+    """One player for the mine, the sea and the station views (player.py's shell): the
+    mine page carries the shell's player script verbatim, and the mine view's own asset
+    has no player of its own (no slider, no timer, no address parsing)."""
+    from importlib import resources
+
+    assets = resources.files("rcsgen.tools.traces").joinpath("assets")
+    shell = assets.joinpath("replay_shell.html").read_text("utf-8")
+    player = shell[shell.index("// The player:") : shell.rindex("</script>")]
+    trace = traces.load(GOLDEN / "box_cut.jsonl")
+    page, _ = mine_view.render(trace, traces.lanes(trace, system), system, MINER, SETTINGS)
+    assert player in page and page.count("// The player:") == 1
+    own = assets.joinpath("mine_view.html").read_text("utf-8")
+    for part in ("slider", "setTimeout", "location.hash", "<header", "JSON.parse"):
+        assert part not in own, part
+    assert "function frame(i)" in own
 
 
 def test_text_from_the_run_cannot_close_the_pages_script(system):

@@ -200,9 +200,14 @@ def test_engine_room_fire_phases_and_their_cycles():
     fire_at = next(e.cycle for e in scenario.events if e.world.get("fire"))
     phases = fire_phases(lines)
     (prep_from, prep_to), (vent_from, vent_to) = phases["prep"], phases["vent"]
-    # the alarm: cc (which runs before the atmosphere) sees the CO of the cycle before
-    alarm = next(line["cycle"] for line in lines if line["world"]["co_ppm"] > CO_HIGH) + 1
-    assert alarm == fire_at + 2  # 40 ppm a cycle: above 50 after the fire's second cycle
+    # the alarm (section 4.2): the ventilation sensor's CO (the atmosphere, last in the
+    # cycle) is above 50 after the fire's second cycle; the engineering node (after cc)
+    # infers the contamination the next cycle; cc reads its report the cycle after
+    high = next(line["cycle"] for line in lines if line["world"]["co_ppm"] > CO_HIGH)
+    assert high == fire_at + 1  # 40 ppm a cycle
+    contaminated = [ln["cycle"] for ln in lines if ln["world"]["engine_room_contaminated"]]
+    assert contaminated[0] == high + 1
+    alarm = contaminated[0] + 1
     assert prep_from == alarm
     assert at(lines, alarm)["world"]["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
     assert at(lines, alarm - 1)["world"]["announcement"] == ""
@@ -232,11 +237,23 @@ def test_engine_room_fire_phases_and_their_cycles():
         line["world"]["periscope_raised"] for line in lines if line["cycle"] < prep_to - 1
     )
     assert helm_at_goal(lines)[prep_to - 1]
-    # line up (the BCP, one cycle: "prepared to emergency ventilate with the diesel"), then
-    # commence snorkeling: engineering runs the diesel until the fire is out and the
-    # analyzers read safe
+    # the word from the damage control party, relayed by the EOOW (4.1.3: "The fire is out,
+    # the reflash watch is stationed"): asked once the ship is prepared, answered in 2 s
+    (report,) = spans(lines, "cc", "FIRE_REPORT")
+    assert report[0] == prep_to + 1
+    (asked_out,) = spans(lines, "eoow/cc", "ASKING")
+    assert (
+        asked_out[0] == report[0]
+        and at(lines, asked_out[0])["modules"]["eoow/cc"]["command"] == "FIRE_OUT"
+    )
+    assert not any(at(lines, c)["world"]["fire"] for c in range(*asked_out)), "the fire is out"
+    assert at(lines, asked_out[1] + 1)["modules"]["eoow/cc"]["status"] == "DONE"
+    # line up (the BCP, one cycle: "prepared to emergency ventilate with the diesel") only
+    # after the word, then commence snorkeling: engineering runs the diesel until the fire
+    # is out and the analyzers read safe
     (line_up,) = spans(lines, "cc", "LINE_UP")
-    assert line_up == (prep_to + 1, prep_to + 1) and vent_from == prep_to + 2
+    assert line_up == (report[1] + 1, report[1] + 1) and vent_from == report[1] + 2
+    assert at(lines, report[1])["world"]["vent_lineup"] != "DIESEL_VENTILATION"
     assert at(lines, line_up[0])["world"]["vent_lineup"] == "DIESEL_VENTILATION"
     assert not at(lines, line_up[0])["world"]["diesel_running"]
     assert all(at(lines, c)["world"]["diesel_running"] for c in range(vent_from, vent_to))
@@ -387,9 +404,9 @@ def hooks():
 
     sys.path.insert(0, str(SUBMARINE))
     try:
-        from submarine_hooks import helm, mission, sim
+        from submarine_hooks import helm, mission, sea, sim
 
-        yield helm, mission, sim
+        yield helm, mission, sim, sea
     finally:
         sys.path.remove(str(SUBMARINE))
         for name in [m for m in sys.modules if m.startswith("submarine_hooks")]:
@@ -397,7 +414,7 @@ def hooks():
 
 
 def test_sonar_beams_meet_a_keel_ahead(hooks):
-    _, _, sim = hooks
+    _, _, sim, _ = hooks
     keels = [(0.0, 500.0, 100.0)]  # 500 m north, radius 100
     *ranges, clearance = sim.ping(keels, 0.0, 0.0, 0.0)
     assert len(ranges) == 14
@@ -414,7 +431,7 @@ def test_sonar_beams_meet_a_keel_ahead(hooks):
 
 
 def test_ice_assessment_blocks_the_course_and_recommends_a_clear_heading(hooks):
-    helm, _, sim = hooks
+    helm, _, sim, _ = hooks
     keels = [(0.0, 500.0, 100.0)]
     ranges = sim.ping(keels, 0.0, 0.0, 0.0)[:14]
     seen, avoid = helm.assess_ice(0.0, 0.0, *ranges)
@@ -430,7 +447,7 @@ def test_ice_assessment_blocks_the_course_and_recommends_a_clear_heading(hooks):
 
 
 def test_course_and_waypoints(hooks):
-    helm, mission, sim = hooks
+    helm, mission, sim, _ = hooks
     assert helm.course_to(100.0, 0.0, 0.0, 0.0) == 90.0
     assert helm.course_to(0.0, -100.0, 0.0, 0.0) == 180.0
     assert helm.course_to(-100.0, 100.0, 0.0, 0.0) == 315.0
@@ -516,7 +533,7 @@ def test_a_jammed_rudder_s_error_climbs_one_level_a_cycle():
 
 
 def test_a_malformed_route_or_keel_line_is_named_with_its_line(hooks, tmp_path):
-    _, mission, sim = hooks
+    _, mission, sim, _ = hooks
     route = tmp_path / "r.route"
     route.write_text("# a comment\n10 20  # first\n\n30 forty\n", encoding="utf-8")
     with pytest.raises(ValueError, match=r"r\.route:4: expected `X Y` \(numbers\), got '30 forty'"):
@@ -582,6 +599,44 @@ def test_fresh_water_run_off_sinks_the_ship_until_variable_ballast_is_blown():
         "the blown ballast is within the planes' reach"
     )
     assert min(line["world"]["below_keel"] for line in lines) == final_below_keel(lines)
+
+
+def test_the_sea_bottom_is_a_fractal_profile_made_before_the_run(hooks):
+    """Section 4.6.5: "The ice keel and sea bottom profiles were generated using fractals,
+    which allowed a complex structure of indefinite size and extent without the need for
+    long and complex mappings. They are generated prior to test runs." The bottom is fixed
+    by the run's seed before the run (the same seed, the same bottom; another, another),
+    defined everywhere, rough at every scale (the mean change over a distance grows with
+    it, from 125 m to 4 km, roughly as a power: fractal, not smooth and not white), and the
+    sea simulator's water under the keel is that bottom under the traced position."""
+    *_, sea = hooks
+    bottom = sea.new_bottom({})
+    assert bottom == sea.new_bottom({"bottom_seed": "1"})
+    other = sea.new_bottom({"bottom_seed": "2"})
+    points = [(x * 97.0, y * 89.0) for x in range(-30, 30) for y in range(0, 100, 3)]
+    assert any(bottom.depth(x, y) != other.depth(x, y) for x, y in points)
+    far = [bottom.depth(x + 1e6, y - 3e6) for x, y in points[:50]]
+    assert all(sea.MEAN_DEPTH - sea.RELIEF <= d <= sea.MEAN_DEPTH + sea.RELIEF for d in far)
+
+    def change(d: float) -> float:
+        return sum(abs(bottom.depth(x, y + d) - bottom.depth(x, y)) for x, y in points) / len(
+            points
+        )
+
+    scales = [change(d) for d in (125.0, 250.0, 500.0, 1000.0, 2000.0, 4000.0)]
+    assert scales == sorted(scales) and scales[0] > 0.2
+    ratios = [b / a for a, b in zip(scales, scales[1:], strict=False)]
+    assert all(1.3 < r < 2.1 for r in ratios), ratios  # 2**H, H about 0.5-1
+    with pytest.raises(ValueError, match="bottom_seed must be a whole number"):
+        sea.new_bottom({"bottom_seed": "x"})
+    _, lines = played("salinity_planes")
+    for line in lines[::50]:
+        w = line["world"]
+        assert w["below_keel"] + w["depth"] == pytest.approx(
+            bottom.depth(w["pos_x"], w["pos_y"]), abs=1e-6
+        )
+    under = [ln["world"]["below_keel"] + ln["world"]["depth"] for ln in lines]
+    assert max(under) - min(under) > 10.0, "not a flat bottom"
 
 
 def final_below_keel(lines: list[dict]) -> float:
@@ -668,6 +723,31 @@ def test_the_ood_s_last_resort_blows_the_main_ballast_tanks_and_the_ship_surface
     depths = [ln["world"]["depth"] for ln in lines if ln["cycle"] > answered]
     assert depths == sorted(depths, reverse=True) and depths[-1] == 0.0, "rises to the surface"
     assert all(ln["world"]["planes"] == "NORMAL" for ln in lines)
+
+
+def test_the_ood_refusing_to_choose_fails_the_transit_with_his_reason_up_to_cc():
+    """Section 4.7.3, the other answer to a system request: the OOD answers DEPTH_CASUALTY
+    with ERROR REFUSED (`ood_refuses`). In the cycle his refusal reaches ship maneuver the
+    helm is halted (no planes, no MBT blow: the depth is not held); once the helm has
+    stopped, sm fails with REFUSED, and the next cycle cc fails with it, the chain naming
+    where it came from."""
+    final, lines = played("ood_refuses")
+    assert final["status"] == "ERROR" and final["reason"] == "REFUSED"
+    asked, answered = depth_casualty(lines)
+    refused = at(lines, answered)["modules"]["ood/sm"]
+    assert refused["status"] == "ERROR" and refused["command"] == "DEPTH_CASUALTY"
+    assert at(lines, answered)["modules"]["sm"]["state"] == "DEPTH_ASKED"
+    halted = at(lines, answered + 1)
+    assert halted["modules"]["sm"]["state"] == "OOD_FAILED"
+    assert halted["modules"]["helm"]["command"] == "HALT"
+    failed = next(ln["cycle"] for ln in lines if ln["modules"]["sm"]["status"] == "ERROR")
+    assert at(lines, failed - 1)["modules"]["helm"]["status"] == "DONE", "after the helm stopped"
+    assert at(lines, failed)["modules"]["sm"]["reason"] == "REFUSED"
+    top = at(lines, failed + 1)["modules"]["cc"]
+    assert top["status"] == "ERROR" and top["reason"] == "REFUSED"
+    assert top["cause"] == "sm: REFUSED <- ood: REFUSED"
+    assert all(at(lines, c)["modules"]["cc"]["status"] == "EXECUTING" for c in range(7, failed + 1))
+    assert all(ln["world"]["planes"] == "NORMAL" and not ln["world"]["mbt_blown"] for ln in lines)
 
 
 def fidelity_counts(page: Path) -> tuple[dict[str, int], str]:

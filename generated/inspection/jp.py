@@ -23,10 +23,11 @@ PLAN_JOB = 3
 REASON_NONE = 0
 REASON_LOST = 1
 REASON_NO_PROGRAM = 2
+REASON_PDM_DOWN = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32sq68x???1xI")
+INPUTS = Struct("<QI32sq68x???1xI1408x?")
 INPUTS_AT = 472
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -66,6 +67,7 @@ class JpController:
         "status_seq",
         "ticks",
         "var_features",
+        "world_pdm_online",
     )
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
@@ -123,6 +125,7 @@ class JpController:
             self.single_step,
             self.simulate,
             self.single_step_num,
+            self.world_pdm_online,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
 
@@ -213,6 +216,7 @@ class JpController:
             self.single_step,
             self.simulate,
             self.single_step_num,
+            self.world_pdm_online,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
 
@@ -235,7 +239,7 @@ class JpController:
     def plan_job(self) -> None:
         """PLAN_JOB: Plan part `part`'s Inspect_part job by `program`: its feature schedule, in 5 s;
         DONE with the part and the schedule's length; ERROR NO_PROGRAM when there is no such
-        program.
+        program, ERROR PDM_DOWN when the PDM system stops answering before the schedule is made.
         """
         state = self.state
         if state == S0:
@@ -252,13 +256,22 @@ class JpController:
                 self.status = ERROR
                 self.error_num = REASON_NO_PROGRAM
 
-            elif self.var_features > 0 and self.ticks >= 10:  # after: 5 s = 10 cycles
+            elif (
+                self.var_features > 0 and self.world_pdm_online and self.ticks >= 10
+            ):  # after: 5 s = 10 cycles
                 # the schedule is made
                 self.rule = 5  # PLAN_JOB/PLANNING/2
                 self.result_part = self.arg_part
                 self.result_features = self.var_features
                 self.state = NOP
                 self.status = DONE
+
+            elif self.var_features > 0 and not self.world_pdm_online:
+                # the PDM system stopped answering before the schedule was made
+                self.rule = 6  # PLAN_JOB/PLANNING/3
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_PDM_DOWN
 
         if self.state != state:  # a new state, or the command ended: time starts again
             self.ticks = 0

@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2768 bytes.
+The block is 2824 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -75,23 +75,25 @@ command buffers and world fields:
 | 1952 | 16 | WORLD_CMM_READING | cmm_reading |
 | 1968 | 9 | WORLD_CMM_ALARM | cmm_alarm |
 | 1984 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 2000 | 9 | OVERRIDES | any |
-| 2016 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 2040 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 2064 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 2088 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 2112 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 2136 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 2160 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 2184 | 96 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, PLAN_FAILED |
-| 2280 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
-| 2328 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 2376 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
-| 2480 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 2568 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 2624 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 2680 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
-| 2728 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 2000 | 9 | WORLD_PDM_ONLINE | pdm_online |
+| 2016 | 9 | OVERRIDES | any |
+| 2032 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 2056 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 2080 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 2104 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 2128 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 2152 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 2176 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 2200 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
+| 2224 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
+| 2336 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
+| 2384 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 2432 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
+| 2536 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 2624 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 2680 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 2736 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
+| 2784 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -123,9 +125,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 2768
+SIZE = 2824
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "0702a53866217131f8eb72a5b9653e92"
+LAYOUT_HASH = "feff25c0e3308082e17cf01323bff0c0"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 248
 
@@ -236,6 +238,8 @@ WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
 WORLD_CMM_ALARM_AT = 1968
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
 WORLD_CMM_FAULT_AT = 1984
+WORLD_PDM_ONLINE = Struct("<Q?")  # seq, pdm_online
+WORLD_PDM_ONLINE_AT = 2000
 
 
 PROCESSES = {
@@ -400,6 +404,7 @@ WORLD = {
     "cmm_reading": Record(WORLD_CMM_READING, WORLD_CMM_READING_AT, ("cmm_reading",)),
     "cmm_alarm": Record(WORLD_CMM_ALARM, WORLD_CMM_ALARM_AT, ("cmm_alarm",)),
     "cmm_fault": Record(WORLD_CMM_FAULT, WORLD_CMM_FAULT_AT, ("cmm_fault",)),
+    "pdm_online": Record(WORLD_PDM_ONLINE, WORLD_PDM_ONLINE_AT, ("pdm_online",)),
 }
 WORLD_INITIAL: dict[str, object] = {
     "cmm_op": 0,
@@ -409,21 +414,23 @@ WORLD_INITIAL: dict[str, object] = {
     "cmm_reading": 0.0,
     "cmm_alarm": False,
     "cmm_fault": False,
+    "pdm_online": True,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2000
-OVERRIDDEN_AT = 2008  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2016
+OVERRIDDEN_AT = 2024  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 2016, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 2040, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 2064, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 2088, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 2112, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 2136, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 2160, ("state", "cmm_fault")),
+    "cmm_op": Record(Struct("<QQq"), 2032, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 2056, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 2080, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 2104, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 2128, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 2152, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 2176, ("state", "cmm_fault")),
+    "pdm_online": Record(Struct("<QQ?"), 2200, ("state", "pdm_online")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -459,8 +466,8 @@ GROUND_TRUTH = ()
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
     "shop": Record(
-        Struct("<QqQQQQQQQQQQ"),
-        2184,
+        Struct("<QqQQQQQQQQQQQQ"),
+        2224,
         (
             "state",
             "since",
@@ -472,14 +479,16 @@ TIME_IN_STATE = {
             "NEXT_PART",
             "LAST",
             "PLANNER_STOPPING",
+            "JOB_FAILED",
+            "REPLANNING",
             "PLAN_FAILED",
         ),
     ),
-    "jp": Record(Struct("<QqQQQQ"), 2280, ("state", "since", "NOP", "S0", "PLANNING")),
-    "wc": Record(Struct("<QqQQQQ"), 2328, ("state", "since", "NOP", "S0", "S1")),
+    "jp": Record(Struct("<QqQQQQ"), 2336, ("state", "since", "NOP", "S0", "PLANNING")),
+    "wc": Record(Struct("<QqQQQQ"), 2384, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        2376,
+        2432,
         (
             "state",
             "since",
@@ -497,13 +506,13 @@ TIME_IN_STATE = {
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        2480,
+        2536,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 2568, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 2624, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "cmm": Record(Struct("<QqQQQQ"), 2680, ("state", "since", "NOP", "S0", "S1")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 2728, ("state", "since", "NOP", "S0")),
+    "fx": Record(Struct("<QqQQQQQ"), 2624, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 2680, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "cmm": Record(Struct("<QqQQQQ"), 2736, ("state", "since", "NOP", "S0", "S1")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 2784, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -596,6 +605,8 @@ STATE_NAMES = {
         "NEXT_PART",
         "LAST",
         "PLANNER_STOPPING",
+        "JOB_FAILED",
+        "REPLANNING",
         "PLAN_FAILED",
     ),
     "jp": ("NOP", "S0", "PLANNING"),
@@ -624,8 +635,8 @@ STATE_NAMES = {
 # controllers and operator modules that declare reasons (docs/semantics.md, "Results and
 # reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {
-    "shop": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT", "NO_PROGRAM"),
-    "jp": ("NONE", "LOST", "NO_PROGRAM"),
+    "shop": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT", "NO_PROGRAM", "PDM_DOWN"),
+    "jp": ("NONE", "LOST", "NO_PROGRAM", "PDM_DOWN"),
     "wc": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ws": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ms": ("NONE", "LOST", "MACHINE_FAULT", "REFUSED", "TIMED_OUT"),
@@ -658,7 +669,12 @@ RULES = {
         "INSPECT_LOT/LAST/1",
         "INSPECT_LOT/LAST/2",
         "INSPECT_LOT/LAST/3",
+        "INSPECT_LOT/LAST/4",
         "INSPECT_LOT/PLANNER_STOPPING/1",
+        "INSPECT_LOT/JOB_FAILED/1",
+        "INSPECT_LOT/JOB_FAILED/2",
+        "INSPECT_LOT/REPLANNING/1",
+        "INSPECT_LOT/REPLANNING/2",
         "INSPECT_LOT/PLAN_FAILED/1",
         "INIT_FOR_INSPECT/S0/1",
         "INIT_FOR_INSPECT/S1/1",
@@ -674,6 +690,7 @@ RULES = {
         "PLAN_JOB/S0/1",
         "PLAN_JOB/PLANNING/1",
         "PLAN_JOB/PLANNING/2",
+        "PLAN_JOB/PLANNING/3",
     ),
     "wc": (
         "",

@@ -41,6 +41,7 @@ REASON_REFUSED = 2
 REASON_TIMED_OUT = 3
 REASON_MACHINE_FAULT = 4
 REASON_NO_PROGRAM = 5
+REASON_PDM_DOWN = 6
 
 # Commands shop sends to wc.
 WC_INIT = 1
@@ -63,6 +64,7 @@ JP_PLAN_JOB = 3
 JP_REASON_NONE = 0
 JP_REASON_LOST = 1
 JP_REASON_NO_PROGRAM = 2
+JP_REASON_PDM_DOWN = 3
 JP_LINK = 2  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
@@ -82,7 +84,12 @@ INSPECTING = 4
 NEXT_PART = 5
 LAST = 6
 PLANNER_STOPPING = 7
-PLAN_FAILED = 8
+JOB_FAILED = 8
+REPLANNING = 9
+PLAN_FAILED = 10
+
+# Constants.
+REPLANS = 1
 
 
 class ShopController:
@@ -129,6 +136,7 @@ class ShopController:
         "status_seq",
         "var_bad",
         "var_good",
+        "var_replans_left",
         "var_scheduled",
         "wc_arg_program",
         "wc_cause",
@@ -146,6 +154,7 @@ class ShopController:
         self.var_good: int = 0
         self.var_bad: int = 0
         self.var_scheduled: int = 0
+        self.var_replans_left: int = 0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -448,8 +457,10 @@ class ShopController:
     def inspect_lot(self) -> None:
         """INSPECT_LOT: The Guardian's order for a lot: prepare the station while the job planner
         plans the first part's job; then inspect `parts` parts by `program`, one job after the
-        other, each part's job planned while the part before it is inspected; DONE with the
-        counts of parts passed and rejected, and the features scheduled.
+        other, each part's job planned while the part before it is inspected; a part's job that
+        fails is planned again and re-issued, at most REPLANS times a lot, then the lot fails
+        (section 5.2.3); DONE with the counts of parts passed and rejected, and the features
+        scheduled.
         """
         state = self.state
         if state == S0:
@@ -460,6 +471,7 @@ class ShopController:
                 self.var_good = 0
                 self.var_bad = 0
                 self.var_scheduled = 0
+                self.var_replans_left = REPLANS
                 self.result_passed = 0
                 self.result_rejected = 0
                 self.result_scheduled = 0
@@ -506,9 +518,9 @@ class ShopController:
 
         elif state == INSPECTING:
             if self.wc_status == ERROR:
-                # the inspection failed; withdraw the planning
+                # the inspection failed; withdraw the planning (then plan the job again)
                 self.rule = 10  # INSPECT_LOT/INSPECTING/1
-                self.state = PLANNER_STOPPING
+                self.state = JOB_FAILED
                 # wc's error: the cause of an ERROR this command reports
                 self.cause = caused(WC_LINK, self.wc_error_num, self.wc_cause)
                 self.jp_command = JP_HALT
@@ -579,8 +591,21 @@ class ShopController:
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
-            elif self.wc_status == ERROR:
+            elif self.wc_status == ERROR and self.var_replans_left > 0:
+                # the last part's job failed; plan it again (nothing else is being planned)
                 self.rule = 18  # INSPECT_LOT/LAST/3
+                self.state = REPLANNING
+                # wc's error: the cause of an ERROR this command reports
+                self.cause = caused(WC_LINK, self.wc_error_num, self.wc_cause)
+                self.var_replans_left = self.var_replans_left - 1
+                self.jp_arg_program = self.arg_program
+                self.jp_arg_part = self.var_good + self.var_bad
+                self.jp_command = JP_PLAN_JOB
+                self.jp_command_num += 1
+
+            elif self.wc_status == ERROR and self.var_replans_left <= 0:
+                # the last part's job failed, and the lot's jobs were planned again too often
+                self.rule = 19  # INSPECT_LOT/LAST/4
                 # wc's error: the cause of an ERROR this command reports
                 self.cause = caused(WC_LINK, self.wc_error_num, self.wc_cause)
                 self.state = NOP
@@ -595,7 +620,7 @@ class ShopController:
 
         elif state == PLANNER_STOPPING and self.jp_status != EXECUTING:
             # the planner has stopped; fail for the workcell's reason
-            self.rule = 19  # INSPECT_LOT/PLANNER_STOPPING/1
+            self.rule = 20  # INSPECT_LOT/PLANNER_STOPPING/1
             self.state = NOP
             self.status = ERROR
             # wc's reason, passed up by name (another: NONE)
@@ -606,15 +631,60 @@ class ShopController:
                 WC_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
             }.get(self.wc_error_num, REASON_NONE)
 
+        elif state == JOB_FAILED:
+            if self.jp_status != EXECUTING and self.var_replans_left > 0:
+                # the planner has stopped; plan the failed part's job again
+                self.rule = 21  # INSPECT_LOT/JOB_FAILED/1
+                self.state = REPLANNING
+                self.var_replans_left = self.var_replans_left - 1
+                self.jp_arg_program = self.arg_program
+                self.jp_arg_part = self.var_good + self.var_bad
+                self.jp_command = JP_PLAN_JOB
+                self.jp_command_num += 1
+
+            elif self.jp_status != EXECUTING and self.var_replans_left <= 0:
+                # the planner has stopped, and the lot's jobs were planned again too often ("an error flag will be generated for the superior node"): fail for the workcell's reason
+                self.rule = 22  # INSPECT_LOT/JOB_FAILED/2
+                self.state = NOP
+                self.status = ERROR
+                # wc's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    WC_REASON_LOST: REASON_LOST,
+                    WC_REASON_REFUSED: REASON_REFUSED,
+                    WC_REASON_TIMED_OUT: REASON_TIMED_OUT,
+                    WC_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                }.get(self.wc_error_num, REASON_NONE)
+
+        elif state == REPLANNING:
+            if self.jp_status == DONE:
+                # the failed part's job planned again; W2 inspects it, W1 plans the next
+                self.rule = 23  # INSPECT_LOT/REPLANNING/1
+                self.state = NEXT_PART
+
+            elif self.jp_status == ERROR:
+                # the planning failed (the workcell has stopped already)
+                self.rule = 24  # INSPECT_LOT/REPLANNING/2
+                # jp's error: the cause of an ERROR this command reports
+                self.cause = caused(JP_LINK, self.jp_error_num, self.jp_cause)
+                self.state = NOP
+                self.status = ERROR
+                # jp's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    JP_REASON_LOST: REASON_LOST,
+                    JP_REASON_NO_PROGRAM: REASON_NO_PROGRAM,
+                    JP_REASON_PDM_DOWN: REASON_PDM_DOWN,
+                }.get(self.jp_error_num, REASON_NONE)
+
         elif state == PLAN_FAILED and self.wc_status != EXECUTING:
             # the workcell has stopped; fail for the planner's reason
-            self.rule = 20  # INSPECT_LOT/PLAN_FAILED/1
+            self.rule = 25  # INSPECT_LOT/PLAN_FAILED/1
             self.state = NOP
             self.status = ERROR
             # jp's reason, passed up by name (another: NONE)
             self.error_num = {
                 JP_REASON_LOST: REASON_LOST,
                 JP_REASON_NO_PROGRAM: REASON_NO_PROGRAM,
+                JP_REASON_PDM_DOWN: REASON_PDM_DOWN,
             }.get(self.jp_error_num, REASON_NONE)
 
     def init_for_inspect(self) -> None:
@@ -623,20 +693,20 @@ class ShopController:
         """
         state = self.state
         if state == S0:
-            self.rule = 21  # INIT_FOR_INSPECT/S0/1
+            self.rule = 26  # INIT_FOR_INSPECT/S0/1
             self.state = S1
             self.wc_command = WC_INIT_FOR_INSPECT
             self.wc_command_num += 1
 
         elif state == S1:
             if self.wc_status == DONE:
-                self.rule = 22  # INIT_FOR_INSPECT/S1/1
+                self.rule = 27  # INIT_FOR_INSPECT/S1/1
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
             elif self.wc_status == ERROR:
-                self.rule = 23  # INIT_FOR_INSPECT/S1/2
+                self.rule = 28  # INIT_FOR_INSPECT/S1/2
                 # wc's error: the cause of an ERROR this command reports
                 self.cause = caused(WC_LINK, self.wc_error_num, self.wc_cause)
                 self.state = NOP
@@ -653,7 +723,7 @@ class ShopController:
         """INSPECT_PART: A single job from the Guardian, inspect one part (Inspect_part, Figure 39)."""
         state = self.state
         if state == S0:
-            self.rule = 24  # INSPECT_PART/S0/1
+            self.rule = 29  # INSPECT_PART/S0/1
             self.state = S1
             self.wc_arg_program = self.arg_program
             self.wc_command = WC_INSPECT_PART
@@ -661,14 +731,14 @@ class ShopController:
 
         elif state == S1:
             if self.wc_status == DONE:
-                self.rule = 25  # INSPECT_PART/S1/1
+                self.rule = 30  # INSPECT_PART/S1/1
                 self.result_accepted = self.wc_result_accepted
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
             elif self.wc_status == ERROR:
-                self.rule = 26  # INSPECT_PART/S1/2
+                self.rule = 31  # INSPECT_PART/S1/2
                 # wc's error: the cause of an ERROR this command reports
                 self.cause = caused(WC_LINK, self.wc_error_num, self.wc_cause)
                 self.state = NOP

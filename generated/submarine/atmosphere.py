@@ -25,18 +25,18 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI272xd456x?15xd8xd8xd40xd")
-INPUTS_AT = 1888
+INPUTS_AT = 1968
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1888
+SEQS_AT = 1968
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Q?7xQdQdQd")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2688
+WORLD_OUT_1_AT = 2768
 WORLD_HELD_1 = (
     OVERRIDE["fire"],
     OVERRIDE["smoke"],
@@ -49,7 +49,7 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<Qd")
 WORLD_VALUES_2 = Struct("<8xd")
 WORLD_SEQS_2 = Struct("<Q")
-WORLD_OUT_2_AT = 2784
+WORLD_OUT_2_AT = 2864
 WORLD_HELD_2 = (OVERRIDE["co_ppm"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

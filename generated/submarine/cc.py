@@ -12,6 +12,8 @@ from .layout import (
     CC_STATUS_AT,
     EC_COMMAND,
     EC_COMMAND_AT,
+    EOOW_CC_COMMAND,
+    EOOW_CC_COMMAND_AT,
     OVERRIDDEN_AT,
     OVERRIDE,
     SM_COMMAND,
@@ -72,9 +74,20 @@ EC_LINE_UP_EMERGENCY_VENT = 4
 EC_EMERGENCY_VENT = 5
 EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 
+# Commands cc sends to eoow.
+EOOW_INIT = 1
+EOOW_HALT = 2
+EOOW_CHANGE_TO_EPM = 3
+EOOW_FIRE_OUT = 4
+# Why eoow may end a command in ERROR (its error_num).
+EOOW_REASON_NONE = 0
+EOOW_REASON_LOST = 1
+EOOW_REASON_REFUSED = 2
+EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
+
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI1492x48s568xd72xd")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI580xQII976x48s664x?")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
@@ -86,7 +99,7 @@ SEQS_AT = 264
 WORLD_OUT_1 = Struct("<Q48s")
 WORLD_VALUES_1 = Struct("<8x48s")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2088
+WORLD_OUT_1_AT = 2168
 WORLD_HELD_1 = (OVERRIDE["announcement"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -94,13 +107,10 @@ S0 = 1
 S1 = 2
 TRANSIT = 3
 PREP_VENT = 4
-LINE_UP = 5
-VENT = 6
-RESUMING = 7
-
-# Constants.
-CO_HIGH = 50.0
-SMOKE_HIGH = 10.0
+FIRE_REPORT = 5
+LINE_UP = 6
+VENT = 7
+RESUMING = 8
 
 
 class CcController:
@@ -121,6 +131,12 @@ class CcController:
         "ec_status",
         "ec_status_num",
         "ec_written",
+        "eoow_command",
+        "eoow_command_num",
+        "eoow_error_num",
+        "eoow_status",
+        "eoow_status_num",
+        "eoow_written",
         "error_num",
         "hook_state",
         "last_cycle_ns",
@@ -155,8 +171,7 @@ class CcController:
         "status_num",
         "status_seq",
         "world_announcement",
-        "world_co_ppm",
-        "world_smoke",
+        "world_engine_room_contaminated",
     )
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
@@ -211,6 +226,10 @@ class CcController:
         self.sm_written = self.sm_command_num
         _, self.ec_command_num, self.ec_command = EC_COMMAND.unpack_from(buf, EC_COMMAND_AT)
         self.ec_written = self.ec_command_num
+        _, self.eoow_command_num, self.eoow_command = EOOW_CC_COMMAND.unpack_from(
+            buf, EOOW_CC_COMMAND_AT
+        )
+        self.eoow_written = self.eoow_command_num
 
     def safe_state(self, reason: int) -> None:
         """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
@@ -218,6 +237,8 @@ class CcController:
         self.sm_command_num += 1
         self.ec_command = EC_HALT
         self.ec_command_num += 1
+        self.eoow_command = EOOW_HALT
+        self.eoow_command_num += 1
         self.state = NOP
         self.status = ERROR
         self.error_num = reason
@@ -247,9 +268,11 @@ class CcController:
                 self.sm_cause,
                 self.ec_status_num,
                 self.ec_status,
+                self.eoow_status_num,
+                self.eoow_status,
+                self.eoow_error_num,
                 self.world_announcement,
-                self.world_smoke,
-                self.world_co_ppm,
+                self.world_engine_room_contaminated,
             ) = values
             self.world_announcement = decode_text(self.world_announcement)
         if self.sm_status_num != self.sm_command_num:
@@ -261,6 +284,11 @@ class CcController:
             self.sm_cause = 0
         if self.ec_status_num != self.ec_command_num:
             self.ec_status = EXECUTING  # until it echoes the last number sent
+        if self.eoow_status_num != self.eoow_command_num:
+            self.eoow_status = EXECUTING  # until it echoes the last number sent
+            self.eoow_error_num = EOOW_REASON_NONE  # no reason yet
+        elif self.eoow_status != ERROR:
+            self.eoow_error_num = EOOW_REASON_NONE  # a reason comes only with ERROR
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -336,6 +364,17 @@ class CcController:
             EC_COMMAND.pack_into(buf, EC_COMMAND_AT, seq, self.ec_command_num, self.ec_command)
             SEQ.pack_into(buf, EC_COMMAND_AT, seq + 1)
             self.ec_written = self.ec_command_num
+        if self.eoow_command_num != self.eoow_written:  # a command was sent
+            seq, number = EOOW_CC_COMMAND.unpack_from(buf, EOOW_CC_COMMAND_AT)[:2]
+            if number != self.eoow_written:  # an operator's command came meanwhile:
+                self.eoow_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            SEQ.pack_into(buf, EOOW_CC_COMMAND_AT, seq)
+            EOOW_CC_COMMAND.pack_into(
+                buf, EOOW_CC_COMMAND_AT, seq, self.eoow_command_num, self.eoow_command
+            )
+            SEQ.pack_into(buf, EOOW_CC_COMMAND_AT, seq + 1)
+            self.eoow_written = self.eoow_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or buf[OVERRIDDEN_AT]:
             out = (encode_text(self.world_announcement, 48),)
@@ -404,9 +443,11 @@ class CcController:
             self.sm_cause,
             self.ec_status_num,
             self.ec_status,
+            self.eoow_status_num,
+            self.eoow_status,
+            self.eoow_error_num,
             self.world_announcement,
-            self.world_smoke,
-            self.world_co_ppm,
+            self.world_engine_room_contaminated,
         ) = values
         self.world_announcement = decode_text(self.world_announcement)
         if not whole:
@@ -441,8 +482,15 @@ class CcController:
             self.sm_command_num += 1
             self.ec_command = EC_INIT
             self.ec_command_num += 1
+            self.eoow_command = EOOW_INIT
+            self.eoow_command_num += 1
 
-        elif state == S1 and self.sm_status == DONE and self.ec_status == DONE:
+        elif (
+            state == S1
+            and self.sm_status == DONE
+            and self.ec_status == DONE
+            and self.eoow_status == DONE
+        ):
             # every subordinate is done
             self.rule = 2  # INIT/S1/1
             self.state = NOP
@@ -460,8 +508,15 @@ class CcController:
             self.sm_command_num += 1
             self.ec_command = EC_HALT
             self.ec_command_num += 1
+            self.eoow_command = EOOW_HALT
+            self.eoow_command_num += 1
 
-        elif state == S1 and self.sm_status == DONE and self.ec_status == DONE:
+        elif (
+            state == S1
+            and self.sm_status == DONE
+            and self.ec_status == DONE
+            and self.eoow_status == DONE
+        ):
             # every subordinate is done
             self.rule = 4  # HALT/S1/1
             self.state = NOP
@@ -507,7 +562,7 @@ class CcController:
                 self.cause = 0  # DONE has no cause
 
         elif state == TRANSIT:
-            if self.world_co_ppm > CO_HIGH or self.world_smoke > SMOKE_HIGH:
+            if self.world_engine_room_contaminated:
                 # (S2) smoke or gas high; all hands on EABs; SM prepare for emergency vent
                 self.rule = 8  # RUN_MISSION/TRANSIT/1
                 self.state = PREP_VENT
@@ -564,8 +619,9 @@ class CcController:
             elif self.sm_status == ERROR and (
                 self.sm_error_num == SM_REASON_OUT_OF_HAVEN
                 or self.sm_error_num == SM_REASON_SURFACED
+                or self.sm_error_num == SM_REASON_REFUSED
             ):
-                # the submarine left its moving haven, or surfaced on the OOD's MBT blow
+                # the submarine left its moving haven, surfaced on the OOD's MBT blow, or the OOD refused to choose for a depth the controller cannot hold: pass the reason up
                 self.rule = 12  # RUN_MISSION/TRANSIT/5
                 # sm's error: the cause of an ERROR this command reports
                 self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
@@ -587,11 +643,11 @@ class CcController:
 
         elif state == PREP_VENT:
             if self.sm_status == DONE:
-                # (S3) SM done, at periscope depth; EC line up to emergency ventilate with the diesel
+                # (S3) SM done, at periscope depth; wait for the word from the damage control party, which the EOOW relays (4.1.3)
                 self.rule = 14  # RUN_MISSION/PREP_VENT/1
-                self.state = LINE_UP
-                self.ec_command = EC_LINE_UP_EMERGENCY_VENT
-                self.ec_command_num += 1
+                self.state = FIRE_REPORT
+                self.eoow_command = EOOW_FIRE_OUT
+                self.eoow_command_num += 1
 
             elif self.sm_status == ERROR:
                 # the ship could not prepare (the EOOW could not shift to the EPM)
@@ -609,16 +665,32 @@ class CcController:
                     SM_REASON_REFUSED: REASON_REFUSED,
                 }.get(self.sm_error_num, REASON_NONE)
 
+        elif state == FIRE_REPORT:
+            if self.eoow_status == DONE:
+                # "The fire is out, the reflash watch is stationed": prepare to emergency ventilate the engine room with the diesel (EC line up)
+                self.rule = 16  # RUN_MISSION/FIRE_REPORT/1
+                self.state = LINE_UP
+                self.ec_command = EC_LINE_UP_EMERGENCY_VENT
+                self.ec_command_num += 1
+
+            elif self.eoow_status == ERROR:
+                # no word from the EOOW (his request failed)
+                self.rule = 17  # RUN_MISSION/FIRE_REPORT/2
+                # eoow's error: the cause of an ERROR this command reports
+                self.cause = caused(EOOW_LINK, self.eoow_error_num, 0)
+                self.state = NOP
+                self.status = ERROR
+
         elif state == LINE_UP:
             if self.ec_status == DONE:
                 # prepared to emergency ventilate with the diesel; commence snorkeling (EC emergency vent)
-                self.rule = 16  # RUN_MISSION/LINE_UP/1
+                self.rule = 18  # RUN_MISSION/LINE_UP/1
                 self.state = VENT
                 self.ec_command = EC_EMERGENCY_VENT
                 self.ec_command_num += 1
 
             elif self.ec_status == ERROR:
-                self.rule = 17  # RUN_MISSION/LINE_UP/2
+                self.rule = 19  # RUN_MISSION/LINE_UP/2
                 # ec's error: the cause of an ERROR this command reports
                 self.cause = caused(EC_LINK, 0, 0)
                 self.state = NOP
@@ -627,7 +699,7 @@ class CcController:
         elif state == VENT:
             if self.ec_status == DONE:
                 # (S4) fire out, smoke and gas normal; EABs off; SM prepare for the submerged transit, EC submerged vent
-                self.rule = 18  # RUN_MISSION/VENT/1
+                self.rule = 20  # RUN_MISSION/VENT/1
                 self.state = RESUMING
                 self.world_announcement = "SECURE FROM FIRE, EABS MAY BE REMOVED"
                 self.sm_command = SM_PREP_SUBMERGED_TRANSIT
@@ -636,7 +708,7 @@ class CcController:
                 self.ec_command_num += 1
 
             elif self.ec_status == ERROR:
-                self.rule = 19  # RUN_MISSION/VENT/2
+                self.rule = 21  # RUN_MISSION/VENT/2
                 # ec's error: the cause of an ERROR this command reports
                 self.cause = caused(EC_LINK, 0, 0)
                 self.state = NOP
@@ -645,10 +717,10 @@ class CcController:
         elif state == RESUMING:
             if self.sm_status == DONE and self.ec_status == DONE:
                 # prepared; (S1) the transit to the same waypoint resumes
-                self.rule = 20  # RUN_MISSION/RESUMING/1
+                self.rule = 22  # RUN_MISSION/RESUMING/1
                 self.state = S1
 
             elif self.sm_status == ERROR or self.ec_status == ERROR:
-                self.rule = 21  # RUN_MISSION/RESUMING/2
+                self.rule = 23  # RUN_MISSION/RESUMING/2
                 self.state = NOP
                 self.status = ERROR

@@ -10,6 +10,7 @@ from .layout import (
     OVERRIDDEN_AT,
     OVERRIDE,
     WORLD_DIESEL_RUNNING_AT,
+    WORLD_ENGINE_ROOM_CONTAMINATED_AT,
     WORLD_VENT_FLOW_AT,
     WORLD_VENT_LINEUP_AT,
 )
@@ -25,7 +26,7 @@ EMERGENCY_VENT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI1600xd456x?15xd8xd8xd8xq8x?15xd")
+INPUTS = Struct("<QI44x???1xI1680xd456x?15xd8xd8xd8xq8x?15xd8x?")
 INPUTS_AT = 568
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -33,7 +34,7 @@ INPUTS_AT = 568
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2224
+WORLD_OUT_1_AT = 2304
 WORLD_HELD_1 = (OVERRIDE["vent_flow"],)  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -41,14 +42,24 @@ WORLD_HELD_1 = (OVERRIDE["vent_flow"],)  # their overrides
 WORLD_OUT_2 = Struct("<QqQ?")
 WORLD_VALUES_2 = Struct("<8xq8x?")
 WORLD_SEQS_2 = Struct("<Q8xQ")
-WORLD_OUT_2_AT = 2752
+WORLD_OUT_2_AT = 2832
 WORLD_HELD_2 = (OVERRIDE["vent_lineup"], OVERRIDE["diesel_running"])  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_3 = Struct("<Q?")
+WORLD_VALUES_3 = Struct("<8x?")
+WORLD_SEQS_3 = Struct("<Q")
+WORLD_OUT_3_AT = 2880
+WORLD_HELD_3 = (OVERRIDE["engine_room_contaminated"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 
 # Constants.
+CO_HIGH = 50.0
+SMOKE_HIGH = 10.0
 RECIRCULATE = 0.002
 EMERGENCY = 0.05
 CO_SAFE = 5.0
@@ -89,8 +100,10 @@ class EcController:
         "world_co2_pct",
         "world_co_ppm",
         "world_diesel_running",
+        "world_engine_room_contaminated",
         "world_fire",
         "world_o2_pct",
+        "world_set",
         "world_smoke",
         "world_vent_flow",
         "world_vent_lineup",
@@ -98,6 +111,7 @@ class EcController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.world_set = False  # an every_cycle rule set a world output
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -141,6 +155,7 @@ class EcController:
             self.world_vent_lineup,
             self.world_diesel_running,
             self.world_co_ppm,
+            self.world_engine_room_contaminated,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -160,6 +175,7 @@ class EcController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
+            self.every_cycle()
             command = self.command
             if command == INIT:
                 self.init()
@@ -190,7 +206,8 @@ class EcController:
             self.status_seq = seq + 1
             self.status_dirty = False
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
-        if self.rule or buf[OVERRIDDEN_AT]:
+        if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
+            self.world_set = False
             out = (self.world_vent_flow,)
             now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
@@ -213,6 +230,17 @@ class EcController:
                 WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 SEQ.pack_into(buf, WORLD_VENT_LINEUP_AT, (s[0] | 1) + 1)
                 SEQ.pack_into(buf, WORLD_DIESEL_RUNNING_AT, (s[1] | 1) + 1)
+            out = (self.world_engine_room_contaminated,)
+            now = WORLD_VALUES_3.unpack_from(buf, WORLD_OUT_3_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_3, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_3.unpack_from(buf, WORLD_OUT_3_AT)
+                SEQ.pack_into(
+                    buf, WORLD_ENGINE_ROOM_CONTAMINATED_AT, s[0] | 1
+                )  # odd before the value changes
+                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0])
+                SEQ.pack_into(buf, WORLD_ENGINE_ROOM_CONTAMINATED_AT, (s[0] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -256,7 +284,16 @@ class EcController:
             self.world_vent_lineup,
             self.world_diesel_running,
             self.world_co_ppm,
+            self.world_engine_room_contaminated,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
+
+    def every_cycle(self) -> None:
+        """Rules tried every cycle, whatever the command."""
+        # Section 4.2: "a ventilation sensor detects the contamination and reports to the engineering node", which tells the command controller in its own terms.
+        self.world_set = True  # it sets world outputs
+        self.world_engine_room_contaminated = (
+            self.world_co_ppm > CO_HIGH or self.world_smoke > SMOKE_HIGH
+        )
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -2,12 +2,15 @@
 """eoow: Engineering Officer of the Watch (EOOW watchstation).
 
 An operator module: a person at a screen performs its tasks when a client asks, and answers DONE
-or ERROR with a reason. It serves prop, each through a channel of its own (`eoow/prop`); the
-runtime's OperatorModule turns each channel's answer into its status (docs/semantics.md section
-21).
+or ERROR with a reason. It serves cc, prop, each through a channel of its own (`eoow/cc`,
+`eoow/prop`); the runtime's OperatorModule turns each channel's answer into its status
+(docs/semantics.md section 21).
 """
 
 from .layout import (
+    EOOW_CC_ANSWER_AT,
+    EOOW_CC_COMMAND_AT,
+    EOOW_CC_STATUS_AT,
     EOOW_MODE_AT,
     EOOW_PERF_AT,
     EOOW_PROP_ANSWER_AT,
@@ -20,6 +23,7 @@ from .rcs.operator import OperatorModule
 INIT = 1
 HALT = 2
 CHANGE_TO_EPM = 3
+FIRE_OUT = 4
 
 # Why eoow may answer ERROR (a channel's error_num).
 REASON_NONE = 0
@@ -34,4 +38,7 @@ class EoowController(OperatorModule):
     MODE_AT = EOOW_MODE_AT
     PERF_AT = EOOW_PERF_AT
     # Each client's channel: its command buffer, the status written back, the answer read.
-    CHANNELS = (("prop", EOOW_PROP_COMMAND_AT, EOOW_PROP_STATUS_AT, EOOW_PROP_ANSWER_AT),)
+    CHANNELS = (
+        ("cc", EOOW_CC_COMMAND_AT, EOOW_CC_STATUS_AT, EOOW_CC_ANSWER_AT),
+        ("prop", EOOW_PROP_COMMAND_AT, EOOW_PROP_STATUS_AT, EOOW_PROP_ANSWER_AT),
+    )

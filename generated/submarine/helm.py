@@ -39,7 +39,7 @@ RUDDER_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd60x???1xI88xQI1284xd72xd8xd8xd88xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QIdd60x???1xI88xQI1364xd72xd8xd8xd88xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 688
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -47,7 +47,7 @@ INPUTS_AT = 688
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2160
+WORLD_OUT_1_AT = 2240
 WORLD_HELD_1 = (OVERRIDE["course"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

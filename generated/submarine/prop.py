@@ -31,6 +31,7 @@ REASON_REFUSED = 2
 EOOW_INIT = 1
 EOOW_HALT = 2
 EOOW_CHANGE_TO_EPM = 3
+EOOW_FIRE_OUT = 4
 # Why eoow may end a command in ERROR (its error_num).
 EOOW_REASON_NONE = 0
 EOOW_REASON_LOST = 1
@@ -39,7 +40,7 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI52x???1xI144xQII952xq")
+INPUTS = Struct("<QI52x???1xI224xQII952xq")
 INPUTS_AT = 968
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -47,7 +48,7 @@ INPUTS_AT = 968
 WORLD_OUT_1 = Struct("<Qq")
 WORLD_VALUES_1 = Struct("<8xq")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2144
+WORLD_OUT_1_AT = 2224
 WORLD_HELD_1 = (OVERRIDE["shaft"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -26,7 +26,7 @@ RUDDER_SIM_ZERO_VOLT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QId44x???1xI528xQI892xd")
+INPUTS = Struct("<QId44x???1xI608xQI892xd")
 INPUTS_AT = 840
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -24,14 +24,14 @@ ZERO_VOLT = 5
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI864xd8x?")
-INPUTS_AT = 1416
+INPUTS_AT = 1496
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2336
+WORLD_OUT_1_AT = 2416
 WORLD_HELD_1 = (OVERRIDE["rudder_angle"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

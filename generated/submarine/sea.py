@@ -4,15 +4,29 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import submarine_hooks.sea as hooks
+
 from .layout import (
     OVERRIDDEN_AT,
     OVERRIDE,
     SEA_PERF_AT,
     SEA_STATUS_AT,
     WORLD_BELOW_KEEL_AT,
+    WORLD_BOTTOM_DEPTH_AT,
     WORLD_MIN_BELOW_KEEL_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import (
+    DONE,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    READ_TRIES,
+    SEQ,
+    STATUS,
+    HookError,
+)
+from .rcs.deadline import FACTORY_DEADLINE, hook, within
 from .rcs.override import held
 
 # Commands sea accepts (the code written to its command buffer).
@@ -21,20 +35,24 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI472xd328xd8xd8xd")
-INPUTS_AT = 1768
+INPUTS = Struct("<QQI44x???1xI408xd8xd40xd328xd8xd8xd")
+INPUTS_AT = 1848
 # The sequence words of the inputs another process writes, read again after INPUTS: the
 # read is whole only if none was odd (being written) and none changed.
 SEQS = Struct("<Q")
-SEQS_AT = 1768
+SEQS_AT = 1848
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_1 = Struct("<QdQd")
-WORLD_VALUES_1 = Struct("<8xd8xd")
-WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 2656
-WORLD_HELD_1 = (OVERRIDE["below_keel"], OVERRIDE["min_below_keel"])  # their overrides
+WORLD_OUT_1 = Struct("<QdQdQd")
+WORLD_VALUES_1 = Struct("<8xd8xd8xd")
+WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
+WORLD_OUT_1_AT = 2720
+WORLD_HELD_1 = (
+    OVERRIDE["bottom_depth"],
+    OVERRIDE["below_keel"],
+    OVERRIDE["min_below_keel"],
+)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -43,6 +61,9 @@ S0 = 1
 class SeaController:
     """The sea controller: its local buffers and the QQ1 cycle."""
 
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
+
     __slots__ = (
         "buf",
         "command",
@@ -50,6 +71,7 @@ class SeaController:
         "cycles",
         "dont_run",
         "error_num",
+        "hook_state",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -69,12 +91,24 @@ class SeaController:
         "world_bottom_depth",
         "world_depth",
         "world_min_below_keel",
+        "world_pos_x",
+        "world_pos_y",
         "world_set",
     )
+
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_bottom_at = hook("sea", hooks, "bottom_at", 5.0, "f")
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.world_set = False  # an every_cycle rule set a world output
+        try:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_bottom, settings or {})
+        except BaseException as error:
+            raise HookError("sea", "new_bottom", "hooks_state", 0) from error
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -115,6 +149,8 @@ class SeaController:
                 self.single_step,
                 self.simulate,
                 self.single_step_num,
+                self.world_pos_x,
+                self.world_pos_y,
                 self.world_depth,
                 self.world_bottom_depth,
                 self.world_below_keel,
@@ -165,19 +201,23 @@ class SeaController:
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
             self.world_set = False
-            out = (self.world_below_keel, self.world_min_below_keel)
+            out = (self.world_bottom_depth, self.world_below_keel, self.world_min_below_keel)
             now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_BELOW_KEEL_AT, s[0] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_BOTTOM_DEPTH_AT, s[0] | 1)  # odd before the value changes
+                SEQ.pack_into(buf, WORLD_BELOW_KEEL_AT, s[1] | 1)  # odd before the value changes
                 SEQ.pack_into(
-                    buf, WORLD_MIN_BELOW_KEEL_AT, s[1] | 1
+                    buf, WORLD_MIN_BELOW_KEEL_AT, s[2] | 1
                 )  # odd before the value changes
-                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-                SEQ.pack_into(buf, WORLD_BELOW_KEEL_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_MIN_BELOW_KEEL_AT, (s[1] | 1) + 1)
+                WORLD_OUT_1.pack_into(
+                    buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
+                )
+                SEQ.pack_into(buf, WORLD_BOTTOM_DEPTH_AT, (s[0] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_BELOW_KEEL_AT, (s[1] | 1) + 1)
+                SEQ.pack_into(buf, WORLD_MIN_BELOW_KEEL_AT, (s[2] | 1) + 1)
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -229,6 +269,8 @@ class SeaController:
             self.single_step,
             self.simulate,
             self.single_step_num,
+            self.world_pos_x,
+            self.world_pos_y,
             self.world_depth,
             self.world_bottom_depth,
             self.world_below_keel,
@@ -239,8 +281,11 @@ class SeaController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        # the water under the keel, and the least so far
+        # the bottom under the ship, the water under the keel, and the least so far
         self.world_set = True  # it sets world outputs
+        self.world_bottom_depth = self.hook_bottom_at(
+            "every_cycle/1", self.hook_state, self.world_pos_x, self.world_pos_y
+        )
         self.world_below_keel = self.world_bottom_depth - self.world_depth
         self.world_min_below_keel = min(
             self.world_min_below_keel, self.world_bottom_depth - self.world_depth

@@ -3,7 +3,8 @@
 The paper's animation, from a recorded run: the coal map with its pillars and the cut so
 far (plan view and a section along the entry), the machine at its traced pose with the
 boom at its angle, the drum (turning when on), the jack, the conveyor and its tail, the
-loose coal, and the controllers' commands and states; play/pause, speed, a cycle slider.
+loose coal, and the controllers' commands and states. The page's shell (play/pause, speed,
+the cycle slider, the clock, `#cycle=N`) is the replay views' common part (player.py).
 
 Everything that moves comes from the trace's world fields. The map is the one the run
 used: the environment simulator's own hooks (the `mine` controller's hook state and its
@@ -14,20 +15,17 @@ trace also holds `depth_cut`, the replay is checked against it.
 
 from __future__ import annotations
 
-import html
 import importlib
-import json
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 from ...compiler.ir import IRController, IRSystem
+from . import player
 from .read import Lane, Trace
-from .view import StringTable, number, runs
+from .view import StringTable, number
 
-TEMPLATE = "mine_view.html"
 REQUIRED = ("true_x", "true_y", "true_heading", "boom_angle_true", "drum_on_cmd")
 SHOWN = (
     "loose_coal",
@@ -135,23 +133,17 @@ def payload(
     hooks: ModuleType,
     system: IRSystem,
     scenario: str,
-) -> str:
+) -> dict[str, Any]:
     table = StringTable()
     cells = "".join(
         "#" if (r, c) in result.seam else "."
         for r in range(result.rows)
         for c in range(result.columns)
     )
-    controllers = [
-        {
-            "module": lane.module,
-            "command": runs(trace.columns[lane.module]["command"], None, table),
-            "state": runs(trace.columns[lane.module]["state"], None, table),
-            "status": runs(trace.columns[lane.module]["status"], None, table),
-        }
-        for lane in lanes
-        if not lane.simulator and lane.level and lane.level <= 4  # the top four levels
-    ]
+    shown = tuple(  # the top four levels
+        lane.module for lane in lanes if not lane.simulator and lane.level and lane.level <= 4
+    )
+    controllers = player.panel(trace, shown, table)
     world: dict[str, list[Any]] = {}
     for name in (*REQUIRED, *SHOWN):
         if name in trace.world:
@@ -166,6 +158,7 @@ def payload(
         "title": system.title,
         "scenario": scenario,
         "period": system.cycle_period,
+        "speed": 4,
         "n": len(trace),
         "cycles": trace.cycles,
         "map": {
@@ -193,8 +186,7 @@ def payload(
         "strings": table.values,
         "mismatch": result.mismatch,
     }
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return text.replace("</", "<\\/")
+    return data
 
 
 def render(
@@ -210,10 +202,9 @@ def render(
     assert controller.hooks_module is not None and controller.hooks_state is not None
     hooks = import_hooks(system_dir, controller.hooks_module)
     result = replay(trace, hooks, controller.hooks_state, settings)
-    template = resources.files(__package__).joinpath("assets", TEMPLATE).read_text("utf-8")
     title = f"{trace.name} · {system.name}: the machine in the mine"
-    page = template.replace("{{TITLE}}", html.escape(title))
-    return page.replace("{{DATA}}", payload(trace, lanes, result, hooks, system, scenario)), result
+    data = payload(trace, lanes, result, hooks, system, scenario)
+    return player.page("mine", title, {}, data), result
 
 
 def page_for(

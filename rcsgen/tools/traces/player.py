@@ -1,5 +1,6 @@
-"""The replay pages' common part (`rcsgen trace sea`, `trace station`): one shell
-(assets/replay_shell.html) with the header, the play button, the cycle slider, the clock,
+"""The replay pages' common part (`rcsgen trace mine`, `trace sea`, `trace station`): one shell
+(assets/replay_shell.html) with the header, play/pause, a cycle back and on, the speed, the
+cycle slider, the clock, the keys, a script error shown on the page,
 `#cycle=N` and `#play` in the address, the HUD's table style and the data, and each view's
 own asset: a `<style>` block, its body (with `{{NAME}}` slots the view fills, its SVG) and
 a `<script>` block that defines `frame(i)`, drawing cycle index i from `D`, the data.

@@ -164,6 +164,8 @@ def payload(
         "source": trace.name,
         "system": system.name,
         "scenario": scenario,
+        "period": system.cycle_period,
+        "speed": 50,  # times real time: the whole run in about half a minute
         "n": len(trace),
         "cycles": trace.cycles,
         "frame": {"x0": f.x0, "y1": f.y1, "scale": f.scale},

@@ -171,6 +171,8 @@ def payload(trace: Trace, system: IRSystem) -> dict[str, Any]:
     return {
         "source": trace.name,
         "system": system.name,
+        "period": system.cycle_period,
+        "speed": 10,  # times real time: the whole run in about half a minute
         "n": len(trace),
         "cycles": trace.cycles,
         "lanes": {"label": LABEL, "width": WIDTH},
