@@ -50,7 +50,7 @@ class Mine:
     # What `cut_coal` keeps between calls so that a cycle costs only what changed (its
     # results stay exactly those of the plain walk over `seam`):
     # - grid: `seam` by row, a list indexed by column (-1.0 where there is no coal cell),
-    #   made from `seam` at the first cut and again whenever `seam` is replaced (a trace
+    #   made from `seam` with it, and again at a cut if `seam` has been replaced (a trace
     #   replay wraps it); the cut writes both. Rows without coal are not in it.
     grid: dict[int, list[float]] = field(default_factory=dict, repr=False, compare=False)
     grid_of: object = field(default=None, repr=False, compare=False)
@@ -88,6 +88,7 @@ def load_map(path: Path) -> Mine:
     for r, c in sorted(mine.seam, reverse=True):
         mine.first[r] = c
     mine.first_face = face(mine, 0.0)
+    _make_grid(mine)
     return mine
 
 
