@@ -122,6 +122,71 @@ def test_the_cusp_tram_takes_the_floor_wedge_and_coal_removal_gathers_it():
     assert mined[-1] > mined[0], "coal cut on the way back was gathered"
 
 
+def _plain_cut(mine, x, y, boom_angle, drum_on):
+    """cut_coal as the plain walk over `seam` it replaced (no grid, no kept levels, face or
+    last call): what the kept values must never change."""
+    m = mine_hooks
+    height = (boom_angle - m.FLOOR_ANGLE) / (m.ROOF_ANGLE - m.FLOOR_ANGLE)
+    bottom = max(0.0, min(1.0, height) * (1.0 - m.DRUM_HEIGHT))
+    levels = []
+    for c in m._span(x - m.DRUM_RADIUS, x + m.DRUM_RADIUS, mine.x0):
+        level = min(1.0, bottom + m._wedge(mine, x, c))
+        levels.append((c, 0.0 if level < m.CUT_THROUGH else level))
+    contact, tonnes = False, 0.0
+    for r in m._span(y - m.DRUM_HALF_WIDTH, y + m.DRUM_HALF_WIDTH, mine.y0):
+        for c, level in levels:
+            standing = mine.seam.get((r, c))
+            if standing is not None and standing > level:
+                contact = True
+                if drum_on:
+                    tonnes += (standing - level) * m.TONNES_PER_CELL
+                    mine.seam[r, c] = level
+                    if level <= m.FACE_MIN and mine.first.get(r) == c:
+                        after = [
+                            k
+                            for k in range(c + 1, mine.columns)
+                            if mine.seam.get((r, k), 0.0) > m.FACE_MIN
+                        ]
+                        if after:
+                            mine.first[r] = after[0]
+                        else:
+                            del mine.first[r]
+    now = m.face(mine, y)
+    return contact, round(now, 6), round(now - mine.first_face, 6), round(tonnes, 6)
+
+
+def test_cut_coal_keeps_nothing_that_changes_its_answer():
+    """cut_coal keeps a grid, the levels, the face and its last call between calls: over a
+    seeded walk of the drum (repeated calls, the drum off and on, the boom up and down, the
+    map's edge, `seam` replaced half-way as the trace replay does) every answer, the map and
+    each row's first coal are those of the plain walk."""
+    import random
+
+    kept, plain = load_mine(), load_mine()
+    rng = random.Random(5)
+    x, y, angle, drum = kept.first_face - 0.6, 0.0, 30.0, True
+    answers = 0
+    for step in range(1200):
+        if step == 600:
+            kept.seam = type("Wrapped", (dict,), {})(kept.seam)  # a replay's recorder
+        move = rng.random()
+        if move < 0.3:
+            x += rng.choice((0.05, 0.05, 0.05, -0.05, 0.25))
+        elif move < 0.5:
+            angle = rng.choice((30.0, 10.0, -10.0, -10.0, -5.5))
+        elif move < 0.6:
+            y = rng.choice((0.0, 0.0, 0.0, 30.0))  # 30 m across: off the map
+        elif move < 0.7:
+            drum = not drum
+        got = mine_hooks.cut_coal(kept, x, y, angle, drum)
+        assert got == _plain_cut(plain, x, y, angle, drum), f"step {step}"
+        answers += got[3] > 0.0
+    assert answers > 50, "the walk cut coal"
+    assert plain.first != load_mine().first, "and moved rows' first coal"
+    assert dict(kept.seam) == plain.seam
+    assert kept.first == plain.first
+
+
 def test_a_shear_leaves_a_floor_wedge_that_a_tram_back_at_the_floor_takes():
     mine = load_mine()
     face = mine.first_face

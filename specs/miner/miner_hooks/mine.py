@@ -47,6 +47,26 @@ class Mine:
     # X1 metres inby, the shear's cutting force slides the machine SLIP metres a cycle outby
     rolls: list[tuple[float, float, float]] = field(default_factory=list)
     rng: random.Random = field(default_factory=lambda: random.Random(1))
+    # What `cut_coal` keeps between calls so that a cycle costs only what changed (its
+    # results stay exactly those of the plain walk over `seam`):
+    # - grid: `seam` by row, a list indexed by column (-1.0 where there is no coal cell),
+    #   made from `seam` with it, and again at a cut if `seam` has been replaced (a trace
+    #   replay wraps it); the cut writes both. Rows without coal are not in it.
+    grid: dict[int, list[float]] = field(default_factory=dict, repr=False, compare=False)
+    grid_of: object = field(default=None, repr=False, compare=False)
+    # - the drum's levels per column for the last (x, boom angle): the same wherever it is
+    levels_at: tuple[float, float] | None = field(default=None, repr=False, compare=False)
+    levels: list[tuple[int, float]] = field(default_factory=list, repr=False, compare=False)
+    # - the face for the last y, forgotten when a cut moves a row's first coal
+    face_at: tuple[float, float] | None = field(default=None, repr=False, compare=False)
+    # - the last call's arguments and result, kept only if it cut nothing: the same drum in
+    #   the same place then cuts nothing again, and finds the same face
+    last_call: tuple[float, float, float, bool] | None = field(
+        default=None, repr=False, compare=False
+    )
+    last_result: tuple[bool, float, float, float] = field(
+        default=(False, 0.0, 0.0, 0.0), repr=False, compare=False
+    )
 
 
 def load_map(path: Path) -> Mine:
@@ -68,6 +88,7 @@ def load_map(path: Path) -> Mine:
     for r, c in sorted(mine.seam, reverse=True):
         mine.first[r] = c
     mine.first_face = face(mine, 0.0)
+    _make_grid(mine)
     return mine
 
 
@@ -117,12 +138,37 @@ def _cut_to_floor(mine: Mine, r: int, c: int) -> None:
     """Cell (r, c) is no longer face: if it was its row's first, the row's first moves on."""
     if mine.first.get(r) != c:
         return
-    seam = mine.seam
+    mine.face_at = None
+    row = mine.grid[r]
     for after in range(c + 1, mine.columns):
-        if seam.get((r, after), 0.0) > FACE_MIN:
+        if row[after] > FACE_MIN:
             mine.first[r] = after
             return
     del mine.first[r]
+
+
+def _make_grid(mine: Mine) -> None:
+    """`grid` made again from `seam` (see Mine)."""
+    mine.grid = {}
+    for (r, c), standing in mine.seam.items():
+        row = mine.grid.get(r)
+        if row is None:
+            row = mine.grid[r] = [-1.0] * mine.columns
+        row[c] = standing
+    mine.grid_of = mine.seam
+
+
+def _levels(mine: Mine, x: float, boom_angle: float) -> list[tuple[int, float]]:
+    """(column, the level the drum cuts it down to) for each map column under the drum: the
+    level its round bottom reaches over a column is the same in every row."""
+    height = (boom_angle - FLOOR_ANGLE) / (ROOF_ANGLE - FLOOR_ANGLE)
+    bottom = max(0.0, min(1.0, height) * (1.0 - DRUM_HEIGHT))
+    levels = []
+    for c in _span(x - DRUM_RADIUS, x + DRUM_RADIUS, mine.x0):
+        if 0 <= c < mine.columns:  # no coal cell outside the map
+            level = min(1.0, bottom + _wedge(mine, x, c))
+            levels.append((c, 0.0 if level < CUT_THROUGH else level))
+    return levels
 
 
 def cut_coal(
@@ -131,25 +177,39 @@ def cut_coal(
     """Cut what the drum overlaps: (in contact, face position, depth cut, tonnes cut).
 
     The cells under the drum are visited row by row (the map's own order, so the tonnes
-    add up in the same order); the level the drum's round bottom reaches over a column is
-    the same in every row, so it is worked out once a column, not once a cell."""
-    height = (boom_angle - FLOOR_ANGLE) / (ROOF_ANGLE - FLOOR_ANGLE)
-    bottom = max(0.0, min(1.0, height) * (1.0 - DRUM_HEIGHT))
-    levels = []  # (column, the level the drum cuts it down to)
-    for c in _span(x - DRUM_RADIUS, x + DRUM_RADIUS, mine.x0):
-        level = min(1.0, bottom + _wedge(mine, x, c))
-        levels.append((c, 0.0 if level < CUT_THROUGH else level))
+    add up in the same order). Between calls it keeps what has not changed (see Mine):
+    the same call after one that cut nothing returns the same result at once."""
+    call = (x, y, boom_angle, drum_on)
+    if call == mine.last_call:
+        return mine.last_result
     seam = mine.seam
-    contact, tonnes = False, 0.0
+    if mine.grid_of is not seam:
+        _make_grid(mine)
+    if mine.levels_at != (x, boom_angle):
+        mine.levels = _levels(mine, x, boom_angle)
+        mine.levels_at = (x, boom_angle)
+    levels, grid = mine.levels, mine.grid
+    contact, cut, tonnes = False, False, 0.0
     for r in _span(y - DRUM_HALF_WIDTH, y + DRUM_HALF_WIDTH, mine.y0):
+        row = grid.get(r)
+        if row is None:  # no coal in this row
+            continue
         for c, level in levels:
-            standing = seam.get((r, c))  # None: no coal cell there
-            if standing is not None and standing > level:
+            standing = row[c]  # -1.0: no coal cell there
+            if standing > level:
                 contact = True
                 if drum_on:
+                    cut = True
                     tonnes += (standing - level) * TONNES_PER_CELL
+                    row[c] = level
                     seam[r, c] = level
                     if level <= FACE_MIN:
                         _cut_to_floor(mine, r, c)
-    now = face(mine, y)
-    return contact, round(now, 6), round(now - mine.first_face, 6), round(tonnes, 6)
+    if mine.face_at is not None and mine.face_at[0] == y:
+        now = mine.face_at[1]
+    else:
+        now = face(mine, y)
+        mine.face_at = (y, now)
+    result = contact, round(now, 6), round(now - mine.first_face, 6), round(tonnes, 6)
+    mine.last_call, mine.last_result = (None if cut else call), result
+    return result
