@@ -640,7 +640,7 @@ def _recorded_by_named(paths: list[Path], found: list[Trace]) -> IRSystem | None
 
     modules = {module_of(m) for one in found for m in one.modules}
     for directory in systems_naming(paths, modules):
-        front = api.check([directory])
+        front = api.check([directory], analyse=False)  # (its structure is all a view needs)
         if not front.diagnostics.errors:
             fits, _ = traces.recorded_by(front.systems, found)
             if fits is not None:

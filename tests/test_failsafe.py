@@ -10,7 +10,6 @@ the block to reach their safe values; nothing here asserts how fast (`make bench
 
 from __future__ import annotations
 
-import dataclasses
 import importlib
 import json
 import os
@@ -1000,7 +999,7 @@ def test_declared_watchdog_limits_reach_the_process_and_decide_its_trips(tmp_pat
             def resume(self) -> None:
                 self.module.resume()
 
-        slow = dataclasses.replace(plan, classes={**plan.classes, "v1": Slow})
+        slow = plan._replace(classes={**plan.classes, "v1": Slow})
         process = loop.run(slow, layout, cycles=6)
         try:
             record = layout.PROCESSES["pa"].read(process.block.buf)
@@ -1035,7 +1034,7 @@ def test_a_paced_process_trips_from_its_second_cycle_on(package: ModuleType) -> 
         def resume(self) -> None:
             self.module.resume()
 
-    slow = dataclasses.replace(plan, classes={**plan.classes, "v1": Slow})
+    slow = plan._replace(classes={**plan.classes, "v1": Slow})
     trips: list[int] = []
     process = loop.run(
         slow,

@@ -425,7 +425,7 @@ def test_the_planners_free_cells_are_those_clear_of_coal_by_its_clearance():
 
     for name in ("maps/box_cut.map", "maps/roll.map", "maps/two_pass.map"):
         planner = pp_hooks.new_planner({"map": name})
-        seam = mine_hooks.load_map(mine_hooks.SYSTEM_DIR / name).seam
+        seam = mine_hooks.load_map(Path(mine_hooks.SYSTEM_DIR, name)).seam
         rows = 1 + max(r for r, _ in seam)
         columns = 1 + max(c for _, c in seam)
         reach = math.ceil(pp_hooks.CLEARANCE / mine_hooks.CELL)

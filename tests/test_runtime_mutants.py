@@ -14,7 +14,6 @@ to happen, deterministically, by a struct that writes while it is read.
 
 from __future__ import annotations
 
-import dataclasses
 import importlib
 import shutil
 import time
@@ -246,7 +245,7 @@ def slow_plan(package: ModuleType, cycle: float) -> Any:
             time.sleep(cycle)
             super().run_cycle()
 
-    return dataclasses.replace(plan, classes={**plan.classes, "top": Slow})
+    return plan._replace(classes={**plan.classes, "top": Slow})
 
 
 @pytest.mark.parametrize(("behind", "trips"), [(1000.0, False), (0.4, True)])

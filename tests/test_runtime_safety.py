@@ -903,8 +903,6 @@ class FakeTime:
 def timed_plan(package: ModuleType, process: str, took: dict[int, int], **changes: Any) -> Any:
     """`process`'s plan whose first module's cycle n takes took[n] ns of the fake clock
     (`clock` is set by `fake_loop`)."""
-    import dataclasses
-
     plan = part(package, f"main_{process}").PLAN
     name = plan.modules[0]
     real = plan.classes[name]
@@ -923,7 +921,7 @@ def timed_plan(package: ModuleType, process: str, took: dict[int, int], **change
         def resume(self) -> None:
             self.module.resume()
 
-    return dataclasses.replace(plan, classes={**plan.classes, name: Timed}, **changes), Timed
+    return plan._replace(classes={**plan.classes, name: Timed}, **changes), Timed
 
 
 @pytest.fixture()
@@ -1187,8 +1185,6 @@ def test_a_second_copy_is_refused_only_while_a_live_other_owner_runs(package: Mo
 
 
 def test_a_module_with_hook_state_refuses_a_restart_once_it_has_run(package: ModuleType) -> None:
-    import dataclasses
-
     loop, layout = part(package, "rcs.loop"), part(package, "layout")
     block = part(package, "rcs.block").Block(layout)
     plan = part(package, "main_pa").PLAN
@@ -1196,7 +1192,7 @@ def test_a_module_with_hook_state_refuses_a_restart_once_it_has_run(package: Mod
     class Keeps(plan.classes["v1"]):  # type: ignore[misc,name-defined]
         HOOK_STATE_ON_RESTART = "refuse"
 
-    keeping = dataclasses.replace(plan, classes={**plan.classes, "v1": Keeps})
+    keeping = plan._replace(classes={**plan.classes, "v1": Keeps})
     loop.Process(keeping, layout, block, restarting=True)  # it never ran
     layout.PERFORMANCE["v1"].write(block.buf, cycles=1)
     loop.Process(plan, layout, block, restarting=True)  # a module whose state may restart

@@ -184,14 +184,16 @@ def load_system(
     diags: Diagnostics,
     progress: Progress = _quiet,
     models: dict[str, tuple[model.SystemSpec, list[model.ControllerSpec]]] | None = None,
+    analyse: bool = True,
 ) -> IRSystem | None:
     """Load, schema-check, model and check one system directory (its model kept in
-    `models`, when given, for the system that builds)."""
+    `models`, when given, for the system that builds); without `analyse`, the state tables'
+    analysis (E5xx/W5xx) is left out: for a tool that reads the system's structure only."""
     first = len(diags.items)
     uses: list[fragments.Use] = []
     made: list[instances.Instance] = []
     try:
-        return _load_system(directory, diags, progress, uses, made, models)
+        return _load_system(directory, diags, progress, uses, made, models, analyse)
     finally:
         fragments.annotate(diags, uses, first)
         instances.annotate(diags, made, first)
@@ -225,6 +227,7 @@ def _load_system(
     uses: list[fragments.Use],
     made: list[instances.Instance],
     models: dict[str, tuple[model.SystemSpec, list[model.ControllerSpec]]] | None = None,
+    analyse: bool = True,
 ) -> IRSystem | None:
     progress(f"loading {display_path(directory)}")
     start, first = len(diags.errors), len(diags.items)
@@ -239,10 +242,11 @@ def _load_system(
     if checked is None:
         acknowledge.apply(controllers, diags, first, complete=False)
         return None
-    progress(f"analysing the state tables of {system.name}")
-    analyse_system(checked, diags)  # E5xx/W5xx, with counter-examples
+    if analyse:
+        progress(f"analysing the state tables of {system.name}")
+        analyse_system(checked, diags)  # E5xx/W5xx, with counter-examples
     properties = check_properties(system, controllers, diags)  # E710-E714
-    acknowledge.apply(controllers, diags, first, complete=True)  # allow: and first_match
+    acknowledge.apply(controllers, diags, first, complete=analyse)  # allow: and first_match
     if len(diags.errors) > start:
         return None
     sources = {
@@ -398,18 +402,18 @@ def fewer_collections() -> Iterator[None]:
         gc.set_threshold(*before)
 
 
-def compile_paths(paths: list[Path], progress: Progress = _quiet) -> Frontend:
+def compile_paths(paths: list[Path], progress: Progress = _quiet, analyse: bool = True) -> Frontend:
     """Run the front end over every system found in `paths`; never raises on bad input.
-    `progress` is told what each long stage is doing."""
+    `progress` is told what each long stage is doing; `analyse` as for `load_system`."""
     with fewer_collections():
-        return _compile_paths(paths, progress)
+        return _compile_paths(paths, progress, analyse)
 
 
-def _compile_paths(paths: list[Path], progress: Progress) -> Frontend:
+def _compile_paths(paths: list[Path], progress: Progress, analyse: bool) -> Frontend:
     out = Frontend()
     names: dict[str, Span] = {}
     for directory in find_system_dirs(paths, out.diagnostics):
-        system = load_system(directory, out.diagnostics, progress, out.models)
+        system = load_system(directory, out.diagnostics, progress, out.models, analyse)
         if system is None:
             continue
         out.systems.append(system)

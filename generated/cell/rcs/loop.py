@@ -20,10 +20,9 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
 from struct import Struct
-from types import ModuleType
-from typing import TYPE_CHECKING, Any, Protocol
+from types import MappingProxyType, ModuleType
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 from .block import Block
 from .contract import (
@@ -77,9 +76,15 @@ class Module(Protocol):
 ModuleClass = Callable[[memoryview, "dict[str, str] | None"], Module]
 
 
+# No record type a process imports as it starts is a dataclass: `dataclasses` imports
+# `inspect` (with `ast`, `dis`, `tokenize`) and writes each class's methods with `exec`, ~15 ms
+# of every process's start (bench/RESULTS.md section 4). A frozen record is a NamedTuple (its
+# copy with changes: `plan._replace(...)`), a mutable one a plain class.
+_NONE: Mapping[str, Any] = MappingProxyType({})  # an empty mapping no one can change
+
+
 @shared
-@dataclass(frozen=True)
-class ProcessPlan:
+class ProcessPlan(NamedTuple):
     """One process of a system as the spec declares it."""
 
     name: str
@@ -89,17 +94,16 @@ class ProcessPlan:
     # The controller-simulation switch: a controller can be replaced by its stand-in, which
     # then runs in the controller's place while the modules below it are skipped.
     # controller -> (its stand-in, the modules of this process it replaces)
-    stand_ins: Mapping[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
-    classes: Mapping[str, ModuleClass] = field(default_factory=dict)
+    stand_ins: Mapping[str, tuple[str, tuple[str, ...]]] = _NONE
+    classes: Mapping[str, ModuleClass] = _NONE
     # The declared watchdog limits (system.yaml `watchdog:`): Watchdog's fields -> values
-    watchdog: Mapping[str, float] = field(default_factory=dict)
+    watchdog: Mapping[str, float] = _NONE
     io: tuple[str, ...] = ()  # the I/O devices it runs: read first, written last (io_cycle.py)
     # The declared real-time settings (system.yaml `realtime:`), applied as it starts
-    realtime: Mapping[str, object] = field(default_factory=dict)
+    realtime: Mapping[str, object] = _NONE
 
 
-@dataclass
-class Watchdog:
+class Watchdog(NamedTuple):
     """When a paced process trips its watchdog, and when it warns of load."""
 
     behind: float = 5.0  # periods: the cycles of the last `window` periods this late in all
@@ -120,8 +124,7 @@ class Watchdog:
         return False
 
 
-@dataclass(frozen=True)
-class Reaction:
+class Reaction(NamedTuple):
     """What the loss of one process (dead, stopped, frozen, starved, or its watchdog
     tripped) asks of everyone else (docs/semantics.md, "Fail safe").
 

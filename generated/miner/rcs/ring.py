@@ -38,7 +38,7 @@ import struct
 import threading
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from typing import NamedTuple
 
 WORD = struct.Struct("=Q")  # an eventfd takes 8 bytes (a pipe too: one token, one write)
 # What a link carries: an eventfd adds what is written until it is read, so each kind has
@@ -54,8 +54,7 @@ SPIN = 2e-3  # the longest a nudged member spins for the token (then it blocks)
 READABLE = select.POLLIN | select.POLLHUP | select.POLLERR
 
 
-@dataclass(frozen=True)
-class Link:
+class Link(NamedTuple):
     """One hand-off: the descriptor its receiver reads, the one its sender writes (the same
     eventfd, or the two ends of a pipe)."""
 

@@ -17,12 +17,11 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
 from itertools import compress
 from operator import and_, ne
 from struct import Struct
 from types import ModuleType
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 from .block import Block
 from .contract import DEAD, PROCESS, SEQ, Record, next_odd, shared
@@ -128,18 +127,15 @@ def reads(layout: ModuleType, process: str | None, modules: tuple[str, ...] = ()
     return wanted
 
 
-@dataclass
 class Counters:
     """What a mirror did: messages sent and applied, dropped as late or out of order,
-    from a node of another layout, and liveness events."""
+    from a node of another layout, and liveness events. (A plain class: no process's start
+    imports `dataclasses`, loop.py says why.)"""
 
-    sent: int = 0
-    applied: int = 0
-    late: int = 0
-    foreign: int = 0
-    malformed: int = 0
-    lost: list[str] = field(default_factory=list)  # processes whose token went away
-    joined: list[str] = field(default_factory=list)
+    def __init__(self) -> None:
+        self.sent = self.applied = self.late = self.foreign = self.malformed = 0
+        self.lost: list[str] = []  # processes whose token went away
+        self.joined: list[str] = []
 
 
 class Mirror:
@@ -341,8 +337,7 @@ def check_endpoint(text: str) -> str:
     return text
 
 
-@dataclass(frozen=True)
-class Security:
+class Security(NamedTuple):
     """A Zenoh node's own TLS and user/password authentication, as files (a deployment
     host's `tls` and `auth`, rcs/deploy.py): mutual TLS with `root_ca` as the one trusted
     authority and `certificate`/`key` as this node's identity; `user` with the password in
@@ -368,7 +363,7 @@ class Security:
     def to_text(self) -> str:
         import json
 
-        return json.dumps({k: v for k, v in vars(self).items() if v}, sort_keys=True)
+        return json.dumps({k: v for k, v in self._asdict().items() if v}, sort_keys=True)
 
     @classmethod
     def from_text(cls, text: str) -> Security:

@@ -9,19 +9,17 @@ front of the machine (mining paper, section 2.1.2: the miner waits for the shutt
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 
 class HaulageSettingError(ValueError):
     """The `shuttle_car` setting is not two positive numbers."""
 
 
-@dataclass
 class Haulage:
-    capacity: float  # tonnes a car holds; 0: a belt, no limit
-    trip: int  # cycles a full car is away
-    load: float = 0.0  # tonnes in the car under the tail
-    away: int = 0  # cycles until the car is back (0: it is under the tail)
+    def __init__(self, capacity: float, trip: int) -> None:
+        self.capacity = capacity  # tonnes a car holds; 0: a belt, no limit
+        self.trip = trip  # cycles a full car is away
+        self.load = 0.0  # tonnes in the car under the tail
+        self.away = 0  # cycles until the car is back (0: it is under the tail)
 
 
 def new_haulage(settings: dict[str, str]) -> Haulage:

@@ -13,9 +13,8 @@ coal, no longer part of the face.
 from __future__ import annotations
 
 import math
+import os
 import random
-from dataclasses import dataclass, field
-from pathlib import Path
 
 CELL = 0.25  # metres
 DRUM_RADIUS = 0.5  # metres: the drum reaches this far either side of its centre
@@ -26,52 +25,51 @@ SEAM_HEIGHT = 2.0  # metres
 TONNES_PER_CELL = CELL * CELL * SEAM_HEIGHT * 1.3  # cell area x seam x 1.3 t/m3
 FACE_MIN = 0.1  # fraction of the seam: a cell standing no higher is the cusp, not the face
 CUT_THROUGH = 0.005  # fraction of the seam (1 cm): less than this left is cut to the floor
-SYSTEM_DIR = Path(__file__).resolve().parent.parent
+# (os.path, not pathlib, and plain classes, not dataclasses: each would add ~5 ms of imports
+# to the start of every process that runs the mine or the planner)
+SYSTEM_DIR = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 DEFAULT_MAP = "maps/box_cut.map"
 SLIP_ERROR = 0.3  # the slide per cycle on a roll varies by this fraction (seeded)
 
 
-@dataclass
 class Mine:
     """The map's cells (standing seam fraction per coal cell) and where the face started."""
 
-    x0: float
-    y0: float
-    seam: dict[tuple[int, int], float] = field(default_factory=dict)  # (row, col) -> height
-    first_face: float = 0.0
-    columns: int = 0
-    # row -> the first column with standing coal in it (rows cut through have none): what
-    # `face` looks up instead of scanning the map every cycle; `cut_coal` keeps it current.
-    first: dict[int, int] = field(default_factory=dict)
-    # `roll X0 X1 SLIP` lines: where the seam floor rolls (slopes down outby) between X0 and
-    # X1 metres inby, the shear's cutting force slides the machine SLIP metres a cycle outby
-    rolls: list[tuple[float, float, float]] = field(default_factory=list)
-    rng: random.Random = field(default_factory=lambda: random.Random(1))
-    # What `cut_coal` keeps between calls so that a cycle costs only what changed (its
-    # results stay exactly those of the plain walk over `seam`):
-    # - grid: `seam` by row, a list indexed by column (-1.0 where there is no coal cell),
-    #   made from `seam` with it, and again at a cut if `seam` has been replaced (a trace
-    #   replay wraps it); the cut writes both. Rows without coal are not in it.
-    grid: dict[int, list[float]] = field(default_factory=dict, repr=False, compare=False)
-    grid_of: object = field(default=None, repr=False, compare=False)
-    # - the drum's levels per column for the last (x, boom angle): the same wherever it is
-    levels_at: tuple[float, float] | None = field(default=None, repr=False, compare=False)
-    levels: list[tuple[int, float]] = field(default_factory=list, repr=False, compare=False)
-    # - the face for the last y, forgotten when a cut moves a row's first coal
-    face_at: tuple[float, float] | None = field(default=None, repr=False, compare=False)
-    # - the last call's arguments and result, kept only if it cut nothing: the same drum in
-    #   the same place then cuts nothing again, and finds the same face
-    last_call: tuple[float, float, float, bool] | None = field(
-        default=None, repr=False, compare=False
-    )
-    last_result: tuple[bool, float, float, float] = field(
-        default=(False, 0.0, 0.0, 0.0), repr=False, compare=False
-    )
+    def __init__(self, x0: float, y0: float) -> None:
+        self.x0, self.y0 = x0, y0
+        self.seam: dict[tuple[int, int], float] = {}  # (row, col) -> height
+        self.first_face = 0.0
+        self.columns = 0
+        # row -> the first column with standing coal in it (rows cut through have none): what
+        # `face` looks up instead of scanning the map every cycle; `cut_coal` keeps it current.
+        self.first: dict[int, int] = {}
+        # `roll X0 X1 SLIP` lines: where the seam floor rolls (slopes down outby) between X0
+        # and X1 metres inby, the shear's cutting force slides the machine SLIP metres a cycle
+        # outby
+        self.rolls: list[tuple[float, float, float]] = []
+        self.rng = random.Random(1)
+        # What `cut_coal` keeps between calls so that a cycle costs only what changed (its
+        # results stay exactly those of the plain walk over `seam`):
+        # - grid: `seam` by row, a list indexed by column (-1.0 where there is no coal cell),
+        #   made from `seam` with it, and again at a cut if `seam` has been replaced (a trace
+        #   replay wraps it); the cut writes both. Rows without coal are not in it.
+        self.grid: dict[int, list[float]] = {}
+        self.grid_of: object = None
+        # - the drum's levels per column for the last (x, boom angle): the same wherever it is
+        self.levels_at: tuple[float, float] | None = None
+        self.levels: list[tuple[int, float]] = []
+        # - the face for the last y, forgotten when a cut moves a row's first coal
+        self.face_at: tuple[float, float] | None = None
+        # - the last call's arguments and result, kept only if it cut nothing: the same drum
+        #   in the same place then cuts nothing again, and finds the same face
+        self.last_call: tuple[float, float, float, bool] | None = None
+        self.last_result: tuple[bool, float, float, float] = (False, 0.0, 0.0, 0.0)
 
 
-def load_map(path: Path) -> Mine:
+def load_map(path: str | os.PathLike[str]) -> Mine:
     """Read a map file; the first line `origin X Y` places column 0 and row 0."""
-    lines = [line.rstrip("\n") for line in path.read_text(encoding="utf-8").splitlines()]
+    with open(path, encoding="utf-8") as file:
+        lines = [line.rstrip("\n") for line in file.read().splitlines()]
     rows = [line for line in lines if line and not line.startswith(("#!", "origin", "roll"))]
     origin = next((line.split() for line in lines if line.startswith("origin")), None)
     x0, y0 = (float(origin[1]), float(origin[2])) if origin else (0.0, 0.0)
@@ -95,7 +93,7 @@ def load_map(path: Path) -> Mine:
 def new_mine(settings: dict[str, str]) -> Mine:
     """The mine of the run's `map` setting (relative to the system directory); the slide on
     a roll is seeded from the run's `seed`."""
-    mine = load_map(SYSTEM_DIR / settings.get("map", DEFAULT_MAP))
+    mine = load_map(os.path.join(SYSTEM_DIR, settings.get("map", DEFAULT_MAP)))
     mine.rng = random.Random(int(settings.get("seed", "1")))
     return mine
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from dataclasses import dataclass
+import os
 
 from . import mine
 
@@ -23,18 +23,16 @@ IN_LINE = 0.1  # metres: a goal this close to the line of the heading is reached
 MAX_LEG = 2.5  # metres: the furthest waypoint of one tram
 
 
-@dataclass
 class Planner:
     """The surveyed map as a grid of free cells."""
 
-    x0: float
-    y0: float
-    free: set[tuple[int, int]]
+    def __init__(self, x0: float, y0: float, free: set[tuple[int, int]]) -> None:
+        self.x0, self.y0, self.free = x0, y0, free
 
 
 def new_planner(settings: dict[str, str]) -> Planner:
     """The planner's grid, from the run's map (as the mine simulator loads it)."""
-    surveyed = mine.load_map(mine.SYSTEM_DIR / settings.get("map", mine.DEFAULT_MAP))
+    surveyed = mine.load_map(os.path.join(mine.SYSTEM_DIR, settings.get("map", mine.DEFAULT_MAP)))
     rows = 1 + max((r for r, _ in surveyed.seam), default=0)
     columns = surveyed.columns
     reach = math.ceil(CLEARANCE / mine.CELL)

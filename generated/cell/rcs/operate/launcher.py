@@ -24,9 +24,8 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
 from types import ModuleType
-from typing import TYPE_CHECKING, Any, NoReturn, Self
+from typing import TYPE_CHECKING, Any, NamedTuple, NoReturn, Self
 
 from ..block import Block, BlockError
 from ..contract import (
@@ -95,8 +94,7 @@ PR_SET_PDEATHSIG = 1  # prctl(2): the signal a child gets when its parent dies (
 REFUSED = 3  # the exit code of a process that refused to restart (the launcher gives up)
 
 
-@dataclass(frozen=True)
-class System:
+class System(NamedTuple):
     """A generated package as the launcher sees it: its layout and each process's plan."""
 
     package: str
@@ -366,11 +364,9 @@ def _orphaned(stop: Stop, gone: threading.Event, segment: str) -> None:
 # ---------------------------------------------------------------- the launcher
 
 
-@dataclass
 class Child:
-    name: str
-    popen: subprocess.Popen[bytes]
-    restarts: int = 0
+    def __init__(self, name: str, popen: subprocess.Popen[bytes], restarts: int = 0) -> None:
+        self.name, self.popen, self.restarts = name, popen, restarts
 
 
 class Launcher:

@@ -20,14 +20,12 @@ World fields given as text (`--world`, `ctl force`) are parsed and checked by th
 
 from __future__ import annotations
 
-import difflib
 import math
 import re
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from types import ModuleType
-from typing import Any
+from typing import Any, NamedTuple
 
 from ..contract import (
     DONE,
@@ -48,8 +46,7 @@ _FLOAT = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?")
 
 
 @shared
-@dataclass(frozen=True)
-class Command:
+class Command(NamedTuple):
     """A checked command for a module: every parameter of the command, each of its type (an
     enumeration's value by name)."""
 
@@ -69,6 +66,8 @@ def shown(value: object) -> str:
 
 def suggest(name: str, choices: Sequence[str], what: str) -> str:
     """`no module 'cx' (did you mean 'co'?); modules: sb, co, ...`."""
+    import difflib  # here: only a mistake pays its import, not every process's start
+
     close = difflib.get_close_matches(name, list(choices), n=1)
     hint = f" (did you mean {close[0]!r}?)" if close else ""
     plural = f"{what}es" if what.endswith("s") else f"{what}s"
@@ -94,6 +93,8 @@ def value_problem(value: object, code: str, names: Sequence[str] = ()) -> str:
     if names:
         if isinstance(value, str) and value in names:
             return ""
+        import difflib
+
         close = difflib.get_close_matches(str(value), list(names), n=1)
         hint = f" (did you mean {close[0]}?)" if close else ""
         return f"is {_repr(value)}, not {kind_words(code, names)}{hint}"
