@@ -1351,6 +1351,49 @@ def test_a_module_made_again_writes_whole_over_buffers_its_predecessor_left_odd(
     assert (status.seq(buf), perf.seq(buf)) == (odd[0] + 3, odd[1] + 3)
 
 
+def test_the_modules_on_a_segment_share_one_word_view_and_the_segment_closes_under_them(
+    package: ModuleType, segment_name: str
+) -> None:
+    """Every generated module stores its sequence words through one 8-byte word view of the
+    block (rcs.contract.words): the modules of a process share it, what it stores is the word
+    a tool reads, and closing the block releases it, so the segment is unmapped and removed
+    while the modules still exist (a view left on it would make the unmap fail)."""
+    import os
+
+    layout, plan = part(package, "layout"), part(package, "main_pb").PLAN
+    block = part(package, "rcs.block").Block(layout, segment_name)
+    pb = part(package, "rcs.loop").Process(plan, layout, block)
+    views = {id(m.words) for m in [*pb.instances.values(), *pb.stand_ins.values()]}
+    layout.COMMAND_IN["v2"].write(block.buf, command_num=1, command=3)  # DRIVE
+    pb.run_cycle()
+    perf = layout.PERFORMANCE["v2"]
+    seq = perf.seq(block.buf)
+    assert len(views) == 1 and seq % 2 == 0 and seq > 2, "one view, the buffer written whole"
+    assert pb.instances["v2"].words[perf.offset >> 3] == seq
+    block.close()  # no BufferError: the word view went with the block's
+    assert not os.path.exists(f"/dev/shm/{segment_name}")
+    with pytest.raises(ValueError, match="released"):
+        pb.instances["v2"].words[0]
+
+
+def test_a_private_block_s_word_view_goes_with_its_view(package: ModuleType) -> None:
+    """The word view of a block view no one closes (a harness's, a test's) is dropped with
+    that view, not kept (with its memory) for the life of the process."""
+    import gc
+
+    contract = part(package, "rcs.contract")
+    buf = memoryview(bytearray(64))
+    words = contract.words(buf)
+    assert contract.words(buf) is words and len(words) == 8
+    words[1] = 7
+    assert contract.SEQ.unpack_from(buf, 8)[0] == 7
+    key = id(buf)
+    assert key in contract._Words.views
+    del buf, words
+    gc.collect()
+    assert key not in contract._Words.views
+
+
 def test_a_layout_without_pacing_records_is_watched_with_the_declared_timeout(
     package: ModuleType, monkeypatch: pytest.MonkeyPatch
 ) -> None:

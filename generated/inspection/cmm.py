@@ -13,7 +13,7 @@ from .layout import (
     WORLD_CMM_OP_AT,
     WORLD_CMM_SEQ_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 from .rcs.override import held
 
 # Commands cmm accepts (the code written to its command buffer).
@@ -28,6 +28,13 @@ INSPECT_FEATURE = 6
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIq44x???1xI400xq8xq8xq8xq24x?")
 INPUTS_AT = 1424
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+CMM_STATUS_WORD = CMM_STATUS_AT >> 3
+WORLD_CMM_OP_WORD = WORLD_CMM_OP_AT >> 3
+WORLD_CMM_FEATURE_WORD = WORLD_CMM_FEATURE_AT >> 3
+WORLD_CMM_SEQ_WORD = WORLD_CMM_SEQ_AT >> 3
+CMM_PERF_WORD = CMM_PERF_AT >> 3
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -75,6 +82,7 @@ class CmmController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_cmm_alarm",
         "world_cmm_done_seq",
         "world_cmm_feature",
@@ -84,6 +92,7 @@ class CmmController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -112,6 +121,7 @@ class CmmController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -161,7 +171,7 @@ class CmmController:
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, CMM_STATUS_AT, seq)  # odd before any field changes
+            words[CMM_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CMM_STATUS_AT,
@@ -172,7 +182,7 @@ class CmmController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, CMM_STATUS_AT, seq + 1)
+            words[CMM_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
@@ -183,15 +193,15 @@ class CmmController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_CMM_OP_AT, s[0] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_CMM_FEATURE_AT, s[1] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_CMM_SEQ_AT, s[2] | 1)  # odd before the value changes
+                words[WORLD_CMM_OP_WORD] = s[0] | 1  # odd before the value changes
+                words[WORLD_CMM_FEATURE_WORD] = s[1] | 1  # odd before the value changes
+                words[WORLD_CMM_SEQ_WORD] = s[2] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(
                     buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
                 )
-                SEQ.pack_into(buf, WORLD_CMM_OP_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_CMM_FEATURE_AT, (s[1] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_CMM_SEQ_AT, (s[2] | 1) + 1)
+                words[WORLD_CMM_OP_WORD] = (s[0] | 1) + 1
+                words[WORLD_CMM_FEATURE_WORD] = (s[1] | 1) + 1
+                words[WORLD_CMM_SEQ_WORD] = (s[2] | 1) + 1
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -202,7 +212,7 @@ class CmmController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, CMM_PERF_AT, seq)  # odd before any field changes
+        words[CMM_PERF_WORD] = seq  # odd before any field changes
         PERF.pack_into(
             buf,
             CMM_PERF_AT,
@@ -214,7 +224,7 @@ class CmmController:
             self.perf_single_step_num,
             self.stale_reads,
         )
-        SEQ.pack_into(buf, CMM_PERF_AT, seq + 1)
+        words[CMM_PERF_WORD] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

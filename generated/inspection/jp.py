@@ -11,7 +11,7 @@ from .layout import (
     JP_STATUS,
     JP_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, decode_text
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, decode_text, words
 from .rcs.deadline import hook
 
 # Commands jp accepts (the code written to its command buffer).
@@ -28,6 +28,10 @@ REASON_NO_PROGRAM = 2
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32sq68x???1xI")
 INPUTS_AT = 472
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+JP_STATUS_WORD = JP_STATUS_AT >> 3
+JP_PERF_WORD = JP_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -66,6 +70,7 @@ class JpController:
         "status_seq",
         "ticks",
         "var_features",
+        "words",
     )
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
@@ -76,6 +81,7 @@ class JpController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_features: int = 0
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
@@ -114,6 +120,7 @@ class JpController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -159,7 +166,7 @@ class JpController:
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, JP_STATUS_AT, seq)  # odd before any field changes
+            words[JP_STATUS_WORD] = seq  # odd before any field changes
             JP_STATUS.pack_into(
                 buf,
                 JP_STATUS_AT,
@@ -173,7 +180,7 @@ class JpController:
                 self.result_features,
                 self.cause,
             )
-            SEQ.pack_into(buf, JP_STATUS_AT, seq + 1)
+            words[JP_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         last = perf_counter_ns() - cycle_start
@@ -186,7 +193,7 @@ class JpController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, JP_PERF_AT, seq)  # odd before any field changes
+        words[JP_PERF_WORD] = seq  # odd before any field changes
         PERF.pack_into(
             buf,
             JP_PERF_AT,
@@ -198,7 +205,7 @@ class JpController:
             self.perf_single_step_num,
             self.stale_reads,
         )
-        SEQ.pack_into(buf, JP_PERF_AT, seq + 1)
+        words[JP_PERF_WORD] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -18,10 +18,10 @@ from .rcs.contract import (
     NO_RULE,
     NOP,
     PERF,
-    SEQ,
     caused,
     decode_text,
     encode_text,
+    words,
 )
 
 # Commands wc accepts (the code written to its command buffer).
@@ -54,6 +54,11 @@ WS_LINK = 4  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32s60x???1xI112xQII8x?Q")
 INPUTS_AT = 656
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+WC_STATUS_WORD = WC_STATUS_AT >> 3
+WS_COMMAND_WORD = WS_COMMAND_AT >> 3
+WC_PERF_WORD = WC_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -88,6 +93,7 @@ class WcController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "ws_arg_program",
         "ws_cause",
         "ws_command",
@@ -101,6 +107,7 @@ class WcController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -151,6 +158,7 @@ class WcController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -208,7 +216,7 @@ class WcController:
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, WC_STATUS_AT, seq)  # odd before any field changes
+            words[WC_STATUS_WORD] = seq  # odd before any field changes
             WC_STATUS.pack_into(
                 buf,
                 WC_STATUS_AT,
@@ -221,7 +229,7 @@ class WcController:
                 self.result_accepted,
                 self.cause,
             )
-            SEQ.pack_into(buf, WC_STATUS_AT, seq + 1)
+            words[WC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.ws_command_num != self.ws_written:  # a command was sent
@@ -229,7 +237,7 @@ class WcController:
             if number != self.ws_written:  # an operator's command came meanwhile:
                 self.ws_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, WS_COMMAND_AT, seq)
+            words[WS_COMMAND_WORD] = seq
             WS_COMMAND.pack_into(
                 buf,
                 WS_COMMAND_AT,
@@ -238,7 +246,7 @@ class WcController:
                 self.ws_command,
                 encode_text(self.ws_arg_program, 32),
             )
-            SEQ.pack_into(buf, WS_COMMAND_AT, seq + 1)
+            words[WS_COMMAND_WORD] = seq + 1
             self.ws_written = self.ws_command_num
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -250,7 +258,7 @@ class WcController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, WC_PERF_AT, seq)  # odd before any field changes
+        words[WC_PERF_WORD] = seq  # odd before any field changes
         PERF.pack_into(
             buf,
             WC_PERF_AT,
@@ -262,7 +270,7 @@ class WcController:
             self.perf_single_step_num,
             self.stale_reads,
         )
-        SEQ.pack_into(buf, WC_PERF_AT, seq + 1)
+        words[WC_PERF_WORD] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

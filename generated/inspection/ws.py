@@ -20,10 +20,10 @@ from .rcs.contract import (
     NO_RULE,
     NOP,
     PERF,
-    SEQ,
     caused,
     decode_text,
     encode_text,
+    words,
 )
 
 # Commands ws accepts (the code written to its command buffer).
@@ -73,6 +73,12 @@ FX_LINK = 6  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32s60x???1xI112xQII16xqQ96xQII8xQ")
 INPUTS_AT = 824
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+WS_STATUS_WORD = WS_STATUS_AT >> 3
+MS_COMMAND_WORD = MS_COMMAND_AT >> 3
+FX_COMMAND_WORD = FX_COMMAND_AT >> 3
+WS_PERF_WORD = WS_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -134,10 +140,12 @@ class WsController:
         "status_num",
         "status_seq",
         "var_measured",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_measured: int = 0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -193,6 +201,7 @@ class WsController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -261,7 +270,7 @@ class WsController:
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, WS_STATUS_AT, seq)  # odd before any field changes
+            words[WS_STATUS_WORD] = seq  # odd before any field changes
             WS_STATUS.pack_into(
                 buf,
                 WS_STATUS_AT,
@@ -274,7 +283,7 @@ class WsController:
                 self.result_accepted,
                 self.cause,
             )
-            SEQ.pack_into(buf, WS_STATUS_AT, seq + 1)
+            words[WS_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.ms_command_num != self.ms_written:  # a command was sent
@@ -282,7 +291,7 @@ class WsController:
             if number != self.ms_written:  # an operator's command came meanwhile:
                 self.ms_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, MS_COMMAND_AT, seq)
+            words[MS_COMMAND_WORD] = seq
             MS_COMMAND.pack_into(
                 buf,
                 MS_COMMAND_AT,
@@ -291,16 +300,16 @@ class WsController:
                 self.ms_command,
                 encode_text(self.ms_arg_program, 32),
             )
-            SEQ.pack_into(buf, MS_COMMAND_AT, seq + 1)
+            words[MS_COMMAND_WORD] = seq + 1
             self.ms_written = self.ms_command_num
         if self.fx_command_num != self.fx_written:  # a command was sent
             seq, number = FX_COMMAND.unpack_from(buf, FX_COMMAND_AT)[:2]
             if number != self.fx_written:  # an operator's command came meanwhile:
                 self.fx_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, FX_COMMAND_AT, seq)
+            words[FX_COMMAND_WORD] = seq
             FX_COMMAND.pack_into(buf, FX_COMMAND_AT, seq, self.fx_command_num, self.fx_command)
-            SEQ.pack_into(buf, FX_COMMAND_AT, seq + 1)
+            words[FX_COMMAND_WORD] = seq + 1
             self.fx_written = self.fx_command_num
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -312,7 +321,7 @@ class WsController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, WS_PERF_AT, seq)  # odd before any field changes
+        words[WS_PERF_WORD] = seq  # odd before any field changes
         PERF.pack_into(
             buf,
             WS_PERF_AT,
@@ -324,7 +333,7 @@ class WsController:
             self.perf_single_step_num,
             self.stale_reads,
         )
-        SEQ.pack_into(buf, WS_PERF_AT, seq + 1)
+        words[WS_PERF_WORD] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

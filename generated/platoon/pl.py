@@ -21,8 +21,8 @@ from .rcs.contract import (
     NOP,
     PERF,
     READ_TRIES,
-    SEQ,
     caused,
+    words,
 )
 
 # Commands pl accepts (the code written to its command buffer).
@@ -56,10 +56,15 @@ LDR_LINK = 3  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQId76x???1xI88xQII8x?d??8xQ173xQI12xqd")
 INPUTS_AT = 632
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 632
+# The sequence words of the inputs another process writes are read again after INPUTS, as
+# words 79 of the block's 8-byte words: the read is whole only if none was odd
+# (being written) and none changed.
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+PL_STATUS_WORD = PL_STATUS_AT >> 3
+SEC_COMMAND_WORD = SEC_COMMAND_AT >> 3
+LDR_PL_COMMAND_WORD = LDR_PL_COMMAND_AT >> 3
+PL_PERF_WORD = PL_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -126,10 +131,12 @@ class PlController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -188,8 +195,9 @@ class PlController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+        if values[0] & 1 or not values[0] or words[79] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -264,7 +272,7 @@ class PlController:
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, PL_STATUS_AT, seq)  # odd before any field changes
+            words[PL_STATUS_WORD] = seq  # odd before any field changes
             PL_STATUS.pack_into(
                 buf,
                 PL_STATUS_AT,
@@ -280,7 +288,7 @@ class PlController:
                 self.result_decision,
                 self.cause,
             )
-            SEQ.pack_into(buf, PL_STATUS_AT, seq + 1)
+            words[PL_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.sec_command_num != self.sec_written:  # a command was sent
@@ -288,7 +296,7 @@ class PlController:
             if number != self.sec_written:  # an operator's command came meanwhile:
                 self.sec_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, SEC_COMMAND_AT, seq)
+            words[SEC_COMMAND_WORD] = seq
             SEC_COMMAND.pack_into(
                 buf,
                 SEC_COMMAND_AT,
@@ -297,14 +305,14 @@ class PlController:
                 self.sec_command,
                 self.sec_arg_objective,
             )
-            SEQ.pack_into(buf, SEC_COMMAND_AT, seq + 1)
+            words[SEC_COMMAND_WORD] = seq + 1
             self.sec_written = self.sec_command_num
         if self.ldr_command_num != self.ldr_written:  # a command was sent
             seq, number = LDR_PL_COMMAND.unpack_from(buf, LDR_PL_COMMAND_AT)[:2]
             if number != self.ldr_written:  # an operator's command came meanwhile:
                 self.ldr_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, LDR_PL_COMMAND_AT, seq)
+            words[LDR_PL_COMMAND_WORD] = seq
             LDR_PL_COMMAND.pack_into(
                 buf,
                 LDR_PL_COMMAND_AT,
@@ -313,7 +321,7 @@ class PlController:
                 self.ldr_command,
                 self.ldr_arg_enemy_x,
             )
-            SEQ.pack_into(buf, LDR_PL_COMMAND_AT, seq + 1)
+            words[LDR_PL_COMMAND_WORD] = seq + 1
             self.ldr_written = self.ldr_command_num
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -325,7 +333,7 @@ class PlController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, PL_PERF_AT, seq)  # odd before any field changes
+        words[PL_PERF_WORD] = seq  # odd before any field changes
         PERF.pack_into(
             buf,
             PL_PERF_AT,
@@ -337,7 +345,7 @@ class PlController:
             self.perf_single_step_num,
             self.stale_reads,
         )
-        SEQ.pack_into(buf, PL_PERF_AT, seq + 1)
+        words[PL_PERF_WORD] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -345,13 +353,11 @@ class PlController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (
-                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
-            ):
+            if not (values[0] & 1 or not values[0] or words[79] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

@@ -13,7 +13,7 @@ from .layout import (
     WORLD_VENT_FLOW_AT,
     WORLD_VENT_LINEUP_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 from .rcs.override import held
 
 # Commands ec accepts (the code written to its command buffer).
@@ -27,6 +27,13 @@ EMERGENCY_VENT = 5
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI1600xd456x?15xd8xd8xd8xq8x?15xd")
 INPUTS_AT = 568
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+EC_STATUS_WORD = EC_STATUS_AT >> 3
+WORLD_VENT_FLOW_WORD = WORLD_VENT_FLOW_AT >> 3
+WORLD_VENT_LINEUP_WORD = WORLD_VENT_LINEUP_AT >> 3
+WORLD_DIESEL_RUNNING_WORD = WORLD_DIESEL_RUNNING_AT >> 3
+EC_PERF_WORD = EC_PERF_AT >> 3
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -86,6 +93,7 @@ class EcController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_co2_pct",
         "world_co_ppm",
         "world_diesel_running",
@@ -98,6 +106,7 @@ class EcController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -126,6 +135,7 @@ class EcController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -175,7 +185,7 @@ class EcController:
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, EC_STATUS_AT, seq)  # odd before any field changes
+            words[EC_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 EC_STATUS_AT,
@@ -186,7 +196,7 @@ class EcController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, EC_STATUS_AT, seq + 1)
+            words[EC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
@@ -197,22 +207,20 @@ class EcController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_VENT_FLOW_AT, s[0] | 1)  # odd before the value changes
+                words[WORLD_VENT_FLOW_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_VENT_FLOW_AT, (s[0] | 1) + 1)
+                words[WORLD_VENT_FLOW_WORD] = (s[0] | 1) + 1
             out = (self.world_vent_lineup, self.world_diesel_running)
             now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_2, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
-                SEQ.pack_into(buf, WORLD_VENT_LINEUP_AT, s[0] | 1)  # odd before the value changes
-                SEQ.pack_into(
-                    buf, WORLD_DIESEL_RUNNING_AT, s[1] | 1
-                )  # odd before the value changes
+                words[WORLD_VENT_LINEUP_WORD] = s[0] | 1  # odd before the value changes
+                words[WORLD_DIESEL_RUNNING_WORD] = s[1] | 1  # odd before the value changes
                 WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-                SEQ.pack_into(buf, WORLD_VENT_LINEUP_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_DIESEL_RUNNING_AT, (s[1] | 1) + 1)
+                words[WORLD_VENT_LINEUP_WORD] = (s[0] | 1) + 1
+                words[WORLD_DIESEL_RUNNING_WORD] = (s[1] | 1) + 1
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -223,7 +231,7 @@ class EcController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, EC_PERF_AT, seq)  # odd before any field changes
+        words[EC_PERF_WORD] = seq  # odd before any field changes
         PERF.pack_into(
             buf,
             EC_PERF_AT,
@@ -235,7 +243,7 @@ class EcController:
             self.perf_single_step_num,
             self.stale_reads,
         )
-        SEQ.pack_into(buf, EC_PERF_AT, seq + 1)
+        words[EC_PERF_WORD] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

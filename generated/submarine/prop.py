@@ -14,7 +14,7 @@ from .layout import (
     PROP_STATUS_AT,
     WORLD_SHAFT_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
 from .rcs.override import held
 
 # Commands prop accepts (the code written to its command buffer).
@@ -41,6 +41,12 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI52x???1xI144xQII952xq")
 INPUTS_AT = 968
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+PROP_STATUS_WORD = PROP_STATUS_AT >> 3
+EOOW_PROP_COMMAND_WORD = EOOW_PROP_COMMAND_AT >> 3
+WORLD_SHAFT_WORD = WORLD_SHAFT_AT >> 3
+PROP_PERF_WORD = PROP_PERF_AT >> 3
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -93,11 +99,13 @@ class PropController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_shaft",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -146,6 +154,7 @@ class PropController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -194,7 +203,7 @@ class PropController:
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, PROP_STATUS_AT, seq)  # odd before any field changes
+            words[PROP_STATUS_WORD] = seq  # odd before any field changes
             PROP_STATUS.pack_into(
                 buf,
                 PROP_STATUS_AT,
@@ -206,7 +215,7 @@ class PropController:
                 self.rule,
                 self.cause,
             )
-            SEQ.pack_into(buf, PROP_STATUS_AT, seq + 1)
+            words[PROP_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.eoow_command_num != self.eoow_written:  # a command was sent
@@ -214,11 +223,11 @@ class PropController:
             if number != self.eoow_written:  # an operator's command came meanwhile:
                 self.eoow_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, EOOW_PROP_COMMAND_AT, seq)
+            words[EOOW_PROP_COMMAND_WORD] = seq
             EOOW_PROP_COMMAND.pack_into(
                 buf, EOOW_PROP_COMMAND_AT, seq, self.eoow_command_num, self.eoow_command
             )
-            SEQ.pack_into(buf, EOOW_PROP_COMMAND_AT, seq + 1)
+            words[EOOW_PROP_COMMAND_WORD] = seq + 1
             self.eoow_written = self.eoow_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or buf[OVERRIDDEN_AT]:
@@ -228,9 +237,9 @@ class PropController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_SHAFT_AT, s[0] | 1)  # odd before the value changes
+                words[WORLD_SHAFT_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_SHAFT_AT, (s[0] | 1) + 1)
+                words[WORLD_SHAFT_WORD] = (s[0] | 1) + 1
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -241,7 +250,7 @@ class PropController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, PROP_PERF_AT, seq)  # odd before any field changes
+        words[PROP_PERF_WORD] = seq  # odd before any field changes
         PERF.pack_into(
             buf,
             PROP_PERF_AT,
@@ -253,7 +262,7 @@ class PropController:
             self.perf_single_step_num,
             self.stale_reads,
         )
-        SEQ.pack_into(buf, PROP_PERF_AT, seq + 1)
+        words[PROP_PERF_WORD] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

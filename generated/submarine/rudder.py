@@ -10,7 +10,7 @@ from .layout import (
     RUDDER_SIM_COMMAND_AT,
     RUDDER_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 
 # Commands rudder accepts (the code written to its command buffer).
 INIT = 1
@@ -28,6 +28,11 @@ RUDDER_SIM_ZERO_VOLT = 5
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId44x???1xI528xQI892xd")
 INPUTS_AT = 840
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+RUDDER_STATUS_WORD = RUDDER_STATUS_AT >> 3
+RUDDER_SIM_COMMAND_WORD = RUDDER_SIM_COMMAND_AT >> 3
+RUDDER_PERF_WORD = RUDDER_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -72,11 +77,13 @@ class RudderController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_rudder_angle",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -118,6 +125,7 @@ class RudderController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -161,7 +169,7 @@ class RudderController:
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, RUDDER_STATUS_AT, seq)  # odd before any field changes
+            words[RUDDER_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 RUDDER_STATUS_AT,
@@ -172,7 +180,7 @@ class RudderController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, RUDDER_STATUS_AT, seq + 1)
+            words[RUDDER_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.rudder_sim_command_num != self.rudder_sim_written:  # a command was sent
@@ -180,7 +188,7 @@ class RudderController:
             if number != self.rudder_sim_written:  # an operator's command came meanwhile:
                 self.rudder_sim_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, RUDDER_SIM_COMMAND_AT, seq)
+            words[RUDDER_SIM_COMMAND_WORD] = seq
             RUDDER_SIM_COMMAND.pack_into(
                 buf,
                 RUDDER_SIM_COMMAND_AT,
@@ -188,7 +196,7 @@ class RudderController:
                 self.rudder_sim_command_num,
                 self.rudder_sim_command,
             )
-            SEQ.pack_into(buf, RUDDER_SIM_COMMAND_AT, seq + 1)
+            words[RUDDER_SIM_COMMAND_WORD] = seq + 1
             self.rudder_sim_written = self.rudder_sim_command_num
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -200,7 +208,7 @@ class RudderController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, RUDDER_PERF_AT, seq)  # odd before any field changes
+        words[RUDDER_PERF_WORD] = seq  # odd before any field changes
         PERF.pack_into(
             buf,
             RUDDER_PERF_AT,
@@ -212,7 +220,7 @@ class RudderController:
             self.perf_single_step_num,
             self.stale_reads,
         )
-        SEQ.pack_into(buf, RUDDER_PERF_AT, seq + 1)
+        words[RUDDER_PERF_WORD] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

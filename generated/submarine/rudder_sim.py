@@ -11,7 +11,7 @@ from .layout import (
     RUDDER_SIM_STATUS_AT,
     WORLD_RUDDER_ANGLE_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 from .rcs.override import held
 
 # Commands rudder_sim accepts (the code written to its command buffer).
@@ -25,6 +25,11 @@ ZERO_VOLT = 5
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI864xd8x?")
 INPUTS_AT = 1416
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+RUDDER_SIM_STATUS_WORD = RUDDER_SIM_STATUS_AT >> 3
+WORLD_RUDDER_ANGLE_WORD = WORLD_RUDDER_ANGLE_AT >> 3
+RUDDER_SIM_PERF_WORD = RUDDER_SIM_PERF_AT >> 3
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -68,6 +73,7 @@ class RudderSimController:
         "status_num",
         "status_seq",
         "var_drive",
+        "words",
         "world_rudder_angle",
         "world_rudder_jammed",
         "world_set",
@@ -75,6 +81,7 @@ class RudderSimController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.world_set = False  # an every_cycle rule set a world output
         self.var_drive: int = 0
         self.resume()
@@ -105,6 +112,7 @@ class RudderSimController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -149,7 +157,7 @@ class RudderSimController:
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, RUDDER_SIM_STATUS_AT, seq)  # odd before any field changes
+            words[RUDDER_SIM_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 RUDDER_SIM_STATUS_AT,
@@ -160,7 +168,7 @@ class RudderSimController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, RUDDER_SIM_STATUS_AT, seq + 1)
+            words[RUDDER_SIM_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
@@ -172,9 +180,9 @@ class RudderSimController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_RUDDER_ANGLE_AT, s[0] | 1)  # odd before the value changes
+                words[WORLD_RUDDER_ANGLE_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_RUDDER_ANGLE_AT, (s[0] | 1) + 1)
+                words[WORLD_RUDDER_ANGLE_WORD] = (s[0] | 1) + 1
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
@@ -185,7 +193,7 @@ class RudderSimController:
             self.min_cycle_ns = last
         self.cycles += 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, RUDDER_SIM_PERF_AT, seq)  # odd before any field changes
+        words[RUDDER_SIM_PERF_WORD] = seq  # odd before any field changes
         PERF.pack_into(
             buf,
             RUDDER_SIM_PERF_AT,
@@ -197,7 +205,7 @@ class RudderSimController:
             self.perf_single_step_num,
             self.stale_reads,
         )
-        SEQ.pack_into(buf, RUDDER_SIM_PERF_AT, seq + 1)
+        words[RUDDER_SIM_PERF_WORD] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
