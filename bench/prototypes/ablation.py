@@ -17,7 +17,9 @@ inputs, one write for adjacent world fields, comparisons instead of max()/min() 
 run_cycle holding the four steps itself (44fa027), now their one copy; the seqlock read as
 one look with the test inline and the retries out of line (R1 undoes it); world outputs
 looked at only in a cycle in which a rule fired (R2 undoes it); predicates printed inline
-in the guards that call them (R3 undoes it). G steps drop a guarantee the hand-written
+in the guards that call them (R3 undoes it); sequence words stored and read again through
+the block's 8-byte word view (rcs.contract.words) instead of SEQ.pack_into/unpack_from (R4
+undoes it). G steps drop a guarantee the hand-written
 versions do not give, to show what it costs: G1 the second read of the command's sequence
 word (co's command comes from an operator in another process), G2 the status written
 again in the cycle after a rule fired (so that its `rule` shows only the cycle's rule).
@@ -49,6 +51,11 @@ PEERS = ["handwritten", "minimal"]  # timed in the same rounds, for the ratios
 STEPS = [
     ("R1", "the seqlock read as a loop: for/range, a tuple of the words, for/else", "loop"),
     ("R2", "world outputs compared with the block every cycle, a rule fired or not", "compare"),
+    (
+        "R4",
+        "sequence words stored with SEQ.pack_into and read again with Struct.unpack_from",
+        "packed",
+    ),
     (
         "G1",
         "the command's sequence word not read again (a guarantee dropped: what it costs)",
@@ -105,11 +112,12 @@ def loop(source: str) -> str | None:
     """pre_process's read as the template wrote it before: every try in a for loop, the
     sequence words gathered in a tuple, the stale count in the loop's else."""
     found = FAST_READ.search(source)
-    if found is None or "SEQS.unpack_from(buf, SEQS_AT)" not in found["torn"]:
+    if found is None or "words[" not in found["torn"]:
         return None
     torn = found["torn"]
-    indices = re.findall(r"values\[(\d+)\]", torn[: torn.index("SEQS.unpack_from")])
+    indices = re.findall(r"values\[(\d+)\]", torn[: torn.index("words[")])
     indices = list(dict.fromkeys(indices))  # each word once, in order
+    again = re.findall(r"words\[(\d+)\]", torn)  # their indices in the block's words
     words = [f"seqs[{n}]" for n in range(len(indices))]
     assign = "".join("    " + line + "\n" for line in found["assign"].splitlines())
     replaced = (
@@ -117,7 +125,9 @@ def loop(source: str) -> str | None:
         "            values = INPUTS.unpack_from(buf, INPUTS_AT)\n"
         f"            seqs = ({''.join(f'values[{i}], ' for i in indices)})\n"
         f"            if not ({' | '.join(words)}) & 1 and {' and '.join(words)}"
-        " and SEQS.unpack_from(buf, SEQS_AT) == seqs:\n" + assign + "                break\n"
+        f" and ({''.join(f'words[{w}], ' for w in again)}) == seqs:\n"
+        + assign
+        + "                break\n"
         "        else:  # another process kept writing: keep the inputs of the last whole read\n"
         "            self.stale_reads += 1\n"
     )
@@ -134,7 +144,9 @@ def compare(source: str) -> str | None:
     return source[:start] + "".join(line[4:] + "\n" for line in block.splitlines()) + source[end:]
 
 
-UNCHECKED = re.compile(r"        if values\[0\] & 1 or not values\[0\] or SEQS.unpack_from.*:\n")
+UNCHECKED = re.compile(
+    r"        if values\[0\] & 1 or not values\[0\] or words\[\d+\] != values\[0\]:\n"
+)
 
 
 def unchecked(source: str) -> str | None:
@@ -148,6 +160,27 @@ def unchecked(source: str) -> str | None:
         + "        if values[0] & 1 or not values[0]:\n"
         + source[found.end() :]
     )
+
+
+WORD_STORE = re.compile(r"words\[(\w+)_WORD\] = ")
+WORD_READ = re.compile(r"words\[(\d+)\]")
+
+
+def packed(source: str) -> str | None:
+    """The sequence words as the template wrote them before the word view: each store a
+    `SEQ.pack_into(buf, <buffer>_AT, word)`, each second look a `SEQ.unpack_from`."""
+    if not WORD_STORE.search(source):
+        return None
+    lines = []
+    for line in source.splitlines(keepends=True):
+        store = WORD_STORE.search(line)
+        if store:
+            head, _, rest = line.partition(store[0])
+            value, hash_, comment = rest.rstrip("\n").partition("  #")
+            line = f"{head}SEQ.pack_into(buf, {store[1]}_AT, {value}){hash_ and '  #'}{comment}\n"
+        line = WORD_READ.sub(lambda m: f"SEQ.unpack_from(buf, {int(m[1]) * 8})[0]", line)
+        lines.append(line)
+    return "from miner.rcs.contract import SEQ\n" + "".join(lines)
 
 
 def norule(source: str) -> str | None:
@@ -173,6 +206,7 @@ def variants(generated: str) -> list[tuple[str, str, str | None]]:
         changed: str | None = source
         if isinstance(edits, str):
             edit = {"loop": loop, "compare": compare, "unchecked": unchecked, "norule": norule}
+            edit["packed"] = packed
             changed = edit[edits](source)
         else:
             for old, new in edits:
