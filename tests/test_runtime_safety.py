@@ -1239,12 +1239,28 @@ class Logged:
         self.struct.pack_into(buf, offset, *values)
 
 
+class LoggedWords:
+    """A block's word view (rcs.contract.words) whose stores are logged: ("WORD", offset,
+    value)."""
+
+    def __init__(self, view: Any, log: list[tuple[str, int, int]]) -> None:
+        self.view, self.log = view, log
+
+    def __getitem__(self, index: int) -> int:
+        return int(self.view[index])
+
+    def __setitem__(self, index: int, value: int) -> None:
+        self.log.append(("WORD", index * 8, value))
+        self.view[index] = value
+
+
 def test_every_buffer_a_module_writes_is_marked_odd_alone_first_and_even_after(
     package: ModuleType, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The seqlock of a generated module's writes (status, commands, world outputs, its
-    performance record): the sequence word is stored odd by itself before the store that
-    changes the fields (which zeroes its span first), and one more (even) after it."""
+    performance record): the sequence word is stored odd by itself (one word store) before
+    the stores that change the fields (a `pack_into`, which zeroes its span first, or the
+    performance record's words), and one more (even) after them."""
     contract, layout = part(package, "rcs.contract"), part(package, "layout")
     log: list[tuple[str, int, int]] = []
     for name in ("lead", "v2"):
@@ -1252,31 +1268,46 @@ def test_every_buffer_a_module_writes_is_marked_odd_alone_first_and_even_after(
         for key, value in list(vars(module).items()):
             if isinstance(value, contract.Struct):
                 monkeypatch.setattr(module, key, Logged(key, value, log))
+        monkeypatch.setattr(module, "words", lambda buf: LoggedWords(contract.words(buf), log))
     pl, pb = fleet_process(package, "pl"), fleet_process(package, "pb")
     layout.COMMAND_IN["lead"].write(pl.block.buf, command_num=2, command=3)  # CONVOY
     layout.COMMAND_IN["v2"].write(pb.block.buf, command_num=1, command=3)  # DRIVE
     for _ in range(2):
         pl.run_cycle()
         pb.run_cycle()
-    fields = [(n, at, s) for n, at, s in log if n != "SEQ"]
-    written = {"STATUS", "V1_COMMAND", "V2_COMMAND", "PERF", "WORLD_OUT_1"}
-    assert {n for n, _, _ in fields} >= written
-    for name, at, seq in fields:
-        marks = [s for n, o, s in log if n == "SEQ" and o == at]
-        i = log.index((name, at, seq))
-        before = [s for n, o, s in log[:i] if n == "SEQ" and o == at]
-        after = [s for n, o, s in log[i + 1 :] if n == "SEQ" and o == at]
-        assert seq % 2 == 1, f"{name} stores an even word with its fields"
-        assert before and before[-1] == seq, f"{name}: not marked odd alone first"
-        assert after and after[0] == seq + 1, f"{name}: not marked even after"
-        assert marks, name
-    for at in {at for _, at, _ in fields}:  # each write moves the word on: no ABA
-        odd = [s for n, o, s in fields if o == at]
-        assert odd == sorted(set(odd)), f"the word at {at} repeats: {odd}"
+    size = contract.PERF.size
+    perf = {layout.PERFORMANCE[name].offset for name in ("lead", "v2")}
+    # each store of fields: a Struct's pack_into, or a word of a performance record
+    stores = [(n, at, i) for i, (n, at, _) in enumerate(log) if n != "WORD"]
+    stores += [
+        ("PERF", p, i)
+        for i, (n, at, _) in enumerate(log)
+        for p in perf
+        if n == "WORD" and p < at < p + size
+    ]
+    assert {n for n, _, _ in stores} >= {
+        "STATUS",
+        "V1_COMMAND",
+        "V2_COMMAND",
+        "PERF",
+        "WORLD_OUT_1",
+    }
+    odd: dict[int, list[int]] = {}
+    for name, at, i in stores:
+        before = [s for n, o, s in log[:i] if n == "WORD" and o == at]
+        after = [s for n, o, s in log[i + 1 :] if n == "WORD" and o == at]
+        assert before and before[-1] % 2 == 1, f"{name}: not marked odd alone first"
+        assert after and after[0] == before[-1] + 1, f"{name}: not marked even after"
+        if name != "PERF":
+            assert log[i][2] == before[-1], f"{name} stores another word with its fields"
+            odd.setdefault(at, []).append(before[-1])
+    for at, marks in odd.items():  # each write moves the word on: no ABA
+        assert marks == sorted(set(marks)), f"the word at {at} repeats: {marks}"
     for _ in range(3):  # lead in S1, waiting: nothing new to say
         log.clear()
         pl.run_cycle()
-    assert [n for n, _, _ in log if n not in ("SEQ", "PERF")] == [], "a status unchanged"
+    assert [n for n, _, _ in log if n != "WORD"] == [], "a status unchanged"
+    assert {o for _, o, _ in log} <= {o for p in perf for o in range(p, p + size, 8)}, "perf"
 
 
 def test_a_supervisor_told_its_subordinate_is_lost_sees_it_in_error(package: ModuleType) -> None:

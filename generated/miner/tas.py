@@ -37,9 +37,10 @@ HALT = 2
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI1376xq8xq56xd8xd8xd56xd8x?")
 INPUTS_AT = 2448
-# The sequence words of the inputs another process writes are read again after INPUTS, as
-# words 306 of the block's 8-byte words: the read is whole only if none was odd
-# (being written) and none changed.
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (306,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 TAS_STATUS_WORD = TAS_STATUS_AT >> 3
@@ -186,11 +187,12 @@ class TasController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
@@ -227,29 +229,24 @@ class TasController:
                 words[WORLD_TRUE_X_WORD] = (s[0] | 1) + 1
                 words[WORLD_TRUE_Y_WORD] = (s[1] | 1) + 1
                 words[WORLD_TRUE_HEADING_WORD] = (s[2] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        words[TAS_PERF_WORD] = seq  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            TAS_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        words[TAS_PERF_WORD] = seq + 1
+        at = TAS_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

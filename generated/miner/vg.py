@@ -56,9 +56,10 @@ TC_STOP = 13
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd44x???1xI80xQI1572xQQI204xQdQdQ?271xd8xd8xd")
 INPUTS_AT = 1824
-# The sequence words of the inputs another process writes are read again after INPUTS, as
-# words 446, 474, 476, 478 of the block's 8-byte words: the read is whole only if none was odd
-# (being written) and none changed.
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (446, 474, 476, 478)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 VG_STATUS_WORD = VG_STATUS_AT >> 3
@@ -263,13 +264,14 @@ class VgController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == TRAM_TO_XY:
-                self.tram_to_xy()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == TRAM_TO_XY:
+                    self.tram_to_xy()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
@@ -314,29 +316,24 @@ class VgController:
             TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq, self.tc_command_num, self.tc_command)
             words[TC_COMMAND_WORD] = seq + 1
             self.tc_written = self.tc_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        words[VG_PERF_WORD] = seq  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            VG_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        words[VG_PERF_WORD] = seq + 1
+        at = VG_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -196,17 +196,18 @@ class CrController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == SUMP:
-                self.sump()
-            elif command == SHEAR:
-                self.shear()
-            elif command == CUSP:
-                self.cusp()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == SUMP:
+                    self.sump()
+                elif command == SHEAR:
+                    self.shear()
+                elif command == CUSP:
+                    self.cusp()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
@@ -252,29 +253,24 @@ class CrController:
             CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq, self.ct_command_num, self.ct_command)
             words[CT_COMMAND_WORD] = seq + 1
             self.ct_written = self.ct_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        words[CR_PERF_WORD] = seq  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            CR_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        words[CR_PERF_WORD] = seq + 1
+        at = CR_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

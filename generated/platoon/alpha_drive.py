@@ -156,15 +156,16 @@ class AlphaDriveController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == SPEED:
-                self.speed()
-            elif command == STOP:
-                self.stop()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == SPEED:
+                    self.speed()
+                elif command == STOP:
+                    self.stop()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
@@ -201,29 +202,24 @@ class AlphaDriveController:
                 words[WORLD_ALPHA_THROTTLE_WORD] = (s[0] | 1) + 1
                 words[WORLD_ALPHA_BRAKE_WORD] = (s[1] | 1) + 1
                 words[WORLD_ALPHA_STEER_WORD] = (s[2] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        words[ALPHA_DRIVE_PERF_WORD] = seq  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            ALPHA_DRIVE_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        words[ALPHA_DRIVE_PERF_WORD] = seq + 1
+        at = ALPHA_DRIVE_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -56,9 +56,10 @@ LDR_LINK = 3  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQId76x???1xI88xQII8x?d??8xQ173xQI12xqd")
 INPUTS_AT = 632
-# The sequence words of the inputs another process writes are read again after INPUTS, as
-# words 79 of the block's 8-byte words: the read is whole only if none was odd
-# (being written) and none changed.
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (79,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 PL_STATUS_WORD = PL_STATUS_AT >> 3
@@ -261,13 +262,14 @@ class PlController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == ESTABLISH_OP:
-                self.establish_op()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == ESTABLISH_OP:
+                    self.establish_op()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
@@ -323,29 +325,24 @@ class PlController:
             )
             words[LDR_PL_COMMAND_WORD] = seq + 1
             self.ldr_written = self.ldr_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        words[PL_PERF_WORD] = seq  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            PL_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        words[PL_PERF_WORD] = seq + 1
+        at = PL_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

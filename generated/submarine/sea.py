@@ -23,9 +23,10 @@ HALT = 2
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI472xd328xd8xd8xd")
 INPUTS_AT = 1768
-# The sequence words of the inputs another process writes are read again after INPUTS, as
-# words 221 of the block's 8-byte words: the read is whole only if none was odd
-# (being written) and none changed.
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (221,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 SEA_STATUS_WORD = SEA_STATUS_AT >> 3
@@ -147,11 +148,12 @@ class SeaController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
@@ -184,29 +186,24 @@ class SeaController:
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 words[WORLD_BELOW_KEEL_WORD] = (s[0] | 1) + 1
                 words[WORLD_MIN_BELOW_KEEL_WORD] = (s[1] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        words[SEA_PERF_WORD] = seq  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SEA_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        words[SEA_PERF_WORD] = seq + 1
+        at = SEA_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -58,6 +58,9 @@ MODE_FIELDS = (
     ("pad", "x"),
     ("single_step_num", "I"),
 )
+# The generated code stores a performance buffer word by word (templates/controller.py.j2):
+# after its sequence word, last, min, max, cycles, then single_step_num and stale_reads as
+# one word (low half, high half). Keep their order and sizes, or change the template too.
 PERF_FIELDS = (
     ("last_cycle_ns", "Q"),
     ("min_cycle_ns", "Q"),
@@ -453,6 +456,8 @@ def words(buf: memoryview) -> memoryview:
     8-byte access. The generated code stores its sequence words so, not with
     `SEQ.pack_into`, which parses its arguments and zeroes the word before it stores it
     (three times the time; the word reads 0, a write in progress, meanwhile)."""
+    if sys.byteorder != "little":  # the layout's words are little-endian ("<Q")
+        raise RuntimeError("rcsgen blocks need a little-endian machine (see docs/semantics.md)")
     views = _Words.views
     key = id(buf)
     found = views.get(key)

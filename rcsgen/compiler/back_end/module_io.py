@@ -312,7 +312,7 @@ def _runtime_names(
 ) -> set[str]:
     """The contract's names a controller module imports: those its rules need (lowered with
     them), the block's word view, the text codec of its string fields, the seqlock's tries."""
-    names = {*c.runtime_names, "words"}
+    names = {*c.runtime_names, "words", "NOP"}  # NOP: an idle module runs no table
     if read.texts or resume_texts:
         names.add("decode_text")
     if any(f.text for f in written):

@@ -70,6 +70,7 @@ FIXED_MODULES = frozenset({"layout", "rcs", "__init__", "__main__", "hooks"})
 RUNTIME_NAMES = frozenset(
     {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "NO_RULE", "STATUS", "MODE", "PERF"}
     | {"INPUTS", "INPUTS_AT", "SEQS", "SEQS_AT", "SEQ", "READ_TRIES", "Struct", "words"}
+    | {"SEQ_WORDS"}
     # the hook calls: the helper that makes each a method, the factory's deadline
     | {"hook", "within", "FACTORY_DEADLINE"}
 )
