@@ -31,6 +31,7 @@ SEQ_WORDS = (84,)
 ARM_STATUS_WORD = ARM_STATUS_AT >> 3
 WORLD_ARM_X_WORD = WORLD_ARM_X_AT >> 3
 ARM_PERF_WORD = ARM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -28,6 +28,7 @@ INPUTS_AT = 552
 EXE_STATUS_WORD = EXE_STATUS_AT >> 3
 WORLD_ARM_SPEED_WORD = WORLD_ARM_SPEED_AT >> 3
 EXE_PERF_WORD = EXE_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

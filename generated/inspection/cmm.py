@@ -35,6 +35,7 @@ WORLD_CMM_OP_WORD = WORLD_CMM_OP_AT >> 3
 WORLD_CMM_FEATURE_WORD = WORLD_CMM_FEATURE_AT >> 3
 WORLD_CMM_SEQ_WORD = WORLD_CMM_SEQ_AT >> 3
 CMM_PERF_WORD = CMM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

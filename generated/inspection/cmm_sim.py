@@ -48,6 +48,7 @@ WORLD_CMM_DONE_SEQ_WORD = WORLD_CMM_DONE_SEQ_AT >> 3
 WORLD_CMM_READING_WORD = WORLD_CMM_READING_AT >> 3
 WORLD_CMM_ALARM_WORD = WORLD_CMM_ALARM_AT >> 3
 CMM_SIM_PERF_WORD = CMM_SIM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

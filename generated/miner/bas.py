@@ -44,6 +44,7 @@ SEQ_WORDS = (276,)
 BAS_STATUS_WORD = BAS_STATUS_AT >> 3
 WORLD_BOOM_ANGLE_TRUE_WORD = WORLD_BOOM_ANGLE_TRUE_AT >> 3
 BAS_PERF_WORD = BAS_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

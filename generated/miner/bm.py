@@ -29,6 +29,7 @@ INPUTS_AT = 984
 BM_STATUS_WORD = BM_STATUS_AT >> 3
 WORLD_BOOM_RATE_CMD_WORD = WORLD_BOOM_RATE_CMD_AT >> 3
 BM_PERF_WORD = BM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -44,6 +44,7 @@ SEQ_WORDS = (366,)
 BSS_STATUS_WORD = BSS_STATUS_AT >> 3
 WORLD_BOOM_ANGLE_WORD = WORLD_BOOM_ANGLE_AT >> 3
 BSS_PERF_WORD = BSS_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

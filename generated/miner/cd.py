@@ -29,6 +29,7 @@ INPUTS_AT = 1104
 CD_STATUS_WORD = CD_STATUS_AT >> 3
 WORLD_DRUM_ON_CMD_WORD = WORLD_DRUM_ON_CMD_AT >> 3
 CD_PERF_WORD = CD_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -44,6 +44,7 @@ SEQ_WORDS = (396,)
 CSS_STATUS_WORD = CSS_STATUS_AT >> 3
 WORLD_CUTTER_CURRENT_WORD = WORLD_CUTTER_CURRENT_AT >> 3
 CSS_PERF_WORD = CSS_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

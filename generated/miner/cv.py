@@ -28,6 +28,7 @@ INPUTS_AT = 1584
 CV_STATUS_WORD = CV_STATUS_AT >> 3
 WORLD_CONVEYOR_ON_CMD_WORD = WORLD_CONVEYOR_ON_CMD_AT >> 3
 CV_PERF_WORD = CV_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

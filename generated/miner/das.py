@@ -31,6 +31,7 @@ SEQ_WORDS = (336,)
 DAS_STATUS_WORD = DAS_STATUS_AT >> 3
 WORLD_DRUM_CURRENT_TRUE_WORD = WORLD_DRUM_CURRENT_TRUE_AT >> 3
 DAS_PERF_WORD = DAS_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

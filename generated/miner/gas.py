@@ -48,6 +48,7 @@ WORLD_LOOSE_COAL_TRUE_WORD = WORLD_LOOSE_COAL_TRUE_AT >> 3
 WORLD_COAL_MINED_WORD = WORLD_COAL_MINED_AT >> 3
 WORLD_SHUTTLE_CAR_AWAY_WORD = WORLD_SHUTTLE_CAR_AWAY_AT >> 3
 GAS_PERF_WORD = GAS_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

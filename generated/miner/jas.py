@@ -44,6 +44,7 @@ SEQ_WORDS = (291,)
 JAS_STATUS_WORD = JAS_STATUS_AT >> 3
 WORLD_JACK_DOWN_WORD = WORLD_JACK_DOWN_AT >> 3
 JAS_PERF_WORD = JAS_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

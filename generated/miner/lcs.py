@@ -44,6 +44,7 @@ SEQ_WORDS = (411,)
 LCS_STATUS_WORD = LCS_STATUS_AT >> 3
 WORLD_LOOSE_COAL_WORD = WORLD_LOOSE_COAL_AT >> 3
 LCS_PERF_WORD = LCS_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -52,6 +52,7 @@ WORLD_FACE_X_WORD = WORLD_FACE_X_AT >> 3
 WORLD_DEPTH_CUT_WORD = WORLD_DEPTH_CUT_AT >> 3
 WORLD_LOOSE_COAL_TRUE_WORD = WORLD_LOOSE_COAL_TRUE_AT >> 3
 MINE_PERF_WORD = MINE_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

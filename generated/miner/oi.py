@@ -37,6 +37,7 @@ WORLD_TAIL_IN_POSITION_WORD = WORLD_TAIL_IN_POSITION_AT >> 3
 WORLD_OPERATOR_GOAL_X_WORD = WORLD_OPERATOR_GOAL_X_AT >> 3
 WORLD_OPERATOR_GOAL_Y_WORD = WORLD_OPERATOR_GOAL_Y_AT >> 3
 OI_PERF_WORD = OI_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

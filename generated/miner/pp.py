@@ -52,6 +52,7 @@ WORLD_WP_X_WORD = WORLD_WP_X_AT >> 3
 WORLD_WP_Y_WORD = WORLD_WP_Y_AT >> 3
 WORLD_WP_LAST_WORD = WORLD_WP_LAST_AT >> 3
 PP_PERF_WORD = PP_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -48,6 +48,7 @@ WORLD_POSE_X_WORD = WORLD_POSE_X_AT >> 3
 WORLD_POSE_Y_WORD = WORLD_POSE_Y_AT >> 3
 WORLD_HEADING_WORD = WORLD_HEADING_AT >> 3
 PSS_PERF_WORD = PSS_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

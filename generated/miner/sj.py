@@ -29,6 +29,7 @@ INPUTS_AT = 1224
 SJ_STATUS_WORD = SJ_STATUS_AT >> 3
 WORLD_JACK_DOWN_CMD_WORD = WORLD_JACK_DOWN_CMD_AT >> 3
 SJ_PERF_WORD = SJ_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

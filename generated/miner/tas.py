@@ -48,6 +48,7 @@ WORLD_TRUE_X_WORD = WORLD_TRUE_X_AT >> 3
 WORLD_TRUE_Y_WORD = WORLD_TRUE_Y_AT >> 3
 WORLD_TRUE_HEADING_WORD = WORLD_TRUE_HEADING_AT >> 3
 TAS_PERF_WORD = TAS_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

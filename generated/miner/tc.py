@@ -40,6 +40,7 @@ TC_STATUS_WORD = TC_STATUS_AT >> 3
 WORLD_LEFT_TREAD_CMD_WORD = WORLD_LEFT_TREAD_CMD_AT >> 3
 WORLD_RIGHT_TREAD_CMD_WORD = WORLD_RIGHT_TREAD_CMD_AT >> 3
 TC_PERF_WORD = TC_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

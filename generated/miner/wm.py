@@ -35,6 +35,7 @@ WORLD_POPPED_OUT_OF_SHEAR_WORD = WORLD_POPPED_OUT_OF_SHEAR_AT >> 3
 WORLD_DEPTH_EST_WORD = WORLD_DEPTH_EST_AT >> 3
 WORLD_DRUM_REACH_WORD = WORLD_DRUM_REACH_AT >> 3
 WM_PERF_WORD = WM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -67,6 +67,7 @@ CC_COMMAND_WORD = CC_COMMAND_AT >> 3
 WORLD_GOAL_X_WORD = WORLD_GOAL_X_AT >> 3
 WORLD_GOAL_Y_WORD = WORLD_GOAL_Y_AT >> 3
 CO_PERF_WORD = CO_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

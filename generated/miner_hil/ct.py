@@ -28,6 +28,7 @@ INPUTS_AT = 1704
 CT_STATUS_WORD = CT_STATUS_AT >> 3
 WORLD_TAIL_REQUEST_WORD = WORLD_TAIL_REQUEST_AT >> 3
 CT_PERF_WORD = CT_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

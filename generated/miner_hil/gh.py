@@ -31,6 +31,7 @@ GH_STATUS_WORD = GH_STATUS_AT >> 3
 WORLD_PAN_FLOAT_CMD_WORD = WORLD_PAN_FLOAT_CMD_AT >> 3
 WORLD_GATHER_ON_CMD_WORD = WORLD_GATHER_ON_CMD_AT >> 3
 GH_PERF_WORD = GH_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -50,6 +50,7 @@ CO_COMMAND_WORD = CO_COMMAND_AT >> 3
 WM_COMMAND_WORD = WM_COMMAND_AT >> 3
 WORLD_SUMP_STEP_WORD = WORLD_SUMP_STEP_AT >> 3
 SB_PERF_WORD = SB_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

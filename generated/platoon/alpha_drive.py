@@ -33,6 +33,7 @@ WORLD_ALPHA_THROTTLE_WORD = WORLD_ALPHA_THROTTLE_AT >> 3
 WORLD_ALPHA_BRAKE_WORD = WORLD_ALPHA_BRAKE_AT >> 3
 WORLD_ALPHA_STEER_WORD = WORLD_ALPHA_STEER_AT >> 3
 ALPHA_DRIVE_PERF_WORD = ALPHA_DRIVE_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -35,6 +35,7 @@ WORLD_ALPHA_X_WORD = WORLD_ALPHA_X_AT >> 3
 WORLD_ALPHA_Y_WORD = WORLD_ALPHA_Y_AT >> 3
 WORLD_ALPHA_SPEED_WORD = WORLD_ALPHA_SPEED_AT >> 3
 ALPHA_MOTION_PERF_WORD = ALPHA_MOTION_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -28,6 +28,7 @@ INPUTS_AT = 1696
 ALPHA_PAN_STATUS_WORD = ALPHA_PAN_STATUS_AT >> 3
 WORLD_ALPHA_PAN_CMD_WORD = WORLD_ALPHA_PAN_CMD_AT >> 3
 ALPHA_PAN_PERF_WORD = ALPHA_PAN_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

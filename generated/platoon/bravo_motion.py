@@ -35,6 +35,7 @@ WORLD_BRAVO_X_WORD = WORLD_BRAVO_X_AT >> 3
 WORLD_BRAVO_Y_WORD = WORLD_BRAVO_Y_AT >> 3
 WORLD_BRAVO_SPEED_WORD = WORLD_BRAVO_SPEED_AT >> 3
 BRAVO_MOTION_PERF_WORD = BRAVO_MOTION_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

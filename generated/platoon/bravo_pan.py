@@ -28,6 +28,7 @@ INPUTS_AT = 2616
 BRAVO_PAN_STATUS_WORD = BRAVO_PAN_STATUS_AT >> 3
 WORLD_BRAVO_PAN_CMD_WORD = WORLD_BRAVO_PAN_CMD_AT >> 3
 BRAVO_PAN_PERF_WORD = BRAVO_PAN_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

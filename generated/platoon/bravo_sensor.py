@@ -38,6 +38,7 @@ WORLD_BRAVO_PAN_WORD = WORLD_BRAVO_PAN_AT >> 3
 WORLD_BRAVO_CONTACT_WORD = WORLD_BRAVO_CONTACT_AT >> 3
 WORLD_BRAVO_CONTACT_X_WORD = WORLD_BRAVO_CONTACT_X_AT >> 3
 BRAVO_SENSOR_PERF_WORD = BRAVO_SENSOR_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -39,6 +39,7 @@ WORLD_O2_PCT_WORD = WORLD_O2_PCT_AT >> 3
 WORLD_CO2_PCT_WORD = WORLD_CO2_PCT_AT >> 3
 WORLD_CO_PPM_WORD = WORLD_CO_PPM_AT >> 3
 ATMOSPHERE_PERF_WORD = ATMOSPHERE_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

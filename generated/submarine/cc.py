@@ -87,6 +87,7 @@ SM_COMMAND_WORD = SM_COMMAND_AT >> 3
 EC_COMMAND_WORD = EC_COMMAND_AT >> 3
 WORLD_ANNOUNCEMENT_WORD = WORLD_ANNOUNCEMENT_AT >> 3
 CC_PERF_WORD = CC_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -34,6 +34,7 @@ WORLD_VENT_FLOW_WORD = WORLD_VENT_FLOW_AT >> 3
 WORLD_VENT_LINEUP_WORD = WORLD_VENT_LINEUP_AT >> 3
 WORLD_DIESEL_RUNNING_WORD = WORLD_DIESEL_RUNNING_AT >> 3
 EC_PERF_WORD = EC_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -47,6 +47,7 @@ HELM_STATUS_WORD = HELM_STATUS_AT >> 3
 RUDDER_COMMAND_WORD = RUDDER_COMMAND_AT >> 3
 WORLD_COURSE_WORD = WORLD_COURSE_AT >> 3
 HELM_PERF_WORD = HELM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -47,6 +47,7 @@ PROP_STATUS_WORD = PROP_STATUS_AT >> 3
 EOOW_PROP_COMMAND_WORD = EOOW_PROP_COMMAND_AT >> 3
 WORLD_SHAFT_WORD = WORLD_SHAFT_AT >> 3
 PROP_PERF_WORD = PROP_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -30,6 +30,7 @@ INPUTS_AT = 1416
 RUDDER_SIM_STATUS_WORD = RUDDER_SIM_STATUS_AT >> 3
 WORLD_RUDDER_ANGLE_WORD = WORLD_RUDDER_ANGLE_AT >> 3
 RUDDER_SIM_PERF_WORD = RUDDER_SIM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

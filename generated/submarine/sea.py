@@ -33,6 +33,7 @@ SEA_STATUS_WORD = SEA_STATUS_AT >> 3
 WORLD_BELOW_KEEL_WORD = WORLD_BELOW_KEEL_AT >> 3
 WORLD_MIN_BELOW_KEEL_WORD = WORLD_MIN_BELOW_KEEL_AT >> 3
 SEA_PERF_WORD = SEA_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -44,6 +44,7 @@ WORLD_SPEED_WORD = WORLD_SPEED_AT >> 3
 WORLD_DEPTH_WORD = WORLD_DEPTH_AT >> 3
 WORLD_BUBBLE_WORD = WORLD_BUBBLE_AT >> 3
 SHIP_PERF_WORD = SHIP_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -98,6 +98,7 @@ WORLD_BALLAST_WORD = WORLD_BALLAST_AT >> 3
 WORLD_PLANES_WORD = WORLD_PLANES_AT >> 3
 WORLD_MBT_BLOWN_WORD = WORLD_MBT_BLOWN_AT >> 3
 SM_PERF_WORD = SM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.

@@ -74,6 +74,7 @@ WORLD_SONAR_13_WORD = WORLD_SONAR_13_AT >> 3
 WORLD_CLEARANCE_WORD = WORLD_CLEARANCE_AT >> 3
 WORLD_MIN_CLEARANCE_WORD = WORLD_MIN_CLEARANCE_AT >> 3
 SONAR_PERF_WORD = SONAR_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
