@@ -497,7 +497,10 @@ def section_co(co: dict, ablation: list | None) -> list[str]:
             "in another process (its reads of their status under the seqlock, which the "
             "same-process baseline and floor do not pay): R1 undoes the read's fast path (one "
             "look, the test inline, the retries out of line), R2 the rule gate on the world "
-            "outputs (compared every cycle instead), R3 the predicates printed inline; G2 "
+            "outputs (compared every cycle instead), R3 the predicates printed inline, R4 "
+            "the block's 8-byte word view (sequence words through SEQ.pack_into/unpack_from "
+            "again, the performance buffer packed whole every cycle), R5 the idle test (the "
+            "table method called in NOP too); G2 "
             "does not write the status again in the cycle after a rule fired (G1, the second "
             "read of the command's sequence word, applies to the same-process build: "
             "`ablation.py --same-process`).",

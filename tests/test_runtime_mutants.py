@@ -181,6 +181,22 @@ class Stepped:
                 self.seen.append(self.run.unpack_from(self.buf, self.at))
 
 
+class SteppedWords:
+    """The block's word view (rcs.contract.words) whose every store (one aligned 8-byte
+    store: no zero fill) records the run of world fields at `at`, as `Stepped` does."""
+
+    def __init__(self, words: Any, run: Any, buf: memoryview, at: int, seen: list[Any]) -> None:
+        self.words, self.run, self.buf, self.at, self.seen = words, run, buf, at, seen
+
+    def __getitem__(self, index: int) -> int:
+        return int(self.words[index])
+
+    def __setitem__(self, index: int, value: int) -> None:
+        self.words[index] = value
+        if self.at <= index * 8 < self.at + self.run.size:
+            self.seen.append(self.run.unpack_from(self.buf, self.at))
+
+
 def whole(word: int) -> bool:
     """What a reader's seqlock accepts: an even word, not 0."""
     return word != 0 and word % 2 == 0
@@ -196,12 +212,15 @@ def test_a_world_write_of_adjacent_fields_changes_no_value_while_its_word_is_eve
     before, a value changes only in a step with its word not whole before and after, and
     the values written are pss's. So each word is made odd on its own before any store
     of the run: a store of the whole run with the words odd and the values as they are
-    would zero a value before its word."""
+    would zero a value before its word. The words are stored through the word view
+    (one 8-byte store each), the run with one `pack_into`."""
     with Harness.build(MINER, "pc1") as h:
         pss = importlib.import_module(f"{h.package.__name__}.pss")
         run, at, seen = pss.WORLD_OUT_1, pss.WORLD_OUT_1_AT, []
         monkeypatch.setattr(pss, "WORLD_OUT_1", Stepped(run, run, h.buf, at, seen))
-        monkeypatch.setattr(pss, "SEQ", Stepped(pss.SEQ, run, h.buf, at, seen))
+        controller = h.controller("pss")
+        words = SteppedWords(controller.words, run, h.buf, at, seen)
+        monkeypatch.setattr(controller, "words", words)
         under: dict[tuple[int, int], Any] = {}  # (field, whole word) -> its value
         for cycle in range(5):
             h.world.update(

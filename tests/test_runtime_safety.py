@@ -1235,12 +1235,28 @@ class Logged:
         self.struct.pack_into(buf, offset, *values)
 
 
+class LoggedWords:
+    """A block's word view (rcs.contract.words) whose stores are logged: ("WORD", offset,
+    value)."""
+
+    def __init__(self, view: Any, log: list[tuple[str, int, int]]) -> None:
+        self.view, self.log = view, log
+
+    def __getitem__(self, index: int) -> int:
+        return int(self.view[index])
+
+    def __setitem__(self, index: int, value: int) -> None:
+        self.log.append(("WORD", index * 8, value))
+        self.view[index] = value
+
+
 def test_every_buffer_a_module_writes_is_marked_odd_alone_first_and_even_after(
     package: ModuleType, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The seqlock of a generated module's writes (status, commands, world outputs, its
-    performance record): the sequence word is stored odd by itself before the store that
-    changes the fields (which zeroes its span first), and one more (even) after it."""
+    performance record): the sequence word is stored odd by itself (one word store) before
+    the stores that change the fields (a `pack_into`, which zeroes its span first, or the
+    performance record's words), and one more (even) after them."""
     contract, layout = part(package, "rcs.contract"), part(package, "layout")
     log: list[tuple[str, int, int]] = []
     for name in ("lead", "v2"):
@@ -1248,31 +1264,46 @@ def test_every_buffer_a_module_writes_is_marked_odd_alone_first_and_even_after(
         for key, value in list(vars(module).items()):
             if isinstance(value, contract.Struct):
                 monkeypatch.setattr(module, key, Logged(key, value, log))
+        monkeypatch.setattr(module, "words", lambda buf: LoggedWords(contract.words(buf), log))
     pl, pb = fleet_process(package, "pl"), fleet_process(package, "pb")
     layout.COMMAND_IN["lead"].write(pl.block.buf, command_num=2, command=3)  # CONVOY
     layout.COMMAND_IN["v2"].write(pb.block.buf, command_num=1, command=3)  # DRIVE
     for _ in range(2):
         pl.run_cycle()
         pb.run_cycle()
-    fields = [(n, at, s) for n, at, s in log if n != "SEQ"]
-    written = {"STATUS", "V1_COMMAND", "V2_COMMAND", "PERF", "WORLD_OUT_1"}
-    assert {n for n, _, _ in fields} >= written
-    for name, at, seq in fields:
-        marks = [s for n, o, s in log if n == "SEQ" and o == at]
-        i = log.index((name, at, seq))
-        before = [s for n, o, s in log[:i] if n == "SEQ" and o == at]
-        after = [s for n, o, s in log[i + 1 :] if n == "SEQ" and o == at]
-        assert seq % 2 == 1, f"{name} stores an even word with its fields"
-        assert before and before[-1] == seq, f"{name}: not marked odd alone first"
-        assert after and after[0] == seq + 1, f"{name}: not marked even after"
-        assert marks, name
-    for at in {at for _, at, _ in fields}:  # each write moves the word on: no ABA
-        odd = [s for n, o, s in fields if o == at]
-        assert odd == sorted(set(odd)), f"the word at {at} repeats: {odd}"
+    size = contract.PERF.size
+    perf = {layout.PERFORMANCE[name].offset for name in ("lead", "v2")}
+    # each store of fields: a Struct's pack_into, or a word of a performance record
+    stores = [(n, at, i) for i, (n, at, _) in enumerate(log) if n != "WORD"]
+    stores += [
+        ("PERF", p, i)
+        for i, (n, at, _) in enumerate(log)
+        for p in perf
+        if n == "WORD" and p < at < p + size
+    ]
+    assert {n for n, _, _ in stores} >= {
+        "STATUS",
+        "V1_COMMAND",
+        "V2_COMMAND",
+        "PERF",
+        "WORLD_OUT_1",
+    }
+    odd: dict[int, list[int]] = {}
+    for name, at, i in stores:
+        before = [s for n, o, s in log[:i] if n == "WORD" and o == at]
+        after = [s for n, o, s in log[i + 1 :] if n == "WORD" and o == at]
+        assert before and before[-1] % 2 == 1, f"{name}: not marked odd alone first"
+        assert after and after[0] == before[-1] + 1, f"{name}: not marked even after"
+        if name != "PERF":
+            assert log[i][2] == before[-1], f"{name} stores another word with its fields"
+            odd.setdefault(at, []).append(before[-1])
+    for at, marks in odd.items():  # each write moves the word on: no ABA
+        assert marks == sorted(set(marks)), f"the word at {at} repeats: {marks}"
     for _ in range(3):  # lead in S1, waiting: nothing new to say
         log.clear()
         pl.run_cycle()
-    assert [n for n, _, _ in log if n not in ("SEQ", "PERF")] == [], "a status unchanged"
+    assert [n for n, _, _ in log if n != "WORD"] == [], "a status unchanged"
+    assert {o for _, o, _ in log} <= {o for p in perf for o in range(p, p + size, 8)}, "perf"
 
 
 def test_a_supervisor_told_its_subordinate_is_lost_sees_it_in_error(package: ModuleType) -> None:
@@ -1345,6 +1376,49 @@ def test_a_module_made_again_writes_whole_over_buffers_its_predecessor_left_odd(
     assert status.read(buf)["status_num"] == 2
     assert perf.read(buf)["cycles"] >= 1
     assert (status.seq(buf), perf.seq(buf)) == (odd[0] + 3, odd[1] + 3)
+
+
+def test_the_modules_on_a_segment_share_one_word_view_and_the_segment_closes_under_them(
+    package: ModuleType, segment_name: str
+) -> None:
+    """Every generated module stores its sequence words through one 8-byte word view of the
+    block (rcs.contract.words): the modules of a process share it, what it stores is the word
+    a tool reads, and closing the block releases it, so the segment is unmapped and removed
+    while the modules still exist (a view left on it would make the unmap fail)."""
+    import os
+
+    layout, plan = part(package, "layout"), part(package, "main_pb").PLAN
+    block = part(package, "rcs.block").Block(layout, segment_name)
+    pb = part(package, "rcs.loop").Process(plan, layout, block)
+    views = {id(m.words) for m in [*pb.instances.values(), *pb.stand_ins.values()]}
+    layout.COMMAND_IN["v2"].write(block.buf, command_num=1, command=3)  # DRIVE
+    pb.run_cycle()
+    perf = layout.PERFORMANCE["v2"]
+    seq = perf.seq(block.buf)
+    assert len(views) == 1 and seq % 2 == 0 and seq > 2, "one view, the buffer written whole"
+    assert pb.instances["v2"].words[perf.offset >> 3] == seq
+    block.close()  # no BufferError: the word view went with the block's
+    assert not os.path.exists(f"/dev/shm/{segment_name}")
+    with pytest.raises(ValueError, match="released"):
+        pb.instances["v2"].words[0]
+
+
+def test_a_private_block_s_word_view_goes_with_its_view(package: ModuleType) -> None:
+    """The word view of a block view no one closes (a harness's, a test's) is dropped with
+    that view, not kept (with its memory) for the life of the process."""
+    import gc
+
+    contract = part(package, "rcs.contract")
+    buf = memoryview(bytearray(64))
+    words = contract.words(buf)
+    assert contract.words(buf) is words and len(words) == 8
+    words[1] = 7
+    assert contract.SEQ.unpack_from(buf, 8)[0] == 7
+    key = id(buf)
+    assert key in contract._Words.views
+    del buf, words
+    gc.collect()
+    assert key not in contract._Words.views
 
 
 def test_a_layout_without_pacing_records_is_watched_with_the_declared_timeout(

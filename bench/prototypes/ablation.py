@@ -17,10 +17,15 @@ inputs, one write for adjacent world fields, comparisons instead of max()/min() 
 run_cycle holding the four steps itself (44fa027), now their one copy; the seqlock read as
 one look with the test inline and the retries out of line (R1 undoes it); world outputs
 looked at only in a cycle in which a rule fired (R2 undoes it); predicates printed inline
-in the guards that call them (R3 undoes it). G steps drop a guarantee the hand-written
-versions do not give, to show what it costs: G1 the second read of the command's sequence
-word (co's command comes from an operator in another process), G2 the status written
-again in the cycle after a rule fired (so that its `rule` shows only the cycle's rule).
+in the guards that call them (R3 undoes it); sequence words stored and read again through
+the block's 8-byte word view (rcs.contract.words) instead of SEQ.pack_into/unpack_from, and
+the performance buffer written word by word, only the words that changed (R4 undoes both);
+no table method called while the module is idle in NOP (R5 undoes it); the performance
+buffer written from locals (the former P1, part of R4's change). G steps drop a
+guarantee the hand-written versions do not give, to show what it costs: G1 the second read
+of the command's sequence word (co's command comes from an operator in another process), G2
+the status written again in the cycle after a rule fired (so that its `rule` shows only the
+cycle's rule).
 `--same-process` builds co with its subordinates in its process, as bench_co.py times it.
 
     python bench/prototypes/ablation.py [--cycles N] [--rounds R] [--json PATH] [--same-process]
@@ -50,6 +55,13 @@ STEPS = [
     ("R1", "the seqlock read as a loop: for/range, a tuple of the words, for/else", "loop"),
     ("R2", "world outputs compared with the block every cycle, a rule fired or not", "compare"),
     (
+        "R4",
+        "sequence words stored with SEQ.pack_into and read again with SEQ.unpack_from, the "
+        "performance buffer packed whole with PERF.pack_into",
+        "packed",
+    ),
+    ("R5", "the command's table method called in NOP too (idle)", "idle"),
+    (
         "G1",
         "the command's sequence word not read again (a guarantee dropped: what it costs)",
         "unchecked",
@@ -67,23 +79,6 @@ STEPS = [
             (
                 "elif self.world_loose_coal > LOOSE_COAL_LIMIT:",
                 "elif self.too_much_loose_coal():",
-            ),
-        ],
-    ),
-    (
-        "P1",
-        "the performance buffer packed from locals (no attribute read back)",
-        [
-            (
-                "        self.cycles += 1\n",
-                "        self.cycles = cycles = self.cycles + 1\n",
-            ),
-            (
-                "            seq,\n            self.last_cycle_ns,\n"
-                "            self.min_cycle_ns,\n            self.max_cycle_ns,\n"
-                "            self.cycles,\n",
-                "            seq,\n            last,\n            self.min_cycle_ns,\n"
-                "            self.max_cycle_ns,\n            cycles,\n",
             ),
         ],
     ),
@@ -105,11 +100,12 @@ def loop(source: str) -> str | None:
     """pre_process's read as the template wrote it before: every try in a for loop, the
     sequence words gathered in a tuple, the stale count in the loop's else."""
     found = FAST_READ.search(source)
-    if found is None or "SEQS.unpack_from(buf, SEQS_AT)" not in found["torn"]:
+    if found is None or "words[" not in found["torn"]:
         return None
     torn = found["torn"]
-    indices = re.findall(r"values\[(\d+)\]", torn[: torn.index("SEQS.unpack_from")])
+    indices = re.findall(r"values\[(\d+)\]", torn[: torn.index("words[")])
     indices = list(dict.fromkeys(indices))  # each word once, in order
+    again = re.findall(r"words\[(\d+)\]", torn)  # their indices in the block's words
     words = [f"seqs[{n}]" for n in range(len(indices))]
     assign = "".join("    " + line + "\n" for line in found["assign"].splitlines())
     replaced = (
@@ -117,7 +113,9 @@ def loop(source: str) -> str | None:
         "            values = INPUTS.unpack_from(buf, INPUTS_AT)\n"
         f"            seqs = ({''.join(f'values[{i}], ' for i in indices)})\n"
         f"            if not ({' | '.join(words)}) & 1 and {' and '.join(words)}"
-        " and SEQS.unpack_from(buf, SEQS_AT) == seqs:\n" + assign + "                break\n"
+        f" and ({''.join(f'words[{w}], ' for w in again)}) == seqs:\n"
+        + assign
+        + "                break\n"
         "        else:  # another process kept writing: keep the inputs of the last whole read\n"
         "            self.stale_reads += 1\n"
     )
@@ -134,7 +132,9 @@ def compare(source: str) -> str | None:
     return source[:start] + "".join(line[4:] + "\n" for line in block.splitlines()) + source[end:]
 
 
-UNCHECKED = re.compile(r"        if values\[0\] & 1 or not values\[0\] or SEQS.unpack_from.*:\n")
+UNCHECKED = re.compile(
+    r"        if values\[0\] & 1 or not values\[0\] or words\[\d+\] != values\[0\]:\n"
+)
 
 
 def unchecked(source: str) -> str | None:
@@ -148,6 +148,76 @@ def unchecked(source: str) -> str | None:
         + "        if values[0] & 1 or not values[0]:\n"
         + source[found.end() :]
     )
+
+
+WORD_STORE = re.compile(r"words\[(\w+)_WORD\] = ")
+WORD_READ = re.compile(r"words\[(\d+)\]")
+
+
+PERF_WORDS = re.compile(
+    r"        # The performance buffer: (?:.|\n)*?\n        at = (?P<own>\w+)_PERF_WORD\n"
+    r"(?:.|\n)*?        self\.perf_seq = seq \+ 1\n"
+)
+PERF_PACKED = """\
+        last = perf_counter_ns() - cycle_start
+        self.last_cycle_ns = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = last
+        self.cycles += 1
+        seq = self.perf_seq + 1
+        SEQ.pack_into(buf, {own}_PERF_AT, seq)  # odd before any field changes
+        PERF.pack_into(
+            buf,
+            {own}_PERF_AT,
+            seq,
+            self.last_cycle_ns,
+            self.min_cycle_ns,
+            self.max_cycle_ns,
+            self.cycles,
+            self.perf_single_step_num,
+            self.stale_reads,
+        )
+        SEQ.pack_into(buf, {own}_PERF_AT, seq + 1)
+        self.perf_seq = seq + 1
+"""
+
+
+def packed(source: str) -> str | None:
+    """The sequence words as the template wrote them before the word view: each store a
+    `SEQ.pack_into(buf, <buffer>_AT, word)`, each second look a `SEQ.unpack_from`, and the
+    performance buffer packed whole every cycle."""
+    perf = PERF_WORDS.search(source)
+    if not WORD_STORE.search(source) or perf is None:
+        return None
+    source = source[: perf.start()] + PERF_PACKED.format(own=perf["own"]) + source[perf.end() :]
+    lines = []
+    for line in source.splitlines(keepends=True):
+        store = WORD_STORE.search(line)
+        if store:
+            head, _, rest = line.partition(store[0])
+            value, hash_, comment = rest.rstrip("\n").partition("  #")
+            line = f"{head}SEQ.pack_into(buf, {store[1]}_AT, {value}){hash_ and '  #'}{comment}\n"
+        line = WORD_READ.sub(lambda m: f"SEQ.unpack_from(buf, {int(m[1]) * 8})[0]", line)
+        lines.append(line)
+    return "from miner.rcs.contract import SEQ\n" + "".join(lines)
+
+
+IDLE = re.compile(
+    r"            if self\.state != NOP:  # idle.*\n(?P<chain>(?:                .*\n)+)"
+)
+
+
+def idle(source: str) -> str | None:
+    """The table dispatched whatever the state: the NOP test removed, its block dedented."""
+    found = IDLE.search(source)
+    if found is None:
+        return None
+    chain = "".join(line[4:] + "\n" for line in found["chain"].splitlines())
+    return source[: found.start()] + chain + source[found.end() :]
 
 
 def norule(source: str) -> str | None:
@@ -173,6 +243,7 @@ def variants(generated: str) -> list[tuple[str, str, str | None]]:
         changed: str | None = source
         if isinstance(edits, str):
             edit = {"loop": loop, "compare": compare, "unchecked": unchecked, "norule": norule}
+            edit |= {"packed": packed, "idle": idle}
             changed = edit[edits](source)
         else:
             for old, new in edits:

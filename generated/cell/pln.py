@@ -9,7 +9,7 @@ from .layout import (
     PLN_STATUS,
     PLN_STATUS_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, words
 
 # Commands pln accepts (the code written to its command buffer).
 INIT = 1
@@ -20,6 +20,10 @@ PLAN = 3
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIq52x???1xI")
 INPUTS_AT = 416
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+PLN_STATUS_WORD = PLN_STATUS_AT >> 3
+PLN_PERF_WORD = PLN_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -70,10 +74,12 @@ class PlnController:
         "status_num",
         "status_seq",
         "ticks",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -109,6 +115,7 @@ class PlnController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -138,18 +145,19 @@ class PlnController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == PLAN:
-                self.plan()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == PLAN:
+                    self.plan()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, PLN_STATUS_AT, seq)  # odd before any field changes
+            words[PLN_STATUS_WORD] = seq  # odd before any field changes
             PLN_STATUS.pack_into(
                 buf,
                 PLN_STATUS_AT,
@@ -161,32 +169,27 @@ class PlnController:
                 self.rule,
                 self.result_x,
             )
-            SEQ.pack_into(buf, PLN_STATUS_AT, seq + 1)
+            words[PLN_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, PLN_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            PLN_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, PLN_PERF_AT, seq + 1)
+        at = PLN_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

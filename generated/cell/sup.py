@@ -13,7 +13,7 @@ from .layout import (
     SUP_STATUS,
     SUP_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, words
 
 # Commands sup accepts (the code written to its command buffer).
 INIT = 1
@@ -34,10 +34,16 @@ EXE_MOVE = 3
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQIq60x???1xI88xQI12xd104xQI")
 INPUTS_AT = 264
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 264
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (33,)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+SUP_STATUS_WORD = SUP_STATUS_AT >> 3
+PLN_COMMAND_WORD = PLN_COMMAND_AT >> 3
+EXE_COMMAND_WORD = EXE_COMMAND_AT >> 3
+SUP_PERF_WORD = SUP_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -90,10 +96,12 @@ class SupController:
         "status_seq",
         "var_step",
         "var_waited",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_step: int = 0
         self.var_waited: int = 0
         self.resume()
@@ -150,8 +158,9 @@ class SupController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+        if values[0] & 1 or not values[0] or words[33] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -194,18 +203,19 @@ class SupController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == RUN:
-                self.run()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == RUN:
+                    self.run()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, SUP_STATUS_AT, seq)  # odd before any field changes
+            words[SUP_STATUS_WORD] = seq  # odd before any field changes
             SUP_STATUS.pack_into(
                 buf,
                 SUP_STATUS_AT,
@@ -218,7 +228,7 @@ class SupController:
                 self.result_made,
                 self.result_waited,
             )
-            SEQ.pack_into(buf, SUP_STATUS_AT, seq + 1)
+            words[SUP_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.pln_command_num != self.pln_written:  # a command was sent
@@ -226,46 +236,41 @@ class SupController:
             if number != self.pln_written:  # an operator's command came meanwhile:
                 self.pln_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, PLN_COMMAND_AT, seq)
+            words[PLN_COMMAND_WORD] = seq
             PLN_COMMAND.pack_into(
                 buf, PLN_COMMAND_AT, seq, self.pln_command_num, self.pln_command, self.pln_arg_step
             )
-            SEQ.pack_into(buf, PLN_COMMAND_AT, seq + 1)
+            words[PLN_COMMAND_WORD] = seq + 1
             self.pln_written = self.pln_command_num
         if self.exe_command_num != self.exe_written:  # a command was sent
             seq, number = EXE_COMMAND.unpack_from(buf, EXE_COMMAND_AT)[:2]
             if number != self.exe_written:  # an operator's command came meanwhile:
                 self.exe_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, EXE_COMMAND_AT, seq)
+            words[EXE_COMMAND_WORD] = seq
             EXE_COMMAND.pack_into(
                 buf, EXE_COMMAND_AT, seq, self.exe_command_num, self.exe_command, self.exe_arg_x
             )
-            SEQ.pack_into(buf, EXE_COMMAND_AT, seq + 1)
+            words[EXE_COMMAND_WORD] = seq + 1
             self.exe_written = self.exe_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, SUP_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SUP_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, SUP_PERF_AT, seq + 1)
+        at = SUP_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -273,13 +278,11 @@ class SupController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (
-                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
-            ):
+            if not (values[0] & 1 or not values[0] or words[33] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

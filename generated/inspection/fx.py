@@ -11,7 +11,7 @@ from .layout import (
     OP_FX_COMMAND,
     OP_FX_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
 
 # Commands fx accepts (the code written to its command buffer).
 INIT = 1
@@ -47,6 +47,11 @@ OP_LINK = 9  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI52x???1xI400xQII")
 INPUTS_AT = 1168
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+FX_STATUS_WORD = FX_STATUS_AT >> 3
+OP_FX_COMMAND_WORD = OP_FX_COMMAND_AT >> 3
+FX_PERF_WORD = FX_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -87,10 +92,12 @@ class FxController:
         "status_num",
         "status_seq",
         "ticks",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -138,6 +145,7 @@ class FxController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -175,24 +183,25 @@ class FxController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == EQUIP_SETUP:
-                self.equip_setup()
-            elif command == PLACE_PART:
-                self.place_part()
-            elif command == REFIXTURE_PART:
-                self.refixture_part()
-            elif command == UNLOAD_PART:
-                self.unload_part()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == EQUIP_SETUP:
+                    self.equip_setup()
+                elif command == PLACE_PART:
+                    self.place_part()
+                elif command == REFIXTURE_PART:
+                    self.refixture_part()
+                elif command == UNLOAD_PART:
+                    self.unload_part()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, FX_STATUS_AT, seq)  # odd before any field changes
+            words[FX_STATUS_WORD] = seq  # odd before any field changes
             FX_STATUS.pack_into(
                 buf,
                 FX_STATUS_AT,
@@ -204,7 +213,7 @@ class FxController:
                 self.rule,
                 self.cause,
             )
-            SEQ.pack_into(buf, FX_STATUS_AT, seq + 1)
+            words[FX_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.op_command_num != self.op_written:  # a command was sent
@@ -212,35 +221,30 @@ class FxController:
             if number != self.op_written:  # an operator's command came meanwhile:
                 self.op_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, OP_FX_COMMAND_AT, seq)
+            words[OP_FX_COMMAND_WORD] = seq
             OP_FX_COMMAND.pack_into(
                 buf, OP_FX_COMMAND_AT, seq, self.op_command_num, self.op_command
             )
-            SEQ.pack_into(buf, OP_FX_COMMAND_AT, seq + 1)
+            words[OP_FX_COMMAND_WORD] = seq + 1
             self.op_written = self.op_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, FX_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            FX_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, FX_PERF_AT, seq + 1)
+        at = FX_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -22,10 +22,10 @@ from .rcs.contract import (
     NO_RULE,
     NOP,
     PERF,
-    SEQ,
     HookError,
     caused,
     decode_text,
+    words,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
 
@@ -71,6 +71,12 @@ CMM_LINK = 8  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32s68x???1xI208xQII8xQ104xQI492xd")
 INPUTS_AT = 992
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+MS_STATUS_WORD = MS_STATUS_AT >> 3
+TL_COMMAND_WORD = TL_COMMAND_AT >> 3
+CMM_COMMAND_WORD = CMM_COMMAND_AT >> 3
+MS_PERF_WORD = MS_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -132,6 +138,7 @@ class MsController:
         "var_feature",
         "var_features",
         "var_in_tolerance",
+        "words",
         "world_cmm_reading",
     )
 
@@ -144,6 +151,7 @@ class MsController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_program, settings or {})
         except BaseException as error:
@@ -206,6 +214,7 @@ class MsController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -254,26 +263,27 @@ class MsController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == EQUIP_SETUP:
-                self.equip_setup()
-            elif command == CALIBRATE_CMM:
-                self.calibrate_cmm()
-            elif command == CALIBRATE_CAMERA:
-                self.calibrate_camera()
-            elif command == LOAD_PROBE:
-                self.load_probe()
-            elif command == MEASURE_PART:
-                self.measure_part()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == EQUIP_SETUP:
+                    self.equip_setup()
+                elif command == CALIBRATE_CMM:
+                    self.calibrate_cmm()
+                elif command == CALIBRATE_CAMERA:
+                    self.calibrate_camera()
+                elif command == LOAD_PROBE:
+                    self.load_probe()
+                elif command == MEASURE_PART:
+                    self.measure_part()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, MS_STATUS_AT, seq)  # odd before any field changes
+            words[MS_STATUS_WORD] = seq  # odd before any field changes
             MS_STATUS.pack_into(
                 buf,
                 MS_STATUS_AT,
@@ -287,7 +297,7 @@ class MsController:
                 self.result_failed,
                 self.cause,
             )
-            SEQ.pack_into(buf, MS_STATUS_AT, seq + 1)
+            words[MS_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.tl_command_num != self.tl_written:  # a command was sent
@@ -295,16 +305,16 @@ class MsController:
             if number != self.tl_written:  # an operator's command came meanwhile:
                 self.tl_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, TL_COMMAND_AT, seq)
+            words[TL_COMMAND_WORD] = seq
             TL_COMMAND.pack_into(buf, TL_COMMAND_AT, seq, self.tl_command_num, self.tl_command)
-            SEQ.pack_into(buf, TL_COMMAND_AT, seq + 1)
+            words[TL_COMMAND_WORD] = seq + 1
             self.tl_written = self.tl_command_num
         if self.cmm_command_num != self.cmm_written:  # a command was sent
             seq, number = CMM_COMMAND.unpack_from(buf, CMM_COMMAND_AT)[:2]
             if number != self.cmm_written:  # an operator's command came meanwhile:
                 self.cmm_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CMM_COMMAND_AT, seq)
+            words[CMM_COMMAND_WORD] = seq
             CMM_COMMAND.pack_into(
                 buf,
                 CMM_COMMAND_AT,
@@ -313,31 +323,26 @@ class MsController:
                 self.cmm_command,
                 self.cmm_arg_number,
             )
-            SEQ.pack_into(buf, CMM_COMMAND_AT, seq + 1)
+            words[CMM_COMMAND_WORD] = seq + 1
             self.cmm_written = self.cmm_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, MS_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            MS_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, MS_PERF_AT, seq + 1)
+        at = MS_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -21,10 +21,10 @@ from .rcs.contract import (
     NOP,
     PERF,
     READ_TRIES,
-    SEQ,
     caused,
     decode_text,
     encode_text,
+    words,
 )
 
 # Commands shop accepts (the code written to its command buffer).
@@ -71,10 +71,16 @@ JP_LINK = 2  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI32sq84x???1xI120xQII16xqQ128xQII8x?Q")
 INPUTS_AT = 264
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 264
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (33,)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+SHOP_STATUS_WORD = SHOP_STATUS_AT >> 3
+WC_COMMAND_WORD = WC_COMMAND_AT >> 3
+JP_COMMAND_WORD = JP_COMMAND_AT >> 3
+SHOP_PERF_WORD = SHOP_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -147,10 +153,12 @@ class ShopController:
         "wc_status",
         "wc_status_num",
         "wc_written",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_good: int = 0
         self.var_bad: int = 0
         self.var_scheduled: int = 0
@@ -215,8 +223,9 @@ class ShopController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+        if values[0] & 1 or not values[0] or words[33] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -281,22 +290,23 @@ class ShopController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == INSPECT_LOT:
-                self.inspect_lot()
-            elif command == INIT_FOR_INSPECT:
-                self.init_for_inspect()
-            elif command == INSPECT_PART:
-                self.inspect_part()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == INSPECT_LOT:
+                    self.inspect_lot()
+                elif command == INIT_FOR_INSPECT:
+                    self.init_for_inspect()
+                elif command == INSPECT_PART:
+                    self.inspect_part()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, SHOP_STATUS_AT, seq)  # odd before any field changes
+            words[SHOP_STATUS_WORD] = seq  # odd before any field changes
             SHOP_STATUS.pack_into(
                 buf,
                 SHOP_STATUS_AT,
@@ -312,7 +322,7 @@ class ShopController:
                 self.result_accepted,
                 self.cause,
             )
-            SEQ.pack_into(buf, SHOP_STATUS_AT, seq + 1)
+            words[SHOP_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.wc_command_num != self.wc_written:  # a command was sent
@@ -320,7 +330,7 @@ class ShopController:
             if number != self.wc_written:  # an operator's command came meanwhile:
                 self.wc_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, WC_COMMAND_AT, seq)
+            words[WC_COMMAND_WORD] = seq
             WC_COMMAND.pack_into(
                 buf,
                 WC_COMMAND_AT,
@@ -329,14 +339,14 @@ class ShopController:
                 self.wc_command,
                 encode_text(self.wc_arg_program, 32),
             )
-            SEQ.pack_into(buf, WC_COMMAND_AT, seq + 1)
+            words[WC_COMMAND_WORD] = seq + 1
             self.wc_written = self.wc_command_num
         if self.jp_command_num != self.jp_written:  # a command was sent
             seq, number = JP_COMMAND.unpack_from(buf, JP_COMMAND_AT)[:2]
             if number != self.jp_written:  # an operator's command came meanwhile:
                 self.jp_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, JP_COMMAND_AT, seq)
+            words[JP_COMMAND_WORD] = seq
             JP_COMMAND.pack_into(
                 buf,
                 JP_COMMAND_AT,
@@ -346,31 +356,26 @@ class ShopController:
                 encode_text(self.jp_arg_program, 32),
                 self.jp_arg_part,
             )
-            SEQ.pack_into(buf, JP_COMMAND_AT, seq + 1)
+            words[JP_COMMAND_WORD] = seq + 1
             self.jp_written = self.jp_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, SHOP_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SHOP_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, SHOP_PERF_AT, seq + 1)
+        at = SHOP_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -378,13 +383,11 @@ class ShopController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (
-                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
-            ):
+            if not (values[0] & 1 or not values[0] or words[33] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

@@ -11,7 +11,7 @@ from .layout import (
     TL_STATUS,
     TL_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
 
 # Commands tl accepts (the code written to its command buffer).
 INIT = 1
@@ -46,6 +46,11 @@ OP_LINK = 9  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI52x???1xI352xQII")
 INPUTS_AT = 1296
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+TL_STATUS_WORD = TL_STATUS_AT >> 3
+OP_TL_COMMAND_WORD = OP_TL_COMMAND_AT >> 3
+TL_PERF_WORD = TL_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -86,10 +91,12 @@ class TlController:
         "status_num",
         "status_seq",
         "ticks",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -137,6 +144,7 @@ class TlController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -174,22 +182,23 @@ class TlController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == CALIBRATE_SPHERE:
-                self.calibrate_sphere()
-            elif command == CALIBRATE_PROBE:
-                self.calibrate_probe()
-            elif command == LOAD_PROBE:
-                self.load_probe()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == CALIBRATE_SPHERE:
+                    self.calibrate_sphere()
+                elif command == CALIBRATE_PROBE:
+                    self.calibrate_probe()
+                elif command == LOAD_PROBE:
+                    self.load_probe()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, TL_STATUS_AT, seq)  # odd before any field changes
+            words[TL_STATUS_WORD] = seq  # odd before any field changes
             TL_STATUS.pack_into(
                 buf,
                 TL_STATUS_AT,
@@ -201,7 +210,7 @@ class TlController:
                 self.rule,
                 self.cause,
             )
-            SEQ.pack_into(buf, TL_STATUS_AT, seq + 1)
+            words[TL_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.op_command_num != self.op_written:  # a command was sent
@@ -209,35 +218,30 @@ class TlController:
             if number != self.op_written:  # an operator's command came meanwhile:
                 self.op_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, OP_TL_COMMAND_AT, seq)
+            words[OP_TL_COMMAND_WORD] = seq
             OP_TL_COMMAND.pack_into(
                 buf, OP_TL_COMMAND_AT, seq, self.op_command_num, self.op_command
             )
-            SEQ.pack_into(buf, OP_TL_COMMAND_AT, seq + 1)
+            words[OP_TL_COMMAND_WORD] = seq + 1
             self.op_written = self.op_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, TL_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            TL_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, TL_PERF_AT, seq + 1)
+        at = TL_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

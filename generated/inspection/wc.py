@@ -18,10 +18,10 @@ from .rcs.contract import (
     NO_RULE,
     NOP,
     PERF,
-    SEQ,
     caused,
     decode_text,
     encode_text,
+    words,
 )
 
 # Commands wc accepts (the code written to its command buffer).
@@ -54,6 +54,11 @@ WS_LINK = 4  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32s60x???1xI112xQII8x?Q")
 INPUTS_AT = 656
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+WC_STATUS_WORD = WC_STATUS_AT >> 3
+WS_COMMAND_WORD = WS_COMMAND_AT >> 3
+WC_PERF_WORD = WC_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -88,6 +93,7 @@ class WcController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "ws_arg_program",
         "ws_cause",
         "ws_command",
@@ -101,6 +107,7 @@ class WcController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -151,6 +158,7 @@ class WcController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -195,20 +203,21 @@ class WcController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == INIT_FOR_INSPECT:
-                self.init_for_inspect()
-            elif command == INSPECT_PART:
-                self.inspect_part()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == INIT_FOR_INSPECT:
+                    self.init_for_inspect()
+                elif command == INSPECT_PART:
+                    self.inspect_part()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, WC_STATUS_AT, seq)  # odd before any field changes
+            words[WC_STATUS_WORD] = seq  # odd before any field changes
             WC_STATUS.pack_into(
                 buf,
                 WC_STATUS_AT,
@@ -221,7 +230,7 @@ class WcController:
                 self.result_accepted,
                 self.cause,
             )
-            SEQ.pack_into(buf, WC_STATUS_AT, seq + 1)
+            words[WC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.ws_command_num != self.ws_written:  # a command was sent
@@ -229,7 +238,7 @@ class WcController:
             if number != self.ws_written:  # an operator's command came meanwhile:
                 self.ws_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, WS_COMMAND_AT, seq)
+            words[WS_COMMAND_WORD] = seq
             WS_COMMAND.pack_into(
                 buf,
                 WS_COMMAND_AT,
@@ -238,31 +247,26 @@ class WcController:
                 self.ws_command,
                 encode_text(self.ws_arg_program, 32),
             )
-            SEQ.pack_into(buf, WS_COMMAND_AT, seq + 1)
+            words[WS_COMMAND_WORD] = seq + 1
             self.ws_written = self.ws_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, WC_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            WC_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, WC_PERF_AT, seq + 1)
+        at = WC_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -20,10 +20,10 @@ from .rcs.contract import (
     NO_RULE,
     NOP,
     PERF,
-    SEQ,
     caused,
     decode_text,
     encode_text,
+    words,
 )
 
 # Commands ws accepts (the code written to its command buffer).
@@ -73,6 +73,12 @@ FX_LINK = 6  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32s60x???1xI112xQII16xqQ96xQII8xQ")
 INPUTS_AT = 824
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+WS_STATUS_WORD = WS_STATUS_AT >> 3
+MS_COMMAND_WORD = MS_COMMAND_AT >> 3
+FX_COMMAND_WORD = FX_COMMAND_AT >> 3
+WS_PERF_WORD = WS_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -134,10 +140,12 @@ class WsController:
         "status_num",
         "status_seq",
         "var_measured",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_measured: int = 0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -193,6 +201,7 @@ class WsController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -248,20 +257,21 @@ class WsController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == INIT_FOR_INSPECT:
-                self.init_for_inspect()
-            elif command == INSPECT_PART:
-                self.inspect_part()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == INIT_FOR_INSPECT:
+                    self.init_for_inspect()
+                elif command == INSPECT_PART:
+                    self.inspect_part()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, WS_STATUS_AT, seq)  # odd before any field changes
+            words[WS_STATUS_WORD] = seq  # odd before any field changes
             WS_STATUS.pack_into(
                 buf,
                 WS_STATUS_AT,
@@ -274,7 +284,7 @@ class WsController:
                 self.result_accepted,
                 self.cause,
             )
-            SEQ.pack_into(buf, WS_STATUS_AT, seq + 1)
+            words[WS_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.ms_command_num != self.ms_written:  # a command was sent
@@ -282,7 +292,7 @@ class WsController:
             if number != self.ms_written:  # an operator's command came meanwhile:
                 self.ms_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, MS_COMMAND_AT, seq)
+            words[MS_COMMAND_WORD] = seq
             MS_COMMAND.pack_into(
                 buf,
                 MS_COMMAND_AT,
@@ -291,40 +301,35 @@ class WsController:
                 self.ms_command,
                 encode_text(self.ms_arg_program, 32),
             )
-            SEQ.pack_into(buf, MS_COMMAND_AT, seq + 1)
+            words[MS_COMMAND_WORD] = seq + 1
             self.ms_written = self.ms_command_num
         if self.fx_command_num != self.fx_written:  # a command was sent
             seq, number = FX_COMMAND.unpack_from(buf, FX_COMMAND_AT)[:2]
             if number != self.fx_written:  # an operator's command came meanwhile:
                 self.fx_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, FX_COMMAND_AT, seq)
+            words[FX_COMMAND_WORD] = seq
             FX_COMMAND.pack_into(buf, FX_COMMAND_AT, seq, self.fx_command_num, self.fx_command)
-            SEQ.pack_into(buf, FX_COMMAND_AT, seq + 1)
+            words[FX_COMMAND_WORD] = seq + 1
             self.fx_written = self.fx_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, WS_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            WS_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, WS_PERF_AT, seq + 1)
+        at = WS_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

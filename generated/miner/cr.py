@@ -14,7 +14,7 @@ from .layout import (
     GH_COMMAND,
     GH_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 
 # Commands cr accepts (the code written to its command buffer).
 INIT = 1
@@ -43,6 +43,13 @@ CT_POSITION_TAIL = 3
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI80xQI108xQI108xQI1948x?495xd")
 INPUTS_AT = 1344
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+CR_STATUS_WORD = CR_STATUS_AT >> 3
+GH_COMMAND_WORD = GH_COMMAND_AT >> 3
+CV_COMMAND_WORD = CV_COMMAND_AT >> 3
+CT_COMMAND_WORD = CT_COMMAND_AT >> 3
+CR_PERF_WORD = CR_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -93,12 +100,14 @@ class CrController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_loose_coal",
         "world_tail_in_position",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -146,6 +155,7 @@ class CrController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -186,22 +196,23 @@ class CrController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == SUMP:
-                self.sump()
-            elif command == SHEAR:
-                self.shear()
-            elif command == CUSP:
-                self.cusp()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == SUMP:
+                    self.sump()
+                elif command == SHEAR:
+                    self.shear()
+                elif command == CUSP:
+                    self.cusp()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, CR_STATUS_AT, seq)  # odd before any field changes
+            words[CR_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CR_STATUS_AT,
@@ -212,7 +223,7 @@ class CrController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, CR_STATUS_AT, seq + 1)
+            words[CR_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.gh_command_num != self.gh_written:  # a command was sent
@@ -220,51 +231,46 @@ class CrController:
             if number != self.gh_written:  # an operator's command came meanwhile:
                 self.gh_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, GH_COMMAND_AT, seq)
+            words[GH_COMMAND_WORD] = seq
             GH_COMMAND.pack_into(buf, GH_COMMAND_AT, seq, self.gh_command_num, self.gh_command)
-            SEQ.pack_into(buf, GH_COMMAND_AT, seq + 1)
+            words[GH_COMMAND_WORD] = seq + 1
             self.gh_written = self.gh_command_num
         if self.cv_command_num != self.cv_written:  # a command was sent
             seq, number = CV_COMMAND.unpack_from(buf, CV_COMMAND_AT)[:2]
             if number != self.cv_written:  # an operator's command came meanwhile:
                 self.cv_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CV_COMMAND_AT, seq)
+            words[CV_COMMAND_WORD] = seq
             CV_COMMAND.pack_into(buf, CV_COMMAND_AT, seq, self.cv_command_num, self.cv_command)
-            SEQ.pack_into(buf, CV_COMMAND_AT, seq + 1)
+            words[CV_COMMAND_WORD] = seq + 1
             self.cv_written = self.cv_command_num
         if self.ct_command_num != self.ct_written:  # a command was sent
             seq, number = CT_COMMAND.unpack_from(buf, CT_COMMAND_AT)[:2]
             if number != self.ct_written:  # an operator's command came meanwhile:
                 self.ct_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CT_COMMAND_AT, seq)
+            words[CT_COMMAND_WORD] = seq
             CT_COMMAND.pack_into(buf, CT_COMMAND_AT, seq, self.ct_command_num, self.ct_command)
-            SEQ.pack_into(buf, CT_COMMAND_AT, seq + 1)
+            words[CT_COMMAND_WORD] = seq + 1
             self.ct_written = self.ct_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, CR_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            CR_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, CR_PERF_AT, seq + 1)
+        at = CR_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

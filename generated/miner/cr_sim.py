@@ -12,7 +12,7 @@ from .layout import (
     WORLD_COAL_MINED_AT,
     WORLD_LOOSE_COAL_TRUE_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 from .rcs.override import held
 
 # Commands cr_sim accepts (the code written to its command buffer).
@@ -26,6 +26,13 @@ CUSP = 5
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI2904xd8xd")
 INPUTS_AT = 1344
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+CR_STATUS_WORD = CR_STATUS_AT >> 3
+WORLD_LOOSE_COAL_TRUE_WORD = WORLD_LOOSE_COAL_TRUE_AT >> 3
+WORLD_COAL_MINED_WORD = WORLD_COAL_MINED_AT >> 3
+CR_PERF_WORD = CR_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -68,6 +75,7 @@ class CrSimController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_coal_mined",
         "world_loose_coal_true",
         "world_set",
@@ -75,6 +83,7 @@ class CrSimController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.world_set = False  # an every_cycle rule set a world output
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -104,6 +113,7 @@ class CrSimController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -133,22 +143,23 @@ class CrSimController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == SUMP:
-                self.sump()
-            elif command == SHEAR:
-                self.shear()
-            elif command == CUSP:
-                self.cusp()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == SUMP:
+                    self.sump()
+                elif command == SHEAR:
+                    self.shear()
+                elif command == CUSP:
+                    self.cusp()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, CR_STATUS_AT, seq)  # odd before any field changes
+            words[CR_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CR_STATUS_AT,
@@ -159,7 +170,7 @@ class CrSimController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, CR_STATUS_AT, seq + 1)
+            words[CR_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
@@ -171,36 +182,29 @@ class CrSimController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(
-                    buf, WORLD_LOOSE_COAL_TRUE_AT, s[0] | 1
-                )  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_COAL_MINED_AT, s[1] | 1)  # odd before the value changes
+                words[WORLD_LOOSE_COAL_TRUE_WORD] = s[0] | 1  # odd before the value changes
+                words[WORLD_COAL_MINED_WORD] = s[1] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-                SEQ.pack_into(buf, WORLD_LOOSE_COAL_TRUE_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_COAL_MINED_AT, (s[1] | 1) + 1)
+                words[WORLD_LOOSE_COAL_TRUE_WORD] = (s[0] | 1) + 1
+                words[WORLD_COAL_MINED_WORD] = (s[1] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, CR_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            CR_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, CR_PERF_AT, seq + 1)
+        at = CR_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

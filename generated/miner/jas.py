@@ -20,9 +20,9 @@ from .rcs.contract import (
     NOP,
     PERF,
     READ_TRIES,
-    SEQ,
     STATUS,
     HookError,
+    words,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
 from .rcs.override import held
@@ -35,10 +35,16 @@ HALT = 2
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI1480x?175x?")
 INPUTS_AT = 2328
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 2328
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (291,)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+JAS_STATUS_WORD = JAS_STATUS_AT >> 3
+WORLD_JACK_DOWN_WORD = WORLD_JACK_DOWN_AT >> 3
+JAS_PERF_WORD = JAS_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -87,6 +93,7 @@ class JasController:
         "status_seq",
         "var_stroke",
         "var_travel",
+        "words",
         "world_jack_down",
         "world_jack_down_cmd",
         "world_set",
@@ -100,6 +107,7 @@ class JasController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.world_set = False  # an every_cycle rule set a world output
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_actuator_error, settings or {})
@@ -135,8 +143,9 @@ class JasController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+        if values[0] & 1 or not values[0] or words[291] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -169,16 +178,17 @@ class JasController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, JAS_STATUS_AT, seq)  # odd before any field changes
+            words[JAS_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 JAS_STATUS_AT,
@@ -189,7 +199,7 @@ class JasController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, JAS_STATUS_AT, seq + 1)
+            words[JAS_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
@@ -201,32 +211,27 @@ class JasController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_JACK_DOWN_AT, s[0] | 1)  # odd before the value changes
+                words[WORLD_JACK_DOWN_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_JACK_DOWN_AT, (s[0] | 1) + 1)
+                words[WORLD_JACK_DOWN_WORD] = (s[0] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, JAS_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            JAS_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, JAS_PERF_AT, seq + 1)
+        at = JAS_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -234,13 +239,11 @@ class JasController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (
-                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
-            ):
+            if not (values[0] & 1 or not values[0] or words[291] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

@@ -13,7 +13,7 @@ from .layout import (
     WORLD_OPERATOR_GOAL_Y_AT,
     WORLD_TAIL_IN_POSITION_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, SEQ, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, READ_TRIES, STATUS, words
 from .rcs.override import held
 
 # Commands oi accepts (the code written to its command buffer).
@@ -26,10 +26,18 @@ TAIL_IN_POSITION = 4
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQIdd44x???1xI1512x?15x?15xq8xd8xd232xd")
 INPUTS_AT = 2072
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 2072
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (259,)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+OI_STATUS_WORD = OI_STATUS_AT >> 3
+WORLD_TAIL_IN_POSITION_WORD = WORLD_TAIL_IN_POSITION_AT >> 3
+WORLD_OPERATOR_GOAL_X_WORD = WORLD_OPERATOR_GOAL_X_AT >> 3
+WORLD_OPERATOR_GOAL_Y_WORD = WORLD_OPERATOR_GOAL_Y_AT >> 3
+OI_PERF_WORD = OI_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -86,6 +94,7 @@ class OiController:
         "var_moving",
         "var_tail_x",
         "var_waited",
+        "words",
         "world_operator_delay",
         "world_operator_goal_x",
         "world_operator_goal_y",
@@ -97,6 +106,7 @@ class OiController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.world_set = False  # an every_cycle rule set a world output
         self.var_waited: int = 0
         self.var_moving: bool = False
@@ -130,8 +140,9 @@ class OiController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+        if values[0] & 1 or not values[0] or words[259] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -170,20 +181,21 @@ class OiController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == ENTER_GOAL:
-                self.enter_goal()
-            elif command == TAIL_IN_POSITION:
-                self.tail_in_position()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == ENTER_GOAL:
+                    self.enter_goal()
+                elif command == TAIL_IN_POSITION:
+                    self.tail_in_position()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, OI_STATUS_AT, seq)  # odd before any field changes
+            words[OI_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 OI_STATUS_AT,
@@ -194,7 +206,7 @@ class OiController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, OI_STATUS_AT, seq + 1)
+            words[OI_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
@@ -206,49 +218,38 @@ class OiController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(
-                    buf, WORLD_TAIL_IN_POSITION_AT, s[0] | 1
-                )  # odd before the value changes
+                words[WORLD_TAIL_IN_POSITION_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_TAIL_IN_POSITION_AT, (s[0] | 1) + 1)
+                words[WORLD_TAIL_IN_POSITION_WORD] = (s[0] | 1) + 1
             out = (self.world_operator_goal_x, self.world_operator_goal_y)
             now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_2, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
-                SEQ.pack_into(
-                    buf, WORLD_OPERATOR_GOAL_X_AT, s[0] | 1
-                )  # odd before the value changes
-                SEQ.pack_into(
-                    buf, WORLD_OPERATOR_GOAL_Y_AT, s[1] | 1
-                )  # odd before the value changes
+                words[WORLD_OPERATOR_GOAL_X_WORD] = s[0] | 1  # odd before the value changes
+                words[WORLD_OPERATOR_GOAL_Y_WORD] = s[1] | 1  # odd before the value changes
                 WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-                SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_X_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_OPERATOR_GOAL_Y_AT, (s[1] | 1) + 1)
+                words[WORLD_OPERATOR_GOAL_X_WORD] = (s[0] | 1) + 1
+                words[WORLD_OPERATOR_GOAL_Y_WORD] = (s[1] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, OI_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            OI_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, OI_PERF_AT, seq + 1)
+        at = OI_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -256,13 +257,11 @@ class OiController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (
-                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
-            ):
+            if not (values[0] & 1 or not values[0] or words[259] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

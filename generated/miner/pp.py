@@ -24,9 +24,9 @@ from .rcs.contract import (
     NOP,
     PERF,
     READ_TRIES,
-    SEQ,
     STATUS,
     HookError,
+    words,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
 from .rcs.override import held
@@ -40,10 +40,19 @@ PLAN = 3
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQIdd44x???1xI168x?15xd8xd8x?263xQdQdQd")
 INPUTS_AT = 3528
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q560xQ8xQ8xQ")
-SEQS_AT = 3528
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (441, 512, 514, 516)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+PP_STATUS_WORD = PP_STATUS_AT >> 3
+WORLD_PATH_OK_WORD = WORLD_PATH_OK_AT >> 3
+WORLD_WP_X_WORD = WORLD_WP_X_AT >> 3
+WORLD_WP_Y_WORD = WORLD_WP_Y_AT >> 3
+WORLD_WP_LAST_WORD = WORLD_WP_LAST_AT >> 3
+PP_PERF_WORD = PP_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -94,6 +103,7 @@ class PpController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_heading",
         "world_path_ok",
         "world_pose_x",
@@ -111,6 +121,7 @@ class PpController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_planner, settings or {})
         except BaseException as error:
@@ -143,17 +154,15 @@ class PpController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
         if (
             (values[0] | values[13] | values[15] | values[17]) & 1
             or not (values[0] and values[13] and values[15] and values[17])
-            or SEQS.unpack_from(buf, SEQS_AT)
-            != (
-                values[0],
-                values[13],
-                values[15],
-                values[17],
-            )
+            or words[441] != values[0]
+            or words[512] != values[13]
+            or words[514] != values[15]
+            or words[516] != values[17]
         ):
             self.read_inputs()  # being written by another process: read again, out of line
         else:
@@ -196,18 +205,19 @@ class PpController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == PLAN:
-                self.plan()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == PLAN:
+                    self.plan()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, PP_STATUS_AT, seq)  # odd before any field changes
+            words[PP_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 PP_STATUS_AT,
@@ -218,7 +228,7 @@ class PpController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, PP_STATUS_AT, seq + 1)
+            words[PP_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
@@ -229,10 +239,10 @@ class PpController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_PATH_OK_AT, s[0] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_WP_X_AT, s[1] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_WP_Y_AT, s[2] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_WP_LAST_AT, s[3] | 1)  # odd before the value changes
+                words[WORLD_PATH_OK_WORD] = s[0] | 1  # odd before the value changes
+                words[WORLD_WP_X_WORD] = s[1] | 1  # odd before the value changes
+                words[WORLD_WP_Y_WORD] = s[2] | 1  # odd before the value changes
+                words[WORLD_WP_LAST_WORD] = s[3] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(
                     buf,
                     WORLD_OUT_1_AT,
@@ -245,33 +255,28 @@ class PpController:
                     s[3] | 1,
                     out[3],
                 )
-                SEQ.pack_into(buf, WORLD_PATH_OK_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_WP_X_AT, (s[1] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_WP_Y_AT, (s[2] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_WP_LAST_AT, (s[3] | 1) + 1)
+                words[WORLD_PATH_OK_WORD] = (s[0] | 1) + 1
+                words[WORLD_WP_X_WORD] = (s[1] | 1) + 1
+                words[WORLD_WP_Y_WORD] = (s[2] | 1) + 1
+                words[WORLD_WP_LAST_WORD] = (s[3] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, PP_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            PP_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, PP_PERF_AT, seq + 1)
+        at = PP_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -279,20 +284,17 @@ class PpController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
             if not (
                 (values[0] | values[13] | values[15] | values[17]) & 1
                 or not (values[0] and values[13] and values[15] and values[17])
-                or SEQS.unpack_from(buf, SEQS_AT)
-                != (
-                    values[0],
-                    values[13],
-                    values[15],
-                    values[17],
-                )
+                or words[441] != values[0]
+                or words[512] != values[13]
+                or words[514] != values[15]
+                or words[516] != values[17]
             ):
                 whole = True
                 break

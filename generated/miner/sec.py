@@ -18,8 +18,8 @@ from .rcs.contract import (
     NOP,
     PERF,
     READ_TRIES,
-    SEQ,
     STATUS,
+    words,
 )
 
 # Commands sec accepts (the code written to its command buffer).
@@ -40,10 +40,15 @@ SB_CUT_TWO_PASSES = 5
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQIdd44x???1xI96xQI")
 INPUTS_AT = 448
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 448
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (56,)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+SEC_STATUS_WORD = SEC_STATUS_AT >> 3
+SB_COMMAND_WORD = SB_COMMAND_AT >> 3
+SEC_PERF_WORD = SEC_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -84,10 +89,12 @@ class SecController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -129,8 +136,9 @@ class SecController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+        if values[0] & 1 or not values[0] or words[56] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -166,22 +174,23 @@ class SecController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == MINE_COAL:
-                self.mine_coal()
-            elif command == BOX_CUT:
-                self.box_cut()
-            elif command == TRAM_TO_GOAL:
-                self.tram_to_goal()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == MINE_COAL:
+                    self.mine_coal()
+                elif command == BOX_CUT:
+                    self.box_cut()
+                elif command == TRAM_TO_GOAL:
+                    self.tram_to_goal()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, SEC_STATUS_AT, seq)  # odd before any field changes
+            words[SEC_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 SEC_STATUS_AT,
@@ -192,7 +201,7 @@ class SecController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, SEC_STATUS_AT, seq + 1)
+            words[SEC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.sb_command_num != self.sb_written:  # a command was sent
@@ -200,7 +209,7 @@ class SecController:
             if number != self.sb_written:  # an operator's command came meanwhile:
                 self.sb_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, SB_COMMAND_AT, seq)
+            words[SB_COMMAND_WORD] = seq
             SB_COMMAND.pack_into(
                 buf,
                 SB_COMMAND_AT,
@@ -210,31 +219,26 @@ class SecController:
                 self.sb_arg_depth,
                 self.sb_arg_offset,
             )
-            SEQ.pack_into(buf, SB_COMMAND_AT, seq + 1)
+            words[SB_COMMAND_WORD] = seq + 1
             self.sb_written = self.sb_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, SEC_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SEC_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, SEC_PERF_AT, seq + 1)
+        at = SEC_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -242,13 +246,11 @@ class SecController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (
-                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
-            ):
+            if not (values[0] & 1 or not values[0] or words[56] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

@@ -14,7 +14,7 @@ from .layout import (
     SJ_COMMAND,
     SJ_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 
 # Commands cc accepts (the code written to its command buffer).
 INIT = 1
@@ -47,6 +47,13 @@ SJ_RAISE = 4
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI80xQI108xQI108xQI")
 INPUTS_AT = 864
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+CC_STATUS_WORD = CC_STATUS_AT >> 3
+BM_COMMAND_WORD = BM_COMMAND_AT >> 3
+CD_COMMAND_WORD = CD_COMMAND_AT >> 3
+SJ_COMMAND_WORD = SJ_COMMAND_AT >> 3
+CC_PERF_WORD = CC_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -94,10 +101,12 @@ class CcController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -145,6 +154,7 @@ class CcController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -183,26 +193,27 @@ class CcController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == RAISE_DRUM:
-                self.raise_drum()
-            elif command == SUMP:
-                self.sump()
-            elif command == SHEAR:
-                self.shear()
-            elif command == SHEAR_CORRECT:
-                self.shear_correct()
-            elif command == CUSP:
-                self.cusp()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == RAISE_DRUM:
+                    self.raise_drum()
+                elif command == SUMP:
+                    self.sump()
+                elif command == SHEAR:
+                    self.shear()
+                elif command == SHEAR_CORRECT:
+                    self.shear_correct()
+                elif command == CUSP:
+                    self.cusp()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, CC_STATUS_AT, seq)  # odd before any field changes
+            words[CC_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CC_STATUS_AT,
@@ -213,7 +224,7 @@ class CcController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, CC_STATUS_AT, seq + 1)
+            words[CC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.bm_command_num != self.bm_written:  # a command was sent
@@ -221,51 +232,46 @@ class CcController:
             if number != self.bm_written:  # an operator's command came meanwhile:
                 self.bm_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, BM_COMMAND_AT, seq)
+            words[BM_COMMAND_WORD] = seq
             BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq, self.bm_command_num, self.bm_command)
-            SEQ.pack_into(buf, BM_COMMAND_AT, seq + 1)
+            words[BM_COMMAND_WORD] = seq + 1
             self.bm_written = self.bm_command_num
         if self.cd_command_num != self.cd_written:  # a command was sent
             seq, number = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)[:2]
             if number != self.cd_written:  # an operator's command came meanwhile:
                 self.cd_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CD_COMMAND_AT, seq)
+            words[CD_COMMAND_WORD] = seq
             CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq, self.cd_command_num, self.cd_command)
-            SEQ.pack_into(buf, CD_COMMAND_AT, seq + 1)
+            words[CD_COMMAND_WORD] = seq + 1
             self.cd_written = self.cd_command_num
         if self.sj_command_num != self.sj_written:  # a command was sent
             seq, number = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)[:2]
             if number != self.sj_written:  # an operator's command came meanwhile:
                 self.sj_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, SJ_COMMAND_AT, seq)
+            words[SJ_COMMAND_WORD] = seq
             SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq, self.sj_command_num, self.sj_command)
-            SEQ.pack_into(buf, SJ_COMMAND_AT, seq + 1)
+            words[SJ_COMMAND_WORD] = seq + 1
             self.sj_written = self.sj_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, CC_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            CC_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, CC_PERF_AT, seq + 1)
+        at = CC_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

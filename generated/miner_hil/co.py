@@ -20,7 +20,7 @@ from .layout import (
     WORLD_GOAL_X_AT,
     WORLD_GOAL_Y_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 from .rcs.deadline import hook
 from .rcs.override import held
 
@@ -58,6 +58,16 @@ CC_CUSP = 7
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd44x???1xI80xQI468xQI484xQI508xd8xd8xd8xd328xd8xd8xd24xd8xd8x?47xd")
 INPUTS_AT = 728
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+CO_STATUS_WORD = CO_STATUS_AT >> 3
+CR_COMMAND_WORD = CR_COMMAND_AT >> 3
+VG_COMMAND_WORD = VG_COMMAND_AT >> 3
+CC_COMMAND_WORD = CC_COMMAND_AT >> 3
+WORLD_GOAL_X_WORD = WORLD_GOAL_X_AT >> 3
+WORLD_GOAL_Y_WORD = WORLD_GOAL_Y_AT >> 3
+CO_PERF_WORD = CO_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -128,6 +138,7 @@ class CoController:
         "vg_status",
         "vg_status_num",
         "vg_written",
+        "words",
         "world_cutter_current",
         "world_goal_x",
         "world_goal_y",
@@ -151,6 +162,7 @@ class CoController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_distance: float = 0.0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -201,6 +213,7 @@ class CoController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -252,26 +265,27 @@ class CoController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == INITIAL_APPROACH_FACE:
-                self.initial_approach_face()
-            elif command == REPOSITION:
-                self.reposition()
-            elif command == TRAM_TO_GOAL:
-                self.tram_to_goal()
-            elif command == APPROACH_FACE:
-                self.approach_face()
-            elif command == SUMP_SHEAR_CUSP:
-                self.sump_shear_cusp()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == INITIAL_APPROACH_FACE:
+                    self.initial_approach_face()
+                elif command == REPOSITION:
+                    self.reposition()
+                elif command == TRAM_TO_GOAL:
+                    self.tram_to_goal()
+                elif command == APPROACH_FACE:
+                    self.approach_face()
+                elif command == SUMP_SHEAR_CUSP:
+                    self.sump_shear_cusp()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, CO_STATUS_AT, seq)  # odd before any field changes
+            words[CO_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 CO_STATUS_AT,
@@ -282,7 +296,7 @@ class CoController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, CO_STATUS_AT, seq + 1)
+            words[CO_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.cr_command_num != self.cr_written:  # a command was sent
@@ -290,16 +304,16 @@ class CoController:
             if number != self.cr_written:  # an operator's command came meanwhile:
                 self.cr_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CR_COMMAND_AT, seq)
+            words[CR_COMMAND_WORD] = seq
             CR_COMMAND.pack_into(buf, CR_COMMAND_AT, seq, self.cr_command_num, self.cr_command)
-            SEQ.pack_into(buf, CR_COMMAND_AT, seq + 1)
+            words[CR_COMMAND_WORD] = seq + 1
             self.cr_written = self.cr_command_num
         if self.vg_command_num != self.vg_written:  # a command was sent
             seq, number = VG_COMMAND.unpack_from(buf, VG_COMMAND_AT)[:2]
             if number != self.vg_written:  # an operator's command came meanwhile:
                 self.vg_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, VG_COMMAND_AT, seq)
+            words[VG_COMMAND_WORD] = seq
             VG_COMMAND.pack_into(
                 buf,
                 VG_COMMAND_AT,
@@ -309,16 +323,16 @@ class CoController:
                 self.vg_arg_x,
                 self.vg_arg_y,
             )
-            SEQ.pack_into(buf, VG_COMMAND_AT, seq + 1)
+            words[VG_COMMAND_WORD] = seq + 1
             self.vg_written = self.vg_command_num
         if self.cc_command_num != self.cc_written:  # a command was sent
             seq, number = CC_COMMAND.unpack_from(buf, CC_COMMAND_AT)[:2]
             if number != self.cc_written:  # an operator's command came meanwhile:
                 self.cc_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CC_COMMAND_AT, seq)
+            words[CC_COMMAND_WORD] = seq
             CC_COMMAND.pack_into(buf, CC_COMMAND_AT, seq, self.cc_command_num, self.cc_command)
-            SEQ.pack_into(buf, CC_COMMAND_AT, seq + 1)
+            words[CC_COMMAND_WORD] = seq + 1
             self.cc_written = self.cc_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or buf[OVERRIDDEN_AT]:
@@ -328,34 +342,29 @@ class CoController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_GOAL_X_AT, s[0] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_GOAL_Y_AT, s[1] | 1)  # odd before the value changes
+                words[WORLD_GOAL_X_WORD] = s[0] | 1  # odd before the value changes
+                words[WORLD_GOAL_Y_WORD] = s[1] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-                SEQ.pack_into(buf, WORLD_GOAL_X_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_GOAL_Y_AT, (s[1] | 1) + 1)
+                words[WORLD_GOAL_X_WORD] = (s[0] | 1) + 1
+                words[WORLD_GOAL_Y_WORD] = (s[1] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, CO_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            CO_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, CO_PERF_AT, seq + 1)
+        at = CO_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -15,7 +15,7 @@ from .layout import (
     WM_COMMAND_AT,
     WORLD_SUMP_STEP_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 from .rcs.override import held
 
 # Commands sb accepts (the code written to its command buffer).
@@ -43,6 +43,14 @@ WM_NEW_CUT = 3
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd44x???1xI96xQI1324xQI652xd8xd88xd8xd8xd")
 INPUTS_AT = 592
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+SB_STATUS_WORD = SB_STATUS_AT >> 3
+CO_COMMAND_WORD = CO_COMMAND_AT >> 3
+WM_COMMAND_WORD = WM_COMMAND_AT >> 3
+WORLD_SUMP_STEP_WORD = WORLD_SUMP_STEP_AT >> 3
+SB_PERF_WORD = SB_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -114,6 +122,7 @@ class SbController:
         "wm_status",
         "wm_status_num",
         "wm_written",
+        "words",
         "world_depth_est",
         "world_drum_reach",
         "world_pose_x",
@@ -123,6 +132,7 @@ class SbController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_start_x: float = 0.0
         self.var_start_y: float = 0.0
         self.resume()
@@ -170,6 +180,7 @@ class SbController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -211,22 +222,23 @@ class SbController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == TRAM_TO_GOAL:
-                self.tram_to_goal()
-            elif command == BOX_CUT:
-                self.box_cut()
-            elif command == CUT_TWO_PASSES:
-                self.cut_two_passes()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == TRAM_TO_GOAL:
+                    self.tram_to_goal()
+                elif command == BOX_CUT:
+                    self.box_cut()
+                elif command == CUT_TWO_PASSES:
+                    self.cut_two_passes()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, SB_STATUS_AT, seq)  # odd before any field changes
+            words[SB_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 SB_STATUS_AT,
@@ -237,7 +249,7 @@ class SbController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, SB_STATUS_AT, seq + 1)
+            words[SB_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.co_command_num != self.co_written:  # a command was sent
@@ -245,7 +257,7 @@ class SbController:
             if number != self.co_written:  # an operator's command came meanwhile:
                 self.co_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, CO_COMMAND_AT, seq)
+            words[CO_COMMAND_WORD] = seq
             CO_COMMAND.pack_into(
                 buf,
                 CO_COMMAND_AT,
@@ -255,16 +267,16 @@ class SbController:
                 self.co_arg_x,
                 self.co_arg_y,
             )
-            SEQ.pack_into(buf, CO_COMMAND_AT, seq + 1)
+            words[CO_COMMAND_WORD] = seq + 1
             self.co_written = self.co_command_num
         if self.wm_command_num != self.wm_written:  # a command was sent
             seq, number = WM_COMMAND.unpack_from(buf, WM_COMMAND_AT)[:2]
             if number != self.wm_written:  # an operator's command came meanwhile:
                 self.wm_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, WM_COMMAND_AT, seq)
+            words[WM_COMMAND_WORD] = seq
             WM_COMMAND.pack_into(buf, WM_COMMAND_AT, seq, self.wm_command_num, self.wm_command)
-            SEQ.pack_into(buf, WM_COMMAND_AT, seq + 1)
+            words[WM_COMMAND_WORD] = seq + 1
             self.wm_written = self.wm_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or buf[OVERRIDDEN_AT]:
@@ -274,32 +286,27 @@ class SbController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, s[0] | 1)  # odd before the value changes
+                words[WORLD_SUMP_STEP_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_SUMP_STEP_AT, (s[0] | 1) + 1)
+                words[WORLD_SUMP_STEP_WORD] = (s[0] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, SB_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SB_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, SB_PERF_AT, seq + 1)
+        at = SB_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -22,8 +22,8 @@ from .rcs.contract import (
     NOP,
     PERF,
     READ_TRIES,
-    SEQ,
     STATUS,
+    words,
 )
 from .rcs.deadline import hook
 
@@ -56,10 +56,16 @@ TC_STOP = 13
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd44x???1xI80xQI236xQQI204xQdQdQ?271xd8xd8xd")
 INPUTS_AT = 1824
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q216xQ8xQ8xQ")
-SEQS_AT = 2232
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (279, 307, 309, 311)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+VG_STATUS_WORD = VG_STATUS_AT >> 3
+PP_COMMAND_WORD = PP_COMMAND_AT >> 3
+TC_COMMAND_WORD = TC_COMMAND_AT >> 3
+VG_PERF_WORD = VG_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -130,6 +136,7 @@ class VgController:
         "var_facing_turn",
         "var_move",
         "var_turn",
+        "words",
         "world_heading",
         "world_pose_x",
         "world_pose_y",
@@ -147,6 +154,7 @@ class VgController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_move: int = 0
         self.var_ahead: float = 0.0
         self.var_turn: float = 0.0
@@ -197,17 +205,15 @@ class VgController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
         if (
             (values[10] | values[13] | values[15] | values[17]) & 1
             or not (values[10] and values[13] and values[15] and values[17])
-            or SEQS.unpack_from(buf, SEQS_AT)
-            != (
-                values[10],
-                values[13],
-                values[15],
-                values[17],
-            )
+            or words[279] != values[10]
+            or words[307] != values[13]
+            or words[309] != values[15]
+            or words[311] != values[17]
         ):
             self.read_inputs()  # being written by another process: read again, out of line
         else:
@@ -258,18 +264,19 @@ class VgController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == TRAM_TO_XY:
-                self.tram_to_xy()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == TRAM_TO_XY:
+                    self.tram_to_xy()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, VG_STATUS_AT, seq)  # odd before any field changes
+            words[VG_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 VG_STATUS_AT,
@@ -280,7 +287,7 @@ class VgController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, VG_STATUS_AT, seq + 1)
+            words[VG_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.pp_command_num != self.pp_written:  # a command was sent
@@ -288,7 +295,7 @@ class VgController:
             if number != self.pp_written:  # an operator's command came meanwhile:
                 self.pp_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, PP_COMMAND_AT, seq)
+            words[PP_COMMAND_WORD] = seq
             PP_COMMAND.pack_into(
                 buf,
                 PP_COMMAND_AT,
@@ -298,40 +305,35 @@ class VgController:
                 self.pp_arg_x,
                 self.pp_arg_y,
             )
-            SEQ.pack_into(buf, PP_COMMAND_AT, seq + 1)
+            words[PP_COMMAND_WORD] = seq + 1
             self.pp_written = self.pp_command_num
         if self.tc_command_num != self.tc_written:  # a command was sent
             seq, number = TC_COMMAND.unpack_from(buf, TC_COMMAND_AT)[:2]
             if number != self.tc_written:  # an operator's command came meanwhile:
                 self.tc_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, TC_COMMAND_AT, seq)
+            words[TC_COMMAND_WORD] = seq
             TC_COMMAND.pack_into(buf, TC_COMMAND_AT, seq, self.tc_command_num, self.tc_command)
-            SEQ.pack_into(buf, TC_COMMAND_AT, seq + 1)
+            words[TC_COMMAND_WORD] = seq + 1
             self.tc_written = self.tc_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, VG_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            VG_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, VG_PERF_AT, seq + 1)
+        at = VG_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -339,20 +341,17 @@ class VgController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
             if not (
                 (values[10] | values[13] | values[15] | values[17]) & 1
                 or not (values[10] and values[13] and values[15] and values[17])
-                or SEQS.unpack_from(buf, SEQS_AT)
-                != (
-                    values[10],
-                    values[13],
-                    values[15],
-                    values[17],
-                )
+                or words[279] != values[10]
+                or words[307] != values[13]
+                or words[309] != values[15]
+                or words[311] != values[17]
             ):
                 whole = True
                 break

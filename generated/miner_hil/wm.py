@@ -15,7 +15,7 @@ from .layout import (
     WORLD_DRUM_REACH_AT,
     WORLD_POPPED_OUT_OF_SHEAR_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 from .rcs.deadline import hook
 from .rcs.override import held
 
@@ -28,6 +28,14 @@ NEW_CUT = 3
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI576x?47xd40xd8xd24x?15xd8xd")
 INPUTS_AT = 2080
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+WM_STATUS_WORD = WM_STATUS_AT >> 3
+WORLD_POPPED_OUT_OF_SHEAR_WORD = WORLD_POPPED_OUT_OF_SHEAR_AT >> 3
+WORLD_DEPTH_EST_WORD = WORLD_DEPTH_EST_AT >> 3
+WORLD_DRUM_REACH_WORD = WORLD_DRUM_REACH_AT >> 3
+WM_PERF_WORD = WM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -73,6 +81,7 @@ class WmController:
         "var_face0",
         "var_floor_x",
         "var_shear_x",
+        "words",
         "world_boom_angle",
         "world_cutter_current",
         "world_depth_est",
@@ -91,6 +100,7 @@ class WmController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.world_set = False  # an every_cycle rule set a world output
         self.var_face0: float = -1000000000.0
         self.var_floor_x: float = -1000000000.0
@@ -123,6 +133,7 @@ class WmController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -157,18 +168,19 @@ class WmController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == NEW_CUT:
-                self.new_cut()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == NEW_CUT:
+                    self.new_cut()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, WM_STATUS_AT, seq)  # odd before any field changes
+            words[WM_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 WM_STATUS_AT,
@@ -179,7 +191,7 @@ class WmController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, WM_STATUS_AT, seq + 1)
+            words[WM_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
@@ -191,40 +203,33 @@ class WmController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(
-                    buf, WORLD_POPPED_OUT_OF_SHEAR_AT, s[0] | 1
-                )  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_DEPTH_EST_AT, s[1] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_DRUM_REACH_AT, s[2] | 1)  # odd before the value changes
+                words[WORLD_POPPED_OUT_OF_SHEAR_WORD] = s[0] | 1  # odd before the value changes
+                words[WORLD_DEPTH_EST_WORD] = s[1] | 1  # odd before the value changes
+                words[WORLD_DRUM_REACH_WORD] = s[2] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(
                     buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
                 )
-                SEQ.pack_into(buf, WORLD_POPPED_OUT_OF_SHEAR_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_DEPTH_EST_AT, (s[1] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_DRUM_REACH_AT, (s[2] | 1) + 1)
+                words[WORLD_POPPED_OUT_OF_SHEAR_WORD] = (s[0] | 1) + 1
+                words[WORLD_DEPTH_EST_WORD] = (s[1] | 1) + 1
+                words[WORLD_DRUM_REACH_WORD] = (s[2] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, WM_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            WM_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, WM_PERF_AT, seq + 1)
+        at = WM_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -21,8 +21,8 @@ from .rcs.contract import (
     NOP,
     PERF,
     READ_TRIES,
-    SEQ,
     caused,
+    words,
 )
 
 # Commands alpha accepts (the code written to its command buffer).
@@ -59,10 +59,16 @@ ALPHA_RSTA_LINK = 7  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQId68x???1xI88xQII8xQ224xQI12x?d1415xd")
 INPUTS_AT = 1136
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 1136
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (142,)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+ALPHA_STATUS_WORD = ALPHA_STATUS_AT >> 3
+ALPHA_LOCO_COMMAND_WORD = ALPHA_LOCO_COMMAND_AT >> 3
+ALPHA_RSTA_COMMAND_WORD = ALPHA_RSTA_COMMAND_AT >> 3
+ALPHA_PERF_WORD = ALPHA_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -114,11 +120,13 @@ class AlphaController:
         "status_num",
         "status_seq",
         "var_cover_x",
+        "words",
         "world_alpha_x",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_cover_x: float = 0.0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -176,8 +184,9 @@ class AlphaController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+        if values[0] & 1 or not values[0] or words[142] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -232,22 +241,23 @@ class AlphaController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == GOTO:
-                self.goto()
-            elif command == OVERWATCH:
-                self.overwatch()
-            elif command == COVER:
-                self.cover()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == GOTO:
+                    self.goto()
+                elif command == OVERWATCH:
+                    self.overwatch()
+                elif command == COVER:
+                    self.cover()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, ALPHA_STATUS_AT, seq)  # odd before any field changes
+            words[ALPHA_STATUS_WORD] = seq  # odd before any field changes
             ALPHA_STATUS.pack_into(
                 buf,
                 ALPHA_STATUS_AT,
@@ -261,7 +271,7 @@ class AlphaController:
                 self.result_enemy_x,
                 self.cause,
             )
-            SEQ.pack_into(buf, ALPHA_STATUS_AT, seq + 1)
+            words[ALPHA_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.alpha_loco_command_num != self.alpha_loco_written:  # a command was sent
@@ -269,7 +279,7 @@ class AlphaController:
             if number != self.alpha_loco_written:  # an operator's command came meanwhile:
                 self.alpha_loco_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, ALPHA_LOCO_COMMAND_AT, seq)
+            words[ALPHA_LOCO_COMMAND_WORD] = seq
             ALPHA_LOCO_COMMAND.pack_into(
                 buf,
                 ALPHA_LOCO_COMMAND_AT,
@@ -278,14 +288,14 @@ class AlphaController:
                 self.alpha_loco_command,
                 self.alpha_loco_arg_goal,
             )
-            SEQ.pack_into(buf, ALPHA_LOCO_COMMAND_AT, seq + 1)
+            words[ALPHA_LOCO_COMMAND_WORD] = seq + 1
             self.alpha_loco_written = self.alpha_loco_command_num
         if self.alpha_rsta_command_num != self.alpha_rsta_written:  # a command was sent
             seq, number = ALPHA_RSTA_COMMAND.unpack_from(buf, ALPHA_RSTA_COMMAND_AT)[:2]
             if number != self.alpha_rsta_written:  # an operator's command came meanwhile:
                 self.alpha_rsta_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, ALPHA_RSTA_COMMAND_AT, seq)
+            words[ALPHA_RSTA_COMMAND_WORD] = seq
             ALPHA_RSTA_COMMAND.pack_into(
                 buf,
                 ALPHA_RSTA_COMMAND_AT,
@@ -293,31 +303,26 @@ class AlphaController:
                 self.alpha_rsta_command_num,
                 self.alpha_rsta_command,
             )
-            SEQ.pack_into(buf, ALPHA_RSTA_COMMAND_AT, seq + 1)
+            words[ALPHA_RSTA_COMMAND_WORD] = seq + 1
             self.alpha_rsta_written = self.alpha_rsta_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, ALPHA_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            ALPHA_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, ALPHA_PERF_AT, seq + 1)
+        at = ALPHA_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -325,13 +330,11 @@ class AlphaController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (
-                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
-            ):
+            if not (values[0] & 1 or not values[0] or words[142] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

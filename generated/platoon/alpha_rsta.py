@@ -13,7 +13,7 @@ from .layout import (
     ALPHA_RSTA_STATUS,
     ALPHA_RSTA_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, words
 from .rcs.deadline import hook
 
 # Commands alpha_rsta accepts (the code written to its command buffer).
@@ -30,6 +30,11 @@ ALPHA_PAN_POINT = 3
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI60x???1xI88xQI1292xd8xd104x?15xd")
 INPUTS_AT = 1560
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+ALPHA_RSTA_STATUS_WORD = ALPHA_RSTA_STATUS_AT >> 3
+ALPHA_PAN_COMMAND_WORD = ALPHA_PAN_COMMAND_AT >> 3
+ALPHA_RSTA_PERF_WORD = ALPHA_RSTA_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -76,6 +81,7 @@ class AlphaRstaController:
         "status_num",
         "status_seq",
         "var_bearing",
+        "words",
         "world_alpha_contact",
         "world_alpha_contact_x",
         "world_alpha_x",
@@ -90,6 +96,7 @@ class AlphaRstaController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_bearing: float = 0.0
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -139,6 +146,7 @@ class AlphaRstaController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -175,18 +183,19 @@ class AlphaRstaController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == SCAN:
-                self.scan()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == SCAN:
+                    self.scan()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, ALPHA_RSTA_STATUS_AT, seq)  # odd before any field changes
+            words[ALPHA_RSTA_STATUS_WORD] = seq  # odd before any field changes
             ALPHA_RSTA_STATUS.pack_into(
                 buf,
                 ALPHA_RSTA_STATUS_AT,
@@ -199,7 +208,7 @@ class AlphaRstaController:
                 self.result_contact,
                 self.result_enemy_x,
             )
-            SEQ.pack_into(buf, ALPHA_RSTA_STATUS_AT, seq + 1)
+            words[ALPHA_RSTA_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.alpha_pan_command_num != self.alpha_pan_written:  # a command was sent
@@ -207,7 +216,7 @@ class AlphaRstaController:
             if number != self.alpha_pan_written:  # an operator's command came meanwhile:
                 self.alpha_pan_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, ALPHA_PAN_COMMAND_AT, seq)
+            words[ALPHA_PAN_COMMAND_WORD] = seq
             ALPHA_PAN_COMMAND.pack_into(
                 buf,
                 ALPHA_PAN_COMMAND_AT,
@@ -216,31 +225,26 @@ class AlphaRstaController:
                 self.alpha_pan_command,
                 self.alpha_pan_arg_bearing,
             )
-            SEQ.pack_into(buf, ALPHA_PAN_COMMAND_AT, seq + 1)
+            words[ALPHA_PAN_COMMAND_WORD] = seq + 1
             self.alpha_pan_written = self.alpha_pan_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, ALPHA_RSTA_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            ALPHA_RSTA_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, ALPHA_RSTA_PERF_AT, seq + 1)
+        at = ALPHA_RSTA_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

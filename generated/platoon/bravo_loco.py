@@ -11,7 +11,7 @@ from .layout import (
     BRAVO_LOCO_STATUS,
     BRAVO_LOCO_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
 
 # Commands bravo_loco accepts (the code written to its command buffer).
 INIT = 1
@@ -35,6 +35,11 @@ BRAVO_DRIVE_LINK = 13  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId52x???1xI88xQI812xd24xd")
 INPUTS_AT = 2216
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+BRAVO_LOCO_STATUS_WORD = BRAVO_LOCO_STATUS_AT >> 3
+BRAVO_DRIVE_COMMAND_WORD = BRAVO_DRIVE_COMMAND_AT >> 3
+BRAVO_LOCO_PERF_WORD = BRAVO_LOCO_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -84,12 +89,14 @@ class BravoLocoController:
         "status_num",
         "status_seq",
         "ticks",
+        "words",
         "world_bravo_speed",
         "world_bravo_x",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.held_move_to_ahead_1 = 0  # cycles its rule's `when` has held in a row (for:)
         self.held_move_to_back_1 = 0  # cycles its rule's `when` has held in a row (for:)
@@ -141,6 +148,7 @@ class BravoLocoController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -179,20 +187,21 @@ class BravoLocoController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == MOVE_TO:
-                self.move_to()
-            elif command == STOP:
-                self.stop()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == MOVE_TO:
+                    self.move_to()
+                elif command == STOP:
+                    self.stop()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, BRAVO_LOCO_STATUS_AT, seq)  # odd before any field changes
+            words[BRAVO_LOCO_STATUS_WORD] = seq  # odd before any field changes
             BRAVO_LOCO_STATUS.pack_into(
                 buf,
                 BRAVO_LOCO_STATUS_AT,
@@ -204,7 +213,7 @@ class BravoLocoController:
                 self.rule,
                 self.cause,
             )
-            SEQ.pack_into(buf, BRAVO_LOCO_STATUS_AT, seq + 1)
+            words[BRAVO_LOCO_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.bravo_drive_command_num != self.bravo_drive_written:  # a command was sent
@@ -212,7 +221,7 @@ class BravoLocoController:
             if number != self.bravo_drive_written:  # an operator's command came meanwhile:
                 self.bravo_drive_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, BRAVO_DRIVE_COMMAND_AT, seq)
+            words[BRAVO_DRIVE_COMMAND_WORD] = seq
             BRAVO_DRIVE_COMMAND.pack_into(
                 buf,
                 BRAVO_DRIVE_COMMAND_AT,
@@ -221,31 +230,26 @@ class BravoLocoController:
                 self.bravo_drive_command,
                 self.bravo_drive_arg_throttle,
             )
-            SEQ.pack_into(buf, BRAVO_DRIVE_COMMAND_AT, seq + 1)
+            words[BRAVO_DRIVE_COMMAND_WORD] = seq + 1
             self.bravo_drive_written = self.bravo_drive_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, BRAVO_LOCO_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            BRAVO_LOCO_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, BRAVO_LOCO_PERF_AT, seq + 1)
+        at = BRAVO_LOCO_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

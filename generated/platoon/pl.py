@@ -21,8 +21,8 @@ from .rcs.contract import (
     NOP,
     PERF,
     READ_TRIES,
-    SEQ,
     caused,
+    words,
 )
 
 # Commands pl accepts (the code written to its command buffer).
@@ -56,10 +56,16 @@ LDR_LINK = 3  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQId76x???1xI88xQII8x?d??8xQ173xQI12xqd")
 INPUTS_AT = 632
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 632
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (79,)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+PL_STATUS_WORD = PL_STATUS_AT >> 3
+SEC_COMMAND_WORD = SEC_COMMAND_AT >> 3
+LDR_PL_COMMAND_WORD = LDR_PL_COMMAND_AT >> 3
+PL_PERF_WORD = PL_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -126,10 +132,12 @@ class PlController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -188,8 +196,9 @@ class PlController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+        if values[0] & 1 or not values[0] or words[79] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -253,18 +262,19 @@ class PlController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == ESTABLISH_OP:
-                self.establish_op()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == ESTABLISH_OP:
+                    self.establish_op()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, PL_STATUS_AT, seq)  # odd before any field changes
+            words[PL_STATUS_WORD] = seq  # odd before any field changes
             PL_STATUS.pack_into(
                 buf,
                 PL_STATUS_AT,
@@ -280,7 +290,7 @@ class PlController:
                 self.result_decision,
                 self.cause,
             )
-            SEQ.pack_into(buf, PL_STATUS_AT, seq + 1)
+            words[PL_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.sec_command_num != self.sec_written:  # a command was sent
@@ -288,7 +298,7 @@ class PlController:
             if number != self.sec_written:  # an operator's command came meanwhile:
                 self.sec_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, SEC_COMMAND_AT, seq)
+            words[SEC_COMMAND_WORD] = seq
             SEC_COMMAND.pack_into(
                 buf,
                 SEC_COMMAND_AT,
@@ -297,14 +307,14 @@ class PlController:
                 self.sec_command,
                 self.sec_arg_objective,
             )
-            SEQ.pack_into(buf, SEC_COMMAND_AT, seq + 1)
+            words[SEC_COMMAND_WORD] = seq + 1
             self.sec_written = self.sec_command_num
         if self.ldr_command_num != self.ldr_written:  # a command was sent
             seq, number = LDR_PL_COMMAND.unpack_from(buf, LDR_PL_COMMAND_AT)[:2]
             if number != self.ldr_written:  # an operator's command came meanwhile:
                 self.ldr_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, LDR_PL_COMMAND_AT, seq)
+            words[LDR_PL_COMMAND_WORD] = seq
             LDR_PL_COMMAND.pack_into(
                 buf,
                 LDR_PL_COMMAND_AT,
@@ -313,31 +323,26 @@ class PlController:
                 self.ldr_command,
                 self.ldr_arg_enemy_x,
             )
-            SEQ.pack_into(buf, LDR_PL_COMMAND_AT, seq + 1)
+            words[LDR_PL_COMMAND_WORD] = seq + 1
             self.ldr_written = self.ldr_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, PL_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            PL_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, PL_PERF_AT, seq + 1)
+        at = PL_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -345,13 +350,11 @@ class PlController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (
-                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
-            ):
+            if not (values[0] & 1 or not values[0] or words[79] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

@@ -21,8 +21,8 @@ from .rcs.contract import (
     NOP,
     PERF,
     READ_TRIES,
-    SEQ,
     caused,
+    words,
 )
 
 # Commands sec accepts (the code written to its command buffer).
@@ -66,10 +66,16 @@ BRAVO_LINK = 11  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId76x???1xI264xQQII9xdQ871xQQII9xdQ887xQd160xQd")
 INPUTS_AT = 800
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q912xQ928xQ168xQ")
-SEQS_AT = 1168
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (146, 261, 378, 400)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+SEC_STATUS_WORD = SEC_STATUS_AT >> 3
+ALPHA_COMMAND_WORD = ALPHA_COMMAND_AT >> 3
+BRAVO_COMMAND_WORD = BRAVO_COMMAND_AT >> 3
+SEC_PERF_WORD = SEC_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -142,12 +148,14 @@ class SecController:
         "status_seq",
         "ticks",
         "var_reports",
+        "words",
         "world_alpha_x",
         "world_bravo_x",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_reports: int = 0
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.alpha_lost = False  # set by the runtime while its process is lost
@@ -211,17 +219,15 @@ class SecController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
         if (
             (values[7] | values[13] | values[19] | values[21]) & 1
             or not (values[7] and values[13] and values[19] and values[21])
-            or SEQS.unpack_from(buf, SEQS_AT)
-            != (
-                values[7],
-                values[13],
-                values[19],
-                values[21],
-            )
+            or words[146] != values[7]
+            or words[261] != values[13]
+            or words[378] != values[19]
+            or words[400] != values[21]
         ):
             self.read_inputs()  # being written by another process: read again, out of line
         else:
@@ -300,20 +306,21 @@ class SecController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == SC_EST_OBS:
-                self.sc_est_obs()
-            elif command == OVERWATCH:
-                self.overwatch()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == SC_EST_OBS:
+                    self.sc_est_obs()
+                elif command == OVERWATCH:
+                    self.overwatch()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, SEC_STATUS_AT, seq)  # odd before any field changes
+            words[SEC_STATUS_WORD] = seq  # odd before any field changes
             SEC_STATUS.pack_into(
                 buf,
                 SEC_STATUS_AT,
@@ -330,7 +337,7 @@ class SecController:
                 self.result_reports,
                 self.cause,
             )
-            SEQ.pack_into(buf, SEC_STATUS_AT, seq + 1)
+            words[SEC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.alpha_command_num != self.alpha_written:  # a command was sent
@@ -338,7 +345,7 @@ class SecController:
             if number != self.alpha_written:  # an operator's command came meanwhile:
                 self.alpha_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, ALPHA_COMMAND_AT, seq)
+            words[ALPHA_COMMAND_WORD] = seq
             ALPHA_COMMAND.pack_into(
                 buf,
                 ALPHA_COMMAND_AT,
@@ -347,14 +354,14 @@ class SecController:
                 self.alpha_command,
                 self.alpha_arg_x,
             )
-            SEQ.pack_into(buf, ALPHA_COMMAND_AT, seq + 1)
+            words[ALPHA_COMMAND_WORD] = seq + 1
             self.alpha_written = self.alpha_command_num
         if self.bravo_command_num != self.bravo_written:  # a command was sent
             seq, number = BRAVO_COMMAND.unpack_from(buf, BRAVO_COMMAND_AT)[:2]
             if number != self.bravo_written:  # an operator's command came meanwhile:
                 self.bravo_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, BRAVO_COMMAND_AT, seq)
+            words[BRAVO_COMMAND_WORD] = seq
             BRAVO_COMMAND.pack_into(
                 buf,
                 BRAVO_COMMAND_AT,
@@ -363,31 +370,26 @@ class SecController:
                 self.bravo_command,
                 self.bravo_arg_x,
             )
-            SEQ.pack_into(buf, BRAVO_COMMAND_AT, seq + 1)
+            words[BRAVO_COMMAND_WORD] = seq + 1
             self.bravo_written = self.bravo_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, SEC_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SEC_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, SEC_PERF_AT, seq + 1)
+        at = SEC_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -395,20 +397,17 @@ class SecController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
             if not (
                 (values[7] | values[13] | values[19] | values[21]) & 1
                 or not (values[7] and values[13] and values[19] and values[21])
-                or SEQS.unpack_from(buf, SEQS_AT)
-                != (
-                    values[7],
-                    values[13],
-                    values[19],
-                    values[21],
-                )
+                or words[146] != values[7]
+                or words[261] != values[13]
+                or words[378] != values[19]
+                or words[400] != values[21]
             ):
                 whole = True
                 break

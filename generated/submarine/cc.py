@@ -28,12 +28,12 @@ from .rcs.contract import (
     NOP,
     PERF,
     READ_TRIES,
-    SEQ,
     HookError,
     caused,
     decode_text,
     encode_text,
     plan_problem,
+    words,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
 from .rcs.override import held
@@ -89,10 +89,19 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI580xQII976x48s664x?")
 INPUTS_AT = 264
-# The sequence words of the inputs another process writes, read again after INPUTS: the
-# read is whole only if none was odd (being written) and none changed.
-SEQS = Struct("<Q")
-SEQS_AT = 264
+# The sequence words of the inputs another process writes (indices of the block's 8-byte
+# words), read again after INPUTS: the read is whole only if none was odd (being written)
+# and none changed.
+SEQ_WORDS = (33,)
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+CC_STATUS_WORD = CC_STATUS_AT >> 3
+SM_COMMAND_WORD = SM_COMMAND_AT >> 3
+EC_COMMAND_WORD = EC_COMMAND_AT >> 3
+EOOW_CC_COMMAND_WORD = EOOW_CC_COMMAND_AT >> 3
+WORLD_ANNOUNCEMENT_WORD = WORLD_ANNOUNCEMENT_AT >> 3
+CC_PERF_WORD = CC_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -170,6 +179,7 @@ class CcController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_announcement",
         "world_engine_room_contaminated",
     )
@@ -182,6 +192,7 @@ class CcController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         try:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_mission, settings or {})
         except BaseException as error:
@@ -250,8 +261,9 @@ class CcController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]:
+        if values[0] & 1 or not values[0] or words[33] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -309,18 +321,19 @@ class CcController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == RUN_MISSION:
-                self.run_mission()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == RUN_MISSION:
+                    self.run_mission()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, CC_STATUS_AT, seq)  # odd before any field changes
+            words[CC_STATUS_WORD] = seq  # odd before any field changes
             CC_STATUS.pack_into(
                 buf,
                 CC_STATUS_AT,
@@ -335,7 +348,7 @@ class CcController:
                 self.plan_route_replans_left,
                 self.cause,
             )
-            SEQ.pack_into(buf, CC_STATUS_AT, seq + 1)
+            words[CC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.sm_command_num != self.sm_written:  # a command was sent
@@ -343,7 +356,7 @@ class CcController:
             if number != self.sm_written:  # an operator's command came meanwhile:
                 self.sm_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, SM_COMMAND_AT, seq)
+            words[SM_COMMAND_WORD] = seq
             SM_COMMAND.pack_into(
                 buf,
                 SM_COMMAND_AT,
@@ -353,27 +366,27 @@ class CcController:
                 self.sm_arg_x,
                 self.sm_arg_y,
             )
-            SEQ.pack_into(buf, SM_COMMAND_AT, seq + 1)
+            words[SM_COMMAND_WORD] = seq + 1
             self.sm_written = self.sm_command_num
         if self.ec_command_num != self.ec_written:  # a command was sent
             seq, number = EC_COMMAND.unpack_from(buf, EC_COMMAND_AT)[:2]
             if number != self.ec_written:  # an operator's command came meanwhile:
                 self.ec_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, EC_COMMAND_AT, seq)
+            words[EC_COMMAND_WORD] = seq
             EC_COMMAND.pack_into(buf, EC_COMMAND_AT, seq, self.ec_command_num, self.ec_command)
-            SEQ.pack_into(buf, EC_COMMAND_AT, seq + 1)
+            words[EC_COMMAND_WORD] = seq + 1
             self.ec_written = self.ec_command_num
         if self.eoow_command_num != self.eoow_written:  # a command was sent
             seq, number = EOOW_CC_COMMAND.unpack_from(buf, EOOW_CC_COMMAND_AT)[:2]
             if number != self.eoow_written:  # an operator's command came meanwhile:
                 self.eoow_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, EOOW_CC_COMMAND_AT, seq)
+            words[EOOW_CC_COMMAND_WORD] = seq
             EOOW_CC_COMMAND.pack_into(
                 buf, EOOW_CC_COMMAND_AT, seq, self.eoow_command_num, self.eoow_command
             )
-            SEQ.pack_into(buf, EOOW_CC_COMMAND_AT, seq + 1)
+            words[EOOW_CC_COMMAND_WORD] = seq + 1
             self.eoow_written = self.eoow_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or buf[OVERRIDDEN_AT]:
@@ -383,32 +396,27 @@ class CcController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_ANNOUNCEMENT_AT, s[0] | 1)  # odd before the value changes
+                words[WORLD_ANNOUNCEMENT_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_ANNOUNCEMENT_AT, (s[0] | 1) + 1)
+                words[WORLD_ANNOUNCEMENT_WORD] = (s[0] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, CC_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            CC_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, CC_PERF_AT, seq + 1)
+        at = CC_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:
@@ -416,13 +424,11 @@ class CcController:
         READ_TRIES times. Still torn, the last whole read is kept (stale_reads counts it);
         the `first` read takes the block's values as they are, with no new command and the
         table held, so a module is never half-built."""
-        buf = self.buf
+        buf, words = self.buf, self.words
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (
-                values[0] & 1 or not values[0] or SEQS.unpack_from(buf, SEQS_AT)[0] != values[0]
-            ):
+            if not (values[0] & 1 or not values[0] or words[33] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

@@ -14,7 +14,7 @@ from .layout import (
     WORLD_VENT_FLOW_AT,
     WORLD_VENT_LINEUP_AT,
 )
-from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 from .rcs.override import held
 
 # Commands ec accepts (the code written to its command buffer).
@@ -28,6 +28,15 @@ EMERGENCY_VENT = 5
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI44x???1xI1680xd456x?15xd8xd8xd8xq8x?15xd8x?")
 INPUTS_AT = 568
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+EC_STATUS_WORD = EC_STATUS_AT >> 3
+WORLD_VENT_FLOW_WORD = WORLD_VENT_FLOW_AT >> 3
+WORLD_VENT_LINEUP_WORD = WORLD_VENT_LINEUP_AT >> 3
+WORLD_DIESEL_RUNNING_WORD = WORLD_DIESEL_RUNNING_AT >> 3
+WORLD_ENGINE_ROOM_CONTAMINATED_WORD = WORLD_ENGINE_ROOM_CONTAMINATED_AT >> 3
+EC_PERF_WORD = EC_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -97,6 +106,7 @@ class EcController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_co2_pct",
         "world_co_ppm",
         "world_diesel_running",
@@ -111,6 +121,7 @@ class EcController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.world_set = False  # an every_cycle rule set a world output
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
@@ -140,6 +151,7 @@ class EcController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -176,22 +188,23 @@ class EcController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == SUBMERGED_VENT:
-                self.submerged_vent()
-            elif command == LINE_UP_EMERGENCY_VENT:
-                self.line_up_emergency_vent()
-            elif command == EMERGENCY_VENT:
-                self.emergency_vent()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == SUBMERGED_VENT:
+                    self.submerged_vent()
+                elif command == LINE_UP_EMERGENCY_VENT:
+                    self.line_up_emergency_vent()
+                elif command == EMERGENCY_VENT:
+                    self.emergency_vent()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, EC_STATUS_AT, seq)  # odd before any field changes
+            words[EC_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 EC_STATUS_AT,
@@ -202,7 +215,7 @@ class EcController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, EC_STATUS_AT, seq + 1)
+            words[EC_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
@@ -214,56 +227,49 @@ class EcController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_VENT_FLOW_AT, s[0] | 1)  # odd before the value changes
+                words[WORLD_VENT_FLOW_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_VENT_FLOW_AT, (s[0] | 1) + 1)
+                words[WORLD_VENT_FLOW_WORD] = (s[0] | 1) + 1
             out = (self.world_vent_lineup, self.world_diesel_running)
             now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_2, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
-                SEQ.pack_into(buf, WORLD_VENT_LINEUP_AT, s[0] | 1)  # odd before the value changes
-                SEQ.pack_into(
-                    buf, WORLD_DIESEL_RUNNING_AT, s[1] | 1
-                )  # odd before the value changes
+                words[WORLD_VENT_LINEUP_WORD] = s[0] | 1  # odd before the value changes
+                words[WORLD_DIESEL_RUNNING_WORD] = s[1] | 1  # odd before the value changes
                 WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
-                SEQ.pack_into(buf, WORLD_VENT_LINEUP_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_DIESEL_RUNNING_AT, (s[1] | 1) + 1)
+                words[WORLD_VENT_LINEUP_WORD] = (s[0] | 1) + 1
+                words[WORLD_DIESEL_RUNNING_WORD] = (s[1] | 1) + 1
             out = (self.world_engine_room_contaminated,)
             now = WORLD_VALUES_3.unpack_from(buf, WORLD_OUT_3_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_3, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_3.unpack_from(buf, WORLD_OUT_3_AT)
-                SEQ.pack_into(
-                    buf, WORLD_ENGINE_ROOM_CONTAMINATED_AT, s[0] | 1
+                words[WORLD_ENGINE_ROOM_CONTAMINATED_WORD] = (
+                    s[0] | 1
                 )  # odd before the value changes
                 WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_ENGINE_ROOM_CONTAMINATED_AT, (s[0] | 1) + 1)
+                words[WORLD_ENGINE_ROOM_CONTAMINATED_WORD] = (s[0] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, EC_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            EC_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, EC_PERF_AT, seq + 1)
+        at = EC_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -16,7 +16,7 @@ from .layout import (
     RUDDER_COMMAND_AT,
     WORLD_COURSE_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
 from .rcs.deadline import hook
 from .rcs.override import held
 
@@ -41,6 +41,13 @@ RUDDER_LINK = 5  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIdd60x???1xI88xQI1364xd72xd8xd8xd88xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 688
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+HELM_STATUS_WORD = HELM_STATUS_AT >> 3
+RUDDER_COMMAND_WORD = RUDDER_COMMAND_AT >> 3
+WORLD_COURSE_WORD = WORLD_COURSE_AT >> 3
+HELM_PERF_WORD = HELM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -117,6 +124,7 @@ class HelmController:
         "var_baffle_heading",
         "var_ice_seen",
         "var_sent_angle",
+        "words",
         "world_course",
         "world_heading",
         "world_pos_x",
@@ -146,6 +154,7 @@ class HelmController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_ice_seen: int = 0
         self.var_avoid_heading: float = 0.0
         self.var_sent_angle: float = 0.0
@@ -202,6 +211,7 @@ class HelmController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -259,20 +269,21 @@ class HelmController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == ICE_MANEUVER:
-                self.ice_maneuver()
-            elif command == CLEAR_BAFFLES:
-                self.clear_baffles()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == ICE_MANEUVER:
+                    self.ice_maneuver()
+                elif command == CLEAR_BAFFLES:
+                    self.clear_baffles()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, HELM_STATUS_AT, seq)  # odd before any field changes
+            words[HELM_STATUS_WORD] = seq  # odd before any field changes
             HELM_STATUS.pack_into(
                 buf,
                 HELM_STATUS_AT,
@@ -285,7 +296,7 @@ class HelmController:
                 self.result_at_goal,
                 self.cause,
             )
-            SEQ.pack_into(buf, HELM_STATUS_AT, seq + 1)
+            words[HELM_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.rudder_command_num != self.rudder_written:  # a command was sent
@@ -293,7 +304,7 @@ class HelmController:
             if number != self.rudder_written:  # an operator's command came meanwhile:
                 self.rudder_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq)
+            words[RUDDER_COMMAND_WORD] = seq
             RUDDER_COMMAND.pack_into(
                 buf,
                 RUDDER_COMMAND_AT,
@@ -302,7 +313,7 @@ class HelmController:
                 self.rudder_command,
                 self.rudder_arg_angle,
             )
-            SEQ.pack_into(buf, RUDDER_COMMAND_AT, seq + 1)
+            words[RUDDER_COMMAND_WORD] = seq + 1
             self.rudder_written = self.rudder_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or buf[OVERRIDDEN_AT]:
@@ -312,32 +323,27 @@ class HelmController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_COURSE_AT, s[0] | 1)  # odd before the value changes
+                words[WORLD_COURSE_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_COURSE_AT, (s[0] | 1) + 1)
+                words[WORLD_COURSE_WORD] = (s[0] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, HELM_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            HELM_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, HELM_PERF_AT, seq + 1)
+        at = HELM_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -14,7 +14,7 @@ from .layout import (
     PROP_STATUS_AT,
     WORLD_SHAFT_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
 from .rcs.override import held
 
 # Commands prop accepts (the code written to its command buffer).
@@ -42,6 +42,13 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI52x???1xI224xQII952xq")
 INPUTS_AT = 968
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+PROP_STATUS_WORD = PROP_STATUS_AT >> 3
+EOOW_PROP_COMMAND_WORD = EOOW_PROP_COMMAND_AT >> 3
+WORLD_SHAFT_WORD = WORLD_SHAFT_AT >> 3
+PROP_PERF_WORD = PROP_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -94,11 +101,13 @@ class PropController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_shaft",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -147,6 +156,7 @@ class PropController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -184,18 +194,19 @@ class PropController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == SHIFT_TO_EPM:
-                self.shift_to_epm()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == SHIFT_TO_EPM:
+                    self.shift_to_epm()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, PROP_STATUS_AT, seq)  # odd before any field changes
+            words[PROP_STATUS_WORD] = seq  # odd before any field changes
             PROP_STATUS.pack_into(
                 buf,
                 PROP_STATUS_AT,
@@ -207,7 +218,7 @@ class PropController:
                 self.rule,
                 self.cause,
             )
-            SEQ.pack_into(buf, PROP_STATUS_AT, seq + 1)
+            words[PROP_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.eoow_command_num != self.eoow_written:  # a command was sent
@@ -215,11 +226,11 @@ class PropController:
             if number != self.eoow_written:  # an operator's command came meanwhile:
                 self.eoow_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, EOOW_PROP_COMMAND_AT, seq)
+            words[EOOW_PROP_COMMAND_WORD] = seq
             EOOW_PROP_COMMAND.pack_into(
                 buf, EOOW_PROP_COMMAND_AT, seq, self.eoow_command_num, self.eoow_command
             )
-            SEQ.pack_into(buf, EOOW_PROP_COMMAND_AT, seq + 1)
+            words[EOOW_PROP_COMMAND_WORD] = seq + 1
             self.eoow_written = self.eoow_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or buf[OVERRIDDEN_AT]:
@@ -229,32 +240,27 @@ class PropController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_SHAFT_AT, s[0] | 1)  # odd before the value changes
+                words[WORLD_SHAFT_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                SEQ.pack_into(buf, WORLD_SHAFT_AT, (s[0] | 1) + 1)
+                words[WORLD_SHAFT_WORD] = (s[0] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, PROP_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            PROP_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, PROP_PERF_AT, seq + 1)
+        at = PROP_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -10,7 +10,7 @@ from .layout import (
     RUDDER_SIM_COMMAND_AT,
     RUDDER_STATUS_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, STATUS
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
 
 # Commands rudder accepts (the code written to its command buffer).
 INIT = 1
@@ -28,6 +28,11 @@ RUDDER_SIM_ZERO_VOLT = 5
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QId44x???1xI608xQI892xd")
 INPUTS_AT = 840
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+RUDDER_STATUS_WORD = RUDDER_STATUS_AT >> 3
+RUDDER_SIM_COMMAND_WORD = RUDDER_SIM_COMMAND_AT >> 3
+RUDDER_PERF_WORD = RUDDER_PERF_AT >> 3
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -72,11 +77,13 @@ class RudderController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "words",
         "world_rudder_angle",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -118,6 +125,7 @@ class RudderController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -150,18 +158,19 @@ class RudderController:
         ):
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == GOTO_ANGLE:
-                self.goto_angle()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == GOTO_ANGLE:
+                    self.goto_angle()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, RUDDER_STATUS_AT, seq)  # odd before any field changes
+            words[RUDDER_STATUS_WORD] = seq  # odd before any field changes
             STATUS.pack_into(
                 buf,
                 RUDDER_STATUS_AT,
@@ -172,7 +181,7 @@ class RudderController:
                 self.state,
                 self.rule,
             )
-            SEQ.pack_into(buf, RUDDER_STATUS_AT, seq + 1)
+            words[RUDDER_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.rudder_sim_command_num != self.rudder_sim_written:  # a command was sent
@@ -180,7 +189,7 @@ class RudderController:
             if number != self.rudder_sim_written:  # an operator's command came meanwhile:
                 self.rudder_sim_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, RUDDER_SIM_COMMAND_AT, seq)
+            words[RUDDER_SIM_COMMAND_WORD] = seq
             RUDDER_SIM_COMMAND.pack_into(
                 buf,
                 RUDDER_SIM_COMMAND_AT,
@@ -188,31 +197,26 @@ class RudderController:
                 self.rudder_sim_command_num,
                 self.rudder_sim_command,
             )
-            SEQ.pack_into(buf, RUDDER_SIM_COMMAND_AT, seq + 1)
+            words[RUDDER_SIM_COMMAND_WORD] = seq + 1
             self.rudder_sim_written = self.rudder_sim_command_num
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, RUDDER_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            RUDDER_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, RUDDER_PERF_AT, seq + 1)
+        at = RUDDER_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

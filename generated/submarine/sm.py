@@ -27,7 +27,7 @@ from .layout import (
     WORLD_PLANES_AT,
     WORLD_SPEED_CMD_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, SEQ, caused
+from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
 from .rcs.deadline import hook
 from .rcs.override import held
 
@@ -83,6 +83,22 @@ INPUTS = Struct(
     "<QIdd52x???1xI216xQII8x?Q231xQII8xQ400xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd8xd"
 )
 INPUTS_AT = 424
+
+# The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
+SM_STATUS_WORD = SM_STATUS_AT >> 3
+HELM_COMMAND_WORD = HELM_COMMAND_AT >> 3
+PROP_COMMAND_WORD = PROP_COMMAND_AT >> 3
+OOD_SM_COMMAND_WORD = OOD_SM_COMMAND_AT >> 3
+WORLD_SPEED_CMD_WORD = WORLD_SPEED_CMD_AT >> 3
+WORLD_DEPTH_CMD_WORD = WORLD_DEPTH_CMD_AT >> 3
+WORLD_HAVEN_X_WORD = WORLD_HAVEN_X_AT >> 3
+WORLD_HAVEN_Y_WORD = WORLD_HAVEN_Y_AT >> 3
+WORLD_PERISCOPE_RAISED_WORD = WORLD_PERISCOPE_RAISED_AT >> 3
+WORLD_BALLAST_WORD = WORLD_BALLAST_AT >> 3
+WORLD_PLANES_WORD = WORLD_PLANES_AT >> 3
+WORLD_MBT_BLOWN_WORD = WORLD_MBT_BLOWN_AT >> 3
+SM_PERF_WORD = SM_PERF_AT >> 3
+
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
@@ -199,6 +215,7 @@ class SmController:
         "var_goal_x",
         "var_goal_y",
         "var_haven_moving",
+        "words",
         "world_ballast",
         "world_depth",
         "world_depth_cmd",
@@ -223,6 +240,7 @@ class SmController:
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
+        self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.world_set = False  # an every_cycle rule set a world output
         self.var_goal_x: float = 0.0
         self.var_goal_y: float = 0.0
@@ -286,6 +304,7 @@ class SmController:
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
         cycle_start = perf_counter_ns()
         buf = self.buf
+        words = self.words
         (
             self.command_num,
             self.command,
@@ -364,22 +383,23 @@ class SmController:
             if self.single_step:
                 self.perf_single_step_num = self.single_step_num  # this step is taken
             self.every_cycle()
-            command = self.command
-            if command == INIT:
-                self.init()
-            elif command == HALT:
-                self.halt()
-            elif command == SUBMERGED_TRANSIT:
-                self.submerged_transit()
-            elif command == PREP_EMERGENCY_VENT:
-                self.prep_emergency_vent()
-            elif command == PREP_SUBMERGED_TRANSIT:
-                self.prep_submerged_transit()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == SUBMERGED_TRANSIT:
+                    self.submerged_transit()
+                elif command == PREP_EMERGENCY_VENT:
+                    self.prep_emergency_vent()
+                elif command == PREP_SUBMERGED_TRANSIT:
+                    self.prep_submerged_transit()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
             seq = self.status_seq + 1
-            SEQ.pack_into(buf, SM_STATUS_AT, seq)  # odd before any field changes
+            words[SM_STATUS_WORD] = seq  # odd before any field changes
             SM_STATUS.pack_into(
                 buf,
                 SM_STATUS_AT,
@@ -391,7 +411,7 @@ class SmController:
                 self.rule,
                 self.cause,
             )
-            SEQ.pack_into(buf, SM_STATUS_AT, seq + 1)
+            words[SM_STATUS_WORD] = seq + 1
             self.status_seq = seq + 1
             self.status_dirty = False
         if self.helm_command_num != self.helm_written:  # a command was sent
@@ -399,7 +419,7 @@ class SmController:
             if number != self.helm_written:  # an operator's command came meanwhile:
                 self.helm_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, HELM_COMMAND_AT, seq)
+            words[HELM_COMMAND_WORD] = seq
             HELM_COMMAND.pack_into(
                 buf,
                 HELM_COMMAND_AT,
@@ -409,25 +429,25 @@ class SmController:
                 self.helm_arg_x,
                 self.helm_arg_y,
             )
-            SEQ.pack_into(buf, HELM_COMMAND_AT, seq + 1)
+            words[HELM_COMMAND_WORD] = seq + 1
             self.helm_written = self.helm_command_num
         if self.prop_command_num != self.prop_written:  # a command was sent
             seq, number = PROP_COMMAND.unpack_from(buf, PROP_COMMAND_AT)[:2]
             if number != self.prop_written:  # an operator's command came meanwhile:
                 self.prop_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, PROP_COMMAND_AT, seq)
+            words[PROP_COMMAND_WORD] = seq
             PROP_COMMAND.pack_into(
                 buf, PROP_COMMAND_AT, seq, self.prop_command_num, self.prop_command
             )
-            SEQ.pack_into(buf, PROP_COMMAND_AT, seq + 1)
+            words[PROP_COMMAND_WORD] = seq + 1
             self.prop_written = self.prop_command_num
         if self.ood_command_num != self.ood_written:  # a command was sent
             seq, number = OOD_SM_COMMAND.unpack_from(buf, OOD_SM_COMMAND_AT)[:2]
             if number != self.ood_written:  # an operator's command came meanwhile:
                 self.ood_command_num = number + 1  # number ours after it
             seq |= 1  # odd while it is written
-            SEQ.pack_into(buf, OOD_SM_COMMAND_AT, seq)
+            words[OOD_SM_COMMAND_WORD] = seq
             OOD_SM_COMMAND.pack_into(
                 buf,
                 OOD_SM_COMMAND_AT,
@@ -437,7 +457,7 @@ class SmController:
                 self.ood_arg_depth,
                 self.ood_arg_ordered,
             )
-            SEQ.pack_into(buf, OOD_SM_COMMAND_AT, seq + 1)
+            words[OOD_SM_COMMAND_WORD] = seq + 1
             self.ood_written = self.ood_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
@@ -454,13 +474,11 @@ class SmController:
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                SEQ.pack_into(buf, WORLD_SPEED_CMD_AT, s[0] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_DEPTH_CMD_AT, s[1] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_HAVEN_X_AT, s[2] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_HAVEN_Y_AT, s[3] | 1)  # odd before the value changes
-                SEQ.pack_into(
-                    buf, WORLD_PERISCOPE_RAISED_AT, s[4] | 1
-                )  # odd before the value changes
+                words[WORLD_SPEED_CMD_WORD] = s[0] | 1  # odd before the value changes
+                words[WORLD_DEPTH_CMD_WORD] = s[1] | 1  # odd before the value changes
+                words[WORLD_HAVEN_X_WORD] = s[2] | 1  # odd before the value changes
+                words[WORLD_HAVEN_Y_WORD] = s[3] | 1  # odd before the value changes
+                words[WORLD_PERISCOPE_RAISED_WORD] = s[4] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(
                     buf,
                     WORLD_OUT_1_AT,
@@ -475,49 +493,44 @@ class SmController:
                     s[4] | 1,
                     out[4],
                 )
-                SEQ.pack_into(buf, WORLD_SPEED_CMD_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_DEPTH_CMD_AT, (s[1] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_HAVEN_X_AT, (s[2] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_HAVEN_Y_AT, (s[3] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_PERISCOPE_RAISED_AT, (s[4] | 1) + 1)
+                words[WORLD_SPEED_CMD_WORD] = (s[0] | 1) + 1
+                words[WORLD_DEPTH_CMD_WORD] = (s[1] | 1) + 1
+                words[WORLD_HAVEN_X_WORD] = (s[2] | 1) + 1
+                words[WORLD_HAVEN_Y_WORD] = (s[3] | 1) + 1
+                words[WORLD_PERISCOPE_RAISED_WORD] = (s[4] | 1) + 1
             out = (self.world_ballast, self.world_planes, self.world_mbt_blown)
             now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_2, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
-                SEQ.pack_into(buf, WORLD_BALLAST_AT, s[0] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_PLANES_AT, s[1] | 1)  # odd before the value changes
-                SEQ.pack_into(buf, WORLD_MBT_BLOWN_AT, s[2] | 1)  # odd before the value changes
+                words[WORLD_BALLAST_WORD] = s[0] | 1  # odd before the value changes
+                words[WORLD_PLANES_WORD] = s[1] | 1  # odd before the value changes
+                words[WORLD_MBT_BLOWN_WORD] = s[2] | 1  # odd before the value changes
                 WORLD_OUT_2.pack_into(
                     buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1], s[2] | 1, out[2]
                 )
-                SEQ.pack_into(buf, WORLD_BALLAST_AT, (s[0] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_PLANES_AT, (s[1] | 1) + 1)
-                SEQ.pack_into(buf, WORLD_MBT_BLOWN_AT, (s[2] | 1) + 1)
+                words[WORLD_BALLAST_WORD] = (s[0] | 1) + 1
+                words[WORLD_PLANES_WORD] = (s[1] | 1) + 1
+                words[WORLD_MBT_BLOWN_WORD] = (s[2] | 1) + 1
+        # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
-        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
-            self.max_cycle_ns = last
-            if not self.min_cycle_ns:
-                self.min_cycle_ns = last
-        elif last < self.min_cycle_ns:
-            self.min_cycle_ns = last
-        self.cycles += 1
+        self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
-        SEQ.pack_into(buf, SM_PERF_AT, seq)  # odd before any field changes
-        PERF.pack_into(
-            buf,
-            SM_PERF_AT,
-            seq,
-            self.last_cycle_ns,
-            self.min_cycle_ns,
-            self.max_cycle_ns,
-            self.cycles,
-            self.perf_single_step_num,
-            self.stale_reads,
-        )
-        SEQ.pack_into(buf, SM_PERF_AT, seq + 1)
+        at = SM_PERF_WORD
+        words[at] = seq  # odd before any field changes
+        words[at + 1] = last
+        if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
+            self.max_cycle_ns = words[at + 3] = last
+            if not self.min_cycle_ns:
+                self.min_cycle_ns = words[at + 2] = last
+        elif last < self.min_cycle_ns:
+            self.min_cycle_ns = words[at + 2] = last
+        words[at + 4] = cycles
+        if self.single_step or self.stale_reads:  # the only cycles they can have changed in
+            words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
+        words[at] = seq + 1
         self.perf_seq = seq + 1
 
     def read_inputs(self, first: bool = False) -> None:

@@ -159,6 +159,7 @@ class Gathered:
     values_format: str
     texts: tuple[str, ...] = ()
     packed: tuple[str, ...] = ()
+    seq_words: tuple[int, ...] = ()  # the sequence words, as indices of 8-byte words
 
 
 @dataclass(frozen=True)

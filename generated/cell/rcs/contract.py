@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import numbers
 import sys
+import weakref
 from collections.abc import Callable
 from struct import Struct
 from types import CodeType, ModuleType
-from typing import Any, NamedTuple, TypeVar
+from typing import Any, ClassVar, NamedTuple, TypeVar
 
 # Status a module reports to its supervisor (QQ1.h `qq1_responses`), by code.
 NOT_READY = 0
@@ -57,6 +58,9 @@ MODE_FIELDS = (
     ("pad", "x"),
     ("single_step_num", "I"),
 )
+# The generated code stores a performance buffer word by word (templates/controller.py.j2):
+# after its sequence word, last, min, max, cycles, then single_step_num and stale_reads as
+# one word (low half, high half). Keep their order and sizes, or change the template too.
 PERF_FIELDS = (
     ("last_cycle_ns", "Q"),
     ("min_cycle_ns", "Q"),
@@ -434,6 +438,41 @@ def _fingerprint(value: object, depth: int = 0) -> object:
 @shared
 class StaleRead(Exception):
     """A buffer could not be read whole: its writer kept writing (or died while writing)."""
+
+
+@shared
+class _Words:
+    """Each block's view as 8-byte words, made once and shared by every module on the block
+    and every copy of the runtime in the process (`shared`). A view is kept while its block's
+    view lives (a weak reference drops it with that view) and released by `release_words`,
+    which `Block.close` calls: the segment can be unmapped only when no view of it is left."""
+
+    views: ClassVar[dict[int, tuple[weakref.ref[memoryview], memoryview]]] = {}
+
+
+def words(buf: memoryview) -> memoryview:
+    """`buf` as unsigned 8-byte words: `words(buf)[at >> 3]` is the sequence word of the
+    buffer at offset `at` (every buffer is 8-byte aligned), read or stored in one aligned
+    8-byte access. The generated code stores its sequence words so, not with
+    `SEQ.pack_into`, which parses its arguments and zeroes the word before it stores it
+    (three times the time; the word reads 0, a write in progress, meanwhile)."""
+    if sys.byteorder != "little":  # the layout's words are little-endian ("<Q")
+        raise RuntimeError("rcsgen blocks need a little-endian machine (see docs/semantics.md)")
+    views = _Words.views
+    key = id(buf)
+    found = views.get(key)
+    if found is not None and found[0]() is buf:
+        return found[1]
+    view = buf[: len(buf) >> 3 << 3].cast("Q")
+    views[key] = (weakref.ref(buf, lambda _: views.pop(key, None)), view)
+    return view
+
+
+def release_words(buf: memoryview) -> None:
+    """Release `buf`'s word view, if one was made (the block is being closed)."""
+    found = _Words.views.pop(id(buf), None)
+    if found is not None:
+        found[1].release()
 
 
 @shared

@@ -21,7 +21,7 @@ import mmap
 import os
 from types import ModuleType
 
-from .contract import HEADER, MAGIC, shared
+from .contract import HEADER, MAGIC, release_words, shared
 
 
 @shared
@@ -148,7 +148,8 @@ class Block:
         raise BlockError(message)
 
     def close(self) -> None:
-        """Release the view; the creator also removes the named segment."""
+        """Release the view (and its word view); the creator also removes the named segment."""
+        release_words(self.buf)
         self.buf.release()
         if self.shm is not None:
             self.shm.close()

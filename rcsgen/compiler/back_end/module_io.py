@@ -56,6 +56,7 @@ def gather(fields: Iterable[Field]) -> ir.Gathered:
         values_fmt,
         texts=tuple(f.target for f in ordered if f.target is not None and f.text),
         packed=tuple(packed(f.target, f.text) for f in values if f.target is not None),
+        seq_words=tuple(f.offset // 8 for f in seqs),  # every buffer is 8-byte aligned
     )
 
 
@@ -181,7 +182,7 @@ def align(offset: int, to: int = 8) -> int:
 def _slots(c: ir.IRController, targets: list[str]) -> tuple[str, ...]:
     """Every attribute of the generated class: its buffers' fields (`targets`), its
     subordinates', world fields, locals, time counters and plans."""
-    slots = ["buf", *targets, "status_seq", "status_dirty", "perf_seq"]
+    slots = ["buf", "words", *targets, "status_seq", "status_dirty", "perf_seq"]
     if world_set_rules(c):
         slots.append("world_set")
     if c.hooks_state:
@@ -310,8 +311,8 @@ def _runtime_names(
     own_status: bool,
 ) -> set[str]:
     """The contract's names a controller module imports: those its rules need (lowered with
-    them), the sequence word, the text codec of its string fields, the seqlock's tries."""
-    names = {*c.runtime_names, "SEQ"}
+    them), the block's word view, the text codec of its string fields, the seqlock's tries."""
+    names = {*c.runtime_names, "words", "NOP"}  # NOP: an idle module runs no table
     if read.texts or resume_texts:
         names.add("decode_text")
     if any(f.text for f in written):

@@ -69,7 +69,8 @@ FIXED_MODULES = frozenset({"layout", "rcs", "__init__", "__main__", "hooks"})
 # Module-level names every generated controller module imports from the runtime and layout.
 RUNTIME_NAMES = frozenset(
     {"NOT_READY", "EXECUTING", "DONE", "ERROR", "NOP", "NO_RULE", "STATUS", "MODE", "PERF"}
-    | {"INPUTS", "INPUTS_AT", "SEQS", "SEQS_AT", "SEQ", "READ_TRIES", "Struct"}
+    | {"INPUTS", "INPUTS_AT", "SEQS", "SEQS_AT", "SEQ", "READ_TRIES", "Struct", "words"}
+    | {"SEQ_WORDS"}
     # the hook calls: the helper that makes each a method, the factory's deadline
     | {"hook", "within", "FACTORY_DEADLINE"}
 )
@@ -949,8 +950,13 @@ def _typed_names(
     return seen
 
 
-# Suffixes of the layout names a controller module imports for itself and its subordinates.
-_MODULE_BUFFER_SUFFIXES = ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT")
+# Suffixes of the layout names a controller module imports for itself and its subordinates,
+# and of the indices of the sequence words it stores (`<buffer>_WORD`, made from them).
+_MODULE_BUFFER_SUFFIXES = ("_COMMAND", "_COMMAND_AT", "_STATUS_AT", "_MODE_AT", "_PERF_AT") + (
+    "_COMMAND_WORD",
+    "_STATUS_WORD",
+    "_PERF_WORD",
+)
 
 
 @lru_cache(maxsize=8)
@@ -959,6 +965,7 @@ def _world_layout_names(fields: tuple[str, ...]) -> dict[str, str]:
     names = {}
     for name in fields:
         names[f"WORLD_{name.upper()}"] = names[f"WORLD_{name.upper()}_AT"] = "a layout name"
+        names[f"WORLD_{name.upper()}_WORD"] = "a generated name"
     return names
 
 
