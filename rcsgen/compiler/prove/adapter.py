@@ -80,6 +80,7 @@ class Skeleton:
     locals_init: dict[str, tuple[Any, Any]] = field(default_factory=dict)
     constants: dict[str, Any] = field(default_factory=dict)  # name -> value
     _cache: dict[Any, tuple[Choice, ...]] = field(default_factory=dict)
+    views: dict[str, RuleView] = field(default_factory=dict)  # rule id text -> rule (memo)
 
     def choices(self, rules: list[RuleView], fixed: dict[Key, Any]) -> tuple[Choice, ...]:
         """Which rule of `rules` can fire with these atoms fixed: its index (None: none

@@ -30,7 +30,7 @@ LEFT = 3  # the same: its answer awaited by a state left on an interrupt, never 
 LIMIT = 400_000  # the most states one model may have; more is "too large" (undecided)
 
 
-class State(NamedTuple):
+class _StateFields(NamedTuple):
     command: str | None  # None: no command yet
     state: str  # table state, or NOP
     status: str
@@ -44,6 +44,19 @@ class State(NamedTuple):
     # actuator fields it writes that the runtime latched safe (a loss): held until an
     # explicit reset, whatever it sets - a recovery or a new command does not release them
     latched: frozenset[str] = frozenset()
+
+
+class State(_StateFields):
+    """A model state: its fields (`_StateFields`), hashed once. The explorer and every
+    property look states up in sets and dicts tens of thousands of times per model; a tuple
+    hashes its nested fields again on every lookup, this remembers the same value."""
+
+    def __hash__(self) -> int:
+        try:
+            return self.__dict__["_hash"]  # type: ignore[no-any-return]
+        except KeyError:
+            found = self.__dict__["_hash"] = tuple.__hash__(self)
+            return found
 
 
 class Edge(NamedTuple):

@@ -57,11 +57,17 @@ def _rule_of(sk: Skeleton, rule_id: str) -> tuple[str | None, str | None, int, S
 
 
 def rule_view(sk: Skeleton, rule_id: str) -> RuleView:
-    """The rule a rule id text names."""
-    parts = rule_id.split("/")
-    if parts[0] == "every_cycle":
-        return sk.every[int(parts[1]) - 1]
-    return sk.tables[parts[0]][parts[1]][int(parts[2]) - 1]
+    """The rule a rule id text names (remembered: the checks ask for the rules of every
+    edge of the model)."""
+    found = sk.views.get(rule_id)
+    if found is None:
+        parts = rule_id.split("/")
+        if parts[0] == "every_cycle":
+            found = sk.every[int(parts[1]) - 1]
+        else:
+            found = sk.tables[parts[0]][parts[1]][int(parts[2]) - 1]
+        sk.views[rule_id] = found
+    return found
 
 
 def _quiet(edge: Edge) -> bool:
