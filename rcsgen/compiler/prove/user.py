@@ -148,6 +148,8 @@ def check(
     tracked = _tracked(prop)
     then = compiled(graph.skeleton, prop.then)
     whenever = compiled(graph.skeleton, prop.whenever) if prop.whenever is not None else None
+    if not tracked and (whenever is None or prop.within == 0) and graph.complete:
+        return _stateless(graph, prop, then, whenever)
     start = (graph.initial, (_initial_unsafe(system, tracked), OPEN))
     parent: dict[tuple[State, Monitor], tuple[tuple[State, Monitor], Edge] | None] = {start: None}
     todo = deque([start])
@@ -165,6 +167,19 @@ def check(
                     raise TooLarge(prop.name)
                 parent[key] = (at, edge)
                 todo.append(key)
+    return None
+
+
+def _stateless(graph: Graph, prop: IRProperty, then: Test, whenever: Test | None) -> Finding | None:
+    """`check` of a property whose monitor never changes (no actuator's safety named, no
+    obligation left open past its cycle): the search over model and monitor is the model's
+    own breadth-first search, so its first violation is the first edge that breaks it in
+    the order the model was explored, and its run the model's shortest one there."""
+    none: frozenset[str] = frozenset()
+    for s, edges in graph.edges.items():
+        for edge, t in edges:
+            if _step(prop, then, whenever, (edge, t, none), OPEN)[0]:
+                return _finding(graph, prop, graph.path_to(s) + [(edge, t)])
     return None
 
 
