@@ -81,6 +81,11 @@ class Edge(NamedTuple):
     stale: tuple[str, ...] = ()
 
 
+# A NamedTuple's own `__new__` is a Python function around this: the explorer makes tens of
+# thousands of edges and states per model, each made directly (every field given, in order).
+_new = tuple.__new__
+
+
 class Step(NamedTuple):
     """What the controller's own cycle did, from a state the environment has set."""
 
@@ -104,6 +109,8 @@ class Graph:
     edges: dict[State, list[tuple[Edge, State]]] = field(default_factory=dict)
     parent: dict[State, tuple[State, Edge] | None] = field(default_factory=dict)
     complete: bool = True  # False: LIMIT states reached, exploration stopped
+    # what the checks derive from the finished graph and share (properties.py), by name
+    derived: dict[str, Any] = field(default_factory=dict)
 
     def path_to(self, target: State) -> list[tuple[Edge, State]]:
         """The shortest run from the initial state to `target`."""
@@ -296,22 +303,25 @@ class Model:
             steps = self._steps[pre] = self._step(*pre)
         return [
             (
-                Edge(
-                    new,
-                    answered,
-                    lost,
-                    safe_state,
-                    step.rules,
-                    (*pre_sends, *step.sends) if pre_sends else step.sends,
-                    step.report,
-                    step.unsafe,
-                    step.safe,
-                    step.certain,
-                    step.valuation,
-                    step.views,
-                    recovered,
-                    reset,
-                    step.stale,
+                _new(
+                    Edge,
+                    (
+                        new,
+                        answered,
+                        lost,
+                        safe_state,
+                        step.rules,
+                        (*pre_sends, *step.sends) if pre_sends else step.sends,
+                        step.report,
+                        step.unsafe,
+                        step.safe,
+                        step.certain,
+                        step.valuation,
+                        step.views,
+                        recovered,
+                        reset,
+                        step.stale,
+                    ),
                 ),
                 target,
             )
@@ -386,16 +396,19 @@ class Model:
                     views,
                     stale,
                 )
-                target = State(
-                    command,
-                    st2,
-                    stat2,
-                    min(ticks + 1, max(limit)) if timed else 0,
-                    tuple(new_subs),
-                    lost_now,
-                    errored,
-                    halted,
-                    latched,
+                target = _new(
+                    State,
+                    (
+                        command,
+                        st2,
+                        stat2,
+                        min(ticks + 1, max(limit)) if timed else 0,
+                        tuple(new_subs),
+                        lost_now,
+                        errored,
+                        halted,
+                        latched,
+                    ),
                 )
                 results.append((step, target))
         return results

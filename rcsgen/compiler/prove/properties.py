@@ -628,18 +628,28 @@ def error_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]
 
 
 def _error_starts(graph: Graph, sub: str) -> list[tuple[State, Edge, State]]:
-    """The cycles in which the controller reads `sub`'s ERROR to a command it sent."""
-    index = graph.skeleton.subs.index(sub)
-    return [
-        (s, e, t)
-        for s in graph.edges
-        for e, t in graph.edges[s]
-        if (sub, ERROR) in e.answers
-        and _quiet(e)
-        and s.status == EXECUTING
-        and s.subs[index][2]
-        and s.command not in graph.skeleton.generated  # QQ1's INIT/HALT wait for all DONE
-    ]
+    """The cycles in which the controller reads `sub`'s ERROR to a command it sent (found
+    for every subordinate in one pass over the model, once: two checks ask for each)."""
+    found = graph.derived.get("error_starts")
+    if found is None:
+        found = graph.derived["error_starts"] = _all_error_starts(graph)
+    return list(found[sub])
+
+
+def _all_error_starts(graph: Graph) -> dict[str, list[tuple[State, Edge, State]]]:
+    sk = graph.skeleton
+    index = {sub: i for i, sub in enumerate(sk.subs)}
+    found: dict[str, list[tuple[State, Edge, State]]] = {sub: [] for sub in sk.subs}
+    for s, edges in graph.edges.items():
+        if s.status != EXECUTING or s.command in sk.generated:
+            continue  # QQ1's INIT/HALT wait for all DONE
+        for e, t in edges:
+            if not e.answers or not _quiet(e):
+                continue
+            for sub in {sub for sub, answer in e.answers if answer == ERROR}:
+                if s.subs[index[sub]][2]:
+                    found[sub].append((s, e, t))
+    return found
 
 
 def _reports_error(edge: Edge) -> bool:
@@ -774,16 +784,21 @@ def _going_on(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], 
     another subordinate's ERROR, not re-commanding it)."""
     if edge.new is not None or not edge.rules or edge.rules[-1].startswith("every_cycle"):
         return []
-    failing = edge.report == ERROR or ERROR in edge.views
+    views = edge.views
+    running = [
+        (sub, sent)
+        for i, (sub, (sent, _, fresh)) in enumerate(zip(sk.subs, s.subs, strict=True))
+        if views[i] == EXECUTING and sent is not None and fresh
+    ]
+    if not running:  # the common case, decided without the rule
+        return []
+    failing = edge.report == ERROR or ERROR in views
     rule = rule_view(sk, edge.rules[-1])
     moves = any(moving.get(send, True) for send in edge.sends)
     return [
         f"{sub}.{sent}"
-        for i, (sub, (sent, _, fresh)) in enumerate(zip(sk.subs, s.subs, strict=True))
-        if edge.views[i] == EXECUTING
-        and sent is not None
-        and fresh
-        and ("sub_status", sub) in rule.reads
+        for sub, sent in running
+        if ("sub_status", sub) in rule.reads
         and _early(sub, sent, [c for x, c in edge.sends if x == sub], failing, moving, moves)
     ]
 
@@ -816,9 +831,11 @@ def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
         if s.status != EXECUTING or s.command is None:
             continue
         for edge, t in edges:
-            busy = _going_on(sk, s, edge, moving)
-            if not busy or edge.report == DONE or edge.rules[-1] in seen:
+            if edge.report == DONE or (edge.rules and edge.rules[-1] in seen):
                 continue  # a DONE report is done_while_busy's
+            busy = _going_on(sk, s, edge, moving)
+            if not busy:
+                continue
             seen.add(edge.rules[-1])
             command, state, index, span = _rule_of(sk, edge.rules[-1])
             trace = graph.path_to(s) + [(edge, t)]

@@ -131,9 +131,7 @@ def _no_cycle_collection() -> Iterator[None]:
             gc.enable()
 
 
-def _prove(
-    system: ir.IRSystem, hosts: dict[str, str], limit: int, only: str | None
-) -> SystemProof:
+def _prove(system: ir.IRSystem, hosts: dict[str, str], limit: int, only: str | None) -> SystemProof:
     """`prove`, with the collector off."""
     wanted = _below(system, only) if only else None
     place = placement(system)

@@ -67,6 +67,18 @@ def _atom(sk: Skeleton, a: IRPropAtom) -> Test:
     return lambda edge, t, unsafe: (t.subs[index][0] or "NONE") == value  # SUB_COMMAND
 
 
+def _joined(op: str, parts: list[Test]) -> Test:
+    """`and`/`or` of tests, left to right and short-circuit, as nested pairs (no generator
+    per cycle)."""
+    first = parts[0]
+    if len(parts) == 1:
+        return first
+    rest = _joined(op, parts[1:])
+    if op == "and":
+        return lambda edge, t, unsafe: first(edge, t, unsafe) and rest(edge, t, unsafe)
+    return lambda edge, t, unsafe: first(edge, t, unsafe) or rest(edge, t, unsafe)
+
+
 def compiled(sk: Skeleton, e: IRPropExpr) -> Test:
     """A property expression's test of one cycle."""
     if e.op == "atom":
@@ -75,12 +87,9 @@ def compiled(sk: Skeleton, e: IRPropExpr) -> Test:
     if e.op == "not":
         inner = compiled(sk, e.args[0])
         return lambda edge, t, unsafe: not inner(edge, t, unsafe)
-    if e.op in ("and", "or"):
-        parts = tuple(compiled(sk, x) for x in e.args)
-        if e.op == "and":
-            return lambda edge, t, unsafe: all(p(edge, t, unsafe) for p in parts)
-        return lambda edge, t, unsafe: any(p(edge, t, unsafe) for p in parts)
-    truth = e.op == "true"
+    if e.op in ("and", "or") and e.args:
+        return _joined(e.op, [compiled(sk, x) for x in e.args])
+    truth = e.op == "true" or (e.op == "and" and not e.args)
     return lambda edge, t, unsafe: truth
 
 
@@ -176,6 +185,12 @@ def _stateless(graph: Graph, prop: IRProperty, then: Test, whenever: Test | None
     own breadth-first search, so its first violation is the first edge that breaks it in
     the order the model was explored, and its run the model's shortest one there."""
     none: frozenset[str] = frozenset()
+    if whenever is None:  # an invariant: `_step`'s first line, inline
+        for s, edges in graph.edges.items():
+            for edge, t in edges:
+                if not edge.safe_state and not then(edge, t, none):
+                    return _finding(graph, prop, graph.path_to(s) + [(edge, t)])
+        return None
     for s, edges in graph.edges.items():
         for edge, t in edges:
             if _step(prop, then, whenever, (edge, t, none), OPEN)[0]:
