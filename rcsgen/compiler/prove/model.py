@@ -84,6 +84,7 @@ class Edge(NamedTuple):
 # A NamedTuple's own `__new__` is a Python function around this: the explorer makes tens of
 # thousands of edges and states per model, each made directly (every field given, in order).
 _new = tuple.__new__
+_NONE_FIRES = (Choice(None, True, ()),)  # no rule to try: none fires, certainly
 
 
 class Step(NamedTuple):
@@ -350,11 +351,11 @@ class Model:
     ) -> list[tuple[Step, State]]:
         """The controller's own cycle from a state the environment has set: its every_cycle
         rules, then its table (each way the guards can go)."""
-        views = tuple(view for _, view, _ in subs)
+        views = tuple([view for _, view, _ in subs])
         fixed = self._fixed(subs, ticks)
         results: list[tuple[Step, State]] = []
         every = self.sk.every
-        every_choices = self.sk.choices(every, fixed) if every else (Choice(None, True, ()),)
+        every_choices = self.sk.choices(every, fixed) if every else _NONE_FIRES
         for first in every_choices:
             done = _Acts()
             st, stat = state, status
@@ -367,9 +368,7 @@ class Model:
             table = None
             if command is not None and st != NOP and stat == EXECUTING:
                 table = self.sk.tables.get(command, {}).get(st)
-            table_choices = (
-                self.sk.choices(table, local_fixed) if table else (Choice(None, True, ()),)
-            )
+            table_choices = self.sk.choices(table, local_fixed) if table else _NONE_FIRES
             for second in table_choices:
                 acts = done.copy()
                 st2, stat2 = st, stat
@@ -385,16 +384,19 @@ class Model:
                     new_subs[self.sub_index[sub]] = (cmd, EXECUTING, True)
                 limit = self.sk.timers.get((command, st2), ()) if command else ()
                 timed = st2 == st and limit and table is not None
-                step = Step(
-                    tuple(acts.fired),
-                    tuple(acts.sends),
-                    acts.report,
-                    tuple(n for n in acts.unsafe if n not in latched),
-                    tuple(acts.safe),
-                    first.certain and second.certain,
-                    (*first.valuation, *second.valuation),
-                    views,
-                    stale,
+                step = _new(
+                    Step,
+                    (
+                        tuple(acts.fired),
+                        tuple(acts.sends),
+                        acts.report,
+                        tuple([n for n in acts.unsafe if n not in latched]),
+                        tuple(acts.safe),
+                        first.certain and second.certain,
+                        (*first.valuation, *second.valuation),
+                        views,
+                        stale,
+                    ),
                 )
                 target = _new(
                     State,

@@ -272,8 +272,13 @@ def _can_report(graph: Graph, states: list[State]) -> set[State]:
     good: set[State] = set()
     for s in states:
         for edge, t in graph.edges[s]:
-            if not _quiet(edge):
-                continue
+            if (
+                edge.new is not None
+                or edge.lost is not None
+                or edge.recovered is not None
+                or edge.reset
+            ):
+                continue  # not `_quiet` (inline: every edge of the model is asked)
             if edge.report or edge.safe_state:
                 good.add(s)
             elif t.status == EXECUTING:
@@ -390,7 +395,16 @@ def _loops(graph: Graph, states: list[State], good: set[State]) -> list[_Loop]:
     without a new command, with the rules that leave each."""
     sk = graph.skeleton
     succ = {
-        s: [(e, t) for e, t in graph.edges[s] if _quiet(e) and t.status == EXECUTING and t in good]
+        s: [
+            (e, t)
+            for e, t in graph.edges[s]
+            if e.new is None  # `_quiet`, inline: every edge of the model is asked
+            and e.lost is None
+            and e.recovered is None
+            and not e.reset
+            and t.status == EXECUTING
+            and t in good
+        ]
         for s in states
         if s in good
     }
@@ -830,6 +844,8 @@ def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
     for s, edges in graph.edges.items():
         if s.status != EXECUTING or s.command is None:
             continue
+        if not any(sent is not None and fresh for sent, _, fresh in s.subs):
+            continue  # nothing sent during this command: no edge of it goes on early
         for edge, t in edges:
             if edge.report == DONE or (edge.rules and edge.rules[-1] in seen):
                 continue  # a DONE report is done_while_busy's
