@@ -58,6 +58,11 @@ class State(_StateFields):
             found = self.__dict__["_hash"] = tuple.__hash__(self)
             return found
 
+    def __reduce__(self) -> tuple[type[State], tuple[Any, ...]]:
+        # rebuilt from its fields alone: a remembered hash is this process's (str hashes
+        # are salted per process), never to be carried into another by pickle or copy
+        return (State, tuple(self))
+
 
 class Edge(NamedTuple):
     """One cycle: what happened before it and what the controller did in it."""

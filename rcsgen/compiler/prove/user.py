@@ -159,6 +159,16 @@ def check(
     whenever = compiled(graph.skeleton, prop.whenever) if prop.whenever is not None else None
     if not tracked and (whenever is None or prop.within == 0) and graph.complete:
         return _stateless(graph, prop, then, whenever)
+    return search(graph, prop, system, limit)
+
+
+def search(
+    graph: Graph, prop: IRProperty, system: ir.IRSystem, limit: int = LIMIT
+) -> Finding | None:
+    """`check` by breadth-first search over model state and monitor (any property)."""
+    tracked = _tracked(prop)
+    then = compiled(graph.skeleton, prop.then)
+    whenever = compiled(graph.skeleton, prop.whenever) if prop.whenever is not None else None
     start = (graph.initial, (_initial_unsafe(system, tracked), OPEN))
     parent: dict[tuple[State, Monitor], tuple[tuple[State, Monitor], Edge] | None] = {start: None}
     todo = deque([start])
