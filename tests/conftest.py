@@ -88,6 +88,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_prove_numbers",
             "test_prove_properties",
             "test_prove_seeds",
+            "test_prove_shortcuts",
             "test_reasons_survive",
             "test_results_visible",
             "test_run",

@@ -80,14 +80,20 @@ class Skeleton:
     locals_init: dict[str, tuple[Any, Any]] = field(default_factory=dict)
     constants: dict[str, Any] = field(default_factory=dict)  # name -> value
     _cache: dict[Any, tuple[Choice, ...]] = field(default_factory=dict)
+    _read: dict[int, tuple[Key, ...]] = field(default_factory=dict)
+    views: dict[str, RuleView] = field(default_factory=dict)  # rule id text -> rule (memo)
 
     def choices(self, rules: list[RuleView], fixed: dict[Key, Any]) -> tuple[Choice, ...]:
         """Which rule of `rules` can fire with these atoms fixed: its index (None: none
         fires), whether that is certain ("yes") or only possible (the analysis could not
         decide: an opaque comparison, too many valuations), and a valuation that makes it
         so (the values a replay scripts)."""
-        read = {k for r in rules if r.guard for k in r.guard.order}
-        key = (id(rules), tuple(sorted((k, v) for k, v in fixed.items() if k in read)))
+        read = self._read.get(id(rules))
+        if read is None:  # the atoms the rules' guards read, in order (once per list)
+            read = self._read[id(rules)] = tuple(
+                sorted({k for r in rules if r.guard for k in r.guard.order})
+            )
+        key = (id(rules), tuple((k, fixed[k]) for k in read if k in fixed))
         found = self._cache.get(key)
         if found is not None:
             return found

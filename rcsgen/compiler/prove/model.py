@@ -30,7 +30,7 @@ LEFT = 3  # the same: its answer awaited by a state left on an interrupt, never 
 LIMIT = 400_000  # the most states one model may have; more is "too large" (undecided)
 
 
-class State(NamedTuple):
+class _StateFields(NamedTuple):
     command: str | None  # None: no command yet
     state: str  # table state, or NOP
     status: str
@@ -44,6 +44,24 @@ class State(NamedTuple):
     # actuator fields it writes that the runtime latched safe (a loss): held until an
     # explicit reset, whatever it sets - a recovery or a new command does not release them
     latched: frozenset[str] = frozenset()
+
+
+class State(_StateFields):
+    """A model state: its fields (`_StateFields`), hashed once. The explorer and every
+    property look states up in sets and dicts tens of thousands of times per model; a tuple
+    hashes its nested fields again on every lookup, this remembers the same value."""
+
+    def __hash__(self) -> int:
+        try:
+            return self.__dict__["_hash"]  # type: ignore[no-any-return]
+        except KeyError:
+            found = self.__dict__["_hash"] = tuple.__hash__(self)
+            return found
+
+    def __reduce__(self) -> tuple[type[State], tuple[Any, ...]]:
+        # rebuilt from its fields alone: a remembered hash is this process's (str hashes
+        # are salted per process), never to be carried into another by pickle or copy
+        return (State, tuple(self))
 
 
 class Edge(NamedTuple):
@@ -66,6 +84,12 @@ class Edge(NamedTuple):
     # subordinates whose DONE the table rule that fired read, when that DONE was already
     # taken by an earlier rule of this command, or answers a command of an earlier one
     stale: tuple[str, ...] = ()
+
+
+# A NamedTuple's own `__new__` is a Python function around this: the explorer makes tens of
+# thousands of edges and states per model, each made directly (every field given, in order).
+_new = tuple.__new__
+_NONE_FIRES = (Choice(None, True, ()),)  # no rule to try: none fires, certainly
 
 
 class Step(NamedTuple):
@@ -91,6 +115,8 @@ class Graph:
     edges: dict[State, list[tuple[Edge, State]]] = field(default_factory=dict)
     parent: dict[State, tuple[State, Edge] | None] = field(default_factory=dict)
     complete: bool = True  # False: LIMIT states reached, exploration stopped
+    # what the checks derive from the finished graph and share (properties.py), by name
+    derived: dict[str, Any] = field(default_factory=dict)
 
     def path_to(self, target: State) -> list[tuple[Edge, State]]:
         """The shortest run from the initial state to `target`."""
@@ -283,22 +309,25 @@ class Model:
             steps = self._steps[pre] = self._step(*pre)
         return [
             (
-                Edge(
-                    new,
-                    answered,
-                    lost,
-                    safe_state,
-                    step.rules,
-                    (*pre_sends, *step.sends) if pre_sends else step.sends,
-                    step.report,
-                    step.unsafe,
-                    step.safe,
-                    step.certain,
-                    step.valuation,
-                    step.views,
-                    recovered,
-                    reset,
-                    step.stale,
+                _new(
+                    Edge,
+                    (
+                        new,
+                        answered,
+                        lost,
+                        safe_state,
+                        step.rules,
+                        (*pre_sends, *step.sends) if pre_sends else step.sends,
+                        step.report,
+                        step.unsafe,
+                        step.safe,
+                        step.certain,
+                        step.valuation,
+                        step.views,
+                        recovered,
+                        reset,
+                        step.stale,
+                    ),
                 ),
                 target,
             )
@@ -327,11 +356,11 @@ class Model:
     ) -> list[tuple[Step, State]]:
         """The controller's own cycle from a state the environment has set: its every_cycle
         rules, then its table (each way the guards can go)."""
-        views = tuple(view for _, view, _ in subs)
+        views = tuple([view for _, view, _ in subs])
         fixed = self._fixed(subs, ticks)
         results: list[tuple[Step, State]] = []
         every = self.sk.every
-        every_choices = self.sk.choices(every, fixed) if every else (Choice(None, True, ()),)
+        every_choices = self.sk.choices(every, fixed) if every else _NONE_FIRES
         for first in every_choices:
             done = _Acts()
             st, stat = state, status
@@ -344,9 +373,7 @@ class Model:
             table = None
             if command is not None and st != NOP and stat == EXECUTING:
                 table = self.sk.tables.get(command, {}).get(st)
-            table_choices = (
-                self.sk.choices(table, local_fixed) if table else (Choice(None, True, ()),)
-            )
+            table_choices = self.sk.choices(table, local_fixed) if table else _NONE_FIRES
             for second in table_choices:
                 acts = done.copy()
                 st2, stat2 = st, stat
@@ -362,27 +389,33 @@ class Model:
                     new_subs[self.sub_index[sub]] = (cmd, EXECUTING, True)
                 limit = self.sk.timers.get((command, st2), ()) if command else ()
                 timed = st2 == st and limit and table is not None
-                step = Step(
-                    tuple(acts.fired),
-                    tuple(acts.sends),
-                    acts.report,
-                    tuple(n for n in acts.unsafe if n not in latched),
-                    tuple(acts.safe),
-                    first.certain and second.certain,
-                    (*first.valuation, *second.valuation),
-                    views,
-                    stale,
+                step = _new(
+                    Step,
+                    (
+                        tuple(acts.fired),
+                        tuple(acts.sends),
+                        acts.report,
+                        tuple([n for n in acts.unsafe if n not in latched]),
+                        tuple(acts.safe),
+                        first.certain and second.certain,
+                        (*first.valuation, *second.valuation),
+                        views,
+                        stale,
+                    ),
                 )
-                target = State(
-                    command,
-                    st2,
-                    stat2,
-                    min(ticks + 1, max(limit)) if timed else 0,
-                    tuple(new_subs),
-                    lost_now,
-                    errored,
-                    halted,
-                    latched,
+                target = _new(
+                    State,
+                    (
+                        command,
+                        st2,
+                        stat2,
+                        min(ticks + 1, max(limit)) if timed else 0,
+                        tuple(new_subs),
+                        lost_now,
+                        errored,
+                        halted,
+                        latched,
+                    ),
                 )
                 results.append((step, target))
         return results

@@ -57,11 +57,17 @@ def _rule_of(sk: Skeleton, rule_id: str) -> tuple[str | None, str | None, int, S
 
 
 def rule_view(sk: Skeleton, rule_id: str) -> RuleView:
-    """The rule a rule id text names."""
-    parts = rule_id.split("/")
-    if parts[0] == "every_cycle":
-        return sk.every[int(parts[1]) - 1]
-    return sk.tables[parts[0]][parts[1]][int(parts[2]) - 1]
+    """The rule a rule id text names (remembered: the checks ask for the rules of every
+    edge of the model)."""
+    found = sk.views.get(rule_id)
+    if found is None:
+        parts = rule_id.split("/")
+        if parts[0] == "every_cycle":
+            found = sk.every[int(parts[1]) - 1]
+        else:
+            found = sk.tables[parts[0]][parts[1]][int(parts[2]) - 1]
+        sk.views[rule_id] = found
+    return found
 
 
 def _quiet(edge: Edge) -> bool:
@@ -266,8 +272,13 @@ def _can_report(graph: Graph, states: list[State]) -> set[State]:
     good: set[State] = set()
     for s in states:
         for edge, t in graph.edges[s]:
-            if not _quiet(edge):
-                continue
+            if (
+                edge.new is not None
+                or edge.lost is not None
+                or edge.recovered is not None
+                or edge.reset
+            ):
+                continue  # not `_quiet` (inline: every edge of the model is asked)
             if edge.report or edge.safe_state:
                 good.add(s)
             elif t.status == EXECUTING:
@@ -384,7 +395,16 @@ def _loops(graph: Graph, states: list[State], good: set[State]) -> list[_Loop]:
     without a new command, with the rules that leave each."""
     sk = graph.skeleton
     succ = {
-        s: [(e, t) for e, t in graph.edges[s] if _quiet(e) and t.status == EXECUTING and t in good]
+        s: [
+            (e, t)
+            for e, t in graph.edges[s]
+            if e.new is None  # `_quiet`, inline: every edge of the model is asked
+            and e.lost is None
+            and e.recovered is None
+            and not e.reset
+            and t.status == EXECUTING
+            and t in good
+        ]
         for s in states
         if s in good
     }
@@ -622,18 +642,28 @@ def error_latency(graph: Graph) -> dict[str, tuple[int, list[tuple[Edge, State]]
 
 
 def _error_starts(graph: Graph, sub: str) -> list[tuple[State, Edge, State]]:
-    """The cycles in which the controller reads `sub`'s ERROR to a command it sent."""
-    index = graph.skeleton.subs.index(sub)
-    return [
-        (s, e, t)
-        for s in graph.edges
-        for e, t in graph.edges[s]
-        if (sub, ERROR) in e.answers
-        and _quiet(e)
-        and s.status == EXECUTING
-        and s.subs[index][2]
-        and s.command not in graph.skeleton.generated  # QQ1's INIT/HALT wait for all DONE
-    ]
+    """The cycles in which the controller reads `sub`'s ERROR to a command it sent (found
+    for every subordinate in one pass over the model, once: two checks ask for each)."""
+    found = graph.derived.get("error_starts")
+    if found is None:
+        found = graph.derived["error_starts"] = _all_error_starts(graph)
+    return list(found[sub])
+
+
+def _all_error_starts(graph: Graph) -> dict[str, list[tuple[State, Edge, State]]]:
+    sk = graph.skeleton
+    index = {sub: i for i, sub in enumerate(sk.subs)}
+    found: dict[str, list[tuple[State, Edge, State]]] = {sub: [] for sub in sk.subs}
+    for s, edges in graph.edges.items():
+        if s.status != EXECUTING or s.command in sk.generated:
+            continue  # QQ1's INIT/HALT wait for all DONE
+        for e, t in edges:
+            if not e.answers or not _quiet(e):
+                continue
+            for sub in {sub for sub, answer in e.answers if answer == ERROR}:
+                if s.subs[index[sub]][2]:
+                    found[sub].append((s, e, t))
+    return found
 
 
 def _reports_error(edge: Edge) -> bool:
@@ -768,16 +798,21 @@ def _going_on(sk: Skeleton, s: State, edge: Edge, moving: dict[tuple[str, str], 
     another subordinate's ERROR, not re-commanding it)."""
     if edge.new is not None or not edge.rules or edge.rules[-1].startswith("every_cycle"):
         return []
-    failing = edge.report == ERROR or ERROR in edge.views
+    views = edge.views
+    running = [
+        (sub, sent)
+        for i, (sub, (sent, _, fresh)) in enumerate(zip(sk.subs, s.subs, strict=True))
+        if views[i] == EXECUTING and sent is not None and fresh
+    ]
+    if not running:  # the common case, decided without the rule
+        return []
+    failing = edge.report == ERROR or ERROR in views
     rule = rule_view(sk, edge.rules[-1])
     moves = any(moving.get(send, True) for send in edge.sends)
     return [
         f"{sub}.{sent}"
-        for i, (sub, (sent, _, fresh)) in enumerate(zip(sk.subs, s.subs, strict=True))
-        if edge.views[i] == EXECUTING
-        and sent is not None
-        and fresh
-        and ("sub_status", sub) in rule.reads
+        for sub, sent in running
+        if ("sub_status", sub) in rule.reads
         and _early(sub, sent, [c for x, c in edge.sends if x == sub], failing, moving, moves)
     ]
 
@@ -809,10 +844,14 @@ def no_echo(graph: Graph, moving: dict[tuple[str, str], bool]) -> list[Finding]:
     for s, edges in graph.edges.items():
         if s.status != EXECUTING or s.command is None:
             continue
+        if not any(sent is not None and fresh for sent, _, fresh in s.subs):
+            continue  # nothing sent during this command: no edge of it goes on early
         for edge, t in edges:
-            busy = _going_on(sk, s, edge, moving)
-            if not busy or edge.report == DONE or edge.rules[-1] in seen:
+            if edge.report == DONE or (edge.rules and edge.rules[-1] in seen):
                 continue  # a DONE report is done_while_busy's
+            busy = _going_on(sk, s, edge, moving)
+            if not busy:
+                continue
             seen.add(edge.rules[-1])
             command, state, index, span = _rule_of(sk, edge.rules[-1])
             trace = graph.path_to(s) + [(edge, t)]

@@ -10,8 +10,10 @@ each leaf below it within k cycles, and an ERROR of a leaf reaches the root with
 
 from __future__ import annotations
 
+import gc
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from .. import ir
@@ -110,7 +112,27 @@ def prove(
 ) -> SystemProof:
     """Explore every controller of `system` and check its properties (`only`: the
     controller named and the ones below it, whose contracts it needs)."""
-    hosts = hosts or {}
+    with _no_cycle_collection():
+        return _prove(system, hosts or {}, limit, only)
+
+
+@contextmanager
+def _no_cycle_collection() -> Iterator[None]:
+    """The cyclic garbage collector off while proving: the models are tens of thousands of
+    small tuples, all alive until the end, which every collection would walk again - nearly
+    half the time of an exploration. They hold no reference cycles (reference counting frees
+    them); whatever cyclic garbage is made meanwhile is collected once it is back on."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
+def _prove(system: ir.IRSystem, hosts: dict[str, str], limit: int, only: str | None) -> SystemProof:
+    """`prove`, with the collector off."""
     wanted = _below(system, only) if only else None
     place = placement(system)
     reaction = RuntimeReaction(system)

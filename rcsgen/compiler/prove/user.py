@@ -19,9 +19,11 @@ command from above (a new decision): no property counts on a recovery or on the 
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 
 from .. import ir
 from ..ir import IRPropAtom, IRProperty, IRPropExpr, PropKind
+from .adapter import Skeleton
 from .model import LIMIT, Edge, Graph, State
 from .properties import Finding, _certain, _rule_of, rule_view
 
@@ -29,42 +31,66 @@ Monitor = tuple[frozenset[str], int]  # (actuators named not at their safe value
 OPEN = 0  # cycles left when no obligation is open
 
 
-class _Cycle:
-    """One cycle of the model as a property reads it."""
+# A property's expression, compiled once into a test of one cycle: (the cycle's edge, the
+# state after it, the tracked actuators not at their safe value after it) -> whether it holds.
+# The search reads it on every edge of the model (tens of thousands per supervisor).
+Test = Callable[[Edge, State, frozenset[str]], bool]
 
-    def __init__(self, graph: Graph, edge: Edge, target: State, unsafe: frozenset[str]):
-        self.sk, self.edge, self.t, self.unsafe = graph.skeleton, edge, target, unsafe
 
-    def atom(self, a: IRPropAtom) -> bool:
-        t, edge, sk = self.t, self.edge, self.sk
-        if a.kind is PropKind.STATE:
-            return t.state == a.value
-        if a.kind is PropKind.COMMAND:
-            return (t.command or "NONE") == a.value
-        if a.kind is PropKind.STATUS:
-            return t.status == a.value
-        if a.kind is PropKind.SENT:
-            return (a.module, a.value) in edge.sends
-        if a.kind is PropKind.WRITES:
-            return any(a.value in rule_view(sk, r).assigns for r in edge.rules)
-        if a.kind is PropKind.SAFE:
-            return a.value.removeprefix("world.") not in self.unsafe
-        index = sk.subs.index(a.module)
-        if a.kind is PropKind.SUB_STATUS:
-            return edge.views[index] == a.value
-        return (t.subs[index][0] or "NONE") == a.value  # SUB_COMMAND
+def _atom(sk: Skeleton, a: IRPropAtom) -> Test:
+    """One atom's test (docs/spec.md section 19: a module's state, command and status after
+    the cycle; a subordinate's status as read in it, its command the last one sent)."""
+    value = a.value
+    if a.kind is PropKind.STATE:
+        return lambda edge, t, unsafe: t.state == value
+    if a.kind is PropKind.COMMAND:
+        return lambda edge, t, unsafe: (t.command or "NONE") == value
+    if a.kind is PropKind.STATUS:
+        return lambda edge, t, unsafe: t.status == value
+    if a.kind is PropKind.SENT:
+        sent = (a.module, value)
+        return lambda edge, t, unsafe: sent in edge.sends
+    if a.kind is PropKind.WRITES:
+        return lambda edge, t, unsafe: any(value in rule_view(sk, r).assigns for r in edge.rules)
+    if a.kind is PropKind.SAFE:
+        name = value.removeprefix("world.")
+        return lambda edge, t, unsafe: name not in unsafe
+    if a.module not in sk.subs:  # as `sk.subs.index` fails when read
 
-    def holds(self, e: IRPropExpr) -> bool:
-        if e.op == "atom":
-            assert e.atom is not None
-            return self.atom(e.atom)
-        if e.op == "not":
-            return not self.holds(e.args[0])
-        if e.op == "and":
-            return all(self.holds(x) for x in e.args)
-        if e.op == "or":
-            return any(self.holds(x) for x in e.args)
-        return e.op == "true"
+        def missing(edge: Edge, t: State, unsafe: frozenset[str]) -> bool:
+            raise ValueError(f"{a.module!r} is not a subordinate of {sk.name}")
+
+        return missing
+    index = sk.subs.index(a.module)
+    if a.kind is PropKind.SUB_STATUS:
+        return lambda edge, t, unsafe: edge.views[index] == value
+    return lambda edge, t, unsafe: (t.subs[index][0] or "NONE") == value  # SUB_COMMAND
+
+
+def _joined(op: str, parts: list[Test]) -> Test:
+    """`and`/`or` of tests, left to right and short-circuit, as nested pairs (no generator
+    per cycle)."""
+    first = parts[0]
+    if len(parts) == 1:
+        return first
+    rest = _joined(op, parts[1:])
+    if op == "and":
+        return lambda edge, t, unsafe: first(edge, t, unsafe) and rest(edge, t, unsafe)
+    return lambda edge, t, unsafe: first(edge, t, unsafe) or rest(edge, t, unsafe)
+
+
+def compiled(sk: Skeleton, e: IRPropExpr) -> Test:
+    """A property expression's test of one cycle."""
+    if e.op == "atom":
+        assert e.atom is not None
+        return _atom(sk, e.atom)
+    if e.op == "not":
+        inner = compiled(sk, e.args[0])
+        return lambda edge, t, unsafe: not inner(edge, t, unsafe)
+    if e.op in ("and", "or") and e.args:
+        return _joined(e.op, [compiled(sk, x) for x in e.args])
+    truth = e.op == "true" or (e.op == "and" and not e.args)
+    return lambda edge, t, unsafe: truth
 
 
 def _tracked(prop: IRProperty) -> frozenset[str]:
@@ -88,21 +114,27 @@ def _quiet(edge: Edge) -> bool:
     return edge.lost is None and edge.recovered is None and not edge.reset and not edge.safe_state
 
 
-def _step(prop: IRProperty, cycle: _Cycle, left: int) -> tuple[bool, int]:
+def _step(
+    prop: IRProperty,
+    then: Test,
+    whenever: Test | None,
+    cycle: tuple[Edge, State, frozenset[str]],
+    left: int,
+) -> tuple[bool, int]:
     """(violated in this cycle, cycles left of the open obligation after it)."""
-    if prop.whenever is None:
-        return (not cycle.edge.safe_state and not cycle.holds(prop.then)), OPEN
-    edge = cycle.edge
+    edge = cycle[0]
+    if whenever is None:
+        return (not edge.safe_state and not then(*cycle)), OPEN
     if left and (not _quiet(edge) or edge.new is not None):
         left = OPEN  # a loss, a recovery, a reset, a new command: a new situation
     if left:
-        if cycle.holds(prop.then):
+        if then(*cycle):
             left = OPEN
         elif left == 1:
             return True, OPEN
         else:
             left -= 1
-    if not left and _quiet(edge) and cycle.holds(prop.whenever) and not cycle.holds(prop.then):
+    if not left and _quiet(edge) and whenever(*cycle) and not then(*cycle):
         if prop.within == 0:
             return True, OPEN
         left = prop.within
@@ -123,6 +155,20 @@ def check(
     """The shortest run of the model that breaks `prop`, as a W709 finding; None when it
     holds in every run; TooLarge when the model and its monitor are too large to say."""
     tracked = _tracked(prop)
+    then = compiled(graph.skeleton, prop.then)
+    whenever = compiled(graph.skeleton, prop.whenever) if prop.whenever is not None else None
+    if not tracked and (whenever is None or prop.within == 0) and graph.complete:
+        return _stateless(graph, prop, then, whenever)
+    return search(graph, prop, system, limit)
+
+
+def search(
+    graph: Graph, prop: IRProperty, system: ir.IRSystem, limit: int = LIMIT
+) -> Finding | None:
+    """`check` by breadth-first search over model state and monitor (any property)."""
+    tracked = _tracked(prop)
+    then = compiled(graph.skeleton, prop.then)
+    whenever = compiled(graph.skeleton, prop.whenever) if prop.whenever is not None else None
     start = (graph.initial, (_initial_unsafe(system, tracked), OPEN))
     parent: dict[tuple[State, Monitor], tuple[tuple[State, Monitor], Edge] | None] = {start: None}
     todo = deque([start])
@@ -131,7 +177,7 @@ def check(
         s, (unsafe, left) = at
         for edge, t in graph.edges.get(s, []):
             after = _unsafe_after(unsafe, edge, t, tracked)
-            bad, still = _step(prop, _Cycle(graph, edge, t, after), left)
+            bad, still = _step(prop, then, whenever, (edge, t, after), left)
             if bad:
                 return _finding(graph, prop, _path(parent, at) + [(edge, t)])
             key = (t, (after, still))
@@ -140,6 +186,25 @@ def check(
                     raise TooLarge(prop.name)
                 parent[key] = (at, edge)
                 todo.append(key)
+    return None
+
+
+def _stateless(graph: Graph, prop: IRProperty, then: Test, whenever: Test | None) -> Finding | None:
+    """`check` of a property whose monitor never changes (no actuator's safety named, no
+    obligation left open past its cycle): the search over model and monitor is the model's
+    own breadth-first search, so its first violation is the first edge that breaks it in
+    the order the model was explored, and its run the model's shortest one there."""
+    none: frozenset[str] = frozenset()
+    if whenever is None:  # an invariant: `_step`'s first line, inline
+        for s, edges in graph.edges.items():
+            for edge, t in edges:
+                if not edge.safe_state and not then(edge, t, none):
+                    return _finding(graph, prop, graph.path_to(s) + [(edge, t)])
+        return None
+    for s, edges in graph.edges.items():
+        for edge, t in edges:
+            if _step(prop, then, whenever, (edge, t, none), OPEN)[0]:
+                return _finding(graph, prop, graph.path_to(s) + [(edge, t)])
     return None
 
 
