@@ -50,6 +50,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_graph",
             "test_graph_render",
             "test_hook_annotations",
+            "test_hooks_read",
             "test_instances",
             "test_loader",
             "test_new",
