@@ -42,7 +42,10 @@ def function(source: str) -> hooks.Function:
         # a yield of a function, lambda or class defined inside is not the hook's own
         ("def hook(x):\n    def inner():\n        yield x\n    return inner\n", ""),
         ("def hook(x):\n    g = lambda: (yield)\n    return x\n", ""),
-        ("def hook(x):\n    class C:\n        def m(self):\n            yield 1\n    return x\n", ""),
+        (
+            "def hook(x):\n    class C:\n        def m(self):\n            yield 1\n    return x\n",
+            "",
+        ),
         ("def hook(x):\n    async def inner():\n        yield x\n    return x\n", ""),
     ],
 )
