@@ -52,6 +52,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_hook_annotations",
             "test_hooks_read",
             "test_instances",
+            "test_io_checks",
             "test_loader",
             "test_new",
             "test_periodicity",
