@@ -57,6 +57,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_new",
             "test_periodicity",
             "test_reference",
+            "test_reference_current",
             "test_report",
             "test_ring",
             "test_scenario_model",
