@@ -64,6 +64,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_scenario_model",
             "test_schema",
             "test_trace_checks",
+            "test_trace_stored",
             "test_traces",
             "test_validate",
         ),
