@@ -88,3 +88,37 @@ def test_only_an_answer_before_the_cycle_is_a_part_of_its_own() -> None:
     assert line == "  cycle 3: cr answers DONE | cc waits -> S1 EXECUTING"
     line = cycle_text(3, edge(new="HALT"), state("S0", "DONE"), (), "cc")
     assert line == "  cycle 3: cc gets HALT | cc waits -> S0 DONE"
+
+
+def test_the_halt_and_error_bounds_as_a_person_reads_them() -> None:
+    """`rcsgen prove`'s bounds: for each controller that has subordinates, the cycle HALT
+    reaches each leaf below it and the cycle its actuators are safe; for each leaf, how long
+    its ERROR takes to reach the root, or where it stops."""
+    from rcsgen.compiler.prove import INFINITE
+    from rcsgen.compiler.prove.system import Bound, SystemProof
+    from rcsgen.tools.prove_report import bounds_text
+
+    proof = SystemProof(
+        "mine",
+        halt=[
+            Bound("sec", "sec", 1, ("sec",)),  # a root alone: no line
+            Bound("sb", "cc", 2, ("sb", "co", "cc"), safe=3),
+            Bound("sb", "vg", INFINITE, ("sb", "vg"), safe=None),
+            Bound("co", "cr", 12, ("co", "cr"), safe=12),
+        ],
+        error=[
+            Bound("cc", "sb", 2, ("cc", "co", "sb")),
+            Bound("vg", "sb", INFINITE, ("vg", "sb"), blocked="sb"),
+        ],
+    )
+    assert bounds_text(proof) == [
+        "  HALT given to co reaches (cycle k; actuators safe by cycle):",
+        "    cr       k=12     safe=12     via co > cr",
+        "  HALT given to sb reaches (cycle k; actuators safe by cycle):",
+        "    cc       k=2      safe=3      via sb > co > cc",
+        "    vg       k=never  safe=-      via sb > vg",
+        "  ERROR of a leaf reaches its root (cycle d):",
+        "    cc       d=2      via cc > co > sb",
+        "    vg       d=never  via vg > sb (stops at sb)",
+    ]
+    assert bounds_text(SystemProof("none")) == []
