@@ -61,6 +61,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_reference_current",
             "test_report",
             "test_ring",
+            "test_scenario_checks",
             "test_scenario_model",
             "test_schema",
             "test_trace_checks",
