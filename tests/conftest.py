@@ -56,6 +56,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_loader",
             "test_new",
             "test_periodicity",
+            "test_property_checks",
             "test_prove_text",
             "test_reference",
             "test_reference_current",
