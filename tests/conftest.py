@@ -46,6 +46,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_emit",
             "test_corpus",
             "test_files",
+            "test_fragment_shapes",
             "test_generated_current",
             "test_graph",
             "test_graph_render",
