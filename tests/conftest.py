@@ -61,6 +61,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_prove_text",
             "test_reference",
             "test_reference_current",
+            "test_replay_scenario",
             "test_report",
             "test_ring",
             "test_scenario_checks",
