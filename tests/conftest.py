@@ -40,6 +40,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_api",
             "test_architecture",
             "test_codes",
+            "test_check_messages",
             "test_build_permissions",
             "test_config",
             "test_doc_sizes",
