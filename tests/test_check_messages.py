@@ -122,3 +122,26 @@ def test_an_enum_actuators_safe_value_is_one_of_its_values(tmp_path, monkeypatch
             "declared values: `IDLE`, `RUN`",
         )
     ]
+
+
+@pytest.mark.parametrize(
+    ("guard", "want"),
+    [
+        (
+            "world.level < 1e400",
+            ("E102", "the literal inf is not allowed", "use a number or a string"),
+        ),
+        ("world.level < __x", ("E102", "dunder name `__x` is not allowed", "")),
+        ("high", ("E107", "predicate `high` must be called", "write `high()`")),
+        ("world", ("E108", "`world` needs a field: `world.<field>`", "")),
+        (
+            "world.level < 1 or 'a\\0b' == 'c'",
+            ("E276", "invalid string literal: a string may not contain the NUL character", ""),
+        ),
+    ],
+)
+def test_a_guard_written_wrong(tmp_path, monkeypatch, guard: str, want) -> None:
+    tank = TANK.replace("commands:\n", "predicates:\n  high: world.level > 2.0\n\ncommands:\n")
+    tank = tank.replace("- when: world.level < 2.0", f"- when: {guard}", 1)  # a plain scalar
+    found = said(tmp_path, monkeypatch, SYSTEM, tank)
+    assert found[:1] == [want], found
