@@ -57,6 +57,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_io_checks",
             "test_loader",
             "test_new",
+            "test_operator_task_checks",
             "test_periodicity",
             "test_property_checks",
             "test_prove_text",
