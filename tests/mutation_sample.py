@@ -76,8 +76,12 @@ SLOW = ("test_fuzz", "test_differential", "test_prove_differential")
 SYSTEM = (
     "test_prove",
     "test_prove_seeds",
+    "test_prove_numbers",  # prove/numbers.py: only these two reach it
+    "test_prove_properties",  # checks/properties.py, tools/prove_smv.py
     "test_trace_view",
     "test_mine_view",
+    "test_sea_view",  # traces/sea.py, station.py and player.py: only these reach them
+    "test_station_view",
     "test_scenarios",
     "test_monitor_screen",
     "test_softplc",
@@ -209,6 +213,8 @@ def cover(tree: Path, out: Path, files: list[str] | None = None) -> None:
     ]
     started = time.monotonic()
     done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
+    # the whole output beside the map: why a test failed under the tracer, not one line of it
+    out.with_suffix(".log").write_text(done.stdout + done.stderr)
     lines = done.stdout.strip().splitlines()
     print(f"coverage run: {time.monotonic() - started:.0f} s, {lines[-1] if lines else ''}")
     for line in lines:  # a test failing under the tracer maps no line: said, not hidden
@@ -776,8 +782,9 @@ def main(argv: list[str] | None = None) -> int:
         cover_map = json.loads(cover_file.read_text()) if cover_file.exists() else {}
         if args.add and cover_map and cover_map.get("digest") != digest:
             # a few test files changed or were added: only they are traced again
-            cover(tree, tree / "added.json", args.add)
-            added = json.loads((tree / "added.json").read_text())
+            added_file = cover_file.with_suffix(".added.json")  # its .log kept beside it
+            cover(tree, added_file, args.add)
+            added = json.loads(added_file.read_text())
             cover_map = merged(cover_map, added, args.add) | {"digest": digest}
             cover_file.write_text(json.dumps(cover_map))
         if cover_map.get("digest") != digest:  # none yet, or the sources or tests changed

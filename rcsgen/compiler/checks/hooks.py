@@ -39,16 +39,17 @@ def kind_problem(node: Function) -> str:
     return ""
 
 
+_NESTED = ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda | ast.ClassDef
+
+
 def _own_nodes(node: Function) -> Iterator[ast.AST]:
-    """The nodes of a function's body, not those of functions or classes defined in it."""
-    todo: list[ast.AST] = list(node.body)
+    """The nodes of a function's body, not those of functions or classes defined in it (a
+    helper defined at the top of the body as well as one inside an `if`)."""
+    todo: list[ast.AST] = [n for n in node.body if not isinstance(n, _NESTED)]
     while todo:
         at = todo.pop()
         yield at
-        for child in ast.iter_child_nodes(at):
-            if not isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
-                if not isinstance(child, ast.ClassDef):
-                    todo.append(child)
+        todo.extend(c for c in ast.iter_child_nodes(at) if not isinstance(c, _NESTED))
 
 
 def _annotation(node: ast.expr | None) -> ast.expr | None:

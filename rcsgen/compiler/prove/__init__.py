@@ -20,29 +20,7 @@ from .model import Edge, State
 from .properties import INFINITE, Finding
 from .system import SystemProof, prove
 
-CODES = {
-    "W701": "no motion after ERROR: a motion command or an unsafe actuator value after a "
-    "subordinate's ERROR, before a new command",
-    "W702": "every command finishes: a state from which the command can never report",
-    "W703": "no handshake deadlock: waiting for an answer the subordinates will not give",
-    "W704": "HALT reach: HALT does not reach a subordinate, or leaves an actuator unsafe",
-    "W705": "ERROR reaches the root: a subordinate's ERROR that is never reported up",
-    "W706": "latched stop: a motion command or unsafe actuator value after HALT",
-    "W708": "handshake: DONE reported before the echo of a motion command sent",
-    "W709": "a property of the spec's own (`properties:`) that does not hold",
-}
-PROPERTIES = {
-    "W701": "no motion after ERROR",
-    "W702": "every command finishes",
-    "W703": "no handshake deadlock",
-    "W704": "HALT reach",
-    "W705": "ERROR reaches the root",
-    "W706": "latched stop",
-    "W708": "the handshake (waiting for the echo)",
-    "W709": "the spec's own properties",
-}
-
-__all__ = ["CODES", "Finding", "INFINITE", "ProveResult", "SystemProof", "prove_front"]
+__all__ = ["Finding", "INFINITE", "ProveResult", "SystemProof", "prove_front"]
 
 
 @dataclass

@@ -718,7 +718,8 @@ class _Checker:
         )
         after = exact_cycles(raw["after"], period)[0] if "after" in raw else 0
         asked = [tasks[task]] if task in tasks else list(tasks.values())
-        results = self.answer_results(raw, answer, asked, where, every=True)
+        # (a default answers what no entry does: default_results checks it against those)
+        results = self.answer_results(raw, answer, asked, where, every=matching)
         if len(self.diags.errors) > before:
             return None
         return ScriptedAnswer(after, answer, reason, name, task, client, results)

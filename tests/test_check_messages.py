@@ -1,0 +1,147 @@
+"""Checks of a controller's tables and of a system's stand-ins and safe values
+(rcsgen/compiler/checks/check.py) that the corpus shows in one form only, word for word in
+their other forms: the reserved NOP, an every_cycle rule that can
+never fire, a stand-in for a controller that is not there or that is not there itself, an
+enum actuator whose safe value is not one of its values. One small system, edited."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from rcsgen.compiler.frontend import compile_paths
+
+SYSTEM = """\
+system: tank
+title: A tank
+cycle_period: 0.1
+
+world:
+  level: {type: float, initial: 0.0, doc: Sensed level.}
+  pump_on: {type: bool, initial: false, actuator: true, doc: Pump motor on.}
+  mode: {type: enum, values: [IDLE, RUN], initial: IDLE, actuator: true, safe: IDLE, doc: A mode.}
+
+processes:
+  p:
+    modules: [tank]
+"""
+
+TANK = """\
+controller: tank
+title: Tank level
+
+world:
+  reads: [level]
+  writes: [pump_on]
+
+commands:
+  FILL:
+    doc: Pump until the level is high.
+    states:
+      S0:
+        - when: world.level < 2.0
+          do:
+            - set: {world.pump_on: true}
+        - when: world.level >= 2.0
+          do:
+            - set: {world.pump_on: false}
+            - report: DONE
+  HALT:
+    doc: Stop the pump.
+    states:
+      S0:
+        - do:
+            - set: {world.pump_on: false}
+            - report: DONE
+"""
+
+
+def said(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, system: str, tank: str):
+    (tmp_path / "system.yaml").write_text(system)
+    (tmp_path / "tank.yaml").write_text(tank)
+    monkeypatch.chdir(tmp_path)
+    found = compile_paths([Path(".")]).diagnostics
+    return [(d.code, d.message, d.hint) for d in found.items]
+
+
+def test_the_small_system_is_clean(tmp_path, monkeypatch) -> None:
+    assert said(tmp_path, monkeypatch, SYSTEM, TANK) == []
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "want"),
+    [
+        (
+            "            - report: DONE\n",
+            "            - report: DONE\n      NOP:\n        - do: [report: DONE]\n",
+            ("E227", "`NOP` is reserved for the idle state", ""),
+        ),
+        (
+            "commands:\n",
+            "every_cycle:\n  - when: 1 > 2\n    do:\n      - set: {world.pump_on: false}\n\n"
+            "commands:\n",
+            (
+                "W302",
+                "this every_cycle rule never fires: its guard is always false",
+                "it reads only literals and constants, and they make it false: check the "
+                "constants, or delete the rule",
+            ),
+        ),
+    ],
+)
+def test_a_table_written_wrong(tmp_path, monkeypatch, old: str, new: str, want) -> None:
+    assert old in TANK
+    found = said(tmp_path, monkeypatch, SYSTEM, TANK.replace(old, new, 1))
+    assert want in found and found[0] == want, found  # (a NOP state is unreachable too)
+
+
+@pytest.mark.parametrize(
+    ("added", "want"),
+    [
+        (
+            "stand_ins:\n  tnak: tank\n",
+            ("E234", "`tnak` has a stand-in but no controller spec", "did you mean `tank`?"),
+        ),
+        (
+            "stand_ins:\n  tank: tank_sim\n",
+            ("E234", "stand-in `tank_sim` has no controller spec", "did you mean `tank`?"),
+        ),
+    ],
+)
+def test_a_stand_in_that_is_not_there(tmp_path, monkeypatch, added: str, want) -> None:
+    assert want in said(tmp_path, monkeypatch, SYSTEM + "\n" + added, TANK)
+
+
+def test_an_enum_actuators_safe_value_is_one_of_its_values(tmp_path, monkeypatch) -> None:
+    system = SYSTEM.replace("safe: IDLE", "safe: STOP")
+    assert said(tmp_path, monkeypatch, system, TANK) == [
+        (
+            "E801",
+            "safe value `STOP` of `mode` is not a value of enum IDLE, RUN",
+            "declared values: `IDLE`, `RUN`",
+        )
+    ]
+
+
+@pytest.mark.parametrize(
+    ("guard", "want"),
+    [
+        (
+            "world.level < 1e400",
+            ("E102", "the literal inf is not allowed", "use a number or a string"),
+        ),
+        ("world.level < __x", ("E102", "dunder name `__x` is not allowed", "")),
+        ("high", ("E107", "predicate `high` must be called", "write `high()`")),
+        ("world", ("E108", "`world` needs a field: `world.<field>`", "")),
+        (
+            "world.level < 1 or 'a\\0b' == 'c'",
+            ("E276", "invalid string literal: a string may not contain the NUL character", ""),
+        ),
+    ],
+)
+def test_a_guard_written_wrong(tmp_path, monkeypatch, guard: str, want) -> None:
+    tank = TANK.replace("commands:\n", "predicates:\n  high: world.level > 2.0\n\ncommands:\n")
+    tank = tank.replace("- when: world.level < 2.0", f"- when: {guard}", 1)  # a plain scalar
+    found = said(tmp_path, monkeypatch, SYSTEM, tank)
+    assert found[:1] == [want], found

@@ -1,0 +1,70 @@
+"""An operator module's task results and its place in the system (rcsgen/compiler/checks/
+operators.py, E910, E283), word for word: a range only on a number, whole bounds on an int,
+`min` no greater than `max`; a person's module is never replaced by a stand-in. The
+platoon's specs, copied and edited one way a case."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from rcsgen.compiler.frontend import compile_paths
+
+PLATOON = Path(__file__).resolve().parent.parent / "specs" / "platoon"
+POST = "      post:\n        type: float\n        min: 0.0\n        max: 5000.0\n"
+WHERE = "result `post` of `ldr.SPOT_REPORT`"
+
+
+def errors(tmp_path: Path, file: str, old: str, new: str) -> list[tuple[str, str, str]]:
+    copy = tmp_path / "platoon"
+    shutil.copytree(PLATOON, copy, ignore=shutil.ignore_patterns("scenarios", "__pycache__"))
+    text = (copy / file).read_text(encoding="utf-8")
+    assert old in text
+    (copy / file).write_text(text.replace(old, new, 1), encoding="utf-8")
+    found = compile_paths([copy]).diagnostics.errors
+    return [(d.code, d.message, d.hint) for d in found]
+
+
+@pytest.mark.parametrize(
+    ("new", "want"),
+    [
+        (
+            POST.replace("float", "int").replace("min: 0.0", "min: 0.5"),
+            (
+                "E910",
+                f"{WHERE} is an int, but its bound 0.5 is not a whole number",
+                "give an int result whole bounds",
+            ),
+        ),
+        (
+            POST.replace("min: 0.0", "min: 6000.0"),
+            (
+                "E910",
+                f"{WHERE} has `min` 6000.0 above its `max` 5000.0: no answer fits",
+                "swap them",
+            ),
+        ),
+        (
+            POST.replace("float", "bool"),
+            (
+                "E910",
+                f"{WHERE} has the type bool: only an int or a float has a range",
+                "leave `min`/`max` out: an answer is checked against its type and values",
+            ),
+        ),
+    ],
+)
+def test_a_task_results_range(tmp_path, new: str, want) -> None:
+    found = errors(tmp_path, "ldr.yaml", POST, new)
+    assert want in found, found
+
+
+def test_a_person_is_not_replaced_by_a_stand_in(tmp_path) -> None:
+    found = errors(tmp_path, "system.yaml", "\nprocesses:", "\nstand_ins:\n  ldr: pl\n\nprocesses:")
+    assert (
+        "E283",
+        "operator module `ldr` cannot be replaced by a stand-in",
+        "a person answers it; script the person in a scenario's `operator:` section",
+    ) in found, found

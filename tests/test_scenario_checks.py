@@ -1,0 +1,156 @@
+"""A scenario checked against the system it runs (rcsgen/tools/scenario/check.py), before
+anything starts: the errors a person reads when a scenario scripts an operator that is not
+there, records results a task does not have or out of their range, serves or faults a device
+the system does not declare, or sets what the system does not take. Each word for word, in
+the unit tier: the shipped systems are compiled once, each scenario written beside them in a
+scratch directory."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.ir import IRSystem
+from rcsgen.tools.scenario.check import check_scenario
+
+SPECS = Path(__file__).resolve().parent.parent / "specs"
+
+
+@pytest.fixture(scope="module")
+def systems() -> dict[str, IRSystem]:
+    front = compile_paths([SPECS / "platoon", SPECS / "inspection", SPECS / "cell"])
+    assert not front.diagnostics.errors
+    return {s.name: s for s in front.systems}
+
+
+def said(tmp_path: Path, system: IRSystem, body: str) -> list[tuple[str, str, str]]:
+    folder = tmp_path / "scenarios"
+    folder.mkdir(exist_ok=True)
+    # a scenario lives in its system's scenarios/: the system file beside it, the rest
+    # compiled once (the scratch directory holds no controller)
+    (tmp_path / "system.yaml").write_bytes((SPECS / system.name / "system.yaml").read_bytes())
+    path = folder / "s.yaml"
+    path.write_text("scenario: s\ntitle: A scenario\nmax_cycles: 20\n" + body)
+    _, found = check_scenario(path, system)
+    return [(d.code, d.message, d.hint) for d in found.errors]
+
+
+LDR = "operator:\n  answers:\n    - {task: SPOT_REPORT, "
+RESULTS_HINT = "give every result under `results:`, or name the `task:` it answers"
+
+
+@pytest.mark.parametrize(
+    ("body", "want"),
+    [
+        (
+            LDR + "answer: ERROR, results: {post: 1.0}}\n",
+            (
+                "E911",
+                "results given with ERROR: what the person records goes with DONE only",
+                "write `answer: DONE`, or leave `results:` out",
+            ),
+        ),
+        (
+            LDR + "answer: DONE, results: {decision: HOLD, pots: 1.0}}\n",
+            ("E911", "`pots` is not a result of SPOT_REPORT", "did you mean `post`?"),
+        ),
+        (
+            LDR + "answer: DONE, results: {decision: HOLD}}\n",
+            (
+                "E911",
+                "this answer DONE may answer SPOT_REPORT, which records decision, post: post "
+                "not given",
+                RESULTS_HINT,
+            ),
+        ),
+        (
+            "operator:\n  answers:\n    - {answer: DONE}\n",
+            (
+                "E911",
+                "this answer DONE may answer SPOT_REPORT, which records decision, post: "
+                "decision, post not given",
+                RESULTS_HINT,
+            ),
+        ),
+        (
+            LDR + "answer: DONE, results: {decision: HOLD, post: 6000.0}}\n",
+            (
+                "E911",
+                "result `post` of SPOT_REPORT is 6000.0: above its maximum 5000.0",
+                "an answer out of its range is refused before it reaches the client",
+            ),
+        ),
+        (
+            "operator:\n  default: {answer: DONE}\n",
+            (
+                "E911",
+                "the default answer DONE records no results, but `ldr.SPOT_REPORT` records "
+                "decision, post",
+                "script SPOT_REPORT in an entry of `answers:` with `results:`",
+            ),
+        ),
+        (
+            "operator:\n  answers:\n    - {operator: lrd, task: SPOT_REPORT, answer: DONE}\n",
+            ("E285", "`lrd` is not an operator module of `platoon`", "did you mean `ldr`?"),
+        ),
+        (
+            "devices: {plc: {}}\n",
+            (
+                "E426",
+                "`platoon` declares no I/O: it has no device `plc`",
+                "devices are declared under `io:` in system.yaml (docs/io.md)",
+            ),
+        ),
+        (
+            "events:\n  - cycle: 2\n    device: {name: plc, do: unplug}\n",
+            (
+                "E426",
+                "`platoon` declares no I/O: it has no device `plc`",
+                "devices are declared under `io:` in system.yaml (docs/io.md)",
+            ),
+        ),
+    ],
+)
+def test_the_platoon_leader_scripted_wrongly(systems, tmp_path, body, want) -> None:
+    assert said(tmp_path, systems["platoon"], body) == [want]
+
+
+def test_a_result_in_range_is_taken(systems, tmp_path) -> None:
+    body = LDR + "answer: DONE, results: {decision: BYPASS, post: 900.0}}\n"
+    assert said(tmp_path, systems["platoon"], body) == []
+
+
+def test_a_default_done_is_taken_when_an_entry_scripts_the_task_that_records_results(
+    systems, tmp_path
+) -> None:
+    """The default answers what no entry of `answers:` does: here nothing that records
+    results, so DONE without results is right (it was refused, with a hint a default cannot
+    follow: `results:` and `task:` are not keys of a default)."""
+    body = LDR + "answer: DONE, results: {decision: HOLD, post: 1.0}}\n  default: {answer: DONE}\n"
+    assert said(tmp_path, systems["platoon"], body) == []
+
+
+def test_a_setting_the_system_does_not_take(systems, tmp_path) -> None:
+    found = said(tmp_path, systems["inspection"], "settings: {programme: x}\n")
+    assert found == [("E424", "`inspection` has no setting `programme`", "did you mean `program`?")]
+    found = said(tmp_path, systems["inspection"], "settings: {zzz: x}\n")
+    assert found == [
+        (
+            "E424",
+            "`inspection` has no setting `zzz`",
+            "declared settings: `part`, `program`, `seed`",
+        )
+    ]
+
+
+def test_an_operator_script_for_a_system_without_operators(systems, tmp_path) -> None:
+    found = said(tmp_path, systems["cell"], "operator:\n  default: {answer: DONE}\n")
+    assert found == [
+        (
+            "E285",
+            "`cell` has no operator module for `operator:` to script",
+            "an operator module is a `<mnemonic>.yaml` with `operator:` (docs/spec.md 15)",
+        )
+    ]
