@@ -266,7 +266,8 @@ class Mirror:
             return False
         previous = self.last.get(key)
         if previous is not None and previous[0] == epoch and seq <= previous[1]:
-            self.counters.late += 1
+            if seq < previous[1]:  # (the same word again: a refresh repeating what we have)
+                self.counters.late += 1
             return False
         if seq == 0 or seq % 2:
             self.counters.malformed += 1

@@ -54,6 +54,12 @@ MIN_PUSH_INTERVAL = 0.005
 # push). At the miner's 0.1 s every push carries them; a lockstep or `--fast` process sends
 # its controllers' records every cycle and these ~10 times a second.
 PERF_INTERVAL = 0.1
+# A free-running push may be dropped where the network is congested (a busy host's queue
+# full: it never blocks a controller), and a record that does not change again would then
+# never arrive (a DONE its supervisor waits for, for ever). So a free-running node sends
+# every record it wrote again at least this often: what a dropped push lost is repaired
+# within it (a receiver takes a repeat as the value it has, and counts nothing).
+REFRESH_INTERVAL = 1.0
 WARN_EVERY = 10.0  # seconds: at most one line a peer about its malformed pushes
 
 
@@ -160,6 +166,7 @@ class ZenohTransport:
             zenoh.CongestionControl.BLOCK if block_when_congested else zenoh.CongestionControl.DROP
         )
         self._lockstep, self._next_push, self._next_perf = block_when_congested, 0.0, 0.0
+        self._next_refresh = time.monotonic() + REFRESH_INTERVAL
         self._zenoh = zenoh
         config = zenoh.Config()
         for key, value in config_json(options).items():
@@ -297,7 +304,10 @@ class ZenohTransport:
         slow = last or now >= self._next_perf
         if slow:
             self._next_perf = now + PERF_INTERVAL
-        messages = self.mirror.changed(everything, slow)
+        refresh = not self._lockstep and now >= self._next_refresh  # (REFRESH_INTERVAL)
+        if refresh:
+            self._next_refresh = now + REFRESH_INTERVAL
+        messages = self.mirror.changed(everything or refresh, slow or refresh)
         if not messages:
             return
         payload = self.mirror.pack(messages)
