@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from test_prove_text import edge  # an Edge where nothing happens but what is given
 
 from rcsgen.compiler.diagnostics import Span
 from rcsgen.compiler.frontend import compile_paths
@@ -27,24 +28,6 @@ MINER = Path(__file__).resolve().parent.parent / "specs" / "miner"
 @pytest.fixture(scope="module")
 def miner() -> IRSystem:
     return compile_paths([MINER]).systems[0]
-
-
-def edge(**given: object) -> Edge:
-    quiet: dict[str, object] = {
-        "new": None,
-        "answers": (),
-        "lost": None,
-        "safe_state": False,
-        "rules": (),
-        "sends": (),
-        "report": None,
-        "unsafe": (),
-        "safe": (),
-        "certain": True,
-        "valuation": (),
-        "views": (),
-    }
-    return Edge(**(quiet | given))  # type: ignore[arg-type]
 
 
 AFTER = State("REPOSITION", "S1", "EXECUTING", 0, ())
