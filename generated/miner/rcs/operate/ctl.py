@@ -286,6 +286,20 @@ def holder_problem(layout: ModuleType, role: str) -> str:
 # ---------------------------------------------------------------- the console
 
 
+def writers_home(layout: ModuleType) -> dict[str, frozenset[str]]:
+    """Each world field written by modules of known processes -> those processes (a
+    stand-in counted where its controller runs); what `Console.stale` looks at."""
+    placement = dict(getattr(layout, "PLACEMENT", {}))
+    for module, stand_in in getattr(layout, "STAND_INS", {}).items():
+        placement.setdefault(stand_in, placement.get(module, ""))  # (runs in its place)
+    found = {}
+    for field, writers in getattr(layout, "WORLD_WRITERS", {}).items():
+        homes = frozenset(str(placement.get(module, "")) for module in writers)
+        if homes and "" not in homes:  # (else written where no process is said)
+            found[field] = homes
+    return found
+
+
 class Console:
     """A running system's segment, read and written as an operator does."""
 
@@ -309,6 +323,7 @@ class Console:
             for sub in layout.SUBORDINATES.get(boss, ())
             if sub in layout.COMMAND_IN
         }
+        self.writers_home = writers_home(layout)
 
     def close(self) -> None:
         if self.attached is not None:
@@ -473,13 +488,9 @@ class Console:
         feeds one is lost (its name), or every module that writes one runs in a process
         that is not running (`pc2 lost`, `pc2 stopped`): the value is the last one written."""
         found = {f: name for name, device in devices.items() for f in device.get("stale", ())}
-        placement = dict(getattr(self.layout, "PLACEMENT", {}))
-        for module, stand_in in getattr(self.layout, "STAND_INS", {}).items():
-            placement.setdefault(stand_in, placement.get(module, ""))  # (runs in its place)
-        for field, writers in getattr(self.layout, "WORLD_WRITERS", {}).items():
-            homes = {str(placement.get(module, "")) for module in writers}
-            if field in found or not writers or "" in homes:
-                continue  # (a device's input, or written where no process is said)
+        for field, homes in self.writers_home.items():
+            if field in found:
+                continue  # (a device's input)
             down = sorted(p for p in homes if not processes.get(p, {}).get("alive"))
             if len(down) == len(homes):
                 state = str(processes.get(down[0], {}).get("state", "?"))
