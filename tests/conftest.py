@@ -97,6 +97,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_plans",
             "test_prove",
             "test_prove_numbers",
+            "test_prove_operator_replay",
             "test_prove_properties",
             "test_prove_seeds",
             "test_prove_shortcuts",

@@ -262,7 +262,7 @@ _ALL = (
     error("E286", Topic.OPERATORS, "unknown task in a scenario's operator script"),
     error("E287", Topic.OPERATORS, "unknown client in a scenario's operator script"),
     error("E288", Topic.OPERATORS, "reason the answer cannot give"),
-    error("E289", Topic.OPERATORS, "unknown channel in a console answer"),
+    error("E289", Topic.OPERATORS, "unknown channel in a console answer or a scripted reply"),
     warning("W308", Topic.OPERATORS, "operator module that serves no client"),
     error("E910", Topic.OPERATORS, "a task result's range that no value or no answer fits"),
     error("E911", Topic.OPERATORS, "scripted answer whose results do not fit the task"),

@@ -155,8 +155,9 @@ class BlockView:
         echoed = self.sent(module).number if number is None else number
         code = self.contract.STATUS_NAMES.index(status)
         fields: dict[str, int] = {"status_num": echoed, "status": code}
-        if reason:
-            fields["error_num"] = list(self.layout.REASON_NAMES[module]).index(reason)
+        if reason:  # an operator module's channel (`op/fx`) gives the module's reasons
+            names = self.layout.REASON_NAMES[module.partition("/")[0]]
+            fields["error_num"] = list(names).index(reason)
         self.layout.STATUS_OUT[module].write(self.buf, **fields)
 
     def status(self, module: str) -> Status:

@@ -34,6 +34,12 @@ def _value(value: Any) -> Any:
     return str(value)
 
 
+def _row(system: ir.IRSystem, client: str, sub: str) -> str:
+    """The buffer through which `client` commands `sub`: an operator module answers each
+    client through a channel of its own (`eoow/cc`), any other module through its own."""
+    return ir.channel_key(sub, client) if system.controller(sub).is_operator else sub
+
+
 def _process_of(system: ir.IRSystem, module: str) -> ir.IRProcess:
     return next(p for p in system.processes if module in p.modules)
 
@@ -68,7 +74,7 @@ def events(system: ir.IRSystem, finding: Finding) -> tuple[list[dict[str, Any]],
         if edge.answers:  # an ERROR with the reason the model chose where a rule read it
             reasons = {str(k[1]): str(v) for k, v in edge.valuation if k[0] == "reason"}
             event["reply"] = {
-                str(sub): f"{status}({reasons[sub]})"
+                _row(system, module, str(sub)): f"{status}({reasons[sub]})"
                 if status == "ERROR" and reasons.get(sub, "NONE") not in ("NONE", "LOST")
                 else str(status)
                 for sub, status in edge.answers
@@ -149,10 +155,11 @@ class Replayer:
                         f"in the model, {got.rule or 'no rule'} in the code"
                     )
                 for sub, cmd in edge.sends:
-                    if harness.sent(sub).command != cmd:
+                    sent = harness.sent(_row(self.system, module, sub)).command
+                    if sent != cmd:
                         return False, (
                             f"the generated code departs in cycle {index}: {module} sent "
-                            f"{harness.sent(sub).command} to {sub}, not {cmd}"
+                            f"{sent} to {sub}, not {cmd}"
                         )
         except Exception as error:  # a hook refusing the scripted values: not a verdict
             return False, f"the replay stopped: {type(error).__name__}: {error}"

@@ -429,8 +429,8 @@ class _Checker:
                 self.answer(raw["answer"], event, self.span(raw, "answer"))
             replies = raw.get("reply") or {}
             for name, status in replies.items():
-                found = self.module(name, key_span(replies, name, where), None, "reply to")
-                if found is not None and self.reply_reason(str(status), replies, name):
+                found = self.replied(name, key_span(replies, name, where))
+                if found is not None and self.reply_reason(str(status), replies, name, found.name):
                     event.replies[name] = str(status)
             world = raw.get("set") or {}
             for name, value in world.items():
@@ -808,10 +808,26 @@ class _Checker:
                 )
                 return
 
-    def reply_reason(self, status: str, replies: dict[str, Any], name: str) -> bool:
+    def replied(self, name: str, span: Span) -> IRController | None:
+        """The module a scripted answer (`reply:`) is written for: a controller (E405), or an
+        operator module answering on one client's channel, `op/fx` (E289)."""
+        if "/" not in name:
+            return self.module(name, span, None, "reply to")
+        channels = {ch: o for o in self.operators.values() for ch in o.channels}
+        if name not in channels:
+            self.error(
+                span,
+                "E289",
+                f"reply to `{name}`: not a channel of an operator module of `{self.system.name}`",
+                known_names_hint("channels", sorted(channels), name),
+            )
+            return None
+        return channels[name]
+
+    def reply_reason(self, status: str, replies: dict[str, Any], key: str, module: str) -> bool:
         """A scripted ERROR's reason (`ERROR(BLOCKED)`): one the module can give (E408)."""
         reason = status.partition("(")[2].rstrip(")")
-        return not reason or self.reason(reason, name, self.span(replies, name))
+        return not reason or self.reason(reason, module, self.span(replies, key))
 
     def answer_reason(self, reason: str, answer: str, tasks: list[Any], span: Span) -> None:
         """A reason given with ERROR only, and one that a task it may answer declares (E288);

@@ -243,11 +243,11 @@ def reply(harness: AnyHarness, module: str, status: str) -> None:
     """A scripted answer: `module`'s status buffer echoes the command it last received with
     `status` (`ERROR(REASON)`: with that reason); in one process the module takes it up as
     its own (so it does not echo that command again), as a stand-in answering in its place
-    would."""
+    would; an operator module's channel (`op/fx`) is taken up by the operator module."""
     name, _, reason = status.partition("(")
     harness.reply(module, name, reason=reason.rstrip(")"))
     if isinstance(harness, Harness) and module in harness.modules:
-        harness.controller(module).resume()
+        harness.controller(module.partition("/")[0]).resume()
 
 
 class Devices(Protocol):

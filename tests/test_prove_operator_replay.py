@@ -1,0 +1,128 @@
+"""A counter-example of `rcsgen prove` through an operator module replayed in the generated
+code (rcsgen/tools/replay.py): the operator module answers its client on a channel of its
+own (`op/top`), so the replay scripts that channel's status, and the scenario it writes
+says `reply: {op/top: ERROR(REFUSED)}`, which `rcsgen run` accepts. Before, the replay
+stopped on KeyError 'op' and left the finding undecided (the submarine's cc over eoow)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import yaml
+
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.prove import prove_front
+from rcsgen.tools.replay import replay_all
+from rcsgen.tools.scenario.check import check_scenario
+
+# top starts the device and asks the person; the person's refusal leaves the device running
+# (W701, violated: top should halt dev first)
+DESK = {
+    "system.yaml": """
+system: desk
+title: Desk
+cycle_period: 0.1
+world:
+  ready: {type: bool, initial: false, doc: The work is done.}
+  power: {type: float, initial: 0.0, doc: The device's power.}
+processes:
+  p:
+    modules: [top, dev, op]
+""",
+    "top.yaml": """
+controller: top
+title: Top
+subordinates: [dev, op]
+commands:
+  GO:
+    doc: Start the device and ask the person.
+    first_match: [S1]
+    states:
+      S0:
+        - do: [send: dev.WORK, send: op.CHECK]
+          next: S1
+      S1:
+        - when: op.status == ERROR
+          do: [report: ERROR]
+        - when: dev.status == ERROR
+          do: [report: ERROR]
+        - when: op.status == DONE and dev.status == DONE
+          do: [report: DONE]
+""",
+    "dev.yaml": """
+controller: dev
+title: Device
+world:
+  reads: [ready]
+  writes: [power]
+commands:
+  WORK:
+    doc: Powered until the work is done.
+    allow: [{code: W503, states: [S1], reason: it works until the work is done}]
+    states:
+      S0:
+        - do: [set: {world.power: 1.0}]
+          next: S1
+      S1:
+        - when: world.ready
+          do: [report: DONE]
+""",
+    "op.yaml": """
+operator: op
+title: Person
+commands:
+  CHECK:
+    doc: A check.
+    text: Check, then answer.
+    reasons: [REFUSED]
+""",
+}
+
+
+def _write(directory: Path, files: dict[str, str]) -> Path:
+    directory.mkdir()
+    for name, text in files.items():
+        (directory / name).write_text(text.lstrip(), encoding="utf-8")
+    return directory
+
+
+def test_an_operators_answer_is_replayed_on_its_channel(tmp_path) -> None:
+    directory = _write(tmp_path / "desk", DESK)
+    front = compile_paths([directory])
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
+    system = front.systems[0]
+    proof = prove_front(front).proofs[0]
+    [finding] = [f for f in proof.findings if f.code == "W701"]
+    assert "after op reported ERROR" in finding.message
+    out = directory / "scenarios"
+    replay_all(proof, system, directory, out)
+    assert (finding.verdict, finding.replay) == (
+        "violated",
+        f"replayed in the generated code, {len(finding.trace)} cycle(s)",
+    )
+    data = yaml.safe_load(Path(finding.scenario).read_text(encoding="utf-8"))
+    replies = [e["reply"] for e in data["events"] if "reply" in e]
+    assert replies and all(set(r) == {"op/top"} for r in replies)
+    assert replies[-1]["op/top"].startswith("ERROR")
+    _, diags = check_scenario(Path(finding.scenario), system)
+    assert [d.render() for d in diags.errors] == []
+
+
+def test_a_reply_to_a_channel_that_does_not_exist_is_located(tmp_path) -> None:
+    directory = _write(tmp_path / "desk", DESK)
+    system = compile_paths([directory]).systems[0]
+    (directory / "scenarios").mkdir()
+    path = directory / "scenarios" / "s.yaml"
+    path.write_text(
+        "scenario: s\ntitle: S\nprocess: p\nmax_cycles: 2\nevents:\n"
+        "  - {cycle: 1, command: top.GO, mode: {op: {dont_run: true}}}\n"
+        "  - {cycle: 2, reply: {op/dev: ERROR(REFUSED)}}\n"
+        "  - {cycle: 2, reply: {op/top: ERROR(LATE)}}\n",
+        encoding="utf-8",
+    )
+    _, diags = check_scenario(path, system)
+    found = sorted((d.code, d.span.line, d.message) for d in diags.errors)
+    assert found == [
+        ("E289", 7, "reply to `op/dev`: not a channel of an operator module of `desk`"),
+        ("E408", 8, "`LATE` is not a reason `op` can give"),
+    ]
