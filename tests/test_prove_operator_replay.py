@@ -1,13 +1,16 @@
-"""A counter-example of `rcsgen prove` through an operator module replayed in the generated
-code (rcsgen/tools/replay.py): the operator module answers its client on a channel of its
-own (`op/top`), so the replay scripts that channel's status, and the scenario it writes
-says `reply: {op/top: ERROR(REFUSED)}`, which `rcsgen run` accepts. Before, the replay
-stopped on KeyError 'op' and left the finding undecided (the submarine's cc over eoow)."""
+"""Counter-examples of `rcsgen prove` replayed in the generated code (rcsgen/tools/replay.py):
+through an operator module, with a text parameter, with a parameter several rules read.
+
+An operator module answers its client on a channel of its own (`op/top`), so the replay
+scripts that channel's status, and the scenario it writes says `reply: {op/top: ERROR(R)}`,
+which `rcsgen run` accepts. Before, the replay stopped on KeyError 'op' and left the finding
+undecided (the submarine's cc over eoow)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 import yaml
 
 from rcsgen.compiler.frontend import compile_paths
@@ -33,6 +36,8 @@ processes:
 controller: top
 title: Top
 subordinates: [dev, op]
+locals:
+  done: {type: int, initial: 0, doc: Parts of a lot worked.}
 commands:
   GO:
     doc: Start the device and ask the person.
@@ -48,6 +53,53 @@ commands:
           do: [report: ERROR]
         - when: op.status == DONE and dev.status == DONE
           do: [report: DONE]
+  RUN:
+    doc: As GO, for a program (a text the model keeps opaque).
+    params:
+      program: {type: str, doc: The program.}
+    first_match: [S1]
+    states:
+      S0:
+        - do: [send: dev.WORK, send: op.CHECK]
+          next: S1
+      S1:
+        - when: op.status == ERROR
+          do: [report: ERROR]
+        - when: dev.status == ERROR
+          do: [report: ERROR]
+        - when: op.status == DONE and dev.status == DONE
+          do: [report: DONE]
+  LOT:
+    doc: The device works `parts` times; from the second part on, the person checks each.
+    params:
+      parts: {type: int, doc: Parts in the lot.}
+    first_match: [S2]
+    states:
+      S0:
+        - when: parts > 0
+          do: [set: {done: 0}, send: dev.WORK]
+          next: S1
+        - when: parts <= 0
+          do: [report: DONE]
+      S1:
+        - when: dev.status == DONE and done + 1 < parts
+          do: [set: {done: done + 1}, send: dev.WORK, send: op.CHECK]
+          next: S2
+        - when: dev.status == DONE and done + 1 >= parts
+          do: [report: DONE]
+        - when: dev.status == ERROR
+          do: [report: ERROR]
+      S2:
+        - when: op.status == ERROR
+          do: [report: ERROR]
+        - when: dev.status == ERROR
+          do: [send: op.HALT]
+          next: S3
+        - when: op.status == DONE and dev.status == DONE
+          do: [report: DONE]
+      S3:
+        - when: op.status != EXECUTING
+          do: [report: ERROR]
 """,
     "dev.yaml": """
 controller: dev
@@ -86,16 +138,27 @@ def _write(directory: Path, files: dict[str, str]) -> Path:
     return directory
 
 
-def test_an_operators_answer_is_replayed_on_its_channel(tmp_path) -> None:
-    directory = _write(tmp_path / "desk", DESK)
+@pytest.fixture(scope="module")
+def desk(tmp_path_factory):
+    """The system proven and every finding replayed once, its scenarios written."""
+    directory = _write(tmp_path_factory.mktemp("prove") / "desk", DESK)
     front = compile_paths([directory])
     assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
     system = front.systems[0]
     proof = prove_front(front).proofs[0]
-    [finding] = [f for f in proof.findings if f.code == "W701"]
+    replay_all(proof, system, directory, directory / "scenarios")
+    return system, proof
+
+
+def _w701(proof, command: str):
+    [finding] = [f for f in proof.findings if f.code == "W701" and f.command == command]
+    return finding
+
+
+def test_an_operators_answer_is_replayed_on_its_channel(desk) -> None:
+    system, proof = desk
+    finding = _w701(proof, "GO")
     assert "after op reported ERROR" in finding.message
-    out = directory / "scenarios"
-    replay_all(proof, system, directory, out)
     assert (finding.verdict, finding.replay) == (
         "violated",
         f"replayed in the generated code, {len(finding.trace)} cycle(s)",
@@ -106,6 +169,31 @@ def test_an_operators_answer_is_replayed_on_its_channel(tmp_path) -> None:
     assert replies[-1]["op/top"].startswith("ERROR")
     _, diags = check_scenario(Path(finding.scenario), system)
     assert [d.render() for d in diags.errors] == []
+
+
+def test_a_text_parameter_is_replayed_as_an_opaque_value(desk) -> None:
+    """No rule reads `program`: the model leaves it free, the replay gives it the empty text
+    (before, 0, which the command refused: the replay stopped and the finding was undecided,
+    as the inspection shop's INSPECT_LOT(program) was)."""
+    system, proof = desk
+    finding = _w701(proof, "RUN")
+    assert finding.verdict == "violated", finding.replay
+    data = yaml.safe_load(Path(finding.scenario).read_text(encoding="utf-8"))
+    assert data["events"][0]["with"] == {"program": ""}
+    _, diags = check_scenario(Path(finding.scenario), system)
+    assert [d.render() for d in diags.errors] == []
+
+
+def test_a_parameter_takes_one_solutions_value_for_the_whole_run(desk) -> None:
+    """LOT's S0 holds with parts 1, the explicit engine's pick; S1's first rule needs
+    parts >= 2 a cycle later. z3's solution for the whole run (parts fixed from the command
+    on) is what the counter-example and its replay use, so the replay follows the run to
+    its end (before, it departed in cycle 2 and the finding was undecided)."""
+    _, proof = desk
+    finding = _w701(proof, "LOT")
+    params = {k[1]: v for k, v in finding.trace[0][0].valuation if k[0] == "param"}
+    assert params["parts"] >= 2
+    assert finding.verdict == "violated", finding.replay
 
 
 def test_a_reply_to_a_channel_that_does_not_exist_is_located(tmp_path) -> None:

@@ -21,7 +21,7 @@ import yaml
 
 from ..compiler import ir
 from ..compiler.prove import Finding, SystemProof
-from ..compiler.types import Bool
+from ..compiler.types import Bool, Str, Type
 from .harness import Harness, import_package, write_package
 from .scenario.run import reply
 
@@ -32,6 +32,16 @@ def _value(value: Any) -> Any:
     if isinstance(value, bool | int | float):
         return value
     return str(value)
+
+
+def _free(kind: Type) -> Any:
+    """A parameter the model left free: false, 0, or for a text, which the model keeps opaque
+    (no rule of its run decided on its value), the empty text. Sound for a verdict: only a
+    replay that follows the run to its end with this value makes the finding violated; a rule
+    that compares the text and takes the other branch makes the replay depart (undecided)."""
+    if isinstance(kind, Bool):
+        return False
+    return "" if isinstance(kind, Str) else 0
 
 
 def _row(system: ir.IRSystem, client: str, sub: str) -> str:
@@ -65,10 +75,7 @@ def events(system: ir.IRSystem, finding: Finding) -> tuple[list[dict[str, Any]],
             params = next((cmd.params for cmd in c.commands if cmd.name == edge.new), ())
             given = {k[1]: _value(v) for k, v in edge.valuation if k[0] == "param"}
             if params:
-                event["with"] = {
-                    str(p.name): given.get(p.name, False if isinstance(p.type, Bool) else 0)
-                    for p in params
-                }
+                event["with"] = {str(p.name): given.get(p.name, _free(p.type)) for p in params}
             if c.supervisor is not None:
                 event["overrides"] = True
         if edge.answers:  # an ERROR with the reason the model chose where a rule read it

@@ -27,6 +27,7 @@ from typing import Any
 
 from .. import expressions as expr
 from .. import types
+from ..analysis.tables import Atom
 from .adapter import RuleView, Skeleton
 from .model import NOP, Edge, Graph, State
 from .properties import rule_view
@@ -73,12 +74,14 @@ class Encoder:
             name: self._const(kind, value) for name, (kind, value) in self.sk.locals_init.items()
         }
         self.params: dict[str, Any] = {}
+        self.kinds: dict[str, Any] = {}  # each parameter's type, as the rules read it
         self.before: State = graph.initial
 
     def copy(self) -> Encoder:
         other = Encoder.__new__(Encoder)
         other.z3, other.sk, other.names = self.z3, self.sk, self.names
         other.locals, other.params, other.before = dict(self.locals), dict(self.params), self.before
+        other.kinds = self.kinds
         return other
 
     # ------------------------------------------------------------ one cycle
@@ -195,6 +198,7 @@ class Encoder:
         if kind == expr.RefKind.LOCAL and e.name in self.locals:
             return self.locals[e.name]
         if kind == expr.RefKind.PARAM:
+            self.kinds[e.name] = e.type
             return self.params.setdefault(e.name, self._fresh(e.type))
         if kind == expr.RefKind.WORLD:
             found = world.get(e.name)
@@ -272,13 +276,49 @@ class Encoder:
         return None
 
 
-def feasible(z3: Any, graph: Graph, trace: Run) -> bool:
-    """Whether the run is possible with the values its guards read."""
+def witness(z3: Any, graph: Graph, trace: Run) -> Run | None:
+    """The run with, on each cycle that brings a command, the parameter values of one
+    solution (the explicit engine picks each guard's values alone, so a parameter may take
+    one value in one cycle and another later: a replay given those departs); None when no
+    values make the run possible."""
     solver = z3.Solver()
     encoder = Encoder(z3, graph)
-    for edge, after in trace:
+    brought: list[tuple[int, dict[str, Any]]] = []
+    for index, (edge, after) in enumerate(trace):
         solver.add(*encoder.cycle(edge, after))
-    return bool(solver.check() != z3.unsat)
+        if edge.new is not None:
+            brought.append((index, encoder.params))  # filled as later cycles read them
+    if solver.check() == z3.unsat:
+        return None
+    model = solver.model()
+    out = list(trace)
+    for index, params in brought:
+        edge, after = out[index]
+        chosen = {  # an enumeration's index is no value name: the model's own choice stays
+            name: _python(z3, model.eval(term))
+            for name, term in params.items()
+            if not isinstance(encoder.kinds[name], types.Enum)
+        }
+        chosen = {name: value for name, value in chosen.items() if value is not None}
+        kept = tuple(
+            (k, v) for k, v in edge.valuation if not (k[0] == Atom.PARAM and k[1] in chosen)
+        )
+        given = tuple(((Atom.PARAM, name), value) for name, value in sorted(chosen.items()))
+        out[index] = (edge._replace(valuation=kept + given), after)
+    return out
+
+
+def _python(z3: Any, value: Any) -> Any:
+    """A z3 value of a solution as the model's valuations hold one (None: left free)."""
+    if z3.is_true(value) or z3.is_false(value):
+        return z3.is_true(value)
+    if z3.is_int_value(value):
+        return Fraction(value.as_long())
+    if z3.is_rational_value(value):
+        return Fraction(value.numerator_as_long(), value.denominator_as_long())
+    if z3.is_string_value(value):
+        return value.as_string()
+    return None
 
 
 def search(z3: Any, graph: Graph, trace: Run, also: Any = None) -> Run | None:

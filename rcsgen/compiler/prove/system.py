@@ -238,7 +238,9 @@ def _impossible(graph: Graph, f: Finding) -> str | None:
     z3 = z3_or_none()
     if z3 is None:
         return None
-    if held and numbers.feasible(z3, graph, f.trace):
+    found = numbers.witness(z3, graph, f.trace) if held else None
+    if found is not None:  # possible: the run with one solution's parameters, to replay
+        f.trace = found
         return ""
     if held:
         why = "impossible with the values its guards read (z3: locals, parameters, world values)"
@@ -246,8 +248,8 @@ def _impossible(graph: Graph, f: Finding) -> str | None:
         other = numbers.search(
             z3, graph, f.trace, lambda run: timers.feasible(sk, run)[0] is not False
         )
-        if other is not None:
-            f.trace, f.certain = other, props._certain(other)
+        if other is not None:  # possible by construction: its parameters, to replay
+            f.trace, f.certain = numbers.witness(z3, graph, other) or other, props._certain(other)
             return ""
         longest = len(f.trace) - 1 + numbers.EXTRA_CYCLES
         why += f"; no possible run to that cycle up to {longest} cycles"
