@@ -128,7 +128,8 @@ def test_nominal_init_for_inspect_then_the_part_is_accepted():
     assert cmm[4:] == ["INSPECT_FEATURE"] * 5
     assert names(fx)[1:] == ["EQUIP_SETUP", "PLACE_PART", "UNLOAD_PART"]
     assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": True})
-    assert outcome(lines[-1], "ms") == ("DONE", "NONE", {"measured": 5, "failed": 0})
+    # every result slot of MS: the camera's scale is CALIBRATE_CAMERA's, 0 after it
+    assert outcome(lines[-1], "ms") == ("DONE", "NONE", {"measured": 5, "failed": 0, "scale": 0.0})
     # the shop passes the verdict up; its lot counts stay 0 (no lot was ordered)
     assert final["results"] == {"accepted": True, "passed": 0, "rejected": 0, "scheduled": 0}
     assert final["reason"] == "NONE"
@@ -161,6 +162,21 @@ def test_nominal_readings_are_within_the_programs_tolerances(monkeypatch):
         assert feature.accepts(reading), (feature, reading)
 
 
+def test_the_camera_is_calibrated_last_against_the_reference_sphere():
+    """calibrate Camera, the final activity of initForInspect (Figure 4): the camera images
+    the reference sphere; the scale it finds is the world's and MS's result, within the
+    edge-finding noise of the true 0.0125 mm/pixel, and 0 until then."""
+    _, lines = played("nominal_inspection")
+    done = first(lines, "ms", "CALIBRATE_CAMERA", "DONE")
+    scale = lines[done - 1]["world"]["camera_scale"]
+    assert abs(scale - 0.0125) < 0.0125 * 1e-3  # 0.5 px of a 2000 px sphere: 0.025 %
+    assert lines[done - 1]["modules"]["ms"]["result"]["scale"] == scale
+    ordered = dict((c, cycle) for cycle, c in commands_sent(lines, "cmm"))["CALIBRATE_CAMERA"]
+    assert {ln["world"]["camera_scale"] for ln in lines if ln["cycle"] <= ordered} == {0.0}
+    assert done > first(lines, "ms", "CALIBRATE_CMM", "DONE"), "the camera comes last"
+    assert first(lines, "ws", "INIT_FOR_INSPECT", "DONE") > done
+
+
 def test_a_part_out_of_tolerance_is_refixtured_remeasured_and_rejected():
     final, lines = played("rejected_part")
     assert final["status"] == "DONE", "rejecting a part completes the inspection"
@@ -179,10 +195,12 @@ def test_a_part_out_of_tolerance_is_refixtured_remeasured_and_rejected():
     ]
     assert bores and all(reading > 12.02 for reading in bores)
     assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": False})  # rejected
-    assert outcome(lines[-1], "ms")[2] == {"measured": 5, "failed": 1}  # the bore, again
+    assert outcome(lines[-1], "ms")[2] == {"measured": 5, "failed": 1, "scale": 0.0}  # the bore
     # the first measurement found the bore out too, and MS said so with DONE
     first_done = first(lines, "ms", "MEASURE_PART", "DONE")
-    assert outcome(lines[first_done - 1], "ms") == ("DONE", "NONE", {"measured": 5, "failed": 1})
+    assert outcome(lines[first_done - 1], "ms") == (
+        "DONE", "NONE", {"measured": 5, "failed": 1, "scale": 0.0}
+    )  # fmt: skip
     unloaded = next(cycle for cycle, c in commands_sent(lines, "fx") if c == "UNLOAD_PART")
     assert lines[unloaded - 1]["modules"]["ws"]["state"] == "UNLOADING", "rejected, then unloaded"
 

@@ -27,7 +27,7 @@ INSPECT_FEATURE = 6
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIq44x???1xI400xq8xq8xq8xq24x?")
-INPUTS_AT = 1424
+INPUTS_AT = 1432
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 CMM_STATUS_WORD = CMM_STATUS_AT >> 3
@@ -42,7 +42,7 @@ CMM_PERF_WORD = CMM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QqQqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1888
+WORLD_OUT_1_AT = 1896
 WORLD_HELD_1 = (OVERRIDE["cmm_op"], OVERRIDE["cmm_feature"], OVERRIDE["cmm_seq"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -11,6 +11,7 @@ from .layout import (
     CMM_SIM_STATUS_AT,
     OVERRIDDEN_AT,
     OVERRIDE,
+    WORLD_CAMERA_SCALE_AT,
     WORLD_CMM_ALARM_AT,
     WORLD_CMM_DONE_SEQ_AT,
     WORLD_CMM_READING_AT,
@@ -35,18 +36,19 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI56xq8xq8xq8xq8xd8x?15x?")
-INPUTS_AT = 1768
+INPUTS = Struct("<QQI44x???1xI56xq8xq8xq8xq8xd8x?15x?15xd")
+INPUTS_AT = 1776
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (221,)
+SEQ_WORDS = (222,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 CMM_SIM_STATUS_WORD = CMM_SIM_STATUS_AT >> 3
 WORLD_CMM_DONE_SEQ_WORD = WORLD_CMM_DONE_SEQ_AT >> 3
 WORLD_CMM_READING_WORD = WORLD_CMM_READING_AT >> 3
 WORLD_CMM_ALARM_WORD = WORLD_CMM_ALARM_AT >> 3
+WORLD_CAMERA_SCALE_WORD = WORLD_CAMERA_SCALE_AT >> 3
 CMM_SIM_PERF_WORD = CMM_SIM_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
@@ -55,12 +57,20 @@ CMM_SIM_PERF_WORD = CMM_SIM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QqQdQ?")
 WORLD_VALUES_1 = Struct("<8xq8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1936
+WORLD_OUT_1_AT = 1944
 WORLD_HELD_1 = (
     OVERRIDE["cmm_done_seq"],
     OVERRIDE["cmm_reading"],
     OVERRIDE["cmm_alarm"],
 )  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_2 = Struct("<Qd")
+WORLD_VALUES_2 = Struct("<8xd")
+WORLD_SEQS_2 = Struct("<Q")
+WORLD_OUT_2_AT = 2008
+WORLD_HELD_2 = (OVERRIDE["camera_scale"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -70,6 +80,7 @@ MOTION_CYCLES = 4
 
 # Enumeration values its tables name (a field holds its value's index).
 NO_OPERATION = 0
+CAMERA_CALIBRATION = 3
 MEASUREMENT = 4
 
 
@@ -104,6 +115,7 @@ class CmmSimController:
         "status_seq",
         "var_moving",
         "words",
+        "world_camera_scale",
         "world_cmm_alarm",
         "world_cmm_done_seq",
         "world_cmm_fault",
@@ -118,6 +130,7 @@ class CmmSimController:
     # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
     # 5 cycle periods and at least 1 s); what it raises, or a result unlike
     # its `returns:`, is a HookError.
+    hook_image_sphere = hook("cmm_sim", hooks, "image_sphere", 2.5, "f")
     hook_probe = hook("cmm_sim", hooks, "probe", 2.5, "f")
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -159,7 +172,7 @@ class CmmSimController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[221] != values[0]:
+        if values[0] & 1 or not values[0] or words[222] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -177,6 +190,7 @@ class CmmSimController:
                 self.world_cmm_reading,
                 self.world_cmm_alarm,
                 self.world_cmm_fault,
+                self.world_camera_scale,
             ) = values
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -239,6 +253,15 @@ class CmmSimController:
                 words[WORLD_CMM_DONE_SEQ_WORD] = (s[0] | 1) + 1
                 words[WORLD_CMM_READING_WORD] = (s[1] | 1) + 1
                 words[WORLD_CMM_ALARM_WORD] = (s[2] | 1) + 1
+            out = (self.world_camera_scale,)
+            now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_2, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
+                words[WORLD_CAMERA_SCALE_WORD] = s[0] | 1  # odd before the value changes
+                WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0])
+                words[WORLD_CAMERA_SCALE_WORD] = (s[0] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -268,7 +291,7 @@ class CmmSimController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[221] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[222] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing
@@ -290,6 +313,7 @@ class CmmSimController:
             self.world_cmm_reading,
             self.world_cmm_alarm,
             self.world_cmm_fault,
+            self.world_camera_scale,
         ) = values
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
@@ -313,6 +337,18 @@ class CmmSimController:
             self.world_cmm_reading = self.hook_probe(
                 "every_cycle/2", self.hook_state, self.world_cmm_feature
             )
+            self.world_cmm_done_seq = self.world_cmm_seq
+            self.var_moving = 0
+
+        elif (
+            not self.world_cmm_alarm
+            and self.world_cmm_op == CAMERA_CALIBRATION
+            and self.world_cmm_seq != self.world_cmm_done_seq
+            and self.var_moving >= MOTION_CYCLES
+        ):
+            # a camera calibration completes
+            self.world_set = True  # it sets world outputs
+            self.world_camera_scale = self.hook_image_sphere("every_cycle/3", self.hook_state)
             self.world_cmm_done_seq = self.world_cmm_seq
             self.var_moving = 0
 

@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2824 bytes.
+The block is 2872 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -41,59 +41,61 @@ command buffers and world fields:
 | 920 | 16 | WS_MODE | MODE_FIELDS |
 | 936 | 48 | WS_PERF | PERF_FIELDS |
 | 984 | 52 | MS_COMMAND | command_num, command, arg_program |
-| 1040 | 56 | MS_STATUS | STATUS_FIELDS |
-| 1096 | 16 | MS_MODE | MODE_FIELDS |
-| 1112 | 48 | MS_PERF | PERF_FIELDS |
-| 1160 | 20 | FX_COMMAND | command_num, command |
-| 1184 | 40 | FX_STATUS | STATUS_FIELDS |
-| 1224 | 16 | FX_MODE | MODE_FIELDS |
-| 1240 | 48 | FX_PERF | PERF_FIELDS |
-| 1288 | 20 | TL_COMMAND | command_num, command |
-| 1312 | 40 | TL_STATUS | STATUS_FIELDS |
-| 1352 | 16 | TL_MODE | MODE_FIELDS |
-| 1368 | 48 | TL_PERF | PERF_FIELDS |
-| 1416 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 1448 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 1480 | 16 | CMM_MODE | MODE_FIELDS |
-| 1496 | 48 | CMM_PERF | PERF_FIELDS |
-| 1544 | 16 | OP_MODE | MODE_FIELDS |
-| 1560 | 48 | OP_PERF | PERF_FIELDS |
-| 1608 | 20 | OP_FX_COMMAND | command_num, command |
-| 1632 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 1664 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 1688 | 20 | OP_TL_COMMAND | command_num, command |
-| 1712 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 1744 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 1768 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 1792 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 1824 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1840 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1888 | 16 | WORLD_CMM_OP | cmm_op |
-| 1904 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1920 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1936 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1952 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1968 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1984 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 2000 | 9 | WORLD_PDM_ONLINE | pdm_online |
-| 2016 | 9 | OVERRIDES | any |
-| 2032 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 2056 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 2080 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 2104 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 2128 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 2152 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 2176 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 2200 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
-| 2224 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
-| 2336 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
-| 2384 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 2432 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
-| 2536 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 2624 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 2680 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 2736 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
-| 2784 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 1040 | 64 | MS_STATUS | STATUS_FIELDS |
+| 1104 | 16 | MS_MODE | MODE_FIELDS |
+| 1120 | 48 | MS_PERF | PERF_FIELDS |
+| 1168 | 20 | FX_COMMAND | command_num, command |
+| 1192 | 40 | FX_STATUS | STATUS_FIELDS |
+| 1232 | 16 | FX_MODE | MODE_FIELDS |
+| 1248 | 48 | FX_PERF | PERF_FIELDS |
+| 1296 | 20 | TL_COMMAND | command_num, command |
+| 1320 | 40 | TL_STATUS | STATUS_FIELDS |
+| 1360 | 16 | TL_MODE | MODE_FIELDS |
+| 1376 | 48 | TL_PERF | PERF_FIELDS |
+| 1424 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 1456 | 32 | CMM_STATUS | STATUS_FIELDS |
+| 1488 | 16 | CMM_MODE | MODE_FIELDS |
+| 1504 | 48 | CMM_PERF | PERF_FIELDS |
+| 1552 | 16 | OP_MODE | MODE_FIELDS |
+| 1568 | 48 | OP_PERF | PERF_FIELDS |
+| 1616 | 20 | OP_FX_COMMAND | command_num, command |
+| 1640 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 1672 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 1696 | 20 | OP_TL_COMMAND | command_num, command |
+| 1720 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 1752 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 1776 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 1800 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 1832 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 1848 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 1896 | 16 | WORLD_CMM_OP | cmm_op |
+| 1912 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 1928 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 1944 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 1960 | 16 | WORLD_CMM_READING | cmm_reading |
+| 1976 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 1992 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 2008 | 16 | WORLD_CAMERA_SCALE | camera_scale |
+| 2024 | 9 | WORLD_PDM_ONLINE | pdm_online |
+| 2040 | 9 | OVERRIDES | any |
+| 2056 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 2080 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 2104 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 2128 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 2152 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 2176 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 2200 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 2224 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
+| 2248 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
+| 2272 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
+| 2384 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
+| 2432 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 2480 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
+| 2584 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 2672 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 2728 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 2784 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
+| 2832 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -125,9 +127,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 2824
+SIZE = 2872
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "feff25c0e3308082e17cf01323bff0c0"
+LAYOUT_HASH = "f10adc453a5d291f91637e4b94777e67"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 248
 
@@ -175,71 +177,73 @@ WS_PERF_AT = 936
 MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
 MS_COMMAND_AT = 984
 MS_STATUS = Struct(
-    "<QQIIiiqqQ"
-)  # seq, status_num, status, error_num, state, rule, result_measured, result_failed, cause
+    "<QQIIiidqqQ"
+)  # seq, status_num, status, error_num, state, rule, result_scale, result_measured, result_failed, cause
 MS_STATUS_AT = 1040
-MS_MODE_AT = 1096
-MS_PERF_AT = 1112
+MS_MODE_AT = 1104
+MS_PERF_AT = 1120
 
 # fx: Fixturing (performed by the operator)
 FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 1160
+FX_COMMAND_AT = 1168
 FX_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-FX_STATUS_AT = 1184
-FX_MODE_AT = 1224
-FX_PERF_AT = 1240
+FX_STATUS_AT = 1192
+FX_MODE_AT = 1232
+FX_PERF_AT = 1248
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 1288
+TL_COMMAND_AT = 1296
 TL_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-TL_STATUS_AT = 1312
-TL_MODE_AT = 1352
-TL_PERF_AT = 1368
+TL_STATUS_AT = 1320
+TL_MODE_AT = 1360
+TL_PERF_AT = 1376
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 1416
-CMM_STATUS_AT = 1448
-CMM_MODE_AT = 1480
-CMM_PERF_AT = 1496
+CMM_COMMAND_AT = 1424
+CMM_STATUS_AT = 1456
+CMM_MODE_AT = 1488
+CMM_PERF_AT = 1504
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 1768
-CMM_SIM_STATUS_AT = 1792
-CMM_SIM_MODE_AT = 1824
-CMM_SIM_PERF_AT = 1840
+CMM_SIM_COMMAND_AT = 1776
+CMM_SIM_STATUS_AT = 1800
+CMM_SIM_MODE_AT = 1832
+CMM_SIM_PERF_AT = 1848
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 1544
-OP_PERF_AT = 1560
+OP_MODE_AT = 1552
+OP_PERF_AT = 1568
 OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_FX_COMMAND_AT = 1608
-OP_FX_STATUS_AT = 1632
-OP_FX_ANSWER_AT = 1664
+OP_FX_COMMAND_AT = 1616
+OP_FX_STATUS_AT = 1640
+OP_FX_ANSWER_AT = 1672
 OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_TL_COMMAND_AT = 1688
-OP_TL_STATUS_AT = 1712
-OP_TL_ANSWER_AT = 1744
+OP_TL_COMMAND_AT = 1696
+OP_TL_STATUS_AT = 1720
+OP_TL_ANSWER_AT = 1752
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1888
+WORLD_CMM_OP_AT = 1896
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1904
+WORLD_CMM_FEATURE_AT = 1912
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1920
+WORLD_CMM_SEQ_AT = 1928
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1936
+WORLD_CMM_DONE_SEQ_AT = 1944
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1952
+WORLD_CMM_READING_AT = 1960
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1968
+WORLD_CMM_ALARM_AT = 1976
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1984
+WORLD_CMM_FAULT_AT = 1992
+WORLD_CAMERA_SCALE = Struct("<Qd")  # seq, camera_scale
+WORLD_CAMERA_SCALE_AT = 2008
 WORLD_PDM_ONLINE = Struct("<Q?")  # seq, pdm_online
-WORLD_PDM_ONLINE_AT = 2000
+WORLD_PDM_ONLINE_AT = 2024
 
 
 PROCESSES = {
@@ -352,6 +356,7 @@ STATUS_OUT = {
             "error_num",
             "state",
             "rule",
+            "result_scale",
             "result_measured",
             "result_failed",
             "cause",
@@ -404,6 +409,7 @@ WORLD = {
     "cmm_reading": Record(WORLD_CMM_READING, WORLD_CMM_READING_AT, ("cmm_reading",)),
     "cmm_alarm": Record(WORLD_CMM_ALARM, WORLD_CMM_ALARM_AT, ("cmm_alarm",)),
     "cmm_fault": Record(WORLD_CMM_FAULT, WORLD_CMM_FAULT_AT, ("cmm_fault",)),
+    "camera_scale": Record(WORLD_CAMERA_SCALE, WORLD_CAMERA_SCALE_AT, ("camera_scale",)),
     "pdm_online": Record(WORLD_PDM_ONLINE, WORLD_PDM_ONLINE_AT, ("pdm_online",)),
 }
 WORLD_INITIAL: dict[str, object] = {
@@ -414,23 +420,25 @@ WORLD_INITIAL: dict[str, object] = {
     "cmm_reading": 0.0,
     "cmm_alarm": False,
     "cmm_fault": False,
+    "camera_scale": 0.0,
     "pdm_online": True,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2016
-OVERRIDDEN_AT = 2024  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2040
+OVERRIDDEN_AT = 2048  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 2032, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 2056, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 2080, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 2104, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 2128, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 2152, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 2176, ("state", "cmm_fault")),
-    "pdm_online": Record(Struct("<QQ?"), 2200, ("state", "pdm_online")),
+    "cmm_op": Record(Struct("<QQq"), 2056, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 2080, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 2104, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 2128, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 2152, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 2176, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 2200, ("state", "cmm_fault")),
+    "camera_scale": Record(Struct("<QQd"), 2224, ("state", "camera_scale")),
+    "pdm_online": Record(Struct("<QQ?"), 2248, ("state", "pdm_online")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -457,6 +465,7 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "cmm_done_seq": ("cmm_sim",),
     "cmm_reading": ("cmm_sim",),
     "cmm_alarm": ("cmm_sim",),
+    "camera_scale": ("cmm_sim",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
@@ -467,7 +476,7 @@ GROUND_TRUTH = ()
 TIME_IN_STATE = {
     "shop": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        2224,
+        2272,
         (
             "state",
             "since",
@@ -484,11 +493,11 @@ TIME_IN_STATE = {
             "PLAN_FAILED",
         ),
     ),
-    "jp": Record(Struct("<QqQQQQ"), 2336, ("state", "since", "NOP", "S0", "PLANNING")),
-    "wc": Record(Struct("<QqQQQQ"), 2384, ("state", "since", "NOP", "S0", "S1")),
+    "jp": Record(Struct("<QqQQQQ"), 2384, ("state", "since", "NOP", "S0", "PLANNING")),
+    "wc": Record(Struct("<QqQQQQ"), 2432, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        2432,
+        2480,
         (
             "state",
             "since",
@@ -506,13 +515,13 @@ TIME_IN_STATE = {
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        2536,
+        2584,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 2624, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 2680, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "cmm": Record(Struct("<QqQQQQ"), 2736, ("state", "since", "NOP", "S0", "S1")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 2784, ("state", "since", "NOP", "S0")),
+    "fx": Record(Struct("<QqQQQQQ"), 2672, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 2728, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "cmm": Record(Struct("<QqQQQQ"), 2784, ("state", "since", "NOP", "S0", "S1")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 2832, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

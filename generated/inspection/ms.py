@@ -69,7 +69,7 @@ CMM_LINK = 8  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s68x???1xI208xQII8xQ104xQI492xd")
+INPUTS = Struct("<QI32s76x???1xI208xQII8xQ104xQI492xd40xd")
 INPUTS_AT = 992
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -117,6 +117,7 @@ class MsController:
         "perf_single_step_num",
         "result_failed",
         "result_measured",
+        "result_scale",
         "rule",
         "simulate",
         "single_step",
@@ -139,6 +140,7 @@ class MsController:
         "var_features",
         "var_in_tolerance",
         "words",
+        "world_camera_scale",
         "world_cmm_reading",
     )
 
@@ -174,6 +176,7 @@ class MsController:
             self.error_num,
             self.state,
             self.rule,
+            self.result_scale,
             self.result_measured,
             self.result_failed,
             self.cause,
@@ -230,6 +233,7 @@ class MsController:
             self.cmm_status_num,
             self.cmm_status,
             self.world_cmm_reading,
+            self.world_camera_scale,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
         if self.tl_status_num != self.tl_command_num:
@@ -250,6 +254,7 @@ class MsController:
             self.status_dirty = True
             self.error_num = REASON_NONE  # no reason yet
             self.cause = 0  # nor a cause
+            self.result_scale = 0.0  # no result yet
             self.result_measured = 0  # no result yet
             self.result_failed = 0  # no result yet
 
@@ -293,6 +298,7 @@ class MsController:
                 self.error_num,
                 self.state,
                 self.rule,
+                self.result_scale,
                 self.result_measured,
                 self.result_failed,
                 self.cause,
@@ -363,6 +369,7 @@ class MsController:
             self.cmm_status_num,
             self.cmm_status,
             self.world_cmm_reading,
+            self.world_camera_scale,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
 
@@ -495,7 +502,9 @@ class MsController:
                 self.error_num = REASON_MACHINE_FAULT
 
     def calibrate_camera(self) -> None:
-        """CALIBRATE_CAMERA: The CMM calibrates the camera against the reference sphere."""
+        """CALIBRATE_CAMERA: The CMM's camera images the reference sphere (calibrate Camera, Figure
+        4); its scale, mm per pixel, is the result.
+        """
         state = self.state
         if state == S0:
             self.rule = 15  # CALIBRATE_CAMERA/S0/1
@@ -506,6 +515,7 @@ class MsController:
         elif state == S1:
             if self.cmm_status == DONE:
                 self.rule = 16  # CALIBRATE_CAMERA/S1/1
+                self.result_scale = self.world_camera_scale
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause

@@ -71,7 +71,7 @@ FX_LINK = 6  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s60x???1xI112xQII16xqQ96xQII8xQ")
+INPUTS = Struct("<QI32s60x???1xI112xQII24xqQ96xQII8xQ")
 INPUTS_AT = 824
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).

@@ -10,6 +10,12 @@ only its seeded deviations:
 
 Each reading is the true size plus probing noise (Gaussian, NOISE mm), from a generator
 seeded by the run's `seed` setting, so runs with the same settings read the same values.
+
+The CMM carries a camera (calibrate Camera, the paper's Figure 4): calibrating it images
+the reference sphere (SPHERE_DIAMETER mm) and finds its diameter in pixels, the true
+CAMERA_SCALE's plus edge-finding noise (PIXEL_NOISE pixels, a generator of its own from the
+same seed, so the probe's readings are those they were without a camera); the scale found is
+the sphere's diameter over the pixels.
 """
 
 from __future__ import annotations
@@ -22,15 +28,20 @@ from .ms import SYSTEM_DIR, Feature, ProgramError, _number, program_path, read_p
 
 DEFAULT_PART = "parts/nominal.part"
 NOISE = 0.002  # mm, one standard deviation of a reading
+CAMERA_SCALE = 0.0125  # mm per pixel, the simulated camera's true scale
+SPHERE_DIAMETER = 25.0  # mm, the reference sphere the camera images
+PIXEL_NOISE = 0.5  # pixels, one standard deviation of the sphere's diameter found
 
 
 @dataclass
 class Part:
-    """The part on the table: each program feature's true size, and the probe's noise."""
+    """The part on the table: each program feature's true size, the probe's noise and the
+    camera's."""
 
     features: list[Feature]
     sizes: dict[str, float]
     noise: random.Random
+    camera: random.Random
 
 
 def read_part(path: Path, features: list[Feature]) -> dict[str, float]:
@@ -62,7 +73,7 @@ def new_part(settings: dict[str, str]) -> Part:
         seed = int(settings.get("seed", "1"))
     except ValueError:
         raise ProgramError(f"setting `seed`: `{settings['seed']}` is not an integer") from None
-    return Part(features, sizes, random.Random(seed))
+    return Part(features, sizes, random.Random(seed), random.Random(f"camera {seed}"))
 
 
 def probe(part: Part, feature: int) -> float:
@@ -71,3 +82,10 @@ def probe(part: Part, feature: int) -> float:
         raise ProgramError(f"feature {feature} is not in the program (0-{len(part.features) - 1})")
     size = part.sizes[part.features[feature].name]
     return round(size + part.noise.gauss(0.0, NOISE), 4)
+
+
+def image_sphere(part: Part) -> float:
+    """Calibrate the camera: the reference sphere's diameter in pixels, as the image shows it
+    (true scale plus edge-finding noise), gives the scale in mm per pixel, to 0.1 nm."""
+    pixels = SPHERE_DIAMETER / CAMERA_SCALE + part.camera.gauss(0.0, PIXEL_NOISE)
+    return round(SPHERE_DIAMETER / pixels, 7)
