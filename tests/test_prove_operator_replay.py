@@ -39,22 +39,8 @@ subordinates: [dev, op]
 locals:
   done: {type: int, initial: 0, doc: Parts of a lot worked.}
 commands:
-  GO:
-    doc: Start the device and ask the person.
-    first_match: [S1]
-    states:
-      S0:
-        - do: [send: dev.WORK, send: op.CHECK]
-          next: S1
-      S1:
-        - when: op.status == ERROR
-          do: [report: ERROR]
-        - when: dev.status == ERROR
-          do: [report: ERROR]
-        - when: op.status == DONE and dev.status == DONE
-          do: [report: DONE]
   RUN:
-    doc: As GO, for a program (a text the model keeps opaque).
+    doc: Start the device and ask the person, for a program (a text the model keeps opaque).
     params:
       program: {type: str, doc: The program.}
     first_match: [S1]
@@ -157,7 +143,7 @@ def _w701(proof, command: str):
 
 def test_an_operators_answer_is_replayed_on_its_channel(desk) -> None:
     system, proof = desk
-    finding = _w701(proof, "GO")
+    finding = _w701(proof, "RUN")
     assert "after op reported ERROR" in finding.message
     assert (finding.verdict, finding.replay) == (
         "violated",
@@ -203,7 +189,7 @@ def test_a_reply_to_a_channel_that_does_not_exist_is_located(tmp_path) -> None:
     path = directory / "scenarios" / "s.yaml"
     path.write_text(
         "scenario: s\ntitle: S\nprocess: p\nmax_cycles: 2\nevents:\n"
-        "  - {cycle: 1, command: top.GO, mode: {op: {dont_run: true}}}\n"
+        "  - {cycle: 1, command: top.RUN, with: {program: p}, mode: {op: {dont_run: true}}}\n"
         "  - {cycle: 2, reply: {op/dev: ERROR(REFUSED)}}\n"
         "  - {cycle: 2, reply: {op/top: ERROR(LATE)}}\n",
         encoding="utf-8",
