@@ -153,7 +153,6 @@ def test_performance_buffers_wait_for_a_slow_push_and_then_go_as_they_are_then(
     ]
 
 
-
 def test_a_changed_record_is_found_wherever_it_lies_in_the_runs_of_sequence_words(
     miner: ModuleType,
 ) -> None:
@@ -177,6 +176,7 @@ def test_a_changed_record_is_found_wherever_it_lies_in_the_runs_of_sequence_word
         record = mirror.records[keys[i]]
         seq.pack_into(block.buf, record.offset, seq.unpack_from(block.buf, record.offset)[0] + 2)
     assert {key for key, _ in mirror.changed(slow=False)} == {keys[i] for i in fast}
+
 
 def test_a_late_or_out_of_order_message_is_dropped_and_counted(miner: ModuleType) -> None:
     layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
