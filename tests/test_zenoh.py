@@ -153,6 +153,31 @@ def test_performance_buffers_wait_for_a_slow_push_and_then_go_as_they_are_then(
     ]
 
 
+def test_a_changed_record_is_found_wherever_it_lies_in_the_runs_of_sequence_words(
+    miner: ModuleType,
+) -> None:
+    """`changed` compares the sequence words SEQ_RUN at a time: a record at either end of a
+    run, in the last (short) run, or two in one run, is found and sent once, in layout order."""
+    layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
+    block = rcs(miner, "rcs.block").Block(layout)
+    mirror = transport.Mirror(layout, block, "pc2")
+    keys, run = mirror._keys, transport.SEQ_RUN
+    picks = sorted({0, run - 1, run, run + 1, 3 * run - 1, len(keys) - 2, len(keys) - 1})
+    seq = transport.SEQ
+    for i in picks:  # a whole write: the word moved by two
+        record = mirror.records[keys[i]]
+        seq.pack_into(block.buf, record.offset, seq.unpack_from(block.buf, record.offset)[0] + 2)
+    sent = [key for key, _ in mirror.changed()]
+    control = [keys[i] for i in picks if keys[i].endswith("/control")]
+    assert sent == [keys[i] for i in picks if keys[i] not in control] + control
+    assert mirror.changed() == []
+    fast = [i for i in picks if not keys[i].endswith("/perf")]
+    for i in picks:
+        record = mirror.records[keys[i]]
+        seq.pack_into(block.buf, record.offset, seq.unpack_from(block.buf, record.offset)[0] + 2)
+    assert {key for key, _ in mirror.changed(slow=False)} == {keys[i] for i in fast}
+
+
 def test_a_late_or_out_of_order_message_is_dropped_and_counted(miner: ModuleType) -> None:
     layout, transport = rcs(miner, "layout"), rcs(miner, "rcs.transport")
     Block = rcs(miner, "rcs.block").Block

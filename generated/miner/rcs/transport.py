@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import os
 import time
-from itertools import compress
-from operator import and_, ne
 from struct import Struct
 from types import ModuleType
 from typing import NamedTuple, Protocol
@@ -33,6 +31,7 @@ EPOCH = Struct("<Q")
 # the layout's records (by offset: the same on every node of one layout hash), then its
 # message (EPOCH and the record's bytes, whose size the layout gives).
 INDEX = Struct("<H")
+SEQ_RUN = 16  # Mirror.changed compares the sequence words this many at a time
 WORLD_OWNER = "_world"
 OVERRIDE_OWNER = "_override"  # a world field's override record: `_override/<field>`
 PROCESS_OWNER = "_process"
@@ -178,7 +177,7 @@ class Mirror:
         # times) and is read by people (ctl, the monitor), never by a controller: the
         # pushes of a fast process carry it only when `slow` is asked (zenoh_transport).
         self._fast = tuple(not key.endswith("/perf") for key in ordered)
-        self._indices = range(len(ordered))
+        self._runs = range(0, len(ordered), SEQ_RUN)
         self.owned: set[str] = set()  # keys whose current value this node wrote
         self.last: dict[str, tuple[int, int]] = {}  # key -> (sender epoch, its seq word)
         self.counters = Counters()
@@ -248,9 +247,18 @@ class Mirror:
         if everything:
             owned, keys = self.owned, self._keys
             return [i for i, seq in enumerate(seqs) if seq != known[i] or keys[i] in owned]
-        if slow:  # every record's word compared in C (map, compress), the loop over the changed
-            return list(compress(self._indices, map(ne, seqs, known)))
-        return list(compress(self._indices, map(and_, map(ne, seqs, known), self._fast)))
+        # The words compared a run of SEQ_RUN at a time (two list slices compared in C: a
+        # push changes a few of a layout's hundreds of records), one by one only in a run
+        # that differs. (Comparing every word by itself, even in C with map/compress, made
+        # a call per record: 25 of a push's ~60 µs of Python in a hop, at load ~8.)
+        words, fast, found = list(seqs), self._fast, []
+        for a in self._runs:
+            b = a + SEQ_RUN
+            if words[a:b] != known[a:b]:
+                for i in range(a, min(b, len(words))):
+                    if words[i] != known[i] and (slow or fast[i]):
+                        found.append(i)
+        return found
 
     def apply(self, key: str, payload: bytes, now_ns: int | None = None) -> bool:
         """Mirror one message into the block; False when it is dropped (late, out of
