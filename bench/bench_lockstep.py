@@ -1,8 +1,11 @@
 """Part 6: what lockstep costs: a system run as OS processes against the same in one process.
 
-Each launched system is run twice: stepped by the token ring (rcs/ring.py, "processes")
-and by the coordinator's request and answer per process ("request/reply", what lockstep
-was before the ring), side by side with the one-process version.
+Each launched system is run three times: stepped by the token ring (rcs/ring.py,
+"processes": the token a turn word in the ring's page, spun on, an eventfd rung only for a
+member asleep), by the same ring without the page ("eventfd ring": the token an eventfd
+write, a nudged member spinning on poll(0), what the ring was before the page), and by the
+coordinator's request and answer per process ("request/reply", what lockstep was before
+the ring), side by side with the one-process version.
 
 1. The miner: generated/miner as its two processes (pc1, and pp alone in pc2), each an OS
    process over a shared segment stepped in lockstep by the launcher's coordinator
@@ -15,8 +18,10 @@ was before the ring), side by side with the one-process version.
    same chain in one process.
 
 3. The hand-off alone: N forked processes that do nothing but pass the token
-   (rcs/ring.py's Receiver and Return, what the launcher uses), against the same N
-   answering a request each through pipes: the floor of each design on this machine.
+   (rcs/ring.py's Receiver and Return: blocking eventfd reads, nobody nudged or spinning;
+   and the launcher's ring with its page, nudges and spins where `Load` sees a free core),
+   against the same N answering a request each through pipes: the floor of each design
+   on this machine.
 
 Every system cycle is timed on its own on the wall clock (time.perf_counter_ns): lockstep
 is waiting for other processes, which CPU time would not see. The in-process and launched
@@ -162,6 +167,9 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
         opened: dict[str, object] = {"one process": one}
         try:
             opened["processes"] = scenarios.open_harness(scenario, PACKAGE, processes=True)
+            opened["eventfd ring"] = LaunchedHarness(
+                PACKAGE, scenario.system_dir, scenario.settings, scenario.simulate, turns=False
+            )
             opened["request/reply"] = LaunchedHarness(
                 PACKAGE, scenario.system_dir, scenario.settings, scenario.simulate, ring=False
             )
@@ -180,6 +188,7 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
         "processes": processes,
         "one_process_ns": stats(samples["one process"]),
         "processes_ns": stats(samples["processes"]),
+        "eventfd_ring_ns": stats(samples["eventfd ring"]),
         "request_reply_ns": stats(samples["request/reply"]),
     }
 
@@ -203,6 +212,7 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
                 }
                 try:
                     opened["processes"] = LaunchedHarness(package_dir)
+                    opened["eventfd ring"] = LaunchedHarness(package_dir, turns=False)
                     opened["request/reply"] = LaunchedHarness(package_dir, ring=False)
                 except BaseException:
                     for harness in opened.values():
@@ -221,6 +231,7 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
                     "modules": CHAIN,
                     "one_process_ns": stats(samples["one process"]),
                     "processes_ns": stats(samples["processes"]),
+                    "eventfd_ring_ns": stats(samples["eventfd ring"]),
                     "request_reply_ns": stats(samples["request/reply"]),
                 }
             )
@@ -236,35 +247,51 @@ def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str,
 
     from rcsgen.runtime import ring
 
-    def ring_cycle(count: int) -> list[int]:
+    def ring_cycle(count: int, turns: bool = False) -> list[int]:
+        """Blocking eventfds, nobody spinning; `turns`: the launcher's ring (its page,
+        nudges, spins where a core is free)."""
         links = ring.new_links(count + 1)
+        page = ring.Page.create(len(links)) if turns else None
+        spin = ring.default_spin() if turns else 0.0
         controls, pids = [], []
         for at in range(count):
             control, keep = os.pipe()
             pid = os.fork()
             if pid == 0:  # a member: take, hand on, until told to stop
                 os.close(keep)
-                receiver = ring.Receiver(links[at].read)
-                ring.stop_on_control(control, links[at].write)
+                receiver = ring.Receiver(links[at].read, spin, page, at)
+                nudge = ring.Nudge(links[at + 1].write, spin, page, at + 1)
+                give = ring.Giver(links[at + 1].write, page, at + 1)
+                ring.stop_on_control(control, links[at].write, page, at)
                 while receiver.wait():
-                    ring.give(links[at + 1].write)
+                    nudge()
+                    give()
                 os._exit(0)
             os.close(control)
             controls.append(keep)
             pids.append(pid)
-        waiter, taken = ring.Return(links[-1].read, ()), []
+        waiter = ring.Return(links[-1].read, (), spin, page, count)
+        give, nudge = ring.Giver(links[0].write, page, 0), ring.Nudge(links[0].write, spin, page, 0)
+        taken = []
         for _ in range(cycles):
             began = wall_ns()
-            ring.give(links[0].write)
+            give()
             waiter.wait(10.0)
             taken.append(wall_ns() - began)
+            nudge()
         waiter.close()
+        nudge.close()
         for fd in controls:
             os.close(fd)
         for pid in pids:
             os.waitpid(pid, 0)
         ring.close_links(links)
+        if page is not None:
+            page.close()
         return taken
+
+    def turn_cycle(count: int) -> list[int]:
+        return ring_cycle(count, turns=True)
 
     def reply_cycle(count: int) -> list[int]:
         ends, pids = [], []
@@ -298,16 +325,16 @@ def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str,
 
     results = []
     for count in counts:
-        samples: dict[str, list[int]] = {"ring": [], "request/reply": []}
+        runs = {"ring": ring_cycle, "turn word": turn_cycle, "request/reply": reply_cycle}
+        samples: dict[str, list[int]] = {key: [] for key in runs}
         for index in range(rounds):
-            order = [ring_cycle, reply_cycle][:: 1 if index % 2 == 0 else -1]
-            for run in order:
-                key = "ring" if run is ring_cycle else "request/reply"
-                samples[key] += run(count)
+            for key in list(runs)[:: 1 if index % 2 == 0 else -1]:
+                samples[key] += runs[key](count)
         results.append(
             {
                 "processes": count,
                 "ring_ns": stats(samples["ring"]),
+                "turn_word_ns": stats(samples["turn word"]),
                 "request_reply_ns": stats(samples["request/reply"]),
             }
         )
@@ -329,6 +356,7 @@ def main() -> int:
         "rounds": args.rounds,
         "chunk": CHUNK,
         "cores": len(os.sched_getaffinity(0)),
+        "load_before": os.getloadavg()[0],
     }
     if "miner" in parts:
         results["miner"] = miner(args.cycles, args.rounds)
@@ -337,6 +365,7 @@ def main() -> int:
     if "handoff" in parts:
         results["handoff"] = handoff(splits, max(args.cycles, 2_000), args.rounds)
     results["seconds"] = time.perf_counter() - started
+    results["load_after"] = os.getloadavg()[0]
     write_json(args.json, results)
     return 0
 

@@ -32,7 +32,9 @@ coordinator's timeout. Standard library only: copied verbatim into every generat
 
 from __future__ import annotations
 
+import mmap
 import os
+import platform
 import select
 import struct
 import threading
@@ -52,6 +54,25 @@ STOP_VALUE = 1 << 40
 STOP = WORD.pack(STOP_VALUE)  # into a link: stop, or wake (a token added to it is a stop)
 SPIN = 2e-3  # the longest a nudged member spins for the token (then it blocks)
 READABLE = select.POLLIN | select.POLLHUP | select.POLLERR
+# The turn words (`Page`): a cache line per link, three words in it
+SLOT_WORDS = 8  # 64 bytes: two links' words never share a cache line
+TURN, SLEEPING, STOPPED = 0, 1, 2  # a slot's words: tokens handed in, taker asleep, stop
+SPIN_FLOOR_NS = 50_000  # an eager spin's least budget (a wake-up costs 25-50 µs here)
+DOORBELL_MS = 50  # a sleeper looks at its turn word at least this often (a missed ring)
+# Where the fence is a full barrier (x86: an atomic read-modify-write orders a store before
+# a later load), a sleeper blocks in its eventfd read (one system call); elsewhere it polls,
+# at most DOORBELL_MS at a time, and looks at its turn word again
+STRONG = platform.machine().lower() in ("x86_64", "amd64", "i386", "i686")
+_FENCE = threading.Lock()
+
+
+def fence() -> None:
+    """A full memory barrier between a store and a later load of the turn words: an
+    uncontended lock taken and given back is an atomic read-modify-write (x86: a locked
+    instruction). Where that is not known (not STRONG), a sleeper's bounded wait
+    (DOORBELL_MS) finds its token even if a ring was missed: late, never lost."""
+    _FENCE.acquire()
+    _FENCE.release()
 
 
 class Link(NamedTuple):
@@ -83,6 +104,69 @@ def close_links(links: Sequence[Link]) -> None:
             os.close(fd)
         except OSError:
             pass
+
+
+class Page:
+    """The ring's turn words: a small shared mapping (memfd) with a slot per link, three
+    words in it: TURN, the tokens handed into the link so far (written by its giver only),
+    SLEEPING, 1 while its taker is (about to be) blocked in its eventfd (written by the
+    taker only), STOPPED, 1 once its taker is told to stop. A taker spins on TURN, cheaply
+    (a load, no system call), and blocks on its eventfd only when its spin runs out; the
+    giver rings that eventfd only when SLEEPING says so. The race is closed both ways
+    round: the taker sets SLEEPING, fences, looks at TURN again and only then blocks; the
+    giver writes TURN, fences, then looks at SLEEPING."""
+
+    def __init__(self, fd: int) -> None:
+        """The page on `fd` (a ring member: the fd the launcher passed it)."""
+        size = os.fstat(fd).st_size
+        self.fd, self.links = fd, size // (SLOT_WORDS * 8)
+        self.map = mmap.mmap(fd, size)
+        self.words = memoryview(self.map).cast("Q")
+
+    @classmethod
+    def create(cls, links: int) -> Page | None:
+        """A new page for `links` links (its fd not inherited: the launcher passes it on);
+        None where there is no memfd (the ring then spins on its eventfds)."""
+        if not hasattr(os, "memfd_create"):  # pragma: no cover - not Linux
+            return None
+        fd = os.memfd_create("rcs-ring", os.MFD_CLOEXEC)
+        os.ftruncate(fd, links * SLOT_WORDS * 8)
+        return cls(fd)
+
+    def close(self) -> None:
+        """Unmap and close (idempotent)."""
+        if self.fd >= 0:
+            self.words.release()
+            self.map.close()
+            os.close(self.fd)
+            self.fd = -1
+
+
+def doorbell(fd: int, words: memoryview, at: int, what: bytes) -> None:
+    """Write `what` into the link whose slot starts at `at` when its taker sleeps (the
+    turn word or the stop word written before it)."""
+    fence()
+    if words[at + SLEEPING]:
+        os.write(fd, what)
+
+
+class Giver:
+    """Hands the token into one link: a write of its turn word, and the eventfd rung only
+    where the taker sleeps; without a page, the eventfd written (`give`)."""
+
+    def __init__(self, fd: int, page: Page | None = None, link: int = 0) -> None:
+        self.fd, self.sent = fd, 0
+        self.words = page.words if page is not None else None
+        self.at = link * SLOT_WORDS
+
+    def __call__(self) -> None:
+        words = self.words
+        if words is None:
+            os.write(self.fd, TOKEN)
+            return
+        self.sent += 1
+        words[self.at + TURN] = self.sent
+        doorbell(self.fd, words, self.at, TOKEN)
 
 
 def cores() -> int:
@@ -128,14 +212,17 @@ class Load:
 class Nudge:
     """A member's nudge to the next one as it takes the token (WAKE into the next one's
     link: it spins for the token instead of being woken by the scheduler when it comes).
-    Only where `spin` > 0, and only while a core is free for the spinner (`Load`, looked at
-    every CHECK nudges: a read of /proc/loadavg costs ~7 µs, a nudge a write of ~1 µs)."""
+    Only where `spin` > 0, only while a core is free for the spinner (`Load`, looked at
+    every CHECK nudges: a read of /proc/loadavg costs ~7 µs, a nudge a write of ~1 µs),
+    and with a page only where the next one sleeps (one spinning already needs none)."""
 
     CHECK = 8
 
-    def __init__(self, fd: int, spin: float) -> None:
+    def __init__(self, fd: int, spin: float, page: Page | None = None, link: int = 0) -> None:
         self.fd, self.count, self.free = fd, 0, False
         self.load = Load() if spin > 0 else None
+        self.words = page.words if page is not None else None
+        self.at = link * SLOT_WORDS
 
     def __call__(self) -> None:
         load = self.load
@@ -144,7 +231,11 @@ class Nudge:
         if not self.count % self.CHECK:
             self.free = load.core_free()
         self.count += 1
-        if self.free:
+        if not self.free:
+            return
+        if self.words is None:
+            os.write(self.fd, WAKE)
+        elif self.words[self.at + SLEEPING]:
             os.write(self.fd, WAKE)
 
     def close(self) -> None:
@@ -161,20 +252,116 @@ def spin_for(poller: select.poll, spin_ns: int) -> None:
 
 
 def give(fd: int) -> None:
-    """Hand the token on."""
+    """Hand the token on (a ring without a page)."""
     os.write(fd, TOKEN)
+
+
+class Taker:
+    """A link's taking end on a page: it spins on its turn word (a load and a
+    sched_yield a turn: a spinner that shares a CPU with the holder lets it run), and
+    where the spin runs out it sleeps on its eventfd (SLEEPING set, fenced, the word
+    looked at again, then a blocking read; not STRONG, a poll bounded by DOORBELL_MS and a
+    read). It spins when nudged (WAKE, up
+    to `spin`) and, `eager` (every member of the ring may have a core of its own), as soon
+    as it waits: for twice what its recent waits took, at least SPIN_FLOOR_NS, not at all
+    where that is more than `spin` (a wait that long is better slept), and only while a
+    core is free (`Load`, every Nudge.CHECK waits)."""
+
+    def __init__(self, fd: int, page: Page, link: int, spin: float, eager: bool) -> None:
+        os.set_blocking(fd, STRONG)  # the eventfd is a doorbell here
+        self.fd, self.words, self.at = fd, page.words, link * SLOT_WORDS
+        self.taken, self.spin_ns = 0, int(spin * 1e9)
+        self.load = Load() if eager and spin > 0 else None
+        self.count, self.free = 0, False
+        self.recent = SPIN_FLOOR_NS  # a running mean of recent waits (ns)
+        self.poller = select.poll()
+        self.poller.register(fd, READABLE)
+
+    def budget(self) -> int:
+        """How long to spin as a wait begins (ns): eager only."""
+        load = self.load
+        if load is None:
+            return 0
+        if not self.count % Nudge.CHECK:
+            self.free = load.core_free()
+        self.count += 1
+        want = max(SPIN_FLOOR_NS, 2 * self.recent)
+        return want if self.free and want <= self.spin_ns else 0
+
+    def take(self, ms: int = DOORBELL_MS) -> int:
+        """The turn word once a token is in it (the caller's to check: one more than it
+        took is the token, more is a broken ring), or 0 when told to stop (STOPPED, STOP
+        in the eventfd); a sleep polls at most `ms` at a time (then looks again)."""
+        words, at, want = self.words, self.at, self.taken + 1
+        if words[at] >= want:  # there already: no spin, no sleep
+            return 0 if words[at + STOPPED] else int(words[at])
+        began = start = time.monotonic_ns()
+        spin = self.budget()
+        while True:
+            if spin:
+                end = began + spin
+                while words[at] < want and not words[at + STOPPED]:
+                    if time.monotonic_ns() >= end:
+                        break
+                    os.sched_yield()
+            if words[at] >= want or words[at + STOPPED]:
+                break
+            words[at + SLEEPING] = 1
+            fence()
+            if words[at] >= want or words[at + STOPPED]:
+                words[at + SLEEPING] = 0
+                break
+            if not STRONG:
+                self.poller.poll(ms)
+            value = self.drain()
+            words[at + SLEEPING] = 0
+            if value >= STOP_VALUE:
+                return 0
+            spin = self.spin_ns if value & WAKE_MASK else 0
+            began = time.monotonic_ns()
+        if self.load is not None:  # eager: how long waits take
+            self.recent = (3 * self.recent + time.monotonic_ns() - start) // 4
+        return 0 if words[at + STOPPED] else int(words[at])
+
+    def drain(self) -> int:
+        """What the eventfd holds, taken out (STRONG: waiting for it; else 0 when
+        nothing)."""
+        try:
+            data = os.read(self.fd, WORD.size)
+        except BlockingIOError:
+            return 0
+        return WORD.unpack(data)[0] if len(data) == WORD.size else STOP_VALUE
+
+    def close(self) -> None:
+        if self.load is not None:
+            self.load.close()
+
+
+def eager(page: Page | None) -> bool:
+    """Whether every member of the ring (the coordinator one of them) may have a core:
+    then each spins as soon as it waits, not only when nudged."""
+    return page is not None and page.links <= cores()
 
 
 class Return:
     """The coordinator's end of the ring: the token's return read blocking on `fd` (the
-    cheapest wake-up: poll(2) there costs ~3 µs a cycle more); a thread of its own polls
-    the processes' answer pipes (`watch`: readable when a process dies) and the cycle's
-    deadline, and wakes the read with STOP. `close` ends the thread: before the launcher
-    closes any descriptor it watches."""
+    cheapest wake-up: poll(2) there costs ~3 µs a cycle more), or with a page its turn
+    word (`Taker`); a thread of its own polls the processes' answer pipes (`watch`:
+    readable when a process dies) and the cycle's deadline, and wakes the read with STOP
+    (with a page also the STOPPED word, which ends a spin). `close` ends the thread:
+    before the launcher closes any descriptor it watches."""
 
-    def __init__(self, fd: int, watch: Sequence[int], spin: float = 0.0) -> None:
+    def __init__(
+        self,
+        fd: int,
+        watch: Sequence[int],
+        spin: float = 0.0,
+        page: Page | None = None,
+        link: int = 0,
+    ) -> None:
         os.set_blocking(fd, True)  # only the coordinator reads the last link
         self.fd, self.spin_ns = fd, int(spin * 1e9)
+        self.taker = Taker(fd, page, link, spin, eager(page)) if page is not None else None
         self.deadline = float("inf")  # of the cycle under way (monotonic seconds)
         self.dead: int | None = None  # the answer pipe that closed
         self.poller = select.poll()
@@ -193,6 +380,8 @@ class Return:
         priority over the token); None when it has not come back within `timeout`. Nudged
         by the last process (WAKE), it spins for the token where it may."""
         self.deadline = time.monotonic() + timeout
+        if self.taker is not None:
+            return self._take()
         while True:
             data = os.read(self.fd, WORD.size)
             if self.dead is not None:
@@ -208,6 +397,21 @@ class Return:
             # a nudge, or a STOP for a cycle that ended as the watcher woke: the token is
             # still to come
 
+    def _take(self) -> int | None:
+        taker = self.taker
+        assert taker is not None
+        while True:
+            turn = taker.take()
+            if self.dead is not None:
+                return self.dead
+            if turn > taker.taken:
+                taker.taken = turn
+                self.deadline = float("inf")
+                return self.fd
+            if time.monotonic() >= self.deadline:
+                return None
+            taker.words[taker.at + STOPPED] = 0  # a stop for a cycle that ended: wait on
+
     def _watch(self, watched: select.poll) -> None:
         fired = float("nan")
         while True:
@@ -215,14 +419,19 @@ class Return:
             left = deadline - time.monotonic()
             if left <= 0 and deadline != fired:  # the cycle under way is late: wake the read
                 fired = deadline
-                os.write(self.fd, STOP)
+                self._stop()
             ms = 250 if left <= 0 or left > 0.25 else max(1, int(left * 1000) + 1)
             for ready, events in watched.poll(ms):
                 if ready == self._quit_read or events & select.POLLNVAL:
                     return
                 self.dead = ready  # a process's answer pipe closed (or spoke): it is lost
-                os.write(self.fd, STOP)
+                self._stop()
                 return
+
+    def _stop(self) -> None:
+        if self.taker is not None:
+            self.taker.words[self.taker.at + STOPPED] = 1
+        os.write(self.fd, STOP)
 
     def close(self) -> None:
         """End the watching thread (idempotent)."""
@@ -232,20 +441,31 @@ class Return:
             os.close(self._quit_write)
             os.close(self._quit_read)
             self._quit_write = -1
+            if self.taker is not None:
+                self.taker.close()
 
 
 class Receiver:
-    """A process's end of its link: blocking reads (nudged, a spin first)."""
+    """A process's end of its link: blocking reads (nudged, a spin first), or with a page
+    its turn word (`Taker`)."""
 
-    def __init__(self, fd: int, spin: float = 0.0) -> None:
+    def __init__(self, fd: int, spin: float = 0.0, page: Page | None = None, link: int = 0) -> None:
         os.set_blocking(fd, True)  # only this process reads its link
         self.fd, self.spin_ns = fd, int(spin * 1e9)
+        self.taker = Taker(fd, page, link, spin, eager(page)) if page is not None else None
         self.poller = select.poll()
         self.poller.register(fd, READABLE)
 
     def wait(self) -> bool:
         """True with the token; False when told to stop (STOP, or the ring broken: a short
         read, more than one token). Nudged (WAKE alone), it spins for the token first."""
+        taker = self.taker
+        if taker is not None:
+            turn = taker.take()
+            if turn != taker.taken + 1:
+                return False
+            taker.taken = turn
+            return True
         while True:
             data = os.read(self.fd, WORD.size)
             if len(data) != WORD.size:
@@ -259,10 +479,17 @@ class Receiver:
             if self.spin_ns:
                 spin_for(self.poller, self.spin_ns)
 
+    def close(self) -> None:
+        if self.taker is not None:
+            self.taker.close()
 
-def stop_on_control(control: int, link: int) -> threading.Thread:
+
+def stop_on_control(
+    control: int, link: int, page: Page | None = None, at: int = 0
+) -> threading.Thread:
     """A thread that puts STOP into `link` once anything comes on `control` (b"q") or it
-    closes (the coordinator stops this process, or is gone)."""
+    closes (the coordinator stops this process, or is gone); with a page, STOPPED into
+    slot `at` first (which ends a spin)."""
 
     def watch() -> None:
         try:
@@ -270,8 +497,10 @@ def stop_on_control(control: int, link: int) -> threading.Thread:
         except OSError:
             pass
         try:
+            if page is not None:
+                page.words[at * SLOT_WORDS + STOPPED] = 1
             os.write(link, STOP)
-        except OSError:  # pragma: no cover - the process is closing its link already
+        except (OSError, ValueError):  # pragma: no cover - the process is closing its link
             pass
 
     thread = threading.Thread(target=watch, name="ring-control", daemon=True)

@@ -61,8 +61,7 @@ from ..loop import (
 )
 from ..override import latch_safe
 from ..realtime import RealtimeRefused
-from ..ring import Link, Nudge, Return, close_links, default_spin, new_links
-from ..ring import give as hand_on
+from ..ring import Giver, Link, Nudge, Page, Return, close_links, default_spin, new_links
 from ..transport import PLAINTEXT, Security, TransportError, check_endpoint
 from .command import (
     Command,
@@ -176,9 +175,12 @@ def run_process(system: System, args: argparse.Namespace) -> int:
             return 1
         try:
             if args.ring:
-                read, write, spin = args.ring.split(",")
+                read, write, spin, page, at = args.ring.split(",")
                 link = (int(read), int(write))
-                serve_ring(process, sys.stdin.fileno(), sys.stdout.fileno(), link, float(spin))
+                turns = (int(page), int(at)) if int(page) >= 0 else None
+                serve_ring(
+                    process, sys.stdin.fileno(), sys.stdout.fileno(), link, float(spin), turns
+                )
             else:
                 serve(process, sys.stdin.fileno(), sys.stdout.fileno())
         except (OSError, EOFError):  # the coordinator's end of the pipe is gone (BrokenPipeError)
@@ -393,6 +395,7 @@ class Launcher:
         security: Security = PLAINTEXT,
         ring: bool = True,
         spin: float | None = None,
+        turns: bool = True,
     ) -> None:
         self.system = system
         self.segment = segment or system.default_segment
@@ -412,6 +415,10 @@ class Launcher:
         # coordinator's request and answer per process (kept to measure one against the other)
         self.ring = ring and lockstep and transport != "zenoh"
         self.links: list[Link] = []  # the ring's: process i waits on i, hands on to i + 1
+        # and its turn words (rcs/ring.py Page), or with `turns=False` none: the ring then
+        # spins on its eventfds (kept to measure one against the other)
+        self.turns = turns
+        self.page: Page | None = None
         self.order = [name for name, *_ in system.segments()]
         self.spin = default_spin() if spin is None else spin
         self.settings, self.simulate = list(settings), list(simulate)
@@ -451,6 +458,7 @@ class Launcher:
                     block_when_congested=self.lockstep,
                 )
             self.links = new_links(len(self.order) + 1) if self.ring else []
+            self.page = Page.create(len(self.links)) if self.links and self.turns else None
             for name in self.processes:
                 self.children[name] = Child(name, self._spawn(name, attach=True))
             if not self.lockstep and self.net is None:
@@ -509,7 +517,9 @@ class Launcher:
         if self.links:  # the fds keep their numbers in the child (pass_fds)
             at = self.order.index(name)
             ring = (self.links[at].read, self.links[at + 1].write)
-            command += ["--ring", f"{ring[0]},{ring[1]},{self.spin!r}"]
+            page = -1 if self.page is None else self.page.fd
+            command += ["--ring", f"{ring[0]},{ring[1]},{self.spin!r},{page},{at}"]
+            ring += () if self.page is None else (self.page.fd,)
         command += [] if self.pace else ["--fast"]
         command += ["--cycles", str(self.cycles)] if self.cycles is not None else []
         for item in self.settings:
@@ -653,6 +663,9 @@ class Launcher:
         self.children.clear()
         close_links(self.links)
         self.links = []
+        if self.page is not None:
+            self.page.close()
+            self.page = None
         if self.net is not None:  # each process's last word (STOPPED) or its leaving
             names, mirror = self.processes, self.net.mirror
             self.net.wait(
@@ -700,9 +713,14 @@ class Coordinator:
             self.answers = {
                 c.popen.stdout.fileno(): c for c in launcher.children.values() if c.popen.stdout
             }
-            self.waiter = Return(launcher.links[-1].read, list(self.answers), launcher.spin)
+            page, last = launcher.page, len(launcher.links) - 1
+            self.waiter = Return(
+                launcher.links[-1].read, list(self.answers), launcher.spin, page, last
+            )
             launcher.on_stop.append(self.waiter.close)  # before it closes what is watched
-            self.nudge = Nudge(launcher.links[0].write, launcher.spin)  # the first, when back
+            self.hand_on = Giver(launcher.links[0].write, page, 0)
+            # the first process, as the token comes back
+            self.nudge = Nudge(launcher.links[0].write, launcher.spin, page, 0)
             launcher.on_stop.append(self.nudge.close)
             self.beats = self._beats()
 
@@ -736,12 +754,12 @@ class Coordinator:
         """Cycles of the token ring: a process killed is lost as its answer pipe closes, one
         stopped (or stuck) when the token has not come back within `timeout`."""
         assert self.waiter is not None
-        first, done = self.launcher.links[0].write, self.launcher.links[-1].read
+        hand_on, done = self.hand_on, self.launcher.links[-1].read
         for _ in range(cycles):
             if self.broken or len(self.launcher.children) != len(self.answers):
                 self.broken = self.broken or "a process of the ring is not running"
                 raise ProcessLost(self.broken)
-            hand_on(first)
+            hand_on()
             woke = self.waiter.wait(self.timeout)
             if woke == done:
                 self.cycle += 1
