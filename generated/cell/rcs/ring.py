@@ -5,29 +5,40 @@ A lockstep coordinator used to send each process a request and wait for its answ
 scheduler wake-ups a cycle, each one a context switch through the coordinator. Here the
 coordinator and the processes form a ring in the execution order: the coordinator hands the
 token to the first process, each process runs its cycle and hands it to the next, the last
-hands it back. Each link is an eventfd (Linux) or, where there is none, a pipe: handing the
-token is writing 8 bytes into the next one's link, taking it is reading them.
+hands it back. Each link is an eventfd (Linux) or, where there is none, a pipe.
 
-A process waits for the token in a blocking read of its link (one system call, the
-cheapest wake-up: poll(2) then read costs ~3 µs more a hand-off on a loaded 2-core
-machine); a thread of its own blocks on its control pipe and, when the coordinator writes
-there or goes away (the pipe closes), puts STOP into the link, which ends the read.
+The token is a turn word (`Page`: a small shared mapping, a memfd the launcher passes to
+every member, a cache line per link): handing it on is writing the count of tokens handed
+into the next one's link, taking it is seeing that count go up. A taker spins on its word
+(a load and a sched_yield a turn, no other system call) for a bounded budget, and sleeps
+in a read of its eventfd when the budget runs out; the giver writes the eventfd only when
+the taker sleeps, and the race between the two is closed both ways round (the taker sets
+its SLEEPING word, fences, looks at its turn word again and only then blocks; the giver
+writes the turn word, fences, then looks at SLEEPING). Where there is no memfd, the token
+is an 8-byte write into the eventfd itself (`give`) and a taker blocks in its read.
 
-A blocked process is woken by the scheduler, and where the core it wakes on was idle that
-is the slow part of a hand-off: a virtual machine's idle CPU is halted, and waking it costs
-25-50 µs (the quiet 2-core host measured 30 µs a hand-off, the same ring 4 µs while other
-work kept both CPUs busy). So the member that takes the token nudges the next one (WAKE
-into its link, `Nudge`): woken while the token holder works, the next one spins until the
-token comes (at most `spin` seconds), on the core the holder leaves free, and takes it
-without a wake-up. Only one member spins at a time (the holder's successor), so the ring
-needs two cores, not a core per member; and a member nudges only while a core is free for
-the spinner (the kernel's count of runnable tasks, /proc/loadavg, looked at every
-`Nudge.CHECK` nudges): on a busy machine a spinner would take the time of the holder, or
-of someone else's work. The coordinator waits for the token's return in a blocking read
-too; a thread of its own polls every process's answer pipe (it closes when the process
-dies) and the cycle's deadline, and wakes the read with STOP: a process killed holding
-the token is seen at once, one stopped when the token has not come back within the
-coordinator's timeout. Standard library only: copied verbatim into every generated package.
+Who spins. A blocked process is woken by the scheduler, and where the core it wakes on was
+idle that is the slow part of a hand-off: a virtual machine's idle CPU is halted, and
+waking it costs 25-50 µs; a spinning taker takes the token in a few µs. So each taker
+spins as soon as it waits (`Taker.budget`: twice what its recent waits took, at least
+SPIN_FLOOR_NS, none where that is more than `spin`: a paced ring sleeps), and the member
+that takes the token nudges the next one if it sleeps (WAKE into its link, `Nudge`: it
+then spins up to `spin`). Both only while a core is free for the spinner or nothing but
+the ring is runnable (`Load`: the kernel's count of runnable tasks against the cores and
+against the ring's members awake, looked at every `Nudge.CHECK` waits): on a machine busy
+with other work a spinner takes the time of the holder or of someone else, and the ring
+sleeps and pays the scheduler. Spinners yield each turn, so on two cores the holder keeps
+one and the spinners share the other.
+
+Faults. A process waits for the token until told to stop: a thread of its own blocks on
+its control pipe and, when the coordinator writes there or goes away (the pipe closes),
+sets its STOPPED word (which ends a spin) and puts STOP into its link (which ends a sleep).
+The coordinator waits for the token's return the same way; a thread of its own polls
+every process's answer pipe (it closes when the process dies) and the cycle's deadline,
+and wakes the wait with STOPPED and STOP: a process killed holding the token is seen at
+once, one stopped when the token has not come back within the coordinator's timeout.
+Nothing spins for longer than `spin` without looking at its STOPPED word, which is looked
+at every turn. Standard library only: copied verbatim into every generated package.
 """
 
 from __future__ import annotations
@@ -133,6 +144,12 @@ class Page:
         os.ftruncate(fd, links * SLOT_WORDS * 8)
         return cls(fd)
 
+    def awake(self) -> int:
+        """The ring's members not asleep in their eventfd (the holder, spinners, and
+        those between the two): the runnable tasks that are the ring's own."""
+        words = self.words
+        return sum(1 for at in range(0, self.links * SLOT_WORDS, SLOT_WORDS) if not words[at + 1])
+
     def close(self) -> None:
         """Unmap and close (idempotent)."""
         if self.fd >= 0:
@@ -185,7 +202,9 @@ def default_spin() -> float:
 class Load:
     """Whether a core is free for a spinner now: the kernel's count of runnable tasks (the
     fourth field of /proc/loadavg, `running/total`; the reader and the token holder among
-    them) against the cores. Where there is no /proc/loadavg, never (nobody spins)."""
+    them) against the cores, or (`ours`: the ring's members awake, `Page.awake`) nothing
+    runnable but the ring itself, whose spinners yield to the holder and to each other.
+    Where there is no /proc/loadavg, never (nobody spins)."""
 
     def __init__(self) -> None:
         try:
@@ -194,12 +213,13 @@ class Load:
             self.fd = -1
         self.cores = cores()
 
-    def core_free(self) -> bool:
+    def core_free(self, ours: int = 0) -> bool:
         if self.fd < 0:  # pragma: no cover - not Linux
             return False
         try:
             fields = os.pread(self.fd, 128, 0).split()
-            return int(fields[3].split(b"/")[0]) <= self.cores
+            running = int(fields[3].split(b"/")[0])
+            return running <= self.cores or running <= ours
         except (OSError, IndexError, ValueError):  # pragma: no cover - an odd kernel
             return False
 
@@ -221,7 +241,7 @@ class Nudge:
     def __init__(self, fd: int, spin: float, page: Page | None = None, link: int = 0) -> None:
         self.fd, self.count, self.free = fd, 0, False
         self.load = Load() if spin > 0 else None
-        self.words = page.words if page is not None else None
+        self.page, self.words = page, page.words if page is not None else None
         self.at = link * SLOT_WORDS
 
     def __call__(self) -> None:
@@ -229,7 +249,7 @@ class Nudge:
         if load is None:
             return
         if not self.count % self.CHECK:
-            self.free = load.core_free()
+            self.free = load.core_free(self.page.awake() if self.page is not None else 0)
         self.count += 1
         if not self.free:
             return
@@ -261,15 +281,14 @@ class Taker:
     sched_yield a turn: a spinner that shares a CPU with the holder lets it run), and
     where the spin runs out it sleeps on its eventfd (SLEEPING set, fenced, the word
     looked at again, then a blocking read; not STRONG, a poll bounded by DOORBELL_MS and a
-    read). It spins when nudged (WAKE, up
-    to `spin`) and, `eager` (every member of the ring may have a core of its own), as soon
-    as it waits: for twice what its recent waits took, at least SPIN_FLOOR_NS, not at all
-    where that is more than `spin` (a wait that long is better slept), and only while a
-    core is free (`Load`, every Nudge.CHECK waits)."""
+    read). It spins when nudged (WAKE, up to `spin`) and, `eager`, as soon as it waits:
+    for twice what its recent waits took, at least SPIN_FLOOR_NS, not at all where that
+    is more than `spin` (a wait that long is better slept: a paced ring), and only while a
+    core is free for it or nothing but the ring runs (`Load`, every Nudge.CHECK waits)."""
 
-    def __init__(self, fd: int, page: Page, link: int, spin: float, eager: bool) -> None:
+    def __init__(self, fd: int, page: Page, link: int, spin: float, eager: bool = True) -> None:
         os.set_blocking(fd, STRONG)  # the eventfd is a doorbell here
-        self.fd, self.words, self.at = fd, page.words, link * SLOT_WORDS
+        self.fd, self.page, self.words, self.at = fd, page, page.words, link * SLOT_WORDS
         self.taken, self.spin_ns = 0, int(spin * 1e9)
         self.load = Load() if eager and spin > 0 else None
         self.count, self.free = 0, False
@@ -283,7 +302,7 @@ class Taker:
         if load is None:
             return 0
         if not self.count % Nudge.CHECK:
-            self.free = load.core_free()
+            self.free = load.core_free(self.page.awake())
         self.count += 1
         want = max(SPIN_FLOOR_NS, 2 * self.recent)
         return want if self.free and want <= self.spin_ns else 0
@@ -337,12 +356,6 @@ class Taker:
             self.load.close()
 
 
-def eager(page: Page | None) -> bool:
-    """Whether every member of the ring (the coordinator one of them) may have a core:
-    then each spins as soon as it waits, not only when nudged."""
-    return page is not None and page.links <= cores()
-
-
 class Return:
     """The coordinator's end of the ring: the token's return read blocking on `fd` (the
     cheapest wake-up: poll(2) there costs ~3 µs a cycle more), or with a page its turn
@@ -361,7 +374,7 @@ class Return:
     ) -> None:
         os.set_blocking(fd, True)  # only the coordinator reads the last link
         self.fd, self.spin_ns = fd, int(spin * 1e9)
-        self.taker = Taker(fd, page, link, spin, eager(page)) if page is not None else None
+        self.taker = Taker(fd, page, link, spin) if page is not None else None
         self.deadline = float("inf")  # of the cycle under way (monotonic seconds)
         self.dead: int | None = None  # the answer pipe that closed
         self.poller = select.poll()
@@ -452,7 +465,7 @@ class Receiver:
     def __init__(self, fd: int, spin: float = 0.0, page: Page | None = None, link: int = 0) -> None:
         os.set_blocking(fd, True)  # only this process reads its link
         self.fd, self.spin_ns = fd, int(spin * 1e9)
-        self.taker = Taker(fd, page, link, spin, eager(page)) if page is not None else None
+        self.taker = Taker(fd, page, link, spin) if page is not None else None
         self.poller = select.poll()
         self.poller.register(fd, READABLE)
 
