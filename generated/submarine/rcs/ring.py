@@ -253,9 +253,7 @@ class Nudge:
         self.count += 1
         if not self.free:
             return
-        if self.words is None:
-            os.write(self.fd, WAKE)
-        elif self.words[self.at + SLEEPING]:
+        if self.words is None or self.words[self.at + SLEEPING]:
             os.write(self.fd, WAKE)
 
     def close(self) -> None:

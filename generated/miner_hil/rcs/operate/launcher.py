@@ -61,7 +61,16 @@ from ..loop import (
 )
 from ..override import latch_safe
 from ..realtime import RealtimeRefused
-from ..ring import Giver, Link, Nudge, Page, Return, close_links, default_spin, new_links
+from ..ring import (
+    Giver,
+    Link,
+    Nudge,
+    Page,
+    Return,
+    close_links,
+    default_spin,
+    new_links,
+)
 from ..transport import PLAINTEXT, Security, TransportError, check_endpoint
 from .command import (
     Command,
