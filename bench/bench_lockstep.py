@@ -33,7 +33,11 @@ the in-process and launched versions must be in the same state (every module's s
 command, and the world): lockstep leaves the same trace as one process.
 
     python bench/bench_lockstep.py [--cycles N] [--rounds R] [--json PATH]
-        [--parts miner,chain,handoff] [--splits 1,2,4,8]
+        [--parts miner,chain,handoff] [--splits 1,2,4,8] [--dedicated]
+
+`--dedicated`: both rings spin without looking at the machine's load (ring.Load), as on
+cores of their own: run it under `chrt -f 10` on a busy machine, where our processes then
+get a CPU at once, to see what the design gives on free cores.
 """
 
 from __future__ import annotations
@@ -54,6 +58,7 @@ from common import ROOT, wall_ns, write_json
 from rcsgen.tools import scenario as scenarios
 from rcsgen.tools.harness import Harness, LaunchedHarness, generate
 
+DEDICATED = False  # --dedicated: the rings spin whatever the load (ring.Load)
 SCENARIO = ROOT / "specs" / "miner" / "scenarios" / "sump_shear_cusp.yaml"
 PACKAGE = ROOT / "generated" / "miner"
 CHAIN = 16  # controllers in the synthetic chain
@@ -165,14 +170,11 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
     def open_versions() -> dict[str, object]:
         one = scenarios.open_harness(scenario, PACKAGE)
         opened: dict[str, object] = {"one process": one}
+        where = (PACKAGE, scenario.system_dir, scenario.settings, scenario.simulate)
         try:
-            opened["processes"] = scenarios.open_harness(scenario, PACKAGE, processes=True)
-            opened["eventfd ring"] = LaunchedHarness(
-                PACKAGE, scenario.system_dir, scenario.settings, scenario.simulate, turns=False
-            )
-            opened["request/reply"] = LaunchedHarness(
-                PACKAGE, scenario.system_dir, scenario.settings, scenario.simulate, ring=False
-            )
+            opened["processes"] = LaunchedHarness(*where, dedicated=DEDICATED)
+            opened["eventfd ring"] = LaunchedHarness(*where, turns=False, dedicated=DEDICATED)
+            opened["request/reply"] = LaunchedHarness(*where, ring=False)
         except BaseException:
             for harness in opened.values():
                 harness.close()
@@ -211,8 +213,10 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
                     "one process": Harness.load(package_dir, send_init=True)
                 }
                 try:
-                    opened["processes"] = LaunchedHarness(package_dir)
-                    opened["eventfd ring"] = LaunchedHarness(package_dir, turns=False)
+                    opened["processes"] = LaunchedHarness(package_dir, dedicated=DEDICATED)
+                    opened["eventfd ring"] = LaunchedHarness(
+                        package_dir, turns=False, dedicated=DEDICATED
+                    )
                     opened["request/reply"] = LaunchedHarness(package_dir, ring=False)
                 except BaseException:
                     for harness in opened.values():
@@ -252,15 +256,15 @@ def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str,
         nudges, spins where a core is free)."""
         links = ring.new_links(count + 1)
         page = ring.Page.create(len(links)) if turns else None
-        spin = ring.default_spin() if turns else 0.0
+        spin, dedicated = (ring.default_spin() if turns else 0.0), DEDICATED
         controls, pids = [], []
         for at in range(count):
             control, keep = os.pipe()
             pid = os.fork()
             if pid == 0:  # a member: take, hand on, until told to stop
                 os.close(keep)
-                receiver = ring.Receiver(links[at].read, spin, page, at)
-                nudge = ring.Nudge(links[at + 1].write, spin, page, at + 1)
+                receiver = ring.Receiver(links[at].read, spin, page, at, dedicated)
+                nudge = ring.Nudge(links[at + 1].write, spin, page, at + 1, dedicated)
                 give = ring.Giver(links[at + 1].write, page, at + 1)
                 ring.stop_on_control(control, links[at].write, page, at)
                 while receiver.wait():
@@ -270,8 +274,9 @@ def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str,
             os.close(control)
             controls.append(keep)
             pids.append(pid)
-        waiter = ring.Return(links[-1].read, (), spin, page, count)
-        give, nudge = ring.Giver(links[0].write, page, 0), ring.Nudge(links[0].write, spin, page, 0)
+        waiter = ring.Return(links[-1].read, (), spin, page, count, dedicated)
+        give = ring.Giver(links[0].write, page, 0)
+        nudge = ring.Nudge(links[0].write, spin, page, 0, dedicated)
         taken = []
         for _ in range(cycles):
             began = wall_ns()
@@ -348,7 +353,10 @@ def main() -> int:
     parser.add_argument("--json", default=None)
     parser.add_argument("--parts", default="miner,chain,handoff", help="some of these only")
     parser.add_argument("--splits", default=",".join(map(str, SPLITS)), help="chain: processes")
+    parser.add_argument("--dedicated", action="store_true", help="spin whatever the load")
     args = parser.parse_args()
+    global DEDICATED
+    DEDICATED = args.dedicated
     parts, splits = args.parts.split(","), tuple(int(n) for n in args.splits.split(","))
     started = time.perf_counter()
     results: dict[str, object] = {
@@ -357,6 +365,7 @@ def main() -> int:
         "chunk": CHUNK,
         "cores": len(os.sched_getaffinity(0)),
         "load_before": os.getloadavg()[0],
+        "dedicated": args.dedicated,
     }
     if "miner" in parts:
         results["miner"] = miner(args.cycles, args.rounds)

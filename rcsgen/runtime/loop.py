@@ -809,16 +809,19 @@ def serve_ring(
     link: tuple[int, int],
     spin: float,
     turns: tuple[int, int] | None = None,
+    dedicated: bool = False,
 ) -> None:
     """Run `process` in a lockstep ring (rcs/ring.py): a whole cycle each time the token
     comes on `link[0]`, then the token on to `link[1]`; until the coordinator writes on
     (or closes) the `control` pipe. With the token, it nudges the next member, which then
     spins for it (where `spin` > 0 and a core is free). `turns`: the ring's page (its fd)
-    and this member's place in the ring, where the token is a turn word (ring.Page)."""
+    and this member's place in the ring, where the token is a turn word (ring.Page);
+    `dedicated`: spin without looking at the machine's load (ring.Load)."""
     page = Page(turns[0]) if turns is not None else None
     at = turns[1] if turns is not None else 0
-    receiver, last = Receiver(link[0], spin, page, at), len(process.plan.modules) - 1
-    nudge, give = Nudge(link[1], spin, page, at + 1), Giver(link[1], page, at + 1)
+    receiver = Receiver(link[0], spin, page, at, dedicated)
+    nudge, give = Nudge(link[1], spin, page, at + 1, dedicated), Giver(link[1], page, at + 1)
+    last = len(process.plan.modules) - 1
     stop_on_control(control, link[0], page, at)
     os.write(replies, READY)
     while receiver.wait():

@@ -203,9 +203,11 @@ class Load:
     fourth field of /proc/loadavg, `running/total`; the reader and the token holder among
     them) against the cores, or (`ours`: the ring's members awake, `Page.awake`) nothing
     runnable but the ring itself, whose spinners yield to the holder and to each other.
-    Where there is no /proc/loadavg, never (nobody spins)."""
+    Where there is no /proc/loadavg, never (nobody spins). `dedicated`: the ring has its
+    cores to itself (isolated CPUs, or a benchmark under SCHED_FIFO): always, unread."""
 
-    def __init__(self) -> None:
+    def __init__(self, dedicated: bool = False) -> None:
+        self.dedicated = dedicated
         try:
             self.fd = os.open("/proc/loadavg", os.O_RDONLY | os.O_CLOEXEC)
         except OSError:  # pragma: no cover - not Linux
@@ -213,6 +215,8 @@ class Load:
         self.cores = cores()
 
     def core_free(self, ours: int = 0) -> bool:
+        if self.dedicated:
+            return True
         if self.fd < 0:  # pragma: no cover - not Linux
             return False
         try:
@@ -237,9 +241,16 @@ class Nudge:
 
     CHECK = 8
 
-    def __init__(self, fd: int, spin: float, page: Page | None = None, link: int = 0) -> None:
+    def __init__(
+        self,
+        fd: int,
+        spin: float,
+        page: Page | None = None,
+        link: int = 0,
+        dedicated: bool = False,
+    ) -> None:
         self.fd, self.count, self.free = fd, 0, False
-        self.load = Load() if spin > 0 else None
+        self.load = Load(dedicated) if spin > 0 else None
         self.page, self.words = page, page.words if page is not None else None
         self.at = link * SLOT_WORDS
 
@@ -283,11 +294,19 @@ class Taker:
     is more than `spin` (a wait that long is better slept: a paced ring), and only while a
     core is free for it or nothing but the ring runs (`Load`, every Nudge.CHECK waits)."""
 
-    def __init__(self, fd: int, page: Page, link: int, spin: float, eager: bool = True) -> None:
+    def __init__(
+        self,
+        fd: int,
+        page: Page,
+        link: int,
+        spin: float,
+        eager: bool = True,
+        dedicated: bool = False,
+    ) -> None:
         os.set_blocking(fd, STRONG)  # the eventfd is a doorbell here
         self.fd, self.page, self.words, self.at = fd, page, page.words, link * SLOT_WORDS
         self.taken, self.spin_ns = 0, int(spin * 1e9)
-        self.load = Load() if eager and spin > 0 else None
+        self.load = Load(dedicated) if eager and spin > 0 else None
         self.count, self.free = 0, False
         self.recent = SPIN_FLOOR_NS  # a running mean of recent waits (ns)
         self.poller = select.poll()
@@ -368,10 +387,12 @@ class Return:
         spin: float = 0.0,
         page: Page | None = None,
         link: int = 0,
+        dedicated: bool = False,
     ) -> None:
         os.set_blocking(fd, True)  # only the coordinator reads the last link
         self.fd, self.spin_ns = fd, int(spin * 1e9)
-        self.taker = Taker(fd, page, link, spin) if page is not None else None
+        taker = Taker(fd, page, link, spin, dedicated=dedicated) if page is not None else None
+        self.taker = taker
         self.deadline = float("inf")  # of the cycle under way (monotonic seconds)
         self.dead: int | None = None  # the answer pipe that closed
         self.poller = select.poll()
@@ -459,10 +480,18 @@ class Receiver:
     """A process's end of its link: blocking reads (nudged, a spin first), or with a page
     its turn word (`Taker`)."""
 
-    def __init__(self, fd: int, spin: float = 0.0, page: Page | None = None, link: int = 0) -> None:
+    def __init__(
+        self,
+        fd: int,
+        spin: float = 0.0,
+        page: Page | None = None,
+        link: int = 0,
+        dedicated: bool = False,
+    ) -> None:
         os.set_blocking(fd, True)  # only this process reads its link
         self.fd, self.spin_ns = fd, int(spin * 1e9)
-        self.taker = Taker(fd, page, link, spin) if page is not None else None
+        taker = Taker(fd, page, link, spin, dedicated=dedicated) if page is not None else None
+        self.taker = taker
         self.poller = select.poll()
         self.poller.register(fd, READABLE)
 

@@ -184,12 +184,11 @@ def run_process(system: System, args: argparse.Namespace) -> int:
             return 1
         try:
             if args.ring:
-                read, write, spin, page, at = args.ring.split(",")
+                read, write, spin, page, at, dedicated = args.ring.split(",")
                 link = (int(read), int(write))
                 turns = (int(page), int(at)) if int(page) >= 0 else None
-                serve_ring(
-                    process, sys.stdin.fileno(), sys.stdout.fileno(), link, float(spin), turns
-                )
+                control, replies = sys.stdin.fileno(), sys.stdout.fileno()
+                serve_ring(process, control, replies, link, float(spin), turns, dedicated == "1")
             else:
                 serve(process, sys.stdin.fileno(), sys.stdout.fileno())
         except (OSError, EOFError):  # the coordinator's end of the pipe is gone (BrokenPipeError)
@@ -405,6 +404,7 @@ class Launcher:
         ring: bool = True,
         spin: float | None = None,
         turns: bool = True,
+        dedicated: bool = False,
     ) -> None:
         self.system = system
         self.segment = segment or system.default_segment
@@ -430,6 +430,8 @@ class Launcher:
         self.page: Page | None = None
         self.order = [name for name, *_ in system.segments()]
         self.spin = default_spin() if spin is None else spin
+        # the ring's cores are its own (isolated CPUs): spin without looking at the load
+        self.dedicated = dedicated
         self.settings, self.simulate = list(settings), list(simulate)
         self.restart, self.python = restart, python
         self.world = dict(world or {})  # world fields to start from, over their initial values
@@ -527,7 +529,8 @@ class Launcher:
             at = self.order.index(name)
             ring = (self.links[at].read, self.links[at + 1].write)
             page = -1 if self.page is None else self.page.fd
-            command += ["--ring", f"{ring[0]},{ring[1]},{self.spin!r},{page},{at}"]
+            spin, dedicated = self.spin, int(self.dedicated)
+            command += ["--ring", f"{ring[0]},{ring[1]},{spin!r},{page},{at},{dedicated}"]
             ring += () if self.page is None else (self.page.fd,)
         command += [] if self.pace else ["--fast"]
         command += ["--cycles", str(self.cycles)] if self.cycles is not None else []
@@ -724,12 +727,17 @@ class Coordinator:
             }
             page, last = launcher.page, len(launcher.links) - 1
             self.waiter = Return(
-                launcher.links[-1].read, list(self.answers), launcher.spin, page, last
+                launcher.links[-1].read,
+                list(self.answers),
+                launcher.spin,
+                page,
+                last,
+                launcher.dedicated,
             )
             launcher.on_stop.append(self.waiter.close)  # before it closes what is watched
             self.hand_on = Giver(launcher.links[0].write, page, 0)
             # the first process, as the token comes back
-            self.nudge = Nudge(launcher.links[0].write, launcher.spin, page, 0)
+            self.nudge = Nudge(launcher.links[0].write, launcher.spin, page, 0, launcher.dedicated)
             launcher.on_stop.append(self.nudge.close)
             self.beats = self._beats()
 
