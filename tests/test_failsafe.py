@@ -1367,7 +1367,9 @@ def test_a_ring_member_that_dies_while_the_next_one_spins_is_lost_and_nothing_sp
     before its budget and exits; no child is left, and the page is unmapped."""
     from rcsgen.runtime import ring
 
-    monkeypatch.setattr(ring.Load, "core_free", lambda self, ours=0: True)  # the forks inherit it
+    monkeypatch.setattr(
+        ring.Load, "core_free", lambda self, spinners=0: True
+    )  # the forks inherit it
     memfds = _memfds()
     links = ring.new_links(3)
     page = ring.Page.create(3)

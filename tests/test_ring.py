@@ -162,7 +162,7 @@ def test_a_nudged_coordinator_waits_on_for_the_token_and_still_times_out(
 def test_a_member_nudges_the_next_only_while_a_core_is_free(
     links: list[ring.Link], monkeypatch: pytest.MonkeyPatch, free: bool
 ) -> None:
-    monkeypatch.setattr(ring.Load, "core_free", lambda self, ours=0: free)
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: free)
     nudge = ring.Nudge(links[0].write, spin=1e-3)
     try:
         nudge()
@@ -185,9 +185,10 @@ def test_a_core_is_free_while_the_runnable_tasks_fit_the_cores(tmp_path) -> None
             path.write_text(f"0.50 0.40 0.30 {running}/321 4242\n")
             load.fd = os.open(path, os.O_RDONLY)
             assert load.core_free() is free
-            # more than the cores, all of them the ring's own (awake: holder and spinners)
-            assert load.core_free(ours=running) is True
-            assert load.core_free(ours=running - 1) is free
+            # more than the cores, all of them the ring's own: this reader, the token's
+            # holder and the ring's spinners
+            assert load.core_free(spinners=running - 2) is True
+            assert load.core_free(spinners=running - 3) is free
     finally:
         load.close()
 
@@ -218,7 +219,7 @@ def _until(condition, what: str, seconds: float = 20.0) -> None:
 def test_a_token_is_a_turn_word_and_the_eventfd_rings_only_for_a_sleeper(
     links: list[ring.Link], page: ring.Page, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(ring.Load, "core_free", lambda self, ours=0: False)  # nobody spins
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: False)  # nobody spins
     give = ring.Giver(links[0].write, page, 0)
     receiver = ring.Receiver(links[0].read, 1e-3, page, 0)
     give()
@@ -244,7 +245,7 @@ def test_a_stop_ends_a_spinning_member_long_before_its_spin(
     """A member nudged (WAKE while it sleeps) spins for its token, here for up to 60 s;
     its coordinator going away (the control pipe closes) sets its STOPPED word, which ends
     the spin at once: nothing spins for ever, nor for its whole budget once told."""
-    monkeypatch.setattr(ring.Load, "core_free", lambda self, ours=0: True)
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: True)
     receiver = ring.Receiver(links[0].read, 60.0, page, 0)
     nudge = ring.Nudge(links[0].write, 60.0, page, 0)
     control, coordinator = os.pipe()
@@ -273,13 +274,13 @@ def test_a_spinning_coordinator_sees_a_death_and_its_deadline(
     """The coordinator spins as soon as it waits (eager: a core is free), up to 60 s
     here; the watcher's STOPPED word ends that spin at the cycle's deadline and when an
     answer pipe closes."""
-    monkeypatch.setattr(ring.Load, "core_free", lambda self, ours=0: True)
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: True)
     two = ring.Page.create(2)
     assert two is not None
     read, write = os.pipe()
     back = ring.Return(links[1].read, (read,), 60.0, two, 1)
     try:
-        assert back.taker is not None and back.taker.budget() > 0  # eager
+        assert back.taker is not None and back.taker.budget(time.monotonic_ns()) > 0  # eager
         ring.Giver(links[1].write, two, 1)()
         assert back.wait(10.0) == links[1].read
         began = time.monotonic()
@@ -300,17 +301,17 @@ def test_an_eager_spin_follows_what_recent_waits_took(
     links: list[ring.Link], page: ring.Page, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     free = [True]
-    monkeypatch.setattr(ring.Load, "core_free", lambda self, ours=0: free[0])
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: free[0])
     taker = ring.Taker(links[0].read, page, 0, 2e-3, eager=True)
     try:
         taker.recent = 10_000  # short waits: the floor
-        assert taker.budget() == ring.SPIN_FLOOR_NS
+        assert taker.budget(time.monotonic_ns()) == ring.SPIN_FLOOR_NS
         taker.recent = 300_000  # twice that, within the 2 ms cap
-        assert taker.budget() == 600_000
+        assert taker.budget(time.monotonic_ns()) == 600_000
         taker.recent = 1_500_000  # a wait that long is better slept
-        assert taker.budget() == 0
-        taker.recent, free[0], taker.count = 10_000, False, 0  # no core free: no spin
-        assert taker.budget() == 0
+        assert taker.budget(time.monotonic_ns()) == 0
+        taker.recent, free[0], taker.next_check = 10_000, False, 0  # no core free: no spin
+        assert taker.budget(time.monotonic_ns()) == 0
     finally:
         taker.close()
-    assert ring.Taker(links[1].read, page, 1, 2e-3, eager=False).budget() == 0
+    assert ring.Taker(links[1].read, page, 1, 2e-3, eager=False).budget(0) == 0

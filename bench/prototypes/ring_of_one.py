@@ -121,7 +121,7 @@ def main() -> int:
     global MEMBERS
     MEMBERS = args.members
     if not args.load:
-        ring.Load.core_free = lambda self, ours=0: True  # type: ignore[method-assign]  # spin forced
+        ring.Load.core_free = lambda self, spinners=0: True  # type: ignore[method-assign]  # spin forced
     variants = {name: VARIANTS[name] for name in args.variants.split(",")}
     samples: dict[str, list[int]] = {name: [] for name in variants}
     for index in range(args.rounds):

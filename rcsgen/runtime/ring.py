@@ -24,7 +24,7 @@ SPIN_FLOOR_NS, none where that is more than `spin`: a paced ring sleeps), and th
 that takes the token nudges the next one if it sleeps (WAKE into its link, `Nudge`: it
 then spins up to `spin`). Both only while a core is free for the spinner or nothing but
 the ring is runnable (`Load`: the kernel's count of runnable tasks against the cores and
-against the ring's members awake, looked at every `Nudge.CHECK` waits): on a machine busy
+against the ring's holder and spinners, looked at every CHECK_NS): on a machine busy
 with other work a spinner takes the time of the holder or of someone else, and the ring
 sleeps and pays the scheduler. Spinners yield each turn, so on two cores the holder keeps
 one and the spinners share the other.
@@ -64,25 +64,22 @@ STOP_VALUE = 1 << 40
 STOP = WORD.pack(STOP_VALUE)  # into a link: stop, or wake (a token added to it is a stop)
 SPIN = 2e-3  # the longest a nudged member spins for the token (then it blocks)
 READABLE = select.POLLIN | select.POLLHUP | select.POLLERR
-# The turn words (`Page`): a cache line per link, three words in it
+# The turn words (`Page`): a cache line per link, four words in it
 SLOT_WORDS = 8  # 64 bytes: two links' words never share a cache line
-TURN, SLEEPING, STOPPED = 0, 1, 2  # a slot's words: tokens handed in, taker asleep, stop
+# a slot's words: tokens handed in, taker asleep, told to stop, taker spinning
+TURN, SLEEPING, STOPPED, SPINNING = 0, 1, 2, 3
+CHECK_NS = 1_000_000  # how often a spinner-to-be looks at the load (Load: ~7 µs a look)
 SPIN_FLOOR_NS = 50_000  # an eager spin's least budget (a wake-up costs 25-50 µs here)
 DOORBELL_MS = 50  # a sleeper looks at its turn word at least this often (a missed ring)
 # Where the fence is a full barrier (x86: an atomic read-modify-write orders a store before
 # a later load), a sleeper blocks in its eventfd read (one system call); elsewhere it polls,
 # at most DOORBELL_MS at a time, and looks at its turn word again
 STRONG = platform.machine().lower() in ("x86_64", "amd64", "i386", "i686")
+# The fence between a store and a later load of the turn words: an uncontended lock taken
+# and given back is an atomic read-modify-write (x86: a locked instruction, a full barrier;
+# ~0.5 µs from Python). Where that is not known (not STRONG), a sleeper's bounded wait
+# (DOORBELL_MS) finds its token even if a ring was missed: late, never lost.
 _FENCE = threading.Lock()
-
-
-def fence() -> None:
-    """A full memory barrier between a store and a later load of the turn words: an
-    uncontended lock taken and given back is an atomic read-modify-write (x86: a locked
-    instruction). Where that is not known (not STRONG), a sleeper's bounded wait
-    (DOORBELL_MS) finds its token even if a ring was missed: late, never lost."""
-    _FENCE.acquire()
-    _FENCE.release()
 
 
 class Link(NamedTuple):
@@ -120,7 +117,8 @@ class Page:
     """The ring's turn words: a small shared mapping (memfd) with a slot per link, three
     words in it: TURN, the tokens handed into the link so far (written by its giver only),
     SLEEPING, 1 while its taker is (about to be) blocked in its eventfd (written by the
-    taker only), STOPPED, 1 once its taker is told to stop. A taker spins on TURN, cheaply
+    taker only), STOPPED, 1 once its taker is told to stop, SPINNING, 1 while its taker
+    spins (what `Load` counts as the ring's own). A taker spins on TURN, cheaply
     (a load, no system call), and blocks on its eventfd only when its spin runs out; the
     giver rings that eventfd only when SLEEPING says so. The race is closed both ways
     round: the taker sets SLEEPING, fences, looks at TURN again and only then blocks; the
@@ -143,11 +141,10 @@ class Page:
         os.ftruncate(fd, links * SLOT_WORDS * 8)
         return cls(fd)
 
-    def awake(self) -> int:
-        """The ring's members not asleep in their eventfd (the holder, spinners, and
-        those between the two): the runnable tasks that are the ring's own."""
-        words = self.words
-        return sum(1 for at in range(0, self.links * SLOT_WORDS, SLOT_WORDS) if not words[at + 1])
+    def spinners(self) -> int:
+        """The ring's members spinning now."""
+        words, step = self.words, SLOT_WORDS
+        return sum(words[at + SPINNING] for at in range(0, self.links * step, step))
 
     def close(self) -> None:
         """Unmap and close (idempotent)."""
@@ -156,14 +153,6 @@ class Page:
             self.map.close()
             os.close(self.fd)
             self.fd = -1
-
-
-def doorbell(fd: int, words: memoryview, at: int, what: bytes) -> None:
-    """Write `what` into the link whose slot starts at `at` when its taker sleeps (the
-    turn word or the stop word written before it)."""
-    fence()
-    if words[at + SLEEPING]:
-        os.write(fd, what)
 
 
 class Giver:
@@ -182,7 +171,10 @@ class Giver:
             return
         self.sent += 1
         words[self.at + TURN] = self.sent
-        doorbell(self.fd, words, self.at, TOKEN)
+        _FENCE.acquire()  # the fence: the turn word written before SLEEPING is read
+        _FENCE.release()
+        if words[self.at + SLEEPING]:
+            os.write(self.fd, TOKEN)
 
 
 def cores() -> int:
@@ -201,8 +193,9 @@ def default_spin() -> float:
 class Load:
     """Whether a core is free for a spinner now: the kernel's count of runnable tasks (the
     fourth field of /proc/loadavg, `running/total`; the reader and the token holder among
-    them) against the cores, or (`ours`: the ring's members awake, `Page.awake`) nothing
-    runnable but the ring itself, whose spinners yield to the holder and to each other.
+    them) against the cores, or nothing runnable but the ring itself (the reader, the
+    holder and the ring's `spinners`, `Page.spinners`), whose spinners yield to the
+    holder and to each other.
     Where there is no /proc/loadavg, never (nobody spins). `dedicated`: the ring has its
     cores to itself (isolated CPUs, or a benchmark under SCHED_FIFO): always, unread."""
 
@@ -214,7 +207,7 @@ class Load:
             self.fd = -1
         self.cores = cores()
 
-    def core_free(self, ours: int = 0) -> bool:
+    def core_free(self, spinners: int = 0) -> bool:
         if self.dedicated:
             return True
         if self.fd < 0:  # pragma: no cover - not Linux
@@ -222,7 +215,7 @@ class Load:
         try:
             fields = os.pread(self.fd, 128, 0).split()
             running = int(fields[3].split(b"/")[0])
-            return running <= self.cores or running <= ours
+            return running <= self.cores or running <= spinners + 2
         except (OSError, IndexError, ValueError):  # pragma: no cover - an odd kernel
             return False
 
@@ -236,10 +229,8 @@ class Nudge:
     """A member's nudge to the next one as it takes the token (WAKE into the next one's
     link: it spins for the token instead of being woken by the scheduler when it comes).
     Only where `spin` > 0, only while a core is free for the spinner (`Load`, looked at
-    every CHECK nudges: a read of /proc/loadavg costs ~7 µs, a nudge a write of ~1 µs),
-    and with a page only where the next one sleeps (one spinning already needs none)."""
-
-    CHECK = 8
+    every CHECK_NS: a read of /proc/loadavg costs ~7 µs, a nudge a write of ~1 µs), and
+    with a page only where the next one sleeps (one spinning already needs none)."""
 
     def __init__(
         self,
@@ -249,7 +240,7 @@ class Nudge:
         link: int = 0,
         dedicated: bool = False,
     ) -> None:
-        self.fd, self.count, self.free = fd, 0, False
+        self.fd, self.next_check, self.free = fd, 0, False
         self.load = Load(dedicated) if spin > 0 else None
         self.page, self.words = page, page.words if page is not None else None
         self.at = link * SLOT_WORDS
@@ -258,9 +249,10 @@ class Nudge:
         load = self.load
         if load is None:
             return
-        if not self.count % self.CHECK:
-            self.free = load.core_free(self.page.awake() if self.page is not None else 0)
-        self.count += 1
+        now = time.monotonic_ns()
+        if now >= self.next_check:
+            self.free = load.core_free(self.page.spinners() if self.page is not None else 0)
+            self.next_check = now + CHECK_NS
         if not self.free:
             return
         if self.words is None or self.words[self.at + SLEEPING]:
@@ -292,7 +284,7 @@ class Taker:
     read). It spins when nudged (WAKE, up to `spin`) and, `eager`, as soon as it waits:
     for twice what its recent waits took, at least SPIN_FLOOR_NS, not at all where that
     is more than `spin` (a wait that long is better slept: a paced ring), and only while a
-    core is free for it or nothing but the ring runs (`Load`, every Nudge.CHECK waits)."""
+    core is free for it or nothing but the ring runs (`Load`, every CHECK_NS)."""
 
     def __init__(
         self,
@@ -307,19 +299,19 @@ class Taker:
         self.fd, self.page, self.words, self.at = fd, page, page.words, link * SLOT_WORDS
         self.taken, self.spin_ns = 0, int(spin * 1e9)
         self.load = Load(dedicated) if eager and spin > 0 else None
-        self.count, self.free = 0, False
+        self.next_check, self.free = 0, False
         self.recent = SPIN_FLOOR_NS  # a running mean of recent waits (ns)
         self.poller = select.poll()
         self.poller.register(fd, READABLE)
 
-    def budget(self) -> int:
-        """How long to spin as a wait begins (ns): eager only."""
+    def budget(self, now: int) -> int:
+        """How long to spin as a wait begins at `now` (monotonic ns): eager only."""
         load = self.load
         if load is None:
             return 0
-        if not self.count % Nudge.CHECK:
-            self.free = load.core_free(self.page.awake())
-        self.count += 1
+        if now >= self.next_check:
+            self.free = load.core_free(self.page.spinners())
+            self.next_check = now + CHECK_NS
         want = max(SPIN_FLOOR_NS, 2 * self.recent)
         return want if self.free and want <= self.spin_ns else 0
 
@@ -331,18 +323,21 @@ class Taker:
         if words[at] >= want:  # there already: no spin, no sleep
             return 0 if words[at + STOPPED] else int(words[at])
         began = start = time.monotonic_ns()
-        spin = self.budget()
+        spin = self.budget(began)
         while True:
             if spin:
                 end = began + spin
+                words[at + SPINNING] = 1
                 while words[at] < want and not words[at + STOPPED]:
                     if time.monotonic_ns() >= end:
                         break
                     os.sched_yield()
+                words[at + SPINNING] = 0
             if words[at] >= want or words[at + STOPPED]:
                 break
             words[at + SLEEPING] = 1
-            fence()
+            _FENCE.acquire()  # the fence: SLEEPING written before the turn word is read
+            _FENCE.release()
             if words[at] >= want or words[at + STOPPED]:
                 words[at + SLEEPING] = 0
                 break

@@ -158,6 +158,15 @@ class Plans(Mapping[str, ProcessPlan]):
 # ---------------------------------------------------------------- one process
 
 
+def ring_args(text: str) -> tuple[tuple[int, int], float, tuple[int, int] | None, bool]:
+    """`--ring READ,WRITE,SPIN,PAGE,AT,DEDICATED` (what `Launcher._spawn` writes) as
+    serve_ring's arguments: the link's two fds, the spin, the page's fd and this member's
+    place (None where PAGE is -1: no page), whether to spin whatever the load."""
+    read, write, spin, page, at, dedicated = text.split(",")
+    turns = (int(page), int(at)) if int(page) >= 0 else None
+    return (int(read), int(write)), float(spin), turns, dedicated == "1"
+
+
 def run_process(system: System, args: argparse.Namespace) -> int:
     """`python -m <system> PROCESS ...`: one process, as the launcher's child or by hand."""
     plan = system.plans[args.process]
@@ -184,11 +193,7 @@ def run_process(system: System, args: argparse.Namespace) -> int:
             return 1
         try:
             if args.ring:
-                read, write, spin, page, at, dedicated = args.ring.split(",")
-                link = (int(read), int(write))
-                turns = (int(page), int(at)) if int(page) >= 0 else None
-                control, replies = sys.stdin.fileno(), sys.stdout.fileno()
-                serve_ring(process, control, replies, link, float(spin), turns, dedicated == "1")
+                serve_ring(process, sys.stdin.fileno(), sys.stdout.fileno(), *ring_args(args.ring))
             else:
                 serve(process, sys.stdin.fileno(), sys.stdout.fileno())
         except (OSError, EOFError):  # the coordinator's end of the pipe is gone (BrokenPipeError)
