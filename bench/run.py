@@ -791,11 +791,14 @@ def section_lockstep(lockstep: dict) -> list[str]:
         "the scheduler waking a process blocked in a read, which depends on what else the "
         "machine is doing (on a quiet virtual machine the idle CPU it wakes on is halted: "
         "25-30 µs a hand-off, against a few µs on a busy one): compare lockstep figures of "
-        "different runs with care. While a core is free (the kernel's runnable count), the "
-        "member that takes the token nudges the next one, which spins for it instead of "
-        "being woken, and where every member may have a core (N+1 ≤ cores) each spins as "
-        'soon as it waits (docs/decisions.md, "Lockstep through a token ring"); the bare '
-        "hand-off below (ring) nudges nobody, its turn-word column is the launcher's ring.",
+        "different runs with care. While a core is free or nothing but the ring is runnable "
+        "(the kernel's runnable count against the cores, and against the ring's holder and "
+        "spinners), each member spins on its turn word as soon as it waits (for twice what "
+        "its recent waits took) and the member that takes the token nudges the next one if "
+        "it sleeps; on a busy machine nobody spins and every hand-off is a wake-up "
+        '(docs/decisions.md, "The turn words"). The bare hand-off below: the ring column '
+        "blocks in eventfd reads and nudges nobody, the turn-word column is the launcher's "
+        "ring.",
         "",
         *_handoff_rows(lockstep),
     ]

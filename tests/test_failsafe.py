@@ -1400,9 +1400,8 @@ def test_a_ring_member_that_dies_while_the_next_one_spins_is_lost_and_nothing_sp
         answers.append(answer)
         pids.append(pid)
     back = ring.Return(links[-1].read, answers, 60.0, page, 2)
-    spinning = lambda: page.words[1 * ring.SLOT_WORDS + ring.SLEEPING] == 0  # noqa: E731
+    spinning = lambda: page.words[1 * ring.SLOT_WORDS + ring.SPINNING] == 1  # noqa: E731
     try:
-        wait_for(lambda: not spinning(), "member 1 asleep, waiting for its first token")
         ring.Giver(links[0].write, page, 0)()
         wait_for(spinning, "member 1 nudged by member 0, spinning")
         os.kill(pids[0], signal.SIGKILL)

@@ -8,23 +8,24 @@ hands it back. Each link is an eventfd (Linux) or, where there is none, a pipe.
 
 The token is a turn word (`Page`: a small shared mapping, a memfd the launcher passes to
 every member, a cache line per link): handing it on is writing the count of tokens handed
-into the next one's link, taking it is seeing that count go up. A taker spins on its word
-(a load and a sched_yield a turn, no other system call) for a bounded budget, and sleeps
-in a read of its eventfd when the budget runs out; the giver writes the eventfd only when
-the taker sleeps, and the race between the two is closed both ways round (the taker sets
-its SLEEPING word, fences, looks at its turn word again and only then blocks; the giver
-writes the turn word, fences, then looks at SLEEPING). Where there is no memfd, the token
-is an 8-byte write into the eventfd itself (`give`) and a taker blocks in its read.
+into the next one's link, then 8 bytes into its eventfd (the doorbell); taking it is seeing
+that count go up, by spinning on the word (a load and a sched_yield a turn) for a bounded
+budget, or asleep in a read of the eventfd, and reading the doorbell either way (after a
+spin the giver's write is a µs behind its word: that read does not sleep). One write and
+one read a hand-off, as without the page, so a ring that sleeps costs what it did; one
+that spins takes the token without a wake-up. No memory ordering is asked of Python: the
+doorbell is written after the word, so a taker woken by it finds the word written.
+Where there is no memfd, the token is the eventfd's 8 bytes alone (`give`).
 
 Who spins. A blocked process is woken by the scheduler, and where the core it wakes on was
 idle that is the slow part of a hand-off: a virtual machine's idle CPU is halted, and
 waking it costs 25-50 µs; a spinning taker takes the token in a few µs. So each taker
 spins as soon as it waits (`Taker.budget`: twice what its recent waits took, at least
 SPIN_FLOOR_NS, none where that is more than `spin`: a paced ring sleeps), and the member
-that takes the token nudges the next one if it sleeps (WAKE into its link, `Nudge`: it
-then spins up to `spin`). Both only while a core is free for the spinner or nothing but
+that takes the token nudges the next one unless it spins already (WAKE into its link,
+`Nudge`: it then spins up to `spin`). Both only while a core is free for the spinner or nothing but
 the ring is runnable (`Load`: the kernel's count of runnable tasks against the cores and
-against the ring's holder and spinners, looked at every CHECK_NS): on a machine busy
+against the ring's holder and spinners, looked at every CHECK waits): on a machine busy
 with other work a spinner takes the time of the holder or of someone else, and the ring
 sleeps and pays the scheduler. Spinners yield each turn, so on two cores the holder keeps
 one and the spinners share the other.
@@ -44,7 +45,6 @@ from __future__ import annotations
 
 import mmap
 import os
-import platform
 import select
 import struct
 import threading
@@ -64,22 +64,11 @@ STOP_VALUE = 1 << 40
 STOP = WORD.pack(STOP_VALUE)  # into a link: stop, or wake (a token added to it is a stop)
 SPIN = 2e-3  # the longest a nudged member spins for the token (then it blocks)
 READABLE = select.POLLIN | select.POLLHUP | select.POLLERR
-# The turn words (`Page`): a cache line per link, four words in it
+# The turn words (`Page`): a cache line per link, three words in it
 SLOT_WORDS = 8  # 64 bytes: two links' words never share a cache line
-# a slot's words: tokens handed in, taker asleep, told to stop, taker spinning
-TURN, SLEEPING, STOPPED, SPINNING = 0, 1, 2, 3
-CHECK_NS = 1_000_000  # how often a spinner-to-be looks at the load (Load: ~7 µs a look)
+TURN, STOPPED, SPINNING = 0, 2, 3  # a slot's words: tokens handed in, told to stop, spinning
+CHECK = 32  # a spinner-to-be looks at the load every CHECK waits (Load: ~7 µs a look)
 SPIN_FLOOR_NS = 50_000  # an eager spin's least budget (a wake-up costs 25-50 µs here)
-DOORBELL_MS = 50  # a sleeper looks at its turn word at least this often (a missed ring)
-# Where the fence is a full barrier (x86: an atomic read-modify-write orders a store before
-# a later load), a sleeper blocks in its eventfd read (one system call); elsewhere it polls,
-# at most DOORBELL_MS at a time, and looks at its turn word again
-STRONG = platform.machine().lower() in ("x86_64", "amd64", "i386", "i686")
-# The fence between a store and a later load of the turn words: an uncontended lock taken
-# and given back is an atomic read-modify-write (x86: a locked instruction, a full barrier;
-# ~0.5 µs from Python). Where that is not known (not STRONG), a sleeper's bounded wait
-# (DOORBELL_MS) finds its token even if a ring was missed: late, never lost.
-_FENCE = threading.Lock()
 
 
 class Link(NamedTuple):
@@ -115,14 +104,11 @@ def close_links(links: Sequence[Link]) -> None:
 
 class Page:
     """The ring's turn words: a small shared mapping (memfd) with a slot per link, three
-    words in it: TURN, the tokens handed into the link so far (written by its giver only),
-    SLEEPING, 1 while its taker is (about to be) blocked in its eventfd (written by the
-    taker only), STOPPED, 1 once its taker is told to stop, SPINNING, 1 while its taker
-    spins (what `Load` counts as the ring's own). A taker spins on TURN, cheaply
-    (a load, no system call), and blocks on its eventfd only when its spin runs out; the
-    giver rings that eventfd only when SLEEPING says so. The race is closed both ways
-    round: the taker sets SLEEPING, fences, looks at TURN again and only then blocks; the
-    giver writes TURN, fences, then looks at SLEEPING."""
+    words in it: TURN, the tokens handed into the link so far (written by its giver
+    only), STOPPED, 1 once its taker is told to stop, SPINNING, 1 while its taker spins
+    (what `Load` counts as the ring's own, and a nudge spares). A taker spins on TURN (a
+    load, no system call) and reads its eventfd when the token has come or its spin ran
+    out; the giver writes TURN, then the eventfd."""
 
     def __init__(self, fd: int) -> None:
         """The page on `fd` (a ring member: the fd the launcher passed it)."""
@@ -156,8 +142,8 @@ class Page:
 
 
 class Giver:
-    """Hands the token into one link: a write of its turn word, and the eventfd rung only
-    where the taker sleeps; without a page, the eventfd written (`give`)."""
+    """Hands the token into one link: a write of its turn word, then of its eventfd (the
+    doorbell); without a page, the eventfd alone (`give`)."""
 
     def __init__(self, fd: int, page: Page | None = None, link: int = 0) -> None:
         self.fd, self.sent = fd, 0
@@ -171,10 +157,7 @@ class Giver:
             return
         self.sent += 1
         words[self.at + TURN] = self.sent
-        _FENCE.acquire()  # the fence: the turn word written before SLEEPING is read
-        _FENCE.release()
-        if words[self.at + SLEEPING]:
-            os.write(self.fd, TOKEN)
+        os.write(self.fd, TOKEN)
 
 
 def cores() -> int:
@@ -229,8 +212,8 @@ class Nudge:
     """A member's nudge to the next one as it takes the token (WAKE into the next one's
     link: it spins for the token instead of being woken by the scheduler when it comes).
     Only where `spin` > 0, only while a core is free for the spinner (`Load`, looked at
-    every CHECK_NS: a read of /proc/loadavg costs ~7 µs, a nudge a write of ~1 µs), and
-    with a page only where the next one sleeps (one spinning already needs none)."""
+    every CHECK nudges: a read of /proc/loadavg costs ~7 µs, a nudge a write of ~1 µs), and
+    with a page only where the next one is not spinning already."""
 
     def __init__(
         self,
@@ -240,7 +223,7 @@ class Nudge:
         link: int = 0,
         dedicated: bool = False,
     ) -> None:
-        self.fd, self.next_check, self.free = fd, 0, False
+        self.fd, self.left, self.free = fd, 0, False
         self.load = Load(dedicated) if spin > 0 else None
         self.page, self.words = page, page.words if page is not None else None
         self.at = link * SLOT_WORDS
@@ -249,13 +232,13 @@ class Nudge:
         load = self.load
         if load is None:
             return
-        now = time.monotonic_ns()
-        if now >= self.next_check:
+        self.left -= 1
+        if self.left < 0:
             self.free = load.core_free(self.page.spinners() if self.page is not None else 0)
-            self.next_check = now + CHECK_NS
+            self.left = CHECK
         if not self.free:
             return
-        if self.words is None or self.words[self.at + SLEEPING]:
+        if self.words is None or not self.words[self.at + SPINNING]:
             os.write(self.fd, WAKE)
 
     def close(self) -> None:
@@ -278,13 +261,14 @@ def give(fd: int) -> None:
 
 class Taker:
     """A link's taking end on a page: it spins on its turn word (a load and a
-    sched_yield a turn: a spinner that shares a CPU with the holder lets it run), and
-    where the spin runs out it sleeps on its eventfd (SLEEPING set, fenced, the word
-    looked at again, then a blocking read; not STRONG, a poll bounded by DOORBELL_MS and a
-    read). It spins when nudged (WAKE, up to `spin`) and, `eager`, as soon as it waits:
-    for twice what its recent waits took, at least SPIN_FLOOR_NS, not at all where that
-    is more than `spin` (a wait that long is better slept: a paced ring), and only while a
-    core is free for it or nothing but the ring runs (`Load`, every CHECK_NS)."""
+    sched_yield a turn: a spinner that shares a CPU with the holder lets it run), then
+    reads its eventfd: at once where the spin saw the token (the doorbell is a µs behind
+    the word), asleep where the spin ran out. It spins when nudged (WAKE, up to `spin`)
+    and, `eager`, as soon as it waits: for twice what its recent waits took, at least
+    SPIN_FLOOR_NS, not at all where that is more than `spin` (a wait that long is better
+    slept: a paced ring), and only while a core is free for it or nothing but the ring
+    runs (`Load`, every CHECK waits; while it says no, a wait costs nothing more than the
+    read)."""
 
     def __init__(
         self,
@@ -295,37 +279,34 @@ class Taker:
         eager: bool = True,
         dedicated: bool = False,
     ) -> None:
-        os.set_blocking(fd, STRONG)  # the eventfd is a doorbell here
+        os.set_blocking(fd, True)  # only this end reads the link
         self.fd, self.page, self.words, self.at = fd, page, page.words, link * SLOT_WORDS
         self.taken, self.spin_ns = 0, int(spin * 1e9)
         self.load = Load(dedicated) if eager and spin > 0 else None
-        self.next_check, self.free = 0, False
+        self.left, self.free = 0, False
         self.recent = SPIN_FLOOR_NS  # a running mean of recent waits (ns)
-        self.poller = select.poll()
-        self.poller.register(fd, READABLE)
 
-    def budget(self, now: int) -> int:
-        """How long to spin as a wait begins at `now` (monotonic ns): eager only."""
+    def budget(self) -> int:
+        """How long to spin as a wait begins (ns): eager only."""
         load = self.load
         if load is None:
             return 0
-        if now >= self.next_check:
+        self.left -= 1
+        if self.left < 0:
             self.free = load.core_free(self.page.spinners())
-            self.next_check = now + CHECK_NS
+            self.left = CHECK
         want = max(SPIN_FLOOR_NS, 2 * self.recent)
         return want if self.free and want <= self.spin_ns else 0
 
-    def take(self, ms: int = DOORBELL_MS) -> int:
-        """The turn word once a token is in it (the caller's to check: one more than it
-        took is the token, more is a broken ring), or 0 when told to stop (STOPPED, STOP
-        in the eventfd); a sleep polls at most `ms` at a time (then looks again)."""
+    def take(self) -> tuple[int, bool]:
+        """(the turn word, stopped): the word once a token's doorbell is read (the
+        caller's to check: one more than it took is the token, more is a broken ring; 0
+        where none came), stopped when told to (STOPPED, or STOP in the eventfd)."""
         words, at, want = self.words, self.at, self.taken + 1
-        if words[at] >= want:  # there already: no spin, no sleep
-            return 0 if words[at + STOPPED] else int(words[at])
-        began = start = time.monotonic_ns()
-        spin = self.budget(began)
+        spin = self.budget()
+        began = start = time.monotonic_ns() if spin else 0  # how long waits take: spinning
         while True:
-            if spin:
+            if spin and words[at] < want:
                 end = began + spin
                 words[at + SPINNING] = 1
                 while words[at] < want and not words[at + STOPPED]:
@@ -333,34 +314,17 @@ class Taker:
                         break
                     os.sched_yield()
                 words[at + SPINNING] = 0
-            if words[at] >= want or words[at + STOPPED]:
+            if words[at + STOPPED] and words[at] < want:
+                return 0, True
+            data = os.read(self.fd, WORD.size)  # the doorbell (a µs away after a spin)
+            value = WORD.unpack(data)[0] if len(data) == WORD.size else STOP_VALUE
+            if value & TOKEN_MASK or value >= STOP_VALUE:
                 break
-            words[at + SLEEPING] = 1
-            _FENCE.acquire()  # the fence: SLEEPING written before the turn word is read
-            _FENCE.release()
-            if words[at] >= want or words[at + STOPPED]:
-                words[at + SLEEPING] = 0
-                break
-            if not STRONG:
-                self.poller.poll(ms)
-            value = self.drain()
-            words[at + SLEEPING] = 0
-            if value >= STOP_VALUE:
-                return 0
-            spin = self.spin_ns if value & WAKE_MASK else 0
-            began = time.monotonic_ns()
-        if self.load is not None:  # eager: how long waits take
+            spin, began = self.spin_ns, time.monotonic_ns()  # a nudge: the token is near
+        if start:
             self.recent = (3 * self.recent + time.monotonic_ns() - start) // 4
-        return 0 if words[at + STOPPED] else int(words[at])
-
-    def drain(self) -> int:
-        """What the eventfd holds, taken out (STRONG: waiting for it; else 0 when
-        nothing)."""
-        try:
-            data = os.read(self.fd, WORD.size)
-        except BlockingIOError:
-            return 0
-        return WORD.unpack(data)[0] if len(data) == WORD.size else STOP_VALUE
+        stopped = value >= STOP_VALUE or bool(words[at + STOPPED])
+        return (int(words[at]) if value & TOKEN_MASK else 0), stopped
 
     def close(self) -> None:
         if self.load is not None:
@@ -427,7 +391,7 @@ class Return:
         taker = self.taker
         assert taker is not None
         while True:
-            turn = taker.take()
+            turn, _ = taker.take()
             if self.dead is not None:
                 return self.dead
             if turn > taker.taken:
@@ -495,8 +459,8 @@ class Receiver:
         read, more than one token). Nudged (WAKE alone), it spins for the token first."""
         taker = self.taker
         if taker is not None:
-            turn = taker.take()
-            if turn != taker.taken + 1:
+            turn, stopped = taker.take()
+            if stopped or turn != taker.taken + 1:
                 return False
             taker.taken = turn
             return True
