@@ -1,8 +1,8 @@
 """Part 6: what lockstep costs: a system run as OS processes against the same in one process.
 
 Each launched system is run three times: stepped by the token ring (rcs/ring.py,
-"processes": the token a turn word in the ring's page, spun on, an eventfd rung only for a
-member asleep), by the same ring without the page ("eventfd ring": the token an eventfd
+"processes": the token a turn word in the ring's page, spun on, then its eventfd written
+and read), by the same ring without the page ("eventfd ring": the token an eventfd
 write, a nudged member spinning on poll(0), what the ring was before the page), and by the
 coordinator's request and answer per process ("request/reply", what lockstep was before
 the ring), side by side with the one-process version.

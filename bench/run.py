@@ -737,7 +737,7 @@ def section_lockstep(lockstep: dict) -> list[str]:
         "bench/bench_lockstep.py. Each process of the system an OS process over one shared "
         "segment, stepped in lockstep (`LaunchedHarness`): by the token ring (rcs/ring.py: "
         "the token handed process to process, N+1 hand-offs a system cycle, as a turn word "
-        "in the ring's page that the taker spins on, its eventfd rung only when it sleeps) "
+        "in the ring's page that the taker spins on, then its eventfd written and read) "
         "and, side by side, by the same ring without the page (the token an eventfd write, "
         "a nudged member spinning on poll(0): the ring before the page) and by the "
         "coordinator's request and answer through each process's "

@@ -11,15 +11,16 @@ coordinator passing the token, nothing else, by each part of rcs/ring.py in turn
 - `nudge`: the launcher's ring without a page, spinning forced on (`Load` says a core is
   free): the member nudges the coordinator as it takes the token, the coordinator the
   member as it comes back, a nudged one spins on poll(0) + sched_yield;
-- `turn word`: the ring with a page (ring.Page): both spin on their turn words (eager:
-  two members on two cores), sleep on the eventfd when the spin runs out, and the giver
-  rings the eventfd only when the taker sleeps;
-- `turn word, no spin`: the page with spinning off: every hand-off sleeps (the sleeping
-  flag, the fence, a poll and a drain: what the page costs where nobody may spin).
+- `turn word`: the ring with a page (ring.Page): both spin on their turn words (eager),
+  then read the doorbell the giver writes after the word (at once after a spin, asleep
+  where the spin ran out);
+- `turn word no spin`: the page with spinning off: every hand-off sleeps (what the page
+  costs where nobody may spin).
 
 The variants take turns (`--rounds`), each `--cycles` cycles; median and mean µs a cycle.
 
     .venv/bin/python bench/prototypes/ring_of_one.py [--cycles 3000] [--rounds 3]
+        [--members 1] [--variants blocking,turn word] [--load]
 """
 
 from __future__ import annotations
