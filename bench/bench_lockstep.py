@@ -245,6 +245,68 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
     return results
 
 
+def token_ring(
+    count: int,
+    cycles: int,
+    spin: float,
+    turns: bool,
+    dedicated: bool = False,
+    watcher: bool = True,
+) -> list[int]:
+    """`cycles` of a bare ring of `count` forked members (rcs/ring.py, as the launcher
+    builds it: `turns`, its page; `spin`, `dedicated` as the launcher's), the wall time of
+    each; `watcher=False`: the coordinator reads the last link itself (no `Return`)."""
+    from rcsgen.runtime import ring
+
+    links = ring.new_links(count + 1)
+    page = ring.Page.create(len(links)) if turns else None
+    controls, pids = [], []
+    for at in range(count):
+        control, keep = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # a member: take, hand on, until told to stop
+            os.close(keep)
+            receiver = ring.Receiver(links[at].read, spin, page, at, dedicated)
+            nudge = ring.Nudge(links[at + 1].write, spin, page, at + 1, dedicated)
+            give = ring.Giver(links[at + 1].write, page, at + 1)
+            ring.stop_on_control(control, links[at].write, page, at)
+            while receiver.wait():
+                nudge()
+                give()
+            os._exit(0)
+        os.close(control)
+        controls.append(keep)
+        pids.append(pid)
+    waiter = ring.Return(links[-1].read, (), spin, page, count, dedicated) if watcher else None
+    if waiter is None:
+        os.set_blocking(links[-1].read, True)
+    give = ring.Giver(links[0].write, page, 0)
+    nudge = ring.Nudge(links[0].write, spin, page, 0, dedicated)
+    taken = []
+    try:
+        for _ in range(cycles):
+            began = wall_ns()
+            give()
+            if waiter is not None:
+                waiter.wait(10.0)
+            else:
+                os.read(links[-1].read, 8)
+            taken.append(wall_ns() - began)
+            nudge()
+    finally:
+        if waiter is not None:
+            waiter.close()
+        nudge.close()
+        for fd in controls:
+            os.close(fd)
+        for pid in pids:
+            os.waitpid(pid, 0)
+        ring.close_links(links)
+        if page is not None:
+            page.close()
+    return taken
+
+
 def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, object]]:
     """The hand-off alone, N processes that run nothing: ring against request/reply."""
     import os
@@ -254,46 +316,7 @@ def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str,
     def ring_cycle(count: int, turns: bool = False) -> list[int]:
         """Blocking eventfds, nobody spinning; `turns`: the launcher's ring (its page,
         nudges, spins where a core is free)."""
-        links = ring.new_links(count + 1)
-        page = ring.Page.create(len(links)) if turns else None
-        spin, dedicated = (ring.default_spin() if turns else 0.0), DEDICATED
-        controls, pids = [], []
-        for at in range(count):
-            control, keep = os.pipe()
-            pid = os.fork()
-            if pid == 0:  # a member: take, hand on, until told to stop
-                os.close(keep)
-                receiver = ring.Receiver(links[at].read, spin, page, at, dedicated)
-                nudge = ring.Nudge(links[at + 1].write, spin, page, at + 1, dedicated)
-                give = ring.Giver(links[at + 1].write, page, at + 1)
-                ring.stop_on_control(control, links[at].write, page, at)
-                while receiver.wait():
-                    nudge()
-                    give()
-                os._exit(0)
-            os.close(control)
-            controls.append(keep)
-            pids.append(pid)
-        waiter = ring.Return(links[-1].read, (), spin, page, count, dedicated)
-        give = ring.Giver(links[0].write, page, 0)
-        nudge = ring.Nudge(links[0].write, spin, page, 0, dedicated)
-        taken = []
-        for _ in range(cycles):
-            began = wall_ns()
-            give()
-            waiter.wait(10.0)
-            taken.append(wall_ns() - began)
-            nudge()
-        waiter.close()
-        nudge.close()
-        for fd in controls:
-            os.close(fd)
-        for pid in pids:
-            os.waitpid(pid, 0)
-        ring.close_links(links)
-        if page is not None:
-            page.close()
-        return taken
+        return token_ring(count, cycles, ring.default_spin() if turns else 0.0, turns, DEDICATED)
 
     def turn_cycle(count: int) -> list[int]:
         return ring_cycle(count, turns=True)

@@ -32,8 +32,13 @@ import statistics
 import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 from rcsgen.runtime import ring
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import bench_lockstep as lockstep  # noqa: E402
 
 
 def syscalls(cycles: int) -> list[int]:
@@ -50,52 +55,7 @@ def syscalls(cycles: int) -> list[int]:
 
 
 def fork_ring(cycles: int, spin: float, page: bool, watcher: bool = True) -> list[int]:
-    links = ring.new_links(MEMBERS + 1)
-    shared = ring.Page.create(len(links)) if page else None
-    controls, pids = [], []
-    for at in range(MEMBERS):
-        control, keep = os.pipe()
-        pid = os.fork()
-        if pid == 0:  # a member: take, hand on, until told to stop
-            os.close(keep)
-            receiver = ring.Receiver(links[at].read, spin, shared, at)
-            nudge = ring.Nudge(links[at + 1].write, spin, shared, at + 1)
-            give = ring.Giver(links[at + 1].write, shared, at + 1)
-            ring.stop_on_control(control, links[at].write, shared, at)
-            while receiver.wait():
-                nudge()
-                give()
-            os._exit(0)
-        os.close(control)
-        controls.append(keep)
-        pids.append(pid)
-    give, nudge = ring.Giver(links[0].write, shared, 0), ring.Nudge(links[0].write, spin, shared, 0)
-    waiter = ring.Return(links[-1].read, (), spin, shared, MEMBERS) if watcher else None
-    if waiter is None:
-        os.set_blocking(links[-1].read, True)
-    taken = []
-    try:
-        for _ in range(cycles):
-            began = time.perf_counter_ns()
-            give()
-            if waiter is not None:
-                waiter.wait(10.0)
-            else:
-                os.read(links[-1].read, 8)
-            taken.append(time.perf_counter_ns() - began)
-            nudge()
-    finally:
-        if waiter is not None:
-            waiter.close()
-        nudge.close()
-        for keep in controls:
-            os.close(keep)
-        for pid in pids:
-            os.waitpid(pid, 0)
-        ring.close_links(links)
-        if shared is not None:
-            shared.close()
-    return taken
+    return lockstep.token_ring(MEMBERS, cycles, spin, page, watcher=watcher)
 
 
 MEMBERS = 1
