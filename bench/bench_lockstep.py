@@ -1,8 +1,11 @@
 """Part 6: what lockstep costs: a system run as OS processes against the same in one process.
 
-Each launched system is run twice: stepped by the token ring (rcs/ring.py, "processes")
-and by the coordinator's request and answer per process ("request/reply", what lockstep
-was before the ring), side by side with the one-process version.
+Each launched system is run three times: stepped by the token ring (rcs/ring.py,
+"processes": the token a turn word in the ring's page, spun on, then its eventfd written
+and read), by the same ring without the page ("eventfd ring": the token an eventfd
+write, a nudged member spinning on poll(0), what the ring was before the page), and by the
+coordinator's request and answer per process ("request/reply", what lockstep was before
+the ring), side by side with the one-process version.
 
 1. The miner: generated/miner as its two processes (pc1, and pp alone in pc2), each an OS
    process over a shared segment stepped in lockstep by the launcher's coordinator
@@ -15,8 +18,10 @@ was before the ring), side by side with the one-process version.
    same chain in one process.
 
 3. The hand-off alone: N forked processes that do nothing but pass the token
-   (rcs/ring.py's Receiver and Return, what the launcher uses), against the same N
-   answering a request each through pipes: the floor of each design on this machine.
+   (rcs/ring.py's Receiver and Return: blocking eventfd reads, nobody nudged or spinning;
+   and the launcher's ring with its page, nudges and spins where `Load` sees a free core),
+   against the same N answering a request each through pipes: the floor of each design
+   on this machine.
 
 Every system cycle is timed on its own on the wall clock (time.perf_counter_ns): lockstep
 is waiting for other processes, which CPU time would not see. The in-process and launched
@@ -28,7 +33,11 @@ the in-process and launched versions must be in the same state (every module's s
 command, and the world): lockstep leaves the same trace as one process.
 
     python bench/bench_lockstep.py [--cycles N] [--rounds R] [--json PATH]
-        [--parts miner,chain,handoff] [--splits 1,2,4,8]
+        [--parts miner,chain,handoff] [--splits 1,2,4,8] [--dedicated]
+
+`--dedicated`: both rings spin without looking at the machine's load (ring.Load), as on
+cores of their own: run it under `chrt -f 10` on a busy machine, where our processes then
+get a CPU at once, to see what the design gives on free cores.
 """
 
 from __future__ import annotations
@@ -49,6 +58,7 @@ from common import ROOT, wall_ns, write_json
 from rcsgen.tools import scenario as scenarios
 from rcsgen.tools.harness import Harness, LaunchedHarness, generate
 
+DEDICATED = False  # --dedicated: the rings spin whatever the load (ring.Load)
 SCENARIO = ROOT / "specs" / "miner" / "scenarios" / "sump_shear_cusp.yaml"
 PACKAGE = ROOT / "generated" / "miner"
 CHAIN = 16  # controllers in the synthetic chain
@@ -160,11 +170,11 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
     def open_versions() -> dict[str, object]:
         one = scenarios.open_harness(scenario, PACKAGE)
         opened: dict[str, object] = {"one process": one}
+        where = (PACKAGE, scenario.system_dir, scenario.settings, scenario.simulate)
         try:
-            opened["processes"] = scenarios.open_harness(scenario, PACKAGE, processes=True)
-            opened["request/reply"] = LaunchedHarness(
-                PACKAGE, scenario.system_dir, scenario.settings, scenario.simulate, ring=False
-            )
+            opened["processes"] = LaunchedHarness(*where, dedicated=DEDICATED)
+            opened["eventfd ring"] = LaunchedHarness(*where, turns=False, dedicated=DEDICATED)
+            opened["request/reply"] = LaunchedHarness(*where, ring=False)
         except BaseException:
             for harness in opened.values():
                 harness.close()
@@ -180,6 +190,7 @@ def miner(cycles: int, rounds: int) -> dict[str, object]:
         "processes": processes,
         "one_process_ns": stats(samples["one process"]),
         "processes_ns": stats(samples["processes"]),
+        "eventfd_ring_ns": stats(samples["eventfd ring"]),
         "request_reply_ns": stats(samples["request/reply"]),
     }
 
@@ -202,7 +213,10 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
                     "one process": Harness.load(package_dir, send_init=True)
                 }
                 try:
-                    opened["processes"] = LaunchedHarness(package_dir)
+                    opened["processes"] = LaunchedHarness(package_dir, dedicated=DEDICATED)
+                    opened["eventfd ring"] = LaunchedHarness(
+                        package_dir, turns=False, dedicated=DEDICATED
+                    )
                     opened["request/reply"] = LaunchedHarness(package_dir, ring=False)
                 except BaseException:
                     for harness in opened.values():
@@ -221,6 +235,7 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
                     "modules": CHAIN,
                     "one_process_ns": stats(samples["one process"]),
                     "processes_ns": stats(samples["processes"]),
+                    "eventfd_ring_ns": stats(samples["eventfd ring"]),
                     "request_reply_ns": stats(samples["request/reply"]),
                 }
             )
@@ -230,41 +245,81 @@ def chain(splits: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, o
     return results
 
 
+def token_ring(
+    count: int,
+    cycles: int,
+    spin: float,
+    turns: bool,
+    dedicated: bool = False,
+    watcher: bool = True,
+) -> list[int]:
+    """`cycles` of a bare ring of `count` forked members (rcs/ring.py, as the launcher
+    builds it: `turns`, its page; `spin`, `dedicated` as the launcher's), the wall time of
+    each; `watcher=False`: the coordinator reads the last link itself (no `Return`)."""
+    from rcsgen.runtime import ring
+
+    links = ring.new_links(count + 1)
+    page = ring.Page.create(len(links)) if turns else None
+    controls, pids = [], []
+    for at in range(count):
+        control, keep = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # a member: take, hand on, until told to stop
+            os.close(keep)
+            receiver = ring.Receiver(links[at].read, spin, page, at, dedicated)
+            nudge = ring.Nudge(links[at + 1].write, spin, page, at + 1, dedicated)
+            give = ring.Giver(links[at + 1].write, page, at + 1)
+            ring.stop_on_control(control, links[at].write, page, at)
+            while receiver.wait():
+                nudge()
+                give()
+            os._exit(0)
+        os.close(control)
+        controls.append(keep)
+        pids.append(pid)
+    waiter = ring.Return(links[-1].read, (), spin, page, count, dedicated) if watcher else None
+    if waiter is None:
+        os.set_blocking(links[-1].read, True)
+    give = ring.Giver(links[0].write, page, 0)
+    nudge = ring.Nudge(links[0].write, spin, page, 0, dedicated)
+    taken = []
+    try:
+        for _ in range(cycles):
+            began = wall_ns()
+            give()
+            if waiter is not None:
+                waiter.wait(10.0)
+            else:
+                os.read(links[-1].read, 8)
+            taken.append(wall_ns() - began)
+            nudge()
+    finally:
+        if waiter is not None:
+            waiter.close()
+        nudge.close()
+        for fd in controls:
+            os.close(fd)
+        for pid in pids:
+            os.waitpid(pid, 0)
+        ring.close_links(links)
+        if page is not None:
+            page.close()
+    return taken
+
+
 def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str, object]]:
     """The hand-off alone, N processes that run nothing: ring against request/reply."""
     import os
 
     from rcsgen.runtime import ring
 
-    def ring_cycle(count: int) -> list[int]:
-        links = ring.new_links(count + 1)
-        controls, pids = [], []
-        for at in range(count):
-            control, keep = os.pipe()
-            pid = os.fork()
-            if pid == 0:  # a member: take, hand on, until told to stop
-                os.close(keep)
-                receiver = ring.Receiver(links[at].read)
-                ring.stop_on_control(control, links[at].write)
-                while receiver.wait():
-                    ring.give(links[at + 1].write)
-                os._exit(0)
-            os.close(control)
-            controls.append(keep)
-            pids.append(pid)
-        waiter, taken = ring.Return(links[-1].read, ()), []
-        for _ in range(cycles):
-            began = wall_ns()
-            ring.give(links[0].write)
-            waiter.wait(10.0)
-            taken.append(wall_ns() - began)
-        waiter.close()
-        for fd in controls:
-            os.close(fd)
-        for pid in pids:
-            os.waitpid(pid, 0)
-        ring.close_links(links)
-        return taken
+    def ring_cycle(count: int, turns: bool = False) -> list[int]:
+        """Blocking eventfds, nobody spinning; `turns`: the launcher's ring (its page,
+        nudges, spins where a core is free)."""
+        return token_ring(count, cycles, ring.default_spin() if turns else 0.0, turns, DEDICATED)
+
+    def turn_cycle(count: int) -> list[int]:
+        return ring_cycle(count, turns=True)
 
     def reply_cycle(count: int) -> list[int]:
         ends, pids = [], []
@@ -298,16 +353,16 @@ def handoff(counts: tuple[int, ...], cycles: int, rounds: int) -> list[dict[str,
 
     results = []
     for count in counts:
-        samples: dict[str, list[int]] = {"ring": [], "request/reply": []}
+        runs = {"ring": ring_cycle, "turn word": turn_cycle, "request/reply": reply_cycle}
+        samples: dict[str, list[int]] = {key: [] for key in runs}
         for index in range(rounds):
-            order = [ring_cycle, reply_cycle][:: 1 if index % 2 == 0 else -1]
-            for run in order:
-                key = "ring" if run is ring_cycle else "request/reply"
-                samples[key] += run(count)
+            for key in list(runs)[:: 1 if index % 2 == 0 else -1]:
+                samples[key] += runs[key](count)
         results.append(
             {
                 "processes": count,
                 "ring_ns": stats(samples["ring"]),
+                "turn_word_ns": stats(samples["turn word"]),
                 "request_reply_ns": stats(samples["request/reply"]),
             }
         )
@@ -321,7 +376,10 @@ def main() -> int:
     parser.add_argument("--json", default=None)
     parser.add_argument("--parts", default="miner,chain,handoff", help="some of these only")
     parser.add_argument("--splits", default=",".join(map(str, SPLITS)), help="chain: processes")
+    parser.add_argument("--dedicated", action="store_true", help="spin whatever the load")
     args = parser.parse_args()
+    global DEDICATED
+    DEDICATED = args.dedicated
     parts, splits = args.parts.split(","), tuple(int(n) for n in args.splits.split(","))
     started = time.perf_counter()
     results: dict[str, object] = {
@@ -329,6 +387,8 @@ def main() -> int:
         "rounds": args.rounds,
         "chunk": CHUNK,
         "cores": len(os.sched_getaffinity(0)),
+        "load_before": os.getloadavg()[0],
+        "dedicated": args.dedicated,
     }
     if "miner" in parts:
         results["miner"] = miner(args.cycles, args.rounds)
@@ -337,6 +397,7 @@ def main() -> int:
     if "handoff" in parts:
         results["handoff"] = handoff(splits, max(args.cycles, 2_000), args.rounds)
     results["seconds"] = time.perf_counter() - started
+    results["load_after"] = os.getloadavg()[0]
     write_json(args.json, results)
     return 0
 

@@ -736,16 +736,19 @@ def section_lockstep(lockstep: dict) -> list[str]:
         "",
         "bench/bench_lockstep.py. Each process of the system an OS process over one shared "
         "segment, stepped in lockstep (`LaunchedHarness`): by the token ring (rcs/ring.py: "
-        "the token handed process to process over eventfds, N+1 hand-offs a system cycle) "
-        "and, side by side, by the coordinator's request and answer through each process's "
+        "the token handed process to process, N+1 hand-offs a system cycle, as a turn word "
+        "in the ring's page that the taker spins on, then its eventfd written and read) "
+        "and, side by side, by the same ring without the page (the token an eventfd write, "
+        "a nudged member spinning on poll(0): the ring before the page) and by the "
+        "coordinator's request and answer through each process's "
         "pipes (2N hand-offs: what lockstep was before the ring), as fast as it goes (no "
         "pacing), "
         "against the same package with every process's modules in this one process "
         "(`Harness`). Every system cycle timed on the wall clock (lockstep is waiting for "
-        f"other processes); the two versions take turns every {lockstep['chunk']} cycles and "
+        f"other processes); the versions take turns every {lockstep['chunk']} cycles and "
         f"must end each round in the same state; {lockstep['cycles_per_round']:,} cycles per "
         f"version and round, {lockstep['rounds']} rounds. The mean includes the cycles in "
-        "which a process waited for the (busy) scheduler.",
+        "which a process waited for the (busy) scheduler." + _load_line(lockstep),
         "",
         f"The miner, {m['scenario']} repeated (stop module re-commanded when done); "
         f"processes {processes}:",
@@ -757,6 +760,7 @@ def section_lockstep(lockstep: dict) -> list[str]:
         f"| {ns(many['mean'])} | {ns(many['p90'])} |",
         f"| **extra per system cycle** | **{ns(many['median'] - one['median'])}** "
         f"| {ns(many['mean'] - one['mean'])} | |",
+        *_request_reply_rows(one, m.get("eventfd_ring_ns"), "the ring without its page"),
         *_request_reply_rows(one, m.get("request_reply_ns")),
         "",
         f"A chain of {lockstep['chain'][0]['modules']} controllers (bench/synthetic.py, "
@@ -764,16 +768,18 @@ def section_lockstep(lockstep: dict) -> list[str]:
         "evenly over N processes:",
         "",
         "| processes | one process (median) | ring (median) | extra per system cycle "
-        "| extra per process | mean: one process → ring | request/reply: extra (median) |",
-        "|--:|--:|--:|--:|--:|--:|--:|",
+        "| extra per process | mean: one process → ring | without its page: extra (median) "
+        "| request/reply: extra (median) |",
+        "|--:|--:|--:|--:|--:|--:|--:|--:|",
     ]
     for c in lockstep["chain"]:
         a, b = c["one_process_ns"], c["processes_ns"]
         extra = b["median"] - a["median"]
-        reply = c.get("request_reply_ns")
+        reply, bare = c.get("request_reply_ns"), c.get("eventfd_ring_ns")
         lines.append(
             f"| {c['processes']} | {ns(a['median'])} | {ns(b['median'])} | {ns(extra)} "
             f"| {ns(extra / c['processes'])} | {ns(a['mean'])} → {ns(b['mean'])} "
+            f"| {ns(bare['median'] - a['median']) if bare else '—'} "
             f"| {ns(reply['median'] - a['median']) if reply else '—'} |"
         )
     lines += [
@@ -785,10 +791,14 @@ def section_lockstep(lockstep: dict) -> list[str]:
         "the scheduler waking a process blocked in a read, which depends on what else the "
         "machine is doing (on a quiet virtual machine the idle CPU it wakes on is halted: "
         "25-30 µs a hand-off, against a few µs on a busy one): compare lockstep figures of "
-        "different runs with care. While a core is free (the kernel's runnable count), the "
-        "member that takes the token nudges the next one, which spins for it instead of "
-        'being woken (docs/decisions.md, "Lockstep through a token ring"); the bare '
-        "hand-off below nudges nobody.",
+        "different runs with care. While a core is free or nothing but the ring is runnable "
+        "(the kernel's runnable count against the cores, and against the ring's holder and "
+        "spinners), each member spins on its turn word as soon as it waits (for twice what "
+        "its recent waits took) and the member that takes the token nudges the next one if "
+        "it sleeps; on a busy machine nobody spins and every hand-off is a wake-up "
+        '(docs/decisions.md, "The turn words"). The bare hand-off below: the ring column '
+        "blocks in eventfd reads and nudges nobody, the turn-word column is the launcher's "
+        "ring.",
         "",
         *_handoff_rows(lockstep),
     ]
@@ -803,28 +813,39 @@ def _handoff_rows(lockstep: dict) -> list[str]:
         "nothing but pass the token on (rcs/ring.py), against the same N answering a "
         "request each through pipes; wall time of a system cycle:",
         "",
-        "| processes | ring (median) | ring (mean) | request/reply (median) "
-        "| request/reply (mean) |",
-        "|--:|--:|--:|--:|--:|",
+        "| processes | ring (median) | ring (mean) | turn words (median) | turn words (mean) "
+        "| request/reply (median) | request/reply (mean) |",
+        "|--:|--:|--:|--:|--:|--:|--:|",
     ]
     for h in lockstep["handoff"]:
         a, b = h["ring_ns"], h["request_reply_ns"]
+        t = h.get("turn_word_ns")
         lines.append(
-            f"| {h['processes']} | {ns(a['median'])} | {ns(a['mean'])} | {ns(b['median'])} "
-            f"| {ns(b['mean'])} |"
+            f"| {h['processes']} | {ns(a['median'])} | {ns(a['mean'])} "
+            f"| {ns(t['median']) if t else '—'} | {ns(t['mean']) if t else '—'} "
+            f"| {ns(b['median'])} | {ns(b['mean'])} |"
         )
     return [*lines, ""]
 
 
-def _request_reply_rows(one: dict, reply: dict | None) -> list[str]:
+def _request_reply_rows(one: dict, reply: dict | None, what: str = "request/reply") -> list[str]:
     if not reply:
         return []
     return [
-        f"| the same, request/reply | {ns(reply['median'])} | {ns(reply['mean'])} "
-        f"| {ns(reply['p90'])} |",
-        f"| extra per system cycle, request/reply | {ns(reply['median'] - one['median'])} "
+        f"| the same, {what} | {ns(reply['median'])} | {ns(reply['mean'])} | {ns(reply['p90'])} |",
+        f"| extra per system cycle, {what} | {ns(reply['median'] - one['median'])} "
         f"| {ns(reply['mean'] - one['mean'])} | |",
     ]
+
+
+def _load_line(lockstep: dict) -> str:
+    if "load_before" not in lockstep:
+        return ""
+    return (
+        f" Load average (1 min) {lockstep['load_before']:.1f} before the part, "
+        f"{lockstep['load_after']:.1f} after: hand-offs wake processes, which costs what the "
+        "rest of the machine makes it cost."
+    )
 
 
 def section_period(p: dict) -> list[str]:

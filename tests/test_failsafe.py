@@ -1292,12 +1292,12 @@ def test_the_lockstep_ring_loses_a_process_holding_the_token(
     Killed then, it is lost at once (its answer pipe closes: not the timeout); left
     stopped, within the coordinator's timeout (2 s here), named as the holder. Either way
     every actuator is latched safe, the ring refuses another cycle, and closing leaves no
-    child, no segment and none of the ring's eventfds."""
+    child, no segment, none of the ring's eventfds and not its page (memfd)."""
     import threading
 
     from rcsgen.tools.harness import LaunchedHarness
 
-    eventfds = _eventfds()
+    eventfds, memfds = _eventfds(), _memfds()
     h = LaunchedHarness(fleet, FLEET)
     lost = sys.modules[type(h.coordinator).__module__].ProcessLost
     first, victim = h.launcher.order[:2]
@@ -1315,6 +1315,7 @@ def test_the_lockstep_ring_loses_a_process_holding_the_token(
 
     try:
         assert _eventfds() == eventfds + len(h.launcher.order) + 1
+        assert _memfds() > memfds  # the ring's page
         h.coordinator.timeout = 2.0
         h.command("lead", "CONVOY")
         h.cycle(3)
@@ -1347,3 +1348,84 @@ def test_the_lockstep_ring_loses_a_process_holding_the_token(
     assert all(child.popen.poll() is not None for child in h.launcher.children.values())
     assert not [p for p in Path("/dev/shm").glob(f"{segment}*")], "a segment left behind"
     assert _eventfds() == eventfds, "an eventfd of the ring left open"
+    assert _memfds() == memfds, "the ring's page left open"
+
+
+def _memfds() -> int:
+    fds = Path("/proc/self/fd")
+    return sum(1 for fd in fds.iterdir() if "memfd:rcs-ring" in _link(fd))
+
+
+def test_a_ring_member_that_dies_while_the_next_one_spins_is_lost_and_nothing_spins_on(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The token ring on its page (rcs/ring.py) across real processes: member 0 takes the
+    token and nudges member 1, which spins for it (its budget 60 s here, spinning forced:
+    `Load` says a core is free); member 0 is killed holding the token. The coordinator,
+    itself spinning on the return, sees the death at once (the answer pipe closes), not
+    at its timeout; member 1, told to stop (its control pipe closes), stops spinning long
+    before its budget and exits; no child is left, and the page is unmapped."""
+    from rcsgen.runtime import ring
+
+    monkeypatch.setattr(
+        ring.Load, "core_free", lambda self, spinners=0: True
+    )  # the forks inherit it
+    memfds = _memfds()
+    links = ring.new_links(3)
+    page = ring.Page.create(3)
+    assert page is not None and _memfds() > memfds  # its fd (and the mmap's own copy)
+    controls, answers, pids = [], [], []
+    for at in range(2):
+        control, keep = os.pipe()
+        answer, tell = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # pragma: no cover - a member, in the child
+            try:
+                os.close(keep)
+                os.close(answer)
+                receiver = ring.Receiver(links[at].read, 60.0, page, at)
+                nudge = ring.Nudge(links[at + 1].write, 60.0, page, at + 1)
+                give = ring.Giver(links[at + 1].write, page, at + 1)
+                ring.stop_on_control(control, links[at].write, page, at)
+                while receiver.wait():
+                    nudge()
+                    if at == 0:
+                        time.sleep(120)  # a long segment: it dies holding the token
+                    give()
+            finally:
+                os._exit(0)
+        os.close(control)
+        os.close(tell)
+        controls.append(keep)
+        answers.append(answer)
+        pids.append(pid)
+    back = ring.Return(links[-1].read, answers, 60.0, page, 2)
+    spinning = lambda: page.words[1 * ring.SLOT_WORDS + ring.SPINNING] == 1  # noqa: E731
+    try:
+        ring.Giver(links[0].write, page, 0)()
+        wait_for(spinning, "member 1 nudged by member 0, spinning")
+        os.kill(pids[0], signal.SIGKILL)
+        began = time.monotonic()
+        assert back.wait(60.0) == answers[0]  # the death, not the timeout
+        assert time.monotonic() - began < 30.0
+        assert os.waitpid(pids[0], 0)[0] == pids[0]
+        assert spinning()  # member 1 spins on: the coordinator stops it
+        for keep in controls:
+            os.close(keep)
+        controls = []
+        began = time.monotonic()
+        wait_for(lambda: os.waitpid(pids[1], os.WNOHANG)[0] == pids[1], "member 1 exits")
+        assert time.monotonic() - began < 30.0  # told to stop, long before its 60 s spin
+        pids = []
+    finally:
+        back.close()
+        for keep in controls:
+            os.close(keep)
+        for pid in pids:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+        for answer in answers:
+            os.close(answer)
+        ring.close_links(links)
+        page.close()
+    assert _memfds() == memfds, "the ring's page left open"

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from collections.abc import Iterator
 
 import pytest
@@ -161,7 +162,7 @@ def test_a_nudged_coordinator_waits_on_for_the_token_and_still_times_out(
 def test_a_member_nudges_the_next_only_while_a_core_is_free(
     links: list[ring.Link], monkeypatch: pytest.MonkeyPatch, free: bool
 ) -> None:
-    monkeypatch.setattr(ring.Load, "core_free", lambda self: free)
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: free)
     nudge = ring.Nudge(links[0].write, spin=1e-3)
     try:
         nudge()
@@ -184,5 +185,138 @@ def test_a_core_is_free_while_the_runnable_tasks_fit_the_cores(tmp_path) -> None
             path.write_text(f"0.50 0.40 0.30 {running}/321 4242\n")
             load.fd = os.open(path, os.O_RDONLY)
             assert load.core_free() is free
+            # more than the cores, all of them the ring's own: this reader, the token's
+            # holder and the ring's spinners
+            assert load.core_free(spinners=running - 2) is True
+            assert load.core_free(spinners=running - 3) is free
     finally:
         load.close()
+
+
+# ---------------------------------------------------------------- the turn words (Page)
+
+
+@pytest.fixture
+def page() -> Iterator[ring.Page]:
+    made = ring.Page.create(3)
+    assert made is not None  # Linux: a memfd
+    yield made
+    made.close()
+    made.close()  # idempotent: the launcher's stop may call it again
+
+
+def _word(page: ring.Page, link: int, word: int) -> int:
+    return page.words[link * ring.SLOT_WORDS + word]
+
+
+def _until(condition, what: str, seconds: float = 20.0) -> None:
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < deadline, f"not within {seconds:g} s: {what}"
+        time.sleep(0.001)
+
+
+def test_a_token_is_a_turn_word_and_its_doorbell_is_read_spun_or_slept(
+    links: list[ring.Link], page: ring.Page, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Handing the token on writes the turn word, then the eventfd; the taker reads that
+    doorbell whether it saw the word spinning or slept until the doorbell came, so each
+    hand-off leaves the eventfd empty."""
+    free = [True]
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: free[0])
+    give = ring.Giver(links[0].write, page, 0)
+    receiver = ring.Receiver(links[0].read, 1e-3, page, 0)
+    give()
+    assert _word(page, 0, ring.TURN) == 1
+    assert receiver.wait()  # spinning (eager): the word, then the doorbell at once
+    assert _pending(links[0].read) == 0
+    os.set_blocking(links[0].read, True)
+    free[0], receiver.taker.left = False, 0  # no core free: it sleeps
+    got: list[bool] = []
+    asleep = threading.Thread(target=lambda: got.append(receiver.wait()), daemon=True)
+    asleep.start()
+    time.sleep(0.02)
+    give()  # the doorbell wakes the sleeper, which finds the word written
+    asleep.join(20.0)
+    assert got == [True] and _pending(links[0].read) == 0
+    os.set_blocking(links[0].read, True)
+    give()
+    give()  # two tokens in one link: the ring is broken
+    assert not receiver.wait()
+
+
+def test_a_stop_ends_a_spinning_member_long_before_its_spin(
+    links: list[ring.Link], page: ring.Page, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A member nudged (WAKE) spins for its token, here for up to 60 s; its coordinator
+    going away (the control pipe closes) sets its STOPPED word, which ends the spin at
+    once: nothing spins for ever, nor for its whole budget once told."""
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: True)
+    receiver = ring.Receiver(links[0].read, 60.0, page, 0)
+    nudge = ring.Nudge(links[0].write, 60.0, page, 0)
+    control, coordinator = os.pipe()
+    got: list[bool] = []
+    waiting = threading.Thread(target=lambda: got.append(receiver.wait()), daemon=True)
+    try:
+        waiting.start()
+        nudge()
+        _until(lambda: _word(page, 0, ring.SPINNING) == 1, "the nudged member spinning")
+        ring.stop_on_control(control, links[0].write, page, 0)
+        began = time.monotonic()
+        os.close(coordinator)
+        waiting.join(20.0)
+        assert got == [False] and time.monotonic() - began < 20.0
+        assert _word(page, 0, ring.STOPPED) == 1 and _word(page, 0, ring.SPINNING) == 0
+    finally:
+        nudge.close()
+        receiver.close()
+        os.close(control)
+
+
+def test_a_spinning_coordinator_sees_a_death_and_its_deadline(
+    links: list[ring.Link], page: ring.Page, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The coordinator spins as soon as it waits (eager: a core is free), up to 60 s
+    here; the watcher's STOPPED word ends that spin at the cycle's deadline and when an
+    answer pipe closes."""
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: True)
+    two = ring.Page.create(2)
+    assert two is not None
+    read, write = os.pipe()
+    back = ring.Return(links[1].read, (read,), 60.0, two, 1)
+    try:
+        assert back.taker is not None and back.taker.budget() > 0  # eager
+        ring.Giver(links[1].write, two, 1)()
+        assert back.wait(10.0) == links[1].read
+        began = time.monotonic()
+        assert back.wait(0.05) is None  # the deadline, not the 60 s spin
+        assert time.monotonic() - began < 20.0
+        threading.Timer(0.05, os.close, (write,)).start()
+        assert back.wait(30.0) == read  # a process died: its answer pipe closed
+        write = -1
+    finally:
+        back.close()
+        two.close()
+        os.close(read)
+        if write >= 0:
+            os.close(write)
+
+
+def test_an_eager_spin_follows_what_recent_waits_took(
+    links: list[ring.Link], page: ring.Page, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    free = [True]
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: free[0])
+    taker = ring.Taker(links[0].read, page, 0, 2e-3, eager=True)
+    try:
+        taker.recent = 10_000  # short waits: the floor
+        assert taker.budget() == ring.SPIN_FLOOR_NS
+        taker.recent = 300_000  # twice that, within the 2 ms cap
+        assert taker.budget() == 600_000
+        taker.recent = 1_500_000  # a wait that long is better slept
+        assert taker.budget() == 0
+        taker.recent, free[0], taker.left = 10_000, False, 0  # no core free: no spin
+        assert taker.budget() == 0
+    finally:
+        taker.close()
+    assert ring.Taker(links[1].read, page, 1, 2e-3, eager=False).budget() == 0

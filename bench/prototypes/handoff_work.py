@@ -100,7 +100,7 @@ def main() -> int:
     parser.add_argument("--force", action="store_true")
     args = parser.parse_args()
     if args.force:
-        ring.Load.core_free = lambda self: True  # type: ignore[method-assign]
+        ring.Load.core_free = lambda self, spinners=0: True  # type: ignore[method-assign]
     rows = []
     for _ in range(args.rounds):  # interleaved: a burst of other work hits every row alike
         for work in (0.0, 25.0, 100.0, 200.0):

@@ -345,6 +345,8 @@ class LaunchedHarness(BlockView):
         transport: str = "shm",
         ring: bool = True,
         spin: float | None = None,
+        turns: bool = True,
+        dedicated: bool = False,
     ) -> None:
         package_dir = Path(package_dir).resolve()
         hooks = Path(hooks_dir).resolve() if hooks_dir is not None else None
@@ -375,6 +377,8 @@ class LaunchedHarness(BlockView):
             transport=transport,
             ring=ring,  # False: the coordinator's request and answer (bench/bench_lockstep.py)
             spin=spin,  # seconds a ring member spins before it blocks (None: where cores allow)
+            turns=turns,  # False: the ring spins on its eventfds, no turn words (the bench)
+            dedicated=dedicated,  # spin without looking at the load (cores of its own)
         )
         self.launcher.start()
         try:

@@ -45,7 +45,7 @@ from .contract import (
 )
 from .override import latch_safe
 from .realtime import apply as apply_realtime
-from .ring import Nudge, Receiver, give, stop_on_control
+from .ring import Giver, Nudge, Page, Receiver, stop_on_control
 from .state_time import PAUSED, StateClock, clocks
 from .transport import Local, Transport
 
@@ -804,21 +804,33 @@ def serve(process: Process, requests: int, replies: int) -> None:
 
 
 def serve_ring(
-    process: Process, control: int, replies: int, link: tuple[int, int], spin: float
+    process: Process,
+    control: int,
+    replies: int,
+    link: tuple[int, int],
+    spin: float,
+    turns: tuple[int, int] | None = None,
+    dedicated: bool = False,
 ) -> None:
     """Run `process` in a lockstep ring (rcs/ring.py): a whole cycle each time the token
     comes on `link[0]`, then the token on to `link[1]`; until the coordinator writes on
     (or closes) the `control` pipe. With the token, it nudges the next member, which then
-    spins for it (where `spin` > 0 and a core is free)."""
-    receiver, last = Receiver(link[0], spin), len(process.plan.modules) - 1
-    nudge = Nudge(link[1], spin)
-    stop_on_control(control, link[0])
+    spins for it (where `spin` > 0 and a core is free). `turns`: the ring's page (its fd)
+    and this member's place in the ring, where the token is a turn word (ring.Page);
+    `dedicated`: spin without looking at the machine's load (ring.Load)."""
+    page = Page(turns[0]) if turns is not None else None
+    at = turns[1] if turns is not None else 0
+    receiver = Receiver(link[0], spin, page, at, dedicated)
+    nudge, give = Nudge(link[1], spin, page, at + 1, dedicated), Giver(link[1], page, at + 1)
+    last = len(process.plan.modules) - 1
+    stop_on_control(control, link[0], page, at)
     os.write(replies, READY)
     while receiver.wait():
         nudge()
         run_segment(process, 0, last, True, time.perf_counter_ns())
-        give(link[1])
+        give()
     nudge.close()
+    receiver.close()
     if process.io is not None:
         process.io.close()
     process.beat(STOPPED)

@@ -61,8 +61,16 @@ from ..loop import (
 )
 from ..override import latch_safe
 from ..realtime import RealtimeRefused
-from ..ring import Link, Nudge, Return, close_links, default_spin, new_links
-from ..ring import give as hand_on
+from ..ring import (
+    Giver,
+    Link,
+    Nudge,
+    Page,
+    Return,
+    close_links,
+    default_spin,
+    new_links,
+)
 from ..transport import PLAINTEXT, Security, TransportError, check_endpoint
 from .command import (
     Command,
@@ -150,6 +158,15 @@ class Plans(Mapping[str, ProcessPlan]):
 # ---------------------------------------------------------------- one process
 
 
+def ring_args(text: str) -> tuple[tuple[int, int], float, tuple[int, int] | None, bool]:
+    """`--ring READ,WRITE,SPIN,PAGE,AT,DEDICATED` (what `Launcher._spawn` writes) as
+    serve_ring's arguments: the link's two fds, the spin, the page's fd and this member's
+    place (None where PAGE is -1: no page), whether to spin whatever the load."""
+    read, write, spin, page, at, dedicated = text.split(",")
+    turns = (int(page), int(at)) if int(page) >= 0 else None
+    return (int(read), int(write)), float(spin), turns, dedicated == "1"
+
+
 def run_process(system: System, args: argparse.Namespace) -> int:
     """`python -m <system> PROCESS ...`: one process, as the launcher's child or by hand."""
     plan = system.plans[args.process]
@@ -176,9 +193,7 @@ def run_process(system: System, args: argparse.Namespace) -> int:
             return 1
         try:
             if args.ring:
-                read, write, spin = args.ring.split(",")
-                link = (int(read), int(write))
-                serve_ring(process, sys.stdin.fileno(), sys.stdout.fileno(), link, float(spin))
+                serve_ring(process, sys.stdin.fileno(), sys.stdout.fileno(), *ring_args(args.ring))
             else:
                 serve(process, sys.stdin.fileno(), sys.stdout.fileno())
         except (OSError, EOFError):  # the coordinator's end of the pipe is gone (BrokenPipeError)
@@ -393,6 +408,8 @@ class Launcher:
         security: Security = PLAINTEXT,
         ring: bool = True,
         spin: float | None = None,
+        turns: bool = True,
+        dedicated: bool = False,
     ) -> None:
         self.system = system
         self.segment = segment or system.default_segment
@@ -412,8 +429,14 @@ class Launcher:
         # coordinator's request and answer per process (kept to measure one against the other)
         self.ring = ring and lockstep and transport != "zenoh"
         self.links: list[Link] = []  # the ring's: process i waits on i, hands on to i + 1
+        # and its turn words (rcs/ring.py Page), or with `turns=False` none: the ring then
+        # spins on its eventfds (kept to measure one against the other)
+        self.turns = turns
+        self.page: Page | None = None
         self.order = [name for name, *_ in system.segments()]
         self.spin = default_spin() if spin is None else spin
+        # the ring's cores are its own (isolated CPUs): spin without looking at the load
+        self.dedicated = dedicated
         self.settings, self.simulate = list(settings), list(simulate)
         self.restart, self.python = restart, python
         self.world = dict(world or {})  # world fields to start from, over their initial values
@@ -451,6 +474,7 @@ class Launcher:
                     block_when_congested=self.lockstep,
                 )
             self.links = new_links(len(self.order) + 1) if self.ring else []
+            self.page = Page.create(len(self.links)) if self.links and self.turns else None
             for name in self.processes:
                 self.children[name] = Child(name, self._spawn(name, attach=True))
             if not self.lockstep and self.net is None:
@@ -509,7 +533,10 @@ class Launcher:
         if self.links:  # the fds keep their numbers in the child (pass_fds)
             at = self.order.index(name)
             ring = (self.links[at].read, self.links[at + 1].write)
-            command += ["--ring", f"{ring[0]},{ring[1]},{self.spin!r}"]
+            page = -1 if self.page is None else self.page.fd
+            spin, dedicated = self.spin, int(self.dedicated)
+            command += ["--ring", f"{ring[0]},{ring[1]},{spin!r},{page},{at},{dedicated}"]
+            ring += () if self.page is None else (self.page.fd,)
         command += [] if self.pace else ["--fast"]
         command += ["--cycles", str(self.cycles)] if self.cycles is not None else []
         for item in self.settings:
@@ -653,6 +680,9 @@ class Launcher:
         self.children.clear()
         close_links(self.links)
         self.links = []
+        if self.page is not None:
+            self.page.close()
+            self.page = None
         if self.net is not None:  # each process's last word (STOPPED) or its leaving
             names, mirror = self.processes, self.net.mirror
             self.net.wait(
@@ -700,9 +730,19 @@ class Coordinator:
             self.answers = {
                 c.popen.stdout.fileno(): c for c in launcher.children.values() if c.popen.stdout
             }
-            self.waiter = Return(launcher.links[-1].read, list(self.answers), launcher.spin)
+            page, last = launcher.page, len(launcher.links) - 1
+            self.waiter = Return(
+                launcher.links[-1].read,
+                list(self.answers),
+                launcher.spin,
+                page,
+                last,
+                launcher.dedicated,
+            )
             launcher.on_stop.append(self.waiter.close)  # before it closes what is watched
-            self.nudge = Nudge(launcher.links[0].write, launcher.spin)  # the first, when back
+            self.hand_on = Giver(launcher.links[0].write, page, 0)
+            # the first process, as the token comes back
+            self.nudge = Nudge(launcher.links[0].write, launcher.spin, page, 0, launcher.dedicated)
             launcher.on_stop.append(self.nudge.close)
             self.beats = self._beats()
 
@@ -736,12 +776,12 @@ class Coordinator:
         """Cycles of the token ring: a process killed is lost as its answer pipe closes, one
         stopped (or stuck) when the token has not come back within `timeout`."""
         assert self.waiter is not None
-        first, done = self.launcher.links[0].write, self.launcher.links[-1].read
+        hand_on, done = self.hand_on, self.launcher.links[-1].read
         for _ in range(cycles):
             if self.broken or len(self.launcher.children) != len(self.answers):
                 self.broken = self.broken or "a process of the ring is not running"
                 raise ProcessLost(self.broken)
-            hand_on(first)
+            hand_on()
             woke = self.waiter.wait(self.timeout)
             if woke == done:
                 self.cycle += 1
