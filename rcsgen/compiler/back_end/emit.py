@@ -25,6 +25,7 @@ from ...runtime import contract
 from ...runtime.io_points import MODBUS_TCP, OPCUA
 from .. import ir
 from ..checks import naming
+from ..collector import no_collections
 from ..types import Enum, Type
 from .lower import DEFAULT_DEADLINE_PERIODS, MIN_DEFAULT_DEADLINE
 
@@ -192,7 +193,8 @@ def _with_safe_sources(system: ir.IRSystem) -> ir.IRSystem:
 
 def render_system(system: ir.IRSystem, env: jinja2.Environment | None = None) -> dict[str, str]:
     """Every file of one system's package, keyed by path relative to the output root."""
-    files = _render_system(_with_safe_sources(system), env or environment())
+    with no_collections():  # (Jinja's garbage: a few objects per file)
+        files = _render_system(_with_safe_sources(system), env or environment())
     for rel in files:  # the checker validated every name a path is made of; make sure
         if not _OUTPUT_PATH.fullmatch(rel):
             raise ValueError(f"internal error: unsafe output path {rel!r}")
