@@ -8,6 +8,7 @@ in verbatim under a header. Every file of every system is rendered and formatted
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import subprocess
@@ -61,6 +62,11 @@ LINE_LENGTH = 100  # of generated code (the formatter's setting, RUFF_FORMAT_ARG
 def docstring(text: str, indent: int = 0) -> str:
     """A docstring literal for user text: triple-quoted when plainly safe, else `repr`; lines
     longer than the generated code's line length are wrapped at spaces."""
+    return _docstring(str(text), indent)
+
+
+@functools.lru_cache(maxsize=4096)  # the same docs recur in every module (textwrap is slow)
+def _docstring(text: str, indent: int) -> str:
     width = LINE_LENGTH - indent - 3  # room for the quotes
     lines = []
     for line in str(text).strip().splitlines():
