@@ -323,4 +323,4 @@ def solve(
         # `search` calls itself through its closure: a reference cycle that would keep this
         # question's domains and guards alive until the cyclic collector ran. Broken here,
         # they are freed at once (and a build can run without that collector).
-        del search
+        search = None  # type: ignore[assignment]
