@@ -146,26 +146,7 @@ def plan_outputs(
     for rel, text in sorted(files.items()):
         target = out_dir / rel
         system, _, inner = rel.partition("/")
-        folder = out_dir / system
-        linked = [p for p in (folder, target) if p.is_symlink()] if folders[system].linked else []
-        if not linked and target.is_symlink():
-            linked = [target]
-        for part in linked:
-            diags.error(Span(str(part)), "E301", f"refusing to write through symlink `{part}`")
-        if linked:  # one cause: no follow-up E302/E304 for where the link happens to point
-            continue
-        if folders[system].not_a_directory:
-            diags.error(
-                Span(str(folder)),
-                "E303",
-                f"`{folder}` exists and is not a directory",
-                "move it away: rcsgen puts the system's package there",
-            )
-            continue
-        if not _real(target, resolved).is_relative_to(root):
-            diags.error(
-                Span(str(target)), "E302", f"output path `{rel}` leaves the output directory"
-            )
+        if _refused(target, rel, out_dir / system, folders[system], (root, resolved), diags):
             continue
         if not os.path.lexists(target):
             write[target] = text
@@ -206,6 +187,39 @@ def plan_outputs(
                 delete.append(path)
     _check_writable(write, delete, out_dir, diags)
     return Plan(write, delete, unchanged, old)
+
+
+def _refused(
+    target: Path,
+    rel: str,
+    folder: Path,
+    state: _Folder,
+    inside: tuple[Path, dict[Path, Path]],
+    diags: Diagnostics,
+) -> bool:
+    """Whether `target` may not be written, after saying why: a symbolic link on the way
+    (E301), its system's folder not a directory (E303), a path leaving the output root
+    `inside[0]` (E302; `inside[1]` keeps the directories resolved so far)."""
+    linked = [p for p in (folder, target) if p.is_symlink()] if state.linked else []
+    if not linked and target.is_symlink():
+        linked = [target]
+    for part in linked:
+        diags.error(Span(str(part)), "E301", f"refusing to write through symlink `{part}`")
+    if linked:  # one cause: no follow-up E302/E304 for where the link happens to point
+        return True
+    if state.not_a_directory:
+        diags.error(
+            Span(str(folder)),
+            "E303",
+            f"`{folder}` exists and is not a directory",
+            "move it away: rcsgen puts the system's package there",
+        )
+        return True
+    root, resolved = inside
+    if not _real(target, resolved).is_relative_to(root):
+        diags.error(Span(str(target)), "E302", f"output path `{rel}` leaves the output directory")
+        return True
+    return False
 
 
 @dataclass(frozen=True)
