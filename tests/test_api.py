@@ -136,3 +136,25 @@ def test_import_rcsgen_loads_nothing_else() -> None:
 
 def test_the_package_is_marked_typed() -> None:
     assert (Path(rcsgen.__file__).parent / "py.typed").is_file()
+
+
+def test_checking_leaves_no_cyclic_garbage_and_restores_the_collector() -> None:
+    """The front end runs with the cyclic collector off (rcsgen/compiler/collector.py): that
+    is safe only while it makes no reference cycles it drops (the solver's self-calling
+    search was one), and the collector must be back on afterwards."""
+    import gc
+
+    rcsgen.check(MINER)  # (first: imports and caches, which stay alive)
+    gc.collect()
+    gc.set_debug(gc.DEBUG_SAVEALL)
+    try:
+        result = rcsgen.check(MINER)
+        assert gc.isenabled()
+        gc.collect()
+        found = len(gc.garbage)  # (with DEBUG_SAVEALL: what every collection found, kept)
+        kinds = sorted({type(item).__qualname__ for item in gc.garbage})
+    finally:
+        gc.set_debug(0)
+        gc.garbage.clear()
+    assert result.systems and not result.diagnostics.errors
+    assert found == 0, f"cyclic garbage left by the front end: {kinds}"

@@ -6,11 +6,9 @@ one controller. Sub-directories (scenarios, hook packages) are not read here.
 
 from __future__ import annotations
 
-import contextlib
 import functools
-import gc
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -20,6 +18,7 @@ from .checks import acknowledge
 from .checks.check import check_system
 from .checks.properties import check_properties
 from .codes import Severity
+from .collector import no_collections
 from .diagnostics import Diagnostics, Span, SpecError
 from .front_end import fragments, instances, model
 from .front_end.loader import LocDict, PathProblem, load_file, path_problem
@@ -384,28 +383,10 @@ def _controller_spec(
     return model.build_controller(data, shown)
 
 
-# The front end makes millions of small objects, most of which live until it ends: with
-# Python's default thresholds the cyclic collector runs ~2,000 times over a 1,000-controller
-# system (its full passes over an ever larger heap) for ~15 % of the front end's time, and
-# frees little. A larger first generation lets it run ~100 times; peak memory is unchanged.
-GC_THRESHOLD = 20_000
-
-
-@contextlib.contextmanager
-def fewer_collections() -> Iterator[None]:
-    """Run the cyclic garbage collector less often inside (restored on the way out)."""
-    before = gc.get_threshold()
-    gc.set_threshold(max(before[0], GC_THRESHOLD), *before[1:])
-    try:
-        yield
-    finally:
-        gc.set_threshold(*before)
-
-
 def compile_paths(paths: list[Path], progress: Progress = _quiet, analyse: bool = True) -> Frontend:
     """Run the front end over every system found in `paths`; never raises on bad input.
     `progress` is told what each long stage is doing; `analyse` as for `load_system`."""
-    with fewer_collections():
+    with no_collections():
         return _compile_paths(paths, progress, analyse)
 
 

@@ -317,4 +317,10 @@ def solve(
                 return answer
         return None
 
-    return search(0, {}) or (maybe[0] if maybe else Answer(Verdict.NO, size=size))
+    try:
+        return search(0, {}) or (maybe[0] if maybe else Answer(Verdict.NO, size=size))
+    finally:
+        # `search` calls itself through its closure: a reference cycle that would keep this
+        # question's domains and guards alive until the cyclic collector ran. Broken here,
+        # they are freed at once (and a build can run without that collector).
+        search = None  # type: ignore[assignment]

@@ -419,7 +419,10 @@ class GuardBuilder:
             g.invariants[f"plan {plan}"] = self.within_capacity(plan)
         self._atom(g, key)
         g.numeric.setdefault(key, (kind, set()))[1].add(bound)
-        return lambda val: None if (v := val.get(key)) is None else compare(v, bound)
+        # A whole bound compared as an int: the same answer, without Fraction's slow
+        # comparison for every valuation of an integer variable.
+        limit = int(bound) if bound.denominator == 1 else bound
+        return lambda val: None if (v := val.get(key)) is None else compare(v, limit)
 
     def _linear(self, e: expr.Expr, types: dict[Key, solver.Number]) -> Linear | None:
         """`e` as a linear form over numeric variables with exact coefficients, else None."""

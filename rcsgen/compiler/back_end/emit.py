@@ -8,6 +8,7 @@ in verbatim under a header. Every file of every system is rendered and formatted
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import subprocess
@@ -25,6 +26,7 @@ from ...runtime import contract
 from ...runtime.io_points import MODBUS_TCP, OPCUA
 from .. import ir
 from ..checks import naming
+from ..collector import no_collections
 from ..types import Enum, Type
 from .lower import DEFAULT_DEADLINE_PERIODS, MIN_DEFAULT_DEADLINE
 
@@ -60,6 +62,11 @@ LINE_LENGTH = 100  # of generated code (the formatter's setting, RUFF_FORMAT_ARG
 def docstring(text: str, indent: int = 0) -> str:
     """A docstring literal for user text: triple-quoted when plainly safe, else `repr`; lines
     longer than the generated code's line length are wrapped at spaces."""
+    return _docstring(str(text), indent)
+
+
+@functools.lru_cache(maxsize=4096)  # the same docs recur in every module (textwrap is slow)
+def _docstring(text: str, indent: int) -> str:
     width = LINE_LENGTH - indent - 3  # room for the quotes
     lines = []
     for line in str(text).strip().splitlines():
@@ -192,7 +199,8 @@ def _with_safe_sources(system: ir.IRSystem) -> ir.IRSystem:
 
 def render_system(system: ir.IRSystem, env: jinja2.Environment | None = None) -> dict[str, str]:
     """Every file of one system's package, keyed by path relative to the output root."""
-    files = _render_system(_with_safe_sources(system), env or environment())
+    with no_collections():  # (Jinja's garbage: a few objects per file)
+        files = _render_system(_with_safe_sources(system), env or environment())
     for rel in files:  # the checker validated every name a path is made of; make sure
         if not _OUTPUT_PATH.fullmatch(rel):
             raise ValueError(f"internal error: unsafe output path {rel!r}")

@@ -404,15 +404,13 @@ class _ControllerLowering:
         guard = operand = None
         if not rule.unconditional and rule.guard is not None:
             text = rule.guard_text or ""
-            guard = self.expression(rule.guard, text)
-            operand = expr.to_python_conjunct(rule.guard, naming.attribute, self.inline)
+            tested = rule.guard
             if rule.hold is not None:
                 # its counter already counts the cycles `when` held: test only the timers
                 rest = untimed(rule.guard)[1]
                 tested = rest[0] if len(rest) == 1 else expr.BoolOp(BOOL, "and", rest)
-                python = expr.to_python(tested, naming.attribute, self.inline)
-                guard = ir.IRExpr(rule.guard, text, python)
-                operand = expr.to_python_conjunct(tested, naming.attribute, self.inline)
+            python, operand = expr.to_python_and_conjunct(tested, naming.attribute, self.inline)
+            guard = ir.IRExpr(rule.guard, text, python)
         return ir.IRRule(
             id=rule.id,
             span=rule.span,

@@ -35,7 +35,7 @@ from .nodes import (
     text_problem_of,
     walk,
 )
-from .printer import to_python, to_python_conjunct
+from .printer import to_python, to_python_and_conjunct, to_python_conjunct
 from .resolve import Scope, compile_expr, did_you_mean_attr, offset_span
 
 __all__ = [
@@ -71,6 +71,7 @@ __all__ = [
     "substitute",
     "text_problem_of",
     "to_python",
+    "to_python_and_conjunct",
     "to_python_conjunct",
     "walk",
 ]

@@ -34,6 +34,14 @@ def to_python_conjunct(
     return _Printer(name_of, predicates).wrap(expr, _PRECEDENCE["and"])
 
 
+def to_python_and_conjunct(
+    expr: Expr, name_of: Callable[[Ref], str], predicates: Mapping[str, Expr] | None = None
+) -> tuple[str, str]:
+    """`to_python` and `to_python_conjunct` of `expr`, printed once."""
+    text, level = _Printer(name_of, predicates).text(expr)
+    return text, f"({text})" if level < _PRECEDENCE["and"] else text
+
+
 class _Printer:
     def __init__(self, name_of: Callable[[Ref], str], predicates: Mapping[str, Expr] | None):
         self.name_of = name_of

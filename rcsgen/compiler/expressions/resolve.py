@@ -12,6 +12,7 @@ from __future__ import annotations
 import ast
 import functools
 import math
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
@@ -599,7 +600,8 @@ def _parse(text: str, span: Span, diags: Diagnostics) -> ast.Expression | None:
     nesting beyond MAX_DEPTH (E102)."""
     if "\n" in text.strip() or "\r" in text:
         text = " ".join(text.split())
-    odd = next((i for i, ch in enumerate(text.strip()) if not _ascii_text(ch)), None)
+    found = _NOT_TEXT.search(text.strip())  # (a character loop in Python was slower)
+    odd = found.start() if found else None
     if odd is not None:  # Python would accept (and NFKC-fold) non-ASCII identifiers
         char = text.strip()[odd]
         diags.error(
@@ -657,9 +659,8 @@ def _parsed(text: str) -> ast.Expression | None:
     return tree if _depth(tree.body) <= MAX_DEPTH else None
 
 
-def _ascii_text(char: str) -> bool:
-    """Printable ASCII or a tab: everything an expression is written with."""
-    return " " <= char <= "~" or char == "\t"
+# Anything but printable ASCII or a tab: an expression is written with those only.
+_NOT_TEXT = re.compile(r"[^\t -~]")
 
 
 def _depth(node: ast.AST) -> int:

@@ -18,7 +18,7 @@ import pathlib
 import re
 import stat
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import yaml
 
@@ -151,6 +151,10 @@ class _Frame:
         return isinstance(self.container, LocDict) and not self.has_key
 
 
+_STARTS = (yaml.MappingStartEvent, yaml.SequenceStartEvent)
+_ENDS = (yaml.MappingEndEvent, yaml.SequenceEndEvent)
+
+
 class _Builder:
     """Builds located values from parser events, collecting diagnostics."""
 
@@ -170,9 +174,15 @@ class _Builder:
     def feed(self, event: yaml.Event) -> None:
         mark = event.start_mark
         span = Span(self.path, mark.line + 1, mark.column + 1) if mark else Span(self.path)
+        kind = type(event)
         if type(event) is yaml.ScalarEvent:  # most events: first, and checked inline
             tagged = event.tag is not None or event.anchor is not None
             self.scalar(event, span, tagged and self.check_node(event, span))
+        elif kind in _STARTS:  # then the containers, by exact class (isinstance costs more)
+            self.start(cast(yaml.CollectionStartEvent, event), span, kind is _STARTS[0])
+        elif kind in _ENDS:
+            frame = self.stack.pop()
+            self.attach(frame.container, frame.container.span, frame.reported)
         elif isinstance(event, yaml.DocumentStartEvent):
             self.documents += 1
             if self.documents > 1:
@@ -185,17 +195,21 @@ class _Builder:
         elif isinstance(event, yaml.ScalarEvent):
             self.scalar(event, span, self.check_node(event, span))
         elif isinstance(event, yaml.CollectionStartEvent):
-            if len(self.stack) >= MAX_DEPTH:
-                hint = f"at most {MAX_DEPTH} nested mappings and sequences are allowed"
-                self.diags.error(span, "E007", "nesting is too deep", hint)
-                self.stopped = True
-                return
-            mapping = isinstance(event, yaml.MappingStartEvent)
-            container = LocDict(span) if mapping else LocList(span)
-            self.stack.append(_Frame(container, self.check_node(event, span)))
+            self.start(event, span, isinstance(event, yaml.MappingStartEvent))
         elif isinstance(event, yaml.CollectionEndEvent):
             frame = self.stack.pop()
             self.attach(frame.container, frame.container.span, frame.reported)
+
+    def start(self, event: yaml.CollectionStartEvent, span: Span, mapping: bool) -> None:
+        """A mapping or sequence begins: a frame to fill (E007 past MAX_DEPTH)."""
+        if len(self.stack) >= MAX_DEPTH:
+            hint = f"at most {MAX_DEPTH} nested mappings and sequences are allowed"
+            self.diags.error(span, "E007", "nesting is too deep", hint)
+            self.stopped = True
+            return
+        container = LocDict(span) if mapping else LocList(span)
+        tagged = event.tag is not None or event.anchor is not None
+        self.stack.append(_Frame(container, tagged and self.check_node(event, span)))
 
     def check_node(self, event: yaml.ScalarEvent | yaml.CollectionStartEvent, span: Span) -> bool:
         """Report a tag or an anchor on a node; True when something was reported."""
