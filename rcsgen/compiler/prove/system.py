@@ -10,13 +10,12 @@ each leaf below it within k cycles, and an ERROR of a leaf reaches the root with
 
 from __future__ import annotations
 
-import gc
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from .. import ir
+from ..collector import no_collections
 from . import numbers, timers, user
 from . import properties as props
 from .adapter import DONE, ERROR, Skeleton, operator_outcomes, placement, skeleton
@@ -112,23 +111,8 @@ def prove(
 ) -> SystemProof:
     """Explore every controller of `system` and check its properties (`only`: the
     controller named and the ones below it, whose contracts it needs)."""
-    with _no_cycle_collection():
+    with no_collections():
         return _prove(system, hosts or {}, limit, only)
-
-
-@contextmanager
-def _no_cycle_collection() -> Iterator[None]:
-    """The cyclic garbage collector off while proving: the models are tens of thousands of
-    small tuples, all alive until the end, which every collection would walk again - nearly
-    half the time of an exploration. They hold no reference cycles (reference counting frees
-    them); whatever cyclic garbage is made meanwhile is collected once it is back on."""
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was:
-            gc.enable()
 
 
 def _prove(system: ir.IRSystem, hosts: dict[str, str], limit: int, only: str | None) -> SystemProof:
