@@ -11,9 +11,12 @@ at once. Variants take turns every `--chunk` system cycles (in alternating order
 other work on the machine hits them alike; reported: CPU ns per system cycle (median over
 turns), and the median of the turn-by-turn differences to "as generated". What a variant
 saves is what that work costs; what "all out" keeps is the modules' own reads, tables and
-writes, and the hooks.
+writes, and the hooks. With `--against DIR`, another checkout's generated/miner (its own
+rcs/ and templates, this tree's hooks) takes its turns too, unchanged: a before/after side
+by side (`--only` leaves the ablations out).
 
     .venv/bin/python bench/prototypes/system_ablation.py [--chunk 400] [--reps 30]
+        [--against /work/main [--only]]
 """
 
 from __future__ import annotations
@@ -125,13 +128,20 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--chunk", type=int, default=400, help="system cycles per turn")
     parser.add_argument("--reps", type=int, default=30, help="turns of each variant")
+    parser.add_argument("--against", type=Path, help="another checkout, side by side")
+    parser.add_argument("--only", action="store_true", help="with --against: no ablations")
     args = parser.parse_args()
+    chosen = dict(list(VARIANTS.items())[:1] if args.only else VARIANTS)
     with tempfile.TemporaryDirectory(prefix="system_ablation-") as scratch:
         variants = {}
-        for name, (edited, patches) in VARIANTS.items():
+        for name, (edited, patches) in chosen.items():
             path = package(Path(scratch), f"v{len(variants)}", no_perf if edited else None)
             repeater = bench_system.Repeater(bench_system.SCENARIO, path)
             variants[name] = Variant(repeater, patches)
+        if args.against is not None:
+            other = args.against.resolve() / "generated" / "miner"
+            repeater = bench_system.Repeater(bench_system.SCENARIO, other)
+            variants[f"{args.against} as generated"] = Variant(repeater, ())
         names = list(variants)
         found: dict[str, list[float]] = {name: [] for name in names}
         for turn in range(args.reps + 1):
@@ -148,9 +158,11 @@ def main() -> int:
         print(f"{args.reps} turns of {args.chunk} system cycles each; CPU ns per system cycle")
         for name in names:
             saved = [b - a for a, b in zip(found[name], base, strict=True)]
+            ratio = [a / b for a, b in zip(found[name], base, strict=True)]
             print(
                 f"{name:32s} {statistics.median(found[name]) / 1000:7.1f} µs"
-                f"  saves {statistics.median(saved) / 1000:+6.1f} µs (median of turn pairs)"
+                f"  saves {statistics.median(saved) / 1000:+6.1f} µs,"
+                f" {statistics.median(ratio):.3f}x (medians of turn pairs)"
             )
     return 0
 
