@@ -13,6 +13,7 @@ from rcsgen.compiler.back_end.emit import comment, docstring
 from rcsgen.compiler.frontend import compile_paths
 
 SPECS = Path(__file__).resolve().parent.parent / "specs"
+REPO = SPECS.parent
 
 
 @pytest.mark.parametrize(
@@ -55,3 +56,26 @@ def test_a_command_is_timed_just_when_one_of_its_rules_waits() -> None:
         )
         for c in timed
     )
+
+
+def test_the_block_words_a_module_stores_are_named_in_lowering() -> None:
+    """Each sequence word a controller stores (its status, each subordinate's command, each
+    world field it writes, its performance buffer) is named once, by the back end, from
+    the layout offset it is the index of; the template renders the names and composes
+    none (co commands three subordinates; pss writes three world fields)."""
+    system = next(s for s in compile_paths([SPECS / "miner"]).systems if s.name == "miner")
+    io = {c.name: c.io for c in system.controllers}
+    co, pss = io["co"], io["pss"]
+    assert co is not None and pss is not None
+    assert co.status_word == "CO_STATUS_WORD" and co.perf_word == "CO_PERF_WORD"
+    assert co.sub_words == {s: f"{s.upper()}_COMMAND_WORD" for s in co.sub_words}
+    assert sorted(co.sub_words) == ["cc", "cr", "vg"]
+    assert pss.world_seq_words == (
+        ("WORLD_POSE_X_WORD", "WORLD_POSE_Y_WORD", "WORLD_HEADING_WORD"),
+    )
+    for each in (co, pss):
+        names = [name for name, _ in each.stored_words]
+        assert names[0] == each.status_word and names[-1] == each.perf_word
+        assert all(at.removesuffix("_AT") + "_WORD" == w for w, at in each.stored_words)
+    template = (REPO / "templates" / "controller.py.j2").read_text(encoding="utf-8")
+    assert "_WORD" not in template.replace("SEQ_WORDS", "")

@@ -211,6 +211,26 @@ def test_one_runtime_check_decides_what_fits_a_hooks_targets(
     assert "returned" not in text and "is_real" not in text
 
 
+def test_the_fast_check_of_a_usual_result_agrees_with_the_check_value_by_value() -> None:
+    """A tuple of exactly float/int/bool is accepted without a call per value: for every
+    mix of awkward values (NaN, infinities, sums that overflow, ints at and past int64,
+    bools for ints, ints for floats, a Fraction) the answer is the one of each target's own
+    test, value by value."""
+    from itertools import product
+
+    from rcsgen.runtime.contract import kind_fits, result_fits
+
+    big = 1.7e308
+    values = [0.5, -big, big, float("nan"), float("inf"), -float("inf"), 3, 2**63 - 1]
+    values += [-(2**63), 2**63, -(2**63) - 1, True, False, Fraction(1, 3)]
+    for kinds in ("ff", "if", "fib", "bfff"):
+        tests = [kind_fits(token) for token in kinds]
+        for value in product(values, repeat=len(kinds) if len(kinds) < 4 else 2):
+            value = value + (1.0,) * (len(kinds) - len(value))
+            expected = all(test(v) for test, v in zip(tests, value, strict=True))
+            assert result_fits(kinds)(value) is expected, (kinds, value)
+
+
 def test_other_numeric_types_that_are_numbers_are_accepted(hooked: Path) -> None:
     """A Fraction (like a numpy float) is a real number: fine for a float target; a bool is
     not a number there, and not an int either."""

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import statistics
 import subprocess
 import sys
@@ -55,13 +56,13 @@ def extract(revision: str, into: Path) -> None:
     (into / "generated/miner").rename(into / "miner_before")
     mine = into / "miner_hooks_before/mine.py"  # its maps: the system directory's
     text = mine.read_text(encoding="utf-8")
-    mine.write_text(
-        text.replace(
-            "SYSTEM_DIR = Path(__file__).resolve().parent.parent",
-            f"SYSTEM_DIR = Path({str(ROOT / 'specs/miner')!r})",
-        ),
-        encoding="utf-8",
+    # however the revision finds it (pathlib once, os.path now): one line naming the directory
+    text, found = re.subn(
+        r"^SYSTEM_DIR = .*$", f"SYSTEM_DIR = {str(ROOT / 'specs/miner')!r}", text, flags=re.M
     )
+    if found != 1:
+        raise SystemExit(f"{revision}: no SYSTEM_DIR line in miner_hooks/mine.py to point here")
+    mine.write_text(text, encoding="utf-8")
 
 
 def functions(module: types.ModuleType) -> dict[str, types.FunctionType]:

@@ -183,7 +183,14 @@ class ModuleIO:
     slots: tuple[str, ...] = ()
     inputs: Gathered | None = None
     world_outputs: tuple[Gathered, ...] = ()
-    world_seq_at: tuple[tuple[str, ...], ...] = ()
+    # The sequence words it stores, as (name, the layout offset it is the index of: `name =
+    # offset >> 3`): its status, each subordinate's command, its world fields', its
+    # performance buffer; and the name each write uses.
+    stored_words: tuple[tuple[str, str], ...] = ()
+    status_word: str = ""
+    perf_word: str = ""
+    sub_words: dict[str, str] = field(default_factory=dict)  # subordinate -> its command's
+    world_seq_words: tuple[tuple[str, ...], ...] = ()  # each world run's fields'
     world_values: tuple[tuple[str, ...], ...] = ()
     world_names: tuple[tuple[str, ...], ...] = ()  # each run's fields: their override records
     command_targets: tuple[str, ...] = ()

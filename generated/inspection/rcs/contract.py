@@ -12,6 +12,7 @@ import numbers
 import sys
 import weakref
 from collections.abc import Callable
+from math import isfinite
 from struct import Struct
 from types import CodeType, ModuleType
 from typing import Any, ClassVar, NamedTuple, TypeVar
@@ -697,7 +698,28 @@ def result_fits(kinds: str) -> Callable[[Any], bool]:
                 return False
         return True
 
-    return fits
+    if not set(tokens) <= set(_EXACT):
+        return fits
+    # The usual result, a tuple of exactly the targets' Python types (float, int, bool), is
+    # accepted with a few C calls: its types at once, each int's range, and the sum of its
+    # values finite (a NaN or an infinity in it is not; a sum that overflowed falls
+    # through); any other result gets the check above, which accepts all this one does.
+    shape = tuple(_EXACT[token] for token in tokens)
+    ints = tuple(index for index, token in enumerate(tokens) if token == "i")
+
+    def exact_fits(result: Any) -> bool:
+        if type(result) is tuple and tuple(map(type, result)) == shape:
+            for index in ints:
+                if not INT_MIN <= result[index] <= INT_MAX:
+                    return False
+            if isfinite(sum(result)):
+                return True
+        return fits(result)
+
+    return exact_fits
+
+
+_EXACT = {"f": float, "i": int, "b": bool}  # a kind token -> the type its usual value has
 
 
 def plan_problem(steps: object, kinds: str, capacity: int) -> str:

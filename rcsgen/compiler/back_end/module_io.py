@@ -225,6 +225,10 @@ def controller_io(c: ir.IRController, layout: ir.Layout, placement: Placement) -
     resume_texts = _texts([*status_fields, *sub_all])
     written = [*status_fields, *sub_all, *_world_texts(worlds)]
     runtime = _runtime_names(c, read, resume_texts, written, own_status)
+    commands = {s.name: f"{s.prefix}_COMMAND_AT" for s in c.subordinates}
+    # the sequence words it stores, in this order: status, commands, world fields, performance
+    stored = [f"{own}_STATUS_AT", *commands.values(), *(at for r in worlds for at in r.seq_at)]
+    stored.append(f"{own}_PERF_AT")
     return ir.ModuleIO(
         own=own,
         imports=_ordered(_layout_imports(c, own, worlds, own_status)),
@@ -232,7 +236,11 @@ def controller_io(c: ir.IRController, layout: ir.Layout, placement: Placement) -
         slots=_slots(c, [*command, *_targets(status_fields), *mode, *perf, *_targets(sub_all)]),
         inputs=read,
         world_outputs=tuple(run.gathered for run in worlds),
-        world_seq_at=tuple(run.seq_at for run in worlds),
+        stored_words=tuple((word_name(at), at) for at in stored),
+        status_word=word_name(f"{own}_STATUS_AT"),
+        perf_word=word_name(f"{own}_PERF_AT"),
+        sub_words={name: word_name(at) for name, at in commands.items()},
+        world_seq_words=tuple(tuple(map(word_name, run.seq_at)) for run in worlds),
         world_values=tuple(run.gathered.packed for run in worlds),
         world_names=tuple(
             tuple(t.removeprefix("self.world_") for t in run.gathered.targets if t != "_")
@@ -250,6 +258,12 @@ def controller_io(c: ir.IRController, layout: ir.Layout, placement: Placement) -
         resume_texts=resume_texts,
         world_set_rules=world_set_rules(c),
     )
+
+
+def word_name(at: str) -> str:
+    """The name of the block word (an index of rcs.contract.words) at a layout offset
+    named `at`: CO_STATUS_AT -> CO_STATUS_WORD."""
+    return at.removesuffix("_AT") + "_WORD"
 
 
 def _targets(fields: Iterable[Field]) -> tuple[str, ...]:

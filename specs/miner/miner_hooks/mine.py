@@ -18,6 +18,7 @@ import random
 
 CELL = 0.25  # metres
 DRUM_RADIUS = 0.5  # metres: the drum reaches this far either side of its centre
+RADIUS_SQUARED = DRUM_RADIUS**2
 DRUM_HALF_WIDTH = 1.6  # metres: the drum spans the entry
 DRUM_HEIGHT = 0.4  # fraction of the seam the drum covers
 ROOF_ANGLE, FLOOR_ANGLE = 30.0, -10.0  # degrees: drum top at the roof, bottom on the floor
@@ -158,13 +159,17 @@ def _make_grid(mine: Mine) -> None:
 
 def _levels(mine: Mine, x: float, boom_angle: float) -> list[tuple[int, float]]:
     """(column, the level the drum cuts it down to) for each map column under the drum: the
-    level its round bottom reaches over a column is the same in every row."""
+    level its round bottom reaches over a column is the same in every row. `_wedge` is
+    written out in it, the same arithmetic (~1 us less a call of `cut_coal` that moved)."""
     height = (boom_angle - FLOOR_ANGLE) / (ROOF_ANGLE - FLOOR_ANGLE)
     bottom = max(0.0, min(1.0, height) * (1.0 - DRUM_HEIGHT))
     levels = []
-    for c in _span(x - DRUM_RADIUS, x + DRUM_RADIUS, mine.x0):
-        if 0 <= c < mine.columns:  # no coal cell outside the map
-            level = min(1.0, bottom + _wedge(mine, x, c))
+    x0, columns = mine.x0, mine.columns
+    for c in _span(x - DRUM_RADIUS, x + DRUM_RADIUS, x0):
+        if 0 <= c < columns:  # no coal cell outside the map
+            offset = x0 + (c + 0.5) * CELL - x  # _wedge(mine, x, c):
+            wedge = (DRUM_RADIUS - math.sqrt(max(0.0, RADIUS_SQUARED - offset**2))) / SEAM_HEIGHT
+            level = min(1.0, bottom + wedge)
             levels.append((c, 0.0 if level < CUT_THROUGH else level))
     return levels
 
