@@ -56,6 +56,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_instances",
             "test_io_checks",
             "test_loader",
+            "test_monitor_panels",
             "test_new",
             "test_operator_task_checks",
             "test_periodicity",
