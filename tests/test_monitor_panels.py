@@ -624,10 +624,9 @@ def test_a_state_time_row_ranks_the_states_and_bolds_the_one_it_is_in() -> None:
         "cycles": "1000",
         "states": "S1 80%  S0 15%  NOP 5%",
     }
-    bold = [
-        cells["states"].plain[s.start : s.end] for s in cells["states"].spans if s.style == "bold"
-    ]
-    assert bold == ["S1 80%"]
+    states = cells["states"]
+    styled = [(states.plain[s.start : s.end], str(s.style)) for s in states.spans]
+    assert styled == [("S1 80%", "bold")]  # the others plain
     many = {f"S{i}": float(20 - i) for i in range(9)}  # 20 19 ... 12: six shown, three summed
     crowded = monitor_state_time.row_of("sup", {"time_in_state": many})
     assert crowded["states"].plain == (
@@ -659,6 +658,9 @@ def test_the_rows_panels_draw_their_headers_and_only_what_changed(cell: ModuleTy
             got["state headers"] = [str(c.label) for c in states.columns.values()]
             got["device headers"] = [str(c.label) for c in tank.columns.values()]
             got["names"] = states.names
+            got["display"] = [
+                (p.cursor_type, p.show_cursor, p.zebra_stripes) for p in (states, tank)
+            ]
             got["blank"] = [cell_text(tank, "tank", k).plain for k, _ in monitor_devices.COLUMNS]
             updates: list[tuple[str, str]] = []
             original = states.update_cell
@@ -697,6 +699,8 @@ def test_the_rows_panels_draw_their_headers_and_only_what_changed(cell: ModuleTy
         "last error",
         "answered",
     ]
+    # a panel to read, not to act on: no cursor to move, every row on the same background
+    assert got["display"] == [("none", False, False)] * 2
     assert got["names"] == ["arm", "sup"]  # in the tree's order, those with a state clock
     assert got["blank"] == ["tank"] + [""] * 9  # not drawn yet: empty, not made up
     assert sorted(got["first"]) == sorted(
