@@ -61,7 +61,11 @@ def test_a_replay_takes_the_settings_of_the_scenario_that_recorded_the_trace(
         None,
     )
     assert folder == SPECS / "inspection" and name == "machine_fault"
-    assert settings == {"program": "programs/bracket.ipg", "part": "parts/nominal.part", "seed": "1"}
+    assert settings == {
+        "program": "programs/bracket.ipg",
+        "part": "parts/nominal.part",
+        "seed": "1",
+    }
     folder, settings, name = recording_scenario(
         system,  # type: ignore[arg-type]
         SPECS,
