@@ -57,7 +57,7 @@ def trace(cycles: list[int] | None = None, **over: Any) -> Trace:
     return made
 
 
-LANES = [Lane("a", "the arm", 2), Lane("b", "", 1, simulator=True, runs_as="a")]
+LANES = [Lane("a", "the arm", 2, runs_as="a"), Lane("b", "", 1, simulator=True, runs_as="a")]
 
 
 def data(t: Trace, lanes: list[Lane] = LANES) -> dict[str, Any]:
@@ -125,6 +125,10 @@ def test_a_status_changes_run_when_only_its_reason_or_cause_changes() -> None:
     shown = [got["strings"][i] for i in got["lanes"][0]["status"][1::3]]
     assert shown == ["ERROR(TIMED_OUT)", "ERROR(REFUSED)", "ERROR(REFUSED <- b: LOST)"]
     assert got["lanes"][0]["status"][0::3] == [0, 2, 3]
+    del a["cause"]  # a trace recorded before causes were: none shown
+    got = data(t, LANES[:1])
+    shown = [got["strings"][i] for i in got["lanes"][0]["status"][1::3]]
+    assert shown == ["ERROR(TIMED_OUT)", "ERROR(REFUSED)"]
 
 
 def test_a_trace_with_missing_cycles_gives_every_cycle_number() -> None:
