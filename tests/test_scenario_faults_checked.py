@@ -122,25 +122,23 @@ def test_a_wrong_answer_entry_is_the_one_error_even_beside_a_default(
     ]
 
 
+MINIMAL = "scenario: s\ntitle: A scenario\nmax_cycles: 20\n"
+
+
 def test_a_scenario_out_of_a_system_directory_or_of_one_that_does_not_build(
     tmp_path: Path,
 ) -> None:
-    lone = tmp_path / "lone.yaml"
-    lone.write_text("scenario: s\ntitle: A scenario\nmax_cycles: 20\n")
-    scenario, found = check_scenario(lone)
-    assert scenario is None
-    assert [(d.code, d.hint) for d in found.errors] == [
-        ("E403", "keep scenarios in the system's scenarios/ directory")
-    ]
-    assert found.errors[0].message.startswith("no system.yaml above `")
-    assert found.errors[0].message.endswith("lone.yaml`")
-    (tmp_path / "system.yaml").write_text("system: broken\nprocesses: 3\n")
-    (tmp_path / "scenarios").mkdir()
-    inside = tmp_path / "scenarios" / "s.yaml"
-    inside.write_text("scenario: s\ntitle: A scenario\nmax_cycles: 20\n")
-    scenario, found = check_scenario(inside)
-    assert scenario is None
-    assert [(d.code, d.message) for d in found.errors] == [
-        ("E403", "the system this scenario runs does not build")
-    ]
-    assert found.errors[0].hint.startswith("run `rcsgen validate ")
+    (tmp_path / "lone.yaml").write_text(MINIMAL)
+    (tmp_path / "sys" / "scenarios").mkdir(parents=True)
+    (tmp_path / "sys" / "system.yaml").write_text("system: broken\nprocesses: 3\n")
+    (tmp_path / "sys" / "scenarios" / "s.yaml").write_text(MINIMAL)
+    said = {}
+    for name in ("lone.yaml", "sys/scenarios/s.yaml"):
+        scenario, found = check_scenario(tmp_path / name)
+        assert scenario is None and len(found.errors) == 1
+        said[name] = found.errors[0]
+    lone, inside = said["lone.yaml"], said["sys/scenarios/s.yaml"]
+    assert (lone.code, lone.hint) == ("E403", "keep scenarios in the system's scenarios/ directory")
+    assert lone.message.startswith("no system.yaml above `") and lone.message.endswith("lone.yaml`")
+    assert (inside.code, inside.message) == ("E403", "the system this scenario runs does not build")
+    assert inside.hint.startswith("run `rcsgen validate ")
