@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from rcsgen.tools.traces import mine
+from rcsgen.tools.traces import mine, player
 from rcsgen.tools.traces.read import Lane, Trace
 
 
@@ -131,3 +131,10 @@ def test_the_page_data_holds_the_map_the_machine_and_the_top_levels() -> None:
     }
     assert data["cycles"] == [10, 11, 12, 13] and data["speed"] == 4
     assert data["mismatch"] == result.mismatch
+
+
+def test_the_replay_page_holds_its_data_where_no_text_can_close_its_script() -> None:
+    page = player.page("mine", "run <1> · miner", {}, {"said": "</script><b>", "n": 2})
+    assert "<title>run &lt;1&gt; · miner</title>" in page
+    assert '{"n":2,"said":"<\\/script><b>"}' in page
+    assert "{{" not in page

@@ -24,11 +24,11 @@ commands:
         - when: arm.status == ERROR
           do: [{report: ERROR}]
         - use: common
+  NOTE: a command written as text, not a table (passed over; the next are still read)
   HALT:
     states:
       S0:
         - do: [{send: arm.HALT}]
-  NOTE: a command written as text, not a table
 """
 ARM = "controller: arm\ncommands:\n  GO:\n    states:\n      S0:\n        - do: [{report: DONE}]\n"
 SYSTEM = "system: tiny\nprocesses:\n  p: {modules: [sup, arm]}\n  q: {modules: [arm]}\n"
