@@ -9,6 +9,7 @@ test_monitor run the same screen against a real segment and real processes.
 from __future__ import annotations
 
 import asyncio
+import re
 from collections.abc import Awaitable, Callable
 from pathlib import Path
 from types import ModuleType, SimpleNamespace
@@ -19,6 +20,7 @@ import pytest
 pytest.importorskip("textual")
 
 from rich.text import Text  # noqa: E402
+from test_monitor import screen_text  # noqa: E402
 from textual.widgets import DataTable, Input, Static  # noqa: E402
 
 from rcsgen.runtime.operate.ctl import CtlError  # noqa: E402
@@ -231,6 +233,7 @@ def test_the_screen_shows_every_module_world_field_and_process_as_read(cell: Mod
         got["processes"] = static_text(app, "#processes")
         got["title"] = app.sub_title
         got["panels"] = [w.id for w in app.query(RowsPanel)]
+        got["footer"] = screen_text(app).rstrip().splitlines()[-1]
 
     console = on_screen(cell, look)
     assert got["headers"] == [
@@ -264,6 +267,10 @@ def test_the_screen_shows_every_module_world_field_and_process_as_read(cell: Mod
     assert got["processes"] == "cell: running, 120 cycles, beat 0.01s ago, 2 overruns, slow x4"
     assert got["title"] == "cell on seg_cellseg (monitor only)"
     assert got["panels"] == ["periodicity", "state_time"]  # cell declares no devices
+    keys = ("stop", "run", "step", "simulate", "slower", "faster", "send command")
+    for said_in_footer in (*keys, "answer request", "quit"):
+        assert re.search(rf"(?<!\w){said_in_footer}(?!\w)", got["footer"]), got["footer"]
+    assert "close form" not in got["footer"]  # escape: said in the form, not the footer
     assert console.calls[0] == ("snapshot", ("arm_x", "arm_speed"))
 
 
@@ -555,7 +562,7 @@ def test_a_request_is_answered_at_once_or_through_the_task_form(cell: ModuleType
         got["field"] = said(app).plain
         await pilot.press("down", "down", "a")  # exe: its task, through the form
         got["placeholder"], got["value"] = form.placeholder, form.value
-        for typed in ("DONE grams=12", "ERROR JAMMED", "ERROR", "DONE grams", "ERROR A B"):
+        for typed in ("DONE grams=12 ok=yes", "ERROR JAMMED", "ERROR", "DONE grams", "ERROR A B"):
             app.action_answer()  # as `a`, then the form typed in and submitted (enter)
             form.value = typed
             app.on_input_submitted(Input.Submitted(form, typed))
@@ -577,7 +584,7 @@ def test_a_request_is_answered_at_once_or_through_the_task_form(cell: ModuleType
     assert got["value"] == "DONE"
     wrong = "answer weigh with DONE [NAME=VALUE ...] or ERROR [REASON]"
     assert got["said"] == [
-        "answered weigh: weigh #5 DONE grams=12",
+        "answered weigh: weigh #5 DONE grams=12 ok=yes",
         "answered weigh: weigh #5 ERROR (JAMMED)",
         "answered weigh: weigh #5 ERROR",
         wrong,
@@ -587,7 +594,7 @@ def test_a_request_is_answered_at_once_or_through_the_task_form(cell: ModuleType
     assert got["bare"] == "weigh WEIGH: DONE | ERROR [REASON]  reasons: none"
     assert got["calls"] == [
         ("answer", "arm_x"),
-        ("answer_channel", "weigh", "DONE", "", (("grams", "12"),)),
+        ("answer_channel", "weigh", "DONE", "", (("grams", "12"), ("ok", "yes"))),
         ("answer_channel", "weigh", "ERROR", "JAMMED", ()),
         ("answer_channel", "weigh", "ERROR", "", ()),
         ("answer", "arm_x"),
@@ -599,8 +606,11 @@ def test_closing_the_screen_stops_its_refresh_and_closes_the_console(cell: Modul
 
     async def look(app: monitor.Monitor, console: FakeConsole, pilot: Any) -> None:
         held["app"] = app
+        await pilot.press("q")
+        held["code"] = app.return_code
 
     console = on_screen(cell, look)
+    assert held["code"] == 0  # `q`: the screen ends
     before = len(console.calls)
     held["app"].refresh_rows()  # after unmount: reads nothing
     assert console.calls[before - 1] == ("close",) and len(console.calls) == before
