@@ -55,7 +55,8 @@ def trace(**world: list[Any]) -> Trace:
         "rule": [None, None],
     }
     base = {"pos_x": [0.0, 500.0], "pos_y": [0.0, 100.0], "announcement": ["", "ice ahead"]}
-    return Trace("t.jsonl", [1, 2], ["cc", "x"], {"cc": column, "x": column}, base | world)
+    modules = ["cc", "helm", "prop", "sm", "x"]
+    return Trace("t.jsonl", [1, 2], modules, dict.fromkeys(modules, column), base | world)
 
 
 def test_the_scene_is_the_runs_own_keels_route_and_haven(tmp_path: Path) -> None:
@@ -111,7 +112,8 @@ def test_the_page_data_and_a_trace_the_view_cannot_draw(tmp_path: Path) -> None:
         "announcement": [0, 0, 1, 1],  # runs over the page's strings
     }
     assert data["strings"][:2] == ["", "ice ahead"]
-    assert [c["module"] for c in data["controllers"]] == ["cc"]
+    # the command controller's, ship maneuver's, helm's and propulsion's, in that order
+    assert [c["module"] for c in data["controllers"]] == ["cc", "sm", "helm", "prop"]
     assert {k: data[k] for k in ("source", "system", "scenario", "period", "speed", "n")} == {
         "source": "t.jsonl",
         "system": "sub",
