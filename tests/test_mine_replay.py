@@ -80,6 +80,15 @@ def test_the_replay_cuts_the_cells_under_the_drum_and_finds_the_first_disagreeme
     bare = SimpleNamespace(make=Mine, cut_coal=cut_coal)  # no CELL: a quarter metre
     assert mine.replay(trace(), bare, "make", {}).cell == 0.25  # type: ignore[arg-type]
 
+    def barren(settings: dict[str, str]) -> Mine:
+        made = Mine(settings)
+        made.seam = {}
+        return made
+
+    empty = SimpleNamespace(make=barren, cut_coal=cut_coal)  # no coal at all: one cell
+    got = mine.replay(trace(), empty, "make", {})  # type: ignore[arg-type]
+    assert (got.rows, got.columns) == (1, 1)
+
 
 def test_a_trace_without_the_drums_fields_is_refused_naming_them() -> None:
     short = trace()

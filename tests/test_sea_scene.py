@@ -78,7 +78,7 @@ def test_the_scene_is_the_runs_own_keels_route_and_haven(tmp_path: Path) -> None
 
 
 def test_the_plan_is_drawn_in_a_frame_around_the_track_keels_and_route(tmp_path: Path) -> None:
-    found = sea.Scene([(100.0, 200.0, 50.0)], [(0.0, 0.0), (1000.0, 0.0)], [(500.0, 300.0)], 250.0)
+    found = sea.Scene([(100.0, 200.0, 50.0)], [(0.0, 0.0), (1000.0, 0.0)], [(500.0, 300.0)], 250.3)
     f = sea.frame(trace(), found)
     # x from 0 to 1000, y from 0 to 200; 400 m of margin and the widest keel's 50 around
     assert (f.x0, f.y1, f.scale, f.width, f.height) == (-450.0, 650.0, 0.4, 760, 440)
@@ -93,7 +93,7 @@ def test_the_plan_is_drawn_in_a_frame_around_the_track_keels_and_route(tmp_path:
         '<circle class="waypoint" cx="580.0" cy="260.0" r="4"/>'
         '<circle class="alternate" cx="380.0" cy="140.0" r="4"/>'
         '<polyline id="track" points="180.0,260.0 380.0,220.0"/>'
-        '<rect id="haven" width="200.0" height="200.0"/>'
+        '<rect id="haven" width="200.2" height="200.2"/>'  # 2 x 250.3 m at 0.4 px/m
         '<g id="ship"><path d="M 0 -9 L 5 6 L 0 3 L -5 6 Z"/></g></svg>'
     )
     no_haven = sea.svg(trace(), sea.Scene([], [], [], None), f)
@@ -131,3 +131,19 @@ def test_the_page_data_and_a_trace_the_view_cannot_draw(tmp_path: Path) -> None:
         "t.jsonl lacks the world fields the sea view needs: pos_y; add them to the scenario's "
         "`trace: world:` list and run it again"
     )
+
+
+def test_a_page_is_drawn_from_the_trace_and_the_hooks_of_the_system_that_ran(
+    tmp_path: Path,
+) -> None:
+    folder = tmp_path / f"s_{tmp_path.name}"
+    folder.mkdir()
+    (folder / "system.yaml").write_text("system: sub\n")
+    sub = system(folder)
+    sub.source = f"{folder.name}/system.yaml"
+    page = sea.page_for(trace(), sub, tmp_path, tmp_path / "t.jsonl", None)
+    assert "<title>t.jsonl · sub: the transit among the ice</title>" in page
+    assert '<svg id="sea" width="760" height=' in page  # the plan, drawn in the page
+    assert '"scenario":""' in page and '"haven":250.0' in page
+    alone = sea.render(trace(), sub, folder, {})  # no scenario named: none said
+    assert '"scenario":""' in alone
