@@ -125,6 +125,15 @@ def test_the_page_data_holds_the_map_the_machine_and_the_top_levels() -> None:
         "floor_angle": -10.0,
         "seam": 2.0,
     }
+    bare = SimpleNamespace(make=Mine, cut_coal=cut_coal)  # the hooks declare no sizes
+    assert mine.payload(t, lanes, result, bare, system, "")["machine"] == {  # type: ignore[arg-type]
+        "drum_radius": 0.5,
+        "drum_half_width": 1.6,
+        "drum_height": 0.4,
+        "roof_angle": 30.0,
+        "floor_angle": -10.0,
+        "seam": 2.0,
+    }
     assert data["world"]["jack_down"] == [1, 0, 1, 1]
     assert data["world"]["loose_coal"] == [0.0, 1.0, 2.0, None]
     assert data["world"]["drum_on_cmd"] == [0, 1, 1, 1]
