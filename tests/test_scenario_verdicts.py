@@ -13,7 +13,8 @@ from typing import Any
 from rcsgen.compiler.diagnostics import Span
 from rcsgen.tools.scenario.model import Expected, Scenario
 from rcsgen.tools.scenario.run import RunResult
-from rcsgen.tools.scenario.runs import stale_package, unmet_expectations
+from rcsgen.tools.scenario.runs import golden_differences, stale_package, unmet_expectations
+from rcsgen.tools.traces import full_lines
 
 AT = Span("s.yaml", 7, 3)
 HINT = "if the scenario is meant to end this way, change its `expect:`"
@@ -96,3 +97,15 @@ def test_a_stale_package_names_the_files_that_differ(tmp_path: Path) -> None:
     assert six is not None and "m5.py differ from" in six.message and "more" not in six.message
     none = SimpleNamespace(write=[tmp_path / "elsewhere.py"], delete=[])
     assert stale_package(none, tmp_path / "gen", "cell") is None  # type: ignore[arg-type]
+
+
+def test_a_run_against_its_golden_trace_same_or_the_first_cycle_that_differs() -> None:
+    golden = Path(__file__).resolve().parent / "golden" / "cell" / "plan_ahead.jsonl"
+    lines = full_lines(golden)
+    assert golden_differences(golden, lines, "plan_ahead") == []
+    changed = [*lines[:3], lines[3].replace('"state":', '"state":"X", "was":', 1), *lines[4:]]
+    found = golden_differences(golden, changed, "plan_ahead")
+    assert [(d.code, d.span.line) for d in found] == [("E417", 4)]
+    assert found[0].message.startswith("the run differs from the golden trace: ")
+    assert found[0].hint.startswith("review the difference; to accept it: rcsgen run <scenario>")
+    assert found[0].hint.endswith("plan_ahead.jsonl") and " --record " in found[0].hint
