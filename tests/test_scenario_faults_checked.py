@@ -82,6 +82,12 @@ def test_a_plant_that_is_no_spec_directory_is_named_with_where_it_was_looked_for
         "name the directory of the system whose simulators run in the PLC, relative to "
         "this system's (e.g. ../miner)"
     )
+    # an unknown device first: the devices after it are still checked
+    both = said(tmp_path, hil, "devices:\n  plx: {}\n  plc: {plant: empty}\n")
+    assert [(c, m.split(":")[0]) for c, m, _ in both] == [
+        ("E426", "`miner_hil` has no I/O device `plx`"),
+        ("E426", "plant `empty` of device `plc` is not a spec directory"),
+    ]
     # a plant that is one: the scenario serves both devices
     (tmp_path / "plant").mkdir()
     (tmp_path / "plant" / "system.yaml").write_text("system: plant\n")
