@@ -563,7 +563,7 @@ def test_a_request_is_answered_at_once_or_through_the_task_form(cell: ModuleType
         await pilot.press("down", "down", "a")  # exe: its task, through the form
         got["placeholder"], got["value"] = form.placeholder, form.value
         for typed in ("DONE grams=12 ok=yes", "ERROR JAMMED", "ERROR", "DONE grams", "ERROR A B"):
-            app.action_answer()  # as `a`, then the form typed in and submitted (enter)
+            app.answering = "weigh"  # the form `a` opened for exe's task, typed into, enter
             form.value = typed
             app.on_input_submitted(Input.Submitted(form, typed))
             got.setdefault("said", []).append(said(app).plain)
