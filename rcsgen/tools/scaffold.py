@@ -217,7 +217,8 @@ def _add_subordinate(text: str, data: Any, name: str) -> str:
         if loader.key_span(data, key, Span("?")).line > title.line
     )
     at = (following[0] - 1) if following else len(lines)
-    while at > title.line and not lines[at - 1].strip():  # right after the title
+    # right after the title: above the blank lines and the comment that open the next key
+    while at > title.line and (not lines[at - 1].strip() or lines[at - 1].lstrip()[0] == "#"):
         at -= 1
     lines.insert(at, f"subordinates: [{name}]\n")
     return "".join(lines)

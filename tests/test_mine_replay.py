@@ -1,0 +1,158 @@
+"""The mine page's replay (rcsgen/tools/traces/mine.py) over a trace made by hand and a
+mine whose cut is a rule of thumb, in the unit tier: the map's size from its cells, the cells
+the drum cut cycle by cycle (a drum that has not moved is not cut again), where the replayed
+depth of cut first disagrees with the trace's, and the page's data (the map as text, the
+standing coal, the machine, the world's series, the top four levels' panel). test_mine_view
+replays the miner's golden traces through the real mine hooks."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+
+from rcsgen.tools.traces import mine, player
+from rcsgen.tools.traces.read import Lane, Trace
+
+
+class Mine:
+    def __init__(self, settings: dict[str, str]) -> None:
+        self.x0, self.y0 = 100.0, -2.0
+        self.seam = {(0, 0): 1.0, (0, 1): 1.0, (1, 0): 1.0, (1, 2): 0.5}
+        self.settings = settings
+
+
+def cut_coal(m: Mine, x: float, y: float, angle: float, on: bool) -> tuple[Any, ...]:
+    """Cuts the cell under the drum to a third when the drum turns; depth 0.1 m."""
+    if not on:
+        return None, None, 0.0, None
+    m.seam[(int(y), int(x))] = 1 / 3
+    return None, None, 0.1, None
+
+
+HOOKS = SimpleNamespace(make=Mine, cut_coal=cut_coal, CELL=0.5, DRUM_RADIUS=0.6)
+
+
+def trace(**world: list[Any]) -> Trace:
+    base = {
+        "true_x": [0.0, 0.0, 0.0, 1.0],
+        "true_y": [0.0, 0.0, 0.0, 0.0],
+        "true_heading": [0.0] * 4,
+        "boom_angle_true": [0.0, 0.0, 0.0, 5.0],
+        "drum_on_cmd": [False, True, True, True],  # cycle 12: the same drum, cut once
+        "depth_cut": [0.0, 0.1, 0.1, 0.2],
+    }
+    column = {
+        "command": ["INIT", "CUT", "CUT", "CUT"],
+        "command_num": [1, 2, 2, 2],
+        "status": ["DONE", "EXECUTING", "EXECUTING", "EXECUTING"],
+        "status_num": [1, 2, 2, 2],
+        "state": ["S0", "S1", "S1", "S1"],
+        "rule": [None] * 4,
+    }
+    return Trace(
+        "m.jsonl", [10, 11, 12, 13], ["co", "cd"], {"co": column, "cd": column}, base | world
+    )
+
+
+def test_the_replay_cuts_the_cells_under_the_drum_and_finds_the_first_disagreement() -> None:
+    result = mine.replay(trace(), HOOKS, "make", {"map": "m"})  # type: ignore[arg-type]
+    assert (result.x0, result.y0, result.cell, result.rows, result.columns) == (
+        100.0,
+        -2.0,
+        0.5,
+        2,
+        3,
+    )
+    assert result.seam == {(0, 0): 1.0, (0, 1): 1.0, (1, 0): 1.0, (1, 2): 0.5}  # as it began
+    assert result.cuts == [(1, 0, 0.3333), (3, 1, 0.3333)]  # (cycle index, r * columns + c)
+    assert result.mismatch == (
+        "cycle 13: the replayed depth of cut is 0.1 m, the trace's 0.2 m; was the trace "
+        "recorded with another map (--scenario)?"
+    )
+    agreeing = trace(depth_cut=[0.0, 0.1, 0.1, 0.1])
+    assert mine.replay(agreeing, HOOKS, "make", {}).mismatch is None  # type: ignore[arg-type]
+    untraced = {k: v for k, v in trace().world.items() if k != "depth_cut"}
+    plain = trace()
+    plain.world = untraced
+    assert mine.replay(plain, HOOKS, "make", {}).mismatch is None  # type: ignore[arg-type]
+    bare = SimpleNamespace(make=Mine, cut_coal=cut_coal)  # no CELL: a quarter metre
+    assert mine.replay(trace(), bare, "make", {}).cell == 0.25  # type: ignore[arg-type]
+
+    def barren(settings: dict[str, str]) -> Mine:
+        made = Mine(settings)
+        made.seam = {}
+        return made
+
+    empty = SimpleNamespace(make=barren, cut_coal=cut_coal)  # no coal at all: one cell
+    got = mine.replay(trace(), empty, "make", {})  # type: ignore[arg-type]
+    assert (got.rows, got.columns) == (1, 1)
+
+
+def test_a_trace_without_the_drums_fields_is_refused_naming_them() -> None:
+    short = trace()
+    short.world = {k: v for k, v in short.world.items() if k not in ("true_y", "drum_on_cmd")}
+    with pytest.raises(mine.MineError) as error:
+        mine.replay(short, HOOKS, "make", {})  # type: ignore[arg-type]
+    assert str(error.value) == (
+        "m.jsonl lacks the world fields the mine replay needs: true_y, drum_on_cmd; add them "
+        "to the scenario's `trace: world:` list and run it again"
+    )
+
+
+def test_the_page_data_holds_the_map_the_machine_and_the_top_levels() -> None:
+    t = trace(loose_coal=[0, 1, 2, float("nan")], jack_down=[True, False, True, True])
+    result = mine.replay(t, HOOKS, "make", {})  # type: ignore[arg-type]
+    system = SimpleNamespace(name="miner", title="The miner", cycle_period=0.1)
+    lanes = [Lane("co", level=2), Lane("cd", level=5), Lane("sim", level=1, simulator=True)]
+    data = mine.payload(t, lanes, result, HOOKS, system, "box_cut")  # type: ignore[arg-type]
+    assert data["map"] == {
+        "x0": 100.0,
+        "y0": -2.0,
+        "cell": 0.5,
+        "rows": 2,
+        "columns": 3,
+        "cells": "##.#.#",
+        "standing": {"5": 0.5},  # only what is not whole
+        "cuts": [1, 0, 0.3333, 3, 1, 0.3333],
+    }
+    assert data["machine"] == {
+        "drum_radius": 0.6,
+        "drum_half_width": 1.6,
+        "drum_height": 0.4,
+        "roof_angle": 30.0,
+        "floor_angle": -10.0,
+        "seam": 2.0,
+    }
+    bare = SimpleNamespace(make=Mine, cut_coal=cut_coal)  # the hooks declare no sizes
+    assert mine.payload(t, lanes, result, bare, system, "")["machine"] == {  # type: ignore[arg-type]
+        "drum_radius": 0.5,
+        "drum_half_width": 1.6,
+        "drum_height": 0.4,
+        "roof_angle": 30.0,
+        "floor_angle": -10.0,
+        "seam": 2.0,
+    }
+    assert data["world"]["jack_down"] == [1, 0, 1, 1]
+    assert data["world"]["loose_coal"] == [0.0, 1.0, 2.0, None]
+    assert data["world"]["drum_on_cmd"] == [0, 1, 1, 1]
+    assert list(data["world"]) == [*mine.REQUIRED, "loose_coal", "depth_cut", "jack_down"]
+    assert [c["module"] for c in data["controllers"]] == ["co"]  # level 5 and simulators not
+    assert {k: data[k] for k in ("source", "system", "title", "scenario", "period", "n")} == {
+        "source": "m.jsonl",
+        "system": "miner",
+        "title": "The miner",
+        "scenario": "box_cut",
+        "period": 0.1,
+        "n": 4,
+    }
+    assert data["cycles"] == [10, 11, 12, 13] and data["speed"] == 4
+    assert data["mismatch"] == result.mismatch
+
+
+def test_the_replay_page_holds_its_data_where_no_text_can_close_its_script() -> None:
+    page = player.page("mine", "run <1> · miner", {}, {"said": "</script><b>", "n": 2})
+    assert "<title>run &lt;1&gt; · miner</title>" in page
+    assert '{"n":2,"said":"<\\/script><b>"}' in page
+    assert "{{" not in page

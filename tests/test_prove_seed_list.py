@@ -1,0 +1,74 @@
+"""The seeded bugs `rcsgen prove`'s own check plants (rcsgen/tools/prove_seeds.py `seeds`),
+listed for a small system written by hand, in the unit tier: each send left out, an ERROR
+branch left out, a DONE echo read as "not ERROR", a HALT table removed, a supervisor run
+after its subordinate; each where it is, in words, and the file as it would be written.
+test_prove_seeds proves them (z3, slow)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import yaml
+
+from rcsgen.tools.prove_seeds import seeds
+
+SUP = """\
+controller: sup
+subordinates: [arm]
+commands:
+  RUN:
+    states:
+      S0:
+        - when: arm.status == DONE
+          do: [{send: arm.GO}, {set: {n: 1}}]
+        - when: arm.status == ERROR
+          do: [{report: ERROR}]
+        - use: common
+        - a line of text, not a rule
+  NOTE: a command written as text, not a table (passed over; the next are still read)
+  HALT:
+    states:
+      S0:
+        - do: [{send: arm.HALT}]
+"""
+ARM = "controller: arm\ncommands:\n  GO:\n    states:\n      S0:\n        - do: [{report: DONE}]\n"
+SYSTEM = "system: tiny\nprocesses:\n  p: {modules: [sup, arm]}\n  q: {modules: [arm]}\n"
+
+
+def test_every_seed_of_a_small_system_in_a_stable_order(tmp_path: Path) -> None:
+    directory = tmp_path / "tiny"
+    directory.mkdir()
+    for name, text in {"sup.yaml": SUP, "arm.yaml": ARM, "system.yaml": SYSTEM}.items():
+        (directory / name).write_text(text)
+    found = seeds(directory)
+    assert [(s.kind, s.system, s.file, s.controller, s.command, s.where) for s in found] == [
+        ("drop-send", "tiny", "sup.yaml", "sup", "RUN", "sup RUN/S0/1: send arm.GO left out"),
+        (
+            "forget-echo",
+            "tiny",
+            "sup.yaml",
+            "sup",
+            "RUN",
+            "sup RUN/S0/1: `arm.status == DONE` read as `arm.status != ERROR`",
+        ),
+        (
+            "drop-error-branch",
+            "tiny",
+            "sup.yaml",
+            "sup",
+            "RUN",
+            "sup RUN/S0/2: the ERROR branch `arm.status == ERROR` left out",
+        ),
+        ("drop-send", "tiny", "sup.yaml", "sup", "HALT", "sup HALT/S0/1: send arm.HALT left out"),
+        ("remove-halt", "tiny", "sup.yaml", "sup", "HALT", "sup: its HALT table left out"),
+        ("swap-order", "tiny", "system.yaml", "sup", "", "p: sup and arm swapped"),
+    ]
+    texts = [yaml.safe_load(s.text) for s in found]
+    run = lambda i: texts[i]["commands"]["RUN"]["states"]["S0"]  # noqa: E731
+    assert run(0)[0] == {"when": "arm.status == DONE", "do": [{"set": {"n": 1}}]}
+    assert run(1)[0]["when"] == "arm.status != ERROR"
+    assert run(2)[0]["when"] == "arm.status == DONE" and len(run(2)) == 3  # the branch gone
+    assert texts[3]["commands"]["HALT"]["states"]["S0"] == [{}]  # its only action gone
+    assert "HALT" not in texts[4]["commands"] and "RUN" in texts[4]["commands"]
+    assert texts[5]["processes"] == {"p": {"modules": ["arm", "sup"]}, "q": {"modules": ["arm"]}}
+    assert yaml.safe_load(SUP) == yaml.safe_load((directory / "sup.yaml").read_text())  # untouched

@@ -1,0 +1,68 @@
+"""`rcsgen run`'s steps around a run (rcsgen/tools/scenario/session.py), in the unit tier:
+the scenario checked against the system above it (or not, when that system does not build),
+the traces written or refused with E419, and an interrupted run's trace ended by a line
+saying so, with what was written said back."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rcsgen.tools.scenario.session import Ran, check, write_interrupted, write_traces
+from rcsgen.tools.traces import full_lines
+
+HERE = Path(__file__).resolve().parent
+SCENARIO = HERE.parent / "specs" / "cell" / "scenarios" / "plan_ahead.yaml"
+GOLDEN = HERE / "golden" / "cell" / "plan_ahead.jsonl"
+
+
+def test_a_scenario_is_checked_against_the_system_above_it() -> None:
+    checked = check(SCENARIO)
+    assert checked.system is not None and checked.system.name == "cell"
+    assert checked.scenario is not None and checked.scenario.name == "plan_ahead"
+    assert [len(d.errors) for d in checked.diagnostics] == [0, 0]  # the specs', the scenario's
+
+
+def test_a_system_that_does_not_build_leaves_the_scenario_unchecked(tmp_path: Path) -> None:
+    (tmp_path / "system.yaml").write_text("system: broken\nprocesses: 3\n")
+    (tmp_path / "scenarios").mkdir()
+    path = tmp_path / "scenarios" / "s.yaml"
+    path.write_text("scenario: s\ntitle: A scenario\nmax_cycles: 20\n")
+    checked = check(path)
+    assert checked.system is None and checked.scenario is None
+    assert len(checked.diagnostics) == 1 and checked.diagnostics[0].errors  # the specs' only
+
+
+def test_a_scenario_with_no_system_above_it_says_so(tmp_path: Path) -> None:
+    path = tmp_path / "s.yaml"
+    path.write_text("scenario: s\ntitle: A scenario\nmax_cycles: 20\n")
+    checked = check(path)
+    assert checked.system is None and checked.scenario is None
+    assert [d.code for batch in checked.diagnostics for d in batch.errors] == ["E403"]
+
+
+def test_traces_are_written_each_or_refused_each_with_e419(tmp_path: Path) -> None:
+    lines = full_lines(GOLDEN)[:3]
+    (tmp_path / "file").write_text("")  # where the trace's directory would be
+    good, bad = tmp_path / "out" / "t.jsonl", tmp_path / "file" / "t.jsonl"
+    problems = write_traces(lines, [good, bad])
+    assert full_lines(good) == lines
+    assert [(d.code, d.message) for d in problems] == [
+        ("E419", f"cannot write trace `{bad}`: File exists")
+    ]
+
+
+def test_an_interrupted_runs_trace_ends_with_a_line_saying_so(tmp_path: Path) -> None:
+    lines = full_lines(GOLDEN)[:2]
+    path = tmp_path / "t.jsonl"
+    said = write_interrupted(Ran(lines=list(lines)), path, "SIGINT")
+    assert said == f"{path} holds cycles 1-2 and a last line saying so"
+    assert full_lines(path)[-1] == '{"cycle":3,"interrupted":"SIGINT"}'
+    empty = tmp_path / "e.jsonl"
+    assert write_interrupted(Ran(lines=[]), empty, "SIGTERM") == (
+        f"{empty} holds only a line saying so"
+    )
+    (tmp_path / "file").write_text("")
+    refused = tmp_path / "file" / "t.jsonl"
+    assert write_interrupted(Ran(lines=[]), refused, "SIGTERM") == (
+        f"cannot write trace `{refused}`: File exists"
+    )
