@@ -87,7 +87,7 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI580xQII976x48s664x?")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI596xQII976x48s664x?")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -108,7 +108,7 @@ CC_PERF_WORD = CC_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Q48s")
 WORLD_VALUES_1 = Struct("<8x48s")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2168
+WORLD_OUT_1_AT = 2184
 WORLD_HELD_1 = (OVERRIDE["announcement"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -41,7 +41,7 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI52x???1xI224xQII952xq")
-INPUTS_AT = 968
+INPUTS_AT = 984
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 PROP_STATUS_WORD = PROP_STATUS_AT >> 3
@@ -55,7 +55,7 @@ PROP_PERF_WORD = PROP_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Qq")
 WORLD_VALUES_1 = Struct("<8xq")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2224
+WORLD_OUT_1_AT = 2240
 WORLD_HELD_1 = (OVERRIDE["shaft"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

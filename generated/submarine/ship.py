@@ -29,11 +29,11 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI416xd8xd112xq24xd8xq8x?31xd8xd8xd8xd8xd8xd8xd280xd")
-INPUTS_AT = 1608
+INPUTS_AT = 1624
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (201,)
+SEQ_WORDS = (203,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 SHIP_STATUS_WORD = SHIP_STATUS_AT >> 3
@@ -51,7 +51,7 @@ SHIP_PERF_WORD = SHIP_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQdQdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2320
+WORLD_OUT_1_AT = 2336
 WORLD_HELD_1 = (
     OVERRIDE["pos_x"],
     OVERRIDE["pos_y"],
@@ -173,7 +173,7 @@ class ShipController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[201] != values[0]:
+        if values[0] & 1 or not values[0] or words[203] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -315,7 +315,7 @@ class ShipController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[201] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[203] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

@@ -80,7 +80,7 @@ OOD_LINK = 8  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct(
-    "<QIdd52x???1xI216xQII8x?Q231xQII8xQ400xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd8xd"
+    "<QIdd52x???1xI232xQII8x?Q231xQII8xQ400xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd8xd"
 )
 INPUTS_AT = 424
 
@@ -105,7 +105,7 @@ SM_PERF_WORD = SM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQdQdQ?")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2088
+WORLD_OUT_1_AT = 2104
 WORLD_HELD_1 = (
     OVERRIDE["speed_cmd"],
     OVERRIDE["depth_cmd"],
@@ -119,7 +119,7 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<QdQqQ?")
 WORLD_VALUES_2 = Struct("<8xd8xq8x?")
 WORLD_SEQS_2 = Struct("<Q8xQ8xQ")
-WORLD_OUT_2_AT = 2256
+WORLD_OUT_2_AT = 2272
 WORLD_HELD_2 = (OVERRIDE["ballast"], OVERRIDE["planes"], OVERRIDE["mbt_blown"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -170,6 +170,8 @@ class SmController:
         "cycles",
         "dont_run",
         "error_num",
+        "helm_arg_from_x",
+        "helm_arg_from_y",
         "helm_arg_x",
         "helm_arg_y",
         "helm_cause",
@@ -274,9 +276,15 @@ class SmController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
-        _, self.helm_command_num, self.helm_command, self.helm_arg_x, self.helm_arg_y = (
-            HELM_COMMAND.unpack_from(buf, HELM_COMMAND_AT)
-        )
+        (
+            _,
+            self.helm_command_num,
+            self.helm_command,
+            self.helm_arg_x,
+            self.helm_arg_y,
+            self.helm_arg_from_x,
+            self.helm_arg_from_y,
+        ) = HELM_COMMAND.unpack_from(buf, HELM_COMMAND_AT)
         self.helm_written = self.helm_command_num
         _, self.prop_command_num, self.prop_command = PROP_COMMAND.unpack_from(buf, PROP_COMMAND_AT)
         self.prop_written = self.prop_command_num
@@ -428,6 +436,8 @@ class SmController:
                 self.helm_command,
                 self.helm_arg_x,
                 self.helm_arg_y,
+                self.helm_arg_from_x,
+                self.helm_arg_from_y,
             )
             words[HELM_COMMAND_WORD] = seq + 1
             self.helm_written = self.helm_command_num
@@ -662,6 +672,8 @@ class SmController:
             self.var_depth_reached = abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL
             self.helm_arg_x = self.arg_x
             self.helm_arg_y = self.arg_y
+            self.helm_arg_from_x = self.world_pos_x
+            self.helm_arg_from_y = self.world_pos_y
             self.helm_command = HELM_ICE_MANEUVER
             self.helm_command_num += 1
 
@@ -830,6 +842,8 @@ class SmController:
                 self.world_depth_cmd = PERISCOPE_DEPTH
                 self.helm_arg_x = self.arg_x
                 self.helm_arg_y = self.arg_y
+                self.helm_arg_from_x = self.world_haven_x
+                self.helm_arg_from_y = self.world_haven_y
                 self.helm_command = HELM_ICE_MANEUVER
                 self.helm_command_num += 1
                 self.prop_command = PROP_SHIFT_TO_EPM
