@@ -277,9 +277,15 @@ def test_engine_room_fire_phases_and_their_cycles():
         "DISENGAGED"
     }
     assert at(lines, asked[0][1] + 2)["world"]["shaft"] == "EPM"
-    # prepared: periscope depth at one-third on the EPM, steady on course, periscope raised
+    # ahead one-third while slowing; on the EPM ("prepared to answer bells on the EPM") the
+    # OOD orders ahead two-thirds, the cycle ship maneuver reads propulsion's DONE (4.1.3)
+    assert at(lines, slowing[0])["world"]["speed_cmd"] == 2.6
+    two_thirds = next(c for c in range(*slowing) if at(lines, c)["world"]["speed_cmd"] == 5.1)
+    assert two_thirds == asked[0][1] + 3
+    assert all(at(lines, c)["world"]["speed_cmd"] == 5.1 for c in range(two_thirds, prep_to + 1))
+    # prepared: periscope depth at two-thirds on the EPM, steady on course, periscope raised
     top = at(lines, prep_to)
-    assert abs(top["world"]["depth"] - 18.0) < 1.0 and abs(top["world"]["speed"] - 2.6) < 0.1
+    assert abs(top["world"]["depth"] - 18.0) < 1.0 and abs(top["world"]["speed"] - 5.1) < 0.1
     assert top["world"]["periscope_raised"] and top["world"]["shaft"] == "EPM"
     assert not any(
         line["world"]["periscope_raised"] for line in lines if line["cycle"] < prep_to - 1

@@ -821,8 +821,8 @@ class SmController:
     def prep_emergency_vent(self) -> None:
         """PREP_EMERGENCY_VENT: Prepare for emergency ventilation (sections 4.1.3, 4.7.1): clear
         baffles; then slow to ahead one-third and come to periscope depth steering for the
-        waypoint (x, y) while propulsion shifts to the EPM; at periscope depth, on course and on
-        the EPM, raise the periscope.
+        waypoint (x, y) while propulsion shifts to the EPM; on the EPM, ahead two-thirds; at
+        periscope depth, on course and at two-thirds, raise the periscope.
         """
         state = self.state
         if state == S0:
@@ -875,14 +875,19 @@ class SmController:
                 self.prop_command = PROP_HALT
                 self.prop_command_num += 1
 
+            elif self.prop_status == DONE and self.world_speed_cmd < EPM_SPEED:
+                # the EOOW is prepared to answer bells on the EPM: the OOD orders "Ahead two thirds", enough speed for depth and steering control (4.1.3)
+                self.rule = 26  # PREP_EMERGENCY_VENT/SLOWING/3
+                self.world_speed_cmd = EPM_SPEED
+
             elif (
                 abs(self.world_depth - PERISCOPE_DEPTH) < DEPTH_TOL
-                and abs(self.world_speed - ONE_THIRD_SPEED) < SPEED_TOL
+                and abs(self.world_speed - EPM_SPEED) < SPEED_TOL
                 and self.helm_result_at_goal
                 and self.prop_status == DONE
             ):
-                # at periscope depth and one-third speed, helm on course, on the EPM; raise the periscope
-                self.rule = 26  # PREP_EMERGENCY_VENT/SLOWING/3
+                # at periscope depth and ahead two-thirds on the EPM, helm on course; raise the periscope
+                self.rule = 27  # PREP_EMERGENCY_VENT/SLOWING/4
                 self.world_periscope_raised = True
                 self.state = NOP
                 self.status = DONE
@@ -890,7 +895,7 @@ class SmController:
 
         elif state == PROP_FAILED and self.helm_status != EXECUTING:
             # the helm has stopped; fail for propulsion's reason
-            self.rule = 27  # PREP_EMERGENCY_VENT/PROP_FAILED/1
+            self.rule = 28  # PREP_EMERGENCY_VENT/PROP_FAILED/1
             self.state = NOP
             self.status = ERROR
             # prop's reason, passed up by name (another: NONE)
@@ -901,7 +906,7 @@ class SmController:
 
         elif state == HELM_FAILED and self.prop_status != EXECUTING:
             # propulsion has stopped (the request withdrawn); fail
-            self.rule = 28  # PREP_EMERGENCY_VENT/HELM_FAILED/1
+            self.rule = 29  # PREP_EMERGENCY_VENT/HELM_FAILED/1
             self.state = NOP
             self.status = ERROR
 
@@ -912,7 +917,7 @@ class SmController:
         """
         state = self.state
         if state == S0:
-            self.rule = 29  # PREP_SUBMERGED_TRANSIT/S0/1
+            self.rule = 30  # PREP_SUBMERGED_TRANSIT/S0/1
             self.state = S1
             self.world_periscope_raised = False
             self.world_depth_cmd = TRANSIT_DEPTH
@@ -920,7 +925,7 @@ class SmController:
 
         elif state == S1 and abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL:
             # at transit depth
-            self.rule = 30  # PREP_SUBMERGED_TRANSIT/S1/1
+            self.rule = 31  # PREP_SUBMERGED_TRANSIT/S1/1
             self.state = NOP
             self.status = DONE
             self.cause = 0  # DONE has no cause
