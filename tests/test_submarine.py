@@ -639,16 +639,22 @@ def test_fresh_water_run_off_sinks_the_ship_until_variable_ballast_is_blown():
     scenario = load_scenario(SCENARIOS / "fresh_water_runoff.yaml")
     drop, back = (e.cycle for e in scenario.events if "water_density" in e.world)
     before = at(lines, drop - 1)["world"]
-    assert before["depth"] == 120.0 and before["ballast"] == 0.0
-    deepest = max(line["world"]["depth"] for line in lines)
+    assert before["depth"] == before["depth_gauge"] == 120.0 and before["ballast"] == 0.0
+    # two depths (4.6.4): the actual one and the depth sensor's, a pressure gauge calibrated
+    # for 1025 kg/m3 that reads shallow in the lighter water; the controllers read the gauge
+    for c in range(drop + 1, back):
+        w = at(lines, c)["world"]
+        assert w["depth_gauge"] == pytest.approx(w["depth"] * w["water_density"] / 1025.0)
+        assert w["depth"] - w["depth_gauge"] > 3.0
+    deepest = max(line["world"]["depth_gauge"] for line in lines)
     assert 120.0 + 5.0 < deepest < 130.0, "sank past what the planes hold, not far"
     blowing = [
         line["cycle"] for line in lines if line["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/5"
     ]
     assert blowing and all(drop < c < back for c in blowing)
-    for c in blowing:  # blown only while more than DEPTH_LIMIT deeper than ordered
-        assert at(lines, c - 1)["world"]["depth"] > 125.0
-    held = [at(lines, c)["world"]["depth"] for c in range(blowing[-1] + 30, back)]
+    for c in blowing:  # blown only while the gauge reads more than DEPTH_LIMIT deeper
+        assert at(lines, c - 1)["world"]["depth_gauge"] > 125.0
+    held = [at(lines, c)["world"]["depth_gauge"] for c in range(blowing[-1] + 30, back)]
     assert held and all(abs(d - 120.0) <= 1.0 for d in held)
     after = [line["world"]["depth"] for line in lines if line["cycle"] > back + 30]
     assert all(abs(d - 120.0) <= 1.0 for d in after), (
@@ -740,7 +746,7 @@ def test_a_depth_the_ballast_cannot_hold_is_the_ood_s_choice_and_he_chooses_the_
     assert final["status"] == "DONE"
     asked, answered = depth_casualty(lines)
     before = at(lines, asked - 1)["world"]
-    assert before["ballast"] == 20.0 and before["depth"] > 125.0, "ballast spent, still sinking"
+    assert before["ballast"] == 20.0 and before["depth_gauge"] > 125.0, "spent, still sinking"
     assert at(lines, asked)["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/8"
     assert at(lines, asked)["modules"]["sm"]["state"] == "DEPTH_ASKED"
     channel = at(lines, answered)["modules"]["ood/sm"]
@@ -752,8 +758,12 @@ def test_a_depth_the_ballast_cannot_hold_is_the_ood_s_choice_and_he_chooses_the_
     assert chose["modules"]["sm"]["state"] == "S1" and chose["world"]["planes"] == "FULL"
     deepest = max(ln["world"]["depth"] for ln in lines)
     assert deepest == max(at(lines, c)["world"]["depth"] for c in range(asked, answered + 2))
-    held = [ln["world"]["depth"] for ln in lines if answered + 60 <= ln["cycle"]]
-    assert held and all(abs(d - 120.0) <= 1.5 for d in held)
+    # held where full planes balance the sinking (1.5 m on the gauge; float rounding aside),
+    # and again once the sea is as dense as before (the gauge then reads the actual depth)
+    back = [e.cycle for e in load_scenario(SCENARIOS / "salinity_planes.yaml").events][-1]
+    held = [ln["world"]["depth_gauge"] for ln in lines if answered + 60 <= ln["cycle"] < back]
+    after = [ln["world"]["depth"] for ln in lines if back + 30 <= ln["cycle"]]
+    assert held and after and all(abs(d - 120.0) <= 1.5 + 1e-9 for d in held + after)
     assert not any(ln["world"]["mbt_blown"] for ln in lines)
     assert all(ln["modules"]["ood/sm"]["state"] == "NOP" for ln in lines[: asked - 1])
 

@@ -39,7 +39,7 @@ RUDDER_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdddd60x???1xI88xQI1364xd72xd8xd8xd88xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QIdddd60x???1xI88xQI1364xd72xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 688
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).

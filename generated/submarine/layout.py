@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4768 bytes.
+The block is 4808 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -98,97 +98,99 @@ command buffers and world fields:
 | 2368 | 16 | WORLD_HEADING | heading |
 | 2384 | 16 | WORLD_SPEED | speed |
 | 2400 | 16 | WORLD_DEPTH | depth |
-| 2416 | 16 | WORLD_BUBBLE | bubble |
-| 2432 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 2448 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 2464 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 2480 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 2496 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 2512 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 2528 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 2544 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 2560 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 2576 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 2592 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 2608 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 2624 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 2640 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 2656 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 2672 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 2688 | 16 | WORLD_CLEARANCE | clearance |
-| 2704 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 2720 | 16 | WORLD_WATER_DENSITY | water_density |
-| 2736 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
-| 2752 | 16 | WORLD_BELOW_KEEL | below_keel |
-| 2768 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
-| 2784 | 9 | WORLD_FIRE | fire |
-| 2800 | 16 | WORLD_SMOKE | smoke |
-| 2816 | 16 | WORLD_O2_PCT | o2_pct |
-| 2832 | 16 | WORLD_CO2_PCT | co2_pct |
-| 2848 | 16 | WORLD_VENT_LINEUP | vent_lineup |
-| 2864 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
-| 2880 | 16 | WORLD_CO_PPM | co_ppm |
-| 2896 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
-| 2912 | 9 | OVERRIDES | any |
-| 2928 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 2952 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 2976 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 3000 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 3024 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 3048 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 3112 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 3136 | 24 | OVERRIDE_COURSE | state, course |
-| 3160 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 3184 | 24 | OVERRIDE_PLANES | state, planes |
-| 3208 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
-| 3232 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 3256 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 3280 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 3304 | 24 | OVERRIDE_HEADING | state, heading |
-| 3328 | 24 | OVERRIDE_SPEED | state, speed |
-| 3352 | 24 | OVERRIDE_DEPTH | state, depth |
-| 3376 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 3400 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 3424 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 3448 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 3472 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 3496 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 3520 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3544 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3568 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3592 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3616 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3640 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3664 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3688 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3712 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3736 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3760 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3784 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3808 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3832 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 3856 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 3880 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 3904 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 3928 | 17 | OVERRIDE_FIRE | state, fire |
-| 3952 | 24 | OVERRIDE_SMOKE | state, smoke |
-| 3976 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
-| 4000 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
-| 4024 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
-| 4048 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
-| 4072 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 4096 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
-| 4120 | 96 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
-| 4216 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
-| 4328 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 4376 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
-| 4440 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 4512 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
-| 4568 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 4608 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 4648 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 4688 | 40 | TIME_SEA | state, since, NOP, S0 |
-| 4728 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 2416 | 16 | WORLD_DEPTH_GAUGE | depth_gauge |
+| 2432 | 16 | WORLD_BUBBLE | bubble |
+| 2448 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 2464 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 2480 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 2496 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 2512 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 2528 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 2544 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 2560 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 2576 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 2592 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 2608 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 2624 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 2640 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 2656 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 2672 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 2688 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 2704 | 16 | WORLD_CLEARANCE | clearance |
+| 2720 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 2736 | 16 | WORLD_WATER_DENSITY | water_density |
+| 2752 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
+| 2768 | 16 | WORLD_BELOW_KEEL | below_keel |
+| 2784 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
+| 2800 | 9 | WORLD_FIRE | fire |
+| 2816 | 16 | WORLD_SMOKE | smoke |
+| 2832 | 16 | WORLD_O2_PCT | o2_pct |
+| 2848 | 16 | WORLD_CO2_PCT | co2_pct |
+| 2864 | 16 | WORLD_VENT_LINEUP | vent_lineup |
+| 2880 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
+| 2896 | 16 | WORLD_CO_PPM | co_ppm |
+| 2912 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
+| 2928 | 9 | OVERRIDES | any |
+| 2944 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 2968 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 2992 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 3016 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 3040 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 3064 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 3128 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 3152 | 24 | OVERRIDE_COURSE | state, course |
+| 3176 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 3200 | 24 | OVERRIDE_PLANES | state, planes |
+| 3224 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
+| 3248 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 3272 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 3296 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 3320 | 24 | OVERRIDE_HEADING | state, heading |
+| 3344 | 24 | OVERRIDE_SPEED | state, speed |
+| 3368 | 24 | OVERRIDE_DEPTH | state, depth |
+| 3392 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
+| 3416 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 3440 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 3464 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3488 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3512 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3536 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3560 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3584 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3608 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3632 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3656 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3680 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3704 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3728 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3752 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3776 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3800 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3824 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3848 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3872 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3896 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3920 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 3944 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 3968 | 17 | OVERRIDE_FIRE | state, fire |
+| 3992 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 4016 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 4040 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 4064 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 4088 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 4112 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 4136 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
+| 4160 | 96 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
+| 4256 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 4368 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 4416 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
+| 4480 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 4552 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 4608 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 4648 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 4688 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 4728 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 4768 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -220,9 +222,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 4768
+SIZE = 4808
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "86fc12851486c10ae0940853ad52a202"
+LAYOUT_HASH = "64509fc1729e4194ff537d51c3391666"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 248
 
@@ -368,68 +370,70 @@ WORLD_SPEED = Struct("<Qd")  # seq, speed
 WORLD_SPEED_AT = 2384
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
 WORLD_DEPTH_AT = 2400
+WORLD_DEPTH_GAUGE = Struct("<Qd")  # seq, depth_gauge
+WORLD_DEPTH_GAUGE_AT = 2416
 WORLD_BUBBLE = Struct("<Qd")  # seq, bubble
-WORLD_BUBBLE_AT = 2416
+WORLD_BUBBLE_AT = 2432
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 2432
+WORLD_RUDDER_ANGLE_AT = 2448
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 2448
+WORLD_RUDDER_JAMMED_AT = 2464
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 2464
+WORLD_SONAR_00_AT = 2480
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 2480
+WORLD_SONAR_01_AT = 2496
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 2496
+WORLD_SONAR_02_AT = 2512
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 2512
+WORLD_SONAR_03_AT = 2528
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 2528
+WORLD_SONAR_04_AT = 2544
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 2544
+WORLD_SONAR_05_AT = 2560
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 2560
+WORLD_SONAR_06_AT = 2576
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 2576
+WORLD_SONAR_07_AT = 2592
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 2592
+WORLD_SONAR_08_AT = 2608
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 2608
+WORLD_SONAR_09_AT = 2624
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 2624
+WORLD_SONAR_10_AT = 2640
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 2640
+WORLD_SONAR_11_AT = 2656
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 2656
+WORLD_SONAR_12_AT = 2672
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 2672
+WORLD_SONAR_13_AT = 2688
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 2688
+WORLD_CLEARANCE_AT = 2704
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 2704
+WORLD_MIN_CLEARANCE_AT = 2720
 WORLD_WATER_DENSITY = Struct("<Qd")  # seq, water_density
-WORLD_WATER_DENSITY_AT = 2720
+WORLD_WATER_DENSITY_AT = 2736
 WORLD_BOTTOM_DEPTH = Struct("<Qd")  # seq, bottom_depth
-WORLD_BOTTOM_DEPTH_AT = 2736
+WORLD_BOTTOM_DEPTH_AT = 2752
 WORLD_BELOW_KEEL = Struct("<Qd")  # seq, below_keel
-WORLD_BELOW_KEEL_AT = 2752
+WORLD_BELOW_KEEL_AT = 2768
 WORLD_MIN_BELOW_KEEL = Struct("<Qd")  # seq, min_below_keel
-WORLD_MIN_BELOW_KEEL_AT = 2768
+WORLD_MIN_BELOW_KEEL_AT = 2784
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 2784
+WORLD_FIRE_AT = 2800
 WORLD_SMOKE = Struct("<Qd")  # seq, smoke
-WORLD_SMOKE_AT = 2800
+WORLD_SMOKE_AT = 2816
 WORLD_O2_PCT = Struct("<Qd")  # seq, o2_pct
-WORLD_O2_PCT_AT = 2816
+WORLD_O2_PCT_AT = 2832
 WORLD_CO2_PCT = Struct("<Qd")  # seq, co2_pct
-WORLD_CO2_PCT_AT = 2832
+WORLD_CO2_PCT_AT = 2848
 WORLD_VENT_LINEUP = Struct("<Qq")  # seq, vent_lineup
-WORLD_VENT_LINEUP_AT = 2848
+WORLD_VENT_LINEUP_AT = 2864
 WORLD_DIESEL_RUNNING = Struct("<Q?")  # seq, diesel_running
-WORLD_DIESEL_RUNNING_AT = 2864
+WORLD_DIESEL_RUNNING_AT = 2880
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 2880
+WORLD_CO_PPM_AT = 2896
 WORLD_ENGINE_ROOM_CONTAMINATED = Struct("<Q?")  # seq, engine_room_contaminated
-WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2896
+WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2912
 
 
 PROCESSES = {
@@ -619,6 +623,7 @@ WORLD = {
     "heading": Record(WORLD_HEADING, WORLD_HEADING_AT, ("heading",)),
     "speed": Record(WORLD_SPEED, WORLD_SPEED_AT, ("speed",)),
     "depth": Record(WORLD_DEPTH, WORLD_DEPTH_AT, ("depth",)),
+    "depth_gauge": Record(WORLD_DEPTH_GAUGE, WORLD_DEPTH_GAUGE_AT, ("depth_gauge",)),
     "bubble": Record(WORLD_BUBBLE, WORLD_BUBBLE_AT, ("bubble",)),
     "rudder_angle": Record(WORLD_RUDDER_ANGLE, WORLD_RUDDER_ANGLE_AT, ("rudder_angle",)),
     "rudder_jammed": Record(WORLD_RUDDER_JAMMED, WORLD_RUDDER_JAMMED_AT, ("rudder_jammed",)),
@@ -673,6 +678,7 @@ WORLD_INITIAL: dict[str, object] = {
     "heading": 0.0,
     "speed": 7.7,
     "depth": 120.0,
+    "depth_gauge": 120.0,
     "bubble": 0.0,
     "rudder_angle": 0.0,
     "rudder_jammed": False,
@@ -707,59 +713,60 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2912
-OVERRIDDEN_AT = 2920  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2928
+OVERRIDDEN_AT = 2936  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 2928, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 2952, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 2976, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 3000, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 3024, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 3048, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 3112, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 3136, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 3160, ("state", "ballast")),
-    "planes": Record(Struct("<QQq"), 3184, ("state", "planes")),
-    "mbt_blown": Record(Struct("<QQ?"), 3208, ("state", "mbt_blown")),
-    "vent_flow": Record(Struct("<QQd"), 3232, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 3256, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 3280, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 3304, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 3328, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 3352, ("state", "depth")),
-    "bubble": Record(Struct("<QQd"), 3376, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 3400, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 3424, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 3448, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 3472, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 3496, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 3520, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3544, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3568, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3592, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3616, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3640, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3664, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3688, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3712, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3736, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3760, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3784, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3808, ("state", "min_clearance")),
-    "water_density": Record(Struct("<QQd"), 3832, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 3856, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 3880, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 3904, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 3928, ("state", "fire")),
-    "smoke": Record(Struct("<QQd"), 3952, ("state", "smoke")),
-    "o2_pct": Record(Struct("<QQd"), 3976, ("state", "o2_pct")),
-    "co2_pct": Record(Struct("<QQd"), 4000, ("state", "co2_pct")),
-    "vent_lineup": Record(Struct("<QQq"), 4024, ("state", "vent_lineup")),
-    "diesel_running": Record(Struct("<QQ?"), 4048, ("state", "diesel_running")),
-    "co_ppm": Record(Struct("<QQd"), 4072, ("state", "co_ppm")),
-    "engine_room_contaminated": Record(Struct("<QQ?"), 4096, ("state", "engine_room_contaminated")),
+    "speed_cmd": Record(Struct("<QQd"), 2944, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 2968, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 2992, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 3016, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 3040, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 3064, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 3128, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 3152, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 3176, ("state", "ballast")),
+    "planes": Record(Struct("<QQq"), 3200, ("state", "planes")),
+    "mbt_blown": Record(Struct("<QQ?"), 3224, ("state", "mbt_blown")),
+    "vent_flow": Record(Struct("<QQd"), 3248, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 3272, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 3296, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 3320, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 3344, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 3368, ("state", "depth")),
+    "depth_gauge": Record(Struct("<QQd"), 3392, ("state", "depth_gauge")),
+    "bubble": Record(Struct("<QQd"), 3416, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 3440, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 3464, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3488, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3512, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3536, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3560, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3584, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3608, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3632, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3656, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3680, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3704, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3728, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3752, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3776, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3800, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3824, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3848, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3872, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3896, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3920, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 3944, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 3968, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 3992, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 4016, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 4040, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 4064, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 4088, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 4112, ("state", "co_ppm")),
+    "engine_room_contaminated": Record(Struct("<QQ?"), 4136, ("state", "engine_room_contaminated")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -795,6 +802,7 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "heading": ("ship",),
     "speed": ("ship",),
     "depth": ("ship",),
+    "depth_gauge": ("ship",),
     "bubble": ("ship",),
     "rudder_angle": ("rudder_sim",),
     "sonar_00": ("sonar",),
@@ -828,6 +836,7 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
 GROUND_TRUTH = (
+    "depth",
     "rudder_jammed",
     "clearance",
     "min_clearance",
@@ -842,7 +851,7 @@ GROUND_TRUTH = (
 TIME_IN_STATE = {
     "cc": Record(
         Struct("<QqQQQQQQQQQQ"),
-        4120,
+        4160,
         (
             "state",
             "since",
@@ -859,7 +868,7 @@ TIME_IN_STATE = {
     ),
     "sm": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        4216,
+        4256,
         (
             "state",
             "since",
@@ -876,21 +885,21 @@ TIME_IN_STATE = {
             "HELM_FAILED",
         ),
     ),
-    "ec": Record(Struct("<QqQQQQ"), 4328, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 4368, ("state", "since", "NOP", "S0", "S1")),
     "helm": Record(
-        Struct("<QqQQQQQQ"), 4376, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
+        Struct("<QqQQQQQQ"), 4416, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
     ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        4440,
+        4480,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "prop": Record(Struct("<QqQQQQQ"), 4512, ("state", "since", "NOP", "S0", "S1", "ASKED")),
-    "rudder_sim": Record(Struct("<QqQQQ"), 4568, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 4608, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 4648, ("state", "since", "NOP", "S0")),
-    "sea": Record(Struct("<QqQQQ"), 4688, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 4728, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 4552, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 4608, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 4648, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 4688, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 4728, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 4768, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

@@ -80,7 +80,7 @@ OOD_LINK = 8  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct(
-    "<QIdd52x???1xI232xQII8x?Q231xQII8xQ400xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd8xd"
+    "<QIdd52x???1xI232xQII8x?Q231xQII8xQ400xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd24xd"
 )
 INPUTS_AT = 424
 
@@ -219,8 +219,8 @@ class SmController:
         "var_haven_moving",
         "words",
         "world_ballast",
-        "world_depth",
         "world_depth_cmd",
+        "world_depth_gauge",
         "world_haven_x",
         "world_haven_y",
         "world_mbt_blown",
@@ -347,7 +347,7 @@ class SmController:
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
-            self.world_depth,
+            self.world_depth_gauge,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.helm_status_num != self.helm_command_num:
             self.helm_status = EXECUTING  # until it echoes the last number sent
@@ -580,7 +580,7 @@ class SmController:
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
-            self.world_depth,
+            self.world_depth_gauge,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def every_cycle(self) -> None:
@@ -669,7 +669,7 @@ class SmController:
             self.var_goal_x = self.arg_x
             self.var_goal_y = self.arg_y
             self.var_haven_moving = True
-            self.var_depth_reached = abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL
+            self.var_depth_reached = abs(self.world_depth_gauge - TRANSIT_DEPTH) < DEPTH_TOL
             self.helm_arg_x = self.arg_x
             self.helm_arg_y = self.arg_y
             self.helm_arg_from_x = self.world_pos_x
@@ -718,7 +718,7 @@ class SmController:
 
             elif (
                 self.var_depth_reached
-                and self.world_depth > self.world_depth_cmd + DEPTH_LIMIT
+                and self.world_depth_gauge > self.world_depth_cmd + DEPTH_LIMIT
                 and self.world_ballast < BALLAST_MAX
             ):
                 # sinking (lighter water, 4.1.2) beyond what the planes hold; blow variable ballast
@@ -727,7 +727,7 @@ class SmController:
 
             elif (
                 self.var_depth_reached
-                and self.world_depth < self.world_depth_cmd - DEPTH_LIMIT
+                and self.world_depth_gauge < self.world_depth_cmd - DEPTH_LIMIT
                 and self.world_ballast > -BALLAST_MAX
             ):
                 # rising beyond what the planes hold; flood variable ballast
@@ -736,7 +736,7 @@ class SmController:
 
             elif (
                 not self.var_depth_reached
-                and abs(self.world_depth - self.world_depth_cmd) < DEPTH_TOL
+                and abs(self.world_depth_gauge - self.world_depth_cmd) < DEPTH_TOL
             ):
                 # the ordered depth reached (after a change of depth)
                 self.rule = 12  # SUBMERGED_TRANSIT/S1/7
@@ -744,13 +744,13 @@ class SmController:
 
             elif (
                 self.var_depth_reached
-                and self.world_depth > self.world_depth_cmd + DEPTH_LIMIT
+                and self.world_depth_gauge > self.world_depth_cmd + DEPTH_LIMIT
                 and self.world_planes == NORMAL
             ):
                 # still sinking with the variable ballast spent (4.7.3): the depth controller cannot hold the depth; ask the OOD to choose between the planes and an MBT blow
                 self.rule = 13  # SUBMERGED_TRANSIT/S1/8
                 self.state = DEPTH_ASKED
-                self.ood_arg_depth = self.world_depth
+                self.ood_arg_depth = self.world_depth_gauge
                 self.ood_arg_ordered = self.world_depth_cmd
                 self.ood_command = OOD_DEPTH_CASUALTY
                 self.ood_command_num += 1
@@ -881,7 +881,7 @@ class SmController:
                 self.world_speed_cmd = EPM_SPEED
 
             elif (
-                abs(self.world_depth - PERISCOPE_DEPTH) < DEPTH_TOL
+                abs(self.world_depth_gauge - PERISCOPE_DEPTH) < DEPTH_TOL
                 and abs(self.world_speed - EPM_SPEED) < SPEED_TOL
                 and self.helm_result_at_goal
                 and self.prop_status == DONE
@@ -923,7 +923,7 @@ class SmController:
             self.world_depth_cmd = TRANSIT_DEPTH
             self.world_speed_cmd = STANDARD_SPEED if self.world_shaft == TURBINE else EPM_SPEED
 
-        elif state == S1 and abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL:
+        elif state == S1 and abs(self.world_depth_gauge - TRANSIT_DEPTH) < DEPTH_TOL:
             # at transit depth
             self.rule = 31  # PREP_SUBMERGED_TRANSIT/S1/1
             self.state = NOP
