@@ -270,8 +270,17 @@ def test_engine_room_fire_phases_and_their_cycles():
     # asked CHANGE_TO_EPM; his report engages the EPM
     slowing = spans(lines, "sm", "SLOWING")[0]
     assert slowing[0] == baffles[0][1] + 1
-    asked = spans(lines, "eoow/prop", "ASKING")
-    assert len(asked) == 1 and asked[0][0] == slowing[0]
+    # on indication of decreasing main lube oil pressure (the fire is at the pumps; the
+    # engineering node infers it low) the EOOW recommends the EPM: the shift is asked in
+    # SLOWING's first cycle, the pressure having fallen since the fire (4.1.3)
+    low = next(ln["cycle"] for ln in lines if ln["world"]["lube_oil_low"])
+    assert fire_at < low < slowing[0]
+    assert at(lines, fire_at - 1)["world"]["lube_oil_psi"] == 60.0
+    assert at(lines, low)["world"]["lube_oil_psi"] < 40.0
+    asked, back = spans(lines, "eoow/prop", "ASKING")
+    assert asked[0] == slowing[0] + 1
+    assert at(lines, asked[0])["modules"]["eoow/prop"]["command"] == "CHANGE_TO_EPM"
+    asked = [asked]
     assert 20 <= asked[0][1] - asked[0][0] + 1 <= 22, "the scripted EOOW takes 20 s"
     assert {at(lines, c)["world"]["shaft"] for c in range(asked[0][0], asked[0][1] + 1)} == {
         "DISENGAGED"
@@ -282,6 +291,19 @@ def test_engine_room_fire_phases_and_their_cycles():
     assert at(lines, slowing[0])["world"]["speed_cmd"] == 2.6
     two_thirds = next(c for c in range(*slowing) if at(lines, c)["world"]["speed_cmd"] == 5.1)
     assert two_thirds == asked[0][1] + 3
+    # the main lube oil restored (the scenario's event): the engineering node's indication
+    # clears the cycle after, cc has SM shift back to the turbines (the EOOW asked
+    # CHANGE_TO_TURBINE, the shaft declutched meanwhile), then the transit at standard speed
+    restored = next(e.cycle for e in scenario.events if "lube_oil_psi" in e.world)
+    assert at(lines, restored)["world"]["lube_oil_low"] is False
+    assert at(lines, restored - 1)["world"]["shaft"] == "EPM"
+    (shifting,) = spans(lines, "cc", "SHIFTING")
+    assert shifting[0] == restored + 1
+    assert at(lines, back[0])["modules"]["eoow/prop"]["command"] == "CHANGE_TO_TURBINE"
+    assert {at(lines, c)["world"]["shaft"] for c in range(back[0], back[1] + 1)} == {"DISENGAGED"}
+    assert at(lines, shifting[1])["world"]["shaft"] == "TURBINE"
+    assert at(lines, shifting[1])["world"]["speed_cmd"] == 7.7
+    assert lines[-1]["world"]["shaft"] == "TURBINE" and lines[-1]["world"]["speed"] == 7.7
     assert all(at(lines, c)["world"]["speed_cmd"] == 5.1 for c in range(two_thirds, prep_to + 1))
     # prepared: periscope depth at two-thirds on the EPM, steady on course, periscope raised
     top = at(lines, prep_to)
@@ -349,20 +371,22 @@ def test_engine_room_fire_phases_and_their_cycles():
     assert lines[-1]["world"]["bubble"] == 0.0
     assert commands_sent(lines, "sm") == [
         "INIT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "PREP_SUBMERGED_TRANSIT",
-        "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT",
+        "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT", "SHIFT_TO_TURBINES", "SUBMERGED_TRANSIT",
     ]  # fmt: skip
     assert commands_sent(lines, "ec") == [
         "INIT", "SUBMERGED_VENT", "LINE_UP_EMERGENCY_VENT", "EMERGENCY_VENT", "SUBMERGED_VENT",
-        "SUBMERGED_VENT", "SUBMERGED_VENT",
+        "SUBMERGED_VENT", "SUBMERGED_VENT", "SUBMERGED_VENT",  # the last after the shift back
     ]  # fmt: skip
     assert commands_sent(lines, "helm")[:4] == [
         "INIT", "ICE_MANEUVER", "CLEAR_BAFFLES", "ICE_MANEUVER"
     ]  # fmt: skip
-    assert commands_sent(lines, "prop") == ["INIT", "SHIFT_TO_EPM"]
-    # the EPM stays on the shaft (the main lube oil is not restored in the scenario): the
-    # resumed transit answers bells at ahead two-thirds on the EPM
+    assert commands_sent(lines, "prop") == ["INIT", "SHIFT_TO_EPM", "SHIFT_TO_TURBINE"]
+    # the resumed transit answers bells at ahead two-thirds on the EPM until the main lube
+    # oil is restored, then at standard speed on the turbines (asserted above)
+    resumed = [at(lines, c)["world"] for c in range(res_to + 40, shifting[0])]
+    assert resumed and {(w["speed"], w["shaft"]) for w in resumed} == {(5.1, "EPM")}
     last = lines[-1]["world"]
-    assert last["depth"] == 120.0 and last["speed"] == 5.1 and last["shaft"] == "EPM"
+    assert last["depth"] == 120.0 and last["speed"] == 7.7 and last["shaft"] == "TURBINE"
 
 
 def test_fire_under_ice_clears_baffles_only_as_far_as_the_ice_allows():

@@ -12,6 +12,7 @@ from .layout import (
     WORLD_CO2_PCT_AT,
     WORLD_CO_PPM_AT,
     WORLD_FIRE_AT,
+    WORLD_LUBE_OIL_PSI_AT,
     WORLD_O2_PCT_AT,
     WORLD_SMOKE_AT,
 )
@@ -24,7 +25,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI272xd472x?15xd8xd8xd40xd")
+INPUTS = Struct("<QQI44x???1xI272xd472x?15xd8xd8xd40xd24xd")
 INPUTS_AT = 1984
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -38,6 +39,7 @@ WORLD_SMOKE_WORD = WORLD_SMOKE_AT >> 3
 WORLD_O2_PCT_WORD = WORLD_O2_PCT_AT >> 3
 WORLD_CO2_PCT_WORD = WORLD_CO2_PCT_AT >> 3
 WORLD_CO_PPM_WORD = WORLD_CO_PPM_AT >> 3
+WORLD_LUBE_OIL_PSI_WORD = WORLD_LUBE_OIL_PSI_AT >> 3
 ATMOSPHERE_PERF_WORD = ATMOSPHERE_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
@@ -61,6 +63,14 @@ WORLD_VALUES_2 = Struct("<8xd")
 WORLD_SEQS_2 = Struct("<Q")
 WORLD_OUT_2_AT = 2896
 WORLD_HELD_2 = (OVERRIDE["co_ppm"],)  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_3 = Struct("<Qd")
+WORLD_VALUES_3 = Struct("<8xd")
+WORLD_SEQS_3 = Struct("<Q")
+WORLD_OUT_3_AT = 2928
+WORLD_HELD_3 = (OVERRIDE["lube_oil_psi"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -70,6 +80,8 @@ FIRE_CO = 40.0
 FIRE_SMOKE = 5.0
 FIRE_CO2 = 0.02
 FIRE_O2 = 0.03
+FIRE_LUBE = 2.0
+LUBE_LEAST = 10.0
 O2_NORMAL = 20.9
 CO2_NORMAL = 0.5
 
@@ -109,6 +121,7 @@ class AtmosphereController:
         "world_co2_pct",
         "world_co_ppm",
         "world_fire",
+        "world_lube_oil_psi",
         "world_o2_pct",
         "world_set",
         "world_smoke",
@@ -167,6 +180,7 @@ class AtmosphereController:
                 self.world_o2_pct,
                 self.world_co2_pct,
                 self.world_co_ppm,
+                self.world_lube_oil_psi,
             ) = values
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -249,6 +263,15 @@ class AtmosphereController:
                 words[WORLD_CO_PPM_WORD] = s[0] | 1  # odd before the value changes
                 WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0])
                 words[WORLD_CO_PPM_WORD] = (s[0] | 1) + 1
+            out = (self.world_lube_oil_psi,)
+            now = WORLD_VALUES_3.unpack_from(buf, WORLD_OUT_3_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_3, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_3.unpack_from(buf, WORLD_OUT_3_AT)
+                words[WORLD_LUBE_OIL_PSI_WORD] = s[0] | 1  # odd before the value changes
+                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0])
+                words[WORLD_LUBE_OIL_PSI_WORD] = (s[0] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -299,6 +322,7 @@ class AtmosphereController:
             self.world_o2_pct,
             self.world_co2_pct,
             self.world_co_ppm,
+            self.world_lube_oil_psi,
         ) = values
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
@@ -330,6 +354,7 @@ class AtmosphereController:
             self.world_o2_pct = O2_NORMAL - vented(
                 O2_NORMAL - self.world_o2_pct, FIRE_O2, self.world_vent_flow
             )
+            self.world_lube_oil_psi = max(LUBE_LEAST, self.world_lube_oil_psi - FIRE_LUBE)
 
         elif self.world_co_ppm > 0.0:
             # the ventilation line-up removes the smoke and the gases (they came with the CO)

@@ -11,6 +11,7 @@ from .layout import (
     OVERRIDE,
     WORLD_DIESEL_RUNNING_AT,
     WORLD_ENGINE_ROOM_CONTAMINATED_AT,
+    WORLD_LUBE_OIL_LOW_AT,
     WORLD_VENT_FLOW_AT,
     WORLD_VENT_LINEUP_AT,
 )
@@ -26,7 +27,7 @@ EMERGENCY_VENT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI1696xd472x?15xd8xd8xd8xq8x?15xd8x?")
+INPUTS = Struct("<QI44x???1xI1696xd472x?15xd8xd8xd8xq8x?15xd8x?15xd8x?")
 INPUTS_AT = 568
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -35,6 +36,7 @@ WORLD_VENT_FLOW_WORD = WORLD_VENT_FLOW_AT >> 3
 WORLD_VENT_LINEUP_WORD = WORLD_VENT_LINEUP_AT >> 3
 WORLD_DIESEL_RUNNING_WORD = WORLD_DIESEL_RUNNING_AT >> 3
 WORLD_ENGINE_ROOM_CONTAMINATED_WORD = WORLD_ENGINE_ROOM_CONTAMINATED_AT >> 3
+WORLD_LUBE_OIL_LOW_WORD = WORLD_LUBE_OIL_LOW_AT >> 3
 EC_PERF_WORD = EC_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
@@ -61,6 +63,14 @@ WORLD_VALUES_3 = Struct("<8x?")
 WORLD_SEQS_3 = Struct("<Q")
 WORLD_OUT_3_AT = 2912
 WORLD_HELD_3 = (OVERRIDE["engine_room_contaminated"],)  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_4 = Struct("<Q?")
+WORLD_VALUES_4 = Struct("<8x?")
+WORLD_SEQS_4 = Struct("<Q")
+WORLD_OUT_4_AT = 2944
+WORLD_HELD_4 = (OVERRIDE["lube_oil_low"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -68,6 +78,7 @@ S1 = 2
 
 # Constants.
 CO_HIGH = 50.0
+LUBE_LOW = 40.0
 SMOKE_HIGH = 10.0
 RECIRCULATE = 0.002
 EMERGENCY = 0.05
@@ -112,6 +123,8 @@ class EcController:
         "world_diesel_running",
         "world_engine_room_contaminated",
         "world_fire",
+        "world_lube_oil_low",
+        "world_lube_oil_psi",
         "world_o2_pct",
         "world_set",
         "world_smoke",
@@ -168,6 +181,8 @@ class EcController:
             self.world_diesel_running,
             self.world_co_ppm,
             self.world_engine_room_contaminated,
+            self.world_lube_oil_psi,
+            self.world_lube_oil_low,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -252,6 +267,15 @@ class EcController:
                 )  # odd before the value changes
                 WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0])
                 words[WORLD_ENGINE_ROOM_CONTAMINATED_WORD] = (s[0] | 1) + 1
+            out = (self.world_lube_oil_low,)
+            now = WORLD_VALUES_4.unpack_from(buf, WORLD_OUT_4_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_4, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_4.unpack_from(buf, WORLD_OUT_4_AT)
+                words[WORLD_LUBE_OIL_LOW_WORD] = s[0] | 1  # odd before the value changes
+                WORLD_OUT_4.pack_into(buf, WORLD_OUT_4_AT, s[0] | 1, out[0])
+                words[WORLD_LUBE_OIL_LOW_WORD] = (s[0] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -291,6 +315,8 @@ class EcController:
             self.world_diesel_running,
             self.world_co_ppm,
             self.world_engine_room_contaminated,
+            self.world_lube_oil_psi,
+            self.world_lube_oil_low,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def every_cycle(self) -> None:
@@ -300,6 +326,7 @@ class EcController:
         self.world_engine_room_contaminated = (
             self.world_co_ppm > CO_HIGH or self.world_smoke > SMOKE_HIGH
         )
+        self.world_lube_oil_low = self.world_lube_oil_psi < LUBE_LOW
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

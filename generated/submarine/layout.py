@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4808 bytes.
+The block is 4896 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -130,67 +130,71 @@ command buffers and world fields:
 | 2880 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
 | 2896 | 16 | WORLD_CO_PPM | co_ppm |
 | 2912 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
-| 2928 | 9 | OVERRIDES | any |
-| 2944 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 2968 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 2992 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 3016 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 3040 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 3064 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 3128 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 3152 | 24 | OVERRIDE_COURSE | state, course |
-| 3176 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 3200 | 24 | OVERRIDE_PLANES | state, planes |
-| 3224 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
-| 3248 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 3272 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 3296 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 3320 | 24 | OVERRIDE_HEADING | state, heading |
-| 3344 | 24 | OVERRIDE_SPEED | state, speed |
-| 3368 | 24 | OVERRIDE_DEPTH | state, depth |
-| 3392 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
-| 3416 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 3440 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 3464 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 3488 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 3512 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 3536 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 3560 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3584 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3608 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3632 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3656 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3680 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3704 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3728 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3752 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3776 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3800 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3824 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3848 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3872 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 3896 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 3920 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 3944 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 3968 | 17 | OVERRIDE_FIRE | state, fire |
-| 3992 | 24 | OVERRIDE_SMOKE | state, smoke |
-| 4016 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
-| 4040 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
-| 4064 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
-| 4088 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
-| 4112 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 4136 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
-| 4160 | 96 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
-| 4256 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
-| 4368 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 4416 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
-| 4480 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 4552 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
-| 4608 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 4648 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 4688 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 4728 | 40 | TIME_SEA | state, since, NOP, S0 |
-| 4768 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 2928 | 16 | WORLD_LUBE_OIL_PSI | lube_oil_psi |
+| 2944 | 9 | WORLD_LUBE_OIL_LOW | lube_oil_low |
+| 2960 | 9 | OVERRIDES | any |
+| 2976 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 3000 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 3024 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 3048 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 3072 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 3096 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 3160 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 3184 | 24 | OVERRIDE_COURSE | state, course |
+| 3208 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 3232 | 24 | OVERRIDE_PLANES | state, planes |
+| 3256 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
+| 3280 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 3304 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 3328 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 3352 | 24 | OVERRIDE_HEADING | state, heading |
+| 3376 | 24 | OVERRIDE_SPEED | state, speed |
+| 3400 | 24 | OVERRIDE_DEPTH | state, depth |
+| 3424 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
+| 3448 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 3472 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 3496 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3520 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3544 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3568 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3592 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3616 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3640 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3664 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3688 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3712 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3736 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3760 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3784 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3808 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3832 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3856 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3880 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3904 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3928 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3952 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 3976 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 4000 | 17 | OVERRIDE_FIRE | state, fire |
+| 4024 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 4048 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 4072 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 4096 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 4120 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 4144 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 4168 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
+| 4192 | 24 | OVERRIDE_LUBE_OIL_PSI | state, lube_oil_psi |
+| 4216 | 17 | OVERRIDE_LUBE_OIL_LOW | state, lube_oil_low |
+| 4240 | 104 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, SHIFTING, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
+| 4344 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 4456 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 4504 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
+| 4568 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 4640 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 4696 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 4736 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 4776 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 4816 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 4856 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -222,9 +226,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 4808
+SIZE = 4896
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "64509fc1729e4194ff537d51c3391666"
+LAYOUT_HASH = "0d72d0ac5add16d494db56e58bf8e894"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 248
 
@@ -434,6 +438,10 @@ WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
 WORLD_CO_PPM_AT = 2896
 WORLD_ENGINE_ROOM_CONTAMINATED = Struct("<Q?")  # seq, engine_room_contaminated
 WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2912
+WORLD_LUBE_OIL_PSI = Struct("<Qd")  # seq, lube_oil_psi
+WORLD_LUBE_OIL_PSI_AT = 2928
+WORLD_LUBE_OIL_LOW = Struct("<Q?")  # seq, lube_oil_low
+WORLD_LUBE_OIL_LOW_AT = 2944
 
 
 PROCESSES = {
@@ -659,6 +667,8 @@ WORLD = {
         WORLD_ENGINE_ROOM_CONTAMINATED_AT,
         ("engine_room_contaminated",),
     ),
+    "lube_oil_psi": Record(WORLD_LUBE_OIL_PSI, WORLD_LUBE_OIL_PSI_AT, ("lube_oil_psi",)),
+    "lube_oil_low": Record(WORLD_LUBE_OIL_LOW, WORLD_LUBE_OIL_LOW_AT, ("lube_oil_low",)),
 }
 WORLD_INITIAL: dict[str, object] = {
     "speed_cmd": 7.7,
@@ -710,63 +720,67 @@ WORLD_INITIAL: dict[str, object] = {
     "diesel_running": False,
     "co_ppm": 0.0,
     "engine_room_contaminated": False,
+    "lube_oil_psi": 60.0,
+    "lube_oil_low": False,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2928
-OVERRIDDEN_AT = 2936  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2960
+OVERRIDDEN_AT = 2968  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 2944, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 2968, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 2992, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 3016, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 3040, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 3064, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 3128, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 3152, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 3176, ("state", "ballast")),
-    "planes": Record(Struct("<QQq"), 3200, ("state", "planes")),
-    "mbt_blown": Record(Struct("<QQ?"), 3224, ("state", "mbt_blown")),
-    "vent_flow": Record(Struct("<QQd"), 3248, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 3272, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 3296, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 3320, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 3344, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 3368, ("state", "depth")),
-    "depth_gauge": Record(Struct("<QQd"), 3392, ("state", "depth_gauge")),
-    "bubble": Record(Struct("<QQd"), 3416, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 3440, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 3464, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 3488, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 3512, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 3536, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 3560, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3584, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3608, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3632, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3656, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3680, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3704, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3728, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3752, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3776, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3800, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3824, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3848, ("state", "min_clearance")),
-    "water_density": Record(Struct("<QQd"), 3872, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 3896, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 3920, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 3944, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 3968, ("state", "fire")),
-    "smoke": Record(Struct("<QQd"), 3992, ("state", "smoke")),
-    "o2_pct": Record(Struct("<QQd"), 4016, ("state", "o2_pct")),
-    "co2_pct": Record(Struct("<QQd"), 4040, ("state", "co2_pct")),
-    "vent_lineup": Record(Struct("<QQq"), 4064, ("state", "vent_lineup")),
-    "diesel_running": Record(Struct("<QQ?"), 4088, ("state", "diesel_running")),
-    "co_ppm": Record(Struct("<QQd"), 4112, ("state", "co_ppm")),
-    "engine_room_contaminated": Record(Struct("<QQ?"), 4136, ("state", "engine_room_contaminated")),
+    "speed_cmd": Record(Struct("<QQd"), 2976, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 3000, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 3024, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 3048, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 3072, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 3096, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 3160, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 3184, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 3208, ("state", "ballast")),
+    "planes": Record(Struct("<QQq"), 3232, ("state", "planes")),
+    "mbt_blown": Record(Struct("<QQ?"), 3256, ("state", "mbt_blown")),
+    "vent_flow": Record(Struct("<QQd"), 3280, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 3304, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 3328, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 3352, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 3376, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 3400, ("state", "depth")),
+    "depth_gauge": Record(Struct("<QQd"), 3424, ("state", "depth_gauge")),
+    "bubble": Record(Struct("<QQd"), 3448, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 3472, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 3496, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3520, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3544, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3568, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3592, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3616, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3640, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3664, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3688, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3712, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3736, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3760, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3784, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3808, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3832, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3856, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3880, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3904, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3928, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3952, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 3976, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 4000, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 4024, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 4048, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 4072, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 4096, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 4120, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 4144, ("state", "co_ppm")),
+    "engine_room_contaminated": Record(Struct("<QQ?"), 4168, ("state", "engine_room_contaminated")),
+    "lube_oil_psi": Record(Struct("<QQd"), 4192, ("state", "lube_oil_psi")),
+    "lube_oil_low": Record(Struct("<QQ?"), 4216, ("state", "lube_oil_low")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -832,6 +846,8 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "diesel_running": ("ec",),
     "co_ppm": ("atmosphere",),
     "engine_room_contaminated": ("ec",),
+    "lube_oil_psi": ("atmosphere",),
+    "lube_oil_low": ("ec",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
@@ -850,8 +866,8 @@ GROUND_TRUTH = (
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
     "cc": Record(
-        Struct("<QqQQQQQQQQQQ"),
-        4160,
+        Struct("<QqQQQQQQQQQQQ"),
+        4240,
         (
             "state",
             "since",
@@ -859,6 +875,7 @@ TIME_IN_STATE = {
             "S0",
             "S1",
             "TRANSIT",
+            "SHIFTING",
             "PREP_VENT",
             "FIRE_REPORT",
             "LINE_UP",
@@ -868,7 +885,7 @@ TIME_IN_STATE = {
     ),
     "sm": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        4256,
+        4344,
         (
             "state",
             "since",
@@ -885,28 +902,35 @@ TIME_IN_STATE = {
             "HELM_FAILED",
         ),
     ),
-    "ec": Record(Struct("<QqQQQQ"), 4368, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 4456, ("state", "since", "NOP", "S0", "S1")),
     "helm": Record(
-        Struct("<QqQQQQQQ"), 4416, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
+        Struct("<QqQQQQQQ"), 4504, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
     ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        4480,
+        4568,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "prop": Record(Struct("<QqQQQQQ"), 4552, ("state", "since", "NOP", "S0", "S1", "ASKED")),
-    "rudder_sim": Record(Struct("<QqQQQ"), 4608, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 4648, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 4688, ("state", "since", "NOP", "S0")),
-    "sea": Record(Struct("<QqQQQ"), 4728, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 4768, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 4640, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 4696, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 4736, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 4776, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 4816, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 4856, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "cc": (NO_COMMAND_NAME, *("INIT", "HALT", "RUN_MISSION")),
     "sm": (
         NO_COMMAND_NAME,
-        *("INIT", "HALT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "PREP_SUBMERGED_TRANSIT"),
+        *(
+            "INIT",
+            "HALT",
+            "SUBMERGED_TRANSIT",
+            "PREP_EMERGENCY_VENT",
+            "SHIFT_TO_TURBINES",
+            "PREP_SUBMERGED_TRANSIT",
+        ),
     ),
     "ec": (
         NO_COMMAND_NAME,
@@ -914,14 +938,20 @@ COMMAND_NAMES = {
     ),
     "helm": (NO_COMMAND_NAME, *("INIT", "HALT", "ICE_MANEUVER", "CLEAR_BAFFLES")),
     "rudder": (NO_COMMAND_NAME, *("INIT", "HALT", "GOTO_ANGLE")),
-    "prop": (NO_COMMAND_NAME, *("INIT", "HALT", "SHIFT_TO_EPM")),
+    "prop": (NO_COMMAND_NAME, *("INIT", "HALT", "SHIFT_TO_EPM", "SHIFT_TO_TURBINE")),
     "rudder_sim": (NO_COMMAND_NAME, *("INIT", "HALT", "PLUS_VOLT", "MINUS_VOLT", "ZERO_VOLT")),
     "ship": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sonar": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sea": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "atmosphere": (NO_COMMAND_NAME, *("INIT", "HALT")),
-    "eoow/cc": (NO_COMMAND_NAME, *("INIT", "HALT", "CHANGE_TO_EPM", "FIRE_OUT")),
-    "eoow/prop": (NO_COMMAND_NAME, *("INIT", "HALT", "CHANGE_TO_EPM", "FIRE_OUT")),
+    "eoow/cc": (
+        NO_COMMAND_NAME,
+        *("INIT", "HALT", "CHANGE_TO_EPM", "CHANGE_TO_TURBINE", "FIRE_OUT"),
+    ),
+    "eoow/prop": (
+        NO_COMMAND_NAME,
+        *("INIT", "HALT", "CHANGE_TO_EPM", "CHANGE_TO_TURBINE", "FIRE_OUT"),
+    ),
     "ood/sm": (NO_COMMAND_NAME, *("INIT", "HALT", "DEPTH_CASUALTY")),
 }
 # Each command's parameters, in order: an operator gives every one of them (`ctl send`,
@@ -943,7 +973,18 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     },
 }
 STATE_NAMES = {
-    "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "FIRE_REPORT", "LINE_UP", "VENT", "RESUMING"),
+    "cc": (
+        "NOP",
+        "S0",
+        "S1",
+        "TRANSIT",
+        "SHIFTING",
+        "PREP_VENT",
+        "FIRE_REPORT",
+        "LINE_UP",
+        "VENT",
+        "RESUMING",
+    ),
     "sm": (
         "NOP",
         "S0",
@@ -1015,6 +1056,9 @@ RULES = {
         "RUN_MISSION/TRANSIT/4",
         "RUN_MISSION/TRANSIT/5",
         "RUN_MISSION/TRANSIT/6",
+        "RUN_MISSION/TRANSIT/7",
+        "RUN_MISSION/SHIFTING/1",
+        "RUN_MISSION/SHIFTING/2",
         "RUN_MISSION/PREP_VENT/1",
         "RUN_MISSION/PREP_VENT/2",
         "RUN_MISSION/FIRE_REPORT/1",
@@ -1055,8 +1099,12 @@ RULES = {
         "PREP_EMERGENCY_VENT/SLOWING/2",
         "PREP_EMERGENCY_VENT/SLOWING/3",
         "PREP_EMERGENCY_VENT/SLOWING/4",
+        "PREP_EMERGENCY_VENT/SLOWING/5",
         "PREP_EMERGENCY_VENT/PROP_FAILED/1",
         "PREP_EMERGENCY_VENT/HELM_FAILED/1",
+        "SHIFT_TO_TURBINES/S0/1",
+        "SHIFT_TO_TURBINES/S1/1",
+        "SHIFT_TO_TURBINES/S1/2",
         "PREP_SUBMERGED_TRANSIT/S0/1",
         "PREP_SUBMERGED_TRANSIT/S1/1",
     ),
@@ -1117,6 +1165,9 @@ RULES = {
         "SHIFT_TO_EPM/S0/1",
         "SHIFT_TO_EPM/ASKED/1",
         "SHIFT_TO_EPM/ASKED/2",
+        "SHIFT_TO_TURBINE/S0/1",
+        "SHIFT_TO_TURBINE/ASKED/1",
+        "SHIFT_TO_TURBINE/ASKED/2",
     ),
     "rudder_sim": (
         "",
@@ -1199,6 +1250,7 @@ TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], 
 INSTRUCTIONS = {
     "eoow": {
         "CHANGE_TO_EPM": "CHANGE TO EPM: disengage the main turbine shaft, engage the EPM shaft, close the EPM breaker, then report.",
+        "CHANGE_TO_TURBINE": "CHANGE TO TURBINES: warm the turbines up with steam, EPM all stop, re-engage the clutch to the turbines, open the EPM breaker, then report.",
         "FIRE_OUT": "FIRE OUT?: report when the damage control party reports the fire out and the reflash watch stationed.",
     },
     "ood": {
