@@ -351,6 +351,18 @@ def test_engine_room_fire_phases_and_their_cycles():
         c for c in range(vent_from, vent_to + 1) if at(lines, c)["world"]["co_ppm"] <= CO_SAFE
     )
     assert safe == vent_to - 1
+    # EABs off area by area (4.1.3): forward of the engine room, where the analyzer reads
+    # normal first, while the engine room is still being ventilated; the engine room last
+    forward = next(c for c in range(vent_from, vent_to) if at(lines, c)["world"]["forward_normal"])
+    assert (
+        at(lines, forward)["world"]["co_ppm_fwd"] <= CO_SAFE < at(lines, forward)["world"]["co_ppm"]
+    )
+    # (the atmosphere, last in the cycle, reads safe in cycle k; ec infers it in k + 1)
+    assert at(lines, forward - 1)["world"]["co_ppm_fwd"] <= CO_SAFE
+    assert at(lines, forward - 2)["world"]["co_ppm_fwd"] > CO_SAFE
+    assert at(lines, forward + 1)["world"]["announcement"] == "EABS MAY BE REMOVED FORWARD"
+    assert at(lines, forward)["world"]["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+    assert forward + 1 < vent_to - 10
     # the fire burned for the damage control party's 30 cycles
     burning = [line["cycle"] for line in lines if line["world"]["fire"]]
     assert burning == list(range(fire_at, fire_at + 30))

@@ -89,7 +89,7 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI596xQII976x48s8xq664x?31x?")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI596xQII976x48s8xq680x?15x?31x?")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -188,6 +188,7 @@ class CcController:
         "words",
         "world_announcement",
         "world_engine_room_contaminated",
+        "world_forward_normal",
         "world_lube_oil_low",
         "world_shaft",
     )
@@ -293,6 +294,7 @@ class CcController:
                 self.eoow_error_num,
                 self.world_announcement,
                 self.world_shaft,
+                self.world_forward_normal,
                 self.world_engine_room_contaminated,
                 self.world_lube_oil_low,
             ) = values
@@ -464,6 +466,7 @@ class CcController:
             self.eoow_error_num,
             self.world_announcement,
             self.world_shaft,
+            self.world_forward_normal,
             self.world_engine_room_contaminated,
             self.world_lube_oil_low,
         ) = values
@@ -761,13 +764,21 @@ class CcController:
                 self.state = NOP
                 self.status = ERROR
 
+            elif (
+                self.world_forward_normal
+                and self.world_announcement == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+            ):
+                # the atmosphere forward of the engine room reads normal: the OOD grants the removal of EABs there (4.1.3, area by area); ventilating goes on
+                self.rule = 25  # RUN_MISSION/VENT/3
+                self.world_announcement = "EABS MAY BE REMOVED FORWARD"
+
         elif state == RESUMING:
             if self.sm_status == DONE and self.ec_status == DONE:
                 # prepared; (S1) the transit to the same waypoint resumes
-                self.rule = 25  # RUN_MISSION/RESUMING/1
+                self.rule = 26  # RUN_MISSION/RESUMING/1
                 self.state = S1
 
             elif self.sm_status == ERROR or self.ec_status == ERROR:
-                self.rule = 26  # RUN_MISSION/RESUMING/2
+                self.rule = 27  # RUN_MISSION/RESUMING/2
                 self.state = NOP
                 self.status = ERROR

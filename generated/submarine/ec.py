@@ -11,6 +11,7 @@ from .layout import (
     OVERRIDE,
     WORLD_DIESEL_RUNNING_AT,
     WORLD_ENGINE_ROOM_CONTAMINATED_AT,
+    WORLD_FORWARD_NORMAL_AT,
     WORLD_LUBE_OIL_LOW_AT,
     WORLD_VENT_FLOW_AT,
     WORLD_VENT_LINEUP_AT,
@@ -27,7 +28,7 @@ EMERGENCY_VENT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI1696xd472x?15xd8xd8xd8xq8x?15xd8x?15xd8x?")
+INPUTS = Struct("<QI44x???1xI1696xd472x?15xd8xd8xd8xq8x?15xd8xd8x?15x?15xd8x?")
 INPUTS_AT = 568
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -35,6 +36,7 @@ EC_STATUS_WORD = EC_STATUS_AT >> 3
 WORLD_VENT_FLOW_WORD = WORLD_VENT_FLOW_AT >> 3
 WORLD_VENT_LINEUP_WORD = WORLD_VENT_LINEUP_AT >> 3
 WORLD_DIESEL_RUNNING_WORD = WORLD_DIESEL_RUNNING_AT >> 3
+WORLD_FORWARD_NORMAL_WORD = WORLD_FORWARD_NORMAL_AT >> 3
 WORLD_ENGINE_ROOM_CONTAMINATED_WORD = WORLD_ENGINE_ROOM_CONTAMINATED_AT >> 3
 WORLD_LUBE_OIL_LOW_WORD = WORLD_LUBE_OIL_LOW_AT >> 3
 EC_PERF_WORD = EC_PERF_AT >> 3
@@ -58,18 +60,18 @@ WORLD_HELD_2 = (OVERRIDE["vent_lineup"], OVERRIDE["diesel_running"])  # their ov
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_3 = Struct("<Q?")
-WORLD_VALUES_3 = Struct("<8x?")
-WORLD_SEQS_3 = Struct("<Q")
-WORLD_OUT_3_AT = 2912
-WORLD_HELD_3 = (OVERRIDE["engine_room_contaminated"],)  # their overrides
+WORLD_OUT_3 = Struct("<Q?7xQ?")
+WORLD_VALUES_3 = Struct("<8x?15x?")
+WORLD_SEQS_3 = Struct("<Q8xQ")
+WORLD_OUT_3_AT = 2928
+WORLD_HELD_3 = (OVERRIDE["forward_normal"], OVERRIDE["engine_room_contaminated"])  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
 WORLD_OUT_4 = Struct("<Q?")
 WORLD_VALUES_4 = Struct("<8x?")
 WORLD_SEQS_4 = Struct("<Q")
-WORLD_OUT_4_AT = 2944
+WORLD_OUT_4_AT = 2976
 WORLD_HELD_4 = (OVERRIDE["lube_oil_low"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -120,9 +122,11 @@ class EcController:
         "words",
         "world_co2_pct",
         "world_co_ppm",
+        "world_co_ppm_fwd",
         "world_diesel_running",
         "world_engine_room_contaminated",
         "world_fire",
+        "world_forward_normal",
         "world_lube_oil_low",
         "world_lube_oil_psi",
         "world_o2_pct",
@@ -180,6 +184,8 @@ class EcController:
             self.world_vent_lineup,
             self.world_diesel_running,
             self.world_co_ppm,
+            self.world_co_ppm_fwd,
+            self.world_forward_normal,
             self.world_engine_room_contaminated,
             self.world_lube_oil_psi,
             self.world_lube_oil_low,
@@ -256,17 +262,19 @@ class EcController:
                 WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 words[WORLD_VENT_LINEUP_WORD] = (s[0] | 1) + 1
                 words[WORLD_DIESEL_RUNNING_WORD] = (s[1] | 1) + 1
-            out = (self.world_engine_room_contaminated,)
+            out = (self.world_forward_normal, self.world_engine_room_contaminated)
             now = WORLD_VALUES_3.unpack_from(buf, WORLD_OUT_3_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_3, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_3.unpack_from(buf, WORLD_OUT_3_AT)
+                words[WORLD_FORWARD_NORMAL_WORD] = s[0] | 1  # odd before the value changes
                 words[WORLD_ENGINE_ROOM_CONTAMINATED_WORD] = (
-                    s[0] | 1
+                    s[1] | 1
                 )  # odd before the value changes
-                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0])
-                words[WORLD_ENGINE_ROOM_CONTAMINATED_WORD] = (s[0] | 1) + 1
+                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+                words[WORLD_FORWARD_NORMAL_WORD] = (s[0] | 1) + 1
+                words[WORLD_ENGINE_ROOM_CONTAMINATED_WORD] = (s[1] | 1) + 1
             out = (self.world_lube_oil_low,)
             now = WORLD_VALUES_4.unpack_from(buf, WORLD_OUT_4_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
@@ -314,6 +322,8 @@ class EcController:
             self.world_vent_lineup,
             self.world_diesel_running,
             self.world_co_ppm,
+            self.world_co_ppm_fwd,
+            self.world_forward_normal,
             self.world_engine_room_contaminated,
             self.world_lube_oil_psi,
             self.world_lube_oil_low,
@@ -327,6 +337,7 @@ class EcController:
             self.world_co_ppm > CO_HIGH or self.world_smoke > SMOKE_HIGH
         )
         self.world_lube_oil_low = self.world_lube_oil_psi < LUBE_LOW
+        self.world_forward_normal = self.world_co_ppm_fwd <= CO_SAFE
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

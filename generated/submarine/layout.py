@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4896 bytes.
+The block is 4976 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -129,72 +129,76 @@ command buffers and world fields:
 | 2864 | 16 | WORLD_VENT_LINEUP | vent_lineup |
 | 2880 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
 | 2896 | 16 | WORLD_CO_PPM | co_ppm |
-| 2912 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
-| 2928 | 16 | WORLD_LUBE_OIL_PSI | lube_oil_psi |
-| 2944 | 9 | WORLD_LUBE_OIL_LOW | lube_oil_low |
-| 2960 | 9 | OVERRIDES | any |
-| 2976 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 3000 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 3024 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 3048 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 3072 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 3096 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 3160 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 3184 | 24 | OVERRIDE_COURSE | state, course |
-| 3208 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 3232 | 24 | OVERRIDE_PLANES | state, planes |
-| 3256 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
-| 3280 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 3304 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 3328 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 3352 | 24 | OVERRIDE_HEADING | state, heading |
-| 3376 | 24 | OVERRIDE_SPEED | state, speed |
-| 3400 | 24 | OVERRIDE_DEPTH | state, depth |
-| 3424 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
-| 3448 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 3472 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 3496 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 3520 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 3544 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 3568 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 3592 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3616 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3640 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3664 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3688 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3712 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3736 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3760 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3784 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3808 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3832 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3856 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3880 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3904 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 3928 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 3952 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 3976 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 4000 | 17 | OVERRIDE_FIRE | state, fire |
-| 4024 | 24 | OVERRIDE_SMOKE | state, smoke |
-| 4048 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
-| 4072 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
-| 4096 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
-| 4120 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
-| 4144 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 4168 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
-| 4192 | 24 | OVERRIDE_LUBE_OIL_PSI | state, lube_oil_psi |
-| 4216 | 17 | OVERRIDE_LUBE_OIL_LOW | state, lube_oil_low |
-| 4240 | 104 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, SHIFTING, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
-| 4344 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
-| 4456 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 4504 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
-| 4568 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 4640 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
-| 4696 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 4736 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 4776 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 4816 | 40 | TIME_SEA | state, since, NOP, S0 |
-| 4856 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 2912 | 16 | WORLD_CO_PPM_FWD | co_ppm_fwd |
+| 2928 | 9 | WORLD_FORWARD_NORMAL | forward_normal |
+| 2944 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
+| 2960 | 16 | WORLD_LUBE_OIL_PSI | lube_oil_psi |
+| 2976 | 9 | WORLD_LUBE_OIL_LOW | lube_oil_low |
+| 2992 | 9 | OVERRIDES | any |
+| 3008 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 3032 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 3056 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 3080 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 3104 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 3128 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 3192 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 3216 | 24 | OVERRIDE_COURSE | state, course |
+| 3240 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 3264 | 24 | OVERRIDE_PLANES | state, planes |
+| 3288 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
+| 3312 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 3336 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 3360 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 3384 | 24 | OVERRIDE_HEADING | state, heading |
+| 3408 | 24 | OVERRIDE_SPEED | state, speed |
+| 3432 | 24 | OVERRIDE_DEPTH | state, depth |
+| 3456 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
+| 3480 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 3504 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 3528 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3552 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3576 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3600 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3624 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3648 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3672 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3696 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3720 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3744 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3768 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3792 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3816 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3840 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3864 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3888 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3912 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3936 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3960 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3984 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 4008 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 4032 | 17 | OVERRIDE_FIRE | state, fire |
+| 4056 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 4080 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 4104 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 4128 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 4152 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 4176 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 4200 | 24 | OVERRIDE_CO_PPM_FWD | state, co_ppm_fwd |
+| 4224 | 17 | OVERRIDE_FORWARD_NORMAL | state, forward_normal |
+| 4248 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
+| 4272 | 24 | OVERRIDE_LUBE_OIL_PSI | state, lube_oil_psi |
+| 4296 | 17 | OVERRIDE_LUBE_OIL_LOW | state, lube_oil_low |
+| 4320 | 104 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, SHIFTING, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
+| 4424 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 4536 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 4584 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
+| 4648 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 4720 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 4776 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 4816 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 4856 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 4896 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 4936 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -226,9 +230,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 4896
+SIZE = 4976
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "0d72d0ac5add16d494db56e58bf8e894"
+LAYOUT_HASH = "cdb0b05b8d5aa36ad488dfe4db9b5fb7"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 248
 
@@ -436,12 +440,16 @@ WORLD_DIESEL_RUNNING = Struct("<Q?")  # seq, diesel_running
 WORLD_DIESEL_RUNNING_AT = 2880
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
 WORLD_CO_PPM_AT = 2896
+WORLD_CO_PPM_FWD = Struct("<Qd")  # seq, co_ppm_fwd
+WORLD_CO_PPM_FWD_AT = 2912
+WORLD_FORWARD_NORMAL = Struct("<Q?")  # seq, forward_normal
+WORLD_FORWARD_NORMAL_AT = 2928
 WORLD_ENGINE_ROOM_CONTAMINATED = Struct("<Q?")  # seq, engine_room_contaminated
-WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2912
+WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2944
 WORLD_LUBE_OIL_PSI = Struct("<Qd")  # seq, lube_oil_psi
-WORLD_LUBE_OIL_PSI_AT = 2928
+WORLD_LUBE_OIL_PSI_AT = 2960
 WORLD_LUBE_OIL_LOW = Struct("<Q?")  # seq, lube_oil_low
-WORLD_LUBE_OIL_LOW_AT = 2944
+WORLD_LUBE_OIL_LOW_AT = 2976
 
 
 PROCESSES = {
@@ -662,6 +670,8 @@ WORLD = {
     "vent_lineup": Record(WORLD_VENT_LINEUP, WORLD_VENT_LINEUP_AT, ("vent_lineup",)),
     "diesel_running": Record(WORLD_DIESEL_RUNNING, WORLD_DIESEL_RUNNING_AT, ("diesel_running",)),
     "co_ppm": Record(WORLD_CO_PPM, WORLD_CO_PPM_AT, ("co_ppm",)),
+    "co_ppm_fwd": Record(WORLD_CO_PPM_FWD, WORLD_CO_PPM_FWD_AT, ("co_ppm_fwd",)),
+    "forward_normal": Record(WORLD_FORWARD_NORMAL, WORLD_FORWARD_NORMAL_AT, ("forward_normal",)),
     "engine_room_contaminated": Record(
         WORLD_ENGINE_ROOM_CONTAMINATED,
         WORLD_ENGINE_ROOM_CONTAMINATED_AT,
@@ -719,68 +729,72 @@ WORLD_INITIAL: dict[str, object] = {
     "vent_lineup": 0,
     "diesel_running": False,
     "co_ppm": 0.0,
+    "co_ppm_fwd": 0.0,
+    "forward_normal": True,
     "engine_room_contaminated": False,
     "lube_oil_psi": 60.0,
     "lube_oil_low": False,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2960
-OVERRIDDEN_AT = 2968  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2992
+OVERRIDDEN_AT = 3000  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 2976, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 3000, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 3024, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 3048, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 3072, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 3096, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 3160, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 3184, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 3208, ("state", "ballast")),
-    "planes": Record(Struct("<QQq"), 3232, ("state", "planes")),
-    "mbt_blown": Record(Struct("<QQ?"), 3256, ("state", "mbt_blown")),
-    "vent_flow": Record(Struct("<QQd"), 3280, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 3304, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 3328, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 3352, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 3376, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 3400, ("state", "depth")),
-    "depth_gauge": Record(Struct("<QQd"), 3424, ("state", "depth_gauge")),
-    "bubble": Record(Struct("<QQd"), 3448, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 3472, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 3496, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 3520, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 3544, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 3568, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 3592, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3616, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3640, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3664, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3688, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3712, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3736, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3760, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3784, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3808, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3832, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3856, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3880, ("state", "min_clearance")),
-    "water_density": Record(Struct("<QQd"), 3904, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 3928, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 3952, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 3976, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 4000, ("state", "fire")),
-    "smoke": Record(Struct("<QQd"), 4024, ("state", "smoke")),
-    "o2_pct": Record(Struct("<QQd"), 4048, ("state", "o2_pct")),
-    "co2_pct": Record(Struct("<QQd"), 4072, ("state", "co2_pct")),
-    "vent_lineup": Record(Struct("<QQq"), 4096, ("state", "vent_lineup")),
-    "diesel_running": Record(Struct("<QQ?"), 4120, ("state", "diesel_running")),
-    "co_ppm": Record(Struct("<QQd"), 4144, ("state", "co_ppm")),
-    "engine_room_contaminated": Record(Struct("<QQ?"), 4168, ("state", "engine_room_contaminated")),
-    "lube_oil_psi": Record(Struct("<QQd"), 4192, ("state", "lube_oil_psi")),
-    "lube_oil_low": Record(Struct("<QQ?"), 4216, ("state", "lube_oil_low")),
+    "speed_cmd": Record(Struct("<QQd"), 3008, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 3032, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 3056, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 3080, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 3104, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 3128, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 3192, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 3216, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 3240, ("state", "ballast")),
+    "planes": Record(Struct("<QQq"), 3264, ("state", "planes")),
+    "mbt_blown": Record(Struct("<QQ?"), 3288, ("state", "mbt_blown")),
+    "vent_flow": Record(Struct("<QQd"), 3312, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 3336, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 3360, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 3384, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 3408, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 3432, ("state", "depth")),
+    "depth_gauge": Record(Struct("<QQd"), 3456, ("state", "depth_gauge")),
+    "bubble": Record(Struct("<QQd"), 3480, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 3504, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 3528, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3552, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3576, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3600, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3624, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3648, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3672, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3696, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3720, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3744, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3768, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3792, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3816, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3840, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3864, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3888, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3912, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3936, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3960, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3984, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 4008, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 4032, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 4056, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 4080, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 4104, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 4128, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 4152, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 4176, ("state", "co_ppm")),
+    "co_ppm_fwd": Record(Struct("<QQd"), 4200, ("state", "co_ppm_fwd")),
+    "forward_normal": Record(Struct("<QQ?"), 4224, ("state", "forward_normal")),
+    "engine_room_contaminated": Record(Struct("<QQ?"), 4248, ("state", "engine_room_contaminated")),
+    "lube_oil_psi": Record(Struct("<QQd"), 4272, ("state", "lube_oil_psi")),
+    "lube_oil_low": Record(Struct("<QQ?"), 4296, ("state", "lube_oil_low")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -845,6 +859,8 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "vent_lineup": ("ec",),
     "diesel_running": ("ec",),
     "co_ppm": ("atmosphere",),
+    "co_ppm_fwd": ("atmosphere",),
+    "forward_normal": ("ec",),
     "engine_room_contaminated": ("ec",),
     "lube_oil_psi": ("atmosphere",),
     "lube_oil_low": ("ec",),
@@ -867,7 +883,7 @@ GROUND_TRUTH = (
 TIME_IN_STATE = {
     "cc": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        4240,
+        4320,
         (
             "state",
             "since",
@@ -885,7 +901,7 @@ TIME_IN_STATE = {
     ),
     "sm": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        4344,
+        4424,
         (
             "state",
             "since",
@@ -902,21 +918,21 @@ TIME_IN_STATE = {
             "HELM_FAILED",
         ),
     ),
-    "ec": Record(Struct("<QqQQQQ"), 4456, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 4536, ("state", "since", "NOP", "S0", "S1")),
     "helm": Record(
-        Struct("<QqQQQQQQ"), 4504, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
+        Struct("<QqQQQQQQ"), 4584, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
     ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        4568,
+        4648,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "prop": Record(Struct("<QqQQQQQ"), 4640, ("state", "since", "NOP", "S0", "S1", "ASKED")),
-    "rudder_sim": Record(Struct("<QqQQQ"), 4696, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 4736, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 4776, ("state", "since", "NOP", "S0")),
-    "sea": Record(Struct("<QqQQQ"), 4816, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 4856, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 4720, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 4776, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 4816, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 4856, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 4896, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 4936, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -1067,6 +1083,7 @@ RULES = {
         "RUN_MISSION/LINE_UP/2",
         "RUN_MISSION/VENT/1",
         "RUN_MISSION/VENT/2",
+        "RUN_MISSION/VENT/3",
         "RUN_MISSION/RESUMING/1",
         "RUN_MISSION/RESUMING/2",
     ),
