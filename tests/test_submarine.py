@@ -141,6 +141,54 @@ def test_ice_transit_avoids_ice_then_recomputes_the_course():
     assert max(off) > 10.0
 
 
+def off_track(lines: list[dict]) -> list[float]:
+    """Metres from the ship to its leg's track in every transit cycle: the line from where
+    the transit started (the haven's first centre) through the haven's centre, which moves
+    along it towards the waypoint."""
+    out, start, number = [], (0.0, 0.0), None
+    for line in lines:
+        sm, w = line["modules"]["sm"], line["world"]
+        if sm["command"] != "SUBMERGED_TRANSIT" or sm["status"] != "EXECUTING":
+            continue
+        if sm["command_num"] != number:
+            number, start = sm["command_num"], (w["pos_x"], w["pos_y"])
+        along_x, along_y = w["haven_x"] - start[0], w["haven_y"] - start[1]
+        length = math.hypot(along_x, along_y)
+        if length > 50.0:  # the track's direction is known once the haven has moved
+            cross = (w["pos_x"] - start[0]) * along_y - (w["pos_y"] - start[1]) * along_x
+            out.append(abs(cross) / length)
+    return out
+
+
+def test_helm_steers_back_onto_the_track_after_avoiding_ice():
+    """Figure 19: the submarine follows the planned path's line segments, jagged only where
+    it avoids ice. Helm's course is recomputed every cycle towards the track (not only
+    towards the waypoint once, which left the ship wherever avoidance had set it, a median
+    56 m off the line and within 50 m of it 43 % of the time)."""
+    _, lines = played("ice_transit")
+    off = sorted(off_track(lines))
+    assert len(off) > 1000
+    assert off[len(off) // 2] < 25.0, "the median cycle is on the track"
+    assert sum(d < 50.0 for d in off) >= 0.75 * len(off)
+
+
+def test_the_course_along_the_track(hooks):
+    helm = hooks[0]
+    # on the track: along it; off it: back towards a point LOOKAHEAD (600 m) on along it
+    assert helm.track_course(0.0, 10000.0, 0.0, 0.0, 0.0, 5000.0) == 0.0
+    assert helm.track_course(0.0, 10000.0, 0.0, 0.0, 150.0, 5000.0) == pytest.approx(
+        360.0 - math.degrees(math.atan2(150.0, 600.0))
+    )
+    assert helm.track_course(0.0, 10000.0, 0.0, 0.0, -150.0, 5000.0) == pytest.approx(
+        math.degrees(math.atan2(150.0, 600.0))
+    )
+    # within LOOKAHEAD of the goal: straight for it; a track of no length: the goal's bearing
+    assert helm.track_course(0.0, 10000.0, 0.0, 0.0, -150.0, 9800.0) == pytest.approx(
+        math.degrees(math.atan2(150.0, 200.0))
+    )
+    assert helm.track_course(100.0, 0.0, 100.0, 0.0, 0.0, 0.0) == 90.0
+
+
 def test_helm_reports_at_goal_only_on_course_with_the_rudder_centred():
     _, lines = played("ice_transit")
     on = [line for line, at_goal in zip(lines, helm_at_goal(lines), strict=True) if at_goal]
@@ -222,16 +270,44 @@ def test_engine_room_fire_phases_and_their_cycles():
     # asked CHANGE_TO_EPM; his report engages the EPM
     slowing = spans(lines, "sm", "SLOWING")[0]
     assert slowing[0] == baffles[0][1] + 1
-    asked = spans(lines, "eoow/prop", "ASKING")
-    assert len(asked) == 1 and asked[0][0] == slowing[0]
+    # on indication of decreasing main lube oil pressure (the fire is at the pumps; the
+    # engineering node infers it low) the EOOW recommends the EPM: the shift is asked in
+    # SLOWING's first cycle, the pressure having fallen since the fire (4.1.3)
+    low = next(ln["cycle"] for ln in lines if ln["world"]["lube_oil_low"])
+    assert fire_at < low < slowing[0]
+    assert at(lines, fire_at - 1)["world"]["lube_oil_psi"] == 60.0
+    assert at(lines, low)["world"]["lube_oil_psi"] < 40.0
+    asked, back = spans(lines, "eoow/prop", "ASKING")
+    assert asked[0] == slowing[0] + 1
+    assert at(lines, asked[0])["modules"]["eoow/prop"]["command"] == "CHANGE_TO_EPM"
+    asked = [asked]
     assert 20 <= asked[0][1] - asked[0][0] + 1 <= 22, "the scripted EOOW takes 20 s"
     assert {at(lines, c)["world"]["shaft"] for c in range(asked[0][0], asked[0][1] + 1)} == {
         "DISENGAGED"
     }
     assert at(lines, asked[0][1] + 2)["world"]["shaft"] == "EPM"
-    # prepared: periscope depth at one-third on the EPM, steady on course, periscope raised
+    # ahead one-third while slowing; on the EPM ("prepared to answer bells on the EPM") the
+    # OOD orders ahead two-thirds, the cycle ship maneuver reads propulsion's DONE (4.1.3)
+    assert at(lines, slowing[0])["world"]["speed_cmd"] == 2.6
+    two_thirds = next(c for c in range(*slowing) if at(lines, c)["world"]["speed_cmd"] == 5.1)
+    assert two_thirds == asked[0][1] + 3
+    # the main lube oil restored (the scenario's event): the engineering node's indication
+    # clears the cycle after, cc has SM shift back to the turbines (the EOOW asked
+    # CHANGE_TO_TURBINE, the shaft declutched meanwhile), then the transit at standard speed
+    restored = next(e.cycle for e in scenario.events if "lube_oil_psi" in e.world)
+    assert at(lines, restored)["world"]["lube_oil_low"] is False
+    assert at(lines, restored - 1)["world"]["shaft"] == "EPM"
+    (shifting,) = spans(lines, "cc", "SHIFTING")
+    assert shifting[0] == restored + 1
+    assert at(lines, back[0])["modules"]["eoow/prop"]["command"] == "CHANGE_TO_TURBINE"
+    assert {at(lines, c)["world"]["shaft"] for c in range(back[0], back[1] + 1)} == {"DISENGAGED"}
+    assert at(lines, shifting[1])["world"]["shaft"] == "TURBINE"
+    assert at(lines, shifting[1])["world"]["speed_cmd"] == 7.7
+    assert lines[-1]["world"]["shaft"] == "TURBINE" and lines[-1]["world"]["speed"] == 7.7
+    assert all(at(lines, c)["world"]["speed_cmd"] == 5.1 for c in range(two_thirds, prep_to + 1))
+    # prepared: periscope depth at two-thirds on the EPM, steady on course, periscope raised
     top = at(lines, prep_to)
-    assert abs(top["world"]["depth"] - 18.0) < 1.0 and abs(top["world"]["speed"] - 2.6) < 0.1
+    assert abs(top["world"]["depth"] - 18.0) < 1.0 and abs(top["world"]["speed"] - 5.1) < 0.1
     assert top["world"]["periscope_raised"] and top["world"]["shaft"] == "EPM"
     assert not any(
         line["world"]["periscope_raised"] for line in lines if line["cycle"] < prep_to - 1
@@ -275,6 +351,18 @@ def test_engine_room_fire_phases_and_their_cycles():
         c for c in range(vent_from, vent_to + 1) if at(lines, c)["world"]["co_ppm"] <= CO_SAFE
     )
     assert safe == vent_to - 1
+    # EABs off area by area (4.1.3): forward of the engine room, where the analyzer reads
+    # normal first, while the engine room is still being ventilated; the engine room last
+    forward = next(c for c in range(vent_from, vent_to) if at(lines, c)["world"]["forward_normal"])
+    assert (
+        at(lines, forward)["world"]["co_ppm_fwd"] <= CO_SAFE < at(lines, forward)["world"]["co_ppm"]
+    )
+    # (the atmosphere, last in the cycle, reads safe in cycle k; ec infers it in k + 1)
+    assert at(lines, forward - 1)["world"]["co_ppm_fwd"] <= CO_SAFE
+    assert at(lines, forward - 2)["world"]["co_ppm_fwd"] > CO_SAFE
+    assert at(lines, forward + 1)["world"]["announcement"] == "EABS MAY BE REMOVED FORWARD"
+    assert at(lines, forward)["world"]["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+    assert forward + 1 < vent_to - 10
     # the fire burned for the damage control party's 30 cycles
     burning = [line["cycle"] for line in lines if line["world"]["fire"]]
     assert burning == list(range(fire_at, fire_at + 30))
@@ -290,25 +378,27 @@ def test_engine_room_fire_phases_and_their_cycles():
     assert at(lines, res_to + 1)["modules"]["cc"]["state"] == "S1"
     assert at(lines, res_to + 2)["modules"]["cc"]["state"] == "TRANSIT"
     # the bubble angle: bow up coming to periscope depth, bow down going back
-    assert at(lines, prep_to - 60)["world"]["bubble"] > 5.0
+    assert max(at(lines, c)["world"]["bubble"] for c in range(slowing[0], prep_to)) > 5.0
     assert at(lines, res_from + 10)["world"]["bubble"] < -5.0
     assert lines[-1]["world"]["bubble"] == 0.0
     assert commands_sent(lines, "sm") == [
         "INIT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "PREP_SUBMERGED_TRANSIT",
-        "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT",
+        "SUBMERGED_TRANSIT", "SUBMERGED_TRANSIT", "SHIFT_TO_TURBINES", "SUBMERGED_TRANSIT",
     ]  # fmt: skip
     assert commands_sent(lines, "ec") == [
         "INIT", "SUBMERGED_VENT", "LINE_UP_EMERGENCY_VENT", "EMERGENCY_VENT", "SUBMERGED_VENT",
-        "SUBMERGED_VENT", "SUBMERGED_VENT",
+        "SUBMERGED_VENT", "SUBMERGED_VENT", "SUBMERGED_VENT",  # the last after the shift back
     ]  # fmt: skip
     assert commands_sent(lines, "helm")[:4] == [
         "INIT", "ICE_MANEUVER", "CLEAR_BAFFLES", "ICE_MANEUVER"
     ]  # fmt: skip
-    assert commands_sent(lines, "prop") == ["INIT", "SHIFT_TO_EPM"]
-    # the EPM stays on the shaft (the main lube oil is not restored in the scenario): the
-    # resumed transit answers bells at ahead two-thirds on the EPM
+    assert commands_sent(lines, "prop") == ["INIT", "SHIFT_TO_EPM", "SHIFT_TO_TURBINE"]
+    # the resumed transit answers bells at ahead two-thirds on the EPM until the main lube
+    # oil is restored, then at standard speed on the turbines (asserted above)
+    resumed = [at(lines, c)["world"] for c in range(res_to + 40, shifting[0])]
+    assert resumed and {(w["speed"], w["shaft"]) for w in resumed} == {(5.1, "EPM")}
     last = lines[-1]["world"]
-    assert last["depth"] == 120.0 and last["speed"] == 5.1 and last["shaft"] == "EPM"
+    assert last["depth"] == 120.0 and last["speed"] == 7.7 and last["shaft"] == "TURBINE"
 
 
 def test_fire_under_ice_clears_baffles_only_as_far_as_the_ice_allows():
@@ -559,7 +649,9 @@ def test_helm_reports_a_rudder_error_instead_of_ordering_the_rudder_again() -> N
     harness = Harness.load(ROOT / "generated" / "submarine", hooks_dir=SUBMARINE)
     try:
         harness.world.update({"pos_x": 0.0, "pos_y": 0.0, "heading": 0.0})
-        harness.command("helm", "ICE_MANEUVER", x=0.0, y=10000.0)  # due north: course 0
+        harness.command(
+            "helm", "ICE_MANEUVER", x=0.0, y=10000.0, from_x=0.0, from_y=0.0
+        )  # due north: course 0
         harness.step("helm")  # S0: the course
         harness.world.update({"heading": -10.0})
         harness.step("helm")  # Evt5: 10 degrees off, order 15 degrees of rudder
@@ -583,16 +675,22 @@ def test_fresh_water_run_off_sinks_the_ship_until_variable_ballast_is_blown():
     scenario = load_scenario(SCENARIOS / "fresh_water_runoff.yaml")
     drop, back = (e.cycle for e in scenario.events if "water_density" in e.world)
     before = at(lines, drop - 1)["world"]
-    assert before["depth"] == 120.0 and before["ballast"] == 0.0
-    deepest = max(line["world"]["depth"] for line in lines)
+    assert before["depth"] == before["depth_gauge"] == 120.0 and before["ballast"] == 0.0
+    # two depths (4.6.4): the actual one and the depth sensor's, a pressure gauge calibrated
+    # for 1025 kg/m3 that reads shallow in the lighter water; the controllers read the gauge
+    for c in range(drop + 1, back):
+        w = at(lines, c)["world"]
+        assert w["depth_gauge"] == pytest.approx(w["depth"] * w["water_density"] / 1025.0)
+        assert w["depth"] - w["depth_gauge"] > 3.0
+    deepest = max(line["world"]["depth_gauge"] for line in lines)
     assert 120.0 + 5.0 < deepest < 130.0, "sank past what the planes hold, not far"
     blowing = [
         line["cycle"] for line in lines if line["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/5"
     ]
     assert blowing and all(drop < c < back for c in blowing)
-    for c in blowing:  # blown only while more than DEPTH_LIMIT deeper than ordered
-        assert at(lines, c - 1)["world"]["depth"] > 125.0
-    held = [at(lines, c)["world"]["depth"] for c in range(blowing[-1] + 30, back)]
+    for c in blowing:  # blown only while the gauge reads more than DEPTH_LIMIT deeper
+        assert at(lines, c - 1)["world"]["depth_gauge"] > 125.0
+    held = [at(lines, c)["world"]["depth_gauge"] for c in range(blowing[-1] + 30, back)]
     assert held and all(abs(d - 120.0) <= 1.0 for d in held)
     after = [line["world"]["depth"] for line in lines if line["cycle"] > back + 30]
     assert all(abs(d - 120.0) <= 1.0 for d in after), (
@@ -684,7 +782,7 @@ def test_a_depth_the_ballast_cannot_hold_is_the_ood_s_choice_and_he_chooses_the_
     assert final["status"] == "DONE"
     asked, answered = depth_casualty(lines)
     before = at(lines, asked - 1)["world"]
-    assert before["ballast"] == 20.0 and before["depth"] > 125.0, "ballast spent, still sinking"
+    assert before["ballast"] == 20.0 and before["depth_gauge"] > 125.0, "spent, still sinking"
     assert at(lines, asked)["modules"]["sm"]["rule"] == "SUBMERGED_TRANSIT/S1/8"
     assert at(lines, asked)["modules"]["sm"]["state"] == "DEPTH_ASKED"
     channel = at(lines, answered)["modules"]["ood/sm"]
@@ -696,8 +794,12 @@ def test_a_depth_the_ballast_cannot_hold_is_the_ood_s_choice_and_he_chooses_the_
     assert chose["modules"]["sm"]["state"] == "S1" and chose["world"]["planes"] == "FULL"
     deepest = max(ln["world"]["depth"] for ln in lines)
     assert deepest == max(at(lines, c)["world"]["depth"] for c in range(asked, answered + 2))
-    held = [ln["world"]["depth"] for ln in lines if answered + 60 <= ln["cycle"]]
-    assert held and all(abs(d - 120.0) <= 1.5 for d in held)
+    # held where full planes balance the sinking (1.5 m on the gauge; float rounding aside),
+    # and again once the sea is as dense as before (the gauge then reads the actual depth)
+    back = [e.cycle for e in load_scenario(SCENARIOS / "salinity_planes.yaml").events][-1]
+    held = [ln["world"]["depth_gauge"] for ln in lines if answered + 60 <= ln["cycle"] < back]
+    after = [ln["world"]["depth"] for ln in lines if back + 30 <= ln["cycle"]]
+    assert held and after and all(abs(d - 120.0) <= 1.5 + 1e-9 for d in held + after)
     assert not any(ln["world"]["mbt_blown"] for ln in lines)
     assert all(ln["modules"]["ood/sm"]["state"] == "NOP" for ln in lines[: asked - 1])
 

@@ -11,7 +11,9 @@ from .layout import (
     OVERRIDE,
     WORLD_CO2_PCT_AT,
     WORLD_CO_PPM_AT,
+    WORLD_CO_PPM_FWD_AT,
     WORLD_FIRE_AT,
+    WORLD_LUBE_OIL_PSI_AT,
     WORLD_O2_PCT_AT,
     WORLD_SMOKE_AT,
 )
@@ -24,12 +26,12 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI272xd456x?15xd8xd8xd40xd")
-INPUTS_AT = 1968
+INPUTS = Struct("<QQI44x???1xI272xd472x?15xd8xd8xd40xd8xd40xd")
+INPUTS_AT = 1984
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (246,)
+SEQ_WORDS = (248,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 ATMOSPHERE_STATUS_WORD = ATMOSPHERE_STATUS_AT >> 3
@@ -38,6 +40,8 @@ WORLD_SMOKE_WORD = WORLD_SMOKE_AT >> 3
 WORLD_O2_PCT_WORD = WORLD_O2_PCT_AT >> 3
 WORLD_CO2_PCT_WORD = WORLD_CO2_PCT_AT >> 3
 WORLD_CO_PPM_WORD = WORLD_CO_PPM_AT >> 3
+WORLD_CO_PPM_FWD_WORD = WORLD_CO_PPM_FWD_AT >> 3
+WORLD_LUBE_OIL_PSI_WORD = WORLD_LUBE_OIL_PSI_AT >> 3
 ATMOSPHERE_PERF_WORD = ATMOSPHERE_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
@@ -46,7 +50,7 @@ ATMOSPHERE_PERF_WORD = ATMOSPHERE_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Q?7xQdQdQd")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2768
+WORLD_OUT_1_AT = 2800
 WORLD_HELD_1 = (
     OVERRIDE["fire"],
     OVERRIDE["smoke"],
@@ -56,20 +60,31 @@ WORLD_HELD_1 = (
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_2 = Struct("<Qd")
-WORLD_VALUES_2 = Struct("<8xd")
-WORLD_SEQS_2 = Struct("<Q")
-WORLD_OUT_2_AT = 2864
-WORLD_HELD_2 = (OVERRIDE["co_ppm"],)  # their overrides
+WORLD_OUT_2 = Struct("<QdQd")
+WORLD_VALUES_2 = Struct("<8xd8xd")
+WORLD_SEQS_2 = Struct("<Q8xQ")
+WORLD_OUT_2_AT = 2896
+WORLD_HELD_2 = (OVERRIDE["co_ppm"], OVERRIDE["co_ppm_fwd"])  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_3 = Struct("<Qd")
+WORLD_VALUES_3 = Struct("<8xd")
+WORLD_SEQS_3 = Struct("<Q")
+WORLD_OUT_3_AT = 2960
+WORLD_HELD_3 = (OVERRIDE["lube_oil_psi"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 
 # Constants.
 FIRE_CO = 40.0
+FIRE_CO_FWD = 10.0
 FIRE_SMOKE = 5.0
 FIRE_CO2 = 0.02
 FIRE_O2 = 0.03
+FIRE_LUBE = 2.0
+LUBE_LEAST = 10.0
 O2_NORMAL = 20.9
 CO2_NORMAL = 0.5
 
@@ -108,7 +123,9 @@ class AtmosphereController:
         "words",
         "world_co2_pct",
         "world_co_ppm",
+        "world_co_ppm_fwd",
         "world_fire",
+        "world_lube_oil_psi",
         "world_o2_pct",
         "world_set",
         "world_smoke",
@@ -150,7 +167,7 @@ class AtmosphereController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[246] != values[0]:
+        if values[0] & 1 or not values[0] or words[248] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -167,6 +184,8 @@ class AtmosphereController:
                 self.world_o2_pct,
                 self.world_co2_pct,
                 self.world_co_ppm,
+                self.world_co_ppm_fwd,
+                self.world_lube_oil_psi,
             ) = values
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -240,15 +259,26 @@ class AtmosphereController:
                 words[WORLD_SMOKE_WORD] = (s[1] | 1) + 1
                 words[WORLD_O2_PCT_WORD] = (s[2] | 1) + 1
                 words[WORLD_CO2_PCT_WORD] = (s[3] | 1) + 1
-            out = (self.world_co_ppm,)
+            out = (self.world_co_ppm, self.world_co_ppm_fwd)
             now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_2, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
                 words[WORLD_CO_PPM_WORD] = s[0] | 1  # odd before the value changes
-                WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0])
+                words[WORLD_CO_PPM_FWD_WORD] = s[1] | 1  # odd before the value changes
+                WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 words[WORLD_CO_PPM_WORD] = (s[0] | 1) + 1
+                words[WORLD_CO_PPM_FWD_WORD] = (s[1] | 1) + 1
+            out = (self.world_lube_oil_psi,)
+            now = WORLD_VALUES_3.unpack_from(buf, WORLD_OUT_3_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_3, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_3.unpack_from(buf, WORLD_OUT_3_AT)
+                words[WORLD_LUBE_OIL_PSI_WORD] = s[0] | 1  # odd before the value changes
+                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0])
+                words[WORLD_LUBE_OIL_PSI_WORD] = (s[0] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -278,7 +308,7 @@ class AtmosphereController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[246] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[248] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing
@@ -299,6 +329,8 @@ class AtmosphereController:
             self.world_o2_pct,
             self.world_co2_pct,
             self.world_co_ppm,
+            self.world_co_ppm_fwd,
+            self.world_lube_oil_psi,
         ) = values
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
@@ -311,6 +343,7 @@ class AtmosphereController:
             self.world_set = True  # it sets world outputs
             self.world_fire = False
             self.world_co_ppm = vented(self.world_co_ppm, 0.0, self.world_vent_flow)
+            self.world_co_ppm_fwd = vented(self.world_co_ppm_fwd, 0.0, self.world_vent_flow)
             self.world_smoke = vented(self.world_smoke, 0.0, self.world_vent_flow)
             self.world_co2_pct = CO2_NORMAL + vented(
                 self.world_co2_pct - CO2_NORMAL, 0.0, self.world_vent_flow
@@ -323,6 +356,7 @@ class AtmosphereController:
             # the fire burns; the damage control party fights it
             self.world_set = True  # it sets world outputs
             self.world_co_ppm = vented(self.world_co_ppm, FIRE_CO, self.world_vent_flow)
+            self.world_co_ppm_fwd = vented(self.world_co_ppm_fwd, FIRE_CO_FWD, self.world_vent_flow)
             self.world_smoke = vented(self.world_smoke, FIRE_SMOKE, self.world_vent_flow)
             self.world_co2_pct = CO2_NORMAL + vented(
                 self.world_co2_pct - CO2_NORMAL, FIRE_CO2, self.world_vent_flow
@@ -330,11 +364,13 @@ class AtmosphereController:
             self.world_o2_pct = O2_NORMAL - vented(
                 O2_NORMAL - self.world_o2_pct, FIRE_O2, self.world_vent_flow
             )
+            self.world_lube_oil_psi = max(LUBE_LEAST, self.world_lube_oil_psi - FIRE_LUBE)
 
         elif self.world_co_ppm > 0.0:
             # the ventilation line-up removes the smoke and the gases (they came with the CO)
             self.world_set = True  # it sets world outputs
             self.world_co_ppm = vented(self.world_co_ppm, 0.0, self.world_vent_flow)
+            self.world_co_ppm_fwd = vented(self.world_co_ppm_fwd, 0.0, self.world_vent_flow)
             self.world_smoke = vented(self.world_smoke, 0.0, self.world_vent_flow)
             self.world_co2_pct = CO2_NORMAL + vented(
                 self.world_co2_pct - CO2_NORMAL, 0.0, self.world_vent_flow

@@ -56,7 +56,8 @@ SM_INIT = 1
 SM_HALT = 2
 SM_SUBMERGED_TRANSIT = 3
 SM_PREP_EMERGENCY_VENT = 4
-SM_PREP_SUBMERGED_TRANSIT = 5
+SM_SHIFT_TO_TURBINES = 5
+SM_PREP_SUBMERGED_TRANSIT = 6
 # Why sm may end a command in ERROR (its error_num).
 SM_REASON_NONE = 0
 SM_REASON_LOST = 1
@@ -78,7 +79,8 @@ EC_LINK = 3  # its number in the layout's CAUSE_MODULES
 EOOW_INIT = 1
 EOOW_HALT = 2
 EOOW_CHANGE_TO_EPM = 3
-EOOW_FIRE_OUT = 4
+EOOW_CHANGE_TO_TURBINE = 4
+EOOW_FIRE_OUT = 5
 # Why eoow may end a command in ERROR (its error_num).
 EOOW_REASON_NONE = 0
 EOOW_REASON_LOST = 1
@@ -87,7 +89,7 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI580xQII976x48s664x?")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI596xQII976x48s8xq680x?15x?31x?")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -108,18 +110,22 @@ CC_PERF_WORD = CC_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Q48s")
 WORLD_VALUES_1 = Struct("<8x48s")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2168
+WORLD_OUT_1_AT = 2184
 WORLD_HELD_1 = (OVERRIDE["announcement"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 TRANSIT = 3
-PREP_VENT = 4
-FIRE_REPORT = 5
-LINE_UP = 6
-VENT = 7
-RESUMING = 8
+SHIFTING = 4
+PREP_VENT = 5
+FIRE_REPORT = 6
+LINE_UP = 7
+VENT = 8
+RESUMING = 9
+
+# Enumeration values its tables name (a field holds its value's index).
+EPM = 2
 
 
 class CcController:
@@ -182,6 +188,9 @@ class CcController:
         "words",
         "world_announcement",
         "world_engine_room_contaminated",
+        "world_forward_normal",
+        "world_lube_oil_low",
+        "world_shaft",
     )
 
     # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
@@ -284,7 +293,10 @@ class CcController:
                 self.eoow_status,
                 self.eoow_error_num,
                 self.world_announcement,
+                self.world_shaft,
+                self.world_forward_normal,
                 self.world_engine_room_contaminated,
+                self.world_lube_oil_low,
             ) = values
             self.world_announcement = decode_text(self.world_announcement)
         if self.sm_status_num != self.sm_command_num:
@@ -453,7 +465,10 @@ class CcController:
             self.eoow_status,
             self.eoow_error_num,
             self.world_announcement,
+            self.world_shaft,
+            self.world_forward_normal,
             self.world_engine_room_contaminated,
+            self.world_lube_oil_low,
         ) = values
         self.world_announcement = decode_text(self.world_announcement)
         if not whole:
@@ -642,22 +657,51 @@ class CcController:
                     SM_REASON_REFUSED: REASON_REFUSED,
                 }.get(self.sm_error_num, REASON_NONE)
 
-            elif self.sm_status == ERROR or self.ec_status == ERROR:
+            elif self.world_shaft == EPM and not self.world_lube_oil_low:
+                # on the EPM with the main lube oil restored (4.1.3): SM back to the turbines, then on with the transit
                 self.rule = 13  # RUN_MISSION/TRANSIT/6
+                self.state = SHIFTING
+                self.sm_command = SM_SHIFT_TO_TURBINES
+                self.sm_command_num += 1
+
+            elif self.sm_status == ERROR or self.ec_status == ERROR:
+                self.rule = 14  # RUN_MISSION/TRANSIT/7
                 self.state = NOP
                 self.status = ERROR
+
+        elif state == SHIFTING:
+            if self.sm_status == DONE:
+                # on the turbines; the transit to the same waypoint, at standard speed
+                self.rule = 15  # RUN_MISSION/SHIFTING/1
+                self.state = S1
+
+            elif self.sm_status == ERROR:
+                # the EOOW could not shift back
+                self.rule = 16  # RUN_MISSION/SHIFTING/2
+                # sm's error: the cause of an ERROR this command reports
+                self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
+                self.state = NOP
+                self.status = ERROR
+                # sm's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    SM_REASON_LOST: REASON_LOST,
+                    SM_REASON_BLOCKED: REASON_BLOCKED,
+                    SM_REASON_OUT_OF_HAVEN: REASON_OUT_OF_HAVEN,
+                    SM_REASON_SURFACED: REASON_SURFACED,
+                    SM_REASON_REFUSED: REASON_REFUSED,
+                }.get(self.sm_error_num, REASON_NONE)
 
         elif state == PREP_VENT:
             if self.sm_status == DONE:
                 # (S3) SM done, at periscope depth; wait for the word from the damage control party, which the EOOW relays (4.1.3)
-                self.rule = 14  # RUN_MISSION/PREP_VENT/1
+                self.rule = 17  # RUN_MISSION/PREP_VENT/1
                 self.state = FIRE_REPORT
                 self.eoow_command = EOOW_FIRE_OUT
                 self.eoow_command_num += 1
 
             elif self.sm_status == ERROR:
                 # the ship could not prepare (the EOOW could not shift to the EPM)
-                self.rule = 15  # RUN_MISSION/PREP_VENT/2
+                self.rule = 18  # RUN_MISSION/PREP_VENT/2
                 # sm's error: the cause of an ERROR this command reports
                 self.cause = caused(SM_LINK, self.sm_error_num, self.sm_cause)
                 self.state = NOP
@@ -674,14 +718,14 @@ class CcController:
         elif state == FIRE_REPORT:
             if self.eoow_status == DONE:
                 # "The fire is out, the reflash watch is stationed": prepare to emergency ventilate the engine room with the diesel (EC line up)
-                self.rule = 16  # RUN_MISSION/FIRE_REPORT/1
+                self.rule = 19  # RUN_MISSION/FIRE_REPORT/1
                 self.state = LINE_UP
                 self.ec_command = EC_LINE_UP_EMERGENCY_VENT
                 self.ec_command_num += 1
 
             elif self.eoow_status == ERROR:
                 # no word from the EOOW (his request failed)
-                self.rule = 17  # RUN_MISSION/FIRE_REPORT/2
+                self.rule = 20  # RUN_MISSION/FIRE_REPORT/2
                 # eoow's error: the cause of an ERROR this command reports
                 self.cause = caused(EOOW_LINK, self.eoow_error_num, 0)
                 self.state = NOP
@@ -690,13 +734,13 @@ class CcController:
         elif state == LINE_UP:
             if self.ec_status == DONE:
                 # prepared to emergency ventilate with the diesel; commence snorkeling (EC emergency vent)
-                self.rule = 18  # RUN_MISSION/LINE_UP/1
+                self.rule = 21  # RUN_MISSION/LINE_UP/1
                 self.state = VENT
                 self.ec_command = EC_EMERGENCY_VENT
                 self.ec_command_num += 1
 
             elif self.ec_status == ERROR:
-                self.rule = 19  # RUN_MISSION/LINE_UP/2
+                self.rule = 22  # RUN_MISSION/LINE_UP/2
                 # ec's error: the cause of an ERROR this command reports
                 self.cause = caused(EC_LINK, 0, 0)
                 self.state = NOP
@@ -705,7 +749,7 @@ class CcController:
         elif state == VENT:
             if self.ec_status == DONE:
                 # (S4) fire out, smoke and gas normal; EABs off; SM prepare for the submerged transit, EC submerged vent
-                self.rule = 20  # RUN_MISSION/VENT/1
+                self.rule = 23  # RUN_MISSION/VENT/1
                 self.state = RESUMING
                 self.world_announcement = "SECURE FROM FIRE, EABS MAY BE REMOVED"
                 self.sm_command = SM_PREP_SUBMERGED_TRANSIT
@@ -714,19 +758,27 @@ class CcController:
                 self.ec_command_num += 1
 
             elif self.ec_status == ERROR:
-                self.rule = 21  # RUN_MISSION/VENT/2
+                self.rule = 24  # RUN_MISSION/VENT/2
                 # ec's error: the cause of an ERROR this command reports
                 self.cause = caused(EC_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
 
+            elif (
+                self.world_forward_normal
+                and self.world_announcement == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+            ):
+                # the atmosphere forward of the engine room reads normal: the OOD grants the removal of EABs there (4.1.3, area by area); ventilating goes on
+                self.rule = 25  # RUN_MISSION/VENT/3
+                self.world_announcement = "EABS MAY BE REMOVED FORWARD"
+
         elif state == RESUMING:
             if self.sm_status == DONE and self.ec_status == DONE:
                 # prepared; (S1) the transit to the same waypoint resumes
-                self.rule = 22  # RUN_MISSION/RESUMING/1
+                self.rule = 26  # RUN_MISSION/RESUMING/1
                 self.state = S1
 
             elif self.sm_status == ERROR or self.ec_status == ERROR:
-                self.rule = 23  # RUN_MISSION/RESUMING/2
+                self.rule = 27  # RUN_MISSION/RESUMING/2
                 self.state = NOP
                 self.status = ERROR

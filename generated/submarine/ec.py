@@ -11,6 +11,8 @@ from .layout import (
     OVERRIDE,
     WORLD_DIESEL_RUNNING_AT,
     WORLD_ENGINE_ROOM_CONTAMINATED_AT,
+    WORLD_FORWARD_NORMAL_AT,
+    WORLD_LUBE_OIL_LOW_AT,
     WORLD_VENT_FLOW_AT,
     WORLD_VENT_LINEUP_AT,
 )
@@ -26,7 +28,7 @@ EMERGENCY_VENT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI1680xd456x?15xd8xd8xd8xq8x?15xd8x?")
+INPUTS = Struct("<QI44x???1xI1696xd472x?15xd8xd8xd8xq8x?15xd8xd8x?15x?15xd8x?")
 INPUTS_AT = 568
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -34,7 +36,9 @@ EC_STATUS_WORD = EC_STATUS_AT >> 3
 WORLD_VENT_FLOW_WORD = WORLD_VENT_FLOW_AT >> 3
 WORLD_VENT_LINEUP_WORD = WORLD_VENT_LINEUP_AT >> 3
 WORLD_DIESEL_RUNNING_WORD = WORLD_DIESEL_RUNNING_AT >> 3
+WORLD_FORWARD_NORMAL_WORD = WORLD_FORWARD_NORMAL_AT >> 3
 WORLD_ENGINE_ROOM_CONTAMINATED_WORD = WORLD_ENGINE_ROOM_CONTAMINATED_AT >> 3
+WORLD_LUBE_OIL_LOW_WORD = WORLD_LUBE_OIL_LOW_AT >> 3
 EC_PERF_WORD = EC_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
@@ -43,7 +47,7 @@ EC_PERF_WORD = EC_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2304
+WORLD_OUT_1_AT = 2320
 WORLD_HELD_1 = (OVERRIDE["vent_flow"],)  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -51,16 +55,24 @@ WORLD_HELD_1 = (OVERRIDE["vent_flow"],)  # their overrides
 WORLD_OUT_2 = Struct("<QqQ?")
 WORLD_VALUES_2 = Struct("<8xq8x?")
 WORLD_SEQS_2 = Struct("<Q8xQ")
-WORLD_OUT_2_AT = 2832
+WORLD_OUT_2_AT = 2864
 WORLD_HELD_2 = (OVERRIDE["vent_lineup"], OVERRIDE["diesel_running"])  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_3 = Struct("<Q?")
-WORLD_VALUES_3 = Struct("<8x?")
-WORLD_SEQS_3 = Struct("<Q")
-WORLD_OUT_3_AT = 2880
-WORLD_HELD_3 = (OVERRIDE["engine_room_contaminated"],)  # their overrides
+WORLD_OUT_3 = Struct("<Q?7xQ?")
+WORLD_VALUES_3 = Struct("<8x?15x?")
+WORLD_SEQS_3 = Struct("<Q8xQ")
+WORLD_OUT_3_AT = 2928
+WORLD_HELD_3 = (OVERRIDE["forward_normal"], OVERRIDE["engine_room_contaminated"])  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_4 = Struct("<Q?")
+WORLD_VALUES_4 = Struct("<8x?")
+WORLD_SEQS_4 = Struct("<Q")
+WORLD_OUT_4_AT = 2976
+WORLD_HELD_4 = (OVERRIDE["lube_oil_low"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -68,6 +80,7 @@ S1 = 2
 
 # Constants.
 CO_HIGH = 50.0
+LUBE_LOW = 40.0
 SMOKE_HIGH = 10.0
 RECIRCULATE = 0.002
 EMERGENCY = 0.05
@@ -109,9 +122,13 @@ class EcController:
         "words",
         "world_co2_pct",
         "world_co_ppm",
+        "world_co_ppm_fwd",
         "world_diesel_running",
         "world_engine_room_contaminated",
         "world_fire",
+        "world_forward_normal",
+        "world_lube_oil_low",
+        "world_lube_oil_psi",
         "world_o2_pct",
         "world_set",
         "world_smoke",
@@ -167,7 +184,11 @@ class EcController:
             self.world_vent_lineup,
             self.world_diesel_running,
             self.world_co_ppm,
+            self.world_co_ppm_fwd,
+            self.world_forward_normal,
             self.world_engine_room_contaminated,
+            self.world_lube_oil_psi,
+            self.world_lube_oil_low,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -241,17 +262,28 @@ class EcController:
                 WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 words[WORLD_VENT_LINEUP_WORD] = (s[0] | 1) + 1
                 words[WORLD_DIESEL_RUNNING_WORD] = (s[1] | 1) + 1
-            out = (self.world_engine_room_contaminated,)
+            out = (self.world_forward_normal, self.world_engine_room_contaminated)
             now = WORLD_VALUES_3.unpack_from(buf, WORLD_OUT_3_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_3, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_3.unpack_from(buf, WORLD_OUT_3_AT)
+                words[WORLD_FORWARD_NORMAL_WORD] = s[0] | 1  # odd before the value changes
                 words[WORLD_ENGINE_ROOM_CONTAMINATED_WORD] = (
-                    s[0] | 1
+                    s[1] | 1
                 )  # odd before the value changes
-                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0])
-                words[WORLD_ENGINE_ROOM_CONTAMINATED_WORD] = (s[0] | 1) + 1
+                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+                words[WORLD_FORWARD_NORMAL_WORD] = (s[0] | 1) + 1
+                words[WORLD_ENGINE_ROOM_CONTAMINATED_WORD] = (s[1] | 1) + 1
+            out = (self.world_lube_oil_low,)
+            now = WORLD_VALUES_4.unpack_from(buf, WORLD_OUT_4_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_4, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_4.unpack_from(buf, WORLD_OUT_4_AT)
+                words[WORLD_LUBE_OIL_LOW_WORD] = s[0] | 1  # odd before the value changes
+                WORLD_OUT_4.pack_into(buf, WORLD_OUT_4_AT, s[0] | 1, out[0])
+                words[WORLD_LUBE_OIL_LOW_WORD] = (s[0] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -290,7 +322,11 @@ class EcController:
             self.world_vent_lineup,
             self.world_diesel_running,
             self.world_co_ppm,
+            self.world_co_ppm_fwd,
+            self.world_forward_normal,
             self.world_engine_room_contaminated,
+            self.world_lube_oil_psi,
+            self.world_lube_oil_low,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def every_cycle(self) -> None:
@@ -300,6 +336,8 @@ class EcController:
         self.world_engine_room_contaminated = (
             self.world_co_ppm > CO_HIGH or self.world_smoke > SMOKE_HIGH
         )
+        self.world_lube_oil_low = self.world_lube_oil_psi < LUBE_LOW
+        self.world_forward_normal = self.world_co_ppm_fwd <= CO_SAFE
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -23,7 +23,8 @@ from .rcs.operator import OperatorModule
 INIT = 1
 HALT = 2
 CHANGE_TO_EPM = 3
-FIRE_OUT = 4
+CHANGE_TO_TURBINE = 4
+FIRE_OUT = 5
 
 # Why eoow may answer ERROR (a channel's error_num).
 REASON_NONE = 0

@@ -39,7 +39,7 @@ RUDDER_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdd60x???1xI88xQI1364xd72xd8xd8xd88xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QIdddd60x???1xI88xQI1364xd72xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 688
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -54,7 +54,7 @@ HELM_PERF_WORD = HELM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2240
+WORLD_OUT_1_AT = 2256
 WORLD_HELD_1 = (OVERRIDE["course"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -86,6 +86,8 @@ class HelmController:
     """The helm controller: its local buffers and the QQ1 cycle."""
 
     __slots__ = (
+        "arg_from_x",
+        "arg_from_y",
         "arg_x",
         "arg_y",
         "buf",
@@ -122,13 +124,19 @@ class HelmController:
         "ticks",
         "var_avoid_heading",
         "var_baffle_heading",
+        "var_goal_x",
+        "var_goal_y",
         "var_ice_seen",
         "var_sent_angle",
+        "var_start_x",
+        "var_start_y",
+        "var_tracking",
         "words",
         "world_course",
         "world_heading",
         "world_pos_x",
         "world_pos_y",
+        "world_set",
         "world_sonar_00",
         "world_sonar_01",
         "world_sonar_02",
@@ -150,15 +158,21 @@ class HelmController:
     # 5 cycle periods and at least 1 s); what it raises, or a result unlike
     # its `returns:`, is a HookError.
     hook_assess_ice = hook("helm", hooks, "assess_ice", 5.0, "if")
-    hook_course_to = hook("helm", hooks, "course_to", 5.0, "f")
+    hook_track_course = hook("helm", hooks, "track_course", 5.0, "f")
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.world_set = False  # an every_cycle rule set a world output
         self.var_ice_seen: int = 0
         self.var_avoid_heading: float = 0.0
         self.var_sent_angle: float = 0.0
         self.var_baffle_heading: float = 0.0
+        self.var_tracking: bool = False
+        self.var_goal_x: float = 0.0
+        self.var_goal_y: float = 0.0
+        self.var_start_x: float = 0.0
+        self.var_start_y: float = 0.0
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.held_ice_maneuver_s1_1 = 0  # cycles its rule's `when` has held in a row (for:)
         self.held_ice_maneuver_s2_4 = 0  # cycles its rule's `when` has held in a row (for:)
@@ -217,6 +231,8 @@ class HelmController:
             self.command,
             self.arg_x,
             self.arg_y,
+            self.arg_from_x,
+            self.arg_from_y,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -316,7 +332,8 @@ class HelmController:
             words[RUDDER_COMMAND_WORD] = seq + 1
             self.rudder_written = self.rudder_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
-        if self.rule or buf[OVERRIDDEN_AT]:
+        if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
+            self.world_set = False
             out = (self.world_course,)
             now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
@@ -354,6 +371,8 @@ class HelmController:
             self.command,
             self.arg_x,
             self.arg_y,
+            self.arg_from_x,
+            self.arg_from_y,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -382,26 +401,59 @@ class HelmController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        # sensory processing, every cycle whatever the command
-        self.var_ice_seen, self.var_avoid_heading = self.hook_assess_ice(
-            "every_cycle/1",
-            self.world_course,
-            self.world_heading,
-            self.world_sonar_00,
-            self.world_sonar_01,
-            self.world_sonar_02,
-            self.world_sonar_03,
-            self.world_sonar_04,
-            self.world_sonar_05,
-            self.world_sonar_06,
-            self.world_sonar_07,
-            self.world_sonar_08,
-            self.world_sonar_09,
-            self.world_sonar_10,
-            self.world_sonar_11,
-            self.world_sonar_12,
-            self.world_sonar_13,
-        )
+        if self.var_tracking:
+            # on a track: the course back onto it towards the goal, then sensory processing along that course
+            self.world_set = True  # it sets world outputs
+            self.world_course = self.hook_track_course(
+                "every_cycle/1",
+                self.var_goal_x,
+                self.var_goal_y,
+                self.var_start_x,
+                self.var_start_y,
+                self.world_pos_x,
+                self.world_pos_y,
+            )
+            self.var_ice_seen, self.var_avoid_heading = self.hook_assess_ice(
+                "every_cycle/1",
+                self.world_course,
+                self.world_heading,
+                self.world_sonar_00,
+                self.world_sonar_01,
+                self.world_sonar_02,
+                self.world_sonar_03,
+                self.world_sonar_04,
+                self.world_sonar_05,
+                self.world_sonar_06,
+                self.world_sonar_07,
+                self.world_sonar_08,
+                self.world_sonar_09,
+                self.world_sonar_10,
+                self.world_sonar_11,
+                self.world_sonar_12,
+                self.world_sonar_13,
+            )
+
+        else:
+            # sensory processing, every cycle whatever the command
+            self.var_ice_seen, self.var_avoid_heading = self.hook_assess_ice(
+                "every_cycle/2",
+                self.world_course,
+                self.world_heading,
+                self.world_sonar_00,
+                self.world_sonar_01,
+                self.world_sonar_02,
+                self.world_sonar_03,
+                self.world_sonar_04,
+                self.world_sonar_05,
+                self.world_sonar_06,
+                self.world_sonar_07,
+                self.world_sonar_08,
+                self.world_sonar_09,
+                self.world_sonar_10,
+                self.world_sonar_11,
+                self.world_sonar_12,
+                self.world_sonar_13,
+            )
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -438,8 +490,9 @@ class HelmController:
             self.cause = 0  # DONE has no cause
 
     def ice_maneuver(self) -> None:
-        """ICE_MANEUVER: Steer towards the goal (x, y) avoiding ice keels; keeps executing (servo
-        heading), with the result at_goal true while on course with the rudder centred.
+        """ICE_MANEUVER: Steer along the track from (from_x, from_y) to the goal (x, y) avoiding ice
+        keels; keeps executing (servo heading), with the result at_goal true while on course with
+        the rudder centred.
         """
         state = self.state
         # Named values (let), computed once a cycle before the rules.
@@ -448,11 +501,22 @@ class HelmController:
         rudder_order = order(course_error)
         avoid_order = order(avoid_error)
         if state == S0:
-            # Evt0 new command; compute the course
+            # Evt0 new command; take up the track and compute the course along it
             self.rule = 5  # ICE_MANEUVER/S0/1
             self.state = S1
-            self.world_course = self.hook_course_to(
-                "ICE_MANEUVER/S0/1", self.arg_x, self.arg_y, self.world_pos_x, self.world_pos_y
+            self.var_goal_x = self.arg_x
+            self.var_goal_y = self.arg_y
+            self.var_start_x = self.arg_from_x
+            self.var_start_y = self.arg_from_y
+            self.var_tracking = True
+            self.world_course = self.hook_track_course(
+                "ICE_MANEUVER/S0/1",
+                self.var_goal_x,
+                self.var_goal_y,
+                self.var_start_x,
+                self.var_start_y,
+                self.world_pos_x,
+                self.world_pos_y,
             )
 
         elif state == S1:
@@ -470,6 +534,7 @@ class HelmController:
                 self.rudder_command_num += 1
                 self.var_sent_angle = avoid_order
                 self.result_at_goal = False
+                self.var_tracking = False
 
             elif (
                 abs(course_error) > COURSE_TOL
@@ -525,11 +590,18 @@ class HelmController:
                 self.status = ERROR
 
             elif self.var_ice_seen == 0:
-                # Evt2 ice problem clear; recompute the course to the goal
+                # Evt2 ice problem clear (the desired course was held while avoiding); recompute the course back onto the track towards the goal, every cycle again
                 self.rule = 12  # ICE_MANEUVER/S2/2
                 self.state = S1
-                self.world_course = self.hook_course_to(
-                    "ICE_MANEUVER/S2/2", self.arg_x, self.arg_y, self.world_pos_x, self.world_pos_y
+                self.var_tracking = True
+                self.world_course = self.hook_track_course(
+                    "ICE_MANEUVER/S2/2",
+                    self.var_goal_x,
+                    self.var_goal_y,
+                    self.var_start_x,
+                    self.var_start_y,
+                    self.world_pos_x,
+                    self.world_pos_y,
                 )
 
             elif self.var_ice_seen != 0 and abs(avoid_order - self.var_sent_angle) > DEADBAND:
@@ -568,6 +640,7 @@ class HelmController:
             self.rule = 15  # CLEAR_BAFFLES/S0/1
             self.state = S1
             self.var_baffle_heading = (self.world_heading + BAFFLE_TURN) % 360.0
+            self.var_tracking = False
             self.world_course = self.var_baffle_heading
 
         elif state == S1:

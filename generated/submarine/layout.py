@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4752 bytes.
+The block is 4976 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -36,159 +36,169 @@ command buffers and world fields:
 | 584 | 32 | EC_STATUS | STATUS_FIELDS |
 | 616 | 16 | EC_MODE | MODE_FIELDS |
 | 632 | 48 | EC_PERF | PERF_FIELDS |
-| 680 | 36 | HELM_COMMAND | command_num, command, arg_x, arg_y |
-| 720 | 41 | HELM_STATUS | STATUS_FIELDS |
-| 768 | 16 | HELM_MODE | MODE_FIELDS |
-| 784 | 48 | HELM_PERF | PERF_FIELDS |
-| 832 | 28 | RUDDER_COMMAND | command_num, command, arg_angle |
-| 864 | 32 | RUDDER_STATUS | STATUS_FIELDS |
-| 896 | 16 | RUDDER_MODE | MODE_FIELDS |
-| 912 | 48 | RUDDER_PERF | PERF_FIELDS |
-| 960 | 20 | PROP_COMMAND | command_num, command |
-| 984 | 40 | PROP_STATUS | STATUS_FIELDS |
-| 1024 | 16 | PROP_MODE | MODE_FIELDS |
-| 1040 | 48 | PROP_PERF | PERF_FIELDS |
-| 1088 | 16 | EOOW_MODE | MODE_FIELDS |
-| 1104 | 48 | EOOW_PERF | PERF_FIELDS |
-| 1152 | 20 | EOOW_CC_COMMAND | command_num, command |
-| 1176 | 32 | EOOW_CC_STATUS | STATUS_FIELDS |
-| 1208 | 24 | EOOW_CC_ANSWER | ANSWER_FIELDS |
-| 1232 | 20 | EOOW_PROP_COMMAND | command_num, command |
-| 1256 | 32 | EOOW_PROP_STATUS | STATUS_FIELDS |
-| 1288 | 24 | EOOW_PROP_ANSWER | ANSWER_FIELDS |
-| 1312 | 16 | OOD_MODE | MODE_FIELDS |
-| 1328 | 48 | OOD_PERF | PERF_FIELDS |
-| 1376 | 36 | OOD_SM_COMMAND | command_num, command, arg_depth, arg_ordered |
-| 1416 | 40 | OOD_SM_STATUS | STATUS_FIELDS |
-| 1456 | 32 | OOD_SM_ANSWER | ANSWER_FIELDS |
-| 1488 | 20 | RUDDER_SIM_COMMAND | command_num, command |
-| 1512 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
-| 1544 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
-| 1560 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
-| 1608 | 20 | SHIP_COMMAND | command_num, command |
-| 1632 | 32 | SHIP_STATUS | STATUS_FIELDS |
-| 1664 | 16 | SHIP_MODE | MODE_FIELDS |
-| 1680 | 48 | SHIP_PERF | PERF_FIELDS |
-| 1728 | 20 | SONAR_COMMAND | command_num, command |
-| 1752 | 32 | SONAR_STATUS | STATUS_FIELDS |
-| 1784 | 16 | SONAR_MODE | MODE_FIELDS |
-| 1800 | 48 | SONAR_PERF | PERF_FIELDS |
-| 1848 | 20 | SEA_COMMAND | command_num, command |
-| 1872 | 32 | SEA_STATUS | STATUS_FIELDS |
-| 1904 | 16 | SEA_MODE | MODE_FIELDS |
-| 1920 | 48 | SEA_PERF | PERF_FIELDS |
-| 1968 | 20 | ATMOSPHERE_COMMAND | command_num, command |
-| 1992 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
-| 2024 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
-| 2040 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
-| 2088 | 16 | WORLD_SPEED_CMD | speed_cmd |
-| 2104 | 16 | WORLD_DEPTH_CMD | depth_cmd |
-| 2120 | 16 | WORLD_HAVEN_X | haven_x |
-| 2136 | 16 | WORLD_HAVEN_Y | haven_y |
-| 2152 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
-| 2168 | 56 | WORLD_ANNOUNCEMENT | announcement |
-| 2224 | 16 | WORLD_SHAFT | shaft |
-| 2240 | 16 | WORLD_COURSE | course |
-| 2256 | 16 | WORLD_BALLAST | ballast |
-| 2272 | 16 | WORLD_PLANES | planes |
-| 2288 | 9 | WORLD_MBT_BLOWN | mbt_blown |
-| 2304 | 16 | WORLD_VENT_FLOW | vent_flow |
-| 2320 | 16 | WORLD_POS_X | pos_x |
-| 2336 | 16 | WORLD_POS_Y | pos_y |
-| 2352 | 16 | WORLD_HEADING | heading |
-| 2368 | 16 | WORLD_SPEED | speed |
-| 2384 | 16 | WORLD_DEPTH | depth |
-| 2400 | 16 | WORLD_BUBBLE | bubble |
-| 2416 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 2432 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 2448 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 2464 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 2480 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 2496 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 2512 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 2528 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 2544 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 2560 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 2576 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 2592 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 2608 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 2624 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 2640 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 2656 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 2672 | 16 | WORLD_CLEARANCE | clearance |
-| 2688 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 2704 | 16 | WORLD_WATER_DENSITY | water_density |
-| 2720 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
-| 2736 | 16 | WORLD_BELOW_KEEL | below_keel |
-| 2752 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
-| 2768 | 9 | WORLD_FIRE | fire |
-| 2784 | 16 | WORLD_SMOKE | smoke |
-| 2800 | 16 | WORLD_O2_PCT | o2_pct |
-| 2816 | 16 | WORLD_CO2_PCT | co2_pct |
-| 2832 | 16 | WORLD_VENT_LINEUP | vent_lineup |
-| 2848 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
-| 2864 | 16 | WORLD_CO_PPM | co_ppm |
-| 2880 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
-| 2896 | 9 | OVERRIDES | any |
-| 2912 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 2936 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 2960 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 2984 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 3008 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 3032 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 3096 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 3120 | 24 | OVERRIDE_COURSE | state, course |
-| 3144 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 3168 | 24 | OVERRIDE_PLANES | state, planes |
-| 3192 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
-| 3216 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 3240 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 3264 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 3288 | 24 | OVERRIDE_HEADING | state, heading |
-| 3312 | 24 | OVERRIDE_SPEED | state, speed |
-| 3336 | 24 | OVERRIDE_DEPTH | state, depth |
-| 3360 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 3384 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 3408 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 3432 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 3456 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 3480 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 3504 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3528 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3552 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3576 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3600 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3624 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3648 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3672 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3696 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3720 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3744 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3768 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3792 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3816 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 3840 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 3864 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 3888 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 3912 | 17 | OVERRIDE_FIRE | state, fire |
-| 3936 | 24 | OVERRIDE_SMOKE | state, smoke |
-| 3960 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
-| 3984 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
-| 4008 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
-| 4032 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
-| 4056 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 4080 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
-| 4104 | 96 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
-| 4200 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
-| 4312 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 4360 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
-| 4424 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 4496 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
-| 4552 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 4592 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 4632 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 4672 | 40 | TIME_SEA | state, since, NOP, S0 |
-| 4712 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 680 | 52 | HELM_COMMAND | command_num, command, arg_x, arg_y, arg_from_x, arg_from_y |
+| 736 | 41 | HELM_STATUS | STATUS_FIELDS |
+| 784 | 16 | HELM_MODE | MODE_FIELDS |
+| 800 | 48 | HELM_PERF | PERF_FIELDS |
+| 848 | 28 | RUDDER_COMMAND | command_num, command, arg_angle |
+| 880 | 32 | RUDDER_STATUS | STATUS_FIELDS |
+| 912 | 16 | RUDDER_MODE | MODE_FIELDS |
+| 928 | 48 | RUDDER_PERF | PERF_FIELDS |
+| 976 | 20 | PROP_COMMAND | command_num, command |
+| 1000 | 40 | PROP_STATUS | STATUS_FIELDS |
+| 1040 | 16 | PROP_MODE | MODE_FIELDS |
+| 1056 | 48 | PROP_PERF | PERF_FIELDS |
+| 1104 | 16 | EOOW_MODE | MODE_FIELDS |
+| 1120 | 48 | EOOW_PERF | PERF_FIELDS |
+| 1168 | 20 | EOOW_CC_COMMAND | command_num, command |
+| 1192 | 32 | EOOW_CC_STATUS | STATUS_FIELDS |
+| 1224 | 24 | EOOW_CC_ANSWER | ANSWER_FIELDS |
+| 1248 | 20 | EOOW_PROP_COMMAND | command_num, command |
+| 1272 | 32 | EOOW_PROP_STATUS | STATUS_FIELDS |
+| 1304 | 24 | EOOW_PROP_ANSWER | ANSWER_FIELDS |
+| 1328 | 16 | OOD_MODE | MODE_FIELDS |
+| 1344 | 48 | OOD_PERF | PERF_FIELDS |
+| 1392 | 36 | OOD_SM_COMMAND | command_num, command, arg_depth, arg_ordered |
+| 1432 | 40 | OOD_SM_STATUS | STATUS_FIELDS |
+| 1472 | 32 | OOD_SM_ANSWER | ANSWER_FIELDS |
+| 1504 | 20 | RUDDER_SIM_COMMAND | command_num, command |
+| 1528 | 32 | RUDDER_SIM_STATUS | STATUS_FIELDS |
+| 1560 | 16 | RUDDER_SIM_MODE | MODE_FIELDS |
+| 1576 | 48 | RUDDER_SIM_PERF | PERF_FIELDS |
+| 1624 | 20 | SHIP_COMMAND | command_num, command |
+| 1648 | 32 | SHIP_STATUS | STATUS_FIELDS |
+| 1680 | 16 | SHIP_MODE | MODE_FIELDS |
+| 1696 | 48 | SHIP_PERF | PERF_FIELDS |
+| 1744 | 20 | SONAR_COMMAND | command_num, command |
+| 1768 | 32 | SONAR_STATUS | STATUS_FIELDS |
+| 1800 | 16 | SONAR_MODE | MODE_FIELDS |
+| 1816 | 48 | SONAR_PERF | PERF_FIELDS |
+| 1864 | 20 | SEA_COMMAND | command_num, command |
+| 1888 | 32 | SEA_STATUS | STATUS_FIELDS |
+| 1920 | 16 | SEA_MODE | MODE_FIELDS |
+| 1936 | 48 | SEA_PERF | PERF_FIELDS |
+| 1984 | 20 | ATMOSPHERE_COMMAND | command_num, command |
+| 2008 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
+| 2040 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
+| 2056 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
+| 2104 | 16 | WORLD_SPEED_CMD | speed_cmd |
+| 2120 | 16 | WORLD_DEPTH_CMD | depth_cmd |
+| 2136 | 16 | WORLD_HAVEN_X | haven_x |
+| 2152 | 16 | WORLD_HAVEN_Y | haven_y |
+| 2168 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
+| 2184 | 56 | WORLD_ANNOUNCEMENT | announcement |
+| 2240 | 16 | WORLD_SHAFT | shaft |
+| 2256 | 16 | WORLD_COURSE | course |
+| 2272 | 16 | WORLD_BALLAST | ballast |
+| 2288 | 16 | WORLD_PLANES | planes |
+| 2304 | 9 | WORLD_MBT_BLOWN | mbt_blown |
+| 2320 | 16 | WORLD_VENT_FLOW | vent_flow |
+| 2336 | 16 | WORLD_POS_X | pos_x |
+| 2352 | 16 | WORLD_POS_Y | pos_y |
+| 2368 | 16 | WORLD_HEADING | heading |
+| 2384 | 16 | WORLD_SPEED | speed |
+| 2400 | 16 | WORLD_DEPTH | depth |
+| 2416 | 16 | WORLD_DEPTH_GAUGE | depth_gauge |
+| 2432 | 16 | WORLD_BUBBLE | bubble |
+| 2448 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 2464 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 2480 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 2496 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 2512 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 2528 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 2544 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 2560 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 2576 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 2592 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 2608 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 2624 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 2640 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 2656 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 2672 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 2688 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 2704 | 16 | WORLD_CLEARANCE | clearance |
+| 2720 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 2736 | 16 | WORLD_WATER_DENSITY | water_density |
+| 2752 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
+| 2768 | 16 | WORLD_BELOW_KEEL | below_keel |
+| 2784 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
+| 2800 | 9 | WORLD_FIRE | fire |
+| 2816 | 16 | WORLD_SMOKE | smoke |
+| 2832 | 16 | WORLD_O2_PCT | o2_pct |
+| 2848 | 16 | WORLD_CO2_PCT | co2_pct |
+| 2864 | 16 | WORLD_VENT_LINEUP | vent_lineup |
+| 2880 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
+| 2896 | 16 | WORLD_CO_PPM | co_ppm |
+| 2912 | 16 | WORLD_CO_PPM_FWD | co_ppm_fwd |
+| 2928 | 9 | WORLD_FORWARD_NORMAL | forward_normal |
+| 2944 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
+| 2960 | 16 | WORLD_LUBE_OIL_PSI | lube_oil_psi |
+| 2976 | 9 | WORLD_LUBE_OIL_LOW | lube_oil_low |
+| 2992 | 9 | OVERRIDES | any |
+| 3008 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 3032 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 3056 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 3080 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 3104 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 3128 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 3192 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 3216 | 24 | OVERRIDE_COURSE | state, course |
+| 3240 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 3264 | 24 | OVERRIDE_PLANES | state, planes |
+| 3288 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
+| 3312 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 3336 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 3360 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 3384 | 24 | OVERRIDE_HEADING | state, heading |
+| 3408 | 24 | OVERRIDE_SPEED | state, speed |
+| 3432 | 24 | OVERRIDE_DEPTH | state, depth |
+| 3456 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
+| 3480 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 3504 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 3528 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3552 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3576 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3600 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3624 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3648 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3672 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3696 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3720 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3744 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3768 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3792 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3816 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3840 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3864 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3888 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3912 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3936 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 3960 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 3984 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 4008 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 4032 | 17 | OVERRIDE_FIRE | state, fire |
+| 4056 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 4080 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 4104 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 4128 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 4152 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 4176 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 4200 | 24 | OVERRIDE_CO_PPM_FWD | state, co_ppm_fwd |
+| 4224 | 17 | OVERRIDE_FORWARD_NORMAL | state, forward_normal |
+| 4248 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
+| 4272 | 24 | OVERRIDE_LUBE_OIL_PSI | state, lube_oil_psi |
+| 4296 | 17 | OVERRIDE_LUBE_OIL_LOW | state, lube_oil_low |
+| 4320 | 104 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, SHIFTING, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
+| 4424 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 4536 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 4584 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
+| 4648 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 4720 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 4776 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 4816 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 4856 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 4896 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 4936 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -220,9 +230,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 4752
+SIZE = 4976
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "6c224254da399e6dc487c7d49e9e47cd"
+LAYOUT_HASH = "cdb0b05b8d5aa36ad488dfe4db9b5fb7"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 248
 
@@ -252,184 +262,194 @@ EC_MODE_AT = 616
 EC_PERF_AT = 632
 
 # helm: Helm
-HELM_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_x, arg_y
+HELM_COMMAND = Struct("<QQIdddd")  # seq, command_num, command, arg_x, arg_y, arg_from_x, arg_from_y
 HELM_COMMAND_AT = 680
 HELM_STATUS = Struct(
     "<QQIIii?Q"
 )  # seq, status_num, status, error_num, state, rule, result_at_goal, cause
-HELM_STATUS_AT = 720
-HELM_MODE_AT = 768
-HELM_PERF_AT = 784
+HELM_STATUS_AT = 736
+HELM_MODE_AT = 784
+HELM_PERF_AT = 800
 
 # rudder: Rudder
 RUDDER_COMMAND = Struct("<QQId")  # seq, command_num, command, arg_angle
-RUDDER_COMMAND_AT = 832
-RUDDER_STATUS_AT = 864
-RUDDER_MODE_AT = 896
-RUDDER_PERF_AT = 912
+RUDDER_COMMAND_AT = 848
+RUDDER_STATUS_AT = 880
+RUDDER_MODE_AT = 912
+RUDDER_PERF_AT = 928
 
 # prop: Propulsion
 PROP_COMMAND = Struct("<QQI")  # seq, command_num, command
-PROP_COMMAND_AT = 960
+PROP_COMMAND_AT = 976
 PROP_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-PROP_STATUS_AT = 984
-PROP_MODE_AT = 1024
-PROP_PERF_AT = 1040
+PROP_STATUS_AT = 1000
+PROP_MODE_AT = 1040
+PROP_PERF_AT = 1056
 
 # rudder_sim: Rudder (simulated)
 RUDDER_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-RUDDER_SIM_COMMAND_AT = 1488
-RUDDER_SIM_STATUS_AT = 1512
-RUDDER_SIM_MODE_AT = 1544
-RUDDER_SIM_PERF_AT = 1560
+RUDDER_SIM_COMMAND_AT = 1504
+RUDDER_SIM_STATUS_AT = 1528
+RUDDER_SIM_MODE_AT = 1560
+RUDDER_SIM_PERF_AT = 1576
 
 # ship: Ship dynamics (simulated)
 SHIP_COMMAND = Struct("<QQI")  # seq, command_num, command
-SHIP_COMMAND_AT = 1608
-SHIP_STATUS_AT = 1632
-SHIP_MODE_AT = 1664
-SHIP_PERF_AT = 1680
+SHIP_COMMAND_AT = 1624
+SHIP_STATUS_AT = 1648
+SHIP_MODE_AT = 1680
+SHIP_PERF_AT = 1696
 
 # sonar: Sonar and ice (simulated)
 SONAR_COMMAND = Struct("<QQI")  # seq, command_num, command
-SONAR_COMMAND_AT = 1728
-SONAR_STATUS_AT = 1752
-SONAR_MODE_AT = 1784
-SONAR_PERF_AT = 1800
+SONAR_COMMAND_AT = 1744
+SONAR_STATUS_AT = 1768
+SONAR_MODE_AT = 1800
+SONAR_PERF_AT = 1816
 
 # sea: Sea bottom and seawater (simulated)
 SEA_COMMAND = Struct("<QQI")  # seq, command_num, command
-SEA_COMMAND_AT = 1848
-SEA_STATUS_AT = 1872
-SEA_MODE_AT = 1904
-SEA_PERF_AT = 1920
+SEA_COMMAND_AT = 1864
+SEA_STATUS_AT = 1888
+SEA_MODE_AT = 1920
+SEA_PERF_AT = 1936
 
 # atmosphere: Engine-room atmosphere and fire (simulated)
 ATMOSPHERE_COMMAND = Struct("<QQI")  # seq, command_num, command
-ATMOSPHERE_COMMAND_AT = 1968
-ATMOSPHERE_STATUS_AT = 1992
-ATMOSPHERE_MODE_AT = 2024
-ATMOSPHERE_PERF_AT = 2040
+ATMOSPHERE_COMMAND_AT = 1984
+ATMOSPHERE_STATUS_AT = 2008
+ATMOSPHERE_MODE_AT = 2040
+ATMOSPHERE_PERF_AT = 2056
 
 # eoow: Engineering Officer of the Watch (EOOW watchstation) (an operator module: a channel per client)
-EOOW_MODE_AT = 1088
-EOOW_PERF_AT = 1104
+EOOW_MODE_AT = 1104
+EOOW_PERF_AT = 1120
 EOOW_CC_COMMAND = Struct("<QQI")  # seq, command_num, command
-EOOW_CC_COMMAND_AT = 1152
-EOOW_CC_STATUS_AT = 1176
-EOOW_CC_ANSWER_AT = 1208
+EOOW_CC_COMMAND_AT = 1168
+EOOW_CC_STATUS_AT = 1192
+EOOW_CC_ANSWER_AT = 1224
 EOOW_PROP_COMMAND = Struct("<QQI")  # seq, command_num, command
-EOOW_PROP_COMMAND_AT = 1232
-EOOW_PROP_STATUS_AT = 1256
-EOOW_PROP_ANSWER_AT = 1288
+EOOW_PROP_COMMAND_AT = 1248
+EOOW_PROP_STATUS_AT = 1272
+EOOW_PROP_ANSWER_AT = 1304
 
 # ood: Officer of the Deck (OOD watchstation) (an operator module: a channel per client)
-OOD_MODE_AT = 1312
-OOD_PERF_AT = 1328
+OOD_MODE_AT = 1328
+OOD_PERF_AT = 1344
 OOD_SM_COMMAND = Struct("<QQIdd")  # seq, command_num, command, arg_depth, arg_ordered
-OOD_SM_COMMAND_AT = 1376
+OOD_SM_COMMAND_AT = 1392
 OOD_SM_STATUS = Struct("<QQIIiiq")  # seq, status_num, status, error_num, state, rule, result_choice
-OOD_SM_STATUS_AT = 1416
+OOD_SM_STATUS_AT = 1432
 OOD_SM_ANSWER = Struct("<QQIIq")  # seq, command_num, status, reason, result_choice
-OOD_SM_ANSWER_AT = 1456
+OOD_SM_ANSWER_AT = 1472
 
 # World model.
 WORLD_SPEED_CMD = Struct("<Qd")  # seq, speed_cmd
-WORLD_SPEED_CMD_AT = 2088
+WORLD_SPEED_CMD_AT = 2104
 WORLD_DEPTH_CMD = Struct("<Qd")  # seq, depth_cmd
-WORLD_DEPTH_CMD_AT = 2104
+WORLD_DEPTH_CMD_AT = 2120
 WORLD_HAVEN_X = Struct("<Qd")  # seq, haven_x
-WORLD_HAVEN_X_AT = 2120
+WORLD_HAVEN_X_AT = 2136
 WORLD_HAVEN_Y = Struct("<Qd")  # seq, haven_y
-WORLD_HAVEN_Y_AT = 2136
+WORLD_HAVEN_Y_AT = 2152
 WORLD_PERISCOPE_RAISED = Struct("<Q?")  # seq, periscope_raised
-WORLD_PERISCOPE_RAISED_AT = 2152
+WORLD_PERISCOPE_RAISED_AT = 2168
 WORLD_ANNOUNCEMENT = Struct("<Q48s")  # seq, announcement
-WORLD_ANNOUNCEMENT_AT = 2168
+WORLD_ANNOUNCEMENT_AT = 2184
 WORLD_SHAFT = Struct("<Qq")  # seq, shaft
-WORLD_SHAFT_AT = 2224
+WORLD_SHAFT_AT = 2240
 WORLD_COURSE = Struct("<Qd")  # seq, course
-WORLD_COURSE_AT = 2240
+WORLD_COURSE_AT = 2256
 WORLD_BALLAST = Struct("<Qd")  # seq, ballast
-WORLD_BALLAST_AT = 2256
+WORLD_BALLAST_AT = 2272
 WORLD_PLANES = Struct("<Qq")  # seq, planes
-WORLD_PLANES_AT = 2272
+WORLD_PLANES_AT = 2288
 WORLD_MBT_BLOWN = Struct("<Q?")  # seq, mbt_blown
-WORLD_MBT_BLOWN_AT = 2288
+WORLD_MBT_BLOWN_AT = 2304
 WORLD_VENT_FLOW = Struct("<Qd")  # seq, vent_flow
-WORLD_VENT_FLOW_AT = 2304
+WORLD_VENT_FLOW_AT = 2320
 WORLD_POS_X = Struct("<Qd")  # seq, pos_x
-WORLD_POS_X_AT = 2320
+WORLD_POS_X_AT = 2336
 WORLD_POS_Y = Struct("<Qd")  # seq, pos_y
-WORLD_POS_Y_AT = 2336
+WORLD_POS_Y_AT = 2352
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 2352
+WORLD_HEADING_AT = 2368
 WORLD_SPEED = Struct("<Qd")  # seq, speed
-WORLD_SPEED_AT = 2368
+WORLD_SPEED_AT = 2384
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
-WORLD_DEPTH_AT = 2384
+WORLD_DEPTH_AT = 2400
+WORLD_DEPTH_GAUGE = Struct("<Qd")  # seq, depth_gauge
+WORLD_DEPTH_GAUGE_AT = 2416
 WORLD_BUBBLE = Struct("<Qd")  # seq, bubble
-WORLD_BUBBLE_AT = 2400
+WORLD_BUBBLE_AT = 2432
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 2416
+WORLD_RUDDER_ANGLE_AT = 2448
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 2432
+WORLD_RUDDER_JAMMED_AT = 2464
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 2448
+WORLD_SONAR_00_AT = 2480
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 2464
+WORLD_SONAR_01_AT = 2496
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 2480
+WORLD_SONAR_02_AT = 2512
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 2496
+WORLD_SONAR_03_AT = 2528
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 2512
+WORLD_SONAR_04_AT = 2544
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 2528
+WORLD_SONAR_05_AT = 2560
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 2544
+WORLD_SONAR_06_AT = 2576
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 2560
+WORLD_SONAR_07_AT = 2592
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 2576
+WORLD_SONAR_08_AT = 2608
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 2592
+WORLD_SONAR_09_AT = 2624
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 2608
+WORLD_SONAR_10_AT = 2640
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 2624
+WORLD_SONAR_11_AT = 2656
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 2640
+WORLD_SONAR_12_AT = 2672
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 2656
+WORLD_SONAR_13_AT = 2688
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 2672
+WORLD_CLEARANCE_AT = 2704
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 2688
+WORLD_MIN_CLEARANCE_AT = 2720
 WORLD_WATER_DENSITY = Struct("<Qd")  # seq, water_density
-WORLD_WATER_DENSITY_AT = 2704
+WORLD_WATER_DENSITY_AT = 2736
 WORLD_BOTTOM_DEPTH = Struct("<Qd")  # seq, bottom_depth
-WORLD_BOTTOM_DEPTH_AT = 2720
+WORLD_BOTTOM_DEPTH_AT = 2752
 WORLD_BELOW_KEEL = Struct("<Qd")  # seq, below_keel
-WORLD_BELOW_KEEL_AT = 2736
+WORLD_BELOW_KEEL_AT = 2768
 WORLD_MIN_BELOW_KEEL = Struct("<Qd")  # seq, min_below_keel
-WORLD_MIN_BELOW_KEEL_AT = 2752
+WORLD_MIN_BELOW_KEEL_AT = 2784
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 2768
+WORLD_FIRE_AT = 2800
 WORLD_SMOKE = Struct("<Qd")  # seq, smoke
-WORLD_SMOKE_AT = 2784
+WORLD_SMOKE_AT = 2816
 WORLD_O2_PCT = Struct("<Qd")  # seq, o2_pct
-WORLD_O2_PCT_AT = 2800
+WORLD_O2_PCT_AT = 2832
 WORLD_CO2_PCT = Struct("<Qd")  # seq, co2_pct
-WORLD_CO2_PCT_AT = 2816
+WORLD_CO2_PCT_AT = 2848
 WORLD_VENT_LINEUP = Struct("<Qq")  # seq, vent_lineup
-WORLD_VENT_LINEUP_AT = 2832
+WORLD_VENT_LINEUP_AT = 2864
 WORLD_DIESEL_RUNNING = Struct("<Q?")  # seq, diesel_running
-WORLD_DIESEL_RUNNING_AT = 2848
+WORLD_DIESEL_RUNNING_AT = 2880
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 2864
+WORLD_CO_PPM_AT = 2896
+WORLD_CO_PPM_FWD = Struct("<Qd")  # seq, co_ppm_fwd
+WORLD_CO_PPM_FWD_AT = 2912
+WORLD_FORWARD_NORMAL = Struct("<Q?")  # seq, forward_normal
+WORLD_FORWARD_NORMAL_AT = 2928
 WORLD_ENGINE_ROOM_CONTAMINATED = Struct("<Q?")  # seq, engine_room_contaminated
-WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2880
+WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2944
+WORLD_LUBE_OIL_PSI = Struct("<Qd")  # seq, lube_oil_psi
+WORLD_LUBE_OIL_PSI_AT = 2960
+WORLD_LUBE_OIL_LOW = Struct("<Q?")  # seq, lube_oil_low
+WORLD_LUBE_OIL_LOW_AT = 2976
 
 
 PROCESSES = {
@@ -503,7 +523,11 @@ COMMAND_IN = {
     "cc": Record(CC_COMMAND, CC_COMMAND_AT, ("command_num", "command")),
     "sm": Record(SM_COMMAND, SM_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
     "ec": Record(EC_COMMAND, EC_COMMAND_AT, ("command_num", "command")),
-    "helm": Record(HELM_COMMAND, HELM_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y")),
+    "helm": Record(
+        HELM_COMMAND,
+        HELM_COMMAND_AT,
+        ("command_num", "command", "arg_x", "arg_y", "arg_from_x", "arg_from_y"),
+    ),
     "rudder": Record(RUDDER_COMMAND, RUDDER_COMMAND_AT, ("command_num", "command", "arg_angle")),
     "prop": Record(PROP_COMMAND, PROP_COMMAND_AT, ("command_num", "command")),
     "rudder_sim": Record(RUDDER_SIM_COMMAND, RUDDER_SIM_COMMAND_AT, ("command_num", "command")),
@@ -615,6 +639,7 @@ WORLD = {
     "heading": Record(WORLD_HEADING, WORLD_HEADING_AT, ("heading",)),
     "speed": Record(WORLD_SPEED, WORLD_SPEED_AT, ("speed",)),
     "depth": Record(WORLD_DEPTH, WORLD_DEPTH_AT, ("depth",)),
+    "depth_gauge": Record(WORLD_DEPTH_GAUGE, WORLD_DEPTH_GAUGE_AT, ("depth_gauge",)),
     "bubble": Record(WORLD_BUBBLE, WORLD_BUBBLE_AT, ("bubble",)),
     "rudder_angle": Record(WORLD_RUDDER_ANGLE, WORLD_RUDDER_ANGLE_AT, ("rudder_angle",)),
     "rudder_jammed": Record(WORLD_RUDDER_JAMMED, WORLD_RUDDER_JAMMED_AT, ("rudder_jammed",)),
@@ -645,11 +670,15 @@ WORLD = {
     "vent_lineup": Record(WORLD_VENT_LINEUP, WORLD_VENT_LINEUP_AT, ("vent_lineup",)),
     "diesel_running": Record(WORLD_DIESEL_RUNNING, WORLD_DIESEL_RUNNING_AT, ("diesel_running",)),
     "co_ppm": Record(WORLD_CO_PPM, WORLD_CO_PPM_AT, ("co_ppm",)),
+    "co_ppm_fwd": Record(WORLD_CO_PPM_FWD, WORLD_CO_PPM_FWD_AT, ("co_ppm_fwd",)),
+    "forward_normal": Record(WORLD_FORWARD_NORMAL, WORLD_FORWARD_NORMAL_AT, ("forward_normal",)),
     "engine_room_contaminated": Record(
         WORLD_ENGINE_ROOM_CONTAMINATED,
         WORLD_ENGINE_ROOM_CONTAMINATED_AT,
         ("engine_room_contaminated",),
     ),
+    "lube_oil_psi": Record(WORLD_LUBE_OIL_PSI, WORLD_LUBE_OIL_PSI_AT, ("lube_oil_psi",)),
+    "lube_oil_low": Record(WORLD_LUBE_OIL_LOW, WORLD_LUBE_OIL_LOW_AT, ("lube_oil_low",)),
 }
 WORLD_INITIAL: dict[str, object] = {
     "speed_cmd": 7.7,
@@ -669,6 +698,7 @@ WORLD_INITIAL: dict[str, object] = {
     "heading": 0.0,
     "speed": 7.7,
     "depth": 120.0,
+    "depth_gauge": 120.0,
     "bubble": 0.0,
     "rudder_angle": 0.0,
     "rudder_jammed": False,
@@ -699,63 +729,72 @@ WORLD_INITIAL: dict[str, object] = {
     "vent_lineup": 0,
     "diesel_running": False,
     "co_ppm": 0.0,
+    "co_ppm_fwd": 0.0,
+    "forward_normal": True,
     "engine_room_contaminated": False,
+    "lube_oil_psi": 60.0,
+    "lube_oil_low": False,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2896
-OVERRIDDEN_AT = 2904  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2992
+OVERRIDDEN_AT = 3000  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 2912, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 2936, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 2960, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 2984, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 3008, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 3032, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 3096, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 3120, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 3144, ("state", "ballast")),
-    "planes": Record(Struct("<QQq"), 3168, ("state", "planes")),
-    "mbt_blown": Record(Struct("<QQ?"), 3192, ("state", "mbt_blown")),
-    "vent_flow": Record(Struct("<QQd"), 3216, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 3240, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 3264, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 3288, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 3312, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 3336, ("state", "depth")),
-    "bubble": Record(Struct("<QQd"), 3360, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 3384, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 3408, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 3432, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 3456, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 3480, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 3504, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3528, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3552, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3576, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3600, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3624, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3648, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3672, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3696, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3720, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3744, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3768, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3792, ("state", "min_clearance")),
-    "water_density": Record(Struct("<QQd"), 3816, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 3840, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 3864, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 3888, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 3912, ("state", "fire")),
-    "smoke": Record(Struct("<QQd"), 3936, ("state", "smoke")),
-    "o2_pct": Record(Struct("<QQd"), 3960, ("state", "o2_pct")),
-    "co2_pct": Record(Struct("<QQd"), 3984, ("state", "co2_pct")),
-    "vent_lineup": Record(Struct("<QQq"), 4008, ("state", "vent_lineup")),
-    "diesel_running": Record(Struct("<QQ?"), 4032, ("state", "diesel_running")),
-    "co_ppm": Record(Struct("<QQd"), 4056, ("state", "co_ppm")),
-    "engine_room_contaminated": Record(Struct("<QQ?"), 4080, ("state", "engine_room_contaminated")),
+    "speed_cmd": Record(Struct("<QQd"), 3008, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 3032, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 3056, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 3080, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 3104, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 3128, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 3192, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 3216, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 3240, ("state", "ballast")),
+    "planes": Record(Struct("<QQq"), 3264, ("state", "planes")),
+    "mbt_blown": Record(Struct("<QQ?"), 3288, ("state", "mbt_blown")),
+    "vent_flow": Record(Struct("<QQd"), 3312, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 3336, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 3360, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 3384, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 3408, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 3432, ("state", "depth")),
+    "depth_gauge": Record(Struct("<QQd"), 3456, ("state", "depth_gauge")),
+    "bubble": Record(Struct("<QQd"), 3480, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 3504, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 3528, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3552, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3576, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3600, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3624, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3648, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3672, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3696, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3720, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3744, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3768, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3792, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3816, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3840, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3864, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3888, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3912, ("state", "min_clearance")),
+    "water_density": Record(Struct("<QQd"), 3936, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 3960, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 3984, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 4008, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 4032, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 4056, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 4080, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 4104, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 4128, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 4152, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 4176, ("state", "co_ppm")),
+    "co_ppm_fwd": Record(Struct("<QQd"), 4200, ("state", "co_ppm_fwd")),
+    "forward_normal": Record(Struct("<QQ?"), 4224, ("state", "forward_normal")),
+    "engine_room_contaminated": Record(Struct("<QQ?"), 4248, ("state", "engine_room_contaminated")),
+    "lube_oil_psi": Record(Struct("<QQd"), 4272, ("state", "lube_oil_psi")),
+    "lube_oil_low": Record(Struct("<QQ?"), 4296, ("state", "lube_oil_low")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -791,6 +830,7 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "heading": ("ship",),
     "speed": ("ship",),
     "depth": ("ship",),
+    "depth_gauge": ("ship",),
     "bubble": ("ship",),
     "rudder_angle": ("rudder_sim",),
     "sonar_00": ("sonar",),
@@ -819,11 +859,16 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "vent_lineup": ("ec",),
     "diesel_running": ("ec",),
     "co_ppm": ("atmosphere",),
+    "co_ppm_fwd": ("atmosphere",),
+    "forward_normal": ("ec",),
     "engine_room_contaminated": ("ec",),
+    "lube_oil_psi": ("atmosphere",),
+    "lube_oil_low": ("ec",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
 GROUND_TRUTH = (
+    "depth",
     "rudder_jammed",
     "clearance",
     "min_clearance",
@@ -837,8 +882,8 @@ GROUND_TRUTH = (
 # (rcs/state_time.py) for `ctl status`.
 TIME_IN_STATE = {
     "cc": Record(
-        Struct("<QqQQQQQQQQQQ"),
-        4104,
+        Struct("<QqQQQQQQQQQQQ"),
+        4320,
         (
             "state",
             "since",
@@ -846,6 +891,7 @@ TIME_IN_STATE = {
             "S0",
             "S1",
             "TRANSIT",
+            "SHIFTING",
             "PREP_VENT",
             "FIRE_REPORT",
             "LINE_UP",
@@ -855,7 +901,7 @@ TIME_IN_STATE = {
     ),
     "sm": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        4200,
+        4424,
         (
             "state",
             "since",
@@ -872,28 +918,35 @@ TIME_IN_STATE = {
             "HELM_FAILED",
         ),
     ),
-    "ec": Record(Struct("<QqQQQQ"), 4312, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 4536, ("state", "since", "NOP", "S0", "S1")),
     "helm": Record(
-        Struct("<QqQQQQQQ"), 4360, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
+        Struct("<QqQQQQQQ"), 4584, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
     ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        4424,
+        4648,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "prop": Record(Struct("<QqQQQQQ"), 4496, ("state", "since", "NOP", "S0", "S1", "ASKED")),
-    "rudder_sim": Record(Struct("<QqQQQ"), 4552, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 4592, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 4632, ("state", "since", "NOP", "S0")),
-    "sea": Record(Struct("<QqQQQ"), 4672, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 4712, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 4720, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 4776, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 4816, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 4856, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 4896, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 4936, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "cc": (NO_COMMAND_NAME, *("INIT", "HALT", "RUN_MISSION")),
     "sm": (
         NO_COMMAND_NAME,
-        *("INIT", "HALT", "SUBMERGED_TRANSIT", "PREP_EMERGENCY_VENT", "PREP_SUBMERGED_TRANSIT"),
+        *(
+            "INIT",
+            "HALT",
+            "SUBMERGED_TRANSIT",
+            "PREP_EMERGENCY_VENT",
+            "SHIFT_TO_TURBINES",
+            "PREP_SUBMERGED_TRANSIT",
+        ),
     ),
     "ec": (
         NO_COMMAND_NAME,
@@ -901,14 +954,20 @@ COMMAND_NAMES = {
     ),
     "helm": (NO_COMMAND_NAME, *("INIT", "HALT", "ICE_MANEUVER", "CLEAR_BAFFLES")),
     "rudder": (NO_COMMAND_NAME, *("INIT", "HALT", "GOTO_ANGLE")),
-    "prop": (NO_COMMAND_NAME, *("INIT", "HALT", "SHIFT_TO_EPM")),
+    "prop": (NO_COMMAND_NAME, *("INIT", "HALT", "SHIFT_TO_EPM", "SHIFT_TO_TURBINE")),
     "rudder_sim": (NO_COMMAND_NAME, *("INIT", "HALT", "PLUS_VOLT", "MINUS_VOLT", "ZERO_VOLT")),
     "ship": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sonar": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sea": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "atmosphere": (NO_COMMAND_NAME, *("INIT", "HALT")),
-    "eoow/cc": (NO_COMMAND_NAME, *("INIT", "HALT", "CHANGE_TO_EPM", "FIRE_OUT")),
-    "eoow/prop": (NO_COMMAND_NAME, *("INIT", "HALT", "CHANGE_TO_EPM", "FIRE_OUT")),
+    "eoow/cc": (
+        NO_COMMAND_NAME,
+        *("INIT", "HALT", "CHANGE_TO_EPM", "CHANGE_TO_TURBINE", "FIRE_OUT"),
+    ),
+    "eoow/prop": (
+        NO_COMMAND_NAME,
+        *("INIT", "HALT", "CHANGE_TO_EPM", "CHANGE_TO_TURBINE", "FIRE_OUT"),
+    ),
     "ood/sm": (NO_COMMAND_NAME, *("INIT", "HALT", "DEPTH_CASUALTY")),
 }
 # Each command's parameters, in order: an operator gives every one of them (`ctl send`,
@@ -920,7 +979,7 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
         "PREP_EMERGENCY_VENT": ("x", "y"),
     },
     "helm": {
-        "ICE_MANEUVER": ("x", "y"),
+        "ICE_MANEUVER": ("x", "y", "from_x", "from_y"),
     },
     "rudder": {
         "GOTO_ANGLE": ("angle",),
@@ -930,7 +989,18 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     },
 }
 STATE_NAMES = {
-    "cc": ("NOP", "S0", "S1", "TRANSIT", "PREP_VENT", "FIRE_REPORT", "LINE_UP", "VENT", "RESUMING"),
+    "cc": (
+        "NOP",
+        "S0",
+        "S1",
+        "TRANSIT",
+        "SHIFTING",
+        "PREP_VENT",
+        "FIRE_REPORT",
+        "LINE_UP",
+        "VENT",
+        "RESUMING",
+    ),
     "sm": (
         "NOP",
         "S0",
@@ -1002,6 +1072,9 @@ RULES = {
         "RUN_MISSION/TRANSIT/4",
         "RUN_MISSION/TRANSIT/5",
         "RUN_MISSION/TRANSIT/6",
+        "RUN_MISSION/TRANSIT/7",
+        "RUN_MISSION/SHIFTING/1",
+        "RUN_MISSION/SHIFTING/2",
         "RUN_MISSION/PREP_VENT/1",
         "RUN_MISSION/PREP_VENT/2",
         "RUN_MISSION/FIRE_REPORT/1",
@@ -1010,6 +1083,7 @@ RULES = {
         "RUN_MISSION/LINE_UP/2",
         "RUN_MISSION/VENT/1",
         "RUN_MISSION/VENT/2",
+        "RUN_MISSION/VENT/3",
         "RUN_MISSION/RESUMING/1",
         "RUN_MISSION/RESUMING/2",
     ),
@@ -1041,8 +1115,13 @@ RULES = {
         "PREP_EMERGENCY_VENT/SLOWING/1",
         "PREP_EMERGENCY_VENT/SLOWING/2",
         "PREP_EMERGENCY_VENT/SLOWING/3",
+        "PREP_EMERGENCY_VENT/SLOWING/4",
+        "PREP_EMERGENCY_VENT/SLOWING/5",
         "PREP_EMERGENCY_VENT/PROP_FAILED/1",
         "PREP_EMERGENCY_VENT/HELM_FAILED/1",
+        "SHIFT_TO_TURBINES/S0/1",
+        "SHIFT_TO_TURBINES/S1/1",
+        "SHIFT_TO_TURBINES/S1/2",
         "PREP_SUBMERGED_TRANSIT/S0/1",
         "PREP_SUBMERGED_TRANSIT/S1/1",
     ),
@@ -1103,6 +1182,9 @@ RULES = {
         "SHIFT_TO_EPM/S0/1",
         "SHIFT_TO_EPM/ASKED/1",
         "SHIFT_TO_EPM/ASKED/2",
+        "SHIFT_TO_TURBINE/S0/1",
+        "SHIFT_TO_TURBINE/ASKED/1",
+        "SHIFT_TO_TURBINE/ASKED/2",
     ),
     "rudder_sim": (
         "",
@@ -1185,6 +1267,7 @@ TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], 
 INSTRUCTIONS = {
     "eoow": {
         "CHANGE_TO_EPM": "CHANGE TO EPM: disengage the main turbine shaft, engage the EPM shaft, close the EPM breaker, then report.",
+        "CHANGE_TO_TURBINE": "CHANGE TO TURBINES: warm the turbines up with steam, EPM all stop, re-engage the clutch to the turbines, open the EPM breaker, then report.",
         "FIRE_OUT": "FIRE OUT?: report when the damage control party reports the fire out and the reflash watch stationed.",
     },
     "ood": {

@@ -21,6 +21,7 @@ from .rcs.override import held
 INIT = 1
 HALT = 2
 SHIFT_TO_EPM = 3
+SHIFT_TO_TURBINE = 4
 
 # Why prop may end a command in ERROR (the error_num it reports).
 REASON_NONE = 0
@@ -31,7 +32,8 @@ REASON_REFUSED = 2
 EOOW_INIT = 1
 EOOW_HALT = 2
 EOOW_CHANGE_TO_EPM = 3
-EOOW_FIRE_OUT = 4
+EOOW_CHANGE_TO_TURBINE = 4
+EOOW_FIRE_OUT = 5
 # Why eoow may end a command in ERROR (its error_num).
 EOOW_REASON_NONE = 0
 EOOW_REASON_LOST = 1
@@ -41,7 +43,7 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI52x???1xI224xQII952xq")
-INPUTS_AT = 968
+INPUTS_AT = 984
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 PROP_STATUS_WORD = PROP_STATUS_AT >> 3
@@ -55,7 +57,7 @@ PROP_PERF_WORD = PROP_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Qq")
 WORLD_VALUES_1 = Struct("<8xq")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2224
+WORLD_OUT_1_AT = 2240
 WORLD_HELD_1 = (OVERRIDE["shaft"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -202,6 +204,8 @@ class PropController:
                     self.halt()
                 elif command == SHIFT_TO_EPM:
                     self.shift_to_epm()
+                elif command == SHIFT_TO_TURBINE:
+                    self.shift_to_turbine()
 
         # 4. post_process: write what changed, each buffer odd while it is written
         if self.rule or self.status_dirty:
@@ -341,6 +345,43 @@ class PropController:
                 # eoow's error: the cause of an ERROR this command reports
                 self.cause = caused(EOOW_LINK, self.eoow_error_num, 0)
                 self.world_shaft = TURBINE
+                self.state = NOP
+                self.status = ERROR
+                # eoow's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    EOOW_REASON_LOST: REASON_LOST,
+                    EOOW_REASON_REFUSED: REASON_REFUSED,
+                }.get(self.eoow_error_num, REASON_NONE)
+
+    def shift_to_turbine(self) -> None:
+        """SHIFT_TO_TURBINE: The main lube oil restored (4.1.3): the EPM to all stop, the clutch
+        out; have the EOOW warm up the turbines and re-engage them; on the turbines when he
+        reports.
+        """
+        state = self.state
+        if state == S0:
+            # EPM all stop, the clutch out; request CHANGE_TO_TURBINE on the EOOW watchstation
+            self.rule = 8  # SHIFT_TO_TURBINE/S0/1
+            self.state = ASKED
+            self.world_shaft = DISENGAGED
+            self.eoow_command = EOOW_CHANGE_TO_TURBINE
+            self.eoow_command_num += 1
+
+        elif state == ASKED:
+            if self.eoow_status == DONE:
+                # the EOOW reports the turbines engaged; propulsion orders answered by the main engines
+                self.rule = 9  # SHIFT_TO_TURBINE/ASKED/1
+                self.world_shaft = TURBINE
+                self.state = NOP
+                self.status = DONE
+                self.cause = 0  # DONE has no cause
+
+            elif self.eoow_status == ERROR:
+                # the EOOW cannot shift back; the EPM is engaged again
+                self.rule = 10  # SHIFT_TO_TURBINE/ASKED/2
+                # eoow's error: the cause of an ERROR this command reports
+                self.cause = caused(EOOW_LINK, self.eoow_error_num, 0)
+                self.world_shaft = EPM
                 self.state = NOP
                 self.status = ERROR
                 # eoow's reason, passed up by name (another: NONE)

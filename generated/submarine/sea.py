@@ -35,12 +35,12 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI408xd8xd40xd328xd8xd8xd")
-INPUTS_AT = 1848
+INPUTS = Struct("<QQI44x???1xI408xd8xd40xd344xd8xd8xd")
+INPUTS_AT = 1864
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (231,)
+SEQ_WORDS = (233,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 SEA_STATUS_WORD = SEA_STATUS_AT >> 3
@@ -55,7 +55,7 @@ SEA_PERF_WORD = SEA_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 2720
+WORLD_OUT_1_AT = 2752
 WORLD_HELD_1 = (
     OVERRIDE["bottom_depth"],
     OVERRIDE["below_keel"],
@@ -149,7 +149,7 @@ class SeaController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[231] != values[0]:
+        if values[0] & 1 or not values[0] or words[233] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -257,7 +257,7 @@ class SeaController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[231] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[233] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

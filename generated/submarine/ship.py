@@ -13,6 +13,7 @@ from .layout import (
     SHIP_STATUS_AT,
     WORLD_BUBBLE_AT,
     WORLD_DEPTH_AT,
+    WORLD_DEPTH_GAUGE_AT,
     WORLD_HEADING_AT,
     WORLD_POS_X_AT,
     WORLD_POS_Y_AT,
@@ -28,12 +29,12 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI416xd8xd112xq24xd8xq8x?31xd8xd8xd8xd8xd8xd8xd280xd")
-INPUTS_AT = 1608
+INPUTS = Struct("<QQI44x???1xI416xd8xd112xq24xd8xq8x?31xd8xd8xd8xd8xd8xd8xd8xd280xd")
+INPUTS_AT = 1624
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (201,)
+SEQ_WORDS = (203,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 SHIP_STATUS_WORD = SHIP_STATUS_AT >> 3
@@ -42,22 +43,24 @@ WORLD_POS_Y_WORD = WORLD_POS_Y_AT >> 3
 WORLD_HEADING_WORD = WORLD_HEADING_AT >> 3
 WORLD_SPEED_WORD = WORLD_SPEED_AT >> 3
 WORLD_DEPTH_WORD = WORLD_DEPTH_AT >> 3
+WORLD_DEPTH_GAUGE_WORD = WORLD_DEPTH_GAUGE_AT >> 3
 WORLD_BUBBLE_WORD = WORLD_BUBBLE_AT >> 3
 SHIP_PERF_WORD = SHIP_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_1 = Struct("<QdQdQdQdQdQd")
-WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd")
-WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2320
+WORLD_OUT_1 = Struct("<QdQdQdQdQdQdQd")
+WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd8xd")
+WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ8xQ")
+WORLD_OUT_1_AT = 2336
 WORLD_HELD_1 = (
     OVERRIDE["pos_x"],
     OVERRIDE["pos_y"],
     OVERRIDE["heading"],
     OVERRIDE["speed"],
     OVERRIDE["depth"],
+    OVERRIDE["depth_gauge"],
     OVERRIDE["bubble"],
 )  # their overrides
 
@@ -119,6 +122,7 @@ class ShipController:
         "world_bubble",
         "world_depth",
         "world_depth_cmd",
+        "world_depth_gauge",
         "world_heading",
         "world_mbt_blown",
         "world_planes",
@@ -173,7 +177,7 @@ class ShipController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[201] != values[0]:
+        if values[0] & 1 or not values[0] or words[203] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -195,6 +199,7 @@ class ShipController:
                 self.world_heading,
                 self.world_speed,
                 self.world_depth,
+                self.world_depth_gauge,
                 self.world_bubble,
                 self.world_rudder_angle,
                 self.world_water_density,
@@ -251,6 +256,7 @@ class ShipController:
                 self.world_heading,
                 self.world_speed,
                 self.world_depth,
+                self.world_depth_gauge,
                 self.world_bubble,
             )
             now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
@@ -263,7 +269,8 @@ class ShipController:
                 words[WORLD_HEADING_WORD] = s[2] | 1  # odd before the value changes
                 words[WORLD_SPEED_WORD] = s[3] | 1  # odd before the value changes
                 words[WORLD_DEPTH_WORD] = s[4] | 1  # odd before the value changes
-                words[WORLD_BUBBLE_WORD] = s[5] | 1  # odd before the value changes
+                words[WORLD_DEPTH_GAUGE_WORD] = s[5] | 1  # odd before the value changes
+                words[WORLD_BUBBLE_WORD] = s[6] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(
                     buf,
                     WORLD_OUT_1_AT,
@@ -279,13 +286,16 @@ class ShipController:
                     out[4],
                     s[5] | 1,
                     out[5],
+                    s[6] | 1,
+                    out[6],
                 )
                 words[WORLD_POS_X_WORD] = (s[0] | 1) + 1
                 words[WORLD_POS_Y_WORD] = (s[1] | 1) + 1
                 words[WORLD_HEADING_WORD] = (s[2] | 1) + 1
                 words[WORLD_SPEED_WORD] = (s[3] | 1) + 1
                 words[WORLD_DEPTH_WORD] = (s[4] | 1) + 1
-                words[WORLD_BUBBLE_WORD] = (s[5] | 1) + 1
+                words[WORLD_DEPTH_GAUGE_WORD] = (s[5] | 1) + 1
+                words[WORLD_BUBBLE_WORD] = (s[6] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         last = perf_counter_ns() - cycle_start
         self.last_cycle_ns = last
@@ -315,7 +325,7 @@ class ShipController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[201] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[203] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing
@@ -341,6 +351,7 @@ class ShipController:
             self.world_heading,
             self.world_speed,
             self.world_depth,
+            self.world_depth_gauge,
             self.world_bubble,
             self.world_rudder_angle,
             self.world_water_density,
@@ -381,13 +392,14 @@ class ShipController:
             if self.world_mbt_blown
             else self.world_depth
             + clamp(
-                self.world_depth_cmd - self.world_depth,
+                self.world_depth_cmd - self.world_depth_gauge,
                 (FULL_PLANES_RATE if self.world_planes == FULL else DEPTH_RATE) * CYCLE_PERIOD,
             )
             + SINK
             * (NOMINAL_DENSITY - self.world_water_density - self.world_ballast)
             * CYCLE_PERIOD
         )
+        self.world_depth_gauge = self.world_depth * (self.world_water_density / NOMINAL_DENSITY)
         self.world_bubble = max(
             -BUBBLE_MAX,
             min(

@@ -36,7 +36,8 @@ INIT = 1
 HALT = 2
 SUBMERGED_TRANSIT = 3
 PREP_EMERGENCY_VENT = 4
-PREP_SUBMERGED_TRANSIT = 5
+SHIFT_TO_TURBINES = 5
+PREP_SUBMERGED_TRANSIT = 6
 
 # Why sm may end a command in ERROR (the error_num it reports).
 REASON_NONE = 0
@@ -61,6 +62,7 @@ HELM_LINK = 4  # its number in the layout's CAUSE_MODULES
 PROP_INIT = 1
 PROP_HALT = 2
 PROP_SHIFT_TO_EPM = 3
+PROP_SHIFT_TO_TURBINE = 4
 # Why prop may end a command in ERROR (its error_num).
 PROP_REASON_NONE = 0
 PROP_REASON_LOST = 1
@@ -80,7 +82,7 @@ OOD_LINK = 8  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct(
-    "<QIdd52x???1xI216xQII8x?Q231xQII8xQ400xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd8xd"
+    "<QIdd52x???1xI232xQII8x?Q231xQII8xQ400xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd24xd552x?"
 )
 INPUTS_AT = 424
 
@@ -105,7 +107,7 @@ SM_PERF_WORD = SM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQdQdQ?")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2088
+WORLD_OUT_1_AT = 2104
 WORLD_HELD_1 = (
     OVERRIDE["speed_cmd"],
     OVERRIDE["depth_cmd"],
@@ -119,7 +121,7 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<QdQqQ?")
 WORLD_VALUES_2 = Struct("<8xd8xq8x?")
 WORLD_SEQS_2 = Struct("<Q8xQ8xQ")
-WORLD_OUT_2_AT = 2256
+WORLD_OUT_2_AT = 2272
 WORLD_HELD_2 = (OVERRIDE["ballast"], OVERRIDE["planes"], OVERRIDE["mbt_blown"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -170,6 +172,8 @@ class SmController:
         "cycles",
         "dont_run",
         "error_num",
+        "helm_arg_from_x",
+        "helm_arg_from_y",
         "helm_arg_x",
         "helm_arg_y",
         "helm_cause",
@@ -217,10 +221,11 @@ class SmController:
         "var_haven_moving",
         "words",
         "world_ballast",
-        "world_depth",
         "world_depth_cmd",
+        "world_depth_gauge",
         "world_haven_x",
         "world_haven_y",
+        "world_lube_oil_low",
         "world_mbt_blown",
         "world_periscope_raised",
         "world_planes",
@@ -274,9 +279,15 @@ class SmController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
-        _, self.helm_command_num, self.helm_command, self.helm_arg_x, self.helm_arg_y = (
-            HELM_COMMAND.unpack_from(buf, HELM_COMMAND_AT)
-        )
+        (
+            _,
+            self.helm_command_num,
+            self.helm_command,
+            self.helm_arg_x,
+            self.helm_arg_y,
+            self.helm_arg_from_x,
+            self.helm_arg_from_y,
+        ) = HELM_COMMAND.unpack_from(buf, HELM_COMMAND_AT)
         self.helm_written = self.helm_command_num
         _, self.prop_command_num, self.prop_command = PROP_COMMAND.unpack_from(buf, PROP_COMMAND_AT)
         self.prop_written = self.prop_command_num
@@ -339,7 +350,8 @@ class SmController:
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
-            self.world_depth,
+            self.world_depth_gauge,
+            self.world_lube_oil_low,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.helm_status_num != self.helm_command_num:
             self.helm_status = EXECUTING  # until it echoes the last number sent
@@ -393,6 +405,8 @@ class SmController:
                     self.submerged_transit()
                 elif command == PREP_EMERGENCY_VENT:
                     self.prep_emergency_vent()
+                elif command == SHIFT_TO_TURBINES:
+                    self.shift_to_turbines()
                 elif command == PREP_SUBMERGED_TRANSIT:
                     self.prep_submerged_transit()
 
@@ -428,6 +442,8 @@ class SmController:
                 self.helm_command,
                 self.helm_arg_x,
                 self.helm_arg_y,
+                self.helm_arg_from_x,
+                self.helm_arg_from_y,
             )
             words[HELM_COMMAND_WORD] = seq + 1
             self.helm_written = self.helm_command_num
@@ -570,7 +586,8 @@ class SmController:
             self.world_pos_x,
             self.world_pos_y,
             self.world_speed,
-            self.world_depth,
+            self.world_depth_gauge,
+            self.world_lube_oil_low,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def every_cycle(self) -> None:
@@ -659,9 +676,11 @@ class SmController:
             self.var_goal_x = self.arg_x
             self.var_goal_y = self.arg_y
             self.var_haven_moving = True
-            self.var_depth_reached = abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL
+            self.var_depth_reached = abs(self.world_depth_gauge - TRANSIT_DEPTH) < DEPTH_TOL
             self.helm_arg_x = self.arg_x
             self.helm_arg_y = self.arg_y
+            self.helm_arg_from_x = self.world_pos_x
+            self.helm_arg_from_y = self.world_pos_y
             self.helm_command = HELM_ICE_MANEUVER
             self.helm_command_num += 1
 
@@ -706,7 +725,7 @@ class SmController:
 
             elif (
                 self.var_depth_reached
-                and self.world_depth > self.world_depth_cmd + DEPTH_LIMIT
+                and self.world_depth_gauge > self.world_depth_cmd + DEPTH_LIMIT
                 and self.world_ballast < BALLAST_MAX
             ):
                 # sinking (lighter water, 4.1.2) beyond what the planes hold; blow variable ballast
@@ -715,7 +734,7 @@ class SmController:
 
             elif (
                 self.var_depth_reached
-                and self.world_depth < self.world_depth_cmd - DEPTH_LIMIT
+                and self.world_depth_gauge < self.world_depth_cmd - DEPTH_LIMIT
                 and self.world_ballast > -BALLAST_MAX
             ):
                 # rising beyond what the planes hold; flood variable ballast
@@ -724,7 +743,7 @@ class SmController:
 
             elif (
                 not self.var_depth_reached
-                and abs(self.world_depth - self.world_depth_cmd) < DEPTH_TOL
+                and abs(self.world_depth_gauge - self.world_depth_cmd) < DEPTH_TOL
             ):
                 # the ordered depth reached (after a change of depth)
                 self.rule = 12  # SUBMERGED_TRANSIT/S1/7
@@ -732,13 +751,13 @@ class SmController:
 
             elif (
                 self.var_depth_reached
-                and self.world_depth > self.world_depth_cmd + DEPTH_LIMIT
+                and self.world_depth_gauge > self.world_depth_cmd + DEPTH_LIMIT
                 and self.world_planes == NORMAL
             ):
                 # still sinking with the variable ballast spent (4.7.3): the depth controller cannot hold the depth; ask the OOD to choose between the planes and an MBT blow
                 self.rule = 13  # SUBMERGED_TRANSIT/S1/8
                 self.state = DEPTH_ASKED
-                self.ood_arg_depth = self.world_depth
+                self.ood_arg_depth = self.world_depth_gauge
                 self.ood_arg_ordered = self.world_depth_cmd
                 self.ood_command = OOD_DEPTH_CASUALTY
                 self.ood_command_num += 1
@@ -809,8 +828,8 @@ class SmController:
     def prep_emergency_vent(self) -> None:
         """PREP_EMERGENCY_VENT: Prepare for emergency ventilation (sections 4.1.3, 4.7.1): clear
         baffles; then slow to ahead one-third and come to periscope depth steering for the
-        waypoint (x, y) while propulsion shifts to the EPM; at periscope depth, on course and on
-        the EPM, raise the periscope.
+        waypoint (x, y) while propulsion shifts to the EPM; on the EPM, ahead two-thirds; at
+        periscope depth, on course and at two-thirds, raise the periscope.
         """
         state = self.state
         if state == S0:
@@ -830,10 +849,10 @@ class SmController:
                 self.world_depth_cmd = PERISCOPE_DEPTH
                 self.helm_arg_x = self.arg_x
                 self.helm_arg_y = self.arg_y
+                self.helm_arg_from_x = self.world_haven_x
+                self.helm_arg_from_y = self.world_haven_y
                 self.helm_command = HELM_ICE_MANEUVER
                 self.helm_command_num += 1
-                self.prop_command = PROP_SHIFT_TO_EPM
-                self.prop_command_num += 1
 
             elif self.helm_status == ERROR:
                 self.rule = 23  # PREP_EMERGENCY_VENT/BAFFLES/2
@@ -861,14 +880,30 @@ class SmController:
                 self.prop_command = PROP_HALT
                 self.prop_command_num += 1
 
+            elif self.world_lube_oil_low and self.prop_command != PROP_SHIFT_TO_EPM:
+                # on indication of decreasing main lube oil pressure (the engineering node's inference) the EOOW recommends the EPM: "All stop, shift propulsion to the EPM"
+                self.rule = 26  # PREP_EMERGENCY_VENT/SLOWING/3
+                self.prop_command = PROP_SHIFT_TO_EPM
+                self.prop_command_num += 1
+
             elif (
-                abs(self.world_depth - PERISCOPE_DEPTH) < DEPTH_TOL
-                and abs(self.world_speed - ONE_THIRD_SPEED) < SPEED_TOL
+                self.prop_command == PROP_SHIFT_TO_EPM
+                and self.prop_status == DONE
+                and self.world_speed_cmd < EPM_SPEED
+            ):
+                # the EOOW is prepared to answer bells on the EPM: the OOD orders "Ahead two thirds", enough speed for depth and steering control (4.1.3)
+                self.rule = 27  # PREP_EMERGENCY_VENT/SLOWING/4
+                self.world_speed_cmd = EPM_SPEED
+
+            elif (
+                abs(self.world_depth_gauge - PERISCOPE_DEPTH) < DEPTH_TOL
+                and abs(self.world_speed - EPM_SPEED) < SPEED_TOL
                 and self.helm_result_at_goal
+                and self.prop_command == PROP_SHIFT_TO_EPM
                 and self.prop_status == DONE
             ):
-                # at periscope depth and one-third speed, helm on course, on the EPM; raise the periscope
-                self.rule = 26  # PREP_EMERGENCY_VENT/SLOWING/3
+                # at periscope depth and ahead two-thirds on the EPM, helm on course; raise the periscope
+                self.rule = 28  # PREP_EMERGENCY_VENT/SLOWING/5
                 self.world_periscope_raised = True
                 self.state = NOP
                 self.status = DONE
@@ -876,7 +911,7 @@ class SmController:
 
         elif state == PROP_FAILED and self.helm_status != EXECUTING:
             # the helm has stopped; fail for propulsion's reason
-            self.rule = 27  # PREP_EMERGENCY_VENT/PROP_FAILED/1
+            self.rule = 29  # PREP_EMERGENCY_VENT/PROP_FAILED/1
             self.state = NOP
             self.status = ERROR
             # prop's reason, passed up by name (another: NONE)
@@ -887,9 +922,43 @@ class SmController:
 
         elif state == HELM_FAILED and self.prop_status != EXECUTING:
             # propulsion has stopped (the request withdrawn); fail
-            self.rule = 28  # PREP_EMERGENCY_VENT/HELM_FAILED/1
+            self.rule = 30  # PREP_EMERGENCY_VENT/HELM_FAILED/1
             self.state = NOP
             self.status = ERROR
+
+    def shift_to_turbines(self) -> None:
+        """SHIFT_TO_TURBINES: The main lube oil restored (4.1.3): propulsion back to the main
+        turbines (the EPM all stop, the turbines clutched in), then standard speed; the haven
+        stands still meanwhile.
+        """
+        state = self.state
+        if state == S0:
+            self.rule = 31  # SHIFT_TO_TURBINES/S0/1
+            self.state = S1
+            self.var_haven_moving = False
+            self.prop_command = PROP_SHIFT_TO_TURBINE
+            self.prop_command_num += 1
+
+        elif state == S1:
+            if self.prop_status == DONE:
+                # on the turbines; propulsion orders are answered by the main engines again
+                self.rule = 32  # SHIFT_TO_TURBINES/S1/1
+                self.world_speed_cmd = STANDARD_SPEED
+                self.state = NOP
+                self.status = DONE
+                self.cause = 0  # DONE has no cause
+
+            elif self.prop_status == ERROR:
+                self.rule = 33  # SHIFT_TO_TURBINES/S1/2
+                # prop's error: the cause of an ERROR this command reports
+                self.cause = caused(PROP_LINK, self.prop_error_num, self.prop_cause)
+                self.state = NOP
+                self.status = ERROR
+                # prop's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    PROP_REASON_LOST: REASON_LOST,
+                    PROP_REASON_REFUSED: REASON_REFUSED,
+                }.get(self.prop_error_num, REASON_NONE)
 
     def prep_submerged_transit(self) -> None:
         """PREP_SUBMERGED_TRANSIT: Prepare to resume the submerged transit (Figure 17's S4, "SM
@@ -898,15 +967,15 @@ class SmController:
         """
         state = self.state
         if state == S0:
-            self.rule = 29  # PREP_SUBMERGED_TRANSIT/S0/1
+            self.rule = 34  # PREP_SUBMERGED_TRANSIT/S0/1
             self.state = S1
             self.world_periscope_raised = False
             self.world_depth_cmd = TRANSIT_DEPTH
             self.world_speed_cmd = STANDARD_SPEED if self.world_shaft == TURBINE else EPM_SPEED
 
-        elif state == S1 and abs(self.world_depth - TRANSIT_DEPTH) < DEPTH_TOL:
+        elif state == S1 and abs(self.world_depth_gauge - TRANSIT_DEPTH) < DEPTH_TOL:
             # at transit depth
-            self.rule = 30  # PREP_SUBMERGED_TRANSIT/S1/1
+            self.rule = 35  # PREP_SUBMERGED_TRANSIT/S1/1
             self.state = NOP
             self.status = DONE
             self.cause = 0  # DONE has no cause

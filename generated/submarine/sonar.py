@@ -48,12 +48,12 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI528xd8xd8xd88xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
-INPUTS_AT = 1728
+INPUTS = Struct("<QQI44x???1xI528xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS_AT = 1744
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (216,)
+SEQ_WORDS = (218,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 SONAR_STATUS_WORD = SONAR_STATUS_AT >> 3
@@ -81,7 +81,7 @@ SONAR_PERF_WORD = SONAR_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQdQdQdQdQdQdQdQdQdQdQdQdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2448
+WORLD_OUT_1_AT = 2480
 WORLD_HELD_1 = (
     OVERRIDE["sonar_00"],
     OVERRIDE["sonar_01"],
@@ -201,7 +201,7 @@ class SonarController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[216] != values[0]:
+        if values[0] & 1 or not values[0] or words[218] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -398,7 +398,7 @@ class SonarController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[216] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[218] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing
