@@ -20,6 +20,7 @@ OLD->NEW`, as printed). Arguments: `--list` prints the mutants without running t
 
 from __future__ import annotations
 
+import argparse
 import os
 import re
 import shutil
@@ -188,15 +189,31 @@ def run_tests(templates: Path) -> tuple[bool, str]:
     return result.returncode == 0, tail
 
 
+def parse(args: list[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(
+        prog="tests/mutation_templates.py",
+        description="Mutation testing of the templates' safety code (make mutate-templates).",
+    )
+    parser.add_argument("--list", action="store_true", help="print the mutants, run nothing")
+    parser.add_argument(
+        "--only",
+        action="append",
+        metavar="TEXT",
+        help="run the mutants whose key contains TEXT (may be given several times)",
+    )
+    return parser.parse_args(args)
+
+
 def main(args: list[str]) -> int:
-    only = [args[i + 1] for i, a in enumerate(args) if a == "--only"] or [""]
+    options = parse(args)
+    only = options.only or [""]
     found = [
         (key, name, text)
         for name in sorted({r[0] for r in REGIONS})
         for key, text in mutants(name, (TEMPLATES / name).read_text(encoding="utf-8"))
         if any(o in key for o in only)
     ]
-    if "--list" in args:
+    if options.list:
         for key, _, _ in found:
             print(key)
         return 0

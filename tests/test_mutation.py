@@ -469,3 +469,19 @@ def test_a_mutant_is_tried_against_one_test_of_each_file_before_a_second_of_any(
         "tests/test_b.py::slow",
         "tests/test_a.py::one",
     ]
+
+
+def test_the_template_campaign_reads_its_arguments_and_runs_nothing_on_help(capsys):
+    import mutation_templates
+
+    with pytest.raises(SystemExit) as help_asked:
+        mutation_templates.main(["--help"])
+    assert help_asked.value.code == 0
+    assert "--only TEXT" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as wrong:
+        mutation_templates.main(["--bogus"])
+    assert wrong.value.code == 2
+    assert "unrecognized arguments: --bogus" in capsys.readouterr().err
+    assert mutation_templates.main(["--list", "--only", ":87:"]) == 0
+    listed = capsys.readouterr().out.splitlines()
+    assert listed and all(":87:" in key for key in listed)
