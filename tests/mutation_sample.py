@@ -33,10 +33,11 @@ still be killed there. Survivors are listed with their key, so a test can be wri
 equivalence argued.
 
 Arguments: `--per-module N` / `--total N` (sample size), `--seed S`, `--budget SECONDS`,
-`--only TEXT` (modules whose path contains TEXT), `--list` (print the sample, run nothing), `--reach SECONDS` (after the budget's tests, the
-fastest test of each other file that runs the mutant's lines, up to this in all; 0: the
-budget alone), `--carry COMMIT` (with `--cover`: the kept map was made on the modules as at
-COMMIT; its lines are carried across the edits since, a changed line dropped),
+`--only TEXT` (modules whose path contains TEXT), `--list` (print the sample, run nothing),
+`--reach SECONDS` (after the budget's tests, the fastest test of each other file that runs
+the mutant's lines, up to this in all; 0: the budget alone), `--carry COMMIT` (with
+`--cover`: the kept map was made on the modules as at COMMIT; its lines are carried across
+the edits since, a changed line dropped),
 `--cover FILE` (keep the map of which tests run which line there, and reuse it while the
 modules and the tests are unchanged), `--add TESTFILE` (repeatable, with `--cover`: the map
 kept, only these test files traced again and merged in, after tests were added or changed;
