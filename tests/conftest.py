@@ -60,6 +60,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_operator_task_checks",
             "test_periodicity",
             "test_property_checks",
+            "test_prove_small",
             "test_prove_text",
             "test_reference",
             "test_reference_current",
