@@ -47,6 +47,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_emit",
             "test_corpus",
             "test_files",
+            "test_expression_messages",
             "test_fragment_shapes",
             "test_generated_current",
             "test_graph",
