@@ -71,6 +71,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_ring",
             "test_scenario_checks",
             "test_scenario_model",
+            "test_schema_grid",
             "test_schema",
             "test_trace_checks",
             "test_trace_cut",
