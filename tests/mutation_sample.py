@@ -545,6 +545,8 @@ class Result:
     tests: int
     seconds: float
     detail: str = ""
+    budgeted: tuple[str, ...] = ()  # the budget's tests, tried first (then --reach's)
+    failed: str = ""  # the test that killed it (none: a timeout, or collection broke)
 
 
 def scratch(tree: Path) -> None:
@@ -639,13 +641,17 @@ def _words(text: str) -> set[str]:
     return found | {w[:-1] for w in found if w.endswith("s") and len(w) > 3}
 
 
-def attempt(tree: Path, m: Mutant, key: str, nodeids: list[str], n: int) -> Result:
+def attempt(
+    tree: Path, m: Mutant, key: str, nodeids: list[str], n: int, budgeted: int = 0
+) -> Result:
+    """`m` tried against `nodeids` (the first `budgeted` of them the budget's)."""
     if not nodeids:
         return Result(m.path, key, m.kind, "no tests", 0, 0.0)
     target = tree / m.path
     original = target.read_bytes()
     stat = target.stat()
     started = time.monotonic()
+    lines: list[str] = []
     try:
         target.write_bytes(apply(original, m))
         # a distinct mtime, so no cached bytecode of the original (or another mutant) is used
@@ -686,7 +692,19 @@ def attempt(tree: Path, m: Mutant, key: str, nodeids: list[str], n: int) -> Resu
         outcome = "killed"
     else:  # 4: usage error, 5: no tests ran -- a fault of this script, not a kill
         outcome = "error"
-    return Result(m.path, key, m.kind, outcome, len(nodeids), seconds, detail)
+    words = [line.split() for line in lines]
+    failed = next((w[1] for w in words if len(w) > 1 and w[0] in ("FAILED", "ERROR")), "")
+    return Result(
+        m.path,
+        key,
+        m.kind,
+        outcome,
+        len(nodeids),
+        seconds,
+        detail,
+        tuple(nodeids[:budgeted]),
+        failed,
+    )
 
 
 TIMEOUT = 120.0
@@ -770,6 +788,21 @@ def summary(every: dict[str, list[Mutant]], results: list[Result]) -> str:
         cells = " | ".join(str(v) for v in totals[name])
         out.append(f"| **{name}** | {cells} | {score}; raw {killed}/{tried} | {reached} |")
     return "\n".join(out)
+
+
+def attribution(results: list[Result]) -> str:
+    """Which part of each mutant's selection killed it: the budget's tests (run first, so
+    `--reach 0`, the selection before, kills it alike) or only the tests --reach added."""
+    killed = [r for r in results if r.outcome == "killed"]
+    by_budget = [r for r in killed if r.failed and r.failed in r.budgeted]
+    by_reach = [r for r in killed if r.failed and r not in by_budget]
+    untold = len(killed) - len(by_budget) - len(by_reach)
+    return (
+        f"of {len(killed)} killed: {len(by_budget)} by the budget's tests (as --reach 0 would), "
+        f"{len(by_reach)} only by the tests --reach added, {untold} by a timeout or a broken "
+        "collection (either way)"
+        + "".join(f"\n  by --reach: {r.key}  ({r.failed})" for r in by_reach)
+    )
 
 
 def _pct(interval: tuple[float, ...]) -> str:
@@ -887,7 +920,9 @@ def main(argv: list[str] | None = None) -> int:
                     why = equivalent[key]
                     results.append(Result(m.path, key, m.kind, "equivalent", 0, 0.0, why))
                     continue
-                r = attempt(tree, m, key, selection(m, cover_map, args.budget, args.reach), done)
+                chosen = selection(m, cover_map, args.budget, args.reach)
+                budgeted = len(selection(m, cover_map, args.budget))  # chosen's first ones
+                r = attempt(tree, m, key, chosen, done, budgeted)
                 results.append(r)
                 if r.outcome == "killed":
                     print(".", end="", flush=True)
@@ -902,6 +937,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         args.json.write_text(json.dumps([asdict(r) for r in results], indent=1))
     print(summary(every, results))
+    print("\n" + attribution(results))
     print(
         f"\n{len(results)} of {len(order)} sampled mutants in {elapsed / 60:.1f} min; a lower "
         "bound: only the fast "

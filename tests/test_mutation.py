@@ -516,3 +516,21 @@ def test_a_kept_map_takes_a_test_traced_again_by_its_id() -> None:
     got = mutation_sample.merged(base, added, ["tests/test_a.py::t2"])
     assert [t[0] for t in got["tests"]] == ["tests/test_a.py::t1", "tests/test_a.py::t2[x]"]
     assert got["lines"] == {"m.py": {"3": [0], "4": [1]}}
+
+
+def test_a_kill_is_told_apart_by_the_part_of_the_selection_that_made_it() -> None:
+    def killed(key: str, failed: str) -> mutation_sample.Result:
+        budget = ("tests/test_a.py::one", "tests/test_a.py::two[x]")
+        return mutation_sample.Result("m.py", key, "compare", "killed", 3, 1.0, "", budget, failed)
+
+    results = [
+        killed("m.py:1:a->b", "tests/test_a.py::two[x]"),
+        killed("m.py:2:a->b", "tests/test_b.py::far"),
+        killed("m.py:3:a->b", ""),
+        mutation_sample.Result("m.py", "m.py:4:a->b", "compare", "survived", 3, 1.0),
+    ]
+    assert mutation_sample.attribution(results) == (
+        "of 3 killed: 1 by the budget's tests (as --reach 0 would), 1 only by the tests "
+        "--reach added, 1 by a timeout or a broken collection (either way)\n"
+        "  by --reach: m.py:2:a->b  (tests/test_b.py::far)"
+    )
