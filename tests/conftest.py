@@ -49,6 +49,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_files",
             "test_expression_messages",
             "test_fragment_shapes",
+            "test_frozen_values",
             "test_generated_current",
             "test_graph",
             "test_graph_render",
