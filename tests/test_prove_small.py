@@ -14,23 +14,30 @@ import re
 from pathlib import Path
 
 import pytest
+import test_check_messages as checks
 from click.testing import CliRunner
 
 from rcsgen.cli import main
 
-SYSTEM = """\
-system: tank
-title: A tank
-cycle_period: 0.1
 
-world:
-  level: {type: float, initial: 0.0, doc: Sensed level.}
-  pump_on: {type: bool, initial: false, actuator: true, safe: false, doc: Pump motor on.}
+def edited(text: str, *edits: tuple[str, str]) -> str:
+    for old, new in edits:
+        assert old in text
+        text = text.replace(old, new, 1)
+    return text
 
-processes:
-  p:
-    modules: [sup, tank]
-"""
+
+# test_check_messages' tank, its actuator declared safe off, with a supervisor above it
+SYSTEM = edited(
+    checks.SYSTEM,
+    ("actuator: true, doc", "actuator: true, safe: false, doc"),
+    (
+        "  mode: {type: enum, values: [IDLE, RUN], initial: IDLE, actuator: true, safe: IDLE, "
+        "doc: A mode.}\n",
+        "",
+    ),
+    ("    modules: [tank]\n", "    modules: [sup, tank]\n"),
+)
 TWO_PROCESSES = ("    modules: [sup, tank]\n", "    modules: [sup]\n  q:\n    modules: [tank]\n")
 
 SUP = """\
@@ -89,33 +96,14 @@ HALT_WAITS = """\
             - report: ERROR
 """
 
-TANK = """\
-controller: tank
-title: Tank level
-
-world:
-  reads: [level]
-  writes: [pump_on]
-
-commands:
-  FILL:
-    doc: Pump until the level is high.
-    states:
-      S0:
-        - when: world.level < 2.0
-          do:
-            - set: {world.pump_on: true}
-        - when: world.level >= 2.0
-          do:
-            - report: DONE
-  HALT:
-    doc: Stop the pump.
-    states:
-      S0:
-        - do:
-            - set: {world.pump_on: false}
-            - report: DONE
-"""
+# ... and the tank leaves its pump on when it is done
+TANK = edited(
+    checks.TANK,
+    (
+        "            - set: {world.pump_on: false}\n            - report: DONE\n  HALT",
+        "            - report: DONE\n  HALT",
+    ),
+)
 # the tank may fail (a negative level); a property of its own: the pump is off when it is done
 FAILS = (
     (
@@ -140,66 +128,30 @@ commands:
 
 # the supervisor tries the tank three times before it gives up: a counter-example that
 # needs its local `tries` to have counted up is looked for past the shortest run (z3)
-RETRIES = """\
-controller: sup
-title: Supervisor
-subordinates: [tank]
-
-locals:
-  tries: {type: int, initial: 0, doc: The fills that failed.}
-
-properties:
-  - name: never_gives_up
-    doc: The supervisor never reports ERROR.
-    always: sup.status != ERROR
-
-commands:
-  RUN:
-    doc: Fill the tank, three tries.
-    states:
-      S0:
-        - do:
-            - send: tank.FILL
-            - set: {tries: 0}
-          next: S1
-      S1:
-        - when: tank.status == DONE
-          do:
-            - report: DONE
-        - when: tank.status == ERROR and tries < 2
-          do:
-            - send: tank.FILL
-            - set: {tries: tries + 1}
-          next: S1
-        - when: tank.status == ERROR and tries >= 2
-          do:
-            - send: tank.HALT
-            - report: ERROR
-          allow:
-            - code: W505
-              reason: the tank stops its pump in the cycle it reads HALT.
-  HALT:
-    doc: Stop.
-    states:
-      S0:
-        - do:
-            - send: tank.HALT
-          next: S1
-      S1:
-        - when: tank.status == DONE
-          do:
-            - report: DONE
-        - when: tank.status == ERROR
-          do:
-            - report: ERROR
-"""
-
-
-def edited(text: str, *edits: tuple[str, str]) -> str:
-    for old, new in edits:
-        assert old in text
-        text = text.replace(old, new, 1)
-    return text
+RETRIES = (
+    (
+        "properties:\n" + ERRORS_GO_UP,
+        "locals:\n  tries: {type: int, initial: 0, doc: The fills that failed.}\n\nproperties:\n"
+        "  - name: never_gives_up\n    doc: The supervisor never reports ERROR.\n"
+        "    always: sup.status != ERROR\n",
+    ),
+    ("    doc: Fill the tank.\n", "    doc: Fill the tank, three tries.\n"),
+    (
+        "            - send: tank.FILL\n          next: S1\n      S1:",
+        "            - send: tank.FILL\n            - set: {tries: 0}\n"
+        "          next: S1\n      S1:",
+    ),
+    (
+        "        - when: tank.status == ERROR\n          do:\n            - send: tank.FILL\n"
+        "          next: S1\n",
+        "        - when: tank.status == ERROR and tries < 2\n          do:\n"
+        "            - send: tank.FILL\n            - set: {tries: tries + 1}\n          next: S1\n"
+        "        - when: tank.status == ERROR and tries >= 2\n          do:\n"
+        "            - send: tank.HALT\n            - report: ERROR\n          allow:\n"
+        "            - code: W505\n              reason: the tank stops its pump in the cycle it "
+        "reads HALT.\n",
+    ),
+)
 
 
 def proven(
@@ -249,7 +201,7 @@ def variants() -> dict[str, tuple[str, str, str, bool]]:
             edited(tank, ("commands:\n", PUMP_OFF)),
             True,
         ),
-        "retries": (two, RETRIES, tank, True),
+        "retries": (two, edited(sup, *RETRIES), tank, True),
         "errors_reported": (two, fixed, tank, True),
     }
 
