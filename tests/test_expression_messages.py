@@ -84,3 +84,32 @@ def test_a_guard_over_two_lines_reads_as_one(tmp_path, monkeypatch, newline: str
             "`allow: [{code: W503, states: [S0], reason: ...}]`",
         )
     ]
+
+
+def test_the_generated_code_keeps_a_guards_grouping(tmp_path) -> None:
+    """The guard as Python in the generated controller: parentheses where the spec's grouping
+    needs them (a sum under a product, a difference divided, an `or` under `not`, a
+    conditional expression as an operand) and nowhere else."""
+    from rcsgen import api
+
+    guard = (
+        "world.level * (world.level + 1.0) < 2.0 and -(world.level - 1.0) / (2.0 - world.level)"
+        " > -1.0 and not (world.level > 3.0 or world.level < -3.0) and world.level // 2.0 - "
+        "world.level % 3.0 <= (world.level if world.level > 0.0 else -world.level) * 2.0"
+    )
+    specs = tmp_path / "specs"
+    specs.mkdir()
+    (specs / "system.yaml").write_text(SYSTEM)
+    (specs / "tank.yaml").write_text(TANK.replace("- when: world.level < 2.0", f"- when: {guard}"))
+    api.build([specs], tmp_path / "out")
+    code = (tmp_path / "out" / "tank" / "tank.py").read_text()
+    assert (
+        "            if (\n"
+        "                self.world_level * (self.world_level + 1.0) < 2.0\n"
+        "                and -(self.world_level - 1.0) / (2.0 - self.world_level) > -1.0\n"
+        "                and not (self.world_level > 3.0 or self.world_level < -3.0)\n"
+        "                and self.world_level // 2.0 - self.world_level % 3.0\n"
+        "                <= (self.world_level if self.world_level > 0.0 else -self.world_level)"
+        " * 2.0\n"
+        "            ):\n"
+    ) in code
