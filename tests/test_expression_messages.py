@@ -88,14 +88,15 @@ def test_a_guard_over_two_lines_reads_as_one(tmp_path, monkeypatch, newline: str
 
 def test_the_generated_code_keeps_a_guards_grouping(tmp_path) -> None:
     """The guard as Python in the generated controller: parentheses where the spec's grouping
-    needs them (a sum under a product, a difference divided, an `or` under `not`, a
-    conditional expression as an operand) and nowhere else."""
+    needs them (a sum under a product on either side, a sum subtracted, a difference divided,
+    an `or` under `not`, a conditional expression as an operand) and nowhere else."""
     from rcsgen import api
 
     guard = (
         "world.level * (world.level + 1.0) < 2.0 and -(world.level - 1.0) / (2.0 - world.level)"
         " > -1.0 and not (world.level > 3.0 or world.level < -3.0) and world.level // 2.0 - "
-        "world.level % 3.0 <= (world.level if world.level > 0.0 else -world.level) * 2.0"
+        "world.level % 3.0 <= (world.level if world.level > 0.0 else -world.level) * 2.0 and "
+        "(world.level + 1.0) * world.level - (world.level + 2.0) > 0.0"
     )
     specs = tmp_path / "specs"
     specs.mkdir()
@@ -111,5 +112,7 @@ def test_the_generated_code_keeps_a_guards_grouping(tmp_path) -> None:
         "                and self.world_level // 2.0 - self.world_level % 3.0\n"
         "                <= (self.world_level if self.world_level > 0.0 else -self.world_level)"
         " * 2.0\n"
+        "                and (self.world_level + 1.0) * self.world_level - (self.world_level + 2.0)"
+        " > 0.0\n"
         "            ):\n"
     ) in code
