@@ -17,7 +17,8 @@ This script measures the same thing on a deterministic sample, and says how sure
 3. **The sample.** Per module, a fixed-seed random sample (proportional to the module's
    mutants, at least MIN_PER_MODULE), so the same sources give the same mutants every run.
 4. **Each mutant** is written into a scratch copy of the tracked tree (never this worktree),
-   and the tests that ran its lines (fastest first, up to BUDGET seconds of their own time)
+   and the tests that ran its lines (fastest first, up to BUDGET seconds of their own time;
+   then the fastest test of each other file that runs them, up to REACH in all)
    run in a fresh pytest with `-x`: a failure, an error, a crash or a timeout kills it. A
    mutant no test reaches counts as surviving. Mutants listed in
    tests/mutation_sample_equivalent.txt (under the key printed) are counted apart and left
@@ -33,6 +34,10 @@ equivalence argued.
 
 Arguments: `--per-module N` / `--total N` (sample size), `--seed S`, `--budget SECONDS`,
 `--only TEXT` (modules whose path contains TEXT), `--list` (print the sample, run nothing),
+`--reach SECONDS` (after the budget's tests, the fastest test of each other file that runs
+the mutant's lines, up to this in all; 0: the budget alone), `--carry COMMIT` (with
+`--cover`: the kept map was made on the modules as at COMMIT; its lines are carried across
+the edits since, a changed line dropped),
 `--cover FILE` (keep the map of which tests run which line there, and reuse it while the
 modules and the tests are unchanged), `--add TESTFILE` (repeatable, with `--cover`: the map
 kept, only these test files traced again and merged in, after tests were added or changed;
@@ -91,6 +96,7 @@ SEED = 25
 TOTAL = 200
 MIN_PER_MODULE = 3
 BUDGET = 30.0  # seconds of the selected tests' own time per mutant, fastest first
+REACH = 120.0  # then each other file's fastest test of the line, up to this in all
 COVER_ENV = "RCSGEN_MUTATION_COVER"
 
 SWAPS: dict[type, type] = {
@@ -228,8 +234,12 @@ def cover(tree: Path, out: Path, files: list[str] | None = None) -> None:
 def merged(base: dict[str, Any], added: dict[str, Any], files: list[str]) -> dict[str, Any]:
     """`base` with the tests of `files` (traced again, or new) taken from `added`: a map
     kept current after a few test files changed, without the whole coverage run again."""
-    names = tuple(f"{f}::" for f in files)
-    keep = [i for i, t in enumerate(base["tests"]) if not t[0].startswith(names)]
+    # a file's tests all go; a test named alone (file::name) goes with its parameters
+    names = tuple(f"{f}[" if "::" in f else f"{f}::" for f in files)
+    alone = {f for f in files if "::" in f}
+    keep = [
+        i for i, t in enumerate(base["tests"]) if not t[0].startswith(names) and t[0] not in alone
+    ]
     renumber = {old: new for new, old in enumerate(keep)}
     tests = [base["tests"][i] for i in keep]
     shift = len(tests)
@@ -243,6 +253,41 @@ def merged(base: dict[str, Any], added: dict[str, Any], files: list[str]) -> dic
             by[n].update(i + shift for i in ids)
         lines[rel] = {n: sorted(ids) for n, ids in by.items() if ids}
     return {"tests": tests, "lines": lines}
+
+
+def carried(cover_map: dict[str, Any], edits: dict[str, tuple[str, str]]) -> dict[str, Any]:
+    """`cover_map` carried across small edits of modules (`edits`: path -> (the text the map
+    was made on, the text now)): each mapped line moves to its place in the new text where
+    difflib finds it unchanged; a changed line is dropped (what runs it now is mapped by
+    tracing its tests again with --add). Minutes of tracing saved for a one-line fix."""
+    import difflib
+
+    lines = dict(cover_map["lines"])
+    for rel, (before, after) in edits.items():
+        moves: dict[str, str] = {}
+        old, new = before.splitlines(), after.splitlines()
+        matcher = difflib.SequenceMatcher(None, old, new, autojunk=False)
+        for tag, i1, i2, j1, _ in matcher.get_opcodes():
+            if tag == "equal":
+                moves.update((str(i1 + k + 1), str(j1 + k + 1)) for k in range(i2 - i1))
+        by = lines.get(rel, {})
+        lines[rel] = {moves[n]: ids for n, ids in by.items() if n in moves}
+        print(f"carried {rel}: {len(lines[rel])} of {len(by)} mapped lines")
+    return cover_map | {"lines": lines}
+
+
+def edits_since(commit: str) -> dict[str, tuple[str, str]]:
+    """Every mutated module whose text differs from its text at `commit`: (then, now)."""
+    found = {}
+    for path in _modules(tuple(str(REPO / p) for p in PACKAGES)):
+        rel = str(path.relative_to(REPO))
+        then = subprocess.run(
+            ["git", "show", f"{commit}:{rel}"], cwd=REPO, capture_output=True, text=True
+        )
+        now = path.read_text()
+        if then.returncode == 0 and then.stdout != now:
+            found[rel] = (then.stdout, now)
+    return found
 
 
 def test_files() -> list[str]:
@@ -500,6 +545,8 @@ class Result:
     tests: int
     seconds: float
     detail: str = ""
+    budgeted: tuple[str, ...] = ()  # the budget's tests, tried first (then --reach's)
+    failed: str = ""  # the test that killed it (none: a timeout, or collection broke)
 
 
 def scratch(tree: Path) -> None:
@@ -524,11 +571,16 @@ def scratch(tree: Path) -> None:
             shutil.copy2(src, dst)
 
 
-def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
+def selection(m: Mutant, cover_map: dict[str, Any], budget: float, reach: float = 0.0) -> list[str]:
     """The tests a mutant is tried against: those that run its lines, fastest first, until
     their own times add up to `budget`. A line run at import (a table, a default) is run
     by every test that uses the module: those that run most of the module come first (the
-    tests of the module itself), then the fastest."""
+    tests of the module itself), then the fastest.
+
+    Then, up to `reach` seconds in all, the fastest test of each file that runs the lines and
+    has none chosen yet (fastest first): one slow traced test (a prove, 5-10 s traced) no
+    longer fills the budget alone and leaves the other files' tests of the line untried.
+    What the budget chose comes first and stays: a superset, so no kill is lost."""
     tests = cover_map["tests"]
     by_line = cover_map["lines"].get(m.path, {})
     if m.toplevel:
@@ -552,15 +604,15 @@ def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
         for t in sorted(found, key=lambda t: (tests[t][1], t)):
             module = tests[t][0].partition("::")[0]
             rank[t], seen[module] = seen[module], seen[module] + 1
-        reach: dict[str, set[str]] = defaultdict(set)
+        runs: dict[str, set[str]] = defaultdict(set)
         for n, ids_of_line in by_line.items():
             for t in ids_of_line:
-                reach[tests[t][0].partition("::")[0]].add(n)
+                runs[tests[t][0].partition("::")[0]].add(n)
 
         def order(t: int) -> tuple[int, int, int, float, int]:
             file = tests[t][0].partition("::")[0]
             named = len(words & _words(tests[t][0]))
-            return (-named, rank[t], -len(reach[file]), tests[t][1], t)
+            return (-named, rank[t], -len(runs[file]), tests[t][1], t)
 
         ids = sorted(found, key=order)
     chosen, spent = [], 0.0
@@ -569,6 +621,14 @@ def selection(m: Mutant, cover_map: dict[str, Any], budget: float) -> list[str]:
             continue
         chosen.append(tests[t][0])
         spent += tests[t][1]
+    files = {name.partition("::")[0] for name in chosen}
+    first: dict[str, int] = {}
+    for t in sorted(ids, key=lambda t: (tests[t][1], t)):
+        first.setdefault(tests[t][0].partition("::")[0], t)
+    for file, t in sorted(first.items(), key=lambda ft: (tests[ft[1]][1], ft[1])):
+        if file not in files and spent + tests[t][1] <= reach:
+            chosen.append(tests[t][0])
+            spent += tests[t][1]
     return chosen
 
 
@@ -581,13 +641,17 @@ def _words(text: str) -> set[str]:
     return found | {w[:-1] for w in found if w.endswith("s") and len(w) > 3}
 
 
-def attempt(tree: Path, m: Mutant, key: str, nodeids: list[str], n: int) -> Result:
+def attempt(
+    tree: Path, m: Mutant, key: str, nodeids: list[str], n: int, budgeted: int = 0
+) -> Result:
+    """`m` tried against `nodeids` (the first `budgeted` of them the budget's)."""
     if not nodeids:
         return Result(m.path, key, m.kind, "no tests", 0, 0.0)
     target = tree / m.path
     original = target.read_bytes()
     stat = target.stat()
     started = time.monotonic()
+    lines: list[str] = []
     try:
         target.write_bytes(apply(original, m))
         # a distinct mtime, so no cached bytecode of the original (or another mutant) is used
@@ -628,7 +692,19 @@ def attempt(tree: Path, m: Mutant, key: str, nodeids: list[str], n: int) -> Resu
         outcome = "killed"
     else:  # 4: usage error, 5: no tests ran -- a fault of this script, not a kill
         outcome = "error"
-    return Result(m.path, key, m.kind, outcome, len(nodeids), seconds, detail)
+    words = [line.split() for line in lines]
+    failed = next((w[1] for w in words if len(w) > 1 and w[0] in ("FAILED", "ERROR")), "")
+    return Result(
+        m.path,
+        key,
+        m.kind,
+        outcome,
+        len(nodeids),
+        seconds,
+        detail,
+        tuple(nodeids[:budgeted]),
+        failed,
+    )
 
 
 TIMEOUT = 120.0
@@ -714,6 +790,21 @@ def summary(every: dict[str, list[Mutant]], results: list[Result]) -> str:
     return "\n".join(out)
 
 
+def attribution(results: list[Result]) -> str:
+    """Which part of each mutant's selection killed it: the budget's tests (run first, so
+    `--reach 0`, the selection before, kills it alike) or only the tests --reach added."""
+    killed = [r for r in results if r.outcome == "killed"]
+    by_budget = [r for r in killed if r.failed and r.failed in r.budgeted]
+    by_reach = [r for r in killed if r.failed and r not in by_budget]
+    untold = len(killed) - len(by_budget) - len(by_reach)
+    return (
+        f"of {len(killed)} killed: {len(by_budget)} by the budget's tests (as --reach 0 would), "
+        f"{len(by_reach)} only by the tests --reach added, {untold} by a timeout or a broken "
+        "collection (either way)"
+        + "".join(f"\n  by --reach: {r.key}  ({r.failed})" for r in by_reach)
+    )
+
+
 def _pct(interval: tuple[float, ...]) -> str:
     return f"{100 * interval[0]:.0f}–{100 * interval[1]:.0f} %"
 
@@ -726,6 +817,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--least", type=int, default=MIN_PER_MODULE)
     parser.add_argument("--seed", type=int, default=SEED)
     parser.add_argument("--budget", type=float, default=BUDGET)
+    parser.add_argument(
+        "--reach",
+        type=float,
+        default=REACH,
+        help="then the fastest test of each other file that runs the line, up to this in all"
+        " (0: the budget alone, as before)",
+    )
     parser.add_argument("--timeout", type=float, default=TIMEOUT)
     parser.add_argument("--only", action="append", default=[])
     parser.add_argument("--list", action="store_true")
@@ -738,6 +836,12 @@ def main(argv: list[str] | None = None) -> int:
         default=[],
         metavar="TESTFILE",
         help="with --cover: trace only this test file (new or changed) into the kept map",
+    )
+    parser.add_argument(
+        "--carry",
+        metavar="COMMIT",
+        help="with --cover: the kept map was made on the modules as at COMMIT; carry its lines"
+        " across their edits since (with --add for the tests of the changed lines)",
     )
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
@@ -780,6 +884,11 @@ def main(argv: list[str] | None = None) -> int:
         cover_file = args.cover or tree / "cover.json"
         digest = sources_digest()
         cover_map = json.loads(cover_file.read_text()) if cover_file.exists() else {}
+        if args.carry and cover_map:  # the map was made on the modules as at this commit
+            cover_map = carried(cover_map, edits_since(args.carry))
+            if not args.add:
+                cover_map["digest"] = digest
+                cover_file.write_text(json.dumps(cover_map))
         if args.add and cover_map and cover_map.get("digest") != digest:
             # a few test files changed or were added: only they are traced again
             added_file = cover_file.with_suffix(".added.json")  # its .log kept beside it
@@ -811,7 +920,9 @@ def main(argv: list[str] | None = None) -> int:
                     why = equivalent[key]
                     results.append(Result(m.path, key, m.kind, "equivalent", 0, 0.0, why))
                     continue
-                r = attempt(tree, m, key, selection(m, cover_map, args.budget), done)
+                chosen = selection(m, cover_map, args.budget, args.reach)
+                budgeted = len(selection(m, cover_map, args.budget))  # chosen's first ones
+                r = attempt(tree, m, key, chosen, done, budgeted)
                 results.append(r)
                 if r.outcome == "killed":
                     print(".", end="", flush=True)
@@ -826,6 +937,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         args.json.write_text(json.dumps([asdict(r) for r in results], indent=1))
     print(summary(every, results))
+    print("\n" + attribution(results))
     print(
         f"\n{len(results)} of {len(order)} sampled mutants in {elapsed / 60:.1f} min; a lower "
         "bound: only the fast "

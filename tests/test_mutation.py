@@ -485,3 +485,68 @@ def test_the_template_campaign_reads_its_arguments_and_runs_nothing_on_help(caps
     assert mutation_templates.main(["--list", "--only", ":87:"]) == 0
     listed = capsys.readouterr().out.splitlines()
     assert listed and all(":87:" in key for key in listed)
+
+
+def test_a_mutant_is_also_tried_against_the_fastest_test_of_each_file_the_budget_left_out() -> None:
+    cover_map = {
+        "tests": [
+            ["tests/test_slow.py::prove", 9.8, True],
+            ["tests/test_a.py::one", 3.0, True],
+            ["tests/test_a.py::two", 0.5, True],
+            ["tests/test_b.py::text", 4.0, True],
+            ["tests/test_c.py::huge", 300.0, True],
+        ],
+        "lines": {"pkg/m.py": {"7": [0, 1, 2, 3, 4], "8": [0]}},
+    }
+    m = mutation_sample.Mutant("pkg/m.py", 7, 7, "compare", "x < b", "(x <= b)", (7, 4), (7, 9))
+    alone = mutation_sample.selection(m, cover_map, 10)
+    assert alone == ["tests/test_slow.py::prove"]  # it runs more of the module: first
+    # the budget's choice first and whole (a superset: no kill lost), then one test of each
+    # file left out, fastest first, while the whole stays within reach
+    assert mutation_sample.selection(m, cover_map, 10, reach=20) == [
+        "tests/test_slow.py::prove",
+        "tests/test_a.py::two",
+        "tests/test_b.py::text",
+    ]
+    assert mutation_sample.selection(m, cover_map, 10, reach=400)[-1] == "tests/test_c.py::huge"
+
+
+def test_a_kept_map_is_carried_across_an_edit_of_its_module() -> None:
+    cover_map = {
+        "tests": [["tests/test_a.py::t", 1.0, True]],
+        "lines": {"m.py": {"1": [0], "2": [0], "3": [0]}},
+    }
+    edits = {"m.py": ("a = 1\nb = 2\nc = 3\n", "new = 0\na = 1\nb = 20\nc = 3\n")}
+    got = mutation_sample.carried(cover_map, edits)
+    # `a` and `c` moved one line down; `b` changed: dropped (its tests are traced again)
+    assert got["lines"] == {"m.py": {"2": [0], "4": [0]}}
+    assert cover_map["lines"]["m.py"] == {"1": [0], "2": [0], "3": [0]}  # the kept map untouched
+
+
+def test_a_kept_map_takes_a_test_traced_again_by_its_id() -> None:
+    base = {
+        "tests": [["tests/test_a.py::t1", 1.0, True], ["tests/test_a.py::t2[x]", 2.0, True]],
+        "lines": {"m.py": {"3": [0, 1]}},
+    }
+    added = {"tests": [["tests/test_a.py::t2[x]", 0.5, True]], "lines": {"m.py": {"4": [0]}}}
+    got = mutation_sample.merged(base, added, ["tests/test_a.py::t2"])
+    assert [t[0] for t in got["tests"]] == ["tests/test_a.py::t1", "tests/test_a.py::t2[x]"]
+    assert got["lines"] == {"m.py": {"3": [0], "4": [1]}}
+
+
+def test_a_kill_is_told_apart_by_the_part_of_the_selection_that_made_it() -> None:
+    def killed(key: str, failed: str) -> mutation_sample.Result:
+        budget = ("tests/test_a.py::one", "tests/test_a.py::two[x]")
+        return mutation_sample.Result("m.py", key, "compare", "killed", 3, 1.0, "", budget, failed)
+
+    results = [
+        killed("m.py:1:a->b", "tests/test_a.py::two[x]"),
+        killed("m.py:2:a->b", "tests/test_b.py::far"),
+        killed("m.py:3:a->b", ""),
+        mutation_sample.Result("m.py", "m.py:4:a->b", "compare", "survived", 3, 1.0),
+    ]
+    assert mutation_sample.attribution(results) == (
+        "of 3 killed: 1 by the budget's tests (as --reach 0 would), 1 only by the tests "
+        "--reach added, 1 by a timeout or a broken collection (either way)\n"
+        "  by --reach: m.py:2:a->b  (tests/test_b.py::far)"
+    )
