@@ -540,8 +540,15 @@ def test_lockstep_over_zenoh_leaves_the_golden_trace(name: str) -> None:
     harness = open_harness(scenario, PACKAGE, processes=True, transport="zenoh")
     port = int(harness.launcher.listen.rsplit(":", 1)[1])
     children = [c.popen for c in harness.launcher.children.values()]
+    # each process listens where the launcher said, and pc2 connects to pc1 as configured
+    # (retried until it connects), not only through the gossip of the launcher's node
+    own = {name: int(at.rsplit(":", 1)[1]) for name, at in harness.launcher.child_listen.items()}
+    pc2 = harness.launcher.children["pc2"].popen.args
     try:
-        assert listening({port}) == {port}
+        assert listening({port, *own.values()}) == {port, *own.values()}
+        assert ("--connect", harness.launcher.child_listen["pc1"]) in zip(
+            pc2, pc2[1:], strict=False
+        )
         result = run(scenario, harness)
     finally:
         harness.close()
@@ -550,7 +557,7 @@ def test_lockstep_over_zenoh_leaves_the_golden_trace(name: str) -> None:
     assert any(line.startswith(f"pc2: stopped, {cycles} cycles") for line in harness.summary())
     assert all(child.poll() is not None for child in children)
     assert shm_files() - before == set()
-    assert listening({port}) == set()
+    assert listening({port, *own.values()}) == set()
 
 
 @pytest.fixture

@@ -418,6 +418,7 @@ class Launcher:
         # read it as they read the shared one. Its node listens where the processes connect.
         self.transport_name = transport
         self.listen = listen or f"{'tls' if security.tls else 'tcp'}/127.0.0.1:{free_port()}"
+        self.child_listen: dict[str, str] = {}  # where each process's node listens (Zenoh)
         # A host of a deployment (`--deploy`): only its processes here, its node also
         # listening on the host's other endpoints and connecting to the other hosts.
         self.connect, self.also_listen = tuple(connect), tuple(also_listen)
@@ -522,8 +523,18 @@ class Launcher:
         command = [self.python, "-m", self.system.package, name, "--shm", self.segment, "--child"]
         if self.transport_name == "zenoh":  # its own block, a peer of the launcher's node
             command[5] = f"{self.segment}_{name}"
+            # It listens on a port of its own and connects to the launcher's node and to
+            # every process started before it: Zenoh's gossip alone (each finding the others
+            # through the launcher's node) sometimes never connected two processes that
+            # started together (1 run in ~15: each heard the launcher, never the other, and
+            # a connection made from gossip is not tried again); a configured one is.
+            siblings = [self.child_listen[n] for n in self.child_listen if n != name]
+            self.child_listen[name] = (
+                f"{'tls' if self.security.tls else 'tcp'}/127.0.0.1:{free_port()}"
+            )
             command += ["--transport", "zenoh", "--connect", self.listen]
-            command += ["--listen", f"{'tls' if self.security.tls else 'tcp'}/127.0.0.1:0"]
+            command += [arg for sibling in siblings for arg in ("--connect", sibling)]
+            command += ["--listen", self.child_listen[name]]
             if self.security != PLAINTEXT:  # paths only: no secret on a command line
                 command += ["--security", self.security.to_text()]
         else:
