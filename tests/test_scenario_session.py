@@ -44,10 +44,13 @@ def test_traces_are_written_each_or_refused_each_with_e419(tmp_path: Path) -> No
     lines = full_lines(GOLDEN)[:3]
     (tmp_path / "file").write_text("")  # where the trace's directory would be
     good, bad = tmp_path / "out" / "t.jsonl", tmp_path / "file" / "t.jsonl"
-    problems = write_traces(lines, [good, bad])
+    deeper = tmp_path / "file" / "day" / "t.jsonl"
+    problems = write_traces(lines, [good, bad, deeper])
     assert full_lines(good) == lines
+    # which folder on the way is a file, not the system's bare "File exists"
     assert [(d.code, d.message) for d in problems] == [
-        ("E419", f"cannot write trace `{bad}`: File exists")
+        ("E419", f"cannot write trace `{bad}`: `{tmp_path / 'file'}` is a file, not a folder"),
+        ("E419", f"cannot write trace `{deeper}`: `{tmp_path / 'file'}` is a file, not a folder"),
     ]
 
 
@@ -64,5 +67,5 @@ def test_an_interrupted_runs_trace_ends_with_a_line_saying_so(tmp_path: Path) ->
     (tmp_path / "file").write_text("")
     refused = tmp_path / "file" / "t.jsonl"
     assert write_interrupted(Ran(lines=[]), refused, "SIGTERM") == (
-        f"cannot write trace `{refused}`: File exists"
+        f"cannot write trace `{refused}`: `{tmp_path / 'file'}` is a file, not a folder"
     )

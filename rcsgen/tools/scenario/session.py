@@ -169,8 +169,19 @@ def write_traces(trace: list[str], paths: list[Path]) -> list[Diagnostic]:
             write_trace(path, trace)
         except OSError as exc:
             where = Span(display_path(path))
-            problems.error(where, "E419", f"cannot write trace `{path}`: {exc.strerror or exc}")
+            problems.error(where, "E419", f"cannot write trace `{path}`: {unwritable(path, exc)}")
     return problems.items
+
+
+def unwritable(path: Path, error: OSError) -> str:
+    """Why `path` cannot be written, in words: the folder on its way that is a file (the
+    system's "File exists" or "Not a directory" says neither which nor why), else the
+    system's reason."""
+    if isinstance(error, (FileExistsError, NotADirectoryError)):
+        for folder in reversed(path.parents):
+            if folder.exists() and not folder.is_dir():
+                return f"`{folder}` is a file, not a folder"
+    return error.strerror or str(error)
 
 
 def write_interrupted(ran: Ran, path: Path, signal_name: str) -> str:
@@ -180,7 +191,7 @@ def write_interrupted(ran: Ran, path: Path, signal_name: str) -> str:
     try:
         write_trace(path, [*ran.lines, interrupted_line(done + 1, signal_name)])
     except OSError as error:
-        return f"cannot write trace `{path}`: {error.strerror or error}"
+        return f"cannot write trace `{path}`: {unwritable(path, error)}"
     if done:
         return f"{path} holds cycles 1-{done} and a last line saying so"
     return f"{path} holds only a line saying so"
