@@ -11,6 +11,7 @@ import time
 from collections.abc import Iterator
 
 import pytest
+from conftest import wait_for
 
 from rcsgen.runtime import ring
 
@@ -209,13 +210,6 @@ def _word(page: ring.Page, link: int, word: int) -> int:
     return page.words[link * ring.SLOT_WORDS + word]
 
 
-def _until(condition, what: str, seconds: float = 20.0) -> None:
-    deadline = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < deadline, f"not within {seconds:g} s: {what}"
-        time.sleep(0.001)
-
-
 def test_a_token_is_a_turn_word_and_its_doorbell_is_read_spun_or_slept(
     links: list[ring.Link], page: ring.Page, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -260,7 +254,9 @@ def test_a_stop_ends_a_spinning_member_long_before_its_spin(
     try:
         waiting.start()
         nudge()
-        _until(lambda: _word(page, 0, ring.SPINNING) == 1, "the nudged member spinning")
+        wait_for(
+            lambda: _word(page, 0, ring.SPINNING) == 1, "the nudged member spinning", every=0.001
+        )
         ring.stop_on_control(control, links[0].write, page, 0)
         began = time.monotonic()
         os.close(coordinator)
