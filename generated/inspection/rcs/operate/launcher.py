@@ -417,7 +417,7 @@ class Launcher:
         # the launcher's block mirrors them all: a local `ctl`, a harness and the summary
         # read it as they read the shared one. Its node listens where the processes connect.
         self.transport_name = transport
-        self.listen = listen or f"{'tls' if security.tls else 'tcp'}/127.0.0.1:{free_port()}"
+        self.listen = listen or local_endpoint(security)
         self.child_listen: dict[str, str] = {}  # where each process's node listens (Zenoh)
         # A host of a deployment (`--deploy`): only its processes here, its node also
         # listening on the host's other endpoints and connecting to the other hosts.
@@ -529,9 +529,7 @@ class Launcher:
             # started together (1 run in ~15: each heard the launcher, never the other, and
             # a connection made from gossip is not tried again); a configured one is.
             siblings = [self.child_listen[n] for n in self.child_listen if n != name]
-            self.child_listen[name] = (
-                f"{'tls' if self.security.tls else 'tcp'}/127.0.0.1:{free_port()}"
-            )
+            self.child_listen[name] = local_endpoint(self.security)
             command += ["--transport", "zenoh", "--connect", self.listen]
             command += [arg for sibling in siblings for arg in ("--connect", sibling)]
             command += ["--listen", self.child_listen[name]]
@@ -927,6 +925,12 @@ def free_port() -> int:
         probe.bind(("127.0.0.1", 0))
         port: int = probe.getsockname()[1]
     return port
+
+
+def local_endpoint(security: Security) -> str:
+    """A Zenoh endpoint on 127.0.0.1 that nothing listens on now (TLS where `security` asks
+    for it): the launcher's node's, or one of its processes'."""
+    return f"{'tls' if security.tls else 'tcp'}/127.0.0.1:{free_port()}"
 
 
 def unlink_quietly(name: str) -> None:
