@@ -200,9 +200,7 @@ def _refused(
     """Whether `target` may not be written, after saying why: a symbolic link on the way
     (E301), its system's folder not a directory (E303), a path leaving the output root
     `inside[0]` (E302; `inside[1]` keeps the directories resolved so far)."""
-    linked = [p for p in (folder, target) if p.is_symlink()] if state.linked else []
-    if not linked and target.is_symlink():
-        linked = [target]
+    linked = [folder] * state.linked + [target] * target.is_symlink()
     for part in linked:
         diags.error(Span(str(part)), "E301", f"refusing to write through symlink `{part}`")
     if linked:  # one cause: no follow-up E302/E304 for where the link happens to point
