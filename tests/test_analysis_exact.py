@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from test_analysis import make
 
@@ -114,8 +114,23 @@ def probes(trees: list[X.Expr]) -> list[dict[str, Any]]:
     return [{"world_a": a, "var_b": b} for a in floats for b in ints[:: max(1, len(ints) // 12)]]
 
 
+# Found by this test: `-2 * a + 1 <= a` holds from a = 1/3 exactly, which no float holds; the
+# nearest float, 0.3333333333333333, is below it and makes the guard false in Python. A float
+# variable now takes only values a float holds, strictly inside each region.
+ONE_THIRD = X.Compare(
+    BOOL,
+    X.Binary(FLOAT, "+", X.Binary(FLOAT, "*", X.Const(INT, -2), A), X.Const(INT, 1)),
+    ("<=",),
+    (A,),
+)
+
+
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(comparisons(), comparisons())
+@example(X.Compare(BOOL, B, ("<",), (X.Const(INT, -3),)), ONE_THIRD)
+@example(
+    ONE_THIRD, X.Compare(BOOL, X.Binary(FLOAT, "*", X.Const(INT, 2), A), ("<",), (X.Const(INT, 1),))
+)
 def test_every_counter_example_makes_both_guards_true(first: X.Expr, second: X.Expr) -> None:
     builder = analysis.GuardBuilder({}, {}, {})
     answer = solver.solve([(builder.guard(first), True), (builder.guard(second), True)])

@@ -133,8 +133,14 @@ def merge_atoms(into: Guard, atoms: Guard) -> None:
         into.numeric.setdefault(key, (kind, set()))[1].update(constants)
 
 
-def samples(kind: Number, constants: Iterable[Fraction]) -> tuple[Any, ...]:
-    """One value per region the constants cut the number line into: the constants first."""
+def samples(kind: Number, constants: Iterable[Fraction], held: bool = False) -> tuple[Any, ...]:
+    """One value per region the constants cut the number line into: the constants first.
+
+    `held`: the values are a float variable's, so only values a float holds exactly. A
+    constant no float holds (`1/3`, from `3 * x <= 1`) is then no sample: no float equals
+    it, and the float next to it may fall either side once the generated code rounds its
+    arithmetic. A value between two constants is the float nearest their middle, strictly
+    inside the region, and shown as the generated code would hold it."""
     cs = sorted(set(constants))
     if kind == INT:
         points = [int(c) for c in cs if c.denominator == 1]
@@ -145,7 +151,30 @@ def samples(kind: Number, constants: Iterable[Fraction]) -> tuple[Any, ...]:
                 between.append(above)
         return tuple(dict.fromkeys([*points, *between]))
     middles: list[Fraction] = [cs[0] - 1, *((a + b) / 2 for a, b in pairwise(cs)), cs[-1] + 1]
+    if held:
+        edges: list[Fraction | None] = [None, *cs, None]  # each middle's region: its neighbours
+        regions = zip(middles, edges[:-1], edges[1:], strict=True)
+        middles = [_inside(m, low, high) for m, low, high in regions]
+        cs = [c for c in cs if _held(c)]
     return tuple(dict.fromkeys([*cs, *middles]))
+
+
+def _held(value: Fraction) -> bool:
+    """Whether a float holds `value` exactly."""
+    try:
+        return Fraction(float(value)) == value
+    except OverflowError:
+        return False
+
+
+def _inside(middle: Fraction, low: Fraction | None, high: Fraction | None) -> Fraction:
+    """The float nearest `middle`, if it is still strictly between `low` and `high`."""
+    try:
+        near = Fraction(float(middle))
+    except OverflowError:
+        return middle
+    inside = (low is None or low < near) and (high is None or near < high)
+    return near if inside else middle
 
 
 def independent(vectors: list[dict[Key, Fraction]]) -> bool:
@@ -222,12 +251,13 @@ def solve(
         for key, (kind, constants) in g.numeric.items():
             numeric.setdefault(key, (kind, set()))[1].update(constants)
     for key, (kind, constants) in numeric.items():
+        held = kind == FLOAT and key not in forms  # a float variable's values (not a form's)
         if key in bounds:  # only values within them, the bounds themselves included
             low, high = bounds[key]
-            values = samples(kind, {*constants, low, high})
+            values = samples(kind, {*constants, low, high}, held)
             domains[key] = tuple(v for v in values if low <= v <= high)
         else:
-            domains[key] = samples(kind, constants)
+            domains[key] = samples(kind, constants, held)
     for key, value in (fixed or {}).items():
         if key in domains:
             domains[key] = (value,)
