@@ -9,8 +9,8 @@ targets are reported as PASS/FAIL lines; they do not change the exit status.
 
 `--quick` runs every part briefly (a smoke test of the benchmark, not a measurement).
 `--parts a,b` runs some parts only: their sections replace the same sections of an
-existing report (each dated), and the rest of it is kept (`python bench/run.py --parts
-prove` refreshes the prove figures alone).
+existing report, their target lines the same lines of its Targets (each dated), and the
+rest of it is kept (`python bench/run.py --parts prove` refreshes the prove figures alone).
 """
 
 from __future__ import annotations
@@ -1360,6 +1360,30 @@ def section_prove(prove: dict) -> list[str]:
 
 
 KEPT = ("# ", "## Targets", "## Problems", "## Clean-up")  # a subset's run keeps the old ones
+_VERDICT = ("- **PASS** ", "- **FAIL** ")
+
+
+def _target(line: str) -> str | None:
+    """What a Targets line measures (its text up to the colon before the figure), or None."""
+    if not line.startswith(_VERDICT):
+        return None
+    return line[len(_VERDICT[0]) :].split(": ")[0]
+
+
+def refresh_targets(old: str, new: str, stamp: str) -> str:
+    """The full run's Targets section with the lines a subset's run measured again put in
+    its place, each marked with `stamp`; the lines of the parts not run stay as they were."""
+    fresh = {key: line for line in new.splitlines() if (key := _target(line)) is not None}
+    out = []
+    for line in old.splitlines():
+        key = _target(line)
+        out.append(f"{fresh.pop(key)} {stamp}" if key in fresh else line)
+    if fresh:  # targets the full run did not report: after the others
+        last = max(
+            (i for i, line in enumerate(out) if _target(line) is not None), default=len(out) - 1
+        )
+        out[last + 1 : last + 1] = [f"{line} {stamp}" for line in fresh.values()]
+    return "\n".join(out).rstrip() + "\n"
 
 
 def _sections(text: str) -> list[tuple[str, str]]:
@@ -1375,13 +1399,17 @@ def _sections(text: str) -> list[tuple[str, str]]:
 def splice(old: str, new: str, when: datetime.datetime, load: tuple[float, float] | None) -> str:
     """The report of a run of some parts (`--parts`) put into the full one: each of its
     sections replaces the old section of the same title (up to a colon), or goes before
-    the clean-up section; the machine, targets and clean-up stay the full run's, so each
-    section says when it was measured and under what load (the full run's may differ)."""
+    the clean-up section; each target line it measured again replaces the full run's line
+    for that target; the machine, clean-up and other targets stay the full run's, so each
+    section and line says when it was measured and under what load (the full run's may
+    differ)."""
 
     def title(heading: str) -> str:
         return heading.split(":")[0]
 
     under = f", load average {load[0]:.2f} before, {load[1]:.2f} after" if load else ""
+    stamp = f"(refreshed: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC{under})"
+    targets = dict(_sections(new)).get("## Targets", "")
     fresh = {
         title(h): body
         + f"\n(This section: `bench/run.py --parts`, {when:%Y-%m-%d %H:%M} UTC{under}.)\n"
@@ -1393,6 +1421,8 @@ def splice(old: str, new: str, when: datetime.datetime, load: tuple[float, float
         if heading.startswith("## Clean-up"):
             out += fresh.values()
             fresh = {}
+        if heading == "## Targets":
+            body = refresh_targets(body, targets, stamp)
         out.append(fresh.pop(title(heading), body) if heading else body)
     out += fresh.values()
     return "\n".join(part.rstrip() + "\n" for part in out)

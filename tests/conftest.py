@@ -39,6 +39,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_analysis_plans",
             "test_api",
             "test_architecture",
+            "test_bench_report",
             "test_codes",
             "test_check_messages",
             "test_build_permissions",
