@@ -44,6 +44,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_check_messages",
             "test_build_permissions",
             "test_config",
+            "test_ctl_wait",
             "test_doc_sizes",
             "test_emit",
             "test_corpus",
