@@ -348,6 +348,7 @@ _ALL = (
     error("E602", Topic.NAMES, "line break in a one-line text"),
     error("E801", Topic.SAFETY, "bad safe value of a world field"),
     error("E802", Topic.SAFETY, "bad `on_lost` policy"),
+    warning("W803", Topic.SAFETY, "actuator that starts away from its safe value"),
     error("E810", Topic.ACCESS, "role anyone may claim beside roles with holders"),
     warning("W811", Topic.ACCESS, "role holders who cannot open the segment"),
     error("E901", Topic.INSTANCES, "unknown template"),

@@ -68,6 +68,12 @@ class Type:
         """`value` (a spec's initial value, or 0 for the type's zero) as Python."""
         raise TypeError(f"a {self} has no literal")
 
+    @property
+    def zero(self) -> bool | int | float | str:
+        """Its zero as a spec writes a value: an actuator's safe value when it declares none
+        (false, 0, 0.0, an enumeration's first value, the empty string)."""
+        raise TypeError(f"a {self} has no zero")
+
 
 @dataclass(frozen=True)
 class Scalar(Type):
@@ -112,6 +118,10 @@ class Bool(Scalar):
     def literal(self, value: object) -> str:
         return "True" if value else "False"
 
+    @property
+    def zero(self) -> bool:
+        return False
+
 
 @dataclass(frozen=True)
 class Int(Scalar):
@@ -120,6 +130,10 @@ class Int(Scalar):
     def literal(self, value: object) -> str:
         return str(int(value))  # type: ignore[call-overload]
 
+    @property
+    def zero(self) -> int:
+        return 0
+
 
 @dataclass(frozen=True)
 class Float(Scalar):
@@ -127,6 +141,10 @@ class Float(Scalar):
 
     def literal(self, value: object) -> str:
         return repr(float(value))  # type: ignore[arg-type]
+
+    @property
+    def zero(self) -> float:
+        return 0.0
 
 
 @dataclass(frozen=True)
@@ -174,6 +192,10 @@ class Enum(Type):
     def annotated(self) -> Annotation:
         return Annotation.INT  # a hook sees the value's index
 
+    @property
+    def zero(self) -> str:
+        return self.values[0]
+
     def literal(self, value: object) -> str:
         """A value name (as a spec gives an initial value) or an index, as its index."""
         return str(self.values.index(value)) if isinstance(value, str) else str(int(value))  # type: ignore[call-overload]
@@ -215,6 +237,10 @@ class Str(Type):
     @property
     def annotated(self) -> Annotation:
         return Annotation.STR  # of any size: its length is checked at run time
+
+    @property
+    def zero(self) -> str:
+        return ""
 
     def literal(self, value: object) -> str:
         return repr(value if isinstance(value, str) else "")

@@ -59,7 +59,7 @@ from ..front_end.model import (
     duration_in_cycles,
     duration_seconds,
 )
-from ..types import BOOL, FLOAT, INT, Enum, Str, Type
+from ..types import BOOL, INT, Str, Type
 from . import module_io
 from .module_io import align
 
@@ -649,19 +649,8 @@ def _plan(p: Plan) -> ir.IRPlan:
 def _world_field(f: Typed) -> ir.IRWorldField:
     safe = None
     if f.actuator:
-        safe = f.safe if f.safe is not None else zero_value(f.type)
+        safe = f.safe if f.safe is not None else f.type.zero
     return ir.IRWorldField(f.name, f.type, f.initial, f.doc, f.actuator, safe, f.ground_truth)
-
-
-def zero_value(kind: Type) -> bool | int | float | str:
-    """A type's zero: the default safe value of an actuator (false, 0, 0.0, an enumeration's
-    first value, the empty string)."""
-    if isinstance(kind, Enum):
-        return kind.values[0]
-    if isinstance(kind, Str):
-        return ""
-    zeros: dict[Type, bool | int | float] = {BOOL: False, INT: 0, FLOAT: 0.0}
-    return zeros[kind]
 
 
 # ---------------------------------------------------------------- layout

@@ -514,8 +514,21 @@ def _check_sensing(
 
 
 def _check_safe_values(system: SystemSpec, diags: Diagnostics) -> None:
-    """A `safe:` value belongs to an actuator, and is one its field can hold (E801)."""
+    """A `safe:` value belongs to an actuator, and is one its field can hold (E801); an
+    actuator starts at its safe value (W803: the block holds `initial` until its writer's
+    first cycle, so the machine would be commanded that before any controller ran)."""
     for f in system.world.values():
+        if f.actuator and f.initial != (safe := f.type.zero if f.safe is None else f.safe):
+            said = "its type's zero, the default" if f.safe is None else "declared"
+            diags.warning(
+                f.initial_span or f.span,
+                "W803",
+                f"actuator `{f.name}` starts at {_spelt(f.initial)}, not at its safe value "
+                f"{_spelt(safe)} ({said}): until its writer's first cycle the machine is "
+                f"commanded {_spelt(f.initial)}",
+                f"start it safe (`initial: {_spelt(safe)}`), or declare the value it starts at "
+                "as its safe value (`safe:`)",
+            )
         if f.safe is None:
             continue
         at = f.safe_span or f.span
@@ -539,6 +552,13 @@ def _check_safe_values(system: SystemSpec, diags: Diagnostics) -> None:
             problem = expr.text_problem_of(f.safe, f.type)
             if problem:
                 diags.error(at, "E801", f"safe value of `{f.name}`: {problem}")
+
+
+def _spelt(value: object) -> str:
+    """A world field's value as a spec spells it: `true`, `0.0`, `STOPPED`, `""`."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return f'"{value}"' if value == "" else str(value)
 
 
 def _check_numbers(
