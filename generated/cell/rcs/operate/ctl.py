@@ -749,15 +749,21 @@ class Console:
         """Whether `module` has echoed command `number` (its status number caught up)."""
         return int(self.read(self.layout.STATUS_OUT[module]).get("status_num", -1)) >= number
 
-    def outcome(self, module: str, number: int | None = None) -> str | None:
+    def outcome(self, module: str, number: int | None = None) -> tuple[str, str] | None:
         """DONE or ERROR once `module` reported on the command in its buffer (or command
-        `number`); else None. CtlError when `number` was replaced before it finished."""
+        `number`), with that command as `NAME #number` from the same read (a later command
+        written meanwhile is not shown as the one that ended); else None. CtlError when
+        `number` was replaced before it finished."""
         command = self.read(self.layout.COMMAND_IN[module])
         status = self.read(self.layout.STATUS_OUT[module])
         try:
-            return outcome(command, status, number)
+            result = outcome(command, status, number)
         except ValueError as replaced:
             raise CtlError(f"{module}'s {replaced}") from None
+        if result is None:
+            return None
+        name = _name(self.layout.COMMAND_NAMES[module], int(command["command"]))
+        return result, f"{name} #{command['command_num']}"
 
 
 def request_names(layout: ModuleType) -> list[str]:
@@ -1334,11 +1340,17 @@ def _verb_reset(console: Console, args: argparse.Namespace, command: Command | N
 
 def _verb_wait(console: Console, args: argparse.Namespace, command: Command | None) -> int:
     module, number = args.module, args.number
-    if not _until(lambda: console.outcome(module, number) is not None, args.timeout):
+    ended: list[tuple[str, str]] = []  # the outcome and its command, read together
+
+    def finished() -> bool:
+        found = console.outcome(module, number)
+        ended.extend([found] if found else [])
+        return found is not None
+
+    if not _until(finished, args.timeout):
         raise CtlError(f"{module} did not finish within {args.timeout:g} s")
-    result = console.outcome(module, number)
-    row = console.modules()[module]
-    print(f"{module} {result} {row.get('command')} #{row.get('command_num')}")
+    result, which = ended[-1]
+    print(f"{module} {result} {which}")
     return 0 if result == args.outcome else FAILED
 
 
