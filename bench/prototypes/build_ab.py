@@ -28,20 +28,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve()
 ROOT = HERE.parents[2]
-PHASES = {
-    "_load": "load",
-    "check_document": "schema",
-    "build_system": "model",
-    "build_controller": "model",
-    "check_system": "check",
-    "analyse_system": "analysis",
-    "lower_system": "lower",
-}
-
-
-def _cpu() -> float:
-    t = os.times()
-    return t.user + t.system + t.children_user + t.children_system
+sys.path.insert(0, str(ROOT / "bench"))
+from bench_scaling import _cpu, timed_phases  # noqa: E402  (bench/ is not a package)
 
 
 def worker(spec_dir: Path, out: Path) -> dict[str, object]:
@@ -50,22 +38,7 @@ def worker(spec_dir: Path, out: Path) -> dict[str, object]:
     from rcsgen.compiler.back_end import emit, write
     from rcsgen.compiler.diagnostics import Diagnostics
 
-    spent = dict.fromkeys(PHASES.values(), 0.0)
-
-    def timed(function, phase):  # type: ignore[no-untyped-def]
-        def wrapper(*args, **kwargs):  # type: ignore[no-untyped-def]
-            start = time.process_time()
-            try:
-                return function(*args, **kwargs)
-            finally:
-                spent[phase] += time.process_time() - start
-
-        return wrapper
-
-    for name, phase in PHASES.items():
-        owner = frontend.model if name.startswith("build_") else frontend
-        if hasattr(owner, name):
-            setattr(owner, name, timed(getattr(owner, name), phase))
+    spent = timed_phases(time.process_time)
     begin = _cpu()
     start = time.process_time()
     front = frontend.compile_paths([spec_dir])
@@ -110,7 +83,6 @@ def main() -> int:
     if args.worker:
         print(json.dumps(worker(*args.worker)))
         return 0
-    sys.path.insert(0, str(ROOT / "bench"))
     import synthetic
 
     trees = {"this": ROOT, "against": args.against.resolve()}
