@@ -1312,6 +1312,75 @@ def test_decisions_agree_with_brute_force() -> None:
     assert kinds["yes"] > 50 and kinds["no"] > 50, kinds
 
 
+_RENAMED = {  # each name of _random_guard's guards -> another, in the same sorted order
+    r"world\.hot\b": "world.heat",
+    r"world\.cold\b": "world.chill",
+    r"world\.level\b": "world.depth",
+    r"world\.x\b": "world.p",
+    r"world\.y\b": "world.q",
+    r"\ba\.": "b.",
+    r"\bticks\b": "count",
+}
+
+
+def test_questions_alike_but_for_names_get_the_answer_solve_gives_each() -> None:
+    """`Questions` solves a question once for every question alike but for its atoms' names:
+    on random questions, each also asked with every name changed, its answer (verdict,
+    counter-example, size, atoms undecided) is exactly what `solve` gives that question, and
+    the renamed questions were not solved again."""
+    scopes, builders = [], []
+    for hot, cold, level, x, y, sub, ticks in [
+        ("hot", "cold", "level", "x", "y", "a", "ticks"),
+        ("heat", "chill", "depth", "p", "q", "b", "count"),
+    ]:
+        floats = {level: FLOAT, x: FLOAT, y: FLOAT}
+        world: dict[str, Type] = {hot: BOOL, cold: BOOL, **floats}
+        scopes.append(
+            X.Scope(
+                world=world,
+                world_access=frozenset(world),
+                locals={ticks: INT},
+                constants={"LIMIT": 4.0},
+                subordinates={sub: frozenset({"INIT", "HALT", "GO"})},
+            )
+        )
+        builders.append(analysis.GuardBuilder({"LIMIT": 4.0}, {}, {sub: ("INIT", "HALT", "GO")}))
+    questions = solver.Questions()
+    rnd = random.Random(20261127)
+    for _ in range(80):
+        texts = [_random_guard(rnd) for _ in range(rnd.randint(1, 3))]
+        renamed = list(texts)
+        for pattern, name in _RENAMED.items():
+            renamed = [re.sub(pattern, name, t) for t in renamed]
+        wanted = [rnd.random() < 0.6 for _ in texts]
+        before = len(questions.answers)
+        for scope, builder, guards in zip(scopes, builders, (texts, renamed), strict=True):
+            trees = [X.compile_expr(t, Span("t"), scope, Diagnostics(), BOOL) for t in guards]
+            parts: list[solver.Part] = [
+                (builder.guard(tree), w) for tree, w in zip(trees, wanted, strict=True)
+            ]
+            assert questions.solve(parts) == solver.solve(parts), (guards, wanted)
+        assert len(questions.answers) <= before + 1, (texts, "asked again under other names")
+    assert questions.asked == 160
+    assert len(questions.answers) < 80
+
+
+def test_questions_alike_but_for_a_value_type_or_wanted_truth_are_not_shared() -> None:
+    """`True` and `1` are equal in Python, but a counter-example shows them differently
+    (`true`, `1`): a question over a boolean is not answered with an int's counter-example;
+    nor is a guard wanted false answered as the same guard wanted true."""
+    key: solver.Key = ("local", "v")
+    term = (solver.Op.GET, key)
+    questions = solver.Questions()
+    for domain in [(False, True), (0, 1)]:
+        guard = solver.Guard(solver.compiled(term), {key: domain}, order={key: None}, term=term)
+        for wanted, value in [(True, domain[1]), (False, domain[0])]:
+            answer = questions.solve([(guard, wanted)])
+            assert answer.shown == [(key, value)]
+            assert type(answer.shown[0][1]) is type(value)
+    assert len(questions.answers) == 4
+
+
 def test_a_reason_is_read_only_with_an_error_and_shown_by_its_name(spec) -> None:
     """A subordinate's reason comes only with its ERROR (NONE otherwise): the valuation
     that fires both rules says the status that goes with the reason, by their names."""

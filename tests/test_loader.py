@@ -9,8 +9,10 @@ import pathlib
 
 import jsonschema
 import pytest
+import yaml
 
 from rcsgen.compiler.diagnostics import Diagnostic, Span, SpecError
+from rcsgen.compiler.front_end import loader as loader_module
 from rcsgen.compiler.front_end.loader import (
     MAX_BYTES,
     MAX_DEPTH,
@@ -383,3 +385,64 @@ def test_a_key_longer_than_yaml_allows_says_so_where_it_starts() -> None:
     assert d.hint.startswith("keys are names: shorten it")
     [short] = diagnostics("a: 1\nb c\nd: 2\n")  # any other scanner error keeps its words
     assert "a key of" not in short.message
+
+
+def _as_built(value: object) -> object:
+    """A loaded value with its type and every span, to compare two loaders' results."""
+    if isinstance(value, LocDict):
+        items = [
+            (str(k), k.span, value.key_spans[k], value.value_spans[k], _as_built(v))
+            for k, v in value.items()
+        ]
+        return ("dict", value.span, items, len(value.key_spans), len(value.value_spans))
+    if isinstance(value, LocList):
+        return ("list", value.span, value.item_spans, [_as_built(v) for v in value])
+    return (type(value), value, getattr(value, "span", None))
+
+
+UNUSUAL_TEXTS = [
+    "a: !!str 1\n",
+    "a: &x 1\nb: *x\n",
+    "<<: {a: 1}\n",
+    "a: 1\na: 2\n",
+    "1: one\n",
+    "[a]: b\n",
+    "a: .nan\n",
+    "a: -.inf\n",
+    "a: 1\n---\nb: 2\n",
+    "a: " + "[" * (MAX_DEPTH + 1) + "]" * (MAX_DEPTH + 1) + "\n",
+]
+
+
+@pytest.mark.parametrize("text", UNUSUAL_TEXTS)
+def test_the_quick_loader_leaves_every_unusual_document_to_the_reporting_one(text: str) -> None:
+    """What the loader reports (a tag, an anchor, a merge key, a duplicate or non-string key,
+    NaN, a second document, deep nesting) the quick path never loads: it hands the text on."""
+    assert loader_module._plain(text, PATH, yaml.CSafeLoader) is loader_module._UNUSUAL
+    assert diagnostics(text)
+
+
+def test_the_quick_loader_gives_the_reporting_ones_values_and_spans() -> None:
+    """On the miner's specs and the file with the mistake of each loader case (E0xx),
+    the quick path loads what the event builder loads, each value, type and span alike, or
+    hands the document on; it hands on none of the specs' files."""
+    root = pathlib.Path(__file__).resolve().parents[1]
+    cases = root.glob("tests/cases/invalid/e0*/*.yaml")
+    paths = sorted({*root.glob("specs/miner/*.yaml"), *cases})
+    quick = 0
+    for path in paths:
+        text = path.read_text(encoding="utf-8", errors="replace").removeprefix("\ufeff")
+        if "# expect: E0" not in text and "/invalid/" in path.as_posix():
+            continue  # a case's other files are like the specs'
+        try:
+            fast = loader_module._plain(text, path.name, yaml.CSafeLoader)
+        except yaml.YAMLError:
+            fast = loader_module._UNUSUAL
+        diags, built = loader_module._build(text, path.name, yaml.CSafeLoader)
+        if fast is loader_module._UNUSUAL:
+            assert "/invalid/" in path.as_posix(), path
+            continue
+        quick += 1
+        assert not diags.errors, path
+        assert _as_built(fast) == _as_built(built), path
+    assert quick > 20

@@ -6,12 +6,17 @@ atoms take the values of their domain; a numeric atom (a variable, or a linear f
 several, compared with constants) takes one value per region its constants cut the number
 line into; an opaque atom is a free boolean. `solve` searches depth first in reading order
 and minimises the counter-example it finds; more than `LIMIT` valuations is "unknown".
+
+A guard is written as a `Term` (a small tree of `Op` nodes over atom keys and values) and
+evaluated by the closure `compiled` makes of it. Questions that differ only in the names of
+their atoms get the same answer with the names swapped: `Questions` answers each shape of
+question once (the atoms renamed in the order they are met) and maps the answer back.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Hashable, Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
 from fractions import Fraction
@@ -45,6 +50,24 @@ Key = tuple[str, str]  # (kind, name): what an atom is, for the caller to interp
 Valuation = dict[Key, Any]
 
 
+class Op(StrEnum):
+    """The nodes of a `Term`: `(Op.X, operand, ...)`, each evaluated in Kleene's logic."""
+
+    CONST = "const"  # (CONST, value)
+    GET = "get"  # (GET, key): the atom's value
+    GIVEN = "given"  # (GIVEN, key, value, read, otherwise): `read`'s value where key == value
+    NOT = "not"  # (NOT, term)
+    AND = "and"  # (AND, (term, ...))
+    OR = "or"  # (OR, (term, ...))
+    IF = "if"  # (IF, test, body, orelse)
+    PAIR = "pair"  # (PAIR, compare, term, term): compare(a, b) a function of two values
+    CMP = "cmp"  # (CMP, compare, key, constant): a numeric atom against a constant
+    AT_MOST = "at_most"  # (AT_MOST, (key, ...), constant): their sum is at most it
+
+
+Term = tuple[Any, ...]
+
+
 @dataclass
 class Guard:
     """A guard ready to evaluate on a valuation, with the atoms it reads in reading order.
@@ -52,6 +75,8 @@ class Guard:
     A numeric atom is a variable or a linear form of several (`("form", "x - y")`)
     compared with constants; `numeric` holds its type and those constants, `forms` the
     coefficients of each form. `opaque` atoms are comparisons no interval reasoning decides.
+    `term` is what `fn` evaluates (None: a function of its own, whose questions `Questions`
+    does not share).
     """
 
     fn: Callable[[Valuation], Any]
@@ -63,9 +88,12 @@ class Guard:
     order: dict[Key, None] = field(default_factory=dict)
     # the least and greatest value a numeric variable can take, where it has bounds
     bounds: dict[Key, tuple[Fraction, Fraction]] = field(default_factory=dict)
-    # relations between atoms that every possible valuation keeps, by name: False rules a
-    # valuation out, None is "not known yet" (an atom it reads is not set)
-    invariants: dict[str, Callable[[Valuation], bool | None]] = field(default_factory=dict)
+    # relations between atoms that every possible valuation keeps, by name, as terms: False
+    # rules a valuation out, None is "not known yet" (an atom it reads is not set)
+    invariants: dict[str, Term] = field(default_factory=dict)
+    term: Term | None = None
+    # the guard with its atoms numbered in the order they are met (`Questions`), once made
+    shape: tuple[Pattern, tuple[Key, ...]] | None = field(default=None, repr=False)
 
 
 @dataclass
@@ -118,6 +146,81 @@ def _kleene(parts: list[Callable[[Valuation], Any]], decides: bool) -> Callable[
         return None if unknown else not decides
 
     return combined
+
+
+def compiled(term: Term) -> Callable[[Valuation], Any]:
+    """The function of a valuation that `term` is (None where it is not known yet)."""
+    op = term[0]
+    if op is Op.CONST:
+        value = term[1]
+        return lambda val: value
+    if op is Op.GET:
+        key = term[1]
+        return lambda val: val.get(key)
+    if op is Op.CMP:
+        compare, key, limit = term[1:]
+        return lambda val: None if (v := val.get(key)) is None else compare(v, limit)
+    if op is Op.NOT:
+        inner = compiled(term[1])
+        return lambda val: kleene_not(inner(val))
+    if op is Op.AND or op is Op.OR:
+        parts = [compiled(t) for t in term[1]]
+        return kleene_and(parts) if op is Op.AND else kleene_or(parts)
+    if op is Op.PAIR:
+        return _pair(term[1], compiled(term[2]), compiled(term[3]))
+    if op is Op.IF:
+        return _choose(compiled(term[1]), compiled(term[2]), compiled(term[3]))
+    if op is Op.GIVEN:
+        return _given(*term[1:])
+    if op is Op.AT_MOST:
+        return _at_most(term[1], term[2])
+    raise ValueError(f"not a term: {term!r}")
+
+
+def _pair(
+    compare: Callable[[Any, Any], bool],
+    left: Callable[[Valuation], Any],
+    right: Callable[[Valuation], Any],
+) -> Callable[[Valuation], Any]:
+    def pair(val: Valuation) -> bool | None:
+        lv, rv = left(val), right(val)
+        return None if lv is None or rv is None else compare(lv, rv)
+
+    return pair
+
+
+def _choose(
+    test: Callable[[Valuation], Any],
+    body: Callable[[Valuation], Any],
+    orelse: Callable[[Valuation], Any],
+) -> Callable[[Valuation], Any]:
+    def choose(val: Valuation) -> Any:
+        decided = test(val)
+        if decided is None:  # both values agree, or it is not known yet
+            first, second = body(val), orelse(val)
+            return first if first == second else None
+        return body(val) if decided else orelse(val)
+
+    return choose
+
+
+def _given(key: Key, value: Any, read: Key, otherwise: Any) -> Callable[[Valuation], Any]:
+    def given(val: Valuation) -> Any:
+        seen = val.get(key)
+        if seen is None or seen != value:
+            return None if seen is None else otherwise
+        return val.get(read)
+
+    return given
+
+
+def _at_most(keys: tuple[Key, ...], limit: Any) -> Callable[[Valuation], bool | None]:
+    def keeps(val: Valuation) -> bool | None:
+        if any(key not in val for key in keys):
+            return None
+        return bool(sum(val[key] for key in keys) <= limit)
+
+    return keeps
 
 
 def merge_atoms(into: Guard, atoms: Guard) -> None:
@@ -236,7 +339,7 @@ def solve(
     types: dict[Key, Number] = {}
     opaque: dict[Key, None] = {}
     bounds: dict[Key, tuple[Fraction, Fraction]] = {}
-    invariants: dict[str, Callable[[Valuation], bool | None]] = {}
+    invariants: dict[str, Term] = {}
     for g, _ in guards:
         for key in g.order:
             if key in g.opaque:
@@ -268,7 +371,7 @@ def solve(
     if size > LIMIT:
         return Answer(Verdict.UNKNOWN, size=size)
     keys, okeys = list(domains), list(opaque)
-    keeping = tuple(invariants.values())  # (most questions have none: no generator then)
+    keeping = tuple(compiled(t) for t in invariants.values())  # (most questions have none)
 
     def truth(val: dict[Key, Any]) -> bool | None:
         """Whether every guard has its wanted value: True, False or None (not known yet).
@@ -354,3 +457,140 @@ def solve(
         # question's domains and guards alive until the cyclic collector ran. Broken here,
         # they are freed at once (and a build can run without that collector).
         search = None  # type: ignore[assignment]
+
+
+# ---------------------------------------------------------------- questions asked again
+
+
+class Pattern:
+    """A guard with its atoms numbered in the order they are met, its values with their
+    types: equal for guards that differ only in the names of their atoms. Hashed once."""
+
+    __slots__ = ("_hash", "parts")
+
+    def __init__(self, parts: tuple[Any, ...]):
+        self.parts = parts
+        self._hash = hash(parts)
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    def __eq__(self, other: object) -> bool:
+        if self is other:
+            return True
+        if not isinstance(other, Pattern):
+            return False
+        return self._hash == other._hash and self.parts == other.parts
+
+
+def _typed(value: Any) -> tuple[type, Any]:
+    """A value with its type: `True`, `1` and `Fraction(1)` are equal in Python, but a
+    counter-example shows them differently (`true`, `1`, `1.0`)."""
+    return (type(value), value)
+
+
+def _values(values: Iterable[Any]) -> tuple[tuple[type, Any], ...]:
+    return tuple(_typed(v) for v in values)
+
+
+def _renamed(term: Term, number: Callable[[Key], int]) -> Term:
+    """`term` with each atom's key replaced by its number, each value typed."""
+    op = term[0]
+    if op is Op.CONST:
+        return (op, _typed(term[1]))
+    if op is Op.GET:
+        return (op, number(term[1]))
+    if op is Op.CMP:
+        return (op, term[1], number(term[2]), _typed(term[3]))
+    if op is Op.NOT:
+        return (op, _renamed(term[1], number))
+    if op is Op.AND or op is Op.OR:
+        return (op, tuple(_renamed(t, number) for t in term[1]))
+    if op is Op.PAIR:
+        return (op, term[1], _renamed(term[2], number), _renamed(term[3], number))
+    if op is Op.IF:
+        return (op, *(_renamed(t, number) for t in term[1:]))
+    if op is Op.GIVEN:
+        key, value, read, otherwise = term[1:]
+        return (op, number(key), _typed(value), number(read), _typed(otherwise))
+    if op is Op.AT_MOST:
+        return (op, tuple(number(k) for k in term[1]), _typed(term[2]))
+    raise ValueError(f"not a term: {term!r}")
+
+
+def _shape(guard: Guard, term: Term) -> tuple[Pattern, tuple[Key, ...]]:
+    """Everything `solve` reads of a guard with its atoms numbered in the order they are met
+    (reading order first), and the atoms in that order."""
+    numbers: dict[Key, int] = {}
+
+    def number(key: Key) -> int:
+        return numbers.setdefault(key, len(numbers))
+
+    parts = (
+        tuple(number(k) for k in guard.order),
+        _renamed(term, number),
+        tuple(number(k) for k in guard.opaque),
+        tuple((number(k), _values(d)) for k, d in guard.domains.items()),
+        tuple((number(k), kind, frozenset(_values(cs))) for k, (kind, cs) in guard.numeric.items()),
+        tuple(
+            (number(k), tuple((number(v), _typed(c)) for v, c in coefficients.items()))
+            for k, coefficients in guard.forms.items()
+        ),
+        tuple((number(k), kind) for k, kind in guard.types.items()),
+        tuple((number(k), _typed(low), _typed(high)) for k, (low, high) in guard.bounds.items()),
+        tuple(_renamed(t, number) for t in guard.invariants.values()),
+    )
+    return Pattern(parts), tuple(numbers)
+
+
+@dataclass
+class Questions:
+    """`solve`, each kind of question answered once: questions whose guards are the same but
+    for the names of their atoms (met in the same places, wanted the same, the same atoms
+    fixed to the same values or allowed the same values) have the same answer with the names
+    swapped, so the answer to the first is kept with its atoms numbered and given back to
+    the others in their own names. 1,000 controllers are a few kinds of table."""
+
+    answers: dict[Hashable, tuple[Verdict, tuple[tuple[int, Any], ...], int, tuple[int, ...]]] = (
+        field(default_factory=dict)
+    )
+    # one Pattern object for equal patterns: a question's key then compares them by identity
+    patterns: dict[Pattern, Pattern] = field(default_factory=dict)
+    asked: int = 0
+
+    def solve(
+        self,
+        parts: list[Part],
+        fixed: dict[Key, Any] | None = None,
+        allowed: dict[Key, tuple[Any, ...]] | None = None,
+    ) -> Answer:
+        """As `solve`; a guard with no term is asked of `solve` every time."""
+        self.asked += 1
+        numbers: dict[Key, int] = {}
+        asked: list[Hashable] = []
+        for guard, wanted in parts:
+            if guard is None:
+                asked.append(wanted)
+                continue
+            if guard.shape is None:
+                if guard.term is None:
+                    return solve(parts, fixed, allowed)
+                pattern, keys = _shape(guard, guard.term)
+                guard.shape = self.patterns.setdefault(pattern, pattern), keys
+            pattern, keys = guard.shape
+            atoms = tuple([numbers.setdefault(k, len(numbers)) for k in keys])
+            asked.append((pattern, wanted, atoms))
+        pinned = sorted((numbers[k], _typed(v)) for k, v in (fixed or {}).items() if k in numbers)
+        narrowed = sorted(
+            (numbers[k], _values(vs)) for k, vs in (allowed or {}).items() if k in numbers
+        )
+        question = (tuple(asked), tuple(pinned), tuple(narrowed))
+        known = self.answers.get(question)
+        if known is None:
+            answer = solve(parts, fixed, allowed)
+            shown = tuple((numbers[k], v) for k, v in answer.shown)
+            undecided = tuple(numbers[k] for k in answer.undecided)
+            known = self.answers[question] = (answer.kind, shown, answer.size, undecided)
+        kind, shown, size, undecided = known
+        atom = list(numbers)
+        return Answer(kind, [(atom[i], v) for i, v in shown], size, [atom[i] for i in undecided])

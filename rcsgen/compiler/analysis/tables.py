@@ -60,14 +60,13 @@ from .solver import (
     Guard,
     Key,
     Linear,
+    Op,
     Part,
-    Valuation,
+    Questions,
+    Term,
     Verdict,
-    kleene_and,
-    kleene_not,
-    kleene_or,
+    compiled,
     merge_atoms,
-    solve,
 )
 
 
@@ -202,22 +201,16 @@ class GuardBuilder:
             return expr.Compare(BOOL, remaining, ("<=",), (expr.Const(INT, 0),))
         return None
 
-    def within_capacity(self, plan: str) -> Callable[[Valuation], bool | None]:
+    def within_capacity(self, plan: str) -> Term:
         """A plan's step and the steps after it add up to at most its capacity."""
-        capacity = self.plans[plan][0]
         step: Key = (Atom.PLAN, f"{plan}.step")
         remaining: Key = (Atom.PLAN, f"{plan}.remaining")
-
-        def keeps(val: Valuation) -> bool | None:
-            if step not in val or remaining not in val:
-                return None
-            return bool(val[step] + val[remaining] <= capacity)
-
-        return keeps
+        return (Op.AT_MOST, (step, remaining), self.plans[plan][0])
 
     def guard(self, tree: expr.Expr) -> Guard:
         guard = Guard(lambda val: True)
-        guard.fn = self._fn(tree, guard)
+        guard.term = self._term(tree, guard)
+        guard.fn = compiled(guard.term)
         return guard
 
     def _atom(self, guard: Guard, key: Key, domain: tuple[Any, ...] | None = None) -> None:
@@ -281,43 +274,33 @@ class GuardBuilder:
             return expr.IfExp(e.type, e.test, self._lift(e.body), self._lift(e.orelse))
         return e
 
-    def _fn(self, e: expr.Expr, g: Guard) -> Callable[[Valuation], Any]:
+    def _term(self, e: expr.Expr, g: Guard) -> Term:
         inlined = self.inline(e)
         if inlined is not None:  # decided as if the body or value were written here
-            return self._fn(inlined, g)
+            return self._term(inlined, g)
         if isinstance(e, expr.Const):
             # an enumeration's value: by name, as its domain
             value = e.type.values[int(e.value)] if isinstance(e.type, Enum) else e.value
-            return lambda val: value
+            return (Op.CONST, value)
         if isinstance(e, expr.Ref):
             return self._ref(e, g)
         if isinstance(e, expr.Call) and e.kind == expr.CallKind.PREDICATE:
-            return self._fn(self.predicates[e.name], g)
+            return self._term(self.predicates[e.name], g)
         if isinstance(e, expr.Unary) and e.op == "not":
-            inner = self._fn(e.operand, g)
-            return lambda val: kleene_not(inner(val))
+            return (Op.NOT, self._term(e.operand, g))
         if isinstance(e, expr.BoolOp):
-            parts = [self._fn(v, g) for v in e.values]
-            return kleene_and(parts) if e.op == "and" else kleene_or(parts)
+            parts = tuple(self._term(v, g) for v in e.values)
+            return (Op.AND if e.op == "and" else Op.OR, parts)
         if isinstance(e, expr.IfExp):
-            test, body, orelse = (self._fn(x, g) for x in (e.test, e.body, e.orelse))
-
-            def choose(val: Valuation) -> Any:
-                decided = test(val)
-                if decided is None:  # both values agree, or it is not known yet
-                    first, second = body(val), orelse(val)
-                    return first if first == second else None
-                return body(val) if decided else orelse(val)
-
-            return choose
+            return (Op.IF, *(self._term(x, g) for x in (e.test, e.body, e.orelse)))
         if isinstance(e, expr.Compare) and len(e.ops) > 1:  # a <= b <= c: a <= b and b <= c
             chain = tuple(expr.Compare(BOOL, a, (op,), (b,)) for a, op, b in _pairs(e))
-            return self._fn(expr.BoolOp(BOOL, "and", chain), g)
+            return self._term(expr.BoolOp(BOOL, "and", chain), g)
         if isinstance(e, expr.Compare):
             left, right = self.lifted(e.left), self.lifted(e.comparators[0])
             split = _split_conditional(expr.Compare(BOOL, left, e.ops, (right,)))
             if split is not None:  # `(a if c else b) > k`: `(a > k) if c else (b > k)`
-                return self._fn(split, g)
+                return self._term(split, g)
         if isinstance(e, expr.Compare):
             scratch = Guard(g.fn)  # the atoms of this comparison, kept only if it is decidable
             pairs = [self._pair(a, op, b, scratch) for a, op, b in _pairs(e)]
@@ -325,38 +308,29 @@ class GuardBuilder:
                 key: Key = (Atom.OPAQUE, expr.to_python(e, _spec_name))
                 g.opaque.setdefault(key, None)
                 g.order.setdefault(key, None)
-                return lambda val: val.get(key)
+                return (Op.GET, key)
             merge_atoms(g, scratch)
             if len(pairs) == 1:
                 return pairs[0]  # type: ignore[return-value]
-            return kleene_and(pairs)  # type: ignore[arg-type]
+            return (Op.AND, tuple(pairs))
         raise TypeError(f"not a boolean expression node: {e!r}")
 
-    def _ref(self, e: expr.Ref, g: Guard) -> Callable[[Valuation], Any]:
+    def _ref(self, e: expr.Ref, g: Guard) -> Term:
         if e.kind == expr.RefKind.CONST:
-            value = self.constants[e.name]
-            return lambda val: value
+            return (Op.CONST, self.constants[e.name])
         if e.kind in (
             expr.RefKind.STATUS,
             expr.RefKind.SUB_COMMAND_NAME,
             expr.RefKind.SUB_REASON_NAME,
         ):
-            name = e.name
-            return lambda val: name
+            return (Op.CONST, e.name)
         if e.kind == expr.RefKind.SUB_REASON:
             # A reason comes only with an ERROR for the last command sent: NONE otherwise.
             status: Key = (Atom.STATUS, e.owner)
             reason: Key = (Atom.REASON, e.owner)
             self._atom(g, status, STATUS_DOMAIN)
             self._atom(g, reason, ("NONE", *BUILTIN_REASONS[1:], *self.sub_reasons[e.owner]))
-
-            def read(val: Valuation) -> Any:
-                seen = val.get(status)
-                if seen is None or seen != "ERROR":
-                    return None if seen is None else "NONE"
-                return val.get(reason)
-
-            return read
+            return (Op.GIVEN, status, "ERROR", reason, "NONE")
         key: Key
         # An enumeration is a finite domain of its value names; anything else read here is
         # a boolean (numbers are read by comparisons, strings never reach here: `_pair`).
@@ -376,37 +350,26 @@ class GuardBuilder:
         else:  # a boolean or enumeration world field, local or parameter
             key = (_VARIABLES[e.kind], e.name)
             self._atom(g, key, domain)
-        return lambda val: val.get(key)
+        return (Op.GET, key)
 
-    def _pair(
-        self, a: expr.Expr, op: str, b: expr.Expr, g: Guard
-    ) -> Callable[[Valuation], Any] | None:
+    def _pair(self, a: expr.Expr, op: str, b: expr.Expr, g: Guard) -> Term | None:
         """One comparison `a op b`; None when it is not decidable by interval reasoning."""
-        compare = expr.COMPARISONS[op]
         if isinstance(a.type, Str) or isinstance(b.type, Str):
             return None  # a string's values are not enumerated: "cannot prove" (W502)
         if a.type not in NUMERIC:  # statuses, commands, booleans, enumerations: as they are
-            left, right = self._fn(a, g), self._fn(b, g)
-
-            def pair(val: Valuation) -> bool | None:
-                lv, rv = left(val), right(val)
-                return None if lv is None or rv is None else compare(lv, rv)
-
-            return pair
+            return (Op.PAIR, expr.COMPARISONS[op], self._term(a, g), self._term(b, g))
         types: dict[Key, solver.Number] = {}
         la, lb = self._linear(a, types), self._linear(b, types)
         if la is None or lb is None:
             return None
         diff = la.minus(lb)  # diff op 0
         if not diff.coefficients:
-            truth = compare(diff.constant, 0)
-            return lambda val: truth
+            return (Op.CONST, expr.COMPARISONS[op](diff.constant, 0))
         keys = sorted(diff.coefficients)
         lead = diff.coefficients[keys[0]]
         norm = diff.scaled(1 / lead)  # the first variable's coefficient becomes 1
         bound = -norm.constant
         op = op if lead > 0 else _FLIP[op]
-        compare = expr.COMPARISONS[op]
         if len(keys) == 1:
             key, kind = keys[0], types[keys[0]]
         else:
@@ -421,8 +384,8 @@ class GuardBuilder:
         g.numeric.setdefault(key, (kind, set()))[1].add(bound)
         # A whole bound compared as an int: the same answer, without Fraction's slow
         # comparison for every valuation of an integer variable.
-        limit = int(bound) if bound.denominator == 1 else bound
-        return lambda val: None if (v := val.get(key)) is None else compare(v, limit)
+        compare = expr.COMPARISONS[op]
+        return (Op.CMP, compare, key, int(bound) if bound.denominator == 1 else bound)
 
     def _linear(self, e: expr.Expr, types: dict[Key, solver.Number]) -> Linear | None:
         """`e` as a linear form over numeric variables with exact coefficients, else None."""
@@ -550,10 +513,12 @@ class _Rule:
 
 
 def analyse_system(system: CheckedSystem, diags: Diagnostics) -> None:
-    """Analyse every state table of a checked system; findings go to `diags`."""
+    """Analyse every state table of a checked system; findings go to `diags`. Its
+    controllers ask many questions alike but for names: each kind is solved once."""
+    questions = Questions()
     for controller in system.controllers.values():
         if not controller.spec.is_operator:  # a person answers it: no table to analyse
-            _Controller(controller, diags).run()
+            _Controller(controller, diags, questions).run()
 
 
 def subs_tested(guard: Guard) -> list[str]:
@@ -562,8 +527,9 @@ def subs_tested(guard: Guard) -> list[str]:
 
 
 class _Controller:
-    def __init__(self, checked: CheckedController, diags: Diagnostics):
+    def __init__(self, checked: CheckedController, diags: Diagnostics, questions: Questions):
         self.checked, self.diags = checked, diags
+        self.solve = questions.solve
         self.builder = GuardBuilder(
             {n: c.value for n, c in checked.spec.constants.items()},
             {n: p.tree for n, p in checked.predicates.items()},
@@ -581,7 +547,7 @@ class _Controller:
         self.every_guards = [self.guard(rule) for rule in every]
         self.every_tested = {sub for g in self.every_guards if g for sub in subs_tested(g)}
         self.every_handles = {
-            sub for sub in self.every_tested if _fires_on_error(self.every_guards, sub)
+            sub for sub in self.every_tested if self.fires_on_error(self.every_guards, sub)
         }
 
     def guard(self, rule: CheckedRule) -> Guard | None:
@@ -604,6 +570,17 @@ class _Controller:
                 f"add a rule such as `when: {sub}.status == ERROR` where `{spec.name}` waits "
                 "on it, or leave the default `halt_all`",
             )
+
+    def fires_on_error(self, guards: list[Guard | None], sub: str) -> bool:
+        """Whether a rule that tests `sub`'s status can fire (first match) when it is ERROR."""
+        for index, guard in enumerate(guards):
+            if guard is None or sub not in subs_tested(guard):
+                continue
+            earlier: list[Part] = [(g, False) for g in guards[:index]]
+            error: dict[Key, Any] = {(Atom.STATUS, sub): "ERROR"}
+            if self.solve([(guard, True), *earlier], error).kind != Verdict.NO:
+                return True
+        return False
 
     def table(self, command: CheckedCommand) -> dict[str, list[_Rule]]:
         """The rules that can be tried (the checked states hold only those)."""
@@ -629,7 +606,7 @@ class _Table:
 
     def __init__(self, owner: _Controller, command: CheckedCommand, table: dict[str, list[_Rule]]):
         self.owner, self.command, self.table = owner, command, table
-        self.diags = owner.diags
+        self.diags, self.solve = owner.diags, owner.solve
         self.name = command.name
         self.states = command.states
         self.tested = {
@@ -646,7 +623,7 @@ class _Table:
         for state, rules in self.table.items():
             for index, rule in enumerate(rules):
                 earlier = [(r.guard, False) for r in rules[:index]]
-                rule.fires = solve([(rule.guard, True), *earlier]).kind != Verdict.NO
+                rule.fires = self.solve([(rule.guard, True), *earlier]).kind != Verdict.NO
             self.determinism(state, rules, first_match)
         generated = self.command.generated
         for state, rules in self.table.items():
@@ -689,7 +666,7 @@ class _Table:
                         continue
                     plan = action.plan.name
                     left: Key = (Atom.PLAN, f"{plan}.replans_left")
-                    answer = solve([(rule.guard, True)], fixed={left: 0})
+                    answer = self.solve([(rule.guard, True)], fixed={left: 0})
                     tested = rule.guard is not None and left in rule.guard.order
                     if answer.kind == Verdict.NO and tested:
                         continue
@@ -711,7 +688,7 @@ class _Table:
         guarded = [r for r in rules if r.rule.source.when is not None]
         if len(guarded) != len(rules) or not guarded:
             return None
-        if any(solve([(r.guard, True)]).kind != Verdict.NO for r in rules):
+        if any(self.solve([(r.guard, True)]).kind != Verdict.NO for r in rules):
             return None
         when = guarded[0].rule.source.when
         return when.span if when is not None else None
@@ -721,7 +698,7 @@ class _Table:
         for index, rule in enumerate(rules):
             if rule.fires:
                 continue
-            if solve([(rule.guard, True)]).kind == Verdict.NO:
+            if self.solve([(rule.guard, True)]).kind == Verdict.NO:
                 why = "its guard can never hold"
             else:
                 earlier = [r.number for r in rules[:index]]
@@ -758,7 +735,7 @@ class _Table:
         overlap = False
         for j, later in enumerate(rules):
             for earlier in rules[:j]:
-                answer = solve([(earlier.guard, True), (later.guard, True)])
+                answer = self.solve([(earlier.guard, True), (later.guard, True)])
                 if answer.kind == Verdict.NO:
                     continue
                 overlap = True
@@ -819,7 +796,7 @@ class _Table:
         quiet = [(r.guard, False) for r in rules] + [(g, False) for g in self.owner.every_guards]
         # Time passes while it waits: `after:` and `for:` are read once their time has come.
         late = {key: _LATE for r in rules if r.guard for key in r.guard.order if _timer(key)}
-        answer = solve(quiet, fixed=late, allowed=finished)
+        answer = self.solve(quiet, fixed=late, allowed=finished)
         if answer.kind == Verdict.YES:
             self.diags.warning(
                 self.states[state].span,
@@ -834,7 +811,7 @@ class _Table:
         controller = self.owner.checked.name
         for sub in self.tested[state]:
             guards = [r.guard for r in rules]
-            handled = sub in self.owner.every_handles or _fires_on_error(guards, sub)
+            handled = sub in self.owner.every_handles or self.owner.fires_on_error(guards, sub)
             if handled:
                 self.owner.handled.add(sub)
             elif sub in self.owner.continued:  # its loss must be handled here: an error
@@ -924,17 +901,6 @@ class _Table:
 
 def _timer(key: Key) -> bool:
     return key[0] in ("time", "held")
-
-
-def _fires_on_error(guards: list[Guard | None], sub: str) -> bool:
-    """Whether a rule that tests `sub`'s status can fire (first match) when it is ERROR."""
-    for index, guard in enumerate(guards):
-        if guard is None or sub not in subs_tested(guard):
-            continue
-        earlier: list[Part] = [(g, False) for g in guards[:index]]
-        if solve([(guard, True), *earlier], {(Atom.STATUS, sub): "ERROR"}).kind != Verdict.NO:
-            return True
-    return False
 
 
 def _valuation(shown: list[tuple[Key, Any]]) -> str:

@@ -26,6 +26,7 @@ from __future__ import annotations
 import keyword
 import re
 import sys
+from collections import ChainMap
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from functools import lru_cache
@@ -860,10 +861,12 @@ def check_module_names(
 
 def _generated_module_names(
     spec: ControllerSpec, by_name: dict[str, ControllerSpec], system: SystemSpec
-) -> dict[str, str]:
+) -> ChainMap[str, str]:
     """The module-level names a controller's generated module has whatever its spec names:
     the runtime's and the layout's, its subordinates' codes, its reasons', its world
-    runs', the built-in commands; each with what it is."""
+    runs', the built-in commands; each with what it is (where two are named alike, the
+    later of these). The world's layout names, the same in every module, are looked up
+    where they were made once, not copied into every controller's names."""
     taken: dict[str, str] = {n: "a status or runtime name" for n in RUNTIME_NAMES}
     for sub in (s.value for s in spec.subordinates):
         taken.update(_subordinate_names(sub, spec.name, by_name[sub]))
@@ -871,7 +874,7 @@ def _generated_module_names(
         taken[reason_const(reason)] = f"the code of the reason {reason}"
     for suffix in _MODULE_BUFFER_SUFFIXES:
         taken[spec.name.upper() + suffix] = "a layout name"
-    taken.update(_world_layout_names(tuple(system.world)))
+    runs: dict[str, str] = {}
     for index in range(1, len(spec.world_writes) + 1):
         for name in (
             f"WORLD_OUT_{index}",
@@ -879,10 +882,9 @@ def _generated_module_names(
             f"WORLD_VALUES_{index}",
             f"WORLD_SEQS_{index}",
         ):
-            taken[name] = "a generated name"
-    for builtin in BUILTIN_COMMANDS:
-        taken.setdefault(builtin, "a command")
-    return taken
+            runs[name] = "a generated name"
+    builtins = dict.fromkeys(BUILTIN_COMMANDS, "a command")
+    return ChainMap(runs, _world_layout_names(tuple(system.world)), taken, builtins)
 
 
 def _subordinate_names(sub: str, module: str, spec: ControllerSpec) -> dict[str, str]:
