@@ -913,10 +913,11 @@ def timed_plan(package: ModuleType, process: str, took: dict[int, int], **change
         def __init__(self, buf: memoryview, settings: dict[str, str] | None) -> None:
             self.module, self.cycles, self.buf = real(buf, settings), 0, buf
 
-        def run_cycle(self) -> None:
+        def run_cycle(self, began: int = 0) -> int:
             self.cycles += 1
-            self.module.run_cycle()
+            end = self.module.run_cycle(began)
             Timed.clock.ns += took.get(self.cycles, 0)
+            return end
 
         def resume(self) -> None:
             self.module.resume()
@@ -1342,12 +1343,15 @@ def test_a_supervisor_numbers_its_next_command_after_an_operator_s(package: Modu
 def test_a_module_s_performance_record_keeps_its_last_shortest_and_longest_cycle(
     package: ModuleType, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """On a fake clock, cycles of 30, 10 and 20 ns: the performance record says last 20,
+    """On a fake clock, cycles of 30, 10 and 20 ns (from the loop's reading before the module,
+    its only one, to the module's own at its end): the performance record says last 20,
     shortest 10, longest 30, three cycles."""
     layout = part(package, "layout")
     pb = fleet_process(package, "pb")
+    assert pb.plan.modules == ("v2",)
     readings = iter([1000, 1030, 2000, 2010, 3000, 3020])
     monkeypatch.setattr(part(package, "v2"), "perf_counter_ns", lambda: next(readings))
+    monkeypatch.setattr(part(package, "rcs.loop"), "_module_clock", lambda: next(readings))
     for _ in range(3):
         pb.run_cycle()
     perf = layout.PERFORMANCE["v2"].read(pb.block.buf)
