@@ -1551,3 +1551,41 @@ def test_an_empty_segment_is_refused_on_attach_and_can_be_removed(package: Modul
     finally:
         if os.path.exists(path):
             os.remove(path)
+
+
+# ---------------------------------------------------------------- echo timeouts, made again
+
+DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
+
+
+@pytest.fixture(scope="module")
+def duo() -> Iterator[ModuleType]:
+    scratch, name = generate(DUO)
+    yield import_package(scratch / name, DUO)
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+def test_a_supervisor_made_again_counts_its_echo_timeout_from_then(duo: ModuleType) -> None:
+    """duo's top (process p1) sends arm POWER; arm's process p2 never runs, so it never
+    echoes. p1 is made again on the same block (as a restart is) two cycles after the send:
+    the new top takes up the unechoed command and counts arm's echo timeout (5 cycles) from
+    then, reporting ERROR in its 6th cycle and not before, instead of failing on a count it
+    never started (resume sets it)."""
+    layout, loop = part(duo, "layout"), part(duo, "rcs.loop")
+    status_names = part(duo, "rcs.contract").STATUS_NAMES
+    plan = part(duo, "main_p1").PLAN
+    block = part(duo, "rcs.block").Block(layout)
+    try:
+        first = loop.Process(plan, layout, block)
+        move = layout.COMMAND_NAMES["top"].index("MOVE")
+        layout.COMMAND_IN["top"].write(block.buf, command_num=1, command=move)
+        first.run_cycle()  # S0: POWER sent to arm
+        first.run_cycle()
+        again = loop.Process(plan, layout, block)
+        seen = []
+        for _ in range(6):
+            again.run_cycle()
+            seen.append(status_names[layout.STATUS_OUT["top"].read(block.buf)["status"]])
+        assert seen == ["EXECUTING"] * 5 + ["ERROR"]
+    finally:
+        block.close()
