@@ -187,7 +187,7 @@ def test_cut_coal_keeps_nothing_that_changes_its_answer():
     assert kept.first == plain.first
 
 
-def test_the_hooks_rounding_is_rounds_bit_for_bit():
+def test_the_hooks_rounding_gives_round_s_bits():
     """round6/round9 (miner_hooks/rounding.py: the simulators' fast rounding) give the bits
     `round(x, 6)` and `round(x, 9)` give: on seeded values of every size, values a hair from
     a tie (both sides), ties, tiny values of both signs (round keeps -0.0), huge and
@@ -199,7 +199,7 @@ def test_the_hooks_rounding_is_rounds_bit_for_bit():
     rounding = import_hooks(ROOT / "specs" / "miner", "miner_hooks.rounding")
     rng = random.Random(24)
     values = [0.0, -0.0, math.inf, -math.inf, math.nan, 1e12, -1e12, 5e-7, -5e-7, 2.5e-6]
-    for _ in range(40_000):
+    for _ in range(15_000):
         values.append(rng.uniform(-300.0, 300.0))
         tie = rng.randrange(-(10**9), 10**9) + 0.5
         values += [tie / 1e6, math.nextafter(tie / 1e6, 0.0), math.nextafter(tie / 1e6, 9e9)]
