@@ -990,11 +990,11 @@ def test_declared_watchdog_limits_reach_the_process_and_decide_its_trips(tmp_pat
             def __init__(self, buf: memoryview, settings: dict[str, str] | None) -> None:
                 self.module, self.cycles = real(buf, settings), 0
 
-            def run_cycle(self) -> None:
+            def run_cycle(self, began: int = 0) -> int:
                 self.cycles += 1
                 if self.cycles == 4:
                     time.sleep(4 * period)
-                self.module.run_cycle()
+                return self.module.run_cycle(began)
 
             def resume(self) -> None:
                 self.module.resume()
@@ -1025,11 +1025,11 @@ def test_a_paced_process_trips_from_its_second_cycle_on(package: ModuleType) -> 
         def __init__(self, buf: memoryview, settings: dict[str, str] | None) -> None:
             self.module, self.cycles = real(buf, settings), 0
 
-        def run_cycle(self) -> None:
+        def run_cycle(self, began: int = 0) -> int:
             self.cycles += 1
             if self.cycles in slow_cycles:
                 time.sleep(4 * period)
-            self.module.run_cycle()
+            return self.module.run_cycle(began)
 
         def resume(self) -> None:
             self.module.resume()

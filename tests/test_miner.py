@@ -187,6 +187,37 @@ def test_cut_coal_keeps_nothing_that_changes_its_answer():
     assert kept.first == plain.first
 
 
+def test_the_hooks_rounding_gives_round_s_bits():
+    """round6/round9 (miner_hooks/rounding.py: the simulators' fast rounding) give the bits
+    `round(x, 6)` and `round(x, 9)` give: on seeded values of every size, values a hair from
+    a tie (both sides), ties, tiny values of both signs (round keeps -0.0), huge and
+    non-finite ones; and its fast path is the one taken for the usual values."""
+    import math
+    import random
+    import struct
+
+    rounding = import_hooks(ROOT / "specs" / "miner", "miner_hooks.rounding")
+    rng = random.Random(24)
+    values = [0.0, -0.0, math.inf, -math.inf, math.nan, 1e12, -1e12, 5e-7, -5e-7, 2.5e-6]
+    for _ in range(15_000):
+        values.append(rng.uniform(-300.0, 300.0))
+        tie = rng.randrange(-(10**9), 10**9) + 0.5
+        values += [tie / 1e6, math.nextafter(tie / 1e6, 0.0), math.nextafter(tie / 1e6, 9e9)]
+        values += [tie / 1e9, math.nextafter(tie / 1e9, -9e9), rng.uniform(-1e-8, 1e-8)]
+    bits = struct.Struct("<d").pack
+    for x in values:
+        assert bits(rounding.round6(x)) == bits(round(x, 6)), x
+        assert bits(rounding.round9(x)) == bits(round(x, 9)), x
+    calls: list[float] = []
+    real = round  # the slow path (round with digits) counted, the fast one's round(p) not
+    rounding.round = lambda x, n=None: real(x) if n is None else calls.append(x) or 0.0
+    try:
+        assert rounding.round6(12.3456789) == 12.345679 and rounding.round9(-1.25) == -1.25
+    finally:
+        del rounding.round
+    assert not calls
+
+
 def test_a_shear_leaves_a_floor_wedge_that_a_tram_back_at_the_floor_takes():
     mine = load_mine()
     face = mine.first_face

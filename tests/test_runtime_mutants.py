@@ -260,9 +260,9 @@ def slow_plan(package: ModuleType, cycle: float) -> Any:
     plan = part(package, "main_p1").PLAN
 
     class Slow(plan.classes["top"]):  # type: ignore[misc,name-defined]
-        def run_cycle(self) -> None:
+        def run_cycle(self, began: int = 0) -> int:
             time.sleep(cycle)
-            super().run_cycle()
+            return super().run_cycle(began)
 
     return plan._replace(classes={**plan.classes, "top": Slow})
 

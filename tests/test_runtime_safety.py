@@ -913,10 +913,11 @@ def timed_plan(package: ModuleType, process: str, took: dict[int, int], **change
         def __init__(self, buf: memoryview, settings: dict[str, str] | None) -> None:
             self.module, self.cycles, self.buf = real(buf, settings), 0, buf
 
-        def run_cycle(self) -> None:
+        def run_cycle(self, began: int = 0) -> int:
             self.cycles += 1
-            self.module.run_cycle()
+            end = self.module.run_cycle(began)
             Timed.clock.ns += took.get(self.cycles, 0)
+            return end
 
         def resume(self) -> None:
             self.module.resume()
@@ -1342,12 +1343,15 @@ def test_a_supervisor_numbers_its_next_command_after_an_operator_s(package: Modu
 def test_a_module_s_performance_record_keeps_its_last_shortest_and_longest_cycle(
     package: ModuleType, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """On a fake clock, cycles of 30, 10 and 20 ns: the performance record says last 20,
+    """On a fake clock, cycles of 30, 10 and 20 ns (from the loop's reading before the module,
+    its only one, to the module's own at its end): the performance record says last 20,
     shortest 10, longest 30, three cycles."""
     layout = part(package, "layout")
     pb = fleet_process(package, "pb")
+    assert pb.plan.modules == ("v2",)
     readings = iter([1000, 1030, 2000, 2010, 3000, 3020])
     monkeypatch.setattr(part(package, "v2"), "perf_counter_ns", lambda: next(readings))
+    monkeypatch.setattr(part(package, "rcs.loop"), "_module_clock", lambda: next(readings))
     for _ in range(3):
         pb.run_cycle()
     perf = layout.PERFORMANCE["v2"].read(pb.block.buf)
@@ -1547,3 +1551,41 @@ def test_an_empty_segment_is_refused_on_attach_and_can_be_removed(package: Modul
     finally:
         if os.path.exists(path):
             os.remove(path)
+
+
+# ---------------------------------------------------------------- echo timeouts, made again
+
+DUO = Path(__file__).resolve().parent / "fixtures" / "runtime" / "duo"
+
+
+@pytest.fixture(scope="module")
+def duo() -> Iterator[ModuleType]:
+    scratch, name = generate(DUO)
+    yield import_package(scratch / name, DUO)
+    shutil.rmtree(scratch, ignore_errors=True)
+
+
+def test_a_supervisor_made_again_counts_its_echo_timeout_from_then(duo: ModuleType) -> None:
+    """duo's top (process p1) sends arm POWER; arm's process p2 never runs, so it never
+    echoes. p1 is made again on the same block (as a restart is) two cycles after the send:
+    the new top takes up the unechoed command and counts arm's echo timeout (5 cycles) from
+    then, reporting ERROR in its 6th cycle and not before, instead of failing on a count it
+    never started (resume sets it)."""
+    layout, loop = part(duo, "layout"), part(duo, "rcs.loop")
+    status_names = part(duo, "rcs.contract").STATUS_NAMES
+    plan = part(duo, "main_p1").PLAN
+    block = part(duo, "rcs.block").Block(layout)
+    try:
+        first = loop.Process(plan, layout, block)
+        move = layout.COMMAND_NAMES["top"].index("MOVE")
+        layout.COMMAND_IN["top"].write(block.buf, command_num=1, command=move)
+        first.run_cycle()  # S0: POWER sent to arm
+        first.run_cycle()
+        again = loop.Process(plan, layout, block)
+        seen = []
+        for _ in range(6):
+            again.run_cycle()
+            seen.append(status_names[layout.STATUS_OUT["top"].read(block.buf)["status"]])
+        assert seen == ["EXECUTING"] * 5 + ["ERROR"]
+    finally:
+        block.close()

@@ -671,7 +671,7 @@ def test_run_cycle_is_the_one_copy_of_the_four_steps(miner):
 
     text = (REPO / "generated" / "miner" / "co.py").read_text()
     assert text.startswith(MARKER)
-    cycle = text[text.index("    def run_cycle(self)") : text.index("    def read_inputs(self")]
+    cycle = text[text.index("    def run_cycle(self") : text.index("    def read_inputs(self")]
     steps = ["pre_process", "check_if_new_command", "decision_process", "post_process"]
     at = [cycle.index(f"        # {n}. {step}:") for n, step in enumerate(steps, start=1)]
     assert at == sorted(at)

@@ -110,6 +110,7 @@ class MsController:
         "dont_run",
         "error_num",
         "hook_state",
+        "inputs",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -193,6 +194,7 @@ class MsController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
+        self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
         _, self.tl_command_num, self.tl_command = TL_COMMAND.unpack_from(buf, TL_COMMAND_AT)
         self.tl_written = self.tl_command_num
         _, self.cmm_command_num, self.cmm_command, self.cmm_arg_number = CMM_COMMAND.unpack_from(
@@ -212,127 +214,135 @@ class MsController:
         self.cause = 0
         self.status_dirty = True
 
-    def run_cycle(self) -> None:
-        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+    def run_cycle(self, began: int = 0) -> int:
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order. Its execution
+        time runs from `began` (the clock read that ended the module before it in its
+        process's cycle: rcs/loop.py; 0: none, it reads the clock) to the read it returns."""
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
-        cycle_start = perf_counter_ns()
+        cycle_start = began or perf_counter_ns()
         buf = self.buf
         words = self.words
-        (
-            self.command_num,
-            self.command,
-            self.arg_program,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.tl_status_num,
-            self.tl_status,
-            self.tl_error_num,
-            self.tl_cause,
-            self.cmm_status_num,
-            self.cmm_status,
-            self.world_cmm_reading,
-            self.world_camera_scale,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        self.arg_program = decode_text(self.arg_program)
-        if self.tl_status_num != self.tl_command_num:
-            self.tl_status = EXECUTING  # until it echoes the last number sent
-            self.tl_error_num = TL_REASON_NONE  # no reason yet
-            self.tl_cause = 0
-        elif self.tl_status != ERROR:
-            self.tl_error_num = TL_REASON_NONE  # a reason comes only with ERROR
-            self.tl_cause = 0
-        if self.cmm_status_num != self.cmm_command_num:
-            self.cmm_status = EXECUTING  # until it echoes the last number sent
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        # Idle with nothing new (NOP, no rule fired, nothing to write, the inputs as in the last
+        # cycle): nothing to copy in, decide or write; only the performance buffer below.
+        if values != self.inputs or self.state != NOP or self.rule or self.status_dirty:
+            self.inputs = values
+            (
+                self.command_num,
+                self.command,
+                self.arg_program,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.tl_status_num,
+                self.tl_status,
+                self.tl_error_num,
+                self.tl_cause,
+                self.cmm_status_num,
+                self.cmm_status,
+                self.world_cmm_reading,
+                self.world_camera_scale,
+            ) = values
+            self.arg_program = decode_text(self.arg_program)
+            if self.tl_status_num != self.tl_command_num:
+                self.tl_status = EXECUTING  # until it echoes the last number sent
+                self.tl_error_num = TL_REASON_NONE  # no reason yet
+                self.tl_cause = 0
+            elif self.tl_status != ERROR:
+                self.tl_error_num = TL_REASON_NONE  # a reason comes only with ERROR
+                self.tl_cause = 0
+            if self.cmm_status_num != self.cmm_command_num:
+                self.cmm_status = EXECUTING  # until it echoes the last number sent
 
-        # 2. check_if_new_command: a command number unlike the echoed one is a new command
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-            self.error_num = REASON_NONE  # no reason yet
-            self.cause = 0  # nor a cause
-            self.result_scale = 0.0  # no result yet
-            self.result_measured = 0  # no result yet
-            self.result_failed = 0  # no result yet
+            # 2. check_if_new_command: a command number unlike the echoed one is a new command
+            if self.command_num != self.status_num:
+                self.status_num = self.command_num
+                self.state = S0
+                self.status = EXECUTING
+                self.status_dirty = True
+                self.error_num = REASON_NONE  # no reason yet
+                self.cause = 0  # nor a cause
+                self.result_scale = 0.0  # no result yet
+                self.result_measured = 0  # no result yet
+                self.result_failed = 0  # no result yet
 
-        # 3. decision_process: run the command's state table, unless the mode holds it
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
-                command = self.command
-                if command == INIT:
-                    self.init()
-                elif command == HALT:
-                    self.halt()
-                elif command == EQUIP_SETUP:
-                    self.equip_setup()
-                elif command == CALIBRATE_CMM:
-                    self.calibrate_cmm()
-                elif command == CALIBRATE_CAMERA:
-                    self.calibrate_camera()
-                elif command == LOAD_PROBE:
-                    self.load_probe()
-                elif command == MEASURE_PART:
-                    self.measure_part()
+            # 3. decision_process: run the command's state table, unless the mode holds it
+            if self.rule:  # the rule that fired last cycle is not news any more
+                self.rule = NO_RULE
+                self.status_dirty = True
+            # The mode holds the table: dont_run, or single_step until single_step_num changes.
+            if not self.dont_run and (
+                not self.single_step or self.single_step_num != self.perf_single_step_num
+            ):
+                if self.single_step:
+                    self.perf_single_step_num = self.single_step_num  # this step is taken
+                if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                    command = self.command
+                    if command == INIT:
+                        self.init()
+                    elif command == HALT:
+                        self.halt()
+                    elif command == EQUIP_SETUP:
+                        self.equip_setup()
+                    elif command == CALIBRATE_CMM:
+                        self.calibrate_cmm()
+                    elif command == CALIBRATE_CAMERA:
+                        self.calibrate_camera()
+                    elif command == LOAD_PROBE:
+                        self.load_probe()
+                    elif command == MEASURE_PART:
+                        self.measure_part()
 
-        # 4. post_process: write what changed, each buffer odd while it is written
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            words[MS_STATUS_WORD] = seq  # odd before any field changes
-            MS_STATUS.pack_into(
-                buf,
-                MS_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-                self.result_scale,
-                self.result_measured,
-                self.result_failed,
-                self.cause,
-            )
-            words[MS_STATUS_WORD] = seq + 1
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.tl_command_num != self.tl_written:  # a command was sent
-            seq, number = TL_COMMAND.unpack_from(buf, TL_COMMAND_AT)[:2]
-            if number != self.tl_written:  # an operator's command came meanwhile:
-                self.tl_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            words[TL_COMMAND_WORD] = seq
-            TL_COMMAND.pack_into(buf, TL_COMMAND_AT, seq, self.tl_command_num, self.tl_command)
-            words[TL_COMMAND_WORD] = seq + 1
-            self.tl_written = self.tl_command_num
-        if self.cmm_command_num != self.cmm_written:  # a command was sent
-            seq, number = CMM_COMMAND.unpack_from(buf, CMM_COMMAND_AT)[:2]
-            if number != self.cmm_written:  # an operator's command came meanwhile:
-                self.cmm_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            words[CMM_COMMAND_WORD] = seq
-            CMM_COMMAND.pack_into(
-                buf,
-                CMM_COMMAND_AT,
-                seq,
-                self.cmm_command_num,
-                self.cmm_command,
-                self.cmm_arg_number,
-            )
-            words[CMM_COMMAND_WORD] = seq + 1
-            self.cmm_written = self.cmm_command_num
+            # 4. post_process: write what changed, each buffer odd while it is written
+            if self.rule or self.status_dirty:
+                seq = self.status_seq + 1
+                words[MS_STATUS_WORD] = seq  # odd before any field changes
+                MS_STATUS.pack_into(
+                    buf,
+                    MS_STATUS_AT,
+                    seq,
+                    self.status_num,
+                    self.status,
+                    self.error_num,
+                    self.state,
+                    self.rule,
+                    self.result_scale,
+                    self.result_measured,
+                    self.result_failed,
+                    self.cause,
+                )
+                words[MS_STATUS_WORD] = seq + 1
+                self.status_seq = seq + 1
+                self.status_dirty = False
+            if self.tl_command_num != self.tl_written:  # a command was sent
+                seq, number = TL_COMMAND.unpack_from(buf, TL_COMMAND_AT)[:2]
+                if number != self.tl_written:  # an operator's command came meanwhile:
+                    self.tl_command_num = number + 1  # number ours after it
+                seq |= 1  # odd while it is written
+                words[TL_COMMAND_WORD] = seq
+                TL_COMMAND.pack_into(buf, TL_COMMAND_AT, seq, self.tl_command_num, self.tl_command)
+                words[TL_COMMAND_WORD] = seq + 1
+                self.tl_written = self.tl_command_num
+            if self.cmm_command_num != self.cmm_written:  # a command was sent
+                seq, number = CMM_COMMAND.unpack_from(buf, CMM_COMMAND_AT)[:2]
+                if number != self.cmm_written:  # an operator's command came meanwhile:
+                    self.cmm_command_num = number + 1  # number ours after it
+                seq |= 1  # odd while it is written
+                words[CMM_COMMAND_WORD] = seq
+                CMM_COMMAND.pack_into(
+                    buf,
+                    CMM_COMMAND_AT,
+                    seq,
+                    self.cmm_command_num,
+                    self.cmm_command,
+                    self.cmm_arg_number,
+                )
+                words[CMM_COMMAND_WORD] = seq + 1
+                self.cmm_written = self.cmm_command_num
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
-        last = perf_counter_ns() - cycle_start
+        end = perf_counter_ns()
+        last = end - cycle_start
         self.last_cycle_ns = last
         self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
@@ -350,6 +360,7 @@ class MsController:
             words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
         words[at] = seq + 1
         self.perf_seq = seq + 1
+        return end
 
     def read_inputs(self, first: bool = False) -> None:
         """The inputs as they are in the block: all written in this module's process."""

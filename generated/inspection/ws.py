@@ -114,6 +114,7 @@ class WsController:
         "fx_status",
         "fx_status_num",
         "fx_written",
+        "inputs",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -176,6 +177,7 @@ class WsController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
+        self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
         _, self.ms_command_num, self.ms_command, self.ms_arg_program = MS_COMMAND.unpack_from(
             buf, MS_COMMAND_AT
         )
@@ -196,124 +198,132 @@ class WsController:
         self.cause = 0
         self.status_dirty = True
 
-    def run_cycle(self) -> None:
-        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+    def run_cycle(self, began: int = 0) -> int:
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order. Its execution
+        time runs from `began` (the clock read that ended the module before it in its
+        process's cycle: rcs/loop.py; 0: none, it reads the clock) to the read it returns."""
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
-        cycle_start = perf_counter_ns()
+        cycle_start = began or perf_counter_ns()
         buf = self.buf
         words = self.words
-        (
-            self.command_num,
-            self.command,
-            self.arg_program,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.ms_status_num,
-            self.ms_status,
-            self.ms_error_num,
-            self.ms_result_failed,
-            self.ms_cause,
-            self.fx_status_num,
-            self.fx_status,
-            self.fx_error_num,
-            self.fx_cause,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        self.arg_program = decode_text(self.arg_program)
-        if self.ms_status_num != self.ms_command_num:
-            self.ms_status = EXECUTING  # until it echoes the last number sent
-            self.ms_result_failed = 0  # no result yet
-            self.ms_error_num = MS_REASON_NONE  # no reason yet
-            self.ms_cause = 0
-        elif self.ms_status != ERROR:
-            self.ms_error_num = MS_REASON_NONE  # a reason comes only with ERROR
-            self.ms_cause = 0
-        if self.fx_status_num != self.fx_command_num:
-            self.fx_status = EXECUTING  # until it echoes the last number sent
-            self.fx_error_num = FX_REASON_NONE  # no reason yet
-            self.fx_cause = 0
-        elif self.fx_status != ERROR:
-            self.fx_error_num = FX_REASON_NONE  # a reason comes only with ERROR
-            self.fx_cause = 0
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        # Idle with nothing new (NOP, no rule fired, nothing to write, the inputs as in the last
+        # cycle): nothing to copy in, decide or write; only the performance buffer below.
+        if values != self.inputs or self.state != NOP or self.rule or self.status_dirty:
+            self.inputs = values
+            (
+                self.command_num,
+                self.command,
+                self.arg_program,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.ms_status_num,
+                self.ms_status,
+                self.ms_error_num,
+                self.ms_result_failed,
+                self.ms_cause,
+                self.fx_status_num,
+                self.fx_status,
+                self.fx_error_num,
+                self.fx_cause,
+            ) = values
+            self.arg_program = decode_text(self.arg_program)
+            if self.ms_status_num != self.ms_command_num:
+                self.ms_status = EXECUTING  # until it echoes the last number sent
+                self.ms_result_failed = 0  # no result yet
+                self.ms_error_num = MS_REASON_NONE  # no reason yet
+                self.ms_cause = 0
+            elif self.ms_status != ERROR:
+                self.ms_error_num = MS_REASON_NONE  # a reason comes only with ERROR
+                self.ms_cause = 0
+            if self.fx_status_num != self.fx_command_num:
+                self.fx_status = EXECUTING  # until it echoes the last number sent
+                self.fx_error_num = FX_REASON_NONE  # no reason yet
+                self.fx_cause = 0
+            elif self.fx_status != ERROR:
+                self.fx_error_num = FX_REASON_NONE  # a reason comes only with ERROR
+                self.fx_cause = 0
 
-        # 2. check_if_new_command: a command number unlike the echoed one is a new command
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-            self.error_num = REASON_NONE  # no reason yet
-            self.cause = 0  # nor a cause
-            self.result_accepted = False  # no result yet
+            # 2. check_if_new_command: a command number unlike the echoed one is a new command
+            if self.command_num != self.status_num:
+                self.status_num = self.command_num
+                self.state = S0
+                self.status = EXECUTING
+                self.status_dirty = True
+                self.error_num = REASON_NONE  # no reason yet
+                self.cause = 0  # nor a cause
+                self.result_accepted = False  # no result yet
 
-        # 3. decision_process: run the command's state table, unless the mode holds it
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
-                command = self.command
-                if command == INIT:
-                    self.init()
-                elif command == HALT:
-                    self.halt()
-                elif command == INIT_FOR_INSPECT:
-                    self.init_for_inspect()
-                elif command == INSPECT_PART:
-                    self.inspect_part()
+            # 3. decision_process: run the command's state table, unless the mode holds it
+            if self.rule:  # the rule that fired last cycle is not news any more
+                self.rule = NO_RULE
+                self.status_dirty = True
+            # The mode holds the table: dont_run, or single_step until single_step_num changes.
+            if not self.dont_run and (
+                not self.single_step or self.single_step_num != self.perf_single_step_num
+            ):
+                if self.single_step:
+                    self.perf_single_step_num = self.single_step_num  # this step is taken
+                if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                    command = self.command
+                    if command == INIT:
+                        self.init()
+                    elif command == HALT:
+                        self.halt()
+                    elif command == INIT_FOR_INSPECT:
+                        self.init_for_inspect()
+                    elif command == INSPECT_PART:
+                        self.inspect_part()
 
-        # 4. post_process: write what changed, each buffer odd while it is written
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            words[WS_STATUS_WORD] = seq  # odd before any field changes
-            WS_STATUS.pack_into(
-                buf,
-                WS_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-                self.result_accepted,
-                self.cause,
-            )
-            words[WS_STATUS_WORD] = seq + 1
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.ms_command_num != self.ms_written:  # a command was sent
-            seq, number = MS_COMMAND.unpack_from(buf, MS_COMMAND_AT)[:2]
-            if number != self.ms_written:  # an operator's command came meanwhile:
-                self.ms_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            words[MS_COMMAND_WORD] = seq
-            MS_COMMAND.pack_into(
-                buf,
-                MS_COMMAND_AT,
-                seq,
-                self.ms_command_num,
-                self.ms_command,
-                encode_text(self.ms_arg_program, 32),
-            )
-            words[MS_COMMAND_WORD] = seq + 1
-            self.ms_written = self.ms_command_num
-        if self.fx_command_num != self.fx_written:  # a command was sent
-            seq, number = FX_COMMAND.unpack_from(buf, FX_COMMAND_AT)[:2]
-            if number != self.fx_written:  # an operator's command came meanwhile:
-                self.fx_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            words[FX_COMMAND_WORD] = seq
-            FX_COMMAND.pack_into(buf, FX_COMMAND_AT, seq, self.fx_command_num, self.fx_command)
-            words[FX_COMMAND_WORD] = seq + 1
-            self.fx_written = self.fx_command_num
+            # 4. post_process: write what changed, each buffer odd while it is written
+            if self.rule or self.status_dirty:
+                seq = self.status_seq + 1
+                words[WS_STATUS_WORD] = seq  # odd before any field changes
+                WS_STATUS.pack_into(
+                    buf,
+                    WS_STATUS_AT,
+                    seq,
+                    self.status_num,
+                    self.status,
+                    self.error_num,
+                    self.state,
+                    self.rule,
+                    self.result_accepted,
+                    self.cause,
+                )
+                words[WS_STATUS_WORD] = seq + 1
+                self.status_seq = seq + 1
+                self.status_dirty = False
+            if self.ms_command_num != self.ms_written:  # a command was sent
+                seq, number = MS_COMMAND.unpack_from(buf, MS_COMMAND_AT)[:2]
+                if number != self.ms_written:  # an operator's command came meanwhile:
+                    self.ms_command_num = number + 1  # number ours after it
+                seq |= 1  # odd while it is written
+                words[MS_COMMAND_WORD] = seq
+                MS_COMMAND.pack_into(
+                    buf,
+                    MS_COMMAND_AT,
+                    seq,
+                    self.ms_command_num,
+                    self.ms_command,
+                    encode_text(self.ms_arg_program, 32),
+                )
+                words[MS_COMMAND_WORD] = seq + 1
+                self.ms_written = self.ms_command_num
+            if self.fx_command_num != self.fx_written:  # a command was sent
+                seq, number = FX_COMMAND.unpack_from(buf, FX_COMMAND_AT)[:2]
+                if number != self.fx_written:  # an operator's command came meanwhile:
+                    self.fx_command_num = number + 1  # number ours after it
+                seq |= 1  # odd while it is written
+                words[FX_COMMAND_WORD] = seq
+                FX_COMMAND.pack_into(buf, FX_COMMAND_AT, seq, self.fx_command_num, self.fx_command)
+                words[FX_COMMAND_WORD] = seq + 1
+                self.fx_written = self.fx_command_num
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
-        last = perf_counter_ns() - cycle_start
+        end = perf_counter_ns()
+        last = end - cycle_start
         self.last_cycle_ns = last
         self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
@@ -331,6 +341,7 @@ class WsController:
             words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
         words[at] = seq + 1
         self.perf_seq = seq + 1
+        return end
 
     def read_inputs(self, first: bool = False) -> None:
         """The inputs as they are in the block: all written in this module's process."""

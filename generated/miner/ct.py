@@ -53,6 +53,7 @@ class CtController:
         "cycles",
         "dont_run",
         "error_num",
+        "inputs",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -98,80 +99,95 @@ class CtController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
+        self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
 
-    def run_cycle(self) -> None:
-        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+    def run_cycle(self, began: int = 0) -> int:
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order. Its execution
+        time runs from `began` (the clock read that ended the module before it in its
+        process's cycle: rcs/loop.py; 0: none, it reads the clock) to the read it returns."""
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
-        cycle_start = perf_counter_ns()
+        cycle_start = began or perf_counter_ns()
         buf = self.buf
         words = self.words
-        (
-            self.command_num,
-            self.command,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.world_tail_request,
-            self.world_tail_in_position,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-
-        # 2. check_if_new_command: a command number unlike the echoed one is a new command
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-
-        # 3. decision_process: run the command's state table, unless the mode holds it
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        # Idle with nothing new (NOP, no rule fired, nothing to write, the inputs as in the last
+        # cycle): nothing to copy in, decide or write; only the performance buffer below.
+        if (
+            values != self.inputs
+            or self.state != NOP
+            or self.rule
+            or self.status_dirty
+            or buf[OVERRIDDEN_AT]
         ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
-                command = self.command
-                if command == INIT:
-                    self.init()
-                elif command == HALT:
-                    self.halt()
-                elif command == POSITION_TAIL:
-                    self.position_tail()
+            self.inputs = values
+            (
+                self.command_num,
+                self.command,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.world_tail_request,
+                self.world_tail_in_position,
+            ) = values
 
-        # 4. post_process: write what changed, each buffer odd while it is written
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            words[CT_STATUS_WORD] = seq  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                CT_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            words[CT_STATUS_WORD] = seq + 1
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        # a rule fired (it may have set world outputs), or a field is forced or latched safe
-        if self.rule or buf[OVERRIDDEN_AT]:
-            out = (self.world_tail_request,)
-            now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-                out = held(buf, WORLD_HELD_1, out, now)
-            if now != out:  # set to a new value
-                s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                words[WORLD_TAIL_REQUEST_WORD] = s[0] | 1  # odd before the value changes
-                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                words[WORLD_TAIL_REQUEST_WORD] = (s[0] | 1) + 1
+            # 2. check_if_new_command: a command number unlike the echoed one is a new command
+            if self.command_num != self.status_num:
+                self.status_num = self.command_num
+                self.state = S0
+                self.status = EXECUTING
+                self.status_dirty = True
+
+            # 3. decision_process: run the command's state table, unless the mode holds it
+            if self.rule:  # the rule that fired last cycle is not news any more
+                self.rule = NO_RULE
+                self.status_dirty = True
+            # The mode holds the table: dont_run, or single_step until single_step_num changes.
+            if not self.dont_run and (
+                not self.single_step or self.single_step_num != self.perf_single_step_num
+            ):
+                if self.single_step:
+                    self.perf_single_step_num = self.single_step_num  # this step is taken
+                if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                    command = self.command
+                    if command == INIT:
+                        self.init()
+                    elif command == HALT:
+                        self.halt()
+                    elif command == POSITION_TAIL:
+                        self.position_tail()
+
+            # 4. post_process: write what changed, each buffer odd while it is written
+            if self.rule or self.status_dirty:
+                seq = self.status_seq + 1
+                words[CT_STATUS_WORD] = seq  # odd before any field changes
+                STATUS.pack_into(
+                    buf,
+                    CT_STATUS_AT,
+                    seq,
+                    self.status_num,
+                    self.status,
+                    self.error_num,
+                    self.state,
+                    self.rule,
+                )
+                words[CT_STATUS_WORD] = seq + 1
+                self.status_seq = seq + 1
+                self.status_dirty = False
+            # a rule fired (it may have set world outputs), or a field is forced or latched safe
+            if self.rule or buf[OVERRIDDEN_AT]:
+                out = (self.world_tail_request,)
+                now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+                if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                    out = held(buf, WORLD_HELD_1, out, now)
+                if now != out:  # set to a new value
+                    s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                    words[WORLD_TAIL_REQUEST_WORD] = s[0] | 1  # odd before the value changes
+                    WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+                    words[WORLD_TAIL_REQUEST_WORD] = (s[0] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
-        last = perf_counter_ns() - cycle_start
+        end = perf_counter_ns()
+        last = end - cycle_start
         self.last_cycle_ns = last
         self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
@@ -189,6 +205,7 @@ class CtController:
             words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
         words[at] = seq + 1
         self.perf_seq = seq + 1
+        return end
 
     def read_inputs(self, first: bool = False) -> None:
         """The inputs as they are in the block: all written in this module's process."""

@@ -81,6 +81,7 @@ class CcController:
         "cycles",
         "dont_run",
         "error_num",
+        "inputs",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -129,6 +130,7 @@ class CcController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
+        self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
         _, self.bm_command_num, self.bm_command = BM_COMMAND.unpack_from(buf, BM_COMMAND_AT)
         self.bm_written = self.bm_command_num
         _, self.cd_command_num, self.cd_command = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)
@@ -149,113 +151,121 @@ class CcController:
         self.error_num = reason
         self.status_dirty = True
 
-    def run_cycle(self) -> None:
-        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+    def run_cycle(self, began: int = 0) -> int:
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order. Its execution
+        time runs from `began` (the clock read that ended the module before it in its
+        process's cycle: rcs/loop.py; 0: none, it reads the clock) to the read it returns."""
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
-        cycle_start = perf_counter_ns()
+        cycle_start = began or perf_counter_ns()
         buf = self.buf
         words = self.words
-        (
-            self.command_num,
-            self.command,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.bm_status_num,
-            self.bm_status,
-            self.cd_status_num,
-            self.cd_status,
-            self.sj_status_num,
-            self.sj_status,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        if self.bm_status_num != self.bm_command_num:
-            self.bm_status = EXECUTING  # until it echoes the last number sent
-        if self.cd_status_num != self.cd_command_num:
-            self.cd_status = EXECUTING  # until it echoes the last number sent
-        if self.sj_status_num != self.sj_command_num:
-            self.sj_status = EXECUTING  # until it echoes the last number sent
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        # Idle with nothing new (NOP, no rule fired, nothing to write, the inputs as in the last
+        # cycle): nothing to copy in, decide or write; only the performance buffer below.
+        if values != self.inputs or self.state != NOP or self.rule or self.status_dirty:
+            self.inputs = values
+            (
+                self.command_num,
+                self.command,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.bm_status_num,
+                self.bm_status,
+                self.cd_status_num,
+                self.cd_status,
+                self.sj_status_num,
+                self.sj_status,
+            ) = values
+            if self.bm_status_num != self.bm_command_num:
+                self.bm_status = EXECUTING  # until it echoes the last number sent
+            if self.cd_status_num != self.cd_command_num:
+                self.cd_status = EXECUTING  # until it echoes the last number sent
+            if self.sj_status_num != self.sj_command_num:
+                self.sj_status = EXECUTING  # until it echoes the last number sent
 
-        # 2. check_if_new_command: a command number unlike the echoed one is a new command
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
+            # 2. check_if_new_command: a command number unlike the echoed one is a new command
+            if self.command_num != self.status_num:
+                self.status_num = self.command_num
+                self.state = S0
+                self.status = EXECUTING
+                self.status_dirty = True
 
-        # 3. decision_process: run the command's state table, unless the mode holds it
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
-                command = self.command
-                if command == INIT:
-                    self.init()
-                elif command == HALT:
-                    self.halt()
-                elif command == RAISE_DRUM:
-                    self.raise_drum()
-                elif command == SUMP:
-                    self.sump()
-                elif command == SHEAR:
-                    self.shear()
-                elif command == SHEAR_CORRECT:
-                    self.shear_correct()
-                elif command == CUSP:
-                    self.cusp()
+            # 3. decision_process: run the command's state table, unless the mode holds it
+            if self.rule:  # the rule that fired last cycle is not news any more
+                self.rule = NO_RULE
+                self.status_dirty = True
+            # The mode holds the table: dont_run, or single_step until single_step_num changes.
+            if not self.dont_run and (
+                not self.single_step or self.single_step_num != self.perf_single_step_num
+            ):
+                if self.single_step:
+                    self.perf_single_step_num = self.single_step_num  # this step is taken
+                if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                    command = self.command
+                    if command == INIT:
+                        self.init()
+                    elif command == HALT:
+                        self.halt()
+                    elif command == RAISE_DRUM:
+                        self.raise_drum()
+                    elif command == SUMP:
+                        self.sump()
+                    elif command == SHEAR:
+                        self.shear()
+                    elif command == SHEAR_CORRECT:
+                        self.shear_correct()
+                    elif command == CUSP:
+                        self.cusp()
 
-        # 4. post_process: write what changed, each buffer odd while it is written
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            words[CC_STATUS_WORD] = seq  # odd before any field changes
-            STATUS.pack_into(
-                buf,
-                CC_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-            )
-            words[CC_STATUS_WORD] = seq + 1
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.bm_command_num != self.bm_written:  # a command was sent
-            seq, number = BM_COMMAND.unpack_from(buf, BM_COMMAND_AT)[:2]
-            if number != self.bm_written:  # an operator's command came meanwhile:
-                self.bm_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            words[BM_COMMAND_WORD] = seq
-            BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq, self.bm_command_num, self.bm_command)
-            words[BM_COMMAND_WORD] = seq + 1
-            self.bm_written = self.bm_command_num
-        if self.cd_command_num != self.cd_written:  # a command was sent
-            seq, number = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)[:2]
-            if number != self.cd_written:  # an operator's command came meanwhile:
-                self.cd_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            words[CD_COMMAND_WORD] = seq
-            CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq, self.cd_command_num, self.cd_command)
-            words[CD_COMMAND_WORD] = seq + 1
-            self.cd_written = self.cd_command_num
-        if self.sj_command_num != self.sj_written:  # a command was sent
-            seq, number = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)[:2]
-            if number != self.sj_written:  # an operator's command came meanwhile:
-                self.sj_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            words[SJ_COMMAND_WORD] = seq
-            SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq, self.sj_command_num, self.sj_command)
-            words[SJ_COMMAND_WORD] = seq + 1
-            self.sj_written = self.sj_command_num
+            # 4. post_process: write what changed, each buffer odd while it is written
+            if self.rule or self.status_dirty:
+                seq = self.status_seq + 1
+                words[CC_STATUS_WORD] = seq  # odd before any field changes
+                STATUS.pack_into(
+                    buf,
+                    CC_STATUS_AT,
+                    seq,
+                    self.status_num,
+                    self.status,
+                    self.error_num,
+                    self.state,
+                    self.rule,
+                )
+                words[CC_STATUS_WORD] = seq + 1
+                self.status_seq = seq + 1
+                self.status_dirty = False
+            if self.bm_command_num != self.bm_written:  # a command was sent
+                seq, number = BM_COMMAND.unpack_from(buf, BM_COMMAND_AT)[:2]
+                if number != self.bm_written:  # an operator's command came meanwhile:
+                    self.bm_command_num = number + 1  # number ours after it
+                seq |= 1  # odd while it is written
+                words[BM_COMMAND_WORD] = seq
+                BM_COMMAND.pack_into(buf, BM_COMMAND_AT, seq, self.bm_command_num, self.bm_command)
+                words[BM_COMMAND_WORD] = seq + 1
+                self.bm_written = self.bm_command_num
+            if self.cd_command_num != self.cd_written:  # a command was sent
+                seq, number = CD_COMMAND.unpack_from(buf, CD_COMMAND_AT)[:2]
+                if number != self.cd_written:  # an operator's command came meanwhile:
+                    self.cd_command_num = number + 1  # number ours after it
+                seq |= 1  # odd while it is written
+                words[CD_COMMAND_WORD] = seq
+                CD_COMMAND.pack_into(buf, CD_COMMAND_AT, seq, self.cd_command_num, self.cd_command)
+                words[CD_COMMAND_WORD] = seq + 1
+                self.cd_written = self.cd_command_num
+            if self.sj_command_num != self.sj_written:  # a command was sent
+                seq, number = SJ_COMMAND.unpack_from(buf, SJ_COMMAND_AT)[:2]
+                if number != self.sj_written:  # an operator's command came meanwhile:
+                    self.sj_command_num = number + 1  # number ours after it
+                seq |= 1  # odd while it is written
+                words[SJ_COMMAND_WORD] = seq
+                SJ_COMMAND.pack_into(buf, SJ_COMMAND_AT, seq, self.sj_command_num, self.sj_command)
+                words[SJ_COMMAND_WORD] = seq + 1
+                self.sj_written = self.sj_command_num
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
-        last = perf_counter_ns() - cycle_start
+        end = perf_counter_ns()
+        last = end - cycle_start
         self.last_cycle_ns = last
         self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
@@ -273,6 +283,7 @@ class CcController:
             words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
         words[at] = seq + 1
         self.perf_seq = seq + 1
+        return end
 
     def read_inputs(self, first: bool = False) -> None:
         """The inputs as they are in the block: all written in this module's process."""

@@ -63,6 +63,7 @@ class BravoRstaController:
         "cycles",
         "dont_run",
         "error_num",
+        "inputs",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -127,6 +128,7 @@ class BravoRstaController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
+        self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
         _, self.bravo_pan_command_num, self.bravo_pan_command, self.bravo_pan_arg_bearing = (
             BRAVO_PAN_COMMAND.unpack_from(buf, BRAVO_PAN_COMMAND_AT)
         )
@@ -141,94 +143,102 @@ class BravoRstaController:
         self.error_num = reason
         self.status_dirty = True
 
-    def run_cycle(self) -> None:
-        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+    def run_cycle(self, began: int = 0) -> int:
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order. Its execution
+        time runs from `began` (the clock read that ended the module before it in its
+        process's cycle: rcs/loop.py; 0: none, it reads the clock) to the read it returns."""
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
-        cycle_start = perf_counter_ns()
+        cycle_start = began or perf_counter_ns()
         buf = self.buf
         words = self.words
-        (
-            self.command_num,
-            self.command,
-            self.dont_run,
-            self.single_step,
-            self.simulate,
-            self.single_step_num,
-            self.bravo_pan_status_num,
-            self.bravo_pan_status,
-            self.world_bravo_x,
-            self.world_bravo_y,
-            self.world_bravo_contact,
-            self.world_bravo_contact_x,
-        ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        if self.bravo_pan_status_num != self.bravo_pan_command_num:
-            self.bravo_pan_status = EXECUTING  # until it echoes the last number sent
+        values = INPUTS.unpack_from(buf, INPUTS_AT)
+        # Idle with nothing new (NOP, no rule fired, nothing to write, the inputs as in the last
+        # cycle): nothing to copy in, decide or write; only the performance buffer below.
+        if values != self.inputs or self.state != NOP or self.rule or self.status_dirty:
+            self.inputs = values
+            (
+                self.command_num,
+                self.command,
+                self.dont_run,
+                self.single_step,
+                self.simulate,
+                self.single_step_num,
+                self.bravo_pan_status_num,
+                self.bravo_pan_status,
+                self.world_bravo_x,
+                self.world_bravo_y,
+                self.world_bravo_contact,
+                self.world_bravo_contact_x,
+            ) = values
+            if self.bravo_pan_status_num != self.bravo_pan_command_num:
+                self.bravo_pan_status = EXECUTING  # until it echoes the last number sent
 
-        # 2. check_if_new_command: a command number unlike the echoed one is a new command
-        if self.command_num != self.status_num:
-            self.status_num = self.command_num
-            self.state = S0
-            self.status = EXECUTING
-            self.status_dirty = True
-            self.result_contact = False  # no result yet
-            self.result_enemy_x = 0.0  # no result yet
+            # 2. check_if_new_command: a command number unlike the echoed one is a new command
+            if self.command_num != self.status_num:
+                self.status_num = self.command_num
+                self.state = S0
+                self.status = EXECUTING
+                self.status_dirty = True
+                self.result_contact = False  # no result yet
+                self.result_enemy_x = 0.0  # no result yet
 
-        # 3. decision_process: run the command's state table, unless the mode holds it
-        if self.rule:  # the rule that fired last cycle is not news any more
-            self.rule = NO_RULE
-            self.status_dirty = True
-        # The mode holds the table: dont_run, or single_step until single_step_num changes.
-        if not self.dont_run and (
-            not self.single_step or self.single_step_num != self.perf_single_step_num
-        ):
-            if self.single_step:
-                self.perf_single_step_num = self.single_step_num  # this step is taken
-            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
-                command = self.command
-                if command == INIT:
-                    self.init()
-                elif command == HALT:
-                    self.halt()
-                elif command == SCAN:
-                    self.scan()
+            # 3. decision_process: run the command's state table, unless the mode holds it
+            if self.rule:  # the rule that fired last cycle is not news any more
+                self.rule = NO_RULE
+                self.status_dirty = True
+            # The mode holds the table: dont_run, or single_step until single_step_num changes.
+            if not self.dont_run and (
+                not self.single_step or self.single_step_num != self.perf_single_step_num
+            ):
+                if self.single_step:
+                    self.perf_single_step_num = self.single_step_num  # this step is taken
+                if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                    command = self.command
+                    if command == INIT:
+                        self.init()
+                    elif command == HALT:
+                        self.halt()
+                    elif command == SCAN:
+                        self.scan()
 
-        # 4. post_process: write what changed, each buffer odd while it is written
-        if self.rule or self.status_dirty:
-            seq = self.status_seq + 1
-            words[BRAVO_RSTA_STATUS_WORD] = seq  # odd before any field changes
-            BRAVO_RSTA_STATUS.pack_into(
-                buf,
-                BRAVO_RSTA_STATUS_AT,
-                seq,
-                self.status_num,
-                self.status,
-                self.error_num,
-                self.state,
-                self.rule,
-                self.result_contact,
-                self.result_enemy_x,
-            )
-            words[BRAVO_RSTA_STATUS_WORD] = seq + 1
-            self.status_seq = seq + 1
-            self.status_dirty = False
-        if self.bravo_pan_command_num != self.bravo_pan_written:  # a command was sent
-            seq, number = BRAVO_PAN_COMMAND.unpack_from(buf, BRAVO_PAN_COMMAND_AT)[:2]
-            if number != self.bravo_pan_written:  # an operator's command came meanwhile:
-                self.bravo_pan_command_num = number + 1  # number ours after it
-            seq |= 1  # odd while it is written
-            words[BRAVO_PAN_COMMAND_WORD] = seq
-            BRAVO_PAN_COMMAND.pack_into(
-                buf,
-                BRAVO_PAN_COMMAND_AT,
-                seq,
-                self.bravo_pan_command_num,
-                self.bravo_pan_command,
-                self.bravo_pan_arg_bearing,
-            )
-            words[BRAVO_PAN_COMMAND_WORD] = seq + 1
-            self.bravo_pan_written = self.bravo_pan_command_num
+            # 4. post_process: write what changed, each buffer odd while it is written
+            if self.rule or self.status_dirty:
+                seq = self.status_seq + 1
+                words[BRAVO_RSTA_STATUS_WORD] = seq  # odd before any field changes
+                BRAVO_RSTA_STATUS.pack_into(
+                    buf,
+                    BRAVO_RSTA_STATUS_AT,
+                    seq,
+                    self.status_num,
+                    self.status,
+                    self.error_num,
+                    self.state,
+                    self.rule,
+                    self.result_contact,
+                    self.result_enemy_x,
+                )
+                words[BRAVO_RSTA_STATUS_WORD] = seq + 1
+                self.status_seq = seq + 1
+                self.status_dirty = False
+            if self.bravo_pan_command_num != self.bravo_pan_written:  # a command was sent
+                seq, number = BRAVO_PAN_COMMAND.unpack_from(buf, BRAVO_PAN_COMMAND_AT)[:2]
+                if number != self.bravo_pan_written:  # an operator's command came meanwhile:
+                    self.bravo_pan_command_num = number + 1  # number ours after it
+                seq |= 1  # odd while it is written
+                words[BRAVO_PAN_COMMAND_WORD] = seq
+                BRAVO_PAN_COMMAND.pack_into(
+                    buf,
+                    BRAVO_PAN_COMMAND_AT,
+                    seq,
+                    self.bravo_pan_command_num,
+                    self.bravo_pan_command,
+                    self.bravo_pan_arg_bearing,
+                )
+                words[BRAVO_PAN_COMMAND_WORD] = seq + 1
+                self.bravo_pan_written = self.bravo_pan_command_num
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
-        last = perf_counter_ns() - cycle_start
+        end = perf_counter_ns()
+        last = end - cycle_start
         self.last_cycle_ns = last
         self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
@@ -246,6 +256,7 @@ class BravoRstaController:
             words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
         words[at] = seq + 1
         self.perf_seq = seq + 1
+        return end
 
     def read_inputs(self, first: bool = False) -> None:
         """The inputs as they are in the block: all written in this module's process."""

@@ -132,10 +132,12 @@ class BravoSensorController:
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
 
-    def run_cycle(self) -> None:
-        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+    def run_cycle(self, began: int = 0) -> int:
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order. Its execution
+        time runs from `began` (the clock read that ended the module before it in its
+        process's cycle: rcs/loop.py; 0: none, it reads the clock) to the read it returns."""
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
-        cycle_start = perf_counter_ns()
+        cycle_start = began or perf_counter_ns()
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
@@ -223,7 +225,8 @@ class BravoSensorController:
                 words[WORLD_BRAVO_CONTACT_WORD] = (s[1] | 1) + 1
                 words[WORLD_BRAVO_CONTACT_X_WORD] = (s[2] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
-        last = perf_counter_ns() - cycle_start
+        end = perf_counter_ns()
+        last = end - cycle_start
         self.last_cycle_ns = last
         self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
@@ -241,6 +244,7 @@ class BravoSensorController:
             words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
         words[at] = seq + 1
         self.perf_seq = seq + 1
+        return end
 
     def read_inputs(self, first: bool = False) -> None:
         """pre_process's read when another process was writing an input: read again, up to

@@ -220,10 +220,12 @@ class HelmController:
         self.cause = 0
         self.status_dirty = True
 
-    def run_cycle(self) -> None:
-        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order."""
+    def run_cycle(self, began: int = 0) -> int:
+        """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order. Its execution
+        time runs from `began` (the clock read that ended the module before it in its
+        process's cycle: rcs/loop.py; 0: none, it reads the clock) to the read it returns."""
         # 1. pre_process: copy in the command, the mode, each subordinate's status, the world
-        cycle_start = perf_counter_ns()
+        cycle_start = began or perf_counter_ns()
         buf = self.buf
         words = self.words
         (
@@ -344,7 +346,8 @@ class HelmController:
                 WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
                 words[WORLD_COURSE_WORD] = (s[0] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
-        last = perf_counter_ns() - cycle_start
+        end = perf_counter_ns()
+        last = end - cycle_start
         self.last_cycle_ns = last
         self.cycles = cycles = self.cycles + 1
         seq = self.perf_seq + 1
@@ -362,6 +365,7 @@ class HelmController:
             words[at + 5] = self.perf_single_step_num | self.stale_reads << 32
         words[at] = seq + 1
         self.perf_seq = seq + 1
+        return end
 
     def read_inputs(self, first: bool = False) -> None:
         """The inputs as they are in the block: all written in this module's process."""

@@ -203,6 +203,8 @@ class ModuleIO:
     sub_values: dict[str, tuple[str, ...]] = field(default_factory=dict)
     input_texts: tuple[str, ...] = ()
     resume_texts: tuple[str, ...] = ()
+    # Its cycle may stop short when idle with nothing new (`idle_shortcut`)
+    idle_shortcut: bool = False
     world_set_rules: tuple[RuleId, ...] = ()  # every_cycle rules that raise the `world_set` flag
 
 

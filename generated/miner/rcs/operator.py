@@ -247,10 +247,11 @@ class OperatorModule:
         ) = PERF.unpack_from(buf, self.PERF_AT)
         self.perf_seq = seq + (seq & 1)
 
-    def run_cycle(self) -> None:
+    def run_cycle(self, began: int = 0) -> int:
         """One cycle: the mode, then each channel (unless the mode holds the module), then
-        the cycle time."""
-        start = perf_counter_ns()
+        the cycle time: from `began` (the clock read before it in its process's cycle; 0:
+        none) to the read it returns, as a generated controller's."""
+        start = began or perf_counter_ns()
         buf = self.buf
         mode = read_whole(buf, MODE, self.MODE_AT)
         if mode is None:
@@ -269,7 +270,9 @@ class OperatorModule:
                     self.stale_reads += 1
                 elif changed:
                     channel.write(buf)
-        self.write_performance(perf_counter_ns() - start)
+        end = perf_counter_ns()
+        self.write_performance(end - start)
+        return end
 
     def write_performance(self, last: int) -> None:
         self.last_cycle_ns = last

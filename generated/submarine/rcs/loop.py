@@ -21,6 +21,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping
 from struct import Struct
+from time import perf_counter_ns as _module_clock  # the clock generated modules read
 from types import MappingProxyType, ModuleType
 from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
@@ -68,7 +69,10 @@ class DuplicateProcess(Exception):
 class Module(Protocol):
     """What the loop needs of a generated controller."""
 
-    def run_cycle(self) -> None: ...
+    def run_cycle(self, began: int = 0) -> int | None:
+        """One cycle; `began`: the clock read (perf_counter_ns) that ended the module before
+        it (0: none). Returns the clock read that ends it (None: it took none), so that the
+        modules of a process's cycle are timed by one read of the clock each."""
 
     def resume(self) -> None: ...
 
@@ -211,7 +215,7 @@ class Process:
         self._switch_at = {name: layout.MODE_IN[name].offset + offset for name in plan.stand_ins}
         self.simulated: tuple[str, ...] = ()
         self.modules: dict[str, Module] = {}
-        self.steps: tuple[Callable[[], None], ...] = ()
+        self.steps: tuple[Callable[[int], int | None], ...] = ()  # each running module's cycle
         # time in state (rcs/state_time.py): each controller's and stand-in's clock, and the
         # clock of each module running now (a stand-in's under its controller's name)
         before = int(layout.PROCESSES[plan.name].read(buf)["heartbeat"]) if restarting else 0
@@ -298,19 +302,26 @@ class Process:
             if id(clock) not in running:
                 clock.enter(self.block.buf, PAUSED, self.cycle)
         self.timed = timed
-        run = tuple(module.run_cycle for module in modules.values())
-        self.steps = (*self.io_steps[0], *run, *self.io_steps[1])
+        self.steps = tuple(module.run_cycle for module in modules.values())
 
     # ------------------------------------------------------------ running
 
     def run_cycle(self) -> None:
-        """Run every module once, in the declared order, then beat."""
+        """Run every module once, in the declared order (between the I/O's read and write),
+        then beat. The clock is read once before the first module and once by each module as
+        it ends: a module's execution time is from the read before it to its own."""
         if self._switch_at:
             flags = self._simulate_flags()
             if flags != self.simulated:
                 self._choose(flags)
+        before, after = self.io_steps
+        for io in before:
+            io()
+        now: int | None = _module_clock()  # (the modules' clock, not the pacing one)
         for step in self.steps:
-            step()
+            now = step(now or 0)
+        for io in after:
+            io()
         buf, cycle = self.block.buf, self.cycle
         for clock, module in self.timed.values():  # StateClock.tick inlined: a call per
             state = module.state  # module per cycle where the state seldom changes
@@ -329,10 +340,11 @@ class Process:
         if first == 0:
             for step in self.io_steps[0]:
                 step()
+        now: int | None = _module_clock()  # (the modules' clock, not the pacing one)
         for name in self.plan.modules[first : last + 1]:
             module = self.modules.get(name)
             if module is not None:
-                module.run_cycle()
+                now = module.run_cycle(now or 0)
                 if name in self.timed:
                     clock, timed = self.timed[name]
                     clock.tick(self.block.buf, timed.state, self.cycle)

@@ -179,10 +179,21 @@ def align(offset: int, to: int = 8) -> int:
     return -(-offset // to) * to
 
 
-def _slots(c: ir.IRController, targets: list[str]) -> tuple[str, ...]:
+def idle_shortcut(c: ir.IRController, read: ir.Gathered) -> bool:
+    """Whether a cycle of `c` stops short when it is idle with nothing new (NOP, no rule
+    fired, nothing to write, the inputs as in its last cycle): only a module with no
+    every_cycle rule (they run in NOP too) whose inputs are all written in its own process
+    (another process's are read under the seqlock, its retries in `read_inputs`)."""
+    return not c.every_cycle and not read.seq_indices
+
+
+def _slots(c: ir.IRController, targets: list[str], shortcut: bool) -> tuple[str, ...]:
     """Every attribute of the generated class: its buffers' fields (`targets`), its
-    subordinates', world fields, locals, time counters and plans."""
+    subordinates', world fields, locals, time counters and plans; its last inputs, where an
+    idle cycle may stop short."""
     slots = ["buf", "words", *targets, "status_seq", "status_dirty", "perf_seq"]
+    if shortcut:
+        slots.append("inputs")
     if world_set_rules(c):
         slots.append("world_set")
     if c.hooks_state:
@@ -233,7 +244,11 @@ def controller_io(c: ir.IRController, layout: ir.Layout, placement: Placement) -
         own=own,
         imports=_ordered(_layout_imports(c, own, worlds, own_status)),
         rcs_imports=_ordered(runtime),
-        slots=_slots(c, [*command, *_targets(status_fields), *mode, *perf, *_targets(sub_all)]),
+        slots=_slots(
+            c,
+            [*command, *_targets(status_fields), *mode, *perf, *_targets(sub_all)],
+            idle_shortcut(c, read),
+        ),
         inputs=read,
         world_outputs=tuple(run.gathered for run in worlds),
         stored_words=tuple((word_name(at), at) for at in stored),
@@ -257,6 +272,7 @@ def controller_io(c: ir.IRController, layout: ir.Layout, placement: Placement) -
         input_texts=read.texts,
         resume_texts=resume_texts,
         world_set_rules=world_set_rules(c),
+        idle_shortcut=idle_shortcut(c, read),
     )
 
 

@@ -9,6 +9,8 @@ front of the machine (mining paper, section 2.1.2: the miner waits for the shutt
 
 from __future__ import annotations
 
+from .rounding import round9
+
 
 class HaulageSettingError(ValueError):
     """The `shuttle_car` setting is not two positive numbers."""
@@ -58,4 +60,4 @@ def haul(
             haulage.load += taken
             if haulage.load >= haulage.capacity - 1e-9:
                 haulage.away = haulage.trip  # full: off to the dump
-    return round(loose - taken, 9), round(mined + taken, 9), haulage.away > 0
+    return round9(loose - taken), round9(mined + taken), haulage.away > 0

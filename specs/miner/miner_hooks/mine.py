@@ -16,6 +16,8 @@ import math
 import os
 import random
 
+from .rounding import round6
+
 CELL = 0.25  # metres
 DRUM_RADIUS = 0.5  # metres: the drum reaches this far either side of its centre
 RADIUS_SQUARED = DRUM_RADIUS**2
@@ -106,7 +108,7 @@ def slip(mine: Mine, x: float, boom_angle: float, jack_down: bool, cut: float) -
     shearing = jack_down and cut > 0.0 and boom_angle < ROOF_ANGLE - 0.5
     for start, end, amount in mine.rolls:
         if shearing and start <= x <= end:
-            return round(amount * (1.0 + mine.rng.uniform(-SLIP_ERROR, SLIP_ERROR)), 6)
+            return round6(amount * (1.0 + mine.rng.uniform(-SLIP_ERROR, SLIP_ERROR)))
     return 0.0
 
 
@@ -213,6 +215,6 @@ def cut_coal(
     else:
         now = face(mine, y)
         mine.face_at = (y, now)
-    result = contact, round(now, 6), round(now - mine.first_face, 6), round(tonnes, 6)
+    result = contact, round6(now), round6(now - mine.first_face), round6(tonnes)
     mine.last_call, mine.last_result = (None if cut else call), result
     return result

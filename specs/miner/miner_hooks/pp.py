@@ -17,6 +17,7 @@ import math
 import os
 
 from . import mine
+from .rounding import round6
 
 CLEARANCE = 1.3  # metres: free cells are this far from any coal cell (machine half width)
 IN_LINE = 0.1  # metres: a goal this close to the line of the heading is reached directly
@@ -130,7 +131,7 @@ def _towards(x: float, y: float, tx: float, ty: float) -> tuple[float, float, bo
     if d <= MAX_LEG:
         return tx, ty, True
     k = MAX_LEG / d
-    return round(x + k * (tx - x), 6), round(y + k * (ty - y), 6), False
+    return round6(x + k * (tx - x)), round6(y + k * (ty - y)), False
 
 
 def plan(

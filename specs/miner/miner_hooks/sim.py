@@ -6,6 +6,8 @@ from __future__ import annotations
 import math
 import random
 
+from .rounding import round6, round9
+
 TREAD_STEP = 0.05  # metres per cycle per speed level
 TURN_STEP = 0.03  # radians per cycle per unit of speed difference (a pivot: 3.4 degrees a cycle)
 
@@ -22,7 +24,7 @@ def turn_boom(
     """The boom angle after one cycle at the commanded rate, off by up to `error` of it (the
     hydraulics' flow varies), between the mechanical stops `low` and `high`."""
     moved = angle + rate * (1.0 + rng.uniform(-error, error))
-    return round(max(low, min(high, moved)), 6)
+    return round6(max(low, min(high, moved)))
 
 
 def travel_time(rng: random.Random, nominal: int, spread: int) -> int:
@@ -40,9 +42,9 @@ def advance(
     speed = (left_speed + right_speed) / 2 * TREAD_STEP
     heading = heading + (right_speed - left_speed) * TURN_STEP
     return (
-        round(x + speed * math.cos(heading), 9),
-        round(y + speed * math.sin(heading), 9),
-        round(heading, 9),
+        round9(x + speed * math.cos(heading)),
+        round9(y + speed * math.sin(heading)),
+        round9(heading),
     )
 
 
@@ -50,7 +52,7 @@ def slide(
     rng: random.Random, x: float, y: float, heading: float, distance: float
 ) -> tuple[float, float]:
     """The position after sliding `distance` metres backwards along the heading."""
-    return round(x - distance * math.cos(heading), 9), round(y - distance * math.sin(heading), 9)
+    return round9(x - distance * math.cos(heading)), round9(y - distance * math.sin(heading))
 
 
 def new_noise(settings: dict[str, str]) -> random.Random:
@@ -62,7 +64,7 @@ def noisy(rng: random.Random, value: float, amplitude: float) -> float:
     """`value` plus uniform noise in [-amplitude, amplitude]: `rng.uniform(-amplitude,
     amplitude)` written out as the standard library computes it (a + (b - a) * random()),
     the same numbers without a call per sample (the sensors call it every cycle)."""
-    return round(value + (-amplitude + (amplitude + amplitude) * rng.random()), 6)
+    return round6(value + (-amplitude + (amplitude + amplitude) * rng.random()))
 
 
 def noisy_pose(
@@ -73,7 +75,7 @@ def noisy_pose(
     sample = rng.random
     spread = noise + noise
     return (
-        round(x + (-noise + spread * sample()), 6),
-        round(y + (-noise + spread * sample()), 6),
-        round(heading + (-heading_noise + (heading_noise + heading_noise) * sample()), 6),
+        round6(x + (-noise + spread * sample())),
+        round6(y + (-noise + spread * sample())),
+        round6(heading + (-heading_noise + (heading_noise + heading_noise) * sample())),
     )

@@ -3,6 +3,8 @@ estimates the controllers decide on (face position, depth cut, pop-out)."""
 
 from __future__ import annotations
 
+from .rounding import round6
+
 DRUM_RADIUS = 0.5  # metres: the drum's front edge is this far inby of the sensed drum centre
 ROOF_ANGLE, FLOOR_ANGLE = 30.0, -10.0  # degrees
 ANGLE_TOLERANCE = 0.5  # degrees: as the boom controller's
@@ -52,7 +54,7 @@ def wm_estimate(
         popped = True
     depth = reach = 0.0
     if face0 > NOWHERE:
-        reach = round(max(0.0, pose_x + FLOOR_REACH - face0), 6)
+        reach = round6(max(0.0, pose_x + FLOOR_REACH - face0))
         if floor_x > NOWHERE:
-            depth = round(max(0.0, floor_x + FLOOR_REACH - face0), 6)
+            depth = round6(max(0.0, floor_x + FLOOR_REACH - face0))
     return face0, floor_x, shear_x, popped, depth, reach
