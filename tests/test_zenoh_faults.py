@@ -111,6 +111,28 @@ def launcher_of(miner: ModuleType, segment: str) -> Any:
     return launcher
 
 
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["pc1", "--transport", "zenoh", "--peers", "pc2,pc9"], "--peers: no process(es) ['pc9']"),
+        (["pc1", "--peers", "pc2"], "--peers goes with PROCESS and --transport zenoh"),
+        (["--transport", "zenoh", "--peers", "pc2"], "--peers goes with PROCESS and --transport"),
+    ],
+)
+def test_a_bad_peers_argument_is_one_line_and_exit_2(
+    miner: ModuleType, capsys: pytest.CaptureFixture[str], args: list[str], message: str
+) -> None:
+    """`--peers` (what a launcher gives its children over Zenoh) names processes of the
+    system, with one PROCESS over Zenoh; anything else is a usage mistake."""
+    launcher = launcher_of(miner, "unused")
+    module = sys.modules[type(launcher).__module__]
+    with pytest.raises(SystemExit) as exited:
+        module.parse_args(launcher.system, args)
+    assert exited.value.code == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.endswith(message), line
+
+
 @pytest.mark.parametrize("fault", ["stopped", "port taken"])
 def test_a_host_whose_processes_do_not_all_hear_each_other_is_refused_safe_and_clean(
     miner: ModuleType, monkeypatch: pytest.MonkeyPatch, fault: str

@@ -356,7 +356,8 @@ class ZenohTransport:
         self, peers: list[str], stopped: Callable[[], bool], beat: Callable[[], None]
     ) -> list[str]:
         """Before a process's first cycle: pull and push (calling `beat` before each push:
-        the process is alive, starting) until a push from each of `peers` has arrived here;
+        the process is alive, its heartbeat still 0) until a push from each of `peers` has
+        arrived here;
         the peers not heard, when `stopped()` ended the wait first (else none)."""
         while True:
             self.pull()

@@ -32,7 +32,6 @@ from ..contract import (
     DEAD,
     PROCESS_STATES,
     RUNNING,
-    STARTING,
     STARTUP_TIMEOUT,
     STOPPED,
     StaleRead,
@@ -274,7 +273,7 @@ def run_networked(
         net.report = process.counters  # what it received, in its control record
         # A launcher's child runs no cycle before it has heard the other processes of its
         # launch (its `--peers`): nothing it drives moves while it may not hear a peer.
-        missing = net.hear(args.peers, lambda: stop.requested, lambda: process.beat(STARTING))
+        missing = net.hear(args.peers, lambda: stop.requested, process.beat)
         if missing:  # stopped first (its launcher refused the start, or gave up)
             process.safe_stop()
             process.beat(STOPPED)
