@@ -116,7 +116,10 @@ def launcher_of(miner: ModuleType, segment: str) -> Any:
     [
         (["pc1", "--transport", "zenoh", "--peers", "pc2,pc9"], "--peers: no process(es) ['pc9']"),
         (["pc1", "--peers", "pc2"], "--peers goes with PROCESS and --transport zenoh"),
-        (["--transport", "zenoh", "--peers", "pc2"], "--peers goes with PROCESS and --transport"),
+        (
+            ["--transport", "zenoh", "--peers", "pc2"],
+            "--peers goes with PROCESS and --transport zenoh",
+        ),
     ],
 )
 def test_a_bad_peers_argument_is_one_line_and_exit_2(
