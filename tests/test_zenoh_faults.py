@@ -199,6 +199,7 @@ def test_a_host_whose_processes_do_not_all_hear_each_other_is_refused_safe_and_c
         taken.close()
         if pc1 is not None:
             pc1.close()
+        launcher.stop()  # (were it started after all: stopped, a frozen child continued)
     assert len(failure) == 1 and isinstance(failure[0], module.StartupFailed), failure
     line = str(failure[0])
     assert "\n" not in line
