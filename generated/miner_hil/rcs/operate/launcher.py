@@ -23,7 +23,8 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence, Set
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Set as AbstractSet
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, NamedTuple, NoReturn, Self
 
@@ -945,9 +946,9 @@ def how_ended(name: str, code: int | None) -> str:
 
 def not_ready(
     names: Sequence[str],
-    heard: Set[str],
-    hears: Mapping[str, Set[str]],
-    cycled: Set[str],
+    heard: AbstractSet[str],
+    hears: Mapping[str, AbstractSet[str]],
+    cycled: AbstractSet[str],
     ended: Mapping[str, int | None],
 ) -> dict[str, str]:
     """Why each of the processes `names` of a launch over Zenoh that is not ready is not
