@@ -24,7 +24,7 @@ from typing import Any
 
 import pytest
 from conftest import wait_for
-from support.running import attached
+from support.running import alive, attached, listening
 
 from rcsgen.runtime.operate.launcher import not_ready
 from rcsgen.tools.harness import import_package
@@ -50,28 +50,6 @@ def own_shm(segment: str) -> set[str]:
     """The entries of /dev/shm of this launch: its launcher's segment and its processes'."""
     names = set(os.listdir("/dev/shm")) if os.path.isdir("/dev/shm") else set()
     return {n for n in names if n == segment or n.startswith(f"{segment}_")}
-
-
-def listening(ports: set[int]) -> set[int]:
-    """Which of `ports` something on this machine listens on (from /proc/net/tcp)."""
-    found = set()
-    for line in Path("/proc/net/tcp").read_text().splitlines()[1:]:
-        fields = line.split()
-        port = int(fields[1].rsplit(":", 1)[1], 16)
-        if fields[3] == "0A" and port in ports:  # 0A: LISTEN
-            found.add(port)
-    return found
-
-
-def alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    try:  # a zombie (not yet reaped by its parent) is gone too
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
 
 
 def test_who_does_not_hear_whom_is_said_for_each_process_not_ready() -> None:

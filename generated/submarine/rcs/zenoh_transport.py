@@ -357,8 +357,7 @@ class ZenohTransport:
     ) -> list[str]:
         """Before a process's first cycle: pull and push (calling `beat` before each push:
         the process is alive, its heartbeat still 0) until a push from each of `peers` has
-        arrived here;
-        the peers not heard, when `stopped()` ended the wait first (else none)."""
+        arrived here. The peers not heard, when `stopped()` ended the wait first (else none)."""
         while True:
             self.pull()
             missing = [peer for peer in peers if peer not in self.heard]
