@@ -155,6 +155,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_runtime_mutants",
             "test_zenoh",
             "test_zenoh_security",
+            "test_zenoh_faults",
         ),
     ),
     "fuzz": (

@@ -25,7 +25,7 @@ from typing import Any
 
 import pytest
 from conftest import wait_for
-from support.running import attached, segment_names
+from support.running import alive, attached, segment_names
 
 from rcsgen.tools.harness import Harness, generate, import_package
 
@@ -190,18 +190,6 @@ def actuators(
     layout: ModuleType, buf: memoryview, names: Iterable[str] = ACTUATORS_SAFE
 ) -> dict[str, object]:
     return {name: world(layout, buf, name) for name in names}
-
-
-def alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    try:  # a zombie (exited, not yet reaped by its parent) is not alive
-        with open(f"/proc/{pid}/stat") as stat:
-            return stat.read().split(")")[-1].split()[0] != "Z"
-    except OSError:
-        return False
 
 
 def pids(layout: ModuleType, buf: memoryview) -> list[int]:

@@ -23,6 +23,7 @@ from typing import Any
 
 import pytest
 from conftest import wait_for
+from support.running import alive
 
 from rcsgen.tools.harness import Harness, import_package
 from rcsgen.tools.scenario import load_scenario, open_harness, read_trace, run
@@ -44,18 +45,6 @@ def package() -> ModuleType:
 
 def runtime(package: ModuleType, name: str) -> ModuleType:
     return importlib.import_module(f"{package.__name__}.{name}")
-
-
-def alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    try:  # a zombie is not alive
-        with open(f"/proc/{pid}/stat") as stat:
-            return stat.read().split(")")[-1].split()[0] != "Z"
-    except OSError:
-        return False
 
 
 @pytest.fixture

@@ -21,7 +21,7 @@ from types import ModuleType
 
 import pytest
 from conftest import wait_for
-from support.running import attached
+from support.running import attached, listening
 
 from rcsgen.tools.harness import import_package
 from rcsgen.tools.scenario import load_scenario, open_harness, read_trace, run
@@ -48,22 +48,6 @@ def free_port() -> int:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         return int(probe.getsockname()[1])
-
-
-def listening(ports: set[int]) -> set[int]:
-    """Which of `ports` something on this machine listens on (from /proc/net/tcp)."""
-    found = set()
-    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
-        try:
-            lines = Path(table).read_text().splitlines()[1:]
-        except OSError:
-            continue
-        for line in lines:
-            fields = line.split()
-            port = int(fields[1].rsplit(":", 1)[1], 16)
-            if fields[3] == "0A" and port in ports:  # 0A: LISTEN
-                found.add(port)
-    return found
 
 
 def shm_files() -> set[str]:

@@ -31,6 +31,7 @@ from typing import Any
 
 import pytest
 from conftest import wait_for
+from support.running import listening
 
 from rcsgen.runtime.operate.deploy import DeployError, load
 from rcsgen.tools.harness import import_package
@@ -100,19 +101,6 @@ def free_port() -> int:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         return int(probe.getsockname()[1])
-
-
-def listening(port: int) -> bool:
-    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
-        try:
-            lines = Path(table).read_text().splitlines()[1:]
-        except OSError:
-            continue
-        for line in lines:
-            fields = line.split()
-            if fields[3] == "0A" and int(fields[1].rsplit(":", 1)[1], 16) == port:
-                return True
-    return False
 
 
 def deployment(
@@ -238,7 +226,7 @@ def hosts(pki: Path) -> Iterator[dict[str, Any]]:
         unlink = importlib.import_module(f"{package.__name__}.rcs.block").unlink
         for segment in segments:  # a killed host could not remove its own
             unlink(segment)
-    assert not listening(port)
+    assert listening({port}) == set()
     assert not [n for n in os.listdir("/dev/shm") if n.startswith(f"rcsgen_tls_{os.getpid()}_")]
 
 
@@ -356,4 +344,4 @@ def test_a_secured_host_of_several_processes_hands_its_children_the_credentials(
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines()[:2] == ["sec DONE #2", "depth_cut = 1.5"], done.stdout
     assert not [n for n in os.listdir("/dev/shm") if n.startswith(segment)]
-    assert not listening(port)
+    assert listening({port}) == set()

@@ -38,6 +38,9 @@ PROCESS_OWNER = "_process"
 ALIVE = "_alive"  # liveliness tokens: rcs/<system>/<hash-8>/_alive/<node>
 STEP_KEY = "_step"  # lockstep requests to a process: rcs/<system>/<hash-8>/_step/<process>
 PUSH_KEY = "_push"  # a node's pushes: rcs/<system>/<hash-8>/_push/<node>
+# whom a process has heard (the senders of the pushes that reached it), for its launcher's
+# start-up barrier: rcs/<system>/<hash-8>/_heard/<process>, the names comma-separated
+HEARD_KEY = "_heard"
 
 
 @shared

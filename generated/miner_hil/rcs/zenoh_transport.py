@@ -32,6 +32,7 @@ from .contract import ABSENT, DEAD, STOPPED
 from .loop import STEP, Process, Stop
 from .transport import (
     ALIVE,
+    HEARD_KEY,
     PLAINTEXT,
     PUSH_KEY,
     STEP_KEY,
@@ -155,6 +156,12 @@ class ZenohTransport:
         # senders whose full push (everything they wrote, sent when this node joined) arrived
         self.synced: set[str] = set()
         self.republish = False
+        # The start-up barrier's: the nodes whose pushes reached this one, and (a launcher's
+        # node) whom each process says it has heard. A process tells its own whenever it
+        # hears someone new, and again to a node that joins (`push`).
+        self.heard: set[str] = set()
+        self.hears: dict[str, frozenset[str]] = {}
+        self._tell = False
         self.log = log or (lambda text: print(text, file=sys.stderr))
         self._warned: set[str] = set()
         # What came from each peer (the sender of a push): applied, late, malformed
@@ -179,6 +186,7 @@ class ZenohTransport:
         self._cut = len(self.prefix) + 1
         self._step = f"{STEP_KEY}/{process}"
         self._pushes = f"{PUSH_KEY}/"
+        self._heard = f"{HEARD_KEY}/"
         # Messages go through publishers declared once, not express: Zenoh batches only
         # under back-pressure (an idle link sends at once, so a hop is no slower), and an
         # express put makes the sender wait for the link on every message (a push stream
@@ -210,6 +218,8 @@ class ZenohTransport:
             self._arrived("push", key, sample.payload.to_bytes())
         elif key == self._step:
             self._arrived("step", "", sample.payload.to_bytes())
+        elif key.startswith(self._heard):
+            self._arrived("heard", key[len(self._heard) :], sample.payload.to_bytes())
 
     def _arrived(self, kind: str, key: str, payload: bytes) -> None:
         self.inbox.put((kind, key, payload))
@@ -236,11 +246,17 @@ class ZenohTransport:
         for kind, key, payload in arrived:
             if kind == "push":  # a sender's cycle, whole: applied whole, in the order sent
                 sender, _, full = key[len(self._pushes) :].partition("/")
+                if sender not in self.heard:
+                    self.heard.add(sender)
+                    self._tell = True
                 whole = self._push(sender, payload)
                 if full == FULL and whole:
                     self.synced.add(sender)
             elif kind == "step":
                 self.steps.append(payload)
+            elif kind == "heard":  # a process's names, comma-separated (others ignored)
+                names = payload.decode("utf-8", "replace").split(",")
+                self.hears[key] = frozenset(n for n in names if n in mirror.layout.PROCESSES)
             elif kind == "join":
                 self.republish = True  # a node joined: send it what we wrote
                 self.joined.add(key)
@@ -303,6 +319,13 @@ class ZenohTransport:
                 return
             self._next_push = now + MIN_PUSH_INTERVAL
         everything, self.republish = self.republish, False
+        if (self._tell or everything) and self.process is not None:
+            self._tell = False  # whom it has heard: the start-up barrier's (launcher.py)
+            self.session.put(
+                f"{self.prefix}/{HEARD_KEY}/{self.node}",
+                ",".join(sorted(self.heard)).encode(),
+                congestion_control=self._zenoh.CongestionControl.BLOCK,
+            )
         slow = last or now >= self._next_perf
         if slow:
             self._next_perf = now + PERF_INTERVAL
@@ -328,6 +351,26 @@ class ZenohTransport:
                 )
             self._publisher.put(payload)
         self.mirror.counters.sent += len(messages)
+
+    def hear(
+        self, peers: list[str], stopped: Callable[[], bool], beat: Callable[[], None]
+    ) -> list[str]:
+        """Before a process's first cycle: pull and push (calling `beat` before each push:
+        the process is alive, its heartbeat still 0) until a push from each of `peers` has
+        arrived here. The peers not heard, when `stopped()` ended the wait first (else none)."""
+        while True:
+            self.pull()
+            missing = [peer for peer in peers if peer not in self.heard]
+            if not missing or stopped():
+                if not missing:
+                    self.push()  # whom it heard, at once: the barrier waits for it
+                return missing
+            beat()
+            self.push()
+            try:  # the next message wakes this thread at once; a stop within 0.1 s
+                self._taken.append(self.inbox.get(timeout=0.1))
+            except queue.Empty:
+                pass
 
     def send_step(self, process: str, request: bytes) -> None:
         """A lockstep request to `process` (after this node's own records: same link, in order)."""

@@ -24,6 +24,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Set as AbstractSet
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, NamedTuple, NoReturn, Self
 
@@ -260,8 +261,11 @@ def run_networked(
 
     plan, layout = system.plans[args.process], system.layout
     options = network_options(system, args)
-    if args.child:  # the launcher's end (even a crash): stop, the actuators safe
-        watch_the_launcher(stop, args.shm)
+    # Its launcher's block, which it names this one after (`Launcher._spawn`): a launcher
+    # that dies (kill -9) cannot remove it, so each of its children, orphaned, does.
+    launchers = args.shm.removesuffix(f"_{args.process}") if args.child else None
+    if launchers is not None:  # the launcher's end (even a crash): stop, the actuators safe
+        watch_the_launcher(stop, args.shm, launchers)
     else:
         signal.signal(signal.SIGINT, stop)
 
@@ -269,6 +273,14 @@ def run_networked(
         mirror = Mirror(layout, process.block, args.process)
         net = ZenohTransport(mirror, options, args.process, plan.modules, args.lockstep)
         net.report = process.counters  # what it received, in its control record
+        # A launcher's child runs no cycle before it has heard the other processes of its
+        # launch (its `--peers`): nothing it drives moves while it may not hear a peer.
+        missing = net.hear(args.peers, lambda: stop.requested, process.beat)
+        if missing:  # stopped first (its launcher refused the start, or gave up)
+            process.safe_stop()
+            process.beat(STOPPED)
+            net.close()
+            raise TransportError(f"stopped before it heard {', '.join(missing)}")
         return net
 
     try:
@@ -302,6 +314,10 @@ def run_networked(
     except (BlockError, RestartRefused, TransportError) as error:
         print(f"{args.process}: {error}", file=sys.stderr)
         return REFUSED if isinstance(error, RestartRefused) else 1
+    finally:
+        stop.finished.set()
+        if launchers is not None and stop.orphaned:
+            unlink_quietly(launchers)
     report(system, args, process)
     process.block.owner = True  # its own block: nobody else on this host uses it
     process.block.close()
@@ -317,7 +333,7 @@ def network_options(system: System, args: argparse.Namespace) -> Any:
     return Options(tuple(args.listen), tuple(args.connect), lease_ms, args.security)
 
 
-def watch_the_launcher(stop: Stop, segment: str) -> None:
+def watch_the_launcher(stop: Stop, *segments: str) -> None:
     """A free-running child learns that its launcher is gone in two ways: its stdin pipe
     closes (the launcher's end, even a crash), and on Linux its parent-death signal (SIGHUP,
     set with prctl), which comes too when the pipe stays open (a fork of the launcher holds
@@ -334,7 +350,7 @@ def watch_the_launcher(stop: Stop, segment: str) -> None:
     if _die_with_parent(signal.SIGHUP, hang_up) and os.getppid() != parent:
         gone.set()  # it died before the signal was asked for
     threading.Thread(target=_read_to_eof, args=(gone,), daemon=True).start()
-    threading.Thread(target=_orphaned, args=(stop, gone, segment), daemon=True).start()
+    threading.Thread(target=_orphaned, args=(stop, gone, segments), daemon=True).start()
 
 
 def _die_with_parent(signum: int, handler: Callable[..., None]) -> bool:
@@ -361,7 +377,7 @@ def _read_to_eof(gone: threading.Event) -> None:
     gone.set()
 
 
-def _orphaned(stop: Stop, gone: threading.Event, segment: str) -> None:
+def _orphaned(stop: Stop, gone: threading.Event, segments: tuple[str, ...]) -> None:
     gone.wait()
     stop.orphaned = True
     stop()
@@ -370,9 +386,11 @@ def _orphaned(stop: Stop, gone: threading.Event, segment: str) -> None:
         process.safe_stop(everything=True)  # the others may be gone too: every actuator
     if not stop.finished.wait(STOP_GRACE):
         print(
-            f"{segment}: the launcher is gone and the loop did not stop: exiting", file=sys.stderr
+            f"{segments[0]}: the launcher is gone and the loop did not stop: exiting",
+            file=sys.stderr,
         )
-        unlink_quietly(segment)
+        for segment in segments:  # its own (a Zenoh child's), and its launcher's
+            unlink_quietly(segment)
         os._exit(1)
 
 
@@ -478,7 +496,9 @@ class Launcher:
             self.page = Page.create(len(self.links)) if self.links and self.turns else None
             for name in self.processes:
                 self.children[name] = Child(name, self._spawn(name, attach=True))
-            if not self.lockstep and self.net is None:
+            if self.net is not None:
+                self.hearing()
+            elif not self.lockstep:
                 self.barrier()
         except BaseException:
             self.stop()
@@ -503,18 +523,37 @@ class Launcher:
                 return
             if ended.keys() & set(missing) or time.monotonic() > deadline:
                 why = [
-                    f"{n} ({FAILURES[ended[n] or 0]}, exit {ended[n]})"
-                    if n in ended and ended[n] in FAILURES
-                    else f"{n} (exited {ended[n]})"
-                    if n in ended
-                    else f"{n} (no cycle yet)"
-                    for n in missing
+                    how_ended(n, ended[n]) if n in ended else f"{n} (no cycle yet)" for n in missing
                 ]
                 raise StartupFailed(
                     f"the system did not become ready within {self.startup_timeout:g} s: "
                     f"{', '.join(why)} did not start"
                 )
             time.sleep(0.01)
+
+    def hearing(self) -> None:
+        """The start-up barrier over Zenoh: within `startup_timeout`, every process has heard
+        every other process of this launch (a process runs no cycle before it has: each says
+        whom it heard, zenoh_transport `hear`), the launcher's node has heard each one, and
+        each free-running one has run a cycle; else StartupFailed naming who does not hear
+        whom (at once, naming it and how, when a process ends)."""
+        net, names = self.net, self.processes
+        deadline = time.monotonic() + self.startup_timeout
+        while True:
+            net.pull()
+            ended = {
+                n: c.popen.poll() for n, c in self.children.items() if c.popen.poll() is not None
+            }
+            cycled = {n for n in names if self.lockstep or net.mirror.heartbeat(n) >= 1}
+            why = not_ready(names, net.heard, net.hears, cycled, ended)
+            if not why:
+                return
+            if why.keys() & ended.keys() or time.monotonic() > deadline:
+                raise StartupFailed(
+                    f"the system did not become ready within {self.startup_timeout:g} s: "
+                    + "; ".join(why.values())
+                )
+            net.wait(lambda: False, 0.05)  # what arrives meanwhile waits in its inbox
 
     def _spawn(self, name: str, attach: bool) -> subprocess.Popen[bytes]:
         import subprocess
@@ -533,6 +572,9 @@ class Launcher:
             command += ["--transport", "zenoh", "--connect", self.listen]
             command += [arg for sibling in siblings for arg in ("--connect", sibling)]
             command += ["--listen", self.child_listen[name]]
+            # the processes of this launch it must hear before its first cycle (`hearing`)
+            peers = [n for n in self.processes if n != name]
+            command += ["--peers", ",".join(peers)] if peers else []
             if self.security != PLAINTEXT:  # paths only: no secret on a command line
                 command += ["--security", self.security.to_text()]
         else:
@@ -675,6 +717,7 @@ class Launcher:
             _close_stdin(child.popen)
             if child.popen.poll() is None:
                 child.popen.terminate()
+                child.popen.send_signal(signal.SIGCONT)  # a frozen one then stops, safe
         import subprocess
 
         deadline = time.monotonic() + STOP_GRACE
@@ -893,6 +936,38 @@ def _answered(mirror: Any, lost: set[str], targets: dict[str, int]) -> Callable[
     )
 
 
+def how_ended(name: str, code: int | None) -> str:
+    """A process that ended before the system was ready: the failure its exit code says,
+    else the code."""
+    if code in FAILURES:
+        return f"{name} ({FAILURES[code or 0]}, exit {code})"
+    return f"{name} (exited {code})"
+
+
+def not_ready(
+    names: Sequence[str],
+    heard: AbstractSet[str],
+    hears: Mapping[str, AbstractSet[str]],
+    cycled: AbstractSet[str],
+    ended: Mapping[str, int | None],
+) -> dict[str, str]:
+    """Why each of the processes `names` of a launch over Zenoh that is not ready is not
+    (none when all are): not heard by the launcher's node (`heard`), not hearing some of
+    the others (whom each said it heard: `hears`), no cycle yet; or, ended, how it ended."""
+    why = {}
+    for name in names:
+        deaf = [n for n in names if n != name and n not in hears.get(name, ())]
+        if name not in heard:
+            why[name] = f"the launcher does not hear {name}"
+        elif deaf:
+            why[name] = f"{name} does not hear {', '.join(deaf)}"
+        elif name not in cycled:
+            why[name] = f"{name} (no cycle yet)"
+        if name in why and name in ended:  # (one that ended ready, its cycles run, is)
+            why[name] = how_ended(name, ended[name])
+    return why
+
+
 def stopped_answering(child: Child) -> str:
     """Why a lockstep process gave no answer: the failure its exit code says (a hook, a
     module: its own line is above), else that it died."""
@@ -1100,6 +1175,8 @@ def parser(system: System) -> argparse.ArgumentParser:
     top.add_argument("--ring", default=None, help=argparse.SUPPRESS)
     # a deployment host's TLS and authentication files, as its launcher passes them on
     top.add_argument("--security", default=None, help=argparse.SUPPRESS)
+    # a Zenoh child's: the other processes of its launch, heard before its first cycle
+    top.add_argument("--peers", default="", help=argparse.SUPPRESS)
     top.add_argument(
         "--transport",
         choices=("shm", "zenoh"),
@@ -1190,6 +1267,7 @@ def parse_args(system: System, argv: list[str]) -> tuple[argparse.Namespace, Any
             )
         _check_run(system, args)
         _check_transport(args)
+        _check_peers(system, args)
     except ValueError as error:
         usage.error(str(error))
     return args, host
@@ -1240,6 +1318,17 @@ def _check_transport(args: argparse.Namespace) -> None:
         raise ValueError("--listen and --connect go with --transport zenoh")
     for endpoint in (*args.listen, *args.connect):
         check_endpoint(endpoint)
+
+
+def _check_peers(system: System, args: argparse.Namespace) -> None:
+    """`--peers P,...` (what a launcher over Zenoh gives its children) as a list of names,
+    each a process of the system."""
+    args.peers = [p for p in args.peers.split(",") if p]
+    unknown = [p for p in args.peers if p not in system.plans]
+    if unknown:
+        raise ValueError(f"--peers: no process(es) {unknown}")
+    if args.peers and (args.transport != "zenoh" or args.process is None):
+        raise ValueError("--peers goes with PROCESS and --transport zenoh")
 
 
 class _OneLineParser(argparse.ArgumentParser):
