@@ -422,6 +422,50 @@ def test_fire_under_ice_clears_baffles_only_as_far_as_the_ice_allows():
     assert commands_sent(lines, "sm").count("PREP_SUBMERGED_TRANSIT") == 1
 
 
+CLOSE_CONTACT = 3000.0  # helm.yaml: a ship nearer than this is a close contact
+NO_CONTACT = 8000.0  # the passive sonar's "none heard" (submarine_hooks/sim.py HEARING)
+
+
+def test_a_close_contact_in_the_baffles_keeps_the_ship_deep_until_it_has_opened():
+    """Section 4.1.3, coming to periscope depth: "Clearing baffles. Checking for sonar
+    contacts, close contacts. Slowing and changing depth." A ship dead astern, in the
+    baffles, is not heard on the transit; the baffle turn brings it into hearing, close.
+    The helm holds the heading, deep, and reports the areas of concern clear (Figure 31)
+    only once the contact has opened beyond CLOSE_CONTACT; then ship maneuver slows and
+    comes up, and the ship is prepared at periscope depth."""
+    final, lines = played("fire_close_contact")
+    assert final["status"] == "DONE"
+    world = [line["world"] for line in lines]
+    baffles = spans(lines, "sm", "BAFFLES")
+    assert len(baffles) == 1
+    turn_from, clear_at = baffles[0]
+    # astern, in the baffles: not heard on the transit (it is within hearing all the while)
+    assert all(w["contact_range"] == NO_CONTACT for w in world[: turn_from - 1])
+    heard = next(line["cycle"] for line in lines if line["world"]["contact_range"] < NO_CONTACT)
+    assert turn_from < heard < clear_at
+    turned = (at(lines, heard)["world"]["heading"] - at(lines, turn_from)["world"]["heading"]) % 360
+    assert 20.0 < turned < BAFFLE_TURN, "heard once the turn brings the arc astern into view"
+    assert at(lines, heard)["world"]["contact_range"] <= CLOSE_CONTACT
+    # the helm holds in CONTACT, the ship deep and at transit speed, while the contact is
+    # close (the helm reads the range the sonar, later in the process, wrote the cycle before)
+    held = spans(lines, "helm", "CONTACT")
+    assert len(held) == 1 and held[0][1] - held[0][0] >= 30
+    for cycle in range(held[0][0], held[0][1] + 1):
+        assert at(lines, cycle - 1)["world"]["contact_range"] <= CLOSE_CONTACT
+        w = at(lines, cycle)["world"]
+        assert w["depth_cmd"] == 120.0 and w["speed_cmd"] == 7.7 and w["depth"] >= 119.0
+    # opened beyond CLOSE_CONTACT: the helm's DONE, then slow and come up
+    assert at(lines, held[0][1])["world"]["contact_range"] > CLOSE_CONTACT
+    assert at(lines, held[0][1] + 1)["modules"]["helm"]["status"] == "DONE"
+    assert at(lines, clear_at + 1)["modules"]["sm"]["state"] == "SLOWING"
+    assert at(lines, clear_at + 1)["world"]["depth_cmd"] == 18.0
+    assert world[-1]["periscope_raised"] and world[-1]["depth"] <= 19.0
+    # without the contact (engine_room_fire) the same turn is not held
+    _, plain = played("engine_room_fire")
+    assert spans(plain, "helm", "CONTACT") == []
+    assert spans(plain, "sm", "BAFFLES")[0][1] <= held[0][0] < clear_at
+
+
 def haven_offsets(lines: list[dict]) -> list[float]:
     """How far the ship is from its moving haven's centre (the larger of east and north),
     in each cycle ship maneuver executes a transit."""
@@ -506,7 +550,7 @@ def hooks():
 def test_sonar_beams_meet_a_keel_ahead(hooks):
     _, _, sim, _ = hooks
     keels = [(0.0, 500.0, 100.0)]  # 500 m north, radius 100
-    *ranges, clearance = sim.ping(keels, 0.0, 0.0, 0.0)
+    *ranges, clearance = sim.ping(sim.Sea(keels), 0.0, 0.0, 0.0)
     assert len(ranges) == 14
     assert clearance == 400.0
     # the two beams either side of the centre line (-3 and +3 degrees) hit it at 402.8 m
@@ -516,19 +560,19 @@ def test_sonar_beams_meet_a_keel_ahead(hooks):
     assert ranges[6] == ranges[7] == round(expected, 3)
     assert ranges[0] == ranges[13] == sim.SONAR_RANGE, "the outer beams miss"
     # turned east, the keel is off the port bow: only port beams see it
-    *east, _ = sim.ping(keels, 0.0, 0.0, 45.0)
+    *east, _ = sim.ping(sim.Sea(keels), 0.0, 0.0, 45.0)
     assert all(r == sim.SONAR_RANGE for r in east[7:])
 
 
 def test_ice_assessment_blocks_the_course_and_recommends_a_clear_heading(hooks):
     helm, _, sim, _ = hooks
     keels = [(0.0, 500.0, 100.0)]
-    ranges = sim.ping(keels, 0.0, 0.0, 0.0)[:14]
+    ranges = sim.ping(sim.Sea(keels), 0.0, 0.0, 0.0)[:14]
     seen, avoid = helm.assess_ice(0.0, 0.0, *ranges)
     assert 10.0 <= avoid <= 60.0, "starboard first, just clear of the keel"
     assert seen == (1 if avoid <= helm.PASSAGE_LIMIT else 2), "2: no passage near the course"
     h = math.radians(avoid)
-    assert abs(sim.ping(keels, 0.0, 0.0, avoid)[14] - 400.0) < 1e-6
+    assert abs(sim.ping(sim.Sea(keels), 0.0, 0.0, avoid)[14] - 400.0) < 1e-6
     # along the recommended heading, the keel's centre is wider than the corridor + radius
     lateral = abs(0.0 * math.cos(h) - 500.0 * math.sin(h))
     assert lateral >= helm.HALF_WIDTH - 50.0

@@ -39,7 +39,9 @@ RUDDER_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdddd60x???1xI88xQI1364xd72xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct(
+    "<QIdddd60x???1xI88xQI1364xd72xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd40xd"
+)
 INPUTS_AT = 688
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -62,6 +64,7 @@ S0 = 1
 S1 = 2
 S2 = 3
 CENTRING = 4
+CONTACT = 5
 
 # Constants.
 GAIN = 1.5
@@ -70,6 +73,7 @@ COURSE_TOL = 1.5
 DEADBAND = 2.0
 BAFFLE_TURN = 60.0
 BAFFLE_TOL = 5.0
+CLOSE_CONTACT = 3000.0
 
 
 def wrap(a: float) -> float:
@@ -132,6 +136,7 @@ class HelmController:
         "var_start_y",
         "var_tracking",
         "words",
+        "world_contact_range",
         "world_course",
         "world_heading",
         "world_pos_x",
@@ -257,6 +262,7 @@ class HelmController:
             self.world_sonar_11,
             self.world_sonar_12,
             self.world_sonar_13,
+            self.world_contact_range,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.rudder_status_num != self.rudder_command_num:
             self.rudder_status = EXECUTING  # until it echoes the last number sent
@@ -397,6 +403,7 @@ class HelmController:
             self.world_sonar_11,
             self.world_sonar_12,
             self.world_sonar_13,
+            self.world_contact_range,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def every_cycle(self) -> None:
@@ -629,7 +636,10 @@ class HelmController:
     def clear_baffles(self) -> None:
         """CLEAR_BAFFLES: Clear baffles (section 4.1.3): turn BAFFLE_TURN degrees to starboard, so
         the sonar hears the arc astern it cannot hear on a steady course, then centre the rudder;
-        the turn ends early when sensory processing sees ice on the way.
+        the turn ends early when sensory processing sees ice on the way. Then check for sonar
+        contacts, close contacts: DONE (Figure 31: "the areas of concern have been cleared of
+        hostile objects") only once no ship is held within CLOSE_CONTACT; until then the ship
+        holds its heading, rudder centred, and stays deep.
         """
         state = self.state
         # Named values (let), computed once a cycle before the rules.
@@ -676,7 +686,8 @@ class HelmController:
                 self.var_sent_angle = baffle_order
 
         elif state == CENTRING:
-            if self.rudder_status == DONE:
+            if self.rudder_status == DONE and self.world_contact_range > CLOSE_CONTACT:
+                # steady, no close contact; the areas of concern are clear
                 self.rule = 19  # CLEAR_BAFFLES/CENTRING/1
                 self.state = NOP
                 self.status = DONE
@@ -688,3 +699,15 @@ class HelmController:
                 self.cause = caused(RUDDER_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
+
+            elif self.rudder_status == DONE and self.world_contact_range <= CLOSE_CONTACT:
+                # steady, but the sonar holds a close contact (heard now the baffles are clear)
+                self.rule = 21  # CLEAR_BAFFLES/CENTRING/3
+                self.state = CONTACT
+
+        elif state == CONTACT and self.world_contact_range > CLOSE_CONTACT:
+            # the close contact has opened out (or is lost); the areas of concern are clear
+            self.rule = 22  # CLEAR_BAFFLES/CONTACT/1
+            self.state = NOP
+            self.status = DONE
+            self.cause = 0  # DONE has no cause

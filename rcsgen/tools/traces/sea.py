@@ -65,9 +65,9 @@ def scene(system: IRSystem, system_dir: Path, settings: dict[str, str]) -> Scene
     sonar = _factory_of(system, "ping")
     assert sonar.hooks_module is not None and sonar.hooks_state is not None
     hooks: ModuleType = import_hooks(system_dir, sonar.hooks_module)
-    keels = [
-        (float(x), float(y), float(r)) for x, y, r in getattr(hooks, sonar.hooks_state)(settings)
-    ]
+    state = getattr(hooks, sonar.hooks_state)(settings)
+    # the keels are the state, or its `keels` (a state that also keeps other ships)
+    keels = [(float(x), float(y), float(r)) for x, y, r in getattr(state, "keels", state)]
     route: list[tuple[float, float]] = []
     alternates: list[tuple[float, float]] = []
     for controller in system.controllers:
