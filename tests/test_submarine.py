@@ -15,10 +15,12 @@ import pytest
 
 from rcsgen.tools.harness import Harness
 from rcsgen.tools.scenario import load_scenario, open_harness, run
+from rcsgen.tools.traces.read import load as stored_trace
 
 ROOT = Path(__file__).resolve().parent.parent
 SUBMARINE = ROOT / "specs" / "submarine"
 SCENARIOS = SUBMARINE / "scenarios"
+GOLDEN_DIR = ROOT / "tests" / "golden" / "submarine"
 CO_HIGH = 50.0  # cc.yaml: the fire alarm
 CO_SAFE = 5.0  # ec.yaml: the atmosphere is acceptable
 HAVEN = 150.0  # sm.yaml ARRIVAL: half the box around a waypoint that counts as reached
@@ -464,6 +466,53 @@ def test_a_close_contact_in_the_baffles_keeps_the_ship_deep_until_it_has_opened(
     _, plain = played("engine_room_fire")
     assert spans(plain, "helm", "CONTACT") == []
     assert spans(plain, "sm", "BAFFLES")[0][1] <= held[0][0] < clear_at
+
+
+def test_generated_keels_are_random_in_size_and_fractal_in_shape_along_the_path(hooks):
+    """Sections 4.3.2 and 4.6.5: keels "generated randomly, in their sizes and shapes, and
+    continuously throughout the paths", with fractals, before the run: the same seed gives
+    the same keels, another seed others; sizes differ, outlines are not circles, and every
+    keel stands near the path, one after another along it."""
+    _, mission, sim, _ = hooks
+    settings = {"route": "maps/bering.route", "keels": "maps/open_sea.keels", "ice_seed": "3"}
+    keels = sim.new_ice(settings).shapes
+    assert keels == sim.new_ice(settings).shapes
+    assert keels != sim.new_ice({**settings, "ice_seed": "4"}).shapes
+    path = [(0.0, 0.0), *mission.load_route(SUBMARINE / "maps" / "bering.route").route]
+    assert len(keels) >= 6
+    reaches = [k.reach for k in keels]
+    assert max(reaches) - min(reaches) > 30.0, "random sizes"
+    for keel in keels:
+        radii = [math.dist(p, (keel.x, keel.y)) for p in keel.points]
+        assert max(radii) > 1.3 * min(radii), "a fractal outline, not a circle"
+        off_path = min(
+            abs((b[0] - a[0]) * (a[1] - keel.y) - (a[0] - keel.x) * (b[1] - a[1]))
+            / math.dist(a, b)
+            for a, b in zip(path, path[1:], strict=False)
+        )
+        assert off_path <= 350.0 + 1e-6 and math.hypot(keel.x, keel.y) >= 800.0
+    gaps = [math.dist((a.x, a.y), (b.x, b.y)) for a, b in zip(keels, keels[1:], strict=False)]
+    assert max(gaps) < 2000.0, "continuously along the path"
+    with pytest.raises(ValueError, match="ice_seed must be a whole number"):
+        sim.new_ice({**settings, "ice_seed": "many"})
+    # the sonar sees an outline: a beam stops at its edge, not at a circle around it
+    keel = keels[0]
+    ahead = sim.ping(sim.Sea([], [], [keel]), keel.x, keel.y - 500.0, 0.0)
+    edge = min(y for x, y in keel.points if abs(x - keel.x) < 15.0)
+    assert abs(ahead[6] + ahead[7] - 2 * (edge - (keel.y - 500.0))) < 60.0
+    assert 0.0 < ahead[14] <= min(ahead[:14])
+
+
+def test_the_transit_among_generated_keels_avoids_them_all():
+    """`fractal_ice`, read from its golden trace (test_golden re-runs it): the mission
+    completes, helm avoided ice several times, and the ship never came within 100 m of an
+    outline's edge."""
+    trace = stored_trace(GOLDEN_DIR / "fractal_ice.jsonl")
+    assert trace.columns["cc"]["status"][-1] == "DONE"
+    states = trace.columns["helm"]["state"]
+    episodes = sum(1 for a, b in zip(states, states[1:], strict=False) if b == "S2" != a)
+    assert episodes >= 3
+    assert min(trace.world["clearance"]) >= 100.0
 
 
 def haven_offsets(lines: list[dict]) -> list[float]:

@@ -1256,6 +1256,7 @@ SETTINGS: dict[str, str] | None = {
     "keels": "The ice keels the sonar simulator sees: maps/<name>.keels (default maps/bering.keels).",
     "bottom_seed": "The seed of the fractal sea bottom, generated before the run: a whole number (default 1).",
     "contacts": "The other ships the passive sonar may hear: maps/<name>.contacts (default none).",
+    "ice_seed": "Ice keels generated before the run along the route, random in size and fractal in shape, from this seed: a whole number (default none).",
 }
 # Whether a controller has a `hooks_state` factory: without one no setting is read.
 READS_SETTINGS = True

@@ -2,7 +2,8 @@
 the ships its passive sonar hears.
 
 A keel file has one ice keel a line, `X Y RADIUS` in metres (x east, y north): a keel is a
-circle in the plan view at the ship's depth. The 14 forward-looking sonars are 14 lines from
+circle in the plan view at the ship's depth. The run's `ice_seed` adds keels generated before
+the run along the planned path, random in size and fractal in shape (submarine_hooks/ice.py). The 14 forward-looking sonars are 14 lines from
 the ship at fixed angles to its centre line, out to the sonar's range; the first intercept
 of each with a keel is its detection (second paper, section 4.6.2).
 
@@ -20,7 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from submarine_hooks.helm import BEAMS
-from submarine_hooks.mission import numbers
+from submarine_hooks.ice import Keel, edge_distance, generate, ray_to
+from submarine_hooks.mission import DEFAULT_ROUTE, load_route, numbers
 
 SONAR_RANGE = 900.0  # metres
 HEARING = 8000.0  # metres: the passive sonar hears a ship out to this range (8000 = none heard)
@@ -49,11 +51,13 @@ def load_keels(path: Path) -> list[tuple[float, float, float]]:
 
 @dataclass
 class Sea:
-    """What the sonar simulator senses: the ice keels (x, y, radius), and the other ships
-    (x, y, course, speed), which move on as the run goes (`listen`)."""
+    """What the sonar simulator senses: the ice keels (x, y, radius) of the keel file, the
+    generated ones (fractal outlines), and the other ships (x, y, course, speed), which
+    move on as the run goes (`listen`)."""
 
     keels: list[tuple[float, float, float]]
     contacts: list[list[float]] = field(default_factory=list)
+    shapes: list[Keel] = field(default_factory=list)
 
 
 def load_contacts(path: Path) -> list[list[float]]:
@@ -68,11 +72,20 @@ def load_contacts(path: Path) -> list[list[float]]:
 
 
 def new_ice(settings: dict[str, str]) -> Sea:
-    """The keels of the run's `keels` setting and the ships of its `contacts` setting (none
-    by default), relative to the system directory."""
+    """The keels of the run's `keels` setting, the keels its `ice_seed` generates along the
+    path from where the ship starts (0, 0) through the `route` setting's waypoints (none
+    without it), and the ships of its `contacts` setting (none by default); files are
+    relative to the system directory."""
     keels = load_keels(SYSTEM_DIR / settings.get("keels", DEFAULT_KEELS))
     contacts = settings.get("contacts")
-    return Sea(keels, load_contacts(SYSTEM_DIR / contacts) if contacts else [])
+    seed = settings.get("ice_seed")
+    shapes: list[Keel] = []
+    if seed is not None:
+        if not seed.lstrip("-").isdigit():
+            raise ValueError(f"ice_seed must be a whole number, not {seed!r}")
+        route = load_route(SYSTEM_DIR / settings.get("route", DEFAULT_ROUTE)).route
+        shapes = generate(int(seed), [(0.0, 0.0), *route])
+    return Sea(keels, load_contacts(SYSTEM_DIR / contacts) if contacts else [], shapes)
 
 
 def listen(sea: Sea, x: float, y: float, heading: float, period: float) -> tuple[float, float]:
@@ -111,9 +124,15 @@ def ping(sea: Sea, x: float, y: float, heading: float) -> tuple[float, ...]:
     """The 14 beams' detection ranges, then the clearance: the distance to the nearest keel's
     edge (the simulator's truth, not a sensor), both in metres."""
     keels = sea.keels
+    near = [k for k in sea.shapes if math.hypot(k.x - x, k.y - y) - k.reach < SONAR_RANGE]
     ranges = []
     for offset in BEAMS:
         bearing = math.radians(heading + offset)
-        ranges.append(min([SONAR_RANGE] + [_intercept(x, y, bearing, k) for k in keels]))
+        nearest = min([SONAR_RANGE] + [_intercept(x, y, bearing, k) for k in keels])
+        for shape in near:
+            nearest = ray_to(shape, x, y, math.sin(bearing), math.cos(bearing), nearest)
+        ranges.append(nearest)
     clearance = min([SONAR_RANGE] + [math.hypot(kx - x, ky - y) - r for kx, ky, r in keels])
+    for shape in near:
+        clearance = min(clearance, edge_distance(shape, x, y))
     return tuple(round(v, 3) for v in ranges) + (round(max(clearance, -SONAR_RANGE), 3),)
