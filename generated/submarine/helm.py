@@ -16,8 +16,18 @@ from .layout import (
     RUDDER_COMMAND_AT,
     WORLD_COURSE_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
-from .rcs.deadline import hook
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    HookError,
+    caused,
+    words,
+)
+from .rcs.deadline import FACTORY_DEADLINE, hook, within
 from .rcs.override import held
 
 # Commands helm accepts (the code written to its command buffer).
@@ -89,6 +99,9 @@ def order(error: float) -> float:
 class HelmController:
     """The helm controller: its local buffers and the QQ1 cycle."""
 
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
+
     __slots__ = (
         "arg_from_x",
         "arg_from_y",
@@ -103,6 +116,7 @@ class HelmController:
         "error_num",
         "held_ice_maneuver_s1_1",
         "held_ice_maneuver_s2_4",
+        "hook_state",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -169,6 +183,10 @@ class HelmController:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.world_set = False  # an every_cycle rule set a world output
+        try:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_cmac, settings or {})
+        except BaseException as error:
+            raise HookError("helm", "new_cmac", "hooks_state", 0) from error
         self.var_ice_seen: int = 0
         self.var_avoid_heading: float = 0.0
         self.var_sent_angle: float = 0.0
@@ -413,6 +431,7 @@ class HelmController:
             self.world_set = True  # it sets world outputs
             self.world_course = self.hook_track_course(
                 "every_cycle/1",
+                self.hook_state,
                 self.var_goal_x,
                 self.var_goal_y,
                 self.var_start_x,
@@ -422,7 +441,10 @@ class HelmController:
             )
             self.var_ice_seen, self.var_avoid_heading = self.hook_assess_ice(
                 "every_cycle/1",
+                self.hook_state,
                 self.world_course,
+                self.world_pos_x,
+                self.world_pos_y,
                 self.world_heading,
                 self.world_sonar_00,
                 self.world_sonar_01,
@@ -444,7 +466,10 @@ class HelmController:
             # sensory processing, every cycle whatever the command
             self.var_ice_seen, self.var_avoid_heading = self.hook_assess_ice(
                 "every_cycle/2",
+                self.hook_state,
                 self.world_course,
+                self.world_pos_x,
+                self.world_pos_y,
                 self.world_heading,
                 self.world_sonar_00,
                 self.world_sonar_01,
@@ -518,6 +543,7 @@ class HelmController:
             self.var_tracking = True
             self.world_course = self.hook_track_course(
                 "ICE_MANEUVER/S0/1",
+                self.hook_state,
                 self.var_goal_x,
                 self.var_goal_y,
                 self.var_start_x,
@@ -603,6 +629,7 @@ class HelmController:
                 self.var_tracking = True
                 self.world_course = self.hook_track_course(
                     "ICE_MANEUVER/S2/2",
+                    self.hook_state,
                     self.var_goal_x,
                     self.var_goal_y,
                     self.var_start_x,

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import ast
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -55,10 +55,10 @@ class Scene:
     """What the run sailed among, in metres (x east, y north)."""
 
     keels: list[tuple[float, float, float]]  # (x, y, radius)
-    outlines: list[list[tuple[float, float]]]  # keels drawn by their outline's points
     route: list[tuple[float, float]]
     alternates: list[tuple[float, float]]
     haven: float | None  # half the side of the moving haven, if the system declares one
+    outlines: list[list[tuple[float, float]]] = field(default_factory=list)  # other keels
 
 
 def scene(system: IRSystem, system_dir: Path, settings: dict[str, str]) -> Scene:
@@ -92,7 +92,7 @@ def scene(system: IRSystem, system_dir: Path, settings: dict[str, str]) -> Scene
         ),
         None,
     )
-    return Scene(keels, outlines, route, alternates, haven)
+    return Scene(keels, route, alternates, haven, outlines)
 
 
 @dataclass

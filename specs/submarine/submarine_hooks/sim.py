@@ -3,9 +3,10 @@ the ships its passive sonar hears.
 
 A keel file has one ice keel a line, `X Y RADIUS` in metres (x east, y north): a keel is a
 circle in the plan view at the ship's depth. The run's `ice_seed` adds keels generated before
-the run along the planned path, random in size and fractal in shape (submarine_hooks/ice.py). The 14 forward-looking sonars are 14 lines from
-the ship at fixed angles to its centre line, out to the sonar's range; the first intercept
-of each with a keel is its detection (second paper, section 4.6.2).
+the run along the planned path, random in size and fractal in shape (submarine_hooks/ice.py).
+The 14 forward-looking sonars are 14 lines from the ship at fixed angles to its centre line,
+out to the sonar's range; the first intercept of each with a keel is its detection
+(second paper, section 4.6.2).
 
 A contact file has one other ship a line, `X Y COURSE SPEED` (metres, degrees from north,
 m/s): where it is when the run starts, and its steady course and speed. The passive sonar
