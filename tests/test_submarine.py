@@ -761,6 +761,10 @@ def test_a_malformed_route_or_keel_line_is_named_with_its_line(hooks, tmp_path):
     keels.write_text("1 2 nan\n", encoding="utf-8")
     with pytest.raises(ValueError, match=r"k\.keels:1:"):
         sim.load_keels(keels)
+    contacts = tmp_path / "c.contacts"
+    contacts.write_text("# a ship\n0 -300 180 3\n0 -300 180\n", encoding="utf-8")
+    with pytest.raises(ValueError, match=r"c\.contacts:3: expected `X Y COURSE SPEED`"):
+        sim.load_contacts(contacts)
 
 
 def test_helm_reports_a_rudder_error_instead_of_ordering_the_rudder_again() -> None:
