@@ -35,6 +35,9 @@ LEARN = 0.5  # the least-mean-squares rate
 WATER_STEP = 60.0  # metres between the open-water samples along a beam
 ICE = 0.5  # an estimate above this is ice
 GRID = 30.0  # metres between the points the map is read at, in tiles that hold ice
+MARK = ICE / TILINGS / 2  # a first-tiling weight above this may be ice: its tile is read
+# each tiling's offset east and north, metres (the grids overlap, shifted from each other)
+OFFSETS = [(k, k * TILE / TILINGS, (3 * k % TILINGS) * TILE / TILINGS) for k in range(TILINGS)]
 
 
 @dataclass
@@ -43,14 +46,13 @@ class Cmac:
 
     weights: dict[tuple[int, int, int], float] = field(default_factory=dict)
     last: tuple[float, ...] = ()  # the ping trained on last (Helm assesses once or twice a cycle)
+    marked: set[tuple[int, int, int]] = field(default_factory=set)  # first-tiling tiles > MARK
+    near: tuple[tuple[float, float, float], list[tuple[float, float]]] | None = None  # read last
 
     def tiles(self, x: float, y: float) -> list[tuple[int, int, int]]:
         """The tile of each tiling that covers (x, y)."""
-        return [
-            (k, math.floor((x + k * TILE / TILINGS) / TILE),
-             math.floor((y + (3 * k % TILINGS) * TILE / TILINGS) / TILE))
-            for k in range(TILINGS)
-        ]  # fmt: skip
+        floor = math.floor
+        return [(k, floor((x + dx) / TILE), floor((y + dy) / TILE)) for k, dx, dy in OFFSETS]
 
     def estimate(self, x: float, y: float) -> float:
         """The map's ice estimate at (x, y): about 1 on ice, about 0 in open water."""
@@ -59,10 +61,17 @@ class Cmac:
     def train(self, x: float, y: float, target: float) -> None:
         """One least-mean-squares step of the tiles over (x, y) towards `target`."""
         tiles = self.tiles(x, y)
-        step = LEARN * (target - sum(self.weights.get(t, 0.0) for t in tiles)) / TILINGS
+        weights = self.weights
+        step = LEARN * (target - sum(weights.get(t, 0.0) for t in tiles)) / TILINGS
         if step != 0.0:
+            self.near = None
             for t in tiles:
-                self.weights[t] = self.weights.get(t, 0.0) + step
+                weights[t] = weights.get(t, 0.0) + step
+            first = tiles[0]
+            if weights[first] > MARK:
+                self.marked.add(first)
+            else:
+                self.marked.discard(first)
 
     def learn(self, x: float, y: float, heading: float, ranges: list[float]) -> None:
         """Train on one ping from (x, y): each beam's open water, then its ice if it met any;
@@ -83,17 +92,21 @@ class Cmac:
 
     def ice_near(self, x: float, y: float, reach: float) -> list[tuple[float, float]]:
         """The map's ice within `reach` metres of (x, y), as (east, north) offsets from it:
-        read on a GRID over the first tiling's tiles that hold weight."""
+        read on a GRID over the first tiling's tiles that hold weight (the same place read
+        again with no training between gives the same points, not read again)."""
+        if self.near is not None and self.near[0] == (x, y, reach):
+            return self.near[1]
         points = []
-        for (k, i, j), weight in self.weights.items():
-            if k != 0 or weight <= ICE / TILINGS / 2:
-                continue
+        for _, i, j in self.marked:
+            if math.hypot((i + 0.5) * TILE - x, (j + 0.5) * TILE - y) > reach + TILE:
+                continue  # no point of this tile is within reach
             steps = round(TILE / GRID)
             for a in range(steps):
                 for b in range(steps):
                     px, py = (i + (a + 0.5) / steps) * TILE, (j + (b + 0.5) / steps) * TILE
                     if math.hypot(px - x, py - y) <= reach and self.estimate(px, py) > ICE:
                         points.append((px - x, py - y))
+        self.near = ((x, y, reach), points)
         return points
 
 
