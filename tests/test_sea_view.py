@@ -97,6 +97,32 @@ def test_the_transit_is_drawn_among_the_keels_it_kept_clear_of(system):
     assert len(d["world"]["haven_x"]) == len(trace)
 
 
+def test_generated_fractal_keels_are_drawn_by_their_outlines_clear_of_the_track(system):
+    """`fractal_ice`: the keels the run's `ice_seed` generates are drawn as the outlines the
+    sonar saw (polygons, not circles), and the track passes them by the measured
+    clearance."""
+    trace = traces.load(GOLDEN / "fractal_ice.jsonl")
+    settings = {"route": "maps/strait.route", "keels": "maps/open_sea.keels", "ice_seed": "4"}
+    found = sea_view.scene(system, SUBMARINE, settings)
+    page = sea_view.render(trace, system, SUBMARINE, settings, "fractal_ice")
+    assert circles(page, "keel") == [] and len(found.outlines) >= 4
+    drawn = re.findall(r'<polygon class="keel" points="([^"]*)"/>', page)
+    assert len(drawn) == len(found.outlines)
+    d = data(page)
+    scale, x0, y1 = d["frame"]["scale"], d["frame"]["x0"], d["frame"]["y1"]
+    for points, outline in zip(drawn, found.outlines, strict=True):
+        pixels = [tuple(map(float, p.split(","))) for p in points.split()]
+        assert len(pixels) == len(outline) == 48
+        for (px, py), (x, y) in zip(pixels, outline, strict=True):
+            assert abs(px - (x - x0) * scale) <= 0.1 and abs(py - (y1 - y) * scale) <= 0.1
+    # the nearest the drawn track comes to a drawn outline's point: no nearer than the
+    # clearance the simulator measured to the outline's edges (less pixel rounding)
+    track = polyline(page, "track")
+    outline_points = [tuple(map(float, p.split(","))) for ps in drawn for p in ps.split()]
+    nearest = min(math.dist(t, o) for t in track[::5] for o in outline_points) / scale
+    assert nearest >= min(trace.world["min_clearance"]) - 2.0
+
+
 def test_cli_writes_the_view_beside_the_trace_and_the_same_bytes_twice(tmp_path, monkeypatch):
     monkeypatch.chdir(REPO)
     copy = tmp_path / "fire_under_ice.jsonl"

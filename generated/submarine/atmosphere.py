@@ -26,7 +26,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI272xd472x?15xd8xd8xd40xd8xd40xd")
+INPUTS = Struct("<QQI44x???1xI272xd504x?15xd8xd8xd40xd8xd40xd")
 INPUTS_AT = 1984
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -50,7 +50,7 @@ ATMOSPHERE_PERF_WORD = ATMOSPHERE_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Q?7xQdQdQd")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2800
+WORLD_OUT_1_AT = 2832
 WORLD_HELD_1 = (
     OVERRIDE["fire"],
     OVERRIDE["smoke"],
@@ -63,7 +63,7 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<QdQd")
 WORLD_VALUES_2 = Struct("<8xd8xd")
 WORLD_SEQS_2 = Struct("<Q8xQ")
-WORLD_OUT_2_AT = 2896
+WORLD_OUT_2_AT = 2928
 WORLD_HELD_2 = (OVERRIDE["co_ppm"], OVERRIDE["co_ppm_fwd"])  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -71,7 +71,7 @@ WORLD_HELD_2 = (OVERRIDE["co_ppm"], OVERRIDE["co_ppm_fwd"])  # their overrides
 WORLD_OUT_3 = Struct("<Qd")
 WORLD_VALUES_3 = Struct("<8xd")
 WORLD_SEQS_3 = Struct("<Q")
-WORLD_OUT_3_AT = 2960
+WORLD_OUT_3_AT = 2992
 WORLD_HELD_3 = (OVERRIDE["lube_oil_psi"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -16,8 +16,18 @@ from .layout import (
     RUDDER_COMMAND_AT,
     WORLD_COURSE_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
-from .rcs.deadline import hook
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    HookError,
+    caused,
+    words,
+)
+from .rcs.deadline import FACTORY_DEADLINE, hook, within
 from .rcs.override import held
 
 # Commands helm accepts (the code written to its command buffer).
@@ -39,7 +49,9 @@ RUDDER_LINK = 5  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIdddd60x???1xI88xQI1364xd72xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct(
+    "<QIdddd60x???1xI88xQI1364xd72xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd40xd"
+)
 INPUTS_AT = 688
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -62,6 +74,7 @@ S0 = 1
 S1 = 2
 S2 = 3
 CENTRING = 4
+CONTACT = 5
 
 # Constants.
 GAIN = 1.5
@@ -70,6 +83,7 @@ COURSE_TOL = 1.5
 DEADBAND = 2.0
 BAFFLE_TURN = 60.0
 BAFFLE_TOL = 5.0
+CLOSE_CONTACT = 3000.0
 
 
 def wrap(a: float) -> float:
@@ -85,6 +99,9 @@ def order(error: float) -> float:
 class HelmController:
     """The helm controller: its local buffers and the QQ1 cycle."""
 
+    # Its hook state lives outside the block: a restart of its process is refused.
+    HOOK_STATE_ON_RESTART = "refuse"
+
     __slots__ = (
         "arg_from_x",
         "arg_from_y",
@@ -99,6 +116,7 @@ class HelmController:
         "error_num",
         "held_ice_maneuver_s1_1",
         "held_ice_maneuver_s2_4",
+        "hook_state",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -132,6 +150,7 @@ class HelmController:
         "var_start_y",
         "var_tracking",
         "words",
+        "world_contact_range",
         "world_course",
         "world_heading",
         "world_pos_x",
@@ -164,6 +183,10 @@ class HelmController:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.world_set = False  # an every_cycle rule set a world output
+        try:
+            self.hook_state = within(FACTORY_DEADLINE, hooks.new_cmac, settings or {})
+        except BaseException as error:
+            raise HookError("helm", "new_cmac", "hooks_state", 0) from error
         self.var_ice_seen: int = 0
         self.var_avoid_heading: float = 0.0
         self.var_sent_angle: float = 0.0
@@ -259,6 +282,7 @@ class HelmController:
             self.world_sonar_11,
             self.world_sonar_12,
             self.world_sonar_13,
+            self.world_contact_range,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         if self.rudder_status_num != self.rudder_command_num:
             self.rudder_status = EXECUTING  # until it echoes the last number sent
@@ -401,6 +425,7 @@ class HelmController:
             self.world_sonar_11,
             self.world_sonar_12,
             self.world_sonar_13,
+            self.world_contact_range,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
     def every_cycle(self) -> None:
@@ -410,6 +435,7 @@ class HelmController:
             self.world_set = True  # it sets world outputs
             self.world_course = self.hook_track_course(
                 "every_cycle/1",
+                self.hook_state,
                 self.var_goal_x,
                 self.var_goal_y,
                 self.var_start_x,
@@ -419,7 +445,10 @@ class HelmController:
             )
             self.var_ice_seen, self.var_avoid_heading = self.hook_assess_ice(
                 "every_cycle/1",
+                self.hook_state,
                 self.world_course,
+                self.world_pos_x,
+                self.world_pos_y,
                 self.world_heading,
                 self.world_sonar_00,
                 self.world_sonar_01,
@@ -441,7 +470,10 @@ class HelmController:
             # sensory processing, every cycle whatever the command
             self.var_ice_seen, self.var_avoid_heading = self.hook_assess_ice(
                 "every_cycle/2",
+                self.hook_state,
                 self.world_course,
+                self.world_pos_x,
+                self.world_pos_y,
                 self.world_heading,
                 self.world_sonar_00,
                 self.world_sonar_01,
@@ -515,6 +547,7 @@ class HelmController:
             self.var_tracking = True
             self.world_course = self.hook_track_course(
                 "ICE_MANEUVER/S0/1",
+                self.hook_state,
                 self.var_goal_x,
                 self.var_goal_y,
                 self.var_start_x,
@@ -600,6 +633,7 @@ class HelmController:
                 self.var_tracking = True
                 self.world_course = self.hook_track_course(
                     "ICE_MANEUVER/S2/2",
+                    self.hook_state,
                     self.var_goal_x,
                     self.var_goal_y,
                     self.var_start_x,
@@ -633,7 +667,10 @@ class HelmController:
     def clear_baffles(self) -> None:
         """CLEAR_BAFFLES: Clear baffles (section 4.1.3): turn BAFFLE_TURN degrees to starboard, so
         the sonar hears the arc astern it cannot hear on a steady course, then centre the rudder;
-        the turn ends early when sensory processing sees ice on the way.
+        the turn ends early when sensory processing sees ice on the way. Then check for sonar
+        contacts, close contacts: DONE (Figure 31: "the areas of concern have been cleared of
+        hostile objects") only once no ship is held within CLOSE_CONTACT; until then the ship
+        holds its heading, rudder centred, and stays deep.
         """
         state = self.state
         # Named values (let), computed once a cycle before the rules.
@@ -680,7 +717,8 @@ class HelmController:
                 self.var_sent_angle = baffle_order
 
         elif state == CENTRING:
-            if self.rudder_status == DONE:
+            if self.rudder_status == DONE and self.world_contact_range > CLOSE_CONTACT:
+                # steady, no close contact; the areas of concern are clear
                 self.rule = 19  # CLEAR_BAFFLES/CENTRING/1
                 self.state = NOP
                 self.status = DONE
@@ -692,3 +730,15 @@ class HelmController:
                 self.cause = caused(RUDDER_LINK, 0, 0)
                 self.state = NOP
                 self.status = ERROR
+
+            elif self.rudder_status == DONE and self.world_contact_range <= CLOSE_CONTACT:
+                # steady, but the sonar holds a close contact (heard now the baffles are clear)
+                self.rule = 21  # CLEAR_BAFFLES/CENTRING/3
+                self.state = CONTACT
+
+        elif state == CONTACT and self.world_contact_range > CLOSE_CONTACT:
+            # the close contact has opened out (or is lost); the areas of concern are clear
+            self.rule = 22  # CLEAR_BAFFLES/CONTACT/1
+            self.state = NOP
+            self.status = DONE
+            self.cause = 0  # DONE has no cause

@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4976 bytes.
+The block is 5064 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -118,87 +118,91 @@ command buffers and world fields:
 | 2688 | 16 | WORLD_SONAR_13 | sonar_13 |
 | 2704 | 16 | WORLD_CLEARANCE | clearance |
 | 2720 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 2736 | 16 | WORLD_WATER_DENSITY | water_density |
-| 2752 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
-| 2768 | 16 | WORLD_BELOW_KEEL | below_keel |
-| 2784 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
-| 2800 | 9 | WORLD_FIRE | fire |
-| 2816 | 16 | WORLD_SMOKE | smoke |
-| 2832 | 16 | WORLD_O2_PCT | o2_pct |
-| 2848 | 16 | WORLD_CO2_PCT | co2_pct |
-| 2864 | 16 | WORLD_VENT_LINEUP | vent_lineup |
-| 2880 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
-| 2896 | 16 | WORLD_CO_PPM | co_ppm |
-| 2912 | 16 | WORLD_CO_PPM_FWD | co_ppm_fwd |
-| 2928 | 9 | WORLD_FORWARD_NORMAL | forward_normal |
-| 2944 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
-| 2960 | 16 | WORLD_LUBE_OIL_PSI | lube_oil_psi |
-| 2976 | 9 | WORLD_LUBE_OIL_LOW | lube_oil_low |
-| 2992 | 9 | OVERRIDES | any |
-| 3008 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 3032 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 3056 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 3080 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 3104 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 3128 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 3192 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 3216 | 24 | OVERRIDE_COURSE | state, course |
-| 3240 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 3264 | 24 | OVERRIDE_PLANES | state, planes |
-| 3288 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
-| 3312 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 3336 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 3360 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 3384 | 24 | OVERRIDE_HEADING | state, heading |
-| 3408 | 24 | OVERRIDE_SPEED | state, speed |
-| 3432 | 24 | OVERRIDE_DEPTH | state, depth |
-| 3456 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
-| 3480 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 3504 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 3528 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 3552 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 3576 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 3600 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 3624 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3648 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3672 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3696 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3720 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3744 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3768 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3792 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3816 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3840 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3864 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3888 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3912 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3936 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 3960 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 3984 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 4008 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 4032 | 17 | OVERRIDE_FIRE | state, fire |
-| 4056 | 24 | OVERRIDE_SMOKE | state, smoke |
-| 4080 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
-| 4104 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
-| 4128 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
-| 4152 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
-| 4176 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 4200 | 24 | OVERRIDE_CO_PPM_FWD | state, co_ppm_fwd |
-| 4224 | 17 | OVERRIDE_FORWARD_NORMAL | state, forward_normal |
-| 4248 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
-| 4272 | 24 | OVERRIDE_LUBE_OIL_PSI | state, lube_oil_psi |
-| 4296 | 17 | OVERRIDE_LUBE_OIL_LOW | state, lube_oil_low |
-| 4320 | 104 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, SHIFTING, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
-| 4424 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
-| 4536 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 4584 | 64 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING |
-| 4648 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 4720 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
-| 4776 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 4816 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 4856 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 4896 | 40 | TIME_SEA | state, since, NOP, S0 |
-| 4936 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 2736 | 16 | WORLD_CONTACT_RANGE | contact_range |
+| 2752 | 16 | WORLD_CONTACT_BEARING | contact_bearing |
+| 2768 | 16 | WORLD_WATER_DENSITY | water_density |
+| 2784 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
+| 2800 | 16 | WORLD_BELOW_KEEL | below_keel |
+| 2816 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
+| 2832 | 9 | WORLD_FIRE | fire |
+| 2848 | 16 | WORLD_SMOKE | smoke |
+| 2864 | 16 | WORLD_O2_PCT | o2_pct |
+| 2880 | 16 | WORLD_CO2_PCT | co2_pct |
+| 2896 | 16 | WORLD_VENT_LINEUP | vent_lineup |
+| 2912 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
+| 2928 | 16 | WORLD_CO_PPM | co_ppm |
+| 2944 | 16 | WORLD_CO_PPM_FWD | co_ppm_fwd |
+| 2960 | 9 | WORLD_FORWARD_NORMAL | forward_normal |
+| 2976 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
+| 2992 | 16 | WORLD_LUBE_OIL_PSI | lube_oil_psi |
+| 3008 | 9 | WORLD_LUBE_OIL_LOW | lube_oil_low |
+| 3024 | 9 | OVERRIDES | any |
+| 3040 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 3064 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 3088 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 3112 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 3136 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 3160 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 3224 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 3248 | 24 | OVERRIDE_COURSE | state, course |
+| 3272 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 3296 | 24 | OVERRIDE_PLANES | state, planes |
+| 3320 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
+| 3344 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 3368 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 3392 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 3416 | 24 | OVERRIDE_HEADING | state, heading |
+| 3440 | 24 | OVERRIDE_SPEED | state, speed |
+| 3464 | 24 | OVERRIDE_DEPTH | state, depth |
+| 3488 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
+| 3512 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 3536 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 3560 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3584 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3608 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3632 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3656 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3680 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3704 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3728 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3752 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3776 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3800 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3824 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3848 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3872 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3896 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3920 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3944 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 3968 | 24 | OVERRIDE_CONTACT_RANGE | state, contact_range |
+| 3992 | 24 | OVERRIDE_CONTACT_BEARING | state, contact_bearing |
+| 4016 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 4040 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 4064 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 4088 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 4112 | 17 | OVERRIDE_FIRE | state, fire |
+| 4136 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 4160 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 4184 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 4208 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 4232 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 4256 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 4280 | 24 | OVERRIDE_CO_PPM_FWD | state, co_ppm_fwd |
+| 4304 | 17 | OVERRIDE_FORWARD_NORMAL | state, forward_normal |
+| 4328 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
+| 4352 | 24 | OVERRIDE_LUBE_OIL_PSI | state, lube_oil_psi |
+| 4376 | 17 | OVERRIDE_LUBE_OIL_LOW | state, lube_oil_low |
+| 4400 | 104 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, SHIFTING, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
+| 4504 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 4616 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 4664 | 72 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING, CONTACT |
+| 4736 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 4808 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 4864 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 4904 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 4944 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 4984 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 5024 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -230,9 +234,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 4976
+SIZE = 5064
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "cdb0b05b8d5aa36ad488dfe4db9b5fb7"
+LAYOUT_HASH = "da49cdabdd0ca63f5b59b41242a8c577"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 248
 
@@ -418,38 +422,42 @@ WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
 WORLD_CLEARANCE_AT = 2704
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
 WORLD_MIN_CLEARANCE_AT = 2720
+WORLD_CONTACT_RANGE = Struct("<Qd")  # seq, contact_range
+WORLD_CONTACT_RANGE_AT = 2736
+WORLD_CONTACT_BEARING = Struct("<Qd")  # seq, contact_bearing
+WORLD_CONTACT_BEARING_AT = 2752
 WORLD_WATER_DENSITY = Struct("<Qd")  # seq, water_density
-WORLD_WATER_DENSITY_AT = 2736
+WORLD_WATER_DENSITY_AT = 2768
 WORLD_BOTTOM_DEPTH = Struct("<Qd")  # seq, bottom_depth
-WORLD_BOTTOM_DEPTH_AT = 2752
+WORLD_BOTTOM_DEPTH_AT = 2784
 WORLD_BELOW_KEEL = Struct("<Qd")  # seq, below_keel
-WORLD_BELOW_KEEL_AT = 2768
+WORLD_BELOW_KEEL_AT = 2800
 WORLD_MIN_BELOW_KEEL = Struct("<Qd")  # seq, min_below_keel
-WORLD_MIN_BELOW_KEEL_AT = 2784
+WORLD_MIN_BELOW_KEEL_AT = 2816
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 2800
+WORLD_FIRE_AT = 2832
 WORLD_SMOKE = Struct("<Qd")  # seq, smoke
-WORLD_SMOKE_AT = 2816
+WORLD_SMOKE_AT = 2848
 WORLD_O2_PCT = Struct("<Qd")  # seq, o2_pct
-WORLD_O2_PCT_AT = 2832
+WORLD_O2_PCT_AT = 2864
 WORLD_CO2_PCT = Struct("<Qd")  # seq, co2_pct
-WORLD_CO2_PCT_AT = 2848
+WORLD_CO2_PCT_AT = 2880
 WORLD_VENT_LINEUP = Struct("<Qq")  # seq, vent_lineup
-WORLD_VENT_LINEUP_AT = 2864
+WORLD_VENT_LINEUP_AT = 2896
 WORLD_DIESEL_RUNNING = Struct("<Q?")  # seq, diesel_running
-WORLD_DIESEL_RUNNING_AT = 2880
+WORLD_DIESEL_RUNNING_AT = 2912
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 2896
+WORLD_CO_PPM_AT = 2928
 WORLD_CO_PPM_FWD = Struct("<Qd")  # seq, co_ppm_fwd
-WORLD_CO_PPM_FWD_AT = 2912
+WORLD_CO_PPM_FWD_AT = 2944
 WORLD_FORWARD_NORMAL = Struct("<Q?")  # seq, forward_normal
-WORLD_FORWARD_NORMAL_AT = 2928
+WORLD_FORWARD_NORMAL_AT = 2960
 WORLD_ENGINE_ROOM_CONTAMINATED = Struct("<Q?")  # seq, engine_room_contaminated
-WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2944
+WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2976
 WORLD_LUBE_OIL_PSI = Struct("<Qd")  # seq, lube_oil_psi
-WORLD_LUBE_OIL_PSI_AT = 2960
+WORLD_LUBE_OIL_PSI_AT = 2992
 WORLD_LUBE_OIL_LOW = Struct("<Q?")  # seq, lube_oil_low
-WORLD_LUBE_OIL_LOW_AT = 2976
+WORLD_LUBE_OIL_LOW_AT = 3008
 
 
 PROCESSES = {
@@ -659,6 +667,10 @@ WORLD = {
     "sonar_13": Record(WORLD_SONAR_13, WORLD_SONAR_13_AT, ("sonar_13",)),
     "clearance": Record(WORLD_CLEARANCE, WORLD_CLEARANCE_AT, ("clearance",)),
     "min_clearance": Record(WORLD_MIN_CLEARANCE, WORLD_MIN_CLEARANCE_AT, ("min_clearance",)),
+    "contact_range": Record(WORLD_CONTACT_RANGE, WORLD_CONTACT_RANGE_AT, ("contact_range",)),
+    "contact_bearing": Record(
+        WORLD_CONTACT_BEARING, WORLD_CONTACT_BEARING_AT, ("contact_bearing",)
+    ),
     "water_density": Record(WORLD_WATER_DENSITY, WORLD_WATER_DENSITY_AT, ("water_density",)),
     "bottom_depth": Record(WORLD_BOTTOM_DEPTH, WORLD_BOTTOM_DEPTH_AT, ("bottom_depth",)),
     "below_keel": Record(WORLD_BELOW_KEEL, WORLD_BELOW_KEEL_AT, ("below_keel",)),
@@ -718,6 +730,8 @@ WORLD_INITIAL: dict[str, object] = {
     "sonar_13": 900.0,
     "clearance": 900.0,
     "min_clearance": 900.0,
+    "contact_range": 8000.0,
+    "contact_bearing": 0.0,
     "water_density": 1025.0,
     "bottom_depth": 250.0,
     "below_keel": 130.0,
@@ -737,64 +751,66 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2992
-OVERRIDDEN_AT = 3000  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 3024
+OVERRIDDEN_AT = 3032  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 3008, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 3032, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 3056, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 3080, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 3104, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 3128, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 3192, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 3216, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 3240, ("state", "ballast")),
-    "planes": Record(Struct("<QQq"), 3264, ("state", "planes")),
-    "mbt_blown": Record(Struct("<QQ?"), 3288, ("state", "mbt_blown")),
-    "vent_flow": Record(Struct("<QQd"), 3312, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 3336, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 3360, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 3384, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 3408, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 3432, ("state", "depth")),
-    "depth_gauge": Record(Struct("<QQd"), 3456, ("state", "depth_gauge")),
-    "bubble": Record(Struct("<QQd"), 3480, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 3504, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 3528, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 3552, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 3576, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 3600, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 3624, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3648, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3672, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3696, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3720, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3744, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3768, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3792, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3816, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3840, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3864, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3888, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3912, ("state", "min_clearance")),
-    "water_density": Record(Struct("<QQd"), 3936, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 3960, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 3984, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 4008, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 4032, ("state", "fire")),
-    "smoke": Record(Struct("<QQd"), 4056, ("state", "smoke")),
-    "o2_pct": Record(Struct("<QQd"), 4080, ("state", "o2_pct")),
-    "co2_pct": Record(Struct("<QQd"), 4104, ("state", "co2_pct")),
-    "vent_lineup": Record(Struct("<QQq"), 4128, ("state", "vent_lineup")),
-    "diesel_running": Record(Struct("<QQ?"), 4152, ("state", "diesel_running")),
-    "co_ppm": Record(Struct("<QQd"), 4176, ("state", "co_ppm")),
-    "co_ppm_fwd": Record(Struct("<QQd"), 4200, ("state", "co_ppm_fwd")),
-    "forward_normal": Record(Struct("<QQ?"), 4224, ("state", "forward_normal")),
-    "engine_room_contaminated": Record(Struct("<QQ?"), 4248, ("state", "engine_room_contaminated")),
-    "lube_oil_psi": Record(Struct("<QQd"), 4272, ("state", "lube_oil_psi")),
-    "lube_oil_low": Record(Struct("<QQ?"), 4296, ("state", "lube_oil_low")),
+    "speed_cmd": Record(Struct("<QQd"), 3040, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 3064, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 3088, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 3112, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 3136, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 3160, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 3224, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 3248, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 3272, ("state", "ballast")),
+    "planes": Record(Struct("<QQq"), 3296, ("state", "planes")),
+    "mbt_blown": Record(Struct("<QQ?"), 3320, ("state", "mbt_blown")),
+    "vent_flow": Record(Struct("<QQd"), 3344, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 3368, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 3392, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 3416, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 3440, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 3464, ("state", "depth")),
+    "depth_gauge": Record(Struct("<QQd"), 3488, ("state", "depth_gauge")),
+    "bubble": Record(Struct("<QQd"), 3512, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 3536, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 3560, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3584, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3608, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3632, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3656, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3680, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3704, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3728, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3752, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3776, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3800, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3824, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3848, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3872, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3896, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3920, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3944, ("state", "min_clearance")),
+    "contact_range": Record(Struct("<QQd"), 3968, ("state", "contact_range")),
+    "contact_bearing": Record(Struct("<QQd"), 3992, ("state", "contact_bearing")),
+    "water_density": Record(Struct("<QQd"), 4016, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 4040, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 4064, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 4088, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 4112, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 4136, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 4160, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 4184, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 4208, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 4232, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 4256, ("state", "co_ppm")),
+    "co_ppm_fwd": Record(Struct("<QQd"), 4280, ("state", "co_ppm_fwd")),
+    "forward_normal": Record(Struct("<QQ?"), 4304, ("state", "forward_normal")),
+    "engine_room_contaminated": Record(Struct("<QQ?"), 4328, ("state", "engine_room_contaminated")),
+    "lube_oil_psi": Record(Struct("<QQd"), 4352, ("state", "lube_oil_psi")),
+    "lube_oil_low": Record(Struct("<QQ?"), 4376, ("state", "lube_oil_low")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -849,6 +865,8 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "sonar_13": ("sonar",),
     "clearance": ("sonar",),
     "min_clearance": ("sonar",),
+    "contact_range": ("sonar",),
+    "contact_bearing": ("sonar",),
     "bottom_depth": ("sea",),
     "below_keel": ("sea",),
     "min_below_keel": ("sea",),
@@ -883,7 +901,7 @@ GROUND_TRUTH = (
 TIME_IN_STATE = {
     "cc": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        4320,
+        4400,
         (
             "state",
             "since",
@@ -901,7 +919,7 @@ TIME_IN_STATE = {
     ),
     "sm": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        4424,
+        4504,
         (
             "state",
             "since",
@@ -918,21 +936,23 @@ TIME_IN_STATE = {
             "HELM_FAILED",
         ),
     ),
-    "ec": Record(Struct("<QqQQQQ"), 4536, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 4616, ("state", "since", "NOP", "S0", "S1")),
     "helm": Record(
-        Struct("<QqQQQQQQ"), 4584, ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING")
+        Struct("<QqQQQQQQQ"),
+        4664,
+        ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING", "CONTACT"),
     ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        4648,
+        4736,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "prop": Record(Struct("<QqQQQQQ"), 4720, ("state", "since", "NOP", "S0", "S1", "ASKED")),
-    "rudder_sim": Record(Struct("<QqQQQ"), 4776, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 4816, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 4856, ("state", "since", "NOP", "S0")),
-    "sea": Record(Struct("<QqQQQ"), 4896, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 4936, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 4808, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 4864, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 4904, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 4944, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 4984, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 5024, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -1015,7 +1035,7 @@ STATE_NAMES = {
         "HELM_FAILED",
     ),
     "ec": ("NOP", "S0", "S1"),
-    "helm": ("NOP", "S0", "S1", "S2", "CENTRING"),
+    "helm": ("NOP", "S0", "S1", "S2", "CENTRING", "CONTACT"),
     "rudder": ("NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     "prop": ("NOP", "S0", "S1", "ASKED"),
     "rudder_sim": ("NOP", "S0"),
@@ -1156,6 +1176,8 @@ RULES = {
         "CLEAR_BAFFLES/S1/3",
         "CLEAR_BAFFLES/CENTRING/1",
         "CLEAR_BAFFLES/CENTRING/2",
+        "CLEAR_BAFFLES/CENTRING/3",
+        "CLEAR_BAFFLES/CONTACT/1",
     ),
     "rudder": (
         "",
@@ -1233,6 +1255,8 @@ SETTINGS: dict[str, str] | None = {
     "route": "The mission's waypoints: maps/<name>.route (default maps/bering.route).",
     "keels": "The ice keels the sonar simulator sees: maps/<name>.keels (default maps/bering.keels).",
     "bottom_seed": "The seed of the fractal sea bottom, generated before the run: a whole number (default 1).",
+    "contacts": "The other ships the passive sonar may hear: maps/<name>.contacts (default none).",
+    "ice_seed": "Ice keels generated before the run along the route, random in size and fractal in shape, from this seed: a whole number (default none).",
 }
 # Whether a controller has a `hooks_state` factory: without one no setting is read.
 READS_SETTINGS = True

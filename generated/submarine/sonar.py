@@ -12,6 +12,8 @@ from .layout import (
     SONAR_PERF_AT,
     SONAR_STATUS_AT,
     WORLD_CLEARANCE_AT,
+    WORLD_CONTACT_BEARING_AT,
+    WORLD_CONTACT_RANGE_AT,
     WORLD_MIN_CLEARANCE_AT,
     WORLD_SONAR_00_AT,
     WORLD_SONAR_01_AT,
@@ -48,7 +50,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI528xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QQI44x???1xI528xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 1744
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -73,14 +75,16 @@ WORLD_SONAR_12_WORD = WORLD_SONAR_12_AT >> 3
 WORLD_SONAR_13_WORD = WORLD_SONAR_13_AT >> 3
 WORLD_CLEARANCE_WORD = WORLD_CLEARANCE_AT >> 3
 WORLD_MIN_CLEARANCE_WORD = WORLD_MIN_CLEARANCE_AT >> 3
+WORLD_CONTACT_RANGE_WORD = WORLD_CONTACT_RANGE_AT >> 3
+WORLD_CONTACT_BEARING_WORD = WORLD_CONTACT_BEARING_AT >> 3
 SONAR_PERF_WORD = SONAR_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_1 = Struct("<QdQdQdQdQdQdQdQdQdQdQdQdQdQdQdQd")
-WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
-WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ")
+WORLD_OUT_1 = Struct("<QdQdQdQdQdQdQdQdQdQdQdQdQdQdQdQdQdQd")
+WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ")
 WORLD_OUT_1_AT = 2480
 WORLD_HELD_1 = (
     OVERRIDE["sonar_00"],
@@ -99,10 +103,15 @@ WORLD_HELD_1 = (
     OVERRIDE["sonar_13"],
     OVERRIDE["clearance"],
     OVERRIDE["min_clearance"],
+    OVERRIDE["contact_range"],
+    OVERRIDE["contact_bearing"],
 )  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
+
+# Constants.
+CYCLE_PERIOD = 1.0  # seconds per cycle of its process
 
 
 class SonarController:
@@ -136,6 +145,8 @@ class SonarController:
         "status_seq",
         "words",
         "world_clearance",
+        "world_contact_bearing",
+        "world_contact_range",
         "world_heading",
         "world_min_clearance",
         "world_pos_x",
@@ -161,6 +172,7 @@ class SonarController:
     # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
     # 5 cycle periods and at least 1 s); what it raises, or a result unlike
     # its `returns:`, is a HookError.
+    hook_listen = hook("sonar", hooks, "listen", 5.0, "ff")
     hook_ping = hook("sonar", hooks, "ping", 5.0, "fffffffffffffff")
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -233,6 +245,8 @@ class SonarController:
                 self.world_sonar_13,
                 self.world_clearance,
                 self.world_min_clearance,
+                self.world_contact_range,
+                self.world_contact_bearing,
             ) = values
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -297,6 +311,8 @@ class SonarController:
                 self.world_sonar_13,
                 self.world_clearance,
                 self.world_min_clearance,
+                self.world_contact_range,
+                self.world_contact_bearing,
             )
             now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
@@ -319,6 +335,8 @@ class SonarController:
                 words[WORLD_SONAR_13_WORD] = s[13] | 1  # odd before the value changes
                 words[WORLD_CLEARANCE_WORD] = s[14] | 1  # odd before the value changes
                 words[WORLD_MIN_CLEARANCE_WORD] = s[15] | 1  # odd before the value changes
+                words[WORLD_CONTACT_RANGE_WORD] = s[16] | 1  # odd before the value changes
+                words[WORLD_CONTACT_BEARING_WORD] = s[17] | 1  # odd before the value changes
                 WORLD_OUT_1.pack_into(
                     buf,
                     WORLD_OUT_1_AT,
@@ -354,6 +372,10 @@ class SonarController:
                     out[14],
                     s[15] | 1,
                     out[15],
+                    s[16] | 1,
+                    out[16],
+                    s[17] | 1,
+                    out[17],
                 )
                 words[WORLD_SONAR_00_WORD] = (s[0] | 1) + 1
                 words[WORLD_SONAR_01_WORD] = (s[1] | 1) + 1
@@ -371,6 +393,8 @@ class SonarController:
                 words[WORLD_SONAR_13_WORD] = (s[13] | 1) + 1
                 words[WORLD_CLEARANCE_WORD] = (s[14] | 1) + 1
                 words[WORLD_MIN_CLEARANCE_WORD] = (s[15] | 1) + 1
+                words[WORLD_CONTACT_RANGE_WORD] = (s[16] | 1) + 1
+                words[WORLD_CONTACT_BEARING_WORD] = (s[17] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         end = perf_counter_ns()
         last = end - cycle_start
@@ -436,6 +460,8 @@ class SonarController:
             self.world_sonar_13,
             self.world_clearance,
             self.world_min_clearance,
+            self.world_contact_range,
+            self.world_contact_bearing,
         ) = values
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
@@ -461,6 +487,14 @@ class SonarController:
             self.world_clearance,
         ) = self.hook_ping(
             "every_cycle/1", self.hook_state, self.world_pos_x, self.world_pos_y, self.world_heading
+        )
+        self.world_contact_range, self.world_contact_bearing = self.hook_listen(
+            "every_cycle/1",
+            self.hook_state,
+            self.world_pos_x,
+            self.world_pos_y,
+            self.world_heading,
+            CYCLE_PERIOD,
         )
         self.world_min_clearance = min(self.world_min_clearance, self.world_clearance)
 

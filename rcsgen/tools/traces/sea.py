@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import ast
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -58,6 +58,7 @@ class Scene:
     route: list[tuple[float, float]]
     alternates: list[tuple[float, float]]
     haven: float | None  # half the side of the moving haven, if the system declares one
+    outlines: list[list[tuple[float, float]]] = field(default_factory=list)  # other keels
 
 
 def scene(system: IRSystem, system_dir: Path, settings: dict[str, str]) -> Scene:
@@ -65,8 +66,12 @@ def scene(system: IRSystem, system_dir: Path, settings: dict[str, str]) -> Scene
     sonar = _factory_of(system, "ping")
     assert sonar.hooks_module is not None and sonar.hooks_state is not None
     hooks: ModuleType = import_hooks(system_dir, sonar.hooks_module)
-    keels = [
-        (float(x), float(y), float(r)) for x, y, r in getattr(hooks, sonar.hooks_state)(settings)
+    state = getattr(hooks, sonar.hooks_state)(settings)
+    # the keels are the state, or its `keels` (a state that also keeps other ships)
+    keels = [(float(x), float(y), float(r)) for x, y, r in getattr(state, "keels", state)]
+    # and keels of any shape, by their outline (`points`)
+    outlines = [
+        [(float(x), float(y)) for x, y in shape.points] for shape in getattr(state, "shapes", [])
     ]
     route: list[tuple[float, float]] = []
     alternates: list[tuple[float, float]] = []
@@ -87,7 +92,7 @@ def scene(system: IRSystem, system_dir: Path, settings: dict[str, str]) -> Scene
         ),
         None,
     )
-    return Scene(keels, route, alternates, haven)
+    return Scene(keels, route, alternates, haven, outlines)
 
 
 @dataclass
@@ -105,8 +110,11 @@ class Frame:
 
 
 def frame(trace: Trace, found: Scene) -> Frame:
+    drawn = [p for outline in found.outlines for p in outline]
     xs = [*trace.world["pos_x"], *(k[0] for k in found.keels), *(p[0] for p in found.route)]
     ys = [*trace.world["pos_y"], *(k[1] for k in found.keels), *(p[1] for p in found.route)]
+    xs += [p[0] for p in drawn]
+    ys += [p[1] for p in drawn]
     reach = max([k[2] for k in found.keels] + [0.0])
     x0, x1 = min(xs) - MARGIN - reach, max(xs) + MARGIN + reach
     y0, y1 = min(ys) - MARGIN - reach, max(ys) + MARGIN + reach
@@ -124,6 +132,9 @@ def svg(trace: Trace, found: Scene, f: Frame) -> str:
     for x, y, r in found.keels:
         cx, cy = f.px(x, y)
         out.append(f'<circle class="keel" cx="{cx}" cy="{cy}" r="{round(r * f.scale, 1)}"/>')
+    for outline in found.outlines:
+        points = " ".join(f"{px},{py}" for px, py in (f.px(*p) for p in outline))
+        out.append(f'<polygon class="keel" points="{points}"/>')
     out.append("</g>")
     points = " ".join(f"{px},{py}" for px, py in (f.px(*p) for p in found.route))
     out.append(f'<polyline id="route" points="{points}"/>')
