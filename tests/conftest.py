@@ -74,6 +74,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_reference_current",
             "test_replay_scenario",
             "test_report",
+            "test_report_exact",
             "test_reserved_names",
             "test_ring",
             "test_scenario_checks",
