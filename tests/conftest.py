@@ -76,6 +76,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_report",
             "test_report_exact",
             "test_reserved_names",
+            "test_run_errors",
             "test_ring",
             "test_scenario_checks",
             "test_scenario_faults_checked",

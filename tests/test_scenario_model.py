@@ -8,7 +8,7 @@ import pytest
 
 from rcsgen.compiler.diagnostics import Span
 from rcsgen.tools.harness import Status
-from rcsgen.tools.scenario.model import Expected
+from rcsgen.tools.scenario.model import Expected, OperatorScript, ScriptedAnswer
 from rcsgen.tools.scenario.run import final_value
 
 AT = Span("s.yaml", 3, 5)
@@ -54,3 +54,30 @@ def test_a_figure_names_a_world_field_a_reason_or_a_result() -> None:
     assert final_value("speed", world, statuses) is None
     assert final_value("cc.result.at_goal", world, statuses) is None
     assert final_value("sm.result.at_goal", world, statuses) is None
+
+
+def test_the_scripted_person_answers_by_the_first_answer_that_matches_else_the_default() -> None:
+    by_task = ScriptedAnswer(2, "DONE", task="SPOT_REPORT")
+    by_client = ScriptedAnswer(1, "ERROR", "BLOCKED", client="pa")
+    refuses = ScriptedAnswer(0, "never", operator="ldr", task="HALT_ALL")
+    default = ScriptedAnswer(5, "DONE")
+    script = OperatorScript((refuses, by_task, by_client), default)
+
+    def request(operator: str, task: str, by: str) -> dict[str, str]:
+        return {"operator": operator, "task": task, "by": by}
+
+    assert script.how(request("ldr", "SPOT_REPORT", "pa")) is by_task  # the first that matches
+    assert script.how(request("ldr", "MOVE", "pa")) is by_client
+    assert script.how(request("ldr", "MOVE", "pb")) is default
+    assert script.how(request("ldr", "HALT_ALL", "pa")) is None  # `never`: the console answers
+    assert script.how(request("sgt", "HALT_ALL", "pa")) is by_client  # another operator's
+    assert OperatorScript((by_task,)).how(request("ldr", "MOVE", "pa")) is None  # no default
+    assert OperatorScript((), ScriptedAnswer(0, "never")).how(request("a", "b", "c")) is None
+    everything = ScriptedAnswer(0, "DONE", operator="ldr", task="MOVE", client="pa")
+    assert everything.matches(request("ldr", "MOVE", "pa"))
+    for other in (
+        request("x", "MOVE", "pa"),
+        request("ldr", "X", "pa"),
+        request("ldr", "MOVE", "x"),
+    ):
+        assert not everything.matches(other)
