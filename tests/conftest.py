@@ -79,6 +79,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_run_errors",
             "test_ring",
             "test_scenario_checks",
+            "test_scenario_events_checked",
             "test_scenario_faults_checked",
             "test_scenario_model",
             "test_scenario_session",
