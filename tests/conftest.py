@@ -58,6 +58,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_hooks_read",
             "test_instances",
             "test_io_checks",
+            "test_io_connect_errors",
             "test_loader",
             "test_mine_replay",
             "test_monitor_panels",
