@@ -1,14 +1,23 @@
 """What a scenario's `expect:` means and how a failure says it, on values, in process: the
 bounds are inclusive, a bool is no number, and a figure names a world field, a module's
-reason or one of its results (`<module>.result.<name>`)."""
+reason or one of its results (`<module>.result.<name>`); which answer the scripted person
+gives; a checked scenario's parts are values no run can change."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import pytest
 
 from rcsgen.compiler.diagnostics import Span
 from rcsgen.tools.harness import Status
-from rcsgen.tools.scenario.model import Expected, OperatorScript, ScriptedAnswer
+from rcsgen.tools.scenario.model import (
+    DeviceFault,
+    Expected,
+    OperatorScript,
+    ScriptedAnswer,
+    SoftPlc,
+)
 from rcsgen.tools.scenario.run import final_value
 
 AT = Span("s.yaml", 3, 5)
@@ -81,3 +90,21 @@ def test_the_scripted_person_answers_by_the_first_answer_that_matches_else_the_d
         request("ldr", "MOVE", "x"),
     ):
         assert not everything.matches(other)
+
+
+def test_a_checked_scenarios_parts_are_values_no_run_can_change() -> None:
+    """What the checks approved is what runs: an expectation, a scripted answer, the script,
+    a device fault and a served device refuse a change, and are values (equal when equal,
+    usable as keys)."""
+    parts = [
+        Expected("depth", AT, low=1.0),
+        ScriptedAnswer(2, "DONE", task="SPOT_REPORT"),
+        OperatorScript((ScriptedAnswer(2, "DONE"),)),
+        DeviceFault("plc", "unplug", AT),
+        SoftPlc("plc", None, AT),
+    ]
+    for part in parts:
+        name = dataclasses.fields(part)[0].name
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(part, name, getattr(part, name))
+        assert part == dataclasses.replace(part) and len({part, dataclasses.replace(part)}) == 1
