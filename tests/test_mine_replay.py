@@ -67,6 +67,9 @@ def test_the_replay_cuts_the_cells_under_the_drum_and_finds_the_first_disagreeme
     )
     assert result.seam == {(0, 0): 1.0, (0, 1): 1.0, (1, 0): 1.0, (1, 2): 0.5}  # as it began
     assert result.cuts == [(1, 0, 0.3333), (3, 1, 0.3333)]  # (cycle index, r * columns + c)
+    moved = trace(true_y=[0.0, 0.0, 0.0, 1.0], true_x=[0.0, 0.0, 0.0, 2.0])
+    second_row = mine.replay(moved, HOOKS, "make", {})  # type: ignore[arg-type]
+    assert second_row.cuts == [(1, 0, 0.3333), (3, 5, 0.3333)]  # row 1, column 2 of 3
     assert result.mismatch == (
         "cycle 13: the replayed depth of cut is 0.1 m, the trace's 0.2 m; was the trace "
         "recorded with another map (--scenario)?"
