@@ -129,3 +129,25 @@ def test_simulated_controllers_and_the_modules_their_stand_ins_replace(
     )
     assert hint.startswith("modules that run: sec, sb, co, cc, bm, cd, sj, cr, vg, tc, oi, ")
     assert " gh" not in hint and " cv" not in hint  # cr_sim stands in for cr, gh, cv and ct
+
+
+def test_a_string_field_set_or_forced_with_what_it_cannot_hold(tmp_path: Path) -> None:
+    [submarine] = compile_paths([SPECS / "submarine"]).systems
+    too_long = "events:\n  - cycle: 3\n    set: {announcement: " + "x" * 49 + "}\n"
+    assert said(tmp_path, submarine, too_long) == [
+        (
+            "E408",
+            "world field `announcement` is a string of at most 48 bytes: "
+            "'xxxxxxxxxxxxxxxxxxxx'... is 49 bytes: more than the 48 it holds",
+            "",
+        )
+    ]
+    assert said(tmp_path, submarine, EVENT + "force: {announcement: 7}\n") == [
+        (
+            "E408",
+            "forced world field `announcement` is a string of at most 48 bytes: 7 is not a string",
+            "",
+        )
+    ]
+    fits = "events:\n  - cycle: 3\n    set: {announcement: " + "x" * 48 + "}\n"
+    assert said(tmp_path, submarine, fits) == []
