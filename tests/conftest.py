@@ -53,6 +53,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_generated_current",
             "test_graph",
             "test_graph_render",
+            "test_harness_world",
             "test_hook_annotations",
             "test_hooks_isolation",
             "test_hooks_read",
