@@ -98,6 +98,60 @@ def test_an_override_under_a_supervisor_in_init_runs_alike_in_one_process_and_in
     assert alone == lockstep
 
 
+HELD = """\
+scenario: held
+title: Force, set, hold, answer and release in one process
+max_cycles: 5
+trace:
+  world: [level, flag]
+events:
+  - cycle: 2
+    force: {level: 7.5}
+    mode: {sub: {dont_run: true}}
+    command: sub.MOVE
+    overrides: true
+    with: {x: 1.0}
+  - cycle: 3
+    set: {flag: true}
+    reply: {sub: ERROR}
+  - cycle: 4
+    unforce: [level]
+"""
+
+
+def test_events_force_set_hold_answer_and_release_in_one_process(tiny: Path) -> None:
+    """Each event acts before its cycle, as `ctl` would: the forced field is held and shown
+    under `overrides` until released; the held module takes its command but does not run
+    it (run, it would report DONE at once); the scripted ERROR echoes the command's number."""
+    (tiny / "scenarios" / "held.yaml").write_text(HELD)
+    scenario = load_scenario(tiny / "scenarios" / "held.yaml")
+    with open_harness(scenario, _built(tiny)) as h:
+        lines = [json.loads(line) for line in run(scenario, h).trace]
+    sub = [
+        tuple(line["modules"]["sub"][k] for k in ("command", "command_num", "status", "status_num"))
+        for line in lines
+    ]
+    assert sub == [
+        ("INIT", 1, "DONE", 1),
+        ("MOVE", 2, "EXECUTING", 2),
+        ("MOVE", 2, "ERROR", 2),
+        ("MOVE", 2, "ERROR", 2),
+        ("MOVE", 2, "ERROR", 2),
+    ]
+    assert [line["world"] for line in lines] == [
+        {"flag": False, "level": 0.0},
+        {"flag": False, "level": 7.5},
+        *[{"flag": True, "level": 7.5}] * 3,  # released, the last value stays: nothing writes it
+    ]
+    assert [line.get("overrides") for line in lines] == [
+        None,
+        {"level": "FORCED"},
+        {"level": "FORCED"},
+        None,
+        None,
+    ]
+
+
 def _built(system: Path) -> Path:
     assert rcsgen("build", str(system), "-o", "gen").exit_code == 0
     return Path("gen") / "tiny"
