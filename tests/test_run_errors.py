@@ -142,3 +142,14 @@ def test_verbose_shows_the_hooks_own_traceback() -> None:
     assert "test_verbose_shows_the_hooks_own_traceback" in shown
     assert details(hook_error("ms", "judge", "MEASURE_PART/PROBING/1", result=3, kinds="f")) == ""
     assert details(KeyError("k")).endswith("KeyError: 'k'\n")
+
+
+def test_a_planner_that_raised_is_located_at_its_load() -> None:
+    [submarine] = compile_paths([SPECS / "submarine"]).systems
+    error = hook_error("cc", "plan_route", "RUN_MISSION/TRANSIT/3", ValueError("no route"))
+    assert said(error, submarine, 12)[:3] == (
+        "specs/submarine/cc.yaml:94:23",  # the second of its two `load:`s, the rule's own
+        "E420",
+        "hook `plan_route` of `cc` raised ValueError: no route (rule RUN_MISSION/TRANSIT/3, "
+        "cycle 12)",
+    )
