@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from conftest import REPO, rcsgen
 
+from rcsgen.tools.harness import Harness
 from rcsgen.tools.scenario import load_scenario, open_harness, run
 
 TINY = REPO / "tests" / "cases" / "valid" / "tiny"
@@ -150,6 +151,26 @@ def test_events_force_set_hold_answer_and_release_in_one_process(tiny: Path) -> 
         None,
         None,
     ]
+
+
+def test_simulate_runs_the_stand_ins_in_place_of_their_controllers_in_their_process() -> None:
+    """The miner's cr simulated: its stand-in cr_sim runs in pc1 under cr's name (its states
+    cr_sim's), and gh, which cr_sim stands in for too, never runs; pc2, which has no
+    stand-in, is left as it is, and a process without one refuses the request."""
+    package, hooks = REPO / "generated" / "miner", MINER
+    with Harness.load(package, hooks, send_init=True, simulate=("cr",)) as whole:
+        whole.cycle(3)
+        assert {n: list(p.simulated) for n, p in whole.processes.items()} == {
+            "pc1": ["cr"],
+            "pc2": [],
+        }
+        assert whole._states_of == {"cr": "cr_sim"}
+        assert whole.status("gh").status == "NOT_READY"
+    with Harness.load(package, hooks, "pc1", send_init=True) as real:
+        real.cycle(3)
+        assert real._states_of == {} and real.status("gh").status == "DONE"
+    with pytest.raises(ValueError, match=r"^no stand-in for \['cr'\]$"):
+        Harness.load(package, hooks, "pc2", simulate=("cr",))
 
 
 def _built(system: Path) -> Path:
