@@ -151,3 +151,18 @@ def test_a_string_field_set_or_forced_with_what_it_cannot_hold(tmp_path: Path) -
     ]
     fits = "events:\n  - cycle: 3\n    set: {announcement: " + "x" * 48 + "}\n"
     assert said(tmp_path, submarine, fits) == []
+
+
+def test_a_wrong_value_is_quoted_whole_up_to_30_characters(
+    tmp_path: Path, systems: dict[str, IRSystem]
+) -> None:
+    said_of = {}
+    for value in ("a" * 30, "b" * 31):
+        [(_, message, _)] = said(
+            tmp_path, systems["platoon"], EVENT + f"force: {{enemy_present: {value}}}\n"
+        )
+        said_of[len(value)] = message.removeprefix("forced world field `enemy_present` is a bool: ")
+    assert said_of == {
+        30: f"give true or false, not `{'a' * 30}`",
+        31: f"give true or false, not `{'b' * 27}...`",
+    }
