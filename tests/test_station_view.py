@@ -150,3 +150,17 @@ def test_everything_the_time_line_draws_lies_inside_its_picture(system):
         assert 0 < bottom <= height and 0 <= right <= width, tag
         drawn += 1
     assert drawn > 30  # the five lanes, their labels, the bars and the axis
+
+
+def test_the_requests_line_names_every_open_request_with_its_client(system):
+    """What the operator is asked, cycle by cycle: each open request as `TASK (for client)`,
+    two at once side by side (fixturing and tooling both ask in the first part)."""
+    trace = traces.load(GOLDEN / "guardian_lot.jsonl")
+    data = station_view.payload(trace, system)
+    runs = data["requests"]  # (first cycle index, text) pairs, the text in the string table
+    said = [
+        (first, data["strings"][text]) for first, text in zip(runs[::2], runs[1::2], strict=True)
+    ]
+    assert (4, "MOUNT_FIXTURE_PLATE (for fx)") in said
+    assert (48, "PLACE_PART (for fx), LOAD_PROBE (for tl)") in said
+    assert data["strings"][runs[1]] == ""  # nothing asked before
