@@ -159,3 +159,13 @@ def test_the_replay_page_holds_its_data_where_no_text_can_close_its_script() -> 
     assert "<title>run &lt;1&gt; · miner</title>" in page
     assert '{"n":2,"said":"<\\/script><b>"}' in page
     assert "{{" not in page
+
+
+@pytest.mark.parametrize("view", ["mine", "sea", "station"])
+def test_a_views_own_comment_stays_out_of_its_page(view: str) -> None:
+    """Each view's asset opens with a comment for its maintainers; the page holds its style,
+    body and script, never a piece of that comment (only the shell's own comment)."""
+    page = player.page(view, "t", {}, {})
+    shell = player._asset(player.SHELL)
+    assert page.count("-->") == shell.count("-->")
+    assert "part of the replay page" not in page
