@@ -136,3 +136,21 @@ def test_each_point_a_device_refuses_is_one_error_at_its_line_and_every_point_is
         "tail_in_position",
         "close",
     ]
+
+
+def test_a_device_refused_for_its_address_does_not_stop_the_next(
+    hil: IRSystem, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    port = closed_port()
+    monkeypatch.setenv("RCSGEN_IO_PLC", "plc.local")  # no port
+    monkeypatch.setenv("RCSGEN_IO_CONVEYOR", f"opc.tcp://127.0.0.1:{port}/miner")
+    [plc, conveyor] = said(hil)
+    assert plc == (
+        f"{SYSTEM_YAML}:249:3",
+        "RCSGEN_IO_PLC='plc.local': not an address of I/O device plc (HOST:PORT)",
+        "",
+    )
+    assert conveyor[0] == f"{SYSTEM_YAML}:275:3"
+    assert conveyor[1].startswith(  # the dev extra has asyncua
+        f"device `conveyor` does not answer at opc.tcp://127.0.0.1:{port}/miner: "
+    )
