@@ -743,3 +743,36 @@ def test_a_row_is_coloured_done_green_executing_yellow_error_red_dead_or_skipped
     assert app.cells("exe", "", module_row(rule=None))["rule"].plain == "-"
     failed = app.cells("arm", "", module_row(status="ERROR", reason="BLOCKED", cause="jam"))
     assert failed["status"].plain == "ERROR(BLOCKED <- jam)"
+
+
+def test_the_periodicity_panel_draws_each_process_and_a_missing_one_as_unknown() -> None:
+    """A row per process of the layout: from its control record in the snapshot (its
+    slowest module from the modules' own cycle times), '?' in grey when the snapshot has
+    none for it (a process not started, or not readable)."""
+    from rcsgen.tools.monitor_periodicity import PeriodicityPanel
+
+    panel = PeriodicityPanel.__new__(PeriodicityPanel)  # its rows alone: no screen needed
+    panel.names = ["cell", "other"]
+    drawn: dict[str, dict[str, Text]] = {}
+    panel.draw = lambda name, cells: drawn.__setitem__(name, cells)  # type: ignore[method-assign]
+    modules = {"arm": module_row(process="cell", max_cycle_us=95)}
+    panel.show(
+        {
+            "processes": {"cell": {"state": "running", "last_cycle_us": 40, "max_cycle_us": 95}},
+            "modules": modules,
+        }
+    )
+    assert {k: c.plain for k, c in drawn["cell"].items()} == {
+        "process": "cell",
+        "period": "not paced",
+        "wakeups": "-",
+        "error": "-",
+        "lateness": "-",
+        "warnings": "-",
+        "cycle": "40/95",
+        "slowest": "arm (95)",
+    }
+    assert {c.plain for k, c in drawn["other"].items() if k != "process"} == {"?"}
+    assert {str(c.style) for c in drawn["other"].values()} == {"grey50"}
+    panel.show({})
+    assert drawn["cell"]["period"].plain == "?"
