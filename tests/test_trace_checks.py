@@ -416,3 +416,11 @@ def test_a_gzip_trace_is_read_member_by_member_and_what_is_not_gzip_after_it_is_
         match=r"t\.jsonl\.gz is not a trace: a damaged gzip file \(.*incorrect header check\)$",
     ):
         traces.load(trace)
+
+
+def test_a_line_holding_two_records_is_one_located_error() -> None:
+    """Lines are decoded a batch at a time; a line of two JSON values (two records pasted
+    onto one line) would make the batch one record longer: named at its line, not a crash."""
+    two = line(2, {"a": 1, "b": True}, co=co())
+    with pytest.raises(traces.TraceError, match=r"^t:2: not a trace line: Extra data"):
+        traces.parse(GOOD + "\n" + two + ", " + two + "\n", "t")
