@@ -49,6 +49,14 @@ def test_each_unmet_expectation_says_what_was_wanted_and_what_came() -> None:
     assert verdicts(met_then_unmet, failed, {}) == [  # a met one does not end the list
         "expected `sup` to finish DONE; it finished ERROR (state S3) in cycle 42"
     ]
+    world_met = [
+        Expected("status", AT, "ERROR"),
+        Expected("x", AT, low=1.0),
+        Expected("cycles", AT, low=50.0),
+    ]
+    assert verdicts(world_met, failed, {"x": 2.0}) == [
+        "expected the run to take at least 50 cycles; it took 42"
+    ]
     world = {"on": False, "mode": "LEFT", "text": "two words", "x": 2.5}
     wanted = [
         Expected("on", AT, True),
