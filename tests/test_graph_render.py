@@ -249,3 +249,14 @@ def test_an_order_picture_wraps_each_cycle_in_the_fieldbus_io() -> None:
     then = [(e.source, e.target) for e in picture.edges if e.kind == "then"]
     assert ("o_note", "x1_io_in") in then and ("x1_io_in", "x1_sec") in then
     assert ("x1_io_out", "x2_io_in") in then
+
+
+def test_dot_draws_the_start_as_a_dark_dot_and_the_note_as_a_note() -> None:
+    """Figure 4's start dot and the order picture's note, as Graphviz is told to draw them."""
+    lines = graph.to_dot(EVERY_KIND).splitlines()
+    start = next(line for line in lines if line.startswith('  "o" ['))
+    assert (
+        start == '  "o" [shape=circle, style="filled", fillcolor="#333333", width=0.2, label=""];'
+    )
+    note = next(line for line in lines if line.startswith('  "n" ['))
+    assert note == '  "n" [shape=note, style="filled", label="note", fillcolor="#fffbe6"];'
