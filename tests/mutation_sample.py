@@ -5,10 +5,10 @@ A full mutmut run (`make mutate`) over the compiler and the tools is hours on tw
 This script measures the same thing on a deterministic sample, and says how sure the figure is:
 
 1. **Which tests run which line.** The fast tiers (test_files(): the unit tier, the quick
-   fuzz files and the system files in SYSTEM) run once in process with a line tracer on every file
-   of rcsgen/compiler and rcsgen/tools (this file is also the pytest plugin that records
-   it: `-p mutation_sample`). A line run at import (a table, a default) belongs to every
-   test that runs its module.
+   fuzz files, the system files in SYSTEM and the single system tests in SYSTEM_TESTS) run
+   once in process with a line tracer on every file of rcsgen/compiler and rcsgen/tools
+   (this file is also the pytest plugin that records it: `-p mutation_sample`). A line run
+   at import (a table, a default) belongs to every test that runs its module.
    For each line it keeps the tests that ran it, and each test's own time.
 2. **The mutants.** Every module's one-line mutants, from its syntax tree (OPERATORS: an
    arithmetic or comparison operator swapped, `and`/`or` swapped, a `not` or a unary minus
@@ -90,6 +90,22 @@ SYSTEM = (
     "test_scenarios",
     "test_monitor_screen",
     "test_softplc",
+)
+# Single system tests that alone reach a tool's lines in process (the scenario runner's scripted
+# person, a stand-in simulated, plans, results and console answers in a trace line; the
+# harness under them): golden runs in one process, each compared byte for byte with its trace.
+GOLDEN = "test_golden.py::test_scenario_matches_its_golden_trace"
+SYSTEM_TESTS = tuple(
+    f"{GOLDEN}[{name}-one-process]"
+    for name in (
+        "cr_simulated",
+        "inspection/console_refusal",
+        "inspection/lot_replanned",
+        "inspection/operator_refuses",
+        "inspection/slow_operator",
+        "platoon/spot_report",
+        "submarine/ood_refuses",
+    )
 )
 TEST_ENV = {"EXPR_EXAMPLES": "200", "DIFF_EXAMPLES": "5"}
 SEED = 25
@@ -294,7 +310,8 @@ def test_files() -> list[str]:
     from conftest import TIERS
 
     names = [n for tier in ("unit", "fuzz") for n in TIERS[tier][1] if n not in SLOW]
-    return [f"tests/{n}.py" for n in sorted(names + list(SYSTEM))]
+    files = [f"tests/{n}.py" for n in sorted(names + list(SYSTEM))]
+    return files + [f"tests/{t}" for t in SYSTEM_TESTS]
 
 
 def sources_digest() -> str:

@@ -226,3 +226,37 @@ def test_order_pictures_by_process_or_module(miner) -> None:
         "controller (`"
     )
     assert "did you mean" not in str(caught.value)
+
+
+def test_an_order_picture_wraps_each_cycle_in_the_fieldbus_io() -> None:
+    """A process with fieldbus devices reads them first and writes them last every cycle
+    (rcs/io_cycle.py); the last cycle, cut short when the status is read, writes nothing."""
+    [hil] = compile_paths([REPO / "specs" / "miner_hil"]).systems
+    picture = graph.picture(hil, "order")
+    assert picture.nodes[0].label == (
+        "pc1 runs, every cycle:",
+        "[I/O in: plc, conveyor] sec sb co cc bm cd sj cr",
+        "gh cv ct vg tc wm [I/O out: plc, conveyor]",
+    )
+    steps = {n.id: (n.label, n.level, n.cluster) for n in picture.nodes}
+    assert steps["x1_io_in"] == (("I/O in", "plc, conveyor: inputs to the world"), 0, "o_cycle1")
+    assert steps["x4_io_out"] == (
+        ("I/O out", "plc, conveyor: outputs to the device"),
+        0,
+        "o_cycle4",
+    )
+    assert [n.id for n in picture.nodes if n.cluster == "o_cycle5"] == ["x5_io_in", "x5_sec"]
+    then = [(e.source, e.target) for e in picture.edges if e.kind == "then"]
+    assert ("o_note", "x1_io_in") in then and ("x1_io_in", "x1_sec") in then
+    assert ("x1_io_out", "x2_io_in") in then
+
+
+def test_dot_draws_the_start_as_a_dark_dot_and_the_note_as_a_note() -> None:
+    """Figure 4's start dot and the order picture's note, as Graphviz is told to draw them."""
+    lines = graph.to_dot(EVERY_KIND).splitlines()
+    start = next(line for line in lines if line.startswith('  "o" ['))
+    assert (
+        start == '  "o" [shape=circle, style="filled", fillcolor="#333333", width=0.2, label=""];'
+    )
+    note = next(line for line in lines if line.startswith('  "n" ['))
+    assert note == '  "n" [shape=note, style="filled", label="note", fillcolor="#fffbe6"];'

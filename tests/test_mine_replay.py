@@ -67,6 +67,9 @@ def test_the_replay_cuts_the_cells_under_the_drum_and_finds_the_first_disagreeme
     )
     assert result.seam == {(0, 0): 1.0, (0, 1): 1.0, (1, 0): 1.0, (1, 2): 0.5}  # as it began
     assert result.cuts == [(1, 0, 0.3333), (3, 1, 0.3333)]  # (cycle index, r * columns + c)
+    moved = trace(true_y=[0.0, 0.0, 0.0, 1.0], true_x=[0.0, 0.0, 0.0, 2.0])
+    second_row = mine.replay(moved, HOOKS, "make", {})  # type: ignore[arg-type]
+    assert second_row.cuts == [(1, 0, 0.3333), (3, 5, 0.3333)]  # row 1, column 2 of 3
     assert result.mismatch == (
         "cycle 13: the replayed depth of cut is 0.1 m, the trace's 0.2 m; was the trace "
         "recorded with another map (--scenario)?"
@@ -156,3 +159,13 @@ def test_the_replay_page_holds_its_data_where_no_text_can_close_its_script() -> 
     assert "<title>run &lt;1&gt; · miner</title>" in page
     assert '{"n":2,"said":"<\\/script><b>"}' in page
     assert "{{" not in page
+
+
+@pytest.mark.parametrize("view", ["mine", "sea", "station"])
+def test_a_views_own_comment_stays_out_of_its_page(view: str) -> None:
+    """Each view's asset opens with a comment for its maintainers; the page holds its style,
+    body and script, never a piece of that comment (only the shell's own comment)."""
+    page = player.page(view, "t", {}, {})
+    shell = player._asset(player.SHELL)
+    assert page.count("-->") == shell.count("-->")
+    assert "part of the replay page" not in page

@@ -716,3 +716,63 @@ def test_the_rows_panels_draw_their_headers_and_only_what_changed(cell: ModuleTy
     )
     assert got["then"] == [("sup", "cycles")]
     assert got["sup"] == ["sup", "10", "S0 100%"]
+
+
+def test_a_row_is_coloured_done_green_executing_yellow_error_red_dead_or_skipped_grey() -> None:
+    """Every cell of a module's row takes its status's colour; a dead process's modules and
+    a module its stand-in replaces are grey whatever their status; the last rule fired stays
+    shown through the cycles in which none fires."""
+    app = monitor.Monitor.__new__(monitor.Monitor)  # the row's cells alone: no screen needed
+    app.last_rule = {}
+
+    def styles(**over: Any) -> set[str]:
+        return {str(cell.style) for cell in app.cells("arm", "", module_row(**over)).values()}
+
+    assert styles(status="DONE") == {"green"}
+    assert styles(status="EXECUTING") == {"yellow"}
+    assert styles(status="ERROR") == {"bold red"}
+    assert styles(status="NOP") == {""}
+    assert styles(status="DONE", alive=False) == {"grey50"}
+    assert styles(status="EXECUTING", skipped_by="cr") == {"grey50"}
+    dead = app.cells("arm", "", module_row(alive=False))
+    assert dead["beat"].plain == "dead"
+    skipped = app.cells("arm", "└─ ", module_row(skipped_by="cr"))
+    assert (skipped["module"].plain, skipped["mode"].plain) == ("└─ arm", "skipped: cr SIMU")
+    assert app.cells("arm", "", module_row(rule="S1/3"))["rule"].plain == "S1/3"
+    assert app.cells("arm", "", module_row(rule=None))["rule"].plain == "S1/3"
+    assert app.cells("exe", "", module_row(rule=None))["rule"].plain == "-"
+    failed = app.cells("arm", "", module_row(status="ERROR", reason="BLOCKED", cause="jam"))
+    assert failed["status"].plain == "ERROR(BLOCKED <- jam)"
+
+
+def test_the_periodicity_panel_draws_each_process_and_a_missing_one_as_unknown() -> None:
+    """A row per process of the layout: from its control record in the snapshot (its
+    slowest module from the modules' own cycle times), '?' in grey when the snapshot has
+    none for it (a process not started, or not readable)."""
+    from rcsgen.tools.monitor_periodicity import PeriodicityPanel
+
+    panel = PeriodicityPanel.__new__(PeriodicityPanel)  # its rows alone: no screen needed
+    panel.names = ["cell", "other"]
+    drawn: dict[str, dict[str, Text]] = {}
+    panel.draw = lambda name, cells: drawn.__setitem__(name, cells)  # type: ignore[method-assign]
+    modules = {"arm": module_row(process="cell", max_cycle_us=95)}
+    panel.show(
+        {
+            "processes": {"cell": {"state": "running", "last_cycle_us": 40, "max_cycle_us": 95}},
+            "modules": modules,
+        }
+    )
+    assert {k: c.plain for k, c in drawn["cell"].items()} == {
+        "process": "cell",
+        "period": "not paced",
+        "wakeups": "-",
+        "error": "-",
+        "lateness": "-",
+        "warnings": "-",
+        "cycle": "40/95",
+        "slowest": "arm (95)",
+    }
+    assert {c.plain for k, c in drawn["other"].items() if k != "process"} == {"?"}
+    assert {str(c.style) for c in drawn["other"].values()} == {"grey50"}
+    panel.show({})
+    assert drawn["cell"]["period"].plain == "?"

@@ -1,14 +1,23 @@
 """What a scenario's `expect:` means and how a failure says it, on values, in process: the
 bounds are inclusive, a bool is no number, and a figure names a world field, a module's
-reason or one of its results (`<module>.result.<name>`)."""
+reason or one of its results (`<module>.result.<name>`); which answer the scripted person
+gives; a checked scenario's parts are values no run can change."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import pytest
 
 from rcsgen.compiler.diagnostics import Span
 from rcsgen.tools.harness import Status
-from rcsgen.tools.scenario.model import Expected
+from rcsgen.tools.scenario.model import (
+    DeviceFault,
+    Expected,
+    OperatorScript,
+    ScriptedAnswer,
+    SoftPlc,
+)
 from rcsgen.tools.scenario.run import final_value
 
 AT = Span("s.yaml", 3, 5)
@@ -54,3 +63,48 @@ def test_a_figure_names_a_world_field_a_reason_or_a_result() -> None:
     assert final_value("speed", world, statuses) is None
     assert final_value("cc.result.at_goal", world, statuses) is None
     assert final_value("sm.result.at_goal", world, statuses) is None
+
+
+def test_the_scripted_person_answers_by_the_first_answer_that_matches_else_the_default() -> None:
+    by_task = ScriptedAnswer(2, "DONE", task="SPOT_REPORT")
+    by_client = ScriptedAnswer(1, "ERROR", "BLOCKED", client="pa")
+    refuses = ScriptedAnswer(0, "never", operator="ldr", task="HALT_ALL")
+    default = ScriptedAnswer(5, "DONE")
+    script = OperatorScript((refuses, by_task, by_client), default)
+
+    def request(operator: str, task: str, by: str) -> dict[str, str]:
+        return {"operator": operator, "task": task, "by": by}
+
+    assert script.how(request("ldr", "SPOT_REPORT", "pa")) is by_task  # the first that matches
+    assert script.how(request("ldr", "MOVE", "pa")) is by_client
+    assert script.how(request("ldr", "MOVE", "pb")) is default
+    assert script.how(request("ldr", "HALT_ALL", "pa")) is None  # `never`: the console answers
+    assert script.how(request("sgt", "HALT_ALL", "pa")) is by_client  # another operator's
+    assert OperatorScript((by_task,)).how(request("ldr", "MOVE", "pa")) is None  # no default
+    assert OperatorScript((), ScriptedAnswer(0, "never")).how(request("a", "b", "c")) is None
+    everything = ScriptedAnswer(0, "DONE", operator="ldr", task="MOVE", client="pa")
+    assert everything.matches(request("ldr", "MOVE", "pa"))
+    for other in (
+        request("x", "MOVE", "pa"),
+        request("ldr", "X", "pa"),
+        request("ldr", "MOVE", "x"),
+    ):
+        assert not everything.matches(other)
+
+
+def test_a_checked_scenarios_parts_are_values_no_run_can_change() -> None:
+    """What the checks approved is what runs: an expectation, a scripted answer, the script,
+    a device fault and a served device refuse a change, and are values (equal when equal,
+    usable as keys)."""
+    parts = [
+        Expected("depth", AT, low=1.0),
+        ScriptedAnswer(2, "DONE", task="SPOT_REPORT"),
+        OperatorScript((ScriptedAnswer(2, "DONE"),)),
+        DeviceFault("plc", "unplug", AT),
+        SoftPlc("plc", None, AT),
+    ]
+    for part in parts:
+        name = dataclasses.fields(part)[0].name
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(part, name, getattr(part, name))
+        assert part == dataclasses.replace(part) and len({part, dataclasses.replace(part)}) == 1

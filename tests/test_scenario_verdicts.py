@@ -10,9 +10,11 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
-from rcsgen.compiler.diagnostics import Span
+import pytest
+
+from rcsgen.compiler.diagnostics import Span, SpecError
 from rcsgen.tools.scenario.model import Expected, Scenario
-from rcsgen.tools.scenario.run import RunResult
+from rcsgen.tools.scenario.run import Mismatch, RunResult, first_difference, read_trace
 from rcsgen.tools.scenario.runs import golden_differences, stale_package, unmet_expectations
 from rcsgen.tools.traces import full_lines
 
@@ -43,6 +45,18 @@ def test_each_unmet_expectation_says_what_was_wanted_and_what_came() -> None:
         "expected the run to take at least 50 cycles; it took 42"
     ]
     assert verdicts([Expected("cycles", AT, low=10.0, high=42.0)], failed, {}) == []
+    met_then_unmet = [Expected("cycles", AT, low=10.0), Expected("status", AT, "DONE")]
+    assert verdicts(met_then_unmet, failed, {}) == [  # a met one does not end the list
+        "expected `sup` to finish DONE; it finished ERROR (state S3) in cycle 42"
+    ]
+    world_met = [
+        Expected("status", AT, "ERROR"),
+        Expected("x", AT, low=1.0),
+        Expected("cycles", AT, low=50.0),
+    ]
+    assert verdicts(world_met, failed, {"x": 2.0}) == [
+        "expected the run to take at least 50 cycles; it took 42"
+    ]
     world = {"on": False, "mode": "LEFT", "text": "two words", "x": 2.5}
     wanted = [
         Expected("on", AT, True),
@@ -109,3 +123,26 @@ def test_a_run_against_its_golden_trace_same_or_the_first_cycle_that_differs() -
     assert found[0].message.startswith("the run differs from the golden trace: ")
     assert found[0].hint.startswith("review the difference; to accept it: rcsgen run <scenario>")
     assert found[0].hint.endswith("plan_ahead.jsonl") and " --record " in found[0].hint
+
+
+def test_a_run_longer_or_shorter_than_its_golden_and_a_golden_that_is_no_trace(
+    tmp_path: Path,
+) -> None:
+    golden = Path(__file__).resolve().parent / "golden" / "cell" / "plan_ahead.jsonl"
+    lines = full_lines(golden)
+    short = first_difference(lines, lines[:-1])
+    assert (
+        str(short)
+        == f"trace: `length` expected '{len(lines)} cycles', got '{len(lines) - 1} cycles'"
+    )
+    assert first_difference(lines[:2], lines) == Mismatch(
+        None, "length", "2 cycles", f"{len(lines)} cycles"
+    )
+    assert first_difference(lines, list(lines)) is None
+    damaged = tmp_path / "g.jsonl.gz"
+    damaged.write_bytes(b"\x1f\x8b\x08\x00" + b"\xff" * 20)
+    with pytest.raises(SpecError) as caught:
+        read_trace(damaged)
+    [said] = caught.value.diagnostics.items
+    assert (said.code, said.span.line, said.hint) == ("E419", 1, "record it again")
+    assert said.message.startswith("not a trace: a damaged gzip file (")

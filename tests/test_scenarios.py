@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from conftest import REPO, rcsgen
 
+from rcsgen.tools.harness import Harness
 from rcsgen.tools.scenario import load_scenario, open_harness, run
 
 TINY = REPO / "tests" / "cases" / "valid" / "tiny"
@@ -96,6 +97,80 @@ def test_an_override_under_a_supervisor_in_init_runs_alike_in_one_process_and_in
     cycle_2 = json.loads(alone[1])["modules"]
     assert cycle_2["top"]["command"] == "INIT" and cycle_2["sub"]["command_num"] == 2
     assert alone == lockstep
+
+
+HELD = """\
+scenario: held
+title: Force, set, hold, answer and release in one process
+max_cycles: 5
+trace:
+  world: [level, flag]
+events:
+  - cycle: 2
+    force: {level: 7.5}
+    mode: {sub: {dont_run: true}}
+    command: sub.MOVE
+    overrides: true
+    with: {x: 1.0}
+  - cycle: 3
+    set: {flag: true}
+    reply: {sub: ERROR}
+  - cycle: 4
+    unforce: [level]
+"""
+
+
+def test_events_force_set_hold_answer_and_release_in_one_process(tiny: Path) -> None:
+    """Each event acts before its cycle, as `ctl` would: the forced field is held and shown
+    under `overrides` until released; the held module takes its command but does not run
+    it (run, it would report DONE at once); the scripted ERROR echoes the command's number."""
+    (tiny / "scenarios" / "held.yaml").write_text(HELD)
+    scenario = load_scenario(tiny / "scenarios" / "held.yaml")
+    with open_harness(scenario, _built(tiny)) as h:
+        lines = [json.loads(line) for line in run(scenario, h).trace]
+    sub = [
+        tuple(line["modules"]["sub"][k] for k in ("command", "command_num", "status", "status_num"))
+        for line in lines
+    ]
+    assert sub == [
+        ("INIT", 1, "DONE", 1),
+        ("MOVE", 2, "EXECUTING", 2),
+        ("MOVE", 2, "ERROR", 2),
+        ("MOVE", 2, "ERROR", 2),
+        ("MOVE", 2, "ERROR", 2),
+    ]
+    assert [line["world"] for line in lines] == [
+        {"flag": False, "level": 0.0},
+        {"flag": False, "level": 7.5},
+        *[{"flag": True, "level": 7.5}] * 3,  # released, the last value stays: nothing writes it
+    ]
+    assert [line.get("overrides") for line in lines] == [
+        None,
+        {"level": "FORCED"},
+        {"level": "FORCED"},
+        None,
+        None,
+    ]
+
+
+def test_simulate_runs_the_stand_ins_in_place_of_their_controllers_in_their_process() -> None:
+    """The miner's cr simulated: its stand-in cr_sim runs in pc1 under cr's name (its states
+    cr_sim's), and gh, which cr_sim stands in for too, never runs; pc2, which has no
+    stand-in, is left as it is, and a process without one refuses the request."""
+    package, hooks = REPO / "generated" / "miner", MINER
+    with Harness.load(package, hooks, send_init=True, simulate=("cr",)) as whole:
+        whole.cycle(3)
+        assert {n: list(p.simulated) for n, p in whole.processes.items()} == {
+            "pc1": ["cr"],
+            "pc2": [],
+        }
+        assert whole._states_of == {"cr": "cr_sim"}
+        assert whole.status("gh").status == "NOT_READY"
+    with Harness.load(package, hooks, "pc1", send_init=True) as real:
+        real.cycle(3)
+        assert real._states_of == {} and real.status("gh").status == "DONE"
+    with pytest.raises(ValueError, match=r"^no stand-in for \['cr'\]$"):
+        Harness.load(package, hooks, "pc2", simulate=("cr",))
 
 
 def _built(system: Path) -> Path:

@@ -129,3 +129,38 @@ def test_the_view_in_a_browser_shows_the_part_measured_at_a_cycle_and_plays(tmp_
     )
     assert played.console == [], played.console
     assert int(played.body()["data-cycle"]) > 5
+
+
+def test_everything_the_time_line_draws_lies_inside_its_picture(system):
+    """No lane, bar, label or axis figure is cut off at the picture's edge."""
+    page = station_view.render(traces.load(GOLDEN / "guardian_lot.jsonl"), system)
+    svg = page[page.index('<svg id="timeline"') :]
+    svg = svg[: svg.index("</svg>")]
+    width, height = map(
+        int, re.match(r'<svg id="timeline" width="(\d+)" height="(\d+)"', svg).groups()
+    )
+    assert f'viewBox="0 0 {width} {height}"' in svg
+    drawn = 0
+    for tag in re.findall(r"<(?:rect|line|text)\b[^>]*>", svg):
+        at = {
+            k: float(v) for k, v in re.findall(r'\b(x|y|x1|y1|x2|y2|width|height)="([-\d.]+)"', tag)
+        }
+        bottom = max(at.get("y", 0) + at.get("height", 0), at.get("y1", 0), at.get("y2", 0))
+        right = max(at.get("x", 0) + at.get("width", 0), at.get("x1", 0), at.get("x2", 0))
+        assert 0 < bottom <= height and 0 <= right <= width, tag
+        drawn += 1
+    assert drawn > 30  # the five lanes, their labels, the bars and the axis
+
+
+def test_the_requests_line_names_every_open_request_with_its_client(system):
+    """What the operator is asked, cycle by cycle: each open request as `TASK (for client)`,
+    two at once side by side (fixturing and tooling both ask in the first part)."""
+    trace = traces.load(GOLDEN / "guardian_lot.jsonl")
+    data = station_view.payload(trace, system)
+    runs = data["requests"]  # (first cycle index, text) pairs, the text in the string table
+    said = [
+        (first, data["strings"][text]) for first, text in zip(runs[::2], runs[1::2], strict=True)
+    ]
+    assert (4, "MOUNT_FIXTURE_PLATE (for fx)") in said
+    assert (48, "PLACE_PART (for fx), LOAD_PROBE (for tl)") in said
+    assert data["strings"][runs[1]] == ""  # nothing asked before

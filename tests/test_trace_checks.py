@@ -6,6 +6,7 @@ trace line can disagree with the first line is one located error (the viewers tr
 from __future__ import annotations
 
 import json
+import zlib
 from pathlib import Path
 
 import pytest
@@ -398,3 +399,28 @@ def test_a_gzip_bomb_is_refused_without_inflating_it() -> None:
     finally:
         tracemalloc.stop()
     assert peak < 1_000_000, f"{peak:,} bytes taken to refuse it"
+
+
+def test_a_gzip_trace_is_read_member_by_member_and_what_is_not_gzip_after_it_is_damaged(
+    tmp_path: Path,
+) -> None:
+    """A run appends a gzip member at a time; after the last one, anything that is not
+    gzip (here a zlib stream, which a reader guessing the format would take) is damage."""
+    second = line(2, {"a": 2, "b": False}, co=co()) + "\n"
+    trace = tmp_path / "t.jsonl.gz"
+    trace.write_bytes(traces.compressed(GOOD + "\n") + traces.compressed(second))
+    assert traces.load(trace).cycles == [1, 2]
+    trace.write_bytes(traces.compressed(GOOD + "\n") + zlib.compress(second.encode()))
+    with pytest.raises(
+        traces.TraceError,
+        match=r"t\.jsonl\.gz is not a trace: a damaged gzip file \(.*incorrect header check\)$",
+    ):
+        traces.load(trace)
+
+
+def test_a_line_holding_two_records_is_one_located_error() -> None:
+    """Lines are decoded a batch at a time; a line of two JSON values (two records pasted
+    onto one line) would make the batch one record longer: named at its line, not a crash."""
+    two = line(2, {"a": 1, "b": True}, co=co())
+    with pytest.raises(traces.TraceError, match=r"^t:2: not a trace line: Extra data"):
+        traces.parse(GOOD + "\n" + two + ", " + two + "\n", "t")

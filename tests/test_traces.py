@@ -194,6 +194,8 @@ def test_changes_world_fields(pop_out):
     assert "true_x" not in discrete and "loose_coal" not in discrete
     assert "boom_angle" in changes.world_fields(pop_out, "all")
     assert changes.world_fields(pop_out, "none") == []
+    with pytest.raises(ValueError, match=r"^world fields: `al` is not one of discrete, all, none$"):
+        changes.world_fields(pop_out, "al")  # not a silent "discrete"
 
 
 # ---------------------------------------------------------------- coverage

@@ -298,7 +298,8 @@ class _Checker:
                     "E424",
                     f"`{self.system.name}` has no setting `{key}`",
                     known_names_hint("settings", names, str(key))
-                    or f"its settings: {', '.join(names) or 'none'} (system.yaml `settings:`)",
+                    if names
+                    else "it declares none (system.yaml `settings:`)",
                 )
             elif declared is None and not factories:
                 self.error(
@@ -751,7 +752,8 @@ class _Checker:
                     f"`{name}` is not a result of "
                     f"{' or '.join(t.name for t in tasks) or 'any task'}",
                     known_names_hint("results", sorted(declared), name)
-                    or "a task records results under `results:` in its operator module",
+                    if declared
+                    else "a task records results under `results:` in its operator module",
                 )
                 return ()
         for task in tasks if every else []:
@@ -847,7 +849,8 @@ class _Checker:
                 "E288",
                 f"`{reason}` is not a reason of {' or '.join(t.name for t in tasks) or 'any task'}",
                 known_names_hint("reasons", declared, reason)
-                or "declare it under the task's `reasons:`",
+                if declared
+                else "declare it under the task's `reasons:`",
             )
 
     def answer(self, raw: LocDict, event: Event, span: Span) -> None:

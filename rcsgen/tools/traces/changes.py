@@ -59,6 +59,9 @@ def module_line(trace: Trace, module: str, i: int) -> list[str]:
 
 
 def world_fields(trace: Trace, world: str) -> list[str]:
+    """The world fields shown: the bool and int ones, every one, or none (WORLD_CHOICES)."""
+    if world not in WORLD_CHOICES:
+        raise ValueError(f"world fields: `{world}` is not one of {', '.join(WORLD_CHOICES)}")
     if world == "none":
         return []
     if world == "all":

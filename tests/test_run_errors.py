@@ -1,0 +1,155 @@
+"""What `rcsgen run` says when a run fails (rcsgen/tools/scenario/runs.py `run_error`), word for
+word and where, in the unit tier: a hook that raised (E420), returned what its `returns:` does
+not name or a planner's wrong steps (E421), overran its deadline (E423), the run itself failing
+(E422) and a soft PLC that did not start (E428). Each error is made as the generated code
+raises it, against the inspection workstation's IR: the span is the `call:` in the spec the
+person opens, or the rule, or the spec file, as much as is known."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from rcsgen.compiler.diagnostics import Span
+from rcsgen.compiler.frontend import compile_paths
+from rcsgen.compiler.ir import IRSystem
+from rcsgen.runtime.contract import HookError, HookOverrun
+from rcsgen.tools.scenario.devices import DeviceStartError
+from rcsgen.tools.scenario.model import SoftPlc
+from rcsgen.tools.scenario.runs import details, run_error
+
+SPECS = Path(__file__).resolve().parent.parent / "specs"
+RAISED = "the hook's own traceback: run again with -v"
+RETURNS = "make the function return what `returns:` names, in that order and of those types"
+
+
+@pytest.fixture(scope="module")
+def inspection() -> IRSystem:
+    front = compile_paths([SPECS / "inspection"])
+    assert not front.diagnostics.errors
+    return front.systems[0]
+
+
+def said(error: BaseException, system: IRSystem | None, cycle: int, **how) -> tuple[str, ...]:
+    d = run_error(error, system, cycle, **how)
+    return (str(d.span), d.code, d.message, d.hint)
+
+
+def hook_error(module: str, hook: str, rule: str, cause: BaseException | None = None, **kw):
+    error = HookError(module, hook, rule, 6, **kw)
+    error.__cause__ = cause
+    return error
+
+
+def test_a_hook_that_raised_is_located_at_its_call(inspection: IRSystem) -> None:
+    error = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", ValueError("bad"))
+    assert said(error, inspection, 7) == (
+        "specs/inspection/ms.yaml:143:22",
+        "E420",
+        "hook `judge` of `ms` raised ValueError: bad (rule MEASURE_PART/PROBING/1, cycle 7)",
+        RAISED,
+    )
+    every = hook_error("cmm_sim", "probe", "every_cycle/2", RuntimeError("x"))
+    assert said(every, inspection, 1)[:3] == (
+        "specs/inspection/cmm_sim.yaml:46:15",
+        "E420",
+        "hook `probe` of `cmm_sim` raised RuntimeError: x (rule every_cycle/2, cycle 1)",
+    )
+    factory = hook_error("ms", "make", "hooks_state", RuntimeError("x"))
+    assert said(factory, inspection, 0)[:3] == (
+        "specs/inspection/ms.yaml:10:14",  # the `hooks_state:` line
+        "E420",
+        "hook `make` of `ms` raised RuntimeError: x (made by `hooks_state`, start-up)",
+    )
+
+
+def test_a_hook_not_found_at_its_call_falls_back_to_its_rule_then_its_spec(
+    inspection: IRSystem,
+) -> None:
+    other = hook_error("ms", "judge", "MEASURE_PART/S0/1", ValueError("bad"))
+    assert said(other, inspection, 7)[0] == "specs/inspection/ms.yaml:128:11"  # the rule
+    unknown_rule = hook_error("ms", "judge", "MEASURE_PART/S9/1", ValueError("bad"))
+    assert said(unknown_rule, inspection, 7)[0] == "specs/inspection/ms.yaml:1:1"
+    nobody = hook_error("nobody", "judge", "X/S0/1", ValueError("bad"))
+    assert said(nobody, inspection, 7, fallback=Span("s.yaml", 3, 1))[0] == "s.yaml:3:1"
+    assert said(nobody, None, 7)[0] == "<run>:1:1"
+
+
+def test_a_hook_that_overran_its_deadline(inspection: IRSystem) -> None:
+    error = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", HookOverrun(0.01, 0.05, True))
+    assert said(error, inspection, 7) == (
+        "specs/inspection/ms.yaml:143:22",
+        "E423",
+        "hook `judge` of `ms` did not return within its deadline of 0.01 s: interrupted after "
+        "0.05 s (rule MEASURE_PART/PROBING/1, cycle 7)",
+        "make the hook return sooner, or declare a longer `deadline:` for it "
+        "(docs/spec.md section 6)",
+    )
+
+
+def test_a_hook_that_returned_the_wrong_thing_and_a_planners_wrong_steps(
+    inspection: IRSystem,
+) -> None:
+    wrong = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", result=3, kinds="fi")
+    assert said(wrong, inspection, 7) == (
+        "specs/inspection/ms.yaml:143:22",
+        "E421",
+        "hook `judge` of `ms` returned 3; its `returns:` needs a tuple of 2 values "
+        "(finite float, int) (rule MEASURE_PART/PROBING/1, cycle 7)",
+        RETURNS,
+    )
+    no_replans = hook_error("jp", "schedule", "PLAN_JOB/S0/1", why="was not called: none left")
+    assert said(no_replans, inspection, 3) == (
+        "specs/inspection/jp.yaml:44:22",
+        "E421",
+        "hook `schedule` of `jp` was not called: none left (rule PLAN_JOB/S0/1, cycle 3)",
+        "replan only while `<plan>.replans_left > 0` (W309), and fail otherwise",
+    )
+    steps = hook_error("jp", "schedule", "PLAN_JOB/S0/1", why="returned a step of 3 fields")
+    assert said(steps, inspection, 3)[2:] == (
+        "hook `schedule` of `jp` returned a step of 3 fields (rule PLAN_JOB/S0/1, cycle 3)",
+        "a planner returns a list of steps, each a tuple of the plan's step fields",
+    )
+
+
+def test_the_run_failing_and_a_plc_that_did_not_start() -> None:
+    assert said(ValueError("boom"), None, 0) == (
+        "<run>:1:1",
+        "E422",
+        "the run failed in start-up: ValueError: boom",
+        "run again with -v for the Python traceback",
+    )
+    assert said(KeyError(), None, 3)[2] == "the run failed in cycle 3: KeyError"
+    plc = SoftPlc("pumps", None, Span("s.yaml", 9, 5))
+    assert said(DeviceStartError(plc, "no module named pymodbus"), None, 0) == (
+        "s.yaml:9:5",
+        "E428",
+        "the soft PLC of device `pumps` did not start: no module named pymodbus",
+        "install what the soft PLC needs (`pip install 'rcsgen[modbus]'`, `[opcua]`); its own "
+        "error is the line quoted",
+    )
+
+
+def test_verbose_shows_the_hooks_own_traceback() -> None:
+    try:
+        raise ValueError("deep inside the hook")
+    except ValueError as cause:
+        error = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", cause)
+    shown = details(error)
+    assert shown.startswith("Traceback (most recent call last):\n")
+    assert shown.endswith("ValueError: deep inside the hook\n")
+    assert "test_verbose_shows_the_hooks_own_traceback" in shown
+    assert details(hook_error("ms", "judge", "MEASURE_PART/PROBING/1", result=3, kinds="f")) == ""
+    assert details(KeyError("k")).endswith("KeyError: 'k'\n")
+
+
+def test_a_planner_that_raised_is_located_at_its_load() -> None:
+    [submarine] = compile_paths([SPECS / "submarine"]).systems
+    error = hook_error("cc", "plan_route", "RUN_MISSION/TRANSIT/3", ValueError("no route"))
+    assert said(error, submarine, 12)[:3] == (
+        "specs/submarine/cc.yaml:94:23",  # the second of its two `load:`s, the rule's own
+        "E420",
+        "hook `plan_route` of `cc` raised ValueError: no route (rule RUN_MISSION/TRANSIT/3, "
+        "cycle 12)",
+    )
