@@ -137,3 +137,60 @@ def test_every_name_of_a_generated_module_is_refused_as_a_constant(
         for constant, what in NAMED.get(name, {}).items():
             assert refused[(name, constant)] == what, constant
     assert len(found) == sum(map(len, given.values()))
+
+
+def class_names(module: Path) -> set[str]:
+    """The lower-case attributes and methods of a generated module's controller class."""
+    names: set[str] = set()
+    for node in ast.walk(ast.parse(module.read_text())):
+        if isinstance(node, ast.ClassDef):
+            names |= {b.name for b in node.body if isinstance(b, ast.FunctionDef)}
+        elif isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name):
+            names |= {node.attr} if node.value.id == "self" else set()
+    return {n for n in names if re.fullmatch(r"[a-z][a-z0-9_]*", n)}
+
+
+@pytest.mark.parametrize(
+    ("system", "controllers"),
+    [("cell", ("exe", "sup", "pln")), ("submarine", ("cc", "sm", "rudder_sim"))],
+    ids=["cell", "submarine"],
+)
+def test_every_attribute_of_a_generated_class_is_refused_as_a_predicate(
+    tmp_path: Path, system: str, controllers: tuple[str, ...]
+) -> None:
+    """A predicate becomes a method of the class: named like an attribute (`words`, `cause`,
+    `result_made` once made a class whose import failed: '... in __slots__ conflicts with
+    class variable'), it is refused at the predicate."""
+    specs = tmp_path / system
+    shutil.copytree(ROOT / "specs" / system, specs)
+    given: dict[str, list[str]] = {}
+    lines: dict[tuple[str, str], int] = {}
+    for name in controllers:
+        spec = specs / f"{name}.yaml"
+        text = spec.read_text()
+        bare = re.sub(r"#.*", "", text)  # its predicates, hooks, ..., not its comments' words
+        own = set(re.findall(r"\b[a-z][a-z0-9_]*\b", bare))
+        made = class_names(ROOT / "generated" / system / f"{name}.py") - own
+        # a plan's names: E291 at the plan, once for all of them (the corpus has its case)
+        given[name] = sorted(n for n in made if not n.startswith("plan_"))
+        assert "\npredicates:" not in text
+        block = "predicates:\n" + "".join(f"  {n}: 1 > 0\n" for n in given[name])
+        spec.write_text(text.replace("\ncommands:\n", "\n" + block + "\ncommands:\n", 1))
+        for number, line in enumerate(spec.read_text().splitlines(), start=1):
+            if m := re.fullmatch(r"  (\w+): 1 > 0", line):
+                lines[(name, m.group(1))] = number
+    found = compile_paths([specs], analyse=False).diagnostics.items
+    refused = set()
+    for d in found:
+        assert d.code in ("E228", "E291"), (d.code, d.message)
+        where = Path(d.span.file).stem
+        named = {n for n in re.findall(r"`(\w+)`", d.message) if (where, n) in lines}
+        assert len(named) == 1, d.message
+        at = lines[(where, *named)]  # at the predicate, or (a later claim's) naming its place
+        assert d.span.line == at or f".yaml:{at}:3)" in d.message, (d.span, d.message)
+        refused.add((where, *named))
+    for name, names in given.items():
+        assert {"words", "result_made"} <= set(names) or name != "sup"
+        assert "cause" in names or name != "sm"
+        missing = [n for n in names if (name, n) not in refused]
+        assert missing == [], f"{system}/{name}: no error for the predicates {missing}"

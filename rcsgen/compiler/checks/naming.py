@@ -77,7 +77,7 @@ RUNTIME_NAMES = frozenset(
     | {"OVERRIDE", "OVERRIDDEN_AT"}
 )
 # Prefixes of the attributes generated from spec names (world fields, params, locals).
-ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_")
+ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_", "result_")
 
 
 def attribute_of(field: str, buffer_fields: tuple[tuple[str, str], ...]) -> str:
@@ -114,6 +114,8 @@ CLASS_NAMES = frozenset(
         "cycle_start",
         "hook_state",
         "ticks",  # cycles in the current state (`after:`)
+        "words",  # its sequence words (rcs.contract.words over its buffer)
+        "cause",  # the chain of causes its status reports with an ERROR
         *BUFFER_ATTRIBUTES,
     }
 )
