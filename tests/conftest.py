@@ -48,6 +48,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_corpus",
             "test_files",
             "test_expression_messages",
+            "test_expression_forms",
             "test_fragment_shapes",
             "test_frozen_values",
             "test_generated_current",
