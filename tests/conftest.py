@@ -60,6 +60,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_instances",
             "test_io_checks",
             "test_loader",
+            "test_lowered",
             "test_module_names",
             "test_mine_replay",
             "test_monitor_panels",
