@@ -35,6 +35,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
         (
             "test_acknowledge",
             "test_analysis",
+            "test_analysis_calls",
             "test_analysis_exact",
             "test_analysis_plans",
             "test_api",
