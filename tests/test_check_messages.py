@@ -9,7 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from click.testing import CliRunner
 
+from rcsgen.cli import main
 from rcsgen.compiler.frontend import compile_paths
 
 SYSTEM = """\
@@ -187,3 +189,21 @@ def test_a_function_named_like_a_name_of_the_generated_code_is_refused(
         )
         for name in taken
     ]
+
+
+def test_validate_shows_the_line_and_a_caret_under_the_column(tmp_path, monkeypatch) -> None:
+    """What a person reads in the terminal: the message at its place, the spec's line, a
+    caret under the column, the hint, the count."""
+    (tmp_path / "system.yaml").write_text(SYSTEM)
+    wrong = TANK.replace("- when: world.level < 2.0", "- when: world.levle < 2.0", 1)
+    (tmp_path / "tank.yaml").write_text(wrong)
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(main, ["validate", "."])
+    assert result.exit_code == 1
+    assert result.output == (
+        "tank.yaml:13:17: error[E104]: undeclared world field `levle`\n"
+        "  |         - when: world.levle < 2.0\n"
+        "  |                 ^\n"
+        "  = hint: did you mean `level`?\n"
+        "1 error(s), 0 warning(s)\n"
+    )
