@@ -207,3 +207,18 @@ def test_validate_shows_the_line_and_a_caret_under_the_column(tmp_path, monkeypa
         "  = hint: did you mean `level`?\n"
         "1 error(s), 0 warning(s)\n"
     )
+
+
+def test_each_let_named_like_something_else_is_refused(tmp_path, monkeypatch) -> None:
+    """Every `let` of a command is checked, not only those before the first refused one."""
+    lets = "    let:\n      state: 1.0\n      high: 2.0\n      gap: 3.0 - world.level\n"
+    tank = TANK.replace("commands:\n", "predicates:\n  high: world.level > 2.0\n\ncommands:\n")
+    tank = tank.replace("    doc: Pump until the level is high.\n", "    doc: Pump.\n" + lets, 1)
+    assert said(tmp_path, monkeypatch, SYSTEM, tank) == [
+        (
+            "E262",
+            "`let` value `state` cannot be named so: it is a name the generated code uses",
+            "rename it",
+        ),
+        ("E262", "`let` value `high` cannot be named so: it is a predicate", "rename it"),
+    ]
