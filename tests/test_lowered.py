@@ -128,3 +128,22 @@ def test_a_supervisor_that_reads_no_reason_gets_no_reason_codes(tmp_path: Path) 
     top = next(c for c in system.controllers if c.name == "top")
     assert top.subordinates[0].reasons == ()
     assert "ERROR" not in top.runtime_names  # it neither reports nor compares ERROR now
+
+
+def test_a_process_keeps_its_own_cycle_period(tmp_path: Path) -> None:
+    """A process's `cycle_period:` overrides the system's, for it and for CYCLE_PERIOD in its
+    controllers' expressions."""
+    system = SYSTEM.replace(
+        "    modules: [top, dev]\n", "    modules: [top, dev]\n    cycle_period: 0.05\n"
+    )
+    dev = DEV.replace(
+        "        - when: stuck()\n", "        - when: stuck() and CYCLE_PERIOD < 0.07\n"
+    )
+    for name, text in (("system", system), ("top", TOP), ("dev", dev)):
+        (tmp_path / f"{name}.yaml").write_text(text)
+    out = compile_paths([tmp_path], analyse=False)
+    assert [d.code for d in out.diagnostics.items] == []
+    (lowered,) = out.systems
+    assert [(p.name, p.cycle_period) for p in lowered.processes] == [("p", 0.05)]
+    controllers = {c.name: c for c in lowered.controllers}
+    assert dict(controllers["dev"].constants)["CYCLE_PERIOD"].startswith("0.05  #")
