@@ -9,7 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from click.testing import CliRunner
 
+from rcsgen.cli import main
 from rcsgen.compiler.frontend import compile_paths
 
 SYSTEM = """\
@@ -145,3 +147,78 @@ def test_a_guard_written_wrong(tmp_path, monkeypatch, guard: str, want) -> None:
     tank = tank.replace("- when: world.level < 2.0", f"- when: {guard}", 1)  # a plain scalar
     found = said(tmp_path, monkeypatch, SYSTEM, tank)
     assert found[:1] == [want], found
+
+
+@pytest.mark.parametrize(
+    ("length", "shown"),
+    [(39, "m" * 38 + "\\n"), (40, "m" * 37 + "...")],  # 40 characters shown whole, no more
+)
+def test_a_wrong_name_is_shown_escaped_and_cut_at_40_characters(
+    tmp_path, monkeypatch, length: int, shown: str
+) -> None:
+    name = "m" * (length - 1) + "\\n"  # a line break the schema's `$` lets through
+    local = f'locals:\n  "{name}": {{type: int, initial: 0, doc: A count.}}\n\ncommands:\n'
+    assert said(tmp_path, monkeypatch, SYSTEM, TANK.replace("commands:\n", local, 1)) == [
+        (
+            "E601",
+            f"`{shown}` is not a valid local name: expected a lower_case identifier (a-z, then "
+            "a-z, 0-9, _)",
+            "names are plain ASCII identifiers; remove the line break or other character",
+        )
+    ]
+
+
+def test_a_function_named_like_a_name_of_the_generated_code_is_refused(
+    tmp_path, monkeypatch
+) -> None:
+    """A function is a module function of the generated code and a `let` a local of its
+    method: neither may take a name that code already uses, nor a (soft) keyword."""
+    taken = ["self", "state", "hooks", "buf", "command", "perf_counter_ns", "is_real"]
+    taken += ["is_integer", "abs", "len", "match"]
+    functions = "".join(
+        f"  {name}:\n    params: {{x: float}}\n    returns: float\n    body: x / 2\n"
+        for name in taken
+    )
+    tank = TANK.replace("commands:\n", f"functions:\n{functions}\ncommands:\n", 1)
+    assert said(tmp_path, monkeypatch, SYSTEM, tank) == [
+        (
+            "E262",
+            f"function `{name}` cannot be named so: it is "
+            + ("a Python keyword" if name == "match" else "a name the generated code uses"),
+            "rename the function",
+        )
+        for name in taken
+    ]
+
+
+def test_validate_shows_the_line_and_a_caret_under_the_column(tmp_path, monkeypatch) -> None:
+    """What a person reads in the terminal: the message at its place, the spec's line, a
+    caret under the column, the hint, the count."""
+    (tmp_path / "system.yaml").write_text(SYSTEM)
+    wrong = TANK.replace("- when: world.level < 2.0", "- when: world.levle < 2.0", 1)
+    (tmp_path / "tank.yaml").write_text(wrong)
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(main, ["validate", "."])
+    assert result.exit_code == 1
+    assert result.output == (
+        "tank.yaml:13:17: error[E104]: undeclared world field `levle`\n"
+        "  |         - when: world.levle < 2.0\n"
+        "  |                 ^\n"
+        "  = hint: did you mean `level`?\n"
+        "1 error(s), 0 warning(s)\n"
+    )
+
+
+def test_each_let_named_like_something_else_is_refused(tmp_path, monkeypatch) -> None:
+    """Every `let` of a command is checked, not only those before the first refused one."""
+    lets = "    let:\n      state: 1.0\n      high: 2.0\n      gap: 3.0 - world.level\n"
+    tank = TANK.replace("commands:\n", "predicates:\n  high: world.level > 2.0\n\ncommands:\n")
+    tank = tank.replace("    doc: Pump until the level is high.\n", "    doc: Pump.\n" + lets, 1)
+    assert said(tmp_path, monkeypatch, SYSTEM, tank) == [
+        (
+            "E262",
+            "`let` value `state` cannot be named so: it is a name the generated code uses",
+            "rename it",
+        ),
+        ("E262", "`let` value `high` cannot be named so: it is a predicate", "rename it"),
+    ]

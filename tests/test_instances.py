@@ -74,3 +74,37 @@ def test_an_instance_binds_a_field_another_instance_owns(fleet: Path) -> None:
     assert [(d.code, d.span.line, d.hint) for d in found] == [
         ("E904", 21, "did you mean `c1_pos`?")
     ]
+
+
+def test_a_bool_constant_takes_true_or_false_and_its_default(fleet: Path) -> None:
+    """A template's bool constant: each instance gives it `true` or `false`, or takes its
+    default; its copy holds that value (an int or a float is refused: E905)."""
+    edit(
+        fleet / "cart" / "template.yaml",
+        "  LIMIT: {type: int, default: 3}\n",
+        "  LIMIT: {type: int, default: 3}\n  ARMED: {type: bool}\n"
+        "  LOUD: {type: bool, default: true}\n",
+    )
+    edit(fleet / "system.yaml", "{SPEED: 1.0}", "{SPEED: 1.0, ARMED: true}")
+    edit(fleet / "system.yaml", "{SPEED: 2.0}", "{SPEED: 2.0, ARMED: false, LOUD: false}")
+    edit(
+        fleet / "cart" / "cart.yaml",
+        "- when: wheel.status == DONE",
+        "- when: wheel.status == DONE and (ARMED or not LOUD)",
+    )
+    edit(
+        fleet / "cart" / "cart.yaml",
+        "- when: wheel.status == ERROR",
+        "- when: wheel.status == ERROR or (not ARMED and LOUD)",
+    )
+    front = compile_paths([fleet], analyse=False)
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics]
+    constants = {c.name: dict(c.constants) for c in front.systems[0].controllers}
+    assert constants["c1"] == {"SPEED": "1.0", "ARMED": "True", "LOUD": "True"}
+    assert constants["c2"] == {"SPEED": "2.0", "ARMED": "False", "LOUD": "False"}
+    edit(fleet / "system.yaml", "ARMED: true", "ARMED: 1")
+    (found,) = compile_paths([fleet], analyse=False).diagnostics.errors
+    assert (found.code, found.message) == (
+        "E905",
+        "`ARMED` of template `cart` is true or false, not 1",
+    )

@@ -21,7 +21,7 @@ from .codes import Severity
 from .collector import no_collections
 from .diagnostics import Diagnostics, Span, SpecError
 from .front_end import fragments, instances, model
-from .front_end.loader import LocDict, PathProblem, load_file, path_problem
+from .front_end.loader import LocDict, PathProblem, load_file, path_problem, span_of
 from .front_end.schema import check_document
 from .ir import IRSystem
 
@@ -209,8 +209,10 @@ def _shared_fragments(directory: Path, diags: Diagnostics) -> dict[str, fragment
     if len(diags.errors) > loaded:
         return {}
     if not isinstance(data, LocDict) or set(data) != {"fragments"}:
-        diags.error(
-            getattr(data, "span", Span(shown)),
+        where: Span = getattr(data, "span", Span(shown))
+        other = [key for key in data if key != "fragments"] if isinstance(data, LocDict) else []
+        diags.error(  # at the first key besides `fragments:`, if that is what is wrong
+            span_of(other[0], where) if other else where,
             "E269",
             f"`{fragments.FILE}` must hold one key, `fragments:`",
             "a shared fragment file declares fragments only",

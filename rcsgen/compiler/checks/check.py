@@ -93,7 +93,7 @@ def check_system(
             buffers,
             clients.get(name, ()),
         )
-        naming.check_module_names(by_name[name], by_name, system, diags)
+        naming.check_module_names(by_name[name], by_name, system, diags, buffers)
     if len(diags.errors) > before:
         return None
     ruled = set(supervisors) | set(clients)  # modules commanded by another

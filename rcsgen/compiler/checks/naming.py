@@ -74,9 +74,11 @@ RUNTIME_NAMES = frozenset(
     | {"SEQ_WORDS"}
     # the hook calls: the helper that makes each a method, the factory's deadline
     | {"hook", "within", "FACTORY_DEADLINE"}
+    # a world writer's overrides (rcs/override.py): the layout's table and flag offset
+    | {"OVERRIDE", "OVERRIDDEN_AT"}
 )
 # Prefixes of the attributes generated from spec names (world fields, params, locals).
-ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_")
+ATTRIBUTE_PREFIXES = ("world_", "arg_", "var_", "perf_", "result_")
 
 
 def attribute_of(field: str, buffer_fields: tuple[tuple[str, str], ...]) -> str:
@@ -113,6 +115,8 @@ CLASS_NAMES = frozenset(
         "cycle_start",
         "hook_state",
         "ticks",  # cycles in the current state (`after:`)
+        "words",  # its sequence words (rcs.contract.words over its buffer)
+        "cause",  # the chain of causes its status reports with an ERROR
         *BUFFER_ATTRIBUTES,
     }
 )
@@ -836,9 +840,11 @@ def check_module_names(
     by_name: dict[str, ControllerSpec],
     system: SystemSpec,
     diags: Diagnostics,
+    buffers: str | None = None,
 ) -> None:
-    """Every module-level name of a generated controller module must be unique."""
-    taken = _generated_module_names(spec, by_name, system)
+    """Every module-level name of a generated controller module must be unique (`buffers`:
+    whose buffers it runs in, a stand-in's those of the controller it replaces)."""
+    taken = _generated_module_names(spec, by_name, system, buffers or spec.name)
     named: list[tuple[str, str, Span]] = [
         (c.name, "command", c.span) for c in spec.commands.values() if not c.generated
     ]
@@ -860,7 +866,7 @@ def check_module_names(
 
 
 def _generated_module_names(
-    spec: ControllerSpec, by_name: dict[str, ControllerSpec], system: SystemSpec
+    spec: ControllerSpec, by_name: dict[str, ControllerSpec], system: SystemSpec, buffers: str
 ) -> ChainMap[str, str]:
     """The module-level names a controller's generated module has whatever its spec names:
     the runtime's and the layout's, its subordinates' codes, its reasons', its world
@@ -872,8 +878,8 @@ def _generated_module_names(
         taken.update(_subordinate_names(sub, spec.name, by_name[sub]))
     for reason in (*BUILTIN_REASONS, *declared_reasons(spec)):
         taken[reason_const(reason)] = f"the code of the reason {reason}"
-    for suffix in _MODULE_BUFFER_SUFFIXES:
-        taken[spec.name.upper() + suffix] = "a layout name"
+    for suffix in (*_MODULE_BUFFER_SUFFIXES, "_STATUS"):  # _STATUS: its results' struct
+        taken[buffers.upper() + suffix] = "a layout name"
     runs: dict[str, str] = {}
     for index in range(1, len(spec.world_writes) + 1):
         for name in (
@@ -881,6 +887,7 @@ def _generated_module_names(
             f"WORLD_OUT_{index}_AT",
             f"WORLD_VALUES_{index}",
             f"WORLD_SEQS_{index}",
+            f"WORLD_HELD_{index}",
         ):
             runs[name] = "a generated name"
     builtins = dict.fromkeys(BUILTIN_COMMANDS, "a command")
@@ -893,11 +900,12 @@ def _subordinate_names(sub: str, module: str, spec: ControllerSpec) -> dict[str,
     timeout."""
     taken = {sub.upper() + suffix: "a layout name" for suffix in _MODULE_BUFFER_SUFFIXES}
     if spec.is_operator:  # its channel to this module
-        for suffix in ("_COMMAND", "_COMMAND_AT"):
+        for suffix in ("_COMMAND", "_COMMAND_AT", "_COMMAND_WORD"):
             taken[channel_prefix(sub, module) + suffix] = "a layout name"
     for sent in spec.commands:
         taken[sub_command_const(sub, sent)] = f"the code of {sub}'s {sent}"
     taken[f"{sub.upper()}_ECHO_CYCLES"] = f"{sub}'s echo timeout"
+    taken[f"{sub.upper()}_LINK"] = f"{sub}'s number in the causes' chain"
     for reason in (*BUILTIN_REASONS, *declared_reasons(spec)):
         taken[sub_reason_const(sub, reason)] = f"the code of {sub}'s reason {reason}"
     return taken

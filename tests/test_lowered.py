@@ -1,0 +1,149 @@
+"""What lowering decides for a controller module, read from the IR `compile_paths` returns
+(rcsgen/compiler/back_end/lower.py): the enumeration values its tables name, whether from a
+guard, an assigned value, a sent argument or a predicate (each becomes a module constant of
+its index, so one left out is a NameError when the rule runs); the contract's names it
+imports; a subordinate's reason codes, made when a report passes its reason up. One small
+system of two controllers, in process."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from rcsgen.compiler import ir
+from rcsgen.compiler.frontend import compile_paths
+
+SYSTEM = """\
+system: pair
+title: A supervisor and a device
+cycle_period: 0.1
+
+world:
+  level: {type: float, initial: 0.0, doc: Sensed level.}
+
+processes:
+  p:
+    modules: [top, dev]
+"""
+TOP = """\
+controller: top
+title: Top
+subordinates: [dev]
+commands:
+  GO:
+    doc: Run the device; fail for its reason when it fails.
+    reasons: [REFUSED, WORN, BLOCKED]
+    states:
+      S0:
+        - do: [{send: dev.RUN, with: {how: FAST}}]
+          next: S1
+      S1:
+        - when: dev.status == ERROR
+          do: [{report: ERROR, reason: dev.reason}]
+        - when: dev.status == DONE
+          do: [report: DONE]
+"""
+DEV = """\
+controller: dev
+title: Device
+locals:
+  mode: {type: enum, values: [IDLE, SLOW, FAST, JAMMED], initial: IDLE, doc: Its mode.}
+predicates:
+  stuck: mode == JAMMED
+commands:
+  RUN:
+    doc: Run as told; jam when the level is high.
+    reasons: [WORN, BLOCKED]
+    params:
+      how: {type: enum, values: [IDLE, SLOW, FAST, JAMMED], doc: How fast.}
+    states:
+      S0:
+        - when: stuck()
+          do: [{report: ERROR, reason: BLOCKED}]
+        - when: not stuck() and how == SLOW
+          do: [set: {mode: FAST}, report: DONE]
+        - when: not stuck() and how != SLOW
+          do: [report: DONE]
+"""
+
+
+@pytest.fixture(scope="module")
+def lowered(tmp_path_factory: pytest.TempPathFactory) -> dict[str, ir.IRController]:
+    root = tmp_path_factory.mktemp("pair")
+    for name, text in (("system", SYSTEM), ("top", TOP), ("dev", DEV)):
+        (root / f"{name}.yaml").write_text(text)
+    out = compile_paths([root])
+    assert [d.code for d in out.diagnostics.items] == []
+    (system,) = out.systems
+    return {c.name: c for c in system.controllers}
+
+
+def test_every_enumeration_value_the_tables_name_is_a_constant_of_its_index(lowered) -> None:
+    # SLOW in a guard, FAST assigned, JAMMED in a predicate; top sends FAST to dev; IDLE
+    # (an initial value only) is named by no table
+    assert lowered["dev"].enum_values == (("SLOW", 1), ("FAST", 2), ("JAMMED", 3))
+    assert lowered["top"].enum_values == (("FAST", 2),)
+
+
+def test_a_module_imports_the_status_names_it_reports_and_compares(lowered) -> None:
+    top, dev = lowered["top"], lowered["dev"]
+    assert {"DONE", "ERROR", "NOP"} <= set(top.runtime_names)
+    assert {"DONE", "ERROR", "NOP"} <= set(dev.runtime_names)
+    assert "HookError" not in dev.runtime_names  # no hook called, no factory
+    assert list(top.runtime_names) == sorted(
+        top.runtime_names,
+        key=lambda n: (0 if n.isupper() else 1 if n[:1].isupper() else 2, n.lower()),
+    )
+
+
+def test_a_reason_passed_up_gives_the_supervisor_its_subordinates_reason_codes(lowered) -> None:
+    (sub,) = lowered["top"].subordinates
+    assert sub.name == "dev"
+    assert sub.reasons == (
+        ("DEV_REASON_NONE", 0),
+        ("DEV_REASON_LOST", 1),
+        ("DEV_REASON_WORN", 2),
+        ("DEV_REASON_BLOCKED", 3),
+    )
+    assert sub.commands == (("DEV_INIT", 1), ("DEV_HALT", 2), ("DEV_RUN", 3))
+    assert lowered["dev"].reasons == (
+        ("REASON_NONE", 0),
+        ("REASON_LOST", 1),
+        ("REASON_WORN", 2),
+        ("REASON_BLOCKED", 3),
+    )
+
+
+def test_a_supervisor_that_reads_no_reason_gets_no_reason_codes(tmp_path: Path) -> None:
+    failing = (
+        "        - when: dev.status == ERROR\n          do: [{report: ERROR, reason: dev.reason}]\n"
+    )
+    assert failing in TOP
+    for name, text in (("system", SYSTEM), ("top", TOP.replace(failing, "")), ("dev", DEV)):
+        (tmp_path / f"{name}.yaml").write_text(text)
+    out = compile_paths([tmp_path], analyse=False)
+    assert [d.code for d in out.diagnostics.items] == []
+    (system,) = out.systems
+    top = next(c for c in system.controllers if c.name == "top")
+    assert top.subordinates[0].reasons == ()
+    assert "ERROR" not in top.runtime_names  # it neither reports nor compares ERROR now
+
+
+def test_a_process_keeps_its_own_cycle_period(tmp_path: Path) -> None:
+    """A process's `cycle_period:` overrides the system's, for it and for CYCLE_PERIOD in its
+    controllers' expressions."""
+    system = SYSTEM.replace(
+        "    modules: [top, dev]\n", "    modules: [top, dev]\n    cycle_period: 0.05\n"
+    )
+    dev = DEV.replace(
+        "        - when: stuck()\n", "        - when: stuck() and CYCLE_PERIOD < 0.07\n"
+    )
+    for name, text in (("system", system), ("top", TOP), ("dev", dev)):
+        (tmp_path / f"{name}.yaml").write_text(text)
+    out = compile_paths([tmp_path], analyse=False)
+    assert [d.code for d in out.diagnostics.items] == []
+    (lowered,) = out.systems
+    assert [(p.name, p.cycle_period) for p in lowered.processes] == [("p", 0.05)]
+    controllers = {c.name: c for c in lowered.controllers}
+    assert dict(controllers["dev"].constants)["CYCLE_PERIOD"].startswith("0.05  #")
