@@ -117,6 +117,7 @@ CLASS_NAMES = frozenset(
         "ticks",  # cycles in the current state (`after:`)
         "words",  # its sequence words (rcs.contract.words over its buffer)
         "cause",  # the chain of causes its status reports with an ERROR
+        "inputs",  # the inputs of its last cycle (an idle cycle with nothing new stops short)
         *BUFFER_ATTRIBUTES,
     }
 )
