@@ -127,6 +127,32 @@ def test_an_enum_actuators_safe_value_is_one_of_its_values(tmp_path, monkeypatch
 
 
 @pytest.mark.parametrize(
+    ("edit", "want"),
+    [
+        (
+            ("pump_on: {type: bool, initial: false", "pump_on: {type: bool, initial: true"),
+            "actuator `pump_on` starts at true, not at its safe value false (its type's zero, "
+            "the default): until its writer's first cycle the machine is commanded true",
+        ),
+        (
+            (
+                "initial: IDLE, actuator: true, safe: IDLE",
+                "initial: RUN, actuator: true, safe: IDLE",
+            ),
+            "actuator `mode` starts at RUN, not at its safe value IDLE (declared): until its "
+            "writer's first cycle the machine is commanded RUN",
+        ),
+    ],
+)
+def test_an_actuator_that_starts_away_from_safe_is_w803(tmp_path, monkeypatch, edit, want) -> None:
+    """Declared or the type's zero, the safe value is what an actuator starts at; a valid
+    safe value only (an invalid one is E801 alone, above)."""
+    assert edit[0] in SYSTEM
+    found = said(tmp_path, monkeypatch, SYSTEM.replace(*edit), TANK)
+    assert [(code, message) for code, message, _ in found] == [("W803", want)]
+
+
+@pytest.mark.parametrize(
     ("guard", "want"),
     [
         (

@@ -518,6 +518,8 @@ def _check_safe_values(system: SystemSpec, diags: Diagnostics) -> None:
     actuator starts at its safe value (W803: the block holds `initial` until its writer's
     first cycle, so the machine would be commanded that before any controller ran)."""
     for f in system.world.values():
+        if f.safe is not None and not _safe_value_fits(f, diags):
+            continue
         if f.actuator and f.initial != (safe := f.type.zero if f.safe is None else f.safe):
             said = "its type's zero, the default" if f.safe is None else "declared"
             diags.warning(
@@ -526,32 +528,35 @@ def _check_safe_values(system: SystemSpec, diags: Diagnostics) -> None:
                 f"actuator `{f.name}` starts at {_spelt(f.initial)}, not at its safe value "
                 f"{_spelt(safe)} ({said}): until its writer's first cycle the machine is "
                 f"commanded {_spelt(f.initial)}",
-                f"start it safe (`initial: {_spelt(safe)}`), or declare the value it starts at "
-                "as its safe value (`safe:`)",
+                f"start it safe (`initial: {_spelt(safe)}`), or declare the value it starts "
+                "at as its safe value (`safe:`)",
             )
-        if f.safe is None:
-            continue
-        at = f.safe_span or f.span
-        if not f.actuator:
-            diags.error(
-                at,
-                "E801",
-                f"world field `{f.name}` declares a safe value but is not an actuator",
-                "add `actuator: true` (the runtime then drives it to this value when its "
-                "writer is lost), or remove `safe:`",
-            )
-            continue
-        if isinstance(f.type, Enum) and f.safe not in f.type.values:
-            diags.error(
-                at,
-                "E801",
-                f"safe value `{f.safe}` of `{f.name}` is not a value of {f.type.words}",
-                known_names_hint("values", f.type.values, str(f.safe)),
-            )
-        elif isinstance(f.type, Str):
-            problem = expr.text_problem_of(f.safe, f.type)
-            if problem:
-                diags.error(at, "E801", f"safe value of `{f.name}`: {problem}")
+
+
+def _safe_value_fits(f: model.Typed, diags: Diagnostics) -> bool:
+    """A declared `safe:` is an actuator's and one its field can hold; else E801, False."""
+    at = f.safe_span or f.span
+    if not f.actuator:
+        diags.error(
+            at,
+            "E801",
+            f"world field `{f.name}` declares a safe value but is not an actuator",
+            "add `actuator: true` (the runtime then drives it to this value when its "
+            "writer is lost), or remove `safe:`",
+        )
+        return False
+    if isinstance(f.type, Enum) and f.safe not in f.type.values:
+        diags.error(
+            at,
+            "E801",
+            f"safe value `{f.safe}` of `{f.name}` is not a value of {f.type.words}",
+            known_names_hint("values", f.type.values, str(f.safe)),
+        )
+        return False
+    if isinstance(f.type, Str) and (problem := expr.text_problem_of(f.safe, f.type)):
+        diags.error(at, "E801", f"safe value of `{f.name}`: {problem}")
+        return False
+    return True
 
 
 def _spelt(value: object) -> str:
