@@ -303,13 +303,19 @@ def test_a_machine_fault_climbs_one_level_per_cycle():
     final, lines = played("machine_fault")
     assert final["status"] == "ERROR"
     alarm = open_cycles(lines, "cmm_alarm")[0]
-    chain = (("cmm", "INSPECT_FEATURE"), ("ms", "MEASURE_PART"), ("ws", "INSPECT_PART"))
+    chain = (
+        ("servo", "MOVE_TO"),
+        ("prim", "GO_TO_POINT"),
+        ("cmm", "INSPECT_FEATURE"),
+        ("ms", "MEASURE_PART"),
+        ("ws", "INSPECT_PART"),
+    )
     errors = [first(lines, module, command, "ERROR") for module, command in chain]
-    assert errors == [alarm + 1, alarm + 2, alarm + 3], "CMM, then MS, then WS"
-    reasons = [
-        outcome(lines[cycle - 1], m)[1] for cycle, m in zip(errors[1:], ("ms", "ws"), strict=True)
-    ]
-    assert reasons == ["MACHINE_FAULT", "MACHINE_FAULT"], "each says why as it fails"
+    assert errors == [alarm + n for n in range(1, 6)], "servo, Prim, Emove, then MS, then WS"
+    reasons = [outcome(lines[cycle - 1], m)[1] for cycle, (m, _) in zip(errors, chain, strict=True)]
+    assert reasons == ["MACHINE_FAULT"] * 5, "each says why as it fails"
+    motors = [[lines[c - 1]["world"][f"motor_{a}"] for a in "xyz"] for c in (alarm, alarm + 1)]
+    assert any(motors[0]) and motors[1] == [0.0] * 3, "the moving axes stopped by the servo"
     status, _, results = outcome(lines[-1], "ms")
     assert status == "ERROR" and 0 < results["measured"] < 5
     assert outcome(lines[-1], "ws") == ("ERROR", "MACHINE_FAULT", {"accepted": False})

@@ -8,10 +8,13 @@ PROCESSES = ("iws",)
 SOURCES = (
     "inspection/cmm.yaml",
     "inspection/cmm_sim.yaml",
+    "inspection/drives.yaml",
     "inspection/fx.yaml",
     "inspection/jp.yaml",
     "inspection/ms.yaml",
     "inspection/op.yaml",
+    "inspection/prim.yaml",
+    "inspection/servo.yaml",
     "inspection/shop.yaml",
     "inspection/system.yaml",
     "inspection/tl.yaml",

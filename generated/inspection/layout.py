@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2872 bytes.
+The block is 3736 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -53,49 +53,76 @@ command buffers and world fields:
 | 1360 | 16 | TL_MODE | MODE_FIELDS |
 | 1376 | 48 | TL_PERF | PERF_FIELDS |
 | 1424 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 1456 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 1488 | 16 | CMM_MODE | MODE_FIELDS |
-| 1504 | 48 | CMM_PERF | PERF_FIELDS |
-| 1552 | 16 | OP_MODE | MODE_FIELDS |
-| 1568 | 48 | OP_PERF | PERF_FIELDS |
-| 1616 | 20 | OP_FX_COMMAND | command_num, command |
-| 1640 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 1672 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 1696 | 20 | OP_TL_COMMAND | command_num, command |
-| 1720 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 1752 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 1776 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 1800 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 1832 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1848 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1896 | 16 | WORLD_CMM_OP | cmm_op |
-| 1912 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1928 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1944 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1960 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1976 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1992 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 2008 | 16 | WORLD_CAMERA_SCALE | camera_scale |
-| 2024 | 9 | WORLD_PDM_ONLINE | pdm_online |
-| 2040 | 9 | OVERRIDES | any |
-| 2056 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 2080 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 2104 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 2128 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 2152 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 2176 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 2200 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 2224 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
-| 2248 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
-| 2272 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
-| 2384 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
-| 2432 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 2480 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
-| 2584 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 2672 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 2728 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 2784 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
-| 2832 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 1456 | 64 | CMM_STATUS | STATUS_FIELDS |
+| 1520 | 16 | CMM_MODE | MODE_FIELDS |
+| 1536 | 48 | CMM_PERF | PERF_FIELDS |
+| 1584 | 44 | PRIM_COMMAND | command_num, command, arg_x, arg_y, arg_z |
+| 1632 | 40 | PRIM_STATUS | STATUS_FIELDS |
+| 1672 | 16 | PRIM_MODE | MODE_FIELDS |
+| 1688 | 48 | PRIM_PERF | PERF_FIELDS |
+| 1736 | 44 | SERVO_COMMAND | command_num, command, arg_x, arg_y, arg_z |
+| 1784 | 40 | SERVO_STATUS | STATUS_FIELDS |
+| 1824 | 16 | SERVO_MODE | MODE_FIELDS |
+| 1840 | 48 | SERVO_PERF | PERF_FIELDS |
+| 1888 | 16 | OP_MODE | MODE_FIELDS |
+| 1904 | 48 | OP_PERF | PERF_FIELDS |
+| 1952 | 20 | OP_FX_COMMAND | command_num, command |
+| 1976 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 2008 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 2032 | 20 | OP_TL_COMMAND | command_num, command |
+| 2056 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 2088 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 2112 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 2136 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 2168 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 2184 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 2232 | 20 | DRIVES_COMMAND | command_num, command |
+| 2256 | 32 | DRIVES_STATUS | STATUS_FIELDS |
+| 2288 | 16 | DRIVES_MODE | MODE_FIELDS |
+| 2304 | 48 | DRIVES_PERF | PERF_FIELDS |
+| 2352 | 16 | WORLD_CMM_OP | cmm_op |
+| 2368 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 2384 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 2400 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 2416 | 16 | WORLD_CMM_READING | cmm_reading |
+| 2432 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 2448 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 2464 | 16 | WORLD_MOTOR_X | motor_x |
+| 2480 | 16 | WORLD_MOTOR_Y | motor_y |
+| 2496 | 16 | WORLD_MOTOR_Z | motor_z |
+| 2512 | 16 | WORLD_AXIS_X | axis_x |
+| 2528 | 16 | WORLD_AXIS_Y | axis_y |
+| 2544 | 16 | WORLD_AXIS_Z | axis_z |
+| 2560 | 16 | WORLD_CAMERA_SCALE | camera_scale |
+| 2576 | 9 | WORLD_PDM_ONLINE | pdm_online |
+| 2592 | 9 | OVERRIDES | any |
+| 2608 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 2632 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 2656 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 2680 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 2704 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 2728 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 2752 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 2776 | 24 | OVERRIDE_MOTOR_X | state, motor_x |
+| 2800 | 24 | OVERRIDE_MOTOR_Y | state, motor_y |
+| 2824 | 24 | OVERRIDE_MOTOR_Z | state, motor_z |
+| 2848 | 24 | OVERRIDE_AXIS_X | state, axis_x |
+| 2872 | 24 | OVERRIDE_AXIS_Y | state, axis_y |
+| 2896 | 24 | OVERRIDE_AXIS_Z | state, axis_z |
+| 2920 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
+| 2944 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
+| 2968 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
+| 3080 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
+| 3128 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 3176 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
+| 3280 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 3368 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 3424 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 3480 | 64 | TIME_CMM | state, since, NOP, S0, S1, TOUCH, TOUCHING |
+| 3544 | 72 | TIME_PRIM | state, since, NOP, S0, S1, APPROACHING, TOUCHING, RETRACTING |
+| 3616 | 40 | TIME_SERVO | state, since, NOP, S0 |
+| 3656 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 3696 | 40 | TIME_DRIVES | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -127,9 +154,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 2872
+SIZE = 3736
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "f10adc453a5d291f91637e4b94777e67"
+LAYOUT_HASH = "49d1132777cd1a62f1c80ace99b6c5a3"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 248
 
@@ -202,48 +229,86 @@ TL_PERF_AT = 1376
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
 CMM_COMMAND_AT = 1424
+CMM_STATUS = Struct(
+    "<QQIIiiqqqQ"
+)  # seq, status_num, status, error_num, state, rule, plan_points_step, plan_points_steps, plan_points_replans_left, cause
 CMM_STATUS_AT = 1456
-CMM_MODE_AT = 1488
-CMM_PERF_AT = 1504
+CMM_MODE_AT = 1520
+CMM_PERF_AT = 1536
+
+# prim: Probe controller (Prim)
+PRIM_COMMAND = Struct("<QQIddd")  # seq, command_num, command, arg_x, arg_y, arg_z
+PRIM_COMMAND_AT = 1584
+PRIM_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
+PRIM_STATUS_AT = 1632
+PRIM_MODE_AT = 1672
+PRIM_PERF_AT = 1688
+
+# servo: Servo (CMM axes)
+SERVO_COMMAND = Struct("<QQIddd")  # seq, command_num, command, arg_x, arg_y, arg_z
+SERVO_COMMAND_AT = 1736
+SERVO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
+SERVO_STATUS_AT = 1784
+SERVO_MODE_AT = 1824
+SERVO_PERF_AT = 1840
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 1776
-CMM_SIM_STATUS_AT = 1800
-CMM_SIM_MODE_AT = 1832
-CMM_SIM_PERF_AT = 1848
+CMM_SIM_COMMAND_AT = 2112
+CMM_SIM_STATUS_AT = 2136
+CMM_SIM_MODE_AT = 2168
+CMM_SIM_PERF_AT = 2184
+
+# drives: CMM axis drives (simulated)
+DRIVES_COMMAND = Struct("<QQI")  # seq, command_num, command
+DRIVES_COMMAND_AT = 2232
+DRIVES_STATUS_AT = 2256
+DRIVES_MODE_AT = 2288
+DRIVES_PERF_AT = 2304
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 1552
-OP_PERF_AT = 1568
+OP_MODE_AT = 1888
+OP_PERF_AT = 1904
 OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_FX_COMMAND_AT = 1616
-OP_FX_STATUS_AT = 1640
-OP_FX_ANSWER_AT = 1672
+OP_FX_COMMAND_AT = 1952
+OP_FX_STATUS_AT = 1976
+OP_FX_ANSWER_AT = 2008
 OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_TL_COMMAND_AT = 1696
-OP_TL_STATUS_AT = 1720
-OP_TL_ANSWER_AT = 1752
+OP_TL_COMMAND_AT = 2032
+OP_TL_STATUS_AT = 2056
+OP_TL_ANSWER_AT = 2088
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1896
+WORLD_CMM_OP_AT = 2352
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1912
+WORLD_CMM_FEATURE_AT = 2368
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1928
+WORLD_CMM_SEQ_AT = 2384
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1944
+WORLD_CMM_DONE_SEQ_AT = 2400
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1960
+WORLD_CMM_READING_AT = 2416
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1976
+WORLD_CMM_ALARM_AT = 2432
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1992
+WORLD_CMM_FAULT_AT = 2448
+WORLD_MOTOR_X = Struct("<Qd")  # seq, motor_x
+WORLD_MOTOR_X_AT = 2464
+WORLD_MOTOR_Y = Struct("<Qd")  # seq, motor_y
+WORLD_MOTOR_Y_AT = 2480
+WORLD_MOTOR_Z = Struct("<Qd")  # seq, motor_z
+WORLD_MOTOR_Z_AT = 2496
+WORLD_AXIS_X = Struct("<Qd")  # seq, axis_x
+WORLD_AXIS_X_AT = 2512
+WORLD_AXIS_Y = Struct("<Qd")  # seq, axis_y
+WORLD_AXIS_Y_AT = 2528
+WORLD_AXIS_Z = Struct("<Qd")  # seq, axis_z
+WORLD_AXIS_Z_AT = 2544
 WORLD_CAMERA_SCALE = Struct("<Qd")  # seq, camera_scale
-WORLD_CAMERA_SCALE_AT = 2008
+WORLD_CAMERA_SCALE_AT = 2560
 WORLD_PDM_ONLINE = Struct("<Q?")  # seq, pdm_online
-WORLD_PDM_ONLINE_AT = 2024
+WORLD_PDM_ONLINE_AT = 2576
 
 
 PROCESSES = {
@@ -263,10 +328,13 @@ PLACEMENT = {
     "fx": "iws",
     "tl": "iws",
     "cmm": "iws",
+    "prim": "iws",
+    "servo": "iws",
     "op": "iws",
     "op/fx": "iws",
     "op/tl": "iws",
     "cmm_sim": "iws",
+    "drives": "iws",
 }
 # Seconds without a heartbeat after which a process is reported dead.
 HEARTBEAT_TIMEOUT = 5.0
@@ -281,16 +349,34 @@ SUBORDINATES = {
     "ms": ("tl", "cmm"),
     "fx": ("op/fx",),
     "tl": ("op/tl",),
-    "cmm": (),
+    "cmm": ("prim",),
+    "prim": ("servo",),
+    "servo": (),
     "op": (),
     "cmm_sim": (),
+    "drives": (),
 }
 # The subordinates whose loss a supervisor's own rules handle (`on_lost: continue`); every
 # other loss halts everything (`halt_all`: rcs/loop.py `reaction`).
 ON_LOST_CONTINUE: dict[str, tuple[str, ...]] = {}
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {}
-MODULES = ("shop", "jp", "wc", "ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim")
+MODULES = (
+    "shop",
+    "jp",
+    "wc",
+    "ws",
+    "ms",
+    "fx",
+    "tl",
+    "cmm",
+    "prim",
+    "servo",
+    "op/fx",
+    "op/tl",
+    "cmm_sim",
+    "drives",
+)
 COMMAND_IN = {
     "shop": Record(
         SHOP_COMMAND, SHOP_COMMAND_AT, ("command_num", "command", "arg_program", "arg_parts")
@@ -302,7 +388,14 @@ COMMAND_IN = {
     "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command")),
     "tl": Record(TL_COMMAND, TL_COMMAND_AT, ("command_num", "command")),
     "cmm": Record(CMM_COMMAND, CMM_COMMAND_AT, ("command_num", "command", "arg_number")),
+    "prim": Record(
+        PRIM_COMMAND, PRIM_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y", "arg_z")
+    ),
+    "servo": Record(
+        SERVO_COMMAND, SERVO_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y", "arg_z")
+    ),
     "cmm_sim": Record(CMM_SIM_COMMAND, CMM_SIM_COMMAND_AT, ("command_num", "command")),
+    "drives": Record(DRIVES_COMMAND, DRIVES_COMMAND_AT, ("command_num", "command")),
     "op/fx": Record(OP_FX_COMMAND, OP_FX_COMMAND_AT, ("command_num", "command")),
     "op/tl": Record(OP_TL_COMMAND, OP_TL_COMMAND_AT, ("command_num", "command")),
 }
@@ -368,8 +461,31 @@ STATUS_OUT = {
     "tl": Record(
         TL_STATUS, TL_STATUS_AT, ("status_num", "status", "error_num", "state", "rule", "cause")
     ),
-    "cmm": Record(STATUS, CMM_STATUS_AT, field_names(STATUS_FIELDS)),
+    "cmm": Record(
+        CMM_STATUS,
+        CMM_STATUS_AT,
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "plan_points_step",
+            "plan_points_steps",
+            "plan_points_replans_left",
+            "cause",
+        ),
+    ),
+    "prim": Record(
+        PRIM_STATUS, PRIM_STATUS_AT, ("status_num", "status", "error_num", "state", "rule", "cause")
+    ),
+    "servo": Record(
+        SERVO_STATUS,
+        SERVO_STATUS_AT,
+        ("status_num", "status", "error_num", "state", "rule", "cause"),
+    ),
     "cmm_sim": Record(STATUS, CMM_SIM_STATUS_AT, field_names(STATUS_FIELDS)),
+    "drives": Record(STATUS, DRIVES_STATUS_AT, field_names(STATUS_FIELDS)),
     "op/fx": Record(STATUS, OP_FX_STATUS_AT, field_names(STATUS_FIELDS)),
     "op/tl": Record(STATUS, OP_TL_STATUS_AT, field_names(STATUS_FIELDS)),
 }
@@ -382,7 +498,10 @@ MODE_IN = {
     "fx": Record(MODE, FX_MODE_AT, field_names(MODE_FIELDS)),
     "tl": Record(MODE, TL_MODE_AT, field_names(MODE_FIELDS)),
     "cmm": Record(MODE, CMM_MODE_AT, field_names(MODE_FIELDS)),
+    "prim": Record(MODE, PRIM_MODE_AT, field_names(MODE_FIELDS)),
+    "servo": Record(MODE, SERVO_MODE_AT, field_names(MODE_FIELDS)),
     "cmm_sim": Record(MODE, CMM_SIM_MODE_AT, field_names(MODE_FIELDS)),
+    "drives": Record(MODE, DRIVES_MODE_AT, field_names(MODE_FIELDS)),
     "op": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
     "op/fx": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
     "op/tl": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
@@ -396,7 +515,10 @@ PERFORMANCE = {
     "fx": Record(PERF, FX_PERF_AT, field_names(PERF_FIELDS)),
     "tl": Record(PERF, TL_PERF_AT, field_names(PERF_FIELDS)),
     "cmm": Record(PERF, CMM_PERF_AT, field_names(PERF_FIELDS)),
+    "prim": Record(PERF, PRIM_PERF_AT, field_names(PERF_FIELDS)),
+    "servo": Record(PERF, SERVO_PERF_AT, field_names(PERF_FIELDS)),
     "cmm_sim": Record(PERF, CMM_SIM_PERF_AT, field_names(PERF_FIELDS)),
+    "drives": Record(PERF, DRIVES_PERF_AT, field_names(PERF_FIELDS)),
     "op": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
     "op/fx": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
     "op/tl": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
@@ -409,6 +531,12 @@ WORLD = {
     "cmm_reading": Record(WORLD_CMM_READING, WORLD_CMM_READING_AT, ("cmm_reading",)),
     "cmm_alarm": Record(WORLD_CMM_ALARM, WORLD_CMM_ALARM_AT, ("cmm_alarm",)),
     "cmm_fault": Record(WORLD_CMM_FAULT, WORLD_CMM_FAULT_AT, ("cmm_fault",)),
+    "motor_x": Record(WORLD_MOTOR_X, WORLD_MOTOR_X_AT, ("motor_x",)),
+    "motor_y": Record(WORLD_MOTOR_Y, WORLD_MOTOR_Y_AT, ("motor_y",)),
+    "motor_z": Record(WORLD_MOTOR_Z, WORLD_MOTOR_Z_AT, ("motor_z",)),
+    "axis_x": Record(WORLD_AXIS_X, WORLD_AXIS_X_AT, ("axis_x",)),
+    "axis_y": Record(WORLD_AXIS_Y, WORLD_AXIS_Y_AT, ("axis_y",)),
+    "axis_z": Record(WORLD_AXIS_Z, WORLD_AXIS_Z_AT, ("axis_z",)),
     "camera_scale": Record(WORLD_CAMERA_SCALE, WORLD_CAMERA_SCALE_AT, ("camera_scale",)),
     "pdm_online": Record(WORLD_PDM_ONLINE, WORLD_PDM_ONLINE_AT, ("pdm_online",)),
 }
@@ -420,31 +548,51 @@ WORLD_INITIAL: dict[str, object] = {
     "cmm_reading": 0.0,
     "cmm_alarm": False,
     "cmm_fault": False,
+    "motor_x": 0.0,
+    "motor_y": 0.0,
+    "motor_z": 0.0,
+    "axis_x": 0.0,
+    "axis_y": 0.0,
+    "axis_z": 0.0,
     "camera_scale": 0.0,
     "pdm_online": True,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2040
-OVERRIDDEN_AT = 2048  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2592
+OVERRIDDEN_AT = 2600  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 2056, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 2080, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 2104, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 2128, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 2152, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 2176, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 2200, ("state", "cmm_fault")),
-    "camera_scale": Record(Struct("<QQd"), 2224, ("state", "camera_scale")),
-    "pdm_online": Record(Struct("<QQ?"), 2248, ("state", "pdm_online")),
+    "cmm_op": Record(Struct("<QQq"), 2608, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 2632, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 2656, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 2680, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 2704, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 2728, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 2752, ("state", "cmm_fault")),
+    "motor_x": Record(Struct("<QQd"), 2776, ("state", "motor_x")),
+    "motor_y": Record(Struct("<QQd"), 2800, ("state", "motor_y")),
+    "motor_z": Record(Struct("<QQd"), 2824, ("state", "motor_z")),
+    "axis_x": Record(Struct("<QQd"), 2848, ("state", "axis_x")),
+    "axis_y": Record(Struct("<QQd"), 2872, ("state", "axis_y")),
+    "axis_z": Record(Struct("<QQd"), 2896, ("state", "axis_z")),
+    "camera_scale": Record(Struct("<QQd"), 2920, ("state", "camera_scale")),
+    "pdm_online": Record(Struct("<QQ?"), 2944, ("state", "pdm_online")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
-SAFE_VALUES: dict[str, object] = {}
+SAFE_VALUES: dict[str, object] = {
+    "motor_x": 0.0,
+    "motor_y": 0.0,
+    "motor_z": 0.0,
+}
 # The process whose modules write each actuator.
-ACTUATED_BY = {}
+ACTUATED_BY = {
+    "motor_x": "iws",
+    "motor_y": "iws",
+    "motor_z": "iws",
+}
 # The fields that hold an enumeration's value, by (module, or "" for the world; field): the
 # value names, indexed by the code the field holds, for traces, displays and `ctl send`.
 ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
@@ -465,6 +613,12 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "cmm_done_seq": ("cmm_sim",),
     "cmm_reading": ("cmm_sim",),
     "cmm_alarm": ("cmm_sim",),
+    "motor_x": ("servo",),
+    "motor_y": ("servo",),
+    "motor_z": ("servo",),
+    "axis_x": ("drives",),
+    "axis_y": ("drives",),
+    "axis_z": ("drives",),
     "camera_scale": ("cmm_sim",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
@@ -476,7 +630,7 @@ GROUND_TRUTH = ()
 TIME_IN_STATE = {
     "shop": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        2272,
+        2968,
         (
             "state",
             "since",
@@ -493,11 +647,11 @@ TIME_IN_STATE = {
             "PLAN_FAILED",
         ),
     ),
-    "jp": Record(Struct("<QqQQQQ"), 2384, ("state", "since", "NOP", "S0", "PLANNING")),
-    "wc": Record(Struct("<QqQQQQ"), 2432, ("state", "since", "NOP", "S0", "S1")),
+    "jp": Record(Struct("<QqQQQQ"), 3080, ("state", "since", "NOP", "S0", "PLANNING")),
+    "wc": Record(Struct("<QqQQQQ"), 3128, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        2480,
+        3176,
         (
             "state",
             "since",
@@ -515,13 +669,22 @@ TIME_IN_STATE = {
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        2584,
+        3280,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 2672, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 2728, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "cmm": Record(Struct("<QqQQQQ"), 2784, ("state", "since", "NOP", "S0", "S1")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 2832, ("state", "since", "NOP", "S0")),
+    "fx": Record(Struct("<QqQQQQQ"), 3368, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 3424, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "cmm": Record(
+        Struct("<QqQQQQQQ"), 3480, ("state", "since", "NOP", "S0", "S1", "TOUCH", "TOUCHING")
+    ),
+    "prim": Record(
+        Struct("<QqQQQQQQQ"),
+        3544,
+        ("state", "since", "NOP", "S0", "S1", "APPROACHING", "TOUCHING", "RETRACTING"),
+    ),
+    "servo": Record(Struct("<QqQQQ"), 3616, ("state", "since", "NOP", "S0")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 3656, ("state", "since", "NOP", "S0")),
+    "drives": Record(Struct("<QqQQQ"), 3696, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -550,7 +713,10 @@ COMMAND_NAMES = {
         NO_COMMAND_NAME,
         *("INIT", "HALT", "HOME", "CALIBRATE_PROBE", "CALIBRATE_CAMERA", "INSPECT_FEATURE"),
     ),
+    "prim": (NO_COMMAND_NAME, *("INIT", "HALT", "GO_TO_POINT")),
+    "servo": (NO_COMMAND_NAME, *("INIT", "HALT", "MOVE_TO")),
     "cmm_sim": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "drives": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "op/fx": (
         NO_COMMAND_NAME,
         *(
@@ -603,6 +769,12 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     "cmm": {
         "INSPECT_FEATURE": ("number",),
     },
+    "prim": {
+        "GO_TO_POINT": ("x", "y", "z"),
+    },
+    "servo": {
+        "MOVE_TO": ("x", "y", "z"),
+    },
 }
 STATE_NAMES = {
     "shop": (
@@ -635,8 +807,11 @@ STATE_NAMES = {
     "ms": ("NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     "fx": ("NOP", "S0", "S1", "S0_ASKING"),
     "tl": ("NOP", "S0", "S1", "S0_ASKING"),
-    "cmm": ("NOP", "S0", "S1"),
+    "cmm": ("NOP", "S0", "S1", "TOUCH", "TOUCHING"),
+    "prim": ("NOP", "S0", "S1", "APPROACHING", "TOUCHING", "RETRACTING"),
+    "servo": ("NOP", "S0"),
     "cmm_sim": ("NOP", "S0"),
+    "drives": ("NOP", "S0"),
     "op/fx": OPERATOR_STATES,
     "op/tl": OPERATOR_STATES,
 }
@@ -651,11 +826,28 @@ REASON_NAMES: dict[str, tuple[str, ...]] = {
     "ms": ("NONE", "LOST", "MACHINE_FAULT", "REFUSED", "TIMED_OUT"),
     "fx": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
     "tl": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
+    "cmm": ("NONE", "LOST", "MACHINE_FAULT"),
+    "prim": ("NONE", "LOST", "MACHINE_FAULT"),
+    "servo": ("NONE", "LOST", "MACHINE_FAULT"),
     "op": ("NONE", "LOST", "REFUSED"),
 }
 # The modules a link of a status buffer's `cause` numbers, from 1 (rcs/contract.py
 # cause_text; docs/semantics.md, "Reasons survive").
-CAUSE_MODULES = ("shop", "jp", "wc", "ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim")
+CAUSE_MODULES = (
+    "shop",
+    "jp",
+    "wc",
+    "ws",
+    "ms",
+    "fx",
+    "tl",
+    "cmm",
+    "prim",
+    "servo",
+    "op",
+    "cmm_sim",
+    "drives",
+)
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
     "shop": (
@@ -819,7 +1011,9 @@ RULES = {
     "cmm": (
         "",
         "INIT/S0/1",
+        "INIT/S1/1",
         "HALT/S0/1",
+        "HALT/S1/1",
         "HOME/S0/1",
         "HOME/S1/1",
         "HOME/S1/2",
@@ -830,14 +1024,34 @@ RULES = {
         "CALIBRATE_CAMERA/S1/1",
         "CALIBRATE_CAMERA/S1/2",
         "INSPECT_FEATURE/S0/1",
+        "INSPECT_FEATURE/TOUCH/1",
+        "INSPECT_FEATURE/TOUCH/2",
+        "INSPECT_FEATURE/TOUCHING/1",
+        "INSPECT_FEATURE/TOUCHING/2",
         "INSPECT_FEATURE/S1/1",
         "INSPECT_FEATURE/S1/2",
     ),
+    "prim": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "GO_TO_POINT/S0/1",
+        "GO_TO_POINT/APPROACHING/1",
+        "GO_TO_POINT/APPROACHING/2",
+        "GO_TO_POINT/TOUCHING/1",
+        "GO_TO_POINT/TOUCHING/2",
+        "GO_TO_POINT/RETRACTING/1",
+        "GO_TO_POINT/RETRACTING/2",
+    ),
+    "servo": ("", "INIT/S0/1", "HALT/S0/1", "MOVE_TO/S0/1", "MOVE_TO/S0/2", "MOVE_TO/S0/3"),
     "cmm_sim": ("", "INIT/S0/1", "HALT/S0/1"),
+    "drives": ("", "INIT/S0/1", "HALT/S0/1"),
     "op/fx": ("",),  # an operator module has no table
     "op/tl": ("",),  # an operator module has no table
 }
-SIMULATORS = ("cmm_sim",)
+SIMULATORS = ("cmm_sim", "drives")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {
@@ -856,8 +1070,11 @@ ROLES: dict[str, dict[str, int]] = {
         "fx": 3,  # override
         "tl": 3,  # override
         "cmm": 3,  # override
+        "prim": 3,  # override
+        "servo": 3,  # override
         "op": 3,  # override
         "cmm_sim": 3,  # override
+        "drives": 3,  # override
     },
 }
 # Who holds each role (`users`, `groups`: OS names): role -> (users, groups). `--role` in a

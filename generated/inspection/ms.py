@@ -65,11 +65,15 @@ CMM_HOME = 3
 CMM_CALIBRATE_PROBE = 4
 CMM_CALIBRATE_CAMERA = 5
 CMM_INSPECT_FEATURE = 6
+# Why cmm may end a command in ERROR (its error_num).
+CMM_REASON_NONE = 0
+CMM_REASON_LOST = 1
+CMM_REASON_MACHINE_FAULT = 2
 CMM_LINK = 8  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s76x???1xI208xQII8xQ104xQI492xd40xd")
+INPUTS = Struct("<QI32s76x???1xI208xQII8xQ104xQII32xQ904xd136xd")
 INPUTS_AT = 992
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -99,8 +103,10 @@ class MsController:
         "buf",
         "cause",
         "cmm_arg_number",
+        "cmm_cause",
         "cmm_command",
         "cmm_command_num",
+        "cmm_error_num",
         "cmm_status",
         "cmm_status_num",
         "cmm_written",
@@ -232,6 +238,8 @@ class MsController:
             self.tl_cause,
             self.cmm_status_num,
             self.cmm_status,
+            self.cmm_error_num,
+            self.cmm_cause,
             self.world_cmm_reading,
             self.world_camera_scale,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
@@ -245,6 +253,11 @@ class MsController:
             self.tl_cause = 0
         if self.cmm_status_num != self.cmm_command_num:
             self.cmm_status = EXECUTING  # until it echoes the last number sent
+            self.cmm_error_num = CMM_REASON_NONE  # no reason yet
+            self.cmm_cause = 0
+        elif self.cmm_status != ERROR:
+            self.cmm_error_num = CMM_REASON_NONE  # a reason comes only with ERROR
+            self.cmm_cause = 0
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
         if self.command_num != self.status_num:
@@ -368,6 +381,8 @@ class MsController:
             self.tl_cause,
             self.cmm_status_num,
             self.cmm_status,
+            self.cmm_error_num,
+            self.cmm_cause,
             self.world_cmm_reading,
             self.world_camera_scale,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
@@ -430,7 +445,7 @@ class MsController:
             elif self.cmm_status == ERROR:
                 self.rule = 7  # EQUIP_SETUP/S1/2
                 # cmm's error: the cause of an ERROR this command reports
-                self.cause = caused(CMM_LINK, 0, 0)
+                self.cause = caused(CMM_LINK, self.cmm_error_num, self.cmm_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -496,7 +511,7 @@ class MsController:
             elif self.cmm_status == ERROR:
                 self.rule = 14  # CALIBRATE_CMM/S3/2
                 # cmm's error: the cause of an ERROR this command reports
-                self.cause = caused(CMM_LINK, 0, 0)
+                self.cause = caused(CMM_LINK, self.cmm_error_num, self.cmm_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -523,7 +538,7 @@ class MsController:
             elif self.cmm_status == ERROR:
                 self.rule = 17  # CALIBRATE_CAMERA/S1/2
                 # cmm's error: the cause of an ERROR this command reports
-                self.cause = caused(CMM_LINK, 0, 0)
+                self.cause = caused(CMM_LINK, self.cmm_error_num, self.cmm_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -602,7 +617,7 @@ class MsController:
             elif self.cmm_status == ERROR:
                 self.rule = 25  # MEASURE_PART/PROBING/2
                 # cmm's error: the cause of an ERROR this command reports
-                self.cause = caused(CMM_LINK, 0, 0)
+                self.cause = caused(CMM_LINK, self.cmm_error_num, self.cmm_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT

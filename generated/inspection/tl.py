@@ -40,11 +40,11 @@ OP_LOAD_PROBE = 9
 OP_REASON_NONE = 0
 OP_REASON_LOST = 1
 OP_REASON_REFUSED = 2
-OP_LINK = 9  # its number in the layout's CAUSE_MODULES
+OP_LINK = 11  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI52x???1xI352xQII")
+INPUTS = Struct("<QI52x???1xI688xQII")
 INPUTS_AT = 1304
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
