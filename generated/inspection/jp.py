@@ -27,7 +27,7 @@ REASON_PDM_DOWN = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32sq68x???1xI1984x?")
+INPUTS = Struct("<QI32sq68x???1xI2048x?")
 INPUTS_AT = 472
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).

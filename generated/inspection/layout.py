@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 3736 bytes.
+The block is 3808 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -37,92 +37,92 @@ command buffers and world fields:
 | 752 | 16 | WC_MODE | MODE_FIELDS |
 | 768 | 48 | WC_PERF | PERF_FIELDS |
 | 816 | 52 | WS_COMMAND | command_num, command, arg_program |
-| 872 | 41 | WS_STATUS | STATUS_FIELDS |
-| 920 | 16 | WS_MODE | MODE_FIELDS |
-| 936 | 48 | WS_PERF | PERF_FIELDS |
-| 984 | 52 | MS_COMMAND | command_num, command, arg_program |
-| 1040 | 64 | MS_STATUS | STATUS_FIELDS |
-| 1104 | 16 | MS_MODE | MODE_FIELDS |
-| 1120 | 48 | MS_PERF | PERF_FIELDS |
-| 1168 | 20 | FX_COMMAND | command_num, command |
-| 1192 | 40 | FX_STATUS | STATUS_FIELDS |
-| 1232 | 16 | FX_MODE | MODE_FIELDS |
-| 1248 | 48 | FX_PERF | PERF_FIELDS |
-| 1296 | 20 | TL_COMMAND | command_num, command |
-| 1320 | 40 | TL_STATUS | STATUS_FIELDS |
-| 1360 | 16 | TL_MODE | MODE_FIELDS |
-| 1376 | 48 | TL_PERF | PERF_FIELDS |
-| 1424 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 1456 | 64 | CMM_STATUS | STATUS_FIELDS |
-| 1520 | 16 | CMM_MODE | MODE_FIELDS |
-| 1536 | 48 | CMM_PERF | PERF_FIELDS |
-| 1584 | 44 | PRIM_COMMAND | command_num, command, arg_x, arg_y, arg_z |
-| 1632 | 40 | PRIM_STATUS | STATUS_FIELDS |
-| 1672 | 16 | PRIM_MODE | MODE_FIELDS |
-| 1688 | 48 | PRIM_PERF | PERF_FIELDS |
-| 1736 | 44 | SERVO_COMMAND | command_num, command, arg_x, arg_y, arg_z |
-| 1784 | 40 | SERVO_STATUS | STATUS_FIELDS |
-| 1824 | 16 | SERVO_MODE | MODE_FIELDS |
-| 1840 | 48 | SERVO_PERF | PERF_FIELDS |
-| 1888 | 16 | OP_MODE | MODE_FIELDS |
-| 1904 | 48 | OP_PERF | PERF_FIELDS |
-| 1952 | 20 | OP_FX_COMMAND | command_num, command |
-| 1976 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 2008 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 2032 | 20 | OP_TL_COMMAND | command_num, command |
-| 2056 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 2088 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 2112 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 2136 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 2168 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 2184 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 2232 | 20 | DRIVES_COMMAND | command_num, command |
-| 2256 | 32 | DRIVES_STATUS | STATUS_FIELDS |
-| 2288 | 16 | DRIVES_MODE | MODE_FIELDS |
-| 2304 | 48 | DRIVES_PERF | PERF_FIELDS |
-| 2352 | 16 | WORLD_CMM_OP | cmm_op |
-| 2368 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 2384 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 2400 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 2416 | 16 | WORLD_CMM_READING | cmm_reading |
-| 2432 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 2448 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 2464 | 16 | WORLD_MOTOR_X | motor_x |
-| 2480 | 16 | WORLD_MOTOR_Y | motor_y |
-| 2496 | 16 | WORLD_MOTOR_Z | motor_z |
-| 2512 | 16 | WORLD_AXIS_X | axis_x |
-| 2528 | 16 | WORLD_AXIS_Y | axis_y |
-| 2544 | 16 | WORLD_AXIS_Z | axis_z |
-| 2560 | 16 | WORLD_CAMERA_SCALE | camera_scale |
-| 2576 | 9 | WORLD_PDM_ONLINE | pdm_online |
-| 2592 | 9 | OVERRIDES | any |
-| 2608 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 2632 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 2656 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 2680 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 2704 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 2728 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 2752 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 2776 | 24 | OVERRIDE_MOTOR_X | state, motor_x |
-| 2800 | 24 | OVERRIDE_MOTOR_Y | state, motor_y |
-| 2824 | 24 | OVERRIDE_MOTOR_Z | state, motor_z |
-| 2848 | 24 | OVERRIDE_AXIS_X | state, axis_x |
-| 2872 | 24 | OVERRIDE_AXIS_Y | state, axis_y |
-| 2896 | 24 | OVERRIDE_AXIS_Z | state, axis_z |
-| 2920 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
-| 2944 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
-| 2968 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
-| 3080 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
-| 3128 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 3176 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
-| 3280 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 3368 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 3424 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 3480 | 64 | TIME_CMM | state, since, NOP, S0, S1, TOUCH, TOUCHING |
-| 3544 | 72 | TIME_PRIM | state, since, NOP, S0, S1, APPROACHING, TOUCHING, RETRACTING |
-| 3616 | 40 | TIME_SERVO | state, since, NOP, S0 |
-| 3656 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
-| 3696 | 40 | TIME_DRIVES | state, since, NOP, S0 |
+| 872 | 65 | WS_STATUS | STATUS_FIELDS |
+| 944 | 16 | WS_MODE | MODE_FIELDS |
+| 960 | 48 | WS_PERF | PERF_FIELDS |
+| 1008 | 68 | MS_COMMAND | command_num, command, arg_program, arg_first, arg_count |
+| 1080 | 64 | MS_STATUS | STATUS_FIELDS |
+| 1144 | 16 | MS_MODE | MODE_FIELDS |
+| 1160 | 48 | MS_PERF | PERF_FIELDS |
+| 1208 | 28 | FX_COMMAND | command_num, command, arg_setup |
+| 1240 | 40 | FX_STATUS | STATUS_FIELDS |
+| 1280 | 16 | FX_MODE | MODE_FIELDS |
+| 1296 | 48 | FX_PERF | PERF_FIELDS |
+| 1344 | 20 | TL_COMMAND | command_num, command |
+| 1368 | 40 | TL_STATUS | STATUS_FIELDS |
+| 1408 | 16 | TL_MODE | MODE_FIELDS |
+| 1424 | 48 | TL_PERF | PERF_FIELDS |
+| 1472 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 1504 | 64 | CMM_STATUS | STATUS_FIELDS |
+| 1568 | 16 | CMM_MODE | MODE_FIELDS |
+| 1584 | 48 | CMM_PERF | PERF_FIELDS |
+| 1632 | 44 | PRIM_COMMAND | command_num, command, arg_x, arg_y, arg_z |
+| 1680 | 40 | PRIM_STATUS | STATUS_FIELDS |
+| 1720 | 16 | PRIM_MODE | MODE_FIELDS |
+| 1736 | 48 | PRIM_PERF | PERF_FIELDS |
+| 1784 | 44 | SERVO_COMMAND | command_num, command, arg_x, arg_y, arg_z |
+| 1832 | 40 | SERVO_STATUS | STATUS_FIELDS |
+| 1872 | 16 | SERVO_MODE | MODE_FIELDS |
+| 1888 | 48 | SERVO_PERF | PERF_FIELDS |
+| 1936 | 16 | OP_MODE | MODE_FIELDS |
+| 1952 | 48 | OP_PERF | PERF_FIELDS |
+| 2000 | 28 | OP_FX_COMMAND | command_num, command, arg_setup |
+| 2032 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 2064 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 2088 | 28 | OP_TL_COMMAND | command_num, command, arg_setup |
+| 2120 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 2152 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 2176 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 2200 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 2232 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 2248 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 2296 | 20 | DRIVES_COMMAND | command_num, command |
+| 2320 | 32 | DRIVES_STATUS | STATUS_FIELDS |
+| 2352 | 16 | DRIVES_MODE | MODE_FIELDS |
+| 2368 | 48 | DRIVES_PERF | PERF_FIELDS |
+| 2416 | 16 | WORLD_CMM_OP | cmm_op |
+| 2432 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 2448 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 2464 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 2480 | 16 | WORLD_CMM_READING | cmm_reading |
+| 2496 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 2512 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 2528 | 16 | WORLD_MOTOR_X | motor_x |
+| 2544 | 16 | WORLD_MOTOR_Y | motor_y |
+| 2560 | 16 | WORLD_MOTOR_Z | motor_z |
+| 2576 | 16 | WORLD_AXIS_X | axis_x |
+| 2592 | 16 | WORLD_AXIS_Y | axis_y |
+| 2608 | 16 | WORLD_AXIS_Z | axis_z |
+| 2624 | 16 | WORLD_CAMERA_SCALE | camera_scale |
+| 2640 | 9 | WORLD_PDM_ONLINE | pdm_online |
+| 2656 | 9 | OVERRIDES | any |
+| 2672 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 2696 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 2720 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 2744 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 2768 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 2792 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 2816 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 2840 | 24 | OVERRIDE_MOTOR_X | state, motor_x |
+| 2864 | 24 | OVERRIDE_MOTOR_Y | state, motor_y |
+| 2888 | 24 | OVERRIDE_MOTOR_Z | state, motor_z |
+| 2912 | 24 | OVERRIDE_AXIS_X | state, axis_x |
+| 2936 | 24 | OVERRIDE_AXIS_Y | state, axis_y |
+| 2960 | 24 | OVERRIDE_AXIS_Z | state, axis_z |
+| 2984 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
+| 3008 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
+| 3032 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
+| 3144 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
+| 3192 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 3240 | 112 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, NEXT_SETUP, REFIXTURING, UNLOADING |
+| 3352 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 3440 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 3496 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 3552 | 64 | TIME_CMM | state, since, NOP, S0, S1, TOUCH, TOUCHING |
+| 3616 | 72 | TIME_PRIM | state, since, NOP, S0, S1, APPROACHING, TOUCHING, RETRACTING |
+| 3688 | 40 | TIME_SERVO | state, since, NOP, S0 |
+| 3728 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 3768 | 40 | TIME_DRIVES | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -154,9 +154,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 3736
+SIZE = 3808
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "49d1132777cd1a62f1c80ace99b6c5a3"
+LAYOUT_HASH = "2cf263c3e3e3b4ed0a8421146715b4b9"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 248
 
@@ -194,121 +194,121 @@ WC_PERF_AT = 768
 WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
 WS_COMMAND_AT = 816
 WS_STATUS = Struct(
-    "<QQIIii?Q"
-)  # seq, status_num, status, error_num, state, rule, result_accepted, cause
+    "<QQIIii?qqqQ"
+)  # seq, status_num, status, error_num, state, rule, result_accepted, plan_setups_step, plan_setups_steps, plan_setups_replans_left, cause
 WS_STATUS_AT = 872
-WS_MODE_AT = 920
-WS_PERF_AT = 936
+WS_MODE_AT = 944
+WS_PERF_AT = 960
 
 # ms: Measurement
-MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-MS_COMMAND_AT = 984
+MS_COMMAND = Struct("<QQI32sqq")  # seq, command_num, command, arg_program, arg_first, arg_count
+MS_COMMAND_AT = 1008
 MS_STATUS = Struct(
     "<QQIIiidqqQ"
 )  # seq, status_num, status, error_num, state, rule, result_scale, result_measured, result_failed, cause
-MS_STATUS_AT = 1040
-MS_MODE_AT = 1104
-MS_PERF_AT = 1120
+MS_STATUS_AT = 1080
+MS_MODE_AT = 1144
+MS_PERF_AT = 1160
 
 # fx: Fixturing (performed by the operator)
-FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 1168
+FX_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_setup
+FX_COMMAND_AT = 1208
 FX_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-FX_STATUS_AT = 1192
-FX_MODE_AT = 1232
-FX_PERF_AT = 1248
+FX_STATUS_AT = 1240
+FX_MODE_AT = 1280
+FX_PERF_AT = 1296
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 1296
+TL_COMMAND_AT = 1344
 TL_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-TL_STATUS_AT = 1320
-TL_MODE_AT = 1360
-TL_PERF_AT = 1376
+TL_STATUS_AT = 1368
+TL_MODE_AT = 1408
+TL_PERF_AT = 1424
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 1424
+CMM_COMMAND_AT = 1472
 CMM_STATUS = Struct(
     "<QQIIiiqqqQ"
 )  # seq, status_num, status, error_num, state, rule, plan_points_step, plan_points_steps, plan_points_replans_left, cause
-CMM_STATUS_AT = 1456
-CMM_MODE_AT = 1520
-CMM_PERF_AT = 1536
+CMM_STATUS_AT = 1504
+CMM_MODE_AT = 1568
+CMM_PERF_AT = 1584
 
 # prim: Probe controller (Prim)
 PRIM_COMMAND = Struct("<QQIddd")  # seq, command_num, command, arg_x, arg_y, arg_z
-PRIM_COMMAND_AT = 1584
+PRIM_COMMAND_AT = 1632
 PRIM_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-PRIM_STATUS_AT = 1632
-PRIM_MODE_AT = 1672
-PRIM_PERF_AT = 1688
+PRIM_STATUS_AT = 1680
+PRIM_MODE_AT = 1720
+PRIM_PERF_AT = 1736
 
 # servo: Servo (CMM axes)
 SERVO_COMMAND = Struct("<QQIddd")  # seq, command_num, command, arg_x, arg_y, arg_z
-SERVO_COMMAND_AT = 1736
+SERVO_COMMAND_AT = 1784
 SERVO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-SERVO_STATUS_AT = 1784
-SERVO_MODE_AT = 1824
-SERVO_PERF_AT = 1840
+SERVO_STATUS_AT = 1832
+SERVO_MODE_AT = 1872
+SERVO_PERF_AT = 1888
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 2112
-CMM_SIM_STATUS_AT = 2136
-CMM_SIM_MODE_AT = 2168
-CMM_SIM_PERF_AT = 2184
+CMM_SIM_COMMAND_AT = 2176
+CMM_SIM_STATUS_AT = 2200
+CMM_SIM_MODE_AT = 2232
+CMM_SIM_PERF_AT = 2248
 
 # drives: CMM axis drives (simulated)
 DRIVES_COMMAND = Struct("<QQI")  # seq, command_num, command
-DRIVES_COMMAND_AT = 2232
-DRIVES_STATUS_AT = 2256
-DRIVES_MODE_AT = 2288
-DRIVES_PERF_AT = 2304
+DRIVES_COMMAND_AT = 2296
+DRIVES_STATUS_AT = 2320
+DRIVES_MODE_AT = 2352
+DRIVES_PERF_AT = 2368
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 1888
-OP_PERF_AT = 1904
-OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_FX_COMMAND_AT = 1952
-OP_FX_STATUS_AT = 1976
-OP_FX_ANSWER_AT = 2008
-OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_TL_COMMAND_AT = 2032
-OP_TL_STATUS_AT = 2056
-OP_TL_ANSWER_AT = 2088
+OP_MODE_AT = 1936
+OP_PERF_AT = 1952
+OP_FX_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_setup
+OP_FX_COMMAND_AT = 2000
+OP_FX_STATUS_AT = 2032
+OP_FX_ANSWER_AT = 2064
+OP_TL_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_setup
+OP_TL_COMMAND_AT = 2088
+OP_TL_STATUS_AT = 2120
+OP_TL_ANSWER_AT = 2152
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 2352
+WORLD_CMM_OP_AT = 2416
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 2368
+WORLD_CMM_FEATURE_AT = 2432
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 2384
+WORLD_CMM_SEQ_AT = 2448
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 2400
+WORLD_CMM_DONE_SEQ_AT = 2464
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 2416
+WORLD_CMM_READING_AT = 2480
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 2432
+WORLD_CMM_ALARM_AT = 2496
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 2448
+WORLD_CMM_FAULT_AT = 2512
 WORLD_MOTOR_X = Struct("<Qd")  # seq, motor_x
-WORLD_MOTOR_X_AT = 2464
+WORLD_MOTOR_X_AT = 2528
 WORLD_MOTOR_Y = Struct("<Qd")  # seq, motor_y
-WORLD_MOTOR_Y_AT = 2480
+WORLD_MOTOR_Y_AT = 2544
 WORLD_MOTOR_Z = Struct("<Qd")  # seq, motor_z
-WORLD_MOTOR_Z_AT = 2496
+WORLD_MOTOR_Z_AT = 2560
 WORLD_AXIS_X = Struct("<Qd")  # seq, axis_x
-WORLD_AXIS_X_AT = 2512
+WORLD_AXIS_X_AT = 2576
 WORLD_AXIS_Y = Struct("<Qd")  # seq, axis_y
-WORLD_AXIS_Y_AT = 2528
+WORLD_AXIS_Y_AT = 2592
 WORLD_AXIS_Z = Struct("<Qd")  # seq, axis_z
-WORLD_AXIS_Z_AT = 2544
+WORLD_AXIS_Z_AT = 2608
 WORLD_CAMERA_SCALE = Struct("<Qd")  # seq, camera_scale
-WORLD_CAMERA_SCALE_AT = 2560
+WORLD_CAMERA_SCALE_AT = 2624
 WORLD_PDM_ONLINE = Struct("<Q?")  # seq, pdm_online
-WORLD_PDM_ONLINE_AT = 2576
+WORLD_PDM_ONLINE_AT = 2640
 
 
 PROCESSES = {
@@ -384,8 +384,12 @@ COMMAND_IN = {
     "jp": Record(JP_COMMAND, JP_COMMAND_AT, ("command_num", "command", "arg_program", "arg_part")),
     "wc": Record(WC_COMMAND, WC_COMMAND_AT, ("command_num", "command", "arg_program")),
     "ws": Record(WS_COMMAND, WS_COMMAND_AT, ("command_num", "command", "arg_program")),
-    "ms": Record(MS_COMMAND, MS_COMMAND_AT, ("command_num", "command", "arg_program")),
-    "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command")),
+    "ms": Record(
+        MS_COMMAND,
+        MS_COMMAND_AT,
+        ("command_num", "command", "arg_program", "arg_first", "arg_count"),
+    ),
+    "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command", "arg_setup")),
     "tl": Record(TL_COMMAND, TL_COMMAND_AT, ("command_num", "command")),
     "cmm": Record(CMM_COMMAND, CMM_COMMAND_AT, ("command_num", "command", "arg_number")),
     "prim": Record(
@@ -396,8 +400,8 @@ COMMAND_IN = {
     ),
     "cmm_sim": Record(CMM_SIM_COMMAND, CMM_SIM_COMMAND_AT, ("command_num", "command")),
     "drives": Record(DRIVES_COMMAND, DRIVES_COMMAND_AT, ("command_num", "command")),
-    "op/fx": Record(OP_FX_COMMAND, OP_FX_COMMAND_AT, ("command_num", "command")),
-    "op/tl": Record(OP_TL_COMMAND, OP_TL_COMMAND_AT, ("command_num", "command")),
+    "op/fx": Record(OP_FX_COMMAND, OP_FX_COMMAND_AT, ("command_num", "command", "arg_setup")),
+    "op/tl": Record(OP_TL_COMMAND, OP_TL_COMMAND_AT, ("command_num", "command", "arg_setup")),
 }
 STATUS_OUT = {
     "shop": Record(
@@ -438,7 +442,18 @@ STATUS_OUT = {
     "ws": Record(
         WS_STATUS,
         WS_STATUS_AT,
-        ("status_num", "status", "error_num", "state", "rule", "result_accepted", "cause"),
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "result_accepted",
+            "plan_setups_step",
+            "plan_setups_steps",
+            "plan_setups_replans_left",
+            "cause",
+        ),
     ),
     "ms": Record(
         MS_STATUS,
@@ -559,26 +574,26 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2592
-OVERRIDDEN_AT = 2600  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2656
+OVERRIDDEN_AT = 2664  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 2608, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 2632, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 2656, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 2680, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 2704, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 2728, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 2752, ("state", "cmm_fault")),
-    "motor_x": Record(Struct("<QQd"), 2776, ("state", "motor_x")),
-    "motor_y": Record(Struct("<QQd"), 2800, ("state", "motor_y")),
-    "motor_z": Record(Struct("<QQd"), 2824, ("state", "motor_z")),
-    "axis_x": Record(Struct("<QQd"), 2848, ("state", "axis_x")),
-    "axis_y": Record(Struct("<QQd"), 2872, ("state", "axis_y")),
-    "axis_z": Record(Struct("<QQd"), 2896, ("state", "axis_z")),
-    "camera_scale": Record(Struct("<QQd"), 2920, ("state", "camera_scale")),
-    "pdm_online": Record(Struct("<QQ?"), 2944, ("state", "pdm_online")),
+    "cmm_op": Record(Struct("<QQq"), 2672, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 2696, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 2720, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 2744, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 2768, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 2792, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 2816, ("state", "cmm_fault")),
+    "motor_x": Record(Struct("<QQd"), 2840, ("state", "motor_x")),
+    "motor_y": Record(Struct("<QQd"), 2864, ("state", "motor_y")),
+    "motor_z": Record(Struct("<QQd"), 2888, ("state", "motor_z")),
+    "axis_x": Record(Struct("<QQd"), 2912, ("state", "axis_x")),
+    "axis_y": Record(Struct("<QQd"), 2936, ("state", "axis_y")),
+    "axis_z": Record(Struct("<QQd"), 2960, ("state", "axis_z")),
+    "camera_scale": Record(Struct("<QQd"), 2984, ("state", "camera_scale")),
+    "pdm_online": Record(Struct("<QQ?"), 3008, ("state", "pdm_online")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -630,7 +645,7 @@ GROUND_TRUTH = ()
 TIME_IN_STATE = {
     "shop": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        2968,
+        3032,
         (
             "state",
             "since",
@@ -647,11 +662,11 @@ TIME_IN_STATE = {
             "PLAN_FAILED",
         ),
     ),
-    "jp": Record(Struct("<QqQQQQ"), 3080, ("state", "since", "NOP", "S0", "PLANNING")),
-    "wc": Record(Struct("<QqQQQQ"), 3128, ("state", "since", "NOP", "S0", "S1")),
+    "jp": Record(Struct("<QqQQQQ"), 3144, ("state", "since", "NOP", "S0", "PLANNING")),
+    "wc": Record(Struct("<QqQQQQ"), 3192, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
-        Struct("<QqQQQQQQQQQQQ"),
-        3176,
+        Struct("<QqQQQQQQQQQQQQ"),
+        3240,
         (
             "state",
             "since",
@@ -663,28 +678,29 @@ TIME_IN_STATE = {
             "MS_FAILED",
             "FX_FAILED",
             "MEASURING",
+            "NEXT_SETUP",
             "REFIXTURING",
             "UNLOADING",
         ),
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        3280,
+        3352,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 3368, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 3424, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "fx": Record(Struct("<QqQQQQQ"), 3440, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 3496, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
     "cmm": Record(
-        Struct("<QqQQQQQQ"), 3480, ("state", "since", "NOP", "S0", "S1", "TOUCH", "TOUCHING")
+        Struct("<QqQQQQQQ"), 3552, ("state", "since", "NOP", "S0", "S1", "TOUCH", "TOUCHING")
     ),
     "prim": Record(
         Struct("<QqQQQQQQQ"),
-        3544,
+        3616,
         ("state", "since", "NOP", "S0", "S1", "APPROACHING", "TOUCHING", "RETRACTING"),
     ),
-    "servo": Record(Struct("<QqQQQ"), 3616, ("state", "since", "NOP", "S0")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 3656, ("state", "since", "NOP", "S0")),
-    "drives": Record(Struct("<QqQQQ"), 3696, ("state", "since", "NOP", "S0")),
+    "servo": Record(Struct("<QqQQQ"), 3688, ("state", "since", "NOP", "S0")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 3728, ("state", "since", "NOP", "S0")),
+    "drives": Record(Struct("<QqQQQ"), 3768, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -764,7 +780,11 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
         "INSPECT_PART": ("program",),
     },
     "ms": {
-        "MEASURE_PART": ("program",),
+        "MEASURE_PART": ("program", "first", "count"),
+    },
+    "fx": {
+        "PLACE_PART": ("setup",),
+        "REFIXTURE_PART": ("setup",),
     },
     "cmm": {
         "INSPECT_FEATURE": ("number",),
@@ -774,6 +794,14 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
     },
     "servo": {
         "MOVE_TO": ("x", "y", "z"),
+    },
+    "op/fx": {
+        "PLACE_PART": ("setup",),
+        "RESEAT_PART": ("setup",),
+    },
+    "op/tl": {
+        "PLACE_PART": ("setup",),
+        "RESEAT_PART": ("setup",),
     },
 }
 STATE_NAMES = {
@@ -801,6 +829,7 @@ STATE_NAMES = {
         "MS_FAILED",
         "FX_FAILED",
         "MEASURING",
+        "NEXT_SETUP",
         "REFIXTURING",
         "UNLOADING",
     ),
@@ -930,6 +959,8 @@ RULES = {
         "INSPECT_PART/MEASURING/2",
         "INSPECT_PART/MEASURING/3",
         "INSPECT_PART/MEASURING/4",
+        "INSPECT_PART/NEXT_SETUP/1",
+        "INSPECT_PART/NEXT_SETUP/2",
         "INSPECT_PART/REFIXTURING/1",
         "INSPECT_PART/REFIXTURING/2",
         "INSPECT_PART/UNLOADING/1",
@@ -1115,8 +1146,8 @@ TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], 
 INSTRUCTIONS = {
     "op": {
         "MOUNT_FIXTURE_PLATE": "Clear the table and mount the fixture plate, then answer.",
-        "PLACE_PART": "Place the part in the fixture and clamp it, then answer.",
-        "RESEAT_PART": "Unclamp, clean and re-seat the part, clamp it, then answer.",
+        "PLACE_PART": "Place the part in the fixture in setup {setup} and clamp it, then answer.",
+        "RESEAT_PART": "Unclamp and clean the part, seat it in setup {setup} and clamp it, then answer.",
         "UNLOAD_PART": "Unclamp the part and take it off the table, then answer.",
         "MOUNT_SPHERE": "Mount the reference sphere and define the coordinate system, then answer.",
         "ORIENT_PROBE": "Orient the probe for calibration on the reference sphere, then answer.",

@@ -73,8 +73,8 @@ CMM_LINK = 8  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s76x???1xI208xQII8xQ104xQII32xQ904xd136xd")
-INPUTS_AT = 992
+INPUTS = Struct("<QI32sqq76x???1xI216xQII8xQ104xQII32xQ920xd136xd")
+INPUTS_AT = 1016
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 MS_STATUS_WORD = MS_STATUS_AT >> 3
@@ -99,6 +99,8 @@ class MsController:
     HOOK_STATE_ON_RESTART = "refuse"
 
     __slots__ = (
+        "arg_count",
+        "arg_first",
         "arg_program",
         "buf",
         "cause",
@@ -228,6 +230,8 @@ class MsController:
             self.command_num,
             self.command,
             self.arg_program,
+            self.arg_first,
+            self.arg_count,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -371,6 +375,8 @@ class MsController:
             self.command_num,
             self.command,
             self.arg_program,
+            self.arg_first,
+            self.arg_count,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -575,8 +581,9 @@ class MsController:
                 }.get(self.tl_error_num, REASON_NONE)
 
     def measure_part(self) -> None:
-        """MEASURE_PART: Measure every feature of the inspection program with the CMM
-        (Inspect_feature, Figure 39), one after the other; report how many are out of tolerance.
+        """MEASURE_PART: Measure a feature inspection schedule of the program with the CMM
+        (Inspect_feature, Figure 39): `count` features from feature `first`, one after the other;
+        report how many are out of tolerance.
         """
         state = self.state
         if state == S0:
@@ -585,18 +592,18 @@ class MsController:
             self.var_features = self.hook_program_features(
                 "MEASURE_PART/S0/1", self.hook_state, self.arg_program
             )
-            self.var_feature = 0
+            self.var_feature = self.arg_first
             self.var_failed = 0
 
         elif state == NEXT:
-            if self.var_feature < self.var_features:
+            if self.var_feature < min(self.var_features, self.arg_first + self.arg_count):
                 self.rule = 22  # MEASURE_PART/NEXT/1
                 self.state = PROBING
                 self.cmm_arg_number = self.var_feature
                 self.cmm_command = CMM_INSPECT_FEATURE
                 self.cmm_command_num += 1
 
-            elif self.var_feature >= self.var_features:
+            elif self.var_feature >= min(self.var_features, self.arg_first + self.arg_count):
                 self.rule = 23  # MEASURE_PART/NEXT/2
                 self.state = NOP
                 self.status = DONE
@@ -627,5 +634,5 @@ class MsController:
             self.state = NEXT
             self.var_feature = self.var_feature + 1
             self.var_failed = self.var_failed + (0 if self.var_in_tolerance else 1)
-            self.result_measured = self.var_feature
+            self.result_measured = self.var_feature - self.arg_first
             self.result_failed = self.var_failed

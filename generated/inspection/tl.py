@@ -44,8 +44,8 @@ OP_LINK = 11  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI52x???1xI688xQII")
-INPUTS_AT = 1304
+INPUTS = Struct("<QI52x???1xI704xQII")
+INPUTS_AT = 1352
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 TL_STATUS_WORD = TL_STATUS_AT >> 3
@@ -72,6 +72,7 @@ class TlController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "op_arg_setup",
         "op_command",
         "op_command_num",
         "op_error_num",
@@ -126,7 +127,9 @@ class TlController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
-        _, self.op_command_num, self.op_command = OP_TL_COMMAND.unpack_from(buf, OP_TL_COMMAND_AT)
+        _, self.op_command_num, self.op_command, self.op_arg_setup = OP_TL_COMMAND.unpack_from(
+            buf, OP_TL_COMMAND_AT
+        )
         self.op_written = self.op_command_num
 
     def safe_state(self, reason: int) -> None:
@@ -220,7 +223,7 @@ class TlController:
             seq |= 1  # odd while it is written
             words[OP_TL_COMMAND_WORD] = seq
             OP_TL_COMMAND.pack_into(
-                buf, OP_TL_COMMAND_AT, seq, self.op_command_num, self.op_command
+                buf, OP_TL_COMMAND_AT, seq, self.op_command_num, self.op_command, self.op_arg_setup
             )
             words[OP_TL_COMMAND_WORD] = seq + 1
             self.op_written = self.op_command_num
