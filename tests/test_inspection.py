@@ -487,7 +487,10 @@ def test_the_shop_plans_the_next_part_while_the_workcell_inspects_this_one():
     second_plan = planning - first_plan
     assert first_plan and first_plan <= setting_up, "part 0 planned during the set-up"
     assert second_plan and second_plan <= inspecting, "part 1 planned while part 0 is inspected"
-    assert len(second_plan) == 11, "a cycle to read the program, then 5 s (10 cycles)"
+    states = [at_cycle(lines, c)["modules"]["jp"]["state"] for c in sorted(second_plan)]
+    retrieving = states.count("RETRIEVING")
+    assert states == ["RETRIEVING"] * retrieving + ["PLANNING"] * 11, "then 5 s"
+    assert retrieving == 3, "asked, then the PDM's query (2 cycles) answered, seen the next cycle"
     jobs = [cycle for cycle, c in commands_sent(lines, "wc") if c == "INSPECT_PART"]
     assert jobs[0] == plans[1], "part 0's inspection and part 1's planning start together"
     for job, part in zip(jobs, (0, 1), strict=True):
@@ -513,17 +516,23 @@ def test_a_lot_by_a_program_that_does_not_exist_is_refused_by_the_planner():
 
 
 def test_the_planner_failing_mid_inspection_stops_the_station_safe_and_says_why():
-    """planner_fails: the PDM system stops answering (cycle 54) while the job planner plans
-    part 1 and the workcell inspects part 0 (W1 while W2, section 5.2.1). The planner fails
-    with PDM_DOWN; the next cycle the shop halts the workcell, and the HALT reaches every
+    """planner_fails: the PDM system goes down (cycle 50) while the job planner retrieves
+    part 1's program and the workcell inspects part 0 (W1 while W2, section 5.2.1). No
+    answer comes: 3 s after asking the planner fails with PDM_DOWN; the next cycle the shop
+    halts the workcell, and the HALT reaches every
     level below in that cycle: both operator requests are withdrawn and the CMM is ordered
     nothing; once the workcell has stopped the lot fails with the planner's reason, its
     cause naming the planner."""
     final, lines = played("planner_fails")
     assert final["status"] == "ERROR" and final["reason"] == "PDM_DOWN"
     failed = first(lines, "jp", "PLAN_JOB", "ERROR")
+    asked = [cycle for cycle, c in commands_sent(lines, "jp") if c == "PLAN_JOB"][-1]
+    down = next(ln["cycle"] for ln in lines if not ln["world"]["pdm_online"])
+    assert asked < down < failed and failed - asked == 7, "asked, then 3 s with no answer"
+    assert all(
+        at_cycle(lines, c)["modules"]["jp"]["state"] == "RETRIEVING" for c in range(asked, failed)
+    )
     before = at_cycle(lines, failed)
-    assert not before["world"]["pdm_online"] and at_cycle(lines, failed - 1)["world"]["pdm_online"]
     assert before["modules"]["wc"]["command"] == "INSPECT_PART", "mid-inspection"
     assert before["modules"]["wc"]["status"] == "EXECUTING"
     assert before["modules"]["jp"]["reason"] == "PDM_DOWN"

@@ -13,6 +13,7 @@ SOURCES = (
     "inspection/jp.yaml",
     "inspection/ms.yaml",
     "inspection/op.yaml",
+    "inspection/pdm.yaml",
     "inspection/prim.yaml",
     "inspection/servo.yaml",
     "inspection/shop.yaml",

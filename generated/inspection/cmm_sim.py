@@ -36,7 +36,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI176xq8xq8xq8xq8xd8x?15x?111xd")
+INPUTS = Struct("<QQI44x???1xI296xq8xq8xq8xq8xd8x?15x?111xd")
 INPUTS_AT = 2176
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -57,7 +57,7 @@ CMM_SIM_PERF_WORD = CMM_SIM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QqQdQ?")
 WORLD_VALUES_1 = Struct("<8xq8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 2464
+WORLD_OUT_1_AT = 2584
 WORLD_HELD_1 = (
     OVERRIDE["cmm_done_seq"],
     OVERRIDE["cmm_reading"],
@@ -69,7 +69,7 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<Qd")
 WORLD_VALUES_2 = Struct("<8xd")
 WORLD_SEQS_2 = Struct("<Q")
-WORLD_OUT_2_AT = 2624
+WORLD_OUT_2_AT = 2744
 WORLD_HELD_2 = (OVERRIDE["camera_scale"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

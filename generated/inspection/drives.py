@@ -22,7 +22,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI136x?31xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QQI44x???1xI256x?31xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 2296
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -42,7 +42,7 @@ DRIVES_PERF_WORD = DRIVES_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 2576
+WORLD_OUT_1_AT = 2696
 WORLD_HELD_1 = (OVERRIDE["axis_x"], OVERRIDE["axis_y"], OVERRIDE["axis_z"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

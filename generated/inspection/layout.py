@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 3808 bytes.
+The block is 4184 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -80,49 +80,62 @@ command buffers and world fields:
 | 2320 | 32 | DRIVES_STATUS | STATUS_FIELDS |
 | 2352 | 16 | DRIVES_MODE | MODE_FIELDS |
 | 2368 | 48 | DRIVES_PERF | PERF_FIELDS |
-| 2416 | 16 | WORLD_CMM_OP | cmm_op |
-| 2432 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 2448 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 2464 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 2480 | 16 | WORLD_CMM_READING | cmm_reading |
-| 2496 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 2512 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 2528 | 16 | WORLD_MOTOR_X | motor_x |
-| 2544 | 16 | WORLD_MOTOR_Y | motor_y |
-| 2560 | 16 | WORLD_MOTOR_Z | motor_z |
-| 2576 | 16 | WORLD_AXIS_X | axis_x |
-| 2592 | 16 | WORLD_AXIS_Y | axis_y |
-| 2608 | 16 | WORLD_AXIS_Z | axis_z |
-| 2624 | 16 | WORLD_CAMERA_SCALE | camera_scale |
-| 2640 | 9 | WORLD_PDM_ONLINE | pdm_online |
-| 2656 | 9 | OVERRIDES | any |
-| 2672 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 2696 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 2720 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 2744 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 2768 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 2792 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 2816 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 2840 | 24 | OVERRIDE_MOTOR_X | state, motor_x |
-| 2864 | 24 | OVERRIDE_MOTOR_Y | state, motor_y |
-| 2888 | 24 | OVERRIDE_MOTOR_Z | state, motor_z |
-| 2912 | 24 | OVERRIDE_AXIS_X | state, axis_x |
-| 2936 | 24 | OVERRIDE_AXIS_Y | state, axis_y |
-| 2960 | 24 | OVERRIDE_AXIS_Z | state, axis_z |
-| 2984 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
-| 3008 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
-| 3032 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
-| 3144 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
-| 3192 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 3240 | 112 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, NEXT_SETUP, REFIXTURING, UNLOADING |
-| 3352 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 3440 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 3496 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 3552 | 64 | TIME_CMM | state, since, NOP, S0, S1, TOUCH, TOUCHING |
-| 3616 | 72 | TIME_PRIM | state, since, NOP, S0, S1, APPROACHING, TOUCHING, RETRACTING |
-| 3688 | 40 | TIME_SERVO | state, since, NOP, S0 |
-| 3728 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
-| 3768 | 40 | TIME_DRIVES | state, since, NOP, S0 |
+| 2416 | 20 | PDM_COMMAND | command_num, command |
+| 2440 | 32 | PDM_STATUS | STATUS_FIELDS |
+| 2472 | 16 | PDM_MODE | MODE_FIELDS |
+| 2488 | 48 | PDM_PERF | PERF_FIELDS |
+| 2536 | 16 | WORLD_CMM_OP | cmm_op |
+| 2552 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 2568 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 2584 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 2600 | 16 | WORLD_CMM_READING | cmm_reading |
+| 2616 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 2632 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 2648 | 16 | WORLD_MOTOR_X | motor_x |
+| 2664 | 16 | WORLD_MOTOR_Y | motor_y |
+| 2680 | 16 | WORLD_MOTOR_Z | motor_z |
+| 2696 | 16 | WORLD_AXIS_X | axis_x |
+| 2712 | 16 | WORLD_AXIS_Y | axis_y |
+| 2728 | 16 | WORLD_AXIS_Z | axis_z |
+| 2744 | 16 | WORLD_CAMERA_SCALE | camera_scale |
+| 2760 | 9 | WORLD_PDM_ONLINE | pdm_online |
+| 2776 | 40 | WORLD_PDM_REQUEST | pdm_request |
+| 2816 | 16 | WORLD_PDM_SEQ | pdm_seq |
+| 2832 | 16 | WORLD_PDM_DONE_SEQ | pdm_done_seq |
+| 2848 | 16 | WORLD_PDM_FEATURES | pdm_features |
+| 2864 | 9 | OVERRIDES | any |
+| 2880 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 2904 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 2928 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 2952 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 2976 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 3000 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 3024 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 3048 | 24 | OVERRIDE_MOTOR_X | state, motor_x |
+| 3072 | 24 | OVERRIDE_MOTOR_Y | state, motor_y |
+| 3096 | 24 | OVERRIDE_MOTOR_Z | state, motor_z |
+| 3120 | 24 | OVERRIDE_AXIS_X | state, axis_x |
+| 3144 | 24 | OVERRIDE_AXIS_Y | state, axis_y |
+| 3168 | 24 | OVERRIDE_AXIS_Z | state, axis_z |
+| 3192 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
+| 3216 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
+| 3240 | 48 | OVERRIDE_PDM_REQUEST | state, pdm_request |
+| 3288 | 24 | OVERRIDE_PDM_SEQ | state, pdm_seq |
+| 3312 | 24 | OVERRIDE_PDM_DONE_SEQ | state, pdm_done_seq |
+| 3336 | 24 | OVERRIDE_PDM_FEATURES | state, pdm_features |
+| 3360 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
+| 3472 | 56 | TIME_JP | state, since, NOP, S0, RETRIEVING, PLANNING |
+| 3528 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 3576 | 112 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, NEXT_SETUP, REFIXTURING, UNLOADING |
+| 3688 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 3776 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 3832 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 3888 | 64 | TIME_CMM | state, since, NOP, S0, S1, TOUCH, TOUCHING |
+| 3952 | 72 | TIME_PRIM | state, since, NOP, S0, S1, APPROACHING, TOUCHING, RETRACTING |
+| 4024 | 40 | TIME_SERVO | state, since, NOP, S0 |
+| 4064 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 4104 | 40 | TIME_DRIVES | state, since, NOP, S0 |
+| 4144 | 40 | TIME_PDM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -154,9 +167,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 3808
+SIZE = 4184
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "2cf263c3e3e3b4ed0a8421146715b4b9"
+LAYOUT_HASH = "2c56e13e601598779319826aeb123dcc"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 248
 
@@ -266,6 +279,13 @@ DRIVES_STATUS_AT = 2320
 DRIVES_MODE_AT = 2352
 DRIVES_PERF_AT = 2368
 
+# pdm: PDM system (simulated)
+PDM_COMMAND = Struct("<QQI")  # seq, command_num, command
+PDM_COMMAND_AT = 2416
+PDM_STATUS_AT = 2440
+PDM_MODE_AT = 2472
+PDM_PERF_AT = 2488
+
 # op: Operator at the screen (an operator module: a channel per client)
 OP_MODE_AT = 1936
 OP_PERF_AT = 1952
@@ -280,35 +300,43 @@ OP_TL_ANSWER_AT = 2152
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 2416
+WORLD_CMM_OP_AT = 2536
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 2432
+WORLD_CMM_FEATURE_AT = 2552
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 2448
+WORLD_CMM_SEQ_AT = 2568
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 2464
+WORLD_CMM_DONE_SEQ_AT = 2584
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 2480
+WORLD_CMM_READING_AT = 2600
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 2496
+WORLD_CMM_ALARM_AT = 2616
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 2512
+WORLD_CMM_FAULT_AT = 2632
 WORLD_MOTOR_X = Struct("<Qd")  # seq, motor_x
-WORLD_MOTOR_X_AT = 2528
+WORLD_MOTOR_X_AT = 2648
 WORLD_MOTOR_Y = Struct("<Qd")  # seq, motor_y
-WORLD_MOTOR_Y_AT = 2544
+WORLD_MOTOR_Y_AT = 2664
 WORLD_MOTOR_Z = Struct("<Qd")  # seq, motor_z
-WORLD_MOTOR_Z_AT = 2560
+WORLD_MOTOR_Z_AT = 2680
 WORLD_AXIS_X = Struct("<Qd")  # seq, axis_x
-WORLD_AXIS_X_AT = 2576
+WORLD_AXIS_X_AT = 2696
 WORLD_AXIS_Y = Struct("<Qd")  # seq, axis_y
-WORLD_AXIS_Y_AT = 2592
+WORLD_AXIS_Y_AT = 2712
 WORLD_AXIS_Z = Struct("<Qd")  # seq, axis_z
-WORLD_AXIS_Z_AT = 2608
+WORLD_AXIS_Z_AT = 2728
 WORLD_CAMERA_SCALE = Struct("<Qd")  # seq, camera_scale
-WORLD_CAMERA_SCALE_AT = 2624
+WORLD_CAMERA_SCALE_AT = 2744
 WORLD_PDM_ONLINE = Struct("<Q?")  # seq, pdm_online
-WORLD_PDM_ONLINE_AT = 2640
+WORLD_PDM_ONLINE_AT = 2760
+WORLD_PDM_REQUEST = Struct("<Q32s")  # seq, pdm_request
+WORLD_PDM_REQUEST_AT = 2776
+WORLD_PDM_SEQ = Struct("<Qq")  # seq, pdm_seq
+WORLD_PDM_SEQ_AT = 2816
+WORLD_PDM_DONE_SEQ = Struct("<Qq")  # seq, pdm_done_seq
+WORLD_PDM_DONE_SEQ_AT = 2832
+WORLD_PDM_FEATURES = Struct("<Qq")  # seq, pdm_features
+WORLD_PDM_FEATURES_AT = 2848
 
 
 PROCESSES = {
@@ -335,6 +363,7 @@ PLACEMENT = {
     "op/tl": "iws",
     "cmm_sim": "iws",
     "drives": "iws",
+    "pdm": "iws",
 }
 # Seconds without a heartbeat after which a process is reported dead.
 HEARTBEAT_TIMEOUT = 5.0
@@ -355,6 +384,7 @@ SUBORDINATES = {
     "op": (),
     "cmm_sim": (),
     "drives": (),
+    "pdm": (),
 }
 # The subordinates whose loss a supervisor's own rules handle (`on_lost: continue`); every
 # other loss halts everything (`halt_all`: rcs/loop.py `reaction`).
@@ -376,6 +406,7 @@ MODULES = (
     "op/tl",
     "cmm_sim",
     "drives",
+    "pdm",
 )
 COMMAND_IN = {
     "shop": Record(
@@ -400,6 +431,7 @@ COMMAND_IN = {
     ),
     "cmm_sim": Record(CMM_SIM_COMMAND, CMM_SIM_COMMAND_AT, ("command_num", "command")),
     "drives": Record(DRIVES_COMMAND, DRIVES_COMMAND_AT, ("command_num", "command")),
+    "pdm": Record(PDM_COMMAND, PDM_COMMAND_AT, ("command_num", "command")),
     "op/fx": Record(OP_FX_COMMAND, OP_FX_COMMAND_AT, ("command_num", "command", "arg_setup")),
     "op/tl": Record(OP_TL_COMMAND, OP_TL_COMMAND_AT, ("command_num", "command", "arg_setup")),
 }
@@ -501,6 +533,7 @@ STATUS_OUT = {
     ),
     "cmm_sim": Record(STATUS, CMM_SIM_STATUS_AT, field_names(STATUS_FIELDS)),
     "drives": Record(STATUS, DRIVES_STATUS_AT, field_names(STATUS_FIELDS)),
+    "pdm": Record(STATUS, PDM_STATUS_AT, field_names(STATUS_FIELDS)),
     "op/fx": Record(STATUS, OP_FX_STATUS_AT, field_names(STATUS_FIELDS)),
     "op/tl": Record(STATUS, OP_TL_STATUS_AT, field_names(STATUS_FIELDS)),
 }
@@ -517,6 +550,7 @@ MODE_IN = {
     "servo": Record(MODE, SERVO_MODE_AT, field_names(MODE_FIELDS)),
     "cmm_sim": Record(MODE, CMM_SIM_MODE_AT, field_names(MODE_FIELDS)),
     "drives": Record(MODE, DRIVES_MODE_AT, field_names(MODE_FIELDS)),
+    "pdm": Record(MODE, PDM_MODE_AT, field_names(MODE_FIELDS)),
     "op": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
     "op/fx": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
     "op/tl": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
@@ -534,6 +568,7 @@ PERFORMANCE = {
     "servo": Record(PERF, SERVO_PERF_AT, field_names(PERF_FIELDS)),
     "cmm_sim": Record(PERF, CMM_SIM_PERF_AT, field_names(PERF_FIELDS)),
     "drives": Record(PERF, DRIVES_PERF_AT, field_names(PERF_FIELDS)),
+    "pdm": Record(PERF, PDM_PERF_AT, field_names(PERF_FIELDS)),
     "op": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
     "op/fx": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
     "op/tl": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
@@ -554,6 +589,10 @@ WORLD = {
     "axis_z": Record(WORLD_AXIS_Z, WORLD_AXIS_Z_AT, ("axis_z",)),
     "camera_scale": Record(WORLD_CAMERA_SCALE, WORLD_CAMERA_SCALE_AT, ("camera_scale",)),
     "pdm_online": Record(WORLD_PDM_ONLINE, WORLD_PDM_ONLINE_AT, ("pdm_online",)),
+    "pdm_request": Record(WORLD_PDM_REQUEST, WORLD_PDM_REQUEST_AT, ("pdm_request",)),
+    "pdm_seq": Record(WORLD_PDM_SEQ, WORLD_PDM_SEQ_AT, ("pdm_seq",)),
+    "pdm_done_seq": Record(WORLD_PDM_DONE_SEQ, WORLD_PDM_DONE_SEQ_AT, ("pdm_done_seq",)),
+    "pdm_features": Record(WORLD_PDM_FEATURES, WORLD_PDM_FEATURES_AT, ("pdm_features",)),
 }
 WORLD_INITIAL: dict[str, object] = {
     "cmm_op": 0,
@@ -571,29 +610,37 @@ WORLD_INITIAL: dict[str, object] = {
     "axis_z": 0.0,
     "camera_scale": 0.0,
     "pdm_online": True,
+    "pdm_request": "",
+    "pdm_seq": 0,
+    "pdm_done_seq": 0,
+    "pdm_features": 0,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2656
-OVERRIDDEN_AT = 2664  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2864
+OVERRIDDEN_AT = 2872  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 2672, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 2696, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 2720, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 2744, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 2768, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 2792, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 2816, ("state", "cmm_fault")),
-    "motor_x": Record(Struct("<QQd"), 2840, ("state", "motor_x")),
-    "motor_y": Record(Struct("<QQd"), 2864, ("state", "motor_y")),
-    "motor_z": Record(Struct("<QQd"), 2888, ("state", "motor_z")),
-    "axis_x": Record(Struct("<QQd"), 2912, ("state", "axis_x")),
-    "axis_y": Record(Struct("<QQd"), 2936, ("state", "axis_y")),
-    "axis_z": Record(Struct("<QQd"), 2960, ("state", "axis_z")),
-    "camera_scale": Record(Struct("<QQd"), 2984, ("state", "camera_scale")),
-    "pdm_online": Record(Struct("<QQ?"), 3008, ("state", "pdm_online")),
+    "cmm_op": Record(Struct("<QQq"), 2880, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 2904, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 2928, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 2952, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 2976, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 3000, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 3024, ("state", "cmm_fault")),
+    "motor_x": Record(Struct("<QQd"), 3048, ("state", "motor_x")),
+    "motor_y": Record(Struct("<QQd"), 3072, ("state", "motor_y")),
+    "motor_z": Record(Struct("<QQd"), 3096, ("state", "motor_z")),
+    "axis_x": Record(Struct("<QQd"), 3120, ("state", "axis_x")),
+    "axis_y": Record(Struct("<QQd"), 3144, ("state", "axis_y")),
+    "axis_z": Record(Struct("<QQd"), 3168, ("state", "axis_z")),
+    "camera_scale": Record(Struct("<QQd"), 3192, ("state", "camera_scale")),
+    "pdm_online": Record(Struct("<QQ?"), 3216, ("state", "pdm_online")),
+    "pdm_request": Record(Struct("<QQ32s"), 3240, ("state", "pdm_request")),
+    "pdm_seq": Record(Struct("<QQq"), 3288, ("state", "pdm_seq")),
+    "pdm_done_seq": Record(Struct("<QQq"), 3312, ("state", "pdm_done_seq")),
+    "pdm_features": Record(Struct("<QQq"), 3336, ("state", "pdm_features")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -635,6 +682,10 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "axis_y": ("drives",),
     "axis_z": ("drives",),
     "camera_scale": ("cmm_sim",),
+    "pdm_request": ("jp",),
+    "pdm_seq": ("jp",),
+    "pdm_done_seq": ("pdm",),
+    "pdm_features": ("pdm",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
@@ -645,7 +696,7 @@ GROUND_TRUTH = ()
 TIME_IN_STATE = {
     "shop": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        3032,
+        3360,
         (
             "state",
             "since",
@@ -662,11 +713,13 @@ TIME_IN_STATE = {
             "PLAN_FAILED",
         ),
     ),
-    "jp": Record(Struct("<QqQQQQ"), 3144, ("state", "since", "NOP", "S0", "PLANNING")),
-    "wc": Record(Struct("<QqQQQQ"), 3192, ("state", "since", "NOP", "S0", "S1")),
+    "jp": Record(
+        Struct("<QqQQQQQ"), 3472, ("state", "since", "NOP", "S0", "RETRIEVING", "PLANNING")
+    ),
+    "wc": Record(Struct("<QqQQQQ"), 3528, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        3240,
+        3576,
         (
             "state",
             "since",
@@ -685,22 +738,23 @@ TIME_IN_STATE = {
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        3352,
+        3688,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 3440, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 3496, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "fx": Record(Struct("<QqQQQQQ"), 3776, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 3832, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
     "cmm": Record(
-        Struct("<QqQQQQQQ"), 3552, ("state", "since", "NOP", "S0", "S1", "TOUCH", "TOUCHING")
+        Struct("<QqQQQQQQ"), 3888, ("state", "since", "NOP", "S0", "S1", "TOUCH", "TOUCHING")
     ),
     "prim": Record(
         Struct("<QqQQQQQQQ"),
-        3616,
+        3952,
         ("state", "since", "NOP", "S0", "S1", "APPROACHING", "TOUCHING", "RETRACTING"),
     ),
-    "servo": Record(Struct("<QqQQQ"), 3688, ("state", "since", "NOP", "S0")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 3728, ("state", "since", "NOP", "S0")),
-    "drives": Record(Struct("<QqQQQ"), 3768, ("state", "since", "NOP", "S0")),
+    "servo": Record(Struct("<QqQQQ"), 4024, ("state", "since", "NOP", "S0")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 4064, ("state", "since", "NOP", "S0")),
+    "drives": Record(Struct("<QqQQQ"), 4104, ("state", "since", "NOP", "S0")),
+    "pdm": Record(Struct("<QqQQQ"), 4144, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -733,6 +787,7 @@ COMMAND_NAMES = {
     "servo": (NO_COMMAND_NAME, *("INIT", "HALT", "MOVE_TO")),
     "cmm_sim": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "drives": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "pdm": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "op/fx": (
         NO_COMMAND_NAME,
         *(
@@ -818,7 +873,7 @@ STATE_NAMES = {
         "REPLANNING",
         "PLAN_FAILED",
     ),
-    "jp": ("NOP", "S0", "PLANNING"),
+    "jp": ("NOP", "S0", "RETRIEVING", "PLANNING"),
     "wc": ("NOP", "S0", "S1"),
     "ws": (
         "NOP",
@@ -841,6 +896,7 @@ STATE_NAMES = {
     "servo": ("NOP", "S0"),
     "cmm_sim": ("NOP", "S0"),
     "drives": ("NOP", "S0"),
+    "pdm": ("NOP", "S0"),
     "op/fx": OPERATOR_STATES,
     "op/tl": OPERATOR_STATES,
 }
@@ -876,6 +932,7 @@ CAUSE_MODULES = (
     "op",
     "cmm_sim",
     "drives",
+    "pdm",
 )
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
@@ -918,9 +975,10 @@ RULES = {
         "INIT/S0/1",
         "HALT/S0/1",
         "PLAN_JOB/S0/1",
+        "PLAN_JOB/RETRIEVING/1",
+        "PLAN_JOB/RETRIEVING/2",
+        "PLAN_JOB/RETRIEVING/3",
         "PLAN_JOB/PLANNING/1",
-        "PLAN_JOB/PLANNING/2",
-        "PLAN_JOB/PLANNING/3",
     ),
     "wc": (
         "",
@@ -1079,10 +1137,11 @@ RULES = {
     "servo": ("", "INIT/S0/1", "HALT/S0/1", "MOVE_TO/S0/1", "MOVE_TO/S0/2", "MOVE_TO/S0/3"),
     "cmm_sim": ("", "INIT/S0/1", "HALT/S0/1"),
     "drives": ("", "INIT/S0/1", "HALT/S0/1"),
+    "pdm": ("", "INIT/S0/1", "HALT/S0/1"),
     "op/fx": ("",),  # an operator module has no table
     "op/tl": ("",),  # an operator module has no table
 }
-SIMULATORS = ("cmm_sim", "drives")
+SIMULATORS = ("cmm_sim", "drives", "pdm")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {
@@ -1106,6 +1165,7 @@ ROLES: dict[str, dict[str, int]] = {
         "op": 3,  # override
         "cmm_sim": 3,  # override
         "drives": 3,  # override
+        "pdm": 3,  # override
     },
 }
 # Who holds each role (`users`, `groups`: OS names): role -> (users, groups). `--role` in a
