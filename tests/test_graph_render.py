@@ -191,13 +191,13 @@ def action_texts(system) -> set[str]:
 
 def test_every_action_reads_as_spec_text(miner) -> None:
     texts = action_texts(miner)
-    assert {"send cc.HALT", "report DONE", "call haul"} <= texts
+    assert {"send cc.HALT", "report DONE", "call haul", "report ERROR"} <= texts
     assert any(t.startswith("send vg.TRAM_TO_XY(x: ") and ", y: " in t for t in texts)
     assert any(t.startswith("set world.") and " = " in t for t in texts)
     submarine = action_texts(compile_paths([REPO / "specs" / "submarine"]).systems[0])
     assert {"plan route", "advance route", "replan route", "report ERROR (BLOCKED)"} <= submarine
     inspection = action_texts(compile_paths([REPO / "specs" / "inspection"]).systems[0])
-    assert {"report ERROR", "report ERROR (fx.reason)"} <= inspection
+    assert {"report ERROR (MACHINE_FAULT)", "report ERROR (fx.reason)"} <= inspection
 
 
 def test_picture_names_are_every_picture_the_command_line_draws(miner) -> None:

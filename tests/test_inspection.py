@@ -115,7 +115,8 @@ def test_nominal_init_for_inspect_then_the_part_is_accepted():
         first(lines, "ms", "EQUIP_SETUP", "DONE"), first(lines, "fx", "EQUIP_SETUP", "DONE")
     )
     assert names(ms) == [
-        "INIT", "EQUIP_SETUP", "CALIBRATE_CMM", "CALIBRATE_CAMERA", "LOAD_PROBE", "MEASURE_PART"
+        "INIT", "EQUIP_SETUP", "CALIBRATE_CMM", "CALIBRATE_CAMERA", "LOAD_PROBE", "MEASURE_PART",
+        "MEASURE_PART",
     ]  # fmt: skip
     assert names(commands_sent(lines, "tl")) == [
         "INIT", "CALIBRATE_SPHERE", "CALIBRATE_PROBE", "LOAD_PROBE"
@@ -126,16 +127,16 @@ def test_nominal_init_for_inspect_then_the_part_is_accepted():
     inspect = dict((c, cycle) for cycle, c in commands_sent(lines, "ws"))["INSPECT_PART"]
     assert first(lines, "ws", "INIT_FOR_INSPECT", "DONE") < inspect, "prepared before use"
     assert cmm[4:] == ["INSPECT_FEATURE"] * 5
-    assert names(fx)[1:] == ["EQUIP_SETUP", "PLACE_PART", "UNLOAD_PART"]
+    assert names(fx)[1:] == ["EQUIP_SETUP", "PLACE_PART", "REFIXTURE_PART", "UNLOAD_PART"]
     assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": True})
     # every result slot of MS: the camera's scale is CALIBRATE_CAMERA's, 0 after it
-    assert outcome(lines[-1], "ms") == ("DONE", "NONE", {"measured": 5, "failed": 0, "scale": 0.0})
+    assert outcome(lines[-1], "ms") == ("DONE", "NONE", {"measured": 2, "failed": 0, "scale": 0.0})
     # the shop passes the verdict up; its lot counts stay 0 (no lot was ordered)
     assert final["results"] == {"accepted": True, "passed": 0, "rejected": 0, "scheduled": 0}
     assert final["reason"] == "NONE"
     # one person serves both: each task asked through its client's channel, answered DONE
     tasks = {
-        "op/fx": ["MOUNT_FIXTURE_PLATE", "PLACE_PART", "UNLOAD_PART"],
+        "op/fx": ["MOUNT_FIXTURE_PLATE", "PLACE_PART", "RESEAT_PART", "UNLOAD_PART"],
         "op/tl": ["MOUNT_SPHERE", "ORIENT_PROBE", "LOAD_PROBE"],
     }
     for channel, asked in tasks.items():
@@ -144,6 +145,37 @@ def test_nominal_init_for_inspect_then_the_part_is_accepted():
             assert asking(lines, channel, task), f"{task} was never on the screen"
             assert first(lines, channel, task, "DONE") == asking(lines, channel, task)[-1] + 1
         assert lines[-1]["modules"][channel]["state"] == "NOP", "nothing left on the screen"
+
+
+def test_the_workstation_plans_setups_and_fixturing_and_measuring_take_turns():
+    """Section 5.3.2: WS's PL interprets the inspection plan into fixturing instructions and
+    feature inspection schedules; section 5.3.1: a series of place/fixture_part for
+    fixturing corresponding to the Inspect_features, the two coordinated. The bracket's
+    plan is two setups (3 features, then 2): FX fixtures the part in a setup, MS measures
+    that setup's schedule, never while FX is at work, then the next setup."""
+    _, lines = played("nominal_inspection")
+    inspect = first(lines, "ws", "INSPECT_PART", "EXECUTING")
+    assert lines[inspect - 1]["modules"]["ws"]["plans"]["setups"]["steps"] == 2
+    turns = sorted(
+        (cycle, f"{module}.{command}")
+        for module in ("fx", "ms")
+        for cycle, command in commands_sent(lines, module)
+        if cycle >= inspect
+    )
+    assert [what for _, what in turns] == [
+        "fx.PLACE_PART", "ms.LOAD_PROBE", "ms.MEASURE_PART",
+        "fx.REFIXTURE_PART", "ms.MEASURE_PART", "fx.UNLOAD_PART",
+    ]  # fmt: skip
+    schedules = [
+        lines[cycle - 2]["modules"]["ms"]["result"]["measured"]
+        for cycle, what in turns[3:]
+        if what in ("fx.REFIXTURE_PART", "fx.UNLOAD_PART")
+    ]
+    assert schedules == [3, 2], "each setup's feature schedule, measured in full"
+    for line in lines:
+        ms, fx = line["modules"]["ms"], line["modules"]["fx"]
+        if ms["command"] == "MEASURE_PART" and ms["status"] == "EXECUTING":
+            assert fx["status"] != "EXECUTING", f"cycle {line['cycle']}: measured while fixturing"
 
 
 def test_nominal_readings_are_within_the_programs_tolerances(monkeypatch):
@@ -195,11 +227,12 @@ def test_a_part_out_of_tolerance_is_refixtured_remeasured_and_rejected():
     ]
     assert bores and all(reading > 12.02 for reading in bores)
     assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": False})  # rejected
-    assert outcome(lines[-1], "ms")[2] == {"measured": 5, "failed": 1, "scale": 0.0}  # the bore
+    # setup 1's schedule (the bore, its depth, the hole spacing); setup 2 never measured
+    assert outcome(lines[-1], "ms")[2] == {"measured": 3, "failed": 1, "scale": 0.0}  # the bore
     # the first measurement found the bore out too, and MS said so with DONE
     first_done = first(lines, "ms", "MEASURE_PART", "DONE")
     assert outcome(lines[first_done - 1], "ms") == (
-        "DONE", "NONE", {"measured": 5, "failed": 1, "scale": 0.0}
+        "DONE", "NONE", {"measured": 3, "failed": 1, "scale": 0.0}
     )  # fmt: skip
     unloaded = next(cycle for cycle, c in commands_sent(lines, "fx") if c == "UNLOAD_PART")
     assert lines[unloaded - 1]["modules"]["ws"]["state"] == "UNLOADING", "rejected, then unloaded"
@@ -303,13 +336,19 @@ def test_a_machine_fault_climbs_one_level_per_cycle():
     final, lines = played("machine_fault")
     assert final["status"] == "ERROR"
     alarm = open_cycles(lines, "cmm_alarm")[0]
-    chain = (("cmm", "INSPECT_FEATURE"), ("ms", "MEASURE_PART"), ("ws", "INSPECT_PART"))
+    chain = (
+        ("servo", "MOVE_TO"),
+        ("prim", "GO_TO_POINT"),
+        ("cmm", "INSPECT_FEATURE"),
+        ("ms", "MEASURE_PART"),
+        ("ws", "INSPECT_PART"),
+    )
     errors = [first(lines, module, command, "ERROR") for module, command in chain]
-    assert errors == [alarm + 1, alarm + 2, alarm + 3], "CMM, then MS, then WS"
-    reasons = [
-        outcome(lines[cycle - 1], m)[1] for cycle, m in zip(errors[1:], ("ms", "ws"), strict=True)
-    ]
-    assert reasons == ["MACHINE_FAULT", "MACHINE_FAULT"], "each says why as it fails"
+    assert errors == [alarm + n for n in range(1, 6)], "servo, Prim, Emove, then MS, then WS"
+    reasons = [outcome(lines[cycle - 1], m)[1] for cycle, (m, _) in zip(errors, chain, strict=True)]
+    assert reasons == ["MACHINE_FAULT"] * 5, "each says why as it fails"
+    motors = [[lines[c - 1]["world"][f"motor_{a}"] for a in "xyz"] for c in (alarm, alarm + 1)]
+    assert any(motors[0]) and motors[1] == [0.0] * 3, "the moving axes stopped by the servo"
     status, _, results = outcome(lines[-1], "ms")
     assert status == "ERROR" and 0 < results["measured"] < 5
     assert outcome(lines[-1], "ws") == ("ERROR", "MACHINE_FAULT", {"accepted": False})
@@ -329,11 +368,16 @@ def hooks(monkeypatch):
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("bore 12.0\n", "p.ipg:1: expected `name nominal tolerance`, got 'bore 12.0'"),
-        ("# c\nbore 12.0 x\n", "p.ipg:2: `x` is not a number"),
-        ("bore 12.0 0\n", "p.ipg:1: the tolerance of `bore` must be positive"),
-        ("bore 12.0 nan\n", "p.ipg:1: `nan` is not a finite number"),
-        ("bore 1 0.1\nbore 2 0.1\n", "p.ipg:2: feature `bore` is measured twice"),
+        (
+            "bore 12.0 0.1\n",
+            "p.ipg:1: expected `name nominal tolerance setup`, got 'bore 12.0 0.1'",
+        ),
+        ("# c\nbore 12.0 x 1\n", "p.ipg:2: `x` is not a number"),
+        ("bore 12.0 0 1\n", "p.ipg:1: the tolerance of `bore` must be positive"),
+        ("bore 12.0 nan 1\n", "p.ipg:1: `nan` is not a finite number"),
+        ("bore 12.0 0.1 0\n", "p.ipg:1: the setup of `bore` must be a whole number from 1"),
+        ("bore 12.0 0.1 top\n", "p.ipg:1: the setup of `bore` must be a whole number from 1"),
+        ("bore 1 0.1 1\nbore 2 0.1 1\n", "p.ipg:2: feature `bore` is measured twice"),
         ("# nothing\n", "p.ipg: the inspection program measures no feature"),
     ],
 )
@@ -344,6 +388,20 @@ def test_a_bad_program_line_is_named(hooks, tmp_path, text, message):
     with pytest.raises(ms.ProgramError) as raised:
         ms.read_program(program)
     assert str(raised.value) == f"{tmp_path}/{message}"
+
+
+def test_the_workstation_plan_is_a_step_per_run_of_one_setup(hooks, tmp_path, monkeypatch):
+    """inspection_hooks.ws.setups: consecutive features of one setup are one step (the
+    setup, the first feature, how many); a program that returns to a setup fixtures the
+    part in it again."""
+    ms, _ = hooks
+    ws = importlib.import_module("inspection_hooks.ws")
+    monkeypatch.setattr(ms, "SYSTEM_DIR", tmp_path)
+    (tmp_path / "programs").mkdir()
+    (tmp_path / "programs" / "p.ipg").write_text("a 1 0.1 1\nb 1 0.1 1\nc 1 0.1 2\nd 1 0.1 1\n")
+    assert ws.setups("p") == [(1, 0, 2), (2, 2, 1), (1, 3, 1)]
+    monkeypatch.undo()
+    assert ws.setups("bracket") == [(1, 0, 3), (2, 3, 2)]
 
 
 def test_a_part_file_names_only_program_features(hooks, tmp_path):
@@ -429,7 +487,10 @@ def test_the_shop_plans_the_next_part_while_the_workcell_inspects_this_one():
     second_plan = planning - first_plan
     assert first_plan and first_plan <= setting_up, "part 0 planned during the set-up"
     assert second_plan and second_plan <= inspecting, "part 1 planned while part 0 is inspected"
-    assert len(second_plan) == 11, "a cycle to read the program, then 5 s (10 cycles)"
+    states = [at_cycle(lines, c)["modules"]["jp"]["state"] for c in sorted(second_plan)]
+    retrieving = states.count("RETRIEVING")
+    assert states == ["RETRIEVING"] * retrieving + ["PLANNING"] * 11, "then 5 s"
+    assert retrieving == 3, "asked, then the PDM's query (2 cycles) answered, seen the next cycle"
     jobs = [cycle for cycle, c in commands_sent(lines, "wc") if c == "INSPECT_PART"]
     assert jobs[0] == plans[1], "part 0's inspection and part 1's planning start together"
     for job, part in zip(jobs, (0, 1), strict=True):
@@ -455,17 +516,23 @@ def test_a_lot_by_a_program_that_does_not_exist_is_refused_by_the_planner():
 
 
 def test_the_planner_failing_mid_inspection_stops_the_station_safe_and_says_why():
-    """planner_fails: the PDM system stops answering (cycle 54) while the job planner plans
-    part 1 and the workcell inspects part 0 (W1 while W2, section 5.2.1). The planner fails
-    with PDM_DOWN; the next cycle the shop halts the workcell, and the HALT reaches every
+    """planner_fails: the PDM system goes down (cycle 50) while the job planner retrieves
+    part 1's program and the workcell inspects part 0 (W1 while W2, section 5.2.1). No
+    answer comes: 3 s after asking the planner fails with PDM_DOWN; the next cycle the shop
+    halts the workcell, and the HALT reaches every
     level below in that cycle: both operator requests are withdrawn and the CMM is ordered
     nothing; once the workcell has stopped the lot fails with the planner's reason, its
     cause naming the planner."""
     final, lines = played("planner_fails")
     assert final["status"] == "ERROR" and final["reason"] == "PDM_DOWN"
     failed = first(lines, "jp", "PLAN_JOB", "ERROR")
+    asked = [cycle for cycle, c in commands_sent(lines, "jp") if c == "PLAN_JOB"][-1]
+    down = next(ln["cycle"] for ln in lines if not ln["world"]["pdm_online"])
+    assert asked < down < failed and failed - asked == 7, "asked, then 3 s with no answer"
+    assert all(
+        at_cycle(lines, c)["modules"]["jp"]["state"] == "RETRIEVING" for c in range(asked, failed)
+    )
     before = at_cycle(lines, failed)
-    assert not before["world"]["pdm_online"] and at_cycle(lines, failed - 1)["world"]["pdm_online"]
     assert before["modules"]["wc"]["command"] == "INSPECT_PART", "mid-inspection"
     assert before["modules"]["wc"]["status"] == "EXECUTING"
     assert before["modules"]["jp"]["reason"] == "PDM_DOWN"

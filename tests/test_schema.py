@@ -144,6 +144,25 @@ def test_a_comma_in_a_flow_mapping_gets_a_hint():
     assert "comma inside `{...}`" in d.hint
 
 
+def test_a_fragment_use_may_pass_a_list_of_actions():
+    """docs/spec.md section 14: a fragment parameter may take a list of actions (the
+    inspection workstation's `ask_operator`, `with: {ask: [send: op.PLACE_PART]}`); each
+    action is checked as any other."""
+    use = """\
+        controller: fx
+        title: T
+        commands:
+          GO:
+            states:
+              S0: {use: ask_operator, with: {ask: [%s]}}
+        """
+    assert check(use % "{send: op.PLACE_PART, with: {setup: 1}}") == []
+    d = only(check(use % "{sned: op.PLACE_PART}"), "S006")
+    assert "malformed action" in d.message and d.hint == "did you mean `send`?"
+    assert d.span == Span("x.yaml", 6, 45), "at the action in the list"
+    assert only(check(use.replace("[%s]", "{a: 1}")), "S003"), "a mapping is neither"
+
+
 # ---------------------------------------------------------------- S001 missing key
 
 

@@ -59,6 +59,10 @@ def test_the_time_line_has_a_bar_per_feature_and_the_planner_inside_the_first_pa
     features = bars(page, "INSPECT_FEATURE")
     assert [(f, last) for _, f, last in features] == spans(lines, "cmm", "INSPECT_FEATURE")
     assert len(features) == 10 and {lane for lane, _, _ in features} == {"CMM"}, "5 a part"
+    touches = bars(page, "GO_TO_POINT")
+    assert [(f, last) for _, f, last in touches] == spans(lines, "prim", "GO_TO_POINT")
+    assert len(touches) == 20 and {lane for lane, _, _ in touches} == {"probe"}, "2 a feature"
+    assert all(any(f <= t and u <= last for _, f, last in features) for _, t, u in touches)
     (planned_first, planned_second) = bars(page, "PLAN_JOB")
     inspections = spans(lines, "wc", "INSPECT_PART")
     assert planned_first[0] == "planner" and planned_second[0] == "planner"
@@ -106,11 +110,11 @@ def test_the_view_in_a_browser_shows_the_part_measured_at_a_cycle_and_plays(tmp_
     trace = traces.load(GOLDEN / "rejected_part.jsonl")
     path = tmp_path / "rejected_part.station.html"
     path.write_text(station_view.render(trace, system), encoding="utf-8")
-    cmm = trace.columns["cmm"]
+    prim = trace.columns["prim"]
     measuring = next(
         trace.cycles[i]
         for i in range(len(trace))
-        if cmm["command"][i] == "INSPECT_FEATURE" and cmm["status"][i] == "EXECUTING"
+        if prim["command"][i] == "GO_TO_POINT" and prim["status"][i] == "EXECUTING"
     )
     still = load(f"{path.as_uri()}#cycle={measuring}", tmp_path, "rejected_part_station")
     body = still.body()
@@ -119,7 +123,8 @@ def test_the_view_in_a_browser_shows_the_part_measured_at_a_cycle_and_plays(tmp_
     assert body["data-part"] == "on the fixture" and body["data-measuring"] == "1"
     assert re.search(r'<rect id="part" class="part measuring"[^>]*visibility="visible"', still.dom)
     assert re.search(r'<line id="probe"[^>]*visibility="visible"', still.dom)
-    assert "<td>cmm</td><td>INSPECT_FEATURE</td><td>S1</td>" in still.dom
+    assert "<td>cmm</td><td>INSPECT_FEATURE</td><td>TOUCHING</td>" in still.dom
+    assert "<td>prim</td><td>GO_TO_POINT</td><td>APPROACHING</td>" in still.dom
     assert still.screenshot is not None and still.screenshot.stat().st_size > 10_000
     start = load(f"{path.as_uri()}#cycle=1", tmp_path, "station_start", screenshot=False)
     assert start.body()["data-part"] == "none"

@@ -286,7 +286,8 @@ def test_an_operator_modules_channels_are_lanes_of_the_operator_module() -> None
     assert traces.module_of("op/fx") == "op" and traces.module_of("ws") == "ws"
     lanes = traces.lanes(trace, inspection)
     assert [lane.module for lane in lanes] == [
-        "shop", "jp", "wc", "ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim"
+        "shop", "jp", "wc", "ws", "ms", "fx", "tl", "cmm", "prim", "servo", "op/fx", "op/tl",
+        "cmm_sim", "drives", "pdm",
     ]  # fmt: skip
     by_row = {lane.module: lane for lane in lanes}
     op = inspection.controller("op")

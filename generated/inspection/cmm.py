@@ -4,16 +4,33 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import inspection_hooks.emove as hooks
+
 from .layout import (
     CMM_PERF_AT,
+    CMM_STATUS,
     CMM_STATUS_AT,
     OVERRIDDEN_AT,
     OVERRIDE,
+    PRIM_COMMAND,
+    PRIM_COMMAND_AT,
     WORLD_CMM_FEATURE_AT,
     WORLD_CMM_OP_AT,
     WORLD_CMM_SEQ_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, STATUS, words
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    HookError,
+    caused,
+    plan_problem,
+    words,
+)
+from .rcs.deadline import hook
 from .rcs.override import held
 
 # Commands cmm accepts (the code written to its command buffer).
@@ -24,13 +41,29 @@ CALIBRATE_PROBE = 4
 CALIBRATE_CAMERA = 5
 INSPECT_FEATURE = 6
 
+# Why cmm may end a command in ERROR (the error_num it reports).
+REASON_NONE = 0
+REASON_LOST = 1
+REASON_MACHINE_FAULT = 2
+
+# Commands cmm sends to prim.
+PRIM_INIT = 1
+PRIM_HALT = 2
+PRIM_GO_TO_POINT = 3
+# Why prim may end a command in ERROR (its error_num).
+PRIM_REASON_NONE = 0
+PRIM_REASON_LOST = 1
+PRIM_REASON_MACHINE_FAULT = 2
+PRIM_LINK = 9  # its number in the layout's CAUSE_MODULES
+
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIq44x???1xI400xq8xq8xq8xq24x?")
-INPUTS_AT = 1432
+INPUTS = Struct("<QIq76x???1xI104xQII8xQ824xq8xq8xq8xq24x?")
+INPUTS_AT = 1480
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 CMM_STATUS_WORD = CMM_STATUS_AT >> 3
+PRIM_COMMAND_WORD = PRIM_COMMAND_AT >> 3
 WORLD_CMM_OP_WORD = WORLD_CMM_OP_AT >> 3
 WORLD_CMM_FEATURE_WORD = WORLD_CMM_FEATURE_AT >> 3
 WORLD_CMM_SEQ_WORD = WORLD_CMM_SEQ_AT >> 3
@@ -42,12 +75,14 @@ CMM_PERF_WORD = CMM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QqQqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1896
+WORLD_OUT_1_AT = 2536
 WORLD_HELD_1 = (OVERRIDE["cmm_op"], OVERRIDE["cmm_feature"], OVERRIDE["cmm_seq"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
+TOUCH = 3
+TOUCHING = 4
 
 # Enumeration values its tables name (a field holds its value's index).
 NO_OPERATION = 0
@@ -63,6 +98,7 @@ class CmmController:
     __slots__ = (
         "arg_number",
         "buf",
+        "cause",
         "command",
         "command_num",
         "cycles",
@@ -74,6 +110,24 @@ class CmmController:
         "min_cycle_ns",
         "perf_seq",
         "perf_single_step_num",
+        "plan_points",
+        "plan_points_done",
+        "plan_points_replans_left",
+        "plan_points_step",
+        "plan_points_steps",
+        "plan_points_x",
+        "plan_points_y",
+        "plan_points_z",
+        "prim_arg_x",
+        "prim_arg_y",
+        "prim_arg_z",
+        "prim_cause",
+        "prim_command",
+        "prim_command_num",
+        "prim_error_num",
+        "prim_status",
+        "prim_status_num",
+        "prim_written",
         "rule",
         "simulate",
         "single_step",
@@ -92,19 +146,37 @@ class CmmController:
         "world_cmm_seq",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_touch_points = hook("cmm", hooks, "touch_points", 2.5)
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.resume()
+        self.plan_points: list[tuple[float, float, float]] = []  # plan points: no steps yet
+        self.plan_points_steps = self.plan_points_replans_left = 0
+        self.plan_points_go(0)
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
         """Take up the buffers this module writes from the block: a restarted module keeps
         its command-number handshake, and its sequence words go on from the block's."""
         buf = self.buf
-        self.status_seq, self.status_num, self.status, self.error_num, self.state, self.rule = (
-            STATUS.unpack_from(buf, CMM_STATUS_AT)
-        )
+        (
+            self.status_seq,
+            self.status_num,
+            self.status,
+            self.error_num,
+            self.state,
+            self.rule,
+            self.plan_points_step,
+            self.plan_points_steps,
+            self.plan_points_replans_left,
+            self.cause,
+        ) = CMM_STATUS.unpack_from(buf, CMM_STATUS_AT)
         (
             self.perf_seq,
             self.last_cycle_ns,
@@ -118,6 +190,25 @@ class CmmController:
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
         self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
+        (
+            _,
+            self.prim_command_num,
+            self.prim_command,
+            self.prim_arg_x,
+            self.prim_arg_y,
+            self.prim_arg_z,
+        ) = PRIM_COMMAND.unpack_from(buf, PRIM_COMMAND_AT)
+        self.prim_written = self.prim_command_num
+
+    def safe_state(self, reason: int) -> None:
+        """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
+        self.prim_command = PRIM_HALT
+        self.prim_command_num += 1
+        self.state = NOP
+        self.status = ERROR
+        self.error_num = reason
+        self.cause = 0
+        self.status_dirty = True
 
     def run_cycle(self, began: int = 0) -> int:
         """One QQ1 cycle (Appendix D's qq1_controller), its four steps in order. Its execution
@@ -146,12 +237,23 @@ class CmmController:
                 self.single_step,
                 self.simulate,
                 self.single_step_num,
+                self.prim_status_num,
+                self.prim_status,
+                self.prim_error_num,
+                self.prim_cause,
                 self.world_cmm_op,
                 self.world_cmm_feature,
                 self.world_cmm_seq,
                 self.world_cmm_done_seq,
                 self.world_cmm_alarm,
             ) = values
+            if self.prim_status_num != self.prim_command_num:
+                self.prim_status = EXECUTING  # until it echoes the last number sent
+                self.prim_error_num = PRIM_REASON_NONE  # no reason yet
+                self.prim_cause = 0
+            elif self.prim_status != ERROR:
+                self.prim_error_num = PRIM_REASON_NONE  # a reason comes only with ERROR
+                self.prim_cause = 0
 
             # 2. check_if_new_command: a command number unlike the echoed one is a new command
             if self.command_num != self.status_num:
@@ -159,6 +261,8 @@ class CmmController:
                 self.state = S0
                 self.status = EXECUTING
                 self.status_dirty = True
+                self.error_num = REASON_NONE  # no reason yet
+                self.cause = 0  # nor a cause
 
             # 3. decision_process: run the command's state table, unless the mode holds it
             if self.rule:  # the rule that fired last cycle is not news any more
@@ -189,7 +293,7 @@ class CmmController:
             if self.rule or self.status_dirty:
                 seq = self.status_seq + 1
                 words[CMM_STATUS_WORD] = seq  # odd before any field changes
-                STATUS.pack_into(
+                CMM_STATUS.pack_into(
                     buf,
                     CMM_STATUS_AT,
                     seq,
@@ -198,10 +302,32 @@ class CmmController:
                     self.error_num,
                     self.state,
                     self.rule,
+                    self.plan_points_step,
+                    self.plan_points_steps,
+                    self.plan_points_replans_left,
+                    self.cause,
                 )
                 words[CMM_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+            if self.prim_command_num != self.prim_written:  # a command was sent
+                seq, number = PRIM_COMMAND.unpack_from(buf, PRIM_COMMAND_AT)[:2]
+                if number != self.prim_written:  # an operator's command came meanwhile:
+                    self.prim_command_num = number + 1  # number ours after it
+                seq |= 1  # odd while it is written
+                words[PRIM_COMMAND_WORD] = seq
+                PRIM_COMMAND.pack_into(
+                    buf,
+                    PRIM_COMMAND_AT,
+                    seq,
+                    self.prim_command_num,
+                    self.prim_command,
+                    self.prim_arg_x,
+                    self.prim_arg_y,
+                    self.prim_arg_z,
+                )
+                words[PRIM_COMMAND_WORD] = seq + 1
+                self.prim_written = self.prim_command_num
             # a rule fired (it may have set world outputs), or a field is forced or latched safe
             if self.rule or buf[OVERRIDDEN_AT]:
                 out = (self.world_cmm_op, self.world_cmm_feature, self.world_cmm_seq)
@@ -252,6 +378,10 @@ class CmmController:
             self.single_step,
             self.simulate,
             self.single_step_num,
+            self.prim_status_num,
+            self.prim_status,
+            self.prim_error_num,
+            self.prim_cause,
             self.world_cmm_op,
             self.world_cmm_feature,
             self.world_cmm_seq,
@@ -259,28 +389,64 @@ class CmmController:
             self.world_cmm_alarm,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
 
+    def plan_points_load(self, steps: object, rule: str) -> None:
+        """Plan points: the planner's steps (x, y, z), at most 8, checked; step 0 is current."""
+        problem = plan_problem(steps, "fff", 8)
+        if problem:
+            raise HookError("cmm", "touch_points", rule, self.cycles, steps, why=problem)
+        self.plan_points = list(steps)  # a list of checked tuples
+        self.plan_points_steps = len(self.plan_points)
+        self.plan_points_go(0)
+
+    def plan_points_go(self, step: int) -> None:
+        """Plan points: make step `step` the current one (past the last: done, fields 0)."""
+        self.plan_points_step = min(step, self.plan_points_steps)
+        self.plan_points_done = self.plan_points_step >= self.plan_points_steps
+        if self.plan_points_done:
+            self.plan_points_x, self.plan_points_y, self.plan_points_z = 0.0, 0.0, 0.0
+        else:
+            self.plan_points_x, self.plan_points_y, self.plan_points_z = self.plan_points[
+                self.plan_points_step
+            ]
+
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
         state = self.state
         if state == S0:
+            # send INIT to every subordinate
             self.rule = 1  # INIT/S0/1
+            self.state = S1
+            self.prim_command = PRIM_INIT
+            self.prim_command_num += 1
+
+        elif state == S1 and self.prim_status == DONE:
+            # every subordinate is done
+            self.rule = 2  # INIT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def halt(self) -> None:
-        """HALT: Stop the machine's operation."""
+        """HALT: Stop the machine's operation and the probe's motion."""
         state = self.state
         if state == S0:
-            self.rule = 2  # HALT/S0/1
+            self.rule = 3  # HALT/S0/1
+            self.state = S1
             self.world_cmm_op = NO_OPERATION
+            self.prim_command = PRIM_HALT
+            self.prim_command_num += 1
+
+        elif state == S1 and self.prim_status != EXECUTING:
+            self.rule = 4  # HALT/S1/1
             self.state = NOP
             self.status = DONE
+            self.cause = 0  # DONE has no cause
 
     def home(self) -> None:
         """HOME: Power up and home the axes (equipment set-up)."""
         state = self.state
         if state == S0:
-            self.rule = 3  # HOME/S0/1
+            self.rule = 5  # HOME/S0/1
             self.state = S1
             self.world_cmm_op = HOMING
             self.world_cmm_seq = self.world_cmm_seq + 1
@@ -288,22 +454,24 @@ class CmmController:
         elif state == S1:
             if self.world_cmm_alarm:
                 # the machine alarms
-                self.rule = 4  # HOME/S1/1
+                self.rule = 6  # HOME/S1/1
                 self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_MACHINE_FAULT
 
             elif not self.world_cmm_alarm and self.world_cmm_done_seq == self.world_cmm_seq:
-                self.rule = 5  # HOME/S1/2
+                self.rule = 7  # HOME/S1/2
                 self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
     def calibrate_probe(self) -> None:
         """CALIBRATE_PROBE: Probe the reference sphere to calibrate the probe (calibrateCMM)."""
         state = self.state
         if state == S0:
-            self.rule = 6  # CALIBRATE_PROBE/S0/1
+            self.rule = 8  # CALIBRATE_PROBE/S0/1
             self.state = S1
             self.world_cmm_op = PROBE_CALIBRATION
             self.world_cmm_seq = self.world_cmm_seq + 1
@@ -311,16 +479,18 @@ class CmmController:
         elif state == S1:
             if self.world_cmm_alarm:
                 # the machine alarms
-                self.rule = 7  # CALIBRATE_PROBE/S1/1
+                self.rule = 9  # CALIBRATE_PROBE/S1/1
                 self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_MACHINE_FAULT
 
             elif not self.world_cmm_alarm and self.world_cmm_done_seq == self.world_cmm_seq:
-                self.rule = 8  # CALIBRATE_PROBE/S1/2
+                self.rule = 10  # CALIBRATE_PROBE/S1/2
                 self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
     def calibrate_camera(self) -> None:
         """CALIBRATE_CAMERA: Calibrate the camera against the reference sphere (calibrate Camera,
@@ -328,7 +498,7 @@ class CmmController:
         """
         state = self.state
         if state == S0:
-            self.rule = 9  # CALIBRATE_CAMERA/S0/1
+            self.rule = 11  # CALIBRATE_CAMERA/S0/1
             self.state = S1
             self.world_cmm_op = CAMERA_CALIBRATION
             self.world_cmm_seq = self.world_cmm_seq + 1
@@ -336,39 +506,84 @@ class CmmController:
         elif state == S1:
             if self.world_cmm_alarm:
                 # the machine alarms
-                self.rule = 10  # CALIBRATE_CAMERA/S1/1
+                self.rule = 12  # CALIBRATE_CAMERA/S1/1
                 self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_MACHINE_FAULT
 
             elif not self.world_cmm_alarm and self.world_cmm_done_seq == self.world_cmm_seq:
-                self.rule = 11  # CALIBRATE_CAMERA/S1/2
+                self.rule = 13  # CALIBRATE_CAMERA/S1/2
                 self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause
 
     def inspect_feature(self) -> None:
         """INSPECT_FEATURE: Measure one feature of the inspection program (Inspect_feature, Figure
-        39).
+        39): the probe controller touches the feature's points one after the other (a series of
+        Go_to_point, section 5.3.1), then the machine works out its size from the touches.
         """
         state = self.state
         if state == S0:
-            self.rule = 12  # INSPECT_FEATURE/S0/1
-            self.state = S1
-            self.world_cmm_op = MEASUREMENT
-            self.world_cmm_seq = self.world_cmm_seq + 1
-            self.world_cmm_feature = self.arg_number
+            self.rule = 14  # INSPECT_FEATURE/S0/1
+            self.state = TOUCH
+            self.plan_points_replans_left = 0  # plan: points, from no steps
+            self.plan_points_load([], "INSPECT_FEATURE/S0/1")
+            self.plan_points_load(
+                self.hook_touch_points("INSPECT_FEATURE/S0/1", self.arg_number),
+                "INSPECT_FEATURE/S0/1",
+            )
+
+        elif state == TOUCH:
+            if not self.plan_points_done:
+                # the next point
+                self.rule = 15  # INSPECT_FEATURE/TOUCH/1
+                self.state = TOUCHING
+                self.prim_arg_x = self.plan_points_x
+                self.prim_arg_y = self.plan_points_y
+                self.prim_arg_z = self.plan_points_z
+                self.prim_command = PRIM_GO_TO_POINT
+                self.prim_command_num += 1
+
+            elif self.plan_points_done:
+                # every point touched; the machine evaluates the feature
+                self.rule = 16  # INSPECT_FEATURE/TOUCH/2
+                self.state = S1
+                self.world_cmm_op = MEASUREMENT
+                self.world_cmm_seq = self.world_cmm_seq + 1
+                self.world_cmm_feature = self.arg_number
+
+        elif state == TOUCHING:
+            if self.prim_status == DONE:
+                self.rule = 17  # INSPECT_FEATURE/TOUCHING/1
+                self.state = TOUCH
+                self.plan_points_go(self.plan_points_step + 1)  # advance: points
+
+            elif self.prim_status == ERROR:
+                self.rule = 18  # INSPECT_FEATURE/TOUCHING/2
+                # prim's error: the cause of an ERROR this command reports
+                self.cause = caused(PRIM_LINK, self.prim_error_num, self.prim_cause)
+                self.state = NOP
+                self.status = ERROR
+                # prim's reason, passed up by name (another: NONE)
+                self.error_num = {
+                    PRIM_REASON_LOST: REASON_LOST,
+                    PRIM_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                }.get(self.prim_error_num, REASON_NONE)
 
         elif state == S1:
             if self.world_cmm_alarm:
                 # the machine alarms
-                self.rule = 13  # INSPECT_FEATURE/S1/1
+                self.rule = 19  # INSPECT_FEATURE/S1/1
                 self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = ERROR
+                self.error_num = REASON_MACHINE_FAULT
 
             elif not self.world_cmm_alarm and self.world_cmm_done_seq == self.world_cmm_seq:
-                self.rule = 14  # INSPECT_FEATURE/S1/2
+                self.rule = 20  # INSPECT_FEATURE/S1/2
                 self.world_cmm_op = NO_OPERATION
                 self.state = NOP
                 self.status = DONE
+                self.cause = 0  # DONE has no cause

@@ -36,12 +36,12 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI56xq8xq8xq8xq8xd8x?15x?15xd")
-INPUTS_AT = 1776
+INPUTS = Struct("<QQI44x???1xI296xq8xq8xq8xq8xd8x?15x?111xd")
+INPUTS_AT = 2176
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (222,)
+SEQ_WORDS = (272,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 CMM_SIM_STATUS_WORD = CMM_SIM_STATUS_AT >> 3
@@ -57,7 +57,7 @@ CMM_SIM_PERF_WORD = CMM_SIM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QqQdQ?")
 WORLD_VALUES_1 = Struct("<8xq8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 1944
+WORLD_OUT_1_AT = 2584
 WORLD_HELD_1 = (
     OVERRIDE["cmm_done_seq"],
     OVERRIDE["cmm_reading"],
@@ -69,7 +69,7 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<Qd")
 WORLD_VALUES_2 = Struct("<8xd")
 WORLD_SEQS_2 = Struct("<Q")
-WORLD_OUT_2_AT = 2008
+WORLD_OUT_2_AT = 2744
 WORLD_HELD_2 = (OVERRIDE["camera_scale"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -77,6 +77,7 @@ S0 = 1
 
 # Constants.
 MOTION_CYCLES = 4
+EVALUATION_CYCLES = 1
 
 # Enumeration values its tables name (a field holds its value's index).
 NO_OPERATION = 0
@@ -174,7 +175,7 @@ class CmmSimController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[222] != values[0]:
+        if values[0] & 1 or not values[0] or words[272] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -295,7 +296,7 @@ class CmmSimController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[222] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[272] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing
@@ -334,9 +335,9 @@ class CmmSimController:
             not self.world_cmm_alarm
             and self.world_cmm_op == MEASUREMENT
             and self.world_cmm_seq != self.world_cmm_done_seq
-            and self.var_moving >= MOTION_CYCLES
+            and self.var_moving >= EVALUATION_CYCLES
         ):
-            # a measurement completes
+            # a measurement completes (the probe has touched the feature's points)
             self.world_set = True  # it sets world outputs
             self.world_cmm_reading = self.hook_probe(
                 "every_cycle/2", self.hook_state, self.world_cmm_feature

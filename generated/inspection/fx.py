@@ -41,12 +41,12 @@ OP_LOAD_PROBE = 9
 OP_REASON_NONE = 0
 OP_REASON_LOST = 1
 OP_REASON_REFUSED = 2
-OP_LINK = 9  # its number in the layout's CAUSE_MODULES
+OP_LINK = 11  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI52x???1xI400xQII")
-INPUTS_AT = 1176
+INPUTS = Struct("<QIq52x???1xI744xQII")
+INPUTS_AT = 1216
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 FX_STATUS_WORD = FX_STATUS_AT >> 3
@@ -63,6 +63,7 @@ class FxController:
     """The fx controller: its local buffers and the QQ1 cycle."""
 
     __slots__ = (
+        "arg_setup",
         "buf",
         "cause",
         "command",
@@ -74,6 +75,7 @@ class FxController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "op_arg_setup",
         "op_command",
         "op_command_num",
         "op_error_num",
@@ -129,7 +131,9 @@ class FxController:
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
         self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
-        _, self.op_command_num, self.op_command = OP_FX_COMMAND.unpack_from(buf, OP_FX_COMMAND_AT)
+        _, self.op_command_num, self.op_command, self.op_arg_setup = OP_FX_COMMAND.unpack_from(
+            buf, OP_FX_COMMAND_AT
+        )
         self.op_written = self.op_command_num
 
     def safe_state(self, reason: int) -> None:
@@ -158,6 +162,7 @@ class FxController:
             (
                 self.command_num,
                 self.command,
+                self.arg_setup,
                 self.dont_run,
                 self.single_step,
                 self.simulate,
@@ -232,7 +237,12 @@ class FxController:
                 seq |= 1  # odd while it is written
                 words[OP_FX_COMMAND_WORD] = seq
                 OP_FX_COMMAND.pack_into(
-                    buf, OP_FX_COMMAND_AT, seq, self.op_command_num, self.op_command
+                    buf,
+                    OP_FX_COMMAND_AT,
+                    seq,
+                    self.op_command_num,
+                    self.op_command,
+                    self.op_arg_setup,
                 )
                 words[OP_FX_COMMAND_WORD] = seq + 1
                 self.op_written = self.op_command_num
@@ -264,6 +274,7 @@ class FxController:
         (
             self.command_num,
             self.command,
+            self.arg_setup,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -349,12 +360,15 @@ class FxController:
             self.ticks += 1
 
     def place_part(self) -> None:
-        """PLACE_PART: Ask the operator to place and clamp the part (Place_part, Figure 39)."""
+        """PLACE_PART: Ask the operator to place and clamp the part in a setup (Place_part, Figure
+        39).
+        """
         state = self.state
         if state == S0:
             # ask the operator (the console shows the task's instruction)
             self.rule = 9  # PLACE_PART/S0/1
             self.state = S0_ASKING
+            self.op_arg_setup = self.arg_setup
             self.op_command = OP_PLACE_PART
             self.op_command_num += 1
 
@@ -390,12 +404,16 @@ class FxController:
             self.ticks += 1
 
     def refixture_part(self) -> None:
-        """REFIXTURE_PART: Ask the operator to re-seat the part before it is measured again."""
+        """REFIXTURE_PART: Ask the operator to fixture the part again, in a setup: the next setup of
+        the workstation's plan (the place/fixture_part before its features are inspected, Figure
+        39), or the same one before it is measured again.
+        """
         state = self.state
         if state == S0:
             # ask the operator (the console shows the task's instruction)
             self.rule = 13  # REFIXTURE_PART/S0/1
             self.state = S0_ASKING
+            self.op_arg_setup = self.arg_setup
             self.op_command = OP_RESEAT_PART
             self.op_command_num += 1
 

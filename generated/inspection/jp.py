@@ -4,15 +4,27 @@
 from struct import Struct
 from time import perf_counter_ns
 
-import inspection_hooks.plan as hooks
-
 from .layout import (
     JP_PERF_AT,
     JP_STATUS,
     JP_STATUS_AT,
+    OVERRIDDEN_AT,
+    OVERRIDE,
+    WORLD_PDM_REQUEST_AT,
+    WORLD_PDM_SEQ_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, decode_text, words
-from .rcs.deadline import hook
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    decode_text,
+    encode_text,
+    words,
+)
+from .rcs.override import held
 
 # Commands jp accepts (the code written to its command buffer).
 INIT = 1
@@ -27,16 +39,28 @@ REASON_PDM_DOWN = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32sq68x???1xI1432x?")
+INPUTS = Struct("<QI32sq68x???1xI2184x32s8xq8xq8xq")
 INPUTS_AT = 472
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 JP_STATUS_WORD = JP_STATUS_AT >> 3
+WORLD_PDM_REQUEST_WORD = WORLD_PDM_REQUEST_AT >> 3
+WORLD_PDM_SEQ_WORD = WORLD_PDM_SEQ_AT >> 3
 JP_PERF_WORD = JP_PERF_AT >> 3
+
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_1 = Struct("<Q32sQq")
+WORLD_VALUES_1 = Struct("<8x32s8xq")
+WORLD_SEQS_1 = Struct("<Q32xQ")
+WORLD_OUT_1_AT = 2776
+WORLD_HELD_1 = (OVERRIDE["pdm_request"], OVERRIDE["pdm_seq"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
-PLANNING = 2
+RETRIEVING = 2
+PLANNING = 3
 
 
 class JpController:
@@ -73,14 +97,11 @@ class JpController:
         "ticks",
         "var_features",
         "words",
-        "world_pdm_online",
+        "world_pdm_done_seq",
+        "world_pdm_features",
+        "world_pdm_request",
+        "world_pdm_seq",
     )
-
-    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
-    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
-    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
-    # its `returns:`, is a HookError.
-    hook_schedule = hook("jp", hooks, "schedule", 2.5, "i")
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
@@ -130,7 +151,13 @@ class JpController:
         values = INPUTS.unpack_from(buf, INPUTS_AT)
         # Idle with nothing new (NOP, no rule fired, nothing to write, the inputs as in the last
         # cycle): nothing to copy in, decide or write; only the performance buffer below.
-        if values != self.inputs or self.state != NOP or self.rule or self.status_dirty:
+        if (
+            values != self.inputs
+            or self.state != NOP
+            or self.rule
+            or self.status_dirty
+            or buf[OVERRIDDEN_AT]
+        ):
             self.inputs = values
             (
                 self.command_num,
@@ -141,9 +168,13 @@ class JpController:
                 self.single_step,
                 self.simulate,
                 self.single_step_num,
-                self.world_pdm_online,
+                self.world_pdm_request,
+                self.world_pdm_seq,
+                self.world_pdm_done_seq,
+                self.world_pdm_features,
             ) = values
             self.arg_program = decode_text(self.arg_program)
+            self.world_pdm_request = decode_text(self.world_pdm_request)
 
             # 2. check_if_new_command: a command number unlike the echoed one is a new command
             if self.command_num != self.status_num:
@@ -196,6 +227,19 @@ class JpController:
                 words[JP_STATUS_WORD] = seq + 1
                 self.status_seq = seq + 1
                 self.status_dirty = False
+            # a rule fired (it may have set world outputs), or a field is forced or latched safe
+            if self.rule or buf[OVERRIDDEN_AT]:
+                out = (encode_text(self.world_pdm_request, 32), self.world_pdm_seq)
+                now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+                if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                    out = held(buf, WORLD_HELD_1, out, now)
+                if now != out:  # set to a new value
+                    s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                    words[WORLD_PDM_REQUEST_WORD] = s[0] | 1  # odd before the value changes
+                    words[WORLD_PDM_SEQ_WORD] = s[1] | 1  # odd before the value changes
+                    WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
+                    words[WORLD_PDM_REQUEST_WORD] = (s[0] | 1) + 1
+                    words[WORLD_PDM_SEQ_WORD] = (s[1] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         end = perf_counter_ns()
         last = end - cycle_start
@@ -230,9 +274,13 @@ class JpController:
             self.single_step,
             self.simulate,
             self.single_step_num,
-            self.world_pdm_online,
+            self.world_pdm_request,
+            self.world_pdm_seq,
+            self.world_pdm_done_seq,
+            self.world_pdm_features,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
+        self.world_pdm_request = decode_text(self.world_pdm_request)
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -251,41 +299,47 @@ class JpController:
             self.status = DONE
 
     def plan_job(self) -> None:
-        """PLAN_JOB: Plan part `part`'s Inspect_part job by `program`: its feature schedule, in 5 s;
-        DONE with the part and the schedule's length; ERROR NO_PROGRAM when there is no such
-        program, ERROR PDM_DOWN when the PDM system stops answering before the schedule is made.
+        """PLAN_JOB: Plan part `part`'s Inspect_part job by `program`: retrieve the program from the
+        PDM system, then plan its feature schedule, in 5 s; DONE with the part and the schedule's
+        length; ERROR NO_PROGRAM when the PDM has no such program, ERROR PDM_DOWN when the PDM
+        does not answer within 3 s.
         """
         state = self.state
         if state == S0:
-            # read the program
+            # ask the PDM system for the program
             self.rule = 3  # PLAN_JOB/S0/1
-            self.state = PLANNING
-            self.var_features = self.hook_schedule("PLAN_JOB/S0/1", self.arg_program)
+            self.state = RETRIEVING
+            self.world_pdm_request = self.arg_program
+            self.world_pdm_seq = self.world_pdm_seq + 1
 
-        elif state == PLANNING:
-            if self.var_features <= 0:
-                # no such inspection program (a name mistyped at the Guardian)
-                self.rule = 4  # PLAN_JOB/PLANNING/1
+        elif state == RETRIEVING:
+            if self.world_pdm_done_seq == self.world_pdm_seq and self.world_pdm_features <= 0:
+                # the PDM has no such inspection program (a name mistyped at the Guardian)
+                self.rule = 4  # PLAN_JOB/RETRIEVING/1
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_NO_PROGRAM
 
-            elif (
-                self.var_features > 0 and self.world_pdm_online and self.ticks >= 10
-            ):  # after: 5 s = 10 cycles
-                # the schedule is made
-                self.rule = 5  # PLAN_JOB/PLANNING/2
-                self.result_part = self.arg_part
-                self.result_features = self.var_features
-                self.state = NOP
-                self.status = DONE
+            elif self.world_pdm_done_seq == self.world_pdm_seq and self.world_pdm_features > 0:
+                # the program retrieved; plan its schedule
+                self.rule = 5  # PLAN_JOB/RETRIEVING/2
+                self.state = PLANNING
+                self.var_features = self.world_pdm_features
 
-            elif self.var_features > 0 and not self.world_pdm_online:
-                # the PDM system stopped answering before the schedule was made
-                self.rule = 6  # PLAN_JOB/PLANNING/3
+            elif self.ticks >= 6:  # after: 3 s = 6 cycles
+                # the PDM system does not answer
+                self.rule = 6  # PLAN_JOB/RETRIEVING/3
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_PDM_DOWN
+
+        elif state == PLANNING and self.ticks >= 10:  # after: 5 s = 10 cycles
+            # the schedule is made
+            self.rule = 7  # PLAN_JOB/PLANNING/1
+            self.result_part = self.arg_part
+            self.result_features = self.var_features
+            self.state = NOP
+            self.status = DONE
 
         if self.state != state:  # a new state, or the command ended: time starts again
             self.ticks = 0

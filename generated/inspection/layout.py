@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 2872 bytes.
+The block is 4184 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -37,65 +37,105 @@ command buffers and world fields:
 | 752 | 16 | WC_MODE | MODE_FIELDS |
 | 768 | 48 | WC_PERF | PERF_FIELDS |
 | 816 | 52 | WS_COMMAND | command_num, command, arg_program |
-| 872 | 41 | WS_STATUS | STATUS_FIELDS |
-| 920 | 16 | WS_MODE | MODE_FIELDS |
-| 936 | 48 | WS_PERF | PERF_FIELDS |
-| 984 | 52 | MS_COMMAND | command_num, command, arg_program |
-| 1040 | 64 | MS_STATUS | STATUS_FIELDS |
-| 1104 | 16 | MS_MODE | MODE_FIELDS |
-| 1120 | 48 | MS_PERF | PERF_FIELDS |
-| 1168 | 20 | FX_COMMAND | command_num, command |
-| 1192 | 40 | FX_STATUS | STATUS_FIELDS |
-| 1232 | 16 | FX_MODE | MODE_FIELDS |
-| 1248 | 48 | FX_PERF | PERF_FIELDS |
-| 1296 | 20 | TL_COMMAND | command_num, command |
-| 1320 | 40 | TL_STATUS | STATUS_FIELDS |
-| 1360 | 16 | TL_MODE | MODE_FIELDS |
-| 1376 | 48 | TL_PERF | PERF_FIELDS |
-| 1424 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 1456 | 32 | CMM_STATUS | STATUS_FIELDS |
-| 1488 | 16 | CMM_MODE | MODE_FIELDS |
-| 1504 | 48 | CMM_PERF | PERF_FIELDS |
-| 1552 | 16 | OP_MODE | MODE_FIELDS |
-| 1568 | 48 | OP_PERF | PERF_FIELDS |
-| 1616 | 20 | OP_FX_COMMAND | command_num, command |
-| 1640 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 1672 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 1696 | 20 | OP_TL_COMMAND | command_num, command |
-| 1720 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 1752 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 1776 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 1800 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 1832 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 1848 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 1896 | 16 | WORLD_CMM_OP | cmm_op |
-| 1912 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 1928 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 1944 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 1960 | 16 | WORLD_CMM_READING | cmm_reading |
-| 1976 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 1992 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 2008 | 16 | WORLD_CAMERA_SCALE | camera_scale |
-| 2024 | 9 | WORLD_PDM_ONLINE | pdm_online |
-| 2040 | 9 | OVERRIDES | any |
-| 2056 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 2080 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 2104 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 2128 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 2152 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 2176 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 2200 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 2224 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
-| 2248 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
-| 2272 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
-| 2384 | 48 | TIME_JP | state, since, NOP, S0, PLANNING |
-| 2432 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 2480 | 104 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, REFIXTURING, UNLOADING |
-| 2584 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 2672 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 2728 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 2784 | 48 | TIME_CMM | state, since, NOP, S0, S1 |
-| 2832 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 872 | 65 | WS_STATUS | STATUS_FIELDS |
+| 944 | 16 | WS_MODE | MODE_FIELDS |
+| 960 | 48 | WS_PERF | PERF_FIELDS |
+| 1008 | 68 | MS_COMMAND | command_num, command, arg_program, arg_first, arg_count |
+| 1080 | 64 | MS_STATUS | STATUS_FIELDS |
+| 1144 | 16 | MS_MODE | MODE_FIELDS |
+| 1160 | 48 | MS_PERF | PERF_FIELDS |
+| 1208 | 28 | FX_COMMAND | command_num, command, arg_setup |
+| 1240 | 40 | FX_STATUS | STATUS_FIELDS |
+| 1280 | 16 | FX_MODE | MODE_FIELDS |
+| 1296 | 48 | FX_PERF | PERF_FIELDS |
+| 1344 | 20 | TL_COMMAND | command_num, command |
+| 1368 | 40 | TL_STATUS | STATUS_FIELDS |
+| 1408 | 16 | TL_MODE | MODE_FIELDS |
+| 1424 | 48 | TL_PERF | PERF_FIELDS |
+| 1472 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 1504 | 64 | CMM_STATUS | STATUS_FIELDS |
+| 1568 | 16 | CMM_MODE | MODE_FIELDS |
+| 1584 | 48 | CMM_PERF | PERF_FIELDS |
+| 1632 | 44 | PRIM_COMMAND | command_num, command, arg_x, arg_y, arg_z |
+| 1680 | 40 | PRIM_STATUS | STATUS_FIELDS |
+| 1720 | 16 | PRIM_MODE | MODE_FIELDS |
+| 1736 | 48 | PRIM_PERF | PERF_FIELDS |
+| 1784 | 44 | SERVO_COMMAND | command_num, command, arg_x, arg_y, arg_z |
+| 1832 | 40 | SERVO_STATUS | STATUS_FIELDS |
+| 1872 | 16 | SERVO_MODE | MODE_FIELDS |
+| 1888 | 48 | SERVO_PERF | PERF_FIELDS |
+| 1936 | 16 | OP_MODE | MODE_FIELDS |
+| 1952 | 48 | OP_PERF | PERF_FIELDS |
+| 2000 | 28 | OP_FX_COMMAND | command_num, command, arg_setup |
+| 2032 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 2064 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 2088 | 28 | OP_TL_COMMAND | command_num, command, arg_setup |
+| 2120 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 2152 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 2176 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 2200 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 2232 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 2248 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 2296 | 20 | DRIVES_COMMAND | command_num, command |
+| 2320 | 32 | DRIVES_STATUS | STATUS_FIELDS |
+| 2352 | 16 | DRIVES_MODE | MODE_FIELDS |
+| 2368 | 48 | DRIVES_PERF | PERF_FIELDS |
+| 2416 | 20 | PDM_COMMAND | command_num, command |
+| 2440 | 32 | PDM_STATUS | STATUS_FIELDS |
+| 2472 | 16 | PDM_MODE | MODE_FIELDS |
+| 2488 | 48 | PDM_PERF | PERF_FIELDS |
+| 2536 | 16 | WORLD_CMM_OP | cmm_op |
+| 2552 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 2568 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 2584 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 2600 | 16 | WORLD_CMM_READING | cmm_reading |
+| 2616 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 2632 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 2648 | 16 | WORLD_MOTOR_X | motor_x |
+| 2664 | 16 | WORLD_MOTOR_Y | motor_y |
+| 2680 | 16 | WORLD_MOTOR_Z | motor_z |
+| 2696 | 16 | WORLD_AXIS_X | axis_x |
+| 2712 | 16 | WORLD_AXIS_Y | axis_y |
+| 2728 | 16 | WORLD_AXIS_Z | axis_z |
+| 2744 | 16 | WORLD_CAMERA_SCALE | camera_scale |
+| 2760 | 9 | WORLD_PDM_ONLINE | pdm_online |
+| 2776 | 40 | WORLD_PDM_REQUEST | pdm_request |
+| 2816 | 16 | WORLD_PDM_SEQ | pdm_seq |
+| 2832 | 16 | WORLD_PDM_DONE_SEQ | pdm_done_seq |
+| 2848 | 16 | WORLD_PDM_FEATURES | pdm_features |
+| 2864 | 9 | OVERRIDES | any |
+| 2880 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 2904 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 2928 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 2952 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 2976 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 3000 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 3024 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 3048 | 24 | OVERRIDE_MOTOR_X | state, motor_x |
+| 3072 | 24 | OVERRIDE_MOTOR_Y | state, motor_y |
+| 3096 | 24 | OVERRIDE_MOTOR_Z | state, motor_z |
+| 3120 | 24 | OVERRIDE_AXIS_X | state, axis_x |
+| 3144 | 24 | OVERRIDE_AXIS_Y | state, axis_y |
+| 3168 | 24 | OVERRIDE_AXIS_Z | state, axis_z |
+| 3192 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
+| 3216 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
+| 3240 | 48 | OVERRIDE_PDM_REQUEST | state, pdm_request |
+| 3288 | 24 | OVERRIDE_PDM_SEQ | state, pdm_seq |
+| 3312 | 24 | OVERRIDE_PDM_DONE_SEQ | state, pdm_done_seq |
+| 3336 | 24 | OVERRIDE_PDM_FEATURES | state, pdm_features |
+| 3360 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
+| 3472 | 56 | TIME_JP | state, since, NOP, S0, RETRIEVING, PLANNING |
+| 3528 | 48 | TIME_WC | state, since, NOP, S0, S1 |
+| 3576 | 112 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, NEXT_SETUP, REFIXTURING, UNLOADING |
+| 3688 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
+| 3776 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 3832 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 3888 | 64 | TIME_CMM | state, since, NOP, S0, S1, TOUCH, TOUCHING |
+| 3952 | 72 | TIME_PRIM | state, since, NOP, S0, S1, APPROACHING, TOUCHING, RETRACTING |
+| 4024 | 40 | TIME_SERVO | state, since, NOP, S0 |
+| 4064 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 4104 | 40 | TIME_DRIVES | state, since, NOP, S0 |
+| 4144 | 40 | TIME_PDM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -127,9 +167,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 2872
+SIZE = 4184
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "f10adc453a5d291f91637e4b94777e67"
+LAYOUT_HASH = "2c56e13e601598779319826aeb123dcc"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 248
 
@@ -167,83 +207,136 @@ WC_PERF_AT = 768
 WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
 WS_COMMAND_AT = 816
 WS_STATUS = Struct(
-    "<QQIIii?Q"
-)  # seq, status_num, status, error_num, state, rule, result_accepted, cause
+    "<QQIIii?qqqQ"
+)  # seq, status_num, status, error_num, state, rule, result_accepted, plan_setups_step, plan_setups_steps, plan_setups_replans_left, cause
 WS_STATUS_AT = 872
-WS_MODE_AT = 920
-WS_PERF_AT = 936
+WS_MODE_AT = 944
+WS_PERF_AT = 960
 
 # ms: Measurement
-MS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-MS_COMMAND_AT = 984
+MS_COMMAND = Struct("<QQI32sqq")  # seq, command_num, command, arg_program, arg_first, arg_count
+MS_COMMAND_AT = 1008
 MS_STATUS = Struct(
     "<QQIIiidqqQ"
 )  # seq, status_num, status, error_num, state, rule, result_scale, result_measured, result_failed, cause
-MS_STATUS_AT = 1040
-MS_MODE_AT = 1104
-MS_PERF_AT = 1120
+MS_STATUS_AT = 1080
+MS_MODE_AT = 1144
+MS_PERF_AT = 1160
 
 # fx: Fixturing (performed by the operator)
-FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-FX_COMMAND_AT = 1168
+FX_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_setup
+FX_COMMAND_AT = 1208
 FX_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-FX_STATUS_AT = 1192
-FX_MODE_AT = 1232
-FX_PERF_AT = 1248
+FX_STATUS_AT = 1240
+FX_MODE_AT = 1280
+FX_PERF_AT = 1296
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 1296
+TL_COMMAND_AT = 1344
 TL_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-TL_STATUS_AT = 1320
-TL_MODE_AT = 1360
-TL_PERF_AT = 1376
+TL_STATUS_AT = 1368
+TL_MODE_AT = 1408
+TL_PERF_AT = 1424
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 1424
-CMM_STATUS_AT = 1456
-CMM_MODE_AT = 1488
-CMM_PERF_AT = 1504
+CMM_COMMAND_AT = 1472
+CMM_STATUS = Struct(
+    "<QQIIiiqqqQ"
+)  # seq, status_num, status, error_num, state, rule, plan_points_step, plan_points_steps, plan_points_replans_left, cause
+CMM_STATUS_AT = 1504
+CMM_MODE_AT = 1568
+CMM_PERF_AT = 1584
+
+# prim: Probe controller (Prim)
+PRIM_COMMAND = Struct("<QQIddd")  # seq, command_num, command, arg_x, arg_y, arg_z
+PRIM_COMMAND_AT = 1632
+PRIM_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
+PRIM_STATUS_AT = 1680
+PRIM_MODE_AT = 1720
+PRIM_PERF_AT = 1736
+
+# servo: Servo (CMM axes)
+SERVO_COMMAND = Struct("<QQIddd")  # seq, command_num, command, arg_x, arg_y, arg_z
+SERVO_COMMAND_AT = 1784
+SERVO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
+SERVO_STATUS_AT = 1832
+SERVO_MODE_AT = 1872
+SERVO_PERF_AT = 1888
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 1776
-CMM_SIM_STATUS_AT = 1800
-CMM_SIM_MODE_AT = 1832
-CMM_SIM_PERF_AT = 1848
+CMM_SIM_COMMAND_AT = 2176
+CMM_SIM_STATUS_AT = 2200
+CMM_SIM_MODE_AT = 2232
+CMM_SIM_PERF_AT = 2248
+
+# drives: CMM axis drives (simulated)
+DRIVES_COMMAND = Struct("<QQI")  # seq, command_num, command
+DRIVES_COMMAND_AT = 2296
+DRIVES_STATUS_AT = 2320
+DRIVES_MODE_AT = 2352
+DRIVES_PERF_AT = 2368
+
+# pdm: PDM system (simulated)
+PDM_COMMAND = Struct("<QQI")  # seq, command_num, command
+PDM_COMMAND_AT = 2416
+PDM_STATUS_AT = 2440
+PDM_MODE_AT = 2472
+PDM_PERF_AT = 2488
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 1552
-OP_PERF_AT = 1568
-OP_FX_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_FX_COMMAND_AT = 1616
-OP_FX_STATUS_AT = 1640
-OP_FX_ANSWER_AT = 1672
-OP_TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-OP_TL_COMMAND_AT = 1696
-OP_TL_STATUS_AT = 1720
-OP_TL_ANSWER_AT = 1752
+OP_MODE_AT = 1936
+OP_PERF_AT = 1952
+OP_FX_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_setup
+OP_FX_COMMAND_AT = 2000
+OP_FX_STATUS_AT = 2032
+OP_FX_ANSWER_AT = 2064
+OP_TL_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_setup
+OP_TL_COMMAND_AT = 2088
+OP_TL_STATUS_AT = 2120
+OP_TL_ANSWER_AT = 2152
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 1896
+WORLD_CMM_OP_AT = 2536
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 1912
+WORLD_CMM_FEATURE_AT = 2552
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 1928
+WORLD_CMM_SEQ_AT = 2568
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 1944
+WORLD_CMM_DONE_SEQ_AT = 2584
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 1960
+WORLD_CMM_READING_AT = 2600
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 1976
+WORLD_CMM_ALARM_AT = 2616
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 1992
+WORLD_CMM_FAULT_AT = 2632
+WORLD_MOTOR_X = Struct("<Qd")  # seq, motor_x
+WORLD_MOTOR_X_AT = 2648
+WORLD_MOTOR_Y = Struct("<Qd")  # seq, motor_y
+WORLD_MOTOR_Y_AT = 2664
+WORLD_MOTOR_Z = Struct("<Qd")  # seq, motor_z
+WORLD_MOTOR_Z_AT = 2680
+WORLD_AXIS_X = Struct("<Qd")  # seq, axis_x
+WORLD_AXIS_X_AT = 2696
+WORLD_AXIS_Y = Struct("<Qd")  # seq, axis_y
+WORLD_AXIS_Y_AT = 2712
+WORLD_AXIS_Z = Struct("<Qd")  # seq, axis_z
+WORLD_AXIS_Z_AT = 2728
 WORLD_CAMERA_SCALE = Struct("<Qd")  # seq, camera_scale
-WORLD_CAMERA_SCALE_AT = 2008
+WORLD_CAMERA_SCALE_AT = 2744
 WORLD_PDM_ONLINE = Struct("<Q?")  # seq, pdm_online
-WORLD_PDM_ONLINE_AT = 2024
+WORLD_PDM_ONLINE_AT = 2760
+WORLD_PDM_REQUEST = Struct("<Q32s")  # seq, pdm_request
+WORLD_PDM_REQUEST_AT = 2776
+WORLD_PDM_SEQ = Struct("<Qq")  # seq, pdm_seq
+WORLD_PDM_SEQ_AT = 2816
+WORLD_PDM_DONE_SEQ = Struct("<Qq")  # seq, pdm_done_seq
+WORLD_PDM_DONE_SEQ_AT = 2832
+WORLD_PDM_FEATURES = Struct("<Qq")  # seq, pdm_features
+WORLD_PDM_FEATURES_AT = 2848
 
 
 PROCESSES = {
@@ -263,10 +356,14 @@ PLACEMENT = {
     "fx": "iws",
     "tl": "iws",
     "cmm": "iws",
+    "prim": "iws",
+    "servo": "iws",
     "op": "iws",
     "op/fx": "iws",
     "op/tl": "iws",
     "cmm_sim": "iws",
+    "drives": "iws",
+    "pdm": "iws",
 }
 # Seconds without a heartbeat after which a process is reported dead.
 HEARTBEAT_TIMEOUT = 5.0
@@ -281,16 +378,36 @@ SUBORDINATES = {
     "ms": ("tl", "cmm"),
     "fx": ("op/fx",),
     "tl": ("op/tl",),
-    "cmm": (),
+    "cmm": ("prim",),
+    "prim": ("servo",),
+    "servo": (),
     "op": (),
     "cmm_sim": (),
+    "drives": (),
+    "pdm": (),
 }
 # The subordinates whose loss a supervisor's own rules handle (`on_lost: continue`); every
 # other loss halts everything (`halt_all`: rcs/loop.py `reaction`).
 ON_LOST_CONTINUE: dict[str, tuple[str, ...]] = {}
 # Each controller that has a stand-in -> the stand-in (its `simulate` mode flag switches).
 STAND_INS = {}
-MODULES = ("shop", "jp", "wc", "ws", "ms", "fx", "tl", "cmm", "op/fx", "op/tl", "cmm_sim")
+MODULES = (
+    "shop",
+    "jp",
+    "wc",
+    "ws",
+    "ms",
+    "fx",
+    "tl",
+    "cmm",
+    "prim",
+    "servo",
+    "op/fx",
+    "op/tl",
+    "cmm_sim",
+    "drives",
+    "pdm",
+)
 COMMAND_IN = {
     "shop": Record(
         SHOP_COMMAND, SHOP_COMMAND_AT, ("command_num", "command", "arg_program", "arg_parts")
@@ -298,13 +415,25 @@ COMMAND_IN = {
     "jp": Record(JP_COMMAND, JP_COMMAND_AT, ("command_num", "command", "arg_program", "arg_part")),
     "wc": Record(WC_COMMAND, WC_COMMAND_AT, ("command_num", "command", "arg_program")),
     "ws": Record(WS_COMMAND, WS_COMMAND_AT, ("command_num", "command", "arg_program")),
-    "ms": Record(MS_COMMAND, MS_COMMAND_AT, ("command_num", "command", "arg_program")),
-    "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command")),
+    "ms": Record(
+        MS_COMMAND,
+        MS_COMMAND_AT,
+        ("command_num", "command", "arg_program", "arg_first", "arg_count"),
+    ),
+    "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command", "arg_setup")),
     "tl": Record(TL_COMMAND, TL_COMMAND_AT, ("command_num", "command")),
     "cmm": Record(CMM_COMMAND, CMM_COMMAND_AT, ("command_num", "command", "arg_number")),
+    "prim": Record(
+        PRIM_COMMAND, PRIM_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y", "arg_z")
+    ),
+    "servo": Record(
+        SERVO_COMMAND, SERVO_COMMAND_AT, ("command_num", "command", "arg_x", "arg_y", "arg_z")
+    ),
     "cmm_sim": Record(CMM_SIM_COMMAND, CMM_SIM_COMMAND_AT, ("command_num", "command")),
-    "op/fx": Record(OP_FX_COMMAND, OP_FX_COMMAND_AT, ("command_num", "command")),
-    "op/tl": Record(OP_TL_COMMAND, OP_TL_COMMAND_AT, ("command_num", "command")),
+    "drives": Record(DRIVES_COMMAND, DRIVES_COMMAND_AT, ("command_num", "command")),
+    "pdm": Record(PDM_COMMAND, PDM_COMMAND_AT, ("command_num", "command")),
+    "op/fx": Record(OP_FX_COMMAND, OP_FX_COMMAND_AT, ("command_num", "command", "arg_setup")),
+    "op/tl": Record(OP_TL_COMMAND, OP_TL_COMMAND_AT, ("command_num", "command", "arg_setup")),
 }
 STATUS_OUT = {
     "shop": Record(
@@ -345,7 +474,18 @@ STATUS_OUT = {
     "ws": Record(
         WS_STATUS,
         WS_STATUS_AT,
-        ("status_num", "status", "error_num", "state", "rule", "result_accepted", "cause"),
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "result_accepted",
+            "plan_setups_step",
+            "plan_setups_steps",
+            "plan_setups_replans_left",
+            "cause",
+        ),
     ),
     "ms": Record(
         MS_STATUS,
@@ -368,8 +508,32 @@ STATUS_OUT = {
     "tl": Record(
         TL_STATUS, TL_STATUS_AT, ("status_num", "status", "error_num", "state", "rule", "cause")
     ),
-    "cmm": Record(STATUS, CMM_STATUS_AT, field_names(STATUS_FIELDS)),
+    "cmm": Record(
+        CMM_STATUS,
+        CMM_STATUS_AT,
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "plan_points_step",
+            "plan_points_steps",
+            "plan_points_replans_left",
+            "cause",
+        ),
+    ),
+    "prim": Record(
+        PRIM_STATUS, PRIM_STATUS_AT, ("status_num", "status", "error_num", "state", "rule", "cause")
+    ),
+    "servo": Record(
+        SERVO_STATUS,
+        SERVO_STATUS_AT,
+        ("status_num", "status", "error_num", "state", "rule", "cause"),
+    ),
     "cmm_sim": Record(STATUS, CMM_SIM_STATUS_AT, field_names(STATUS_FIELDS)),
+    "drives": Record(STATUS, DRIVES_STATUS_AT, field_names(STATUS_FIELDS)),
+    "pdm": Record(STATUS, PDM_STATUS_AT, field_names(STATUS_FIELDS)),
     "op/fx": Record(STATUS, OP_FX_STATUS_AT, field_names(STATUS_FIELDS)),
     "op/tl": Record(STATUS, OP_TL_STATUS_AT, field_names(STATUS_FIELDS)),
 }
@@ -382,7 +546,11 @@ MODE_IN = {
     "fx": Record(MODE, FX_MODE_AT, field_names(MODE_FIELDS)),
     "tl": Record(MODE, TL_MODE_AT, field_names(MODE_FIELDS)),
     "cmm": Record(MODE, CMM_MODE_AT, field_names(MODE_FIELDS)),
+    "prim": Record(MODE, PRIM_MODE_AT, field_names(MODE_FIELDS)),
+    "servo": Record(MODE, SERVO_MODE_AT, field_names(MODE_FIELDS)),
     "cmm_sim": Record(MODE, CMM_SIM_MODE_AT, field_names(MODE_FIELDS)),
+    "drives": Record(MODE, DRIVES_MODE_AT, field_names(MODE_FIELDS)),
+    "pdm": Record(MODE, PDM_MODE_AT, field_names(MODE_FIELDS)),
     "op": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
     "op/fx": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
     "op/tl": Record(MODE, OP_MODE_AT, field_names(MODE_FIELDS)),
@@ -396,7 +564,11 @@ PERFORMANCE = {
     "fx": Record(PERF, FX_PERF_AT, field_names(PERF_FIELDS)),
     "tl": Record(PERF, TL_PERF_AT, field_names(PERF_FIELDS)),
     "cmm": Record(PERF, CMM_PERF_AT, field_names(PERF_FIELDS)),
+    "prim": Record(PERF, PRIM_PERF_AT, field_names(PERF_FIELDS)),
+    "servo": Record(PERF, SERVO_PERF_AT, field_names(PERF_FIELDS)),
     "cmm_sim": Record(PERF, CMM_SIM_PERF_AT, field_names(PERF_FIELDS)),
+    "drives": Record(PERF, DRIVES_PERF_AT, field_names(PERF_FIELDS)),
+    "pdm": Record(PERF, PDM_PERF_AT, field_names(PERF_FIELDS)),
     "op": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
     "op/fx": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
     "op/tl": Record(PERF, OP_PERF_AT, field_names(PERF_FIELDS)),
@@ -409,8 +581,18 @@ WORLD = {
     "cmm_reading": Record(WORLD_CMM_READING, WORLD_CMM_READING_AT, ("cmm_reading",)),
     "cmm_alarm": Record(WORLD_CMM_ALARM, WORLD_CMM_ALARM_AT, ("cmm_alarm",)),
     "cmm_fault": Record(WORLD_CMM_FAULT, WORLD_CMM_FAULT_AT, ("cmm_fault",)),
+    "motor_x": Record(WORLD_MOTOR_X, WORLD_MOTOR_X_AT, ("motor_x",)),
+    "motor_y": Record(WORLD_MOTOR_Y, WORLD_MOTOR_Y_AT, ("motor_y",)),
+    "motor_z": Record(WORLD_MOTOR_Z, WORLD_MOTOR_Z_AT, ("motor_z",)),
+    "axis_x": Record(WORLD_AXIS_X, WORLD_AXIS_X_AT, ("axis_x",)),
+    "axis_y": Record(WORLD_AXIS_Y, WORLD_AXIS_Y_AT, ("axis_y",)),
+    "axis_z": Record(WORLD_AXIS_Z, WORLD_AXIS_Z_AT, ("axis_z",)),
     "camera_scale": Record(WORLD_CAMERA_SCALE, WORLD_CAMERA_SCALE_AT, ("camera_scale",)),
     "pdm_online": Record(WORLD_PDM_ONLINE, WORLD_PDM_ONLINE_AT, ("pdm_online",)),
+    "pdm_request": Record(WORLD_PDM_REQUEST, WORLD_PDM_REQUEST_AT, ("pdm_request",)),
+    "pdm_seq": Record(WORLD_PDM_SEQ, WORLD_PDM_SEQ_AT, ("pdm_seq",)),
+    "pdm_done_seq": Record(WORLD_PDM_DONE_SEQ, WORLD_PDM_DONE_SEQ_AT, ("pdm_done_seq",)),
+    "pdm_features": Record(WORLD_PDM_FEATURES, WORLD_PDM_FEATURES_AT, ("pdm_features",)),
 }
 WORLD_INITIAL: dict[str, object] = {
     "cmm_op": 0,
@@ -420,31 +602,59 @@ WORLD_INITIAL: dict[str, object] = {
     "cmm_reading": 0.0,
     "cmm_alarm": False,
     "cmm_fault": False,
+    "motor_x": 0.0,
+    "motor_y": 0.0,
+    "motor_z": 0.0,
+    "axis_x": 0.0,
+    "axis_y": 0.0,
+    "axis_z": 0.0,
     "camera_scale": 0.0,
     "pdm_online": True,
+    "pdm_request": "",
+    "pdm_seq": 0,
+    "pdm_done_seq": 0,
+    "pdm_features": 0,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2040
-OVERRIDDEN_AT = 2048  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 2864
+OVERRIDDEN_AT = 2872  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 2056, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 2080, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 2104, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 2128, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 2152, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 2176, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 2200, ("state", "cmm_fault")),
-    "camera_scale": Record(Struct("<QQd"), 2224, ("state", "camera_scale")),
-    "pdm_online": Record(Struct("<QQ?"), 2248, ("state", "pdm_online")),
+    "cmm_op": Record(Struct("<QQq"), 2880, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 2904, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 2928, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 2952, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 2976, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 3000, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 3024, ("state", "cmm_fault")),
+    "motor_x": Record(Struct("<QQd"), 3048, ("state", "motor_x")),
+    "motor_y": Record(Struct("<QQd"), 3072, ("state", "motor_y")),
+    "motor_z": Record(Struct("<QQd"), 3096, ("state", "motor_z")),
+    "axis_x": Record(Struct("<QQd"), 3120, ("state", "axis_x")),
+    "axis_y": Record(Struct("<QQd"), 3144, ("state", "axis_y")),
+    "axis_z": Record(Struct("<QQd"), 3168, ("state", "axis_z")),
+    "camera_scale": Record(Struct("<QQd"), 3192, ("state", "camera_scale")),
+    "pdm_online": Record(Struct("<QQ?"), 3216, ("state", "pdm_online")),
+    "pdm_request": Record(Struct("<QQ32s"), 3240, ("state", "pdm_request")),
+    "pdm_seq": Record(Struct("<QQq"), 3288, ("state", "pdm_seq")),
+    "pdm_done_seq": Record(Struct("<QQq"), 3312, ("state", "pdm_done_seq")),
+    "pdm_features": Record(Struct("<QQq"), 3336, ("state", "pdm_features")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
-SAFE_VALUES: dict[str, object] = {}
+SAFE_VALUES: dict[str, object] = {
+    "motor_x": 0.0,
+    "motor_y": 0.0,
+    "motor_z": 0.0,
+}
 # The process whose modules write each actuator.
-ACTUATED_BY = {}
+ACTUATED_BY = {
+    "motor_x": "iws",
+    "motor_y": "iws",
+    "motor_z": "iws",
+}
 # The fields that hold an enumeration's value, by (module, or "" for the world; field): the
 # value names, indexed by the code the field holds, for traces, displays and `ctl send`.
 ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
@@ -465,7 +675,17 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "cmm_done_seq": ("cmm_sim",),
     "cmm_reading": ("cmm_sim",),
     "cmm_alarm": ("cmm_sim",),
+    "motor_x": ("servo",),
+    "motor_y": ("servo",),
+    "motor_z": ("servo",),
+    "axis_x": ("drives",),
+    "axis_y": ("drives",),
+    "axis_z": ("drives",),
     "camera_scale": ("cmm_sim",),
+    "pdm_request": ("jp",),
+    "pdm_seq": ("jp",),
+    "pdm_done_seq": ("pdm",),
+    "pdm_features": ("pdm",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
 # the real world, so `ctl force` takes them only while the modules writing them simulate.
@@ -476,7 +696,7 @@ GROUND_TRUTH = ()
 TIME_IN_STATE = {
     "shop": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        2272,
+        3360,
         (
             "state",
             "since",
@@ -493,11 +713,13 @@ TIME_IN_STATE = {
             "PLAN_FAILED",
         ),
     ),
-    "jp": Record(Struct("<QqQQQQ"), 2384, ("state", "since", "NOP", "S0", "PLANNING")),
-    "wc": Record(Struct("<QqQQQQ"), 2432, ("state", "since", "NOP", "S0", "S1")),
+    "jp": Record(
+        Struct("<QqQQQQQ"), 3472, ("state", "since", "NOP", "S0", "RETRIEVING", "PLANNING")
+    ),
+    "wc": Record(Struct("<QqQQQQ"), 3528, ("state", "since", "NOP", "S0", "S1")),
     "ws": Record(
-        Struct("<QqQQQQQQQQQQQ"),
-        2480,
+        Struct("<QqQQQQQQQQQQQQ"),
+        3576,
         (
             "state",
             "since",
@@ -509,19 +731,30 @@ TIME_IN_STATE = {
             "MS_FAILED",
             "FX_FAILED",
             "MEASURING",
+            "NEXT_SETUP",
             "REFIXTURING",
             "UNLOADING",
         ),
     ),
     "ms": Record(
         Struct("<QqQQQQQQQQQ"),
-        2584,
+        3688,
         ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 2672, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 2728, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "cmm": Record(Struct("<QqQQQQ"), 2784, ("state", "since", "NOP", "S0", "S1")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 2832, ("state", "since", "NOP", "S0")),
+    "fx": Record(Struct("<QqQQQQQ"), 3776, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 3832, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "cmm": Record(
+        Struct("<QqQQQQQQ"), 3888, ("state", "since", "NOP", "S0", "S1", "TOUCH", "TOUCHING")
+    ),
+    "prim": Record(
+        Struct("<QqQQQQQQQ"),
+        3952,
+        ("state", "since", "NOP", "S0", "S1", "APPROACHING", "TOUCHING", "RETRACTING"),
+    ),
+    "servo": Record(Struct("<QqQQQ"), 4024, ("state", "since", "NOP", "S0")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 4064, ("state", "since", "NOP", "S0")),
+    "drives": Record(Struct("<QqQQQ"), 4104, ("state", "since", "NOP", "S0")),
+    "pdm": Record(Struct("<QqQQQ"), 4144, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -550,7 +783,11 @@ COMMAND_NAMES = {
         NO_COMMAND_NAME,
         *("INIT", "HALT", "HOME", "CALIBRATE_PROBE", "CALIBRATE_CAMERA", "INSPECT_FEATURE"),
     ),
+    "prim": (NO_COMMAND_NAME, *("INIT", "HALT", "GO_TO_POINT")),
+    "servo": (NO_COMMAND_NAME, *("INIT", "HALT", "MOVE_TO")),
     "cmm_sim": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "drives": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "pdm": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "op/fx": (
         NO_COMMAND_NAME,
         *(
@@ -598,10 +835,28 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
         "INSPECT_PART": ("program",),
     },
     "ms": {
-        "MEASURE_PART": ("program",),
+        "MEASURE_PART": ("program", "first", "count"),
+    },
+    "fx": {
+        "PLACE_PART": ("setup",),
+        "REFIXTURE_PART": ("setup",),
     },
     "cmm": {
         "INSPECT_FEATURE": ("number",),
+    },
+    "prim": {
+        "GO_TO_POINT": ("x", "y", "z"),
+    },
+    "servo": {
+        "MOVE_TO": ("x", "y", "z"),
+    },
+    "op/fx": {
+        "PLACE_PART": ("setup",),
+        "RESEAT_PART": ("setup",),
+    },
+    "op/tl": {
+        "PLACE_PART": ("setup",),
+        "RESEAT_PART": ("setup",),
     },
 }
 STATE_NAMES = {
@@ -618,7 +873,7 @@ STATE_NAMES = {
         "REPLANNING",
         "PLAN_FAILED",
     ),
-    "jp": ("NOP", "S0", "PLANNING"),
+    "jp": ("NOP", "S0", "RETRIEVING", "PLANNING"),
     "wc": ("NOP", "S0", "S1"),
     "ws": (
         "NOP",
@@ -629,14 +884,19 @@ STATE_NAMES = {
         "MS_FAILED",
         "FX_FAILED",
         "MEASURING",
+        "NEXT_SETUP",
         "REFIXTURING",
         "UNLOADING",
     ),
     "ms": ("NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
     "fx": ("NOP", "S0", "S1", "S0_ASKING"),
     "tl": ("NOP", "S0", "S1", "S0_ASKING"),
-    "cmm": ("NOP", "S0", "S1"),
+    "cmm": ("NOP", "S0", "S1", "TOUCH", "TOUCHING"),
+    "prim": ("NOP", "S0", "S1", "APPROACHING", "TOUCHING", "RETRACTING"),
+    "servo": ("NOP", "S0"),
     "cmm_sim": ("NOP", "S0"),
+    "drives": ("NOP", "S0"),
+    "pdm": ("NOP", "S0"),
     "op/fx": OPERATOR_STATES,
     "op/tl": OPERATOR_STATES,
 }
@@ -651,11 +911,29 @@ REASON_NAMES: dict[str, tuple[str, ...]] = {
     "ms": ("NONE", "LOST", "MACHINE_FAULT", "REFUSED", "TIMED_OUT"),
     "fx": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
     "tl": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
+    "cmm": ("NONE", "LOST", "MACHINE_FAULT"),
+    "prim": ("NONE", "LOST", "MACHINE_FAULT"),
+    "servo": ("NONE", "LOST", "MACHINE_FAULT"),
     "op": ("NONE", "LOST", "REFUSED"),
 }
 # The modules a link of a status buffer's `cause` numbers, from 1 (rcs/contract.py
 # cause_text; docs/semantics.md, "Reasons survive").
-CAUSE_MODULES = ("shop", "jp", "wc", "ws", "ms", "fx", "tl", "cmm", "op", "cmm_sim")
+CAUSE_MODULES = (
+    "shop",
+    "jp",
+    "wc",
+    "ws",
+    "ms",
+    "fx",
+    "tl",
+    "cmm",
+    "prim",
+    "servo",
+    "op",
+    "cmm_sim",
+    "drives",
+    "pdm",
+)
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
 RULES = {
     "shop": (
@@ -697,9 +975,10 @@ RULES = {
         "INIT/S0/1",
         "HALT/S0/1",
         "PLAN_JOB/S0/1",
+        "PLAN_JOB/RETRIEVING/1",
+        "PLAN_JOB/RETRIEVING/2",
+        "PLAN_JOB/RETRIEVING/3",
         "PLAN_JOB/PLANNING/1",
-        "PLAN_JOB/PLANNING/2",
-        "PLAN_JOB/PLANNING/3",
     ),
     "wc": (
         "",
@@ -738,6 +1017,8 @@ RULES = {
         "INSPECT_PART/MEASURING/2",
         "INSPECT_PART/MEASURING/3",
         "INSPECT_PART/MEASURING/4",
+        "INSPECT_PART/NEXT_SETUP/1",
+        "INSPECT_PART/NEXT_SETUP/2",
         "INSPECT_PART/REFIXTURING/1",
         "INSPECT_PART/REFIXTURING/2",
         "INSPECT_PART/UNLOADING/1",
@@ -819,7 +1100,9 @@ RULES = {
     "cmm": (
         "",
         "INIT/S0/1",
+        "INIT/S1/1",
         "HALT/S0/1",
+        "HALT/S1/1",
         "HOME/S0/1",
         "HOME/S1/1",
         "HOME/S1/2",
@@ -830,14 +1113,35 @@ RULES = {
         "CALIBRATE_CAMERA/S1/1",
         "CALIBRATE_CAMERA/S1/2",
         "INSPECT_FEATURE/S0/1",
+        "INSPECT_FEATURE/TOUCH/1",
+        "INSPECT_FEATURE/TOUCH/2",
+        "INSPECT_FEATURE/TOUCHING/1",
+        "INSPECT_FEATURE/TOUCHING/2",
         "INSPECT_FEATURE/S1/1",
         "INSPECT_FEATURE/S1/2",
     ),
+    "prim": (
+        "",
+        "INIT/S0/1",
+        "INIT/S1/1",
+        "HALT/S0/1",
+        "HALT/S1/1",
+        "GO_TO_POINT/S0/1",
+        "GO_TO_POINT/APPROACHING/1",
+        "GO_TO_POINT/APPROACHING/2",
+        "GO_TO_POINT/TOUCHING/1",
+        "GO_TO_POINT/TOUCHING/2",
+        "GO_TO_POINT/RETRACTING/1",
+        "GO_TO_POINT/RETRACTING/2",
+    ),
+    "servo": ("", "INIT/S0/1", "HALT/S0/1", "MOVE_TO/S0/1", "MOVE_TO/S0/2", "MOVE_TO/S0/3"),
     "cmm_sim": ("", "INIT/S0/1", "HALT/S0/1"),
+    "drives": ("", "INIT/S0/1", "HALT/S0/1"),
+    "pdm": ("", "INIT/S0/1", "HALT/S0/1"),
     "op/fx": ("",),  # an operator module has no table
     "op/tl": ("",),  # an operator module has no table
 }
-SIMULATORS = ("cmm_sim",)
+SIMULATORS = ("cmm_sim", "drives", "pdm")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {
@@ -856,8 +1160,12 @@ ROLES: dict[str, dict[str, int]] = {
         "fx": 3,  # override
         "tl": 3,  # override
         "cmm": 3,  # override
+        "prim": 3,  # override
+        "servo": 3,  # override
         "op": 3,  # override
         "cmm_sim": 3,  # override
+        "drives": 3,  # override
+        "pdm": 3,  # override
     },
 }
 # Who holds each role (`users`, `groups`: OS names): role -> (users, groups). `--role` in a
@@ -898,8 +1206,8 @@ TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], 
 INSTRUCTIONS = {
     "op": {
         "MOUNT_FIXTURE_PLATE": "Clear the table and mount the fixture plate, then answer.",
-        "PLACE_PART": "Place the part in the fixture and clamp it, then answer.",
-        "RESEAT_PART": "Unclamp, clean and re-seat the part, clamp it, then answer.",
+        "PLACE_PART": "Place the part in the fixture in setup {setup} and clamp it, then answer.",
+        "RESEAT_PART": "Unclamp and clean the part, seat it in setup {setup} and clamp it, then answer.",
         "UNLOAD_PART": "Unclamp the part and take it off the table, then answer.",
         "MOUNT_SPHERE": "Mount the reference sphere and define the coordinate system, then answer.",
         "ORIENT_PROBE": "Orient the probe for calibration on the reference sphere, then answer.",

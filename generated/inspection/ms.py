@@ -65,12 +65,16 @@ CMM_HOME = 3
 CMM_CALIBRATE_PROBE = 4
 CMM_CALIBRATE_CAMERA = 5
 CMM_INSPECT_FEATURE = 6
+# Why cmm may end a command in ERROR (its error_num).
+CMM_REASON_NONE = 0
+CMM_REASON_LOST = 1
+CMM_REASON_MACHINE_FAULT = 2
 CMM_LINK = 8  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s76x???1xI208xQII8xQ104xQI492xd40xd")
-INPUTS_AT = 992
+INPUTS = Struct("<QI32sqq76x???1xI216xQII8xQ104xQII32xQ1040xd136xd")
+INPUTS_AT = 1016
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 MS_STATUS_WORD = MS_STATUS_AT >> 3
@@ -95,12 +99,16 @@ class MsController:
     HOOK_STATE_ON_RESTART = "refuse"
 
     __slots__ = (
+        "arg_count",
+        "arg_first",
         "arg_program",
         "buf",
         "cause",
         "cmm_arg_number",
+        "cmm_cause",
         "cmm_command",
         "cmm_command_num",
+        "cmm_error_num",
         "cmm_status",
         "cmm_status_num",
         "cmm_written",
@@ -231,6 +239,8 @@ class MsController:
                 self.command_num,
                 self.command,
                 self.arg_program,
+                self.arg_first,
+                self.arg_count,
                 self.dont_run,
                 self.single_step,
                 self.simulate,
@@ -241,6 +251,8 @@ class MsController:
                 self.tl_cause,
                 self.cmm_status_num,
                 self.cmm_status,
+                self.cmm_error_num,
+                self.cmm_cause,
                 self.world_cmm_reading,
                 self.world_camera_scale,
             ) = values
@@ -254,6 +266,11 @@ class MsController:
                 self.tl_cause = 0
             if self.cmm_status_num != self.cmm_command_num:
                 self.cmm_status = EXECUTING  # until it echoes the last number sent
+                self.cmm_error_num = CMM_REASON_NONE  # no reason yet
+                self.cmm_cause = 0
+            elif self.cmm_status != ERROR:
+                self.cmm_error_num = CMM_REASON_NONE  # a reason comes only with ERROR
+                self.cmm_cause = 0
 
             # 2. check_if_new_command: a command number unlike the echoed one is a new command
             if self.command_num != self.status_num:
@@ -369,6 +386,8 @@ class MsController:
             self.command_num,
             self.command,
             self.arg_program,
+            self.arg_first,
+            self.arg_count,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -379,6 +398,8 @@ class MsController:
             self.tl_cause,
             self.cmm_status_num,
             self.cmm_status,
+            self.cmm_error_num,
+            self.cmm_cause,
             self.world_cmm_reading,
             self.world_camera_scale,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
@@ -441,7 +462,7 @@ class MsController:
             elif self.cmm_status == ERROR:
                 self.rule = 7  # EQUIP_SETUP/S1/2
                 # cmm's error: the cause of an ERROR this command reports
-                self.cause = caused(CMM_LINK, 0, 0)
+                self.cause = caused(CMM_LINK, self.cmm_error_num, self.cmm_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -507,7 +528,7 @@ class MsController:
             elif self.cmm_status == ERROR:
                 self.rule = 14  # CALIBRATE_CMM/S3/2
                 # cmm's error: the cause of an ERROR this command reports
-                self.cause = caused(CMM_LINK, 0, 0)
+                self.cause = caused(CMM_LINK, self.cmm_error_num, self.cmm_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -534,7 +555,7 @@ class MsController:
             elif self.cmm_status == ERROR:
                 self.rule = 17  # CALIBRATE_CAMERA/S1/2
                 # cmm's error: the cause of an ERROR this command reports
-                self.cause = caused(CMM_LINK, 0, 0)
+                self.cause = caused(CMM_LINK, self.cmm_error_num, self.cmm_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -571,8 +592,9 @@ class MsController:
                 }.get(self.tl_error_num, REASON_NONE)
 
     def measure_part(self) -> None:
-        """MEASURE_PART: Measure every feature of the inspection program with the CMM
-        (Inspect_feature, Figure 39), one after the other; report how many are out of tolerance.
+        """MEASURE_PART: Measure a feature inspection schedule of the program with the CMM
+        (Inspect_feature, Figure 39): `count` features from feature `first`, one after the other;
+        report how many are out of tolerance.
         """
         state = self.state
         if state == S0:
@@ -581,18 +603,18 @@ class MsController:
             self.var_features = self.hook_program_features(
                 "MEASURE_PART/S0/1", self.hook_state, self.arg_program
             )
-            self.var_feature = 0
+            self.var_feature = self.arg_first
             self.var_failed = 0
 
         elif state == NEXT:
-            if self.var_feature < self.var_features:
+            if self.var_feature < min(self.var_features, self.arg_first + self.arg_count):
                 self.rule = 22  # MEASURE_PART/NEXT/1
                 self.state = PROBING
                 self.cmm_arg_number = self.var_feature
                 self.cmm_command = CMM_INSPECT_FEATURE
                 self.cmm_command_num += 1
 
-            elif self.var_feature >= self.var_features:
+            elif self.var_feature >= min(self.var_features, self.arg_first + self.arg_count):
                 self.rule = 23  # MEASURE_PART/NEXT/2
                 self.state = NOP
                 self.status = DONE
@@ -613,7 +635,7 @@ class MsController:
             elif self.cmm_status == ERROR:
                 self.rule = 25  # MEASURE_PART/PROBING/2
                 # cmm's error: the cause of an ERROR this command reports
-                self.cause = caused(CMM_LINK, 0, 0)
+                self.cause = caused(CMM_LINK, self.cmm_error_num, self.cmm_cause)
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
@@ -623,5 +645,5 @@ class MsController:
             self.state = NEXT
             self.var_feature = self.var_feature + 1
             self.var_failed = self.var_failed + (0 if self.var_in_tolerance else 1)
-            self.result_measured = self.var_feature
+            self.result_measured = self.var_feature - self.arg_first
             self.result_failed = self.var_failed

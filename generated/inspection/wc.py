@@ -52,7 +52,7 @@ WS_LINK = 4  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s60x???1xI112xQII8x?Q")
+INPUTS = Struct("<QI32s60x???1xI112xQII8x?24xQ")
 INPUTS_AT = 656
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).

@@ -4,6 +4,8 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import inspection_hooks.ws as hooks
+
 from .layout import (
     FX_COMMAND,
     FX_COMMAND_AT,
@@ -20,11 +22,14 @@ from .rcs.contract import (
     NO_RULE,
     NOP,
     PERF,
+    HookError,
     caused,
     decode_text,
     encode_text,
+    plan_problem,
     words,
 )
+from .rcs.deadline import hook
 
 # Commands ws accepts (the code written to its command buffer).
 INIT = 1
@@ -71,7 +76,7 @@ FX_LINK = 6  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s60x???1xI112xQII24xqQ96xQII8xQ")
+INPUTS = Struct("<QI32s84x???1xI128xQII24xqQ104xQII8xQ")
 INPUTS_AT = 824
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -88,8 +93,9 @@ S3 = 4
 MS_FAILED = 5
 FX_FAILED = 6
 MEASURING = 7
-REFIXTURING = 8
-UNLOADING = 9
+NEXT_SETUP = 8
+REFIXTURING = 9
+UNLOADING = 10
 
 # Constants.
 MEASUREMENTS = 2
@@ -107,6 +113,7 @@ class WsController:
         "cycles",
         "dont_run",
         "error_num",
+        "fx_arg_setup",
         "fx_cause",
         "fx_command",
         "fx_command_num",
@@ -118,6 +125,8 @@ class WsController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "ms_arg_count",
+        "ms_arg_first",
         "ms_arg_program",
         "ms_cause",
         "ms_command",
@@ -129,6 +138,14 @@ class WsController:
         "ms_written",
         "perf_seq",
         "perf_single_step_num",
+        "plan_setups",
+        "plan_setups_count",
+        "plan_setups_done",
+        "plan_setups_first",
+        "plan_setups_replans_left",
+        "plan_setups_setup",
+        "plan_setups_step",
+        "plan_setups_steps",
         "result_accepted",
         "rule",
         "simulate",
@@ -144,11 +161,20 @@ class WsController:
         "words",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_setups = hook("ws", hooks, "setups", 2.5)
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.var_measured: int = 0
         self.resume()
+        self.plan_setups: list[tuple[int, int, int]] = []  # plan setups: no steps yet
+        self.plan_setups_steps = self.plan_setups_replans_left = 0
+        self.plan_setups_go(0)
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -163,6 +189,9 @@ class WsController:
             self.state,
             self.rule,
             self.result_accepted,
+            self.plan_setups_step,
+            self.plan_setups_steps,
+            self.plan_setups_replans_left,
             self.cause,
         ) = WS_STATUS.unpack_from(buf, WS_STATUS_AT)
         (
@@ -178,11 +207,18 @@ class WsController:
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
         self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
-        _, self.ms_command_num, self.ms_command, self.ms_arg_program = MS_COMMAND.unpack_from(
-            buf, MS_COMMAND_AT
-        )
+        (
+            _,
+            self.ms_command_num,
+            self.ms_command,
+            self.ms_arg_program,
+            self.ms_arg_first,
+            self.ms_arg_count,
+        ) = MS_COMMAND.unpack_from(buf, MS_COMMAND_AT)
         self.ms_written = self.ms_command_num
-        _, self.fx_command_num, self.fx_command = FX_COMMAND.unpack_from(buf, FX_COMMAND_AT)
+        _, self.fx_command_num, self.fx_command, self.fx_arg_setup = FX_COMMAND.unpack_from(
+            buf, FX_COMMAND_AT
+        )
         self.fx_written = self.fx_command_num
         self.ms_arg_program = decode_text(self.ms_arg_program)
 
@@ -291,6 +327,9 @@ class WsController:
                     self.state,
                     self.rule,
                     self.result_accepted,
+                    self.plan_setups_step,
+                    self.plan_setups_steps,
+                    self.plan_setups_replans_left,
                     self.cause,
                 )
                 words[WS_STATUS_WORD] = seq + 1
@@ -309,6 +348,8 @@ class WsController:
                     self.ms_command_num,
                     self.ms_command,
                     encode_text(self.ms_arg_program, 32),
+                    self.ms_arg_first,
+                    self.ms_arg_count,
                 )
                 words[MS_COMMAND_WORD] = seq + 1
                 self.ms_written = self.ms_command_num
@@ -318,7 +359,9 @@ class WsController:
                     self.fx_command_num = number + 1  # number ours after it
                 seq |= 1  # odd while it is written
                 words[FX_COMMAND_WORD] = seq
-                FX_COMMAND.pack_into(buf, FX_COMMAND_AT, seq, self.fx_command_num, self.fx_command)
+                FX_COMMAND.pack_into(
+                    buf, FX_COMMAND_AT, seq, self.fx_command_num, self.fx_command, self.fx_arg_setup
+                )
                 words[FX_COMMAND_WORD] = seq + 1
                 self.fx_written = self.fx_command_num
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
@@ -365,6 +408,28 @@ class WsController:
             self.fx_cause,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
+
+    def plan_setups_load(self, steps: object, rule: str) -> None:
+        """Plan setups: the planner's steps (setup, first, count), at most 16, checked; step 0 is
+        current.
+        """
+        problem = plan_problem(steps, "iii", 16)
+        if problem:
+            raise HookError("ws", "setups", rule, self.cycles, steps, why=problem)
+        self.plan_setups = list(steps)  # a list of checked tuples
+        self.plan_setups_steps = len(self.plan_setups)
+        self.plan_setups_go(0)
+
+    def plan_setups_go(self, step: int) -> None:
+        """Plan setups: make step `step` the current one (past the last: done, fields 0)."""
+        self.plan_setups_step = min(step, self.plan_setups_steps)
+        self.plan_setups_done = self.plan_setups_step >= self.plan_setups_steps
+        if self.plan_setups_done:
+            self.plan_setups_setup, self.plan_setups_first, self.plan_setups_count = 0, 0, 0
+        else:
+            self.plan_setups_setup, self.plan_setups_first, self.plan_setups_count = (
+                self.plan_setups[self.plan_setups_step]
+            )
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -511,15 +576,24 @@ class WsController:
             }.get(self.fx_error_num, REASON_NONE)
 
     def inspect_part(self) -> None:
-        """INSPECT_PART: Inspect one part (Figure 39): FX places it while MS has the probe loaded,
-        MS measures the program's features; out of tolerance, FX re-fixtures it and MS measures
-        again, up to MEASUREMENTS times; then FX unloads it, accepted or rejected.
+        """INSPECT_PART: Inspect one part (Figure 39) by the workstation's plan of the program: FX
+        places it in the first setup while MS has the probe loaded; then, setup by setup, MS
+        measures the setup's feature schedule and FX fixtures the part in the next setup. Out of
+        tolerance, FX re-seats it in the setup and MS measures the schedule again, up to
+        MEASUREMENTS times, then the part is rejected; FX unloads it, accepted or rejected.
         """
         state = self.state
         if state == S0:
+            # plan the part's setups (fixturing instructions and feature schedules), place it in the first
             self.rule = 15  # INSPECT_PART/S0/1
             self.state = S1
+            self.plan_setups_replans_left = 0  # plan: setups, from no steps
+            self.plan_setups_load([], "INSPECT_PART/S0/1")
+            self.plan_setups_load(
+                self.hook_setups("INSPECT_PART/S0/1", self.arg_program), "INSPECT_PART/S0/1"
+            )
             self.var_measured = 0
+            self.fx_arg_setup = self.plan_setups_setup
             self.fx_command = FX_PLACE_PART
             self.fx_command_num += 1
             self.ms_command = MS_LOAD_PROBE
@@ -548,9 +622,11 @@ class WsController:
                 self.rule = 18  # INSPECT_PART/S1/3
                 self.state = MEASURING
                 self.ms_arg_program = self.arg_program
+                self.ms_arg_first = self.plan_setups_first
+                self.ms_arg_count = self.plan_setups_count
                 self.ms_command = MS_MEASURE_PART
                 self.ms_command_num += 1
-                self.var_measured = self.var_measured + 1
+                self.var_measured = 1
 
         elif state == MEASURING:
             if self.ms_status == ERROR:
@@ -568,21 +644,20 @@ class WsController:
                 }.get(self.ms_error_num, REASON_NONE)
 
             elif self.ms_status == DONE and self.ms_result_failed == 0:
-                # every feature in tolerance
+                # the setup's features in tolerance; on to the next setup
                 self.rule = 20  # INSPECT_PART/MEASURING/2
-                self.state = UNLOADING
-                self.result_accepted = True
-                self.fx_command = FX_UNLOAD_PART
-                self.fx_command_num += 1
+                self.state = NEXT_SETUP
+                self.plan_setups_go(self.plan_setups_step + 1)  # advance: setups
 
             elif (
                 self.ms_status == DONE
                 and self.ms_result_failed != 0
                 and self.var_measured < MEASUREMENTS
             ):
-                # out of tolerance; re-fixture and measure again
+                # out of tolerance; re-seat the part in the setup and measure again
                 self.rule = 21  # INSPECT_PART/MEASURING/3
                 self.state = REFIXTURING
+                self.fx_arg_setup = self.plan_setups_setup
                 self.fx_command = FX_REFIXTURE_PART
                 self.fx_command_num += 1
 
@@ -598,17 +673,37 @@ class WsController:
                 self.fx_command = FX_UNLOAD_PART
                 self.fx_command_num += 1
 
+        elif state == NEXT_SETUP:
+            if not self.plan_setups_done:
+                # fixture the part in the next setup (place/fixture_part, Figure 39)
+                self.rule = 23  # INSPECT_PART/NEXT_SETUP/1
+                self.state = REFIXTURING
+                self.fx_arg_setup = self.plan_setups_setup
+                self.fx_command = FX_REFIXTURE_PART
+                self.fx_command_num += 1
+                self.var_measured = 0
+
+            elif self.plan_setups_done:
+                # every setup's features in tolerance
+                self.rule = 24  # INSPECT_PART/NEXT_SETUP/2
+                self.state = UNLOADING
+                self.result_accepted = True
+                self.fx_command = FX_UNLOAD_PART
+                self.fx_command_num += 1
+
         elif state == REFIXTURING:
             if self.fx_status == DONE:
-                self.rule = 23  # INSPECT_PART/REFIXTURING/1
+                self.rule = 25  # INSPECT_PART/REFIXTURING/1
                 self.state = MEASURING
                 self.ms_arg_program = self.arg_program
+                self.ms_arg_first = self.plan_setups_first
+                self.ms_arg_count = self.plan_setups_count
                 self.ms_command = MS_MEASURE_PART
                 self.ms_command_num += 1
                 self.var_measured = self.var_measured + 1
 
             elif self.fx_status == ERROR:
-                self.rule = 24  # INSPECT_PART/REFIXTURING/2
+                self.rule = 26  # INSPECT_PART/REFIXTURING/2
                 # fx's error: the cause of an ERROR this command reports
                 self.cause = caused(FX_LINK, self.fx_error_num, self.fx_cause)
                 self.state = NOP
@@ -622,13 +717,13 @@ class WsController:
 
         elif state == UNLOADING:
             if self.fx_status == DONE:
-                self.rule = 25  # INSPECT_PART/UNLOADING/1
+                self.rule = 27  # INSPECT_PART/UNLOADING/1
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
             elif self.fx_status == ERROR:
-                self.rule = 26  # INSPECT_PART/UNLOADING/2
+                self.rule = 28  # INSPECT_PART/UNLOADING/2
                 # fx's error: the cause of an ERROR this command reports
                 self.cause = caused(FX_LINK, self.fx_error_num, self.fx_cause)
                 self.state = NOP
@@ -642,7 +737,7 @@ class WsController:
 
         elif state == MS_FAILED and self.fx_status != EXECUTING:
             # fixturing has stopped; fail for measurement's reason
-            self.rule = 27  # INSPECT_PART/MS_FAILED/1
+            self.rule = 29  # INSPECT_PART/MS_FAILED/1
             self.state = NOP
             self.status = ERROR
             # ms's reason, passed up by name (another: NONE)
@@ -655,7 +750,7 @@ class WsController:
 
         elif state == FX_FAILED and self.ms_status != EXECUTING:
             # measurement has stopped; fail for fixturing's reason
-            self.rule = 28  # INSPECT_PART/FX_FAILED/1
+            self.rule = 30  # INSPECT_PART/FX_FAILED/1
             self.state = NOP
             self.status = ERROR
             # fx's reason, passed up by name (another: NONE)

@@ -25,7 +25,8 @@ from . import player
 from .read import Trace
 from .view import StringTable, runs
 
-PANEL = ("shop", "jp", "wc", "ws", "ms", "fx", "tl", "cmm")  # the controllers the panel shows
+# the controllers the panel shows
+PANEL = ("shop", "jp", "wc", "ws", "ms", "fx", "tl", "cmm", "prim", "servo")
 REQUIRED = ("fx", "tl", "cmm")  # the modules the station is read from
 LANES = (  # (label, the module row whose work the lane shows; op/*: every operator channel)
     ("planner", "jp"),
@@ -33,6 +34,7 @@ LANES = (  # (label, the module row whose work the lane shows; op/*: every opera
     ("tooling", "tl"),
     ("operator", "op/*"),
     ("CMM", "cmm"),
+    ("probe", "prim"),  # each Go_to_point of the probe controller
 )
 WIDTH = 720  # pixels of the time line
 LANE = 18  # pixels a lane

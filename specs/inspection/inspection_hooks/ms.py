@@ -2,10 +2,12 @@
 
 An inspection program (the paper's measurement planner interprets DMIS; this is a small
 stand-in) is a text file, one feature per line: a name, the nominal size and the
-tolerance either side, in millimetres; `#` starts a comment:
+tolerance either side, in millimetres, and the setup the part is fixtured in to measure
+it (a whole number from 1: the workstation's plan, section 5.3.2, fixtures the part for
+each run of features of one setup, then has them measured); `#` starts a comment:
 
-    # feature       nominal   tolerance
-    bore_diameter   12.000    0.020
+    # feature       nominal   tolerance  setup
+    bore_diameter   12.000    0.020      1
 
 The features are measured in the file's order; MEASURE_PART's `feature` indexes them.
 INSPECT_PART names the program (its `program` argument, passed on to MEASURE_PART):
@@ -29,6 +31,7 @@ class Feature:
     name: str
     nominal: float
     tolerance: float
+    setup: int
 
     def accepts(self, reading: float) -> bool:
         return abs(reading - self.nominal) <= self.tolerance
@@ -59,15 +62,19 @@ def read_program(path: Path) -> list[Feature]:
         if not line:
             continue
         where = f"{path}:{number}"
-        if len(line) != 3:
-            raise ProgramError(f"{where}: expected `name nominal tolerance`, got {raw.strip()!r}")
+        if len(line) != 4:
+            raise ProgramError(
+                f"{where}: expected `name nominal tolerance setup`, got {raw.strip()!r}"
+            )
         name, nominal, tolerance = line[0], _number(line[1], where), _number(line[2], where)
         if tolerance <= 0:
             raise ProgramError(f"{where}: the tolerance of `{name}` must be positive")
+        if not line[3].isdigit() or int(line[3]) < 1:
+            raise ProgramError(f"{where}: the setup of `{name}` must be a whole number from 1")
         if name in names:
             raise ProgramError(f"{where}: feature `{name}` is measured twice")
         names.add(name)
-        features.append(Feature(name, nominal, tolerance))
+        features.append(Feature(name, nominal, tolerance, int(line[3])))
     if not features:
         raise ProgramError(f"{path}: the inspection program measures no feature")
     return features
@@ -96,12 +103,17 @@ def new_program(settings: dict[str, str]) -> Program:
 PROGRAM_NAME = re.compile(r"[a-z0-9_]+")
 
 
+def named_program(name: str) -> list[Feature]:
+    """The features of the inspection program `name` (programs/<name>.ipg)."""
+    if not PROGRAM_NAME.fullmatch(name):
+        raise ProgramError(f"{name!r} is not an inspection program's name (a-z, 0-9, _)")
+    return read_program(SYSTEM_DIR / "programs" / f"{name}.ipg")
+
+
 def program_features(program: Program, name: str) -> int:
     """Read the inspection program `name` (programs/<name>.ipg) for this MEASURE_PART; how
     many features it measures."""
-    if not PROGRAM_NAME.fullmatch(name):
-        raise ProgramError(f"{name!r} is not an inspection program's name (a-z, 0-9, _)")
-    program.features = read_program(SYSTEM_DIR / "programs" / f"{name}.ipg")
+    program.features = named_program(name)
     return len(program.features)
 
 
