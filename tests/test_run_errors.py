@@ -24,6 +24,19 @@ RAISED = "the hook's own traceback: run again with -v"
 RETURNS = "make the function return what `returns:` names, in that order and of those types"
 
 
+def at(spec: str, line_has: str, word: str, after: str = "") -> str:
+    """`specs/<spec>:line:col` of `word` in the first line holding `line_has` (after the
+    first line holding `after`, if given): where the person reads it, found in the spec's
+    text, so an edit elsewhere in the spec does not move what the test expects."""
+    lines = (SPECS / spec).read_text().splitlines()
+    start = next(n for n, line in enumerate(lines) if after in line) if after else 0
+    n = next(n for n in range(start, len(lines)) if line_has in lines[n])
+    return f"specs/{spec}:{n + 1}:{lines[n].index(word, lines[n].index(line_has)) + 1}"
+
+
+JUDGE = at("inspection/ms.yaml", "[call: judge]", "judge")
+
+
 @pytest.fixture(scope="module")
 def inspection() -> IRSystem:
     front = compile_paths([SPECS / "inspection"])
@@ -45,20 +58,20 @@ def hook_error(module: str, hook: str, rule: str, cause: BaseException | None = 
 def test_a_hook_that_raised_is_located_at_its_call(inspection: IRSystem) -> None:
     error = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", ValueError("bad"))
     assert said(error, inspection, 7) == (
-        "specs/inspection/ms.yaml:143:22",
+        JUDGE,
         "E420",
         "hook `judge` of `ms` raised ValueError: bad (rule MEASURE_PART/PROBING/1, cycle 7)",
         RAISED,
     )
     every = hook_error("cmm_sim", "probe", "every_cycle/2", RuntimeError("x"))
     assert said(every, inspection, 1)[:3] == (
-        "specs/inspection/cmm_sim.yaml:46:15",
+        at("inspection/cmm_sim.yaml", "- call: probe", "probe"),
         "E420",
         "hook `probe` of `cmm_sim` raised RuntimeError: x (rule every_cycle/2, cycle 1)",
     )
     factory = hook_error("ms", "make", "hooks_state", RuntimeError("x"))
     assert said(factory, inspection, 0)[:3] == (
-        "specs/inspection/ms.yaml:10:14",  # the `hooks_state:` line
+        at("inspection/ms.yaml", "hooks_state:", "new_program"),
         "E420",
         "hook `make` of `ms` raised RuntimeError: x (made by `hooks_state`, start-up)",
     )
@@ -68,7 +81,8 @@ def test_a_hook_not_found_at_its_call_falls_back_to_its_rule_then_its_spec(
     inspection: IRSystem,
 ) -> None:
     other = hook_error("ms", "judge", "MEASURE_PART/S0/1", ValueError("bad"))
-    assert said(other, inspection, 7)[0] == "specs/inspection/ms.yaml:128:11"  # the rule
+    first_rule = at("inspection/ms.yaml", "- do:", "do", after="  MEASURE_PART:")
+    assert said(other, inspection, 7)[0] == first_rule  # the rule
     unknown_rule = hook_error("ms", "judge", "MEASURE_PART/S9/1", ValueError("bad"))
     assert said(unknown_rule, inspection, 7)[0] == "specs/inspection/ms.yaml:1:1"
     nobody = hook_error("nobody", "judge", "X/S0/1", ValueError("bad"))
@@ -79,7 +93,7 @@ def test_a_hook_not_found_at_its_call_falls_back_to_its_rule_then_its_spec(
 def test_a_hook_that_overran_its_deadline(inspection: IRSystem) -> None:
     error = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", HookOverrun(0.01, 0.05, True))
     assert said(error, inspection, 7) == (
-        "specs/inspection/ms.yaml:143:22",
+        JUDGE,
         "E423",
         "hook `judge` of `ms` did not return within its deadline of 0.01 s: interrupted after "
         "0.05 s (rule MEASURE_PART/PROBING/1, cycle 7)",
@@ -93,22 +107,29 @@ def test_a_hook_that_returned_the_wrong_thing_and_a_planners_wrong_steps(
 ) -> None:
     wrong = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", result=3, kinds="fi")
     assert said(wrong, inspection, 7) == (
-        "specs/inspection/ms.yaml:143:22",
+        JUDGE,
         "E421",
         "hook `judge` of `ms` returned 3; its `returns:` needs a tuple of 2 values "
         "(finite float, int) (rule MEASURE_PART/PROBING/1, cycle 7)",
         RETURNS,
     )
-    no_replans = hook_error("jp", "schedule", "PLAN_JOB/S0/1", why="was not called: none left")
+    # cmm's planner, `touch_points`, plans a feature's points (`plan: points`)
+    no_replans = hook_error(
+        "cmm", "touch_points", "INSPECT_FEATURE/S0/1", why="was not called: none left"
+    )
     assert said(no_replans, inspection, 3) == (
-        "specs/inspection/jp.yaml:44:22",
+        at("inspection/cmm.yaml", "[plan: points]", "points"),
         "E421",
-        "hook `schedule` of `jp` was not called: none left (rule PLAN_JOB/S0/1, cycle 3)",
+        "hook `touch_points` of `cmm` was not called: none left (rule INSPECT_FEATURE/S0/1, "
+        "cycle 3)",
         "replan only while `<plan>.replans_left > 0` (W309), and fail otherwise",
     )
-    steps = hook_error("jp", "schedule", "PLAN_JOB/S0/1", why="returned a step of 3 fields")
+    steps = hook_error(
+        "cmm", "touch_points", "INSPECT_FEATURE/S0/1", why="returned a step of 4 fields"
+    )
     assert said(steps, inspection, 3)[2:] == (
-        "hook `schedule` of `jp` returned a step of 3 fields (rule PLAN_JOB/S0/1, cycle 3)",
+        "hook `touch_points` of `cmm` returned a step of 4 fields (rule INSPECT_FEATURE/S0/1, "
+        "cycle 3)",
         "a planner returns a list of steps, each a tuple of the plan's step fields",
     )
 
@@ -148,7 +169,7 @@ def test_a_planner_that_raised_is_located_at_its_load() -> None:
     [submarine] = compile_paths([SPECS / "submarine"]).systems
     error = hook_error("cc", "plan_route", "RUN_MISSION/TRANSIT/3", ValueError("no route"))
     assert said(error, submarine, 12)[:3] == (
-        "specs/submarine/cc.yaml:94:23",  # the second of its two `load:`s, the rule's own
+        at("submarine/cc.yaml", "- replan: route", "route"),  # its rule's own `load:`
         "E420",
         "hook `plan_route` of `cc` raised ValueError: no route (rule RUN_MISSION/TRANSIT/3, "
         "cycle 12)",
