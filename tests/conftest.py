@@ -75,6 +75,7 @@ TIERS: dict[str, tuple[str, tuple[str, ...]]] = {
             "test_prove_seed_verdicts",
             "test_prove_smv_export",
             "test_prove_catalogue",
+            "test_prove_encode",
             "test_prove_text",
             "test_reference",
             "test_reference_current",
