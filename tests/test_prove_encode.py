@@ -31,6 +31,7 @@ from rcsgen.compiler.types import BOOL, FLOAT, INT, STATUS
 z3 = pytest.importorskip("z3")
 
 X = Ref(FLOAT, RefKind.WORLD, "x")
+X_ = z3.RealVal(1.5)
 N = Ref(INT, RefKind.WORLD, "n")
 
 
@@ -121,15 +122,22 @@ def free(term: Any) -> bool:
 
 
 def test_what_z3_cannot_follow_is_free_and_the_rest_is_decided(arm: Skeleton) -> None:  # noqa: F811
-    world = {"x": z3.RealVal(1.5), "n": z3.IntVal(7)}
+    world = {"x": X_, "n": z3.IntVal(7)}
     enc = encoder(arm)
     # floor division and modulo, and a float compared for equality: a fresh value each
     assert free(enc.value(compare(binary("//", N, c(2)), "==", c(3)), {}, world))
     assert free(enc.value(compare(binary("%", N, c(2)), "==", c(1)), {}, world))
     assert free(enc.value(compare(X, "==", c(1.5)), {}, world))
     assert free(enc.value(compare(X, "!=", c(1.5)), {}, world))
-    # a hook's or a subordinate's result: fresh
-    assert free(enc.value(Ref(BOOL, RefKind.SUB_RESULT, "ok", "sub"), {}, world))
+    assert free(enc.value(compare(X, "==", N), {}, world))  # one side a float is enough
+    # a chain: the float equality free, the comparison after it still decided (n=0: false)
+    chain = compare(X, "==", c(1.5), "<", N)
+    assert free(enc.value(chain, {}, world))
+    assert z3.Solver().check(enc.value(chain, {}, {"x": X_, "n": z3.IntVal(0)})) == z3.unsat
+    # a subordinate's result, even of a subordinate read this cycle: fresh
+    assert free(enc.value(Ref(BOOL, RefKind.SUB_RESULT, "ok", "sub"), {"sub": "DONE"}, world))
+    # a world field named like a local is the world's, not the local's (count starts at 0)
+    assert free(enc.value(compare(Ref(INT, RefKind.WORLD, "count"), "==", c(0)), {}, {}))
     # decided: an int compared for equality, a status against the one read this cycle
     assert z3.is_true(z3.simplify(enc.value(compare(N, "==", c(7)), {}, world)))
     sub = Ref(STATUS, RefKind.SUB_STATUS, "status", "sub")
