@@ -6,6 +6,9 @@ One controller that uses each of them, built through the front end as `rcsgen pr
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
 import pytest
 
 from rcsgen.compiler.expressions.nodes import Ref
@@ -196,3 +199,42 @@ def test_a_for_rule_fires_only_once_its_when_can_have_held_long_enough(arm: Skel
     assert timers.feasible(arm, again)[0] is False
     # a run that fires no `for:` rule is not asked about
     assert timers.feasible(arm, run(("MOVE", ("MOVE/S0/1",), "S0"))) == (True, "")
+
+
+HOOKED = Path(__file__).parent / "cases" / "valid" / "hooked"
+
+
+def test_what_a_hook_returns_into_is_written_with_a_value_prove_cannot_follow(
+    tmp_path: Path,
+) -> None:
+    """The corpus's hooked system, its `level` made an actuator: a hook's returns are
+    writes of an unknown value (None), in call order, and an actuator a hook returns into
+    is never taken as set safe."""
+    directory = tmp_path / "hooked"
+    shutil.copytree(HOOKED, directory)
+    system_yaml = directory / "system.yaml"
+    system_yaml.write_text(
+        system_yaml.read_text().replace(
+            "    type: float\n    initial: 0.0\n",
+            "    type: float\n    initial: 0.0\n    actuator: true\n    safe: 0.0\n",
+            1,
+        )
+    )
+    front = compile_paths([directory])
+    assert not front.diagnostics.errors, [d.render() for d in front.diagnostics.errors]
+    system = front.systems[0]
+    top = skeleton(system, system.controller("top"), frozenset({"level"}))
+    start = rule(top, "GO", "S0", 0)
+    assert [(k, text(v)) for k, v in start.writes] == [
+        ("n", "local.n + 1"),
+        ("world.level", None),  # nudge returns it
+        ("n", None),  # split returns both
+        ("world.level", None),
+    ]
+    assert start.world_sets == frozenset({"level"})
+    assert start.assigns == frozenset({"n", "world.level"})
+    assert start.actuators == (("level", False), ("level", False))
+    assert start.sends == (("sub", "MOVE"),) and start.next_state == "S1"
+    done = rule(top, "GO", "S1", 0)
+    assert done.actuators == (("level", False),)  # 2.5, not its safe 0.0
+    assert top.actuators == ("level",)
