@@ -18,14 +18,47 @@ import test_prove_small as small
 from rcsgen.tools.prove_seeds import trial
 
 EXPECTED = Path(__file__).parent / "cases" / "prove_small"
+# GO stops sub once it is done (HALT on its DONE), then waits for that echo: reading the
+# first DONE as "not ERROR" only stops sub early, which is safe
+STOPS = """\
+  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [send: sub.HALT]
+          next: S2
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+      S2:
+        - when: sub.status == DONE
+          do: [report: DONE]
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+"""
 # name -> (its directory's name, {file stem: text})
-SYSTEMS = {
-    variant: ("tank", dict(zip(("system", "sup", "tank"), files[:3], strict=True)))
-    for variant, files in small.variants().items()
-} | {
-    case: ("tiny", dict(zip(("system", "sub", "top"), catalogue.CASES[case], strict=True)))
-    for case in ("stale_done", "lost_halt_all")
-}
+SYSTEMS = (
+    {
+        variant: ("tank", dict(zip(("system", "sup", "tank"), files[:3], strict=True)))
+        for variant, files in small.variants().items()
+    }
+    | {
+        case: ("tiny", dict(zip(("system", "sub", "top"), catalogue.CASES[case], strict=True)))
+        for case in ("stale_done", "lost_halt_all")
+    }
+    | {
+        "stops": (
+            "tiny",
+            {
+                "system": catalogue.TINY_SYSTEM,
+                "sub": catalogue.TINY_SUB,
+                "top": catalogue.TOP + STOPS,
+            },
+        )
+    }
+)
 
 
 def verdicts(tmp_path: Path, name: str) -> str:
