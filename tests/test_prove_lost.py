@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import test_prove_catalogue as catalogue
+
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove.lost import Effect, RuntimeReaction, layout_view
 
@@ -25,22 +27,7 @@ processes:
   q:
     modules: [leaf]
 """
-TOP = """\
-controller: top
-title: Top
-subordinates: [sub]
-commands:
-  GO:
-    states:
-      S0:
-        - do: [send: sub.MOVE]
-          next: S1
-      S1:
-        - when: sub.status == DONE
-          do: [report: DONE]
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-"""
+TOP = catalogue.TOP + catalogue.WAITS
 SUB = """\
 controller: sub
 title: Sub

@@ -11,6 +11,7 @@ import re
 from pathlib import Path
 
 import pytest
+import test_prove_catalogue as catalogue
 from click.testing import CliRunner
 
 from rcsgen.cli import main
@@ -20,61 +21,35 @@ from rcsgen.compiler.prove.adapter import DONE, ERROR, EXECUTING, NOT_READY, ske
 from rcsgen.compiler.prove.model import State
 from rcsgen.compiler.prove.world import quiet_fields, writers
 
-SYSTEM = """\
-system: tiny
-title: A supervisor waiting on a world field its subordinate writes
-cycle_period: 0.1
-world:
-  ready: {type: bool, initial: false, doc: Set by the subordinate's PREP.}
-  pos: {type: float, initial: 0.0}
-  drive: {type: float, initial: 0.0, actuator: true}
-processes:
-  p:
-    modules: [top, sub]
-"""
-SUB = """\
-controller: sub
-title: Sub
-world:
-  reads: [pos]
-  writes: [drive, ready]
-commands:
-  MOVE:
-    states:
-      S0:
-        - do: [{set: {world.drive: 1.0}}]
-          next: S1
-      S1:
-        - when: world.pos > 1.0
-          do: [{set: {world.drive: 0.0}}, {report: DONE}]
-  PREP:
-    states:
-      S0:
-        - do: [{set: {world.ready: true}}, {report: DONE}]
-  HALT:
-    states:
-      S0:
-        - do: [{set: {world.drive: 0.0}}, {report: DONE}]
-"""
+
+def edited(text: str, *edits: tuple[str, str]) -> str:
+    for old, new in edits:
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    return text
+
+
+# the catalogue's tiny system with a world field `ready`
+SYSTEM = edited(
+    catalogue.TINY_SYSTEM,
+    ("world:\n", "world:\n  ready: {type: bool, initial: false, doc: Set by PREP.}\n"),
+)
+# the catalogue's tiny sub, which also sets `ready` in PREP
+SUB = edited(
+    catalogue.TINY_SUB,
+    ("  writes: [drive]", "  writes: [drive, ready]"),
+    (
+        "  HALT:",
+        "  PREP:\n    states:\n      S0:\n        - do: [{set: {world.ready: true}}, "
+        "{report: DONE}]\n  HALT:",
+    ),
+)
 # GO sends MOVE, which does not write `ready`, then waits for it
-TOP = """\
-controller: top
-title: Top
-subordinates: [sub]
-world:
-  reads: [ready]
-commands:
-  GO:
-    states:
-      S0:
-        - do: [send: sub.MOVE]
-          next: S1
-      S1:
-        - when: sub.status == DONE and world.ready
-          do: [report: DONE]
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-"""
+TOP = edited(
+    catalogue.TOP + catalogue.WAITS,
+    ("subordinates: [sub]\n", "subordinates: [sub]\nworld:\n  reads: [ready]\n"),
+    ("when: sub.status == DONE\n", "when: sub.status == DONE and world.ready\n"),
+)
 # a leaf below sub whose PREP sets `ready`; sub's MOVE sends it
 LEAF = """\
 controller: leaf
@@ -87,13 +62,6 @@ commands:
       S0:
         - do: [{set: {world.ready: true}}, {report: DONE}]
 """
-
-
-def edited(text: str, *edits: tuple[str, str]) -> str:
-    for old, new in edits:
-        assert old in text, old
-        text = text.replace(old, new, 1)
-    return text
 
 
 def write(directory: Path, **files: str) -> Path:
