@@ -200,6 +200,12 @@ CASES = {
     "sub_before_top": (TINY_SYSTEM.replace(*SWAPPED), TINY_SUB, TOP + WAITS),
     "lost_halt_all": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP),
     "lost_continue": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP.replace(*CONTINUE)),
+    # GO goes on on sub's DONE only when MOVE is what it sent last: read from the model
+    "reads_sub_command": (
+        TINY_SYSTEM,
+        TINY_SUB,
+        TOP + WAITS.replace("sub.status == DONE", "sub.status == DONE and sub.command == MOVE"),
+    ),
     "properties": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP.replace("commands:\n", PROPERTIES, 1)),
 }
 EXPECTED = Path(__file__).parent / "cases" / "prove_catalogue"
