@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+import test_prove_catalogue as catalogue
 
 from rcsgen.compiler.frontend import compile_paths
 from rcsgen.compiler.prove import INFINITE, diagnostics, prove_front
@@ -276,35 +277,8 @@ def test_the_handshake_invariant_is_proven_by_induction():
 
 # ---------------------------------------------------------------- small systems
 
-TINY_SYSTEM = """system: tiny
-title: Tiny system
-cycle_period: 0.1
-world:
-  pos: {type: float, initial: 0.0}
-  drive: {type: float, initial: 0.0, actuator: true}
-processes:
-  p:
-    modules: [top, sub]
-"""
-TINY_SUB = """controller: sub
-title: Sub
-world:
-  reads: [pos]
-  writes: [drive]
-commands:
-  MOVE:
-    states:
-      S0:
-        - do: [{set: {world.drive: 1.0}}]
-          next: S1
-      S1:
-        - when: world.pos > 1.0
-          do: [{set: {world.drive: 0.0}}, {report: DONE}]
-  HALT:
-    states:
-      S0:
-        - do: [{set: {world.drive: 0.0}}, {report: DONE}]
-"""
+TINY_SYSTEM = catalogue.TINY_SYSTEM
+TINY_SUB = catalogue.TINY_SUB
 
 
 def _tiny(tmp_path: Path, top: str, sub: str = TINY_SUB) -> Path:
@@ -321,23 +295,7 @@ def _tiny(tmp_path: Path, top: str, sub: str = TINY_SUB) -> Path:
 def test_a_command_that_goes_round_for_ever_is_w702(tmp_path):
     directory = _tiny(
         tmp_path,
-        """  GO:
-    states:
-      S0:
-        - do: [send: sub.MOVE]
-          next: S1
-      S1:
-        - when: sub.status == DONE
-          next: S2
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-      S2:
-        - do: [send: sub.MOVE]
-          next: S3
-      S3:
-        - when: sub.status == DONE
-          next: S2
-""",
+        catalogue.GOES_ROUND,
     )
     _, result = _proved(directory)
     assert ("W702", "top.yaml") in _shown(result)
@@ -348,23 +306,7 @@ def test_a_command_that_goes_round_for_ever_is_w702(tmp_path):
 def test_motion_after_halt_is_w706(tmp_path):
     directory = _tiny(
         tmp_path,
-        """  GO:
-    states:
-      S0:
-        - do: [send: sub.MOVE]
-          next: S1
-      S1:
-        - when: sub.status == DONE
-          do: [report: DONE]
-  HALT:
-    states:
-      S0:
-        - do: [send: sub.HALT]
-          next: S1
-      S1:
-        - when: sub.status == DONE
-          do: [send: sub.MOVE, report: DONE]
-""",
+        catalogue.MOTION_AFTER_HALT,
     )
     _, result = _proved(directory)
     assert ("W706", "top.yaml") in _shown(result)
@@ -372,87 +314,8 @@ def test_motion_after_halt_is_w706(tmp_path):
     assert finding.rule == 1 and finding.state == "S1" and "sub.MOVE" in finding.message
 
 
-def test_a_wait_on_a_world_field_only_an_idle_subordinate_writes_is_a_deadlock(tmp_path):
-    """W703 through a world field: GO waits for `world.ready`, which only the
-    subordinate's PREP sets; GO sent MOVE, so once MOVE is done nothing can set it."""
-    sub = TINY_SUB.replace("  writes: [drive]", "  writes: [drive, ready]") + (
-        """  PREP:
-    states:
-      S0:
-        - do: [{set: {world.ready: true}}, {report: DONE}]
-"""
-    )
-    top = """  GO:
-    states:
-      S0:
-        - do: [send: sub.MOVE]
-          next: S1
-      S1:
-        - when: sub.status == DONE and world.ready
-          do: [report: DONE]
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-"""
-    directory = _tiny(tmp_path, top, sub)
-    system = directory / "system.yaml"
-    system.write_text(
-        system.read_text().replace("world:\n", "world:\n  ready: {type: bool, initial: false}\n")
-    )
-    (directory / "top.yaml").write_text(
-        (directory / "top.yaml")
-        .read_text()
-        .replace("subordinates: [sub]\n", "subordinates: [sub]\nworld:\n  reads: [ready]\n")
-    )
-    _, result = _proved(directory)
-    found = [f for f in result.proofs[0].findings if f.code == "W703"]
-    assert len(found) == 1 and "world.ready" in found[0].message, found
-    assert found[0].state == "S1" and "sub.status=DONE" in found[0].message
-    # sent PREP instead, the wait is fine: PREP may still set it while it runs
-    (directory / "top.yaml").write_text(
-        (directory / "top.yaml").read_text().replace("send: sub.MOVE", "send: sub.PREP")
-    )
-    _, result = _proved(directory)
-    assert not [f for f in result.proofs[0].findings if f.code == "W703"]
-
-
-LATCH_SYSTEM = """system: latch
-title: A supervisor that drives a lamp over a subordinate in another process
-cycle_period: 0.1
-world:
-  pos: {type: float, initial: 0.0}
-  drive: {type: float, initial: 0.0, actuator: true}
-  lamp: {type: bool, initial: false, actuator: true}
-processes:
-  a:
-    modules: [top]
-  b:
-    modules: [sub]
-"""
-LATCH_TOP = """controller: top
-title: Top
-subordinates: [sub]
-world:
-  writes: [lamp]
-commands:
-  GO:
-    states:
-      S0:
-        - do: [{set: {world.lamp: true}}, send: sub.MOVE]
-          next: S1
-      S1:
-        - when: sub.status == DONE
-          do: [{set: {world.lamp: false}}, report: DONE]
-        - when: sub.status == ERROR
-          do: [{set: {world.lamp: false}}, report: ERROR]
-  HALT:
-    states:
-      S0:
-        - do: [{set: {world.lamp: false}}, send: sub.HALT]
-          next: S1
-      S1:
-        - when: sub.status == DONE or sub.status == ERROR
-          do: [report: DONE]
-"""
+LATCH_SYSTEM = catalogue.LATCH_SYSTEM
+LATCH_TOP = catalogue.LATCH_TOP
 
 
 def test_a_latch_holds_until_an_explicit_reset(tmp_path):
@@ -495,22 +358,7 @@ def test_a_latch_holds_until_an_explicit_reset(tmp_path):
 def test_a_wait_that_goes_on_on_a_done_it_already_took_is_w707(tmp_path):
     """S2 waits for sub's DONE again without sending it anything: the DONE S1 went on on
     is stale (a `send:` left out); the same wait after a new send is fine."""
-    top = """  GO:
-    states:
-      S0:
-        - do: [send: sub.MOVE]
-          next: S1
-      S1:
-        - when: sub.status == DONE
-          next: S2
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-      S2:
-        - when: sub.status == DONE
-          do: [report: DONE]
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-"""
+    top = catalogue.STALE_DONE
     _, result = _proved(_tiny(tmp_path, top))
     found = [f for f in result.proofs[0].findings if f.code == "W707"]
     assert [(f.state, f.rule) for f in found] == [("S2", 1)], found
@@ -525,22 +373,7 @@ def test_a_wait_that_goes_on_on_a_done_it_already_took_is_w707(tmp_path):
 
 def test_going_on_before_the_echo_is_w708(tmp_path):
     """`sub.status != ERROR` is true while sub is EXECUTING: S1 goes on before MOVE's echo."""
-    top = """  GO:
-    states:
-      S0:
-        - do: [send: sub.MOVE]
-          next: S1
-      S1:
-        - when: sub.status != ERROR
-          next: S2
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-      S2:
-        - when: sub.status == DONE
-          do: [report: DONE]
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-"""
+    top = catalogue.NO_ECHO
     _, result = _proved(_tiny(tmp_path, top))
     found = [f for f in result.proofs[0].findings if f.code == "W708"]
     assert [(f.state, f.rule) for f in found] == [("S1", 1)], found
@@ -550,17 +383,7 @@ def test_going_on_before_the_echo_is_w708(tmp_path):
 def test_a_subordinate_before_its_supervisor_in_the_order_is_w704(tmp_path):
     """HALT reach as fast as the process split allows: sub placed before top reads top's
     HALT a cycle late - a finding at top, not only a larger bound."""
-    top = """  GO:
-    states:
-      S0:
-        - do: [send: sub.MOVE]
-          next: S1
-      S1:
-        - when: sub.status == DONE
-          do: [report: DONE]
-        - when: sub.status == ERROR
-          do: [report: ERROR]
-"""
+    top = catalogue.WAITS
     directory = _tiny(tmp_path, top)
     _, result = _proved(directory)
     assert not [f for f in result.proofs[0].findings if f.code == "W704"]

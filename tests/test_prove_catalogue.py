@@ -1,0 +1,228 @@
+"""`rcsgen prove` word for word on small systems made for one finding each (W702 a command
+that goes round for ever, W706 motion after HALT, W707 a stale DONE believed, W708 going on
+before the echo, W704 a subordinate run before its supervisor) and for the runtime's
+reaction to a lost process (halt_all and `on_lost: continue`): the findings located at
+their rules, the summary (states, execution order, HALT and ERROR bounds, the world
+conditions a command finishes under) and each counter-example cycle by cycle. The model
+alone decides (--no-replay): a second each. test_prove.py reads the same systems through
+the API and replays them."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from rcsgen.cli import main
+
+TINY_SYSTEM = """system: tiny
+title: Tiny system
+cycle_period: 0.1
+world:
+  pos: {type: float, initial: 0.0}
+  drive: {type: float, initial: 0.0, actuator: true}
+processes:
+  p:
+    modules: [top, sub]
+"""
+TINY_SUB = """controller: sub
+title: Sub
+world:
+  reads: [pos]
+  writes: [drive]
+commands:
+  MOVE:
+    states:
+      S0:
+        - do: [{set: {world.drive: 1.0}}]
+          next: S1
+      S1:
+        - when: world.pos > 1.0
+          do: [{set: {world.drive: 0.0}}, {report: DONE}]
+  HALT:
+    states:
+      S0:
+        - do: [{set: {world.drive: 0.0}}, {report: DONE}]
+"""
+LATCH_SYSTEM = """system: latch
+title: A supervisor that drives a lamp over a subordinate in another process
+cycle_period: 0.1
+world:
+  pos: {type: float, initial: 0.0}
+  drive: {type: float, initial: 0.0, actuator: true}
+  lamp: {type: bool, initial: false, actuator: true}
+processes:
+  a:
+    modules: [top]
+  b:
+    modules: [sub]
+"""
+LATCH_TOP = """controller: top
+title: Top
+subordinates: [sub]
+world:
+  writes: [lamp]
+commands:
+  GO:
+    states:
+      S0:
+        - do: [{set: {world.lamp: true}}, send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [{set: {world.lamp: false}}, report: DONE]
+        - when: sub.status == ERROR
+          do: [{set: {world.lamp: false}}, report: ERROR]
+  HALT:
+    states:
+      S0:
+        - do: [{set: {world.lamp: false}}, send: sub.HALT]
+          next: S1
+      S1:
+        - when: sub.status == DONE or sub.status == ERROR
+          do: [report: DONE]
+"""
+GOES_ROUND = """\
+  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          next: S2
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+      S2:
+        - do: [send: sub.MOVE]
+          next: S3
+      S3:
+        - when: sub.status == DONE
+          next: S2
+"""
+MOTION_AFTER_HALT = """\
+  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [report: DONE]
+  HALT:
+    states:
+      S0:
+        - do: [send: sub.HALT]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [send: sub.MOVE, report: DONE]
+"""
+STALE_DONE = """\
+  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          next: S2
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+      S2:
+        - when: sub.status == DONE
+          do: [report: DONE]
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+"""
+NO_ECHO = """\
+  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status != ERROR
+          next: S2
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+      S2:
+        - when: sub.status == DONE
+          do: [report: DONE]
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+"""
+WAITS = """\
+  GO:
+    states:
+      S0:
+        - do: [send: sub.MOVE]
+          next: S1
+      S1:
+        - when: sub.status == DONE
+          do: [report: DONE]
+        - when: sub.status == ERROR
+          do: [report: ERROR]
+"""
+
+TOP = "controller: top\ntitle: Top\nsubordinates: [sub]\ncommands:\n"
+CONTINUE = ("subordinates: [sub]\n", "subordinates: [sub]\non_lost:\n  sub: continue\n")
+SWAPPED = ("modules: [top, sub]", "modules: [sub, top]")
+# top's own properties (W709): an invariant with safe(), same-cycle and later responses over
+# writes(), sent(), states, commands and statuses; one does not hold
+PROPERTIES = """\
+properties:
+  - name: lamp_off_when_done
+    doc: The lamp is off whenever top is done.
+    always: top.status != DONE or safe(world.lamp)
+  - name: lamp_and_move_together
+    doc: GO lights the lamp in the cycle it sends sub MOVE.
+    whenever: writes(world.lamp) and top.command == GO and top.state == S1
+    then: sent(sub.MOVE)
+  - name: done_follows_the_move
+    doc: sub's DONE to MOVE is passed up within two cycles.
+    whenever: sub.status == DONE and sub.command == MOVE
+    within: 2
+    then: top.status == DONE
+  - name: never_an_error
+    doc: top never reports ERROR.
+    always: not (top.status == ERROR)
+commands:
+"""
+# case -> (system.yaml, sub.yaml, top.yaml)
+CASES = {
+    "goes_round": (TINY_SYSTEM, TINY_SUB, TOP + GOES_ROUND),
+    "motion_after_halt": (TINY_SYSTEM, TINY_SUB, TOP + MOTION_AFTER_HALT),
+    "stale_done": (TINY_SYSTEM, TINY_SUB, TOP + STALE_DONE),
+    "no_echo": (TINY_SYSTEM, TINY_SUB, TOP + NO_ECHO),
+    "sub_before_top": (TINY_SYSTEM.replace(*SWAPPED), TINY_SUB, TOP + WAITS),
+    "lost_halt_all": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP),
+    "lost_continue": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP.replace(*CONTINUE)),
+    # GO goes on on sub's DONE only when MOVE is what it sent last: read from the model
+    "reads_sub_command": (
+        TINY_SYSTEM,
+        TINY_SUB,
+        TOP + WAITS.replace("sub.status == DONE", "sub.status == DONE and sub.command == MOVE"),
+    ),
+    "properties": (LATCH_SYSTEM, TINY_SUB, LATCH_TOP.replace("commands:\n", PROPERTIES, 1)),
+}
+EXPECTED = Path(__file__).parent / "cases" / "prove_catalogue"
+
+
+def proven(case: str) -> str:
+    """What `rcsgen prove --no-replay` prints in the current directory, with the case's
+    specs written there, and its exit code; the solver's times masked."""
+    for name, text in zip(("system", "sub", "top"), CASES[case], strict=True):
+        Path(f"{name}.yaml").write_text(text)
+    result = CliRunner().invoke(main, ["prove", ".", "--no-replay"])
+    return f"exit {result.exit_code}\n" + re.sub(r" +\d+ ms \(\d+ ms CPU\)", " T", result.output)
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_prove_says_each_finding_where_and_why(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, case: str
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert proven(case) == (EXPECTED / f"{case}.txt").read_text()

@@ -1,0 +1,156 @@
+"""How `rcsgen prove` hands a run's numbers to z3 (rcsgen/compiler/prove/numbers.py
+`Encoder`): each expression of a guard or a value as a z3 term that means what the
+generated code computes - checked by putting numbers in and comparing with Python's own
+result - and, where z3 cannot follow Python (`//` and `%` floor, a float compared for
+equality), a fresh value that is free both ways, so no run is called impossible wrongly."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+from test_prove_adapter import arm  # noqa: F401  (the fixture: arm's skeleton)
+
+from rcsgen.compiler.expressions.nodes import (
+    Binary,
+    BoolOp,
+    Call,
+    CallKind,
+    Compare,
+    Const,
+    Expr,
+    IfExp,
+    Ref,
+    RefKind,
+    Unary,
+)
+from rcsgen.compiler.prove.adapter import Skeleton
+from rcsgen.compiler.types import BOOL, FLOAT, INT, STATUS
+
+z3 = pytest.importorskip("z3")
+
+X = Ref(FLOAT, RefKind.WORLD, "x")
+X_ = z3.RealVal(1.5)
+N = Ref(INT, RefKind.WORLD, "n")
+
+
+def c(value: Any) -> Const:
+    kind = BOOL if isinstance(value, bool) else INT if isinstance(value, int) else FLOAT
+    return Const(kind, value)
+
+
+def binary(op: str, a: Expr, b: Expr) -> Binary:
+    kind = FLOAT if FLOAT in (a.type, b.type) or op == "/" else INT
+    return Binary(kind, op, a, b)
+
+
+def compare(a: Expr, *rest: Any) -> Compare:
+    ops, terms = rest[::2], rest[1::2]
+    return Compare(BOOL, a, tuple(ops), tuple(terms))
+
+
+def call(name: str, *args: Expr) -> Call:
+    kind = FLOAT if any(a.type == FLOAT for a in args) else INT
+    return Call(kind, CallKind.BUILTIN, name, args)
+
+
+# (an expression over world.x (float) and world.n (int), what Python makes of it)
+EXACT = [
+    (binary("+", X, N), lambda x, n: x + n),
+    (binary("-", N, X), lambda x, n: n - x),
+    (binary("*", X, c(2)), lambda x, n: x * 2),
+    (binary("/", N, c(4)), lambda x, n: n / 4),  # true division, ints as reals
+    (binary("-", binary("*", N, N), c(1)), lambda x, n: n * n - 1),
+    (Unary(FLOAT, "-", X), lambda x, n: -x),
+    (Unary(INT, "+", N), lambda x, n: +n),
+    (compare(N, "<", c(3)), lambda x, n: n < 3),
+    (compare(N, "<=", c(3)), lambda x, n: n <= 3),
+    (compare(N, ">", c(3)), lambda x, n: n > 3),
+    (compare(N, ">=", c(3)), lambda x, n: n >= 3),
+    (compare(N, "==", c(3)), lambda x, n: n == 3),
+    (compare(N, "!=", c(3)), lambda x, n: n != 3),
+    (compare(X, ">", N), lambda x, n: x > n),  # int against float
+    (compare(c(1), "<", N, "<=", c(3)), lambda x, n: 1 < n <= 3),  # a chain: both
+    (
+        BoolOp(BOOL, "and", (compare(N, ">", c(0)), compare(X, "<", c(1.5)))),
+        lambda x, n: n > 0 and x < 1.5,
+    ),
+    (
+        BoolOp(BOOL, "or", (compare(N, ">", c(0)), compare(X, "<", c(1.5)))),
+        lambda x, n: n > 0 or x < 1.5,
+    ),
+    (Unary(BOOL, "not", compare(N, ">", c(0))), lambda x, n: not n > 0),
+    (IfExp(FLOAT, compare(N, ">", c(0)), X, c(0)), lambda x, n: x if n > 0 else 0),
+    (call("abs", binary("-", X, c(2.5))), lambda x, n: abs(x - 2.5)),
+    (call("min", X, N, c(1)), lambda x, n: min(x, n, 1)),
+    (call("max", X, N, c(1)), lambda x, n: max(x, n, 1)),
+    (compare(X, ">", Ref(FLOAT, RefKind.CONST, "LIMIT")), lambda x, n: x > 2.0),
+    (compare(Ref(INT, RefKind.LOCAL, "count"), "==", c(0)), lambda x, n: True),  # initial
+    (compare(Ref(INT, RefKind.LOCAL, "mode"), "==", c(1)), lambda x, n: True),  # BUSY
+]
+GRID = [(x, n) for x in (-3.5, 0.0, 1.25, 2.0, 4.5) for n in (-2, 0, 1, 3, 7)]
+
+
+def encoder(sk: Skeleton) -> Any:
+    from rcsgen.compiler.prove.numbers import Encoder
+
+    return Encoder(z3, SimpleNamespace(skeleton=sk, initial=None))
+
+
+def at(term: Any, world: dict[str, Any], x: float, n: int) -> Any:
+    pairs = [(world["x"], z3.RealVal(x)), (world["n"], z3.IntVal(n))]
+    found = z3.simplify(z3.substitute(term, *pairs))
+    if z3.is_bool(found):
+        assert z3.is_true(found) or z3.is_false(found), found
+        return z3.is_true(found)
+    return float(found.as_fraction()) if z3.is_rational_value(found) else found.as_long()
+
+
+@pytest.mark.parametrize("case", range(len(EXACT)))
+def test_each_expression_means_what_python_computes(arm: Skeleton, case: int) -> None:  # noqa: F811
+    tree, python = EXACT[case]
+    world = {"x": z3.Real("x"), "n": z3.Int("n")}
+    term = encoder(arm).value(tree, {}, world)
+    for x, n in GRID:
+        assert at(term, world, x, n) == python(x, n), (x, n)
+
+
+def free(term: Any) -> bool:
+    """Whether the term can be true and can be false."""
+    return all(z3.Solver().check(t) == z3.sat for t in (term, z3.Not(term)))
+
+
+def test_what_z3_cannot_follow_is_free_and_the_rest_is_decided(arm: Skeleton) -> None:  # noqa: F811
+    world = {"x": X_, "n": z3.IntVal(7)}
+    enc = encoder(arm)
+    # floor division and modulo, and a float compared for equality: a fresh value each
+    assert free(enc.value(compare(binary("//", N, c(2)), "==", c(3)), {}, world))
+    assert free(enc.value(compare(binary("%", N, c(2)), "==", c(1)), {}, world))
+    assert free(enc.value(compare(X, "==", c(1.5)), {}, world))
+    assert free(enc.value(compare(X, "!=", c(1.5)), {}, world))
+    assert free(enc.value(compare(X, "==", N), {}, world))  # one side a float is enough
+    # a chain: the float equality free, the comparison after it still decided (n=0: false)
+    chain = compare(X, "==", c(1.5), "<", N)
+    assert free(enc.value(chain, {}, world))
+    assert z3.Solver().check(enc.value(chain, {}, {"x": X_, "n": z3.IntVal(0)})) == z3.unsat
+    # a subordinate's result, even of a subordinate read this cycle: fresh
+    assert free(enc.value(Ref(BOOL, RefKind.SUB_RESULT, "ok", "sub"), {"sub": "DONE"}, world))
+    # a world field named like a local is the world's, not the local's (count starts at 0)
+    assert free(enc.value(compare(Ref(INT, RefKind.WORLD, "count"), "==", c(0)), {}, {}))
+    # decided: an int compared for equality, a status against the one read this cycle
+    assert z3.is_true(z3.simplify(enc.value(compare(N, "==", c(7)), {}, world)))
+    sub = Ref(STATUS, RefKind.SUB_STATUS, "status", "sub")
+    done = Ref(STATUS, RefKind.STATUS, "DONE")
+    read = enc.value(compare(sub, "==", done), {"sub": "DONE"}, world)
+    assert z3.is_true(z3.simplify(read))
+    read = enc.value(compare(sub, "==", done), {"sub": "ERROR"}, world)
+    assert z3.is_false(z3.simplify(read))
+    # a parameter is one value for the whole command: read twice, the same term
+    p = Ref(INT, RefKind.PARAM, "p")
+    assert z3.is_true(z3.simplify(enc.value(compare(p, "==", p), {}, world)))
+    assert enc.kinds == {"p": INT}
+    # a world field read in a cycle is one value for every rule of it
+    fresh: dict[str, Any] = {}
+    first = enc.value(X, {}, fresh)
+    assert enc.value(X, {}, fresh) is first and set(fresh) == {"x"}
