@@ -1389,20 +1389,31 @@ def test_a_ring_member_that_dies_while_the_next_one_spins_is_lost_and_nothing_sp
         pids.append(pid)
     back = ring.Return(links[-1].read, answers, 60.0, page, 2)
     spinning = lambda: page.words[1 * ring.SLOT_WORDS + ring.SPINNING] == 1  # noqa: E731
+
+    def nudged() -> bool:
+        """Spinning for a while: the nudged spin (its budget 60 s), not the short eager one
+        (50 µs and up) a waiter begins with, before member 0 may even have the token."""
+        end = time.monotonic() + 0.3
+        while time.monotonic() < end:
+            if not spinning():
+                return False
+            time.sleep(0.01)
+        return True
+
     try:
         ring.Giver(links[0].write, page, 0)()
-        wait_for(spinning, "member 1 nudged by member 0, spinning")
+        wait_for(nudged, "member 1 nudged by member 0, spinning")
         os.kill(pids[0], signal.SIGKILL)
         began = time.monotonic()
         assert back.wait(60.0) == answers[0]  # the death, not the timeout
         assert time.monotonic() - began < 30.0
-        assert os.waitpid(pids[0], 0)[0] == pids[0]
+        assert os.waitpid(pids[0], 0)[0] == pids.pop(0)  # reaped: not one to kill below
         assert spinning()  # member 1 spins on: the coordinator stops it
         for keep in controls:
             os.close(keep)
         controls = []
         began = time.monotonic()
-        wait_for(lambda: os.waitpid(pids[1], os.WNOHANG)[0] == pids[1], "member 1 exits")
+        wait_for(lambda: os.waitpid(pids[0], os.WNOHANG)[0] == pids[0], "member 1 exits")
         assert time.monotonic() - began < 30.0  # told to stop, long before its 60 s spin
         pids = []
     finally:
