@@ -17,10 +17,10 @@ from rcsgen.tools.prove_seeds import KINDS, Seed, seeds, trial
 
 SPECS = Path(__file__).resolve().parents[1] / "specs"
 SAMPLE = {
-    "inspection": 9,
+    "inspection": 12,
     "miner": 19,
     "platoon": 11,
-    "submarine": 9,
+    "submarine": 15,
 }  # every n-th seed of each kind; `make bench` (part "prove") tries them all
 
 # Seeds prove does not catch, each with why (docs/decisions.md, "what a seeded bug is"):
