@@ -127,7 +127,7 @@ def compare(source: str) -> str | None:
     start = source.find(WORLD_GATE)
     if start < 0:
         return None
-    end = source.index("        last = perf_counter_ns() - cycle_start", start)
+    end = source.index("        # The performance buffer:", start)
     block = source[start + len(WORLD_GATE) : end]
     return source[:start] + "".join(line[4:] + "\n" for line in block.splitlines()) + source[end:]
 
@@ -159,7 +159,8 @@ PERF_WORDS = re.compile(
     r"(?:.|\n)*?        self\.perf_seq = seq \+ 1\n"
 )
 PERF_PACKED = """\
-        last = perf_counter_ns() - cycle_start
+        end = perf_counter_ns()
+        last = end - cycle_start
         self.last_cycle_ns = last
         if last > self.max_cycle_ns:  # a new longest cycle (and the first cycle's minimum)
             self.max_cycle_ns = last
