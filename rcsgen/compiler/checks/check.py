@@ -560,10 +560,8 @@ def _safe_value_fits(f: model.Typed, diags: Diagnostics) -> bool:
 
 
 def _spelt(value: object) -> str:
-    """A world field's value as a spec spells it: `true`, `0.0`, `STOPPED`, `""`."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    return f'"{value}"' if value == "" else str(value)
+    """A world field's value as a spec spells it (`tables.one_line`), the empty string `""`."""
+    return '""' if value == "" else one_line(value)
 
 
 def _check_numbers(
