@@ -462,7 +462,9 @@ def test_a_restart_at_each_point_of_a_command_keeps_the_outputs_safe_and_the_mis
     """--restart; a vehicle's process killed at each point of its DRIVE: `before` it has
     seen it (its process frozen when lead sends it), `mid` (driving), `after` it reported
     ERROR but before lead read it (pl frozen meanwhile; the vehicle's drive forced out of
-    range). Every time, the actuators it leaves are latched safe and stay so through the
+    range). The launcher starts it again only once pl has seen it dead (pl frozen across
+    the death: no restart meanwhile), or the loss could go unseen on a loaded machine.
+    Every time, the actuators it leaves are latched safe and stay so through the
     restart and after a reset, and the mission never goes on silently:
 
     - pa (v1, halt_all): every actuator latched; lead ends CONVOY with ERROR(LOST) and the
@@ -494,9 +496,17 @@ def test_a_restart_at_each_point_of_a_command_keeps_the_outputs_safe_and_the_mis
             lambda: status_of(layout, buf, vehicle) == ("DRIVE", "ERROR", "NOP", True),
             f"{vehicle} reports ERROR",
         )
+    if point != "after":  # lead's process frozen across the death, for half its timeout
+        pl.send_signal(signal.SIGSTOP)
+        frozen_until = time.monotonic() + 0.5 * launcher.system.layout.HEARTBEAT_TIMEOUT
     process.send_signal(signal.SIGKILL)
-    if point == "after":
-        pl.send_signal(signal.SIGCONT)
+    if point != "after":
+        watch(launcher, lambda: f"{victim} died (exit -9)" in launcher.events, "the death seen")
+        while time.monotonic() < frozen_until:  # restarted, it would unmark DEAD unseen
+            launcher.poll()
+            assert not launcher.children[victim].restarts, f"{victim} restarted before pl saw"
+            time.sleep(0.01)
+    pl.send_signal(signal.SIGCONT)
     restarted(launcher, victim)
     if victim == "pa":
         watch(launcher, lambda: lead_status(layout, buf) == ("ERROR", 1), "lead ERROR(LOST)")

@@ -224,7 +224,9 @@ def test_a_restarted_process_resumes_without_sending_init_again(
     sent_before = layout.COMMAND_IN["top"].read(buf)
     first = launcher.children["p1"].popen.pid
     launcher.children["p1"].popen.send_signal(signal.SIGKILL)
-    wait_for(lambda: launcher.poll() or launcher.children["p1"].restarts, "p1 restarted")
+    wait_for(  # once p2 has seen p1 dead (Launcher._restart_when_seen)
+        lambda: launcher.poll() is not None and launcher.children["p1"].restarts, "p1 restarted"
+    )
     assert launcher.children["p1"].popen.pid != first
     wait_for(lambda: layout.PROCESSES["p1"].read(buf)["state"] == 2, "the restarted p1 running")
     beat = layout.PROCESSES["p1"].read(buf)["heartbeat"]

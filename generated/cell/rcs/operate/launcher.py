@@ -400,6 +400,7 @@ def _orphaned(stop: Stop, gone: threading.Event, segments: tuple[str, ...]) -> N
 class Child:
     def __init__(self, name: str, popen: subprocess.Popen[bytes], restarts: int = 0) -> None:
         self.name, self.popen, self.restarts = name, popen, restarts
+        self.restarting = False  # dead, started again once every survivor has seen it dead
 
 
 class Launcher:
@@ -614,6 +615,9 @@ class Launcher:
         assert self.block is not None
         ended = []
         for name, child in list(self.children.items()):
+            if child.restarting:
+                self._restart_when_seen(name, child)
+                continue
             code = child.popen.poll()
             if code is None:
                 self._watch(name)
@@ -639,13 +643,34 @@ class Launcher:
                     refused = True
                 if self.restart and not self.lockstep and not refused:
                     _close(child.popen)
-                    child.popen = self._spawn(name, attach=True)
-                    child.restarts += 1
-                    self._event(f"{name} restarted")
+                    child.restarting = True
+                    self._restart_when_seen(name, child)
                     continue
             _close(child.popen)
             del self.children[name]
         return ended
+
+    def _restart_when_seen(self, name: str, child: Child) -> None:
+        """Start `name` again once every running survivor has seen it dead: its control
+        record reports `name` in its lost mask, so it has reacted (its supervisors in their
+        safe state, their clients told). Started at once, the new process could overwrite the
+        DEAD mark before a survivor that did not run meanwhile (a loaded machine) looked, and
+        the mission would go on as if nothing had happened. A survivor that does not tell is
+        silent and so lost itself within the heartbeat timeout: it holds nothing up then.
+        Over Zenoh the others see the process's token go, and the restart is at once."""
+        if self.net is None and self.block is not None:
+            layout, buf = self.system.layout, self.block.buf
+            bit = 1 << list(layout.PROCESSES).index(name)
+            for other, survivor in self.children.items():
+                if other in self.lost or survivor.restarting or survivor.popen.poll() is not None:
+                    continue
+                record = _read(layout.PROCESSES[other], buf)
+                if record.get("state") == RUNNING and not int(record.get("lost", 0)) & bit:  # type: ignore[call-overload]
+                    return
+        child.restarting = False
+        child.popen = self._spawn(name, attach=True)
+        child.restarts += 1
+        self._event(f"{name} restarted")
 
     def _watch(self, name: str) -> None:
         """A running child: lost when its heartbeat is older than the timeout (stretched by
