@@ -101,6 +101,15 @@ def running(duo: Path, package: ModuleType) -> Iterator[Running]:
     system.stop()
 
 
+@pytest.fixture(scope="module")
+def refusing(duo: Path, package: ModuleType) -> Iterator[Running]:
+    """One running system for the bad-input cases: each is refused before it touches the
+    block, so they need no system of their own (a launch each cost a second or more)."""
+    system = Running(duo, DUO, importlib.import_module(f"{package.__name__}.layout"))
+    yield system
+    system.stop()
+
+
 def test_status_shows_every_module_and_process_as_text_and_json(running: Running) -> None:
     text = running.ctl("status")
     assert text.returncode == 0, text.stderr
@@ -290,11 +299,11 @@ def test_a_slowed_process_is_not_taken_for_lost(running: Running) -> None:
     ],
 )
 def test_bad_input_is_one_line_and_exit_2_or_1(
-    running: Running, args: list[str], code: int, message: str
+    refusing: Running, args: list[str], code: int, message: str
 ) -> None:
     if args[0] == "wait":  # a command that never ends: top holds the arm
-        running.ctl("send", "top", "RUN")
-    done = running.ctl(*args)
+        refusing.ctl("send", "top", "RUN")
+    done = refusing.ctl(*args)
     assert done.returncode == code, done.stderr
     assert message in done.stderr
     assert len(done.stderr.splitlines()) == 1 and done.stderr.startswith("ctl: error: ")
