@@ -258,6 +258,16 @@ def test_engine_room_fire_phases_and_their_cycles():
     assert high == fire_at + 1  # 40 ppm a cycle
     contaminated = [ln["cycle"] for ln in lines if ln["world"]["engine_room_contaminated"]]
     assert contaminated[0] == high + 1
+    # and the propulsion system's sensor (4.7.1): the pumps hot from the fire's second
+    # cycle, propulsion's inference in the same cycle as the engineering node's; it clears
+    # once the fire is out and the pumps have cooled, before the transit resumes
+    hot = next(ln["cycle"] for ln in lines if ln["world"]["lube_oil_temp"] > 65.0)
+    assert hot == high
+    pumps = [ln["cycle"] for ln in lines if ln["world"]["pumps_fire"]]
+    assert pumps[0] == contaminated[0]
+    out = max(ln["cycle"] for ln in lines if ln["world"]["fire"])
+    resumed = spans(lines, "cc", "TRANSIT")[1][0]  # no second alarm on the resumed transit
+    assert pumps == list(range(pumps[0], pumps[-1] + 1)) and out < pumps[-1] < resumed
     alarm = contaminated[0] + 1
     assert prep_from == alarm
     assert at(lines, alarm)["world"]["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
@@ -1042,3 +1052,39 @@ def test_the_access_matrix_holds_at_the_console():
     finally:
         out = system.stop()
     assert "ship: stopped" in out
+
+
+def test_the_fire_is_reported_by_the_propulsion_system_s_sensor_as_by_the_ventilation_s():
+    """Section 4.7.1: "A lube oil fire is reported through the sensors in both the propulsion
+    and the ventilation control systems". The fire heats the main lube oil pumps (the
+    atmosphere simulator), propulsion infers fire there from its sensor, and the command
+    controller takes that report alone, with the ventilation sensors still clean, for the
+    fire: the alarm, and ship maneuver to prepare for emergency ventilation."""
+    harness = Harness.load(ROOT / "generated" / "submarine", hooks_dir=SUBMARINE)
+    try:
+        harness.world.update({"fire": True})
+        harness.step("atmosphere")
+        harness.step("atmosphere")
+        assert harness.world["lube_oil_temp"] == 70.0  # two cycles of fire at the pumps
+        harness.world.update({"fire": False})
+        harness.step("atmosphere")
+        assert harness.world["lube_oil_temp"] == 69.0  # cooling once it is out
+        harness.world.update({"lube_oil_temp": 65.0})
+        harness.step("prop")
+        assert harness.world["pumps_fire"] is False  # at the alarm level, not above
+        harness.world.update({"lube_oil_temp": 66.0})
+        harness.step("prop")
+        assert harness.world["pumps_fire"] is True
+        harness.world.update({"pumps_fire": False})
+        harness.command("cc", "RUN_MISSION")
+        harness.step("cc")  # S0: the route planned
+        harness.step("cc")  # S1: the transit to the first waypoint
+        assert harness.sent("sm").command == "SUBMERGED_TRANSIT"
+        harness.step("cc")  # TRANSIT: nothing reported yet
+        assert harness.sent("sm").command == "SUBMERGED_TRANSIT"
+        harness.world.update({"engine_room_contaminated": False, "pumps_fire": True})
+        harness.step("cc")
+        assert harness.sent("sm").command == "PREP_EMERGENCY_VENT"
+        assert harness.world["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+    finally:
+        harness.close()

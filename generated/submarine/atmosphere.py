@@ -14,6 +14,7 @@ from .layout import (
     WORLD_CO_PPM_FWD_AT,
     WORLD_FIRE_AT,
     WORLD_LUBE_OIL_PSI_AT,
+    WORLD_LUBE_OIL_TEMP_AT,
     WORLD_O2_PCT_AT,
     WORLD_SMOKE_AT,
 )
@@ -26,7 +27,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI272xd504x?15xd8xd8xd40xd8xd40xd")
+INPUTS = Struct("<QQI44x???1xI272xd504x?15xd8xd8xd40xd8xd40xd8xd")
 INPUTS_AT = 1984
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -42,6 +43,7 @@ WORLD_CO2_PCT_WORD = WORLD_CO2_PCT_AT >> 3
 WORLD_CO_PPM_WORD = WORLD_CO_PPM_AT >> 3
 WORLD_CO_PPM_FWD_WORD = WORLD_CO_PPM_FWD_AT >> 3
 WORLD_LUBE_OIL_PSI_WORD = WORLD_LUBE_OIL_PSI_AT >> 3
+WORLD_LUBE_OIL_TEMP_WORD = WORLD_LUBE_OIL_TEMP_AT >> 3
 ATMOSPHERE_PERF_WORD = ATMOSPHERE_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
@@ -68,11 +70,11 @@ WORLD_HELD_2 = (OVERRIDE["co_ppm"], OVERRIDE["co_ppm_fwd"])  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_3 = Struct("<Qd")
-WORLD_VALUES_3 = Struct("<8xd")
-WORLD_SEQS_3 = Struct("<Q")
+WORLD_OUT_3 = Struct("<QdQd")
+WORLD_VALUES_3 = Struct("<8xd8xd")
+WORLD_SEQS_3 = Struct("<Q8xQ")
 WORLD_OUT_3_AT = 2992
-WORLD_HELD_3 = (OVERRIDE["lube_oil_psi"],)  # their overrides
+WORLD_HELD_3 = (OVERRIDE["lube_oil_psi"], OVERRIDE["lube_oil_temp"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -85,6 +87,9 @@ FIRE_CO2 = 0.02
 FIRE_O2 = 0.03
 FIRE_LUBE = 2.0
 LUBE_LEAST = 10.0
+FIRE_HEAT = 10.0
+PUMPS_COOLING = 1.0
+PUMPS_NORMAL = 50.0
 O2_NORMAL = 20.9
 CO2_NORMAL = 0.5
 
@@ -92,6 +97,11 @@ CO2_NORMAL = 0.5
 def vented(co: float, made: float, flow: float) -> float:
     """Pure function: co + made - co * flow"""
     return co + made - co * flow
+
+
+def cooled(temp: float) -> float:
+    """Pure function: max(PUMPS_NORMAL, temp - PUMPS_COOLING)"""
+    return max(PUMPS_NORMAL, temp - PUMPS_COOLING)
 
 
 class AtmosphereController:
@@ -126,6 +136,7 @@ class AtmosphereController:
         "world_co_ppm_fwd",
         "world_fire",
         "world_lube_oil_psi",
+        "world_lube_oil_temp",
         "world_o2_pct",
         "world_set",
         "world_smoke",
@@ -188,6 +199,7 @@ class AtmosphereController:
                 self.world_co_ppm,
                 self.world_co_ppm_fwd,
                 self.world_lube_oil_psi,
+                self.world_lube_oil_temp,
             ) = values
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -272,15 +284,17 @@ class AtmosphereController:
                 WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 words[WORLD_CO_PPM_WORD] = (s[0] | 1) + 1
                 words[WORLD_CO_PPM_FWD_WORD] = (s[1] | 1) + 1
-            out = (self.world_lube_oil_psi,)
+            out = (self.world_lube_oil_psi, self.world_lube_oil_temp)
             now = WORLD_VALUES_3.unpack_from(buf, WORLD_OUT_3_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_3, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_3.unpack_from(buf, WORLD_OUT_3_AT)
                 words[WORLD_LUBE_OIL_PSI_WORD] = s[0] | 1  # odd before the value changes
-                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0])
+                words[WORLD_LUBE_OIL_TEMP_WORD] = s[1] | 1  # odd before the value changes
+                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 words[WORLD_LUBE_OIL_PSI_WORD] = (s[0] | 1) + 1
+                words[WORLD_LUBE_OIL_TEMP_WORD] = (s[1] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         end = perf_counter_ns()
         last = end - cycle_start
@@ -335,6 +349,7 @@ class AtmosphereController:
             self.world_co_ppm,
             self.world_co_ppm_fwd,
             self.world_lube_oil_psi,
+            self.world_lube_oil_temp,
         ) = values
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
@@ -355,6 +370,7 @@ class AtmosphereController:
             self.world_o2_pct = O2_NORMAL - vented(
                 O2_NORMAL - self.world_o2_pct, 0.0, self.world_vent_flow
             )
+            self.world_lube_oil_temp = cooled(self.world_lube_oil_temp)
 
         elif self.world_fire:
             # the fire burns; the damage control party fights it
@@ -369,6 +385,7 @@ class AtmosphereController:
                 O2_NORMAL - self.world_o2_pct, FIRE_O2, self.world_vent_flow
             )
             self.world_lube_oil_psi = max(LUBE_LEAST, self.world_lube_oil_psi - FIRE_LUBE)
+            self.world_lube_oil_temp = self.world_lube_oil_temp + FIRE_HEAT
 
         elif self.world_co_ppm > 0.0:
             # the ventilation line-up removes the smoke and the gases (they came with the CO)
@@ -382,6 +399,12 @@ class AtmosphereController:
             self.world_o2_pct = O2_NORMAL - vented(
                 O2_NORMAL - self.world_o2_pct, 0.0, self.world_vent_flow
             )
+            self.world_lube_oil_temp = cooled(self.world_lube_oil_temp)
+
+        elif self.world_lube_oil_temp > PUMPS_NORMAL:
+            # the pumps cool back to their running temperature
+            self.world_set = True  # it sets world outputs
+            self.world_lube_oil_temp = cooled(self.world_lube_oil_temp)
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -89,7 +89,7 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI596xQII976x48s8xq712x?15x?31x?")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI596xQII976x48s8xq712x?15x?47x?15x?")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -190,6 +190,7 @@ class CcController:
         "world_engine_room_contaminated",
         "world_forward_normal",
         "world_lube_oil_low",
+        "world_pumps_fire",
         "world_shaft",
     )
 
@@ -298,6 +299,7 @@ class CcController:
                 self.world_shaft,
                 self.world_forward_normal,
                 self.world_engine_room_contaminated,
+                self.world_pumps_fire,
                 self.world_lube_oil_low,
             ) = values
             self.world_announcement = decode_text(self.world_announcement)
@@ -472,6 +474,7 @@ class CcController:
             self.world_shaft,
             self.world_forward_normal,
             self.world_engine_room_contaminated,
+            self.world_pumps_fire,
             self.world_lube_oil_low,
         ) = values
         self.world_announcement = decode_text(self.world_announcement)
@@ -587,8 +590,8 @@ class CcController:
                 self.cause = 0  # DONE has no cause
 
         elif state == TRANSIT:
-            if self.world_engine_room_contaminated:
-                # (S2) smoke or gas high; all hands on EABs; SM prepare for emergency vent
+            if self.world_engine_room_contaminated or self.world_pumps_fire:
+                # (S2) the fire reported by the ventilation sensors (smoke or gas high, the engineering node's word) or the propulsion system's (the main lube oil pumps hot, propulsion's); all hands on EABs; SM prepare for emergency vent
                 self.rule = 8  # RUN_MISSION/TRANSIT/1
                 self.state = PREP_VENT
                 self.world_announcement = "ENGINE ROOM FIRE, ALL HANDS ON EABS"

@@ -28,7 +28,7 @@ EMERGENCY_VENT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI1696xd504x?15xd8xd8xd8xq8x?15xd8xd8x?15x?15xd8x?")
+INPUTS = Struct("<QI44x???1xI1696xd504x?15xd8xd8xd8xq8x?15xd8xd8x?15x?15xd40x?")
 INPUTS_AT = 568
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -71,7 +71,7 @@ WORLD_HELD_3 = (OVERRIDE["forward_normal"], OVERRIDE["engine_room_contaminated"]
 WORLD_OUT_4 = Struct("<Q?")
 WORLD_VALUES_4 = Struct("<8x?")
 WORLD_SEQS_4 = Struct("<Q")
-WORLD_OUT_4_AT = 3008
+WORLD_OUT_4_AT = 3040
 WORLD_HELD_4 = (OVERRIDE["lube_oil_low"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

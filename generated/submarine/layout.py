@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 5064 bytes.
+The block is 5144 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -135,74 +135,78 @@ command buffers and world fields:
 | 2960 | 9 | WORLD_FORWARD_NORMAL | forward_normal |
 | 2976 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
 | 2992 | 16 | WORLD_LUBE_OIL_PSI | lube_oil_psi |
-| 3008 | 9 | WORLD_LUBE_OIL_LOW | lube_oil_low |
-| 3024 | 9 | OVERRIDES | any |
-| 3040 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 3064 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 3088 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 3112 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 3136 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 3160 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 3224 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 3248 | 24 | OVERRIDE_COURSE | state, course |
-| 3272 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 3296 | 24 | OVERRIDE_PLANES | state, planes |
-| 3320 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
-| 3344 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 3368 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 3392 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 3416 | 24 | OVERRIDE_HEADING | state, heading |
-| 3440 | 24 | OVERRIDE_SPEED | state, speed |
-| 3464 | 24 | OVERRIDE_DEPTH | state, depth |
-| 3488 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
-| 3512 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 3536 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 3560 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 3584 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 3608 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 3632 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 3656 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3680 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3704 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3728 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3752 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3776 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3800 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3824 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3848 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3872 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3896 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3920 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3944 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3968 | 24 | OVERRIDE_CONTACT_RANGE | state, contact_range |
-| 3992 | 24 | OVERRIDE_CONTACT_BEARING | state, contact_bearing |
-| 4016 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 4040 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 4064 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 4088 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 4112 | 17 | OVERRIDE_FIRE | state, fire |
-| 4136 | 24 | OVERRIDE_SMOKE | state, smoke |
-| 4160 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
-| 4184 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
-| 4208 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
-| 4232 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
-| 4256 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 4280 | 24 | OVERRIDE_CO_PPM_FWD | state, co_ppm_fwd |
-| 4304 | 17 | OVERRIDE_FORWARD_NORMAL | state, forward_normal |
-| 4328 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
-| 4352 | 24 | OVERRIDE_LUBE_OIL_PSI | state, lube_oil_psi |
-| 4376 | 17 | OVERRIDE_LUBE_OIL_LOW | state, lube_oil_low |
-| 4400 | 104 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, SHIFTING, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
-| 4504 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
-| 4616 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 4664 | 72 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING, CONTACT |
-| 4736 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 4808 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
-| 4864 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 4904 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 4944 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 4984 | 40 | TIME_SEA | state, since, NOP, S0 |
-| 5024 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 3008 | 16 | WORLD_LUBE_OIL_TEMP | lube_oil_temp |
+| 3024 | 9 | WORLD_PUMPS_FIRE | pumps_fire |
+| 3040 | 9 | WORLD_LUBE_OIL_LOW | lube_oil_low |
+| 3056 | 9 | OVERRIDES | any |
+| 3072 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 3096 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 3120 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 3144 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 3168 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 3192 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 3256 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 3280 | 24 | OVERRIDE_COURSE | state, course |
+| 3304 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 3328 | 24 | OVERRIDE_PLANES | state, planes |
+| 3352 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
+| 3376 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 3400 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 3424 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 3448 | 24 | OVERRIDE_HEADING | state, heading |
+| 3472 | 24 | OVERRIDE_SPEED | state, speed |
+| 3496 | 24 | OVERRIDE_DEPTH | state, depth |
+| 3520 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
+| 3544 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 3568 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 3592 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3616 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3640 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3664 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3688 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3712 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3736 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3760 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3784 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 3808 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 3832 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 3856 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 3880 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 3904 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 3928 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 3952 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 3976 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 4000 | 24 | OVERRIDE_CONTACT_RANGE | state, contact_range |
+| 4024 | 24 | OVERRIDE_CONTACT_BEARING | state, contact_bearing |
+| 4048 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 4072 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 4096 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 4120 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 4144 | 17 | OVERRIDE_FIRE | state, fire |
+| 4168 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 4192 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 4216 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 4240 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 4264 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 4288 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 4312 | 24 | OVERRIDE_CO_PPM_FWD | state, co_ppm_fwd |
+| 4336 | 17 | OVERRIDE_FORWARD_NORMAL | state, forward_normal |
+| 4360 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
+| 4384 | 24 | OVERRIDE_LUBE_OIL_PSI | state, lube_oil_psi |
+| 4408 | 24 | OVERRIDE_LUBE_OIL_TEMP | state, lube_oil_temp |
+| 4432 | 17 | OVERRIDE_PUMPS_FIRE | state, pumps_fire |
+| 4456 | 17 | OVERRIDE_LUBE_OIL_LOW | state, lube_oil_low |
+| 4480 | 104 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, SHIFTING, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
+| 4584 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 4696 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 4744 | 72 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING, CONTACT |
+| 4816 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 4888 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 4944 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 4984 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 5024 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 5064 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 5104 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -234,9 +238,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 5064
+SIZE = 5144
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "da49cdabdd0ca63f5b59b41242a8c577"
+LAYOUT_HASH = "b4ad7195af1e32500aec4ef95381dbeb"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 248
 
@@ -456,8 +460,12 @@ WORLD_ENGINE_ROOM_CONTAMINATED = Struct("<Q?")  # seq, engine_room_contaminated
 WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2976
 WORLD_LUBE_OIL_PSI = Struct("<Qd")  # seq, lube_oil_psi
 WORLD_LUBE_OIL_PSI_AT = 2992
+WORLD_LUBE_OIL_TEMP = Struct("<Qd")  # seq, lube_oil_temp
+WORLD_LUBE_OIL_TEMP_AT = 3008
+WORLD_PUMPS_FIRE = Struct("<Q?")  # seq, pumps_fire
+WORLD_PUMPS_FIRE_AT = 3024
 WORLD_LUBE_OIL_LOW = Struct("<Q?")  # seq, lube_oil_low
-WORLD_LUBE_OIL_LOW_AT = 3008
+WORLD_LUBE_OIL_LOW_AT = 3040
 
 
 PROCESSES = {
@@ -690,6 +698,8 @@ WORLD = {
         ("engine_room_contaminated",),
     ),
     "lube_oil_psi": Record(WORLD_LUBE_OIL_PSI, WORLD_LUBE_OIL_PSI_AT, ("lube_oil_psi",)),
+    "lube_oil_temp": Record(WORLD_LUBE_OIL_TEMP, WORLD_LUBE_OIL_TEMP_AT, ("lube_oil_temp",)),
+    "pumps_fire": Record(WORLD_PUMPS_FIRE, WORLD_PUMPS_FIRE_AT, ("pumps_fire",)),
     "lube_oil_low": Record(WORLD_LUBE_OIL_LOW, WORLD_LUBE_OIL_LOW_AT, ("lube_oil_low",)),
 }
 WORLD_INITIAL: dict[str, object] = {
@@ -747,70 +757,74 @@ WORLD_INITIAL: dict[str, object] = {
     "forward_normal": True,
     "engine_room_contaminated": False,
     "lube_oil_psi": 60.0,
+    "lube_oil_temp": 50.0,
+    "pumps_fire": False,
     "lube_oil_low": False,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 3024
-OVERRIDDEN_AT = 3032  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 3056
+OVERRIDDEN_AT = 3064  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 3040, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 3064, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 3088, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 3112, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 3136, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 3160, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 3224, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 3248, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 3272, ("state", "ballast")),
-    "planes": Record(Struct("<QQq"), 3296, ("state", "planes")),
-    "mbt_blown": Record(Struct("<QQ?"), 3320, ("state", "mbt_blown")),
-    "vent_flow": Record(Struct("<QQd"), 3344, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 3368, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 3392, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 3416, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 3440, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 3464, ("state", "depth")),
-    "depth_gauge": Record(Struct("<QQd"), 3488, ("state", "depth_gauge")),
-    "bubble": Record(Struct("<QQd"), 3512, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 3536, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 3560, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 3584, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 3608, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 3632, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 3656, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3680, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3704, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3728, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3752, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3776, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3800, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3824, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3848, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3872, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3896, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3920, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3944, ("state", "min_clearance")),
-    "contact_range": Record(Struct("<QQd"), 3968, ("state", "contact_range")),
-    "contact_bearing": Record(Struct("<QQd"), 3992, ("state", "contact_bearing")),
-    "water_density": Record(Struct("<QQd"), 4016, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 4040, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 4064, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 4088, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 4112, ("state", "fire")),
-    "smoke": Record(Struct("<QQd"), 4136, ("state", "smoke")),
-    "o2_pct": Record(Struct("<QQd"), 4160, ("state", "o2_pct")),
-    "co2_pct": Record(Struct("<QQd"), 4184, ("state", "co2_pct")),
-    "vent_lineup": Record(Struct("<QQq"), 4208, ("state", "vent_lineup")),
-    "diesel_running": Record(Struct("<QQ?"), 4232, ("state", "diesel_running")),
-    "co_ppm": Record(Struct("<QQd"), 4256, ("state", "co_ppm")),
-    "co_ppm_fwd": Record(Struct("<QQd"), 4280, ("state", "co_ppm_fwd")),
-    "forward_normal": Record(Struct("<QQ?"), 4304, ("state", "forward_normal")),
-    "engine_room_contaminated": Record(Struct("<QQ?"), 4328, ("state", "engine_room_contaminated")),
-    "lube_oil_psi": Record(Struct("<QQd"), 4352, ("state", "lube_oil_psi")),
-    "lube_oil_low": Record(Struct("<QQ?"), 4376, ("state", "lube_oil_low")),
+    "speed_cmd": Record(Struct("<QQd"), 3072, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 3096, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 3120, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 3144, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 3168, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 3192, ("state", "announcement")),
+    "shaft": Record(Struct("<QQq"), 3256, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 3280, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 3304, ("state", "ballast")),
+    "planes": Record(Struct("<QQq"), 3328, ("state", "planes")),
+    "mbt_blown": Record(Struct("<QQ?"), 3352, ("state", "mbt_blown")),
+    "vent_flow": Record(Struct("<QQd"), 3376, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 3400, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 3424, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 3448, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 3472, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 3496, ("state", "depth")),
+    "depth_gauge": Record(Struct("<QQd"), 3520, ("state", "depth_gauge")),
+    "bubble": Record(Struct("<QQd"), 3544, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 3568, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 3592, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3616, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3640, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3664, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3688, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3712, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3736, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3760, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3784, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 3808, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 3832, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 3856, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 3880, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 3904, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 3928, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 3952, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 3976, ("state", "min_clearance")),
+    "contact_range": Record(Struct("<QQd"), 4000, ("state", "contact_range")),
+    "contact_bearing": Record(Struct("<QQd"), 4024, ("state", "contact_bearing")),
+    "water_density": Record(Struct("<QQd"), 4048, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 4072, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 4096, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 4120, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 4144, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 4168, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 4192, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 4216, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 4240, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 4264, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 4288, ("state", "co_ppm")),
+    "co_ppm_fwd": Record(Struct("<QQd"), 4312, ("state", "co_ppm_fwd")),
+    "forward_normal": Record(Struct("<QQ?"), 4336, ("state", "forward_normal")),
+    "engine_room_contaminated": Record(Struct("<QQ?"), 4360, ("state", "engine_room_contaminated")),
+    "lube_oil_psi": Record(Struct("<QQd"), 4384, ("state", "lube_oil_psi")),
+    "lube_oil_temp": Record(Struct("<QQd"), 4408, ("state", "lube_oil_temp")),
+    "pumps_fire": Record(Struct("<QQ?"), 4432, ("state", "pumps_fire")),
+    "lube_oil_low": Record(Struct("<QQ?"), 4456, ("state", "lube_oil_low")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -881,6 +895,8 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "forward_normal": ("ec",),
     "engine_room_contaminated": ("ec",),
     "lube_oil_psi": ("atmosphere",),
+    "lube_oil_temp": ("atmosphere",),
+    "pumps_fire": ("prop",),
     "lube_oil_low": ("ec",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
@@ -901,7 +917,7 @@ GROUND_TRUTH = (
 TIME_IN_STATE = {
     "cc": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        4400,
+        4480,
         (
             "state",
             "since",
@@ -919,7 +935,7 @@ TIME_IN_STATE = {
     ),
     "sm": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        4504,
+        4584,
         (
             "state",
             "since",
@@ -936,23 +952,23 @@ TIME_IN_STATE = {
             "HELM_FAILED",
         ),
     ),
-    "ec": Record(Struct("<QqQQQQ"), 4616, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 4696, ("state", "since", "NOP", "S0", "S1")),
     "helm": Record(
         Struct("<QqQQQQQQQ"),
-        4664,
+        4744,
         ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING", "CONTACT"),
     ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        4736,
+        4816,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "prop": Record(Struct("<QqQQQQQ"), 4808, ("state", "since", "NOP", "S0", "S1", "ASKED")),
-    "rudder_sim": Record(Struct("<QqQQQ"), 4864, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 4904, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 4944, ("state", "since", "NOP", "S0")),
-    "sea": Record(Struct("<QqQQQ"), 4984, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 5024, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 4888, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 4944, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 4984, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 5024, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 5064, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 5104, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {

@@ -82,7 +82,7 @@ OOD_LINK = 8  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct(
-    "<QIdd52x???1xI232xQII8x?Q231xQII8xQ400xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd24xd584x?"
+    "<QIdd52x???1xI232xQII8x?Q231xQII8xQ400xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd24xd616x?"
 )
 INPUTS_AT = 424
 
