@@ -272,6 +272,21 @@ def test_engine_room_fire_phases_and_their_cycles():
     assert prep_from == alarm
     assert at(lines, alarm)["world"]["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
     assert at(lines, alarm - 1)["world"]["announcement"] == ""
+    # the general alarm musters the crew (7 s to battle stations, the section watchstanders
+    # relieved); the damage control party on scene puts the fire out after 20 s; secured
+    # from general emergency with the all-clear, the underway watch section takes over
+    assert [ln["world"]["general_alarm"] for ln in lines[alarm - 2 : alarm]] == [False, True]
+    stations = [ln["cycle"] for ln in lines if ln["world"]["watch"] == "BATTLE_STATIONS"]
+    assert stations[0] == alarm + 7
+    fire_out = max(ln["cycle"] for ln in lines if ln["world"]["fire"]) + 1
+    assert fire_out == stations[0] + 20
+    secure = next(
+        ln["cycle"]
+        for ln in lines
+        if ln["world"]["announcement"] == "SECURE FROM FIRE, EABS MAY BE REMOVED"
+    )
+    assert stations == list(range(stations[0], secure))
+    assert not at(lines, secure)["world"]["general_alarm"]
     # clear baffles first: the helm turns BAFFLE_TURN to starboard at transit depth and speed
     baffles = spans(lines, "sm", "BAFFLES")
     assert len(baffles) == 1 and baffles[0][0] == prep_from
@@ -1086,5 +1101,40 @@ def test_the_fire_is_reported_by_the_propulsion_system_s_sensor_as_by_the_ventil
         harness.step("cc")
         assert harness.sent("sm").command == "PREP_EMERGENCY_VENT"
         assert harness.world["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+    finally:
+        harness.close()
+
+
+def test_the_general_alarm_musters_the_crew_whose_damage_control_party_puts_the_fire_out():
+    """Section 4.1.3: "Upon hearing the general alarm the crew proceeds to their assigned
+    general emergency (battle) stations, relief of the section watchstanders occurs"; "The
+    damage control party fights the fire"; once secured from general emergency "The normal
+    underway watch section will resume the watch". The fire burns on, unfought, until the
+    alarm has mustered the crew; then the party puts it out."""
+    harness = Harness.load(ROOT / "generated" / "submarine", hooks_dir=SUBMARINE)
+    try:
+        harness.world.update({"fire": True})
+        for _ in range(60):  # no alarm: the crew stands its section watch, the fire burns
+            harness.step("crew")
+            harness.step("atmosphere")
+        assert harness.world["fire"] is True and harness.world["watch"] == "SECTION"
+        harness.world.update({"general_alarm": True})
+        mustered = 0
+        while harness.world["watch"] == "SECTION":
+            assert mustered < 20, "the crew never reached its battle stations"
+            harness.step("crew")
+            harness.step("atmosphere")
+            mustered += 1
+        assert mustered == 8  # the alarm heard for 7 s: seen in 8 consecutive cycles
+        fought = 0
+        while harness.world["fire"]:
+            assert fought < 40, "the damage control party never put the fire out"
+            harness.step("crew")
+            harness.step("atmosphere")
+            fought += 1
+        assert fought == 20  # on scene since the muster's cycle: 21 cycles, fought for 20 s
+        harness.world.update({"general_alarm": False})
+        harness.step("crew")
+        assert harness.world["watch"] == "SECTION"
     finally:
         harness.close()

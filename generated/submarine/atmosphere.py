@@ -27,12 +27,12 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI272xd504x?15xd8xd8xd40xd8xd40xd8xd")
-INPUTS_AT = 1984
+INPUTS = Struct("<QQI44x???1xI208xq88xd504x?15xd8xd8xd40xd8xd40xd8xd")
+INPUTS_AT = 2104
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (248,)
+SEQ_WORDS = (263,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 ATMOSPHERE_STATUS_WORD = ATMOSPHERE_STATUS_AT >> 3
@@ -52,7 +52,7 @@ ATMOSPHERE_PERF_WORD = ATMOSPHERE_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Q?7xQdQdQd")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2832
+WORLD_OUT_1_AT = 2984
 WORLD_HELD_1 = (
     OVERRIDE["fire"],
     OVERRIDE["smoke"],
@@ -65,7 +65,7 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<QdQd")
 WORLD_VALUES_2 = Struct("<8xd8xd")
 WORLD_SEQS_2 = Struct("<Q8xQ")
-WORLD_OUT_2_AT = 2928
+WORLD_OUT_2_AT = 3080
 WORLD_HELD_2 = (OVERRIDE["co_ppm"], OVERRIDE["co_ppm_fwd"])  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -73,7 +73,7 @@ WORLD_HELD_2 = (OVERRIDE["co_ppm"], OVERRIDE["co_ppm_fwd"])  # their overrides
 WORLD_OUT_3 = Struct("<QdQd")
 WORLD_VALUES_3 = Struct("<8xd8xd")
 WORLD_SEQS_3 = Struct("<Q8xQ")
-WORLD_OUT_3_AT = 2992
+WORLD_OUT_3_AT = 3144
 WORLD_HELD_3 = (OVERRIDE["lube_oil_psi"], OVERRIDE["lube_oil_temp"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -92,6 +92,9 @@ PUMPS_COOLING = 1.0
 PUMPS_NORMAL = 50.0
 O2_NORMAL = 20.9
 CO2_NORMAL = 0.5
+
+# Enumeration values its tables name (a field holds its value's index).
+BATTLE_STATIONS = 1
 
 
 def vented(co: float, made: float, flow: float) -> float:
@@ -141,6 +144,7 @@ class AtmosphereController:
         "world_set",
         "world_smoke",
         "world_vent_flow",
+        "world_watch",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -180,7 +184,7 @@ class AtmosphereController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[248] != values[0]:
+        if values[0] & 1 or not values[0] or words[263] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -191,6 +195,7 @@ class AtmosphereController:
                 self.single_step,
                 self.simulate,
                 self.single_step_num,
+                self.world_watch,
                 self.world_vent_flow,
                 self.world_fire,
                 self.world_smoke,
@@ -326,7 +331,7 @@ class AtmosphereController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[248] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[263] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing
@@ -341,6 +346,7 @@ class AtmosphereController:
             self.single_step,
             self.simulate,
             self.single_step_num,
+            self.world_watch,
             self.world_vent_flow,
             self.world_fire,
             self.world_smoke,
@@ -356,9 +362,13 @@ class AtmosphereController:
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        self.held_every_cycle_1 = self.held_every_cycle_1 + 1 if self.world_fire else 0
-        if self.held_every_cycle_1 > 30:  # for: 30 s = 30 cycles
-            # the damage control party, having fought the fire for 30 s, reports it out
+        self.held_every_cycle_1 = (
+            self.held_every_cycle_1 + 1
+            if self.world_fire and self.world_watch == BATTLE_STATIONS
+            else 0
+        )
+        if self.held_every_cycle_1 > 20:  # for: 20 s = 20 cycles
+            # the damage control party, on scene with the crew at battle stations (the crew simulator), having fought the fire for 20 s, puts it out
             self.world_set = True  # it sets world outputs
             self.world_fire = False
             self.world_co_ppm = vented(self.world_co_ppm, 0.0, self.world_vent_flow)

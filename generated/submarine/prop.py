@@ -43,7 +43,7 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI52x???1xI224xQII952xq760xd8x?")
+INPUTS = Struct("<QI52x???1xI224xQII1104xq760xd8x?")
 INPUTS_AT = 984
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -59,7 +59,7 @@ PROP_PERF_WORD = PROP_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Qq")
 WORLD_VALUES_1 = Struct("<8xq")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2240
+WORLD_OUT_1_AT = 2392
 WORLD_HELD_1 = (OVERRIDE["shaft"],)  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -67,7 +67,7 @@ WORLD_HELD_1 = (OVERRIDE["shaft"],)  # their overrides
 WORLD_OUT_2 = Struct("<Q?")
 WORLD_VALUES_2 = Struct("<8x?")
 WORLD_SEQS_2 = Struct("<Q")
-WORLD_OUT_2_AT = 3024
+WORLD_OUT_2_AT = 3176
 WORLD_HELD_2 = (OVERRIDE["pumps_fire"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
