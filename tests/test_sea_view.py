@@ -158,28 +158,90 @@ def test_a_system_without_keels_is_refused():
         sea_view.scene(chain, REPO, {})
 
 
+def beam_angles() -> list[float]:
+    """Each sonar beam's angle off the centre line, as system.yaml's field docs say it."""
+    text = (SUBMARINE / "system.yaml").read_text()
+    found = re.findall(r"sonar_\d\d: .*?Sonar beam \d+, ([-+]\d+) degrees", text)
+    return [float(a) for a in found]
+
+
+FIRE_UNDER_ICE = {"route": "maps/bering.route", "keels": "maps/bering.keels"}
+
+
+def test_figure_33_s_displays_beside_the_ice_map(system):
+    """Section 4.9: beside the ice map, the bubble angle, the speed and heading, the current
+    sonar detection and the depth: every beam drawn at its angle off the bow with the ranges
+    the trace holds for it, and the depth display's scale deep enough for the bottom."""
+    trace = traces.load(GOLDEN / "fire_under_ice.jsonl")
+    page = sea_view.render(trace, system, SUBMARINE, FIRE_UNDER_ICE, "fire_under_ice")
+    d = data(page)
+    angles = beam_angles()
+    assert len(angles) == 14
+    drawn = re.findall(r'<line class="beam" id="beam-(\d+)" data-angle="([-\d.]+)"', page)
+    assert [(int(n), float(a)) for n, a in drawn] == list(enumerate(angles))
+    assert d["sonar"]["angles"] == angles and d["sonar"]["reach"] == 900.0
+    for n, ranges in enumerate(d["sonar"]["ranges"]):
+        assert ranges == trace.world[f"sonar_{n:02d}"]
+    assert any(r < 900.0 for ranges in d["sonar"]["ranges"] for r in ranges)  # ice seen
+    for name in ("bubble", "depth", "depth_cmd", "bottom_depth", "speed", "heading", "course"):
+        assert d["world"][name] == trace.world[name]
+    assert d["deepest"] == max(trace.world["bottom_depth"])
+    for display in ("bubble", "compass", "sonar", "depth-gauge"):
+        assert f'<svg id="{display}" class="display"' in page
+    # a trace without the beams (the open-sea fire) has no sonar data for the display
+    plain = traces.load(GOLDEN / "engine_room_fire.jsonl")
+    open_sea = {"route": "maps/open_sea.route", "keels": "maps/open_sea.keels"}
+    assert data(sea_view.render(plain, system, SUBMARINE, open_sea))["sonar"] is None
+
+
+def attribute(dom: str, element: str, name: str) -> str:
+    tag = re.search(rf'<[a-z]+ [^>]*id="{element}"[^>]*>', dom)
+    assert tag, f"no element {element}"
+    value = re.search(rf' {name}="([^"]*)"', tag.group(0))
+    assert value, f"{element} has no {name}: {tag.group(0)}"
+    return value.group(1)
+
+
 @needs_chromium
 def test_the_view_in_a_browser_shows_the_ship_at_a_cycle_and_plays(tmp_path, system):
-    trace = traces.load(GOLDEN / "engine_room_fire.jsonl")
-    settings = {"route": "maps/open_sea.route", "keels": "maps/open_sea.keels"}
-    path = tmp_path / "engine_room_fire.sea.html"
-    path.write_text(sea_view.render(trace, system, SUBMARINE, settings), encoding="utf-8")
-    still = load(f"{path.as_uri()}#cycle=300", tmp_path, "engine_room_fire_sea_300")
-    body = still.body()
+    trace = traces.load(GOLDEN / "fire_under_ice.jsonl")
+    path = tmp_path / "fire_under_ice.sea.html"
+    page = sea_view.render(trace, system, SUBMARINE, FIRE_UNDER_ICE, "fire_under_ice")
+    path.write_text(page, encoding="utf-8")
+    still = load(f"{path.as_uri()}#cycle=930", tmp_path, "fire_under_ice_sea_930")
+    body, dom = still.body(), still.dom
     assert still.console == [], still.console
-    assert body.get("data-ready") == "1" and body["data-cycle"] == "300"
-    assert "ENGINE ROOM FIRE, ALL HANDS ON EABS" in still.dom  # the announcement, in the fire
+    assert body.get("data-ready") == "1" and body["data-cycle"] == "930"
+    assert "ENGINE ROOM FIRE, ALL HANDS ON EABS" in dom  # the announcement, in the fire
     assert re.search(
-        r'<g id="ship" transform="translate\([-\d.]+ [-\d.]+\) rotate\([-\d.]+\)"', still.dom
+        r'<g id="ship" transform="translate\([-\d.]+ [-\d.]+\) rotate\([-\d.]+\)"', dom
     )
     assert re.search(
-        r'<rect id="haven" width="[\d.]+" height="[\d.]+" x="[-\d.]+" y="[-\d.]+"', still.dom
+        r'<rect id="haven" width="[\d.]+" height="[\d.]+" x="[-\d.]+" y="[-\d.]+"', dom
     )
-    # the panel: at cycle 300 the ship is slowing, on the EPM the EOOW engaged at 229
-    assert "<td>sm</td><td>PREP_EMERGENCY_VENT</td><td>SLOWING</td>" in still.dom
-    assert (
-        '<td>prop</td><td>SHIFT_TO_EPM</td><td>NOP</td><td class="st-DONE">DONE</td>' in still.dom
-    )
+    # the panel: at cycle 930 the ship is slowing and coming up, the shift to the EPM asked
+    assert "<td>sm</td><td>PREP_EMERGENCY_VENT</td><td>SLOWING</td>" in dom
+    assert "<td>prop</td><td>SHIFT_TO_EPM</td><td>ASKED</td>" in dom
+    # Figure 33's displays at that cycle, from the trace's fields
+    i = trace.cycles.index(930)
+    bubble, depth = trace.world["bubble"][i], trace.world["depth"][i]
+    assert bubble > 5.0  # bow up, coming to periscope depth
+    assert attribute(dom, "hull", "transform") == f"translate(75 75) rotate({-bubble:.1f})"
+    assert f"{bubble:.1f}° bow up" in dom
+    heading = trace.world["heading"][i]
+    assert attribute(dom, "heading-needle", "transform") == f"rotate({heading:.1f} 75 75)"
+    deepest = max(trace.world["bottom_depth"])
+    y = 10 + 120 * depth / (deepest * 1.1)
+    assert attribute(dom, "depth-ship", "transform") == f"translate(0 {y:.1f})"
+    ice = 0
+    for n, angle in enumerate(beam_angles()):  # each beam out to its range, at its angle
+        reach = 130 * trace.world[f"sonar_{n:02d}"][i] / 900.0
+        x2 = 75 + reach * math.sin(math.radians(angle))
+        y2 = 140 - reach * math.cos(math.radians(angle))
+        assert float(attribute(dom, f"beam-{n}", "x2")) == pytest.approx(x2, abs=0.06)
+        assert float(attribute(dom, f"beam-{n}", "y2")) == pytest.approx(y2, abs=0.06)
+        ice += trace.world[f"sonar_{n:02d}"][i] < 900.0
+    assert ice == 3 == len(re.findall(r'class="beam ice"', dom))
     assert still.screenshot is not None and still.screenshot.stat().st_size > 10_000
     played = load(
         f"{path.as_uri()}#play", tmp_path, "sea_playing", budget_ms=1500, screenshot=False

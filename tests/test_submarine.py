@@ -258,10 +258,35 @@ def test_engine_room_fire_phases_and_their_cycles():
     assert high == fire_at + 1  # 40 ppm a cycle
     contaminated = [ln["cycle"] for ln in lines if ln["world"]["engine_room_contaminated"]]
     assert contaminated[0] == high + 1
+    # and the propulsion system's sensor (4.7.1): the pumps hot from the fire's second
+    # cycle, propulsion's inference in the same cycle as the engineering node's; it clears
+    # once the fire is out and the pumps have cooled, before the transit resumes
+    hot = next(ln["cycle"] for ln in lines if ln["world"]["lube_oil_temp"] > 65.0)
+    assert hot == high
+    pumps = [ln["cycle"] for ln in lines if ln["world"]["pumps_fire"]]
+    assert pumps[0] == contaminated[0]
+    out = max(ln["cycle"] for ln in lines if ln["world"]["fire"])
+    resumed = spans(lines, "cc", "TRANSIT")[1][0]  # no second alarm on the resumed transit
+    assert pumps == list(range(pumps[0], pumps[-1] + 1)) and out < pumps[-1] < resumed
     alarm = contaminated[0] + 1
     assert prep_from == alarm
     assert at(lines, alarm)["world"]["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
     assert at(lines, alarm - 1)["world"]["announcement"] == ""
+    # the general alarm musters the crew (7 s to battle stations, the section watchstanders
+    # relieved); the damage control party on scene puts the fire out after 20 s; secured
+    # from general emergency with the all-clear, the underway watch section takes over
+    assert [ln["world"]["general_alarm"] for ln in lines[alarm - 2 : alarm]] == [False, True]
+    stations = [ln["cycle"] for ln in lines if ln["world"]["watch"] == "BATTLE_STATIONS"]
+    assert stations[0] == alarm + 7
+    fire_out = max(ln["cycle"] for ln in lines if ln["world"]["fire"]) + 1
+    assert fire_out == stations[0] + 20
+    secure = next(
+        ln["cycle"]
+        for ln in lines
+        if ln["world"]["announcement"] == "SECURE FROM FIRE, EABS MAY BE REMOVED"
+    )
+    assert stations == list(range(stations[0], secure))
+    assert not at(lines, secure)["world"]["general_alarm"]
     # clear baffles first: the helm turns BAFFLE_TURN to starboard at transit depth and speed
     baffles = spans(lines, "sm", "BAFFLES")
     assert len(baffles) == 1 and baffles[0][0] == prep_from
@@ -1042,3 +1067,74 @@ def test_the_access_matrix_holds_at_the_console():
     finally:
         out = system.stop()
     assert "ship: stopped" in out
+
+
+def test_the_fire_is_reported_by_the_propulsion_system_s_sensor_as_by_the_ventilation_s():
+    """Section 4.7.1: "A lube oil fire is reported through the sensors in both the propulsion
+    and the ventilation control systems". The fire heats the main lube oil pumps (the
+    atmosphere simulator), propulsion infers fire there from its sensor, and the command
+    controller takes that report alone, with the ventilation sensors still clean, for the
+    fire: the alarm, and ship maneuver to prepare for emergency ventilation."""
+    harness = Harness.load(ROOT / "generated" / "submarine", hooks_dir=SUBMARINE)
+    try:
+        harness.world.update({"fire": True})
+        harness.step("atmosphere")
+        harness.step("atmosphere")
+        assert harness.world["lube_oil_temp"] == 70.0  # two cycles of fire at the pumps
+        harness.world.update({"fire": False})
+        harness.step("atmosphere")
+        assert harness.world["lube_oil_temp"] == 69.0  # cooling once it is out
+        harness.world.update({"lube_oil_temp": 65.0})
+        harness.step("prop")
+        assert harness.world["pumps_fire"] is False  # at the alarm level, not above
+        harness.world.update({"lube_oil_temp": 66.0})
+        harness.step("prop")
+        assert harness.world["pumps_fire"] is True
+        harness.world.update({"pumps_fire": False})
+        harness.command("cc", "RUN_MISSION")
+        harness.step("cc")  # S0: the route planned
+        harness.step("cc")  # S1: the transit to the first waypoint
+        assert harness.sent("sm").command == "SUBMERGED_TRANSIT"
+        harness.step("cc")  # TRANSIT: nothing reported yet
+        assert harness.sent("sm").command == "SUBMERGED_TRANSIT"
+        harness.world.update({"engine_room_contaminated": False, "pumps_fire": True})
+        harness.step("cc")
+        assert harness.sent("sm").command == "PREP_EMERGENCY_VENT"
+        assert harness.world["announcement"] == "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+    finally:
+        harness.close()
+
+
+def test_the_general_alarm_musters_the_crew_whose_damage_control_party_puts_the_fire_out():
+    """Section 4.1.3: "Upon hearing the general alarm the crew proceeds to their assigned
+    general emergency (battle) stations, relief of the section watchstanders occurs"; "The
+    damage control party fights the fire"; once secured from general emergency "The normal
+    underway watch section will resume the watch". The fire burns on, unfought, until the
+    alarm has mustered the crew; then the party puts it out."""
+    harness = Harness.load(ROOT / "generated" / "submarine", hooks_dir=SUBMARINE)
+    try:
+        harness.world.update({"fire": True})
+        for _ in range(60):  # no alarm: the crew stands its section watch, the fire burns
+            harness.step("crew")
+            harness.step("atmosphere")
+        assert harness.world["fire"] is True and harness.world["watch"] == "SECTION"
+        harness.world.update({"general_alarm": True})
+        mustered = 0
+        while harness.world["watch"] == "SECTION":
+            assert mustered < 20, "the crew never reached its battle stations"
+            harness.step("crew")
+            harness.step("atmosphere")
+            mustered += 1
+        assert mustered == 8  # the alarm heard for 7 s: seen in 8 consecutive cycles
+        fought = 0
+        while harness.world["fire"]:
+            assert fought < 40, "the damage control party never put the fire out"
+            harness.step("crew")
+            harness.step("atmosphere")
+            fought += 1
+        assert fought == 20  # on scene since the muster's cycle: 21 cycles, fought for 20 s
+        harness.world.update({"general_alarm": False})
+        harness.step("crew")
+        assert harness.world["watch"] == "SECTION"
+    finally:
+        harness.close()

@@ -8,6 +8,7 @@ PROCESSES = ("ship",)
 SOURCES = (
     "submarine/atmosphere.yaml",
     "submarine/cc.yaml",
+    "submarine/crew.yaml",
     "submarine/ec.yaml",
     "submarine/eoow.yaml",
     "submarine/helm.yaml",

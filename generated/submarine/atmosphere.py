@@ -14,6 +14,7 @@ from .layout import (
     WORLD_CO_PPM_FWD_AT,
     WORLD_FIRE_AT,
     WORLD_LUBE_OIL_PSI_AT,
+    WORLD_LUBE_OIL_TEMP_AT,
     WORLD_O2_PCT_AT,
     WORLD_SMOKE_AT,
 )
@@ -26,12 +27,12 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI272xd504x?15xd8xd8xd40xd8xd40xd")
-INPUTS_AT = 1984
+INPUTS = Struct("<QQI44x???1xI208xq88xd504x?15xd8xd8xd40xd8xd40xd8xd")
+INPUTS_AT = 2104
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (248,)
+SEQ_WORDS = (263,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 ATMOSPHERE_STATUS_WORD = ATMOSPHERE_STATUS_AT >> 3
@@ -42,6 +43,7 @@ WORLD_CO2_PCT_WORD = WORLD_CO2_PCT_AT >> 3
 WORLD_CO_PPM_WORD = WORLD_CO_PPM_AT >> 3
 WORLD_CO_PPM_FWD_WORD = WORLD_CO_PPM_FWD_AT >> 3
 WORLD_LUBE_OIL_PSI_WORD = WORLD_LUBE_OIL_PSI_AT >> 3
+WORLD_LUBE_OIL_TEMP_WORD = WORLD_LUBE_OIL_TEMP_AT >> 3
 ATMOSPHERE_PERF_WORD = ATMOSPHERE_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
@@ -50,7 +52,7 @@ ATMOSPHERE_PERF_WORD = ATMOSPHERE_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Q?7xQdQdQd")
 WORLD_VALUES_1 = Struct("<8x?15xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2832
+WORLD_OUT_1_AT = 2984
 WORLD_HELD_1 = (
     OVERRIDE["fire"],
     OVERRIDE["smoke"],
@@ -63,16 +65,16 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<QdQd")
 WORLD_VALUES_2 = Struct("<8xd8xd")
 WORLD_SEQS_2 = Struct("<Q8xQ")
-WORLD_OUT_2_AT = 2928
+WORLD_OUT_2_AT = 3080
 WORLD_HELD_2 = (OVERRIDE["co_ppm"], OVERRIDE["co_ppm_fwd"])  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_3 = Struct("<Qd")
-WORLD_VALUES_3 = Struct("<8xd")
-WORLD_SEQS_3 = Struct("<Q")
-WORLD_OUT_3_AT = 2992
-WORLD_HELD_3 = (OVERRIDE["lube_oil_psi"],)  # their overrides
+WORLD_OUT_3 = Struct("<QdQd")
+WORLD_VALUES_3 = Struct("<8xd8xd")
+WORLD_SEQS_3 = Struct("<Q8xQ")
+WORLD_OUT_3_AT = 3144
+WORLD_HELD_3 = (OVERRIDE["lube_oil_psi"], OVERRIDE["lube_oil_temp"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -85,13 +87,24 @@ FIRE_CO2 = 0.02
 FIRE_O2 = 0.03
 FIRE_LUBE = 2.0
 LUBE_LEAST = 10.0
+FIRE_HEAT = 10.0
+PUMPS_COOLING = 1.0
+PUMPS_NORMAL = 50.0
 O2_NORMAL = 20.9
 CO2_NORMAL = 0.5
+
+# Enumeration values its tables name (a field holds its value's index).
+BATTLE_STATIONS = 1
 
 
 def vented(co: float, made: float, flow: float) -> float:
     """Pure function: co + made - co * flow"""
     return co + made - co * flow
+
+
+def cooled(temp: float) -> float:
+    """Pure function: max(PUMPS_NORMAL, temp - PUMPS_COOLING)"""
+    return max(PUMPS_NORMAL, temp - PUMPS_COOLING)
 
 
 class AtmosphereController:
@@ -126,10 +139,12 @@ class AtmosphereController:
         "world_co_ppm_fwd",
         "world_fire",
         "world_lube_oil_psi",
+        "world_lube_oil_temp",
         "world_o2_pct",
         "world_set",
         "world_smoke",
         "world_vent_flow",
+        "world_watch",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
@@ -169,7 +184,7 @@ class AtmosphereController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[248] != values[0]:
+        if values[0] & 1 or not values[0] or words[263] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -180,6 +195,7 @@ class AtmosphereController:
                 self.single_step,
                 self.simulate,
                 self.single_step_num,
+                self.world_watch,
                 self.world_vent_flow,
                 self.world_fire,
                 self.world_smoke,
@@ -188,6 +204,7 @@ class AtmosphereController:
                 self.world_co_ppm,
                 self.world_co_ppm_fwd,
                 self.world_lube_oil_psi,
+                self.world_lube_oil_temp,
             ) = values
 
         # 2. check_if_new_command: a command number unlike the echoed one is a new command
@@ -272,15 +289,17 @@ class AtmosphereController:
                 WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 words[WORLD_CO_PPM_WORD] = (s[0] | 1) + 1
                 words[WORLD_CO_PPM_FWD_WORD] = (s[1] | 1) + 1
-            out = (self.world_lube_oil_psi,)
+            out = (self.world_lube_oil_psi, self.world_lube_oil_temp)
             now = WORLD_VALUES_3.unpack_from(buf, WORLD_OUT_3_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_3, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_3.unpack_from(buf, WORLD_OUT_3_AT)
                 words[WORLD_LUBE_OIL_PSI_WORD] = s[0] | 1  # odd before the value changes
-                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0])
+                words[WORLD_LUBE_OIL_TEMP_WORD] = s[1] | 1  # odd before the value changes
+                WORLD_OUT_3.pack_into(buf, WORLD_OUT_3_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 words[WORLD_LUBE_OIL_PSI_WORD] = (s[0] | 1) + 1
+                words[WORLD_LUBE_OIL_TEMP_WORD] = (s[1] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         end = perf_counter_ns()
         last = end - cycle_start
@@ -312,7 +331,7 @@ class AtmosphereController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[248] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[263] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing
@@ -327,6 +346,7 @@ class AtmosphereController:
             self.single_step,
             self.simulate,
             self.single_step_num,
+            self.world_watch,
             self.world_vent_flow,
             self.world_fire,
             self.world_smoke,
@@ -335,15 +355,20 @@ class AtmosphereController:
             self.world_co_ppm,
             self.world_co_ppm_fwd,
             self.world_lube_oil_psi,
+            self.world_lube_oil_temp,
         ) = values
         if not whole:
             self.command_num, self.dont_run = self.status_num, True
 
     def every_cycle(self) -> None:
         """Rules tried every cycle, whatever the command."""
-        self.held_every_cycle_1 = self.held_every_cycle_1 + 1 if self.world_fire else 0
-        if self.held_every_cycle_1 > 30:  # for: 30 s = 30 cycles
-            # the damage control party, having fought the fire for 30 s, reports it out
+        self.held_every_cycle_1 = (
+            self.held_every_cycle_1 + 1
+            if self.world_fire and self.world_watch == BATTLE_STATIONS
+            else 0
+        )
+        if self.held_every_cycle_1 > 20:  # for: 20 s = 20 cycles
+            # the damage control party, on scene with the crew at battle stations (the crew simulator), having fought the fire for 20 s, puts it out
             self.world_set = True  # it sets world outputs
             self.world_fire = False
             self.world_co_ppm = vented(self.world_co_ppm, 0.0, self.world_vent_flow)
@@ -355,6 +380,7 @@ class AtmosphereController:
             self.world_o2_pct = O2_NORMAL - vented(
                 O2_NORMAL - self.world_o2_pct, 0.0, self.world_vent_flow
             )
+            self.world_lube_oil_temp = cooled(self.world_lube_oil_temp)
 
         elif self.world_fire:
             # the fire burns; the damage control party fights it
@@ -369,6 +395,7 @@ class AtmosphereController:
                 O2_NORMAL - self.world_o2_pct, FIRE_O2, self.world_vent_flow
             )
             self.world_lube_oil_psi = max(LUBE_LEAST, self.world_lube_oil_psi - FIRE_LUBE)
+            self.world_lube_oil_temp = self.world_lube_oil_temp + FIRE_HEAT
 
         elif self.world_co_ppm > 0.0:
             # the ventilation line-up removes the smoke and the gases (they came with the CO)
@@ -382,6 +409,12 @@ class AtmosphereController:
             self.world_o2_pct = O2_NORMAL - vented(
                 O2_NORMAL - self.world_o2_pct, 0.0, self.world_vent_flow
             )
+            self.world_lube_oil_temp = cooled(self.world_lube_oil_temp)
+
+        elif self.world_lube_oil_temp > PUMPS_NORMAL:
+            # the pumps cool back to their running temperature
+            self.world_set = True  # it sets world outputs
+            self.world_lube_oil_temp = cooled(self.world_lube_oil_temp)
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

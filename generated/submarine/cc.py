@@ -19,6 +19,7 @@ from .layout import (
     SM_COMMAND,
     SM_COMMAND_AT,
     WORLD_ANNOUNCEMENT_AT,
+    WORLD_GENERAL_ALARM_AT,
 )
 from .rcs.contract import (
     DONE,
@@ -89,7 +90,7 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI596xQII976x48s8xq712x?15x?31x?")
+INPUTS = Struct("<QQI76x???1xI96xQII8xQ96xQI596xQII1096x48s8x?31xq712x?15x?47x?15x?")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -102,16 +103,17 @@ SM_COMMAND_WORD = SM_COMMAND_AT >> 3
 EC_COMMAND_WORD = EC_COMMAND_AT >> 3
 EOOW_CC_COMMAND_WORD = EOOW_CC_COMMAND_AT >> 3
 WORLD_ANNOUNCEMENT_WORD = WORLD_ANNOUNCEMENT_AT >> 3
+WORLD_GENERAL_ALARM_WORD = WORLD_GENERAL_ALARM_AT >> 3
 CC_PERF_WORD = CC_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
 # sequence words alone, and their override records.
-WORLD_OUT_1 = Struct("<Q48s")
-WORLD_VALUES_1 = Struct("<8x48s")
-WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2184
-WORLD_HELD_1 = (OVERRIDE["announcement"],)  # their overrides
+WORLD_OUT_1 = Struct("<Q48sQ?")
+WORLD_VALUES_1 = Struct("<8x48s8x?")
+WORLD_SEQS_1 = Struct("<Q48xQ")
+WORLD_OUT_1_AT = 2304
+WORLD_HELD_1 = (OVERRIDE["announcement"], OVERRIDE["general_alarm"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
@@ -189,7 +191,9 @@ class CcController:
         "world_announcement",
         "world_engine_room_contaminated",
         "world_forward_normal",
+        "world_general_alarm",
         "world_lube_oil_low",
+        "world_pumps_fire",
         "world_shaft",
     )
 
@@ -295,9 +299,11 @@ class CcController:
                 self.eoow_status,
                 self.eoow_error_num,
                 self.world_announcement,
+                self.world_general_alarm,
                 self.world_shaft,
                 self.world_forward_normal,
                 self.world_engine_room_contaminated,
+                self.world_pumps_fire,
                 self.world_lube_oil_low,
             ) = values
             self.world_announcement = decode_text(self.world_announcement)
@@ -404,15 +410,17 @@ class CcController:
             self.eoow_written = self.eoow_command_num
         # a rule fired (it may have set world outputs), or a field is forced or latched safe
         if self.rule or buf[OVERRIDDEN_AT]:
-            out = (encode_text(self.world_announcement, 48),)
+            out = (encode_text(self.world_announcement, 48), self.world_general_alarm)
             now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
             if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
                 out = held(buf, WORLD_HELD_1, out, now)
             if now != out:  # set to a new value
                 s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
                 words[WORLD_ANNOUNCEMENT_WORD] = s[0] | 1  # odd before the value changes
-                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+                words[WORLD_GENERAL_ALARM_WORD] = s[1] | 1  # odd before the value changes
+                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0], s[1] | 1, out[1])
                 words[WORLD_ANNOUNCEMENT_WORD] = (s[0] | 1) + 1
+                words[WORLD_GENERAL_ALARM_WORD] = (s[1] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         end = perf_counter_ns()
         last = end - cycle_start
@@ -469,9 +477,11 @@ class CcController:
             self.eoow_status,
             self.eoow_error_num,
             self.world_announcement,
+            self.world_general_alarm,
             self.world_shaft,
             self.world_forward_normal,
             self.world_engine_room_contaminated,
+            self.world_pumps_fire,
             self.world_lube_oil_low,
         ) = values
         self.world_announcement = decode_text(self.world_announcement)
@@ -587,11 +597,12 @@ class CcController:
                 self.cause = 0  # DONE has no cause
 
         elif state == TRANSIT:
-            if self.world_engine_room_contaminated:
-                # (S2) smoke or gas high; all hands on EABs; SM prepare for emergency vent
+            if self.world_engine_room_contaminated or self.world_pumps_fire:
+                # (S2) the fire reported by the ventilation sensors (smoke or gas high, the engineering node's word) or the propulsion system's (the main lube oil pumps hot, propulsion's); all hands on EABs; SM prepare for emergency vent
                 self.rule = 8  # RUN_MISSION/TRANSIT/1
                 self.state = PREP_VENT
                 self.world_announcement = "ENGINE ROOM FIRE, ALL HANDS ON EABS"
+                self.world_general_alarm = True
                 self.sm_arg_x = self.plan_route_x
                 self.sm_arg_y = self.plan_route_y
                 self.sm_command = SM_PREP_EMERGENCY_VENT
@@ -756,6 +767,7 @@ class CcController:
                 self.rule = 23  # RUN_MISSION/VENT/1
                 self.state = RESUMING
                 self.world_announcement = "SECURE FROM FIRE, EABS MAY BE REMOVED"
+                self.world_general_alarm = False
                 self.sm_command = SM_PREP_SUBMERGED_TRANSIT
                 self.sm_command_num += 1
                 self.ec_command = EC_SUBMERGED_VENT

@@ -28,7 +28,7 @@ EMERGENCY_VENT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI1696xd504x?15xd8xd8xd8xq8x?15xd8xd8x?15x?15xd8x?")
+INPUTS = Struct("<QI44x???1xI1848xd504x?15xd8xd8xd8xq8x?15xd8xd8x?15x?15xd40x?")
 INPUTS_AT = 568
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -47,7 +47,7 @@ EC_PERF_WORD = EC_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2320
+WORLD_OUT_1_AT = 2472
 WORLD_HELD_1 = (OVERRIDE["vent_flow"],)  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -55,7 +55,7 @@ WORLD_HELD_1 = (OVERRIDE["vent_flow"],)  # their overrides
 WORLD_OUT_2 = Struct("<QqQ?")
 WORLD_VALUES_2 = Struct("<8xq8x?")
 WORLD_SEQS_2 = Struct("<Q8xQ")
-WORLD_OUT_2_AT = 2896
+WORLD_OUT_2_AT = 3048
 WORLD_HELD_2 = (OVERRIDE["vent_lineup"], OVERRIDE["diesel_running"])  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -63,7 +63,7 @@ WORLD_HELD_2 = (OVERRIDE["vent_lineup"], OVERRIDE["diesel_running"])  # their ov
 WORLD_OUT_3 = Struct("<Q?7xQ?")
 WORLD_VALUES_3 = Struct("<8x?15x?")
 WORLD_SEQS_3 = Struct("<Q8xQ")
-WORLD_OUT_3_AT = 2960
+WORLD_OUT_3_AT = 3112
 WORLD_HELD_3 = (OVERRIDE["forward_normal"], OVERRIDE["engine_room_contaminated"])  # their overrides
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
 # word, stored odd on its own first and even again last), their values alone, their
@@ -71,7 +71,7 @@ WORLD_HELD_3 = (OVERRIDE["forward_normal"], OVERRIDE["engine_room_contaminated"]
 WORLD_OUT_4 = Struct("<Q?")
 WORLD_VALUES_4 = Struct("<8x?")
 WORLD_SEQS_4 = Struct("<Q")
-WORLD_OUT_4_AT = 3008
+WORLD_OUT_4_AT = 3192
 WORLD_HELD_4 = (OVERRIDE["lube_oil_low"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -50,7 +50,7 @@ RUDDER_LINK = 5  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct(
-    "<QIdddd60x???1xI88xQI1364xd72xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd40xd"
+    "<QIdddd60x???1xI88xQI1516xd72xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd40xd"
 )
 INPUTS_AT = 688
 
@@ -66,7 +66,7 @@ HELM_PERF_WORD = HELM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2256
+WORLD_OUT_1_AT = 2408
 WORLD_HELD_1 = (OVERRIDE["course"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 5064 bytes.
+The block is 5384 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -77,132 +77,145 @@ command buffers and world fields:
 | 1888 | 32 | SEA_STATUS | STATUS_FIELDS |
 | 1920 | 16 | SEA_MODE | MODE_FIELDS |
 | 1936 | 48 | SEA_PERF | PERF_FIELDS |
-| 1984 | 20 | ATMOSPHERE_COMMAND | command_num, command |
-| 2008 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
-| 2040 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
-| 2056 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
-| 2104 | 16 | WORLD_SPEED_CMD | speed_cmd |
-| 2120 | 16 | WORLD_DEPTH_CMD | depth_cmd |
-| 2136 | 16 | WORLD_HAVEN_X | haven_x |
-| 2152 | 16 | WORLD_HAVEN_Y | haven_y |
-| 2168 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
-| 2184 | 56 | WORLD_ANNOUNCEMENT | announcement |
-| 2240 | 16 | WORLD_SHAFT | shaft |
-| 2256 | 16 | WORLD_COURSE | course |
-| 2272 | 16 | WORLD_BALLAST | ballast |
-| 2288 | 16 | WORLD_PLANES | planes |
-| 2304 | 9 | WORLD_MBT_BLOWN | mbt_blown |
-| 2320 | 16 | WORLD_VENT_FLOW | vent_flow |
-| 2336 | 16 | WORLD_POS_X | pos_x |
-| 2352 | 16 | WORLD_POS_Y | pos_y |
-| 2368 | 16 | WORLD_HEADING | heading |
-| 2384 | 16 | WORLD_SPEED | speed |
-| 2400 | 16 | WORLD_DEPTH | depth |
-| 2416 | 16 | WORLD_DEPTH_GAUGE | depth_gauge |
-| 2432 | 16 | WORLD_BUBBLE | bubble |
-| 2448 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
-| 2464 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
-| 2480 | 16 | WORLD_SONAR_00 | sonar_00 |
-| 2496 | 16 | WORLD_SONAR_01 | sonar_01 |
-| 2512 | 16 | WORLD_SONAR_02 | sonar_02 |
-| 2528 | 16 | WORLD_SONAR_03 | sonar_03 |
-| 2544 | 16 | WORLD_SONAR_04 | sonar_04 |
-| 2560 | 16 | WORLD_SONAR_05 | sonar_05 |
-| 2576 | 16 | WORLD_SONAR_06 | sonar_06 |
-| 2592 | 16 | WORLD_SONAR_07 | sonar_07 |
-| 2608 | 16 | WORLD_SONAR_08 | sonar_08 |
-| 2624 | 16 | WORLD_SONAR_09 | sonar_09 |
-| 2640 | 16 | WORLD_SONAR_10 | sonar_10 |
-| 2656 | 16 | WORLD_SONAR_11 | sonar_11 |
-| 2672 | 16 | WORLD_SONAR_12 | sonar_12 |
-| 2688 | 16 | WORLD_SONAR_13 | sonar_13 |
-| 2704 | 16 | WORLD_CLEARANCE | clearance |
-| 2720 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
-| 2736 | 16 | WORLD_CONTACT_RANGE | contact_range |
-| 2752 | 16 | WORLD_CONTACT_BEARING | contact_bearing |
-| 2768 | 16 | WORLD_WATER_DENSITY | water_density |
-| 2784 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
-| 2800 | 16 | WORLD_BELOW_KEEL | below_keel |
-| 2816 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
-| 2832 | 9 | WORLD_FIRE | fire |
-| 2848 | 16 | WORLD_SMOKE | smoke |
-| 2864 | 16 | WORLD_O2_PCT | o2_pct |
-| 2880 | 16 | WORLD_CO2_PCT | co2_pct |
-| 2896 | 16 | WORLD_VENT_LINEUP | vent_lineup |
-| 2912 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
-| 2928 | 16 | WORLD_CO_PPM | co_ppm |
-| 2944 | 16 | WORLD_CO_PPM_FWD | co_ppm_fwd |
-| 2960 | 9 | WORLD_FORWARD_NORMAL | forward_normal |
-| 2976 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
-| 2992 | 16 | WORLD_LUBE_OIL_PSI | lube_oil_psi |
-| 3008 | 9 | WORLD_LUBE_OIL_LOW | lube_oil_low |
-| 3024 | 9 | OVERRIDES | any |
-| 3040 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
-| 3064 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
-| 3088 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
-| 3112 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
-| 3136 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
-| 3160 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
-| 3224 | 24 | OVERRIDE_SHAFT | state, shaft |
-| 3248 | 24 | OVERRIDE_COURSE | state, course |
-| 3272 | 24 | OVERRIDE_BALLAST | state, ballast |
-| 3296 | 24 | OVERRIDE_PLANES | state, planes |
-| 3320 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
-| 3344 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
-| 3368 | 24 | OVERRIDE_POS_X | state, pos_x |
-| 3392 | 24 | OVERRIDE_POS_Y | state, pos_y |
-| 3416 | 24 | OVERRIDE_HEADING | state, heading |
-| 3440 | 24 | OVERRIDE_SPEED | state, speed |
-| 3464 | 24 | OVERRIDE_DEPTH | state, depth |
-| 3488 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
-| 3512 | 24 | OVERRIDE_BUBBLE | state, bubble |
-| 3536 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
-| 3560 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
-| 3584 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
-| 3608 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
-| 3632 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
-| 3656 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
-| 3680 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
-| 3704 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
-| 3728 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
-| 3752 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
-| 3776 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
-| 3800 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
-| 3824 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
-| 3848 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
-| 3872 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
-| 3896 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
-| 3920 | 24 | OVERRIDE_CLEARANCE | state, clearance |
-| 3944 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
-| 3968 | 24 | OVERRIDE_CONTACT_RANGE | state, contact_range |
-| 3992 | 24 | OVERRIDE_CONTACT_BEARING | state, contact_bearing |
-| 4016 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
-| 4040 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
-| 4064 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
-| 4088 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
-| 4112 | 17 | OVERRIDE_FIRE | state, fire |
-| 4136 | 24 | OVERRIDE_SMOKE | state, smoke |
-| 4160 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
-| 4184 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
-| 4208 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
-| 4232 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
-| 4256 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
-| 4280 | 24 | OVERRIDE_CO_PPM_FWD | state, co_ppm_fwd |
-| 4304 | 17 | OVERRIDE_FORWARD_NORMAL | state, forward_normal |
-| 4328 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
-| 4352 | 24 | OVERRIDE_LUBE_OIL_PSI | state, lube_oil_psi |
-| 4376 | 17 | OVERRIDE_LUBE_OIL_LOW | state, lube_oil_low |
-| 4400 | 104 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, SHIFTING, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
-| 4504 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
-| 4616 | 48 | TIME_EC | state, since, NOP, S0, S1 |
-| 4664 | 72 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING, CONTACT |
-| 4736 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
-| 4808 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
-| 4864 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
-| 4904 | 40 | TIME_SHIP | state, since, NOP, S0 |
-| 4944 | 40 | TIME_SONAR | state, since, NOP, S0 |
-| 4984 | 40 | TIME_SEA | state, since, NOP, S0 |
-| 5024 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
+| 1984 | 20 | CREW_COMMAND | command_num, command |
+| 2008 | 32 | CREW_STATUS | STATUS_FIELDS |
+| 2040 | 16 | CREW_MODE | MODE_FIELDS |
+| 2056 | 48 | CREW_PERF | PERF_FIELDS |
+| 2104 | 20 | ATMOSPHERE_COMMAND | command_num, command |
+| 2128 | 32 | ATMOSPHERE_STATUS | STATUS_FIELDS |
+| 2160 | 16 | ATMOSPHERE_MODE | MODE_FIELDS |
+| 2176 | 48 | ATMOSPHERE_PERF | PERF_FIELDS |
+| 2224 | 16 | WORLD_SPEED_CMD | speed_cmd |
+| 2240 | 16 | WORLD_DEPTH_CMD | depth_cmd |
+| 2256 | 16 | WORLD_HAVEN_X | haven_x |
+| 2272 | 16 | WORLD_HAVEN_Y | haven_y |
+| 2288 | 9 | WORLD_PERISCOPE_RAISED | periscope_raised |
+| 2304 | 56 | WORLD_ANNOUNCEMENT | announcement |
+| 2360 | 9 | WORLD_GENERAL_ALARM | general_alarm |
+| 2376 | 16 | WORLD_WATCH | watch |
+| 2392 | 16 | WORLD_SHAFT | shaft |
+| 2408 | 16 | WORLD_COURSE | course |
+| 2424 | 16 | WORLD_BALLAST | ballast |
+| 2440 | 16 | WORLD_PLANES | planes |
+| 2456 | 9 | WORLD_MBT_BLOWN | mbt_blown |
+| 2472 | 16 | WORLD_VENT_FLOW | vent_flow |
+| 2488 | 16 | WORLD_POS_X | pos_x |
+| 2504 | 16 | WORLD_POS_Y | pos_y |
+| 2520 | 16 | WORLD_HEADING | heading |
+| 2536 | 16 | WORLD_SPEED | speed |
+| 2552 | 16 | WORLD_DEPTH | depth |
+| 2568 | 16 | WORLD_DEPTH_GAUGE | depth_gauge |
+| 2584 | 16 | WORLD_BUBBLE | bubble |
+| 2600 | 16 | WORLD_RUDDER_ANGLE | rudder_angle |
+| 2616 | 9 | WORLD_RUDDER_JAMMED | rudder_jammed |
+| 2632 | 16 | WORLD_SONAR_00 | sonar_00 |
+| 2648 | 16 | WORLD_SONAR_01 | sonar_01 |
+| 2664 | 16 | WORLD_SONAR_02 | sonar_02 |
+| 2680 | 16 | WORLD_SONAR_03 | sonar_03 |
+| 2696 | 16 | WORLD_SONAR_04 | sonar_04 |
+| 2712 | 16 | WORLD_SONAR_05 | sonar_05 |
+| 2728 | 16 | WORLD_SONAR_06 | sonar_06 |
+| 2744 | 16 | WORLD_SONAR_07 | sonar_07 |
+| 2760 | 16 | WORLD_SONAR_08 | sonar_08 |
+| 2776 | 16 | WORLD_SONAR_09 | sonar_09 |
+| 2792 | 16 | WORLD_SONAR_10 | sonar_10 |
+| 2808 | 16 | WORLD_SONAR_11 | sonar_11 |
+| 2824 | 16 | WORLD_SONAR_12 | sonar_12 |
+| 2840 | 16 | WORLD_SONAR_13 | sonar_13 |
+| 2856 | 16 | WORLD_CLEARANCE | clearance |
+| 2872 | 16 | WORLD_MIN_CLEARANCE | min_clearance |
+| 2888 | 16 | WORLD_CONTACT_RANGE | contact_range |
+| 2904 | 16 | WORLD_CONTACT_BEARING | contact_bearing |
+| 2920 | 16 | WORLD_WATER_DENSITY | water_density |
+| 2936 | 16 | WORLD_BOTTOM_DEPTH | bottom_depth |
+| 2952 | 16 | WORLD_BELOW_KEEL | below_keel |
+| 2968 | 16 | WORLD_MIN_BELOW_KEEL | min_below_keel |
+| 2984 | 9 | WORLD_FIRE | fire |
+| 3000 | 16 | WORLD_SMOKE | smoke |
+| 3016 | 16 | WORLD_O2_PCT | o2_pct |
+| 3032 | 16 | WORLD_CO2_PCT | co2_pct |
+| 3048 | 16 | WORLD_VENT_LINEUP | vent_lineup |
+| 3064 | 9 | WORLD_DIESEL_RUNNING | diesel_running |
+| 3080 | 16 | WORLD_CO_PPM | co_ppm |
+| 3096 | 16 | WORLD_CO_PPM_FWD | co_ppm_fwd |
+| 3112 | 9 | WORLD_FORWARD_NORMAL | forward_normal |
+| 3128 | 9 | WORLD_ENGINE_ROOM_CONTAMINATED | engine_room_contaminated |
+| 3144 | 16 | WORLD_LUBE_OIL_PSI | lube_oil_psi |
+| 3160 | 16 | WORLD_LUBE_OIL_TEMP | lube_oil_temp |
+| 3176 | 9 | WORLD_PUMPS_FIRE | pumps_fire |
+| 3192 | 9 | WORLD_LUBE_OIL_LOW | lube_oil_low |
+| 3208 | 9 | OVERRIDES | any |
+| 3224 | 24 | OVERRIDE_SPEED_CMD | state, speed_cmd |
+| 3248 | 24 | OVERRIDE_DEPTH_CMD | state, depth_cmd |
+| 3272 | 24 | OVERRIDE_HAVEN_X | state, haven_x |
+| 3296 | 24 | OVERRIDE_HAVEN_Y | state, haven_y |
+| 3320 | 17 | OVERRIDE_PERISCOPE_RAISED | state, periscope_raised |
+| 3344 | 64 | OVERRIDE_ANNOUNCEMENT | state, announcement |
+| 3408 | 17 | OVERRIDE_GENERAL_ALARM | state, general_alarm |
+| 3432 | 24 | OVERRIDE_WATCH | state, watch |
+| 3456 | 24 | OVERRIDE_SHAFT | state, shaft |
+| 3480 | 24 | OVERRIDE_COURSE | state, course |
+| 3504 | 24 | OVERRIDE_BALLAST | state, ballast |
+| 3528 | 24 | OVERRIDE_PLANES | state, planes |
+| 3552 | 17 | OVERRIDE_MBT_BLOWN | state, mbt_blown |
+| 3576 | 24 | OVERRIDE_VENT_FLOW | state, vent_flow |
+| 3600 | 24 | OVERRIDE_POS_X | state, pos_x |
+| 3624 | 24 | OVERRIDE_POS_Y | state, pos_y |
+| 3648 | 24 | OVERRIDE_HEADING | state, heading |
+| 3672 | 24 | OVERRIDE_SPEED | state, speed |
+| 3696 | 24 | OVERRIDE_DEPTH | state, depth |
+| 3720 | 24 | OVERRIDE_DEPTH_GAUGE | state, depth_gauge |
+| 3744 | 24 | OVERRIDE_BUBBLE | state, bubble |
+| 3768 | 24 | OVERRIDE_RUDDER_ANGLE | state, rudder_angle |
+| 3792 | 17 | OVERRIDE_RUDDER_JAMMED | state, rudder_jammed |
+| 3816 | 24 | OVERRIDE_SONAR_00 | state, sonar_00 |
+| 3840 | 24 | OVERRIDE_SONAR_01 | state, sonar_01 |
+| 3864 | 24 | OVERRIDE_SONAR_02 | state, sonar_02 |
+| 3888 | 24 | OVERRIDE_SONAR_03 | state, sonar_03 |
+| 3912 | 24 | OVERRIDE_SONAR_04 | state, sonar_04 |
+| 3936 | 24 | OVERRIDE_SONAR_05 | state, sonar_05 |
+| 3960 | 24 | OVERRIDE_SONAR_06 | state, sonar_06 |
+| 3984 | 24 | OVERRIDE_SONAR_07 | state, sonar_07 |
+| 4008 | 24 | OVERRIDE_SONAR_08 | state, sonar_08 |
+| 4032 | 24 | OVERRIDE_SONAR_09 | state, sonar_09 |
+| 4056 | 24 | OVERRIDE_SONAR_10 | state, sonar_10 |
+| 4080 | 24 | OVERRIDE_SONAR_11 | state, sonar_11 |
+| 4104 | 24 | OVERRIDE_SONAR_12 | state, sonar_12 |
+| 4128 | 24 | OVERRIDE_SONAR_13 | state, sonar_13 |
+| 4152 | 24 | OVERRIDE_CLEARANCE | state, clearance |
+| 4176 | 24 | OVERRIDE_MIN_CLEARANCE | state, min_clearance |
+| 4200 | 24 | OVERRIDE_CONTACT_RANGE | state, contact_range |
+| 4224 | 24 | OVERRIDE_CONTACT_BEARING | state, contact_bearing |
+| 4248 | 24 | OVERRIDE_WATER_DENSITY | state, water_density |
+| 4272 | 24 | OVERRIDE_BOTTOM_DEPTH | state, bottom_depth |
+| 4296 | 24 | OVERRIDE_BELOW_KEEL | state, below_keel |
+| 4320 | 24 | OVERRIDE_MIN_BELOW_KEEL | state, min_below_keel |
+| 4344 | 17 | OVERRIDE_FIRE | state, fire |
+| 4368 | 24 | OVERRIDE_SMOKE | state, smoke |
+| 4392 | 24 | OVERRIDE_O2_PCT | state, o2_pct |
+| 4416 | 24 | OVERRIDE_CO2_PCT | state, co2_pct |
+| 4440 | 24 | OVERRIDE_VENT_LINEUP | state, vent_lineup |
+| 4464 | 17 | OVERRIDE_DIESEL_RUNNING | state, diesel_running |
+| 4488 | 24 | OVERRIDE_CO_PPM | state, co_ppm |
+| 4512 | 24 | OVERRIDE_CO_PPM_FWD | state, co_ppm_fwd |
+| 4536 | 17 | OVERRIDE_FORWARD_NORMAL | state, forward_normal |
+| 4560 | 17 | OVERRIDE_ENGINE_ROOM_CONTAMINATED | state, engine_room_contaminated |
+| 4584 | 24 | OVERRIDE_LUBE_OIL_PSI | state, lube_oil_psi |
+| 4608 | 24 | OVERRIDE_LUBE_OIL_TEMP | state, lube_oil_temp |
+| 4632 | 17 | OVERRIDE_PUMPS_FIRE | state, pumps_fire |
+| 4656 | 17 | OVERRIDE_LUBE_OIL_LOW | state, lube_oil_low |
+| 4680 | 104 | TIME_CC | state, since, NOP, S0, S1, TRANSIT, SHIFTING, PREP_VENT, FIRE_REPORT, LINE_UP, VENT, RESUMING |
+| 4784 | 112 | TIME_SM | state, since, NOP, S0, S1, DEPTH_ASKED, WITHDRAWING, SURFACING, OOD_FAILED, BAFFLES, SLOWING, PROP_FAILED, HELM_FAILED |
+| 4896 | 48 | TIME_EC | state, since, NOP, S0, S1 |
+| 4944 | 72 | TIME_HELM | state, since, NOP, S0, S1, S2, CENTRING, CONTACT |
+| 5016 | 72 | TIME_RUDDER | state, since, NOP, S0, S1, PLUS, MINUS, STOPPING |
+| 5088 | 56 | TIME_PROP | state, since, NOP, S0, S1, ASKED |
+| 5144 | 40 | TIME_RUDDER_SIM | state, since, NOP, S0 |
+| 5184 | 40 | TIME_SHIP | state, since, NOP, S0 |
+| 5224 | 40 | TIME_SONAR | state, since, NOP, S0 |
+| 5264 | 40 | TIME_SEA | state, since, NOP, S0 |
+| 5304 | 40 | TIME_CREW | state, since, NOP, S0 |
+| 5344 | 40 | TIME_ATMOSPHERE | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -234,9 +247,9 @@ from .rcs.contract import (
 
 SYSTEM = "submarine"
 SOURCE = "submarine/system.yaml"
-SIZE = 5064
+SIZE = 5384
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "da49cdabdd0ca63f5b59b41242a8c577"
+LAYOUT_HASH = "329eddd1d5b5d078d7d78f2334e77407"
 PROCESS_SHIP_AT = 80
 PACE_SHIP_AT = 248
 
@@ -318,12 +331,19 @@ SEA_STATUS_AT = 1888
 SEA_MODE_AT = 1920
 SEA_PERF_AT = 1936
 
+# crew: The crew at its watch or battle stations (simulated)
+CREW_COMMAND = Struct("<QQI")  # seq, command_num, command
+CREW_COMMAND_AT = 1984
+CREW_STATUS_AT = 2008
+CREW_MODE_AT = 2040
+CREW_PERF_AT = 2056
+
 # atmosphere: Engine-room atmosphere and fire (simulated)
 ATMOSPHERE_COMMAND = Struct("<QQI")  # seq, command_num, command
-ATMOSPHERE_COMMAND_AT = 1984
-ATMOSPHERE_STATUS_AT = 2008
-ATMOSPHERE_MODE_AT = 2040
-ATMOSPHERE_PERF_AT = 2056
+ATMOSPHERE_COMMAND_AT = 2104
+ATMOSPHERE_STATUS_AT = 2128
+ATMOSPHERE_MODE_AT = 2160
+ATMOSPHERE_PERF_AT = 2176
 
 # eoow: Engineering Officer of the Watch (EOOW watchstation) (an operator module: a channel per client)
 EOOW_MODE_AT = 1104
@@ -349,115 +369,123 @@ OOD_SM_ANSWER_AT = 1472
 
 # World model.
 WORLD_SPEED_CMD = Struct("<Qd")  # seq, speed_cmd
-WORLD_SPEED_CMD_AT = 2104
+WORLD_SPEED_CMD_AT = 2224
 WORLD_DEPTH_CMD = Struct("<Qd")  # seq, depth_cmd
-WORLD_DEPTH_CMD_AT = 2120
+WORLD_DEPTH_CMD_AT = 2240
 WORLD_HAVEN_X = Struct("<Qd")  # seq, haven_x
-WORLD_HAVEN_X_AT = 2136
+WORLD_HAVEN_X_AT = 2256
 WORLD_HAVEN_Y = Struct("<Qd")  # seq, haven_y
-WORLD_HAVEN_Y_AT = 2152
+WORLD_HAVEN_Y_AT = 2272
 WORLD_PERISCOPE_RAISED = Struct("<Q?")  # seq, periscope_raised
-WORLD_PERISCOPE_RAISED_AT = 2168
+WORLD_PERISCOPE_RAISED_AT = 2288
 WORLD_ANNOUNCEMENT = Struct("<Q48s")  # seq, announcement
-WORLD_ANNOUNCEMENT_AT = 2184
+WORLD_ANNOUNCEMENT_AT = 2304
+WORLD_GENERAL_ALARM = Struct("<Q?")  # seq, general_alarm
+WORLD_GENERAL_ALARM_AT = 2360
+WORLD_WATCH = Struct("<Qq")  # seq, watch
+WORLD_WATCH_AT = 2376
 WORLD_SHAFT = Struct("<Qq")  # seq, shaft
-WORLD_SHAFT_AT = 2240
+WORLD_SHAFT_AT = 2392
 WORLD_COURSE = Struct("<Qd")  # seq, course
-WORLD_COURSE_AT = 2256
+WORLD_COURSE_AT = 2408
 WORLD_BALLAST = Struct("<Qd")  # seq, ballast
-WORLD_BALLAST_AT = 2272
+WORLD_BALLAST_AT = 2424
 WORLD_PLANES = Struct("<Qq")  # seq, planes
-WORLD_PLANES_AT = 2288
+WORLD_PLANES_AT = 2440
 WORLD_MBT_BLOWN = Struct("<Q?")  # seq, mbt_blown
-WORLD_MBT_BLOWN_AT = 2304
+WORLD_MBT_BLOWN_AT = 2456
 WORLD_VENT_FLOW = Struct("<Qd")  # seq, vent_flow
-WORLD_VENT_FLOW_AT = 2320
+WORLD_VENT_FLOW_AT = 2472
 WORLD_POS_X = Struct("<Qd")  # seq, pos_x
-WORLD_POS_X_AT = 2336
+WORLD_POS_X_AT = 2488
 WORLD_POS_Y = Struct("<Qd")  # seq, pos_y
-WORLD_POS_Y_AT = 2352
+WORLD_POS_Y_AT = 2504
 WORLD_HEADING = Struct("<Qd")  # seq, heading
-WORLD_HEADING_AT = 2368
+WORLD_HEADING_AT = 2520
 WORLD_SPEED = Struct("<Qd")  # seq, speed
-WORLD_SPEED_AT = 2384
+WORLD_SPEED_AT = 2536
 WORLD_DEPTH = Struct("<Qd")  # seq, depth
-WORLD_DEPTH_AT = 2400
+WORLD_DEPTH_AT = 2552
 WORLD_DEPTH_GAUGE = Struct("<Qd")  # seq, depth_gauge
-WORLD_DEPTH_GAUGE_AT = 2416
+WORLD_DEPTH_GAUGE_AT = 2568
 WORLD_BUBBLE = Struct("<Qd")  # seq, bubble
-WORLD_BUBBLE_AT = 2432
+WORLD_BUBBLE_AT = 2584
 WORLD_RUDDER_ANGLE = Struct("<Qd")  # seq, rudder_angle
-WORLD_RUDDER_ANGLE_AT = 2448
+WORLD_RUDDER_ANGLE_AT = 2600
 WORLD_RUDDER_JAMMED = Struct("<Q?")  # seq, rudder_jammed
-WORLD_RUDDER_JAMMED_AT = 2464
+WORLD_RUDDER_JAMMED_AT = 2616
 WORLD_SONAR_00 = Struct("<Qd")  # seq, sonar_00
-WORLD_SONAR_00_AT = 2480
+WORLD_SONAR_00_AT = 2632
 WORLD_SONAR_01 = Struct("<Qd")  # seq, sonar_01
-WORLD_SONAR_01_AT = 2496
+WORLD_SONAR_01_AT = 2648
 WORLD_SONAR_02 = Struct("<Qd")  # seq, sonar_02
-WORLD_SONAR_02_AT = 2512
+WORLD_SONAR_02_AT = 2664
 WORLD_SONAR_03 = Struct("<Qd")  # seq, sonar_03
-WORLD_SONAR_03_AT = 2528
+WORLD_SONAR_03_AT = 2680
 WORLD_SONAR_04 = Struct("<Qd")  # seq, sonar_04
-WORLD_SONAR_04_AT = 2544
+WORLD_SONAR_04_AT = 2696
 WORLD_SONAR_05 = Struct("<Qd")  # seq, sonar_05
-WORLD_SONAR_05_AT = 2560
+WORLD_SONAR_05_AT = 2712
 WORLD_SONAR_06 = Struct("<Qd")  # seq, sonar_06
-WORLD_SONAR_06_AT = 2576
+WORLD_SONAR_06_AT = 2728
 WORLD_SONAR_07 = Struct("<Qd")  # seq, sonar_07
-WORLD_SONAR_07_AT = 2592
+WORLD_SONAR_07_AT = 2744
 WORLD_SONAR_08 = Struct("<Qd")  # seq, sonar_08
-WORLD_SONAR_08_AT = 2608
+WORLD_SONAR_08_AT = 2760
 WORLD_SONAR_09 = Struct("<Qd")  # seq, sonar_09
-WORLD_SONAR_09_AT = 2624
+WORLD_SONAR_09_AT = 2776
 WORLD_SONAR_10 = Struct("<Qd")  # seq, sonar_10
-WORLD_SONAR_10_AT = 2640
+WORLD_SONAR_10_AT = 2792
 WORLD_SONAR_11 = Struct("<Qd")  # seq, sonar_11
-WORLD_SONAR_11_AT = 2656
+WORLD_SONAR_11_AT = 2808
 WORLD_SONAR_12 = Struct("<Qd")  # seq, sonar_12
-WORLD_SONAR_12_AT = 2672
+WORLD_SONAR_12_AT = 2824
 WORLD_SONAR_13 = Struct("<Qd")  # seq, sonar_13
-WORLD_SONAR_13_AT = 2688
+WORLD_SONAR_13_AT = 2840
 WORLD_CLEARANCE = Struct("<Qd")  # seq, clearance
-WORLD_CLEARANCE_AT = 2704
+WORLD_CLEARANCE_AT = 2856
 WORLD_MIN_CLEARANCE = Struct("<Qd")  # seq, min_clearance
-WORLD_MIN_CLEARANCE_AT = 2720
+WORLD_MIN_CLEARANCE_AT = 2872
 WORLD_CONTACT_RANGE = Struct("<Qd")  # seq, contact_range
-WORLD_CONTACT_RANGE_AT = 2736
+WORLD_CONTACT_RANGE_AT = 2888
 WORLD_CONTACT_BEARING = Struct("<Qd")  # seq, contact_bearing
-WORLD_CONTACT_BEARING_AT = 2752
+WORLD_CONTACT_BEARING_AT = 2904
 WORLD_WATER_DENSITY = Struct("<Qd")  # seq, water_density
-WORLD_WATER_DENSITY_AT = 2768
+WORLD_WATER_DENSITY_AT = 2920
 WORLD_BOTTOM_DEPTH = Struct("<Qd")  # seq, bottom_depth
-WORLD_BOTTOM_DEPTH_AT = 2784
+WORLD_BOTTOM_DEPTH_AT = 2936
 WORLD_BELOW_KEEL = Struct("<Qd")  # seq, below_keel
-WORLD_BELOW_KEEL_AT = 2800
+WORLD_BELOW_KEEL_AT = 2952
 WORLD_MIN_BELOW_KEEL = Struct("<Qd")  # seq, min_below_keel
-WORLD_MIN_BELOW_KEEL_AT = 2816
+WORLD_MIN_BELOW_KEEL_AT = 2968
 WORLD_FIRE = Struct("<Q?")  # seq, fire
-WORLD_FIRE_AT = 2832
+WORLD_FIRE_AT = 2984
 WORLD_SMOKE = Struct("<Qd")  # seq, smoke
-WORLD_SMOKE_AT = 2848
+WORLD_SMOKE_AT = 3000
 WORLD_O2_PCT = Struct("<Qd")  # seq, o2_pct
-WORLD_O2_PCT_AT = 2864
+WORLD_O2_PCT_AT = 3016
 WORLD_CO2_PCT = Struct("<Qd")  # seq, co2_pct
-WORLD_CO2_PCT_AT = 2880
+WORLD_CO2_PCT_AT = 3032
 WORLD_VENT_LINEUP = Struct("<Qq")  # seq, vent_lineup
-WORLD_VENT_LINEUP_AT = 2896
+WORLD_VENT_LINEUP_AT = 3048
 WORLD_DIESEL_RUNNING = Struct("<Q?")  # seq, diesel_running
-WORLD_DIESEL_RUNNING_AT = 2912
+WORLD_DIESEL_RUNNING_AT = 3064
 WORLD_CO_PPM = Struct("<Qd")  # seq, co_ppm
-WORLD_CO_PPM_AT = 2928
+WORLD_CO_PPM_AT = 3080
 WORLD_CO_PPM_FWD = Struct("<Qd")  # seq, co_ppm_fwd
-WORLD_CO_PPM_FWD_AT = 2944
+WORLD_CO_PPM_FWD_AT = 3096
 WORLD_FORWARD_NORMAL = Struct("<Q?")  # seq, forward_normal
-WORLD_FORWARD_NORMAL_AT = 2960
+WORLD_FORWARD_NORMAL_AT = 3112
 WORLD_ENGINE_ROOM_CONTAMINATED = Struct("<Q?")  # seq, engine_room_contaminated
-WORLD_ENGINE_ROOM_CONTAMINATED_AT = 2976
+WORLD_ENGINE_ROOM_CONTAMINATED_AT = 3128
 WORLD_LUBE_OIL_PSI = Struct("<Qd")  # seq, lube_oil_psi
-WORLD_LUBE_OIL_PSI_AT = 2992
+WORLD_LUBE_OIL_PSI_AT = 3144
+WORLD_LUBE_OIL_TEMP = Struct("<Qd")  # seq, lube_oil_temp
+WORLD_LUBE_OIL_TEMP_AT = 3160
+WORLD_PUMPS_FIRE = Struct("<Q?")  # seq, pumps_fire
+WORLD_PUMPS_FIRE_AT = 3176
 WORLD_LUBE_OIL_LOW = Struct("<Q?")  # seq, lube_oil_low
-WORLD_LUBE_OIL_LOW_AT = 3008
+WORLD_LUBE_OIL_LOW_AT = 3192
 
 
 PROCESSES = {
@@ -484,6 +512,7 @@ PLACEMENT = {
     "ship": "ship",
     "sonar": "ship",
     "sea": "ship",
+    "crew": "ship",
     "atmosphere": "ship",
 }
 # Seconds without a heartbeat after which a process is reported dead.
@@ -504,6 +533,7 @@ SUBORDINATES = {
     "ship": (),
     "sonar": (),
     "sea": (),
+    "crew": (),
     "atmosphere": (),
 }
 # The subordinates whose loss a supervisor's own rules handle (`on_lost: continue`); every
@@ -525,6 +555,7 @@ MODULES = (
     "ship",
     "sonar",
     "sea",
+    "crew",
     "atmosphere",
 )
 COMMAND_IN = {
@@ -542,6 +573,7 @@ COMMAND_IN = {
     "ship": Record(SHIP_COMMAND, SHIP_COMMAND_AT, ("command_num", "command")),
     "sonar": Record(SONAR_COMMAND, SONAR_COMMAND_AT, ("command_num", "command")),
     "sea": Record(SEA_COMMAND, SEA_COMMAND_AT, ("command_num", "command")),
+    "crew": Record(CREW_COMMAND, CREW_COMMAND_AT, ("command_num", "command")),
     "atmosphere": Record(ATMOSPHERE_COMMAND, ATMOSPHERE_COMMAND_AT, ("command_num", "command")),
     "eoow/cc": Record(EOOW_CC_COMMAND, EOOW_CC_COMMAND_AT, ("command_num", "command")),
     "eoow/prop": Record(EOOW_PROP_COMMAND, EOOW_PROP_COMMAND_AT, ("command_num", "command")),
@@ -582,6 +614,7 @@ STATUS_OUT = {
     "ship": Record(STATUS, SHIP_STATUS_AT, field_names(STATUS_FIELDS)),
     "sonar": Record(STATUS, SONAR_STATUS_AT, field_names(STATUS_FIELDS)),
     "sea": Record(STATUS, SEA_STATUS_AT, field_names(STATUS_FIELDS)),
+    "crew": Record(STATUS, CREW_STATUS_AT, field_names(STATUS_FIELDS)),
     "atmosphere": Record(STATUS, ATMOSPHERE_STATUS_AT, field_names(STATUS_FIELDS)),
     "eoow/cc": Record(STATUS, EOOW_CC_STATUS_AT, field_names(STATUS_FIELDS)),
     "eoow/prop": Record(STATUS, EOOW_PROP_STATUS_AT, field_names(STATUS_FIELDS)),
@@ -602,6 +635,7 @@ MODE_IN = {
     "ship": Record(MODE, SHIP_MODE_AT, field_names(MODE_FIELDS)),
     "sonar": Record(MODE, SONAR_MODE_AT, field_names(MODE_FIELDS)),
     "sea": Record(MODE, SEA_MODE_AT, field_names(MODE_FIELDS)),
+    "crew": Record(MODE, CREW_MODE_AT, field_names(MODE_FIELDS)),
     "atmosphere": Record(MODE, ATMOSPHERE_MODE_AT, field_names(MODE_FIELDS)),
     "eoow": Record(MODE, EOOW_MODE_AT, field_names(MODE_FIELDS)),
     "eoow/cc": Record(MODE, EOOW_MODE_AT, field_names(MODE_FIELDS)),
@@ -620,6 +654,7 @@ PERFORMANCE = {
     "ship": Record(PERF, SHIP_PERF_AT, field_names(PERF_FIELDS)),
     "sonar": Record(PERF, SONAR_PERF_AT, field_names(PERF_FIELDS)),
     "sea": Record(PERF, SEA_PERF_AT, field_names(PERF_FIELDS)),
+    "crew": Record(PERF, CREW_PERF_AT, field_names(PERF_FIELDS)),
     "atmosphere": Record(PERF, ATMOSPHERE_PERF_AT, field_names(PERF_FIELDS)),
     "eoow": Record(PERF, EOOW_PERF_AT, field_names(PERF_FIELDS)),
     "eoow/cc": Record(PERF, EOOW_PERF_AT, field_names(PERF_FIELDS)),
@@ -636,6 +671,8 @@ WORLD = {
         WORLD_PERISCOPE_RAISED, WORLD_PERISCOPE_RAISED_AT, ("periscope_raised",)
     ),
     "announcement": Record(WORLD_ANNOUNCEMENT, WORLD_ANNOUNCEMENT_AT, ("announcement",)),
+    "general_alarm": Record(WORLD_GENERAL_ALARM, WORLD_GENERAL_ALARM_AT, ("general_alarm",)),
+    "watch": Record(WORLD_WATCH, WORLD_WATCH_AT, ("watch",)),
     "shaft": Record(WORLD_SHAFT, WORLD_SHAFT_AT, ("shaft",)),
     "course": Record(WORLD_COURSE, WORLD_COURSE_AT, ("course",)),
     "ballast": Record(WORLD_BALLAST, WORLD_BALLAST_AT, ("ballast",)),
@@ -690,6 +727,8 @@ WORLD = {
         ("engine_room_contaminated",),
     ),
     "lube_oil_psi": Record(WORLD_LUBE_OIL_PSI, WORLD_LUBE_OIL_PSI_AT, ("lube_oil_psi",)),
+    "lube_oil_temp": Record(WORLD_LUBE_OIL_TEMP, WORLD_LUBE_OIL_TEMP_AT, ("lube_oil_temp",)),
+    "pumps_fire": Record(WORLD_PUMPS_FIRE, WORLD_PUMPS_FIRE_AT, ("pumps_fire",)),
     "lube_oil_low": Record(WORLD_LUBE_OIL_LOW, WORLD_LUBE_OIL_LOW_AT, ("lube_oil_low",)),
 }
 WORLD_INITIAL: dict[str, object] = {
@@ -699,6 +738,8 @@ WORLD_INITIAL: dict[str, object] = {
     "haven_y": 0.0,
     "periscope_raised": False,
     "announcement": "",
+    "general_alarm": False,
+    "watch": 0,
     "shaft": 0,
     "course": 0.0,
     "ballast": 0.0,
@@ -747,70 +788,76 @@ WORLD_INITIAL: dict[str, object] = {
     "forward_normal": True,
     "engine_room_contaminated": False,
     "lube_oil_psi": 60.0,
+    "lube_oil_temp": 50.0,
+    "pumps_fire": False,
     "lube_oil_low": False,
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 3024
-OVERRIDDEN_AT = 3032  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 3208
+OVERRIDDEN_AT = 3216  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "speed_cmd": Record(Struct("<QQd"), 3040, ("state", "speed_cmd")),
-    "depth_cmd": Record(Struct("<QQd"), 3064, ("state", "depth_cmd")),
-    "haven_x": Record(Struct("<QQd"), 3088, ("state", "haven_x")),
-    "haven_y": Record(Struct("<QQd"), 3112, ("state", "haven_y")),
-    "periscope_raised": Record(Struct("<QQ?"), 3136, ("state", "periscope_raised")),
-    "announcement": Record(Struct("<QQ48s"), 3160, ("state", "announcement")),
-    "shaft": Record(Struct("<QQq"), 3224, ("state", "shaft")),
-    "course": Record(Struct("<QQd"), 3248, ("state", "course")),
-    "ballast": Record(Struct("<QQd"), 3272, ("state", "ballast")),
-    "planes": Record(Struct("<QQq"), 3296, ("state", "planes")),
-    "mbt_blown": Record(Struct("<QQ?"), 3320, ("state", "mbt_blown")),
-    "vent_flow": Record(Struct("<QQd"), 3344, ("state", "vent_flow")),
-    "pos_x": Record(Struct("<QQd"), 3368, ("state", "pos_x")),
-    "pos_y": Record(Struct("<QQd"), 3392, ("state", "pos_y")),
-    "heading": Record(Struct("<QQd"), 3416, ("state", "heading")),
-    "speed": Record(Struct("<QQd"), 3440, ("state", "speed")),
-    "depth": Record(Struct("<QQd"), 3464, ("state", "depth")),
-    "depth_gauge": Record(Struct("<QQd"), 3488, ("state", "depth_gauge")),
-    "bubble": Record(Struct("<QQd"), 3512, ("state", "bubble")),
-    "rudder_angle": Record(Struct("<QQd"), 3536, ("state", "rudder_angle")),
-    "rudder_jammed": Record(Struct("<QQ?"), 3560, ("state", "rudder_jammed")),
-    "sonar_00": Record(Struct("<QQd"), 3584, ("state", "sonar_00")),
-    "sonar_01": Record(Struct("<QQd"), 3608, ("state", "sonar_01")),
-    "sonar_02": Record(Struct("<QQd"), 3632, ("state", "sonar_02")),
-    "sonar_03": Record(Struct("<QQd"), 3656, ("state", "sonar_03")),
-    "sonar_04": Record(Struct("<QQd"), 3680, ("state", "sonar_04")),
-    "sonar_05": Record(Struct("<QQd"), 3704, ("state", "sonar_05")),
-    "sonar_06": Record(Struct("<QQd"), 3728, ("state", "sonar_06")),
-    "sonar_07": Record(Struct("<QQd"), 3752, ("state", "sonar_07")),
-    "sonar_08": Record(Struct("<QQd"), 3776, ("state", "sonar_08")),
-    "sonar_09": Record(Struct("<QQd"), 3800, ("state", "sonar_09")),
-    "sonar_10": Record(Struct("<QQd"), 3824, ("state", "sonar_10")),
-    "sonar_11": Record(Struct("<QQd"), 3848, ("state", "sonar_11")),
-    "sonar_12": Record(Struct("<QQd"), 3872, ("state", "sonar_12")),
-    "sonar_13": Record(Struct("<QQd"), 3896, ("state", "sonar_13")),
-    "clearance": Record(Struct("<QQd"), 3920, ("state", "clearance")),
-    "min_clearance": Record(Struct("<QQd"), 3944, ("state", "min_clearance")),
-    "contact_range": Record(Struct("<QQd"), 3968, ("state", "contact_range")),
-    "contact_bearing": Record(Struct("<QQd"), 3992, ("state", "contact_bearing")),
-    "water_density": Record(Struct("<QQd"), 4016, ("state", "water_density")),
-    "bottom_depth": Record(Struct("<QQd"), 4040, ("state", "bottom_depth")),
-    "below_keel": Record(Struct("<QQd"), 4064, ("state", "below_keel")),
-    "min_below_keel": Record(Struct("<QQd"), 4088, ("state", "min_below_keel")),
-    "fire": Record(Struct("<QQ?"), 4112, ("state", "fire")),
-    "smoke": Record(Struct("<QQd"), 4136, ("state", "smoke")),
-    "o2_pct": Record(Struct("<QQd"), 4160, ("state", "o2_pct")),
-    "co2_pct": Record(Struct("<QQd"), 4184, ("state", "co2_pct")),
-    "vent_lineup": Record(Struct("<QQq"), 4208, ("state", "vent_lineup")),
-    "diesel_running": Record(Struct("<QQ?"), 4232, ("state", "diesel_running")),
-    "co_ppm": Record(Struct("<QQd"), 4256, ("state", "co_ppm")),
-    "co_ppm_fwd": Record(Struct("<QQd"), 4280, ("state", "co_ppm_fwd")),
-    "forward_normal": Record(Struct("<QQ?"), 4304, ("state", "forward_normal")),
-    "engine_room_contaminated": Record(Struct("<QQ?"), 4328, ("state", "engine_room_contaminated")),
-    "lube_oil_psi": Record(Struct("<QQd"), 4352, ("state", "lube_oil_psi")),
-    "lube_oil_low": Record(Struct("<QQ?"), 4376, ("state", "lube_oil_low")),
+    "speed_cmd": Record(Struct("<QQd"), 3224, ("state", "speed_cmd")),
+    "depth_cmd": Record(Struct("<QQd"), 3248, ("state", "depth_cmd")),
+    "haven_x": Record(Struct("<QQd"), 3272, ("state", "haven_x")),
+    "haven_y": Record(Struct("<QQd"), 3296, ("state", "haven_y")),
+    "periscope_raised": Record(Struct("<QQ?"), 3320, ("state", "periscope_raised")),
+    "announcement": Record(Struct("<QQ48s"), 3344, ("state", "announcement")),
+    "general_alarm": Record(Struct("<QQ?"), 3408, ("state", "general_alarm")),
+    "watch": Record(Struct("<QQq"), 3432, ("state", "watch")),
+    "shaft": Record(Struct("<QQq"), 3456, ("state", "shaft")),
+    "course": Record(Struct("<QQd"), 3480, ("state", "course")),
+    "ballast": Record(Struct("<QQd"), 3504, ("state", "ballast")),
+    "planes": Record(Struct("<QQq"), 3528, ("state", "planes")),
+    "mbt_blown": Record(Struct("<QQ?"), 3552, ("state", "mbt_blown")),
+    "vent_flow": Record(Struct("<QQd"), 3576, ("state", "vent_flow")),
+    "pos_x": Record(Struct("<QQd"), 3600, ("state", "pos_x")),
+    "pos_y": Record(Struct("<QQd"), 3624, ("state", "pos_y")),
+    "heading": Record(Struct("<QQd"), 3648, ("state", "heading")),
+    "speed": Record(Struct("<QQd"), 3672, ("state", "speed")),
+    "depth": Record(Struct("<QQd"), 3696, ("state", "depth")),
+    "depth_gauge": Record(Struct("<QQd"), 3720, ("state", "depth_gauge")),
+    "bubble": Record(Struct("<QQd"), 3744, ("state", "bubble")),
+    "rudder_angle": Record(Struct("<QQd"), 3768, ("state", "rudder_angle")),
+    "rudder_jammed": Record(Struct("<QQ?"), 3792, ("state", "rudder_jammed")),
+    "sonar_00": Record(Struct("<QQd"), 3816, ("state", "sonar_00")),
+    "sonar_01": Record(Struct("<QQd"), 3840, ("state", "sonar_01")),
+    "sonar_02": Record(Struct("<QQd"), 3864, ("state", "sonar_02")),
+    "sonar_03": Record(Struct("<QQd"), 3888, ("state", "sonar_03")),
+    "sonar_04": Record(Struct("<QQd"), 3912, ("state", "sonar_04")),
+    "sonar_05": Record(Struct("<QQd"), 3936, ("state", "sonar_05")),
+    "sonar_06": Record(Struct("<QQd"), 3960, ("state", "sonar_06")),
+    "sonar_07": Record(Struct("<QQd"), 3984, ("state", "sonar_07")),
+    "sonar_08": Record(Struct("<QQd"), 4008, ("state", "sonar_08")),
+    "sonar_09": Record(Struct("<QQd"), 4032, ("state", "sonar_09")),
+    "sonar_10": Record(Struct("<QQd"), 4056, ("state", "sonar_10")),
+    "sonar_11": Record(Struct("<QQd"), 4080, ("state", "sonar_11")),
+    "sonar_12": Record(Struct("<QQd"), 4104, ("state", "sonar_12")),
+    "sonar_13": Record(Struct("<QQd"), 4128, ("state", "sonar_13")),
+    "clearance": Record(Struct("<QQd"), 4152, ("state", "clearance")),
+    "min_clearance": Record(Struct("<QQd"), 4176, ("state", "min_clearance")),
+    "contact_range": Record(Struct("<QQd"), 4200, ("state", "contact_range")),
+    "contact_bearing": Record(Struct("<QQd"), 4224, ("state", "contact_bearing")),
+    "water_density": Record(Struct("<QQd"), 4248, ("state", "water_density")),
+    "bottom_depth": Record(Struct("<QQd"), 4272, ("state", "bottom_depth")),
+    "below_keel": Record(Struct("<QQd"), 4296, ("state", "below_keel")),
+    "min_below_keel": Record(Struct("<QQd"), 4320, ("state", "min_below_keel")),
+    "fire": Record(Struct("<QQ?"), 4344, ("state", "fire")),
+    "smoke": Record(Struct("<QQd"), 4368, ("state", "smoke")),
+    "o2_pct": Record(Struct("<QQd"), 4392, ("state", "o2_pct")),
+    "co2_pct": Record(Struct("<QQd"), 4416, ("state", "co2_pct")),
+    "vent_lineup": Record(Struct("<QQq"), 4440, ("state", "vent_lineup")),
+    "diesel_running": Record(Struct("<QQ?"), 4464, ("state", "diesel_running")),
+    "co_ppm": Record(Struct("<QQd"), 4488, ("state", "co_ppm")),
+    "co_ppm_fwd": Record(Struct("<QQd"), 4512, ("state", "co_ppm_fwd")),
+    "forward_normal": Record(Struct("<QQ?"), 4536, ("state", "forward_normal")),
+    "engine_room_contaminated": Record(Struct("<QQ?"), 4560, ("state", "engine_room_contaminated")),
+    "lube_oil_psi": Record(Struct("<QQd"), 4584, ("state", "lube_oil_psi")),
+    "lube_oil_temp": Record(Struct("<QQd"), 4608, ("state", "lube_oil_temp")),
+    "pumps_fire": Record(Struct("<QQ?"), 4632, ("state", "pumps_fire")),
+    "lube_oil_low": Record(Struct("<QQ?"), 4656, ("state", "lube_oil_low")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -822,6 +869,7 @@ ACTUATED_BY = {}
 ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
     ("ood", "result_choice"): ("PLANES", "MBT_BLOW"),
     ("ood/sm", "result_choice"): ("PLANES", "MBT_BLOW"),
+    ("", "watch"): ("SECTION", "BATTLE_STATIONS"),
     ("", "shaft"): ("TURBINE", "DISENGAGED", "EPM"),
     ("", "planes"): ("NORMAL", "FULL"),
     ("", "vent_lineup"): ("RECIRCULATION", "DIESEL_VENTILATION"),
@@ -835,6 +883,8 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "haven_y": ("sm",),
     "periscope_raised": ("sm",),
     "announcement": ("cc",),
+    "general_alarm": ("cc",),
+    "watch": ("crew",),
     "shaft": ("prop",),
     "course": ("helm",),
     "ballast": ("sm",),
@@ -881,6 +931,8 @@ WORLD_WRITERS: dict[str, tuple[str, ...]] = {
     "forward_normal": ("ec",),
     "engine_room_contaminated": ("ec",),
     "lube_oil_psi": ("atmosphere",),
+    "lube_oil_temp": ("atmosphere",),
+    "pumps_fire": ("prop",),
     "lube_oil_low": ("ec",),
 }
 # The fields that are the simulation's truth (`ground_truth: true`): no operator can force
@@ -901,7 +953,7 @@ GROUND_TRUTH = (
 TIME_IN_STATE = {
     "cc": Record(
         Struct("<QqQQQQQQQQQQQ"),
-        4400,
+        4680,
         (
             "state",
             "since",
@@ -919,7 +971,7 @@ TIME_IN_STATE = {
     ),
     "sm": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        4504,
+        4784,
         (
             "state",
             "since",
@@ -936,23 +988,24 @@ TIME_IN_STATE = {
             "HELM_FAILED",
         ),
     ),
-    "ec": Record(Struct("<QqQQQQ"), 4616, ("state", "since", "NOP", "S0", "S1")),
+    "ec": Record(Struct("<QqQQQQ"), 4896, ("state", "since", "NOP", "S0", "S1")),
     "helm": Record(
         Struct("<QqQQQQQQQ"),
-        4664,
+        4944,
         ("state", "since", "NOP", "S0", "S1", "S2", "CENTRING", "CONTACT"),
     ),
     "rudder": Record(
         Struct("<QqQQQQQQQ"),
-        4736,
+        5016,
         ("state", "since", "NOP", "S0", "S1", "PLUS", "MINUS", "STOPPING"),
     ),
-    "prop": Record(Struct("<QqQQQQQ"), 4808, ("state", "since", "NOP", "S0", "S1", "ASKED")),
-    "rudder_sim": Record(Struct("<QqQQQ"), 4864, ("state", "since", "NOP", "S0")),
-    "ship": Record(Struct("<QqQQQ"), 4904, ("state", "since", "NOP", "S0")),
-    "sonar": Record(Struct("<QqQQQ"), 4944, ("state", "since", "NOP", "S0")),
-    "sea": Record(Struct("<QqQQQ"), 4984, ("state", "since", "NOP", "S0")),
-    "atmosphere": Record(Struct("<QqQQQ"), 5024, ("state", "since", "NOP", "S0")),
+    "prop": Record(Struct("<QqQQQQQ"), 5088, ("state", "since", "NOP", "S0", "S1", "ASKED")),
+    "rudder_sim": Record(Struct("<QqQQQ"), 5144, ("state", "since", "NOP", "S0")),
+    "ship": Record(Struct("<QqQQQ"), 5184, ("state", "since", "NOP", "S0")),
+    "sonar": Record(Struct("<QqQQQ"), 5224, ("state", "since", "NOP", "S0")),
+    "sea": Record(Struct("<QqQQQ"), 5264, ("state", "since", "NOP", "S0")),
+    "crew": Record(Struct("<QqQQQ"), 5304, ("state", "since", "NOP", "S0")),
+    "atmosphere": Record(Struct("<QqQQQ"), 5344, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
@@ -979,6 +1032,7 @@ COMMAND_NAMES = {
     "ship": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sonar": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "sea": (NO_COMMAND_NAME, *("INIT", "HALT")),
+    "crew": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "atmosphere": (NO_COMMAND_NAME, *("INIT", "HALT")),
     "eoow/cc": (
         NO_COMMAND_NAME,
@@ -1042,6 +1096,7 @@ STATE_NAMES = {
     "ship": ("NOP", "S0"),
     "sonar": ("NOP", "S0"),
     "sea": ("NOP", "S0"),
+    "crew": ("NOP", "S0"),
     "atmosphere": ("NOP", "S0"),
     "eoow/cc": OPERATOR_STATES,
     "eoow/prop": OPERATOR_STATES,
@@ -1073,6 +1128,7 @@ CAUSE_MODULES = (
     "ship",
     "sonar",
     "sea",
+    "crew",
     "atmosphere",
 )
 # The rule each code of a status buffer's `rule` field names, indexed by code (0: none).
@@ -1221,12 +1277,13 @@ RULES = {
     "ship": ("", "INIT/S0/1", "HALT/S0/1"),
     "sonar": ("", "INIT/S0/1", "HALT/S0/1"),
     "sea": ("", "INIT/S0/1", "HALT/S0/1"),
+    "crew": ("", "INIT/S0/1", "HALT/S0/1"),
     "atmosphere": ("", "INIT/S0/1", "HALT/S0/1"),
     "eoow/cc": ("",),  # an operator module has no table
     "eoow/prop": ("",),  # an operator module has no table
     "ood/sm": ("",),  # an operator module has no table
 }
-SIMULATORS = ("rudder_sim", "ship", "sonar", "sea", "atmosphere")
+SIMULATORS = ("rudder_sim", "ship", "sonar", "sea", "crew", "atmosphere")
 # Operator roles (`operators.roles`): role -> module -> index in ACCESS_LEVELS, for each
 # module the role may do more than monitor. Empty: the system declares no access control.
 ROLES: dict[str, dict[str, int]] = {

@@ -12,6 +12,7 @@ from .layout import (
     PROP_PERF_AT,
     PROP_STATUS,
     PROP_STATUS_AT,
+    WORLD_PUMPS_FIRE_AT,
     WORLD_SHAFT_AT,
 )
 from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
@@ -42,13 +43,14 @@ EOOW_LINK = 7  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI52x???1xI224xQII952xq")
+INPUTS = Struct("<QI52x???1xI224xQII1104xq760xd8x?")
 INPUTS_AT = 984
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 PROP_STATUS_WORD = PROP_STATUS_AT >> 3
 EOOW_PROP_COMMAND_WORD = EOOW_PROP_COMMAND_AT >> 3
 WORLD_SHAFT_WORD = WORLD_SHAFT_AT >> 3
+WORLD_PUMPS_FIRE_WORD = WORLD_PUMPS_FIRE_AT >> 3
 PROP_PERF_WORD = PROP_PERF_AT >> 3
 
 # Adjacent world fields post_process writes back when a rule set them (each with its sequence
@@ -57,13 +59,24 @@ PROP_PERF_WORD = PROP_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Qq")
 WORLD_VALUES_1 = Struct("<8xq")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2240
+WORLD_OUT_1_AT = 2392
 WORLD_HELD_1 = (OVERRIDE["shaft"],)  # their overrides
+# Adjacent world fields post_process writes back when a rule set them (each with its sequence
+# word, stored odd on its own first and even again last), their values alone, their
+# sequence words alone, and their override records.
+WORLD_OUT_2 = Struct("<Q?")
+WORLD_VALUES_2 = Struct("<8x?")
+WORLD_SEQS_2 = Struct("<Q")
+WORLD_OUT_2_AT = 3176
+WORLD_HELD_2 = (OVERRIDE["pumps_fire"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
 ASKED = 3
+
+# Constants.
+PUMPS_HOT = 65.0
 
 # Enumeration values its tables name (a field holds its value's index).
 TURBINE = 0
@@ -88,7 +101,6 @@ class PropController:
         "eoow_status_num",
         "eoow_written",
         "error_num",
-        "inputs",
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
@@ -105,12 +117,16 @@ class PropController:
         "status_num",
         "status_seq",
         "words",
+        "world_lube_oil_temp",
+        "world_pumps_fire",
+        "world_set",
         "world_shaft",
     )
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.world_set = False  # an every_cycle rule set a world output
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -139,7 +155,6 @@ class PropController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
-        self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
         _, self.eoow_command_num, self.eoow_command = EOOW_PROP_COMMAND.unpack_from(
             buf, EOOW_PROP_COMMAND_AT
         )
@@ -163,105 +178,107 @@ class PropController:
         cycle_start = began or perf_counter_ns()
         buf = self.buf
         words = self.words
-        values = INPUTS.unpack_from(buf, INPUTS_AT)
-        # Idle with nothing new (NOP, no rule fired, nothing to write, the inputs as in the last
-        # cycle): nothing to copy in, decide or write; only the performance buffer below.
-        if (
-            values != self.inputs
-            or self.state != NOP
-            or self.rule
-            or self.status_dirty
-            or buf[OVERRIDDEN_AT]
+        (
+            self.command_num,
+            self.command,
+            self.dont_run,
+            self.single_step,
+            self.simulate,
+            self.single_step_num,
+            self.eoow_status_num,
+            self.eoow_status,
+            self.eoow_error_num,
+            self.world_shaft,
+            self.world_lube_oil_temp,
+            self.world_pumps_fire,
+        ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        if self.eoow_status_num != self.eoow_command_num:
+            self.eoow_status = EXECUTING  # until it echoes the last number sent
+            self.eoow_error_num = EOOW_REASON_NONE  # no reason yet
+        elif self.eoow_status != ERROR:
+            self.eoow_error_num = EOOW_REASON_NONE  # a reason comes only with ERROR
+
+        # 2. check_if_new_command: a command number unlike the echoed one is a new command
+        if self.command_num != self.status_num:
+            self.status_num = self.command_num
+            self.state = S0
+            self.status = EXECUTING
+            self.status_dirty = True
+            self.error_num = REASON_NONE  # no reason yet
+            self.cause = 0  # nor a cause
+
+        # 3. decision_process: run the command's state table, unless the mode holds it
+        if self.rule:  # the rule that fired last cycle is not news any more
+            self.rule = NO_RULE
+            self.status_dirty = True
+        # The mode holds the table: dont_run, or single_step until single_step_num changes.
+        if not self.dont_run and (
+            not self.single_step or self.single_step_num != self.perf_single_step_num
         ):
-            self.inputs = values
-            (
-                self.command_num,
-                self.command,
-                self.dont_run,
-                self.single_step,
-                self.simulate,
-                self.single_step_num,
-                self.eoow_status_num,
-                self.eoow_status,
-                self.eoow_error_num,
-                self.world_shaft,
-            ) = values
-            if self.eoow_status_num != self.eoow_command_num:
-                self.eoow_status = EXECUTING  # until it echoes the last number sent
-                self.eoow_error_num = EOOW_REASON_NONE  # no reason yet
-            elif self.eoow_status != ERROR:
-                self.eoow_error_num = EOOW_REASON_NONE  # a reason comes only with ERROR
+            if self.single_step:
+                self.perf_single_step_num = self.single_step_num  # this step is taken
+            self.every_cycle()
+            if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
+                command = self.command
+                if command == INIT:
+                    self.init()
+                elif command == HALT:
+                    self.halt()
+                elif command == SHIFT_TO_EPM:
+                    self.shift_to_epm()
+                elif command == SHIFT_TO_TURBINE:
+                    self.shift_to_turbine()
 
-            # 2. check_if_new_command: a command number unlike the echoed one is a new command
-            if self.command_num != self.status_num:
-                self.status_num = self.command_num
-                self.state = S0
-                self.status = EXECUTING
-                self.status_dirty = True
-                self.error_num = REASON_NONE  # no reason yet
-                self.cause = 0  # nor a cause
-
-            # 3. decision_process: run the command's state table, unless the mode holds it
-            if self.rule:  # the rule that fired last cycle is not news any more
-                self.rule = NO_RULE
-                self.status_dirty = True
-            # The mode holds the table: dont_run, or single_step until single_step_num changes.
-            if not self.dont_run and (
-                not self.single_step or self.single_step_num != self.perf_single_step_num
-            ):
-                if self.single_step:
-                    self.perf_single_step_num = self.single_step_num  # this step is taken
-                if self.state != NOP:  # idle (NOP) runs no table: none has a NOP row
-                    command = self.command
-                    if command == INIT:
-                        self.init()
-                    elif command == HALT:
-                        self.halt()
-                    elif command == SHIFT_TO_EPM:
-                        self.shift_to_epm()
-                    elif command == SHIFT_TO_TURBINE:
-                        self.shift_to_turbine()
-
-            # 4. post_process: write what changed, each buffer odd while it is written
-            if self.rule or self.status_dirty:
-                seq = self.status_seq + 1
-                words[PROP_STATUS_WORD] = seq  # odd before any field changes
-                PROP_STATUS.pack_into(
-                    buf,
-                    PROP_STATUS_AT,
-                    seq,
-                    self.status_num,
-                    self.status,
-                    self.error_num,
-                    self.state,
-                    self.rule,
-                    self.cause,
-                )
-                words[PROP_STATUS_WORD] = seq + 1
-                self.status_seq = seq + 1
-                self.status_dirty = False
-            if self.eoow_command_num != self.eoow_written:  # a command was sent
-                seq, number = EOOW_PROP_COMMAND.unpack_from(buf, EOOW_PROP_COMMAND_AT)[:2]
-                if number != self.eoow_written:  # an operator's command came meanwhile:
-                    self.eoow_command_num = number + 1  # number ours after it
-                seq |= 1  # odd while it is written
-                words[EOOW_PROP_COMMAND_WORD] = seq
-                EOOW_PROP_COMMAND.pack_into(
-                    buf, EOOW_PROP_COMMAND_AT, seq, self.eoow_command_num, self.eoow_command
-                )
-                words[EOOW_PROP_COMMAND_WORD] = seq + 1
-                self.eoow_written = self.eoow_command_num
-            # a rule fired (it may have set world outputs), or a field is forced or latched safe
-            if self.rule or buf[OVERRIDDEN_AT]:
-                out = (self.world_shaft,)
-                now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
-                if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
-                    out = held(buf, WORLD_HELD_1, out, now)
-                if now != out:  # set to a new value
-                    s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
-                    words[WORLD_SHAFT_WORD] = s[0] | 1  # odd before the value changes
-                    WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
-                    words[WORLD_SHAFT_WORD] = (s[0] | 1) + 1
+        # 4. post_process: write what changed, each buffer odd while it is written
+        if self.rule or self.status_dirty:
+            seq = self.status_seq + 1
+            words[PROP_STATUS_WORD] = seq  # odd before any field changes
+            PROP_STATUS.pack_into(
+                buf,
+                PROP_STATUS_AT,
+                seq,
+                self.status_num,
+                self.status,
+                self.error_num,
+                self.state,
+                self.rule,
+                self.cause,
+            )
+            words[PROP_STATUS_WORD] = seq + 1
+            self.status_seq = seq + 1
+            self.status_dirty = False
+        if self.eoow_command_num != self.eoow_written:  # a command was sent
+            seq, number = EOOW_PROP_COMMAND.unpack_from(buf, EOOW_PROP_COMMAND_AT)[:2]
+            if number != self.eoow_written:  # an operator's command came meanwhile:
+                self.eoow_command_num = number + 1  # number ours after it
+            seq |= 1  # odd while it is written
+            words[EOOW_PROP_COMMAND_WORD] = seq
+            EOOW_PROP_COMMAND.pack_into(
+                buf, EOOW_PROP_COMMAND_AT, seq, self.eoow_command_num, self.eoow_command
+            )
+            words[EOOW_PROP_COMMAND_WORD] = seq + 1
+            self.eoow_written = self.eoow_command_num
+        # a rule fired (it may have set world outputs), or a field is forced or latched safe
+        if self.rule or self.world_set or buf[OVERRIDDEN_AT]:
+            self.world_set = False
+            out = (self.world_shaft,)
+            now = WORLD_VALUES_1.unpack_from(buf, WORLD_OUT_1_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_1, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_1.unpack_from(buf, WORLD_OUT_1_AT)
+                words[WORLD_SHAFT_WORD] = s[0] | 1  # odd before the value changes
+                WORLD_OUT_1.pack_into(buf, WORLD_OUT_1_AT, s[0] | 1, out[0])
+                words[WORLD_SHAFT_WORD] = (s[0] | 1) + 1
+            out = (self.world_pumps_fire,)
+            now = WORLD_VALUES_2.unpack_from(buf, WORLD_OUT_2_AT)
+            if buf[OVERRIDDEN_AT]:  # a field forced or latched safe keeps the override's value
+                out = held(buf, WORLD_HELD_2, out, now)
+            if now != out:  # set to a new value
+                s = WORLD_SEQS_2.unpack_from(buf, WORLD_OUT_2_AT)
+                words[WORLD_PUMPS_FIRE_WORD] = s[0] | 1  # odd before the value changes
+                WORLD_OUT_2.pack_into(buf, WORLD_OUT_2_AT, s[0] | 1, out[0])
+                words[WORLD_PUMPS_FIRE_WORD] = (s[0] | 1) + 1
         # The performance buffer: odd, then the words that changed (PERF_FIELDS), then even.
         end = perf_counter_ns()
         last = end - cycle_start
@@ -298,7 +315,15 @@ class PropController:
             self.eoow_status,
             self.eoow_error_num,
             self.world_shaft,
+            self.world_lube_oil_temp,
+            self.world_pumps_fire,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
+
+    def every_cycle(self) -> None:
+        """Rules tried every cycle, whatever the command."""
+        # Section 4.7.1: "A lube oil fire is reported through the sensors in both the propulsion and the ventilation control systems": the propulsion system's, at the pumps.
+        self.world_set = True  # it sets world outputs
+        self.world_pumps_fire = self.world_lube_oil_temp > PUMPS_HOT
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""

@@ -26,7 +26,7 @@ RUDDER_SIM_ZERO_VOLT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QId44x???1xI608xQI908xd")
+INPUTS = Struct("<QId44x???1xI608xQI1060xd")
 INPUTS_AT = 856
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).

@@ -23,7 +23,7 @@ ZERO_VOLT = 5
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI44x???1xI880xd8x?")
+INPUTS = Struct("<QI44x???1xI1032xd8x?")
 INPUTS_AT = 1512
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -37,7 +37,7 @@ RUDDER_SIM_PERF_WORD = RUDDER_SIM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Qd")
 WORLD_VALUES_1 = Struct("<8xd")
 WORLD_SEQS_1 = Struct("<Q")
-WORLD_OUT_1_AT = 2448
+WORLD_OUT_1_AT = 2600
 WORLD_HELD_1 = (OVERRIDE["rudder_angle"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

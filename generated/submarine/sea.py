@@ -35,7 +35,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI408xd8xd40xd376xd8xd8xd")
+INPUTS = Struct("<QQI44x???1xI560xd8xd40xd376xd8xd8xd")
 INPUTS_AT = 1864
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -55,7 +55,7 @@ SEA_PERF_WORD = SEA_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 2784
+WORLD_OUT_1_AT = 2936
 WORLD_HELD_1 = (
     OVERRIDE["bottom_depth"],
     OVERRIDE["below_keel"],

@@ -29,7 +29,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI416xd8xd112xq24xd8xq8x?31xd8xd8xd8xd8xd8xd8xd8xd312xd")
+INPUTS = Struct("<QQI44x???1xI536xd8xd144xq24xd8xq8x?31xd8xd8xd8xd8xd8xd8xd8xd312xd")
 INPUTS_AT = 1624
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -53,7 +53,7 @@ SHIP_PERF_WORD = SHIP_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQdQdQdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2336
+WORLD_OUT_1_AT = 2488
 WORLD_HELD_1 = (
     OVERRIDE["pos_x"],
     OVERRIDE["pos_y"],

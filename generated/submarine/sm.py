@@ -82,7 +82,7 @@ OOD_LINK = 8  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct(
-    "<QIdd52x???1xI232xQII8x?Q231xQII8xQ400xQII8xq640xd8xd8xd8xd8x?71xq24xd8xq8x?31xd8xd24xd24xd584x?"
+    "<QIdd52x???1xI232xQII8x?Q231xQII8xQ400xQII8xq760xd8xd8xd8xd8x?103xq24xd8xq8x?31xd8xd24xd24xd616x?"
 )
 INPUTS_AT = 424
 
@@ -107,7 +107,7 @@ SM_PERF_WORD = SM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQdQdQ?")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2104
+WORLD_OUT_1_AT = 2224
 WORLD_HELD_1 = (
     OVERRIDE["speed_cmd"],
     OVERRIDE["depth_cmd"],
@@ -121,7 +121,7 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<QdQqQ?")
 WORLD_VALUES_2 = Struct("<8xd8xq8x?")
 WORLD_SEQS_2 = Struct("<Q8xQ8xQ")
-WORLD_OUT_2_AT = 2272
+WORLD_OUT_2_AT = 2424
 WORLD_HELD_2 = (OVERRIDE["ballast"], OVERRIDE["planes"], OVERRIDE["mbt_blown"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

@@ -50,7 +50,7 @@ HALT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI44x???1xI528xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
+INPUTS = Struct("<QQI44x???1xI680xd8xd8xd104xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 INPUTS_AT = 1744
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -85,7 +85,7 @@ SONAR_PERF_WORD = SONAR_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQdQdQdQdQdQdQdQdQdQdQdQdQdQdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ8xQ")
-WORLD_OUT_1_AT = 2480
+WORLD_OUT_1_AT = 2632
 WORLD_HELD_1 = (
     OVERRIDE["sonar_00"],
     OVERRIDE["sonar_01"],

@@ -4,7 +4,11 @@ The second paper's animation (section 4.9) and Figure 19, from a recorded run: t
 keels, the planned route (each waypoint, and its alternate), the track the submarine sailed
 among the keels, and, cycle by cycle, the submarine at its traced position and heading with
 its moving haven around it, the command controller's, ship maneuver's and the helm's
-commands and states, and the announcement; play/pause, a cycle slider.
+commands and states, and the announcement; play/pause, a cycle slider. Beside the plan view
+(the ice map), Figure 33's other displays, each drawn from the trace when it holds their
+fields: the bubble angle, the speed and heading, the current sonar detection (each beam out
+to its range, at its angle off the bow), the digital maneuvering data and the depth (the
+ship's, the ordered, and the sea bottom's).
 
 The scene is drawn on the server, as SVG in the page, so that what a person sees (where the
 track runs, whether it crosses a keel) is in the file itself; the script only moves the
@@ -23,14 +27,17 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from ...compiler.ir import IRController, IRSystem
+from ...compiler.ir import IRCall, IRController, IRSystem
 from . import player
 from .mine import import_hooks
 from .read import Trace
 from .view import StringTable, number, runs
 
 REQUIRED = ("pos_x", "pos_y")
-SHOWN = ("heading", "haven_x", "haven_y", "clearance", "speed", "depth", "announcement")
+SHOWN = (
+    *("heading", "course", "haven_x", "haven_y", "clearance", "speed", "speed_cmd"),
+    *("depth", "depth_cmd", "bottom_depth", "bubble", "rudder_angle", "announcement"),
+)
 PANEL = ("cc", "sm", "helm", "prop")  # the controllers whose commands the panel shows
 WIDTH = 760  # pixels of the plan view's larger side
 MARGIN = 400.0  # metres around everything drawn
@@ -51,6 +58,31 @@ def _factory_of(system: IRSystem, hook: str) -> IRController:
 
 
 @dataclass
+class Sonar:
+    """The beams the sonar simulator's `ping` returns first: their world fields, their angles
+    off the centre line (degrees, port negative: the hooks' `BEAMS`) and the range a beam
+    reports when it meets no ice (the hooks' `SONAR_RANGE`)."""
+
+    fields: list[str]
+    angles: list[float]
+    reach: float
+
+
+def _sonar(simulator: IRController, hooks: ModuleType) -> Sonar | None:
+    angles, reach = getattr(hooks, "BEAMS", None), getattr(hooks, "SONAR_RANGE", None)
+    if angles is None or reach is None:
+        return None
+    targets = next(
+        action.targets
+        for rule in simulator.every_cycle
+        for action in rule.actions
+        if isinstance(action, IRCall) and action.hook == "ping"
+    )
+    fields = [target.removeprefix("self.world_") for target in targets[: len(angles)]]
+    return Sonar(fields, [float(a) for a in angles], float(reach))
+
+
+@dataclass
 class Scene:
     """What the run sailed among, in metres (x east, y north)."""
 
@@ -59,6 +91,7 @@ class Scene:
     alternates: list[tuple[float, float]]
     haven: float | None  # half the side of the moving haven, if the system declares one
     outlines: list[list[tuple[float, float]]] = field(default_factory=list)  # other keels
+    sonar: Sonar | None = None  # the forward-looking sonar's beams, if its hooks name them
 
 
 def scene(system: IRSystem, system_dir: Path, settings: dict[str, str]) -> Scene:
@@ -92,7 +125,7 @@ def scene(system: IRSystem, system_dir: Path, settings: dict[str, str]) -> Scene
         ),
         None,
     )
-    return Scene(keels, route, alternates, haven, outlines)
+    return Scene(keels, route, alternates, haven, outlines, _sonar(sonar, hooks))
 
 
 @dataclass
@@ -158,6 +191,50 @@ def svg(trace: Trace, found: Scene, f: Frame) -> str:
     return "".join(out)
 
 
+DIAL = 150  # pixels: each of Figure 33's displays beside the plan view is a square this wide
+
+
+def _beam_end(angle: float, reach: float) -> tuple[float, float]:
+    """Where a beam of `reach` pixels at `angle` degrees off the bow ends, from the sonar
+    display's origin (the bow, at the bottom's middle, the bow up)."""
+    a = math.radians(angle)
+    return round(DIAL / 2 + reach * math.sin(a), 1), round(DIAL - 10 - reach * math.cos(a), 1)
+
+
+def displays(found: Scene) -> str:
+    """Figure 33's displays beside the ice map, as SVG the script turns and fills: the
+    bubble angle (the hull in profile, bow right), the heading and speed (a compass card,
+    north up), the current sonar detection (every beam at its angle, drawn out to its
+    range), the depth (the surface at the top, the ship, its order and the bottom)."""
+    c, r = DIAL / 2, DIAL / 2 - 12
+    out = [f'<svg id="bubble" class="display" width="{DIAL}" height="{DIAL}">']
+    out.append(f'<line class="level" x1="8" y1="{c}" x2="{DIAL - 8}" y2="{c}"/>')
+    out.append(f'<g id="hull" transform="translate({c} {c})">')
+    out.append('<path d="M -55 0 Q -50 -9 -20 -9 L 35 -9 Q 58 -8 60 0 Q 58 8 35 9 L -20 9 ')
+    out.append('Q -50 9 -55 0 Z"/><rect x="-2" y="-20" width="14" height="11"/></g>')
+    out.append(f'<text id="bubble-text" x="{c}" y="{DIAL - 8}"></text></svg>')
+    out.append(f'<svg id="compass" class="display" width="{DIAL}" height="{DIAL}">')
+    out.append(f'<circle class="card" cx="{c}" cy="{c}" r="{r}"/>')
+    out.append(f'<text x="{c}" y="18">N</text>')
+    out.append(f'<line id="course-mark" x1="{c}" y1="{c - r}" x2="{c}" y2="{c - r + 10}"/>')
+    out.append(f'<line id="heading-needle" x1="{c}" y1="{c}" x2="{c}" y2="{c - r + 6}"/>')
+    out.append(f'<text id="speed-text" x="{c}" y="{c + 28}"></text></svg>')
+    out.append(f'<svg id="sonar" class="display" width="{DIAL}" height="{DIAL}">')
+    if found.sonar is not None:
+        for n, angle in enumerate(found.sonar.angles):
+            x, y = _beam_end(angle, DIAL - 20)
+            out.append(f'<line class="beam" id="beam-{n}" data-angle="{angle}" ')
+            out.append(f'x1="{c}" y1="{DIAL - 10}" x2="{x}" y2="{y}"/>')
+    out.append("</svg>")
+    out.append(f'<svg id="depth-gauge" class="display" width="{DIAL}" height="{DIAL}">')
+    out.append(f'<line class="surface" x1="20" y1="10" x2="{DIAL - 20}" y2="10"/>')
+    out.append(f'<line id="depth-bottom" x1="20" x2="{DIAL - 20}" y1="0" y2="0"/>')
+    out.append(f'<line id="depth-order" x1="20" x2="{DIAL - 20}" y1="0" y2="0"/>')
+    out.append(f'<path id="depth-ship" d="M {c - 20} 0 l 40 0 l -6 -5 l -28 0 Z"/>')
+    out.append(f'<text id="depth-text" x="{c}" y="{DIAL - 4}"></text></svg>')
+    return "".join(out)
+
+
 def payload(
     trace: Trace, system: IRSystem, found: Scene, f: Frame, scenario: str
 ) -> dict[str, Any]:
@@ -170,6 +247,13 @@ def payload(
                 world[name] = runs(series, None, table)
             else:
                 world[name] = [number(v) for v in series]
+    sonar: dict[str, Any] | None = None
+    if found.sonar is not None and all(n in trace.world for n in found.sonar.fields):
+        beams = found.sonar.fields
+        sonar = {"reach": found.sonar.reach, "angles": found.sonar.angles}
+        sonar["ranges"] = [[number(v) for v in trace.world[n]] for n in beams]
+    # the depth display's scale: the deepest it has to show, ship, order or bottom
+    depths = [v for n in ("depth", "depth_cmd", "bottom_depth") for v in trace.world.get(n, [])]
     controllers = player.panel(trace, PANEL, table)
     data = {
         "source": trace.name,
@@ -181,6 +265,8 @@ def payload(
         "cycles": trace.cycles,
         "frame": {"x0": f.x0, "y1": f.y1, "scale": f.scale},
         "haven": found.haven,
+        "sonar": sonar,
+        "deepest": max([float(v) for v in depths if v is not None], default=None),
         "world": world,
         "controllers": controllers,
         "strings": table.values,
@@ -202,7 +288,9 @@ def render(
     f = frame(trace, found)
     title = f"{trace.name} · {system.name}: the transit among the ice"
     data = payload(trace, system, found, f, scenario)
-    return player.page("sea", title, {"SVG": svg(trace, found, f)}, data)
+    return player.page(
+        "sea", title, {"SVG": svg(trace, found, f), "DISPLAYS": displays(found)}, data
+    )
 
 
 def page_for(
