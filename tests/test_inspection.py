@@ -56,6 +56,18 @@ def played(name: str) -> tuple[dict, list[dict]]:
     return play(load_scenario(SYSTEM / "scenarios" / f"{name}.yaml"))
 
 
+# The workcell's CORBA job (its command JOB) by the native job it converts the request into
+# (its result `job`, set in the cycle the job arrives): the workstation's command.
+NATIVE = {"INIT_JOB": "INIT_FOR_INSPECT", "INSPECT_JOB": "INSPECT_PART"}
+
+
+def command_of(entry: dict) -> str:
+    """A module's command in a trace line; the workcell's JOB as the native job it is."""
+    if entry["command"] == "JOB":
+        return NATIVE.get(entry["result"]["job"], "JOB")
+    return str(entry["command"])
+
+
 def commands_sent(lines: list[dict], module: str) -> list[tuple[int, str]]:
     """Each new command `module` received, with its cycle (one per command number)."""
     seen, out = 0, []
@@ -63,7 +75,7 @@ def commands_sent(lines: list[dict], module: str) -> list[tuple[int, str]]:
         entry = line["modules"][module]
         if entry["command_num"] != seen:
             seen = entry["command_num"]
-            out.append((line["cycle"], entry["command"]))
+            out.append((line["cycle"], command_of(entry)))
     return out
 
 
@@ -76,7 +88,7 @@ def first(lines: list[dict], module: str, command: str, status: str) -> int:
     return next(
         line["cycle"]
         for line in lines
-        if line["modules"][module]["command"] == command
+        if command_of(line["modules"][module]) == command
         and line["modules"][module]["status"] == status
     )
 
@@ -404,6 +416,39 @@ def test_the_workstation_plan_is_a_step_per_run_of_one_setup(hooks, tmp_path, mo
     assert ws.setups("bracket") == [(1, 0, 3), (2, 3, 2)]
 
 
+@pytest.mark.parametrize(
+    ("request_text", "job", "why"),
+    [
+        ("Workcell::initForInspect()", ("INIT_JOB", ""), ""),
+        ('Workcell::inspectPart("bracket")', ("INSPECT_JOB", "bracket"), ""),
+        ("INSPECT_PART bracket", ("NO_JOB", ""), "is not a request `Interface::operation"),
+        ('Hexapod::inspectPart("bracket")', ("NO_JOB", ""), "interface 'Hexapod' is not"),
+        ("Workcell::initForInspect(1)", ("NO_JOB", ""), "initForInspect takes no argument"),
+        ("Workcell::inspectPart(bracket)", ("NO_JOB", ""), "one program name in quotes"),
+        ("Workcell::measurePart()", ("NO_JOB", ""), "Workcell has no operation 'measurePart'"),
+    ],
+)
+def test_the_workcell_converts_a_corba_request_into_its_native_job(
+    monkeypatch, request_text, job, why
+):
+    """Section 5.3.2: the workcell converts a job "implemented via a CORBA protocol" to the
+    IWS native protocol. The shop marshals a job as a request of the workcell's interface;
+    the workcell's hook reads it into the native job (wc.yaml's `job` enumeration) and its
+    program, and a request that is not one of the interface's operations with its arguments
+    is no job (refused with BAD_REQUEST), saying why."""
+    monkeypatch.syspath_prepend(str(SYSTEM))
+    corba = importlib.import_module("inspection_hooks.corba")
+    wc = yaml.safe_load((SYSTEM / "wc.yaml").read_text())
+    values = wc["locals"]["job"]["values"]
+    index, program = corba.native_job(request_text)
+    assert (values[index], program) == job
+    assert why in corba.why_not(request_text) and bool(why) == bool(corba.why_not(request_text))
+    assert corba.native_job(corba.inspect_request("bracket")) == (
+        values.index("INSPECT_JOB"),
+        "bracket",
+    )
+
+
 def test_a_part_file_names_only_program_features(hooks, tmp_path):
     ms, cmm = hooks
     features = ms.read_program(SYSTEM / "programs" / "bracket.ipg")
@@ -477,7 +522,7 @@ def test_the_shop_plans_the_next_part_while_the_workcell_inspects_this_one():
         return {
             ln["cycle"]
             for ln in lines
-            if ln["modules"][module]["command"] == command
+            if command_of(ln["modules"][module]) == command
             and ln["modules"][module]["status"] == "EXECUTING"
         }
 
@@ -516,7 +561,7 @@ def test_a_lot_by_a_program_that_does_not_exist_is_refused_by_the_planner():
 
 
 def test_the_planner_failing_mid_inspection_stops_the_station_safe_and_says_why():
-    """planner_fails: the PDM system goes down (cycle 50) while the job planner retrieves
+    """planner_fails: the PDM system goes down (cycle 51) while the job planner retrieves
     part 1's program and the workcell inspects part 0 (W1 while W2, section 5.2.1). No
     answer comes: 3 s after asking the planner fails with PDM_DOWN; the next cycle the shop
     halts the workcell, and the HALT reaches every
@@ -533,7 +578,7 @@ def test_the_planner_failing_mid_inspection_stops_the_station_safe_and_says_why(
         at_cycle(lines, c)["modules"]["jp"]["state"] == "RETRIEVING" for c in range(asked, failed)
     )
     before = at_cycle(lines, failed)
-    assert before["modules"]["wc"]["command"] == "INSPECT_PART", "mid-inspection"
+    assert command_of(before["modules"]["wc"]) == "INSPECT_PART", "mid-inspection"
     assert before["modules"]["wc"]["status"] == "EXECUTING"
     assert before["modules"]["jp"]["reason"] == "PDM_DOWN"
     halted = at_cycle(lines, failed + 1)["modules"]
@@ -552,7 +597,7 @@ def test_the_planner_failing_mid_inspection_stops_the_station_safe_and_says_why(
 def test_a_failed_part_job_is_planned_again_and_the_lot_completes():
     """Section 5.2.3: "The EX may report errors caused by executing earlier generated
     schedules. The planner will correspondingly replan." lot_replanned: the inspector
-    refuses part 0 (cycle 51) while the planner plans part 1. The workcell fails part 0's
+    refuses part 0 (cycle 53) while the planner plans part 1. The workcell fails part 0's
     job; the shop halts the planner (JOB_FAILED), plans part 0's job again (REPLANNING),
     and re-issues it with part 1's planning; the lot is done, both parts passed."""
     final, lines = played("lot_replanned")

@@ -46,7 +46,7 @@ OP_LINK = 11  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIq52x???1xI744xQII")
-INPUTS_AT = 1216
+INPUTS_AT = 1256
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 FX_STATUS_WORD = FX_STATUS_AT >> 3

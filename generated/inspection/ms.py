@@ -74,7 +74,7 @@ CMM_LINK = 8  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32sqq76x???1xI216xQII8xQ104xQII32xQ1040xd136xd")
-INPUTS_AT = 1016
+INPUTS_AT = 1056
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 MS_STATUS_WORD = MS_STATUS_AT >> 3

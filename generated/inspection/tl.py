@@ -45,7 +45,7 @@ OP_LINK = 11  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI52x???1xI704xQII")
-INPUTS_AT = 1352
+INPUTS_AT = 1392
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 TL_STATUS_WORD = TL_STATUS_AT >> 3

@@ -77,7 +77,7 @@ FX_LINK = 6  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QI32s84x???1xI128xQII24xqQ104xQII8xQ")
-INPUTS_AT = 824
+INPUTS_AT = 864
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 WS_STATUS_WORD = WS_STATUS_AT >> 3
