@@ -56,6 +56,18 @@ def played(name: str) -> tuple[dict, list[dict]]:
     return golden_run("inspection", name)
 
 
+# The workcell's CORBA job (its command JOB) by the native job it converts the request into
+# (its result `job`, set in the cycle the job arrives): the workstation's command.
+NATIVE = {"INIT_JOB": "INIT_FOR_INSPECT", "INSPECT_JOB": "INSPECT_PART"}
+
+
+def command_of(entry: dict) -> str:
+    """A module's command in a trace line; the workcell's JOB as the native job it is."""
+    if entry["command"] == "JOB":
+        return NATIVE.get(entry["result"]["job"], "JOB")
+    return str(entry["command"])
+
+
 def commands_sent(lines: list[dict], module: str) -> list[tuple[int, str]]:
     """Each new command `module` received, with its cycle (one per command number)."""
     seen, out = 0, []
@@ -63,7 +75,7 @@ def commands_sent(lines: list[dict], module: str) -> list[tuple[int, str]]:
         entry = line["modules"][module]
         if entry["command_num"] != seen:
             seen = entry["command_num"]
-            out.append((line["cycle"], entry["command"]))
+            out.append((line["cycle"], command_of(entry)))
     return out
 
 
@@ -76,7 +88,7 @@ def first(lines: list[dict], module: str, command: str, status: str) -> int:
     return next(
         line["cycle"]
         for line in lines
-        if line["modules"][module]["command"] == command
+        if command_of(line["modules"][module]) == command
         and line["modules"][module]["status"] == status
     )
 
@@ -181,13 +193,12 @@ def test_the_workstation_plans_setups_and_fixturing_and_measuring_take_turns():
 def test_nominal_readings_are_within_the_programs_tolerances(monkeypatch):
     monkeypatch.syspath_prepend(str(SYSTEM))
     ms = importlib.import_module("inspection_hooks.ms")
-    features = ms.read_program(SYSTEM / "programs" / "bracket.ipg")
+    features = ms.read_program(SYSTEM / "programs" / "bracket.dmi")
     _, lines = played("nominal_inspection")
-    readings = [
+    readings = [  # what MS read in the cycle it judged a reading (PROBING -> NEXT)
         line["world"]["cmm_reading"]
         for line, after in zip(lines, lines[1:], strict=False)
-        if after["modules"]["ms"]["state"] == "JUDGED"
-        and line["modules"]["ms"]["state"] != "JUDGED"
+        if after["modules"]["ms"]["state"] == "NEXT" and line["modules"]["ms"]["state"] == "PROBING"
     ]
     assert len(readings) == len(features) == 5
     for feature, reading in zip(features, readings, strict=True):
@@ -219,11 +230,12 @@ def test_a_part_out_of_tolerance_is_refixtured_remeasured_and_rejected():
     refixture = next(cycle for cycle, c in commands_sent(lines, "fx") if c == "REFIXTURE_PART")
     assert measures[0] < refixture < measures[1], "re-seated between the two measurements"
     # the bore (feature 0, 12.000 +/- 0.020) reads oversize both times
-    bores = [
+    bores = [  # what MS read in the cycles it judged the schedule's first feature
         line["world"]["cmm_reading"]
-        for line in lines
-        if line["modules"]["ms"]["state"] == "JUDGED"
-        and line["modules"]["ms"]["result"]["measured"] == 0
+        for line, after in zip(lines, lines[1:], strict=False)
+        if line["modules"]["ms"]["state"] == "PROBING"
+        and after["modules"]["ms"]["state"] == "NEXT"
+        and after["modules"]["ms"]["result"]["measured"] == 1
     ]
     assert bores and all(reading > 12.02 for reading in bores)
     assert outcome(lines[-1], "ws") == ("DONE", "NONE", {"accepted": False})  # rejected
@@ -365,29 +377,62 @@ def hooks(monkeypatch):
     )
 
 
+HEAD = "DMISMN/'p',05.0\nUNITS/MM\n"
+BORE = "F(BORE)=FEAT/CIRCLE,12.0\nT(BORE)=TOL/DIAM,-0.1,0.1\n"
+SETUP = "FIXTID/'SETUP 1',CLAMPS,2\n"
+
+
 @pytest.mark.parametrize(
     ("text", "message"),
     [
+        ("UNITS/MM\n", "p.dmi:1: the program must begin with DMISMN, not UNITS"),
+        (HEAD + "GOTO/1,2,3\n", "p.dmi:3: 'GOTO/1,2,3' is not a statement of the subset"),
+        (HEAD + "UNITS/INCH\n", "p.dmi:3: lengths must be in MM, not INCH"),
+        (HEAD + "F(BORE)=FEAT/CIRCLE,x\n", "p.dmi:3: 'F(BORE)=FEAT/CIRCLE,x' is not a"),
+        (HEAD + "T(BORE)=TOL/DIAM,-0.1,0.1\n", "p.dmi:3: tolerance for `bore`, which no F"),
+        (HEAD + BORE.replace("-0.1", "0.05"), "p.dmi:4: the band of `bore` must hold its"),
+        (HEAD + BORE + "MEAS/CIRCLE,F(BORE)\n", "p.dmi:5: `bore` measured before any FIXTID"),
+        (HEAD + SETUP + "MEAS/CIRCLE,F(BORE)\n", "p.dmi:4: `bore` measured with no F(...)"),
+        (HEAD + "FIXTID/'SETUP 0',CLAMPS,2\n", "p.dmi:3: a setup is numbered from 1"),
         (
-            "bore 12.0 0.1\n",
-            "p.ipg:1: expected `name nominal tolerance setup`, got 'bore 12.0 0.1'",
+            HEAD + BORE + SETUP + "MEAS/CIRCLE,F(BORE)\n" * 2,
+            "p.dmi:7: feature `bore` is measured twice",
         ),
-        ("# c\nbore 12.0 x 1\n", "p.ipg:2: `x` is not a number"),
-        ("bore 12.0 0 1\n", "p.ipg:1: the tolerance of `bore` must be positive"),
-        ("bore 12.0 nan 1\n", "p.ipg:1: `nan` is not a finite number"),
-        ("bore 12.0 0.1 0\n", "p.ipg:1: the setup of `bore` must be a whole number from 1"),
-        ("bore 12.0 0.1 top\n", "p.ipg:1: the setup of `bore` must be a whole number from 1"),
-        ("bore 1 0.1 1\nbore 2 0.1 1\n", "p.ipg:2: feature `bore` is measured twice"),
-        ("# nothing\n", "p.ipg: the inspection program measures no feature"),
+        (
+            HEAD + BORE + SETUP + "MEAS/CIRCLE,F(BORE)\n",
+            "p.dmi: the inspection program has no ENDFIL",
+        ),
+        (HEAD + "ENDFIL\nUNITS/MM\n", "p.dmi:4: UNITS after ENDFIL"),
+        (HEAD + "$$ nothing\nENDFIL\n", "p.dmi: the inspection program measures no feature"),
     ],
 )
 def test_a_bad_program_line_is_named(hooks, tmp_path, text, message):
+    """The planners' DMIS interpreter (inspection_hooks/dmis.py) refuses what it cannot
+    read, naming file:line and what is wrong."""
     ms, _ = hooks
-    program = tmp_path / "p.ipg"
+    program = tmp_path / "p.dmi"
     program.write_text(text)
     with pytest.raises(ms.ProgramError) as raised:
         ms.read_program(program)
-    assert str(raised.value) == f"{tmp_path}/{message}"
+    assert str(raised.value).startswith(f"{tmp_path}/{message}"), str(raised.value)
+
+
+def test_the_task_level_planners_interpret_the_dmis_program(hooks):
+    """Section 5.3.2: MS's and FX's PLs interpret the DMIS program. MS's planner makes a
+    MEASURE_PART's schedule one step per feature with its band (nominal + T's limits); FX's
+    makes the fixturing of a setup from its FIXTID (the clamps the operator is told)."""
+    ms, _ = hooks
+    fx = importlib.import_module("inspection_hooks.fx")
+    program = ms.new_program({})
+    slot, flange = (3, 5.97, 6.03), (4, 4.46, 4.54)
+    assert ms.feature_schedule(program, "bracket", 3, 2) == [
+        pytest.approx(slot),
+        pytest.approx(flange),
+    ]
+    assert ms.feature_schedule(program, "bracket", 4, 9) == [pytest.approx(flange)]
+    assert fx.fixturing("bracket", 1) == [(1, 2)] and fx.fixturing("bracket", 2) == [(2, 3)]
+    with pytest.raises(ms.ProgramError, match=r"bracket.dmi has no FIXTID/'SETUP 3'"):
+        fx.fixturing("bracket", 3)
 
 
 def test_the_workstation_plan_is_a_step_per_run_of_one_setup(hooks, tmp_path, monkeypatch):
@@ -398,15 +443,55 @@ def test_the_workstation_plan_is_a_step_per_run_of_one_setup(hooks, tmp_path, mo
     ws = importlib.import_module("inspection_hooks.ws")
     monkeypatch.setattr(ms, "SYSTEM_DIR", tmp_path)
     (tmp_path / "programs").mkdir()
-    (tmp_path / "programs" / "p.ipg").write_text("a 1 0.1 1\nb 1 0.1 1\nc 1 0.1 2\nd 1 0.1 1\n")
+    features = "".join(f"F({n})=FEAT/CIRCLE,1\nT({n})=TOL/DIAM,-0.1,0.1\n" for n in "ABCD")
+    fixture = "FIXTID/'SETUP {}',CLAMPS,1\n"
+    measured = "".join(
+        (fixture.format(setup) if setup else "") + f"MEAS/CIRCLE,F({name})\n"
+        for name, setup in (("A", 1), ("B", 0), ("C", 2), ("D", 1))
+    )
+    program = f"DMISMN/'p',05.0\nUNITS/MM\n{features}{measured}ENDFIL\n"
+    (tmp_path / "programs" / "p.dmi").write_text(program)
     assert ws.setups("p") == [(1, 0, 2), (2, 2, 1), (1, 3, 1)]
     monkeypatch.undo()
     assert ws.setups("bracket") == [(1, 0, 3), (2, 3, 2)]
 
 
+@pytest.mark.parametrize(
+    ("request_text", "job", "why"),
+    [
+        ("Workcell::initForInspect()", ("INIT_JOB", ""), ""),
+        ('Workcell::inspectPart("bracket")', ("INSPECT_JOB", "bracket"), ""),
+        ("INSPECT_PART bracket", ("NO_JOB", ""), "is not a request `Interface::operation"),
+        ('Hexapod::inspectPart("bracket")', ("NO_JOB", ""), "interface 'Hexapod' is not"),
+        ("Workcell::initForInspect(1)", ("NO_JOB", ""), "initForInspect takes no argument"),
+        ("Workcell::inspectPart(bracket)", ("NO_JOB", ""), "one program name in quotes"),
+        ("Workcell::measurePart()", ("NO_JOB", ""), "Workcell has no operation 'measurePart'"),
+    ],
+)
+def test_the_workcell_converts_a_corba_request_into_its_native_job(
+    monkeypatch, request_text, job, why
+):
+    """Section 5.3.2: the workcell converts a job "implemented via a CORBA protocol" to the
+    IWS native protocol. The shop marshals a job as a request of the workcell's interface;
+    the workcell's hook reads it into the native job (wc.yaml's `job` enumeration) and its
+    program, and a request that is not one of the interface's operations with its arguments
+    is no job (refused with BAD_REQUEST), saying why."""
+    monkeypatch.syspath_prepend(str(SYSTEM))
+    corba = importlib.import_module("inspection_hooks.corba")
+    wc = yaml.safe_load((SYSTEM / "wc.yaml").read_text())
+    values = wc["locals"]["job"]["values"]
+    index, program = corba.native_job(request_text)
+    assert (values[index], program) == job
+    assert why in corba.why_not(request_text) and bool(why) == bool(corba.why_not(request_text))
+    assert corba.native_job(corba.inspect_request("bracket")) == (
+        values.index("INSPECT_JOB"),
+        "bracket",
+    )
+
+
 def test_a_part_file_names_only_program_features(hooks, tmp_path):
     ms, cmm = hooks
-    features = ms.read_program(SYSTEM / "programs" / "bracket.ipg")
+    features = ms.read_program(SYSTEM / "programs" / "bracket.dmi")
     part = tmp_path / "x.part"
     part.write_text("bore_diameter 12.01\nbore_diamter 3\n")
     with pytest.raises(
@@ -426,7 +511,7 @@ def test_a_missing_program_stops_the_run_in_one_line(tmp_path, monkeypatch):
     copy = tmp_path / "inspection"
     shutil.copytree(SYSTEM, copy, ignore=shutil.ignore_patterns("__pycache__"))
     edit(
-        copy / "scenarios" / "nominal_inspection.yaml", "programs/bracket.ipg", "programs/nope.ipg"
+        copy / "scenarios" / "nominal_inspection.yaml", "programs/bracket.dmi", "programs/nope.dmi"
     )
     monkeypatch.chdir(tmp_path)
     result = rcsgen("run", "inspection/scenarios/nominal_inspection.yaml")
@@ -434,7 +519,7 @@ def test_a_missing_program_stops_the_run_in_one_line(tmp_path, monkeypatch):
     lines = [line for line in result.output.splitlines() if "error[" in line]
     assert len(lines) == 1 and "E420" in lines[0], result.output
     assert lines[0].startswith("inspection/ms.yaml:"), lines[0]
-    assert "nope.ipg: cannot read the inspection program" in lines[0]
+    assert "nope.dmi: cannot read the inspection program" in lines[0]
 
 
 def test_the_guardian_orders_a_lot_and_the_shop_plans_its_jobs():
@@ -477,7 +562,7 @@ def test_the_shop_plans_the_next_part_while_the_workcell_inspects_this_one():
         return {
             ln["cycle"]
             for ln in lines
-            if ln["modules"][module]["command"] == command
+            if command_of(ln["modules"][module]) == command
             and ln["modules"][module]["status"] == "EXECUTING"
         }
 
@@ -516,7 +601,7 @@ def test_a_lot_by_a_program_that_does_not_exist_is_refused_by_the_planner():
 
 
 def test_the_planner_failing_mid_inspection_stops_the_station_safe_and_says_why():
-    """planner_fails: the PDM system goes down (cycle 50) while the job planner retrieves
+    """planner_fails: the PDM system goes down (cycle 51) while the job planner retrieves
     part 1's program and the workcell inspects part 0 (W1 while W2, section 5.2.1). No
     answer comes: 3 s after asking the planner fails with PDM_DOWN; the next cycle the shop
     halts the workcell, and the HALT reaches every
@@ -533,7 +618,7 @@ def test_the_planner_failing_mid_inspection_stops_the_station_safe_and_says_why(
         at_cycle(lines, c)["modules"]["jp"]["state"] == "RETRIEVING" for c in range(asked, failed)
     )
     before = at_cycle(lines, failed)
-    assert before["modules"]["wc"]["command"] == "INSPECT_PART", "mid-inspection"
+    assert command_of(before["modules"]["wc"]) == "INSPECT_PART", "mid-inspection"
     assert before["modules"]["wc"]["status"] == "EXECUTING"
     assert before["modules"]["jp"]["reason"] == "PDM_DOWN"
     halted = at_cycle(lines, failed + 1)["modules"]
@@ -552,7 +637,7 @@ def test_the_planner_failing_mid_inspection_stops_the_station_safe_and_says_why(
 def test_a_failed_part_job_is_planned_again_and_the_lot_completes():
     """Section 5.2.3: "The EX may report errors caused by executing earlier generated
     schedules. The planner will correspondingly replan." lot_replanned: the inspector
-    refuses part 0 (cycle 51) while the planner plans part 1. The workcell fails part 0's
+    refuses part 0 (cycle 53) while the planner plans part 1. The workcell fails part 0's
     job; the shop halts the planner (JOB_FAILED), plans part 0's job again (REPLANNING),
     and re-issues it with part 1's planning; the lot is done, both parts passed."""
     final, lines = played("lot_replanned")

@@ -34,7 +34,7 @@ def at(spec: str, line_has: str, word: str, after: str = "") -> str:
     return f"specs/{spec}:{n + 1}:{lines[n].index(word, lines[n].index(line_has)) + 1}"
 
 
-JUDGE = at("inspection/ms.yaml", "[call: judge]", "judge")
+CONVERT = at("inspection/wc.yaml", "- call: native_job", "native_job")
 
 
 @pytest.fixture(scope="module")
@@ -56,11 +56,11 @@ def hook_error(module: str, hook: str, rule: str, cause: BaseException | None = 
 
 
 def test_a_hook_that_raised_is_located_at_its_call(inspection: IRSystem) -> None:
-    error = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", ValueError("bad"))
+    error = hook_error("wc", "native_job", "JOB/S0/1", ValueError("bad"))
     assert said(error, inspection, 7) == (
-        JUDGE,
+        CONVERT,
         "E420",
-        "hook `judge` of `ms` raised ValueError: bad (rule MEASURE_PART/PROBING/1, cycle 7)",
+        "hook `native_job` of `wc` raised ValueError: bad (rule JOB/S0/1, cycle 7)",
         RAISED,
     )
     every = hook_error("cmm_sim", "probe", "every_cycle/2", RuntimeError("x"))
@@ -81,7 +81,7 @@ def test_a_hook_not_found_at_its_call_falls_back_to_its_rule_then_its_spec(
     inspection: IRSystem,
 ) -> None:
     other = hook_error("ms", "judge", "MEASURE_PART/S0/1", ValueError("bad"))
-    first_rule = at("inspection/ms.yaml", "- do:", "do", after="  MEASURE_PART:")
+    first_rule = at("inspection/ms.yaml", "- doc:", "doc", after="  MEASURE_PART:")
     assert said(other, inspection, 7)[0] == first_rule  # the rule
     unknown_rule = hook_error("ms", "judge", "MEASURE_PART/S9/1", ValueError("bad"))
     assert said(unknown_rule, inspection, 7)[0] == "specs/inspection/ms.yaml:1:1"
@@ -91,12 +91,12 @@ def test_a_hook_not_found_at_its_call_falls_back_to_its_rule_then_its_spec(
 
 
 def test_a_hook_that_overran_its_deadline(inspection: IRSystem) -> None:
-    error = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", HookOverrun(0.01, 0.05, True))
+    error = hook_error("wc", "native_job", "JOB/S0/1", HookOverrun(0.01, 0.05, True))
     assert said(error, inspection, 7) == (
-        JUDGE,
+        CONVERT,
         "E423",
-        "hook `judge` of `ms` did not return within its deadline of 0.01 s: interrupted after "
-        "0.05 s (rule MEASURE_PART/PROBING/1, cycle 7)",
+        "hook `native_job` of `wc` did not return within its deadline of 0.01 s: interrupted "
+        "after 0.05 s (rule JOB/S0/1, cycle 7)",
         "make the hook return sooner, or declare a longer `deadline:` for it "
         "(docs/spec.md section 6)",
     )
@@ -105,12 +105,12 @@ def test_a_hook_that_overran_its_deadline(inspection: IRSystem) -> None:
 def test_a_hook_that_returned_the_wrong_thing_and_a_planners_wrong_steps(
     inspection: IRSystem,
 ) -> None:
-    wrong = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", result=3, kinds="fi")
+    wrong = hook_error("wc", "native_job", "JOB/S0/1", result=3, kinds="fi")
     assert said(wrong, inspection, 7) == (
-        JUDGE,
+        CONVERT,
         "E421",
-        "hook `judge` of `ms` returned 3; its `returns:` needs a tuple of 2 values "
-        "(finite float, int) (rule MEASURE_PART/PROBING/1, cycle 7)",
+        "hook `native_job` of `wc` returned 3; its `returns:` needs a tuple of 2 values "
+        "(finite float, int) (rule JOB/S0/1, cycle 7)",
         RETURNS,
     )
     # cmm's planner, `touch_points`, plans a feature's points (`plan: points`)
@@ -156,12 +156,12 @@ def test_verbose_shows_the_hooks_own_traceback() -> None:
     try:
         raise ValueError("deep inside the hook")
     except ValueError as cause:
-        error = hook_error("ms", "judge", "MEASURE_PART/PROBING/1", cause)
+        error = hook_error("wc", "native_job", "JOB/S0/1", cause)
     shown = details(error)
     assert shown.startswith("Traceback (most recent call last):\n")
     assert shown.endswith("ValueError: deep inside the hook\n")
     assert "test_verbose_shows_the_hooks_own_traceback" in shown
-    assert details(hook_error("ms", "judge", "MEASURE_PART/PROBING/1", result=3, kinds="f")) == ""
+    assert details(hook_error("wc", "native_job", "JOB/S0/1", result=3, kinds="f")) == ""
     assert details(KeyError("k")).endswith("KeyError: 'k'\n")
 
 

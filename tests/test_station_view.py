@@ -64,7 +64,7 @@ def test_the_time_line_has_a_bar_per_feature_and_the_planner_inside_the_first_pa
     assert len(touches) == 20 and {lane for lane, _, _ in touches} == {"probe"}, "2 a feature"
     assert all(any(f <= t and u <= last for _, f, last in features) for _, t, u in touches)
     (planned_first, planned_second) = bars(page, "PLAN_JOB")
-    inspections = spans(lines, "wc", "INSPECT_PART")
+    inspections = spans(lines, "wc", "JOB")[1:]  # the workcell's jobs after initForInspect
     assert planned_first[0] == "planner" and planned_second[0] == "planner"
     first, last = inspections[0]
     assert first <= planned_second[1] and planned_second[2] <= last, "W1 inside W2's part 0"
@@ -166,6 +166,6 @@ def test_the_requests_line_names_every_open_request_with_its_client(system):
     said = [
         (first, data["strings"][text]) for first, text in zip(runs[::2], runs[1::2], strict=True)
     ]
-    assert (4, "MOUNT_FIXTURE_PLATE (for fx)") in said
-    assert (48, "PLACE_PART (for fx), LOAD_PROBE (for tl)") in said
+    assert (5, "MOUNT_FIXTURE_PLATE (for fx)") in said
+    assert (50, "PLACE_PART (for fx), LOAD_PROBE (for tl)") in said
     assert data["strings"][runs[1]] == ""  # nothing asked before

@@ -63,7 +63,7 @@ def test_a_replay_takes_the_settings_of_the_scenario_that_recorded_the_trace(
     )
     assert folder == SPECS / "inspection" and name == "machine_fault"
     assert settings == {
-        "program": "programs/bracket.ipg",
+        "program": "programs/bracket.dmi",
         "part": "parts/nominal.part",
         "seed": "1",
     }

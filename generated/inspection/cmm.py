@@ -58,8 +58,8 @@ PRIM_LINK = 9  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIq76x???1xI104xQII8xQ824xq8xq8xq8xq24x?")
-INPUTS_AT = 1480
+INPUTS = Struct("<QIq76x???1xI104xQII8xQ840xq8xq8xq8xq24x?")
+INPUTS_AT = 1600
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 CMM_STATUS_WORD = CMM_STATUS_AT >> 3
@@ -75,7 +75,7 @@ CMM_PERF_WORD = CMM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QqQqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 2536
+WORLD_OUT_1_AT = 2672
 WORLD_HELD_1 = (OVERRIDE["cmm_op"], OVERRIDE["cmm_feature"], OVERRIDE["cmm_seq"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

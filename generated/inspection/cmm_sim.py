@@ -37,11 +37,11 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI296xq8xq8xq8xq8xd8x?15x?111xd")
-INPUTS_AT = 2176
+INPUTS_AT = 2312
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (272,)
+SEQ_WORDS = (289,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 CMM_SIM_STATUS_WORD = CMM_SIM_STATUS_AT >> 3
@@ -57,7 +57,7 @@ CMM_SIM_PERF_WORD = CMM_SIM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QqQdQ?")
 WORLD_VALUES_1 = Struct("<8xq8xd8x?")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 2584
+WORLD_OUT_1_AT = 2720
 WORLD_HELD_1 = (
     OVERRIDE["cmm_done_seq"],
     OVERRIDE["cmm_reading"],
@@ -69,7 +69,7 @@ WORLD_HELD_1 = (
 WORLD_OUT_2 = Struct("<Qd")
 WORLD_VALUES_2 = Struct("<8xd")
 WORLD_SEQS_2 = Struct("<Q")
-WORLD_OUT_2_AT = 2744
+WORLD_OUT_2_AT = 2880
 WORLD_HELD_2 = (OVERRIDE["camera_scale"],)  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -175,7 +175,7 @@ class CmmSimController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[272] != values[0]:
+        if values[0] & 1 or not values[0] or words[289] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -296,7 +296,7 @@ class CmmSimController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[272] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[289] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

@@ -23,11 +23,11 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI256x?31xd8xd8xd8xd8xd8xd")
-INPUTS_AT = 2296
+INPUTS_AT = 2432
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (287,)
+SEQ_WORDS = (304,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 DRIVES_STATUS_WORD = DRIVES_STATUS_AT >> 3
@@ -42,7 +42,7 @@ DRIVES_PERF_WORD = DRIVES_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 2696
+WORLD_OUT_1_AT = 2832
 WORLD_HELD_1 = (OVERRIDE["axis_x"], OVERRIDE["axis_y"], OVERRIDE["axis_z"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -124,7 +124,7 @@ class DrivesController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[287] != values[0]:
+        if values[0] & 1 or not values[0] or words[304] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -235,7 +235,7 @@ class DrivesController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[287] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[304] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

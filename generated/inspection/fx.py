@@ -4,6 +4,8 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import inspection_hooks.fx as hooks
+
 from .layout import (
     FX_PERF_AT,
     FX_STATUS,
@@ -11,7 +13,20 @@ from .layout import (
     OP_FX_COMMAND,
     OP_FX_COMMAND_AT,
 )
-from .rcs.contract import DONE, ERROR, EXECUTING, NO_RULE, NOP, PERF, caused, words
+from .rcs.contract import (
+    DONE,
+    ERROR,
+    EXECUTING,
+    NO_RULE,
+    NOP,
+    PERF,
+    HookError,
+    caused,
+    decode_text,
+    plan_problem,
+    words,
+)
+from .rcs.deadline import hook
 
 # Commands fx accepts (the code written to its command buffer).
 INIT = 1
@@ -45,8 +60,8 @@ OP_LINK = 11  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIq52x???1xI744xQII")
-INPUTS_AT = 1216
+INPUTS = Struct("<QI32sq76x???1xI752xQII")
+INPUTS_AT = 1280
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 FX_STATUS_WORD = FX_STATUS_AT >> 3
@@ -63,6 +78,7 @@ class FxController:
     """The fx controller: its local buffers and the QQ1 cycle."""
 
     __slots__ = (
+        "arg_program",
         "arg_setup",
         "buf",
         "cause",
@@ -75,6 +91,7 @@ class FxController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "op_arg_clamps",
         "op_arg_setup",
         "op_command",
         "op_command_num",
@@ -84,6 +101,13 @@ class FxController:
         "op_written",
         "perf_seq",
         "perf_single_step_num",
+        "plan_fixturing",
+        "plan_fixturing_clamps",
+        "plan_fixturing_done",
+        "plan_fixturing_replans_left",
+        "plan_fixturing_setup",
+        "plan_fixturing_step",
+        "plan_fixturing_steps",
         "rule",
         "simulate",
         "single_step",
@@ -98,11 +122,20 @@ class FxController:
         "words",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_fixturing = hook("fx", hooks, "fixturing", 2.5)
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
         self.ticks = 0  # cycles the table has run in the current state (after:)
         self.resume()
+        self.plan_fixturing: list[tuple[int, int]] = []  # plan fixturing: no steps yet
+        self.plan_fixturing_steps = self.plan_fixturing_replans_left = 0
+        self.plan_fixturing_go(0)
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -116,6 +149,9 @@ class FxController:
             self.error_num,
             self.state,
             self.rule,
+            self.plan_fixturing_step,
+            self.plan_fixturing_steps,
+            self.plan_fixturing_replans_left,
             self.cause,
         ) = FX_STATUS.unpack_from(buf, FX_STATUS_AT)
         (
@@ -131,8 +167,8 @@ class FxController:
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
         self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
-        _, self.op_command_num, self.op_command, self.op_arg_setup = OP_FX_COMMAND.unpack_from(
-            buf, OP_FX_COMMAND_AT
+        _, self.op_command_num, self.op_command, self.op_arg_setup, self.op_arg_clamps = (
+            OP_FX_COMMAND.unpack_from(buf, OP_FX_COMMAND_AT)
         )
         self.op_written = self.op_command_num
 
@@ -162,6 +198,7 @@ class FxController:
             (
                 self.command_num,
                 self.command,
+                self.arg_program,
                 self.arg_setup,
                 self.dont_run,
                 self.single_step,
@@ -171,6 +208,7 @@ class FxController:
                 self.op_status,
                 self.op_error_num,
             ) = values
+            self.arg_program = decode_text(self.arg_program)
             if self.op_status_num != self.op_command_num:
                 self.op_status = EXECUTING  # until it echoes the last number sent
                 self.op_error_num = OP_REASON_NONE  # no reason yet
@@ -225,6 +263,9 @@ class FxController:
                     self.error_num,
                     self.state,
                     self.rule,
+                    self.plan_fixturing_step,
+                    self.plan_fixturing_steps,
+                    self.plan_fixturing_replans_left,
                     self.cause,
                 )
                 words[FX_STATUS_WORD] = seq + 1
@@ -243,6 +284,7 @@ class FxController:
                     self.op_command_num,
                     self.op_command,
                     self.op_arg_setup,
+                    self.op_arg_clamps,
                 )
                 words[OP_FX_COMMAND_WORD] = seq + 1
                 self.op_written = self.op_command_num
@@ -274,6 +316,7 @@ class FxController:
         (
             self.command_num,
             self.command,
+            self.arg_program,
             self.arg_setup,
             self.dont_run,
             self.single_step,
@@ -283,6 +326,29 @@ class FxController:
             self.op_status,
             self.op_error_num,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
+        self.arg_program = decode_text(self.arg_program)
+
+    def plan_fixturing_load(self, steps: object, rule: str) -> None:
+        """Plan fixturing: the planner's steps (setup, clamps), at most 1, checked; step 0 is
+        current.
+        """
+        problem = plan_problem(steps, "ii", 1)
+        if problem:
+            raise HookError("fx", "fixturing", rule, self.cycles, steps, why=problem)
+        self.plan_fixturing = list(steps)  # a list of checked tuples
+        self.plan_fixturing_steps = len(self.plan_fixturing)
+        self.plan_fixturing_go(0)
+
+    def plan_fixturing_go(self, step: int) -> None:
+        """Plan fixturing: make step `step` the current one (past the last: done, fields 0)."""
+        self.plan_fixturing_step = min(step, self.plan_fixturing_steps)
+        self.plan_fixturing_done = self.plan_fixturing_step >= self.plan_fixturing_steps
+        if self.plan_fixturing_done:
+            self.plan_fixturing_setup, self.plan_fixturing_clamps = 0, 0
+        else:
+            self.plan_fixturing_setup, self.plan_fixturing_clamps = self.plan_fixturing[
+                self.plan_fixturing_step
+            ]
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -368,7 +434,14 @@ class FxController:
             # ask the operator (the console shows the task's instruction)
             self.rule = 9  # PLACE_PART/S0/1
             self.state = S0_ASKING
-            self.op_arg_setup = self.arg_setup
+            self.plan_fixturing_replans_left = 0  # plan: fixturing, from no steps
+            self.plan_fixturing_load([], "PLACE_PART/S0/1")
+            self.plan_fixturing_load(
+                self.hook_fixturing("PLACE_PART/S0/1", self.arg_program, self.arg_setup),
+                "PLACE_PART/S0/1",
+            )
+            self.op_arg_setup = self.plan_fixturing_setup
+            self.op_arg_clamps = self.plan_fixturing_clamps
             self.op_command = OP_PLACE_PART
             self.op_command_num += 1
 
@@ -413,7 +486,14 @@ class FxController:
             # ask the operator (the console shows the task's instruction)
             self.rule = 13  # REFIXTURE_PART/S0/1
             self.state = S0_ASKING
-            self.op_arg_setup = self.arg_setup
+            self.plan_fixturing_replans_left = 0  # plan: fixturing, from no steps
+            self.plan_fixturing_load([], "REFIXTURE_PART/S0/1")
+            self.plan_fixturing_load(
+                self.hook_fixturing("REFIXTURE_PART/S0/1", self.arg_program, self.arg_setup),
+                "REFIXTURE_PART/S0/1",
+            )
+            self.op_arg_setup = self.plan_fixturing_setup
+            self.op_arg_clamps = self.plan_fixturing_clamps
             self.op_command = OP_RESEAT_PART
             self.op_command_num += 1
 

@@ -39,7 +39,7 @@ REASON_PDM_DOWN = 3
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32sq68x???1xI2184x32s8xq8xq8xq")
+INPUTS = Struct("<QI32sq68x???1xI2320x32s8xq8xq8xq")
 INPUTS_AT = 472
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -54,7 +54,7 @@ JP_PERF_WORD = JP_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<Q32sQq")
 WORLD_VALUES_1 = Struct("<8x32s8xq")
 WORLD_SEQS_1 = Struct("<Q32xQ")
-WORLD_OUT_1_AT = 2776
+WORLD_OUT_1_AT = 2912
 WORLD_HELD_1 = (OVERRIDE["pdm_request"], OVERRIDE["pdm_seq"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

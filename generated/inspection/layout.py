@@ -13,7 +13,7 @@ buffer each, then the overrides: a flag, and each world field's override record 
 NONE, FORCED or SAFE, and its value; rcs/override.py).
 Every buffer starts with its sequence word (`seq`, the seqlock) and on an 8-byte boundary;
 all values are little-endian `struct` fields with no implicit padding.
-The block is 4184 bytes.
+The block is 4336 bytes.
 
 Buffers of one shape list their fields in `rcs/contract.py` (PROCESS_FIELDS for a process's
 control record, PACE_FIELDS for its pacing record, STATUS_FIELDS, MODE_FIELDS, PERF_FIELDS,
@@ -32,110 +32,110 @@ command buffers and world fields:
 | 528 | 56 | JP_STATUS | STATUS_FIELDS |
 | 584 | 16 | JP_MODE | MODE_FIELDS |
 | 600 | 48 | JP_PERF | PERF_FIELDS |
-| 648 | 52 | WC_COMMAND | command_num, command, arg_program |
-| 704 | 41 | WC_STATUS | STATUS_FIELDS |
-| 752 | 16 | WC_MODE | MODE_FIELDS |
-| 768 | 48 | WC_PERF | PERF_FIELDS |
-| 816 | 52 | WS_COMMAND | command_num, command, arg_program |
-| 872 | 65 | WS_STATUS | STATUS_FIELDS |
-| 944 | 16 | WS_MODE | MODE_FIELDS |
-| 960 | 48 | WS_PERF | PERF_FIELDS |
-| 1008 | 68 | MS_COMMAND | command_num, command, arg_program, arg_first, arg_count |
-| 1080 | 64 | MS_STATUS | STATUS_FIELDS |
-| 1144 | 16 | MS_MODE | MODE_FIELDS |
-| 1160 | 48 | MS_PERF | PERF_FIELDS |
-| 1208 | 28 | FX_COMMAND | command_num, command, arg_setup |
-| 1240 | 40 | FX_STATUS | STATUS_FIELDS |
-| 1280 | 16 | FX_MODE | MODE_FIELDS |
-| 1296 | 48 | FX_PERF | PERF_FIELDS |
-| 1344 | 20 | TL_COMMAND | command_num, command |
-| 1368 | 40 | TL_STATUS | STATUS_FIELDS |
-| 1408 | 16 | TL_MODE | MODE_FIELDS |
-| 1424 | 48 | TL_PERF | PERF_FIELDS |
-| 1472 | 28 | CMM_COMMAND | command_num, command, arg_number |
-| 1504 | 64 | CMM_STATUS | STATUS_FIELDS |
-| 1568 | 16 | CMM_MODE | MODE_FIELDS |
-| 1584 | 48 | CMM_PERF | PERF_FIELDS |
-| 1632 | 44 | PRIM_COMMAND | command_num, command, arg_x, arg_y, arg_z |
-| 1680 | 40 | PRIM_STATUS | STATUS_FIELDS |
-| 1720 | 16 | PRIM_MODE | MODE_FIELDS |
-| 1736 | 48 | PRIM_PERF | PERF_FIELDS |
-| 1784 | 44 | SERVO_COMMAND | command_num, command, arg_x, arg_y, arg_z |
-| 1832 | 40 | SERVO_STATUS | STATUS_FIELDS |
-| 1872 | 16 | SERVO_MODE | MODE_FIELDS |
-| 1888 | 48 | SERVO_PERF | PERF_FIELDS |
-| 1936 | 16 | OP_MODE | MODE_FIELDS |
-| 1952 | 48 | OP_PERF | PERF_FIELDS |
-| 2000 | 28 | OP_FX_COMMAND | command_num, command, arg_setup |
-| 2032 | 32 | OP_FX_STATUS | STATUS_FIELDS |
-| 2064 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
-| 2088 | 28 | OP_TL_COMMAND | command_num, command, arg_setup |
-| 2120 | 32 | OP_TL_STATUS | STATUS_FIELDS |
-| 2152 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
-| 2176 | 20 | CMM_SIM_COMMAND | command_num, command |
-| 2200 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
-| 2232 | 16 | CMM_SIM_MODE | MODE_FIELDS |
-| 2248 | 48 | CMM_SIM_PERF | PERF_FIELDS |
-| 2296 | 20 | DRIVES_COMMAND | command_num, command |
-| 2320 | 32 | DRIVES_STATUS | STATUS_FIELDS |
-| 2352 | 16 | DRIVES_MODE | MODE_FIELDS |
-| 2368 | 48 | DRIVES_PERF | PERF_FIELDS |
-| 2416 | 20 | PDM_COMMAND | command_num, command |
-| 2440 | 32 | PDM_STATUS | STATUS_FIELDS |
-| 2472 | 16 | PDM_MODE | MODE_FIELDS |
-| 2488 | 48 | PDM_PERF | PERF_FIELDS |
-| 2536 | 16 | WORLD_CMM_OP | cmm_op |
-| 2552 | 16 | WORLD_CMM_FEATURE | cmm_feature |
-| 2568 | 16 | WORLD_CMM_SEQ | cmm_seq |
-| 2584 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
-| 2600 | 16 | WORLD_CMM_READING | cmm_reading |
-| 2616 | 9 | WORLD_CMM_ALARM | cmm_alarm |
-| 2632 | 9 | WORLD_CMM_FAULT | cmm_fault |
-| 2648 | 16 | WORLD_MOTOR_X | motor_x |
-| 2664 | 16 | WORLD_MOTOR_Y | motor_y |
-| 2680 | 16 | WORLD_MOTOR_Z | motor_z |
-| 2696 | 16 | WORLD_AXIS_X | axis_x |
-| 2712 | 16 | WORLD_AXIS_Y | axis_y |
-| 2728 | 16 | WORLD_AXIS_Z | axis_z |
-| 2744 | 16 | WORLD_CAMERA_SCALE | camera_scale |
-| 2760 | 9 | WORLD_PDM_ONLINE | pdm_online |
-| 2776 | 40 | WORLD_PDM_REQUEST | pdm_request |
-| 2816 | 16 | WORLD_PDM_SEQ | pdm_seq |
-| 2832 | 16 | WORLD_PDM_DONE_SEQ | pdm_done_seq |
-| 2848 | 16 | WORLD_PDM_FEATURES | pdm_features |
-| 2864 | 9 | OVERRIDES | any |
-| 2880 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
-| 2904 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
-| 2928 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
-| 2952 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
-| 2976 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
-| 3000 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
-| 3024 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
-| 3048 | 24 | OVERRIDE_MOTOR_X | state, motor_x |
-| 3072 | 24 | OVERRIDE_MOTOR_Y | state, motor_y |
-| 3096 | 24 | OVERRIDE_MOTOR_Z | state, motor_z |
-| 3120 | 24 | OVERRIDE_AXIS_X | state, axis_x |
-| 3144 | 24 | OVERRIDE_AXIS_Y | state, axis_y |
-| 3168 | 24 | OVERRIDE_AXIS_Z | state, axis_z |
-| 3192 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
-| 3216 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
-| 3240 | 48 | OVERRIDE_PDM_REQUEST | state, pdm_request |
-| 3288 | 24 | OVERRIDE_PDM_SEQ | state, pdm_seq |
-| 3312 | 24 | OVERRIDE_PDM_DONE_SEQ | state, pdm_done_seq |
-| 3336 | 24 | OVERRIDE_PDM_FEATURES | state, pdm_features |
-| 3360 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
-| 3472 | 56 | TIME_JP | state, since, NOP, S0, RETRIEVING, PLANNING |
-| 3528 | 48 | TIME_WC | state, since, NOP, S0, S1 |
-| 3576 | 112 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, NEXT_SETUP, REFIXTURING, UNLOADING |
-| 3688 | 88 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING, JUDGED |
-| 3776 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
-| 3832 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
-| 3888 | 64 | TIME_CMM | state, since, NOP, S0, S1, TOUCH, TOUCHING |
-| 3952 | 72 | TIME_PRIM | state, since, NOP, S0, S1, APPROACHING, TOUCHING, RETRACTING |
-| 4024 | 40 | TIME_SERVO | state, since, NOP, S0 |
-| 4064 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
-| 4104 | 40 | TIME_DRIVES | state, since, NOP, S0 |
-| 4144 | 40 | TIME_PDM | state, since, NOP, S0 |
+| 648 | 84 | WC_COMMAND | command_num, command, arg_request |
+| 736 | 49 | WC_STATUS | STATUS_FIELDS |
+| 792 | 16 | WC_MODE | MODE_FIELDS |
+| 808 | 48 | WC_PERF | PERF_FIELDS |
+| 856 | 52 | WS_COMMAND | command_num, command, arg_program |
+| 912 | 65 | WS_STATUS | STATUS_FIELDS |
+| 984 | 16 | WS_MODE | MODE_FIELDS |
+| 1000 | 48 | WS_PERF | PERF_FIELDS |
+| 1048 | 68 | MS_COMMAND | command_num, command, arg_program, arg_first, arg_count |
+| 1120 | 88 | MS_STATUS | STATUS_FIELDS |
+| 1208 | 16 | MS_MODE | MODE_FIELDS |
+| 1224 | 48 | MS_PERF | PERF_FIELDS |
+| 1272 | 60 | FX_COMMAND | command_num, command, arg_program, arg_setup |
+| 1336 | 64 | FX_STATUS | STATUS_FIELDS |
+| 1400 | 16 | FX_MODE | MODE_FIELDS |
+| 1416 | 48 | FX_PERF | PERF_FIELDS |
+| 1464 | 20 | TL_COMMAND | command_num, command |
+| 1488 | 40 | TL_STATUS | STATUS_FIELDS |
+| 1528 | 16 | TL_MODE | MODE_FIELDS |
+| 1544 | 48 | TL_PERF | PERF_FIELDS |
+| 1592 | 28 | CMM_COMMAND | command_num, command, arg_number |
+| 1624 | 64 | CMM_STATUS | STATUS_FIELDS |
+| 1688 | 16 | CMM_MODE | MODE_FIELDS |
+| 1704 | 48 | CMM_PERF | PERF_FIELDS |
+| 1752 | 44 | PRIM_COMMAND | command_num, command, arg_x, arg_y, arg_z |
+| 1800 | 40 | PRIM_STATUS | STATUS_FIELDS |
+| 1840 | 16 | PRIM_MODE | MODE_FIELDS |
+| 1856 | 48 | PRIM_PERF | PERF_FIELDS |
+| 1904 | 44 | SERVO_COMMAND | command_num, command, arg_x, arg_y, arg_z |
+| 1952 | 40 | SERVO_STATUS | STATUS_FIELDS |
+| 1992 | 16 | SERVO_MODE | MODE_FIELDS |
+| 2008 | 48 | SERVO_PERF | PERF_FIELDS |
+| 2056 | 16 | OP_MODE | MODE_FIELDS |
+| 2072 | 48 | OP_PERF | PERF_FIELDS |
+| 2120 | 36 | OP_FX_COMMAND | command_num, command, arg_setup, arg_clamps |
+| 2160 | 32 | OP_FX_STATUS | STATUS_FIELDS |
+| 2192 | 24 | OP_FX_ANSWER | ANSWER_FIELDS |
+| 2216 | 36 | OP_TL_COMMAND | command_num, command, arg_setup, arg_clamps |
+| 2256 | 32 | OP_TL_STATUS | STATUS_FIELDS |
+| 2288 | 24 | OP_TL_ANSWER | ANSWER_FIELDS |
+| 2312 | 20 | CMM_SIM_COMMAND | command_num, command |
+| 2336 | 32 | CMM_SIM_STATUS | STATUS_FIELDS |
+| 2368 | 16 | CMM_SIM_MODE | MODE_FIELDS |
+| 2384 | 48 | CMM_SIM_PERF | PERF_FIELDS |
+| 2432 | 20 | DRIVES_COMMAND | command_num, command |
+| 2456 | 32 | DRIVES_STATUS | STATUS_FIELDS |
+| 2488 | 16 | DRIVES_MODE | MODE_FIELDS |
+| 2504 | 48 | DRIVES_PERF | PERF_FIELDS |
+| 2552 | 20 | PDM_COMMAND | command_num, command |
+| 2576 | 32 | PDM_STATUS | STATUS_FIELDS |
+| 2608 | 16 | PDM_MODE | MODE_FIELDS |
+| 2624 | 48 | PDM_PERF | PERF_FIELDS |
+| 2672 | 16 | WORLD_CMM_OP | cmm_op |
+| 2688 | 16 | WORLD_CMM_FEATURE | cmm_feature |
+| 2704 | 16 | WORLD_CMM_SEQ | cmm_seq |
+| 2720 | 16 | WORLD_CMM_DONE_SEQ | cmm_done_seq |
+| 2736 | 16 | WORLD_CMM_READING | cmm_reading |
+| 2752 | 9 | WORLD_CMM_ALARM | cmm_alarm |
+| 2768 | 9 | WORLD_CMM_FAULT | cmm_fault |
+| 2784 | 16 | WORLD_MOTOR_X | motor_x |
+| 2800 | 16 | WORLD_MOTOR_Y | motor_y |
+| 2816 | 16 | WORLD_MOTOR_Z | motor_z |
+| 2832 | 16 | WORLD_AXIS_X | axis_x |
+| 2848 | 16 | WORLD_AXIS_Y | axis_y |
+| 2864 | 16 | WORLD_AXIS_Z | axis_z |
+| 2880 | 16 | WORLD_CAMERA_SCALE | camera_scale |
+| 2896 | 9 | WORLD_PDM_ONLINE | pdm_online |
+| 2912 | 40 | WORLD_PDM_REQUEST | pdm_request |
+| 2952 | 16 | WORLD_PDM_SEQ | pdm_seq |
+| 2968 | 16 | WORLD_PDM_DONE_SEQ | pdm_done_seq |
+| 2984 | 16 | WORLD_PDM_FEATURES | pdm_features |
+| 3000 | 9 | OVERRIDES | any |
+| 3016 | 24 | OVERRIDE_CMM_OP | state, cmm_op |
+| 3040 | 24 | OVERRIDE_CMM_FEATURE | state, cmm_feature |
+| 3064 | 24 | OVERRIDE_CMM_SEQ | state, cmm_seq |
+| 3088 | 24 | OVERRIDE_CMM_DONE_SEQ | state, cmm_done_seq |
+| 3112 | 24 | OVERRIDE_CMM_READING | state, cmm_reading |
+| 3136 | 17 | OVERRIDE_CMM_ALARM | state, cmm_alarm |
+| 3160 | 17 | OVERRIDE_CMM_FAULT | state, cmm_fault |
+| 3184 | 24 | OVERRIDE_MOTOR_X | state, motor_x |
+| 3208 | 24 | OVERRIDE_MOTOR_Y | state, motor_y |
+| 3232 | 24 | OVERRIDE_MOTOR_Z | state, motor_z |
+| 3256 | 24 | OVERRIDE_AXIS_X | state, axis_x |
+| 3280 | 24 | OVERRIDE_AXIS_Y | state, axis_y |
+| 3304 | 24 | OVERRIDE_AXIS_Z | state, axis_z |
+| 3328 | 24 | OVERRIDE_CAMERA_SCALE | state, camera_scale |
+| 3352 | 17 | OVERRIDE_PDM_ONLINE | state, pdm_online |
+| 3376 | 48 | OVERRIDE_PDM_REQUEST | state, pdm_request |
+| 3424 | 24 | OVERRIDE_PDM_SEQ | state, pdm_seq |
+| 3448 | 24 | OVERRIDE_PDM_DONE_SEQ | state, pdm_done_seq |
+| 3472 | 24 | OVERRIDE_PDM_FEATURES | state, pdm_features |
+| 3496 | 112 | TIME_SHOP | state, since, NOP, S0, S1, SETTING_UP, INSPECTING, NEXT_PART, LAST, PLANNER_STOPPING, JOB_FAILED, REPLANNING, PLAN_FAILED |
+| 3608 | 56 | TIME_JP | state, since, NOP, S0, RETRIEVING, PLANNING |
+| 3664 | 72 | TIME_WC | state, since, NOP, S0, S1, CONVERTED, PREPARING, INSPECTING |
+| 3736 | 112 | TIME_WS | state, since, NOP, S0, S1, S2, S3, MS_FAILED, FX_FAILED, MEASURING, NEXT_SETUP, REFIXTURING, UNLOADING |
+| 3848 | 80 | TIME_MS | state, since, NOP, S0, S1, S2, S3, NEXT, PROBING |
+| 3928 | 56 | TIME_FX | state, since, NOP, S0, S1, S0_ASKING |
+| 3984 | 56 | TIME_TL | state, since, NOP, S0, S1, S0_ASKING |
+| 4040 | 64 | TIME_CMM | state, since, NOP, S0, S1, TOUCH, TOUCHING |
+| 4104 | 72 | TIME_PRIM | state, since, NOP, S0, S1, APPROACHING, TOUCHING, RETRACTING |
+| 4176 | 40 | TIME_SERVO | state, since, NOP, S0 |
+| 4216 | 40 | TIME_CMM_SIM | state, since, NOP, S0 |
+| 4256 | 40 | TIME_DRIVES | state, since, NOP, S0 |
+| 4296 | 40 | TIME_PDM | state, since, NOP, S0 |
 """
 
 from __future__ import annotations
@@ -167,9 +167,9 @@ from .rcs.contract import (
 
 SYSTEM = "inspection"
 SOURCE = "inspection/system.yaml"
-SIZE = 4184
+SIZE = 4336
 # The identity of this layout: every buffer, field, type and offset, and the system's name.
-LAYOUT_HASH = "2c56e13e601598779319826aeb123dcc"
+LAYOUT_HASH = "2219d635249065fa93bbc1f78ec5ba30"
 PROCESS_IWS_AT = 80
 PACE_IWS_AT = 248
 
@@ -194,149 +194,151 @@ JP_MODE_AT = 584
 JP_PERF_AT = 600
 
 # wc: Workcell
-WC_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
+WC_COMMAND = Struct("<QQI64s")  # seq, command_num, command, arg_request
 WC_COMMAND_AT = 648
 WC_STATUS = Struct(
-    "<QQIIii?Q"
-)  # seq, status_num, status, error_num, state, rule, result_accepted, cause
-WC_STATUS_AT = 704
-WC_MODE_AT = 752
-WC_PERF_AT = 768
+    "<QQIIiiq?Q"
+)  # seq, status_num, status, error_num, state, rule, result_job, result_accepted, cause
+WC_STATUS_AT = 736
+WC_MODE_AT = 792
+WC_PERF_AT = 808
 
 # ws: Inspection workstation
 WS_COMMAND = Struct("<QQI32s")  # seq, command_num, command, arg_program
-WS_COMMAND_AT = 816
+WS_COMMAND_AT = 856
 WS_STATUS = Struct(
     "<QQIIii?qqqQ"
 )  # seq, status_num, status, error_num, state, rule, result_accepted, plan_setups_step, plan_setups_steps, plan_setups_replans_left, cause
-WS_STATUS_AT = 872
-WS_MODE_AT = 944
-WS_PERF_AT = 960
+WS_STATUS_AT = 912
+WS_MODE_AT = 984
+WS_PERF_AT = 1000
 
 # ms: Measurement
 MS_COMMAND = Struct("<QQI32sqq")  # seq, command_num, command, arg_program, arg_first, arg_count
-MS_COMMAND_AT = 1008
+MS_COMMAND_AT = 1048
 MS_STATUS = Struct(
-    "<QQIIiidqqQ"
-)  # seq, status_num, status, error_num, state, rule, result_scale, result_measured, result_failed, cause
-MS_STATUS_AT = 1080
-MS_MODE_AT = 1144
-MS_PERF_AT = 1160
+    "<QQIIiidqqqqqQ"
+)  # seq, status_num, status, error_num, state, rule, result_scale, result_measured, result_failed, plan_schedule_step, plan_schedule_steps, plan_schedule_replans_left, cause
+MS_STATUS_AT = 1120
+MS_MODE_AT = 1208
+MS_PERF_AT = 1224
 
 # fx: Fixturing (performed by the operator)
-FX_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_setup
-FX_COMMAND_AT = 1208
-FX_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-FX_STATUS_AT = 1240
-FX_MODE_AT = 1280
-FX_PERF_AT = 1296
+FX_COMMAND = Struct("<QQI32sq")  # seq, command_num, command, arg_program, arg_setup
+FX_COMMAND_AT = 1272
+FX_STATUS = Struct(
+    "<QQIIiiqqqQ"
+)  # seq, status_num, status, error_num, state, rule, plan_fixturing_step, plan_fixturing_steps, plan_fixturing_replans_left, cause
+FX_STATUS_AT = 1336
+FX_MODE_AT = 1400
+FX_PERF_AT = 1416
 
 # tl: Tooling (performed by the operator)
 TL_COMMAND = Struct("<QQI")  # seq, command_num, command
-TL_COMMAND_AT = 1344
+TL_COMMAND_AT = 1464
 TL_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-TL_STATUS_AT = 1368
-TL_MODE_AT = 1408
-TL_PERF_AT = 1424
+TL_STATUS_AT = 1488
+TL_MODE_AT = 1528
+TL_PERF_AT = 1544
 
 # cmm: Coordinate measuring machine
 CMM_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_number
-CMM_COMMAND_AT = 1472
+CMM_COMMAND_AT = 1592
 CMM_STATUS = Struct(
     "<QQIIiiqqqQ"
 )  # seq, status_num, status, error_num, state, rule, plan_points_step, plan_points_steps, plan_points_replans_left, cause
-CMM_STATUS_AT = 1504
-CMM_MODE_AT = 1568
-CMM_PERF_AT = 1584
+CMM_STATUS_AT = 1624
+CMM_MODE_AT = 1688
+CMM_PERF_AT = 1704
 
 # prim: Probe controller (Prim)
 PRIM_COMMAND = Struct("<QQIddd")  # seq, command_num, command, arg_x, arg_y, arg_z
-PRIM_COMMAND_AT = 1632
+PRIM_COMMAND_AT = 1752
 PRIM_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-PRIM_STATUS_AT = 1680
-PRIM_MODE_AT = 1720
-PRIM_PERF_AT = 1736
+PRIM_STATUS_AT = 1800
+PRIM_MODE_AT = 1840
+PRIM_PERF_AT = 1856
 
 # servo: Servo (CMM axes)
 SERVO_COMMAND = Struct("<QQIddd")  # seq, command_num, command, arg_x, arg_y, arg_z
-SERVO_COMMAND_AT = 1784
+SERVO_COMMAND_AT = 1904
 SERVO_STATUS = Struct("<QQIIiiQ")  # seq, status_num, status, error_num, state, rule, cause
-SERVO_STATUS_AT = 1832
-SERVO_MODE_AT = 1872
-SERVO_PERF_AT = 1888
+SERVO_STATUS_AT = 1952
+SERVO_MODE_AT = 1992
+SERVO_PERF_AT = 2008
 
 # cmm_sim: CMM (simulated)
 CMM_SIM_COMMAND = Struct("<QQI")  # seq, command_num, command
-CMM_SIM_COMMAND_AT = 2176
-CMM_SIM_STATUS_AT = 2200
-CMM_SIM_MODE_AT = 2232
-CMM_SIM_PERF_AT = 2248
+CMM_SIM_COMMAND_AT = 2312
+CMM_SIM_STATUS_AT = 2336
+CMM_SIM_MODE_AT = 2368
+CMM_SIM_PERF_AT = 2384
 
 # drives: CMM axis drives (simulated)
 DRIVES_COMMAND = Struct("<QQI")  # seq, command_num, command
-DRIVES_COMMAND_AT = 2296
-DRIVES_STATUS_AT = 2320
-DRIVES_MODE_AT = 2352
-DRIVES_PERF_AT = 2368
+DRIVES_COMMAND_AT = 2432
+DRIVES_STATUS_AT = 2456
+DRIVES_MODE_AT = 2488
+DRIVES_PERF_AT = 2504
 
 # pdm: PDM system (simulated)
 PDM_COMMAND = Struct("<QQI")  # seq, command_num, command
-PDM_COMMAND_AT = 2416
-PDM_STATUS_AT = 2440
-PDM_MODE_AT = 2472
-PDM_PERF_AT = 2488
+PDM_COMMAND_AT = 2552
+PDM_STATUS_AT = 2576
+PDM_MODE_AT = 2608
+PDM_PERF_AT = 2624
 
 # op: Operator at the screen (an operator module: a channel per client)
-OP_MODE_AT = 1936
-OP_PERF_AT = 1952
-OP_FX_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_setup
-OP_FX_COMMAND_AT = 2000
-OP_FX_STATUS_AT = 2032
-OP_FX_ANSWER_AT = 2064
-OP_TL_COMMAND = Struct("<QQIq")  # seq, command_num, command, arg_setup
-OP_TL_COMMAND_AT = 2088
-OP_TL_STATUS_AT = 2120
-OP_TL_ANSWER_AT = 2152
+OP_MODE_AT = 2056
+OP_PERF_AT = 2072
+OP_FX_COMMAND = Struct("<QQIqq")  # seq, command_num, command, arg_setup, arg_clamps
+OP_FX_COMMAND_AT = 2120
+OP_FX_STATUS_AT = 2160
+OP_FX_ANSWER_AT = 2192
+OP_TL_COMMAND = Struct("<QQIqq")  # seq, command_num, command, arg_setup, arg_clamps
+OP_TL_COMMAND_AT = 2216
+OP_TL_STATUS_AT = 2256
+OP_TL_ANSWER_AT = 2288
 
 # World model.
 WORLD_CMM_OP = Struct("<Qq")  # seq, cmm_op
-WORLD_CMM_OP_AT = 2536
+WORLD_CMM_OP_AT = 2672
 WORLD_CMM_FEATURE = Struct("<Qq")  # seq, cmm_feature
-WORLD_CMM_FEATURE_AT = 2552
+WORLD_CMM_FEATURE_AT = 2688
 WORLD_CMM_SEQ = Struct("<Qq")  # seq, cmm_seq
-WORLD_CMM_SEQ_AT = 2568
+WORLD_CMM_SEQ_AT = 2704
 WORLD_CMM_DONE_SEQ = Struct("<Qq")  # seq, cmm_done_seq
-WORLD_CMM_DONE_SEQ_AT = 2584
+WORLD_CMM_DONE_SEQ_AT = 2720
 WORLD_CMM_READING = Struct("<Qd")  # seq, cmm_reading
-WORLD_CMM_READING_AT = 2600
+WORLD_CMM_READING_AT = 2736
 WORLD_CMM_ALARM = Struct("<Q?")  # seq, cmm_alarm
-WORLD_CMM_ALARM_AT = 2616
+WORLD_CMM_ALARM_AT = 2752
 WORLD_CMM_FAULT = Struct("<Q?")  # seq, cmm_fault
-WORLD_CMM_FAULT_AT = 2632
+WORLD_CMM_FAULT_AT = 2768
 WORLD_MOTOR_X = Struct("<Qd")  # seq, motor_x
-WORLD_MOTOR_X_AT = 2648
+WORLD_MOTOR_X_AT = 2784
 WORLD_MOTOR_Y = Struct("<Qd")  # seq, motor_y
-WORLD_MOTOR_Y_AT = 2664
+WORLD_MOTOR_Y_AT = 2800
 WORLD_MOTOR_Z = Struct("<Qd")  # seq, motor_z
-WORLD_MOTOR_Z_AT = 2680
+WORLD_MOTOR_Z_AT = 2816
 WORLD_AXIS_X = Struct("<Qd")  # seq, axis_x
-WORLD_AXIS_X_AT = 2696
+WORLD_AXIS_X_AT = 2832
 WORLD_AXIS_Y = Struct("<Qd")  # seq, axis_y
-WORLD_AXIS_Y_AT = 2712
+WORLD_AXIS_Y_AT = 2848
 WORLD_AXIS_Z = Struct("<Qd")  # seq, axis_z
-WORLD_AXIS_Z_AT = 2728
+WORLD_AXIS_Z_AT = 2864
 WORLD_CAMERA_SCALE = Struct("<Qd")  # seq, camera_scale
-WORLD_CAMERA_SCALE_AT = 2744
+WORLD_CAMERA_SCALE_AT = 2880
 WORLD_PDM_ONLINE = Struct("<Q?")  # seq, pdm_online
-WORLD_PDM_ONLINE_AT = 2760
+WORLD_PDM_ONLINE_AT = 2896
 WORLD_PDM_REQUEST = Struct("<Q32s")  # seq, pdm_request
-WORLD_PDM_REQUEST_AT = 2776
+WORLD_PDM_REQUEST_AT = 2912
 WORLD_PDM_SEQ = Struct("<Qq")  # seq, pdm_seq
-WORLD_PDM_SEQ_AT = 2816
+WORLD_PDM_SEQ_AT = 2952
 WORLD_PDM_DONE_SEQ = Struct("<Qq")  # seq, pdm_done_seq
-WORLD_PDM_DONE_SEQ_AT = 2832
+WORLD_PDM_DONE_SEQ_AT = 2968
 WORLD_PDM_FEATURES = Struct("<Qq")  # seq, pdm_features
-WORLD_PDM_FEATURES_AT = 2848
+WORLD_PDM_FEATURES_AT = 2984
 
 
 PROCESSES = {
@@ -413,14 +415,14 @@ COMMAND_IN = {
         SHOP_COMMAND, SHOP_COMMAND_AT, ("command_num", "command", "arg_program", "arg_parts")
     ),
     "jp": Record(JP_COMMAND, JP_COMMAND_AT, ("command_num", "command", "arg_program", "arg_part")),
-    "wc": Record(WC_COMMAND, WC_COMMAND_AT, ("command_num", "command", "arg_program")),
+    "wc": Record(WC_COMMAND, WC_COMMAND_AT, ("command_num", "command", "arg_request")),
     "ws": Record(WS_COMMAND, WS_COMMAND_AT, ("command_num", "command", "arg_program")),
     "ms": Record(
         MS_COMMAND,
         MS_COMMAND_AT,
         ("command_num", "command", "arg_program", "arg_first", "arg_count"),
     ),
-    "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command", "arg_setup")),
+    "fx": Record(FX_COMMAND, FX_COMMAND_AT, ("command_num", "command", "arg_program", "arg_setup")),
     "tl": Record(TL_COMMAND, TL_COMMAND_AT, ("command_num", "command")),
     "cmm": Record(CMM_COMMAND, CMM_COMMAND_AT, ("command_num", "command", "arg_number")),
     "prim": Record(
@@ -432,8 +434,12 @@ COMMAND_IN = {
     "cmm_sim": Record(CMM_SIM_COMMAND, CMM_SIM_COMMAND_AT, ("command_num", "command")),
     "drives": Record(DRIVES_COMMAND, DRIVES_COMMAND_AT, ("command_num", "command")),
     "pdm": Record(PDM_COMMAND, PDM_COMMAND_AT, ("command_num", "command")),
-    "op/fx": Record(OP_FX_COMMAND, OP_FX_COMMAND_AT, ("command_num", "command", "arg_setup")),
-    "op/tl": Record(OP_TL_COMMAND, OP_TL_COMMAND_AT, ("command_num", "command", "arg_setup")),
+    "op/fx": Record(
+        OP_FX_COMMAND, OP_FX_COMMAND_AT, ("command_num", "command", "arg_setup", "arg_clamps")
+    ),
+    "op/tl": Record(
+        OP_TL_COMMAND, OP_TL_COMMAND_AT, ("command_num", "command", "arg_setup", "arg_clamps")
+    ),
 }
 STATUS_OUT = {
     "shop": Record(
@@ -469,7 +475,16 @@ STATUS_OUT = {
     "wc": Record(
         WC_STATUS,
         WC_STATUS_AT,
-        ("status_num", "status", "error_num", "state", "rule", "result_accepted", "cause"),
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "result_job",
+            "result_accepted",
+            "cause",
+        ),
     ),
     "ws": Record(
         WS_STATUS,
@@ -499,11 +514,26 @@ STATUS_OUT = {
             "result_scale",
             "result_measured",
             "result_failed",
+            "plan_schedule_step",
+            "plan_schedule_steps",
+            "plan_schedule_replans_left",
             "cause",
         ),
     ),
     "fx": Record(
-        FX_STATUS, FX_STATUS_AT, ("status_num", "status", "error_num", "state", "rule", "cause")
+        FX_STATUS,
+        FX_STATUS_AT,
+        (
+            "status_num",
+            "status",
+            "error_num",
+            "state",
+            "rule",
+            "plan_fixturing_step",
+            "plan_fixturing_steps",
+            "plan_fixturing_replans_left",
+            "cause",
+        ),
     ),
     "tl": Record(
         TL_STATUS, TL_STATUS_AT, ("status_num", "status", "error_num", "state", "rule", "cause")
@@ -617,30 +647,30 @@ WORLD_INITIAL: dict[str, object] = {
 }
 # Overrides (rcs/override.py): a world field FORCED by an operator or latched SAFE keeps the
 # override's value; the module that writes it does not overwrite it meanwhile.
-OVERRIDES_AT = 2864
-OVERRIDDEN_AT = 2872  # `any`: one byte stored whole, read without the seqlock
+OVERRIDES_AT = 3000
+OVERRIDDEN_AT = 3008  # `any`: one byte stored whole, read without the seqlock
 # (for tools to read; only rcs/override.py writes it, one byte at a time)
 OVERRIDES = Record(Struct("<Q?"), OVERRIDES_AT, ("any",))
 OVERRIDE = {
-    "cmm_op": Record(Struct("<QQq"), 2880, ("state", "cmm_op")),
-    "cmm_feature": Record(Struct("<QQq"), 2904, ("state", "cmm_feature")),
-    "cmm_seq": Record(Struct("<QQq"), 2928, ("state", "cmm_seq")),
-    "cmm_done_seq": Record(Struct("<QQq"), 2952, ("state", "cmm_done_seq")),
-    "cmm_reading": Record(Struct("<QQd"), 2976, ("state", "cmm_reading")),
-    "cmm_alarm": Record(Struct("<QQ?"), 3000, ("state", "cmm_alarm")),
-    "cmm_fault": Record(Struct("<QQ?"), 3024, ("state", "cmm_fault")),
-    "motor_x": Record(Struct("<QQd"), 3048, ("state", "motor_x")),
-    "motor_y": Record(Struct("<QQd"), 3072, ("state", "motor_y")),
-    "motor_z": Record(Struct("<QQd"), 3096, ("state", "motor_z")),
-    "axis_x": Record(Struct("<QQd"), 3120, ("state", "axis_x")),
-    "axis_y": Record(Struct("<QQd"), 3144, ("state", "axis_y")),
-    "axis_z": Record(Struct("<QQd"), 3168, ("state", "axis_z")),
-    "camera_scale": Record(Struct("<QQd"), 3192, ("state", "camera_scale")),
-    "pdm_online": Record(Struct("<QQ?"), 3216, ("state", "pdm_online")),
-    "pdm_request": Record(Struct("<QQ32s"), 3240, ("state", "pdm_request")),
-    "pdm_seq": Record(Struct("<QQq"), 3288, ("state", "pdm_seq")),
-    "pdm_done_seq": Record(Struct("<QQq"), 3312, ("state", "pdm_done_seq")),
-    "pdm_features": Record(Struct("<QQq"), 3336, ("state", "pdm_features")),
+    "cmm_op": Record(Struct("<QQq"), 3016, ("state", "cmm_op")),
+    "cmm_feature": Record(Struct("<QQq"), 3040, ("state", "cmm_feature")),
+    "cmm_seq": Record(Struct("<QQq"), 3064, ("state", "cmm_seq")),
+    "cmm_done_seq": Record(Struct("<QQq"), 3088, ("state", "cmm_done_seq")),
+    "cmm_reading": Record(Struct("<QQd"), 3112, ("state", "cmm_reading")),
+    "cmm_alarm": Record(Struct("<QQ?"), 3136, ("state", "cmm_alarm")),
+    "cmm_fault": Record(Struct("<QQ?"), 3160, ("state", "cmm_fault")),
+    "motor_x": Record(Struct("<QQd"), 3184, ("state", "motor_x")),
+    "motor_y": Record(Struct("<QQd"), 3208, ("state", "motor_y")),
+    "motor_z": Record(Struct("<QQd"), 3232, ("state", "motor_z")),
+    "axis_x": Record(Struct("<QQd"), 3256, ("state", "axis_x")),
+    "axis_y": Record(Struct("<QQd"), 3280, ("state", "axis_y")),
+    "axis_z": Record(Struct("<QQd"), 3304, ("state", "axis_z")),
+    "camera_scale": Record(Struct("<QQd"), 3328, ("state", "camera_scale")),
+    "pdm_online": Record(Struct("<QQ?"), 3352, ("state", "pdm_online")),
+    "pdm_request": Record(Struct("<QQ32s"), 3376, ("state", "pdm_request")),
+    "pdm_seq": Record(Struct("<QQq"), 3424, ("state", "pdm_seq")),
+    "pdm_done_seq": Record(Struct("<QQq"), 3448, ("state", "pdm_done_seq")),
+    "pdm_features": Record(Struct("<QQq"), 3472, ("state", "pdm_features")),
 }
 # Each actuator's safe value (`safe:`, or its type's zero), as the field holds it: where the
 # runtime drives it, latched, when the process that writes it is lost, stops or trips.
@@ -658,6 +688,7 @@ ACTUATED_BY = {
 # The fields that hold an enumeration's value, by (module, or "" for the world; field): the
 # value names, indexed by the code the field holds, for traces, displays and `ctl send`.
 ENUMS: dict[tuple[str, str], tuple[str, ...]] = {
+    ("wc", "result_job"): ("NO_JOB", "INIT_JOB", "INSPECT_JOB"),
     ("", "cmm_op"): (
         "NO_OPERATION",
         "HOMING",
@@ -696,7 +727,7 @@ GROUND_TRUTH = ()
 TIME_IN_STATE = {
     "shop": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        3360,
+        3496,
         (
             "state",
             "since",
@@ -714,12 +745,16 @@ TIME_IN_STATE = {
         ),
     ),
     "jp": Record(
-        Struct("<QqQQQQQ"), 3472, ("state", "since", "NOP", "S0", "RETRIEVING", "PLANNING")
+        Struct("<QqQQQQQ"), 3608, ("state", "since", "NOP", "S0", "RETRIEVING", "PLANNING")
     ),
-    "wc": Record(Struct("<QqQQQQ"), 3528, ("state", "since", "NOP", "S0", "S1")),
+    "wc": Record(
+        Struct("<QqQQQQQQQ"),
+        3664,
+        ("state", "since", "NOP", "S0", "S1", "CONVERTED", "PREPARING", "INSPECTING"),
+    ),
     "ws": Record(
         Struct("<QqQQQQQQQQQQQQ"),
-        3576,
+        3736,
         (
             "state",
             "since",
@@ -737,30 +772,30 @@ TIME_IN_STATE = {
         ),
     ),
     "ms": Record(
-        Struct("<QqQQQQQQQQQ"),
-        3688,
-        ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
+        Struct("<QqQQQQQQQQ"),
+        3848,
+        ("state", "since", "NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING"),
     ),
-    "fx": Record(Struct("<QqQQQQQ"), 3776, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
-    "tl": Record(Struct("<QqQQQQQ"), 3832, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "fx": Record(Struct("<QqQQQQQ"), 3928, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
+    "tl": Record(Struct("<QqQQQQQ"), 3984, ("state", "since", "NOP", "S0", "S1", "S0_ASKING")),
     "cmm": Record(
-        Struct("<QqQQQQQQ"), 3888, ("state", "since", "NOP", "S0", "S1", "TOUCH", "TOUCHING")
+        Struct("<QqQQQQQQ"), 4040, ("state", "since", "NOP", "S0", "S1", "TOUCH", "TOUCHING")
     ),
     "prim": Record(
         Struct("<QqQQQQQQQ"),
-        3952,
+        4104,
         ("state", "since", "NOP", "S0", "S1", "APPROACHING", "TOUCHING", "RETRACTING"),
     ),
-    "servo": Record(Struct("<QqQQQ"), 4024, ("state", "since", "NOP", "S0")),
-    "cmm_sim": Record(Struct("<QqQQQ"), 4064, ("state", "since", "NOP", "S0")),
-    "drives": Record(Struct("<QqQQQ"), 4104, ("state", "since", "NOP", "S0")),
-    "pdm": Record(Struct("<QqQQQ"), 4144, ("state", "since", "NOP", "S0")),
+    "servo": Record(Struct("<QqQQQ"), 4176, ("state", "since", "NOP", "S0")),
+    "cmm_sim": Record(Struct("<QqQQQ"), 4216, ("state", "since", "NOP", "S0")),
+    "drives": Record(Struct("<QqQQQ"), 4256, ("state", "since", "NOP", "S0")),
+    "pdm": Record(Struct("<QqQQQ"), 4296, ("state", "since", "NOP", "S0")),
 }
 # Names of command codes and state codes, indexed by code, for traces and displays.
 COMMAND_NAMES = {
     "shop": (NO_COMMAND_NAME, *("INIT", "HALT", "INSPECT_LOT", "INIT_FOR_INSPECT", "INSPECT_PART")),
     "jp": (NO_COMMAND_NAME, *("INIT", "HALT", "PLAN_JOB")),
-    "wc": (NO_COMMAND_NAME, *("INIT", "HALT", "INIT_FOR_INSPECT", "INSPECT_PART")),
+    "wc": (NO_COMMAND_NAME, *("INIT", "HALT", "JOB")),
     "ws": (NO_COMMAND_NAME, *("INIT", "HALT", "INIT_FOR_INSPECT", "INSPECT_PART")),
     "ms": (
         NO_COMMAND_NAME,
@@ -829,7 +864,7 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
         "PLAN_JOB": ("program", "part"),
     },
     "wc": {
-        "INSPECT_PART": ("program",),
+        "JOB": ("request",),
     },
     "ws": {
         "INSPECT_PART": ("program",),
@@ -838,8 +873,8 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
         "MEASURE_PART": ("program", "first", "count"),
     },
     "fx": {
-        "PLACE_PART": ("setup",),
-        "REFIXTURE_PART": ("setup",),
+        "PLACE_PART": ("program", "setup"),
+        "REFIXTURE_PART": ("program", "setup"),
     },
     "cmm": {
         "INSPECT_FEATURE": ("number",),
@@ -851,12 +886,12 @@ PARAMS: dict[str, dict[str, tuple[str, ...]]] = {
         "MOVE_TO": ("x", "y", "z"),
     },
     "op/fx": {
-        "PLACE_PART": ("setup",),
-        "RESEAT_PART": ("setup",),
+        "PLACE_PART": ("setup", "clamps"),
+        "RESEAT_PART": ("setup", "clamps"),
     },
     "op/tl": {
-        "PLACE_PART": ("setup",),
-        "RESEAT_PART": ("setup",),
+        "PLACE_PART": ("setup", "clamps"),
+        "RESEAT_PART": ("setup", "clamps"),
     },
 }
 STATE_NAMES = {
@@ -874,7 +909,7 @@ STATE_NAMES = {
         "PLAN_FAILED",
     ),
     "jp": ("NOP", "S0", "RETRIEVING", "PLANNING"),
-    "wc": ("NOP", "S0", "S1"),
+    "wc": ("NOP", "S0", "S1", "CONVERTED", "PREPARING", "INSPECTING"),
     "ws": (
         "NOP",
         "S0",
@@ -888,7 +923,7 @@ STATE_NAMES = {
         "REFIXTURING",
         "UNLOADING",
     ),
-    "ms": ("NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING", "JUDGED"),
+    "ms": ("NOP", "S0", "S1", "S2", "S3", "NEXT", "PROBING"),
     "fx": ("NOP", "S0", "S1", "S0_ASKING"),
     "tl": ("NOP", "S0", "S1", "S0_ASKING"),
     "cmm": ("NOP", "S0", "S1", "TOUCH", "TOUCHING"),
@@ -904,9 +939,18 @@ STATE_NAMES = {
 # controllers and operator modules that declare reasons (docs/semantics.md, "Results and
 # reasons"); an operator module's are also what an answer's `reason` codes.
 REASON_NAMES: dict[str, tuple[str, ...]] = {
-    "shop": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT", "NO_PROGRAM", "PDM_DOWN"),
+    "shop": (
+        "NONE",
+        "LOST",
+        "REFUSED",
+        "TIMED_OUT",
+        "MACHINE_FAULT",
+        "BAD_REQUEST",
+        "NO_PROGRAM",
+        "PDM_DOWN",
+    ),
     "jp": ("NONE", "LOST", "NO_PROGRAM", "PDM_DOWN"),
-    "wc": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
+    "wc": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT", "BAD_REQUEST"),
     "ws": ("NONE", "LOST", "REFUSED", "TIMED_OUT", "MACHINE_FAULT"),
     "ms": ("NONE", "LOST", "MACHINE_FAULT", "REFUSED", "TIMED_OUT"),
     "fx": ("NONE", "LOST", "REFUSED", "TIMED_OUT"),
@@ -986,12 +1030,14 @@ RULES = {
         "INIT/S1/1",
         "HALT/S0/1",
         "HALT/S1/1",
-        "INIT_FOR_INSPECT/S0/1",
-        "INIT_FOR_INSPECT/S1/1",
-        "INIT_FOR_INSPECT/S1/2",
-        "INSPECT_PART/S0/1",
-        "INSPECT_PART/S1/1",
-        "INSPECT_PART/S1/2",
+        "JOB/S0/1",
+        "JOB/CONVERTED/1",
+        "JOB/CONVERTED/2",
+        "JOB/CONVERTED/3",
+        "JOB/PREPARING/1",
+        "JOB/PREPARING/2",
+        "JOB/INSPECTING/1",
+        "JOB/INSPECTING/2",
     ),
     "ws": (
         "",
@@ -1053,7 +1099,6 @@ RULES = {
         "MEASURE_PART/NEXT/2",
         "MEASURE_PART/PROBING/1",
         "MEASURE_PART/PROBING/2",
-        "MEASURE_PART/JUDGED/1",
     ),
     "fx": (
         "",
@@ -1177,7 +1222,7 @@ SEGMENT_GROUP: str | None = None
 # The run settings the hook-state factories read (`settings:`), each with what it chooses;
 # `--set`, a scenario's `settings:` and a harness may give only these.
 SETTINGS: dict[str, str] | None = {
-    "program": "The inspection program the station measures: programs/<name>.ipg (default programs/bracket.ipg).",
+    "program": "The inspection program the station measures: programs/<name>.dmi (default programs/bracket.dmi).",
     "part": "The part on the fixture, as the simulated CMM sees it: parts/<name>.part (default parts/nominal.part).",
     "seed": "The seed of the simulated probe noise, a whole number (default 1).",
 }
@@ -1206,8 +1251,8 @@ TASK_RESULTS: dict[str, dict[str, tuple[tuple[str, float | None, float | None], 
 INSTRUCTIONS = {
     "op": {
         "MOUNT_FIXTURE_PLATE": "Clear the table and mount the fixture plate, then answer.",
-        "PLACE_PART": "Place the part in the fixture in setup {setup} and clamp it, then answer.",
-        "RESEAT_PART": "Unclamp and clean the part, seat it in setup {setup} and clamp it, then answer.",
+        "PLACE_PART": "Place the part in the fixture in setup {setup} and clamp it with {clamps} clamps, then answer.",
+        "RESEAT_PART": "Unclamp and clean the part, seat it in setup {setup} and clamp it with {clamps} clamps, then answer.",
         "UNLOAD_PART": "Unclamp the part and take it off the table, then answer.",
         "MOUNT_SPHERE": "Mount the reference sphere and define the coordinate system, then answer.",
         "ORIENT_PROBE": "Orient the probe for calibration on the reference sphere, then answer.",

@@ -25,6 +25,7 @@ from .rcs.contract import (
     HookError,
     caused,
     decode_text,
+    plan_problem,
     words,
 )
 from .rcs.deadline import FACTORY_DEADLINE, hook, within
@@ -73,8 +74,8 @@ CMM_LINK = 8  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32sqq76x???1xI216xQII8xQ104xQII32xQ1040xd136xd")
-INPUTS_AT = 1016
+INPUTS = Struct("<QI32sqq100x???1xI272xQII8xQ104xQII32xQ1056xd136xd")
+INPUTS_AT = 1056
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 MS_STATUS_WORD = MS_STATUS_AT >> 3
@@ -89,7 +90,6 @@ S2 = 3
 S3 = 4
 NEXT = 5
 PROBING = 6
-JUDGED = 7
 
 
 class MsController:
@@ -124,6 +124,14 @@ class MsController:
         "min_cycle_ns",
         "perf_seq",
         "perf_single_step_num",
+        "plan_schedule",
+        "plan_schedule_done",
+        "plan_schedule_feature",
+        "plan_schedule_high",
+        "plan_schedule_low",
+        "plan_schedule_replans_left",
+        "plan_schedule_step",
+        "plan_schedule_steps",
         "result_failed",
         "result_measured",
         "result_scale",
@@ -145,9 +153,6 @@ class MsController:
         "tl_status_num",
         "tl_written",
         "var_failed",
-        "var_feature",
-        "var_features",
-        "var_in_tolerance",
         "words",
         "world_camera_scale",
         "world_cmm_reading",
@@ -157,8 +162,7 @@ class MsController:
     # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
     # 5 cycle periods and at least 1 s); what it raises, or a result unlike
     # its `returns:`, is a HookError.
-    hook_judge = hook("ms", hooks, "judge", 2.5, "b")
-    hook_program_features = hook("ms", hooks, "program_features", 2.5, "i")
+    hook_feature_schedule = hook("ms", hooks, "feature_schedule", 2.5)
 
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
@@ -167,11 +171,11 @@ class MsController:
             self.hook_state = within(FACTORY_DEADLINE, hooks.new_program, settings or {})
         except BaseException as error:
             raise HookError("ms", "new_program", "hooks_state", 0) from error
-        self.var_features: int = 0
-        self.var_feature: int = 0
         self.var_failed: int = 0
-        self.var_in_tolerance: bool = False
         self.resume()
+        self.plan_schedule: list[tuple[int, float, float]] = []  # plan schedule: no steps yet
+        self.plan_schedule_steps = self.plan_schedule_replans_left = 0
+        self.plan_schedule_go(0)
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
     def resume(self) -> None:
@@ -188,6 +192,9 @@ class MsController:
             self.result_scale,
             self.result_measured,
             self.result_failed,
+            self.plan_schedule_step,
+            self.plan_schedule_steps,
+            self.plan_schedule_replans_left,
             self.cause,
         ) = MS_STATUS.unpack_from(buf, MS_STATUS_AT)
         (
@@ -327,6 +334,9 @@ class MsController:
                     self.result_scale,
                     self.result_measured,
                     self.result_failed,
+                    self.plan_schedule_step,
+                    self.plan_schedule_steps,
+                    self.plan_schedule_replans_left,
                     self.cause,
                 )
                 words[MS_STATUS_WORD] = seq + 1
@@ -404,6 +414,32 @@ class MsController:
             self.world_camera_scale,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
         self.arg_program = decode_text(self.arg_program)
+
+    def plan_schedule_load(self, steps: object, rule: str) -> None:
+        """Plan schedule: the planner's steps (feature, low, high), at most 16, checked; step 0 is
+        current.
+        """
+        problem = plan_problem(steps, "iff", 16)
+        if problem:
+            raise HookError("ms", "feature_schedule", rule, self.cycles, steps, why=problem)
+        self.plan_schedule = list(steps)  # a list of checked tuples
+        self.plan_schedule_steps = len(self.plan_schedule)
+        self.plan_schedule_go(0)
+
+    def plan_schedule_go(self, step: int) -> None:
+        """Plan schedule: make step `step` the current one (past the last: done, fields 0)."""
+        self.plan_schedule_step = min(step, self.plan_schedule_steps)
+        self.plan_schedule_done = self.plan_schedule_step >= self.plan_schedule_steps
+        if self.plan_schedule_done:
+            self.plan_schedule_feature, self.plan_schedule_low, self.plan_schedule_high = (
+                0,
+                0.0,
+                0.0,
+            )
+        else:
+            self.plan_schedule_feature, self.plan_schedule_low, self.plan_schedule_high = (
+                self.plan_schedule[self.plan_schedule_step]
+            )
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -598,23 +634,32 @@ class MsController:
         """
         state = self.state
         if state == S0:
+            # the PL interprets the program into the schedule's steps
             self.rule = 21  # MEASURE_PART/S0/1
             self.state = NEXT
-            self.var_features = self.hook_program_features(
-                "MEASURE_PART/S0/1", self.hook_state, self.arg_program
+            self.plan_schedule_replans_left = 0  # plan: schedule, from no steps
+            self.plan_schedule_load([], "MEASURE_PART/S0/1")
+            self.plan_schedule_load(
+                self.hook_feature_schedule(
+                    "MEASURE_PART/S0/1",
+                    self.hook_state,
+                    self.arg_program,
+                    self.arg_first,
+                    self.arg_count,
+                ),
+                "MEASURE_PART/S0/1",
             )
-            self.var_feature = self.arg_first
             self.var_failed = 0
 
         elif state == NEXT:
-            if self.var_feature < min(self.var_features, self.arg_first + self.arg_count):
+            if not self.plan_schedule_done:
                 self.rule = 22  # MEASURE_PART/NEXT/1
                 self.state = PROBING
-                self.cmm_arg_number = self.var_feature
+                self.cmm_arg_number = self.plan_schedule_feature
                 self.cmm_command = CMM_INSPECT_FEATURE
                 self.cmm_command_num += 1
 
-            elif self.var_feature >= min(self.var_features, self.arg_first + self.arg_count):
+            elif self.plan_schedule_done:
                 self.rule = 23  # MEASURE_PART/NEXT/2
                 self.state = NOP
                 self.status = DONE
@@ -622,15 +667,17 @@ class MsController:
 
         elif state == PROBING:
             if self.cmm_status == DONE:
-                # a reading; judging it is a hook, which a guard cannot call
+                # a reading, judged against the step's tolerance band
                 self.rule = 24  # MEASURE_PART/PROBING/1
-                self.state = JUDGED
-                self.var_in_tolerance = self.hook_judge(
-                    "MEASURE_PART/PROBING/1",
-                    self.hook_state,
-                    self.var_feature,
-                    self.world_cmm_reading,
+                self.state = NEXT
+                self.var_failed = self.var_failed + (
+                    0
+                    if self.plan_schedule_low <= self.world_cmm_reading <= self.plan_schedule_high
+                    else 1
                 )
+                self.result_measured = self.plan_schedule_step + 1
+                self.result_failed = self.var_failed
+                self.plan_schedule_go(self.plan_schedule_step + 1)  # advance: schedule
 
             elif self.cmm_status == ERROR:
                 self.rule = 25  # MEASURE_PART/PROBING/2
@@ -639,11 +686,3 @@ class MsController:
                 self.state = NOP
                 self.status = ERROR
                 self.error_num = REASON_MACHINE_FAULT
-
-        elif state == JUDGED:
-            self.rule = 26  # MEASURE_PART/JUDGED/1
-            self.state = NEXT
-            self.var_feature = self.var_feature + 1
-            self.var_failed = self.var_failed + (0 if self.var_in_tolerance else 1)
-            self.result_measured = self.var_feature - self.arg_first
-            self.result_failed = self.var_failed

@@ -35,11 +35,11 @@ HALT = 2
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QQI44x???1xI280x?15x32s8xq8xq8xq")
-INPUTS_AT = 2416
+INPUTS_AT = 2552
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
 # and none changed.
-SEQ_WORDS = (302,)
+SEQ_WORDS = (319,)
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 PDM_STATUS_WORD = PDM_STATUS_AT >> 3
@@ -53,7 +53,7 @@ PDM_PERF_WORD = PDM_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QqQq")
 WORLD_VALUES_1 = Struct("<8xq8xq")
 WORLD_SEQS_1 = Struct("<Q8xQ")
-WORLD_OUT_1_AT = 2832
+WORLD_OUT_1_AT = 2968
 WORLD_HELD_1 = (OVERRIDE["pdm_done_seq"], OVERRIDE["pdm_features"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).
@@ -141,7 +141,7 @@ class PdmController:
         buf = self.buf
         words = self.words
         values = INPUTS.unpack_from(buf, INPUTS_AT)
-        if values[0] & 1 or not values[0] or words[302] != values[0]:
+        if values[0] & 1 or not values[0] or words[319] != values[0]:
             self.read_inputs()  # being written by another process: read again, out of line
         else:
             (
@@ -247,7 +247,7 @@ class PdmController:
         whole = False
         for _ in range(READ_TRIES):
             values = INPUTS.unpack_from(buf, INPUTS_AT)
-            if not (values[0] & 1 or not values[0] or words[302] != values[0]):
+            if not (values[0] & 1 or not values[0] or words[319] != values[0]):
                 whole = True
                 break
         else:  # another process kept writing

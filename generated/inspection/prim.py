@@ -36,7 +36,7 @@ SERVO_LINK = 10  # its number in the layout's CAUSE_MODULES
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
 INPUTS = Struct("<QIddd52x???1xI104xQII8xQ")
-INPUTS_AT = 1640
+INPUTS_AT = 1760
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 PRIM_STATUS_WORD = PRIM_STATUS_AT >> 3

@@ -29,8 +29,8 @@ REASON_MACHINE_FAULT = 2
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QIddd52x???1xI736x?31xd8xd8xd8xd8xd8xd")
-INPUTS_AT = 1792
+INPUTS = Struct("<QIddd52x???1xI752x?31xd8xd8xd8xd8xd8xd")
+INPUTS_AT = 1912
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 SERVO_STATUS_WORD = SERVO_STATUS_AT >> 3
@@ -45,7 +45,7 @@ SERVO_PERF_WORD = SERVO_PERF_AT >> 3
 WORLD_OUT_1 = Struct("<QdQdQd")
 WORLD_VALUES_1 = Struct("<8xd8xd8xd")
 WORLD_SEQS_1 = Struct("<Q8xQ8xQ")
-WORLD_OUT_1_AT = 2648
+WORLD_OUT_1_AT = 2784
 WORLD_HELD_1 = (OVERRIDE["motor_x"], OVERRIDE["motor_y"], OVERRIDE["motor_z"])  # their overrides
 
 # States of the state tables (NOP = 0: no command to work on).

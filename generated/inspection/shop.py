@@ -4,6 +4,8 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import inspection_hooks.corba as hooks
+
 from .layout import (
     JP_COMMAND,
     JP_COMMAND_AT,
@@ -26,6 +28,7 @@ from .rcs.contract import (
     encode_text,
     words,
 )
+from .rcs.deadline import hook
 
 # Commands shop accepts (the code written to its command buffer).
 INIT = 1
@@ -40,20 +43,21 @@ REASON_LOST = 1
 REASON_REFUSED = 2
 REASON_TIMED_OUT = 3
 REASON_MACHINE_FAULT = 4
-REASON_NO_PROGRAM = 5
-REASON_PDM_DOWN = 6
+REASON_BAD_REQUEST = 5
+REASON_NO_PROGRAM = 6
+REASON_PDM_DOWN = 7
 
 # Commands shop sends to wc.
 WC_INIT = 1
 WC_HALT = 2
-WC_INIT_FOR_INSPECT = 3
-WC_INSPECT_PART = 4
+WC_JOB = 3
 # Why wc may end a command in ERROR (its error_num).
 WC_REASON_NONE = 0
 WC_REASON_LOST = 1
 WC_REASON_REFUSED = 2
 WC_REASON_TIMED_OUT = 3
 WC_REASON_MACHINE_FAULT = 4
+WC_REASON_BAD_REQUEST = 5
 WC_LINK = 3  # its number in the layout's CAUSE_MODULES
 
 # Commands shop sends to jp.
@@ -69,7 +73,7 @@ JP_LINK = 2  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QQI32sq84x???1xI120xQII16xqQ128xQII8x?Q")
+INPUTS = Struct("<QQI32sq84x???1xI120xQII16xqQ160xQII16x?Q")
 INPUTS_AT = 264
 # The sequence words of the inputs another process writes (indices of the block's 8-byte
 # words), read again after INPUTS: the read is whole only if none was odd (being written)
@@ -143,8 +147,9 @@ class ShopController:
         "var_bad",
         "var_good",
         "var_replans_left",
+        "var_request",
         "var_scheduled",
-        "wc_arg_program",
+        "wc_arg_request",
         "wc_cause",
         "wc_command",
         "wc_command_num",
@@ -156,6 +161,12 @@ class ShopController:
         "words",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_inspect_request = hook("shop", hooks, "inspect_request", 2.5, "s64")
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
@@ -163,6 +174,7 @@ class ShopController:
         self.var_bad: int = 0
         self.var_scheduled: int = 0
         self.var_replans_left: int = 0
+        self.var_request: str = ""
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -195,7 +207,7 @@ class ShopController:
         self.status_seq += self.status_seq & 1  # odd: its writer died mid-write
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
-        _, self.wc_command_num, self.wc_command, self.wc_arg_program = WC_COMMAND.unpack_from(
+        _, self.wc_command_num, self.wc_command, self.wc_arg_request = WC_COMMAND.unpack_from(
             buf, WC_COMMAND_AT
         )
         self.wc_written = self.wc_command_num
@@ -203,7 +215,7 @@ class ShopController:
             JP_COMMAND.unpack_from(buf, JP_COMMAND_AT)
         )
         self.jp_written = self.jp_command_num
-        self.wc_arg_program = decode_text(self.wc_arg_program)
+        self.wc_arg_request = decode_text(self.wc_arg_request)
         self.jp_arg_program = decode_text(self.jp_arg_program)
 
     def safe_state(self, reason: int) -> None:
@@ -339,7 +351,7 @@ class ShopController:
                 seq,
                 self.wc_command_num,
                 self.wc_command,
-                encode_text(self.wc_arg_program, 32),
+                encode_text(self.wc_arg_request, 64),
             )
             words[WC_COMMAND_WORD] = seq + 1
             self.wc_written = self.wc_command_num
@@ -482,7 +494,8 @@ class ShopController:
                 self.result_passed = 0
                 self.result_rejected = 0
                 self.result_scheduled = 0
-                self.wc_command = WC_INIT_FOR_INSPECT
+                self.wc_arg_request = "Workcell::initForInspect()"
+                self.wc_command = WC_JOB
                 self.wc_command_num += 1
                 self.jp_arg_program = self.arg_program
                 self.jp_arg_part = 0
@@ -563,8 +576,11 @@ class ShopController:
                 self.state = INSPECTING
                 self.var_scheduled = self.var_scheduled + self.jp_result_features
                 self.result_scheduled = self.var_scheduled
-                self.wc_arg_program = self.arg_program
-                self.wc_command = WC_INSPECT_PART
+                self.var_request = self.hook_inspect_request(
+                    "INSPECT_LOT/NEXT_PART/1", self.arg_program
+                )
+                self.wc_arg_request = self.var_request
+                self.wc_command = WC_JOB
                 self.wc_command_num += 1
                 self.jp_arg_program = self.arg_program
                 self.jp_arg_part = self.var_good + self.var_bad + 1
@@ -577,8 +593,11 @@ class ShopController:
                 self.state = LAST
                 self.var_scheduled = self.var_scheduled + self.jp_result_features
                 self.result_scheduled = self.var_scheduled
-                self.wc_arg_program = self.arg_program
-                self.wc_command = WC_INSPECT_PART
+                self.var_request = self.hook_inspect_request(
+                    "INSPECT_LOT/NEXT_PART/2", self.arg_program
+                )
+                self.wc_arg_request = self.var_request
+                self.wc_command = WC_JOB
                 self.wc_command_num += 1
 
         elif state == LAST:
@@ -623,6 +642,7 @@ class ShopController:
                     WC_REASON_REFUSED: REASON_REFUSED,
                     WC_REASON_TIMED_OUT: REASON_TIMED_OUT,
                     WC_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                    WC_REASON_BAD_REQUEST: REASON_BAD_REQUEST,
                 }.get(self.wc_error_num, REASON_NONE)
 
         elif state == PLANNER_STOPPING and self.jp_status != EXECUTING:
@@ -636,6 +656,7 @@ class ShopController:
                 WC_REASON_REFUSED: REASON_REFUSED,
                 WC_REASON_TIMED_OUT: REASON_TIMED_OUT,
                 WC_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                WC_REASON_BAD_REQUEST: REASON_BAD_REQUEST,
             }.get(self.wc_error_num, REASON_NONE)
 
         elif state == JOB_FAILED:
@@ -660,6 +681,7 @@ class ShopController:
                     WC_REASON_REFUSED: REASON_REFUSED,
                     WC_REASON_TIMED_OUT: REASON_TIMED_OUT,
                     WC_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                    WC_REASON_BAD_REQUEST: REASON_BAD_REQUEST,
                 }.get(self.wc_error_num, REASON_NONE)
 
         elif state == REPLANNING:
@@ -702,7 +724,8 @@ class ShopController:
         if state == S0:
             self.rule = 26  # INIT_FOR_INSPECT/S0/1
             self.state = S1
-            self.wc_command = WC_INIT_FOR_INSPECT
+            self.wc_arg_request = "Workcell::initForInspect()"
+            self.wc_command = WC_JOB
             self.wc_command_num += 1
 
         elif state == S1:
@@ -724,6 +747,7 @@ class ShopController:
                     WC_REASON_REFUSED: REASON_REFUSED,
                     WC_REASON_TIMED_OUT: REASON_TIMED_OUT,
                     WC_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                    WC_REASON_BAD_REQUEST: REASON_BAD_REQUEST,
                 }.get(self.wc_error_num, REASON_NONE)
 
     def inspect_part(self) -> None:
@@ -732,8 +756,9 @@ class ShopController:
         if state == S0:
             self.rule = 29  # INSPECT_PART/S0/1
             self.state = S1
-            self.wc_arg_program = self.arg_program
-            self.wc_command = WC_INSPECT_PART
+            self.var_request = self.hook_inspect_request("INSPECT_PART/S0/1", self.arg_program)
+            self.wc_arg_request = self.var_request
+            self.wc_command = WC_JOB
             self.wc_command_num += 1
 
         elif state == S1:
@@ -756,4 +781,5 @@ class ShopController:
                     WC_REASON_REFUSED: REASON_REFUSED,
                     WC_REASON_TIMED_OUT: REASON_TIMED_OUT,
                     WC_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
+                    WC_REASON_BAD_REQUEST: REASON_BAD_REQUEST,
                 }.get(self.wc_error_num, REASON_NONE)

@@ -44,8 +44,8 @@ OP_LINK = 11  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI52x???1xI704xQII")
-INPUTS_AT = 1352
+INPUTS = Struct("<QI52x???1xI720xQII")
+INPUTS_AT = 1472
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 TL_STATUS_WORD = TL_STATUS_AT >> 3
@@ -73,6 +73,7 @@ class TlController:
         "last_cycle_ns",
         "max_cycle_ns",
         "min_cycle_ns",
+        "op_arg_clamps",
         "op_arg_setup",
         "op_command",
         "op_command_num",
@@ -129,8 +130,8 @@ class TlController:
         self.perf_seq += self.perf_seq & 1
         self.status_dirty = False
         self.inputs: tuple[object, ...] = ()  # none yet: its next cycle runs whole
-        _, self.op_command_num, self.op_command, self.op_arg_setup = OP_TL_COMMAND.unpack_from(
-            buf, OP_TL_COMMAND_AT
+        _, self.op_command_num, self.op_command, self.op_arg_setup, self.op_arg_clamps = (
+            OP_TL_COMMAND.unpack_from(buf, OP_TL_COMMAND_AT)
         )
         self.op_written = self.op_command_num
 
@@ -238,6 +239,7 @@ class TlController:
                     self.op_command_num,
                     self.op_command,
                     self.op_arg_setup,
+                    self.op_arg_clamps,
                 )
                 words[OP_TL_COMMAND_WORD] = seq + 1
                 self.op_written = self.op_command_num

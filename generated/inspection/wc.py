@@ -4,6 +4,8 @@
 from struct import Struct
 from time import perf_counter_ns
 
+import inspection_hooks.corba as hooks
+
 from .layout import (
     WC_PERF_AT,
     WC_STATUS,
@@ -23,12 +25,12 @@ from .rcs.contract import (
     encode_text,
     words,
 )
+from .rcs.deadline import hook
 
 # Commands wc accepts (the code written to its command buffer).
 INIT = 1
 HALT = 2
-INIT_FOR_INSPECT = 3
-INSPECT_PART = 4
+JOB = 3
 
 # Why wc may end a command in ERROR (the error_num it reports).
 REASON_NONE = 0
@@ -36,6 +38,7 @@ REASON_LOST = 1
 REASON_REFUSED = 2
 REASON_TIMED_OUT = 3
 REASON_MACHINE_FAULT = 4
+REASON_BAD_REQUEST = 5
 
 # Commands wc sends to ws.
 WS_INIT = 1
@@ -52,7 +55,7 @@ WS_LINK = 4  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s60x???1xI112xQII8x?24xQ")
+INPUTS = Struct("<QI64s68x???1xI112xQII8x?24xQ")
 INPUTS_AT = 656
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
@@ -63,13 +66,21 @@ WC_PERF_WORD = WC_PERF_AT >> 3
 # States of the state tables (NOP = 0: no command to work on).
 S0 = 1
 S1 = 2
+CONVERTED = 3
+PREPARING = 4
+INSPECTING = 5
+
+# Enumeration values its tables name (a field holds its value's index).
+NO_JOB = 0
+INIT_JOB = 1
+INSPECT_JOB = 2
 
 
 class WcController:
     """The wc controller: its local buffers and the QQ1 cycle."""
 
     __slots__ = (
-        "arg_program",
+        "arg_request",
         "buf",
         "cause",
         "command",
@@ -84,6 +95,7 @@ class WcController:
         "perf_seq",
         "perf_single_step_num",
         "result_accepted",
+        "result_job",
         "rule",
         "simulate",
         "single_step",
@@ -94,6 +106,8 @@ class WcController:
         "status_dirty",
         "status_num",
         "status_seq",
+        "var_job",
+        "var_program",
         "words",
         "ws_arg_program",
         "ws_cause",
@@ -106,9 +120,17 @@ class WcController:
         "ws_written",
     )
 
+    # The hooks and planners it calls, each a method (hook_<name>) made by the runtime
+    # (rcs/deadline.py), interrupted past its deadline in seconds (its `deadline:`, else
+    # 5 cycle periods and at least 1 s); what it raises, or a result unlike
+    # its `returns:`, is a HookError.
+    hook_native_job = hook("wc", hooks, "native_job", 2.5, "e3s32")
+
     def __init__(self, buf: memoryview, settings: dict[str, str] | None = None) -> None:
         self.buf = buf
         self.words = words(buf)  # its sequence words, each stored in one 8-byte access
+        self.var_job: int = 0
+        self.var_program: str = ""
         self.resume()
         self.read_inputs(first=True)  # the command, the mode, subordinates' status, the world
 
@@ -123,6 +145,7 @@ class WcController:
             self.error_num,
             self.state,
             self.rule,
+            self.result_job,
             self.result_accepted,
             self.cause,
         ) = WC_STATUS.unpack_from(buf, WC_STATUS_AT)
@@ -171,7 +194,7 @@ class WcController:
             (
                 self.command_num,
                 self.command,
-                self.arg_program,
+                self.arg_request,
                 self.dont_run,
                 self.single_step,
                 self.simulate,
@@ -182,7 +205,7 @@ class WcController:
                 self.ws_result_accepted,
                 self.ws_cause,
             ) = values
-            self.arg_program = decode_text(self.arg_program)
+            self.arg_request = decode_text(self.arg_request)
             if self.ws_status_num != self.ws_command_num:
                 self.ws_status = EXECUTING  # until it echoes the last number sent
                 self.ws_result_accepted = False  # no result yet
@@ -200,6 +223,7 @@ class WcController:
                 self.status_dirty = True
                 self.error_num = REASON_NONE  # no reason yet
                 self.cause = 0  # nor a cause
+                self.result_job = 0  # no result yet
                 self.result_accepted = False  # no result yet
 
             # 3. decision_process: run the command's state table, unless the mode holds it
@@ -218,10 +242,8 @@ class WcController:
                         self.init()
                     elif command == HALT:
                         self.halt()
-                    elif command == INIT_FOR_INSPECT:
-                        self.init_for_inspect()
-                    elif command == INSPECT_PART:
-                        self.inspect_part()
+                    elif command == JOB:
+                        self.job()
 
             # 4. post_process: write what changed, each buffer odd while it is written
             if self.rule or self.status_dirty:
@@ -236,6 +258,7 @@ class WcController:
                     self.error_num,
                     self.state,
                     self.rule,
+                    self.result_job,
                     self.result_accepted,
                     self.cause,
                 )
@@ -286,7 +309,7 @@ class WcController:
         (
             self.command_num,
             self.command,
-            self.arg_program,
+            self.arg_request,
             self.dont_run,
             self.single_step,
             self.simulate,
@@ -297,7 +320,7 @@ class WcController:
             self.ws_result_accepted,
             self.ws_cause,
         ) = INPUTS.unpack_from(buf, INPUTS_AT)
-        self.arg_program = decode_text(self.arg_program)
+        self.arg_request = decode_text(self.arg_request)
 
     def init(self) -> None:
         """INIT: Initialise this controller and its subordinates."""
@@ -333,24 +356,51 @@ class WcController:
             self.status = DONE
             self.cause = 0  # DONE has no cause
 
-    def init_for_inspect(self) -> None:
-        """INIT_FOR_INSPECT: Have the workstation prepare for inspection (initForInspect, Figure 4)."""
+    def job(self) -> None:
+        """JOB: A job from the shop as a CORBA request (`Workcell::initForInspect()`,
+        `Workcell::inspectPart("<program>")`): converted into the workstation's native command
+        (initForInspect, Figure 4; Inspect_part, Figure 39), whose verdict it passes up.
+        """
         state = self.state
         if state == S0:
-            self.rule = 5  # INIT_FOR_INSPECT/S0/1
-            self.state = S1
-            self.ws_command = WS_INIT_FOR_INSPECT
-            self.ws_command_num += 1
+            # unmarshal the request
+            self.rule = 5  # JOB/S0/1
+            self.state = CONVERTED
+            self.var_job, self.var_program = self.hook_native_job("JOB/S0/1", self.arg_request)
+            self.result_job = self.var_job
 
-        elif state == S1:
+        elif state == CONVERTED:
+            if self.var_job == INIT_JOB:
+                # the station's preparation, in the native protocol
+                self.rule = 6  # JOB/CONVERTED/1
+                self.state = PREPARING
+                self.ws_command = WS_INIT_FOR_INSPECT
+                self.ws_command_num += 1
+
+            elif self.var_job == INSPECT_JOB:
+                # a part's inspection, in the native protocol
+                self.rule = 7  # JOB/CONVERTED/2
+                self.state = INSPECTING
+                self.ws_arg_program = self.var_program
+                self.ws_command = WS_INSPECT_PART
+                self.ws_command_num += 1
+
+            elif self.var_job == NO_JOB:
+                # no operation of the workcell's interface, or not with its arguments
+                self.rule = 8  # JOB/CONVERTED/3
+                self.state = NOP
+                self.status = ERROR
+                self.error_num = REASON_BAD_REQUEST
+
+        elif state == PREPARING:
             if self.ws_status == DONE:
-                self.rule = 6  # INIT_FOR_INSPECT/S1/1
+                self.rule = 9  # JOB/PREPARING/1
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
             elif self.ws_status == ERROR:
-                self.rule = 7  # INIT_FOR_INSPECT/S1/2
+                self.rule = 10  # JOB/PREPARING/2
                 # ws's error: the cause of an ERROR this command reports
                 self.cause = caused(WS_LINK, self.ws_error_num, self.ws_cause)
                 self.state = NOP
@@ -363,28 +413,16 @@ class WcController:
                     WS_REASON_MACHINE_FAULT: REASON_MACHINE_FAULT,
                 }.get(self.ws_error_num, REASON_NONE)
 
-    def inspect_part(self) -> None:
-        """INSPECT_PART: Have the workstation inspect one part (Inspect_part, Figure 39); pass its
-        verdict up.
-        """
-        state = self.state
-        if state == S0:
-            self.rule = 8  # INSPECT_PART/S0/1
-            self.state = S1
-            self.ws_arg_program = self.arg_program
-            self.ws_command = WS_INSPECT_PART
-            self.ws_command_num += 1
-
-        elif state == S1:
+        elif state == INSPECTING:
             if self.ws_status == DONE:
-                self.rule = 9  # INSPECT_PART/S1/1
+                self.rule = 11  # JOB/INSPECTING/1
                 self.result_accepted = self.ws_result_accepted
                 self.state = NOP
                 self.status = DONE
                 self.cause = 0  # DONE has no cause
 
             elif self.ws_status == ERROR:
-                self.rule = 10  # INSPECT_PART/S1/2
+                self.rule = 12  # JOB/INSPECTING/2
                 # ws's error: the cause of an ERROR this command reports
                 self.cause = caused(WS_LINK, self.ws_error_num, self.ws_cause)
                 self.state = NOP

@@ -76,8 +76,8 @@ FX_LINK = 6  # its number in the layout's CAUSE_MODULES
 
 # pre_process copies its inputs (command, mode, subordinates' status, world) in one read;
 # the bytes between them belong to other buffers and are skipped.
-INPUTS = Struct("<QI32s84x???1xI128xQII24xqQ104xQII8xQ")
-INPUTS_AT = 824
+INPUTS = Struct("<QI32s84x???1xI128xQII24xq24xQ136xQII32xQ")
+INPUTS_AT = 864
 
 # The sequence words it stores, as indices of the block's 8-byte words (rcs.contract.words).
 WS_STATUS_WORD = WS_STATUS_AT >> 3
@@ -113,6 +113,7 @@ class WsController:
         "cycles",
         "dont_run",
         "error_num",
+        "fx_arg_program",
         "fx_arg_setup",
         "fx_cause",
         "fx_command",
@@ -216,11 +217,12 @@ class WsController:
             self.ms_arg_count,
         ) = MS_COMMAND.unpack_from(buf, MS_COMMAND_AT)
         self.ms_written = self.ms_command_num
-        _, self.fx_command_num, self.fx_command, self.fx_arg_setup = FX_COMMAND.unpack_from(
-            buf, FX_COMMAND_AT
+        _, self.fx_command_num, self.fx_command, self.fx_arg_program, self.fx_arg_setup = (
+            FX_COMMAND.unpack_from(buf, FX_COMMAND_AT)
         )
         self.fx_written = self.fx_command_num
         self.ms_arg_program = decode_text(self.ms_arg_program)
+        self.fx_arg_program = decode_text(self.fx_arg_program)
 
     def safe_state(self, reason: int) -> None:
         """A subordinate's process was lost: halt every subordinate, report ERROR (reason)."""
@@ -360,7 +362,13 @@ class WsController:
                 seq |= 1  # odd while it is written
                 words[FX_COMMAND_WORD] = seq
                 FX_COMMAND.pack_into(
-                    buf, FX_COMMAND_AT, seq, self.fx_command_num, self.fx_command, self.fx_arg_setup
+                    buf,
+                    FX_COMMAND_AT,
+                    seq,
+                    self.fx_command_num,
+                    self.fx_command,
+                    encode_text(self.fx_arg_program, 32),
+                    self.fx_arg_setup,
                 )
                 words[FX_COMMAND_WORD] = seq + 1
                 self.fx_written = self.fx_command_num
@@ -593,6 +601,7 @@ class WsController:
                 self.hook_setups("INSPECT_PART/S0/1", self.arg_program), "INSPECT_PART/S0/1"
             )
             self.var_measured = 0
+            self.fx_arg_program = self.arg_program
             self.fx_arg_setup = self.plan_setups_setup
             self.fx_command = FX_PLACE_PART
             self.fx_command_num += 1
@@ -657,6 +666,7 @@ class WsController:
                 # out of tolerance; re-seat the part in the setup and measure again
                 self.rule = 21  # INSPECT_PART/MEASURING/3
                 self.state = REFIXTURING
+                self.fx_arg_program = self.arg_program
                 self.fx_arg_setup = self.plan_setups_setup
                 self.fx_command = FX_REFIXTURE_PART
                 self.fx_command_num += 1
@@ -678,6 +688,7 @@ class WsController:
                 # fixture the part in the next setup (place/fixture_part, Figure 39)
                 self.rule = 23  # INSPECT_PART/NEXT_SETUP/1
                 self.state = REFIXTURING
+                self.fx_arg_program = self.arg_program
                 self.fx_arg_setup = self.plan_setups_setup
                 self.fx_command = FX_REFIXTURE_PART
                 self.fx_command_num += 1

@@ -1,83 +1,33 @@
-"""Measurement's hooks: an inspection-program file -> its features, and each reading judged.
+"""Measurement's planner (the PL of the paper's task-level measurement node, section 5.3.2,
+which interprets a DMIS program): an inspection program and a schedule of it -> the
+features to measure, each with the band its reading must lie in.
 
-An inspection program (the paper's measurement planner interprets DMIS; this is a small
-stand-in) is a text file, one feature per line: a name, the nominal size and the
-tolerance either side, in millimetres, and the setup the part is fixtured in to measure
-it (a whole number from 1: the workstation's plan, section 5.3.2, fixtures the part for
-each run of features of one setup, then has them measured); `#` starts a comment:
-
-    # feature       nominal   tolerance  setup
-    bore_diameter   12.000    0.020      1
-
-The features are measured in the file's order; MEASURE_PART's `feature` indexes them.
-INSPECT_PART names the program (its `program` argument, passed on to MEASURE_PART):
-`bracket` is programs/bracket.ipg. The run's `program` setting is read when the run starts.
+The program is a small DMIS-like file (inspection_hooks/dmis.py reads it): its features in
+the order they are measured, each its nominal size, its tolerance band and the setup the
+part is fixtured in to measure it. MEASURE_PART's schedule (its first feature and how many,
+from the workstation's plan) is planned into one step per feature; the executor, MS's
+table, has the CMM inspect each and judges the reading against the step's band.
+INSPECT_PART names the program (its `program` argument): `bracket` is programs/bracket.dmi.
+The run's `program` setting is read when the run starts, so a bad line stops the run there.
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
 from pathlib import Path
 
+from .dmis import Feature, Program, ProgramError, read_program as read_dmis
+
 SYSTEM_DIR = Path(__file__).resolve().parent.parent
-DEFAULT_PROGRAM = "programs/bracket.ipg"
+DEFAULT_PROGRAM = "programs/bracket.dmi"
+PROGRAM_NAME = re.compile(r"[a-z0-9_]+")
 
-
-@dataclass(frozen=True)
-class Feature:
-    """One line of the program: what to measure and the size it must have."""
-
-    name: str
-    nominal: float
-    tolerance: float
-    setup: int
-
-    def accepts(self, reading: float) -> bool:
-        return abs(reading - self.nominal) <= self.tolerance
-
-
-@dataclass
-class Program:
-    """The run's inspection program and the readings judged so far (name, reading, ok)."""
-
-    features: list[Feature]
-    readings: list[tuple[str, float, bool]] = field(default_factory=list)
-
-
-class ProgramError(ValueError):
-    """A line of an inspection program (or a part file) that cannot be read."""
+__all__ = ["Feature", "Program", "ProgramError", "SYSTEM_DIR", "read_program"]
 
 
 def read_program(path: Path) -> list[Feature]:
-    """The features of the program file at `path`; a bad line raises naming file:line."""
-    features: list[Feature] = []
-    names: set[str] = set()
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise ProgramError(f"{path}: cannot read the inspection program ({error.strerror})") from None
-    for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("#", 1)[0].split()
-        if not line:
-            continue
-        where = f"{path}:{number}"
-        if len(line) != 4:
-            raise ProgramError(
-                f"{where}: expected `name nominal tolerance setup`, got {raw.strip()!r}"
-            )
-        name, nominal, tolerance = line[0], _number(line[1], where), _number(line[2], where)
-        if tolerance <= 0:
-            raise ProgramError(f"{where}: the tolerance of `{name}` must be positive")
-        if not line[3].isdigit() or int(line[3]) < 1:
-            raise ProgramError(f"{where}: the setup of `{name}` must be a whole number from 1")
-        if name in names:
-            raise ProgramError(f"{where}: feature `{name}` is measured twice")
-        names.add(name)
-        features.append(Feature(name, nominal, tolerance, int(line[3])))
-    if not features:
-        raise ProgramError(f"{path}: the inspection program measures no feature")
-    return features
+    """The features of the program file at `path`, in the order they are measured."""
+    return read_dmis(path).features
 
 
 def _number(text: str, where: str) -> float:
@@ -96,30 +46,27 @@ def program_path(settings: dict[str, str]) -> Path:
 
 
 def new_program(settings: dict[str, str]) -> Program:
-    """Measurement's hook state: the run's inspection program."""
-    return Program(read_program(program_path(settings)))
+    """Measurement's hook state: the run's inspection program, read when the run starts."""
+    return read_dmis(program_path(settings))
 
 
-PROGRAM_NAME = re.compile(r"[a-z0-9_]+")
+def named(name: str) -> Program:
+    """The inspection program `name` (programs/<name>.dmi), interpreted."""
+    if not PROGRAM_NAME.fullmatch(name):
+        raise ProgramError(f"{name!r} is not an inspection program's name (a-z, 0-9, _)")
+    return read_dmis(SYSTEM_DIR / "programs" / f"{name}.dmi")
 
 
 def named_program(name: str) -> list[Feature]:
-    """The features of the inspection program `name` (programs/<name>.ipg)."""
-    if not PROGRAM_NAME.fullmatch(name):
-        raise ProgramError(f"{name!r} is not an inspection program's name (a-z, 0-9, _)")
-    return read_program(SYSTEM_DIR / "programs" / f"{name}.ipg")
+    """The features of the inspection program `name` (programs/<name>.dmi)."""
+    return named(name).features
 
 
-def program_features(program: Program, name: str) -> int:
-    """Read the inspection program `name` (programs/<name>.ipg) for this MEASURE_PART; how
-    many features it measures."""
-    program.features = named_program(name)
-    return len(program.features)
-
-
-def judge(program: Program, feature: int, reading: float) -> bool:
-    """Whether `reading` of the program's `feature` lies within its tolerance (recorded)."""
-    spec = program.features[feature]
-    ok = spec.accepts(reading)
-    program.readings.append((spec.name, reading, ok))
-    return ok
+def feature_schedule(
+    program: Program, name: str, first: int, count: int
+) -> list[tuple[int, float, float]]:
+    """MS's plan of a MEASURE_PART: the steps (feature, low, high) of program `name`'s
+    schedule of `count` features from feature `first`, each the feature's index and the band
+    its reading must lie in, in mm."""
+    features = named_program(name)
+    return [(i, features[i].low, features[i].high) for i in range(first, min(first + count, len(features)))]

@@ -13,11 +13,11 @@ from .ms import PROGRAM_NAME, SYSTEM_DIR, read_program
 
 
 def retrieve(name: str) -> int:
-    """How many features the inspection program `name` (programs/<name>.ipg) measures; 0
+    """How many features the inspection program `name` (programs/<name>.dmi) measures; 0
     when the vault has no such program (a name mistyped at the Guardian). A program that
     exists but cannot be read stops the run in one line naming file:line, as MS's hook
     does."""
-    path = SYSTEM_DIR / "programs" / f"{name}.ipg"
+    path = SYSTEM_DIR / "programs" / f"{name}.dmi"
     if not PROGRAM_NAME.fullmatch(name) or not path.is_file():
         return 0
     return len(read_program(path))
