@@ -1467,3 +1467,46 @@ def test_a_rule_that_never_fires_is_not_told_to_wait_for_what_it_sends(spec) -> 
     )
     assert "W505" not in codes(diags), found(diags)
     assert any("rule 1 of GO S0" in d.message for d in diags), found(diags)
+
+
+def test_a_guard_repeated_in_a_controller_is_built_once_its_constants_as_written(
+    tmp_path: Path,
+) -> None:
+    """The analysis builds a controller's guard once for every rule that repeats it, in
+    any table; guards written otherwise stay two, each with its own text, even when
+    their trees compare equal (a constant -0.0 and 0.0)."""
+    directory = make(
+        tmp_path,
+        """
+        GO:
+          states:
+            S0:
+              - when: a.status == DONE and world.x * world.y > 0.0
+                next: S1
+              - when: a.status == DONE and world.x * world.y > -0.0
+                next: S1
+            S1:
+              - when: a.status == DONE and world.x * world.y > 0.0
+                do: [report: DONE]
+        STOP:
+          states:
+            S0:
+              - when: a.status == DONE and world.x * world.y > 0.0
+                do: [report: DONE]
+        """,
+    )
+    system, controllers = models(directory)
+    checked = check_system(system, controllers, Diagnostics())
+    assert checked is not None
+    top = checked.controllers["top"]
+    controller = analysis._Controller(top, Diagnostics(), solver.Questions())
+    go, stop = (controller.table(top.commands[name]) for name in ("GO", "STOP"))
+    first, negative = (rule.guard for rule in go["S0"])
+    assert go["S1"][0].guard is first and stop["S0"][0].guard is first
+    assert first is not None and negative is not None and negative is not first
+    assert list(first.opaque) == [(analysis.Atom.OPAQUE, "world.x * world.y > 0.0")]
+    assert list(negative.opaque) == [(analysis.Atom.OPAQUE, "world.x * world.y > -0.0")]
+    x = X.Ref(FLOAT, X.RefKind.WORLD, "x")
+    zero, minus_zero = (X.Compare(BOOL, x, (">",), (X.Const(FLOAT, v),)) for v in (0.0, -0.0))
+    assert zero == minus_zero  # (the trees compare by value: the key must not)
+    assert analysis._exact(zero) != analysis._exact(minus_zero)

@@ -145,11 +145,13 @@ def test_checking_leaves_no_cyclic_garbage_and_restores_the_collector() -> None:
     import gc
 
     rcsgen.check(MINER)  # (first: imports and caches, which stay alive)
+    gc.unfreeze()  # (all it froze, the test session's garbage too)
     gc.collect()
     gc.set_debug(gc.DEBUG_SAVEALL)
     try:
         result = rcsgen.check(MINER)
         assert gc.isenabled()
+        gc.unfreeze()  # (what the front end left is frozen out of the collector's way)
         gc.collect()
         found = len(gc.garbage)  # (with DEBUG_SAVEALL: what every collection found, kept)
         kinds = sorted({type(item).__qualname__ for item in gc.garbage})
@@ -158,3 +160,26 @@ def test_checking_leaves_no_cyclic_garbage_and_restores_the_collector() -> None:
         gc.garbage.clear()
     assert result.systems and not result.diagnostics.errors
     assert found == 0, f"cyclic garbage left by the front end: {kinds}"
+
+
+def test_what_the_front_end_leaves_is_frozen_until_the_next_run() -> None:
+    """Once checked, the system's objects are out of the collector's generations (no later
+    collection walks them again, to free nothing); the next run hands them back, so garbage
+    an earlier run left is still collected in the end."""
+    import gc
+
+    gc.unfreeze()
+    result = rcsgen.check(MINER)
+    system = result.systems[0]
+    walked = {id(item) for item in gc.get_objects()}
+    assert gc.isenabled() and gc.get_freeze_count() > 0
+    assert id(system) not in walked and id(system.controllers[0]) not in walked
+    seen: list[bool] = []  # whether the next run, as it started, had handed it back
+
+    def progress(_: str) -> None:
+        if not seen:
+            seen.append(id(system) in {id(item) for item in gc.get_objects()})
+
+    rcsgen.check(MINER, progress)
+    assert seen == [True]
+    gc.unfreeze()

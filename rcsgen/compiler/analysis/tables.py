@@ -521,6 +521,20 @@ def analyse_system(system: CheckedSystem, diags: Diagnostics) -> None:
             _Controller(controller, diags, questions).run()
 
 
+def _exact(tree: expr.Expr) -> tuple[expr.Expr, tuple[str, ...]] | None:
+    """A key that is the same for two trees only if they make the same guard: the tree,
+    and its constants spelt out (trees compare their constants by value, and -0.0 == 0.0,
+    1 == 1.0 == True, but a guard's terms and texts keep what was written); None for a tree
+    that reads a `let` (its value is the table's own)."""
+    spelt = []
+    for node in expr.walk(tree):
+        if type(node) is expr.Const:
+            spelt.append(repr(node.value))
+        elif type(node) is expr.Ref and node.kind == expr.RefKind.LET:
+            return None
+    return tree, tuple(spelt)
+
+
 def subs_tested(guard: Guard) -> list[str]:
     """The subordinates whose status a guard tests."""
     return [name for kind, name in guard.order if kind == Atom.STATUS]
@@ -540,6 +554,7 @@ class _Controller:
             f.name: (tuple(p for p, _ in f.params), f.tree) for f in checked.functions.values()
         }
         self.builder.plans = {p.name: (p.capacity, p.replans) for p in checked.spec.plans.values()}
+        self.built: dict[tuple[expr.Expr, tuple[str, ...]], Guard] = {}  # see `guard`
         # every_cycle rules run whatever the state: what they send or test counts everywhere
         every = checked.every_cycle
         self.every_sent = {send.sub for r in every for send in r.sends}
@@ -551,9 +566,17 @@ class _Controller:
         }
 
     def guard(self, rule: CheckedRule) -> Guard | None:
+        """The rule's guard, built once for each tree of the controller (a guard repeated
+        in several states or tables, `sub.status == DONE`, is built the first time)."""
         if rule.unconditional or rule.guard is None:
             return None
-        return self.builder.guard(rule.guard)
+        key = _exact(rule.guard)
+        if key is None:  # (it reads a `let`: the table's own value)
+            return self.builder.guard(rule.guard)
+        built = self.built.get(key)
+        if built is None:
+            built = self.built[key] = self.builder.guard(rule.guard)
+        return built
 
     def run(self) -> None:
         spec = self.checked.spec

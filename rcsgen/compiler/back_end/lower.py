@@ -8,6 +8,7 @@ The layout places every module's buffers, then the world fields, each on 8 bytes
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import struct
 from collections.abc import Iterable, Mapping
@@ -301,10 +302,10 @@ class _ControllerLowering:
         params = _param_slots(self.system.controllers[sub].spec.commands.values())
         timeout = self.spec.echo_timeouts.get(sub)
         echo = None if timeout is None else duration_in_cycles(timeout.value, self.period)
-        read = {(r.kind, r.name) for r in self.refs() if r.owner == sub}
+        read = self.sub_reads.get(sub, set())
         sub_spec = self.system.controllers[sub].spec
         reasons: tuple[tuple[str, int], ...] = ()
-        if (RefKind.SUB_REASON, "reason") in read or sub in self.reasons_passed():
+        if (RefKind.SUB_REASON, "reason") in read or sub in self.reasons_passed:
             reasons = tuple(
                 (naming.sub_reason_const(sub, r), code)
                 for r, code in reason_codes(sub_spec).items()
@@ -317,7 +318,7 @@ class _ControllerLowering:
         channel = ir.channel_key(sub, self.spec.name) if sub_spec.is_operator else ""
         policy = self.spec.on_lost.get(sub)
         continued = policy is not None and policy.value == "continue"
-        caused = self.cause and any(cause_of(r.guard) == sub for r in self.checked.rules())
+        caused = self.cause and sub in self.causes
         if caused and not reasons:  # its link names its reason
             reasons = tuple(
                 (naming.sub_reason_const(sub, r), code)
@@ -337,6 +338,7 @@ class _ControllerLowering:
             chained=caused and bool(reason_codes(sub_spec)) and not sub_spec.is_operator,
         )
 
+    @functools.cached_property
     def reasons_passed(self) -> set[str]:
         """The subordinates whose reason a report passes up (`reason: <sub>.reason`)."""
         return {
@@ -346,11 +348,22 @@ class _ControllerLowering:
             if isinstance(action, Report) and action.reason and action.reason.endswith(".reason")
         }
 
-    def refs(self) -> list[expr.Ref]:
-        """Every name the controller's guards, values, `let` values and predicates read."""
+    @functools.cached_property
+    def sub_reads(self) -> dict[str, set[tuple[RefKind, str]]]:
+        """What the controller's guards, values, `let` values and predicates read of each
+        subordinate (its owner's name -> kind and name), the trees walked once."""
         trees = _trees(self.checked.rules(), self.checked.predicates.values())
         trees += [let.tree for command in self.checked.commands.values() for let in command.lets]
-        return [ref for tree in trees for ref in expr.refs(tree)]
+        found: dict[str, set[tuple[RefKind, str]]] = {}
+        for tree in trees:
+            for ref in expr.refs(tree):
+                found.setdefault(ref.owner, set()).add((ref.kind, ref.name))
+        return found
+
+    @functools.cached_property
+    def causes(self) -> set[str]:
+        """The subordinates whose ERROR some rule's guard tests as its cause."""
+        return {cause_of(r.guard) for r in self.checked.rules()}
 
     def command(self, command: CheckedCommand) -> ir.IRCommand:
         source = command.source
