@@ -175,6 +175,39 @@ def test_a_member_nudges_the_next_only_while_a_core_is_free(
     assert _pending(links[0].read) == 0
 
 
+def test_a_busy_machine_is_looked_at_a_quarter_as_often(
+    links: list[ring.Link], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A look at the load is a read of /proc/loadavg (~7 µs). Where it saw no core free,
+    the next look is BUSY_CHECK nudges away (nobody spins there: the look is all the spin
+    machinery costs); where it saw one, CHECK, so a ring that spins stops soon after the
+    machine gets busy."""
+    looks: list[bool] = []
+    free = [False]
+
+    def core_free(self: ring.Load, spinners: int = 0) -> bool:
+        looks.append(free[0])
+        return free[0]
+
+    monkeypatch.setattr(ring.Load, "core_free", core_free)
+    nudge = ring.Nudge(links[0].write, spin=1e-3)
+    try:
+        for _ in range(ring.BUSY_CHECK + 1):
+            nudge()
+        assert looks == [False] and _pending(links[0].read) == 0
+        free[0] = True
+        nudge()  # looked again: free, a nudge
+        assert looks == [False, True] and _pending(links[0].read) == ring.WAKE_VALUE
+        for _ in range(ring.CHECK):
+            nudge()
+        free[0] = False
+        nudge()  # CHECK nudges after a free look: looked again, busy
+        assert looks == [False, True, False]
+        assert ring.CHECK < ring.BUSY_CHECK
+    finally:
+        nudge.close()
+
+
 def test_a_core_is_free_while_the_runnable_tasks_fit_the_cores(tmp_path) -> None:
     """/proc/loadavg's fourth field is running/total (the kernel's runnable count)."""
     load = ring.Load()
@@ -225,7 +258,7 @@ def test_a_token_is_a_turn_word_and_its_doorbell_is_read_spun_or_slept(
     assert receiver.wait()  # spinning (eager): the word, then the doorbell at once
     assert _pending(links[0].read) == 0
     os.set_blocking(links[0].read, True)
-    free[0], receiver.taker.left = False, 0  # no core free: it sleeps
+    free[0], receiver.taker.load.left = False, 0  # no core free: it sleeps
     got: list[bool] = []
     asleep = threading.Thread(target=lambda: got.append(receiver.wait()), daemon=True)
     asleep.start()
@@ -237,6 +270,43 @@ def test_a_token_is_a_turn_word_and_its_doorbell_is_read_spun_or_slept(
     give()
     give()  # two tokens in one link: the ring is broken
     assert not receiver.wait()
+
+
+def test_a_nudge_that_finds_its_taker_spinning_keeps_it_spinning(
+    links: list[ring.Link], page: ring.Page, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A nudge spares the doorbell of a taker that spins already; where that was its
+    short eager spin, the taker spins on for the token (its nudged budget, 60 s here)
+    instead of going to sleep when the eager one runs out (the nudge was lost before: the
+    member slept, and a ring test that waited for its spin failed now and then)."""
+    monkeypatch.setattr(ring.Load, "core_free", lambda self, spinners=0: True)
+    receiver = ring.Receiver(links[0].read, 60.0, page, 0)
+    assert receiver.taker is not None
+    receiver.taker.recent = 50_000_000  # an eager spin of 0.1 s
+    nudge = ring.Nudge(links[0].write, 60.0, page, 0)
+    got: list[bool] = []
+    waiting = threading.Thread(target=lambda: got.append(receiver.wait()), daemon=True)
+    spinning = lambda: _word(page, 0, ring.SPINNING) == 1  # noqa: E731
+    try:
+        waiting.start()
+        wait_for(spinning, "the eager spin", every=0.001)
+        seen = time.monotonic()
+        nudge()  # it spins: the NUDGED word, and no doorbell
+        assert _word(page, 0, ring.NUDGED) == 1
+        while time.monotonic() < seen + 0.4:  # 4 times the eager budget: still spinning
+            assert spinning()
+            time.sleep(0.01)
+        ring.Giver(links[0].write, page, 0)()
+        waiting.join(20.0)
+        assert got == [True] and not spinning() and _pending(links[0].read) == 0
+        assert _word(page, 0, ring.NUDGED) == 0  # spent with the token it was for
+    finally:
+        if waiting.is_alive():  # failed: stop it (the STOPPED word ends a spin)
+            page.words[ring.STOPPED] = 1
+            os.write(links[0].write, ring.STOP)
+            waiting.join(20.0)
+        nudge.close()
+        receiver.close()
 
 
 def test_a_stop_ends_a_spinning_member_long_before_its_spin(
@@ -311,7 +381,7 @@ def test_an_eager_spin_follows_what_recent_waits_took(
         assert taker.budget() == 600_000
         taker.recent = 1_500_000  # a wait that long is better slept
         assert taker.budget() == 0
-        taker.recent, free[0], taker.left = 10_000, False, 0  # no core free: no spin
+        taker.recent, free[0], taker.load.left = 10_000, False, 0  # no core free: no spin
         assert taker.budget() == 0
     finally:
         taker.close()

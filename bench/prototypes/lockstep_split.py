@@ -61,8 +61,11 @@ def split(cycles: int, rounds: int) -> dict[str, dict[str, float]]:
                 for key, harness in opened.items():
                     perf = [r.offset for r in harness.layout.PERFORMANCE.values()]
                     buf, driver = harness.buf, drivers[key]
-                    into = samples.setdefault(key, {"wall": [], "work": [], "segments": []})
+                    into = samples.setdefault(
+                        key, {"wall": [], "work": [], "segments": [], "wall_paired": []}
+                    )
                     records = [r.offset + AT for r in harness.layout.PROCESSES.values()]
+                    earlier = None  # the previous cycle's give, return and beats
                     for _ in range(min(lockstep.CHUNK, cycles - start)):
                         driver.before(harness)
                         gave = time.monotonic_ns()
@@ -72,19 +75,27 @@ def split(cycles: int, rounds: int) -> dict[str, dict[str, float]]:
                         back = time.monotonic_ns()
                         into["wall"].append(took)
                         into["work"].append(sum(LAST.unpack_from(buf, at)[1] for at in perf))
-                        if key == "ring":  # each process's cycle, from the token to its beat
+                        if key != "ring":
+                            driver.after(harness)
+                            continue
+                        # each process's cycle, from the token to its beat, is in its
+                        # control record from its next beat on: this cycle's record holds
+                        # the previous cycle's
+                        beats = [BEAT.unpack_from(buf, r - AT)[5] for r in records]
+                        if earlier is not None:
                             segments = [SEGMENT.unpack_from(buf, at)[0] for at in records]
                             into["segments"].append(sum(segments))
+                            into["wall_paired"].append(earlier[3])
                             # each hand-off: from the giver's beat (it hands on right after)
                             # to the taker's start (its beat less its cycle), on the host's
                             # monotonic clock; the coordinator's own give and return
-                            beats = [BEAT.unpack_from(buf, r - AT)[5] for r in records]
-                            starts = [b - g for b, g in zip(beats, segments, strict=True)]
-                            ends = [gave, *beats]
+                            starts = [b - g for b, g in zip(earlier[2], segments, strict=True)]
+                            ends = [earlier[0], *earlier[2]]
                             for i, (end, begin) in enumerate(
-                                zip(ends, [*starts, back], strict=True)
+                                zip(ends, [*starts, earlier[1]], strict=True)
                             ):
                                 into.setdefault(f"handoff_{i}", []).append(begin - end)
+                        earlier = (gave, back, beats, took)
                         driver.after(harness)
         finally:
             for harness in opened.values():
@@ -99,7 +110,8 @@ def split(cycles: int, rounds: int) -> dict[str, dict[str, float]]:
             "cycles": len(rest),
         }
         if series["segments"]:  # the ring: the processes' own cycles, and between them
-            between = [w - g for w, g in zip(series["wall"], series["segments"], strict=True)]
+            paired = zip(series["wall_paired"], series["segments"], strict=True)
+            between = [w - g for w, g in paired]
             result[key]["segments_us"] = statistics.median(series["segments"]) / 1e3
             result[key]["between_segments_us"] = statistics.median(between) / 1e3
             for name, values in series.items():

@@ -834,13 +834,19 @@ def serve_ring(
     at = turns[1] if turns is not None else 0
     receiver = Receiver(link[0], spin, page, at, dedicated)
     nudge, give = Nudge(link[1], spin, page, at + 1, dedicated), Giver(link[1], page, at + 1)
-    last = len(process.plan.modules) - 1
     stop_on_control(control, link[0], page, at)
     os.write(replies, READY)
+    counters, clock = process.counters, time.perf_counter_ns
     while receiver.wait():
+        began = clock()
         nudge()
-        run_segment(process, 0, last, True, time.perf_counter_ns())
+        process.run_cycle()  # the whole process cycle, as a free-running process runs it
+        ended = clock()
         give()
+        # from the token to its beat, in the control record from the next beat on (as a
+        # free-running process's); counted after the hand-on, which the next one waits for
+        took = counters["last_cycle_ns"] = ended - began
+        counters["max_cycle_ns"] = max(counters["max_cycle_ns"], took)
     nudge.close()
     receiver.close()
     if process.io is not None:
@@ -848,21 +854,13 @@ def serve_ring(
     process.beat(STOPPED)
 
 
-def run_segment(
-    process: Process, first: int, last: int, end: bool, began: int | None = None
-) -> None:
-    """One segment of a lockstep cycle; with `end`, the process's cycle ends (it beats).
-    A whole cycle `began` (perf_counter_ns) is timed: its last and longest cycle time go
-    into the control record as a free-running cycle's do (from the token to the beat)."""
+def run_segment(process: Process, first: int, last: int, end: bool) -> None:
+    """One segment of a lockstep cycle; with `end`, the process's cycle ends (it beats)."""
     process.run_modules(first, last)
     if end:
         for step in process.io_steps[1]:
             step()
         process.cycle += 1
-        if began is not None:
-            counters = process.counters
-            took = counters["last_cycle_ns"] = time.perf_counter_ns() - began
-            counters["max_cycle_ns"] = max(counters["max_cycle_ns"], took)
         process.beat()
 
 

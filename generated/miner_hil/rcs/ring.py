@@ -24,12 +24,13 @@ waking it costs 25-50 µs; a spinning taker takes the token in a few µs. So eac
 spins as soon as it waits (`Taker.budget`: twice what its recent waits took, at least
 SPIN_FLOOR_NS, none where that is more than `spin`: a paced ring sleeps), and the member
 that takes the token nudges the next one unless it spins already (WAKE into its link,
-`Nudge`: it then spins up to `spin`). Both only while a core is free for the spinner or nothing but
-the ring is runnable (`Load`: the kernel's count of runnable tasks against the cores and
-against the ring's holder and spinners, looked at every CHECK waits): on a machine busy
-with other work a spinner takes the time of the holder or of someone else, and the ring
-sleeps and pays the scheduler. Spinners yield each turn, so on two cores the holder keeps
-one and the spinners share the other.
+`Nudge`: it then spins up to `spin`). Both only while a core is free for the spinner or
+nothing but the ring is runnable (`Load`: the kernel's count of runnable tasks against the
+cores and against the ring's holder and spinners, looked at every CHECK waits, every
+BUSY_CHECK while no core was free): on a machine busy with other work a spinner takes the
+time of the holder or of someone else, and the ring sleeps and pays the scheduler.
+Spinners yield each turn, so on two cores the holder keeps one and the spinners share the
+other.
 
 Faults. A process waits for the token until told to stop: a thread of its own blocks on
 its control pipe and, when the coordinator writes there or goes away (the pipe closes),
@@ -65,10 +66,12 @@ STOP_VALUE = 1 << 40
 STOP = WORD.pack(STOP_VALUE)  # into a link: stop, or wake (a token added to it is a stop)
 SPIN = 2e-3  # the longest a nudged member spins for the token (then it blocks)
 READABLE = select.POLLIN | select.POLLHUP | select.POLLERR
-# The turn words (`Page`): a cache line per link, three words in it
+# The turn words (`Page`): a cache line per link, four words in it
 SLOT_WORDS = 8  # 64 bytes: two links' words never share a cache line
-TURN, STOPPED, SPINNING = 0, 2, 3  # a slot's words: tokens handed in, told to stop, spinning
+# a slot's words: tokens handed in, told to stop, spinning, nudged (for the token to come)
+TURN, STOPPED, SPINNING, NUDGED = 0, 2, 3, 4
 CHECK = 32  # a spinner-to-be looks at the load every CHECK waits (Load: ~7 µs a look)
+BUSY_CHECK = 4 * CHECK  # ... and, where it saw no core free, every BUSY_CHECK waits
 SPIN_FLOOR_NS = 50_000  # an eager spin's least budget (a wake-up costs 25-50 µs here)
 
 
@@ -104,12 +107,14 @@ def close_links(links: Sequence[Link]) -> None:
 
 
 class Page:
-    """The ring's turn words: a small shared mapping (memfd) with a slot per link, three
+    """The ring's turn words: a small shared mapping (memfd) with a slot per link, four
     words in it: TURN, the tokens handed into the link so far (written by its giver
     only), STOPPED, 1 once its taker is told to stop, SPINNING, 1 while its taker spins
-    (what `Load` counts as the ring's own, and a nudge spares). A taker spins on TURN (a
-    load, no system call) and reads its eventfd when the token has come or its spin ran
-    out; the giver writes TURN, then the eventfd."""
+    (what `Load` counts as the ring's own, and a nudge spares the doorbell of), NUDGED,
+    1 from a nudge to the token's taking (a taker whose short eager spin runs out spins
+    on where it was nudged meanwhile). A taker spins on TURN (a load, no system call) and
+    reads its eventfd when the token has come or its spin ran out; the giver writes TURN,
+    then the eventfd."""
 
     def __init__(self, fd: int) -> None:
         """The page on `fd` (a ring member: the fd the launcher passed it)."""
@@ -190,6 +195,18 @@ class Load:
         except OSError:  # pragma: no cover - not Linux
             self.fd = -1
         self.cores = cores()
+        self.left, self.free = 0, False  # calls until the next look; what it last saw
+
+    def looked(self, page: Page | None) -> bool:
+        """Whether a core is free, as last seen: looked at again every CHECK calls where
+        one was, every BUSY_CHECK where none was (a look is a read of /proc/loadavg, ~7 µs:
+        a busy machine, where nobody spins, pays it a quarter as often; a ring stops
+        spinning within CHECK waits of the machine getting busy)."""
+        self.left -= 1
+        if self.left < 0:
+            self.free = self.core_free(page.spinners() if page is not None else 0)
+            self.left = CHECK if self.free else BUSY_CHECK
+        return self.free
 
     def core_free(self, spinners: int = 0) -> bool:
         if self.dedicated:
@@ -212,9 +229,9 @@ class Load:
 class Nudge:
     """A member's nudge to the next one as it takes the token (WAKE into the next one's
     link: it spins for the token instead of being woken by the scheduler when it comes).
-    Only where `spin` > 0, only while a core is free for the spinner (`Load`, looked at
-    every CHECK nudges: a read of /proc/loadavg costs ~7 µs, a nudge a write of ~1 µs), and
-    with a page only where the next one is not spinning already."""
+    Only where `spin` > 0, only while a core is free for the spinner (`Load.looked`: a
+    read of /proc/loadavg costs ~7 µs, a nudge a write of ~1 µs), and with a page only
+    where the next one is not spinning already."""
 
     def __init__(
         self,
@@ -224,22 +241,21 @@ class Nudge:
         link: int = 0,
         dedicated: bool = False,
     ) -> None:
-        self.fd, self.left, self.free = fd, 0, False
+        self.fd = fd
         self.load = Load(dedicated) if spin > 0 else None
         self.page, self.words = page, page.words if page is not None else None
         self.at = link * SLOT_WORDS
 
     def __call__(self) -> None:
         load = self.load
-        if load is None:
+        if load is None or not load.looked(self.page):
             return
-        self.left -= 1
-        if self.left < 0:
-            self.free = load.core_free(self.page.spinners() if self.page is not None else 0)
-            self.left = CHECK
-        if not self.free:
+        words = self.words
+        if words is None:
+            os.write(self.fd, WAKE)
             return
-        if self.words is None or not self.words[self.at + SPINNING]:
+        words[self.at + NUDGED] = 1  # a spinner spins on for the token (Taker.take)
+        if not words[self.at + SPINNING]:
             os.write(self.fd, WAKE)
 
     def close(self) -> None:
@@ -268,8 +284,7 @@ class Taker:
     and, `eager`, as soon as it waits: for twice what its recent waits took, at least
     SPIN_FLOOR_NS, not at all where that is more than `spin` (a wait that long is better
     slept: a paced ring), and only while a core is free for it or nothing but the ring
-    runs (`Load`, every CHECK waits; while it says no, a wait costs nothing more than the
-    read)."""
+    runs (`Load.looked`; while it says no, a wait costs nothing more than the read)."""
 
     def __init__(
         self,
@@ -284,20 +299,15 @@ class Taker:
         self.fd, self.page, self.words, self.at = fd, page, page.words, link * SLOT_WORDS
         self.taken, self.spin_ns = 0, int(spin * 1e9)
         self.load = Load(dedicated) if eager and spin > 0 else None
-        self.left, self.free = 0, False
         self.recent = SPIN_FLOOR_NS  # a running mean of recent waits (ns)
 
     def budget(self) -> int:
         """How long to spin as a wait begins (ns): eager only."""
         load = self.load
-        if load is None:
+        if load is None or not load.looked(self.page):
             return 0
-        self.left -= 1
-        if self.left < 0:
-            self.free = load.core_free(self.page.spinners())
-            self.left = CHECK
         want = max(SPIN_FLOOR_NS, 2 * self.recent)
-        return want if self.free and want <= self.spin_ns else 0
+        return want if want <= self.spin_ns else 0
 
     def take(self) -> tuple[int, bool]:
         """(the turn word, stopped): the word once a token's doorbell is read (the
@@ -306,13 +316,17 @@ class Taker:
         words, at, want = self.words, self.at, self.taken + 1
         spin = self.budget()
         began = start = time.monotonic_ns() if spin else 0  # how long waits take: spinning
+        nudged = False
         while True:
             if spin and words[at] < want:
                 end = began + spin
                 words[at + SPINNING] = 1
                 while words[at] < want and not words[at + STOPPED]:
                     if time.monotonic_ns() >= end:
-                        break
+                        if nudged or not words[at + NUDGED]:
+                            break
+                        # nudged as it spun (no doorbell then): spin on for the token
+                        nudged, end = True, time.monotonic_ns() + self.spin_ns
                     os.sched_yield()
                 words[at + SPINNING] = 0
             if words[at + STOPPED] and words[at] < want:
@@ -322,6 +336,9 @@ class Taker:
             if value & TOKEN_MASK or value >= STOP_VALUE:
                 break
             spin, began = self.spin_ns, time.monotonic_ns()  # a nudge: the token is near
+            nudged = True
+        if value & TOKEN_MASK:
+            words[at + NUDGED] = 0  # this cycle's nudge is spent
         if start:
             self.recent = (3 * self.recent + time.monotonic_ns() - start) // 4
         stopped = value >= STOP_VALUE or bool(words[at + STOPPED])
