@@ -1442,6 +1442,11 @@ def main() -> int:
         help="write the report from the parts' JSON saved by --keep, running nothing",
     )
     args = parser.parse_args()
+    # Every part runs its commands as a user's machine would: with their bytecode cached. A
+    # shell that sets PYTHONDONTWRITEBYTECODE (this project's CI and sandboxes do) would
+    # otherwise have each fresh interpreter compile what it imports, and the start-up,
+    # build and trace figures would measure the compiler of Python.
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
     started_at = datetime.datetime.now(datetime.UTC)
     started = time.perf_counter()
     load_before = os.getloadavg()[0]
