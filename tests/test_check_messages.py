@@ -198,9 +198,11 @@ def test_a_function_named_like_a_name_of_the_generated_code_is_refused(
     tmp_path, monkeypatch
 ) -> None:
     """A function is a module function of the generated code and a `let` a local of its
-    method: neither may take a name that code already uses, nor a (soft) keyword."""
-    taken = ["self", "state", "hooks", "buf", "command", "perf_counter_ns", "is_real"]
-    taken += ["is_integer", "abs", "len", "match"]
+    method: neither may take a name that code already uses, nor a (soft) keyword (named
+    `words`, a function replaced the runtime's `words(buf)` the class calls; `held`,
+    `caused`, ... alike)."""
+    taken = ["self", "state", "hooks", "perf_counter_ns", "words", "held", "hook", "within"]
+    taken += ["caused", "plan_problem", "decode_text", "abs", "len", "match"]
     functions = "".join(
         f"  {name}:\n    params: {{x: float}}\n    returns: float\n    body: x / 2\n"
         for name in taken

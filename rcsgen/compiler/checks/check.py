@@ -646,11 +646,9 @@ def _check_world_access(spec: ControllerSpec, world: dict[str, Type], diags: Dia
 
 
 # Names a function or a `let` value cannot take: they are Python names of the generated
-# method or module (a `let` is a local of its table's method, a function a module function).
-_PYTHON_NAMES = frozenset(
-    {"self", "state", "hooks", "buf", "command", "perf_counter_ns", "Struct", "is_real"}
-    | {"is_integer", *expr.BUILTINS}
-)
+# method or module (a `let` is a local of its table's method beside `self` and `state`, a
+# function a module-level function beside the module's runtime names).
+_PYTHON_NAMES = frozenset({"self", "state", *naming.RUNTIME_NAMES, *expr.BUILTINS})
 
 
 def _reserved(name: str) -> str:
