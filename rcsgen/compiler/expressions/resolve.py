@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 from ...runtime.contract import text_problem
 from ..diagnostics import Diagnostics, Span, known_names_hint
+from ..front_end.loader import char_span
 from ..types import (
     BOOL,
     FLOAT,
@@ -112,8 +113,10 @@ class _Resolver:
         self.scope, self.span, self.diags = scope, span, diags
         self.want = want  # the enumeration a bare value name is looked up in, if any
 
+    source: object = None  # the expression as loaded: where its characters are written
+
     def at(self, node: ast.AST) -> Span:
-        return offset_span(self.span, getattr(node, "lineno", 1), getattr(node, "col_offset", 0))
+        return char_at(self.source, self.span, getattr(node, "col_offset", 0))
 
     def fail(self, node: ast.AST, code: str, message: str, hint: str = "") -> _Fail:
         self.diags.error(self.at(node), code, message, hint)
@@ -551,6 +554,25 @@ def offset_span(base: Span, lineno: int, col_offset: int) -> Span:
     return Span(base.file, base.line + lineno - 1, col_offset + 1)
 
 
+def expression_text(text: str) -> str:
+    """The text an expression is parsed from: a multi-line one (a `>-` or `|` block, a
+    quoted scalar over several lines) read as one line, its whitespace runs one space."""
+    if "\n" in text.strip() or "\r" in text:
+        return " ".join(text.split())
+    return text.strip()
+
+
+def char_at(source: object, base: Span, index: int) -> Span:
+    """Where character `index` of expression `source`'s text (`expression_text`) is written:
+    in a quoted or block scalar, found in the file (`char_span`); else `index` columns
+    after `base`, where a plain one-line scalar starts."""
+    if isinstance(source, str):
+        found = char_span(source, expression_text(source), index)
+        if found is not None:
+            return found
+    return Span(base.file, base.line, base.col + index)
+
+
 def compile_expr(
     source: object, span: Span, scope: Scope, diags: Diagnostics, expect: Type | None = None
 ) -> Expr | None:
@@ -568,10 +590,12 @@ def compile_expr(
             return None
         result: Expr = Const(_type_of_value(source), source)
     else:
-        tree = _parse(str(source), span, diags)
+        span = char_at(source, span, 0)  # its first character, past a quote or indicator
+        tree = _parse(source, span, diags)
         if tree is None:
             return None
         resolver = _Resolver(scope, span, diags, expect if isinstance(expect, Enum) else None)
+        resolver.source = source
         try:
             result = resolver.expr(tree.body)
         except _Fail:
@@ -594,18 +618,17 @@ def compile_expr(
     return result
 
 
-def _parse(text: str, span: Span, diags: Diagnostics) -> ast.Expression | None:
+def _parse(source: object, span: Span, diags: Diagnostics) -> ast.Expression | None:
     """Expression text as a Python syntax tree, or None after its problem: a character that
     is not printable ASCII, a `#` (a comment would drop the rest), a syntax error (E101),
-    nesting beyond MAX_DEPTH (E102)."""
-    if "\n" in text.strip() or "\r" in text:
-        text = " ".join(text.split())
-    found = _NOT_TEXT.search(text.strip())  # (a character loop in Python was slower)
+    nesting beyond MAX_DEPTH (E102); each at its character (`span`: the first one's)."""
+    text = expression_text(str(source))
+    found = _NOT_TEXT.search(text)  # (a character loop in Python was slower)
     odd = found.start() if found else None
     if odd is not None:  # Python would accept (and NFKC-fold) non-ASCII identifiers
-        char = text.strip()[odd]
+        char = text[odd]
         diags.error(
-            offset_span(span, 1, odd),
+            char_at(source, span, odd),
             "E101",
             f"invalid expression: character {char!r} (U+{ord(char):04X}) is not allowed",
             "expressions are ASCII: names, numbers, operators and parentheses",
@@ -615,21 +638,22 @@ def _parse(text: str, span: Span, diags: Diagnostics) -> ast.Expression | None:
         comment = text[text.index("#") + 1 :].strip()
         shown = comment if len(comment) <= 40 else comment[:37] + "..."
         diags.error(
-            span,  # the expression's start: in a block scalar, columns do not map
+            char_at(source, span, text.index("#")),
             "E101",
             f"invalid expression: `#` is not allowed (`# {shown}`)",
             "inside a `>-` or `|` block a YAML comment is part of the expression and would "
             "silently drop the rest of it: put the comment on a line of its own, outside",
         )
         return None
-    tree = _parsed(text.strip())
+    tree = _parsed(text)
     if tree is not None:
         return tree
     try:
-        tree = ast.parse(text.strip(), mode="eval")
+        tree = ast.parse(text, mode="eval")
     except SyntaxError as exc:
-        where = offset_span(span, exc.lineno or 1, max((exc.offset or 1) - 1, 0))
-        shown = text.strip() if len(text.strip()) <= 80 else text.strip()[:77] + "..."
+        # the text is one line; no offset (0): the error is at its end
+        where = char_at(source, span, (exc.offset or len(text) + 1) - 1)
+        shown = text if len(text) <= 80 else text[:77] + "..."
         diags.error(where, "E101", f"invalid expression: {exc.msg}", f"in `{shown}`")
         return None
     except (RecursionError, MemoryError, ValueError):  # the parser's own limits
