@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ...runtime.contract import BUILTIN_COMMANDS
 from .. import expressions as expr
-from ..diagnostics import Diagnostics, Span, Subject, known_names_hint
+from ..diagnostics import Diagnostics, Span, Subject, known_names_hint, listed
 from ..front_end import model
 from ..front_end.model import Command, ControllerSpec, Located, PlanVerb, Rule, SystemSpec
 from ..types import BOOL, FLOAT, INT, Enum, Str, Type, annotation_accepts, hook_words
@@ -1494,8 +1494,8 @@ class _ControllerChecker:
             self.diags.error(
                 send.span,
                 "E217",
-                f"`{send.sub}.{send.command}` needs parameter(s) {', '.join(missing)}",
-                "give them under `with:`",
+                f"`{send.sub}.{send.command}` needs {listed('parameter', missing)}",
+                f"give {'it' if len(missing) == 1 else 'them'} under `with:`",
             )
         return Send(send.sub, send.command, tuple(args), send)
 

@@ -17,7 +17,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 from ...runtime.contract import text_problem
-from ..diagnostics import Diagnostics, Span, known_names_hint
+from ..diagnostics import Diagnostics, Span, counted, known_names_hint
 from ..front_end.loader import char_span
 from ..types import (
     BOOL,
@@ -89,18 +89,25 @@ _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv
 _BINOPS[ast.Mod] = "%"
 _CMPOPS = {ast.Eq: "==", ast.NotEq: "!=", ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">="}
 _UNARY = {ast.Not: "not", ast.USub: "-", ast.UAdd: "+"}
+# What a form a spec expression may not use is, in words, with its verb ("are", "is").
 _NODE_WORDS = {
-    ast.Subscript: "subscripts",
-    ast.Lambda: "lambdas",
-    ast.ListComp: "comprehensions",
-    ast.SetComp: "comprehensions",
-    ast.DictComp: "comprehensions",
-    ast.GeneratorExp: "comprehensions",
-    ast.JoinedStr: "f-strings",
-    ast.NamedExpr: "assignment expressions (:=)",
-    ast.Starred: "starred expressions",
-    ast.Await: "await",
-    ast.Yield: "yield",
+    ast.Subscript: "subscripts are",
+    ast.Lambda: "lambdas are",
+    ast.ListComp: "comprehensions are",
+    ast.SetComp: "comprehensions are",
+    ast.DictComp: "comprehensions are",
+    ast.GeneratorExp: "comprehensions are",
+    ast.JoinedStr: "f-strings are",
+    ast.NamedExpr: "assignment expressions (:=) are",
+    ast.Starred: "starred expressions are",
+    ast.Await: "`await` is",
+    ast.Yield: "`yield` is",
+    ast.YieldFrom: "`yield from` is",
+    ast.List: "lists are",
+    ast.Tuple: "tuples are",
+    ast.Set: "sets are",
+    ast.Dict: "dictionaries are",
+    ast.Slice: "slices are",
 }
 
 
@@ -125,11 +132,11 @@ class _Resolver:
     def expr(self, node: ast.AST) -> Expr:
         method: Callable[[ast.AST], Expr] | None = getattr(self, "_" + type(node).__name__, None)
         if method is None:
-            what = _NODE_WORDS.get(type(node), f"`{type(node).__name__}` expressions")
+            what = _NODE_WORDS.get(type(node), "this form of expression is")
             raise self.fail(
                 node,
                 "E102",
-                f"{what} are not allowed in a spec expression",
+                f"{what} not allowed in a spec expression",
                 "expressions may use literals, and/or/not, comparisons, arithmetic, `a if c "
                 "else b`, declared names, world.<field>, <sub>.status, <sub>.command and "
                 "calls of predicates and functions",
@@ -305,7 +312,8 @@ class _Resolver:
                 raise self.fail(
                     node,
                     "E263",
-                    f"function `{name}` takes {len(params)} argument(s), not {len(node.args)}",
+                    f"function `{name}` takes {counted(len(params), 'argument')}, not "
+                    f"{len(node.args)}",
                 )
             args = []
             for index, (arg, wanted) in enumerate(zip(node.args, params, strict=True)):
