@@ -8,6 +8,7 @@ from pathlib import Path
 
 from test_check_messages import SYSTEM, TANK
 
+from rcsgen.compiler.diagnostics import Diagnostic
 from rcsgen.compiler.frontend import compile_paths
 
 HINT = (
@@ -116,17 +117,22 @@ SCALARS = [
 ]
 
 
-def test_an_error_in_any_form_of_scalar_is_located_at_its_character(
-    tmp_path: Path, monkeypatch
-) -> None:
-    probes = "".join(f"        - when: {guard}\n          do: []\n" for guard in SCALARS)
-    tank = TANK.replace(
-        "        - when: world.level < 2.0\n", probes + "        - when: world.level < 2.0\n"
-    )
+def guarded(tmp_path: Path, monkeypatch, guards: list[str]) -> tuple[str, list[Diagnostic]]:
+    """The tank with a rule per guard, each as written (before FILL's first), and what
+    compiling it says."""
+    probes = "".join(f"        - when: {guard}\n          do: []\n" for guard in guards)
+    first = "        - when: world.level < 2.0\n"
+    tank = TANK.replace(first, probes + first)
     (tmp_path / "system.yaml").write_text(SYSTEM)
     (tmp_path / "tank.yaml").write_text(tank)
     monkeypatch.chdir(tmp_path)
-    found = compile_paths([Path(".")], analyse=False).diagnostics.items
+    return tank, compile_paths([Path(".")], analyse=False).diagnostics.items
+
+
+def test_an_error_in_any_form_of_scalar_is_located_at_its_character(
+    tmp_path: Path, monkeypatch
+) -> None:
+    tank, found = guarded(tmp_path, monkeypatch, SCALARS)
     written = [
         f"tank.yaml:{number}:{line.index('nope') + 1}"
         for number, line in enumerate(tank.splitlines(), start=1)
@@ -146,14 +152,7 @@ def test_an_expression_error_of_a_quoted_scalar_is_located_past_the_quote(
         ">-\n            world.level +",
         "|\n            world.level",
     ]
-    probes = "".join(f"        - when: {guard}\n          do: []\n" for guard in guards)
-    tank = TANK.replace(
-        "        - when: world.level < 2.0\n", probes + "        - when: world.level < 2.0\n"
-    )
-    (tmp_path / "system.yaml").write_text(SYSTEM)
-    (tmp_path / "tank.yaml").write_text(tank)
-    monkeypatch.chdir(tmp_path)
-    found = compile_paths([Path(".")], analyse=False).diagnostics.items
+    tank, found = guarded(tmp_path, monkeypatch, guards)
     line = tank.splitlines().index('        - when: "world.level +"') + 1
     assert [(d.code, d.span.line, d.span.col) for d in found] == [
         ("E101", line, 31),  # after `+`: 17 is the quote, 18 the `w`
